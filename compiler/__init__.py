@@ -1,0 +1,1 @@
+"""eomc.compiler: symbolic front end, optimizer and C lowering (uses SymPy)."""

@@ -1,0 +1,34 @@
+"""eomc: an equations-of-motion compiler for multibody dynamics.
+
+``import eomc`` is cheap and never imports SymPy: a user who only loads and
+simulates a built model (``eomc.load``) does not need SymPy installed.  The
+symbolic entry points (``eomc.compile``, ``eomc.mechanics``) are resolved on
+first use.
+"""
+from importlib import import_module
+
+__version__ = "0.1.0"
+
+__all__ = ["__version__", "compile", "load", "mechanics"]
+
+# name -> (module, attribute or None for the module itself)
+_LAZY = {
+    "compile": ("eomc.compiler.driver", "compile"),
+    "load": ("eomc.runtime.loader", "load"),
+    "mechanics": ("eomc.mechanics", None),
+}
+
+
+def __getattr__(name):
+    try:
+        module_name, attribute = _LAZY[name]
+    except KeyError:
+        raise AttributeError(f"module 'eomc' has no attribute {name!r}") from None
+    module = import_module(module_name)
+    value = module if attribute is None else getattr(module, attribute)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_LAZY))

@@ -1,0 +1,5 @@
+import sys
+
+from eomc.cli import main
+
+sys.exit(main())

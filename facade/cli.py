@@ -1,0 +1,60 @@
+"""The ``eomc`` command: one dispatcher, subcommands live next to the code they drive.
+
+Each subcommand module exposes ``configure(parser)`` and ``run(args) -> int``.
+They are imported only when chosen, so ``eomc simulate`` on a built model
+never imports SymPy.
+"""
+import argparse
+import sys
+from importlib import import_module
+
+from eomc import __version__
+from eomc.errors import EomcError
+
+# subcommand -> (module, one-line help)
+SUBCOMMANDS = {
+    "show": ("eomc.compiler.cli_show", "derive a model file's equations of motion and print them"),
+    "build": ("eomc.compiler.cli_build", "compile a model file to C, a shared library and a Python module"),
+    "inspect": ("eomc.compiler.cli_inspect", "print operation counts, mass-matrix sparsity and sizes"),
+    "simulate": ("eomc.runtime.cli_simulate", "integrate a model and write its trajectory"),
+    "report": ("eomc.runtime.cli_report", "error against run time over methods and tolerances"),
+    "check": ("eomc.runtime.cli_check", "stability checks on stiff and extreme cases"),
+}
+
+
+def _parser():
+    parser = argparse.ArgumentParser(prog="eomc", description=__doc__.splitlines()[0])
+    parser.add_argument("--version", action="version", version=f"eomc {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for name, (module_name, help_text) in SUBCOMMANDS.items():
+        sub.add_parser(name, help=help_text, add_help=False)
+    return parser
+
+
+def main(argv=None):
+    argv = sys.argv[1:] if argv is None else list(argv)
+    parser = _parser()
+    if not argv or argv[0] not in SUBCOMMANDS:
+        parser.parse_args(argv)  # prints --version / help / usage errors
+        parser.print_help()
+        return 2
+    name, rest = argv[0], argv[1:]
+    module_name, help_text = SUBCOMMANDS[name]
+    try:
+        module = import_module(module_name)
+    except ModuleNotFoundError as exc:
+        if exc.name == module_name:
+            print(f"eomc {name}: not available in this version", file=sys.stderr)
+            return 2
+        raise
+    sub = argparse.ArgumentParser(prog=f"eomc {name}", description=help_text)
+    module.configure(sub)
+    args = sub.parse_args(rest)
+    try:
+        return int(module.run(args) or 0)
+    except EomcError as exc:
+        print(f"eomc {name}: error: {exc}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print(f"eomc {name}: interrupted", file=sys.stderr)
+        return 130

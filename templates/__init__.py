@@ -1,0 +1,1 @@
+"""Jinja2 templates and shipped C headers/sources (package data, no code)."""
