@@ -1,0 +1,1 @@
+"""eomc.compiler.model"""

@@ -1,0 +1,1 @@
+#include "eomc_integrators.h"
