@@ -16,9 +16,9 @@ SUBCOMMANDS = {
     "show": ("eomc.compiler.cli_show", "derive a model file's equations of motion and print them"),
     "build": ("eomc.compiler.cli_build", "compile a model file to C, a shared library and a Python module"),
     "inspect": ("eomc.compiler.cli_inspect", "print operation counts, mass-matrix sparsity and sizes"),
-    "simulate": ("eomc.runtime.cli_simulate", "integrate a model and write its trajectory"),
-    "report": ("eomc.runtime.cli_report", "error against run time over methods and tolerances"),
-    "check": ("eomc.runtime.cli_check", "stability checks on stiff and extreme cases"),
+    "simulate": ("eomc.compiler.cli_simulate", "integrate a model and write its trajectory"),
+    "report": ("eomc.compiler.cli_report", "error against run time over methods and tolerances"),
+    "check": ("eomc.compiler.cli_check", "stability checks on stiff and extreme cases"),
 }
 
 
