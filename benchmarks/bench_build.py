@@ -1,0 +1,139 @@
+"""Issue 3 §8a: model -> loaded module, cold and warm cache, against PyDy's Cython backend.
+
+eomc cold: derivation (eomc.mechanics KanesMethod) + eomc.compile into a fresh,
+empty cache directory (EOMC_CACHE_DIR too), i.e. generation, gcc and loading.
+eomc warm: eomc.compile of the same formed system again, into the now-filled
+cache (key computation + dlopen), and eomc.load of the built directory.
+PyDy: `generate_ode_function(..., generator='cython')` alone into a fresh temp
+dir: its derivation (sympy KanesMethod) is NOT included, only shown beside it.
+SymPy's global cache is cleared before every cold measurement of either tool,
+so neither profits from expressions the other (or an earlier repeat) built.
+
+Goal (issue 3 §8a): eomc cold (derivation included) >= 5x faster than PyDy's
+generation alone at every n, >= 10x at n >= 20; warm <= 50 ms.
+"""
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from common import (Timing, environment_header, fmt, format_table, parse_args,  # noqa: E402
+                    ratio, time_once, write_results)
+import models  # noqa: E402
+
+DEFAULT_N = [1, 2, 4, 8, 12, 20, 30]
+
+
+def _clear_sympy_cache():
+    from sympy.core.cache import clear_cache
+    clear_cache()
+
+
+def measure_pydy(n, repeat):
+    """(sympy derivation seconds, Timing of PyDy Cython generation)."""
+    _clear_sympy_cache()
+    derive_s, (kane, specified) = time_once(models.sympy_kane, n)
+    samples = []
+    for _ in range(repeat):
+        _clear_sympy_cache()
+        with tempfile.TemporaryDirectory(prefix="pydy_bench_") as tmp:
+            seconds, _ = time_once(models.pydy_ode_function, n, kane, specified,
+                                   "cython", tmp)
+        samples.append(seconds)
+    return derive_s, Timing(samples)
+
+
+def _eomc_cold_once(n, root):
+    cache = Path(tempfile.mkdtemp(prefix="cold_", dir=root))
+    os.environ["EOMC_CACHE_DIR"] = str(cache)
+    _clear_sympy_cache()
+    t0 = time.perf_counter()
+    kane, _ = models.eomc_kane(n)
+    model = models.eomc_compile(n, cache, kane=kane)
+    return time.perf_counter() - t0, kane, model, cache
+
+
+def measure_eomc(n, repeat, root):
+    """(Timing cold, Timing warm compile, Timing load) or a reason string."""
+    ok, why = models.eomc_status()
+    if not ok:
+        return f"eomc: not available ({why})"
+    old = os.environ.get("EOMC_CACHE_DIR")
+    try:
+        cold, warm, load = [], [], []
+        for _ in range(repeat):
+            seconds, kane, model, cache = _eomc_cold_once(n, root)
+            cold.append(seconds)
+        for _ in range(repeat):
+            warm.append(time_once(models.eomc_compile, n, cache, kane=kane)[0])
+        try:
+            import eomc
+            target = Path(model.library_path).parent
+            for _ in range(repeat):
+                load.append(time_once(eomc.load, target)[0])
+        except Exception as exc:  # noqa: BLE001 - load is optional in this table
+            print(f"  eomc.load failed: {type(exc).__name__}: {exc}", file=sys.stderr)
+        return Timing(cold), Timing(warm), (Timing(load) if load else None)
+    except Exception as exc:  # noqa: BLE001 - a half-landed eomc must not kill the run
+        return f"eomc: failed ({type(exc).__name__}: {str(exc)[:200]})"
+    finally:
+        if old is None:
+            os.environ.pop("EOMC_CACHE_DIR", None)
+        else:
+            os.environ["EOMC_CACHE_DIR"] = old
+
+
+HEADERS = ["n", "sympy derive [s]", "PyDy gen [s]", "PyDy IQR [s]", "eomc cold [s]",
+           "eomc cold IQR [s]", "eomc warm compile [ms]", "eomc load [ms]",
+           "PyDy gen / eomc cold", "goal"]
+
+
+def row_for(n, derive_s, pydy, eo):
+    if isinstance(eo, str):
+        return [n, derive_s, pydy.median, pydy.iqr, None, None, None, None, None, "eomc n/a"]
+    cold, warm, load = eo
+    r = ratio(pydy.median, cold.median)
+    need = 10.0 if n >= 20 else 5.0
+    ok = r is not None and r >= need and warm.median <= 0.050
+    goal = f"{'met' if ok else 'MISSED'} (>= {need:g}x, warm <= 50 ms)"
+    return [n, derive_s, pydy.median, pydy.iqr, cold.median, cold.iqr, warm.median * 1e3,
+            load.median * 1e3 if load else None, r, goal]
+
+
+def main(argv=None):
+    args = parse_args(__doc__.splitlines()[0], DEFAULT_N, default_repeat=3, argv=argv)
+    rows, notes = [], []
+    with tempfile.TemporaryDirectory(prefix="eomc_bench_build_") as root:
+        for n in args.n:
+            derive_s, pydy = measure_pydy(n, args.repeat)
+            eo = measure_eomc(n, args.repeat, root)
+            if isinstance(eo, str):
+                notes.append(f"n={n}: {eo}")
+            rows.append(row_for(n, derive_s, pydy, eo))
+            print(format_table(HEADERS, [rows[-1]]).splitlines()[-1], flush=True)
+    table = format_table(HEADERS, rows)
+    print(table)
+    header = environment_header(
+        "Model to loaded module: eomc vs PyDy 0.9.4 Cython (issue 3 §8a)", args,
+        notes=[f"repeats per cell: {args.repeat}; cells are medians, IQR beside them",
+               "PyDy gen = generate_ode_function(generator='cython') only (gcc included), "
+               "into a fresh temp dir; derivation NOT included (sympy KanesMethod time shown "
+               "separately in 'sympy derive', measured once)",
+               "eomc cold = eomc.mechanics derivation + eomc.compile into a fresh empty "
+               "cache dir (EOMC_CACHE_DIR), derivation included",
+               "eomc warm compile = eomc.compile of the same formed system again (cache hit); "
+               "eomc load = eomc.load(build dir)",
+               "SymPy's cache is cleared before every cold measurement of either tool",
+               *notes])
+    if not args.no_write:
+        paths = write_results("build", header + "\n" + table + "\n",
+                              csv_rows=rows, csv_headers=HEADERS)
+        print("wrote", ", ".join(str(p) for p in paths))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,200 @@
+"""Shared plumbing for the benchmark scripts: timing, tables, results files, CLI.
+
+The machine these run on is shared and noisy, so every figure is the median
+of several repeats (with the interquartile range beside it), and every ratio
+compares tools measured in the same run.  Results files carry a header with
+the date, the machine and the library versions, because a number without
+them cannot be compared with anything later.
+"""
+import argparse
+import datetime
+import os
+import platform
+import statistics
+import sys
+import time
+from importlib import metadata as importlib_metadata
+from pathlib import Path
+
+__all__ = [
+    "RESULTS_DIR", "Timing", "time_calls", "time_once", "median_iqr",
+    "format_table", "environment_header", "write_results", "parse_args",
+    "fmt", "ratio",
+]
+
+RESULTS_DIR = Path(__file__).resolve().parent / "results"
+
+_VERSIONED = ["numpy", "scipy", "sympy", "cffi", "Cython", "pydy", "symengine",
+              "pin", "matplotlib", "eomc"]
+
+
+class Timing:
+    """Median and interquartile range of repeated measurements (seconds)."""
+
+    def __init__(self, samples):
+        self.samples = sorted(samples)
+        self.median, self.q1, self.q3 = median_iqr(self.samples)
+
+    @property
+    def iqr(self):
+        return self.q3 - self.q1
+
+    def __repr__(self):
+        return f"Timing(median={self.median:.3g}, iqr={self.iqr:.3g}, n={len(self.samples)})"
+
+
+def median_iqr(samples):
+    """(median, first quartile, third quartile); quartiles collapse for < 4 samples."""
+    samples = sorted(samples)
+    med = statistics.median(samples)
+    if len(samples) < 4:
+        return med, samples[0], samples[-1]
+    q = statistics.quantiles(samples, n=4)
+    return med, q[0], q[2]
+
+
+def time_once(func, *args, **kwargs):
+    """(seconds, result) of one call: for things that are slow or have side effects."""
+    t0 = time.perf_counter()
+    result = func(*args, **kwargs)
+    return time.perf_counter() - t0, result
+
+
+def time_calls(func, number, repeat):
+    """Per-call seconds of ``func()`` as a Timing over `repeat` blocks of `number` calls.
+
+    One warm-up block runs first so that caches, lazy imports and allocator
+    pools do not land in the first sample.
+    """
+    for _ in range(max(1, number // 10)):
+        func()
+    samples = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        for _ in range(number):
+            func()
+        samples.append((time.perf_counter() - t0) / number)
+    return Timing(samples)
+
+
+def fmt(value, digits=3):
+    """A number for a table: None means the tool is not available."""
+    if value is None:
+        return "n/a"
+    if isinstance(value, str):
+        return value
+    if isinstance(value, int):
+        return str(value)
+    if value == 0:
+        return "0"
+    return f"{value:.{digits}g}"
+
+
+def ratio(slow, fast):
+    """slow/fast as a printable ratio, or None when either side is missing."""
+    if slow is None or fast is None or fast == 0:
+        return None
+    return slow / fast
+
+
+def format_table(headers, rows):
+    """A GitHub-flavoured Markdown table (also readable in a terminal)."""
+    cells = [[fmt(c) for c in row] for row in rows]
+    widths = [max(len(h), *(len(r[i]) for r in cells)) if cells else len(h)
+              for i, h in enumerate(headers)]
+    line = lambda items: "| " + " | ".join(s.rjust(w) for s, w in zip(items, widths)) + " |"
+    out = [line(headers), "|" + "|".join("-" * (w + 1) + ":" for w in widths) + "|"]
+    out.extend(line(r) for r in cells)
+    return "\n".join(out)
+
+
+def _version(dist):
+    try:
+        return importlib_metadata.version(dist)
+    except importlib_metadata.PackageNotFoundError:
+        return "not installed"
+
+
+def _cpu_model():
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown"
+
+
+def _compiler_version():
+    import shutil
+    import subprocess
+    cc = os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc")
+    if not cc:
+        return "none found"
+    try:
+        out = subprocess.run([cc, "--version"], capture_output=True, text=True, timeout=10)
+        return out.stdout.splitlines()[0]
+    except (OSError, subprocess.SubprocessError, IndexError):
+        return cc
+
+
+def environment_header(title, args=None, notes=()):
+    """Markdown header recording when, where and with what a result was measured."""
+    now = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    versions = ", ".join(f"{d} {_version(d)}" for d in _VERSIONED)
+    blas = {k: os.environ.get(k, "(unset)") for k in ("OPENBLAS_CORETYPE", "OPENBLAS_L2_SIZE",
+                                                     "OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS")}
+    lines = [
+        f"# {title}", "",
+        f"- date: {now}",
+        f"- machine: {os.cpu_count()} CPUs (nproc), {_cpu_model()}, {platform.system()} {platform.release()}",
+        "- note: the machine is shared with other jobs while this ran; figures are medians of repeats",
+        f"- python {platform.python_version()}; C compiler: {_compiler_version()}",
+        f"- versions: {versions}",
+        "- environment: " + ", ".join(f"{k}={v}" for k, v in blas.items()),
+    ]
+    if args is not None:
+        lines.append(f"- command: `python3 {' '.join(sys.argv)}`")
+    lines.extend(f"- {n}" for n in notes)
+    lines.append("")
+    return "\n".join(lines)
+
+
+def write_results(name, text, csv_rows=None, csv_headers=None):
+    """Write benchmarks/results/<name>.md (and .csv when rows are given); return the paths."""
+    RESULTS_DIR.mkdir(parents=True, exist_ok=True)
+    md = RESULTS_DIR / f"{name}.md"
+    md.write_text(text if text.endswith("\n") else text + "\n")
+    paths = [md]
+    if csv_rows is not None:
+        import csv
+        path = RESULTS_DIR / f"{name}.csv"
+        with path.open("w", newline="") as fh:
+            writer = csv.writer(fh)
+            writer.writerow(csv_headers)
+            for row in csv_rows:
+                writer.writerow(["" if v is None else v for v in row])
+        paths.append(path)
+    return paths
+
+
+def parse_args(description, default_n, default_repeat=5, argv=None, extra=None):
+    """The CLI every benchmark shares: --quick, --n LIST, --repeat, --no-write."""
+    parser = argparse.ArgumentParser(description=description)
+    parser.add_argument("--quick", action="store_true",
+                        help="small sizes and few repeats: a smoke run, not a result")
+    parser.add_argument("--n", type=lambda s: [int(v) for v in s.split(",") if v],
+                        default=None, help="comma-separated link counts, e.g. 4,8,12")
+    parser.add_argument("--repeat", type=int, default=None, help="repeats per measurement")
+    parser.add_argument("--no-write", action="store_true",
+                        help="print the table but do not overwrite benchmarks/results/")
+    if extra is not None:
+        extra(parser)
+    args = parser.parse_args(argv)
+    if args.n is None:
+        args.n = default_n[:2] if args.quick else list(default_n)
+    if args.repeat is None:
+        args.repeat = 2 if args.quick else default_repeat
+    if args.quick:
+        args.no_write = True
+    return args
