@@ -1,0 +1,169 @@
+"""Lagrange's equations on plain symbols: the fast core of :class:`LagrangesMethod`.
+
+Why this module exists: SymPy's LagrangesMethod differentiates the Jacobian
+``dL/dq'`` with respect to time through SymPy's function machinery (every
+``q(t)`` and ``q'(t)`` is an applied function) and then takes a Jacobian with
+respect to ``q''``.  Both steps are slow and build large expressions.  Here
+
+* ``q, q', q''`` are swapped once for plain ``Dummy`` symbols ``x, v, a``;
+* the mass matrix is the Hessian ``d2L/dv dv`` (symmetric, so only the upper
+  triangle is differentiated);
+* the forcing is ``dL/dx - (d2L/dv dx) v - d2L/dv dt + Q``, where ``d/dt`` of
+  the momenta is written out by the chain rule instead of differentiating
+  through time, and ``Q`` are the generalized forces of the force list;
+* the results are mapped back to ``q(t)`` and its derivatives.
+
+No ``simplify``/``expand`` is called anywhere.  Explicit time dependence
+(``t`` itself or specified dynamic symbols such as an input ``F(t)``) is
+kept: ``diff(expr, t)`` of an expression in plain ``x, v`` gives exactly the
+explicit part, e.g. ``F'(t)``.
+"""
+import sympy as sm
+from sympy.physics.vector import ReferenceFrame, Point, Vector, dynamicsymbols
+
+from eomc.errors import ModelError
+
+from .fastdiff import Differentiator
+
+__all__ = ["PlainVariables", "lagrange_mass_forcing", "constraint_terms",
+           "generalized_forces", "total_time_derivative"]
+
+_t = dynamicsymbols._t
+
+
+class PlainVariables:
+    """The coordinates q(t), their first and second derivatives and their plain stand-ins."""
+
+    def __init__(self, q):
+        self.q = list(q)
+        self.qd = [qi.diff(_t) for qi in self.q]
+        self.qdd = [qi.diff(_t) for qi in self.qd]
+        n = len(self.q)
+        self.x = [sm.Dummy(f"x{i}") for i in range(n)]
+        self.v = [sm.Dummy(f"v{i}") for i in range(n)]
+        self.a = [sm.Dummy(f"a{i}") for i in range(n)]
+        # xreplace works top-down, so q'(t) is matched before the q(t) inside it.
+        self.to_plain = dict(zip(self.qdd, self.a))
+        self.to_plain.update(zip(self.qd, self.v))
+        self.to_plain.update(zip(self.q, self.x))
+        self.to_dynamic = {s: d for d, s in self.to_plain.items()}
+        self.differentiator = Differentiator(self.x + self.v + self.a + [_t])
+
+    def plain(self, expr):
+        """``expr`` with q, q', q'' replaced by plain symbols."""
+        return sm.sympify(expr).xreplace(self.to_plain)
+
+    def dynamic(self, expr):
+        """The inverse of :meth:`plain`."""
+        return expr.xreplace(self.to_dynamic)
+
+
+def total_time_derivative(expr, pv, with_acceleration=True):
+    """Return (dexpr/dv, rest) with d/dt expr = (dexpr/dv)·a + rest, in plain symbols.
+
+    ``rest = sum_j dexpr/dx_j v_j + dexpr/dt`` (explicit time dependence).
+    """
+    d = pv.differentiator.diff
+    coeffs = [d(expr, vj) for vj in pv.v] if with_acceleration else None
+    rest = sm.Add(*[d(expr, xj) * vj for xj, vj in zip(pv.x, pv.v)])
+    rest += d(expr, _t)
+    return coeffs, rest
+
+
+def lagrange_mass_forcing(L, pv):
+    """Mass matrix ``m_d`` and forcing ``f_d`` (without loads) of ``L(x, v, t)``, plain.
+
+    Lagrange's equations read ``m_d a = f_d + Q`` with
+    ``m_d = d2L/dv2`` and ``f_d = dL/dx - (d2L/dv dx) v - d2L/dv dt``.
+    """
+    n = len(pv.q)
+    d = pv.differentiator.diff
+    momenta = [d(L, vi) for vi in pv.v]
+    M = sm.zeros(n, n)
+    f = sm.zeros(n, 1)
+    for i, p in enumerate(momenta):
+        for j in range(i, n):
+            M[i, j] = d(p, pv.v[j])
+            if j != i:
+                M[j, i] = M[i, j]
+        _, rest = total_time_derivative(p, pv, with_acceleration=False)
+        f[i] = d(L, pv.x[i]) - rest
+    return M, f
+
+
+def constraint_terms(coneqs, pv):
+    """For velocity-level constraints ``c(x, v, t) = 0``: (C, m_cd, f_cd), plain.
+
+    ``C = dc/dv``; the time-differentiated constraints are
+    ``m_cd a = f_cd`` with ``m_cd = C`` and ``f_cd = -(dc/dx v + dc/dt)``.
+    """
+    m, n = len(coneqs), len(pv.q)
+    C = sm.zeros(m, n)
+    f_cd = sm.zeros(m, 1)
+    for k, c in enumerate(coneqs):
+        coeffs, rest = total_time_derivative(c, pv)
+        for j in range(n):
+            C[k, j] = coeffs[j]
+        f_cd[k] = -rest
+    return C, f_cd
+
+
+def _load_pair(item, index):
+    """(location, vector) of one force-list item, or a ModelError naming it."""
+    try:
+        location, vector = item
+    except (TypeError, ValueError):
+        raise ModelError(
+            f"forcelist item {index} ({item!r}) is not a (Point, Vector) or "
+            "(ReferenceFrame, Vector) pair") from None
+    if not isinstance(location, (Point, ReferenceFrame)):
+        raise ModelError(
+            f"forcelist item {index}: the load's location {location!r} is neither "
+            "a Point (force) nor a ReferenceFrame (torque)")
+    if vector == 0:
+        vector = Vector(0)
+    if not isinstance(vector, Vector):
+        raise ModelError(
+            f"forcelist item {index}: the load on {location} is {vector!r}, "
+            "which is not a sympy.physics.vector Vector")
+    return location, vector
+
+
+def _velocity(location, frame, index):
+    """Velocity of a point, or angular velocity of a frame, in ``frame``."""
+    try:
+        if isinstance(location, Point):
+            return location.vel(frame)
+        return location.ang_vel_in(frame)
+    except ValueError as exc:
+        kind = "point" if isinstance(location, Point) else "frame"
+        raise ModelError(
+            f"forcelist item {index}: the velocity of {kind} {location} in frame "
+            f"{frame} is undefined ({exc})") from None
+
+
+def generalized_forces(forcelist, frame, pv):
+    """Generalized forces ``Q_i = sum (d vel / d q'_i) . F`` of a force list, plain."""
+    n = len(pv.q)
+    Q = [sm.S.Zero] * n
+    qd_set = set(pv.qd)
+    for index, item in enumerate(forcelist):
+        location, vector = _load_pair(item, index)
+        if vector == Vector(0):
+            continue
+        vel = _velocity(location, frame, index)
+        for comp, comp_frame in vel.args:
+            if comp_frame != frame and qd_set & comp_frame.dcm(frame).atoms(sm.Derivative):
+                # orientation depends on q': differentiate in the inertial frame
+                part = Vector([(comp, comp_frame)]).express(frame)
+                comp, comp_frame = part.args[0] if part.args else (sm.zeros(3, 1), frame)
+            comp_plain = comp.xreplace(pv.to_plain)
+            free = comp_plain.free_symbols
+            for i, vi in enumerate(pv.v):
+                if vi not in free:
+                    continue
+                partial = comp_plain.diff(vi).xreplace(pv.to_dynamic)
+                if partial.is_zero_matrix:
+                    continue
+                Q[i] += Vector([(partial, comp_frame)]).dot(vector)
+    return sm.Matrix([pv.plain(Qi) for Qi in Q])

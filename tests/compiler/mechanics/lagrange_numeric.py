@@ -1,0 +1,54 @@
+"""Numerical comparison of symbolic matrices at random points (shared by the Lagrange tests).
+
+Every dynamic symbol (and derivative) and every constant symbol is replaced by
+a random value; both sides are evaluated with the same values in double
+precision, and compared relative to the size of the entries.
+"""
+import numpy as np
+import sympy as sm
+from sympy.core.sorting import default_sort_key
+from sympy.physics.mechanics import dynamicsymbols, find_dynamicsymbols
+
+__all__ = ["random_values", "evaluate", "assert_same"]
+
+_t = dynamicsymbols._t
+
+
+def _atoms(mats):
+    dyn, free = set(), set()
+    for m in mats:
+        m = sm.Matrix(m)
+        dyn |= find_dynamicsymbols(m)
+        free |= m.free_symbols
+    free.discard(_t)
+    return dyn, free
+
+
+def random_values(mats, seed=0, low=0.5, high=1.5):
+    """A dict {atom: float} covering every dynamic and constant symbol in ``mats``."""
+    rng = np.random.default_rng(seed)
+    dyn, free = _atoms(mats)
+    atoms = sorted(dyn, key=default_sort_key) + sorted(free, key=default_sort_key)
+    return {a: float(rng.uniform(low, high)) * (1 if rng.random() < 0.7 else -1)
+            for a in atoms}
+
+
+def evaluate(mat, values):
+    """``mat`` as a float array at ``values`` (derivatives first, then functions)."""
+    mat = sm.Matrix(mat)
+    keys = sorted(values, key=lambda a: -len(str(a)))
+    dummies = {a: sm.Dummy() for a in keys}
+    plain = mat.xreplace(dummies)
+    left = find_dynamicsymbols(plain) | (plain.free_symbols - set(dummies.values()) - {_t})
+    assert not left, f"no value for {left}"
+    f = sm.lambdify([list(dummies.values())], plain, "numpy")
+    return np.asarray(f([values[a] for a in keys]), dtype=float)
+
+
+def assert_same(a, b, values, rtol=1e-12, what=""):
+    """Assert two symbolic matrices agree numerically at ``values``."""
+    x, y = evaluate(a, values), evaluate(b, values)
+    assert x.shape == y.shape, (what, x.shape, y.shape)
+    scale = max(1.0, float(np.max(np.abs(x))) if x.size else 1.0)
+    err = float(np.max(np.abs(x - y))) if x.size else 0.0
+    assert err <= rtol * scale, f"{what}: max |diff| {err:.3e} > {rtol:.0e} * {scale:.3e}"
