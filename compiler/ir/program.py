@@ -1,0 +1,80 @@
+"""The optimizer's IR: a flat, immutable single-assignment program.
+
+A :class:`Program` is what every pass consumes and returns:
+
+* ``inputs``: the symbols the C code reads (array slots such as ``x_3``,
+  ``p_0``, the time ``t``); they are never assigned;
+* ``assignments``: ``((target, expr), ...)`` in execution order; each target
+  is assigned once and only after every symbol its expression reads;
+* ``results``: ``((key, expr), ...)``: what the program computes.  A key is a
+  tuple ``(group, i, j)`` the C emitter maps to an lvalue (``xdot[i]``, ...);
+* ``ntemp``: the names registry's counter.  New temporaries are
+  ``Symbol("_t<k>")`` with ``k`` taken from it, so a program's names depend
+  only on its content, never on ``id()`` or global state.
+
+The C names ``t0, t1, ...`` are given at print time by position
+(:func:`c_names`), so renumbering never rebuilds expressions.
+"""
+from dataclasses import dataclass, replace
+
+import sympy as sm
+
+__all__ = ["Program", "Names", "IRError", "c_names", "free_inputs"]
+
+
+class IRError(ValueError):
+    """A program breaks the single-assignment rules (a compiler bug, not a user error)."""
+
+
+@dataclass(frozen=True)
+class Program:
+    inputs: tuple
+    assignments: tuple = ()
+    results: tuple = ()
+    ntemp: int = 0
+
+    def with_(self, **changes):
+        """A copy with some fields replaced (programs are immutable)."""
+        return replace(self, **changes)
+
+    def select(self, groups):
+        """The same program restricted to results whose group is in ``groups``."""
+        groups = set(groups)
+        return self.with_(results=tuple(r for r in self.results if r[0][0] in groups))
+
+    def result_exprs(self, group):
+        """{key: expr} of one result group."""
+        return {k: e for k, e in self.results if k[0] == group}
+
+
+class Names:
+    """Deterministic fresh temporaries for one pass over one program."""
+
+    def __init__(self, program):
+        self.count = program.ntemp
+
+    def fresh(self):
+        sym = sm.Symbol(f"_t{self.count}", real=True)
+        self.count += 1
+        return sym
+
+    def stream(self):
+        """An endless generator of fresh temporaries (for sympy.cse)."""
+        while True:
+            yield self.fresh()
+
+
+def c_names(program):
+    """{temporary: C name}: ``t0, t1, ...`` in assignment order."""
+    return {target: f"t{i}" for i, (target, _) in enumerate(program.assignments)}
+
+
+def free_inputs(program):
+    """The input symbols the program really reads."""
+    inputs = set(program.inputs)
+    used = set()
+    for _, e in program.assignments:
+        used |= e.free_symbols & inputs
+    for _, e in program.results:
+        used |= e.free_symbols & inputs
+    return used

@@ -1,0 +1,52 @@
+"""Share sin and cos of the same argument.
+
+Every distinct ``sin(a)`` / ``cos(a)`` becomes one temporary; when both
+appear they are assigned next to each other from the same argument
+temporary, which is the pattern C compilers turn into one ``sincos`` call.
+"""
+import sympy as sm
+from sympy.core.traversal import preorder_traversal
+
+from ..ir import Names
+from .timing import compiler_pass
+
+__all__ = ["share_sincos"]
+
+
+def _trig_terms(program):
+    seen = {}
+    exprs = [e for _, e in program.assignments] + [e for _, e in program.results]
+    for expr in exprs:
+        for node in preorder_traversal(expr):
+            if isinstance(node, (sm.sin, sm.cos)) and node not in seen:
+                seen[node] = None
+    return list(seen)
+
+
+@compiler_pass
+def share_sincos(program):
+    """Hoist each sin/cos into its own temporary, sin and cos of one argument adjacent."""
+    terms = _trig_terms(program)
+    if not terms:
+        return program
+    by_arg = {}
+    for node in terms:
+        by_arg.setdefault(node.args[0], {})[node.func] = node
+    names = Names(program)
+    mapping, inserts = {}, {}
+    position = {t: i for i, (t, _) in enumerate(program.assignments)}
+    for arg, funcs in by_arg.items():
+        where = max((position[s] for s in arg.free_symbols if s in position), default=-1)
+        for func in (sm.sin, sm.cos):
+            if func in funcs:
+                sym = names.fresh()
+                mapping[funcs[func]] = sym
+                inserts.setdefault(where, []).append((sym, func, arg))
+    def rewrite(expr):
+        return expr.xreplace(mapping)
+    out = [(sym, func(rewrite(arg))) for sym, func, arg in inserts.get(-1, [])]
+    for i, (target, expr) in enumerate(program.assignments):
+        out.append((target, rewrite(expr)))
+        out.extend((sym, func(rewrite(arg))) for sym, func, arg in inserts.get(i, []))
+    results = tuple((k, rewrite(e)) for k, e in program.results)
+    return program.with_(assignments=tuple(out), results=results, ntemp=names.count)
