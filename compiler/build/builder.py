@@ -1,0 +1,155 @@
+"""Compile a generated model into a cached shared library (and, optionally, a Cython module).
+
+``build(generated)`` returns a :class:`BuildResult` whose ``directory`` holds
+NAME.c, NAME.h, the shipped headers, libNAME.so and NAME.json (metadata plus
+the cffi declarations and build facts) -- everything ``eomc.runtime.loader``
+needs.  The library is NAME.c linked with eomc_integrators.c and eomc_batch.c;
+those two are compiled once per compiler and flags into their own cache entry
+(``objects/``), so a new model pays only for its own translation unit.
+"""
+import json
+import os
+import platform
+import shlex
+import shutil
+import subprocess
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+import eomc
+import eomc.templates
+from eomc.errors import CompileError
+
+from .cache import cache_root, discard, get_or_build, hash_key, sha256_file
+from .toolchain import DEFAULT_CFLAGS, find_compiler
+
+__all__ = ["BuildResult", "build", "shipped_c_dir", "SHIPPED_HEADERS", "resolve_cflags"]
+
+SHIPPED_HEADERS = ("eomc_model.h", "eomc_integrators.h", "eomc_batch.h")
+RUNTIME_SOURCES = ("eomc_integrators.c", "eomc_batch.c")
+BACKENDS = ("cffi", "cython")
+
+
+@dataclass(frozen=True)
+class BuildResult:
+    name: str
+    directory: Path      # cache entry (read-only): sources, headers, library, NAME.json
+    library: Path
+    key: str
+    hit: bool            # True when served from the cache
+    backend: str
+
+
+def shipped_c_dir():
+    """templates/c: the ABI header, integrators and batch helper shipped with eomc."""
+    return Path(eomc.templates.__file__).resolve().parent / "c"
+
+
+def resolve_cflags(cflags):
+    """Flags as a list: the defaults, or the user's (a string is split like a shell would).
+
+    -fPIC is added when missing: a shared library cannot be linked without it.
+    """
+    flags = list(DEFAULT_CFLAGS) if cflags is None else (
+        shlex.split(cflags) if isinstance(cflags, str) else [str(f) for f in cflags])
+    if not sys.platform.startswith("win") and "-fPIC" not in flags and "-fpic" not in flags:
+        flags.append("-fPIC")
+    return flags
+
+
+def _link_flags():
+    # -Bsymbolic: calls inside one model library bind to its own functions even
+    # if another loaded library exports the same name.
+    return ["-Wl,-Bsymbolic"] if sys.platform.startswith("linux") else []
+
+
+def _base_inputs(tc, flags):
+    return {"eomc_version": eomc.__version__, "platform": f"{sys.platform}-{platform.machine()}",
+            "compiler": {"path": tc.path, "argv": list(tc.argv), "version": tc.version},
+            "cflags": flags}
+
+
+def run_compiler(argv, cwd, name, key, root):
+    """Run the compiler; on failure keep the sources under failed/ and raise CompileError."""
+    try:
+        proc = subprocess.run(argv, cwd=cwd, capture_output=True, text=True)
+    except OSError as exc:
+        proc = subprocess.CompletedProcess(argv, 127, "", str(exc))
+    if proc.returncode == 0:
+        return proc
+    kept = root / "failed" / f"{name}-{key[:12]}"
+    discard(root, kept)
+    kept.parent.mkdir(parents=True, exist_ok=True)
+    shutil.copytree(cwd, kept)
+    message = (proc.stderr or proc.stdout).strip()
+    raise CompileError(f"the C compiler failed on model {name!r} (exit status {proc.returncode}); "
+                       f"source kept in {kept}\ncommand: {shlex.join(argv)}\n{message}")
+
+
+def _runtime_objects(tc, flags, root):
+    """Compile eomc_integrators.c and eomc_batch.c once per compiler and flags."""
+    c_dir = shipped_c_dir()
+    names = SHIPPED_HEADERS + RUNTIME_SOURCES
+    argv = [*tc.argv, *flags, "-c", *RUNTIME_SOURCES]
+    inputs = {**_base_inputs(tc, flags), "argv": argv[len(tc.argv):],
+              "files": {n: sha256_file(c_dir / n) for n in names}}
+    key = hash_key(inputs)
+
+    def compile_objects(tmp):
+        for n in names:
+            shutil.copyfile(c_dir / n, tmp / n)
+        run_compiler(argv, tmp, "eomc_runtime", key, root)
+
+    entry, _ = get_or_build(root, "objects", key, compile_objects, inputs)
+    return entry, key
+
+
+def _model_json(generated, key, backend, tc, flags, extra):
+    data = dict(generated.metadata)
+    data.update(extra or {})
+    data["cdef"] = generated.cdef
+    data["build"] = {"library": f"lib{generated.name}.so", "backend": backend,
+                     "compiler": tc.version, "cflags": flags, "key": key}
+    return json.dumps(data, indent=1, sort_keys=True)
+
+
+def build(generated, *, backend="cffi", cflags=None, cache_dir=None, force=False, extra_metadata=None):
+    """Build (or fetch from the cache) the library of ``generated``; see the module docstring.
+
+    ``extra_metadata`` (JSON-able) is merged into NAME.json, e.g. the model file's initial state.
+    """
+    if backend not in BACKENDS:
+        raise ValueError(f"unknown backend {backend!r}; choose one of {', '.join(BACKENDS)}")
+    name = generated.name
+    tc = find_compiler()
+    flags = resolve_cflags(cflags)
+    root = cache_root(cache_dir)
+    objects, objects_key = _runtime_objects(tc, flags, root)
+    c_dir = shipped_c_dir()
+    lib = f"lib{name}.so"
+    link = [*tc.argv, *flags, "-shared", "-o", lib, f"{name}.c",
+            *(str(objects / Path(s).with_suffix(".o")) for s in RUNTIME_SOURCES), "-lm", *_link_flags()]
+    inputs = {**_base_inputs(tc, flags), "objects": objects_key, "backend": backend,
+              "argv": [a if not a.startswith(str(objects)) else Path(a).name for a in link[len(tc.argv):]],
+              "source": hash_key(generated.c_source), "header": hash_key(generated.header),
+              "headers": {n: sha256_file(c_dir / n) for n in SHIPPED_HEADERS},
+              "metadata": hash_key([generated.metadata, generated.cdef, extra_metadata])}
+    if backend == "cython":
+        from .cython_ext import extension_key_inputs
+        inputs["cython"] = extension_key_inputs()
+    key = hash_key(inputs)
+
+    def compile_model(tmp):
+        (tmp / f"{name}.c").write_text(generated.c_source)
+        (tmp / f"{name}.h").write_text(generated.header)
+        for n in SHIPPED_HEADERS:
+            shutil.copyfile(c_dir / n, tmp / n)
+        run_compiler(link, tmp, name, key, root)
+        if backend == "cython":
+            from .cython_ext import build_extension
+            build_extension(tmp, generated, tc, flags, key, root)
+        (tmp / f"{name}.json").write_text(_model_json(generated, key, backend, tc, flags, extra_metadata))
+
+    entry, hit = get_or_build(root, "models", key, compile_model, inputs, force=force)
+    return BuildResult(name, entry, entry / lib, key, hit, backend)

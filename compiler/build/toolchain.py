@@ -1,0 +1,95 @@
+"""Find the system C compiler and describe it for the build cache.
+
+Search order: ``$CC`` (which may carry arguments, e.g. ``ccache gcc``), then
+``cc``, ``gcc`` and ``clang`` on ``PATH``.  The compiler's resolved path and
+``--version`` text go into every cache key, so changing compilers never
+serves a stale library.
+"""
+import os
+import shlex
+import shutil
+import subprocess
+import sys
+from dataclasses import dataclass
+
+from eomc.errors import CompilerNotFoundError
+
+__all__ = ["Toolchain", "find_compiler", "install_hint", "DEFAULT_CFLAGS"]
+
+DEFAULT_CFLAGS = ("-O2", "-fPIC", "-std=c99")
+_CANDIDATES = ("cc", "gcc", "clang")
+_VERSIONS = {}  # (path, mtime) -> version text; a compiler is probed once per process
+
+
+@dataclass(frozen=True)
+class Toolchain:
+    """A working C compiler: the argv prefix to run it, its path and version."""
+    argv: tuple        # e.g. ("/usr/bin/gcc",) or ("/usr/bin/ccache", "gcc")
+    path: str          # resolved path of argv[0]
+    version: str       # first line of `CC --version`
+
+    @property
+    def is_clang(self):
+        return "clang" in self.version.lower()
+
+
+def install_hint():
+    """How to install a C compiler on this platform, in one sentence."""
+    if sys.platform == "darwin":
+        return "install the Xcode command line tools with `xcode-select --install`"
+    if sys.platform.startswith("win"):
+        return "install a C compiler (e.g. MSYS2 gcc or clang) and put it on PATH, or set CC"
+    return ("install one, e.g. `sudo apt-get install gcc` (Debian/Ubuntu), "
+            "`sudo dnf install gcc` (Fedora) or `sudo apk add gcc musl-dev` (Alpine), "
+            "or set CC to a C compiler")
+
+
+def _probe(path):
+    """`path --version`'s first line, or None when it does not run."""
+    try:
+        key = (path, os.stat(path).st_mtime_ns)
+    except OSError:
+        return None
+    if key not in _VERSIONS:
+        try:
+            out = subprocess.run([path, "--version"], capture_output=True, text=True, timeout=30)
+        except (OSError, subprocess.SubprocessError):
+            return None
+        text = (out.stdout or out.stderr).strip()
+        _VERSIONS[key] = text.splitlines()[0] if out.returncode == 0 and text else None
+    return _VERSIONS[key]
+
+
+def _from_cc(cc, path_env):
+    argv = shlex.split(cc)
+    if not argv:
+        return None
+    # `ccache gcc`: the last word is the compiler that determines the output.
+    real = shutil.which(argv[-1], path=path_env) if len(argv) > 1 else shutil.which(argv[0], path=path_env)
+    first = shutil.which(argv[0], path=path_env)
+    if first is None or real is None:
+        raise CompilerNotFoundError(
+            f"CC={cc!r} is not an executable C compiler; unset CC or point it at one. "
+            f"To get a C compiler, {install_hint()}.")
+    version = _probe(real)
+    if version is None:
+        raise CompilerNotFoundError(f"CC={cc!r} does not run (`{argv[-1]} --version` failed); "
+                                    f"to get a working C compiler, {install_hint()}.")
+    return Toolchain((first, *argv[1:]), os.path.realpath(real), version)
+
+
+def find_compiler(env=None):
+    """The C compiler to use; raises CompilerNotFoundError saying how to install one."""
+    env = os.environ if env is None else env
+    path_env = env.get("PATH", os.defpath)
+    if env.get("CC"):
+        return _from_cc(env["CC"], path_env)
+    for name in _CANDIDATES:
+        found = shutil.which(name, path=path_env)
+        if found:
+            version = _probe(found)
+            if version is not None:
+                return Toolchain((found,), os.path.realpath(found), version)
+    raise CompilerNotFoundError(
+        f"no C compiler found (looked for $CC, {', '.join(_CANDIDATES)} on PATH); "
+        f"eomc compiles models to C, so {install_hint()}.")

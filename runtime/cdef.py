@@ -1,0 +1,91 @@
+"""cffi declarations of the model ABI (templates/c/eomc_model.h) and the batch helper.
+
+cffi's ABI mode (``ffi.dlopen``) needs the C declarations as text.  They are
+kept here, beside the loader, rather than parsed from the shipped header at
+run time, because cffi's parser does not accept preprocessor lines.  The
+declarations must match eomc_model.h field for field: the struct layout is
+computed from them.  ``test_loader`` checks the sizes and names read through
+this layout against each built model's metadata.
+"""
+
+__all__ = ["ABI_VERSION", "MODEL_CDEF", "BATCH_CDEF", "STATUS_NAMES", "model_function_cdef"]
+
+ABI_VERSION = 1
+
+MODEL_CDEF = """
+typedef int (*eomc_rhs_fn)(double t, const double *x, const double *p,
+                           const double *r, double *xdot, double *work);
+typedef int (*eomc_mat_fn)(double t, const double *x, const double *p,
+                           const double *r, double *out, double *work);
+
+typedef struct eomc_model {
+    int abi_version;
+    const char *name;
+    int nq, nu, nx;
+    int nparam, ninput;
+    int noutput;
+    int nhol;
+    int nvel;
+    size_t work_size;
+
+    const char *const *state_names;
+    const char *const *param_names;
+    const double *param_defaults;
+    const char *const *input_names;
+    const char *const *output_names;
+
+    eomc_rhs_fn rhs;
+    eomc_mat_fn jac_x;
+    eomc_mat_fn jac_r;
+    eomc_mat_fn mass_matrix;
+    eomc_rhs_fn forcing;
+    eomc_rhs_fn outputs;
+    eomc_rhs_fn constraints;
+    eomc_mat_fn constraints_jac;
+} eomc_model;
+"""
+
+BATCH_CDEF = """
+int eomc_rhs_many(const eomc_model *model, size_t n,
+                  const double *t, size_t t_stride,
+                  const double *X, const double *p,
+                  const double *R, size_t r_stride,
+                  double *XD, double *work, size_t *failed_row);
+"""
+
+# eomc_status values (eomc_model.h) -> what went wrong, in words.
+STATUS_NAMES = {
+    0: "ok",
+    1: "the mass matrix is singular",
+    2: "the constraint equations are singular (dependent speeds cannot be solved)",
+    3: "a non-finite value appeared",
+    4: "bad argument",
+    5: "the step size became too small",
+    6: "the maximum number of steps was reached",
+    7: "the problem looks stiff for an explicit method",
+    8: "the function was not generated for this model",
+}
+
+_SIGNATURES = {
+    "rhs": "int {n}_rhs(double t, const double *x, const double *p, const double *r, double *xdot, double *work);",
+    "forcing": "int {n}_forcing(double t, const double *x, const double *p, const double *r, double *out, double *work);",
+    "outputs": "int {n}_outputs(double t, const double *x, const double *p, const double *r, double *out, double *work);",
+    "constraints": "int {n}_constraints(double t, const double *x, const double *p, const double *r, double *out, double *work);",
+    "jac_x": "int {n}_jac_x(double t, const double *x, const double *p, const double *r, double *out, double *work);",
+    "jac_r": "int {n}_jac_r(double t, const double *x, const double *p, const double *r, double *out, double *work);",
+    "mass_matrix": "int {n}_mass_matrix(double t, const double *x, const double *p, const double *r, double *out, double *work);",
+    "constraints_jac": "int {n}_constraints_jac(double t, const double *x, const double *p, const double *r, double *out, double *work);",
+    "inverse_dynamics": "int {n}_inverse_dynamics(double t, const double *x, const double *udot, const double *p, const double *r, double *tau, double *work);",
+    "linearize": "int {n}_linearize(double t, const double *x, const double *p, const double *r, double *A, double *B, double *work);",
+}
+
+
+def model_function_cdef(name, functions):
+    """Declarations of a model's exported functions, rebuilt from its metadata.
+
+    Used when a build directory's metadata carries no ``cdef`` text; the
+    signatures are fixed by the ABI, so the function list is enough.
+    """
+    lines = [f"const eomc_model *{name}_model(void);"]
+    lines += [_SIGNATURES[f].format(n=name) for f in functions if f in _SIGNATURES]
+    return "\n".join(lines) + "\n"

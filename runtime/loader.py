@@ -1,0 +1,118 @@
+"""Load a built model: ``load(directory_or_path, name=None)`` -> :class:`~eomc.runtime.model.Model`.
+
+The default backend is cffi in ABI mode (``ffi.dlopen``): loading needs no
+extension module to be compiled, so going from generated C to a loaded model
+costs one C compile and a dlopen -- the fastest model-to-loaded-module path.
+The Cython backend (built with ``backend="cython"``) calls the same C functions
+through a compiled extension with typed memoryviews; it is cheaper per call
+and is picked automatically when the build directory holds one.
+
+Only numpy and cffi are imported here -- never SymPy or eomc.compiler -- so a
+built model runs where only the runtime is installed.
+"""
+import importlib.machinery
+import importlib.util
+import json
+from pathlib import Path
+
+import cffi
+
+from eomc.errors import ModelError
+
+from .cdef import ABI_VERSION, BATCH_CDEF, MODEL_CDEF, model_function_cdef
+from .integrators_api import INTEGRATOR_CDEF
+from .model import Model
+
+__all__ = ["load", "find_model_json", "LoadError"]
+
+
+class LoadError(ModelError, OSError):
+    """A build directory is incomplete, stale or was built for another ABI."""
+
+
+def find_model_json(dir_or_path, name=None):
+    """The NAME.json describing the model at ``dir_or_path`` (a directory, NAME.json or libNAME.so)."""
+    path = Path(dir_or_path)
+    if path.is_file():
+        if path.suffix == ".json":
+            return path
+        stem = path.name.split(".")[0]
+        stem = stem[3:] if stem.startswith("lib") else stem
+        return path.parent / f"{name or stem}.json"
+    if not path.is_dir():
+        raise LoadError(f"{path}: no such model directory or file")
+    if name:
+        found = path / f"{name}.json"
+        if not found.is_file():
+            raise LoadError(f"{path}: no model named {name!r} (expected {found.name})")
+        return found
+    candidates = sorted(p for p in path.glob("*.json")
+                        if p.name != "manifest.json" and (path / f"lib{p.stem}.so").exists())
+    if len(candidates) != 1:
+        names = ", ".join(p.stem for p in candidates) or "none"
+        raise LoadError(f"{path}: expected one built model, found {names}; pass name=")
+    return candidates[0]
+
+
+def _read_json(path):
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, ValueError) as exc:
+        raise LoadError(f"{path}: cannot read model metadata ({exc})") from None
+    if data.get("abi_version") != ABI_VERSION:
+        raise LoadError(f"{path}: built for model ABI {data.get('abi_version')}, this eomc reads "
+                        f"ABI {ABI_VERSION}; rebuild the model")
+    return data
+
+
+def _open_cffi(directory, data):
+    name = data["name"]
+    ffi = cffi.FFI()
+    cdef = data.get("cdef") or model_function_cdef(name, data.get("functions", ()))
+    ffi.cdef(MODEL_CDEF + BATCH_CDEF + INTEGRATOR_CDEF + cdef)
+    library = directory / data.get("build", {}).get("library", f"lib{name}.so")
+    try:
+        lib = ffi.dlopen(str(library))
+        c_model = getattr(lib, f"{name}_model")()
+    except (OSError, AttributeError) as exc:
+        raise LoadError(f"cannot load model {name!r} from {library}: {exc}") from None
+    return ffi, lib, c_model, library
+
+
+def _check_struct(c_model, ffi, data, library):
+    """The library's own description must match NAME.json; a mismatch means a stale directory."""
+    for field in ("abi_version", "nq", "nu", "nx", "nparam", "ninput", "noutput", "nhol", "nvel", "work_size"):
+        if int(getattr(c_model, field)) != int(data[field]):
+            raise LoadError(f"{library}: {field} is {getattr(c_model, field)} in the library but "
+                            f"{data[field]} in its metadata; rebuild the model")
+    if ffi.string(c_model.name).decode() != data["name"]:
+        raise LoadError(f"{library}: library is model {ffi.string(c_model.name).decode()!r}, "
+                        f"metadata says {data['name']!r}; rebuild the model")
+
+
+def _open_extension(directory, data):
+    filename = data.get("build", {}).get("extension")
+    if not filename or not (directory / filename).is_file():
+        raise LoadError(f"{directory}: model {data['name']!r} was not built with the Cython backend "
+                        f"(rebuild with backend='cython')")
+    module_name = filename.split(".")[0]
+    loader = importlib.machinery.ExtensionFileLoader(module_name, str(directory / filename))
+    spec = importlib.util.spec_from_file_location(module_name, directory / filename, loader=loader)
+    module = importlib.util.module_from_spec(spec)
+    loader.exec_module(module)
+    return module
+
+
+def load(dir_or_path, name=None, backend=None):
+    """Load the model built in ``dir_or_path``; ``backend`` is "cffi" or "cython" (default: as built)."""
+    json_path = find_model_json(dir_or_path, name)
+    directory = json_path.parent.resolve()
+    data = _read_json(json_path)
+    ffi, lib, c_model, library = _open_cffi(directory, data)
+    _check_struct(c_model, ffi, data, library)
+    backend = backend or data.get("build", {}).get("backend", "cffi")
+    if backend not in ("cffi", "cython"):
+        raise ValueError(f"unknown backend {backend!r}; choose cffi or cython")
+    extension = _open_extension(directory, data) if backend == "cython" else None
+    return Model(ffi=ffi, lib=lib, c_model=c_model, metadata=data, directory=directory,
+                 library_path=library, extension=extension)

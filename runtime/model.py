@@ -1,0 +1,300 @@
+"""The loaded model: numpy in, numpy out, every argument checked before any C runs.
+
+A :class:`Model` wraps one built library.  Each method validates shapes and
+dtypes (raising ``ValueError`` that names the argument and the expected
+shape), fills in defaults (``p=None`` -> the model's default parameters,
+``r=None`` -> zero inputs), calls the C function through the backend's
+*kernels* and turns a nonzero status into an error that says what failed,
+when and where (``eomc.errors.SimulationError``).
+
+Kernels are plain callables taking float64 numpy arrays (or None for an
+absent argument) and returning the C status; the cffi backend builds them
+over ``ffi.from_buffer``, the Cython backend is the extension module itself.
+"""
+import numbers
+import threading
+from pathlib import Path
+
+import numpy as np
+
+from eomc.errors import ModelError, SimulationError
+
+from .cdef import STATUS_NAMES
+
+__all__ = ["Model"]
+
+_F64 = np.dtype(np.float64)
+
+_STRUCT_FUNCTIONS = ("rhs", "jac_x", "jac_r", "mass_matrix", "forcing", "outputs",
+                     "constraints", "constraints_jac")
+_EXPORTED_FUNCTIONS = ("inverse_dynamics", "linearize")
+
+
+def _cffi_backend(ffi, lib, c_model, name, functions):
+    """(prepare, kernels) over the C function pointers, called through cffi (ABI mode).
+
+    ``prepare`` turns a float64 array that is reused across calls (parameters,
+    inputs, work) into the pointer the kernels take, so a call with default
+    parameters converts only x and the output.
+    """
+    frombuf, null = ffi.from_buffer, ffi.NULL
+
+    def prepare(a):
+        return null if a is None or a.size == 0 else frombuf("double[]", a)
+
+    def vector_kernel(fp):
+        return lambda t, x, p, r, out, work: fp(t, frombuf("double[]", x), p, r, prepare(out), work)
+
+    kernels = {}
+    for fn in _STRUCT_FUNCTIONS:
+        fp = getattr(c_model, fn)
+        if fp != null:
+            kernels[fn] = vector_kernel(fp)
+    if "inverse_dynamics" in functions:
+        kernels["inverse_dynamics"] = _inverse_dynamics_kernel(getattr(lib, f"{name}_inverse_dynamics"), prepare)
+    if "linearize" in functions:
+        kernels["linearize"] = _linearize_kernel(getattr(lib, f"{name}_linearize"), prepare)
+    if "rhs" in kernels:
+        many = lib.eomc_rhs_many
+
+        def rhs_many(n, t, t_stride, X, p, R, r_stride, XD, work):
+            row = ffi.new("size_t *")
+            status = many(c_model, n, prepare(t), t_stride, prepare(X), p, R, r_stride,
+                          prepare(XD), work, row)
+            return status, int(row[0])
+        kernels["rhs_many"] = rhs_many
+    return prepare, kernels
+
+
+def _inverse_dynamics_kernel(fp, ptr):
+    return lambda t, x, ud, p, r, tau, work: fp(t, ptr(x), ptr(ud), p, r, ptr(tau), work)
+
+
+def _linearize_kernel(fp, ptr):
+    return lambda t, x, p, r, A, B, work: fp(t, ptr(x), p, r, ptr(A), ptr(B), work)
+
+
+def _extension_backend(module):
+    """(prepare, kernels) of a Cython extension: it takes the arrays themselves."""
+    names = _STRUCT_FUNCTIONS + _EXPORTED_FUNCTIONS + ("rhs_many",)
+    return (lambda a: a), {fn: getattr(module, fn) for fn in names if hasattr(module, fn)}
+
+
+class Model:
+    """A built model (see the module docstring); attributes mirror the C ``eomc_model`` struct."""
+
+    def __init__(self, *, ffi, lib, c_model, metadata, directory, library_path, extension=None):
+        self.ffi, self.lib, self.c_model = ffi, lib, c_model
+        self.metadata = metadata
+        self.name = metadata["name"]
+        for size in ("nq", "nu", "nx", "nparam", "ninput", "noutput", "nhol", "nvel", "work_size"):
+            setattr(self, size, int(metadata[size]))
+        self.state_names = tuple(metadata["state_names"])
+        self.param_names = tuple(metadata["param_names"])
+        self.input_names = tuple(metadata["input_names"])
+        self.output_names = tuple(metadata["output_names"])
+        self.param_defaults = np.array(metadata["param_defaults"], dtype=np.float64).reshape(self.nparam)
+        self.param_defaults.setflags(write=False)
+        x0 = metadata.get("initial_state")
+        self.initial_state = None if x0 is None else np.array(x0, dtype=np.float64)
+        self.directory = Path(directory)
+        self.library_path = Path(library_path)
+        self.source_path = self.directory / f"{self.name}.c"
+        self.header_path = self.directory / f"{self.name}.h"
+        self.functions = tuple(metadata.get("functions", ()))
+        self.backend = "cffi" if extension is None else "cython"
+        self._prepare, self._kernels = (
+            _cffi_backend(ffi, lib, c_model, self.name, self.functions) if extension is None
+            else _extension_backend(extension))
+        self._zero_inputs = np.zeros(self.ninput)
+        self._zero_inputs.setflags(write=False)
+        self._default_p = self._prepare(self.param_defaults)
+        self._default_r = self._prepare(self._zero_inputs) if self.ninput else self._prepare(None)
+        self._tls = threading.local()
+        self._xshape = (self.nx,)
+
+    def __repr__(self):
+        return (f"<eomc Model {self.name!r}: nq={self.nq} nu={self.nu} nparam={self.nparam} "
+                f"ninput={self.ninput} backend={self.backend} from {self.library_path}>")
+
+    # ---- argument checking -------------------------------------------------
+    def _array(self, value, shape, what, names=()):
+        a = np.asarray(value)
+        if a.dtype.kind not in "fiu":
+            raise ValueError(f"{self.name}: {what} must hold real numbers (float64); got dtype {a.dtype}")
+        if a.shape != shape:
+            listed = f" [{', '.join(names)}]" if names else ""
+            raise ValueError(f"{self.name}: {what} must have shape {shape}{listed}; got shape {a.shape}")
+        return np.ascontiguousarray(a, dtype=np.float64)
+
+    def _time(self, t, what="t"):
+        if isinstance(t, numbers.Real) and not isinstance(t, (bool, np.bool_)):
+            return float(t)
+        a = np.asarray(t)
+        if a.ndim == 0 and a.dtype.kind in "fiu":
+            return float(a)
+        raise ValueError(f"{self.name}: {what} must be a real scalar; got {type(t).__name__} {np.shape(t)}")
+
+    def _named(self, value, names, defaults, what):
+        out = np.array(defaults, dtype=np.float64)
+        unknown = [k for k in value if str(k) not in names]
+        if unknown:
+            raise ValueError(f"{self.name}: unknown {what} {', '.join(map(str, unknown))}; "
+                             f"this model's {what}s are {', '.join(names) or 'none'}")
+        for key, v in value.items():
+            out[names.index(str(key))] = self._time(v, f"{what} {key}")
+        return out
+
+    def _params(self, p):
+        """Parameters, prepared for the kernels (p=None: the defaults, no copy)."""
+        if p is None:
+            return self._default_p
+        if isinstance(p, dict):
+            return self._prepare(self._named(p, self.param_names, self.param_defaults, "parameter"))
+        return self._prepare(self._array(p, (self.nparam,), "p (parameters)", self.param_names))
+
+    def _inputs(self, r):
+        """Inputs, prepared for the kernels (r=None: zeros)."""
+        if self.ninput == 0:
+            if r is not None and np.size(r) != 0:
+                raise ValueError(f"{self.name}: this model has no inputs, but r was given")
+            return self._default_r
+        if r is None:
+            return self._default_r
+        if isinstance(r, dict):
+            return self._prepare(self._named(r, self.input_names, self._zero_inputs, "input"))
+        return self._prepare(self._array(r, (self.ninput,), "r (inputs)", self.input_names))
+
+    def _state(self, x):
+        if type(x) is np.ndarray and x.dtype is _F64 and x.shape == self._xshape and x.flags.c_contiguous:
+            return x  # the common case, checked cheaply
+        return self._array(x, self._xshape, "x (state)", self.state_names)
+
+    def _args(self, t, x, p, r):
+        t = float(t) if type(t) is float else self._time(t)
+        return t, self._state(x), self._params(p), self._inputs(r)
+
+    # ---- calling C -----------------------------------------------------------
+    def _work(self):
+        """Scratch for the C functions: one buffer per thread keeps calls reentrant."""
+        try:
+            return self._tls.work
+        except AttributeError:
+            array = np.empty(max(self.work_size, 1))
+            self._tls.work = (array, self._prepare(array))
+            return self._tls.work
+
+
+    def _kernel(self, fn):
+        try:
+            return self._kernels[fn]
+        except KeyError:
+            raise ModelError(f"model {self.name!r} was built without `{fn}`; rebuild it with "
+                             f"functions including {fn!r} (eomc build --outputs ...)") from None
+
+    def _fail(self, fn, status, t, x, row=None):
+        what = STATUS_NAMES.get(status, f"error status {status}")
+        state = ", ".join(f"{n}={v:.6g}" for n, v in zip(self.state_names, x))
+        where = f" (row {row} of X)" if row is not None else ""
+        raise SimulationError(f"{self.name}.{fn}: {what} at t={t:.6g}, state {state}{where}")
+
+    def _vector_call(self, fn, size, t, x, p, r):
+        t, x, p, r = self._args(t, x, p, r)
+        kernel = self._kernel(fn)
+        out = np.empty(size)
+        status = kernel(t, x, p, r, out, self._work()[1])
+        if status:
+            self._fail(fn, status, t, x)
+        return out
+
+    def _matrix_call(self, fn, rows, cols, t, x, p, r):
+        return self._vector_call(fn, rows * cols, t, x, p, r).reshape(rows, cols)
+
+    # ---- the model's functions -------------------------------------------------
+    def rhs(self, t, x, p=None, r=None):
+        """State derivative xdot = f(t, x, p, r), shape (nx,)."""
+        return self._vector_call("rhs", self.nx, t, x, p, r)
+
+    def rhs_many(self, t, X, p=None, r=None):
+        """rhs at every row of X (shape (n, nx)) in one C loop; t scalar or (n,), r (ninput,) or (n, ninput)."""
+        X = np.asarray(X)
+        if X.ndim != 2 or X.shape[1:] != (self.nx,):
+            raise ValueError(f"{self.name}: X must have shape (n, {self.nx}) (one state per row); "
+                             f"got shape {X.shape}")
+        n = X.shape[0]
+        X = self._array(X, X.shape, "X (states)")
+        if np.ndim(t) == 0:
+            times, t_stride = np.array([self._time(t)]), 0
+        else:
+            times, t_stride = self._array(t, (n,), "t (one time per row of X)"), 1
+        p = self._params(p)
+        if self.ninput and r is not None and np.ndim(r) == 2:
+            R = self._prepare(self._array(r, (n, self.ninput), "r (inputs per row)", self.input_names))
+            r_stride = self.ninput
+        else:
+            R, r_stride = self._inputs(r), 0
+        XD = np.empty((n, self.nx))
+        if n == 0:
+            return XD
+        status, row = self._kernel("rhs_many")(n, times, t_stride, X, p, R, r_stride,
+                                               XD.reshape(-1), self._work()[1])
+        if status:
+            self._fail("rhs", status, times[row * t_stride], X[row], row)
+        return XD
+
+    def jacobian(self, t, x, p=None, r=None):
+        """d rhs / d x, shape (nx, nx)."""
+        return self._matrix_call("jac_x", self.nx, self.nx, t, x, p, r)
+
+    def input_jacobian(self, t, x, p=None, r=None):
+        """d rhs / d r, shape (nx, ninput)."""
+        return self._matrix_call("jac_r", self.nx, self.ninput, t, x, p, r)
+
+    def mass_matrix(self, t, x, p=None, r=None):
+        """M(q), shape (nu, nu)."""
+        return self._matrix_call("mass_matrix", self.nu, self.nu, t, x, p, r)
+
+    def forcing(self, t, x, p=None, r=None):
+        """f(q, u, t) of M u' = f, shape (nu,)."""
+        return self._vector_call("forcing", self.nu, t, x, p, r)
+
+    def outputs(self, t, x, p=None, r=None):
+        """The model's named outputs as a dict name -> float."""
+        values = self._vector_call("outputs", self.noutput, t, x, p, r)
+        return dict(zip(self.output_names, values.tolist()))
+
+    def constraints(self, t, x, p=None, r=None):
+        """Constraint residuals (nhol holonomic, then nvel velocity-level)."""
+        return self._vector_call("constraints", self.nhol + self.nvel, t, x, p, r)
+
+    def constraints_jacobian(self, t, x, p=None, r=None):
+        """d constraints / d x, shape (nhol + nvel, nx)."""
+        return self._matrix_call("constraints_jac", self.nhol + self.nvel, self.nx, t, x, p, r)
+
+    def inverse_dynamics(self, t, x, udot, p=None, r=None):
+        """Generalized forces tau = M u' - f needed for the accelerations udot, shape (nu,)."""
+        t, x, p, r = self._args(t, x, p, r)
+        udot = self._array(udot, (self.nu,), "udot (speed derivatives)", self.state_names[self.nq:])
+        kernel = self._kernel("inverse_dynamics")
+        tau = np.empty(self.nu)
+        status = kernel(t, x, udot, p, r, tau, self._work()[1])
+        if status:
+            self._fail("inverse_dynamics", status, t, x)
+        return tau
+
+    def linearize(self, t, x, p=None, r=None):
+        """(A, B) = (d rhs/d x, d rhs/d r) at an operating point."""
+        if "linearize" not in self._kernels:
+            return self.jacobian(t, x, p, r), (self.input_jacobian(t, x, p, r) if self.ninput
+                                               else np.empty((self.nx, 0)))
+        t, x, p, r = self._args(t, x, p, r)
+        A, B = np.empty((self.nx, self.nx)), np.empty((self.nx, self.ninput))
+        status = self._kernels["linearize"](t, x, p, r, A.reshape(-1), B.reshape(-1), self._work()[1])
+        if status:
+            self._fail("linearize", status, t, x)
+        return A, B
+
+    def simulate(self, x0, t_span, **kw):
+        """Integrate from x0 over t_span; see eomc.runtime.simulate.simulate."""
+        from .simulate import simulate
+        return simulate(self, x0, t_span, **kw)
