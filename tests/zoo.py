@@ -96,3 +96,190 @@ def n_link_pendulum_on_cart_lagrange(n, mech, cart_force=True):
     lm = me.LagrangesMethod(L, q, forcelist=forces, frame=I)
     lm.form_lagranges_equations()
     return lm, specified
+
+
+def heavy_top(mech, torque_input=True):
+    """A symmetric top on a fixed pivot, body-fixed 3-1-3 Euler angles.
+
+    The generalized speeds are ω's body-frame measure numbers, so the
+    kinematic differential equations are not q' = u.  An optional specified
+    torque T(t) acts about the inertial vertical.  Returns (kane, specified).
+    """
+    me = mech
+    q = me.dynamicsymbols("q1:4")
+    u = me.dynamicsymbols("u1:4")
+    m, g, l, I1, I3 = sm.symbols("m g l I1 I3")
+    N = me.ReferenceFrame("N")
+    B = N.orientnew("B", "Body", q, "313")
+    B.set_ang_vel(N, u[0] * B.x + u[1] * B.y + u[2] * B.z)
+    kd = me.kinematic_equations(u, q, "body", "313")
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    G = O.locatenew("G", l * B.z)
+    G.v2pt_theory(O, N, B)
+    top = me.RigidBody("Top", G, B, m, (me.inertia(B, I1, I1, I3), G))
+    loads = [(G, -m * g * N.z)]
+    specified = []
+    if torque_input:
+        T = me.dynamicsymbols("T")
+        loads.append((B, T * N.z))
+        specified.append(T)
+    kane = me.KanesMethod(N, q_ind=q, u_ind=u, kd_eqs=kd)
+    kane.kanes_equations([top], loads)
+    return kane, specified
+
+
+def rolling_disc(mech):
+    """A thin disc rolling without slip on a plane (SymPy's linearization example).
+
+    Coordinates: yaw, lean, spin, contact x, y (independent) and centre
+    height (dependent, one configuration constraint); speeds: ω's measure
+    numbers in the lean frame (independent) and the centre's velocity in the
+    disc frame (dependent, three velocity constraints: the contact point does
+    not slip).  Returns (kane, specified).
+    """
+    me = mech
+    t = me.dynamicsymbols._t
+    r, m, g = sm.symbols("r m g")
+    q = me.dynamicsymbols("q1:7")
+    u = me.dynamicsymbols("u1:7")
+    N = me.ReferenceFrame("N")
+    NO = me.Point("NO")
+    A = N.orientnew("A", "Axis", [q[0], N.z])
+    B = A.orientnew("B", "Axis", [q[1], A.x])
+    C = B.orientnew("C", "Axis", [q[2], B.y])
+    CO = NO.locatenew("CO", q[3] * N.x + q[4] * N.y + q[5] * N.z)
+    w_c_n_qd = C.ang_vel_in(N)
+    w_b_n_qd = B.ang_vel_in(N)
+    C.set_ang_vel(N, u[0] * B.x + u[1] * B.y + u[2] * B.z)
+    v_co_n_qd = CO.pos_from(NO).dt(N)
+    CO.set_vel(N, u[3] * C.x + u[4] * C.y + u[5] * C.z)
+    P = CO.locatenew("P", r * B.z)
+    P.v2pt_theory(CO, N, C)
+    f_c = [q[5] - me.dot(CO.pos_from(P), N.z)]
+    f_v = [me.dot(P.vel(N), uv) for uv in C]
+    kd = [me.dot(w_c_n_qd - C.ang_vel_in(N), uv) for uv in B] + \
+         [me.dot(v_co_n_qd - CO.vel(N), uv) for uv in N]
+    qd = [qi.diff(t) for qi in q]
+    qdots = sm.solve(kd, qd)
+    B.set_ang_vel(N, w_b_n_qd.subs(qdots))
+    disc = me.RigidBody("Disc", CO, C, m,
+                        (me.inertia(C, m * r**2 / 4, m * r**2 / 2, m * r**2 / 4), CO))
+    kane = me.KanesMethod(N, q[:5], u[:3], kd_eqs=kd, q_dependent=[q[5]],
+                          configuration_constraints=f_c, u_dependent=u[3:],
+                          velocity_constraints=f_v)
+    kane.kanes_equations([disc], [(CO, m * g * A.z)])
+    return kane, []
+
+
+def rolling_disc_aux(mech):
+    """The rolling disc with auxiliary speeds at the contact point (SymPy's test_aux, 3D).
+
+    Minimal coordinates (yaw, lean, spin) and speeds (ω in the lean frame);
+    u4, u5, u6 are auxiliary speeds of the contact point C, where unknown
+    contact forces f1 L.x + f2 (Y.z × L.x) + f3 Y.z act.  ``kane.auxiliary_eqs``
+    = 0 then gives the contact force.  Returns (kane, specified) where
+    specified is empty and the contact forces are ``sm.symbols('f1:4')``.
+    """
+    me = mech
+    q1, q2, q3 = q = me.dynamicsymbols("q1:4")
+    u1, u2, u3 = u = me.dynamicsymbols("u1:4")
+    u4, u5, u6 = me.dynamicsymbols("u4:7")
+    f1, f2, f3 = sm.symbols("f1:4")
+    r, m, g = sm.symbols("r m g")
+    N = me.ReferenceFrame("N")
+    Y = N.orientnew("Y", "Axis", [q1, N.z])
+    L = Y.orientnew("L", "Axis", [q2, Y.x])
+    R = L.orientnew("R", "Axis", [q3, L.y])
+    w_R_N_qd = R.ang_vel_in(N)
+    R.set_ang_vel(N, u1 * L.x + u2 * L.y + u3 * L.z)
+    C = me.Point("C")
+    C.set_vel(N, u4 * L.x + u5 * me.cross(Y.z, L.x) + u6 * Y.z)
+    Dmc = C.locatenew("Dmc", r * L.z)
+    Dmc.v2pt_theory(C, N, R)
+    I = me.inertia(L, m / 4 * r**2, m / 2 * r**2, m / 4 * r**2)
+    kd = [me.dot(R.ang_vel_in(N) - w_R_N_qd, uv) for uv in L]
+    loads = [(Dmc, -m * g * Y.z), (C, f1 * L.x + f2 * me.cross(Y.z, L.x) + f3 * Y.z)]
+    disc = me.RigidBody("Disc", Dmc, R, m, (I, Dmc))
+    kane = me.KanesMethod(N, q_ind=q, u_ind=u, kd_eqs=kd, u_auxiliary=[u4, u5, u6])
+    kane.kanes_equations([disc], loads)
+    return kane, []
+
+
+def four_bar(mech):
+    """A planar four-bar linkage: one independent and two dependent coordinates.
+
+    Links A, B, C (angles q1, q2, q3 from N.x, rigid bodies at their
+    midpoints) close the loop on a ground link of length l4: two
+    configuration constraints, and two velocity constraints (the loop end
+    does not move) for the dependent speeds u2, u3.  Gravity along −N.y and a
+    specified torque T(t) on link A.  Returns (kane, specified).
+    """
+    me = mech
+    q = me.dynamicsymbols("q1:4")
+    u = me.dynamicsymbols("u1:4")
+    T = me.dynamicsymbols("T")
+    l1, l2, l3, l4, g = sm.symbols("l1 l2 l3 l4 g")
+    ms = sm.symbols("m1:4")
+    Izz = sm.symbols("I1:4")
+    N = me.ReferenceFrame("N")
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    frames = []
+    for i in range(3):
+        F = N.orientnew(f"L{i + 1}", "Axis", [q[i], N.z])
+        F.set_ang_vel(N, u[i] * N.z)
+        frames.append(F)
+    ends, bodies = [O], []
+    for i, (F, li) in enumerate(zip(frames, (l1, l2, l3))):
+        mid = ends[-1].locatenew(f"G{i + 1}", li / 2 * F.x)
+        mid.v2pt_theory(ends[-1], N, F)
+        end = ends[-1].locatenew(f"P{i + 1}", li * F.x)
+        end.v2pt_theory(ends[-1], N, F)
+        ends.append(end)
+        bodies.append(me.RigidBody(f"Link{i + 1}", mid, F, ms[i],
+                                   (me.inertia(F, 0, 0, Izz[i]), mid)))
+    loop = ends[-1].pos_from(O) - l4 * N.x
+    config = [me.dot(loop, N.x), me.dot(loop, N.y)]
+    vel = [me.dot(ends[-1].vel(N), N.x), me.dot(ends[-1].vel(N), N.y)]
+    kd = [qi.diff() - ui for qi, ui in zip(q, u)]
+    loads = [(b.masscenter, -b.mass * g * N.y) for b in bodies] + [(frames[0], T * N.z)]
+    kane = me.KanesMethod(N, [q[0]], [u[0]], kd_eqs=kd, q_dependent=q[1:],
+                          configuration_constraints=config, u_dependent=u[1:],
+                          velocity_constraints=vel)
+    kane.kanes_equations(bodies, loads)
+    return kane, [T]
+
+
+def spring_damper_chain(n, mech):
+    """n particles on a line, each tied to the previous one (the first to a wall)
+    by a linear spring k_i and damper c_i; a specified force F(t) pulls the
+    last one.  Returns (kane, specified)."""
+    me = mech
+    q = me.dynamicsymbols(f"x1:{n + 1}")
+    u = me.dynamicsymbols(f"v1:{n + 1}")
+    m = sm.symbols(f"m1:{n + 1}")
+    k = sm.symbols(f"k1:{n + 1}")
+    c = sm.symbols(f"c1:{n + 1}")
+    F = me.dynamicsymbols("F")
+    N = me.ReferenceFrame("N")
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    points, particles, loads = [], [], []
+    for i in range(n):
+        P = O.locatenew(f"P{i + 1}", q[i] * N.x)
+        P.set_vel(N, u[i] * N.x)
+        points.append(P)
+        particles.append(me.Particle(f"M{i + 1}", P, m[i]))
+    for i in range(n):
+        stretch = q[i] - (q[i - 1] if i else 0)
+        rate = u[i] - (u[i - 1] if i else 0)
+        f = (-k[i] * stretch - c[i] * rate) * N.x
+        loads.append((points[i], f))
+        if i:
+            loads.append((points[i - 1], -f))
+    loads.append((points[-1], F * N.x))
+    kd = [qi.diff() - ui for qi, ui in zip(q, u)]
+    kane = me.KanesMethod(N, q_ind=q, u_ind=u, kd_eqs=kd)
+    kane.kanes_equations(particles, loads)
+    return kane, [F]

@@ -1,0 +1,317 @@
+"""eomc's KanesMethod: Kane's equations Fr + Fr* = 0 from partial velocities.
+
+The API follows the seed document and SymPy 1.14's ``KanesMethod`` (same
+constructor keywords, attributes and results), but the formulation is our
+own (see :mod:`.kane_forms`): generalized active and inertia forces are built
+directly from partial velocities and partial angular velocities,
+
+    F_r  = v_r·R + ω_r·T,      F_r* = v_r·R* + ω_r·T*,
+    R* = −m a,                 T* = −(α·I + ω×I·ω),
+
+with the mass matrix read off as M_rs = Σ m v_r·v_s + ω_r·I·ω_s.  The heavy
+algebra runs on plain symbols (:mod:`.plain`), which is what makes it fast.
+
+Differences from SymPy 1.14, on purpose:
+
+* ``kanes_equations`` accepts both the seed's order ``(loads, bodies)`` and
+  SymPy's ``(bodies, loads)``; the lists are told apart by their content.
+* ``linearize()`` with no arguments has the seed's meaning: it returns
+  ``(A, B)``, the Jacobians of ``forcing_full`` with respect to the
+  independent coordinates and speeds and with respect to the other dynamic
+  symbols (inputs).  With any SymPy keyword (``op_point``, ``A_and_B``,
+  ``linear_solver``, ``simplify``, ``new_method``) it behaves exactly like
+  SymPy 1.14 and returns ``(M, A, B, r)`` or ``(A, B, r)``.
+* Bad input raises :class:`eomc.errors.ModelError` naming the culprit.
+* Accelerations set explicitly on points/frames (``set_acc``) are not used:
+  accelerations are always the time derivatives of the velocities.
+"""
+import sympy as sm
+from sympy.core.function import AppliedUndef
+from sympy.physics.mechanics import ReferenceFrame
+from sympy.physics.vector import dynamicsymbols
+
+from eomc.errors import ModelError
+
+from .formed import FormedSystem
+from .kane_forms import VectorReader, assemble, dot, read_bodies, read_loads
+from .kane_inputs import (as_symbol_list, check_bodies, check_time_functions,
+                          parse_loads, split_bodies_and_loads)
+from .kane_kinematics import constraint_matrices, kinematic_matrices, linear_solver
+from .plain import PlainSpace
+
+__all__ = ["KanesMethod"]
+
+
+def _rows(mat, n):
+    return mat if mat.rows else sm.zeros(0, n)
+
+
+class KanesMethod:
+    """Kane's method: forms Fr, Fr*, the mass matrix and forcing vector.
+
+    Parameters are those of ``sympy.physics.mechanics.KanesMethod`` (1.14).
+    See the module docstring for the (few, deliberate) differences.
+    """
+
+    def __init__(self, frame, q_ind, u_ind, kd_eqs=None, q_dependent=None,
+                 configuration_constraints=None, u_dependent=None,
+                 velocity_constraints=None, acceleration_constraints=None,
+                 u_auxiliary=None, bodies=None, forcelist=None,
+                 explicit_kinematics=True, kd_eqs_solver='LU',
+                 constraint_solver='LU'):
+        if not isinstance(frame, ReferenceFrame):
+            raise ModelError(f"the first argument of KanesMethod must be the inertial "
+                             f"ReferenceFrame, got {frame!r}")
+        self._inertial = frame
+        t = dynamicsymbols._t
+        q_ind = as_symbol_list(q_ind, "q_ind (independent coordinates)")
+        u_ind = as_symbol_list(u_ind, "u_ind (independent speeds)")
+        self._qdep = as_symbol_list(q_dependent, "q_dependent")
+        self._udep = as_symbol_list(u_dependent, "u_dependent")
+        self._uaux = as_symbol_list(u_auxiliary, "u_auxiliary")
+        self._q = sm.Matrix(q_ind + self._qdep)
+        self._u = sm.Matrix(u_ind + self._udep)
+        check_time_functions(list(self._q), "coordinate")
+        check_time_functions(list(self._u) + self._uaux, "speed")
+        clash = set(self._q) & set(list(self._u) + self._uaux)
+        if clash:
+            raise ModelError(f"{sorted(map(str, clash))[0]} is listed both as a coordinate and a speed")
+        self._qdot = self._q.diff(t)
+        self._udot = self._u.diff(t)
+        self.explicit_kinematics = explicit_kinematics
+        self._kd_solver = linear_solver(kd_eqs_solver)
+        self._constraint_solver = linear_solver(constraint_solver)
+        self._bodylist = None if bodies is None else list(bodies)
+        self._forcelist = None if forcelist is None else list(forcelist)
+        self._fr = self._frstar = None
+        self._aux_eq = None
+        self._init_kinematics(kd_eqs)
+        self._init_constraints(configuration_constraints, velocity_constraints,
+                               acceleration_constraints)
+
+    # -- set-up ---------------------------------------------------------------
+    def _init_kinematics(self, kd_eqs):
+        kd = as_symbol_list(kd_eqs, "kd_eqs (kinematic differential equations)")
+        if kd:
+            k = kinematic_matrices(kd, list(self._q), list(self._u), self._uaux, self._kd_solver)
+            self._k_kqdot_implicit = k["k_kqdot_implicit"]
+            self._k_ku_implicit, self._f_k_implicit = k["k_ku_implicit"], k["f_k_implicit"]
+            self._k_ku, self._f_k = k["k_ku"], k["f_k"]
+            self._k_kqdot = sm.eye(len(self._q))
+            self._qdot_u_map = k["qdot_u_map"]
+        else:
+            self._qdot_u_map = None
+            self._k_kqdot_implicit = self._k_kqdot = sm.Matrix()
+            self._k_ku_implicit = self._k_ku = sm.Matrix()
+            self._f_k_implicit = self._f_k = sm.Matrix()
+
+    def _init_constraints(self, config, vel, acc):
+        config = as_symbol_list(config, "configuration_constraints")
+        vel = as_symbol_list(vel, "velocity_constraints")
+        acc = as_symbol_list(acc, "acceleration_constraints")
+        if len(config) != len(self._qdep):
+            raise ModelError(
+                f"{len(self._qdep)} dependent coordinate(s) ({', '.join(map(str, self._qdep)) or 'none'}) "
+                f"but {len(config)} configuration constraint(s); the counts must match")
+        if self._udep and not vel:
+            raise ModelError(f"dependent speeds ({', '.join(map(str, self._udep))}) were given "
+                             "without velocity_constraints to determine them")
+        if len(vel) != len(self._udep):
+            raise ModelError(
+                f"{len(self._udep)} dependent speed(s) ({', '.join(map(str, self._udep)) or 'none'}) "
+                f"but {len(vel)} velocity constraint(s); the counts must match")
+        if acc and len(acc) != len(self._udep):
+            raise ModelError(f"{len(self._udep)} dependent speed(s) but {len(acc)} acceleration "
+                             "constraint(s); the counts must match")
+        c = constraint_matrices(config, vel, acc, list(self._u), self._udep,
+                                self._qdot_u_map, self._constraint_solver)
+        self._f_h, self._k_nh, self._f_nh = c["f_h"], c["k_nh"], c["f_nh"]
+        self._k_dnh, self._f_dnh, self._Ars = c["k_dnh"], c["f_dnh"], c["Ars"]
+
+    # -- forming the equations --------------------------------------------------
+    def kanes_equations(self, bodies=None, loads=None):
+        """Form Fr and Fr*; returns ``(fr, frstar)``.
+
+        Takes the seed's ``(loads, bodies)`` or SymPy's ``(bodies, loads)``:
+        bodies are Particle/RigidBody objects, loads are (Point, Vector) or
+        (ReferenceFrame, Vector) pairs (``Force``/``Torque`` objects too).
+        With auxiliary speeds the returned vectors have the auxiliary rows
+        appended; ``auxiliary_eqs`` holds their sum (the constraint forces).
+        """
+        bodies, loads = split_bodies_and_loads(bodies, loads)
+        if bodies is None:
+            bodies = self._bodylist
+        if loads is None:
+            loads = self._forcelist
+        if not self._qdot_u_map:
+            raise ModelError("kanes_equations needs kinematic differential equations: "
+                             "pass kd_eqs=[...] to KanesMethod")
+        bodies = check_bodies(bodies)
+        parsed = parse_loads(loads, self._inertial)
+        space = PlainSpace(list(self._q), list(self._u), self._uaux, self._qdot_u_map)
+        reader = VectorReader(space)
+        self._body_terms = read_bodies(space, reader, self._inertial, bodies)
+        self._load_terms = read_loads(space, reader, self._inertial, parsed)
+        self._space = space
+        o, s = len(self._u), len(self._uaux)
+        MM, nonmm, fr = assemble(self._body_terms, self._load_terms, o + s, o)
+        MM = space.matrix_to_dynamic(sm.Matrix(o + s, o, [e for row in MM for e in row]))
+        nonmm = space.matrix_to_dynamic(sm.Matrix(o + s, 1, nonmm))
+        fr = space.matrix_to_dynamic(sm.Matrix(o + s, 1, fr))
+        self._finish(MM, nonmm, fr, o, s)
+        self._bodylist = bodies
+        self._forcelist = None if loads is None else list(loads)
+        return self._fr, self._frstar
+
+    def _finish(self, MM, nonmm, fr, o, s):
+        udot = sm.Matrix(self._udot)
+        mm, nm, f = MM[:o, :], nonmm[:o, :], fr[:o, :]
+        if self._udep:
+            p = o - len(self._udep)
+            A = self._Ars.T
+            mm = mm[:p, :] + A * mm[p:, :]
+            nm = nm[:p, :] + A * nm[p:, :]
+            f = f[:p, :] + A * f[p:, :]
+        frstar = -(mm * udot + nm)
+        self._k_d = mm
+        self._f_d = -(f - nm)
+        self._fr, self._frstar = f, frstar
+        if s:
+            fraux = fr[o:, :]
+            frstaraux = -(MM[o:, :] * udot + nonmm[o:, :])
+            self._aux_eq = fraux + frstaraux
+            self._fr = f.col_join(fraux)
+            self._frstar = frstar.col_join(frstaraux)
+
+    # -- per-body contributions ------------------------------------------------
+    def _reduce(self, vec):
+        """Apply the dependent-speed elimination to a column over all speeds."""
+        vec = self._space.matrix_to_dynamic(sm.Matrix(vec))
+        if not self._udep:
+            return vec
+        p = len(self._u) - len(self._udep)
+        return vec[:p, :] + self._Ars.T * vec[p:, :]
+
+    def generalized_active_forces_by_body(self):
+        """{load name: its contribution to Fr} (point or frame name; repeats get '#k')."""
+        self._need_equations()
+        o, out = len(self._u), {}
+        for ld in self._load_terms:
+            key = ld.name if ld.name not in out else f"{ld.name}#{sum(k.split('#')[0] == ld.name for k in out) + 1}"
+            out[key] = self._reduce([dot(ld.pr[r], ld.vec) for r in range(o)])
+        return out
+
+    def generalized_inertia_forces_by_body(self):
+        """{body name: its contribution to Fr*} = −Σ (v_r·m a + ω_r·(α·I + ω×I·ω))."""
+        self._need_equations()
+        o, out = len(self._u), {}
+        sp = self._space
+        for b in self._body_terms:
+            col = []
+            for r in range(o):
+                acc = [sm.Add(*[b.mass * dot(b.vr[r], b.vr[k]) * sp.udot[k] for k in range(o)]),
+                       dot(b.vr[r], b.R0)]
+                if b.wr:
+                    acc += [sm.Add(*[dot(b.wr[r], b.Iw[k]) * sp.udot[k] for k in range(o)]),
+                            dot(b.wr[r], b.T0)]
+                col.append(-sm.Add(*acc))
+            out[b.name] = self._reduce(col)
+        return out
+
+    # -- results -----------------------------------------------------------------
+    def _need_equations(self):
+        if self._fr is None or self._frstar is None:
+            raise ModelError("the equations are not formed yet: call kanes_equations(...) first")
+
+    def kindiffdict(self):
+        """A dictionary mapping each q' to its expression in u (and q, t)."""
+        if not self._qdot_u_map:
+            raise ModelError("no kinematic differential equations were given (kd_eqs)")
+        return dict(self._qdot_u_map)
+
+    @property
+    def auxiliary_eqs(self):
+        """The auxiliary equations (Fr + Fr* for the auxiliary speeds): constraint forces = 0."""
+        self._need_equations()
+        if not self._uaux:
+            raise ModelError("no auxiliary speeds have been declared (u_auxiliary)")
+        return self._aux_eq
+
+    @property
+    def fr(self):
+        return self._fr
+
+    @property
+    def frstar(self):
+        return self._frstar
+
+    @property
+    def mass_matrix_kin(self):
+        return self._k_kqdot if self.explicit_kinematics else self._k_kqdot_implicit
+
+    @property
+    def forcing_kin(self):
+        u = sm.Matrix(self._u)
+        if self.explicit_kinematics:
+            return -(self._k_ku * u + self._f_k)
+        return -(self._k_ku_implicit * u + self._f_k_implicit)
+
+    @property
+    def mass_matrix(self):
+        self._need_equations()
+        return self._k_d.col_join(_rows(self._k_dnh, len(self._u)))
+
+    @property
+    def forcing(self):
+        self._need_equations()
+        return -self._f_d.col_join(_rows(self._f_dnh, 1))
+
+    @property
+    def mass_matrix_full(self):
+        self._need_equations()
+        o, n = len(self._u), len(self._q)
+        return (self.mass_matrix_kin.row_join(sm.zeros(n, o))).col_join(
+            sm.zeros(o, n).row_join(self.mass_matrix))
+
+    @property
+    def forcing_full(self):
+        self._need_equations()
+        return self.forcing_kin.col_join(self.forcing)
+
+    def rhs(self, inv_method=None):
+        """x' = [q'; u'] solved symbolically (small systems only; the compiler solves numerically)."""
+        kdes = self.kindiffdict()
+        top = sm.Matrix([kdes[qi.diff(dynamicsymbols._t)] for qi in self._q])
+        if inv_method is None:
+            bottom = self.mass_matrix.LUsolve(self.forcing)
+        else:
+            bottom = self.mass_matrix.inv(inv_method, try_block_diag=True) * self.forcing
+        return top.col_join(bottom)
+
+    q = property(lambda self: self._q)
+    u = property(lambda self: self._u)
+    bodies = property(lambda self: self._bodylist)
+    bodylist = property(lambda self: self._bodylist)
+    loads = property(lambda self: self._forcelist)
+    forcelist = property(lambda self: self._forcelist)
+    holonomic_constraints = property(lambda self: self._f_h, doc="f_h(q, t) = 0")
+
+    @property
+    def nonholonomic_constraints(self):
+        """k_nh u + f_nh = 0 (the velocity constraints, q' eliminated)."""
+        if not self._k_nh.rows:
+            return sm.Matrix()
+        return self._k_nh * sm.Matrix(self._u) + self._f_nh
+
+    @property
+    def velocity_constraint_matrices(self):
+        """(k_nh, f_nh, A_rs) with u_dep = A_rs u_ind when f_nh = 0."""
+        return self._k_nh, self._f_nh, self._Ars
+
+    # -- linearization and hand-off ---------------------------------------------
+    from .kane_linear import linearize, to_linearizer  # noqa: E402  (methods)
+
+    def formed(self):
+        """The method-neutral :class:`FormedSystem` the compiler consumes."""
+        from .kane_linear import formed_system
+        return formed_system(self)

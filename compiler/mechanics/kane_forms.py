@@ -1,0 +1,224 @@
+"""The algebra of Kane's method on vector components, in plain symbols.
+
+For every body and load we take its velocity (and angular velocity) as
+components in one frame, read the partial velocities v_r, ω_r off as the
+linear coefficients of the generalized speeds, and form
+
+    F_r  = Σ v_r·R + ω_r·T                                  (loads)
+    F_r* = −Σ [ v_r·m a + ω_r·(α·I + ω×I·ω) ]               (bodies)
+         = −( Σ_s M_rs u_s' + nonM_r ),
+    M_rs  = Σ m v_r·v_s + ω_r·I·ω_s                           (no d/du' needed)
+    nonM_r = Σ v_r·(m a0 + m' v) + ω_r·(I α0 + I' ω + ω×I·ω)
+
+where a0, α0 are the accelerations with every u' = 0.  Translational
+quantities live in the inertial frame N (so a = d/dt of the components);
+rotational ones in the body frame B (so α = d/dt of ω's B components, because
+ᴺdω/dt = ᴮdω/dt).  Bodies or loads that share a partial velocity are summed
+before the dot product (a chain's links share most of theirs), which keeps
+the expressions short.
+"""
+from dataclasses import dataclass, field
+
+import sympy as sm
+
+from .kane_inputs import frame_ang_vel, point_velocity
+from .plain import linear_coefficients
+
+__all__ = ["VectorReader", "BodyTerms", "LoadTerms", "read_bodies", "read_loads",
+           "assemble", "dot"]
+
+_ZERO3 = (sm.S.Zero, sm.S.Zero, sm.S.Zero)
+
+
+def dot(a, b):
+    return sm.Add(*[x * y for x, y in zip(a, b) if x != 0 and y != 0])
+
+
+def cross(a, b):
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+def matvec(m, v):
+    return tuple(dot(row, v) for row in m)
+
+
+def is_zero(v):
+    return all(c == 0 for c in v)
+
+
+class VectorReader:
+    """Reads SymPy Vectors/Dyadics as plain-symbol components in a chosen frame.
+
+    Direction cosine matrices are converted to plain symbols once per frame
+    pair and cached.
+    """
+
+    def __init__(self, space):
+        self.space = space
+        self._dcm = {}
+
+    def dcm(self, to, frm):
+        key = (to, frm)
+        if key not in self._dcm:
+            C = to.dcm(frm)
+            self._dcm[key] = [[self.space.to_plain(C[i, j]) for j in range(3)] for i in range(3)]
+        return self._dcm[key]
+
+    def components(self, vec, frame):
+        acc = ([], [], [])
+        for mat, f in vec.args:
+            m = [self.space.to_plain(e) for e in mat]
+            if f == frame:
+                for i in range(3):
+                    acc[i].append(m[i])
+                continue
+            C = self.dcm(frame, f)
+            for i in range(3):
+                acc[i].extend(C[i][j] * m[j] for j in range(3) if m[j] != 0 and C[i][j] != 0)
+        return tuple(sm.Add(*a) for a in acc)
+
+    def dyadic_matrix(self, dyadic, frame):
+        M = dyadic.to_matrix(frame)
+        return tuple(tuple(self.space.to_plain(M[i, j]) for j in range(3)) for i in range(3))
+
+
+def partials(comps, speeds):
+    """List over speeds of 3-tuples: the partial (angular) velocities."""
+    cols = [linear_coefficients(c, speeds) for c in comps]
+    return [tuple(cols[i][r] for i in range(3)) for r in range(len(speeds))]
+
+
+@dataclass
+class BodyTerms:
+    """One body's pieces, in plain symbols (translation in N, rotation in B)."""
+    name: str
+    mass: sm.Expr
+    vr: list                 # partial velocities over u + u_aux, N components
+    R0: tuple                # m a0 + m' v: the inertia force without the u' terms
+    wr: list = field(default_factory=list)    # partial angular velocities, B components
+    Iw: list = field(default_factory=list)    # I·ω_s for the main speeds
+    T0: tuple = _ZERO3
+
+
+@dataclass
+class LoadTerms:
+    name: str
+    kind: str                # "force" or "torque"
+    pr: list                 # partial (angular) velocities over u + u_aux
+    vec: tuple               # N components of the force/torque
+
+
+def _zero_aux(space, comps):
+    if not space.uaux:
+        return comps
+    z = dict.fromkeys(space.uaux, 0)
+    return tuple(c.xreplace(z) for c in comps)
+
+
+def read_bodies(space, reader, inertial, bodies):
+    speeds = space.u + space.uaux
+    out = []
+    for i, body in enumerate(bodies):
+        what = f"body #{i + 1} ({body.name})"
+        rigid = isinstance(body, sm.physics.mechanics.RigidBody)
+        point = body.masscenter if rigid else body.point
+        v = reader.components(point_velocity(point, inertial, what), inertial)
+        v0 = _zero_aux(space, v)
+        m = space.to_plain(body.mass)
+        if space.uaux:
+            m = m.xreplace(dict.fromkeys(space.uaux, 0))
+        R0 = tuple(m * a for a in space.dt_vector(v0, udot=False))
+        dm = space.dt(m)
+        if dm != 0:
+            R0 = tuple(a + dm * b for a, b in zip(R0, v0))
+        terms = BodyTerms(body.name, m, partials(v, speeds), R0)
+        if rigid:
+            _read_rotation(space, reader, inertial, body, terms, what)
+        out.append(terms)
+    return out
+
+
+def _read_rotation(space, reader, inertial, body, terms, what):
+    B = body.frame
+    speeds = space.u + space.uaux
+    w = reader.components(frame_ang_vel(B, inertial, what), B)
+    w0 = _zero_aux(space, w)
+    I = reader.dyadic_matrix(body.central_inertia, B)
+    if space.uaux:
+        z = dict.fromkeys(space.uaux, 0)
+        I = tuple(tuple(e.xreplace(z) for e in row) for row in I)
+    terms.wr = partials(w, speeds)
+    terms.Iw = [matvec(I, wr) for wr in terms.wr[:len(space.u)]]
+    alpha0 = space.dt_vector(w0, udot=False)
+    Iw0 = matvec(I, w0)
+    T0 = tuple(a + b for a, b in zip(matvec(I, alpha0), cross(w0, Iw0)))
+    dI = tuple(tuple(space.dt(e) for e in row) for row in I)
+    if any(e != 0 for row in dI for e in row):
+        T0 = tuple(a + b for a, b in zip(T0, matvec(dI, w0)))
+    terms.T0 = T0
+
+
+def read_loads(space, reader, inertial, parsed_loads):
+    speeds = space.u + space.uaux
+    out = []
+    for name, kind, vel, vec in parsed_loads:
+        v = reader.components(vel, inertial)
+        f = reader.components(vec, inertial)
+        out.append(LoadTerms(name, kind, partials(v, speeds), f))
+    return out
+
+
+def _grouped(pairs):
+    """Σ key·vec over (key, vec) pairs, summing the vecs that share a key first."""
+    groups = {}
+    for key, vec in pairs:
+        if is_zero(key) or is_zero(vec):
+            continue
+        groups.setdefault(key, []).append(vec)
+    out = []
+    for key, vecs in groups.items():
+        total = tuple(sm.Add(*[v[i] for v in vecs]) for i in range(3))
+        out.append(dot(key, total))
+    return sm.Add(*out)
+
+
+def assemble(body_terms, load_terms, n_rows, n_main):
+    """Plain-symbol MM (n_rows x n_main), nonMM and Fr (n_rows each).
+
+    Rows 0..n_main-1 belong to the main speeds, the rest to auxiliary speeds.
+    """
+    fr = [_grouped((ld.pr[r], ld.vec) for ld in load_terms) for r in range(n_rows)]
+    nonmm = []
+    for r in range(n_rows):
+        pairs = [(b.vr[r], b.R0) for b in body_terms]
+        pairs += [(b.wr[r], b.T0) for b in body_terms if b.wr]
+        nonmm.append(_grouped(pairs))
+    return _mass_matrix(body_terms, n_rows, n_main), nonmm, fr
+
+
+def _mass_matrix(body_terms, n_rows, n_main):
+    trans = {}
+    rot = {}
+    for b in body_terms:
+        nz = [r for r in range(n_rows) if not is_zero(b.vr[r])]
+        cols = [s for s in nz if s < n_main]
+        for r in nz:
+            for s in cols:
+                if r < n_main and s < r:
+                    continue
+                trans.setdefault((r, s), {}).setdefault((b.vr[r], b.vr[s]), []).append(b.mass)
+        if b.wr:
+            nzw = [r for r in range(n_rows) if not is_zero(b.wr[r])]
+            for r in nzw:
+                for s in (s for s in nzw if s < n_main):
+                    if r < n_main and s < r:
+                        continue
+                    rot.setdefault((r, s), []).append(dot(b.wr[r], b.Iw[s]))
+    MM = [[sm.S.Zero] * n_main for _ in range(n_rows)]
+    for (r, s) in set(trans) | set(rot):
+        terms = [sm.Add(*ms) * dot(vr, vs) for (vr, vs), ms in trans.get((r, s), {}).items()]
+        terms += rot.get((r, s), [])
+        MM[r][s] = sm.Add(*terms)
+        if r < n_main and s != r:
+            MM[s][r] = MM[r][s]
+    return MM

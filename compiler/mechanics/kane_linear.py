@@ -1,0 +1,135 @@
+"""Linearization and hand-off of a formed eomc KanesMethod.
+
+``linearize()`` keeps the seed's meaning when called bare (Jacobians of
+``forcing_full``) and SymPy 1.14's when given any of its keywords: then the
+same Linearizer SymPy uses is fed with our Fr and Fr*, so the results (incl.
+dependent coordinates/speeds and ``A_and_B``) are SymPy's.
+"""
+import sympy as sm
+from sympy.core.function import AppliedUndef
+from sympy.physics.mechanics import find_dynamicsymbols, msubs
+from sympy.physics.mechanics.linearize import Linearizer
+from sympy.physics.vector import dynamicsymbols
+from sympy import default_sort_key
+
+from eomc.errors import ModelError
+
+from .formed import FormedSystem
+
+__all__ = ["linearize", "to_linearizer", "formed_system", "input_symbols"]
+
+
+def input_symbols(exprs, states):
+    """Dynamic symbols in ``exprs`` (matrices) that are not in ``states``, sorted canonically."""
+    t = dynamicsymbols._t
+    found = set()
+    for m in exprs:
+        for e in m:
+            for a in e.atoms(AppliedUndef, sm.Derivative):
+                if a in states:
+                    continue
+                if isinstance(a, AppliedUndef) and a.args == (t,):
+                    found.add(a)
+                elif isinstance(a, sm.Derivative) and isinstance(a.expr, AppliedUndef) \
+                        and a.expr not in states:
+                    found.add(a)
+    return sorted(found, key=default_sort_key)
+
+
+def _states(km):
+    t = dynamicsymbols._t
+    s = set(km._q) | set(km._u) | set(km._qdot) | set(km._udot) | set(km._uaux)
+    s |= {x.diff(t) for x in km._uaux}
+    return s
+
+
+def to_linearizer(self, linear_solver='LU'):
+    """A SymPy Linearizer built from this system's Fr and Fr* (as SymPy 1.14 does)."""
+    self._need_equations()
+    t = dynamicsymbols._t
+    u = sm.Matrix(self._u)
+    f_v = self._f_nh + self._k_nh * u if self._k_nh.rows else sm.Matrix()
+    f_a = self._f_dnh + self._k_dnh * sm.Matrix(self._udot) if self._k_dnh.rows else sm.Matrix()
+    u_zero = dict.fromkeys(self._u, 0)
+    ud_zero = dict.fromkeys(self._udot, 0)
+    qd_zero = dict.fromkeys(self._qdot, 0)
+    qd_u_zero = dict.fromkeys(list(self._qdot) + list(self._u), 0)
+    f_0 = msubs(self._f_k, u_zero) + self._k_kqdot * sm.Matrix(self._qdot)
+    f_1 = msubs(self._f_k, qd_zero) + self._k_ku * u
+    f_2 = msubs(self._frstar, qd_u_zero)
+    f_3 = msubs(self._frstar, ud_zero) + self._fr
+    f_4 = sm.zeros(len(f_2), 1)
+    nqd, nud = len(self._qdep), len(self._udep)
+    q_i = list(self._q)[:len(self._q) - nqd]
+    u_i = list(self._u)[:len(self._u) - nud]
+    uaux = sm.Matrix(self._uaux)
+    uaux_zero = dict.fromkeys(list(self._uaux) + [x.diff(t) for x in self._uaux], 0)
+    sym_list = _states(self)
+    for name, mat in (("kinematic", self._k_kqdot), ("kinematic", self._k_ku),
+                      ("kinematic", self._f_k), ("constraint", self._k_dnh),
+                      ("constraint", self._f_dnh), ("mass matrix", self._k_d)):
+        extra = find_dynamicsymbols(mat, sym_list) if mat.rows else set()
+        if extra:
+            raise ModelError(f"cannot linearize: input(s) {sorted(map(str, extra))} appear in the "
+                             f"{name} terms; inputs may only appear in the forcing vector")
+    r = list(find_dynamicsymbols(msubs(self._f_d, uaux_zero), sym_list))
+    r.sort(key=default_sort_key)
+    for i in r:
+        if i.diff(t) in r:
+            raise ModelError(f"cannot linearize: both {i} and its derivative appear in the forcing")
+    del uaux
+    from .kane_kinematics import linear_solver as _ls
+    return Linearizer(f_0, f_1, f_2, f_3, f_4, self._f_h, f_v, f_a, self._q, self._u,
+                      q_i, self._qdep, u_i, self._udep, r, linear_solver=_ls(linear_solver))
+
+
+def linearize(self, *, new_method=None, linear_solver=None, **kwargs):
+    """Linearize the equations of motion.
+
+    Bare ``linearize()`` (the seed's meaning) returns ``(A, B)``: the
+    Jacobians of ``forcing_full`` with respect to the independent states
+    [q_ind, u_ind] and with respect to the inputs (the other dynamic symbols,
+    sorted canonically; B has no columns when there are none), so that
+    ``M_full ẋ ≈ A x + B r`` near the point of expansion.
+
+    With any SymPy keyword (``op_point=``, ``A_and_B=``, ``simplify=``,
+    ``linear_solver=``, ``new_method=``) this is SymPy 1.14's
+    ``KanesMethod.linearize``: it returns ``(M, A, B, r)``, or ``(A, B, r)``
+    with ``A_and_B=True``, handling dependent coordinates and speeds.
+    """
+    if new_method is None and linear_solver is None and not kwargs:
+        self._need_equations()
+        ff = self.forcing_full
+        xs = list(self._q)[:len(self._q) - len(self._qdep)] + \
+            list(self._u)[:len(self._u) - len(self._udep)]
+        A = ff.jacobian(xs)
+        r = input_symbols([ff], _states(self))
+        B = ff.jacobian(r) if r else sm.zeros(ff.rows, 0)
+        return A, B
+    lin = to_linearizer(self, linear_solver=linear_solver or 'LU')
+    return lin.linearize(**kwargs) + (lin.r,)
+
+
+def formed_system(km):
+    """Build the FormedSystem of a KanesMethod whose equations are formed."""
+    km._need_equations()
+    t = dynamicsymbols._t
+    zero_aux = dict.fromkeys(list(km._uaux) + [x.diff(t) for x in km._uaux], 0)
+    kin = sm.Matrix([km._qdot_u_map[qd] for qd in km._qdot])
+    M = km.mass_matrix
+    f = km.forcing
+    if zero_aux:
+        M, f, kin = (x.xreplace(zero_aux) for x in (M, f, kin))
+    hol = km._f_h if km._f_h.rows else sm.zeros(0, 1)
+    vel = km.nonholonomic_constraints if km._k_nh.rows else sm.zeros(0, 1)
+    mats = [kin, M, f, hol, vel]
+    inputs = tuple(input_symbols(mats, _states(km)))
+    params = set()
+    for m in mats:
+        params |= {s for s in m.free_symbols if isinstance(s, sm.Symbol) and s != t}
+    return FormedSystem(
+        method="kane", coordinates=tuple(km._q), speeds=tuple(km._u),
+        n_dependent_coordinates=len(km._qdep), n_dependent_speeds=len(km._udep),
+        kinematics=kin, dynamics_matrix=M, dynamics_rhs=f, multipliers=(),
+        holonomic_constraints=hol, velocity_constraints=vel, inputs=inputs,
+        parameters=tuple(sorted(params, key=lambda s: s.name)))
