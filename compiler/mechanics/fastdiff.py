@@ -7,37 +7,46 @@ same large Lagrangian and momenta).  This differentiator handles the node
 types that make up mechanics expressions directly (Add, Mul, Pow with a
 constant exponent, sin, cos), skips every subtree that does not contain the
 variable (the variable sets are memoized per node), memoizes ``(node, var)``
-results so shared subtrees are differentiated once, and falls back to
-``Expr.diff`` for anything else.  The result is mathematically equal to
-``expr.diff(var)``; it is not necessarily in the same printed form.
+results so shared subtrees are differentiated once, and hands anything else
+to a fallback (by default ``Expr.diff``).  The result is mathematically equal
+to the partial derivative; it is not necessarily in the same printed form.
+
+The variables may be any atoms of the expression tree -- plain symbols or
+``q(t)``, ``q'(t)`` treated as independent variables.  A variable is a leaf:
+the differentiator never looks inside it.
 """
 import sympy as sm
 
 __all__ = ["Differentiator"]
 
 
-class Differentiator:
-    """Differentiates with respect to a fixed set of plain symbols (and ``t``).
+def _default_fallback(node, var):
+    return node.diff(var)
 
-    ``variables`` lists every symbol that may be differentiated for; the
-    per-node dependency sets are restricted to them.
+
+class Differentiator:
+    """Partial derivatives with respect to a fixed set of independent variables.
+
+    ``variables``: every node that may be differentiated for (a leaf each).
+    ``fallback(node, var)``: the derivative of a node type not handled here.
+    ``time``: a variable that may also hide inside other nodes (e.g. ``t`` in
+    ``F(t)``); nodes that contain it outside the variables depend on it.
     """
 
-    def __init__(self, variables):
+    def __init__(self, variables, fallback=_default_fallback):
         self._vars = frozenset(variables)
+        self._fallback = fallback
         self._deps = {}
         self._memo = {}
 
     def deps(self, node):
-        """The differentiation variables that occur in ``node``."""
+        """The variables that occur in ``node``."""
         got = self._deps.get(node)
         if got is None:
-            if node.is_Symbol:
-                got = frozenset((node,)) & self._vars
+            if node in self._vars:
+                got = frozenset((node,))
             elif not node.args:
                 got = frozenset()
-            elif node.is_Function and not isinstance(node, (sm.sin, sm.cos)):
-                got = frozenset(node.free_symbols) & self._vars
             else:
                 got = frozenset().union(*[self.deps(a) for a in node.args])
             self._deps[node] = got
@@ -55,7 +64,7 @@ class Differentiator:
         return got
 
     def _diff(self, node, var):
-        if node.is_Symbol:  # var is in deps(node), so node == var
+        if node in self._vars:  # var is in deps(node), so node == var
             return sm.S.One
         if node.is_Add:
             return sm.Add(*[self.diff(a, var) for a in node.args])
@@ -78,4 +87,4 @@ class Differentiator:
             return sm.cos(node.args[0]) * self.diff(node.args[0], var)
         elif isinstance(node, sm.cos):
             return -sm.sin(node.args[0]) * self.diff(node.args[0], var)
-        return node.diff(var)
+        return self._fallback(node, var)

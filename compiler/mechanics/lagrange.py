@@ -135,25 +135,23 @@ class LagrangesMethod:
     def form_lagranges_equations(self):
         """Form and return ``eom`` (one row per coordinate, equal to zero)."""
         pv = PlainVariables(self._q)
-        L = pv.plain(self._L[0])
-        self._check_plain(L, "the Lagrangian")
-        if set(pv.a) & L.free_symbols:
-            raise ModelError("the Lagrangian depends on accelerations q''")
+        L = self._L[0]
+        self._check_order(L, "the Lagrangian", 1)
         m_d, f_d = lagrange_mass_forcing(L, pv)
         if self._forcelist:
             f_d += generalized_forces(self._forcelist, self.inertial, pv)
         n = len(self._q)
         if self.coneqs:
-            cons = [pv.plain(c) for c in self.coneqs]
+            cons = list(self.coneqs)
             for c in cons:
-                self._check_plain(c, "a constraint equation")
+                self._check_order(c, f"the constraint {c} = 0", 1)
             C, f_cd = constraint_terms(cons, pv)
             self.lam_vec = sm.Matrix(dynamicsymbols(f"lam1:{len(cons) + 1}"))
-            self.lam_coeffs = pv.dynamic(-C)
-            self._m_cd = pv.dynamic(C)
-            self._f_cd = pv.dynamic(f_cd)
-        self._m_d = pv.dynamic(m_d)
-        self._f_d = pv.dynamic(f_d)
+            self.lam_coeffs = -C
+            self._m_cd = C
+            self._f_cd = f_cd
+        self._m_d = m_d
+        self._f_d = f_d
         qdd = self._qdoubledots
         eom = sm.Matrix([sm.Add(*[self._m_d[i, j] * qdd[j] for j in range(n)]) - self._f_d[i]
                          for i in range(n)])
@@ -162,12 +160,13 @@ class LagrangesMethod:
         self.eom = eom
         return self.eom
 
-    def _check_plain(self, expr, what):
-        left = [s for s in find_dynamicsymbols(expr) if s.has(*self._q)]
-        if left:
-            raise ModelError(
-                f"{what} contains {left[0]}, a derivative of a coordinate of order "
-                "higher than two or hidden inside an unevaluated object")
+    def _check_order(self, expr, what, order):
+        """Refuse derivatives of the coordinates above ``order`` in ``expr``."""
+        qs = set(self._q)
+        for s in find_dynamicsymbols(expr):
+            if isinstance(s, sm.Derivative) and s.expr in qs and s.derivative_count > order:
+                raise ModelError(f"{what} contains {s}, a derivative of a coordinate of "
+                                 f"order {s.derivative_count} (at most {order} allowed)")
 
     def _form_eoms(self):
         return self.form_lagranges_equations()

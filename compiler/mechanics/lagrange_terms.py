@@ -32,70 +32,77 @@ _t = dynamicsymbols._t
 
 
 class PlainVariables:
-    """The coordinates q(t), their first and second derivatives and their plain stand-ins."""
+    """The coordinates q(t), their derivatives q', q'' and a differentiator for them.
+
+    Derivatives are taken directly on the expressions in q(t), q'(t): the
+    :class:`Differentiator` treats q, q', q'' and t as independent leaves.
+    Node types it does not know are differentiated after swapping q, q', q''
+    for plain ``Dummy`` symbols (so ``d/dt`` sees only explicit time).
+    """
 
     def __init__(self, q):
         self.q = list(q)
         self.qd = [qi.diff(_t) for qi in self.q]
         self.qdd = [qi.diff(_t) for qi in self.qd]
         n = len(self.q)
-        self.x = [sm.Dummy(f"x{i}") for i in range(n)]
-        self.v = [sm.Dummy(f"v{i}") for i in range(n)]
-        self.a = [sm.Dummy(f"a{i}") for i in range(n)]
+        x = [sm.Dummy(f"x{i}") for i in range(n)]
+        v = [sm.Dummy(f"v{i}") for i in range(n)]
+        a = [sm.Dummy(f"a{i}") for i in range(n)]
         # xreplace works top-down, so q'(t) is matched before the q(t) inside it.
-        self.to_plain = dict(zip(self.qdd, self.a))
-        self.to_plain.update(zip(self.qd, self.v))
-        self.to_plain.update(zip(self.q, self.x))
+        self.to_plain = dict(zip(self.qdd, a))
+        self.to_plain.update(zip(self.qd, v))
+        self.to_plain.update(zip(self.q, x))
         self.to_dynamic = {s: d for d, s in self.to_plain.items()}
-        self.differentiator = Differentiator(self.x + self.v + self.a + [_t])
+        self.differentiator = Differentiator(self.q + self.qd + self.qdd + [_t],
+                                             fallback=self._fallback)
+
+    def _fallback(self, node, var):
+        plain_var = self.to_plain.get(var, var)
+        return node.xreplace(self.to_plain).diff(plain_var).xreplace(self.to_dynamic)
 
     def plain(self, expr):
         """``expr`` with q, q', q'' replaced by plain symbols."""
         return sm.sympify(expr).xreplace(self.to_plain)
 
-    def dynamic(self, expr):
-        """The inverse of :meth:`plain`."""
-        return expr.xreplace(self.to_dynamic)
-
 
 def total_time_derivative(expr, pv, with_acceleration=True):
-    """Return (dexpr/dv, rest) with d/dt expr = (dexpr/dv)·a + rest, in plain symbols.
+    """Return (dexpr/dq', rest) with d/dt expr = (dexpr/dq')·q'' + rest.
 
-    ``rest = sum_j dexpr/dx_j v_j + dexpr/dt`` (explicit time dependence).
+    ``rest = sum_j dexpr/dq_j q'_j + dexpr/dt`` (explicit time dependence).
     """
     d = pv.differentiator.diff
-    coeffs = [d(expr, vj) for vj in pv.v] if with_acceleration else None
-    rest = sm.Add(*[d(expr, xj) * vj for xj, vj in zip(pv.x, pv.v)])
+    coeffs = [d(expr, vj) for vj in pv.qd] if with_acceleration else None
+    rest = sm.Add(*[d(expr, xj) * vj for xj, vj in zip(pv.q, pv.qd)])
     rest += d(expr, _t)
     return coeffs, rest
 
 
 def lagrange_mass_forcing(L, pv):
-    """Mass matrix ``m_d`` and forcing ``f_d`` (without loads) of ``L(x, v, t)``, plain.
+    """Mass matrix ``m_d`` and forcing ``f_d`` (without loads) of ``L(q, q', t)``.
 
-    Lagrange's equations read ``m_d a = f_d + Q`` with
-    ``m_d = d2L/dv2`` and ``f_d = dL/dx - (d2L/dv dx) v - d2L/dv dt``.
+    Lagrange's equations read ``m_d q'' = f_d + Q`` with
+    ``m_d = d2L/dq'2`` and ``f_d = dL/dq - (d2L/dq' dq) q' - d2L/dq' dt``.
     """
     n = len(pv.q)
     d = pv.differentiator.diff
-    momenta = [d(L, vi) for vi in pv.v]
+    momenta = [d(L, vi) for vi in pv.qd]
     M = sm.zeros(n, n)
     f = sm.zeros(n, 1)
     for i, p in enumerate(momenta):
         for j in range(i, n):
-            M[i, j] = d(p, pv.v[j])
+            M[i, j] = d(p, pv.qd[j])
             if j != i:
                 M[j, i] = M[i, j]
         _, rest = total_time_derivative(p, pv, with_acceleration=False)
-        f[i] = d(L, pv.x[i]) - rest
+        f[i] = d(L, pv.q[i]) - rest
     return M, f
 
 
 def constraint_terms(coneqs, pv):
-    """For velocity-level constraints ``c(x, v, t) = 0``: (C, m_cd, f_cd), plain.
+    """For velocity-level constraints ``c(q, q', t) = 0``: (C, f_cd).
 
-    ``C = dc/dv``; the time-differentiated constraints are
-    ``m_cd a = f_cd`` with ``m_cd = C`` and ``f_cd = -(dc/dx v + dc/dt)``.
+    ``C = dc/dq'``; the time-differentiated constraints are
+    ``m_cd q'' = f_cd`` with ``m_cd = C`` and ``f_cd = -(dc/dq q' + dc/dt)``.
     """
     m, n = len(coneqs), len(pv.q)
     C = sm.zeros(m, n)
@@ -143,7 +150,7 @@ def _velocity(location, frame, index):
 
 
 def generalized_forces(forcelist, frame, pv):
-    """Generalized forces ``Q_i = sum (d vel / d q'_i) . F`` of a force list, plain."""
+    """Generalized forces ``Q_i = sum (d vel / d q'_i) . F`` of a force list."""
     n = len(pv.q)
     Q = [sm.S.Zero] * n
     qd_set = set(pv.qd)
@@ -157,13 +164,10 @@ def generalized_forces(forcelist, frame, pv):
                 # orientation depends on q': differentiate in the inertial frame
                 part = Vector([(comp, comp_frame)]).express(frame)
                 comp, comp_frame = part.args[0] if part.args else (sm.zeros(3, 1), frame)
-            comp_plain = comp.xreplace(pv.to_plain)
-            free = comp_plain.free_symbols
-            for i, vi in enumerate(pv.v):
-                if vi not in free:
-                    continue
-                partial = comp_plain.diff(vi).xreplace(pv.to_dynamic)
+            d = pv.differentiator.diff
+            for i, vi in enumerate(pv.qd):
+                partial = comp.applyfunc(lambda e: d(e, vi))
                 if partial.is_zero_matrix:
                     continue
                 Q[i] += Vector([(partial, comp_frame)]).dot(vector)
-    return sm.Matrix([pv.plain(Qi) for Qi in Q])
+    return sm.Matrix(Q)
