@@ -1,1 +1,1115 @@
+/*
+ * eomc_integrators.c -- RK4, DOPRI5, DOP853 and Radau IIA(5) over eomc_model.
+ *
+ * Why in C: the whole loop (stages, error control, dense output, input
+ * interpolation, projection) runs without returning to Python, so a
+ * trajectory costs one foreign call.  Every function is reentrant: all
+ * scratch lives in the caller's work buffer (see eomc_integrate_work_size).
+ *
+ * Step-size control follows Hairer, Norsett & Wanner (Solving ODEs I, II.4
+ * and II, IV.8) in the form scipy.integrate uses (safety 0.9, factor limits
+ * 0.2..10, RMS error norm with scale atol + rtol*max(|y|,|y_new|)).  The
+ * Runge-Kutta coefficients are Dormand & Prince's (DOPRI5, with Shampine's
+ * 4th-order interpolant) and Hairer's DOP853 with its 7th-order dense output,
+ * as published with Hairer's Fortran codes (tabulated identically in
+ * scipy.integrate._ivp); tests check the orders of convergence.
+ */
 #include "eomc_integrators.h"
+
+#include <complex.h>
+#include <float.h>
+#include <math.h>
+#include <string.h>
+
+typedef double _Complex eomc_cplx;
+
+#define SAFETY 0.9
+#define MIN_FACTOR 0.2
+#define MAX_FACTOR 10.0
+#define DEFAULT_MAX_STEPS 100000L
+#define NSTIFF 1000       /* Hairer: test stiffness every NSTIFF accepted steps */
+#define NEWTON_MAXITER 6
+
+/* ----------------------------------------- coefficient tables (generated) */
+static const double DP5_A[6][5] = {
+    {0, 0, 0, 0, 0},
+    {0.20000000000000001, 0, 0, 0, 0},
+    {0.074999999999999997, 0.22500000000000001, 0, 0, 0},
+    {0.97777777777777775, -3.7333333333333334, 3.5555555555555554, 0, 0},
+    {2.9525986892242035, -11.595793324188385, 9.8228928516994358, -0.29080932784636487, 0},
+    {2.8462752525252526, -10.757575757575758, 8.9064227177434727, 0.27840909090909088, -0.2735313036020583}
+};
+static const double DP5_B[6] = {
+    0.091145833333333329,
+    0,
+    0.44923629829290207,
+    0.65104166666666663,
+    -0.322376179245283,
+    0.13095238095238096
+};
+static const double DP5_C[6] = {
+    0,
+    0.20000000000000001,
+    0.29999999999999999,
+    0.80000000000000004,
+    0.88888888888888884,
+    1
+};
+static const double DP5_E[7] = {
+    -0.0012326388888888888,
+    0,
+    0.0042527702905061394,
+    -0.036979166666666667,
+    0.05086379716981132,
+    -0.041904761904761903,
+    0.025000000000000001
+};
+static const double DP5_P[7][4] = {
+    {1, -2.8535800653862835, 3.0717434641059005, -1.1270175653862835},
+    {0, 0, 0, 0},
+    {0, 4.0231333792303046, -6.2493215652889997, 2.675424484351598},
+    {0, -3.7324019615885042, 10.068970589843675, -5.6855269615885042},
+    {0, 2.5548038301849423, -6.3991123773510168, 3.5219323679207912},
+    {0, -1.3744241142186024, 3.2726577522467291, -1.7672812570757455},
+    {0, 1.3824689317781436, -3.7649378635562871, 2.3824689317781438}
+};
+static const double D8_A[16][16] = {
+    {0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0},
+    {0.05260015195876773, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0},
+    {0.0197250569845379, 0.059175170953613701, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0},
+    {0.029587585476806851, 0, 0.088762756430420545, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0},
+    {0.24136513415926669, 0, -0.88454947932828609, 0.92483400326179199, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0},
+    {0.037037037037037035, 0, 0, 0.17082860872947386, 0.12546768756682242, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0},
+    {0.037109375, 0, 0, 0.17025221101954405, 0.060216538980455959, -0.017578125, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0},
+    {0.037092000118504789, 0, 0, 0.17038392571223998, 0.10726203044637328, -0.015319437748624402, 0.0082737891638140233, 0, 0, 0, 0, 0, 0, 0, 0, 0},
+    {0.62411095871607569, 0, 0, -3.3608926294469414, -0.86821934684172597, 27.59209969944671, 20.154067550477894, -43.489884181069961, 0, 0, 0, 0, 0, 0, 0, 0},
+    {0.47766253643826434, 0, 0, -2.4881146199716677, -0.59029082683684297, 21.230051448181193, 15.279233632882423, -33.288210968984863, -0.020331201708508627, 0, 0, 0, 0, 0, 0, 0},
+    {-0.9371424300859873, 0, 0, 5.1863724288440638, 1.0914373489967295, -8.1497870107469268, -18.520065659996959, 22.739487099350505, 2.4936055526796523, -3.0467644718982196, 0, 0, 0, 0, 0, 0},
+    {2.273310147516538, 0, 0, -10.534495466737249, -2.0008720582248625, -17.958931863118799, 27.94888452941996, -2.8589982771350235, -8.8728569335306293, 12.360567175794303, 0.64339274601576357, 0, 0, 0, 0, 0},
+    {0.054293734116568765, 0, 0, 0, 0, 4.4503128927524092, 1.8915178993145003, -5.8012039600105849, 0.3111643669578199, -0.15216094966251609, 0.20136540080403034, 0.044710615727772587, 0, 0, 0, 0},
+    {0.056167502283047954, 0, 0, 0, 0, 0, 0.25350021021662483, -0.2462390374708025, -0.12419142326381637, 0.15329179827876568, 0.0082010522956346907, 0.0075678976605456994, -0.0082979999999999998, 0, 0, 0},
+    {0.031834648163502142, 0, 0, 0, 0, 0.028300909672366776, 0.053541988307438566, -0.054923748571390991, 0, 0, -0.00010834732869724932, 0.00038257109083565839, -0.00034046500868740456, 0.1413124436746325, 0, 0},
+    {-0.42889630158379194, 0, 0, 0, 0, -4.697621415361164, 7.6834211960625991, 4.0689898183971103, 0.35672718745528109, 0, 0, 0, -0.0013990241651590145, 2.9475147891527724, -9.1509584721798696, 0}
+};
+static const double D8_B[12] = {
+    0.054293734116568765,
+    0,
+    0,
+    0,
+    0,
+    4.4503128927524092,
+    1.8915178993145003,
+    -5.8012039600105849,
+    0.3111643669578199,
+    -0.15216094966251609,
+    0.20136540080403034,
+    0.044710615727772587
+};
+static const double D8_C[16] = {
+    0,
+    0.05260015195876773,
+    0.078900227938151601,
+    0.1183503419072274,
+    0.28164965809277259,
+    0.33333333333333331,
+    0.25,
+    0.30769230769230771,
+    0.6512820512820513,
+    0.59999999999999998,
+    0.8571428571428571,
+    1,
+    1,
+    0.10000000000000001,
+    0.20000000000000001,
+    0.77777777777777779
+};
+static const double D8_E3[13] = {
+    -0.18980075407240762,
+    0,
+    0,
+    0,
+    0,
+    4.4503128927524092,
+    1.8915178993145003,
+    -5.8012039600105849,
+    -0.42268232132379191,
+    -0.15216094966251609,
+    0.20136540080403034,
+    0.022651792198360821,
+    0
+};
+static const double D8_E5[13] = {
+    0.01312004499419488,
+    0,
+    0,
+    0,
+    0,
+    -1.2251564463762044,
+    -0.4957589496572502,
+    1.6643771824549864,
+    -0.35032884874997366,
+    0.33417911871301748,
+    0.08192320648511571,
+    -0.022355307863886294,
+    0
+};
+static const double D8_D[4][16] = {
+    {-8.4289382761090135, 0, 0, 0, 0, 0.56671495351937773, -3.0689499459498917, 2.3846676565120699, 2.1170345824450281, -0.87139158377797299, 2.2404374302607883, 0.63157877876946877, -0.088990336451333307, 18.148505520854727, -9.194632392478356, -4.4360363875948936},
+    {10.427508642579134, 0, 0, 0, 0, 242.28349177525817, 165.20045171727028, -374.5467547226902, -22.113666853125306, 7.7334326684722638, -30.674084731089398, -9.3321305264302286, 15.697238121770845, -31.139403219565178, -9.3529243588444793, 35.816841486394082},
+    {19.985053242002433, 0, 0, 0, 0, -387.03730874935178, -189.17813819516758, 527.80815920542364, -11.573902539959629, 6.8812326946963003, -1.0006050966910838, 0.77771377980534429, -2.7782057523535082, -60.196695231264123, 84.320405506677162, 11.992291136182789},
+    {-25.69393346270375, 0, 0, 0, 0, -154.18974869023643, -231.5293791760455, 357.63911791061412, 93.405324183624316, -37.458323136451632, 104.0996495089623, 29.840293426660502, -43.533456590011141, 96.324553959188279, -39.177261675615441, -149.72683625798564}
+};
+
+/* ---------------------------------------------------------------- context */
+
+typedef struct ctx {
+    const eomc_model *m;
+    const double *p;
+    int nr;                  /* input grid rows (0: none, 1: constant) */
+    const double *rt, *rv;   /* grid times, values (nr x ninput) */
+    double *r;               /* current inputs (ninput) */
+    double *mwork;           /* model scratch */
+    eomc_stats *st;
+    int n;                   /* nx */
+} ctx;
+
+/* Bump allocator over the caller's work buffer. */
+static double *take(double **pos, size_t n)
+{
+    double *out = *pos;
+    *pos += n;
+    return out;
+}
+
+static size_t proj_size(const eomc_model *m)
+{
+    size_t k = (size_t)(m->nhol + m->nvel), n = (size_t)m->nx;
+    return k * n + k * k + 4 * k + 4 * n + 8;
+}
+
+static size_t base_size(const eomc_model *m)
+{
+    return (size_t)m->ninput + m->work_size + proj_size(m) + 8 * (size_t)m->nx + 16;
+}
+
+size_t eomc_integrate_work_size(const eomc_model *m, int method)
+{
+    size_t n = (size_t)m->nx, extra;
+    switch (method) {
+    case EOMC_RK4: extra = 10 * n; break;
+    case EOMC_DOPRI5:
+    case EOMC_DOP853: extra = 32 * n; break;
+    case EOMC_RADAU5: extra = 6 * n * n + 40 * n; break;
+    default: extra = 0;
+    }
+    return base_size(m) + extra;
+}
+
+/* r(t): constant, or linear interpolation on the grid held at its ends. */
+static void inputs_at(ctx *c, double t)
+{
+    int ni = c->m->ninput, lo = 0, hi = c->nr - 1;
+    if (ni <= 0 || c->nr <= 1)
+        return;
+    if (t <= c->rt[0]) {
+        memcpy(c->r, c->rv, (size_t)ni * sizeof(double));
+        return;
+    }
+    if (t >= c->rt[hi]) {
+        memcpy(c->r, c->rv + (size_t)hi * ni, (size_t)ni * sizeof(double));
+        return;
+    }
+    while (hi - lo > 1) {
+        int mid = (lo + hi) / 2;
+        if (c->rt[mid] <= t) lo = mid; else hi = mid;
+    }
+    {
+        double w = (t - c->rt[lo]) / (c->rt[hi] - c->rt[lo]);
+        const double *a = c->rv + (size_t)lo * ni, *b = c->rv + (size_t)hi * ni;
+        for (int i = 0; i < ni; i++)
+            c->r[i] = (1.0 - w) * a[i] + w * b[i];
+    }
+}
+
+static int all_finite(int n, const double *v)
+{
+    for (int i = 0; i < n; i++)
+        if (!isfinite(v[i])) return 0;
+    return 1;
+}
+
+/* f = rhs(t, x); a non-finite derivative is EOMC_NONFINITE. */
+static int frhs(ctx *c, double t, const double *x, double *f)
+{
+    int s;
+    inputs_at(c, t);
+    c->st->nfev++;
+    s = c->m->rhs(t, x, c->p, c->r, f, c->mwork);
+    if (s != EOMC_OK) return s;
+    return all_finite(c->n, f) ? EOMC_OK : EOMC_NONFINITE;
+}
+
+static int fjac(ctx *c, double t, const double *x, double *J)
+{
+    int s;
+    if (!c->m->jac_x) return EOMC_NOT_AVAILABLE;
+    inputs_at(c, t);
+    c->st->njev++;
+    s = c->m->jac_x(t, x, c->p, c->r, J, c->mwork);
+    if (s != EOMC_OK) return s;
+    return all_finite(c->n * c->n, J) ? EOMC_OK : EOMC_NONFINITE;
+}
+
+static int ctx_init(ctx *c, const eomc_model *m, const double *p, int nr,
+                    const double *rt, const double *rv, eomc_stats *st, double **pos)
+{
+    c->m = m; c->p = p; c->nr = nr; c->rt = rt; c->rv = rv; c->st = st; c->n = m->nx;
+    c->r = take(pos, (size_t)m->ninput + 1);
+    c->mwork = take(pos, m->work_size + 1);
+    if (m->ninput > 0) {
+        if (nr <= 0) memset(c->r, 0, (size_t)m->ninput * sizeof(double));
+        else if (!rv) return EOMC_BAD_ARGUMENT;
+        else memcpy(c->r, rv, (size_t)m->ninput * sizeof(double));
+        if (nr >= 2 && !rt) return EOMC_BAD_ARGUMENT;
+    }
+    return EOMC_OK;
+}
+
+/* RMS of v / (atol + rtol*max(|a|, |b|)) */
+static double err_norm(int n, const double *v, const double *a, const double *b,
+                       double rtol, double atol)
+{
+    double s = 0.0;
+    for (int i = 0; i < n; i++) {
+        double sc = atol + rtol * fmax(fabs(a[i]), fabs(b[i]));
+        double e = v[i] / sc;
+        s += e * e;
+    }
+    return n > 0 ? sqrt(s / n) : 0.0;
+}
+
+/* Hairer's starting step (Solving ODEs I, II.4); tmp, f1: nx scratch. */
+static int initial_step(ctx *c, double t0, double t1, const double *x, const double *f0,
+                        int order, double rtol, double atol, double hmax,
+                        double *tmp, double *f1, double *h_out)
+{
+    int n = c->n, s;
+    double d0 = 0, d1 = 0, d2 = 0, h0, h1, len = t1 - t0;
+    for (int i = 0; i < n; i++) {
+        double sc = atol + fabs(x[i]) * rtol;
+        d0 += (x[i] / sc) * (x[i] / sc);
+        d1 += (f0[i] / sc) * (f0[i] / sc);
+    }
+    d0 = sqrt(d0 / n); d1 = sqrt(d1 / n);
+    h0 = (d0 < 1e-5 || d1 < 1e-5) ? 1e-6 : 0.01 * d0 / d1;
+    h0 = fmin(h0, len);
+    for (int i = 0; i < n; i++) tmp[i] = x[i] + h0 * f0[i];
+    s = frhs(c, t0 + h0, tmp, f1);
+    if (s == EOMC_NONFINITE) { *h_out = fmin(h0 * 1e-3, hmax); return EOMC_OK; }
+    if (s) return s;
+    for (int i = 0; i < n; i++) {
+        double sc = atol + fabs(x[i]) * rtol;
+        d2 += ((f1[i] - f0[i]) / sc) * ((f1[i] - f0[i]) / sc);
+    }
+    d2 = sqrt(d2 / n) / h0;
+    if (d1 <= 1e-15 && d2 <= 1e-15) h1 = fmax(1e-6, h0 * 1e-3);
+    else h1 = pow(0.01 / fmax(d1, d2), 1.0 / (order + 1));
+    *h_out = fmin(fmin(100 * h0, h1), fmin(len, hmax));
+    return EOMC_OK;
+}
+
+/* Smallest step that still advances t in floating point. */
+static double min_step(double t)
+{
+    return 10.0 * fabs(nextafter(t, INFINITY) - t);
+}
+
+/* ------------------------------------------------------- dense LU (real) */
+
+/* In-place LU with partial pivoting of the n x n row-major A. 1 if singular. */
+static int lu_factor(int n, double *A, int *piv)
+{
+    for (int k = 0; k < n; k++) {
+        int pk = k;
+        double amax = fabs(A[k * n + k]);
+        for (int i = k + 1; i < n; i++)
+            if (fabs(A[i * n + k]) > amax) { amax = fabs(A[i * n + k]); pk = i; }
+        piv[k] = pk;
+        if (amax == 0.0 || !isfinite(amax)) return 1;
+        if (pk != k)
+            for (int j = 0; j < n; j++) {
+                double tmp = A[k * n + j]; A[k * n + j] = A[pk * n + j]; A[pk * n + j] = tmp;
+            }
+        for (int i = k + 1; i < n; i++) {
+            double l = A[i * n + k] /= A[k * n + k];
+            if (l != 0.0)
+                for (int j = k + 1; j < n; j++) A[i * n + j] -= l * A[k * n + j];
+        }
+    }
+    return 0;
+}
+
+static void lu_solve(int n, const double *A, const int *piv, double *b)
+{
+    for (int k = 0; k < n; k++) {
+        if (piv[k] != k) { double tmp = b[k]; b[k] = b[piv[k]]; b[piv[k]] = tmp; }
+        for (int i = k + 1; i < n; i++) b[i] -= A[i * n + k] * b[k];
+    }
+    for (int i = n - 1; i >= 0; i--) {
+        double s = b[i];
+        for (int j = i + 1; j < n; j++) s -= A[i * n + j] * b[j];
+        b[i] = s / A[i * n + i];
+    }
+}
+
+static int lu_factor_c(int n, eomc_cplx *A, int *piv)
+{
+    for (int k = 0; k < n; k++) {
+        int pk = k;
+        double amax = cabs(A[k * n + k]);
+        for (int i = k + 1; i < n; i++)
+            if (cabs(A[i * n + k]) > amax) { amax = cabs(A[i * n + k]); pk = i; }
+        piv[k] = pk;
+        if (amax == 0.0 || !isfinite(amax)) return 1;
+        if (pk != k)
+            for (int j = 0; j < n; j++) {
+                eomc_cplx tmp = A[k * n + j]; A[k * n + j] = A[pk * n + j]; A[pk * n + j] = tmp;
+            }
+        for (int i = k + 1; i < n; i++) {
+            eomc_cplx l = A[i * n + k] /= A[k * n + k];
+            if (l != 0.0)
+                for (int j = k + 1; j < n; j++) A[i * n + j] -= l * A[k * n + j];
+        }
+    }
+    return 0;
+}
+
+static void lu_solve_c(int n, const eomc_cplx *A, const int *piv, eomc_cplx *b)
+{
+    for (int k = 0; k < n; k++) {
+        if (piv[k] != k) { eomc_cplx tmp = b[k]; b[k] = b[piv[k]]; b[piv[k]] = tmp; }
+        for (int i = k + 1; i < n; i++) b[i] -= A[i * n + k] * b[k];
+    }
+    for (int i = n - 1; i >= 0; i--) {
+        eomc_cplx s = b[i];
+        for (int j = i + 1; j < n; j++) s -= A[i * n + j] * b[j];
+        b[i] = s / A[i * n + i];
+    }
+}
+
+/* ---------------------------------------------------- output and projection */
+
+/* Rows of t_eval still to write; filled as steps pass them. */
+typedef struct outw {
+    int n, i, nx;
+    const double *t;
+    double *x;
+} outw;
+
+typedef struct proj {
+    int on, k;              /* k = nhol + nvel */
+    double *g, *G, *S, *y;
+    int *piv;
+} proj;
+
+static void proj_init(proj *pj, const eomc_model *m, int want, double **pos)
+{
+    size_t k = (size_t)(m->nhol + m->nvel), n = (size_t)m->nx;
+    pj->k = (int)k;
+    pj->on = want && k > 0 && m->constraints && m->constraints_jac;
+    pj->g = take(pos, k + 1);
+    pj->G = take(pos, k * n + 1);
+    pj->S = take(pos, k * k + 1);
+    pj->y = take(pos, k + 1);
+    pj->piv = (int *)take(pos, k + 1);
+}
+
+static int eval_constraints(ctx *c, proj *pj, double t, const double *x, int jac)
+{
+    int s;
+    inputs_at(c, t);
+    s = c->m->constraints(t, x, c->p, c->r, pj->g, c->mwork);
+    if (s == EOMC_OK && jac)
+        s = c->m->constraints_jac(t, x, c->p, c->r, pj->G, c->mwork);
+    return s;
+}
+
+/* Minimum-norm correction of x[off:off+cols] so that rows [r0, r0+nr) of
+ * the constraints vanish to first order: dz = -B^T (B B^T)^-1 g. */
+static int gauss_newton_update(proj *pj, int nx, int r0, int nr, int off, int cols, double *x)
+{
+    for (int i = 0; i < nr; i++)
+        for (int j = 0; j < nr; j++) {
+            double s = 0.0;
+            for (int l = 0; l < cols; l++)
+                s += pj->G[(r0 + i) * nx + off + l] * pj->G[(r0 + j) * nx + off + l];
+            pj->S[i * nr + j] = s;
+        }
+    if (lu_factor(nr, pj->S, pj->piv)) return EOMC_SINGULAR_CONSTRAINTS;
+    memcpy(pj->y, pj->g + r0, (size_t)nr * sizeof(double));
+    lu_solve(nr, pj->S, pj->piv, pj->y);
+    for (int l = 0; l < cols; l++) {
+        double s = 0.0;
+        for (int i = 0; i < nr; i++) s += pj->G[(r0 + i) * nx + off + l] * pj->y[i];
+        x[off + l] -= s;
+    }
+    return EOMC_OK;
+}
+
+/* Project q onto the holonomic manifold (Gauss-Newton), then u onto the
+ * velocity constraints; record the remaining residual. */
+static int project_state(ctx *c, proj *pj, double t, double *x)
+{
+    const eomc_model *m = c->m;
+    int s, nx = m->nx;
+    double res = 0.0;
+    if (!pj->on) return EOMC_OK;
+    for (int it = 0; m->nhol > 0 && it < 8; it++) {
+        double gmax = 0.0;
+        if ((s = eval_constraints(c, pj, t, x, 1))) return s;
+        for (int i = 0; i < m->nhol; i++) gmax = fmax(gmax, fabs(pj->g[i]));
+        if (gmax <= 1e-15) break;
+        if ((s = gauss_newton_update(pj, nx, 0, m->nhol, 0, m->nq, x))) return s;
+    }
+    if (m->nvel > 0) {
+        if ((s = eval_constraints(c, pj, t, x, 1))) return s;
+        if ((s = gauss_newton_update(pj, nx, m->nhol, m->nvel, m->nq, m->nu, x))) return s;
+    }
+    if ((s = eval_constraints(c, pj, t, x, 0))) return s;
+    for (int i = 0; i < pj->k; i++) res = fmax(res, fabs(pj->g[i]));
+    c->st->nproj++;
+    if (res > c->st->max_residual) c->st->max_residual = res;
+    return all_finite(nx, x) ? EOMC_OK : EOMC_NONFINITE;
+}
+
+/* Write every pending t_eval row at or before `upto` with dense(tau). */
+#define EMIT_UNTIL(ow, upto, DENSE)                                   \
+    while ((ow)->i < (ow)->n && (ow)->t[(ow)->i] <= (upto)) {          \
+        double tau = (ow)->t[(ow)->i];                                \
+        double *row = (ow)->x + (size_t)(ow)->i * (ow)->nx;           \
+        (void)tau;                                                    \
+        DENSE;                                                        \
+        (ow)->i++;                                                    \
+    }
+
+static void hermite(int n, double h, double theta, const double *x0, const double *f0,
+                    const double *x1, const double *f1, double *out)
+{
+    double a = (1 + 2 * theta) * (1 - theta) * (1 - theta);
+    double b = theta * (1 - theta) * (1 - theta);
+    double cc = theta * theta * (3 - 2 * theta);
+    double d = theta * theta * (theta - 1);
+    for (int i = 0; i < n; i++)
+        out[i] = a * x0[i] + b * h * f0[i] + cc * x1[i] + d * h * f1[i];
+}
+
+/* ---------------------------------------------------------------- RK4 */
+
+static int run_rk4(ctx *c, const eomc_options *o, proj *pj, double t0, double t1,
+                   double *x, outw *ow, double **pos)
+{
+    int n = c->n, s;
+    long nsteps, maxs = o->max_steps > 0 ? o->max_steps : DEFAULT_MAX_STEPS;
+    double h = o->h0;
+    double *k1 = take(pos, n), *k2 = take(pos, n), *k3 = take(pos, n), *k4 = take(pos, n);
+    double *tmp = take(pos, n), *x1 = take(pos, n);
+    eomc_stats *st = c->st;
+    if (!(h > 0) || !isfinite(h)) return EOMC_BAD_ARGUMENT;
+    nsteps = (long)ceil((t1 - t0) / h * (1 - 1e-12));
+    if (nsteps < 1) nsteps = 1;
+    if ((s = frhs(c, t0, x, k1))) return s;
+    for (long k = 0; k < nsteps; k++) {
+        double t = t0 + k * h, tn = (k == nsteps - 1) ? t1 : t0 + (k + 1) * h, hh = tn - t;
+        st->t = t; st->h = hh;
+        if (st->steps >= maxs) return EOMC_MAX_STEPS;
+        st->steps++;
+        for (int i = 0; i < n; i++) tmp[i] = x[i] + 0.5 * hh * k1[i];
+        if ((s = frhs(c, t + 0.5 * hh, tmp, k2))) return s;
+        for (int i = 0; i < n; i++) tmp[i] = x[i] + 0.5 * hh * k2[i];
+        if ((s = frhs(c, t + 0.5 * hh, tmp, k3))) return s;
+        for (int i = 0; i < n; i++) tmp[i] = x[i] + hh * k3[i];
+        if ((s = frhs(c, tn, tmp, k4))) return s;
+        for (int i = 0; i < n; i++)
+            x1[i] = x[i] + hh / 6.0 * (k1[i] + 2 * k2[i] + 2 * k3[i] + k4[i]);
+        if (!all_finite(n, x1)) return EOMC_NONFINITE;
+        if ((s = frhs(c, tn, x1, k2))) return s;        /* k2 := f(tn, x1) */
+        st->accepted++;
+        EMIT_UNTIL(ow, tn, hermite(n, hh, (tau - t) / hh, x, k1, x1, k2, row));
+        if (pj->on) {
+            if ((s = project_state(c, pj, tn, x1))) return s;
+            if ((s = frhs(c, tn, x1, k2))) return s;
+        }
+        memcpy(x, x1, (size_t)n * sizeof(double));
+        memcpy(k1, k2, (size_t)n * sizeof(double));
+    }
+    st->t = t1;
+    return EOMC_OK;
+}
+
+/* ------------------------------------------------- DOPRI5 and DOP853 */
+
+typedef struct erk {
+    int s;                     /* stages; K[s] holds f(t + h, y_new) */
+    int astride;               /* row length of A */
+    const double *A, *B, *C;
+    int err_order;             /* order of the error estimator */
+    int is853;
+    double stiff_limit;        /* Hairer's h*lambda bound of the stability region */
+} erk;
+
+static const erk ERK_DP5 = {6, 5, &DP5_A[0][0], DP5_B, DP5_C, 4, 0, 3.25};
+static const erk ERK_D853 = {12, 16, &D8_A[0][0], D8_B, D8_C, 7, 1, 6.1};
+
+/* One trial step: stages, y_new, K[s] = f(t+h, y_new), ys = last stage point. */
+static int erk_trial(ctx *c, const erk *tb, double t, double h, const double *x,
+                     double *K, double *ynew, double *ys)
+{
+    int n = c->n, s;
+    for (int st = 1; st < tb->s; st++) {
+        const double *a = tb->A + (size_t)st * tb->astride;
+        double *y = (st == tb->s - 1) ? ys : ynew;
+        for (int i = 0; i < n; i++) {
+            double acc = 0.0;
+            for (int j = 0; j < st; j++) acc += a[j] * K[(size_t)j * n + i];
+            y[i] = x[i] + h * acc;
+        }
+        if ((s = frhs(c, t + tb->C[st] * h, y, K + (size_t)st * n))) return s;
+    }
+    for (int i = 0; i < n; i++) {
+        double acc = 0.0;
+        for (int j = 0; j < tb->s; j++) acc += tb->B[j] * K[(size_t)j * n + i];
+        ynew[i] = x[i] + h * acc;
+    }
+    if (!all_finite(n, ynew)) return EOMC_NONFINITE;
+    return frhs(c, t + h, ynew, K + (size_t)tb->s * n);
+}
+
+static double erk_error(const erk *tb, int n, double h, const double *K, const double *x,
+                        const double *ynew, double rtol, double atol)
+{
+    double e5 = 0.0, e3 = 0.0;
+    for (int i = 0; i < n; i++) {
+        double sc = atol + rtol * fmax(fabs(x[i]), fabs(ynew[i])), a5 = 0.0, a3 = 0.0;
+        if (tb->is853) {
+            for (int j = 0; j <= tb->s; j++) {
+                a5 += D8_E5[j] * K[(size_t)j * n + i];
+                a3 += D8_E3[j] * K[(size_t)j * n + i];
+            }
+        } else {
+            for (int j = 0; j <= tb->s; j++) a5 += DP5_E[j] * K[(size_t)j * n + i];
+            a5 *= h;
+        }
+        e5 += (a5 / sc) * (a5 / sc);
+        e3 += (a3 / sc) * (a3 / sc);
+    }
+    if (!tb->is853) return sqrt(e5 / n);
+    if (e5 == 0.0 && e3 == 0.0) return 0.0;
+    return fabs(h) * e5 / sqrt((e5 + 0.01 * e3) * n);
+}
+
+/* DOP853: the three extra stages and the 7 interpolation vectors F. */
+static int d853_dense_prepare(ctx *c, double t, double h, const double *x, const double *ynew,
+                              double *K, double *F, double *tmp)
+{
+    int n = c->n, s;
+    for (int st = 13; st < 16; st++) {
+        for (int i = 0; i < n; i++) {
+            double acc = 0.0;
+            for (int j = 0; j < st; j++) acc += D8_A[st][j] * K[(size_t)j * n + i];
+            tmp[i] = x[i] + h * acc;
+        }
+        if ((s = frhs(c, t + D8_C[st] * h, tmp, K + (size_t)st * n))) return s;
+    }
+    for (int i = 0; i < n; i++) {
+        double dy = ynew[i] - x[i], f0 = K[i], f1 = K[(size_t)12 * n + i];
+        F[i] = dy;
+        F[n + i] = h * f0 - dy;
+        F[2 * n + i] = 2 * dy - h * (f1 + f0);
+        for (int r = 0; r < 4; r++) {
+            double acc = 0.0;
+            for (int j = 0; j < 16; j++) acc += D8_D[r][j] * K[(size_t)j * n + i];
+            F[(size_t)(3 + r) * n + i] = h * acc;
+        }
+    }
+    return EOMC_OK;
+}
+
+static void d853_dense(int n, double theta, const double *x, const double *F, double *out)
+{
+    for (int i = 0; i < n; i++) {
+        double y = 0.0;
+        for (int k = 0; k < 7; k++) {
+            y += F[(size_t)(6 - k) * n + i];
+            y *= (k % 2 == 0) ? theta : (1 - theta);
+        }
+        out[i] = x[i] + y;
+    }
+}
+
+static void dp5_dense(int n, double h, double theta, const double *x, const double *K, double *out)
+{
+    for (int i = 0; i < n; i++) {
+        double y = 0.0, pw = 1.0;
+        for (int k = 0; k < 4; k++) {
+            double q = 0.0;
+            pw *= theta;
+            for (int j = 0; j < 7; j++) q += K[(size_t)j * n + i] * DP5_P[j][k];
+            y += q * pw;
+        }
+        out[i] = x[i] + h * y;
+    }
+}
+
+/* Hairer's stiffness test: h*|lambda| from the last two stage points. */
+static double stiff_hlambda(int n, double h, const double *ynew, const double *ys,
+                            const double *fnew, const double *fs)
+{
+    double num = 0.0, den = 0.0;
+    for (int i = 0; i < n; i++) {
+        num += (fnew[i] - fs[i]) * (fnew[i] - fs[i]);
+        den += (ynew[i] - ys[i]) * (ynew[i] - ys[i]);
+    }
+    return den > 0.0 ? fabs(h) * sqrt(num / den) : 0.0;
+}
+
+static int run_erk(ctx *c, const erk *tb, const eomc_options *o, proj *pj,
+                   double t0, double t1, double *x, outw *ow, double **pos)
+{
+    int n = c->n, s, iasti = 0, nonsti = 0, last_nonfinite = 0;
+    long maxs = o->max_steps > 0 ? o->max_steps : DEFAULT_MAX_STEPS;
+    double *K = take(pos, 16 * (size_t)n), *F = take(pos, 7 * (size_t)n);
+    double *ynew = take(pos, n), *ys = take(pos, n), *tmp = take(pos, n);
+    double hmax = o->hmax > 0 ? o->hmax : t1 - t0, h, t = t0;
+    double expo = -1.0 / (tb->err_order + 1);
+    eomc_stats *st = c->st;
+
+    if ((s = frhs(c, t0, x, K))) return s;
+    if (o->h0 > 0) h = o->h0;
+    else if ((s = initial_step(c, t0, t1, x, K, tb->err_order, o->rtol, o->atol, hmax,
+                               tmp, ynew, &h)))
+        return s;
+    while (t < t1) {
+        int rejected_now = 0;
+        double tn, err;
+        for (;;) {                                     /* until a step is accepted */
+            double hmin = min_step(t);
+            h = fmin(h, hmax);
+            st->t = t; st->h = h;
+            if (h < hmin) return last_nonfinite ? EOMC_NONFINITE : EOMC_STEP_TOO_SMALL;
+            if (st->steps >= maxs) return EOMC_MAX_STEPS;
+            tn = t + h;
+            if (tn > t1 || t1 - tn < hmin) tn = t1;
+            h = tn - t;
+            st->steps++;
+            s = erk_trial(c, tb, t, h, x, K, ynew, ys);
+            if (s == EOMC_NONFINITE) {               /* shrink into the finite region */
+                last_nonfinite = 1; st->rejected++; rejected_now = 1;
+                h *= MIN_FACTOR;
+                continue;
+            }
+            if (s) return s;
+            last_nonfinite = 0;
+            err = erk_error(tb, n, h, K, x, ynew, o->rtol, o->atol);
+            if (err < 1.0) break;
+            st->rejected++; rejected_now = 1;
+            h *= fmax(MIN_FACTOR, SAFETY * pow(err, expo));
+        }
+        st->accepted++;
+        if (ow->i < ow->n && ow->t[ow->i] <= tn) {
+            double hh = tn - t;
+            if (tb->is853) {
+                if ((s = d853_dense_prepare(c, t, hh, x, ynew, K, F, tmp))) return s;
+                EMIT_UNTIL(ow, tn, d853_dense(n, (tau - t) / hh, x, F, row));
+            } else {
+                EMIT_UNTIL(ow, tn, dp5_dense(n, hh, (tau - t) / hh, x, K, row));
+            }
+        }
+        if (o->stiff_check && (st->accepted % NSTIFF == 0 || iasti > 0)) {
+            double hl = stiff_hlambda(n, tn - t, ynew, ys, K + (size_t)tb->s * n,
+                                      K + (size_t)(tb->s - 1) * n);
+            st->stiff_hlambda = hl;
+            if (hl > tb->stiff_limit) {
+                nonsti = 0;
+                if (++iasti == 15) {
+                    memcpy(x, ynew, (size_t)n * sizeof(double));
+                    st->t = tn;
+                    return EOMC_STIFF;
+                }
+            } else if (++nonsti == 6) {
+                iasti = 0;
+            }
+        }
+        {
+            double f = err == 0.0 ? MAX_FACTOR : fmin(MAX_FACTOR, SAFETY * pow(err, expo));
+            if (rejected_now) f = fmin(1.0, f);
+            h = (tn - t) * f;
+        }
+        memcpy(K, K + (size_t)tb->s * n, (size_t)n * sizeof(double));
+        if (pj->on) {
+            if ((s = project_state(c, pj, tn, ynew))) return s;
+            if ((s = frhs(c, tn, ynew, K))) return s;
+        }
+        memcpy(x, ynew, (size_t)n * sizeof(double));
+        t = tn;
+    }
+    st->t = t1;
+    return EOMC_OK;
+}
+
+/* --------------------------------------------------------- Radau IIA (5) */
+/* Three-stage Radau IIA collocation, order 5, solved by simplified Newton in
+ * the eigenbasis of the coefficient matrix (one real and one complex linear
+ * system per iteration), error estimate and step control of Hairer & Wanner,
+ * Solving ODEs II, IV.8, as also used by scipy's Radau. */
+
+typedef struct radau_consts {
+    double C[3], E[3], mu_real;
+    eomc_cplx mu_complex;
+    double T[3][3], TI[3][3], P[3][3];
+} radau_consts;
+
+static void radau_consts_init(radau_consts *k)
+{
+    const double s6 = sqrt(6.0);
+    static const double T[3][3] = {
+        {0.09443876248897524, -0.14125529502095421, 0.03002919410514742},
+        {0.25021312296533332, 0.20412935229379994, -0.38294211275726192},
+        {1.0, 1.0, 0.0}};
+    static const double TI[3][3] = {
+        {4.17871859155190428, 0.32768282076106237, 0.52337644549944951},
+        {-4.17871859155190428, -0.32768282076106237, 0.47662355450055044},
+        {0.50287263494578682, -2.57192694985560522, 0.59603920482822492}};
+    k->C[0] = (4 - s6) / 10; k->C[1] = (4 + s6) / 10; k->C[2] = 1.0;
+    k->E[0] = (-13 - 7 * s6) / 3; k->E[1] = (-13 + 7 * s6) / 3; k->E[2] = -1.0 / 3;
+    k->mu_real = 3 + cbrt(9.0) - cbrt(3.0);
+    k->mu_complex = (3 + 0.5 * (cbrt(3.0) - cbrt(9.0)))
+                    - 0.5 * I * (pow(3.0, 5.0 / 6) + pow(3.0, 7.0 / 6));
+    memcpy(k->T, T, sizeof T);
+    memcpy(k->TI, TI, sizeof TI);
+    k->P[0][0] = 13.0 / 3 + 7 * s6 / 3; k->P[0][1] = -23.0 / 3 - 22 * s6 / 3; k->P[0][2] = 10.0 / 3 + 5 * s6;
+    k->P[1][0] = 13.0 / 3 - 7 * s6 / 3; k->P[1][1] = -23.0 / 3 + 22 * s6 / 3; k->P[1][2] = 10.0 / 3 - 5 * s6;
+    k->P[2][0] = 1.0 / 3; k->P[2][1] = -8.0 / 3; k->P[2][2] = 10.0 / 3;
+}
+
+typedef struct radau_ws {
+    double *J, *LUr, *Z, *W, *F, *dW, *Q, *yold, *ynew, *fnew, *tmp, *err, *ze, *scale;
+    eomc_cplx *LUc, *bc;
+    int *pivr, *pivc;
+} radau_ws;
+
+static void radau_ws_init(radau_ws *w, int n, double **pos)
+{
+    size_t nn = (size_t)n * n;
+    w->J = take(pos, nn); w->LUr = take(pos, nn);
+    w->LUc = (eomc_cplx *)take(pos, 2 * nn);
+    w->bc = (eomc_cplx *)take(pos, 2 * (size_t)n);
+    w->Z = take(pos, 3 * (size_t)n); w->W = take(pos, 3 * (size_t)n);
+    w->F = take(pos, 3 * (size_t)n); w->dW = take(pos, 3 * (size_t)n);
+    w->Q = take(pos, 3 * (size_t)n);
+    w->yold = take(pos, n); w->ynew = take(pos, n); w->fnew = take(pos, n);
+    w->tmp = take(pos, n); w->err = take(pos, n); w->ze = take(pos, n); w->scale = take(pos, n);
+    w->pivr = (int *)take(pos, n); w->pivc = (int *)take(pos, n);
+}
+
+static int radau_factor(ctx *c, const radau_consts *k, radau_ws *w, double h)
+{
+    int n = c->n;
+    eomc_cplx mc = k->mu_complex / h;
+    double mr = k->mu_real / h;
+    for (int i = 0; i < n; i++)
+        for (int j = 0; j < n; j++) {
+            double d = (i == j) ? 1.0 : 0.0;
+            w->LUr[i * n + j] = mr * d - w->J[i * n + j];
+            w->LUc[i * n + j] = mc * d - w->J[i * n + j];
+        }
+    c->st->nlu += 2;
+    if (lu_factor(n, w->LUr, w->pivr)) return 1;
+    return lu_factor_c(n, w->LUc, w->pivc);
+}
+
+/* Simplified Newton for the collocation system; Z holds the start guess.
+ * Returns a model status (nonzero: stop) and sets *conv, *niter, *rate. */
+static int radau_newton(ctx *c, const radau_consts *k, radau_ws *w, double t, double h,
+                        const double *y, double tol, int *conv, int *niter, double *rate)
+{
+    int n = c->n, s;
+    double mr = k->mu_real / h, dn_old = -1.0;
+    eomc_cplx mc = k->mu_complex / h;
+    *conv = 0; *rate = -1.0; *niter = 0;
+    for (int i = 0; i < n; i++)
+        for (int a = 0; a < 3; a++)
+            w->W[a * n + i] = k->TI[a][0] * w->Z[i] + k->TI[a][1] * w->Z[n + i]
+                              + k->TI[a][2] * w->Z[2 * n + i];
+    for (int it = 0; it < NEWTON_MAXITER; it++) {
+        double dn = 0.0;
+        *niter = it + 1;
+        for (int a = 0; a < 3; a++) {
+            for (int i = 0; i < n; i++) w->tmp[i] = y[i] + w->Z[a * n + i];
+            s = frhs(c, t + k->C[a] * h, w->tmp, w->F + (size_t)a * n);
+            if (s == EOMC_NONFINITE) return EOMC_OK;      /* not converged */
+            if (s) return s;
+        }
+        for (int i = 0; i < n; i++) {
+            double f0 = w->F[i], f1 = w->F[n + i], f2 = w->F[2 * n + i];
+            w->dW[i] = k->TI[0][0] * f0 + k->TI[0][1] * f1 + k->TI[0][2] * f2 - mr * w->W[i];
+            w->bc[i] = (k->TI[1][0] + I * k->TI[2][0]) * f0 + (k->TI[1][1] + I * k->TI[2][1]) * f1
+                       + (k->TI[1][2] + I * k->TI[2][2]) * f2
+                       - mc * (w->W[n + i] + I * w->W[2 * n + i]);
+        }
+        lu_solve(n, w->LUr, w->pivr, w->dW);
+        lu_solve_c(n, w->LUc, w->pivc, w->bc);
+        for (int i = 0; i < n; i++) {
+            double a0 = w->dW[i] / w->scale[i], a1, a2;
+            w->dW[n + i] = creal(w->bc[i]);
+            w->dW[2 * n + i] = cimag(w->bc[i]);
+            a1 = w->dW[n + i] / w->scale[i]; a2 = w->dW[2 * n + i] / w->scale[i];
+            dn += a0 * a0 + a1 * a1 + a2 * a2;
+        }
+        dn = sqrt(dn / (3.0 * n));
+        if (dn_old >= 0.0) *rate = dn / dn_old;
+        if (*rate >= 0.0 && (*rate >= 1.0 || pow(*rate, NEWTON_MAXITER - it) / (1 - *rate) * dn > tol))
+            break;
+        if (!isfinite(dn)) break;
+        for (size_t i = 0; i < 3 * (size_t)n; i++) w->W[i] += w->dW[i];
+        for (int i = 0; i < n; i++)
+            for (int a = 0; a < 3; a++)
+                w->Z[a * n + i] = k->T[a][0] * w->W[i] + k->T[a][1] * w->W[n + i]
+                                  + k->T[a][2] * w->W[2 * n + i];
+        if (dn == 0.0 || (*rate >= 0.0 && *rate / (1 - *rate) * dn < tol)) {
+            *conv = 1;
+            break;
+        }
+        dn_old = dn;
+    }
+    return EOMC_OK;
+}
+
+static double radau_predict(double h, double h_old, double err, double err_old)
+{
+    double mult = 1.0;
+    if (err_old > 0.0 && h_old > 0.0 && err != 0.0)
+        mult = h / h_old * pow(err_old / err, 0.25);
+    return err == 0.0 ? MAX_FACTOR : fmin(1.0, mult) * pow(err, -0.25);
+}
+
+/* y(tau) on the last accepted step: yold + Q [x, x^2, x^3]. */
+static void radau_dense(int n, const double *Q, const double *yold, double x, double *out)
+{
+    for (int i = 0; i < n; i++)
+        out[i] = yold[i] + x * (Q[i] + x * (Q[n + i] + x * Q[2 * n + i]));
+}
+
+/* One accepted Radau step from (t, y, f); returns status, sets *tn, *err. */
+static int radau_step(ctx *c, const radau_consts *k, radau_ws *w, const eomc_options *o,
+                      double t, double t1, const double *y, const double *f, double *h,
+                      int *have_sol, double hprev, double tprev, int *lu_ok, int *cur_jac,
+                      double *h_old, double *err_old, double *tn_out, int *niter, double *rate)
+{
+    int n = c->n, s, rejected = 0, conv = 0;
+    long maxs = o->max_steps > 0 ? o->max_steps : DEFAULT_MAX_STEPS;
+    double tol = fmax(10 * DBL_EPSILON / o->rtol, fmin(0.03, sqrt(o->rtol)));
+    eomc_stats *st = c->st;
+    for (;;) {
+        double hmin = min_step(t), tn, err, safety;
+        st->t = t; st->h = *h;
+        if (*h < hmin) return EOMC_STEP_TOO_SMALL;
+        if (st->steps >= maxs) return EOMC_MAX_STEPS;
+        tn = t + *h;
+        if (tn > t1 || t1 - tn < hmin) tn = t1;
+        *h = tn - t;
+        st->steps++;
+        for (int a = 0; a < 3; a++) {                /* predictor: last collocation polynomial */
+            if (*have_sol) {
+                radau_dense(n, w->Q, w->yold, (t + k->C[a] * *h - tprev) / hprev, w->tmp);
+                for (int i = 0; i < n; i++) w->Z[a * n + i] = w->tmp[i] - y[i];
+            } else {
+                memset(w->Z + (size_t)a * n, 0, (size_t)n * sizeof(double));
+            }
+        }
+        for (int i = 0; i < n; i++) w->scale[i] = o->atol + fabs(y[i]) * o->rtol;
+        for (;;) {
+            if (!*lu_ok) {
+                if (radau_factor(c, k, w, *h)) { conv = 0; break; }
+                *lu_ok = 1;
+            }
+            if ((s = radau_newton(c, k, w, t, *h, y, tol, &conv, niter, rate))) return s;
+            if (conv || *cur_jac) break;
+            if ((s = fjac(c, t, y, w->J))) return s;
+            *cur_jac = 1; *lu_ok = 0;
+        }
+        if (!conv) {
+            *h *= 0.5; *lu_ok = 0; st->rejected++;
+            continue;
+        }
+        for (int i = 0; i < n; i++) {
+            w->ynew[i] = y[i] + w->Z[2 * n + i];
+            w->ze[i] = (k->E[0] * w->Z[i] + k->E[1] * w->Z[n + i] + k->E[2] * w->Z[2 * n + i]) / *h;
+            w->err[i] = f[i] + w->ze[i];
+        }
+        lu_solve(n, w->LUr, w->pivr, w->err);
+        err = err_norm(n, w->err, y, w->ynew, o->rtol, o->atol);
+        safety = 0.9 * (2 * NEWTON_MAXITER + 1) / (2 * NEWTON_MAXITER + *niter);
+        if (rejected && err > 1) {
+            for (int i = 0; i < n; i++) w->tmp[i] = y[i] + w->err[i];
+            s = frhs(c, t, w->tmp, w->err);
+            if (s && s != EOMC_NONFINITE) return s;
+            if (s == EOMC_OK) {
+                for (int i = 0; i < n; i++) w->err[i] += w->ze[i];
+                lu_solve(n, w->LUr, w->pivr, w->err);
+                err = err_norm(n, w->err, y, w->ynew, o->rtol, o->atol);
+            }
+        }
+        if (!(err <= 1)) {                          /* also catches NaN */
+            double fac = isfinite(err) ? radau_predict(*h, *h_old, err, *err_old) : 0.0;
+            *h *= fmax(MIN_FACTOR, safety * fac);
+            *lu_ok = 0; rejected = 1; st->rejected++;
+            continue;
+        }
+        {
+            int recompute = *niter > 2 && *rate > 1e-3;
+            double fac = fmin(MAX_FACTOR, safety * radau_predict(*h, *h_old, err, *err_old));
+            if (!recompute && fac < 1.2) fac = 1.0;
+            else *lu_ok = 0;
+            *h_old = *h; *err_old = err;
+            *tn_out = tn;
+            *have_sol = recompute ? -1 : 1;     /* -1: caller refreshes J after the step */
+            *h *= fac;
+        }
+        return EOMC_OK;
+    }
+}
+
+static int run_radau(ctx *c, const eomc_options *o, proj *pj, double t0, double t1,
+                     double *x, outw *ow, double **pos)
+{
+    int n = c->n, s, have_sol = 0, lu_ok = 0, cur_jac = 1, niter = 0;
+    double *f = take(pos, n), hmax = o->hmax > 0 ? o->hmax : t1 - t0, h, t = t0;
+    double h_old = -1.0, err_old = -1.0, rate = -1.0, hprev = 1.0, tprev = t0;
+    radau_consts k;
+    radau_ws w;
+    radau_consts_init(&k);
+    radau_ws_init(&w, n, pos);
+    if ((s = frhs(c, t0, x, f))) return s;
+    if ((s = fjac(c, t0, x, w.J))) return s;
+    if (o->h0 > 0) h = o->h0;
+    else if ((s = initial_step(c, t0, t1, x, f, 3, o->rtol, o->atol, hmax, w.tmp, w.fnew, &h)))
+        return s;
+    while (t < t1) {
+        double tn = t, hused;
+        if (h > hmax) { h = hmax; h_old = -1.0; err_old = -1.0; }
+        if ((s = radau_step(c, &k, &w, o, t, t1, x, f, &h, &have_sol, hprev, tprev, &lu_ok,
+                            &cur_jac, &h_old, &err_old, &tn, &niter, &rate)))
+            return s;
+        c->st->accepted++;
+        hused = tn - t;
+        if ((s = frhs(c, tn, w.ynew, w.fnew))) { c->st->t = t; return s; }
+        for (int i = 0; i < n; i++)                  /* Q = Z^T P */
+            for (int a = 0; a < 3; a++)
+                w.Q[a * n + i] = w.Z[i] * k.P[0][a] + w.Z[n + i] * k.P[1][a] + w.Z[2 * n + i] * k.P[2][a];
+        memcpy(w.yold, x, (size_t)n * sizeof(double));
+        EMIT_UNTIL(ow, tn, radau_dense(n, w.Q, w.yold, (tau - t) / hused, row));
+        if (pj->on) {
+            if ((s = project_state(c, pj, tn, w.ynew))) return s;
+            if ((s = frhs(c, tn, w.ynew, w.fnew))) return s;
+        }
+        if (have_sol == -1) {
+            if ((s = fjac(c, tn, w.ynew, w.J))) { c->st->t = t; return s; }
+            cur_jac = 1;
+        } else {
+            cur_jac = 0;
+        }
+        have_sol = 1; hprev = hused; tprev = t;
+        memcpy(x, w.ynew, (size_t)n * sizeof(double));
+        memcpy(f, w.fnew, (size_t)n * sizeof(double));
+        t = tn;
+    }
+    c->st->t = t1;
+    return EOMC_OK;
+}
+
+/* ------------------------------------------------------------ public API */
+
+static int check_args(const eomc_model *m, const eomc_options *o, double t0, double t1,
+                      const double *x0, int n_eval, const double *t_eval, double *x_out)
+{
+    if (!m || !o || !x0 || !m->rhs || m->nx <= 0) return EOMC_BAD_ARGUMENT;
+    if (!isfinite(t0) || !isfinite(t1) || !(t1 > t0)) return EOMC_BAD_ARGUMENT;
+    if (o->method < EOMC_RK4 || o->method > EOMC_RADAU5) return EOMC_BAD_ARGUMENT;
+    if (o->method != EOMC_RK4 && !(o->rtol > 0 && o->atol > 0)) return EOMC_BAD_ARGUMENT;
+    if (o->method == EOMC_RADAU5 && !m->jac_x) return EOMC_NOT_AVAILABLE;
+    if (n_eval < 0 || (n_eval > 0 && (!t_eval || !x_out))) return EOMC_BAD_ARGUMENT;
+    for (int i = 0; i < n_eval; i++)
+        if (!(t_eval[i] >= t0 && t_eval[i] <= t1) || (i > 0 && !(t_eval[i] > t_eval[i - 1])))
+            return EOMC_BAD_ARGUMENT;
+    return all_finite(m->nx, x0) ? EOMC_OK : EOMC_NONFINITE;
+}
+
+int eomc_integrate(const eomc_model *m, const eomc_options *opt,
+                   double t0, double t1, const double *x0, const double *p,
+                   int n_rgrid, const double *r_tgrid, const double *r_values,
+                   int n_eval, const double *t_eval, double *x_out,
+                   double *x_last, eomc_stats *stats, double *work, size_t work_len)
+{
+    ctx c;
+    proj pj;
+    outw ow;
+    eomc_stats local;
+    double *pos = work, *x;
+    int s;
+    if (!stats) stats = &local;
+    memset(stats, 0, sizeof *stats);
+    stats->t = t0;
+    s = check_args(m, opt, t0, t1, x0, n_eval, t_eval, x_out);
+    if (s == EOMC_OK && (!work || work_len < eomc_integrate_work_size(m, opt->method)))
+        s = EOMC_BAD_ARGUMENT;
+    if (s == EOMC_OK)
+        s = ctx_init(&c, m, p, n_rgrid, r_tgrid, r_values, stats, &pos);
+    if (s != EOMC_OK) {
+        if (x_last && x0) memcpy(x_last, x0, (size_t)m->nx * sizeof(double));
+        return stats->status = s;
+    }
+    proj_init(&pj, m, opt->project, &pos);
+    x = take(&pos, m->nx);
+    memcpy(x, x0, (size_t)m->nx * sizeof(double));
+    ow.n = n_eval; ow.i = 0; ow.nx = m->nx; ow.t = t_eval; ow.x = x_out;
+    if (pj.on) s = project_state(&c, &pj, t0, x);
+    EMIT_UNTIL(&ow, t0, memcpy(row, x, (size_t)m->nx * sizeof(double)));
+    if (s == EOMC_OK) {
+        switch (opt->method) {
+        case EOMC_RK4: s = run_rk4(&c, opt, &pj, t0, t1, x, &ow, &pos); break;
+        case EOMC_DOPRI5: s = run_erk(&c, &ERK_DP5, opt, &pj, t0, t1, x, &ow, &pos); break;
+        case EOMC_DOP853: s = run_erk(&c, &ERK_D853, opt, &pj, t0, t1, x, &ow, &pos); break;
+        default: s = run_radau(&c, opt, &pj, t0, t1, x, &ow, &pos); break;
+        }
+    }
+    if (x_last) memcpy(x_last, x, (size_t)m->nx * sizeof(double));
+    stats->n_out = ow.i;
+    return stats->status = s;
+}
+
+int eomc_eval_along(const eomc_model *m, int which, int n, const double *t,
+                    const double *X, const double *p, int n_rgrid,
+                    const double *r_tgrid, const double *r_values,
+                    double *out, double *work, size_t work_len)
+{
+    ctx c;
+    eomc_stats st;
+    double *pos = work;
+    eomc_rhs_fn fn;
+    int cols, s;
+    if (!m || !t || !X || !out || n < 0) return EOMC_BAD_ARGUMENT;
+    fn = which == 0 ? m->outputs : which == 1 ? m->constraints : NULL;
+    cols = which == 0 ? m->noutput : m->nhol + m->nvel;
+    if (which != 0 && which != 1) return EOMC_BAD_ARGUMENT;
+    if (cols == 0) return EOMC_OK;
+    if (!fn) return EOMC_NOT_AVAILABLE;
+    if (!work || work_len < base_size(m)) return EOMC_BAD_ARGUMENT;
+    memset(&st, 0, sizeof st);
+    if ((s = ctx_init(&c, m, p, n_rgrid, r_tgrid, r_values, &st, &pos))) return s;
+    for (int i = 0; i < n; i++) {
+        inputs_at(&c, t[i]);
+        s = fn(t[i], X + (size_t)i * m->nx, p, c.r, out + (size_t)i * cols, c.mwork);
+        if (s) return s;
+    }
+    return EOMC_OK;
+}

@@ -1,5 +1,97 @@
-/* eomc_integrators.h: integrators over eomc_model (see eomc_model.h). */
+/*
+ * eomc_integrators.h -- ODE integrators over an eomc_model (see eomc_model.h).
+ *
+ * Compiled and linked into every model library, so the whole integration
+ * loop runs in C: Python calls eomc_integrate() once per trajectory.
+ *
+ * Reentrant: no globals, no allocation.  The caller supplies a work buffer
+ * of eomc_integrate_work_size() doubles; several threads may integrate the
+ * same model at once, each with its own buffer.
+ *
+ * Methods
+ *   EOMC_RK4     classical fixed-step Runge-Kutta (step opt->h0), cubic
+ *                Hermite output between steps.
+ *   EOMC_DOPRI5  Dormand-Prince 5(4), 4th-order dense output.
+ *   EOMC_DOP853  Hairer's DOP853 8(5,3), 7th-order dense output.
+ *   EOMC_RADAU5  Radau IIA order 5 (implicit, stiff), simplified Newton with
+ *                the model's jac_x; real and complex LU written here.
+ *
+ * Output is written at caller-given times t_eval (increasing, inside
+ * [t0, t1]) by dense output, not by stepping to each time.
+ *
+ * Inputs r(t): n_rgrid == 0 -> no inputs (or zeros); n_rgrid == 1 ->
+ * constant r_values; n_rgrid >= 2 -> linear interpolation of the rows of
+ * r_values (n_rgrid x ninput, row-major) over the increasing times r_tgrid,
+ * held constant outside the grid.
+ */
 #ifndef EOMC_INTEGRATORS_H
 #define EOMC_INTEGRATORS_H
+
 #include "eomc_model.h"
+
+#ifdef __cplusplus
+extern "C" {
 #endif
+
+#define EOMC_RK4 0
+#define EOMC_DOPRI5 1
+#define EOMC_DOP853 2
+#define EOMC_RADAU5 3
+
+typedef struct eomc_options {
+    int method;          /* EOMC_RK4 ... EOMC_RADAU5 */
+    double rtol, atol;   /* > 0 (ignored by RK4) */
+    double h0;           /* first step; 0 = automatic.  RK4: the fixed step (> 0) */
+    double hmax;         /* largest step; 0 = t1 - t0 */
+    long max_steps;      /* attempted steps before EOMC_MAX_STEPS; <= 0 = 100000 */
+    int project;         /* 1: project onto constraints after each accepted step */
+    int stiff_check;     /* 1: Hairer's stiffness test for DOPRI5/DOP853 -> EOMC_STIFF */
+} eomc_options;
+
+typedef struct eomc_stats {
+    long steps;          /* attempted steps */
+    long accepted, rejected;
+    long nfev;           /* rhs evaluations */
+    long njev;           /* jac_x evaluations */
+    long nlu;            /* LU factorizations */
+    long nproj;          /* projections done */
+    int status;          /* eomc_status of the run */
+    int n_out;           /* t_eval rows written */
+    double t;            /* time reached (the failure time when status != 0) */
+    double h;            /* last step size tried */
+    double stiff_hlambda;/* last h*|lambda| estimate of the stiffness test */
+    double max_residual; /* max-norm constraint residual after projection (0 if none) */
+} eomc_stats;
+
+/* Doubles of work buffer eomc_integrate needs for this model and method. */
+size_t eomc_integrate_work_size(const eomc_model *m, int method);
+
+/*
+ * Integrate x' = rhs(t, x, p, r(t)) from t0 to t1 (> t0) starting at x0.
+ * x_out: n_eval x nx rows, the state at t_eval[i].  x_last (nx, may be
+ * NULL): the state at stats->t (the end, or the last good state on failure).
+ * Returns the eomc_status, also stored in stats->status.
+ */
+int eomc_integrate(const eomc_model *m, const eomc_options *opt,
+                   double t0, double t1, const double *x0, const double *p,
+                   int n_rgrid, const double *r_tgrid, const double *r_values,
+                   int n_eval, const double *t_eval, double *x_out,
+                   double *x_last, eomc_stats *stats,
+                   double *work, size_t work_len);
+
+/*
+ * Evaluate the model's outputs (which == 0; noutput columns) or constraint
+ * residuals (which == 1; nhol + nvel columns) at n rows (t[i], X[i]) with the
+ * same input interpolation as eomc_integrate.  work: at least
+ * eomc_integrate_work_size(m, EOMC_RK4) doubles.
+ */
+int eomc_eval_along(const eomc_model *m, int which, int n, const double *t,
+                    const double *X, const double *p, int n_rgrid,
+                    const double *r_tgrid, const double *r_values,
+                    double *out, double *work, size_t work_len);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* EOMC_INTEGRATORS_H */

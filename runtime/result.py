@@ -1,0 +1,97 @@
+"""SimulationResult: one trajectory with named columns, statistics and outputs.
+
+Why a class: users index states and outputs by name (``res["q1"]``,
+``res["energy"]``), write CSV for other tools and draw a quick plot; the raw
+arrays stay plain numpy (``res.t``, ``res.x``) for everything else.
+"""
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["SimulationResult"]
+
+
+@dataclass
+class SimulationResult:
+    """t (n_t,), x (n_t, nx) and what the run measured.
+
+    stats: steps, accepted, rejected, nfev, njev, nlu, nproj, status, t, h, ...
+    outputs: {output name: (n_t,)} -- the model's named outputs along the trajectory.
+    constraint_residual: (n_t,) max-abs constraint residual, or None without constraints.
+    status: 0 on success, else the eomc_status code; message says why.
+    """
+    t: np.ndarray
+    x: np.ndarray
+    state_names: tuple
+    stats: dict
+    status: int = 0
+    message: str = "ok"
+    method: str = ""
+    model_name: str = ""
+    outputs: dict = field(default_factory=dict)
+    constraint_residual: np.ndarray = None
+    x_final: np.ndarray = None
+    t_final: float = None
+
+    @property
+    def success(self):
+        return self.status == 0
+
+    def __getitem__(self, name):
+        """A state column or a named output by name."""
+        if name in self.state_names:
+            return self.x[:, self.state_names.index(name)]
+        if name in self.outputs:
+            return self.outputs[name]
+        if name == "t":
+            return self.t
+        known = ", ".join(("t",) + tuple(self.state_names) + tuple(self.outputs))
+        raise KeyError(f"{name!r} is neither a state nor an output; known: {known}")
+
+    def keys(self):
+        return ("t",) + tuple(self.state_names) + tuple(self.outputs)
+
+    def columns(self):
+        """(names, 2-d array) of everything to_csv writes."""
+        names = ["t", *self.state_names, *self.outputs]
+        cols = [self.t[:, None], self.x] + [np.asarray(v)[:, None] for v in self.outputs.values()]
+        if self.constraint_residual is not None:
+            names.append("constraint_residual")
+            cols.append(self.constraint_residual[:, None])
+        return names, np.hstack(cols)
+
+    def to_csv(self, path):
+        """Write t, states, outputs (and the constraint residual) as CSV with a header row."""
+        names, data = self.columns()
+        np.savetxt(Path(path), data, delimiter=",", header=",".join(names), comments="",
+                   fmt="%.17g")
+        return Path(path)
+
+    def plot(self, path=None, names=None):
+        """Plot states (or the given names) against t; saved to ``path`` (PNG) if given."""
+        import matplotlib
+        if path is not None:
+            matplotlib.use("Agg", force=False)
+        import matplotlib.pyplot as plt
+        names = list(names or self.state_names)
+        fig, ax = plt.subplots(figsize=(8, 4.5))
+        for name in names:
+            ax.plot(self.t, self[name], label=name)
+        ax.set_xlabel("t")
+        ax.set_title(f"{self.model_name} ({self.method})")
+        ax.legend(loc="best", fontsize="small")
+        ax.grid(True, alpha=0.3)
+        if path is not None:
+            fig.savefig(Path(path), dpi=120, bbox_inches="tight")
+            plt.close(fig)
+            return Path(path)
+        return fig
+
+    def __repr__(self):
+        s = self.stats
+        return (f"<SimulationResult {self.model_name} {self.method}: {len(self.t)} rows, "
+                f"t=[{self.t[0] if len(self.t) else float('nan'):.6g}, "
+                f"{self.t_final if self.t_final is not None else float('nan'):.6g}], "
+                f"steps={s.get('steps')} rejected={s.get('rejected')} nfev={s.get('nfev')}, "
+                f"{self.message}>")

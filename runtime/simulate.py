@@ -1,0 +1,281 @@
+"""simulate(model, x0, t_span, ...): one trajectory with the whole loop in C.
+
+Why this module exists: it turns friendly Python arguments (dicts by state
+name, callables for inputs, method names) into the flat arrays the C
+integrator (templates/c/eomc_integrators.c) needs, checks every one of them
+*before* any C runs (issue 4 §8: wrong shapes, non-finite states, reversed
+spans, tolerances <= 0, unknown methods are ValueErrors), makes one foreign
+call (cffi releases the GIL for it) and wraps the arrays in a
+SimulationResult.  It uses only the runtime Model attributes listed in the
+pipeline interface (ffi, lib, c_model, nx, names, param_defaults, ...).
+"""
+import numbers
+
+import numpy as np
+
+from eomc.errors import SimulationError
+
+from .integrators_api import METHOD_ALIASES, METHOD_IDS, STATUS_NAMES
+from .result import SimulationResult
+
+__all__ = ["simulate", "prepare", "run_prepared", "scipy_fun", "resolve_method", "METHODS",
+           "DEFAULT_POINTS"]
+
+METHODS = tuple(METHOD_IDS)
+DEFAULT_POINTS = 1001      # output rows when neither t_eval nor dt is given
+INPUT_SAMPLES = 1001       # grid on which a callable r(t) is sampled
+STIFF_ADVICE = "use method='radau'"
+
+
+def resolve_method(method):
+    """Canonical method name; ValueError listing the valid ones otherwise."""
+    key = str(method).lower().replace("-", "").replace("_", "")
+    key = METHOD_ALIASES.get(key, key)
+    if key not in METHOD_IDS:
+        valid = ", ".join(list(METHOD_IDS) + list(METHOD_ALIASES))
+        raise ValueError(f"unknown integration method {method!r}; valid methods: {valid}")
+    return key
+
+
+def _positive(value, what, allow_none=False):
+    if value is None and allow_none:
+        return None
+    if not isinstance(value, numbers.Real) or isinstance(value, bool) or not np.isfinite(value) \
+            or value <= 0:
+        raise ValueError(f"{what} must be a finite number > 0; got {value!r}")
+    return float(value)
+
+
+def _span(t_span):
+    try:
+        t0, t1 = (float(v) for v in t_span)
+    except (TypeError, ValueError):
+        raise ValueError(f"t_span must be (t0, t_final) with two numbers; got {t_span!r}") from None
+    if not (np.isfinite(t0) and np.isfinite(t1)):
+        raise ValueError(f"t_span must be finite; got ({t0}, {t1})")
+    if t1 == t0:
+        raise ValueError(f"t_span ({t0}, {t1}) is empty: t_final must be greater than t0")
+    if t1 < t0:
+        raise ValueError(f"t_span ({t0}, {t1}) is reversed: integration runs forward, "
+                         f"t_final must be greater than t0")
+    return t0, t1
+
+
+def _vector(model, value, size, names, defaults, what):
+    """A float64 vector of `size` from an array or a {name: value} dict (missing -> defaults)."""
+    if isinstance(value, dict):
+        out = np.array(defaults, dtype=np.float64)
+        for key, v in value.items():
+            key = str(key)
+            if key not in names:
+                raise ValueError(f"{model.name}: unknown {what} name {key!r}; "
+                                 f"valid names: {', '.join(names) or 'none'}")
+            out[names.index(key)] = float(v)
+    else:
+        a = np.asarray(value)
+        if a.dtype.kind not in "fiu":
+            raise ValueError(f"{model.name}: {what} must be real numbers; got dtype {a.dtype}")
+        if a.shape != (size,):
+            raise ValueError(f"{model.name}: {what} must have shape ({size},) "
+                             f"[{', '.join(names)}]; got shape {a.shape}")
+        out = np.array(a, dtype=np.float64)
+    bad = [n for n, v in zip(names, out) if not np.isfinite(v)]
+    if bad:
+        raise ValueError(f"{model.name}: {what} is not finite for {', '.join(bad)}")
+    return out
+
+
+def _inputs(model, r, t0, t1):
+    """(n_grid, t_grid, values) for the C side: constant, sampled grid, or callable."""
+    ni = model.ninput
+    if r is None:
+        return 0, np.zeros(1), np.zeros(max(ni, 1))
+    if ni == 0:
+        raise ValueError(f"{model.name}: this model has no inputs, but r was given")
+    if callable(r):
+        grid = np.linspace(t0, t1, INPUT_SAMPLES)
+        values = np.array([np.reshape(np.asarray(r(t), dtype=float), ni) for t in grid])
+        return _grid(model, grid, values)
+    if isinstance(r, tuple) and len(r) == 2:
+        return _grid(model, r[0], r[1])
+    values = _vector(model, r, ni, model.input_names, np.zeros(ni), "r (inputs)")
+    return 1, np.zeros(1), values
+
+
+def _grid(model, t_grid, values):
+    t_grid = np.ascontiguousarray(t_grid, dtype=np.float64)
+    values = np.asarray(values, dtype=np.float64)
+    if values.ndim == 1 and model.ninput == 1:
+        values = values[:, None]
+    if t_grid.ndim != 1 or t_grid.size < 2 or values.shape != (t_grid.size, model.ninput):
+        raise ValueError(f"{model.name}: r=(t_grid, values) needs t_grid of shape (n,), n >= 2, "
+                         f"and values of shape (n, {model.ninput}); got {t_grid.shape} and "
+                         f"{values.shape}")
+    if not (np.all(np.isfinite(t_grid)) and np.all(np.isfinite(values))):
+        raise ValueError(f"{model.name}: the input grid holds non-finite values")
+    if np.any(np.diff(t_grid) <= 0):
+        raise ValueError(f"{model.name}: the input time grid must be strictly increasing")
+    return t_grid.size, t_grid, np.ascontiguousarray(values)
+
+
+def _t_eval(t_eval, t0, t1, method, dt, n_points):
+    if t_eval is None:
+        if method == "rk4":
+            n = int(np.ceil((t1 - t0) / dt * (1 - 1e-12)))
+            return np.append(t0 + dt * np.arange(n), t1)
+        return np.linspace(t0, t1, int(n_points or DEFAULT_POINTS))
+    t = np.atleast_1d(np.asarray(t_eval, dtype=np.float64))
+    if t.ndim != 1 or t.size == 0:
+        raise ValueError(f"t_eval must be a non-empty 1-d array of times; got shape {t.shape}")
+    if not np.all(np.isfinite(t)):
+        raise ValueError("t_eval holds non-finite times")
+    if t[0] < t0 or t[-1] > t1:
+        raise ValueError(f"t_eval must lie inside t_span [{t0}, {t1}]; got [{t[0]}, {t[-1]}]")
+    if np.any(np.diff(t) <= 0):
+        raise ValueError("t_eval must be strictly increasing")
+    return np.ascontiguousarray(t)
+
+
+def prepare(model, x0, t_span, p=None, r=None, method="dop853", rtol=1e-6, atol=1e-9,
+            t_eval=None, dt=None, max_steps=100000, first_step=None, max_step=None,
+            project=False, stiff_check=True, n_points=None):
+    """Check every argument and return the dict run_prepared() passes to C."""
+    method = resolve_method(method)
+    t0, t1 = _span(t_span)
+    rtol, atol = _positive(rtol, "rtol"), _positive(atol, "atol")
+    if method == "rk4":
+        if dt is None:
+            raise ValueError("method='rk4' is fixed-step: pass dt= (the step size)")
+        first_step = _positive(dt, "dt")
+    elif dt is not None:
+        raise ValueError(f"dt= is only for the fixed-step method 'rk4'; {method!r} is adaptive "
+                         f"(use first_step= or max_step=)")
+    first_step = _positive(first_step, "first_step", allow_none=True)
+    max_step = _positive(max_step, "max_step", allow_none=True)
+    if not isinstance(max_steps, numbers.Integral) or max_steps <= 0:
+        raise ValueError(f"max_steps must be a positive integer; got {max_steps!r}")
+    if method == "radau" and model.c_model.jac_x == model.ffi.NULL:
+        raise ValueError(f"{model.name}: method 'radau' needs the Jacobian jac_x, which this model "
+                         f"was built without; rebuild with functions including 'jac_x'")
+    x0 = _vector(model, x0, model.nx, model.state_names, np.zeros(model.nx), "x0 (initial state)")
+    p = model.param_defaults if p is None else p
+    p = _vector(model, p, model.nparam, model.param_names, model.param_defaults, "p (parameters)")
+    n_r, r_t, r_v = _inputs(model, r, t0, t1)
+    times = _t_eval(t_eval, t0, t1, method, first_step, n_points)
+    return dict(method=method, t0=t0, t1=t1, x0=x0, p=np.append(p, 0.0), n_r=n_r, r_t=r_t,
+                r_v=r_v, t_eval=times, rtol=rtol, atol=atol, h0=first_step or 0.0,
+                hmax=max_step or 0.0, max_steps=int(max_steps), project=bool(project),
+                stiff_check=bool(stiff_check))
+
+
+def _options(ffi, a):
+    opt = ffi.new("eomc_options *")
+    opt.method, opt.rtol, opt.atol = METHOD_IDS[a["method"]], a["rtol"], a["atol"]
+    opt.h0, opt.hmax, opt.max_steps = a["h0"], a["hmax"], a["max_steps"]
+    opt.project, opt.stiff_check = int(a["project"]), int(a["stiff_check"])
+    return opt
+
+
+def run_prepared(model, a, out=None):
+    """One C call: returns (x_out rows written, stats dict, x_last).  Releases the GIL."""
+    ffi, lib = model.ffi, model.lib
+    buf = lambda arr: ffi.from_buffer("double[]", arr)  # noqa: E731
+    n_eval = a["t_eval"].size
+    x_out = np.full((n_eval, model.nx), np.nan) if out is None else out
+    x_last = np.empty(model.nx)
+    work = np.empty(lib.eomc_integrate_work_size(model.c_model, METHOD_IDS[a["method"]]))
+    stats = ffi.new("eomc_stats *")
+    lib.eomc_integrate(model.c_model, _options(ffi, a), a["t0"], a["t1"], buf(a["x0"]),
+                       buf(a["p"]), a["n_r"], buf(a["r_t"]), buf(a["r_v"]), n_eval,
+                       buf(a["t_eval"]), buf(x_out), buf(x_last), stats, buf(work), work.size)
+    fields = ("steps", "accepted", "rejected", "nfev", "njev", "nlu", "nproj", "status", "n_out",
+              "t", "h", "stiff_hlambda", "max_residual")
+    return x_out, {f: getattr(stats, f) for f in fields}, x_last
+
+
+def _along(model, a, which, t, x):
+    """The model's outputs (which=0) or constraint residuals (which=1) at every row."""
+    cols = model.noutput if which == 0 else model.nhol + model.nvel
+    fn = model.c_model.outputs if which == 0 else model.c_model.constraints
+    if cols == 0 or fn == model.ffi.NULL or t.size == 0:
+        return None
+    ffi, lib = model.ffi, model.lib
+    buf = lambda arr: ffi.from_buffer("double[]", arr)  # noqa: E731
+    out = np.empty((t.size, cols))
+    work = np.empty(lib.eomc_integrate_work_size(model.c_model, METHOD_IDS["rk4"]))
+    x = np.ascontiguousarray(x)
+    status = lib.eomc_eval_along(model.c_model, which, t.size, buf(t), buf(x), buf(a["p"]),
+                                 a["n_r"], buf(a["r_t"]), buf(a["r_v"]), buf(out), buf(work),
+                                 work.size)
+    if status:
+        what = "outputs" if which == 0 else "constraints"
+        raise SimulationError(f"{model.name}: evaluating {what} along the trajectory failed: "
+                              f"{STATUS_NAMES.get(status, status)}")
+    return out
+
+
+def failure_message(model, method, stats, x_last):
+    """One line naming the reason, the time and the state of a failed integration."""
+    status = stats["status"]
+    reason = STATUS_NAMES.get(status, f"status {status}")
+    state = ", ".join(f"{n}={v:.6g}" for n, v in zip(model.state_names, x_last))
+    msg = f"{model.name}: {method} stopped at t={stats['t']:.9g}: {reason}"
+    if status == 7:
+        msg += f" (h*|lambda| ~ {stats['stiff_hlambda']:.3g}); {STIFF_ADVICE}"
+    elif status == 6:
+        msg += f" ({stats['steps']} steps); raise max_steps or, if the problem is stiff, " \
+               f"{STIFF_ADVICE}"
+    elif status == 5:
+        msg += f" (h={stats['h']:.3g}); the solution may blow up or be discontinuous here"
+    return f"{msg}; state {state}"
+
+
+def simulate(model, x0, t_span, p=None, r=None, method="dop853", rtol=1e-6, atol=1e-9,
+             t_eval=None, dt=None, max_steps=100000, first_step=None, max_step=None,
+             project=False, stiff_check=True, n_points=None, raise_on_failure=True):
+    """Integrate ``model`` from ``x0`` over ``t_span``; returns a SimulationResult.
+
+    x0/p: arrays or {name: value} dicts (missing names -> 0 / defaults).  r: constant
+    array, (t_grid, values) interpolated linearly in C, or callable r(t) sampled on
+    1001 points.  method: rk4 (needs dt), dopri5/rk45, dop853, radau.  Output at
+    t_eval (dense output) or, by default, on n_points (1001) equally spaced times
+    (rk4: its step grid).  project=True projects onto the model's constraints
+    after each step.  A failed run raises SimulationError, or with
+    raise_on_failure=False returns the rows computed so far with ``status``.
+    """
+    a = prepare(model, x0, t_span, p=p, r=r, method=method, rtol=rtol, atol=atol, t_eval=t_eval,
+                dt=dt, max_steps=max_steps, first_step=first_step, max_step=max_step,
+                project=project, stiff_check=stiff_check, n_points=n_points)
+    x_out, stats, x_last = run_prepared(model, a)
+    return finish(model, a, x_out, stats, x_last, raise_on_failure)
+
+
+def finish(model, a, x_out, stats, x_last, raise_on_failure=True):
+    """Wrap C's arrays in a SimulationResult (or raise on failure)."""
+    status, n = stats["status"], stats["n_out"]
+    message = "ok" if status == 0 else failure_message(model, a["method"], stats, x_last)
+    if status and raise_on_failure:
+        raise SimulationError(message)
+    t, x = a["t_eval"][:n], x_out[:n]
+    outputs = _along(model, a, 0, t, x)
+    residual = _along(model, a, 1, t, x)
+    return SimulationResult(
+        t=t, x=x, state_names=tuple(model.state_names),
+        outputs={} if outputs is None else dict(zip(model.output_names, outputs.T)),
+        constraint_residual=None if residual is None else np.max(np.abs(residual), axis=1),
+        stats=stats, status=status, message=message, method=a["method"], model_name=model.name,
+        x_final=x_last, t_final=stats["t"])
+
+
+def scipy_fun(model, p=None, r=None):
+    """(fun, jac) closures for scipy.integrate.solve_ivp over the model's C functions.
+
+    Each call returns a fresh array: solve_ivp keeps references to what fun
+    returns, so a reused buffer would silently corrupt its solution.
+    """
+    def fun(t, x):
+        return np.array(model.rhs(t, x, p, r), dtype=np.float64, copy=True)
+
+    def jac(t, x):
+        return np.array(model.jacobian(t, x, p, r), dtype=np.float64, copy=True)
+    return fun, jac
