@@ -9,3 +9,6 @@ __all__ = ["Program", "Names", "IRError", "c_names", "free_inputs", "verify",
 from .nodes import IMul  # noqa: E402
 
 __all__ += ["IMul"]
+from .opcount import count_ops, count_program  # noqa: E402
+
+__all__ += ["count_ops", "count_program"]

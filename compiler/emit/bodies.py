@@ -1,0 +1,151 @@
+"""C bodies of the generated functions, from each function's optimized program.
+
+Expressions arrive here as IR; everything is printed by :class:`CPrinter`;
+the templates only glue the pieces together.
+"""
+import re
+
+from ..ir import c_names
+from .printer import CPrinter
+from .signatures import SIGNATURES
+
+__all__ = ["BodyContext", "plain_body", "rhs_body", "jacobian_body", "linearize_body",
+           "void_unused"]
+
+_IND = "    "
+
+
+class BodyContext:
+    """What every body needs: sizes, the solver, C names of input slots."""
+
+    def __init__(self, name, nq, nu, nw, solver, slot_names):
+        self.name, self.nq, self.nu, self.nw = name, nq, nu, nw
+        self.solver, self.slot_names = solver, slot_names
+
+    def printer(self, program):
+        names = dict(self.slot_names)
+        names.update(c_names(program))
+        return CPrinter(names)
+
+
+def _temps(program, printer, assignments=None):
+    assignments = program.assignments if assignments is None else assignments
+    names = printer._names
+    return [f"{_IND}const double {names[s]} = {printer.doprint(e)};" for s, e in assignments]
+
+
+def _store(lvalue, expr, printer):
+    return f"{_IND}{lvalue} = {printer.doprint(expr)};"
+
+
+def plain_body(ctx, program, group, shape, out="out"):
+    """Assign a vector (rows,) or a row-major matrix (rows, cols) result group to ``out``."""
+    pr = ctx.printer(program)
+    lines = _temps(program, pr)
+    vals = program.result_exprs(group)
+    if len(shape) == 1:
+        for i in range(shape[0]):
+            lines.append(_store(f"{out}[{i}]", vals.get((group, i), 0.0), pr))
+        size = shape[0]
+    else:
+        rows, cols = shape
+        for i in range(rows):
+            for k in range(cols):
+                lines.append(_store(f"{out}[{i * cols + k}]", vals.get((group, i, k), 0.0), pr))
+        size = rows * cols
+    lines.append(f"{_IND}return {ctx.name}_finite({out}, {size});")
+    return lines
+
+
+def _solver_decls(ctx, extra=()):
+    s = ctx.solver
+    lines = [f"{_IND}double F[{s.fsize}];", f"{_IND}double w[{ctx.nw}];"]
+    if s.pivots:
+        lines.append(f"{_IND}int piv[{ctx.nw}];")
+    lines += [f"{_IND}{d}" for d in extra]
+    lines.append(f"{_IND}int status;")
+    return lines
+
+
+def _load_dynamics(ctx, program, pr):
+    lines = []
+    for (key, e) in program.results:
+        if key[0] == "A":
+            lines.append(_store(f"F[{key[1] * ctx.nw + key[2]}]", e, pr))
+        elif key[0] == "b":
+            lines.append(_store(f"w[{key[1]}]", e, pr))
+    s = ctx.solver
+    lines += [f"{_IND}status = {s.factor_call()};",
+              f"{_IND}if (status != EOMC_OK) return status;",
+              f"{_IND}{s.solve_call('w')};"]
+    return lines
+
+
+def rhs_body(ctx, program):
+    """q' from the kinematics, u' from the factorized A·w = b."""
+    pr = ctx.printer(program)
+    lines = _solver_decls(ctx) + _temps(program, pr)
+    for (key, e) in program.results:
+        if key[0] == "kin":
+            lines.append(_store(f"xdot[{key[1]}]", e, pr))
+    lines += _load_dynamics(ctx, program, pr)
+    lines += [f"{_IND}xdot[{ctx.nq + i}] = w[{i}];" for i in range(ctx.nu)]
+    lines.append(f"{_IND}return {ctx.name}_finite(xdot, {ctx.nq + ctx.nu});")
+    return lines
+
+
+def _split_on(program, symbols):
+    """Assignments that do not / do depend (transitively) on ``symbols``, order kept."""
+    dep = set(symbols)
+    before, after = [], []
+    for target, e in program.assignments:
+        if e.free_symbols & dep:
+            dep.add(target)
+            after.append((target, e))
+        else:
+            before.append((target, e))
+    return before, after
+
+
+def jacobian_body(ctx, program, W, ncols, kin_group, g_group):
+    """d xdot / d(x or r): one factorization, then one solve per column of G."""
+    nw, nq, nu = ctx.nw, ctx.nq, ctx.nu
+    pr = ctx.printer(program)
+    before, after = _split_on(program, W)
+    lines = _solver_decls(ctx, [f"double G[{ncols * nw}];", "int i, k;"])
+    lines += _temps(program, pr, before)
+    lines += _load_dynamics(ctx, program, pr)
+    lines += _temps(program, pr, after)
+    gvals = program.result_exprs(g_group)
+    for k in range(ncols):
+        for i in range(nw):
+            lines.append(_store(f"G[{k * nw + i}]", gvals.get((g_group, i, k), 0.0), pr))
+    kvals = program.result_exprs(kin_group)
+    for i in range(nq):
+        for k in range(ncols):
+            lines.append(_store(f"out[{i * ncols + k}]", kvals.get((kin_group, i, k), 0.0), pr))
+    lines += [f"{_IND}for (k = 0; k < {ncols}; k++) {{",
+              f"{_IND * 2}{ctx.solver.solve_call(f'G + k * {nw}')};",
+              f"{_IND * 2}for (i = 0; i < {nu}; i++) out[({nq} + i) * {ncols} + k] = G[k * {nw} + i];",
+              f"{_IND}}}",
+              f"{_IND}return {ctx.name}_finite(out, {(nq + nu) * ncols});"]
+    return lines
+
+
+def linearize_body(ctx, has_inputs):
+    """A = jac_x, B = jac_r (B untouched when the model has no inputs)."""
+    n = ctx.name
+    lines = [f"{_IND}int status = {n}_jac_x(t, x, p, r, A, work);"]
+    if has_inputs:
+        lines += [f"{_IND}if (status != EOMC_OK) return status;",
+                  f"{_IND}return {n}_jac_r(t, x, p, r, B, work);"]
+    else:
+        lines.append(f"{_IND}return status;")
+    return lines
+
+
+def void_unused(function, lines):
+    """Prefix ``(void)arg;`` for every signature argument the body does not read."""
+    text = "\n".join(lines)
+    unused = [a for _, a in SIGNATURES[function] if not re.search(rf"\b{a}\b", text)]
+    return "\n".join([f"{_IND}(void){a};" for a in unused] + lines)

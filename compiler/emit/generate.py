@@ -1,0 +1,161 @@
+"""``generate_c``: a FormedSystem to C99 source, header, cffi cdef and metadata."""
+from collections import Counter
+
+import jinja2
+
+from ...errors import ModelError
+from ..passes import finish_function, optimize_shared
+from ..ir import count_program
+from .bodies import (BodyContext, jacobian_body, linearize_body, plain_body, rhs_body,
+                     void_unused)
+from .generated import GeneratedModel
+from .layout import check_identifier, make_layout
+from .linsolve import ldlt_solver, lu_solver
+from .signatures import FUNCTION_ORDER, STRUCT_FIELDS, cdef, prototype
+from .symbolic import FUNCTION_GROUPS, build_symbolic
+
+__all__ = ["generate_c", "ALL_FUNCTIONS"]
+
+ALL_FUNCTIONS = FUNCTION_ORDER
+_ALIASES = {"jacobian": "jac_x"}
+_SOLVING = ("rhs", "jac_x", "jac_r")
+
+
+def _eomc_version():
+    try:
+        from importlib.metadata import version
+        return version("eomc")
+    except Exception:  # pragma: no cover - not installed
+        return "0+unknown"
+
+
+def _select(functions, ninput, noutput, ncon):
+    """Requested functions that apply to this model, in canonical order."""
+    wanted = set(ALL_FUNCTIONS if functions is None else
+                 (_ALIASES.get(f, f) for f in functions))
+    unknown = sorted(wanted - set(ALL_FUNCTIONS))
+    if unknown:
+        raise ModelError(f"unknown function(s) {', '.join(unknown)}; "
+                         f"choose from {', '.join(ALL_FUNCTIONS)}")
+    if "linearize" in wanted:
+        wanted |= {"jac_x", "jac_r"}
+    absent = {"jac_r": ninput == 0, "outputs": noutput == 0,
+              "constraints": ncon == 0, "constraints_jac": ncon == 0}
+    return tuple(f for f in ALL_FUNCTIONS if f in wanted and not absent.get(f, False))
+
+
+def _environment():
+    return jinja2.Environment(loader=jinja2.PackageLoader("eomc.templates", ""),
+                              undefined=jinja2.StrictUndefined, keep_trailing_newline=True,
+                              trim_blocks=True, lstrip_blocks=True, autoescape=False)
+
+
+def _body(fn, ctx, prog, sym, layout, nx, functions):
+    nu, nr = ctx.nu, len(layout.r)
+    if fn == "rhs":
+        return rhs_body(ctx, prog)
+    if fn == "jac_x":
+        return jacobian_body(ctx, prog, sym.W, nx, "dkin", "G")
+    if fn == "jac_r":
+        return jacobian_body(ctx, prog, sym.W, nr, "dkin_r", "Gr")
+    if fn == "linearize":
+        return linearize_body(ctx, "jac_r" in functions)
+    shapes = {"mass_matrix": ("M", (nu, nu), "out"), "forcing": ("f", (nu,), "out"),
+              "inverse_dynamics": ("tau", (nu,), "tau"),
+              "outputs": ("out", (len(sym.output_names),), "out"),
+              "constraints": ("con", (sym.nhol + sym.nvel,), "out"),
+              "constraints_jac": ("dcon", (sym.nhol + sym.nvel, nx), "out")}
+    group, shape, out = shapes[fn]
+    return plain_body(ctx, prog, group, shape, out)
+
+
+def _ops(fn, prog, solver, nx, nr):
+    c = count_program(prog) if prog is not None else Counter()
+    if fn == "linearize":
+        return None
+    if fn in _SOLVING:
+        c += solver.factor_ops
+        nsolve = 1 + {"rhs": 0, "jac_x": nx, "jac_r": nr}[fn]
+        for _ in range(nsolve):
+            c += solver.solve_ops
+    return {k: int(c.get(k, 0)) for k in ("adds", "muls", "divs", "calls")}
+
+
+def _tables(name, layout, output_names):
+    """Static const name/default tables and the struct's references to them (NULL when empty)."""
+    def strings(label, items):
+        if not items:
+            return None, "NULL"
+        body = ", ".join('"' + s.replace("\\", "\\\\").replace('"', '\\"') + '"' for s in items)
+        return f"static const char *const {name}_{label}[] = {{{body}}};", f"{name}_{label}"
+    tables, refs = [], []
+    for label, items in (("state_names", layout.state_names), ("param_names", layout.param_names)):
+        t, r = strings(label, items)
+        tables.append(t), refs.append(r)
+    if layout.param_defaults:
+        vals = ", ".join(repr(float(v)) for v in layout.param_defaults)
+        tables.append(f"static const double {name}_param_defaults[] = {{{vals}}};")
+        refs.append(f"{name}_param_defaults")
+    else:
+        refs.append("NULL")
+    for label, items in (("input_names", layout.input_names), ("output_names", output_names)):
+        t, r = strings(label, items)
+        tables.append(t), refs.append(r)
+    return [t for t in tables if t], refs
+
+
+def _sparsity(nw, pattern):
+    return ["".join("x" if (i, j) in pattern else "." for j in range(nw)) for i in range(nw)]
+
+
+def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, functions=None,
+               fold_parameters=False):
+    """Lower ``formed`` (a FormedSystem) to C; returns a :class:`GeneratedModel`.
+
+    Deterministic: identical input gives byte-identical output.
+    """
+    check_identifier(name)
+    layout = make_layout(formed, parameters, inputs, fold_parameters)
+    ncon = len(formed.holonomic_constraints) + len(formed.velocity_constraints)
+    fns = _select(functions, len(layout.r), len(outputs or {}), ncon)
+    sym = build_symbolic(formed, layout, fns, outputs)
+    nq, nu, nx, nw = formed.nq, formed.nu, formed.nq + formed.nu, sym.nw
+    shared = optimize_shared(sym.program)
+    solver = (ldlt_solver(name, nw, sym.pattern) if sym.symmetric else lu_solver(name, nw))
+    slots = dict(layout.c_names)
+    slots.update({s: f"w[{j}]" for j, s in enumerate(sym.W)})
+    slots.update({s: f"udot[{j}]" for j, s in enumerate(sym.UD)})
+    ctx = BodyContext(name, nq, nu, nw, solver, slots)
+    rendered, op_counts = [], {}
+    for fn in fns:
+        prog = finish_function(shared, FUNCTION_GROUPS[fn]) if FUNCTION_GROUPS[fn] else None
+        lines = _body(fn, ctx, prog, sym, layout, nx, fns)
+        rendered.append({"prototype": prototype(name, fn), "body": void_unused(fn, lines)})
+        op_counts[fn] = _ops(fn, prog, solver, nx, len(layout.r))
+    if "linearize" in op_counts:
+        op_counts["linearize"] = {k: sum(op_counts[f][k] for f in ("jac_x", "jac_r") if f in op_counts)
+                                  for k in ("adds", "muls", "divs", "calls")}
+    tables, table_refs = _tables(name, layout, sym.output_names)
+    pointers = [f"{name}_{f}" if f in fns else "NULL" for f in STRUCT_FIELDS]
+    uses_solver = any(f in fns for f in _SOLVING)
+    meta = {
+        "name": name, "abi_version": 1, "eomc_version": _eomc_version(),
+        "nq": nq, "nu": nu, "nx": nx, "nparam": len(layout.p), "ninput": len(layout.r),
+        "noutput": len(sym.output_names), "nhol": sym.nhol, "nvel": sym.nvel, "work_size": 0,
+        "state_names": list(layout.state_names), "param_names": list(layout.param_names),
+        "param_defaults": list(layout.param_defaults), "input_names": list(layout.input_names),
+        "output_names": list(sym.output_names), "functions": list(fns),
+        "op_counts": op_counts, "mass_matrix_sparsity": _sparsity(nw, sym.pattern),
+        "solver": "ldlt" if sym.symmetric else "lu", "folded_parameters": dict(layout.folded),
+    }
+    env = _environment()
+    common = dict(name=name, eomc_version=meta["eomc_version"], nq=nq, nu=nu, nx=nx,
+                  nparam=meta["nparam"], ninput=meta["ninput"], noutput=meta["noutput"],
+                  nhol=sym.nhol, nvel=sym.nvel, work_size=0)
+    header = env.get_template("model.h.j2").render(
+        prototypes=[prototype(name, f) for f in fns], **common)
+    source = env.get_template("model.c.j2").render(
+        functions=rendered, solver_code=solver.code if uses_solver else "", tables=tables,
+        table_refs=table_refs, pointers=pointers, **common)
+    return GeneratedModel(name=name, c_source=source, header=header, cdef=cdef(name, fns),
+                          metadata=meta)

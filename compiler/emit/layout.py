@@ -1,0 +1,110 @@
+"""Where each symbol of a formed system lives in the C arrays.
+
+q(t), u(t) -> x[i]; inputs r(t) -> r[k]; parameters -> p[j]; time -> t.
+Expressions are rewritten with plain slot symbols once (``xreplace``), so
+every later stage works on ordinary SymPy expressions of those symbols.
+"""
+import re
+from dataclasses import dataclass
+
+import sympy as sm
+from sympy.core.function import AppliedUndef
+from sympy.physics.vector import dynamicsymbols
+
+from ...errors import ModelError
+
+__all__ = ["Layout", "make_layout", "DEFAULT_PARAMETER_VALUE"]
+
+DEFAULT_PARAMETER_VALUE = 1.0
+_IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+
+
+@dataclass(frozen=True)
+class Layout:
+    x: tuple            # slot symbols x_0.. (nx)
+    p: tuple            # slot symbols of runtime parameters
+    r: tuple            # slot symbols of inputs
+    t: sm.Symbol
+    subs: dict          # mechanics object -> slot symbol (or folded value)
+    state_names: tuple
+    param_names: tuple
+    param_defaults: tuple
+    input_names: tuple
+    folded: dict        # parameter name -> value, when folded
+    c_names: dict       # slot symbol -> C text
+
+    def apply(self, expr, what):
+        """``expr`` in slot symbols; ModelError naming ``what`` if something is left unmapped."""
+        out = sm.sympify(expr).xreplace(self.subs)
+        leftover = out.atoms(AppliedUndef, sm.Derivative)
+        if leftover:
+            names = ", ".join(sorted(str(a) for a in leftover))
+            raise ModelError(f"{what} depends on {names}, which is neither a coordinate, "
+                             f"a speed nor a declared input")
+        unknown = out.free_symbols - set(self.c_names)
+        if unknown:
+            names = ", ".join(sorted(s.name for s in unknown))
+            raise ModelError(f"{what} uses symbol(s) {names} that are not parameters of the model")
+        return out
+
+
+def _name(obj):
+    """``q1`` for q1(t), ``q1'`` for its derivative (Lagrange's speeds)."""
+    if isinstance(obj, sm.Derivative):
+        return _name(obj.expr) + "'" * sum(n for _, n in obj.variable_count)
+    return str(obj).replace("(t)", "")
+
+
+def _parameter_table(formed, parameters):
+    """Ordered (symbol, default) pairs: the dict's order, then the rest sorted by name."""
+    parameters = dict(parameters or {})
+    known = set(formed.parameters)
+    unknown = [s for s in parameters if s not in known]
+    if unknown:
+        raise ModelError("parameters not used by the system: " + ", ".join(map(str, unknown)))
+    table = [(s, float(v)) for s, v in parameters.items()]
+    rest = sorted((s for s in formed.parameters if s not in parameters), key=lambda s: s.name)
+    table += [(s, DEFAULT_PARAMETER_VALUE) for s in rest]
+    return table
+
+
+def make_layout(formed, parameters=None, inputs=None, fold_parameters=False):
+    """The slot assignment of ``formed`` (see module docstring)."""
+    inputs = tuple(formed.inputs if inputs is None else inputs)
+    missing = [i for i in formed.inputs if i not in inputs]
+    if missing:
+        raise ModelError("the system depends on inputs not listed in `inputs`: "
+                         + ", ".join(map(_name, missing)))
+    t = sm.Symbol("t", real=True)
+    states = tuple(formed.coordinates) + tuple(formed.speeds)
+    x = tuple(sm.Symbol(f"x_{i}", real=True) for i in range(len(states)))
+    r = tuple(sm.Symbol(f"r_{k}", real=True) for k in range(len(inputs)))
+    table = _parameter_table(formed, parameters)
+    subs = {dynamicsymbols._t: t}
+    subs.update(zip(states, x))
+    subs.update(zip(inputs, r))
+    c_names = {t: "t"}
+    c_names.update({s: f"x[{i}]" for i, s in enumerate(x)})
+    c_names.update({s: f"r[{k}]" for k, s in enumerate(r)})
+    if fold_parameters:
+        p, folded = (), {s.name: v for s, v in table}
+        subs.update({s: sm.Float(v) for s, v in table})
+        table = []
+    else:
+        p, folded = tuple(sm.Symbol(f"p_{j}", real=True) for j in range(len(table))), {}
+        subs.update({s: ps for (s, _), ps in zip(table, p)})
+        c_names.update({s: f"p[{j}]" for j, s in enumerate(p)})
+    return Layout(x=x, p=p, r=r, t=t, subs=subs,
+                  state_names=tuple(_name(s) for s in states),
+                  param_names=tuple(s.name for s, _ in table),
+                  param_defaults=tuple(v for _, v in table),
+                  input_names=tuple(_name(i) for i in inputs),
+                  folded=folded, c_names=c_names)
+
+
+def check_identifier(name):
+    """ModelError unless ``name`` can prefix C identifiers."""
+    if not isinstance(name, str) or not _IDENT.match(name):
+        raise ModelError(f"model name {name!r} is not a valid C identifier "
+                         "(letters, digits and _, not starting with a digit)")
+    return name

@@ -1,0 +1,180 @@
+"""C code for solving the dynamics ``A·w = b`` numerically.
+
+* Symmetric A (Kane without motion constraints, Lagrange without
+  multipliers: A = M is SPD): an LDLᵀ factorization unrolled over the
+  structural nonzeros of A and the fill-in they cause, known at compile time.
+* Otherwise (multipliers, motion constraints): LU with partial pivoting;
+  the row swaps are only known at run time, so it is a dense loop nest.
+
+Both store the factors in ``F`` (n*n doubles, then n more) and report a pivot
+that is not larger than ``64·DBL_EPSILON·scale`` (scale: the largest |diagonal| entry
+of A for LDLᵀ, the largest |entry| for LU) as EOMC_SINGULAR_MASS_MATRIX,
+and a non-finite scale as EOMC_NONFINITE.  Each emitter also returns
+operation counts for the metadata.
+"""
+from collections import Counter
+from dataclasses import dataclass
+
+__all__ = ["Solver", "ldlt_solver", "lu_solver"]
+
+
+@dataclass(frozen=True)
+class Solver:
+    factor_name: str
+    solve_name: str
+    code: str               # static C functions
+    factor_ops: Counter
+    solve_ops: Counter
+    fsize: int              # doubles in F
+    pivots: bool            # LU needs an int pivot array
+
+    def factor_call(self, F="F"):
+        return f"{self.factor_name}({F}, piv)" if self.pivots else f"{self.factor_name}({F})"
+
+    def solve_call(self, vec, F="F"):
+        return f"{self.solve_name}({F}, piv, {vec})" if self.pivots else f"{self.solve_name}({F}, {vec})"
+
+
+def _fill_pattern(n, pattern):
+    """Lower-triangle nonzeros of L (strictly below the diagonal), fill-in included."""
+    L = {(i, j) for (i, j) in pattern if i > j}
+    cols = {}
+    for j in range(n):
+        rows_j = {k for k in range(j) if (j, k) in L}
+        for i in range(j + 1, n):
+            if (i, j) not in L and any((i, k) in L for k in rows_j):
+                L.add((i, j))
+        cols[j] = rows_j
+    return L
+
+
+def _sum(terms):
+    return " + ".join(terms)
+
+
+def ldlt_solver(prefix, n, pattern):
+    """Unrolled LDLᵀ for a symmetric A with lower-triangle ``pattern`` (set of (i, j))."""
+    L = _fill_pattern(n, pattern)
+    D = n * n
+    fo, so = Counter(), Counter()
+    lines = [f"static int {prefix}_ldlt_factor(double *F)", "{",
+             "    double scale = 0.0, tol, d;", "    int i;",
+             f"    for (i = 0; i < {n}; i++) {{",
+             f"        const double a = fabs(F[i * {n + 1}]);",
+             "        if (!(a < HUGE_VAL)) return EOMC_NONFINITE;",
+             "        if (a > scale) scale = a;", "    }",
+             "    tol = 64.0 * DBL_EPSILON * scale;"]
+    for j in range(n):
+        ks = [k for k in range(j) if (j, k) in L]
+        lines.append("    {")
+        for k in ks:
+            lines.append(f"        const double e{k} = F[{j * n + k}] * F[{k * n + k}];")
+        fo["muls"] += len(ks)
+        diag = f"F[{j * n + j}]" + "".join(f" - F[{j * n + k}] * e{k}" for k in ks)
+        fo["muls"] += len(ks)
+        fo["adds"] += len(ks)
+        lines += [f"        d = {diag};",
+                  "        if (!(d > tol)) return EOMC_SINGULAR_MASS_MATRIX;",
+                  f"        F[{j * n + j}] = d;",
+                  f"        F[{D + j}] = 1.0 / d;"]
+        fo["divs"] += 1
+        for i in range(j + 1, n):
+            if (i, j) not in L:
+                continue
+            terms = [f"F[{i * n + k}] * e{k}" for k in ks if (i, k) in L]
+            fo["muls"] += len(terms) + 1
+            fo["adds"] += len(terms)
+            head = f"F[{i * n + j}]" if (i, j) in pattern or (j, i) in pattern else "0.0"
+            if head == "0.0":
+                fo["adds"] -= 1
+                expr = f"-({_sum(terms)})"
+            else:
+                expr = head + "".join(f" - {t}" for t in terms)
+            lines.append(f"        F[{i * n + j}] = ({expr}) * F[{D + j}];")
+        lines.append("    }")
+    lines += ["    return EOMC_OK;", "}", ""]
+    lines += [f"static void {prefix}_ldlt_solve(const double *F, double *b)", "{"]
+    for i in range(n):
+        terms = [f"F[{i * n + k}] * b[{k}]" for k in range(i) if (i, k) in L]
+        if terms:
+            lines.append(f"    b[{i}] -= {_sum(terms)};")
+            so["muls"] += len(terms)
+            so["adds"] += len(terms)
+    for i in range(n):
+        lines.append(f"    b[{i}] *= F[{D + i}];")
+    so["muls"] += n
+    for i in reversed(range(n)):
+        terms = [f"F[{k * n + i}] * b[{k}]" for k in range(i + 1, n) if (k, i) in L]
+        if terms:
+            lines.append(f"    b[{i}] -= {_sum(terms)};")
+            so["muls"] += len(terms)
+            so["adds"] += len(terms)
+    lines += ["}", ""]
+    return Solver(f"{prefix}_ldlt_factor", f"{prefix}_ldlt_solve", "\n".join(lines),
+                  fo, so, n * n + n, False)
+
+
+_LU = """\
+static int {p}_lu_factor(double *F, int *piv)
+{{
+    double scale = 0.0, tol;
+    int i, j, k;
+    for (i = 0; i < {nn}; i++) {{
+        const double a = fabs(F[i]);
+        if (!(a < HUGE_VAL)) return EOMC_NONFINITE;
+        if (a > scale) scale = a;
+    }}
+    tol = 64.0 * DBL_EPSILON * scale;
+    for (k = 0; k < {n}; k++) {{
+        int m = k;
+        double amax = fabs(F[k * {n} + k]), inv;
+        for (i = k + 1; i < {n}; i++) {{
+            const double a = fabs(F[i * {n} + k]);
+            if (a > amax) {{ amax = a; m = i; }}
+        }}
+        if (!(amax > tol)) return EOMC_SINGULAR_MASS_MATRIX;
+        piv[k] = m;
+        if (m != k) {{
+            for (j = 0; j < {n}; j++) {{
+                const double s = F[k * {n} + j];
+                F[k * {n} + j] = F[m * {n} + j];
+                F[m * {n} + j] = s;
+            }}
+        }}
+        inv = 1.0 / F[k * {n} + k];
+        F[{nn} + k] = inv;
+        for (i = k + 1; i < {n}; i++) {{
+            const double l = F[i * {n} + k] * inv;
+            F[i * {n} + k] = l;
+            if (l != 0.0) {{
+                for (j = k + 1; j < {n}; j++) F[i * {n} + j] -= l * F[k * {n} + j];
+            }}
+        }}
+    }}
+    return EOMC_OK;
+}}
+
+static void {p}_lu_solve(const double *F, const int *piv, double *b)
+{{
+    int i, j;
+    for (i = 0; i < {n}; i++) {{
+        const double s = b[piv[i]];
+        b[piv[i]] = b[i];
+        b[i] = s;
+        for (j = 0; j < i; j++) b[i] -= F[i * {n} + j] * b[j];
+    }}
+    for (i = {n} - 1; i >= 0; i--) {{
+        for (j = i + 1; j < {n}; j++) b[i] -= F[i * {n} + j] * b[j];
+        b[i] *= F[{nn} + i];
+    }}
+}}
+"""
+
+
+def lu_solver(prefix, n):
+    """Dense LU with partial pivoting for an n x n A (loops; n is a literal)."""
+    fo = Counter(divs=n, muls=sum((n - k - 1) * (n - k) for k in range(n)),
+                 adds=sum((n - k - 1) ** 2 for k in range(n)))
+    so = Counter(muls=n * n, adds=n * (n - 1))
+    return Solver(f"{prefix}_lu_factor", f"{prefix}_lu_solve", _LU.format(p=prefix, n=n, nn=n * n),
+                  fo, so, n * n + n, True)

@@ -1,0 +1,46 @@
+"""C99 expression printer for IR expressions.
+
+SymPy's C99CodePrinter does the precedence work; this subclass only
+
+* maps symbols to C names (array slots ``x[3]``, temporaries ``t12``),
+* prints floats so they round-trip exactly (``repr``), exact rationals as
+  ``1.0/3.0`` (SymPy's rule), and named constants (pi, E) as literals rather than the
+  non-C99 ``M_PI`` macros,
+* prints :class:`~eomc.compiler.ir.IMul` products as ``a*b*c``.
+"""
+import sympy as sm
+from sympy.printing.c import C99CodePrinter
+from sympy.printing.precedence import PRECEDENCE
+
+__all__ = ["CPrinter"]
+
+
+class CPrinter(C99CodePrinter):
+    def __init__(self, names):
+        super().__init__({"math_macros": {}})
+        self._names = names
+
+    def _print_Symbol(self, expr):
+        name = self._names.get(expr)
+        if name is None:
+            raise KeyError(f"symbol {expr} has no C name (compiler bug)")
+        return name
+
+    def _print_Float(self, expr):
+        text = repr(float(expr))
+        if "inf" in text or "nan" in text:
+            raise ValueError(f"non-finite literal {expr} in generated code")
+        return text if ("." in text or "e" in text) else text + ".0"
+
+    def _print_Integer(self, expr):
+        return f"{int(expr)}.0"
+
+    def _print_NumberSymbol(self, expr):
+        return self._print_Float(sm.Float(expr.evalf(17)))
+
+    _print_Pi = _print_NumberSymbol
+    _print_Exp1 = _print_NumberSymbol
+
+    def _print_IMul(self, expr):
+        prec = PRECEDENCE["Mul"]
+        return "*".join(self.parenthesize(a, prec) for a in expr.args)

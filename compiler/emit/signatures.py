@@ -1,0 +1,45 @@
+"""The one table of generated C signatures: header, definitions and cffi cdef all come from it."""
+
+__all__ = ["SIGNATURES", "FUNCTION_ORDER", "STRUCT_FIELDS", "prototype", "cdef"]
+
+_RHS = (("double", "t"), ("const double *", "x"), ("const double *", "p"),
+        ("const double *", "r"))
+
+SIGNATURES = {
+    "rhs": _RHS + (("double *", "xdot"), ("double *", "work")),
+    "jac_x": _RHS + (("double *", "out"), ("double *", "work")),
+    "jac_r": _RHS + (("double *", "out"), ("double *", "work")),
+    "mass_matrix": _RHS + (("double *", "out"), ("double *", "work")),
+    "forcing": _RHS + (("double *", "out"), ("double *", "work")),
+    "outputs": _RHS + (("double *", "out"), ("double *", "work")),
+    "constraints": _RHS + (("double *", "out"), ("double *", "work")),
+    "constraints_jac": _RHS + (("double *", "out"), ("double *", "work")),
+    "inverse_dynamics": (("double", "t"), ("const double *", "x"), ("const double *", "udot"),
+                         ("const double *", "p"), ("const double *", "r"),
+                         ("double *", "tau"), ("double *", "work")),
+    "linearize": _RHS + (("double *", "A"), ("double *", "B"), ("double *", "work")),
+}
+
+FUNCTION_ORDER = ("rhs", "jac_x", "jac_r", "mass_matrix", "forcing", "inverse_dynamics",
+                  "outputs", "constraints", "constraints_jac", "linearize")
+
+# eomc_model fields holding function pointers (the rest are exported only).
+STRUCT_FIELDS = ("rhs", "jac_x", "jac_r", "mass_matrix", "forcing", "outputs",
+                 "constraints", "constraints_jac")
+
+
+def _arg(ctype, name):
+    return f"{ctype}{name}" if ctype.endswith("*") else f"{ctype} {name}"
+
+
+def prototype(name, function):
+    """``int NAME_function(args)`` without the semicolon."""
+    args = ", ".join(_arg(c, a) for c, a in SIGNATURES[function])
+    return f"int {name}_{function}({args})"
+
+
+def cdef(name, functions):
+    """cffi declarations of a model's exported functions (``eomc_model`` must be declared first)."""
+    lines = [prototype(name, f) + ";" for f in FUNCTION_ORDER if f in functions]
+    lines.append(f"const eomc_model *{name}_model(void);")
+    return "\n".join(lines) + "\n"

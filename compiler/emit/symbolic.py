@@ -1,0 +1,148 @@
+"""Symbolic results of every generated function, before optimization.
+
+The dynamics ``A(q,t)·w = b(q,u,t)``, ``w = [u'; λ]``, is never inverted
+symbolically: rhs only needs A's structural nonzeros and b, the solve is
+emitted as unrolled C (see :mod:`.linsolve`).  The Jacobians follow from
+differentiating ``A·w = b`` at fixed ``w`` (the value the first solve gave,
+read from the C array ``w`` through the symbols ``w_j``):
+
+    dw/dx_k = A⁻¹ (∂b/∂x_k − ∂A/∂x_k · w),
+
+so jac_x needs the columns ``G[:, k] = ∂(b − A·W)/∂x_k`` and the same factorization.
+"""
+import random
+from dataclasses import dataclass
+
+import sympy as sm
+
+from ...errors import ModelError
+from ..ir import Program
+
+__all__ = ["FUNCTION_GROUPS", "Symbolic", "build_symbolic"]
+
+FUNCTION_GROUPS = {
+    "rhs": ("kin", "A", "b"),
+    "jac_x": ("A", "b", "dkin", "G"),
+    "jac_r": ("A", "b", "dkin_r", "Gr"),
+    "mass_matrix": ("M",),
+    "forcing": ("f",),
+    "inverse_dynamics": ("tau",),
+    "outputs": ("out",),
+    "constraints": ("con",),
+    "constraints_jac": ("dcon",),
+    "linearize": (),
+}
+
+
+@dataclass(frozen=True)
+class Symbolic:
+    program: Program
+    nw: int                 # unknowns of the dynamics solve (nu + nλ)
+    symmetric: bool         # A symmetric (LDLᵀ) or not (LU with pivoting)
+    pattern: frozenset      # structural nonzeros (i, j) of A
+    W: tuple                # symbols of the solved w = [u'; λ]
+    UD: tuple               # symbols of inverse dynamics' given u'
+    nhol: int
+    nvel: int
+    output_names: tuple
+
+
+def _is_symmetric(A, seed=0):
+    """Structurally equal mirror entries, or numerically equal at two random points."""
+    n = A.shape[0]
+    pairs = [(i, j) for i in range(n) for j in range(i) if A[i, j] != A[j, i]]
+    if not pairs:
+        return True
+    rng = random.Random(seed)
+    syms = sorted(A.free_symbols, key=lambda s: s.name)
+    for _ in range(2):
+        vals = {s: sm.Float(rng.uniform(0.3, 1.7)) for s in syms}
+        for i, j in pairs:
+            a, b = complex(A[i, j].xreplace(vals)), complex(A[j, i].xreplace(vals))
+            if abs(a - b) > 1e-10 * max(1.0, abs(a), abs(b)):
+                return False
+    return True
+
+
+def _jacobian_entries(group, exprs, wrt, results):
+    for i, e in enumerate(exprs):
+        for k, v in enumerate(wrt):
+            d = e.diff(v)
+            if d != 0:
+                results.append(((group, i, k), d))
+
+
+def _outputs(formed, layout, outputs):
+    kin = {sm.Derivative(q, sm.Symbol("t")): k for q, k in zip(formed.coordinates, formed.kinematics)}
+    names, exprs = [], []
+    for name, expr in (outputs or {}).items():
+        if not str(name).isidentifier():
+            raise ModelError(f"output name {name!r} is not an identifier")
+        e = sm.sympify(expr).xreplace(kin)
+        names.append(str(name))
+        exprs.append(layout.apply(e, f"output {name!r}"))
+    return tuple(names), exprs
+
+
+def _dynamics(formed, layout):
+    A = formed.dynamics_matrix.applyfunc(lambda e: layout.apply(e, "the mass matrix"))
+    b = [layout.apply(e, "the forcing vector") for e in formed.dynamics_rhs]
+    if A.shape != (len(b), len(b)) or len(b) != formed.nu + len(formed.multipliers):
+        raise ModelError(f"dynamics matrix is {A.shape[0]}x{A.shape[1]} but the system has "
+                         f"{formed.nu} speeds and {len(formed.multipliers)} multipliers")
+    return A, b
+
+
+def build_symbolic(formed, layout, functions, outputs=None):
+    """The unoptimized program holding the result groups ``functions`` need."""
+    groups = {g for f in functions for g in FUNCTION_GROUPS[f]}
+    A, b = _dynamics(formed, layout)
+    nw, nu, nq = len(b), formed.nu, formed.nq
+    kin = [layout.apply(e, "the kinematic equations") for e in formed.kinematics]
+    # Constraint equations for an actual model may not use velocity constraints via
+    # Kane's motion rows; symmetry + no multipliers + no motion constraints => SPD.
+    nvel = len(formed.velocity_constraints)
+    symmetric = not formed.multipliers and nvel == 0 and _is_symmetric(A)
+    if symmetric:
+        A = sm.Matrix(nw, nw, lambda i, j: A[max(i, j), min(i, j)])
+    pattern = frozenset((i, j) for i in range(nw) for j in range(nw) if A[i, j] != 0)
+    W = tuple(sm.Symbol(f"w_{j}", real=True) for j in range(nw))
+    UD = tuple(sm.Symbol(f"ud_{j}", real=True) for j in range(nu))
+    res = []
+    if "kin" in groups:
+        res += [(("kin", i), e) for i, e in enumerate(kin)]
+    if "A" in groups:
+        res += [(("A", i, j), A[i, j]) for (i, j) in sorted(pattern) if not symmetric or i >= j]
+    if "b" in groups:
+        res += [(("b", i), e) for i, e in enumerate(b)]
+    if "dkin" in groups:
+        _jacobian_entries("dkin", kin, layout.x, res)
+    if "dkin_r" in groups:
+        _jacobian_entries("dkin_r", kin, layout.r, res)
+    if "G" in groups or "Gr" in groups:
+        resid = [b[i] - sm.Add(*[A[i, j] * W[j] for j in range(nw) if (i, j) in pattern])
+                 for i in range(nw)]
+        if "G" in groups:
+            _jacobian_entries("G", resid, layout.x, res)
+        if "Gr" in groups:
+            _jacobian_entries("Gr", resid, layout.r, res)
+    if "M" in groups:
+        res += [(("M", i, j), A[i, j]) for i in range(nu) for j in range(nu) if A[i, j] != 0]
+    if "f" in groups:
+        res += [(("f", i), b[i]) for i in range(nu)]
+    if "tau" in groups:
+        res += [(("tau", i), sm.Add(*[A[i, j] * UD[j] for j in range(nu)]) - b[i])
+                for i in range(nu)]
+    names, outs = _outputs(formed, layout, outputs)
+    if "out" in groups:
+        res += [(("out", i), e) for i, e in enumerate(outs)]
+    hol = [layout.apply(e, "a holonomic constraint") for e in formed.holonomic_constraints]
+    vel = [layout.apply(e, "a velocity constraint") for e in formed.velocity_constraints]
+    if "con" in groups:
+        res += [(("con", i), e) for i, e in enumerate(hol + vel)]
+    if "dcon" in groups:
+        _jacobian_entries("dcon", hol + vel, layout.x, res)
+    inputs = (layout.t,) + layout.x + layout.p + layout.r + W + UD
+    program = Program(inputs=inputs, results=tuple(res))
+    return Symbolic(program=program, nw=nw, symmetric=symmetric, pattern=pattern, W=W, UD=UD,
+                    nhol=len(hol), nvel=len(vel), output_names=names)
