@@ -229,14 +229,14 @@ class Model:
             times, t_stride = self._array(t, (n,), "t (one time per row of X)"), 1
         p = self._params(p)
         if self.ninput and r is not None and np.ndim(r) == 2:
-            R = self._prepare(self._array(r, (n, self.ninput), "r (inputs per row)", self.input_names))
+            R = self._prepare(self._array(r, (n, self.ninput), "r (inputs per row)", self.input_names).reshape(-1))
             r_stride = self.ninput
         else:
             R, r_stride = self._inputs(r), 0
         XD = np.empty((n, self.nx))
         if n == 0:
             return XD
-        status, row = self._kernel("rhs_many")(n, times, t_stride, X, p, R, r_stride,
+        status, row = self._kernel("rhs_many")(n, times, t_stride, X.reshape(-1), p, R, r_stride,
                                                XD.reshape(-1), self._work()[1])
         if status:
             self._fail("rhs", status, times[row * t_stride], X[row], row)

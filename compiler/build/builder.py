@@ -105,12 +105,13 @@ def _runtime_objects(tc, flags, root):
     return entry, key
 
 
-def _model_json(generated, key, backend, tc, flags, extra):
+def _model_json(generated, key, backend, tc, flags, extra, extension=None):
     data = dict(generated.metadata)
     data.update(extra or {})
     data["cdef"] = generated.cdef
     data["build"] = {"library": f"lib{generated.name}.so", "backend": backend,
-                     "compiler": tc.version, "cflags": flags, "key": key}
+                     "compiler": tc.version, "cflags": flags, "key": key,
+                     "extension": extension}
     return json.dumps(data, indent=1, sort_keys=True)
 
 
@@ -146,10 +147,12 @@ def build(generated, *, backend="cffi", cflags=None, cache_dir=None, force=False
         for n in SHIPPED_HEADERS:
             shutil.copyfile(c_dir / n, tmp / n)
         run_compiler(link, tmp, name, key, root)
+        extension = None
         if backend == "cython":
             from .cython_ext import build_extension
-            build_extension(tmp, generated, tc, flags, key, root)
-        (tmp / f"{name}.json").write_text(_model_json(generated, key, backend, tc, flags, extra_metadata))
+            extension = build_extension(tmp, generated, tc, flags, key, root)
+        (tmp / f"{name}.json").write_text(
+            _model_json(generated, key, backend, tc, flags, extra_metadata, extension))
 
     entry, hit = get_or_build(root, "models", key, compile_model, inputs, force=force)
     return BuildResult(name, entry, entry / lib, key, hit, backend)

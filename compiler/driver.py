@@ -1,0 +1,87 @@
+"""The whole pipeline in one function: model -> formed system -> C -> library -> loaded Model.
+
+    derive    eomc.compiler.model.model_spec   (run the model file, .formed(), check variables)
+    generate  eomc.compiler.emit.generate_c    (IR, optimization passes, C text, metadata)
+    compile   eomc.compiler.build.build        (content-addressed cache; C compiler on a miss)
+    export    eomc.compiler.build.export       (only with output_dir: the files `eomc build` writes)
+    load      eomc.runtime.loader.load         (cffi dlopen or the Cython extension)
+"""
+import sys
+import time
+
+from eomc.errors import ModelError
+
+from .build import build
+from .build.export import export
+from .model import model_spec
+from .model.validate import Invalid, check_functions
+
+__all__ = ["compile", "generate", "Progress"]
+
+
+class Progress:
+    """Stage timings on stderr, e.g. ``eomc: generate  0.84 s``; silent when off."""
+
+    def __init__(self, enabled=None, stream=None):
+        self.stream = stream or sys.stderr
+        self.enabled = self.stream.isatty() if enabled is None else bool(enabled)
+        self.timings = {}
+
+    def stage(self, label):
+        progress = self
+
+        class _Stage:
+            def __enter__(self):
+                if progress.enabled:
+                    print(f"eomc: {label} ...", file=progress.stream, flush=True)
+                self.start = time.perf_counter()
+
+            def __exit__(self, *exc):
+                progress.timings[label] = elapsed = time.perf_counter() - self.start
+                if progress.enabled and exc[0] is None:
+                    print(f"eomc: {label:<9} {elapsed:7.3f} s", file=progress.stream, flush=True)
+        return _Stage()
+
+
+def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, functions=None,
+             fold_parameters=False, progress=None):
+    """Derive and generate C without compiling: returns (ModelSpec, GeneratedModel)."""
+    from .emit import generate_c
+    progress = progress if isinstance(progress, Progress) else Progress(progress)
+    try:
+        functions = check_functions(functions)
+    except Invalid as exc:
+        raise ModelError(str(exc)) from None
+    with progress.stage("derive"):
+        spec = model_spec(system, name, parameters=parameters, inputs=inputs, outputs=outputs)
+    with progress.stage("generate"):
+        generated = generate_c(spec.formed, spec.name, parameters=spec.parameters, inputs=spec.inputs,
+                               outputs=spec.outputs, functions=functions, fold_parameters=fold_parameters)
+    return spec, generated
+
+
+def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, functions=None,
+            fold_parameters=False, backend="cffi", cflags=None, cache_dir=None, output_dir=None,
+            progress=None):
+    """Compile a model file (path) or a formed system into a loaded :class:`eomc.runtime.model.Model`.
+
+    Progress (stage timings on stderr) defaults to on when stderr is a terminal.
+    """
+    from eomc.runtime.loader import LoadError, load
+    progress = Progress(progress)
+    spec, generated = generate(system, name, parameters=parameters, inputs=inputs, outputs=outputs,
+                               functions=functions, fold_parameters=fold_parameters, progress=progress)
+    extra = {"initial_state": spec.initial_state} if spec.initial_state is not None else None
+    with progress.stage("compile"):
+        built = build(generated, backend=backend, cflags=cflags, cache_dir=cache_dir, extra_metadata=extra)
+    directory = export(built, output_dir) if output_dir is not None else built.directory
+    with progress.stage("load"):
+        try:
+            return load(directory, generated.name, backend=backend)
+        except LoadError:
+            if output_dir is not None:
+                raise
+            # a cache entry that looked whole but does not load is a miss: rebuild it once
+            built = build(generated, backend=backend, cflags=cflags, cache_dir=cache_dir,
+                          extra_metadata=extra, force=True)
+            return load(built.directory, generated.name, backend=backend)

@@ -1,0 +1,100 @@
+"""One model, however given: a model file or a system object plus keyword arguments.
+
+:func:`model_spec` returns a :class:`ModelSpec` holding the formed system
+(``FormedSystem``) and the checked optional variables -- the single input of
+the code generator.  Mistakes raise ModelFileError with file:line for model
+files and ModelError for objects passed in Python.
+"""
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from eomc.errors import EomcError, ModelError, ModelFileError
+
+from .modelfile import assignment_lines, run_model_file
+from .validate import (Invalid, check_initial_state, check_inputs, check_name, check_outputs,
+                       check_parameters, sanitize_name)
+
+__all__ = ["ModelSpec", "model_spec", "formed_system"]
+
+
+@dataclass(frozen=True)
+class ModelSpec:
+    name: str
+    formed: object                      # FormedSystem
+    parameters: dict = None             # Symbol -> default, or None
+    inputs: list = None                 # dynamic symbols in order, or None
+    initial_state: list = None          # values in state order, or None
+    outputs: dict = None                # name -> expression, or None
+    path: Path = None                   # the model file, if any
+    system: object = field(default=None, repr=False)
+
+
+def _is_sympy_method(system):
+    return type(system).__module__.startswith("sympy.physics") and hasattr(system, "mass_matrix_full")
+
+
+def formed_system(system):
+    """FormedSystem of ``system``: eomc's methods via .formed(), SymPy's via from_sympy."""
+    from eomc.compiler.mechanics.formed import FormedSystem
+    if isinstance(system, FormedSystem):
+        return system
+    if _is_sympy_method(system):
+        try:
+            from eomc.compiler.mechanics import from_sympy
+        except ImportError:
+            raise ModelError("converting a SymPy-formed system needs eomc.mechanics.from_sympy, "
+                             "which this installation lacks") from None
+        return from_sympy(system)
+    if callable(getattr(system, "formed", None)):
+        return system.formed()
+    raise ModelError(f"`system` is a {type(system).__name__}; expected a formed KanesMethod or "
+                     f"LagrangesMethod (from eomc.mechanics or sympy.physics.mechanics)")
+
+
+def _checked(values, formed, name, where):
+    """Run the validators; ``where(variable)`` turns an Invalid into the right error."""
+    try:
+        outputs = check_outputs(values.get("outputs"), formed)
+        return ModelSpec(
+            name=check_name(name), formed=formed,
+            parameters=check_parameters(values.get("parameters"), formed, outputs),
+            inputs=check_inputs(values.get("inputs"), formed),
+            initial_state=check_initial_state(values.get("initial_state"), formed),
+            outputs=outputs, system=values.get("system"))
+    except Invalid as exc:
+        raise where(exc) from None
+
+
+def _from_file(path, name, overrides):
+    namespace, source, filename = run_model_file(path)
+    lines = assignment_lines(source)
+    if "system" not in namespace:
+        raise ModelFileError("does not define `system` (assign a formed KanesMethod or LagrangesMethod "
+                             "to a module-level variable named system)", filename)
+    try:
+        formed = formed_system(namespace["system"])
+    except EomcError as exc:
+        raise ModelFileError(str(exc), filename, lines.get("system")) from None
+    except Exception as exc:
+        raise ModelFileError(f"forming the equations of `system` failed: {type(exc).__name__}: {exc}",
+                             filename, lines.get("system")) from exc
+    values = {k: namespace.get(k) for k in ("system", "parameters", "inputs", "initial_state", "outputs")}
+    values.update({k: v for k, v in overrides.items() if v is not None})
+    name = name or namespace.get("name") or sanitize_name(Path(path).stem)
+
+    def where(exc):
+        if exc.variable in overrides and overrides[exc.variable] is not None:
+            return ModelError(str(exc))
+        return ModelFileError(str(exc), filename, lines.get(exc.variable))
+    spec = _checked(values, formed, name, where)
+    return ModelSpec(**{**spec.__dict__, "path": Path(path)})
+
+
+def model_spec(system, name=None, *, parameters=None, inputs=None, initial_state=None, outputs=None):
+    """Normalize a model file path or a system object into a ModelSpec (see the module docstring)."""
+    overrides = dict(parameters=parameters, inputs=inputs, initial_state=initial_state, outputs=outputs)
+    if isinstance(system, (str, Path)):
+        return _from_file(system, name, overrides)
+    formed = formed_system(system)
+    values = {**overrides, "system": system}
+    return _checked(values, formed, name or "model", lambda exc: ModelError(str(exc)))

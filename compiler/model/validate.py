@@ -1,0 +1,175 @@
+"""Check the optional model-file variables (parameters, inputs, initial_state, outputs).
+
+Each checker returns a normalized value or raises :class:`Invalid` naming the
+variable and what is wrong; the caller adds where (file:line or argument).
+Checks are against the formed system, so a misspelled parameter or an output
+that uses an unknown dynamic symbol is caught before any code is generated.
+"""
+import keyword
+import numbers
+import re
+from collections.abc import Mapping
+
+import sympy as sm
+from sympy.core.function import AppliedUndef
+
+__all__ = ["Invalid", "check_functions", "FUNCTIONS", "check_parameters", "check_inputs", "check_initial_state", "check_outputs",
+           "check_name", "sanitize_name"]
+
+_IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+
+
+class Invalid(ValueError):
+    """A model variable is wrong: ``variable`` names it, the message says why."""
+
+    def __init__(self, variable, message):
+        super().__init__(message)
+        self.variable = variable
+
+
+def _real(value, what, variable):
+    if isinstance(value, bool) or not isinstance(value, (numbers.Real, sm.Basic)):
+        raise Invalid(variable, f"{what} must be a real number, not {type(value).__name__} {value!r}")
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise Invalid(variable, f"{what} must be a real number, not the expression {value}") from None
+    return number
+
+
+def _dynamic(expr):
+    return {f for f in sm.sympify(expr).atoms(AppliedUndef)}
+
+
+def _names(symbols):
+    return ", ".join(sorted(str(s) for s in symbols)) or "none"
+
+
+def _states(formed):
+    return tuple(formed.coordinates) + tuple(formed.speeds)
+
+
+def check_outputs(outputs, formed):
+    """dict name -> SymPy expression in q, u, t, parameters and inputs."""
+    if outputs is None:
+        return None
+    if not isinstance(outputs, Mapping):
+        raise Invalid("outputs", f"`outputs` must be a dict name -> expression, not {type(outputs).__name__}")
+    allowed = set(_states(formed)) | set(formed.inputs)
+    result = {}
+    for name, expr in outputs.items():
+        if not isinstance(name, str) or not _IDENT.match(name) or keyword.iskeyword(name):
+            raise Invalid("outputs", f"output name {name!r} must be an identifier (letters, digits, _)")
+        try:
+            value = sm.sympify(expr)
+        except (sm.SympifyError, TypeError):
+            raise Invalid("outputs", f"output `{name}` is not a SymPy expression: {expr!r}") from None
+        if not isinstance(value, sm.Expr):
+            raise Invalid("outputs", f"output `{name}` must be a scalar expression, not {type(value).__name__}")
+        stray = _dynamic(value) - allowed
+        if stray:
+            raise Invalid("outputs", f"output `{name}` uses {_names(stray)}, which is not a coordinate, "
+                                     f"speed or input of the system (those are {_names(allowed)})")
+        result[name] = value
+    return result
+
+
+def check_parameters(parameters, formed, outputs=None):
+    """dict Symbol (or its name) -> default value; every key must appear in the model."""
+    if parameters is None:
+        return None
+    if not isinstance(parameters, Mapping):
+        raise Invalid("parameters", f"`parameters` must be a dict symbol -> default value, "
+                                    f"not {type(parameters).__name__}")
+    known = {s for s in formed.parameters}
+    for expr in (outputs or {}).values():
+        known |= {s for s in expr.free_symbols if isinstance(s, sm.Symbol)}
+    known.discard(sm.Symbol("t"))
+    by_name = {str(s): s for s in known}
+    result = {}
+    for key, value in parameters.items():
+        symbol = by_name.get(key) if isinstance(key, str) else key
+        if symbol is None or symbol not in known:
+            raise Invalid("parameters", f"unknown parameter `{key}`: it does not appear in the equations "
+                                        f"of motion or outputs (parameters: {_names(known)})")
+        result[symbol] = _real(value, f"the default of parameter `{key}`", "parameters")
+    return result
+
+
+def check_inputs(inputs, formed):
+    """Sequence of the system's input dynamic symbols, in the order the user wants them."""
+    if inputs is None:
+        return None
+    if isinstance(inputs, (str, Mapping)) or not hasattr(inputs, "__iter__"):
+        raise Invalid("inputs", f"`inputs` must be a list of dynamic symbols, not {type(inputs).__name__}")
+    inputs = list(inputs)
+    for item in inputs:
+        if not isinstance(item, AppliedUndef):
+            raise Invalid("inputs", f"input {item!r} is not a dynamic symbol (use dynamicsymbols('F'))")
+    unknown = [i for i in inputs if i not in formed.inputs]
+    if unknown:
+        raise Invalid("inputs", f"unknown input(s) {_names(unknown)}: not in the equations of motion "
+                                f"(the system's inputs: {_names(formed.inputs)})")
+    missing = [i for i in formed.inputs if i not in inputs]
+    if missing:
+        raise Invalid("inputs", f"the equations of motion use input(s) {_names(missing)} that `inputs` "
+                                f"does not list")
+    if len(set(inputs)) != len(inputs):
+        raise Invalid("inputs", "`inputs` lists a symbol twice")
+    return inputs
+
+
+def check_initial_state(initial_state, formed):
+    """dict coordinate/speed -> value, returned as a list in state order (missing ones are 0)."""
+    if initial_state is None:
+        return None
+    if not isinstance(initial_state, Mapping):
+        raise Invalid("initial_state", f"`initial_state` must be a dict coordinate/speed -> value, "
+                                       f"not {type(initial_state).__name__}")
+    states = _states(formed)
+    by_name = {str(s): s for s in states}
+    x0 = dict.fromkeys(states, 0.0)
+    for key, value in initial_state.items():
+        symbol = by_name.get(key) if isinstance(key, str) else key
+        if symbol not in x0:
+            raise Invalid("initial_state", f"`{key}` in initial_state is not a coordinate or speed "
+                                           f"(states: {', '.join(map(str, states))})")
+        x0[symbol] = _real(value, f"initial_state[{key}]", "initial_state")
+    return [x0[s] for s in states]
+
+
+def sanitize_name(stem):
+    """A C identifier from a file stem: other characters become _, a leading digit gets a prefix."""
+    name = re.sub(r"[^A-Za-z0-9_]", "_", stem)
+    return name if _IDENT.match(name) else f"model_{name}"
+
+
+def check_name(name):
+    if not isinstance(name, str) or not _IDENT.match(name):
+        raise Invalid("name", f"model name {name!r} must be a C identifier (letters, digits, _; "
+                              f"not starting with a digit)")
+    return name
+
+
+FUNCTIONS = ("rhs", "jac_x", "jac_r", "mass_matrix", "forcing", "inverse_dynamics", "outputs",
+             "constraints", "constraints_jac", "linearize")
+ALIASES = {"jacobian": ("jac_x",), "input_jacobian": ("jac_r",), "constraints_jacobian": ("constraints_jac",)}
+
+
+def check_functions(functions):
+    """The generated-function list (``--outputs``): names or aliases, comma-separated string allowed."""
+    if functions is None:
+        return None
+    if isinstance(functions, str):
+        functions = [f.strip() for f in functions.split(",") if f.strip()]
+    result = []
+    for f in functions:
+        for name in ALIASES.get(f, (f,)):
+            if name not in FUNCTIONS:
+                raise Invalid("functions", f"unknown function {f!r} to generate; choose from "
+                                           f"{', '.join(FUNCTIONS + tuple(ALIASES))}")
+            if name not in result:
+                result.append(name)
+    if not result:
+        raise Invalid("functions", "no functions to generate were named")
+    return result
