@@ -351,10 +351,10 @@ static int lu_factor(int n, double *A, int *piv)
 
 static void lu_solve(int n, const double *A, const int *piv, double *b)
 {
-    for (int k = 0; k < n; k++) {
+    for (int k = 0; k < n; k++)          /* all row interchanges first (P b) */
         if (piv[k] != k) { double tmp = b[k]; b[k] = b[piv[k]]; b[piv[k]] = tmp; }
+    for (int k = 0; k < n; k++)
         for (int i = k + 1; i < n; i++) b[i] -= A[i * n + k] * b[k];
-    }
     for (int i = n - 1; i >= 0; i--) {
         double s = b[i];
         for (int j = i + 1; j < n; j++) s -= A[i * n + j] * b[j];
@@ -386,10 +386,10 @@ static int lu_factor_c(int n, eomc_cplx *A, int *piv)
 
 static void lu_solve_c(int n, const eomc_cplx *A, const int *piv, eomc_cplx *b)
 {
-    for (int k = 0; k < n; k++) {
+    for (int k = 0; k < n; k++)          /* all row interchanges first (P b) */
         if (piv[k] != k) { eomc_cplx tmp = b[k]; b[k] = b[piv[k]]; b[piv[k]] = tmp; }
+    for (int k = 0; k < n; k++)
         for (int i = k + 1; i < n; i++) b[i] -= A[i * n + k] * b[k];
-    }
     for (int i = n - 1; i >= 0; i--) {
         eomc_cplx s = b[i];
         for (int j = i + 1; j < n; j++) s -= A[i * n + j] * b[j];
