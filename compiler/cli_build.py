@@ -1,0 +1,44 @@
+"""``eomc build MODEL.py -o DIR``: write NAME.c, NAME.h, libNAME.so, NAME.json and NAME.py into DIR.
+
+Everything is built in the cache first and then copied into DIR through a
+temporary directory, so a failed build leaves DIR as it was.
+"""
+import argparse
+
+__all__ = ["configure", "run", "add_generate_options"]
+
+
+def add_generate_options(parser):
+    """Options shared by the commands that generate code (build, inspect)."""
+    parser.add_argument("model", help="model file (Python) defining `system`")
+    parser.add_argument("--name", help="model name (default: the file's `name` or its stem)")
+    parser.add_argument("--outputs", metavar="LIST",
+                        help="comma-separated functions to generate, e.g. rhs,jacobian,mass_matrix "
+                             "(default: all the model supports)")
+    parser.add_argument("--fold-parameters", action="store_true",
+                        help="fold parameter defaults into literals instead of runtime arguments")
+
+
+def configure(parser):
+    add_generate_options(parser)
+    parser.add_argument("-o", "--output", required=True, metavar="DIR", help="directory to write into")
+    parser.add_argument("--backend", choices=("cffi", "cython"), default="cffi",
+                        help="Python binding: cffi (ABI mode, no extension to compile; default) or cython")
+    parser.add_argument("--cflags", help="C compiler flags replacing the default '-O2 -fPIC -std=c99' "
+                                         "(write --cflags='-O3 -march=native')")
+    parser.add_argument("--cache-dir", help="build cache root (default $EOMC_CACHE_DIR or ~/.cache/eomc)")
+    parser.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
+    parser.formatter_class = argparse.ArgumentDefaultsHelpFormatter
+
+
+def run(args):
+    from eomc.compiler.driver import compile
+    model = compile(args.model, args.name, functions=args.outputs, fold_parameters=args.fold_parameters,
+                    backend=args.backend, cflags=args.cflags, cache_dir=args.cache_dir,
+                    output_dir=args.output, progress=not args.quiet)
+    files = sorted(p.name for p in model.directory.iterdir() if p.is_file() and not p.name.startswith("."))
+    print(f"built model {model.name!r} (nq={model.nq}, nu={model.nu}, nparam={model.nparam}, "
+          f"ninput={model.ninput}) in {model.directory}:")
+    for name in files:
+        print(f"  {name}")
+    return 0

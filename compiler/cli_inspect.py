@@ -1,0 +1,39 @@
+"""``eomc inspect MODEL.py``: sizes, per-function operation counts and M's sparsity, without compiling."""
+from .cli_build import add_generate_options
+
+__all__ = ["configure", "run", "format_report"]
+
+_SIZES = ("nq", "nu", "nx", "nparam", "ninput", "noutput", "nhol", "nvel", "work_size")
+
+
+def configure(parser):
+    add_generate_options(parser)
+
+
+def format_report(metadata):
+    """The inspect report for a generated model's metadata, as text."""
+    lines = [f"model {metadata['name']}"]
+    lines.append("sizes: " + ", ".join(f"{k}={metadata[k]}" for k in _SIZES if k in metadata))
+    for label, key in (("states", "state_names"), ("parameters", "param_names"),
+                       ("inputs", "input_names"), ("outputs", "output_names")):
+        lines.append(f"{label}: {', '.join(metadata.get(key, ())) or '-'}")
+    lines.append("")
+    lines.append(f"{'function':<18}{'adds':>8}{'muls':>8}{'divs':>8}{'calls':>8}{'total':>9}")
+    for function, counts in metadata.get("op_counts", {}).items():
+        ops = [int(counts.get(k, 0)) for k in ("adds", "muls", "divs", "calls")]
+        lines.append(f"{function:<18}" + "".join(f"{v:>8}" for v in ops) + f"{sum(ops):>9}")
+    sparsity = metadata.get("mass_matrix_sparsity") or []
+    if sparsity:
+        nonzero = sum(row.count("x") for row in sparsity)
+        lines.append("")
+        lines.append(f"mass matrix sparsity ({nonzero} of {len(sparsity) ** 2} entries nonzero):")
+        lines.extend("  " + " ".join(row) for row in sparsity)
+    return "\n".join(lines)
+
+
+def run(args):
+    from eomc.compiler.driver import generate
+    spec, generated = generate(args.model, args.name, functions=args.outputs,
+                               fold_parameters=args.fold_parameters, progress=False)
+    print(format_report(generated.metadata))
+    return 0

@@ -1,0 +1,53 @@
+"""``eomc show MODEL.py``: derive the model and print its equations of motion readably.
+
+Printed with SymPy's mechanics pretty printer (q1 instead of q1(t), dots for
+time derivatives): coordinates and speeds, the kinematic equations q' = ...,
+the mass matrix and forcing of A [u'; lambda] = b, constraints, inputs and
+parameters.
+"""
+__all__ = ["configure", "run", "format_equations"]
+
+
+def configure(parser):
+    parser.add_argument("model", help="model file (Python) defining `system`")
+    parser.add_argument("--ascii", action="store_true", help="ASCII art instead of Unicode")
+
+
+def _pretty(expr, ascii_only):
+    from sympy.physics.vector.printing import vpprint
+    return vpprint(expr, use_unicode=not ascii_only, wrap_line=False).rstrip()
+
+
+def format_equations(spec, ascii_only=False):
+    """The text `eomc show` prints for a ModelSpec."""
+    import sympy as sm
+    f = spec.formed
+    out = [f"model {spec.name} ({f.method}): nq={f.nq}, nu={f.nu}"]
+    out.append("coordinates q: " + ", ".join(_pretty(s, ascii_only) for s in f.coordinates))
+    out.append("speeds u:      " + ", ".join(_pretty(s, ascii_only) for s in f.speeds))
+    if f.multipliers:
+        out.append("multipliers:   " + ", ".join(map(str, f.multipliers)))
+    out.append("inputs:        " + (", ".join(_pretty(s, ascii_only) for s in f.inputs) or "-"))
+    out.append("parameters:    " + (", ".join(map(str, f.parameters)) or "-"))
+    out.append("\nkinematics  q' =")
+    out.append(_pretty(sm.Matrix(f.kinematics), ascii_only))
+    out.append("\nmass matrix  (A in A [u'; lambda] = b)")
+    out.append(_pretty(sm.Matrix(f.dynamics_matrix), ascii_only))
+    out.append("\nforcing  b =")
+    out.append(_pretty(sm.Matrix(f.dynamics_rhs), ascii_only))
+    for label, matrix in (("holonomic constraints (= 0)", f.holonomic_constraints),
+                          ("velocity constraints (= 0)", f.velocity_constraints)):
+        if matrix is not None and len(matrix):
+            out.append(f"\n{label}")
+            out.append(_pretty(sm.Matrix(matrix), ascii_only))
+    if spec.outputs:
+        out.append("\noutputs")
+        for name, expr in spec.outputs.items():
+            out.extend([f"{name} =", _pretty(expr, ascii_only)])
+    return "\n".join(out)
+
+
+def run(args):
+    from eomc.compiler.model import model_spec
+    print(format_equations(model_spec(args.model), ascii_only=args.ascii))
+    return 0
