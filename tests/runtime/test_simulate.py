@@ -1,0 +1,124 @@
+"""simulate(): argument checking before C runs, failures, named results, projection, CSV."""
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parent / "models"))
+from stand_in import get_model  # noqa: E402
+
+from eomc.errors import SimulationError  # noqa: E402
+from eomc.runtime.simulate import scipy_fun, simulate  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def pend():
+    return get_model("pendulum")
+
+
+@pytest.mark.parametrize("kw,match", [
+    (dict(x0=[1.0, 0.0, 0.0]), r"shape \(2,\)"),
+    (dict(x0=[[1.0, 0.0]]), r"shape \(2,\)"),
+    (dict(x0=[np.nan, 0.0]), "not finite for q1"),
+    (dict(x0=[np.inf, 0.0]), "not finite"),
+    (dict(x0={"q9": 1.0}), "unknown x0"),
+    (dict(t_span=(1.0, 0.0)), "reversed"),
+    (dict(t_span=(1.0, 1.0)), "empty"),
+    (dict(t_span=(0.0,)), "t_span"),
+    (dict(t_span=(0.0, np.inf)), "finite"),
+    (dict(rtol=0.0), "rtol"),
+    (dict(atol=-1e-9), "atol"),
+    (dict(method="euler"), "valid methods: rk4, dopri5, dop853, radau"),
+    (dict(method="rk4"), "dt"),
+    (dict(t_eval=[0.5, 0.2]), "increasing"),
+    (dict(t_eval=[0.0, 3.0]), "inside t_span"),
+    (dict(p=[1.0]), r"shape \(2,\)"),
+    (dict(p={"g": np.nan}), "not finite"),
+    (dict(r=[1.0]), "no inputs"),
+    (dict(max_steps=0), "max_steps"),
+])
+def test_bad_input_is_a_value_error_before_c_runs(pend, kw, match):
+    args = dict(x0=[1.0, 0.0], t_span=(0.0, 1.0))
+    args.update(kw)
+    with pytest.raises(ValueError, match=match):
+        simulate(pend, args.pop("x0"), args.pop("t_span"), **args)
+
+
+def test_bad_input_grid_shapes():
+    m = get_model("oscillator")
+    with pytest.raises(ValueError, match="t_grid"):
+        simulate(m, [0, 0], (0, 1), r=(np.linspace(0, 1, 5), np.zeros((4, 1))))
+    with pytest.raises(ValueError, match="strictly increasing"):
+        simulate(m, [0, 0], (0, 1), r=(np.array([0, 0.5, 0.5, 1.0]), np.zeros(4)))
+
+
+def test_named_columns_outputs_and_aliases(pend):
+    res = simulate(pend, {"q1": 0.3}, (0, 2), method="RK45", rtol=1e-9, atol=1e-9, n_points=51)
+    assert res.method == "dopri5" and res.success and res.t.shape == (51,)
+    assert res.x.shape == (51, 2)
+    np.testing.assert_array_equal(res["q1"], res.x[:, 0])
+    e0 = -9.81 * np.cos(0.3)
+    assert np.max(np.abs(res["energy"] - e0)) < 1e-7
+    assert res.constraint_residual is None
+    with pytest.raises(KeyError, match="neither a state nor an output"):
+        res["nope"]
+
+
+def test_to_csv_round_trip(pend, tmp_path):
+    res = simulate(pend, [0.3, 0.0], (0, 1), n_points=11)
+    path = res.to_csv(tmp_path / "traj.csv")
+    data = np.genfromtxt(path, delimiter=",", names=True)
+    assert data.dtype.names == ("t", "q1", "u1", "energy")
+    np.testing.assert_array_equal(data["u1"], res["u1"])
+
+
+def test_blowup_raises_simulation_error_with_time_and_state():
+    m = get_model("blowup")                       # x' = x^2, x(0) = 1 -> infinite at t = 1
+    with pytest.raises(SimulationError, match=r"t=(0\.99|1\.0).*state x=") as info:
+        simulate(m, [1.0], (0, 2))
+    assert "non-finite" in str(info.value) or "underflow" in str(info.value)
+    res = simulate(m, [1.0], (0, 2), method="radau", raise_on_failure=False)
+    assert res.status in (3, 5) and 0.99 < res.t_final < 1.001
+    assert np.all(res.t <= res.t_final) and np.all(np.isfinite(res.x))
+
+
+@pytest.mark.parametrize("method,kw", [("dop853", {}), ("rk4", {"dt": 0.01})])
+def test_model_status_propagates_with_time(method, kw):
+    m = get_model("singular")                     # reports a singular mass matrix after t = 0.5
+    with pytest.raises(SimulationError, match="singular mass matrix"):
+        simulate(m, [0.0], (0, 1), method=method, **kw)
+    res = simulate(m, [0.0], (0, 1), method=method, raise_on_failure=False, **kw)
+    assert res.status == 1 and res.t_final <= 0.5 + 1e-12
+    assert res.t[-1] <= 0.5
+
+
+def test_max_steps_is_reported():
+    with pytest.raises(SimulationError, match="maximum number of steps"):
+        simulate(get_model("pendulum"), [1.0, 0.0], (0, 100), max_steps=10)
+
+
+def test_projection_keeps_the_ring_constraint():
+    m = get_model("ring")
+    x0 = [1.0, 0.0, 0.0, 0.0]
+    free = simulate(m, x0, (0, 20), rtol=1e-5, atol=1e-8)
+    proj = simulate(m, x0, (0, 20), rtol=1e-5, atol=1e-8, project=True)
+    assert free.constraint_residual.shape == free.t.shape
+    assert free.constraint_residual[-1] > 1e-6            # drifts without projection
+    assert proj.stats["nproj"] == proj.stats["accepted"] + 1
+    assert proj.stats["max_residual"] < 1e-12
+    r = np.hypot(proj["x"], proj["y"])
+    assert np.max(np.abs(r - 1.0)) < 1e-6                  # dense output between projections
+
+
+def test_scipy_fun_returns_fresh_arrays(pend):
+    fun, jac = scipy_fun(pend)
+    a, b = fun(0.0, np.array([0.1, 0.0])), fun(0.0, np.array([0.2, 0.0]))
+    assert a is not b and a[1] != b[1]
+    np.testing.assert_allclose(jac(0.0, np.array([0.0, 0.0])), [[0, 1], [-9.81, 0]])
+
+
+def test_plot_writes_png(pend, tmp_path):
+    pytest.importorskip("matplotlib")
+    res = simulate(pend, [0.3, 0.0], (0, 1), n_points=11)
+    assert res.plot(tmp_path / "t.png").stat().st_size > 1000
