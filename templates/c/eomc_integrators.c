@@ -406,6 +406,13 @@ typedef struct outw {
     double *x;
 } outw;
 
+/* A row written at a step end before projection gets the projected state. */
+static void fix_last_row(outw *ow, double tn, const double *x)
+{
+    if (ow->i > 0 && ow->t[ow->i - 1] == tn)
+        memcpy(ow->x + (size_t)(ow->i - 1) * ow->nx, x, (size_t)ow->nx * sizeof(double));
+}
+
 typedef struct proj {
     int on, k;              /* k = nhol + nvel */
     double *g, *G, *S, *y;
@@ -537,6 +544,7 @@ static int run_rk4(ctx *c, const eomc_options *o, proj *pj, double t0, double t1
         EMIT_UNTIL(ow, tn, hermite(n, hh, (tau - t) / hh, x, k1, x1, k2, row));
         if (pj->on) {
             if ((s = project_state(c, pj, tn, x1))) return s;
+            fix_last_row(ow, tn, x1);
             if ((s = frhs(c, tn, x1, k2))) return s;
         }
         memcpy(x, x1, (size_t)n * sizeof(double));
@@ -747,6 +755,7 @@ static int run_erk(ctx *c, const erk *tb, const eomc_options *o, proj *pj,
         memcpy(K, K + (size_t)tb->s * n, (size_t)n * sizeof(double));
         if (pj->on) {
             if ((s = project_state(c, pj, tn, ynew))) return s;
+            fix_last_row(ow, tn, ynew);
             if ((s = frhs(c, tn, ynew, K))) return s;
         }
         memcpy(x, ynew, (size_t)n * sizeof(double));
@@ -1010,6 +1019,7 @@ static int run_radau(ctx *c, const eomc_options *o, proj *pj, double t0, double 
         EMIT_UNTIL(ow, tn, radau_dense(n, w.Q, w.yold, (tau - t) / hused, row));
         if (pj->on) {
             if ((s = project_state(c, pj, tn, w.ynew))) return s;
+            fix_last_row(ow, tn, w.ynew);
             if ((s = frhs(c, tn, w.ynew, w.fnew))) return s;
         }
         if (have_sol == -1) {
