@@ -18,6 +18,7 @@ from sympy.physics.mechanics import (  # noqa: F401
 
 from .formed import FormedSystem
 from .energy import Lagrangian, kinetic_energy
+from .convert import from_sympy
 
 __all__ = [
     "Body", "Dyadic", "Lagrangian", "Linearizer", "Particle", "Point",
@@ -28,7 +29,7 @@ __all__ = [
     "angular_momentum", "mechanics_printing", "mlatex", "mpprint", "mprint",
     "msubs", "outer", "partial_velocity", "potential_energy",
     "time_derivative", "vlatex", "vpprint", "vprint", "Force", "Torque",
-    "FormedSystem",
+    "FormedSystem", "from_sympy",
 ]
 
 try:  # the methods are added by .kane / .lagrange

@@ -123,9 +123,8 @@ class LagrangesMethod:
         self._hol_coneqs = _as_matrix(hol_coneqs, "hol_coneqs")
         self._nonhol_coneqs = _as_matrix(nonhol_coneqs, "nonhol_coneqs")
         self._seed_coneqs = _as_matrix(coneqs, "coneqs")
-        self.coneqs = sm.Matrix.vstack(
-            sm.Matrix(self._hol_coneqs.diff(_t)) if self._hol_coneqs else sm.Matrix(),
-            self._nonhol_coneqs, self._seed_coneqs)
+        rows = list(self._hol_coneqs.diff(_t)) + list(self._nonhol_coneqs) + list(self._seed_coneqs)
+        self.coneqs = sm.Matrix(rows) if rows else sm.Matrix()
         self.eom = None
         self.lam_vec = sm.Matrix()
         self.lam_coeffs = sm.Matrix()

@@ -20,7 +20,6 @@ def _atoms(mats):
         m = sm.Matrix(m)
         dyn |= find_dynamicsymbols(m)
         free |= m.free_symbols
-    free.discard(_t)
     return dyn, free
 
 
@@ -39,7 +38,7 @@ def evaluate(mat, values):
     keys = sorted(values, key=lambda a: -len(str(a)))
     dummies = {a: sm.Dummy() for a in keys}
     plain = mat.xreplace(dummies)
-    left = find_dynamicsymbols(plain) | (plain.free_symbols - set(dummies.values()) - {_t})
+    left = find_dynamicsymbols(plain) | (plain.free_symbols - set(dummies.values()))
     assert not left, f"no value for {left}"
     f = sm.lambdify([list(dummies.values())], plain, "numpy")
     return np.asarray(f([values[a] for a in keys]), dtype=float)
