@@ -44,7 +44,7 @@ def formed_system(system):
         except ImportError:
             raise ModelError("converting a SymPy-formed system needs eomc.mechanics.from_sympy, "
                              "which this installation lacks") from None
-        return from_sympy(system)
+        system = from_sympy(system)
     if callable(getattr(system, "formed", None)):
         return system.formed()
     raise ModelError(f"`system` is a {type(system).__name__}; expected a formed KanesMethod or "
