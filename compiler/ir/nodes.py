@@ -6,12 +6,15 @@ power pass writes ``x**3`` as ``IMul(x, x, x)`` and the C printer prints
 numeric checks of a program need nothing special.
 """
 import sympy as sm
+from sympy.printing.precedence import PRECEDENCE
 
 __all__ = ["IMul"]
 
 
 class IMul(sm.Function):
     is_real = True
+    # printers parenthesize it like a product: 1/IMul(x, x) is 1/(x*x), not 1/x*x
+    precedence = PRECEDENCE["Mul"]
 
     @classmethod
     def eval(cls, *args):

@@ -140,3 +140,28 @@ class Oracle:
 
 def rel_err(a, b):
     return float(np.max(np.abs(a - b)) / max(1.0, float(np.max(np.abs(b)))))
+
+
+def particle_on_sphere():
+    """A particle on a sphere of radius R under gravity, Cartesian q with one multiplier."""
+    x, y, z = q = dynamicsymbols("x y z")
+    m, g, R = sm.symbols("m g R")
+    N = me.ReferenceFrame("N")
+    O = me.Point("O")
+    P = O.locatenew("P", x * N.x + y * N.y + z * N.z)
+    P.set_vel(N, x.diff(t) * N.x + y.diff(t) * N.y + z.diff(t) * N.z)
+    pa = me.Particle("pa", P, m)
+    pa.potential_energy = m * g * z
+    L = me.Lagrangian(N, pa)
+    lm = me.LagrangesMethod(L, q, hol_coneqs=[x**2 + y**2 + z**2 - R**2], frame=N)
+    lm.form_lagranges_equations()
+    return lm
+
+
+def random_sphere_state(rng, R):
+    """A state on the sphere |r| = R with a tangent velocity."""
+    r = rng.normal(size=3)
+    r *= R / np.linalg.norm(r)
+    v = rng.normal(size=3)
+    v -= r * (v @ r) / (r @ r)
+    return np.concatenate([r, v])
