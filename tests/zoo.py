@@ -13,6 +13,19 @@ def n_link_pendulum_on_cart(n, mech, cart_force=True, joint_torques=False):
 
     Returns (kane, specified) where specified lists the input dynamic symbols.
     """
+    parts = n_link_pendulum_on_cart_kinematics(n, mech, cart_force, joint_torques)
+    kane = mech.KanesMethod(parts["frame"], q_ind=parts["q"], u_ind=parts["u"],
+                            kd_eqs=parts["kd_eqs"])
+    kane.kanes_equations(parts["bodies"], parts["loads"])
+    return kane, parts["specified"]
+
+
+def n_link_pendulum_on_cart_kinematics(n, mech, cart_force=True, joint_torques=False):
+    """Everything :func:`n_link_pendulum_on_cart` builds before Kane's method runs.
+
+    Returns a dict with frame, q, u, kd_eqs, bodies, loads and specified, so a
+    benchmark can time the derivation (KanesMethod + kanes_equations) alone.
+    """
     me = mech
     q = me.dynamicsymbols(f"q:{n + 1}")
     u = me.dynamicsymbols(f"u:{n + 1}")
@@ -52,9 +65,8 @@ def n_link_pendulum_on_cart(n, mech, cart_force=True, joint_torques=False):
         F = me.dynamicsymbols("F")
         forces.append((P0, F * I.x))
         specified.append(F)
-    kane = me.KanesMethod(I, q_ind=q, u_ind=u, kd_eqs=kindiffs)
-    kane.kanes_equations(particles, forces)
-    return kane, specified
+    return {"frame": I, "q": q, "u": u, "kd_eqs": kindiffs, "bodies": particles,
+            "loads": forces, "specified": specified}
 
 
 def n_link_pendulum_on_cart_lagrange(n, mech, cart_force=True):

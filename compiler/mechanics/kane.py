@@ -33,7 +33,7 @@ from sympy.physics.vector import dynamicsymbols
 from eomc.errors import ModelError
 
 from .formed import FormedSystem
-from .kane_forms import VectorReader, assemble, dot, read_bodies, read_loads
+from .kane_forms import VectorReader, assemble, dot, read_bodies, read_loads, to_dynamic
 from .kane_inputs import (as_symbol_list, check_bodies, check_time_functions,
                           parse_loads, split_bodies_and_loads)
 from .kane_kinematics import constraint_matrices, kinematic_matrices, linear_solver
@@ -44,6 +44,15 @@ __all__ = ["KanesMethod"]
 
 def _rows(mat, n):
     return mat if mat.rows else sm.zeros(0, n)
+
+
+def _frstar(mm, neg_nonmm, udot):
+    """−(mm u' + nonMM), row by row, without negating large sums."""
+    rows = []
+    for r in range(mm.rows):
+        terms = [sm.Mul(sm.S.NegativeOne, mm[r, c], udot[c]) for c in range(mm.cols) if mm[r, c] != 0]
+        rows.append(sm.Add(*terms, neg_nonmm[r]))
+    return sm.Matrix(len(rows), 1, rows)
 
 
 class KanesMethod:
@@ -153,40 +162,51 @@ class KanesMethod:
         self._body_terms = read_bodies(space, reader, self._inertial, bodies)
         self._load_terms = read_loads(space, reader, self._inertial, parsed)
         self._space = space
+        to_dynamic(space, self._body_terms, self._load_terms)
         o, s = len(self._u), len(self._uaux)
-        MM, nonmm, fr = assemble(self._body_terms, self._load_terms, o + s, o)
-        MM = space.matrix_to_dynamic(sm.Matrix(o + s, o, [e for row in MM for e in row]))
-        nonmm = space.matrix_to_dynamic(sm.Matrix(o + s, 1, nonmm))
-        fr = space.matrix_to_dynamic(sm.Matrix(o + s, 1, fr))
-        self._finish(MM, nonmm, fr, o, s)
+        MM, neg_nonmm, fr = assemble(self._body_terms, self._load_terms, o + s, o)
+        MM = sm.Matrix(o + s, o, [e for row in MM for e in row])
+        neg_nonmm = sm.Matrix(o + s, 1, neg_nonmm)
+        fr = sm.Matrix(o + s, 1, fr)
+        self._finish(MM, neg_nonmm, fr, o, s)
         self._bodylist = bodies
         self._forcelist = None if loads is None else list(loads)
         return self._fr, self._frstar
 
-    def _finish(self, MM, nonmm, fr, o, s):
-        udot = sm.Matrix(self._udot)
-        mm, nm, f = MM[:o, :], nonmm[:o, :], fr[:o, :]
+    def _finish(self, MM, neg_nonmm, fr, o, s):
+        """Eliminate dependent speeds; store k_d, forcing, Fr, Fr* (and auxiliary rows).
+
+        Fr* = −(M u' + nonMM) is built term by term so that no large sum is
+        negated (SymPy distributes a −1 over every term of a sum).
+        """
+        udot = list(self._udot)
+        mm, nn, f = MM[:o, :], neg_nonmm[:o, :], fr[:o, :]
         if self._udep:
             p = o - len(self._udep)
             A = self._Ars.T
             mm = mm[:p, :] + A * mm[p:, :]
-            nm = nm[:p, :] + A * nm[p:, :]
+            nn = nn[:p, :] + A * nn[p:, :]
             f = f[:p, :] + A * f[p:, :]
-        frstar = -(mm * udot + nm)
         self._k_d = mm
-        self._f_d = -(f - nm)
+        self._forcing_d = sm.Matrix([sm.Add(f[r], nn[r]) for r in range(f.rows)])
+        frstar = _frstar(mm, nn, udot)
         self._fr, self._frstar = f, frstar
         if s:
             fraux = fr[o:, :]
-            frstaraux = -(MM[o:, :] * udot + nonmm[o:, :])
+            frstaraux = _frstar(MM[o:, :], neg_nonmm[o:, :], udot)
             self._aux_eq = fraux + frstaraux
             self._fr = f.col_join(fraux)
             self._frstar = frstar.col_join(frstaraux)
 
+    @property
+    def _f_d(self):
+        """SymPy's f_d (k_d u' + f_d = 0): minus the forcing rows from Kane's equations."""
+        return -self._forcing_d
+
     # -- per-body contributions ------------------------------------------------
     def _reduce(self, vec):
         """Apply the dependent-speed elimination to a column over all speeds."""
-        vec = self._space.matrix_to_dynamic(sm.Matrix(vec))
+        vec = sm.Matrix(vec)
         if not self._udep:
             return vec
         p = len(self._u) - len(self._udep)
@@ -205,14 +225,14 @@ class KanesMethod:
         """{body name: its contribution to Fr*} = −Σ (v_r·m a + ω_r·(α·I + ω×I·ω))."""
         self._need_equations()
         o, out = len(self._u), {}
-        sp = self._space
+        udot = list(self._udot)
         for b in self._body_terms:
             col = []
             for r in range(o):
-                acc = [sm.Add(*[b.mass * dot(b.vr[r], b.vr[k]) * sp.udot[k] for k in range(o)]),
+                acc = [sm.Add(*[b.mass * dot(b.vr[r], b.vr[k]) * udot[k] for k in range(o)]),
                        dot(b.vr[r], b.R0)]
                 if b.wr:
-                    acc += [sm.Add(*[dot(b.wr[r], b.Iw[k]) * sp.udot[k] for k in range(o)]),
+                    acc += [sm.Add(*[dot(b.wr[r], b.Iw[k]) * udot[k] for k in range(o)]),
                             dot(b.wr[r], b.T0)]
                 col.append(-sm.Add(*acc))
             out[b.name] = self._reduce(col)
@@ -264,7 +284,7 @@ class KanesMethod:
     @property
     def forcing(self):
         self._need_equations()
-        return -self._f_d.col_join(_rows(self._f_dnh, 1))
+        return self._forcing_d.col_join(-_rows(self._f_dnh, 1))
 
     @property
     def mass_matrix_full(self):

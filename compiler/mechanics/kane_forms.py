@@ -24,14 +24,43 @@ import sympy as sm
 from .kane_inputs import frame_ang_vel, point_velocity
 from .plain import linear_coefficients
 
-__all__ = ["VectorReader", "BodyTerms", "LoadTerms", "read_bodies", "read_loads",
+__all__ = ["VectorReader", "BodyTerms", "LoadTerms", "read_bodies", "read_loads", "to_dynamic",
            "assemble", "dot"]
 
 _ZERO3 = (sm.S.Zero, sm.S.Zero, sm.S.Zero)
 
 
 def dot(a, b):
-    return sm.Add(*[x * y for x, y in zip(a, b) if x != 0 and y != 0])
+    return _pythagoras(sm.Add(*[x * y for x, y in zip(a, b) if x != 0 and y != 0]))
+
+
+def _pythagoras(expr):
+    """Merge c·sin(x)² + c·cos(x)² into c in a sum (cheap, exact).
+
+    Components taken in the inertial frame turn v_r·v_r of a link into
+    l²(sin² + cos²); folding it back keeps the mass matrix as short as
+    a frame-wise dot product would make it.
+    """
+    if not expr.is_Add:
+        return expr
+    found, keep = {}, []
+    for term in expr.args:
+        coeff, factors = term.as_coeff_mul()
+        for k, f in enumerate(factors):
+            if f.is_Pow and f.exp == 2 and isinstance(f.base, (sm.sin, sm.cos)):
+                rest = coeff * sm.Mul(*(factors[:k] + factors[k + 1:]))
+                found.setdefault((rest, f.base.args[0]), {})[f.base.func] = term
+                break
+        else:
+            keep.append(term)
+    if not found:
+        return expr
+    for (rest, _), kinds in found.items():
+        if len(kinds) == 2:
+            keep.append(rest)
+        else:
+            keep.extend(kinds.values())
+    return sm.Add(*keep)
 
 
 def cross(a, b):
@@ -95,9 +124,11 @@ class BodyTerms:
     mass: sm.Expr
     vr: list                 # partial velocities over u + u_aux, N components
     R0: tuple                # m a0 + m' v: the inertia force without the u' terms
+    nR0: tuple = _ZERO3      # −R0 (negated once per body, not per equation)
     wr: list = field(default_factory=list)    # partial angular velocities, B components
     Iw: list = field(default_factory=list)    # I·ω_s for the main speeds
     T0: tuple = _ZERO3
+    nT0: tuple = _ZERO3
 
 
 @dataclass
@@ -131,7 +162,7 @@ def read_bodies(space, reader, inertial, bodies):
         dm = space.dt(m)
         if dm != 0:
             R0 = tuple(a + dm * b for a, b in zip(R0, v0))
-        terms = BodyTerms(body.name, m, partials(v, speeds), R0)
+        terms = BodyTerms(body.name, m, partials(v, speeds), R0, tuple(-c for c in R0))
         if rigid:
             _read_rotation(space, reader, inertial, body, terms, what)
         out.append(terms)
@@ -156,6 +187,26 @@ def _read_rotation(space, reader, inertial, body, terms, what):
     if any(e != 0 for row in dI for e in row):
         T0 = tuple(a + b for a, b in zip(T0, matvec(dI, w0)))
     terms.T0 = T0
+    terms.nT0 = tuple(-c for c in T0)
+
+
+def to_dynamic(space, body_terms, load_terms):
+    """Map every stored piece back to dynamic symbols, in place.
+
+    Only the (small) partial velocities and u'-free accelerations are mapped;
+    the large sums assembled from them are then born in dynamic symbols.
+    """
+    vec = lambda v: tuple(space.to_dynamic(c) for c in v)  # noqa: E731
+    for b in body_terms:
+        b.mass = space.to_dynamic(b.mass)
+        b.vr = [vec(v) for v in b.vr]
+        b.R0, b.nR0 = vec(b.R0), vec(b.nR0)
+        b.wr = [vec(v) for v in b.wr]
+        b.Iw = [vec(v) for v in b.Iw]
+        b.T0, b.nT0 = vec(b.T0), vec(b.nT0)
+    for ld in load_terms:
+        ld.pr = [vec(v) for v in ld.pr]
+        ld.vec = vec(ld.vec)
 
 
 def read_loads(space, reader, inertial, parsed_loads):
@@ -183,17 +234,19 @@ def _grouped(pairs):
 
 
 def assemble(body_terms, load_terms, n_rows, n_main):
-    """Plain-symbol MM (n_rows x n_main), nonMM and Fr (n_rows each).
+    """Plain-symbol MM (n_rows x n_main), −nonMM and Fr (n_rows each).
 
     Rows 0..n_main-1 belong to the main speeds, the rest to auxiliary speeds.
+    −nonMM (the inertia forces with u' = 0) is returned rather than nonMM so
+    that no large sum ever has to be negated.
     """
     fr = [_grouped((ld.pr[r], ld.vec) for ld in load_terms) for r in range(n_rows)]
-    nonmm = []
+    neg_nonmm = []
     for r in range(n_rows):
-        pairs = [(b.vr[r], b.R0) for b in body_terms]
-        pairs += [(b.wr[r], b.T0) for b in body_terms if b.wr]
-        nonmm.append(_grouped(pairs))
-    return _mass_matrix(body_terms, n_rows, n_main), nonmm, fr
+        pairs = [(b.vr[r], b.nR0) for b in body_terms]
+        pairs += [(b.wr[r], b.nT0) for b in body_terms if b.wr]
+        neg_nonmm.append(_grouped(pairs))
+    return _mass_matrix(body_terms, n_rows, n_main), neg_nonmm, fr
 
 
 def _mass_matrix(body_terms, n_rows, n_main):

@@ -52,6 +52,8 @@ def _split_linear(eqs, unknowns, others, role):
             if bad:
                 names = ", ".join(sorted(str(back[d]) for d in bad))
                 raise ModelError(f"{role} #{i + 1} ({eq}) is not linear in {names}")
+            if c == 0:
+                continue
             c = c.xreplace(back)
             if j < len(unknowns):
                 A[i, j] = c
@@ -102,7 +104,10 @@ def kinematic_matrices(kd_eqs, q, u, uaux, solver):
     uaux_zero = dict.fromkeys(uaux, 0)
     f_k_explicit = _solve(k_kqdot, f_k, solver, eqs, "kinematic differential equation")
     k_ku_explicit = _solve(k_kqdot, k_ku, solver, eqs, "kinematic differential equation")
-    qdot_rhs = -(k_ku_explicit * sm.Matrix(u) + f_k_explicit)
+    qdot_rhs = sm.Matrix([
+        -sm.Add(*[k_ku_explicit[i, j] * u[j] for j in range(len(u)) if k_ku_explicit[i, j] != 0],
+                f_k_explicit[i])
+        for i in range(len(q))])
     return {
         "k_kqdot_implicit": k_kqdot,
         "k_ku_implicit": k_ku.xreplace(uaux_zero),

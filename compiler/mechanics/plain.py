@@ -57,6 +57,7 @@ class PlainSpace:
             self.fwd[qd] = self.to_plain(qdot_map[qd]) if qdot_map else self._new(qd)
             self.ddt[Qi] = self.fwd[qd]
         self.speed_set = set(self.u) | set(self.uaux)
+        self._dt_memo, self._back_memo = {}, {}
 
     def _new(self, dyn):
         name = str(dyn).replace("(t)", "")
@@ -95,30 +96,73 @@ class PlainSpace:
         return expr.xreplace(self.fwd)
 
     def to_dynamic(self, expr):
-        """Map a plain expression back to dynamic symbols."""
-        return expr.xreplace(self.back)
+        """Map a plain expression back to dynamic symbols (memoized over subtrees)."""
+        return _memo_xreplace(expr, self.back, self._back_memo)
 
     def matrix_to_dynamic(self, mat):
-        return mat.applyfunc(lambda e: e.xreplace(self.back))
+        memo = self._back_memo
+        return mat.applyfunc(lambda e: _memo_xreplace(e, self.back, memo))
 
     def dt(self, expr, udot=True):
         """Total time derivative of a plain expression.
 
         With ``udot=False`` the terms in u' are left out: this gives the part of
-        an acceleration that remains when all u' are zero.
+        an acceleration that remains when all u' are zero.  Terms of sums are
+        differentiated one by one and memoized: the velocities of a chain's
+        bodies share most of their terms.
         """
         if expr.is_Add:
-            return sm.Add(*[self.dt(a, udot) for a in expr.args])
-        terms = []
-        for s in expr.free_symbols:
-            d = self.ddt.get(s)
-            if d is None or (not udot and s in self.speed_set):
-                continue
-            terms.append(expr.diff(s) * d)
-        return sm.Add(*terms)
+            return sm.Add(*[self._dt_term(a, udot) for a in expr.args])
+        return self._dt_term(expr, udot)
+
+    def _dt_term(self, term, udot):
+        key = (term, udot)
+        hit = self._dt_memo.get(key)
+        if hit is not None:
+            return hit
+        if term.is_Mul:
+            parts = []
+            args = term.args
+            for i, f in enumerate(args):
+                if not (f.free_symbols & self.ddt.keys()):
+                    continue
+                df = self._dt_term(f, udot)
+                if df != 0:
+                    parts.append(sm.Mul(*(args[:i] + (df,) + args[i + 1:])))
+            out = sm.Add(*parts)
+        elif term.is_Pow and not (term.exp.free_symbols & self.ddt.keys()):
+            out = term.exp * term.base ** (term.exp - 1) * self.dt(term.base, udot)
+        elif isinstance(term, sm.Function) and len(term.args) == 1 and hasattr(term, "fdiff"):
+            out = term.fdiff(1) * self.dt(term.args[0], udot)
+        else:
+            terms = []
+            for s in term.free_symbols:
+                d = self.ddt.get(s)
+                if d is None or (not udot and s in self.speed_set):
+                    continue
+                terms.append(term.diff(s) * d)
+            out = sm.Add(*terms)
+        self._dt_memo[key] = out
+        return out
 
     def dt_vector(self, comps, udot=True):
         return tuple(self.dt(c, udot) for c in comps)
+
+
+def _memo_xreplace(expr, mapping, memo):
+    """``expr.xreplace(mapping)`` that remembers rebuilt subtrees across calls."""
+    hit = memo.get(expr)
+    if hit is not None:
+        return hit
+    if expr in mapping:
+        out = mapping[expr]
+    elif not expr.args:
+        out = expr
+    else:
+        args = tuple(_memo_xreplace(a, mapping, memo) for a in expr.args)
+        out = expr.func(*args) if args != expr.args else expr
+    memo[expr] = out
+    return out
 
 
 def linear_coefficients(expr, symbols):

@@ -1,0 +1,92 @@
+"""eomc.runtime.loader: finding a build, refusing stale ones, and never importing SymPy."""
+import json
+import os
+import shutil
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+import osc_model  # noqa: E402
+from eomc.compiler.build import build  # noqa: E402
+from eomc.runtime.loader import LoadError, load  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def built(tmp_path_factory):
+    return build(osc_model.oscillator(), cache_dir=tmp_path_factory.mktemp("cache"))
+
+
+@pytest.fixture
+def copy(built, tmp_path):
+    target = tmp_path / "model"
+    shutil.copytree(built.directory, target)
+    return target
+
+
+def test_load_by_directory_json_or_library(copy):
+    for where in (copy, copy / "osc.json", copy / "libosc.so"):
+        model = load(where)
+        assert model.name == "osc" and model.library_path == copy / "libosc.so"
+    assert load(copy, "osc").nx == 2
+
+
+def test_wrong_name_or_empty_directory(copy, tmp_path):
+    with pytest.raises(LoadError, match="no model named 'nope'"):
+        load(copy, "nope")
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(LoadError, match="expected one built model, found none"):
+        load(tmp_path / "empty")
+    with pytest.raises(LoadError, match="no such model directory"):
+        load(tmp_path / "missing")
+
+
+def test_metadata_that_disagrees_with_the_library_is_refused(copy):
+    data = json.loads((copy / "osc.json").read_text())
+    data["nx"] = 5
+    (copy / "osc.json").write_text(json.dumps(data))
+    with pytest.raises(LoadError, match="nx is 2 in the library but 5 in its metadata"):
+        load(copy)
+
+
+def test_other_abi_version_is_refused(copy):
+    data = json.loads((copy / "osc.json").read_text())
+    data["abi_version"] = 99
+    (copy / "osc.json").write_text(json.dumps(data))
+    with pytest.raises(LoadError, match="ABI 99"):
+        load(copy)
+
+
+def test_unloadable_library_is_a_load_error(copy):
+    (copy / "libosc.so").write_bytes(b"not a library")
+    with pytest.raises(LoadError, match="cannot load model 'osc'"):
+        load(copy)
+
+
+def test_cdef_is_rebuilt_from_function_list_when_absent(copy):
+    data = json.loads((copy / "osc.json").read_text())
+    del data["cdef"]
+    (copy / "osc.json").write_text(json.dumps(data))
+    model = load(copy)
+    assert model.inverse_dynamics(0.0, [0.0, 0.0], [1.0]).tolist() == [2.0]
+
+
+def test_loading_needs_no_sympy(copy):
+    code = textwrap.dedent(f"""
+        import sys
+        sys.modules["sympy"] = None  # any import of sympy now fails
+        import numpy as np
+        import eomc
+        model = eomc.load({str(copy)!r})
+        print(model.rhs(0.0, np.array([0.3, -0.2]))[1])
+        print(sorted(m for m, v in sys.modules.items() if v is not None and m.startswith(("sympy", "eomc.compiler"))))
+        """)
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    value, modules = out.stdout.splitlines()
+    assert float(value) == pytest.approx(osc_model.oscillator_rhs(0, [0.3, -0.2])[1], rel=1e-14)
+    assert modules == "[]"
+    np.testing.assert_allclose(load(copy).rhs(0.0, [0.3, -0.2]), osc_model.oscillator_rhs(0, [0.3, -0.2]))
