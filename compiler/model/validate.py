@@ -41,8 +41,13 @@ def _dynamic(expr):
     return {f for f in sm.sympify(expr).atoms(AppliedUndef)}
 
 
+def _label(symbol):
+    """q for the dynamic symbol q(t), the plain name otherwise."""
+    return symbol.func.__name__ if isinstance(symbol, AppliedUndef) else str(symbol)
+
+
 def _names(symbols):
-    return ", ".join(sorted(str(s) for s in symbols)) or "none"
+    return ", ".join(sorted(_label(s) for s in symbols)) or "none"
 
 
 def _states(formed):
@@ -105,7 +110,7 @@ def check_inputs(inputs, formed):
     inputs = list(inputs)
     for item in inputs:
         if not isinstance(item, AppliedUndef):
-            raise Invalid("inputs", f"input {item!r} is not a dynamic symbol (use dynamicsymbols('F'))")
+            raise Invalid("inputs", f"input {item} is not a dynamic symbol (use dynamicsymbols('F'))")
     unknown = [i for i in inputs if i not in formed.inputs]
     if unknown:
         raise Invalid("inputs", f"unknown input(s) {_names(unknown)}: not in the equations of motion "
@@ -127,13 +132,13 @@ def check_initial_state(initial_state, formed):
         raise Invalid("initial_state", f"`initial_state` must be a dict coordinate/speed -> value, "
                                        f"not {type(initial_state).__name__}")
     states = _states(formed)
-    by_name = {str(s): s for s in states}
+    by_name = {_label(s): s for s in states}
     x0 = dict.fromkeys(states, 0.0)
     for key, value in initial_state.items():
         symbol = by_name.get(key) if isinstance(key, str) else key
         if symbol not in x0:
             raise Invalid("initial_state", f"`{key}` in initial_state is not a coordinate or speed "
-                                           f"(states: {', '.join(map(str, states))})")
+                                           f"(states: {', '.join(map(_label, states))})")
         x0[symbol] = _real(value, f"initial_state[{key}]", "initial_state")
     return [x0[s] for s in states]
 
