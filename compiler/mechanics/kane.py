@@ -34,7 +34,7 @@ from eomc.errors import ModelError
 
 from .formed import FormedSystem
 from .kane_forms import VectorReader, assemble, dot, read_bodies, read_loads, to_dynamic
-from .kane_inputs import (as_symbol_list, check_bodies, check_time_functions,
+from .kane_inputs import (as_symbol_list, names, check_bodies, check_time_functions,
                           parse_loads, split_bodies_and_loads)
 from .kane_kinematics import constraint_matrices, kinematic_matrices, linear_solver
 from .plain import PlainSpace
@@ -120,14 +120,14 @@ class KanesMethod:
         acc = as_symbol_list(acc, "acceleration_constraints")
         if len(config) != len(self._qdep):
             raise ModelError(
-                f"{len(self._qdep)} dependent coordinate(s) ({', '.join(map(str, self._qdep)) or 'none'}) "
+                f"{len(self._qdep)} dependent coordinate(s) ({names(self._qdep) or 'none'}) "
                 f"but {len(config)} configuration constraint(s); the counts must match")
         if self._udep and not vel:
-            raise ModelError(f"dependent speeds ({', '.join(map(str, self._udep))}) were given "
+            raise ModelError(f"dependent speeds ({names(self._udep)}) were given "
                              "without velocity_constraints to determine them")
         if len(vel) != len(self._udep):
             raise ModelError(
-                f"{len(self._udep)} dependent speed(s) ({', '.join(map(str, self._udep)) or 'none'}) "
+                f"{len(self._udep)} dependent speed(s) ({names(self._udep) or 'none'}) "
                 f"but {len(vel)} velocity constraint(s); the counts must match")
         if acc and len(acc) != len(self._udep):
             raise ModelError(f"{len(self._udep)} dependent speed(s) but {len(acc)} acceleration "

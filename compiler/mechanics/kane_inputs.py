@@ -12,9 +12,14 @@ from sympy.physics.vector import Vector, dynamicsymbols
 from eomc.errors import ModelError
 
 __all__ = [
-    "as_symbol_list", "check_time_functions", "is_body_list", "is_load_list",
+    "names", "as_symbol_list", "check_time_functions", "is_body_list", "is_load_list",
     "split_bodies_and_loads", "parse_loads", "check_bodies", "point_velocity",
 ]
+
+
+def names(symbols):
+    """'q1, q2' for [q1(t), q2(t)]: dynamic symbols as users write them."""
+    return ", ".join(str(s).replace("(t)", "") for s in symbols)
 
 
 def as_symbol_list(value, role):
@@ -75,15 +80,17 @@ def split_bodies_and_loads(first, second):
         x = list(x)
         if not x:
             return "empty"
-        if is_body_list(x):
-            return "bodies"
-        if any(_is_load(i) for i in x) and not any(_is_body(i) for i in x):
-            return "loads"
-        if any(_is_body(i) for i in x) and not any(_is_load(i) for i in x):
-            return "bodies"
-        return "mixed"
+        has_body = any(_is_body(i) for i in x)
+        has_load = any(_is_load(i) for i in x)
+        if has_body and has_load:
+            return "mixed"
+        return "bodies" if has_body else "loads" if has_load else "unknown"
 
     k1, k2 = kind(first), kind(second)
+    if k1 == "unknown" and k2 in ("bodies", "loads"):
+        k1 = "loads" if k2 == "bodies" else "bodies"
+    if k2 == "unknown" and k1 in ("bodies", "loads"):
+        k2 = "loads" if k1 == "bodies" else "bodies"
     if "mixed" in (k1, k2):
         raise ModelError("a list passed to kanes_equations mixes bodies and loads; "
                          "pass the bodies and the loads as two separate lists")
@@ -139,6 +146,9 @@ def parse_loads(loads, inertial):
         if not (isinstance(item, tuple) and len(item) == 2):
             raise ModelError(f"{shape} is not a (Point, Vector) or (ReferenceFrame, Vector) pair")
         where, vec = item
+        if not isinstance(where, (Point, ReferenceFrame)):
+            raise ModelError(f"{shape}: its first item must be a Point or a ReferenceFrame, "
+                             f"got {where!r}")
         if vec == 0:
             vec = Vector(0)
         if not isinstance(vec, Vector):

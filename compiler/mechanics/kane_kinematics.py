@@ -50,7 +50,7 @@ def _split_linear(eqs, unknowns, others, role):
         for j, c in enumerate(coeffs):
             bad = c.free_symbols & set(dums)
             if bad:
-                names = ", ".join(sorted(str(back[d]) for d in bad))
+                names = ", ".join(sorted(str(back[d]).replace("(t)", "") for d in bad))
                 raise ModelError(f"{role} #{i + 1} ({eq}) is not linear in {names}")
             if c == 0:
                 continue
@@ -89,7 +89,7 @@ def kinematic_matrices(kd_eqs, q, u, uaux, solver):
     qdot = [qi.diff(t) for qi in q]
     eqs = list(kd_eqs)
     if len(eqs) != len(q):
-        qs = ", ".join(str(x) for x in q)
+        qs = ", ".join(str(x).replace("(t)", "") for x in q)
         raise ModelError(f"{len(eqs)} kinematic differential equation(s) were given for "
                          f"{len(q)} coordinate(s) ({qs}); give exactly one per coordinate")
     k_kqdot, k_ku, f_k = _split_linear(eqs, qdot, u, "kinematic differential equation")
