@@ -14,7 +14,7 @@ from sympy.physics.mechanics import Linearizer, find_dynamicsymbols, msubs
 from eomc.errors import ModelError
 
 from .formed import FormedSystem
-from .lagrange_terms import (PlainVariables, constraint_terms,
+from .lagrange_terms import (PlainVariables, check_loads, constraint_terms,
                              generalized_forces, lagrange_mass_forcing)
 
 __all__ = ["LagrangesMethod"]
@@ -114,6 +114,7 @@ class LagrangesMethod:
         if forcelist is not None and not iterable(forcelist):
             raise ModelError("forcelist must be a list of (Point or ReferenceFrame, Vector) pairs")
         self._forcelist = list(forcelist) if forcelist else []
+        check_loads(self._forcelist)
         if frame is not None and not isinstance(frame, ReferenceFrame):
             raise ModelError(f"frame must be a ReferenceFrame, got {frame!r}")
         if self._forcelist and frame is None:

@@ -26,7 +26,7 @@ from eomc.errors import ModelError
 from .fastdiff import Differentiator
 
 __all__ = ["PlainVariables", "lagrange_mass_forcing", "constraint_terms",
-           "generalized_forces", "total_time_derivative"]
+           "generalized_forces", "total_time_derivative", "check_loads"]
 
 _t = dynamicsymbols._t
 
@@ -113,6 +113,12 @@ def constraint_terms(coneqs, pv):
             C[k, j] = coeffs[j]
         f_cd[k] = -rest
     return C, f_cd
+
+
+def check_loads(forcelist):
+    """Validate every force-list item's shape up front (ModelError naming the item)."""
+    for index, item in enumerate(forcelist):
+        _load_pair(item, index)
 
 
 def _load_pair(item, index):
