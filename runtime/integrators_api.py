@@ -29,6 +29,7 @@ typedef struct eomc_stats {
     int status;
     int n_out;
     double t;
+    double t_fail;
     double h;
     double stiff_hlambda;
     double max_residual;

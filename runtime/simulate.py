@@ -189,7 +189,7 @@ def run_prepared(model, a, out=None):
                        buf(a["p"]), a["n_r"], buf(a["r_t"]), buf(a["r_v"]), n_eval,
                        buf(a["t_eval"]), buf(x_out), buf(x_last), stats, buf(work), work.size)
     fields = ("steps", "accepted", "rejected", "nfev", "njev", "nlu", "nproj", "status", "n_out",
-              "t", "h", "stiff_hlambda", "max_residual")
+              "t", "t_fail", "h", "stiff_hlambda", "max_residual")
     return x_out, {f: getattr(stats, f) for f in fields}, x_last
 
 
@@ -220,6 +220,8 @@ def failure_message(model, method, stats, x_last):
     reason = STATUS_NAMES.get(status, f"status {status}")
     state = ", ".join(f"{n}={v:.6g}" for n, v in zip(model.state_names, x_last))
     msg = f"{model.name}: {method} stopped at t={stats['t']:.9g}: {reason}"
+    if f"{stats['t_fail']:.9g}" != f"{stats['t']:.9g}":
+        msg += f" (the model failed at t={stats['t_fail']:.9g}, inside the next step)"
     if status == 7:
         msg += f" (h*|lambda| ~ {stats['stiff_hlambda']:.3g}); {STIFF_ADVICE}"
     elif status == 6:

@@ -245,8 +245,9 @@ static int frhs(ctx *c, double t, const double *x, double *f)
     inputs_at(c, t);
     c->st->nfev++;
     s = c->m->rhs(t, x, c->p, c->r, f, c->mwork);
-    if (s != EOMC_OK) return s;
-    return all_finite(c->n, f) ? EOMC_OK : EOMC_NONFINITE;
+    if (s == EOMC_OK && !all_finite(c->n, f)) s = EOMC_NONFINITE;
+    if (s != EOMC_OK) c->st->t_fail = t;
+    return s;
 }
 
 static int fjac(ctx *c, double t, const double *x, double *J)
@@ -256,8 +257,9 @@ static int fjac(ctx *c, double t, const double *x, double *J)
     inputs_at(c, t);
     c->st->njev++;
     s = c->m->jac_x(t, x, c->p, c->r, J, c->mwork);
-    if (s != EOMC_OK) return s;
-    return all_finite(c->n * c->n, J) ? EOMC_OK : EOMC_NONFINITE;
+    if (s == EOMC_OK && !all_finite(c->n * c->n, J)) s = EOMC_NONFINITE;
+    if (s != EOMC_OK) c->st->t_fail = t;
+    return s;
 }
 
 static int ctx_init(ctx *c, const eomc_model *m, const double *p, int nr,
@@ -683,7 +685,7 @@ static double stiff_hlambda(int n, double h, const double *ynew, const double *y
 static int run_erk(ctx *c, const erk *tb, const eomc_options *o, proj *pj,
                    double t0, double t1, double *x, outw *ow, double **pos)
 {
-    int n = c->n, s, iasti = 0, nonsti = 0, last_nonfinite = 0;
+    int n = c->n, s, iasti = 0, nonsti = 0, last_bad = 0;
     long maxs = o->max_steps > 0 ? o->max_steps : DEFAULT_MAX_STEPS;
     double *K = take(pos, 16 * (size_t)n), *F = take(pos, 7 * (size_t)n);
     double *ynew = take(pos, n), *ys = take(pos, n), *tmp = take(pos, n);
@@ -703,20 +705,19 @@ static int run_erk(ctx *c, const erk *tb, const eomc_options *o, proj *pj,
             double hmin = min_step(t);
             h = fmin(h, hmax);
             st->t = t; st->h = h;
-            if (h < hmin) return last_nonfinite ? EOMC_NONFINITE : EOMC_STEP_TOO_SMALL;
+            if (h < hmin) return last_bad ? last_bad : EOMC_STEP_TOO_SMALL;
             if (st->steps >= maxs) return EOMC_MAX_STEPS;
             tn = t + h;
             if (tn > t1 || t1 - tn < hmin) tn = t1;
             h = tn - t;
             st->steps++;
             s = erk_trial(c, tb, t, h, x, K, ynew, ys);
-            if (s == EOMC_NONFINITE) {               /* shrink into the finite region */
-                last_nonfinite = 1; st->rejected++; rejected_now = 1;
+            if (s) {        /* non-finite or model failure: shrink up to where it starts */
+                last_bad = s; st->rejected++; rejected_now = 1;
                 h *= MIN_FACTOR;
                 continue;
             }
-            if (s) return s;
-            last_nonfinite = 0;
+            last_bad = 0;
             err = erk_error(tb, n, h, K, x, ynew, o->rtol, o->atol);
             if (err < 1.0) break;
             st->rejected++; rejected_now = 1;
@@ -1069,6 +1070,7 @@ int eomc_integrate(const eomc_model *m, const eomc_options *opt,
     if (!stats) stats = &local;
     memset(stats, 0, sizeof *stats);
     stats->t = t0;
+    stats->t_fail = NAN;
     s = check_args(m, opt, t0, t1, x0, n_eval, t_eval, x_out);
     if (s == EOMC_OK && (!work || work_len < eomc_integrate_work_size(m, opt->method)))
         s = EOMC_BAD_ARGUMENT;
@@ -1094,6 +1096,9 @@ int eomc_integrate(const eomc_model *m, const eomc_options *opt,
     }
     if (x_last) memcpy(x_last, x, (size_t)m->nx * sizeof(double));
     stats->n_out = ow.i;
+    if (s == EOMC_OK || s == EOMC_STEP_TOO_SMALL || s == EOMC_MAX_STEPS || s == EOMC_STIFF
+        || isnan(stats->t_fail))
+        stats->t_fail = stats->t;
     return stats->status = s;
 }
 

@@ -57,7 +57,8 @@ typedef struct eomc_stats {
     long nproj;          /* projections done */
     int status;          /* eomc_status of the run */
     int n_out;           /* t_eval rows written */
-    double t;            /* time reached (the failure time when status != 0) */
+    double t;            /* time reached: the end, or of the last good state on failure */
+    double t_fail;       /* failure: time of the failing model evaluation (else = t) */
     double h;            /* last step size tried */
     double stiff_hlambda;/* last h*|lambda| estimate of the stiffness test */
     double max_residual; /* max-norm constraint residual after projection (0 if none) */

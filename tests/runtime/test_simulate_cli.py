@@ -1,0 +1,59 @@
+"""eomc simulate: CSV, plot, overrides, one-line errors (model loading stubbed by a stand-in)."""
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parent / "models"))
+from stand_in import get_model  # noqa: E402
+
+import eomc.compiler.cli_simulate as cli_simulate  # noqa: E402
+from eomc.cli import main  # noqa: E402
+
+
+@pytest.fixture
+def pendulum(monkeypatch):
+    model = get_model("pendulum")
+    model.initial_state = np.array([0.5, 0.0])
+    monkeypatch.setattr(cli_simulate, "load_model", lambda spec: model)
+    return model
+
+
+def test_simulate_writes_csv_from_initial_state(pendulum, tmp_path, capsys):
+    out = tmp_path / "traj.csv"
+    assert main(["simulate", "pend", "--t-final", "2", "-o", str(out), "--points", "21",
+                 "--rtol", "1e-10", "--atol", "1e-10"]) == 0
+    data = np.genfromtxt(out, delimiter=",", names=True)
+    assert data["t"][-1] == 2.0 and data["q1"][0] == 0.5 and len(data) == 21
+    assert np.ptp(data["energy"]) < 1e-8
+    text = capsys.readouterr().out
+    assert "dop853" in text and "energy" in text and "wrote" in text
+
+
+def test_simulate_overrides_and_rk4(pendulum, tmp_path):
+    out = tmp_path / "t.csv"
+    assert main(["simulate", "pend", "--t-final", "1", "-o", str(out), "--method", "rk4",
+                 "--dt", "0.1", "--x0", "q1=0.1,u1=0.2", "--param", "g=1.0"]) == 0
+    data = np.genfromtxt(out, delimiter=",", names=True)
+    assert len(data) == 11 and data["q1"][0] == 0.1 and data["u1"][0] == 0.2
+    assert abs(data["energy"][0] - (0.02 - np.cos(0.1))) < 1e-12
+
+
+@pytest.mark.parametrize("argv,match", [
+    (["--method", "euler"], "valid methods"),
+    (["--x0", "zz=1"], "unknown state zz"),
+    (["--x0", "q1"], "NAME=VALUE"),
+    (["--rtol", "0"], "rtol"),
+])
+def test_simulate_bad_arguments_one_line(pendulum, capsys, argv, match):
+    assert main(["simulate", "pend", "--t-final", "1", *argv]) == 2
+    err = capsys.readouterr().err
+    assert match in err and "Traceback" not in err and err.count("\n") == 1
+
+
+def test_simulate_failure_is_one_line(monkeypatch, capsys):
+    monkeypatch.setattr(cli_simulate, "load_model", lambda spec: get_model("singular"))
+    assert main(["simulate", "s", "--t-final", "1"]) == 1
+    err = capsys.readouterr().err
+    assert "singular mass matrix" in err and "failed at t=0.5" in err
