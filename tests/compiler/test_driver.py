@@ -1,0 +1,118 @@
+"""eomc.compile end to end: model file or object -> loaded model, against closed forms."""
+import os
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+import model_files  # noqa: E402
+import eomc  # noqa: E402
+from eomc.compiler.build import build  # noqa: E402
+from eomc.compiler.driver import Progress, generate  # noqa: E402
+from eomc.errors import ModelError  # noqa: E402
+
+RNG = np.random.default_rng(11)
+
+
+@pytest.fixture(scope="module")
+def cache(tmp_path_factory):
+    return tmp_path_factory.mktemp("cache")
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory):
+    d = tmp_path_factory.mktemp("models")
+    return {"cart": model_files.write(d, model_files.CART, "cart"),
+            "pend": model_files.write(d, model_files.PENDULUM, "pendulum")}
+
+
+def test_model_file_matches_closed_form(files, cache):
+    model = eomc.compile(files["cart"], cache_dir=cache, progress=False)
+    assert model.name == "cart" and model.input_names == ("F",)
+    assert model.state_names == ("x", "th", "v", "w")
+    assert model.initial_state.tolist() == [0.0, 0.4, 0.0, 0.0]
+    for _ in range(25):
+        x, F = RNG.normal(size=4), RNG.normal()
+        np.testing.assert_allclose(model.rhs(0.0, x, r=[F]), model_files.cart_rhs(x, F), rtol=1e-12, atol=1e-13)
+
+
+def test_system_object_with_keyword_arguments(files, cache):
+    namespace = {}
+    exec(compile(files["pend"].read_text(), str(files["pend"]), "exec"), namespace)
+    m, l, g = (namespace[k] for k in ("m", "l", "g"))
+    model = eomc.compile(namespace["kane"], "pendobj", parameters={m: 1.0, l: 2.0, g: 3.0},
+                         outputs={"height": l * namespace["sm"].sin(namespace["q"])},
+                         cache_dir=cache, progress=False)
+    assert model.name == "pendobj" and dict(zip(model.param_names, model.param_defaults)) == {"m": 1.0, "l": 2.0, "g": 3.0}
+    x = np.array([0.7, -0.1])
+    np.testing.assert_allclose(model.rhs(0, x), model_files.pendulum_rhs(x, 1.0, 2.0, 3.0), rtol=1e-12)
+    assert model.outputs(0, x) == pytest.approx({"height": 2.0 * np.sin(0.7)}, rel=1e-12)
+
+
+def test_functions_subset_and_unknown_names(files, cache):
+    model = eomc.compile(files["pend"], functions="rhs,mass_matrix", cache_dir=cache, progress=False)
+    assert set(model.functions) == {"rhs", "mass_matrix"}
+    with pytest.raises(ModelError, match="built without `jac_x`"):
+        model.jacobian(0.0, [0.1, 0.2])
+    with pytest.raises(ModelError, match="unknown function 'rhss'"):
+        eomc.compile(files["pend"], functions=["rhss"], cache_dir=cache)
+    with pytest.raises(ModelError, match="unknown parameter `mass`"):
+        eomc.compile(files["pend"], parameters={"mass": 1.0}, cache_dir=cache)
+
+
+def test_progress_reports_stage_timings(files, cache, capsys):
+    eomc.compile(files["pend"], cache_dir=cache, progress=True)
+    err = capsys.readouterr().err
+    for stage in ("derive", "generate", "compile", "load"):
+        assert f"eomc: {stage}" in err
+    eomc.compile(files["pend"], cache_dir=cache, progress=False)
+    assert capsys.readouterr().err == ""
+    progress = Progress(False)
+    eomc.compile(files["pend"], cache_dir=cache, progress=progress)  # a plain flag, not reused
+
+
+def test_warm_cache_reuses_the_library(files, cache):
+    first = eomc.compile(files["pend"], cache_dir=cache, progress=False)
+    second = eomc.compile(files["pend"], cache_dir=cache, progress=False)
+    assert first.library_path == second.library_path
+
+
+def test_library_that_does_not_load_is_rebuilt(files, tmp_path):
+    # build without loading: a library already loaded in this process cannot be replaced in it
+    spec, generated = generate(files["pend"], progress=False)
+    library = build(generated, cache_dir=tmp_path, extra_metadata={"initial_state": spec.initial_state}).library
+    library.write_bytes(b"\0" * library.stat().st_size)  # same size: the manifest check passes, dlopen fails
+    second = eomc.compile(files["pend"], cache_dir=tmp_path, progress=False)
+    assert second.library_path == library
+    assert second.rhs(0, [0.3, 0.0])[1] == pytest.approx(model_files.pendulum_rhs([0.3, 0.0])[1], rel=1e-12)
+
+
+def test_output_dir_gives_an_importable_module_without_sympy(files, cache, tmp_path):
+    out = tmp_path / "built"
+    model = eomc.compile(files["pend"], cache_dir=cache, output_dir=out, progress=False)
+    assert model.library_path == out / "libpend.so"
+    assert {p.name for p in out.iterdir()} >= {"pend.c", "pend.h", "libpend.so", "pend.json", "pend.py",
+                                                "eomc_model.h", "eomc_integrators.h"}
+    code = textwrap.dedent(f"""
+        import sys
+        sys.modules["sympy"] = None
+        sys.path.insert(0, {str(out)!r})
+        import pend
+        print(pend.rhs(0.0, [0.3, 0.0])[1], pend.model.name)
+        """)
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    assert run.returncode == 0, run.stderr
+    value, name = run.stdout.split()
+    assert name == "pend" and float(value) == pytest.approx(model_files.pendulum_rhs([0.3, 0.0])[1], rel=1e-12)
+
+
+def test_cython_backend_agrees_with_cffi(files, cache):
+    cy = eomc.compile(files["cart"], backend="cython", cache_dir=cache, progress=False)
+    ff = eomc.compile(files["cart"], cache_dir=cache, progress=False)
+    assert cy.backend == "cython" and ff.backend == "cffi"
+    X = RNG.normal(size=(10, 4))
+    np.testing.assert_array_equal(cy.rhs_many(0.0, X, r=[0.5]), ff.rhs_many(0.0, X, r=[0.5]))
+    np.testing.assert_array_equal(cy.jacobian(0.0, X[0]), ff.jacobian(0.0, X[0]))
