@@ -35,18 +35,26 @@ def share_sincos(program):
     names = Names(program)
     mapping, inserts = {}, {}
     position = {t: i for i, (t, _) in enumerate(program.assignments)}
-    for arg, funcs in by_arg.items():
-        where = max((position[s] for s in arg.free_symbols if s in position), default=-1)
+
+    def rewrite(expr):
+        return expr.xreplace(mapping)
+
+    # inner calls first, so sin(cos(a)) is placed after the temporary of cos(a)
+    nested = sorted(by_arg, key=lambda a: sum(isinstance(n, (sm.sin, sm.cos))
+                                              for n in preorder_traversal(a)))
+    for arg in nested:
+        funcs = by_arg[arg]
+        new_arg = rewrite(arg)
+        where = max((position[s] for s in new_arg.free_symbols if s in position), default=-1)
         for func in (sm.sin, sm.cos):
             if func in funcs:
                 sym = names.fresh()
                 mapping[funcs[func]] = sym
-                inserts.setdefault(where, []).append((sym, func, arg))
-    def rewrite(expr):
-        return expr.xreplace(mapping)
-    out = [(sym, func(rewrite(arg))) for sym, func, arg in inserts.get(-1, [])]
+                position[sym] = where
+                inserts.setdefault(where, []).append((sym, func, new_arg))
+    out = [(sym, func(arg)) for sym, func, arg in inserts.get(-1, [])]
     for i, (target, expr) in enumerate(program.assignments):
         out.append((target, rewrite(expr)))
-        out.extend((sym, func(rewrite(arg))) for sym, func, arg in inserts.get(i, []))
+        out.extend((sym, func(arg)) for sym, func, arg in inserts.get(i, []))
     results = tuple((k, rewrite(e)) for k, e in program.results)
     return program.with_(assignments=tuple(out), results=results, ntemp=names.count)

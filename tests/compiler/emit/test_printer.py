@@ -1,0 +1,49 @@
+"""The C printer: slot names, literal rules and precedence, as exact strings."""
+import pytest
+import sympy as sm
+
+from eomc.compiler.emit.printer import CPrinter
+from eomc.compiler.ir import IMul
+
+x, y, z = sm.symbols("x_0 x_1 p_0", real=True)
+P = CPrinter({x: "x[0]", y: "x[1]", z: "p[0]"})
+
+
+@pytest.mark.parametrize("expr,text", [
+    (x + y, "x[0] + x[1]"),
+    (x * y, "x[0]*x[1]"),
+    (x - y, "x[0] - x[1]"),
+    (x * (y + z), "x[0]*(p[0] + x[1])"),
+    (x / (y + z), "x[0]/(p[0] + x[1])"),
+    (1 / x, "1.0/x[0]"),
+    (sm.Rational(1, 3) * x, "(1.0/3.0)*x[0]"),
+    (sm.Integer(2) * x, "2.0*x[0]"),
+    (sm.Float(0.1) * x, "0.1*x[0]"),
+    (sm.pi * x, "3.141592653589793*x[0]"),
+    (sm.sin(x + y), "sin(x[0] + x[1])"),
+    (sm.sqrt(x), "sqrt(x[0])"),
+    (-x, "-x[0]"),
+    (-(x + y), "-x[0] - x[1]"),
+    (IMul(x, x), "x[0]*x[0]"),
+    (IMul(x + y, x), "(x[0] + x[1])*x[0]"),
+    (y * sm.Pow(IMul(x, x), -1, evaluate=False), "x[1]/(x[0]*x[0])"),
+    (sm.Pow(IMul(x, x), -1, evaluate=False), "1.0/(x[0]*x[0])"),
+    (-IMul(x, y), "-(x[0]*x[1])"),
+])
+def test_exact_strings(expr, text):
+    assert P.doprint(expr) == text
+
+
+def test_integer_division_cannot_happen():
+    # every rational and integer literal is a double literal
+    assert P.doprint(sm.Rational(3, 2) + x) == "x[0] + 3.0/2.0"
+
+
+def test_unknown_symbol_is_a_compiler_bug():
+    with pytest.raises(KeyError, match="no C name"):
+        P.doprint(sm.Symbol("stray"))
+
+
+def test_floats_round_trip():
+    v = 0.1 + 0.2
+    assert float(P.doprint(sm.Float(v))) == v
