@@ -83,7 +83,8 @@ def run_compiler(argv, cwd, name, key, root):
     kept.parent.mkdir(parents=True, exist_ok=True)
     shutil.copytree(cwd, kept)
     message = (proc.stderr or proc.stdout).strip()
-    raise CompileError(f"the C compiler failed on model {name!r} (exit status {proc.returncode}); "
+    what = "eomc's integrator sources" if name == "eomc_runtime" else f"model {name!r}"
+    raise CompileError(f"the C compiler failed on {what} (exit status {proc.returncode}); "
                        f"source kept in {kept}\ncommand: {shlex.join(argv)}\n{message}")
 
 

@@ -1,0 +1,71 @@
+"""`eomc build`: the files it writes, the module it generates, and failures leaving DIR untouched."""
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+import model_files  # noqa: E402
+from eomc.cli import main  # noqa: E402
+
+
+def test_build_writes_sources_library_metadata_and_module(tmp_path, capsys):
+    model = model_files.write(tmp_path, model_files.CART, "cart")
+    out = tmp_path / "out"
+    code = main(["build", str(model), "-o", str(out), "--name", "trolley", "--outputs", "rhs,jacobian",
+                 "--cache-dir", str(tmp_path / "cache"), "-q"])
+    assert code == 0
+    assert sorted(p.name for p in out.iterdir()) == sorted(
+        ["trolley.c", "trolley.h", "libtrolley.so", "trolley.json", "trolley.py",
+         "eomc_model.h", "eomc_integrators.h", "eomc_batch.h"])
+    assert "built model 'trolley'" in capsys.readouterr().out
+    script = ("import sys; sys.modules['sympy'] = None; sys.path.insert(0, sys.argv[1]); import trolley, json;"
+              "print(json.dumps([list(trolley.rhs(0.0, [0.1, 0.4, 0.3, -0.2], r=[1.5])), list(trolley.model.functions)]))")
+    run = subprocess.run([sys.executable, "-c", script, str(out)], capture_output=True, text=True, timeout=120,
+                         cwd=tmp_path)
+    assert run.returncode == 0, run.stderr
+    import json
+    values, functions = json.loads(run.stdout)
+    np.testing.assert_allclose(values, model_files.cart_rhs(np.array([0.1, 0.4, 0.3, -0.2]), 1.5), rtol=1e-12)
+    assert set(functions) == {"rhs", "jac_x"}
+
+
+def test_header_declares_the_model_entry_point(tmp_path):
+    model = model_files.write(tmp_path, model_files.PENDULUM, "p")
+    assert main(["build", str(model), "-o", str(tmp_path / "o"), "--cache-dir", str(tmp_path / "c"), "-q"]) == 0
+    header = (tmp_path / "o" / "pend.h").read_text()
+    assert "pend_model(void)" in header and '#include "eomc_model.h"' in header
+
+
+def test_failed_build_leaves_output_dir_untouched(tmp_path, capsys):
+    model = model_files.write(tmp_path, model_files.PENDULUM, "p")
+    out = tmp_path / "o"
+    out.mkdir()
+    (out / "keep.txt").write_text("mine")
+    code = main(["build", str(model), "-o", str(out), "--cache-dir", str(tmp_path / "c"), "-q",
+                 "--cflags=-O2 -fPIC -std=c99 -DEOMC_X=1 -Wno-such-warning-flag-xyz -Werror=bogus-flag"])
+    assert code == 1
+    err = capsys.readouterr().err
+    assert err.startswith("eomc build: error: the C compiler failed on ")
+    assert "no-such-warning-flag-xyz" in err  # the compiler's own message
+    assert [p.name for p in out.iterdir()] == ["keep.txt"]
+
+
+def test_missing_model_file_and_missing_system(tmp_path, capsys):
+    assert main(["build", str(tmp_path / "nope.py"), "-o", str(tmp_path / "o")]) == 1
+    assert "nope.py: cannot read model file" in capsys.readouterr().err
+    bad = model_files.write(tmp_path, "x = 1\n", "bad")
+    assert main(["build", str(bad), "-o", str(tmp_path / "o")]) == 1
+    assert f"{bad}: does not define `system`" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists() or not any((tmp_path / "o").iterdir())
+
+
+def test_missing_compiler_message(tmp_path, capsys, monkeypatch):
+    model = model_files.write(tmp_path, model_files.PENDULUM, "p")
+    monkeypatch.setenv("CC", str(tmp_path / "no" / "cc"))
+    monkeypatch.setenv("PATH", str(tmp_path / "empty"))
+    assert main(["build", str(model), "-o", str(tmp_path / "o"), "--cache-dir", str(tmp_path / "c"), "-q"]) == 1
+    err = capsys.readouterr().err
+    assert "not an executable C compiler" in err and "install" in err

@@ -1,0 +1,39 @@
+"""`eomc inspect`: sizes, per-function operation counts and the mass matrix's sparsity."""
+import os
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+import model_files  # noqa: E402
+from eomc.cli import main  # noqa: E402
+from eomc.compiler.cli_inspect import format_report  # noqa: E402
+
+
+def test_inspect_prints_sizes_counts_and_sparsity(tmp_path, capsys):
+    model = model_files.write(tmp_path, model_files.CART, "cart")
+    assert main(["inspect", str(model)]) == 0
+    out = capsys.readouterr().out
+    assert "sizes: nq=2, nu=2, nx=4, nparam=4, ninput=1" in out
+    assert "states: x, th, v, w" in out and "inputs: F" in out
+    rows = {line.split()[0]: line.split()[1:] for line in out.splitlines()
+            if line and line.split()[0] in ("rhs", "mass_matrix", "jac_x")}
+    assert set(rows) == {"rhs", "mass_matrix", "jac_x"}
+    adds, muls, divs, calls, total = map(int, rows["rhs"])
+    assert total == adds + muls + divs + calls and muls > 0
+    assert "mass matrix sparsity" in out
+
+
+def test_inspect_respects_outputs_selection(tmp_path, capsys):
+    model = model_files.write(tmp_path, model_files.PENDULUM, "p")
+    assert main(["inspect", str(model), "--outputs", "rhs"]) == 0
+    names = [line.split()[0] for line in capsys.readouterr().out.splitlines() if line.strip()]
+    assert "rhs" in names and "jac_x" not in names and "mass_matrix" not in names
+
+
+def test_report_shows_structural_zeros():
+    metadata = {"name": "m", "nq": 2, "nu": 2, "state_names": ["a", "b"], "param_names": [],
+                "input_names": [], "output_names": [],
+                "op_counts": {"rhs": {"adds": 1, "muls": 2, "divs": 3, "calls": 4}},
+                "mass_matrix_sparsity": ["x.", ".x"]}
+    text = format_report(metadata)
+    assert "mass matrix sparsity (2 of 4 entries nonzero):\n  x .\n  . x" in text
+    assert "rhs                      1       2       3       4       10" in text

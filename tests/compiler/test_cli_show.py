@@ -1,0 +1,33 @@
+"""`eomc show`: the derived equations, printed readably."""
+import os
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+import model_files  # noqa: E402
+from eomc.cli import main  # noqa: E402
+
+
+def test_show_prints_coordinates_kinematics_mass_matrix_and_forcing(tmp_path, capsys):
+    model = model_files.write(tmp_path, model_files.CART, "cart")
+    assert main(["show", str(model), "--ascii"]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("model cart (kane): nq=2, nu=2")
+    assert "coordinates q: x, th" in out and "speeds u:      v, w" in out
+    assert "inputs:        F" in out and "parameters:    M, g, l, m" in out
+    for section in ("kinematics  q' =", "mass matrix", "forcing  b ="):
+        assert section in out
+    assert "(t)" not in out  # dynamic symbols print as plain names
+    assert "M + m" in out  # the cart's mass-matrix entry
+
+
+def test_show_prints_outputs(tmp_path, capsys):
+    model = model_files.write(tmp_path, model_files.PENDULUM, "p")
+    assert main(["show", str(model)]) == 0
+    out = capsys.readouterr().out
+    assert "\noutputs\nenergy =" in out
+
+
+def test_show_reports_model_file_errors_with_line(tmp_path, capsys):
+    bad = model_files.write(tmp_path, "import math\nmath.log(0)\n", "bad")
+    assert main(["show", str(bad)]) == 1
+    assert f"{bad}:2: ValueError: math domain error" in capsys.readouterr().err
