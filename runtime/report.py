@@ -1,0 +1,299 @@
+"""Error against run time: a grid of methods x tolerances measured against a checked reference.
+
+Why this module exists (issue 4 §5): a user choosing an integrator and a
+tolerance needs to know what accuracy each choice buys and what it costs *on
+their model*.  :func:`work_precision` runs every (method, tolerance) pair,
+measures the error against a reference integrated much tighter (and checked
+a second way, see :mod:`eomc.runtime.reference`), the wall time of the
+integration, the step statistics, the drift of the model's "energy" output
+and the constraint residual, and returns a :class:`WorkPrecisionReport` that
+writes a CSV, a work-precision diagram and a Markdown recommendation.
+
+Definitions used throughout:
+
+* error -- :func:`eomc.runtime.reference.scaled_error`: at each of the
+  ``n_points`` equally spaced output times, the RMS over states of the error
+  divided by that state's largest magnitude along the reference trajectory;
+  the reported error is the maximum over the output times.
+* tolerance -- adaptive methods run with rtol = atol = tolerance.  RK4 is
+  fixed-step: at each tolerance its step is dt = (t1 - t0) / N with N the
+  number of steps DOPRI5 accepted at that tolerance (so RK4 is compared with
+  the adaptive method of nearly the same order at the same number of steps;
+  DOPRI5 is run once for this if it is not in the grid).
+* wall time -- of the bare C call that integrates (argument checking,
+  buffer allocation and output evaluation excluded): the median over
+  ``repeats`` samples, each the mean of enough back-to-back calls to last
+  >= 5 ms (at most 200 calls); the minimum sample is kept too (wall_time_min_s).
+* energy drift -- max_t |E(t) - E(0)| / |E(0)| for the output named
+  "energy" (absolute when |E(0)| is below 1e-300).
+* constraint residual -- max over output times of the largest |constraint|.
+"""
+import sys
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .reference import Reference, compute_reference, scaled_error
+from .report_output import plot_report, recommendation, summary_markdown, table_text, write_csv
+from .integrators_api import METHOD_IDS
+from .simulate import finish, prepare, resolve_method, run_prepared
+
+__all__ = ["work_precision", "WorkPrecisionReport", "DEFAULT_METHODS", "DEFAULT_TOLERANCES",
+           "DEFAULT_TARGET", "COLUMNS"]
+
+DEFAULT_METHODS = ("rk4", "dopri5", "dop853", "radau")
+DEFAULT_TOLERANCES = tuple(10.0 ** -k for k in range(3, 11))
+DEFAULT_TARGET = 1e-6
+COLUMNS = ("method", "tolerance", "rtol", "atol", "dt", "status", "error", "wall_time_s",
+           "wall_time_min_s",
+           "steps", "accepted", "rejected", "nfev", "njev", "nlu", "energy_drift",
+           "constraint_residual", "message")
+TINY = 1e-300
+MIN_SAMPLE_S = 0.005     # one timing sample lasts at least this long ...
+MAX_INNER = 200          # ... or this many integrations
+
+
+@dataclass
+class WorkPrecisionReport:
+    """One row (dict with COLUMNS) per (method, tolerance), plus the reference used."""
+    model_name: str
+    t_span: tuple
+    n_points: int
+    methods: tuple
+    tolerances: tuple
+    reference: Reference
+    rows: list = field(default_factory=list)
+    has_energy: bool = False
+    has_constraints: bool = False
+    skipped: dict = field(default_factory=dict)   # method -> why it could not run on this model
+
+    def ok_rows(self):
+        return [r for r in self.rows if r["status"] == 0 and np.isfinite(r["error"])]
+
+    def recommend(self, target_error=None):
+        """The fastest successful row whose error <= target (None if no row meets it)."""
+        target = DEFAULT_TARGET if target_error is None else float(target_error)
+        meeting = [r for r in self.ok_rows() if r["error"] <= target]
+        return min(meeting, key=lambda r: r["wall_time_s"]) if meeting else None
+
+    def reference_energy_drift(self):
+        return energy_drift(self.reference.outputs) if self.has_energy else None
+
+    def table(self):
+        """The rows as a fixed-width text table (what the CLI prints)."""
+        return table_text(self)
+
+    def to_csv(self, path):
+        """Write one line per (method, tolerance) with COLUMNS as header; returns the path."""
+        return write_csv(self, path)
+
+    def plot(self, path, target_error=None):
+        """Work-precision diagram (error vs wall time, log-log, one line per method) as PNG."""
+        return plot_report(self, path, target_error)
+
+    def recommendation_text(self, target_error=None):
+        """One Markdown sentence: the recommended run for the target, or why there is none."""
+        return recommendation(self, DEFAULT_TARGET if target_error is None else target_error)
+
+    def summary_markdown(self, target_error=None):
+        """Short Markdown: reference, recommendation for the target, energy, stiffness."""
+        return summary_markdown(self, DEFAULT_TARGET if target_error is None else target_error)
+
+
+def energy_drift(outputs):
+    """max |E(t) - E(0)| / |E(0)| of outputs["energy"] (absolute if E(0) ~ 0); None if absent."""
+    e = outputs.get("energy") if outputs else None
+    if e is None or len(e) == 0:
+        return None
+    e = np.asarray(e, float)
+    scale = abs(e[0]) if abs(e[0]) > TINY else 1.0
+    return float(np.max(np.abs(e - e[0])) / scale)
+
+
+def _c_call(model, a):
+    """A zero-argument function making exactly the integrator's C call for prepared args `a`.
+
+    Buffers are allocated once, so timing it measures the integration in C and
+    not the per-call allocations of simulate.run_prepared.
+    """
+    ffi, lib = model.ffi, model.lib
+    buf = lambda arr: ffi.from_buffer("double[]", arr)  # noqa: E731
+    mid = METHOD_IDS[a["method"]]
+    opt = ffi.new("eomc_options *")
+    opt.method, opt.rtol, opt.atol = mid, a["rtol"], a["atol"]
+    opt.h0, opt.hmax, opt.max_steps = a["h0"], a["hmax"], a["max_steps"]
+    opt.project, opt.stiff_check = int(a["project"]), int(a["stiff_check"])
+    x_out, x_last = np.empty((a["t_eval"].size, model.nx)), np.empty(model.nx)
+    work = np.empty(lib.eomc_integrate_work_size(model.c_model, mid))
+    stats = ffi.new("eomc_stats *")
+    args = (model.c_model, opt, a["t0"], a["t1"], buf(a["x0"]), buf(a["p"]), a["n_r"],
+            buf(a["r_t"]), buf(a["r_v"]), a["t_eval"].size, buf(a["t_eval"]), buf(x_out),
+            buf(x_last), stats, buf(work), work.size)
+    return lambda: lib.eomc_integrate(*args)
+
+
+def _timed(model, a, repeats):
+    """(SimulationResult, median, min wall time per integration) over `repeats` samples.
+
+    The result comes from simulate.run_prepared (the public path).  A timing
+    sample repeats the bare C call (:func:`_c_call`) until it lasts
+    MIN_SAMPLE_S (at most MAX_INNER calls) and divides by the count, so
+    sub-millisecond runs are not dominated by timer resolution and Python.
+    """
+    start = time.perf_counter()
+    x_out, stats, x_last = run_prepared(model, a)
+    first = time.perf_counter() - start
+    res = finish(model, a, x_out, stats, x_last, raise_on_failure=False)
+    if res.status:
+        return res, first, first
+    call = _c_call(model, a)
+    start = time.perf_counter()
+    call()
+    first = time.perf_counter() - start
+    inner = int(min(MAX_INNER, max(1, np.ceil(MIN_SAMPLE_S / max(first, 1e-9)))))
+    samples = []
+    for _ in range(max(1, int(repeats))):
+        start = time.perf_counter()
+        for _ in range(inner):
+            call()
+        samples.append((time.perf_counter() - start) / inner)
+    return res, float(np.median(samples)), float(np.min(samples))
+
+
+def _row(method, tol, dt, a, res, wall, ref):
+    wall, wall_min = wall
+    s = res.stats
+    ok = res.status == 0
+    return dict(
+        method=method, tolerance=tol, rtol=a["rtol"] if method != "rk4" else None,
+        atol=a["atol"] if method != "rk4" else None, dt=dt, status=res.status,
+        error=scaled_error(res.x, ref.x, ref.scale) if ok else float("nan"),
+        wall_time_s=wall if ok else float("nan"),
+        wall_time_min_s=wall_min if ok else float("nan"), steps=s["steps"], accepted=s["accepted"],
+        rejected=s["rejected"], nfev=s["nfev"], njev=s["njev"], nlu=s["nlu"],
+        energy_drift=energy_drift(res.outputs) if ok else None,
+        constraint_residual=(float(np.max(res.constraint_residual))
+                             if ok and res.constraint_residual is not None else None),
+        message=res.message)
+
+
+def _failed_row(method, tol, dt, message):
+    row = {c: None for c in COLUMNS}
+    row.update(method=method, tolerance=tol, dt=dt, status=-1, error=float("nan"),
+               wall_time_s=float("nan"), wall_time_min_s=float("nan"), message=message)
+    return row
+
+
+def _rk4_dt(t_span, dopri5_result):
+    """RK4's step at a tolerance: the span over DOPRI5's accepted steps (None if it failed)."""
+    if dopri5_result is None or dopri5_result.status != 0:
+        return None
+    return (t_span[1] - t_span[0]) / max(1, int(dopri5_result.stats["accepted"]))
+
+
+def _one(model, method, tol, dt, common, repeats, ref):
+    """Measure one (method, tolerance); failures become rows, not exceptions."""
+    kw = dict(dt=dt) if method == "rk4" else dict(rtol=tol, atol=tol)
+    try:
+        a = prepare(model, max_steps=10 ** 7, stiff_check=True, **common, method=method, **kw)
+    except ValueError as exc:                 # e.g. radau without a Jacobian
+        return _failed_row(method, tol, dt, f"not run: {exc}"), None
+    res, wall, wall_min = _timed(model, a, repeats)
+    return _row(method, tol, dt, a, res, (wall, wall_min), ref), res
+
+
+def _dopri5_for_rk4(model, tol, common, ref, cache):
+    if tol not in cache:
+        _, cache[tol] = _one(model, "dopri5", tol, None, common, 1, ref)
+    return cache[tol]
+
+
+def _progress(enabled, row):
+    if not enabled:
+        return
+    what = f"dt={row['dt']:.3g}" if row["method"] == "rk4" and row["dt"] else f"tol={row['tolerance']:.0e}"
+    if row["status"] == 0:
+        text = f"error {row['error']:.2e}  {row['wall_time_s'] * 1e3:.3g} ms  {row['steps']} steps"
+    else:
+        text = f"failed: {row['message']}"
+    print(f"eomc report: {row['method']:<7} {what:<12} {text}", file=sys.stderr, flush=True)
+
+
+def work_precision(model, x0, t_span, p=None, r=None, methods=DEFAULT_METHODS,
+                   tolerances=DEFAULT_TOLERANCES, repeats=3, reference=None, progress=True,
+                   n_points=201, reference_tol=1e-13, reference_check="scipy", project=False):
+    """Run every method at every tolerance and measure error, time, drift and residual.
+
+    The module docstring defines error, tolerance (and RK4's dt), wall time and
+    drift.  ``reference``: a precomputed :class:`Reference` on the same output
+    times, or None to compute one (DOP853 at ``reference_tol``, checked by
+    ``reference_check``, see :func:`eomc.runtime.reference.compute_reference`).
+    Failed runs (stiffness detected, step limits) are kept as rows with their
+    status and message.  Bad arguments raise ValueError before anything runs.
+    """
+    methods = tuple(dict.fromkeys(resolve_method(m) for m in methods))
+    tolerances = tuple(sorted({float(t) for t in tolerances}, reverse=True))
+    if not methods or not tolerances or min(tolerances) <= 0:
+        raise ValueError("work_precision needs at least one method and tolerances > 0")
+    t0, t1 = _check(model, x0, t_span, p, r)
+    t_eval = np.linspace(t0, t1, int(n_points))
+    common = dict(x0=x0, t_span=(t0, t1), p=p, r=r, t_eval=t_eval, project=project)
+    if reference is None:
+        if progress:
+            print(f"eomc report: reference (dop853 at {reference_tol:.0e}, checked by "
+                  f"{reference_check}) ...", file=sys.stderr, flush=True)
+        reference = compute_reference(model, x0, (t0, t1), t_eval, p=p, r=r, tol=reference_tol,
+                                      check=reference_check, project=project)
+    if reference.x.shape != (t_eval.size, model.nx):
+        raise ValueError(f"reference has shape {reference.x.shape}; expected "
+                         f"({t_eval.size}, {model.nx}) on the report's output times")
+    report = WorkPrecisionReport(model_name=model.name, t_span=(t0, t1), n_points=int(n_points),
+                                 methods=methods, tolerances=tolerances, reference=reference,
+                                 has_energy="energy" in model.output_names,
+                                 has_constraints=(model.nhol + model.nvel) > 0)
+    report.skipped = _unrunnable(model, methods, common)
+    _run_grid(report, model, common, repeats, progress)
+    return report
+
+
+def _run_grid(report, model, common, repeats, progress):
+    """Fill report.rows: every tolerance, every runnable method (rk4 last: it needs DOPRI5)."""
+    dopri5_runs = {}
+    for tol in report.tolerances:
+        for method in sorted(report.methods, key=lambda m: m == "rk4"):
+            if method in report.skipped:
+                continue
+            dt = None
+            if method == "rk4":
+                done = _dopri5_for_rk4(model, tol, common, report.reference, dopri5_runs)
+                dt = _rk4_dt(common["t_span"], done)
+            if method == "rk4" and dt is None:
+                row = _failed_row(method, tol, None, "not run: DOPRI5 failed at this tolerance, "
+                                  "so there is no step count to match")
+            else:
+                row, res = _one(model, method, tol, dt, common, repeats, report.reference)
+                if method == "dopri5":
+                    dopri5_runs[tol] = res
+            report.rows.append(row)
+            _progress(progress, row)
+    report.rows.sort(key=lambda r: (report.methods.index(r["method"]), -r["tolerance"]))
+
+
+def _unrunnable(model, methods, common):
+    """{method: reason} for methods this model cannot run at all (e.g. radau without jac_x)."""
+    out = {}
+    for method in methods:
+        span = common["t_span"][1] - common["t_span"][0]
+        try:
+            prepare(model, **common, method=method, dt=span if method == "rk4" else None)
+        except ValueError as exc:
+            out[method] = str(exc)
+    return out
+
+
+def _check(model, x0, t_span, p, r):
+    """Validate the arguments once (ValueError before any C runs); returns (t0, t1)."""
+    a = prepare(model, x0, t_span, p=p, r=r, method="dop853", n_points=2)
+    return a["t0"], a["t1"]
+

@@ -1,0 +1,238 @@
+"""What a WorkPrecisionReport writes: CSV, text table, work-precision PNG, Markdown summary.
+
+Why a separate module: runtime/report.py measures, this one presents.  The
+plot imports matplotlib lazily (Agg backend), so measuring never needs it.
+"""
+import csv
+import math
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["write_csv", "table_text", "plot_report", "summary_markdown", "recommendation", "usage"]
+
+EXPLICIT = ("rk4", "dopri5", "dop853")
+MANY_REJECTIONS = 0.25    # rejected / steps above this for an explicit method: stiffness symptom
+CONSERVED = 1e-8          # reference energy drift below this: the model conserves energy
+
+
+def _cell(value):
+    if value is None:
+        return ""
+    if isinstance(value, float):
+        return "" if math.isnan(value) else repr(value)
+    return str(value)
+
+
+def write_csv(report, path):
+    from .report import COLUMNS
+    path = Path(path)
+    with path.open("w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(COLUMNS)
+        for row in report.rows:
+            w.writerow([_cell(row[c]) for c in COLUMNS])
+    return path
+
+
+def _fmt(value, spec=".2e"):
+    if value is None or (isinstance(value, float) and math.isnan(value)):
+        return "-"
+    return format(value, spec)
+
+
+def _setting(row):
+    return f"dt={row['dt']:.3g}" if row["method"] == "rk4" and row["dt"] else f"{row['tolerance']:.0e}"
+
+
+def _table_rows(report):
+    head = ["method", "tol/dt", "error", "time [ms]", "steps", "rejected", "nfev"]
+    if report.has_energy:
+        head.append("energy drift")
+    if report.has_constraints:
+        head.append("constraint res.")
+    body = []
+    for r in report.rows:
+        ms = r["wall_time_s"] * 1e3 if r["status"] == 0 else None
+        cells = [r["method"], _setting(r), _fmt(r["error"]) if r["status"] == 0 else "FAILED",
+                 _fmt(ms, ".3g"), _fmt(r["steps"], "d"), _fmt(r["rejected"], "d"), _fmt(r["nfev"], "d")]
+        if report.has_energy:
+            cells.append(_fmt(r["energy_drift"]))
+        if report.has_constraints:
+            cells.append(_fmt(r["constraint_residual"]))
+        body.append(cells)
+    return head, body
+
+
+def table_text(report):
+    head, body = _table_rows(report)
+    widths = [max(len(str(c)) for c in col) for col in zip(head, *body)]
+    line = lambda cells: "  ".join(str(c).rjust(w) for c, w in zip(cells, widths))  # noqa: E731
+    return "\n".join([line(head), line(["-" * w for w in widths])] + [line(b) for b in body])
+
+
+def _markdown_table(report):
+    head, body = _table_rows(report)
+    out = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    out += ["| " + " | ".join(str(c) for c in b) + " |" for b in body]
+    return "\n".join(out)
+
+
+def usage(row):
+    """The simulate() keywords that reproduce a row."""
+    if row["method"] == "rk4":
+        return f'method="rk4", dt={row["dt"]:.4g}'
+    return f'method="{row["method"]}", rtol={row["tolerance"]:.0e}, atol={row["tolerance"]:.0e}'
+
+
+def plot_report(report, path, target_error=None):
+    """Error vs wall time, log-log, one line per method, points labelled by tolerance."""
+    import matplotlib
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+    from .report import DEFAULT_TARGET
+    target = DEFAULT_TARGET if target_error is None else float(target_error)
+    fig, ax = plt.subplots(figsize=(8.5, 6))
+    markers = dict(rk4="s", dopri5="o", dop853="^", radau="D")
+    for method in report.methods:
+        rows = [r for r in report.ok_rows() if r["method"] == method]
+        if not rows:
+            continue
+        rows.sort(key=lambda r: -r["tolerance"])
+        x = [r["wall_time_s"] for r in rows]
+        y = [max(r["error"], 1e-17) for r in rows]
+        label = method + (" (dt from DOPRI5 step count)" if method == "rk4" else "")
+        (line,) = ax.loglog(x, y, marker=markers.get(method, "o"), label=label)
+        for xi, yi, r in zip(x, y, rows):
+            ax.annotate(f"{r['tolerance']:.0e}", (xi, yi), textcoords="offset points",
+                        xytext=(5, 3), fontsize=7, color=line.get_color())
+    ax.axhline(target, color="0.3", ls="--", lw=1, label=f"target error {target:.0e}")
+    agree = report.reference.agreement
+    if np.isfinite(agree) and agree > 0:
+        ax.axhspan(1e-17, agree, color="0.85", zorder=0,
+                   label=f"below reference agreement ({agree:.1e})")
+    ok = [r["error"] for r in report.ok_rows()]
+    if ok:
+        ax.set_ylim(max(min(ok), 1e-17) / 5, max(max(ok), target) * 5)
+    t0, t1 = report.t_span
+    ax.set_xlabel("wall time of one integration [s] (median of repeats)")
+    ax.set_ylabel("error vs reference [max over output times of scaled RMS, relative]")
+    ax.set_title(f"{report.model_name}: work-precision, t in [{t0:g}, {t1:g}]\n"
+                 f"points labelled by tolerance (rtol = atol); lower-left is better", fontsize=11)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(loc="best", fontsize=8)
+    fig.tight_layout()
+    path = Path(path)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def recommendation(report, target):
+    best = report.recommend(target)
+    meeting = [r for r in report.ok_rows() if r["error"] <= target]
+    if best is None:
+        ok = report.ok_rows()
+        if not ok:
+            return "**No run succeeded**; see the table for the reasons."
+        top = min(ok, key=lambda r: r["error"])
+        return (f"**No run met the target.** The most accurate was `{usage(top)}` "
+                f"(error {top['error']:.2e}, {top['wall_time_s'] * 1e3:.3g} ms): add tighter "
+                f"tolerances to the grid (`--tolerances`).")
+    return (f"**Recommendation:** `{usage(best)}` -- error {best['error']:.2e} in "
+            f"{best['wall_time_s'] * 1e3:.3g} ms ({best['steps']} steps, {best['nfev']} rhs "
+            f"evaluations); the fastest of the {len(meeting)} runs that meet the target.")
+
+
+def _reference_notes(report):
+    ref = report.reference
+    notes = [ref.describe() + "."]
+    finest = min(report.tolerances)
+    if ref.check_method == "none":
+        notes.append("**Warning:** the reference was not checked; errors are only as good as it is.")
+    elif not (ref.agreement <= 0.1 * finest):
+        notes.append(f"**Warning:** the two references agree only to {ref.agreement:.1e}, which is "
+                     f"not well below the finest tolerance {finest:.0e}: errors below "
+                     f"~{10 * ref.agreement:.0e} are not resolved by this reference.")
+    return notes
+
+
+def _run_notes(report):
+    """Methods that could not run on this model and runs that failed (other than stiffness)."""
+    notes = [f"{m} not run: {why}" for m, why in report.skipped.items()]
+    for r in report.rows:
+        if r["status"] != 0 and not (r["method"] in EXPLICIT and r["status"] in (6, 7)):
+            notes.append(f"{r['method']} at {_setting(r)} failed: {r['message']}")
+    return notes[:8]
+
+
+def _energy_notes(report):
+    if not report.has_energy:
+        return []
+    d_ref = report.reference_energy_drift()
+    if d_ref is None or d_ref > CONSERVED:
+        return [f"Energy is not conserved by the model itself (reference drift {_fmt(d_ref)}: "
+                f"forcing, damping or inputs), so the drift column measures physics, not error."]
+    parts = []
+    for method in report.methods:
+        rows = [r for r in report.ok_rows() if r["method"] == method and r["energy_drift"] is not None]
+        if rows:
+            lo, hi = rows[0], rows[-1]
+            parts.append(f"{method} {lo['energy_drift']:.1e} ({_setting(lo)}) -> "
+                         f"{hi['energy_drift']:.1e} ({_setting(hi)})")
+    return [f"Energy: the reference conserves it to {d_ref:.1e} (relative). None of these methods "
+            f"is symplectic: drift follows the accuracy (loosest -> tightest): " + "; ".join(parts) + "."]
+
+
+def _stiffness_notes(report):
+    notes = []
+    for r in report.rows:
+        if r["method"] in EXPLICIT and r["status"] in (6, 7):
+            notes.append(f"{r['method']} at {_setting(r)} stopped: {r['message']}")
+    for r in report.ok_rows():
+        if r["method"] in EXPLICIT and r["steps"] and r["rejected"] / r["steps"] > MANY_REJECTIONS:
+            notes.append(f"{r['method']} at {_setting(r)} rejected {r['rejected']} of "
+                         f"{r['steps']} steps")
+    by = {(r["method"], r["tolerance"]): r for r in report.ok_rows()}
+    for tol in report.tolerances:
+        rad = by.get(("radau", tol))
+        exp = [by[(m, tol)]["accepted"] for m in ("dopri5", "dop853") if (m, tol) in by]
+        if rad and exp and rad["accepted"] * 5 < min(exp):
+            notes.append(f"at {tol:.0e} radau needs {rad['accepted']} steps against "
+                         f"{min(exp)} for the best explicit method")
+    if not notes:
+        return ["Stiffness: no symptoms (no explicit run stopped, none rejected more than "
+                f"{MANY_REJECTIONS:.0%} of its steps)."]
+    return ["Stiffness symptoms -- prefer method=\"radau\": " + "; ".join(notes[:6]) + "."]
+
+
+def _constraint_notes(report):
+    if not report.has_constraints:
+        return []
+    ref = report.reference.constraint_residual
+    rows = [r for r in report.ok_rows() if r["constraint_residual"] is not None]
+    worst = max(rows, key=lambda r: r["constraint_residual"]) if rows else None
+    text = f"Constraints: reference residual {_fmt(None if ref is None else float(np.max(ref)))}"
+    if worst:
+        text += f"; worst run {worst['method']} at {_setting(worst)}: {worst['constraint_residual']:.1e}"
+    return [text + " (max |constraint| along the trajectory; `project=True` removes the drift)."]
+
+
+def summary_markdown(report, target):
+    target = float(target)
+    t0, t1 = report.t_span
+    lines = [f"# Work-precision report: {report.model_name}", "",
+             f"Integration over t in [{t0:g}, {t1:g}]; the error is measured at "
+             f"{report.n_points} equally spaced times: at each time the RMS over states of "
+             f"(x - x_ref) / (largest |x_ref| of that state along the trajectory), and the "
+             f"maximum over times is reported. Target {target:.0e} therefore means about "
+             f"{-math.log10(target):.0f} correct digits of every state, relative to its size, "
+             f"at every output time. Adaptive methods run with rtol = atol = tolerance; RK4's "
+             f"step is the span over DOPRI5's accepted steps at that tolerance. Wall time is "
+             f"the median of the C integration call.", "",
+             recommendation(report, target), ""]
+    for note in (_reference_notes(report) + _run_notes(report) + _energy_notes(report) + _constraint_notes(report)
+                 + _stiffness_notes(report)):
+        lines += [f"- {note}"]
+    lines += ["", _markdown_table(report), ""]
+    return "\n".join(lines)
