@@ -90,7 +90,8 @@ def _from_kane(km, cls):
                u_dependent=list(km._udep) or None,
                velocity_constraints=vel,
                acceleration_constraints=acc,
-               u_auxiliary=list(km._uaux) or None)
+               u_auxiliary=list(km._uaux) or None,
+               explicit_kinematics=getattr(km, "explicit_kinematics", True))
     if km._bodylist is not None or km._forcelist is not None:
         ours.kanes_equations(bodies=list(km._bodylist or []),
                              loads=list(km._forcelist or []) or None)
