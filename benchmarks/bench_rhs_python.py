@@ -77,7 +77,7 @@ def eomc_tools(n, tmp):
     if not ok:
         return None, f"eomc: not available ({why})"
     try:
-        model = models.eomc_compile(n, tmp)
+        model = models.eomc_compile(n, tmp, functions=["rhs"])
         p = models.eomc_p(model, n)
         rhs = model.rhs
         return model, (lambda x: rhs(0.0, x, p, R), lambda x, r: rhs(0.0, x, p, r), p)
