@@ -16,6 +16,7 @@ from pathlib import Path
 import cffi
 import numpy as np
 
+from eomc.errors import SimulationError
 from eomc.runtime.integrators_api import INTEGRATOR_CDEF
 
 __all__ = ["HERE", "TEMPLATES", "MODEL_NAMES", "StandInModel", "build_library", "get_model",
@@ -23,8 +24,10 @@ __all__ = ["HERE", "TEMPLATES", "MODEL_NAMES", "StandInModel", "build_library", 
 
 HERE = Path(__file__).resolve().parent
 TEMPLATES = HERE.parents[2] / "templates" / "c"
-MODEL_NAMES = ("oscillator", "pendulum", "chain", "kepler", "ring", "blowup", "singular")
-SOURCES = ("oscillator.c", "pendulum.c", "chain.c", "kepler.c", "ring.c", "faulty.c")
+MODEL_NAMES = ("oscillator", "pendulum", "chain", "kepler", "ring", "blowup", "singular", "sphere",
+               "top")
+SOURCES = ("oscillator.c", "pendulum.c", "chain.c", "kepler.c", "ring.c", "faulty.c", "sphere.c",
+           "top.c")
 
 # Field for field the struct of eomc_model.h (cffi reads no preprocessor lines).
 MODEL_ABI_CDEF = """
@@ -98,11 +101,14 @@ class StandInModel:
         ptr = lambda a: self.ffi.from_buffer("double[]", a)  # noqa: E731
         status = fn(float(t), ptr(x), ptr(p), ptr(r), ptr(out), ptr(work))
         if status:
-            raise RuntimeError(f"{self.name}: status {status}")
+            raise SimulationError(f"{self.name}: status {status} at t={t}")
         return out
 
     def rhs(self, t, x, p=None, r=None):
         return self._call(self.c_model.rhs, self.nx, t, x, p, r)
+
+    def mass_matrix(self, t, x, p=None, r=None):
+        return self._call(self.c_model.mass_matrix, self.nu * self.nu, t, x, p, r).reshape(self.nu, self.nu)
 
     def jacobian(self, t, x, p=None, r=None):
         return self._call(self.c_model.jac_x, self.nx * self.nx, t, x, p, r).reshape(self.nx, self.nx)

@@ -1,0 +1,172 @@
+"""Stability checks on a user's model (``eomc check``; issue 4 §6).
+
+Why: a compiled model can be right and still be hard to integrate -- stiff,
+near a singular configuration, badly scaled, or drifting over long horizons.
+``check_model`` runs a fixed list of checks from one start state; each states
+what is expected and what was measured, so the user learns which method and
+tolerance to trust before running long studies.  numpy + the C integrators
+only (no SymPy, no scipy).
+"""
+from dataclasses import dataclass
+
+import numpy as np
+
+from eomc.errors import EomcError
+
+from .simulate import simulate
+
+__all__ = ["Check", "check_model", "format_checks", "COND_WARN", "GLOBAL_FACTOR"]
+
+COND_WARN = 1e8          # cond(M) above this: accelerations lose ~8 digits
+FD_TOL = 1e-5            # Jacobian vs central differences, relative
+GLOBAL_FACTOR = 1000     # global error allowed, in units of the local tolerance
+
+
+@dataclass
+class Check:
+    """One check: what was expected, what was measured, and whether it held."""
+    name: str
+    expected: str
+    measured: str
+    passed: bool
+
+
+def _try(fn):
+    try:
+        return fn(), None
+    except (EomcError, ValueError) as exc:
+        return None, str(exc)
+
+
+def _finite_at_start(model, x0, p):
+    f, err = _try(lambda: model.rhs(0.0, x0, p))
+    ok = err is None and np.all(np.isfinite(f))
+    return Check("rhs at x0", "finite derivative", err or f"max |xdot| = {np.max(np.abs(f)):.3g}", ok)
+
+
+def _jacobian_vs_fd(model, x0, p):
+    if model.c_model.jac_x == model.ffi.NULL:
+        return Check("jacobian", "generated jac_x", "not generated (radau unavailable)", False)
+    J, err = _try(lambda: model.jacobian(0.0, x0, p))
+    if err:
+        return Check("jacobian", "finite", err, False)
+    fd = np.empty_like(J)
+    for j in range(model.nx):
+        h = 1e-6 * max(1.0, abs(x0[j]))
+        e = np.zeros(model.nx)
+        e[j] = h
+        fd[:, j] = (model.rhs(0.0, x0 + e, p) - model.rhs(0.0, x0 - e, p)) / (2 * h)
+    rel = np.max(np.abs(J - fd)) / max(1.0, np.max(np.abs(J)))
+    return Check("jacobian", f"jac_x = central differences of rhs (rel. < {FD_TOL:g})",
+                 f"rel. difference {rel:.2e}", rel < FD_TOL)
+
+
+def _stiffness(model, x0, p, t_final):
+    if model.c_model.jac_x == model.ffi.NULL:
+        return None
+    lam = np.linalg.eigvals(model.jacobian(0.0, x0, p))
+    fast = np.max(np.abs(lam.real)) if lam.size else 0.0
+    return Check("stiffness at x0", "informational: max |Re lambda| * t_final >> 1e3 means stiff",
+                 f"max |Re lambda| = {fast:.3g}, times t_final = {fast * t_final:.3g}", True)
+
+
+def _accuracy(model, x0, p, t_final, rtol, atol, methods, max_steps):
+    """Each method at (rtol, atol) against a reference 1e-4 tighter; returns checks and runs."""
+    t_eval = np.linspace(0.0, t_final, 201)
+    tight = dict(rtol=max(rtol * 1e-4, 1e-13), atol=max(atol * 1e-4, 1e-15))
+    ref_method = "dop853"          # cheapest at tight tolerances; radau if that proves stiff
+    ref = simulate(model, x0, (0.0, t_final), p=p, method=ref_method, t_eval=t_eval,
+                   max_steps=max_steps * 10, raise_on_failure=False, **tight)
+    if ref.status == 7 and model.c_model.jac_x != model.ffi.NULL:
+        ref_method = "radau"
+        ref = simulate(model, x0, (0.0, t_final), p=p, method=ref_method, t_eval=t_eval,
+                       max_steps=max_steps * 10, raise_on_failure=False, **tight)
+    if ref.status:      # e.g. a singular configuration: say where, keep the partial run
+        return [Check("reference", f"{ref_method} at rtol={tight['rtol']:g} reaches t_final",
+                      ref.message, False)], {"reference": ref}
+    checks, runs = [], {}
+    scale = atol + rtol * np.abs(ref.x)
+    for method in methods:
+        res = simulate(model, x0, (0.0, t_final), p=p, method=method, rtol=rtol, atol=atol,
+                       t_eval=t_eval, max_steps=max_steps, raise_on_failure=False)
+        runs[method] = res
+        if res.status:
+            stop_ok = res.status in (6, 7) and np.all(np.isfinite(res.x))
+            checks.append(Check(f"{method} accuracy", "reaches t_final, or stops with a diagnosis",
+                                res.message, stop_ok))
+            continue
+        err_ratio = np.max(np.abs(res.x - ref.x) / scale)
+        checks.append(Check(f"{method} accuracy", f"error <= {GLOBAL_FACTOR:g} x (atol + rtol |x|) "
+                            f"vs {ref_method} at rtol={tight['rtol']:g} (local tolerances add up)",
+                            f"{err_ratio:.3g} x tolerance, {res.stats['steps']} steps",
+                            err_ratio <= GLOBAL_FACTOR))
+    return checks, {"reference": ref, **runs}
+
+
+def _conditioning(model, res, p):
+    if model.c_model.mass_matrix == model.ffi.NULL or res is None:
+        return None
+    if res.t.size == 0:
+        return None
+    conds = np.array([np.linalg.cond(model.mass_matrix(t, x, p)) for t, x in zip(res.t, res.x)])
+    i = int(np.argmax(conds))
+    state = ", ".join(f"{n}={v:.4g}" for n, v in zip(model.state_names, res.x[i]))
+    return Check("mass matrix conditioning", f"cond(M) < {COND_WARN:g} along the trajectory",
+                 f"max cond(M) = {conds[i]:.3g} at t={res.t[i]:.6g} ({state})", conds[i] < COND_WARN)
+
+
+def _drift(runs, name="energy"):
+    out = []
+    for method, res in runs.items():
+        if method == "reference" or name not in res.outputs or res.status:
+            continue
+        e = res.outputs[name]
+        rel = abs(e[-1] - e[0]) / max(np.max(np.abs(e)), 1e-300)   # e(0) may be 0
+        out.append(Check(f"{method} {name} drift", "informational (conserved only without "
+                         "damping and inputs)", f"change {rel:.3g} of max |{name}|", True))
+    return out
+
+
+def _constraints(model, x0, p, t_final, rtol, atol):
+    if model.nhol + model.nvel == 0 or model.c_model.constraints == model.ffi.NULL:
+        return []
+    free = simulate(model, x0, (0.0, t_final), p=p, rtol=rtol, atol=atol, raise_on_failure=False)
+    proj = simulate(model, x0, (0.0, t_final), p=p, rtol=rtol, atol=atol, project=True,
+                    raise_on_failure=False)
+    ok = proj.status == 0 and proj.stats["max_residual"] < 1e-10
+    return [Check("constraint drift", "project=True keeps residuals < 1e-10 at steps",
+                  f"free: max {np.max(free.constraint_residual):.3g}; projected: "
+                  f"{proj.stats['max_residual']:.3g}", ok)]
+
+
+def check_model(model, x0=None, t_final=10.0, p=None, rtol=1e-8, atol=1e-10,
+                methods=("dopri5", "dop853", "radau"), max_steps=200000):
+    """Run the checks from x0 (default: the model's initial_state) over [0, t_final]."""
+    x0 = getattr(model, "initial_state", None) if x0 is None else x0
+    if x0 is None:
+        raise ValueError(f"{model.name}: no x0 given and the model has no initial_state")
+    x0 = np.asarray([x0[n] for n in model.state_names] if isinstance(x0, dict) else x0, float)
+    p = model.param_defaults if p is None else np.asarray(p, float)
+    if model.c_model.jac_x == model.ffi.NULL:
+        methods = tuple(m for m in methods if m != "radau")
+    checks = [_finite_at_start(model, x0, p)]
+    if not checks[0].passed:
+        return checks
+    checks += [c for c in (_jacobian_vs_fd(model, x0, p), _stiffness(model, x0, p, t_final)) if c]
+    acc, runs = _accuracy(model, x0, p, t_final, rtol, atol, methods, max_steps)
+    checks += acc
+    cond = _conditioning(model, runs.get("reference"), p)
+    checks += ([cond] if cond else []) + _drift(runs) + _constraints(model, x0, p, t_final, rtol,
+                                                                      atol)
+    return checks
+
+
+def format_checks(checks):
+    """A plain-text table: status, name, expected, measured."""
+    lines = []
+    for c in checks:
+        lines.append(f"[{'ok' if c.passed else 'FAIL':>4}] {c.name}: {c.measured}")
+        lines.append(f"       expected: {c.expected}")
+    failed = sum(not c.passed for c in checks)
+    lines.append(f"{len(checks) - failed} of {len(checks)} checks passed")
+    return "\n".join(lines)

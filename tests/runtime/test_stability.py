@@ -1,0 +1,124 @@
+"""Issue 4 §6: stiff, near-singular, extreme-scale, long-horizon and fast-spin cases.
+
+Each test states its expectation in its docstring.  (a), the stiff chain over
+stiffness ratios 1e3..1e8, lives in test_integrators.py; here it runs through
+check_model, the function behind ``eomc check``.
+"""
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parent / "models"))
+from stand_in import get_model  # noqa: E402
+
+import eomc.compiler.cli_simulate as cli_simulate  # noqa: E402
+from eomc.cli import main  # noqa: E402
+from eomc.errors import SimulationError  # noqa: E402
+from eomc.runtime.simulate import simulate  # noqa: E402
+from eomc.runtime.stability import check_model  # noqa: E402
+
+
+def by_name(checks):
+    return {c.name: c for c in checks}
+
+
+def test_a_check_model_on_stiff_chain_recommends_radau():
+    """Explicit methods stop with 'stiff ... use method=radau'; radau meets the tolerance."""
+    checks = by_name(check_model(get_model("chain"), [1, 1, 0, 0], 10.0,
+                                 p=[1.0, 1e8, 0.1, 2e4], rtol=1e-6, atol=1e-8))
+    assert all(c.passed for c in checks.values())
+    for method in ("dopri5", "dop853"):
+        assert "stiff" in checks[f"{method} accuracy"].measured
+        assert "method='radau'" in checks[f"{method} accuracy"].measured
+    assert "x tolerance" in checks["radau accuracy"].measured
+    assert float(checks["stiffness at x0"].measured.split("= ")[1].split(",")[0]) > 1e4
+
+
+def test_b_near_singular_mass_matrix_is_reported_with_time_and_state():
+    """Spherical pendulum swinging (almost) through the pole: cond(M) ~ 1/sin^2(theta) rises;
+    the check names the time and state; passing exactly through it is a SimulationError."""
+    sp = get_model("sphere")
+    checks = by_name(check_model(sp, [0.5, 0.0, 0.0, 1e-3], 1.0, methods=("dop853",)))
+    cond = checks["mass matrix conditioning"]
+    assert "max cond(M) = " in cond.measured and "theta=" in cond.measured
+    t_worst = float(cond.measured.split("at t=")[1].split()[0])
+    res = simulate(sp, [0.5, 0.0, 0.0, 1e-3], (0, 1.0), rtol=1e-10, atol=1e-12, n_points=2001)
+    assert abs(t_worst - res.t[np.argmin(np.abs(res["theta"]))]) < 0.01
+    assert float(cond.measured.split("= ")[1].split()[0]) > 1e5
+    assert np.all(np.isfinite(res.x))                                    # no silent NaN
+    with pytest.raises(SimulationError, match=r"stopped at t=0: singular mass matrix; state theta=0"):
+        simulate(sp, [0.0, 0.0, 1.0, 0.0], (0, 1.0))
+
+
+@pytest.mark.parametrize("scale", [1e-6, 1.0, 1e6])
+@pytest.mark.parametrize("amp", [1e-6, 1e6])
+def test_c_extreme_scales_keep_relative_error_within_tolerance(scale, amp):
+    """Oscillator with m and k from 1e-6 to 1e6 (omega = sqrt(k/m) from 1e-6..1e6 too) and
+    amplitudes 1e-6..1e6: over 5 periods the relative error stays ~ rtol."""
+    m = get_model("oscillator")
+    mass, k = scale, scale * scale            # omega = sqrt(scale)
+    omega = np.sqrt(k / mass)
+    t1 = 5 * 2 * np.pi / omega
+    t = np.linspace(0, t1, 101)
+    for method in ("dop853", "radau"):
+        res = simulate(m, [amp, 0.0], (0, t1), p=[k, mass, 0.0], method=method, rtol=1e-9,
+                       atol=1e-12 * amp * max(1.0, omega), t_eval=t)
+        rel = np.max(np.abs(res["q"] - amp * np.cos(omega * t))) / amp
+        assert rel < 1e-7, (method, rel)
+
+
+@pytest.mark.parametrize("method,periods", [("dop853", 10000), ("dopri5", 10000), ("radau", 300)])
+def test_d_long_horizon_energy_drift_grows_linearly(method, periods):
+    """Non-symplectic RK methods drift in energy ~ linearly in time: 10x the horizon gives
+    ~10x the drift, and the drift stays small (< 1e-5 relative) at rtol = 1e-10."""
+    pen = get_model("pendulum")
+    period = 2 * np.pi / np.sqrt(9.81)          # small-amplitude period; a scale only
+    drifts = []
+    for n in (periods // 10, periods):
+        res = simulate(pen, [1.0, 0.0], (0, n * period), method=method, rtol=1e-10, atol=1e-10,
+                       max_steps=10**7, n_points=11)
+        e = res["energy"]
+        drifts.append(abs(e[-1] - e[0]) / abs(e[0]))
+    assert drifts[1] < 1e-5
+    assert 4 < drifts[1] / drifts[0] < 25, drifts
+
+
+def test_d_kepler_orbit_long_horizon():
+    """100 eccentric orbits (e = 0.6): energy and angular momentum drift stay < 1e-7 with
+    DOP853 at rtol=1e-11, and the orbit closes (the position error grows with the phase)."""
+    kp = get_model("kepler")
+    e = 0.6
+    x0 = np.array([1 - e, 0.0, 0.0, np.sqrt((1 + e) / (1 - e))])
+    res = simulate(kp, x0, (0, 100 * 2 * np.pi), method="dop853", rtol=1e-11, atol=1e-13,
+                   t_eval=2 * np.pi * np.arange(0, 101), max_steps=10**6)
+    energy, ang = res["energy"], res["angular_momentum"]
+    assert np.max(np.abs(energy - energy[0])) / abs(energy[0]) < 1e-7
+    assert np.max(np.abs(ang - ang[0])) / abs(ang[0]) < 1e-7
+    err = np.linalg.norm(res.x[:, :2] - x0[:2], axis=1)
+    assert err[-1] < 1e-4 and err[-1] > err[1]
+
+
+@pytest.mark.parametrize("spin", [10.0, 1e3, 1e5])
+def test_e_fast_spin_conserves_energy_and_momentum(spin):
+    """Torque-free body spinning about its major axis with a small wobble, at 10..1e5 rad/s
+    over 200 revolutions: energy and |L|^2 conserved to ~1e-12 relative by DOP853."""
+    top = get_model("top")
+    x0 = [1e-3 * spin, 1e-3 * spin, spin]
+    res = simulate(top, x0, (0, 200 * 2 * np.pi / spin), method="dop853", rtol=1e-10,
+                   atol=1e-12 * spin, max_steps=10**6)
+    for name in ("energy", "L2"):
+        v = res[name]
+        assert np.ptp(v) / v[0] < 1e-12, name
+    assert abs(res["w3"][-1] / spin - 1) < 1e-5     # the spin axis is stable (major axis)
+
+
+def test_eomc_check_cli(monkeypatch, capsys):
+    monkeypatch.setattr(cli_simulate, "load_model", lambda spec: get_model("pendulum"))
+    assert main(["check", "pend", "--x0", "q1=1.0", "--t-final", "5"]) == 0
+    out = capsys.readouterr().out
+    assert "dop853 accuracy" in out and "checks passed" in out and "FAIL" not in out
+    monkeypatch.setattr(cli_simulate, "load_model", lambda spec: get_model("sphere"))
+    assert main(["check", "s", "--x0", "theta=0.0,theta_dot=1.0"]) == 1   # singular at x0
+    assert "FAIL" in capsys.readouterr().out
