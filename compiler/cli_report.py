@@ -37,8 +37,8 @@ def configure(parser):
     parser.add_argument("--points", type=int, default=201, help="output times the error is measured at")
     parser.add_argument("--reference-tol", type=float, default=1e-13,
                         help="tolerance of the DOP853 reference")
-    parser.add_argument("--reference-check", default="scipy",
-                        choices=("scipy", "radau", "dop853-half", "none"),
+    parser.add_argument("--reference-check", default="auto",
+                        choices=("auto", "scipy", "radau", "dop853-half", "none"),
                         help="second computation the reference is checked against")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
 

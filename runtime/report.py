@@ -222,13 +222,14 @@ def _progress(enabled, row):
 
 def work_precision(model, x0, t_span, p=None, r=None, methods=DEFAULT_METHODS,
                    tolerances=DEFAULT_TOLERANCES, repeats=3, reference=None, progress=True,
-                   n_points=201, reference_tol=1e-13, reference_check="scipy", project=False):
+                   n_points=201, reference_tol=1e-13, reference_check="auto", reference_method="auto",
+                   project=False):
     """Run every method at every tolerance and measure error, time, drift and residual.
 
     The module docstring defines error, tolerance (and RK4's dt), wall time and
     drift.  ``reference``: a precomputed :class:`Reference` on the same output
-    times, or None to compute one (DOP853 at ``reference_tol``, checked by
-    ``reference_check``, see :func:`eomc.runtime.reference.compute_reference`).
+    times, or None to compute one (``reference_method`` at ``reference_tol``,
+    checked by ``reference_check``; see eomc.runtime.reference.compute_reference).
     Failed runs (stiffness detected, step limits) are kept as rows with their
     status and message.  Bad arguments raise ValueError before anything runs.
     """
@@ -241,10 +242,11 @@ def work_precision(model, x0, t_span, p=None, r=None, methods=DEFAULT_METHODS,
     common = dict(x0=x0, t_span=(t0, t1), p=p, r=r, t_eval=t_eval, project=project)
     if reference is None:
         if progress:
-            print(f"eomc report: reference (dop853 at {reference_tol:.0e}, checked by "
+            print(f"eomc report: reference ({reference_method} at {reference_tol:.0e}, checked by "
                   f"{reference_check}) ...", file=sys.stderr, flush=True)
         reference = compute_reference(model, x0, (t0, t1), t_eval, p=p, r=r, tol=reference_tol,
-                                      check=reference_check, project=project)
+                                      check=reference_check, project=project,
+                                      method=reference_method)
     if reference.x.shape != (t_eval.size, model.nx):
         raise ValueError(f"reference has shape {reference.x.shape}; expected "
                          f"({t_eval.size}, {model.nx}) on the report's output times")

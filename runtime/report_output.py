@@ -139,9 +139,11 @@ def recommendation(report, target):
         return (f"**No run met the target.** The most accurate was `{usage(top)}` "
                 f"(error {top['error']:.2e}, {top['wall_time_s'] * 1e3:.3g} ms): add tighter "
                 f"tolerances to the grid (`--tolerances`).")
-    return (f"**Recommendation:** `{usage(best)}` -- error {best['error']:.2e} in "
-            f"{best['wall_time_s'] * 1e3:.3g} ms ({best['steps']} steps, {best['nfev']} rhs "
-            f"evaluations); the fastest of the {len(meeting)} runs that meet the target.")
+    which = ("the only run that meets the target" if len(meeting) == 1 else
+             f"the fastest of the {len(meeting)} runs that meet the target")
+    return (f"**Recommendation** (target {target:.0e}): `{usage(best)}` -- error "
+            f"{best['error']:.2e} in {best['wall_time_s'] * 1e3:.3g} ms ({best['steps']} steps, "
+            f"{best['nfev']} rhs evaluations); {which}.")
 
 
 def _reference_notes(report):
@@ -157,12 +159,19 @@ def _reference_notes(report):
     return notes
 
 
+def _short(report, message):
+    """A failure message without the model-name prefix and the trailing state dump."""
+    message = (message or "").split("; state ")[0].replace("; use method='radau'", "")
+    prefix = f"{report.model_name}: "
+    return message[len(prefix):] if message.startswith(prefix) else message
+
+
 def _run_notes(report):
     """Methods that could not run on this model and runs that failed (other than stiffness)."""
     notes = [f"{m} not run: {why}" for m, why in report.skipped.items()]
     for r in report.rows:
         if r["status"] != 0 and not (r["method"] in EXPLICIT and r["status"] in (6, 7)):
-            notes.append(f"{r['method']} at {_setting(r)} failed: {r['message']}")
+            notes.append(f"{r['method']} at {_setting(r)} failed: {_short(report, r['message'])}")
     return notes[:8]
 
 
@@ -188,7 +197,7 @@ def _stiffness_notes(report):
     notes = []
     for r in report.rows:
         if r["method"] in EXPLICIT and r["status"] in (6, 7):
-            notes.append(f"{r['method']} at {_setting(r)} stopped: {r['message']}")
+            notes.append(f"{_short(report, r['message'])} ({_setting(r)})")
     for r in report.ok_rows():
         if r["method"] in EXPLICIT and r["steps"] and r["rejected"] / r["steps"] > MANY_REJECTIONS:
             notes.append(f"{r['method']} at {_setting(r)} rejected {r['rejected']} of "

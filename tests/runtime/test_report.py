@@ -1,0 +1,207 @@
+"""Work-precision report: reference vs closed forms, monotone errors, CSV/PNG/Markdown, CLI.
+
+Oracles: the harmonic oscillator's closed form (q = cos 2t), the pendulum's
+energy recomputed here from its formula, the stiff chain's matrix
+exponential, and the report's own numbers re-read from its CSV for the
+recommendation (fastest among the rows meeting the target).
+"""
+import csv
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.linalg import expm
+
+sys.path.insert(0, str(Path(__file__).resolve().parent / "models"))
+from stand_in import get_model  # noqa: E402
+
+from eomc.runtime.reference import compute_reference, scaled_error, state_scale  # noqa: E402
+from eomc.runtime.report import COLUMNS, work_precision  # noqa: E402
+from eomc.runtime.simulate import simulate  # noqa: E402
+
+W = 2.0                                     # oscillator: k = 4, m = 1
+T = 10.0
+TOLS = (1e-3, 1e-5, 1e-7, 1e-9)
+METHODS = ("rk4", "dopri5", "dop853", "radau")
+
+
+def osc_exact(t):
+    return np.column_stack([np.cos(W * t), -W * np.sin(W * t)])
+
+
+@pytest.fixture(scope="module")
+def osc():
+    return get_model("oscillator")
+
+
+@pytest.fixture(scope="module")
+def osc_report(osc):
+    return work_precision(osc, [1.0, 0.0], (0.0, T), methods=METHODS, tolerances=TOLS, repeats=1,
+                          progress=False, n_points=101)
+
+
+def test_reference_agrees_with_closed_form_and_with_its_check(osc):
+    t = np.linspace(0, T, 101)
+    ref = compute_reference(osc, [1.0, 0.0], (0.0, T), t)
+    exact = osc_exact(t)
+    assert np.max(np.abs(ref.x - exact)) < 1e-11
+    assert ref.method == "dop853" and ref.check_method == "scipy dop853"
+    assert 0 < ref.agreement < 1e-11
+    assert "checked against scipy dop853" in ref.describe()
+
+
+def test_scaled_error_definition():
+    x_ref = np.array([[1.0, 0.0], [0.0, 2.0], [-1.0, 0.0]])
+    x = x_ref + np.array([[1e-3, 0.0], [0.0, 0.0], [0.0, 2e-3]])
+    np.testing.assert_allclose(state_scale(x_ref), [1.0, 2.0])
+    # worst time is row 0 or 2: sqrt((1e-3 ** 2 + 0) / 2) both
+    assert scaled_error(x, x_ref) == pytest.approx(1e-3 / math.sqrt(2))
+    # a state that stays at 0 is measured against 1e-3 of the largest state, not 0
+    np.testing.assert_allclose(state_scale(np.array([[5.0, 0.0]])), [5.0, 5e-3])
+
+
+def test_reported_error_is_the_error_against_the_closed_form(osc, osc_report):
+    """The row's error equals scaled_error of the same run against cos(2t), to reference accuracy."""
+    row = next(r for r in osc_report.rows if r["method"] == "dop853" and r["tolerance"] == 1e-5)
+    t = np.linspace(0, T, 101)
+    res = simulate(osc, [1.0, 0.0], (0, T), method="dop853", rtol=1e-5, atol=1e-5, t_eval=t)
+    exact = osc_exact(t)
+    assert row["error"] == pytest.approx(scaled_error(res.x, exact, state_scale(exact)), rel=1e-6)
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_errors_decrease_as_tolerance_tightens(osc_report, method):
+    rows = [r for r in osc_report.rows if r["method"] == method]
+    assert [r["tolerance"] for r in rows] == sorted(TOLS, reverse=True)
+    errors = [r["error"] for r in rows]
+    assert all(r["status"] == 0 for r in rows)
+    assert all(b < a for a, b in zip(errors, errors[1:])), errors
+    assert errors[-1] < 1e-5 < errors[0]
+
+
+def test_rk4_step_matches_dopri5_step_count(osc_report):
+    for tol in TOLS:
+        rk4 = next(r for r in osc_report.rows if r["method"] == "rk4" and r["tolerance"] == tol)
+        dp5 = next(r for r in osc_report.rows if r["method"] == "dopri5" and r["tolerance"] == tol)
+        assert rk4["dt"] == pytest.approx(T / dp5["accepted"])
+        assert abs(rk4["steps"] - dp5["accepted"]) <= 1
+        assert rk4["rtol"] is None
+
+
+def read_csv(path):
+    with open(path, newline="") as fh:
+        reader = csv.DictReader(fh)
+        return reader.fieldnames, list(reader)
+
+
+def test_csv_rows_and_columns(osc_report, tmp_path):
+    names, rows = read_csv(osc_report.to_csv(tmp_path / "r.csv"))
+    assert tuple(names) == COLUMNS
+    assert len(rows) == len(METHODS) * len(TOLS)
+    assert {(r["method"], float(r["tolerance"])) for r in rows} == \
+        {(m, t) for m in METHODS for t in TOLS}
+    for r in rows:
+        assert r["status"] == "0" and float(r["error"]) > 0 and float(r["wall_time_s"]) > 0
+        assert int(r["nfev"]) > 0 and float(r["energy_drift"]) >= 0
+        assert r["constraint_residual"] == ""            # the oscillator has no constraints
+        assert (r["dt"] != "") == (r["method"] == "rk4")
+
+
+@pytest.mark.parametrize("target", [1e-4, 1e-6, 1e-8])
+def test_recommendation_is_fastest_run_meeting_target(osc_report, tmp_path, target):
+    _, rows = read_csv(osc_report.to_csv(tmp_path / "r.csv"))
+    meeting = [r for r in rows if float(r["error"]) <= target]
+    fastest = min(meeting, key=lambda r: float(r["wall_time_s"]))
+    best = osc_report.recommend(target)
+    assert best["error"] <= target
+    assert (best["method"], best["tolerance"]) == (fastest["method"], float(fastest["tolerance"]))
+    text = osc_report.summary_markdown(target)
+    assert f'method="{best["method"]}"' in text and f"target {target:.0e}" in text
+
+
+def test_no_run_meets_an_impossible_target(osc_report):
+    assert osc_report.recommend(1e-15) is None
+    assert "No run met the target" in osc_report.summary_markdown(1e-15)
+
+
+def test_png_is_written(osc_report, tmp_path):
+    path = osc_report.plot(tmp_path / "wp.png")
+    data = path.read_bytes()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 10_000
+
+
+def test_summary_mentions_reference_energy_and_table(osc_report):
+    text = osc_report.summary_markdown()
+    assert text.startswith("# Work-precision report: oscillator")
+    assert "reference: dop853 at rtol=atol=1e-13" in text and "agreement" in text
+    assert "Energy: the reference conserves it" in text
+    assert "Stiffness: no symptoms" in text
+    assert text.count("\n| ") == 1 + len(METHODS) * len(TOLS)     # header + rows
+    assert "Warning" not in text
+
+
+def pendulum_energy(x, g=9.81, L=1.0):
+    """The pendulum's energy per unit mass, written here (not read from its C outputs)."""
+    return 0.5 * L * L * x[:, 1] ** 2 - g * L * np.cos(x[:, 0])
+
+
+def test_energy_drift_on_pendulum():
+    m = get_model("pendulum")
+    rep = work_precision(m, [1.0, 0.0], (0.0, 10.0), methods=("dopri5", "dop853"),
+                         tolerances=(1e-4, 1e-10), repeats=1, progress=False, n_points=101)
+    t = np.linspace(0, 10, 101)
+    for row in rep.rows:
+        res = simulate(m, [1.0, 0.0], (0, 10), method=row["method"], rtol=row["tolerance"],
+                       atol=row["tolerance"], t_eval=t)
+        e = pendulum_energy(res.x)
+        assert row["energy_drift"] == pytest.approx(np.max(np.abs(e - e[0])) / abs(e[0]), rel=1e-6)
+    drift = {(r["method"], r["tolerance"]): r["energy_drift"] for r in rep.rows}
+    for method in ("dopri5", "dop853"):
+        assert drift[(method, 1e-10)] < 1e-8
+        assert drift[(method, 1e-10)] < drift[(method, 1e-4)] / 100
+    assert rep.reference_energy_drift() < 1e-11
+
+
+def test_loose_reference_is_flagged_not_trusted(osc):
+    rep = work_precision(osc, [1.0, 0.0], (0.0, T), methods=("dop853",), tolerances=(1e-6, 1e-9),
+                         repeats=1, progress=False, reference_tol=1e-7)
+    assert rep.reference.agreement > 1e-10
+    assert "**Warning:** the two references agree only to" in rep.summary_markdown()
+
+
+def test_constraints_and_unrunnable_method_on_ring():
+    m = get_model("ring")                       # no jac_x: radau cannot run
+    rep = work_precision(m, [1.0, 0.0, 0.0, 0.5], (0.0, 3.0), methods=("dop853", "radau"),
+                         tolerances=(1e-4, 1e-9), repeats=1, progress=False)
+    assert "radau" in rep.skipped and all(r["method"] == "dop853" for r in rep.rows)
+    res = {r["tolerance"]: r["constraint_residual"] for r in rep.rows}
+    assert res[1e-9] < 1e-7 < res[1e-4]
+    text = rep.summary_markdown()
+    assert "radau not run" in text and "jac_x" in text and "Constraints: reference residual" in text
+
+
+def test_stiff_chain_symptoms_and_radau_recommended():
+    kappa = 1e6
+    m = get_model("chain")
+    p = np.array([1.0, kappa, 0.1, 2 * np.sqrt(kappa)])
+    x0 = np.array([1.0, 1.0, 0.0, 0.0])
+    rep = work_precision(m, x0, (0.0, 2.0), p=p, methods=("dopri5", "radau"),
+                         tolerances=(1e-4, 1e-7), repeats=1, progress=False, n_points=21)
+    exact = np.array([expm(m.jacobian(0, np.zeros(4), p) * s) @ x0 for s in rep.reference.t])
+    assert scaled_error(rep.reference.x, exact) < 1e-9
+    failed = [r for r in rep.rows if r["method"] == "dopri5" and r["status"] != 0]
+    assert failed and all(r["status"] == 7 for r in failed)
+    text = rep.summary_markdown(1e-5)
+    assert "Stiffness symptoms" in text and "stiff" in text
+    assert rep.recommend(1e-5)["method"] == "radau"
+
+
+def test_bad_arguments_raise_before_running(osc):
+    with pytest.raises(ValueError, match="unknown integration method"):
+        work_precision(osc, [1.0, 0.0], (0, 1), methods=("euler",), progress=False)
+    with pytest.raises(ValueError, match="tolerances > 0"):
+        work_precision(osc, [1.0, 0.0], (0, 1), tolerances=(1e-3, 0.0), progress=False)
+    with pytest.raises(ValueError, match="reversed"):
+        work_precision(osc, [1.0, 0.0], (1, 0), progress=False)
