@@ -1,7 +1,9 @@
 """Issue 3 §8a: model -> loaded module, cold and warm cache, against PyDy's Cython backend.
 
-eomc cold: derivation (eomc.mechanics KanesMethod) + eomc.compile into a fresh,
-empty cache directory (EOMC_CACHE_DIR too), i.e. generation, gcc and loading.
+eomc cold: derivation (eomc.mechanics KanesMethod) + eomc.compile(functions=
+["rhs"]) into a fresh, empty cache directory (EOMC_CACHE_DIR too), i.e.
+generation, gcc and loading -- like for like with PyDy, which generates only
+the rhs.  A last column repeats it with eomc's default function set.
 eomc warm: eomc.compile of the same formed system again, into the now-filled
 cache (key computation + dlopen), and eomc.load of the built directory.
 PyDy: `generate_ode_function(..., generator='cython')` alone into a fresh temp
@@ -46,18 +48,27 @@ def measure_pydy(n, repeat):
     return derive_s, Timing(samples)
 
 
-def _eomc_cold_once(n, root):
+def _eomc_cold_once(n, root, functions):
     cache = Path(tempfile.mkdtemp(prefix="cold_", dir=root))
     os.environ["EOMC_CACHE_DIR"] = str(cache)
     _clear_sympy_cache()
     t0 = time.perf_counter()
     kane, _ = models.eomc_kane(n)
-    model = models.eomc_compile(n, cache, kane=kane)
+    model = models.eomc_compile(n, cache, kane=kane, functions=functions)
     return time.perf_counter() - t0, kane, model, cache
 
 
+def measure_eomc_default(n, repeat, root):
+    """Timing of a cold build with eomc's default function set (rhs, jac_x, ...), or None."""
+    try:
+        return Timing([_eomc_cold_once(n, root, None)[0] for _ in range(repeat)])
+    except Exception as exc:  # noqa: BLE001
+        print(f"  eomc default-functions build failed: {type(exc).__name__}: {exc}", file=sys.stderr)
+        return None
+
+
 def measure_eomc(n, repeat, root):
-    """(Timing cold, Timing warm compile, Timing load) or a reason string."""
+    """(Timing cold, Timing warm compile, Timing load) for rhs only, or a reason string."""
     ok, why = models.eomc_status()
     if not ok:
         return f"eomc: not available ({why})"
@@ -65,10 +76,11 @@ def measure_eomc(n, repeat, root):
     try:
         cold, warm, load = [], [], []
         for _ in range(repeat):
-            seconds, kane, model, cache = _eomc_cold_once(n, root)
+            seconds, kane, model, cache = _eomc_cold_once(n, root, ["rhs"])
             cold.append(seconds)
         for _ in range(repeat):
-            warm.append(time_once(models.eomc_compile, n, cache, kane=kane)[0])
+            warm.append(time_once(models.eomc_compile, n, cache, kane=kane,
+                                  functions=["rhs"])[0])
         try:
             import eomc
             target = Path(model.library_path).parent
@@ -88,31 +100,38 @@ def measure_eomc(n, repeat, root):
 
 HEADERS = ["n", "sympy derive [s]", "PyDy gen [s]", "PyDy IQR [s]", "eomc cold [s]",
            "eomc cold IQR [s]", "eomc warm compile [ms]", "eomc load [ms]",
-           "PyDy gen / eomc cold", "goal"]
+           "PyDy gen / eomc cold", "goal", "eomc cold, default functions [s]"]
 
 
-def row_for(n, derive_s, pydy, eo):
+def row_for(n, derive_s, pydy, eo, default):
     if isinstance(eo, str):
-        return [n, derive_s, pydy.median, pydy.iqr, None, None, None, None, None, "eomc n/a"]
+        return [n, derive_s, pydy.median, pydy.iqr, None, None, None, None, None, "eomc n/a", None]
     cold, warm, load = eo
     r = ratio(pydy.median, cold.median)
     need = 10.0 if n >= 20 else 5.0
     ok = r is not None and r >= need and warm.median <= 0.050
     goal = f"{'met' if ok else 'MISSED'} (>= {need:g}x, warm <= 50 ms)"
     return [n, derive_s, pydy.median, pydy.iqr, cold.median, cold.iqr, warm.median * 1e3,
-            load.median * 1e3 if load else None, r, goal]
+            load.median * 1e3 if load else None, r, goal,
+            default.median if default else None]
 
 
 def main(argv=None):
-    args = parse_args(__doc__.splitlines()[0], DEFAULT_N, default_repeat=3, argv=argv)
+    extra = lambda p: p.add_argument("--skip-default", action="store_true",
+                                     help="skip the cold build with eomc's default functions")
+    args = parse_args(__doc__.splitlines()[0], DEFAULT_N, default_repeat=3, argv=argv,
+                      extra=extra)
     rows, notes = [], []
     with tempfile.TemporaryDirectory(prefix="eomc_bench_build_") as root:
         for n in args.n:
             derive_s, pydy = measure_pydy(n, args.repeat)
             eo = measure_eomc(n, args.repeat, root)
+            default = None
             if isinstance(eo, str):
                 notes.append(f"n={n}: {eo}")
-            rows.append(row_for(n, derive_s, pydy, eo))
+            elif not args.skip_default:
+                default = measure_eomc_default(n, max(1, args.repeat // 2), root)
+            rows.append(row_for(n, derive_s, pydy, eo, default))
             print(format_table(HEADERS, [rows[-1]]).splitlines()[-1], flush=True)
     table = format_table(HEADERS, rows)
     print(table)
@@ -122,8 +141,12 @@ def main(argv=None):
                "PyDy gen = generate_ode_function(generator='cython') only (gcc included), "
                "into a fresh temp dir; derivation NOT included (sympy KanesMethod time shown "
                "separately in 'sympy derive', measured once)",
-               "eomc cold = eomc.mechanics derivation + eomc.compile into a fresh empty "
-               "cache dir (EOMC_CACHE_DIR), derivation included",
+               "eomc cold = eomc.mechanics derivation + eomc.compile(functions=['rhs']) into "
+               "a fresh empty cache dir (EOMC_CACHE_DIR), derivation included: like for "
+               "like with PyDy, which generates only the rhs",
+               "last column: the same with eomc's default function set (rhs, jac_x, jac_r, "
+               "mass matrix, forcing, inverse dynamics, linearize, ...); "
+               f"{max(1, args.repeat // 2)} repeat(s)",
                "eomc warm compile = eomc.compile of the same formed system again (cache hit); "
                "eomc load = eomc.load(build dir)",
                "SymPy's cache is cleared before every cold measurement of either tool",
