@@ -205,3 +205,34 @@ def test_bad_arguments_raise_before_running(osc):
         work_precision(osc, [1.0, 0.0], (0, 1), tolerances=(1e-3, 0.0), progress=False)
     with pytest.raises(ValueError, match="reversed"):
         work_precision(osc, [1.0, 0.0], (1, 0), progress=False)
+
+
+# ---- eomc report (the CLI) on a compiled model file and on its built directory ----
+
+def test_cli_report_on_model_file_and_built_directory(tmp_path, monkeypatch, capsys):
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    from model_files import PENDULUM, write
+    from eomc.cli import main
+    monkeypatch.setenv("EOMC_CACHE_DIR", str(tmp_path / "cache"))
+    model_file = write(tmp_path, PENDULUM, "pend")
+    args = ["--t-final", "2", "--methods", "dop853,radau", "--tolerances", "1e-4", "1e-8",
+            "--repeats", "1", "--target", "1e-6", "-q"]
+    assert main(["report", str(model_file), *args, "-o", str(tmp_path / "a")]) == 0
+    out = capsys.readouterr().out
+    assert "Recommendation" in out and "dop853" in out
+    names, rows = read_csv(tmp_path / "a" / "report.csv")
+    assert len(rows) == 4 and tuple(names) == COLUMNS
+    md = (tmp_path / "a" / "report.md").read_text()
+    assert md.startswith("# Work-precision report: pend") and "Warning" not in md
+    assert (tmp_path / "a" / "report.png").stat().st_size > 10_000
+    built = next(p.parent for p in (tmp_path / "cache").rglob("pend.json"))
+    assert main(["report", str(built), *args, "-o", str(tmp_path / "b")]) == 0
+    _, rows_b = read_csv(tmp_path / "b" / "report.csv")
+    assert [r["error"] for r in rows_b] == [r["error"] for r in rows]     # same model, same numbers
+
+
+def test_cli_report_errors_are_one_line(tmp_path, capsys):
+    from eomc.cli import main
+    assert main(["report", str(tmp_path / "missing.py")]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "no such model file" in err
