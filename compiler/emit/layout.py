@@ -33,19 +33,49 @@ class Layout:
     folded: dict        # parameter name -> value, when folded
     c_names: dict       # slot symbol -> C text
 
-    def apply(self, expr, what):
-        """``expr`` in slot symbols; ModelError naming ``what`` if something is left unmapped."""
-        out = sm.sympify(expr).xreplace(self.subs)
-        leftover = out.atoms(AppliedUndef, sm.Derivative)
-        if leftover:
-            names = ", ".join(sorted(str(a) for a in leftover))
-            raise ModelError(f"{what} depends on {names}, which is neither a coordinate, "
-                             f"a speed nor a declared input")
-        unknown = out.free_symbols - set(self.c_names)
-        if unknown:
-            names = ", ".join(sorted(s.name for s in unknown))
+    def apply(self, expr, what, memo=None):
+        """``expr`` in slot symbols; ModelError naming ``what`` if something is left unmapped.
+
+        A memoized rename: subtrees shared between entries are rebuilt once, and unmapped
+        dynamic symbols or constants are found in the same walk.  Pass one ``memo`` dict
+        for related calls.
+        """
+        memo = {} if memo is None else memo
+        bad = []
+        out = _rename(sm.sympify(expr), self.subs, memo, bad)
+        if bad:
+            deps = sorted({str(b) for b in bad if not b.is_Symbol})
+            if deps:
+                raise ModelError(f"{what} depends on {', '.join(deps)}, which is neither a "
+                                 f"coordinate, a speed nor a declared input")
+            names = ", ".join(sorted({b.name for b in bad}))
             raise ModelError(f"{what} uses symbol(s) {names} that are not parameters of the model")
         return out
+
+
+def _rename(expr, subs, memo, bad):
+    """Rebuild ``expr`` with atoms/dynamic symbols replaced by ``subs``; record leftovers in ``bad``.
+
+    Nodes are rebuilt with SymPy's evaluation (it canonicalizes products, which CSE
+    profits from, and folds parameters replaced by numbers).
+    """
+    hit = subs.get(expr)
+    if hit is not None:
+        return hit
+    if expr.is_Atom:
+        if expr.is_Symbol:
+            bad.append(expr)
+        return expr
+    done = memo.get(expr)
+    if done is not None:
+        return done
+    if isinstance(expr, (AppliedUndef, sm.Derivative)):
+        bad.append(expr)
+        return expr
+    args = [_rename(a, subs, memo, bad) for a in expr.args]
+    out = expr.func(*args)
+    memo[expr] = out
+    return out
 
 
 def _name(obj):

@@ -85,8 +85,9 @@ def _outputs(formed, layout, outputs):
 
 
 def _dynamics(formed, layout):
-    A = formed.dynamics_matrix.applyfunc(lambda e: layout.apply(e, "the mass matrix"))
-    b = [layout.apply(e, "the forcing vector") for e in formed.dynamics_rhs]
+    memo = {}
+    A = formed.dynamics_matrix.applyfunc(lambda e: layout.apply(e, "the mass matrix", memo))
+    b = [layout.apply(e, "the forcing vector", memo) for e in formed.dynamics_rhs]
     if A.shape != (len(b), len(b)) or len(b) != formed.nu + len(formed.multipliers):
         raise ModelError(f"dynamics matrix is {A.shape[0]}x{A.shape[1]} but the system has "
                          f"{formed.nu} speeds and {len(formed.multipliers)} multipliers")

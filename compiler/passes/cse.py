@@ -20,7 +20,7 @@ def cse(program):
     if not exprs:
         return program
     names = Names(program)
-    replacements, reduced = sm.cse(exprs, symbols=names.stream(), order="canonical", list=True)
+    replacements, reduced = sm.cse(exprs, symbols=names.stream(), order="none", list=True)
     assignments = program.assignments + tuple((s, e) for s, e in replacements)
     return program.with_(assignments=assignments,
                          results=tuple(zip(keys, reduced)),
