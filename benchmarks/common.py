@@ -138,6 +138,17 @@ def _compiler_version():
         return cc
 
 
+def _git_commit():
+    import subprocess
+    root = Path(__file__).resolve().parent.parent
+    try:
+        out = subprocess.run(["git", "-C", str(root), "log", "-1", "--format=%h %s"],
+                             capture_output=True, text=True, timeout=10)
+        return out.stdout.strip()[:100] or "unknown"
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+
+
 def environment_header(title, args=None, notes=()):
     """Markdown header recording when, where and with what a result was measured."""
     now = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
@@ -151,6 +162,7 @@ def environment_header(title, args=None, notes=()):
         "- note: the machine is shared with other jobs while this ran; figures are medians of repeats",
         f"- python {platform.python_version()}; C compiler: {_compiler_version()}",
         f"- versions: {versions}",
+        f"- eomc checkout: {_git_commit()}",
         "- environment: " + ", ".join(f"{k}={v}" for k, v in blas.items()),
     ]
     if args is not None:
