@@ -838,7 +838,7 @@ static int radau_factor(ctx *c, const radau_consts *k, radau_ws *w, double h)
 }
 
 /* Simplified Newton for the collocation system; Z holds the start guess.
- * Returns a model status (nonzero: stop) and sets *conv, *niter, *rate. */
+ * Returns a model status (nonzero: a stage failed) and sets *conv, *niter, *rate. */
 static int radau_newton(ctx *c, const radau_consts *k, radau_ws *w, double t, double h,
                         const double *y, double tol, int *conv, int *niter, double *rate)
 {
@@ -856,8 +856,7 @@ static int radau_newton(ctx *c, const radau_consts *k, radau_ws *w, double t, do
         for (int a = 0; a < 3; a++) {
             for (int i = 0; i < n; i++) w->tmp[i] = y[i] + w->Z[a * n + i];
             s = frhs(c, t + k->C[a] * h, w->tmp, w->F + (size_t)a * n);
-            if (s == EOMC_NONFINITE) return EOMC_OK;      /* not converged */
-            if (s) return s;
+            if (s) return s;           /* caller shrinks the step onto the failure */
         }
         for (int i = 0; i < n; i++) {
             double f0 = w->F[i], f1 = w->F[n + i], f2 = w->F[2 * n + i];
@@ -915,14 +914,14 @@ static int radau_step(ctx *c, const radau_consts *k, radau_ws *w, const eomc_opt
                       int *have_sol, double hprev, double tprev, int *lu_ok, int *cur_jac,
                       double *h_old, double *err_old, double *tn_out, int *niter, double *rate)
 {
-    int n = c->n, s, rejected = 0, conv = 0;
+    int n = c->n, s, rejected = 0, conv = 0, last_bad = 0;
     long maxs = o->max_steps > 0 ? o->max_steps : DEFAULT_MAX_STEPS;
     double tol = fmax(10 * DBL_EPSILON / o->rtol, fmin(0.03, sqrt(o->rtol)));
     eomc_stats *st = c->st;
     for (;;) {
         double hmin = min_step(t), tn, err, safety;
         st->t = t; st->h = *h;
-        if (*h < hmin) return EOMC_STEP_TOO_SMALL;
+        if (*h < hmin) return last_bad ? last_bad : EOMC_STEP_TOO_SMALL;
         if (st->steps >= maxs) return EOMC_MAX_STEPS;
         tn = t + *h;
         if (tn > t1 || t1 - tn < hmin) tn = t1;
@@ -942,7 +941,9 @@ static int radau_step(ctx *c, const radau_consts *k, radau_ws *w, const eomc_opt
                 if (radau_factor(c, k, w, *h)) { conv = 0; break; }
                 *lu_ok = 1;
             }
-            if ((s = radau_newton(c, k, w, t, *h, y, tol, &conv, niter, rate))) return s;
+            s = radau_newton(c, k, w, t, *h, y, tol, &conv, niter, rate);
+            last_bad = s;
+            if (s) { conv = 0; break; }    /* non-finite or model failure in a stage */
             if (conv || *cur_jac) break;
             if ((s = fjac(c, t, y, w->J))) return s;
             *cur_jac = 1; *lu_ok = 0;
