@@ -65,7 +65,10 @@ def scaled_error(x, x_ref, scale=None):
     if x.shape != x_ref.shape:
         return float("inf")
     scale = state_scale(x_ref) if scale is None else scale
-    e = np.sqrt(np.mean(((x - x_ref) / scale) ** 2, axis=1))
+    with np.errstate(over="ignore", invalid="ignore"):     # a blown-up run: error inf, no warning
+        e = np.sqrt(np.mean(((x - x_ref) / scale) ** 2, axis=1))
+    if not np.all(np.isfinite(e)):
+        return float("inf")
     return float(np.max(e)) if e.size else 0.0
 
 

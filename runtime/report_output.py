@@ -97,6 +97,9 @@ def plot_report(report, path, target_error=None):
     for method in report.methods:
         rows = [r for r in report.ok_rows() if r["method"] == method]
         if not rows:
+            why = "not run" if method in report.skipped else "no successful run"
+            ax.plot([], [], ls="none", marker=markers.get(method, "o"), mfc="none",
+                    color="0.5", label=f"{method} ({why})")
             continue
         rows.sort(key=lambda r: -r["tolerance"])
         x = [r["wall_time_s"] for r in rows]
