@@ -11,8 +11,10 @@ linear coefficients of the generalized speeds, and form
     nonM_r = Σ v_r·(m a0 + m' v) + ω_r·(I α0 + I' ω + ω×I·ω)
 
 where a0, α0 are the accelerations with every u' = 0.  Translational
-quantities live in the inertial frame N (so a = d/dt of the components);
-rotational ones in the body frame B (so α = d/dt of ω's B components, because
+quantities are taken in one frame F per body or load (the body's frame, else
+the inertial frame N, else the frame most terms are in; see
+:func:`component_frame`), so a = d/dt of the F components + ω_F × v;
+rotational ones in the body frame B (α = d/dt of ω's B components, because
 ᴺdω/dt = ᴮdω/dt).  Bodies or loads that share a partial velocity are summed
 before the dot product (a chain's links share most of theirs), which keeps
 the expressions short.
@@ -119,24 +121,27 @@ def partials(comps, speeds):
 
 @dataclass
 class BodyTerms:
-    """One body's pieces, in plain symbols (translation in N, rotation in B)."""
+    """One body's pieces, in plain symbols (translation in frame F, rotation in B)."""
     name: str
     mass: sm.Expr
-    vr: list                 # partial velocities over u + u_aux, N components
+    frame: object            # F: the frame the translational components are taken in
+    vr: list                 # partial velocities over u + u_aux, F components
     R0: tuple                # m a0 + m' v: the inertia force without the u' terms
     nR0: tuple = _ZERO3      # −R0 (negated once per body, not per equation)
     wr: list = field(default_factory=list)    # partial angular velocities, B components
     Iw: list = field(default_factory=list)    # I·ω_s for the main speeds
     T0: tuple = _ZERO3
     nT0: tuple = _ZERO3
+    rframe: object = None    # B: the body frame the rotational components are taken in
 
 
 @dataclass
 class LoadTerms:
     name: str
     kind: str                # "force" or "torque"
+    frame: object            # the frame the components are taken in
     pr: list                 # partial (angular) velocities over u + u_aux
-    vec: tuple               # N components of the force/torque
+    vec: tuple               # components of the force/torque
 
 
 def _zero_aux(space, comps):
@@ -146,6 +151,31 @@ def _zero_aux(space, comps):
     return tuple(c.xreplace(z) for c in comps)
 
 
+def component_frame(vec, inertial, preferred=None):
+    """The frame to take a velocity's components in.
+
+    A rigid body's own frame if the velocity has a term there, else the
+    inertial frame if it has a term there, else the frame most of its terms
+    are in.  Components in such a frame stay short: a disc centre's velocity
+    given in the disc frame is not blown up by direction cosines.
+    """
+    frames = [f for _, f in vec.args]
+    if preferred is not None and preferred in frames:
+        return preferred
+    if not frames or inertial in frames:
+        return inertial
+    return max(frames, key=frames.count)
+
+
+def _rate_of_change(space, reader, inertial, frame, comps0, what):
+    """ᴺd/dt of a vector given by its ``frame`` components, without the u' terms."""
+    out = space.dt_vector(comps0, udot=False)
+    if frame == inertial:
+        return out
+    w = _zero_aux(space, reader.components(frame_ang_vel(frame, inertial, what), frame))
+    return tuple(a + b for a, b in zip(out, cross(w, comps0)))
+
+
 def read_bodies(space, reader, inertial, bodies):
     speeds = space.u + space.uaux
     out = []
@@ -153,16 +183,18 @@ def read_bodies(space, reader, inertial, bodies):
         what = f"body #{i + 1} ({body.name})"
         rigid = isinstance(body, sm.physics.mechanics.RigidBody)
         point = body.masscenter if rigid else body.point
-        v = reader.components(point_velocity(point, inertial, what), inertial)
+        vel = point_velocity(point, inertial, what)
+        F = component_frame(vel, inertial, body.frame if rigid else None)
+        v = reader.components(vel, F)
         v0 = _zero_aux(space, v)
         m = space.to_plain(body.mass)
         if space.uaux:
             m = m.xreplace(dict.fromkeys(space.uaux, 0))
-        R0 = tuple(m * a for a in space.dt_vector(v0, udot=False))
+        R0 = tuple(m * a for a in _rate_of_change(space, reader, inertial, F, v0, what))
         dm = space.dt(m)
         if dm != 0:
             R0 = tuple(a + dm * b for a, b in zip(R0, v0))
-        terms = BodyTerms(body.name, m, partials(v, speeds), R0, tuple(-c for c in R0))
+        terms = BodyTerms(body.name, m, F, partials(v, speeds), R0, tuple(-c for c in R0))
         if rigid:
             _read_rotation(space, reader, inertial, body, terms, what)
         out.append(terms)
@@ -187,6 +219,7 @@ def _read_rotation(space, reader, inertial, body, terms, what):
     if any(e != 0 for row in dI for e in row):
         T0 = tuple(a + b for a, b in zip(T0, matvec(dI, w0)))
     terms.T0 = T0
+    terms.rframe = B
     terms.nT0 = tuple(-c for c in T0)
 
 
@@ -212,22 +245,23 @@ def to_dynamic(space, body_terms, load_terms):
 def read_loads(space, reader, inertial, parsed_loads):
     speeds = space.u + space.uaux
     out = []
-    for name, kind, vel, vec in parsed_loads:
-        v = reader.components(vel, inertial)
-        f = reader.components(vec, inertial)
-        out.append(LoadTerms(name, kind, partials(v, speeds), f))
+    for name, kind, vel, vec, where in parsed_loads:
+        F = where if kind == "torque" else component_frame(vel, inertial)
+        v = reader.components(vel, F)
+        f = reader.components(vec, F)
+        out.append(LoadTerms(name, kind, F, partials(v, speeds), f))
     return out
 
 
 def _grouped(pairs):
-    """Σ key·vec over (key, vec) pairs, summing the vecs that share a key first."""
+    """Σ key·vec over (frame, key, vec) triples, summing the vecs that share a key first."""
     groups = {}
-    for key, vec in pairs:
+    for frame, key, vec in pairs:
         if is_zero(key) or is_zero(vec):
             continue
-        groups.setdefault(key, []).append(vec)
+        groups.setdefault((frame, key), []).append(vec)
     out = []
-    for key, vecs in groups.items():
+    for (_, key), vecs in groups.items():
         total = tuple(sm.Add(*[v[i] for v in vecs]) for i in range(3))
         out.append(dot(key, total))
     return sm.Add(*out)
@@ -240,11 +274,11 @@ def assemble(body_terms, load_terms, n_rows, n_main):
     −nonMM (the inertia forces with u' = 0) is returned rather than nonMM so
     that no large sum ever has to be negated.
     """
-    fr = [_grouped((ld.pr[r], ld.vec) for ld in load_terms) for r in range(n_rows)]
+    fr = [_grouped((ld.frame, ld.pr[r], ld.vec) for ld in load_terms) for r in range(n_rows)]
     neg_nonmm = []
     for r in range(n_rows):
-        pairs = [(b.vr[r], b.nR0) for b in body_terms]
-        pairs += [(b.wr[r], b.nT0) for b in body_terms if b.wr]
+        pairs = [(b.frame, b.vr[r], b.nR0) for b in body_terms]
+        pairs += [(b.rframe, b.wr[r], b.nT0) for b in body_terms if b.wr]
         neg_nonmm.append(_grouped(pairs))
     return _mass_matrix(body_terms, n_rows, n_main), neg_nonmm, fr
 

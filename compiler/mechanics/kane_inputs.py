@@ -134,7 +134,7 @@ def frame_ang_vel(frame, inertial, what):
 
 
 def parse_loads(loads, inertial):
-    """Return a list of (label, kind, velocity, vector) with kind 'force' or 'torque'."""
+    """Return a list of (label, kind, velocity, vector, point or frame), kind 'force' or 'torque'."""
     if loads is None:
         return []
     if not hasattr(loads, "__iter__") or isinstance(loads, (sm.Basic, str)):
@@ -155,10 +155,10 @@ def parse_loads(loads, inertial):
             raise ModelError(f"{shape}: its second item must be a Vector, got {vec!r}")
         if isinstance(where, Point):
             label = f"load #{i + 1} on point {where.name}"
-            out.append((where.name, "force", point_velocity(where, inertial, label), vec))
+            out.append((where.name, "force", point_velocity(where, inertial, label), vec, where))
         elif isinstance(where, ReferenceFrame):
             label = f"load #{i + 1} on frame {where.name}"
-            out.append((where.name, "torque", frame_ang_vel(where, inertial, label), vec))
+            out.append((where.name, "torque", frame_ang_vel(where, inertial, label), vec, where))
         else:
             raise ModelError(f"{shape}: its first item must be a Point or a ReferenceFrame, "
                              f"got {where!r}")
