@@ -24,6 +24,7 @@ from sympy.physics.vector import ReferenceFrame, Point, Vector, dynamicsymbols
 from eomc.errors import ModelError
 
 from .fastdiff import Differentiator
+from .lagrange_squares import split_squares, square_mass_forcing
 
 __all__ = ["PlainVariables", "lagrange_mass_forcing", "constraint_terms",
            "generalized_forces", "total_time_derivative", "check_loads"]
@@ -82,7 +83,16 @@ def lagrange_mass_forcing(L, pv):
 
     Lagrange's equations read ``m_d q'' = f_d + Q`` with
     ``m_d = d2L/dq'2`` and ``f_d = dL/dq - (d2L/dq' dq) q' - d2L/dq' dt``.
+    Terms ``c X**2`` are done in closed form (:mod:`.lagrange_squares`).
     """
+    groups, L = split_squares(L, pv)
+    M_sq, f_sq = square_mass_forcing(groups, pv)
+    M, f = _hessian_mass_forcing(L, pv)
+    return M + M_sq, f + f_sq
+
+
+def _hessian_mass_forcing(L, pv):
+    """The general path: differentiate L itself."""
     n = len(pv.q)
     d = pv.differentiator.diff
     momenta = [d(L, vi) for vi in pv.qd]
