@@ -56,3 +56,23 @@ def test_compiled_cart_with_input_grid_and_batch(built):
     for i in range(4):
         one = cart.simulate(X0[i], (0, 3), t_eval=t, method="radau", rtol=1e-8, atol=1e-10)
         np.testing.assert_array_equal(batch.x[i], one.x)
+
+
+def test_eomc_simulate_cli_compiles_a_model_file(tmp_path, monkeypatch, capsys):
+    from eomc.cli import main
+    monkeypatch.setenv("EOMC_CACHE_DIR", str(tmp_path / "cache"))
+    model = model_files.write(tmp_path, model_files.PENDULUM, "pend")
+    out, png = tmp_path / "traj.csv", tmp_path / "traj.png"
+    argv = ["simulate", str(model), "--t-final", "2", "-o", str(out), "--points", "21",
+            "--rtol", "1e-10", "--atol", "1e-10"]
+    try:
+        import matplotlib  # noqa: F401
+        argv += ["--plot", str(png)]
+    except ImportError:
+        png = None
+    assert main(argv) == 0
+    data = np.genfromtxt(out, delimiter=",", names=True)
+    assert data["q"][0] == 0.3 and data["t"][-1] == 2.0          # the file's initial_state
+    assert np.ptp(data["energy"]) < 1e-6 * abs(data["energy"][0])
+    assert png is None or png.stat().st_size > 1000
+    assert "pend: dop853" in capsys.readouterr().out
