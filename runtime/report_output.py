@@ -144,12 +144,21 @@ def recommendation(report, target):
                 f"tolerances to the grid (`--tolerances`).")
     which = ("the only run that meets the target" if len(meeting) == 1 else
              f"the fastest of the {len(meeting)} runs that meet the target")
-    return (f"**Recommendation** (target {target:.0e}): `{usage(best)}` -- error "
+    drift = (f", energy drift {best['energy_drift']:.1e}"
+             if best.get("energy_drift") is not None else "")
+    text = (f"**Recommendation** (target {target:.0e}): `{usage(best)}` -- error "
             f"{best['error']:.2e} in {best['wall_time_s'] * 1e3:.3g} ms ({best['steps']} steps, "
-            f"{best['nfev']} rhs evaluations); {which}.")
+            f"{best['nfev']} rhs evaluations{drift}); {which}.")
+    others = sorted((r for r in meeting if r is not best), key=lambda r: r["wall_time_s"])
+    if others:
+        nxt = others[0]
+        text += (f" Runner-up: `{usage(nxt)}` (error {nxt['error']:.2e}, "
+                 f"{nxt['wall_time_s'] * 1e3:.3g} ms); times within ~20% of each other are "
+                 f"within the timing noise of a busy machine.")
+    return text
 
 
-def _reference_notes(report):
+def _reference_notes(report, target):
     ref = report.reference
     notes = [ref.describe() + "."]
     finest = min(report.tolerances)
@@ -159,6 +168,10 @@ def _reference_notes(report):
         notes.append(f"**Warning:** the two references agree only to {ref.agreement:.1e}, which is "
                      f"not well below the finest tolerance {finest:.0e}: errors below "
                      f"~{10 * ref.agreement:.0e} are not resolved by this reference.")
+    if ref.check_method != "none" and not (ref.agreement <= 0.1 * target):
+        notes.append(f"**Warning:** the reference is not 10x more accurate than the target "
+                     f"{target:.0e}; the recommendation above is not reliable (tighten "
+                     f"--reference-tol or shorten the time span).")
     return notes
 
 
@@ -243,7 +256,7 @@ def summary_markdown(report, target):
              f"step is the span over DOPRI5's accepted steps at that tolerance. Wall time is "
              f"the median of the C integration call.", "",
              recommendation(report, target), ""]
-    for note in (_reference_notes(report) + _run_notes(report) + _energy_notes(report) + _constraint_notes(report)
+    for note in (_reference_notes(report, target) + _run_notes(report) + _energy_notes(report) + _constraint_notes(report)
                  + _stiffness_notes(report)):
         lines += [f"- {note}"]
     lines += ["", _markdown_table(report), ""]
