@@ -112,6 +112,10 @@ class Model:
         self._default_r = self._prepare(self._zero_inputs) if self.ninput else self._prepare(None)
         self._tls = threading.local()
         self._xshape = (self.nx,)
+        if extension is not None and hasattr(extension, "FastRHS"):
+            # the common call checked in C; everything else falls back to Model.rhs
+            self.rhs = extension.FastRHS(self._checked_rhs, np.empty, self.param_defaults,
+                                         self._zero_inputs, self.nx, self.work_size)
 
     def __repr__(self):
         return (f"<eomc Model {self.name!r}: nq={self.nq} nu={self.nu} nparam={self.nparam} "
@@ -214,6 +218,8 @@ class Model:
     def rhs(self, t, x, p=None, r=None):
         """State derivative xdot = f(t, x, p, r), shape (nx,)."""
         return self._vector_call("rhs", self.nx, t, x, p, r)
+
+    _checked_rhs = rhs
 
     def rhs_many(self, t, X, p=None, r=None):
         """rhs at every row of X (shape (n, nx)) in one C loop; t scalar or (n,), r (ninput,) or (n, ninput)."""

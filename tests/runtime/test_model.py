@@ -107,6 +107,8 @@ def test_bad_arguments_raise_valueerror_before_c_runs(spied, call, needle):
 def test_nonzero_status_names_failure_time_and_state(model):
     with pytest.raises(SimulationError, match=r"osc\.rhs: the mass matrix is singular at t=1\.5, state q=0\.3, u=-0\.2"):
         model.rhs(1.5, [0.3, -0.2], [0.0, 1.0, 1.0])
+    with pytest.raises(SimulationError, match=r"singular at t=2, state q=0\.3"):  # arrays: Cython's fast path
+        model.rhs(2.0, np.array([0.3, -0.2]), np.array([0.0, 1.0, 1.0]), np.zeros(1))
     X = np.array([[0.0, 0.0], [0.3, -0.2]])
     with pytest.raises(SimulationError, match=r"singular .* \(row 0 of X\)"):
         model.rhs_many(0.0, X, p=[0.0, 1.0, 1.0])
@@ -115,6 +117,18 @@ def test_nonzero_status_names_failure_time_and_state(model):
 def test_function_not_built_is_named(model):
     with pytest.raises(ModelError, match="built without `constraints`"):
         model.constraints(0.0, [0.0, 0.0])
+
+
+def test_fast_path_accepts_arrays_and_falls_back_for_the_rest(model):
+    x, p, r = np.array([0.3, -0.2]), np.array([1.0, 0.5, 2.0]), np.array([0.7])
+    expected = osc_model.oscillator_rhs(0.0, x, p, r)
+    for args in [(0.0, x, p, r), (0, x, p, r), (0.0, x.tolist(), p, r), (0.0, x.astype(np.float32), p, r),
+                 (0.0, x, p.astype(int) * 0 + p, r), (0.0, np.asfortranarray(x), p, r), (0.0, x, list(p), [0.7])]:
+        np.testing.assert_allclose(model.rhs(*args), expected, rtol=1e-6 if np.asarray(args[1]).dtype == np.float32 else 1e-15)
+    with pytest.raises(ValueError, match="p \\(parameters\\) must have shape"):
+        model.rhs(0.0, x, np.ones(4))
+    with pytest.raises(ValueError, match="this model has no inputs|r \\(inputs\\) must have shape"):
+        model.rhs(0.0, x, p, np.ones(2))
 
 
 def test_threads_share_a_model(model):
