@@ -31,6 +31,8 @@ def configure(parser):
     parser.add_argument("--param", metavar="NAME=V,...", help="parameter values to override")
     parser.add_argument("--project", action="store_true",
                         help="project onto the model's constraints after each step")
+    parser.add_argument("--baumgarte", type=float, default=0.0, metavar="RATE",
+                        help="Baumgarte-style constraint stabilization rate (1/time); 0 = off")
     parser.formatter_class = argparse.ArgumentDefaultsHelpFormatter
 
 
@@ -89,7 +91,8 @@ def _run(args):
     params = parse_assignments(args.param, "param") or None
     res = simulate(model, x0, (args.t0, args.t_final), p=params, method=args.method,
                    rtol=args.rtol, atol=args.atol, dt=args.dt, max_steps=args.max_steps,
-                   n_points=None if args.dt else args.points, project=args.project)
+                   n_points=None if args.dt else args.points, project=args.project,
+                   baumgarte=args.baumgarte)
     s = res.stats
     print(f"{model.name}: {res.method} t=[{args.t0:g}, {args.t_final:g}]: {s['steps']} steps "
           f"({s['rejected']} rejected), {s['nfev']} rhs, {s['njev']} jacobian, {s['nlu']} LU")

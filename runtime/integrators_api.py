@@ -17,6 +17,7 @@ typedef struct eomc_options {
     long max_steps;
     int project;
     int stiff_check;
+    double baumgarte;
 } eomc_options;
 
 typedef struct eomc_stats {

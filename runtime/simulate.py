@@ -138,7 +138,7 @@ def _t_eval(t_eval, t0, t1, method, dt, n_points):
 
 def prepare(model, x0, t_span, p=None, r=None, method="dop853", rtol=1e-6, atol=1e-9,
             t_eval=None, dt=None, max_steps=100000, first_step=None, max_step=None,
-            project=False, stiff_check=True, n_points=None):
+            project=False, stiff_check=True, n_points=None, baumgarte=0.0):
     """Check every argument and return the dict run_prepared() passes to C."""
     method = resolve_method(method)
     t0, t1 = _span(t_span)
@@ -154,6 +154,13 @@ def prepare(model, x0, t_span, p=None, r=None, method="dop853", rtol=1e-6, atol=
     max_step = _positive(max_step, "max_step", allow_none=True)
     if not isinstance(max_steps, numbers.Integral) or max_steps <= 0:
         raise ValueError(f"max_steps must be a positive integer; got {max_steps!r}")
+    if not isinstance(baumgarte, numbers.Real) or not np.isfinite(baumgarte) or baumgarte < 0:
+        raise ValueError(f"baumgarte must be a finite rate >= 0 (1/time); got {baumgarte!r}")
+    if (project or baumgarte) and (model.nhol + model.nvel == 0
+                                   or model.c_model.constraints == model.ffi.NULL
+                                   or model.c_model.constraints_jac == model.ffi.NULL):
+        raise ValueError(f"{model.name}: project/baumgarte need the model's constraints and "
+                         f"constraints_jac; this model has none")
     if method == "radau" and model.c_model.jac_x == model.ffi.NULL:
         raise ValueError(f"{model.name}: method 'radau' needs the Jacobian jac_x, which this model "
                          f"was built without; rebuild with functions including 'jac_x'")
@@ -165,7 +172,7 @@ def prepare(model, x0, t_span, p=None, r=None, method="dop853", rtol=1e-6, atol=
     return dict(method=method, t0=t0, t1=t1, x0=x0, p=np.append(p, 0.0), n_r=n_r, r_t=r_t,
                 r_v=r_v, t_eval=times, rtol=rtol, atol=atol, h0=first_step or 0.0,
                 hmax=max_step or 0.0, max_steps=int(max_steps), project=bool(project),
-                stiff_check=bool(stiff_check))
+                stiff_check=bool(stiff_check), baumgarte=float(baumgarte))
 
 
 def _options(ffi, a):
@@ -173,6 +180,7 @@ def _options(ffi, a):
     opt.method, opt.rtol, opt.atol = METHOD_IDS[a["method"]], a["rtol"], a["atol"]
     opt.h0, opt.hmax, opt.max_steps = a["h0"], a["hmax"], a["max_steps"]
     opt.project, opt.stiff_check = int(a["project"]), int(a["stiff_check"])
+    opt.baumgarte = a["baumgarte"]
     return opt
 
 
@@ -234,7 +242,8 @@ def failure_message(model, method, stats, x_last):
 
 def simulate(model, x0, t_span, p=None, r=None, method="dop853", rtol=1e-6, atol=1e-9,
              t_eval=None, dt=None, max_steps=100000, first_step=None, max_step=None,
-             project=False, stiff_check=True, n_points=None, raise_on_failure=True):
+             project=False, stiff_check=True, n_points=None, baumgarte=0.0,
+             raise_on_failure=True):
     """Integrate ``model`` from ``x0`` over ``t_span``; returns a SimulationResult.
 
     x0/p: arrays or {name: value} dicts (missing names -> 0 / defaults).  r: constant
@@ -242,12 +251,14 @@ def simulate(model, x0, t_span, p=None, r=None, method="dop853", rtol=1e-6, atol
     1001 points.  method: rk4 (needs dt), dopri5/rk45, dop853, radau.  Output at
     t_eval (dense output) or, by default, on n_points (1001) equally spaced times
     (rk4: its step grid).  project=True projects onto the model's constraints
-    after each step.  A failed run raises SimulationError, or with
+    after each step; baumgarte=a > 0 instead adds -a G^+ g to the rhs, so
+    constraint residuals decay like exp(-a t) (Baumgarte-style).  A failed run raises SimulationError, or with
     raise_on_failure=False returns the rows computed so far with ``status``.
     """
     a = prepare(model, x0, t_span, p=p, r=r, method=method, rtol=rtol, atol=atol, t_eval=t_eval,
                 dt=dt, max_steps=max_steps, first_step=first_step, max_step=max_step,
-                project=project, stiff_check=stiff_check, n_points=n_points)
+                project=project, stiff_check=stiff_check, n_points=n_points,
+                baumgarte=baumgarte)
     x_out, stats, x_last = run_prepared(model, a)
     return finish(model, a, x_out, stats, x_last, raise_on_failure)
 

@@ -162,6 +162,8 @@ static const double D8_D[4][16] = {
 
 /* ---------------------------------------------------------------- context */
 
+struct proj;
+
 typedef struct ctx {
     const eomc_model *m;
     const double *p;
@@ -171,7 +173,11 @@ typedef struct ctx {
     double *mwork;           /* model scratch */
     eomc_stats *st;
     int n;                   /* nx */
+    struct proj *pj;         /* constraint scratch (projection, stabilization) */
+    double stab;             /* Baumgarte-style stabilization rate; 0 = off */
 } ctx;
+
+static int stabilize_rhs(ctx *c, double t, const double *x, double *f);
 
 /* Bump allocator over the caller's work buffer. */
 static double *take(double **pos, size_t n)
@@ -245,6 +251,7 @@ static int frhs(ctx *c, double t, const double *x, double *f)
     inputs_at(c, t);
     c->st->nfev++;
     s = c->m->rhs(t, x, c->p, c->r, f, c->mwork);
+    if (s == EOMC_OK && c->stab > 0.0) s = stabilize_rhs(c, t, x, f);
     if (s == EOMC_OK && !all_finite(c->n, f)) s = EOMC_NONFINITE;
     if (s != EOMC_OK) c->st->t_fail = t;
     return s;
@@ -266,6 +273,7 @@ static int ctx_init(ctx *c, const eomc_model *m, const double *p, int nr,
                     const double *rt, const double *rv, eomc_stats *st, double **pos)
 {
     c->m = m; c->p = p; c->nr = nr; c->rt = rt; c->rv = rv; c->st = st; c->n = m->nx;
+    c->pj = NULL; c->stab = 0.0;
     c->r = take(pos, (size_t)m->ninput + 1);
     c->mwork = take(pos, m->work_size + 1);
     if (m->ninput > 0) {
@@ -462,6 +470,23 @@ static int gauss_newton_update(proj *pj, int nx, int r0, int nr, int off, int co
         for (int i = 0; i < nr; i++) s += pj->G[(r0 + i) * nx + off + l] * pj->y[i];
         x[off + l] -= s;
     }
+    return EOMC_OK;
+}
+
+/* Baumgarte-style stabilization of the ODE: xdot -= a * G^+ g, so that a
+ * constraint residual g decays like exp(-a t) instead of drifting (inputs
+ * are already set at t by frhs). */
+static int stabilize_rhs(ctx *c, double t, const double *x, double *f)
+{
+    const eomc_model *m = c->m;
+    proj *pj = c->pj;
+    int s, nx = m->nx;
+    if ((s = m->constraints(t, x, c->p, c->r, pj->g, c->mwork))) return s;
+    if ((s = m->constraints_jac(t, x, c->p, c->r, pj->G, c->mwork))) return s;
+    for (int i = 0; i < pj->k; i++) pj->g[i] *= c->stab;
+    if (m->nhol > 0 && (s = gauss_newton_update(pj, nx, 0, m->nhol, 0, m->nq, f))) return s;
+    if (m->nvel > 0 && (s = gauss_newton_update(pj, nx, m->nhol, m->nvel, m->nq, m->nu, f)))
+        return s;
     return EOMC_OK;
 }
 
@@ -1049,6 +1074,7 @@ static int check_args(const eomc_model *m, const eomc_options *o, double t0, dou
     if (o->method < EOMC_RK4 || o->method > EOMC_RADAU5) return EOMC_BAD_ARGUMENT;
     if (o->method != EOMC_RK4 && !(o->rtol > 0 && o->atol > 0)) return EOMC_BAD_ARGUMENT;
     if (o->method == EOMC_RADAU5 && !m->jac_x) return EOMC_NOT_AVAILABLE;
+    if (!(o->baumgarte >= 0.0) || !isfinite(o->baumgarte)) return EOMC_BAD_ARGUMENT;
     if (n_eval < 0 || (n_eval > 0 && (!t_eval || !x_out))) return EOMC_BAD_ARGUMENT;
     for (int i = 0; i < n_eval; i++)
         if (!(t_eval[i] >= t0 && t_eval[i] <= t1) || (i > 0 && !(t_eval[i] > t_eval[i - 1])))
@@ -1082,6 +1108,9 @@ int eomc_integrate(const eomc_model *m, const eomc_options *opt,
         return stats->status = s;
     }
     proj_init(&pj, m, opt->project, &pos);
+    c.pj = &pj;
+    if (opt->baumgarte > 0.0 && pj.k > 0 && m->constraints && m->constraints_jac)
+        c.stab = opt->baumgarte;
     x = take(&pos, m->nx);
     memcpy(x, x0, (size_t)m->nx * sizeof(double));
     ow.n = n_eval; ow.i = 0; ow.nx = m->nx; ow.t = t_eval; ow.x = x_out;

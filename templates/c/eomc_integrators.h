@@ -46,6 +46,8 @@ typedef struct eomc_options {
     long max_steps;      /* attempted steps before EOMC_MAX_STEPS; <= 0 = 100000 */
     int project;         /* 1: project onto constraints after each accepted step */
     int stiff_check;     /* 1: Hairer's stiffness test for DOPRI5/DOP853 -> EOMC_STIFF */
+    double baumgarte;    /* > 0: rhs -= baumgarte * G^+ g (constraint residuals decay
+                            like exp(-baumgarte t)); 0 = off */
 } eomc_options;
 
 typedef struct eomc_stats {

@@ -20,7 +20,8 @@ static int run(const eomc_model *m, int method, const double *x0, const double *
     double te[NE], *xo = malloc(sizeof(double) * NE * m->nx), *xl = malloc(sizeof(double) * m->nx);
     size_t nw = eomc_integrate_work_size(m, method);
     double *w = malloc(sizeof(double) * nw);
-    eomc_options o = {method, 1e-7, 1e-9, method == EOMC_RK4 ? 0.01 : 0.0, 0.0, 20000, project, 1};
+    eomc_options o = {method, 1e-7, 1e-9, method == EOMC_RK4 ? 0.01 : 0.0, 0.0, 20000,
+                      project == 1, 1, project == 2 ? 5.0 : 0.0};  /* project 2: baumgarte */
     eomc_stats st;
     int s;
     for (int i = 0; i < NE; i++) te[i] = t1 * i / (NE - 1);
@@ -52,8 +53,10 @@ int main(void)
         ok &= run(pendulum_model(), method, xp, pp, 0, NULL, NULL, 0, 5.0, 0);
         ok &= run(chain_model(), method, xc, pc, 0, NULL, NULL, 0, 2.0,
                   method == EOMC_RADAU5 ? 0 : -1);
-        if (method != EOMC_RADAU5)
+        if (method != EOMC_RADAU5) {
             ok &= run(ring_model(), method, xr, pr, 0, NULL, NULL, 1, 3.0, 0);
+            ok &= run(ring_model(), method, xr, pr, 0, NULL, NULL, 2, 3.0, 0);
+        }
         ok &= run(singular_model(), method == EOMC_RADAU5 ? EOMC_DOP853 : method, xb, ps, 0,
                   NULL, NULL, 0, 1.0, EOMC_SINGULAR_MASS_MATRIX);
     }
