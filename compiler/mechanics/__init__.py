@@ -32,12 +32,9 @@ __all__ = [
     "FormedSystem", "from_sympy",
 ]
 
-try:  # the methods are added by .kane / .lagrange
-    from .kane import KanesMethod  # noqa: F401
-    __all__.append("KanesMethod")
-except ImportError as _exc:  # pragma: no cover - during bootstrap only
-    if "kane" not in str(_exc):
-        raise
+from .kane import KanesMethod  # noqa: E402
+
+__all__.append("KanesMethod")
 try:
     from .lagrange import LagrangesMethod  # noqa: F401
     __all__.append("LagrangesMethod")
