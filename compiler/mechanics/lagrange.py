@@ -13,7 +13,7 @@ from sympy.physics.mechanics import Linearizer, find_dynamicsymbols, msubs
 
 from eomc.errors import ModelError
 
-from .formed import FormedSystem
+from .lagrange_formed import formed_from_lagrange
 from .lagrange_terms import (PlainVariables, check_loads, constraint_terms,
                              generalized_forces, lagrange_mass_forcing)
 
@@ -315,6 +315,5 @@ class LagrangesMethod:
     # -- the compiler's view -------------------------------------------------
     def formed(self):
         """The method-neutral :class:`FormedSystem` (see :mod:`.lagrange_formed`)."""
-        from .lagrange_formed import formed_from_lagrange
         self._need_eom()
         return formed_from_lagrange(self)

@@ -1,22 +1,22 @@
-"""Lagrange's equations on plain symbols: the fast core of :class:`LagrangesMethod`.
+"""Lagrange's equations, term by term: the fast core of :class:`LagrangesMethod`.
 
 Why this module exists: SymPy's LagrangesMethod differentiates the Jacobian
-``dL/dq'`` with respect to time through SymPy's function machinery (every
-``q(t)`` and ``q'(t)`` is an applied function) and then takes a Jacobian with
-respect to ``q''``.  Both steps are slow and build large expressions.  Here
+``dL/dq'`` with respect to time through SymPy's function machinery and then
+takes a Jacobian with respect to ``q''``.  Both steps are slow and build
+large expressions.  Here
 
-* ``q, q', q''`` are swapped once for plain ``Dummy`` symbols ``x, v, a``;
-* the mass matrix is the Hessian ``d2L/dv dv`` (symmetric, so only the upper
-  triangle is differentiated);
-* the forcing is ``dL/dx - (d2L/dv dx) v - d2L/dv dt + Q``, where ``d/dt`` of
-  the momenta is written out by the chain rule instead of differentiating
-  through time, and ``Q`` are the generalized forces of the force list;
-* the results are mapped back to ``q(t)`` and its derivatives.
+* ``q, q', q''`` and ``t`` are independent leaves of a memoized
+  differentiator (:mod:`.fastdiff`), so no derivative goes through time;
+* kinetic-energy squares ``c X**2`` are done in closed form
+  (:mod:`.lagrange_squares`); the rest of L gives the mass matrix as the
+  Hessian ``d2L/dq'2`` (symmetric: only the upper triangle is differentiated)
+  and the forcing as ``dL/dq - (d2L/dq' dq) q' - d2L/dq' dt``, the time
+  derivative of the momenta written out by the chain rule;
+* ``Q`` are the generalized forces of the force list (partial velocities).
 
 No ``simplify``/``expand`` is called anywhere.  Explicit time dependence
 (``t`` itself or specified dynamic symbols such as an input ``F(t)``) is
-kept: ``diff(expr, t)`` of an expression in plain ``x, v`` gives exactly the
-explicit part, e.g. ``F'(t)``.
+kept: ``d/dt`` sees only it, e.g. giving ``F'(t)``.
 """
 import sympy as sm
 from sympy.physics.vector import ReferenceFrame, Point, Vector, dynamicsymbols
