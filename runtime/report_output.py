@@ -12,7 +12,8 @@ import numpy as np
 __all__ = ["write_csv", "table_text", "plot_report", "summary_markdown", "recommendation", "usage"]
 
 EXPLICIT = ("rk4", "dopri5", "dop853")
-MANY_REJECTIONS = 0.25    # rejected / steps above this for an explicit method: stiffness symptom
+MANY_REJECTIONS = 0.25    # rejected / steps above this: reported (a symptom only with others)
+FLAT_STEPS = 1.5         # explicit steps growing less than this over >= 3 decades: stability-limited
 CONSERVED = 1e-8          # reference energy drift below this: the model conserves energy
 
 
@@ -209,26 +210,51 @@ def _energy_notes(report):
             f"is symplectic: drift follows the accuracy (loosest -> tightest): " + "; ".join(parts) + "."]
 
 
+def _flat_step_counts(report):
+    """Explicit methods whose step count barely grows over >= 3 decades of tolerance.
+
+    Accuracy-limited steps grow like tol**(-1/order); a count that stays flat
+    means the step is limited by stability instead: the signature of stiffness.
+    """
+    out = []
+    for method in ("dopri5", "dop853"):
+        rows = [r for r in report.ok_rows() if r["method"] == method]
+        if len(rows) < 2 or rows[0]["tolerance"] / rows[-1]["tolerance"] < 1e3:
+            continue
+        if rows[-1]["accepted"] < FLAT_STEPS * rows[0]["accepted"]:
+            out.append(f"{method} takes {rows[0]['accepted']} steps at {_setting(rows[0])} and "
+                       f"still {rows[-1]['accepted']} at {_setting(rows[-1])} (step limited by "
+                       f"stability, not accuracy)")
+    return out
+
+
 def _stiffness_notes(report):
-    notes = []
-    for r in report.rows:
-        if r["method"] in EXPLICIT and r["status"] in (6, 7):
-            notes.append(f"{_short(report, r['message'])} ({_setting(r)})")
-    for r in report.ok_rows():
-        if r["method"] in EXPLICIT and r["steps"] and r["rejected"] / r["steps"] > MANY_REJECTIONS:
-            notes.append(f"{r['method']} at {_setting(r)} rejected {r['rejected']} of "
-                         f"{r['steps']} steps")
+    """Strong symptoms (explicit runs stopped, flat step counts, Radau needing far fewer
+    steps) decide; a high rejection rate alone is only reported, not called stiffness."""
+    strong = [f"{_short(report, r['message'])} ({_setting(r)})" for r in report.rows
+              if r["method"] in EXPLICIT and r["status"] in (6, 7)]
+    strong += _flat_step_counts(report)
     by = {(r["method"], r["tolerance"]): r for r in report.ok_rows()}
     for tol in report.tolerances:
         rad = by.get(("radau", tol))
         exp = [by[(m, tol)]["accepted"] for m in ("dopri5", "dop853") if (m, tol) in by]
         if rad and exp and rad["accepted"] * 5 < min(exp):
-            notes.append(f"at {tol:.0e} radau needs {rad['accepted']} steps against "
-                         f"{min(exp)} for the best explicit method")
-    if not notes:
-        return ["Stiffness: no symptoms (no explicit run stopped, none rejected more than "
-                f"{MANY_REJECTIONS:.0%} of its steps)."]
-    return ["Stiffness symptoms -- prefer method=\"radau\": " + "; ".join(notes[:6]) + "."]
+            strong.append(f"at {tol:.0e} radau needs {rad['accepted']} steps against "
+                          f"{min(exp)} for the best explicit method")
+    rejecting = [r for r in report.ok_rows() if r["method"] in EXPLICIT and r["steps"]
+                 and r["rejected"] / r["steps"] > MANY_REJECTIONS]
+    worst = max(rejecting, key=lambda r: r["rejected"] / r["steps"]) if rejecting else None
+    reject = (f"{worst['method']} rejects up to {worst['rejected'] / worst['steps']:.0%} of its "
+              f"steps ({worst['rejected']} of {worst['steps']} at {_setting(worst)})") if worst else ""
+    if strong:
+        extra = [reject] if reject else []
+        return ['Stiffness symptoms -- prefer method="radau": ' + "; ".join((strong + extra)[:6]) + "."]
+    if reject:
+        return [f"Stiffness: no symptoms (no explicit run stopped, explicit step counts grow "
+                f"with the tolerance as accuracy demands); {reject}, which is step-size control "
+                f"on a fast-changing solution, not stiffness."]
+    return ["Stiffness: no symptoms (no explicit run stopped, step counts grow with the "
+            f"tolerance, none rejected more than {MANY_REJECTIONS:.0%} of its steps)."]
 
 
 def _constraint_notes(report):
@@ -256,8 +282,9 @@ def summary_markdown(report, target):
              f"step is the span over DOPRI5's accepted steps at that tolerance. Wall time is "
              f"the median of the C integration call.", "",
              recommendation(report, target), ""]
-    for note in (_reference_notes(report, target) + _run_notes(report) + _energy_notes(report) + _constraint_notes(report)
-                 + _stiffness_notes(report)):
+    notes = (_reference_notes(report, target) + _run_notes(report) + _energy_notes(report)
+             + _constraint_notes(report) + _stiffness_notes(report))
+    for note in notes:
         lines += [f"- {note}"]
     lines += ["", _markdown_table(report), ""]
     return "\n".join(lines)

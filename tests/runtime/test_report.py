@@ -236,3 +236,15 @@ def test_cli_report_errors_are_one_line(tmp_path, capsys):
     assert main(["report", str(tmp_path / "missing.py")]) == 1
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "no such model file" in err
+
+
+def test_stability_limited_step_counts_are_called_stiff():
+    """dop853 on the overdamped chain: its step count stays flat over 4 decades of tolerance."""
+    kappa = 1e4
+    m = get_model("chain")
+    p = np.array([1.0, kappa, 0.1, 2 * np.sqrt(kappa)])
+    rep = work_precision(m, [1.0, 1.0, 0.0, 0.0], (0.0, 10.0), p=p, methods=("dop853",),
+                         tolerances=(1e-3, 1e-7), repeats=1, progress=False, n_points=21)
+    steps = [r["accepted"] for r in rep.rows]
+    assert all(r["status"] == 0 for r in rep.rows) and steps[1] < 1.5 * steps[0]
+    assert "step limited by stability, not accuracy" in rep.summary_markdown()
