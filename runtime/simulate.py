@@ -67,6 +67,8 @@ def _vector(model, value, size, names, defaults, what):
         out = np.array(defaults, dtype=np.float64)
         for key, v in value.items():
             key = str(key)
+            if key not in names and key.endswith("(t)"):     # a SymPy dynamicsymbol
+                key = key[:-3]
             if key not in names:
                 raise ValueError(f"{model.name}: unknown {what} name {key!r}; "
                                  f"valid names: {', '.join(names) or 'none'}")
@@ -94,8 +96,11 @@ def _inputs(model, r, t0, t1):
         raise ValueError(f"{model.name}: this model has no inputs, but r was given")
     if callable(r):
         grid = np.linspace(t0, t1, INPUT_SAMPLES)
-        values = np.array([np.reshape(np.asarray(r(t), dtype=float), ni) for t in grid])
-        return _grid(model, grid, values)
+        values = [np.asarray(r(t), dtype=float).ravel() for t in grid]
+        if any(v.size != ni for v in values):
+            raise ValueError(f"{model.name}: r(t) must return {ni} value(s) "
+                             f"[{', '.join(model.input_names)}]; got {values[0].size}")
+        return _grid(model, grid, np.array(values))
     if isinstance(r, tuple) and len(r) == 2:
         return _grid(model, r[0], r[1])
     values = _vector(model, r, ni, model.input_names, np.zeros(ni), "r (inputs)")

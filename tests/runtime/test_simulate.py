@@ -51,6 +51,8 @@ def test_bad_input_grid_shapes():
         simulate(m, [0, 0], (0, 1), r=(np.linspace(0, 1, 5), np.zeros((4, 1))))
     with pytest.raises(ValueError, match="strictly increasing"):
         simulate(m, [0, 0], (0, 1), r=(np.array([0, 0.5, 0.5, 1.0]), np.zeros(4)))
+    with pytest.raises(ValueError, match=r"r\(t\) must return 1 value"):
+        simulate(m, [0, 0], (0, 1), r=lambda t: [t, t])
 
 
 def test_named_columns_outputs_and_aliases(pend):
