@@ -66,6 +66,24 @@ def _cffi_backend(ffi, lib, c_model, name, functions):
     return prepare, kernels
 
 
+def _cffi_fast_rhs(model, fp, frombuf):
+    """rhs for the commonest call -- float t, a float64 C-contiguous x, default p and r --
+    with the fewest Python steps; everything else (and any nonzero status) goes
+    through the validating Model.rhs, which raises the proper error."""
+    nx, xshape, checked, empty, ndarray = model.nx, (model.nx,), model._checked_rhs, np.empty, np.ndarray
+    p_default, r_default, work = model._default_p, model._default_r, model._work
+
+    def rhs(t, x, p=None, r=None):
+        if (p is None and r is None and type(t) is float and type(x) is ndarray and x.dtype is _F64
+                and x.shape == xshape and x.flags.c_contiguous):
+            out = empty(nx)
+            if fp(t, frombuf("double[]", x), p_default, r_default, frombuf("double[]", out), work()[1]) == 0:
+                return out
+        return checked(t, x, p, r)
+    rhs.__doc__ = Model.rhs.__doc__
+    return rhs
+
+
 def _inverse_dynamics_kernel(fp, ptr):
     return lambda t, x, ud, p, r, tau, work: fp(t, ptr(x), ptr(ud), p, r, ptr(tau), work)
 
@@ -116,6 +134,8 @@ class Model:
             # the common call checked in C; everything else falls back to Model.rhs
             self.rhs = extension.FastRHS(self._checked_rhs, np.empty, self.param_defaults,
                                          self._zero_inputs, self.nx, self.work_size)
+        elif extension is None and c_model.rhs != ffi.NULL:
+            self.rhs = _cffi_fast_rhs(self, c_model.rhs, ffi.from_buffer)
 
     def __repr__(self):
         return (f"<eomc Model {self.name!r}: nq={self.nq} nu={self.nu} nparam={self.nparam} "

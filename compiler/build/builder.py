@@ -21,7 +21,7 @@ import eomc
 import eomc.templates
 from eomc.errors import CompileError
 
-from .cache import cache_root, discard, get_or_build, hash_key, sha256_file
+from .cache import CACHE_SCHEMA, cache_root, discard, get_or_build, hash_key, sha256_file
 from .toolchain import DEFAULT_CFLAGS, find_compiler
 
 __all__ = ["BuildResult", "build", "shipped_c_dir", "SHIPPED_HEADERS", "resolve_cflags"]
@@ -65,7 +65,7 @@ def _link_flags():
 
 
 def _base_inputs(tc, flags):
-    return {"eomc_version": eomc.__version__, "platform": f"{sys.platform}-{platform.machine()}",
+    return {"schema": CACHE_SCHEMA, "eomc_version": eomc.__version__, "platform": f"{sys.platform}-{platform.machine()}",
             "compiler": {"path": tc.path, "argv": list(tc.argv), "version": tc.version},
             "cflags": flags}
 
