@@ -138,6 +138,13 @@ def _compiler_version():
         return cc
 
 
+def _loadavg():
+    try:
+        return " ".join(f"{v:.2f}" for v in os.getloadavg())
+    except OSError:
+        return "unknown"
+
+
 def _git_commit():
     import subprocess
     root = Path(__file__).resolve().parent.parent
@@ -160,6 +167,7 @@ def environment_header(title, args=None, notes=()):
         f"- date: {now}",
         f"- machine: {os.cpu_count()} CPUs (nproc), {_cpu_model()}, {platform.system()} {platform.release()}",
         "- note: the machine is shared with other jobs while this ran; figures are medians of repeats",
+        f"- load average (1/5/15 min) at start of write-up: {_loadavg()}",
         f"- python {platform.python_version()}; C compiler: {_compiler_version()}",
         f"- versions: {versions}",
         f"- eomc checkout: {_git_commit()}",
