@@ -161,3 +161,18 @@ def test_attributes_like_sympy():
     assert lm.coneqs == sm.Matrix()
     body = mechs.spherical_pendulum_body(em)
     assert len(body.bodies) == 1
+
+
+def test_kinetic_energy_matches_sympy_without_orientation_path():
+    """Velocity given in a frame with no DCM to the energy frame: SymPy's pairing is used."""
+    v = sme.dynamicsymbols("v")
+    m = sm.Symbol("m")
+    N, B = sme.ReferenceFrame("N"), sme.ReferenceFrame("B")
+    P = sme.Point("P")
+    P.set_vel(N, v * B.x + 2 * v * B.y)
+    pa = sme.Particle("pa", P, m)
+    assert sm.expand(em.kinetic_energy(N, pa) - sme.kinetic_energy(N, pa)) == 0
+    with pytest.raises(TypeError):
+        em.kinetic_energy(N, P)
+    with pytest.raises(TypeError):
+        em.Lagrangian("N", pa)
