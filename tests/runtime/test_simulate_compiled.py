@@ -76,3 +76,18 @@ def test_eomc_simulate_cli_compiles_a_model_file(tmp_path, monkeypatch, capsys):
     assert np.ptp(data["energy"]) < 1e-6 * abs(data["energy"][0])
     assert png is None or png.stat().st_size > 1000
     assert "pend: dop853" in capsys.readouterr().out
+
+
+def test_eomc_simulate_cli_on_a_built_directory(tmp_path, monkeypatch, capsys):
+    """A built directory is loaded (no compile): initial_state comes from its metadata."""
+    from eomc.cli import main
+    monkeypatch.setenv("EOMC_CACHE_DIR", str(tmp_path / "cache"))
+    src = model_files.write(tmp_path, model_files.CART, "cart")
+    eomc.compile(str(src), cache_dir=tmp_path / "cache", output_dir=tmp_path / "built",
+                 progress=False)
+    out = tmp_path / "cart.csv"
+    assert main(["simulate", str(tmp_path / "built"), "--t-final", "1", "-o", str(out),
+                 "--method", "radau", "--points", "11"]) == 0
+    data = np.genfromtxt(out, delimiter=",", names=True)
+    assert data["th"][0] == 0.4 and len(data) == 11
+    assert "cart: radau" in capsys.readouterr().out
