@@ -248,3 +248,20 @@ def test_stability_limited_step_counts_are_called_stiff():
     steps = [r["accepted"] for r in rep.rows]
     assert all(r["status"] == 0 for r in rep.rows) and steps[1] < 1.5 * steps[0]
     assert "step limited by stability, not accuracy" in rep.summary_markdown()
+
+
+def test_reference_check_follows_a_time_varying_input(osc):
+    """r(t) sampled on a grid: scipy's check interpolates it as the C side does, so they agree."""
+    t = np.linspace(0, 5, 51)
+    ref = compute_reference(osc, [1.0, 0.0], (0.0, 5.0), t, r=lambda s: [np.sin(3 * s)])
+    assert ref.check_method == "scipy dop853" and ref.agreement < 1e-8
+    free = compute_reference(osc, [1.0, 0.0], (0.0, 5.0), t)
+    assert scaled_error(free.x, ref.x) > 1e-2          # the input really acted
+
+
+def test_importing_the_report_pulls_in_neither_sympy_nor_matplotlib():
+    import subprocess
+    code = ("import sys, eomc.runtime.report; "
+            "print('sympy' in sys.modules, 'matplotlib' in sys.modules, 'eomc.compiler' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.split() == ["False", "False", "False"]
