@@ -98,7 +98,7 @@ def _run(args):
           f"({s['rejected']} rejected), {s['nfev']} rhs, {s['njev']} jacobian, {s['nlu']} LU")
     for name, values in res.outputs.items():
         print(f"  {name}: start {values[0]:.10g}, end {values[-1]:.10g}, "
-              f"drift {values[-1] - values[0]:.3g}")
+              f"change {values[-1] - values[0]:.3g}")
     if res.constraint_residual is not None:
         print(f"  constraint residual: max {res.constraint_residual.max():.3g}")
     if args.output:
