@@ -85,8 +85,8 @@ class KanesMethod:
         clash = set(self._q) & set(list(self._u) + self._uaux)
         if clash:
             raise ModelError(f"{sorted(map(str, clash))[0]} is listed both as a coordinate and a speed")
-        self._qdot = self._q.diff(t)
-        self._udot = self._u.diff(t)
+        self._qdot = sm.Matrix([x.diff(t) for x in self._q])
+        self._udot = sm.Matrix([x.diff(t) for x in self._u])
         self.explicit_kinematics = explicit_kinematics
         self._kd_solver = linear_solver(kd_eqs_solver)
         self._constraint_solver = linear_solver(constraint_solver)

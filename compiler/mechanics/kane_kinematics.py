@@ -108,12 +108,13 @@ def kinematic_matrices(kd_eqs, q, u, uaux, solver):
         -sm.Add(*[k_ku_explicit[i, j] * u[j] for j in range(len(u)) if k_ku_explicit[i, j] != 0],
                 f_k_explicit[i])
         for i in range(len(q))])
+    z = (lambda m: m.xreplace(uaux_zero)) if uaux_zero else (lambda m: m)
     return {
         "k_kqdot_implicit": k_kqdot,
-        "k_ku_implicit": k_ku.xreplace(uaux_zero),
-        "f_k_implicit": f_k.xreplace(uaux_zero),
-        "k_ku": k_ku_explicit.xreplace(uaux_zero),
-        "f_k": f_k_explicit.xreplace(uaux_zero),
+        "k_ku_implicit": z(k_ku),
+        "f_k_implicit": z(f_k),
+        "k_ku": z(k_ku_explicit),
+        "f_k": z(f_k_explicit),
         "qdot_u_map": dict(zip(qdot, qdot_rhs)),
     }
 

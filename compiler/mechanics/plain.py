@@ -41,6 +41,7 @@ class PlainSpace:
 
     def __init__(self, q, u, uaux, qdot_map):
         self.t = dynamicsymbols._t
+        self._fwd_memo = {}
         self._states = set(q) | set(u) | set(uaux)
         self.fwd, self.back, self.ddt = {}, {}, {}
         self.ddt[self.t] = sm.S.One
@@ -88,12 +89,17 @@ class PlainSpace:
     def to_plain(self, expr):
         """Replace every dynamic symbol in ``expr`` (a SymPy expression) by its Dummy."""
         expr = sm.sympify(expr)
-        if not expr.free_symbols or self.t not in expr.free_symbols:
-            return expr
-        for atom in expr.atoms(AppliedUndef, sm.Derivative):
-            if atom not in self.fwd and _is_dynamic(atom, self.t):
-                self._register(atom)
-        return expr.xreplace(self.fwd)
+        hit = self._fwd_memo.get(expr)
+        if hit is not None:
+            return hit
+        out = expr
+        if self.t in expr.free_symbols:
+            for atom in expr.atoms(AppliedUndef, sm.Derivative):
+                if atom not in self.fwd and _is_dynamic(atom, self.t):
+                    self._register(atom)
+            out = expr.xreplace(self.fwd)
+        self._fwd_memo[expr] = out
+        return out
 
     def to_dynamic(self, expr):
         """Map a plain expression back to dynamic symbols (memoized over subtrees)."""
