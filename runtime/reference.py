@@ -34,7 +34,7 @@ __all__ = ["Reference", "compute_reference", "scaled_error", "state_scale", "SCA
 SCALE_FLOOR = 1e-3      # states that stay below 1e-3 x the largest state are scaled by that
 CHECK_METHODS = ("auto", "scipy", "radau", "dop853-half", "none")
 SCIPY_LOOSER = 10.0      # the scipy check runs 10x looser: see the module docstring
-SCIPY_MAX_STEPS = 20000  # "auto" check: beyond this many reference steps, scipy's Python loop is too slow
+SCIPY_MAX_STEPS = 20000  # "auto" check: more reference steps make scipy's Python loop too slow
 REFERENCE_METHODS = ("auto", "dop853", "radau")
 RADAU_FINEST = 1e-12    # Radau IIA's reference tolerance is not pushed below this
 

@@ -212,7 +212,8 @@ def _dopri5_for_rk4(model, tol, common, ref, cache):
 def _progress(enabled, row):
     if not enabled:
         return
-    what = f"dt={row['dt']:.3g}" if row["method"] == "rk4" and row["dt"] else f"tol={row['tolerance']:.0e}"
+    rk4 = row["method"] == "rk4" and row["dt"]
+    what = f"dt={row['dt']:.3g}" if rk4 else f"tol={row['tolerance']:.0e}"
     if row["status"] == 0:
         text = f"error {row['error']:.2e}  {row['wall_time_s'] * 1e3:.3g} ms  {row['steps']} steps"
     else:

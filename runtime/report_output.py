@@ -207,7 +207,8 @@ def _energy_notes(report):
             parts.append(f"{method} {lo['energy_drift']:.1e} ({_setting(lo)}) -> "
                          f"{hi['energy_drift']:.1e} ({_setting(hi)})")
     return [f"Energy: the reference conserves it to {d_ref:.1e} (relative). None of these methods "
-            f"is symplectic: drift follows the accuracy (loosest -> tightest): " + "; ".join(parts) + "."]
+            f"is symplectic: drift follows the accuracy (loosest -> tightest): "
+            + "; ".join(parts) + "."]
 
 
 def _flat_step_counts(report):

@@ -265,3 +265,10 @@ def test_importing_the_report_pulls_in_neither_sympy_nor_matplotlib():
             "print('sympy' in sys.modules, 'matplotlib' in sys.modules, 'eomc.compiler' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.split() == ["False", "False", "False"]
+
+
+def test_damped_model_energy_is_physics_not_error(osc):
+    rep = work_precision(osc, [1.0, 0.0], (0.0, 5.0), p=[4.0, 1.0, 0.5], methods=("dop853",),
+                         tolerances=(1e-8,), repeats=1, progress=False, n_points=51)
+    assert rep.reference_energy_drift() > 0.5          # c = 0.5 dissipates most of it by t = 5
+    assert "not conserved by the model itself" in rep.summary_markdown()
