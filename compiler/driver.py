@@ -1,7 +1,8 @@
 """The whole pipeline in one function: model -> formed system -> C -> library -> loaded Model.
 
     derive    eomc.compiler.model.model_spec   (run the model file, .formed(), check variables)
-    generate  eomc.compiler.emit.generate_c    (IR, optimization passes, C text, metadata)
+    generate  eomc.compiler.emit.generate_c    (IR, optimization passes, C text, metadata;
+                                                cached by the formed equations: build.gencache)
     compile   eomc.compiler.build.build        (content-addressed cache; C compiler on a miss)
     export    eomc.compiler.build.export       (only with output_dir: the files `eomc build` writes)
     load      eomc.runtime.loader.load         (cffi dlopen or the Cython extension)
@@ -11,7 +12,8 @@ import time
 
 from eomc.errors import ModelError
 
-from .build import build
+from .build import build, cache_root
+from .build.gencache import cached_generate
 from .build.export import export
 from .model import model_spec
 from .model.validate import Invalid, check_functions
@@ -44,8 +46,12 @@ class Progress:
 
 
 def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, functions=None,
-             fold_parameters=False, progress=None):
-    """Derive and generate C without compiling: returns (ModelSpec, GeneratedModel)."""
+             fold_parameters=False, progress=None, cache_dir=None, use_cache=True):
+    """Derive and generate C without compiling: returns (ModelSpec, GeneratedModel).
+
+    With ``use_cache`` the C comes from the generation cache when the formed
+    equations and options were seen before (see eomc.compiler.build.gencache).
+    """
     from .emit import generate_c
     progress = progress if isinstance(progress, Progress) else Progress(progress)
     try:
@@ -54,9 +60,15 @@ def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, f
         raise ModelError(str(exc)) from None
     with progress.stage("derive"):
         spec = model_spec(system, name, parameters=parameters, inputs=inputs, outputs=outputs)
+    def run_generator():
+        return generate_c(spec.formed, spec.name, parameters=spec.parameters, inputs=spec.inputs,
+                          outputs=spec.outputs, functions=functions, fold_parameters=fold_parameters)
     with progress.stage("generate"):
-        generated = generate_c(spec.formed, spec.name, parameters=spec.parameters, inputs=spec.inputs,
-                               outputs=spec.outputs, functions=functions, fold_parameters=fold_parameters)
+        if use_cache:
+            generated, _ = cached_generate(spec, functions, fold_parameters, run_generator,
+                                           cache_root(cache_dir))
+        else:
+            generated = run_generator()
     return spec, generated
 
 
@@ -70,7 +82,8 @@ def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, fu
     from eomc.runtime.loader import LoadError, load
     progress = Progress(progress)
     spec, generated = generate(system, name, parameters=parameters, inputs=inputs, outputs=outputs,
-                               functions=functions, fold_parameters=fold_parameters, progress=progress)
+                               functions=functions, fold_parameters=fold_parameters, progress=progress,
+                               cache_dir=cache_dir)
     extra = {"initial_state": spec.initial_state} if spec.initial_state is not None else None
     with progress.stage("compile"):
         built = build(generated, backend=backend, cflags=cflags, cache_dir=cache_dir, extra_metadata=extra)

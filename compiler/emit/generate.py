@@ -5,7 +5,7 @@ import jinja2
 
 from ...errors import ModelError
 from ..passes import finish_function, optimize_shared
-from ..ir import count_program
+from ..ir import count_program, verify
 from .bodies import (BodyContext, jacobian_body, linearize_body, plain_body, rhs_body,
                      void_unused)
 from .generated import GeneratedModel
@@ -120,7 +120,7 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
     fns = _select(functions, len(layout.r), len(outputs or {}), ncon)
     sym = build_symbolic(formed, layout, fns, outputs)
     nq, nu, nx, nw = formed.nq, formed.nu, formed.nq + formed.nu, sym.nw
-    shared = optimize_shared(sym.program)
+    shared = verify(optimize_shared(sym.program, sym.derivatives))
     solver = (ldlt_solver(name, nw, sym.pattern) if sym.symmetric else lu_solver(name, nw))
     slots = dict(layout.c_names)
     slots.update({s: f"w[{j}]" for j, s in enumerate(sym.W)})

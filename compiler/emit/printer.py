@@ -6,7 +6,7 @@ SymPy's C99CodePrinter does the precedence work; this subclass only
 * prints floats so they round-trip exactly (``repr``), exact rationals as
   ``1.0/3.0`` (SymPy's rule), and named constants (pi, E) as literals rather than the
   non-C99 ``M_PI`` macros,
-* prints :class:`~eomc.compiler.ir.IMul` products as ``a*b*c``.
+* prints :class:`~eomc.compiler.ir.IMul` products as ``(a*b*c)``.
 """
 import sympy as sm
 from sympy.printing.c import C99CodePrinter
@@ -42,5 +42,6 @@ class CPrinter(C99CodePrinter):
     _print_Exp1 = _print_NumberSymbol
 
     def _print_IMul(self, expr):
+        # always parenthesized: SymPy's Mul printer may put it after "/" at Add precedence
         prec = PRECEDENCE["Mul"]
-        return "*".join(self.parenthesize(a, prec) for a in expr.args)
+        return "(" + "*".join(self.parenthesize(a, prec) for a in expr.args) + ")"

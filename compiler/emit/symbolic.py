@@ -9,6 +9,9 @@ read from the C array ``w`` through the symbols ``w_j``):
     dw/dx_k = A⁻¹ (∂b/∂x_k − ∂A/∂x_k · w),
 
 so jac_x needs the columns ``G[:, k] = ∂(b − A·W)/∂x_k`` and the same factorization.
+The residual ``res = b − A·W`` is a result group; its derivatives (and those of the
+kinematics and constraints) are requested from :func:`~eomc.compiler.passes.differentiate`,
+which works on the CSE'd program.
 """
 import random
 from dataclasses import dataclass
@@ -37,6 +40,7 @@ FUNCTION_GROUPS = {
 @dataclass(frozen=True)
 class Symbolic:
     program: Program
+    derivatives: tuple      # (source group, wrt symbols, target group) for optimize_shared
     nw: int                 # unknowns of the dynamics solve (nu + nλ)
     symmetric: bool         # A symmetric (LDLᵀ) or not (LU with pivoting)
     pattern: frozenset      # structural nonzeros (i, j) of A
@@ -62,14 +66,6 @@ def _is_symmetric(A, seed=0):
             if abs(a - b) > 1e-10 * max(1.0, abs(a), abs(b)):
                 return False
     return True
-
-
-def _jacobian_entries(group, exprs, wrt, results):
-    for i, e in enumerate(exprs):
-        for k, v in enumerate(wrt):
-            d = e.diff(v)
-            if d != 0:
-                results.append(((group, i, k), d))
 
 
 def _outputs(formed, layout, outputs):
@@ -110,23 +106,26 @@ def build_symbolic(formed, layout, functions, outputs=None):
     W = tuple(sm.Symbol(f"w_{j}", real=True) for j in range(nw))
     UD = tuple(sm.Symbol(f"ud_{j}", real=True) for j in range(nu))
     res = []
+    derivatives = []
+    if "dkin" in groups or "dkin_r" in groups:
+        groups.add("kin")
+        if "dkin" in groups:
+            derivatives.append(("kin", layout.x, "dkin"))
+        if "dkin_r" in groups:
+            derivatives.append(("kin", layout.r, "dkin_r"))
     if "kin" in groups:
         res += [(("kin", i), e) for i, e in enumerate(kin)]
     if "A" in groups:
         res += [(("A", i, j), A[i, j]) for (i, j) in sorted(pattern) if not symmetric or i >= j]
     if "b" in groups:
         res += [(("b", i), e) for i, e in enumerate(b)]
-    if "dkin" in groups:
-        _jacobian_entries("dkin", kin, layout.x, res)
-    if "dkin_r" in groups:
-        _jacobian_entries("dkin_r", kin, layout.r, res)
     if "G" in groups or "Gr" in groups:
-        resid = [b[i] - sm.Add(*[A[i, j] * W[j] for j in range(nw) if (i, j) in pattern])
-                 for i in range(nw)]
+        res += [(("res", i), b[i] - sm.Add(*[A[i, j] * W[j] for j in range(nw) if (i, j) in pattern]))
+                for i in range(nw)]
         if "G" in groups:
-            _jacobian_entries("G", resid, layout.x, res)
+            derivatives.append(("res", layout.x, "G"))
         if "Gr" in groups:
-            _jacobian_entries("Gr", resid, layout.r, res)
+            derivatives.append(("res", layout.r, "Gr"))
     if "M" in groups:
         res += [(("M", i, j), A[i, j]) for i in range(nu) for j in range(nu) if A[i, j] != 0]
     if "f" in groups:
@@ -139,11 +138,12 @@ def build_symbolic(formed, layout, functions, outputs=None):
         res += [(("out", i), e) for i, e in enumerate(outs)]
     hol = [layout.apply(e, "a holonomic constraint") for e in formed.holonomic_constraints]
     vel = [layout.apply(e, "a velocity constraint") for e in formed.velocity_constraints]
+    if "dcon" in groups:
+        groups.add("con")
+        derivatives.append(("con", layout.x, "dcon"))
     if "con" in groups:
         res += [(("con", i), e) for i, e in enumerate(hol + vel)]
-    if "dcon" in groups:
-        _jacobian_entries("dcon", hol + vel, layout.x, res)
     inputs = (layout.t,) + layout.x + layout.p + layout.r + W + UD
     program = Program(inputs=inputs, results=tuple(res))
-    return Symbolic(program=program, nw=nw, symmetric=symmetric, pattern=pattern, W=W, UD=UD,
+    return Symbolic(program=program, derivatives=tuple(derivatives), nw=nw, symmetric=symmetric, pattern=pattern, W=W, UD=UD,
                     nhol=len(hol), nvel=len(vel), output_names=names)

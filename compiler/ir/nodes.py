@@ -13,8 +13,9 @@ __all__ = ["IMul"]
 
 class IMul(sm.Function):
     is_real = True
-    # printers parenthesize it like a product: 1/IMul(x, x) is 1/(x*x), not 1/x*x
-    precedence = PRECEDENCE["Mul"]
+    # C printing wraps the product in its own parentheses (1/(x*x), -(x*x)), so for
+    # SymPy's printers it is an atom: they never add a second pair
+    precedence = PRECEDENCE["Atom"]
 
     @classmethod
     def eval(cls, *args):

@@ -36,6 +36,10 @@ def input_symbols(exprs, states):
     return sorted(found, key=default_sort_key)
 
 
+def _plain_names(items):
+    return ", ".join(str(x).replace("(t)", "") for x in items)
+
+
 def _states(km):
     t = dynamicsymbols._t
     s = set(km._q) | set(km._u) | set(km._qdot) | set(km._udot) | set(km._uaux)
@@ -102,9 +106,19 @@ def linearize(self, *, new_method=None, linear_solver=None, **kwargs):
         ff = self.forcing_full
         xs = list(self._q)[:len(self._q) - len(self._qdep)] + \
             list(self._u)[:len(self._u) - len(self._udep)]
-        A = ff.jacobian(xs)
         r = input_symbols([ff], _states(self))
+        outside = input_symbols([self.mass_matrix_full, self.forcing_kin], _states(self))
+        if outside:
+            raise ModelError(f"cannot linearize: input(s) {_plain_names(outside)} appear in the mass "
+                             "matrix or the kinematic equations; inputs may only enter the forcing")
+        t = dynamicsymbols._t
+        derivs = [x for x in r if isinstance(x, sm.Derivative)]
+        if derivs:
+            raise ModelError(f"cannot linearize: derivatives of inputs ({_plain_names(derivs)}) "
+                             "appear in the forcing vector")
+        A = ff.jacobian(xs)
         B = ff.jacobian(r) if r else sm.zeros(ff.rows, 0)
+        del t
         return A, B
     lin = to_linearizer(self, linear_solver=linear_solver or 'LU')
     return lin.linearize(**kwargs) + (lin.r,)

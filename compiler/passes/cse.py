@@ -24,4 +24,4 @@ def cse(program):
     assignments = program.assignments + tuple((s, e) for s, e in replacements)
     return program.with_(assignments=assignments,
                          results=tuple(zip(keys, reduced)),
-                         ntemp=program.ntemp + len(replacements))
+                         ntemp=names.count)   # cse may draw names it does not use

@@ -1,6 +1,7 @@
 """The standard pass order."""
 from .cse import cse
 from .dce import dce
+from .diff import differentiate
 from .fold import fold_constants
 from .powers import expand_powers
 from .sincos import share_sincos
@@ -8,9 +9,16 @@ from .sincos import share_sincos
 __all__ = ["optimize_shared", "finish_function"]
 
 
-def optimize_shared(program):
-    """Passes run once over every function's results together: CSE, folding, sin/cos sharing."""
-    return fold_constants(share_sincos(cse(program)))
+def optimize_shared(program, derivatives=()):
+    """Passes run once over every function's results together.
+
+    CSE, then the requested derivatives ``(source_group, wrt_symbols, target_group)``
+    by forward differentiation of the CSE'd program, then sin/cos sharing and folding.
+    """
+    program = cse(program)
+    for source, wrt, target in derivatives:
+        program = differentiate(program, source, wrt, target)
+    return fold_constants(share_sincos(program))
 
 
 def finish_function(program, groups):

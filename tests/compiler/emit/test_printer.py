@@ -24,11 +24,14 @@ P = CPrinter({x: "x[0]", y: "x[1]", z: "p[0]"})
     (sm.sqrt(x), "sqrt(x[0])"),
     (-x, "-x[0]"),
     (-(x + y), "-x[0] - x[1]"),
-    (IMul(x, x), "x[0]*x[0]"),
-    (IMul(x + y, x), "(x[0] + x[1])*x[0]"),
+    (IMul(x, x), "(x[0]*x[0])"),
+    (IMul(x + y, x), "((x[0] + x[1])*x[0])"),
+    (-x * sm.Pow(IMul(y, y), -1, evaluate=False), "-x[0]/(x[1]*x[1])"),
+    (-x * IMul(y, y), "-x[0]*(x[1]*x[1])"),
     (y * sm.Pow(IMul(x, x), -1, evaluate=False), "x[1]/(x[0]*x[0])"),
     (sm.Pow(IMul(x, x), -1, evaluate=False), "1.0/(x[0]*x[0])"),
     (-IMul(x, y), "-(x[0]*x[1])"),
+    (IMul(x, y) + z, "p[0] + (x[0]*x[1])"),
 ])
 def test_exact_strings(expr, text):
     assert P.doprint(expr) == text

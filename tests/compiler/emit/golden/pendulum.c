@@ -51,12 +51,11 @@ int pendulum_rhs(double t, const double *x, const double *p, const double *r, do
     int status;
     const double t0 = sin(x[0]);
     const double t1 = p[0]*(p[2]*p[2]);
-    const double t2 = p[0]*p[1]*p[2];
-    const double t3 = t2*t0;
-    const double t4 = -t3;
+    const double t2 = t0*p[0]*p[1]*p[2];
+    const double t3 = -t2;
     xdot[0] = x[1];
     F[0] = t1;
-    w[0] = t4;
+    w[0] = t3;
     status = pendulum_ldlt_factor(F);
     if (status != EOMC_OK) return status;
     pendulum_ldlt_solve(F, w);
@@ -77,15 +76,15 @@ int pendulum_jac_x(double t, const double *x, const double *p, const double *r, 
     const double t0 = sin(x[0]);
     const double t1 = cos(x[0]);
     const double t2 = p[0]*(p[2]*p[2]);
-    const double t3 = p[0]*p[1]*p[2];
-    const double t4 = t3*t0;
-    const double t5 = -t4;
+    const double t3 = t0*p[0]*p[1]*p[2];
+    const double t4 = t1*p[0]*p[1]*p[2];
+    const double t5 = -t3;
     F[0] = t2;
     w[0] = t5;
     status = pendulum_ldlt_factor(F);
     if (status != EOMC_OK) return status;
     pendulum_ldlt_solve(F, w);
-    G[0] = -t3*t1;
+    G[0] = -t4;
     G[1] = 0.0;
     out[0] = 0.0;
     out[1] = 1.0;
@@ -113,10 +112,9 @@ int pendulum_forcing(double t, const double *x, const double *p, const double *r
     (void)r;
     (void)work;
     const double t0 = sin(x[0]);
-    const double t1 = p[0]*p[1]*p[2];
-    const double t2 = t1*t0;
-    const double t3 = -t2;
-    out[0] = t3;
+    const double t1 = t0*p[0]*p[1]*p[2];
+    const double t2 = -t1;
+    out[0] = t2;
     return pendulum_finite(out, 1);
 }
 
@@ -127,9 +125,8 @@ int pendulum_inverse_dynamics(double t, const double *x, const double *udot, con
     (void)work;
     const double t0 = sin(x[0]);
     const double t1 = p[0]*(p[2]*p[2]);
-    const double t2 = p[0]*p[1]*p[2];
-    const double t3 = t2*t0;
-    tau[0] = t1*udot[0] + t3;
+    const double t2 = t0*p[0]*p[1]*p[2];
+    tau[0] = t1*udot[0] + t2;
     return pendulum_finite(tau, 1);
 }
 

@@ -1,0 +1,115 @@
+"""Cache of generated C, keyed by the formed equations: a warm compile skips code generation.
+
+Generating C (IR, passes, printing) costs far more than loading a cached
+library, and the build cache's key needs the C text.  This cache maps a
+digest of the *inputs* of generation -- the formed system, names, options,
+and the source of eomc.compiler and its templates -- to the GeneratedModel,
+so a second compile of the same model goes straight to the library.
+
+The digest walks each SymPy expression as a DAG (memoized by object id):
+far cheaper than printing it (srepr of a 20-link model takes seconds).
+Equal digests need equal expression trees; different trees for the same
+mathematics only cost a miss.
+"""
+import hashlib
+import json
+import sys
+from pathlib import Path
+
+import sympy as sm
+
+import eomc
+
+from .cache import get_or_build, hash_key, lookup
+
+__all__ = ["generation_key", "cached_generate"]
+
+_SOURCE_DIGEST = []
+
+
+def _source_digest():
+    """sha256 over eomc.compiler's .py files and the templates: a changed generator is a new key."""
+    if not _SOURCE_DIGEST:
+        import eomc.compiler
+        import eomc.templates
+        digest = hashlib.sha256()
+        for package in (eomc.compiler, eomc.templates):
+            root = Path(package.__file__).resolve().parent
+            for path in sorted(root.rglob("*")):
+                if path.suffix in (".py", ".j2", ".c", ".h") and "__pycache__" not in path.parts:
+                    digest.update(str(path.relative_to(root)).encode())
+                    digest.update(path.read_bytes())
+        _SOURCE_DIGEST.append(digest.hexdigest())
+    return _SOURCE_DIGEST[0]
+
+
+class _Digester:
+    """Structural digest of SymPy objects, memoized per object."""
+
+    def __init__(self):
+        self.memo = {}
+
+    def __call__(self, expr):
+        key = id(expr)
+        found = self.memo.get(key)
+        if found is not None:
+            return found[0]
+        if isinstance(expr, (list, tuple)):
+            text = "[" + ",".join(self(e) for e in expr) + "]"
+        elif isinstance(expr, sm.MatrixBase):
+            text = f"M{expr.shape}" + self(list(expr))
+        elif isinstance(expr, sm.Symbol):
+            text = f"S:{expr.name}:{sorted(expr.assumptions0.items())}"
+        elif isinstance(expr, sm.Basic) and expr.args:
+            head = type(expr).__name__
+            if isinstance(expr, sm.core.function.AppliedUndef):
+                head = f"F:{expr.func.__name__}"
+            text = head + "(" + ",".join(self(a) for a in expr.args) + ")"
+        else:
+            text = f"{type(expr).__name__}:{expr!r}"
+        digest = hashlib.sha256(text.encode()).hexdigest()[:32]
+        self.memo[key] = (digest, expr)  # keep expr alive so its id is not reused
+        return digest
+
+
+def generation_key(spec, functions, fold_parameters):
+    """Key of everything generate_c reads for this model."""
+    d = _Digester()
+    f = spec.formed
+    formed = [f.method, f.n_dependent_coordinates, f.n_dependent_speeds] + [
+        d(getattr(f, k)) for k in ("coordinates", "speeds", "kinematics", "dynamics_matrix", "dynamics_rhs",
+                                   "multipliers", "holonomic_constraints", "velocity_constraints",
+                                   "inputs", "parameters")]
+    return hash_key({
+        "formed": formed, "name": spec.name,
+        "parameters": None if spec.parameters is None else [[d(k), v] for k, v in spec.parameters.items()],
+        "inputs": None if spec.inputs is None else d(list(spec.inputs)),
+        "outputs": None if spec.outputs is None else [[k, d(v)] for k, v in spec.outputs.items()],
+        "functions": functions, "fold": bool(fold_parameters),
+        "eomc": eomc.__version__, "sympy": sm.__version__, "python": sys.version_info[:2],
+        "source": _source_digest()})
+
+
+def cached_generate(spec, functions, fold_parameters, generate, cache_root_dir):
+    """``generate()`` through the cache; returns (GeneratedModel, hit)."""
+    from eomc.compiler.emit import GeneratedModel
+    key = generation_key(spec, functions, fold_parameters)
+    entry = lookup(cache_root_dir, "generated", key)
+    force = False
+    if entry is not None:
+        try:
+            return GeneratedModel(**json.loads((entry / "generated.json").read_text())), True
+        except (OSError, ValueError, TypeError):
+            force = True  # whole but unreadable: rebuild it
+    produced = []
+
+    def write(tmp):
+        gm = generate()
+        produced.append(gm)
+        data = {"name": gm.name, "c_source": gm.c_source, "header": gm.header, "cdef": gm.cdef,
+                "metadata": gm.metadata}
+        (tmp / "generated.json").write_text(json.dumps(data, sort_keys=True))
+    entry, _ = get_or_build(cache_root_dir, "generated", key, write, {"name": spec.name}, force=force)
+    if produced:
+        return produced[0], False
+    return GeneratedModel(**json.loads((entry / "generated.json").read_text())), True
