@@ -238,6 +238,9 @@ def work_precision(model, x0, t_span, p=None, r=None, methods=DEFAULT_METHODS,
     tolerances = tuple(sorted({float(t) for t in tolerances}, reverse=True))
     if not methods or not tolerances or min(tolerances) <= 0:
         raise ValueError("work_precision needs at least one method and tolerances > 0")
+    if int(n_points) < 2:
+        raise ValueError(f"n_points must be >= 2 (output times the error is measured at); "
+                         f"got {n_points}")
     t0, t1 = _check(model, x0, t_span, p, r)
     t_eval = np.linspace(t0, t1, int(n_points))
     common = dict(x0=x0, t_span=(t0, t1), p=p, r=r, t_eval=t_eval, project=project)

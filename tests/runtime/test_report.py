@@ -272,3 +272,23 @@ def test_damped_model_energy_is_physics_not_error(osc):
                          tolerances=(1e-8,), repeats=1, progress=False, n_points=51)
     assert rep.reference_energy_drift() > 0.5          # c = 0.5 dissipates most of it by t = 5
     assert "not conserved by the model itself" in rep.summary_markdown()
+
+
+def test_precomputed_reference_is_reused(osc, osc_report):
+    rep = work_precision(osc, [1.0, 0.0], (0.0, T), methods=("dop853",), tolerances=(1e-5,),
+                         repeats=1, progress=False, n_points=101, reference=osc_report.reference)
+    assert rep.reference is osc_report.reference
+    old = next(r for r in osc_report.rows if r["method"] == "dop853" and r["tolerance"] == 1e-5)
+    assert rep.rows[0]["error"] == old["error"]
+    with pytest.raises(ValueError, match="reference has shape"):
+        work_precision(osc, [1.0, 0.0], (0.0, T), methods=("dop853",), tolerances=(1e-5,),
+                       progress=False, n_points=11, reference=osc_report.reference)
+
+
+def test_a_failing_reference_is_a_simulation_error():
+    from eomc.errors import SimulationError
+    with pytest.raises(SimulationError, match=r"reference solution failed.*t=(0\.99|1\b)"):
+        work_precision(get_model("blowup"), [1.0], (0.0, 2.0), methods=("dop853",),
+                       tolerances=(1e-6,), progress=False)
+    with pytest.raises(ValueError, match="n_points"):
+        work_precision(get_model("oscillator"), [1.0, 0.0], (0.0, 1.0), n_points=1, progress=False)
