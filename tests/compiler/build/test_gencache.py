@@ -1,0 +1,67 @@
+"""The generation cache: a warm compile skips generate_c; any change in its inputs is a miss."""
+import json
+
+import pytest
+import sympy as sm
+
+import model_files
+import eomc.compiler.emit as emit
+from eomc.compiler.build import cache_root
+from eomc.compiler.build.gencache import _Digester, generation_key
+from eomc.compiler.driver import generate
+from eomc.compiler.model import model_spec
+
+
+@pytest.fixture
+def counted(monkeypatch):
+    calls = []
+    real = emit.generate_c
+
+    def counting(*args, **kw):
+        calls.append(args[1])
+        return real(*args, **kw)
+    monkeypatch.setattr(emit, "generate_c", counting)
+    return calls
+
+
+def test_second_generation_is_served_from_the_cache(tmp_path, counted):
+    path = model_files.write(tmp_path, model_files.PENDULUM, "p")
+    _, first = generate(path, cache_dir=tmp_path / "c", progress=False)
+    _, second = generate(path, cache_dir=tmp_path / "c", progress=False)
+    assert counted == ["pend"]
+    assert second.c_source == first.c_source and second.cdef == first.cdef
+    assert json.dumps(second.metadata, sort_keys=True) == json.dumps(first.metadata, sort_keys=True)
+
+
+@pytest.mark.parametrize("change", [
+    dict(parameters={"m": 3.0}), dict(functions=["rhs"]), dict(fold_parameters=True), dict(name="other"),
+])
+def test_changed_inputs_are_misses(tmp_path, counted, change):
+    path = model_files.write(tmp_path, model_files.PENDULUM, "p")
+    generate(path, cache_dir=tmp_path / "c", progress=False)
+    generate(path, cache_dir=tmp_path / "c", progress=False, **change)
+    assert len(counted) == 2
+
+
+def test_key_follows_the_equations(tmp_path):
+    path = model_files.write(tmp_path, model_files.PENDULUM, "p")
+    other = model_files.write(tmp_path, model_files.PENDULUM.replace("-m * g * N.y", "-2 * m * g * N.y"), "q")
+    keys = {generation_key(model_spec(p), None, False) for p in (path, path, other)}
+    assert len(keys) == 2
+
+
+def test_digest_distinguishes_structure_and_assumptions():
+    x, y = sm.symbols("x y")
+    xp = sm.Symbol("x", positive=True)
+    d = _Digester()
+    assert d(x + y) == _Digester()(sm.Add(y, x))
+    assert len({d(x + y), d(x * y), d(x - y), d(xp + y), d(sm.Function("x")(y)), d(sm.Float(0.1) * x)}) == 6
+
+
+def test_unreadable_entry_is_regenerated(tmp_path, counted):
+    path = model_files.write(tmp_path, model_files.PENDULUM, "p")
+    generate(path, cache_dir=tmp_path / "c", progress=False)
+    stored, = (cache_root(tmp_path / "c") / "generated").rglob("generated.json")
+    stored.write_text("{" + " " * (stored.stat().st_size - 1))  # same size, not JSON
+    _, again = generate(path, cache_dir=tmp_path / "c", progress=False)
+    assert len(counted) == 2 and "pend_rhs" in again.c_source
