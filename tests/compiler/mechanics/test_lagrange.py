@@ -33,7 +33,7 @@ def assert_matches_sympy(ours, theirs, seeds=(0, 1, 2)):
                               ("eom", ours.eom, theirs.eom)], seeds)
 
 
-@pytest.mark.parametrize("n", [1, 2, 4])
+@pytest.mark.parametrize("n", [1, 3])
 def test_n_link_pendulum_on_cart(n):
     ours, spec = zoo.n_link_pendulum_on_cart_lagrange(n, em)
     theirs, _ = zoo.n_link_pendulum_on_cart_lagrange(n, sme)
