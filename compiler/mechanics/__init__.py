@@ -33,11 +33,6 @@ __all__ = [
 ]
 
 from .kane import KanesMethod  # noqa: E402
+from .lagrange import LagrangesMethod  # noqa: E402
 
-__all__.append("KanesMethod")
-try:
-    from .lagrange import LagrangesMethod  # noqa: F401
-    __all__.append("LagrangesMethod")
-except ImportError as _exc:  # pragma: no cover - during bootstrap only
-    if "lagrange" not in str(_exc):
-        raise
+__all__ += ["KanesMethod", "LagrangesMethod"]
