@@ -95,6 +95,15 @@ class VectorReader:
             self._dcm[key] = [[self.space.to_plain(C[i, j]) for j in range(3)] for i in range(3)]
         return self._dcm[key]
 
+    def dcm_cost(self, to, frm):
+        """Operation count of the direction cosines from ``frm`` to ``to`` (0 for the same frame)."""
+        if to == frm:
+            return 0
+        key = ("cost", to, frm)
+        if key not in self._dcm:
+            self._dcm[key] = sum(sm.count_ops(e) + (e != 0) for row in self.dcm(to, frm) for e in row)
+        return self._dcm[key]
+
     def components(self, vec, frame):
         acc = ([], [], [])
         for mat, f in vec.args:
@@ -151,20 +160,27 @@ def _zero_aux(space, comps):
     return tuple(c.xreplace(z) for c in comps)
 
 
-def component_frame(vec, inertial, preferred=None):
-    """The frame to take a velocity's components in.
+def component_frame(vec, inertial, reader, preferred=None):
+    """The frame to take a velocity's components in: the cheapest of a few candidates.
 
-    A rigid body's own frame if the velocity has a term there, else the
-    inertial frame if it has a term there, else the frame most of its terms
-    are in.  Components in such a frame stay short: a disc centre's velocity
-    given in the disc frame is not blown up by direction cosines.
+    Candidates are a rigid body's own frame, the inertial frame and the frame
+    most of the vector's terms are in; the cost of a candidate is the size of
+    the direction cosines needed to bring every term into it (ties go to the
+    earlier candidate).  A disc centre's velocity given in the disc frame
+    stays in the disc frame; a double pendulum's bob velocity, with terms in
+    two frames oriented from N, goes to N.
     """
     frames = [f for _, f in vec.args]
-    if preferred is not None and preferred in frames:
-        return preferred
-    if not frames or inertial in frames:
-        return inertial
-    return max(frames, key=frames.count)
+    candidates = [preferred] if preferred is not None else []
+    candidates.append(inertial)
+    if frames:
+        candidates.append(max(frames, key=frames.count))
+    best, best_cost = None, None
+    for F in dict.fromkeys(candidates):
+        cost = sum(reader.dcm_cost(F, f) for f in frames)
+        if best_cost is None or cost < best_cost:
+            best, best_cost = F, cost
+    return best
 
 
 def _rate_of_change(space, reader, inertial, frame, comps0, what):
@@ -184,7 +200,7 @@ def read_bodies(space, reader, inertial, bodies):
         rigid = isinstance(body, sm.physics.mechanics.RigidBody)
         point = body.masscenter if rigid else body.point
         vel = point_velocity(point, inertial, what)
-        F = component_frame(vel, inertial, body.frame if rigid else None)
+        F = component_frame(vel, inertial, reader, body.frame if rigid else None)
         v = reader.components(vel, F)
         v0 = _zero_aux(space, v)
         m = space.to_plain(body.mass)
@@ -246,7 +262,7 @@ def read_loads(space, reader, inertial, parsed_loads):
     speeds = space.u + space.uaux
     out = []
     for name, kind, vel, vec, where in parsed_loads:
-        F = where if kind == "torque" else component_frame(vel, inertial)
+        F = where if kind == "torque" else component_frame(vel, inertial, reader)
         v = reader.components(vel, F)
         f = reader.components(vec, F)
         out.append(LoadTerms(name, kind, F, partials(v, speeds), f))
