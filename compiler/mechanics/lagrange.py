@@ -122,6 +122,8 @@ class LagrangesMethod:
         self.inertial = frame
         self._bodies = bodies
         self._hol_coneqs = _as_matrix(hol_coneqs, "hol_coneqs")
+        for h in self._hol_coneqs:
+            self._check_order(h, f"the holonomic constraint {h} = 0 (hol_coneqs)", 0)
         self._nonhol_coneqs = _as_matrix(nonhol_coneqs, "nonhol_coneqs")
         self._seed_coneqs = _as_matrix(coneqs, "coneqs")
         rows = list(self._hol_coneqs.diff(_t)) + list(self._nonhol_coneqs) + list(self._seed_coneqs)

@@ -106,3 +106,8 @@ def test_constraint_not_an_expression():
 def test_model_error_is_a_value_error():
     with pytest.raises(ValueError):
         LagrangesMethod(L, [q1, sm.Symbol("y")])
+
+
+def test_holonomic_constraint_with_velocities():
+    with pytest.raises(ModelError, match="holonomic constraint .* order 1"):
+        LagrangesMethod(L, [q1, q2], hol_coneqs=[q1d - q2])
