@@ -17,7 +17,9 @@ __all__ = ["CPrinter"]
 
 class CPrinter(C99CodePrinter):
     def __init__(self, names):
-        super().__init__({"math_macros": {}})
+        # order="none": print terms in the IR's own (deterministic) order instead of
+        # sorting every sum again, the most expensive part of printing
+        super().__init__({"math_macros": {}, "order": "none"})
         self._names = names
 
     def _print_Symbol(self, expr):

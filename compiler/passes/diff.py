@@ -16,6 +16,37 @@ from .timing import compiler_pass
 __all__ = ["differentiate"]
 
 
+def _add(terms):
+    """Sum without SymPy's canonicalization (the terms are already small and distinct)."""
+    terms = [t for t in terms if t != 0]
+    if not terms:
+        return sm.S.Zero
+    return terms[0] if len(terms) == 1 else sm.Add(*terms, evaluate=False)
+
+
+def _mul(factors):
+    """Product without canonicalization; drops factors 1 and folds a leading number."""
+    num, rest = sm.S.One, []
+    for f in factors:
+        if f.is_Number:
+            num *= f
+        else:
+            rest.append(f)
+    if num == 0:
+        return sm.S.Zero
+    if num != 1:
+        rest.insert(0, num)
+    if not rest:
+        return num
+    return rest[0] if len(rest) == 1 else sm.Mul(*rest, evaluate=False)
+
+
+def _pow(base, exp):
+    if exp == 1:
+        return base
+    return sm.Pow(base, exp, evaluate=False)
+
+
 class _Diff:
     def __init__(self, program, wrt):
         self.names = Names(program)
@@ -46,21 +77,22 @@ class _Diff:
         if key in self.memo:
             return self.memo[key]
         if expr.is_Add:
-            res = sm.Add(*[self.d(a, k, v) for a in expr.args])
+            res = _add([self.d(a, k, v) for a in expr.args])
         elif expr.is_Mul:
             terms = []
             args = expr.args
             for i, a in enumerate(args):
                 da = self.d(a, k, v)
                 if da != 0:
-                    terms.append(sm.Mul(*(args[:i] + (da,) + args[i + 1:])))
-            res = sm.Add(*terms)
+                    terms.append(_mul(args[:i] + (da,) + args[i + 1:]))
+            res = _add(terms)
         elif expr.is_Pow and k not in self.deps_of(expr.exp):
             db = self.d(expr.base, k, v)
-            res = expr.exp * expr.base ** (expr.exp - 1) * db if db != 0 else sm.S.Zero
+            res = (_mul((expr.exp, _pow(expr.base, expr.exp - 1), db)) if db != 0
+                   else sm.S.Zero)
         elif isinstance(expr, sm.Function) and len(expr.args) == 1:
             da = self.d(expr.args[0], k, v)
-            res = expr.fdiff(1) * da if da != 0 else sm.S.Zero
+            res = _mul((expr.fdiff(1), da)) if da != 0 else sm.S.Zero
         else:   # rare shapes: let SymPy do it on the symbols, then chain through temporaries
             res = sm.Add(*[expr.diff(s) * self.d(s, k, v) for s in expr.free_symbols])
         self.memo[key] = res

@@ -126,7 +126,7 @@ int pendulum_inverse_dynamics(double t, const double *x, const double *udot, con
     const double t0 = sin(x[0]);
     const double t1 = p[0]*(p[2]*p[2]);
     const double t2 = t0*p[0]*p[1]*p[2];
-    tau[0] = t1*udot[0] + t2;
+    tau[0] = t2 + t1*udot[0];
     return pendulum_finite(tau, 1);
 }
 
