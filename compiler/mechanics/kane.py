@@ -46,6 +46,28 @@ def _rows(mat, n):
     return mat if mat.rows else sm.zeros(0, n)
 
 
+_SMALL = 8   # systems with at most this many bodies + loads try an expanded forcing
+
+
+def _cse_ops(exprs):
+    repl, red = sm.cse(exprs)
+    return sm.count_ops([r[1] for r in repl]) + sm.count_ops(red)
+
+
+def _compact(mm, forcing):
+    """The forcing with each entry expanded where that is shorter, if CSE then agrees.
+
+    In small systems a link's centripetal terms cancel in v_r·a only after
+    expansion; in large ones expanding destroys the shared sums CSE finds, so
+    the variant is kept only when the operation count after CSE drops.
+    """
+    alt = forcing.applyfunc(lambda e: min(e, sm.expand(e), key=sm.count_ops))
+    if alt == forcing:
+        return forcing
+    base = list(mm)
+    return alt if _cse_ops(base + list(alt)) < _cse_ops(base + list(forcing)) else forcing
+
+
 def _frstar(mm, neg_nonmm, udot):
     """−(mm u' + nonMM), row by row, without negating large sums."""
     rows = []
@@ -189,6 +211,8 @@ class KanesMethod:
             f = f[:p, :] + A * f[p:, :]
         self._k_d = mm
         self._forcing_d = sm.Matrix([sm.Add(f[r], nn[r]) for r in range(f.rows)])
+        if len(self._body_terms) + len(self._load_terms) <= _SMALL:
+            self._forcing_d = _compact(mm, self._forcing_d)
         frstar = _frstar(mm, nn, udot)
         self._fr, self._frstar = f, frstar
         if s:
