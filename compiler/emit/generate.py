@@ -1,11 +1,12 @@
 """``generate_c``: a FormedSystem to C99 source, header, cffi cdef and metadata."""
 from collections import Counter
+from dataclasses import dataclass
 
 import jinja2
 
 from ...errors import ModelError
 from ..passes import finish_function, optimize_shared
-from ..ir import count_program, verify
+from ..ir import count_program, format_program, verify
 from .bodies import (BodyContext, jacobian_body, linearize_body, plain_body, rhs_body,
                      void_unused)
 from .generated import GeneratedModel
@@ -14,7 +15,7 @@ from .linsolve import ldlt_solver, lu_solver
 from .signatures import FUNCTION_ORDER, STRUCT_FIELDS, cdef, prototype
 from .symbolic import FUNCTION_GROUPS, build_symbolic
 
-__all__ = ["generate_c", "ALL_FUNCTIONS"]
+__all__ = ["generate_c", "lower", "ir_listing", "Lowered", "ALL_FUNCTIONS"]
 
 ALL_FUNCTIONS = FUNCTION_ORDER
 _ALIASES = {"jacobian": "jac_x"}
@@ -108,19 +109,47 @@ def _sparsity(nw, pattern):
     return ["".join("x" if (i, j) in pattern else "." for j in range(nw)) for i in range(nw)]
 
 
+@dataclass(frozen=True)
+class Lowered:
+    """A model after the passes: one optimized program per generated function."""
+    name: str
+    layout: object
+    symbolic: object
+    functions: tuple
+    programs: dict          # function -> Program (None for linearize, which calls others)
+
+
+def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions=None,
+          fold_parameters=False):
+    """FormedSystem -> :class:`Lowered` (the IR the C printer and ``--print-ir`` read)."""
+    check_identifier(name)
+    layout = make_layout(formed, parameters, inputs, fold_parameters)
+    ncon = len(formed.holonomic_constraints) + len(formed.velocity_constraints)
+    fns = _select(functions, len(layout.r), len(outputs or {}), ncon)
+    sym = build_symbolic(formed, layout, fns, outputs)
+    shared = verify(optimize_shared(sym.program, sym.derivatives))
+    programs = {fn: finish_function(shared, FUNCTION_GROUPS[fn]) if FUNCTION_GROUPS[fn] else None
+                for fn in fns}
+    return Lowered(name, layout, sym, fns, programs)
+
+
+def ir_listing(formed, name, **options):
+    """The optimized IR of every generated function as text (``--print-ir``)."""
+    low = lower(formed, name, **options)
+    return "".join(format_program(p, title=f"{name}_{fn}") for fn, p in low.programs.items()
+                   if p is not None)
+
+
 def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, functions=None,
                fold_parameters=False):
     """Lower ``formed`` (a FormedSystem) to C; returns a :class:`GeneratedModel`.
 
     Deterministic: identical input gives byte-identical output.
     """
-    check_identifier(name)
-    layout = make_layout(formed, parameters, inputs, fold_parameters)
-    ncon = len(formed.holonomic_constraints) + len(formed.velocity_constraints)
-    fns = _select(functions, len(layout.r), len(outputs or {}), ncon)
-    sym = build_symbolic(formed, layout, fns, outputs)
+    low = lower(formed, name, parameters=parameters, inputs=inputs, outputs=outputs,
+                functions=functions, fold_parameters=fold_parameters)
+    layout, sym, fns = low.layout, low.symbolic, low.functions
     nq, nu, nx, nw = formed.nq, formed.nu, formed.nq + formed.nu, sym.nw
-    shared = verify(optimize_shared(sym.program, sym.derivatives))
     solver = (ldlt_solver(name, nw, sym.pattern) if sym.symmetric else lu_solver(name, nw))
     slots = dict(layout.c_names)
     slots.update({s: f"w[{j}]" for j, s in enumerate(sym.W)})
@@ -128,34 +157,42 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
     ctx = BodyContext(name, nq, nu, nw, solver, slots)
     rendered, op_counts = [], {}
     for fn in fns:
-        prog = finish_function(shared, FUNCTION_GROUPS[fn]) if FUNCTION_GROUPS[fn] else None
+        prog = low.programs[fn]
         lines = _body(fn, ctx, prog, sym, layout, nx, fns)
         rendered.append({"prototype": prototype(name, fn), "body": void_unused(fn, lines)})
         op_counts[fn] = _ops(fn, prog, solver, nx, len(layout.r))
     if "linearize" in op_counts:
         op_counts["linearize"] = {k: sum(op_counts[f][k] for f in ("jac_x", "jac_r") if f in op_counts)
                                   for k in ("adds", "muls", "divs", "calls")}
-    tables, table_refs = _tables(name, layout, sym.output_names)
-    pointers = [f"{name}_{f}" if f in fns else "NULL" for f in STRUCT_FIELDS]
-    uses_solver = any(f in fns for f in _SOLVING)
-    meta = {
+    meta = _metadata(name, formed, layout, sym, fns, op_counts)
+    return _render(name, meta, fns, rendered, solver, layout, sym)
+
+
+def _metadata(name, formed, layout, sym, fns, op_counts):
+    return {
         "name": name, "abi_version": 1, "eomc_version": _eomc_version(),
-        "nq": nq, "nu": nu, "nx": nx, "nparam": len(layout.p), "ninput": len(layout.r),
-        "noutput": len(sym.output_names), "nhol": sym.nhol, "nvel": sym.nvel, "work_size": 0,
+        "nq": formed.nq, "nu": formed.nu, "nx": formed.nq + formed.nu, "nparam": len(layout.p),
+        "ninput": len(layout.r), "noutput": len(sym.output_names), "nhol": sym.nhol,
+        "nvel": sym.nvel, "work_size": 0,
         "state_names": list(layout.state_names), "param_names": list(layout.param_names),
         "param_defaults": list(layout.param_defaults), "input_names": list(layout.input_names),
         "output_names": list(sym.output_names), "functions": list(fns),
-        "op_counts": op_counts, "mass_matrix_sparsity": _sparsity(nw, sym.pattern),
+        "op_counts": op_counts, "mass_matrix_sparsity": _sparsity(sym.nw, sym.pattern),
         "solver": "ldlt" if sym.symmetric else "lu", "folded_parameters": dict(layout.folded),
     }
+
+
+def _render(name, meta, fns, rendered, solver, layout, sym):
+    tables, table_refs = _tables(name, layout, sym.output_names)
+    pointers = [f"{name}_{f}" if f in fns else "NULL" for f in STRUCT_FIELDS]
+    uses_solver = any(f in fns for f in _SOLVING)
     env = _environment()
-    common = dict(name=name, eomc_version=meta["eomc_version"], nq=nq, nu=nu, nx=nx,
-                  nparam=meta["nparam"], ninput=meta["ninput"], noutput=meta["noutput"],
-                  nhol=sym.nhol, nvel=sym.nvel, work_size=0)
+    common = {k: meta[k] for k in ("nq", "nu", "nx", "nparam", "ninput", "noutput", "nhol",
+                                   "nvel", "work_size", "eomc_version")}
     header = env.get_template("model.h.j2").render(
-        prototypes=[prototype(name, f) for f in fns], **common)
+        name=name, prototypes=[prototype(name, f) for f in fns], **common)
     source = env.get_template("model.c.j2").render(
-        functions=rendered, solver_code=solver.code if uses_solver else "", tables=tables,
-        table_refs=table_refs, pointers=pointers, **common)
+        name=name, functions=rendered, solver_code=solver.code if uses_solver else "",
+        tables=tables, table_refs=table_refs, pointers=pointers, **common)
     return GeneratedModel(name=name, c_source=source, header=header, cdef=cdef(name, fns),
                           metadata=meta)

@@ -58,3 +58,11 @@ def test_golden(name, build):
             f"{path} differs from the generator's output; if the change is intended run "
             "EOMC_REGEN_GOLDEN=1 python3 -m pytest tests/compiler/emit/test_golden.py "
             "and review the diff")
+
+
+def test_ir_listing_names_temporaries_in_order():
+    from eomc.compiler.emit import ir_listing
+    formed, params = pendulum()
+    text = ir_listing(formed, "pendulum", parameters=params, functions=["rhs"])
+    assert text.startswith("# pendulum_rhs\n")
+    assert "t0 = sin(x_0)" in text and "kin[0] <- x_1" in text
