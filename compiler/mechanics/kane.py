@@ -131,10 +131,12 @@ class KanesMethod:
             self._k_kqdot = sm.eye(len(self._q))
             self._qdot_u_map = k["qdot_u_map"]
         else:
-            self._qdot_u_map = None
-            self._k_kqdot_implicit = self._k_kqdot = sm.Matrix()
-            self._k_ku_implicit = self._k_ku = sm.Matrix()
-            self._f_k_implicit = self._f_k = sm.Matrix()
+            # No coordinates at all (a system described by speeds only) needs no kd_eqs.
+            self._qdot_u_map = None if len(self._q) else {}
+            n, o = len(self._q), len(self._u)
+            self._k_kqdot_implicit = self._k_kqdot = sm.zeros(n, n)
+            self._k_ku_implicit = self._k_ku = sm.zeros(n, o)
+            self._f_k_implicit = self._f_k = sm.zeros(n, 1)
 
     def _init_constraints(self, config, vel, acc):
         config = as_symbol_list(config, "configuration_constraints")
@@ -174,7 +176,7 @@ class KanesMethod:
             bodies = self._bodylist
         if loads is None:
             loads = self._forcelist
-        if not self._qdot_u_map:
+        if self._qdot_u_map is None:
             raise ModelError("kanes_equations needs kinematic differential equations: "
                              "pass kd_eqs=[...] to KanesMethod")
         bodies = check_bodies(bodies)
@@ -269,7 +271,7 @@ class KanesMethod:
 
     def kindiffdict(self):
         """A dictionary mapping each q' to its expression in u (and q, t)."""
-        if not self._qdot_u_map:
+        if self._qdot_u_map is None:
             raise ModelError("no kinematic differential equations were given (kd_eqs)")
         return dict(self._qdot_u_map)
 

@@ -129,7 +129,7 @@ def formed_system(km):
     km._need_equations()
     t = dynamicsymbols._t
     zero_aux = dict.fromkeys(list(km._uaux) + [x.diff(t) for x in km._uaux], 0)
-    kin = sm.Matrix([km._qdot_u_map[qd] for qd in km._qdot])
+    kin = sm.Matrix(len(km._qdot), 1, [km._qdot_u_map[qd] for qd in km._qdot])
     M = km.mass_matrix
     f = km.forcing
     if zero_aux:

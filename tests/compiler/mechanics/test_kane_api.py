@@ -106,3 +106,15 @@ def test_auxiliary_eqs_need_auxiliary_speeds():
     km, _ = zoo.spring_damper_chain(1, em)
     with pytest.raises(ModelError, match="no auxiliary speeds"):
         km.auxiliary_eqs
+
+
+def test_speeds_only_system_needs_no_kinematic_equations():
+    N = em.ReferenceFrame("N")
+    u = em.dynamicsymbols("u")
+    P = em.Point("P")
+    P.set_vel(N, u * N.x)
+    km = em.KanesMethod(N, [], [u])
+    km.kanes_equations([em.Particle("Pa", P, 2)], [(P, 3 * N.x)])
+    assert km.rhs() == sm.Matrix([sm.Rational(3, 2)])
+    f = km.formed()
+    assert f.kinematics.shape == (0, 1) and f.nq == 0 and f.nu == 1
