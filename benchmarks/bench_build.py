@@ -14,7 +14,10 @@ so neither profits from expressions the other (or an earlier repeat) built.
 Goal (issue 3 §8a): eomc cold (derivation included) >= 5x faster than PyDy's
 generation alone at every n, >= 10x at n >= 20; warm <= 50 ms.
 """
+import contextlib
+import io
 import os
+import re
 import sys
 import tempfile
 import time
@@ -48,14 +51,32 @@ def measure_pydy(n, repeat):
     return derive_s, Timing(samples)
 
 
-def _eomc_cold_once(n, root, functions):
+def _eomc_cold_once(n, root, functions, stages=None):
+    """One cold build; `stages` (a dict) receives eomc's own stage timings."""
     cache = Path(tempfile.mkdtemp(prefix="cold_", dir=root))
     os.environ["EOMC_CACHE_DIR"] = str(cache)
     _clear_sympy_cache()
+    err = io.StringIO()
     t0 = time.perf_counter()
     kane, _ = models.eomc_kane(n)
-    model = models.eomc_compile(n, cache, kane=kane, functions=functions)
-    return time.perf_counter() - t0, kane, model, cache
+    t_derive = time.perf_counter() - t0
+    with contextlib.redirect_stderr(err):
+        model = models.eomc_compile(n, cache, kane=kane, functions=functions, progress=True)
+    seconds = time.perf_counter() - t0
+    if stages is not None:
+        stages.clear()
+        stages["kanes_equations"] = t_derive
+        for line in err.getvalue().splitlines():
+            m = re.match(r"eomc: (\w+)\s+([0-9.]+) s$", line.strip())
+            if m:
+                stages[m.group(1)] = float(m.group(2))
+    return seconds, kane, model, cache
+
+
+def format_stages(stages):
+    """'kanes 0.8 / derive 0.1 / generate 0.9 / compile 1.2 / load 0.02' in seconds."""
+    short = {"kanes_equations": "kanes"}
+    return " / ".join(f"{short.get(k, k)} {v:.2g}" for k, v in stages.items()) or None
 
 
 def measure_eomc_default(n, repeat, root):
@@ -74,9 +95,9 @@ def measure_eomc(n, repeat, root):
         return f"eomc: not available ({why})"
     old = os.environ.get("EOMC_CACHE_DIR")
     try:
-        cold, warm, load = [], [], []
+        cold, warm, load, stages = [], [], [], {}
         for _ in range(repeat):
-            seconds, kane, model, cache = _eomc_cold_once(n, root, ["rhs"])
+            seconds, kane, model, cache = _eomc_cold_once(n, root, ["rhs"], stages)
             cold.append(seconds)
         for _ in range(repeat):
             warm.append(time_once(models.eomc_compile, n, cache, kane=kane,
@@ -88,7 +109,7 @@ def measure_eomc(n, repeat, root):
                 load.append(time_once(eomc.load, target)[0])
         except Exception as exc:  # noqa: BLE001 - load is optional in this table
             print(f"  eomc.load failed: {type(exc).__name__}: {exc}", file=sys.stderr)
-        return Timing(cold), Timing(warm), (Timing(load) if load else None)
+        return Timing(cold), Timing(warm), (Timing(load) if load else None), stages
     except Exception as exc:  # noqa: BLE001 - a half-landed eomc must not kill the run
         return f"eomc: failed ({type(exc).__name__}: {str(exc)[:200]})"
     finally:
@@ -100,20 +121,22 @@ def measure_eomc(n, repeat, root):
 
 HEADERS = ["n", "sympy derive [s]", "PyDy gen [s]", "PyDy IQR [s]", "eomc cold [s]",
            "eomc cold IQR [s]", "eomc warm compile [ms]", "eomc load [ms]",
-           "PyDy gen / eomc cold", "goal", "eomc cold, default functions [s]"]
+           "PyDy gen / eomc cold", "goal", "eomc cold, default functions [s]",
+           "eomc cold stages, last repeat [s]"]
 
 
 def row_for(n, derive_s, pydy, eo, default):
     if isinstance(eo, str):
-        return [n, derive_s, pydy.median, pydy.iqr, None, None, None, None, None, "eomc n/a", None]
-    cold, warm, load = eo
+        return [n, derive_s, pydy.median, pydy.iqr, None, None, None, None, None, "eomc n/a",
+                None, None]
+    cold, warm, load, stages = eo
     r = ratio(pydy.median, cold.median)
     need = 10.0 if n >= 20 else 5.0
     ok = r is not None and r >= need and warm.median <= 0.050
     goal = f"{'met' if ok else 'MISSED'} (>= {need:g}x, warm <= 50 ms)"
     return [n, derive_s, pydy.median, pydy.iqr, cold.median, cold.iqr, warm.median * 1e3,
             load.median * 1e3 if load else None, r, goal,
-            default.median if default else None]
+            default.median if default else None, format_stages(stages)]
 
 
 def main(argv=None):
@@ -149,6 +172,9 @@ def main(argv=None):
                f"{max(1, args.repeat // 2)} repeat(s)",
                "eomc warm compile = eomc.compile of the same formed system again (cache hit); "
                "eomc load = eomc.load(build dir)",
+               "stages: kanes = KanesMethod.kanes_equations (eomc.mechanics), then eomc.compile's "
+               "own stage timings (derive = forming/conversion, generate = IR+C, compile = gcc, "
+               "load = dlopen+cffi)",
                "SymPy's cache is cleared before every cold measurement of either tool",
                *notes])
     if not args.no_write:
