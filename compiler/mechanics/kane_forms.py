@@ -23,6 +23,8 @@ from dataclasses import dataclass, field
 
 import sympy as sm
 
+from eomc.errors import ModelError
+
 from .kane_inputs import frame_ang_vel, point_velocity
 from .plain import linear_coefficients
 
@@ -91,7 +93,11 @@ class VectorReader:
     def dcm(self, to, frm):
         key = (to, frm)
         if key not in self._dcm:
-            C = to.dcm(frm)
+            try:
+                C = to.dcm(frm)
+            except ValueError:
+                raise ModelError(f"frame {frm.name} is not oriented relative to frame {to.name} "
+                                 "(orient it with orient_axis/orientnew)") from None
             self._dcm[key] = [[self.space.to_plain(C[i, j]) for j in range(3)] for i in range(3)]
         return self._dcm[key]
 
@@ -101,7 +107,11 @@ class VectorReader:
             return 0
         key = ("cost", to, frm)
         if key not in self._dcm:
-            self._dcm[key] = sum(sm.count_ops(e) + (e != 0) for row in self.dcm(to, frm) for e in row)
+            try:
+                C = self.dcm(to, frm)
+            except ModelError:
+                return float("inf")
+            self._dcm[key] = sum(sm.count_ops(e) + (e != 0) for row in C for e in row)
         return self._dcm[key]
 
     def components(self, vec, frame):
@@ -153,6 +163,14 @@ class LoadTerms:
     vec: tuple               # components of the force/torque
 
 
+def _named(what, func, *args):
+    """Call func; a ModelError from inside gets ``what`` (the body or load) in front."""
+    try:
+        return func(*args)
+    except ModelError as exc:
+        raise ModelError(f"{what}: {exc}") from None
+
+
 def _zero_aux(space, comps):
     if not space.uaux:
         return comps
@@ -201,7 +219,7 @@ def read_bodies(space, reader, inertial, bodies):
         point = body.masscenter if rigid else body.point
         vel = point_velocity(point, inertial, what)
         F = component_frame(vel, inertial, reader, body.frame if rigid else None)
-        v = reader.components(vel, F)
+        v = _named(what, reader.components, vel, F)
         v0 = _zero_aux(space, v)
         m = space.to_plain(body.mass)
         if space.uaux:
@@ -263,8 +281,9 @@ def read_loads(space, reader, inertial, parsed_loads):
     out = []
     for name, kind, vel, vec, where in parsed_loads:
         F = where if kind == "torque" else component_frame(vel, inertial, reader)
-        v = reader.components(vel, F)
-        f = reader.components(vec, F)
+        what = f"load on {kind == 'torque' and 'frame' or 'point'} {name}"
+        v = _named(what, reader.components, vel, F)
+        f = _named(what, reader.components, vec, F)
         out.append(LoadTerms(name, kind, F, partials(v, speeds), f))
     return out
 

@@ -147,3 +147,11 @@ def test_rigid_body_frame_without_angular_velocity():
     km = KanesMethod(N, [q], [u], [q.diff() - u])
     with pytest.raises(ModelError, match=r"body #1 \(Rb\).*angular velocity of frame Loose"):
         km.kanes_equations([body], [(G, N.x)])
+
+
+def test_load_vector_in_an_unoriented_frame(cart):
+    N, q, u, P, pa = cart
+    Stray = ReferenceFrame("Stray")
+    km = KanesMethod(N, [q], [u], [q.diff() - u])
+    with pytest.raises(ModelError, match="load on point P: frame Stray is not oriented"):
+        km.kanes_equations([pa], [(P, Stray.x)])
