@@ -274,6 +274,9 @@ class Model:
 
     def input_jacobian(self, t, x, p=None, r=None):
         """d rhs / d r, shape (nx, ninput)."""
+        if self.ninput == 0:
+            self._args(t, x, p, r)
+            return np.empty((self.nx, 0))
         return self._matrix_call("jac_r", self.nx, self.ninput, t, x, p, r)
 
     def mass_matrix(self, t, x, p=None, r=None):
@@ -286,15 +289,24 @@ class Model:
 
     def outputs(self, t, x, p=None, r=None):
         """The model's named outputs as a dict name -> float."""
+        if self.noutput == 0:
+            self._args(t, x, p, r)
+            return {}
         values = self._vector_call("outputs", self.noutput, t, x, p, r)
         return dict(zip(self.output_names, values.tolist()))
 
     def constraints(self, t, x, p=None, r=None):
         """Constraint residuals (nhol holonomic, then nvel velocity-level)."""
+        if self.nhol + self.nvel == 0:
+            self._args(t, x, p, r)
+            return np.empty(0)
         return self._vector_call("constraints", self.nhol + self.nvel, t, x, p, r)
 
     def constraints_jacobian(self, t, x, p=None, r=None):
         """d constraints / d x, shape (nhol + nvel, nx)."""
+        if self.nhol + self.nvel == 0:
+            self._args(t, x, p, r)
+            return np.empty((0, self.nx))
         return self._matrix_call("constraints_jac", self.nhol + self.nvel, self.nx, t, x, p, r)
 
     def inverse_dynamics(self, t, x, udot, p=None, r=None):
@@ -311,8 +323,7 @@ class Model:
     def linearize(self, t, x, p=None, r=None):
         """(A, B) = (d rhs/d x, d rhs/d r) at an operating point."""
         if "linearize" not in self._kernels:
-            return self.jacobian(t, x, p, r), (self.input_jacobian(t, x, p, r) if self.ninput
-                                               else np.empty((self.nx, 0)))
+            return self.jacobian(t, x, p, r), self.input_jacobian(t, x, p, r)
         t, x, p, r = self._args(t, x, p, r)
         A, B = np.empty((self.nx, self.nx)), np.empty((self.nx, self.ninput))
         status = self._kernels["linearize"](t, x, p, r, A.reshape(-1), B.reshape(-1), self._work()[1])

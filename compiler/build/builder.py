@@ -89,7 +89,10 @@ def run_compiler(argv, cwd, name, key, root):
 
 
 def _runtime_objects(tc, flags, root):
-    """Compile eomc_integrators.c and eomc_batch.c once per compiler and flags."""
+    """(key, build) for eomc_integrators.o and eomc_batch.o, compiled once per compiler and flags.
+
+    ``build()`` returns the entry directory; it is only called on a model-cache miss.
+    """
     c_dir = shipped_c_dir()
     names = SHIPPED_HEADERS + RUNTIME_SOURCES
     argv = [*tc.argv, *flags, "-c", *RUNTIME_SOURCES]
@@ -102,8 +105,7 @@ def _runtime_objects(tc, flags, root):
             shutil.copyfile(c_dir / n, tmp / n)
         run_compiler(argv, tmp, "eomc_runtime", key, root)
 
-    entry, _ = get_or_build(root, "objects", key, compile_objects, inputs)
-    return entry, key
+    return key, lambda: get_or_build(root, "objects", key, compile_objects, inputs)[0]
 
 
 def _model_json(generated, key, backend, tc, flags, extra, extension=None):
@@ -127,13 +129,13 @@ def build(generated, *, backend="cffi", cflags=None, cache_dir=None, force=False
     tc = find_compiler()
     flags = resolve_cflags(cflags)
     root = cache_root(cache_dir)
-    objects, objects_key = _runtime_objects(tc, flags, root)
+    objects_key, build_objects = _runtime_objects(tc, flags, root)
     c_dir = shipped_c_dir()
     lib = f"lib{name}.so"
-    link = [*tc.argv, *flags, "-shared", "-o", lib, f"{name}.c",
-            *(str(objects / Path(s).with_suffix(".o")) for s in RUNTIME_SOURCES), "-lm", *_link_flags()]
+    objects = [Path(s).with_suffix(".o").name for s in RUNTIME_SOURCES]
+    link = [*tc.argv, *flags, "-shared", "-o", lib, f"{name}.c", *objects, "-lm", *_link_flags()]
     inputs = {**_base_inputs(tc, flags), "objects": objects_key, "backend": backend,
-              "argv": [a if not a.startswith(str(objects)) else Path(a).name for a in link[len(tc.argv):]],
+              "argv": link[len(tc.argv):],
               "source": hash_key(generated.c_source), "header": hash_key(generated.header),
               "headers": {n: sha256_file(c_dir / n) for n in SHIPPED_HEADERS},
               "metadata": hash_key([generated.metadata, generated.cdef, extra_metadata])}
@@ -147,7 +149,9 @@ def build(generated, *, backend="cffi", cflags=None, cache_dir=None, force=False
         (tmp / f"{name}.h").write_text(generated.header)
         for n in SHIPPED_HEADERS:
             shutil.copyfile(c_dir / n, tmp / n)
-        run_compiler(link, tmp, name, key, root)
+        object_dir = build_objects()
+        link_abs = [str(object_dir / a) if a in objects else a for a in link]
+        run_compiler(link_abs, tmp, name, key, root)
         extension = None
         if backend == "cython":
             from .cython_ext import build_extension

@@ -114,7 +114,12 @@ def test_nonzero_status_names_failure_time_and_state(model):
         model.rhs_many(0.0, X, p=[0.0, 1.0, 1.0])
 
 
-def test_function_not_built_is_named(model):
+def test_function_not_built_is_named(model, monkeypatch):
+    assert model.constraints(0.0, [0.0, 0.0]).shape == (0,)  # no constraints: nothing to compute
+    assert model.constraints_jacobian(0.0, [0.0, 0.0]).shape == (0, 2)
+    with pytest.raises(ValueError, match="x \\(state\\)"):
+        model.constraints(0.0, [0.0])
+    monkeypatch.setattr(model, "nhol", 1)  # pretend it has one, built without the function
     with pytest.raises(ModelError, match="built without `constraints`"):
         model.constraints(0.0, [0.0, 0.0])
 
