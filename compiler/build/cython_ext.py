@@ -56,8 +56,9 @@ def build_extension(tmp, generated, tc, flags, key, root):
         link = ["-undefined", "dynamic_lookup", "-Wl,-rpath,@loader_path"]
     else:
         link = ["-Wl,-rpath,$ORIGIN"]
-    # The glue is boilerplate (argument passing); -O1 halves its compile time.
-    glue_flags = [f for f in flags if not f.startswith("-O")] + ["-O1"]
+    # The glue is Cython's boilerplate (argument passing): -O1 halves its compile
+    # time, and warnings about Cython's own C (-Werror, -pedantic) are not the user's.
+    glue_flags = [f for f in flags if not f.startswith(("-O", "-Werror", "-pedantic", "-W"))] + ["-O1", "-w"]
     argv = [*tc.argv, *glue_flags, "-shared", "-I", sysconfig.get_paths()["include"], "-o", filename,
             f"{module}.c", "-L.", f"-l{name}", *link]
     run_compiler(argv, tmp, name, key, root)

@@ -110,3 +110,15 @@ def test_concurrent_builds_of_one_model_share_one_entry(tmp_path):
     entries = list((tmp_path / "v1" / "models").glob("*/*"))
     assert len(entries) == 1
     assert not list((tmp_path / "v1" / "tmp").iterdir())  # no leftovers
+
+
+def test_library_builds_with_strict_warnings(tmp_path):
+    """Generated C, the integrators and the batch helper are clean under -Wall -Wextra -Werror."""
+    import model_files
+    from eomc.compiler.driver import generate
+    flags = "-O2 -std=c99 -Wall -Wextra -Werror"
+    _, generated = generate(model_files.write(tmp_path, model_files.CART, "cart"), cache_dir=tmp_path,
+                            progress=False)
+    result = build(generated, cflags=flags, cache_dir=tmp_path)
+    assert load(result.directory).rhs(0.0, [0.0, 0.4, 0.0, 0.0], r=[0.0])[0] == 0.0
+    assert build(osc_model.oscillator(), cflags=flags, cache_dir=tmp_path).library.is_file()
