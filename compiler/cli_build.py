@@ -3,7 +3,6 @@
 Everything is built in the cache first and then copied into DIR through a
 temporary directory, so a failed build leaves DIR as it was.
 """
-import argparse
 
 __all__ = ["configure", "run", "add_generate_options"]
 
@@ -28,7 +27,6 @@ def configure(parser):
                                          "(write --cflags='-O3 -march=native')")
     parser.add_argument("--cache-dir", help="build cache root (default $EOMC_CACHE_DIR or ~/.cache/eomc)")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
-    parser.formatter_class = argparse.ArgumentDefaultsHelpFormatter
 
 
 def run(args):
