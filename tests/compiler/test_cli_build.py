@@ -69,3 +69,16 @@ def test_missing_compiler_message(tmp_path, capsys, monkeypatch):
     assert main(["build", str(model), "-o", str(tmp_path / "o"), "--cache-dir", str(tmp_path / "c"), "-q"]) == 1
     err = capsys.readouterr().err
     assert "not an executable C compiler" in err and "install" in err
+
+
+def test_unknown_function_is_named_and_fold_parameters_bakes_defaults(tmp_path, capsys):
+    model = model_files.write(tmp_path, model_files.CART, "cart")
+    assert main(["build", str(model), "-o", str(tmp_path / "o"), "--outputs", "rhs,energy", "-q"]) == 1
+    assert "unknown function 'energy' to generate; choose from rhs" in capsys.readouterr().err
+    assert main(["build", str(model), "-o", str(tmp_path / "f"), "--fold-parameters", "-q",
+                 "--cache-dir", str(tmp_path / "c")]) == 0
+    import eomc
+    folded = eomc.load(tmp_path / "f")
+    assert folded.nparam == 0
+    x = np.array([0.1, 0.4, 0.3, -0.2])
+    np.testing.assert_allclose(folded.rhs(0.0, x, r=[1.0]), model_files.cart_rhs(x, 1.0), rtol=1e-12)
