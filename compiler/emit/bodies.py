@@ -61,7 +61,7 @@ def _solver_decls(ctx, extra=()):
     s = ctx.solver
     lines = [f"{_IND}double F[{s.fsize}];", f"{_IND}double w[{ctx.nw}];"]
     if s.pivots:
-        lines.append(f"{_IND}int piv[{ctx.nw}];")
+        lines.append(f"{_IND}int piv[{s.npiv}];")
     lines += [f"{_IND}{d}" for d in extra]
     lines.append(f"{_IND}int status;")
     return lines

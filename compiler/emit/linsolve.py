@@ -3,8 +3,9 @@
 * Symmetric A (Kane without motion constraints, Lagrange without
   multipliers: A = M is SPD): an LDLᵀ factorization unrolled over the
   structural nonzeros of A and the fill-in they cause, known at compile time.
-* Otherwise (multipliers, motion constraints): LU with partial pivoting;
-  the row swaps are only known at run time, so it is a dense loop nest.
+* Otherwise (multipliers, motion constraints): an unrolled LU in a row
+  order fixed at compile time, checked at run time, with this module's dense
+  LU with partial pivoting as the fallback (see :mod:`.sparse_lu`).
 
 Both store the factors in ``F`` (n*n doubles, then n more) and report a pivot
 that is not larger than ``64·DBL_EPSILON·scale`` (scale: the largest |diagonal| entry
@@ -15,7 +16,7 @@ operation counts for the metadata.
 from collections import Counter
 from dataclasses import dataclass
 
-__all__ = ["Solver", "ldlt_solver", "lu_solver"]
+__all__ = ["Solver", "ldlt_solver", "dense_lu_code", "dense_lu_ops"]
 
 
 @dataclass(frozen=True)
@@ -27,6 +28,7 @@ class Solver:
     solve_ops: Counter
     fsize: int              # doubles in F
     pivots: bool            # LU needs an int pivot array
+    npiv: int = 0           # its length
 
     def factor_call(self, F="F"):
         return f"{self.factor_name}({F}, piv)" if self.pivots else f"{self.factor_name}({F})"
@@ -115,7 +117,7 @@ def ldlt_solver(prefix, n, pattern):
 
 
 _LU = """\
-static int {p}_lu_factor(double *F, int *piv)
+static int {p}_lu_dense_factor(double *F, int *piv)
 {{
     double scale = 0.0, tol;
     int i, j, k;
@@ -154,7 +156,7 @@ static int {p}_lu_factor(double *F, int *piv)
     return EOMC_OK;
 }}
 
-static void {p}_lu_solve(const double *F, const int *piv, double *b)
+static void {p}_lu_dense_solve(const double *F, const int *piv, double *b)
 {{
     int i, j;
     for (i = 0; i < {n}; i++) {{
@@ -171,10 +173,13 @@ static void {p}_lu_solve(const double *F, const int *piv, double *b)
 """
 
 
-def lu_solver(prefix, n):
-    """Dense LU with partial pivoting for an n x n A (loops; n is a literal)."""
+def dense_lu_code(prefix, n):
+    """Static C functions ``<prefix>_lu_dense_factor`` / ``_lu_dense_solve`` (loops; n literal)."""
+    return _LU.format(p=prefix, n=n, nn=n * n) + "\n"
+
+
+def dense_lu_ops(n):
     fo = Counter(divs=n, muls=sum((n - k - 1) * (n - k) for k in range(n)),
                  adds=sum((n - k - 1) ** 2 for k in range(n)))
     so = Counter(muls=n * n, adds=n * (n - 1))
-    return Solver(f"{prefix}_lu_factor", f"{prefix}_lu_solve", _LU.format(p=prefix, n=n, nn=n * n),
-                  fo, so, n * n + n, True)
+    return fo, so

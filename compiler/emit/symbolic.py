@@ -20,6 +20,7 @@ import sympy as sm
 
 from ...errors import ModelError
 from ..ir import Program
+from .sparse_lu import static_row_order
 
 __all__ = ["FUNCTION_GROUPS", "Symbolic", "build_symbolic"]
 
@@ -43,6 +44,7 @@ class Symbolic:
     derivatives: tuple      # (source group, wrt symbols, target group) for optimize_shared
     nw: int                 # unknowns of the dynamics solve (nu + nλ)
     symmetric: bool         # A symmetric (LDLᵀ) or not (LU with pivoting)
+    row_order: tuple        # compile-time row order of the unrolled LU
     pattern: frozenset      # structural nonzeros (i, j) of A
     W: tuple                # symbols of the solved w = [u'; λ]
     UD: tuple               # symbols of inverse dynamics' given u'
@@ -103,6 +105,7 @@ def build_symbolic(formed, layout, functions, outputs=None):
     if symmetric:
         A = sm.Matrix(nw, nw, lambda i, j: A[max(i, j), min(i, j)])
     pattern = frozenset((i, j) for i in range(nw) for j in range(nw) if A[i, j] != 0)
+    row_order = tuple(range(nw)) if symmetric else static_row_order(A, pattern)
     W = tuple(sm.Symbol(f"w_{j}", real=True) for j in range(nw))
     UD = tuple(sm.Symbol(f"ud_{j}", real=True) for j in range(nu))
     res = []
@@ -145,5 +148,5 @@ def build_symbolic(formed, layout, functions, outputs=None):
         res += [(("con", i), e) for i, e in enumerate(hol + vel)]
     inputs = (layout.t,) + layout.x + layout.p + layout.r + W + UD
     program = Program(inputs=inputs, results=tuple(res))
-    return Symbolic(program=program, derivatives=tuple(derivatives), nw=nw, symmetric=symmetric, pattern=pattern, W=W, UD=UD,
+    return Symbolic(program=program, derivatives=tuple(derivatives), nw=nw, row_order=row_order, symmetric=symmetric, pattern=pattern, W=W, UD=UD,
                     nhol=len(hol), nvel=len(vel), output_names=names)

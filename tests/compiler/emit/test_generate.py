@@ -257,3 +257,43 @@ def test_eomc_front_end_formed_system(n, tmp_path):
         status, xd = c.call("rhs", x.size, tv, x, p, r)
         assert status == 0
         assert es.rel_err(xd, orc.rhs(tv, x, p, r)) <= 1e-12
+
+
+def _saddle_formed():
+    """A·[u'; λ] = b with A = [[10 m, 1], [1, 0]]: nonsingular for every m, even m = 0,
+    but the compile-time row order (10 m > 1 at the random point) has a zero pivot at m = 0."""
+    from eomc.compiler.mechanics.formed import FormedSystem
+    q, u = me.dynamicsymbols("q u")
+    lam = me.dynamicsymbols("lam")
+    m, k, c = sm.symbols("m k c")
+    return FormedSystem(
+        method="lagrange", coordinates=(q,), speeds=(u,), n_dependent_coordinates=0,
+        n_dependent_speeds=0, kinematics=sm.Matrix([u]),
+        dynamics_matrix=sm.Matrix([[10 * m, 1], [1, 0]]), dynamics_rhs=sm.Matrix([-k * q, c * u]),
+        multipliers=(lam,), holonomic_constraints=sm.zeros(0, 1),
+        velocity_constraints=sm.Matrix([u]), inputs=(), parameters=(c, k, m))
+
+
+@pytest.mark.parametrize("mval", [1.3, 1e-3, 1e-30, 0.0])
+def test_unrolled_lu_falls_back_to_pivoting(mval, tmp_path):
+    formed = _saddle_formed()
+    gm = generate_c(formed, "saddle", functions=["rhs", "jac_x"])
+    assert gm.metadata["solver"] == "lu"
+    assert "U[0] = F[0];" in gm.c_source          # unrolled path pivots on 10 m first
+    c = es.Compiled(gm, tmp_path)
+    x, p = np.array([0.4, -0.7]), np.array([0.9, 2.0, mval])      # c, k, m
+    status, xd = c.call("rhs", 2, 0.0, x, p)
+    assert status == 0
+    # u' = c·u exactly (second row), whatever m is
+    assert xd[0] == x[1] and abs(xd[1] - 0.9 * -0.7) <= 1e-15
+    status, J = c.call("jac_x", (2, 2), 0.0, x, p)
+    assert status == 0 and np.allclose(J, [[0, 1], [0, 0.9]], rtol=0, atol=1e-15)
+
+
+def test_unrolled_lu_reports_singular(tmp_path):
+    formed = _saddle_formed()
+    A = sm.Matrix([[sm.Symbol("m"), 1], [sm.Symbol("m"), 1]])   # rank one for every m
+    formed = type(formed)(**{**formed.__dict__, "dynamics_matrix": A})
+    c = es.Compiled(generate_c(formed, "sing", functions=["rhs"]), tmp_path)
+    status, _ = c.call("rhs", 2, 0.0, np.array([0.4, -0.7]), np.array([0.9, 2.0, 1.5]))
+    assert status == 1
