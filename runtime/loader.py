@@ -13,6 +13,7 @@ built model runs where only the runtime is installed.
 import importlib.machinery
 import importlib.util
 import json
+import threading
 from pathlib import Path
 
 import cffi
@@ -65,18 +66,41 @@ def _read_json(path):
     return data
 
 
+_BASE = []
+_BASE_LOCK = threading.Lock()
+
+
+def _base_ffi():
+    """One FFI per process for the ABI types, the batch helper and the integrators.
+
+    Parsing these declarations is most of a load's cost, so it happens once;
+    each model adds only its own few declarations in an FFI that includes
+    this one (types are shared, so its ``eomc_model *`` passes to the
+    integrators).
+    """
+    with _BASE_LOCK:
+        if not _BASE:
+            ffi = cffi.FFI()
+            ffi.cdef(MODEL_CDEF + BATCH_CDEF + INTEGRATOR_CDEF)
+            _BASE.append(ffi)
+    return _BASE[0]
+
+
 def _open_cffi(directory, data):
+    """(ffi, lib, model_lib, c_model, library): ``lib`` has the eomc_* functions, ``model_lib`` NAME_*."""
     name = data["name"]
-    ffi = cffi.FFI()
-    cdef = data.get("cdef") or model_function_cdef(name, data.get("functions", ()))
-    ffi.cdef(MODEL_CDEF + BATCH_CDEF + INTEGRATOR_CDEF + cdef)
+    ffi = _base_ffi()
+    model_ffi = cffi.FFI()
+    model_ffi.include(ffi)
+    model_ffi.cdef(data.get("cdef") or model_function_cdef(name, data.get("functions", ())))
     library = directory / data.get("build", {}).get("library", f"lib{name}.so")
     try:
         lib = ffi.dlopen(str(library))
-        c_model = getattr(lib, f"{name}_model")()
+        model_lib = model_ffi.dlopen(str(library))
+        c_model = getattr(model_lib, f"{name}_model")()
     except (OSError, AttributeError) as exc:
         raise LoadError(f"cannot load model {name!r} from {library}: {exc}") from None
-    return ffi, lib, c_model, library
+    return ffi, lib, model_lib, c_model, library
 
 
 def _check_struct(c_model, ffi, data, library):
@@ -108,11 +132,11 @@ def load(dir_or_path, name=None, backend=None):
     json_path = find_model_json(dir_or_path, name)
     directory = json_path.parent.resolve()
     data = _read_json(json_path)
-    ffi, lib, c_model, library = _open_cffi(directory, data)
+    ffi, lib, model_lib, c_model, library = _open_cffi(directory, data)
     _check_struct(c_model, ffi, data, library)
     backend = backend or data.get("build", {}).get("backend", "cffi")
     if backend not in ("cffi", "cython"):
         raise ValueError(f"unknown backend {backend!r}; choose cffi or cython")
     extension = _open_extension(directory, data) if backend == "cython" else None
     return Model(ffi=ffi, lib=lib, c_model=c_model, metadata=data, directory=directory,
-                 library_path=library, extension=extension)
+                 library_path=library, extension=extension, model_lib=model_lib)

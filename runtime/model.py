@@ -30,7 +30,7 @@ _STRUCT_FUNCTIONS = ("rhs", "jac_x", "jac_r", "mass_matrix", "forcing", "outputs
 _EXPORTED_FUNCTIONS = ("inverse_dynamics", "linearize")
 
 
-def _cffi_backend(ffi, lib, c_model, name, functions):
+def _cffi_backend(ffi, lib, model_lib, c_model, name, functions):
     """(prepare, kernels) over the C function pointers, called through cffi (ABI mode).
 
     ``prepare`` turns a float64 array that is reused across calls (parameters,
@@ -51,9 +51,10 @@ def _cffi_backend(ffi, lib, c_model, name, functions):
         if fp != null:
             kernels[fn] = vector_kernel(fp)
     if "inverse_dynamics" in functions:
-        kernels["inverse_dynamics"] = _inverse_dynamics_kernel(getattr(lib, f"{name}_inverse_dynamics"), prepare)
+        kernels["inverse_dynamics"] = _inverse_dynamics_kernel(getattr(model_lib, f"{name}_inverse_dynamics"),
+                                                               prepare)
     if "linearize" in functions:
-        kernels["linearize"] = _linearize_kernel(getattr(lib, f"{name}_linearize"), prepare)
+        kernels["linearize"] = _linearize_kernel(getattr(model_lib, f"{name}_linearize"), prepare)
     if "rhs" in kernels:
         many = lib.eomc_rhs_many
 
@@ -101,8 +102,11 @@ def _extension_backend(module):
 class Model:
     """A built model (see the module docstring); attributes mirror the C ``eomc_model`` struct."""
 
-    def __init__(self, *, ffi, lib, c_model, metadata, directory, library_path, extension=None):
+    def __init__(self, *, ffi, lib, c_model, metadata, directory, library_path, extension=None,
+                 model_lib=None):
+        # lib: the eomc_* functions (integrators, batch); model_lib: the model's NAME_* functions
         self.ffi, self.lib, self.c_model = ffi, lib, c_model
+        self.model_lib = lib if model_lib is None else model_lib
         self.metadata = metadata
         self.name = metadata["name"]
         for size in ("nq", "nu", "nx", "nparam", "ninput", "noutput", "nhol", "nvel", "work_size"):
@@ -122,7 +126,7 @@ class Model:
         self.functions = tuple(metadata.get("functions", ()))
         self.backend = "cffi" if extension is None else "cython"
         self._prepare, self._kernels = (
-            _cffi_backend(ffi, lib, c_model, self.name, self.functions) if extension is None
+            _cffi_backend(ffi, lib, self.model_lib, c_model, self.name, self.functions) if extension is None
             else _extension_backend(extension))
         self._zero_inputs = np.zeros(self.ninput)
         self._zero_inputs.setflags(write=False)
