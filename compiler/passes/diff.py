@@ -17,11 +17,12 @@ __all__ = ["differentiate"]
 
 
 def _add(terms):
-    """Sum without SymPy's canonicalization (the terms are already small and distinct)."""
+    """Sum without SymPy's canonicalization (the terms are already small and distinct);
+    ``_from_args`` skips even the argument checks of ``evaluate=False``."""
     terms = [t for t in terms if t != 0]
     if not terms:
         return sm.S.Zero
-    return terms[0] if len(terms) == 1 else sm.Add(*terms, evaluate=False)
+    return terms[0] if len(terms) == 1 else sm.Add._from_args(tuple(terms), True)
 
 
 def _mul(factors):
@@ -38,7 +39,7 @@ def _mul(factors):
         rest.insert(0, num)
     if not rest:
         return num
-    return rest[0] if len(rest) == 1 else sm.Mul(*rest, evaluate=False)
+    return rest[0] if len(rest) == 1 else sm.Mul._from_args(tuple(rest), True)
 
 
 def _pow(base, exp):
