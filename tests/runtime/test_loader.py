@@ -90,3 +90,14 @@ def test_loading_needs_no_sympy(copy):
     assert float(value) == pytest.approx(osc_model.oscillator_rhs(0, [0.3, -0.2])[1], rel=1e-14)
     assert modules == "[]"
     np.testing.assert_allclose(load(copy).rhs(0.0, [0.3, -0.2]), osc_model.oscillator_rhs(0, [0.3, -0.2]))
+
+
+def test_two_libraries_with_the_same_model_name_stay_apart(built, tmp_path):
+    """Same NAME, different code, one process: each Model calls its own library's functions."""
+    doubled = osc_model.SOURCE.format(n="osc", N="OSC").replace("xdot[0] = x[1];", "xdot[0] = 2.0 * x[1];")
+    other = build(osc_model.oscillator(c_source=doubled), cache_dir=tmp_path)
+    first, second = load(built.directory), load(other.directory)
+    x = np.array([0.3, -0.2])
+    assert first.rhs(0.0, x)[0] == -0.2 and second.rhs(0.0, x)[0] == -0.4
+    assert first.rhs_many(0.0, x[None, :])[0, 0] == -0.2 and second.rhs_many(0.0, x[None, :])[0, 0] == -0.4
+    assert first.rhs(0.0, x)[0] == -0.2  # loading the second did not rebind the first
