@@ -22,6 +22,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from eomc.errors import EomcError
+
 __all__ = ["CACHE_SCHEMA", "cache_root", "hash_key", "sha256_file", "lookup", "get_or_build", "discard"]
 
 CACHE_SCHEMA = 1
@@ -40,8 +42,12 @@ def cache_root(cache_dir=None):
         xdg = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
         base = os.path.join(xdg, "eomc")
     root = Path(base).expanduser().resolve() / f"v{CACHE_SCHEMA}"
-    for sub in ("tmp", "locks"):
-        (root / sub).mkdir(parents=True, exist_ok=True)
+    try:
+        for sub in ("tmp", "locks"):
+            (root / sub).mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise EomcError(f"cannot use the build cache at {root} ({exc.strerror or exc}); "
+                        f"set EOMC_CACHE_DIR to a writable directory") from None
     return root
 
 

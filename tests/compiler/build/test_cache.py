@@ -122,3 +122,11 @@ def test_library_builds_with_strict_warnings(tmp_path):
     result = build(generated, cflags=flags, cache_dir=tmp_path)
     assert load(result.directory).rhs(0.0, [0.0, 0.4, 0.0, 0.0], r=[0.0])[0] == 0.0
     assert build(osc_model.oscillator(), cflags=flags, cache_dir=tmp_path).library.is_file()
+
+
+def test_unwritable_cache_root_says_what_to_do(tmp_path):
+    blocker = tmp_path / "file"
+    blocker.write_text("not a directory")
+    from eomc.errors import EomcError
+    with pytest.raises(EomcError, match="set EOMC_CACHE_DIR to a writable directory"):
+        cache_root(blocker / "cache")
