@@ -297,3 +297,30 @@ def test_unrolled_lu_reports_singular(tmp_path):
     c = es.Compiled(generate_c(formed, "sing", functions=["rhs"]), tmp_path)
     status, _ = c.call("rhs", 2, 0.0, np.array([0.4, -0.7]), np.array([0.9, 2.0, 1.5]))
     assert status == 1
+
+
+@pytest.mark.parametrize("build", [
+    lambda: zoo.heavy_top(me),
+    lambda: zoo.four_bar(me),
+    lambda: zoo.spring_damper_chain(3, me),
+], ids=["heavy_top", "four_bar", "spring_damper_chain"])
+def test_zoo_rhs_and_constraints(build, tmp_path):
+    kane, spec = build()
+    formed = es.kane_formed(kane, spec)
+    gm, c, orc = _setup(formed, "zoo", _Factory(tmp_path))
+    nx = formed.nq + formed.nu
+    ncon = len(formed.holonomic_constraints) + len(formed.velocity_constraints)
+    con = sm.lambdify([es.t, orc.plain, list(formed.parameters)],
+                      sm.Matrix.vstack(formed.holonomic_constraints, formed.velocity_constraints)
+                      .xreplace(dict(zip(list(formed.coordinates) + list(formed.speeds), orc.plain))))
+    for tv, x, p, r in _random(formed, 3):
+        status, xd = c.call("rhs", nx, tv, x, p, r)
+        assert status == 0
+        assert es.rel_err(xd, orc.rhs(tv, x, p, r)) <= 1e-12
+        if ncon:
+            sc, res = c.call("constraints", ncon, tv, x, p, r)
+            assert sc == 0
+            assert es.rel_err(res, np.array(con(tv, x, p), float).ravel()) <= 1e-12
+    tv, x, p, r = next(_random(formed, 1))
+    sj, J = c.call("jac_x", (nx, nx), tv, x, p, r)
+    assert sj == 0 and es.rel_err(J, _fd_jacobian(c, formed, tv, x, p, r)) <= 1e-6
