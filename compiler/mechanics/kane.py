@@ -252,14 +252,16 @@ class KanesMethod:
         self._need_equations()
         o, out = len(self._u), {}
         udot = list(self._udot)
+        back = self._space.to_dynamic
         for b in self._body_terms:
+            R0, T0 = tuple(map(back, b.R0)), tuple(map(back, b.T0))
             col = []
             for r in range(o):
                 acc = [sm.Add(*[b.mass * dot(b.vr[r], b.vr[k]) * udot[k] for k in range(o)]),
-                       dot(b.vr[r], b.R0)]
+                       dot(b.vr[r], R0)]
                 if b.wr:
                     acc += [sm.Add(*[dot(b.wr[r], b.Iw[k]) * udot[k] for k in range(o)]),
-                            dot(b.wr[r], b.T0)]
+                            dot(b.wr[r], T0)]
                 col.append(-sm.Add(*acc))
             out[b.name] = self._reduce(col)
         return out

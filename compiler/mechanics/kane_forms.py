@@ -193,8 +193,11 @@ def component_frame(vec, inertial, reader, preferred=None):
     candidates.append(inertial)
     if frames:
         candidates.append(max(frames, key=frames.count))
+    candidates = list(dict.fromkeys(candidates))
+    if len(candidates) == 1:
+        return candidates[0]
     best, best_cost = None, None
-    for F in dict.fromkeys(candidates):
+    for F in candidates:
         cost = sum(reader.dcm_cost(F, f) for f in frames)
         if best_cost is None or cost < best_cost:
             best, best_cost = F, cost
@@ -267,10 +270,10 @@ def to_dynamic(space, body_terms, load_terms):
     for b in body_terms:
         b.mass = space.to_dynamic(b.mass)
         b.vr = [vec(v) for v in b.vr]
-        b.R0, b.nR0 = vec(b.R0), vec(b.nR0)
+        b.nR0 = vec(b.nR0)          # R0, T0 stay plain: only per-body reports use them
         b.wr = [vec(v) for v in b.wr]
         b.Iw = [vec(v) for v in b.Iw]
-        b.T0, b.nT0 = vec(b.T0), vec(b.nT0)
+        b.nT0 = vec(b.nT0)
     for ld in load_terms:
         ld.pr = [vec(v) for v in ld.pr]
         ld.vec = vec(ld.vec)
