@@ -26,7 +26,6 @@ Differences from SymPy 1.14, on purpose:
   accelerations are always the time derivatives of the velocities.
 """
 import sympy as sm
-from sympy.core.function import AppliedUndef
 from sympy.physics.mechanics import ReferenceFrame
 from sympy.physics.vector import dynamicsymbols
 

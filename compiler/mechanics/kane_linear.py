@@ -15,6 +15,7 @@ from sympy import default_sort_key
 from eomc.errors import ModelError
 
 from .formed import FormedSystem
+from .kane_kinematics import linear_solver as _ls
 
 __all__ = ["linearize", "to_linearizer", "formed_system", "input_symbols"]
 
@@ -66,7 +67,6 @@ def to_linearizer(self, linear_solver='LU'):
     nqd, nud = len(self._qdep), len(self._udep)
     q_i = list(self._q)[:len(self._q) - nqd]
     u_i = list(self._u)[:len(self._u) - nud]
-    uaux = sm.Matrix(self._uaux)
     uaux_zero = dict.fromkeys(list(self._uaux) + [x.diff(t) for x in self._uaux], 0)
     sym_list = _states(self)
     for name, mat in (("kinematic", self._k_kqdot), ("kinematic", self._k_ku),
@@ -81,8 +81,6 @@ def to_linearizer(self, linear_solver='LU'):
     for i in r:
         if i.diff(t) in r:
             raise ModelError(f"cannot linearize: both {i} and its derivative appear in the forcing")
-    del uaux
-    from .kane_kinematics import linear_solver as _ls
     return Linearizer(f_0, f_1, f_2, f_3, f_4, self._f_h, f_v, f_a, self._q, self._u,
                       q_i, self._qdep, u_i, self._udep, r, linear_solver=_ls(linear_solver))
 
@@ -111,14 +109,12 @@ def linearize(self, *, new_method=None, linear_solver=None, **kwargs):
         if outside:
             raise ModelError(f"cannot linearize: input(s) {_plain_names(outside)} appear in the mass "
                              "matrix or the kinematic equations; inputs may only enter the forcing")
-        t = dynamicsymbols._t
         derivs = [x for x in r if isinstance(x, sm.Derivative)]
         if derivs:
             raise ModelError(f"cannot linearize: derivatives of inputs ({_plain_names(derivs)}) "
                              "appear in the forcing vector")
         A = ff.jacobian(xs)
         B = ff.jacobian(r) if r else sm.zeros(ff.rows, 0)
-        del t
         return A, B
     lin = to_linearizer(self, linear_solver=linear_solver or 'LU')
     return lin.linearize(**kwargs) + (lin.r,)
