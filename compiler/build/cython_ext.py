@@ -28,7 +28,8 @@ def _template_dir():
 
 def extension_key_inputs():
     import Cython
-    return {"cython": Cython.__version__, "soabi": sysconfig.get_config_var("SOABI"),
+    import numpy
+    return {"cython": Cython.__version__, "numpy": numpy.__version__, "numpy_include": numpy.get_include(), "soabi": sysconfig.get_config_var("SOABI"),
             "ext_suffix": sysconfig.get_config_var("EXT_SUFFIX"),
             "python_include": sysconfig.get_paths()["include"],
             "template": sha256_file(_template_dir() / _TEMPLATE)}
@@ -59,7 +60,9 @@ def build_extension(tmp, generated, tc, flags, key, root):
     # The glue is Cython's boilerplate (argument passing): -O1 halves its compile
     # time, and warnings about Cython's own C (-Werror, -pedantic) are not the user's.
     glue_flags = [f for f in flags if not f.startswith(("-O", "-Werror", "-pedantic", "-W"))] + ["-O1", "-w"]
-    argv = [*tc.argv, *glue_flags, "-shared", "-I", sysconfig.get_paths()["include"], "-o", filename,
+    import numpy
+    argv = [*tc.argv, *glue_flags, "-shared", "-I", sysconfig.get_paths()["include"], "-I", numpy.get_include(),
+            "-DNPY_NO_DEPRECATED_API=NPY_1_7_API_VERSION", "-o", filename,
             f"{module}.c", "-L.", f"-l{name}", *link]
     run_compiler(argv, tmp, name, key, root)
     (tmp / f"{module}.c").unlink()
