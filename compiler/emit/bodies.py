@@ -9,7 +9,8 @@ from ..ir import c_names
 from .printer import CPrinter
 from .signatures import SIGNATURES
 
-__all__ = ["BodyContext", "plain_body", "rhs_body", "jacobian_body", "linearize_body",
+__all__ = ["BodyContext", "plain_body", "rhs_body", "jacobian_body", "tangent_jacobian_body",
+           "linearize_body", "split_on",
            "void_unused"]
 
 _IND = "    "
@@ -98,7 +99,7 @@ def rhs_body(ctx, program):
     return lines
 
 
-def _split_on(program, symbols):
+def split_on(program, symbols):
     """Assignments that do not / do depend (transitively) on ``symbols``, order kept."""
     dep = set(symbols)
     before, after = [], []
@@ -111,11 +112,40 @@ def _split_on(program, symbols):
     return before, after
 
 
+def tangent_jacobian_body(ctx, program, W, seeds, ncols):
+    """d xdot / dx with the tangent program run once per column (unit seed dx = e_k)."""
+    nw, nq, nu = ctx.nw, ctx.nq, ctx.nu
+    pr = ctx.printer(program)
+    before, rest = split_on(program, W + seeds)
+    stage2, stage3 = split_on(program.with_(assignments=tuple(rest)), seeds)
+    lines = _solver_decls(ctx, [f"double G[{nw}];", f"double dx[{ncols}];", "int i, k;"])
+    lines += _temps(program, pr, before)
+    lines += _load_dynamics(ctx, program, pr)
+    lines += _temps(program, pr, stage2)
+    kvals = program.result_exprs("dkin")
+    for i in range(nq):
+        for k in range(ncols):
+            lines.append(_store(f"out[{i * ncols + k}]", kvals.get(("dkin", i, k), 0.0), pr))
+    gvals = program.result_exprs("Gt")
+    inner = _temps(program, pr, stage3)
+    inner += [_store(f"G[{i}]", gvals.get(("Gt", i), 0.0), pr) for i in range(nw)]
+    lines += [f"{_IND}for (k = 0; k < {ncols}; k++) {{",
+              f"{_IND * 2}for (i = 0; i < {ncols}; i++) dx[i] = 0.0;",
+              f"{_IND * 2}dx[k] = 1.0;", f"{_IND * 2}{{"]
+    lines += [_IND * 2 + line for line in inner]
+    lines += [f"{_IND * 2}}}",
+              f"{_IND * 2}{ctx.solver.solve_call('G')};",
+              f"{_IND * 2}for (i = 0; i < {nu}; i++) out[({nq} + i) * {ncols} + k] = G[i];",
+              f"{_IND}}}",
+              f"{_IND}return {ctx.name}_finite(out, {(nq + nu) * ncols});"]
+    return lines
+
+
 def jacobian_body(ctx, program, W, ncols, kin_group, g_group):
     """d xdot / d(x or r): one factorization, then one solve per column of G."""
     nw, nq, nu = ctx.nw, ctx.nq, ctx.nu
     pr = ctx.printer(program)
-    before, after = _split_on(program, W)
+    before, after = split_on(program, W)
     lines = _solver_decls(ctx, [f"double G[{ncols * nw}];", "int i, k;"])
     lines += _temps(program, pr, before)
     lines += _load_dynamics(ctx, program, pr)

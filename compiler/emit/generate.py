@@ -7,8 +7,8 @@ import jinja2
 from ...errors import ModelError
 from ..passes import finish_function, optimize_shared
 from ..ir import count_program, format_program, verify
-from .bodies import (BodyContext, jacobian_body, linearize_body, plain_body, rhs_body,
-                     void_unused)
+from .bodies import (BodyContext, split_on, jacobian_body, linearize_body, plain_body, rhs_body,
+                     tangent_jacobian_body, void_unused)
 from .generated import GeneratedModel
 from .layout import check_identifier, make_layout
 from .linsolve import ldlt_solver
@@ -57,6 +57,8 @@ def _body(fn, ctx, prog, sym, layout, nx, functions):
     if fn == "rhs":
         return rhs_body(ctx, prog)
     if fn == "jac_x":
+        if any(k[0] == "Gt" for k, _ in prog.results):
+            return tangent_jacobian_body(ctx, prog, sym.W, sym.seeds, nx)
         return jacobian_body(ctx, prog, sym.W, nx, "dkin", "G")
     if fn == "jac_r":
         return jacobian_body(ctx, prog, sym.W, nr, "dkin_r", "Gr")
@@ -71,10 +73,16 @@ def _body(fn, ctx, prog, sym, layout, nx, functions):
     return plain_body(ctx, prog, group, shape, out)
 
 
-def _ops(fn, prog, solver, nx, nr):
+def _ops(fn, prog, solver, nx, nr, seeds=()):
     c = count_program(prog) if prog is not None else Counter()
     if fn == "linearize":
         return None
+    if fn == "jac_x" and any(k[0] == "Gt" for k, _ in prog.results):
+        # the tangent program runs once per column
+        loop = split_on(prog, seeds)[1]
+        per_column = count_program(prog.with_(assignments=tuple(loop)).select(["Gt"]))
+        for _ in range(nx - 1):
+            c += per_column
     if fn in _SOLVING:
         c += solver.factor_ops
         nsolve = 1 + {"rhs": 0, "jac_x": nx, "jac_r": nr}[fn]
@@ -156,13 +164,14 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
     slots = dict(layout.c_names)
     slots.update({s: f"w[{j}]" for j, s in enumerate(sym.W)})
     slots.update({s: f"udot[{j}]" for j, s in enumerate(sym.UD)})
+    slots.update({s: f"dx[{j}]" for j, s in enumerate(sym.seeds)})
     ctx = BodyContext(name, nq, nu, nw, solver, slots)
     rendered, op_counts = [], {}
     for fn in fns:
         prog = low.programs[fn]
         lines = _body(fn, ctx, prog, sym, layout, nx, fns)
         rendered.append({"prototype": prototype(name, fn), "body": void_unused(fn, lines)})
-        op_counts[fn] = _ops(fn, prog, solver, nx, len(layout.r))
+        op_counts[fn] = _ops(fn, prog, solver, nx, len(layout.r), sym.seeds)
     if "linearize" in op_counts:
         op_counts["linearize"] = {k: sum(op_counts[f][k] for f in ("jac_x", "jac_r") if f in op_counts)
                                   for k in ("adds", "muls", "divs", "calls")}

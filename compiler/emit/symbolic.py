@@ -22,11 +22,16 @@ from ...errors import ModelError
 from ..ir import Program
 from .sparse_lu import static_row_order
 
-__all__ = ["FUNCTION_GROUPS", "Symbolic", "build_symbolic"]
+__all__ = ["FUNCTION_GROUPS", "Symbolic", "build_symbolic", "TANGENT_MIN_STATES"]
+
+# Above this many states jac_x evaluates one tangent program per column in a C loop
+# (code and generation time O(program)) instead of unrolling every column
+# (O(program x states) code, a little faster to run).
+TANGENT_MIN_STATES = 12
 
 FUNCTION_GROUPS = {
     "rhs": ("kin", "A", "b"),
-    "jac_x": ("A", "b", "dkin", "G"),
+    "jac_x": ("A", "b", "dkin", "G", "Gt"),
     "jac_r": ("A", "b", "dkin_r", "Gr"),
     "mass_matrix": ("M",),
     "forcing": ("f",),
@@ -47,6 +52,7 @@ class Symbolic:
     row_order: tuple        # compile-time row order of the unrolled LU
     pattern: frozenset      # structural nonzeros (i, j) of A
     W: tuple                # symbols of the solved w = [u'; λ]
+    seeds: tuple            # tangent direction symbols (C array dx) of a looped jac_x
     UD: tuple               # symbols of inverse dynamics' given u'
     nhol: int
     nvel: int
@@ -107,6 +113,7 @@ def build_symbolic(formed, layout, functions, outputs=None):
     pattern = frozenset((i, j) for i in range(nw) for j in range(nw) if A[i, j] != 0)
     row_order = tuple(range(nw)) if symmetric else static_row_order(A, pattern)
     W = tuple(sm.Symbol(f"w_{j}", real=True) for j in range(nw))
+    seeds = tuple(sm.Symbol(f"sx_{j}", real=True) for j in range(len(layout.x)))
     UD = tuple(sm.Symbol(f"ud_{j}", real=True) for j in range(nu))
     res = []
     derivatives = []
@@ -125,7 +132,9 @@ def build_symbolic(formed, layout, functions, outputs=None):
     if "G" in groups or "Gr" in groups:
         res += [(("res", i), b[i] - sm.Add(*[A[i, j] * W[j] for j in range(nw) if (i, j) in pattern]))
                 for i in range(nw)]
-        if "G" in groups:
+        if "G" in groups and len(layout.x) > TANGENT_MIN_STATES:
+            derivatives.append(("res", dict(zip(layout.x, seeds)), "Gt"))
+        elif "G" in groups:
             derivatives.append(("res", layout.x, "G"))
         if "Gr" in groups:
             derivatives.append(("res", layout.r, "Gr"))
@@ -146,7 +155,8 @@ def build_symbolic(formed, layout, functions, outputs=None):
         derivatives.append(("con", layout.x, "dcon"))
     if "con" in groups:
         res += [(("con", i), e) for i, e in enumerate(hol + vel)]
-    inputs = (layout.t,) + layout.x + layout.p + layout.r + W + UD
+    inputs = (layout.t,) + layout.x + layout.p + layout.r + W + UD + seeds
     program = Program(inputs=inputs, results=tuple(res))
-    return Symbolic(program=program, derivatives=tuple(derivatives), nw=nw, row_order=row_order, symmetric=symmetric, pattern=pattern, W=W, UD=UD,
+    return Symbolic(program=program, derivatives=tuple(derivatives), nw=nw, row_order=row_order,
+                    seeds=seeds, symmetric=symmetric, pattern=pattern, W=W, UD=UD,
                     nhol=len(hol), nvel=len(vel), output_names=names)

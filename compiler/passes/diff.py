@@ -13,7 +13,7 @@ import sympy as sm
 from ..ir import Names
 from .timing import compiler_pass
 
-__all__ = ["differentiate"]
+__all__ = ["differentiate", "tangent"]
 
 
 def _add(terms):
@@ -49,10 +49,13 @@ def _pow(base, exp):
 
 
 class _Diff:
-    def __init__(self, program, wrt):
+    """Chain rule over a program.  ``dirs`` maps an input symbol to (direction k, its
+    derivative along k): (k, 1) for a Jacobian column, (0, seed symbol) for a tangent."""
+
+    def __init__(self, program, dirs):
         self.names = Names(program)
-        self.wrt = {v: i for i, v in enumerate(wrt)}
-        self.deps = {}      # temp -> frozenset of direction indices it depends on
+        self.dirs = dirs
+        self.deps = {}      # temp -> frozenset of directions it depends on
         self.deriv = {}     # (temp, k) -> symbol or number
         self.out = []
         self.memo = {}
@@ -60,50 +63,52 @@ class _Diff:
     def deps_of(self, expr):
         d = set()
         for s in expr.free_symbols:
-            if s in self.wrt:
-                d.add(self.wrt[s])
+            hit = self.dirs.get(s)
+            if hit is not None:
+                d.add(hit[0])
             else:
                 d |= self.deps.get(s, frozenset())
         return d
 
-    def d(self, expr, k, v):
-        """d expr / d v (v is direction k), as an expression of existing symbols."""
+    def d(self, expr, k):
+        """d expr along direction k, as an expression of existing symbols."""
         if expr.is_Number:
             return sm.S.Zero
         if expr.is_Symbol:
-            if expr == v:
-                return sm.S.One
+            hit = self.dirs.get(expr)
+            if hit is not None:
+                return hit[1] if hit[0] == k else sm.S.Zero
             return self.deriv.get((expr, k), sm.S.Zero)
         key = (expr, k)
         if key in self.memo:
             return self.memo[key]
         if expr.is_Add:
-            res = _add([self.d(a, k, v) for a in expr.args])
+            res = _add([self.d(a, k) for a in expr.args])
         elif expr.is_Mul:
             terms = []
             args = expr.args
             for i, a in enumerate(args):
-                da = self.d(a, k, v)
+                da = self.d(a, k)
                 if da != 0:
                     terms.append(_mul(args[:i] + (da,) + args[i + 1:]))
             res = _add(terms)
         elif expr.is_Pow and k not in self.deps_of(expr.exp):
-            db = self.d(expr.base, k, v)
+            db = self.d(expr.base, k)
             res = (_mul((expr.exp, _pow(expr.base, expr.exp - 1), db)) if db != 0
                    else sm.S.Zero)
         elif isinstance(expr, sm.Function) and len(expr.args) == 1:
-            da = self.d(expr.args[0], k, v)
+            da = self.d(expr.args[0], k)
             res = _mul((expr.fdiff(1), da)) if da != 0 else sm.S.Zero
         else:   # rare shapes: let SymPy do it on the symbols, then chain through temporaries
-            res = sm.Add(*[expr.diff(s) * self.d(s, k, v) for s in expr.free_symbols])
+            res = sm.Add(*[expr.diff(s) * self.d(s, k) for s in expr.free_symbols])
         self.memo[key] = res
         return res
 
     def assign(self, target, expr):
         deps = self.deps_of(expr)
         self.deps[target] = frozenset(deps)
-        for k, v in sorted(((k, v) for v, k in self.wrt.items() if k in deps)):
-            de = self.d(expr, k, v)
+        for k in sorted(deps):
+            de = self.d(expr, k)
             if de == 0:
                 continue
             if de.is_Atom:
@@ -114,10 +119,7 @@ class _Diff:
                 self.deriv[(target, k)] = sym
 
 
-@compiler_pass
-def differentiate(program, source, wrt, target):
-    """Add ``(target, i, k)`` results: derivatives of group ``source`` w.r.t. symbols ``wrt``."""
-    dd = _Diff(program, tuple(wrt))
+def _run(program, dd, source, key_of):
     assignments = []
     for t, e in program.assignments:
         assignments.append((t, e))
@@ -131,10 +133,29 @@ def differentiate(program, source, wrt, target):
             continue
         dd.memo.clear()
         for k in sorted(dd.deps_of(expr)):
-            de = dd.d(expr, k, wrt[k])
+            de = dd.d(expr, k)
             if de != 0:
-                results.append(((target,) + key[1:] + (k,), de))
+                results.append((key_of(key, k), de))
         assignments.extend(dd.out)
         dd.out = []
     return program.with_(assignments=tuple(assignments), results=tuple(results),
                          ntemp=dd.names.count)
+
+
+@compiler_pass
+def differentiate(program, source, wrt, target):
+    """Add ``(target, i, k)`` results: derivatives of group ``source`` w.r.t. symbols ``wrt``."""
+    dd = _Diff(program, {v: (k, sm.S.One) for k, v in enumerate(wrt)})
+    return _run(program, dd, source, lambda key, k: (target,) + key[1:] + (k,))
+
+
+@compiler_pass
+def tangent(program, source, seeds, target):
+    """Add ``(target, i)`` results: the derivative of group ``source`` along the direction
+    whose components are the input symbols ``seeds`` ({wrt symbol: seed symbol}).
+
+    The tangent program is about as large as the program itself, whatever the number of
+    directions; the C code evaluates it once per Jacobian column with a unit seed.
+    """
+    dd = _Diff(program, {v: (0, s) for v, s in seeds.items()})
+    return _run(program, dd, source, lambda key, k: (target,) + key[1:])

@@ -1,7 +1,7 @@
 """The standard pass order."""
 from .cse import cse
 from .dce import dce
-from .diff import differentiate
+from .diff import differentiate, tangent
 from .fold import fold_constants
 from .powers import expand_powers
 from .sincos import share_sincos
@@ -12,12 +12,17 @@ __all__ = ["optimize_shared", "finish_function"]
 def optimize_shared(program, derivatives=()):
     """Passes run once over every function's results together.
 
-    CSE, then the requested derivatives ``(source_group, wrt_symbols, target_group)``
-    by forward differentiation of the CSE'd program, then sin/cos sharing and folding.
+    CSE, then the requested derivatives ``(source_group, wrt, target_group)`` by forward
+    differentiation of the CSE'd program (``wrt``: a sequence of symbols for all partial
+    derivatives, or a {symbol: seed} dict for one directional derivative), then sin/cos
+    sharing and folding.
     """
     program = cse(program)
     for source, wrt, target in derivatives:
-        program = differentiate(program, source, wrt, target)
+        if isinstance(wrt, dict):     # {symbol: seed symbol}: one directional derivative
+            program = tangent(program, source, wrt, target)
+        else:
+            program = differentiate(program, source, wrt, target)
     return fold_constants(share_sincos(program))
 
 

@@ -31,10 +31,22 @@ def _minimal():
     return generate_c(es.kane_formed(kane, ()), "bare")
 
 
+def _looped_jacobian():
+    """The 2-link cart with jac_x as a tangent loop (normally used above 12 states)."""
+    from eomc.compiler.emit import symbolic
+    saved = symbolic.TANGENT_MIN_STATES
+    symbolic.TANGENT_MIN_STATES = 0
+    try:
+        kane, spec = zoo.n_link_pendulum_on_cart(2, me)
+        return generate_c(es.kane_formed(kane, spec), "looped")
+    finally:
+        symbolic.TANGENT_MIN_STATES = saved
+
+
 @pytest.fixture(scope="module")
 def models():
     return [_cart_with_outputs(), _minimal(),
-            generate_c(es.lagrange_formed(es.particle_on_sphere()), "sphere")]
+            generate_c(es.lagrange_formed(es.particle_on_sphere()), "sphere"), _looped_jacobian()]
 
 
 DRIVER = r"""
@@ -112,7 +124,7 @@ def _exports(lib):
 
 
 def test_absent_functions_are_not_exported(models, tmp_path):
-    cart, bare, sphere = models
+    cart, bare, sphere = models[:3]
     full = _exports(es.compile_shared(cart, tmp_path))
     assert {"cartout_outputs", "cartout_jac_r", "cartout_rhs", "cartout_model"} <= full
     assert "cartout_constraints" not in full

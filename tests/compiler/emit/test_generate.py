@@ -324,3 +324,25 @@ def test_zoo_rhs_and_constraints(build, tmp_path):
     tv, x, p, r = next(_random(formed, 1))
     sj, J = c.call("jac_x", (nx, nx), tv, x, p, r)
     assert sj == 0 and es.rel_err(J, _fd_jacobian(c, formed, tv, x, p, r)) <= 1e-6
+
+
+@pytest.mark.parametrize("n", [1, 3])
+def test_tangent_loop_jacobian(n, tmp_path, monkeypatch):
+    """Above TANGENT_MIN_STATES jac_x loops a tangent program over columns; same values."""
+    from eomc.compiler.emit import symbolic
+    kane, spec = zoo.n_link_pendulum_on_cart(n, me)
+    formed = es.kane_formed(kane, spec)
+    unrolled = generate_c(formed, f"unr{n}", functions=["jac_x", "rhs"])
+    monkeypatch.setattr(symbolic, "TANGENT_MIN_STATES", 0)
+    looped = generate_c(formed, f"loop{n}", functions=["jac_x", "rhs"])
+    assert "dx[k] = 1.0;" in looped.c_source and "dx[" not in unrolled.c_source
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    cu, cl = es.Compiled(unrolled, tmp_path / "a"), es.Compiled(looped, tmp_path / "b")
+    nx = formed.nq + formed.nu
+    for tv, x, p, r in _random(formed, 3):
+        su, Ju = cu.call("jac_x", (nx, nx), tv, x, p, r)
+        sl, Jl = cl.call("jac_x", (nx, nx), tv, x, p, r)
+        assert su == sl == 0
+        assert es.rel_err(Jl, Ju) <= 1e-12
+        assert es.rel_err(Jl, _fd_jacobian(cl, formed, tv, x, p, r)) <= 1e-6
