@@ -11,7 +11,7 @@ from .bodies import (BodyContext, split_on, jacobian_body, linearize_body, plain
                      tangent_jacobian_body, void_unused)
 from .generated import GeneratedModel
 from .layout import check_identifier, make_layout
-from .linsolve import ldlt_solver
+from .linsolve import choose_ldlt
 from .sparse_lu import sparse_lu_solver
 from .signatures import FUNCTION_ORDER, STRUCT_FIELDS, cdef, prototype
 from .symbolic import FUNCTION_GROUPS, build_symbolic
@@ -159,7 +159,7 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
                 functions=functions, fold_parameters=fold_parameters)
     layout, sym, fns = low.layout, low.symbolic, low.functions
     nq, nu, nx, nw = formed.nq, formed.nu, formed.nq + formed.nu, sym.nw
-    solver = (ldlt_solver(name, nw, sym.pattern) if sym.symmetric else
+    solver = (choose_ldlt(name, nw, sym.pattern) if sym.symmetric else
               sparse_lu_solver(name, nw, sym.pattern, sym.row_order))
     slots = dict(layout.c_names)
     slots.update({s: f"w[{j}]" for j, s in enumerate(sym.W)})

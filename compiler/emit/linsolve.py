@@ -16,7 +16,7 @@ operation counts for the metadata.
 from collections import Counter
 from dataclasses import dataclass
 
-__all__ = ["Solver", "ldlt_solver", "dense_lu_code", "dense_lu_ops"]
+__all__ = ["Solver", "ldlt_solver", "ldlt_loop_solver", "choose_ldlt", "dense_lu_code", "dense_lu_ops"]
 
 
 @dataclass(frozen=True)
@@ -114,6 +114,77 @@ def ldlt_solver(prefix, n, pattern):
     lines += ["}", ""]
     return Solver(f"{prefix}_ldlt_factor", f"{prefix}_ldlt_solve", "\n".join(lines),
                   fo, so, n * n + n, False)
+
+
+_LDLT_LOOP = """\
+static int {p}_ldlt_factor(double *F)
+{{
+    double scale = 0.0, tol;
+    double e[{n}] = {{0.0}};
+    int i, j, k;
+    for (i = 0; i < {n}; i++) {{
+        const double a = fabs(F[i * {n1}]);
+        if (!(a < HUGE_VAL)) return EOMC_NONFINITE;
+        if (a > scale) scale = a;
+    }}
+    tol = 64.0 * DBL_EPSILON * scale;
+    for (j = 0; j < {n}; j++) {{
+        double d = F[j * {n} + j];
+        for (k = 0; k < j; k++) {{
+            e[k] = F[j * {n} + k] * F[k * {n1}];
+            d -= F[j * {n} + k] * e[k];
+        }}
+        if (!(d > tol)) return EOMC_SINGULAR_MASS_MATRIX;
+        F[j * {n1}] = d;
+        F[{nn} + j] = 1.0 / d;
+        for (i = j + 1; i < {n}; i++) {{
+            double s = F[i * {n} + j];
+            for (k = 0; k < j; k++) s -= F[i * {n} + k] * e[k];
+            F[i * {n} + j] = s * F[{nn} + j];
+        }}
+    }}
+    return EOMC_OK;
+}}
+
+static void {p}_ldlt_solve(const double *F, double *b)
+{{
+    int i, k;
+    for (i = 1; i < {n}; i++) {{
+        double s = b[i];
+        for (k = 0; k < i; k++) s -= F[i * {n} + k] * b[k];
+        b[i] = s;
+    }}
+    for (i = 0; i < {n}; i++) b[i] *= F[{nn} + i];
+    for (i = {n} - 2; i >= 0; i--) {{
+        double s = b[i];
+        for (k = i + 1; k < {n}; k++) s -= F[k * {n} + i] * b[k];
+        b[i] = s;
+    }}
+}}
+"""
+
+# Unroll LDLᵀ only while the factor is small or sparse enough for unrolling to pay:
+# a dense unrolled factor of a large M is thousands of lines that C compilers
+# optimize slowly, for no fewer operations than the loops.
+UNROLL_MAX_DENSE = 10
+
+
+def ldlt_loop_solver(prefix, n):
+    """Dense LDLᵀ in loops (n literal) for large, dense symmetric A."""
+    fo = Counter(divs=n, muls=sum(2 * j + j * (n - j - 1) + (n - j - 1) for j in range(n)),
+                 adds=sum(j + j * (n - j - 1) for j in range(n)))
+    so = Counter(muls=n * n, adds=n * (n - 1))
+    code = _LDLT_LOOP.format(p=prefix, n=n, n1=n + 1, nn=n * n)
+    return Solver(f"{prefix}_ldlt_factor", f"{prefix}_ldlt_solve", code, fo, so,
+                  n * n + n, False)
+
+
+def choose_ldlt(prefix, n, pattern):
+    """Unrolled sparse LDLᵀ, or the loop version for a large matrix that is nearly dense."""
+    fill = len(_fill_pattern(n, pattern))
+    if n > UNROLL_MAX_DENSE and fill > 0.6 * n * (n - 1) / 2:
+        return ldlt_loop_solver(prefix, n)
+    return ldlt_solver(prefix, n, pattern)
 
 
 _LU = """\

@@ -32,15 +32,18 @@ def _minimal():
 
 
 def _looped_jacobian():
-    """The 2-link cart with jac_x as a tangent loop (normally used above 12 states)."""
-    from eomc.compiler.emit import symbolic
-    saved = symbolic.TANGENT_MIN_STATES
-    symbolic.TANGENT_MIN_STATES = 0
+    """The 2-link cart with the large-model code shapes (normally used above 12 states /
+    a 10 x 10 dense M): jac_x as a tangent loop, LDLᵀ in loops."""
+    from eomc.compiler.emit import linsolve, symbolic
+    saved = symbolic.TANGENT_MIN_STATES, linsolve.UNROLL_MAX_DENSE
+    symbolic.TANGENT_MIN_STATES = linsolve.UNROLL_MAX_DENSE = 0
     try:
         kane, spec = zoo.n_link_pendulum_on_cart(2, me)
-        return generate_c(es.kane_formed(kane, spec), "looped")
+        gm = generate_c(es.kane_formed(kane, spec), "looped")
+        assert "for (j = 0; j < 3; j++)" in gm.c_source
+        return gm
     finally:
-        symbolic.TANGENT_MIN_STATES = saved
+        symbolic.TANGENT_MIN_STATES, linsolve.UNROLL_MAX_DENSE = saved
 
 
 @pytest.fixture(scope="module")

@@ -346,3 +346,23 @@ def test_tangent_loop_jacobian(n, tmp_path, monkeypatch):
         assert su == sl == 0
         assert es.rel_err(Jl, Ju) <= 1e-12
         assert es.rel_err(Jl, _fd_jacobian(cl, formed, tv, x, p, r)) <= 1e-6
+
+
+def test_loop_ldlt_for_large_dense_mass_matrices(tmp_path, monkeypatch):
+    """Above UNROLL_MAX_DENSE a dense M is factored by loops; same values, same errors."""
+    from eomc.compiler.emit import linsolve
+    monkeypatch.setattr(linsolve, "UNROLL_MAX_DENSE", 0)
+    kane, spec = zoo.n_link_pendulum_on_cart(3, me)
+    formed = es.kane_formed(kane, spec)
+    gm, c, orc = _setup(formed, "ldlloop", _Factory(tmp_path))
+    assert "for (j = 0; j < 4; j++)" in gm.c_source
+    nx = formed.nq + formed.nu
+    for tv, x, p, r in _random(formed, 3):
+        status, xd = c.call("rhs", nx, tv, x, p, r)
+        assert status == 0 and es.rel_err(xd, orc.rhs(tv, x, p, r)) <= 1e-12
+        sj, J = c.call("jac_x", (nx, nx), tv, x, p, r)
+        assert sj == 0 and es.rel_err(J, _fd_jacobian(c, formed, tv, x, p, r)) <= 1e-6
+    names = [s.name for s in formed.parameters]
+    p = np.ones(len(names))
+    p[names.index("m3")] = 0.0
+    assert c.call("rhs", nx, 0.0, np.ones(nx), p, np.zeros(1))[0] == 1
