@@ -32,7 +32,8 @@ class BodyContext:
 def _temps(program, printer, assignments=None):
     assignments = program.assignments if assignments is None else assignments
     names = printer._names
-    return [f"{_IND}const double {names[s]} = {printer.doprint(e)};" for s, e in assignments]
+    return [f"{_IND}{'' if names[s].endswith(']') else 'const double '}{names[s]} = "
+            f"{printer.doprint(e)};" for s, e in assignments]
 
 
 def _store(lvalue, expr, printer):
@@ -118,7 +119,18 @@ def tangent_jacobian_body(ctx, program, W, seeds, ncols):
     pr = ctx.printer(program)
     before, rest = split_on(program, W + seeds)
     stage2, stage3 = split_on(program.with_(assignments=tuple(rest)), seeds)
-    lines = _solver_decls(ctx, [f"double G[{nw}];", f"double dx[{ncols}];", "int i, k;"])
+    # values the loop reads live in an array, not in hundreds of loop-invariant locals
+    # (which make C compilers' register allocation slow on large models)
+    defined = {t for t, _ in before + stage2}
+    live = []
+    for _, e in stage3 + [(None, e) for k, e in program.results if k[0] == "Gt"]:
+        live += [s for s in e.free_symbols if s in defined and s not in live]
+    live.sort(key=lambda s: pr._names[s])
+    live.sort(key=lambda s: len(pr._names[s]))
+    for j, s in enumerate(live):
+        pr._names[s] = f"P[{j}]"
+    lines = _solver_decls(ctx, [f"double G[{nw}];", f"double dx[{ncols}];",
+                                f"double P[{max(len(live), 1)}];", "int i, k;"])
     lines += _temps(program, pr, before)
     lines += _load_dynamics(ctx, program, pr)
     lines += _temps(program, pr, stage2)
