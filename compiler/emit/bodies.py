@@ -10,7 +10,7 @@ from .printer import CPrinter
 from .signatures import SIGNATURES
 
 __all__ = ["BodyContext", "plain_body", "rhs_body", "jacobian_body", "tangent_jacobian_body",
-           "linearize_body", "split_on",
+           "linearize_body", "split_on", "dynamics_helper", "matrix_body",
            "void_unused"]
 
 _IND = "    "
@@ -19,9 +19,10 @@ _IND = "    "
 class BodyContext:
     """What every body needs: sizes, the solver, C names of input slots."""
 
-    def __init__(self, name, nq, nu, nw, solver, slot_names):
+    def __init__(self, name, nq, nu, nw, solver, slot_names, symmetric, pattern):
         self.name, self.nq, self.nu, self.nw = name, nq, nu, nw
         self.solver, self.slot_names = solver, slot_names
+        self.symmetric, self.pattern = symmetric, pattern
 
     def printer(self, program):
         names = dict(self.slot_names)
@@ -69,7 +70,7 @@ def _solver_decls(ctx, extra=()):
     return lines
 
 
-def _load_dynamics(ctx, program, pr):
+def _store_dynamics(ctx, program, pr):
     lines = []
     if ctx.solver.pivots:   # the dense LU reads every entry: structural zeros too
         nonzero = {(k[1], k[2]) for k, _ in program.results if k[0] == "A"}
@@ -80,11 +81,39 @@ def _load_dynamics(ctx, program, pr):
             lines.append(_store(f"F[{key[1] * ctx.nw + key[2]}]", e, pr))
         elif key[0] == "b":
             lines.append(_store(f"w[{key[1]}]", e, pr))
+    return lines
+
+
+def _factor_and_solve(ctx):
     s = ctx.solver
-    lines += [f"{_IND}status = {s.factor_call()};",
+    return [f"{_IND}status = {s.factor_call()};",
               f"{_IND}if (status != EOMC_OK) return status;",
               f"{_IND}{s.solve_call('w')};"]
-    return lines
+
+
+def _load_dynamics(ctx, program, pr):
+    return _store_dynamics(ctx, program, pr) + _factor_and_solve(ctx)
+
+
+DYNAMICS_SIGNATURE = (("double", "t"), ("const double *", "x"), ("const double *", "p"),
+                      ("const double *", "r"), ("double *", "F"), ("double *", "w"))
+
+
+def dynamics_helper(ctx, program):
+    """``static void NAME_dynamics(t, x, p, r, F, w)``: A into F, b into w.  rhs,
+    mass_matrix, forcing and inverse_dynamics call it, so its code is compiled once."""
+    pr = ctx.printer(program)
+    lines = _temps(program, pr) + _store_dynamics(ctx, program, pr)
+    text = "\n".join(lines)
+    # only the arguments it reads, so callers of a model without inputs never touch r
+    sig = [(c, a) for c, a in DYNAMICS_SIGNATURE if a in "Fw" or re.search(rf"\b{a}\b", text)]
+    ctx.helper_args = [a for _, a in sig]
+    args = ", ".join(f"{c}{a}" if c.endswith("*") else f"{c} {a}" for c, a in sig)
+    return f"static void {ctx.name}_dynamics({args})\n{{\n{text}\n}}\n"
+
+
+def _call_dynamics(ctx):
+    return f"{_IND}{ctx.name}_dynamics({', '.join(ctx.helper_args)});"
 
 
 def rhs_body(ctx, program):
@@ -94,7 +123,7 @@ def rhs_body(ctx, program):
     for (key, e) in program.results:
         if key[0] == "kin":
             lines.append(_store(f"xdot[{key[1]}]", e, pr))
-    lines += _load_dynamics(ctx, program, pr)
+    lines += [_call_dynamics(ctx)] + _factor_and_solve(ctx)
     lines += [f"{_IND}xdot[{ctx.nq + i}] = w[{i}];" for i in range(ctx.nu)]
     lines.append(f"{_IND}return {ctx.name}_finite(xdot, {ctx.nq + ctx.nu});")
     return lines
@@ -190,8 +219,38 @@ def linearize_body(ctx, has_inputs):
     return lines
 
 
-def void_unused(function, lines):
+def _entry(ctx, i, j):
+    """C text of A[i][j] as the dynamics helper stored it (0.0 if structurally zero)."""
+    if ctx.symmetric:
+        i, j = max(i, j), min(i, j)
+    return f"F[{i * ctx.nw + j}]" if (i, j) in ctx.pattern else "0.0"
+
+
+def matrix_body(ctx, fn):
+    """mass_matrix, forcing or inverse_dynamics from the dynamics helper's A and b."""
+    nu = ctx.nu
+    lines = [f"{_IND}double F[{ctx.nw * ctx.nw}];", f"{_IND}double w[{ctx.nw}];",
+             _call_dynamics(ctx)]
+    if fn == "mass_matrix":
+        lines += [f"{_IND}out[{i * nu + j}] = {_entry(ctx, i, j)};"
+                  for i in range(nu) for j in range(nu)]
+        out, size = "out", nu * nu
+    elif fn == "forcing":
+        lines += [f"{_IND}out[{i}] = w[{i}];" for i in range(nu)]
+        out, size = "out", nu
+    else:
+        for i in range(nu):
+            terms = [f"{_entry(ctx, i, j)} * udot[{j}]" for j in range(nu)
+                     if _entry(ctx, i, j) != "0.0"]
+            lines.append(f"{_IND}tau[{i}] = {' + '.join(terms) or '0.0'} - w[{i}];")
+        out, size = "tau", nu
+    lines.append(f"{_IND}return {ctx.name}_finite({out}, {size});")
+    return lines
+
+
+def void_unused(function, lines, signature=None):
     """Prefix ``(void)arg;`` for every signature argument the body does not read."""
     text = "\n".join(lines)
-    unused = [a for _, a in SIGNATURES[function] if not re.search(rf"\b{a}\b", text)]
+    signature = SIGNATURES[function] if signature is None else signature
+    unused = [a for _, a in signature if not re.search(rf"\b{a}\b", text)]
     return "\n".join([f"{_IND}(void){a};" for a in unused] + lines)

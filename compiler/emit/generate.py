@@ -7,14 +7,14 @@ import jinja2
 from ...errors import ModelError
 from ..passes import finish_function, optimize_shared
 from ..ir import count_program, format_program, verify
-from .bodies import (BodyContext, split_on, jacobian_body, linearize_body, plain_body, rhs_body,
+from .bodies import (BodyContext, dynamics_helper, matrix_body, split_on, jacobian_body, linearize_body, plain_body, rhs_body,
                      tangent_jacobian_body, void_unused)
 from .generated import GeneratedModel
 from .layout import check_identifier, make_layout
 from .linsolve import choose_ldlt
 from .sparse_lu import sparse_lu_solver
 from .signatures import FUNCTION_ORDER, STRUCT_FIELDS, cdef, prototype
-from .symbolic import FUNCTION_GROUPS, build_symbolic
+from .symbolic import FUNCTION_GROUPS, HELPER_USERS, build_symbolic
 
 __all__ = ["generate_c", "lower", "ir_listing", "Lowered", "ALL_FUNCTIONS"]
 
@@ -56,6 +56,8 @@ def _body(fn, ctx, prog, sym, layout, nx, functions):
     nu, nr = ctx.nu, len(layout.r)
     if fn == "rhs":
         return rhs_body(ctx, prog)
+    if fn in ("mass_matrix", "forcing", "inverse_dynamics"):
+        return matrix_body(ctx, fn)
     if fn == "jac_x":
         if any(k[0] == "Gt" for k, _ in prog.results):
             return tangent_jacobian_body(ctx, prog, sym.W, sym.seeds, nx)
@@ -64,19 +66,21 @@ def _body(fn, ctx, prog, sym, layout, nx, functions):
         return jacobian_body(ctx, prog, sym.W, nr, "dkin_r", "Gr")
     if fn == "linearize":
         return linearize_body(ctx, "jac_r" in functions)
-    shapes = {"mass_matrix": ("M", (nu, nu), "out"), "forcing": ("f", (nu,), "out"),
-              "inverse_dynamics": ("tau", (nu,), "tau"),
-              "outputs": ("out", (len(sym.output_names),), "out"),
+    shapes = {"outputs": ("out", (len(sym.output_names),), "out"),
               "constraints": ("con", (sym.nhol + sym.nvel,), "out"),
               "constraints_jac": ("dcon", (sym.nhol + sym.nvel, nx), "out")}
     group, shape, out = shapes[fn]
     return plain_body(ctx, prog, group, shape, out)
 
 
-def _ops(fn, prog, solver, nx, nr, seeds=()):
+def _ops(fn, prog, solver, nx, nr, seeds=(), helper=None, nu=0, nnz=0):
     c = count_program(prog) if prog is not None else Counter()
     if fn == "linearize":
         return None
+    if fn in HELPER_USERS:
+        c += count_program(helper)
+    if fn == "inverse_dynamics":
+        c += Counter(muls=nnz, adds=nnz)
     if fn == "jac_x" and any(k[0] == "Gt" for k, _ in prog.results):
         # the tangent program runs once per column
         loop = split_on(prog, seeds)[1]
@@ -125,7 +129,8 @@ class Lowered:
     layout: object
     symbolic: object
     functions: tuple
-    programs: dict          # function -> Program (None for linearize, which calls others)
+    programs: dict          # function -> Program (None when the function has no own code)
+    helper: object          # Program of the shared NAME_dynamics helper (A, b), or None
 
 
 def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions=None,
@@ -139,13 +144,17 @@ def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions
     shared = verify(optimize_shared(sym.program, sym.derivatives))
     programs = {fn: finish_function(shared, FUNCTION_GROUPS[fn]) if FUNCTION_GROUPS[fn] else None
                 for fn in fns}
-    return Lowered(name, layout, sym, fns, programs)
+    helper = (finish_function(shared, ("A", "b")) if set(fns) & set(HELPER_USERS) else None)
+    return Lowered(name, layout, sym, fns, programs, helper)
 
 
 def ir_listing(formed, name, **options):
     """The optimized IR of every generated function as text (``--print-ir``)."""
     low = lower(formed, name, **options)
-    return "".join(format_program(p, title=f"{name}_{fn}") for fn, p in low.programs.items()
+    progs = dict(low.programs)
+    if low.helper is not None:
+        progs["dynamics"] = low.helper
+    return "".join(format_program(p, title=f"{name}_{fn}") for fn, p in progs.items()
                    if p is not None)
 
 
@@ -165,18 +174,20 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
     slots.update({s: f"w[{j}]" for j, s in enumerate(sym.W)})
     slots.update({s: f"udot[{j}]" for j, s in enumerate(sym.UD)})
     slots.update({s: f"dx[{j}]" for j, s in enumerate(sym.seeds)})
-    ctx = BodyContext(name, nq, nu, nw, solver, slots)
+    ctx = BodyContext(name, nq, nu, nw, solver, slots, sym.symmetric, sym.pattern)
+    helper = dynamics_helper(ctx, low.helper) if low.helper is not None else ""
     rendered, op_counts = [], {}
     for fn in fns:
         prog = low.programs[fn]
         lines = _body(fn, ctx, prog, sym, layout, nx, fns)
         rendered.append({"prototype": prototype(name, fn), "body": void_unused(fn, lines)})
-        op_counts[fn] = _ops(fn, prog, solver, nx, len(layout.r), sym.seeds)
+        op_counts[fn] = _ops(fn, prog, solver, nx, len(layout.r), sym.seeds, low.helper, nu,
+                             sum(1 for i, j in sym.pattern if i < nu and j < nu))
     if "linearize" in op_counts:
         op_counts["linearize"] = {k: sum(op_counts[f][k] for f in ("jac_x", "jac_r") if f in op_counts)
                                   for k in ("adds", "muls", "divs", "calls")}
     meta = _metadata(name, formed, layout, sym, fns, op_counts)
-    return _render(name, meta, fns, rendered, solver, layout, sym)
+    return _render(name, meta, fns, rendered, solver, layout, sym, helper)
 
 
 def _metadata(name, formed, layout, sym, fns, op_counts):
@@ -193,7 +204,7 @@ def _metadata(name, formed, layout, sym, fns, op_counts):
     }
 
 
-def _render(name, meta, fns, rendered, solver, layout, sym):
+def _render(name, meta, fns, rendered, solver, layout, sym, helper):
     tables, table_refs = _tables(name, layout, sym.output_names)
     pointers = [f"{name}_{f}" if f in fns else "NULL" for f in STRUCT_FIELDS]
     uses_solver = any(f in fns for f in _SOLVING)
@@ -203,7 +214,8 @@ def _render(name, meta, fns, rendered, solver, layout, sym):
     header = env.get_template("model.h.j2").render(
         name=name, prototypes=[prototype(name, f) for f in fns], **common)
     source = env.get_template("model.c.j2").render(
-        name=name, functions=rendered, solver_code=solver.code if uses_solver else "",
+        name=name, functions=rendered,
+        helper_code="\n".join(c for c in ((solver.code if uses_solver else ""), helper) if c),
         tables=tables, table_refs=table_refs, pointers=pointers, **common)
     return GeneratedModel(name=name, c_source=source, header=header, cdef=cdef(name, fns),
                           metadata=meta)

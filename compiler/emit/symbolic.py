@@ -22,20 +22,23 @@ from ...errors import ModelError
 from ..ir import Program
 from .sparse_lu import static_row_order
 
-__all__ = ["FUNCTION_GROUPS", "Symbolic", "build_symbolic", "TANGENT_MIN_STATES"]
+__all__ = ["FUNCTION_GROUPS", "HELPER_USERS", "Symbolic", "build_symbolic", "TANGENT_MIN_STATES"]
 
 # Above this many states jac_x evaluates one tangent program per column in a C loop
 # (code and generation time O(program)) instead of unrolling every column
 # (O(program x states) code, a little faster to run).
 TANGENT_MIN_STATES = 12
 
+# Functions that read A and b through the shared static helper NAME_dynamics.
+HELPER_USERS = ("rhs", "mass_matrix", "forcing", "inverse_dynamics")
+
 FUNCTION_GROUPS = {
-    "rhs": ("kin", "A", "b"),
+    "rhs": ("kin",),                 # + the dynamics helper (A, b)
     "jac_x": ("A", "b", "dkin", "G", "Gt"),
     "jac_r": ("A", "b", "dkin_r", "Gr"),
-    "mass_matrix": ("M",),
-    "forcing": ("f",),
-    "inverse_dynamics": ("tau",),
+    "mass_matrix": (),                # the dynamics helper only
+    "forcing": (),
+    "inverse_dynamics": (),
     "outputs": ("out",),
     "constraints": ("con",),
     "constraints_jac": ("dcon",),
@@ -101,6 +104,8 @@ def _dynamics(formed, layout):
 def build_symbolic(formed, layout, functions, outputs=None):
     """The unoptimized program holding the result groups ``functions`` need."""
     groups = {g for f in functions for g in FUNCTION_GROUPS[f]}
+    if set(functions) & set(HELPER_USERS):
+        groups |= {"A", "b"}
     A, b = _dynamics(formed, layout)
     nw, nu, nq = len(b), formed.nu, formed.nq
     kin = [layout.apply(e, "the kinematic equations") for e in formed.kinematics]
@@ -138,13 +143,6 @@ def build_symbolic(formed, layout, functions, outputs=None):
             derivatives.append(("res", layout.x, "G"))
         if "Gr" in groups:
             derivatives.append(("res", layout.r, "Gr"))
-    if "M" in groups:
-        res += [(("M", i, j), A[i, j]) for i in range(nu) for j in range(nu) if A[i, j] != 0]
-    if "f" in groups:
-        res += [(("f", i), b[i]) for i in range(nu)]
-    if "tau" in groups:
-        res += [(("tau", i), sm.Add(*[A[i, j] * UD[j] for j in range(nu)]) - b[i])
-                for i in range(nu)]
     names, outs = _outputs(formed, layout, outputs)
     if "out" in groups:
         res += [(("out", i), e) for i, e in enumerate(outs)]

@@ -41,6 +41,13 @@ static void mass_spring_ldlt_solve(const double *F, double *b)
     b[0] *= F[1];
 }
 
+static void mass_spring_dynamics(const double *x, const double *p, double *F, double *w)
+{
+    const double t0 = p[1]*x[0];
+    F[0] = p[0];
+    w[0] = -t0;
+}
+
 int mass_spring_rhs(double t, const double *x, const double *p, const double *r, double *xdot, double *work)
 {
     (void)t;
@@ -49,11 +56,8 @@ int mass_spring_rhs(double t, const double *x, const double *p, const double *r,
     double F[2];
     double w[1];
     int status;
-    const double t0 = p[1]*x[0];
-    const double t1 = -t0;
     xdot[0] = x[1];
-    F[0] = p[0];
-    w[0] = t1;
+    mass_spring_dynamics(x, p, F, w);
     status = mass_spring_ldlt_factor(F);
     if (status != EOMC_OK) return status;
     mass_spring_ldlt_solve(F, w);
@@ -72,9 +76,8 @@ int mass_spring_jac_x(double t, const double *x, const double *p, const double *
     int i, k;
     int status;
     const double t0 = p[1]*x[0];
-    const double t1 = -t0;
     F[0] = p[0];
-    w[0] = t1;
+    w[0] = -t0;
     status = mass_spring_ldlt_factor(F);
     if (status != EOMC_OK) return status;
     mass_spring_ldlt_solve(F, w);
@@ -92,10 +95,12 @@ int mass_spring_jac_x(double t, const double *x, const double *p, const double *
 int mass_spring_mass_matrix(double t, const double *x, const double *p, const double *r, double *out, double *work)
 {
     (void)t;
-    (void)x;
     (void)r;
     (void)work;
-    out[0] = p[0];
+    double F[1];
+    double w[1];
+    mass_spring_dynamics(x, p, F, w);
+    out[0] = F[0];
     return mass_spring_finite(out, 1);
 }
 
@@ -104,9 +109,10 @@ int mass_spring_forcing(double t, const double *x, const double *p, const double
     (void)t;
     (void)r;
     (void)work;
-    const double t0 = p[1]*x[0];
-    const double t1 = -t0;
-    out[0] = t1;
+    double F[1];
+    double w[1];
+    mass_spring_dynamics(x, p, F, w);
+    out[0] = w[0];
     return mass_spring_finite(out, 1);
 }
 
@@ -115,8 +121,10 @@ int mass_spring_inverse_dynamics(double t, const double *x, const double *udot, 
     (void)t;
     (void)r;
     (void)work;
-    const double t0 = p[1]*x[0];
-    tau[0] = t0 + p[0]*udot[0];
+    double F[1];
+    double w[1];
+    mass_spring_dynamics(x, p, F, w);
+    tau[0] = F[0] * udot[0] - w[0];
     return mass_spring_finite(tau, 1);
 }
 

@@ -41,6 +41,15 @@ static void pendulum_ldlt_solve(const double *F, double *b)
     b[0] *= F[1];
 }
 
+static void pendulum_dynamics(const double *x, const double *p, double *F, double *w)
+{
+    const double t0 = sin(x[0]);
+    const double t1 = p[0]*(p[2]*p[2]);
+    const double t2 = t0*p[0]*p[1]*p[2];
+    F[0] = t1;
+    w[0] = -t2;
+}
+
 int pendulum_rhs(double t, const double *x, const double *p, const double *r, double *xdot, double *work)
 {
     (void)t;
@@ -49,13 +58,8 @@ int pendulum_rhs(double t, const double *x, const double *p, const double *r, do
     double F[2];
     double w[1];
     int status;
-    const double t0 = sin(x[0]);
-    const double t1 = p[0]*(p[2]*p[2]);
-    const double t2 = t0*p[0]*p[1]*p[2];
-    const double t3 = -t2;
     xdot[0] = x[1];
-    F[0] = t1;
-    w[0] = t3;
+    pendulum_dynamics(x, p, F, w);
     status = pendulum_ldlt_factor(F);
     if (status != EOMC_OK) return status;
     pendulum_ldlt_solve(F, w);
@@ -78,9 +82,8 @@ int pendulum_jac_x(double t, const double *x, const double *p, const double *r, 
     const double t2 = p[0]*(p[2]*p[2]);
     const double t3 = t0*p[0]*p[1]*p[2];
     const double t4 = t1*p[0]*p[1]*p[2];
-    const double t5 = -t3;
     F[0] = t2;
-    w[0] = t5;
+    w[0] = -t3;
     status = pendulum_ldlt_factor(F);
     if (status != EOMC_OK) return status;
     pendulum_ldlt_solve(F, w);
@@ -98,11 +101,12 @@ int pendulum_jac_x(double t, const double *x, const double *p, const double *r, 
 int pendulum_mass_matrix(double t, const double *x, const double *p, const double *r, double *out, double *work)
 {
     (void)t;
-    (void)x;
     (void)r;
     (void)work;
-    const double t0 = p[0]*(p[2]*p[2]);
-    out[0] = t0;
+    double F[1];
+    double w[1];
+    pendulum_dynamics(x, p, F, w);
+    out[0] = F[0];
     return pendulum_finite(out, 1);
 }
 
@@ -111,10 +115,10 @@ int pendulum_forcing(double t, const double *x, const double *p, const double *r
     (void)t;
     (void)r;
     (void)work;
-    const double t0 = sin(x[0]);
-    const double t1 = t0*p[0]*p[1]*p[2];
-    const double t2 = -t1;
-    out[0] = t2;
+    double F[1];
+    double w[1];
+    pendulum_dynamics(x, p, F, w);
+    out[0] = w[0];
     return pendulum_finite(out, 1);
 }
 
@@ -123,10 +127,10 @@ int pendulum_inverse_dynamics(double t, const double *x, const double *udot, con
     (void)t;
     (void)r;
     (void)work;
-    const double t0 = sin(x[0]);
-    const double t1 = p[0]*(p[2]*p[2]);
-    const double t2 = t0*p[0]*p[1]*p[2];
-    tau[0] = t2 + t1*udot[0];
+    double F[1];
+    double w[1];
+    pendulum_dynamics(x, p, F, w);
+    tau[0] = F[0] * udot[0] - w[0];
     return pendulum_finite(tau, 1);
 }
 
