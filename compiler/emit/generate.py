@@ -162,6 +162,13 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
                fold_parameters=False):
     """Lower ``formed`` (a FormedSystem) to C; returns a :class:`GeneratedModel`.
 
+    ``parameters``: {symbol: default} giving order and defaults (others follow, sorted by
+    name, default 1.0); ``inputs``: order of the specified symbols (default
+    ``formed.inputs``); ``outputs``: {name: expression in q, u, q', p, r, t};
+    ``functions``: subset of :data:`ALL_FUNCTIONS` ("jacobian" = jac_x; None = all).
+    Functions that do not apply (jac_r without inputs, outputs without outputs,
+    constraints without constraints) are not generated, and their struct pointer is NULL;
+    linearize brings jac_x and jac_r.  ``fold_parameters`` turns parameters into literals.
     Deterministic: identical input gives byte-identical output.
     """
     low = lower(formed, name, parameters=parameters, inputs=inputs, outputs=outputs,
