@@ -23,6 +23,7 @@ from eomc.errors import ModelError
 from .cdef import ABI_VERSION, BATCH_CDEF, MODEL_CDEF, model_function_cdef
 from .integrators_api import INTEGRATOR_CDEF
 from .model import Model
+from .native import integrator_library
 
 __all__ = ["load", "find_model_json", "LoadError"]
 
@@ -87,7 +88,7 @@ def _base_ffi():
 
 
 def _open_cffi(directory, data):
-    """(ffi, lib, model_lib, c_model, library): ``lib`` has the eomc_* functions, ``model_lib`` NAME_*."""
+    """(ffi, lib, model_lib, c_model, library): ``lib`` has the batch helper, ``model_lib`` NAME_*."""
     name = data["name"]
     ffi = _base_ffi()
     model_ffi = cffi.FFI()
@@ -139,4 +140,5 @@ def load(dir_or_path, name=None, backend=None):
         raise ValueError(f"unknown backend {backend!r}; choose cffi or cython")
     extension = _open_extension(directory, data) if backend == "cython" else None
     return Model(ffi=ffi, lib=lib, c_model=c_model, metadata=data, directory=directory,
-                 library_path=library, extension=extension, model_lib=model_lib)
+                 library_path=library, extension=extension, model_lib=model_lib,
+                 integrators=integrator_library(ffi))

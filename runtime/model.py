@@ -103,9 +103,11 @@ class Model:
     """A built model (see the module docstring); attributes mirror the C ``eomc_model`` struct."""
 
     def __init__(self, *, ffi, lib, c_model, metadata, directory, library_path, extension=None,
-                 model_lib=None):
-        # lib: the eomc_* functions (integrators, batch); model_lib: the model's NAME_* functions
+                 model_lib=None, integrators=None):
+        # lib: the batch helper (eomc_rhs_many); model_lib: the model's NAME_* functions;
+        # integrators: eomc_integrate & co., built once with eomc (runtime/native.py)
         self.ffi, self.lib, self.c_model = ffi, lib, c_model
+        self.integrators = lib if integrators is None else integrators
         self.model_lib = lib if model_lib is None else model_lib
         self.metadata = metadata
         self.name = metadata["name"]

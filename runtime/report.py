@@ -117,7 +117,7 @@ def _c_call(model, a):
     Buffers are allocated once, so timing it measures the integration in C and
     not the per-call allocations of simulate.run_prepared.
     """
-    ffi, lib = model.ffi, model.lib
+    ffi, lib = model.ffi, model.integrators
     buf = lambda arr: ffi.from_buffer("double[]", arr)  # noqa: E731
     mid = METHOD_IDS[a["method"]]
     opt = ffi.new("eomc_options *")

@@ -191,7 +191,7 @@ def _options(ffi, a):
 
 def run_prepared(model, a, out=None):
     """One C call: returns (x_out rows written, stats dict, x_last).  Releases the GIL."""
-    ffi, lib = model.ffi, model.lib
+    ffi, lib = model.ffi, model.integrators
     buf = lambda arr: ffi.from_buffer("double[]", arr)  # noqa: E731
     n_eval = a["t_eval"].size
     x_out = np.full((n_eval, model.nx), np.nan) if out is None else out
@@ -212,7 +212,7 @@ def _along(model, a, which, t, x):
     fn = model.c_model.outputs if which == 0 else model.c_model.constraints
     if cols == 0 or fn == model.ffi.NULL or t.size == 0:
         return None
-    ffi, lib = model.ffi, model.lib
+    ffi, lib = model.ffi, model.integrators
     buf = lambda arr: ffi.from_buffer("double[]", arr)  # noqa: E731
     out = np.empty((t.size, cols))
     work = np.empty(lib.eomc_integrate_work_size(model.c_model, METHOD_IDS["rk4"]))

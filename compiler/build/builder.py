@@ -3,9 +3,10 @@
 ``build(generated)`` returns a :class:`BuildResult` whose ``directory`` holds
 NAME.c, NAME.h, the shipped headers, libNAME.so and NAME.json (metadata plus
 the cffi declarations and build facts) -- everything ``eomc.runtime.loader``
-needs.  The library is NAME.c linked with eomc_integrators.c and eomc_batch.c;
-those two are compiled once per compiler and flags into their own cache entry
-(``objects/``), so a new model pays only for its own translation unit.
+needs.  The library is NAME.c compiled together with the 25-line batch helper
+eomc_batch.c.  The integrators are not in it: they are the same for every
+model and were compiled once when eomc was installed (setup.py), so a new
+model pays only for its own translation unit.
 """
 import json
 import os
@@ -27,7 +28,7 @@ from .toolchain import DEFAULT_CFLAGS, find_compiler
 __all__ = ["BuildResult", "build", "shipped_c_dir", "SHIPPED_HEADERS", "resolve_cflags"]
 
 SHIPPED_HEADERS = ("eomc_model.h", "eomc_integrators.h", "eomc_batch.h")
-RUNTIME_SOURCES = ("eomc_integrators.c", "eomc_batch.c")
+MODEL_RUNTIME_SOURCES = ("eomc_batch.c",)  # compiled into every model library
 BACKENDS = ("cffi", "cython")
 
 
@@ -83,29 +84,8 @@ def run_compiler(argv, cwd, name, key, root):
     kept.parent.mkdir(parents=True, exist_ok=True)
     shutil.copytree(cwd, kept)
     message = (proc.stderr or proc.stdout).strip()
-    what = "eomc's integrator sources" if name == "eomc_runtime" else f"model {name!r}"
-    raise CompileError(f"the C compiler failed on {what} (exit status {proc.returncode}); "
+    raise CompileError(f"the C compiler failed on model {name!r} (exit status {proc.returncode}); "
                        f"source kept in {kept}\ncommand: {shlex.join(argv)}\n{message}")
-
-
-def _runtime_objects(tc, flags, root):
-    """(key, build) for eomc_integrators.o and eomc_batch.o, compiled once per compiler and flags.
-
-    ``build()`` returns the entry directory; it is only called on a model-cache miss.
-    """
-    c_dir = shipped_c_dir()
-    names = SHIPPED_HEADERS + RUNTIME_SOURCES
-    argv = [*tc.argv, *flags, "-c", *RUNTIME_SOURCES]
-    inputs = {**_base_inputs(tc, flags), "argv": argv[len(tc.argv):],
-              "files": {n: sha256_file(c_dir / n) for n in names}}
-    key = hash_key(inputs)
-
-    def compile_objects(tmp):
-        for n in names:
-            shutil.copyfile(c_dir / n, tmp / n)
-        run_compiler(argv, tmp, "eomc_runtime", key, root)
-
-    return key, lambda: get_or_build(root, "objects", key, compile_objects, inputs)[0]
 
 
 def _model_json(generated, key, backend, tc, flags, extra, extension=None):
@@ -129,15 +109,13 @@ def build(generated, *, backend="cffi", cflags=None, cache_dir=None, force=False
     tc = find_compiler()
     flags = resolve_cflags(cflags)
     root = cache_root(cache_dir)
-    objects_key, build_objects = _runtime_objects(tc, flags, root)
     c_dir = shipped_c_dir()
     lib = f"lib{name}.so"
-    objects = [Path(s).with_suffix(".o").name for s in RUNTIME_SOURCES]
-    link = [*tc.argv, *flags, "-shared", "-o", lib, f"{name}.c", *objects, "-lm", *_link_flags()]
-    inputs = {**_base_inputs(tc, flags), "objects": objects_key, "backend": backend,
+    link = [*tc.argv, *flags, "-shared", "-o", lib, f"{name}.c", *MODEL_RUNTIME_SOURCES, "-lm", *_link_flags()]
+    inputs = {**_base_inputs(tc, flags), "backend": backend,
               "argv": link[len(tc.argv):],
               "source": hash_key(generated.c_source), "header": hash_key(generated.header),
-              "headers": {n: sha256_file(c_dir / n) for n in SHIPPED_HEADERS},
+              "headers": {n: sha256_file(c_dir / n) for n in SHIPPED_HEADERS + MODEL_RUNTIME_SOURCES},
               "metadata": hash_key([generated.metadata, generated.cdef, extra_metadata])}
     if backend == "cython":
         from .cython_ext import extension_key_inputs
@@ -147,11 +125,9 @@ def build(generated, *, backend="cffi", cflags=None, cache_dir=None, force=False
     def compile_model(tmp):
         (tmp / f"{name}.c").write_text(generated.c_source)
         (tmp / f"{name}.h").write_text(generated.header)
-        for n in SHIPPED_HEADERS:
+        for n in SHIPPED_HEADERS + MODEL_RUNTIME_SOURCES:
             shutil.copyfile(c_dir / n, tmp / n)
-        object_dir = build_objects()
-        link_abs = [str(object_dir / a) if a in objects else a for a in link]
-        run_compiler(link_abs, tmp, name, key, root)
+        run_compiler(link, tmp, name, key, root)
         extension = None
         if backend == "cython":
             from .cython_ext import build_extension

@@ -19,7 +19,7 @@ def test_build_writes_sources_library_metadata_and_module(tmp_path, capsys):
     assert code == 0
     assert sorted(p.name for p in out.iterdir()) == sorted(
         ["trolley.c", "trolley.h", "libtrolley.so", "trolley.json", "trolley.py",
-         "eomc_model.h", "eomc_integrators.h", "eomc_batch.h"])
+         "eomc_model.h", "eomc_integrators.h", "eomc_batch.h", "eomc_batch.c"])
     assert "built model 'trolley'" in capsys.readouterr().out
     script = ("import sys; sys.modules['sympy'] = None; sys.path.insert(0, sys.argv[1]); import trolley, json;"
               "print(json.dumps([list(trolley.rhs(0.0, [0.1, 0.4, 0.3, -0.2], r=[1.5])), list(trolley.model.functions)]))")

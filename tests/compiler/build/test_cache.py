@@ -113,7 +113,7 @@ def test_concurrent_builds_of_one_model_share_one_entry(tmp_path):
 
 
 def test_library_builds_with_strict_warnings(tmp_path):
-    """Generated C, the integrators and the batch helper are clean under -Wall -Wextra -Werror."""
+    """Generated C and the batch helper are clean under -Wall -Wextra -Werror (the integrators: tests/runtime)."""
     import model_files
     from eomc.compiler.driver import generate
     flags = "-O2 -std=c99 -Wall -Wextra -Werror"

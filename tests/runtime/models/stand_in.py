@@ -83,6 +83,7 @@ class StandInModel:
     def __init__(self, ffi, lib, name):
         m = getattr(lib, f"{name}_model")()
         self.ffi, self.lib, self.c_model, self.name = ffi, lib, m, name
+        self.integrators = lib  # the stand-in library links the integrators itself
         for f in ("nq", "nu", "nx", "nparam", "ninput", "noutput", "nhol", "nvel", "work_size"):
             setattr(self, f, int(getattr(m, f)))
         self.state_names = _strings(ffi, m.state_names, self.nx)
