@@ -159,10 +159,15 @@ import sys
 sys.path[:0] = {paths!r}
 import zoo, emit_support as es
 from sympy.physics import mechanics as me
-from eomc.compiler.emit import generate_c
+from eomc.compiler.emit import generate_c, linsolve, symbolic
 kane, spec = zoo.n_link_pendulum_on_cart(2, me)
-gm = generate_c(es.kane_formed(kane, spec), "det", outputs=None)
-sys.stdout.write(gm.c_source + gm.header + gm.cdef)
+formed = es.kane_formed(kane, spec)
+gm = generate_c(formed, "det")
+out = [gm.c_source, gm.header, gm.cdef]
+symbolic.TANGENT_MIN_STATES = linsolve.UNROLL_MAX_DENSE = 0      # large-model code shapes
+out.append(generate_c(formed, "det").c_source)
+out.append(generate_c(es.lagrange_formed(es.particle_on_sphere()), "sphere").c_source)
+sys.stdout.write("\\n=====\\n".join(out))
 """
 
 
@@ -178,7 +183,9 @@ def test_byte_identical_across_runs_and_hash_seeds():
         proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
                               env=dict(os.environ, PYTHONHASHSEED=seed), check=True)
         outs.append(proc.stdout)
-    assert outs[0] == outs[1] == a.c_source + a.header + a.cdef
+    assert outs[0] == outs[1]
+    assert outs[0].split("\n=====\n")[:3] == [a.c_source, a.header, a.cdef]
+    assert "dx[k] = 1.0;" in outs[0].split("\n=====\n")[3]
 
 
 def test_metadata_is_json_and_complete(models):
