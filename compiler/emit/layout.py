@@ -13,7 +13,7 @@ from sympy.physics.vector import dynamicsymbols
 
 from ...errors import ModelError
 
-__all__ = ["Layout", "make_layout", "DEFAULT_PARAMETER_VALUE"]
+__all__ = ["Layout", "make_layout", "check_identifier", "DEFAULT_PARAMETER_VALUE"]
 
 DEFAULT_PARAMETER_VALUE = 1.0
 _IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")

@@ -40,13 +40,11 @@ class Solver:
 def _fill_pattern(n, pattern):
     """Lower-triangle nonzeros of L (strictly below the diagonal), fill-in included."""
     L = {(i, j) for (i, j) in pattern if i > j}
-    cols = {}
     for j in range(n):
-        rows_j = {k for k in range(j) if (j, k) in L}
+        rows_j = [k for k in range(j) if (j, k) in L]
         for i in range(j + 1, n):
             if (i, j) not in L and any((i, k) in L for k in rows_j):
                 L.add((i, j))
-        cols[j] = rows_j
     return L
 
 

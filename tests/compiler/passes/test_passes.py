@@ -12,10 +12,6 @@ P = sm.symbols("p_0:2", real=True)
 LEAVES = list(X) + list(P) + [sm.Integer(2), sm.Rational(1, 3), sm.Float(0.25)]
 
 
-def _expr(draw_tree):
-    return draw_tree
-
-
 exprs = st.recursive(
     st.sampled_from(LEAVES),
     lambda sub: st.one_of(
