@@ -75,6 +75,9 @@ int main(void)
     double *out = filled(nx * nx + nx * nr + nu * nu + nc * nx + (size_t)m->noutput + 1, 0.0);
     double *udot = filled(nu, 0.1), *B = filled(nx * nr + 1, 0.0);
     int bad = 0;
+#ifdef ZERO_LAST_PARAM
+    p[m->nparam - 1] = 0.0;
+#endif
     if (m->abi_version != EOMC_ABI_VERSION) bad++;
     if (m->rhs(0.5, x, p, r, out, work) != EOMC_OK) bad++;
     if (m->mass_matrix && m->mass_matrix(0.5, x, p, r, out, work) != EOMC_OK) bad++;
@@ -101,23 +104,43 @@ def test_strict_warnings_clean(models, cc, tmp_path):
         es.compile_shared(gm, d, cc=cc, flags=("-O2", "-Wshadow", "-Wconversion"))
 
 
+def _sanitized_run(gm, d, defines=()):
+    src = es.write_sources(gm, str(d))
+    main = d / "main.c"
+    main.write_text(DRIVER.replace("NAME", gm.name))
+    exe = d / "driver"
+    cmd = ["gcc", *es.STRICT, "-O1", "-g", "-fsanitize=address,undefined",
+           "-fno-sanitize-recover=all", "-fno-omit-frame-pointer", *defines, src, str(main),
+           "-I", str(d), "-o", str(exe), "-lm"]
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    run = subprocess.run([str(exe)], capture_output=True, text=True,
+                         env=dict(os.environ, ASAN_OPTIONS="detect_leaks=1"))
+    assert run.returncode == 0, run.stdout + run.stderr
+    assert run.stdout.startswith(f"{gm.name} 0 ") and "runtime error" not in run.stderr
+
+
 def test_sanitizers_clean(models, tmp_path):
     for gm in models:
         d = tmp_path / gm.name
         d.mkdir()
-        src = es.write_sources(gm, str(d))
-        main = d / "main.c"
-        main.write_text(DRIVER.replace("NAME", gm.name))
-        exe = d / "driver"
-        cmd = ["gcc", *es.STRICT, "-O1", "-g", "-fsanitize=address,undefined",
-               "-fno-sanitize-recover=all", "-fno-omit-frame-pointer", src, str(main),
-               "-I", str(d), "-o", str(exe), "-lm"]
-        proc = subprocess.run(cmd, capture_output=True, text=True)
-        assert proc.returncode == 0, proc.stderr
-        run = subprocess.run([str(exe)], capture_output=True, text=True,
-                             env=dict(os.environ, ASAN_OPTIONS="detect_leaks=1"))
-        assert run.returncode == 0, run.stdout + run.stderr
-        assert run.stdout.startswith(f"{gm.name} 0 ") and "runtime error" not in run.stderr
+        _sanitized_run(gm, d)
+
+
+def test_sanitizers_clean_on_lu_fallback(tmp_path):
+    """The unrolled LU's dense-pivoting fallback path (A = [[10 m, 1], [1, 0]] at m = 0)."""
+    q, u = me.dynamicsymbols("q u")
+    m, k = sm.symbols("m k")
+    from eomc.compiler.mechanics.formed import FormedSystem
+    formed = FormedSystem(
+        method="lagrange", coordinates=(q,), speeds=(u,), n_dependent_coordinates=0,
+        n_dependent_speeds=0, kinematics=sm.Matrix([u]),
+        dynamics_matrix=sm.Matrix([[10 * m, 1], [1, 0]]), dynamics_rhs=sm.Matrix([-k * q, u]),
+        multipliers=(me.dynamicsymbols("lam"),), holonomic_constraints=sm.zeros(0, 1),
+        velocity_constraints=sm.Matrix([u]), inputs=(), parameters=(k, m))
+    gm = generate_c(formed, "saddle")
+    assert "goto dense;" in gm.c_source
+    _sanitized_run(gm, tmp_path, ["-DZERO_LAST_PARAM"])
 
 
 def _exports(lib):
