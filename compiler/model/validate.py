@@ -80,7 +80,8 @@ def check_outputs(outputs, formed):
 
 
 def check_parameters(parameters, formed, outputs=None):
-    """dict Symbol (or its name) -> default value; every key must appear in the model."""
+    """dict Symbol (or its name) -> default value; every key must appear in the model, and
+    every parameter of the equations of motion needs a key (None: all default to 1.0)."""
     if parameters is None:
         return None
     if not isinstance(parameters, Mapping):
@@ -98,6 +99,12 @@ def check_parameters(parameters, formed, outputs=None):
             raise Invalid("parameters", f"unknown parameter `{key}`: it does not appear in the equations "
                                         f"of motion or outputs (parameters: {_names(known)})")
         result[symbol] = _real(value, f"the default of parameter `{key}`", "parameters")
+    missing = set(formed.parameters) - set(result)
+    if missing:
+        # A partial dict is almost always a forgotten entry; a silent 1.0 would be a wrong model.
+        raise Invalid("parameters", f"no default value for {_names(missing)}: the equations of motion use "
+                                    f"{'it' if len(missing) == 1 else 'them'}, so `parameters` must give "
+                                    f"{'it' if len(missing) == 1 else 'each'} a value")
     return result
 
 

@@ -110,9 +110,15 @@ def test_sympy_formed_system_is_converted(tmp_path):
 
 def test_helper_module_beside_the_file_is_importable(tmp_path):
     (tmp_path / "helper_mod_xyz.py").write_text("VALUE = 3.0\n")
-    text = HEAD + "\nfrom helper_mod_xyz import VALUE\nparameters = {m: VALUE}\n"
+    text = HEAD + "\nfrom helper_mod_xyz import VALUE\nparameters = {m: VALUE, g: 9.81, l: 1.0}\n"
     spec = model_spec(_file(tmp_path, text))
-    assert {str(k): v for k, v in spec.parameters.items()} == {"m": 3.0}
+    assert {str(k): v for k, v in spec.parameters.items()} == {"m": 3.0, "g": 9.81, "l": 1.0}
+
+
+def test_partial_parameters_name_the_missing_ones(tmp_path):
+    text = HEAD + "\nparameters = {m: 2.0}\n"
+    with pytest.raises(ModelFileError, match=r"m\.py:\d+: no default value for g, l"):
+        model_spec(_file(tmp_path, text))
 
 
 def test_assignment_lines_cover_all_forms():
