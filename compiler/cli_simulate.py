@@ -6,16 +6,14 @@ built model directory / NAME.json / libNAME.so (loaded with eomc.load).  The
 start is the model's ``initial_state`` unless ``--x0`` overrides entries.
 """
 import argparse
-import sys
-from pathlib import Path
 
-from eomc.errors import EomcError
+from . import cli_common
 
-__all__ = ["configure", "run", "load_model", "parse_assignments"]
+__all__ = ["configure", "run"]
 
 
 def configure(parser):
-    parser.add_argument("model", help="model file (.py) or built model directory")
+    cli_common.add_model_arguments(parser)
     parser.add_argument("--t-final", type=float, required=True, metavar="T", help="end time")
     parser.add_argument("--t0", type=float, default=0.0, help="start time")
     parser.add_argument("-o", "--output", metavar="CSV", help="trajectory CSV to write")
@@ -27,8 +25,6 @@ def configure(parser):
     parser.add_argument("--dt", type=float, help="fixed step (rk4)")
     parser.add_argument("--points", type=int, default=1001, help="output rows (adaptive methods)")
     parser.add_argument("--max-steps", type=int, default=100000, help="step limit")
-    parser.add_argument("--x0", metavar="NAME=V,...", help="initial state entries to override")
-    parser.add_argument("--param", metavar="NAME=V,...", help="parameter values to override")
     parser.add_argument("--project", action="store_true",
                         help="project onto the model's constraints after each step")
     parser.add_argument("--baumgarte", type=float, default=0.0, metavar="RATE",
@@ -36,59 +32,11 @@ def configure(parser):
     parser.formatter_class = argparse.ArgumentDefaultsHelpFormatter
 
 
-def parse_assignments(text, what):
-    """'a=1,b=2.5' -> {'a': 1.0, 'b': 2.5}; ValueError naming the bad item."""
-    out = {}
-    for item in filter(None, (s.strip() for s in (text or "").split(","))):
-        name, sep, value = item.partition("=")
-        try:
-            if not sep:
-                raise ValueError
-            out[name.strip()] = float(value)
-        except ValueError:
-            raise ValueError(f"--{what}: expected NAME=VALUE, got {item!r}") from None
-    return out
-
-
-def load_model(spec):
-    """A runtime Model from a model file (compiled) or a build directory (loaded)."""
-    path = Path(spec)
-    if path.suffix == ".py":
-        from eomc.compiler.driver import compile as compile_model
-        return compile_model(str(path), progress=False)
-    from eomc.runtime.loader import load
-    return load(path)
-
-
-def _initial_state(model, overrides):
-    x0 = getattr(model, "initial_state", None)
-    if x0 is None:
-        x0 = (getattr(model, "metadata", None) or {}).get("initial_state")
-    start = dict(zip(model.state_names, x0)) if x0 is not None else {}
-    unknown = sorted(set(overrides) - set(model.state_names))
-    if unknown:
-        raise ValueError(f"--x0: unknown state {', '.join(unknown)}; states are "
-                         f"{', '.join(model.state_names)}")
-    start.update(overrides)
-    return start
-
-
 def run(args):
-    """Bad arguments (ValueError) are printed as one line, like eomc's own errors."""
-    try:
-        return _run(args)
-    except ValueError as exc:
-        if isinstance(exc, EomcError):
-            raise
-        print(f"eomc simulate: error: {exc}", file=sys.stderr)
-        return 2
-
-
-def _run(args):
     from eomc.runtime.simulate import simulate
-    model = load_model(args.model)
-    x0 = _initial_state(model, parse_assignments(args.x0, "x0"))
-    params = parse_assignments(args.param, "param") or None
+    model = cli_common.load_model(args.model)
+    x0 = cli_common.initial_state(model, cli_common.parse_assignments(args.x0, "x0"))
+    params = cli_common.parameter_values(model, cli_common.parse_assignments(args.param, "param"))
     res = simulate(model, x0, (args.t0, args.t_final), p=params, method=args.method,
                    rtol=args.rtol, atol=args.atol, dt=args.dt, max_steps=args.max_steps,
                    n_points=None if args.dt else args.points, project=args.project,

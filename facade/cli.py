@@ -55,6 +55,9 @@ def main(argv=None):
     except EomcError as exc:
         print(f"eomc {name}: error: {exc}", file=sys.stderr)
         return 1
+    except ValueError as exc:  # bad arguments caught by the runtime's checks
+        print(f"eomc {name}: error: {exc}", file=sys.stderr)
+        return 2
     except KeyboardInterrupt:
         print(f"eomc {name}: interrupted", file=sys.stderr)
         return 130

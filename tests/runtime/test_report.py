@@ -233,7 +233,7 @@ def test_cli_report_on_model_file_and_built_directory(tmp_path, monkeypatch, cap
 
 def test_cli_report_errors_are_one_line(tmp_path, capsys):
     from eomc.cli import main
-    assert main(["report", str(tmp_path / "missing.py")]) == 1
+    assert main(["report", str(tmp_path / "missing.py")]) == 2  # a usage error
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "no such model file" in err
 

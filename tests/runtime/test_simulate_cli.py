@@ -8,7 +8,7 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parent / "models"))
 from stand_in import get_model  # noqa: E402
 
-import eomc.compiler.cli_simulate as cli_simulate  # noqa: E402
+import eomc.compiler.cli_common as cli_common  # noqa: E402
 from eomc.cli import main  # noqa: E402
 
 
@@ -16,7 +16,7 @@ from eomc.cli import main  # noqa: E402
 def pendulum(monkeypatch):
     model = get_model("pendulum")
     model.initial_state = np.array([0.5, 0.0])
-    monkeypatch.setattr(cli_simulate, "load_model", lambda spec: model)
+    monkeypatch.setattr(cli_common, "load_model", lambda spec, quiet=True: model)
     return model
 
 
@@ -53,7 +53,7 @@ def test_simulate_bad_arguments_one_line(pendulum, capsys, argv, match):
 
 
 def test_simulate_failure_is_one_line(monkeypatch, capsys):
-    monkeypatch.setattr(cli_simulate, "load_model", lambda spec: get_model("singular"))
+    monkeypatch.setattr(cli_common, "load_model", lambda spec, quiet=True: get_model("singular"))
     assert main(["simulate", "s", "--t-final", "1"]) == 1
     err = capsys.readouterr().err
     assert "singular mass matrix" in err and "stopped at t=0.5:" in err

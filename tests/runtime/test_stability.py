@@ -13,7 +13,7 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parent / "models"))
 from stand_in import get_model  # noqa: E402
 
-import eomc.compiler.cli_simulate as cli_simulate  # noqa: E402
+import eomc.compiler.cli_common as cli_common  # noqa: E402
 from eomc.cli import main  # noqa: E402
 from eomc.errors import SimulationError  # noqa: E402
 from eomc.runtime.simulate import simulate  # noqa: E402
@@ -115,10 +115,10 @@ def test_e_fast_spin_conserves_energy_and_momentum(spin):
 
 
 def test_eomc_check_cli(monkeypatch, capsys):
-    monkeypatch.setattr(cli_simulate, "load_model", lambda spec: get_model("pendulum"))
+    monkeypatch.setattr(cli_common, "load_model", lambda spec, quiet=True: get_model("pendulum"))
     assert main(["check", "pend", "--x0", "q1=1.0", "--t-final", "5"]) == 0
     out = capsys.readouterr().out
     assert "dop853 accuracy" in out and "checks passed" in out and "FAIL" not in out
-    monkeypatch.setattr(cli_simulate, "load_model", lambda spec: get_model("sphere"))
+    monkeypatch.setattr(cli_common, "load_model", lambda spec, quiet=True: get_model("sphere"))
     assert main(["check", "s", "--x0", "theta=0.0,theta_dot=1.0"]) == 1   # singular at x0
     assert "FAIL" in capsys.readouterr().out
