@@ -36,8 +36,7 @@ import numpy as np
 
 from .reference import Reference, compute_reference, scaled_error
 from .report_output import plot_report, recommendation, summary_markdown, table_text, write_csv
-from .integrators_api import METHOD_IDS
-from .simulate import finish, prepare, resolve_method, run_prepared
+from .simulate import bind_call, finish, prepare, resolve_method, run_prepared
 
 __all__ = ["work_precision", "WorkPrecisionReport", "DEFAULT_METHODS", "DEFAULT_TOLERANCES",
            "DEFAULT_TARGET", "COLUMNS"]
@@ -112,25 +111,9 @@ def energy_drift(outputs):
 
 
 def _c_call(model, a):
-    """A zero-argument function making exactly the integrator's C call for prepared args `a`.
-
-    Buffers are allocated once, so timing it measures the integration in C and
-    not the per-call allocations of simulate.run_prepared.
-    """
-    ffi, lib = model.ffi, model.integrators
-    buf = lambda arr: ffi.from_buffer("double[]", arr)  # noqa: E731
-    mid = METHOD_IDS[a["method"]]
-    opt = ffi.new("eomc_options *")
-    opt.method, opt.rtol, opt.atol = mid, a["rtol"], a["atol"]
-    opt.h0, opt.hmax, opt.max_steps = a["h0"], a["hmax"], a["max_steps"]
-    opt.project, opt.stiff_check = int(a["project"]), int(a["stiff_check"])
-    x_out, x_last = np.empty((a["t_eval"].size, model.nx)), np.empty(model.nx)
-    work = np.empty(lib.eomc_integrate_work_size(model.c_model, mid))
-    stats = ffi.new("eomc_stats *")
-    args = (model.c_model, opt, a["t0"], a["t1"], buf(a["x0"]), buf(a["p"]), a["n_r"],
-            buf(a["r_t"]), buf(a["r_v"]), a["t_eval"].size, buf(a["t_eval"]), buf(x_out),
-            buf(x_last), stats, buf(work), work.size)
-    return lambda: lib.eomc_integrate(*args)
+    """A zero-argument function making exactly the integrator's C call for prepared args `a`
+    (buffers allocated once: timing it measures the integration in C, not simulate's allocations)."""
+    return bind_call(model, a)[0]
 
 
 def _timed(model, a, repeats):
