@@ -9,7 +9,6 @@ model and were compiled once when eomc was installed (setup.py), so a new
 model pays only for its own translation unit.
 """
 import json
-import os
 import platform
 import shlex
 import shutil
