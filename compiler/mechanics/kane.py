@@ -217,8 +217,18 @@ class KanesMethod:
         frstar = _frstar(mm, nn, udot)
         self._fr, self._frstar = f, frstar
         if s:
-            fraux = fr[o:, :]
-            frstaraux = _frstar(MM[o:, :], neg_nonmm[o:, :], udot)
+            fraux, mma, nna = fr[o:, :], MM[o:, :], neg_nonmm[o:, :]
+            if self._udep:
+                # Auxiliary speeds that enter the velocity constraints move the
+                # dependent speeds too: their partial velocities gain A_aux^T times
+                # the dependent rows, A_aux = -B_dep^-1 ∂(constraints)/∂u_aux.
+                p = o - len(self._udep)
+                B_aux = self._f_nh.jacobian(self._uaux)
+                A = (-self._constraint_solver(self._k_nh[:, p:o], B_aux)).T
+                fraux = fraux + A * fr[p:o, :]
+                mma = mma + A * MM[p:o, :]
+                nna = nna + A * neg_nonmm[p:o, :]
+            frstaraux = _frstar(mma, nna, udot)
             self._aux_eq = fraux + frstaraux
             self._fr = f.col_join(fraux)
             self._frstar = frstar.col_join(frstaraux)

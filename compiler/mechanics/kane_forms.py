@@ -174,7 +174,7 @@ def _named(what, func, *args):
 def _zero_aux(space, comps):
     if not space.uaux:
         return comps
-    z = dict.fromkeys(space.uaux, 0)
+    z = dict.fromkeys(space.uaux, sm.S.Zero)
     return tuple(c.xreplace(z) for c in comps)
 
 
@@ -226,7 +226,7 @@ def read_bodies(space, reader, inertial, bodies):
         v0 = _zero_aux(space, v)
         m = space.to_plain(body.mass)
         if space.uaux:
-            m = m.xreplace(dict.fromkeys(space.uaux, 0))
+            m = m.xreplace(dict.fromkeys(space.uaux, sm.S.Zero))
         R0 = tuple(m * a for a in _rate_of_change(space, reader, inertial, F, v0, what))
         dm = space.dt(m)
         if dm != 0:
@@ -238,25 +238,53 @@ def read_bodies(space, reader, inertial, bodies):
     return out
 
 
-def _read_rotation(space, reader, inertial, body, terms, what):
+def _rotation_frame(reader, inertial, body):
+    """The body frame, or -- when it is not oriented relative to N (a wheel given
+    only an angular velocity) -- the frame its inertia dyadic is written in."""
     B = body.frame
+    if reader.dcm_cost(B, inertial) != float("inf"):
+        return B
+    frames = [v.args[0][1] for arg in body.central_inertia.args for v in arg[1:] if v.args]
+    for F in frames:
+        if reader.dcm_cost(F, inertial) != float("inf"):
+            return F
+    return B
+
+
+def _read_rotation(space, reader, inertial, body, terms, what):
+    """ω_r, I·ω_s and T0 = I α0 + ω×I ω + (ᴮdI/dt) ω in the components of frame R.
+
+    R is the body frame B whenever possible; then α = d/dt of ω's components.
+    In another frame R, α = d/dt ω^R + ω_R × ω and ᴮdI/dt = dI^R/dt + Ω I − I Ω
+    with Ω = [ω_{R/B} ×], which is SymPy's inertia torque term by term.
+    """
+    B = body.frame
+    R = _rotation_frame(reader, inertial, body)
     speeds = space.u + space.uaux
-    w = reader.components(frame_ang_vel(B, inertial, what), B)
+    w = _named(what, reader.components, frame_ang_vel(B, inertial, what), R)
     w0 = _zero_aux(space, w)
-    I = reader.dyadic_matrix(body.central_inertia, B)
+    I = _named(what, reader.dyadic_matrix, body.central_inertia, R)
     if space.uaux:
-        z = dict.fromkeys(space.uaux, 0)
+        z = dict.fromkeys(space.uaux, sm.S.Zero)
         I = tuple(tuple(e.xreplace(z) for e in row) for row in I)
     terms.wr = partials(w, speeds)
     terms.Iw = [matvec(I, wr) for wr in terms.wr[:len(space.u)]]
     alpha0 = space.dt_vector(w0, udot=False)
+    dI = [[space.dt(e) for e in row] for row in I]
+    if R != B:
+        wR = _zero_aux(space, reader.components(frame_ang_vel(R, inertial, what), R))
+        alpha0 = tuple(a + b for a, b in zip(alpha0, cross(wR, w0)))
+        Om = tuple(a - b for a, b in zip(wR, w0))          # ω of R relative to B
+        cols = list(zip(*I))                                # (Ω I − I Ω), I symmetric
+        for i in range(3):
+            for j in range(3):
+                dI[i][j] += cross(Om, cols[j])[i] + cross(Om, cols[i])[j]
     Iw0 = matvec(I, w0)
     T0 = tuple(a + b for a, b in zip(matvec(I, alpha0), cross(w0, Iw0)))
-    dI = tuple(tuple(space.dt(e) for e in row) for row in I)
     if any(e != 0 for row in dI for e in row):
         T0 = tuple(a + b for a, b in zip(T0, matvec(dI, w0)))
     terms.T0 = T0
-    terms.rframe = B
+    terms.rframe = R
     terms.nT0 = tuple(-c for c in T0)
 
 
@@ -283,7 +311,7 @@ def read_loads(space, reader, inertial, parsed_loads):
     speeds = space.u + space.uaux
     out = []
     for name, kind, vel, vec, where in parsed_loads:
-        F = where if kind == "torque" else component_frame(vel, inertial, reader)
+        F = component_frame(vel, inertial, reader, where if kind == "torque" else None)
         what = f"load on {kind == 'torque' and 'frame' or 'point'} {name}"
         v = _named(what, reader.components, vel, F)
         f = _named(what, reader.components, vec, F)

@@ -91,3 +91,30 @@ def test_per_body_contributions_sum_to_fr_and_frstar():
     pt = random_point([ours.fr, ours.frstar, tot_f, tot_s], 14)
     assert_close(evaluate(tot_f, pt), evaluate(ours.fr, pt), what="sum GAF")
     assert_close(evaluate(tot_s, pt), evaluate(ours.frstar, pt), what="sum GIF")
+
+
+def _wheel_without_orientation(me):
+    """A body whose frame has an angular velocity but no orientation (SymPy's
+    bicycle does this for its wheels); its inertia is written in a carrier frame."""
+    q1, q2 = me.dynamicsymbols("q1 q2")
+    u1, u2 = me.dynamicsymbols("u1 u2")
+    m, d, g = sm.symbols("m d g")
+    Ixx, Iyy, Izz, Ixy, Iyz = sm.symbols("Ixx Iyy Izz Ixy Iyz")
+    N = me.ReferenceFrame("N")
+    A = N.orientnew("A", "Axis", [q1, N.z])
+    A.set_ang_vel(N, u1 * N.z)
+    W = me.ReferenceFrame("W")
+    W.set_ang_vel(A, u2 * A.y)
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    G = O.locatenew("G", d * A.x)
+    G.v2pt_theory(O, N, A)
+    wheel = me.RigidBody("Wheel", G, W, m, (me.inertia(A, Ixx, Iyy, Izz, Ixy, Iyz), G))
+    km = me.KanesMethod(N, [q1, q2], [u1, u2], kd_eqs=[q1.diff() - u1, q2.diff() - u2])
+    km.kanes_equations([wheel], [(G, -m * g * N.x), (W, sm.Symbol("T") * A.y)])
+    return km, []
+
+
+def test_body_frame_with_angular_velocity_only():
+    ours, ref = both(_wheel_without_orientation)
+    compare_kane(ours, ref, seeds=(15, 16))
