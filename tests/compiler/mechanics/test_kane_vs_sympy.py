@@ -118,3 +118,29 @@ def _wheel_without_orientation(me):
 def test_body_frame_with_angular_velocity_only():
     ours, ref = both(_wheel_without_orientation)
     compare_kane(ours, ref, seeds=(15, 16))
+
+
+def _aux_in_constraint(me):
+    """A dependent speed whose constraint involves an auxiliary speed."""
+    q1, q2 = me.dynamicsymbols("q1 q2")
+    u1, u2, u3 = me.dynamicsymbols("u1 u2 u3")
+    m, k, c, f = sm.symbols("m k c f")
+    N = me.ReferenceFrame("N")
+    A = N.orientnew("A", "Axis", [q2, N.z])
+    O = me.Point("O")
+    P = O.locatenew("P", q1 * N.x)
+    P.set_vel(N, u1 * N.x + u2 * A.y + u3 * A.z)
+    km = me.KanesMethod(N, [q1, q2], [u1], kd_eqs=[q1.diff() - u1, q2.diff() - u2],
+                        u_dependent=[u2], velocity_constraints=[u2 - sm.cos(q2) * u1 - u3],
+                        u_auxiliary=[u3])
+    km.kanes_equations([me.Particle("Pa", P, m)],
+                       [(P, -k * q1 * N.x - c * P.vel(N)), (P, f * A.z)])
+    return km, []
+
+
+def test_auxiliary_speed_inside_a_velocity_constraint():
+    ours, ref = both(_aux_in_constraint)
+    mats = [ours.auxiliary_eqs, ref.auxiliary_eqs, ours.fr, ref._fr, ours.frstar, ref._frstar]
+    pt = random_point(mats, 17)
+    for i, name in ((0, "aux"), (2, "fr"), (4, "frstar")):
+        assert_close(evaluate(mats[i], pt), evaluate(mats[i + 1], pt), what=name)
