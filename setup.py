@@ -5,7 +5,13 @@ so they are compiled once, when eomc is installed, into a plain shared library
 inside eomc.runtime.  A model's own library then holds only its equations,
 which keeps a cold model build to one small C compile.  The library has no
 Python entry point: eomc.runtime opens it with cffi (ffi.dlopen), like a model.
+
+eomc.runtime._fastcall (runtime/_fastcall.pyx) is one Cython extension, also
+built once here, that calls ANY model through its eomc_model struct, so the
+default (cffi) backend gets a compiled per-call path without a per-model build.
 """
+import numpy
+from Cython.Build import cythonize
 from setuptools import Extension, setup
 
 setup(
@@ -17,5 +23,18 @@ setup(
             extra_compile_args=["-O2", "-std=c99"],
             libraries=["m"],
         )
-    ]
+    ] + cythonize(
+        [
+            Extension(
+                "eomc.runtime._fastcall",
+                sources=["runtime/_fastcall.pyx"],
+                include_dirs=["templates/c", numpy.get_include()],
+                define_macros=[("NPY_NO_DEPRECATED_API", "NPY_1_7_API_VERSION")],
+                extra_compile_args=["-O2"],
+            )
+        ],
+        compiler_directives={"language_level": "3"},
+        build_dir="build/cython",  # generated C stays out of the package (its "*.c" data glob)
+        quiet=True,
+    )
 )

@@ -21,6 +21,11 @@ from eomc.errors import ModelError, SimulationError
 
 from .cdef import STATUS_NAMES
 
+try:  # built once with eomc (setup.py); a source tree without it uses the cffi fast path
+    from ._fastcall import FastCalls as _FastCalls
+except ImportError:
+    _FastCalls = None
+
 __all__ = ["Model"]
 
 _F64 = np.dtype(np.float64)
@@ -28,6 +33,7 @@ _F64 = np.dtype(np.float64)
 _STRUCT_FUNCTIONS = ("rhs", "jac_x", "jac_r", "mass_matrix", "forcing", "outputs",
                      "constraints", "constraints_jac")
 _EXPORTED_FUNCTIONS = ("inverse_dynamics", "linearize")
+_FAST_METHODS = ("rhs", "jacobian", "mass_matrix", "forcing")  # Model methods _fastcall provides
 
 
 def _cffi_backend(ffi, lib, model_lib, c_model, name, functions):
@@ -140,7 +146,21 @@ class Model:
             # the common call checked in C; everything else falls back to Model.rhs
             self.rhs = extension.FastRHS(self._checked_rhs, np.empty, self.param_defaults,
                                          self._zero_inputs, self.nx, self.work_size)
-        elif extension is None and c_model.rhs != ffi.NULL:
+        elif extension is None:
+            self._install_fast_calls(ffi, c_model)
+
+    def _install_fast_calls(self, ffi, c_model):
+        """The cffi backend's per-call fast path: rhs, jacobian, mass_matrix and forcing through
+        eomc.runtime._fastcall (one extension for every model) when it imports, else rhs through
+        cffi.  Either way the common call is checked cheaply and everything else falls back to
+        the checked methods of this class, which raise the proper errors."""
+        if _FastCalls is not None:
+            checked = {fn: getattr(self, fn) for fn in _FAST_METHODS}
+            fast = _FastCalls(int(ffi.cast("uintptr_t", c_model)), self.param_defaults, self._zero_inputs,
+                              checked, nogil=(), keepalive=(ffi, self.model_lib))
+            for fn in _FAST_METHODS:
+                setattr(self, fn, getattr(fast, fn))
+        elif c_model.rhs != ffi.NULL:
             self.rhs = _cffi_fast_rhs(self, c_model.rhs, ffi.from_buffer)
 
     def __repr__(self):
