@@ -120,8 +120,17 @@ cdef class FastCalls:
         self.checked_mass_matrix = checked["mass_matrix"]
         self.checked_forcing = checked["forcing"]
         nogil = frozenset(nogil)
+        unknown = nogil - {"rhs", "jacobian", "mass_matrix", "forcing"}
+        if unknown:
+            raise ValueError(f"FastCalls: nogil names unknown methods {sorted(unknown)}")
         self.nogil_rhs, self.nogil_jacobian = "rhs" in nogil, "jacobian" in nogil
         self.nogil_mass_matrix, self.nogil_forcing = "mass_matrix" in nogil, "forcing" in nogil
+
+    @property
+    def nogil(self):
+        """Names of the methods whose C call releases the GIL."""
+        flags = (self.nogil_rhs, self.nogil_jacobian, self.nogil_mass_matrix, self.nogil_forcing)
+        return tuple(fn for fn, flag in zip(("rhs", "jacobian", "mass_matrix", "forcing"), flags) if flag)
 
     cdef object _call(self, eomc_rhs_fn fn, bint release, int nd, Py_ssize_t rows, Py_ssize_t cols,
                       object t, object x, object p, object r):

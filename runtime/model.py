@@ -33,7 +33,11 @@ _F64 = np.dtype(np.float64)
 _STRUCT_FUNCTIONS = ("rhs", "jac_x", "jac_r", "mass_matrix", "forcing", "outputs",
                      "constraints", "constraints_jac")
 _EXPORTED_FUNCTIONS = ("inverse_dynamics", "linearize")
-_FAST_METHODS = ("rhs", "jacobian", "mass_matrix", "forcing")  # Model methods _fastcall provides
+_FAST_METHODS = {"rhs": "rhs", "jacobian": "jac_x", "mass_matrix": "mass_matrix", "forcing": "forcing"}
+# _fastcall releases the GIL only around a C function of at least this many operations
+# (metadata op_counts): releasing and re-taking it costs ~0.1-0.2 us, a quarter of a small
+# model's whole call, and buys threads nothing when the C takes well under a microsecond.
+_NOGIL_MIN_OPS = 10_000
 
 
 def _cffi_backend(ffi, lib, model_lib, c_model, name, functions):
@@ -156,8 +160,11 @@ class Model:
         the checked methods of this class, which raise the proper errors."""
         if _FastCalls is not None:
             checked = {fn: getattr(self, fn) for fn in _FAST_METHODS}
+            ops = self.metadata.get("op_counts") or {}
+            nogil = [fn for fn, c_fn in _FAST_METHODS.items()
+                     if sum((ops.get(c_fn) or {}).values()) >= _NOGIL_MIN_OPS]
             fast = _FastCalls(int(ffi.cast("uintptr_t", c_model)), self.param_defaults, self._zero_inputs,
-                              checked, nogil=(), keepalive=(ffi, self.model_lib))
+                              checked, nogil=nogil, keepalive=(ffi, self.model_lib))
             for fn in _FAST_METHODS:
                 setattr(self, fn, getattr(fast, fn))
         elif c_model.rhs != ffi.NULL:
