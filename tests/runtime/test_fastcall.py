@@ -234,3 +234,16 @@ def test_without_the_extension_the_cffi_fast_path_is_used(cart, monkeypatch):
     np.testing.assert_array_equal(model.rhs(0.0, x, None, r), cart.rhs(0.0, x, None, r))
     with pytest.raises(ValueError, match=r"x \(state\) must have shape"):
         model.rhs(0.0, np.zeros(3))
+
+
+def test_model_without_inputs(tmp_path):
+    path = model_files.write(tmp_path, model_files.PENDULUM, "pend")
+    model = eomc.compile(str(path), cache_dir=str(tmp_path / "cache"))
+    assert model.ninput == 0 and isinstance(model.rhs.__self__, FastCalls)
+    x = np.array([0.3, -0.1])
+    want = model_files.pendulum_rhs(x)
+    np.testing.assert_allclose(model.rhs(0.0, x), want, rtol=1e-14)
+    for r in (None, np.empty(0), []):  # an empty r is what the checked path accepts
+        np.testing.assert_array_equal(model.rhs(0.0, x, None, r), checked(model, "rhs")(0.0, x, None, None))
+    with pytest.raises(ValueError, match="this model has no inputs, but r was given"):
+        model.rhs(0.0, x, None, np.ones(1))
