@@ -49,6 +49,8 @@ def test_wheel_in_fresh_venv_builds_and_loads_without_sympy(tmp_path):
                    "eomc/templates/c/eomc_batch.c", "eomc/templates/module.py.j2",
                    "eomc/templates/model.pyx.j2"):
         assert needed in names, needed
+    for extension in ("eomc/runtime/_eomc_integrators", "eomc/runtime/_fastcall"):  # built by setup.py
+        assert any(n.startswith(extension) and n.endswith(".so") for n in names), extension
     assert not any(n.startswith(("tests/", "examples/", "benchmarks/")) for n in names)
 
     venv = tmp_path / "venv"
@@ -61,8 +63,8 @@ def test_wheel_in_fresh_venv_builds_and_loads_without_sympy(tmp_path):
     work.mkdir()
     env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "EOMC_CACHE_DIR")}
     assert _run([str(script), "--version"], cwd=work, env=env).strip() == f"eomc {eomc.__version__}"
-    shutil.copy(ROOT / "examples" / "embed_c" / "double_pendulum.py", work / "model.py")
-    _run([str(script), "build", "model.py", "-o", "out", "--cache-dir", str(tmp_path / "cache"), "-q"],
+    shutil.copy(ROOT / "examples" / "double_pendulum.py", work / "double_pendulum.py")
+    _run([str(script), "build", "double_pendulum.py", "-o", "out", "--cache-dir", str(tmp_path / "cache"), "-q"],
          cwd=work, env=env)
 
     probe = textwrap.dedent("""
@@ -71,9 +73,12 @@ def test_wheel_in_fresh_venv_builds_and_loads_without_sympy(tmp_path):
         import eomc
         model = eomc.load("out")
         xdot = model.rhs(0.0, [1.0, -0.5, 0.0, 0.0])
-        print(json.dumps({"file": eomc.__file__, "xdot": list(xdot), "name": model.name}))
+        end = model.simulate([1.0, -0.5, 0.0, 0.0], (0.0, 1.0)).x[-1]  # the installed integrators
+        print(json.dumps({"file": eomc.__file__, "xdot": list(xdot), "name": model.name,
+                          "end": list(end)}))
         """)
     shown = json.loads(_run([str(python), "-c", probe], cwd=work, env=env))
     assert shown["file"].startswith(str(venv))  # the installed wheel, not the checkout
     assert shown["name"] == "double_pendulum" and len(shown["xdot"]) == 4
     assert shown["xdot"][:2] == [0.0, 0.0] and shown["xdot"][2] != 0.0
+    assert len(shown["end"]) == 4 and shown["end"] != [1.0, -0.5, 0.0, 0.0]
