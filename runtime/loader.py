@@ -3,9 +3,11 @@
 The default backend is cffi in ABI mode (``ffi.dlopen``): loading needs no
 extension module to be compiled, so going from generated C to a loaded model
 costs one C compile and a dlopen -- the fastest model-to-loaded-module path.
-The Cython backend (built with ``backend="cython"``) calls the same C functions
-through a compiled extension with typed memoryviews; it is cheaper per call
-and is picked automatically when the build directory holds one.
+Per-call speed does not suffer: the common calls (rhs, jacobian, mass_matrix,
+forcing) go through ``eomc.runtime._fastcall``, one Cython extension built
+when eomc is installed, which calls any model through its ``eomc_model``
+struct.  The Cython backend (``backend="cython"``) builds a per-model
+extension instead; it remains for users who want a self-contained module.
 
 Only numpy and cffi are imported here -- never SymPy or eomc.compiler -- so a
 built model runs where only the runtime is installed.
