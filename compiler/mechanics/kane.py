@@ -369,6 +369,14 @@ class KanesMethod:
     from .kane_linear import linearize, to_linearizer  # noqa: E402  (methods)
 
     def formed(self):
-        """The method-neutral :class:`FormedSystem` the compiler consumes."""
+        """The method-neutral :class:`FormedSystem` the compiler consumes.
+
+        Memoized per formed set of equations (a new ``kanes_equations`` call
+        forms new ones): finding the inputs and parameters walks every
+        expression, which would otherwise dominate a warm ``eomc.compile``.
+        """
         from .kane_linear import formed_system
-        return formed_system(self)
+        cached = getattr(self, "_formed_cache", None)
+        if cached is None or cached[0] is not self._frstar:
+            cached = self._formed_cache = (self._frstar, formed_system(self))
+        return cached[1]

@@ -316,6 +316,13 @@ class LagrangesMethod:
 
     # -- the compiler's view -------------------------------------------------
     def formed(self):
-        """The method-neutral :class:`FormedSystem` (see :mod:`.lagrange_formed`)."""
+        """The method-neutral :class:`FormedSystem` (see :mod:`.lagrange_formed`).
+
+        Memoized per formed ``eom`` so a warm ``eomc.compile`` does not walk the
+        expressions again.
+        """
         self._need_eom()
-        return formed_from_lagrange(self)
+        cached = getattr(self, "_formed_cache", None)
+        if cached is None or cached[0] is not self.eom:
+            cached = self._formed_cache = (self.eom, formed_from_lagrange(self))
+        return cached[1]

@@ -79,7 +79,11 @@ def _from_file(path, name, overrides):
         raise ModelFileError(f"forming the equations of `system` failed: {type(exc).__name__}: {exc}",
                              filename, lines.get("system")) from exc
     values = {k: namespace.get(k) for k in ("system", "parameters", "inputs", "initial_state", "outputs")}
-    values.update({k: v for k, v in overrides.items() if v is not None})
+    given = {k: v for k, v in overrides.items() if v is not None}
+    if isinstance(given.get("parameters"), dict) and isinstance(values["parameters"], dict):
+        # parameters= overrides some of the file's defaults; the others keep the file's values
+        given["parameters"] = {**values["parameters"], **given["parameters"]}
+    values.update(given)
     name = name or namespace.get("name") or sanitize_name(Path(path).stem)
 
     def where(exc):

@@ -131,3 +131,9 @@ def test_assignment_lines_cover_all_forms():
             z = 1
         """)
     assert assignment_lines(source) == {"a": 4, "b": 2, "c": 3, "d": 3, "e": 3}
+
+
+def test_parameters_override_merges_with_the_files_defaults(tmp_path):
+    text = HEAD + "\nparameters = {m: 2.0, g: 9.81, l: 0.5}\n"
+    spec = model_spec(_file(tmp_path, text), parameters={"m": 3.0})
+    assert {str(k): v for k, v in spec.parameters.items()} == {"m": 3.0, "g": 9.81, "l": 0.5}
