@@ -53,7 +53,7 @@ def _environment():
 
 
 def _body(fn, ctx, prog, sym, layout, nx, functions):
-    nu, nr = ctx.nu, len(layout.r)
+    nr = len(layout.r)
     if fn == "rhs":
         return rhs_body(ctx, prog)
     if fn in ("mass_matrix", "forcing", "inverse_dynamics"):

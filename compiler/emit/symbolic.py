@@ -107,7 +107,7 @@ def build_symbolic(formed, layout, functions, outputs=None):
     if set(functions) & set(HELPER_USERS):
         groups |= {"A", "b"}
     A, b = _dynamics(formed, layout)
-    nw, nu, nq = len(b), formed.nu, formed.nq
+    nw, nu = len(b), formed.nu
     kin = [layout.apply(e, "the kinematic equations") for e in formed.kinematics]
     # Constraint equations for an actual model may not use velocity constraints via
     # Kane's motion rows; symmetry + no multipliers + no motion constraints => SPD.

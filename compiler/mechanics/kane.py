@@ -31,7 +31,6 @@ from sympy.physics.vector import dynamicsymbols
 
 from eomc.errors import ModelError
 
-from .formed import FormedSystem
 from .kane_forms import VectorReader, assemble, dot, read_bodies, read_loads, to_dynamic
 from .kane_inputs import (as_symbol_list, names, check_bodies, check_time_functions,
                           parse_loads, split_bodies_and_loads)

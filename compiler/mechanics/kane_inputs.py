@@ -117,7 +117,7 @@ def point_velocity(point, frame, what):
     """The velocity of ``point`` in ``frame``, or a ModelError naming ``what``."""
     try:
         return point.vel(frame)
-    except (ValueError, KeyError) as exc:
+    except (ValueError, KeyError):
         raise ModelError(
             f"{what}: the velocity of point {point.name} in the inertial frame "
             f"{frame.name} is undefined (set it with {point.name}.set_vel({frame.name}, ...) "
