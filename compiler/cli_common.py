@@ -19,14 +19,17 @@ def add_model_arguments(parser):
                         help="parameter values (others keep their defaults)")
 
 
-def load_model(path, quiet=True):
-    """A runtime Model from a model file (compiled) or a built directory / json (loaded)."""
+def load_model(path, quiet=False):
+    """A runtime Model from a model file (compiled) or a built directory / json (loaded).
+
+    Compiling shows its stages on stderr when that is a terminal, unless ``quiet``.
+    """
     path = Path(path)
     if not path.exists():
         raise ValueError(f"{path}: no such model file or built model directory")
     if path.is_file() and path.suffix == ".py":
         from eomc.compiler.driver import compile as compile_model
-        return compile_model(str(path), progress=not quiet)
+        return compile_model(str(path), progress=False if quiet else None)
     from eomc.runtime.loader import load
     return load(path)
 
