@@ -84,9 +84,17 @@ def random_states(n, count, seed=0):
     return np.ascontiguousarray(np.hstack([q, u]))
 
 
+_CONSTANTS = {}
+
+
 def _constants(kane):
-    syms = kane.mass_matrix_full.free_symbols | kane.forcing_full.free_symbols
-    return sorted((s for s in syms if str(s) != "t"), key=str)
+    """The system's constants, sorted by name; remembered per system so the harness's own
+    walk over the expressions is not timed as part of a warm eomc.compile."""
+    key = id(kane)
+    if key not in _CONSTANTS or _CONSTANTS[key][0] is not kane:
+        syms = kane.mass_matrix_full.free_symbols | kane.forcing_full.free_symbols
+        _CONSTANTS[key] = (kane, sorted((s for s in syms if str(s) != "t"), key=str))
+    return _CONSTANTS[key][1]
 
 
 def pydy_ode_function(n, kane=None, specified=None, generator="cython", tmp_dir=None):

@@ -122,3 +122,16 @@ def test_eomc_check_cli(monkeypatch, capsys):
     monkeypatch.setattr(cli_common, "load_model", lambda spec, quiet=True: get_model("sphere"))
     assert main(["check", "s", "--x0", "theta=0.0,theta_dot=1.0"]) == 1   # singular at x0
     assert "FAIL" in capsys.readouterr().out
+
+
+def test_chaotic_motion_is_judged_by_convergence(tmp_path):
+    """The double pendulum amplifies local errors past 1000x the tolerance within 5 s; the
+    accuracy check then asks for convergence instead, and says so."""
+    import eomc
+    example = Path(__file__).resolve().parents[2] / "examples" / "double_pendulum.py"
+    model = eomc.compile(str(example), cache_dir=tmp_path, progress=False)
+    checks = {c.name: c for c in check_model(model, t_final=5.0, methods=("dopri5",))}
+    acc = checks["dopri5 accuracy"]
+    amplified = float(acc.measured.split(" x tolerance")[0])
+    assert amplified > 1000                      # the plain criterion alone would fail
+    assert acc.passed and "converging" in acc.measured and "NOT" not in acc.measured
