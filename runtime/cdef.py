@@ -1,57 +1,19 @@
 """cffi declarations of the model ABI (templates/c/eomc_model.h) and the batch helper.
 
-cffi's ABI mode (``ffi.dlopen``) needs the C declarations as text.  They are
-kept here, beside the loader, rather than parsed from the shipped header at
-run time, because cffi's parser does not accept preprocessor lines.  The
-declarations must match eomc_model.h field for field: the struct layout is
-computed from them.  ``test_loader`` checks the sizes and names read through
-this layout against each built model's metadata.
+cffi's ABI mode (``ffi.dlopen``) needs the C declarations as text; they are
+read from the shipped headers themselves (:mod:`.header_cdef`), so the struct
+layout Python uses is the one the C compiler saw.  ``test_loader`` checks the
+sizes and names read through this layout against each built model's metadata.
 """
+
+from .header_cdef import header_cdef
 
 __all__ = ["ABI_VERSION", "MODEL_CDEF", "BATCH_CDEF", "STATUS_NAMES", "model_function_cdef"]
 
 ABI_VERSION = 1
 
-MODEL_CDEF = """
-typedef int (*eomc_rhs_fn)(double t, const double *x, const double *p,
-                           const double *r, double *xdot, double *work);
-typedef int (*eomc_mat_fn)(double t, const double *x, const double *p,
-                           const double *r, double *out, double *work);
-
-typedef struct eomc_model {
-    int abi_version;
-    const char *name;
-    int nq, nu, nx;
-    int nparam, ninput;
-    int noutput;
-    int nhol;
-    int nvel;
-    size_t work_size;
-
-    const char *const *state_names;
-    const char *const *param_names;
-    const double *param_defaults;
-    const char *const *input_names;
-    const char *const *output_names;
-
-    eomc_rhs_fn rhs;
-    eomc_mat_fn jac_x;
-    eomc_mat_fn jac_r;
-    eomc_mat_fn mass_matrix;
-    eomc_rhs_fn forcing;
-    eomc_rhs_fn outputs;
-    eomc_rhs_fn constraints;
-    eomc_mat_fn constraints_jac;
-} eomc_model;
-"""
-
-BATCH_CDEF = """
-int eomc_rhs_many(const eomc_model *model, size_t n,
-                  const double *t, size_t t_stride,
-                  const double *X, const double *p,
-                  const double *R, size_t r_stride,
-                  double *XD, double *work, size_t *failed_row);
-"""
+MODEL_CDEF = header_cdef("eomc_model.h")
+BATCH_CDEF = header_cdef("eomc_batch.h")
 
 # eomc_status values (eomc_model.h) -> what went wrong, in words.
 STATUS_NAMES = {

@@ -17,6 +17,7 @@ import cffi
 import numpy as np
 
 from eomc.errors import SimulationError
+from eomc.runtime.cdef import MODEL_CDEF
 from eomc.runtime.integrators_api import INTEGRATOR_CDEF
 
 __all__ = ["HERE", "TEMPLATES", "MODEL_NAMES", "StandInModel", "build_library", "get_model",
@@ -28,26 +29,6 @@ MODEL_NAMES = ("oscillator", "pendulum", "chain", "kepler", "ring", "blowup", "s
                "top")
 SOURCES = ("oscillator.c", "pendulum.c", "chain.c", "kepler.c", "ring.c", "faulty.c", "sphere.c",
            "top.c")
-
-# Field for field the struct of eomc_model.h (cffi reads no preprocessor lines).
-MODEL_ABI_CDEF = """
-typedef int (*eomc_rhs_fn)(double t, const double *x, const double *p,
-                           const double *r, double *xdot, double *work);
-typedef int (*eomc_mat_fn)(double t, const double *x, const double *p,
-                           const double *r, double *out, double *work);
-typedef struct eomc_model {
-    int abi_version; const char *name;
-    int nq, nu, nx; int nparam, ninput; int noutput; int nhol; int nvel;
-    size_t work_size;
-    const char *const *state_names; const char *const *param_names;
-    const double *param_defaults; const char *const *input_names;
-    const char *const *output_names;
-    eomc_rhs_fn rhs; eomc_mat_fn jac_x; eomc_mat_fn jac_r; eomc_mat_fn mass_matrix;
-    eomc_rhs_fn forcing; eomc_rhs_fn outputs; eomc_rhs_fn constraints;
-    eomc_mat_fn constraints_jac;
-} eomc_model;
-"""
-
 
 def compile_shared(out, sources, extra_flags=()):
     """gcc -shared the given C files with the integrators; raises with gcc's output."""
@@ -68,7 +49,7 @@ def build_library():
     tmp = Path(tempfile.mkdtemp(prefix="eomc_standin_"))
     so = compile_shared(tmp / "libstandin.so", [HERE / s for s in SOURCES])
     ffi = cffi.FFI()
-    ffi.cdef(MODEL_ABI_CDEF + INTEGRATOR_CDEF
+    ffi.cdef(MODEL_CDEF + INTEGRATOR_CDEF
              + "".join(f"const eomc_model *{n}_model(void);\n" for n in MODEL_NAMES))
     return ffi, ffi.dlopen(str(so))
 
