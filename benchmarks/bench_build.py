@@ -25,7 +25,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from common import (Timing, environment_header, fmt, format_table, parse_args,  # noqa: E402
+from common import (Timing, environment_header, format_table, parse_args,  # noqa: E402
                     ratio, time_once, write_results)
 import models  # noqa: E402
 

@@ -29,7 +29,7 @@ from scipy.integrate import solve_ivp
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from common import (RESULTS_DIR, Timing, environment_header, format_table,  # noqa: E402
+from common import (RESULTS_DIR, Timing, environment_header, format_table, work_precision_figure,  # noqa: E402
                     parse_args, ratio, write_results)
 import models  # noqa: E402
 
@@ -164,23 +164,14 @@ def measure(n, repeat, wp_tols):
 
 
 def plot(points, path):
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    ns = sorted({p[0] for p in points})
-    fig, axes = plt.subplots(1, len(ns), figsize=(5.5 * len(ns), 4.5), squeeze=False)
-    for ax, n in zip(axes[0], ns):
-        for name in dict.fromkeys(p[1] for p in points if p[0] == n):
-            pts = sorted((p[3], p[6], p[2]) for p in points if p[0] == n and p[1] == name)
-            ax.loglog([p[0] for p in pts], [max(p[1], 1e-16) for p in pts], "o-", label=name)
-        ax.set_title(f"n-link cart, n={n}, 10 s, DOP853 (rtol=atol)")
-        ax.set_xlabel("wall time [s] (median)")
-        ax.set_ylabel("final-state error (max norm)")
-        ax.grid(True, which="both", alpha=0.3)
-        ax.legend()
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    panels = []
+    for n in sorted({p[0] for p in points}):
+        series = {}
+        for p in points:
+            if p[0] == n:
+                series.setdefault(p[1], []).append((p[3], p[6]))
+        panels.append((f"n-link cart, n={n}, 10 s, DOP853 (rtol=atol)", series))
+    work_precision_figure(panels, path, panel_width=5.5)
 
 
 def main(argv=None):

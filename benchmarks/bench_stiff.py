@@ -22,7 +22,7 @@ from scipy.integrate import solve_ivp
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from common import (RESULTS_DIR, Timing, environment_header, format_table,  # noqa: E402
+from common import (RESULTS_DIR, Timing, environment_header, format_table, work_precision_figure,  # noqa: E402
                     parse_args, write_results)
 import models  # noqa: E402,F401 - puts tests/ on sys.path
 from zoo import spring_damper_chain  # noqa: E402
@@ -80,21 +80,10 @@ def eomc_run(model, p, x0, tol):
 
 
 def plot(points, path):
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    fig, ax = plt.subplots(figsize=(6.5, 4.8))
-    for name in dict.fromkeys(pt[0] for pt in points):
-        pts = sorted((pt[2], pt[6]) for pt in points if pt[0] == name)
-        ax.loglog([a for a, _ in pts], [max(b, 1e-16) for _, b in pts], "o-", label=name)
-    ax.set_xlabel("wall time [s] (median)")
-    ax.set_ylabel("final-state error (max norm)")
-    ax.set_title("stiff spring-damper chain, 10 s")
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend()
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    series = {}
+    for pt in points:
+        series.setdefault(pt[0], []).append((pt[2], pt[6]))
+    work_precision_figure([("stiff spring-damper chain, 10 s", series)], path)
 
 
 def main(argv=None):

@@ -218,3 +218,27 @@ def parse_args(description, default_n, default_repeat=5, argv=None, extra=None):
     if args.quick:
         args.no_write = True
     return args
+
+
+def work_precision_figure(panels, path, panel_width=6.5):
+    """Write a work-precision PNG: panels is [(title, {tool: [(wall_s, error), ...]})], one per axes.
+
+    Log-log, one line per tool, lower-left is better; errors are floored at 1e-16 so a
+    perfect point still shows.
+    """
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, axes = plt.subplots(1, len(panels), figsize=(panel_width * len(panels), 4.8), squeeze=False)
+    for ax, (title, series) in zip(axes[0], panels):
+        for name, pts in series.items():
+            pts = sorted(pts)
+            ax.loglog([a for a, _ in pts], [max(b, 1e-16) for _, b in pts], "o-", label=name)
+        ax.set_title(title)
+        ax.set_xlabel("wall time [s] (median)")
+        ax.set_ylabel("final-state error (max norm)")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend()
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
