@@ -18,15 +18,5 @@ METHOD_IDS = {"rk4": 0, "dopri5": 1, "dop853": 2, "radau": 3}
 METHOD_ALIASES = {"rk45": "dopri5", "radau5": "radau", "radauiia": "radau"}
 
 STATUS_OK = 0
-# eomc_status (templates/c/eomc_model.h) -> short reason for messages.
-STATUS_NAMES = {
-    0: "ok",
-    1: "singular mass matrix",
-    2: "singular constraints (projection could not be solved)",
-    3: "non-finite value in the state or its derivative",
-    4: "bad argument",
-    5: "step size underflow",
-    6: "maximum number of steps reached",
-    7: "the problem is stiff for this explicit method",
-    8: "a function needed by this method was not generated for the model",
-}
+# eomc_status -> what went wrong, in words: one table for the whole runtime (cdef.py).
+from .cdef import STATUS_NAMES  # noqa: E402

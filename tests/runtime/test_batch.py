@@ -40,7 +40,7 @@ def test_batch_over_parameters_and_progress_counter(capsys):
 def test_batch_failure_names_the_case():
     m = get_model("singular")
     P = np.array([[2.0], [0.5], [3.0]])
-    with pytest.raises(SimulationError, match="case 1 of 3.*singular mass matrix"):
+    with pytest.raises(SimulationError, match="case 1 of 3.*the mass matrix is singular"):
         simulate_many(m, [0.0], (0, 1), p=P, progress=False)
     res = simulate_many(m, [0.0], (0, 1), p=P, progress=False, raise_on_failure=False,
                         n_points=11)

@@ -79,7 +79,7 @@ def test_blowup_raises_simulation_error_with_time_and_state():
     m = get_model("blowup")                       # x' = x^2, x(0) = 1 -> infinite at t = 1
     with pytest.raises(SimulationError, match=r"t=(0\.99|1\.0).*state x=") as info:
         simulate(m, [1.0], (0, 2))
-    assert "non-finite" in str(info.value) or "underflow" in str(info.value)
+    assert "non-finite" in str(info.value) or "step size became too small" in str(info.value)
     res = simulate(m, [1.0], (0, 2), method="radau", raise_on_failure=False)
     assert res.status in (3, 5) and 0.99 < res.t_final < 1.001
     assert np.all(res.t <= res.t_final) and np.all(np.isfinite(res.x))
@@ -88,7 +88,7 @@ def test_blowup_raises_simulation_error_with_time_and_state():
 @pytest.mark.parametrize("method,kw", [("dop853", {}), ("rk4", {"dt": 0.01})])
 def test_model_status_propagates_with_time(method, kw):
     m = get_model("singular")                     # reports a singular mass matrix after t = 0.5
-    with pytest.raises(SimulationError, match="singular mass matrix"):
+    with pytest.raises(SimulationError, match="the mass matrix is singular"):
         simulate(m, [0.0], (0, 1), method=method, **kw)
     res = simulate(m, [0.0], (0, 1), method=method, raise_on_failure=False, **kw)
     assert res.status == 1 and res.t_final <= 0.5 + 1e-12

@@ -56,4 +56,4 @@ def test_simulate_failure_is_one_line(monkeypatch, capsys):
     monkeypatch.setattr(cli_common, "load_model", lambda spec, quiet=True: get_model("singular"))
     assert main(["simulate", "s", "--t-final", "1"]) == 1
     err = capsys.readouterr().err
-    assert "singular mass matrix" in err and "stopped at t=0.5:" in err
+    assert "the mass matrix is singular" in err and "stopped at t=0.5:" in err

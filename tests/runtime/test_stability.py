@@ -48,7 +48,7 @@ def test_b_near_singular_mass_matrix_is_reported_with_time_and_state():
     assert abs(t_worst - res.t[np.argmin(np.abs(res["theta"]))]) < 0.01
     assert float(cond.measured.split("= ")[1].split()[0]) > 1e5
     assert np.all(np.isfinite(res.x))                                    # no silent NaN
-    with pytest.raises(SimulationError, match=r"stopped at t=0: singular mass matrix; state theta=0"):
+    with pytest.raises(SimulationError, match=r"stopped at t=0: the mass matrix is singular; state theta=0"):
         simulate(sp, [0.0, 0.0, 1.0, 0.0], (0, 1.0))
 
 
