@@ -25,22 +25,6 @@ class Generated:
     metadata: dict = field(default_factory=dict)
 
 
-HEADER = """\
-#ifndef {N}_H
-#define {N}_H
-#include "eomc_model.h"
-const eomc_model *{n}_model(void);
-int {n}_rhs(double t, const double *x, const double *p, const double *r, double *xdot, double *work);
-int {n}_jac_x(double t, const double *x, const double *p, const double *r, double *out, double *work);
-int {n}_jac_r(double t, const double *x, const double *p, const double *r, double *out, double *work);
-int {n}_mass_matrix(double t, const double *x, const double *p, const double *r, double *out, double *work);
-int {n}_forcing(double t, const double *x, const double *p, const double *r, double *out, double *work);
-int {n}_outputs(double t, const double *x, const double *p, const double *r, double *out, double *work);
-int {n}_inverse_dynamics(double t, const double *x, const double *udot, const double *p, const double *r, double *tau, double *work);
-int {n}_linearize(double t, const double *x, const double *p, const double *r, double *A, double *B, double *work);
-#endif
-"""
-
 SOURCE = """\
 #include "{n}.h"
 
@@ -138,6 +122,8 @@ int {n}_outputs(double t, const double *x, const double *p, const double *r, dou
 int {n}_inverse_dynamics(double t, const double *x, const double *udot, const double *p, const double *r, double *tau, double *work);
 int {n}_linearize(double t, const double *x, const double *p, const double *r, double *A, double *B, double *work);
 """
+
+HEADER = "#ifndef {N}_H\n#define {N}_H\n#include \"eomc_model.h\"\n" + CDEF + "#endif\n"
 
 FUNCTIONS = ["rhs", "jac_x", "jac_r", "mass_matrix", "forcing", "outputs", "inverse_dynamics", "linearize"]
 
