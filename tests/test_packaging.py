@@ -56,8 +56,10 @@ def test_wheel_in_fresh_venv_builds_and_loads_without_sympy(tmp_path):
     venv = tmp_path / "venv"
     _run([sys.executable, "-m", "venv", "--system-site-packages", "--without-pip", str(venv)], cwd=tmp_path)
     python, script = venv / "bin" / "python", venv / "bin" / "eomc"
-    _run([sys.executable, "-m", "pip", "--python", str(python), "install", "--no-deps", "--no-index", "-q",
-          str(wheel)], cwd=tmp_path)
+    # --ignore-installed: the venv sees this interpreter's site-packages, where CI has
+    # already installed eomc; without it pip says "already satisfied" and installs nothing.
+    _run([sys.executable, "-m", "pip", "--python", str(python), "install", "--no-deps", "--no-index",
+          "--ignore-installed", "-q", str(wheel)], cwd=tmp_path)
 
     work = tmp_path / "elsewhere"
     work.mkdir()
