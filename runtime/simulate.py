@@ -81,8 +81,9 @@ def _vector(model, value, size, names, defaults, what):
             raise ValueError(f"{model.name}: {what} must have shape ({size},) "
                              f"[{', '.join(names)}]; got shape {a.shape}")
         out = np.array(a, dtype=np.float64)
-    bad = [n for n, v in zip(names, out) if not np.isfinite(v)]
-    if bad:
+    finite = np.isfinite(out)
+    if not finite.all():
+        bad = [n for n, ok in zip(names, finite) if not ok]
         raise ValueError(f"{model.name}: {what} is not finite for {', '.join(bad)}")
     return out
 
