@@ -52,6 +52,13 @@ def _sum(terms):
     return " + ".join(terms)
 
 
+def _minus(terms):
+    """`` - t0 - t1 ...``: C subtracts left to right, so each product leaves the
+    dependency chain as soon as it is ready and the last term (the newest
+    value) costs one multiply and one subtract of latency."""
+    return "".join(f" - {t}" for t in terms)
+
+
 def ldlt_solver(prefix, n, pattern):
     """Unrolled LDLᵀ for a symmetric A with lower-triangle ``pattern`` (set of (i, j))."""
     L = _fill_pattern(n, pattern)
@@ -97,7 +104,7 @@ def ldlt_solver(prefix, n, pattern):
     for i in range(n):
         terms = [f"F[{i * n + k}] * b[{k}]" for k in range(i) if (i, k) in L]
         if terms:
-            lines.append(f"    b[{i}] -= {_sum(terms)};")
+            lines.append(f"    b[{i}] = b[{i}]{_minus(terms)};")
             so["muls"] += len(terms)
             so["adds"] += len(terms)
     for i in range(n):
@@ -108,7 +115,7 @@ def ldlt_solver(prefix, n, pattern):
         # other products need not wait for it (a chain of n, not n² latencies)
         terms = [f"F[{k * n + i}] * b[{k}]" for k in reversed(range(i + 1, n)) if (k, i) in L]
         if terms:
-            lines.append(f"    b[{i}] -= {_sum(terms)};")
+            lines.append(f"    b[{i}] = b[{i}]{_minus(terms)};")
             so["muls"] += len(terms)
             so["adds"] += len(terms)
     lines += ["}", ""]
