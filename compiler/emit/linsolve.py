@@ -246,7 +246,7 @@ static void {p}_lu_dense_solve(const double *F, const int *piv, double *b)
         for (j = 0; j < i; j++) b[i] -= F[i * {n} + j] * b[j];
     }}
     for (i = {n} - 1; i >= 0; i--) {{
-        for (j = i + 1; j < {n}; j++) b[i] -= F[i * {n} + j] * b[j];
+        for (j = {n} - 1; j > i; j--) b[i] -= F[i * {n} + j] * b[j];  /* newest b[i + 1] last */
         b[i] *= F[{nn} + i];
     }}
 }}

@@ -108,11 +108,12 @@ def _solve_lines(p, n, S, rows, ops):
     for i in range(n):
         terms = [f"U[{i * n + k}] * y[{k}]" for k in range(i) if (i, k) in S]
         if terms:
-            lines.append(f"    y[{i}] -= {' + '.join(terms)};")
+            lines.append(f"    y[{i}] = y[{i}]{''.join(f' - {t}' for t in terms)};")
             ops["muls"] += len(terms)
             ops["adds"] += len(terms)
     for i in reversed(range(n)):
-        terms = [f"U[{i * n + k}] * b[{k}]" for k in range(i + 1, n) if (i, k) in S]
+        # newest value (b[i + 1]) last: products leave the dependency chain early
+        terms = [f"U[{i * n + k}] * b[{k}]" for k in reversed(range(i + 1, n)) if (i, k) in S]
         rhs = f"y[{i}]" + "".join(f" - {t}" for t in terms)
         lines.append(f"    b[{i}] = ({rhs}) * U[{nn + i}];")
         ops["muls"] += len(terms) + 1
