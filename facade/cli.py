@@ -5,6 +5,7 @@ They are imported only when chosen, so ``eomc simulate`` on a built model
 never imports SymPy.
 """
 import argparse
+import os
 import sys
 from importlib import import_module
 
@@ -19,6 +20,7 @@ SUBCOMMANDS = {
     "simulate": ("eomc.compiler.cli_simulate", "integrate a model and write its trajectory"),
     "report": ("eomc.compiler.cli_report", "error against run time over methods and tolerances"),
     "check": ("eomc.compiler.cli_check", "stability checks on stiff and extreme cases"),
+    "cache": ("eomc.compiler.cli_cache", "show, prune or clear the build cache"),
 }
 
 
@@ -61,3 +63,6 @@ def main(argv=None):
     except KeyboardInterrupt:
         print(f"eomc {name}: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # `eomc ... | head` closed the pipe: not an error worth a traceback
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 141

@@ -22,6 +22,7 @@ import eomc.templates
 from eomc.errors import CompileError
 
 from .cache import CACHE_SCHEMA, cache_root, discard, get_or_build, hash_key, sha256_file
+from .cache_admin import auto_prune
 from .toolchain import DEFAULT_CFLAGS, find_compiler
 
 __all__ = ["BuildResult", "build", "shipped_c_dir", "SHIPPED_HEADERS", "resolve_cflags"]
@@ -135,4 +136,6 @@ def build(generated, *, backend="cffi", cflags=None, cache_dir=None, force=False
             _model_json(generated, key, backend, tc, flags, extra_metadata, extension))
 
     entry, hit = get_or_build(root, "models", key, compile_model, inputs, force=force)
+    if not hit:
+        auto_prune(root, keep=(key,))
     return BuildResult(name, entry, entry / lib, key, hit, backend)

@@ -24,7 +24,8 @@ from pathlib import Path
 
 from eomc.errors import EomcError
 
-__all__ = ["CACHE_SCHEMA", "cache_root", "hash_key", "sha256_file", "lookup", "get_or_build", "discard"]
+__all__ = ["CACHE_SCHEMA", "cache_root", "hash_key", "sha256_file", "lookup", "get_or_build", "discard",
+           "touch", "try_locked"]
 
 CACHE_SCHEMA = 1
 MANIFEST = "manifest.json"
@@ -81,10 +82,41 @@ def _valid(entry, key):
         return False
 
 
+def touch(entry):
+    """Record a use: the manifest's mtime is the entry's last use (pruning drops the
+    least recently used first).  Best effort: a read-only cache still works."""
+    try:
+        os.utime(Path(entry) / MANIFEST)
+    except OSError:
+        pass
+
+
 def lookup(root, kind, key):
     """The published entry for ``key`` when it is whole, else None."""
     entry = _entry(root, kind, key)
-    return entry if _valid(entry, key) else None
+    if not _valid(entry, key):
+        return None
+    touch(entry)
+    return entry
+
+
+@contextlib.contextmanager
+def try_locked(root, key):
+    """Yield True holding the key's lock, or False at once when someone else holds it."""
+    path = root / "locks" / f"{key}.lock"
+    with open(path, "a+") as fh:
+        if fcntl is None:
+            yield True
+            return
+        try:
+            fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            yield False
+            return
+        try:
+            yield True
+        finally:
+            fcntl.flock(fh.fileno(), fcntl.LOCK_UN)
 
 
 @contextlib.contextmanager
@@ -132,9 +164,11 @@ def get_or_build(root, kind, key, build, inputs, force=False):
     """
     entry = _entry(root, kind, key)
     if not force and _valid(entry, key):
+        touch(entry)
         return entry, True
     with _locked(root, key):
         if not force and _valid(entry, key):
+            touch(entry)
             return entry, True
         tmp = Path(tempfile.mkdtemp(prefix=f"{key[:12]}-", dir=root / "tmp"))
         try:
