@@ -8,7 +8,7 @@ import os
 
 import sympy as sm
 
-from eomc.mechanics import KanesMethod, Particle, Point, ReferenceFrame, dynamicsymbols
+from eomc.mechanics import KanesMethod, Particle, Point, ReferenceFrame, dynamicsymbols, kinetic_energy
 
 n = int(os.environ.get("EOMC_N_LINKS", "3"))
 if n < 1:
@@ -43,8 +43,10 @@ system.kanes_equations(particles, loads)
 parameters = {**{mi: 1.0 for mi in m}, **{li: 1.0 / n for li in l}, g: 9.81}
 inputs = [F]
 initial_state = {**{qi: 0.1 for qi in q[1:]}, q[0]: 0.0, **{ui: 0.0 for ui in u}}
+# kinetic_energy squares each velocity in N: SymPy's v.dot(v) pairs the DCMs of
+# every two links and takes ~15 s at n = 20
 outputs = {
-    "energy": sum(p.mass * (p.point.vel(N).dot(p.point.vel(N)) / 2
-                            + g * p.point.pos_from(O).dot(N.y)) for p in particles),
+    "energy": kinetic_energy(N, *particles)
+              + sum(p.mass * g * p.point.pos_from(O).dot(N.y) for p in particles),
     "cart_x": q[0],
 }
