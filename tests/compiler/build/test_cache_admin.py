@@ -1,26 +1,14 @@
 """Pruning the build cache: least recently used first, held locks respected, automatic past a limit."""
-import os
-import time
-
 import numpy as np
 import pytest
 
 import osc_model
-from eomc.cli import main as eomc_main
 from eomc.compiler.build import build, cache_root
-from eomc.compiler.build.cache import get_or_build, lookup, try_locked
+from eomc.compiler.build.cache import lookup, try_locked
 from eomc.compiler.build.cache_admin import (auto_prune, clear, entries, parse_age, parse_size,
                                              prune, usage)
 from eomc.runtime.loader import load
-
-
-def _fake(root, key, size, used):
-    """A published entry of ``size`` bytes whose last use was ``used`` seconds ago."""
-    entry, _ = get_or_build(root, "models", key, lambda tmp: (tmp / "libx.so").write_bytes(b"x" * size),
-                            {"argv": ["cc"]})
-    stamp = time.time() - used
-    os.utime(entry / "manifest.json", (stamp, stamp))
-    return entry
+from cache_entries import fake_entry
 
 
 @pytest.fixture
@@ -29,8 +17,8 @@ def root(tmp_path):
 
 
 def test_entries_report_size_name_and_last_use_oldest_first(root):
-    _fake(root, "a" * 64, 1000, used=3600)
-    _fake(root, "b" * 64, 2000, used=60)
+    fake_entry(root, "a" * 64, 1000, used=3600)
+    fake_entry(root, "b" * 64, 2000, used=60)
     listed = entries(root)
     assert [e.key[0] for e in listed] == ["a", "b"]
     assert all(e.size > size for e, size in zip(listed, (1000, 2000)))   # plus the manifest
@@ -40,15 +28,15 @@ def test_entries_report_size_name_and_last_use_oldest_first(root):
 
 
 def test_a_hit_counts_as_a_use(root):
-    _fake(root, "a" * 64, 10, used=3600)
-    _fake(root, "b" * 64, 10, used=60)
+    fake_entry(root, "a" * 64, 10, used=3600)
+    fake_entry(root, "b" * 64, 10, used=60)
     assert lookup(root, "models", "a" * 64) is not None
     assert [e.key[0] for e in entries(root)] == ["b", "a"]
 
 
 def test_prune_to_size_drops_least_recently_used_first(root):
     for key, used in (("a", 300), ("b", 200), ("c", 100)):
-        _fake(root, key * 64, 10_000, used=used)
+        fake_entry(root, key * 64, 10_000, used=used)
     removed = prune(root, max_size=25_000)
     assert [e.key[0] for e in removed] == ["a"]
     assert [e.key[0] for e in entries(root)] == ["b", "c"]
@@ -56,8 +44,8 @@ def test_prune_to_size_drops_least_recently_used_first(root):
 
 
 def test_prune_by_age_and_dry_run(root):
-    _fake(root, "a" * 64, 10, used=40 * 86400)
-    _fake(root, "b" * 64, 10, used=86400)
+    fake_entry(root, "a" * 64, 10, used=40 * 86400)
+    fake_entry(root, "b" * 64, 10, used=86400)
     would = prune(root, older_than=parse_age("30d"), dry_run=True)
     assert [e.key[0] for e in would] == ["a"] and len(entries(root)) == 2
     assert [e.key[0] for e in prune(root, older_than=parse_age("30d"))] == ["a"]
@@ -65,7 +53,7 @@ def test_prune_by_age_and_dry_run(root):
 
 
 def test_an_entry_being_built_is_not_removed(root):
-    _fake(root, "a" * 64, 10, used=3600)
+    fake_entry(root, "a" * 64, 10, used=3600)
     with try_locked(root, "a" * 64) as got:
         assert got
         assert prune(root, max_size=0) == []
@@ -73,7 +61,7 @@ def test_an_entry_being_built_is_not_removed(root):
 
 
 def test_clear_removes_entries_and_failed_sources(root):
-    _fake(root, "a" * 64, 10, used=1)
+    fake_entry(root, "a" * 64, 10, used=1)
     (root / "failed" / "m-123").mkdir(parents=True)
     (root / "failed" / "m-123" / "m.c").write_text("int x;")
     assert clear(root) > 0
@@ -83,7 +71,7 @@ def test_clear_removes_entries_and_failed_sources(root):
 def test_a_new_build_prunes_past_the_limit_but_keeps_itself(tmp_path, monkeypatch):
     root = cache_root(tmp_path)
     for key, used in (("a", 300), ("b", 200)):
-        _fake(root, key * 64, 50_000, used=used)
+        fake_entry(root, key * 64, 50_000, used=used)
     monkeypatch.setenv("EOMC_CACHE_MAX_SIZE", "60K")
     result = build(osc_model.oscillator(), cache_dir=tmp_path)
     kept = {e.key for e in entries(root)}
@@ -93,7 +81,7 @@ def test_a_new_build_prunes_past_the_limit_but_keeps_itself(tmp_path, monkeypatc
 
 
 def test_limit_zero_turns_automatic_pruning_off(root, monkeypatch):
-    _fake(root, "a" * 64, 50_000, used=300)
+    fake_entry(root, "a" * 64, 50_000, used=300)
     monkeypatch.setenv("EOMC_CACHE_MAX_SIZE", "0")
     assert auto_prune(root) == [] and len(entries(root)) == 1
     monkeypatch.setenv("EOMC_CACHE_MAX_SIZE", "10K")
@@ -111,18 +99,3 @@ def test_bad_sizes_and_ages_are_named(bad):
         parse_size(bad)
     with pytest.raises(ValueError, match="not an age"):
         parse_age(bad)
-
-
-def test_cli_info_prune_clear(tmp_path, capsys):
-    root = cache_root(tmp_path)
-    _fake(root, "a" * 64, 10_000, used=7200)
-    _fake(root, "b" * 64, 10_000, used=60)
-    assert eomc_main(["cache", "--cache-dir", str(tmp_path), "info", "--list"]) == 0
-    out = capsys.readouterr().out
-    assert str(root) in out and "models" in out and "2 h ago" in out
-    assert eomc_main(["cache", "prune", "--cache-dir", str(tmp_path), "--max-size", "15K"]) == 0
-    assert "removed 1 entries" in capsys.readouterr().out
-    assert eomc_main(["cache", "prune", "--cache-dir", str(tmp_path)]) == 2
-    assert "needs --max-size" in capsys.readouterr().err
-    assert eomc_main(["cache", "clear", "--cache-dir", str(tmp_path)]) == 0
-    assert entries(root) == []
