@@ -10,6 +10,7 @@ from .printer import CPrinter
 from .signatures import SIGNATURES
 
 __all__ = ["BodyContext", "plain_body", "rhs_body", "jacobian_body", "tangent_jacobian_body",
+           "helper_jacobian_body",
            "linearize_body", "split_on", "dynamics_helper", "matrix_body",
            "void_unused"]
 
@@ -182,29 +183,45 @@ def tangent_jacobian_body(ctx, program, W, seeds, ncols):
     return lines
 
 
+def _solve_columns(ctx, program, pr, ncols, kin_group, g_group):
+    """Store G and the kinematic rows, then one solve per column of G into ``out``."""
+    nw, nq, nu = ctx.nw, ctx.nq, ctx.nu
+    gvals = program.result_exprs(g_group)
+    lines = [_store(f"G[{k * nw + i}]", gvals.get((g_group, i, k), 0.0), pr)
+             for k in range(ncols) for i in range(nw)]
+    kvals = program.result_exprs(kin_group)
+    lines += [_store(f"out[{i * ncols + k}]", kvals.get((kin_group, i, k), 0.0), pr)
+              for i in range(nq) for k in range(ncols)]
+    return lines + [f"{_IND}for (k = 0; k < {ncols}; k++) {{",
+                    f"{_IND * 2}{ctx.solver.solve_call(f'G + k * {nw}')};",
+                    f"{_IND * 2}for (i = 0; i < {nu}; i++) out[({nq} + i) * {ncols} + k] = G[k * {nw} + i];",
+                    f"{_IND}}}",
+                    f"{_IND}return {ctx.name}_finite(out, {(nq + nu) * ncols});"]
+
+
 def jacobian_body(ctx, program, W, ncols, kin_group, g_group):
     """d xdot / d(x or r): one factorization, then one solve per column of G."""
-    nw, nq, nu = ctx.nw, ctx.nq, ctx.nu
     pr = ctx.printer(program)
     before, after = split_on(program, W)
-    lines = _solver_decls(ctx, [f"double G[{ncols * nw}];", "int i, k;"])
+    lines = _solver_decls(ctx, [f"double G[{ncols * ctx.nw}];", "int i, k;"])
     lines += _temps(program, pr, before)
     lines += _load_dynamics(ctx, program, pr)
     lines += _temps(program, pr, after)
-    gvals = program.result_exprs(g_group)
-    for k in range(ncols):
-        for i in range(nw):
-            lines.append(_store(f"G[{k * nw + i}]", gvals.get((g_group, i, k), 0.0), pr))
-    kvals = program.result_exprs(kin_group)
-    for i in range(nq):
-        for k in range(ncols):
-            lines.append(_store(f"out[{i * ncols + k}]", kvals.get((kin_group, i, k), 0.0), pr))
-    lines += [f"{_IND}for (k = 0; k < {ncols}; k++) {{",
-              f"{_IND * 2}{ctx.solver.solve_call(f'G + k * {nw}')};",
-              f"{_IND * 2}for (i = 0; i < {nu}; i++) out[({nq} + i) * {ncols} + k] = G[k * {nw} + i];",
-              f"{_IND}}}",
-              f"{_IND}return {ctx.name}_finite(out, {(nq + nu) * ncols});"]
-    return lines
+    return lines + _solve_columns(ctx, program, pr, ncols, kin_group, g_group)
+
+
+def helper_jacobian_body(ctx, program, W, ncols, kin_group, g_group):
+    """d xdot / dr with A from the dynamics helper: factor once, solve for w only when the
+    columns read it (A depends on r), then one solve per column of G."""
+    pr = ctx.printer(program)
+    s = ctx.solver
+    lines = _solver_decls(ctx, [f"double G[{ncols * ctx.nw}];", "int i, k;"])
+    lines += [_call_dynamics(ctx), f"{_IND}status = {s.factor_call()};",
+              f"{_IND}if (status != EOMC_OK) return status;"]
+    if any(e.free_symbols & set(W) for _, e in program.assignments + program.results):
+        lines.append(f"{_IND}{s.solve_call('w')};")
+    lines += _temps(program, pr)
+    return lines + _solve_columns(ctx, program, pr, ncols, kin_group, g_group)
 
 
 def linearize_body(ctx, has_inputs):

@@ -7,8 +7,8 @@ import jinja2
 from ...errors import ModelError
 from ..passes import finish_function, optimize_shared
 from ..ir import count_program, format_program, verify
-from .bodies import (BodyContext, dynamics_helper, matrix_body, split_on, jacobian_body, linearize_body, plain_body, rhs_body,
-                     tangent_jacobian_body, void_unused)
+from .bodies import (BodyContext, dynamics_helper, helper_jacobian_body, matrix_body, split_on, jacobian_body,
+                     linearize_body, plain_body, rhs_body, tangent_jacobian_body, void_unused)
 from .generated import GeneratedModel
 from .layout import check_identifier, make_layout
 from .linsolve import choose_ldlt
@@ -63,7 +63,7 @@ def _body(fn, ctx, prog, sym, layout, nx, functions):
             return tangent_jacobian_body(ctx, prog, sym.W, sym.seeds, nx)
         return jacobian_body(ctx, prog, sym.W, nx, "dkin", "G")
     if fn == "jac_r":
-        return jacobian_body(ctx, prog, sym.W, nr, "dkin_r", "Gr")
+        return helper_jacobian_body(ctx, prog, sym.W, nr, "dkin_r", "Gr")
     if fn == "linearize":
         return linearize_body(ctx, "jac_r" in functions)
     shapes = {"outputs": ("out", (len(sym.output_names),), "out"),

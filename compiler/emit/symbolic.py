@@ -30,12 +30,15 @@ __all__ = ["FUNCTION_GROUPS", "HELPER_USERS", "Symbolic", "build_symbolic", "TAN
 TANGENT_MIN_STATES = 12
 
 # Functions that read A and b through the shared static helper NAME_dynamics.
-HELPER_USERS = ("rhs", "mass_matrix", "forcing", "inverse_dynamics")
+# jac_r is one: its columns A⁻¹ ∂(b − A·W)/∂r need A but only the few
+# temporaries of ∂/∂r, so it calls the helper instead of repeating A's code.
+# (jac_x does not: its columns need most of A's and b's temporaries anyway.)
+HELPER_USERS = ("rhs", "mass_matrix", "forcing", "inverse_dynamics", "jac_r")
 
 FUNCTION_GROUPS = {
     "rhs": ("kin",),                 # + the dynamics helper (A, b)
     "jac_x": ("A", "b", "dkin", "G", "Gt"),
-    "jac_r": ("A", "b", "dkin_r", "Gr"),
+    "jac_r": ("dkin_r", "Gr"),            # + the dynamics helper (A, b)
     "mass_matrix": (),                # the dynamics helper only
     "forcing": (),
     "inverse_dynamics": (),

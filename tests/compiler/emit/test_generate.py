@@ -1,4 +1,6 @@
 """Compiled model functions agree with SymPy's own mechanics classes at random states."""
+import dataclasses
+
 import numpy as np
 import pytest
 import sympy as sm
@@ -366,3 +368,35 @@ def test_loop_ldlt_for_large_dense_mass_matrices(tmp_path, monkeypatch):
     p = np.ones(len(names))
     p[names.index("m3")] = 0.0
     assert c.call("rhs", nx, 0.0, np.ones(nx), p, np.zeros(1))[0] == 1
+
+
+def test_jac_r_when_the_mass_matrix_depends_on_an_input(tmp_path):
+    """A payload mass given as an input enters M: jac_r must use dA/dr and the solved u'."""
+    x, th = me.dynamicsymbols("x th")
+    v, w = me.dynamicsymbols("v w")
+    payload, push = me.dynamicsymbols("payload push")
+    m, l, k, g = sm.symbols("m l k g", positive=True)
+    N = me.ReferenceFrame("N")
+    B = N.orientnew("B", "Axis", [th, N.z])
+    B.set_ang_vel(N, w * N.z)
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    cart = O.locatenew("C", x * N.x)
+    cart.set_vel(N, v * N.x)
+    bob = cart.locatenew("P", l * B.y)
+    bob.v2pt_theory(cart, N, B)
+    bodies = [me.Particle("cart", cart, m), me.Particle("bob", bob, m + payload)]
+    loads = [(cart, (push - k * x) * N.x), (bob, -(m + payload) * g * N.y)]
+    kane = me.KanesMethod(N, [x, th], [v, w], kd_eqs=[x.diff() - v, th.diff() - w])
+    kane.kanes_equations(bodies, loads)
+    formed = es.kane_formed(kane, [payload, push])
+    # SymPy's Fr* differentiates the momentum (m + payload) v; a payload changing in
+    # time is not this test's point, so its rate is dropped: M(q, r) u' = f(q, u, r)
+    formed = dataclasses.replace(formed, dynamics_rhs=formed.dynamics_rhs.subs(payload.diff(), 0))
+    assert formed.dynamics_matrix.has(payload)
+    gm, c, _ = _setup(formed, "payload", _Factory(tmp_path), functions=["rhs", "jac_r"])
+    for tv, xs, p, r in _random(formed, 3):
+        r = np.array([0.5 + abs(r[0]), r[1]])      # a payload, not a negative mass
+        status, B_ = c.call("jac_r", (4, 2), tv, xs, p, r)
+        assert status == 0
+        assert es.rel_err(B_, _fd_jacobian(c, formed, tv, xs, p, r, "r")) <= 1e-6
