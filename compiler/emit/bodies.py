@@ -10,7 +10,7 @@ from .printer import CPrinter
 from .signatures import SIGNATURES
 
 __all__ = ["BodyContext", "plain_body", "rhs_body", "jacobian_body", "tangent_jacobian_body",
-           "helper_jacobian_body",
+           "helper_jacobian_body", "needed_assignments",
            "linearize_body", "split_on", "dynamics_helper", "matrix_body",
            "void_unused"]
 
@@ -143,18 +143,39 @@ def split_on(program, symbols):
     return before, after
 
 
-def tangent_jacobian_body(ctx, program, W, seeds, ncols):
-    """d xdot / dx with the tangent program run once per column (unit seed dx = e_k)."""
+def needed_assignments(assignments, exprs):
+    """The assignments (order kept) that ``exprs`` read, directly or through each other."""
+    defined = {t: e for t, e in assignments}
+    need, stack = set(), [s for e in exprs for s in e.free_symbols]
+    while stack:
+        s = stack.pop()
+        if s in defined and s not in need:
+            need.add(s)
+            stack.extend(defined[s].free_symbols)
+    return [(t, e) for t, e in assignments if t in need]
+
+
+def tangent_jacobian_body(ctx, program, W, seeds, ncols, blocks):
+    """d xdot / dx with tangent programs run once per column (unit seed dx = e_k).
+
+    ``blocks``: (result group, first column, end column); one tangent program per
+    block of columns (the coordinates' and the speeds'), so a speed column does not
+    run the coordinates' much larger tangent."""
     nw, nq, nu = ctx.nw, ctx.nq, ctx.nu
     pr = ctx.printer(program)
     before, rest = split_on(program, W + seeds)
     stage2, stage3 = split_on(program.with_(assignments=tuple(rest)), seeds)
-    # values the loop reads live in an array, not in hundreds of loop-invariant locals
+    per_block = []
+    for group, start, end in blocks:
+        gvals = program.result_exprs(group)
+        per_block.append((gvals, needed_assignments(stage3, gvals.values()), start, end))
+    # values the loops read live in an array, not in hundreds of loop-invariant locals
     # (which make C compilers' register allocation slow on large models)
     defined = {t for t, _ in before + stage2}
     live = []
-    for _, e in stage3 + [(None, e) for k, e in program.results if k[0] == "Gt"]:
-        live += [s for s in e.free_symbols if s in defined and s not in live]
+    for gvals, inner, _, _ in per_block:
+        for e in [e for _, e in inner] + list(gvals.values()):
+            live += [s for s in e.free_symbols if s in defined and s not in live]
     live.sort(key=lambda s: pr._names[s])
     live.sort(key=lambda s: len(pr._names[s]))
     for j, s in enumerate(live):
@@ -168,18 +189,20 @@ def tangent_jacobian_body(ctx, program, W, seeds, ncols):
     for i in range(nq):
         for k in range(ncols):
             lines.append(_store(f"out[{i * ncols + k}]", kvals.get(("dkin", i, k), 0.0), pr))
-    gvals = program.result_exprs("Gt")
-    inner = _temps(program, pr, stage3)
-    inner += [_store(f"G[{i}]", gvals.get(("Gt", i), 0.0), pr) for i in range(nw)]
-    lines += [f"{_IND}for (k = 0; k < {ncols}; k++) {{",
-              f"{_IND * 2}for (i = 0; i < {ncols}; i++) dx[i] = 0.0;",
-              f"{_IND * 2}dx[k] = 1.0;", f"{_IND * 2}{{"]
-    lines += [_IND * 2 + line for line in inner]
-    lines += [f"{_IND * 2}}}",
-              f"{_IND * 2}{ctx.solver.solve_call('G')};",
-              f"{_IND * 2}for (i = 0; i < {nu}; i++) out[({nq} + i) * {ncols} + k] = G[i];",
-              f"{_IND}}}",
-              f"{_IND}return {ctx.name}_finite(out, {(nq + nu) * ncols});"]
+    lines.append(f"{_IND}for (i = 0; i < {ncols}; i++) dx[i] = 0.0;")
+    for gvals, inner, start, end in per_block:
+        group = next(iter(gvals))[0] if gvals else None
+        body = _temps(program, pr, inner)
+        body += [_store(f"G[{i}]", gvals.get((group, i), 0.0), pr) for i in range(nw)]
+        lines += [f"{_IND}for (k = {start}; k < {end}; k++) {{",
+                  f"{_IND * 2}dx[k] = 1.0;", f"{_IND * 2}{{"]
+        lines += [_IND * 2 + line for line in body]
+        lines += [f"{_IND * 2}}}",
+                  f"{_IND * 2}dx[k] = 0.0;",
+                  f"{_IND * 2}{ctx.solver.solve_call('G')};",
+                  f"{_IND * 2}for (i = 0; i < {nu}; i++) out[({nq} + i) * {ncols} + k] = G[i];",
+                  f"{_IND}}}"]
+    lines.append(f"{_IND}return {ctx.name}_finite(out, {(nq + nu) * ncols});")
     return lines
 
 

@@ -7,7 +7,7 @@ import jinja2
 from ...errors import ModelError
 from ..passes import finish_function, optimize_shared
 from ..ir import count_program, format_program, verify
-from .bodies import (BodyContext, dynamics_helper, helper_jacobian_body, matrix_body, split_on, jacobian_body,
+from .bodies import (BodyContext, dynamics_helper, helper_jacobian_body, matrix_body, needed_assignments, split_on, jacobian_body,
                      linearize_body, plain_body, rhs_body, tangent_jacobian_body, void_unused)
 from .generated import GeneratedModel
 from .layout import check_identifier, make_layout
@@ -59,8 +59,8 @@ def _body(fn, ctx, prog, sym, layout, nx, functions):
     if fn in ("mass_matrix", "forcing", "inverse_dynamics"):
         return matrix_body(ctx, fn)
     if fn == "jac_x":
-        if any(k[0] == "Gt" for k, _ in prog.results):
-            return tangent_jacobian_body(ctx, prog, sym.W, sym.seeds, nx)
+        if _tangent(prog):
+            return tangent_jacobian_body(ctx, prog, sym.W, sym.seeds, nx, _tangent_blocks(ctx))
         return jacobian_body(ctx, prog, sym.W, nx, "dkin", "G")
     if fn == "jac_r":
         return helper_jacobian_body(ctx, prog, sym.W, nr, "dkin_r", "Gr")
@@ -73,6 +73,34 @@ def _body(fn, ctx, prog, sym, layout, nx, functions):
     return plain_body(ctx, prog, group, shape, out)
 
 
+def _tangent(prog):
+    """True when jac_x loops tangent programs over columns (many states)."""
+    return any(k[0] in ("Gtq", "Gtu") for k, _ in prog.results)
+
+
+def _tangent_blocks(ctx, nq=None, nx=None):
+    """(result group, first column, end column) of the coordinates' and speeds' tangents."""
+    nq = ctx.nq if nq is None else nq
+    nx = ctx.nq + ctx.nu if nx is None else nx
+    return (("Gtq", 0, nq), ("Gtu", nq, nx))
+
+
+def _tangent_ops(prog, seeds, blocks):
+    """Operations of a looped jac_x: the tangent part once per column of its block."""
+    loop = split_on(prog, seeds)[1]
+    in_loop = {t for t, _ in loop}
+    groups = {g for g, _, _ in blocks}
+    c = count_program(prog.with_(assignments=tuple(a for a in prog.assignments if a[0] not in in_loop),
+                                 results=tuple(r for r in prog.results if r[0][0] not in groups)))
+    for group, start, end in blocks:
+        gvals = prog.result_exprs(group)
+        per_column = count_program(prog.with_(assignments=tuple(needed_assignments(loop, gvals.values())),
+                                              results=tuple(gvals.items())))
+        for _ in range(end - start):
+            c += per_column
+    return c
+
+
 def _ops(fn, prog, solver, nx, nr, seeds=(), helper=None, nu=0, nnz=0):
     c = count_program(prog) if prog is not None else Counter()
     if fn == "linearize":
@@ -81,12 +109,8 @@ def _ops(fn, prog, solver, nx, nr, seeds=(), helper=None, nu=0, nnz=0):
         c += count_program(helper)
     if fn == "inverse_dynamics":
         c += Counter(muls=nnz, adds=nnz)
-    if fn == "jac_x" and any(k[0] == "Gt" for k, _ in prog.results):
-        # the tangent program runs once per column
-        loop = split_on(prog, seeds)[1]
-        per_column = count_program(prog.with_(assignments=tuple(loop)).select(["Gt"]))
-        for _ in range(nx - 1):
-            c += per_column
+    if fn == "jac_x" and _tangent(prog):
+        c = _tangent_ops(prog, seeds, _tangent_blocks(None, nq=nx - nu, nx=nx))
     if fn in _SOLVING:
         c += solver.factor_ops
         nsolve = 1 + {"rhs": 0, "jac_x": nx, "jac_r": nr}[fn]

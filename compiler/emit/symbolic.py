@@ -37,7 +37,7 @@ HELPER_USERS = ("rhs", "mass_matrix", "forcing", "inverse_dynamics", "jac_r")
 
 FUNCTION_GROUPS = {
     "rhs": ("kin",),                 # + the dynamics helper (A, b)
-    "jac_x": ("A", "b", "dkin", "G", "Gt"),
+    "jac_x": ("A", "b", "dkin", "G", "Gtq", "Gtu"),
     "jac_r": ("dkin_r", "Gr"),            # + the dynamics helper (A, b)
     "mass_matrix": (),                # the dynamics helper only
     "forcing": (),
@@ -141,7 +141,9 @@ def build_symbolic(formed, layout, functions, outputs=None):
         res += [(("res", i), b[i] - sm.Add(*[A[i, j] * W[j] for j in range(nw) if (i, j) in pattern]))
                 for i in range(nw)]
         if "G" in groups and len(layout.x) > TANGENT_MIN_STATES:
-            derivatives.append(("res", dict(zip(layout.x, seeds)), "Gt"))
+            nq = formed.nq
+            derivatives.append(("res", dict(zip(layout.x[:nq], seeds[:nq])), "Gtq"))
+            derivatives.append(("res", dict(zip(layout.x[nq:], seeds[nq:])), "Gtu"))
         elif "G" in groups:
             derivatives.append(("res", layout.x, "G"))
         if "Gr" in groups:

@@ -328,11 +328,17 @@ def test_zoo_rhs_and_constraints(build, tmp_path):
     assert sj == 0 and es.rel_err(J, _fd_jacobian(c, formed, tv, x, p, r)) <= 1e-6
 
 
-@pytest.mark.parametrize("n", [1, 3])
-def test_tangent_loop_jacobian(n, tmp_path, monkeypatch):
-    """Above TANGENT_MIN_STATES jac_x loops a tangent program over columns; same values."""
+@pytest.mark.parametrize("n, build", [
+    (1, lambda: zoo.n_link_pendulum_on_cart(1, me)),
+    (3, lambda: zoo.n_link_pendulum_on_cart(3, me)),
+    ("top", lambda: zoo.heavy_top(me)),
+    ("fourbar", lambda: zoo.four_bar(me)),
+])
+def test_tangent_loop_jacobian(n, build, tmp_path, monkeypatch):
+    """Above TANGENT_MIN_STATES jac_x loops tangent programs (one for the coordinates'
+    columns, one for the speeds') over columns; same values as the unrolled form."""
     from eomc.compiler.emit import symbolic
-    kane, spec = zoo.n_link_pendulum_on_cart(n, me)
+    kane, spec = build()
     formed = es.kane_formed(kane, spec)
     unrolled = generate_c(formed, f"unr{n}", functions=["jac_x", "rhs"])
     monkeypatch.setattr(symbolic, "TANGENT_MIN_STATES", 0)
