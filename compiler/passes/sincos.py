@@ -45,11 +45,16 @@ def share_sincos(program):
     for arg in nested:
         funcs = by_arg[arg]
         new_arg = rewrite(arg)
+        # Renaming inner calls can reorder the argument so that SymPy would rewrite
+        # sin(a) as -sin(-a), leaving a call inline; hoist the canonical sign instead.
+        flip = new_arg.could_extract_minus_sign()
+        if flip:
+            new_arg = -new_arg
         where = max((position[s] for s in new_arg.free_symbols if s in position), default=-1)
         for func in (sm.sin, sm.cos):
             if func in funcs:
                 sym = names.fresh()
-                mapping[funcs[func]] = sym
+                mapping[funcs[func]] = -sym if (flip and func is sm.sin) else sym
                 position[sym] = where
                 inserts.setdefault(where, []).append((sym, func, new_arg))
     out = [(sym, func(arg)) for sym, func, arg in inserts.get(-1, [])]

@@ -1,14 +1,11 @@
 """`eomc build`: the files it writes, the module it generates, and failures leaving DIR untouched."""
-import os
 import subprocess
 import sys
 
 import numpy as np
-import pytest
 
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-import model_files  # noqa: E402
-from eomc.cli import main  # noqa: E402
+import model_files
+from eomc.cli import main
 
 
 def test_build_writes_sources_library_metadata_and_module(tmp_path, capsys):

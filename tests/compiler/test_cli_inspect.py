@@ -1,11 +1,8 @@
 """`eomc inspect`: sizes, per-function operation counts and the mass matrix's sparsity."""
-import os
-import sys
 
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-import model_files  # noqa: E402
-from eomc.cli import main  # noqa: E402
-from eomc.compiler.cli_inspect import format_report  # noqa: E402
+import model_files
+from eomc.cli import main
+from eomc.compiler.cli_inspect import format_report
 
 
 def test_inspect_prints_sizes_counts_and_sparsity(tmp_path, capsys):

@@ -1,10 +1,7 @@
 """`eomc show`: the derived equations, printed readably."""
-import os
-import sys
 
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-import model_files  # noqa: E402
-from eomc.cli import main  # noqa: E402
+import model_files
+from eomc.cli import main
 
 
 def test_show_prints_coordinates_kinematics_mass_matrix_and_forcing(tmp_path, capsys):

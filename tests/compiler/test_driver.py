@@ -1,5 +1,4 @@
 """eomc.compile end to end: model file or object -> loaded model, against closed forms."""
-import os
 import subprocess
 import sys
 import textwrap
@@ -7,12 +6,11 @@ import textwrap
 import numpy as np
 import pytest
 
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-import model_files  # noqa: E402
-import eomc  # noqa: E402
-from eomc.compiler.build import build  # noqa: E402
-from eomc.compiler.driver import Progress, generate  # noqa: E402
-from eomc.errors import ModelError  # noqa: E402
+import model_files
+import eomc
+from eomc.compiler.build import build
+from eomc.compiler.driver import Progress, generate
+from eomc.errors import ModelError
 
 RNG = np.random.default_rng(11)
 

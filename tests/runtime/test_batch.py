@@ -1,16 +1,13 @@
 """simulate_many equals single runs; cases over states and parameters; failures per case."""
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent / "models"))
-from stand_in import get_model  # noqa: E402
+from stand_in import get_model
 
-from eomc.errors import SimulationError  # noqa: E402
-from eomc.runtime.batch import simulate_many  # noqa: E402
-from eomc.runtime.simulate import simulate  # noqa: E402
+from eomc.errors import SimulationError
+from eomc.runtime.batch import simulate_many
+from eomc.runtime.simulate import simulate
 
 
 @pytest.mark.parametrize("threads", [1, 2])

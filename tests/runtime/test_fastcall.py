@@ -8,22 +8,19 @@ values or the same error.  A closed form (tests/model_files.cart_rhs) is the
 independent oracle for the values themselves.
 """
 import gc
-import os
-import sys
 import threading
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-import model_files  # noqa: E402
-import zoo  # noqa: E402
-import eomc  # noqa: E402
-import eomc.mechanics as em  # noqa: E402
-from eomc.errors import ModelError, SimulationError  # noqa: E402
-from eomc.runtime import model as model_module  # noqa: E402
+import model_files
+import zoo
+import eomc
+import eomc.mechanics as em
+from eomc.errors import ModelError, SimulationError
+from eomc.runtime import model as model_module
 from eomc.runtime._fastcall import FastCalls  # noqa: E402  (built by setup.py; its absence is a failure)
-from eomc.runtime.loader import load  # noqa: E402
+from eomc.runtime.loader import load
 
 RNG = np.random.default_rng(11)
 METHODS = ("rhs", "jacobian", "mass_matrix", "forcing")

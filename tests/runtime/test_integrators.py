@@ -4,18 +4,15 @@ Oracles are independent of the integrators: the harmonic oscillator's closed
 form, the matrix exponential of the (linear) stiff chain, scipy's DOP853 at
 rtol=1e-12, and conservation of energy.
 """
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 from scipy.linalg import expm
 
-sys.path.insert(0, str(Path(__file__).resolve().parent / "models"))
-from stand_in import get_model  # noqa: E402
+from stand_in import get_model
 
-from eomc.runtime.simulate import scipy_fun, simulate  # noqa: E402
+from eomc.runtime.simulate import scipy_fun, simulate
 
 W = 2.0  # oscillator: k = 4, m = 1 -> omega = 2
 

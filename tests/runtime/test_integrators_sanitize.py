@@ -1,13 +1,10 @@
 """The C integrators under AddressSanitizer and UBSan (a plain C driver, no Python in the loop)."""
 import shutil
 import subprocess
-import sys
-from pathlib import Path
 
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent / "models"))
-from stand_in import HERE, SOURCES, TEMPLATES  # noqa: E402
+from stand_in import HERE, SOURCES, TEMPLATES
 
 
 def test_integrators_clean_under_address_and_undefined_sanitizers(tmp_path):

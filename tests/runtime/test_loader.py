@@ -1,6 +1,5 @@
 """eomc.runtime.loader: finding a build, refusing stale ones, and never importing SymPy."""
 import json
-import os
 import shutil
 import subprocess
 import sys
@@ -9,10 +8,9 @@ import textwrap
 import numpy as np
 import pytest
 
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-import osc_model  # noqa: E402
-from eomc.compiler.build import build  # noqa: E402
-from eomc.runtime.loader import LoadError, load  # noqa: E402
+import osc_model
+from eomc.compiler.build import build
+from eomc.runtime.loader import LoadError, load
 
 
 @pytest.fixture(scope="module")

@@ -4,18 +4,15 @@ Checks values against numpy (tests/osc_model.py), that every bad argument is
 a ValueError naming it *before* any C runs (kernels are spied on), and that a
 nonzero C status becomes an error naming the failure, time and state.
 """
-import os
-import sys
 import threading
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-import osc_model  # noqa: E402
-from eomc.compiler.build import build  # noqa: E402
-from eomc.errors import ModelError, SimulationError  # noqa: E402
-from eomc.runtime.loader import load  # noqa: E402
+import osc_model
+from eomc.compiler.build import build
+from eomc.errors import ModelError, SimulationError
+from eomc.runtime.loader import load
 
 RNG = np.random.default_rng(7)
 

@@ -14,12 +14,11 @@ import numpy as np
 import pytest
 from scipy.linalg import expm
 
-sys.path.insert(0, str(Path(__file__).resolve().parent / "models"))
-from stand_in import get_model  # noqa: E402
+from stand_in import get_model
 
-from eomc.runtime.reference import compute_reference, scaled_error, state_scale  # noqa: E402
-from eomc.runtime.report import COLUMNS, work_precision  # noqa: E402
-from eomc.runtime.simulate import simulate  # noqa: E402
+from eomc.runtime.reference import compute_reference, scaled_error, state_scale
+from eomc.runtime.report import COLUMNS, work_precision
+from eomc.runtime.simulate import simulate
 
 W = 2.0                                     # oscillator: k = 4, m = 1
 T = 10.0

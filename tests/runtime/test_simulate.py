@@ -1,15 +1,12 @@
 """simulate(): argument checking before C runs, failures, named results, projection, CSV."""
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent / "models"))
-from stand_in import get_model  # noqa: E402
+from stand_in import get_model
 
-from eomc.errors import SimulationError  # noqa: E402
-from eomc.runtime.simulate import scipy_fun, simulate  # noqa: E402
+from eomc.errors import SimulationError
+from eomc.runtime.simulate import scipy_fun, simulate
 
 
 @pytest.fixture(scope="module")

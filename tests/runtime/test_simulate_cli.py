@@ -1,15 +1,12 @@
 """eomc simulate: CSV, plot, overrides, one-line errors (model loading stubbed by a stand-in)."""
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent / "models"))
-from stand_in import get_model  # noqa: E402
+from stand_in import get_model
 
-import eomc.compiler.cli_common as cli_common  # noqa: E402
-from eomc.cli import main  # noqa: E402
+import eomc.compiler.cli_common as cli_common
+from eomc.cli import main
 
 
 @pytest.fixture

@@ -3,18 +3,15 @@
 Oracles: the closed-form right-hand sides in tests/model_files.py integrated by
 scipy's DOP853 at rtol=1e-12, and conservation of the model file's energy.
 """
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-import model_files  # noqa: E402
+import model_files
 
-import eomc  # noqa: E402
-from eomc.runtime.batch import simulate_many  # noqa: E402
+import eomc
+from eomc.runtime.batch import simulate_many
 
 
 @pytest.fixture(scope="module")

@@ -4,20 +4,18 @@ Each test states its expectation in its docstring.  (a), the stiff chain over
 stiffness ratios 1e3..1e8, lives in test_integrators.py; here it runs through
 check_model, the function behind ``eomc check``.
 """
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent / "models"))
-from stand_in import get_model  # noqa: E402
+from stand_in import get_model
 
-import eomc.compiler.cli_common as cli_common  # noqa: E402
-from eomc.cli import main  # noqa: E402
-from eomc.errors import SimulationError  # noqa: E402
-from eomc.runtime.simulate import simulate  # noqa: E402
-from eomc.runtime.stability import check_model  # noqa: E402
+import eomc.compiler.cli_common as cli_common
+from eomc.cli import main
+from eomc.errors import SimulationError
+from eomc.runtime.simulate import simulate
+from eomc.runtime.stability import check_model
 
 
 def by_name(checks):

@@ -1,6 +1,5 @@
 """The content-addressed build cache: hits, key coverage, corrupt entries, compile errors, races."""
 import json
-import multiprocessing
 import os
 import subprocess
 import sys

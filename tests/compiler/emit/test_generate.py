@@ -91,7 +91,6 @@ def test_cart_jacobians_match_finite_differences(cart):
         assert sj == sr == 0
         assert es.rel_err(J, _fd_jacobian(c, formed, tv, x, p, r)) <= 1e-6
         assert es.rel_err(B, _fd_jacobian(c, formed, tv, x, p, r, "r")) <= 1e-6
-        sl, AB = 0, None
         A2, B2 = np.full((nx, nx), np.nan), np.full((nx, 1), np.nan)
         ptr = c._ptr
         xs, ps, rs = (np.ascontiguousarray(v, float) for v in (x, p, r))

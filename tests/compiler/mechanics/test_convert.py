@@ -4,22 +4,18 @@ The oracle is SymPy's own result: after conversion, eomc's re-derived
 mass_matrix_full and forcing_full must agree numerically with the SymPy
 object's, and ``formed()`` must work.
 """
-import pathlib
-import sys
 
 import pytest
 import sympy as sm
 import sympy.physics.mechanics as sme
 
-HERE = pathlib.Path(__file__).parent
-sys.path[:0] = [str(HERE), str(HERE.parents[1])]
-import lagrange_mechanisms as mechs  # noqa: E402
-import lagrange_numeric as num  # noqa: E402
-import zoo  # noqa: E402
+import lagrange_mechanisms as mechs
+import lagrange_numeric as num
+import zoo
 
-import eomc.mechanics as em  # noqa: E402
-from eomc.errors import ModelError  # noqa: E402
-from eomc.compiler.mechanics import FormedSystem, KanesMethod, LagrangesMethod  # noqa: E402
+import eomc.mechanics as em
+from eomc.errors import ModelError
+from eomc.compiler.mechanics import FormedSystem, KanesMethod, LagrangesMethod
 
 
 def assert_converts(theirs, cls, extra=()):

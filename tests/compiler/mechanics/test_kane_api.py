@@ -1,19 +1,14 @@
 """SymPy 1.14 / seed API surface of eomc's KanesMethod."""
-import pathlib
-import sys
 
 import pytest
 import sympy as sm
 import sympy.physics.mechanics as sme
 
-_HERE = pathlib.Path(__file__).resolve().parent
-sys.path[:0] = [str(_HERE), str(_HERE.parents[1])]
+import zoo
+from kane_oracle import assert_close, evaluate, random_point
 
-import zoo  # noqa: E402
-from kane_oracle import assert_close, evaluate, random_point  # noqa: E402
-
-import eomc.mechanics as em  # noqa: E402
-from eomc.errors import ModelError  # noqa: E402
+import eomc.mechanics as em
+from eomc.errors import ModelError
 
 
 def _cart(me):

@@ -1,17 +1,12 @@
 """Linearization against closed forms: pendulum on a cart, rolling disc stability."""
-import pathlib
-import sys
 
 import numpy as np
 import pytest
 import sympy as sm
 
-_HERE = pathlib.Path(__file__).resolve().parent
-sys.path[:0] = [str(_HERE.parents[1])]
+import zoo
 
-import zoo  # noqa: E402
-
-import eomc.mechanics as em  # noqa: E402
+import eomc.mechanics as em
 
 
 def test_pendulum_on_cart_state_space_matches_hand_derivation():

@@ -4,20 +4,15 @@ Each link turns about a random axis of the previous link's frame (the first
 one may sit on a slider), carries a particle or a rigid body at a random
 offset, and may get a joint torque input, gravity and a viscous drag load.
 """
-import pathlib
-import sys
 
 import sympy as sm
 import sympy.physics.mechanics as sme
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-_HERE = pathlib.Path(__file__).resolve().parent
-sys.path[:0] = [str(_HERE)]
+from kane_oracle import assert_close, evaluate, random_point
 
-from kane_oracle import assert_close, evaluate, random_point  # noqa: E402
-
-import eomc.mechanics as em  # noqa: E402
+import eomc.mechanics as em
 
 link = st.fixed_dictionaries({
     "axis": st.sampled_from("xyz"),

@@ -2,8 +2,6 @@
 import doctest
 import pathlib
 
-import pytest
-
 SEED = pathlib.Path(__file__).resolve().parent / "data" / "001_353f4581c47c99ff.txt"
 
 

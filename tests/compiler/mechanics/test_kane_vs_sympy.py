@@ -4,21 +4,16 @@ Each zoo mechanism is formed twice, once per mechanics module, and
 mass_matrix_full, forcing_full and rhs() must agree to 1e-12 (relative) at
 random states and parameter values.
 """
-import pathlib
-import sys
 
 import pytest
 import sympy as sm
 import sympy.physics.mechanics as sme
 
-_HERE = pathlib.Path(__file__).resolve().parent
-sys.path[:0] = [str(_HERE), str(_HERE.parents[1])]
+import zoo
+from kane_oracle import assert_close, compare_kane, evaluate, random_point
 
-import zoo  # noqa: E402
-from kane_oracle import assert_close, compare_kane, evaluate, random_point  # noqa: E402
-
-import eomc.mechanics as em  # noqa: E402
-from eomc.compiler.mechanics.kane import KanesMethod  # noqa: E402
+import eomc.mechanics as em
+from eomc.compiler.mechanics.kane import KanesMethod
 
 
 def both(builder):

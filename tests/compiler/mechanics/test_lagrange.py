@@ -4,22 +4,18 @@ Each mechanism is built twice from the same description -- once with
 ``eomc.mechanics``, once with ``sympy.physics.mechanics`` -- and the mass
 matrices, forcing vectors and equations are evaluated at random states.
 """
-import pathlib
-import sys
 
 import numpy as np
 import pytest
 import sympy as sm
 import sympy.physics.mechanics as sme
 
-HERE = pathlib.Path(__file__).parent
-sys.path[:0] = [str(HERE), str(HERE.parents[1])]
-import lagrange_mechanisms as mechs  # noqa: E402
-import lagrange_numeric as num  # noqa: E402
-import zoo  # noqa: E402
+import lagrange_mechanisms as mechs
+import lagrange_numeric as num
+import zoo
 
-import eomc.mechanics as em  # noqa: E402
-from eomc.compiler.mechanics import LagrangesMethod  # noqa: E402
+import eomc.mechanics as em
+from eomc.compiler.mechanics import LagrangesMethod
 
 
 def assert_matches_sympy(ours, theirs, seeds=(0, 1, 2)):

@@ -1,19 +1,15 @@
 """LagrangesMethod.linearize(): closed forms and SymPy 1.14's Linearizer results."""
-import pathlib
-import sys
 
 import pytest
 import sympy as sm
 import sympy.physics.mechanics as sme
 
-HERE = pathlib.Path(__file__).parent
-sys.path[:0] = [str(HERE), str(HERE.parents[1])]
-import lagrange_mechanisms as mechs  # noqa: E402
-import lagrange_numeric as num  # noqa: E402
-import zoo  # noqa: E402
+import lagrange_mechanisms as mechs
+import lagrange_numeric as num
+import zoo
 
-import eomc.mechanics as em  # noqa: E402
-from eomc.errors import ModelError  # noqa: E402
+import eomc.mechanics as em
+from eomc.errors import ModelError
 
 t = sme.dynamicsymbols._t
 

@@ -1,18 +1,14 @@
 """Random Lagrangians (hypothesis) against SymPy, and Lagrange vs Kane on the same cart."""
-import pathlib
-import sys
 
 import numpy as np
 import sympy as sm
 import sympy.physics.mechanics as sme
 from hypothesis import given, settings, strategies as st
 
-HERE = pathlib.Path(__file__).parent
-sys.path[:0] = [str(HERE), str(HERE.parents[1])]
-import lagrange_numeric as num  # noqa: E402
-import zoo  # noqa: E402
+import lagrange_numeric as num
+import zoo
 
-import eomc.mechanics as em  # noqa: E402
+import eomc.mechanics as em
 
 t = sme.dynamicsymbols._t
 Q = sme.dynamicsymbols("q1:4")

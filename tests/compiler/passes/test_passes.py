@@ -1,6 +1,6 @@
 """Every pass keeps a program's values; DCE keeps exactly what the results need."""
 import sympy as sm
-from hypothesis import given, settings, strategies as st
+from hypothesis import example, given, settings, strategies as st
 from sympy.core.traversal import preorder_traversal
 
 from eomc.compiler.ir import IMul, Program, evaluate, verify
@@ -91,6 +91,7 @@ def test_dce_keeps_exactly_what_results_need(es, data):
 
 @settings(max_examples=40, deadline=None)
 @given(st.lists(exprs, min_size=1, max_size=4))
+@example([sm.sin(X[0] - sm.sin(X[0]))])   # renamed inner call made SymPy flip the outer sign
 def test_sincos_shared_and_adjacent(es):
     out = fold_constants(share_sincos(cse(_program(es))))
     seen = {}
