@@ -211,7 +211,10 @@ class KanesMethod:
             f = f[:p, :] + A * f[p:, :]
         self._k_d = mm
         self._forcing_d = sm.Matrix([sm.Add(f[r], nn[r]) for r in range(f.rows)])
-        if len(self._body_terms) + len(self._load_terms) <= _SMALL:
+        # Not after eliminating dependent speeds: A_rs brings the constraint
+        # solve's quotients into every row, and expanding those blows up (the
+        # Whipple bicycle's forcing did not finish expanding in 10 minutes).
+        if not self._udep and len(self._body_terms) + len(self._load_terms) <= _SMALL:
             self._forcing_d = _compact(mm, self._forcing_d)
         frstar = _frstar(mm, nn, udot)
         self._fr, self._frstar = f, frstar
