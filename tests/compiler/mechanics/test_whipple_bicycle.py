@@ -224,3 +224,20 @@ def test_kicked_bicycle_recovers_at_5_m_s(model):
 def test_kicked_bicycle_falls_at_2_m_s(model):
     lean, res, _ = _lean_after_kick(model, 2.0, 2.0)
     assert np.abs(lean[-1]) > 10 * np.abs(lean[:20]).max()
+
+
+def test_model_file_initial_state_is_consistent_and_rolls_at_5_m_s(example, model):
+    x0 = model.initial_state
+    assert np.abs(model.constraints(0.0, x0)).max() < 1e-14
+    out = model.outputs(0.0, x0)
+    assert out["forward_speed"] == pytest.approx(5.0, rel=1e-14)
+    assert out["lean"] == out["steer"] == out["pitch"] == 0.0
+    assert WEAVE_SPEED < out["forward_speed"] < CAPSIZE_SPEED
+    # the model file's own helper agrees with the compiled constraints away from upright
+    km = example["system"]
+    x = _upright(model, 3.0)
+    x[[1, 2, 4, 5]] = [0.1, 0.2, -0.3, 0.4]          # lean, steer, lean rate, steer rate
+    helper = example["consistent_speeds"]({**dict(zip(km.q, x[:4])), **dict(zip(km.u[:3], x[4:7]))})
+    want = _consistent(model, x)
+    np.testing.assert_allclose([helper[s] for s in km.u[3:]], want[7:], rtol=1e-12,
+                               atol=1e-12 * np.abs(want[7:]).max())
