@@ -38,6 +38,7 @@ straight-ahead running is asymptotically stable (self-stable) for forward
 speeds between the weave speed 4.292 m/s and the capsize speed 6.024 m/s;
 the initial state rolls at 5 m/s with a small lean rate.
 """
+import numpy as np
 import sympy as sm
 
 from eomc.mechanics import (KanesMethod, Point, ReferenceFrame, RigidBody, dot,
@@ -141,10 +142,11 @@ def consistent_speeds(point):
     dep = [list(system.u).index(s) for s in (u1, u3, u6)]
     ind = [i for i in range(len(system.u)) if i not in dep]
     known = sm.Matrix([values[system.u[i]] for i in ind])
-    lhs = k_nh.extract(list(range(k_nh.rows)), dep).xreplace(values).evalf()
-    rhs = -(k_nh.extract(list(range(k_nh.rows)), ind).xreplace(values) * known
-            + f_nh.xreplace(values)).evalf()
-    return dict(zip((u1, u3, u6), (float(x) for x in lhs.LUsolve(rhs))))
+    rows = list(range(k_nh.rows))
+    lhs = np.array(k_nh.extract(rows, dep).xreplace(values).evalf(), dtype=float)
+    rhs = -np.array((k_nh.extract(rows, ind).xreplace(values) * known
+                     + f_nh.xreplace(values)).evalf(), dtype=float).ravel()
+    return dict(zip((u1, u3, u6), np.linalg.solve(lhs, rhs).tolist()))   # pivoting: no 0/0
 
 
 # Upright, steer straight, at 5 m/s (inside the self-stable speed range), with a
