@@ -180,8 +180,8 @@ def tangent_jacobian_body(ctx, program, W, seeds, ncols, blocks):
     live.sort(key=lambda s: len(pr._names[s]))
     for j, s in enumerate(live):
         pr._names[s] = f"P[{j}]"
-    lines = _solver_decls(ctx, [f"double G[{nw}];", f"double dx[{ncols}];",
-                                f"double P[{max(len(live), 1)}];", "int i, k;"])
+    lines = _solver_decls(ctx, [f"double G[{nw}];", f"double dx[{ncols}];", "int i, k;"]
+                          + ([f"double P[{len(live)}];"] if live else []))
     lines += _temps(program, pr, before)
     lines += _load_dynamics(ctx, program, pr)
     lines += _temps(program, pr, stage2)

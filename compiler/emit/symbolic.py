@@ -82,6 +82,27 @@ def _is_symmetric(A, seed=0):
     return True
 
 
+def _check_structurally_regular(pattern, nw, speed_names, multipliers, by_speed):
+    """A row or column of A that is identically zero makes every solve fail: say so at
+    compile time, naming the speed (or multiplier) concerned.  ``by_speed``: row i is
+    speed i's equation (no velocity constraints), so a zero row can be named too."""
+    unknowns = list(speed_names) + [str(m) for m in multipliers]
+    for i in range(nw):
+        if not any((j, i) in pattern for j in range(nw)):
+            what = (f"speed {unknowns[i]} has no inertia: its acceleration appears in no "
+                    f"equation" if i < len(speed_names) else
+                    f"multiplier {unknowns[i]} appears in no equation")
+            raise ModelError(f"{what} (the mass matrix's column is identically zero), so the "
+                             f"equations of motion cannot be solved; is a body's mass on the axis "
+                             f"it turns about, or a link massless with nothing at its end?")
+    for i in range(nw):
+        if not any((i, j) in pattern for j in range(nw)):
+            what = (f"the equation of speed {unknowns[i]}" if by_speed and i < len(speed_names)
+                    else f"equation {i} of the dynamics")
+            raise ModelError(f"{what} has an identically zero row in the mass matrix, so the "
+                             f"equations of motion cannot be solved for the accelerations")
+
+
 def _outputs(formed, layout, outputs):
     kin = {sm.Derivative(q, sm.Symbol("t")): k for q, k in zip(formed.coordinates, formed.kinematics)}
     names, exprs = [], []
@@ -119,6 +140,8 @@ def build_symbolic(formed, layout, functions, outputs=None):
     if symmetric:
         A = sm.Matrix(nw, nw, lambda i, j: A[max(i, j), min(i, j)])
     pattern = frozenset((i, j) for i in range(nw) for j in range(nw) if A[i, j] != 0)
+    _check_structurally_regular(pattern, nw, layout.state_names[formed.nq:], formed.multipliers,
+                                by_speed=len(formed.velocity_constraints) == 0)
     row_order = tuple(range(nw)) if symmetric else static_row_order(A, pattern)
     W = tuple(sm.Symbol(f"w_{j}", real=True) for j in range(nw))
     seeds = tuple(sm.Symbol(f"sx_{j}", real=True) for j in range(len(layout.x)))
