@@ -20,6 +20,7 @@ import numpy as np
 from eomc.errors import ModelError, SimulationError
 
 from .cdef import STATUS_NAMES
+from .names import index_of, model_name
 
 try:  # built once with eomc (setup.py); a source tree without it uses the cffi fast path
     from ._fastcall import FastCalls as _FastCalls
@@ -194,12 +195,8 @@ class Model:
 
     def _named(self, value, names, defaults, what):
         out = np.array(defaults, dtype=np.float64)
-        unknown = [k for k in value if str(k) not in names]
-        if unknown:
-            raise ValueError(f"{self.name}: unknown {what} {', '.join(map(str, unknown))}; "
-                             f"this model's {what}s are {', '.join(names) or 'none'}")
         for key, v in value.items():
-            out[names.index(str(key))] = self._time(v, f"{what} {key}")
+            out[index_of(key, names, what, self.name)] = self._time(v, f"{what} {model_name(key)}")
         return out
 
     def _params(self, p):

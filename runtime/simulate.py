@@ -16,6 +16,7 @@ import numpy as np
 from eomc.errors import SimulationError
 
 from .integrators_api import METHOD_ALIASES, METHOD_IDS, STATUS_NAMES
+from .names import index_of
 from .result import SimulationResult
 
 __all__ = ["simulate", "prepare", "run_prepared", "scipy_fun", "resolve_method", "METHODS",
@@ -66,13 +67,7 @@ def _vector(model, value, size, names, defaults, what):
     if isinstance(value, dict):
         out = np.array(defaults, dtype=np.float64)
         for key, v in value.items():
-            key = str(key)
-            if key not in names and key.endswith("(t)"):     # a SymPy dynamicsymbol
-                key = key[:-3]
-            if key not in names:
-                raise ValueError(f"{model.name}: unknown {what} name {key!r}; "
-                                 f"valid names: {', '.join(names) or 'none'}")
-            out[names.index(key)] = float(v)
+            out[index_of(key, names, f"{what} name", model.name)] = float(v)
     else:
         a = np.asarray(value)
         if a.dtype.kind not in "fiu":

@@ -88,3 +88,27 @@ def test_eomc_simulate_cli_on_a_built_directory(tmp_path, monkeypatch, capsys):
     data = np.genfromtxt(out, delimiter=",", names=True)
     assert data["th"][0] == 0.4 and len(data) == 11
     assert "cart: radau" in capsys.readouterr().out
+
+
+def test_lagrange_model_takes_states_keyed_by_sympy_objects(tmp_path):
+    """A Lagrange model's speeds are q'; x0 and p may be keyed by the SymPy objects themselves."""
+    import sympy as sm
+    from eomc.mechanics import (Lagrangian, LagrangesMethod, Particle, Point, ReferenceFrame,
+                                dynamicsymbols)
+    q = dynamicsymbols("q")
+    m, l, g = sm.symbols("m l g", positive=True)
+    N = ReferenceFrame("N")
+    O = Point("O")
+    O.set_vel(N, 0)
+    P = O.locatenew("P", l * (sm.sin(q) * N.x - sm.cos(q) * N.y))
+    P.set_vel(N, P.pos_from(O).dt(N))
+    bob = Particle("bob", P, m)
+    bob.potential_energy = -m * g * l * sm.cos(q)
+    lm = LagrangesMethod(Lagrangian(N, bob), [q])
+    lm.form_lagranges_equations()
+    model = eomc.compile(lm, parameters={m: 1.0, l: 1.0, g: 9.81}, cache_dir=tmp_path, progress=False)
+    assert model.state_names == ("q", "q'")
+    by_object = model.simulate({q: 0.3, q.diff(): 0.1}, (0, 1), p={g: 9.81, l: 1.0})
+    by_name = model.simulate({"q": 0.3, "q'": 0.1}, (0, 1))
+    assert np.array_equal(by_object.x, by_name.x)
+    assert by_object["q'"][0] == 0.1
