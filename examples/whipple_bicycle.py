@@ -110,15 +110,14 @@ loads = [(Dr, mR * g * A.z), (Bo, mB * g * A.z), (Ho, mH * g * A.z), (Df, mF * g
 contact_height = Pf.pos_from(P).dot(A.z)               # = 0: the front wheel touches the ground
 contact_velocity = [Pf.vel(N).dot(e) for e in (A.x, A.y, A.z)]   # = 0: it rolls without slip
 
-# The dependent speeds are solved for by Cramer's rule: an LU solve without
-# pivoting would divide by the x-constraint's yaw-rate coefficient, which is
-# zero in the upright configuration (0/0 there).
+# The dependent speeds are solved for by Cramer's rule (eomc's default for up to
+# 3 of them): an LU solve without pivoting, SymPy's default, would divide by the
+# x-constraint's yaw-rate coefficient, which is zero upright (0/0 there).
 system = KanesMethod(
     N, q_ind=[psi, phi, delta], u_ind=[u2, u4, u5],
     kd_eqs=[psi.diff() - u1, phi.diff() - u2, theta.diff() - u3, delta.diff() - u4],
     q_dependent=[theta], configuration_constraints=[contact_height],
-    u_dependent=[u1, u3, u6], velocity_constraints=contact_velocity,
-    constraint_solver="CRAMER")
+    u_dependent=[u1, u3, u6], velocity_constraints=contact_velocity)
 system.kanes_equations(bodies, loads)
 
 # Table 1 of the paper, unchanged: the model's parameters are the benchmark's.

@@ -21,6 +21,10 @@ Differences from SymPy 1.14, on purpose:
   symbols (inputs).  With any SymPy keyword (``op_point``, ``A_and_B``,
   ``linear_solver``, ``simplify``, ``new_method``) it behaves exactly like
   SymPy 1.14 and returns ``(M, A, B, r)`` or ``(A, B, r)``.
+* ``constraint_solver`` defaults to ``'auto'``: Cramer's rule for up to 3
+  dependent speeds, LU beyond (SymPy: always LU, whose symbolic pivots can
+  vanish where the constraints are regular, e.g. the Whipple bicycle upright,
+  and turn into divisions by zero).  ``'LU'`` and SymPy's other names still work.
 * Bad input raises :class:`eomc.errors.ModelError` naming the culprit.
 * Accelerations set explicitly on points/frames (``set_acc``) are not used:
   accelerations are always the time derivatives of the velocities.
@@ -87,7 +91,7 @@ class KanesMethod:
                  velocity_constraints=None, acceleration_constraints=None,
                  u_auxiliary=None, bodies=None, forcelist=None,
                  explicit_kinematics=True, kd_eqs_solver='LU',
-                 constraint_solver='LU'):
+                 constraint_solver='auto'):
         if not isinstance(frame, ReferenceFrame):
             raise ModelError(f"the first argument of KanesMethod must be the inertial "
                              f"ReferenceFrame, got {frame!r}")

@@ -22,12 +22,30 @@ __all__ = ["linear_solver", "kinematic_matrices", "constraint_matrices"]
 
 
 def linear_solver(method):
-    """'LU' (default) or any Matrix.solve method name, or a callable f(A, b)."""
+    """'LU', 'auto' (see :func:`pivot_free_solve`), any Matrix.solve method name, or a
+    callable f(A, b)."""
     if callable(method):
         return method
+    if method == "auto":
+        return pivot_free_solve
     if method in (None, "LU"):
         return lambda A, b: A.LUsolve(b)
     return lambda A, b: A.solve(b, method=method)
+
+
+def pivot_free_solve(A, b):
+    """Cramer's rule up to 3 unknowns, LU beyond.
+
+    Why: SymPy's LUsolve pivots on the symbolic entries as they stand, so a
+    pivot that vanishes at some state (the Whipple bicycle's at upright) becomes
+    a division by zero in the generated code, although the matrix is regular
+    there.  Cramer's rule divides by the determinant only, which is nonzero
+    wherever the system can be solved at all; beyond 3 unknowns its expressions
+    grow too fast, and LU is used.
+    """
+    if A.rows == A.cols and A.rows <= 3:
+        return A.solve(b, method="CRAMER")
+    return A.LUsolve(b)
 
 
 def _split_linear(eqs, unknowns, others, role):
