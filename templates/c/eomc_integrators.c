@@ -590,10 +590,11 @@ typedef struct erk {
     int err_order;             /* order of the error estimator */
     int is853;
     double stiff_limit;        /* Hairer's h*lambda bound of the stability region */
+    double pi_weight;          /* c of the PI control's error exponent 1/(q+1) - c beta */
 } erk;
 
-static const erk ERK_DP5 = {6, 5, &DP5_A[0][0], DP5_B, DP5_C, 4, 0, 3.25};
-static const erk ERK_D853 = {12, 16, &D8_A[0][0], D8_B, D8_C, 7, 1, 6.1};
+static const erk ERK_DP5 = {6, 5, &DP5_A[0][0], DP5_B, DP5_C, 4, 0, 3.25, 0.75};
+static const erk ERK_D853 = {12, 16, &D8_A[0][0], D8_B, D8_C, 7, 1, 6.1, 0.2};
 
 /* acc[i] = sum_j coef[j] * K[j][i] over the nonzero coefficients, j ascending.
  * Skipping zeros leaves every finite sum bit-identical to the full one, and
@@ -715,7 +716,7 @@ static int run_erk(ctx *c, const erk *tb, const eomc_options *o, proj *pj,
     double *ynew = take(pos, n), *ys = take(pos, n), *tmp = take(pos, n);
     double *acc5 = take(pos, n), *acc3 = take(pos, n);
     double hmax = o->hmax > 0 ? o->hmax : t1 - t0, h, t = t0;
-    double expo = -1.0 / (tb->err_order + 1);
+    double expo = -1.0 / (tb->err_order + 1), err_old = 1e-4;
     eomc_stats *st = c->st;
 
     if ((s = frhs(c, t0, x, K))) return s;
@@ -773,8 +774,13 @@ static int run_erk(ctx *c, const erk *tb, const eomc_options *o, proj *pj,
                 iasti = 0;
             }
         }
-        {
-            double f = err == 0.0 ? MAX_FACTOR : fmin(MAX_FACTOR, SAFETY * pow(err, expo));
+        {   /* Hairer's stabilized control (dopri5.f, dop853.f): err^-(1/(q+1) - c beta)
+               * err_old^beta, c = 0.75 (DOPRI5) or 0.2 (DOP853); beta = 0: classical */
+            double beta = o->pi_beta, f;
+            f = err == 0.0 ? MAX_FACTOR
+                : fmin(MAX_FACTOR, SAFETY * pow(err, expo + tb->pi_weight * beta)
+                                   * (beta > 0.0 ? pow(err_old, beta) : 1.0));
+            err_old = fmax(err, 1e-4);
             if (rejected_now) f = fmin(1.0, f);
             h = (tn - t) * f;
         }

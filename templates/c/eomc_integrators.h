@@ -48,6 +48,9 @@ typedef struct eomc_options {
     int stiff_check;     /* 1: Hairer's stiffness test for DOPRI5/DOP853 -> EOMC_STIFF */
     double baumgarte;    /* > 0: rhs -= baumgarte * G^+ g (constraint residuals decay
                             like exp(-baumgarte t)); 0 = off */
+    double pi_beta;      /* DOPRI5/DOP853 step control: beta of Hairer's stabilized (PI)
+                            control, 0.04 in his DOPRI5; 0 = the classical control that
+                            scipy.integrate uses (steps then match scipy's) */
 } eomc_options;
 
 typedef struct eomc_stats {

@@ -161,3 +161,30 @@ def test_stiff_chain_explicit_succeeds_or_says_stiff(kappa, method):
         assert "method='radau'" in res.message and "t=" in res.message
     if kappa >= 1e6:
         assert res.status == 7, res.message
+
+
+@pytest.mark.parametrize("method, scipy_method", [("dop853", "DOP853"), ("dopri5", "RK45")])
+def test_classical_step_control_follows_scipy_step_for_step(method, scipy_method):
+    """pi_beta=0: same method, same controller as scipy, so the same steps and the same answer."""
+    m = get_model("pendulum")
+    fun, _ = scipy_fun(m)
+    ref = solve_ivp(fun, (0, 10), [2.5, 0.0], method=scipy_method, rtol=1e-8, atol=1e-8)
+    res = simulate(m, [2.5, 0.0], (0, 10), method=method, rtol=1e-8, atol=1e-8, t_eval=[0, 10],
+                   pi_beta=0.0)
+    assert abs(res.stats["nfev"] - ref.nfev) <= 3        # the first step's extra evaluations
+    assert np.max(np.abs(res.x[-1] - ref.y[:, -1])) < 1e-12
+
+
+@pytest.mark.parametrize("method", ["dop853", "dopri5"])
+def test_pi_step_control_rejects_fewer_steps_at_the_same_accuracy(method):
+    """The default (Hairer's stabilized control, beta = 0.04) smooths the step sequence."""
+    m = get_model("pendulum")
+    fun, _ = scipy_fun(m)
+    exact = solve_ivp(fun, (0, 10), [2.5, 0.0], method="DOP853", rtol=1e-13, atol=1e-13).y[:, -1]
+    runs = {beta: simulate(m, [2.5, 0.0], (0, 10), method=method, rtol=1e-8, atol=1e-8,
+                           t_eval=[0, 10], pi_beta=beta) for beta in (0.0, 0.04)}
+    assert runs[0.04].stats["rejected"] < runs[0.0].stats["rejected"]
+    errors = {beta: np.max(np.abs(r.x[-1] - exact)) for beta, r in runs.items()}
+    assert errors[0.04] < 2 * errors[0.0]
+    with pytest.raises(ValueError, match="pi_beta"):
+        simulate(m, [2.5, 0.0], (0, 1), pi_beta=0.5)
