@@ -173,9 +173,10 @@ static void {p}_ldlt_solve(const double *F, double *b)
 # Unroll LDLᵀ only while the factor is small or sparse enough for unrolling to pay:
 # a dense unrolled factor of a large M is thousands of lines that C compilers
 # optimize slowly, for no fewer operations than the loops.  Measured on the
-# n-link cart (gcc -O2): unrolled beats the loops by ~10% at 13x13 and ~15% at
-# 21x21, but at 21x21 adds ~1 s to the C compile; 16 keeps builds quick.
-UNROLL_MAX_DENSE = 16
+# n-link cart (gcc -O2): unrolled beats the loops by ~7-10% of the whole rhs at
+# 13x13, but triples that model's C compile (0.14 -> 0.43 s, a third of a cold
+# build); up to 12x12 the compile stays small.
+UNROLL_MAX_DENSE = 12
 
 
 def ldlt_loop_solver(prefix, n):
