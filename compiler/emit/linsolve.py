@@ -173,10 +173,10 @@ static void {p}_ldlt_solve(const double *F, double *b)
 # Unroll LDLᵀ only while the factor is small or sparse enough for unrolling to pay:
 # a dense unrolled factor of a large M is thousands of lines that C compilers
 # optimize slowly, for no fewer operations than the loops.  Measured on the
-# n-link cart (gcc -O2): unrolled beats the loops by ~7-10% of the whole rhs at
-# 13x13, but triples that model's C compile (0.14 -> 0.43 s, a third of a cold
-# build); up to 12x12 the compile stays small.
-UNROLL_MAX_DENSE = 12
+# n-link cart (gcc -O2, medians on a loaded machine): at 13x13 the unrolled
+# factor makes the whole rhs ~25% faster (655 vs 890 ns) but triples that
+# model's C compile (0.14 -> 0.43 s); at 21x21 it adds ~1 s.  16 is the compromise.
+UNROLL_MAX_DENSE = 16
 
 
 def ldlt_loop_solver(prefix, n):
