@@ -8,10 +8,11 @@ default; Radau IIA at 1e-12 when DOP853 finds the problem stiff) and then
 (``scipy.integrate.solve_ivp``) on the model's compiled rhs -- independent
 code -- run 10 times looser than the reference.
 
-Why looser: scipy's DOP853 is Hairer's algorithm with Hairer's step-size
-control, so at the *same* tolerance it takes the same steps and repeats the
-same truncation errors (the two agree to ~1e-13 even at tol = 1e-7, which
-would certify nothing).  At 10 x tol the steps and the truncation errors
+Why looser: scipy's DOP853 is Hairer's algorithm, and with the classical step
+control (ours with pi_beta=0; the default PI control differs only a little)
+at the *same* tolerance it takes the same steps and repeats the same
+truncation errors (the two agree to ~1e-13 even at tol = 1e-7, which would
+certify nothing).  At 10 x tol the steps and the truncation errors
 differ, and the agreement estimates the reference's error from above.  The
 agreement is reported; a report whose finest tolerance asks for more than the
 references agree on says so instead of trusting the reference silently.

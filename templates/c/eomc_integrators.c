@@ -8,7 +8,9 @@
  *
  * Step-size control follows Hairer, Norsett & Wanner (Solving ODEs I, II.4
  * and II, IV.8) in the form scipy.integrate uses (safety 0.9, factor limits
- * 0.2..10, RMS error norm with scale atol + rtol*max(|y|,|y_new|)).  The
+ * 0.2..10, RMS error norm with scale atol + rtol*max(|y|,|y_new|)), plus the
+ * stabilized (PI) factor err_old^beta of Hairer's dopri5.f/dop853.f when
+ * options.pi_beta > 0 (pi_beta = 0: step for step scipy's control).  The
  * Runge-Kutta coefficients are Dormand & Prince's (DOPRI5, with Shampine's
  * 4th-order interpolant) and Hairer's DOP853 with its 7th-order dense output,
  * as published with Hairer's Fortran codes (tabulated identically in
