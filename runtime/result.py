@@ -33,6 +33,7 @@ class SimulationResult:
     constraint_residual: np.ndarray = None
     x_final: np.ndarray = None
     t_final: float = None
+    nq: int = None          # coordinates come first in x; the plot gives them their own panel
 
     @property
     def success(self):
@@ -69,19 +70,32 @@ class SimulationResult:
         return Path(path)
 
     def plot(self, path=None, names=None):
-        """Plot states (or the given names) against t; saved to ``path`` (PNG) if given."""
+        """Plot states (or the given names) against t; saved to ``path`` (PNG) if given.
+
+        By default coordinates and speeds get a panel each: their scales differ
+        (a wheel's spin rate would flatten a bicycle's lean angle on one axis).
+        """
         import matplotlib
         if path is not None:
             matplotlib.use("Agg", force=False)
         import matplotlib.pyplot as plt
-        names = list(names or self.state_names)
-        fig, ax = plt.subplots(figsize=(8, 4.5))
-        for name in names:
-            ax.plot(self.t, self[name], label=name)
-        ax.set_xlabel("t")
-        ax.set_title(f"{self.model_name} ({self.method})")
-        ax.legend(loc="best", fontsize="small")
-        ax.grid(True, alpha=0.3)
+        if names is not None:
+            panels = [("", list(names))]
+        elif self.nq and 0 < self.nq < len(self.state_names):
+            panels = [("coordinates", list(self.state_names[:self.nq])),
+                      ("speeds", list(self.state_names[self.nq:]))]
+        else:
+            panels = [("", list(self.state_names))]
+        fig, axes = plt.subplots(len(panels), 1, figsize=(8, 2.0 + 2.5 * len(panels)),
+                                 sharex=True, squeeze=False)
+        for ax, (label, panel) in zip(axes[:, 0], panels):
+            for name in panel:
+                ax.plot(self.t, self[name], label=name)
+            ax.set_ylabel(label)
+            ax.legend(loc="upper right", fontsize="small", ncol=max(1, len(panel) // 6))
+            ax.grid(True, alpha=0.3)
+        axes[-1, 0].set_xlabel("t")
+        axes[0, 0].set_title(f"{self.model_name} ({self.method})")
         if path is not None:
             fig.savefig(Path(path), dpi=120, bbox_inches="tight")
             plt.close(fig)

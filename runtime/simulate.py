@@ -299,7 +299,7 @@ def finish(model, a, x_out, stats, x_last, raise_on_failure=True):
         outputs={} if outputs is None else dict(zip(model.output_names, outputs.T)),
         constraint_residual=None if residual is None else np.max(np.abs(residual), axis=1),
         stats=stats, status=status, message=message, method=a["method"], model_name=model.name,
-        x_final=x_last, t_final=stats["t"])
+        x_final=x_last, t_final=stats["t"], nq=model.nq)
 
 
 def scipy_fun(model, p=None, r=None):

@@ -123,6 +123,12 @@ def test_plot_writes_png(pend, tmp_path):
     pytest.importorskip("matplotlib")
     res = simulate(pend, [0.3, 0.0], (0, 1), n_points=11)
     assert res.plot(tmp_path / "t.png").stat().st_size > 1000
+    import matplotlib
+    matplotlib.use("Agg")
+    fig = res.plot()                      # coordinates and speeds on panels of their own
+    assert [ax.get_ylabel() for ax in fig.axes] == ["coordinates", "speeds"]
+    assert [line.get_label() for line in fig.axes[0].lines] == ["q1"]
+    assert len(res.plot(names=["q1", "energy"]).axes) == 1
 
 
 def test_baumgarte_stabilization_pulls_residuals_back():
