@@ -17,12 +17,19 @@ from .build.gencache import cached_generate
 from .build.export import export
 from .model import model_spec
 from .model.validate import Invalid, check_functions
+from .passes.timing import reporting
 
 __all__ = ["compile", "generate", "Progress"]
 
 
 class Progress:
     """Stage timings on stderr, e.g. ``eomc: generate  0.84 s``; silent when off."""
+
+    PASS_SHOWN = 0.25   # seconds: compiler passes at least this long are listed under their stage
+    PASS_LABELS = {"cse": "common subexpressions", "differentiate": "Jacobians",
+                   "tangent": "Jacobians (tangent)", "share_sincos": "sharing sin/cos",
+                   "fold_constants": "folding constants", "fold_parameters": "folding parameters",
+                   "dce": "dropping unused code", "expand_powers": "powers to products"}
 
     def __init__(self, enabled=None, stream=None):
         self.stream = stream or sys.stderr
@@ -44,6 +51,12 @@ class Progress:
                     print(f"eomc: {label:<9} {elapsed:7.3f} s", file=progress.stream, flush=True)
         return _Stage()
 
+    def pass_done(self, name, seconds):
+        """A compiler pass finished: shown when it took long enough to be noticed."""
+        if self.enabled and seconds >= self.PASS_SHOWN:
+            label = self.PASS_LABELS.get(name, name.replace("_", " "))
+            print(f"eomc:   {label:<22} {seconds:7.3f} s", file=self.stream, flush=True)
+
 
 def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, functions=None,
              fold_parameters=False, progress=None, cache_dir=None, use_cache=True):
@@ -63,7 +76,7 @@ def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, f
     def run_generator():
         return generate_c(spec.formed, spec.name, parameters=spec.parameters, inputs=spec.inputs,
                           outputs=spec.outputs, functions=functions, fold_parameters=fold_parameters)
-    with progress.stage("generate"):
+    with progress.stage("generate"), reporting(progress.pass_done):
         if use_cache:
             generated, _ = cached_generate(spec, functions, fold_parameters, run_generator,
                                            cache_root(cache_dir))

@@ -2,16 +2,30 @@
 
 Set ``EOMC_DUMP_IR=1`` to print every pass's output to stderr; timings are
 collected in :data:`PASS_TIMES` (name -> seconds, summed) for ``--print-ir``
-style reports and benchmarks.
+style reports and benchmarks.  Inside ``with reporting(callback):`` every
+finished pass also calls ``callback(name, seconds)``: the driver's progress
+display uses it, so a long generation (a bicycle: ~20 s) shows what it is doing.
 """
+import contextlib
 import functools
 import os
 import sys
 import time
 
-__all__ = ["compiler_pass", "PASS_TIMES"]
+__all__ = ["compiler_pass", "PASS_TIMES", "reporting"]
 
 PASS_TIMES = {}
+_LISTENERS = []
+
+
+@contextlib.contextmanager
+def reporting(callback):
+    """Call ``callback(pass name, seconds)`` after every pass run inside the block."""
+    _LISTENERS.append(callback)
+    try:
+        yield
+    finally:
+        _LISTENERS.remove(callback)
 
 
 def compiler_pass(func):
@@ -22,7 +36,10 @@ def compiler_pass(func):
     def wrapper(program, *args, **kwargs):
         start = time.perf_counter()
         out = func(program, *args, **kwargs)
-        PASS_TIMES[name] = PASS_TIMES.get(name, 0.0) + time.perf_counter() - start
+        elapsed = time.perf_counter() - start
+        PASS_TIMES[name] = PASS_TIMES.get(name, 0.0) + elapsed
+        for listener in list(_LISTENERS):
+            listener(name, elapsed)
         if os.environ.get("EOMC_DUMP_IR"):
             from ..ir import format_program
             sys.stderr.write(format_program(out, title=f"after {name}"))

@@ -114,3 +114,19 @@ def test_cython_backend_agrees_with_cffi(files, cache):
     X = RNG.normal(size=(10, 4))
     np.testing.assert_array_equal(cy.rhs_many(0.0, X, r=[0.5]), ff.rhs_many(0.0, X, r=[0.5]))
     np.testing.assert_array_equal(cy.jacobian(0.0, X[0]), ff.jacobian(0.0, X[0]))
+
+
+def test_progress_lists_long_compiler_passes_in_plain_words(files, tmp_path, capsys, monkeypatch):
+    """Passes that take long enough are listed under 'generate', named for people."""
+    monkeypatch.setattr(Progress, "PASS_SHOWN", 0.0)     # the pendulum's passes are quick
+    eomc.compile(files["pend"], cache_dir=tmp_path, progress=True)
+    lines = capsys.readouterr().err.splitlines()
+    start = lines.index("eomc: generate ...")
+    end = next(i for i, line in enumerate(lines) if i > start and line.startswith("eomc: generate "))
+    passes = lines[start + 1:end]
+    assert any(line.startswith("eomc:   common subexpressions ") for line in passes)
+    assert passes and all(line.endswith(" s") and "_" not in line for line in passes)
+    quiet = Progress(True)
+    quiet.PASS_SHOWN = 1.0
+    quiet.pass_done("cse", 0.5)                           # shorter than the threshold: silent
+    assert capsys.readouterr().err == ""
