@@ -145,7 +145,7 @@ def clear(root):
     for e in entries(root):
         _remove(root, e)
     shutil.rmtree(root / "failed", ignore_errors=True)
-    _stale_tmp(root, time.time() + 2 * STALE_TMP_SECONDS)
+    _stale_tmp(root, time.time())     # a build in progress keeps its fresh tmp directory
     return before - usage(root)["total"]
 
 

@@ -16,7 +16,7 @@ operation counts for the metadata.
 from collections import Counter
 from dataclasses import dataclass
 
-__all__ = ["Solver", "ldlt_solver", "ldlt_loop_solver", "choose_ldlt", "dense_lu_code", "dense_lu_ops"]
+__all__ = ["Solver", "minus_terms", "forward_substitution", "ldlt_solver", "ldlt_loop_solver", "choose_ldlt", "dense_lu_code", "dense_lu_ops"]
 
 
 @dataclass(frozen=True)
@@ -52,11 +52,25 @@ def _sum(terms):
     return " + ".join(terms)
 
 
-def _minus(terms):
+def minus_terms(terms):
     """`` - t0 - t1 ...``: C subtracts left to right, so each product leaves the
     dependency chain as soon as it is ready and the last term (the newest
     value) costs one multiply and one subtract of latency."""
     return "".join(f" - {t}" for t in terms)
+
+
+def forward_substitution(matrix, vec, n, pattern, ops):
+    """C lines of ``vec[i] -= Σ_{k<i} matrix[i][k]·vec[k]`` over the unit lower triangle's
+    structural nonzeros ``pattern``, products in column order (newest value last);
+    adds the operations to ``ops``."""
+    lines = []
+    for i in range(n):
+        terms = [f"{matrix}[{i * n + k}] * {vec}[{k}]" for k in range(i) if (i, k) in pattern]
+        if terms:
+            lines.append(f"    {vec}[{i}] = {vec}[{i}]{minus_terms(terms)};")
+            ops["muls"] += len(terms)
+            ops["adds"] += len(terms)
+    return lines
 
 
 def ldlt_solver(prefix, n, pattern):
@@ -77,7 +91,7 @@ def ldlt_solver(prefix, n, pattern):
         for k in ks:
             lines.append(f"        const double e{k} = F[{j * n + k}] * F[{k * n + k}];")
         fo["muls"] += len(ks)
-        diag = f"F[{j * n + j}]" + "".join(f" - F[{j * n + k}] * e{k}" for k in ks)
+        diag = f"F[{j * n + j}]" + minus_terms(f"F[{j * n + k}] * e{k}" for k in ks)
         fo["muls"] += len(ks)
         fo["adds"] += len(ks)
         lines += [f"        d = {diag};",
@@ -96,17 +110,12 @@ def ldlt_solver(prefix, n, pattern):
                 fo["adds"] -= 1
                 expr = f"-({_sum(terms)})"
             else:
-                expr = head + "".join(f" - {t}" for t in terms)
+                expr = head + minus_terms(terms)
             lines.append(f"        F[{i * n + j}] = ({expr}) * F[{D + j}];")
         lines.append("    }")
     lines += ["    return EOMC_OK;", "}", ""]
     lines += [f"static void {prefix}_ldlt_solve(const double *F, double *b)", "{"]
-    for i in range(n):
-        terms = [f"F[{i * n + k}] * b[{k}]" for k in range(i) if (i, k) in L]
-        if terms:
-            lines.append(f"    b[{i}] = b[{i}]{_minus(terms)};")
-            so["muls"] += len(terms)
-            so["adds"] += len(terms)
+    lines += forward_substitution("F", "b", n, L, so)
     for i in range(n):
         lines.append(f"    b[{i}] *= F[{D + i}];")
     so["muls"] += n
@@ -115,7 +124,7 @@ def ldlt_solver(prefix, n, pattern):
         # other products need not wait for it (a chain of n, not n² latencies)
         terms = [f"F[{k * n + i}] * b[{k}]" for k in reversed(range(i + 1, n)) if (k, i) in L]
         if terms:
-            lines.append(f"    b[{i}] = b[{i}]{_minus(terms)};")
+            lines.append(f"    b[{i}] = b[{i}]{minus_terms(terms)};")
             so["muls"] += len(terms)
             so["adds"] += len(terms)
     lines += ["}", ""]

@@ -17,7 +17,7 @@ from collections import Counter
 
 import sympy as sm
 
-from .linsolve import Solver, dense_lu_code
+from .linsolve import Solver, dense_lu_code, forward_substitution, minus_terms
 
 __all__ = ["static_row_order", "sparse_lu_solver"]
 
@@ -105,16 +105,11 @@ def _solve_lines(p, n, S, rows, ops):
              f"    if (piv[{n}]) {{", f"        {p}_lu_dense_solve(U, piv, b);", "        return;",
              "    }"]
     lines += [f"    y[{i}] = b[{rows[i]}];" for i in range(n)]
-    for i in range(n):
-        terms = [f"U[{i * n + k}] * y[{k}]" for k in range(i) if (i, k) in S]
-        if terms:
-            lines.append(f"    y[{i}] = y[{i}]{''.join(f' - {t}' for t in terms)};")
-            ops["muls"] += len(terms)
-            ops["adds"] += len(terms)
+    lines += forward_substitution("U", "y", n, S, ops)
     for i in reversed(range(n)):
         # newest value (b[i + 1]) last: products leave the dependency chain early
         terms = [f"U[{i * n + k}] * b[{k}]" for k in reversed(range(i + 1, n)) if (i, k) in S]
-        rhs = f"y[{i}]" + "".join(f" - {t}" for t in terms)
+        rhs = f"y[{i}]" + minus_terms(terms)
         lines.append(f"    b[{i}] = ({rhs}) * U[{nn + i}];")
         ops["muls"] += len(terms) + 1
         ops["adds"] += len(terms)

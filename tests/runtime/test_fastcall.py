@@ -15,6 +15,7 @@ import pytest
 
 import model_files
 import zoo
+from spies import spy_kernels
 import eomc
 import eomc.mechanics as em
 from eomc.errors import ModelError, SimulationError
@@ -106,10 +107,7 @@ def test_layouts_the_fast_path_declines_give_the_same_values(cart):
 @pytest.fixture
 def spied(cart, monkeypatch):
     """cart with its checked path's kernels recorded (the fast path never uses them)."""
-    calls = []
-    kernels = {k: (lambda *a, _k=k, _f=f: calls.append(_k) or _f(*a)) for k, f in cart._kernels.items()}
-    monkeypatch.setattr(cart, "_kernels", kernels)
-    return cart, calls
+    return spy_kernels(cart, monkeypatch)
 
 
 @pytest.mark.parametrize("call, needle", [

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import osc_model
+from spies import spy_kernels
 from eomc.compiler.build import build
 from eomc.errors import ModelError, SimulationError
 from eomc.runtime.loader import load
@@ -72,10 +73,7 @@ def test_rhs_many_equals_rhs_per_row(model):
 
 @pytest.fixture
 def spied(model, monkeypatch):
-    calls = []
-    kernels = {k: (lambda *a, _k=k, _f=f: calls.append(_k) or _f(*a)) for k, f in model._kernels.items()}
-    monkeypatch.setattr(model, "_kernels", kernels)
-    return model, calls
+    return spy_kernels(model, monkeypatch)
 
 
 @pytest.mark.parametrize("call, needle", [

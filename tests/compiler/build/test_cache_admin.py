@@ -64,8 +64,11 @@ def test_clear_removes_entries_and_failed_sources(root):
     fake_entry(root, "a" * 64, 10, used=1)
     (root / "failed" / "m-123").mkdir(parents=True)
     (root / "failed" / "m-123" / "m.c").write_text("int x;")
+    in_progress = root / "tmp" / "0123456789ab-build"       # another process's fresh build
+    in_progress.mkdir()
     assert clear(root) > 0
     assert entries(root) == [] and not (root / "failed").exists()
+    assert in_progress.exists()
 
 
 def test_a_new_build_prunes_past_the_limit_but_keeps_itself(tmp_path, monkeypatch):
