@@ -1,6 +1,6 @@
 """Build step that pyproject.toml cannot express: eomc's integrators in C.
 
-The integrators (templates/c/eomc_integrators.c) are the same for every model,
+The integrators (runtime/c/eomc_integrators.c) are the same for every model,
 so they are compiled once, when eomc is installed, into a plain shared library
 inside eomc.runtime.  A model's own library then holds only its equations,
 which keeps a cold model build to one small C compile.  The library has no
@@ -18,8 +18,8 @@ setup(
     ext_modules=[
         Extension(
             "eomc.runtime._eomc_integrators",
-            sources=["templates/c/eomc_integrators.c"],
-            include_dirs=["templates/c"],
+            sources=["runtime/c/eomc_integrators.c"],
+            include_dirs=["runtime/c"],
             extra_compile_args=["-O2", "-std=c99"],
             libraries=["m"],
         )
@@ -28,7 +28,7 @@ setup(
             Extension(
                 "eomc.runtime._fastcall",
                 sources=["runtime/_fastcall.pyx"],
-                include_dirs=["templates/c", numpy.get_include()],
+                include_dirs=["runtime/c", numpy.get_include()],
                 define_macros=[("NPY_NO_DEPRECATED_API", "NPY_1_7_API_VERSION")],
                 extra_compile_args=["-O2"],
             )

@@ -10,7 +10,7 @@
 import sys
 import time
 
-from eomc.errors import ModelError
+from eomc.runtime.errors import ModelError
 
 from .build import build, cache_root
 from .build.gencache import cached_generate

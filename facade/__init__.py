@@ -1,5 +1,12 @@
 """eomc: an equations-of-motion compiler for multibody dynamics.
 
+This folder (``facade/``) is the top package ``eomc``; the layers under it:
+
+- ``eomc``, ``eomc.mechanics``, ``eomc.errors``: the public names (this folder)
+- ``eomc.cli``: the ``eomc`` command, one module per subcommand (``facade/cli/``)
+- ``eomc.compiler``: model -> equations -> C -> library (``compiler/``, uses SymPy)
+- ``eomc.runtime``: load and run built models (``runtime/``, numpy + cffi, no SymPy)
+
 ``import eomc`` is cheap and never imports SymPy: a user who only loads and
 simulates a built model (``eomc.load``) does not need SymPy installed.  The
 symbolic entry points (``eomc.compile``, ``eomc.mechanics``) are resolved on
@@ -7,7 +14,7 @@ first use.
 """
 from importlib import import_module
 
-__version__ = "0.1.0"
+from eomc.runtime.version import __version__
 
 __all__ = ["__version__", "compile", "load", "mechanics"]
 

@@ -1,46 +1,7 @@
-"""Errors eomc raises on purpose.  Each message is written for the user.
+"""The errors eomc raises on purpose, under their public name ``eomc.errors``.
 
-Every class derives from :class:`EomcError`; the ones about bad values also
-derive from ``ValueError`` so ordinary ``except ValueError`` code keeps working.
-The CLI prints these as one plain line, without a traceback.
+They live in the leaf module :mod:`eomc.runtime.errors`, which both halves
+(``eomc.compiler`` and ``eomc.runtime``) import without touching this package.
 """
-
-__all__ = [
-    "EomcError",
-    "ModelError",
-    "ModelFileError",
-    "CompilerNotFoundError",
-    "CompileError",
-    "SimulationError",
-]
-
-
-class EomcError(Exception):
-    """Base class of every error eomc raises deliberately."""
-
-
-class ModelError(EomcError, ValueError):
-    """The mechanics description is inconsistent (bodies, loads, coordinates, constraints)."""
-
-
-class ModelFileError(EomcError, ValueError):
-    """A model file is wrong; the message starts with ``file:line:``."""
-
-    def __init__(self, message, filename=None, lineno=None):
-        self.filename, self.lineno, self.detail = filename, lineno, message
-        where = ""
-        if filename:
-            where = f"{filename}:{lineno}: " if lineno else f"{filename}: "
-        super().__init__(where + message)
-
-
-class CompilerNotFoundError(EomcError, RuntimeError):
-    """No working C compiler was found."""
-
-
-class CompileError(EomcError, RuntimeError):
-    """The C compiler rejected generated code; the message holds its output and the kept source path."""
-
-
-class SimulationError(EomcError, RuntimeError):
-    """An integration stopped (singular mass matrix, non-finite state, step size underflow, ...)."""
+from eomc.runtime.errors import *  # noqa: F401,F403
+from eomc.runtime.errors import __all__  # noqa: F401

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from eomc.errors import SimulationError
+from eomc.runtime.errors import SimulationError
 
 from .simulate import finish, prepare, run_prepared
 

@@ -1,4 +1,4 @@
-"""cffi declarations of the model ABI (templates/c/eomc_model.h) and the batch helper.
+"""cffi declarations of the model ABI (runtime/c/eomc_model.h) and the batch helper.
 
 cffi's ABI mode (``ffi.dlopen``) needs the C declarations as text; they are
 read from the shipped headers themselves (:mod:`.header_cdef`), so the struct

@@ -1,4 +1,4 @@
-"""cffi declarations read from eomc's shipped C headers (templates/c/*.h).
+"""cffi declarations read from eomc's shipped C headers (runtime/c/*.h).
 
 The headers are the contract; reading the cffi declarations out of them
 instead of keeping copies means the Python side cannot drift from the C side.
@@ -10,9 +10,12 @@ import re
 from functools import lru_cache
 from pathlib import Path
 
-import eomc.templates
 
-__all__ = ["header_cdef"]
+__all__ = ["C_DIR", "header_cdef"]
+
+# The plain C shipped with eomc: the model ABI header, the integrators (compiled
+# once at install) and the batch helper (compiled into every model library).
+C_DIR = Path(__file__).resolve().parent / "c"
 
 _INTEGER_DEFINE = re.compile(r"#\s*define\s+\w+\s+-?\d+\s*$")
 
@@ -32,6 +35,6 @@ def _strip(text):
 
 @lru_cache(maxsize=None)
 def header_cdef(name):
-    """The declarations of templates/c/NAME (e.g. "eomc_model.h") as cffi cdef text."""
-    path = Path(eomc.templates.__file__).resolve().parent / "c" / name
+    """The declarations of runtime/c/NAME (e.g. "eomc_model.h") as cffi cdef text."""
+    path = C_DIR / name
     return _strip(path.read_text())

@@ -1,4 +1,4 @@
-"""cffi declarations of the integrator C API (templates/c/eomc_integrators.h).
+"""cffi declarations of the integrator C API (runtime/c/eomc_integrators.h).
 
 Read from the header itself (:mod:`.header_cdef`); the loader appends
 INTEGRATOR_CDEF to the model ABI declarations (which declare ``eomc_model``)

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import cffi
 
-from eomc.errors import ModelError
+from eomc.runtime.errors import ModelError
 
 from .cdef import ABI_VERSION, BATCH_CDEF, MODEL_CDEF, model_function_cdef
 from .integrators_api import INTEGRATOR_CDEF

@@ -5,7 +5,7 @@ dtypes (raising ``ValueError`` that names the argument and the expected
 shape), fills in defaults (``p=None`` -> the model's default parameters,
 ``r=None`` -> zero inputs), calls the C function through the backend's
 *kernels* and turns a nonzero status into an error that says what failed,
-when and where (``eomc.errors.SimulationError``).
+when and where (``eomc.runtime.errors.SimulationError``).
 
 Kernels are plain callables taking float64 numpy arrays (or None for an
 absent argument) and returning the C status; the cffi backend builds them
@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from eomc.errors import ModelError, SimulationError
+from eomc.runtime.errors import ModelError, SimulationError
 
 from .cdef import STATUS_NAMES
 from .names import index_of, model_name

@@ -3,7 +3,7 @@ import importlib.machinery
 import threading
 from pathlib import Path
 
-from eomc.errors import EomcError
+from eomc.runtime.errors import EomcError
 
 __all__ = ["integrator_library"]
 

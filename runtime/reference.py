@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from eomc.errors import SimulationError
+from eomc.runtime.errors import SimulationError
 
 from .simulate import finish, prepare, run_prepared, scipy_fun
 

@@ -35,7 +35,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .reference import Reference, compute_reference, scaled_error
-from .report_output import plot_report, recommendation, summary_markdown, table_text, write_csv
+from .report_output import COLUMNS, DEFAULT_TARGET, plot_report, recommendation, summary_markdown, table_text, write_csv
 from .simulate import bind_call, finish, prepare, resolve_method, run_prepared
 
 __all__ = ["work_precision", "WorkPrecisionReport", "DEFAULT_METHODS", "DEFAULT_TOLERANCES",
@@ -43,11 +43,6 @@ __all__ = ["work_precision", "WorkPrecisionReport", "DEFAULT_METHODS", "DEFAULT_
 
 DEFAULT_METHODS = ("rk4", "dopri5", "dop853", "radau")
 DEFAULT_TOLERANCES = tuple(10.0 ** -k for k in range(3, 11))
-DEFAULT_TARGET = 1e-6
-COLUMNS = ("method", "tolerance", "rtol", "atol", "dt", "status", "error", "wall_time_s",
-           "wall_time_min_s",
-           "steps", "accepted", "rejected", "nfev", "njev", "nlu", "energy_drift",
-           "constraint_residual", "message")
 TINY = 1e-300
 MIN_SAMPLE_S = 0.005     # one timing sample lasts at least this long ...
 MAX_INNER = 200          # ... or this many integrations

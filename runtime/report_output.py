@@ -9,6 +9,14 @@ from pathlib import Path
 
 import numpy as np
 
+# The report's columns and default error target: defined here, with the
+# writers that use them, so that this module does not import report.py back.
+DEFAULT_TARGET = 1e-6
+COLUMNS = ("method", "tolerance", "rtol", "atol", "dt", "status", "error", "wall_time_s",
+           "wall_time_min_s",
+           "steps", "accepted", "rejected", "nfev", "njev", "nlu", "energy_drift",
+           "constraint_residual", "message")
+
 __all__ = ["write_csv", "table_text", "plot_report", "summary_markdown", "recommendation", "usage"]
 
 EXPLICIT = ("rk4", "dopri5", "dop853")
@@ -26,7 +34,6 @@ def _cell(value):
 
 
 def write_csv(report, path):
-    from .report import COLUMNS
     path = Path(path)
     with path.open("w", newline="") as fh:
         w = csv.writer(fh)
@@ -91,7 +98,6 @@ def plot_report(report, path, target_error=None):
     import matplotlib
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
-    from .report import DEFAULT_TARGET
     target = DEFAULT_TARGET if target_error is None else float(target_error)
     fig, ax = plt.subplots(figsize=(8.5, 6))
     markers = dict(rk4="s", dopri5="o", dop853="^", radau="D")

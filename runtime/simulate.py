@@ -2,7 +2,7 @@
 
 Why this module exists: it turns friendly Python arguments (dicts by state
 name, callables for inputs, method names) into the flat arrays the C
-integrator (templates/c/eomc_integrators.c) needs, checks every one of them
+integrator (runtime/c/eomc_integrators.c) needs, checks every one of them
 *before* any C runs (issue 4 §8: wrong shapes, non-finite states, reversed
 spans, tolerances <= 0, unknown methods are ValueErrors), makes one foreign
 call (cffi releases the GIL for it) and wraps the arrays in a
@@ -13,7 +13,7 @@ import numbers
 
 import numpy as np
 
-from eomc.errors import SimulationError
+from eomc.runtime.errors import SimulationError
 
 from .integrators_api import METHOD_ALIASES, METHOD_IDS, STATUS_NAMES
 from .names import index_of

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from eomc.errors import EomcError
+from eomc.runtime.errors import EomcError
 
 from .simulate import simulate
 

@@ -45,8 +45,8 @@ def test_wheel_in_fresh_venv_builds_and_loads_without_sympy(tmp_path):
     wheel, = (tmp_path / "wheels").glob("eomc-*.whl")
     names = zipfile.ZipFile(wheel).namelist()
     for needed in ("eomc/__init__.py", "eomc/compiler/build/builder.py", "eomc/runtime/loader.py",
-                   "eomc/templates/c/eomc_model.h", "eomc/templates/c/eomc_integrators.c",
-                   "eomc/templates/c/eomc_batch.c", "eomc/templates/module.py.j2",
+                   "eomc/runtime/c/eomc_model.h", "eomc/runtime/c/eomc_integrators.c",
+                   "eomc/runtime/c/eomc_batch.c", "eomc/templates/module.py.j2",
                    "eomc/templates/model.pyx.j2"):
         assert needed in names, needed
     for extension in ("eomc/runtime/_eomc_integrators", "eomc/runtime/_fastcall"):  # built by setup.py

@@ -12,18 +12,16 @@ import json
 import platform
 import shlex
 import shutil
-import subprocess
 import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-import eomc
-import eomc.templates
-from eomc.errors import CompileError
+from eomc.runtime.header_cdef import C_DIR
+from eomc.runtime.version import __version__
 
-from .cache import CACHE_SCHEMA, cache_root, discard, get_or_build, hash_key, sha256_file
+from .cache import CACHE_SCHEMA, cache_root, get_or_build, hash_key, sha256_file
 from .cache_admin import auto_prune
-from .toolchain import DEFAULT_CFLAGS, find_compiler
+from .toolchain import DEFAULT_CFLAGS, find_compiler, run_compiler
 
 __all__ = ["BuildResult", "build", "shipped_c_dir", "SHIPPED_HEADERS", "resolve_cflags"]
 
@@ -43,8 +41,8 @@ class BuildResult:
 
 
 def shipped_c_dir():
-    """templates/c: the ABI header, integrators and batch helper shipped with eomc."""
-    return Path(eomc.templates.__file__).resolve().parent / "c"
+    """runtime/c: the ABI header, integrators and batch helper shipped with eomc."""
+    return C_DIR
 
 
 def resolve_cflags(cflags):
@@ -66,26 +64,9 @@ def _link_flags():
 
 
 def _base_inputs(tc, flags):
-    return {"schema": CACHE_SCHEMA, "eomc_version": eomc.__version__, "platform": f"{sys.platform}-{platform.machine()}",
+    return {"schema": CACHE_SCHEMA, "eomc_version": __version__, "platform": f"{sys.platform}-{platform.machine()}",
             "compiler": {"path": tc.path, "argv": list(tc.argv), "version": tc.version},
             "cflags": flags}
-
-
-def run_compiler(argv, cwd, name, key, root):
-    """Run the compiler; on failure keep the sources under failed/ and raise CompileError."""
-    try:
-        proc = subprocess.run(argv, cwd=cwd, capture_output=True, text=True)
-    except OSError as exc:
-        proc = subprocess.CompletedProcess(argv, 127, "", str(exc))
-    if proc.returncode == 0:
-        return proc
-    kept = root / "failed" / f"{name}-{key[:12]}"
-    discard(root, kept)
-    kept.parent.mkdir(parents=True, exist_ok=True)
-    shutil.copytree(cwd, kept)
-    message = (proc.stderr or proc.stdout).strip()
-    raise CompileError(f"the C compiler failed on model {name!r} (exit status {proc.returncode}); "
-                       f"source kept in {kept}\ncommand: {shlex.join(argv)}\n{message}")
 
 
 def _model_json(generated, key, backend, tc, flags, extra, extension=None):

@@ -22,7 +22,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from eomc.errors import EomcError
+from eomc.runtime.errors import EomcError
 
 __all__ = ["CACHE_SCHEMA", "cache_root", "hash_key", "sha256_file", "lookup", "get_or_build", "discard",
            "touch", "try_locked"]

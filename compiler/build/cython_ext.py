@@ -14,6 +14,7 @@ import jinja2
 import eomc.templates
 
 from .cache import sha256_file
+from .toolchain import run_compiler
 
 __all__ = ["extension_key_inputs", "build_extension"]
 
@@ -46,7 +47,6 @@ def _render(generated):
 
 def build_extension(tmp, generated, tc, flags, key, root):
     """Write NAME_cy.pyx, cythonize and compile it in ``tmp``; returns the extension's file name."""
-    from .builder import run_compiler
     name = generated.name
     module = f"{name}_cy"
     (tmp / f"{module}.pyx").write_text(_render(generated))

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import jinja2
 
-import eomc
+from eomc.runtime.version import __version__
 import eomc.templates
 
 __all__ = ["export", "render_module"]
@@ -31,7 +31,7 @@ def _environment():
 def render_module(name):
     """The text of NAME.py."""
     return _environment().get_template("module.py.j2").render(
-        name=name, version=eomc.__version__, methods=_METHODS, exported=["model", *_METHODS])
+        name=name, version=__version__, methods=_METHODS, exported=["model", *_METHODS])
 
 
 def export(built, output_dir):

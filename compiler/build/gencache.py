@@ -18,7 +18,7 @@ from pathlib import Path
 
 import sympy as sm
 
-import eomc
+from eomc.runtime.version import __version__
 
 from .cache import get_or_build, hash_key, lookup
 
@@ -28,13 +28,14 @@ _SOURCE_DIGEST = []
 
 
 def _source_digest():
-    """sha256 over eomc.compiler's .py files and the templates: a changed generator is a new key."""
+    """sha256 over eomc.compiler's .py files, the templates and the shipped C: a changed generator is a new key."""
     if not _SOURCE_DIGEST:
         import eomc.compiler
         import eomc.templates
+        from eomc.runtime.header_cdef import C_DIR
         digest = hashlib.sha256()
-        for package in (eomc.compiler, eomc.templates):
-            root = Path(package.__file__).resolve().parent
+        for root in (Path(eomc.compiler.__file__).resolve().parent,
+                     Path(eomc.templates.__file__).resolve().parent, C_DIR):
             for path in sorted(root.rglob("*")):
                 if path.suffix in (".py", ".j2", ".c", ".h") and "__pycache__" not in path.parts:
                     digest.update(str(path.relative_to(root)).encode())
@@ -86,7 +87,7 @@ def generation_key(spec, functions, fold_parameters):
         "inputs": None if spec.inputs is None else d(list(spec.inputs)),
         "outputs": None if spec.outputs is None else [[k, d(v)] for k, v in spec.outputs.items()],
         "functions": functions, "fold": bool(fold_parameters),
-        "eomc": eomc.__version__, "sympy": sm.__version__, "python": sys.version_info[:2],
+        "eomc": __version__, "sympy": sm.__version__, "python": sys.version_info[:2],
         "source": _source_digest()})
 
 

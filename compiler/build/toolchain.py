@@ -12,9 +12,11 @@ import subprocess
 import sys
 from dataclasses import dataclass
 
-from eomc.errors import CompilerNotFoundError
+from eomc.runtime.errors import CompileError, CompilerNotFoundError
 
-__all__ = ["Toolchain", "find_compiler", "install_hint", "DEFAULT_CFLAGS"]
+from .cache import discard
+
+__all__ = ["Toolchain", "find_compiler", "install_hint", "run_compiler", "DEFAULT_CFLAGS"]
 
 DEFAULT_CFLAGS = ("-O2", "-fPIC", "-std=c99")
 _CANDIDATES = ("cc", "gcc", "clang")
@@ -93,3 +95,20 @@ def find_compiler(env=None):
     raise CompilerNotFoundError(
         f"no C compiler found (looked for $CC, {', '.join(_CANDIDATES)} on PATH); "
         f"eomc compiles models to C, so {install_hint()}.")
+
+
+def run_compiler(argv, cwd, name, key, root):
+    """Run the compiler; on failure keep the sources under failed/ and raise CompileError."""
+    try:
+        proc = subprocess.run(argv, cwd=cwd, capture_output=True, text=True)
+    except OSError as exc:
+        proc = subprocess.CompletedProcess(argv, 127, "", str(exc))
+    if proc.returncode == 0:
+        return proc
+    kept = root / "failed" / f"{name}-{key[:12]}"
+    discard(root, kept)
+    kept.parent.mkdir(parents=True, exist_ok=True)
+    shutil.copytree(cwd, kept)
+    message = (proc.stderr or proc.stdout).strip()
+    raise CompileError(f"the C compiler failed on model {name!r} (exit status {proc.returncode}); "
+                       f"source kept in {kept}\ncommand: {shlex.join(argv)}\n{message}")

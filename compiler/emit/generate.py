@@ -4,7 +4,7 @@ from dataclasses import dataclass
 
 import jinja2
 
-from ...errors import ModelError
+from eomc.runtime.errors import ModelError
 from ..passes import finish_function, optimize_shared
 from ..ir import count_program, format_program, verify
 from .bodies import (BodyContext, dynamics_helper, helper_jacobian_body, matrix_body, needed_assignments, split_on, jacobian_body,

@@ -11,7 +11,7 @@ import sympy as sm
 from sympy.core.function import AppliedUndef
 from sympy.physics.vector import dynamicsymbols
 
-from ...errors import ModelError
+from eomc.runtime.errors import ModelError
 
 __all__ = ["Layout", "make_layout", "check_identifier", "DEFAULT_PARAMETER_VALUE"]
 

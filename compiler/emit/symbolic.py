@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import sympy as sm
 
-from ...errors import ModelError
+from eomc.runtime.errors import ModelError
 from ..ir import Program
 from .sparse_lu import static_row_order
 

@@ -14,7 +14,7 @@ results are already-derived equations, which we want to re-derive.
 import sympy as sm
 from sympy.physics import mechanics as sme
 
-from eomc.errors import ModelError
+from eomc.runtime.errors import ModelError
 
 __all__ = ["from_sympy"]
 

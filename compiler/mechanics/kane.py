@@ -25,7 +25,7 @@ Differences from SymPy 1.14, on purpose:
   dependent speeds, LU beyond (SymPy: always LU, whose symbolic pivots can
   vanish where the constraints are regular, e.g. the Whipple bicycle upright,
   and turn into divisions by zero).  ``'LU'`` and SymPy's other names still work.
-* Bad input raises :class:`eomc.errors.ModelError` naming the culprit.
+* Bad input raises :class:`eomc.runtime.errors.ModelError` naming the culprit.
 * Accelerations set explicitly on points/frames (``set_acc``) are not used:
   accelerations are always the time derivatives of the velocities.
 """
@@ -33,7 +33,7 @@ import sympy as sm
 from sympy.physics.mechanics import ReferenceFrame
 from sympy.physics.vector import dynamicsymbols
 
-from eomc.errors import ModelError
+from eomc.runtime.errors import ModelError
 
 from .kane_forms import VectorReader, assemble, dot, read_bodies, read_loads, to_dynamic
 from .kane_inputs import (as_symbol_list, names, check_bodies, check_time_functions,

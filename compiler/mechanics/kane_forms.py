@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 
 import sympy as sm
 
-from eomc.errors import ModelError
+from eomc.runtime.errors import ModelError
 
 from .kane_inputs import frame_ang_vel, point_velocity
 from .plain import linear_coefficients

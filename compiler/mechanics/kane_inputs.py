@@ -1,6 +1,6 @@
 """Checking and normalising what a user hands to KanesMethod.
 
-Everything here turns malformed input into :class:`eomc.errors.ModelError`
+Everything here turns malformed input into :class:`eomc.runtime.errors.ModelError`
 with a message that names the offending symbol, load, body or equation, so
 a user never has to read a traceback from deep inside SymPy.
 """
@@ -9,7 +9,7 @@ from sympy.core.function import AppliedUndef
 from sympy.physics.mechanics import Particle, Point, ReferenceFrame, RigidBody
 from sympy.physics.vector import Vector, dynamicsymbols
 
-from eomc.errors import ModelError
+from eomc.runtime.errors import ModelError
 
 __all__ = [
     "names", "as_symbol_list", "check_time_functions", "is_body_list", "is_load_list",

@@ -14,7 +14,7 @@ import sympy as sm
 from sympy.physics.mechanics import msubs
 from sympy.physics.vector import dynamicsymbols
 
-from eomc.errors import ModelError
+from eomc.runtime.errors import ModelError
 
 from .plain import linear_coefficients
 

@@ -12,7 +12,7 @@ from sympy.physics.mechanics.linearize import Linearizer
 from sympy.physics.vector import dynamicsymbols
 from sympy import default_sort_key
 
-from eomc.errors import ModelError
+from eomc.runtime.errors import ModelError
 
 from .formed import FormedSystem
 from .kane_kinematics import linear_solver as _ls

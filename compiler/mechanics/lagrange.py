@@ -11,7 +11,7 @@ from sympy.core.sorting import default_sort_key
 from sympy.physics.vector import ReferenceFrame, dynamicsymbols
 from sympy.physics.mechanics import Linearizer, find_dynamicsymbols, msubs
 
-from eomc.errors import ModelError
+from eomc.runtime.errors import ModelError
 
 from .lagrange_formed import formed_from_lagrange
 from .lagrange_terms import (PlainVariables, check_loads, constraint_terms,

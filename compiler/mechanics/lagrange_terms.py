@@ -21,7 +21,7 @@ kept: ``d/dt`` sees only it, e.g. giving ``F'(t)``.
 import sympy as sm
 from sympy.physics.vector import ReferenceFrame, Point, Vector, dynamicsymbols
 
-from eomc.errors import ModelError
+from eomc.runtime.errors import ModelError
 
 from .fastdiff import Differentiator
 from .lagrange_squares import split_squares, square_mass_forcing

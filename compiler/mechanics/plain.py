@@ -16,7 +16,7 @@ import sympy as sm
 from sympy.core.function import AppliedUndef
 from sympy.physics.vector import dynamicsymbols
 
-from eomc.errors import ModelError
+from eomc.runtime.errors import ModelError
 
 __all__ = ["PlainSpace", "linear_coefficients"]
 

@@ -11,7 +11,7 @@ import sys
 import traceback
 from pathlib import Path
 
-from eomc.errors import EomcError, ModelFileError
+from eomc.runtime.errors import EomcError, ModelFileError
 
 __all__ = ["run_model_file", "assignment_lines"]
 

@@ -8,7 +8,7 @@ files and ModelError for objects passed in Python.
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from eomc.errors import EomcError, ModelError, ModelFileError
+from eomc.runtime.errors import EomcError, ModelError, ModelFileError
 
 from .modelfile import assignment_lines, run_model_file
 from .validate import (Invalid, check_initial_state, check_inputs, check_name, check_outputs,

@@ -6,7 +6,7 @@ import textwrap
 import numpy as np
 import pytest
 
-import model_files
+from helpers import model_files
 import eomc
 from eomc.compiler.build import build
 from eomc.compiler.driver import Progress, generate

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from stand_in import get_model
+from helpers.stand_in import get_model
 
 from eomc.errors import SimulationError
 from eomc.runtime.batch import simulate_many

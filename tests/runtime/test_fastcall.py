@@ -4,7 +4,7 @@ The fast path and the checked Python path (the ``Model`` class's own methods)
 call the same C function, so on every call the fast path takes their results
 must be bit-identical; every call it does not take (other types, shapes,
 layouts, a nonzero status) must behave exactly like the checked path -- same
-values or the same error.  A closed form (tests/model_files.cart_rhs) is the
+values or the same error.  A closed form (tests/helpers/model_files.cart_rhs) is the
 independent oracle for the values themselves.
 """
 import gc
@@ -13,9 +13,9 @@ import threading
 import numpy as np
 import pytest
 
-import model_files
-import zoo
-from spies import spy_kernels
+from helpers import model_files
+from helpers import zoo
+from helpers.spies import spy_kernels
 import eomc
 import eomc.mechanics as em
 from eomc.errors import ModelError, SimulationError

@@ -10,7 +10,7 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.linalg import expm
 
-from stand_in import get_model
+from helpers.stand_in import get_model
 
 from eomc.runtime.simulate import scipy_fun, simulate
 

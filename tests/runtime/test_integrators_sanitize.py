@@ -4,7 +4,7 @@ import subprocess
 
 import pytest
 
-from stand_in import HERE, SOURCES, TEMPLATES
+from helpers.stand_in import MODELS_DIR, SOURCES, RUNTIME_C
 
 
 def test_integrators_clean_under_address_and_undefined_sanitizers(tmp_path):
@@ -13,8 +13,8 @@ def test_integrators_clean_under_address_and_undefined_sanitizers(tmp_path):
     exe = tmp_path / "sanitize_driver"
     cmd = ["gcc", "-std=c99", "-g", "-O1", "-Wall", "-Wextra", "-Werror",
            "-fsanitize=address,undefined", "-fno-sanitize-recover=all", "-fno-omit-frame-pointer",
-           f"-I{TEMPLATES}", "-o", str(exe), str(HERE / "sanitize_driver.c"),
-           *(str(HERE / s) for s in SOURCES), str(TEMPLATES / "eomc_integrators.c"), "-lm"]
+           f"-I{RUNTIME_C}", "-o", str(exe), str(MODELS_DIR / "sanitize_driver.c"),
+           *(str(MODELS_DIR / s) for s in SOURCES), str(RUNTIME_C / "eomc_integrators.c"), "-lm"]
     build = subprocess.run(cmd, capture_output=True, text=True)
     assert build.returncode == 0, build.stderr
     proc = subprocess.run([str(exe)], capture_output=True, text=True, timeout=120,

@@ -8,7 +8,7 @@ import textwrap
 import numpy as np
 import pytest
 
-import osc_model
+from helpers import osc_model
 from eomc.compiler.build import build
 from eomc.runtime.loader import LoadError, load
 

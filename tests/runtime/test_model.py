@@ -1,6 +1,6 @@
 """The Model object over the hand-written oscillator, with both backends.
 
-Checks values against numpy (tests/osc_model.py), that every bad argument is
+Checks values against numpy (tests/helpers/osc_model.py), that every bad argument is
 a ValueError naming it *before* any C runs (kernels are spied on), and that a
 nonzero C status becomes an error naming the failure, time and state.
 """
@@ -9,8 +9,8 @@ import threading
 import numpy as np
 import pytest
 
-import osc_model
-from spies import spy_kernels
+from helpers import osc_model
+from helpers.spies import spy_kernels
 from eomc.compiler.build import build
 from eomc.errors import ModelError, SimulationError
 from eomc.runtime.loader import load

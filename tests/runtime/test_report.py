@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from scipy.linalg import expm
 
-from stand_in import get_model
+from helpers.stand_in import get_model
 
 from eomc.runtime.reference import compute_reference, scaled_error, state_scale
 from eomc.runtime.report import COLUMNS, work_precision
@@ -210,7 +210,7 @@ def test_bad_arguments_raise_before_running(osc):
 
 def test_cli_report_on_model_file_and_built_directory(tmp_path, monkeypatch, capsys):
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-    from model_files import PENDULUM, write
+    from helpers.model_files import PENDULUM, write
     from eomc.cli import main
     monkeypatch.setenv("EOMC_CACHE_DIR", str(tmp_path / "cache"))
     model_file = write(tmp_path, PENDULUM, "pend")

@@ -1,6 +1,6 @@
 """simulate() on models built by the real pipeline (eomc.compile -> loader), not stand-ins.
 
-Oracles: the closed-form right-hand sides in tests/model_files.py integrated by
+Oracles: the closed-form right-hand sides in tests/helpers/model_files.py integrated by
 scipy's DOP853 at rtol=1e-12, and conservation of the model file's energy.
 """
 
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-import model_files
+from helpers import model_files
 
 import eomc
 from eomc.runtime.batch import simulate_many

@@ -8,7 +8,7 @@ import textwrap
 import numpy as np
 import pytest
 
-import osc_model
+from helpers import osc_model
 from eomc.compiler.build import build, cache_root
 from eomc.errors import CompileError, CompilerNotFoundError
 from eomc.runtime.loader import load
@@ -113,7 +113,7 @@ def test_concurrent_builds_of_one_model_share_one_entry(tmp_path):
 
 def test_library_builds_with_strict_warnings(tmp_path):
     """Generated C and the batch helper are clean under -Wall -Wextra -Werror (the integrators: tests/runtime)."""
-    import model_files
+    from helpers import model_files
     from eomc.compiler.driver import generate
     flags = "-O2 -std=c99 -Wall -Wextra -Werror"
     _, generated = generate(model_files.write(tmp_path, model_files.CART, "cart"), cache_dir=tmp_path,

@@ -2,13 +2,13 @@
 import numpy as np
 import pytest
 
-import osc_model
+from helpers import osc_model
 from eomc.compiler.build import build, cache_root
 from eomc.compiler.build.cache import lookup, try_locked
 from eomc.compiler.build.cache_admin import (auto_prune, clear, entries, parse_age, parse_size,
                                              prune, usage)
 from eomc.runtime.loader import load
-from cache_entries import fake_entry
+from helpers.cache_entries import fake_entry
 
 
 @pytest.fixture

@@ -4,7 +4,7 @@ import json
 import pytest
 import sympy as sm
 
-import model_files
+from helpers import model_files
 import eomc.compiler.emit as emit
 from eomc.compiler.build import cache_root
 from eomc.compiler.build.gencache import _Digester, generation_key

@@ -10,8 +10,8 @@ import pytest
 import sympy as sm
 from sympy.physics import mechanics as me
 
-import emit_support as es
-import zoo
+from helpers import emit_support as es
+from helpers import zoo
 from eomc.compiler.emit import generate_c
 
 COMPILERS = [cc for cc in ("gcc", "clang") if shutil.which(cc)]
@@ -180,7 +180,7 @@ def test_only_requested_functions(tmp_path):
 _SCRIPT = """
 import sys
 sys.path[:0] = {paths!r}
-import zoo, emit_support as es
+from helpers import zoo, emit_support as es
 from sympy.physics import mechanics as me
 from eomc.compiler.emit import generate_c, linsolve, symbolic
 kane, spec = zoo.n_link_pendulum_on_cart(2, me)

@@ -6,8 +6,8 @@ import pytest
 import sympy as sm
 from sympy.physics import mechanics as me
 
-import emit_support as es
-import zoo
+from helpers import emit_support as es
+from helpers import zoo
 from eomc.compiler.emit import generate_c
 from eomc.errors import ModelError
 

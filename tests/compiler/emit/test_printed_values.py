@@ -5,7 +5,7 @@ import random
 import numpy as np
 import sympy as sm
 
-import emit_support as es
+from helpers import emit_support as es
 from eomc.compiler.emit.printer import CPrinter
 from eomc.compiler.ir import Program, c_names, evaluate
 from eomc.compiler.passes import finish_function, optimize_shared

@@ -1,6 +1,6 @@
 """Hypothesis-generated open chains, compiled: the C functions vs SymPy's own equations.
 
-Each random chain (tests/random_chains.py) is derived by eomc.mechanics,
+Each random chain (tests/helpers/random_chains.py) is derived by eomc.mechanics,
 lowered to C and compiled; the oracle is sympy.physics.mechanics' KanesMethod
 of the same chain, evaluated with lambdify and numpy.linalg.solve.  Half the
 examples force jac_x's tangent-loop form (used above TANGENT_MIN_STATES), so
@@ -12,11 +12,11 @@ import sympy.physics.mechanics as sme
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-import emit_support as es
+from helpers import emit_support as es
 import eomc.mechanics as em
 from eomc.compiler.emit import generate_c, symbolic
 from eomc.errors import ModelError
-from random_chains import build, chain
+from helpers.random_chains import build, chain
 
 FUNCTIONS = ["rhs", "jac_x", "jac_r", "mass_matrix", "inverse_dynamics"]
 

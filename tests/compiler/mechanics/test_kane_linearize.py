@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 import sympy as sm
 
-import zoo
+from helpers import zoo
 
 import eomc.mechanics as em
 

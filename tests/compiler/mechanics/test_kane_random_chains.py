@@ -3,8 +3,8 @@ import sympy.physics.mechanics as sme
 from hypothesis import given, settings
 
 import eomc.mechanics as em
-from kane_oracle import assert_close, evaluate, random_point
-from random_chains import build, chain
+from helpers.kane_oracle import assert_close, evaluate, random_point
+from helpers.random_chains import build, chain
 
 
 @settings(max_examples=12, deadline=None)

@@ -9,8 +9,8 @@ import pytest
 import sympy as sm
 import sympy.physics.mechanics as sme
 
-import zoo
-from kane_oracle import assert_close, compare_kane, evaluate, random_point
+from helpers import zoo
+from helpers.kane_oracle import assert_close, compare_kane, evaluate, random_point
 
 import eomc.mechanics as em
 from eomc.compiler.mechanics.kane import KanesMethod

@@ -10,9 +10,9 @@ import pytest
 import sympy as sm
 import sympy.physics.mechanics as sme
 
-import lagrange_mechanisms as mechs
-import lagrange_numeric as num
-import zoo
+from helpers import lagrange_mechanisms as mechs
+from helpers import lagrange_numeric as num
+from helpers import zoo
 
 import eomc.mechanics as em
 from eomc.compiler.mechanics import LagrangesMethod

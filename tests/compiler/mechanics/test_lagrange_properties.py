@@ -5,8 +5,8 @@ import sympy as sm
 import sympy.physics.mechanics as sme
 from hypothesis import given, settings, strategies as st
 
-import lagrange_numeric as num
-import zoo
+from helpers import lagrange_numeric as num
+from helpers import zoo
 
 import eomc.mechanics as em
 

@@ -4,7 +4,7 @@ import textwrap
 import pytest
 import sympy as sm
 
-import model_files
+from helpers import model_files
 from eomc.compiler.model import assignment_lines, model_spec
 from eomc.errors import ModelError, ModelFileError
 

@@ -1,4 +1,8 @@
-"""The ``eomc`` command: one dispatcher, subcommands live next to the code they drive.
+"""The ``eomc`` command: one dispatcher and one module per subcommand.
+
+- compiler commands (import SymPy): ``show``, ``build``, ``inspect``
+- runtime commands (never import SymPy on a built model): ``simulate``, ``report``, ``check``,
+  sharing ``common.py`` (which model, from which state); ``cache``
 
 Each subcommand module exposes ``configure(parser)`` and ``run(args) -> int``.
 They are imported only when chosen, so ``eomc simulate`` on a built model
@@ -14,13 +18,13 @@ from eomc.errors import EomcError
 
 # subcommand -> (module, one-line help)
 SUBCOMMANDS = {
-    "show": ("eomc.compiler.cli_show", "derive a model file's equations of motion and print them"),
-    "build": ("eomc.compiler.cli_build", "compile a model file to C, a shared library and a Python module"),
-    "inspect": ("eomc.compiler.cli_inspect", "print operation counts, mass-matrix sparsity and sizes"),
-    "simulate": ("eomc.compiler.cli_simulate", "integrate a model and write its trajectory"),
-    "report": ("eomc.compiler.cli_report", "error against run time over methods and tolerances"),
-    "check": ("eomc.compiler.cli_check", "stability checks on stiff and extreme cases"),
-    "cache": ("eomc.compiler.cli_cache", "show, prune or clear the build cache"),
+    "show": ("eomc.cli.show", "derive a model file's equations of motion and print them"),
+    "build": ("eomc.cli.build", "compile a model file to C, a shared library and a Python module"),
+    "inspect": ("eomc.cli.inspect", "print operation counts, mass-matrix sparsity and sizes"),
+    "simulate": ("eomc.cli.simulate", "integrate a model and write its trajectory"),
+    "report": ("eomc.cli.report", "error against run time over methods and tolerances"),
+    "check": ("eomc.cli.check", "stability checks on stiff and extreme cases"),
+    "cache": ("eomc.cli.cache", "show, prune or clear the build cache"),
 }
 
 

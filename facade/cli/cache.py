@@ -10,8 +10,8 @@ New builds prune automatically past $EOMC_CACHE_MAX_SIZE (default 2G, 0: never).
 """
 import time
 
-from .build.cache import cache_root
-from .build.cache_admin import (clear, format_size, max_size_from_env, parse_age, parse_size,
+from eomc.compiler.build.cache import cache_root
+from eomc.compiler.build.cache_admin import (clear, format_size, max_size_from_env, parse_age, parse_size,
                                 prune, usage)
 
 __all__ = ["configure", "run"]

@@ -3,7 +3,7 @@
 Why: the integrator and simulate tests must not depend on the code generator
 or the build system, so they run against small C models with known answers
 (oscillator, pendulum, stiff chain, Kepler orbit, a constrained ring, and two
-failure cases) written directly against templates/c/eomc_model.h.  The
+failure cases) written directly against runtime/c/eomc_model.h.  The
 stand-in object carries the attributes the runtime Model has (preamble,
 "Pipeline interfaces"), which is all eomc.runtime.simulate uses.
 """
@@ -20,11 +20,11 @@ from eomc.errors import SimulationError
 from eomc.runtime.cdef import MODEL_CDEF
 from eomc.runtime.integrators_api import INTEGRATOR_CDEF
 
-__all__ = ["HERE", "TEMPLATES", "MODEL_NAMES", "StandInModel", "build_library", "get_model",
+__all__ = ["MODELS_DIR", "RUNTIME_C", "MODEL_NAMES", "StandInModel", "build_library", "get_model",
            "compile_shared"]
 
-HERE = Path(__file__).resolve().parent
-TEMPLATES = HERE.parents[2] / "templates" / "c"
+MODELS_DIR = Path(__file__).resolve().parents[1] / "runtime" / "models"  # the stand-in C models
+RUNTIME_C = Path(__file__).resolve().parents[2] / "runtime" / "c"  # eomc_model.h, eomc_integrators.c
 MODEL_NAMES = ("oscillator", "pendulum", "chain", "kepler", "ring", "blowup", "singular", "sphere",
                "top")
 SOURCES = ("oscillator.c", "pendulum.c", "chain.c", "kepler.c", "ring.c", "faulty.c", "sphere.c",
@@ -33,8 +33,8 @@ SOURCES = ("oscillator.c", "pendulum.c", "chain.c", "kepler.c", "ring.c", "fault
 def compile_shared(out, sources, extra_flags=()):
     """gcc -shared the given C files with the integrators; raises with gcc's output."""
     cmd = ["gcc", "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-fPIC", "-shared",
-           f"-I{TEMPLATES}", *extra_flags, "-o", str(out), *map(str, sources),
-           str(TEMPLATES / "eomc_integrators.c"), "-lm"]
+           f"-I{RUNTIME_C}", *extra_flags, "-o", str(out), *map(str, sources),
+           str(RUNTIME_C / "eomc_integrators.c"), "-lm"]
     proc = subprocess.run(cmd, capture_output=True, text=True)
     if proc.returncode:
         raise RuntimeError(f"gcc failed:\n{' '.join(cmd)}\n{proc.stderr}")
@@ -47,7 +47,7 @@ def build_library():
     if shutil.which("gcc") is None:
         raise RuntimeError("gcc is needed to build the hand-written test models")
     tmp = Path(tempfile.mkdtemp(prefix="eomc_standin_"))
-    so = compile_shared(tmp / "libstandin.so", [HERE / s for s in SOURCES])
+    so = compile_shared(tmp / "libstandin.so", [MODELS_DIR / s for s in SOURCES])
     ffi = cffi.FFI()
     ffi.cdef(MODEL_CDEF + INTEGRATOR_CDEF
              + "".join(f"const eomc_model *{n}_model(void);\n" for n in MODEL_NAMES))

@@ -2,7 +2,7 @@
 from eomc.cli import main as eomc_main
 from eomc.compiler.build import cache_root
 from eomc.compiler.build.cache_admin import entries
-from cache_entries import fake_entry
+from helpers.cache_entries import fake_entry
 
 
 def test_cli_info_prune_clear(tmp_path, capsys):

@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from stand_in import get_model
+from helpers.stand_in import get_model
 
-import eomc.compiler.cli_common as cli_common
+import eomc.cli.common as cli_common
 from eomc.cli import main
 
 

@@ -13,7 +13,7 @@ from sympy.physics.vector import dynamicsymbols
 
 from eomc.compiler.mechanics.formed import FormedSystem
 
-HEADER_DIR = os.path.join(os.path.dirname(__file__), "..", "..", "..", "templates", "c")
+HEADER_DIR = os.path.join(os.path.dirname(__file__), "..", "..", "runtime", "c")
 STRICT = ["-std=c99", "-pedantic", "-Wall", "-Wextra", "-Werror"]
 STRUCT_CDEF = """
 typedef struct eomc_model {

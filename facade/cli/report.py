@@ -12,7 +12,7 @@ from pathlib import Path
 
 from eomc.errors import ModelError
 
-from . import cli_common
+from . import common as cli_common
 
 __all__ = ["configure", "run"]
 

@@ -1,5 +1,5 @@
 """``eomc inspect MODEL.py``: sizes, per-function operation counts and M's sparsity, without compiling."""
-from .cli_build import add_generate_options
+from .build import add_generate_options
 
 __all__ = ["configure", "run", "format_report"]
 

@@ -1,6 +1,6 @@
 """`eomc show`: the derived equations, printed readably."""
 
-import model_files
+from helpers import model_files
 from eomc.cli import main
 
 

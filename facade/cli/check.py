@@ -6,7 +6,7 @@ Exit status 1 when a check failed, so it can gate CI.
 """
 import argparse
 
-from . import cli_common
+from . import common as cli_common
 
 __all__ = ["configure", "run"]
 

@@ -1,8 +1,8 @@
 """`eomc inspect`: sizes, per-function operation counts and the mass matrix's sparsity."""
 
-import model_files
+from helpers import model_files
 from eomc.cli import main
-from eomc.compiler.cli_inspect import format_report
+from eomc.cli.inspect import format_report
 
 
 def test_inspect_prints_sizes_counts_and_sparsity(tmp_path, capsys):

@@ -4,7 +4,7 @@ import sys
 
 import numpy as np
 
-import model_files
+from helpers import model_files
 from eomc.cli import main
 
 

@@ -7,7 +7,7 @@ start is the model's ``initial_state`` unless ``--x0`` overrides entries.
 """
 import argparse
 
-from . import cli_common
+from . import common as cli_common
 
 __all__ = ["configure", "run"]
 

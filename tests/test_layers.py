@@ -1,0 +1,168 @@
+"""The package's layers point one way, and no module imports itself back.
+
+Layers, top to bottom: ``eomc`` (facade/, with ``eomc.cli``) -> ``eomc.compiler``
+-> ``eomc.runtime``.  The test reads every module's imports from its source (all
+of them, including the ones inside functions, which is where a cycle hides) and
+fails on:
+
+- a cycle between modules;
+- ``eomc.runtime`` importing SymPy, ``eomc.compiler`` or the top package;
+- ``eomc.compiler`` importing the top package or ``eomc.cli``;
+- a runtime command of the CLI (simulate, report, check, cache) importing SymPy
+  or ``eomc.compiler`` at module level (they must start fast on a built model).
+"""
+import ast
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+# source folder -> package name (pyproject.toml's package-dir)
+PACKAGES = {"facade": "eomc", "compiler": "eomc.compiler", "runtime": "eomc.runtime",
+            "templates": "eomc.templates"}
+
+
+def _modules():
+    """module name -> (path, is_package)"""
+    out = {}
+    for folder, package in PACKAGES.items():
+        for path in sorted((ROOT / folder).rglob("*.py")):
+            rel = path.relative_to(ROOT / folder).with_suffix("")
+            parts = [p for p in rel.parts if p != "__init__"]
+            out[".".join([package, *parts])] = (path, path.name == "__init__.py")
+    return out
+
+
+MODULES = _modules()
+
+
+def _imports(name, top_level_only=False):
+    """Every module NAME imports (absolute names), with the line of each."""
+    path, is_package = MODULES[name]
+    tree = ast.parse(path.read_text(), str(path))
+    package = name if is_package else name.rpartition(".")[0]
+    nodes = tree.body if top_level_only else ast.walk(tree)
+    found = []
+    for node in nodes:
+        if isinstance(node, ast.Import):
+            found += [(a.name, node.lineno) for a in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.split(".")
+                base = base[:len(base) - node.level + 1]
+                module = ".".join(base + ([node.module] if node.module else []))
+            else:
+                module = node.module
+            found.append((module, node.lineno))
+            # `from pkg import sub` imports the submodule pkg.sub
+            found += [(f"{module}.{a.name}", node.lineno) for a in node.names
+                      if f"{module}.{a.name}" in MODULES]
+    return found
+
+
+def _own(module):
+    """The eomc module an import names (itself, or the nearest enclosing package we have)."""
+    while module and module not in MODULES:
+        module = module.rpartition(".")[0]
+    return module or None
+
+
+def _graph():
+    graph = {}
+    for name in MODULES:
+        edges = {_own(m) for m, _ in _imports(name) if m.startswith("eomc")}
+        edges.discard(None)
+        edges.discard(name)
+        graph[name] = edges
+    return graph
+
+
+def test_modules_found():
+    assert {"eomc", "eomc.cli", "eomc.compiler.driver", "eomc.runtime.errors",
+            "eomc.runtime.simulate"} <= set(MODULES)
+
+
+def test_no_import_cycles():
+    graph = _graph()
+    # Parent packages import their submodules to re-export them; a submodule that
+    # imports a sibling through the parent's name is not a cycle through code, so
+    # only edges between modules (not into an enclosing package's __init__) count.
+    def is_ancestor(a, b):
+        return b.startswith(a + ".")
+
+    edges = {a: {b for b in bs if not is_ancestor(b, a)} for a, bs in graph.items()}
+    index, low, stack, on_stack, cycles = {}, {}, [], set(), []
+    counter = [0]
+
+    def strongconnect(v):  # Tarjan's algorithm
+        index[v] = low[v] = counter[0]
+        counter[0] += 1
+        stack.append(v)
+        on_stack.add(v)
+        for w in sorted(edges[v]):
+            if w not in index:
+                strongconnect(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1:
+                cycles.append(sorted(component))
+
+    for v in sorted(edges):
+        if v not in index:
+            strongconnect(v)
+    assert cycles == [], f"import cycles: {cycles}"
+
+
+def _violations(prefix, forbidden, top_level_only=False):
+    bad = []
+    for name in MODULES:
+        if name != prefix and not name.startswith(prefix + "."):
+            continue
+        for module, line in _imports(name, top_level_only):
+            if any(module == f or module.startswith(f + ".") for f in forbidden):
+                bad.append(f"{MODULES[name][0].relative_to(ROOT)}:{line}: imports {module}")
+    return bad
+
+
+def _top_package_imports(prefix):
+    """Imports of the top package itself or of its facade-only modules (eomc.errors, eomc.cli, ...)."""
+    facade = {n for n, (p, _) in MODULES.items() if p.is_relative_to(ROOT / "facade")}
+    bad = []
+    for name in MODULES:
+        if not name.startswith(prefix + "."):
+            continue
+        for module, line in _imports(name):
+            if module in facade or any(module.startswith(f + ".") for f in facade if f != "eomc"):
+                bad.append(f"{MODULES[name][0].relative_to(ROOT)}:{line}: imports {module}")
+    return bad
+
+
+def test_runtime_is_the_bottom_layer():
+    assert _violations("eomc.runtime", ["sympy", "eomc.compiler"]) == []
+    assert _top_package_imports("eomc.runtime") == []
+
+
+def test_compiler_does_not_import_the_top_package():
+    assert _top_package_imports("eomc.compiler") == []
+
+
+@pytest.mark.parametrize("command", ["simulate", "report", "check", "cache", "common"])
+def test_runtime_commands_start_without_sympy(command):
+    assert _violations(f"eomc.cli.{command}", ["sympy", "eomc.compiler.mechanics", "eomc.compiler.driver"],
+                       top_level_only=True) == []
+
+
+def test_the_checks_can_fail():
+    """The walkers see a real import: compiler modules do import SymPy and the runtime."""
+    assert _violations("eomc.compiler", ["sympy"]) != []
+    assert "eomc.runtime.errors" in _graph()["eomc.compiler.driver"] | {
+        m for n in _graph() if n.startswith("eomc.compiler") for m in _graph()[n]}
