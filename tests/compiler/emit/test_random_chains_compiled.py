@@ -65,13 +65,19 @@ def test_compiled_random_chain_matches_sympy(tmp_path_factory, spec, looped, see
         by_name = dict(zip((s.name for s in ref.parameters), p_ref))
         p = np.array([by_name[name] for name in ours_p])
         r = rng.normal(size=len(formed.inputs))
+        M_ref = np.array(orc.A(tv, x, p_ref, r), float)
         status, xdot = c.call("rhs", nx, tv, x, p, r)
+        if np.linalg.cond(M_ref) > 1e8:
+            # a configuration where this chain's mass matrix is (nearly) singular, e.g. a
+            # particle link swung onto the next joint's axis: agreement to 1e-11 means
+            # nothing there (the C code reports an exactly singular pivot as status 1)
+            continue
         assert status == 0
         expect = orc.rhs(tv, x, p_ref, r)
         assert es.rel_err(xdot, expect) <= 1e-11
         status, M = c.call("mass_matrix", (nu, nu), tv, x, p, r)
         assert status == 0
-        assert es.rel_err(M, np.array(orc.A(tv, x, p_ref, r), float)) <= 1e-12
+        assert es.rel_err(M, M_ref) <= 1e-12
         status, tau = c.call("inverse_dynamics", nu, tv, x, p, r, extra=xdot[formed.nq:])
         assert status == 0 and np.max(np.abs(tau)) <= 1e-9 * max(1.0, np.max(np.abs(M)))
         status, J = c.call("jac_x", (nx, nx), tv, x, p, r)
