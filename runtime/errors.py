@@ -12,6 +12,7 @@ __all__ = [
     "CompilerNotFoundError",
     "CompileError",
     "SimulationError",
+    "EomcWarning",
 ]
 
 
@@ -44,3 +45,10 @@ class CompileError(EomcError, RuntimeError):
 
 class SimulationError(EomcError, RuntimeError):
     """An integration stopped (singular mass matrix, non-finite state, step size underflow, ...)."""
+
+
+class EomcWarning(UserWarning):
+    """Something eomc accepted but the user probably did not mean (e.g. every parameter 1.0).
+
+    The ``eomc`` command prints these as one ``eomc CMD: warning: ...`` line.
+    """

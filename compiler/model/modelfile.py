@@ -7,7 +7,9 @@ The file's directory is on ``sys.path`` while it runs, so it may import
 helper modules kept beside it.
 """
 import ast
+import io
 import sys
+import tokenize
 import traceback
 from pathlib import Path
 
@@ -49,14 +51,32 @@ def _plain(exc):
     return str(exc) if isinstance(exc, EomcError) and str(exc) else f"{type(exc).__name__}: {exc}"
 
 
+def _decode(data, filename):
+    """The file's text: UTF-8 unless a PEP 263 coding line says otherwise (as Python reads it)."""
+    try:
+        try:
+            encoding, _ = tokenize.detect_encoding(io.BytesIO(data).readline)
+        except SyntaxError as exc:
+            if b"coding" in b"\n".join(data.split(b"\n", 2)[:2]):
+                raise ModelFileError(f"cannot read the model file: {exc}", filename) from None
+            encoding = "utf-8"  # no declaration: the bytes of the first lines are not UTF-8
+        return data.decode(encoding)
+    except UnicodeDecodeError as exc:
+        line = data[:exc.start].count(b"\n") + 1
+        raise ModelFileError(f"not a model file: it is not {exc.encoding.upper()} text (byte "
+                             f"0x{data[exc.start]:02x} at position {exc.start}, line {line}); a model "
+                             f"file is Python source", filename) from None
+
+
 def run_model_file(path):
     """Execute the model file; returns (namespace, source, filename) or raises ModelFileError."""
     path = Path(path)
     filename = str(path)
     try:
-        source = path.read_text()
+        data = path.read_bytes()
     except OSError as exc:
         raise ModelFileError(f"cannot read model file ({exc.strerror or exc})", filename) from None
+    source = _decode(data, filename)
     try:
         code = compile(source, filename, "exec")
     except SyntaxError as exc:

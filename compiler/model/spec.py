@@ -5,14 +5,16 @@
 the code generator.  Mistakes raise ModelFileError with file:line for model
 files and ModelError for objects passed in Python.
 """
+import sys
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from eomc.runtime.errors import EomcError, ModelError, ModelFileError
+from eomc.runtime.errors import EomcError, EomcWarning, ModelError, ModelFileError
 
 from .modelfile import assignment_lines, run_model_file
-from .validate import (Invalid, check_initial_state, check_inputs, check_name, check_outputs,
-                       check_parameters, sanitize_name)
+from .validate import (Invalid, check_equations, check_initial_state, check_inputs, check_name,
+                       check_outputs, check_parameters, sanitize_name, unset_parameters)
 
 __all__ = ["ModelSpec", "model_spec", "formed_system"]
 
@@ -51,10 +53,35 @@ def formed_system(system):
                      f"LagrangesMethod (from eomc.mechanics or sympy.physics.mechanics)")
 
 
-def _checked(values, formed, name, where):
+def _warn_unset_parameters(formed, parameters, where):
+    """No `parameters` at all: every parameter, gravity included, is 1.0 -- say so, naming them."""
+    unset = unset_parameters(formed, parameters)
+    if unset:
+        names = ", ".join(s.name for s in unset)
+        message = (f"{where}no `parameters` dict: {'every parameter' if len(unset) > 1 else 'the parameter'} "
+                   f"defaults to 1.0 ({names}); give `parameters = {{symbol: value, ...}}` to set them")
+        if message not in _WARNED:  # once per model and process, however often it is compiled
+            _WARNED.add(message)
+            warnings.warn(message, EomcWarning, stacklevel=_caller_level())
+
+
+_WARNED = set()
+
+
+def _caller_level():
+    """warnings.warn's stacklevel for the first frame outside eomc (the user's call)."""
+    frame, level = sys._getframe(2), 2
+    while frame is not None and frame.f_globals.get("__name__", "").startswith("eomc"):
+        frame, level = frame.f_back, level + 1
+    return level
+
+
+def _checked(values, formed, name, where, origin=""):
     """Run the validators; ``where(variable)`` turns an Invalid into the right error."""
     try:
+        check_equations(formed)
         outputs = check_outputs(values.get("outputs"), formed)
+        _warn_unset_parameters(formed, values.get("parameters"), origin)
         return ModelSpec(
             name=check_name(name), formed=formed,
             parameters=check_parameters(values.get("parameters"), formed, outputs),
@@ -90,7 +117,7 @@ def _from_file(path, name, overrides):
         if exc.variable in overrides and overrides[exc.variable] is not None:
             return ModelError(str(exc))
         return ModelFileError(str(exc), filename, lines.get(exc.variable))
-    spec = _checked(values, formed, name, where)
+    spec = _checked(values, formed, name, where, f"{filename}: ")
     return ModelSpec(**{**spec.__dict__, "path": Path(path)})
 
 
@@ -101,4 +128,4 @@ def model_spec(system, name=None, *, parameters=None, inputs=None, initial_state
         return _from_file(system, name, overrides)
     formed = formed_system(system)
     values = {**overrides, "system": system}
-    return _checked(values, formed, name or "model", lambda exc: ModelError(str(exc)))
+    return _checked(values, formed, name or "model", lambda exc: ModelError(str(exc)), f"model {name or 'model'}: ")

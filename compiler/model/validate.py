@@ -14,7 +14,7 @@ import sympy as sm
 from sympy.core.function import AppliedUndef
 
 __all__ = ["Invalid", "check_functions", "FUNCTIONS", "check_parameters", "check_inputs", "check_initial_state", "check_outputs",
-           "check_name", "sanitize_name"]
+           "check_name", "sanitize_name", "check_equations", "non_real_constants", "unset_parameters"]
 
 _IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 
@@ -32,9 +32,93 @@ def _real(value, what, variable):
         raise Invalid(variable, f"{what} must be a real number, not {type(value).__name__} {value!r}")
     try:
         number = float(value)
+    except OverflowError:
+        raise Invalid(variable, f"{what} must be a finite real number; {_short(value)} is too large "
+                                f"for a double") from None
     except (TypeError, ValueError):
         raise Invalid(variable, f"{what} must be a real number, not the expression {value}") from None
+    if number != number or number in (float("inf"), float("-inf")):
+        # the C code would hold `nan`/`inf` literals (which do not compile) or run on them silently
+        raise Invalid(variable, f"{what} must be a finite real number, not {value}")
     return number
+
+
+def _short(value, limit=60):
+    text = str(value)
+    return text if len(text) <= limit else text[:limit - 5] + " ..."
+
+
+# Constants that have no place in real-valued C code, and what to tell the user about each.
+_NON_REAL = {
+    sm.zoo: "zoo (complex infinity: a division by zero?)",
+    sm.nan: "nan (not a number: 0/0 or oo - oo?)",
+    sm.oo: "oo (infinity)",
+    sm.S.NegativeInfinity: "-oo (infinity)",
+    sm.I: "I (the imaginary unit: eomc models are real-valued)",
+}
+
+
+def non_real_constants(exprs):
+    """The plain words for every non-real or infinite constant (zoo, nan, oo, I) in ``exprs``.
+
+    Walks each shared subexpression once (the formed equations are DAGs that
+    can be far larger as trees), so it stays cheap on big models.
+    """
+    found, seen, stack = [], set(), list(exprs)
+    while stack:
+        e = stack.pop()
+        if id(e) in seen or not isinstance(e, sm.Basic):
+            continue
+        seen.add(id(e))
+        if e.is_Atom:
+            if e.is_number and not (e.is_extended_real and e.is_finite):
+                word = _NON_REAL.get(e, f"{e} (not a finite real number)")
+                if word not in found:
+                    found.append(word)
+        else:
+            stack.extend(e.args)
+    return found
+
+
+def _derivative_inputs(formed):
+    return [i for i in formed.inputs if isinstance(i, sm.Derivative)]
+
+
+def check_equations(formed):
+    """The formed equations must be real and finite, and their inputs plain dynamic symbols.
+
+    Caught here, the user hears which equation is wrong at the `system` line;
+    left alone, zoo/nan/I reach the C printer (a SymPy traceback) or the C
+    compiler (`'I' undeclared`), and the derivative of an undeclared dynamic
+    symbol w would silently become a second, independent input named w'.
+    """
+    derivs = _derivative_inputs(formed)
+    if derivs:
+        d = derivs[0]
+        base = _label(d.expr)
+        raise Invalid("system", f"the equations of motion use {base}' (the time derivative of {base}), "
+                                f"but {base} is not a coordinate or speed: eomc would have to treat "
+                                f"{base}' as a second input unrelated to {base}. Make {base} a coordinate "
+                                f"(with a speed and a kinematic equation), or give its rate its own "
+                                f"input symbol")
+    parts = [("kinematic equation of " + _label(q), [k]) for q, k in zip(formed.coordinates, formed.kinematics)]
+    nrows = formed.dynamics_matrix.rows
+    parts += [(f"mass matrix row {i + 1}", list(formed.dynamics_matrix.row(i))) for i in range(nrows)]
+    parts += [(f"forcing row {i + 1}", [e]) for i, e in enumerate(formed.dynamics_rhs)]
+    parts += [(f"holonomic constraint {i + 1}", [e]) for i, e in enumerate(formed.holonomic_constraints)]
+    parts += [(f"velocity constraint {i + 1}", [e]) for i, e in enumerate(formed.velocity_constraints)]
+    for where, exprs in parts:
+        bad = non_real_constants(exprs)
+        if bad:
+            culprit = next(e for e in exprs if non_real_constants([e]))
+            raise Invalid("system", f"the {where} contains {' and '.join(bad)}: {_short(culprit, 120)}; "
+                                    f"eomc compiles real, finite equations only")
+    return formed
+
+
+def unset_parameters(formed, parameters):
+    """Parameters that silently default to 1.0 because the model gives no `parameters` dict."""
+    return [] if parameters is not None else sorted(formed.parameters, key=lambda s: s.name)
 
 
 def _dynamic(expr):
@@ -71,6 +155,17 @@ def check_outputs(outputs, formed):
             raise Invalid("outputs", f"output `{name}` is not a SymPy expression: {expr!r}") from None
         if not isinstance(value, sm.Expr):
             raise Invalid("outputs", f"output `{name}` must be a scalar expression, not {type(value).__name__}")
+        bad = non_real_constants([value])
+        if bad:
+            raise Invalid("outputs", f"output `{name}` contains {' and '.join(bad)}: {_short(value, 120)}; "
+                                     f"outputs must be real and finite")
+        coordinates = set(formed.coordinates)
+        stray_rates = [d for d in value.atoms(sm.Derivative)
+                       if d not in allowed and not (d.expr in coordinates and d.variable_count[0][1] == 1)]
+        if stray_rates:
+            base = _label(stray_rates[0].expr)
+            raise Invalid("outputs", f"output `{name}` uses {base}' (the time derivative of {base}), "
+                                     f"which is not a coordinate's rate or a state of the system")
         stray = _dynamic(value) - allowed
         if stray:
             raise Invalid("outputs", f"output `{name}` uses {_names(stray)}, which is not a coordinate, "
@@ -146,7 +241,7 @@ def check_initial_state(initial_state, formed):
         if symbol not in x0:
             raise Invalid("initial_state", f"`{key}` in initial_state is not a coordinate or speed "
                                            f"(states: {', '.join(map(_label, states))})")
-        x0[symbol] = _real(value, f"initial_state[{key}]", "initial_state")
+        x0[symbol] = _real(value, f"initial_state[{_label(symbol)}]", "initial_state")
     return [x0[s] for s in states]
 
 

@@ -37,6 +37,21 @@ def _parser():
     return parser
 
 
+def _plain_warnings(name):
+    """eomc's own warnings as one line, ``eomc CMD: warning: ...`` (no source line of eomc's)."""
+    import warnings
+    from eomc.errors import EomcWarning
+    shown = getattr(warnings.showwarning, "eomc_wrapped", warnings.showwarning)
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        if issubclass(category, EomcWarning):
+            print(f"eomc {name}: warning: {message}", file=file or sys.stderr)
+        else:
+            shown(message, category, filename, lineno, file, line)
+    show.eomc_wrapped = shown
+    warnings.showwarning = show
+
+
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else list(argv)
     parser = _parser()
@@ -53,6 +68,7 @@ def main(argv=None):
             print(f"eomc {name}: not available in this version", file=sys.stderr)
             return 2
         raise
+    _plain_warnings(name)
     sub = argparse.ArgumentParser(prog=f"eomc {name}", description=help_text)
     module.configure(sub)
     args = sub.parse_args(rest)
