@@ -87,6 +87,16 @@ class _Progress:
             print(file=sys.stderr)
 
 
+def _prepare_case(model, i, n, x0, t_span, p, kw):
+    """prepare() for case i; a bad value's ValueError says which case (like a failed run does)."""
+    try:
+        return prepare(model, x0, t_span, p=p, **kw)
+    except ValueError as exc:
+        if n == 1:
+            raise
+        raise ValueError(f"case {i} of {n}: {exc}") from None
+
+
 def simulate_many(model, x0, t_span, p=None, threads=None, progress=True,
                   raise_on_failure=True, **kw):
     """Integrate every case; x0 (nx,) or (n, nx), p None, (nparam,) or (n, nparam).
@@ -101,8 +111,8 @@ def simulate_many(model, x0, t_span, p=None, threads=None, progress=True,
     if xs is not None and ps is not None and len(xs) != len(ps):
         raise ValueError(f"x0 has {len(xs)} cases but p has {len(ps)}; give as many of each")
     n = len(xs if xs is not None else ps if ps is not None else [0])
-    preps = [prepare(model, xs[i] if xs is not None else x0, t_span,
-                     p=ps[i] if ps is not None else p, **kw) for i in range(n)]
+    preps = [_prepare_case(model, i, n, xs[i] if xs is not None else x0, t_span,
+                           ps[i] if ps is not None else p, kw) for i in range(n)]
     t = preps[0]["t_eval"]
     x = np.full((n, t.size, model.nx), np.nan)
     raw = [None] * n

@@ -187,7 +187,11 @@ class Model:
 
     def _time(self, t, what="t"):
         if isinstance(t, numbers.Real) and not isinstance(t, (bool, np.bool_)):
-            return float(t)
+            try:
+                return float(t)
+            except OverflowError:  # an int such as 10**400
+                raise ValueError(f"{self.name}: {what} must be a real number that fits a double; "
+                                 f"got an integer of {len(str(abs(int(t))))} digits") from None
         a = np.asarray(t)
         if a.ndim == 0 and a.dtype.kind in "fiu":
             return float(a)
@@ -246,19 +250,45 @@ class Model:
             raise ModelError(f"model {self.name!r} was built without `{fn}`; rebuild it with "
                              f"functions including {fn!r} (eomc build --outputs ...)") from None
 
-    def _fail(self, fn, status, t, x, row=None):
+    def _nonfinite(self, t, x, p, r):
+        """'x (state) q1=nan, p (parameters) g=inf' for whatever non-finite values were passed in."""
+        found = []
+        if not np.isfinite(t):
+            found.append(f"t={t}")
+        for what, value, names, defaults in (("x (state)", x, self.state_names, None),
+                                             ("p (parameters)", p, self.param_names, self.param_defaults),
+                                             ("r (inputs)", r, self.input_names, self._zero_inputs)):
+            if value is None:
+                continue
+            try:
+                a = (self._named(value, names, defaults, what) if isinstance(value, dict)
+                     else np.asarray(value, dtype=np.float64).reshape(-1))
+            except (TypeError, ValueError):
+                continue
+            if a.shape == (len(names),):
+                bad = [f"{n}={v}" for n, v in zip(names, a) if not np.isfinite(v)]
+                if bad:
+                    found.append(f"{what} {', '.join(bad)}")
+        return "; ".join(found)
+
+    def _fail(self, fn, status, t, x, row=None, inputs=None):
+        nonfinite = self._nonfinite(t, x, *(inputs or (None, None)))
+        if nonfinite:  # not the model's fault: say which input was NaN/inf (not "singular mass matrix")
+            where = f" (row {row} of X)" if row is not None else ""
+            raise SimulationError(f"{self.name}.{fn}: non-finite input{where}: {nonfinite}")
         what = STATUS_NAMES.get(status, f"error status {status}")
         state = ", ".join(f"{n}={v:.6g}" for n, v in zip(self.state_names, x))
         where = f" (row {row} of X)" if row is not None else ""
         raise SimulationError(f"{self.name}.{fn}: {what} at t={t:.6g}, state {state}{where}")
 
     def _vector_call(self, fn, size, t, x, p, r):
+        given = (p, r)
         t, x, p, r = self._args(t, x, p, r)
         kernel = self._kernel(fn)
         out = np.empty(size)
         status = kernel(t, x, p, r, out, self._work()[1])
         if status:
-            self._fail(fn, status, t, x)
+            self._fail(fn, status, t, x, inputs=given)
         return out
 
     def _matrix_call(self, fn, rows, cols, t, x, p, r):
@@ -278,6 +308,7 @@ class Model:
             raise ValueError(f"{self.name}: X must have shape (n, {self.nx}) (one state per row); "
                              f"got shape {X.shape}")
         n = X.shape[0]
+        p_given = p
         X = self._array(X, X.shape, "X (states)")
         if np.ndim(t) == 0:
             times, t_stride = np.array([self._time(t)]), 0
@@ -295,7 +326,8 @@ class Model:
         status, row = self._kernel("rhs_many")(n, times, t_stride, X.reshape(-1), p, R, r_stride,
                                                XD.reshape(-1), self._work()[1])
         if status:
-            self._fail("rhs", status, times[row * t_stride], X[row], row)
+            r_row = r[row] if self.ninput and r is not None and np.ndim(r) == 2 else r
+            self._fail("rhs", status, times[row * t_stride], X[row], row, inputs=(p_given, r_row))
         return XD
 
     def jacobian(self, t, x, p=None, r=None):
@@ -341,24 +373,29 @@ class Model:
 
     def inverse_dynamics(self, t, x, udot, p=None, r=None):
         """Generalized forces tau = M u' - f needed for the accelerations udot, shape (nu,)."""
+        given = (p, r)
         t, x, p, r = self._args(t, x, p, r)
         udot = self._array(udot, (self.nu,), "udot (speed derivatives)", self.state_names[self.nq:])
         kernel = self._kernel("inverse_dynamics")
         tau = np.empty(self.nu)
         status = kernel(t, x, udot, p, r, tau, self._work()[1])
         if status:
-            self._fail("inverse_dynamics", status, t, x)
+            if not np.all(np.isfinite(udot)):
+                raise SimulationError(f"{self.name}.inverse_dynamics: non-finite input: udot "
+                                      f"{', '.join(f'{v}' for v in udot)}")
+            self._fail("inverse_dynamics", status, t, x, inputs=given)
         return tau
 
     def linearize(self, t, x, p=None, r=None):
         """(A, B) = (d rhs/d x, d rhs/d r) at an operating point."""
         if "linearize" not in self._kernels:
             return self.jacobian(t, x, p, r), self.input_jacobian(t, x, p, r)
+        given = (p, r)
         t, x, p, r = self._args(t, x, p, r)
         A, B = np.empty((self.nx, self.nx)), np.empty((self.nx, self.ninput))
         status = self._kernels["linearize"](t, x, p, r, A.reshape(-1), B.reshape(-1), self._work()[1])
         if status:
-            self._fail("linearize", status, t, x)
+            self._fail("linearize", status, t, x, inputs=given)
         return A, B
 
     def simulate(self, x0, t_span, **kw):

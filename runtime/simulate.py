@@ -30,6 +30,10 @@ INPUT_SAMPLES = 1001       # grid on which a callable r(t) is sampled
 # (pi_beta=0, scipy's) and needs ~6% fewer rhs calls for a smaller error.
 PI_BETA = 0.04
 STIFF_ADVICE = "use method='radau'"
+# Output rows are allocated (NaN-filled) before the C call; beyond this many bytes the
+# request is almost surely a mistake (rk4 with a tiny dt, a huge n_points): refuse it.
+MAX_OUTPUT_BYTES = 2 ** 31
+C_LONG_MAX = 2 ** 63 - 1   # opt.max_steps is a C long
 
 
 def resolve_method(method):
@@ -63,7 +67,23 @@ def _span(t_span):
     if t1 < t0:
         raise ValueError(f"t_span ({t0}, {t1}) is reversed: integration runs forward, "
                          f"t_final must be greater than t0")
+    ulp = float(np.spacing(max(abs(t0), abs(t1))))
+    if t1 - t0 < 1e3 * ulp:
+        raise ValueError(f"t_span ({t0:.17g}, {t1:.17g}) is too short for its size: near "
+                         f"t={max(abs(t0), abs(t1)):.3g} doubles are {ulp:.3g} apart, so the span holds "
+                         f"only {(t1 - t0) / ulp:.0f} of them and every step would underflow relative "
+                         f"to t; shift the time origin (start near t=0)")
     return t0, t1
+
+
+def _real(value, what):
+    """float(value) for a real scalar; ValueError naming ``what`` for None, strings, complex, 10**400."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (numbers.Real, np.ndarray)):
+        raise ValueError(f"{what} must be a real number; got {type(value).__name__} {value!r}")
+    try:
+        return float(value)
+    except (TypeError, ValueError, OverflowError):
+        raise ValueError(f"{what} must be a real number that fits a double; got {value!r}") from None
 
 
 def _vector(model, value, size, names, defaults, what):
@@ -71,7 +91,8 @@ def _vector(model, value, size, names, defaults, what):
     if isinstance(value, dict):
         out = np.array(defaults, dtype=np.float64)
         for key, v in value.items():
-            out[index_of(key, names, f"{what} name", model.name)] = float(v)
+            i = index_of(key, names, f"{what} name", model.name)
+            out[i] = _real(v, f"{model.name}: {what} {names[i]}")
     else:
         a = np.asarray(value)
         if a.dtype.kind not in "fiu":
@@ -96,15 +117,30 @@ def _inputs(model, r, t0, t1):
         raise ValueError(f"{model.name}: this model has no inputs, but r was given")
     if callable(r):
         grid = np.linspace(t0, t1, INPUT_SAMPLES)
-        values = [np.asarray(r(t), dtype=float).ravel() for t in grid]
-        if any(v.size != ni for v in values):
-            raise ValueError(f"{model.name}: r(t) must return {ni} value(s) "
-                             f"[{', '.join(model.input_names)}]; got {values[0].size}")
-        return _grid(model, grid, np.array(values))
+        return _grid(model, grid, np.array([_sample(model, r, t) for t in grid]))
     if isinstance(r, tuple) and len(r) == 2:
         return _grid(model, r[0], r[1])
     values = _vector(model, r, ni, model.input_names, np.zeros(ni), "r (inputs)")
     return 1, np.zeros(1), values
+
+
+def _sample(model, r, t):
+    """r(t) as a float vector of ninput values; ValueError naming t and what came back."""
+    expected = f"r(t) must return {model.ninput} value(s) [{', '.join(model.input_names)}]"
+    try:
+        value = r(t)
+    except Exception as exc:  # the user's function: say where it failed, keep the cause
+        raise ValueError(f"{model.name}: r(t) raised {type(exc).__name__} at t={t:.9g}: {exc}") from exc
+    try:
+        v = np.asarray(value, dtype=np.float64).ravel() if value is not None else None
+    except (TypeError, ValueError, OverflowError):
+        v = None
+    if v is None:
+        raise ValueError(f"{model.name}: {expected}; at t={t:.9g} it returned {type(value).__name__} "
+                         f"{value!r}")
+    if v.size != model.ninput:
+        raise ValueError(f"{model.name}: {expected}; at t={t:.9g} it returned {v.size}")
+    return v
 
 
 def _grid(model, t_grid, values):
@@ -123,13 +159,43 @@ def _grid(model, t_grid, values):
     return t_grid.size, t_grid, np.ascontiguousarray(values)
 
 
-def _t_eval(t_eval, t0, t1, method, dt, n_points):
+def _rk4_steps(t0, t1, dt):
+    """RK4's step count for the span (a float: it may be astronomically large)."""
+    return float(np.ceil((t1 - t0) / dt * (1 - 1e-12)))
+
+
+def _n_points(n_points):
+    if n_points is None:
+        return DEFAULT_POINTS
+    if isinstance(n_points, (bool, np.bool_)) or not isinstance(n_points, numbers.Integral) or n_points < 2:
+        raise ValueError(f"n_points must be an integer >= 2 (the output rows, t0 and t_final "
+                         f"included); got {n_points!r}")
+    return int(n_points)
+
+
+def _check_rows(rows, nx, why):
+    """Refuse an output array too large to be meant (see MAX_OUTPUT_BYTES), before allocating it."""
+    size = rows * max(nx, 1) * 8.0
+    if size > MAX_OUTPUT_BYTES:
+        raise ValueError(f"the output would hold {rows:.3g} rows ({size / 2 ** 30:.3g} GiB), more than "
+                         f"eomc allocates ({MAX_OUTPUT_BYTES / 2 ** 30:g} GiB): {why}")
+
+
+def _t_eval(t_eval, t0, t1, method, dt, n_points, nx=1):
     if t_eval is None:
         if method == "rk4":
-            n = int(np.ceil((t1 - t0) / dt * (1 - 1e-12)))
+            n = _rk4_steps(t0, t1, dt)
+            _check_rows(n + 1, nx, "rk4 writes every step; pass t_eval= with the times you need "
+                                   "or a larger dt")
+            n = int(n)
             return np.append(t0 + dt * np.arange(n), t1)
-        return np.linspace(t0, t1, int(n_points or DEFAULT_POINTS))
-    t = np.atleast_1d(np.asarray(t_eval, dtype=np.float64))
+        n = _n_points(n_points)
+        _check_rows(n, nx, "pass a smaller n_points")
+        return np.linspace(t0, t1, n)
+    a = np.asarray(t_eval)
+    if a.dtype.kind not in "fiu":
+        raise ValueError(f"t_eval must hold real times; got dtype {a.dtype}")
+    t = np.atleast_1d(np.asarray(a, dtype=np.float64))
     if t.ndim != 1 or t.size == 0:
         raise ValueError(f"t_eval must be a non-empty 1-d array of times; got shape {t.shape}")
     if not np.all(np.isfinite(t)):
@@ -138,6 +204,7 @@ def _t_eval(t_eval, t0, t1, method, dt, n_points):
         raise ValueError(f"t_eval must lie inside t_span [{t0}, {t1}]; got [{t[0]}, {t[-1]}]")
     if np.any(np.diff(t) <= 0):
         raise ValueError("t_eval must be strictly increasing")
+    _check_rows(t.size, nx, "pass fewer t_eval times")
     return np.ascontiguousarray(t)
 
 
@@ -150,15 +217,21 @@ def prepare(model, x0, t_span, p=None, r=None, method="dop853", rtol=1e-6, atol=
     rtol, atol = _positive(rtol, "rtol"), _positive(atol, "atol")
     if method == "rk4":
         if dt is None:
-            raise ValueError("method='rk4' is fixed-step: pass dt= (the step size)")
+            raise ValueError("method='rk4' is fixed-step: give the step size (dt= in Python, "
+                             "--dt on the command line)")
         first_step = _positive(dt, "dt")
     elif dt is not None:
         raise ValueError(f"dt= is only for the fixed-step method 'rk4'; {method!r} is adaptive "
                          f"(use first_step= or max_step=)")
     first_step = _positive(first_step, "first_step", allow_none=True)
     max_step = _positive(max_step, "max_step", allow_none=True)
-    if not isinstance(max_steps, numbers.Integral) or max_steps <= 0:
-        raise ValueError(f"max_steps must be a positive integer; got {max_steps!r}")
+    if not isinstance(max_steps, numbers.Integral) or isinstance(max_steps, (bool, np.bool_)) \
+            or not 0 < max_steps <= C_LONG_MAX:
+        raise ValueError(f"max_steps must be a positive integer up to 2**63 - 1; got {max_steps!r}")
+    if method == "rk4" and _rk4_steps(t0, t1, first_step) > max_steps:
+        raise ValueError(f"rk4 with dt={first_step:g} needs {_rk4_steps(t0, t1, first_step):.4g} steps "
+                         f"over t_span ({t0:g}, {t1:g}), more than max_steps={max_steps}; raise "
+                         f"max_steps or dt (or use an adaptive method)")
     if not isinstance(pi_beta, numbers.Real) or not 0.0 <= pi_beta <= 0.1:
         raise ValueError(f"pi_beta must be a number in [0, 0.1] (Hairer's advice); got {pi_beta!r}")
     if not isinstance(baumgarte, numbers.Real) or not np.isfinite(baumgarte) or baumgarte < 0:
@@ -175,7 +248,10 @@ def prepare(model, x0, t_span, p=None, r=None, method="dop853", rtol=1e-6, atol=
     p = model.param_defaults if p is None else p
     p = _vector(model, p, model.nparam, model.param_names, model.param_defaults, "p (parameters)")
     n_r, r_t, r_v = _inputs(model, r, t0, t1)
-    times = _t_eval(t_eval, t0, t1, method, first_step, n_points)
+    times = _t_eval(t_eval, t0, t1, method, first_step, n_points, model.nx)
+    if times.size > 1 and np.any(np.diff(times) <= 0):
+        raise ValueError(f"the output times are not distinct near t={t1:.3g}: doubles there are "
+                         f"{np.spacing(t1):.3g} apart; shift the time origin or use fewer points")
     return dict(method=method, t0=t0, t1=t1, x0=x0, p=np.append(p, 0.0), n_r=n_r, r_t=r_t,
                 r_v=r_v, t_eval=times, rtol=rtol, atol=atol, h0=first_step or 0.0,
                 hmax=max_step or 0.0, max_steps=int(max_steps), project=bool(project),
@@ -289,6 +365,8 @@ def finish(model, a, x_out, stats, x_last, raise_on_failure=True):
     """Wrap C's arrays in a SimulationResult (or raise on failure)."""
     status, n = stats["status"], stats["n_out"]
     message = "ok" if status == 0 else failure_message(model, a["method"], stats, x_last)
+    if status == 0:
+        stats.pop("t_fail", None)  # where the model failed: only meaningful for a failed run
     if status and raise_on_failure:
         raise SimulationError(message)
     t, x = a["t_eval"][:n], x_out[:n]
