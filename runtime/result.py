@@ -73,7 +73,9 @@ class SimulationResult:
         """Plot states (or the given names) against t; saved to ``path`` (PNG) if given.
 
         By default coordinates and speeds get a panel each: their scales differ
-        (a wheel's spin rate would flatten a bicycle's lean angle on one axis).
+        (a wheel's spin rate would flatten a bicycle's lean angle on one axis);
+        the model's outputs (energy, ...) get a panel of their own, since an
+        energy drift is what a user looks at first.
         """
         import matplotlib
         if path is not None:
@@ -86,6 +88,8 @@ class SimulationResult:
                       ("speeds", list(self.state_names[self.nq:]))]
         else:
             panels = [("", list(self.state_names))]
+        if names is None and self.outputs and len(self.t):
+            panels.append(("outputs", list(self.outputs)))
         fig, axes = plt.subplots(len(panels), 1, figsize=(8, 2.0 + 2.5 * len(panels)),
                                  sharex=True, squeeze=False)
         for ax, (label, panel) in zip(axes[:, 0], panels):

@@ -235,6 +235,26 @@ def _metadata(name, formed, layout, sym, fns, op_counts):
     }
 
 
+def _vector_docs(meta):
+    """The header's comment on x[], p[], r[] and the outputs: which index is which (and p's defaults).
+
+    A C user reads NAME.h, not NAME.json; without this the order of p[] is a guess.
+    """
+    def entries(names, defaults=None):
+        if defaults is None:
+            return [f"[{i}] {n}" for i, n in enumerate(names)]
+        return [f"[{i}] {n} = {float(d)!r}" for i, (n, d) in enumerate(zip(names, defaults))]
+    return [
+        ("x", f"state (nx = {meta['nx']}: nq = {meta['nq']} coordinates, then nu = {meta['nu']} speeds)",
+         entries(meta["state_names"])),
+        ("p", f"parameters (nparam = {meta['nparam']}), with the model's defaults",
+         entries(meta["param_names"], meta["param_defaults"])),
+        ("r", f"inputs (ninput = {meta['ninput']})", entries(meta["input_names"])),
+        ("outputs", f"out[] of {meta['name']}_outputs (noutput = {meta['noutput']})",
+         entries(meta["output_names"])),
+    ]
+
+
 def _render(name, meta, fns, rendered, solver, layout, sym, helper):
     tables, table_refs = _tables(name, layout, sym.output_names)
     pointers = [f"{name}_{f}" if f in fns else "NULL" for f in STRUCT_FIELDS]
@@ -243,7 +263,7 @@ def _render(name, meta, fns, rendered, solver, layout, sym, helper):
     common = {k: meta[k] for k in ("nq", "nu", "nx", "nparam", "ninput", "noutput", "nhol",
                                    "nvel", "work_size", "eomc_version")}
     header = env.get_template("model.h.j2").render(
-        name=name, prototypes=[prototype(name, f) for f in fns], **common)
+        name=name, prototypes=[prototype(name, f) for f in fns], vectors=_vector_docs(meta), **common)
     source = env.get_template("model.c.j2").render(
         name=name, functions=rendered,
         helper_code="\n".join(c for c in ((solver.code if uses_solver else ""), helper) if c),

@@ -28,6 +28,7 @@ def configure(parser):
     parser.add_argument("--older-than", default=None, metavar="AGE",
                         help="prune: remove entries unused for AGE (e.g. 30d, 12h)")
     parser.add_argument("--dry-run", action="store_true", help="prune: only say what would go")
+    parser.add_argument("-q", "--quiet", action="store_true", help="prune/clear: print nothing on success")
 
 
 def _age(seconds):
@@ -63,7 +64,8 @@ def run(args):
         return 0
     if args.action == "clear":
         freed = clear(root)
-        print(f"cleared {root}: {format_size(freed)} freed")
+        if not args.quiet:
+            print(f"cleared {root}: {format_size(freed)} freed")
         return 0
     if args.max_size is None and args.older_than is None:
         raise ValueError("eomc cache prune needs --max-size SIZE and/or --older-than AGE")
@@ -71,6 +73,8 @@ def run(args):
     older = parse_age(args.older_than) if args.older_than is not None else None
     removed = prune(root, max_size=max_size, older_than=older, dry_run=args.dry_run)
     verb = "would remove" if args.dry_run else "removed"
+    if args.quiet and not args.dry_run:
+        return 0
     print(f"{verb} {len(removed)} entries, {format_size(sum(e.size for e in removed))}; "
           f"{format_size(usage(root)['total'])} in the cache now")
     return 0

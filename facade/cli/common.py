@@ -7,16 +7,20 @@ Mistakes in them are ValueErrors, which `eomc` prints as one line (exit status 2
 """
 from pathlib import Path
 
-__all__ = ["add_model_arguments", "load_model", "parse_assignments", "initial_state", "parameter_values"]
+__all__ = ["add_model_arguments", "load_model", "parse_assignments", "initial_state", "parameter_values",
+           "writable_file"]
 
 
 def add_model_arguments(parser):
     """The positional MODEL and the --x0/--param overrides."""
     parser.add_argument("model", help="model file (.py) or built model directory / NAME.json")
     parser.add_argument("--x0", nargs="+", metavar="NAME=V", default=(),
-                        help="initial state entries (override the model's initial_state; others 0)")
+                        help="initial state entries; states not named keep the model's initial_state "
+                             "(0 when it has none)")
     parser.add_argument("--param", nargs="+", metavar="NAME=V", default=(),
                         help="parameter values (others keep their defaults)")
+    parser.add_argument("-q", "--quiet", action="store_true",
+                        help="no progress on stderr (compiling a model file, long runs)")
 
 
 def load_model(path, quiet=False):
@@ -75,3 +79,23 @@ def parameter_values(model, overrides):
         raise ValueError(f"{model.name}: unknown parameter {', '.join(unknown)} in --param; "
                          f"parameters: {', '.join(model.param_names) or 'none'}")
     return [overrides.get(n, float(d)) for n, d in zip(model.param_names, model.param_defaults)]
+
+
+def writable_file(path, what):
+    """Check, before any work, that ``path`` can be written: its folder exists and it is not a folder.
+
+    The trajectory and plot are written after the simulation; a typo in -o
+    must not cost the whole run (and must not end in a traceback).
+    """
+    import os
+    if path is None:
+        return None
+    path = Path(path)
+    if path.is_dir():
+        raise ValueError(f"{what} {path} is a directory; give a file name (e.g. {path / 'traj.csv'})")
+    parent = path.parent if str(path.parent) else Path(".")
+    if not parent.is_dir():
+        raise ValueError(f"{what} {path}: the directory {parent} does not exist")
+    if not os.access(parent, os.W_OK) or (path.exists() and not os.access(path, os.W_OK)):
+        raise ValueError(f"{what} {path}: not writable (permission denied)")
+    return path

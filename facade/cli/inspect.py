@@ -8,6 +8,7 @@ _SIZES = ("nq", "nu", "nx", "nparam", "ninput", "noutput", "nhol", "nvel", "work
 
 def configure(parser):
     add_generate_options(parser)
+    parser.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
 
 
 def format_report(metadata):
@@ -34,6 +35,7 @@ def format_report(metadata):
 def run(args):
     from eomc.compiler.driver import generate
     spec, generated = generate(args.model, args.name, functions=args.outputs,
-                               fold_parameters=args.fold_parameters, progress=False)
+                               fold_parameters=args.fold_parameters,
+                               progress=False if args.quiet else None)
     print(format_report(generated.metadata))
     return 0

@@ -38,7 +38,6 @@ def configure(parser):
     parser.add_argument("--reference-check", default="auto",
                         choices=("auto", "scipy", "radau", "dop853-half", "none"),
                         help="second computation the reference is checked against")
-    parser.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
 
 
 def _command(args, methods):

@@ -2,8 +2,9 @@
 
 Printed with SymPy's mechanics pretty printer (q1 instead of q1(t), dots for
 time derivatives): coordinates and speeds, the kinematic equations q' = ...,
-the mass matrix and forcing of A [u'; lambda] = b, constraints, inputs and
-parameters.
+the mass matrix and forcing of A u' = b (A [u'; lambda] = b with Lagrange
+multipliers), constraints, inputs and parameters -- parameters in the order
+of the runtime's and the C code's p[] vector, with their defaults.
 """
 __all__ = ["configure", "run", "format_equations"]
 
@@ -11,11 +12,25 @@ __all__ = ["configure", "run", "format_equations"]
 def configure(parser):
     parser.add_argument("model", help="model file (Python) defining `system`")
     parser.add_argument("--ascii", action="store_true", help="ASCII art instead of Unicode")
+    parser.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
 
 
 def _pretty(expr, ascii_only):
     from sympy.physics.vector.printing import vpprint
     return vpprint(expr, use_unicode=not ascii_only, wrap_line=False).rstrip()
+
+
+def parameter_order(spec):
+    """(symbol, default) in p[] order: the `parameters` dict's order, then the rest by name at 1.0.
+
+    This is the order the code generator lays out p[] (eomc.compiler.emit.layout).
+    """
+    from eomc.compiler.emit.layout import DEFAULT_PARAMETER_VALUE
+    given = dict(spec.parameters or {})
+    used = set(spec.formed.parameters)
+    rest = sorted((s for s in used if s not in given), key=lambda s: s.name)
+    return [(s, float(v)) for s, v in given.items() if s in used] + \
+        [(s, DEFAULT_PARAMETER_VALUE) for s in rest]
 
 
 def format_equations(spec, ascii_only=False):
@@ -28,10 +43,10 @@ def format_equations(spec, ascii_only=False):
     if f.multipliers:
         out.append("multipliers:   " + ", ".join(map(str, f.multipliers)))
     out.append("inputs:        " + (", ".join(_pretty(s, ascii_only) for s in f.inputs) or "-"))
-    out.append("parameters:    " + (", ".join(map(str, f.parameters)) or "-"))
+    out.append("parameters:    " + (", ".join(f"{s}={v:g}" for s, v in parameter_order(spec)) or "-"))
     out.append("\nkinematics  q' =")
     out.append(_pretty(sm.Matrix(f.kinematics), ascii_only))
-    out.append("\nmass matrix  (A in A [u'; lambda] = b)")
+    out.append("\nmass matrix  (A in A [u'; lambda] = b)" if f.multipliers else "\nmass matrix  (A in A u' = b)")
     out.append(_pretty(sm.Matrix(f.dynamics_matrix), ascii_only))
     out.append("\nforcing  b =")
     out.append(_pretty(sm.Matrix(f.dynamics_rhs), ascii_only))
@@ -48,6 +63,9 @@ def format_equations(spec, ascii_only=False):
 
 
 def run(args):
+    from eomc.compiler.driver import Progress
     from eomc.compiler.model import model_spec
-    print(format_equations(model_spec(args.model), ascii_only=args.ascii))
+    with Progress(False if args.quiet else None).stage("derive"):
+        spec = model_spec(args.model)
+    print(format_equations(spec, ascii_only=args.ascii))
     return 0

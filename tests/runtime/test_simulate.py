@@ -125,9 +125,10 @@ def test_plot_writes_png(pend, tmp_path):
     assert res.plot(tmp_path / "t.png").stat().st_size > 1000
     import matplotlib
     matplotlib.use("Agg")
-    fig = res.plot()                      # coordinates and speeds on panels of their own
-    assert [ax.get_ylabel() for ax in fig.axes] == ["coordinates", "speeds"]
+    fig = res.plot()                      # coordinates, speeds and outputs on panels of their own
+    assert [ax.get_ylabel() for ax in fig.axes] == ["coordinates", "speeds", "outputs"]
     assert [line.get_label() for line in fig.axes[0].lines] == ["q1"]
+    assert [line.get_label() for line in fig.axes[2].lines] == ["energy"]
     assert len(res.plot(names=["q1", "energy"]).axes) == 1
 
 
