@@ -24,6 +24,11 @@ Definitions used throughout:
   buffer allocation and output evaluation excluded): the median over
   ``repeats`` samples, each the mean of enough back-to-back calls to last
   >= 5 ms (at most 200 calls); the minimum sample is kept too (wall_time_min_s).
+* cost -- the work of a run in rhs-equivalents: nfev + w_jac * njev + w_lu * nlu,
+  with w_jac = ops(jac_x) / ops(rhs) and w_lu = (5/3) nx^3 / ops(rhs) (one real
+  or complex LU; Radau counts two per factorization) from the model's operation
+  counts.  The recommendation ranks by cost, not wall time: counted work is
+  the same on every run of the same command, timings on a busy machine are not.
 * energy drift -- max_t |E(t) - E(0)| / |E(0)| for the output named
   "energy" (absolute when |E(0)| is below 1e-300).
 * constraint residual -- max over output times of the largest |constraint|.
@@ -35,7 +40,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .reference import Reference, compute_reference, scaled_error
-from .report_output import COLUMNS, DEFAULT_TARGET, plot_report, recommendation, summary_markdown, table_text, write_csv
+from .report_output import (COLUMNS, DEFAULT_TARGET, cost_key, plot_report, recommendation, summary_markdown,
+                            table_text, write_csv)
 from .simulate import bind_call, finish, prepare, resolve_method, run_prepared
 
 __all__ = ["work_precision", "WorkPrecisionReport", "DEFAULT_METHODS", "DEFAULT_TOLERANCES",
@@ -61,15 +67,21 @@ class WorkPrecisionReport:
     has_energy: bool = False
     has_constraints: bool = False
     skipped: dict = field(default_factory=dict)   # method -> why it could not run on this model
+    cost_weights: tuple = (1.0, 1.0)              # (w_jac, w_lu): see "cost" in the module docstring
+    cost_from_op_counts: bool = False
 
     def ok_rows(self):
         return [r for r in self.rows if r["status"] == 0 and np.isfinite(r["error"])]
 
     def recommend(self, target_error=None):
-        """The fastest successful row whose error <= target (None if no row meets it)."""
+        """The cheapest successful row (by counted work, see "cost") whose error <= target, or None.
+
+        Ties on cost go to the smaller error, then to the settings: the choice
+        never depends on wall time, so it is the same on every run.
+        """
         target = DEFAULT_TARGET if target_error is None else float(target_error)
         meeting = [r for r in self.ok_rows() if r["error"] <= target]
-        return min(meeting, key=lambda r: r["wall_time_s"]) if meeting else None
+        return min(meeting, key=cost_key) if meeting else None
 
     def reference_energy_drift(self):
         return energy_drift(self.reference.outputs) if self.has_energy else None
@@ -237,8 +249,31 @@ def work_precision(model, x0, t_span, p=None, r=None, methods=DEFAULT_METHODS,
                                  has_energy="energy" in model.output_names,
                                  has_constraints=(model.nhol + model.nvel) > 0)
     report.skipped = _unrunnable(model, methods, common)
+    report.cost_weights, report.cost_from_op_counts = cost_weights(model)
     _run_grid(report, model, common, repeats, progress)
+    for row in report.rows:
+        row["cost"] = run_cost(row, report.cost_weights)
     return report
+
+
+def cost_weights(model):
+    """((w_jac, w_lu), from_op_counts): a Jacobian and an LU factorization in rhs-equivalents."""
+    ops = (getattr(model, "metadata", None) or {}).get("op_counts") or {}
+    rhs = sum((ops.get("rhs") or {}).values())
+    jac = sum((ops.get("jac_x") or {}).values())
+    n = model.nx
+    if rhs > 0 and jac > 0:
+        return (jac / rhs, (5.0 / 3.0) * n ** 3 / rhs), True
+    rhs = float(max(n * n, 1))
+    return (float(n), (5.0 / 3.0) * n ** 3 / rhs), False
+
+
+def run_cost(row, weights):
+    """A row's work in rhs-equivalents (None for a run that failed or did not run)."""
+    if row["status"] != 0 or row.get("nfev") is None:
+        return None
+    w_jac, w_lu = weights
+    return float(row["nfev"] + w_jac * (row["njev"] or 0) + w_lu * (row["nlu"] or 0))
 
 
 def _run_grid(report, model, common, repeats, progress):

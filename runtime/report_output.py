@@ -14,7 +14,7 @@ import numpy as np
 DEFAULT_TARGET = 1e-6
 COLUMNS = ("method", "tolerance", "rtol", "atol", "dt", "status", "error", "wall_time_s",
            "wall_time_min_s",
-           "steps", "accepted", "rejected", "nfev", "njev", "nlu", "energy_drift",
+           "steps", "accepted", "rejected", "nfev", "njev", "nlu", "cost", "energy_drift",
            "constraint_residual", "message")
 
 __all__ = ["write_csv", "table_text", "plot_report", "summary_markdown", "recommendation", "usage"]
@@ -54,7 +54,7 @@ def _setting(row):
 
 
 def _table_rows(report):
-    head = ["method", "tol/dt", "error", "time [ms]", "steps", "rejected", "nfev"]
+    head = ["method", "tol/dt", "error", "time [ms]", "steps", "rejected", "nfev", "cost [rhs]"]
     if report.has_energy:
         head.append("energy drift")
     if report.has_constraints:
@@ -63,7 +63,8 @@ def _table_rows(report):
     for r in report.rows:
         ms = r["wall_time_s"] * 1e3 if r["status"] == 0 else None
         cells = [r["method"], _setting(r), _fmt(r["error"]) if r["status"] == 0 else "FAILED",
-                 _fmt(ms, ".3g"), _fmt(r["steps"], "d"), _fmt(r["rejected"], "d"), _fmt(r["nfev"], "d")]
+                 _fmt(ms, ".3g"), _fmt(r["steps"], "d"), _fmt(r["rejected"], "d"), _fmt(r["nfev"], "d"),
+                 _fmt(r.get("cost") if r["status"] == 0 else None, ".0f")]
         if report.has_energy:
             cells.append(_fmt(r["energy_drift"]))
         if report.has_constraints:
@@ -150,19 +151,34 @@ def recommendation(report, target):
                 f"(error {top['error']:.2e}, {top['wall_time_s'] * 1e3:.3g} ms): add tighter "
                 f"tolerances to the grid (`--tolerances`).")
     which = ("the only run that meets the target" if len(meeting) == 1 else
-             f"the fastest of the {len(meeting)} runs that meet the target")
+             f"the cheapest of the {len(meeting)} runs that meet the target")
     drift = (f", energy drift {best['energy_drift']:.1e}"
              if best.get("energy_drift") is not None else "")
     text = (f"**Recommendation** (target {target:.0e}): `{usage(best)}` -- error "
-            f"{best['error']:.2e} in {best['wall_time_s'] * 1e3:.3g} ms ({best['steps']} steps, "
-            f"{best['nfev']} rhs evaluations{drift}); {which}.")
-    others = sorted((r for r in meeting if r is not best), key=lambda r: r["wall_time_s"])
+            f"{best['error']:.2e}, cost {best['cost']:.0f} rhs-equivalents ({best['steps']} steps, "
+            f"{best['nfev']} rhs evaluations{drift}; {best['wall_time_s'] * 1e3:.3g} ms); {which}.")
+    others = sorted((r for r in meeting if r is not best), key=cost_key)
     if others:
         nxt = others[0]
-        text += (f" Runner-up: `{usage(nxt)}` (error {nxt['error']:.2e}, "
-                 f"{nxt['wall_time_s'] * 1e3:.3g} ms); times within ~20% of each other are "
-                 f"within the timing noise of a busy machine.")
-    return text
+        text += (f" Runner-up: `{usage(nxt)}` (error {nxt['error']:.2e}, cost {nxt['cost']:.0f}, "
+                 f"{nxt['wall_time_s'] * 1e3:.3g} ms).")
+    return text + " " + how_chosen(report)
+
+
+def cost_key(row):
+    """Deterministic ranking: counted work, then error, then the row's settings (never wall time)."""
+    return (row["cost"], row["error"], row["method"], -(row["tolerance"] or 0.0))
+
+
+def how_chosen(report):
+    """One sentence on how the recommendation was made, so a reader can trust (and redo) it."""
+    jac, lu = report.cost_weights
+    source = ("the model's operation counts" if report.cost_from_op_counts else
+              "a rhs assumed to cost nx^2 operations (the model has no operation counts)")
+    return (f"Runs are ranked by counted work, not by wall time, so the same command always "
+            f"recommends the same run: cost = rhs evaluations + {jac:.3g} x Jacobians + {lu:.3g} x "
+            f"LU factorizations, in rhs-equivalents from {source}; wall times (median of the "
+            f"repeats) are shown for information and vary with the machine's load.")
 
 
 def _reference_notes(report, target):
