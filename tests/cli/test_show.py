@@ -10,7 +10,7 @@ def test_show_prints_coordinates_kinematics_mass_matrix_and_forcing(tmp_path, ca
     out = capsys.readouterr().out
     assert out.startswith("model cart (kane): nq=2, nu=2")
     assert "coordinates q: x, th" in out and "speeds u:      v, w" in out
-    assert "inputs:        F" in out and "parameters:    M, g, l, m" in out
+    assert "inputs:        F" in out and "parameters:    M=1.5, m=0.5, l=0.8, g=9.81" in out  # p[] order
     for section in ("kinematics  q' =", "mass matrix", "forcing  b ="):
         assert section in out
     assert "(t)" not in out  # dynamic symbols print as plain names
