@@ -11,6 +11,7 @@ import sys
 import time
 
 from eomc.runtime.errors import ModelError
+from eomc.runtime.progress import ticker
 
 from .build import build, cache_root
 from .build.gencache import cached_generate
@@ -35,27 +36,36 @@ class Progress:
         self.stream = stream or sys.stderr
         self.enabled = self.stream.isatty() if enabled is None else bool(enabled)
         self.timings = {}
+        self.live = ticker("", self.stream, enabled=False)
 
     def stage(self, label):
         progress = self
 
         class _Stage:
             def __enter__(self):
-                if progress.enabled:
+                # on a terminal, a live line with the seconds so far (runtime/progress.py)
+                progress.live = ticker(f"eomc: {label}", progress.stream, progress.enabled)
+                if progress.enabled and not progress.live.active:
                     print(f"eomc: {label} ...", file=progress.stream, flush=True)
                 self.start = time.perf_counter()
 
             def __exit__(self, *exc):
                 progress.timings[label] = elapsed = time.perf_counter() - self.start
+                progress.live.close()
                 if progress.enabled and exc[0] is None:
                     print(f"eomc: {label:<9} {elapsed:7.3f} s", file=progress.stream, flush=True)
         return _Stage()
 
     def pass_done(self, name, seconds):
         """A compiler pass finished: shown when it took long enough to be noticed."""
+        label = self.PASS_LABELS.get(name, name.replace("_", " "))
+        self.live.note(f"after {label}")
         if self.enabled and seconds >= self.PASS_SHOWN:
-            label = self.PASS_LABELS.get(name, name.replace("_", " "))
-            print(f"eomc:   {label:<22} {seconds:7.3f} s", file=self.stream, flush=True)
+            line = f"eomc:   {label:<22} {seconds:7.3f} s"
+            if self.live.active:
+                self.live.write(line)
+            else:
+                print(line, file=self.stream, flush=True)
 
 
 def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, functions=None,

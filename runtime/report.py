@@ -42,6 +42,7 @@ import numpy as np
 from .reference import Reference, compute_reference, scaled_error
 from .report_output import (COLUMNS, DEFAULT_TARGET, cost_key, plot_report, recommendation, summary_markdown,
                             table_text, write_csv)
+from .progress import bar, ticker
 from .simulate import bind_call, finish, prepare, resolve_method, run_prepared
 
 __all__ = ["work_precision", "WorkPrecisionReport", "DEFAULT_METHODS", "DEFAULT_TOLERANCES",
@@ -199,16 +200,25 @@ def _dopri5_for_rk4(model, tol, common, ref, cache):
     return cache[tol]
 
 
-def _progress(enabled, row):
+def _progress(enabled, row, live):
     if not enabled:
         return
+    live.update(1, f"{row['method']} {_setting_text(row)}")
     rk4 = row["method"] == "rk4" and row["dt"]
     what = f"dt={row['dt']:.3g}" if rk4 else f"tol={row['tolerance']:.0e}"
     if row["status"] == 0:
         text = f"error {row['error']:.2e}  {row['wall_time_s'] * 1e3:.3g} ms  {row['steps']} steps"
     else:
         text = f"failed: {row['message']}"
-    print(f"eomc report: {row['method']:<7} {what:<12} {text}", file=sys.stderr, flush=True)
+    line = f"eomc report: {row['method']:<7} {what:<12} {text}"
+    if live.active:
+        live.write(line)
+    else:
+        print(line, file=sys.stderr, flush=True)
+
+
+def _setting_text(row):
+    return f"dt={row['dt']:.3g}" if row["method"] == "rk4" and row["dt"] else f"tol={row['tolerance']:.0e}"
 
 
 def work_precision(model, x0, t_span, p=None, r=None, methods=DEFAULT_METHODS,
@@ -238,9 +248,10 @@ def work_precision(model, x0, t_span, p=None, r=None, methods=DEFAULT_METHODS,
         if progress:
             print(f"eomc report: reference ({reference_method} at {reference_tol:.0e}, checked by "
                   f"{reference_check}) ...", file=sys.stderr, flush=True)
-        reference = compute_reference(model, x0, (t0, t1), t_eval, p=p, r=r, tol=reference_tol,
-                                      check=reference_check, project=project,
-                                      method=reference_method)
+        with ticker("eomc report: reference", sys.stderr, progress):
+            reference = compute_reference(model, x0, (t0, t1), t_eval, p=p, r=r, tol=reference_tol,
+                                          check=reference_check, project=project,
+                                          method=reference_method)
     if reference.x.shape != (t_eval.size, model.nx):
         raise ValueError(f"reference has shape {reference.x.shape}; expected "
                          f"({t_eval.size}, {model.nx}) on the report's output times")
@@ -279,6 +290,16 @@ def run_cost(row, weights):
 def _run_grid(report, model, common, repeats, progress):
     """Fill report.rows: every tolerance, every runnable method (rk4 last: it needs DOPRI5)."""
     dopri5_runs = {}
+    runnable = [m for m in report.methods if m not in report.skipped]
+    live = bar(len(report.tolerances) * len(runnable), "eomc report", sys.stderr, progress)
+    try:
+        _grid_rows(report, model, common, repeats, progress, live, dopri5_runs)
+    finally:
+        live.close()
+    report.rows.sort(key=lambda r: (report.methods.index(r["method"]), -r["tolerance"]))
+
+
+def _grid_rows(report, model, common, repeats, progress, live, dopri5_runs):
     for tol in report.tolerances:
         for method in sorted(report.methods, key=lambda m: m == "rk4"):
             if method in report.skipped:
@@ -295,8 +316,7 @@ def _run_grid(report, model, common, repeats, progress):
                 if method == "dopri5":
                     dopri5_runs[tol] = res
             report.rows.append(row)
-            _progress(progress, row)
-    report.rows.sort(key=lambda r: (report.methods.index(r["method"]), -r["tolerance"]))
+            _progress(progress, row, live)
 
 
 def _unrunnable(model, methods, common):

@@ -21,13 +21,16 @@ def configure(parser):
 
 
 def run(args):
+    import sys
+    from eomc.runtime.progress import ticker
     from eomc.runtime.stability import check_model, format_checks
     model = cli_common.load_model(args.model, args.quiet)
     x0 = cli_common.initial_state(model, cli_common.parse_assignments(args.x0, "x0"))
     p = cli_common.parameter_values(model, cli_common.parse_assignments(args.param, "param"))
-    checks = check_model(model, [x0[n] for n in model.state_names], args.t_final, p=p,
-                         rtol=args.rtol, atol=args.atol,
-                         methods=tuple(m for m in args.methods.split(",") if m))
+    with ticker(f"eomc check {model.name}", sys.stderr, not args.quiet):
+        checks = check_model(model, [x0[n] for n in model.state_names], args.t_final, p=p,
+                             rtol=args.rtol, atol=args.atol,
+                             methods=tuple(m for m in args.methods.split(",") if m))
     print(f"eomc check {model.name}: t_final={args.t_final:g}, rtol={args.rtol:g}, "
           f"atol={args.atol:g}")
     print(format_checks(checks))
