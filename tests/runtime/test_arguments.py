@@ -138,3 +138,20 @@ def test_non_finite_parameters_inputs_and_rows_are_named(model, generated):
 def test_singular_mass_matrix_with_finite_inputs_still_says_so(model):
     with pytest.raises(SimulationError, match=r"osc\.rhs: the mass matrix is singular"):
         model.rhs(0.0, np.array([0.3, 0.1]), p=[0.0, 0.5, 8.0])
+
+
+def test_rhs_of_a_list_takes_the_fast_path(generated, monkeypatch):
+    """model.rhs(t, [..]) (the README's old form) converts once and skips the general checked path."""
+    x = [0.3, -0.2]
+    expected = generated.rhs(0.0, np.array(x))
+
+    def slow(*args, **kwargs):
+        raise AssertionError("a list of floats went through the general checked path")
+    monkeypatch.setattr(generated, "_vector_call", slow)
+    np.testing.assert_array_equal(generated.rhs(0.0, x), expected)
+    np.testing.assert_array_equal(generated.rhs(0, [0, 0]), generated.rhs(0.0, np.zeros(2)))
+    monkeypatch.undo()
+    with pytest.raises(ValueError, match="got dtype bool"):      # still refused, by the checked path
+        generated.rhs(0.0, [True, False])
+    with pytest.raises(ValueError, match=r"shape \(2,\)"):
+        generated.rhs(0.0, [1.0, 2.0, 3.0])
