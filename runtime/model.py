@@ -191,7 +191,8 @@ class Model:
                 return float(t)
             except OverflowError:  # an int such as 10**400
                 raise ValueError(f"{self.name}: {what} must be a real number that fits a double; "
-                                 f"got an integer of {len(str(abs(int(t))))} digits") from None
+                                 f"got an integer of about {int(abs(int(t)).bit_length() * 0.30103)} "
+                                 f"digits") from None
         a = np.asarray(t)
         if a.ndim == 0 and a.dtype.kind in "fiu":
             return float(a)

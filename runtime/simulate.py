@@ -83,7 +83,9 @@ def _real(value, what):
     try:
         return float(value)
     except (TypeError, ValueError, OverflowError):
-        raise ValueError(f"{what} must be a real number that fits a double; got {value!r}") from None
+        shown = (f"an integer of about {int(abs(value).bit_length() * 0.30103)} digits"
+                 if isinstance(value, numbers.Integral) else repr(value))
+        raise ValueError(f"{what} must be a real number that fits a double; got {shown}") from None
 
 
 def _vector(model, value, size, names, defaults, what):

@@ -44,6 +44,8 @@ def _real(value, what, variable):
 
 
 def _short(value, limit=60):
+    if isinstance(value, int) and abs(value).bit_length() > 200:
+        return f"an integer of about {int(abs(value).bit_length() * 0.30103)} digits"
     text = str(value)
     return text if len(text) <= limit else text[:limit - 5] + " ..."
 
