@@ -95,3 +95,11 @@ def test_show_says_lambda_with_multipliers(tmp_path, capsys):
     path = model_files.write(tmp_path, text, "cartesian")
     assert main(["show", str(path), "-q"]) == 0
     assert "mass matrix  (A in A [u'; lambda] = b)" in capsys.readouterr().out
+
+
+def test_report_output_onto_a_file_fails_before_running(pendulum, tmp_path, capsys):
+    target = tmp_path / "taken"
+    target.write_text("keep me")
+    assert main(["report", "pend", "-o", str(target), "-q"]) == 2
+    assert f"eomc report: error: -o {target} is a file" in capsys.readouterr().err
+    assert target.read_text() == "keep me"
