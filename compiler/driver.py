@@ -7,12 +7,15 @@
     export    eomc.compiler.build.export       (only with output_dir: the files `eomc build` writes)
     load      eomc.runtime.loader.load         (cffi dlopen or the Cython extension)
 """
+import contextlib
+import os
 import sys
 import time
 
 from eomc.runtime.errors import ModelError
 
 from .build import build, cache_root
+from .build.cache import BadEntry
 from .build.gencache import cached_generate
 from .build.export import export
 from .model import model_spec
@@ -98,16 +101,24 @@ def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, fu
                                functions=functions, fold_parameters=fold_parameters, progress=progress,
                                cache_dir=cache_dir)
     extra = {"initial_state": spec.initial_state} if spec.initial_state is not None else None
-    with progress.stage("compile"):
-        built = build(generated, backend=backend, cflags=cflags, cache_dir=cache_dir, extra_metadata=extra)
-    directory = export(built, output_dir) if output_dir is not None else built.directory
-    with progress.stage("load"):
-        try:
-            return load(directory, generated.name, backend=backend)
-        except LoadError:
-            if output_dir is not None:
-                raise
-            # a cache entry that looked whole but does not load is a miss: rebuild it once
-            built = build(generated, backend=backend, cflags=cflags, cache_dir=cache_dir,
-                          extra_metadata=extra, force=True)
-            return load(built.directory, generated.name, backend=backend)
+    source = system if isinstance(system, (str, os.PathLike)) else None
+    options = dict(backend=backend, cflags=cflags, cache_dir=cache_dir, extra_metadata=extra)
+    for attempt in (1, 2):
+        # The cache entry is held (shared lock) while it is copied and loaded, so a concurrent
+        # `eomc cache clear`/prune cannot remove it midway; one that vanished or changed anyway,
+        # or that does not load, is a miss: rebuilt once (force), never copied over good output.
+        # The hold is released before the rebuild, which takes the key's lock exclusively.
+        with contextlib.ExitStack() as held:
+            with progress.stage("compile"):
+                built = build(generated, force=attempt > 1, hold_in=held, **options)
+            try:
+                directory = (export(built, output_dir, source=source) if output_dir is not None
+                             else built.directory)
+                with progress.stage("load"):
+                    return load(directory, generated.name, backend=backend)
+            except BadEntry:
+                if attempt > 1:
+                    raise
+            except LoadError:
+                if output_dir is not None or attempt > 1:
+                    raise

@@ -12,6 +12,7 @@ __all__ = [
     "CompilerNotFoundError",
     "CompileError",
     "SimulationError",
+    "EomcWarning",
 ]
 
 
@@ -44,3 +45,7 @@ class CompileError(EomcError, RuntimeError):
 
 class SimulationError(EomcError, RuntimeError):
     """An integration stopped (singular mass matrix, non-finite state, step size underflow, ...)."""
+
+
+class EomcWarning(UserWarning):
+    """Something the user should know that did not stop eomc (``eomc`` prints it as one line)."""

@@ -10,11 +10,13 @@ never imports SymPy.
 """
 import argparse
 import os
+import signal
 import sys
+import warnings
 from importlib import import_module
 
 from eomc import __version__
-from eomc.errors import EomcError
+from eomc.errors import EomcError, EomcWarning
 
 # subcommand -> (module, one-line help)
 SUBCOMMANDS = {
@@ -56,6 +58,8 @@ def main(argv=None):
     sub = argparse.ArgumentParser(prog=f"eomc {name}", description=help_text)
     module.configure(sub)
     args = sub.parse_args(rest)
+    _plain_warnings(name)
+    previous = _terminate_as_interrupt()
     try:
         return int(module.run(args) or 0)
     except EomcError as exc:
@@ -67,6 +71,38 @@ def main(argv=None):
     except KeyboardInterrupt:
         print(f"eomc {name}: interrupted", file=sys.stderr)
         return 130
+    except _Terminated:
+        print(f"eomc {name}: terminated", file=sys.stderr)
+        return 143
     except BrokenPipeError:  # `eomc ... | head` closed the pipe: not an error worth a traceback
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 141
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+class _Terminated(BaseException):
+    """SIGTERM, raised like KeyboardInterrupt so cleanups run (the C compiler's process group
+    is killed, temporary directories are removed) instead of the process just vanishing."""
+
+
+def _terminate_as_interrupt():
+    """Make SIGTERM unwind like Ctrl-C; returns the previous handler (None off the main thread)."""
+    def handler(signum, frame):
+        raise _Terminated()
+    try:
+        return signal.signal(signal.SIGTERM, handler)
+    except (ValueError, OSError):   # not the main thread (main() called from a thread)
+        return None
+
+
+def _plain_warnings(name):
+    """eomc's own warnings as one line, like its errors: `eomc build: warning: ...`."""
+    default = warnings.formatwarning
+
+    def formatwarning(message, category, filename, lineno, line=None):
+        if issubclass(category, EomcWarning):
+            return f"eomc {name}: warning: {message}\n"
+        return default(message, category, filename, lineno, line)
+    warnings.formatwarning = formatwarning

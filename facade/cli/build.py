@@ -24,7 +24,9 @@ def configure(parser):
     parser.add_argument("--backend", choices=("cffi", "cython"), default="cffi",
                         help="Python binding: cffi (ABI mode, no extension to compile; default) or cython")
     parser.add_argument("--cflags", help="C compiler flags replacing the default '-O2 -fPIC -std=c99' "
-                                         "(write --cflags='-O3 -march=native')")
+                                         "(write --cflags='-O3 -march=native'); after -ffast-math, -Ofast "
+                                         "or -ffinite-math-only eomc adds -fno-finite-math-only, so NaN "
+                                         "and inf are still reported as errors")
     parser.add_argument("--cache-dir", help="build cache root (default $EOMC_CACHE_DIR or ~/.cache/eomc)")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
 
