@@ -242,13 +242,14 @@ def _pid_alive(pid):
     return True
 
 
-def reclaim_tmp(root, now=None):
+def reclaim_tmp(root, now=None, held=()):
     """Remove temporary directories of builds that died (kill -9, power loss).
 
     A build's directory is named ``<key>-*`` and exists only while the build
-    holds the key's lock, so a free lock means its owner is gone.  ``trash-<pid>-*``
-    (an entry being deleted) is reclaimed when its process is gone.
-    Returns the paths removed.
+    holds the key's lock, so a free lock means its owner is gone; so does a
+    directory of a key in ``held``, whose lock the caller holds (and has not yet
+    made its own directory).  ``trash-<pid>-*`` (an entry being deleted) is
+    reclaimed when its process is gone.  Returns the paths removed.
     """
     tmp = Path(root) / "tmp"
     now = time.time() if now is None else now
@@ -260,7 +261,10 @@ def reclaim_tmp(root, now=None):
     for path in listed:
         keyed, trash = _KEYED_TMP.match(path.name), _TRASH.match(path.name)
         try:
-            if keyed:
+            if keyed and keyed.group(1) in held:
+                shutil.rmtree(path, ignore_errors=True)
+                removed.append(path)
+            elif keyed:
                 with try_locked(root, keyed.group(1)) as free:
                     if free:
                         shutil.rmtree(path, ignore_errors=True)
@@ -318,7 +322,7 @@ def get_or_build(root, kind, key, build, inputs, force=False, hold_in=None):
         if why is None and not force:
             touch(entry)
         else:
-            reclaim_tmp(root)
+            reclaim_tmp(root, held=(key,))
             try:
                 tmp = Path(tempfile.mkdtemp(prefix=f"{key}-", dir=root / "tmp"))
             except OSError as exc:

@@ -10,6 +10,7 @@ import sys
 import textwrap
 
 import numpy as np
+import pytest
 
 from helpers import osc_model
 from helpers.slow_cc import alive, slow_compiler, wait_for_pid
@@ -53,11 +54,13 @@ def test_builds_racing_clear_and_prune_never_fail(tmp_path):
     assert removed >= 1     # the clearer did take entries away between builds
 
 
-def test_a_killed_builds_temporary_directory_is_reclaimed_by_the_next_build(tmp_path):
+@pytest.mark.parametrize("next_build", ["same model", "another model"])
+def test_a_killed_builds_temporary_directory_is_reclaimed_by_the_next_build(tmp_path, next_build):
     cache = tmp_path / "cache"
+    victim = "osc" if next_build == "same model" else "victim"
     code = (f"import sys; sys.path.insert(0, {os.path.dirname(os.path.dirname(os.path.dirname(__file__)))!r});"
             f"from helpers import osc_model; from eomc.compiler.build import build;"
-            f"build(osc_model.oscillator('victim'), cache_dir={str(cache)!r})")
+            f"build(osc_model.oscillator({victim!r}), cache_dir={str(cache)!r})")
     script, pidfile = slow_compiler(tmp_path)
     proc = subprocess.Popen([sys.executable, "-c", code], env={**os.environ, "CC": str(script)})
     child = wait_for_pid(pidfile)
@@ -67,7 +70,11 @@ def test_a_killed_builds_temporary_directory_is_reclaimed_by_the_next_build(tmp_
         proc.kill()                                              # kill -9: no cleanup runs
         proc.wait(timeout=30)
         assert list(tmp.iterdir())
-        build(osc_model.oscillator(), cache_dir=cache)           # another model, a miss
+        with pytest.MonkeyPatch.context() as mp:
+            mp.setenv("CC", str(script))        # "same model": the same key as the killed build
+            mp.setattr("eomc.compiler.build.builder.run_compiler", lambda *a, **k: None)  # no wait
+            mp.setattr("eomc.compiler.build.builder.auto_prune", lambda *a, **k: [])
+            build(osc_model.oscillator(), cache_dir=cache)       # a miss: it builds
         assert list(tmp.iterdir()) == []
     finally:
         if alive(child):
