@@ -58,7 +58,7 @@ def main(argv=None):
     sub = argparse.ArgumentParser(prog=f"eomc {name}", description=help_text)
     module.configure(sub)
     args = sub.parse_args(rest)
-    _plain_warnings(name)
+    previous_format = _plain_warnings(name)
     previous = _terminate_as_interrupt()
     try:
         return int(module.run(args) or 0)
@@ -78,6 +78,7 @@ def main(argv=None):
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 141
     finally:
+        warnings.formatwarning = previous_format
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)
 
@@ -98,7 +99,8 @@ def _terminate_as_interrupt():
 
 
 def _plain_warnings(name):
-    """eomc's own warnings as one line, like its errors: `eomc build: warning: ...`."""
+    """eomc's own warnings as one line, like its errors: `eomc build: warning: ...`.
+    Returns the formatter it replaced (main() puts it back)."""
     default = warnings.formatwarning
 
     def formatwarning(message, category, filename, lineno, line=None):
@@ -106,3 +108,4 @@ def _plain_warnings(name):
             return f"eomc {name}: warning: {message}\n"
         return default(message, category, filename, lineno, line)
     warnings.formatwarning = formatwarning
+    return default

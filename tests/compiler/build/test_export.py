@@ -4,6 +4,8 @@ Reliability report 2026-11, F1 (building into the model's own folder replaced th
 F2 (a same-size corrupt cache entry was copied over the user's good output) and F7 (-o onto a file).
 """
 import json
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -109,6 +111,12 @@ def test_same_size_corrupt_library_is_rebuilt_and_never_exported(tmp_path, capsy
     assert lib.read_bytes() == good                  # the entry was rebuilt
     capsys.readouterr()
     assert main(["simulate", str(out), "--t-final", "0.1"]) == 0
+    lib.write_bytes(b"\0" * lib.stat().st_size)      # the command line says it in one line
+    run = subprocess.run([sys.executable, "-m", "eomc", *argv], capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0
+    assert run.stderr.startswith("eomc build: warning: the build cache entry ") and run.stderr.count("\n") == 1
+    assert "libpend.so differs from the file that was built); rebuilding it" in run.stderr
+    assert (out / "libpend.so").read_bytes() == good
 
 
 def test_same_size_edit_of_the_metadata_is_not_served(tmp_path):
