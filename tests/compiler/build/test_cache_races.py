@@ -79,3 +79,23 @@ def test_a_killed_builds_temporary_directory_is_reclaimed_by_the_next_build(tmp_
     finally:
         if alive(child):
             os.kill(child, signal.SIGKILL)
+
+
+def test_an_entry_held_by_a_reader_survives_clear_and_prune(tmp_path):
+    """F4, deterministically: while held (copied or loaded), clear and prune skip the entry."""
+    import contextlib
+    from eomc.compiler.build.cache_admin import clear, prune
+    root = cache_root(tmp_path)
+    with contextlib.ExitStack() as held:
+        built = build(osc_model.oscillator(), cache_dir=tmp_path, hold_in=held)
+        assert built.hit is False
+        assert prune(root, max_size=0) == []
+        clear(root)
+        assert (built.directory / "libosc.so").is_file()
+    with contextlib.ExitStack() as held:
+        again = build(osc_model.oscillator(), cache_dir=tmp_path, hold_in=held)
+        assert again.hit and again.directory == built.directory
+        clear(root)
+        assert again.directory.is_dir()
+    clear(root)                                   # released: now it goes
+    assert not built.directory.exists()
