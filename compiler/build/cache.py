@@ -36,6 +36,14 @@ from eomc.runtime.errors import EomcError, EomcWarning
 __all__ = ["CACHE_SCHEMA", "cache_root", "hash_key", "sha256_file", "lookup", "get_or_build", "discard",
            "touch", "try_locked", "hold", "reclaim_tmp", "entry_files", "BadEntry", "CacheWarning"]
 
+CACHE_SCHEMA = 1
+MANIFEST = "manifest.json"
+
+try:  # POSIX advisory locks; elsewhere builds still publish atomically.
+    import fcntl
+except ImportError:  # pragma: no cover
+    fcntl = None
+
 
 class CacheWarning(EomcWarning):
     """A damaged cache entry was found (and is rebuilt)."""
@@ -48,14 +56,6 @@ class BadEntry(EomcError):
 def _not_writable(root, exc, doing):
     return EomcError(f"cannot {doing}: the build cache at {root} is not writable "
                      f"({exc.strerror or exc}); set EOMC_CACHE_DIR to a writable directory")
-
-CACHE_SCHEMA = 1
-MANIFEST = "manifest.json"
-
-try:  # POSIX advisory locks; elsewhere builds still publish atomically.
-    import fcntl
-except ImportError:  # pragma: no cover
-    fcntl = None
 
 
 def cache_root(cache_dir=None):
@@ -101,7 +101,7 @@ def _damage(entry, key):
     try:
         manifest = json.loads((entry / MANIFEST).read_text())
     except FileNotFoundError:
-        return "absent"
+        return "manifest.json is missing" if entry.is_dir() else "absent"
     except (OSError, ValueError):
         return "manifest.json is unreadable"
     try:
