@@ -1,7 +1,9 @@
 """``eomc build MODEL.py -o DIR``: write NAME.c, NAME.h, libNAME.so, NAME.json and NAME.py into DIR.
 
 Everything is built in the cache first and then copied into DIR through a
-temporary directory, so a failed build leaves DIR as it was.
+temporary directory, so a failed build leaves DIR as it was.  A file in DIR
+that eomc did not write (the model file itself, your own eomc_model.h) is never
+replaced: the build stops with an error naming it (eomc.compiler.build.export).
 """
 
 __all__ = ["configure", "run", "add_generate_options"]
