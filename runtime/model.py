@@ -243,9 +243,9 @@ class Model:
         try:
             return self._kernels[fn]
         except KeyError:
-            raise self.missing(fn) from None
+            raise self._missing(fn) from None
 
-    def missing(self, fn):
+    def _missing(self, fn):
         """The error for a function this model was built without (rhs_many comes with rhs)."""
         needed = "rhs" if fn == "rhs_many" else fn
         return ModelError(f"model {self.name!r} was built without `{needed}`; rebuild it with "
