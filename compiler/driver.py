@@ -7,6 +7,8 @@
     export    eomc.compiler.build.export       (only with output_dir: the files `eomc build` writes)
     load      eomc.runtime.loader.load         (cffi dlopen or the Cython extension)
 """
+import contextlib
+import os
 import sys
 import time
 
@@ -14,13 +16,14 @@ from eomc.runtime.errors import ModelError
 from eomc.runtime.progress import ticker
 
 from .build import build, cache_root
+from .build.cache import BadEntry
 from .build.gencache import cached_generate
 from .build.export import export
 from .model import model_spec
 from .model.validate import Invalid, check_functions
 from .passes.timing import reporting
 
-__all__ = ["compile", "generate", "Progress"]
+__all__ = ["compile", "generate", "build_and_load", "Progress"]
 
 
 class Progress:
@@ -102,22 +105,40 @@ def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, fu
 
     Progress (stage timings on stderr) defaults to on when stderr is a terminal.
     """
-    from eomc.runtime.loader import LoadError, load
     progress = Progress(progress)
     spec, generated = generate(system, name, parameters=parameters, inputs=inputs, outputs=outputs,
                                functions=functions, fold_parameters=fold_parameters, progress=progress,
                                cache_dir=cache_dir)
     extra = {"initial_state": spec.initial_state} if spec.initial_state is not None else None
-    with progress.stage("compile"):
-        built = build(generated, backend=backend, cflags=cflags, cache_dir=cache_dir, extra_metadata=extra)
-    directory = export(built, output_dir) if output_dir is not None else built.directory
-    with progress.stage("load"):
-        try:
-            return load(directory, generated.name, backend=backend)
-        except LoadError:
-            if output_dir is not None:
-                raise
-            # a cache entry that looked whole but does not load is a miss: rebuild it once
-            built = build(generated, backend=backend, cflags=cflags, cache_dir=cache_dir,
-                          extra_metadata=extra, force=True)
-            return load(built.directory, generated.name, backend=backend)
+    source = system if isinstance(system, (str, os.PathLike)) else None
+    return build_and_load(generated, backend=backend, cflags=cflags, cache_dir=cache_dir,
+                          output_dir=output_dir, extra_metadata=extra, source=source, progress=progress)
+
+
+def build_and_load(generated, *, backend="cffi", cflags=None, cache_dir=None, output_dir=None,
+                   extra_metadata=None, source=None, progress=None):
+    """compile -> (export) -> load of generated C: the second half of :func:`compile`.
+
+    The cache entry is held (a shared lock) while it is copied and loaded, so a concurrent
+    `eomc cache clear`/prune cannot remove it midway.  An entry that vanished or changed
+    anyway, or that does not load, is a miss: rebuilt once, never copied over good output.
+    The hold is released before that rebuild, which takes the key's lock exclusively.
+    """
+    from eomc.runtime.loader import LoadError, load
+    progress = progress if isinstance(progress, Progress) else Progress(progress)
+    options = dict(backend=backend, cflags=cflags, cache_dir=cache_dir, extra_metadata=extra_metadata)
+    for attempt in (1, 2):
+        with contextlib.ExitStack() as held:
+            with progress.stage("compile"):
+                built = build(generated, force=attempt > 1, hold_in=held, **options)
+            try:
+                directory = (export(built, output_dir, source=source) if output_dir is not None
+                             else built.directory)
+                with progress.stage("load"):
+                    return load(directory, generated.name, backend=backend)
+            except BadEntry:
+                if attempt > 1:
+                    raise
+            except LoadError:
+                if output_dir is not None or attempt > 1:
+                    raise

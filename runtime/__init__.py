@@ -5,7 +5,8 @@ The lowest layer: the compiler builds on it, nothing in it depends on the compil
 - leaves shared with the compiler: ``errors.py`` (every deliberate error), ``version.py``,
   ``c/`` (the plain C shipped with eomc: the model ABI ``eomc_model.h``, the integrators
   compiled once at install, the batch helper compiled into each model)
-- loading: ``loader.py`` (a built directory -> ``Model``), ``header_cdef.py``/``cdef.py``/
+- loading: ``loader.py`` (a built directory -> ``Model``), ``metadata.py`` (what NAME.json may say,
+  checked against the library), ``header_cdef.py/``cdef.py``/
   ``integrators_api.py`` (cffi declarations read from ``c/``), ``native.py`` (the integrator library),
   ``names.py`` (how a key names a state, parameter, input or output)
 - running: ``model.py`` (checked numpy calls), ``simulate.py`` + ``result.py`` (one trajectory,

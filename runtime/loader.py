@@ -10,7 +10,9 @@ struct.  The Cython backend (``backend="cython"``) builds a per-model
 extension instead; it remains for users who want a self-contained module.
 
 Only numpy and cffi are imported here -- never SymPy or eomc.compiler -- so a
-built model runs where only the runtime is installed.
+built model runs where only the runtime is installed.  What NAME.json may say is
+checked by ``metadata.py``: only a library inside the directory is opened, and
+sizes, names and defaults are the library's own.
 """
 import importlib.machinery
 import importlib.util
@@ -20,18 +22,13 @@ from pathlib import Path
 
 import cffi
 
-from eomc.runtime.errors import ModelError
-
-from .cdef import ABI_VERSION, BATCH_CDEF, MODEL_CDEF, model_function_cdef
+from .cdef import BATCH_CDEF, MODEL_CDEF, model_function_cdef
 from .integrators_api import INTEGRATOR_CDEF
+from .metadata import EXPORTED_FUNCTIONS, LoadError, check_json, from_library
 from .model import Model
 from .native import integrator_library
 
 __all__ = ["load", "find_model_json", "LoadError"]
-
-
-class LoadError(ModelError, OSError):
-    """A build directory is incomplete, stale or was built for another ABI."""
 
 
 def find_model_json(dir_or_path, name=None):
@@ -59,13 +56,12 @@ def find_model_json(dir_or_path, name=None):
 
 
 def _read_json(path):
+    """NAME.json, checked (runtime/metadata.py) before any library is opened."""
     try:
         data = json.loads(path.read_text())
     except (OSError, ValueError) as exc:
-        raise LoadError(f"{path}: cannot read model metadata ({exc})") from None
-    if data.get("abi_version") != ABI_VERSION:
-        raise LoadError(f"{path}: built for model ABI {data.get('abi_version')}, this eomc reads "
-                        f"ABI {ABI_VERSION}; rebuild the model")
+        raise LoadError(f"{path}: cannot read model metadata ({exc}); rebuild the model") from None
+    check_json(path, data)
     return data
 
 
@@ -90,31 +86,28 @@ def _base_ffi():
 
 
 def _open_cffi(directory, data):
-    """(ffi, lib, model_lib, c_model, library): ``lib`` has the batch helper, ``model_lib`` NAME_*."""
+    """(ffi, lib, model_lib, c_model, library): ``lib`` has the batch helper, ``model_lib`` NAME_*.
+
+    The declarations come from the function list (checked), never from text in NAME.json,
+    and the library is the bare file name NAME.json gives, inside ``directory``.
+    """
     name = data["name"]
     ffi = _base_ffi()
     model_ffi = cffi.FFI()
     model_ffi.include(ffi)
-    model_ffi.cdef(data.get("cdef") or model_function_cdef(name, data.get("functions", ())))
+    functions = data.get("functions", ())
+    model_ffi.cdef(model_function_cdef(name, functions))
     library = directory / data.get("build", {}).get("library", f"lib{name}.so")
     try:
         lib = ffi.dlopen(str(library))
         model_lib = model_ffi.dlopen(str(library))
         c_model = getattr(model_lib, f"{name}_model")()
+        for fn in EXPORTED_FUNCTIONS:
+            if fn in functions:
+                getattr(model_lib, f"{name}_{fn}")
     except (OSError, AttributeError) as exc:
         raise LoadError(f"cannot load model {name!r} from {library}: {exc}") from None
     return ffi, lib, model_lib, c_model, library
-
-
-def _check_struct(c_model, ffi, data, library):
-    """The library's own description must match NAME.json; a mismatch means a stale directory."""
-    for field in ("abi_version", "nq", "nu", "nx", "nparam", "ninput", "noutput", "nhol", "nvel", "work_size"):
-        if int(getattr(c_model, field)) != int(data[field]):
-            raise LoadError(f"{library}: {field} is {getattr(c_model, field)} in the library but "
-                            f"{data[field]} in its metadata; rebuild the model")
-    if ffi.string(c_model.name).decode() != data["name"]:
-        raise LoadError(f"{library}: library is model {ffi.string(c_model.name).decode()!r}, "
-                        f"metadata says {data['name']!r}; rebuild the model")
 
 
 def _open_extension(directory, data):
@@ -136,7 +129,7 @@ def load(dir_or_path, name=None, backend=None):
     directory = json_path.parent.resolve()
     data = _read_json(json_path)
     ffi, lib, model_lib, c_model, library = _open_cffi(directory, data)
-    _check_struct(c_model, ffi, data, library)
+    data = from_library(json_path, data, c_model, ffi, library)
     backend = backend or data.get("build", {}).get("backend", "cffi")
     if backend not in ("cffi", "cython"):
         raise ValueError(f"unknown backend {backend!r}; choose cffi or cython")

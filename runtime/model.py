@@ -248,8 +248,13 @@ class Model:
         try:
             return self._kernels[fn]
         except KeyError:
-            raise ModelError(f"model {self.name!r} was built without `{fn}`; rebuild it with "
-                             f"functions including {fn!r} (eomc build --outputs ...)") from None
+            raise self._missing(fn) from None
+
+    def _missing(self, fn):
+        """The error for a function this model was built without (rhs_many comes with rhs)."""
+        needed = "rhs" if fn == "rhs_many" else fn
+        return ModelError(f"model {self.name!r} was built without `{needed}`; rebuild it with "
+                          f"functions including {needed!r} (eomc build --outputs ...)")
 
     def _nonfinite(self, t, x, p, r):
         """'x (state) q1=nan, p (parameters) g=inf' for whatever non-finite values were passed in."""

@@ -243,6 +243,8 @@ def prepare(model, x0, t_span, p=None, r=None, method="dop853", rtol=1e-6, atol=
                                    or model.c_model.constraints_jac == model.ffi.NULL):
         raise ValueError(f"{model.name}: project/baumgarte need the model's constraints and "
                          f"constraints_jac; this model has none")
+    if model.c_model.rhs == model.ffi.NULL:
+        raise model._missing("rhs")  # every method integrates rhs
     if method == "radau" and model.c_model.jac_x == model.ffi.NULL:
         raise ValueError(f"{model.name}: method 'radau' needs the Jacobian jac_x, which this model "
                          f"was built without; rebuild with functions including 'jac_x'")

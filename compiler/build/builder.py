@@ -20,7 +20,7 @@ from eomc.runtime.header_cdef import C_DIR
 from eomc.runtime.version import __version__
 
 from .cache import CACHE_SCHEMA, cache_root, get_or_build, hash_key, sha256_file
-from .cache_admin import auto_prune
+from .cache_admin import auto_prune, max_size_from_env
 from .toolchain import DEFAULT_CFLAGS, find_compiler, run_compiler
 
 __all__ = ["BuildResult", "build", "shipped_c_dir", "SHIPPED_HEADERS", "resolve_cflags"]
@@ -45,15 +45,26 @@ def shipped_c_dir():
     return C_DIR
 
 
+# Flags that let the compiler assume no NaN or infinity exists: it would then delete the
+# model's non-finite checks (isfinite folds to true) and NaN would come back with status 0.
+_FINITE_MATH = ("-ffast-math", "-Ofast", "-ffinite-math-only")
+KEEP_NONFINITE_CHECKS = "-fno-finite-math-only"
+
+
 def resolve_cflags(cflags):
     """Flags as a list: the defaults, or the user's (a string is split like a shell would).
 
     -fPIC is added when missing: a shared library cannot be linked without it.
+    -fno-finite-math-only is added after -ffast-math, -Ofast or -ffinite-math-only
+    (the rest of fast-math stays): the model's non-finite checks must keep working.
     """
     flags = list(DEFAULT_CFLAGS) if cflags is None else (
         shlex.split(cflags) if isinstance(cflags, str) else [str(f) for f in cflags])
     if not sys.platform.startswith("win") and "-fPIC" not in flags and "-fpic" not in flags:
         flags.append("-fPIC")
+    last_finite = max((i for i, f in enumerate(flags) if f in _FINITE_MATH), default=-1)
+    if last_finite >= 0 and KEEP_NONFINITE_CHECKS not in flags[last_finite:]:
+        flags.append(KEEP_NONFINITE_CHECKS)
     return flags
 
 
@@ -79,13 +90,16 @@ def _model_json(generated, key, backend, tc, flags, extra, extension=None):
     return json.dumps(data, indent=1, sort_keys=True)
 
 
-def build(generated, *, backend="cffi", cflags=None, cache_dir=None, force=False, extra_metadata=None):
+def build(generated, *, backend="cffi", cflags=None, cache_dir=None, force=False, extra_metadata=None,
+          hold_in=None):
     """Build (or fetch from the cache) the library of ``generated``; see the module docstring.
 
     ``extra_metadata`` (JSON-able) is merged into NAME.json, e.g. the model file's initial state.
+    ``hold_in`` (a contextlib.ExitStack): keep the cache entry from being pruned until it closes.
     """
     if backend not in BACKENDS:
         raise ValueError(f"unknown backend {backend!r}; choose one of {', '.join(BACKENDS)}")
+    max_size_from_env()  # a bad $EOMC_CACHE_MAX_SIZE is an error before the compile, not after
     name = generated.name
     tc = find_compiler()
     flags = resolve_cflags(cflags)
@@ -116,7 +130,7 @@ def build(generated, *, backend="cffi", cflags=None, cache_dir=None, force=False
         (tmp / f"{name}.json").write_text(
             _model_json(generated, key, backend, tc, flags, extra_metadata, extension))
 
-    entry, hit = get_or_build(root, "models", key, compile_model, inputs, force=force)
+    entry, hit = get_or_build(root, "models", key, compile_model, inputs, force=force, hold_in=hold_in)
     if not hit:
         auto_prune(root, keep=(key,))
     return BuildResult(name, entry, entry / lib, key, hit, backend)

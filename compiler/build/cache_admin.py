@@ -8,7 +8,7 @@ recently used first.  A new entry triggers :func:`auto_prune` when the cache
 grows past ``$EOMC_CACHE_MAX_SIZE`` (default 2 GiB; ``0`` turns it off).
 
 Removal is safe with other processes at work: an entry whose per-key lock is
-held (a build in progress) is skipped, and an entry is moved aside with one
+held (a build in progress, or a reader holding it while it copies or loads it) is skipped, and an entry is moved aside with one
 ``os.replace`` before it is deleted, so readers see it whole or not at all.
 A process that already loaded a library keeps it: unlinking a mapped file
 does not unmap it.
@@ -21,7 +21,9 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from .cache import MANIFEST, discard, try_locked
+from eomc.runtime.errors import EomcError
+
+from .cache import MANIFEST, discard, reclaim_tmp, try_locked
 
 __all__ = ["CacheEntry", "entries", "usage", "prune", "clear", "auto_prune", "parse_size",
            "parse_age", "format_size", "DEFAULT_MAX_SIZE"]
@@ -74,7 +76,10 @@ def entries(root):
                 manifest = json.loads(manifest_path.read_text())
                 last_used = manifest_path.stat().st_mtime
             except (OSError, ValueError):
-                manifest, last_used = {}, entry.stat().st_mtime
+                try:
+                    manifest, last_used = {}, entry.stat().st_mtime
+                except OSError:     # removed meanwhile by another process
+                    continue
             found.append(CacheEntry(kind_dir.name, entry.name, entry, _tree_size(entry), last_used,
                                     _name_of(manifest) if isinstance(manifest, dict) else ""))
     return sorted(found, key=lambda e: (e.last_used, e.kind, e.key))
@@ -104,7 +109,9 @@ def _remove(root, entry):
 
 
 def _stale_tmp(root, now):
-    """Leftovers of builds that died (a crash, kill -9) long ago."""
+    """Leftovers of builds that died (a crash, kill -9): at once when their key's lock
+    is free (see cache.reclaim_tmp), otherwise after a day."""
+    reclaim_tmp(root, now)
     tmp = root / "tmp"
     if not tmp.exists():
         return
@@ -150,11 +157,15 @@ def clear(root):
 
 
 def max_size_from_env():
-    """``$EOMC_CACHE_MAX_SIZE`` in bytes (None: no limit)."""
+    """``$EOMC_CACHE_MAX_SIZE`` in bytes (None: no limit); EomcError when it is not a size."""
     text = os.environ.get("EOMC_CACHE_MAX_SIZE")
     if text is None or not text.strip():
         return DEFAULT_MAX_SIZE
-    size = parse_size(text)
+    try:
+        size = parse_size(text)
+    except ValueError:
+        raise EomcError(f"EOMC_CACHE_MAX_SIZE={text!r} is not a size; use e.g. 500M or 2G "
+                        f"(0 turns automatic pruning off), or unset it for the default 2G") from None
     return None if size == 0 else size
 
 
@@ -162,10 +173,7 @@ def auto_prune(root, keep=()):
     """After a new entry: keep the cache under $EOMC_CACHE_MAX_SIZE, dropping the least
     recently used entries down to 80% of it (so not every build prunes).  The keys in
     ``keep`` (the entries just built) stay even if they alone are over the limit."""
-    try:
-        limit = max_size_from_env()
-    except ValueError:
-        return []
+    limit = max_size_from_env()
     if limit is None:
         return []
     listed = entries(root)

@@ -11,6 +11,7 @@ far cheaper than printing it (srepr of a 20-link model takes seconds).
 Equal digests need equal expression trees; different trees for the same
 mathematics only cost a miss.
 """
+import contextlib
 import hashlib
 import json
 import sys
@@ -20,7 +21,7 @@ import sympy as sm
 
 from eomc.runtime.version import __version__
 
-from .cache import get_or_build, hash_key, lookup
+from .cache import get_or_build, hash_key
 
 __all__ = ["generation_key", "cached_generate"]
 
@@ -92,16 +93,20 @@ def generation_key(spec, functions, fold_parameters):
 
 
 def cached_generate(spec, functions, fold_parameters, generate, cache_root_dir):
-    """``generate()`` through the cache; returns (GeneratedModel, hit)."""
+    """``generate()`` through the cache; returns (GeneratedModel, hit).
+
+    The entry is held while it is read, so a concurrent prune cannot remove it midway;
+    one that is unreadable anyway is generated again.
+    """
     from eomc.compiler.emit import GeneratedModel
     key = generation_key(spec, functions, fold_parameters)
-    entry = lookup(cache_root_dir, "generated", key)
-    force = False
-    if entry is not None:
+
+    def read(entry):
         try:
-            return GeneratedModel(**json.loads((entry / "generated.json").read_text())), True
+            return GeneratedModel(**json.loads((entry / "generated.json").read_text()))
         except (OSError, ValueError, TypeError):
-            force = True  # whole but unreadable: rebuild it
+            return None
+
     produced = []
 
     def write(tmp):
@@ -110,7 +115,13 @@ def cached_generate(spec, functions, fold_parameters, generate, cache_root_dir):
         data = {"name": gm.name, "c_source": gm.c_source, "header": gm.header, "cdef": gm.cdef,
                 "metadata": gm.metadata}
         (tmp / "generated.json").write_text(json.dumps(data, sort_keys=True))
-    entry, _ = get_or_build(cache_root_dir, "generated", key, write, {"name": spec.name}, force=force)
-    if produced:
-        return produced[0], False
-    return GeneratedModel(**json.loads((entry / "generated.json").read_text())), True
+    for force in (False, True):     # an entry that is whole but unreadable is generated again
+        with contextlib.ExitStack() as held:
+            entry, _ = get_or_build(cache_root_dir, "generated", key, write, {"name": spec.name},
+                                    force=force, hold_in=held)
+            if produced:
+                return produced[0], False
+            found = read(entry)
+        if found is not None:
+            return found, True
+    return generate(), False  # pragma: no cover (only if the rebuilt entry is unreadable)

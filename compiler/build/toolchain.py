@@ -8,6 +8,7 @@ serves a stale library.
 import os
 import shlex
 import shutil
+import signal
 import subprocess
 import sys
 from dataclasses import dataclass
@@ -97,10 +98,43 @@ def find_compiler(env=None):
         f"eomc compiles models to C, so {install_hint()}.")
 
 
+def _end_group(proc, grace=2.0):
+    """Stop the compiler and everything it started (cc1, as, ld): its whole process group."""
+    for sig, wait in ((signal.SIGTERM, grace), (signal.SIGKILL, None)):
+        try:
+            os.killpg(proc.pid, sig)
+        except (ProcessLookupError, PermissionError):
+            break
+        try:
+            proc.wait(timeout=wait)
+            break
+        except subprocess.TimeoutExpired:
+            continue
+
+
+def _run(argv, cwd):
+    """Run ``argv`` in its own process group; if eomc is interrupted or terminated meanwhile
+    (KeyboardInterrupt, or SIGTERM raised as an exception by the CLI), end the whole group.
+
+    Without the group, a signal sent to eomc alone (``kill -INT <pid>`` from a job runner)
+    killed the ``cc`` driver but left its ``cc1`` compiling on, re-parented to init.
+    """
+    if sys.platform.startswith("win"):  # pragma: no cover
+        return subprocess.run(argv, cwd=cwd, capture_output=True, text=True)
+    proc = subprocess.Popen(argv, cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
+    try:
+        out, err = proc.communicate()
+    except BaseException:
+        _end_group(proc)
+        raise
+    return subprocess.CompletedProcess(argv, proc.returncode, out, err)
+
+
 def run_compiler(argv, cwd, name, key, root):
     """Run the compiler; on failure keep the sources under failed/ and raise CompileError."""
     try:
-        proc = subprocess.run(argv, cwd=cwd, capture_output=True, text=True)
+        proc = _run(argv, cwd)
     except OSError as exc:
         proc = subprocess.CompletedProcess(argv, 127, "", str(exc))
     if proc.returncode == 0:

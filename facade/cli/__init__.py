@@ -10,11 +10,13 @@ never imports SymPy.
 """
 import argparse
 import os
+import signal
 import sys
+import warnings
 from importlib import import_module
 
 from eomc import __version__
-from eomc.errors import EomcError
+from eomc.errors import EomcError, EomcWarning
 
 # subcommand -> (module, one-line help)
 SUBCOMMANDS = {
@@ -37,21 +39,6 @@ def _parser():
     return parser
 
 
-def _plain_warnings(name):
-    """eomc's own warnings as one line, ``eomc CMD: warning: ...`` (no source line of eomc's)."""
-    import warnings
-    from eomc.errors import EomcWarning
-    shown = getattr(warnings.showwarning, "eomc_wrapped", warnings.showwarning)
-
-    def show(message, category, filename, lineno, file=None, line=None):
-        if issubclass(category, EomcWarning):
-            print(f"eomc {name}: warning: {message}", file=file or sys.stderr)
-        else:
-            shown(message, category, filename, lineno, file, line)
-    show.eomc_wrapped = shown
-    warnings.showwarning = show
-
-
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else list(argv)
     parser = _parser()
@@ -68,10 +55,11 @@ def main(argv=None):
             print(f"eomc {name}: not available in this version", file=sys.stderr)
             return 2
         raise
-    _plain_warnings(name)
     sub = argparse.ArgumentParser(prog=f"eomc {name}", description=help_text)
     module.configure(sub)
     args = sub.parse_args(rest)
+    previous_format = _plain_warnings(name)
+    previous = _terminate_as_interrupt()
     try:
         return int(module.run(args) or 0)
     except EomcError as exc:
@@ -83,6 +71,41 @@ def main(argv=None):
     except KeyboardInterrupt:
         print(f"eomc {name}: interrupted", file=sys.stderr)
         return 130
+    except _Terminated:
+        print(f"eomc {name}: terminated", file=sys.stderr)
+        return 143
     except BrokenPipeError:  # `eomc ... | head` closed the pipe: not an error worth a traceback
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 141
+    finally:
+        warnings.formatwarning = previous_format
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+class _Terminated(BaseException):
+    """SIGTERM, raised like KeyboardInterrupt so cleanups run (the C compiler's process group
+    is killed, temporary directories are removed) instead of the process just vanishing."""
+
+
+def _terminate_as_interrupt():
+    """Make SIGTERM unwind like Ctrl-C; returns the previous handler (None off the main thread)."""
+    def handler(signum, frame):
+        raise _Terminated()
+    try:
+        return signal.signal(signal.SIGTERM, handler)
+    except (ValueError, OSError):   # not the main thread (main() called from a thread)
+        return None
+
+
+def _plain_warnings(name):
+    """eomc's own warnings as one line, like its errors: `eomc build: warning: ...`.
+    Returns the formatter it replaced (main() puts it back)."""
+    default = warnings.formatwarning
+
+    def formatwarning(message, category, filename, lineno, line=None):
+        if issubclass(category, EomcWarning):
+            return f"eomc {name}: warning: {message}\n"
+        return default(message, category, filename, lineno, line)
+    warnings.formatwarning = formatwarning
+    return default

@@ -1,7 +1,9 @@
 """``eomc build MODEL.py -o DIR``: write NAME.c, NAME.h, libNAME.so, NAME.json and NAME.py into DIR.
 
 Everything is built in the cache first and then copied into DIR through a
-temporary directory, so a failed build leaves DIR as it was.
+temporary directory, so a failed build leaves DIR as it was.  A file in DIR
+that eomc did not write (the model file itself, your own eomc_model.h) is never
+replaced: the build stops with an error naming it (eomc.compiler.build.export).
 """
 
 __all__ = ["configure", "run", "add_generate_options"]
@@ -24,7 +26,9 @@ def configure(parser):
     parser.add_argument("--backend", choices=("cffi", "cython"), default="cffi",
                         help="Python binding: cffi (ABI mode, no extension to compile; default) or cython")
     parser.add_argument("--cflags", help="C compiler flags replacing the default '-O2 -fPIC -std=c99' "
-                                         "(write --cflags='-O3 -march=native')")
+                                         "(write --cflags='-O3 -march=native'); after -ffast-math, -Ofast "
+                                         "or -ffinite-math-only eomc adds -fno-finite-math-only, so NaN "
+                                         "and inf are still reported as errors")
     parser.add_argument("--cache-dir", help="build cache root (default $EOMC_CACHE_DIR or ~/.cache/eomc)")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
 

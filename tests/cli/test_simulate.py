@@ -54,3 +54,23 @@ def test_simulate_failure_is_one_line(monkeypatch, capsys):
     assert main(["simulate", "s", "--t-final", "1"]) == 1
     err = capsys.readouterr().err
     assert "the mass matrix is singular" in err and "stopped at t=0.5:" in err
+
+
+def test_simulate_of_a_built_directory_imports_nothing_heavy(tmp_path):
+    """`eomc simulate DIR` starts fast (issue 10: <= 0.3 s): no SymPy, SciPy, matplotlib, Jinja2 or
+    eomc.compiler on that path (benchmarks/bench_startup.py measures the time itself)."""
+    import subprocess
+    import sys
+    from helpers import model_files
+    model = model_files.write(tmp_path, model_files.PENDULUM, "p")
+    env_cache = ["--cache-dir", str(tmp_path / "c")]
+    assert main(["build", str(model), "-o", str(tmp_path / "built"), *env_cache, "-q"]) == 0
+    code = ("import sys; from eomc.cli import main; "
+            "rc = main(['simulate', sys.argv[1], '--t-final', '1', '-o', sys.argv[2]]); "
+            "heavy = ('sympy', 'scipy', 'matplotlib', 'jinja2', 'eomc.compiler'); "
+            "print(rc, sorted(m for m in sys.modules if m.startswith(heavy)))")
+    run = subprocess.run([sys.executable, "-c", code, str(tmp_path / "built"), str(tmp_path / "t.csv")],
+                         capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.splitlines()[-1] == "0 []"
+    assert (tmp_path / "t.csv").read_text().startswith("t,")

@@ -99,3 +99,65 @@ def test_two_libraries_with_the_same_model_name_stay_apart(built, tmp_path):
     assert first.rhs(0.0, x)[0] == -0.2 and second.rhs(0.0, x)[0] == -0.4
     assert first.rhs_many(0.0, x[None, :])[0, 0] == -0.2 and second.rhs_many(0.0, x[None, :])[0, 0] == -0.4
     assert first.rhs(0.0, x)[0] == -0.2  # loading the second did not rebind the first
+
+
+# ---- trust at load (reliability report 2026-11, F10) --------------------------------------------
+
+_EVIL = """
+#include <stdio.h>
+__attribute__((constructor)) static void evil(void) { FILE *f = fopen("%s", "w"); if (f) fclose(f); }
+"""
+
+
+def _edit(copy, **changes):
+    path = copy / "osc.json"
+    data = json.loads(path.read_text())
+    for key, value in changes.items():
+        target = data
+        *parents, last = key.split("__")
+        for parent in parents:
+            target = target[parent]
+        target[last] = value
+    path.write_text(json.dumps(data))
+
+
+@pytest.mark.parametrize("where", ["relative", "absolute"])
+def test_library_outside_the_directory_is_never_opened(copy, tmp_path, where):
+    from eomc.compiler.build import find_compiler
+    marker = tmp_path / "PWNED"
+    (tmp_path / "evil").mkdir()
+    (tmp_path / "evil" / "evil.c").write_text(_EVIL % marker)
+    evil = tmp_path / "evil" / "libevil.so"
+    subprocess.run([*find_compiler().argv, "-shared", "-fPIC", "-o", str(evil), str(tmp_path / "evil" / "evil.c")],
+                   check=True)
+    _edit(copy, build__library="../evil/libevil.so" if where == "relative" else str(evil))
+    with pytest.raises(LoadError, match="build.library must be a file name inside the model's directory"):
+        load(copy)
+    assert not marker.exists()          # its constructor never ran
+
+
+@pytest.mark.parametrize("changes, message", [
+    ({"build__extension": "../x/osc_cy.so"}, "build.extension must be a file name inside"),
+    ({"param_names": ["m", "c"]}, r"param_names is \['m', 'c', 'k'\] in the library but \['m', 'c'\]"),
+    ({"state_names": ["a", "b"]}, "state_names is"),
+    ({"param_defaults": [2.0, 0.5, 1.0]}, r"param_defaults is \[2.0, 0.5, 8.0\] in the library"),
+    ({"op_counts": {"rhs": {"adds": "x"}}}, "op_counts must map each function to integer"),
+    ({"cdef": "int osc_rhs(double t;;"}, r"C declarations \(cdef\) do not match"),
+    ({"cdef": "int system(const char *);\n"}, r"C declarations \(cdef\) do not match"),
+    ({"nx": "2"}, "nx must be a non-negative integer, not '2'"),
+    ({"name": "osc; rm"}, "the model name must be a C identifier"),
+    ({"functions": ["rhs", "launch"]}, "functions must be a list of"),
+    ({"initial_state": [1.0, "x"]}, "initial_state must be a list of 2 numbers"),
+    ({"initial_state": [1.0]}, "initial_state must be a list of 2 numbers"),
+])
+def test_inconsistent_metadata_is_a_load_error_that_says_rebuild(copy, changes, message):
+    _edit(copy, **changes)
+    with pytest.raises(LoadError, match=message) as info:
+        load(copy)
+    assert "rebuild the model" in str(info.value)
+
+
+def test_names_and_defaults_come_from_the_library(copy):
+    model = load(copy)
+    assert model.param_names == ("m", "c", "k") and list(model.param_defaults) == [2.0, 0.5, 8.0]
+    assert model.state_names == ("q", "u") and model.output_names == ("energy",)

@@ -112,3 +112,26 @@ def test_lagrange_model_takes_states_keyed_by_sympy_objects(tmp_path):
     by_name = model.simulate({"q": 0.3, "q'": 0.1}, (0, 1))
     assert np.array_equal(by_object.x, by_name.x)
     assert by_object["q'"][0] == 0.1
+
+
+def test_model_built_without_rhs_says_so(tmp_path, capsys):
+    """Reliability report 2026-11, F13: simulate said "bad argument ... t=nan"; rhs_many advised
+    rebuilding with 'rhs_many', which --outputs rejects."""
+    from eomc.cli import main
+    from eomc.errors import ModelError
+    model_file = model_files.write(tmp_path, model_files.PENDULUM, "pend")
+    out = tmp_path / "mm"
+    assert main(["build", str(model_file), "-o", str(out), "--outputs", "mass_matrix",
+                 "--cache-dir", str(tmp_path / "c"), "-q"]) == 0
+    model = eomc.load(out)
+    expected = "model 'pend' was built without `rhs`; rebuild it with functions including 'rhs'"
+    for method in ("dop853", "rk4", "radau"):
+        with pytest.raises(ModelError, match=expected):
+            model.simulate([0.3, 0.0], (0, 1), method=method, **({"dt": 0.1} if method == "rk4" else {}))
+    with pytest.raises(ModelError, match=expected):
+        model.rhs_many(0.0, np.zeros((2, 2)))
+    with pytest.raises(ModelError, match=expected):
+        simulate_many(model, np.zeros((2, 2)), (0, 1))
+    capsys.readouterr()
+    assert main(["simulate", str(out), "--t-final", "1"]) == 1
+    assert f"eomc simulate: error: {expected}" in capsys.readouterr().err

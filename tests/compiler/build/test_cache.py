@@ -81,7 +81,8 @@ def test_missing_compiler_is_reported_before_anything_is_written(tmp_path, monke
 _RACE = textwrap.dedent('''
     import sys
     sys.path.insert(0, {tests!r})
-    import numpy as np, osc_model
+    import numpy as np
+    from helpers import osc_model
     from eomc.compiler.build import build
     from eomc.runtime.loader import load
     sys.stdin.readline()  # start together

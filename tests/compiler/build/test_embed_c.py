@@ -29,14 +29,26 @@ def _rk4(model, x, dt, steps):
     return x
 
 
-@pytest.mark.skipif(shutil.which("make") is None, reason="make is not installed")
-def test_c_program_matches_python(tmp_path):
+_SANITIZE = "-O1 -g -std=c99 -Wall -Wextra -Werror -fsanitize=address,undefined -fno-sanitize-recover=all"
+
+
+@pytest.fixture(scope="module")
+def program(tmp_path_factory):
+    """The example built out of tree with make, under AddressSanitizer/UBSan (leaks on exit count)."""
+    if shutil.which("make") is None:
+        pytest.skip("make is not installed")
+    tmp_path = tmp_path_factory.mktemp("embed")
     model_dir, program = tmp_path / "model", tmp_path / "embed"
     make = subprocess.run(
-        ["make", "-C", str(EXAMPLE), f"MODEL_DIR={model_dir}", f"OUT={program}",
+        ["make", "-C", str(EXAMPLE), f"MODEL_DIR={model_dir}", f"OUT={program}", f"CFLAGS={_SANITIZE}",
          f"EOMC={sys.executable} -m eomc", f"EOMC_FLAGS=--cache-dir {tmp_path / 'cache'}"],
         capture_output=True, text=True, timeout=300)
     assert make.returncode == 0, make.stdout + make.stderr
+    return model_dir, program
+
+
+def test_c_program_matches_python(program):
+    model_dir, program = program
     x0 = np.array([1.0, -0.5, 0.2, 0.0])
     run = subprocess.run([str(program), "2", "0.001", *map(repr, x0.tolist())], capture_output=True, text=True, timeout=60)
     assert run.returncode == 0, run.stderr
@@ -51,3 +63,30 @@ def test_c_program_matches_python(tmp_path):
     result = model.simulate(x0, (0.0, 2.0), method="rk4", dt=0.001)
     np.testing.assert_allclose(final, np.asarray(result.x)[-1], rtol=1e-9, atol=1e-11)
     assert not (EXAMPLE / "embed").exists() and not (EXAMPLE / "build").exists()  # built out of tree
+
+
+@pytest.mark.parametrize("args, message", [
+    ("1 0 1 1 1 1", "need T_END >= 0 and DT > 0"),
+    ("1 -0.01 1 1 1 1", "need T_END >= 0 and DT > 0"),
+    ("inf 0.1 1 0 0 0", "T_END: must be finite"),
+    ("1 1e-320 1 0 0 0", "at most 1e+09"),
+    ("abc 0.1 0 0 0 0", "T_END: expected a number, got 'abc'"),
+    ("1 0.01 nan 0 0 0", "q1: must be finite"),
+    ("1 0.01 1x 0 0 0", "q1: expected a number, got '1x'"),
+    ("1 0.01 1 2", "usage: "),
+])
+def test_bad_arguments_are_refused(program, args, message):
+    """Reliability report 2026-11, F11: these printed x0 as the final state and exited 0."""
+    run = subprocess.run([str(program[1]), *args.split()], capture_output=True, text=True, timeout=60)
+    assert run.returncode == 2 and message in run.stderr and run.stdout == ""
+    assert "Sanitizer" not in run.stderr
+
+
+def test_a_failed_step_is_named_and_frees_everything(program):
+    """F11: status 3 was printed as a bare number at the end of the step, and leaked 80 bytes."""
+    run = subprocess.run([str(program[1]), "1", "0.01", "0", "0", "1e200", "0"], capture_output=True,
+                         text=True, timeout=60)
+    assert run.returncode == 1 and run.stdout == ""
+    assert "rhs failed with status 3, EOMC_NONFINITE (a non-finite value appeared), in the step from t=0" \
+        in run.stderr
+    assert "Sanitizer" not in run.stderr and "leak" not in run.stderr
