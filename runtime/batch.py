@@ -88,11 +88,14 @@ class _Progress:
 
 
 def _prepare_case(model, i, n, x0, t_span, p, kw):
-    """prepare() for case i; a bad value's ValueError says which case (like a failed run does)."""
+    """prepare() for case i; a bad value's ValueError says which case (like a failed run does).
+
+    Errors about the model itself (a ModelError, e.g. built without rhs) concern every case and
+    pass through unchanged."""
     try:
         return prepare(model, x0, t_span, p=p, **kw)
     except ValueError as exc:
-        if n == 1:
+        if n == 1 or type(exc) is not ValueError:
             raise
         raise ValueError(f"case {i} of {n}: {exc}") from None
 
