@@ -58,7 +58,7 @@ def main(argv=None):
     sub = argparse.ArgumentParser(prog=f"eomc {name}", description=help_text)
     module.configure(sub)
     args = sub.parse_args(rest)
-    previous_format = _plain_warnings(name)
+    previous_show = _plain_warnings(name)
     previous = _terminate_as_interrupt()
     try:
         return int(module.run(args) or 0)
@@ -78,7 +78,7 @@ def main(argv=None):
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 141
     finally:
-        warnings.formatwarning = previous_format
+        warnings.showwarning = previous_show
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)
 
@@ -100,12 +100,16 @@ def _terminate_as_interrupt():
 
 def _plain_warnings(name):
     """eomc's own warnings as one line, like its errors: `eomc build: warning: ...`.
-    Returns the formatter it replaced (main() puts it back)."""
-    default = warnings.formatwarning
 
-    def formatwarning(message, category, filename, lineno, line=None):
+    Replaces ``warnings.showwarning`` (not only the formatter, so the line is printed even where
+    warnings are being recorded, as under pytest) and returns what it replaced: main() puts it
+    back, so callers of main() in the same process see their own warnings unchanged."""
+    shown = warnings.showwarning
+
+    def show(message, category, filename, lineno, file=None, line=None):
         if issubclass(category, EomcWarning):
-            return f"eomc {name}: warning: {message}\n"
-        return default(message, category, filename, lineno, line)
-    warnings.formatwarning = formatwarning
-    return default
+            print(f"eomc {name}: warning: {message}", file=file or sys.stderr)
+        else:
+            shown(message, category, filename, lineno, file, line)
+    warnings.showwarning = show
+    return shown
