@@ -31,7 +31,7 @@ def _eomc_version():
         return "0+unknown"
 
 
-def _select(functions, ninput, noutput, ncon):
+def _select(functions, ninput, noutput, ncon, nevent=0):
     """Requested functions that apply to this model, in canonical order."""
     wanted = set(ALL_FUNCTIONS if functions is None else
                  (_ALIASES.get(f, f) for f in functions))
@@ -42,7 +42,7 @@ def _select(functions, ninput, noutput, ncon):
     if "linearize" in wanted:
         wanted |= {"jac_x", "jac_r"}
     absent = {"jac_r": ninput == 0, "outputs": noutput == 0,
-              "constraints": ncon == 0, "constraints_jac": ncon == 0}
+              "constraints": ncon == 0, "constraints_jac": ncon == 0, "events": nevent == 0}
     return tuple(f for f in ALL_FUNCTIONS if f in wanted and not absent.get(f, False))
 
 
@@ -67,6 +67,7 @@ def _body(fn, ctx, prog, sym, layout, nx, functions):
     if fn == "linearize":
         return linearize_body(ctx, "jac_r" in functions)
     shapes = {"outputs": ("out", (len(sym.output_names),), "out"),
+              "events": ("ev", (len(sym.event_names),), "out"),
               "constraints": ("con", (sym.nhol + sym.nvel,), "out"),
               "constraints_jac": ("dcon", (sym.nhol + sym.nvel, nx), "out")}
     group, shape, out = shapes[fn]
@@ -158,13 +159,13 @@ class Lowered:
 
 
 def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions=None,
-          fold_parameters=False):
+          fold_parameters=False, events=None):
     """FormedSystem -> :class:`Lowered` (the IR the C printer and ``--print-ir`` read)."""
     check_identifier(name)
     layout = make_layout(formed, parameters, inputs, fold_parameters)
     ncon = len(formed.holonomic_constraints) + len(formed.velocity_constraints)
-    fns = _select(functions, len(layout.r), len(outputs or {}), ncon)
-    sym = build_symbolic(formed, layout, fns, outputs)
+    fns = _select(functions, len(layout.r), len(outputs or {}), ncon, len(events or {}))
+    sym = build_symbolic(formed, layout, fns, outputs, events)
     shared = verify(optimize_shared(sym.program, sym.derivatives))
     programs = {fn: finish_function(shared, FUNCTION_GROUPS[fn]) if FUNCTION_GROUPS[fn] else None
                 for fn in fns}
@@ -183,7 +184,7 @@ def ir_listing(formed, name, **options):
 
 
 def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, functions=None,
-               fold_parameters=False):
+               fold_parameters=False, events=None, event_options=None):
     """Lower ``formed`` (a FormedSystem) to C; returns a :class:`GeneratedModel`.
 
     ``parameters``: {symbol: default} giving order and defaults (others follow, sorted by
@@ -193,10 +194,12 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
     Functions that do not apply (jac_r without inputs, outputs without outputs,
     constraints without constraints) are not generated, and their struct pointer is NULL;
     linearize brings jac_x and jac_r.  ``fold_parameters`` turns parameters into literals.
+    ``events``: {name: expression} compiled into NAME_events (zero crossings for simulate),
+    ``event_options``: their default terminal/direction, kept in the metadata.
     Deterministic: identical input gives byte-identical output.
     """
     low = lower(formed, name, parameters=parameters, inputs=inputs, outputs=outputs,
-                functions=functions, fold_parameters=fold_parameters)
+                functions=functions, fold_parameters=fold_parameters, events=events)
     layout, sym, fns = low.layout, low.symbolic, low.functions
     nq, nu, nx, nw = formed.nq, formed.nu, formed.nq + formed.nu, sym.nw
     solver = (choose_ldlt(name, nw, sym.pattern) if sym.symmetric else
@@ -218,6 +221,10 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
         op_counts["linearize"] = {k: sum(op_counts[f][k] for f in ("jac_x", "jac_r") if f in op_counts)
                                   for k in ("adds", "muls", "divs", "calls")}
     meta = _metadata(name, formed, layout, sym, fns, op_counts)
+    if "events" in fns:
+        by_name = {o["name"]: o for o in (event_options or ())}
+        meta["events"] = [by_name.get(n, {"name": n, "terminal": 0, "direction": 0})
+                          for n in sym.event_names]
     return _render(name, meta, fns, rendered, solver, layout, sym, helper)
 
 

@@ -46,6 +46,7 @@ FUNCTION_GROUPS = {
     "constraints": ("con",),
     "constraints_jac": ("dcon",),
     "linearize": (),
+    "events": ("ev",),
 }
 
 
@@ -63,6 +64,7 @@ class Symbolic:
     nhol: int
     nvel: int
     output_names: tuple
+    event_names: tuple = ()
 
 
 def _is_symmetric(A, seed=0):
@@ -125,7 +127,7 @@ def _dynamics(formed, layout):
     return A, b
 
 
-def build_symbolic(formed, layout, functions, outputs=None):
+def build_symbolic(formed, layout, functions, outputs=None, events=None):
     """The unoptimized program holding the result groups ``functions`` need."""
     groups = {g for f in functions for g in FUNCTION_GROUPS[f]}
     if set(functions) & set(HELPER_USERS):
@@ -174,6 +176,9 @@ def build_symbolic(formed, layout, functions, outputs=None):
     names, outs = _outputs(formed, layout, outputs)
     if "out" in groups:
         res += [(("out", i), e) for i, e in enumerate(outs)]
+    event_names, evs = _outputs(formed, layout, events)
+    if "ev" in groups:
+        res += [(("ev", i), e) for i, e in enumerate(evs)]
     hol = [layout.apply(e, "a holonomic constraint") for e in formed.holonomic_constraints]
     vel = [layout.apply(e, "a velocity constraint") for e in formed.velocity_constraints]
     if "dcon" in groups:
@@ -185,4 +190,4 @@ def build_symbolic(formed, layout, functions, outputs=None):
     program = Program(inputs=inputs, results=tuple(res))
     return Symbolic(program=program, derivatives=tuple(derivatives), nw=nw, row_order=row_order,
                     seeds=seeds, symmetric=symmetric, pattern=pattern, W=W, UD=UD,
-                    nhol=len(hol), nvel=len(vel), output_names=names)
+                    nhol=len(hol), nvel=len(vel), output_names=names, event_names=event_names)

@@ -11,8 +11,8 @@ from pathlib import Path
 from eomc.runtime.errors import EomcError, ModelError, ModelFileError
 
 from .modelfile import assignment_lines, run_model_file
-from .validate import (Invalid, check_initial_state, check_inputs, check_name, check_outputs,
-                       check_parameters, sanitize_name)
+from .validate import (Invalid, check_events, check_initial_state, check_inputs, check_name,
+                       check_outputs, check_parameters, sanitize_name)
 
 __all__ = ["ModelSpec", "model_spec", "formed_system"]
 
@@ -25,6 +25,8 @@ class ModelSpec:
     inputs: list = None                 # dynamic symbols in order, or None
     initial_state: list = None          # values in state order, or None
     outputs: dict = None                # name -> expression, or None
+    events: dict = None                 # name -> event expression, or None
+    event_options: list = None          # [{"name", "terminal", "direction"}] in events' order
     path: Path = None                   # the model file, if any
     system: object = field(default=None, repr=False)
 
@@ -55,9 +57,11 @@ def _checked(values, formed, name, where):
     """Run the validators; ``where(variable)`` turns an Invalid into the right error."""
     try:
         outputs = check_outputs(values.get("outputs"), formed)
+        events, event_options = check_events(values.get("events"), formed)
         return ModelSpec(
-            name=check_name(name), formed=formed,
-            parameters=check_parameters(values.get("parameters"), formed, outputs),
+            name=check_name(name), formed=formed, events=events, event_options=event_options,
+            parameters=check_parameters(values.get("parameters"), formed,
+                                        {**(outputs or {}), **(events or {})}),
             inputs=check_inputs(values.get("inputs"), formed),
             initial_state=check_initial_state(values.get("initial_state"), formed),
             outputs=outputs, system=values.get("system"))
@@ -78,7 +82,8 @@ def _from_file(path, name, overrides):
     except Exception as exc:
         raise ModelFileError(f"forming the equations of `system` failed: {type(exc).__name__}: {exc}",
                              filename, lines.get("system")) from exc
-    values = {k: namespace.get(k) for k in ("system", "parameters", "inputs", "initial_state", "outputs")}
+    values = {k: namespace.get(k) for k in ("system", "parameters", "inputs", "initial_state", "outputs",
+                                            "events")}
     given = {k: v for k, v in overrides.items() if v is not None}
     if isinstance(given.get("parameters"), dict) and isinstance(values["parameters"], dict):
         # parameters= overrides some of the file's defaults; the others keep the file's values
@@ -94,9 +99,11 @@ def _from_file(path, name, overrides):
     return ModelSpec(**{**spec.__dict__, "path": Path(path)})
 
 
-def model_spec(system, name=None, *, parameters=None, inputs=None, initial_state=None, outputs=None):
+def model_spec(system, name=None, *, parameters=None, inputs=None, initial_state=None, outputs=None,
+               events=None):
     """Normalize a model file path or a system object into a ModelSpec (see the module docstring)."""
-    overrides = dict(parameters=parameters, inputs=inputs, initial_state=initial_state, outputs=outputs)
+    overrides = dict(parameters=parameters, inputs=inputs, initial_state=initial_state, outputs=outputs,
+                     events=events)
     if isinstance(system, (str, Path)):
         return _from_file(system, name, overrides)
     formed = formed_system(system)

@@ -79,6 +79,43 @@ def check_outputs(outputs, formed):
     return result
 
 
+def check_events(events, formed):
+    """dict name -> expression, or name -> {"expr": ..., "terminal": ..., "direction": ...}.
+
+    Returns (expressions, options): {name: SymPy expression} and a list of
+    {"name", "terminal", "direction"} in the same order (the simulate defaults).
+    """
+    if events is None:
+        return None, None
+    if not isinstance(events, Mapping):
+        raise Invalid("events", f"`events` must be a dict name -> expression, not {type(events).__name__}")
+    exprs, options = {}, []
+    for name, value in events.items():
+        opts = {}
+        if isinstance(value, Mapping):
+            unknown = set(value) - {"expr", "terminal", "direction"}
+            if "expr" not in value or unknown:
+                raise Invalid("events", f"event `{name}`: a dict value needs \"expr\" and may have "
+                                        f"\"terminal\" and \"direction\""
+                                        + (f" (unknown: {', '.join(sorted(map(str, unknown)))})" if unknown else ""))
+            opts = {k: value[k] for k in ("terminal", "direction") if k in value}
+            value = value["expr"]
+        terminal, direction = opts.get("terminal", 0), opts.get("direction", 0)
+        if isinstance(terminal, bool):
+            terminal = int(terminal)
+        if not isinstance(terminal, numbers.Integral) or terminal < 0:
+            raise Invalid("events", f"event `{name}`: terminal must be True/False or a count >= 0, "
+                                    f"not {terminal!r}")
+        if isinstance(direction, bool) or direction not in (-1, 0, 1):
+            raise Invalid("events", f"event `{name}`: direction must be -1, 0 or +1, not {direction!r}")
+        try:
+            exprs.update(check_outputs({name: value}, formed))
+        except Invalid as exc:
+            raise Invalid("events", str(exc).replace("output", "event")) from None
+        options.append({"name": name, "terminal": int(terminal), "direction": int(direction)})
+    return exprs, options
+
+
 def check_parameters(parameters, formed, outputs=None):
     """dict Symbol (or its name) -> default value; every key must appear in the model, and
     every parameter of the equations of motion needs a key (None: all default to 1.0)."""
@@ -164,7 +201,7 @@ def check_name(name):
 
 
 FUNCTIONS = ("rhs", "jac_x", "jac_r", "mass_matrix", "forcing", "inverse_dynamics", "outputs",
-             "constraints", "constraints_jac", "linearize")
+             "constraints", "constraints_jac", "linearize", "events")
 ALIASES = {"jacobian": ("jac_x",), "input_jacobian": ("jac_r",), "constraints_jacobian": ("constraints_jac",)}
 
 
