@@ -361,6 +361,13 @@ class Model:
             self._fail("linearize", status, t, x)
         return A, B
 
+    def consistent_state(self, x0, t=0.0, p=None, r=None, fixed=None, tol=1e-12, max_iter=50):
+        """x0 completed onto the constraints: dependent coordinates by Newton on the
+        configuration constraints, dependent speeds from the velocity constraints, the
+        others (or the states named in ``fixed``) kept; see eomc.runtime.consistent."""
+        from .consistent import consistent_state
+        return consistent_state(self, x0, t, p, r, fixed=fixed, tol=tol, max_iter=max_iter)
+
     def simulate(self, x0, t_span, **kw):
         """Integrate from x0 over t_span; see eomc.runtime.simulate.simulate."""
         from .simulate import simulate

@@ -295,7 +295,7 @@ def simulate(model, x0, t_span, p=None, r=None, method="dop853", rtol=1e-6, atol
              t_eval=None, dt=None, max_steps=100000, first_step=None, max_step=None,
              project=False, stiff_check=True, n_points=None, baumgarte=0.0,
              pi_beta=PI_BETA, raise_on_failure=True, events=None, max_events=DEFAULT_MAX_EVENTS,
-             K=None, x_ref=None):
+             K=None, x_ref=None, consistent=False):
     """Integrate ``model`` from ``x0`` over ``t_span``; returns a SimulationResult.
 
     x0/p: arrays or {name: value} dicts (missing names -> 0 / defaults).  r: constant
@@ -317,7 +317,15 @@ def simulate(model, x0, t_span, p=None, r=None, method="dop853", rtol=1e-6, atol
     {"terminal": ..., "direction": ...}; False for none.  Crossings are located
     on the dense output; result.t_events / x_events hold them by name and
     result.event_stop names a terminal event that ended the run.
+
+    Constrained models: a start off the constraints by more than max(1e-8, 10 atol)
+    gives a ConstraintWarning saying by how much (unless project=True, which
+    projects the start); consistent=True instead completes the dependent
+    coordinates and speeds first (model.consistent_state, keeping the
+    independent ones).
     """
+    if consistent or (not project and model.nhol + model.nvel):
+        x0 = _checked_start(model, x0, t_span, p, r, atol, consistent)
     a = prepare(model, x0, t_span, p=p, r=r, method=method, rtol=rtol, atol=atol, t_eval=t_eval,
                 dt=dt, max_steps=max_steps, first_step=first_step, max_step=max_step,
                 project=project, stiff_check=stiff_check, n_points=n_points,
@@ -325,6 +333,29 @@ def simulate(model, x0, t_span, p=None, r=None, method="dop853", rtol=1e-6, atol
                 K=K, x_ref=x_ref)
     x_out, stats, x_last = run_prepared(model, a)
     return finish(model, a, x_out, stats, x_last, raise_on_failure)
+
+
+def _checked_start(model, x0, t_span, p, r, atol, consistent):
+    """x0 made consistent (consistent=True) or checked against the constraints (a warning)."""
+    from .consistent import ConstraintWarning, consistent_state, start_residual
+    if model.nhol + model.nvel == 0 or model.c_model.constraints == model.ffi.NULL:
+        return x0
+    t0 = _span(t_span)[0]
+    p_vec = None if p is None else _vector(model, p, model.nparam, model.param_names,
+                                           model.param_defaults, "p (parameters)")
+    r_vec = r if (r is not None and not callable(r) and not isinstance(r, tuple)) else None
+    x = _vector(model, x0, model.nx, model.state_names, np.zeros(model.nx), "x0 (initial state)")
+    if consistent:
+        return consistent_state(model, x, t0, p_vec, r_vec)
+    hol, vel = start_residual(model, t0, x, p_vec, r_vec)
+    limit = max(1e-8, 10 * float(atol))
+    if hol > limit or vel > limit:
+        warnings.warn(f"{model.name}: x0 is off the constraints (configuration residual {hol:.3g}, "
+                      f"velocity residual {vel:.3g}; tolerance {limit:.3g}): the run would follow "
+                      f"the wrong motion. Pass consistent=True (or x0=model.consistent_state(x0)) to "
+                      f"complete the dependent coordinates and speeds, or project=True",
+                      ConstraintWarning, stacklevel=3)
+    return x0
 
 
 def finish(model, a, x_out, stats, x_last, raise_on_failure=True):
