@@ -12,7 +12,7 @@ import inspect
 
 import numpy as np
 
-__all__ = ["FeedbackBinding", "callable_arity"]
+__all__ = ["FeedbackBinding", "callable_arity", "applied_inputs"]
 
 
 def callable_arity(model, r):
@@ -29,6 +29,26 @@ def callable_arity(model, r):
         return 2
     raise ValueError(f"{model.name}: an input callable must take (t) or (t, x); "
                      f"{getattr(r, '__name__', r)!r} takes {len(params)} arguments")
+
+
+def applied_inputs(model, a):
+    """r(t, x) exactly as the C integrator applies it for prepared arguments ``a`` (in Python)."""
+    ni = model.ninput
+    fun = a.get("r_fun")
+    two = fun is not None and callable_arity(model, fun) == 2
+    K, ref = _gain(model, a["K"], a.get("x_ref")) if a.get("K") is not None else (None, None)
+
+    def r(t, x):
+        if fun is not None:
+            base = np.asarray(fun(t, np.array(x)) if two else fun(t), dtype=float).ravel()
+        elif a["n_r"] >= 2:
+            base = np.array([np.interp(t, a["r_t"], a["r_v"][:, k]) for k in range(ni)])
+        elif a["n_r"] == 1:
+            base = np.array(a["r_v"][:ni], dtype=float)
+        else:
+            base = np.zeros(ni)
+        return base if K is None else base + K @ (ref - np.asarray(x))
+    return r
 
 
 def _gain(model, K, x_ref):

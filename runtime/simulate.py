@@ -18,7 +18,7 @@ from eomc.runtime.errors import SimulationError
 
 from .integrators_api import METHOD_ALIASES, METHOD_IDS, STATUS_NAMES
 from .events import DEFAULT_MAX_EVENTS, EventsBinding, resolve_events
-from .feedback import FeedbackBinding, callable_arity, check_callable
+from .feedback import FeedbackBinding, applied_inputs, check_callable
 from .names import index_of
 from .result import SimulationResult
 
@@ -388,19 +388,8 @@ def finish(model, a, x_out, stats, x_last, raise_on_failure=True):
 
 def _inputs_along(model, a, t, x):
     """``a`` with the inputs actually applied at each output row (feedback, callable) as a grid."""
-    ni = model.ninput
-    if "r_fun" in a:
-        fun = a["r_fun"]
-        two = callable_arity(model, fun) == 2
-        R = np.array([np.asarray(fun(ti, xi.copy()) if two else fun(ti), dtype=float).ravel()
-                      for ti, xi in zip(t, x)]).reshape(t.size, ni)
-    elif a["n_r"] >= 2:
-        R = np.column_stack([np.interp(t, a["r_t"], a["r_v"][:, i]) for i in range(ni)])
-    else:
-        R = np.tile(a["r_v"][:ni] if a["n_r"] == 1 else np.zeros(ni), (t.size, 1))
-    if "K" in a:
-        fbk = a["_bindings"][0]
-        R = R + (fbk.x_ref[None, :] - x) @ fbk.K.T
+    r = applied_inputs(model, a)
+    R = np.array([r(ti, xi) for ti, xi in zip(t, x)]).reshape(t.size, model.ninput)
     if t.size == 1:
         return {**a, "n_r": 1, "r_t": np.zeros(1), "r_v": np.ascontiguousarray(R[0])}
     return {**a, "n_r": t.size, "r_t": np.ascontiguousarray(t), "r_v": np.ascontiguousarray(R)}

@@ -8,7 +8,8 @@ from eomc.runtime.errors import ModelError
 from ..passes import finish_function, optimize_shared
 from ..ir import count_program, format_program, verify
 from .bodies import (BodyContext, dynamics_helper, helper_jacobian_body, matrix_body, needed_assignments, split_on, jacobian_body,
-                     linearize_body, plain_body, rhs_body, tangent_jacobian_body, void_unused)
+                     linearize_body, plain_body, rhs_body, solved_plain_body, tangent_jacobian_body,
+                     void_unused)
 from .generated import GeneratedModel
 from .layout import check_identifier, make_layout
 from .linsolve import choose_ldlt
@@ -71,6 +72,8 @@ def _body(fn, ctx, prog, sym, layout, nx, functions):
               "constraints": ("con", (sym.nhol + sym.nvel,), "out"),
               "constraints_jac": ("dcon", (sym.nhol + sym.nvel, nx), "out")}
     group, shape, out = shapes[fn]
+    if fn in sym.solve_in:
+        return solved_plain_body(ctx, prog, group, shape, out)
     return plain_body(ctx, prog, group, shape, out)
 
 
@@ -102,12 +105,14 @@ def _tangent_ops(prog, seeds, blocks):
     return c
 
 
-def _ops(fn, prog, solver, nx, nr, seeds=(), helper=None, nu=0, nnz=0):
+def _ops(fn, prog, solver, nx, nr, seeds=(), helper=None, nu=0, nnz=0, solve_in=()):
     c = count_program(prog) if prog is not None else Counter()
     if fn == "linearize":
         return None
-    if fn in HELPER_USERS:
+    if fn in HELPER_USERS or fn in solve_in:
         c += count_program(helper)
+    if fn in solve_in:
+        c += solver.factor_ops + solver.solve_ops
     if fn == "inverse_dynamics":
         c += Counter(muls=nnz, adds=nnz)
     if fn == "jac_x" and _tangent(prog):
@@ -169,7 +174,8 @@ def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions
     shared = verify(optimize_shared(sym.program, sym.derivatives))
     programs = {fn: finish_function(shared, FUNCTION_GROUPS[fn]) if FUNCTION_GROUPS[fn] else None
                 for fn in fns}
-    helper = (finish_function(shared, ("A", "b")) if set(fns) & set(HELPER_USERS) else None)
+    helper = (finish_function(shared, ("A", "b")) if set(fns) & set(HELPER_USERS) or sym.solve_in
+              else None)
     return Lowered(name, layout, sym, fns, programs, helper)
 
 
@@ -216,7 +222,7 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
         lines = _body(fn, ctx, prog, sym, layout, nx, fns)
         rendered.append({"prototype": prototype(name, fn), "body": void_unused(fn, lines)})
         op_counts[fn] = _ops(fn, prog, solver, nx, len(layout.r), sym.seeds, low.helper, nu,
-                             sum(1 for i, j in sym.pattern if i < nu and j < nu))
+                             sum(1 for i, j in sym.pattern if i < nu and j < nu), sym.solve_in)
     if "linearize" in op_counts:
         op_counts["linearize"] = {k: sum(op_counts[f][k] for f in ("jac_x", "jac_r") if f in op_counts)
                                   for k in ("adds", "muls", "divs", "calls")}
@@ -245,7 +251,7 @@ def _metadata(name, formed, layout, sym, fns, op_counts):
 def _render(name, meta, fns, rendered, solver, layout, sym, helper):
     tables, table_refs = _tables(name, layout, sym.output_names)
     pointers = [f"{name}_{f}" if f in fns else "NULL" for f in STRUCT_FIELDS]
-    uses_solver = any(f in fns for f in _SOLVING)
+    uses_solver = any(f in fns for f in _SOLVING) or bool(sym.solve_in)
     env = _environment()
     common = {k: meta[k] for k in ("nq", "nu", "nx", "nparam", "ninput", "noutput", "nhol",
                                    "nvel", "work_size", "eomc_version")}

@@ -60,7 +60,7 @@ def check_outputs(outputs, formed):
         return None
     if not isinstance(outputs, Mapping):
         raise Invalid("outputs", f"`outputs` must be a dict name -> expression, not {type(outputs).__name__}")
-    allowed = set(_states(formed)) | set(formed.inputs)
+    allowed = set(_states(formed)) | set(formed.inputs) | set(formed.multipliers)
     result = {}
     for name, expr in outputs.items():
         if not isinstance(name, str) or not _IDENT.match(name) or keyword.iskeyword(name):
