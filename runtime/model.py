@@ -361,6 +361,12 @@ class Model:
             self._fail("linearize", status, t, x)
         return A, B
 
+    def linearize_reduced(self, t, x, p=None, r=None, fixed=None):
+        """(A, B, states, basis): linearization over the independent states only (the dependent
+        ones eliminated through the constraint Jacobian); see eomc.runtime.reduced."""
+        from .reduced import linearize_reduced
+        return linearize_reduced(self, t, x, p, r, fixed=fixed)
+
     def consistent_state(self, x0, t=0.0, p=None, r=None, fixed=None, tol=1e-12, max_iter=50):
         """x0 completed onto the constraints: dependent coordinates by Newton on the
         configuration constraints, dependent speeds from the velocity constraints, the
