@@ -238,7 +238,10 @@ def bind_call(model, a, out=None):
     ev = EventsBinding(model, *a["events"], max_events=a["max_events"]) if "events" in a else None
     a["_bindings"] = (fb, ev)       # finish() reads the events and any callable's exception
     extras = (fb.struct if fb else ffi.NULL, ev.struct if ev else ffi.NULL)
-    return (lambda: lib.eomc_integrate_ex(*head, *extras, *tail)), x_out, x_last, stats
+
+    def call(bindings=(fb, ev)):      # the call keeps the buffers its structs point to alive
+        return lib.eomc_integrate_ex(*head, *extras, *tail)
+    return call, x_out, x_last, stats
 
 
 _STAT_FIELDS = ("steps", "accepted", "rejected", "nfev", "njev", "nlu", "nproj", "status", "n_out",
@@ -320,11 +323,11 @@ def simulate(model, x0, t_span, p=None, r=None, method="dop853", rtol=1e-6, atol
 
     Constrained models: a start off the constraints by more than max(1e-8, 10 atol)
     gives a ConstraintWarning saying by how much (unless project=True, which
-    projects the start); consistent=True instead completes the dependent
+    projects the start, or baumgarte > 0, which pulls it back); consistent=True instead completes the dependent
     coordinates and speeds first (model.consistent_state, keeping the
     independent ones).
     """
-    if consistent or (not project and model.nhol + model.nvel):
+    if consistent or (not project and not baumgarte and model.nhol + model.nvel):
         x0 = _checked_start(model, x0, t_span, p, r, atol, consistent)
     a = prepare(model, x0, t_span, p=p, r=r, method=method, rtol=rtol, atol=atol, t_eval=t_eval,
                 dt=dt, max_steps=max_steps, first_step=first_step, max_step=max_step,
@@ -337,17 +340,21 @@ def simulate(model, x0, t_span, p=None, r=None, method="dop853", rtol=1e-6, atol
 
 def _checked_start(model, x0, t_span, p, r, atol, consistent):
     """x0 made consistent (consistent=True) or checked against the constraints (a warning)."""
-    from .consistent import ConstraintWarning, consistent_state, start_residual
+    from .consistent import ConstraintWarning, consistent_state
     if model.nhol + model.nvel == 0 or model.c_model.constraints == model.ffi.NULL:
         return x0
     t0 = _span(t_span)[0]
-    p_vec = None if p is None else _vector(model, p, model.nparam, model.param_names,
-                                           model.param_defaults, "p (parameters)")
-    r_vec = r if (r is not None and not callable(r) and not isinstance(r, tuple)) else None
+    p_vec = _vector(model, model.param_defaults if p is None else p, model.nparam,
+                    model.param_names, model.param_defaults, "p (parameters)")
     x = _vector(model, x0, model.nx, model.state_names, np.zeros(model.nx), "x0 (initial state)")
     if consistent:
+        r_vec = r if (r is not None and not callable(r) and not isinstance(r, tuple)) else None
         return consistent_state(model, x, t0, p_vec, r_vec)
-    hol, vel = start_residual(model, t0, x, p_vec, r_vec)
+    n_r, r_t, r_v = _inputs(model, r, t0, t0 + 1.0)    # residuals through C, as finish() computes them
+    g = np.abs(_along(model, dict(p=np.append(p_vec, 0.0), n_r=n_r, r_t=r_t, r_v=r_v), 1,
+                      np.array([t0]), x[None, :])[0])
+    hol = float(g[:model.nhol].max()) if model.nhol else 0.0
+    vel = float(g[model.nhol:].max()) if model.nvel else 0.0
     limit = max(1e-8, 10 * float(atol))
     if hol > limit or vel > limit:
         warnings.warn(f"{model.name}: x0 is off the constraints (configuration residual {hol:.3g}, "
