@@ -84,3 +84,15 @@ def test_bad_feedback_and_callables_are_clear_errors(cart):
         return [0.0]
     with pytest.raises(RuntimeError, match="controller broke"):
         cart.simulate(up, (0, 1), r=fails_later)
+
+
+def test_cartpole_lqr_example(tmp_path):
+    """examples/cartpole_lqr.py: LQR from linearize holds it upright; uncontrolled, it falls."""
+    from pathlib import Path
+    example = Path(__file__).resolve().parents[2] / "examples" / "cartpole_lqr.py"
+    model = eomc.compile(str(example), cache_dir=tmp_path, progress=False)
+    K, up = _lqr(model)
+    res = model.simulate(model.initial_state, (0, 10), K=K, x_ref=up, rtol=1e-9, atol=1e-9)
+    assert res.event_stop is None and abs(res.x_final[1] - np.pi) < 1e-3
+    free = model.simulate(model.initial_state, (0, 10), rtol=1e-9, atol=1e-9)
+    assert free.event_stop == "fallen" and np.cos(free.x_final[1]) == pytest.approx(0, abs=1e-12)
