@@ -72,3 +72,29 @@ def test_output_with_unknown_multiplier_is_refused(cache):
     with pytest.raises(eomc.runtime.errors.ModelError, match="lam7"):
         eomc.compile(lm, "free", parameters={m: 1.0}, cache_dir=cache, progress=False,
                      outputs={"bad": dynamicsymbols("lam7")})
+
+
+def test_rolling_disc_contact_forces_from_auxiliary_equations_with_udot(cache):
+    """Kane's auxiliary equations solved for the contact force with u' left symbolic (a small
+    linear solve) compile to outputs that read the solved u'; SymPy's closed form (u' substituted
+    symbolically first, as examples/rolling_disc.py does) is the oracle at random states."""
+    import eomc.mechanics as me
+    from helpers import zoo
+    km, _ = zoo.rolling_disc_aux(me)
+    f = sm.symbols("f1:4")
+    r, m, g = sm.symbols("r m g")
+    values = {r: 0.5, m: 1.3, g: 9.81}
+    forces = sm.solve(list(km.auxiliary_eqs), f, dict=True)[0]
+    model = eomc.compile(km, "disc_aux", parameters=values, cache_dir=cache, progress=False,
+                         outputs={f"f{i + 1}": forces[s] for i, s in enumerate(f)})
+    udot = dict(zip([ui.diff() for ui in km.u], km.mass_matrix.LUsolve(km.forcing)))
+    closed = sm.solve(list(km.auxiliary_eqs.xreplace(udot)), f, dict=True)[0]
+    states = list(km.q) + list(km.u)
+    oracle = sm.lambdify(states, [closed[s].xreplace(values) for s in f])
+    rng = np.random.default_rng(3)
+    for _ in range(5):
+        x = rng.uniform(-1, 1, size=6)
+        x[1] = rng.uniform(-0.8, 0.8)              # lean away from lying flat
+        got = model.outputs(0.0, x)
+        np.testing.assert_allclose([got["f1"], got["f2"], got["f3"]], oracle(*x), rtol=1e-10,
+                                   atol=1e-10)
