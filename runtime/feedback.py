@@ -12,7 +12,7 @@ import inspect
 
 import numpy as np
 
-__all__ = ["FeedbackBinding", "callable_arity", "applied_inputs"]
+__all__ = ["FeedbackBinding", "callable_arity", "applied_inputs", "cubic_slopes"]
 
 
 def callable_arity(model, r):
@@ -31,16 +31,37 @@ def callable_arity(model, r):
                      f"{getattr(r, '__name__', r)!r} takes {len(params)} arguments")
 
 
+def cubic_slopes(model, t_grid, values, kind):
+    """dr/dt at the grid times of scipy's not-a-knot CubicSpline (C then evaluates the
+    piecewise cubic Hermite with them: the same spline); kind "linear" gives None."""
+    if kind == "linear":
+        return None
+    if kind != "cubic":
+        raise ValueError(f"{model.name}: r=(t_grid, values, kind) takes kind 'linear' or 'cubic'; "
+                         f"got {kind!r}")
+    from scipy.interpolate import CubicSpline
+    t = np.asarray(t_grid, dtype=np.float64)
+    v = np.asarray(values, dtype=np.float64).reshape(t.size, model.ninput)
+    if t.size < 4:
+        raise ValueError(f"{model.name}: a cubic input table needs at least 4 times; got {t.size}")
+    return np.ascontiguousarray(CubicSpline(t, v, axis=0)(t, 1))
+
+
 def applied_inputs(model, a):
     """r(t, x) exactly as the C integrator applies it for prepared arguments ``a`` (in Python)."""
     ni = model.ninput
     fun = a.get("r_fun")
     two = fun is not None and callable_arity(model, fun) == 2
     K, ref = _gain(model, a["K"], a.get("x_ref")) if a.get("K") is not None else (None, None)
+    if a.get("r_slopes") is not None:
+        from scipy.interpolate import CubicHermiteSpline
+        spline = CubicHermiteSpline(a["r_t"], a["r_v"], a["r_slopes"], axis=0)
 
     def r(t, x):
         if fun is not None:
             base = np.asarray(fun(t, np.array(x)) if two else fun(t), dtype=float).ravel()
+        elif a["n_r"] >= 2 and a.get("r_slopes") is not None:
+            base = spline(min(max(t, a["r_t"][0]), a["r_t"][-1]))
         elif a["n_r"] >= 2:
             base = np.array([np.interp(t, a["r_t"], a["r_v"][:, k]) for k in range(ni)])
         elif a["n_r"] == 1:
@@ -92,11 +113,15 @@ def check_callable(model, r, t0, x0):
 class FeedbackBinding:
     """The C ``eomc_feedback`` struct for one run (gain, reference, callback)."""
 
-    def __init__(self, model, K=None, x_ref=None, fun=None):
+    def __init__(self, model, K=None, x_ref=None, fun=None, slopes=None):
         ffi = model.ffi
         self.error = None
         fb = self.struct = ffi.new("eomc_feedback *")
         self._keep = []
+        if slopes is not None:
+            self.slopes = np.ascontiguousarray(slopes, dtype=np.float64)
+            fb.r_slopes = ffi.from_buffer("double[]", self.slopes)
+            self._keep.append(fb.r_slopes)
         if K is not None:
             self.K, self.x_ref = _gain(model, K, x_ref)
             fb.K = ffi.from_buffer("double[]", self.K)

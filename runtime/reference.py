@@ -122,7 +122,7 @@ def _scipy_check(model, a, t_eval, method, tol):
     """solve_ivp (DOP853, or Radau with the model's Jacobian) on model.rhs: an independent code."""
     from scipy.integrate import solve_ivp
     p, r_of_t = a["p"][:-1], _input_function(a, model.ninput)
-    if "r_fun" in a or "K" in a:      # inputs that depend on x, or a callable: as C applies them
+    if "r_fun" in a or "K" in a or "r_slopes" in a:      # inputs that depend on x, or a callable: as C applies them
         from .feedback import applied_inputs
         r_of_tx = applied_inputs(model, a)
 

@@ -18,7 +18,7 @@ from eomc.runtime.errors import SimulationError
 
 from .integrators_api import METHOD_ALIASES, METHOD_IDS, STATUS_NAMES
 from .events import DEFAULT_MAX_EVENTS, EventsBinding, resolve_events
-from .feedback import FeedbackBinding, applied_inputs, check_callable
+from .feedback import FeedbackBinding, applied_inputs, check_callable, cubic_slopes
 from .names import index_of
 from .result import SimulationResult
 
@@ -100,7 +100,7 @@ def _inputs(model, r, t0, t1):
     if callable(r):
         # evaluated at every stage through a callback (feedback.py), never resampled
         return 0, np.zeros(1), np.zeros(max(ni, 1))
-    if isinstance(r, tuple) and len(r) == 2:
+    if isinstance(r, tuple) and len(r) in (2, 3):
         return _grid(model, r[0], r[1])
     values = _vector(model, r, ni, model.input_names, np.zeros(ni), "r (inputs)")
     return 1, np.zeros(1), values
@@ -195,6 +195,8 @@ def _extras(model, x0, t0, r, events, max_events, K, x_ref, method):
     if callable(r):
         check_callable(model, r, t0, x0)
         out["r_fun"] = r
+    if isinstance(r, tuple) and len(r) == 3 and cubic_slopes(model, *r) is not None:
+        out["r_slopes"] = cubic_slopes(model, *r)
     if K is not None or x_ref is not None:
         if model.ninput == 0:
             raise ValueError(f"{model.name}: this model has no inputs, so it takes no feedback K")
@@ -225,7 +227,7 @@ def bind_call(model, a, out=None):
     n_eval = a["t_eval"].size
     x_out = np.full((n_eval, model.nx), np.nan) if out is None else out
     x_last = np.empty(model.nx)
-    feedback = "r_fun" in a or "K" in a
+    feedback = "r_fun" in a or "K" in a or "r_slopes" in a
     work = np.empty(lib.eomc_integrate_work_size(model.c_model, METHOD_IDS[a["method"]])
                     + (model.ninput * model.nx if feedback else 0))
     stats = ffi.new("eomc_stats *")
@@ -234,7 +236,8 @@ def bind_call(model, a, out=None):
     tail = (n_eval, buf(a["t_eval"]), buf(x_out), buf(x_last), stats, buf(work), work.size)
     if not feedback and "events" not in a:
         return (lambda: lib.eomc_integrate(*head, *tail)), x_out, x_last, stats
-    fb = FeedbackBinding(model, a.get("K"), a.get("x_ref"), a.get("r_fun")) if feedback else None
+    fb = (FeedbackBinding(model, a.get("K"), a.get("x_ref"), a.get("r_fun"), a.get("r_slopes"))
+          if feedback else None)
     ev = EventsBinding(model, *a["events"], max_events=a["max_events"]) if "events" in a else None
     a["_bindings"] = (fb, ev)       # finish() reads the events and any callable's exception
     extras = (fb.struct if fb else ffi.NULL, ev.struct if ev else ffi.NULL)
@@ -302,8 +305,8 @@ def simulate(model, x0, t_span, p=None, r=None, method="dop853", rtol=1e-6, atol
     """Integrate ``model`` from ``x0`` over ``t_span``; returns a SimulationResult.
 
     x0/p: arrays or {name: value} dicts (missing names -> 0 / defaults).  r: constant
-    array, (t_grid, values) interpolated linearly in C, or callable r(t) sampled on
-    1001 points.  method: rk4 (needs dt), dopri5/rk45, dop853, radau.  Output at
+    array, (t_grid, values) interpolated linearly in C, (t_grid, values, "cubic") by a
+    cubic spline (not-a-knot, scipy's CubicSpline) in C, or a callable (see below).  method: rk4 (needs dt), dopri5/rk45, dop853, radau.  Output at
     t_eval (dense output) or, by default, on n_points (1001) equally spaced times
     (rk4: its step grid).  project=True projects onto the model's constraints
     after each step; baumgarte=a > 0 instead adds -a G^+ g to the rhs, so

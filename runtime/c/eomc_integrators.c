@@ -251,8 +251,18 @@ static void grid_inputs_at(ctx *c, double t)
         if (c->rt[mid] <= t) lo = mid; else hi = mid;
     }
     {
-        double w = (t - c->rt[lo]) / (c->rt[hi] - c->rt[lo]);
+        double h = c->rt[hi] - c->rt[lo], w = (t - c->rt[lo]) / h;
         const double *a = c->rv + (size_t)lo * ni, *b = c->rv + (size_t)hi * ni;
+        const double *sl = c->fb ? c->fb->r_slopes : NULL;
+        if (sl) {           /* cubic Hermite on [lo, hi] with the given slopes */
+            const double *ma = sl + (size_t)lo * ni, *mb = sl + (size_t)hi * ni;
+            double v = 1.0 - w;
+            double h00 = (1 + 2 * w) * v * v, h10 = w * v * v, h01 = w * w * (3 - 2 * w),
+                   h11 = -w * w * v;
+            for (int i = 0; i < ni; i++)
+                c->r[i] = h00 * a[i] + h10 * h * ma[i] + h01 * b[i] + h11 * h * mb[i];
+            return;
+        }
         for (int i = 0; i < ni; i++)
             c->r[i] = (1.0 - w) * a[i] + w * b[i];
     }

@@ -94,6 +94,9 @@ int eomc_integrate(const eomc_model *m, const eomc_options *opt,
  * return stops the run with that status).  K: ninput x nx row-major (NULL: no
  * linear feedback), x_ref: nx (NULL: zeros).  Radau's Jacobian includes
  * -jac_r K (it needs jac_r); a callback's dependence on x is not included.
+ * r_slopes (n_rgrid x ninput, or NULL): dr/dt at the grid times, making the
+ * grid a piecewise cubic Hermite interpolant (a cubic spline when the slopes
+ * are a spline's) instead of a linear one; still held constant outside.
  */
 typedef int (*eomc_input_fn)(void *user, double t, const double *x, double *r);
 
@@ -102,6 +105,7 @@ typedef struct eomc_feedback {
     const double *x_ref;
     eomc_input_fn fn;
     void *user;
+    const double *r_slopes;
 } eomc_feedback;
 
 /*

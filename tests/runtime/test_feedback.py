@@ -96,3 +96,21 @@ def test_cartpole_lqr_example(tmp_path):
     assert res.event_stop is None and abs(res.x_final[1] - np.pi) < 1e-3
     free = model.simulate(model.initial_state, (0, 10), rtol=1e-9, atol=1e-9)
     assert free.event_stop == "fallen" and np.cos(free.x_final[1]) == pytest.approx(0, abs=1e-12)
+
+
+def test_cubic_input_table_is_the_spline(cart):
+    """r=(t, values, "cubic"): scipy's not-a-knot CubicSpline evaluated in C (Hermite form)."""
+    from scipy.interpolate import CubicSpline
+    grid = np.linspace(0, 3, 31)                       # 10 points per second of sin(3 t)
+    spline = CubicSpline(grid, np.sin(3 * grid))
+    x0 = cart.initial_state
+    ref = solve_ivp(lambda s, x: model_files.cart_rhs(x, F=float(spline(s))), (0, 3), x0,
+                    method="DOP853", rtol=1e-12, atol=1e-12)
+    cubic = cart.simulate(x0, (0, 3), r=(grid, np.sin(3 * grid), "cubic"), rtol=1e-11, atol=1e-11,
+                          n_points=7)
+    linear = cart.simulate(x0, (0, 3), r=(grid, np.sin(3 * grid)), rtol=1e-11, atol=1e-11,
+                           n_points=7)
+    assert np.max(np.abs(cubic.x_final - ref.y[:, -1])) < 1e-8
+    assert np.max(np.abs(linear.x_final - ref.y[:, -1])) > 1e-5      # linear is another input
+    with pytest.raises(ValueError, match="kind 'linear' or 'cubic'"):
+        cart.simulate(x0, (0, 3), r=(grid, np.sin(3 * grid), "quadratic"))
