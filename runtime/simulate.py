@@ -195,8 +195,9 @@ def _extras(model, x0, t0, r, events, max_events, K, x_ref, method):
     if callable(r):
         check_callable(model, r, t0, x0)
         out["r_fun"] = r
-    if isinstance(r, tuple) and len(r) == 3 and cubic_slopes(model, *r) is not None:
-        out["r_slopes"] = cubic_slopes(model, *r)
+    slopes = cubic_slopes(model, *r) if isinstance(r, tuple) and len(r) == 3 else None
+    if slopes is not None:
+        out["r_slopes"] = slopes
     if K is not None or x_ref is not None:
         if model.ninput == 0:
             raise ValueError(f"{model.name}: this model has no inputs, so it takes no feedback K")
@@ -306,7 +307,8 @@ def simulate(model, x0, t_span, p=None, r=None, method="dop853", rtol=1e-6, atol
 
     x0/p: arrays or {name: value} dicts (missing names -> 0 / defaults).  r: constant
     array, (t_grid, values) interpolated linearly in C, (t_grid, values, "cubic") by a
-    cubic spline (not-a-knot, scipy's CubicSpline) in C, or a callable (see below).  method: rk4 (needs dt), dopri5/rk45, dop853, radau.  Output at
+    cubic spline (not-a-knot, scipy's CubicSpline) in C, or a callable (see below).
+    method: rk4 (needs dt), dopri5/rk45, dop853, radau.  Output at
     t_eval (dense output) or, by default, on n_points (1001) equally spaced times
     (rk4: its step grid).  project=True projects onto the model's constraints
     after each step; baumgarte=a > 0 instead adds -a G^+ g to the rhs, so
