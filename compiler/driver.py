@@ -72,7 +72,7 @@ class Progress:
 
 
 def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, functions=None,
-             fold_parameters=False, progress=None, cache_dir=None, use_cache=True):
+             fold_parameters=False, progress=None, cache_dir=None, use_cache=True, events=None):
     """Derive and generate C without compiling: returns (ModelSpec, GeneratedModel).
 
     With ``use_cache`` the C comes from the generation cache when the formed
@@ -85,10 +85,12 @@ def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, f
     except Invalid as exc:
         raise ModelError(str(exc)) from None
     with progress.stage("derive"):
-        spec = model_spec(system, name, parameters=parameters, inputs=inputs, outputs=outputs)
+        spec = model_spec(system, name, parameters=parameters, inputs=inputs, outputs=outputs,
+                          events=events)
     def run_generator():
         return generate_c(spec.formed, spec.name, parameters=spec.parameters, inputs=spec.inputs,
-                          outputs=spec.outputs, functions=functions, fold_parameters=fold_parameters)
+                          outputs=spec.outputs, functions=functions, fold_parameters=fold_parameters,
+                          events=spec.events, event_options=spec.event_options)
     with progress.stage("generate"), reporting(progress.pass_done):
         if use_cache:
             generated, _ = cached_generate(spec, functions, fold_parameters, run_generator,
@@ -100,7 +102,7 @@ def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, f
 
 def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, functions=None,
             fold_parameters=False, backend="cffi", cflags=None, cache_dir=None, output_dir=None,
-            progress=None):
+            progress=None, events=None):
     """Compile a model file (path) or a formed system into a loaded :class:`eomc.runtime.model.Model`.
 
     Progress (stage timings on stderr) defaults to on when stderr is a terminal.
@@ -108,7 +110,7 @@ def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, fu
     progress = Progress(progress)
     spec, generated = generate(system, name, parameters=parameters, inputs=inputs, outputs=outputs,
                                functions=functions, fold_parameters=fold_parameters, progress=progress,
-                               cache_dir=cache_dir)
+                               cache_dir=cache_dir, events=events)
     extra = {"initial_state": spec.initial_state} if spec.initial_state is not None else None
     source = system if isinstance(system, (str, os.PathLike)) else None
     return build_and_load(generated, backend=backend, cflags=cflags, cache_dir=cache_dir,

@@ -155,6 +155,9 @@ initial_state = {psi: 0.0, phi: 0.0, delta: 0.0, theta: 0.0,
                  u2: 0.5, u4: 0.0, u5: -_speed / parameters[rR]}
 initial_state.update(consistent_speeds(initial_state))
 
+# The bicycle has fallen when the lean passes 45 degrees either way: the run stops there.
+events = {"fallen": {"expr": phi**2 - (sm.pi / 4)**2, "terminal": True, "direction": 1}}
+
 _height = -sum((b.masscenter.pos_from(P).dot(A.z) * b.mass for b in bodies), sm.S.Zero)
 outputs = {
     "energy": sum((b.kinetic_energy(N) for b in bodies), sm.S.Zero) + g * _height,

@@ -20,6 +20,7 @@ import numpy as np
 from eomc.runtime.errors import ModelError, SimulationError
 
 from .cdef import STATUS_NAMES
+from .metadata import EXPORTED_FUNCTIONS, STRUCT_FUNCTIONS
 from .names import index_of, model_name
 
 try:  # built once with eomc (setup.py); a source tree without it uses the cffi fast path
@@ -31,9 +32,6 @@ __all__ = ["Model"]
 
 _F64 = np.dtype(np.float64)
 
-_STRUCT_FUNCTIONS = ("rhs", "jac_x", "jac_r", "mass_matrix", "forcing", "outputs",
-                     "constraints", "constraints_jac")
-_EXPORTED_FUNCTIONS = ("inverse_dynamics", "linearize")
 _FAST_METHODS = {"rhs": "rhs", "jacobian": "jac_x", "mass_matrix": "mass_matrix", "forcing": "forcing"}
 # _fastcall releases the GIL only around a C function of at least this many operations
 # (metadata op_counts): releasing and re-taking it costs ~0.1-0.2 us, a quarter of a small
@@ -57,7 +55,7 @@ def _cffi_backend(ffi, lib, model_lib, c_model, name, functions):
         return lambda t, x, p, r, out, work: fp(t, frombuf("double[]", x), p, r, prepare(out), work)
 
     kernels = {}
-    for fn in _STRUCT_FUNCTIONS:
+    for fn in STRUCT_FUNCTIONS:
         fp = getattr(c_model, fn)
         if fp != null:
             kernels[fn] = vector_kernel(fp)
@@ -106,7 +104,7 @@ def _linearize_kernel(fp, ptr):
 
 def _extension_backend(module):
     """(prepare, kernels) of a Cython extension: it takes the arrays themselves."""
-    names = _STRUCT_FUNCTIONS + _EXPORTED_FUNCTIONS + ("rhs_many",)
+    names = STRUCT_FUNCTIONS + EXPORTED_FUNCTIONS + ("rhs_many",)
     return (lambda a: a), {fn: getattr(module, fn) for fn in names if hasattr(module, fn)}
 
 
@@ -410,6 +408,19 @@ class Model:
         if status:
             self._fail("linearize", status, t, x, inputs=given)
         return A, B
+
+    def linearize_reduced(self, t, x, p=None, r=None, fixed=None):
+        """(A, B, states, basis): linearization over the independent states only (the dependent
+        ones eliminated through the constraint Jacobian); see eomc.runtime.reduced."""
+        from .reduced import linearize_reduced
+        return linearize_reduced(self, t, x, p, r, fixed=fixed)
+
+    def consistent_state(self, x0, t=0.0, p=None, r=None, fixed=None, tol=1e-12, max_iter=50):
+        """x0 completed onto the constraints: dependent coordinates by Newton on the
+        configuration constraints, dependent speeds from the velocity constraints, the
+        others (or the states named in ``fixed``) kept; see eomc.runtime.consistent."""
+        from .consistent import consistent_state
+        return consistent_state(self, x0, t, p, r, fixed=fixed, tol=tol, max_iter=max_iter)
 
     def simulate(self, x0, t_span, **kw):
         """Integrate from x0 over t_span; see eomc.runtime.simulate.simulate."""

@@ -122,7 +122,16 @@ def _scipy_check(model, a, t_eval, method, tol):
     """solve_ivp (DOP853, or Radau with the model's Jacobian) on model.rhs: an independent code."""
     from scipy.integrate import solve_ivp
     p, r_of_t = a["p"][:-1], _input_function(a, model.ninput)
-    if a["n_r"] <= 1:
+    if "r_fun" in a or "K" in a or "r_slopes" in a:      # inputs that depend on x, or a callable: as C applies them
+        from .feedback import applied_inputs
+        r_of_tx = applied_inputs(model, a)
+
+        def fun(t, x):
+            return np.array(model.rhs(t, x, p, r_of_tx(t, x)), dtype=float, copy=True)
+
+        def jac(t, x):
+            return np.array(model.jacobian(t, x, p, r_of_tx(t, x)), dtype=float, copy=True)
+    elif a["n_r"] <= 1:
         fun, jac = scipy_fun(model, p, r_of_t(0.0))
     else:
         def fun(t, x):

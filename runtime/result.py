@@ -34,6 +34,9 @@ class SimulationResult:
     x_final: np.ndarray = None
     t_final: float = None
     nq: int = None          # coordinates come first in x; the plot gives them their own panel
+    t_events: dict = None   # event name -> times of its occurrences (runs with events)
+    x_events: dict = None   # event name -> states there, (k, nx)
+    event_stop: str = None  # the terminal event that ended the run, if one did
 
     @property
     def success(self):

@@ -10,12 +10,15 @@ SimulationResult.  It uses only the runtime Model attributes listed in the
 pipeline interface (ffi, lib, c_model, nx, names, param_defaults, ...).
 """
 import numbers
+import warnings
 
 import numpy as np
 
 from eomc.runtime.errors import SimulationError
 
 from .integrators_api import METHOD_ALIASES, METHOD_IDS, STATUS_NAMES
+from .events import DEFAULT_MAX_EVENTS, EventsBinding, resolve_events
+from .feedback import FeedbackBinding, applied_inputs, check_callable, cubic_slopes
 from .names import index_of
 from .result import SimulationResult
 
@@ -24,7 +27,6 @@ __all__ = ["simulate", "prepare", "run_prepared", "scipy_fun", "resolve_method",
 
 METHODS = tuple(METHOD_IDS)
 DEFAULT_POINTS = 1001      # output rows when neither t_eval nor dt is given
-INPUT_SAMPLES = 1001       # grid on which a callable r(t) is sampled
 # Hairer's stabilized (PI) step control for DOPRI5/DOP853.  On the n-link cart at
 # rtol = atol = 1e-8 it rejects ~4x fewer steps than the classical control
 # (pi_beta=0, scipy's) and needs ~6% fewer rhs calls for a smaller error.
@@ -118,31 +120,12 @@ def _inputs(model, r, t0, t1):
     if ni == 0:
         raise ValueError(f"{model.name}: this model has no inputs, but r was given")
     if callable(r):
-        grid = np.linspace(t0, t1, INPUT_SAMPLES)
-        return _grid(model, grid, np.array([_sample(model, r, t) for t in grid]))
-    if isinstance(r, tuple) and len(r) == 2:
+        # evaluated at every stage through a callback (feedback.py), never resampled
+        return 0, np.zeros(1), np.zeros(max(ni, 1))
+    if isinstance(r, tuple) and len(r) in (2, 3):
         return _grid(model, r[0], r[1])
     values = _vector(model, r, ni, model.input_names, np.zeros(ni), "r (inputs)")
     return 1, np.zeros(1), values
-
-
-def _sample(model, r, t):
-    """r(t) as a float vector of ninput values; ValueError naming t and what came back."""
-    expected = f"r(t) must return {model.ninput} value(s) [{', '.join(model.input_names)}]"
-    try:
-        value = r(t)
-    except Exception as exc:  # the user's function: say where it failed, keep the cause
-        raise ValueError(f"{model.name}: r(t) raised {type(exc).__name__} at t={t:.9g}: {exc}") from exc
-    try:
-        v = np.asarray(value, dtype=np.float64).ravel() if value is not None else None
-    except (TypeError, ValueError, OverflowError):
-        v = None
-    if v is None:
-        raise ValueError(f"{model.name}: {expected}; at t={t:.9g} it returned {type(value).__name__} "
-                         f"{value!r}")
-    if v.size != model.ninput:
-        raise ValueError(f"{model.name}: {expected}; at t={t:.9g} it returned {v.size}")
-    return v
 
 
 def _grid(model, t_grid, values):
@@ -212,7 +195,8 @@ def _t_eval(t_eval, t0, t1, method, dt, n_points, nx=1):
 
 def prepare(model, x0, t_span, p=None, r=None, method="dop853", rtol=1e-6, atol=1e-9,
             t_eval=None, dt=None, max_steps=100000, first_step=None, max_step=None,
-            project=False, stiff_check=True, n_points=None, baumgarte=0.0, pi_beta=PI_BETA):
+            project=False, stiff_check=True, n_points=None, baumgarte=0.0, pi_beta=PI_BETA,
+            events=None, max_events=DEFAULT_MAX_EVENTS, K=None, x_ref=None):
     """Check every argument and return the dict run_prepared() passes to C."""
     method = resolve_method(method)
     t0, t1 = _span(t_span)
@@ -256,10 +240,36 @@ def prepare(model, x0, t_span, p=None, r=None, method="dop853", rtol=1e-6, atol=
     if times.size > 1 and np.any(np.diff(times) <= 0):
         raise ValueError(f"the output times are not distinct near t={t1:.3g}: doubles there are "
                          f"{np.spacing(t1):.3g} apart; shift the time origin or use fewer points")
+    extras = _extras(model, x0, t0, r, events, max_events, K, x_ref, method)
     return dict(method=method, t0=t0, t1=t1, x0=x0, p=np.append(p, 0.0), n_r=n_r, r_t=r_t,
                 r_v=r_v, t_eval=times, rtol=rtol, atol=atol, h0=first_step or 0.0,
                 hmax=max_step or 0.0, max_steps=int(max_steps), project=bool(project),
-                stiff_check=bool(stiff_check), baumgarte=float(baumgarte), pi_beta=float(pi_beta))
+                stiff_check=bool(stiff_check), baumgarte=float(baumgarte), pi_beta=float(pi_beta),
+                **extras)
+
+
+def _extras(model, x0, t0, r, events, max_events, K, x_ref, method):
+    """Checked events (events.py) and state feedback / input callable (feedback.py)."""
+    out = {}
+    resolved = resolve_events(model, events)
+    if resolved is not None:
+        out["events"] = resolved
+        out["max_events"] = max_events
+        EventsBinding(model, *resolved, max_events=max_events)   # checks now, before any C runs
+    if callable(r):
+        check_callable(model, r, t0, x0)
+        out["r_fun"] = r
+    slopes = cubic_slopes(model, *r) if isinstance(r, tuple) and len(r) == 3 else None
+    if slopes is not None:
+        out["r_slopes"] = slopes
+    if K is not None or x_ref is not None:
+        if model.ninput == 0:
+            raise ValueError(f"{model.name}: this model has no inputs, so it takes no feedback K")
+        FeedbackBinding(model, K, x_ref)                        # checks the shapes
+        if method == "radau" and model.c_model.jac_r == model.ffi.NULL:
+            raise ValueError(f"{model.name}: method 'radau' with feedback K needs jac_r")
+        out["K"], out["x_ref"] = K, x_ref
+    return out
 
 
 def _options(ffi, a):
@@ -282,12 +292,24 @@ def bind_call(model, a, out=None):
     n_eval = a["t_eval"].size
     x_out = np.full((n_eval, model.nx), np.nan) if out is None else out
     x_last = np.empty(model.nx)
-    work = np.empty(lib.eomc_integrate_work_size(model.c_model, METHOD_IDS[a["method"]]))
+    feedback = "r_fun" in a or "K" in a or "r_slopes" in a
+    work = np.empty(lib.eomc_integrate_work_size(model.c_model, METHOD_IDS[a["method"]])
+                    + (model.ninput * model.nx if feedback else 0))
     stats = ffi.new("eomc_stats *")
-    args = (model.c_model, _options(ffi, a), a["t0"], a["t1"], buf(a["x0"]), buf(a["p"]), a["n_r"],
-            buf(a["r_t"]), buf(a["r_v"]), n_eval, buf(a["t_eval"]), buf(x_out), buf(x_last),
-            stats, buf(work), work.size)
-    return (lambda: lib.eomc_integrate(*args)), x_out, x_last, stats
+    head = (model.c_model, _options(ffi, a), a["t0"], a["t1"], buf(a["x0"]), buf(a["p"]), a["n_r"],
+            buf(a["r_t"]), buf(a["r_v"]))
+    tail = (n_eval, buf(a["t_eval"]), buf(x_out), buf(x_last), stats, buf(work), work.size)
+    if not feedback and "events" not in a:
+        return (lambda: lib.eomc_integrate(*head, *tail)), x_out, x_last, stats
+    fb = (FeedbackBinding(model, a.get("K"), a.get("x_ref"), a.get("r_fun"), a.get("r_slopes"))
+          if feedback else None)
+    ev = EventsBinding(model, *a["events"], max_events=a["max_events"]) if "events" in a else None
+    a["_bindings"] = (fb, ev)       # finish() reads the events and any callable's exception
+    extras = (fb.struct if fb else ffi.NULL, ev.struct if ev else ffi.NULL)
+
+    def call(bindings=(fb, ev)):      # the call keeps the buffers its structs point to alive
+        return lib.eomc_integrate_ex(*head, *extras, *tail)
+    return call, x_out, x_last, stats
 
 
 _STAT_FIELDS = ("steps", "accepted", "rejected", "nfev", "njev", "nlu", "nproj", "status", "n_out",
@@ -343,12 +365,14 @@ def failure_message(model, method, stats, x_last):
 def simulate(model, x0, t_span, p=None, r=None, method="dop853", rtol=1e-6, atol=1e-9,
              t_eval=None, dt=None, max_steps=100000, first_step=None, max_step=None,
              project=False, stiff_check=True, n_points=None, baumgarte=0.0,
-             pi_beta=PI_BETA, raise_on_failure=True):
+             pi_beta=PI_BETA, raise_on_failure=True, events=None, max_events=DEFAULT_MAX_EVENTS,
+             K=None, x_ref=None, consistent=False):
     """Integrate ``model`` from ``x0`` over ``t_span``; returns a SimulationResult.
 
     x0/p: arrays or {name: value} dicts (missing names -> 0 / defaults).  r: constant
-    array, (t_grid, values) interpolated linearly in C, or callable r(t) sampled on
-    1001 points.  method: rk4 (needs dt), dopri5/rk45, dop853, radau.  Output at
+    array, (t_grid, values) interpolated linearly in C, (t_grid, values, "cubic") by a
+    cubic spline (not-a-knot, scipy's CubicSpline) in C, or a callable (see below).
+    method: rk4 (needs dt), dopri5/rk45, dop853, radau.  Output at
     t_eval (dense output) or, by default, on n_points (1001) equally spaced times
     (rk4: its step grid).  project=True projects onto the model's constraints
     after each step; baumgarte=a > 0 instead adds -a G^+ g to the rhs, so
@@ -356,17 +380,65 @@ def simulate(model, x0, t_span, p=None, r=None, method="dop853", rtol=1e-6, atol
     stabilized step control for dopri5/dop853 (0.04; 0 gives the classical control,
     step for step scipy's).  A failed run raises SimulationError, or with
     raise_on_failure=False returns the rows computed so far with ``status``.
+
+    Inputs and feedback: a callable r(t) or r(t, x) is called from C at every
+    stage (exact, but a Python call per stage: ~µs each); K (ninput x nx) and
+    x_ref add linear state feedback K (x_ref - x) to r, evaluated in C.
+    Events (runtime/events.py): ``events=None`` uses the model's compiled
+    events; else names of events or outputs, Event objects, or a dict name ->
+    {"terminal": ..., "direction": ...}; False for none.  Crossings are located
+    on the dense output; result.t_events / x_events hold them by name and
+    result.event_stop names a terminal event that ended the run.
+
+    Constrained models: a start off the constraints by more than max(1e-8, 10 atol)
+    gives a ConstraintWarning saying by how much (unless project=True, which
+    projects the start, or baumgarte > 0, which pulls it back); consistent=True instead completes the dependent
+    coordinates and speeds first (model.consistent_state, keeping the
+    independent ones).
     """
+    if consistent or (not project and not baumgarte and model.nhol + model.nvel):
+        x0 = _checked_start(model, x0, t_span, p, r, atol, consistent)
     a = prepare(model, x0, t_span, p=p, r=r, method=method, rtol=rtol, atol=atol, t_eval=t_eval,
                 dt=dt, max_steps=max_steps, first_step=first_step, max_step=max_step,
                 project=project, stiff_check=stiff_check, n_points=n_points,
-                baumgarte=baumgarte, pi_beta=pi_beta)
+                baumgarte=baumgarte, pi_beta=pi_beta, events=events, max_events=max_events,
+                K=K, x_ref=x_ref)
     x_out, stats, x_last = run_prepared(model, a)
     return finish(model, a, x_out, stats, x_last, raise_on_failure)
 
 
+def _checked_start(model, x0, t_span, p, r, atol, consistent):
+    """x0 made consistent (consistent=True) or checked against the constraints (a warning)."""
+    from .consistent import ConstraintWarning, consistent_state
+    if model.nhol + model.nvel == 0 or model.c_model.constraints == model.ffi.NULL:
+        return x0
+    t0 = _span(t_span)[0]
+    p_vec = _vector(model, model.param_defaults if p is None else p, model.nparam,
+                    model.param_names, model.param_defaults, "p (parameters)")
+    x = _vector(model, x0, model.nx, model.state_names, np.zeros(model.nx), "x0 (initial state)")
+    if consistent:
+        r_vec = r if (r is not None and not callable(r) and not isinstance(r, tuple)) else None
+        return consistent_state(model, x, t0, p_vec, r_vec)
+    n_r, r_t, r_v = _inputs(model, r, t0, t0 + 1.0)    # residuals through C, as finish() computes them
+    g = np.abs(_along(model, dict(p=np.append(p_vec, 0.0), n_r=n_r, r_t=r_t, r_v=r_v), 1,
+                      np.array([t0]), x[None, :])[0])
+    hol = float(g[:model.nhol].max()) if model.nhol else 0.0
+    vel = float(g[model.nhol:].max()) if model.nvel else 0.0
+    limit = max(1e-8, 10 * float(atol))
+    if hol > limit or vel > limit:
+        warnings.warn(f"{model.name}: x0 is off the constraints (configuration residual {hol:.3g}, "
+                      f"velocity residual {vel:.3g}; tolerance {limit:.3g}): the run would follow "
+                      f"the wrong motion. Pass consistent=True (or x0=model.consistent_state(x0)) to "
+                      f"complete the dependent coordinates and speeds, or project=True",
+                      ConstraintWarning, stacklevel=3)
+    return x0
+
+
 def finish(model, a, x_out, stats, x_last, raise_on_failure=True):
     """Wrap C's arrays in a SimulationResult (or raise on failure)."""
+    fb, ev = a.get("_bindings", (None, None))
+    if fb is not None:
+        fb.raise_error()
     status, n = stats["status"], stats["n_out"]
     message = "ok" if status == 0 else failure_message(model, a["method"], stats, x_last)
     if status == 0:
@@ -374,14 +446,31 @@ def finish(model, a, x_out, stats, x_last, raise_on_failure=True):
     if status and raise_on_failure:
         raise SimulationError(message)
     t, x = a["t_eval"][:n], x_out[:n]
+    if fb is not None and t.size:
+        a = _inputs_along(model, a, t, x)
     outputs = _along(model, a, 0, t, x)
     residual = _along(model, a, 1, t, x)
-    return SimulationResult(
+    result = SimulationResult(
         t=t, x=x, state_names=tuple(model.state_names),
         outputs={} if outputs is None else dict(zip(model.output_names, outputs.T)),
         constraint_residual=None if residual is None else np.max(np.abs(residual), axis=1),
         stats=stats, status=status, message=message, method=a["method"], model_name=model.name,
         x_final=x_last, t_final=stats["t"], nq=model.nq)
+    if ev is not None:
+        result.t_events, result.x_events, result.event_stop, dropped = ev.results()
+        if dropped:
+            warnings.warn(f"{model.name}: {dropped} event occurrence(s) beyond max_events="
+                          f"{a['max_events']} were not stored", RuntimeWarning, stacklevel=3)
+    return result
+
+
+def _inputs_along(model, a, t, x):
+    """``a`` with the inputs actually applied at each output row (feedback, callable) as a grid."""
+    r = applied_inputs(model, a)
+    R = np.array([r(ti, xi) for ti, xi in zip(t, x)]).reshape(t.size, model.ninput)
+    if t.size == 1:
+        return {**a, "n_r": 1, "r_t": np.zeros(1), "r_v": np.ascontiguousarray(R[0])}
+    return {**a, "n_r": t.size, "r_t": np.ascontiguousarray(t), "r_v": np.ascontiguousarray(R)}
 
 
 def scipy_fun(model, p=None, r=None):

@@ -88,6 +88,8 @@ def generation_key(spec, functions, fold_parameters):
         "inputs": None if spec.inputs is None else d(list(spec.inputs)),
         "outputs": None if spec.outputs is None else [[k, d(v)] for k, v in spec.outputs.items()],
         "functions": functions, "fold": bool(fold_parameters),
+        **({} if getattr(spec, "events", None) is None else
+           {"events": [[k, d(v)] for k, v in spec.events.items()], "event_options": spec.event_options}),
         "eomc": __version__, "sympy": sm.__version__, "python": sys.version_info[:2],
         "source": _source_digest()})
 

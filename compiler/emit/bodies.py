@@ -9,7 +9,7 @@ from ..ir import c_names
 from .printer import CPrinter
 from .signatures import SIGNATURES
 
-__all__ = ["BodyContext", "plain_body", "rhs_body", "jacobian_body", "tangent_jacobian_body",
+__all__ = ["BodyContext", "plain_body", "solved_plain_body", "rhs_body", "jacobian_body", "tangent_jacobian_body",
            "helper_jacobian_body", "needed_assignments",
            "linearize_body", "split_on", "dynamics_helper", "matrix_body",
            "void_unused"]
@@ -59,6 +59,12 @@ def plain_body(ctx, program, group, shape, out="out"):
         size = rows * cols
     lines.append(f"{_IND}return {ctx.name}_finite({out}, {size});")
     return lines
+
+
+def solved_plain_body(ctx, program, group, shape, out="out"):
+    """plain_body after solving A·w = b: outputs that read u' or multipliers (w[j])."""
+    lines = _solver_decls(ctx) + [_call_dynamics(ctx)] + _factor_and_solve(ctx)
+    return lines + plain_body(ctx, program, group, shape, out)
 
 
 def _solver_decls(ctx, extra=()):

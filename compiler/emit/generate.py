@@ -8,7 +8,8 @@ from eomc.runtime.errors import ModelError
 from ..passes import finish_function, optimize_shared
 from ..ir import count_program, format_program, verify
 from .bodies import (BodyContext, dynamics_helper, helper_jacobian_body, matrix_body, needed_assignments, split_on, jacobian_body,
-                     linearize_body, plain_body, rhs_body, tangent_jacobian_body, void_unused)
+                     linearize_body, plain_body, rhs_body, solved_plain_body, tangent_jacobian_body,
+                     void_unused)
 from .generated import GeneratedModel
 from .layout import check_identifier, make_layout
 from .linsolve import choose_ldlt
@@ -31,7 +32,7 @@ def _eomc_version():
         return "0+unknown"
 
 
-def _select(functions, ninput, noutput, ncon):
+def _select(functions, ninput, noutput, ncon, nevent=0):
     """Requested functions that apply to this model, in canonical order."""
     wanted = set(ALL_FUNCTIONS if functions is None else
                  (_ALIASES.get(f, f) for f in functions))
@@ -42,7 +43,7 @@ def _select(functions, ninput, noutput, ncon):
     if "linearize" in wanted:
         wanted |= {"jac_x", "jac_r"}
     absent = {"jac_r": ninput == 0, "outputs": noutput == 0,
-              "constraints": ncon == 0, "constraints_jac": ncon == 0}
+              "constraints": ncon == 0, "constraints_jac": ncon == 0, "events": nevent == 0}
     return tuple(f for f in ALL_FUNCTIONS if f in wanted and not absent.get(f, False))
 
 
@@ -67,9 +68,12 @@ def _body(fn, ctx, prog, sym, layout, nx, functions):
     if fn == "linearize":
         return linearize_body(ctx, "jac_r" in functions)
     shapes = {"outputs": ("out", (len(sym.output_names),), "out"),
+              "events": ("ev", (len(sym.event_names),), "out"),
               "constraints": ("con", (sym.nhol + sym.nvel,), "out"),
               "constraints_jac": ("dcon", (sym.nhol + sym.nvel, nx), "out")}
     group, shape, out = shapes[fn]
+    if fn in sym.solve_in:
+        return solved_plain_body(ctx, prog, group, shape, out)
     return plain_body(ctx, prog, group, shape, out)
 
 
@@ -101,12 +105,14 @@ def _tangent_ops(prog, seeds, blocks):
     return c
 
 
-def _ops(fn, prog, solver, nx, nr, seeds=(), helper=None, nu=0, nnz=0):
+def _ops(fn, prog, solver, nx, nr, seeds=(), helper=None, nu=0, nnz=0, solve_in=()):
     c = count_program(prog) if prog is not None else Counter()
     if fn == "linearize":
         return None
-    if fn in HELPER_USERS:
+    if fn in HELPER_USERS or fn in solve_in:
         c += count_program(helper)
+    if fn in solve_in:
+        c += solver.factor_ops + solver.solve_ops
     if fn == "inverse_dynamics":
         c += Counter(muls=nnz, adds=nnz)
     if fn == "jac_x" and _tangent(prog):
@@ -158,17 +164,18 @@ class Lowered:
 
 
 def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions=None,
-          fold_parameters=False):
+          fold_parameters=False, events=None):
     """FormedSystem -> :class:`Lowered` (the IR the C printer and ``--print-ir`` read)."""
     check_identifier(name)
     layout = make_layout(formed, parameters, inputs, fold_parameters)
     ncon = len(formed.holonomic_constraints) + len(formed.velocity_constraints)
-    fns = _select(functions, len(layout.r), len(outputs or {}), ncon)
-    sym = build_symbolic(formed, layout, fns, outputs)
+    fns = _select(functions, len(layout.r), len(outputs or {}), ncon, len(events or {}))
+    sym = build_symbolic(formed, layout, fns, outputs, events)
     shared = verify(optimize_shared(sym.program, sym.derivatives))
     programs = {fn: finish_function(shared, FUNCTION_GROUPS[fn]) if FUNCTION_GROUPS[fn] else None
                 for fn in fns}
-    helper = (finish_function(shared, ("A", "b")) if set(fns) & set(HELPER_USERS) else None)
+    helper = (finish_function(shared, ("A", "b")) if set(fns) & set(HELPER_USERS) or sym.solve_in
+              else None)
     return Lowered(name, layout, sym, fns, programs, helper)
 
 
@@ -183,7 +190,7 @@ def ir_listing(formed, name, **options):
 
 
 def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, functions=None,
-               fold_parameters=False):
+               fold_parameters=False, events=None, event_options=None):
     """Lower ``formed`` (a FormedSystem) to C; returns a :class:`GeneratedModel`.
 
     ``parameters``: {symbol: default} giving order and defaults (others follow, sorted by
@@ -193,10 +200,12 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
     Functions that do not apply (jac_r without inputs, outputs without outputs,
     constraints without constraints) are not generated, and their struct pointer is NULL;
     linearize brings jac_x and jac_r.  ``fold_parameters`` turns parameters into literals.
+    ``events``: {name: expression} compiled into NAME_events (zero crossings for simulate),
+    ``event_options``: their default terminal/direction, kept in the metadata.
     Deterministic: identical input gives byte-identical output.
     """
     low = lower(formed, name, parameters=parameters, inputs=inputs, outputs=outputs,
-                functions=functions, fold_parameters=fold_parameters)
+                functions=functions, fold_parameters=fold_parameters, events=events)
     layout, sym, fns = low.layout, low.symbolic, low.functions
     nq, nu, nx, nw = formed.nq, formed.nu, formed.nq + formed.nu, sym.nw
     solver = (choose_ldlt(name, nw, sym.pattern) if sym.symmetric else
@@ -213,11 +222,15 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
         lines = _body(fn, ctx, prog, sym, layout, nx, fns)
         rendered.append({"prototype": prototype(name, fn), "body": void_unused(fn, lines)})
         op_counts[fn] = _ops(fn, prog, solver, nx, len(layout.r), sym.seeds, low.helper, nu,
-                             sum(1 for i, j in sym.pattern if i < nu and j < nu))
+                             sum(1 for i, j in sym.pattern if i < nu and j < nu), sym.solve_in)
     if "linearize" in op_counts:
         op_counts["linearize"] = {k: sum(op_counts[f][k] for f in ("jac_x", "jac_r") if f in op_counts)
                                   for k in ("adds", "muls", "divs", "calls")}
     meta = _metadata(name, formed, layout, sym, fns, op_counts)
+    if "events" in fns:
+        by_name = {o["name"]: o for o in (event_options or ())}
+        meta["events"] = [by_name.get(n, {"name": n, "terminal": 0, "direction": 0})
+                          for n in sym.event_names]
     return _render(name, meta, fns, rendered, solver, layout, sym, helper)
 
 
@@ -258,7 +271,7 @@ def _vector_docs(meta):
 def _render(name, meta, fns, rendered, solver, layout, sym, helper):
     tables, table_refs = _tables(name, layout, sym.output_names)
     pointers = [f"{name}_{f}" if f in fns else "NULL" for f in STRUCT_FIELDS]
-    uses_solver = any(f in fns for f in _SOLVING)
+    uses_solver = any(f in fns for f in _SOLVING) or bool(sym.solve_in)
     env = _environment()
     common = {k: meta[k] for k in ("nq", "nu", "nx", "nparam", "ninput", "noutput", "nhol",
                                    "nvel", "work_size", "eomc_version")}

@@ -33,7 +33,7 @@ class Layout:
     folded: dict        # parameter name -> value, when folded
     c_names: dict       # slot symbol -> C text
 
-    def apply(self, expr, what, memo=None):
+    def apply(self, expr, what, memo=None, keep=()):
         """``expr`` in slot symbols; ModelError naming ``what`` if something is left unmapped.
 
         A memoized rename: subtrees shared between entries are rebuilt once, and unmapped
@@ -42,7 +42,8 @@ class Layout:
         """
         memo = {} if memo is None else memo
         bad = []
-        out = _rename(sm.sympify(expr), self.subs, memo, bad)
+        subs = {**self.subs, **{k: k for k in keep}} if keep else self.subs   # keep: symbols left as they are
+        out = _rename(sm.sympify(expr), subs, memo, bad)
         if bad:
             deps = sorted({str(b) for b in bad if not b.is_Symbol})
             if deps:

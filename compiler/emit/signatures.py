@@ -18,10 +18,11 @@ SIGNATURES = {
                          ("const double *", "p"), ("const double *", "r"),
                          ("double *", "tau"), ("double *", "work")),
     "linearize": _RHS + (("double *", "A"), ("double *", "B"), ("double *", "work")),
+    "events": _RHS + (("double *", "out"), ("double *", "work")),
 }
 
 FUNCTION_ORDER = ("rhs", "jac_x", "jac_r", "mass_matrix", "forcing", "inverse_dynamics",
-                  "outputs", "constraints", "constraints_jac", "linearize")
+                  "outputs", "constraints", "constraints_jac", "linearize", "events")
 
 # eomc_model fields holding function pointers (the rest are exported only).
 STRUCT_FIELDS = ("rhs", "jac_x", "jac_r", "mass_matrix", "forcing", "outputs",

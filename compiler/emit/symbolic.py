@@ -46,6 +46,7 @@ FUNCTION_GROUPS = {
     "constraints": ("con",),
     "constraints_jac": ("dcon",),
     "linearize": (),
+    "events": ("ev",),
 }
 
 
@@ -63,6 +64,8 @@ class Symbolic:
     nhol: int
     nvel: int
     output_names: tuple
+    event_names: tuple = ()
+    solve_in: tuple = ()    # outputs/events that read u' or multipliers: they solve A w = b first
 
 
 def _is_symmetric(A, seed=0):
@@ -103,15 +106,33 @@ def _check_structurally_regular(pattern, nw, speed_names, multipliers, by_speed)
                              f"equations of motion cannot be solved for the accelerations")
 
 
-def _outputs(formed, layout, outputs):
+def _solved_quantities(formed, W):
+    """Substitutions putting accelerations and multipliers in terms of the solved w = [u'; λ].
+
+    u' -> w_i; q'' -> d/dt of the kinematics (then in q', u'); a Lagrange multiplier
+    lam_k -> -w_{nu+k} (the FormedSystem's unknowns are mu = -lam, see lagrange_formed).
+    """
+    t = sm.Symbol("t")
+    ud = {s.diff(t): W[i] for i, s in enumerate(formed.speeds)}
+    qdd = {q.diff(t, 2): k.diff(t) for q, k in zip(formed.coordinates, formed.kinematics)}
+    sign = -1 if formed.method == "lagrange" else 1
+    lam = {m: sign * W[formed.nu + k] for k, m in enumerate(formed.multipliers)}
+    return ud, qdd, lam
+
+
+def _outputs(formed, layout, outputs, W=()):
     kin = {sm.Derivative(q, sm.Symbol("t")): k for q, k in zip(formed.coordinates, formed.kinematics)}
+    ud, qdd, lam = _solved_quantities(formed, W) if W else ({}, {}, {})
     names, exprs = [], []
     for name, expr in (outputs or {}).items():
         if not str(name).isidentifier():
             raise ModelError(f"output name {name!r} is not an identifier")
-        e = sm.sympify(expr).xreplace(kin)
+        e = sm.sympify(expr)
+        if ud:
+            e = e.xreplace(ud).xreplace(qdd).xreplace(ud)
+        e = e.xreplace(kin).xreplace(lam)
         names.append(str(name))
-        exprs.append(layout.apply(e, f"output {name!r}"))
+        exprs.append(layout.apply(e, f"output {name!r}", keep=W))
     return tuple(names), exprs
 
 
@@ -125,13 +146,20 @@ def _dynamics(formed, layout):
     return A, b
 
 
-def build_symbolic(formed, layout, functions, outputs=None):
+def build_symbolic(formed, layout, functions, outputs=None, events=None):
     """The unoptimized program holding the result groups ``functions`` need."""
     groups = {g for f in functions for g in FUNCTION_GROUPS[f]}
     if set(functions) & set(HELPER_USERS):
         groups |= {"A", "b"}
     A, b = _dynamics(formed, layout)
     nw, nu = len(b), formed.nu
+    W = tuple(sm.Symbol(f"w_{j}", real=True) for j in range(nw))
+    names, outs = _outputs(formed, layout, outputs, W)
+    event_names, evs = _outputs(formed, layout, events, W)
+    solve_in = tuple(f for f, exprs in (("outputs", outs), ("events", evs))
+                     if f in functions and any(e.free_symbols & set(W) for e in exprs))
+    if solve_in:
+        groups |= {"A", "b"}
     kin = [layout.apply(e, "the kinematic equations") for e in formed.kinematics]
     # Constraint equations for an actual model may not use velocity constraints via
     # Kane's motion rows; symmetry + no multipliers + no motion constraints => SPD.
@@ -143,7 +171,6 @@ def build_symbolic(formed, layout, functions, outputs=None):
     _check_structurally_regular(pattern, nw, layout.state_names[formed.nq:], formed.multipliers,
                                 by_speed=len(formed.velocity_constraints) == 0)
     row_order = tuple(range(nw)) if symmetric else static_row_order(A, pattern)
-    W = tuple(sm.Symbol(f"w_{j}", real=True) for j in range(nw))
     seeds = tuple(sm.Symbol(f"sx_{j}", real=True) for j in range(len(layout.x)))
     UD = tuple(sm.Symbol(f"ud_{j}", real=True) for j in range(nu))
     res = []
@@ -171,9 +198,10 @@ def build_symbolic(formed, layout, functions, outputs=None):
             derivatives.append(("res", layout.x, "G"))
         if "Gr" in groups:
             derivatives.append(("res", layout.r, "Gr"))
-    names, outs = _outputs(formed, layout, outputs)
     if "out" in groups:
         res += [(("out", i), e) for i, e in enumerate(outs)]
+    if "ev" in groups:
+        res += [(("ev", i), e) for i, e in enumerate(evs)]
     hol = [layout.apply(e, "a holonomic constraint") for e in formed.holonomic_constraints]
     vel = [layout.apply(e, "a velocity constraint") for e in formed.velocity_constraints]
     if "dcon" in groups:
@@ -185,4 +213,5 @@ def build_symbolic(formed, layout, functions, outputs=None):
     program = Program(inputs=inputs, results=tuple(res))
     return Symbolic(program=program, derivatives=tuple(derivatives), nw=nw, row_order=row_order,
                     seeds=seeds, symmetric=symmetric, pattern=pattern, W=W, UD=UD,
-                    nhol=len(hol), nvel=len(vel), output_names=names)
+                    nhol=len(hol), nvel=len(vel), output_names=names, event_names=event_names,
+                    solve_in=solve_in)

@@ -13,8 +13,9 @@ from pathlib import Path
 from eomc.runtime.errors import EomcError, EomcWarning, ModelError, ModelFileError
 
 from .modelfile import assignment_lines, run_model_file
-from .validate import (Invalid, check_equations, check_initial_state, check_inputs, check_name,
-                       check_outputs, check_parameters, sanitize_name, unset_parameters)
+from .validate import (Invalid, check_equations, check_events, check_initial_state, check_inputs,
+                       check_name, check_outputs, check_parameters, sanitize_name,
+                       unset_parameters)
 
 __all__ = ["ModelSpec", "model_spec", "formed_system"]
 
@@ -27,6 +28,8 @@ class ModelSpec:
     inputs: list = None                 # dynamic symbols in order, or None
     initial_state: list = None          # values in state order, or None
     outputs: dict = None                # name -> expression, or None
+    events: dict = None                 # name -> event expression, or None
+    event_options: list = None          # [{"name", "terminal", "direction"}] in events' order
     path: Path = None                   # the model file, if any
     system: object = field(default=None, repr=False)
 
@@ -82,9 +85,11 @@ def _checked(values, formed, name, where, origin=""):
         check_equations(formed)
         outputs = check_outputs(values.get("outputs"), formed)
         _warn_unset_parameters(formed, values.get("parameters"), origin)
+        events, event_options = check_events(values.get("events"), formed)
         return ModelSpec(
-            name=check_name(name), formed=formed,
-            parameters=check_parameters(values.get("parameters"), formed, outputs),
+            name=check_name(name), formed=formed, events=events, event_options=event_options,
+            parameters=check_parameters(values.get("parameters"), formed,
+                                        {**(outputs or {}), **(events or {})}),
             inputs=check_inputs(values.get("inputs"), formed),
             initial_state=check_initial_state(values.get("initial_state"), formed),
             outputs=outputs, system=values.get("system"))
@@ -105,7 +110,8 @@ def _from_file(path, name, overrides):
     except Exception as exc:
         raise ModelFileError(f"forming the equations of `system` failed: {type(exc).__name__}: {exc}",
                              filename, lines.get("system")) from exc
-    values = {k: namespace.get(k) for k in ("system", "parameters", "inputs", "initial_state", "outputs")}
+    values = {k: namespace.get(k) for k in ("system", "parameters", "inputs", "initial_state", "outputs",
+                                            "events")}
     given = {k: v for k, v in overrides.items() if v is not None}
     if isinstance(given.get("parameters"), dict) and isinstance(values["parameters"], dict):
         # parameters= overrides some of the file's defaults; the others keep the file's values
@@ -121,9 +127,11 @@ def _from_file(path, name, overrides):
     return ModelSpec(**{**spec.__dict__, "path": Path(path)})
 
 
-def model_spec(system, name=None, *, parameters=None, inputs=None, initial_state=None, outputs=None):
+def model_spec(system, name=None, *, parameters=None, inputs=None, initial_state=None, outputs=None,
+               events=None):
     """Normalize a model file path or a system object into a ModelSpec (see the module docstring)."""
-    overrides = dict(parameters=parameters, inputs=inputs, initial_state=initial_state, outputs=outputs)
+    overrides = dict(parameters=parameters, inputs=inputs, initial_state=initial_state, outputs=outputs,
+                     events=events)
     if isinstance(system, (str, Path)):
         return _from_file(system, name, overrides)
     formed = formed_system(system)

@@ -140,13 +140,22 @@ def _states(formed):
     return tuple(formed.coordinates) + tuple(formed.speeds)
 
 
+def _state_rate(d, formed):
+    """A derivative an output may use: a coordinate's rate or acceleration (q', q''), or a
+    speed's rate (u'), which the generated code takes from the solved dynamics."""
+    order = sum(n for _, n in d.variable_count)
+    if d.expr in set(formed.coordinates):
+        return order <= 2
+    return d.expr in set(formed.speeds) and order == 1
+
+
 def check_outputs(outputs, formed):
     """dict name -> SymPy expression in q, u, t, parameters and inputs."""
     if outputs is None:
         return None
     if not isinstance(outputs, Mapping):
         raise Invalid("outputs", f"`outputs` must be a dict name -> expression, not {type(outputs).__name__}")
-    allowed = set(_states(formed)) | set(formed.inputs)
+    allowed = set(_states(formed)) | set(formed.inputs) | set(formed.multipliers)
     result = {}
     for name, expr in outputs.items():
         if not isinstance(name, str) or not _IDENT.match(name) or keyword.iskeyword(name):
@@ -161,9 +170,7 @@ def check_outputs(outputs, formed):
         if bad:
             raise Invalid("outputs", f"output `{name}` contains {' and '.join(bad)}: {_short(value, 120)}; "
                                      f"outputs must be real and finite")
-        coordinates = set(formed.coordinates)
-        stray_rates = [d for d in value.atoms(sm.Derivative)
-                       if d not in allowed and not (d.expr in coordinates and d.variable_count[0][1] == 1)]
+        stray_rates = [d for d in value.atoms(sm.Derivative) if not _state_rate(d, formed)]
         if stray_rates:
             base = _label(stray_rates[0].expr)
             raise Invalid("outputs", f"output `{name}` uses {base}' (the time derivative of {base}), "
@@ -174,6 +181,43 @@ def check_outputs(outputs, formed):
                                      f"speed or input of the system (those are {_names(allowed)})")
         result[name] = value
     return result
+
+
+def check_events(events, formed):
+    """dict name -> expression, or name -> {"expr": ..., "terminal": ..., "direction": ...}.
+
+    Returns (expressions, options): {name: SymPy expression} and a list of
+    {"name", "terminal", "direction"} in the same order (the simulate defaults).
+    """
+    if events is None:
+        return None, None
+    if not isinstance(events, Mapping):
+        raise Invalid("events", f"`events` must be a dict name -> expression, not {type(events).__name__}")
+    exprs, options = {}, []
+    for name, value in events.items():
+        opts = {}
+        if isinstance(value, Mapping):
+            unknown = set(value) - {"expr", "terminal", "direction"}
+            if "expr" not in value or unknown:
+                raise Invalid("events", f"event `{name}`: a dict value needs \"expr\" and may have "
+                                        f"\"terminal\" and \"direction\""
+                                        + (f" (unknown: {', '.join(sorted(map(str, unknown)))})" if unknown else ""))
+            opts = {k: value[k] for k in ("terminal", "direction") if k in value}
+            value = value["expr"]
+        terminal, direction = opts.get("terminal", 0), opts.get("direction", 0)
+        if isinstance(terminal, bool):
+            terminal = int(terminal)
+        if not isinstance(terminal, numbers.Integral) or terminal < 0:
+            raise Invalid("events", f"event `{name}`: terminal must be True/False or a count >= 0, "
+                                    f"not {terminal!r}")
+        if isinstance(direction, bool) or direction not in (-1, 0, 1):
+            raise Invalid("events", f"event `{name}`: direction must be -1, 0 or +1, not {direction!r}")
+        try:
+            exprs.update(check_outputs({name: value}, formed))
+        except Invalid as exc:
+            raise Invalid("events", str(exc).replace("output", "event")) from None
+        options.append({"name": name, "terminal": int(terminal), "direction": int(direction)})
+    return exprs, options
 
 
 def check_parameters(parameters, formed, outputs=None):
@@ -261,7 +305,7 @@ def check_name(name):
 
 
 FUNCTIONS = ("rhs", "jac_x", "jac_r", "mass_matrix", "forcing", "inverse_dynamics", "outputs",
-             "constraints", "constraints_jac", "linearize")
+             "constraints", "constraints_jac", "linearize", "events")
 ALIASES = {"jacobian": ("jac_x",), "input_jacobian": ("jac_r",), "constraints_jacobian": ("constraints_jac",)}
 
 

@@ -26,6 +26,7 @@ SUBCOMMANDS = {
     "simulate": ("eomc.cli.simulate", "integrate a model and write its trajectory"),
     "report": ("eomc.cli.report", "error against run time over methods and tolerances"),
     "check": ("eomc.cli.check", "stability checks on stiff and extreme cases"),
+    "linearize": ("eomc.cli.linearize", "A, B and eigenvalues at an operating point (--reduced)"),
     "cache": ("eomc.cli.cache", "show, prune or clear the build cache"),
 }
 

@@ -29,7 +29,83 @@ def configure(parser):
                         help="project onto the model's constraints after each step")
     parser.add_argument("--baumgarte", type=float, default=0.0, metavar="RATE",
                         help="Baumgarte-style constraint stabilization rate (1/time); 0 = off")
+    parser.add_argument("--input", nargs="+", metavar="NAME=V|CSV", default=(),
+                        help="input values: a constant (F=2) or a CSV file with columns t,NAME "
+                             "(linear interpolation, held at the ends); others are 0")
+    parser.add_argument("--events", metavar="LIST",
+                        help="events to detect: names of compiled events or outputs, comma-separated, "
+                             "NAME:terminal / NAME:rising / NAME:falling to set options; 'none' for "
+                             "none (default: the model file's events)")
     parser.formatter_class = argparse.ArgumentDefaultsHelpFormatter
+
+
+def _input_table(path, name):
+    import numpy as np
+    try:
+        data = np.genfromtxt(path, delimiter=",", names=True)
+    except OSError as exc:
+        raise ValueError(f"--input {name}: cannot read {path} ({exc.strerror or exc})") from None
+    if data.dtype.names is None or "t" not in data.dtype.names:
+        raise ValueError(f"--input {name}: {path} needs a header row with a column t "
+                         f"(and {name} or one other column)")
+    column = name if name in data.dtype.names else next((c for c in data.dtype.names if c != "t"), None)
+    if column is None:
+        raise ValueError(f"--input {name}: {path} has no value column besides t")
+    return np.atleast_1d(data["t"]), np.atleast_1d(data[column])
+
+
+def inputs_argument(model, items):
+    """--input items -> r for simulate: None, a constant vector, or a (t_grid, values) table."""
+    import numpy as np
+    pieces = [p.strip() for text in items for p in text.split(",") if p.strip()]
+    if not pieces:
+        return None
+    const, tables = {}, {}
+    for item in pieces:
+        name, sep, value = item.partition("=")
+        name = name.strip()
+        if not sep:
+            raise ValueError(f"--input: expected NAME=VALUE or NAME=FILE.csv, got {item!r}")
+        if name not in model.input_names:
+            raise ValueError(f"{model.name}: unknown input {name} in --input; inputs: "
+                             f"{', '.join(model.input_names) or 'none'}")
+        try:
+            const[name] = float(value)
+        except ValueError:
+            tables[name] = _input_table(value.strip(), name)
+    if not tables:
+        return np.array([const.get(n, 0.0) for n in model.input_names])
+    grid = np.unique(np.concatenate([t for t, _ in tables.values()]))
+    if grid.size < 2:
+        raise ValueError("--input: a CSV input needs at least two distinct times")
+    for name, (t, v) in tables.items():
+        if np.any(np.diff(t) <= 0) or not np.all(np.isfinite(t)) or not np.all(np.isfinite(v)):
+            raise ValueError(f"--input {name}: times must be finite and strictly increasing, "
+                             f"values finite")
+    cols = [np.interp(grid, *tables[n]) if n in tables else np.full(grid.size, const.get(n, 0.0))
+            for n in model.input_names]
+    return grid, np.column_stack(cols)
+
+
+def events_argument(text):
+    """--events text -> the events= of simulate (None: the model's own)."""
+    if text is None:
+        return None
+    if text.strip().lower() == "none":
+        return False
+    out = {}
+    for item in (p.strip() for p in text.split(",") if p.strip()):
+        name, *flags = item.split(":")
+        options = {}
+        for flag in flags:
+            if flag == "terminal":
+                options["terminal"] = 1
+            elif flag in ("rising", "falling"):
+                options["direction"] = 1 if flag == "rising" else -1
+            else:
+                raise ValueError(f"--events {item}: unknown option {flag!r} (terminal, rising, falling)")
+        out[name] = options
+    return out
 
 
 def run(args):
@@ -42,7 +118,8 @@ def run(args):
     res = simulate(model, x0, (args.t0, args.t_final), p=params, method=args.method,
                    rtol=args.rtol, atol=args.atol, dt=args.dt, max_steps=args.max_steps,
                    n_points=None if args.dt else args.points, project=args.project,
-                   baumgarte=args.baumgarte)
+                   baumgarte=args.baumgarte, r=inputs_argument(model, args.input),
+                   events=events_argument(args.events))
     s = res.stats
     print(f"{model.name}: {res.method} t=[{args.t0:g}, {args.t_final:g}]: {s['steps']} steps "
           f"({s['rejected']} rejected), {s['nfev']} rhs, {s['njev']} jacobian, {s['nlu']} LU")
@@ -51,6 +128,11 @@ def run(args):
               f"change {values[-1] - values[0]:.3g}")
     if res.constraint_residual is not None:
         print(f"  constraint residual: max {res.constraint_residual.max():.3g}")
+    for name, times in (res.t_events or {}).items():
+        shown = ", ".join(f"{t:.10g}" for t in times[:5]) + (", ..." if len(times) > 5 else "")
+        print(f"  event {name}: {len(times)} at t = {shown or '-'}")
+    if res.event_stop:
+        print(f"  stopped by event {res.event_stop} at t={res.t_final:.10g}")
     if args.output:
         print(f"wrote {res.to_csv(args.output)}")
     if args.plot:

@@ -25,6 +25,14 @@
 
 typedef double _Complex eomc_cplx;
 
+/* Event handling is kept out of line: inlined, it grew run_erk enough that GCC stopped
+ * inlining the DOP853 stage sums with their constant tables (+5% on a plain run). */
+#if defined(__GNUC__)
+#define EOMC_NOINLINE static __attribute__((noinline))
+#else
+#define EOMC_NOINLINE static
+#endif
+
 #define SAFETY 0.9
 #define MIN_FACTOR 0.2
 #define MAX_FACTOR 10.0
@@ -177,7 +185,28 @@ typedef struct ctx {
     int n;                   /* nx */
     struct proj *pj;         /* constraint scratch (projection, stabilization) */
     double stab;             /* Baumgarte-style stabilization rate; 0 = off */
+    const eomc_feedback *fb; /* state feedback / input callback, or NULL */
+    double *fbJ;             /* nx x ninput scratch: jac_r for Radau with feedback */
+    eomc_events *ev;         /* event detection, or NULL */
+    double ev_t;             /* time of the terminal event that stopped the run */
+    double *ev_x;            /* its state (in the events' scratch) */
 } ctx;
+
+/* Dense output of the last accepted step [t, t + h], for events. */
+typedef struct interp {
+    int kind;                /* 0 Hermite (RK4), 1 DOPRI5, 2 DOP853, 3 Radau */
+    int n;
+    double t, h;
+    const double *x0, *f0, *x1, *f1, *K, *F, *Q;
+} interp;
+
+static void interp_eval(const interp *ip, double tau, double *out);
+static int events_eval(ctx *c, double t, const double *x, double *g);
+static int events_cross(ctx *c, double tn, const double *xn, int *hits);
+static int events_locate(ctx *c, const interp *ip);
+static int events_commit(ctx *c, double tn, const double *xn, int recompute);
+struct outw;
+EOMC_NOINLINE int events_in_step(ctx *c, const interp *ip, struct outw *ow, double *x);
 
 static int stabilize_rhs(ctx *c, double t, const double *x, double *f);
 
@@ -213,8 +242,20 @@ size_t eomc_integrate_work_size(const eomc_model *m, int method)
     return base_size(m) + extra;
 }
 
-/* r(t): constant, or linear interpolation on the grid held at its ends. */
-static void inputs_at(ctx *c, double t)
+/* Cubic Hermite on grid interval [lo, hi] (length h, at fraction w) with the given slopes. */
+static void cubic_inputs(ctx *c, int lo, int hi, double h, double w)
+{
+    int ni = c->m->ninput;
+    const double *a = c->rv + (size_t)lo * ni, *b = c->rv + (size_t)hi * ni;
+    const double *ma = c->fb->r_slopes + (size_t)lo * ni, *mb = c->fb->r_slopes + (size_t)hi * ni;
+    double v = 1.0 - w;
+    double h00 = (1 + 2 * w) * v * v, h10 = w * v * v, h01 = w * w * (3 - 2 * w), h11 = -w * w * v;
+    for (int i = 0; i < ni; i++)
+        c->r[i] = h00 * a[i] + h10 * h * ma[i] + h01 * b[i] + h11 * h * mb[i];
+}
+
+/* r(t): constant, or linear (cubic with r_slopes) interpolation on the grid held at its ends. */
+static void grid_inputs_at(ctx *c, double t)
 {
     int ni = c->m->ninput, lo = 0, hi = c->nr - 1;
     if (ni <= 0 || c->nr <= 1)
@@ -232,8 +273,12 @@ static void inputs_at(ctx *c, double t)
         if (c->rt[mid] <= t) lo = mid; else hi = mid;
     }
     {
-        double w = (t - c->rt[lo]) / (c->rt[hi] - c->rt[lo]);
+        double h = c->rt[hi] - c->rt[lo], w = (t - c->rt[lo]) / h;
         const double *a = c->rv + (size_t)lo * ni, *b = c->rv + (size_t)hi * ni;
+        if (c->fb && c->fb->r_slopes) {
+            cubic_inputs(c, lo, hi, h, w);
+            return;
+        }
         for (int i = 0; i < ni; i++)
             c->r[i] = (1.0 - w) * a[i] + w * b[i];
     }
@@ -246,11 +291,41 @@ static int all_finite(int n, const double *v)
     return 1;
 }
 
+/* r(t, x): the grid (or the caller's callback) plus K (x_ref - x).  Returns
+ * a status: the callback's failure or a non-finite input. */
+static int inputs_at(ctx *c, double t, const double *x)
+{
+    const eomc_feedback *fb = c->fb;
+    int ni = c->m->ninput, nx = c->n;
+    if (!fb || ni <= 0) {
+        grid_inputs_at(c, t);
+        return EOMC_OK;
+    }
+    if (fb->fn) {
+        int s = fb->fn(fb->user, t, x, c->r);
+        if (s) return s;
+    } else {
+        if (c->nr <= 0) memset(c->r, 0, (size_t)ni * sizeof(double));
+        else if (c->nr == 1) memcpy(c->r, c->rv, (size_t)ni * sizeof(double));
+        else grid_inputs_at(c, t);
+    }
+    if (fb->K)
+        for (int i = 0; i < ni; i++) {
+            double acc = 0.0;
+            const double *Ki = fb->K + (size_t)i * nx;
+            for (int j = 0; j < nx; j++)
+                acc += Ki[j] * ((fb->x_ref ? fb->x_ref[j] : 0.0) - x[j]);
+            c->r[i] += acc;
+        }
+    return all_finite(ni, c->r) ? EOMC_OK : EOMC_NONFINITE;
+}
+
 /* f = rhs(t, x); a non-finite derivative is EOMC_NONFINITE. */
 static int frhs(ctx *c, double t, const double *x, double *f)
 {
     int s;
-    inputs_at(c, t);
+    if (!c->fb) grid_inputs_at(c, t);           /* the plain path, as before feedback existed */
+    else if ((s = inputs_at(c, t, x))) { c->st->t_fail = t; return s; }
     c->st->nfev++;
     s = c->m->rhs(t, x, c->p, c->r, f, c->mwork);
     if (s == EOMC_OK && c->stab > 0.0) s = stabilize_rhs(c, t, x, f);
@@ -263,9 +338,22 @@ static int fjac(ctx *c, double t, const double *x, double *J)
 {
     int s;
     if (!c->m->jac_x) return EOMC_NOT_AVAILABLE;
-    inputs_at(c, t);
+    if ((s = inputs_at(c, t, x))) { c->st->t_fail = t; return s; }
     c->st->njev++;
     s = c->m->jac_x(t, x, c->p, c->r, J, c->mwork);
+    if (s == EOMC_OK && c->fb && c->fb->K && c->m->ninput > 0) {
+        /* d rhs(x, r(x)) / dx = jac_x - jac_r K */
+        int n = c->n, ni = c->m->ninput;
+        if (!c->m->jac_r) s = EOMC_NOT_AVAILABLE;
+        else s = c->m->jac_r(t, x, c->p, c->r, c->fbJ, c->mwork);
+        if (s == EOMC_OK)
+            for (int i = 0; i < n; i++)
+                for (int k = 0; k < ni; k++) {
+                    double b = c->fbJ[(size_t)i * ni + k];
+                    if (b != 0.0)
+                        for (int j = 0; j < n; j++) J[(size_t)i * n + j] -= b * c->fb->K[(size_t)k * n + j];
+                }
+    }
     if (s == EOMC_OK && !all_finite(c->n * c->n, J)) s = EOMC_NONFINITE;
     if (s != EOMC_OK) c->st->t_fail = t;
     return s;
@@ -275,7 +363,7 @@ static int ctx_init(ctx *c, const eomc_model *m, const double *p, int nr,
                     const double *rt, const double *rv, eomc_stats *st, double **pos)
 {
     c->m = m; c->p = p; c->nr = nr; c->rt = rt; c->rv = rv; c->st = st; c->n = m->nx;
-    c->pj = NULL; c->stab = 0.0;
+    c->pj = NULL; c->stab = 0.0; c->fb = NULL; c->fbJ = NULL; c->ev = NULL; c->ev_t = 0.0; c->ev_x = NULL;
     c->r = take(pos, (size_t)m->ninput + 1);
     c->mwork = take(pos, m->work_size + 1);
     if (m->ninput > 0) {
@@ -446,7 +534,7 @@ static void proj_init(proj *pj, const eomc_model *m, int want, double **pos)
 static int eval_constraints(ctx *c, proj *pj, double t, const double *x, int jac)
 {
     int s;
-    inputs_at(c, t);
+    if ((s = inputs_at(c, t, x))) return s;
     s = c->m->constraints(t, x, c->p, c->r, pj->g, c->mwork);
     if (s == EOMC_OK && jac)
         s = c->m->constraints_jac(t, x, c->p, c->r, pj->G, c->mwork);
@@ -570,12 +658,22 @@ static int run_rk4(ctx *c, const eomc_options *o, proj *pj, double t0, double t1
         if (!all_finite(n, x1)) return EOMC_NONFINITE;
         if ((s = frhs(c, tn, x1, k2))) return s;        /* k2 := f(tn, x1) */
         st->accepted++;
+        if (c->ev) {
+            int hits = 0;
+            if ((s = events_cross(c, tn, x1, &hits))) return s;
+            if (hits) {
+                interp ip = {0, n, t, hh, x, k1, x1, k2, NULL, NULL, NULL};
+                if ((s = events_in_step(c, &ip, ow, x))) return s;
+                if (c->ev->terminated) return EOMC_OK;
+            }
+        }
         EMIT_UNTIL(ow, tn, hermite(n, hh, (tau - t) / hh, x, k1, x1, k2, row));
         if (pj->on) {
             if ((s = project_state(c, pj, tn, x1))) return s;
             fix_last_row(ow, tn, x1);
             if ((s = frhs(c, tn, x1, k2))) return s;
         }
+        if (c->ev && (s = events_commit(c, tn, x1, pj->on))) return s;
         memcpy(x, x1, (size_t)n * sizeof(double));
         memcpy(k1, k2, (size_t)n * sizeof(double));
     }
@@ -712,7 +810,7 @@ static double stiff_hlambda(int n, double h, const double *ynew, const double *y
 static int run_erk(ctx *c, const erk *tb, const eomc_options *o, proj *pj,
                    double t0, double t1, double *x, outw *ow, double **pos)
 {
-    int n = c->n, s, iasti = 0, nonsti = 0, last_bad = 0;
+    int n = c->n, s, iasti = 0, nonsti = 0, last_bad = 0, hits, rows;
     long maxs = o->max_steps > 0 ? o->max_steps : DEFAULT_MAX_STEPS;
     double *K = take(pos, 16 * (size_t)n), *F = take(pos, 7 * (size_t)n);
     double *ynew = take(pos, n), *ys = take(pos, n), *tmp = take(pos, n);
@@ -752,10 +850,22 @@ static int run_erk(ctx *c, const erk *tb, const eomc_options *o, proj *pj,
             h *= fmax(MIN_FACTOR, SAFETY * pow(err, expo));
         }
         st->accepted++;
-        if (ow->i < ow->n && ow->t[ow->i] <= tn) {
+        hits = 0;
+        if (c->ev && (s = events_cross(c, tn, ynew, &hits))) return s;
+        rows = ow->i < ow->n && ow->t[ow->i] <= tn;
+        /* one call site of the DOP853 interpolant's set-up, so it stays inlined with its
+           constant tables (an out-of-line copy cost 5% of a plain run under -fwrapv) */
+        if (tb->is853 && (rows || hits)
+            && (s = d853_dense_prepare(c, t, tn - t, x, ynew, K, F, tmp, acc5)))
+            return s;
+        if (hits) {
+            interp ip = {tb->is853 ? 2 : 1, n, t, tn - t, x, NULL, ynew, NULL, K, F, NULL};
+            if ((s = events_in_step(c, &ip, ow, x))) return s;
+            if (c->ev->terminated) return EOMC_OK;
+        }
+        if (rows) {
             double hh = tn - t;
             if (tb->is853) {
-                if ((s = d853_dense_prepare(c, t, hh, x, ynew, K, F, tmp, acc5))) return s;
                 EMIT_UNTIL(ow, tn, d853_dense(n, (tau - t) / hh, x, F, row));
             } else {
                 EMIT_UNTIL(ow, tn, dp5_dense(n, hh, (tau - t) / hh, x, K, row));
@@ -792,6 +902,7 @@ static int run_erk(ctx *c, const erk *tb, const eomc_options *o, proj *pj,
             fix_last_row(ow, tn, ynew);
             if ((s = frhs(c, tn, ynew, K))) return s;
         }
+        if (c->ev && (s = events_commit(c, tn, ynew, pj->on))) return s;
         memcpy(x, ynew, (size_t)n * sizeof(double));
         t = tn;
     }
@@ -1051,12 +1162,22 @@ static int run_radau(ctx *c, const eomc_options *o, proj *pj, double t0, double 
             for (int a = 0; a < 3; a++)
                 w.Q[a * n + i] = w.Z[i] * k.P[0][a] + w.Z[n + i] * k.P[1][a] + w.Z[2 * n + i] * k.P[2][a];
         memcpy(w.yold, x, (size_t)n * sizeof(double));
+        if (c->ev) {
+            int hits = 0;
+            if ((s = events_cross(c, tn, w.ynew, &hits))) return s;
+            if (hits) {
+                interp ip = {3, n, t, hused, w.yold, NULL, w.ynew, NULL, NULL, NULL, w.Q};
+                if ((s = events_in_step(c, &ip, ow, x))) return s;
+                if (c->ev->terminated) return EOMC_OK;
+            }
+        }
         EMIT_UNTIL(ow, tn, radau_dense(n, w.Q, w.yold, (tau - t) / hused, row));
         if (pj->on) {
             if ((s = project_state(c, pj, tn, w.ynew))) return s;
             fix_last_row(ow, tn, w.ynew);
             if ((s = frhs(c, tn, w.ynew, w.fnew))) return s;
         }
+        if (c->ev && (s = events_commit(c, tn, w.ynew, pj->on))) return s;
         if (have_sol == -1) {
             if ((s = fjac(c, tn, w.ynew, w.J))) { c->st->t = t; return s; }
             cur_jac = 1;
@@ -1069,6 +1190,183 @@ static int run_radau(ctx *c, const eomc_options *o, proj *pj, double t0, double 
         t = tn;
     }
     c->st->t = t1;
+    return EOMC_OK;
+}
+
+
+/* ------------------------------------------------------------------ events */
+
+static void interp_eval(const interp *ip, double tau, double *out)
+{
+    double th = (tau - ip->t) / ip->h;
+    switch (ip->kind) {
+    case 0: hermite(ip->n, ip->h, th, ip->x0, ip->f0, ip->x1, ip->f1, out); break;
+    case 1: dp5_dense(ip->n, ip->h, th, ip->x0, ip->K, out); break;
+    case 2: d853_dense(ip->n, th, ip->x0, ip->F, out); break;
+    default: radau_dense(ip->n, ip->Q, ip->x0, th, out); break;
+    }
+}
+
+size_t eomc_events_scratch_size(const eomc_model *m, int ncol, int n)
+{
+    size_t nc = ncol > 0 ? (size_t)ncol : 0, ne = n > 0 ? (size_t)n : 0;
+    return 3 * nc + 2 * (size_t)m->nx + 3 * ne + 8;
+}
+
+/* The events' scratch: g at the step's start and end, g and x at a trial
+ * time, the state at a root, and per event: root time, hit flag, count. */
+typedef struct evparts {
+    double *gold, *gnew, *gtmp, *xtmp, *xroot, *troot, *hit, *count;
+} evparts;
+
+static evparts ev_parts(const ctx *c)
+{
+    const eomc_events *ev = c->ev;
+    size_t nc = (size_t)ev->ncol, nx = (size_t)c->n, ne = (size_t)ev->n;
+    evparts e;
+    e.gold = ev->scratch; e.gnew = e.gold + nc; e.gtmp = e.gnew + nc;
+    e.xtmp = e.gtmp + nc; e.xroot = e.xtmp + nx;
+    e.troot = e.xroot + nx; e.hit = e.troot + ne; e.count = e.hit + ne;
+    return e;
+}
+
+static int events_eval(ctx *c, double t, const double *x, double *g)
+{
+    int s = inputs_at(c, t, x);
+    if (s == EOMC_OK) s = c->ev->fn(t, x, c->p, c->r, g, c->mwork);
+    if (s == EOMC_OK && !all_finite(c->ev->ncol, g)) s = EOMC_NONFINITE;
+    if (s != EOMC_OK) c->st->t_fail = t;
+    return s;
+}
+
+/* g on the step's end; *hits = how many events change sign as they should. */
+static int events_cross(ctx *c, double tn, const double *xn, int *hits)
+{
+    const eomc_events *ev = c->ev;
+    evparts e = ev_parts(c);
+    int s;
+    *hits = 0;
+    if ((s = events_eval(c, tn, xn, e.gnew))) return s;
+    for (int k = 0; k < ev->n; k++) {
+        double a = e.gold[ev->col[k]], b = e.gnew[ev->col[k]];
+        int dir = ev->direction ? ev->direction[k] : 0;
+        int up = a < 0.0 && b >= 0.0, down = a > 0.0 && b <= 0.0;
+        int hit = (up && dir >= 0) || (down && dir <= 0);
+        e.hit[k] = hit;
+        *hits += hit;
+    }
+    return EOMC_OK;
+}
+
+/* g_k along the dense output at tau. */
+static int event_at(ctx *c, const interp *ip, int k, double tau, double *val)
+{
+    evparts e = ev_parts(c);
+    int s;
+    interp_eval(ip, tau, e.xtmp);
+    if ((s = events_eval(c, tau, e.xtmp, e.gtmp))) return s;
+    *val = e.gtmp[c->ev->col[k]];
+    return EOMC_OK;
+}
+
+/* Brent's method (zeroin) for g_k on [a, b] with g_k(a) g_k(b) <= 0, to a few
+ * ulps of t; returns the end of the final bracket on b's side of the root,
+ * so the state there has already crossed (a restart does not see it again). */
+static int event_root(ctx *c, const interp *ip, int k, double a, double b, double fa,
+                      double fb, double *root)
+{
+    double cc = b, fc = fb, d = b - a, e = d, fend = fb;
+    int s;
+    if (fb == 0.0) { *root = b; return EOMC_OK; }
+    for (int it = 0; it < 200; it++) {
+        double tol1, xm;
+        if ((fb > 0 && fc > 0) || (fb < 0 && fc < 0)) { cc = a; fc = fa; d = e = b - a; }
+        if (fabs(fc) < fabs(fb)) { a = b; b = cc; cc = a; fa = fb; fb = fc; fc = fa; }
+        tol1 = 2.0 * DBL_EPSILON * fabs(b) + 1e-300;
+        xm = 0.5 * (cc - b);
+        if (fb == 0.0) { *root = b; return EOMC_OK; }
+        if (fabs(xm) <= tol1) break;
+        if (fabs(e) >= tol1 && fabs(fa) > fabs(fb)) {
+            double p, q, r, sr = fb / fa, min1, min2;
+            if (a == cc) { p = 2.0 * xm * sr; q = 1.0 - sr; }
+            else {
+                q = fa / fc; r = fb / fc;
+                p = sr * (2.0 * xm * q * (q - r) - (b - a) * (r - 1.0));
+                q = (q - 1.0) * (r - 1.0) * (sr - 1.0);
+            }
+            if (p > 0) q = -q;
+            p = fabs(p);
+            min1 = 3.0 * xm * q - fabs(tol1 * q); min2 = fabs(e * q);
+            if (2.0 * p < (min1 < min2 ? min1 : min2)) { e = d; d = p / q; }
+            else { d = xm; e = d; }
+        } else {
+            d = xm; e = d;
+        }
+        a = b; fa = fb;
+        b += fabs(d) > tol1 ? d : copysign(tol1, xm);
+        if ((s = event_at(c, ip, k, b, &fb))) return s;
+    }
+    /* b and cc bracket the root: take the one with the sign of the step's end */
+    *root = ((fb > 0) == (fend > 0) || fb == 0.0) ? b : cc;
+    return EOMC_OK;
+}
+
+/* Roots of the events that fired in this step, recorded in time order; a
+ * terminal one stops the run at its time (c->ev_t, c->ev_x). */
+static int events_locate(ctx *c, const interp *ip)
+{
+    eomc_events *ev = c->ev;
+    evparts e = ev_parts(c);
+    int s, nx = c->n;
+    for (int k = 0; k < ev->n; k++)
+        if (e.hit[k] != 0.0) {
+            int col = ev->col[k];
+            if ((s = event_root(c, ip, k, ip->t, ip->t + ip->h, e.gold[col], e.gnew[col],
+                                e.troot + k)))
+                return s;
+        }
+    for (;;) {
+        int best = -1;
+        for (int k = 0; k < ev->n; k++)
+            if (e.hit[k] != 0.0 && (best < 0 || e.troot[k] < e.troot[best])) best = k;
+        if (best < 0) break;
+        e.hit[best] = 0.0;
+        interp_eval(ip, e.troot[best], e.xroot);
+        if (ev->n_rec < ev->capacity) {
+            if (ev->t_rec) ev->t_rec[ev->n_rec] = e.troot[best];
+            if (ev->id_rec) ev->id_rec[ev->n_rec] = best;
+            if (ev->x_rec) memcpy(ev->x_rec + (size_t)ev->n_rec * nx, e.xroot, (size_t)nx * sizeof(double));
+        }
+        ev->n_rec++;
+        e.count[best] += 1.0;
+        if (ev->terminal && ev->terminal[best] > 0 && e.count[best] >= ev->terminal[best]) {
+            ev->terminated = 1;
+            c->ev_t = e.troot[best];
+            c->ev_x = e.xroot;
+            return EOMC_OK;
+        }
+    }
+    return EOMC_OK;
+}
+
+/* After a step where events fired: locate and record them; at a terminal one write the
+ * output rows up to it, leave its state in x and its time in stats->t. */
+EOMC_NOINLINE int events_in_step(ctx *c, const interp *ip, struct outw *ow, double *x)
+{
+    int s = events_locate(c, ip);
+    if (s || !c->ev->terminated) return s;
+    EMIT_UNTIL(ow, c->ev_t, interp_eval(ip, tau, row));
+    memcpy(x, c->ev_x, (size_t)c->n * sizeof(double));
+    c->st->t = c->ev_t;
+    return EOMC_OK;
+}
+
+/* The step's end becomes the next step's start (re-evaluated after a projection). */
+static int events_commit(ctx *c, double tn, const double *xn, int recompute)
+{
+    evparts e = ev_parts(c);
+    if (recompute) return events_eval(c, tn, xn, e.gold);
+    memcpy(e.gold, e.gnew, (size_t)c->ev->ncol * sizeof(double));
     return EOMC_OK;
 }
 
@@ -1096,6 +1394,29 @@ int eomc_integrate(const eomc_model *m, const eomc_options *opt,
                    int n_eval, const double *t_eval, double *x_out,
                    double *x_last, eomc_stats *stats, double *work, size_t work_len)
 {
+    return eomc_integrate_ex(m, opt, t0, t1, x0, p, n_rgrid, r_tgrid, r_values, NULL, NULL,
+                             n_eval, t_eval, x_out, x_last, stats, work, work_len);
+}
+
+static int check_extras(const eomc_model *m, const eomc_feedback *fb, const eomc_events *ev)
+{
+    if (fb && m->ninput <= 0) return EOMC_BAD_ARGUMENT;
+    if (ev && ev->n > 0) {
+        if (!ev->fn || ev->ncol <= 0 || !ev->col || !ev->scratch || ev->capacity < 0)
+            return EOMC_BAD_ARGUMENT;
+        for (int k = 0; k < ev->n; k++)
+            if (ev->col[k] < 0 || ev->col[k] >= ev->ncol) return EOMC_BAD_ARGUMENT;
+    }
+    return EOMC_OK;
+}
+
+int eomc_integrate_ex(const eomc_model *m, const eomc_options *opt,
+                      double t0, double t1, const double *x0, const double *p,
+                      int n_rgrid, const double *r_tgrid, const double *r_values,
+                      const eomc_feedback *fb, eomc_events *ev,
+                      int n_eval, const double *t_eval, double *x_out,
+                      double *x_last, eomc_stats *stats, double *work, size_t work_len)
+{
     ctx c;
     proj pj;
     outw ow;
@@ -1107,22 +1428,33 @@ int eomc_integrate(const eomc_model *m, const eomc_options *opt,
     stats->t = t0;
     stats->t_fail = NAN;
     s = check_args(m, opt, t0, t1, x0, n_eval, t_eval, x_out);
-    if (s == EOMC_OK && (!work || work_len < eomc_integrate_work_size(m, opt->method)))
+    if (s == EOMC_OK) s = check_extras(m, fb, ev);
+    if (s == EOMC_OK && (!work || work_len < eomc_integrate_work_size(m, opt->method)
+                         + (fb ? (size_t)m->ninput * (size_t)m->nx : 0)))
         s = EOMC_BAD_ARGUMENT;
     if (s == EOMC_OK)
         s = ctx_init(&c, m, p, n_rgrid, r_tgrid, r_values, stats, &pos);
+    if (ev) { ev->n_rec = 0; ev->terminated = 0; }
     if (s != EOMC_OK) {
         if (x_last && x0) memcpy(x_last, x0, (size_t)m->nx * sizeof(double));
         return stats->status = s;
     }
     proj_init(&pj, m, opt->project, &pos);
     c.pj = &pj;
+    if (fb) { c.fb = fb; c.fbJ = take(&pos, (size_t)m->ninput * (size_t)m->nx); }
     if (opt->baumgarte > 0.0 && pj.k > 0 && m->constraints && m->constraints_jac)
         c.stab = opt->baumgarte;
     x = take(&pos, m->nx);
     memcpy(x, x0, (size_t)m->nx * sizeof(double));
     ow.n = n_eval; ow.i = 0; ow.nx = m->nx; ow.t = t_eval; ow.x = x_out;
     if (pj.on) s = project_state(&c, &pj, t0, x);
+    if (s == EOMC_OK && ev && ev->n > 0) {
+        evparts e;
+        c.ev = ev;
+        e = ev_parts(&c);
+        memset(e.count, 0, (size_t)ev->n * sizeof(double));
+        s = events_eval(&c, t0, x, e.gold);
+    }
     EMIT_UNTIL(&ow, t0, memcpy(row, x, (size_t)m->nx * sizeof(double)));
     if (s == EOMC_OK) {
         switch (opt->method) {
@@ -1160,7 +1492,7 @@ int eomc_eval_along(const eomc_model *m, int which, int n, const double *t,
     memset(&st, 0, sizeof st);
     if ((s = ctx_init(&c, m, p, n_rgrid, r_tgrid, r_values, &st, &pos))) return s;
     for (int i = 0; i < n; i++) {
-        inputs_at(&c, t[i]);
+        grid_inputs_at(&c, t[i]);
         s = fn(t[i], X + (size_t)i * m->nx, p, c.r, out + (size_t)i * cols, c.mwork);
         if (s) return s;
     }

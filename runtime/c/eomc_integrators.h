@@ -86,6 +86,69 @@ int eomc_integrate(const eomc_model *m, const eomc_options *opt,
                    double *work, size_t work_len);
 
 /*
+ * Optional extras of eomc_integrate_ex (either pointer may be NULL).
+ *
+ * Inputs with state feedback: r(t, x) = base(t, x) + K (x_ref - x), where
+ * base is the input grid of eomc_integrate, or fn(user, t, x, r) when fn is
+ * set (a caller's callback: the slow path, one call per stage; a nonzero
+ * return stops the run with that status).  K: ninput x nx row-major (NULL: no
+ * linear feedback), x_ref: nx (NULL: zeros).  Radau's Jacobian includes
+ * -jac_r K (it needs jac_r); a callback's dependence on x is not included.
+ * r_slopes (n_rgrid x ninput, or NULL): dr/dt at the grid times, making the
+ * grid a piecewise cubic Hermite interpolant (a cubic spline when the slopes
+ * are a spline's) instead of a linear one; still held constant outside.
+ */
+typedef int (*eomc_input_fn)(void *user, double t, const double *x, double *r);
+
+typedef struct eomc_feedback {
+    const double *K;
+    const double *x_ref;
+    eomc_input_fn fn;
+    void *user;
+    const double *r_slopes;
+} eomc_feedback;
+
+/*
+ * Events: zero crossings of g_k = fn(t, x, p, r)[col[k]] (k < n), found after
+ * each accepted step by a sign change between the step's ends and located
+ * with Brent's method on the dense output to a few ulps of t.  direction[k]:
+ * +1 only rising (g from < 0 to >= 0), -1 only falling, 0 both (NULL: all 0).
+ * terminal[k] > 0: the run stops (status EOMC_OK, stats->t = the event time,
+ * x_last = the state there) at the terminal[k]-th occurrence (NULL: none).
+ * Records: up to capacity rows of (t_rec, id_rec, x_rec); n_rec counts every
+ * occurrence, also those past capacity.  scratch: at least
+ * eomc_events_scratch_size(m, ncol, n) doubles.
+ */
+typedef struct eomc_events {
+    int n;
+    eomc_rhs_fn fn;
+    int ncol;
+    const int *col;
+    const int *direction;
+    const int *terminal;
+    int capacity;
+    double *t_rec;
+    int *id_rec;
+    double *x_rec;
+    int n_rec;           /* out */
+    int terminated;      /* out: 1 if a terminal event stopped the run */
+    double *scratch;
+} eomc_events;
+
+size_t eomc_events_scratch_size(const eomc_model *m, int ncol, int n);
+
+/* eomc_integrate with state feedback and/or events (see above); work needs
+ * eomc_integrate_work_size(m, method) + m->ninput * m->nx doubles when
+ * feedback is given. */
+int eomc_integrate_ex(const eomc_model *m, const eomc_options *opt,
+                      double t0, double t1, const double *x0, const double *p,
+                      int n_rgrid, const double *r_tgrid, const double *r_values,
+                      const eomc_feedback *fb, eomc_events *ev,
+                      int n_eval, const double *t_eval, double *x_out,
+                      double *x_last, eomc_stats *stats,
+                      double *work, size_t work_len);
+
+/*
  * Evaluate the model's outputs (which == 0; noutput columns) or constraint
  * residuals (which == 1; nhol + nvel columns) at n rows (t[i], X[i]) with the
  * same input interpolation as eomc_integrate.  work: at least

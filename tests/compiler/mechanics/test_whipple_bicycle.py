@@ -62,7 +62,7 @@ def example():
 @pytest.fixture(scope="module")
 def model(tmp_path_factory):
     return eomc.compile(EXAMPLE, cache_dir=tmp_path_factory.mktemp("whipple_cache"), progress=False,
-                        functions="rhs,jac_x,constraints,constraints_jac,outputs")
+                        functions="rhs,jac_x,constraints,constraints_jac,outputs,events")
 
 
 def _index(model):
@@ -224,6 +224,32 @@ def test_kicked_bicycle_recovers_at_5_m_s(model):
 def test_kicked_bicycle_falls_at_2_m_s(model):
     lean, res, _ = _lean_after_kick(model, 2.0, 2.0)
     assert np.abs(lean[-1]) > 10 * np.abs(lean[:20]).max()
+
+
+def test_fall_at_2_m_s_is_stopped_by_the_model_files_event(model):
+    """The example's terminal event 'fallen' (lean^2 = (pi/4)^2, rising) ends the run where the
+    lean reaches 45 degrees; the same run without events, to that time, agrees there (and,
+    left to go on, ends with a singular mass matrix as the frame lies flat)."""
+    x0 = _upright(model, 2.0)
+    x0[model.state_names.index("u2")] = 0.05
+    x0 = model.consistent_state(x0)
+    i = model.state_names.index("phi")
+    res = model.simulate(x0, (0.0, 10.0), rtol=1e-10, atol=1e-12, n_points=101)
+    assert res.event_stop == "fallen" and 0.5 < res.t_final < 5.0
+    assert abs(res.x_final[i]) == pytest.approx(np.pi / 4, abs=1e-12)
+    plain = model.simulate(x0, (0.0, res.t_final), rtol=1e-10, atol=1e-12, events=False,
+                           t_eval=[0.0, res.t_final])
+    assert abs(plain.x[-1, i]) == pytest.approx(np.pi / 4, abs=1e-8)
+    np.testing.assert_allclose(x0, _consistent(model, x0), rtol=1e-14, atol=1e-14)
+
+
+@pytest.mark.parametrize("v", [3.0, 5.0])
+def test_linearize_reduced_gives_the_papers_lean_steer_matrix(model, v):
+    lin = model.linearize_reduced(0.0, _upright(model, v))
+    assert lin.states == ("psi", "phi", "delta", "u2", "u4", "u5")
+    keep = [1, 2, 3, 4]
+    np.testing.assert_allclose(lin.A[np.ix_(keep, keep)], _paper_lean_steer(v), rtol=1e-12,
+                               atol=1e-12)
 
 
 def test_model_file_initial_state_is_consistent_and_rolls_at_5_m_s(example, model):

@@ -1,0 +1,67 @@
+"""``eomc linearize MODEL [--x0 ...] [--reduced]``: A, B and eigenvalues at an operating point.
+
+The point is the model's initial_state with --x0 overrides (completed onto the
+constraints with --consistent); --reduced eliminates the dependent states
+through the constraint Jacobian (model.linearize_reduced), --fixed names the
+independent states to keep instead of the model's own.
+"""
+import argparse
+
+import numpy as np
+
+from . import common as cli_common
+
+__all__ = ["configure", "run"]
+
+
+def configure(parser):
+    cli_common.add_model_arguments(parser)
+    parser.add_argument("--t", type=float, default=0.0, help="time of the operating point")
+    parser.add_argument("--input", nargs="+", metavar="NAME=V", default=(),
+                        help="input values at the operating point (others 0)")
+    parser.add_argument("--reduced", action="store_true",
+                        help="over the independent states only (constrained models)")
+    parser.add_argument("--fixed", metavar="LIST",
+                        help="with --reduced: the independent states, comma-separated")
+    parser.add_argument("--consistent", action="store_true",
+                        help="complete the dependent coordinates and speeds of the point first")
+    parser.formatter_class = argparse.ArgumentDefaultsHelpFormatter
+
+
+def _matrix(label, M, rows, cols):
+    width = max([len(c) for c in cols] + [12])
+    lines = [f"{label}:", " " * 10 + "".join(c.rjust(width + 1) for c in cols)]
+    for name, row in zip(rows, M):
+        lines.append(f"{name:>10}" + "".join(f"{v:{width + 1}.6g}" for v in row))
+    return "\n".join(lines)
+
+
+def run(args):
+    model = cli_common.load_model(args.model)
+    x0 = cli_common.initial_state(model, cli_common.parse_assignments(args.x0, "x0"))
+    p = cli_common.parameter_values(model, cli_common.parse_assignments(args.param, "param"))
+    inputs = cli_common.parse_assignments(args.input, "input")
+    unknown = sorted(set(inputs) - set(model.input_names))
+    if unknown:
+        raise ValueError(f"{model.name}: unknown input {', '.join(unknown)} in --input; inputs: "
+                         f"{', '.join(model.input_names) or 'none'}")
+    r = np.array([inputs.get(n, 0.0) for n in model.input_names]) if model.ninput else None
+    x = np.array([x0[n] for n in model.state_names], dtype=float)
+    if args.consistent:
+        x = model.consistent_state(x, args.t, p, r)
+    if args.reduced:
+        fixed = [s.strip() for s in args.fixed.split(",")] if args.fixed else None
+        lin = model.linearize_reduced(args.t, x, p, r, fixed=fixed)
+        A, B, states = lin.A, lin.B, lin.states
+    else:
+        A, B = model.linearize(args.t, x, p, r)
+        states = model.state_names
+    print(f"eomc linearize {model.name} at t={args.t:g}: "
+          + ", ".join(f"{n}={v:.6g}" for n, v in zip(model.state_names, x)))
+    print(_matrix("A", A, states, states))
+    if model.ninput:
+        print(_matrix("B", B, states, model.input_names))
+    eig = np.linalg.eigvals(A)
+    print("eigenvalues: " + ", ".join(f"{z.real:.6g}{z.imag:+.6g}j" if z.imag else f"{z.real:.6g}"
+                                      for z in sorted(eig, key=lambda z: (z.real, z.imag))))
+    return 0

@@ -1,0 +1,164 @@
+"""Events for simulate: zero crossings of compiled functions, found and located in C.
+
+Why this module: an event is a scalar function g(t, x, p, r) whose sign
+change the user wants to know (a pendulum passing the vertical, a ball
+hitting the floor, a bicycle falling over).  The functions are compiled with
+the model (a model file's ``events = {...}``: the generated ``NAME_events``)
+or are the model's named outputs; the integrator (runtime/c) checks the sign
+at every accepted step and locates a crossing on the step's dense output with
+Brent's method, so the loop never comes back to Python.  This module turns
+the user's choice of events into the C ``eomc_events`` struct and the records
+back into arrays by name.
+"""
+import numbers
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["Event", "resolve_events", "EventsBinding", "DEFAULT_MAX_EVENTS"]
+
+DEFAULT_MAX_EVENTS = 10000    # recorded occurrences; more are counted and reported, not stored
+
+
+@dataclass(frozen=True)
+class Event:
+    """One event: ``name`` of a compiled event function (or of an output).
+
+    terminal: 0 (never stop), or stop the run at this occurrence (True = the first).
+    direction: 0 any sign change, +1 only rising (- to +), -1 only falling (+ to -).
+    """
+    name: str
+    terminal: int = 0
+    direction: int = 0
+
+
+def _event(name, options, model):
+    if not isinstance(options, dict):
+        raise ValueError(f"{model.name}: options of event {name!r} must be a dict with terminal= "
+                         f"and/or direction=; got {options!r}")
+    unknown = set(options) - {"terminal", "direction"}
+    if unknown:
+        raise ValueError(f"{model.name}: event {name!r}: unknown option(s) {', '.join(sorted(unknown))}; "
+                         f"known: terminal, direction")
+    return _checked(Event(name, options.get("terminal", 0), options.get("direction", 0)), model)
+
+
+def _checked(ev, model):
+    terminal, direction = ev.terminal, ev.direction
+    if isinstance(terminal, bool):
+        terminal = int(terminal)
+    if not isinstance(terminal, numbers.Integral) or terminal < 0:
+        raise ValueError(f"{model.name}: event {ev.name!r}: terminal must be True/False or a count "
+                         f">= 0; got {ev.terminal!r}")
+    if isinstance(direction, bool) or direction not in (-1, 0, 1):
+        raise ValueError(f"{model.name}: event {ev.name!r}: direction must be -1, 0 or +1; "
+                         f"got {ev.direction!r}")
+    return Event(str(ev.name), int(terminal), int(direction))
+
+
+def model_events(model):
+    """The model's compiled events with the options its model file gave."""
+    return [Event(d["name"], int(d.get("terminal", 0)), int(d.get("direction", 0)))
+            for d in model.metadata.get("events", ())]
+
+
+def resolve_events(model, events):
+    """(source, [Event]) with source "events" or "outputs", or None for no events.
+
+    events: None -> the model's compiled events (none if it has none); False or
+    () -> none; a name, an Event, or a list of them; or a dict name -> options
+    ({"terminal": ..., "direction": ...}).  Names are the model's events or,
+    failing that, its outputs; one run draws them all from one of the two.
+    """
+    if events is None:
+        chosen = model_events(model)
+    elif events is False:
+        chosen = []
+    elif isinstance(events, (str, Event)):
+        chosen = [events]
+    elif isinstance(events, dict):
+        chosen = [_event(k, v, model) for k, v in events.items()]
+    else:
+        try:
+            chosen = list(events)
+        except TypeError:
+            raise ValueError(f"{model.name}: events must be names, Event objects or a dict name -> "
+                             f"options; got {type(events).__name__}") from None
+    if not chosen:
+        return None
+    declared = {e.name: e for e in model_events(model)}
+    out = []
+    for item in chosen:
+        if isinstance(item, str):
+            item = declared.get(item, Event(item))
+        if not isinstance(item, Event):
+            raise ValueError(f"{model.name}: an event must be a name or an eomc Event; got {item!r}")
+        out.append(_checked(item, model))
+    names = [e.name for e in out]
+    if len(set(names)) != len(names):
+        raise ValueError(f"{model.name}: an event is listed twice in {names}")
+    if all(n in declared for n in names):
+        return "events", out
+    if all(n in model.output_names for n in names):
+        return "outputs", out
+    unknown = [n for n in names if n not in declared and n not in model.output_names]
+    known = ", ".join(list(declared) + list(model.output_names)) or "none"
+    if unknown:
+        raise ValueError(f"{model.name}: unknown event(s) {', '.join(unknown)}: not an event "
+                         f"compiled with the model nor an output (known: {known})")
+    raise ValueError(f"{model.name}: events {names} mix compiled events and outputs; use one kind "
+                     f"per run (or add the outputs' expressions to the model's events)")
+
+
+class EventsBinding:
+    """The C ``eomc_events`` struct for one run and every buffer it points to."""
+
+    def __init__(self, model, source, events, max_events=DEFAULT_MAX_EVENTS):
+        ffi = model.ffi
+        self.model, self.events = model, list(events)
+        if source == "events":
+            names = [d["name"] for d in model.metadata.get("events", ())]
+            fn = ffi.cast("eomc_rhs_fn", getattr(model.model_lib, f"{model.name}_events"))
+        else:
+            names = list(model.output_names)
+            fn = model.c_model.outputs
+            if fn == ffi.NULL:
+                raise ValueError(f"{model.name}: was built without outputs, so outputs cannot be events")
+        if not isinstance(max_events, numbers.Integral) or max_events < 1:
+            raise ValueError(f"max_events must be a positive integer; got {max_events!r}")
+        n, cap = len(events), int(max_events)
+        self.col = np.array([names.index(e.name) for e in events], dtype=np.intc)
+        self.direction = np.array([e.direction for e in events], dtype=np.intc)
+        self.terminal = np.array([e.terminal for e in events], dtype=np.intc)
+        self.t_rec = np.empty(cap)
+        self.id_rec = np.empty(cap, dtype=np.intc)
+        self.x_rec = np.empty((cap, model.nx))
+        self.scratch = np.empty(model.integrators.eomc_events_scratch_size(model.c_model, len(names), n))
+        ev = self.struct = ffi.new("eomc_events *")
+        ints = lambda a: ffi.from_buffer("int[]", a)  # noqa: E731
+        dbl = lambda a: ffi.from_buffer("double[]", a)  # noqa: E731
+        ev.n, ev.fn, ev.ncol = n, fn, len(names)
+        ev.col, ev.direction, ev.terminal = ints(self.col), ints(self.direction), ints(self.terminal)
+        ev.capacity = cap
+        ev.t_rec, ev.id_rec, ev.x_rec = dbl(self.t_rec), ints(self.id_rec), dbl(self.x_rec)
+        ev.scratch = dbl(self.scratch)
+        # cffi keeps a from_buffer pointer valid only while its cdata lives
+        self._keep = [ev.col, ev.direction, ev.terminal, ev.t_rec, ev.id_rec, ev.x_rec, ev.scratch]
+
+    def results(self):
+        """(t_events, x_events, stopped_by, dropped): dicts name -> times (k,) / states (k, nx),
+        the terminal event's name (or None), occurrences counted beyond max_events."""
+        ev = self.struct
+        k = min(ev.n_rec, ev.capacity)
+        ids = self.id_rec[:k]
+        t_events, x_events = {}, {}
+        for i, e in enumerate(self.events):
+            mask = ids == i
+            t_events[e.name] = self.t_rec[:k][mask].copy()
+            x_events[e.name] = self.x_rec[:k][mask].copy()
+        stopped_by = None
+        if ev.terminated and ev.n_rec <= ev.capacity:
+            stopped_by = self.events[int(ids[k - 1])].name
+        elif ev.terminated:
+            stopped_by = "?"
+        return t_events, x_events, stopped_by, max(0, ev.n_rec - ev.capacity)

@@ -1,0 +1,40 @@
+"""eomc linearize: A, B, eigenvalues; --reduced over the independent states of a constrained model."""
+import textwrap
+
+import numpy as np
+
+from eomc.cli import main
+
+CPEND = textwrap.dedent('''\
+    import sympy as sm
+    from eomc.mechanics import *
+    x, y = dynamicsymbols("x y")
+    m, g, l = sm.symbols("m g l")
+    system = LagrangesMethod(m / 2 * (x.diff()**2 + y.diff()**2) - m * g * y, [x, y],
+                             hol_coneqs=[x**2 + y**2 - l**2])
+    system.form_lagranges_equations()
+    parameters = {m: 2.0, g: 9.81, l: 1.5}
+    initial_state = {y: -1.4}
+    ''')
+
+
+def _eigenvalues(text):
+    line = next(s for s in text.splitlines() if s.startswith("eigenvalues: "))
+    return np.array([complex(v.replace(" ", "")) for v in line[len("eigenvalues: "):].split(",")])
+
+
+def test_linearize_full_and_reduced(tmp_path, monkeypatch, capsys):
+    monkeypatch.setenv("EOMC_CACHE_DIR", str(tmp_path / "cache"))
+    path = tmp_path / "cpend.py"
+    path.write_text(CPEND)
+    assert main(["linearize", str(path), "--reduced", "--consistent"]) == 0
+    out = capsys.readouterr().out
+    assert "y=-1.5" in out                        # --consistent completed y from y = -1.4
+    eig = _eigenvalues(out)
+    assert len(eig) == 2
+    np.testing.assert_allclose(sorted(eig.imag), [-np.sqrt(9.81 / 1.5), np.sqrt(9.81 / 1.5)],
+                               rtol=1e-6)
+    assert main(["linearize", str(path), "--x0", "y=-1.5"]) == 0
+    assert len(_eigenvalues(capsys.readouterr().out)) == 4    # the full A: every state
+    assert main(["linearize", str(path), "--x0", "y=-1.4", "--reduced"]) == 1
+    assert "off the constraints" in capsys.readouterr().err

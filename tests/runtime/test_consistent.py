@@ -1,0 +1,90 @@
+"""model.consistent_state and simulate's check of a start off the constraints.
+
+Oracles: the rolling disc's centre height -r cos(lean) (its configuration
+constraint in closed form) and the four-bar's loop closure solved by scipy's
+fsolve; the constraint residual along runs started either way.
+"""
+import warnings
+
+import numpy as np
+import pytest
+import sympy as sm
+from scipy.optimize import fsolve
+
+from helpers import zoo
+
+import eomc
+import eomc.mechanics as me
+from eomc.runtime.consistent import ConstraintWarning
+from eomc.runtime.errors import ModelError
+
+FOUR_BAR = dict(l1=1.0, l2=2.0, l3=1.5, l4=2.0)
+
+
+@pytest.fixture(scope="module")
+def disc(tmp_path_factory):
+    kane, _ = zoo.rolling_disc(me)
+    r, m, g = sm.symbols("r m g")
+    return eomc.compile(kane, "disc", parameters={r: 0.5, m: 1.0, g: 9.81},
+                        cache_dir=tmp_path_factory.mktemp("cache"), progress=False)
+
+
+@pytest.fixture(scope="module")
+def fourbar(tmp_path_factory):
+    kane, _ = zoo.four_bar(me)
+    values = {**FOUR_BAR, "g": 9.81, "m1": 1.0, "m2": 1.0, "m3": 1.0, "I1": 0.1, "I2": 0.3,
+              "I3": 0.2}
+    params = {sm.Symbol(k): v for k, v in values.items()}
+    return eomc.compile(kane, "fourbar", parameters=params,
+                        cache_dir=tmp_path_factory.mktemp("cache"), progress=False)
+
+
+def test_rolling_disc_completes_height_and_contact_speeds(disc):
+    x0 = np.zeros(disc.nx)
+    x0[[1, 3, 4]] = [0.3, 1.0, 2.0]                  # lean, contact x, y
+    x0[6:9] = [0.5, 6.0, -0.2]                       # independent speeds (omega in B)
+    x = disc.consistent_state(x0)
+    np.testing.assert_array_equal(x[:5], x0[:5])     # independent coordinates kept
+    np.testing.assert_array_equal(x[6:9], x0[6:9])   # independent speeds kept
+    assert x[5] == pytest.approx(-0.5 * np.cos(0.3), abs=1e-14)
+    assert np.max(np.abs(disc.constraints(0.0, x))) < 1e-12
+    with pytest.warns(ConstraintWarning, match=r"off the constraints \(configuration residual "
+                                               r"0\.478, velocity residual"):
+        bad = disc.simulate(x0, (0, 2), rtol=1e-9, atol=1e-9)
+    good = disc.simulate(x0, (0, 2), rtol=1e-9, atol=1e-9, consistent=True)
+    np.testing.assert_array_equal(good.x[0], x)
+    assert good.constraint_residual.max() < 1e-6 < bad.constraint_residual.max()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")               # a consistent start: no warning
+        disc.simulate(x, (0, 0.5), rtol=1e-9, atol=1e-9)
+
+
+def test_four_bar_closes_the_loop_like_fsolve(fourbar):
+    l1, l2, l3, l4 = FOUR_BAR.values()
+    q1 = 0.9
+
+    def loop(q23):
+        q2, q3 = q23
+        return [l1 * np.cos(q1) + l2 * np.cos(q2) + l3 * np.cos(q3) - l4,
+                l1 * np.sin(q1) + l2 * np.sin(q2) + l3 * np.sin(q3)]
+    guess = [0.1, -1.5]
+    ref = fsolve(loop, guess, xtol=1e-14)
+    x = fourbar.consistent_state([q1, *guess, 0.7, 0.0, 0.0])
+    np.testing.assert_allclose(x[1:3], ref, atol=1e-12)
+    assert x[0] == q1 and x[3] == 0.7
+    assert np.max(np.abs(fourbar.constraints(0.0, x))) < 1e-12
+    # holding another coordinate: q3 given, q1 and q2 solved for
+    y = fourbar.consistent_state(x + [0.05, 0.05, 0.0, 0, 0, 0], fixed=["q3", "u1"])
+    assert y[2] == x[2] and np.max(np.abs(fourbar.constraints(0.0, y))) < 1e-12
+    res = fourbar.simulate(x, (0, 3), rtol=1e-10, atol=1e-10)
+    assert res.constraint_residual.max() < 1e-6
+
+
+def test_unreachable_and_singular_starts_are_clear_errors(fourbar):
+    with pytest.raises(ModelError, match="Newton's method did not reach the configuration "
+                                         "constraints.*solving for q2, q3"):
+        fourbar.consistent_state([0.9, 0.1, -1.5, 0, 0, 0], p={"l4": 100.0})
+    with pytest.raises(ModelError, match="2 configuration constraint.*only 1 free"):
+        fourbar.consistent_state([0.9, 0.1, -1.5, 0, 0, 0], fixed=["q1", "q2"])
+    with pytest.raises(ValueError, match="unknown fixed state"):
+        fourbar.consistent_state([0.9, 0.1, -1.5, 0, 0, 0], fixed=["qq"])

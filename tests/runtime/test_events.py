@@ -1,0 +1,146 @@
+"""Events located in C on the dense output (runtime/events.py, eomc_integrators.c).
+
+Oracles: the simple pendulum's period 4 K(k) / w0 (complete elliptic integral,
+k = sin(theta0 / 2)); a bouncing ball's impact times in closed form; a falling
+inverted pendulum stopped where its angle reaches a limit.
+"""
+import textwrap
+
+import numpy as np
+import pytest
+from scipy.special import ellipk
+
+from helpers import model_files
+
+import eomc
+from eomc.runtime.errors import ModelFileError
+from eomc.runtime.events import Event
+
+PEND_EVENTS = model_files.PENDULUM + textwrap.dedent('''\
+    events = {"up": {"expr": u, "direction": 1},
+              "fallen": {"expr": q + sm.pi / 2 - 1.0, "terminal": True}}
+    outputs["speed"] = u
+    ''')
+
+BALL = textwrap.dedent('''\
+    import sympy as sm
+    from eomc.mechanics import *
+
+    y, v = dynamicsymbols("y v")
+    m, g = sm.symbols("m g")
+    N = ReferenceFrame("N")
+    O = Point("O")
+    O.set_vel(N, 0)
+    P = O.locatenew("P", y * N.y)
+    P.set_vel(N, v * N.y)
+    kane = KanesMethod(N, q_ind=[y], u_ind=[v], kd_eqs=[y.diff() - v])
+    kane.kanes_equations([Particle("ball", P, m)], [(P, -m * g * N.y)])
+    system = kane
+    parameters = {m: 1.0, g: 9.81}
+    events = {"floor": {"expr": y, "direction": -1, "terminal": 1}}
+    ''')
+
+
+@pytest.fixture(scope="module")
+def models(tmp_path_factory):
+    d, cache = tmp_path_factory.mktemp("models"), tmp_path_factory.mktemp("cache")
+    pend = eomc.compile(str(model_files.write(d, PEND_EVENTS, "pend")), cache_dir=cache, progress=False)
+    ball = eomc.compile(str(model_files.write(d, BALL, "ball")), cache_dir=cache, progress=False)
+    return pend, ball
+
+
+def _period(theta0, l=0.5, g=9.81):
+    return 4 * ellipk(np.sin(theta0 / 2) ** 2) / np.sqrt(g / l)
+
+
+def test_pendulum_period_to_1e12_from_compiled_event(models):
+    pend, _ = models
+    theta0 = 0.5
+    x0 = [-np.pi / 2 + theta0, 0.0]          # at rest, theta0 from the hanging position
+    T = _period(theta0)
+    res = pend.simulate(x0, (0, 3.2 * T), rtol=1e-13, atol=1e-13, events=["up"])
+    up = res.t_events["up"]
+    assert len(up) == 3                       # rising u at T/2, 3T/2, 5T/2
+    assert abs(up[0] - T / 2) / T < 1e-12
+    assert abs((up[1] - up[0]) - T) / T < 1e-12
+    assert abs((up[2] - up[0]) - 2 * T) / T < 1e-12
+    # the recorded state is the dense output there: u = 0 to rounding, q at the bottom of its swing
+    np.testing.assert_allclose(res.x_events["up"][:, 1], 0.0, atol=1e-11)
+    np.testing.assert_allclose(res.x_events["up"][:, 0], -np.pi / 2 - theta0, atol=1e-10)
+    assert res.event_stop is None and res.t_final == pytest.approx(3.2 * T)
+
+
+@pytest.mark.parametrize("method,kw,tol", [("dopri5", dict(rtol=1e-11, atol=1e-12), 1e-9),
+                                            ("radau", dict(rtol=1e-10, atol=1e-12), 1e-8),
+                                            ("rk4", dict(dt=1e-3), 1e-9)])
+def test_every_method_locates_events_on_its_dense_output(models, method, kw, tol):
+    pend, _ = models
+    T = _period(0.5)
+    res = pend.simulate([-np.pi / 2 + 0.5, 0.0], (0, 2.5 * T), method=method,
+                        events={"speed": {"direction": -1}}, **kw)   # an output as event
+    down = res.t_events["speed"]
+    assert len(down) == 2
+    # falling u at t = T and 2T (u = 0 at t = 0 itself is not a crossing)
+    np.testing.assert_allclose(down, [T, 2 * T], rtol=tol)
+
+
+def test_direction_selects_crossings_and_none_means_both(models):
+    pend, _ = models
+    T = _period(0.5)
+    x0 = [-np.pi / 2 + 0.5, 0.0]
+    both = pend.simulate(x0, (0, 2.2 * T), rtol=1e-12, atol=1e-12, events={"speed": {}})
+    rising = pend.simulate(x0, (0, 2.2 * T), rtol=1e-12, atol=1e-12,
+                           events=[Event("speed", direction=1)])
+    assert len(both.t_events["speed"]) == 4 and len(rising.t_events["speed"]) == 2
+    np.testing.assert_allclose(both.t_events["speed"][::2], rising.t_events["speed"], rtol=1e-12)
+
+
+def test_terminal_event_stops_run_at_the_crossing(models):
+    pend, _ = models
+    # upright is q = pi/2; start near it and let it fall until q + pi/2 = 1 (terminal in the file)
+    res = pend.simulate([np.pi / 2 - 1e-3, 0.0], (0, 20), rtol=1e-12, atol=1e-12,
+                        events=None, t_eval=np.linspace(0, 20, 2001))
+    assert res.event_stop == "fallen"
+    tf = res.t_events["fallen"][0]
+    assert res.t_final == tf and 0 < tf < 20
+    assert res.x_final[0] + np.pi / 2 - 1.0 == pytest.approx(0.0, abs=1e-13)
+    assert res.t[-1] <= tf < res.t[-1] + 0.01   # rows stop at the event
+    # a terminal count: stop at the second rising crossing
+    res2 = pend.simulate([-np.pi / 2 + 0.5, 0.0], (0, 10), rtol=1e-12, atol=1e-12,
+                         events={"up": {"terminal": 2, "direction": 1}})
+    assert res2.event_stop == "up" and len(res2.t_events["up"]) == 2
+    assert res2.t_final == res2.t_events["up"][1]
+
+
+def test_bouncing_ball_terminal_event_and_restart(models):
+    _, ball = models
+    g, e, h0 = 9.81, 0.8, 1.0
+    x, t0, impacts = np.array([h0, 0.0]), 0.0, []
+    for _ in range(5):
+        res = ball.simulate(x, (t0, t0 + 10), rtol=1e-12, atol=1e-12)   # the file's terminal event
+        assert res.event_stop == "floor"
+        impacts.append(res.t_final)
+        x = res.x_final * [1.0, -e]            # bounce: restart from the event state
+        t0 = res.t_final
+    v1 = np.sqrt(2 * g * h0)
+    expected = np.sqrt(2 * h0 / g) + np.concatenate([[0], np.cumsum(2 * v1 * e ** np.arange(1, 5) / g)])
+    np.testing.assert_allclose(impacts, expected, rtol=1e-11)
+
+
+def test_events_off_and_bad_event_names(models):
+    pend, _ = models
+    res = pend.simulate([0.1, 0.0], (0, 1), events=False)
+    assert res.t_events is None
+    with pytest.raises(ValueError, match="unknown event.*nope.*known: up, fallen, energy, speed"):
+        pend.simulate([0.1, 0.0], (0, 1), events=["nope"])
+    with pytest.raises(ValueError, match="direction must be -1, 0 or \\+1"):
+        pend.simulate([0.1, 0.0], (0, 1), events={"up": {"direction": 2}})
+    with pytest.raises(ValueError, match="mix compiled events and outputs"):
+        pend.simulate([0.1, 0.0], (0, 1), events=["up", "speed"])
+
+
+def test_event_with_unknown_symbol_is_a_model_file_error(tmp_path):
+    text = model_files.PENDULUM + 'w = dynamicsymbols("w")\nevents = {"bad": w}\n'
+    path = model_files.write(tmp_path, text, "badev")
+    with pytest.raises(ModelFileError, match=r"badev\.py:\d+: .*event `bad` uses w"):
+        eomc.compile(str(path), cache_dir=tmp_path / "cache", progress=False)
