@@ -12,6 +12,7 @@ extension instead; it remains for users who want a self-contained module.
 Only numpy and cffi are imported here -- never SymPy or eomc.compiler -- so a
 built model runs where only the runtime is installed.
 """
+import copyreg
 import importlib.machinery
 import importlib.util
 import json
@@ -26,8 +27,9 @@ from .cdef import ABI_VERSION, BATCH_CDEF, MODEL_CDEF, model_function_cdef
 from .integrators_api import INTEGRATOR_CDEF
 from .model import Model
 from .native import integrator_library
+from .travel import arrive, pack
 
-__all__ = ["load", "find_model_json", "LoadError"]
+__all__ = ["load", "find_model_json", "LoadError", "restore"]
 
 
 class LoadError(ModelError, OSError):
@@ -144,3 +146,13 @@ def load(dir_or_path, name=None, backend=None):
     return Model(ffi=ffi, lib=lib, c_model=c_model, metadata=data, directory=directory,
                  library_path=library, extension=extension, model_lib=model_lib,
                  integrators=integrator_library(ffi))
+
+
+def restore(payload):
+    """Unpickle a Model that pickled by content (runtime/travel.py): cache hit, shipped library or compile."""
+    return arrive(payload, lambda directory, name: load(directory, name, backend="cffi"))
+
+
+# Every Model comes from this module, so pickling is registered here: a Model pickles by
+# content (travel.pack) and unpickles through restore() -- on any worker, without SymPy.
+copyreg.pickle(Model, lambda model: (restore, (pack(model),)))
