@@ -25,6 +25,7 @@ SUBCOMMANDS = {
     "report": ("eomc.cli.report", "error against run time over methods and tolerances"),
     "check": ("eomc.cli.check", "stability checks on stiff and extreme cases"),
     "cache": ("eomc.cli.cache", "show, prune or clear the build cache"),
+    "sweep": ("eomc.cli.sweep", "simulate every case of a CSV on local processes or a Dask cluster"),
 }
 
 
