@@ -221,13 +221,15 @@ class _Progress:
         if self.bar is not None:
             self.bar.update(cases)
         elif self.chunks == self.n_chunks or self.chunks % max(1, self.n_chunks // 20) == 0:
-            print(f"\rsweep: {self.cases}/{self.n_cases} cases ({self.chunks}/{self.n_chunks} chunks)",
-                  end="", file=sys.stderr, flush=True)
+            tty = sys.stderr.isatty()   # a terminal redraws one line; a log gets one line each
+            start, end = ("\r", "") if tty else ("", "\n")
+            print(f"{start}sweep: {self.cases}/{self.n_cases} cases ({self.chunks}/{self.n_chunks} chunks)",
+                  end=end, file=sys.stderr, flush=True)
 
     def close(self):
         if self.bar is not None:
             self.bar.close()
-        elif self.enabled:
+        elif self.enabled and sys.stderr.isatty():
             print(file=sys.stderr)
 
 
