@@ -28,6 +28,7 @@ it): ``arrive`` gets the load function from ``loader.restore``.
 import json
 import os
 import platform
+import re
 import shlex
 import shutil
 import subprocess
@@ -47,6 +48,7 @@ _FIELDS = ("eomc_travel", "name", "key", "platform", "abi_version", "library_nam
 _COMPILERS = ("cc", "gcc", "clang")
 # the shipped C beside a model's own NAME.c/.h/.json in its build directory (compiler/build/builder.py)
 _RUNTIME_FILES = ("eomc_model.h", "eomc_integrators.h", "eomc_batch.h", "eomc_batch.c")
+_KEY = re.compile(r"[0-9a-f]{64}")   # a sha256: the entry's directory name in the cache
 _RESTORED = {}                 # (key, digest) -> Model restored in this process
 _LOCK = threading.Lock()
 
@@ -110,6 +112,8 @@ def _check(payload):
                           f"corrupt or was altered: its content hashes to {digest[:12]}, the pickle "
                           f"says {str(payload['digest'])[:12]}; refusing to load it")
     name = payload["name"]
+    if not (isinstance(payload["key"], str) and _KEY.fullmatch(payload["key"])):
+        raise TravelError(f"the pickled model {name!r} has a malformed cache key; refusing to load it")
     for n in [*payload["files"], payload["library_name"]]:
         if not isinstance(n, str) or os.path.basename(n) != n or n.startswith("."):
             raise TravelError(f"the pickled model {name!r} names a file {n!r} outside its directory; "

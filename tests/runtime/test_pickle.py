@@ -124,11 +124,15 @@ def test_an_altered_pickle_is_refused(built, blob):
         restore({"something": "else"})
 
 
-def test_a_payload_naming_files_outside_its_directory_is_refused(built):
+def test_a_payload_reaching_outside_the_cache_is_refused(built):
     payload = dict(travel.pack(load(built.directory)))
     payload["files"] = {**payload["files"], "../evil.h": "int x;"}
     payload["digest"] = travel._digest(payload)
     with pytest.raises(travel.TravelError, match="outside its directory"):
+        restore(payload)
+    payload = dict(travel.pack(load(built.directory)), key="../../../elsewhere")
+    payload["digest"] = travel._digest(payload)
+    with pytest.raises(travel.TravelError, match="malformed cache key"):
         restore(payload)
 
 
@@ -149,3 +153,21 @@ def test_runtime_store_and_compiler_cache_agree(built, tmp_path):
     assert published and compiler_cache.lookup(compiler_cache.cache_root(tmp_path), "things", "ab" * 32) == entry
     (entry / "x.bin").write_bytes(b"12X")                  # same size, other content
     assert store.find(store.cache_root(tmp_path), "things", "ab" * 32, verify=("x.bin",)) is None
+
+
+def test_a_cython_built_model_travels_as_its_cffi_library(built, tmp_path):
+    """The Cython extension is tied to one Python; the library under it travels, under its own key."""
+    directory = tmp_path / "built"
+    directory.mkdir()
+    for path in built.directory.iterdir():
+        (directory / path.name).write_bytes(path.read_bytes())
+    data = json.loads((directory / "osc.json").read_text())
+    data["build"].update(backend="cython", extension="osc_cy.so")
+    (directory / "osc.json").write_text(json.dumps(data))
+    payload = travel.pack(load(directory, backend="cffi"))
+    assert payload["key"] != built.key
+    shipped = json.loads(payload["files"]["osc.json"])["build"]
+    assert shipped["backend"] == "cffi" and shipped["extension"] is None
+    model = restore(payload)
+    assert model.arrival == "library" and model.backend == "cffi" and model.directory.name == payload["key"]
+    np.testing.assert_array_equal(model.rhs(0.0, X), osc_model.oscillator_rhs(0.0, X))
