@@ -109,18 +109,21 @@ def case_arrays(model, cases):
     if any(v != n for v in lengths.values()):
         raise ValueError("sweep cases: columns differ in length: "
                          + ", ".join(f"{k} has {v}" for k, v in lengths.items()))
+    kinds = {key: _kind(model, key) for key in columns}       # "x", "p" or "r"; unknown names fail here
+
+    def per_case(row, default, kind, size):
+        """(n, size) rows from the shared or per-case row, or None when no case sets any entry."""
+        if row is None and kind not in kinds.values():
+            return None
+        return np.array(np.broadcast_to(default if row is None else row, (n, size)), dtype=np.float64)
+
     base = model.initial_state if model.initial_state is not None else np.zeros(model.nx)
     X0 = np.array(np.broadcast_to(rows.get("x0", base), (n, model.nx)), dtype=np.float64)
-    P = rows.get("p")
-    R = rows.get("r")
-    P = None if P is None and not any(_kind(model, k) == "p" for k in columns) else \
-        np.array(np.broadcast_to(model.param_defaults if P is None else P, (n, model.nparam)))
-    R = None if R is None and not any(_kind(model, k) == "r" for k in columns) else \
-        np.array(np.broadcast_to(np.zeros(model.ninput) if R is None else R, (n, model.ninput)))
+    P = per_case(rows.get("p"), model.param_defaults, "p", model.nparam)
+    R = per_case(rows.get("r"), np.zeros(model.ninput), "r", model.ninput)
     for key, values in columns.items():
-        kind = _kind(model, key)
         target, names = {"x": (X0, model.state_names), "p": (P, model.param_names),
-                         "r": (R, model.input_names)}[kind]
+                         "r": (R, model.input_names)}[kinds[key]]
         target[:, index_of(key, names, "name", model.name)] = values
     return n, X0, P, R
 
