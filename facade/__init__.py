@@ -16,13 +16,14 @@ from importlib import import_module
 
 from eomc.runtime.version import __version__
 
-__all__ = ["__version__", "compile", "load", "mechanics"]
+__all__ = ["__version__", "compile", "load", "mechanics", "sweep"]
 
 # name -> (module, attribute or None for the module itself)
 _LAZY = {
     "compile": ("eomc.compiler.driver", "compile"),
     "load": ("eomc.runtime.loader", "load"),
     "mechanics": ("eomc.mechanics", None),
+    "sweep": ("eomc.runtime.sweep", "sweep"),
 }
 
 

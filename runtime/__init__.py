@@ -11,6 +11,9 @@ The lowest layer: the compiler builds on it, nothing in it depends on the compil
   ``names.py`` (how a key names a state, parameter, input or output)
 - running: ``model.py`` (checked numpy calls), ``simulate.py`` + ``result.py`` (one trajectory,
   loop in C), ``batch.py`` (many, on threads), ``_fastcall.pyx`` (the compiled call path)
+- travelling: ``travel.py`` (a Model pickles by content and loads on any worker), ``store.py`` (the
+  build cache's entries and locks, usable without the compiler), ``sweep.py`` (``eomc.sweep``: chunks
+  of ``simulate_many`` on any map-like executor, Dask included)
 - judging: ``reference.py``, ``report.py`` (measure) -> ``report_output.py`` (present),
   ``stability.py`` (``eomc check``)
 """

@@ -100,9 +100,22 @@ def _prepare_case(model, i, n, x0, t_span, p, kw):
         raise ValueError(f"case {i} of {n}: {exc}") from None
 
 
+def _input_cases(r, ninput):
+    """Per-case constant inputs (an (n, ninput) array or a list of dicts), else None: r is shared.
+
+    Only these two forms: a 1-d array, a dict, an (t_grid, values) tuple or a
+    callable is one r for every case, as before.
+    """
+    if (isinstance(r, np.ndarray) and r.ndim == 2) or (isinstance(r, list) and r and isinstance(r[0], dict)):
+        return _cases(r, ninput, "r")
+    return None
+
+
 def simulate_many(model, x0, t_span, p=None, threads=None, progress=True,
                   raise_on_failure=True, **kw):
     """Integrate every case; x0 (nx,) or (n, nx), p None, (nparam,) or (n, nparam).
+
+    r (constant inputs) may also be per case: an (n, ninput) array or a list of dicts.
 
     All cases share t_span and the output times (t_eval / n_points / dt); other
     keywords are simulate()'s.  threads=None uses every CPU.  Returns a
@@ -113,9 +126,15 @@ def simulate_many(model, x0, t_span, p=None, threads=None, progress=True,
     ps = _cases(p, model.nparam, "p")
     if xs is not None and ps is not None and len(xs) != len(ps):
         raise ValueError(f"x0 has {len(xs)} cases but p has {len(ps)}; give as many of each")
-    n = len(xs if xs is not None else ps if ps is not None else [0])
+    rs = _input_cases(kw.get("r"), model.ninput)
+    n = len(xs if xs is not None else ps if ps is not None else rs if rs is not None else [0])
+    if rs is not None:
+        if len(rs) != n:
+            raise ValueError(f"r has {len(rs)} cases but x0/p have {n}; give as many of each")
+        kw = {k: v for k, v in kw.items() if k != "r"}
     preps = [_prepare_case(model, i, n, xs[i] if xs is not None else x0, t_span,
-                           ps[i] if ps is not None else p, kw) for i in range(n)]
+                           ps[i] if ps is not None else p,
+                           kw if rs is None else {**kw, "r": rs[i]}) for i in range(n)]
     t = preps[0]["t_eval"]
     x = np.full((n, t.size, model.nx), np.nan)
     raw = [None] * n

@@ -14,6 +14,7 @@ built model runs where only the runtime is installed.  What NAME.json may say is
 checked by ``metadata.py``: only a library inside the directory is opened, and
 sizes, names and defaults are the library's own.
 """
+import copyreg
 import importlib.machinery
 import importlib.util
 import json
@@ -27,8 +28,9 @@ from .integrators_api import INTEGRATOR_CDEF
 from .metadata import EXPORTED_FUNCTIONS, LoadError, check_json, from_library
 from .model import Model
 from .native import integrator_library
+from .travel import arrive, pack
 
-__all__ = ["load", "find_model_json", "LoadError"]
+__all__ = ["load", "find_model_json", "LoadError", "restore"]
 
 
 def find_model_json(dir_or_path, name=None):
@@ -137,3 +139,13 @@ def load(dir_or_path, name=None, backend=None):
     return Model(ffi=ffi, lib=lib, c_model=c_model, metadata=data, directory=directory,
                  library_path=library, extension=extension, model_lib=model_lib,
                  integrators=integrator_library(ffi))
+
+
+def restore(payload):
+    """Unpickle a Model that pickled by content (runtime/travel.py): cache hit, shipped library or compile."""
+    return arrive(payload, lambda directory, name: load(directory, name, backend="cffi"))
+
+
+# Every Model comes from this module, so pickling is registered here: a Model pickles by
+# content (travel.pack) and unpickles through restore() -- on any worker, without SymPy.
+copyreg.pickle(Model, lambda model: (restore, (pack(model),)))

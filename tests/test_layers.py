@@ -155,7 +155,7 @@ def test_compiler_does_not_import_the_top_package():
     assert _top_package_imports("eomc.compiler") == []
 
 
-@pytest.mark.parametrize("command", ["simulate", "report", "check", "cache", "common"])
+@pytest.mark.parametrize("command", ["simulate", "report", "check", "cache", "common", "sweep"])
 def test_runtime_commands_start_without_sympy(command):
     assert _violations(f"eomc.cli.{command}", ["sympy", "eomc.compiler.mechanics", "eomc.compiler.driver"],
                        top_level_only=True) == []

@@ -28,6 +28,7 @@ SUBCOMMANDS = {
     "check": ("eomc.cli.check", "stability checks on stiff and extreme cases"),
     "linearize": ("eomc.cli.linearize", "A, B and eigenvalues at an operating point (--reduced)"),
     "cache": ("eomc.cli.cache", "show, prune or clear the build cache"),
+    "sweep": ("eomc.cli.sweep", "simulate every case of a CSV on local processes or a Dask cluster"),
 }
 
 

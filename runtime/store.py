@@ -1,0 +1,139 @@
+"""Find and publish build-cache entries from the runtime: no SymPy, no eomc.compiler.
+
+Why this module exists: a model unpickled on a worker (``travel.py``) must put
+the library it carries into the worker's build cache, and a worker needs
+numpy, cffi and a C compiler -- not the compiler package.  It follows the
+layout and protocol of ``eomc.compiler.build.cache`` exactly, so an entry
+published here is a hit there and the other way round
+(``tests/runtime/test_pickle.py`` checks both directions):
+
+- entries at ``<root>/<kind>/<key[:2]>/<key>/`` with a ``manifest.json`` that
+  names the key, the cache schema and every file's size and sha256;
+- one ``flock`` per key at ``<root>/locks/<key>.lock``, so N workers receiving
+  the same model publish it once;
+- work happens in ``<root>/tmp/`` and is published with one ``os.replace``,
+  so a reader sees either nothing or a whole entry.
+"""
+import contextlib
+import hashlib
+import json
+import os
+import shutil
+import tempfile
+import time
+from pathlib import Path
+
+from eomc.runtime.errors import EomcError
+
+__all__ = ["CACHE_SCHEMA", "cache_root", "hash_key", "sha256_bytes", "find", "publish"]
+
+CACHE_SCHEMA = 1          # must equal eomc.compiler.build.cache.CACHE_SCHEMA (a test checks)
+MANIFEST = "manifest.json"
+
+try:  # POSIX advisory locks; elsewhere entries still publish atomically.
+    import fcntl
+except ImportError:  # pragma: no cover
+    fcntl = None
+
+
+def cache_root(cache_dir=None):
+    """The versioned cache root: ``cache_dir`` or $EOMC_CACHE_DIR or ~/.cache/eomc, plus /v1."""
+    base = cache_dir or os.environ.get("EOMC_CACHE_DIR")
+    if not base:
+        xdg = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+        base = os.path.join(xdg, "eomc")
+    root = Path(base).expanduser().resolve() / f"v{CACHE_SCHEMA}"
+    try:
+        for sub in ("tmp", "locks"):
+            (root / sub).mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise EomcError(f"cannot use the build cache at {root} ({exc.strerror or exc}); "
+                        f"set EOMC_CACHE_DIR to a writable directory") from None
+    return root
+
+
+def hash_key(parts):
+    """sha256 of a JSON-able description (the same function as the compiler's cache keys)."""
+    text = json.dumps(parts, sort_keys=True, separators=(",", ":"), default=str)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def sha256_bytes(data):
+    return hashlib.sha256(data).hexdigest()
+
+
+def _entry(root, kind, key):
+    return root / kind / key[:2] / key
+
+
+def find(root, kind, key, verify=()):
+    """The published entry for ``key`` when it is whole, else None.
+
+    Whole means: the manifest names this key and schema, every listed file has
+    its size, and the files named in ``verify`` (the library) have their sha256.
+    """
+    entry = _entry(root, kind, key)
+    try:
+        manifest = json.loads((entry / MANIFEST).read_text())
+        if manifest.get("key") != key or manifest.get("schema") != CACHE_SCHEMA:
+            return None
+        files = manifest["files"]
+        if not all((entry / name).stat().st_size == info["size"] for name, info in files.items()):
+            return None
+        if not all(sha256_bytes((entry / name).read_bytes()) == files[name]["sha256"] for name in verify):
+            return None
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return None
+    with contextlib.suppress(OSError):  # a use: pruning drops the least recently used first
+        os.utime(entry / MANIFEST)
+    return entry
+
+
+@contextlib.contextmanager
+def _locked(root, key):
+    with open(root / "locks" / f"{key}.lock", "a+") as fh:
+        if fcntl is not None:
+            fcntl.flock(fh.fileno(), fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            if fcntl is not None:
+                fcntl.flock(fh.fileno(), fcntl.LOCK_UN)
+
+
+def _write_manifest(directory, key, kind, inputs):
+    files = {}
+    for path in sorted(directory.iterdir()):
+        if path.is_file() and path.name != MANIFEST:
+            files[path.name] = {"size": path.stat().st_size, "sha256": sha256_bytes(path.read_bytes())}
+    manifest = {"schema": CACHE_SCHEMA, "kind": kind, "key": key, "created": time.time(),
+                "inputs": inputs, "files": files}
+    (directory / MANIFEST).write_text(json.dumps(manifest, indent=1, sort_keys=True, default=str))
+
+
+def publish(root, kind, key, write, inputs, verify=()):
+    """(entry, published): ``write(tmpdir)`` fills a new entry, under the key's lock.
+
+    Another process that published the key first wins: its entry is returned
+    and ``write`` never runs (``published`` is False).  A stale or corrupt
+    entry is moved aside and replaced.
+    """
+    with _locked(root, key):
+        found = find(root, kind, key, verify)
+        if found is not None:
+            return found, False
+        entry = _entry(root, kind, key)
+        tmp = Path(tempfile.mkdtemp(prefix=f"{key[:12]}-", dir=root / "tmp"))
+        try:
+            write(tmp)
+            _write_manifest(tmp, key, kind, inputs)
+            if entry.exists():
+                trash = Path(tempfile.mkdtemp(prefix="trash-", dir=root / "tmp"))
+                with contextlib.suppress(OSError):
+                    os.replace(entry, trash / "entry")
+                shutil.rmtree(trash, ignore_errors=True)
+            entry.parent.mkdir(parents=True, exist_ok=True)
+            os.replace(tmp, entry)
+        finally:
+            shutil.rmtree(tmp, ignore_errors=True)
+    return entry, True

@@ -1,0 +1,333 @@
+"""eomc.sweep: thousands of simulations of one model, in chunks, on any map-like executor.
+
+Why: parameter studies, Monte Carlo and controller tuning outgrow one
+process.  ``simulate_many`` already fills every core of one machine (threads,
+GIL released); ``sweep`` cuts the cases into chunks and hands each chunk,
+with the model, to an executor the user already has -- builtin ``map``, a
+``concurrent.futures`` executor, a ``multiprocessing`` pool (any start
+method) or a ``dask.distributed.Client`` -- where it runs ``simulate_many``.
+The model travels by content (``travel.py``): a worker needs numpy, cffi and
+maybe a C compiler, never SymPy.  We do not schedule anything ourselves.
+
+Results come back in case order as a ``BatchResult``, exactly what
+``simulate_many`` returns for the same cases (bit for bit), or reduced on the
+worker so a huge sweep does not ship trajectories home: ``reduce="final"``
+keeps each case's last output row, ``reduce=f`` keeps ``f(result)`` of each
+case's ``SimulationResult`` (a ``SweepValues``).
+
+Dask is optional and imported only when a Client is passed.
+"""
+import builtins
+import math
+import os
+import sys
+from dataclasses import dataclass
+from functools import partial
+
+import numpy as np
+
+from eomc.runtime.errors import SimulationError
+
+from . import loader  # noqa: F401  (registers Model pickling by content)
+from .batch import BatchResult, simulate_many
+from .names import index_of
+from .result import SimulationResult
+from .simulate import prepare
+
+__all__ = ["sweep", "SweepValues", "case_arrays", "run_chunk"]
+
+MIN_CHUNK = 100   # cases; below this the per-chunk cost shows (benchmarks/results/sweep.md)
+CHUNKS_PER_WORKER = 4
+
+
+@dataclass
+class SweepValues:
+    """values[i] = reduce(result of case i); status, messages and stats per case as in BatchResult."""
+    values: object          # an (n_cases, ...) array when the values stack, else a list
+    status: np.ndarray
+    messages: list
+    stats: list
+
+    @property
+    def success(self):
+        return bool(np.all(self.status == 0))
+
+
+# ---- cases ------------------------------------------------------------------------------------
+def _column(value, what):
+    a = np.asarray(value, dtype=np.float64)
+    if a.ndim != 1:
+        raise ValueError(f"sweep cases: column {what!r} must hold one number per case; got shape {a.shape}")
+    return a
+
+
+def _rows(value, size, what):
+    """An (n, size) array of per-case rows, or a (size,) vector shared by every case."""
+    a = np.asarray(value, dtype=np.float64)
+    if a.ndim == 1 and a.shape == (size,):
+        return a
+    if a.ndim != 2 or a.shape[1] != size:
+        raise ValueError(f"sweep cases: {what!r} must have shape ({size},) for every case or "
+                         f"(n_cases, {size}) for one row per case; got {a.shape}")
+    return a
+
+
+def case_arrays(model, cases):
+    """(n, X0, P, R) from ``cases``: X0 (n, nx); P (n, nparam) or None; R (n, ninput) or None.
+
+    ``cases`` is one of
+    - a mapping of columns (a dict, a pandas DataFrame): "x0", "p", "r" hold whole rows
+      (one per case, or one shared); any state, parameter or input name holds one value
+      per case and overrides that entry;
+    - a list of dicts, one per case, keyed the same way;
+    - an (n, nx) array: one initial state per case.
+    Unset states start at the model's initial_state (0 without one), unset parameters
+    keep their defaults and unset inputs are 0 (or simulate's r=, when given).
+    """
+    if isinstance(cases, (list, tuple)) and cases and isinstance(cases[0], dict):
+        keys = list(dict.fromkeys(k for case in cases for k in case))
+        missing = [(i, k) for i, case in enumerate(cases) for k in keys if k not in case]
+        if missing:
+            i, k = missing[0]
+            raise ValueError(f"sweep cases: case {i} has no {k!r} (every case must set the same names)")
+        cases = {k: [case[k] for case in cases] for k in keys}
+    elif not hasattr(cases, "keys"):
+        cases = {"x0": cases}
+    columns, rows = {}, {}
+    for key in cases.keys():
+        if str(key) in ("x0", "p", "r"):
+            size = {"x0": model.nx, "p": model.nparam, "r": model.ninput}[str(key)]
+            rows[str(key)] = _rows(cases[key], size, str(key))
+        else:
+            columns[key] = _column(cases[key], str(key))
+    lengths = {f"column {k!r}": len(v) for k, v in columns.items()}
+    lengths.update({f"{k!r}": len(v) for k, v in rows.items() if v.ndim == 2})
+    if not lengths:
+        raise ValueError("sweep cases: nothing varies from case to case; give per-case rows "
+                         "(x0, p, r) or columns named by states, parameters or inputs")
+    n = next(iter(lengths.values()))
+    if any(v != n for v in lengths.values()):
+        raise ValueError("sweep cases: columns differ in length: "
+                         + ", ".join(f"{k} has {v}" for k, v in lengths.items()))
+    kinds = {key: _kind(model, key) for key in columns}       # "x", "p" or "r"; unknown names fail here
+
+    def per_case(row, default, kind, size):
+        """(n, size) rows from the shared or per-case row, or None when no case sets any entry."""
+        if row is None and kind not in kinds.values():
+            return None
+        return np.array(np.broadcast_to(default if row is None else row, (n, size)), dtype=np.float64)
+
+    base = model.initial_state if model.initial_state is not None else np.zeros(model.nx)
+    X0 = np.array(np.broadcast_to(rows.get("x0", base), (n, model.nx)), dtype=np.float64)
+    P = per_case(rows.get("p"), model.param_defaults, "p", model.nparam)
+    R = per_case(rows.get("r"), np.zeros(model.ninput), "r", model.ninput)
+    for key, values in columns.items():
+        target, names = {"x": (X0, model.state_names), "p": (P, model.param_names),
+                         "r": (R, model.input_names)}[kinds[key]]
+        target[:, index_of(key, names, "name", model.name)] = values
+    return n, X0, P, R
+
+
+def _kind(model, key):
+    for kind, names in (("x", model.state_names), ("p", model.param_names), ("r", model.input_names)):
+        try:
+            index_of(key, names, "", model.name)
+            return kind
+        except ValueError:
+            pass
+    raise ValueError(f"sweep cases: {key!r} is not a state, parameter or input of {model.name}; "
+                     f"states: {', '.join(model.state_names)}; parameters: "
+                     f"{', '.join(model.param_names) or 'none'}; inputs: {', '.join(model.input_names) or 'none'}")
+
+
+# ---- the work of one chunk (runs on a worker) --------------------------------------------------
+def run_chunk(model, task):
+    """Simulate one chunk with simulate_many on threads, then reduce each case on the spot."""
+    kw = dict(task["simulate"])
+    if task["r"] is not None:
+        kw["r"] = task["r"]
+    res = simulate_many(model, task["x0"], task["t_span"], p=task["p"], threads=task["threads"],
+                        progress=False, raise_on_failure=False, **kw)
+    out = {"start": task["start"], "status": res.status, "messages": res.messages, "stats": res.stats}
+    reduce = task["reduce"]
+    if reduce is None:
+        out.update(t=res.t, x=res.x, outputs=res.outputs)
+    elif reduce == "final":
+        out.update(t=res.t[-1:], x=res.x[:, -1:, :], outputs={k: v[:, -1:] for k, v in res.outputs.items()})
+    else:
+        out["values"] = [reduce(SimulationResult(
+            t=res.t, x=res.x[i], state_names=res.state_names, stats=res.stats[i], status=int(res.status[i]),
+            message=res.messages[i], model_name=model.name, nq=model.nq,
+            outputs={k: v[i] for k, v in res.outputs.items()})) for i in range(len(res.status))]
+    return out
+
+
+def _run_packed(args):
+    return run_chunk(*args)
+
+
+# ---- executors ---------------------------------------------------------------------------------
+def _kind_of(executor):
+    if executor is None or executor is builtins.map:
+        return "here"
+    if all(hasattr(executor, a) for a in ("submit", "gather", "scatter")):
+        return "dask"
+    if hasattr(executor, "imap_unordered"):
+        return "pool"
+    if hasattr(executor, "submit"):
+        return "futures"
+    if hasattr(executor, "map"):
+        return "map"
+    if callable(executor):
+        return "callable"
+    raise TypeError(f"sweep: map= must be map-like (builtins.map, a concurrent.futures executor, a "
+                    f"multiprocessing Pool or a dask.distributed Client); got {type(executor).__name__}")
+
+
+def _workers(executor, kind):
+    """How many chunks can run at once (for the default chunk size)."""
+    count = None
+    if kind == "dask":
+        count = sum(executor.nthreads().values())
+    elif kind == "pool":
+        count = getattr(executor, "_processes", None)
+    elif kind == "futures":
+        count = getattr(executor, "_max_workers", None)
+    return max(1, int(count or os.cpu_count() or 1))
+
+
+def _chunk_size(n, workers):
+    """~4 chunks per worker balance the load; >= 100 cases each keep the per-chunk cost small."""
+    per = math.ceil(n / (CHUNKS_PER_WORKER * workers))
+    return max(1, min(math.ceil(n / workers), max(per, MIN_CHUNK)))
+
+
+class _Progress:
+    """tqdm when installed, else a line on stderr per finished chunk (at most ~20 lines)."""
+
+    def __init__(self, n_cases, n_chunks, enabled, note=""):
+        self.n_cases, self.n_chunks, self.cases, self.chunks = n_cases, n_chunks, 0, 0
+        self.enabled, self.bar = enabled and n_chunks > 0, None
+        if self.enabled:
+            if note:
+                print(f"sweep: {note}", file=sys.stderr, flush=True)
+            try:
+                from tqdm import tqdm
+                self.bar = tqdm(total=n_cases, unit="case", desc="sweep")
+            except ImportError:
+                pass
+
+    def step(self, cases):
+        if not self.enabled:
+            return
+        self.cases, self.chunks = self.cases + cases, self.chunks + 1
+        if self.bar is not None:
+            self.bar.update(cases)
+        elif self.chunks == self.n_chunks or self.chunks % max(1, self.n_chunks // 20) == 0:
+            tty = sys.stderr.isatty()   # a terminal redraws one line; a log gets one line each
+            start, end = ("\r", "") if tty else ("", "\n")
+            print(f"{start}sweep: {self.cases}/{self.n_cases} cases ({self.chunks}/{self.n_chunks} chunks)",
+                  end=end, file=sys.stderr, flush=True)
+
+    def close(self):
+        if self.bar is not None:
+            self.bar.close()
+        elif self.enabled and sys.stderr.isatty():
+            print(file=sys.stderr)
+
+
+def _dispatch(executor, kind, model, tasks):
+    """Yield each chunk's result as it finishes (any order)."""
+    if kind == "here":
+        for task in tasks:
+            yield run_chunk(model, task)
+    elif kind == "dask":
+        from distributed import as_completed
+        shipped = executor.scatter(model, broadcast=True, hash=False)   # once per worker, not per task
+        futures = executor.map(run_chunk, [shipped] * len(tasks), tasks, pure=False)  # batched: ~1 ms/chunk less
+        try:
+            for future in as_completed(futures):
+                yield future.result()
+        finally:
+            executor.cancel(futures)
+    elif kind == "pool":
+        yield from executor.imap_unordered(_run_packed, [(model, task) for task in tasks])
+    elif kind == "futures":
+        from concurrent.futures import as_completed
+        futures = [executor.submit(run_chunk, model, task) for task in tasks]
+        try:
+            for future in as_completed(futures):
+                yield future.result()
+        finally:
+            for future in futures:
+                future.cancel()
+    else:
+        mapper = executor.map if kind == "map" else executor
+        yield from mapper(partial(run_chunk, model), tasks)
+
+
+def sweep(model, cases, t_span, *, map=None, chunk_size=None, reduce=None, threads=None,
+          progress=True, raise_on_failure=True, **simulate_kw):
+    """Simulate every case of ``cases`` (see :func:`case_arrays`) over ``t_span``, chunk by chunk.
+
+    map: where chunks run -- None (here, on threads), builtins.map, a concurrent.futures
+    executor, a multiprocessing Pool or a dask.distributed Client.  chunk_size: cases per
+    chunk (default: ~4 chunks per worker, at least 100 cases each).  threads: simulate_many's
+    threads per chunk (default: every core here, 1 when an executor runs the chunks in
+    parallel).  reduce: None (whole trajectories), "final" (the last output row of each case)
+    or a picklable callable f(SimulationResult) -> value, applied on the worker.  Other
+    keywords are simulate()'s (method, rtol, atol, t_eval, n_points, r, ...).
+
+    Returns a BatchResult in case order (bit-identical to simulate_many for the same cases),
+    or a SweepValues for a callable reduce.  A failed case raises SimulationError naming it
+    unless raise_on_failure=False (its status is then nonzero, its tail NaN).
+    """
+    if reduce is not None and reduce != "final" and not callable(reduce):
+        raise ValueError(f"sweep: reduce must be None, 'final' or a callable; got {reduce!r}")
+    kind = _kind_of(map)
+    n, X0, P, R = case_arrays(model, cases)
+    if R is not None and "r" in simulate_kw:
+        raise ValueError("sweep: inputs are given per case and as r=; give one or the other")
+    # check the arguments here, once, rather than in every worker
+    prepare(model, X0[0], t_span, p=None if P is None else P[0],
+            **({**simulate_kw, "r": R[0]} if R is not None else simulate_kw))
+    workers = _workers(map, kind)
+    size = int(chunk_size) if chunk_size else _chunk_size(n, workers)
+    if size < 1:
+        raise ValueError(f"sweep: chunk_size must be a positive integer; got {chunk_size!r}")
+    if threads is None:
+        threads = (os.cpu_count() or 1) if kind == "here" else 1
+    tasks = [{"start": lo, "x0": X0[lo:lo + size], "p": None if P is None else P[lo:lo + size],
+              "r": None if R is None else R[lo:lo + size], "t_span": tuple(t_span),
+              "simulate": simulate_kw, "reduce": reduce, "threads": threads}
+             for lo in range(0, n, size)]
+    note = f"{n} cases in {len(tasks)} chunks of up to {size}"
+    if kind == "dask" and "dashboard" in (map.scheduler_info().get("services") or {}):
+        note += f"; Dask dashboard: {map.dashboard_link}"
+    bar = _Progress(n, len(tasks), progress and len(tasks) > 1, note)
+    done = {}
+    try:
+        for out in _dispatch(map, kind, model, tasks):
+            done[out["start"]] = out
+            bar.step(len(out["status"]))
+    finally:
+        bar.close()
+    parts = [done[task["start"]] for task in tasks]
+    status = np.concatenate([part["status"] for part in parts])
+    messages = [m for part in parts for m in part["messages"]]
+    stats = [s for part in parts for s in part["stats"]]
+    if raise_on_failure and np.any(status):
+        i = int(np.flatnonzero(status)[0])
+        raise SimulationError(f"case {i} of {n}: {messages[i]}")
+    if callable(reduce) and reduce != "final":
+        values = [v for part in parts for v in part["values"]]
+        try:
+            stacked = np.asarray(values)
+            values = stacked if stacked.dtype != object else values
+        except ValueError:   # ragged
+            pass
+        return SweepValues(values=values, status=status, messages=messages, stats=stats)
+    return BatchResult(t=parts[0]["t"], x=np.concatenate([part["x"] for part in parts]),
+                       state_names=tuple(model.state_names), status=status, messages=messages,
+                       stats=stats, outputs={k: np.concatenate([part["outputs"][k] for part in parts])
+                                             for k in parts[0]["outputs"]})
