@@ -29,7 +29,6 @@ import numpy as np
 import sympy as sm
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests" / "helpers"))  # zoo.py
 
 from common import Timing, environment_header, format_table, parse_args, write_results  # noqa: E402
 from models import eomc_compile, eomc_kane, eomc_p, initial_state  # noqa: E402

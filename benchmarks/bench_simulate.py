@@ -16,7 +16,7 @@ eomc's own DOP853 at 1e-13 when eomc is available) and their distance is
 printed: errors far below it are not resolved.
 
 Goal (issue 4 §7): eomc >= 50x faster than solve_ivp + PyDy at equal or better
-error.  Also draws a work-precision diagram (error vs wall time, log-log, one
+error.  Also draws a work-precision diagram (error vs CPU time, log-log, one
 line per method/tool) to benchmarks/results/simulate_work_precision.png.
 """
 import sys
@@ -29,7 +29,7 @@ from scipy.integrate import solve_ivp
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from common import (RESULTS_DIR, Timing, environment_header, format_table, work_precision_figure,  # noqa: E402
+from common import (RESULTS_DIR, Timing, pin_to_one_core, environment_header, format_table, work_precision_figure,  # noqa: E402
                     parse_args, ratio, write_results)
 import models  # noqa: E402
 
@@ -54,9 +54,9 @@ class Counted:
 def scipy_run(fun, x0, tol, method="DOP853"):
     """(seconds, final state, rhs calls) of one solve_ivp run."""
     counted = Counted(fun)
-    t0 = time.perf_counter()
+    t0 = time.thread_time()
     sol = solve_ivp(counted, (0.0, T_END), x0, method=method, rtol=tol, atol=tol)
-    seconds = time.perf_counter() - t0
+    seconds = time.thread_time() - t0
     if not sol.success:
         raise RuntimeError(f"solve_ivp {method} failed: {sol.message}")
     return seconds, sol.y[:, -1].copy(), counted.calls
@@ -77,9 +77,9 @@ def eomc_run(model, p, x0, tol, method="dop853", dense=False):
     t_eval (no dense output); dense=True keeps simulate's default 1001 points.
     """
     kw = {} if dense else {"t_eval": np.array([0.0, T_END])}
-    t0 = time.perf_counter()
+    t0 = time.thread_time()
     res = model.simulate(x0, (0.0, T_END), p=p, r=R, method=method, rtol=tol, atol=tol, **kw)
-    seconds = time.perf_counter() - t0
+    seconds = time.thread_time() - t0
     x = np.asarray(getattr(res, "x", None) if hasattr(res, "x") else res["x"])
     final = x[-1] if x.ndim == 2 and x.shape[1] == len(x0) else x[:, -1]
     stats = getattr(res, "stats", {}) or {}
@@ -143,15 +143,30 @@ def measure(n, repeat, wp_tols):
         if model is not None:
             runners = {"eomc simulate": lambda tol: eomc_run(model, ep, x0, tol), **runners}
         results, points = {}, []
-        for name, run in runners.items():
-            # eomc's runs take milliseconds: more repeats steady its median on a busy machine
-            reps = 5 * repeat if name.startswith("eomc") else repeat
-            for tol in sorted(set(wp_tols) | {TOL}, reverse=True):
-                try:
-                    timing, final, calls = repeat_run(lambda: run(tol), reps)
-                except Exception as exc:  # noqa: BLE001
-                    notes.append(f"n={n}: {name} at tol={tol:g} failed: {type(exc).__name__}: {exc}")
+        for tol in sorted(set(wp_tols) | {TOL}, reverse=True):
+            # contestants interleaved round by round (a load burst hits all of them), order
+            # rotated each round; eomc's runs take milliseconds: 5 of them per round
+            samples = {name: [] for name in runners}
+            finals, failed = {}, set()
+            names = list(runners)
+            for k in range(repeat):
+                for name in names[k % len(names):] + names[:k % len(names)]:
+                    if name in failed:
+                        continue
+                    for _ in range(5 if name.startswith("eomc") else 1):
+                        try:
+                            seconds, final, calls = runners[name](tol)
+                        except Exception as exc:  # noqa: BLE001
+                            notes.append(f"n={n}: {name} at tol={tol:g} failed: "
+                                         f"{type(exc).__name__}: {exc}")
+                            failed.add(name)
+                            break
+                        samples[name].append(seconds)
+                        finals[name] = (final, calls)
+            for name in names:
+                if name in failed or not samples[name]:
                     continue
+                timing, (final, calls) = Timing(samples[name]), finals[name]
                 err = float(np.max(np.abs(final - ref)))
                 points.append([n, name, tol, timing.median, timing.iqr, calls, err])
                 if tol == TOL:
@@ -176,8 +191,9 @@ def plot(points, path):
 
 def main(argv=None):
     args = parse_args(__doc__.splitlines()[0], DEFAULT_N, default_repeat=5, argv=argv)
+    core = pin_to_one_core()
     wp_tols = [1e-6, 1e-8] if args.quick else WP_TOLS
-    headers = ["n", "tool", "wall [ms]", "IQR [ms]", "rhs calls", "final error",
+    headers = ["n", "tool", "CPU [ms]", "IQR [ms]", "rhs calls", "final error",
                "time vs eomc", "goal"]
     rows, all_points, notes = [], [], []
     for n in args.n:
@@ -202,8 +218,9 @@ def main(argv=None):
     plot(all_points, RESULTS_DIR / "simulate_work_precision.png")
     header = environment_header(
         "10 s of the n-link cart, DOP853 rtol=atol=1e-8: eomc vs solve_ivp (issue 4 §7)", args,
-        notes=[f"wall time: median of {args.repeat} runs ({5 * args.repeat} for eomc's "
-               "millisecond runs); rhs calls counted by a wrapper "
+        notes=[f"thread CPU time (time.thread_time), pinned to core {core}: median of "
+               f"{args.repeat} runs ({5 * args.repeat} for eomc's millisecond runs), the "
+               "contestants interleaved round by round in rotating order; rhs calls counted by a wrapper "
                "(scipy) or from the result's stats (eomc)",
                "start: cart at 0, links 0.3 rad from hanging (q_i = pi - 0.3), at rest; F = 0; "
                "parameters as in benchmarks/models.py (PyDy's horizontal start is chaotic "
@@ -212,19 +229,19 @@ def main(argv=None):
                "DOP853 rtol=atol=1e-13 with PyDy's Cython rhs, checked against the "
                "independent solutions below",
                "PyDy's rhs output is copied on every call (it may reuse one array)",
-               "'time vs eomc' = this tool's wall time / eomc simulate's",
+               "'time vs eomc' = this tool's CPU time / eomc simulate's",
                "goal: scipy+PyDy / eomc >= 50 with eomc's error at most 1.1x scipy+PyDy's "
                "(same method and tolerance: errors agree to a few digits, not bit for bit)",
                "eomc simulate is called with t_eval=[0, 10] (no dense output), like "
                "solve_ivp without t_eval; 'eomc simulate, 1001 pts' is simulate's default "
                "output grid (dense output: DOP853 spends 3 extra rhs calls per step on it)",
                *notes])
-    wp = format_table(["n", "tool", "tol", "wall [s]", "IQR [s]", "rhs calls", "error"], all_points)
+    wp = format_table(["n", "tool", "tol", "CPU [s]", "IQR [s]", "rhs calls", "error"], all_points)
     text = (header + "\n" + table + "\n\n## Work-precision points\n\n"
             "![work-precision](simulate_work_precision.png)\n\n" + wp + "\n")
     write_results("simulate", text)
     write_results("simulate_work_precision", header + "\n" + wp + "\n", csv_rows=all_points,
-                  csv_headers=["n", "tool", "tol", "wall_s", "iqr_s", "rhs_calls", "error"])
+                  csv_headers=["n", "tool", "tol", "cpu_s", "iqr_s", "rhs_calls", "error"])
     print("wrote", RESULTS_DIR / "simulate.md", RESULTS_DIR / "simulate_work_precision.png")
     return 0
 

@@ -18,7 +18,7 @@ from pathlib import Path
 
 __all__ = [
     "RESULTS_DIR", "Timing", "time_calls", "time_once", "median_iqr",
-    "format_table", "environment_header", "write_results", "parse_args",
+    "format_table", "environment_header", "write_results", "parse_args", "pin_to_one_core",
     "fmt", "ratio",
 ]
 
@@ -75,6 +75,17 @@ def time_calls(func, number, repeat):
             func()
         samples.append((time.perf_counter() - t0) / number)
     return Timing(samples)
+
+
+def pin_to_one_core():
+    """Run this process on one core (the last one) so contestants share a core and its caches;
+    returns the core's number, or None where affinity cannot be set."""
+    try:
+        core = max(os.sched_getaffinity(0))
+        os.sched_setaffinity(0, {core})
+        return core
+    except (AttributeError, OSError):
+        return None
 
 
 def fmt(value, digits=3):

@@ -19,10 +19,10 @@ from pathlib import Path
 import numpy as np
 
 _TESTS = Path(__file__).resolve().parent.parent / "tests"
-if str(_TESTS) not in sys.path:
+if str(_TESTS) not in sys.path:       # the tests' helpers package (tests/helpers/zoo.py)
     sys.path.insert(0, str(_TESTS))
 
-from zoo import n_link_pendulum_on_cart  # noqa: E402
+from helpers.zoo import n_link_pendulum_on_cart  # noqa: E402
 
 __all__ = [
     "n_link_pendulum_on_cart", "sympy_kane", "eomc_kane", "parameter_values",
