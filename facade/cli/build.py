@@ -9,7 +9,7 @@ __all__ = ["configure", "run", "add_generate_options"]
 
 def add_generate_options(parser):
     """Options shared by the commands that generate code (build, inspect)."""
-    parser.add_argument("model", help="model file (Python) defining `system`")
+    parser.add_argument("model", help="model file (Python) defining `system`, or a robot's URDF file")
     parser.add_argument("--name", help="model name (default: the file's `name` or its stem)")
     parser.add_argument("--outputs", metavar="LIST",
                         help="comma-separated functions to generate, e.g. rhs,jacobian,mass_matrix "

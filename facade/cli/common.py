@@ -12,7 +12,7 @@ __all__ = ["add_model_arguments", "load_model", "parse_assignments", "initial_st
 
 def add_model_arguments(parser):
     """The positional MODEL and the --x0/--param overrides."""
-    parser.add_argument("model", help="model file (.py) or built model directory / NAME.json")
+    parser.add_argument("model", help="model file (.py), robot (.urdf) or built model directory / NAME.json")
     parser.add_argument("--x0", nargs="+", metavar="NAME=V", default=(),
                         help="initial state entries (override the model's initial_state; others 0)")
     parser.add_argument("--param", nargs="+", metavar="NAME=V", default=(),
@@ -27,7 +27,7 @@ def load_model(path, quiet=False):
     path = Path(path)
     if not path.exists():
         raise ValueError(f"{path}: no such model file or built model directory")
-    if path.is_file() and path.suffix == ".py":
+    if path.is_file() and path.suffix.lower() in (".py", ".urdf"):
         from eomc.compiler.driver import compile as compile_model
         return compile_model(str(path), progress=False if quiet else None)
     from eomc.runtime.loader import load
