@@ -13,7 +13,8 @@ from pathlib import Path
 
 from sympy.physics import mechanics as sme
 
-__all__ = ["is_urdf_path", "is_unformed_system", "form_system", "urdf_overrides", "load_urdf_model"]
+__all__ = ["is_urdf_path", "is_unformed_system", "form_system", "urdf_overrides", "load_urdf_model",
+           "with_options"]
 
 
 def is_urdf_path(model):
@@ -63,6 +64,21 @@ def urdf_overrides(system, formed, overrides):
         extra = [r for r in formed.inputs if r not in built.inputs]   # the user's own, after the joints'
         result["inputs"] = [r for r in built.inputs if r in present] + extra
     return result
+
+
+def with_options(model, name=None, *, floating_base=False):
+    """(model, name) for the driver: a URDF path with options becomes its System.
+
+    The CLI's ``--floating-base`` lands here; without options the path goes
+    through unchanged (the driver reads URDF paths itself).
+    """
+    if not floating_base:
+        return model, name
+    if not is_urdf_path(model):
+        from eomc.runtime.errors import ModelError
+        raise ModelError(f"--floating-base applies to URDF robots (.urdf), not to {model}")
+    from eomc.compiler.model.validate import sanitize_name
+    return load_urdf_model(model, floating_base=True), name or sanitize_name(Path(model).stem)
 
 
 def load_urdf_model(path, **options):

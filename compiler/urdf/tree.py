@@ -80,18 +80,18 @@ def _parents_and_root(robot):
         if joint.child == joint.parent:
             _fail(robot, joint.line, f"joint '{joint.name}' joins link '{joint.child}' to itself")
         parent_joint[joint.child] = joint
-    roots = [name for name in robot.links if name not in parent_joint]
-    if not roots:
-        # every link has a parent: follow parents from any link until one repeats
-        seen, link = [], next(iter(robot.links))
-        while link not in seen:
+    for start in robot.links:   # follow parents from every link: a repeat is a cycle
+        seen, link = [], start
+        while link in parent_joint and link not in seen:
             seen.append(link)
             link = parent_joint[link].parent
-        cycle = seen[seen.index(link):]
-        joint = parent_joint[cycle[0]]
-        _fail(robot, joint.line, f"joint loop: the links {' -> '.join(cycle + [cycle[0]])} form a "
-                                 f"cycle through their parent joints (joint '{joint.name}' is one); "
-                                 f"URDF describes trees")
+        if link in seen:
+            cycle = seen[seen.index(link):]
+            joint = parent_joint[cycle[0]]
+            _fail(robot, joint.line, f"joint loop: the links {' -> '.join(cycle + [cycle[0]])} form a "
+                                     f"cycle through their parent joints (joint '{joint.name}' is one); "
+                                     f"URDF describes trees")
+    roots = [name for name in robot.links if name not in parent_joint]
     if len(roots) > 1:
         lines = ", ".join(f"'{name}' (line {robot.links[name].line})" for name in roots)
         _fail(robot, robot.links[roots[1]].line,

@@ -17,9 +17,11 @@ def add_model_arguments(parser):
                         help="initial state entries (override the model's initial_state; others 0)")
     parser.add_argument("--param", nargs="+", metavar="NAME=V", default=(),
                         help="parameter values (others keep their defaults)")
+    parser.add_argument("--floating-base", action="store_true",
+                        help="URDF: a 6-dof floating joint between the world and the root link")
 
 
-def load_model(path, quiet=False):
+def load_model(path, quiet=False, floating_base=False):
     """A runtime Model from a model file (compiled) or a built directory / json (loaded).
 
     Compiling shows its stages on stderr when that is a terminal, unless ``quiet``.
@@ -29,7 +31,9 @@ def load_model(path, quiet=False):
         raise ValueError(f"{path}: no such model file or built model directory")
     if path.is_file() and path.suffix.lower() in (".py", ".urdf"):
         from eomc.compiler.driver import compile as compile_model
-        return compile_model(str(path), progress=False if quiet else None)
+        from eomc.compiler.urdf.model import with_options
+        source, name = with_options(str(path), floating_base=floating_base)
+        return compile_model(source, name, progress=False if quiet else None)
     from eomc.runtime.loader import load
     return load(path)
 
