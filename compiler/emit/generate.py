@@ -235,6 +235,30 @@ def _metadata(name, formed, layout, sym, fns, op_counts):
     }
 
 
+def _wrapped(label, items, width=96):
+    """``label 0 a, 1 b, ...`` wrapped under the label's end."""
+    lines, line = [], label
+    for k, item in enumerate(items):
+        piece = f"{k} {item}" + ("," if k + 1 < len(items) else "")
+        if len(line) + 1 + len(piece) > width and line.strip() != label.strip():
+            lines.append(line)
+            line = " " * len(label)
+        line += " " + piece
+    return lines + [line if items else f"{label} (none)"]
+
+
+def _layout_lines(meta):
+    """The header's comment on vector order: which index is which name."""
+    nq = meta["nq"]
+    defaults = [f"{n} = {float(v)!r}" for n, v in zip(meta["param_names"], meta["param_defaults"])]
+    lines = ["Vector layouts (index name):"]
+    lines += _wrapped("  x = [q; u]: ", meta["state_names"])
+    lines += _wrapped("  p (default):", defaults)
+    lines += _wrapped("  r:          ", meta["input_names"])
+    lines += _wrapped("  udot, tau, forcing, mass_matrix rows/columns follow u:", meta["state_names"][nq:])
+    return lines
+
+
 def _render(name, meta, fns, rendered, solver, layout, sym, helper):
     tables, table_refs = _tables(name, layout, sym.output_names)
     pointers = [f"{name}_{f}" if f in fns else "NULL" for f in STRUCT_FIELDS]
@@ -243,7 +267,8 @@ def _render(name, meta, fns, rendered, solver, layout, sym, helper):
     common = {k: meta[k] for k in ("nq", "nu", "nx", "nparam", "ninput", "noutput", "nhol",
                                    "nvel", "work_size", "eomc_version")}
     header = env.get_template("model.h.j2").render(
-        name=name, prototypes=[prototype(name, f) for f in fns], **common)
+        name=name, prototypes=[prototype(name, f) for f in fns], layout_lines=_layout_lines(meta),
+        **common)
     source = env.get_template("model.c.j2").render(
         name=name, functions=rendered,
         helper_code="\n".join(c for c in ((solver.code if uses_solver else ""), helper) if c),

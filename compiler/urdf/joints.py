@@ -1,4 +1,4 @@
-"""Joints SymPy lacks for URDF: a 6-dof floating joint with body-frame speeds.
+"""Joints SymPy lacks for URDF: floating (6 dof) and planar (3 dof), with body-frame speeds.
 
 :class:`FloatingJoint` follows SymPy's ``Joint`` protocol, so a ``System``
 and anything that reads ``System.joints`` sees it like SymPy's own joints.
@@ -19,7 +19,7 @@ from sympy.physics.mechanics import ReferenceFrame
 from sympy.physics.mechanics.joint import Joint
 from sympy.physics.vector import dynamicsymbols
 
-__all__ = ["FloatingJoint"]
+__all__ = ["FloatingJoint", "PlanarJoint"]
 
 
 class FloatingJoint(Joint):
@@ -67,4 +67,53 @@ class FloatingJoint(Joint):
         self.parent_point.set_vel(self._parent_frame, 0)
         self.child_point.set_vel(self._child_frame, 0)
         self.child_point.set_vel(self._parent_frame, u[0] * child.x + u[1] * child.y + u[2] * child.z)
+        self.child.masscenter.v2pt_theory(self.child_point, self._parent_frame, self._child_frame)
+
+
+class PlanarJoint(Joint):
+    """URDF's planar joint: translation in the interframes' x-y plane and rotation about z.
+
+    Coordinates (x, y, th): the child point's position in the parent
+    interframe's x-y plane and the rotation about its z axis (the URDF
+    ``<axis>``, the plane's normal).  Speeds (vx, vy, w): the child point's
+    velocity and the angular velocity in child interframe components -- the
+    convention of Pinocchio's JointModelPlanar, so q' ≠ u again:
+    x' = cos th vx − sin th vy, y' = sin th vx + cos th vy, th' = w.
+    (SymPy's own PlanarJoint takes rates in the parent frame and rotates
+    about x; this one follows URDF and Pinocchio.)
+    """
+
+    def __init__(self, name, parent, child, coordinates=None, speeds=None, parent_point=None,
+                 child_point=None, parent_interframe=None, child_interframe=None):
+        super().__init__(name, parent, child, coordinates, speeds, parent_point, child_point,
+                         parent_interframe, child_interframe)
+
+    def __str__(self):
+        return f"PlanarJoint: {self.name}  parent: {self.parent}  child: {self.child}"
+
+    def _generate_coordinates(self, coordinates):
+        return self._fill_coordinate_list(coordinates, 3, "q")
+
+    def _generate_speeds(self, speeds):
+        return self._fill_coordinate_list(speeds, 3, "u")
+
+    def _generate_kdes(self):
+        t = dynamicsymbols._t
+        (x, y, th), (vx, vy, w) = self.coordinates, self.speeds
+        c, s = sm.cos(th), sm.sin(th)
+        return sm.Matrix([x.diff(t) - (c * vx - s * vy), y.diff(t) - (s * vx + c * vy), th.diff(t) - w])
+
+    def _orient_frames(self):
+        self.child_interframe.orient_axis(self.parent_interframe, self.parent_interframe.z,
+                                          self.coordinates[2])
+
+    def _set_angular_velocity(self):
+        self.child_interframe.set_ang_vel(self.parent_interframe, self.speeds[2] * self.parent_interframe.z)
+
+    def _set_linear_velocity(self):
+        parent, child, q, u = self.parent_interframe, self.child_interframe, self.coordinates, self.speeds
+        self.child_point.set_pos(self.parent_point, q[0] * parent.x + q[1] * parent.y)
+        self.parent_point.set_vel(self._parent_frame, 0)
+        self.child_point.set_vel(self._child_frame, 0)
+        self.child_point.set_vel(self._parent_frame, u[0] * child.x + u[1] * child.y)
         self.child.masscenter.v2pt_theory(self.child_point, self._parent_frame, self._child_frame)

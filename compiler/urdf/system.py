@@ -33,7 +33,7 @@ import numpy as np
 import sympy as sm
 from sympy.physics import mechanics as sme
 
-from .joints import FloatingJoint
+from .joints import FloatingJoint, PlanarJoint
 
 __all__ = ["UrdfSystem", "system_from_tree", "make_system", "identifier"]
 
@@ -140,11 +140,18 @@ def system_from_tree(tree, *, fold=False, mimic=False, gravity=9.81):
             offset = [p - c for p, c in zip(position, coms[tj.parent])]
             parent_point = parent.masscenter.locatenew(f"P_{s}", _vector(parent_frame, offset))
         interframe = sme.ReferenceFrame(f"J_{s}")
-        interframe.orient_explicit(parent_frame, _number(tj.rotation))
+        child_interframe = None
+        if tj.type == "planar":   # interframes whose z is the plane's normal
+            align = _z_to(tj.axis)
+            interframe.orient_explicit(parent_frame, _number(tj.rotation @ align))
+            child_interframe = sme.ReferenceFrame(f"K_{s}")
+            child_interframe.orient_explicit(child.frame, _number(align))
+        else:
+            interframe.orient_explicit(parent_frame, _number(tj.rotation))
         child_point = child.masscenter.locatenew(f"C_{s}", _vector(child.frame, [-c for c in com]))
         axis = _vector(interframe, [_snap(v) for v in tj.axis])
         joint = _joint(tj, s, parent, child, parent_point, child_point, interframe, axis,
-                       mimic and tj.mimic is not None)
+                       child_interframe)
         joints[tj.name] = joint
         _set_velocities(N, parent, joint)
         _add_joint(system, joint)
@@ -176,7 +183,7 @@ def _set_velocities(N, parent, joint):
         point.set_vel(N, point.pos_from(base).dt(N) + base.vel(N))
     child, P, C = joint.child.masscenter, joint.parent_point, joint.child_point
     from_point(P, parent.masscenter)
-    if isinstance(joint, FloatingJoint):
+    if isinstance(joint, (FloatingJoint, PlanarJoint)):
         # through the joint's own velocity (its speeds), not d/dt of the position
         # coordinates, which Kane would replace by the rotated speeds R v
         C.set_vel(N, C.vel(parent.frame) + parent.frame.ang_vel_in(N).cross(C.pos_from(P)) + P.vel(N))
@@ -195,7 +202,16 @@ def _add_joint(system, joint):
     system.add_joints(joint)
 
 
-def _joint(tj, s, parent, child, parent_point, child_point, interframe, axis, dependent):
+def _z_to(axis):
+    """A rotation matrix whose third column is the unit vector ``axis`` (exact for ±x, ±y, ±z)."""
+    z = np.asarray(axis, dtype=float)
+    helper = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    x = helper - (helper @ z) * z
+    x /= np.linalg.norm(x)
+    return np.column_stack([x, np.cross(z, x), z])
+
+
+def _joint(tj, s, parent, child, parent_point, child_point, interframe, axis, child_interframe=None):
     from sympy.physics.mechanics import PinJoint, PrismaticJoint
     q, u = sme.dynamicsymbols(f"q_{s} u_{s}")
     common = dict(parent_point=parent_point, child_point=child_point, parent_interframe=interframe)
@@ -207,6 +223,10 @@ def _joint(tj, s, parent, child, parent_point, child_point, interframe, axis, de
         qs = sme.dynamicsymbols(" ".join(f"q_{s}_{c}" for c in ("x", "y", "z", "rx", "ry", "rz")))
         us = sme.dynamicsymbols(" ".join(f"u_{s}_{c}" for c in ("vx", "vy", "vz", "wx", "wy", "wz")))
         return FloatingJoint(tj.name, parent, child, qs, us, **common)
+    if tj.type == "planar":
+        qs = sme.dynamicsymbols(" ".join(f"q_{s}_{c}" for c in ("x", "y", "th")))
+        us = sme.dynamicsymbols(" ".join(f"u_{s}_{c}" for c in ("vx", "vy", "w")))
+        return PlanarJoint(tj.name, parent, child, qs, us, child_interframe=child_interframe, **common)
     raise NotImplementedError(f"joint type {tj.type}")
 
 

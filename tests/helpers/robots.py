@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-__all__ = ["robot_path", "PinRef", "rotation_xyz", "relative_error"]
+__all__ = ["robot_path", "PinRef", "joints_of", "rotation_xyz", "relative_error"]
 
 ROBOTS = {
     "ur5": "ur_description/urdf/ur5_robot.urdf",
@@ -46,29 +46,48 @@ def _name(dynamic_symbol):
 
 
 class PinRef:
-    """Pinocchio's model of the same file, reading eomc-ordered vectors."""
+    """Pinocchio's model of the same file, reading eomc-ordered vectors.
 
-    def __init__(self, path, state_names, floating=False, mimic=False):
+    ``joints``: eomc's moving joints in its order, as (name, URDF type) -- e.g.
+    ``[(j.name, j.type) for j in system.urdf.tree.joints]``; a floating base
+    comes first.  Pinocchio's continuous joints and planar joints keep an
+    angle as (cos, sin); eomc keeps the angle.
+    """
+
+    def __init__(self, path, joints, floating=False, mimic=False):
         root = pin.JointModelFreeFlyer() if floating else None
         self.model = (pin.buildModelFromUrdf(str(path), root, mimic=mimic) if floating
                       else pin.buildModelFromUrdf(str(path), mimic=mimic))
         self.data = self.model.createData()
         self.floating = floating
-        nq = len(state_names) // 2
-        joints = [n[2:] for n in state_names[6 if floating else 0:nq]]
-        ids = [self.model.getJointId(j) for j in joints]
-        assert all(i < self.model.njoints for i in ids), "a joint eomc has is unknown to Pinocchio"
-        self.iq = [self.model.idx_qs[i] for i in ids]
-        self.iv = (list(range(6)) if floating else []) + [self.model.idx_vs[i] for i in ids]
+        self.parts, self.iq, self.iv, self.actuated = [], [], [], []     # parts: (eomc q index, kind, pinocchio q index)
+        k = 0
+        for name, kind in joints:
+            jid = self.model.getJointId(name)
+            if kind == "floating" and jid >= self.model.njoints:
+                jid = 1           # eomc's --floating-base joint: Pinocchio's root_joint
+            assert jid < self.model.njoints, f"Pinocchio has no joint {name}"
+            iq, iv, nv = self.model.idx_qs[jid], self.model.idx_vs[jid], self.model.nvs[jid]
+            self.parts.append((k, kind, iq))
+            self.iv += list(range(iv, iv + nv))
+            if kind in ("revolute", "continuous", "prismatic"):
+                self.actuated += list(range(iv, iv + nv))
+            k += {"floating": 6, "planar": 3}.get(kind, 1)
+        self.iq = [iq for _, kind, iq in self.parts if kind in ("revolute", "prismatic")]
         assert len(self.iv) == self.model.nv, "eomc and Pinocchio disagree on the number of speeds"
 
     def q(self, q):
         out = np.zeros(self.model.nq)
-        if self.floating:
-            out[:3] = q[:3]
-            out[3:7] = pin.Quaternion(rotation_xyz(*q[3:6])).coeffs()
-            q = q[6:]
-        out[self.iq] = q
+        for k, kind, iq in self.parts:
+            if kind == "floating":
+                out[iq:iq + 3] = q[k:k + 3]
+                out[iq + 3:iq + 7] = pin.Quaternion(rotation_xyz(*q[k + 3:k + 6])).coeffs()
+            elif kind == "planar":
+                out[iq:iq + 4] = [q[k], q[k + 1], np.cos(q[k + 2]), np.sin(q[k + 2])]
+            elif kind == "continuous":
+                out[iq:iq + 2] = [np.cos(q[k]), np.sin(q[k])]
+            else:
+                out[iq] = q[k]
         return out
 
     def v(self, v):
@@ -77,9 +96,9 @@ class PinRef:
         return out
 
     def tau(self, tau_actuated):
-        """Joint torques (eomc's inputs: the non-floating joints) as Pinocchio's tau."""
+        """Joint torques (eomc's inputs: the 1-dof joints; floating and planar are free) as Pinocchio's."""
         out = np.zeros(self.model.nv)
-        out[self.iv[6 if self.floating else 0:]] = tau_actuated
+        out[self.actuated] = tau_actuated
         return out
 
     def aba(self, q, v, tau):
@@ -92,3 +111,8 @@ class PinRef:
         M = pin.crba(self.model, self.data, self.q(q))
         M = np.triu(M) + np.triu(M, 1).T
         return M[np.ix_(self.iv, self.iv)]
+
+
+def joints_of(system):
+    """(name, URDF type) of a from_urdf System's moving joints, in eomc's order."""
+    return [(j.name, j.type) for j in system.urdf.tree.joints]

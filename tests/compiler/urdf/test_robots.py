@@ -10,7 +10,7 @@ import pytest
 
 import eomc
 from eomc.compiler.urdf import from_urdf
-from helpers.robots import PinRef, relative_error, robot_path
+from helpers.robots import PinRef, joints_of, relative_error, robot_path
 
 RNG = np.random.default_rng(2026)
 FUNCTIONS = ["rhs", "mass_matrix", "inverse_dynamics"]
@@ -28,9 +28,9 @@ def robots(cache):
     built = {}
     for name, floating in CASES.items():
         path = robot_path(name)
-        model = eomc.compile(from_urdf(path, floating_base=floating), name, functions=FUNCTIONS,
-                             cache_dir=cache, progress=False)
-        built[name] = model, PinRef(path, model.state_names, floating=floating)
+        system = from_urdf(path, floating_base=floating)
+        model = eomc.compile(system, name, functions=FUNCTIONS, cache_dir=cache, progress=False)
+        built[name] = model, PinRef(path, joints_of(system), floating=floating)
     return built
 
 

@@ -13,7 +13,7 @@ from scipy.integrate import solve_ivp
 import eomc
 from eomc.compiler.urdf import from_urdf
 from eomc.runtime.simulate import simulate
-from helpers.robots import PinRef, robot_path, rotation_xyz
+from helpers.robots import PinRef, joints_of, robot_path, rotation_xyz
 
 T_FINAL, TOL = 5.0, 1e-10
 
@@ -24,9 +24,9 @@ def cache(tmp_path_factory):
 
 
 def _compile(name, cache, floating=False):
-    model = eomc.compile(from_urdf(robot_path(name), floating_base=floating), name,
-                         functions=["rhs", "jac_x"], cache_dir=cache, progress=False)
-    return model, PinRef(robot_path(name), model.state_names, floating=floating)
+    system = from_urdf(robot_path(name), floating_base=floating)
+    model = eomc.compile(system, name, functions=["rhs", "jac_x"], cache_dir=cache, progress=False)
+    return model, PinRef(robot_path(name), joints_of(system), floating=floating)
 
 
 def _final(model, x0):

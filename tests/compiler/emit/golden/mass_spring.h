@@ -19,6 +19,14 @@ extern "C" {
 #define MASS_SPRING_NOUTPUT 0
 #define MASS_SPRING_WORK_SIZE 0
 
+/*
+ * Vector layouts (index name):
+ *   x = [q; u]:  0 x, 1 v
+ *   p (default): 0 m = 1.0, 1 k = 4.0
+ *   r:           (none)
+ *   udot, tau, forcing, mass_matrix rows/columns follow u: 0 v
+ */
+
 int mass_spring_rhs(double t, const double *x, const double *p, const double *r, double *xdot, double *work);
 int mass_spring_jac_x(double t, const double *x, const double *p, const double *r, double *out, double *work);
 int mass_spring_mass_matrix(double t, const double *x, const double *p, const double *r, double *out, double *work);

@@ -19,6 +19,14 @@ extern "C" {
 #define PENDULUM_NOUTPUT 0
 #define PENDULUM_WORK_SIZE 0
 
+/*
+ * Vector layouts (index name):
+ *   x = [q; u]:  0 theta, 1 omega
+ *   p (default): 0 m = 1.0, 1 g = 9.81, 2 l = 0.5
+ *   r:           (none)
+ *   udot, tau, forcing, mass_matrix rows/columns follow u: 0 omega
+ */
+
 int pendulum_rhs(double t, const double *x, const double *p, const double *r, double *xdot, double *work);
 int pendulum_jac_x(double t, const double *x, const double *p, const double *r, double *out, double *work);
 int pendulum_mass_matrix(double t, const double *x, const double *p, const double *r, double *out, double *work);
