@@ -38,7 +38,7 @@ def form_system(system):
                          q_dependent=list(system.q_dep) or None,
                          configuration_constraints=list(system.holonomic_constraints) or None,
                          u_dependent=list(system.u_dep) or None,
-                         velocity_constraints=list(system.nonholonomic_constraints) or None,
+                         velocity_constraints=list(system.velocity_constraints) or None,
                          u_auxiliary=list(system.u_aux) or None)
     method.kanes_equations(bodies, loads or None)
     return method

@@ -33,6 +33,8 @@ import numpy as np
 import sympy as sm
 from sympy.physics import mechanics as sme
 
+from eomc.runtime.errors import ModelFileError
+
 from .joints import FloatingJoint, PlanarJoint
 
 __all__ = ["UrdfSystem", "system_from_tree", "make_system", "identifier"]
@@ -154,7 +156,7 @@ def system_from_tree(tree, *, fold=False, mimic=False, gravity=9.81):
                        child_interframe)
         joints[tj.name] = joint
         _set_velocities(N, parent, joint)
-        _add_joint(system, joint)
+        _add_joint(system, joint, dependent=mimic and tj.mimic is not None)
         if tj.type in ("revolute", "continuous", "prismatic") and not (mimic and tj.mimic):
             tau = sme.dynamicsymbols(f"tau_{s}")
             inputs.append(tau)
@@ -193,10 +195,10 @@ def _set_velocities(N, parent, joint):
     from_point(C, child)
 
 
-def _add_joint(system, joint):
+def _add_joint(system, joint, dependent=False):
     """Like ``System.add_joints``, but in a fixed order (SymPy's goes through sets)."""
-    system.add_coordinates(*joint.coordinates)
-    system.add_speeds(*joint.speeds)
+    system.add_coordinates(*joint.coordinates, independent=not dependent)
+    system.add_speeds(*joint.speeds, independent=not dependent)
     system.add_kdes(*joint.kdes)
     system.add_bodies(joint.child)
     system.add_joints(joint)
@@ -238,4 +240,17 @@ def _actuation(kind, tau, joint, parent_frame, child, parent_point, child_point)
 
 
 def _add_mimics(system, tree, by_joint, joints):
-    raise NotImplementedError
+    """q_B = k q_A + c and u_B = k u_A for each mimic joint B of A (B's q and u are dependent)."""
+    position, velocity = [], []
+    for tj in tree.joints:
+        if tj.mimic is None:
+            continue
+        target, k, c = tj.mimic
+        B, A = joints[tj.name], joints[target]
+        if len(B.coordinates) != 1 or len(A.coordinates) != 1:
+            raise ModelFileError(f"joint '{tj.name}' mimics '{target}': only 1-dof joints can mimic and "
+                                 f"be mimicked", str(tree.path), tj.line)
+        position.append(B.coordinates[0] - (_snap(k) * A.coordinates[0] + _snap(c)))
+        velocity.append(B.speeds[0] - _snap(k) * A.speeds[0])
+    system.add_holonomic_constraints(*position)
+    system.velocity_constraints = velocity

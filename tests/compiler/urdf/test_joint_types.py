@@ -102,3 +102,33 @@ def test_fixed_link_is_merged_into_its_parent(zoo):
     assert 0.15 < forearm.com[0] < 0.3
     params = {str(k): v for k, v in system.urdf.parameters.items()}
     assert params["m_forearm"] == pytest.approx(0.9) and "m_tool" not in params
+
+
+def test_mimic_joint_is_a_constraint(tmp_path):
+    """<mimic> with mimic=True: q_twin = -0.5 q_lift + 0.1, against Pinocchio's dynamics reduced by hand."""
+    twin = (_link("twin", 0.4, "0.01 0 0.05", "0 0 0", (0.002, 0.002, 0.001, 0, 0, 0))
+            + '  <joint name="twin" type="prismatic"><parent link="turret"/><child link="twin"/>'
+              '<origin xyz="0.1 0 0.2"/><axis xyz="1 0 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/>'
+              '<mimic joint="lift" multiplier="-0.5" offset="0.1"/></joint>\n')
+    path = tmp_path / "mimic.urdf"
+    path.write_text(ROBOT.replace("</robot>", twin + "</robot>"))
+    system = from_urdf(path, mimic=True)
+    model = eomc.compile(system, "mimic", functions=["rhs"], cache_dir=tmp_path / "cache", progress=False)
+    names = [n[2:] for n in model.state_names[:model.nq]]
+    assert names[-1] == "twin" and "tau_twin" not in model.input_names     # dependent, unactuated
+    ref = PinRef(path, joints_of(system))
+    lift, twin_i = names.index("lift"), names.index("twin")
+    n = model.nu
+    G = np.delete(np.eye(n), twin_i, axis=1)       # full speeds from the independent ones
+    G[twin_i, lift - (lift > twin_i)] = -0.5
+    for _ in range(3):
+        q, v = RNG.uniform(-1, 1, n), RNG.normal(size=n)
+        q[twin_i], v[twin_i] = -0.5 * q[lift] + 0.1, -0.5 * v[lift]
+        tau = RNG.normal(size=model.ninput)
+        full_tau = np.zeros(n)
+        full_tau[[names.index(r.removeprefix("tau_")) for r in model.input_names]] = tau
+        M, b = ref.mass_matrix(q), ref.rnea(q, v, np.zeros(n))
+        expected = np.linalg.solve(G.T @ M @ G, G.T @ (full_tau - b))
+        udot = model.rhs(0.0, np.concatenate([q, v]), r=tau)[model.nq:]
+        assert relative_error(np.delete(udot, twin_i), expected) < 1e-10
+        assert abs(udot[twin_i] + 0.5 * udot[lift]) < 1e-10 * max(1.0, abs(udot[lift]))
