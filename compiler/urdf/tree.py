@@ -106,6 +106,9 @@ def _combine(body, items):
     body.mass = mass
     if mass <= 0.0:
         return
+    if len(items) == 1:   # one massive link: its own numbers, without rounding through the sums
+        body.com, body.inertia = items[0][1], items[0][2]
+        return
     com = sum(m * c for m, c, _ in items) / mass
     inertia = np.zeros((3, 3))
     for m, c, tensor in items:
