@@ -259,6 +259,19 @@ def eomc_harness(model, directory, tmp):
     return exe
 
 
+def _goals(name, nu, cpu, med):
+    """Issue 9's targets for one robot: 7-dof arm builds in <= 3 s CPU and runs >= 3x faster than
+    Pinocchio's ABA; every robot faster than both peers."""
+    eomc, pin_ns, mj = med["eomc"][0], med["pin"][0], med["mujoco"][0]
+    verdict = []
+    if name == "panda":
+        verdict.append(f"cold build {cpu:.1f} s CPU (goal <= 3 s: {'met' if cpu <= 3 else 'MISSED'})")
+        verdict.append(f"{pin_ns / eomc:.2f}x Pinocchio ABA (goal >= 3x: {'met' if pin_ns >= 3 * eomc else 'MISSED'})")
+    faster = eomc < pin_ns and eomc < mj
+    verdict.append(f"faster than both: {'met' if faster else 'MISSED'}")
+    return f"{name}: " + "; ".join(verdict)
+
+
 def _timed(cmd):
     out = _run(cmd).stdout.splitlines()
     first = np.array([float(v) for v in out[0].split()[1:]])
@@ -271,7 +284,7 @@ def main():
     from helpers.robots import PinRef, robot_path
     os.sched_setaffinity(0, {CORE})
     rng = np.random.default_rng(9)
-    rows, checks = [], []
+    rows, checks, goals = [], [], []
     with tempfile.TemporaryDirectory(prefix="bench_urdf_") as tmpname:
         tmp = Path(tmpname)
         pin_exe, mj_exe, pin_build = build_harnesses(tmp)
@@ -316,6 +329,7 @@ def main():
             checks.append(f"{name}: first-state accelerations, eomc vs Pinocchio {e_pin:.1e}, "
                           f"eomc vs MuJoCo (joints) {e_mj:.1e} (relative)")
             med = {k: median_iqr(samples[name, k]) for k in ("eomc", "pin", "mujoco")}
+            goals.append(_goals(name, model.nu, cpu, med))
             ops = model.metadata["op_counts"]["rhs"]
             rows.append([name + (" (floating)" if floating else ""), model.nq, model.nu, round(wall, 2),
                          round(cpu, 2), round(med["eomc"][0]), round(med["pin"][0]), round(med["mujoco"][0]),
@@ -326,7 +340,7 @@ def main():
                "rhs ops"]
     table = format_table(headers, rows)
     print(table)
-    print("\n".join(checks))
+    print("\n".join(checks + goals))
     uptime = _run(["uptime"]).stdout.strip()
     import mujoco
     header = environment_header(
@@ -343,7 +357,9 @@ def main():
                "harnesses gcc -O2",
                "what each call computes: see the docstring of benchmarks/bench_urdf.py "
                "(mj_forward does more than ABA: positions, velocities, sensors)",
-               *checks])
+               *checks, "issue 9's goals, as measured in this run:", *[f"  {g}" for g in goals],
+               "MuJoCo agrees with eomc and Pinocchio to ~1e-7 only, Pinocchio with eomc to ~1e-15; "
+               "the cause inside MuJoCo's URDF import was not investigated"])
     write_results("urdf", header + "\n" + table + "\n", csv_rows=rows, csv_headers=headers)
     return 0
 
