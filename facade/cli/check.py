@@ -22,7 +22,7 @@ def configure(parser):
 
 def run(args):
     from eomc.runtime.stability import check_model, format_checks
-    model = cli_common.load_model(args.model, floating_base=args.floating_base)
+    model = cli_common.load_model(args.model, **cli_common.urdf_options(args))
     x0 = cli_common.initial_state(model, cli_common.parse_assignments(args.x0, "x0"))
     p = cli_common.parameter_values(model, cli_common.parse_assignments(args.param, "param"))
     checks = check_model(model, [x0[n] for n in model.state_names], args.t_final, p=p,

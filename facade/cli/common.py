@@ -7,7 +7,7 @@ Mistakes in them are ValueErrors, which `eomc` prints as one line (exit status 2
 """
 from pathlib import Path
 
-__all__ = ["add_model_arguments", "load_model", "parse_assignments", "initial_state", "parameter_values"]
+__all__ = ["add_model_arguments", "load_model", "urdf_options", "parse_assignments", "initial_state", "parameter_values"]
 
 
 def add_model_arguments(parser):
@@ -19,6 +19,11 @@ def add_model_arguments(parser):
                         help="parameter values (others keep their defaults)")
     parser.add_argument("--floating-base", action="store_true",
                         help="URDF: a 6-dof floating joint between the world and the root link")
+
+
+def urdf_options(args):
+    """Keyword arguments of load_model for a URDF's options (none unless given)."""
+    return {"floating_base": True} if getattr(args, "floating_base", False) else {}
 
 
 def load_model(path, quiet=False, floating_base=False):

@@ -58,7 +58,7 @@ def _command(args, methods):
 
 def run(args):
     from eomc.runtime.report import work_precision
-    model = cli_common.load_model(args.model, args.quiet, floating_base=args.floating_base)
+    model = cli_common.load_model(args.model, args.quiet, **cli_common.urdf_options(args))
     methods = [m for text in args.methods for m in text.split(",") if m]
     x0 = cli_common.initial_state(model, cli_common.parse_assignments(args.x0, "x0"))
     p = cli_common.parameter_values(model, cli_common.parse_assignments(args.param, "param"))

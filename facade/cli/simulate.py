@@ -34,7 +34,7 @@ def configure(parser):
 
 def run(args):
     from eomc.runtime.simulate import simulate
-    model = cli_common.load_model(args.model, floating_base=args.floating_base)
+    model = cli_common.load_model(args.model, **cli_common.urdf_options(args))
     x0 = cli_common.initial_state(model, cli_common.parse_assignments(args.x0, "x0"))
     params = cli_common.parameter_values(model, cli_common.parse_assignments(args.param, "param"))
     res = simulate(model, x0, (args.t0, args.t_final), p=params, method=args.method,
