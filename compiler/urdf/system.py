@@ -61,9 +61,9 @@ def _snap(value):
     return sm.Float(float(value), 17)
 
 
-def _number(matrix):
-    return sm.Matrix(np.asarray(matrix).shape[0], np.asarray(matrix).shape[1] if np.ndim(matrix) > 1 else 1,
-                     [_snap(v) for v in np.asarray(matrix, dtype=float).ravel()])
+def _number(rotation):
+    """A 3x3 numpy rotation as a SymPy matrix of snapped literals."""
+    return sm.Matrix(3, 3, [_snap(v) for v in np.asarray(rotation, dtype=float).ravel()])
 
 
 @dataclass
@@ -88,7 +88,7 @@ class _Parameters:
         if value == 0.0:
             return sm.Integer(0)
         if self.fold:
-            return _snap(value) if abs(value) < _SNAP or abs(abs(value) - 1) < _SNAP else sm.Float(value, 17)
+            return _snap(value)
         base, index = name, 2
         while name in self.taken:
             name, index = f"{base}_{index}", index + 1
@@ -127,7 +127,6 @@ def system_from_tree(tree, *, fold=False, mimic=False, gravity=9.81):
     world = sme.RigidBody("world", origin, N, sm.Integer(0), (sme.inertia(N, 0, 0, 0), origin))
     system = make_system(world)
     bodies, coms, joints, inputs, loads = {}, {}, {}, [], []
-    by_joint = {j.name: j for j in tree.joints}
     for tj in tree.joints:
         child, com = _body(tree.bodies[tj.child], params)
         bodies[tj.child], coms[tj.child] = child, com
@@ -162,7 +161,7 @@ def system_from_tree(tree, *, fold=False, mimic=False, gravity=9.81):
             inputs.append(tau)
             loads += _actuation(tj.type, tau, joint, parent_frame, child, parent_point, child_point)
     if mimic:
-        _add_mimics(system, tree, by_joint, joints)
+        _add_mimics(system, tree, joints)
     g = params("g", gravity) if gravity else 0
     if gravity:
         system.apply_uniform_gravity(-g * N.z)
@@ -239,7 +238,7 @@ def _actuation(kind, tau, joint, parent_frame, child, parent_point, child_point)
     return [sme.Torque(child.frame, tau * axis), sme.Torque(parent_frame, -tau * axis)]
 
 
-def _add_mimics(system, tree, by_joint, joints):
+def _add_mimics(system, tree, joints):
     """q_B = k q_A + c and u_B = k u_A for each mimic joint B of A (B's q and u are dependent)."""
     position, velocity = [], []
     for tj in tree.joints:
