@@ -171,27 +171,33 @@ def system_from_tree(tree, *, fold=False, mimic=False, gravity=9.81):
 
 
 def _set_velocities(N, parent, joint):
-    """Velocities in N of the child's mass centre and the joint's points, set once.
+    """Angular velocity of the child and velocities in N of its mass centre and the joint points.
 
-    SymPy would find them on demand by searching the graph of points, and with
-    a prismatic joint it finds two paths and warns (the values agree).  Here
-    each is ``d/dt r + v(neighbour)``, from the parent's mass centre to the
-    child's and from a body's mass centre to its joint points: SymPy's own
-    formula, in its order of terms (which decides the frame eomc reads the
-    components in: the other order costs Panda's rhs 13% more operations).
+    SymPy would find these on demand by searching the graphs of frames and
+    points (and, at a prismatic joint, warn that it found two paths).  Set
+    here, parent to child along the tree, each one is expressed in its own
+    body's frame -- the child's angular velocity ω_parent + ω_joint, a point's
+    ``d/dt r + v(neighbour)`` -- as Featherstone's recursions keep body-frame
+    quantities: each step then costs one joint rotation instead of a chain of
+    them.  Measured on the rhs: UR5 1,797 -> 1,355 operations, Panda
+    6,452 -> 5,231 (SymPy's own on-demand search gives the former).
     """
-    def from_point(point, base):
-        point.set_vel(N, point.pos_from(base).dt(N) + base.vel(N))
+    frame = joint.child.frame
+    frame.set_ang_vel(N, frame.ang_vel_in(N).express(frame))
+
+    def from_point(point, base, in_frame, relative=None):
+        rate = point.pos_from(base).dt(N) if relative is None else relative
+        point.set_vel(N, (rate + base.vel(N)).express(in_frame))
     child, P, C = joint.child.masscenter, joint.parent_point, joint.child_point
-    from_point(P, parent.masscenter)
+    from_point(P, parent.masscenter, parent.frame)
     if isinstance(joint, (FloatingJoint, PlanarJoint)):
-        # through the joint's own velocity (its speeds), not d/dt of the position
-        # coordinates, which Kane would replace by the rotated speeds R v
-        C.set_vel(N, C.vel(parent.frame) + parent.frame.ang_vel_in(N).cross(C.pos_from(P)) + P.vel(N))
-        from_point(child, C)
+        # through the joint's own speeds, not d/dt of its position coordinates,
+        # which Kane would replace by the rotated speeds R v
+        from_point(C, P, frame, C.vel(parent.frame) + parent.frame.ang_vel_in(N).cross(C.pos_from(P)))
+        from_point(child, C, frame)
         return
-    from_point(child, parent.masscenter)
-    from_point(C, child)
+    from_point(child, parent.masscenter, frame)
+    from_point(C, child, frame)
 
 
 def _add_joint(system, joint, dependent=False):
