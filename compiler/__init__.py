@@ -3,6 +3,7 @@
 The pipeline, in order (``driver.compile`` runs it top to bottom):
 
 - ``model/``      read a model file or a system object; check it (errors as file:line)
+- ``urdf/``       a URDF robot as a SymPy mechanics System (read, merge fixed links, build)
 - ``mechanics/``  front end: Kane's and Lagrange's methods -> ``FormedSystem``
 - ``emit/``       FormedSystem -> IR programs -> C99 source, header, cdef, metadata
 - ``ir/``         the single-assignment program the optimizer works on

@@ -79,10 +79,11 @@ def _solver_decls(ctx, extra=()):
 
 def _store_dynamics(ctx, program, pr):
     lines = []
-    if ctx.solver.pivots:   # the dense LU reads every entry: structural zeros too
+    if ctx.solver.pivots or ctx.solver.reads_lower:
+        # the dense LU reads every entry, the loop LDLT every lower one: structural zeros too
         nonzero = {(k[1], k[2]) for k, _ in program.results if k[0] == "A"}
         lines += [f"{_IND}F[{i * ctx.nw + j}] = 0.0;" for i in range(ctx.nw)
-                  for j in range(ctx.nw) if (i, j) not in nonzero]
+                  for j in range(i + 1 if ctx.solver.reads_lower else ctx.nw) if (i, j) not in nonzero]
     for (key, e) in program.results:
         if key[0] == "A":
             lines.append(_store(f"F[{key[1] * ctx.nw + key[2]}]", e, pr))

@@ -258,7 +258,8 @@ def _vector_docs(meta):
             return [f"[{i}] {n}" for i, n in enumerate(names)]
         return [f"[{i}] {n} = {float(d)!r}" for i, (n, d) in enumerate(zip(names, defaults))]
     return [
-        ("x", f"state (nx = {meta['nx']}: nq = {meta['nq']} coordinates, then nu = {meta['nu']} speeds)",
+        ("x", f"state (nx = {meta['nx']}: nq = {meta['nq']} coordinates, then nu = {meta['nu']} speeds; "
+              f"udot, tau, forcing and mass_matrix rows follow the speeds)",
          entries(meta["state_names"])),
         ("p", f"parameters (nparam = {meta['nparam']}), with the model's defaults",
          entries(meta["param_names"], meta["param_defaults"])),

@@ -29,6 +29,7 @@ class Solver:
     fsize: int              # doubles in F
     pivots: bool            # LU needs an int pivot array
     npiv: int = 0           # its length
+    reads_lower: bool = False  # the factor reads every lower-triangle entry, structural zeros too
 
     def factor_call(self, F="F"):
         return f"{self.factor_name}({F}, piv)" if self.pivots else f"{self.factor_name}({F})"
@@ -195,7 +196,7 @@ def ldlt_loop_solver(prefix, n):
     so = Counter(muls=n * n, adds=n * (n - 1))
     code = _LDLT_LOOP.format(p=prefix, n=n, n1=n + 1, nn=n * n)
     return Solver(f"{prefix}_ldlt_factor", f"{prefix}_ldlt_solve", code, fo, so,
-                  n * n + n, False)
+                  n * n + n, False, reads_lower=True)
 
 
 def choose_ldlt(prefix, n, pattern):

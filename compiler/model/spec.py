@@ -43,6 +43,9 @@ def formed_system(system):
     from eomc.compiler.mechanics.formed import FormedSystem
     if isinstance(system, FormedSystem):
         return system
+    from eomc.compiler.urdf.model import form_system, is_unformed_system
+    if is_unformed_system(system):  # a System not yet formed (e.g. from_urdf's): eomc's Kane forms it
+        system = form_system(system)
     if _is_sympy_method(system):
         try:
             from eomc.compiler.mechanics import from_sympy
@@ -132,8 +135,18 @@ def model_spec(system, name=None, *, parameters=None, inputs=None, initial_state
     """Normalize a model file path or a system object into a ModelSpec (see the module docstring)."""
     overrides = dict(parameters=parameters, inputs=inputs, initial_state=initial_state, outputs=outputs,
                      events=events)
-    if isinstance(system, (str, Path)):
+    from eomc.compiler.urdf.model import is_urdf_path, load_urdf_model, urdf_overrides
+    path = None
+    if is_urdf_path(system):   # a robot: the file's System, named after the file
+        path, system = Path(system), load_urdf_model(system)
+        name = name or sanitize_name(path.stem)
+    elif isinstance(system, (str, Path)):
         return _from_file(system, name, overrides)
     formed = formed_system(system)
-    values = {**overrides, "system": system}
-    return _checked(values, formed, name or "model", lambda exc: ModelError(str(exc)), f"model {name or 'model'}: ")
+    values = {**urdf_overrides(system, formed, overrides), "system": system}
+    if path is not None:
+        spec = _checked(values, formed, name, lambda exc: ModelFileError(str(exc), str(path)),
+                        f"{path}: ")
+        return ModelSpec(**{**spec.__dict__, "path": path})
+    return _checked(values, formed, name or "model", lambda exc: ModelError(str(exc)),
+                    f"model {name or 'model'}: ")

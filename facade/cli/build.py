@@ -11,13 +11,16 @@ __all__ = ["configure", "run", "add_generate_options"]
 
 def add_generate_options(parser):
     """Options shared by the commands that generate code (build, inspect)."""
-    parser.add_argument("model", help="model file (Python) defining `system`")
+    parser.add_argument("model", help="model file (Python) defining `system`, or a robot's URDF file")
     parser.add_argument("--name", help="model name (default: the file's `name` or its stem)")
     parser.add_argument("--outputs", metavar="LIST",
                         help="comma-separated functions to generate, e.g. rhs,jacobian,mass_matrix "
                              "(default: all the model supports)")
     parser.add_argument("--fold-parameters", action="store_true",
                         help="fold parameter defaults into literals instead of runtime arguments")
+    parser.add_argument("--floating-base", action="store_true",
+                        help="URDF: a 6-dof floating joint (position + body XYZ Euler angles) "
+                             "between the world and the root link")
 
 
 def configure(parser):
@@ -35,7 +38,9 @@ def configure(parser):
 
 def run(args):
     from eomc.compiler.driver import compile
-    model = compile(args.model, args.name, functions=args.outputs, fold_parameters=args.fold_parameters,
+    from eomc.compiler.urdf.model import with_options
+    source, name = with_options(args.model, args.name, floating_base=args.floating_base)
+    model = compile(source, name, functions=args.outputs, fold_parameters=args.fold_parameters,
                     backend=args.backend, cflags=args.cflags, cache_dir=args.cache_dir,
                     output_dir=args.output, progress=not args.quiet)
     files = sorted(p.name for p in model.directory.iterdir() if p.is_file() and not p.name.startswith("."))

@@ -7,13 +7,13 @@ Mistakes in them are ValueErrors, which `eomc` prints as one line (exit status 2
 """
 from pathlib import Path
 
-__all__ = ["add_model_arguments", "load_model", "parse_assignments", "initial_state", "parameter_values",
-           "writable_file"]
+__all__ = ["add_model_arguments", "load_model", "urdf_options", "parse_assignments", "initial_state",
+           "parameter_values", "writable_file"]
 
 
 def add_model_arguments(parser):
     """The positional MODEL and the --x0/--param overrides."""
-    parser.add_argument("model", help="model file (.py) or built model directory / NAME.json")
+    parser.add_argument("model", help="model file (.py), robot (.urdf) or built model directory / NAME.json")
     parser.add_argument("--x0", nargs="+", metavar="NAME=V", default=(),
                         help="initial state entries; states not named keep the model's initial_state "
                              "(0 when it has none)")
@@ -21,9 +21,16 @@ def add_model_arguments(parser):
                         help="parameter values (others keep their defaults)")
     parser.add_argument("-q", "--quiet", action="store_true",
                         help="no progress on stderr (compiling a model file, long runs)")
+    parser.add_argument("--floating-base", action="store_true",
+                        help="URDF: a 6-dof floating joint between the world and the root link")
 
 
-def load_model(path, quiet=False):
+def urdf_options(args):
+    """Keyword arguments of load_model for a URDF's options (none unless given)."""
+    return {"floating_base": True} if getattr(args, "floating_base", False) else {}
+
+
+def load_model(path, quiet=False, floating_base=False):
     """A runtime Model from a model file (compiled) or a built directory / json (loaded).
 
     Compiling shows its stages on stderr when that is a terminal, unless ``quiet``.
@@ -31,9 +38,11 @@ def load_model(path, quiet=False):
     path = Path(path)
     if not path.exists():
         raise ValueError(f"{path}: no such model file or built model directory")
-    if path.is_file() and path.suffix == ".py":
+    if path.is_file() and path.suffix.lower() in (".py", ".urdf"):
         from eomc.compiler.driver import compile as compile_model
-        return compile_model(str(path), progress=False if quiet else None)
+        from eomc.compiler.urdf.model import with_options
+        source, name = with_options(str(path), floating_base=floating_base)
+        return compile_model(source, name, progress=False if quiet else None)
     from eomc.runtime.loader import load
     return load(path)
 

@@ -34,7 +34,9 @@ def format_report(metadata):
 
 def run(args):
     from eomc.compiler.driver import generate
-    spec, generated = generate(args.model, args.name, functions=args.outputs,
+    from eomc.compiler.urdf.model import with_options
+    source, name = with_options(args.model, args.name, floating_base=args.floating_base)
+    spec, generated = generate(source, name, functions=args.outputs,
                                fold_parameters=args.fold_parameters,
                                progress=False if args.quiet else None)
     print(format_report(generated.metadata))

@@ -10,7 +10,7 @@ __all__ = ["configure", "run", "format_equations"]
 
 
 def configure(parser):
-    parser.add_argument("model", help="model file (Python) defining `system`")
+    parser.add_argument("model", help="model file (Python) defining `system`, or a robot's URDF file")
     parser.add_argument("--ascii", action="store_true", help="ASCII art instead of Unicode")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
 

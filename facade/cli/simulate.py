@@ -112,7 +112,7 @@ def run(args):
     from eomc.runtime.simulate import simulate
     cli_common.writable_file(args.output, "-o")
     cli_common.writable_file(args.plot, "--plot")
-    model = cli_common.load_model(args.model, args.quiet)
+    model = cli_common.load_model(args.model, args.quiet, **cli_common.urdf_options(args))
     x0 = cli_common.initial_state(model, cli_common.parse_assignments(args.x0, "x0"))
     params = cli_common.parameter_values(model, cli_common.parse_assignments(args.param, "param"))
     res = simulate(model, x0, (args.t0, args.t_final), p=params, method=args.method,

@@ -41,7 +41,7 @@ def configure(parser):
     parser.add_argument("--atol", type=float, default=1e-9, help="absolute tolerance")
     parser.add_argument("--dt", type=float, help="fixed step (rk4)")
     parser.add_argument("--max-steps", type=int, default=100000, help="step limit")
-    parser.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    parser.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
     parser.formatter_class = argparse.ArgumentDefaultsHelpFormatter
 
 

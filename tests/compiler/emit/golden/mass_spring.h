@@ -3,7 +3,7 @@
  * The model's functions; their contract is eomc_model.h.
  *
  * Vector layouts (index, name):
- *   x: state (nx = 2: nq = 1 coordinates, then nu = 1 speeds)
+ *   x: state (nx = 2: nq = 1 coordinates, then nu = 1 speeds; udot, tau, forcing and mass_matrix rows follow the speeds)
  *     x[0] x
  *     x[1] v
  *   p: parameters (nparam = 2), with the model's defaults

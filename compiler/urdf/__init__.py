@@ -1,0 +1,31 @@
+"""eomc.compiler.urdf: robots from URDF files as SymPy mechanics Systems.
+
+    read_urdf      reader.py   the file -> links and joints (numbers, line numbers)
+    build_tree     tree.py     fixed joints merged, the tree checked
+    system_from_tree system.py SymPy System from SymPy's joint classes
+    from_urdf      (here)      all three
+"""
+from .reader import read_urdf
+from .tree import build_tree
+from .system import UrdfSystem, system_from_tree
+
+__all__ = ["from_urdf", "urdf_system", "read_urdf", "build_tree", "system_from_tree", "UrdfSystem"]
+
+
+def urdf_system(path, *, floating_base=False, fold_parameters=False, mimic=False, gravity=9.81):
+    """The :class:`UrdfSystem` of the URDF file ``path`` (System, parameters, inputs, ...)."""
+    tree = build_tree(read_urdf(path), floating_base=floating_base)
+    return system_from_tree(tree, fold=fold_parameters, mimic=mimic, gravity=gravity)
+
+
+def from_urdf(path, *, floating_base=False, fold_parameters=False, mimic=False, gravity=9.81):
+    """A SymPy ``System`` of the robot in the URDF file ``path``, ready to extend and compile.
+
+    Its ``parameters`` (Symbol -> URDF value) and ``inputs`` (joint torques) are
+    attached as attributes ``urdf_parameters`` and ``urdf_inputs``.
+    """
+    built = urdf_system(path, floating_base=floating_base, fold_parameters=fold_parameters,
+                        mimic=mimic, gravity=gravity)
+    system = built.system
+    system.urdf = built
+    return system

@@ -1,0 +1,192 @@
+"""Read a URDF file into plain numbers: links, joints, line numbers; no SymPy here.
+
+The numbers (origins, axes, inertias, mimic tags) come from ``yourdfpy``, a
+maintained URDF parser on PyPI.  Two things it does not do are done here with
+``lxml`` (which it is built on): it reads malformed XML in "recover" mode and
+carries on silently, and it keeps no line numbers.  So the file is first
+parsed strictly, each ``<link>``/``<joint>`` element's line is recorded, and
+the structure yourdfpy assumes (names, ``<parent>``/``<child>``, joint
+types) is checked before it runs -- its own failures would be tracebacks
+from inside it.  Every mistake raises :class:`ModelFileError` as
+``file:line: message`` naming the link or joint.
+"""
+import logging
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from eomc.runtime.errors import ModelFileError
+
+__all__ = ["JOINT_TYPES", "UrdfLink", "UrdfJoint", "UrdfRobot", "read_urdf"]
+
+JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")
+
+
+@dataclass
+class UrdfLink:
+    name: str
+    line: int
+    mass: float = 0.0                 # 0 when the link has no <inertial>
+    com: np.ndarray = None            # centre of mass in the link frame
+    inertia: np.ndarray = None        # 3x3 about the centre of mass, in the link frame
+    has_inertial: bool = False
+    meshes: list = field(default_factory=list)   # mesh file names (visual/collision)
+
+
+@dataclass
+class UrdfJoint:
+    name: str
+    line: int
+    type: str
+    parent: str
+    child: str
+    origin: np.ndarray                # 4x4: child link frame at q = 0 in the parent link frame
+    axis: np.ndarray                  # unit vector in the joint (= child link) frame
+    mimic: tuple = None               # (joint, multiplier, offset) or None
+
+
+@dataclass
+class UrdfRobot:
+    name: str
+    path: Path
+    links: dict                       # name -> UrdfLink, in file order
+    joints: list                      # UrdfJoint, in file order
+
+
+def _fail(path, line, message):
+    raise ModelFileError(message, str(path), line)
+
+
+def _strict_xml(path):
+    from lxml import etree
+    try:
+        tree = etree.parse(str(path), etree.XMLParser(remove_comments=True))
+    except OSError as exc:
+        _fail(path, None, f"cannot read URDF file ({exc})")
+    except etree.XMLSyntaxError as exc:
+        line = exc.lineno if getattr(exc, "lineno", None) else None
+        message = exc.msg if getattr(exc, "msg", None) else str(exc)
+        # lxml appends "(file, line N)" to some messages; the location is already in front
+        message = message.split(", line ")[0].rstrip(" (")
+        _fail(path, line, f"malformed XML: {message}")
+    root = tree.getroot()
+    if root.tag != "robot":
+        _fail(path, root.sourceline, f"the top element is <{root.tag}>, not <robot>: not a URDF file")
+    return root
+
+
+def _check_structure(path, root):
+    """What yourdfpy assumes without checking; returns {('link'|'joint', name): line}."""
+    lines = {}
+    for element in root.findall("link"):
+        name = element.get("name")
+        if not name:
+            _fail(path, element.sourceline, "a <link> has no name attribute")
+        if ("link", name) in lines:
+            _fail(path, element.sourceline, f"link '{name}' is defined twice "
+                                             f"(first on line {lines['link', name]})")
+        lines["link", name] = element.sourceline
+    for element in root.findall("joint"):
+        name = element.get("name")
+        if not name:
+            _fail(path, element.sourceline, "a <joint> has no name attribute")
+        if ("joint", name) in lines:
+            _fail(path, element.sourceline, f"joint '{name}' is defined twice "
+                                             f"(first on line {lines['joint', name]})")
+        lines["joint", name] = element.sourceline
+        kind = element.get("type")
+        if kind not in JOINT_TYPES:
+            what = f"unknown type '{kind}'" if kind else "no type attribute"
+            _fail(path, element.sourceline, f"joint '{name}' has {what}; URDF joint types are "
+                                            f"{', '.join(JOINT_TYPES)}")
+        for tag in ("parent", "child"):
+            sub = element.find(tag)
+            if sub is None or not sub.get("link"):
+                _fail(path, element.sourceline, f"joint '{name}' has no <{tag} link=\"...\"/>")
+            if ("link", sub.get("link")) not in lines:
+                _fail(path, sub.sourceline, f"joint '{name}' names {tag} link '{sub.get('link')}', "
+                                            f"which the file does not define")
+    _check_numbers(path, root)
+    return lines
+
+
+def _check_numbers(path, root):
+    """Numeric attributes that yourdfpy would turn into a ValueError without a location."""
+    wanted = {"origin": {"xyz": 3, "rpy": 3}, "axis": {"xyz": 3}, "mass": {"value": 1},
+              "inertia": dict.fromkeys(("ixx", "ixy", "ixz", "iyy", "iyz", "izz"), 1),
+              "mimic": {"multiplier": 1, "offset": 1}}
+    for element in root.iter(*wanted):
+        for attribute, count in wanted[element.tag].items():
+            text = element.get(attribute)
+            if text is None:
+                continue
+            try:
+                values = [float(v) for v in text.split()]
+            except ValueError:
+                values = None
+            if values is None or len(values) != count or not np.all(np.isfinite(values)):
+                owner = element.getparent()
+                while owner is not None and owner.tag not in ("link", "joint"):
+                    owner = owner.getparent()
+                who = f" in {owner.tag} '{owner.get('name')}'" if owner is not None else ""
+                _fail(path, element.sourceline,
+                      f"<{element.tag} {attribute}=\"{text}\">{who}: expected {count} finite "
+                      f"number{'s' if count > 1 else ''}")
+
+
+def _parse(path):
+    """yourdfpy's model of the file, without meshes or scene graphs."""
+    import yourdfpy
+    quiet = logging.getLogger("yourdfpy")
+    level = quiet.level
+    quiet.setLevel(logging.ERROR)
+    try:
+        return yourdfpy.URDF.load(str(path), build_scene_graph=False, load_meshes=False,
+                                  build_collision_scene_graph=False, load_collision_meshes=False)
+    except Exception as exc:   # what the checks above did not foresee: still one line, no traceback
+        _fail(path, None, f"the URDF parser (yourdfpy) rejected the file: {type(exc).__name__}: {exc}")
+    finally:
+        quiet.setLevel(level)
+
+
+def _link(link, line):
+    meshes = [g.geometry.mesh.filename for g in (*link.visuals, *link.collisions)
+              if g.geometry is not None and g.geometry.mesh is not None]
+    inertial = link.inertial
+    if inertial is None:
+        return UrdfLink(link.name, line, 0.0, np.zeros(3), np.zeros((3, 3)), False, meshes)
+    origin = np.eye(4) if inertial.origin is None else np.asarray(inertial.origin, dtype=float)
+    rotation = origin[:3, :3]
+    tensor = np.eye(3) if inertial.inertia is None else np.asarray(inertial.inertia, dtype=float)
+    mass = float(inertial.mass or 0.0)
+    return UrdfLink(link.name, line, mass, origin[:3, 3].copy(), rotation @ tensor @ rotation.T,
+                    True, meshes)
+
+
+def _joint(path, joint, line):
+    axis = np.asarray(joint.axis if joint.axis is not None else (1.0, 0.0, 0.0), dtype=float)
+    norm = np.linalg.norm(axis)
+    if joint.type in ("revolute", "continuous", "prismatic", "planar") and norm == 0:
+        _fail(path, line, f"joint '{joint.name}' has a zero <axis>")
+    origin = np.eye(4) if joint.origin is None else np.asarray(joint.origin, dtype=float)
+    mimic = None
+    if joint.mimic is not None:
+        mimic = (joint.mimic.joint, float(joint.mimic.multiplier if joint.mimic.multiplier is not None
+                                          else 1.0),
+                 float(joint.mimic.offset if joint.mimic.offset is not None else 0.0))
+    return UrdfJoint(joint.name, line, joint.type, joint.parent, joint.child, origin,
+                     axis / norm if norm else axis, mimic)
+
+
+def read_urdf(path):
+    """The robot in ``path`` as a :class:`UrdfRobot` (raises ModelFileError with file:line)."""
+    path = Path(path)
+    if not path.is_file():
+        _fail(path, None, "no such URDF file")
+    root = _strict_xml(path)
+    lines = _check_structure(path, root)
+    robot = _parse(path).robot
+    links = {link.name: _link(link, lines.get(("link", link.name))) for link in robot.links}
+    joints = [_joint(path, j, lines.get(("joint", j.name))) for j in robot.joints]
+    return UrdfRobot(robot.name or path.stem, path, links, joints)
