@@ -73,8 +73,9 @@ class _Digester:
         return digest
 
 
-def generation_key(spec, functions, fold_parameters):
-    """Key of everything generate_c reads for this model."""
+def generation_key(spec, functions, fold_parameters, extra=None):
+    """Key of everything generate_c reads for this model (``extra``: more of it, e.g. the
+    formulation and a formed-less System's tree)."""
     d = _Digester()
     f = spec.formed
     formed = [f.method, f.n_dependent_coordinates, f.n_dependent_speeds] + [
@@ -87,14 +88,15 @@ def generation_key(spec, functions, fold_parameters):
         "inputs": None if spec.inputs is None else d(list(spec.inputs)),
         "outputs": None if spec.outputs is None else [[k, d(v)] for k, v in spec.outputs.items()],
         "functions": functions, "fold": bool(fold_parameters),
+        **({} if extra is None else {"extra": d(list(extra))}),
         "eomc": __version__, "sympy": sm.__version__, "python": sys.version_info[:2],
         "source": _source_digest()})
 
 
-def cached_generate(spec, functions, fold_parameters, generate, cache_root_dir):
+def cached_generate(spec, functions, fold_parameters, generate, cache_root_dir, extra=None):
     """``generate()`` through the cache; returns (GeneratedModel, hit)."""
     from eomc.compiler.emit import GeneratedModel
-    key = generation_key(spec, functions, fold_parameters)
+    key = generation_key(spec, functions, fold_parameters, extra)
     entry = lookup(cache_root_dir, "generated", key)
     force = False
     if entry is not None:

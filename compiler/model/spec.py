@@ -38,6 +38,11 @@ def formed_system(system):
     from eomc.compiler.mechanics.formed import FormedSystem
     if isinstance(system, FormedSystem):
         return system
+    from sympy.physics.mechanics import System
+    if isinstance(system, System) and system.eom_method is None:
+        # a joint tree whose equations were never formed: the recursive formulation's
+        from eomc.compiler.tree.select import tree_formed
+        return tree_formed(system)
     if _is_sympy_method(system):
         try:
             from eomc.compiler.mechanics import from_sympy
