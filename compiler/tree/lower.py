@@ -38,8 +38,18 @@ TREE_FUNCTION_GROUPS = {
 TREE_HELPER_USERS = ("jac_r",)
 
 
-def _rename(layout, memo, what):
-    return lambda e: layout.apply(e, what, memo)
+def _rename(layout, memo, what, absent):
+    """Slot symbols; ``absent``: symbols Kane's equations do not contain (an inertia about
+    an axis nothing turns about), which therefore cannot change the result: set to zero."""
+    return lambda e: layout.apply(sm.sympify(e).xreplace(absent) if absent else e, what, memo)
+
+
+def _absent(tree, layout):
+    from sympy.physics.mechanics import dynamicsymbols
+    exprs = [e for b in tree.bodies for e in list(b.inertia) + [b.mass]] + list(tree.gravity)
+    exprs += [e for ld in tree.loads for e in list(ld.moment) + list(ld.force) + list(ld.offset)]
+    free = set().union(*(sm.sympify(e).free_symbols for e in exprs)) if exprs else set()
+    return {s: 0 for s in free if s not in layout.subs and s != dynamicsymbols._t}
 
 
 def _lowered_bodies(tree, layout, rec):
@@ -60,16 +70,17 @@ def _lowered_bodies(tree, layout, rec):
         return world_rot[i]
 
     bodies = []
+    absent = _absent(tree, layout)
     for b in tree.bodies:
         what = f"body {b.name} (joint {b.joint})"
-        ren = _rename(layout, memo, what)
+        ren = _rename(layout, memo, what, absent)
         E = b.rotation.applyfunc(ren)
         r = b.position.applyfunc(ren)
         S = None if b.motion is None else [ren(s) for s in b.motion]
         bodies.append(LoweredBody(b, rec, E, r, S, ren(b.mass), b.inertia.applyfunc(ren), None))
     for load in tree.loads:
         i = load.body
-        ren = _rename(layout, memo, f"a load on body {tree.bodies[i].name}")
+        ren = _rename(layout, memo, f"a load on body {tree.bodies[i].name}", absent)
         n = [ren(x) for x in load.moment]
         f = [ren(x) for x in load.force]
         if load.frame == "world":
@@ -80,7 +91,7 @@ def _lowered_bodies(tree, layout, rec):
         n = [n[k] + c for k, c in enumerate(_cross(off, f))]
         old = bodies[i].fext or [0] * 6
         bodies[i].fext = [old[k] + v for k, v in enumerate(n + f)]
-    gravity = [layout.apply(g, "gravity", memo) for g in tree.gravity]
+    gravity = [_rename(layout, memo, "gravity", absent)(g) for g in tree.gravity]
     return bodies, gravity
 
 

@@ -240,8 +240,11 @@ def _assemble(rd, entries, loads):
         origins.append(origin)
     used = [b.speed for b in bodies if b.speed is not None]
     missing = [str(rd.u[k]) for k in range(len(rd.u)) if k not in used]
-    if missing or len(set(used)) != len(used):
-        raise NotATree(f"speeds {', '.join(missing) or 'shared'} belong to no single joint")
+    if missing:
+        raise NotATree(f"speed(s) {', '.join(missing)} move no body: no inertia resists them, "
+                       f"so their accelerations are undefined (a mass on the axis it turns about?)")
+    if len(set(used)) != len(used):
+        raise NotATree("a speed moves two bodies relative to their parents: not a tree of one-speed joints")
     basic = [(b.name, frames[i], origins[i], b.mass) for i, b in enumerate(bodies)]
     gravity, records = _loads(rd, loads, basic, frames, origins, [b.name for b in bodies])
     return Tree(bodies=tuple(bodies), coordinates=rd.q, speeds=rd.u, kinematics=rd.kin,

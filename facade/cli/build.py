@@ -16,6 +16,9 @@ def add_generate_options(parser):
                              "(default: all the model supports)")
     parser.add_argument("--fold-parameters", action="store_true",
                         help="fold parameter defaults into literals instead of runtime arguments")
+    parser.add_argument("--formulation", choices=("auto", "kane", "recursive"), default="kane",
+                        help="dynamics formulation: kane (symbolic M and f, numeric LDLT), recursive "
+                             "(ABA/RNEA/CRBA over the joint tree) or auto (the cheaper rhs)")
 
 
 def configure(parser):
@@ -33,7 +36,7 @@ def run(args):
     from eomc.compiler.driver import compile
     model = compile(args.model, args.name, functions=args.outputs, fold_parameters=args.fold_parameters,
                     backend=args.backend, cflags=args.cflags, cache_dir=args.cache_dir,
-                    output_dir=args.output, progress=not args.quiet)
+                    output_dir=args.output, progress=not args.quiet, formulation=args.formulation)
     files = sorted(p.name for p in model.directory.iterdir() if p.is_file() and not p.name.startswith("."))
     print(f"built model {model.name!r} (nq={model.nq}, nu={model.nu}, nparam={model.nparam}, "
           f"ninput={model.ninput}) in {model.directory}:")

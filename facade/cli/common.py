@@ -19,7 +19,7 @@ def add_model_arguments(parser):
                         help="parameter values (others keep their defaults)")
 
 
-def load_model(path, quiet=False):
+def load_model(path, quiet=False, formulation="kane"):
     """A runtime Model from a model file (compiled) or a built directory / json (loaded).
 
     Compiling shows its stages on stderr when that is a terminal, unless ``quiet``.
@@ -29,7 +29,7 @@ def load_model(path, quiet=False):
         raise ValueError(f"{path}: no such model file or built model directory")
     if path.is_file() and path.suffix == ".py":
         from eomc.compiler.driver import compile as compile_model
-        return compile_model(str(path), progress=False if quiet else None)
+        return compile_model(str(path), progress=False if quiet else None, formulation=formulation)
     from eomc.runtime.loader import load
     return load(path)
 

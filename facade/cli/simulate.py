@@ -29,12 +29,15 @@ def configure(parser):
                         help="project onto the model's constraints after each step")
     parser.add_argument("--baumgarte", type=float, default=0.0, metavar="RATE",
                         help="Baumgarte-style constraint stabilization rate (1/time); 0 = off")
+    parser.add_argument("--formulation", choices=("auto", "kane", "recursive"), default="kane",
+                        help="dynamics formulation: kane (symbolic M and f, numeric LDLT), recursive "
+                             "(ABA/RNEA/CRBA over the joint tree) or auto (the cheaper rhs)")
     parser.formatter_class = argparse.ArgumentDefaultsHelpFormatter
 
 
 def run(args):
     from eomc.runtime.simulate import simulate
-    model = cli_common.load_model(args.model)
+    model = cli_common.load_model(args.model, formulation=args.formulation)
     x0 = cli_common.initial_state(model, cli_common.parse_assignments(args.x0, "x0"))
     params = cli_common.parameter_values(model, cli_common.parse_assignments(args.param, "param"))
     res = simulate(model, x0, (args.t0, args.t_final), p=params, method=args.method,

@@ -88,7 +88,7 @@ def test_system_of_joints(rigid):
     assert _agree(mk, mr, 2) < TOL
 
 
-@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(spec=chain, seed=st.integers(0, 2**32 - 1))
 def test_random_chains(spec, seed):
     ours = build(em, spec)
