@@ -54,6 +54,11 @@ class _Numbers:
         return True
 
 
+def _nm(x):
+    """q1 for q1(t), in messages."""
+    return str(x).replace("(t)", "")
+
+
 def _dynamic(expr):
     return {a for a in sm.sympify(expr).atoms(AppliedUndef)}
 
@@ -105,7 +110,7 @@ def _joint(rd, name, joint, parent, pframe, porigin, frame, origin, speed):
         keep = None
     else:
         if speed not in rd.coordinate_of:
-            raise NotATree(f"{where}: its speed {rd.u[speed]} is not a constant times the time "
+            raise NotATree(f"{where}: its speed {_nm(rd.u[speed])} is not a constant times the time "
                            f"derivative of one coordinate (q' = c·u), which the recursion needs")
         keep = rd.q[rd.coordinate_of[speed]]
     try:
@@ -131,9 +136,9 @@ def _joint(rd, name, joint, parent, pframe, porigin, frame, origin, speed):
                    (rd.only(S, None).xreplace({v: 0 for v in rd.u}))])
     if _dynamic(S) or not rd.numbers.same(S * us, wv):
         raise NotATree(f"{where}: its velocity relative to its parent is not a constant axis "
-                       f"times {us} (only revolute, prismatic and fixed joints are recursive)")
+                       f"times {_nm(us)} (only revolute, prismatic and fixed joints are recursive)")
     if all(c == 0 for c in S):
-        raise NotATree(f"{where}: its speed {us} does not move it relative to its parent")
+        raise NotATree(f"{where}: its speed {_nm(us)} does not move it relative to its parent")
     kind = "revolute" if any(c != 0 for c in S[:3]) else "prismatic"
     return kind, E, r, tuple(S)
 
@@ -193,7 +198,7 @@ def _gravity(rd, candidates, bodies):
     massive = [i for i, b in enumerate(bodies) if b[3] != 0]
     by_body = {}
     for k, i, vec in candidates:
-        G = sm.simplify(rd.vec(vec, rd.N) / bodies[i][3]) if bodies[i][3] != 0 else None
+        G = sm.expand(rd.vec(vec, rd.N) / bodies[i][3]) if bodies[i][3] != 0 else None
         if G is not None and not _dynamic(G):
             by_body.setdefault(i, []).append((k, G))
     if not massive or any(len(by_body.get(i, ())) < 1 for i in massive):
@@ -201,7 +206,7 @@ def _gravity(rd, candidates, bodies):
     G = by_body[massive[0]][0][1]
     chosen = set()
     for i in massive:
-        match = [k for k, g in by_body[i] if sm.simplify(g - G) == sm.zeros(3, 1)]
+        match = [k for k, g in by_body[i] if sm.expand(g - G) == sm.zeros(3, 1)]
         if not match:
             return sm.zeros(3, 1), set()
         chosen.add(match[0])
@@ -209,8 +214,16 @@ def _gravity(rd, candidates, bodies):
 
 
 def _point_on_body(rd, point, frames, origins, names):
-    """(body, offset) of a point fixed in a body; (None, None) for a point fixed in the ground."""
-    for i, (f, o) in enumerate(zip(frames, origins)):
+    """(body, offset) of a point fixed in a body; (None, None) for a point fixed in the ground.
+
+    Bodies whose origin the point was located from (or located) are tried first: the
+    others' offsets would be expressed through long chains of frames."""
+    if point == rd.O or (rd.N in point._vel_dict and point._vel_dict[rd.N] == 0):
+        return None, None
+    near = [i for i, o in enumerate(origins) if o in point._pos_dict]
+    order = near + [i for i in range(len(origins)) if i not in near]
+    for i in order:
+        f, o = frames[i], origins[i]
         try:
             rho = rd.vec(point.pos_from(o), f)
         except ValueError:
@@ -239,7 +252,7 @@ def _assemble(rd, entries, loads):
         frames.append(frame)
         origins.append(origin)
     used = [b.speed for b in bodies if b.speed is not None]
-    missing = [str(rd.u[k]) for k in range(len(rd.u)) if k not in used]
+    missing = [_nm(rd.u[k]) for k in range(len(rd.u)) if k not in used]
     if missing:
         raise NotATree(f"speed(s) {', '.join(missing)} move no body: no inertia resists them, "
                        f"so their accelerations are undefined (a mass on the axis it turns about?)")
@@ -332,9 +345,11 @@ def tree_from_kane(kane, kinematics):
         new = s - (speed_sets[p] if p is not None else frozenset())
         b = bodies[i]
         if len(new) > 1:
+            rel = f"body {bodies[p].name}" if p is not None else "the ground"
             raise NotATree(f"body {b.name} moves with speeds "
-                           f"{', '.join(str(rd.u[k]) for k in sorted(new))} that its parent body "
-                           f"lacks: a massless body between them is not modelled")
+                           f"{', '.join(_nm(rd.u[k]) for k in sorted(new))} relative to {rel}: the "
+                           f"recursion takes one speed per joint (pin, slider, weld), not a ball or "
+                           f"free joint, nor a massless body in between")
         speed = next(iter(new)) if new else None
         pframe = frames[p] if p is not None else N
         frame = b.frame if isinstance(b, me.RigidBody) else _particle_frame(rd, b, pframe, speed, frames.values())
