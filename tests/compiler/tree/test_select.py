@@ -79,3 +79,20 @@ def test_inspect_shows_both_formulations(tmp_path, capsys, monkeypatch):
     rows = {line.split()[0]: line.split()[1:] for line in out.splitlines() if line.startswith("  rhs:")}
     kane_ops, rec_ops = map(int, rows["rhs:"])
     assert "formulation: " in out and kane_ops > 0 and rec_ops > 0
+
+
+def test_zero_articulated_inertia_is_a_status_not_a_nan(tmp_path, monkeypatch):
+    """Massless links and cart at run time: ABA's D is 0, rhs reports a singular mass matrix."""
+    import numpy as np
+    import eomc
+    monkeypatch.setenv("EOMC_CACHE_DIR", str(tmp_path / "cache"))
+    system, _ = cart_joints(2)
+    model = eomc.compile(system, "massless", functions=["rhs"], formulation="recursive",
+                         progress=False)
+    p = {"m0": 0.0, "m": 0.0, "l": 0.75, "g": 9.81}
+    pv = np.array([p[k] for k in model.metadata["param_names"]])
+    with pytest.raises(Exception, match="singular"):
+        model.rhs(0.0, np.zeros(6), p=pv, r=[0.0])
+    pv[model.metadata["param_names"].index("m")] = 0.5
+    pv[model.metadata["param_names"].index("m0")] = 2.0
+    assert np.all(np.isfinite(model.rhs(0.0, np.zeros(6), p=pv, r=[0.0])))
