@@ -41,7 +41,7 @@ def formed_system(system):
     from sympy.physics.mechanics import System
     if isinstance(system, System) and system.eom_method is None:
         # a joint tree whose equations were never formed: the recursive formulation's
-        from eomc.compiler.tree.select import tree_formed
+        from eomc.compiler.tree.formed import tree_formed
         return tree_formed(system)
     if _is_sympy_method(system):
         try:

@@ -1,6 +1,5 @@
 """Which formulation generates a model: Kane's (formed A, b and a numeric LDLᵀ) or the
-recursive one (ABA/RNEA/CRBA over the tree), and the FormedSystem of a System whose
-equations were never formed.
+recursive one (ABA/RNEA/CRBA over the tree).
 
 ``auto`` builds the tree when the system is one, lowers both formulations and
 keeps the one whose rhs has fewer operations (all requested functions' operations
@@ -8,17 +7,16 @@ when rhs is not requested).  A System without formed equations has no Kane form
 to compare with: forming it costs more than the whole recursive build, so auto
 takes the recursive one there.
 """
-import sympy as sm
-from sympy.core.function import AppliedUndef
 from sympy.physics import mechanics as me
 
 from eomc.runtime.errors import ModelError
 
 from ..mechanics.formed import FormedSystem
+from .formed import tree_exprs
 from .model import NotATree
-from .recognize import system_kinematics, tree_from_system, tree_of
+from .recognize import tree_of
 
-__all__ = ["FORMULATIONS", "tree_formed", "generate_formulation", "check_formulation", "tree_digest"]
+__all__ = ["FORMULATIONS", "generate_formulation", "check_formulation", "tree_digest"]
 
 FORMULATIONS = ("auto", "kane", "recursive")
 
@@ -29,46 +27,10 @@ def check_formulation(formulation):
     return formulation
 
 
-def _tree_exprs(tree):
-    out = list(tree.kinematics) + list(tree.gravity)
-    for b in tree.bodies:
-        out += list(b.rotation) + list(b.position) + list(b.motion or ()) + [b.mass] + list(b.inertia)
-    for load in tree.loads:
-        out += list(load.moment) + list(load.force) + list(load.offset)
-    return [sm.sympify(e) for e in out]
-
-
-def tree_formed(system):
-    """FormedSystem of a SymPy System with joints whose equations were not formed
-    (method "tree": no A and b; only the recursive formulation can generate it)."""
-    try:
-        kin = system_kinematics(system)
-        tree = tree_from_system(system, kin)
-    except NotATree as exc:
-        raise ModelError(f"the System has no formed equations (call System.form_eoms()) and is "
-                         f"not a tree the recursive formulation takes: {exc}") from None
-    q, u = tuple(system.q), tuple(system.u)
-    t = me.dynamicsymbols._t
-    inputs, params = set(), set()
-    for e in _tree_exprs(tree):
-        inputs |= {a for a in e.atoms(AppliedUndef) if a not in q and a not in u}
-        params |= {s for s in e.free_symbols if s != t}
-    nu = len(u)
-    formed = FormedSystem(method="tree", coordinates=q, speeds=u, n_dependent_coordinates=0,
-                          n_dependent_speeds=0, kinematics=sm.Matrix(kin),
-                          dynamics_matrix=sm.zeros(nu, nu), dynamics_rhs=sm.zeros(nu, 1),
-                          multipliers=(), holonomic_constraints=sm.Matrix(),
-                          velocity_constraints=sm.Matrix(),
-                          inputs=tuple(sorted(inputs, key=str)),
-                          parameters=tuple(sorted(params, key=lambda s: s.name)))
-    object.__setattr__(formed, "_tree", tree)     # found once, reused by the generator
-    return formed
-
-
 def tree_digest(spec):
     """The tree's expressions, for the generation cache key of a formed-less System."""
     tree = getattr(spec.formed, "_tree", None)
-    return None if tree is None else _tree_exprs(tree)
+    return None if tree is None else tree_exprs(tree)
 
 
 def _find_tree(spec):
@@ -86,9 +48,9 @@ def _kane_formed(spec):
     """The Kane FormedSystem, forming a System's equations if it had none."""
     if spec.formed.method != "tree":
         return spec.formed
-    from ..model.spec import formed_system
+    from ..mechanics import from_sympy
     spec.system.form_eoms()
-    return formed_system(spec.system)
+    return from_sympy(spec.system).formed()
 
 
 def _rhs_cost(generated):
