@@ -37,7 +37,8 @@ def configure(parser):
 
 def run(args):
     from eomc.runtime.simulate import simulate
-    model = cli_common.load_model(args.model, formulation=args.formulation)
+    extra = {} if args.formulation == "kane" else {"formulation": args.formulation}
+    model = cli_common.load_model(args.model, **extra)
     x0 = cli_common.initial_state(model, cli_common.parse_assignments(args.x0, "x0"))
     params = cli_common.parameter_values(model, cli_common.parse_assignments(args.param, "param"))
     res = simulate(model, x0, (args.t0, args.t_final), p=params, method=args.method,
