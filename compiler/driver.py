@@ -95,6 +95,8 @@ def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, fu
             progress=None, formulation="kane"):
     """Compile a model file (path) or a formed system into a loaded :class:`eomc.runtime.model.Model`.
 
+    ``formulation``: "kane" (default), "recursive" or "auto" (see :func:`generate`).
+
     Progress (stage timings on stderr) defaults to on when stderr is a terminal.
     """
     from eomc.runtime.loader import LoadError, load
