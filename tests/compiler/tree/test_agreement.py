@@ -16,6 +16,7 @@ from hypothesis import strategies as st
 import eomc
 import eomc.mechanics as em
 from eomc.errors import ModelError
+from helpers import zoo
 from helpers.random_chains import build, chain
 from helpers.trees import cart_joints, cart_relative
 
@@ -86,6 +87,17 @@ def test_system_of_joints(rigid):
     mk = eomc.compile(cart_joints(2, rigid=rigid)[0], "joints_k", functions=FUNCTIONS,
                       progress=False, formulation="kane")
     assert _agree(mk, mr, 2) < TOL
+
+
+def test_zoo_spring_damper_chain():
+    """The zoo's tree in joint coordinates: masses on sliders, springs and dampers as loads
+    (its other models are absolute-angle, ball-joint, constrained or closed-loop: see
+    test_recognize.py and test_select.py for their refusals)."""
+    kane, inputs = zoo.spring_damper_chain(3, em)
+    mk = eomc.compile(kane, "springs_k", inputs=inputs, functions=FUNCTIONS, progress=False)
+    mr = eomc.compile(kane, "springs_r", inputs=inputs, functions=FUNCTIONS, progress=False,
+                      formulation="recursive")
+    assert _agree(mk, mr, 3) < TOL
 
 
 @settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])

@@ -58,3 +58,9 @@ def test_spherical_joint_is_named():
     system.add_joints(joint)
     with pytest.raises(NotATree, match="joint socket .SphericalJoint. has 3 speeds"):
         tree_from_system(system)
+
+
+def test_closed_loop_is_not_a_tree():
+    kane, _ = zoo.four_bar(em)
+    with pytest.raises(NotATree, match="dependent"):
+        tree_of(kane)
