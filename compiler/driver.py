@@ -72,14 +72,19 @@ class Progress:
 
 
 def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, functions=None,
-             fold_parameters=False, progress=None, cache_dir=None, use_cache=True, events=None):
+             fold_parameters=False, progress=None, cache_dir=None, use_cache=True, events=None,
+             formulation="kane"):
     """Derive and generate C without compiling: returns (ModelSpec, GeneratedModel).
+
+    ``formulation``: "kane" (formed A, b; numeric LDLᵀ), "recursive" (ABA/RNEA/CRBA
+    over the joint tree, eomc.compiler.tree) or "auto" (the cheaper rhs).
 
     With ``use_cache`` the C comes from the generation cache when the formed
     equations and options were seen before (see eomc.compiler.build.gencache).
     """
-    from .emit import generate_c
+    from .tree.select import check_formulation, generate_formulation, tree_digest
     progress = progress if isinstance(progress, Progress) else Progress(progress)
+    check_formulation(formulation)
     try:
         functions = check_functions(functions)
     except Invalid as exc:
@@ -88,13 +93,12 @@ def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, f
         spec = model_spec(system, name, parameters=parameters, inputs=inputs, outputs=outputs,
                           events=events)
     def run_generator():
-        return generate_c(spec.formed, spec.name, parameters=spec.parameters, inputs=spec.inputs,
-                          outputs=spec.outputs, functions=functions, fold_parameters=fold_parameters,
-                          events=spec.events, event_options=spec.event_options)
+        return generate_formulation(spec, functions, fold_parameters, formulation)
     with progress.stage("generate"), reporting(progress.pass_done):
         if use_cache:
             generated, _ = cached_generate(spec, functions, fold_parameters, run_generator,
-                                           cache_root(cache_dir))
+                                           cache_root(cache_dir),
+                                           extra=[formulation, tree_digest(spec)])
         else:
             generated = run_generator()
     return spec, generated
@@ -102,15 +106,17 @@ def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, f
 
 def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, functions=None,
             fold_parameters=False, backend="cffi", cflags=None, cache_dir=None, output_dir=None,
-            progress=None, events=None):
+            progress=None, events=None, formulation="kane"):
     """Compile a model file (path) or a formed system into a loaded :class:`eomc.runtime.model.Model`.
+
+    ``formulation``: "kane" (default), "recursive" or "auto" (see :func:`generate`).
 
     Progress (stage timings on stderr) defaults to on when stderr is a terminal.
     """
     progress = Progress(progress)
     spec, generated = generate(system, name, parameters=parameters, inputs=inputs, outputs=outputs,
                                functions=functions, fold_parameters=fold_parameters, progress=progress,
-                               cache_dir=cache_dir, events=events)
+                               cache_dir=cache_dir, events=events, formulation=formulation)
     extra = {"initial_state": spec.initial_state} if spec.initial_state is not None else None
     source = system if isinstance(system, (str, os.PathLike)) else None
     return build_and_load(generated, backend=backend, cflags=cflags, cache_dir=cache_dir,

@@ -74,8 +74,9 @@ class _Digester:
         return digest
 
 
-def generation_key(spec, functions, fold_parameters):
-    """Key of everything generate_c reads for this model."""
+def generation_key(spec, functions, fold_parameters, extra=None):
+    """Key of everything generate_c reads for this model (``extra``: more of it, e.g. the
+    formulation and a formed-less System's tree)."""
     d = _Digester()
     f = spec.formed
     formed = [f.method, f.n_dependent_coordinates, f.n_dependent_speeds] + [
@@ -90,18 +91,19 @@ def generation_key(spec, functions, fold_parameters):
         "functions": functions, "fold": bool(fold_parameters),
         **({} if getattr(spec, "events", None) is None else
            {"events": [[k, d(v)] for k, v in spec.events.items()], "event_options": spec.event_options}),
+        **({} if extra is None else {"extra": d(list(extra))}),
         "eomc": __version__, "sympy": sm.__version__, "python": sys.version_info[:2],
         "source": _source_digest()})
 
 
-def cached_generate(spec, functions, fold_parameters, generate, cache_root_dir):
+def cached_generate(spec, functions, fold_parameters, generate, cache_root_dir, extra=None):
     """``generate()`` through the cache; returns (GeneratedModel, hit).
 
     The entry is held while it is read, so a concurrent prune cannot remove it midway;
     one that is unreadable anyway is generated again.
     """
     from eomc.compiler.emit import GeneratedModel
-    key = generation_key(spec, functions, fold_parameters)
+    key = generation_key(spec, functions, fold_parameters, extra)
 
     def read(entry):
         try:

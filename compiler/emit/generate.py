@@ -53,8 +53,14 @@ def _environment():
                               trim_blocks=True, lstrip_blocks=True, autoescape=False)
 
 
-def _body(fn, ctx, prog, sym, layout, nx, functions):
+def _body(fn, ctx, prog, sym, layout, nx, functions, recursive=False):
     nr = len(layout.r)
+    if recursive and fn == "rhs":
+        from ..tree.emit import tree_rhs_body
+        return tree_rhs_body(ctx, prog)
+    if recursive and fn in ("mass_matrix", "forcing", "inverse_dynamics"):
+        from ..tree.emit import tree_matrix_body
+        return tree_matrix_body(ctx, prog, fn)
     if fn == "rhs":
         return rhs_body(ctx, prog)
     if fn in ("mass_matrix", "forcing", "inverse_dynamics"):
@@ -105,10 +111,12 @@ def _tangent_ops(prog, seeds, blocks):
     return c
 
 
-def _ops(fn, prog, solver, nx, nr, seeds=(), helper=None, nu=0, nnz=0, solve_in=()):
+def _ops(fn, prog, solver, nx, nr, seeds=(), helper=None, nu=0, nnz=0, solve_in=(), recursive=False):
     c = count_program(prog) if prog is not None else Counter()
     if fn == "linearize":
         return None
+    if recursive and fn in ("rhs", "mass_matrix", "forcing", "inverse_dynamics") and fn not in solve_in:
+        return {k: int(c.get(k, 0)) for k in ("adds", "muls", "divs", "calls")}
     if fn in HELPER_USERS or fn in solve_in:
         c += count_program(helper)
     if fn in solve_in:
@@ -161,22 +169,34 @@ class Lowered:
     functions: tuple
     programs: dict          # function -> Program (None when the function has no own code)
     helper: object          # Program of the shared NAME_dynamics helper (A, b), or None
+    formulation: str = "kane"   # or "recursive" (eomc.compiler.tree)
 
 
 def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions=None,
-          fold_parameters=False, events=None):
-    """FormedSystem -> :class:`Lowered` (the IR the C printer and ``--print-ir`` read)."""
+          fold_parameters=False, events=None, tree=None):
+    """FormedSystem -> :class:`Lowered` (the IR the C printer and ``--print-ir`` read).
+
+    With ``tree`` (an eomc.compiler.tree.Tree of the same system) the dynamics come
+    from the recursive formulation (ABA, RNEA, CRBA) instead of the formed A and b.
+    """
     check_identifier(name)
     layout = make_layout(formed, parameters, inputs, fold_parameters)
     ncon = len(formed.holonomic_constraints) + len(formed.velocity_constraints)
     fns = _select(functions, len(layout.r), len(outputs or {}), ncon, len(events or {}))
-    sym = build_symbolic(formed, layout, fns, outputs, events)
+    groups, helper_users = FUNCTION_GROUPS, HELPER_USERS
+    if tree is None:
+        sym = build_symbolic(formed, layout, fns, outputs, events)
+    else:
+        from ..tree.lower import TREE_FUNCTION_GROUPS, TREE_HELPER_USERS, build_tree_symbolic
+        groups, helper_users = TREE_FUNCTION_GROUPS, TREE_HELPER_USERS
+        sym = build_tree_symbolic(tree, formed, layout, fns, outputs, events)
     shared = verify(optimize_shared(sym.program, sym.derivatives))
-    programs = {fn: finish_function(shared, FUNCTION_GROUPS[fn]) if FUNCTION_GROUPS[fn] else None
+    programs = {fn: finish_function(shared, groups[fn]) if groups[fn] else None
                 for fn in fns}
-    helper = (finish_function(shared, ("A", "b")) if set(fns) & set(HELPER_USERS) or sym.solve_in
+    helper = (finish_function(shared, ("A", "b")) if set(fns) & set(helper_users) or sym.solve_in
               else None)
-    return Lowered(name, layout, sym, fns, programs, helper)
+    return Lowered(name, layout, sym, fns, programs, helper,
+                   "kane" if tree is None else "recursive")
 
 
 def ir_listing(formed, name, **options):
@@ -190,7 +210,7 @@ def ir_listing(formed, name, **options):
 
 
 def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, functions=None,
-               fold_parameters=False, events=None, event_options=None):
+               fold_parameters=False, events=None, event_options=None, tree=None):
     """Lower ``formed`` (a FormedSystem) to C; returns a :class:`GeneratedModel`.
 
     ``parameters``: {symbol: default} giving order and defaults (others follow, sorted by
@@ -205,8 +225,9 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
     Deterministic: identical input gives byte-identical output.
     """
     low = lower(formed, name, parameters=parameters, inputs=inputs, outputs=outputs,
-                functions=functions, fold_parameters=fold_parameters, events=events)
+                functions=functions, fold_parameters=fold_parameters, events=events, tree=tree)
     layout, sym, fns = low.layout, low.symbolic, low.functions
+    recursive = low.formulation == "recursive"
     nq, nu, nx, nw = formed.nq, formed.nu, formed.nq + formed.nu, sym.nw
     solver = (choose_ldlt(name, nw, sym.pattern) if sym.symmetric else
               sparse_lu_solver(name, nw, sym.pattern, sym.row_order))
@@ -219,10 +240,11 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
     rendered, op_counts = [], {}
     for fn in fns:
         prog = low.programs[fn]
-        lines = _body(fn, ctx, prog, sym, layout, nx, fns)
+        lines = _body(fn, ctx, prog, sym, layout, nx, fns, recursive)
         rendered.append({"prototype": prototype(name, fn), "body": void_unused(fn, lines)})
         op_counts[fn] = _ops(fn, prog, solver, nx, len(layout.r), sym.seeds, low.helper, nu,
-                             sum(1 for i, j in sym.pattern if i < nu and j < nu), sym.solve_in)
+                             sum(1 for i, j in sym.pattern if i < nu and j < nu), sym.solve_in,
+                             recursive)
     if "linearize" in op_counts:
         op_counts["linearize"] = {k: sum(op_counts[f][k] for f in ("jac_x", "jac_r") if f in op_counts)
                                   for k in ("adds", "muls", "divs", "calls")}
@@ -231,6 +253,7 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
         by_name = {o["name"]: o for o in (event_options or ())}
         meta["events"] = [by_name.get(n, {"name": n, "terminal": 0, "direction": 0})
                           for n in sym.event_names]
+    meta["formulation"] = low.formulation
     return _render(name, meta, fns, rendered, solver, layout, sym, helper)
 
 
@@ -272,7 +295,9 @@ def _vector_docs(meta):
 def _render(name, meta, fns, rendered, solver, layout, sym, helper):
     tables, table_refs = _tables(name, layout, sym.output_names)
     pointers = [f"{name}_{f}" if f in fns else "NULL" for f in STRUCT_FIELDS]
-    uses_solver = any(f in fns for f in _SOLVING) or bool(sym.solve_in)
+    uses_solver = (any(f in fns for f in _SOLVING
+                       if not (f == "rhs" and meta.get("formulation") == "recursive"))
+                   or bool(sym.solve_in))
     env = _environment()
     common = {k: meta[k] for k in ("nq", "nu", "nx", "nparam", "ninput", "noutput", "nhol",
                                    "nvel", "work_size", "eomc_version")}

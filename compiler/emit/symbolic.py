@@ -146,12 +146,19 @@ def _dynamics(formed, layout):
     return A, b
 
 
-def build_symbolic(formed, layout, functions, outputs=None, events=None):
-    """The unoptimized program holding the result groups ``functions`` need."""
-    groups = {g for f in functions for g in FUNCTION_GROUPS[f]}
-    if set(functions) & set(HELPER_USERS):
+def build_symbolic(formed, layout, functions, outputs=None, events=None, *, dynamics=None,
+                   prelude=None, function_groups=None, helper_users=HELPER_USERS):
+    """The unoptimized program holding the result groups ``functions`` need.
+
+    ``dynamics``: (A, b) already in slot symbols, instead of the formed system's
+    (the recursive formulation: entries are temporaries of ``prelude`` =
+    (assignments, ntemp, extra results)).
+    """
+    function_groups = FUNCTION_GROUPS if function_groups is None else function_groups
+    groups = {g for f in functions for g in function_groups[f]}
+    if set(functions) & set(helper_users):
         groups |= {"A", "b"}
-    A, b = _dynamics(formed, layout)
+    A, b = _dynamics(formed, layout) if dynamics is None else dynamics
     nw, nu = len(b), formed.nu
     W = tuple(sm.Symbol(f"w_{j}", real=True) for j in range(nw))
     names, outs = _outputs(formed, layout, outputs, W)
@@ -210,7 +217,13 @@ def build_symbolic(formed, layout, functions, outputs=None, events=None):
     if "con" in groups:
         res += [(("con", i), e) for i, e in enumerate(hol + vel)]
     inputs = (layout.t,) + layout.x + layout.p + layout.r + W + UD + seeds
-    program = Program(inputs=inputs, results=tuple(res))
+    if prelude is None:
+        program = Program(inputs=inputs, results=tuple(res))
+    else:
+        assignments, ntemp, extra = prelude
+        program = Program(inputs=inputs, assignments=tuple(assignments),
+                          results=tuple(res) + tuple(r for r in extra if r[0][0] in groups),
+                          ntemp=ntemp)
     return Symbolic(program=program, derivatives=tuple(derivatives), nw=nw, row_order=row_order,
                     seeds=seeds, symmetric=symmetric, pattern=pattern, W=W, UD=UD,
                     nhol=len(hol), nvel=len(vel), output_names=names, event_names=event_names,

@@ -43,9 +43,15 @@ def formed_system(system):
     from eomc.compiler.mechanics.formed import FormedSystem
     if isinstance(system, FormedSystem):
         return system
-    from eomc.compiler.urdf.model import form_system, is_unformed_system
-    if is_unformed_system(system):  # a System not yet formed (e.g. from_urdf's): eomc's Kane forms it
-        system = form_system(system)
+    from eomc.compiler.mechanics.unformed import form_system, is_unformed_system
+    if is_unformed_system(system):
+        # a joint tree whose equations were never formed (System + joints, from_urdf): the
+        # recursive formulation reads the tree itself; one it cannot take is formed by eomc's Kane
+        from eomc.compiler.tree.formed import tree_formed
+        try:
+            return tree_formed(system)
+        except ModelError:
+            system = form_system(system)
     if _is_sympy_method(system):
         try:
             from eomc.compiler.mechanics import from_sympy

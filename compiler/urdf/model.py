@@ -13,35 +13,11 @@ from pathlib import Path
 
 from sympy.physics import mechanics as sme
 
-__all__ = ["is_urdf_path", "is_unformed_system", "form_system", "urdf_overrides", "load_urdf_model",
-           "with_options"]
+__all__ = ["is_urdf_path", "urdf_overrides", "load_urdf_model", "with_options"]
 
 
 def is_urdf_path(model):
     return isinstance(model, (str, Path)) and Path(model).suffix.lower() == ".urdf"
-
-
-def is_unformed_system(system):
-    return isinstance(system, sme.System) and system.eom_method is None
-
-
-def form_system(system):
-    """An eomc KanesMethod with the equations of the (SymPy) ``System``, formed.
-
-    Mirrors ``System.form_eoms()``: the same coordinates, speeds, kinematic
-    equations, constraints, bodies, loads and actuators' loads.
-    """
-    from eomc.compiler.mechanics import KanesMethod
-    loads = list(system.loads) + [load for actuator in system.actuators for load in actuator.to_loads()]
-    bodies = list(system.bodies)
-    method = KanesMethod(system.frame, list(system.q_ind), list(system.u_ind), kd_eqs=list(system.kdes),
-                         q_dependent=list(system.q_dep) or None,
-                         configuration_constraints=list(system.holonomic_constraints) or None,
-                         u_dependent=list(system.u_dep) or None,
-                         velocity_constraints=list(system.velocity_constraints) or None,
-                         u_auxiliary=list(system.u_aux) or None)
-    method.kanes_equations(bodies, loads or None)
-    return method
 
 
 def urdf_overrides(system, formed, overrides):

@@ -21,6 +21,9 @@ def add_generate_options(parser):
     parser.add_argument("--floating-base", action="store_true",
                         help="URDF: a 6-dof floating joint (position + body XYZ Euler angles) "
                              "between the world and the root link")
+    parser.add_argument("--formulation", choices=("auto", "kane", "recursive"), default="kane",
+                        help="dynamics formulation: kane (symbolic M and f, numeric LDLT), recursive "
+                             "(ABA/RNEA/CRBA over the joint tree) or auto (the cheaper rhs)")
 
 
 def configure(parser):
@@ -42,7 +45,7 @@ def run(args):
     source, name = with_options(args.model, args.name, floating_base=args.floating_base)
     model = compile(source, name, functions=args.outputs, fold_parameters=args.fold_parameters,
                     backend=args.backend, cflags=args.cflags, cache_dir=args.cache_dir,
-                    output_dir=args.output, progress=not args.quiet)
+                    output_dir=args.output, progress=not args.quiet, formulation=args.formulation)
     files = sorted(p.name for p in model.directory.iterdir() if p.is_file() and not p.name.startswith("."))
     print(f"built model {model.name!r} (nq={model.nq}, nu={model.nu}, nparam={model.nparam}, "
           f"ninput={model.ninput}) in {model.directory}:")

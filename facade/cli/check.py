@@ -24,7 +24,7 @@ def run(args):
     import sys
     from eomc.runtime.progress import ticker
     from eomc.runtime.stability import check_model, format_checks
-    model = cli_common.load_model(args.model, args.quiet, **cli_common.urdf_options(args))
+    model = cli_common.load_model(args.model, args.quiet, **cli_common.model_options(args))
     x0 = cli_common.initial_state(model, cli_common.parse_assignments(args.x0, "x0"))
     p = cli_common.parameter_values(model, cli_common.parse_assignments(args.param, "param"))
     with ticker(f"eomc check {model.name}", sys.stderr, not args.quiet):

@@ -7,7 +7,7 @@ Mistakes in them are ValueErrors, which `eomc` prints as one line (exit status 2
 """
 from pathlib import Path
 
-__all__ = ["add_model_arguments", "load_model", "urdf_options", "parse_assignments", "initial_state",
+__all__ = ["add_model_arguments", "load_model", "model_options", "parse_assignments", "initial_state",
            "parameter_values", "writable_file"]
 
 
@@ -25,12 +25,18 @@ def add_model_arguments(parser):
                         help="URDF: a 6-dof floating joint between the world and the root link")
 
 
-def urdf_options(args):
-    """Keyword arguments of load_model for a URDF's options (none unless given)."""
-    return {"floating_base": True} if getattr(args, "floating_base", False) else {}
+def model_options(args):
+    """Keyword arguments of load_model for the options given: a URDF's floating base, a
+    formulation other than kane (none unless given, so stand-ins of load_model stay simple)."""
+    options = {}
+    if getattr(args, "floating_base", False):
+        options["floating_base"] = True
+    if getattr(args, "formulation", "kane") != "kane":
+        options["formulation"] = args.formulation
+    return options
 
 
-def load_model(path, quiet=False, floating_base=False):
+def load_model(path, quiet=False, floating_base=False, formulation="kane"):
     """A runtime Model from a model file (compiled) or a built directory / json (loaded).
 
     Compiling shows its stages on stderr when that is a terminal, unless ``quiet``.
@@ -42,7 +48,8 @@ def load_model(path, quiet=False, floating_base=False):
         from eomc.compiler.driver import compile as compile_model
         from eomc.compiler.urdf.model import with_options
         source, name = with_options(str(path), floating_base=floating_base)
-        return compile_model(source, name, progress=False if quiet else None)
+        return compile_model(source, name, progress=False if quiet else None,
+                             formulation=formulation)
     from eomc.runtime.loader import load
     return load(path)
 

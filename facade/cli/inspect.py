@@ -35,9 +35,37 @@ def format_report(metadata):
 def run(args):
     from eomc.compiler.driver import generate
     from eomc.compiler.urdf.model import with_options
+    from eomc.errors import ModelError
     source, name = with_options(args.model, args.name, floating_base=args.floating_base)
     spec, generated = generate(source, name, functions=args.outputs,
                                fold_parameters=args.fold_parameters,
-                               progress=False if args.quiet else None)
+                               progress=False if args.quiet else None, formulation=args.formulation)
     print(format_report(generated.metadata))
+    print("")
+    print(compare_formulations(args, spec, generated, generate, ModelError))
     return 0
+
+
+def compare_formulations(args, spec, generated, generate, error):
+    """Total operations per function in both formulations (the other one generated too)."""
+    chosen = generated.metadata.get("formulation", "kane")
+    other = "kane" if chosen == "recursive" else "recursive"
+    if spec.formed.method == "tree":
+        return (f"formulation: {chosen} (kane not compared: the System's equations are not formed, "
+                f"and forming them is what the recursive formulation avoids)")
+    try:
+        _, alt = generate(args.model, args.name, functions=args.outputs,
+                          fold_parameters=args.fold_parameters, progress=False, formulation=other)
+        alt_counts = alt.metadata["op_counts"]
+    except error as exc:
+        return f"formulation: {chosen} (no {other} form: {exc})"
+    counts = {chosen: generated.metadata["op_counts"], other: alt_counts}
+    lines = [f"formulation: {chosen}; total operations per function:",
+             f"  {'':<18}{'kane':>10}{'recursive':>11}"]
+    for fn in generated.metadata["op_counts"]:
+        cells = []
+        for f in ("kane", "recursive"):
+            c = counts[f].get(fn)
+            cells.append(sum(c.values()) if c else "-")
+        lines.append(f"  {fn + ':':<18}{cells[0]:>10}{cells[1]:>11}")
+    return "\n".join(lines)

@@ -36,6 +36,9 @@ def configure(parser):
                         help="events to detect: names of compiled events or outputs, comma-separated, "
                              "NAME:terminal / NAME:rising / NAME:falling to set options; 'none' for "
                              "none (default: the model file's events)")
+    parser.add_argument("--formulation", choices=("auto", "kane", "recursive"), default="kane",
+                        help="dynamics formulation: kane (symbolic M and f, numeric LDLT), recursive "
+                             "(ABA/RNEA/CRBA over the joint tree) or auto (the cheaper rhs)")
     parser.formatter_class = argparse.ArgumentDefaultsHelpFormatter
 
 
@@ -112,7 +115,7 @@ def run(args):
     from eomc.runtime.simulate import simulate
     cli_common.writable_file(args.output, "-o")
     cli_common.writable_file(args.plot, "--plot")
-    model = cli_common.load_model(args.model, args.quiet, **cli_common.urdf_options(args))
+    model = cli_common.load_model(args.model, args.quiet, **cli_common.model_options(args))
     x0 = cli_common.initial_state(model, cli_common.parse_assignments(args.x0, "x0"))
     params = cli_common.parameter_values(model, cli_common.parse_assignments(args.param, "param"))
     res = simulate(model, x0, (args.t0, args.t_final), p=params, method=args.method,

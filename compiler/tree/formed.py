@@ -1,0 +1,53 @@
+"""The FormedSystem of a SymPy System of joints whose equations were never formed.
+
+Its method is "tree": it has coordinates, speeds, kinematics, inputs and
+parameters, but no A and b, so only the recursive formulation generates it;
+the Tree found on the way is kept on it for the generator.
+"""
+import sympy as sm
+from sympy.core.function import AppliedUndef
+from sympy.physics import mechanics as me
+
+from eomc.runtime.errors import ModelError
+
+from ..mechanics.formed import FormedSystem
+from .model import NotATree
+from .recognize import system_kinematics, tree_from_system
+
+__all__ = ["tree_formed", "tree_exprs"]
+
+
+def tree_exprs(tree):
+    out = list(tree.kinematics) + list(tree.gravity)
+    for b in tree.bodies:
+        out += list(b.rotation) + list(b.position) + list(b.motion or ()) + [b.mass] + list(b.inertia)
+    for load in tree.loads:
+        out += list(load.moment) + list(load.force) + list(load.offset)
+    return [sm.sympify(e) for e in out]
+
+
+def tree_formed(system):
+    """FormedSystem of a SymPy System with joints whose equations were not formed
+    (method "tree": no A and b; only the recursive formulation can generate it)."""
+    try:
+        kin = system_kinematics(system)
+        tree = tree_from_system(system, kin)
+    except NotATree as exc:
+        raise ModelError(f"the System has no formed equations (call System.form_eoms()) and is "
+                         f"not a tree the recursive formulation takes: {exc}") from None
+    q, u = tuple(system.q), tuple(system.u)
+    t = me.dynamicsymbols._t
+    inputs, params = set(), set()
+    for e in tree_exprs(tree):
+        inputs |= {a for a in e.atoms(AppliedUndef) if a not in q and a not in u}
+        params |= {s for s in e.free_symbols if s != t}
+    nu = len(u)
+    formed = FormedSystem(method="tree", coordinates=q, speeds=u, n_dependent_coordinates=0,
+                          n_dependent_speeds=0, kinematics=sm.Matrix(kin),
+                          dynamics_matrix=sm.zeros(nu, nu), dynamics_rhs=sm.zeros(nu, 1),
+                          multipliers=(), holonomic_constraints=sm.Matrix(),
+                          velocity_constraints=sm.Matrix(),
+                          inputs=tuple(sorted(inputs, key=str)),
+                          parameters=tuple(sorted(params, key=lambda s: s.name)))
+    object.__setattr__(formed, "_tree", tree)     # found once, reused by the generator
+    return formed

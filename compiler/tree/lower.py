@@ -1,0 +1,153 @@
+"""A Tree -> the unoptimized program of the recursive formulation.
+
+The program's result groups, all computed from one value-numbered trace:
+
+    kin        q' (the kinematics, as Kane's path writes them)
+    ud, Dpiv   u' by ABA, and the articulated inertias D_i it divides by (rhs)
+    tau        M·u' - f by RNEA at given u' (inverse_dynamics)
+    A, b       M by CRBA and f = -RNEA(u' = 0): the same A·u' = b the Kane path solves,
+               so jac_x and jac_r are the Kane path's code, differentiated through
+               the recursion (forward mode on the program) instead of through Kane's
+               expressions; mass_matrix and forcing read A and b.
+
+Coordinates and speeds are the Kane path's (same layout), so states are
+interchangeable and every function agrees with the Kane formulation.
+"""
+import sympy as sm
+
+from eomc.runtime.errors import ModelError
+
+from ..emit.symbolic import build_symbolic
+from .algorithms import LoweredBody, Recorder, aba, crba, rnea, velocities
+from .model import NotATree
+
+__all__ = ["TREE_FUNCTION_GROUPS", "TREE_HELPER_USERS", "build_tree_symbolic"]
+
+TREE_FUNCTION_GROUPS = {
+    "rhs": ("kin", "ud", "Dpiv"),
+    "jac_x": ("A", "b", "dkin", "G", "Gtq", "Gtu"),
+    "jac_r": ("dkin_r", "Gr"),            # + the dynamics helper (A, b)
+    "mass_matrix": ("A",),
+    "forcing": ("b",),
+    "inverse_dynamics": ("tau",),
+    "outputs": ("out",),
+    "constraints": ("con",),
+    "constraints_jac": ("dcon",),
+    "linearize": (),
+}
+TREE_HELPER_USERS = ("jac_r",)
+
+
+def _rename(layout, memo, what, absent):
+    """Slot symbols; ``absent``: symbols Kane's equations do not contain (an inertia about
+    an axis nothing turns about), which therefore cannot change the result: set to zero."""
+    return lambda e: layout.apply(sm.sympify(e).xreplace(absent) if absent else e, what, memo)
+
+
+def _absent(tree, layout):
+    from sympy.physics.mechanics import dynamicsymbols
+    exprs = [e for b in tree.bodies for e in list(b.inertia) + [b.mass]] + list(tree.gravity)
+    exprs += [e for ld in tree.loads for e in list(ld.moment) + list(ld.force) + list(ld.offset)]
+    free = set().union(*(sm.sympify(e).free_symbols for e in exprs)) if exprs else set()
+    return {s: 0 for s in free if s not in layout.subs and s != dynamicsymbols._t}
+
+
+def _lowered_bodies(tree, layout, rec):
+    memo = {}
+    world_rot = {}
+
+    def rotation0(i):
+        """World -> body i components (recursive, named; built only for world loads)."""
+        if i not in world_rot:
+            E = bodies[i].E
+            p = tree.bodies[i].parent
+            if p < 0:
+                world_rot[i] = E
+            else:
+                R = rotation0(p)
+                world_rot[i] = [[rec.let(sum((E[r][k] * R[k][s] for k in range(3)), sm.S.Zero))
+                                 for s in range(3)] for r in range(3)]
+        return world_rot[i]
+
+    bodies = []
+    absent = _absent(tree, layout)
+    for b in tree.bodies:
+        what = f"body {b.name} (joint {b.joint})"
+        ren = _rename(layout, memo, what, absent)
+        E = b.rotation.applyfunc(ren)
+        r = b.position.applyfunc(ren)
+        S = None if b.motion is None else [ren(s) for s in b.motion]
+        bodies.append(LoweredBody(b, rec, E, r, S, ren(b.mass), b.inertia.applyfunc(ren), None))
+    for load in tree.loads:
+        i = load.body
+        ren = _rename(layout, memo, f"a load on body {tree.bodies[i].name}", absent)
+        n = [ren(x) for x in load.moment]
+        f = [ren(x) for x in load.force]
+        if load.frame == "world":
+            R = rotation0(i)
+            n = [sum((R[r][k] * n[k] for k in range(3)), sm.S.Zero) for r in range(3)]
+            f = [sum((R[r][k] * f[k] for k in range(3)), sm.S.Zero) for r in range(3)]
+        off = [ren(x) for x in load.offset]
+        n = [n[k] + c for k, c in enumerate(_cross(off, f))]
+        old = bodies[i].fext or [0] * 6
+        bodies[i].fext = [old[k] + v for k, v in enumerate(n + f)]
+    gravity = [_rename(layout, memo, "gravity", absent)(g) for g in tree.gravity]
+    return bodies, gravity
+
+
+def _cross(a, b):
+    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+
+
+def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=None):
+    """Symbolic (as :func:`~eomc.compiler.emit.symbolic.build_symbolic`) from the recursions."""
+    rec = Recorder()
+    try:
+        bodies, gravity = _lowered_bodies(tree, layout, rec)
+        nq, nu = len(tree.coordinates), len(tree.speeds)
+        speeds = layout.x[nq:nq + nu]
+        v, c = velocities(bodies, rec, speeds)
+        extra = []
+        if "rhs" in functions:
+            for k, udd, D in aba(bodies, rec, speeds, gravity, v, c):
+                extra.append((("ud", k), udd))
+                extra.append((("Dpiv", k), D))
+        UD = tuple(sm.Symbol(f"ud_{j}", real=True) for j in range(nu))
+        if "inverse_dynamics" in functions:
+            tau = rnea(bodies, rec, UD, gravity, v, c)
+            extra += [(("tau", k), tau[k]) for k in range(nu)]
+        if set(functions) & _NEED_AB:
+            H = crba(bodies, rec)
+            f0 = rnea(bodies, rec, [0] * nu, gravity, v, c)
+            A = sm.Matrix(nu, nu, lambda i, j: H.get((i, j), 0))
+            b = [-f0[k] for k in range(nu)]
+        else:   # not computed: a stand-in with M's structure (for the metadata)
+            A, b = _structure(tree), [0] * nu
+    except NotATree as exc:
+        raise ModelError(f"recursive formulation: {exc}") from None
+    return build_symbolic(formed, layout, functions, outputs, events, dynamics=(A, b),
+                          prelude=(rec.assignments, rec.count, sorted(extra, key=_order)),
+                          function_groups=TREE_FUNCTION_GROUPS, helper_users=TREE_HELPER_USERS)
+
+
+_NEED_AB = {"jac_x", "jac_r", "mass_matrix", "forcing", "linearize"}
+
+
+def _structure(tree):
+    """1 where M can be nonzero: speeds on one root-to-leaf path."""
+    nu = len(tree.speeds)
+    A = sm.zeros(nu, nu)
+    for i, b in enumerate(tree.bodies):
+        if b.speed is None:
+            continue
+        j = i
+        while j >= 0:
+            if tree.bodies[j].speed is not None:
+                A[b.speed, tree.bodies[j].speed] = A[tree.bodies[j].speed, b.speed] = 1
+            j = tree.bodies[j].parent
+    return A
+
+
+def _order(item):
+    key = item[0]
+    return (key[0], key[1:])

@@ -1,0 +1,413 @@
+"""Find the tree of bodies and joints in a mechanics description.
+
+Two sources give the same :class:`~.model.Tree`:
+
+* a SymPy ``System`` with joints (PinJoint, PrismaticJoint, WeldJoint): the
+  joints name each body's parent;
+* a KanesMethod built from hand-made frames and points (each frame oriented
+  from another, each point located from another): the parent of a body is the
+  body whose speeds are the largest subset of its own.
+
+Either way each joint is then read in joint-local terms (:func:`_joint`): the
+rotation and offset of the body relative to its parent as functions of the
+joint's own coordinate, and the constant motion axis S of its speed.  These
+are found by setting the other coordinates to zero and then *checked* against
+SymPy's own kinematics at random states, so an unusual construction is
+refused (NotATree, naming the body and joint) rather than mis-read.
+"""
+import random
+
+import sympy as sm
+from sympy.core.function import AppliedUndef
+from sympy.physics import mechanics as me
+
+from .model import Load, NotATree, Tree, TreeBody
+
+__all__ = ["tree_from_system", "tree_from_kane", "tree_of", "system_kinematics"]
+
+_T = me.dynamicsymbols._t
+_CHECKS = 2           # random states each joint-local form is checked at
+_TOL = 1e-9
+
+
+class _Numbers:
+    """Random values for every symbol and dynamic symbol met, fixed per instance."""
+
+    def __init__(self, seed=20261124):
+        self.rng = random.Random(seed)
+        self.sets = [{} for _ in range(_CHECKS)]
+
+    def evaluate(self, expr, k):
+        vals = self.sets[k]
+        expr = sm.sympify(expr)
+        for a in expr.atoms(AppliedUndef) | expr.free_symbols:
+            if a not in vals:
+                vals[a] = sm.Float(self.rng.uniform(0.3, 1.3))
+        return sm.N(expr.xreplace(vals), 20)
+
+    def same(self, a, b):
+        for k in range(_CHECKS):
+            for x, y in zip(sm.Matrix(a), sm.Matrix(b)):
+                vx, vy = complex(self.evaluate(x, k)), complex(self.evaluate(y, k))
+                if abs(vx - vy) > _TOL * max(1.0, abs(vx), abs(vy)):
+                    return False
+        return True
+
+
+def _nm(x):
+    """q1 for q1(t), in messages."""
+    return str(x).replace("(t)", "")
+
+
+def _dynamic(expr):
+    return {a for a in sm.sympify(expr).atoms(AppliedUndef)}
+
+
+def _vector_atoms(vec):
+    out = set()
+    for comps, _frame in vec.args:
+        for c in comps:
+            out |= _dynamic(c)
+    return out
+
+
+class _Reader:
+    """Shared state of one recognition: coordinates, speeds, kinematics, numbers."""
+
+    def __init__(self, frame, origin, coordinates, speeds, kinematics):
+        self.N, self.O = frame, origin
+        self.q, self.u = tuple(coordinates), tuple(speeds)
+        self.kin = tuple(kinematics)
+        self.qd = {qi.diff(_T): k for qi, k in zip(self.q, self.kin)}
+        self.numbers = _Numbers()
+        self.coordinate_of = {}     # speed index -> coordinate index with q' = c·u, c constant
+        for i, k in enumerate(self.kin):
+            atoms = [a for a in _dynamic(k)]
+            if len(atoms) == 1 and atoms[0] in self.u:
+                c = sm.simplify(k / atoms[0])
+                if not _dynamic(c) and c != 0:
+                    self.coordinate_of.setdefault(self.u.index(atoms[0]), i)
+
+    def vec(self, v, frame):
+        return sm.Matrix(v.to_matrix(frame)).xreplace(self.qd) if v != 0 else sm.zeros(3, 1)
+
+    def only(self, expr, keep):
+        """``expr`` with every coordinate but ``keep`` set to zero."""
+        return sm.Matrix(expr).xreplace({qi: 0 for qi in self.q if qi != keep})
+
+    def speeds_in(self, *vectors):
+        atoms = set()
+        for v in vectors:
+            if v != 0:
+                atoms |= _vector_atoms(v.xreplace(self.qd) if hasattr(v, "xreplace") else v)
+        return frozenset(self.u.index(a) for a in atoms if a in self.u)
+
+
+def _joint(rd, name, joint, parent, pframe, porigin, frame, origin, speed):
+    """TreeBody geometry of ``frame``/``origin`` hanging from ``pframe``/``porigin``."""
+    where = f"body {name} (joint {joint})"
+    if speed is None:
+        keep = None
+    else:
+        if speed not in rd.coordinate_of:
+            raise NotATree(f"{where}: its speed {_nm(rd.u[speed])} is not a constant times the time "
+                           f"derivative of one coordinate (q' = c·u), which the recursion needs")
+        keep = rd.q[rd.coordinate_of[speed]]
+    try:
+        E_full = sm.Matrix(frame.dcm(pframe))
+        r_vec = origin.pos_from(porigin)
+        w_rel = frame.ang_vel_in(pframe)
+        v_rel = r_vec.dt(pframe)
+    except ValueError as exc:
+        raise NotATree(f"{where}: its frame or point is not connected to its parent's ({exc})") from None
+    r_full = rd.vec(r_vec, pframe)
+    E, r = rd.only(E_full, keep), rd.only(r_full, keep)
+    if not (rd.numbers.same(E, E_full) and rd.numbers.same(r, r_full)):
+        raise NotATree(f"{where}: its placement relative to body {parent} depends on more than "
+                       f"its own coordinate {keep}")
+    wv = rd.vec(w_rel, frame).col_join(rd.vec(v_rel, frame))
+    if speed is None:
+        if not rd.numbers.same(wv, sm.zeros(6, 1)):
+            raise NotATree(f"{where}: moves relative to its parent without a speed of its own")
+        return "fixed", E, r, None
+    us = rd.u[speed]
+    S = sm.Matrix([sm.expand(c).diff(us) for c in wv])
+    S = sm.Matrix([sm.nsimplify(c) if c.is_Float else c for c in
+                   (rd.only(S, None).xreplace({v: 0 for v in rd.u}))])
+    if _dynamic(S) or not rd.numbers.same(S * us, wv):
+        raise NotATree(f"{where}: its velocity relative to its parent is not a constant axis "
+                       f"times {_nm(us)} (only revolute, prismatic and fixed joints are recursive)")
+    if all(c == 0 for c in S):
+        raise NotATree(f"{where}: its speed {_nm(us)} does not move it relative to its parent")
+    kind = "revolute" if any(c != 0 for c in S[:3]) else "prismatic"
+    return kind, E, r, tuple(S)
+
+
+def _inertia(body, frame):
+    if isinstance(body, me.RigidBody):
+        central = body.central_inertia
+        I = sm.Matrix(central.to_matrix(frame)) if central != 0 else sm.zeros(3, 3)
+        return body.mass, I
+    return body.mass, sm.zeros(3, 3)
+
+
+def _loads(rd, loads, bodies, frames, origins, names):
+    """Loads as Load records; forces m·G at every massive body's centre become gravity."""
+    from sympy.physics.vector import Vector
+    out, candidates = [], []
+    for load in loads or ():
+        where, vec = load[0], load[1]
+        if vec == 0:
+            continue
+        if isinstance(where, me.Point):
+            hit = [i for i, o in enumerate(origins) if o == where]
+            if hit:
+                i, offset = hit[0], sm.zeros(3, 1)
+            else:
+                i, offset = _point_on_body(rd, where, frames, origins, names)
+            moment, force = None, vec
+        else:
+            hit = [i for i, f in enumerate(frames) if f == where]
+            if not hit:
+                if where == rd.N:
+                    continue      # a reaction on the ground does no work
+                raise NotATree(f"a torque acts on frame {where}, which is no body's frame")
+            i, offset, moment, force = hit[0], sm.zeros(3, 1), vec, None
+        if i is None:
+            continue
+        if force is not None and offset == sm.zeros(3, 1):
+            candidates.append((len(out), i, vec))
+        out.append((i, offset, moment, force))
+    gravity, skip = _gravity(rd, candidates, bodies)
+    records = []
+    for k, (i, offset, moment, force) in enumerate(out):
+        if k in skip:
+            continue
+        v = moment if moment is not None else force
+        local = {f for _, f in v.args} <= {frames[i]}
+        comps = rd.vec(v, frames[i] if local else rd.N)
+        zero = sm.zeros(3, 1)
+        records.append(Load(body=i, frame="body" if local else "world",
+                            moment=comps if moment is not None else zero,
+                            force=comps if force is not None else zero, offset=offset))
+    return gravity, tuple(records)
+
+
+def _gravity(rd, candidates, bodies):
+    """G if every massive body carries exactly m·G at its centre (then those loads are skipped)."""
+    massive = [i for i, b in enumerate(bodies) if b[3] != 0]
+    by_body = {}
+    for k, i, vec in candidates:
+        G = sm.expand(rd.vec(vec, rd.N) / bodies[i][3]) if bodies[i][3] != 0 else None
+        if G is not None and not _dynamic(G):
+            by_body.setdefault(i, []).append((k, G))
+    if not massive or any(len(by_body.get(i, ())) < 1 for i in massive):
+        return sm.zeros(3, 1), set()
+    G = by_body[massive[0]][0][1]
+    chosen = set()
+    for i in massive:
+        match = [k for k, g in by_body[i] if sm.expand(g - G) == sm.zeros(3, 1)]
+        if not match:
+            return sm.zeros(3, 1), set()
+        chosen.add(match[0])
+    return G, chosen
+
+
+def _point_on_body(rd, point, frames, origins, names):
+    """(body, offset) of a point fixed in a body; (None, None) for a point fixed in the ground.
+
+    Bodies whose origin the point was located from (or located) are tried first: the
+    others' offsets would be expressed through long chains of frames."""
+    if point == rd.O or (rd.N in point._vel_dict and point._vel_dict[rd.N] == 0):
+        return None, None
+    near = [i for i, o in enumerate(origins) if o in point._pos_dict]
+    order = near + [i for i in range(len(origins)) if i not in near]
+    for i in order:
+        f, o = frames[i], origins[i]
+        try:
+            rho = rd.vec(point.pos_from(o), f)
+        except ValueError:
+            continue
+        rho0 = rd.only(rho, None)
+        if not _dynamic(rho0) and rd.numbers.same(rho0, rho):
+            return i, rho0
+    try:
+        if point.vel(rd.N) == 0:
+            return None, None
+    except ValueError:
+        pass
+    raise NotATree(f"a force acts at point {point}, which is fixed in no body")
+
+
+def _assemble(rd, entries, loads):
+    """entries: (name, joint, parent index, body, frame, origin, speed index) in tree order."""
+    bodies, frames, origins = [], [], []
+    for name, joint, parent, body, frame, origin, speed in entries:
+        pframe, porigin = (rd.N, rd.O) if parent < 0 else (frames[parent], origins[parent])
+        kind, E, r, S = _joint(rd, name, joint, "ground" if parent < 0 else bodies[parent].name,
+                               pframe, porigin, frame, origin, speed)
+        mass, I = _inertia(body, frame)
+        bodies.append(TreeBody(name=name, joint=joint, kind=kind, parent=parent, speed=speed,
+                               rotation=E, position=r, motion=S, mass=mass, inertia=I))
+        frames.append(frame)
+        origins.append(origin)
+    used = [b.speed for b in bodies if b.speed is not None]
+    missing = [_nm(rd.u[k]) for k in range(len(rd.u)) if k not in used]
+    if missing:
+        raise NotATree(f"speed(s) {', '.join(missing)} move no body: no inertia resists them, "
+                       f"so their accelerations are undefined (a mass on the axis it turns about?)")
+    if len(set(used)) != len(used):
+        raise NotATree("a speed moves two bodies relative to their parents: not a tree of one-speed joints")
+    basic = [(b.name, frames[i], origins[i], b.mass) for i, b in enumerate(bodies)]
+    gravity, records = _loads(rd, loads, basic, frames, origins, [b.name for b in bodies])
+    return Tree(bodies=tuple(bodies), coordinates=rd.q, speeds=rd.u, kinematics=rd.kin,
+                gravity=gravity, loads=records)
+
+
+def system_kinematics(system):
+    """Explicit q' of a SymPy System's kinematic differential equations."""
+    q, u = list(system.q), list(system.u)
+    qd = [qi.diff(_T) for qi in q]
+    kdes = sm.Matrix(system.kdes)
+    if len(kdes) != len(q):
+        raise NotATree(f"the system has {len(q)} coordinates but {len(kdes)} kinematic equations")
+    K = kdes.jacobian(qd)
+    rest = kdes.xreplace({d: 0 for d in qd})
+    if K.is_diagonal():
+        return tuple(sm.simplify(-rest[i] / K[i, i]) for i in range(len(q)))
+    return tuple(-K.LUsolve(rest))
+
+
+def tree_from_system(system, kinematics=None):
+    """Tree of a SymPy ``System`` built with one-speed joints (pin, prismatic) and welds."""
+    if len(getattr(system, "q_dep", ())) or len(getattr(system, "u_dep", ())) or \
+            len(getattr(system, "holonomic_constraints", ())) or \
+            len(getattr(system, "nonholonomic_constraints", ())):
+        raise NotATree("the system has constraints (dependent coordinates or speeds): not a tree")
+    kin = kinematics if kinematics is not None else system_kinematics(system)
+    rd = _Reader(system.frame, system.fixed_point, system.q, system.u, kin)
+    ground = [b for b in system.bodies if getattr(b, "frame", None) == system.frame
+              and b.masscenter == system.fixed_point]
+    parent_of, body_frame = {}, {}
+    for j in system.joints:
+        if len(j.speeds) > 1:
+            raise NotATree(f"joint {j.name} ({type(j).__name__}) has {len(j.speeds)} speeds; the "
+                           f"recursion takes pin, prismatic and weld joints")
+        if j.child in parent_of:
+            raise NotATree(f"body {j.child.name} is the child of joints {parent_of[j.child][0]} and "
+                           f"{j.name}: a closed loop, not a tree")
+        speed = list(system.u).index(j.speeds[0]) if len(j.speeds) else None
+        parent_of[j.child] = (j.name, j.parent, speed)
+        body_frame[j.child] = j.child.frame if hasattr(j.child, "frame") else j.child_interframe
+    order, index = [], {}
+    remaining = [b for b in system.bodies if b not in ground]
+    for b in remaining:
+        if b not in parent_of:
+            raise NotATree(f"body {b.name} is attached by no joint")
+    while remaining:
+        progress = False
+        for b in list(remaining):
+            jname, p, speed = parent_of[b]
+            if p in ground or p in index:
+                index[b] = len(order)
+                order.append((b.name, jname, -1 if p in ground else index[p], b, body_frame[b],
+                              b.masscenter, speed))
+                remaining.remove(b)
+                progress = True
+        if not progress:
+            raise NotATree("joints " + ", ".join(parent_of[b][0] for b in remaining)
+                           + " form a loop or hang from a body outside the system")
+    return _assemble(rd, order, system.loads)
+
+
+def tree_from_kane(kane, kinematics):
+    """Tree of a KanesMethod formed from hand-built frames and points."""
+    if len(kane._qdep) or len(kane._udep) or len(kane._uaux):
+        raise NotATree("the system has dependent or auxiliary speeds: not a tree")
+    bodies = list(kane._bodylist or [])
+    if not bodies:
+        raise NotATree("the KanesMethod has no bodies")
+    N = kane._inertial
+    rd = _Reader(N, None, list(kane._q), list(kane._u), kinematics)
+    rd.O = _fixed_point(rd, bodies[0].masscenter)
+    speed_sets = []
+    for b in bodies:
+        vecs = [b.masscenter.vel(N)]
+        if isinstance(b, me.RigidBody):
+            vecs.append(b.frame.ang_vel_in(N))
+        speed_sets.append(rd.speeds_in(*vecs))
+    order = sorted(range(len(bodies)), key=lambda i: (len(speed_sets[i]), i))
+    entries, index, frames = [], {}, {}
+    for i in order:
+        s = speed_sets[i]
+        parents = [k for k in index if speed_sets[k] <= s]
+        p = max(parents, key=lambda k: (len(speed_sets[k]), -k)) if parents else None
+        new = s - (speed_sets[p] if p is not None else frozenset())
+        b = bodies[i]
+        if len(new) > 1:
+            rel = f"body {bodies[p].name}" if p is not None else "the ground"
+            raise NotATree(f"body {b.name} moves with speeds "
+                           f"{', '.join(_nm(rd.u[k]) for k in sorted(new))} relative to {rel}: the "
+                           f"recursion takes one speed per joint (pin, slider, weld), not a ball or "
+                           f"free joint, nor a massless body in between")
+        speed = next(iter(new)) if new else None
+        pframe = frames[p] if p is not None else N
+        frame = b.frame if isinstance(b, me.RigidBody) else _particle_frame(rd, b, pframe, speed, frames.values())
+        index[i] = len(entries)
+        frames[i] = frame
+        entries.append((b.name, f"of {b.name}", -1 if p is None else index[p], b, frame,
+                        b.masscenter, speed))
+    return _assemble(rd, entries, kane._forcelist)
+
+
+def _fixed_point(rd, start):
+    """A point with zero velocity in N, reached from ``start`` through located points."""
+    seen, stack = {start}, [start]
+    while stack:
+        p = stack.pop()
+        if rd.N in p._vel_dict and p._vel_dict[rd.N] == 0:
+            return p
+        for nxt in p._pos_dict:
+            if nxt not in seen:
+                seen.add(nxt)
+                stack.append(nxt)
+    raise NotATree(f"no point fixed in {rd.N} is connected to point {start}")
+
+
+def _all_frames(N):
+    seen, stack = [N], [N]
+    while stack:
+        f = stack.pop()
+        for g in list(f._dcm_dict) + list(f._ang_vel_dict):
+            if g not in seen:
+                seen.append(g)
+                stack.append(g)
+    return seen
+
+
+def _particle_frame(rd, particle, pframe, speed, taken):
+    """The frame a particle turns with: one whose angular velocity adds just its speed."""
+    if speed is None:
+        return pframe
+    want = rd.speeds_in(pframe.ang_vel_in(rd.N)) | {speed}
+    if not hasattr(rd, "_frames"):
+        rd._frames = _all_frames(rd.N)
+    pos = particle.masscenter.pos_from(rd.O)
+    named = [f for _, f in pos.args]
+    found = [f for f in rd._frames if f != rd.N and rd.speeds_in(f.ang_vel_in(rd.N)) == want]
+    if not found:
+        return pframe
+    found.sort(key=lambda f: (f not in named, f.name))
+    return found[0]
+
+
+def tree_of(system, formed=None):
+    """The Tree of ``system`` (a SymPy/eomc System or a KanesMethod); NotATree otherwise."""
+    if isinstance(system, me.System):
+        kin = tuple(formed.kinematics) if formed is not None else None
+        return tree_from_system(system, kin)
+    if hasattr(system, "_bodylist") and hasattr(system, "_inertial") and hasattr(system, "_uaux"):
+        if formed is None:
+            formed = system.formed()
+        return tree_from_kane(system, tuple(formed.kinematics))
+    raise NotATree(f"a {type(system).__name__} is neither a System with joints nor a KanesMethod")

@@ -1,0 +1,90 @@
+"""Which formulation generates a model: Kane's (formed A, b and a numeric LDLᵀ) or the
+recursive one (ABA/RNEA/CRBA over the tree).
+
+``auto`` builds the tree when the system is one, lowers both formulations and
+keeps the one whose rhs has fewer operations (all requested functions' operations
+when rhs is not requested).  A System without formed equations has no Kane form
+to compare with: forming it costs more than the whole recursive build, so auto
+takes the recursive one there.
+"""
+from sympy.physics import mechanics as me
+
+from eomc.runtime.errors import ModelError
+
+from ..mechanics.formed import FormedSystem
+from .formed import tree_exprs
+from .model import NotATree
+from .recognize import tree_of
+
+__all__ = ["FORMULATIONS", "generate_formulation", "check_formulation", "tree_digest"]
+
+FORMULATIONS = ("auto", "kane", "recursive")
+
+
+def check_formulation(formulation):
+    if formulation not in FORMULATIONS:
+        raise ModelError(f"unknown formulation {formulation!r}; choose from {', '.join(FORMULATIONS)}")
+    return formulation
+
+
+def tree_digest(spec):
+    """The tree's expressions, for the generation cache key of a formed-less System."""
+    tree = getattr(spec.formed, "_tree", None)
+    return None if tree is None else tree_exprs(tree)
+
+
+def _find_tree(spec):
+    tree = getattr(spec.formed, "_tree", None)
+    if tree is not None:
+        return tree
+    if spec.system is None or isinstance(spec.system, FormedSystem):
+        raise NotATree("only a FormedSystem was given (pass the System or KanesMethod itself)")
+    if spec.formed.method != "kane" and not isinstance(spec.system, me.System):
+        raise NotATree(f"the system was formed by {spec.formed.method}'s method")
+    return tree_of(spec.system, spec.formed)
+
+
+def _kane_formed(spec):
+    """The Kane FormedSystem, forming a System's equations if it had none."""
+    if spec.formed.method != "tree":
+        return spec.formed
+    from ..mechanics.unformed import form_system
+    return form_system(spec.system).formed()
+
+
+def _rhs_cost(generated):
+    counts = generated.metadata["op_counts"]
+    fns = ["rhs"] if "rhs" in counts else [f for f in counts if counts[f]]
+    return sum(sum(counts[f].values()) for f in fns if counts[f])
+
+
+def generate_formulation(spec, functions, fold_parameters, formulation="kane"):
+    """GeneratedModel of ``spec`` in the requested formulation (see module docstring)."""
+    from ..emit import generate_c
+    check_formulation(formulation)
+    options = dict(parameters=spec.parameters, inputs=spec.inputs, outputs=spec.outputs,
+                   functions=functions, fold_parameters=fold_parameters, events=spec.events,
+                   event_options=spec.event_options)
+    if formulation == "kane":
+        formed = _kane_formed(spec)
+        if formed is not spec.formed and spec.parameters is not None:
+            # the tree lists every symbol of its bodies; Kane's equations keep only those the
+            # motion uses (a link's mass on a vertical axis through its centre drops out)
+            used = set(formed.parameters)
+            options["parameters"] = {s: v for s, v in spec.parameters.items() if s in used}
+        return generate_c(formed, spec.name, **options)
+    try:
+        tree = _find_tree(spec)
+    except NotATree as exc:
+        if formulation == "recursive":
+            raise ModelError(f"recursive formulation: {exc}") from None
+        generated = generate_c(spec.formed, spec.name, **options)
+        generated.metadata["formulation_note"] = f"kane (not a tree: {exc})"
+        return generated
+    recursive = generate_c(spec.formed, spec.name, tree=tree, **options)
+    if formulation == "recursive" or spec.formed.method == "tree":
+        return recursive
+    kane = generate_c(spec.formed, spec.name, **options)
+    chosen = recursive if _rhs_cost(recursive) < _rhs_cost(kane) else kane
+    chosen.metadata["formulation_costs"] = {"kane": _rhs_cost(kane), "recursive": _rhs_cost(recursive)}
+    return chosen

@@ -1,0 +1,66 @@
+"""Finding the tree: parents, joint kinds, gravity and loads; clear refusals otherwise."""
+import pytest
+import sympy as sm
+import sympy.physics.mechanics as sme
+
+import eomc.mechanics as em
+from eomc.compiler.tree import NotATree, tree_from_system, tree_of
+from helpers import zoo
+from helpers.trees import cart_joints, cart_relative
+
+
+def test_hand_built_cart_is_a_chain_with_gravity():
+    kane, _ = cart_relative(3, em, torques=True)
+    tree = tree_of(kane)
+    assert [b.parent for b in tree.bodies] == [-1, 0, 1, 2]
+    assert [b.kind for b in tree.bodies] == ["prismatic", "revolute", "revolute", "revolute"]
+    assert [b.speed for b in tree.bodies] == [0, 1, 2, 3]
+    g = sm.Symbol("g", positive=True)
+    assert list(tree.gravity) == [0, -g, 0]
+    # F on the cart, T1..T3 on their links, -T2, -T3 on the links before
+    assert sorted(ld.body for ld in tree.loads) == [0, 1, 1, 2, 2, 3]
+    # each joint's rotation depends on its own coordinate only (sum-of-angles undone)
+    for k, body in enumerate(tree.bodies[1:], start=1):
+        assert body.rotation.atoms(sm.cos) == {sm.cos(kane._q[k])}
+
+
+def test_system_of_joints_reads_its_joints():
+    system, _ = cart_joints(2, rigid=True)
+    tree = tree_from_system(system)
+    assert [b.joint for b in tree.bodies] == ["slider", "pin1", "pin2"]
+    assert [b.parent for b in tree.bodies] == [-1, 0, 1]
+    assert tree.bodies[1].motion[:3] == (0, 0, 1)
+
+
+def test_absolute_angles_are_not_joint_coordinates():
+    kane, _ = zoo.n_link_pendulum_on_cart(2, em)
+    with pytest.raises(NotATree, match=r"body Pa2 .*more than its own coordinate q2"):
+        tree_of(kane)
+
+
+def test_three_speed_body_is_refused_naming_it():
+    kane, _ = zoo.heavy_top(em)
+    with pytest.raises(NotATree, match="body Top moves with speeds u1, u2, u3 relative to the ground"):
+        tree_of(kane)
+
+
+def test_constrained_system_is_not_a_tree():
+    kane, _ = zoo.rolling_disc(em)
+    with pytest.raises(NotATree, match="dependent"):
+        tree_of(kane)
+
+
+def test_spherical_joint_is_named():
+    ground, ball = sme.RigidBody("ground"), sme.RigidBody("ball")
+    joint = sme.SphericalJoint("socket", ground, ball, sme.dynamicsymbols("a b c"),
+                               sme.dynamicsymbols("wa wb wc"))
+    system = sme.System.from_newtonian(ground)
+    system.add_joints(joint)
+    with pytest.raises(NotATree, match="joint socket .SphericalJoint. has 3 speeds"):
+        tree_from_system(system)
+
+
+def test_closed_loop_is_not_a_tree():
+    kane, _ = zoo.four_bar(em)
+    with pytest.raises(NotATree, match="dependent"):
+        tree_of(kane)
