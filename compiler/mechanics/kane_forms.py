@@ -29,9 +29,10 @@ from .kane_inputs import frame_ang_vel, point_velocity
 from .plain import linear_coefficients
 
 __all__ = ["VectorReader", "BodyTerms", "LoadTerms", "read_bodies", "read_loads", "to_dynamic",
-           "assemble", "dot"]
+           "assemble", "dot", "fewer_trig_squares", "FOLD_OPS"]
 
 _ZERO3 = (sm.S.Zero, sm.S.Zero, sm.S.Zero)
+FOLD_OPS = 300   # fewer_trig_squares is tried on expressions up to this many operations
 
 
 def dot(a, b):
@@ -128,8 +129,29 @@ class VectorReader:
         return tuple(sm.Add(*a) for a in acc)
 
     def dyadic_matrix(self, dyadic, frame):
-        M = dyadic.to_matrix(frame)
+        M = dyadic.to_matrix(frame).applyfunc(fewer_trig_squares)
         return tuple(tuple(self.space.to_plain(M[i, j]) for j in range(3)) for i in range(3))
+
+
+def fewer_trig_squares(e):
+    """``e`` with even powers of sin(x) written as powers of 1 - cos(x)**2, expanded,
+    if that is shorter.
+
+    A partial velocity spanning two frames (l*A.y + l*B.y) dotted with itself in
+    one frame's components gives l**2*sin(q)**2 + (l*cos(q) + l)**2; SymPy's
+    frame-by-frame dot gives 2*l**2*cos(q) + 2*l**2 -- the same value, which this
+    recovers.  Used on inertia dyadics re-expressed in another frame (I*sin**2 +
+    I*cos**2 -> I) and on the mass matrix of small systems (expanding is cheap there).
+    """
+    if not e.has(sm.sin):
+        return e
+    alt = sm.expand(e)
+    pows = {p: (1 - sm.cos(p.base.args[0]) ** 2) ** (p.exp // 2) for p in alt.atoms(sm.Pow)
+            if isinstance(p.base, sm.sin) and p.exp.is_Integer and p.exp > 0 and p.exp % 2 == 0}
+    if not pows:
+        return e
+    alt = sm.expand(alt.xreplace(pows))
+    return alt if sm.count_ops(alt) < sm.count_ops(e) else e
 
 
 def partials(comps, speeds):

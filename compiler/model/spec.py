@@ -30,7 +30,8 @@ class ModelSpec:
 
 
 def _is_sympy_method(system):
-    return type(system).__module__.startswith("sympy.physics") and hasattr(system, "mass_matrix_full")
+    # not hasattr(mass_matrix_full): an unformed SymPy System raises there, and it converts too
+    return type(system).__module__.startswith("sympy.physics.mechanics")
 
 
 def formed_system(system):
@@ -47,8 +48,9 @@ def formed_system(system):
         system = from_sympy(system)
     if callable(getattr(system, "formed", None)):
         return system.formed()
-    raise ModelError(f"`system` is a {type(system).__name__}; expected a formed KanesMethod or "
-                     f"LagrangesMethod (from eomc.mechanics or sympy.physics.mechanics)")
+    raise ModelError(f"`system` is a {type(system).__name__}; expected a System, JointsMethod or a "
+                     f"formed KanesMethod or LagrangesMethod (from eomc.mechanics or "
+                     f"sympy.physics.mechanics)")
 
 
 def _checked(values, formed, name, where):
@@ -69,8 +71,8 @@ def _from_file(path, name, overrides):
     namespace, source, filename = run_model_file(path)
     lines = assignment_lines(source)
     if "system" not in namespace:
-        raise ModelFileError("does not define `system` (assign a formed KanesMethod or LagrangesMethod "
-                             "to a module-level variable named system)", filename)
+        raise ModelFileError("does not define `system` (assign a System, or a formed KanesMethod or "
+                             "LagrangesMethod, to a module-level variable named system)", filename)
     try:
         formed = formed_system(namespace["system"])
     except EomcError as exc:
