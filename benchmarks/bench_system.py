@@ -14,7 +14,8 @@ Timed: thread CPU seconds (``time.thread_time``) of ``system.form_eoms()``
 (Kane, the default) with the System built before ("form_eoms"), and of the
 whole script incl. SymPy's joint kinematics ("total").  Pinned to one core,
 SymPy's cache cleared before each run, eomc and SymPy interleaved per size,
-medians of repeats while a run is cheap (< 2 s).  For n <= 10 the two
+medians of repeats while a run is cheap (< 2 s); once a SymPy run takes longer
+than --sympy-budget, larger sizes of that model are not timed with SymPy.  For n <= 10 the two
 mass_matrix_full / forcing_full are also compared numerically at a random
 state (max relative difference).
 
@@ -100,33 +101,21 @@ def _cpu(func):
     return time.thread_time() - t0, out
 
 
-def _median(func, repeat):
-    samples, out = [], None
+def _timed(build, n, me, repeat):
+    """Median (build + form_eoms, form_eoms) CPU seconds, and the last formed System.
+
+    One run times both: the System is built (timed), then formed (timed).
+    Repeats only while a run is cheap.
+    """
+    totals, forms, system = [], [], None
     for _ in range(repeat):
-        dt, out = _cpu(func)
-        samples.append(dt)
-        if dt > CHEAP:
+        t_build, system = _cpu(lambda: build(n, me))
+        t_form, _ = _cpu(system.form_eoms)
+        totals.append(t_build + t_form)
+        forms.append(t_form)
+        if t_build + t_form > CHEAP:
             break
-    return statistics.median(samples), out
-
-
-def _total(build, n, me):
-    def run():
-        system = build(n, me)
-        system.form_eoms()
-        return system
-    return run
-
-
-def _form_only(build, n, me, repeat):
-    samples = []
-    for _ in range(repeat):
-        system = build(n, me)
-        dt, _ = _cpu(system.form_eoms)
-        samples.append(dt)
-        if dt > CHEAP:
-            break
-    return statistics.median(samples)
+    return statistics.median(totals), statistics.median(forms), system
 
 
 def _agreement(ours, theirs):
@@ -146,14 +135,12 @@ def _agreement(ours, theirs):
     return worst
 
 
-def measure(model, n, repeat, sympy_max):
+def measure(model, n, repeat, sympy_max, sympy_skip):
     build = MODELS[model]
     row = {"model": model, "n": n}
-    row["eomc_total"], ours = _median(_total(build, n, em), repeat)
-    row["eomc_form"] = _form_only(build, n, em, repeat)
-    if n <= sympy_max:
-        row["sympy_total"], theirs = _median(_total(build, n, sme), repeat)
-        row["sympy_form"] = _form_only(build, n, sme, repeat if row["sympy_total"] < CHEAP else 1)
+    row["eomc_total"], row["eomc_form"], ours = _timed(build, n, em, repeat)
+    if n <= sympy_max and not sympy_skip:
+        row["sympy_total"], row["sympy_form"], theirs = _timed(build, n, sme, repeat)
         if n <= 10:
             row["diff"] = _agreement(ours, theirs)
     return row
@@ -173,6 +160,8 @@ def table_row(r):
 def main(argv=None):
     def extra(p):
         p.add_argument("--sympy-max", type=int, default=40, help="largest n timed with SymPy")
+        p.add_argument("--sympy-budget", type=float, default=150.0,
+                       help="seconds: after a SymPy run this long, larger n of that model skip SymPy")
         p.add_argument("--models", default="chain,cart", help="comma-separated: chain,cart")
     args = parse_args("System derivation, eomc vs SymPy", DEFAULT_N, default_repeat=3,
                       argv=argv, extra=extra)
@@ -182,8 +171,11 @@ def main(argv=None):
         pass
     rows = []
     for model in args.models.split(","):
+        skip = False
         for n in args.n:
-            rows.append(table_row(measure(model, n, args.repeat, args.sympy_max)))
+            r = measure(model, n, args.repeat, args.sympy_max, skip)
+            skip = skip or (r.get("sympy_total") or 0) > args.sympy_budget
+            rows.append(table_row(r))
             print(" | ".join(fmt(c) for c in rows[-1]), flush=True)
     table = format_table(HEADERS, rows)
     print(table)
@@ -194,6 +186,8 @@ def main(argv=None):
              "while a run takes < 2 s",
              "'form_eoms' = System.form_eoms() alone (Kane, the default), the System built first; "
              "'total' = building the System (SymPy's joint kinematics, the same code for both) + form_eoms",
+             f"n/a for SymPy: skipped after one of its runs of that model took > {args.sympy_budget:g} s "
+             "(--sympy-budget)",
              "max rel diff = |M_full, f_full (eomc) - (SymPy)| / max(1, |SymPy's|) at one random "
              "state and parameter set (n <= 10)"]
     text = environment_header("Derivation through System + joints: eomc vs SymPy 1.14", args, notes)

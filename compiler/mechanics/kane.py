@@ -216,7 +216,9 @@ class KanesMethod:
         # Products of a partial angular velocity and ω×Iω written in different
         # frames leave sin² + cos² of the angle between them in small rows
         # (SymPy's frame-by-frame dot products do not): fold those rows.
-        nn = nn.applyfunc(lambda e: fewer_trig_squares(e) if sm.count_ops(e) <= FOLD_OPS else e)
+        # (count_ops itself costs seconds on a large system: small systems only)
+        if o + s <= _SMALL:
+            nn = nn.applyfunc(lambda e: fewer_trig_squares(e) if sm.count_ops(e) <= FOLD_OPS else e)
         self._k_d = mm
         self._forcing_d = sm.Matrix([sm.Add(f[r], nn[r]) for r in range(f.rows)])
         # Not after eliminating dependent speeds: A_rs brings the constraint
