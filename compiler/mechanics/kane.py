@@ -70,6 +70,16 @@ def _compact(mm, forcing):
     return alt if _cse_ops(base + list(alt)) < _cse_ops(base + list(forcing)) else forcing
 
 
+def _at_most(expr, limit):
+    """True if ``expr`` has at most ``limit`` nodes; stops walking as soon as it has more."""
+    count = 0
+    for _ in sm.preorder_traversal(expr):
+        count += 1
+        if count > limit:
+            return False
+    return True
+
+
 def _frstar(mm, neg_nonmm, udot):
     """−(mm u' + nonMM), row by row, without negating large sums."""
     rows = []
@@ -216,9 +226,8 @@ class KanesMethod:
         # Products of a partial angular velocity and ω×Iω written in different
         # frames leave sin² + cos² of the angle between them in small rows
         # (SymPy's frame-by-frame dot products do not): fold those rows.
-        # (count_ops itself costs seconds on a large system: small systems only)
-        if o + s <= _SMALL:
-            nn = nn.applyfunc(lambda e: fewer_trig_squares(e) if sm.count_ops(e) <= FOLD_OPS else e)
+        # (size checked by a walk that stops early: count_ops costs seconds at n = 20)
+        nn = nn.applyfunc(lambda e: fewer_trig_squares(e) if _at_most(e, FOLD_OPS) else e)
         self._k_d = mm
         self._forcing_d = sm.Matrix([sm.Add(f[r], nn[r]) for r in range(f.rows)])
         # Not after eliminating dependent speeds: A_rs brings the constraint

@@ -185,7 +185,9 @@ class VectorReader:
         return tuple(sm.Add(*a) for a in acc)
 
     def dyadic_matrix(self, dyadic, frame):
-        M = dyadic.to_matrix(frame).applyfunc(fewer_trig_squares)
+        M = dyadic.to_matrix(frame)
+        if {f for _, v1, v2 in dyadic.args for v in (v1, v2) for _, f in v.args} - {frame}:
+            M = M.applyfunc(fewer_trig_squares)     # re-expressed: fold I*sin**2 + I*cos**2
         return tuple(tuple(self.space.to_plain(M[i, j]) for j in range(3)) for i in range(3))
 
 
