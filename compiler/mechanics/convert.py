@@ -16,7 +16,16 @@ from sympy.physics import mechanics as sme
 
 from eomc.runtime.errors import ModelError
 
-__all__ = ["from_sympy"]
+__all__ = ["from_sympy", "register_system_converter"]
+
+# How a System/JointsMethod becomes an eomc method: registered by .system, which
+# imports this module (so this one must not import it back).
+_SYSTEMS = []
+
+
+def register_system_converter(func):
+    """``func(system_or_joints_method)`` -> its formed eomc KanesMethod/LagrangesMethod."""
+    _SYSTEMS[:] = [func]
 
 
 def from_sympy(obj):
@@ -28,21 +37,10 @@ def from_sympy(obj):
     """
     from .kane import KanesMethod
     from .lagrange import LagrangesMethod
-    from .system import JointsMethod, System, sympy_to_eomc
     if isinstance(obj, (KanesMethod, LagrangesMethod)):
         return obj
-    if isinstance(obj, sme.System):
-        if obj.eom_method is None:
-            if not isinstance(obj, System):
-                obj = sympy_to_eomc(obj)
-            obj.form_eoms()
-        return from_sympy(obj.eom_method)
-    if isinstance(obj, sme.JointsMethod):
-        if obj.method is None:
-            if not isinstance(obj, JointsMethod):
-                obj = sympy_to_eomc(obj)
-            obj.form_eoms()
-        return from_sympy(obj.method)
+    if isinstance(obj, (sme.System, sme.JointsMethod)) and _SYSTEMS:
+        return _SYSTEMS[0](obj)
     if isinstance(obj, sme.LagrangesMethod):
         return _from_lagrange(obj, LagrangesMethod)
     if isinstance(obj, sme.KanesMethod):

@@ -32,6 +32,7 @@ from sympy.utilities.exceptions import sympy_deprecation_warning
 
 from eomc.runtime.errors import ModelError
 
+from .convert import from_sympy, register_system_converter
 from .energy import Lagrangian
 from .kane import KanesMethod
 from .lagrange import LagrangesMethod
@@ -209,7 +210,6 @@ class System(_SymPySystem):
 
 
 def _formed(method):
-    from .convert import from_sympy
     return from_sympy(method).formed()
 
 
@@ -270,3 +270,21 @@ def sympy_to_eomc(obj):
     ours.__dict__.update(obj.__dict__)
     return ours
 
+
+def eomc_method_of(obj):
+    """The formed eomc method of a System/JointsMethod, SymPy's or eomc's (see convert.from_sympy).
+
+    One not formed yet is formed with eomc's KanesMethod (SymPy's default); a
+    SymPy object is copied first (:func:`sympy_to_eomc`), so the user's stays as it was.
+    """
+    is_system = isinstance(obj, _SymPySystem)
+    method = obj.eom_method if is_system else obj.method
+    if method is None:
+        if not isinstance(obj, (System, JointsMethod)):
+            obj = sympy_to_eomc(obj)
+        obj.form_eoms()
+        method = obj.eom_method if is_system else obj.method
+    return from_sympy(method)
+
+
+register_system_converter(eomc_method_of)
