@@ -160,6 +160,7 @@ def table_row(r):
 def main(argv=None):
     def extra(p):
         p.add_argument("--sympy-max", type=int, default=40, help="largest n timed with SymPy")
+        p.add_argument("--note", action="append", default=[], help="a line for the results file")
         p.add_argument("--sympy-budget", type=float, default=150.0,
                        help="seconds: after a SymPy run this long, larger n of that model skip SymPy")
         p.add_argument("--models", default="chain,cart", help="comma-separated: chain,cart")
@@ -190,6 +191,7 @@ def main(argv=None):
              "(--sympy-budget)",
              "max rel diff = |M_full, f_full (eomc) - (SymPy)| / max(1, |SymPy's|) at one random "
              "state and parameter set (n <= 10)"]
+    notes += args.note
     text = environment_header("Derivation through System + joints: eomc vs SymPy 1.14", args, notes)
     text += "\n" + table + "\n"
     text += ("\n## Reading the table\n\n"
