@@ -91,7 +91,7 @@ def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, f
         raise ModelError(str(exc)) from None
     with progress.stage("derive"):
         spec = model_spec(system, name, parameters=parameters, inputs=inputs, outputs=outputs,
-                          events=events)
+                          events=events, formulation=formulation)
     def run_generator():
         return generate_formulation(spec, functions, fold_parameters, formulation)
     with progress.stage("generate"), reporting(progress.pass_done):

@@ -4,7 +4,12 @@
 Kinematics (frames, points, vectors, dyadics, bodies) are SymPy's objects,
 re-exported unchanged, so bodies and frames built with SymPy are accepted as
 they are.  The methods that form equations of motion -- :class:`KanesMethod`
-and :class:`LagrangesMethod` -- are eomc's own.
+and :class:`LagrangesMethod` -- are eomc's own, and so are :class:`System`
+and :class:`JointsMethod` (SymPy's, subclassed so that they form equations
+with eomc's methods).  Every other public name of ``sympy.physics.mechanics``
+1.14 -- joints, actuators, pathways, wrapping geometries, loads, ``Inertia``,
+``SymbolicSystem``, printing helpers -- is SymPy's own object, re-exported, so
+``__all__`` here contains SymPy's.
 """
 from sympy.physics.mechanics import (  # noqa: F401
     Body, Dyadic, Linearizer, Particle, Point, ReferenceFrame,
@@ -36,3 +41,25 @@ from .kane import KanesMethod  # noqa: E402
 from .lagrange import LagrangesMethod  # noqa: E402
 
 __all__ += ["KanesMethod", "LagrangesMethod"]
+
+# The rest of SymPy 1.14's public names, as SymPy's own objects (see above).
+from sympy.physics.mechanics import (  # noqa: E402,F401
+    ActuatorBase, CoordinateSym, CoulombKineticFriction, CylindricalJoint, DuffingSpring,
+    ForceActuator, Inertia, LinearDamper, LinearPathway, LinearSpring, ObstacleSetPathway,
+    PathwayBase, PinJoint, PlanarJoint, PrismaticJoint, SphericalJoint, SymbolicSystem,
+    TorqueActuator, WeldJoint, WrappingCylinder, WrappingGeometryBase, WrappingPathway,
+    WrappingSphere, get_motion_params, is_conservative, is_solenoidal, msprint,
+    scalar_potential, scalar_potential_difference, vector, vsprint, vsstrrepr,
+)
+from .system import JointsMethod, System  # noqa: E402
+
+__all__ += [
+    "ActuatorBase", "CoordinateSym", "CoulombKineticFriction", "CylindricalJoint",
+    "DuffingSpring", "ForceActuator", "Inertia", "LinearDamper", "LinearPathway",
+    "LinearSpring", "ObstacleSetPathway", "PathwayBase", "PinJoint", "PlanarJoint",
+    "PrismaticJoint", "SphericalJoint", "SymbolicSystem", "TorqueActuator", "WeldJoint",
+    "WrappingCylinder", "WrappingGeometryBase", "WrappingPathway", "WrappingSphere",
+    "get_motion_params", "is_conservative", "is_solenoidal", "msprint", "scalar_potential",
+    "scalar_potential_difference", "vector", "vsprint", "vsstrrepr",
+    "JointsMethod", "System",
+]

@@ -1,7 +1,7 @@
 """Turn SymPy's formed mechanics objects into eomc's, re-forming the equations.
 
 ``from_sympy(obj)`` accepts a ``sympy.physics.mechanics`` KanesMethod,
-LagrangesMethod or System (1.14) and returns the eomc KanesMethod or
+LagrangesMethod, System or JointsMethod (1.14), formed or not, and returns the eomc KanesMethod or
 LagrangesMethod built from the same description -- frame, coordinates,
 speeds, kinematic equations, constraints, bodies and loads -- with the
 equations formed again by eomc's own methods.  Bodies, particles, frames and
@@ -16,31 +16,38 @@ from sympy.physics import mechanics as sme
 
 from eomc.runtime.errors import ModelError
 
-__all__ = ["from_sympy"]
+__all__ = ["from_sympy", "register_system_converter"]
+
+# How a System/JointsMethod becomes an eomc method: registered by .system, which
+# imports this module (so this one must not import it back).
+_SYSTEMS = []
+
+
+def register_system_converter(func):
+    """``func(system_or_joints_method)`` -> its formed eomc KanesMethod/LagrangesMethod."""
+    _SYSTEMS[:] = [func]
 
 
 def from_sympy(obj):
     """An eomc KanesMethod/LagrangesMethod equivalent to SymPy's ``obj``, formed.
 
-    eomc objects are returned unchanged.  A SymPy ``System`` must have formed
-    its equations (``System.form_eoms()``): its ``eom_method`` is converted.
+    eomc methods are returned unchanged.  A ``System`` or ``JointsMethod``
+    (SymPy's or eomc's) gives its method, converted; one whose equations are
+    not formed yet is formed with eomc's ``KanesMethod`` (as SymPy's default).
     """
     from .kane import KanesMethod
     from .lagrange import LagrangesMethod
     if isinstance(obj, (KanesMethod, LagrangesMethod)):
         return obj
-    if isinstance(obj, sme.System):
-        if obj.eom_method is None:
-            raise ModelError("the SymPy System has no equations yet: call "
-                             "System.form_eoms() before converting it")
-        return from_sympy(obj.eom_method)
+    if isinstance(obj, (sme.System, sme.JointsMethod)) and _SYSTEMS:
+        return _SYSTEMS[0](obj)
     if isinstance(obj, sme.LagrangesMethod):
         return _from_lagrange(obj, LagrangesMethod)
     if isinstance(obj, sme.KanesMethod):
         return _from_kane(obj, KanesMethod)
     raise ModelError(
         f"cannot convert {type(obj).__name__}: expected a sympy.physics.mechanics "
-        "KanesMethod, LagrangesMethod or System")
+        "KanesMethod, LagrangesMethod, System or JointsMethod")
 
 
 def _rows(mat):

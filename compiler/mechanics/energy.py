@@ -16,8 +16,20 @@ from sympy.physics.vector import ReferenceFrame
 __all__ = ["kinetic_energy", "Lagrangian"]
 
 
+def _single_frame(vector):
+    """The one frame ``vector`` is written in, or None (zero or several frames)."""
+    frames = {f for _, f in vector.args}
+    return frames.pop() if len(frames) == 1 else None
+
+
 def _squared(vector, frame):
-    """``vector . vector`` with the vector expressed in ``frame`` first."""
+    """``vector . vector`` with the vector expressed in ``frame`` first.
+
+    A vector written in one frame only is squared there as it is: no
+    direction cosines enter, so the result is as short as SymPy's (l**2*q'**2
+    for a pendulum, not l**2*(sin**2 + cos**2)*q'**2).
+    """
+    frame = _single_frame(vector) or frame
     try:
         comps = vector.to_matrix(frame)
     except ValueError:  # no orientation path to ``frame``: use SymPy's pairing
@@ -30,9 +42,15 @@ def _body_kinetic_energy(body, frame):
         return body.mass * _squared(body.point.vel(frame), frame) / 2
     translational = body.mass * _squared(body.masscenter.vel(frame), frame) / 2
     omega = body.frame.ang_vel_in(frame)
+    # Square in the frame the inertia is written in (constant there, as the
+    # user wrote it), else in omega's one frame, else in the body's own frame.
+    dyadic_frames = {f for _, v1, v2 in body.central_inertia.args for v in (v1, v2) for _, f in v.args}
+    where = dyadic_frames.pop() if len(dyadic_frames) == 1 else _single_frame(omega)
+    if where is None or dyadic_frames - {where}:
+        where = body.frame
     try:
-        w = omega.to_matrix(body.frame)
-        inertia = body.central_inertia.to_matrix(body.frame)
+        w = omega.to_matrix(where)
+        inertia = body.central_inertia.to_matrix(where)
     except ValueError:
         return translational + omega.dot(body.central_inertia.dot(omega)) / 2
     rotational = sm.Add(*[w[i] * inertia[i, j] * w[j]

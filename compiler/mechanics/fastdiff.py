@@ -17,7 +17,7 @@ the differentiator never looks inside it.
 """
 import sympy as sm
 
-__all__ = ["Differentiator"]
+__all__ = ["Differentiator", "PointDifferentiator"]
 
 
 def _default_fallback(node, var):
@@ -88,3 +88,67 @@ class Differentiator:
         elif isinstance(node, sm.cos):
             return -sm.sin(node.args[0]) * self.diff(node.args[0], var)
         return self._fallback(node, var)
+
+
+class PointDifferentiator(Differentiator):
+    """Partial derivatives evaluated at a point, without forming them symbolically first.
+
+    ``diff(node, var)`` equals ``Differentiator.diff(node, var).xreplace(point)``
+    but applies the chain rule to the *values* of the sub-expressions at the
+    point (memoized per node), so a product whose other factors vanish there
+    (sin(0), a zero speed) costs nothing and no large derivative is ever built.
+    This is what makes linearizing about an operating point fast: the Whipple
+    bicycle's full derivatives are huge, their values at upright are small.
+    """
+
+    def __init__(self, variables, point, fallback=_default_fallback):
+        super().__init__(variables, fallback)
+        self._point = dict(point)
+        self._values = {}
+
+    def value(self, node):
+        """``node.xreplace(point)``, memoized per sub-expression."""
+        got = self._values.get(node)
+        if got is None:
+            if node in self._point:
+                got = self._point[node]
+            elif not node.args:
+                got = node
+            else:
+                args = [self.value(a) for a in node.args]
+                got = node if all(a is b for a, b in zip(args, node.args)) else node.func(*args)
+            self._values[node] = got
+        return got
+
+    def _diff(self, node, var):
+        if node in self._vars:
+            return sm.S.One
+        if node.is_Add:
+            return sm.Add(*[self.diff(a, var) for a in node.args])
+        if node.is_Mul:
+            args = node.args
+            vals = [self.value(a) for a in args]
+            terms = []
+            for k, a in enumerate(args):
+                if any(vals[j] == 0 for j in range(len(args)) if j != k):
+                    continue
+                da = self.diff(a, var)
+                if da != 0:
+                    terms.append(sm.Mul(*vals[:k], da, *vals[k + 1:]))
+            return sm.Add(*terms)
+        if node.is_Pow:
+            base, exp = node.args
+            if var not in self.deps(exp):
+                db = self.diff(base, var)
+                if db == 0:
+                    return sm.S.Zero
+                b = self.value(base)
+                e = self.value(exp)
+                return 2 * b * db if e == 2 else e * b ** (e - 1) * db
+        elif isinstance(node, sm.sin):
+            d = self.diff(node.args[0], var)
+            return sm.cos(self.value(node.args[0])) * d if d != 0 else sm.S.Zero
+        elif isinstance(node, sm.cos):
+            d = self.diff(node.args[0], var)
+            return -sm.sin(self.value(node.args[0])) * d if d != 0 else sm.S.Zero
+        return self._fallback(node, var).xreplace(self._point)

@@ -35,7 +35,7 @@ from sympy.physics.vector import dynamicsymbols
 
 from eomc.runtime.errors import ModelError
 
-from .kane_forms import VectorReader, assemble, dot, read_bodies, read_loads, to_dynamic
+from .kane_forms import FOLD_OPS, VectorReader, assemble, dot, fewer_trig_squares, read_bodies, read_loads, to_dynamic
 from .kane_inputs import (as_symbol_list, names, check_bodies, check_time_functions,
                           parse_loads, split_bodies_and_loads)
 from .kane_kinematics import constraint_matrices, kinematic_matrices, linear_solver
@@ -68,6 +68,16 @@ def _compact(mm, forcing):
         return forcing
     base = list(mm)
     return alt if _cse_ops(base + list(alt)) < _cse_ops(base + list(forcing)) else forcing
+
+
+def _at_most(expr, limit):
+    """True if ``expr`` has at most ``limit`` nodes; stops walking as soon as it has more."""
+    count = 0
+    for _ in sm.preorder_traversal(expr):
+        count += 1
+        if count > limit:
+            return False
+    return True
 
 
 def _frstar(mm, neg_nonmm, udot):
@@ -213,12 +223,18 @@ class KanesMethod:
             mm = mm[:p, :] + A * mm[p:, :]
             nn = nn[:p, :] + A * nn[p:, :]
             f = f[:p, :] + A * f[p:, :]
+        # Products of a partial angular velocity and ω×Iω written in different
+        # frames leave sin² + cos² of the angle between them in small rows
+        # (SymPy's frame-by-frame dot products do not): fold those rows.
+        # (size checked by a walk that stops early: count_ops costs seconds at n = 20)
+        nn = nn.applyfunc(lambda e: fewer_trig_squares(e) if _at_most(e, FOLD_OPS) else e)
         self._k_d = mm
         self._forcing_d = sm.Matrix([sm.Add(f[r], nn[r]) for r in range(f.rows)])
         # Not after eliminating dependent speeds: A_rs brings the constraint
         # solve's quotients into every row, and expanding those blows up (the
         # Whipple bicycle's forcing did not finish expanding in 10 minutes).
         if not self._udep and len(self._body_terms) + len(self._load_terms) <= _SMALL:
+            mm = self._k_d = mm.applyfunc(fewer_trig_squares)
             self._forcing_d = _compact(mm, self._forcing_d)
         frstar = _frstar(mm, nn, udot)
         self._fr, self._frstar = f, frstar
@@ -238,6 +254,31 @@ class KanesMethod:
             self._aux_eq = fraux + frstaraux
             self._fr = f.col_join(fraux)
             self._frstar = frstar.col_join(frstaraux)
+
+    def _form_eoms(self):
+        """``fr + frstar`` from the bodies and loads given to the constructor.
+
+        ``System.form_eoms`` and ``JointsMethod.form_eoms`` (SymPy's and
+        eomc's) call this private hook of SymPy's ``_Methods`` interface.
+        """
+        fr, frstar = self.kanes_equations(self._bodylist, self._forcelist)
+        return fr + frstar
+
+    def _form_fr(self, fl):
+        """Fr alone (SymPy's private helper, kept because scripts and tests call it).
+
+        ``fl`` is a non-empty list of loads or None, as in SymPy; the bodies
+        are those given before (none: Fr does not need them).
+        """
+        if fl is not None and (isinstance(fl, (str, sm.Basic)) or not hasattr(fl, "__len__")
+                               or len(fl) == 0):
+            raise ModelError("Force pairs must be supplied in a non-empty iterable or None "
+                             f"(got {fl!r})")
+        bodies = self._bodylist
+        self.kanes_equations(bodies if bodies is not None else [], fl)
+        if bodies is None:
+            self._bodylist, self._frstar = None, None
+        return self._fr
 
     @property
     def _f_d(self):

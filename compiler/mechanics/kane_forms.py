@@ -29,9 +29,10 @@ from .kane_inputs import frame_ang_vel, point_velocity
 from .plain import linear_coefficients
 
 __all__ = ["VectorReader", "BodyTerms", "LoadTerms", "read_bodies", "read_loads", "to_dynamic",
-           "assemble", "dot"]
+           "assemble", "dot", "fewer_trig_squares", "FOLD_OPS"]
 
 _ZERO3 = (sm.S.Zero, sm.S.Zero, sm.S.Zero)
+FOLD_OPS = 300   # fewer_trig_squares is tried on expressions up to this many operations
 
 
 def dot(a, b):
@@ -79,6 +80,62 @@ def is_zero(v):
     return all(c == 0 for c in v)
 
 
+def _axis_rotation(C):
+    """(k, angle) if C is a simple rotation about basis axis k (SymPy's orient_axis form), else None."""
+    for k in range(3):
+        i, j = (k + 1) % 3, (k + 2) % 3
+        if C[k, k] != 1 or any(C[k, x] != 0 or C[x, k] != 0 for x in (i, j)):
+            continue
+        c, s_ = C[i, i], C[j, i]
+        if c != C[j, j] or C[i, j] != -s_ or not isinstance(c, sm.cos):
+            return None
+        angle = c.args[0]
+        if s_ == sm.sin(angle):
+            return k, angle
+        if s_ == -sm.sin(angle):       # cos is even: the same rotation by -angle
+            return k, -angle
+        return None
+    return None
+
+
+def _rotation(k, angle):
+    i, j = (k + 1) % 3, (k + 2) % 3
+    C = sm.eye(3)
+    C[i, i] = C[j, j] = sm.cos(angle)
+    C[j, i], C[i, j] = sm.sin(angle), -sm.sin(angle)
+    return C
+
+
+def chained_dcm(to, frm):
+    """``to.dcm(frm)`` with successive rotations about a shared axis merged into one.
+
+    Why: SymPy multiplies the direction cosine matrices along the path of
+    frames as they come, so a planar chain of n PinJoints (every joint about
+    z) gives link n's orientation as nested products of n rotations, whose
+    trees double in size with every link.  Rotations about the same basis axis
+    compose to one rotation by the sum of the angles: Rz(q1) Rz(q2) =
+    Rz(q1 + q2), the form a person would write.  Same value as ``to.dcm(frm)``.
+    """
+    if to == frm:
+        return sm.eye(3)
+    path = to._dict_list(frm, 0)
+    factors = []                       # [(axis or None, angle or matrix)]
+    for a, b in zip(path, path[1:]):
+        C = a.dcm(b)
+        rot = _axis_rotation(C)
+        if rot is not None and factors and factors[-1][0] == rot[0]:
+            factors[-1] = (rot[0], factors[-1][1] + rot[1])
+        elif rot is not None:
+            factors.append(rot)
+        else:
+            factors.append((None, C))
+    out = None
+    for axis, val in factors:
+        C = val if axis is None else _rotation(axis, val)
+        out = C if out is None else out * C
+    return out
+
+
 class VectorReader:
     """Reads SymPy Vectors/Dyadics as plain-symbol components in a chosen frame.
 
@@ -94,7 +151,7 @@ class VectorReader:
         key = (to, frm)
         if key not in self._dcm:
             try:
-                C = to.dcm(frm)
+                C = chained_dcm(to, frm)
             except ValueError:
                 raise ModelError(f"frame {frm.name} is not oriented relative to frame {to.name} "
                                  "(orient it with orient_axis/orientnew)") from None
@@ -129,7 +186,30 @@ class VectorReader:
 
     def dyadic_matrix(self, dyadic, frame):
         M = dyadic.to_matrix(frame)
+        if {f for _, v1, v2 in dyadic.args for v in (v1, v2) for _, f in v.args} - {frame}:
+            M = M.applyfunc(fewer_trig_squares)     # re-expressed: fold I*sin**2 + I*cos**2
         return tuple(tuple(self.space.to_plain(M[i, j]) for j in range(3)) for i in range(3))
+
+
+def fewer_trig_squares(e):
+    """``e`` with even powers of sin(x) written as powers of 1 - cos(x)**2, expanded,
+    if that is shorter.
+
+    A partial velocity spanning two frames (l*A.y + l*B.y) dotted with itself in
+    one frame's components gives l**2*sin(q)**2 + (l*cos(q) + l)**2; SymPy's
+    frame-by-frame dot gives 2*l**2*cos(q) + 2*l**2 -- the same value, which this
+    recovers.  Used on inertia dyadics re-expressed in another frame (I*sin**2 +
+    I*cos**2 -> I) and on the mass matrix of small systems (expanding is cheap there).
+    """
+    if not e.has(sm.sin):
+        return e
+    alt = sm.expand(e)
+    pows = {p: (1 - sm.cos(p.base.args[0]) ** 2) ** (p.exp // 2) for p in alt.atoms(sm.Pow)
+            if isinstance(p.base, sm.sin) and p.exp.is_Integer and p.exp > 0 and p.exp % 2 == 0}
+    if not pows:
+        return e
+    alt = sm.expand(alt.xreplace(pows))
+    return alt if sm.count_ops(alt) < sm.count_ops(e) else e
 
 
 def partials(comps, speeds):

@@ -16,9 +16,19 @@ from sympy.physics.vector import dynamicsymbols
 
 from eomc.runtime.errors import ModelError
 
+from sympy.solvers.solveset import NonlinearError
+
 from .plain import linear_coefficients
 
-__all__ = ["linear_solver", "kinematic_matrices", "constraint_matrices"]
+__all__ = ["linear_solver", "kinematic_matrices", "constraint_matrices", "NotLinearError"]
+
+
+class NotLinearError(ModelError, NonlinearError):
+    """An equation that must be linear in its unknowns is not.
+
+    Also SymPy's ``NonlinearError``, which SymPy 1.14's KanesMethod raises for a
+    nonlinear velocity constraint, so code (and SymPy's tests) catching that keeps working.
+    """
 
 
 def linear_solver(method):
@@ -69,7 +79,7 @@ def _split_linear(eqs, unknowns, others, role):
             bad = c.free_symbols & set(dums)
             if bad:
                 names = ", ".join(sorted(str(back[d]).replace("(t)", "") for d in bad))
-                raise ModelError(f"{role} #{i + 1} ({eq}) is not linear in {names}")
+                raise NotLinearError(f"{role} #{i + 1} ({eq}) is not linear in {names}")
             if c == 0:
                 continue
             c = c.xreplace(back)

@@ -1,9 +1,10 @@
 """Linearization and hand-off of a formed eomc KanesMethod.
 
 ``linearize()`` keeps the seed's meaning when called bare (Jacobians of
-``forcing_full``) and SymPy 1.14's when given any of its keywords: then the
-same Linearizer SymPy uses is fed with our Fr and Fr*, so the results (incl.
-dependent coordinates/speeds and ``A_and_B``) are SymPy's.
+``forcing_full``) and SymPy 1.14's when given any of its keywords: then
+eomc's :class:`~.linearizer.FastLinearizer` is fed with our Fr and Fr* exactly
+as SymPy feeds its Linearizer, so the results (incl. dependent
+coordinates/speeds and ``A_and_B``) are SymPy's.
 """
 import sympy as sm
 from sympy.core.function import AppliedUndef
@@ -15,6 +16,7 @@ from sympy import default_sort_key
 from eomc.runtime.errors import ModelError
 
 from .formed import FormedSystem
+from .linearizer import FastLinearizer, dag_subs, dynamic_atoms
 from .kane_kinematics import linear_solver as _ls
 
 __all__ = ["linearize", "to_linearizer", "formed_system", "input_symbols"]
@@ -48,8 +50,12 @@ def _states(km):
     return s
 
 
-def to_linearizer(self, linear_solver='LU'):
-    """A SymPy Linearizer built from this system's Fr and Fr* (as SymPy 1.14 does)."""
+def to_linearizer(self, linear_solver='LU', _cls=Linearizer):
+    """A SymPy Linearizer built from this system's Fr and Fr* (as SymPy 1.14 does).
+
+    (``linearize`` passes eomc's :class:`~.linearizer.FastLinearizer` as ``_cls``:
+    same inputs, same results, without SymPy's slow Jacobians.)
+    """
     self._need_equations()
     t = dynamicsymbols._t
     u = sm.Matrix(self._u)
@@ -61,8 +67,8 @@ def to_linearizer(self, linear_solver='LU'):
     qd_u_zero = dict.fromkeys(list(self._qdot) + list(self._u), 0)
     f_0 = msubs(self._f_k, u_zero) + self._k_kqdot * sm.Matrix(self._qdot)
     f_1 = msubs(self._f_k, qd_zero) + self._k_ku * u
-    f_2 = msubs(self._frstar, qd_u_zero)
-    f_3 = msubs(self._frstar, ud_zero) + self._fr
+    f_2 = dag_subs(self._frstar, qd_u_zero)
+    f_3 = dag_subs(self._frstar, ud_zero) + self._fr
     f_4 = sm.zeros(len(f_2), 1)
     nqd, nud = len(self._qdep), len(self._udep)
     q_i = list(self._q)[:len(self._q) - nqd]
@@ -76,13 +82,13 @@ def to_linearizer(self, linear_solver='LU'):
         if extra:
             raise ModelError(f"cannot linearize: input(s) {sorted(map(str, extra))} appear in the "
                              f"{name} terms; inputs may only appear in the forcing vector")
-    r = list(find_dynamicsymbols(msubs(self._f_d, uaux_zero), sym_list))
+    r = list(dynamic_atoms([dag_subs(self._f_d, uaux_zero)]) - sym_list)
     r.sort(key=default_sort_key)
     for i in r:
         if i.diff(t) in r:
             raise ModelError(f"cannot linearize: both {i} and its derivative appear in the forcing")
-    return Linearizer(f_0, f_1, f_2, f_3, f_4, self._f_h, f_v, f_a, self._q, self._u,
-                      q_i, self._qdep, u_i, self._udep, r, linear_solver=_ls(linear_solver))
+    return _cls(f_0, f_1, f_2, f_3, f_4, self._f_h, f_v, f_a, self._q, self._u,
+                q_i, self._qdep, u_i, self._udep, r, linear_solver=_ls(linear_solver))
 
 
 def linearize(self, *, new_method=None, linear_solver=None, **kwargs):
@@ -116,7 +122,7 @@ def linearize(self, *, new_method=None, linear_solver=None, **kwargs):
         A = ff.jacobian(xs)
         B = ff.jacobian(r) if r else sm.zeros(ff.rows, 0)
         return A, B
-    lin = to_linearizer(self, linear_solver=linear_solver or 'LU')
+    lin = to_linearizer(self, linear_solver=linear_solver or 'LU', _cls=FastLinearizer)
     return lin.linearize(**kwargs) + (lin.r,)
 
 

@@ -14,6 +14,7 @@ from sympy.physics.mechanics import Linearizer, find_dynamicsymbols, msubs
 from eomc.runtime.errors import ModelError
 
 from .lagrange_formed import formed_from_lagrange
+from .linearizer import FastLinearizer
 from .lagrange_terms import (PlainVariables, check_loads, constraint_terms,
                              generalized_forces, lagrange_mass_forcing)
 
@@ -242,8 +243,11 @@ class LagrangesMethod:
 
     # -- linearization and multipliers ------------------------------------
     def to_linearizer(self, q_ind=None, qd_ind=None, q_dep=None, qd_dep=None,
-                      linear_solver='LU'):
-        """A SymPy :class:`Linearizer` for these equations (SymPy 1.14 semantics)."""
+                      linear_solver='LU', _cls=Linearizer):
+        """A SymPy :class:`Linearizer` for these equations (SymPy 1.14 semantics).
+
+        (``linearize`` passes eomc's :class:`~.linearizer.FastLinearizer` as ``_cls``.)
+        """
         self._need_eom()
         q, u = self._q, self._qdots
         build = lambda x: sm.Matrix(x) if x else sm.Matrix()  # noqa: E731
@@ -268,8 +272,8 @@ class LagrangesMethod:
             if i.diff(_t) in r:
                 raise ModelError(f"Cannot linearize: both {i} and its derivative "
                                  "appear in the forcing terms")
-        return Linearizer(u, -u, f_2, f_3, f_4, f_c, f_v, f_v.diff(_t), q, u, q_i,
-                          q_d, u_i, u_d, r, self.lam_vec, linear_solver=linear_solver)
+        return _cls(u, -u, f_2, f_3, f_4, f_c, f_v, f_v.diff(_t), q, u, q_i,
+                    q_d, u_i, u_d, r, self.lam_vec, linear_solver=linear_solver)
 
     def linearize(self, q_ind=None, qd_ind=None, q_dep=None, qd_dep=None,
                   linear_solver='LU', **kwargs):
@@ -284,7 +288,7 @@ class LagrangesMethod:
         if qd_ind is None and qd_dep is None and not self.coneqs:
             qd_ind = list(self._qdots)
         linearizer = self.to_linearizer(q_ind, qd_ind, q_dep, qd_dep,
-                                        linear_solver=linear_solver)
+                                        linear_solver=linear_solver, _cls=FastLinearizer)
         result = linearizer.linearize(**kwargs)
         return result + (linearizer.r,)
 

@@ -35,23 +35,28 @@ class ModelSpec:
 
 
 def _is_sympy_method(system):
-    return type(system).__module__.startswith("sympy.physics") and hasattr(system, "mass_matrix_full")
+    # not hasattr(mass_matrix_full): an unformed SymPy System raises there, and it converts too
+    return type(system).__module__.startswith("sympy.physics.mechanics")
 
 
-def formed_system(system):
-    """FormedSystem of ``system``: eomc's methods via .formed(), SymPy's via from_sympy."""
+def formed_system(system, formulation="kane"):
+    """FormedSystem of ``system``: eomc's methods via .formed(), SymPy's via from_sympy.
+
+    An unformed System (joints, from_urdf) is formed by eomc's Kane for the kane
+    formulation; for recursive/auto the tree is read instead (no equations formed),
+    unless the recursion cannot take it."""
     from eomc.compiler.mechanics.formed import FormedSystem
     if isinstance(system, FormedSystem):
         return system
     from eomc.compiler.mechanics.unformed import form_system, is_unformed_system
     if is_unformed_system(system):
-        # a joint tree whose equations were never formed (System + joints, from_urdf): the
-        # recursive formulation reads the tree itself; one it cannot take is formed by eomc's Kane
-        from eomc.compiler.tree.formed import tree_formed
-        try:
-            return tree_formed(system)
-        except ModelError:
-            system = form_system(system)
+        if formulation != "kane":
+            from eomc.compiler.tree.formed import tree_formed
+            try:
+                return tree_formed(system)
+            except ModelError:
+                pass
+        system = form_system(system)
     if _is_sympy_method(system):
         try:
             from eomc.compiler.mechanics import from_sympy
@@ -61,8 +66,9 @@ def formed_system(system):
         system = from_sympy(system)
     if callable(getattr(system, "formed", None)):
         return system.formed()
-    raise ModelError(f"`system` is a {type(system).__name__}; expected a formed KanesMethod or "
-                     f"LagrangesMethod (from eomc.mechanics or sympy.physics.mechanics)")
+    raise ModelError(f"`system` is a {type(system).__name__}; expected a System, JointsMethod or a "
+                     f"formed KanesMethod or LagrangesMethod (from eomc.mechanics or "
+                     f"sympy.physics.mechanics)")
 
 
 def _warn_unset_parameters(formed, parameters, where):
@@ -106,14 +112,14 @@ def _checked(values, formed, name, where, origin=""):
         raise where(exc) from None
 
 
-def _from_file(path, name, overrides):
+def _from_file(path, name, overrides, formulation="kane"):
     namespace, source, filename = run_model_file(path)
     lines = assignment_lines(source)
     if "system" not in namespace:
-        raise ModelFileError("does not define `system` (assign a formed KanesMethod or LagrangesMethod "
-                             "to a module-level variable named system)", filename)
+        raise ModelFileError("does not define `system` (assign a System, or a formed KanesMethod or "
+                             "LagrangesMethod, to a module-level variable named system)", filename)
     try:
-        formed = formed_system(namespace["system"])
+        formed = formed_system(namespace["system"], formulation)
     except EomcError as exc:
         raise ModelFileError(str(exc), filename, lines.get("system")) from None
     except Exception as exc:
@@ -137,7 +143,7 @@ def _from_file(path, name, overrides):
 
 
 def model_spec(system, name=None, *, parameters=None, inputs=None, initial_state=None, outputs=None,
-               events=None):
+               events=None, formulation="kane"):
     """Normalize a model file path or a system object into a ModelSpec (see the module docstring)."""
     overrides = dict(parameters=parameters, inputs=inputs, initial_state=initial_state, outputs=outputs,
                      events=events)
@@ -147,8 +153,8 @@ def model_spec(system, name=None, *, parameters=None, inputs=None, initial_state
         path, system = Path(system), load_urdf_model(system)
         name = name or sanitize_name(path.stem)
     elif isinstance(system, (str, Path)):
-        return _from_file(system, name, overrides)
-    formed = formed_system(system)
+        return _from_file(system, name, overrides, formulation)
+    formed = formed_system(system, formulation)
     values = {**urdf_overrides(system, formed, overrides), "system": system}
     if path is not None:
         spec = _checked(values, formed, name, lambda exc: ModelFileError(str(exc), str(path)),

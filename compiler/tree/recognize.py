@@ -317,7 +317,9 @@ def tree_from_system(system, kinematics=None):
         if not progress:
             raise NotATree("joints " + ", ".join(parent_of[b][0] for b in remaining)
                            + " form a loop or hang from a body outside the system")
-    return _assemble(rd, order, system.loads)
+    # actuators (springs, dampers, forces, torques along pathways) act through their loads
+    loads = list(system.loads) + [load for actuator in system.actuators for load in actuator.to_loads()]
+    return _assemble(rd, order, loads)
 
 
 def tree_from_kane(kane, kinematics):

@@ -45,11 +45,12 @@ def _find_tree(spec):
 
 
 def _kane_formed(spec):
-    """The Kane FormedSystem, forming a System's equations if it had none."""
-    if spec.formed.method != "tree":
-        return spec.formed
-    from ..mechanics.unformed import form_system
-    return form_system(spec.system).formed()
+    """The Kane FormedSystem.  An unformed System reaches here formed already: model_spec
+    forms it with eomc's Kane when the kane formulation is asked for."""
+    if spec.formed.method == "tree":
+        raise ModelError("the kane formulation needs formed equations; this System was read as a "
+                         "joint tree only (compile it with formulation='kane' from the start)")
+    return spec.formed
 
 
 def _rhs_cost(generated):
@@ -66,13 +67,7 @@ def generate_formulation(spec, functions, fold_parameters, formulation="kane"):
                    functions=functions, fold_parameters=fold_parameters, events=spec.events,
                    event_options=spec.event_options)
     if formulation == "kane":
-        formed = _kane_formed(spec)
-        if formed is not spec.formed and spec.parameters is not None:
-            # the tree lists every symbol of its bodies; Kane's equations keep only those the
-            # motion uses (a link's mass on a vertical axis through its centre drops out)
-            used = set(formed.parameters)
-            options["parameters"] = {s: v for s, v in spec.parameters.items() if s in used}
-        return generate_c(formed, spec.name, **options)
+        return generate_c(_kane_formed(spec), spec.name, **options)
     try:
         tree = _find_tree(spec)
     except NotATree as exc:

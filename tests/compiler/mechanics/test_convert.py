@@ -71,7 +71,8 @@ def _prismatic_system(method):
     bob.potential_energy = k * q**2 / 2
     system.add_joints(sme.PrismaticJoint("J", wall, bob, q, qd))
     system.add_loads((bob.masscenter, b * qd * system.x))
-    system.form_eoms(method)
+    if method is not None:
+        system.form_eoms(method)
     return system
 
 
@@ -93,6 +94,14 @@ def test_eomc_objects_pass_through():
 def test_bad_objects():
     with pytest.raises(ModelError, match="cannot convert int"):
         em.from_sympy(3)
-    system = sme.System.from_newtonian(sme.RigidBody("W"))
-    with pytest.raises(ModelError, match="form_eoms"):
-        em.from_sympy(system)
+
+
+def test_unformed_sympy_system_is_formed_by_eomc():
+    """Issue 7: an unformed SymPy System converts (formed with eomc's Kane), untouched itself."""
+    formed = _prismatic_system(sme.KanesMethod)
+    unformed = _prismatic_system(None)
+    ours = em.from_sympy(unformed)
+    assert isinstance(ours, KanesMethod)
+    assert unformed.eom_method is None
+    num.assert_same_at_seeds([("M_full", ours.mass_matrix_full, formed.mass_matrix_full),
+                              ("f_full", ours.forcing_full, formed.forcing_full)], seeds=(0, 1))

@@ -269,14 +269,13 @@ def test_model_file_initial_state_is_consistent_and_rolls_at_5_m_s(example, mode
                                atol=1e-12 * np.abs(want[7:]).max())
 
 
-@pytest.mark.slow
 def test_sympy_style_linearize_with_dependent_coordinate_and_speeds(example):
-    """KanesMethod.linearize's route (SymPy's Linearizer fed with our Fr, Fr*, constraints).
+    """KanesMethod.linearize with SymPy's keywords (eomc's FastLinearizer; SymPy's results).
 
-    About 4 minutes: the Linearizer differentiates the full symbolic equations,
-    so the benchmark parameters go into its input matrices first (v stays a
-    symbol).  Cramer's rule as in SymPy's own bicycle test: the default LU
-    divides by a coefficient that is zero upright and gives NaN.
+    The benchmark parameters ride in the operating point (``msubs`` semantics:
+    any symbol may be given a value there), v stays a symbol.  Cramer's rule as
+    in SymPy's own bicycle test: the default LU divides by a coefficient that
+    is zero upright and gives NaN.  Both of SymPy's return forms are checked.
     """
     km, P = example["system"], example["parameters"]
     num = {k: sm.Float(v, 20) for k, v in P.items()}
@@ -285,14 +284,16 @@ def test_sympy_style_linearize_with_dependent_coordinate_and_speeds(example):
     op = {s: 0 for s in list(km.q) + list(km.u)}
     op.update({by_name["u5"]: -v / num[sm.Symbol("rR")], by_name["u6"]: -v / num[sm.Symbol("rF")]})
     op.update({s.diff(): 0 for s in km.u})
-    lin = km.to_linearizer(linear_solver="CRAMER")
-    for name in ("f_0", "f_1", "f_2", "f_3", "f_4", "f_c", "f_v", "f_a"):
-        setattr(lin, name, getattr(lin, name).xreplace(num))
-    M, A, _ = lin.linearize(op_point=op)
-    assert A.free_symbols == {v} and not M.free_symbols
-    fM, fA = sm.lambdify(v, M, "numpy"), sm.lambdify(v, A, "numpy")
+    op.update(num)
+    M, A, B, r = km.linearize(op_point=op, linear_solver="CRAMER")
+    assert A.free_symbols == {v} and not M.free_symbols and B.shape == (0, 0) and len(r) == 0
+    A_expl, _, _ = km.linearize(op_point=op, A_and_B=True, linear_solver="CRAMER")
+    fM, fA, fX = (sm.lambdify(v, X, "numpy") for X in (M, A, A_expl))
     rows = [1, 2, 4, 5]     # phi, delta, u2, u4 of [psi, phi, delta, theta, u2, u4, u5, u1, u3, u6]
     cols = [1, 2, 3, 4]     # phi, delta, u2, u4 of the independent [psi, phi, delta, u2, u4, u5]
     for speed in (0.0, 1.0, 5.0, 10.0):
         full = np.linalg.solve(np.array(fM(speed), dtype=float), np.array(fA(speed), dtype=float))
         np.testing.assert_allclose(full[np.ix_(rows, cols)], _paper_lean_steer(speed), rtol=1e-12, atol=1e-12)
+        explicit = np.array(fX(speed), dtype=float)       # [psi, phi, delta, u2, u4, u5] rows
+        np.testing.assert_allclose(explicit[np.ix_([1, 2, 3, 4], cols)], _paper_lean_steer(speed),
+                                   rtol=1e-12, atol=1e-12)

@@ -63,7 +63,7 @@ def test_syntax_error_has_line(tmp_path):
 
 def test_system_of_wrong_type(tmp_path):
     path, error = _error(tmp_path, "x = 1\nsystem = 42\n")
-    assert str(error).startswith(f"{path}:2: `system` is a int; expected a formed KanesMethod")
+    assert str(error).startswith(f"{path}:2: `system` is a int; expected a System")
 
 
 @pytest.mark.parametrize("mistake, message", [
