@@ -25,9 +25,10 @@ from pathlib import Path
 
 from eomc.runtime.errors import EomcError
 
-__all__ = ["CACHE_SCHEMA", "cache_root", "hash_key", "sha256_bytes", "find", "publish"]
+__all__ = ["CACHE_SCHEMA", "MANIFEST", "cache_root", "hash_key", "sha256_bytes", "sha256_file",
+           "entry_path", "write_manifest", "find", "publish"]
 
-CACHE_SCHEMA = 1          # must equal eomc.compiler.build.cache.CACHE_SCHEMA (a test checks)
+CACHE_SCHEMA = 1          # eomc.compiler.build.cache uses this one (and the functions below)
 MANIFEST = "manifest.json"
 
 try:  # POSIX advisory locks; elsewhere entries still publish atomically.
@@ -62,7 +63,15 @@ def sha256_bytes(data):
     return hashlib.sha256(data).hexdigest()
 
 
-def _entry(root, kind, key):
+def sha256_file(path):
+    digest = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def entry_path(root, kind, key):
     return root / kind / key[:2] / key
 
 
@@ -72,7 +81,7 @@ def find(root, kind, key, verify=()):
     Whole means: the manifest names this key and schema, every listed file has
     its size, and the files named in ``verify`` (the library) have their sha256.
     """
-    entry = _entry(root, kind, key)
+    entry = entry_path(root, kind, key)
     try:
         manifest = json.loads((entry / MANIFEST).read_text())
         if manifest.get("key") != key or manifest.get("schema") != CACHE_SCHEMA:
@@ -101,11 +110,12 @@ def _locked(root, key):
                 fcntl.flock(fh.fileno(), fcntl.LOCK_UN)
 
 
-def _write_manifest(directory, key, kind, inputs):
+def write_manifest(directory, key, kind, inputs):
+    """The entry's manifest.json: key, kind, schema and every file's size and sha256."""
     files = {}
     for path in sorted(directory.iterdir()):
         if path.is_file() and path.name != MANIFEST:
-            files[path.name] = {"size": path.stat().st_size, "sha256": sha256_bytes(path.read_bytes())}
+            files[path.name] = {"size": path.stat().st_size, "sha256": sha256_file(path)}
     manifest = {"schema": CACHE_SCHEMA, "kind": kind, "key": key, "created": time.time(),
                 "inputs": inputs, "files": files}
     (directory / MANIFEST).write_text(json.dumps(manifest, indent=1, sort_keys=True, default=str))
@@ -122,11 +132,11 @@ def publish(root, kind, key, write, inputs, verify=()):
         found = find(root, kind, key, verify)
         if found is not None:
             return found, False
-        entry = _entry(root, kind, key)
+        entry = entry_path(root, kind, key)
         tmp = Path(tempfile.mkdtemp(prefix=f"{key[:12]}-", dir=root / "tmp"))
         try:
             write(tmp)
-            _write_manifest(tmp, key, kind, inputs)
+            write_manifest(tmp, key, kind, inputs)
             if entry.exists():
                 trash = Path(tempfile.mkdtemp(prefix="trash-", dir=root / "tmp"))
                 with contextlib.suppress(OSError):

@@ -21,7 +21,6 @@ directory is named by its key; one whose key lock is free belongs to a build
 that died (kill -9) and is removed by the next build, prune or clear.
 """
 import contextlib
-import hashlib
 import json
 import os
 import re
@@ -32,12 +31,13 @@ import warnings
 from pathlib import Path
 
 from eomc.runtime.errors import EomcError, EomcWarning
+# the layout, keys and manifests are shared with the runtime's SymPy-free publisher (travel.py)
+from eomc.runtime.store import (CACHE_SCHEMA, MANIFEST, cache_root, entry_path, hash_key,
+                                sha256_file, write_manifest)
 
 __all__ = ["CACHE_SCHEMA", "cache_root", "hash_key", "sha256_file", "lookup", "get_or_build", "discard",
            "touch", "try_locked", "hold", "reclaim_tmp", "entry_files", "BadEntry", "CacheWarning"]
 
-CACHE_SCHEMA = 1
-MANIFEST = "manifest.json"
 
 try:  # POSIX advisory locks; elsewhere builds still publish atomically.
     import fcntl
@@ -56,40 +56,6 @@ class BadEntry(EomcError):
 def _not_writable(root, exc, doing):
     return EomcError(f"cannot {doing}: the build cache at {root} is not writable "
                      f"({exc.strerror or exc}); set EOMC_CACHE_DIR to a writable directory")
-
-
-def cache_root(cache_dir=None):
-    """The versioned cache root: ``cache_dir`` or $EOMC_CACHE_DIR or ~/.cache/eomc, plus /v1."""
-    base = cache_dir or os.environ.get("EOMC_CACHE_DIR")
-    if not base:
-        xdg = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-        base = os.path.join(xdg, "eomc")
-    root = Path(base).expanduser().resolve() / f"v{CACHE_SCHEMA}"
-    try:
-        for sub in ("tmp", "locks"):
-            (root / sub).mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise EomcError(f"cannot use the build cache at {root} ({exc.strerror or exc}); "
-                        f"set EOMC_CACHE_DIR to a writable directory") from None
-    return root
-
-
-def hash_key(parts):
-    """sha256 of a JSON-able description of everything that changes the artifact."""
-    text = json.dumps(parts, sort_keys=True, separators=(",", ":"), default=str)
-    return hashlib.sha256(text.encode()).hexdigest()
-
-
-def sha256_file(path):
-    digest = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
-
-
-def _entry(root, kind, key):
-    return root / kind / key[:2] / key
 
 
 def _damage(entry, key):
@@ -151,7 +117,7 @@ def lookup(root, kind, key, hold_in=None):
 
     With ``hold_in`` (a contextlib.ExitStack) the entry stays held until the stack closes.
     """
-    entry = _entry(root, kind, key)
+    entry = entry_path(root, kind, key)
     with contextlib.ExitStack() as held:
         held.enter_context(hold(root, key))
         why = _damage(entry, key)
@@ -278,16 +244,6 @@ def reclaim_tmp(root, now=None, held=()):
     return removed
 
 
-def _write_manifest(directory, key, kind, inputs):
-    files = {}
-    for path in sorted(directory.iterdir()):
-        if path.is_file() and path.name != MANIFEST:
-            files[path.name] = {"size": path.stat().st_size, "sha256": sha256_file(path)}
-    manifest = {"schema": CACHE_SCHEMA, "kind": kind, "key": key, "created": time.time(),
-                "inputs": inputs, "files": files}
-    (directory / MANIFEST).write_text(json.dumps(manifest, indent=1, sort_keys=True, default=str))
-
-
 def discard(root, entry):
     """Move a (corrupt) entry out of the way atomically, then delete it."""
     entry = Path(entry)
@@ -311,7 +267,7 @@ def get_or_build(root, kind, key, build, inputs, force=False, hold_in=None):
     :func:`hold`) until that stack closes; without it, it may be pruned at any time.
     A damaged entry (a file whose sha256 changed) is rebuilt with a CacheWarning.
     """
-    entry = _entry(root, kind, key)
+    entry = entry_path(root, kind, key)
     if not force:
         found = lookup(root, kind, key, hold_in)
         if found is not None:
@@ -329,7 +285,7 @@ def get_or_build(root, kind, key, build, inputs, force=False, hold_in=None):
                 raise _not_writable(root, exc, "build") from None
             try:
                 build(tmp)
-                _write_manifest(tmp, key, kind, inputs)
+                write_manifest(tmp, key, kind, inputs)
                 discard(root, entry)
                 entry.parent.mkdir(parents=True, exist_ok=True)
                 os.replace(tmp, entry)

@@ -60,7 +60,7 @@ def main(argv=None):
     sub = argparse.ArgumentParser(prog=f"eomc {name}", description=help_text)
     module.configure(sub)
     args = sub.parse_args(rest)
-    previous_show = _plain_warnings(name)
+    previous_format = _plain_warnings(name)
     previous = _terminate_as_interrupt()
     try:
         return int(module.run(args) or 0)
@@ -80,7 +80,7 @@ def main(argv=None):
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 141
     finally:
-        warnings.showwarning = previous_show
+        warnings.formatwarning = previous_format
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)
 
@@ -103,15 +103,14 @@ def _terminate_as_interrupt():
 def _plain_warnings(name):
     """eomc's own warnings as one line, like its errors: `eomc build: warning: ...`.
 
-    Replaces ``warnings.showwarning`` (not only the formatter, so the line is printed even where
-    warnings are being recorded, as under pytest) and returns what it replaced: main() puts it
-    back, so callers of main() in the same process see their own warnings unchanged."""
-    shown = warnings.showwarning
+    Only the formatter changes, so whoever records warnings (``catch_warnings``,
+    ``pytest.warns``) still sees them; returns the formatter it replaced, which main()
+    puts back so callers of main() in the same process see their own warnings unchanged."""
+    default = warnings.formatwarning
 
-    def show(message, category, filename, lineno, file=None, line=None):
+    def formatwarning(message, category, filename, lineno, line=None):
         if issubclass(category, EomcWarning):
-            print(f"eomc {name}: warning: {message}", file=file or sys.stderr)
-        else:
-            shown(message, category, filename, lineno, file, line)
-    warnings.showwarning = show
-    return shown
+            return f"eomc {name}: warning: {message}\n"
+        return default(message, category, filename, lineno, line)
+    warnings.formatwarning = formatwarning
+    return default

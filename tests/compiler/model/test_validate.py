@@ -4,6 +4,8 @@ Each case appends one mistake to a valid pendulum (or edits its load) and
 expects a ModelFileError naming the file, the line and the symbol or
 expression, raised while deriving -- before any C is generated.
 """
+import subprocess
+import sys
 import warnings
 
 import pytest
@@ -152,7 +154,8 @@ def test_given_parameters_do_not_warn(tmp_path):
 
 def test_cli_prints_the_warning_as_one_line(tmp_path, capsys):
     path = model_files.write(tmp_path, HEAD.replace("parameters = {m: 2.0, l: 0.5, g: 9.81}\n", ""), "nop2")
-    assert main(["show", str(path)]) == 0
-    err = capsys.readouterr().err
-    assert f"eomc show: warning: {path}: no `parameters` dict" in err
-    assert "EomcWarning" not in err
+    run = subprocess.run([sys.executable, "-m", "eomc", "show", str(path)], capture_output=True,
+                         text=True, timeout=300)
+    assert run.returncode == 0, run.stderr
+    assert run.stderr.startswith(f"eomc show: warning: {path}: no `parameters` dict")
+    assert "EomcWarning" not in run.stderr and run.stderr.count("\n") == 1
