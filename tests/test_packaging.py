@@ -52,6 +52,11 @@ def test_wheel_in_fresh_venv_builds_and_loads_without_sympy(tmp_path):
     for extension in ("eomc/runtime/_eomc_integrators", "eomc/runtime/_fastcall"):  # built by setup.py
         assert any(n.startswith(extension) and n.endswith(".so") for n in names), extension
     assert not any(n.startswith(("tests/", "examples/", "benchmarks/")) for n in names)
+    # every package of the source tree is in the wheel (pyproject lists them one by one)
+    for folder, prefix in (("facade", "eomc"), ("compiler", "eomc/compiler"), ("runtime", "eomc/runtime")):
+        for init in (ROOT / folder).rglob("__init__.py"):
+            inside = init.relative_to(ROOT / folder).as_posix()
+            assert f"{prefix}/{inside}" in names, f"{folder}/{inside} is not packaged: list it in pyproject.toml"
 
     venv = tmp_path / "venv"
     _run([sys.executable, "-m", "venv", "--system-site-packages", "--without-pip", str(venv)], cwd=tmp_path)
