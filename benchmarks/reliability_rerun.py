@@ -640,6 +640,7 @@ def run_group(group, work, timeout_per_case=120):
 # set-up and CLI cases (run in the parent)
 
 def build(work, model, out, *extra, env=None, timeout=600):
+    """Set-up build through the CLI; a failure stops the rerun (nothing after it would mean anything)."""
     rc, o, e = run_cli(["build", model, "-o", out, "-q", *extra], timeout=timeout, env=env)
     if rc != 0:
         raise SystemExit(f"set-up build of {model} -> {out} failed ({rc}):\n{e}")
@@ -930,11 +931,8 @@ def cache_cases(work):
     except Exception:
         C.append(case(4, "F4 race", "raw", racer.stderr[-300:]))
 
-    # F6 read-only cache: needs a read-only bind mount (we run as root, chmod does not restrict)
-    for lab in ("cold build with a read-only cache", "cache clear on a read-only cache",
-                "cache prune on a read-only cache"):
-        C.append(case(4, f"F6 {lab}", "skipped",
-                      "needs a read-only bind mount (root only); tests/compiler/build/test_cache_errors.py patches it"))
+    # F6 read-only cache: a read-only bind mount in a private mount namespace (unshare -m; root)
+    C += read_only_cache_cases(work, dp_src)
 
     # F7 -o onto a file; EOMC_CACHE_MAX_SIZE invalid; kill -9 tmp reclaimed
     f = work / "ofile"
@@ -985,6 +983,50 @@ def cache_cases(work):
     C.append(case(4, "4 concurrent builds into one folder", "ok" if not bad else cli_outcome(1, bad[0])[0],
                   f"{len(bad)} failed"))
     return C
+
+
+def read_only_cache_cases(work, dp_src):
+    """F6: eomc with $EOMC_CACHE_DIR mounted read-only (only in the command's own mount namespace)."""
+    ro = work / "cache_ro"
+    env = {"EOMC_CACHE_DIR": str(ro)}
+    build(work, dp_src, work / "ro_warm0", env=env)            # warm entry for the first case
+    probe = subprocess.run(["unshare", "-m", "sh", "-c", f"mount --bind {ro} {ro} && "
+                            f"mount -o remount,ro,bind {ro} {ro} && touch {ro}/probe"],
+                           capture_output=True, text=True)
+    if "Read-only file system" not in probe.stderr:
+        return [case(4, f"F6 {lab}", "skipped", "needs a read-only bind mount (unshare -m, root); "
+                     "tests/compiler/build/test_cache_errors.py patches it")
+                for lab in ("warm build", "cold build", "cache clear", "cache prune", "cache info",
+                                "warm simulate")]
+    (work / "other.py").write_text(SPRING.replace("k * q", "k * q**3"))
+    C = []
+    for label, args, want in [
+            ("warm build with a read-only cache", ["build", dp_src, "-o", work / "ro_warm", "-q"], "ok"),
+            ("cold build with a read-only cache", ["build", work / "other.py", "-o", work / "ro_cold", "-q"],
+             "clear"),
+            ("cache clear on a read-only cache", ["cache", "clear"], "clear"),
+            ("cache prune on a read-only cache", ["cache", "prune", "--max-size", "1K"], "clear"),
+            ("cache info on a read-only cache", ["cache", "info"], "ok"),
+            ("warm simulate of the model file", ["simulate", dp_src, "--t-final", "0.1", "-q",
+                                                 "-o", work / "ro.csv"], "ok")]:
+        cmd = " ".join(map(shlex_quote, EOMC + [str(a) for a in args]))
+        shell = f"mount --bind {ro} {ro} && mount -o remount,ro,bind {ro} {ro} && exec {cmd}"
+        try:
+            p = subprocess.run(["unshare", "-m", "sh", "-c", shell], capture_output=True, text=True,
+                               timeout=300, env=dict(os.environ, **env))
+            rc, err = p.returncode, p.stderr
+        except subprocess.TimeoutExpired:
+            rc, err = None, "timeout"
+        outcome, detail = cli_outcome(rc, err, expect=None if want == "ok" else "EOMC_CACHE_DIR|read-only|writable")
+        if want == "clear" and rc == 0:
+            outcome = "wrong"
+        C.append(case(4, f"F6 {label}", outcome, detail))
+    return C
+
+
+def shlex_quote(text):
+    import shlex
+    return shlex.quote(text)
 
 
 def embed_cases(work):
@@ -1191,10 +1233,10 @@ def first_hour_cases(work):
 # --------------------------------------------------------------------------------------------
 
 NOTES = [
-    "F6 (read-only cache: cold build, `cache clear`, `cache prune`) is *skipped*: the report used a "
-    "read-only bind mount in a private mount namespace, and this harness runs as root, where chmod does "
-    "not restrict writes. tests/compiler/build/test_cache_errors.py covers the three cases by patching "
-    "the lock/remove calls to raise EROFS.",
+    "F6 (read-only cache) runs each command under `unshare -m` with $EOMC_CACHE_DIR bind-mounted "
+    "read-only in that private mount namespace (as the report did); where that is not permitted (not "
+    "root) the six cases are *skipped* and tests/compiler/build/test_cache_errors.py covers them by "
+    "patching the lock/remove calls to raise EROFS.",
     "Not rerun for cost (minutes and GBs on this shared machine): the 60-link cart build (2.5 min, 1.25 GB), "
     "the 24k-term output (228 s, 2.5 GB), the 20,000-case simulate_many RSS measurement, the "
     "lock-wait of a second identical build. The ASan/UBSan harness of generated C and the integrators is "
