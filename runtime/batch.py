@@ -15,7 +15,7 @@ import numpy as np
 
 from eomc.runtime.errors import SimulationError
 
-from .simulate import finish, prepare, run_prepared
+from .simulate import check_keywords, finish, prepare, run_prepared
 
 __all__ = ["simulate_many", "BatchResult"]
 
@@ -122,6 +122,7 @@ def simulate_many(model, x0, t_span, p=None, threads=None, progress=True,
     BatchResult; a failed case raises SimulationError naming the case unless
     raise_on_failure=False (then its status is nonzero and its tail is NaN).
     """
+    check_keywords(kw, prepare, skip=4)
     xs = _cases(x0, model.nx, "x0")
     ps = _cases(p, model.nparam, "p")
     if xs is not None and ps is not None and len(xs) != len(ps):

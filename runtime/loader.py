@@ -83,6 +83,14 @@ def _base_ffi():
         if not _BASE:
             ffi = cffi.FFI()
             ffi.cdef(MODEL_CDEF + BATCH_CDEF + INTEGRATOR_CDEF)
+            # Build every struct type here, in the FFI that lives as long as the process.
+            # cffi marks a struct declaration "completed" once, but shares the built type only
+            # through a weak cache: if a model's own FFI built it first and that FFI was then
+            # collected (a load that failed its checks), the next model got a new, never
+            # completed -- opaque -- `eomc_model` and every later load in the process failed.
+            typedefs, structs, unions = ffi.list_types()
+            for decl in typedefs + [f"struct {n}" for n in structs] + [f"union {n}" for n in unions]:
+                ffi.typeof(decl)
             _BASE.append(ffi)
     return _BASE[0]
 

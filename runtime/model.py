@@ -424,5 +424,6 @@ class Model:
 
     def simulate(self, x0, t_span, **kw):
         """Integrate from x0 over t_span; see eomc.runtime.simulate.simulate."""
-        from .simulate import simulate
+        from .simulate import check_keywords, simulate
+        check_keywords(kw, simulate, skip=3)
         return simulate(self, x0, t_span, **kw)

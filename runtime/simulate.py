@@ -23,7 +23,7 @@ from .names import index_of
 from .result import SimulationResult
 
 __all__ = ["simulate", "prepare", "run_prepared", "scipy_fun", "resolve_method", "METHODS",
-           "DEFAULT_POINTS"]
+           "DEFAULT_POINTS", "check_keywords"]
 
 METHODS = tuple(METHOD_IDS)
 DEFAULT_POINTS = 1001      # output rows when neither t_eval nor dt is given
@@ -36,6 +36,21 @@ STIFF_ADVICE = "use method='radau'"
 # request is almost surely a mistake (rk4 with a tiny dt, a huge n_points): refuse it.
 MAX_OUTPUT_BYTES = 2 ** 31
 C_LONG_MAX = 2 ** 63 - 1   # opt.max_steps is a C long
+
+
+def check_keywords(kw, function, skip=0):
+    """Refuse keyword arguments ``function`` does not take, as a ValueError naming them.
+
+    Why: ``model.simulate(..., rtoll=1e-8)`` would otherwise end in Python's TypeError from
+    deep inside eomc; the message lists the keywords that exist (the first ``skip``
+    positional parameters, e.g. model, x0, t_span, are not offered).
+    """
+    import inspect
+    names = list(inspect.signature(function).parameters)[skip:]
+    unknown = [k for k in kw if k not in names]
+    if unknown:
+        raise ValueError(f"{function.__name__}() got unknown keyword argument(s) "
+                         f"{', '.join(map(repr, unknown))}; valid keywords: {', '.join(names)}")
 
 
 def resolve_method(method):

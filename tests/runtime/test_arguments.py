@@ -158,3 +158,13 @@ def test_rhs_of_a_list_takes_the_fast_path(generated, monkeypatch):
         generated.rhs(0.0, [True, False])
     with pytest.raises(ValueError, match=r"shape \(2,\)"):
         generated.rhs(0.0, [1.0, 2.0, 3.0])
+
+
+def test_unknown_keyword_is_a_value_error_listing_the_valid_ones(model):
+    """Reliability rerun: `m.simulate(x, span, foo=1)` was Python's TypeError from inside eomc."""
+    with pytest.raises(ValueError, match=r"simulate\(\) got unknown keyword argument\(s\) 'foo'; "
+                                         r"valid keywords: p, r, method, rtol, atol"):
+        model.simulate([0.0, 0.0], (0.0, 1.0), foo=1)
+    with pytest.raises(ValueError, match=r"unknown keyword argument\(s\) 'rtoll'; valid keywords: r, method"):
+        simulate_many(model, np.zeros((2, 2)), (0.0, 1.0), rtoll=1e-8, progress=False)
+    assert model.simulate([0.0, 0.0], (0.0, 1.0), rtol=1e-8).success   # known keywords still pass

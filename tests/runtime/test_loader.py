@@ -161,3 +161,32 @@ def test_names_and_defaults_come_from_the_library(copy):
     model = load(copy)
     assert model.param_names == ("m", "c", "k") and list(model.param_defaults) == [2.0, 0.5, 8.0]
     assert model.state_names == ("q", "u") and model.output_names == ("energy",)
+
+
+def test_refused_loads_do_not_poison_later_loads(copy, tmp_path):
+    """Reliability rerun: after two loads refused by the library-vs-JSON check (and a garbage
+    collection), every later load in the process -- of a good directory too -- failed with
+    cffi's "cdata 'eomc_model *' points to an opaque type".  A fresh process, because the
+    bug needs loads that fail before any successful one."""
+    bad = tmp_path / "bad"
+    shutil.copytree(copy, bad)
+    data = json.loads((bad / "osc.json").read_text())
+    data["param_defaults"] = [v + 1.0 for v in data["param_defaults"]]
+    (bad / "osc.json").write_text(json.dumps(data))
+    code = textwrap.dedent(f"""
+        import gc
+        import eomc
+        from eomc.runtime.loader import LoadError
+        for _ in range(3):
+            try:
+                eomc.load({str(bad)!r})
+            except LoadError as exc:
+                assert "param_defaults" in str(exc), exc
+            else:
+                raise SystemExit("the edited directory loaded")
+            gc.collect()
+        print(eomc.load({str(copy)!r}).rhs(0.0, [0.3, -0.2])[1])
+        """)
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert float(out.stdout) == pytest.approx(osc_model.oscillator_rhs(0, [0.3, -0.2])[1], rel=1e-14)
