@@ -2,8 +2,9 @@
 
 Two sources give the same :class:`~.model.Tree`:
 
-* a SymPy ``System`` with joints (PinJoint, PrismaticJoint, WeldJoint): the
-  joints name each body's parent;
+* a SymPy ``System`` with joints (PinJoint, PrismaticJoint, WeldJoint, and
+  SphericalJoint as three pins through massless frames): the joints name each
+  body's parent;
 * a KanesMethod built from hand-made frames and points (each frame oriented
   from another, each point located from another): the parent of a body is the
   body whose speeds are the largest subset of its own.
@@ -294,7 +295,7 @@ def tree_from_system(system, kinematics=None):
     for j in system.joints:
         if len(j.speeds) > 1 and not isinstance(j, me.SphericalJoint):
             raise NotATree(f"joint {j.name} ({type(j).__name__}) has {len(j.speeds)} speeds; the "
-                           f"recursion takes pin, prismatic and weld joints")
+                           f"recursion takes pin, prismatic, spherical and weld joints")
         if j.child in parent_of:
             raise NotATree(f"body {j.child.name} is the child of joints {parent_of[j.child][0]} and "
                            f"{j.name}: a closed loop, not a tree")
