@@ -193,3 +193,24 @@ def test_ball_joints(rotation):
     mk = eomc.compile(system, "ball_k", inputs=inputs, functions=FUNCTIONS, progress=False,
                       formulation="kane")
     assert _agree(mk, mr, 7) < TOL
+
+
+def test_cache_tells_tree_shapes_apart():
+    """Two trees with the same joint expressions, one body hanging from the other or from
+    the ground, are different models: the generation cache key includes the parents
+    (hypothesis found them sharing a cached build)."""
+    def spec(parent):
+        return [{"parent": -1, "kind": "slider", "rotation": ("BODY", 123), "axis": (-1, 1, -1),
+                 "parent_point": (0, 1, 0), "child_point": (0, -1, 0), "rigid": False,
+                 "products": False, "load": False},
+                {"parent": parent, "kind": "slider", "rotation": ("BODY", 123), "axis": (0, 1, -1),
+                 "parent_point": (1, -1, 1), "child_point": (-1, 1, -1), "rigid": False,
+                 "products": False, "load": False}]
+    x = np.array([0.3, -0.2, 0.1, 0.4])
+    M = []
+    for parent in (0, -1):
+        system, _ = random_trees.build(spec(parent))
+        model = eomc.compile(system, "shape", functions=["mass_matrix"], progress=False,
+                             formulation="recursive")
+        M.append(model.mass_matrix(0.0, x))
+    assert abs(M[0][0, 1]) > 0.1 and M[1][0, 1] == 0.0
