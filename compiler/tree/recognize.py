@@ -2,8 +2,9 @@
 
 Two sources give the same :class:`~.model.Tree`:
 
-* a SymPy ``System`` with joints (PinJoint, PrismaticJoint, WeldJoint): the
-  joints name each body's parent;
+* a SymPy ``System`` with joints (PinJoint, PrismaticJoint, WeldJoint, and
+  SphericalJoint as three pins through massless frames): the joints name each
+  body's parent;
 * a KanesMethod built from hand-made frames and points (each frame oriented
   from another, each point located from another): the parent of a body is the
   body whose speeds are the largest subset of its own.
@@ -144,6 +145,8 @@ def _joint(rd, name, joint, parent, pframe, porigin, frame, origin, speed):
 
 
 def _inertia(body, frame):
+    if body is None:              # a massless intermediate frame of a ball joint
+        return sm.S.Zero, sm.zeros(3, 3)
     if isinstance(body, me.RigidBody):
         central = body.central_inertia
         I = sm.Matrix(central.to_matrix(frame)) if central != 0 else sm.zeros(3, 3)
@@ -290,16 +293,16 @@ def tree_from_system(system, kinematics=None):
               and b.masscenter == system.fixed_point]
     parent_of, body_frame = {}, {}
     for j in system.joints:
-        if len(j.speeds) > 1:
+        if len(j.speeds) > 1 and not isinstance(j, me.SphericalJoint):
             raise NotATree(f"joint {j.name} ({type(j).__name__}) has {len(j.speeds)} speeds; the "
-                           f"recursion takes pin, prismatic and weld joints")
+                           f"recursion takes pin, prismatic, spherical and weld joints")
         if j.child in parent_of:
             raise NotATree(f"body {j.child.name} is the child of joints {parent_of[j.child][0]} and "
                            f"{j.name}: a closed loop, not a tree")
         speed = list(system.u).index(j.speeds[0]) if len(j.speeds) else None
-        parent_of[j.child] = (j.name, j.parent, speed)
+        parent_of[j.child] = (j.name, j.parent, speed, j)
         body_frame[j.child] = j.child.frame if hasattr(j.child, "frame") else j.child_interframe
-    order, index = [], {}
+    order, index, added = [], {}, []
     remaining = [b for b in system.bodies if b not in ground]
     for b in remaining:
         if b not in parent_of:
@@ -307,11 +310,13 @@ def tree_from_system(system, kinematics=None):
     while remaining:
         progress = False
         for b in list(remaining):
-            jname, p, speed = parent_of[b]
+            jname, p, speed, joint = parent_of[b]
             if p in ground or p in index:
+                pi = -1 if p in ground else index[p]
+                if isinstance(joint, me.SphericalJoint):
+                    pi, speed = _ball_stages(system, joint, pi, order, added)
                 index[b] = len(order)
-                order.append((b.name, jname, -1 if p in ground else index[p], b, body_frame[b],
-                              b.masscenter, speed))
+                order.append((b.name, jname, pi, b, body_frame[b], b.masscenter, speed))
                 remaining.remove(b)
                 progress = True
         if not progress:
@@ -319,7 +324,56 @@ def tree_from_system(system, kinematics=None):
                            + " form a loop or hang from a body outside the system")
     # actuators (springs, dampers, forces, torques along pathways) act through their loads
     loads = list(system.loads) + [load for actuator in system.actuators for load in actuator.to_loads()]
-    return _assemble(rd, order, loads)
+    try:
+        return _assemble(rd, order, loads)
+    finally:
+        _forget(added)
+
+
+def _ball_stages(system, joint, parent, order, added):
+    """A ball joint as three pins: append two massless intermediate stages to ``order``.
+
+    SphericalJoint orients the child's joint frame from the parent's by three
+    successive rotations (body- or space-fixed, in its rotation order) through the
+    coordinates, with speeds that are their rates; so the same motion is three
+    single-axis rotations about the joint point.  Two frames A1, A2 are made for the
+    stages in between (massless bodies: the recursion needs only the articulated
+    inertia beyond them to be non-zero); the third stage is the child itself.  Every
+    stage is then read and checked like any joint (:func:`_joint`), so a rotation that
+    does not decompose this way (custom amounts, say) is refused, not mis-read.
+    Returns the index of the last intermediate stage (the child's parent) and the
+    index of the speed the child's own stage turns with."""
+    kind = joint._rot_type.upper()
+    axes = [int(c) - 1 for c in str(joint._rot_order)]
+    amounts = list(joint._amounts if joint._amounts is not None else joint.coordinates)
+    speeds = list(joint.speeds)
+    steps = list(zip(axes, amounts, speeds))
+    if kind == "SPACE":       # space-fixed 1,2,3 = body-fixed 3,2,1
+        steps.reverse()
+    if len(steps) != 3 or kind not in ("BODY", "SPACE"):
+        raise NotATree(f"joint {joint.name}: a {kind} rotation of order {joint._rot_order} is not "
+                       f"three single-axis rotations")
+    frame, index = joint.parent_interframe, parent
+    for k, (axis, amount, speed) in enumerate(steps[:2]):
+        A = me.ReferenceFrame(f"{joint.name}_stage{k + 1}")
+        A.orient_axis(frame, frame.x if axis == 0 else frame.y if axis == 1 else frame.z, amount)
+        A.set_ang_vel(frame, speed * [frame.x, frame.y, frame.z][axis])
+        added.append((A, frame))
+        order.append((f"{joint.name}_stage{k + 1}", joint.name, index, None, A, joint.parent_point,
+                      list(system.u).index(speed)))
+        frame, index = A, len(order) - 1
+    return index, list(system.u).index(steps[2][2])
+
+
+def _forget(added):
+    """Undo the intermediate frames' links in the user's frame graph (orient/set_ang_vel
+    record themselves in the parent frame too, and dcm() caches at both ends)."""
+    stages = {A for A, _ in added}
+    for A, parent in added:
+        for f in _all_frames(parent):
+            for d in (f._dcm_dict, f._dcm_cache, f._ang_vel_dict, f._ang_acc_dict):
+                for s in stages:
+                    d.pop(s, None)
 
 
 def tree_from_kane(kane, kinematics):

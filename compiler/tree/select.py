@@ -7,6 +7,7 @@ when rhs is not requested).  A System without formed equations has no Kane form
 to compare with: forming it costs more than the whole recursive build, so auto
 takes the recursive one there.
 """
+import sympy as sm
 from sympy.physics import mechanics as me
 
 from eomc.runtime.errors import ModelError
@@ -28,9 +29,14 @@ def check_formulation(formulation):
 
 
 def tree_digest(spec):
-    """The tree's expressions, for the generation cache key of a formed-less System."""
+    """The tree's expressions and shape (each body's parent and speed: two trees can have
+    the same expressions and differ only there), for the generation cache key of a
+    formed-less System."""
     tree = getattr(spec.formed, "_tree", None)
-    return None if tree is None else tree_exprs(tree)
+    if tree is None:
+        return None
+    shape = [(b.parent, -1 if b.speed is None else b.speed) for b in tree.bodies]
+    return tree_exprs(tree) + [sm.Integer(k) for pair in shape for k in pair]
 
 
 def _find_tree(spec):

@@ -50,13 +50,27 @@ def test_constrained_system_is_not_a_tree():
         tree_of(kane)
 
 
-def test_spherical_joint_is_named():
+def test_spherical_joint_is_three_stages():
+    """A ball joint: two massless intermediate frames, then the body, one angle each."""
     ground, ball = sme.RigidBody("ground"), sme.RigidBody("ball")
     joint = sme.SphericalJoint("socket", ground, ball, sme.dynamicsymbols("a b c"),
-                               sme.dynamicsymbols("wa wb wc"))
+                               sme.dynamicsymbols("wa wb wc"), child_point=ball.frame.x)
     system = sme.System.from_newtonian(ground)
     system.add_joints(joint)
-    with pytest.raises(NotATree, match="joint socket .SphericalJoint. has 3 speeds"):
+    tree = tree_from_system(system)
+    assert [b.name for b in tree.bodies] == ["socket_stage1", "socket_stage2", "ball"]
+    assert [b.parent for b in tree.bodies] == [-1, 0, 1]
+    assert [b.speed for b in tree.bodies] == [0, 1, 2]
+    assert [b.kind for b in tree.bodies] == ["revolute"] * 3
+    assert tree.bodies[0].mass == 0 and tree.bodies[2].mass == ball.mass
+
+
+def test_multi_speed_joint_is_named():
+    ground, body = sme.RigidBody("ground"), sme.RigidBody("sleeve")
+    joint = sme.CylindricalJoint("rod", ground, body)
+    system = sme.System.from_newtonian(ground)
+    system.add_joints(joint)
+    with pytest.raises(NotATree, match="joint rod .CylindricalJoint. has 2 speeds"):
         tree_from_system(system)
 
 
