@@ -90,23 +90,32 @@ def _executor(args):
 
 
 def _write(path, table):
+    """Write the results table; a half-written file never takes the place of ``path``
+    (it is written beside it under a temporary name, then renamed)."""
     path = Path(path)
+    if path.suffix not in (".csv", ".parquet"):
+        raise ValueError(f"-o {path}: write .csv or .parquet")
     if path.suffix == ".parquet":
         try:
             import pyarrow
             import pyarrow.parquet
         except ImportError:
             raise EomcError("writing .parquet needs pyarrow: pip install pyarrow (or write .csv)") from None
-        pyarrow.parquet.write_table(pyarrow.table(table), path)
-    elif path.suffix == ".csv":
-        with open(path, "w", newline="") as fh:
-            writer = csv.writer(fh)
-            writer.writerow(table)
-            columns = [[repr(float(v)) if isinstance(v, (float, np.floating)) else v for v in col]
-                       for col in table.values()]
-            writer.writerows(zip(*columns))
-    else:
-        raise ValueError(f"-o {path}: write .csv or .parquet")
+    tmp = path.with_name(f".{path.name}.eomc-tmp-{os.getpid()}")
+    try:
+        if path.suffix == ".parquet":
+            pyarrow.parquet.write_table(pyarrow.table(table), tmp)
+        else:
+            with open(tmp, "w", newline="") as fh:
+                writer = csv.writer(fh)
+                writer.writerow(table)
+                columns = [[repr(float(v)) if isinstance(v, (float, np.floating)) else v for v in col]
+                           for col in table.values()]
+                writer.writerows(zip(*columns))
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
     return path
 
 

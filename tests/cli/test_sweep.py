@@ -95,3 +95,28 @@ def test_bad_input_is_one_line(built, tmp_path, capsys, monkeypatch, text, args,
     assert main(argv + args) == 2
     err = capsys.readouterr().err
     assert match in err and "Traceback" not in err and err.count("\n") == 1
+
+
+def test_a_failed_write_leaves_the_previous_results_untouched(tmp_path, monkeypatch):
+    """-o results.csv is written beside the target and renamed: a failure midway keeps the
+    old file whole and leaves no temporary behind."""
+    from eomc.cli import sweep as cli_sweep
+
+    target = tmp_path / "results.csv"
+    target.write_text("previous results\n")
+
+    class Broken:
+        def __init__(self, fh):
+            self.fh = fh
+
+        def writerow(self, row):
+            self.fh.write("half,")
+
+        def writerows(self, rows):
+            raise OSError("disk full")
+
+    monkeypatch.setattr(cli_sweep.csv, "writer", Broken)
+    with pytest.raises(OSError, match="disk full"):
+        cli_sweep._write(target, {"case": [0, 1], "q1": [0.5, 0.25]})
+    assert target.read_text() == "previous results\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["results.csv"]
