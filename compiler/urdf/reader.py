@@ -79,22 +79,17 @@ def _strict_xml(path):
 def _check_structure(path, root):
     """What yourdfpy assumes without checking; returns {('link'|'joint', name): line}."""
     lines = {}
-    for element in root.findall("link"):
-        name = element.get("name")
-        if not name:
-            _fail(path, element.sourceline, "a <link> has no name attribute")
-        if ("link", name) in lines:
-            _fail(path, element.sourceline, f"link '{name}' is defined twice "
-                                             f"(first on line {lines['link', name]})")
-        lines["link", name] = element.sourceline
+    for tag in ("link", "joint"):
+        for element in root.findall(tag):
+            name = element.get("name")
+            if not name:
+                _fail(path, element.sourceline, f"a <{tag}> has no name attribute")
+            if (tag, name) in lines:
+                _fail(path, element.sourceline, f"{tag} '{name}' is defined twice "
+                                                 f"(first on line {lines[tag, name]})")
+            lines[tag, name] = element.sourceline
     for element in root.findall("joint"):
         name = element.get("name")
-        if not name:
-            _fail(path, element.sourceline, "a <joint> has no name attribute")
-        if ("joint", name) in lines:
-            _fail(path, element.sourceline, f"joint '{name}' is defined twice "
-                                             f"(first on line {lines['joint', name]})")
-        lines["joint", name] = element.sourceline
         kind = element.get("type")
         if kind not in JOINT_TYPES:
             what = f"unknown type '{kind}'" if kind else "no type attribute"
