@@ -9,6 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .files import atomic_path
+
 # The report's columns and default error target: defined here, with the
 # writers that use them, so that this module does not import report.py back.
 DEFAULT_TARGET = 1e-6
@@ -35,7 +37,7 @@ def _cell(value):
 
 def write_csv(report, path):
     path = Path(path)
-    with path.open("w", newline="") as fh:
+    with atomic_path(path) as tmp, tmp.open("w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(COLUMNS)
         for row in report.rows:
@@ -134,7 +136,8 @@ def plot_report(report, path, target_error=None):
     ax.legend(loc="best", fontsize=8)
     fig.tight_layout()
     path = Path(path)
-    fig.savefig(path, dpi=120)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=120, format=path.suffix[1:] or "png")
     plt.close(fig)
     return path
 

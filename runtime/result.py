@@ -9,6 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .files import atomic_path
+
 __all__ = ["SimulationResult"]
 
 
@@ -68,8 +70,8 @@ class SimulationResult:
     def to_csv(self, path):
         """Write t, states, outputs (and the constraint residual) as CSV with a header row."""
         names, data = self.columns()
-        np.savetxt(Path(path), data, delimiter=",", header=",".join(names), comments="",
-                   fmt="%.17g")
+        with atomic_path(path) as tmp:
+            np.savetxt(tmp, data, delimiter=",", header=",".join(names), comments="", fmt="%.17g")
         return Path(path)
 
     def plot(self, path=None, names=None):
@@ -104,7 +106,8 @@ class SimulationResult:
         axes[-1, 0].set_xlabel("t")
         axes[0, 0].set_title(f"{self.model_name} ({self.method})")
         if path is not None:
-            fig.savefig(Path(path), dpi=120, bbox_inches="tight")
+            with atomic_path(path) as tmp:
+                fig.savefig(tmp, dpi=120, bbox_inches="tight", format=Path(path).suffix[1:] or "png")
             plt.close(fig)
             return Path(path)
         return fig

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from eomc.errors import EomcError
+from eomc.runtime.files import atomic_path
 
 from . import common as cli_common
 
@@ -101,8 +102,7 @@ def _write(path, table):
             import pyarrow.parquet
         except ImportError:
             raise EomcError("writing .parquet needs pyarrow: pip install pyarrow (or write .csv)") from None
-    tmp = path.with_name(f".{path.name}.eomc-tmp-{os.getpid()}")
-    try:
+    with atomic_path(path) as tmp:
         if path.suffix == ".parquet":
             pyarrow.parquet.write_table(pyarrow.table(table), tmp)
         else:
@@ -112,10 +112,6 @@ def _write(path, table):
                 columns = [[repr(float(v)) if isinstance(v, (float, np.floating)) else v for v in col]
                            for col in table.values()]
                 writer.writerows(zip(*columns))
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
     return path
 
 
