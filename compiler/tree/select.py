@@ -3,7 +3,12 @@ recursive one (ABA/RNEA/CRBA over the tree).
 
 ``auto`` builds the tree when the system is one, lowers both formulations and
 keeps the one whose rhs has fewer operations (all requested functions' operations
-when rhs is not requested).  A System without formed equations has no Kane form
+when rhs is not requested).  Lowering Kane's form of a large tree is the costly
+part of a build (minutes at 40 bodies), and there its rhs cannot win: it must at
+least factor and solve the formed mass matrix.  So the recursive form is lowered
+first, and Kane's is skipped when the LDLᵀ of its mass matrix alone (counted
+exactly as the emitter would write it, from the formed matrix's nonzeros) already
+costs as much as the whole recursive rhs.  A System without formed equations has no Kane form
 to compare with: forming it costs more than the whole recursive build, so auto
 takes the recursive one there.
 """
@@ -65,6 +70,17 @@ def _rhs_cost(generated):
     return sum(sum(counts[f].values()) for f in fns if counts[f])
 
 
+def kane_solve_floor(formed):
+    """Operations of the numeric LDLᵀ factor + solve that Kane's rhs would contain (a
+    lower bound on that rhs), from the nonzero pattern of the formed mass matrix."""
+    from ..emit.linsolve import choose_ldlt
+    A = formed.dynamics_matrix
+    n = A.shape[0]
+    pattern = {(i, j) for i in range(n) for j in range(i + 1) if A[i, j] != 0}
+    solver = choose_ldlt("floor", n, pattern)
+    return sum(solver.factor_ops.values()) + sum(solver.solve_ops.values())
+
+
 def generate_formulation(spec, functions, fold_parameters, formulation="kane"):
     """GeneratedModel of ``spec`` in the requested formulation (see module docstring)."""
     from ..emit import generate_c
@@ -85,6 +101,12 @@ def generate_formulation(spec, functions, fold_parameters, formulation="kane"):
     recursive = generate_c(spec.formed, spec.name, tree=tree, **options)
     if formulation == "recursive" or spec.formed.method == "tree":
         return recursive
+    if "rhs" in functions and spec.formed.method == "kane":
+        floor = kane_solve_floor(spec.formed)
+        if floor >= _rhs_cost(recursive):
+            recursive.metadata["formulation_costs"] = {"kane": f">= {floor} (its LDLT alone)",
+                                                       "recursive": _rhs_cost(recursive)}
+            return recursive
     kane = generate_c(spec.formed, spec.name, **options)
     chosen = recursive if _rhs_cost(recursive) < _rhs_cost(kane) else kane
     chosen.metadata["formulation_costs"] = {"kane": _rhs_cost(kane), "recursive": _rhs_cost(recursive)}

@@ -96,3 +96,26 @@ def test_zero_articulated_inertia_is_a_status_not_a_nan(tmp_path, monkeypatch):
     pv[model.metadata["param_names"].index("m")] = 0.5
     pv[model.metadata["param_names"].index("m0")] = 2.0
     assert np.all(np.isfinite(model.rhs(0.0, np.zeros(6), p=pv, r=[0.0])))
+
+
+@pytest.mark.parametrize("n", [1, 3, 5])
+def test_kane_solve_floor_is_a_lower_bound_on_kanes_rhs(n):
+    """auto may skip lowering Kane's form on this bound: it must never exceed Kane's real rhs."""
+    from eomc.compiler.tree.select import kane_solve_floor
+    kane, inputs = cart_relative(n, em)
+    spec, gm = generate(kane, "m", functions=["rhs"], formulation="kane", inputs=inputs,
+                        use_cache=False, progress=False)
+    floor = kane_solve_floor(spec.formed)
+    assert 0 < floor < _total(gm)
+
+
+def test_auto_skips_lowering_kane_when_its_solve_alone_costs_more(monkeypatch):
+    from eomc.compiler.tree import select
+    kane, inputs = cart_relative(2, em)
+    monkeypatch.setattr(select, "kane_solve_floor", lambda formed: 10 ** 9)
+    gm = _gen(kane, "auto", ["rhs"], inputs=inputs)
+    assert gm.metadata["formulation"] == "recursive"
+    assert gm.metadata["formulation_costs"]["kane"].startswith(">= 1000000000")
+    monkeypatch.setattr(select, "kane_solve_floor", lambda formed: 0)
+    gm = _gen(kane, "auto", ["rhs"], inputs=inputs)
+    assert isinstance(gm.metadata["formulation_costs"]["kane"], int)
