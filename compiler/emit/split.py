@@ -4,7 +4,10 @@ Why: gcc's register allocation (IRA, then LRA's hard-register assignment) grows 
 faster than linearly with the number of values live in one function.  On the Whipple
 bicycle's 2,200-line jac_x it was two thirds of gcc's 6 s; on large chains gcc took
 minutes and gigabytes.  A function made of pieces of at most :data:`CHUNK` statements
-costs gcc about the same per statement whatever the model's size.
+costs gcc about the same per statement whatever the model's size.  The thresholds come
+from benchmarks/bench_build_scaling.py (results/build_scaling.md): chunks of 100 compiled
+fastest of 100/250/500, and the split code ran no slower than the unsplit (up to 30%
+faster: gcc spills less badly in small functions).
 
 How: a *run* is a maximal block of consecutive ``const double tN = ...;`` lines (the
 shape every body printer emits, :func:`eomc.compiler.emit.bodies._temps`).  A run
@@ -27,8 +30,8 @@ import re
 
 __all__ = ["split_body", "NOINLINE_MACRO", "SPLIT_MIN", "CHUNK"]
 
-SPLIT_MIN = 600      # statements: shorter runs stay as they are (no cost at run time)
-CHUNK = 250          # statements per sub-function
+SPLIT_MIN = 300      # statements: shorter runs stay as they are
+CHUNK = 100          # statements per sub-function
 
 NOINLINE_MACRO = """#if defined(__GNUC__)
 #define EOMC_NOINLINE __attribute__((noinline))
