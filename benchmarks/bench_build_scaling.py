@@ -148,20 +148,26 @@ def bicycle_stages(repeat):
     return [statistics.median(col) for col in zip(*rows)]
 
 
-def generated(path, n, functions, split_on, formulation="kane"):
-    """GeneratedModel of a model file, split or not (no generation cache)."""
-    from eomc.compiler import driver
+def generated(path, n, functions, formulation="kane"):
+    """{split?: GeneratedModel} of a model file, derived once, generated unsplit (the split
+    threshold out of reach) and split (no generation cache)."""
     from eomc.compiler.emit import split
-    saved = split.SPLIT_MIN
+    from eomc.compiler.model import model_spec
+    from eomc.compiler.tree.select import generate_formulation
     if n is not None:
         os.environ["EOMC_N_LINKS"] = str(n)
-    split.SPLIT_MIN = saved if split_on else 10 ** 9
     try:
-        return driver.generate(str(path), functions=functions, use_cache=False, progress=False,
-                               formulation=formulation)[1]
+        spec = model_spec(str(path), formulation=formulation)
     finally:
-        split.SPLIT_MIN = saved
         os.environ.pop("EOMC_N_LINKS", None)
+    saved, out = split.SPLIT_MIN, {}
+    for split_on in (False, True):
+        split.SPLIT_MIN = saved if split_on else 10 ** 9
+        try:
+            out[split_on] = generate_formulation(spec, functions, False, formulation)
+        finally:
+            split.SPLIT_MIN = saved
+    return out
 
 
 def write_model(gm, directory):
@@ -237,8 +243,7 @@ def main():
     with tempfile.TemporaryDirectory(prefix="bsc_gcc_") as tmp:
         for label, path, n, functions, formulation in cases:
             variants = {}
-            for split_on in (False, True):
-                gm = generated(path, n, functions, split_on, formulation)
+            for split_on, gm in generated(path, n, functions, formulation).items():
                 d = Path(tmp) / f"{label.replace(' ', '_').replace('=', '')}_{int(split_on)}"
                 print(label, "split" if split_on else "unsplit", f"{len(gm.c_source) / 1024:.0f} kB",
                       flush=True)
