@@ -39,7 +39,18 @@ PIN = ["taskset", "-c", "1"] if os.path.exists("/usr/bin/taskset") else []
 STAGE_RUNNER = r"""
 import os, resource, sys, time
 t0 = time.process_time()
+if len(sys.argv) > 3:     # an older eomc.compiler (and its templates) from a git archive
+    import importlib.util, eomc
+    for name in ("compiler", "templates"):
+        where = os.path.join(sys.argv[3], name)
+        spec = importlib.util.spec_from_file_location(
+            "eomc." + name, os.path.join(where, "__init__.py"), submodule_search_locations=[where])
+        module = importlib.util.module_from_spec(spec)
+        sys.modules["eomc." + name] = module
+        setattr(eomc, name, module)
+        spec.loader.exec_module(module)
 from eomc.compiler import driver
+assert len(sys.argv) == 3 or driver.__file__.startswith(sys.argv[3]), driver.__file__
 imports = time.process_time() - t0
 
 def cpu():
@@ -135,17 +146,30 @@ class _Children:
         return usage.ru_utime + usage.ru_stime, usage.ru_maxrss / 1024.0, out
 
 
-def bicycle_stages(repeat):
-    """Per-stage CPU of a cold `eomc` compile of the bicycle, one fresh process each."""
-    rows = []
+def bicycle_stages(repeat, baseline=None):
+    """Per-stage CPU of a cold `eomc` compile of the bicycle, one fresh process each:
+    {variant: medians}, the current checkout and (with ``baseline``, a directory holding
+    an older ``compiler/`` and ``templates/``) the older generator, interleaved."""
+    rows = {"current": [], "baseline": []} if baseline else {"current": []}
     for _ in range(repeat):
-        with tempfile.TemporaryDirectory(prefix="bsc_") as tmp:
-            env = dict(os.environ, EOMC_CACHE_DIR=os.path.join(tmp, "cache"))
-            cpu, rss, out = _Children.run([sys.executable, "-c", STAGE_RUNNER, str(BICYCLE),
-                                           os.path.join(tmp, "out")], env=env)
-            stages = [float(v) for v in out.split("STAGES", 1)[1].split()]
-            rows.append([cpu, rss] + stages)
-    return [statistics.median(col) for col in zip(*rows)]
+        for variant in rows:
+            with tempfile.TemporaryDirectory(prefix="bsc_") as tmp:
+                env = dict(os.environ, EOMC_CACHE_DIR=os.path.join(tmp, "cache"))
+                argv = [sys.executable, "-c", STAGE_RUNNER, str(BICYCLE), os.path.join(tmp, "out")]
+                if variant == "baseline":
+                    argv.append(str(baseline))
+                cpu, rss, out = _Children.run(argv, env=env)
+                stages = [float(v) for v in out.split("STAGES", 1)[1].split()]
+                rows[variant].append([cpu, rss] + stages)
+    return {k: [statistics.median(col) for col in zip(*v)] for k, v in rows.items()}
+
+
+def extract(commit, directory):
+    """``compiler/`` and ``templates/`` of ``commit`` into ``directory`` (git archive)."""
+    archive = subprocess.run(["git", "-C", str(ROOT), "archive", commit, "compiler", "templates"],
+                             capture_output=True, check=True).stdout
+    subprocess.run(["tar", "-x", "-C", str(directory)], input=archive, check=True)
+    return directory
 
 
 def generated(path, n, functions, formulation="kane"):
@@ -214,6 +238,8 @@ def main():
     ap.add_argument("--chunk", type=int, help="override split.CHUNK (to explore)")
     ap.add_argument("--split-min", type=int, help="override split.SPLIT_MIN (to explore)")
     ap.add_argument("--no-bicycle", action="store_true", help="skip the bicycle (stages and gcc)")
+    ap.add_argument("--baseline", help="git commit whose generator the bicycle stages are compared "
+                                       "with, in the same run (e.g. the commit before the speed-ups)")
     args = ap.parse_args()
     from eomc.compiler.emit import split
     split.CHUNK = args.chunk or split.CHUNK
@@ -222,16 +248,23 @@ def main():
              f"chunks of {split.CHUNK}", f"gcc flags: {' '.join(CFLAGS)} (eomc's defaults)"]
     text = [environment_header("Build scaling: generation and gcc (issue 8, items 4-5)", args, notes)]
 
-    stages = None if args.no_bicycle else bicycle_stages(args.stages)
-    cpu, rss, imports, derive, generate, compile_, load = stages or [float("nan")] * 7
-    text += ["## Whipple bicycle, every function, cold", "",
-             f"Median of {args.stages} fresh processes (fresh caches), CPU seconds "
-             "(process + children):", "",
-             format_table(["total CPU s", "peak RSS MB", "imports", "derive", "generate", "compile",
-                           "load", "rest (interpreter start, export)"],
-                          [[f"{cpu:.2f}", f"{rss:.0f}", f"{imports:.2f}", f"{derive:.2f}",
-                            f"{generate:.2f}", f"{compile_:.2f}", f"{load:.2f}",
-                            f"{cpu - imports - derive - generate - compile_ - load:.2f}"]]), ""]
+    stage_rows = []
+    if not args.no_bicycle:
+        with tempfile.TemporaryDirectory(prefix="bsc_base_") as base:
+            baseline = extract(args.baseline, Path(base)) if args.baseline else None
+            stages = bicycle_stages(args.stages, baseline)
+        for variant, (cpu, rss, imports, derive, generate, compile_, load) in stages.items():
+            label = "current" if variant == "current" else f"baseline {args.baseline}"
+            stage_rows.append([label, f"{cpu:.2f}", f"{rss:.0f}", f"{imports:.2f}", f"{derive:.2f}",
+                               f"{generate:.2f}", f"{compile_:.2f}", f"{load:.2f}",
+                               f"{cpu - imports - derive - generate - compile_ - load:.2f}"])
+        text += ["## Whipple bicycle, every function, cold", "",
+                 f"Median of {args.stages} fresh processes per variant (fresh caches, variants "
+                 "interleaved), CPU seconds (process + children). The baseline runs the older "
+                 "`eomc.compiler` and templates from `git archive` with today's runtime and facade.", "",
+                 format_table(["generator", "total CPU s", "peak RSS MB", "imports", "derive",
+                               "generate", "compile", "load", "rest (interpreter, export)"],
+                              stage_rows), ""]
 
     cases = [(f"cart abs Kane n={n} rhs", CART, n, ["rhs"], "kane") for n in args.n]
     cases += [(f"cart rel Kane n={n} rhs", CART_REL, n, ["rhs"], "kane") for n in args.rel]
