@@ -7,6 +7,7 @@ import re
 
 from ..ir import c_names
 from .printer import CPrinter
+from .split import split_body
 from .signatures import SIGNATURES
 
 __all__ = ["BodyContext", "plain_body", "solved_plain_body", "rhs_body", "jacobian_body", "tangent_jacobian_body",
@@ -24,6 +25,7 @@ class BodyContext:
         self.name, self.nq, self.nu, self.nw = name, nq, nu, nw
         self.solver, self.slot_names = solver, slot_names
         self.symmetric, self.pattern = symmetric, pattern
+        self.split = False      # some body was cut into sub-functions (emit.split)
 
     def printer(self, program):
         names = dict(self.slot_names)
@@ -111,13 +113,15 @@ def dynamics_helper(ctx, program):
     """``static void NAME_dynamics(t, x, p, r, F, w)``: A into F, b into w.  rhs,
     mass_matrix, forcing and inverse_dynamics call it, so its code is compiled once."""
     pr = ctx.printer(program)
-    lines = _temps(program, pr) + _store_dynamics(ctx, program, pr)
+    lines, parts = split_body(_temps(program, pr) + _store_dynamics(ctx, program, pr),
+                              f"{ctx.name}_dynamics_part")
+    ctx.split = ctx.split or bool(parts)
     text = "\n".join(lines)
     # only the arguments it reads, so callers of a model without inputs never touch r
     sig = [(c, a) for c, a in DYNAMICS_SIGNATURE if a in "Fw" or re.search(rf"\b{a}\b", text)]
     ctx.helper_args = [a for _, a in sig]
     args = ", ".join(f"{c}{a}" if c.endswith("*") else f"{c} {a}" for c, a in sig)
-    return f"static void {ctx.name}_dynamics({args})\n{{\n{text}\n}}\n"
+    return "".join(p + "\n" for p in parts) + f"static void {ctx.name}_dynamics({args})\n{{\n{text}\n}}\n"
 
 
 def _call_dynamics(ctx):

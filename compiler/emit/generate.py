@@ -14,6 +14,7 @@ from .generated import GeneratedModel
 from .layout import check_identifier, make_layout
 from .linsolve import choose_ldlt
 from .sparse_lu import sparse_lu_solver
+from .split import NOINLINE_MACRO, split_body
 from .signatures import FUNCTION_ORDER, STRUCT_FIELDS, cdef, prototype
 from .symbolic import FUNCTION_GROUPS, HELPER_USERS, build_symbolic
 
@@ -240,8 +241,11 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
     rendered, op_counts = [], {}
     for fn in fns:
         prog = low.programs[fn]
-        lines = _body(fn, ctx, prog, sym, layout, nx, fns, recursive)
-        rendered.append({"prototype": prototype(name, fn), "body": void_unused(fn, lines)})
+        lines, parts = split_body(_body(fn, ctx, prog, sym, layout, nx, fns, recursive),
+                                  f"{name}_{fn}_part")
+        ctx.split = ctx.split or bool(parts)
+        rendered.append({"prototype": prototype(name, fn), "body": void_unused(fn, lines),
+                         "parts": parts})
         op_counts[fn] = _ops(fn, prog, solver, nx, len(layout.r), sym.seeds, low.helper, nu,
                              sum(1 for i, j in sym.pattern if i < nu and j < nu), sym.solve_in,
                              recursive)
@@ -254,7 +258,7 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
         meta["events"] = [by_name.get(n, {"name": n, "terminal": 0, "direction": 0})
                           for n in sym.event_names]
     meta["formulation"] = low.formulation
-    return _render(name, meta, fns, rendered, solver, layout, sym, helper)
+    return _render(name, meta, fns, rendered, solver, layout, sym, helper, ctx.split)
 
 
 def _metadata(name, formed, layout, sym, fns, op_counts):
@@ -292,7 +296,7 @@ def _vector_docs(meta):
     ]
 
 
-def _render(name, meta, fns, rendered, solver, layout, sym, helper):
+def _render(name, meta, fns, rendered, solver, layout, sym, helper, split=False):
     tables, table_refs = _tables(name, layout, sym.output_names)
     pointers = [f"{name}_{f}" if f in fns else "NULL" for f in STRUCT_FIELDS]
     uses_solver = (any(f in fns for f in _SOLVING
@@ -306,6 +310,7 @@ def _render(name, meta, fns, rendered, solver, layout, sym, helper):
     source = env.get_template("model.c.j2").render(
         name=name, functions=rendered,
         helper_code="\n".join(c for c in ((solver.code if uses_solver else ""), helper) if c),
-        tables=tables, table_refs=table_refs, pointers=pointers, **common)
+        tables=tables, table_refs=table_refs, pointers=pointers,
+        noinline=NOINLINE_MACRO if split else "", **common)
     return GeneratedModel(name=name, c_source=source, header=header, cdef=cdef(name, fns),
                           metadata=meta)

@@ -12,6 +12,7 @@ Storage: ``F[0:n²]`` holds A as loaded by the caller (dense, row-major),
 ``F[n²:2n²]`` the factors, ``F[2n²:2n²+n]`` the inverse pivots;
 ``piv[0:n]`` the dense path's pivots and ``piv[n]`` the path taken (0 unrolled, 1 dense).
 """
+import math
 import random
 from collections import Counter
 
@@ -24,13 +25,53 @@ __all__ = ["static_row_order", "sparse_lu_solver"]
 THRESHOLD = 0.1
 
 
+_FLOAT_FUNCS = {sm.sin: math.sin, sm.cos: math.cos, sm.tan: math.tan, sm.exp: math.exp,
+                sm.log: math.log, sm.atan: math.atan, sm.asin: math.asin, sm.acos: math.acos,
+                sm.sinh: math.sinh, sm.cosh: math.cosh, sm.tanh: math.tanh, sm.Abs: abs}
+
+
+def _value(expr, vals, memo):
+    """float(expr) at ``vals`` in double arithmetic, each shared subtree once.
+
+    Substituting SymPy Floats and letting SymPy evaluate rebuilt every node of the
+    (unshared, often huge) entries symbolically: most of the bicycle's generation time
+    outside the passes.  Anything this does not know falls back to SymPy."""
+    hit = memo.get(id(expr))
+    if hit is not None:
+        return hit[1]
+    try:
+        if expr.is_Symbol:
+            v = float(vals[expr])
+        elif expr.is_Number or expr.is_NumberSymbol:
+            v = float(expr)
+        elif expr.is_Add:
+            v = math.fsum(_value(a, vals, memo) for a in expr.args)
+        elif expr.is_Mul:
+            v = 1.0
+            for a in expr.args:
+                v *= _value(a, vals, memo)
+        elif expr.is_Pow:
+            v = _value(expr.base, vals, memo) ** _value(expr.exp, vals, memo)
+        elif expr.func in _FLOAT_FUNCS and len(expr.args) == 1:
+            v = _FLOAT_FUNCS[expr.func](_value(expr.args[0], vals, memo))
+        else:
+            raise TypeError
+        if isinstance(v, complex):
+            raise TypeError
+    except (TypeError, ValueError, ZeroDivisionError, OverflowError, KeyError):
+        v = float(expr.xreplace({s: sm.Float(x) for s, x in vals.items()}))
+    memo[id(expr)] = (expr, v)
+    return v
+
+
 def static_row_order(A, pattern, seed=0):
     """Row order chosen by partial pivoting on A at a random point (compile time)."""
     n = A.shape[0]
     rng = random.Random(seed)
     syms = sorted(A.free_symbols, key=lambda s: s.name)
-    vals = {s: sm.Float(rng.uniform(0.3, 1.7)) for s in syms}
-    M = [[float(A[i, j].xreplace(vals)) if (i, j) in pattern else 0.0 for j in range(n)]
+    vals = {s: rng.uniform(0.3, 1.7) for s in syms}
+    memo = {}
+    M = [[_value(A[i, j], vals, memo) if (i, j) in pattern else 0.0 for j in range(n)]
          for i in range(n)]
     rows = list(range(n))
     for k in range(n):

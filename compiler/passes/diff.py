@@ -16,10 +16,20 @@ from .timing import compiler_pass
 __all__ = ["differentiate", "tangent"]
 
 
+def _zero(e):
+    """``e == 0`` as SymPy answers it, without the sympify that ``!=`` costs on every
+    call: only a Number can equal zero (whether Float(0.0) does depends on SymPy's
+    version, so the Number itself is asked)."""
+    return e is _ZERO or (e.is_Number and e == 0)
+
+
+_ZERO = sm.S.Zero
+
+
 def _add(terms):
     """Sum without SymPy's canonicalization (the terms are already small and distinct);
     ``_from_args`` skips even the argument checks of ``evaluate=False``."""
-    terms = [t for t in terms if t != 0]
+    terms = [t for t in terms if not _zero(t)]
     if not terms:
         return sm.S.Zero
     return terms[0] if len(terms) == 1 else sm.Add._from_args(tuple(terms), True)
@@ -33,9 +43,9 @@ def _mul(factors):
             num *= f
         else:
             rest.append(f)
-    if num == 0:
+    if _zero(num):
         return sm.S.Zero
-    if num != 1:
+    if num is not sm.S.One and num != 1:
         rest.insert(0, num)
     if not rest:
         return num
@@ -89,16 +99,16 @@ class _Diff:
             args = expr.args
             for i, a in enumerate(args):
                 da = self.d(a, k)
-                if da != 0:
+                if not _zero(da):
                     terms.append(_mul(args[:i] + (da,) + args[i + 1:]))
             res = _add(terms)
         elif expr.is_Pow and k not in self.deps_of(expr.exp):
             db = self.d(expr.base, k)
-            res = (_mul((expr.exp, _pow(expr.base, expr.exp - 1), db)) if db != 0
+            res = (_mul((expr.exp, _pow(expr.base, expr.exp - 1), db)) if not _zero(db)
                    else sm.S.Zero)
         elif isinstance(expr, sm.Function) and len(expr.args) == 1:
             da = self.d(expr.args[0], k)
-            res = _mul((expr.fdiff(1), da)) if da != 0 else sm.S.Zero
+            res = _mul((expr.fdiff(1), da)) if not _zero(da) else sm.S.Zero
         else:   # rare shapes: let SymPy do it on the symbols, then chain through temporaries
             res = sm.Add(*[expr.diff(s) * self.d(s, k) for s in expr.free_symbols])
         self.memo[key] = res
@@ -109,7 +119,7 @@ class _Diff:
         self.deps[target] = frozenset(deps)
         for k in sorted(deps):
             de = self.d(expr, k)
-            if de == 0:
+            if _zero(de):
                 continue
             if de.is_Atom:
                 self.deriv[(target, k)] = de
@@ -119,10 +129,27 @@ class _Diff:
                 self.deriv[(target, k)] = sym
 
 
+def _needed_by(program, source):
+    """Temporaries the results of group ``source`` read, directly or through each other."""
+    need = set()
+    for key, expr in program.results:
+        if key[0] == source:
+            need |= expr.free_symbols
+    for target, expr in reversed(program.assignments):
+        if target in need:
+            need |= expr.free_symbols
+    return need
+
+
 def _run(program, dd, source, key_of):
+    # only what the differentiated group reads: the other functions' temporaries (and the
+    # derivative temporaries of earlier passes) would get derivatives nothing uses
+    need = _needed_by(program, source)
     assignments = []
     for t, e in program.assignments:
         assignments.append((t, e))
+        if t not in need:
+            continue
         dd.memo.clear()
         dd.assign(t, e)
         assignments.extend(dd.out)
@@ -134,7 +161,7 @@ def _run(program, dd, source, key_of):
         dd.memo.clear()
         for k in sorted(dd.deps_of(expr)):
             de = dd.d(expr, k)
-            if de != 0:
+            if not _zero(de):
                 results.append((key_of(key, k), de))
         assignments.extend(dd.out)
         dd.out = []

@@ -1,6 +1,7 @@
 """Constant folding, parameter folding and copy propagation."""
 import sympy as sm
 
+from .replace import Replacer
 from .timing import compiler_pass
 
 __all__ = ["fold_constants", "fold_parameters"]
@@ -24,15 +25,18 @@ def fold_constants(program):
 
 
 def _propagate(program, env):
+    # env grows as targets fold, but only before any expression reads them (single
+    # assignment), so one memoized Replacer serves the whole program
+    replace = Replacer(env)
     assignments = []
     for target, expr in program.assignments:
         if env and not expr.is_Atom:
-            expr = expr.xreplace(env)
+            expr = replace(expr)
         elif expr in env:
             expr = env[expr]
         if expr.is_Number or expr.is_Symbol:
             env[target] = expr
         else:
             assignments.append((target, expr))
-    results = tuple((k, e.xreplace(env) if env else e) for k, e in program.results)
+    results = tuple((k, replace(e) if env else e) for k, e in program.results)
     return program.with_(assignments=tuple(assignments), results=results)

@@ -45,7 +45,7 @@ static void pendulum_dynamics(const double *x, const double *p, double *F, doubl
 {
     const double t0 = sin(x[0]);
     const double t1 = p[0]*(p[2]*p[2]);
-    const double t2 = t0*p[0]*p[1]*p[2];
+    const double t2 = p[0]*p[1]*p[2]*t0;
     F[0] = t1;
     w[0] = -t2;
 }
@@ -80,8 +80,8 @@ int pendulum_jac_x(double t, const double *x, const double *p, const double *r, 
     const double t0 = sin(x[0]);
     const double t1 = cos(x[0]);
     const double t2 = p[0]*(p[2]*p[2]);
-    const double t3 = t0*p[0]*p[1]*p[2];
-    const double t4 = t1*p[0]*p[1]*p[2];
+    const double t3 = p[0]*p[1]*p[2]*t0;
+    const double t4 = p[0]*p[1]*p[2]*t1;
     F[0] = t2;
     w[0] = -t3;
     status = pendulum_ldlt_factor(F);
