@@ -119,10 +119,27 @@ class _Diff:
                 self.deriv[(target, k)] = sym
 
 
+def _needed(program, source):
+    """Temporaries the ``source`` results read, directly or through each other: only these
+    get derivatives (the others' would be dead code, and can be most of a program)."""
+    defined = dict(program.assignments)
+    need = set()
+    stack = [s for key, e in program.results if key[0] == source for s in e.free_symbols]
+    while stack:
+        s = stack.pop()
+        if s in defined and s not in need:
+            need.add(s)
+            stack.extend(defined[s].free_symbols)
+    return need
+
+
 def _run(program, dd, source, key_of):
     assignments = []
+    need = _needed(program, source)
     for t, e in program.assignments:
         assignments.append((t, e))
+        if t not in need:
+            continue
         dd.memo.clear()
         dd.assign(t, e)
         assignments.extend(dd.out)
