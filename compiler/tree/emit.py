@@ -9,6 +9,7 @@ from collections import Counter
 import sympy as sm
 
 from ..emit.bodies import _IND, _store, _temps, needed_assignments, split_on
+from ..ir import Names
 from ..ir.opcount import count_ops
 
 __all__ = ["tree_rhs_body", "tree_matrix_body", "tree_jacobian_body", "tree_jacobian_ops"]
@@ -56,7 +57,8 @@ def tree_matrix_body(ctx, program, fn):
 def _jacobian_plan(program, W, G, seeds, fn, nq, nx, nr):
     """How a recursive jac_x / jac_r runs, for the C body and for the op count.
 
-    Returns (once, stores, loops): ``once`` the assignments run once (ABA, the
+    Returns (program, once, stores, loops): the program with the temporaries
+    :func:`_hoist` adds, ``once`` the assignments run once (ABA, the
     residual's values at the solved u', the unrolled derivatives), ``stores``
     [(lvalue, expr)] written once (w[] first: ``once`` reads it from its first
     assignment that depends on W on), ``loops`` [(first column, end column, column
@@ -102,7 +104,61 @@ def _jacobian_plan(program, W, G, seeds, fn, nq, nx, nr):
         inner = needed_assignments(rest, vals.values())
         loops.append((start, end, inner, [(f"G[{i}]", vals.get((g, i), sm.S.Zero)) for i in range(nu)],
                       solve, sol))
-    return once, stores, loops
+    return _hoist(program, once, stores, loops, set(seeds) | set(G))
+
+
+def _hoist(program, once, stores, loops, varying):
+    """Move what the columns compute but do not change out of the loops.
+
+    The tangent of a product keeps its other factors as they were, and those are
+    often sums of values fixed for the whole call (``dE·(v - r×ω)``); and products
+    of a constant and a fixed value multiply a seed.  Every largest such piece
+    becomes one temporary computed once (value-numbered), instead of once per column.
+    Returns (program with the new temporaries, once, stores, loops), as
+    :func:`_jacobian_plan`.
+    """
+    varying = set(varying) | {t for loop in loops for t, _ in loop[2] + loop[4]}
+    names = Names(program)
+    memo, hoisted = {}, []
+
+    def fixed(e):
+        return not (e.free_symbols & varying)
+
+    def name(e):
+        if e.is_Atom or (e.is_Mul and len(e.args) == 2 and e.args[0] == -1 and e.args[1].is_Atom):
+            return e
+        hit = memo.get(e)
+        if hit is None:
+            hit = memo[e] = names.fresh()
+            hoisted.append((hit, e))
+        return hit
+
+    def visit(e):
+        if e.is_Atom:
+            return e
+        if fixed(e):
+            return name(e)
+        if e.is_Add or e.is_Mul:
+            still = [a for a in e.args if fixed(a) and a != -1]
+            if len(still) >= 2:
+                rest = [visit(a) for a in e.args if not (fixed(a) and a != -1)]
+                return e.func(*(rest + [name(e.func(*still))]))
+        return e.func(*[visit(a) for a in e.args])
+
+    def rewrite(pairs):
+        return [(lv, visit(e)) for lv, e in pairs]
+
+    done = {}
+    new_loops = []
+    for start, end, inner, gstores, solve, sol in loops:
+        inner = [(t, done.setdefault(t, visit(e))) for t, e in inner]
+        solve = [(t, done.setdefault(t, visit(e))) for t, e in solve]
+        sol = {k: visit(e) for k, e in sol.items()}
+        new_loops.append((start, end, inner, rewrite(gstores), solve, sol))
+    once = list(once) + hoisted
+    loop_assignments = [(t, done[t]) for t, _ in program.assignments if t in done]
+    program = program.with_(assignments=tuple(once + loop_assignments), ntemp=names.count)
+    return program, once, stores, new_loops
 
 
 def tree_jacobian_body(ctx, program, W, G, seeds, fn, nr):
@@ -112,7 +168,7 @@ def tree_jacobian_body(ctx, program, W, G, seeds, fn, nr):
     nq, nu = ctx.nq, ctx.nu
     nx = nq + nu
     ncols = nx if fn == "jac_x" else nr
-    once, stores, loops = _jacobian_plan(program, W, G, seeds, fn, nq, nx, nr)
+    program, once, stores, loops = _jacobian_plan(program, W, G, seeds, fn, nq, nx, nr)
     before, after = split_on(program.with_(assignments=tuple(once)), W)
     pr = ctx.printer(program)
     unrolled = any(not inner for _, _, inner, _, _, _ in loops)
@@ -169,7 +225,7 @@ def tree_jacobian_body(ctx, program, W, G, seeds, fn, nr):
 def tree_jacobian_ops(program, W, G, seeds, fn, nq, nx, nr):
     """Operations of :func:`tree_jacobian_body`: the once-part, plus every column's part
     once per column."""
-    once, stores, loops = _jacobian_plan(program, W, G, seeds, fn, nq, nx, nr)
+    _, once, stores, loops = _jacobian_plan(program, W, G, seeds, fn, nq, nx, nr)
     c = Counter()
     for _, e in once + stores:
         count_ops(e, c)
