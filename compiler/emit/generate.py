@@ -62,6 +62,10 @@ def _body(fn, ctx, prog, sym, layout, nx, functions, recursive=False):
     if recursive and fn in ("mass_matrix", "forcing", "inverse_dynamics"):
         from ..tree.emit import tree_matrix_body
         return tree_matrix_body(ctx, prog, fn)
+    if recursive and fn in ("jac_x", "jac_r"):
+        from ..tree.derivatives import solve_symbols
+        from ..tree.emit import tree_jacobian_body
+        return tree_jacobian_body(ctx, prog, sym.W, solve_symbols(ctx.nu), sym.seeds, fn, nr)
     if fn == "rhs":
         return rhs_body(ctx, prog)
     if fn in ("mass_matrix", "forcing", "inverse_dynamics"):
@@ -112,12 +116,17 @@ def _tangent_ops(prog, seeds, blocks):
     return c
 
 
-def _ops(fn, prog, solver, nx, nr, seeds=(), helper=None, nu=0, nnz=0, solve_in=(), recursive=False):
+def _ops(fn, prog, solver, nx, nr, seeds=(), helper=None, nu=0, nnz=0, solve_in=(), recursive=False,
+         W=()):
     c = count_program(prog) if prog is not None else Counter()
     if fn == "linearize":
         return None
     if recursive and fn in ("rhs", "mass_matrix", "forcing", "inverse_dynamics") and fn not in solve_in:
         return {k: int(c.get(k, 0)) for k in ("adds", "muls", "divs", "calls")}
+    if recursive and fn in ("jac_x", "jac_r"):
+        from ..tree.derivatives import solve_symbols
+        from ..tree.emit import tree_jacobian_ops
+        return tree_jacobian_ops(prog, W, solve_symbols(nu), seeds, fn, nx - nu, nx, nr)
     if fn in HELPER_USERS or fn in solve_in:
         c += count_program(helper)
     if fn in solve_in:
@@ -248,7 +257,7 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
                          "parts": parts})
         op_counts[fn] = _ops(fn, prog, solver, nx, len(layout.r), sym.seeds, low.helper, nu,
                              sum(1 for i, j in sym.pattern if i < nu and j < nu), sym.solve_in,
-                             recursive)
+                             recursive, sym.W)
     if "linearize" in op_counts:
         op_counts["linearize"] = {k: sum(op_counts[f][k] for f in ("jac_x", "jac_r") if f in op_counts)
                                   for k in ("adds", "muls", "divs", "calls")}
@@ -299,8 +308,8 @@ def _vector_docs(meta):
 def _render(name, meta, fns, rendered, solver, layout, sym, helper, split=False):
     tables, table_refs = _tables(name, layout, sym.output_names)
     pointers = [f"{name}_{f}" if f in fns else "NULL" for f in STRUCT_FIELDS]
-    uses_solver = (any(f in fns for f in _SOLVING
-                       if not (f == "rhs" and meta.get("formulation") == "recursive"))
+    # the recursive formulation's rhs, jac_x and jac_r solve by ABA (no factorization)
+    uses_solver = ((meta.get("formulation") != "recursive" and any(f in fns for f in _SOLVING))
                    or bool(sym.solve_in))
     env = _environment()
     common = {k: meta[k] for k in ("nq", "nu", "nx", "nparam", "ninput", "noutput", "nhol",

@@ -169,8 +169,11 @@ def _root_acceleration(gravity):
     return [0, 0, 0] + [-g for g in gravity]
 
 
-def aba(bodies, rec, speeds, gravity, v, c):
-    """Articulated-body algorithm: [(u'_k expression, D_i, body)] per joint with a speed."""
+def aba(bodies, rec, speeds, gravity, v, c, keep=None):
+    """Articulated-body algorithm: [(u'_k expression, D_i, body)] per joint with a speed.
+
+    ``keep``: a dict that receives {body index: (U_i, 1/D_i)}, the articulated
+    quantities that M⁻¹ needs (see :mod:`.derivatives`)."""
     n = len(bodies)
     IA = [[row[:] for row in b.I] for b in bodies]
     pA = []
@@ -192,6 +195,8 @@ def aba(bodies, rec, speeds, gravity, v, c):
                 raise NotATree(f"body {b.name} (joint {b.joint}) has no inertia about its joint "
                                f"axis, even with everything beyond it: its acceleration is undefined")
             Dinv[i] = rec.let(1 / D[i])
+            if keep is not None:
+                keep[i] = (U[i], Dinv[i])
             uu[i] = rec.let(-_dot(b.S, pi))
             Ia = [[Ii[r][s] - U[i][r] * U[i][s] * Dinv[i] for s in range(6)] for r in range(6)]
             Ia = rec.sym6(Ia)

@@ -1,11 +1,18 @@
-"""C bodies of the recursive formulation's own functions (rhs, mass_matrix, forcing, inverse_dynamics).
+"""C bodies of the recursive formulation's own functions (rhs, jac_x, jac_r, mass_matrix,
+forcing, inverse_dynamics).
 
-The rest (jac_x, jac_r, linearize, outputs, constraints) is emitted by the
-Kane path's code from the same program (see :mod:`.lower`).
+The rest (linearize, outputs, constraints) is emitted by the Kane path's code
+from the same program (see :mod:`.lower`).
 """
-from ..emit.bodies import _IND, _store, _temps
+from collections import Counter
 
-__all__ = ["tree_rhs_body", "tree_matrix_body"]
+import sympy as sm
+
+from ..emit.bodies import _IND, _store, _temps, needed_assignments, split_on
+from ..ir import Names
+from ..ir.opcount import count_ops
+
+__all__ = ["tree_rhs_body", "tree_matrix_body", "tree_jacobian_body", "tree_jacobian_ops"]
 
 
 def tree_rhs_body(ctx, program):
@@ -45,3 +52,189 @@ def tree_matrix_body(ctx, program, fn):
         out, size = "tau", nu
     lines.append(f"{_IND}return {ctx.name}_finite({out}, {size});")
     return lines
+
+
+def _jacobian_plan(program, W, G, seeds, fn, nq, nx, nr):
+    """How a recursive jac_x / jac_r runs, for the C body and for the op count.
+
+    Returns (program, once, stores, loops): the program with the temporaries
+    :func:`_hoist` adds, ``once`` the assignments run once (ABA, the
+    residual's values at the solved u', the unrolled derivatives), ``stores``
+    [(lvalue, expr)] written once (w[] first: ``once`` reads it from its first
+    assignment that depends on W on), ``loops`` [(first column, end column, column
+    assignments, [(lvalue, expr)] of G, solve assignments, {row: (M⁻¹ G)_row})].
+    Columns run the residual's tangent (seed ``dx = e_k``) or read the unrolled
+    derivatives, then the articulated-body solve of G.
+    """
+    nu = len(G)
+    sol = {k[1]: e for k, e in program.results if k[0] == "sol"}
+    stores = [(f"w[{j}]", e) for k, e in program.results if k[0] == "ud" for j in (k[1],)]
+    if fn == "jac_x":
+        kin, ncols = program.result_exprs("dkin"), nx
+        stores += [(f"out[{i * ncols + k}]", kin.get(("dkin", i, k), sm.S.Zero))
+                   for i in range(nq) for k in range(ncols)]
+        tangents = [(g, start, end) for g, start, end in (("tq", 0, nq), ("tu", nq, nx))
+                    if any(k[0] == g for k, _ in program.results)]
+        unrolled = "dres" if not tangents else None
+    else:
+        kin, ncols = program.result_exprs("dkin_r"), nr
+        stores += [(f"out[{i * ncols + k}]", kin.get(("dkin_r", i, k), sm.S.Zero))
+                   for i in range(nq) for k in range(ncols)]
+        tangents, unrolled = [], "dres_r"
+    if unrolled:
+        vals = program.result_exprs(unrolled)
+        stores += [(f"Gm[{k * nu + i}]", vals.get((unrolled, i, k), sm.S.Zero))
+                   for k in range(ncols) for i in range(nu)]
+    columns = {g: program.result_exprs(g) for g, _, _ in tangents}
+    exprs = [e for _, e in stores] + list(sol.values()) + list(program.result_exprs("Dpiv").values())
+    exprs += [e for vals in columns.values() for e in vals.values()]
+    needed = needed_assignments(program.assignments, exprs)
+    if not any(e.free_symbols & set(W) for _, e in needed) and not any(
+            e.free_symbols & set(W) for _, e in stores):
+        stores = [(lv, e) for lv, e in stores if not lv.startswith("w[")]      # jac_r: no u'
+        needed = needed_assignments(program.assignments, [e for _, e in stores] + exprs[len(stores):])
+    prog = program.with_(assignments=tuple(needed))
+    once, rest = split_on(prog, tuple(seeds) + tuple(G))
+    solve = needed_assignments(rest, sol.values())
+    loops = []
+    if unrolled:
+        loops.append((0, ncols, [], [], solve, sol))
+    for g, start, end in tangents:
+        vals = columns[g]
+        inner = needed_assignments(rest, vals.values())
+        loops.append((start, end, inner, [(f"G[{i}]", vals.get((g, i), sm.S.Zero)) for i in range(nu)],
+                      solve, sol))
+    return _hoist(program, once, stores, loops, set(seeds) | set(G))
+
+
+def _hoist(program, once, stores, loops, varying):
+    """Move what the columns compute but do not change out of the loops.
+
+    The tangent of a product keeps its other factors as they were, and those are
+    often sums of values fixed for the whole call (``dE·(v - r×ω)``); and products
+    of a constant and a fixed value multiply a seed.  Every largest such piece
+    becomes one temporary computed once (value-numbered), instead of once per column.
+    Returns (program with the new temporaries, once, stores, loops), as
+    :func:`_jacobian_plan`.
+    """
+    varying = set(varying) | {t for loop in loops for t, _ in loop[2] + loop[4]}
+    names = Names(program)
+    memo, hoisted = {}, []
+
+    def fixed(e):
+        return not (e.free_symbols & varying)
+
+    def name(e):
+        if e.is_Atom or (e.is_Mul and len(e.args) == 2 and e.args[0] == -1 and e.args[1].is_Atom):
+            return e
+        hit = memo.get(e)
+        if hit is None:
+            hit = memo[e] = names.fresh()
+            hoisted.append((hit, e))
+        return hit
+
+    def visit(e):
+        if e.is_Atom:
+            return e
+        if fixed(e):
+            return name(e)
+        if e.is_Add or e.is_Mul:
+            still = [a for a in e.args if fixed(a) and a != -1]
+            if len(still) >= 2:
+                rest = [visit(a) for a in e.args if not (fixed(a) and a != -1)]
+                return e.func(*(rest + [name(e.func(*still))]))
+        return e.func(*[visit(a) for a in e.args])
+
+    def rewrite(pairs):
+        return [(lv, visit(e)) for lv, e in pairs]
+
+    done = {}
+    new_loops = []
+    for start, end, inner, gstores, solve, sol in loops:
+        inner = [(t, done.setdefault(t, visit(e))) for t, e in inner]
+        solve = [(t, done.setdefault(t, visit(e))) for t, e in solve]
+        sol = {k: visit(e) for k, e in sol.items()}
+        new_loops.append((start, end, inner, rewrite(gstores), solve, sol))
+    once = list(once) + hoisted
+    loop_assignments = [(t, done[t]) for t, _ in program.assignments if t in done]
+    program = program.with_(assignments=tuple(once + loop_assignments), ntemp=names.count)
+    return program, once, stores, new_loops
+
+
+def tree_jacobian_body(ctx, program, W, G, seeds, fn, nr):
+    """jac_x (d xdot/dx) or jac_r (d xdot/dr) of the recursive formulation: ABA's u' into w,
+    then per column the residual's derivative G and u'-columns M⁻¹ G by the articulated-body
+    recursion (no mass matrix, no factorization)."""
+    nq, nu = ctx.nq, ctx.nu
+    nx = nq + nu
+    ncols = nx if fn == "jac_x" else nr
+    program, once, stores, loops = _jacobian_plan(program, W, G, seeds, fn, nq, nx, nr)
+    before, after = split_on(program.with_(assignments=tuple(once)), W)
+    pr = ctx.printer(program)
+    unrolled = any(not inner for _, _, inner, _, _, _ in loops)
+    for j, g in enumerate(G):
+        pr._names[g] = f"G[{j}]"
+    # values the loops read live in an array, not in hundreds of loop-invariant locals
+    # (which make C compilers' register allocation slow on large models)
+    defined = {t for t, _ in once}
+    live = []
+    for _, _, inner, gstores, solve, sol in loops:
+        for e in [e for _, e in inner + solve] + [e for _, e in gstores] + list(sol.values()):
+            live += [s for s in e.free_symbols if s in defined and s not in live]
+    live.sort(key=lambda s: pr._names[s])
+    live.sort(key=lambda s: len(pr._names[s]))
+    for j, s in enumerate(live):
+        pr._names[s] = f"P[{j}]"
+    decls = [f"double w[{nu}];"] if any(lv.startswith("w[") for lv, _ in stores) else []
+    decls += ([f"double Gm[{ncols * nu}];", "const double *G;"] if unrolled else [f"double G[{nu}];"])
+    if any(inner for _, _, inner, _, _, _ in loops):
+        decls += [f"double dx[{nx}];", "int i;"]
+    decls.append("int k;")
+    decls += [f"double P[{len(live)}];"] if live else []
+    lines = [f"{_IND}{d}" for d in decls]
+    lines += _temps(program, pr, before)
+    pivots = [pr.doprint(e) for k, e in program.results if k[0] == "Dpiv"]
+    if pivots:
+        cond = " || ".join(f"!({d} > 0.0)" for d in pivots)
+        lines.append(f"{_IND}if ({cond}) return EOMC_SINGULAR_MASS_MATRIX;")
+    lines += [_store(lv, e, pr) for lv, e in stores if lv.startswith("w[")]
+    lines += _temps(program, pr, after)
+    lines += [_store(lv, e, pr) for lv, e in stores if not lv.startswith("w[")]
+    if any(inner for _, _, inner, _, _, _ in loops):
+        lines.append(f"{_IND}for (i = 0; i < {nx}; i++) dx[i] = 0.0;")
+    for start, end, inner, gstores, solve, sol in loops:
+        body = _temps(program, pr, inner) + [_store(lv, e, pr) for lv, e in gstores]
+        if not inner:
+            body.append(f"{_IND}G = Gm + k * {nu};")
+        body += _temps(program, pr, solve)
+        body += [_store(f"out[{(nq + i) * ncols} + k]", sol.get(i, sm.S.Zero), pr) for i in range(nu)]
+        lines.append(f"{_IND}for (k = {start}; k < {end}; k++) {{")
+        if inner:
+            lines += [f"{_IND * 2}dx[k] = 1.0;", f"{_IND * 2}{{"]
+        else:
+            lines.append(f"{_IND * 2}{{")
+        lines += [_IND * 2 + line for line in body]
+        lines.append(f"{_IND * 2}}}")
+        if inner:
+            lines.append(f"{_IND * 2}dx[k] = 0.0;")
+        lines.append(f"{_IND}}}")
+    lines.append(f"{_IND}return {ctx.name}_finite(out, {nx * ncols});")
+    return lines
+
+
+def tree_jacobian_ops(program, W, G, seeds, fn, nq, nx, nr):
+    """Operations of :func:`tree_jacobian_body`: the once-part, plus every column's part
+    once per column."""
+    _, once, stores, loops = _jacobian_plan(program, W, G, seeds, fn, nq, nx, nr)
+    c = Counter()
+    for _, e in once + stores:
+        count_ops(e, c)
+    for start, end, inner, gstores, solve, sol in loops:
+        per = Counter()
+        for _, e in inner + gstores + solve:
+            count_ops(e, per)
+        for e in sol.values():
+            count_ops(e, per)
+        for _ in range(end - start):
+            c += per
+    return {k: int(c.get(k, 0)) for k in ("adds", "muls", "divs", "calls")}

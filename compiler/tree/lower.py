@@ -5,28 +5,35 @@ The program's result groups, all computed from one value-numbered trace:
     kin        q' (the kinematics, as Kane's path writes them)
     ud, Dpiv   u' by ABA, and the articulated inertias D_i it divides by (rhs)
     tau        M·u' - f by RNEA at given u' (inverse_dynamics)
-    A, b       M by CRBA and f = -RNEA(u' = 0): the same A·u' = b the Kane path solves,
-               so jac_x and jac_r are the Kane path's code, differentiated through
-               the recursion (forward mode on the program) instead of through Kane's
-               expressions; mass_matrix and forcing read A and b.
+    A, b       M by CRBA and f = -RNEA(u' = 0) (mass_matrix, forcing, and outputs that
+               read u', which the Kane path's code solves A·u' = b for)
+    sol        M⁻¹·g by the articulated-body recursion, g the symbols ``g_j``
+    tq, tu     jac_x: the tangent, along one coordinate / one speed (seed ``sx``), of
+               res = -RNEA(u' = W) with W the solved u' (``w_j``); the C code runs it and
+               ``sol`` once per column (see :mod:`.derivatives`).  ``dres``: the same
+               unrolled over the columns, for a few states
+    dres_r     jac_r: d res / d inputs
 
 Coordinates and speeds are the Kane path's (same layout), so states are
 interchangeable and every function agrees with the Kane formulation.
 """
+from dataclasses import replace
+
 import sympy as sm
 
 from eomc.runtime.errors import ModelError
 
-from ..emit.symbolic import build_symbolic
+from ..emit.symbolic import TANGENT_MIN_STATES, build_symbolic
 from .algorithms import LoweredBody, Recorder, aba, crba, rnea, velocities
+from .derivatives import articulated_solve, solve_symbols
 from .model import NotATree
 
 __all__ = ["TREE_FUNCTION_GROUPS", "TREE_HELPER_USERS", "build_tree_symbolic"]
 
 TREE_FUNCTION_GROUPS = {
     "rhs": ("kin", "ud", "Dpiv"),
-    "jac_x": ("A", "b", "dkin", "G", "Gtq", "Gtu"),
-    "jac_r": ("dkin_r", "Gr"),            # + the dynamics helper (A, b)
+    "jac_x": ("ud", "Dpiv", "dkin", "tq", "tu", "dres", "sol"),
+    "jac_r": ("ud", "Dpiv", "dkin_r", "dres_r", "sol"),
     "mass_matrix": ("A",),
     "forcing": ("b",),
     "inverse_dynamics": ("tau",),
@@ -35,7 +42,7 @@ TREE_FUNCTION_GROUPS = {
     "constraints_jac": ("dcon",),
     "linearize": (),
 }
-TREE_HELPER_USERS = ("jac_r",)
+TREE_HELPER_USERS = ()
 
 
 def _rename(layout, memo, what, absent):
@@ -107,16 +114,26 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         nq, nu = len(tree.coordinates), len(tree.speeds)
         speeds = layout.x[nq:nq + nu]
         v, c = velocities(bodies, rec, speeds)
-        extra = []
-        if "rhs" in functions:
-            for k, udd, D in aba(bodies, rec, speeds, gravity, v, c):
+        extra, keep = [], {}
+        jac = set(functions) & {"jac_x", "jac_r"}
+        if "rhs" in functions or jac:
+            for k, udd, D in aba(bodies, rec, speeds, gravity, v, c, keep=keep):
                 extra.append((("ud", k), udd))
                 extra.append((("Dpiv", k), D))
         UD = tuple(sm.Symbol(f"ud_{j}", real=True) for j in range(nu))
+        jacobian = []
+        if jac:
+            W = tuple(sm.Symbol(f"w_{j}", real=True) for j in range(nu))
+            tau_w = rnea(bodies, rec, W, gravity, v, c)
+            sol = articulated_solve(bodies, rec, keep, solve_symbols(nu))
+            jacobian = ([(("tres", k), -tau_w[k]) for k in range(nu)]
+                        + [(("sol", k), sol[k]) for k in range(nu)])
         if "inverse_dynamics" in functions:
             tau = rnea(bodies, rec, UD, gravity, v, c)
             extra += [(("tau", k), tau[k]) for k in range(nu)]
-        if set(functions) & _NEED_AB:
+        # outputs and events that read u' solve A·u' = b (the Kane path's code)
+        if set(functions) & _NEED_AB or ("outputs" in functions and outputs) or (
+                "events" in functions and events):
             H = crba(bodies, rec)
             f0 = rnea(bodies, rec, [0] * nu, gravity, v, c)
             A = sm.Matrix(nu, nu, lambda i, j: H.get((i, j), 0))
@@ -125,12 +142,31 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
             A, b = _structure(tree), [0] * nu
     except NotATree as exc:
         raise ModelError(f"recursive formulation: {exc}") from None
-    return build_symbolic(formed, layout, functions, outputs, events, dynamics=(A, b),
-                          prelude=(rec.assignments, rec.count, sorted(extra, key=_order)),
-                          function_groups=TREE_FUNCTION_GROUPS, helper_users=TREE_HELPER_USERS)
+    sym = build_symbolic(formed, layout, functions, outputs, events, dynamics=(A, b),
+                         prelude=(rec.assignments, rec.count, sorted(extra, key=_order)),
+                         function_groups=TREE_FUNCTION_GROUPS, helper_users=TREE_HELPER_USERS)
+    if not jacobian:
+        return sym
+    return _with_jacobians(sym, layout, functions, nq, jacobian)
 
 
-_NEED_AB = {"jac_x", "jac_r", "mass_matrix", "forcing", "linearize"}
+def _with_jacobians(sym, layout, functions, nq, jacobian):
+    """Add the residual and the M⁻¹ solve to the program, and ask for their derivatives."""
+    derivatives = []
+    if "jac_x" in functions:
+        if len(layout.x) > TANGENT_MIN_STATES:
+            derivatives += [("tres", dict(zip(layout.x[:nq], sym.seeds[:nq])), "tq"),
+                            ("tres", dict(zip(layout.x[nq:], sym.seeds[nq:])), "tu")]
+        else:
+            derivatives.append(("tres", layout.x, "dres"))
+    if "jac_r" in functions:
+        derivatives.append(("tres", layout.r, "dres_r"))
+    program = sym.program.with_(inputs=sym.program.inputs + solve_symbols(len(sym.UD)),
+                                results=sym.program.results + tuple(jacobian))
+    return replace(sym, program=program, derivatives=sym.derivatives + tuple(derivatives))
+
+
+_NEED_AB = {"mass_matrix", "forcing"}
 
 
 def _structure(tree):

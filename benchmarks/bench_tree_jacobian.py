@@ -1,0 +1,350 @@
+"""Issue 8: jac_x of the recursive formulation on the relative-coordinate n-link cart.
+
+For each n:
+  * cold builds (fresh cache, derive + generate + gcc, rhs + jac_x, literal parameters)
+    in a child process, CPU seconds of the child (user + sys, gcc included), wall beside:
+      new:  this checkout, --formulation recursive (tangent of RNEA at the solved u',
+            M⁻¹ by the articulated-body recursion; compiler/tree/derivatives.py)
+      old:  the same command run on the checkout before that work (--old COMMIT,
+            through a shadow copy of its packages): differentiates CRBA's M and RNEA's
+            b column by column and solves with an LDLᵀ (up to --old-max links)
+      kane: benchmarks/tree_models/cart_rel_kane.py, --formulation kane (up to --kane-max)
+  * one C harness per n, pinned to core 1, thread CPU time, contestants interleaved
+    (order rotated every round), median of rounds, ns per call of d xdot/dx (nx x nx):
+      new jac_x; kane jac_x (when built); Pinocchio's computeABADerivatives compiled
+      header-only from the pin/cmeel wheels (benchmarks/tree_models/pin_aba_derivatives.cpp,
+      g++ -O2 -std=c++17); central differences of the new rhs (2·nx rhs calls, h = 1e-6·max(1,|x|)).
+    The harness first checks every contestant against the new jac_x at 16 states
+    (largest difference over the largest entry).
+  * Radau at n = --radau-n (default 40): x0 with the first link at 0.5 rad, 2 s, rtol 1e-6,
+    atol 1e-9; eomc's C Radau (analytic jac_x), scipy's solve_ivp Radau on the compiled
+    rhs with the compiled jac_x and with scipy's own finite-difference Jacobian (jac=None).
+    Error: max over the state at t = 2 s against eomc DOP853 at rtol = atol = 1e-12.
+    Thread CPU seconds of each run (one run each; pinned).
+Usage: python benchmarks/bench_tree_jacobian.py [n ...] [--kane-max N] [--old-max N]
+       [--old COMMIT] [--radau-n N] [--write]     (--write: results/tree_jacobian.md)
+"""
+import json
+import os
+import resource
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+MODELS = HERE / "tree_models"
+ROOT = HERE.parent
+EOMC = [sys.executable, "-m", "eomc"]
+OLD_COMMIT = "2f1cd74"      # main before the O(n^2) jac_x
+
+HARNESS = r"""
+#define _POSIX_C_SOURCE 199309L
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+@INCLUDES@
+#define NX @NX@
+#define NQ @NQ@
+#ifdef WITH_PIN
+void pin_setup(int nl, double m0, double m, double l, double g);
+void pin_jac(const double *q, const double *v, const double *tau, double *out);
+static double pin_tau[NQ];
+static void p_jac(const double *x, const double *r, double *out) {
+    pin_tau[0] = r[0];
+    pin_jac(x, x + NQ, pin_tau, out);
+}
+#endif
+static void fd_jac(const double *x, const double *r, double *out) {
+    double xp[NX], fp[NX], fm[NX];
+    int i, j;
+    memcpy(xp, x, sizeof xp);
+    for (j = 0; j < NX; j++) {
+        double h = 1e-6 * (fabs(x[j]) > 1.0 ? fabs(x[j]) : 1.0);
+        xp[j] = x[j] + h; @RHS@(0.0, xp, NULL, r, fp, NULL);
+        xp[j] = x[j] - h; @RHS@(0.0, xp, NULL, r, fm, NULL);
+        xp[j] = x[j];
+        for (i = 0; i < NX; i++) out[i * NX + j] = (fp[i] - fm[i]) / (2.0 * h);
+    }
+}
+static double tnow(void) { struct timespec ts; clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+    return ts.tv_sec * 1e9 + ts.tv_nsec; }
+static unsigned long long s = 0x9E3779B97F4A7C15ULL;
+static double rnd(void) { unsigned long long z = (s += 0x9E3779B97F4A7C15ULL);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL; z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+    z ^= z >> 31; return (z >> 11) * (1.0 / 9007199254740992.0); }
+#define NS 64
+static double X[NS][NX], out[NX * NX], ref[NX * NX];
+int main(void) {
+    const int nc = @NC@;
+    double r[1] = {1.3}, worst[8] = {0.0}, sum = 0.0;
+    int i, k, c, round;
+#ifdef WITH_PIN
+    pin_setup(NQ - 1, 2.0, 0.5, 0.75, 9.81);
+#endif
+    for (i = 0; i < NS; i++) for (k = 0; k < NX; k++)
+        X[i][k] = k < NQ ? (k == 0 ? 2 * rnd() - 1 : 3.14159265358979 * (2 * rnd() - 1)) : 2 * rnd() - 1;
+    for (i = 0; i < 16; i++) {
+        double big = 1.0, d;
+        @FIRST@(0.0, X[i], NULL, r, ref, NULL);
+        for (k = 0; k < NX * NX; k++) if (fabs(ref[k]) > big) big = fabs(ref[k]);
+        for (c = 1; c < nc; c++) {
+            @CALLC@
+            for (k = 0; k < NX * NX; k++) { d = fabs(out[k] - ref[k]) / big; if (d > worst[c]) worst[c] = d; }
+        }
+    }
+    for (c = 1; c < nc; c++) printf("agree %d %.3g\n", c, worst[c]);
+    for (round = 0; round < @ROUNDS@; round++) {
+        for (c = 0; c < nc; c++) {
+            int cc = (c + round) % nc; long calls = 0; double t0 = tnow(), t1;
+            do { for (i = 0; i < NS; i++) { @CALL@ sum += out[NQ * NX]; } calls += NS; t1 = tnow(); }
+            while (t1 - t0 < 5e7);
+            printf("time %d %.1f\n", cc, (t1 - t0) / calls);
+        }
+    }
+    printf("checksum %g\n", sum);
+    return 0;
+}
+"""
+
+
+def old_package(commit, tmp):
+    """A directory to put first on PYTHONPATH so ``python -m eomc`` runs ``commit``'s compiler
+    and facade (the runtime, unchanged by the jac_x work and holding built extensions, is this
+    checkout's)."""
+    src = tmp / f"old_{commit}"
+    src.mkdir()
+    archive = subprocess.run(["git", "-C", str(ROOT), "archive", commit], capture_output=True, check=True)
+    subprocess.run(["tar", "-x", "-C", str(src)], input=archive.stdout, check=True)
+    pkg = tmp / f"oldpkg_{commit}"
+    shutil.copytree(src / "facade", pkg / "eomc")
+    for sub, where in (("compiler", src), ("templates", src), ("runtime", ROOT)):
+        (pkg / "eomc" / sub).symlink_to(where / sub)
+    return pkg
+
+
+def cold_build(model, n, formulation, outdir, pythonpath=None):
+    env = dict(os.environ, EOMC_N_LINKS=str(n), EOMC_CACHE_DIR=tempfile.mkdtemp(prefix="eomc_tj_"))
+    if pythonpath:
+        env["PYTHONPATH"] = str(pythonpath)
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    proc = subprocess.run(EOMC + ["build", str(model), "-o", str(outdir), "--fold-parameters",
+                                  "--outputs", "rhs,jac_x", "--formulation", formulation, "-q"],
+                          env=env, capture_output=True, text=True)
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if proc.returncode:
+        raise RuntimeError(proc.stderr)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    meta = json.loads(next(p for p in outdir.glob("*.json") if not p.name.startswith(".")).read_text())
+    ops = {f: sum(meta["op_counts"][f].values()) for f in ("rhs", "jac_x")}
+    return {"cpu": cpu, "wall": wall, "ops": ops["jac_x"], "rhs_ops": ops["rhs"], "meta": meta,
+            "dir": outdir}
+
+
+_PIN = []
+
+
+def pinocchio_object(tmp):
+    """pin_aba_derivatives.o compiled once from the wheels' headers, or None."""
+    if not _PIN:
+        try:
+            import pinocchio  # noqa: F401
+            import cmeel
+            inc = Path(cmeel.__file__).resolve().parents[1] / "cmeel.prefix" / "include"
+        except ImportError:
+            _PIN.append(None)
+            return None
+        obj = tmp / "pin_jac.o"
+        defs = ["-DBOOST_MPL_LIMIT_LIST_SIZE=30", "-DBOOST_MPL_LIMIT_VECTOR_SIZE=30",
+                "-DBOOST_MPL_CFG_NO_PREPROCESSED_HEADERS", "-DBOOST_FUSION_INVOKE_MAX_ARITY=12"]
+        proc = subprocess.run(["g++", "-O2", "-std=c++17", *defs, "-DNDEBUG", "-c",
+                               str(MODELS / "pin_aba_derivatives.cpp"), "-o", str(obj),
+                               f"-I{MODELS}", f"-I{inc}", f"-I{inc / 'eigen3'}"],
+                              capture_output=True, text=True)
+        _PIN.append(obj if proc.returncode == 0 else None)
+        if proc.returncode:
+            print("Pinocchio harness did not compile:", proc.stderr[-500:])
+    return _PIN[0]
+
+
+def timing(new, kane, n, tmp, rounds=7):
+    """{label: median ns}, {label: agreement with new}."""
+    builds = [("new", new)] + ([("kane", kane)] if kane else [])
+    incs = "\n".join(f'#include "{b["dir"]}/{b["meta"]["name"]}.c"' for _, b in builds)
+    calls = [(label, f'{b["meta"]["name"]}_jac_x(0.0, X[i], NULL, r, out, NULL);') for label, b in builds]
+    pin = pinocchio_object(tmp)
+    if pin:
+        calls.append(("pinocchio", "p_jac(X[i], r, out);"))
+    calls.append(("central differences", "fd_jac(X[i], r, out);"))
+    case = lambda var: ("switch (" + var + ") {" + " ".join(f"case {k}: {c} break;" for k, (_, c)
+                                                           in enumerate(calls)) + "}")
+    src = (HARNESS.replace("@INCLUDES@", incs).replace("@NX@", str(2 * (n + 1)))
+           .replace("@NQ@", str(n + 1)).replace("@NC@", str(len(calls)))
+           .replace("@FIRST@", f'{new["meta"]["name"]}_jac_x').replace("@RHS@", f'{new["meta"]["name"]}_rhs')
+           .replace("@CALLC@", case("c")).replace("@CALL@", case("cc")).replace("@ROUNDS@", str(rounds)))
+    c = tmp / f"hj{n}.c"
+    c.write_text(src)
+    exe, obj = tmp / f"hj{n}", tmp / f"hj{n}.o"
+    inc = [f"-I{b['dir']}" for _, b in builds] + [f"-I{ROOT / 'runtime' / 'c'}"]
+    subprocess.run(["gcc", "-O2", "-std=c99", *inc, *(["-DWITH_PIN"] if pin else []), "-c", str(c),
+                    "-o", str(obj)], check=True)
+    subprocess.run(["g++" if pin else "gcc", str(obj), *([str(pin)] if pin else []), "-o", str(exe),
+                    "-lm"], check=True)
+    out = subprocess.run(["taskset", "-c", "1", str(exe)], capture_output=True, text=True,
+                         check=True).stdout
+    labels = [label for label, _ in calls]
+    agree = {labels[int(line.split()[1])]: float(line.split()[2]) for line in out.splitlines()
+             if line.startswith("agree ")}
+    times = {}
+    for line in out.splitlines():
+        if line.startswith("time"):
+            _, k, v = line.split()
+            times.setdefault(labels[int(k)], []).append(float(v))
+    return {k: sorted(v)[len(v) // 2] for k, v in times.items()}, agree
+
+
+def radau(new, n):
+    """Rows (label, steps, jac evaluations, rhs evaluations, error, thread CPU s)."""
+    import eomc
+    from scipy.integrate import solve_ivp
+    os.sched_setaffinity(0, {1})
+    model = eomc.load(new["dir"])
+    x0 = np.zeros(model.nx)
+    x0[1] = 0.5
+    T = 2.0
+    ref = model.simulate(x0, (0.0, T), method="dop853", rtol=1e-12, atol=1e-12, n_points=2)
+    xref = np.asarray(ref.x)[-1]
+    rows = []
+    t0 = time.thread_time()
+    res = model.simulate(x0, (0.0, T), method="radau", rtol=1e-6, atol=1e-9, n_points=2)
+    cpu = time.thread_time() - t0
+    st = res.stats
+    rows.append(("eomc simulate, C Radau, compiled jac_x", st["steps"], st["njev"], st["nfev"],
+                 float(np.max(np.abs(np.asarray(res.x)[-1] - xref))), cpu))
+    r = np.zeros(model.ninput)
+    fun = lambda t, x: model.rhs(t, x, r=r)
+    for label, jac in (("scipy solve_ivp Radau, compiled jac_x", lambda t, x: model.jacobian(t, x, r=r)),
+                       ("scipy solve_ivp Radau, finite-difference Jacobian (jac=None)", None)):
+        t0 = time.thread_time()
+        sol = solve_ivp(fun, (0.0, T), x0, method="Radau", rtol=1e-6, atol=1e-9, jac=jac)
+        cpu = time.thread_time() - t0
+        assert sol.success, sol.message
+        rows.append((label, sol.t.size - 1, sol.njev, sol.nfev,
+                     float(np.max(np.abs(sol.y[:, -1] - xref))), cpu))
+    return rows
+
+
+def _opt(argv, flag, default, conv=int):
+    if flag in argv:
+        i = argv.index(flag)
+        value = conv(argv[i + 1])
+        del argv[i:i + 2]
+        return value
+    return default
+
+
+def main(argv):
+    argv = list(argv)
+    write = "--write" in argv
+    argv = [a for a in argv if a != "--write"]
+    kane_max = _opt(argv, "--kane-max", 8)
+    old_max = _opt(argv, "--old-max", 20)
+    old_commit = _opt(argv, "--old", OLD_COMMIT, str)
+    radau_n = _opt(argv, "--radau-n", 40)
+    start_load = " ".join(f"{v:.2f}" for v in os.getloadavg())
+    ns = [int(a) for a in argv] or [4, 8, 12, 20, 40]
+    tmp = Path(tempfile.mkdtemp(prefix="bench_tree_jac_"))
+    oldpkg = old_package(old_commit, tmp) if old_max > 0 else None
+    rows, radau_rows = [], None
+    for n in ns:
+        cells = {}
+        cells["new"] = cold_build(MODELS / "cart_rel_joints.py", n, "recursive", tmp / f"new{n}")
+        if oldpkg and n <= old_max:
+            cells["old"] = cold_build(MODELS / "cart_rel_joints.py", n, "recursive", tmp / f"old{n}",
+                                      pythonpath=oldpkg)
+        if n <= kane_max:
+            cells["kane"] = cold_build(MODELS / "cart_rel_kane.py", n, "kane", tmp / f"kane{n}")
+        for k, v in cells.items():
+            print(f"n={n} {k}: build {v['cpu']:.2f} s CPU ({v['wall']:.2f} s wall), jac_x ops {v['ops']}, "
+                  f"rhs ops {v['rhs_ops']}", flush=True)
+        med, agree = timing(cells["new"], cells.get("kane"), n, tmp)
+        print(f"n={n}: " + ", ".join(f"{k} {v:.0f} ns" for k, v in med.items()) + f"; agree {agree}",
+              flush=True)
+        rows.append((n, cells, med, agree))
+        if n == radau_n:
+            radau_rows = radau(cells["new"], n)
+            for row in radau_rows:
+                print(row, flush=True)
+    text = tables(rows, radau_rows, radau_n)
+    print(text)
+    if write:
+        write_up(text, start_load, old_commit)
+
+
+def _f(x, fmt="{:.0f}"):
+    return "-" if x is None else fmt.format(x)
+
+
+def tables(rows, radau_rows, radau_n):
+    head = ("| n | nx | new jac_x ops | old jac_x ops | kane jac_x ops | rhs ops | new/(nx·rhs) | "
+            "build CPU s (wall): new | old | kane |")
+    lines = ["Operation counts (adds + muls + divs + calls; the looped columns counted once per "
+             "column) and cold builds of rhs + jac_x:", "", head, "|" + "--:|" * (head.count("|") - 1)]
+    for n, cells, _, _ in rows:
+        nx = 2 * (n + 1)
+        new = cells["new"]
+        b = lambda k: (f"{cells[k]['cpu']:.1f} ({cells[k]['wall']:.1f})" if k in cells else "-")
+        lines.append(f"| {n} | {nx} | {new['ops']} | {_f(cells.get('old', {}).get('ops'))} | "
+                     f"{_f(cells.get('kane', {}).get('ops'))} | {new['rhs_ops']} | "
+                     f"{new['ops'] / (nx * new['rhs_ops']):.2f} | {b('new')} | {b('old')} | {b('kane')} |")
+    head = ("| n | new jac_x ns | kane jac_x ns | Pinocchio computeABADerivatives ns | "
+            "central differences ns | Pinocchio/new | differences/new | kane/new | "
+            "max diff vs new: kane / Pinocchio / differences |")
+    lines += ["", "d xdot/dx per call (thread CPU ns, median of 7 interleaved rounds, pinned to core 1):",
+              "", head, "|" + "--:|" * (head.count("|") - 1)]
+    for n, cells, med, agree in rows:
+        nw = med["new"]
+        ratio = lambda k: f"{med[k] / nw:.2f}" if k in med else "-"
+        lines.append(f"| {n} | {nw:.0f} | {_f(med.get('kane'))} | {_f(med.get('pinocchio'))} | "
+                     f"{_f(med.get('central differences'))} | {ratio('pinocchio')} | "
+                     f"{ratio('central differences')} | {ratio('kane')} | "
+                     + " / ".join(_f(agree.get(k), "{:.1e}") for k in ("kane", "pinocchio",
+                                                                      "central differences")) + " |")
+    if radau_rows:
+        lines += ["", f"Radau at n = {radau_n} ({2 * (radau_n + 1)} states), 2 s, rtol 1e-6, atol 1e-9; "
+                  "error = max |x(2) - x_ref(2)| against DOP853 at 1e-12:", "",
+                  "| integrator and Jacobian | steps | Jacobian evaluations | rhs evaluations | error | "
+                  "thread CPU s |", "|:--|--:|--:|--:|--:|--:|"]
+        for label, steps, njev, nfev, err, cpu in radau_rows:
+            lines.append(f"| {label} | {steps} | {njev} | {nfev} | {err:.1e} | {cpu:.3f} |")
+    return "\n".join(lines)
+
+
+def write_up(text, start_load, old_commit):
+    sys.path.insert(0, str(HERE))
+    from common import environment_header, write_results
+    versions = []
+    for mod in ("pinocchio", "scipy"):
+        try:
+            versions.append(f"{mod} {__import__(mod).__version__}")
+        except ImportError:
+            versions.append(f"{mod} not installed")
+    notes = [f"load average at start: {start_load}; the machine was heavily loaded (several agents "
+             f"building and testing on 2 cores): call times are thread CPU time, builds are CPU "
+             f"seconds of the build process and its gcc, with wall beside them",
+             "peers: " + ", ".join(versions) + "; old = eomc at " + old_commit]
+    header = environment_header("Joint trees: jac_x of the recursive formulation, relative-coordinate "
+                                "n-link cart", notes=notes)
+    print(write_results("tree_jacobian", header + "\n" + (__doc__ or "") + "\n" + text + "\n"))
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
