@@ -82,6 +82,12 @@ class _Slots:
         self.size += 1
         return self.size - 1
 
+    def fresh(self):
+        """A slot no earlier run has used: for a value stored where it is defined, which
+        can be before an earlier run's chunks, while that run still uses its freed slots."""
+        self.size += 1
+        return self.size - 1
+
     def give(self, slot):
         self.free.append(slot)
 
@@ -102,7 +108,7 @@ def _split_run(lines, start, end, base, scratch, slots):
                 elif where[name] != c:
                     last[name] = c
     after = {n for line in lines[end:] for n in _TEMP.findall(line) if n in where}
-    slot_of = {name: slots.take() for name in outside}   # held until the function ends
+    slot_of = {name: slots.fresh() for name in outside}  # held until the function ends
 
     def scratch_ref(m):
         name = m.group(0)
