@@ -7,6 +7,9 @@ to split them into many pieces.
 """
 import re
 
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
 import numpy as np
 import pytest
 from sympy.physics import mechanics as me
@@ -164,3 +167,77 @@ def test_split_c_is_byte_identical_across_hash_seeds():
     outs = [subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, check=True,
                            env=dict(os.environ, PYTHONHASHSEED=seed)).stdout for seed in ("1", "999")]
     assert outs[0] == outs[1] and outs[0].count("EOMC_NOINLINE void det_") >= 4
+
+
+def _random_body(draw_ops):
+    """C lines of a random straight-line body: temporaries reading earlier ones (far back
+    too), broken into runs by array stores ``P[k] = ...`` that later lines read back."""
+    lines, temps, stores = [], [], 0
+    for kind, a, b, c in draw_ops:
+        if kind == 0 and temps:
+            lines.append(f"    P[{stores}] = {temps[a % len(temps)]} + x[{c % 4}];")
+            stores += 1
+            continue
+        terms = [f"x[{c % 4}]"]
+        if temps:
+            terms = [temps[a % len(temps)], f"sin({temps[b % len(temps)]})"] + terms
+        if stores:
+            terms.append(f"P[{b % stores}]")
+        name = f"t{len(temps)}"
+        expr = " + ".join(f"{0.5 ** (k + 1)}*{term}" for k, term in enumerate(terms))
+        lines.append(f"    const double {name} = {expr};")
+        temps.append(name)
+    outs = [f"    out[{i}] = {t};" for i, t in enumerate(temps[::-1][:3] + temps[:3])]
+    return lines + outs, max(stores, 1)
+
+
+def _run_c(tmp_path, tag, lines, helpers, nP):
+    import ctypes
+    import subprocess
+    src = tmp_path / f"{tag}.c"
+    src.write_text("#include <math.h>\n" + split.NOINLINE_MACRO + "\n" + "\n".join(helpers)
+                   + f"\nvoid f(const double *x, double *out)\n{{\n    double P[{nP}];\n"
+                   + "\n".join(lines) + "\n}\n")
+    lib = tmp_path / f"lib{tag}.so"
+    subprocess.run(["gcc", "-O2", "-std=c99", "-shared", "-fPIC",
+                    str(src), "-o", str(lib), "-lm"], check=True)
+    f = ctypes.CDLL(str(lib)).f
+    x = (ctypes.c_double * 4)(0.3, -0.7, 1.1, 0.2)
+    out = (ctypes.c_double * 6)()
+    f(x, out)
+    return list(out)
+
+
+_ops = st.lists(st.tuples(st.integers(0, 11), st.integers(0, 10**6), st.integers(0, 10**6),
+                          st.integers(0, 3)), min_size=60, max_size=120)
+
+
+@settings(max_examples=8, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(ops=_ops)
+def test_random_bodies_compute_the_same_values_split(tmp_path_factory, monkeypatch, ops):
+    """Random bodies of many short runs, cut into chunks of 5: a value defined before one
+    run and read by a later one must survive the runs in between (a reused scratch slot
+    once overwrote it)."""
+    monkeypatch.setattr(split, "SPLIT_MIN", 6)
+    monkeypatch.setattr(split, "CHUNK", 5)
+    tmp = tmp_path_factory.mktemp("body")
+    lines, nP = _random_body(ops)
+    new, helpers = split.split_body(lines, "f_part")
+    whole = _run_c(tmp, "whole", lines, [], nP)
+    assert _run_c(tmp, "split", new, helpers, nP) == whole
+
+
+def test_a_value_read_across_two_split_runs_survives_the_first(tmp_path, tiny):
+    """t1 is defined before run 1 and read only in run 2: its scratch slot must not be one
+    that run 1 frees and reuses for its own values while it runs."""
+    lines = ["    const double t0 = x[0];", "    const double t1 = 0.5*x[1];", "    P[0] = t0;"]
+    lines += [f"    const double t{i} = 0.5*t{i - 1} + 0.25*x[{i % 4}];" for i in range(2, 12)]
+    # the last two chunks of run 1 read nothing across: the slot t6 used comes free
+    lines += [f"    const double t{i} = 0.5*x[{i % 4}] + {i};" for i in range(12, 22)]
+    lines += ["    P[1] = x[0];", "    const double t22 = 0.5*t1 + P[1];"]
+    lines += [f"    const double t{i} = 0.5*t{i - 1} + 0.25*t1;" for i in range(23, 42)]
+    lines += ["    out[0] = t41;", "    out[1] = P[1];", "    out[2] = P[0] + t11;"]
+    new, helpers = split.split_body(lines, "f_part")
+    assert len(helpers) == 8
+    assert _run_c(tmp_path, "split", new, helpers, 2) == _run_c(tmp_path, "whole", lines, [], 2)
