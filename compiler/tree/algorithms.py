@@ -10,6 +10,19 @@ with structural zeros (planar joints, point masses) already dropped by SymPy.
 Spatial vectors are 6-lists about the body origin in body components:
 motion [ω; v], force [n; f].  A body's transform from its parent is E (parent
 to body components) and r (body origin from the parent origin, parent components).
+
+Joints of k > 1 speeds (``LoweredBody.multi``: a free joint, a planar or a
+cylindrical one, each with constant body-frame axes) take Featherstone's
+general form: U = Iᴬ S (6xk), D = Sᵀ U (kxk), factored D = L diag(d) Lᵀ and
+inverted in straight-line code (:func:`_ldl_inverse`; k ≤ 6, so at most 91
+named values); the pivots d play the part of the one-speed D (they must be
+positive).  Why not single-axis stages as for a ball joint: a free joint's
+speeds are body-frame twist components (Pinocchio's free-flyer, the URDF
+reader's FloatingJoint), and no chain of one-axis joints has those as its
+speeds, while S is constant in the body frame, so the general form costs no
+joint-motion derivative terms (c_J = 0) and keeps the Kane path's state.
+The one-speed code paths are untouched (their traces, and so the generated C,
+stay byte-identical).
 """
 import sympy as sm
 
@@ -25,6 +38,7 @@ class Recorder:
         self._seen = {}
 
     def let(self, expr):
+        """A name for ``expr`` (atoms and -atom stay as they are; a repeat gets the same name)."""
         expr = sm.sympify(expr)
         if expr.is_Atom or (expr.is_Mul and len(expr.args) == 2 and expr.args[0] == -1
                             and expr.args[1].is_Atom):
@@ -53,8 +67,9 @@ class Recorder:
 class LoweredBody:
     """A TreeBody in slot symbols, with its transform's entries named once."""
 
-    def __init__(self, body, rec, E, r, S, mass, inertia, fext):
+    def __init__(self, body, rec, E, r, S, mass, inertia, fext, multi=None):
         self.parent, self.speed, self.name, self.joint = body.parent, body.speed, body.name, body.joint
+        self.multi = multi         # [(speed index, 6-list axis)] of a k > 1 speed joint, else None
         self.E = [[rec.let(E[i, j]) for j in range(3)] for i in range(3)]
         self.r = rec.vec(r)
         self.S = list(S) if S is not None else None
@@ -158,6 +173,10 @@ def velocities(bodies, rec, speeds):
             vi = [vi[k] + vj[k] for k in range(6)]
             vi = rec.vec(vi)
             c.append(rec.vec(cross_motion(vi, vj)))
+        elif b.multi:
+            vj = [sum((S[k] * speeds[s] for s, S in b.multi if S[k] != 0), sm.S.Zero) for k in range(6)]
+            vi = rec.vec([vi[k] + vj[k] for k in range(6)])
+            c.append(rec.vec(cross_motion(vi, vj)))
         else:
             vi = rec.vec(vi)
             c.append([0] * 6)
@@ -197,6 +216,19 @@ def aba(bodies, rec, speeds, gravity, v, c):
             Ia = rec.sym6(Ia)
             Iac = _times(Ia, c[i])
             pa = [pi[k] + Iac[k] + U[i][k] * uu[i] * Dinv[i] for k in range(6)]
+        elif b.multi:
+            U[i], Dinv[i], uu[i], D[i] = _multi_articulate(b, rec, Ii, pi)
+            if b.parent < 0:
+                continue          # a root (a floating base): nothing to hand on
+            Ut = U[i]
+            W = [[sum((Ut[l][r] * Dinv[i][l][m] for l in range(len(Ut))), sm.S.Zero)
+                  for m in range(len(Ut))] for r in range(6)]       # U D⁻¹, 6xk
+            W = [rec.vec(row) for row in W]
+            Ia = rec.sym6([[Ii[r][s] - sum((W[r][m] * Ut[m][s] for m in range(len(Ut))), sm.S.Zero)
+                            for s in range(6)] for r in range(6)])
+            Iac = _times(Ia, c[i])
+            pa = [pi[k] + Iac[k] + sum((W[k][m] * uu[i][m] for m in range(len(Ut))), sm.S.Zero)
+                  for k in range(6)]
         else:
             Ia = Ii
             pa = pi
@@ -215,6 +247,15 @@ def aba(bodies, rec, speeds, gravity, v, c):
             udd = rec.let((uu[i] - _dot(U[i], ai)) * Dinv[i])
             ai = [ai[k] + b.S[k] * udd for k in range(6)]
             out.append((b.speed, udd, D[i]))
+        elif b.multi:
+            ai = rec.vec(ai)
+            k = len(b.multi)
+            rhs = [uu[i][m] - _dot(U[i][m], ai) for m in range(k)]
+            rhs = rec.vec(rhs)
+            udd = [rec.let(sum((Dinv[i][m][l] * rhs[l] for l in range(k)), sm.S.Zero)) for m in range(k)]
+            for m, (s, S) in enumerate(b.multi):
+                ai = [ai[j] + S[j] * udd[m] for j in range(6)]
+                out.append((s, udd[m], D[i][m]))
         a[i] = rec.vec(ai)
     return out
 
@@ -229,6 +270,9 @@ def rnea(bodies, rec, speed_accels, gravity, v, c):
         ai = [x + y for x, y in zip(x_motion(b, ap), c[i])]
         if b.S is not None:
             ai = [ai[k] + b.S[k] * speed_accels[b.speed] for k in range(6)]
+        elif b.multi:
+            for s, S in b.multi:
+                ai = [ai[k] + S[k] * speed_accels[s] for k in range(6)]
         a[i] = rec.vec(ai)
         fi = [x + y for x, y in zip(_times(b.I, a[i]), cross_force(v[i], _times(b.I, v[i])))]
         if b.fext is not None:
@@ -240,6 +284,9 @@ def rnea(bodies, rec, speed_accels, gravity, v, c):
         fi = rec.vec(f[i])
         if b.S is not None:
             tau[b.speed] = rec.let(_dot(b.S, fi))
+        elif b.multi:
+            for s, S in b.multi:
+                tau[s] = rec.let(_dot(S, fi))
         if b.parent >= 0:
             fp = xt_force(b, fi)
             f[b.parent] = [f[b.parent][k] + fp[k] for k in range(6)]
@@ -257,14 +304,71 @@ def crba(bodies, rec):
         if b.parent >= 0:
             T = xt_inertia_x(b, rec, Ii)
             Ic[b.parent] = [[Ic[b.parent][r][s] + T[r][s] for s in range(6)] for r in range(6)]
-        if b.S is None:
+        if b.S is not None:
+            columns = [(b.speed, b.S)]
+        elif b.multi:
+            columns = b.multi
+        else:
             continue
-        F = rec.vec(_times(Ii, b.S))
-        H[(b.speed, b.speed)] = rec.let(_dot(b.S, F))
-        j = i
-        while bodies[j].parent >= 0:
-            F = rec.vec(xt_force(bodies[j], F))
-            j = bodies[j].parent
-            if bodies[j].S is not None:
-                H[(b.speed, bodies[j].speed)] = H[(bodies[j].speed, b.speed)] = rec.let(_dot(bodies[j].S, F))
+        for col, (speed, S) in enumerate(columns):
+            F = rec.vec(_times(Ii, S))
+            for s2, S2 in columns[:col]:
+                H[(speed, s2)] = H[(s2, speed)] = rec.let(_dot(S2, F))
+            H[(speed, speed)] = rec.let(_dot(S, F))
+            j = i
+            while bodies[j].parent >= 0:
+                F = rec.vec(xt_force(bodies[j], F))
+                j = bodies[j].parent
+                if bodies[j].S is not None:
+                    H[(speed, bodies[j].speed)] = H[(bodies[j].speed, speed)] = rec.let(_dot(bodies[j].S, F))
+                elif bodies[j].multi:
+                    for s2, S2 in bodies[j].multi:
+                        H[(speed, s2)] = H[(s2, speed)] = rec.let(_dot(S2, F))
     return H
+
+
+def _multi_articulate(b, rec, Ii, pi):
+    """U = Iᴬ S, D⁻¹, u = -Sᵀ pᴬ and the pivots d of D = Sᵀ Iᴬ S for a k-speed joint."""
+    Ss = [S for _, S in b.multi]
+    k = len(Ss)
+    U = [rec.vec(_times(Ii, S)) for S in Ss]
+    Dm = [[None] * k for _ in range(k)]
+    for r in range(k):
+        for s in range(r + 1):
+            Dm[r][s] = Dm[s][r] = rec.let(_dot(Ss[r], U[s]))
+    uu = [rec.let(-_dot(S, pi)) for S in Ss]
+    Dinv, d = _ldl_inverse(Dm, rec, b)
+    return U, Dinv, uu, d
+
+
+def _ldl_inverse(Dm, rec, b):
+    """D⁻¹ (named, symmetric) and the pivots d of D = L diag(d) Lᵀ, unrolled (k ≤ 6).
+
+    A pivot that is zero as an expression means nothing resists some motion of the
+    joint: refused here naming the body, as the one-speed D = 0."""
+    k = len(Dm)
+    L = [[sm.S.Zero] * k for _ in range(k)]
+    d, dinv = [None] * k, [None] * k
+    for j in range(k):
+        d[j] = rec.let(Dm[j][j] - sum((L[j][m] ** 2 * d[m] for m in range(j) if L[j][m] != 0), sm.S.Zero))
+        if d[j] == 0:
+            from .model import NotATree
+            raise NotATree(f"body {b.name} (joint {b.joint}) has no inertia against one of its joint's "
+                           f"motions, even with everything beyond it: its acceleration is undefined")
+        dinv[j] = rec.let(1 / d[j])
+        L[j][j] = sm.S.One
+        for i in range(j + 1, k):
+            L[i][j] = rec.let((Dm[i][j] - sum((L[i][m] * L[j][m] * d[m] for m in range(j)
+                                               if L[i][m] != 0 and L[j][m] != 0), sm.S.Zero)) * dinv[j])
+    # L⁻¹ (unit lower), then D⁻¹ = L⁻ᵀ diag(1/d) L⁻¹
+    Li = [[sm.S.One if r == s else sm.S.Zero for s in range(k)] for r in range(k)]
+    for r in range(k):
+        for s in range(r):
+            Li[r][s] = rec.let(-sum((L[r][m] * Li[m][s] for m in range(s, r) if L[r][m] != 0 and Li[m][s] != 0),
+                                    sm.S.Zero))
+    Dinv = [[None] * k for _ in range(k)]
+    for r in range(k):
+        for s in range(r + 1):
+            Dinv[r][s] = Dinv[s][r] = rec.let(sum((Li[m][r] * dinv[m] * Li[m][s] for m in range(max(r, s), k)
+                                                   if Li[m][r] != 0 and Li[m][s] != 0), sm.S.Zero))
+    return Dinv, d

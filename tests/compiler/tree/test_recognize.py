@@ -65,13 +65,15 @@ def test_spherical_joint_is_three_stages():
     assert tree.bodies[0].mass == 0 and tree.bodies[2].mass == ball.mass
 
 
-def test_multi_speed_joint_is_named():
+def test_multi_speed_joint_is_one_body():
+    """A cylindrical joint: one body with two constant axes (turn and slide along one line)."""
     ground, body = sme.RigidBody("ground"), sme.RigidBody("sleeve")
     joint = sme.CylindricalJoint("rod", ground, body)
     system = sme.System.from_newtonian(ground)
     system.add_joints(joint)
-    with pytest.raises(NotATree, match="joint rod .CylindricalJoint. has 2 speeds"):
-        tree_from_system(system)
+    tree = tree_from_system(system)
+    assert [(b.name, b.kind, b.speed, b.speeds) for b in tree.bodies] == [("sleeve", "2-speed", None, (0, 1))]
+    assert tree.bodies[0].motions == ((1, 0, 0, 0, 0, 0), (0, 0, 0, 1, 0, 0))
 
 
 def test_closed_loop_is_not_a_tree():
