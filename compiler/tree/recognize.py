@@ -191,13 +191,33 @@ def _loads(rd, loads, bodies, frames, origins, names):
         if k in skip:
             continue
         v = moment if moment is not None else force
-        local = {f for _, f in v.args} <= {frames[i]}
-        comps = rd.vec(v, frames[i] if local else rd.N)
+        comps = _body_components(rd, v, frames[i])
+        local = comps is not None
+        comps = comps if local else rd.vec(v, rd.N)
         zero = sm.zeros(3, 1)
         records.append(Load(body=i, frame="body" if local else "world",
                             moment=comps if moment is not None else zero,
                             force=comps if force is not None else zero, offset=offset))
     return gravity, tuple(records)
+
+
+def _body_components(rd, vec, frame):
+    """``vec`` in ``frame`` components if they do not change with the motion, else None.
+
+    A joint's torque is often written along its axis in a joint frame (the URDF
+    reader's, SymPy's interframes) one orientation away from the body frame: its
+    body components are then constant (the axis turns with the body), and the
+    recursion applies it in the body without building world rotations.  Only frames
+    oriented directly from ``frame`` are tried (one DCM: cheap); the constancy is
+    checked at random states like the joints."""
+    used = {f for _, f in vec.args}
+    if used <= {frame}:
+        return rd.vec(vec, frame)
+    if not all(f in frame._dcm_dict for f in used):
+        return None
+    comps = rd.vec(vec, frame)
+    fixed = comps.xreplace({qi: 0 for qi in rd.q})
+    return fixed if rd.numbers.same(fixed, comps) else None
 
 
 def _gravity(rd, candidates, bodies):
@@ -287,6 +307,8 @@ def system_kinematics(system):
         raise NotATree(f"the system has {len(q)} coordinates but {len(kdes)} kinematic equations")
     K = kdes.jacobian(qd)
     rest = kdes.xreplace({d: 0 for d in qd})
+    if K == sm.eye(len(q)):           # q' = f(q, u) already solved: keep its form
+        return tuple(-rest[i] for i in range(len(q)))
     if K.is_diagonal():
         return tuple(sm.simplify(-rest[i] / K[i, i]) for i in range(len(q)))
     return tuple(-K.LUsolve(rest))
