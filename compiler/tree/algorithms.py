@@ -15,13 +15,13 @@ Joints of k > 1 speeds (``LoweredBody.multi``: a free joint, a planar or a
 cylindrical one, each with constant body-frame axes) take Featherstone's
 general form: U = Iᴬ S (6xk), D = Sᵀ U (kxk), factored D = L diag(d) Lᵀ in
 straight-line code and applied by substitution (:class:`_LDL`; k ≤ 6); the
-pivots d play the part of the one-speed D (they must be positive).  Why not single-axis stages as for a ball joint: a free joint's
-speeds are body-frame twist components (Pinocchio's free-flyer, the URDF
-reader's FloatingJoint), and no chain of one-axis joints has those as its
-speeds, while S is constant in the body frame, so the general form costs no
-joint-motion derivative terms (c_J = 0) and keeps the Kane path's state.
-The one-speed code paths are untouched (their traces, and so the generated C,
-stay byte-identical).
+pivots d play the part of the one-speed D (they must be positive).  Why not
+single-axis stages as for a ball joint: a free joint's speeds are body-frame
+twist components (Pinocchio's free-flyer, the URDF reader's FloatingJoint), and
+no chain of one-axis joints has those as its speeds, while S is constant in the
+body frame, so the general form costs no joint-motion derivative terms
+(c_J = 0) and keeps the Kane path's state.  One-speed joints keep their own
+scalar code path.
 """
 import sympy as sm
 
@@ -224,6 +224,7 @@ def aba(bodies, rec, speeds, gravity, v, c):
             p = [p[k] - b.fext[k] for k in range(6)]
         pA.append(p)
     U, Dinv, uu, D = [None] * n, [None] * n, [None] * n, [None] * n
+    ldl = {}                   # k-speed joints: their factored D
     for i in reversed(range(n)):
         b = bodies[i]
         Ii = rec.sym6(IA[i])
@@ -242,12 +243,12 @@ def aba(bodies, rec, speeds, gravity, v, c):
             Iac = _times(Ia, c[i])
             pa = [pi[k] + Iac[k] + U[i][k] * uu[i] * Dinv[i] for k in range(6)]
         elif b.multi:
-            U[i], Dinv[i], uu[i] = _multi_articulate(b, rec, Ii, pi)
-            D[i] = Dinv[i].d
+            U[i], ldl[i], uu[i] = _multi_articulate(b, rec, Ii, pi)
+            D[i] = ldl[i].d
             if b.parent < 0:
                 continue          # a root (a floating base): nothing to hand on
             Ut = U[i]
-            W = [Dinv[i].solve([Ut[m][r] for m in range(len(Ut))]) for r in range(6)]   # U D⁻¹, 6xk
+            W = [ldl[i].solve([Ut[m][r] for m in range(len(Ut))]) for r in range(6)]   # U D⁻¹, 6xk
             Ia = rec.sym6([[Ii[r][s] - sum((W[r][m] * Ut[m][s] for m in range(len(Ut))), sm.S.Zero)
                             for s in range(6)] for r in range(6)])
             Iac = _times(Ia, c[i])
@@ -276,7 +277,7 @@ def aba(bodies, rec, speeds, gravity, v, c):
             k = len(b.multi)
             rhs = [uu[i][m] - _dot(U[i][m], ai) for m in range(k)]
             rhs = rec.vec(rhs)
-            udd = Dinv[i].solve(rhs)
+            udd = ldl[i].solve(rhs)
             for m, (s, S) in enumerate(b.multi):
                 ai = [ai[j] + S[j] * udd[m] for j in range(6)]
                 out.append((s, udd[m], D[i][m]))

@@ -307,10 +307,9 @@ def system_kinematics(system):
         raise NotATree(f"the system has {len(q)} coordinates but {len(kdes)} kinematic equations")
     K = kdes.jacobian(qd)
     rest = kdes.xreplace({d: 0 for d in qd})
-    if K == sm.eye(len(q)):           # q' = f(q, u) already solved: keep its form
-        return tuple(-rest[i] for i in range(len(q)))
-    if K.is_diagonal():
-        return tuple(sm.simplify(-rest[i] / K[i, i]) for i in range(len(q)))
+    if K.is_diagonal():     # q' = f(q, u) solved already (up to the sign): keep its form
+        return tuple(-rest[i] * K[i, i] if K[i, i] in (1, -1) else sm.simplify(-rest[i] / K[i, i])
+                     for i in range(len(q)))
     return tuple(-K.LUsolve(rest))
 
 
