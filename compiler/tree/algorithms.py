@@ -10,6 +10,18 @@ with structural zeros (planar joints, point masses) already dropped by SymPy.
 Spatial vectors are 6-lists about the body origin in body components:
 motion [ω; v], force [n; f].  A body's transform from its parent is E (parent
 to body components) and r (body origin from the parent origin, parent components).
+
+Joints of k > 1 speeds (``LoweredBody.multi``: a free joint, a planar or a
+cylindrical one, each with constant body-frame axes) take Featherstone's
+general form: U = Iᴬ S (6xk), D = Sᵀ U (kxk), factored D = L diag(d) Lᵀ in
+straight-line code and applied by substitution (:class:`_LDL`; k ≤ 6); the
+pivots d play the part of the one-speed D (they must be positive).  Why not
+single-axis stages as for a ball joint: a free joint's speeds are body-frame
+twist components (Pinocchio's free-flyer, the URDF reader's FloatingJoint), and
+no chain of one-axis joints has those as its speeds, while S is constant in the
+body frame, so the general form costs no joint-motion derivative terms
+(c_J = 0) and keeps the Kane path's state.  One-speed joints keep their own
+scalar code path.
 """
 import sympy as sm
 
@@ -25,6 +37,7 @@ class Recorder:
         self._seen = {}
 
     def let(self, expr):
+        """A name for ``expr`` (atoms and -atom stay as they are; a repeat gets the same name)."""
         expr = sm.sympify(expr)
         if expr.is_Atom or (expr.is_Mul and len(expr.args) == 2 and expr.args[0] == -1
                             and expr.args[1].is_Atom):
@@ -53,8 +66,9 @@ class Recorder:
 class LoweredBody:
     """A TreeBody in slot symbols, with its transform's entries named once."""
 
-    def __init__(self, body, rec, E, r, S, mass, inertia, fext):
+    def __init__(self, body, rec, E, r, S, mass, inertia, fext, multi=None):
         self.parent, self.speed, self.name, self.joint = body.parent, body.speed, body.name, body.joint
+        self.multi = multi         # [(speed index, 6-list axis)] of a k > 1 speed joint, else None
         self.E = [[rec.let(E[i, j]) for j in range(3)] for i in range(3)]
         self.r = rec.vec(r)
         self.S = list(S) if S is not None else None
@@ -94,31 +108,57 @@ def xt_force(b, f):
     return [nb[i] + rf[i] for i in range(3)] + fp
 
 
-def _x_matrix(b):
-    """X as a 6x6 list: [[E, 0], [-E r×, E]]."""
-    E, r = b.E, b.r
-    rx = [[0, -r[2], r[1]], [r[2], 0, -r[0]], [-r[1], r[0], 0]]
-    X = [[0] * 6 for _ in range(6)]
+def _rot_sym(E, A, rec):
+    """Eᵀ A E of a symmetric 3x3 (lower triangle named)."""
+    AE = [[rec.let(sum((A[i][k] * E[k][j] for k in range(3) if A[i][k] != 0 and E[k][j] != 0), sm.S.Zero))
+           for j in range(3)] for i in range(3)]
+    out = [[None] * 3 for _ in range(3)]
     for i in range(3):
-        for j in range(3):
-            X[i][j] = E[i][j]
-            X[i + 3][j + 3] = E[i][j]
-            X[i + 3][j] = -sum(E[i][k] * rx[k][j] for k in range(3))
-    return X
+        for j in range(i + 1):
+            out[i][j] = out[j][i] = rec.let(sum((E[k][i] * AE[k][j] for k in range(3)
+                                                 if E[k][i] != 0 and AE[k][j] != 0), sm.S.Zero))
+    return out
+
+
+def _rot_gen(E, B, rec):
+    """Eᵀ B E of a general 3x3 (named)."""
+    BE = [[rec.let(sum((B[i][k] * E[k][j] for k in range(3) if B[i][k] != 0 and E[k][j] != 0), sm.S.Zero))
+           for j in range(3)] for i in range(3)]
+    return [[rec.let(sum((E[k][i] * BE[k][j] for k in range(3) if E[k][i] != 0 and BE[k][j] != 0), sm.S.Zero))
+             for j in range(3)] for i in range(3)]
 
 
 def xt_inertia_x(b, rec, I):
-    """Xᵀ I X: a body-frame 6x6 inertia as seen from the parent (symmetric, named)."""
-    X = _x_matrix(b)
-    Xn = [[rec.let(e) for e in row] for row in X]
-    IX = [[rec.let(sum((I[i][k] * Xn[k][j] for k in range(6) if I[i][k] != 0 and Xn[k][j] != 0),
-                       sm.S.Zero)) for j in range(6)] for i in range(6)]
+    """Xᵀ I X: a body-frame 6x6 inertia as seen from the parent (symmetric, named).
+
+    By 3x3 blocks (I = [[A, B], [Bᵀ, C]]): rotate A, B, C into the parent's axes,
+    then shift by r: [[A' + r×B'ᵀ - (B' + r×C') r×, B' + r×C'], [.., C']] -- about
+    5% fewer operations in the generated rhs than multiplying by the 6x6 X twice."""
+    E, r = b.E, b.r
+    A = [[I[i][j] for j in range(3)] for i in range(3)]
+    B = [[I[i][j + 3] for j in range(3)] for i in range(3)]
+    C = [[I[i + 3][j + 3] for j in range(3)] for i in range(3)]
+    A, C = _rot_sym(E, A, rec), _rot_sym(E, C, rec)
+    B = _rot_gen(E, B, rec) if any(x != 0 for row in B for x in row) else B
+    rx = [[0, -r[2], r[1]], [r[2], 0, -r[0]], [-r[1], r[0], 0]]
+
+    def mul(P, Q):
+        return [[sum((P[i][k] * Q[k][j] for k in range(3) if P[i][k] != 0 and Q[k][j] != 0), sm.S.Zero)
+                 for j in range(3)] for i in range(3)]
+    rC = mul(rx, C)
+    Bn = [[rec.let(B[i][j] + rC[i][j]) for j in range(3)] for i in range(3)]     # B' + r×C'
+    Bt = [[B[j][i] for j in range(3)] for i in range(3)]
+    rB = mul(rx, Bt)
+    Bnr = mul(Bn, rx)
     out = [[None] * 6 for _ in range(6)]
-    for i in range(6):
+    for i in range(3):
         for j in range(i + 1):
-            out[i][j] = sum((Xn[k][i] * IX[k][j] for k in range(6) if Xn[k][i] != 0 and IX[k][j] != 0),
-                            sm.S.Zero)
-            out[j][i] = out[i][j]
+            out[i][j] = out[j][i] = A[i][j] + rB[i][j] - Bnr[i][j]
+    for i in range(3):
+        for j in range(3):
+            out[i][j + 3] = out[j + 3][i] = Bn[i][j]
+        for j in range(i + 1):
+            out[i + 3][j + 3] = out[j + 3][i + 3] = C[i][j]
     return rec.sym6(out)
 
 
@@ -158,6 +198,10 @@ def velocities(bodies, rec, speeds):
             vi = [vi[k] + vj[k] for k in range(6)]
             vi = rec.vec(vi)
             c.append(rec.vec(cross_motion(vi, vj)))
+        elif b.multi:
+            vj = [sum((S[k] * speeds[s] for s, S in b.multi if S[k] != 0), sm.S.Zero) for k in range(6)]
+            vi = rec.vec([vi[k] + vj[k] for k in range(6)])
+            c.append(rec.vec(cross_motion(vi, vj)))
         else:
             vi = rec.vec(vi)
             c.append([0] * 6)
@@ -183,6 +227,7 @@ def aba(bodies, rec, speeds, gravity, v, c, keep=None):
             p = [p[k] - b.fext[k] for k in range(6)]
         pA.append(p)
     U, Dinv, uu, D = [None] * n, [None] * n, [None] * n, [None] * n
+    ldl = {}                   # k-speed joints: their factored D
     for i in reversed(range(n)):
         b = bodies[i]
         Ii = rec.sym6(IA[i])
@@ -202,6 +247,18 @@ def aba(bodies, rec, speeds, gravity, v, c, keep=None):
             Ia = rec.sym6(Ia)
             Iac = _times(Ia, c[i])
             pa = [pi[k] + Iac[k] + U[i][k] * uu[i] * Dinv[i] for k in range(6)]
+        elif b.multi:
+            U[i], ldl[i], uu[i] = _multi_articulate(b, rec, Ii, pi)
+            D[i] = ldl[i].d
+            if b.parent < 0:
+                continue          # a root (a floating base): nothing to hand on
+            Ut = U[i]
+            W = [ldl[i].solve([Ut[m][r] for m in range(len(Ut))]) for r in range(6)]   # U D⁻¹, 6xk
+            Ia = rec.sym6([[Ii[r][s] - sum((W[r][m] * Ut[m][s] for m in range(len(Ut))), sm.S.Zero)
+                            for s in range(6)] for r in range(6)])
+            Iac = _times(Ia, c[i])
+            pa = [pi[k] + Iac[k] + sum((W[k][m] * uu[i][m] for m in range(len(Ut))), sm.S.Zero)
+                  for k in range(6)]
         else:
             Ia = Ii
             pa = pi
@@ -220,6 +277,15 @@ def aba(bodies, rec, speeds, gravity, v, c, keep=None):
             udd = rec.let((uu[i] - _dot(U[i], ai)) * Dinv[i])
             ai = [ai[k] + b.S[k] * udd for k in range(6)]
             out.append((b.speed, udd, D[i]))
+        elif b.multi:
+            ai = rec.vec(ai)
+            k = len(b.multi)
+            rhs = [uu[i][m] - _dot(U[i][m], ai) for m in range(k)]
+            rhs = rec.vec(rhs)
+            udd = ldl[i].solve(rhs)
+            for m, (s, S) in enumerate(b.multi):
+                ai = [ai[j] + S[j] * udd[m] for j in range(6)]
+                out.append((s, udd[m], D[i][m]))
         a[i] = rec.vec(ai)
     return out
 
@@ -234,6 +300,9 @@ def rnea(bodies, rec, speed_accels, gravity, v, c):
         ai = [x + y for x, y in zip(x_motion(b, ap), c[i])]
         if b.S is not None:
             ai = [ai[k] + b.S[k] * speed_accels[b.speed] for k in range(6)]
+        elif b.multi:
+            for s, S in b.multi:
+                ai = [ai[k] + S[k] * speed_accels[s] for k in range(6)]
         a[i] = rec.vec(ai)
         fi = [x + y for x, y in zip(_times(b.I, a[i]), cross_force(v[i], _times(b.I, v[i])))]
         if b.fext is not None:
@@ -245,6 +314,9 @@ def rnea(bodies, rec, speed_accels, gravity, v, c):
         fi = rec.vec(f[i])
         if b.S is not None:
             tau[b.speed] = rec.let(_dot(b.S, fi))
+        elif b.multi:
+            for s, S in b.multi:
+                tau[s] = rec.let(_dot(S, fi))
         if b.parent >= 0:
             fp = xt_force(b, fi)
             f[b.parent] = [f[b.parent][k] + fp[k] for k in range(6)]
@@ -262,14 +334,76 @@ def crba(bodies, rec):
         if b.parent >= 0:
             T = xt_inertia_x(b, rec, Ii)
             Ic[b.parent] = [[Ic[b.parent][r][s] + T[r][s] for s in range(6)] for r in range(6)]
-        if b.S is None:
+        if b.S is not None:
+            columns = [(b.speed, b.S)]
+        elif b.multi:
+            columns = b.multi
+        else:
             continue
-        F = rec.vec(_times(Ii, b.S))
-        H[(b.speed, b.speed)] = rec.let(_dot(b.S, F))
-        j = i
-        while bodies[j].parent >= 0:
-            F = rec.vec(xt_force(bodies[j], F))
-            j = bodies[j].parent
-            if bodies[j].S is not None:
-                H[(b.speed, bodies[j].speed)] = H[(bodies[j].speed, b.speed)] = rec.let(_dot(bodies[j].S, F))
+        for col, (speed, S) in enumerate(columns):
+            F = rec.vec(_times(Ii, S))
+            for s2, S2 in columns[:col]:
+                H[(speed, s2)] = H[(s2, speed)] = rec.let(_dot(S2, F))
+            H[(speed, speed)] = rec.let(_dot(S, F))
+            j = i
+            while bodies[j].parent >= 0:
+                F = rec.vec(xt_force(bodies[j], F))
+                j = bodies[j].parent
+                if bodies[j].S is not None:
+                    H[(speed, bodies[j].speed)] = H[(bodies[j].speed, speed)] = rec.let(_dot(bodies[j].S, F))
+                elif bodies[j].multi:
+                    for s2, S2 in bodies[j].multi:
+                        H[(speed, s2)] = H[(s2, speed)] = rec.let(_dot(S2, F))
     return H
+
+
+def _multi_articulate(b, rec, Ii, pi):
+    """U = Iᴬ S, u = -Sᵀ pᴬ and D = Sᵀ Iᴬ S factored (:class:`_LDL`) for a k-speed joint."""
+    Ss = [S for _, S in b.multi]
+    k = len(Ss)
+    U = [rec.vec(_times(Ii, S)) for S in Ss]
+    Dm = [[None] * k for _ in range(k)]
+    for r in range(k):
+        for s in range(r + 1):
+            Dm[r][s] = Dm[s][r] = rec.let(_dot(Ss[r], U[s]))
+    uu = [rec.let(-_dot(S, pi)) for S in Ss]
+    return U, _LDL(Dm, rec, b), uu
+
+
+class _LDL:
+    """D = L diag(d) Lᵀ of a symmetric kxk (k ≤ 6), unrolled and named; ``solve`` applies D⁻¹
+    by forward and back substitution (cheaper than forming D⁻¹: a root's D is solved once).
+
+    A pivot that is zero as an expression means nothing resists some motion of the
+    joint: refused here naming the body, as the one-speed D = 0."""
+
+    def __init__(self, Dm, rec, b):
+        k = self.k = len(Dm)
+        self.rec = rec
+        L = self.L = [[sm.S.Zero] * k for _ in range(k)]
+        d, dinv = self.d, self.dinv = [None] * k, [None] * k
+        for j in range(k):
+            d[j] = rec.let(Dm[j][j] - sum((L[j][m] ** 2 * d[m] for m in range(j) if L[j][m] != 0),
+                                          sm.S.Zero))
+            if d[j] == 0:
+                from .model import NotATree
+                raise NotATree(f"body {b.name} (joint {b.joint}) has no inertia against one of its "
+                               f"joint's motions, even with everything beyond it: its acceleration "
+                               f"is undefined")
+            dinv[j] = rec.let(1 / d[j])
+            L[j][j] = sm.S.One
+            for i in range(j + 1, k):
+                L[i][j] = rec.let((Dm[i][j] - sum((L[i][m] * L[j][m] * d[m] for m in range(j)
+                                                   if L[i][m] != 0 and L[j][m] != 0), sm.S.Zero)) * dinv[j])
+
+    def solve(self, rhs):
+        """D⁻¹ rhs (a k-list), each step named."""
+        k, L, rec = self.k, self.L, self.rec
+        y = [None] * k
+        for j in range(k):
+            y[j] = rec.let(rhs[j] - sum((L[j][m] * y[m] for m in range(j) if L[j][m] != 0), sm.S.Zero))
+        x = [None] * k
+        for j in reversed(range(k)):
+            x[j] = rec.let(y[j] * self.dinv[j] - sum((L[m][j] * x[m] for m in range(j + 1, k)
+                                                      if L[m][j] != 0), sm.S.Zero))
+        return x

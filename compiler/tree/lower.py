@@ -84,7 +84,8 @@ def _lowered_bodies(tree, layout, rec):
         E = b.rotation.applyfunc(ren)
         r = b.position.applyfunc(ren)
         S = None if b.motion is None else [ren(s) for s in b.motion]
-        bodies.append(LoweredBody(b, rec, E, r, S, ren(b.mass), b.inertia.applyfunc(ren), None))
+        multi = [(k, [ren(s) for s in m]) for k, m in zip(b.speeds, b.motions)] or None
+        bodies.append(LoweredBody(b, rec, E, r, S, ren(b.mass), b.inertia.applyfunc(ren), None, multi))
     for load in tree.loads:
         i = load.body
         ren = _rename(layout, memo, f"a load on body {tree.bodies[i].name}", absent)
@@ -174,13 +175,12 @@ def _structure(tree):
     nu = len(tree.speeds)
     A = sm.zeros(nu, nu)
     for i, b in enumerate(tree.bodies):
-        if b.speed is None:
-            continue
-        j = i
-        while j >= 0:
-            if tree.bodies[j].speed is not None:
-                A[b.speed, tree.bodies[j].speed] = A[tree.bodies[j].speed, b.speed] = 1
-            j = tree.bodies[j].parent
+        for speed, _ in b.dofs:
+            j = i
+            while j >= 0:
+                for other, _ in tree.bodies[j].dofs:
+                    A[speed, other] = A[other, speed] = 1
+                j = tree.bodies[j].parent
     return A
 
 

@@ -11,6 +11,16 @@ Every body has its own frame and origin (its mass centre).  Body ``i`` hangs fro
   u_k; constant (revolute and prismatic joints with fixed axes).  ``None`` for a
   fixed joint.
 
+A joint of k > 1 speeds (a free joint with body-frame twist speeds, a planar
+or cylindrical joint) has ``speed``/``motion`` ``None`` and lists its speeds
+and their constant body-frame axes in ``speeds``/``motions`` instead: its
+motion subspace is the 6xk matrix of those axes, and the recursions solve the
+kxk joint-space inertia D = Sᵀ Iᴬ S in straight-line code.  Its rotation and
+position then depend on the joint's own coordinates (several), and its
+coordinates' rates q' = f(q, u) need not be the speeds: the recursion never
+uses them, only ``Tree.kinematics`` (the Kane path's) does.  ``dofs`` gives
+every body's (speed, axis) pairs uniformly.
+
 Everything here is a SymPy expression in the mechanics objects (q(t), u(t),
 parameters, inputs); the lowering renames them to C slots.  A tree says nothing
 of *how* it was found (SymPy joints or hand-built frames, see
@@ -31,7 +41,7 @@ class NotATree(ValueError):
 class TreeBody:
     name: str
     joint: str                   # the joint's name (for messages)
-    kind: str                    # "revolute", "prismatic" or "fixed"
+    kind: str                    # "revolute", "prismatic", "fixed", or a multi-dof kind ("free", ...)
     parent: int                  # index of the parent body, -1 for the ground
     speed: object                # index into Tree.speeds, or None (fixed joint)
     rotation: sm.Matrix          # 3x3, E(q_k)
@@ -39,6 +49,15 @@ class TreeBody:
     motion: tuple                # 6 constants (S), or None
     mass: object
     inertia: sm.Matrix           # 3x3 about the mass centre, body-frame components
+    speeds: tuple = ()           # a joint of k > 1 speeds: their indices into Tree.speeds
+    motions: tuple = ()          # ... and their constant axes (k tuples of 6)
+
+    @property
+    def dofs(self):
+        """((speed index, 6-tuple axis), ...): one pair per speed of the joint, () if fixed."""
+        if self.speed is not None:
+            return ((self.speed, self.motion),)
+        return tuple(zip(self.speeds, self.motions))
 
 
 @dataclass(frozen=True)

@@ -2,9 +2,12 @@
 
 Two sources give the same :class:`~.model.Tree`:
 
-* a SymPy ``System`` with joints (PinJoint, PrismaticJoint, WeldJoint, and
-  SphericalJoint as three pins through massless frames): the joints name each
-  body's parent;
+* a SymPy ``System`` with joints (PinJoint, PrismaticJoint, WeldJoint,
+  SphericalJoint as three pins through massless frames, PlanarJoint as two
+  sliders and a pin through massless frames, and joints of k speeds whose
+  axes are constant in the child's frame -- CylindricalJoint, and the URDF
+  reader's FloatingJoint and PlanarJoint with body-frame speeds -- as one
+  k-speed joint, :func:`_multi_joint`): the joints name each body's parent;
 * a KanesMethod built from hand-made frames and points (each frame oriented
   from another, each point located from another): the parent of a body is the
   body whose speeds are the largest subset of its own.
@@ -18,6 +21,7 @@ refused (NotATree, naming the body and joint) rather than mis-read.
 """
 import random
 
+import numpy as np
 import sympy as sm
 from sympy.core.function import AppliedUndef
 from sympy.physics import mechanics as me
@@ -187,13 +191,33 @@ def _loads(rd, loads, bodies, frames, origins, names):
         if k in skip:
             continue
         v = moment if moment is not None else force
-        local = {f for _, f in v.args} <= {frames[i]}
-        comps = rd.vec(v, frames[i] if local else rd.N)
+        comps = _body_components(rd, v, frames[i])
+        local = comps is not None
+        comps = comps if local else rd.vec(v, rd.N)
         zero = sm.zeros(3, 1)
         records.append(Load(body=i, frame="body" if local else "world",
                             moment=comps if moment is not None else zero,
                             force=comps if force is not None else zero, offset=offset))
     return gravity, tuple(records)
+
+
+def _body_components(rd, vec, frame):
+    """``vec`` in ``frame`` components if they do not change with the motion, else None.
+
+    A joint's torque is often written along its axis in a joint frame (the URDF
+    reader's, SymPy's interframes) one orientation away from the body frame: its
+    body components are then constant (the axis turns with the body), and the
+    recursion applies it in the body without building world rotations.  Only frames
+    oriented directly from ``frame`` are tried (one DCM: cheap); the constancy is
+    checked at random states like the joints."""
+    used = {f for _, f in vec.args}
+    if used <= {frame}:
+        return rd.vec(vec, frame)
+    if not all(f in frame._dcm_dict for f in used):
+        return None
+    comps = rd.vec(vec, frame)
+    fixed = comps.xreplace({qi: 0 for qi in rd.q})
+    return fixed if rd.numbers.same(fixed, comps) else None
 
 
 def _gravity(rd, candidates, bodies):
@@ -247,14 +271,21 @@ def _assemble(rd, entries, loads):
     bodies, frames, origins = [], [], []
     for name, joint, parent, body, frame, origin, speed in entries:
         pframe, porigin = (rd.N, rd.O) if parent < 0 else (frames[parent], origins[parent])
-        kind, E, r, S = _joint(rd, name, joint, "ground" if parent < 0 else bodies[parent].name,
-                               pframe, porigin, frame, origin, speed)
+        pname = "ground" if parent < 0 else bodies[parent].name
         mass, I = _inertia(body, frame)
-        bodies.append(TreeBody(name=name, joint=joint, kind=kind, parent=parent, speed=speed,
-                               rotation=E, position=r, motion=S, mass=mass, inertia=I))
+        if isinstance(speed, tuple):          # one joint of several speeds
+            kind, E, r, motions = _multi_joint(rd, name, joint, pname, pframe, porigin, frame,
+                                               origin, speed)
+            bodies.append(TreeBody(name=name, joint=joint, kind=kind, parent=parent, speed=None,
+                                   rotation=E, position=r, motion=None, mass=mass, inertia=I,
+                                   speeds=speed, motions=motions))
+        else:
+            kind, E, r, S = _joint(rd, name, joint, pname, pframe, porigin, frame, origin, speed)
+            bodies.append(TreeBody(name=name, joint=joint, kind=kind, parent=parent, speed=speed,
+                                   rotation=E, position=r, motion=S, mass=mass, inertia=I))
         frames.append(frame)
         origins.append(origin)
-    used = [b.speed for b in bodies if b.speed is not None]
+    used = [k for b in bodies for k, _ in b.dofs]
     missing = [_nm(rd.u[k]) for k in range(len(rd.u)) if k not in used]
     if missing:
         raise NotATree(f"speed(s) {', '.join(missing)} move no body: no inertia resists them, "
@@ -276,8 +307,9 @@ def system_kinematics(system):
         raise NotATree(f"the system has {len(q)} coordinates but {len(kdes)} kinematic equations")
     K = kdes.jacobian(qd)
     rest = kdes.xreplace({d: 0 for d in qd})
-    if K.is_diagonal():
-        return tuple(sm.simplify(-rest[i] / K[i, i]) for i in range(len(q)))
+    if K.is_diagonal():     # q' = f(q, u) solved already (up to the sign): keep its form
+        return tuple(-rest[i] * K[i, i] if K[i, i] in (1, -1) else sm.simplify(-rest[i] / K[i, i])
+                     for i in range(len(q)))
     return tuple(-K.LUsolve(rest))
 
 
@@ -293,13 +325,12 @@ def tree_from_system(system, kinematics=None):
               and b.masscenter == system.fixed_point]
     parent_of, body_frame = {}, {}
     for j in system.joints:
-        if len(j.speeds) > 1 and not isinstance(j, me.SphericalJoint):
-            raise NotATree(f"joint {j.name} ({type(j).__name__}) has {len(j.speeds)} speeds; the "
-                           f"recursion takes pin, prismatic, spherical and weld joints")
         if j.child in parent_of:
             raise NotATree(f"body {j.child.name} is the child of joints {parent_of[j.child][0]} and "
                            f"{j.name}: a closed loop, not a tree")
         speed = list(system.u).index(j.speeds[0]) if len(j.speeds) else None
+        if len(j.speeds) > 1 and not isinstance(j, _STAGED):
+            speed = tuple(list(system.u).index(s) for s in j.speeds)
         parent_of[j.child] = (j.name, j.parent, speed, j)
         body_frame[j.child] = j.child.frame if hasattr(j.child, "frame") else j.child_interframe
     order, index, added = [], {}, []
@@ -315,6 +346,8 @@ def tree_from_system(system, kinematics=None):
                 pi = -1 if p in ground else index[p]
                 if isinstance(joint, me.SphericalJoint):
                     pi, speed = _ball_stages(system, joint, pi, order, added)
+                elif isinstance(joint, me.PlanarJoint):
+                    pi, speed = _planar_stages(system, joint, pi, order, added)
                 index[b] = len(order)
                 order.append((b.name, jname, pi, b, body_frame[b], b.masscenter, speed))
                 remaining.remove(b)
@@ -328,6 +361,9 @@ def tree_from_system(system, kinematics=None):
         return _assemble(rd, order, loads)
     finally:
         _forget(added)
+
+
+_STAGED = (me.SphericalJoint, me.PlanarJoint)   # read as single-axis stages, not as one joint
 
 
 def _ball_stages(system, joint, parent, order, added):
@@ -365,15 +401,95 @@ def _ball_stages(system, joint, parent, order, added):
     return index, list(system.u).index(steps[2][2])
 
 
+def _planar_stages(system, joint, parent, order, added):
+    """SymPy's PlanarJoint as two sliders and a pin: two massless stages appended to ``order``.
+
+    SymPy's planar speeds are the rates of the in-plane coordinates along the
+    parent's plane vectors (parent-frame directions, so not constant axes of the
+    child, which turns): the same motion is a slide along each plane vector, then
+    the turn about the plane's normal.  Stage k is a frame aligned with the parent
+    interframe whose origin slides from the previous one; the child is the third
+    stage.  Each stage is read and checked like any joint (:func:`_joint`), so other
+    speeds (say, body-frame ones) are refused naming the joint.  Returns the last
+    stage's index and the rotation speed's index."""
+    P = joint.parent_interframe
+    point, index = joint.parent_point, parent
+    for k, (vec, coord, speed) in enumerate(zip(joint.planar_vectors, joint.planar_coordinates,
+                                                joint.planar_speeds)):
+        A = me.ReferenceFrame(f"{joint.name}_stage{k + 1}")
+        A.orient_explicit(P, sm.eye(3))
+        A.set_ang_vel(P, 0)
+        added.append((A, P))
+        stage = me.Point(f"{joint.name}_stage{k + 1}")
+        stage.set_pos(point, coord * vec)
+        added.append((stage, point))
+        order.append((f"{joint.name}_stage{k + 1}", joint.name, index, None, A, stage,
+                      list(system.u).index(speed)))
+        point, index = stage, len(order) - 1
+    return index, list(system.u).index(joint.rotation_speed)
+
+
+def _multi_joint(rd, name, joint, parent, pframe, porigin, frame, origin, speeds):
+    """A joint of k speeds (indices ``speeds``) read as one: E(q_J), r(q_J) and constant axes.
+
+    Its coordinates q_J are those whose rates the kinematics give in terms of its
+    speeds (q' = f(q, u) in general: a free joint's Euler-angle rates are not its
+    body-frame angular velocity).  Like :func:`_joint`, the joint-local forms are
+    found by zeroing everything else and then checked against SymPy's kinematics
+    at random states; the axes S_k = ∂(ω, v)/∂u_k in the child's frame must be
+    constants, which holds for body-frame speeds (free, URDF planar) and for a
+    cylindrical joint, and not for speeds along parent-frame directions."""
+    where = f"body {name} (joint {joint})"
+    mine = {rd.u[k] for k in speeds}
+    keep = {qi for qi, kin in zip(rd.q, rd.kin) if _dynamic(kin) & mine}
+    try:
+        E_full = sm.Matrix(frame.dcm(pframe))
+        r_vec = origin.pos_from(porigin)
+        w_rel = frame.ang_vel_in(pframe)
+        v_rel = r_vec.dt(pframe)
+    except ValueError as exc:
+        raise NotATree(f"{where}: its frame or point is not connected to its parent's ({exc})") from None
+    r_full = rd.vec(r_vec, pframe)
+    others = {qi: 0 for qi in rd.q if qi not in keep}
+    E, r = E_full.xreplace(others), r_full.xreplace(others)
+    if not (rd.numbers.same(E, E_full) and rd.numbers.same(r, r_full)):
+        raise NotATree(f"{where}: its placement relative to body {parent} depends on more than its "
+                       f"own coordinates {', '.join(_nm(q) for q in rd.q if q in keep)}")
+    wv = rd.vec(w_rel, frame).col_join(rd.vec(v_rel, frame))
+    zero = {qi: 0 for qi in rd.q} | {v: 0 for v in rd.u}
+    expanded = wv.applyfunc(sm.expand)
+    motions = []
+    for k in speeds:
+        S = expanded.diff(rd.u[k]).xreplace(zero)
+        motions.append(tuple(sm.nsimplify(c) if c.is_Float else c for c in S))
+    if any(_dynamic(c) for S in motions for c in S) or not rd.numbers.same(
+            sum((sm.Matrix(S) * rd.u[k] for S, k in zip(motions, speeds)), sm.zeros(6, 1)), wv):
+        raise NotATree(f"{where}: its velocity relative to its parent is not constant axes in its "
+                       f"own frame times its speeds {', '.join(_nm(rd.u[k]) for k in speeds)} "
+                       f"(the recursion takes joints of several speeds whose axes are fixed in the "
+                       f"child: free joints with body-frame speeds, planar, cylindrical)")
+    numeric = [[complex(rd.numbers.evaluate(c, 0)).real for c in S] for S in motions]
+    if np.linalg.matrix_rank(np.array(numeric), tol=1e-9) < len(speeds):
+        raise NotATree(f"{where}: its speeds {', '.join(_nm(rd.u[k]) for k in speeds)} do not move "
+                       f"it independently relative to its parent")
+    kind = "free" if len(speeds) == 6 else f"{len(speeds)}-speed"
+    return kind, E, r, tuple(motions)
+
+
 def _forget(added):
-    """Undo the intermediate frames' links in the user's frame graph (orient/set_ang_vel
-    record themselves in the parent frame too, and dcm() caches at both ends)."""
-    stages = {A for A, _ in added}
-    for A, parent in added:
+    """Undo the intermediate frames' and points' links in the user's graphs (orient and
+    set_ang_vel record themselves in the parent frame too, dcm() caches at both ends,
+    set_pos records the new point in the point it is located from)."""
+    frames = [(A, parent) for A, parent in added if isinstance(A, me.ReferenceFrame)]
+    stages = {A for A, _ in frames}
+    for A, parent in frames:
         for f in _all_frames(parent):
             for d in (f._dcm_dict, f._dcm_cache, f._ang_vel_dict, f._ang_acc_dict):
                 for s in stages:
                     d.pop(s, None)
+    for P, parent in added:
+        if isinstance(P, me.Point):
+            parent._pos_dict.pop(P, None)
 
 
 def tree_from_kane(kane, kinematics):

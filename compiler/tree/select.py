@@ -40,7 +40,10 @@ def tree_digest(spec):
     tree = getattr(spec.formed, "_tree", None)
     if tree is None:
         return None
-    shape = [(b.parent, -1 if b.speed is None else b.speed) for b in tree.bodies]
+    # per body: parent, then its speed (>= 0), -1 (fixed) or -2-k followed by a k-speed joint's speeds
+    shape = [(b.parent, b.speed) if b.speed is not None else
+             (b.parent, -2 - len(b.speeds)) + tuple(b.speeds) if b.speeds else (b.parent, -1)
+             for b in tree.bodies]
     return tree_exprs(tree) + [sm.Integer(k) for pair in shape for k in pair]
 
 

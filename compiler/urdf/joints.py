@@ -40,16 +40,24 @@ class FloatingJoint(Joint):
         return self._fill_coordinate_list(speeds, 6, "u")
 
     def _generate_kdes(self):
+        """q' = f(q, u) solved: position' = R v, and the Euler rates of body XYZ angles from
+        the body-frame angular velocity, in closed form (one division by cos ry) rather than
+        the implicit ω = E(angles) angles' (whose generic solve leaves nested fractions in
+        every formulation's q').  tests/compiler/urdf/test_joint_types.py checks it against
+        SymPy's ang_vel of the same orientation."""
         t = dynamicsymbols._t
         q, u = self.coordinates, self.speeds
-        # the kinematics of the orientation alone, on scratch frames
+        # the rotation on scratch frames
         fixed, moving = ReferenceFrame(f"{self.name}_kde_P"), ReferenceFrame(f"{self.name}_kde_C")
         moving.orient_body_fixed(fixed, tuple(q[3:]), "xyz")
-        omega = moving.ang_vel_in(fixed)
         rotation = fixed.dcm(moving)
         velocity = rotation * sm.Matrix(u[:3])
         kdes = [q[i].diff(t) - velocity[i] for i in range(3)]
-        kdes += [u[3 + i] - omega.dot(axis) for i, axis in enumerate((moving.x, moving.y, moving.z))]
+        wx, wy, wz = u[3:]
+        cy, sz, cz = sm.cos(q[4]), sm.sin(q[5]), sm.cos(q[5])
+        rate_x = (wx * cz - wy * sz) / cy
+        rates = [rate_x, wx * sz + wy * cz, wz - rate_x * sm.sin(q[4])]
+        kdes += [q[3 + i].diff(t) - rates[i] for i in range(3)]
         return sm.Matrix(kdes)
 
     def _orient_frames(self):

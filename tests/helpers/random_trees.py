@@ -6,21 +6,29 @@ or space-fixed angles, random order), at random parent and child points; it is a
 with a full (products included) inertia; its joint may carry a torque or force
 input acting between child and parent (a ball joint: a torque about the random
 axis).  ``build`` returns an unformed SymPy ``System`` (gravity along -N.z) and its inputs.
+
+``tree(free=True)``: the first body hangs from the ground on a free joint (the
+URDF reader's FloatingJoint: 6 speeds, body-frame twist), and every other root
+may too; a free body is always rigid (a point mass could not turn).
 """
 import sympy as sm
 from hypothesis import strategies as st
 from sympy.physics import mechanics as sme
 
+from eomc.compiler.urdf.joints import FloatingJoint
+
 _vec = st.tuples(*[st.integers(-1, 1)] * 3)
 
 
 @st.composite
-def tree(draw, max_bodies=4, ball=True):
-    n = draw(st.integers(1, max_bodies))
+def tree(draw, max_bodies=4, ball=True, free=False):
+    n = draw(st.integers(2 if free else 1, max(max_bodies, 2) if free else max_bodies))
     bodies = []
     for i in range(n):
+        # free=True: mostly children of earlier bodies (a floating base with limbs), some roots
+        parents = st.sampled_from(list(reversed(range(i))) + [-1]) if free and i else st.integers(-1, i - 1)
         bodies.append({
-            "parent": draw(st.integers(-1, i - 1)),
+            "parent": draw(parents),
             "kind": draw(st.sampled_from(["pin", "pin", "slider", "ball"] if ball else ["pin", "slider"])),
             "rotation": draw(st.sampled_from([("BODY", 123), ("SPACE", 123), ("BODY", 313),
                                               ("SPACE", 231)])),
@@ -31,12 +39,14 @@ def tree(draw, max_bodies=4, ball=True):
             "products": draw(st.booleans()),
             "load": draw(st.booleans()),
         })
+        if free and bodies[-1]["parent"] < 0 and (i == 0 or draw(st.booleans())):
+            bodies[-1]["kind"] = "free"
     return bodies
 
 
 def build(spec):
     """(System, inputs) of the tree ``spec`` (joint equations not formed)."""
-    n = sum(3 if b["kind"] == "ball" else 1 for b in spec)
+    n = sum({"ball": 3, "free": 6}.get(b["kind"], 1) for b in spec)
     qs = iter(sme.dynamicsymbols(f"q1:{n + 1}"))
     us = iter(sme.dynamicsymbols(f"u1:{n + 1}"))
     g = sm.Symbol("g")
@@ -45,7 +55,7 @@ def build(spec):
     for i, b in enumerate(spec):
         body = sme.RigidBody(f"body{i}", mass=sm.Symbol(f"m{i}"))
         F = body.frame
-        if b["rigid"] or b["kind"] == "ball":   # a point mass on a ball joint cannot turn
+        if b["rigid"] or b["kind"] in ("ball", "free"):   # a point mass on a ball joint cannot turn
             ixx, iyy, izz = sm.symbols(f"ixx{i} iyy{i} izz{i}")
             # products small enough that the inertia stays positive definite
             pr = [sm.Symbol(f"i{d}{i}") / 8 if b["products"] else 0 for d in ("xy", "yz", "zx")]
@@ -58,7 +68,10 @@ def build(spec):
         ppoint = sum((c * d for c, d in zip(b["parent_point"], (P.x, P.y, P.z))), sme.Vector(0))
         cpoint = sum((c * d for c, d in zip(b["child_point"], (F.x, F.y, F.z))), sme.Vector(0))
         name = f"joint{i}"
-        if b["kind"] == "ball":
+        if b["kind"] == "free":
+            j = FloatingJoint(name, parent, body, [next(qs) for _ in range(6)],
+                              [next(us) for _ in range(6)], parent_point=ppoint, child_point=cpoint)
+        elif b["kind"] == "ball":
             j = sme.SphericalJoint(name, parent, body, [next(qs) for _ in range(3)],
                                    [next(us) for _ in range(3)], parent_point=ppoint,
                                    child_point=cpoint, rot_type=b["rotation"][0],

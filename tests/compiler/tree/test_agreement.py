@@ -5,7 +5,9 @@ Same system, same states: rhs, mass_matrix, inverse_dynamics and jac_x of
 Systems: the relative-coordinate cart (hand-built and as a SymPy System of
 joints) and hypothesis-generated random chains (tests/helpers/random_chains.py:
 sliders and pins about random axes, particles and rigid bodies, joint torques,
-drag, q' = c·u).
+drag, q' = c·u), random branching trees (tests/helpers/random_trees.py), and
+random trees whose roots are free joints (floating bases).  The comparison
+itself is tests/helpers/tree_agreement.py.
 """
 import numpy as np
 import pytest
@@ -18,6 +20,7 @@ import eomc.mechanics as em
 from eomc.errors import ModelError
 from helpers import random_trees, zoo
 from helpers.random_chains import build, chain
+from helpers.tree_agreement import agree as _agree
 from helpers.trees import cart_joints, cart_relative
 
 FUNCTIONS = ["rhs", "jac_x", "mass_matrix", "inverse_dynamics"]
@@ -27,44 +30,6 @@ TOL = 1e-12
 @pytest.fixture(autouse=True)
 def _cache(tmp_path, monkeypatch):
     monkeypatch.setenv("EOMC_CACHE_DIR", str(tmp_path / "cache"))
-
-
-def _rel(a, b):
-    return np.max(np.abs(a - b) / np.maximum(1.0, np.abs(b)))
-
-
-def _params(model, values):
-    return np.array([values[k] for k in model.metadata["param_names"]])
-
-
-def _agree(kane, rec, seed, nstates=4):
-    """Largest relative difference over the four functions at random states."""
-    assert rec.metadata["formulation"] == "recursive"
-    assert kane.metadata["formulation"] == "kane"
-    rng = np.random.default_rng(seed)
-    names = sorted(set(kane.metadata["param_names"]) | set(rec.metadata["param_names"]))
-    nq, nu, nr = kane.nq, kane.nu, kane.ninput
-    worst = 0.0
-    checked = 0
-    for _ in range(50):
-        vals = {k: rng.uniform(0.5, 1.5) for k in names}
-        pk, pr = _params(kane, vals), _params(rec, vals)
-        x = rng.uniform(-1.0, 1.0, nq + nu)
-        r = rng.uniform(-1.0, 1.0, nr)
-        M = kane.mass_matrix(0.0, x, p=pk, r=r)
-        if np.linalg.cond(M) > 1e8:
-            continue      # near-singular M: differences would measure conditioning
-        worst = max(worst, _rel(rec.mass_matrix(0.0, x, p=pr, r=r), M))
-        worst = max(worst, _rel(rec.rhs(0.0, x, p=pr, r=r), kane.rhs(0.0, x, p=pk, r=r)))
-        ud = rng.uniform(-1.0, 1.0, nu)
-        worst = max(worst, _rel(rec.inverse_dynamics(0.0, x, ud, p=pr, r=r),
-                                kane.inverse_dynamics(0.0, x, ud, p=pk, r=r)))
-        worst = max(worst, _rel(rec.jacobian(0.0, x, p=pr, r=r), kane.jacobian(0.0, x, p=pk, r=r)))
-        checked += 1
-        if checked == nstates:
-            break
-    assert checked == nstates
-    return worst
 
 
 @pytest.mark.parametrize("torques", [False, True])
@@ -220,3 +185,27 @@ def test_cache_tells_tree_shapes_apart():
                              formulation="recursive")
         M.append(model.mass_matrix(0.0, x))
     assert abs(M[0][0, 1]) > 0.1 and M[1][0, 1] == 0.0
+
+
+@settings(max_examples=5, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(spec=random_trees.tree(max_bodies=4, free=True), seed=st.integers(0, 2**32 - 1))
+def test_random_floating_trees(spec, seed):
+    """Random trees whose roots may be free joints (the first one always is: a floating
+    base, 6 body-frame twist speeds) with pins, sliders and balls below: recursive agrees
+    with Kane in the Kane path's state layout."""
+    def compile_(formulation):
+        system, inputs = random_trees.build(spec)
+        return eomc.compile(system, f"ftree_{formulation[0]}", inputs=inputs, functions=FUNCTIONS,
+                            progress=False, formulation=formulation)
+    assert spec[0]["kind"] == "free"
+    try:
+        mk = compile_("kane")
+    except ModelError as exc:
+        assert "no inertia" in str(exc)
+        with pytest.raises(ModelError, match="no inertia"):
+            compile_("recursive")
+        return
+    mr = compile_("recursive")
+    assert mr.state_names == mk.state_names
+    assert _agree(mk, mr, seed, nstates=3) < TOL

@@ -65,16 +65,39 @@ def test_spherical_joint_is_three_stages():
     assert tree.bodies[0].mass == 0 and tree.bodies[2].mass == ball.mass
 
 
-def test_multi_speed_joint_is_named():
+def test_multi_speed_joint_is_one_body():
+    """A cylindrical joint: one body with two constant axes (turn and slide along one line)."""
     ground, body = sme.RigidBody("ground"), sme.RigidBody("sleeve")
     joint = sme.CylindricalJoint("rod", ground, body)
     system = sme.System.from_newtonian(ground)
     system.add_joints(joint)
-    with pytest.raises(NotATree, match="joint rod .CylindricalJoint. has 2 speeds"):
-        tree_from_system(system)
+    tree = tree_from_system(system)
+    assert [(b.name, b.kind, b.speed, b.speeds) for b in tree.bodies] == [("sleeve", "2-speed", None, (0, 1))]
+    assert tree.bodies[0].motions == ((1, 0, 0, 0, 0, 0), (0, 0, 0, 1, 0, 0))
 
 
 def test_closed_loop_is_not_a_tree():
     kane, _ = zoo.four_bar(em)
     with pytest.raises(NotATree, match="dependent"):
         tree_of(kane)
+
+
+def test_joint_torques_along_axes_are_body_loads():
+    """A joint torque written along its axis in the parent's frame turns with the child:
+    its child-frame components are constant, so it is a body load (no world rotations are
+    built for it); a force along a world direction on a turning body stays a world load."""
+    from helpers import random_trees
+    spec = [{"parent": -1, "kind": "pin", "rotation": ("BODY", 123), "axis": (1, 0, 1),
+             "parent_point": (0, 0, 1), "child_point": (1, 1, 0), "rigid": True, "products": True,
+             "load": True},
+            {"parent": 0, "kind": "pin", "rotation": ("BODY", 123), "axis": (0, 1, 1),
+             "parent_point": (1, 0, 0), "child_point": (0, 1, 0), "rigid": True, "products": False,
+             "load": True}]
+    system, _ = random_trees.build(spec)
+    F = sme.dynamicsymbols("F")
+    system.add_loads(sme.Force(system.bodies[2].masscenter, F * system.frame.x))
+    tree = tree_from_system(system)
+    frames = sorted((load.body, load.frame, tuple(load.force) != (0, 0, 0)) for load in tree.loads)
+    assert frames == [(0, "body", False), (0, "body", False), (1, "body", False), (1, "world", True)]
+    child_torque = [load for load in tree.loads if load.body == 1 and load.frame == "body"][0]
+    assert not any(c.has(*system.q) for c in child_torque.moment)

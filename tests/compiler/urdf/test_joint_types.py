@@ -92,6 +92,24 @@ def test_planar_kinematics_are_body_frame(zoo):
     np.testing.assert_allclose(qdot[:3], [c * v[0] - s * v[1], s * v[0] + c * v[1], v[2]], rtol=1e-13)
 
 
+def test_floating_euler_rates_give_the_body_angular_velocity():
+    """The FloatingJoint's closed-form Euler rates: with them, SymPy's angular velocity of the
+    body XYZ orientation is the speeds (ωx, ωy, ωz) in the child frame, at random states."""
+    import sympy as sm
+    import sympy.physics.mechanics as sme
+    from eomc.compiler.urdf.joints import FloatingJoint
+    ground, body = sme.RigidBody("ground"), sme.RigidBody("body")
+    joint = FloatingJoint("free", ground, body)
+    q, u = joint.coordinates, joint.speeds
+    rates = {q[i].diff(): -joint.kdes[i].subs(q[i].diff(), 0) for i in range(6)}
+    omega = body.frame.ang_vel_in(ground.frame).to_matrix(body.frame).xreplace(rates)
+    for _ in range(3):
+        values = dict(zip(list(q) + list(u), RNG.uniform(-1.2, 1.2, 12)))
+        np.testing.assert_allclose(np.array(omega.xreplace(values), dtype=float).ravel(),
+                                   [values[w] for w in u[3:]], rtol=1e-13, atol=1e-14)
+    assert sm.Matrix(joint.kdes).jacobian([qi.diff() for qi in q]) == sm.eye(6)
+
+
 def test_fixed_link_is_merged_into_its_parent(zoo):
     _, _, system = zoo
     tree = system.urdf.tree
