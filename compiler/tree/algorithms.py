@@ -216,8 +216,8 @@ def _root_acceleration(gravity):
 def aba(bodies, rec, speeds, gravity, v, c, keep=None):
     """Articulated-body algorithm: [(u'_k expression, D_i, body)] per joint with a speed.
 
-    ``keep``: a dict that receives {body index: (U_i, 1/D_i)}, the articulated
-    quantities that M⁻¹ needs (see :mod:`.derivatives`)."""
+    ``keep``: a dict that receives {body index: (U_i, 1/D_i)} (for a k-speed joint:
+    (the k rows of U_i, D_i factored)), the articulated quantities that M⁻¹ needs (see :mod:`.derivatives`)."""
     n = len(bodies)
     IA = [[row[:] for row in b.I] for b in bodies]
     pA = []
@@ -250,6 +250,8 @@ def aba(bodies, rec, speeds, gravity, v, c, keep=None):
         elif b.multi:
             U[i], ldl[i], uu[i] = _multi_articulate(b, rec, Ii, pi)
             D[i] = ldl[i].d
+            if keep is not None:
+                keep[i] = (U[i], ldl[i])
             if b.parent < 0:
                 continue          # a root (a floating base): nothing to hand on
             Ut = U[i]

@@ -45,6 +45,11 @@ def articulated_solve(bodies, rec, keep, g):
             uu[i] = rec.let(g[b.speed] - _dot(b.S, pi))
             s = rec.let(uu[i] * Dinv)
             pi = [pi[k] + U[k] * s for k in range(6)]
+        elif b.multi:
+            U, Dinv = keep[i]            # U: k rows of 6, Dinv: the factored kxk D
+            uu[i] = rec.vec([g[s] - _dot(S, pi) for s, S in b.multi])
+            s = Dinv.solve(uu[i])
+            pi = [pi[k] + sum((U[m][k] * s[m] for m in range(len(s))), sm.S.Zero) for k in range(6)]
         if b.parent >= 0:
             f = xt_force(b, rec.vec(pi))
             p[b.parent] = [p[b.parent][k] + f[k] for k in range(6)]
@@ -57,5 +62,11 @@ def articulated_solve(bodies, rec, keep, g):
             udd = rec.let((uu[i] - _dot(U, ai)) * Dinv)
             ai = [ai[k] + b.S[k] * udd for k in range(6)]
             out[b.speed] = udd
+        elif b.multi:
+            U, Dinv = keep[i]
+            udd = Dinv.solve(rec.vec([uu[i][m] - _dot(U[m], ai) for m in range(len(b.multi))]))
+            for m, (s, S) in enumerate(b.multi):
+                ai = [ai[k] + S[k] * udd[m] for k in range(6)]
+                out[s] = udd[m]
         a[i] = rec.vec(ai)
     return out
