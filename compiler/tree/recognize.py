@@ -445,12 +445,16 @@ def _particle_frame(rd, particle, pframe, speed, taken):
     """The frame a particle turns with: one whose angular velocity adds just its speed."""
     if speed is None:
         return pframe
-    want = rd.speeds_in(pframe.ang_vel_in(rd.N)) | {speed}
     if not hasattr(rd, "_frames"):
         rd._frames = _all_frames(rd.N)
+        # each frame's speeds once per recognition, not once per particle: SymPy's
+        # ang_vel_in searches every path of the frame graph, and a chain whose frames are
+        # oriented from the previous one but given angular velocities in N has many
+        rd._frame_speeds = {f: rd.speeds_in(f.ang_vel_in(rd.N)) for f in rd._frames if f != rd.N}
+    want = rd.speeds_in(pframe.ang_vel_in(rd.N)) | {speed}
     pos = particle.masscenter.pos_from(rd.O)
     named = [f for _, f in pos.args]
-    found = [f for f in rd._frames if f != rd.N and rd.speeds_in(f.ang_vel_in(rd.N)) == want]
+    found = [f for f, s in rd._frame_speeds.items() if s == want]
     if not found:
         return pframe
     found.sort(key=lambda f: (f not in named, f.name))
