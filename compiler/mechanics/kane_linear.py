@@ -155,6 +155,35 @@ def linearize(self, *, new_method=None, linear_solver=None, **kwargs):
     return lin.linearize(**kwargs) + (lin.r,)
 
 
+def check_inertia(km, M):
+    """A speed whose column of the mass matrix is identically zero has no inertia: its
+    acceleration is in no equation, so no formulation can solve for it.  Say so before
+    compiling, naming the joint (for a System of joints) and the bodies that move with it.
+
+    Typical causes: a massless link with nothing beyond it, a point mass on its own pin
+    axis, a slider of zero mass carrying nothing.
+    """
+    for j, speed in enumerate(km._u):
+        if any(M[i, j] != 0 for i in range(M.rows)):
+            continue
+        name = _plain_names([speed])
+        joint = getattr(km, "_joint_of_speed", {}).get(speed)
+        where = f"joint {joint} (speed {name})" if joint else f"speed {name}"
+        movers = [b.name for b in getattr(km, "_body_terms", ())
+                  if any(c != 0 for v in (b.vr[j], *(b.wr[j:j + 1] if b.wr else ())) for c in v)]
+        if movers:
+            who = (f"bod{'y' if len(movers) == 1 else 'ies'} {', '.join(movers)} "
+                   f"move{'s' if len(movers) == 1 else ''} with it but "
+                   f"ha{'s' if len(movers) == 1 else 've'} no mass or inertia along it")
+        else:
+            who = "no body moves with it"
+        raise ModelError(
+            f"{where} has no inertia: {who}, so its acceleration appears in no equation (the mass "
+            f"matrix's column is identically zero) and the equations of motion cannot be solved; "
+            f"give a body beyond the joint a mass or an inertia about its axis (a link massless "
+            f"with nothing at its end, or a point mass on its own pin axis, has none)")
+
+
 def formed_system(km):
     """Build the FormedSystem of a KanesMethod whose equations are formed."""
     km._need_equations()
@@ -163,6 +192,7 @@ def formed_system(km):
     kin = sm.Matrix(len(km._qdot), 1, [km._qdot_u_map[qd] for qd in km._qdot])
     M = km.mass_matrix
     f = km.forcing
+    check_inertia(km, M)
     if zero_aux:
         M, f, kin = (x.xreplace(zero_aux) for x in (M, f, kin))
     hol = km._f_h if km._f_h.rows else sm.zeros(0, 1)
