@@ -86,15 +86,38 @@ def _is_trig(f):
 
 
 def _contract_add(add, angles):
-    """One sum: merge matching pairs of terms, repeated while any pair merges."""
-    terms = list(add.args)
+    """One sum: merge matching pairs of terms, repeated while any pair merges; then try
+    once more with the products of a sine/cosine and a sum multiplied out."""
+    terms = _merge_all(list(add.args), angles)
+    spread = [i for i, t in enumerate(terms) if _trig_times_sum(t)]
+    if len(spread) >= 2:
+        # cos a (cos b X − sin b Y) + sin a (−sin b X − cos b Y) = cos(a + b) X − sin(a + b) Y:
+        # the pairs only meet once both products are multiplied out.  Kept only if at least
+        # half the multiplied-out terms merged, so a sum never grows.
+        out = [t for k in spread for t in _distribute(terms[k])]
+        merged = _merge_all(out, angles)
+        if 2 * len(merged) <= len(out):
+            terms = [t for i, t in enumerate(terms) if i not in spread] + merged
+    return sm.Add(*terms)
+
+
+def _merge_all(terms, angles):
     while True:
         merged = _merge_once(terms, angles)
         if merged is None:
-            break
+            return terms
         terms = merged
-    out = sm.Add(*terms)
-    return out
+
+
+def _trig_times_sum(term):
+    return term.is_Mul and any(_is_trig(f) for f in term.args) and any(f.is_Add for f in term.args)
+
+
+def _distribute(term):
+    """c·f·(x1 + x2 + ...) -> [c·f·x1, c·f·x2, ...] for the first sum among the factors."""
+    k = next(i for i, f in enumerate(term.args) if f.is_Add)
+    rest = sm.Mul(*(term.args[:k] + term.args[k + 1:]))
+    return [rest * x for x in term.args[k].args]
 
 
 def _split(term):

@@ -34,6 +34,11 @@ def test_chained_frames_give_the_summed_form_exactly(axes, style):
     assert sm.cos(angle) in chained.mass_matrix.atoms(sm.cos)
 
 
+def test_a_longer_spatial_chain_gives_the_summed_form_exactly():
+    """z, z, x, x, z, z, x: SymPy splits cos(q3 + q4) across products with q7's sin and cos."""
+    assert chain_cart(em, "zzxxzzx", "chain").forcing == chain_cart(em, "zzxxzzx", "sum").forcing
+
+
 def test_chained_rigid_links_match_the_summed_form_and_sympy():
     summed = chain_cart(em, PLANAR, "sum", rigid=True)
     chained = chain_cart(em, PLANAR, "chainrel", rigid=True)

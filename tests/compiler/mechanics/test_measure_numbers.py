@@ -34,6 +34,15 @@ def test_contracts_angle_sums_it_is_given(expr, want):
     _same_value(out, expr)
 
 
+def test_contracts_across_products_of_a_sine_or_cosine_and_a_sum():
+    """cos a (cos b X − sin b Y) + sin a (−sin b X − cos b Y): pairs meet only multiplied out."""
+    X, Y = sm.symbols("X Y")
+    expr = c(a) * (c(b) * X - s(b) * Y) + s(a) * (-s(b) * X - c(b) * Y)
+    out = tidy(expr, angles=ANGLES)
+    assert out == X * c(a + b) - Y * s(a + b)
+    _same_value(out.subs({X: x, Y: r}), expr.subs({X: x, Y: r}))
+
+
 @pytest.mark.parametrize("expr", [
     c(a) * c(d) - s(a) * s(d),              # a + d is not one of the angles: left alone
     2 * c(a) * c(b) - 3 * s(a) * s(b),      # coefficients fit no identity
