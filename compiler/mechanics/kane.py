@@ -35,7 +35,8 @@ from sympy.physics.vector import dynamicsymbols
 
 from eomc.runtime.errors import ModelError
 
-from .kane_forms import FOLD_OPS, VectorReader, assemble, dot, fewer_trig_squares, read_bodies, read_loads, to_dynamic
+from .kane_forms import (FOLD_OPS, VectorReader, assemble, dot, fewer_trig_squares, read_bodies,
+                         read_loads, run_angles, to_dynamic)
 from .kane_inputs import (as_symbol_list, names, check_bodies, check_time_functions,
                           parse_loads, split_bodies_and_loads)
 from .kane_kinematics import constraint_matrices, kinematic_matrices, linear_solver
@@ -194,7 +195,7 @@ class KanesMethod:
         bodies = check_bodies(bodies)
         parsed = parse_loads(loads, self._inertial)
         space = PlainSpace(list(self._q), list(self._u), self._uaux, self._qdot_u_map)
-        reader = VectorReader(space)
+        reader = VectorReader(space, run_angles(self._inertial))
         self._body_terms = read_bodies(space, reader, self._inertial, bodies)
         self._load_terms = read_loads(space, reader, self._inertial, parsed)
         self._space = space

@@ -25,6 +25,7 @@ import sympy as sm
 
 from eomc.runtime.errors import ModelError
 
+from .measure_numbers import tidy
 from .kane_inputs import frame_ang_vel, point_velocity
 from .plain import linear_coefficients
 
@@ -136,16 +137,66 @@ def chained_dcm(to, frm):
     return out
 
 
+def run_angles(root):
+    """Every sum of the angles of consecutive rotations about one basis axis in the frame
+    graph around ``root`` (q2 + q3 for B3 oriented from B2 about z by q3, B2 from B1 about
+    z by q2), with both signs.
+
+    These are the angles :func:`chained_dcm` writes direction cosines in, so they are the
+    ones worth contracting expanded sines and cosines into (:mod:`.measure_numbers`);
+    contracting other pairs would only add sin/cos calls (the Whipple bicycle's rhs grew 2%).
+    """
+    frames, stack = {root}, [root]
+    while stack:
+        for g in stack.pop()._dcm_dict:
+            if g not in frames:
+                frames.add(g)
+                stack.append(g)
+    steps = {}                          # frame -> [(neighbour, axis, angle of frame rel. neighbour)]
+    for f in frames:
+        for g in f._dcm_dict:
+            rot = _axis_rotation(f.dcm(g))
+            if rot is not None:
+                steps.setdefault(f, []).append((g, rot[0], rot[1]))
+    out = set()
+
+    def walk(f, axis, total, seen):
+        for g, k, angle in steps.get(f, []):
+            if k != axis or g in seen:
+                continue
+            s = total + angle
+            out.update((s, -s))
+            walk(g, axis, s, seen | {g})
+
+    for f in steps:
+        for axis in {k for _, k, _ in steps[f]}:
+            walk(f, axis, sm.S.Zero, {f})
+    return out
+
+
 class VectorReader:
     """Reads SymPy Vectors/Dyadics as plain-symbol components in a chosen frame.
 
     Direction cosine matrices are converted to plain symbols once per frame
-    pair and cached.
+    pair and cached.  Measure numbers are tidied (:mod:`.measure_numbers`):
+    expanded sines and cosines of the angle sums in ``angles`` contracted,
+    terms grouped by speed.
     """
 
-    def __init__(self, space):
+    def __init__(self, space, angles=()):
         self.space = space
         self._dcm = {}
+        self._contracted = {}
+        self._angles = frozenset(space.to_plain(a) for a in angles)
+
+    def plain(self, expr):
+        """A measure number in plain symbols, sines and cosines of angle sums contracted
+        and terms grouped by speed (SymPy's kinematics of chained frames expand them:
+        see :mod:`.measure_numbers`)."""
+        return self._tidy(self.space.to_plain(expr))
+
+    def _tidy(self, expr):
+        return tidy(expr, self.space.speed_set, self._angles, self._contracted)
 
     def dcm(self, to, frm):
         key = (to, frm)
@@ -174,7 +225,7 @@ class VectorReader:
     def components(self, vec, frame):
         acc = ([], [], [])
         for mat, f in vec.args:
-            m = [self.space.to_plain(e) for e in mat]
+            m = [self.plain(e) for e in mat]
             if f == frame:
                 for i in range(3):
                     acc[i].append(m[i])
@@ -182,13 +233,13 @@ class VectorReader:
             C = self.dcm(frame, f)
             for i in range(3):
                 acc[i].extend(C[i][j] * m[j] for j in range(3) if m[j] != 0 and C[i][j] != 0)
-        return tuple(sm.Add(*a) for a in acc)
+        return tuple(self._tidy(sm.Add(*a)) for a in acc)
 
     def dyadic_matrix(self, dyadic, frame):
         M = dyadic.to_matrix(frame)
         if {f for _, v1, v2 in dyadic.args for v in (v1, v2) for _, f in v.args} - {frame}:
             M = M.applyfunc(fewer_trig_squares)     # re-expressed: fold I*sin**2 + I*cos**2
-        return tuple(tuple(self.space.to_plain(M[i, j]) for j in range(3)) for i in range(3))
+        return tuple(tuple(self.plain(M[i, j]) for j in range(3)) for i in range(3))
 
 
 def fewer_trig_squares(e):

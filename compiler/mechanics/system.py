@@ -196,6 +196,7 @@ class System(_SymPySystem):
         if family == "lagrange" and "Lagrangian" not in kwargs:
             kwargs["Lagrangian"] = Lagrangian(kwargs["frame"], *kwargs["bodies"])
         self._eom_method = eom_method(**kwargs)
+        _name_joints(self._eom_method, self.joints)
         return self.eom_method._form_eoms()
 
     def validate_system(self, eom_method=KanesMethod, check_duplicates=False):
@@ -207,6 +208,11 @@ class System(_SymPySystem):
         if self.eom_method is None:
             self.form_eoms()
         return _formed(self.eom_method)
+
+
+def _name_joints(method, joints):
+    """Tell the method which joint each speed belongs to, for its error messages."""
+    method._joint_of_speed = {s: j.name for j in joints for s in getattr(j, "speeds", ())}
 
 
 def _formed(method):
@@ -250,6 +256,7 @@ class JointsMethod(_SymPyJointsMethod):
         else:
             self._method = method(self.frame, q_ind=self.q, u_ind=self.u, kd_eqs=self.kdes,
                                   forcelist=self.loads, bodies=bodylist)
+            _name_joints(self._method, self._joints)
         return self.method._form_eoms()
 
     def formed(self):

@@ -318,7 +318,7 @@ def tree_from_system(system, kinematics=None):
     if len(getattr(system, "q_dep", ())) or len(getattr(system, "u_dep", ())) or \
             len(getattr(system, "holonomic_constraints", ())) or \
             len(getattr(system, "nonholonomic_constraints", ())):
-        raise NotATree("the system has constraints (dependent coordinates or speeds): not a tree")
+        raise NotATree(_constrained(system))
     kin = kinematics if kinematics is not None else system_kinematics(system)
     rd = _Reader(system.frame, system.fixed_point, system.q, system.u, kin)
     ground = [b for b in system.bodies if getattr(b, "frame", None) == system.frame
@@ -364,6 +364,28 @@ def tree_from_system(system, kinematics=None):
 
 
 _STAGED = (me.SphericalJoint, me.PlanarJoint)   # read as single-axis stages, not as one joint
+
+
+def _constrained(system):
+    """Why a System with constraints is not a tree, naming the joints the constraints tie
+    (a four-bar's loop-closing constraints name all its joints) and the dependent variables."""
+    hol = list(getattr(system, "holonomic_constraints", ()))
+    nonhol = list(getattr(system, "nonholonomic_constraints", ()))
+    atoms = set()
+    for c in hol + nonhol:
+        atoms |= {a for a in sm.sympify(c).atoms(AppliedUndef)}
+        atoms |= {d.expr for d in sm.sympify(c).atoms(sm.Derivative)}
+    tied = [j.name for j in system.joints
+            if atoms & (set(getattr(j, "coordinates", ())) | set(getattr(j, "speeds", ())))]
+    dep = [_nm(x) for x in list(getattr(system, "q_dep", ())) + list(getattr(system, "u_dep", ()))]
+    kinds = ", ".join(f"{len(c)} {k} constraint{'s' if len(c) != 1 else ''}"
+                      for c, k in ((hol, "holonomic"), (nonhol, "nonholonomic")) if len(c))
+    why = f"{kinds or 'constraints'}" + (f" (dependent {', '.join(dep)})" if dep else "")
+    if len(tied) > 1:
+        return f"joints {', '.join(tied)} form a closed loop: {why} tie them; the recursion needs a tree"
+    if tied:
+        return f"joint {tied[0]} is constrained: {why}; the recursion needs a tree without constraints"
+    return f"the system has {why}: the recursion needs a tree without constraints"
 
 
 def _ball_stages(system, joint, parent, order, added):
@@ -495,7 +517,10 @@ def _forget(added):
 def tree_from_kane(kane, kinematics):
     """Tree of a KanesMethod formed from hand-built frames and points."""
     if len(kane._qdep) or len(kane._udep) or len(kane._uaux):
-        raise NotATree("the system has dependent or auxiliary speeds: not a tree")
+        extra = [_nm(x) for x in list(kane._qdep) + list(kane._udep) + list(kane._uaux)]
+        raise NotATree(f"the system has dependent or auxiliary coordinates or speeds "
+                       f"({', '.join(extra)}): constraints close a loop or add speeds, so it is "
+                       f"not a tree")
     bodies = list(kane._bodylist or [])
     if not bodies:
         raise NotATree("the KanesMethod has no bodies")
@@ -561,12 +586,16 @@ def _particle_frame(rd, particle, pframe, speed, taken):
     """The frame a particle turns with: one whose angular velocity adds just its speed."""
     if speed is None:
         return pframe
-    want = rd.speeds_in(pframe.ang_vel_in(rd.N)) | {speed}
     if not hasattr(rd, "_frames"):
         rd._frames = _all_frames(rd.N)
+        # each frame's speeds once per recognition, not once per particle: SymPy's
+        # ang_vel_in searches every path of the frame graph, and a chain whose frames are
+        # oriented from the previous one but given angular velocities in N has many
+        rd._frame_speeds = {f: rd.speeds_in(f.ang_vel_in(rd.N)) for f in rd._frames if f != rd.N}
+    want = rd.speeds_in(pframe.ang_vel_in(rd.N)) | {speed}
     pos = particle.masscenter.pos_from(rd.O)
     named = [f for _, f in pos.args]
-    found = [f for f in rd._frames if f != rd.N and rd.speeds_in(f.ang_vel_in(rd.N)) == want]
+    found = [f for f, s in rd._frame_speeds.items() if s == want]
     if not found:
         return pframe
     found.sort(key=lambda f: (f not in named, f.name))

@@ -97,9 +97,10 @@ def generate_formulation(spec, functions, fold_parameters, formulation="kane"):
         tree = _find_tree(spec)
     except NotATree as exc:
         if formulation == "recursive":
-            raise ModelError(f"recursive formulation: {exc}") from None
+            raise ModelError(f"recursive formulation: {exc} (formulation 'kane' takes it, and "
+                             f"'auto' falls back to kane)") from None
         generated = generate_c(spec.formed, spec.name, **options)
-        generated.metadata["formulation_note"] = f"kane (not a tree: {exc})"
+        generated.metadata["formulation_note"] = f"kane, the fallback (not a tree: {exc})"
         return generated
     recursive = generate_c(spec.formed, spec.name, tree=tree, **options)
     if formulation == "recursive" or spec.formed.method == "tree":

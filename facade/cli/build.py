@@ -51,4 +51,7 @@ def run(args):
           f"ninput={model.ninput}) in {model.directory}:")
     for name in files:
         print(f"  {name}")
+    note = model.metadata.get("formulation_note")
+    if note:                 # auto fell back from the recursive formulation: say to what and why
+        print(f"formulation: {note}")
     return 0

@@ -50,6 +50,9 @@ def compare_formulations(args, spec, generated, generate, error):
     """Total operations per function in both formulations (the other one generated too)."""
     chosen = generated.metadata.get("formulation", "kane")
     other = "kane" if chosen == "recursive" else "recursive"
+    note = generated.metadata.get("formulation_note")
+    if note:                 # auto fell back: the other form does not exist, and the note says why
+        return f"formulation: {note}"
     if spec.formed.method == "tree":
         return (f"formulation: {chosen} (kane not compared: the System's equations are not formed, "
                 f"and forming them is what the recursive formulation avoids)")
