@@ -161,85 +161,6 @@ def _hoist(program, once, stores, loops, varying):
     return program, once, stores, new_loops
 
 
-def _regions(inner, seeds, start, end):
-    """[(columns, assignments)]: runs of consecutive tangent assignments and the loop's
-    columns in which they can be nonzero (None: all).  A value that depends on no seed of
-    column k is zero there: in a chain, a body's motion does not depend on the joints
-    below it, so the tangents of its forward pass vanish in their columns."""
-    index = {s: j for j, s in enumerate(seeds)}
-    dep, out = {}, []
-    for t, e in inner:
-        d = set()
-        for s in e.free_symbols:
-            if s in index:
-                d.add(index[s])
-            else:
-                d |= dep.get(s, frozenset())
-        dep[t] = frozenset(c for c in d if start <= c < end)
-        cols = None if len(dep[t]) == end - start else dep[t]
-        if out and out[-1][0] == cols:
-            out[-1][1].append((t, e))
-        else:
-            out.append((cols, [(t, e)]))
-    return out
-
-
-def _condition(cols, start, end):
-    """C test that the column k is in ``cols``, as ranges."""
-    cols = sorted(cols)
-    ranges, lo = [], cols[0]
-    for a, b in zip(cols, cols[1:] + [None]):
-        if b != a + 1:
-            ranges.append((lo, a))
-            lo = b
-    parts = []
-    for a, b in ranges:
-        if a == b:
-            parts.append(f"k == {a}")
-        elif a <= start:
-            parts.append(f"k <= {b}")
-        elif b >= end - 1:
-            parts.append(f"k >= {a}")
-        else:
-            parts.append(f"(k >= {a} && k <= {b})")
-    return " || ".join(parts)
-
-
-def _region_lines(program, pr, regions, later, start, end):
-    """The loop body's tangent part: a region runs only in its columns; its values read
-    elsewhere are declared zero first (their value in the other columns)."""
-    shared = []
-    for cols, assigns in regions:
-        if cols is not None:
-            shared += [t for t, _ in assigns if t in later]
-    lines = [f"{_IND}double {pr._names[t]} = 0.0;" for t in shared]
-    shared = set(shared)
-    for cols, assigns in regions:
-        if cols is None:
-            lines += _temps(program, pr, assigns)
-            continue
-        if not cols:
-            continue
-        lines.append(f"{_IND}if ({_condition(cols, start, end)}) {{")
-        for t, e in assigns:
-            decl = "" if t in shared else "const double "
-            lines.append(f"{_IND * 2}{decl}{pr._names[t]} = {pr.doprint(e)};")
-        lines.append(f"{_IND}}}")
-    return lines
-
-
-def _read_later(regions, rest):
-    """Temporaries of the regions that other regions or ``rest`` (expressions) read."""
-    owner = {t: r for r, (_, assigns) in enumerate(regions) for t, _ in assigns}
-    later = set()
-    for r, (_, assigns) in enumerate(regions):
-        for _, e in assigns:
-            later |= {s for s in e.free_symbols if owner.get(s, r) != r}
-    for e in rest:
-        later |= {s for s in e.free_symbols if s in owner}
-    return later
-
-
 def tree_jacobian_body(ctx, program, W, G, seeds, fn, nr):
     """jac_x (d xdot/dx) or jac_r (d xdot/dr) of the recursive formulation: ABA's u' into w,
     then per column the residual's derivative G and u'-columns M⁻¹ G by the articulated-body
@@ -282,10 +203,7 @@ def tree_jacobian_body(ctx, program, W, G, seeds, fn, nr):
     if any(inner for _, _, inner, _, _, _ in loops):
         lines.append(f"{_IND}for (i = 0; i < {nx}; i++) dx[i] = 0.0;")
     for start, end, inner, gstores, solve, sol in loops:
-        regions = _regions(inner, seeds, start, end)
-        rest = [e for _, e in gstores + solve] + list(sol.values())
-        body = _region_lines(program, pr, regions, _read_later(regions, rest), start, end)
-        body += [_store(lv, e, pr) for lv, e in gstores]
+        body = _temps(program, pr, inner) + [_store(lv, e, pr) for lv, e in gstores]
         if not inner:
             body.append(f"{_IND}G = Gm + k * {nu};")
         body += _temps(program, pr, solve)
@@ -313,16 +231,7 @@ def tree_jacobian_ops(program, W, G, seeds, fn, nq, nx, nr):
         count_ops(e, c)
     for start, end, inner, gstores, solve, sol in loops:
         per = Counter()
-        for cols, assigns in _regions(inner, seeds, start, end):
-            part = Counter()
-            for _, e in assigns:
-                count_ops(e, part)
-            if cols is None:
-                per += part
-            else:                       # runs in its columns only
-                for _ in cols:
-                    c += part
-        for _, e in gstores + solve:
+        for _, e in inner + gstores + solve:
             count_ops(e, per)
         for e in sol.values():
             count_ops(e, per)
