@@ -203,7 +203,17 @@ def write_model(gm, directory):
 
 
 def gcc_cost(directory, name):
-    return _Children.run(["gcc", *CFLAGS, "-c", f"{name}.c", "-o", f"{name}.o"], cwd=directory)[:2]
+    """(CPU s, peak RSS MB) of one compile.  Measured by /usr/bin/time when present: a
+    child forked from this Python process starts with the parent's resident pages, so
+    wait4's peak RSS would report Python's size for small compiles."""
+    argv = ["gcc", *CFLAGS, "-c", f"{name}.c", "-o", f"{name}.o"]
+    if not os.path.exists("/usr/bin/time"):
+        return _Children.run(argv, cwd=directory)[:2]
+    report = Path(directory) / "time.txt"
+    subprocess.run(["/usr/bin/time", "-f", "%U %S %M", "-o", str(report), *argv], cwd=directory,
+                   check=True, capture_output=True)
+    user, system, kb = report.read_text().split()[-3:]
+    return float(user) + float(system), float(kb) / 1024.0
 
 
 def build_harness(directory, name):

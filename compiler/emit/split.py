@@ -9,12 +9,16 @@ from benchmarks/bench_build_scaling.py (results/build_scaling.md): chunks of 100
 fastest of 100/250/500, and the split code ran no slower than the unsplit (up to 30%
 faster: gcc spills less badly in small functions).
 
-How: a *run* is a maximal block of consecutive ``const double tN = ...;`` lines (the
-shape every body printer emits, :func:`eomc.compiler.emit.bodies._temps`).  A run
-longer than :data:`SPLIT_MIN` is cut into consecutive chunks of :data:`CHUNK` lines.
-Each chunk becomes ``static EOMC_NOINLINE void NAME_partK(...)``, which reads the
-caller's arrays it needs (``x``, ``p``, ``w``, ...) as ``const double *`` and keeps
-its own temporaries as locals.  A temporary read by a later chunk, or by the rest of
+How: a *run* is a maximal block of consecutive statements of two shapes, at one
+indentation: ``const double tN = ...;`` (what :func:`eomc.compiler.emit.bodies._temps`
+prints) and stores to a constant index, ``F[12] = ...;`` (the results).  A run longer
+than :data:`SPLIT_MIN` statements is cut into consecutive chunks of at most
+:data:`CHUNK` statements and :data:`CHUNK_BYTES` characters of C (Kane's mass matrix
+in relative coordinates has sums of hundreds of terms: counting statements alone left
+580 kB in one function at n = 40).  Each chunk becomes
+``static EOMC_NOINLINE void NAME_partK(...)``, which takes the caller's arrays it uses
+(``x``, ``p``, ``w``, ``F``, ...; ``const double *`` unless it stores into them) and
+keeps its own temporaries as locals.  A temporary read by a later chunk, or by the rest of
 the caller, is also stored in a scratch array on the caller's stack
 (``double SK[n]``, so the code stays reentrant); later chunks and the caller read it
 from there.  Slots whose last reader has run are reused, so the scratch array holds
@@ -28,10 +32,11 @@ left as it is.  Output depends only on the input lines: byte-identical C.
 """
 import re
 
-__all__ = ["split_body", "NOINLINE_MACRO", "SPLIT_MIN", "CHUNK"]
+__all__ = ["split_body", "NOINLINE_MACRO", "SPLIT_MIN", "CHUNK", "CHUNK_BYTES"]
 
 SPLIT_MIN = 300      # statements: shorter runs stay as they are
-CHUNK = 100          # statements per sub-function
+CHUNK = 100          # statements per sub-function, at most
+CHUNK_BYTES = 8000   # characters of C per sub-function, about (a chunk ends past this)
 
 NOINLINE_MACRO = """#if defined(__GNUC__)
 #define EOMC_NOINLINE __attribute__((noinline))
@@ -40,22 +45,46 @@ NOINLINE_MACRO = """#if defined(__GNUC__)
 #endif"""
 
 _TEMP_LINE = re.compile(r"^(\s+)const double (t\d+) = (.*);$")
+_STORE_LINE = re.compile(r"^(\s+)([A-Za-z_]\w*)\[(\d+)\] = (.*);$")
 _TEMP = re.compile(r"\bt\d+\b")
 _IDENT = re.compile(r"\b([A-Za-z_]\w*)\s*([\[(]?)")
 _IND = "    "
 
 
+def _statement(line):
+    """(indent, temp or None, lvalue or None, expression) of a run's line, or None."""
+    m = _TEMP_LINE.match(line)
+    if m:
+        return m.group(1), m.group(2), None, m.group(3)
+    m = _STORE_LINE.match(line)
+    if m:
+        return m.group(1), None, f"{m.group(2)}[{m.group(3)}]", m.group(4)
+    return None
+
+
 def _runs(lines):
-    """(start, end) of every maximal block of temporary lines with one indentation."""
+    """(start, end) of every maximal block of run statements with one indentation."""
     runs, start, indent = [], None, None
     for i, line in enumerate(lines + [""]):
-        m = _TEMP_LINE.match(line)
-        if m and start is not None and m.group(1) == indent:
+        st = _statement(line)
+        if st and start is not None and st[0] == indent:
             continue
         if start is not None:
             runs.append((start, i))
-        start, indent = (i, m.group(1)) if m else (None, None)
+        start, indent = (i, st[0]) if st else (None, None)
     return runs
+
+
+def _chunks(stmts):
+    """Consecutive pieces of at most CHUNK statements and about CHUNK_BYTES characters."""
+    chunks, current, size = [], [], 0
+    for st in stmts:
+        if current and (len(current) >= CHUNK or size >= CHUNK_BYTES):
+            chunks.append(current)
+            current, size = [], 0
+        current.append(st)
+        size += len(st[3]) + 24
+    return chunks + ([current] if current else [])
 
 
 def _reads(text):
@@ -95,13 +124,15 @@ class _Slots:
 def _split_run(lines, start, end, base, scratch, slots):
     """Split ``lines[start:end]``: (sub-function texts, caller lines, {temp: slot} of the
     run's temporaries the rest reads, {earlier temp: slot} to store), or None."""
-    defs = [_TEMP_LINE.match(line).group(2, 3) for line in lines[start:end]]
-    indent = _TEMP_LINE.match(lines[start]).group(1)
-    chunks = [defs[i:i + CHUNK] for i in range(0, len(defs), CHUNK)]
-    where = {name: c for c, chunk in enumerate(chunks) for name, _ in chunk}
+    stmts = [_statement(line) for line in lines[start:end]]
+    if any(_reads(expr)[2] for _, _, _, expr in stmts):
+        return None                  # reads a name a sub-function would not see
+    indent = stmts[0][0]
+    chunks = _chunks(stmts)
+    where = {name: c for c, chunk in enumerate(chunks) for _, name, _, _ in chunk if name}
     last, outside = {}, {}           # temp -> last chunk reading it; earlier temps read
     for c, chunk in enumerate(chunks):
-        for _, expr in chunk:
+        for _, _, _, expr in chunk:
             for name in _TEMP.findall(expr):
                 if name not in where:
                     outside.setdefault(name, None)
@@ -119,25 +150,31 @@ def _split_run(lines, start, end, base, scratch, slots):
         for name, c_last in last.items():
             if c_last == c - 1 and name not in after:
                 slots.give(slot_of[name])
-        body, local = [], set()
-        for name, expr in chunk:
-            body.append(f"{_IND}const double {name} = {_TEMP.sub(scratch_ref, expr)};")
+        body, local, written = [], set(), set()
+        for _, name, lvalue, expr in chunk:
+            expr = _TEMP.sub(scratch_ref, expr)
+            if name is None:
+                body.append(f"{_IND}{lvalue} = {expr};")
+                written.add(lvalue.split("[", 1)[0])
+                continue
+            body.append(f"{_IND}const double {name} = {expr};")
             local.add(name)
             if name in last or name in after:
                 slot_of[name] = slots.take()
                 body.append(f"{_IND}{scratch}[{slot_of[name]}] = {name};")
-        arrays, uses_t = set(), False
+        arrays, uses_t = set(written), False
         for line in body:
-            a, ut, others = _reads(line.split(" = ", 1)[1])
-            if others:
-                return None
+            a, ut, _ = _reads(line.split(" = ", 1)[1])
             arrays |= a
             uses_t |= ut
+        uses_scratch = any(f"{scratch}[" in line for line in body)
         arrays = sorted(arrays - {scratch})
-        params = (["double t"] if uses_t else []) + [f"const double *{a}" for a in arrays]
-        args = (["t"] if uses_t else []) + arrays + [scratch]
+        params = (["double t"] if uses_t else []) + [
+            f"{'double' if a in written else 'const double'} *{a}" for a in arrays]
+        params += [f"double *{scratch}"] if uses_scratch else []
+        args = (["t"] if uses_t else []) + arrays + ([scratch] if uses_scratch else [])
         fname = f"{base}{c}"
-        parts.append(f"static EOMC_NOINLINE void {fname}({', '.join(params + [f'double *{scratch}'])})\n"
+        parts.append(f"static EOMC_NOINLINE void {fname}({', '.join(params) or 'void'})\n"
                      f"{{\n" + "\n".join(body) + "\n}\n")
         parts.append(f"{indent}{fname}({', '.join(args)});")
     helpers, calls = parts[0::2], parts[1::2]
@@ -173,6 +210,6 @@ def split_body(lines, base, scratch="S_"):
         lines = head + calls + tail
         pos = len(head) + len(calls)
         helpers += new_helpers
-    if nrun:
-        lines.insert(0, f"{_IND}double {scratch}[{max(slots.size, 1)}];")
+    if slots.size:
+        lines.insert(0, f"{_IND}double {scratch}[{slots.size}];")
     return lines, helpers

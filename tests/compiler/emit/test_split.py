@@ -43,16 +43,24 @@ def test_short_runs_are_left_alone():
 
 def test_long_run_is_cut_into_chunks_with_a_scratch_array(tiny):
     lines, parts = split.split_body(_chain_lines(23), "m_f_part")
-    assert len(parts) == 5                                      # ceil(23 / 5)
+    assert len(parts) == 5                                      # 23 temporaries + 1 store, by 5
     for part in parts:
         assert part.startswith("static EOMC_NOINLINE void m_f_part0_")
         assert len(re.findall(r"const double t\d+ =", part)) <= 5
-    # t3 (read at the end) and the running value, which crosses each boundary: its slot is
-    # reused only from the chunk after its last reader, so two slots alternate
+    # t3 (read by the store) and the running value, which crosses each boundary: its slot
+    # is reused only from the chunk after its last reader, so two slots alternate
     assert lines[0] == "    double S_[3];"
-    assert lines[1:6] == [f"    m_f_part0_{c}(p, x, S_);" for c in range(5)]
-    assert re.fullmatch(r"    out\[0\] = S_\[\d\] \+ S_\[\d\];", lines[6])
-    assert lines[7] == "    return 0;"
+    assert lines[1:5] == [f"    m_f_part0_{c}(p, x, S_);" for c in range(4)]
+    assert lines[5:] == ["    m_f_part0_4(out, p, x, S_);", "    return 0;"]
+    assert parts[4].startswith("static EOMC_NOINLINE void m_f_part0_4(double *out, const double *p, "
+                               "const double *x, double *S_)")
+    assert "    out[0] = t22 + S_[0];" in parts[4]
+
+
+def test_chunks_are_bounded_in_bytes_too(tiny, monkeypatch):
+    monkeypatch.setattr(split, "CHUNK_BYTES", 60)        # two of these statements
+    lines, parts = split.split_body(_chain_lines(12), "m_f_part")
+    assert len(parts) == 7 and all(len(re.findall(r" = ", p)) <= 4 for p in parts)
 
 
 def test_a_run_reading_an_unknown_identifier_stays_whole(tiny):
@@ -62,10 +70,12 @@ def test_a_run_reading_an_unknown_identifier_stays_whole(tiny):
 
 
 def test_earlier_temporaries_are_stored_for_the_chunks(tiny):
-    lines = ["    const double t100 = x[1]*x[2];", "    F[0] = t100;"] + _chain_lines(12)
-    lines[3] = "    const double t1 = t0*t100;"
+    lines = ["    const double t100 = x[1]*x[2];", "    F[0] = t100;", "    status = 1;"]
+    lines += _chain_lines(12)
+    lines[4] = "    const double t1 = t0*t100;"
     out, parts = split.split_body(lines, "m_f_part")
-    assert out[1:4] == ["    const double t100 = x[1]*x[2];", "    S_[0] = t100;", "    F[0] = t100;"]
+    assert out[1:5] == ["    const double t100 = x[1]*x[2];", "    S_[0] = t100;", "    F[0] = t100;",
+                        "    status = 1;"]
     assert "t100" not in "".join(parts) and "S_[0]" in parts[0]
 
 
