@@ -181,11 +181,11 @@ def test_split_c_is_byte_identical_across_hash_seeds():
 
 def _random_body(draw_ops):
     """C lines of a random straight-line body: temporaries reading earlier ones (far back
-    too), broken into runs by array stores ``P[k] = ...`` that later lines read back."""
+    too), broken into runs by updates ``P[k] += ...`` that later lines read back."""
     lines, temps, stores = [], [], 0
     for kind, a, b, c in draw_ops:
         if kind == 0 and temps:
-            lines.append(f"    P[{stores}] = {temps[a % len(temps)]} + x[{c % 4}];")
+            lines.append(f"    P[{stores}] += {temps[a % len(temps)]} + x[{c % 4}];")
             stores += 1
             continue
         terms = [f"x[{c % 4}]"]
@@ -206,7 +206,7 @@ def _run_c(tmp_path, tag, lines, helpers, nP):
     import subprocess
     src = tmp_path / f"{tag}.c"
     src.write_text("#include <math.h>\n" + split.NOINLINE_MACRO + "\n" + "\n".join(helpers)
-                   + f"\nvoid f(const double *x, double *out)\n{{\n    double P[{nP}];\n"
+                   + f"\nvoid f(const double *x, double *out)\n{{\n    double P[{nP}] = {{0.0}};\n"
                    + "\n".join(lines) + "\n}\n")
     lib = tmp_path / f"lib{tag}.so"
     subprocess.run(["gcc", "-O2", "-std=c99", "-shared", "-fPIC",
@@ -241,13 +241,13 @@ def test_random_bodies_compute_the_same_values_split(tmp_path_factory, monkeypat
 def test_a_value_read_across_two_split_runs_survives_the_first(tmp_path, tiny):
     """t1 is defined before run 1 and read only in run 2: its scratch slot must not be one
     that run 1 frees and reuses for its own values while it runs."""
-    lines = ["    const double t0 = x[0];", "    const double t1 = 0.5*x[1];", "    P[0] = t0;"]
+    lines = ["    const double t0 = x[0];", "    const double t1 = 0.5*x[1];", "    P[0] += t0;"]
     lines += [f"    const double t{i} = 0.5*t{i - 1} + 0.25*x[{i % 4}];" for i in range(2, 12)]
     # the last two chunks of run 1 read nothing across: the slot t6 used comes free
     lines += [f"    const double t{i} = 0.5*x[{i % 4}] + {i};" for i in range(12, 22)]
-    lines += ["    P[1] = x[0];", "    const double t22 = 0.5*t1 + P[1];"]
+    lines += ["    P[1] += x[0];", "    const double t22 = 0.5*t1 + P[1];"]
     lines += [f"    const double t{i} = 0.5*t{i - 1} + 0.25*t1;" for i in range(23, 42)]
     lines += ["    out[0] = t41;", "    out[1] = P[1];", "    out[2] = P[0] + t11;"]
     new, helpers = split.split_body(lines, "f_part")
-    assert len(helpers) == 8
+    assert any("void f_part0_" in h for h in helpers) and any("void f_part1_" in h for h in helpers)
     assert _run_c(tmp_path, "split", new, helpers, 2) == _run_c(tmp_path, "whole", lines, [], 2)
