@@ -260,9 +260,10 @@ def write_up(rows, table, start_load):
             versions.append(f"{mod} {__import__(mod).__version__}")
         except ImportError:
             versions.append(f"{mod} not installed")
-    notes = [f"load average at start: {start_load}; the machine was heavily loaded (several agents "
-             f"building and testing on 2 cores): rhs times are thread CPU time, builds are CPU "
-             f"seconds of the build process with wall beside them",
+    end_load = " ".join(f"{v:.2f}" for v in os.getloadavg())
+    notes = [f"load average at start: {start_load}, at the end: {end_load} (a shared 2-core machine, "
+             f"other jobs building and testing beside this run): rhs times are thread CPU time, "
+             f"builds are CPU seconds of the build process with wall beside them",
              "peers: " + ", ".join(versions) + " (MuJoCo prebuilt library through its C API; "
              "Pinocchio header-only, g++ -O2 -std=c++17)"]
     ops = ["", "Operation counts of rhs (adds + muls + divs + calls) against SD/FAST O(N)'s printed "
