@@ -118,7 +118,7 @@ def cold_build(model, n, formulation, outdir):
     if proc.returncode:
         raise RuntimeError(proc.stderr)
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
-    meta = json.loads(next(outdir.glob("*.json")).read_text())
+    meta = json.loads(next(p for p in outdir.glob("*.json") if not p.name.startswith(".")).read_text())
     return cpu, wall, meta, (after.ru_maxrss) / 1024
 
 
