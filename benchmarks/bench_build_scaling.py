@@ -255,7 +255,8 @@ def main():
     split.CHUNK = args.chunk or split.CHUNK
     split.SPLIT_MIN = args.split_min or split.SPLIT_MIN
     notes = [f"split thresholds: runs longer than {split.SPLIT_MIN} statements, "
-             f"chunks of {split.CHUNK}", f"gcc flags: {' '.join(CFLAGS)} (eomc's defaults)"]
+             f"chunks of {split.CHUNK} statements or {split.CHUNK_BYTES // 1000} kB of C",
+             f"gcc flags: {' '.join(CFLAGS)} (eomc's defaults)"]
     text = [environment_header("Build scaling: generation and gcc (issue 8, items 4-5)", args, notes)]
 
     stage_rows = []
