@@ -155,23 +155,10 @@ _PIN = []
 def pinocchio_object(tmp):
     """pin_aba_derivatives.o compiled once from the wheels' headers, or None."""
     if not _PIN:
-        try:
-            import pinocchio  # noqa: F401
-            import cmeel
-            inc = Path(cmeel.__file__).resolve().parents[1] / "cmeel.prefix" / "include"
-        except ImportError:
-            _PIN.append(None)
-            return None
-        obj = tmp / "pin_jac.o"
-        defs = ["-DBOOST_MPL_LIMIT_LIST_SIZE=30", "-DBOOST_MPL_LIMIT_VECTOR_SIZE=30",
-                "-DBOOST_MPL_CFG_NO_PREPROCESSED_HEADERS", "-DBOOST_FUSION_INVOKE_MAX_ARITY=12"]
-        proc = subprocess.run(["g++", "-O2", "-std=c++17", *defs, "-DNDEBUG", "-c",
-                               str(MODELS / "pin_aba_derivatives.cpp"), "-o", str(obj),
-                               f"-I{MODELS}", f"-I{inc}", f"-I{inc / 'eigen3'}"],
-                              capture_output=True, text=True)
-        _PIN.append(obj if proc.returncode == 0 else None)
-        if proc.returncode:
-            print("Pinocchio harness did not compile:", proc.stderr[-500:])
+        sys.path.insert(0, str(HERE))
+        from common import compile_pinocchio
+        _PIN.append(compile_pinocchio(MODELS / "pin_aba_derivatives.cpp", tmp / "pin_jac.o",
+                                      extra_includes=[MODELS]))
     return _PIN[0]
 
 

@@ -108,6 +108,20 @@ class _Reader:
         return frozenset(self.u.index(a) for a in atoms if a in self.u)
 
 
+def _relative_motion(rd, where, frame, pframe, origin, porigin):
+    """A joint as SymPy's kinematics have it: E (parent -> child components), r (the child
+    origin from the parent's, parent components) and the child's angular and linear
+    velocity relative to the parent (one 6-vector, child components)."""
+    try:
+        E_full = sm.Matrix(frame.dcm(pframe))
+        r_vec = origin.pos_from(porigin)
+        w_rel = frame.ang_vel_in(pframe)
+        v_rel = r_vec.dt(pframe)
+    except ValueError as exc:
+        raise NotATree(f"{where}: its frame or point is not connected to its parent's ({exc})") from None
+    return E_full, rd.vec(r_vec, pframe), rd.vec(w_rel, frame).col_join(rd.vec(v_rel, frame))
+
+
 def _joint(rd, name, joint, parent, pframe, porigin, frame, origin, speed):
     """TreeBody geometry of ``frame``/``origin`` hanging from ``pframe``/``porigin``."""
     where = f"body {name} (joint {joint})"
@@ -118,19 +132,11 @@ def _joint(rd, name, joint, parent, pframe, porigin, frame, origin, speed):
             raise NotATree(f"{where}: its speed {_nm(rd.u[speed])} is not a constant times the time "
                            f"derivative of one coordinate (q' = c·u), which the recursion needs")
         keep = rd.q[rd.coordinate_of[speed]]
-    try:
-        E_full = sm.Matrix(frame.dcm(pframe))
-        r_vec = origin.pos_from(porigin)
-        w_rel = frame.ang_vel_in(pframe)
-        v_rel = r_vec.dt(pframe)
-    except ValueError as exc:
-        raise NotATree(f"{where}: its frame or point is not connected to its parent's ({exc})") from None
-    r_full = rd.vec(r_vec, pframe)
+    E_full, r_full, wv = _relative_motion(rd, where, frame, pframe, origin, porigin)
     E, r = rd.only(E_full, keep), rd.only(r_full, keep)
     if not (rd.numbers.same(E, E_full) and rd.numbers.same(r, r_full)):
         raise NotATree(f"{where}: its placement relative to body {parent} depends on more than "
                        f"its own coordinate {keep}")
-    wv = rd.vec(w_rel, frame).col_join(rd.vec(v_rel, frame))
     if speed is None:
         if not rd.numbers.same(wv, sm.zeros(6, 1)):
             raise NotATree(f"{where}: moves relative to its parent without a speed of its own")
@@ -160,7 +166,6 @@ def _inertia(body, frame):
 
 def _loads(rd, loads, bodies, frames, origins, names):
     """Loads as Load records; forces m·G at every massive body's centre become gravity."""
-    from sympy.physics.vector import Vector
     out, candidates = [], []
     for load in loads or ():
         where, vec = load[0], load[1]
@@ -300,7 +305,7 @@ def _assemble(rd, entries, loads):
 
 def system_kinematics(system):
     """Explicit q' of a SymPy System's kinematic differential equations."""
-    q, u = list(system.q), list(system.u)
+    q = list(system.q)
     qd = [qi.diff(_T) for qi in q]
     kdes = sm.Matrix(system.kdes)
     if len(kdes) != len(q):
@@ -464,20 +469,12 @@ def _multi_joint(rd, name, joint, parent, pframe, porigin, frame, origin, speeds
     where = f"body {name} (joint {joint})"
     mine = {rd.u[k] for k in speeds}
     keep = {qi for qi, kin in zip(rd.q, rd.kin) if _dynamic(kin) & mine}
-    try:
-        E_full = sm.Matrix(frame.dcm(pframe))
-        r_vec = origin.pos_from(porigin)
-        w_rel = frame.ang_vel_in(pframe)
-        v_rel = r_vec.dt(pframe)
-    except ValueError as exc:
-        raise NotATree(f"{where}: its frame or point is not connected to its parent's ({exc})") from None
-    r_full = rd.vec(r_vec, pframe)
+    E_full, r_full, wv = _relative_motion(rd, where, frame, pframe, origin, porigin)
     others = {qi: 0 for qi in rd.q if qi not in keep}
     E, r = E_full.xreplace(others), r_full.xreplace(others)
     if not (rd.numbers.same(E, E_full) and rd.numbers.same(r, r_full)):
         raise NotATree(f"{where}: its placement relative to body {parent} depends on more than its "
                        f"own coordinates {', '.join(_nm(q) for q in rd.q if q in keep)}")
-    wv = rd.vec(w_rel, frame).col_join(rd.vec(v_rel, frame))
     zero = {qi: 0 for qi in rd.q} | {v: 0 for v in rd.u}
     expanded = wv.applyfunc(sm.expand)
     motions = []
