@@ -52,10 +52,16 @@ def formed_system(system, formulation="kane"):
     if is_unformed_system(system):
         if formulation != "kane":
             from eomc.compiler.tree.formed import tree_formed
+            from eomc.compiler.tree.model import NotATree
             try:
                 return tree_formed(system)
+            except NotATree as exc:
+                if formulation == "recursive":    # refused now, before forming Kane's equations
+                    from eomc.compiler.tree.select import recursive_refusal
+                    raise recursive_refusal(exc) from None
             except ModelError:
-                pass
+                if formulation == "recursive":
+                    raise
         system = form_system(system)
     if _is_sympy_method(system):
         try:

@@ -8,10 +8,7 @@ import sympy as sm
 from sympy.core.function import AppliedUndef
 from sympy.physics import mechanics as me
 
-from eomc.runtime.errors import ModelError
-
 from ..mechanics.formed import FormedSystem
-from .model import NotATree
 from .recognize import system_kinematics, tree_from_system
 
 __all__ = ["tree_formed", "tree_exprs"]
@@ -29,13 +26,10 @@ def tree_exprs(tree):
 
 def tree_formed(system):
     """FormedSystem of a SymPy System with joints whose equations were not formed
-    (method "tree": no A and b; only the recursive formulation can generate it)."""
-    try:
-        kin = system_kinematics(system)
-        tree = tree_from_system(system, kin)
-    except NotATree as exc:
-        raise ModelError(f"the System has no formed equations (call System.form_eoms()) and is "
-                         f"not a tree the recursive formulation takes: {exc}") from None
+    (method "tree": no A and b; only the recursive formulation can generate it).
+    NotATree (naming the joint or body) when the recursion cannot take it."""
+    kin = system_kinematics(system)
+    tree = tree_from_system(system, kin)
     q, u = tuple(system.q), tuple(system.u)
     t = me.dynamicsymbols._t
     inputs, params = set(), set()

@@ -84,6 +84,12 @@ def kane_solve_floor(formed):
     return sum(solver.factor_ops.values()) + sum(solver.solve_ops.values())
 
 
+def recursive_refusal(exc):
+    """The ModelError for a system the recursion cannot take (``exc``: its NotATree)."""
+    return ModelError(f"recursive formulation: {exc} (formulation 'kane' takes it, and "
+                      f"'auto' falls back to kane)")
+
+
 def generate_formulation(spec, functions, fold_parameters, formulation="kane"):
     """GeneratedModel of ``spec`` in the requested formulation (see module docstring)."""
     from ..emit import generate_c
@@ -97,8 +103,7 @@ def generate_formulation(spec, functions, fold_parameters, formulation="kane"):
         tree = _find_tree(spec)
     except NotATree as exc:
         if formulation == "recursive":
-            raise ModelError(f"recursive formulation: {exc} (formulation 'kane' takes it, and "
-                             f"'auto' falls back to kane)") from None
+            raise recursive_refusal(exc) from None
         generated = generate_c(spec.formed, spec.name, **options)
         generated.metadata["formulation_note"] = f"kane, the fallback (not a tree: {exc})"
         return generated

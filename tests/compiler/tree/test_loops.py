@@ -5,7 +5,7 @@ import pytest
 
 from eomc.cli import main
 from eomc.compiler.driver import generate
-from eomc.errors import ModelError
+from eomc.errors import ModelFileError
 
 ROOT = Path(__file__).resolve().parents[3]
 FOUR_BAR = ROOT / "examples" / "four_bar_system.py"
@@ -13,10 +13,11 @@ FOUR_BAR = ROOT / "examples" / "four_bar_system.py"
 
 def test_recursive_names_the_joints_of_the_loop_and_the_way_out(tmp_path, monkeypatch):
     monkeypatch.setenv("EOMC_CACHE_DIR", str(tmp_path / "cache"))
-    with pytest.raises(ModelError) as info:
+    with pytest.raises(ModelFileError) as info:    # refused while the file is read: file:line
         generate(str(FOUR_BAR), functions=["rhs"], formulation="recursive", use_cache=False,
                  progress=False)
     msg = str(info.value)
+    assert msg.startswith(f"{FOUR_BAR}:")
     assert "joints J1, J2, J3 form a closed loop" in msg
     assert "2 holonomic constraints" in msg and "q2, q3" in msg
     assert "'auto' falls back to kane" in msg
@@ -42,3 +43,18 @@ def test_hand_built_constrained_kane_names_its_dependent_variables():
     km, _ = zoo.four_bar(em)
     with pytest.raises(NotATree, match=r"dependent or auxiliary coordinates or speeds \(q2, q3, u2, u3\)"):
         tree_of(km)
+
+
+def test_recursive_refuses_before_forming_kanes_equations(tmp_path, monkeypatch):
+    """Forming Kane's equations of a System the recursion cannot take would be wasted work
+    (minutes for a large one) before the same refusal."""
+    from eomc.compiler.mechanics import unformed
+
+    def forbidden(system):
+        raise AssertionError("Kane's equations were formed")
+
+    monkeypatch.setattr(unformed, "form_system", forbidden)
+    monkeypatch.setenv("EOMC_CACHE_DIR", str(tmp_path / "cache"))
+    with pytest.raises(ModelFileError, match="form a closed loop"):
+        generate(str(FOUR_BAR), functions=["rhs"], formulation="recursive", use_cache=False,
+                 progress=False)
