@@ -20,6 +20,7 @@ import numpy as np
 from eomc.runtime.errors import ModelError, SimulationError
 
 from .cdef import STATUS_NAMES
+from .diagnose import SINGULAR_STATUS, singular_direction
 from .metadata import EXPORTED_FUNCTIONS, STRUCT_FUNCTIONS
 from .names import index_of, model_name
 
@@ -281,6 +282,8 @@ class Model:
             where = f" (row {row} of X)" if row is not None else ""
             raise SimulationError(f"{self.name}.{fn}: non-finite input{where}: {nonfinite}")
         what = STATUS_NAMES.get(status, f"error status {status}")
+        if status == SINGULAR_STATUS:
+            what += singular_direction(self, t, x, *(inputs or (None, None)))
         state = ", ".join(f"{n}={v:.6g}" for n, v in zip(self.state_names, x))
         where = f" (row {row} of X)" if row is not None else ""
         raise SimulationError(f"{self.name}.{fn}: {what} at t={t:.6g}, state {state}{where}")

@@ -16,6 +16,7 @@ import numpy as np
 
 from eomc.runtime.errors import SimulationError
 
+from .diagnose import SINGULAR_STATUS, singular_direction
 from .integrators_api import METHOD_ALIASES, METHOD_IDS, STATUS_NAMES
 from .events import DEFAULT_MAX_EVENTS, EventsBinding, resolve_events
 from .feedback import FeedbackBinding, applied_inputs, check_callable, cubic_slopes
@@ -359,10 +360,12 @@ def _along(model, a, which, t, x):
     return out
 
 
-def failure_message(model, method, stats, x_last):
+def failure_message(model, method, stats, x_last, p=None):
     """One line naming the reason, the time and the state of a failed integration."""
     status = stats["status"]
     reason = STATUS_NAMES.get(status, f"status {status}")
+    if status == SINGULAR_STATUS:
+        reason += singular_direction(model, stats["t_fail"], x_last, p)
     state = ", ".join(f"{n}={v:.6g}" for n, v in zip(model.state_names, x_last))
     msg = f"{model.name}: {method} stopped at t={stats['t']:.9g}: {reason}"
     if f"{stats['t_fail']:.9g}" != f"{stats['t']:.9g}":
@@ -455,7 +458,7 @@ def finish(model, a, x_out, stats, x_last, raise_on_failure=True):
     if fb is not None:
         fb.raise_error()
     status, n = stats["status"], stats["n_out"]
-    message = "ok" if status == 0 else failure_message(model, a["method"], stats, x_last)
+    message = "ok" if status == 0 else failure_message(model, a["method"], stats, x_last, a.get("p"))
     if status == 0:
         stats.pop("t_fail", None)  # where the model failed: only meaningful for a failed run
     if status and raise_on_failure:

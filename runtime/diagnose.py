@@ -1,0 +1,37 @@
+"""Why the mass matrix is singular, in the user's terms: which speeds meet no inertia.
+
+A "singular mass matrix" status alone leaves the user to guess which body or joint
+lacks inertia.  When it happens (not on the hot path), the model's own
+``mass_matrix`` at the failing state is decomposed: the eigenvector of its smallest
+eigenvalue is the motion nothing resists, and its large components name the
+speeds (for URDF and joint models the speed names carry the joint names).
+"""
+import numpy as np
+
+__all__ = ["singular_direction"]
+
+SINGULAR_STATUS = 1
+
+
+def singular_direction(model, t, x, p=None, r=None):
+    """'; nothing resists motion along u2 (0.97), u3 (-0.24)' or '' when it cannot tell."""
+    if "mass_matrix" not in getattr(model, "functions", ()):
+        return ""
+    if isinstance(p, np.ndarray) and p.ndim == 1:
+        p = p[:model.nparam]          # the integrators' parameter block may carry more after p
+    try:
+        M = np.asarray(model.mass_matrix(t, x, p=p, r=r), dtype=float)
+        if not np.all(np.isfinite(M)):
+            return ""
+        w, V = np.linalg.eigh((M + M.T) / 2)
+    except Exception:      # a diagnosis must never hide the original error
+        return ""
+    scale = max(abs(w[-1]), 1e-300)
+    if w[0] > 1e-10 * scale:
+        return ""
+    v = V[:, 0] / np.max(np.abs(V[:, 0]))
+    v = v if v[np.argmax(np.abs(v))] > 0 else -v
+    speeds = model.state_names[model.nq:model.nq + model.nu]
+    parts = [f"{speeds[k]} ({v[k]:.2g})" for k in np.argsort(-np.abs(v)) if abs(v[k]) > 0.05][:4]
+    return f"; nothing resists motion along {', '.join(parts)} (M's smallest eigenvalue " \
+           f"{w[0]:.3g}, largest {w[-1]:.3g}): a body with no mass or inertia about that joint"
