@@ -14,7 +14,8 @@ SINGULAR_STATUS = 1
 
 
 def singular_direction(model, t, x, p=None, r=None):
-    """'; nothing resists motion along u2 (0.97), u3 (-0.24)' or '' when it cannot tell."""
+    """'; nothing resists motion along u2 (1), u3 (-0.24) ...' (the null direction of M, its
+    largest components first) or '' when it cannot tell."""
     if "mass_matrix" not in getattr(model, "functions", ()):
         return ""
     if isinstance(p, np.ndarray) and p.ndim == 1:
@@ -26,8 +27,9 @@ def singular_direction(model, t, x, p=None, r=None):
         w, V = np.linalg.eigh((M + M.T) / 2)
     except Exception:      # a diagnosis must never hide the original error
         return ""
-    scale = max(abs(w[-1]), 1e-300)
-    if w[0] > 1e-10 * scale:
+    if w[-1] <= 0:
+        return "; M is zero there: no speed meets any mass or inertia"
+    if w[0] > 1e-10 * w[-1]:
         return ""
     v = V[:, 0] / np.max(np.abs(V[:, 0]))
     v = v if v[np.argmax(np.abs(v))] > 0 else -v

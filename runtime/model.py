@@ -282,11 +282,10 @@ class Model:
             where = f" (row {row} of X)" if row is not None else ""
             raise SimulationError(f"{self.name}.{fn}: non-finite input{where}: {nonfinite}")
         what = STATUS_NAMES.get(status, f"error status {status}")
-        if status == SINGULAR_STATUS:
-            what += singular_direction(self, t, x, *(inputs or (None, None)))
         state = ", ".join(f"{n}={v:.6g}" for n, v in zip(self.state_names, x))
         where = f" (row {row} of X)" if row is not None else ""
-        raise SimulationError(f"{self.name}.{fn}: {what} at t={t:.6g}, state {state}{where}")
+        why = singular_direction(self, t, x, *(inputs or (None, None))) if status == SINGULAR_STATUS else ""
+        raise SimulationError(f"{self.name}.{fn}: {what} at t={t:.6g}, state {state}{where}{why}")
 
     def _vector_call(self, fn, size, t, x, p, r):
         given = (p, r)

@@ -364,8 +364,6 @@ def failure_message(model, method, stats, x_last, p=None):
     """One line naming the reason, the time and the state of a failed integration."""
     status = stats["status"]
     reason = STATUS_NAMES.get(status, f"status {status}")
-    if status == SINGULAR_STATUS:
-        reason += singular_direction(model, stats["t_fail"], x_last, p)
     state = ", ".join(f"{n}={v:.6g}" for n, v in zip(model.state_names, x_last))
     msg = f"{model.name}: {method} stopped at t={stats['t']:.9g}: {reason}"
     if f"{stats['t_fail']:.9g}" != f"{stats['t']:.9g}":
@@ -377,7 +375,8 @@ def failure_message(model, method, stats, x_last, p=None):
                f"{STIFF_ADVICE}"
     elif status == 5:
         msg += f" (h={stats['h']:.3g}); the solution may blow up or be discontinuous here"
-    return f"{msg}; state {state}"
+    why = singular_direction(model, stats["t_fail"], x_last, p) if status == SINGULAR_STATUS else ""
+    return f"{msg}; state {state}{why}"
 
 
 def simulate(model, x0, t_span, p=None, r=None, method="dop853", rtol=1e-6, atol=1e-9,
