@@ -1,7 +1,8 @@
 """A stiff variant of cart_rel_joints.py (issue 8's Radau case): the same n-link pendulum on a
 cart in relative joint coordinates (n from EOMC_N_LINKS), plus a torsional spring k and damper c
 at every pin joint, torque -(k q_i + c u_i) on link i and its reaction on the parent.  With the
-parameters below the fastest (damped joint) modes are ~4e4 times faster than the slowest nonzero mode at n = 40
+parameters below the fastest (damped joint) modes are ~4e4 times faster than the slowest
+nonzero mode at n = 40
 (benchmarks/bench_tree_jacobian.py --radau-only prints the stiffness ratio), so an explicit
 integrator is step-size limited by stability and Radau re-forms its Jacobian often."""
 import os
