@@ -358,7 +358,7 @@ def stiff_main(n, rounds, write):
                                 "benchmarks", "compiler", "runtime", "facade", "templates"],
                                capture_output=True, text=True).stdout.strip()
         now = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-        head = [f"## Stiff Radau case (issue 8), `bench_tree_jacobian.py --stiff-radau --write`", "",
+        head = ["## Stiff Radau case (issue 8), `bench_tree_jacobian.py --stiff-radau --write`", "",
                 f"- date: {now}; commit {commit}{' (with uncommitted benchmark edits)' if dirty else ''}",
                 f"- uptime at start: {start_load}",
                 "- the machine was heavily loaded (several agents building and testing on 2 cores); "

@@ -2,9 +2,8 @@
 cart in relative joint coordinates (n from EOMC_N_LINKS), plus a torsional spring k and damper c
 at every pin joint, torque -(k q_i + c u_i) on link i and its reaction on the parent.  With the
 parameters below the fastest (damped joint) modes are ~4e4 times faster than the slowest
-nonzero mode at n = 40
-(benchmarks/bench_tree_jacobian.py --radau-only prints the stiffness ratio), so an explicit
-integrator is step-size limited by stability and Radau re-forms its Jacobian often."""
+nonzero mode at n = 40 (benchmarks/bench_tree_jacobian.py --stiff-radau prints the ratio), so
+an explicit integrator's step is bounded by stability while Radau's is set by accuracy alone."""
 import os
 
 import sympy as sm
