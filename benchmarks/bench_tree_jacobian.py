@@ -369,7 +369,7 @@ def stiff_main(n, rounds, write):
                 "jac_x of this model does not compile at n >= 12)", ""]
         md = HERE / "results" / "tree_jacobian.md"
         old = md.read_text()
-        md.write_text(old.rstrip("\n") + "\n\n" + "\n".join(head) + text + "\n")
+        md.write_text(old.rstrip("\n") + "\n\n" + "\n".join(head) + "\n" + text + "\n")
         print(f"appended to {md}")
 
 
