@@ -21,8 +21,18 @@ For each n:
     rhs with the compiled jac_x and with scipy's own finite-difference Jacobian (jac=None).
     Error: max over the state at t = 2 s against eomc DOP853 at rtol = atol = 1e-12.
     Thread CPU seconds of each run (one run each; pinned).
+  * --stiff-radau (alone: skips everything above): the stiff variant
+    benchmarks/tree_models/cart_rel_joints_stiff.py (a spring-damper k = 200, c = 300 at every
+    pin) at n = --radau-n, built with --formulation recursive; x0: every link at 0.3 rad relative
+    to its parent, cart at 3 m/s; 1 s, rtol 1e-6, atol 1e-9; eomc's C Radau (analytic jac_x),
+    scipy Radau with the compiled jac_x and with finite differences, eomc's DOP853 (its
+    stiffness detector may stop it; the row then says where) and DOP853 with the detector off.  Error: max over the state at
+    t = 1 s against eomc's Radau at rtol 1e-10, atol 1e-12.  Median thread CPU of --rounds
+    (default 5) interleaved rounds, order rotated, pinned to core 1.  With --write its table is
+    appended to results/tree_jacobian.md as a new section.
 Usage: python benchmarks/bench_tree_jacobian.py [n ...] [--kane-max N] [--old-max N]
        [--old COMMIT] [--radau-n N] [--write]     (--write: results/tree_jacobian.md)
+       python benchmarks/bench_tree_jacobian.py --stiff-radau [--radau-n N] [--rounds R] [--write]
 """
 import json
 import os
@@ -229,6 +239,140 @@ def radau(new, n):
     return rows
 
 
+STIFF_BUILD = """
+import sys
+import eomc.compiler.emit.split as split
+split.SPLIT_MIN = 10 ** 9
+from eomc.cli import main
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+def stiff_build(n, outdir):
+    """Build the stiff cart (rhs + jac_x, literal parameters) in a child process with the body
+    splitting of compiler/emit/split.py turned off: at n >= 12 the split jac_x of this model
+    does not compile (a temporary declared in the looped column body is renamed to a scratch
+    slot of an earlier split run, ``const double S_[84] = ...``); the unsplit body does."""
+    env = dict(os.environ, EOMC_N_LINKS=str(n), EOMC_CACHE_DIR=tempfile.mkdtemp(prefix="eomc_tj_"))
+    proc = subprocess.run([sys.executable, "-c", STIFF_BUILD, "build",
+                           str(MODELS / "cart_rel_joints_stiff.py"), "-o", str(outdir),
+                           "--fold-parameters", "--outputs", "rhs,jac_x", "--formulation",
+                           "recursive", "-q"], env=env, capture_output=True, text=True)
+    if proc.returncode:
+        raise RuntimeError(proc.stderr[-3000:])
+    return outdir
+
+
+def stiff_radau(outdir, rounds=5):
+    """(rows, info): rows (label, steps, Jacobian evaluations, rhs evaluations, error, median
+    thread CPU s, note), info: stiffness ratio and the reference's stats."""
+    import eomc
+    from scipy.integrate import solve_ivp
+    os.sched_setaffinity(0, {1})
+    model = eomc.load(outdir)
+    nq = model.nq
+    x0 = np.zeros(model.nx)
+    x0[1:nq] = 0.3
+    x0[nq] = 3.0
+    T, r = 1.0, np.zeros(model.ninput)
+    lam = np.abs(np.linalg.eigvals(model.jacobian(0.0, x0, r=r)))
+    info = {"ratio": lam.max() / lam[lam > 1e-6].min(), "lam_max": lam.max(),
+            "lam_min": lam[lam > 1e-6].min()}
+    ref = model.simulate(x0, (0.0, T), method="radau", rtol=1e-10, atol=1e-12, n_points=2)
+    xref = np.asarray(ref.x)[-1]
+    info["ref"] = ref.stats
+
+    def eomc_run(method, stiff_check=True):
+        res = model.simulate(x0, (0.0, T), method=method, rtol=1e-6, atol=1e-9, n_points=2,
+                             max_steps=10 ** 6, raise_on_failure=False, stiff_check=stiff_check)
+        st = res.stats
+        note = "" if st["status"] == 0 else (f"stopped at t = {st['t']:.3f} s (status {st['status']}): "
+                                             f"stiffness detected, h·|λ| ≈ {st['stiff_hlambda']:.1f}"
+                                             if st["stiff_hlambda"] else
+                                             f"stopped at t = {st['t']:.3f} s (status {st['status']})")
+        err = float(np.max(np.abs(np.asarray(res.x)[-1] - xref))) if st["status"] == 0 else None
+        return st["steps"], st["njev"], st["nfev"], err, note
+
+    def scipy_run(jac):
+        calls = [0]     # scipy's nfev leaves out the rhs calls of its finite differences
+
+        def counted(t, x):
+            calls[0] += 1
+            return model.rhs(t, x, r=r)
+        sol = solve_ivp(counted, (0.0, T), x0, method="Radau", rtol=1e-6, atol=1e-9, jac=jac)
+        assert sol.success, sol.message
+        return (sol.t.size - 1, sol.njev, calls[0], float(np.max(np.abs(sol.y[:, -1] - xref))),
+                f"scipy nfev {sol.nfev}" if sol.nfev != calls[0] else "")
+
+    runs = [("eomc simulate, C Radau, compiled jac_x", lambda: eomc_run("radau")),
+            ("scipy solve_ivp Radau, compiled jac_x",
+             lambda: scipy_run(lambda t, x: model.jacobian(t, x, r=r))),
+            ("scipy solve_ivp Radau, finite-difference Jacobian (jac=None)", lambda: scipy_run(None)),
+            ("eomc simulate, C DOP853 (explicit)", lambda: eomc_run("dop853")),
+            ("eomc simulate, C DOP853, stiff_check=False", lambda: eomc_run("dop853", False))]
+    times, results = {label: [] for label, _ in runs}, {}
+    for k in range(rounds):
+        for label, run in runs[k % len(runs):] + runs[:k % len(runs)]:
+            t0 = time.thread_time()
+            results[label] = run()
+            times[label].append(time.thread_time() - t0)
+    rows = [(label, *results[label][:4], sorted(times[label])[len(times[label]) // 2],
+             results[label][4]) for label, _ in runs]
+    return rows, info
+
+
+def stiff_table(rows, info, n, rounds):
+    ref = info["ref"]
+    base = rows[0][5]
+    lines = [f"Stiff variant (cart_rel_joints_stiff.py: spring k = 200 N·m/rad and damper c = 300 "
+             f"N·m·s/rad at every pin) at n = {n} ({2 * (n + 1)} states): links at 0.3 rad, cart at "
+             f"3 m/s, 1 s, rtol 1e-6, atol 1e-9. Eigenvalues of jac_x at x0: |λ| from "
+             f"{info['lam_min']:.3g} to {info['lam_max']:.4g} 1/s (stiffness ratio "
+             f"{info['ratio']:.1e}). Error = max |x(1) - x_ref(1)| against eomc's Radau at rtol "
+             f"1e-10, atol 1e-12 ({ref['steps']} steps, {ref['njev']} Jacobians). Thread CPU: "
+             f"median of {rounds} interleaved rounds, pinned to core 1. rhs evaluations count every "
+             f"call, finite differences included (scipy's own nfev leaves those out; it is given "
+             f"in the note).", "",
+             "| integrator and Jacobian | steps | Jacobian evaluations | rhs evaluations | error | "
+             "thread CPU s | CPU / eomc Radau | note |", "|:--|--:|--:|--:|--:|--:|--:|:--|"]
+    for label, steps, njev, nfev, err, cpu, note in rows:
+        lines.append(f"| {label} | {steps} | {njev} | {nfev} | {_f(err, '{:.1e}')} | {cpu:.4f} | "
+                     f"{cpu / base:.2f} | {note} |")
+    return "\n".join(lines)
+
+
+def stiff_main(n, rounds, write):
+    start_load = subprocess.run(["uptime"], capture_output=True, text=True).stdout.strip()
+    tmp = Path(tempfile.mkdtemp(prefix="bench_tree_jac_stiff_"))
+    t0 = time.perf_counter()
+    outdir = stiff_build(n, tmp / f"stiff{n}")
+    print(f"built the stiff cart n={n} in {time.perf_counter() - t0:.1f} s wall", flush=True)
+    rows, info = stiff_radau(outdir, rounds)
+    text = stiff_table(rows, info, n, rounds)
+    print(text)
+    if write:
+        import datetime
+        import scipy
+        commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"],
+                                capture_output=True, text=True).stdout.strip()
+        dirty = subprocess.run(["git", "-C", str(ROOT), "status", "--porcelain", "--",
+                                "benchmarks", "compiler", "runtime", "facade", "templates"],
+                               capture_output=True, text=True).stdout.strip()
+        now = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+        head = ["## Stiff Radau case (issue 8), `bench_tree_jacobian.py --stiff-radau --write`", "",
+                f"- date: {now}; commit {commit}{' (with uncommitted benchmark edits)' if dirty else ''}",
+                f"- uptime at start: {start_load}",
+                "- the machine was heavily loaded (several agents building and testing on 2 cores); "
+                "times are thread CPU time",
+                f"- python {sys.version.split()[0]}, numpy {np.__version__}, scipy {scipy.__version__}",
+                "- built with compiler/emit/split.py's body splitting off (see stiff_build: the split "
+                "jac_x of this model does not compile at n >= 12)", ""]
+        md = HERE / "results" / "tree_jacobian.md"
+        old = md.read_text()
+        md.write_text(old.rstrip("\n") + "\n\n" + "\n".join(head) + "\n" + text + "\n")
+        print(f"appended to {md}")
+
+
 def _opt(argv, flag, default, conv=int):
     if flag in argv:
         i = argv.index(flag)
@@ -246,6 +390,12 @@ def main(argv):
     old_max = _opt(argv, "--old-max", 20)
     old_commit = _opt(argv, "--old", OLD_COMMIT, str)
     radau_n = _opt(argv, "--radau-n", 40)
+    if "--stiff-radau" in argv:
+        argv.remove("--stiff-radau")
+        rounds = _opt(argv, "--rounds", 5)
+        if argv:
+            raise SystemExit(f"--stiff-radau takes only --radau-n, --rounds and --write, not {argv}")
+        return stiff_main(radau_n, rounds, write)
     start_load = " ".join(f"{v:.2f}" for v in os.getloadavg())
     ns = [int(a) for a in argv] or [4, 8, 12, 20, 40]
     tmp = Path(tempfile.mkdtemp(prefix="bench_tree_jac_"))
