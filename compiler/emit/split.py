@@ -199,13 +199,13 @@ def split_body(lines, base, scratch="S_"):
             continue
         nrun += 1
         new_helpers, calls, renamed, stored = done
-        tail = [_TEMP.sub(lambda m: f"{scratch}[{renamed[m.group(0)]}]"
-                          if m.group(0) in renamed else m.group(0), line) for line in lines[end:]]
+        tail = _rename_tail(lines[end:], renamed, scratch)
         head = []
-        for line in lines[:start]:      # earlier temporaries the chunks read: stored once defined
-            head.append(line)
-            m = _TEMP_LINE.match(line)
-            if m and m.group(2) in stored:
+        visible = _visible_definitions(lines[:start], stored)
+        for i, line in enumerate(lines[:start]):   # earlier temporaries the chunks read: stored
+            head.append(line)                       # right after the definition the run sees
+            if i in visible:
+                m = _TEMP_LINE.match(line)
                 head.append(f"{m.group(1)}{scratch}[{stored[m.group(2)]}] = {m.group(2)};")
         lines = head + calls + tail
         pos = len(head) + len(calls)
@@ -213,3 +213,57 @@ def split_body(lines, base, scratch="S_"):
     if slots.size:
         lines.insert(0, f"{_IND}double {scratch}[{slots.size}];")
     return lines, helpers
+
+
+# Temporaries' names are unique within a scope, not within a function: the columns' loop of
+# a Jacobian (a block of its own) defines t28 again though t28 exists outside it.  So what
+# the split renames or stores must follow C's scopes: a definition in a block shadows the
+# outer name until the block closes.
+
+def _depth_change(line):
+    return line.count("{") - line.count("}")
+
+
+def _rename_tail(tail, renamed, scratch):
+    """``tail`` with reads of the run's temporaries (``renamed``: name -> slot) replaced by
+    their scratch slots, except where a definition in an inner block shadows the name."""
+    shadow = [set()]                 # names redefined in each open block
+    out = []
+    for line in tail:
+        m = _TEMP_LINE.match(line)
+        if m and m.group(2) in renamed:
+            shadow[-1].add(m.group(2))
+        hidden = set().union(*shadow)
+        out.append(_TEMP.sub(lambda t: f"{scratch}[{renamed[t.group(0)]}]"
+                             if t.group(0) in renamed and t.group(0) not in hidden
+                             else t.group(0), line))
+        for _ in range(max(_depth_change(line), 0)):
+            shadow.append(set())
+        for _ in range(max(-_depth_change(line), 0)):
+            if len(shadow) > 1:
+                shadow.pop()
+            else:                    # the run's own block closes: its names are gone
+                return out + [x for x in tail[len(out):]]
+    return out
+
+
+def _visible_definitions(head, names):
+    """Indices of the lines in ``head`` defining one of ``names`` that are still in scope
+    at its end (a definition inside a block that has closed is not the one a later run
+    reads)."""
+    open_defs = [{}]                 # per open block: name -> line index
+    for i, line in enumerate(head):
+        m = _TEMP_LINE.match(line)
+        if m and m.group(2) in names:
+            open_defs[-1][m.group(2)] = i
+        change = _depth_change(line)
+        for _ in range(max(change, 0)):
+            open_defs.append({})
+        for _ in range(max(-change, 0)):
+            if len(open_defs) > 1:
+                open_defs.pop()
+    seen = {}
+    for level in open_defs:          # inner blocks shadow outer ones
+        seen.update(level)
+    return set(seen.values())
+

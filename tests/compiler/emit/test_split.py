@@ -251,3 +251,20 @@ def test_a_value_read_across_two_split_runs_survives_the_first(tmp_path, tiny):
     new, helpers = split.split_body(lines, "f_part")
     assert any("void f_part0_" in h for h in helpers) and any("void f_part1_" in h for h in helpers)
     assert _run_c(tmp_path, "split", new, helpers, 2) == _run_c(tmp_path, "whole", lines, [], 2)
+
+
+def test_a_name_redefined_in_an_inner_block_is_not_renamed_there(tmp_path, tiny):
+    """A Jacobian's column loop defines t3 again in its own block: inside it, t3 is that
+    block's value (not the split run's scratch slot); after it, the outer t3 again."""
+    lines = ["    int k;"]
+    lines += ["    const double t0 = x[0];"]
+    lines += [f"    const double t{i} = 0.5*t{i - 1} + 0.25*x[{i % 4}];" for i in range(1, 20)]
+    lines += ["    for (k = 0; k < 2; k++) {",
+              "        const double t3 = x[1]*k + t2;",
+              "        const double t4 = t3*t3 + t19;",
+              "        out[k] = t4;",
+              "    }",
+              "    out[2] = t3 + t4;", "    out[3] = P[0];"]
+    new, helpers = split.split_body(lines, "f_part")
+    assert helpers and "const double S_" not in "\n".join(new)
+    assert _run_c(tmp_path, "split", new, helpers, 1) == _run_c(tmp_path, "whole", lines, [], 1)
