@@ -184,6 +184,12 @@ def _random_body(draw_ops):
     too), broken into runs by updates ``P[k] += ...`` that later lines read back."""
     lines, temps, stores = [], [], 0
     for kind, a, b, c in draw_ops:
+        if kind == 1 and temps:       # a block redefining an existing name (a column loop's)
+            name, other = temps[a % len(temps)], temps[b % len(temps)]
+            lines += ["    {", f"        const double {name} = 0.5*{other} + x[{c % 4}];",
+                      f"        P[0] += {name};", "    }"]
+            stores = max(stores, 1)
+            continue
         if kind == 0 and temps:
             lines.append(f"    P[{stores}] += {temps[a % len(temps)]} + x[{c % 4}];")
             stores += 1
