@@ -16,19 +16,15 @@ and `cmeel-eigen` wheels are installed, Pinocchio's ABA compiled header-only fro
 (benchmarks/tree_models/pin_aba.cpp, the performance report's harness; g++ -O2 -std=c++17).
 Usage: python benchmarks/bench_tree.py [n ...] [--kane-max N] [--write]  (--write: results/tree.md)
 """
-import json
 import os
-import resource
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 MODELS = HERE / "tree_models"
 ROOT = HERE.parent
-EOMC = [sys.executable, "-m", "eomc"]
 
 HARNESS = r"""
 #define _POSIX_C_SOURCE 199309L
@@ -107,19 +103,9 @@ int main(int argc, char **argv) {
 
 
 def cold_build(model, n, formulation, outdir):
-    env = dict(os.environ, EOMC_N_LINKS=str(n), EOMC_CACHE_DIR=tempfile.mkdtemp(prefix="eomc_tb_"))
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    t0 = time.perf_counter()
-    proc = subprocess.run(EOMC + ["build", str(model), "-o", str(outdir), "--fold-parameters",
-                                  "--outputs", "rhs", "--formulation", formulation, "-q"],
-                          env=env, capture_output=True, text=True)
-    wall = time.perf_counter() - t0
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    if proc.returncode:
-        raise RuntimeError(proc.stderr)
-    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
-    meta = json.loads(next(p for p in outdir.glob("*.json") if not p.name.startswith(".")).read_text())
-    return cpu, wall, meta, (after.ru_maxrss) / 1024
+    sys.path.insert(0, str(HERE))
+    from common import cold_build as build
+    return build(model, n, formulation, outdir, "rhs")
 
 
 def _mujoco():

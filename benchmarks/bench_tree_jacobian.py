@@ -34,9 +34,7 @@ Usage: python benchmarks/bench_tree_jacobian.py [n ...] [--kane-max N] [--old-ma
        [--old COMMIT] [--radau-n N] [--write]     (--write: results/tree_jacobian.md)
        python benchmarks/bench_tree_jacobian.py --stiff-radau [--radau-n N] [--rounds R] [--write]
 """
-import json
 import os
-import resource
 import shutil
 import subprocess
 import sys
@@ -49,7 +47,6 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 MODELS = HERE / "tree_models"
 ROOT = HERE.parent
-EOMC = [sys.executable, "-m", "eomc"]
 OLD_COMMIT = "2f1cd74"      # main before the O(n^2) jac_x
 
 HARNESS = r"""
@@ -140,20 +137,9 @@ def old_package(commit, tmp):
 
 
 def cold_build(model, n, formulation, outdir, pythonpath=None):
-    env = dict(os.environ, EOMC_N_LINKS=str(n), EOMC_CACHE_DIR=tempfile.mkdtemp(prefix="eomc_tj_"))
-    if pythonpath:
-        env["PYTHONPATH"] = str(pythonpath)
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    t0 = time.perf_counter()
-    proc = subprocess.run(EOMC + ["build", str(model), "-o", str(outdir), "--fold-parameters",
-                                  "--outputs", "rhs,jac_x", "--formulation", formulation, "-q"],
-                          env=env, capture_output=True, text=True)
-    wall = time.perf_counter() - t0
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    if proc.returncode:
-        raise RuntimeError(proc.stderr)
-    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
-    meta = json.loads(next(p for p in outdir.glob("*.json") if not p.name.startswith(".")).read_text())
+    sys.path.insert(0, str(HERE))
+    from common import cold_build as build
+    cpu, wall, meta, _ = build(model, n, formulation, outdir, "rhs,jac_x", pythonpath)
     ops = {f: sum(meta["op_counts"][f].values()) for f in ("rhs", "jac_x")}
     return {"cpu": cpu, "wall": wall, "ops": ops["jac_x"], "rhs_ops": ops["rhs"], "meta": meta,
             "dir": outdir}

@@ -275,3 +275,28 @@ def compile_pinocchio(source, obj, extra_includes=()):
         print(f"Pinocchio harness {Path(source).name} did not compile:", proc.stderr[-500:])
         return None
     return obj
+
+
+def cold_build(model, n, formulation, outdir, outputs, pythonpath=None):
+    """`eomc build` of an EOMC_N_LINKS model file in a fresh child process and a fresh cache:
+    (CPU s of the child, wall s, the built NAME.json, peak RSS MB of children so far)."""
+    import json
+    import resource
+    import subprocess
+    import tempfile
+    env = dict(os.environ, EOMC_N_LINKS=str(n), EOMC_CACHE_DIR=tempfile.mkdtemp(prefix="eomc_cb_"))
+    if pythonpath:
+        env["PYTHONPATH"] = str(pythonpath)
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    proc = subprocess.run([sys.executable, "-m", "eomc", "build", str(model), "-o", str(outdir),
+                           "--fold-parameters", "--outputs", outputs, "--formulation", formulation,
+                           "-q"], env=env, capture_output=True, text=True)
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if proc.returncode:
+        raise RuntimeError(proc.stderr)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    meta = json.loads(next(p for p in Path(outdir).glob("*.json")
+                           if not p.name.startswith(".")).read_text())
+    return cpu, wall, meta, after.ru_maxrss / 1024

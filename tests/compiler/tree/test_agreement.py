@@ -11,7 +11,6 @@ itself is tests/helpers/tree_agreement.py.
 """
 import numpy as np
 import pytest
-import sympy.physics.mechanics as sme
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -113,6 +112,27 @@ def test_system_with_actuators_and_pathways():
     assert _agree(kane, rec, 5) < TOL
 
 
+def _tree_compiler(spec, prefix):
+    """formulation -> the compiled random tree ``spec`` (a fresh System each time)."""
+    def compile_(formulation):
+        system, inputs = random_trees.build(spec)
+        return eomc.compile(system, f"{prefix}_{formulation[0]}", inputs=inputs,
+                            functions=FUNCTIONS, progress=False, formulation=formulation)
+    return compile_
+
+
+def _kane_or_refused_by_both(compile_):
+    """The Kane model, or None when a speed meets no inertia: then both formulations must
+    refuse the tree, saying so."""
+    try:
+        return compile_("kane")
+    except ModelError as exc:
+        assert "no inertia" in str(exc)
+        with pytest.raises(ModelError, match="no inertia"):
+            compile_("recursive")
+        return None
+
+
 # derandomize: CI sees the same examples every run (a 5-body tree with two ball joints once
 # differed by 1.3e-12, rounding in a stiff M); explore more by hand with --hypothesis-seed
 @settings(max_examples=6, deadline=None, derandomize=True,
@@ -122,16 +142,9 @@ def test_random_trees(spec, seed):
     """Branching trees of pins, sliders and ball joints (random parents, axes, points, full inertias,
     joint loads), a SymPy System of joints: recursive agrees with eomc's Kane.  A speed
     nothing resists (a point mass on its own pin axis) is refused by both, naming it."""
-    def compile_(formulation):
-        system, inputs = random_trees.build(spec)
-        return eomc.compile(system, f"tree_{formulation[0]}", inputs=inputs, functions=FUNCTIONS,
-                            progress=False, formulation=formulation)
-    try:
-        mk = compile_("kane")
-    except ModelError as exc:
-        assert "no inertia" in str(exc)
-        with pytest.raises(ModelError, match="no inertia"):
-            compile_("recursive")
+    compile_ = _tree_compiler(spec, "tree")
+    mk = _kane_or_refused_by_both(compile_)
+    if mk is None:
         return
     try:
         mr = compile_("recursive")
@@ -197,17 +210,10 @@ def test_random_floating_trees(spec, seed):
     """Random trees whose roots may be free joints (the first one always is: a floating
     base, 6 body-frame twist speeds) with pins, sliders and balls below: recursive agrees
     with Kane in the Kane path's state layout."""
-    def compile_(formulation):
-        system, inputs = random_trees.build(spec)
-        return eomc.compile(system, f"ftree_{formulation[0]}", inputs=inputs, functions=FUNCTIONS,
-                            progress=False, formulation=formulation)
     assert spec[0]["kind"] == "free"
-    try:
-        mk = compile_("kane")
-    except ModelError as exc:
-        assert "no inertia" in str(exc)
-        with pytest.raises(ModelError, match="no inertia"):
-            compile_("recursive")
+    compile_ = _tree_compiler(spec, "ftree")
+    mk = _kane_or_refused_by_both(compile_)
+    if mk is None:
         return
     mr = compile_("recursive")
     assert mr.state_names == mk.state_names
