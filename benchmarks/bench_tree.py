@@ -226,13 +226,8 @@ SDFAST_ON_OPS = {4: 838, 8: 1834, 12: 2830, 20: 4822, 40: 9802}   # issue 8: its
 
 def write_up(rows, table, start_load):
     sys.path.insert(0, str(HERE))
-    from common import environment_header, write_results
-    versions = []
-    for mod in ("mujoco", "pinocchio"):
-        try:
-            versions.append(f"{mod} {__import__(mod).__version__}")
-        except ImportError:
-            versions.append(f"{mod} not installed")
+    from common import environment_header, peer_versions, write_results
+    versions = peer_versions(("mujoco", "pinocchio"))
     end_load = " ".join(f"{v:.2f}" for v in os.getloadavg())
     notes = [f"load average at start: {start_load}, at the end: {end_load} (a shared 2-core machine, "
              f"other jobs building and testing beside this run): rhs times are thread CPU time, "

@@ -453,16 +453,12 @@ def tables(rows, radau_rows, radau_n):
 
 def write_up(text, start_load, old_commit):
     sys.path.insert(0, str(HERE))
-    from common import environment_header, write_results
-    versions = []
-    for mod in ("pinocchio", "scipy"):
-        try:
-            versions.append(f"{mod} {__import__(mod).__version__}")
-        except ImportError:
-            versions.append(f"{mod} not installed")
-    notes = [f"load average at start: {start_load}; the machine was heavily loaded (several agents "
-             f"building and testing on 2 cores): call times are thread CPU time, builds are CPU "
-             f"seconds of the build process and its gcc, with wall beside them",
+    from common import environment_header, peer_versions, write_results
+    versions = peer_versions(("pinocchio", "scipy"))
+    end_load = " ".join(f"{v:.2f}" for v in os.getloadavg())
+    notes = [f"load average at start: {start_load}, at the end: {end_load} (a shared 2-core machine, "
+             f"other jobs building and testing beside this run): call times are thread CPU time, "
+             f"builds are CPU seconds of the build process and its gcc, with wall beside them",
              "peers: " + ", ".join(versions) + "; old = eomc at " + old_commit]
     header = environment_header("Joint trees: jac_x of the recursive formulation, relative-coordinate "
                                 "n-link cart", notes=notes)

@@ -300,3 +300,14 @@ def cold_build(model, n, formulation, outdir, outputs, pythonpath=None):
     meta = json.loads(next(p for p in Path(outdir).glob("*.json")
                            if not p.name.startswith(".")).read_text())
     return cpu, wall, meta, after.ru_maxrss / 1024
+
+
+def peer_versions(modules):
+    """'mujoco 4.0.0', 'pinocchio not installed', ... for a results file's notes."""
+    out = []
+    for mod in modules:
+        try:
+            out.append(f"{mod} {__import__(mod).__version__}")
+        except ImportError:
+            out.append(f"{mod} not installed")
+    return out

@@ -8,7 +8,8 @@ sizes and names read through this layout against each built model's metadata.
 
 from .header_cdef import header_cdef
 
-__all__ = ["ABI_VERSION", "MODEL_CDEF", "BATCH_CDEF", "STATUS_NAMES", "model_function_cdef"]
+__all__ = ["ABI_VERSION", "MODEL_CDEF", "BATCH_CDEF", "STATUS_NAMES", "STATUS_SINGULAR_MASS_MATRIX",
+           "model_function_cdef"]
 
 ABI_VERSION = 1
 
@@ -27,6 +28,7 @@ STATUS_NAMES = {
     7: "the problem looks stiff for an explicit method",
     8: "the function was not generated for this model",
 }
+STATUS_SINGULAR_MASS_MATRIX = 1   # EOMC_SINGULAR_MASS_MATRIX
 
 _SIGNATURES = {
     "rhs": "int {n}_rhs(double t, const double *x, const double *p, const double *r, double *xdot, double *work);",

@@ -8,9 +8,9 @@ speeds (for URDF and joint models the speed names carry the joint names).
 """
 import numpy as np
 
-__all__ = ["singular_direction"]
+from .cdef import STATUS_SINGULAR_MASS_MATRIX as SINGULAR_STATUS
 
-SINGULAR_STATUS = 1
+__all__ = ["SINGULAR_STATUS", "singular_direction"]
 
 
 def singular_direction(model, t, x, p=None, r=None):

@@ -243,7 +243,7 @@ def _rename_tail(tail, renamed, scratch):
             if len(shadow) > 1:
                 shadow.pop()
             else:                    # the run's own block closes: its names are gone
-                return out + [x for x in tail[len(out):]]
+                return out + tail[len(out):]
     return out
 
 
