@@ -37,6 +37,7 @@ _SIGNATURES = {
     "constraints": "int {n}_constraints(double t, const double *x, const double *p, const double *r, double *out, double *work);",
     "jac_x": "int {n}_jac_x(double t, const double *x, const double *p, const double *r, double *out, double *work);",
     "jac_r": "int {n}_jac_r(double t, const double *x, const double *p, const double *r, double *out, double *work);",
+    "jac_p": "int {n}_jac_p(double t, const double *x, const double *p, const double *r, double *out, double *work);",
     "mass_matrix": "int {n}_mass_matrix(double t, const double *x, const double *p, const double *r, double *out, double *work);",
     "constraints_jac": "int {n}_constraints_jac(double t, const double *x, const double *p, const double *r, double *out, double *work);",
     "inverse_dynamics": "int {n}_inverse_dynamics(double t, const double *x, const double *udot, const double *p, const double *r, double *tau, double *work);",

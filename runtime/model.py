@@ -65,6 +65,8 @@ def _cffi_backend(ffi, lib, model_lib, c_model, name, functions):
                                                                prepare)
     if "linearize" in functions:
         kernels["linearize"] = _linearize_kernel(getattr(model_lib, f"{name}_linearize"), prepare)
+    if "jac_p" in functions:     # exported, not in the eomc_model struct (ABI unchanged)
+        kernels["jac_p"] = vector_kernel(getattr(model_lib, f"{name}_jac_p"))
     if "rhs" in kernels:
         many = lib.eomc_rhs_many
 
@@ -354,6 +356,21 @@ class Model:
             return np.empty((self.nx, 0))
         return self._matrix_call("jac_r", self.nx, self.ninput, t, x, p, r)
 
+    def jac_p(self, t, x, r=None, p=None):
+        """d rhs / d p, shape (nx, nparam): columns in ``param_names`` order.
+
+        Generated only on request (``functions`` including ``"jac_p"``, ``eomc build
+        --outputs ...,jac_p``).  Note the argument order (t, x, r, p), as the issue
+        asks; keywords work either way.  A parameter folded into literals
+        (``fold_parameters``) has no column.
+        """
+        if self.nparam == 0:
+            self._args(t, x, p, r)
+            return np.empty((self.nx, 0))
+        return self._matrix_call("jac_p", self.nx, self.nparam, t, x, p, r)
+
+    parameter_jacobian = jac_p
+
     def mass_matrix(self, t, x, p=None, r=None):
         """M(q), shape (nu, nu)."""
         return self._matrix_call("mass_matrix", self.nu, self.nu, t, x, p, r)
@@ -399,8 +416,14 @@ class Model:
             self._fail("inverse_dynamics", status, t, x, inputs=given)
         return tau
 
-    def linearize(self, t, x, p=None, r=None):
-        """(A, B) = (d rhs/d x, d rhs/d r) at an operating point."""
+    def linearize(self, t, x, p=None, r=None, parameters=False):
+        """(A, B) = (d rhs/d x, d rhs/d r) at an operating point; with ``parameters=True``
+        (A, B, P), P = d rhs/d p (the model must have been built with jac_p)."""
+        if parameters:
+            if self.nparam and "jac_p" not in self._kernels:
+                raise self._missing("jac_p")
+            A, B = self.linearize(t, x, p, r)
+            return A, B, self.jac_p(t, x, r=r, p=p)
         if "linearize" not in self._kernels:
             return self.jacobian(t, x, p, r), self.input_jacobian(t, x, p, r)
         given = (p, r)

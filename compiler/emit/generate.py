@@ -15,14 +15,14 @@ from .layout import check_identifier, make_layout
 from .linsolve import choose_ldlt
 from .sparse_lu import sparse_lu_solver
 from .split import NOINLINE_MACRO, split_body
-from .signatures import FUNCTION_ORDER, STRUCT_FIELDS, cdef, prototype
+from .signatures import FUNCTION_ORDER, ON_REQUEST, STRUCT_FIELDS, cdef, prototype
 from .symbolic import FUNCTION_GROUPS, HELPER_USERS, build_symbolic
 
 __all__ = ["generate_c", "lower", "ir_listing", "Lowered", "ALL_FUNCTIONS"]
 
 ALL_FUNCTIONS = FUNCTION_ORDER
 _ALIASES = {"jacobian": "jac_x"}
-_SOLVING = ("rhs", "jac_x", "jac_r")
+_SOLVING = ("rhs", "jac_x", "jac_r", "jac_p")
 
 
 def _eomc_version():
@@ -33,9 +33,10 @@ def _eomc_version():
         return "0+unknown"
 
 
-def _select(functions, ninput, noutput, ncon, nevent=0):
-    """Requested functions that apply to this model, in canonical order."""
-    wanted = set(ALL_FUNCTIONS if functions is None else
+def _select(functions, ninput, noutput, ncon, nevent=0, nparam=None):
+    """Requested functions that apply to this model, in canonical order (``functions=None``:
+    all but the ones generated only on request, jac_p)."""
+    wanted = set((f for f in ALL_FUNCTIONS if f not in ON_REQUEST) if functions is None else
                  (_ALIASES.get(f, f) for f in functions))
     unknown = sorted(wanted - set(ALL_FUNCTIONS))
     if unknown:
@@ -43,7 +44,7 @@ def _select(functions, ninput, noutput, ncon, nevent=0):
                          f"choose from {', '.join(ALL_FUNCTIONS)}")
     if "linearize" in wanted:
         wanted |= {"jac_x", "jac_r"}
-    absent = {"jac_r": ninput == 0, "outputs": noutput == 0,
+    absent = {"jac_r": ninput == 0, "jac_p": nparam == 0, "outputs": noutput == 0,
               "constraints": ncon == 0, "constraints_jac": ncon == 0, "events": nevent == 0}
     return tuple(f for f in ALL_FUNCTIONS if f in wanted and not absent.get(f, False))
 
@@ -62,10 +63,11 @@ def _body(fn, ctx, prog, sym, layout, nx, functions, recursive=False):
     if recursive and fn in ("mass_matrix", "forcing", "inverse_dynamics"):
         from ..tree.emit import tree_matrix_body
         return tree_matrix_body(ctx, prog, fn)
-    if recursive and fn in ("jac_x", "jac_r"):
+    if recursive and fn in ("jac_x", "jac_r", "jac_p"):
         from ..tree.derivatives import solve_symbols
         from ..tree.emit import tree_jacobian_body
-        return tree_jacobian_body(ctx, prog, sym.W, solve_symbols(ctx.nu), sym.seeds, fn, nr)
+        return tree_jacobian_body(ctx, prog, sym.W, solve_symbols(ctx.nu), sym.seeds, fn,
+                                  len(layout.p) if fn == "jac_p" else nr)
     if fn == "rhs":
         return rhs_body(ctx, prog)
     if fn in ("mass_matrix", "forcing", "inverse_dynamics"):
@@ -76,6 +78,8 @@ def _body(fn, ctx, prog, sym, layout, nx, functions, recursive=False):
         return jacobian_body(ctx, prog, sym.W, nx, "dkin", "G")
     if fn == "jac_r":
         return helper_jacobian_body(ctx, prog, sym.W, nr, "dkin_r", "Gr")
+    if fn == "jac_p":
+        return helper_jacobian_body(ctx, prog, sym.W, len(layout.p), "dkin_p", "Gp")
     if fn == "linearize":
         return linearize_body(ctx, "jac_r" in functions)
     shapes = {"outputs": ("out", (len(sym.output_names),), "out"),
@@ -117,16 +121,17 @@ def _tangent_ops(prog, seeds, blocks):
 
 
 def _ops(fn, prog, solver, nx, nr, seeds=(), helper=None, nu=0, nnz=0, solve_in=(), recursive=False,
-         W=()):
+         W=(), npar=0):
     c = count_program(prog) if prog is not None else Counter()
     if fn == "linearize":
         return None
     if recursive and fn in ("rhs", "mass_matrix", "forcing", "inverse_dynamics") and fn not in solve_in:
         return {k: int(c.get(k, 0)) for k in ("adds", "muls", "divs", "calls")}
-    if recursive and fn in ("jac_x", "jac_r"):
+    if recursive and fn in ("jac_x", "jac_r", "jac_p"):
         from ..tree.derivatives import solve_symbols
         from ..tree.emit import tree_jacobian_ops
-        return tree_jacobian_ops(prog, W, solve_symbols(nu), seeds, fn, nx - nu, nx, nr)
+        return tree_jacobian_ops(prog, W, solve_symbols(nu), seeds, fn, nx - nu, nx,
+                                 npar if fn == "jac_p" else nr)
     if fn in HELPER_USERS or fn in solve_in:
         c += count_program(helper)
     if fn in solve_in:
@@ -137,7 +142,7 @@ def _ops(fn, prog, solver, nx, nr, seeds=(), helper=None, nu=0, nnz=0, solve_in=
         c = _tangent_ops(prog, seeds, _tangent_blocks(None, nq=nx - nu, nx=nx))
     if fn in _SOLVING:
         c += solver.factor_ops
-        nsolve = 1 + {"rhs": 0, "jac_x": nx, "jac_r": nr}[fn]
+        nsolve = 1 + {"rhs": 0, "jac_x": nx, "jac_r": nr, "jac_p": npar}[fn]
         for _ in range(nsolve):
             c += solver.solve_ops
     return {k: int(c.get(k, 0)) for k in ("adds", "muls", "divs", "calls")}
@@ -192,7 +197,7 @@ def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions
     check_identifier(name)
     layout = make_layout(formed, parameters, inputs, fold_parameters)
     ncon = len(formed.holonomic_constraints) + len(formed.velocity_constraints)
-    fns = _select(functions, len(layout.r), len(outputs or {}), ncon, len(events or {}))
+    fns = _select(functions, len(layout.r), len(outputs or {}), ncon, len(events or {}), len(layout.p))
     groups, helper_users = FUNCTION_GROUPS, HELPER_USERS
     if tree is None:
         sym = build_symbolic(formed, layout, fns, outputs, events)
@@ -257,7 +262,7 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
                          "parts": parts})
         op_counts[fn] = _ops(fn, prog, solver, nx, len(layout.r), sym.seeds, low.helper, nu,
                              sum(1 for i, j in sym.pattern if i < nu and j < nu), sym.solve_in,
-                             recursive, sym.W)
+                             recursive, sym.W, len(layout.p))
     if "linearize" in op_counts:
         op_counts["linearize"] = {k: sum(op_counts[f][k] for f in ("jac_x", "jac_r") if f in op_counts)
                                   for k in ("adds", "muls", "divs", "calls")}

@@ -1,6 +1,6 @@
 """The one table of generated C signatures: header, definitions and cffi cdef all come from it."""
 
-__all__ = ["SIGNATURES", "FUNCTION_ORDER", "STRUCT_FIELDS", "prototype", "cdef"]
+__all__ = ["SIGNATURES", "FUNCTION_ORDER", "ON_REQUEST", "STRUCT_FIELDS", "prototype", "cdef"]
 
 _RHS = (("double", "t"), ("const double *", "x"), ("const double *", "p"),
         ("const double *", "r"))
@@ -9,6 +9,7 @@ SIGNATURES = {
     "rhs": _RHS + (("double *", "xdot"), ("double *", "work")),
     "jac_x": _RHS + (("double *", "out"), ("double *", "work")),
     "jac_r": _RHS + (("double *", "out"), ("double *", "work")),
+    "jac_p": _RHS + (("double *", "out"), ("double *", "work")),
     "mass_matrix": _RHS + (("double *", "out"), ("double *", "work")),
     "forcing": _RHS + (("double *", "out"), ("double *", "work")),
     "outputs": _RHS + (("double *", "out"), ("double *", "work")),
@@ -21,8 +22,11 @@ SIGNATURES = {
     "events": _RHS + (("double *", "out"), ("double *", "work")),
 }
 
-FUNCTION_ORDER = ("rhs", "jac_x", "jac_r", "mass_matrix", "forcing", "inverse_dynamics",
+FUNCTION_ORDER = ("rhs", "jac_x", "jac_r", "jac_p", "mass_matrix", "forcing", "inverse_dynamics",
                   "outputs", "constraints", "constraints_jac", "linearize", "events")
+
+# Generated only on request (``functions`` naming them), not by default.
+ON_REQUEST = ("jac_p",)
 
 # eomc_model fields holding function pointers (the rest are exported only).
 STRUCT_FIELDS = ("rhs", "jac_x", "jac_r", "mass_matrix", "forcing", "outputs",

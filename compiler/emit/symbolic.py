@@ -33,12 +33,14 @@ TANGENT_MIN_STATES = 12
 # jac_r is one: its columns A⁻¹ ∂(b − A·W)/∂r need A but only the few
 # temporaries of ∂/∂r, so it calls the helper instead of repeating A's code.
 # (jac_x does not: its columns need most of A's and b's temporaries anyway.)
-HELPER_USERS = ("rhs", "mass_matrix", "forcing", "inverse_dynamics", "jac_r")
+# jac_p (d xdot / d parameters) is built as jac_r is, with the parameters' directions.
+HELPER_USERS = ("rhs", "mass_matrix", "forcing", "inverse_dynamics", "jac_r", "jac_p")
 
 FUNCTION_GROUPS = {
     "rhs": ("kin",),                 # + the dynamics helper (A, b)
     "jac_x": ("A", "b", "dkin", "G", "Gtq", "Gtu"),
     "jac_r": ("dkin_r", "Gr"),            # + the dynamics helper (A, b)
+    "jac_p": ("dkin_p", "Gp"),            # + the dynamics helper (A, b)
     "mass_matrix": (),                # the dynamics helper only
     "forcing": (),
     "inverse_dynamics": (),
@@ -182,19 +184,21 @@ def build_symbolic(formed, layout, functions, outputs=None, events=None, *, dyna
     UD = tuple(sm.Symbol(f"ud_{j}", real=True) for j in range(nu))
     res = []
     derivatives = []
-    if "dkin" in groups or "dkin_r" in groups:
+    if "dkin" in groups or "dkin_r" in groups or "dkin_p" in groups:
         groups.add("kin")
         if "dkin" in groups:
             derivatives.append(("kin", layout.x, "dkin"))
         if "dkin_r" in groups:
             derivatives.append(("kin", layout.r, "dkin_r"))
+        if "dkin_p" in groups:
+            derivatives.append(("kin", layout.p, "dkin_p"))
     if "kin" in groups:
         res += [(("kin", i), e) for i, e in enumerate(kin)]
     if "A" in groups:
         res += [(("A", i, j), A[i, j]) for (i, j) in sorted(pattern) if not symmetric or i >= j]
     if "b" in groups:
         res += [(("b", i), e) for i, e in enumerate(b)]
-    if "G" in groups or "Gr" in groups:
+    if "G" in groups or "Gr" in groups or "Gp" in groups:
         res += [(("res", i), b[i] - sm.Add(*[A[i, j] * W[j] for j in range(nw) if (i, j) in pattern]))
                 for i in range(nw)]
         if "G" in groups and len(layout.x) > TANGENT_MIN_STATES:
@@ -205,6 +209,8 @@ def build_symbolic(formed, layout, functions, outputs=None, events=None, *, dyna
             derivatives.append(("res", layout.x, "G"))
         if "Gr" in groups:
             derivatives.append(("res", layout.r, "Gr"))
+        if "Gp" in groups:
+            derivatives.append(("res", layout.p, "Gp"))
     if "out" in groups:
         res += [(("out", i), e) for i, e in enumerate(outs)]
     if "ev" in groups:

@@ -76,11 +76,12 @@ def _jacobian_plan(program, W, G, seeds, fn, nq, nx, nr):
         tangents = [(g, start, end) for g, start, end in (("tq", 0, nq), ("tu", nq, nx))
                     if any(k[0] == g for k, _ in program.results)]
         unrolled = "dres" if not tangents else None
-    else:
-        kin, ncols = program.result_exprs("dkin_r"), nr
-        stores += [(f"out[{i * ncols + k}]", kin.get(("dkin_r", i, k), sm.S.Zero))
+    else:   # jac_r, jac_p (nr: the number of inputs or parameters)
+        tag = fn[-1]
+        kin, ncols = program.result_exprs(f"dkin_{tag}"), nr
+        stores += [(f"out[{i * ncols + k}]", kin.get((f"dkin_{tag}", i, k), sm.S.Zero))
                    for i in range(nq) for k in range(ncols)]
-        tangents, unrolled = [], "dres_r"
+        tangents, unrolled = [], f"dres_{tag}"
     if unrolled:
         vals = program.result_exprs(unrolled)
         stores += [(f"Gm[{k * nu + i}]", vals.get((unrolled, i, k), sm.S.Zero))
@@ -167,7 +168,7 @@ def tree_jacobian_body(ctx, program, W, G, seeds, fn, nr):
     recursion (no mass matrix, no factorization)."""
     nq, nu = ctx.nq, ctx.nu
     nx = nq + nu
-    ncols = nx if fn == "jac_x" else nr
+    ncols = nx if fn == "jac_x" else nr     # nr: inputs (jac_r) or parameters (jac_p)
     program, once, stores, loops = _jacobian_plan(program, W, G, seeds, fn, nq, nx, nr)
     before, after = split_on(program.with_(assignments=tuple(once)), W)
     pr = ctx.printer(program)

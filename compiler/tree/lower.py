@@ -13,6 +13,7 @@ The program's result groups, all computed from one value-numbered trace:
                ``sol`` once per column (see :mod:`.derivatives`).  ``dres``: the same
                unrolled over the columns, for a few states
     dres_r     jac_r: d res / d inputs
+    dres_p     jac_p: d res / d parameters (masses, lengths, gravity, ...), as jac_r
 
 Coordinates and speeds are the Kane path's (same layout), so states are
 interchangeable and every function agrees with the Kane formulation.
@@ -34,6 +35,7 @@ TREE_FUNCTION_GROUPS = {
     "rhs": ("kin", "ud", "Dpiv"),
     "jac_x": ("ud", "Dpiv", "dkin", "tq", "tu", "dres", "sol"),
     "jac_r": ("ud", "Dpiv", "dkin_r", "dres_r", "sol"),
+    "jac_p": ("ud", "Dpiv", "dkin_p", "dres_p", "sol"),
     "mass_matrix": ("A",),
     "forcing": ("b",),
     "inverse_dynamics": ("tau",),
@@ -116,7 +118,7 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         speeds = layout.x[nq:nq + nu]
         v, c = velocities(bodies, rec, speeds)
         extra, keep = [], {}
-        jac = set(functions) & {"jac_x", "jac_r"}
+        jac = set(functions) & {"jac_x", "jac_r", "jac_p"}
         if "rhs" in functions or jac:
             for k, udd, D in aba(bodies, rec, speeds, gravity, v, c, keep=keep):
                 extra.append((("ud", k), udd))
@@ -162,6 +164,8 @@ def _with_jacobians(sym, layout, functions, nq, jacobian):
             derivatives.append(("tres", layout.x, "dres"))
     if "jac_r" in functions:
         derivatives.append(("tres", layout.r, "dres_r"))
+    if "jac_p" in functions:
+        derivatives.append(("tres", layout.p, "dres_p"))
     program = sym.program.with_(inputs=sym.program.inputs + solve_symbols(len(sym.UD)),
                                 results=sym.program.results + tuple(jacobian))
     return replace(sym, program=program, derivatives=sym.derivatives + tuple(derivatives))
