@@ -9,7 +9,9 @@ tolerance in one run.  The integration itself is eomc_sensitivity.c: an
 augmented model [x; S] handed to the unchanged C integrators (simultaneous
 approach; error control covers S too).
 
-``simulate(..., sensitivities=...)`` (runtime/simulate.py) comes here.  Which
+``simulate(..., sensitivities=...)`` (runtime/simulate.py) checks the request
+here (:func:`check_request`), prepares its arguments as always and makes the
+C call here (:func:`run`).  Which
 columns: ``True`` (every initial state and every parameter), ``"x0"`` or
 ``"p"`` (all of one kind), or a list of state and parameter names.
 """
@@ -24,7 +26,7 @@ from .header_cdef import header_cdef
 from .integrators_api import METHOD_IDS
 from .native import _library_path
 
-__all__ = ["columns", "simulate_sensitivities", "SENS_CDEF"]
+__all__ = ["columns", "check_request", "run", "attach", "SENS_CDEF"]
 
 SENS_CDEF = header_cdef("eomc_sensitivity.h")
 _LOCK = threading.Lock()
@@ -93,29 +95,32 @@ def _check_model(model, ps):
                          f"with the default backend")
 
 
-def simulate_sensitivities(model, x0, t_span, sensitivities, **kw):
-    """``simulate`` with the variational equations; the result carries ``dx_dx0``
-    (n_t, nx, chosen states) and ``dx_dp`` (n_t, nx, chosen parameters), with the
-    chosen names in ``sensitivity_states`` and ``sensitivity_params``."""
-    from .simulate import finish, prepare
+def check_request(model, sensitivities, events, r, K, x_ref, project, baumgarte):
+    """(state indices, parameter indices) after refusing what has no sensitivities here."""
     xs, ps = columns(model, sensitivities)
     _check_model(model, ps)
-    events = kw.pop("events", None)
     if events not in (None, False) or (events is None and "events" in model.functions):
         raise ValueError(f"{model.name}: events are not supported with sensitivities (the jump of "
                          f"dx/dtheta at an event time is not computed); pass events=False")
-    if callable(kw.get("r")):
+    if callable(r):
         raise ValueError(f"{model.name}: sensitivities need inputs that do not depend on the state; "
                          f"give r as constants or a (t_grid, values) table, not a callable")
-    if kw.get("K") is not None or kw.get("x_ref") is not None:
+    if isinstance(r, tuple) and len(r) == 3:
+        raise ValueError(f"{model.name}: sensitivities take a linear input table, not a cubic one")
+    if K is not None or x_ref is not None:
         raise ValueError(f"{model.name}: sensitivities with state feedback K are not supported")
-    if kw.get("project") or kw.get("baumgarte"):
+    if project or baumgarte:
         raise ValueError(f"{model.name}: sensitivities are computed without constraint "
                          f"projection or stabilization (project/baumgarte)")
-    raise_on_failure = kw.pop("raise_on_failure", True)
-    a = prepare(model, x0, t_span, events=False, **kw)
-    if "r_slopes" in a:
-        raise ValueError(f"{model.name}: sensitivities take a linear input table, not a cubic one")
+    return xs, ps
+
+
+def run(model, a, xs, ps, stat_fields):
+    """One C call for prepared arguments ``a`` (runtime/simulate.prepare, events off).
+
+    Returns (x rows, stats dict, x_last, S) with S (n_eval, nx, k): the columns for
+    ``xs`` then ``ps``.
+    """
     ffi, lib = _sens_ffi(model.ffi)
     nx, k = model.nx, len(xs) + len(ps)
     ctx = ffi.new("char[]", int(lib.eomc_sens_size()))
@@ -125,9 +130,9 @@ def simulate_sensitivities(model, x0, t_span, sensitivities, **kw):
     pcols = np.array(ps + [0], dtype=np.intc)
     jac_p = getattr(model.model_lib, f"{model.name}_jac_p") if ps else ffi.NULL
     buf = lambda arr: ffi.from_buffer("double[]", arr)  # noqa: E731
-    p = a["p"]
-    status = lib.eomc_sens_init(s, model.c_model, jac_p, buf(p), len(xs), ffi.from_buffer("int[]", xcols),
-                                len(ps), ffi.from_buffer("int[]", pcols), buf(scratch))
+    status = lib.eomc_sens_init(s, model.c_model, jac_p, buf(a["p"]), len(xs),
+                                ffi.from_buffer("int[]", xcols), len(ps),
+                                ffi.from_buffer("int[]", pcols), buf(scratch))
     if status:
         raise ModelError(f"{model.name}: could not set up the sensitivities (status {status})")
     N = int(lib.eomc_sens_nstates(s))
@@ -147,13 +152,16 @@ def simulate_sensitivities(model, x0, t_span, sensitivities, **kw):
     lib.eomc_sens_integrate(s, opt, a["t0"], a["t1"], buf(X0), a["n_r"], buf(a["r_t"]), buf(a["r_v"]),
                             n_eval, buf(a["t_eval"]), buf(X_out), buf(X_last), stats, buf(work),
                             work.size)
-    from .simulate import _STAT_FIELDS
-    st = {f: getattr(stats, f) for f in _STAT_FIELDS}
-    res = finish(model, a, np.ascontiguousarray(X_out[:, :nx]), st, X_last[:nx].copy(), raise_on_failure)
+    st = {f: getattr(stats, f) for f in stat_fields}
+    S = X_out[:, nx:].reshape(n_eval, k, nx).transpose(0, 2, 1)
+    return np.ascontiguousarray(X_out[:, :nx]), st, X_last[:nx].copy(), S
+
+
+def attach(model, res, S, xs, ps):
+    """Put the rows of S that the result kept on it as dx_dx0 / dx_dp with their names."""
     n = len(res.t)
-    S = X_out[:n, nx:].reshape(n, k, nx).transpose(0, 2, 1)          # (n_t, nx, k)
-    res.dx_dx0 = np.ascontiguousarray(S[:, :, :len(xs)])
-    res.dx_dp = np.ascontiguousarray(S[:, :, len(xs):])
+    res.dx_dx0 = np.ascontiguousarray(S[:n, :, :len(xs)])
+    res.dx_dp = np.ascontiguousarray(S[:n, :, len(xs):])
     res.sensitivity_states = tuple(model.state_names[i] for i in xs)
     res.sensitivity_params = tuple(model.param_names[i] for i in ps)
     return res

@@ -418,15 +418,13 @@ def simulate(model, x0, t_span, p=None, r=None, method="dop853", rtol=1e-6, atol
     parameters): result.dx_dx0 (n_t, nx, states) and result.dx_dp (n_t, nx, parameters).
     """
     if sensitivities is not False and sensitivities is not None:
-        from .sensitivity import simulate_sensitivities
-        if consistent or (not project and not baumgarte and model.nhol + model.nvel):
-            x0 = _checked_start(model, x0, t_span, p, r, atol, consistent)
-        return simulate_sensitivities(
-            model, x0, t_span, sensitivities, p=p, r=r, method=method, rtol=rtol, atol=atol,
-            t_eval=t_eval, dt=dt, max_steps=max_steps, first_step=first_step, max_step=max_step,
-            project=project, stiff_check=stiff_check, n_points=n_points, baumgarte=baumgarte,
-            pi_beta=pi_beta, raise_on_failure=raise_on_failure, events=events,
-            max_events=max_events, K=K, x_ref=x_ref)
+        return _simulate_sensitivities(model, x0, t_span, sensitivities, p=p, r=r, method=method,
+                                       rtol=rtol, atol=atol, t_eval=t_eval, dt=dt, max_steps=max_steps,
+                                       first_step=first_step, max_step=max_step, project=project,
+                                       stiff_check=stiff_check, n_points=n_points, baumgarte=baumgarte,
+                                       pi_beta=pi_beta, raise_on_failure=raise_on_failure,
+                                       events=events, max_events=max_events, K=K, x_ref=x_ref,
+                                       consistent=consistent)
     if consistent or (not project and not baumgarte and model.nhol + model.nvel):
         x0 = _checked_start(model, x0, t_span, p, r, atol, consistent)
     a = prepare(model, x0, t_span, p=p, r=r, method=method, rtol=rtol, atol=atol, t_eval=t_eval,
@@ -436,6 +434,23 @@ def simulate(model, x0, t_span, p=None, r=None, method="dop853", rtol=1e-6, atol
                 K=K, x_ref=x_ref)
     x_out, stats, x_last = run_prepared(model, a)
     return finish(model, a, x_out, stats, x_last, raise_on_failure)
+
+
+def _simulate_sensitivities(model, x0, t_span, sensitivities, p, r, method, rtol, atol, t_eval, dt,
+                            max_steps, first_step, max_step, project, stiff_check, n_points,
+                            baumgarte, pi_beta, raise_on_failure, events, max_events, K, x_ref,
+                            consistent):
+    """simulate with the variational equations (runtime/sensitivity.py)."""
+    from . import sensitivity
+    xs, ps = sensitivity.check_request(model, sensitivities, events, r, K, x_ref, project, baumgarte)
+    if consistent or model.nhol + model.nvel:
+        x0 = _checked_start(model, x0, t_span, p, r, atol, consistent)
+    a = prepare(model, x0, t_span, p=p, r=r, method=method, rtol=rtol, atol=atol, t_eval=t_eval,
+                dt=dt, max_steps=max_steps, first_step=first_step, max_step=max_step,
+                stiff_check=stiff_check, n_points=n_points, pi_beta=pi_beta, events=False,
+                max_events=max_events)
+    x_out, stats, x_last, S = sensitivity.run(model, a, xs, ps, _STAT_FIELDS)
+    return sensitivity.attach(model, finish(model, a, x_out, stats, x_last, raise_on_failure), S, xs, ps)
 
 
 def _checked_start(model, x0, t_span, p, r, atol, consistent):
