@@ -41,6 +41,7 @@ _SIGNATURES = {
     "mass_matrix": "int {n}_mass_matrix(double t, const double *x, const double *p, const double *r, double *out, double *work);",
     "constraints_jac": "int {n}_constraints_jac(double t, const double *x, const double *p, const double *r, double *out, double *work);",
     "inverse_dynamics": "int {n}_inverse_dynamics(double t, const double *x, const double *udot, const double *p, const double *r, double *tau, double *work);",
+    "regressor": "int {n}_regressor(double t, const double *x, const double *udot, const double *p, const double *r, double *out, double *work);",
     "linearize": "int {n}_linearize(double t, const double *x, const double *p, const double *r, double *A, double *B, double *work);",
     "events": "int {n}_events(double t, const double *x, const double *p, const double *r, double *out, double *work);",
 }

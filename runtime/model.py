@@ -65,6 +65,8 @@ def _cffi_backend(ffi, lib, model_lib, c_model, name, functions):
                                                                prepare)
     if "linearize" in functions:
         kernels["linearize"] = _linearize_kernel(getattr(model_lib, f"{name}_linearize"), prepare)
+    if "regressor" in functions:   # (t, x, udot, p, r, out, work), as inverse_dynamics
+        kernels["regressor"] = _inverse_dynamics_kernel(getattr(model_lib, f"{name}_regressor"), prepare)
     if "jac_p" in functions:     # exported, not in the eomc_model struct (ABI unchanged)
         kernels["jac_p"] = vector_kernel(getattr(model_lib, f"{name}_jac_p"))
     if "rhs" in kernels:
@@ -415,6 +417,33 @@ class Model:
                                       f"{', '.join(f'{v}' for v in udot)}")
             self._fail("inverse_dynamics", status, t, x, inputs=given)
         return tau
+
+    def regressor(self, q, u, udot, p=None, t=0.0):
+        """Y(q, u, u'), shape (nu, 10 * bodies), with inverse dynamics = Y @ pi at zero inputs.
+
+        pi holds 10 numbers per body (``regressor_columns`` names them): mass, first
+        moments m·c and the inertia about the body's reference point (its link frame
+        for a URDF robot, as Pinocchio's ``computeJointTorqueRegressor``; else its mass
+        centre), in Pinocchio's order.  Recursive formulation, on request
+        (``functions`` including "regressor").  ``p`` only places the joints (the
+        inertial parameters do not enter Y).
+        """
+        kernel = self._kernel("regressor")
+        q = self._array(q, (self.nq,), "q (coordinates)", self.state_names[:self.nq])
+        u = self._array(u, (self.nu,), "u (speeds)", self.state_names[self.nq:])
+        t, x, pp, r = self._args(t, np.concatenate([q, u]), p, None)
+        udot = self._array(udot, (self.nu,), "udot (speed derivatives)", self.state_names[self.nq:])
+        out = np.empty((self.nu, 10 * len(self.metadata.get("regressor_bodies", ()))))
+        status = kernel(t, x, udot, pp, r, out.reshape(-1), self._work()[1])
+        if status:
+            self._fail("regressor", status, t, x, inputs=(p, None))
+        return out
+
+    @property
+    def regressor_columns(self):
+        """Names of the regressor's columns: ``<parameter>_<body>`` (see :meth:`regressor`)."""
+        names = self.metadata.get("regressor_parameters", ())
+        return tuple(f"{k}_{b}" for b in self.metadata.get("regressor_bodies", ()) for k in names)
 
     def linearize(self, t, x, p=None, r=None, parameters=False):
         """(A, B) = (d rhs/d x, d rhs/d r) at an operating point; with ``parameters=True``

@@ -49,6 +49,7 @@ FUNCTION_GROUPS = {
     "constraints_jac": ("dcon",),
     "linearize": (),
     "events": ("ev",),
+    "regressor": (),        # recursive formulation only (compiler/tree/regressor.py)
 }
 
 
@@ -68,6 +69,8 @@ class Symbolic:
     output_names: tuple
     event_names: tuple = ()
     solve_in: tuple = ()    # outputs/events that read u' or multipliers: they solve A w = b first
+    regressor_bodies: tuple = ()     # column blocks of the regressor (recursive formulation)
+    regressor_reference: tuple = ()  # per block: "link frame" or "mass centre"
 
 
 def _is_symmetric(A, seed=0):

@@ -43,6 +43,7 @@ TREE_FUNCTION_GROUPS = {
     "constraints": ("con",),
     "constraints_jac": ("dcon",),
     "linearize": (),
+    "regressor": ("Y",),
 }
 TREE_HELPER_USERS = ()
 
@@ -134,6 +135,11 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         if "inverse_dynamics" in functions:
             tau = rnea(bodies, rec, UD, gravity, v, c)
             extra += [(("tau", k), tau[k]) for k in range(nu)]
+        regressor = None
+        if "regressor" in functions:
+            from .regressor import regressor_results
+            entries, *regressor = regressor_results(tree, bodies, rec, layout, UD, gravity, v, c)
+            extra += entries
         # outputs and events that read u' solve A·u' = b (the Kane path's code)
         if set(functions) & _NEED_AB or ("outputs" in functions and outputs) or (
                 "events" in functions and events):
@@ -148,6 +154,8 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
     sym = build_symbolic(formed, layout, functions, outputs, events, dynamics=(A, b),
                          prelude=(rec.assignments, rec.count, sorted(extra, key=_order)),
                          function_groups=TREE_FUNCTION_GROUPS, helper_users=TREE_HELPER_USERS)
+    if regressor:
+        sym = replace(sym, regressor_bodies=regressor[0], regressor_reference=regressor[1])
     if not jacobian:
         return sym
     return _with_jacobians(sym, layout, functions, nq, jacobian)
