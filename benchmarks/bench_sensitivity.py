@@ -47,7 +47,9 @@ def cpu(fn):
 
 def main(argv=None):
     args = parse_args(__doc__.splitlines()[0], [8], default_repeat=5, argv=argv,
-                      extra=lambda p: p.add_argument("--method", default="dop853"))
+                      extra=lambda p: (p.add_argument("--method", default="dop853"),
+                                       p.add_argument("--max-k", type=int, default=None,
+                                                      help="skip cases with more sensitivity columns")))
     pin_to_one_core()
     rows, csv_rows = [], []
     for n in args.n:
@@ -59,6 +61,8 @@ def main(argv=None):
         cases = [("1 parameter", [params[0]]), ("4 parameters", params[:4]),
                  (f"all {len(params)} parameters", "p"),
                  (f"all {model.nx} states + {len(params)} parameters", True)]
+        sizes = [1, 4, len(params), model.nx + len(params)]
+        cases = [c for c, k in zip(cases, sizes) if args.max_k is None or k <= args.max_k]
 
         def plain(p=None, x=x0):
             return model.simulate(x, (0, T_END), p=p, **kw)
