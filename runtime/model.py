@@ -67,6 +67,10 @@ def _cffi_backend(ffi, lib, model_lib, c_model, name, functions):
         kernels["linearize"] = _linearize_kernel(getattr(model_lib, f"{name}_linearize"), prepare)
     if "regressor" in functions:   # (t, x, udot, p, r, out, work), as inverse_dynamics
         kernels["regressor"] = _inverse_dynamics_kernel(getattr(model_lib, f"{name}_regressor"), prepare)
+    if "jvp" in functions:
+        fp_jvp = getattr(model_lib, f"{name}_jvp")
+        kernels["jvp"] = lambda t, x, p, r, k, dirs, xdot, out, work: fp_jvp(
+            t, frombuf("double[]", x), p, r, k, prepare(dirs), prepare(xdot), prepare(out), work)
     if "jac_p" in functions:     # exported, not in the eomc_model struct (ABI unchanged)
         kernels["jac_p"] = vector_kernel(getattr(model_lib, f"{name}_jac_p"))
     if "rhs" in kernels:
@@ -417,6 +421,23 @@ class Model:
                                       f"{', '.join(f'{v}' for v in udot)}")
             self._fail("inverse_dynamics", status, t, x, inputs=given)
         return tau
+
+    def jvp(self, t, x, directions, p=None, r=None):
+        """(xdot, J·d for each row d of ``directions``): rhs and its directional derivatives
+        along k state directions (shape (k, nx)) without forming J = d rhs/d x.  Kane's
+        formulation, on request (``functions`` including "jvp"); forward sensitivities use it."""
+        given = (p, r)
+        t, x, p, r = self._args(t, x, p, r)
+        kernel = self._kernel("jvp")
+        D = np.asarray(directions, dtype=np.float64)
+        if D.ndim == 1:
+            D = D[None, :]
+        D = self._array(D, (D.shape[0], self.nx), "directions (k rows of nx)")
+        xdot, out = np.empty(self.nx), np.empty((D.shape[0], self.nx))
+        status = kernel(t, x, p, r, D.shape[0], D.reshape(-1), xdot, out.reshape(-1), self._work()[1])
+        if status:
+            self._fail("jvp", status, t, x, inputs=given)
+        return xdot, out
 
     def regressor(self, q, u, udot, p=None, t=0.0):
         """Y(q, u, u'), shape (nu, 10 * bodies), with inverse dynamics = Y @ pi at zero inputs.

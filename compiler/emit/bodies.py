@@ -13,7 +13,7 @@ from .signatures import SIGNATURES
 __all__ = ["BodyContext", "plain_body", "solved_plain_body", "rhs_body", "jacobian_body", "tangent_jacobian_body",
            "helper_jacobian_body", "needed_assignments",
            "linearize_body", "split_on", "dynamics_helper", "matrix_body",
-           "void_unused"]
+           "void_unused", "jvp_body"]
 
 _IND = "    "
 
@@ -305,3 +305,58 @@ def void_unused(function, lines, signature=None):
     signature = SIGNATURES[function] if signature is None else signature
     unused = [a for _, a in signature if not re.search(rf"\b{a}\b", text)]
     return "\n".join([f"{_IND}(void){a};" for a in unused] + lines)
+
+
+def jvp_body(ctx, program, W, seeds, nx, blocks):
+    """xdot and k directional derivatives J·d (J = d xdot/dx) in one call, for forward
+    sensitivities: A and b are evaluated and factored once, then per direction the
+    residual's tangent along d (the looped jac_x's tangent programs, ``blocks``, with
+    the seed array pointing at the direction) or, for few states, the unrolled
+    columns G times d, and one solve.  J itself is never formed.
+
+    The directions ``dirs`` are k rows of nx (row j: direction j); ``out`` gets k rows of nx.
+    """
+    nw, nq, nu = ctx.nw, ctx.nq, ctx.nu
+    pr = ctx.printer(program)
+    before, rest = split_on(program, W + seeds)
+    stage2, stage3 = split_on(program.with_(assignments=tuple(rest)), seeds)
+    lines = _solver_decls(ctx, [f"double G[{nw}];", "const double *dx;", "int i, d;"])
+    lines += _temps(program, pr, before)
+    lines += _load_dynamics(ctx, program, pr)
+    lines += _temps(program, pr, stage2)
+    kin = program.result_exprs("kin")
+    lines += [_store(f"xdot[{i}]", kin.get(("kin", i), 0.0), pr) for i in range(nq)]
+    lines += [f"{_IND}xdot[{nq + i}] = w[{i}];" for i in range(nu)]
+    kvals = program.result_exprs("dkin")
+    body = []
+    if blocks:
+        first = True
+        for group, _, _ in blocks:
+            gvals = program.result_exprs(group)
+            inner = needed_assignments(stage3, gvals.values())
+            body += ["{"] + [line[len(_IND):] if line.startswith(_IND) else line
+                             for line in _temps(program, pr, inner)]
+            op = "=" if first else "+="
+            body += [f"G[{i}] {op} {pr.doprint(gvals.get((group, i), 0.0))};" for i in range(nw)]
+            body.append("}")
+            first = False
+    else:
+        gvals = program.result_exprs("G")
+        for i in range(nw):
+            terms = [f"({pr.doprint(gvals[('G', i, k)])}) * dx[{k}]" for k in range(nx)
+                     if gvals.get(("G", i, k), 0) != 0]
+            body.append(f"G[{i}] = {' + '.join(terms) or '0.0'};")
+    body.append(f"{ctx.solver.solve_call('G')};")
+    for i in range(nq):
+        terms = [f"({pr.doprint(kvals[('dkin', i, k)])}) * dx[{k}]" for k in range(nx)
+                 if kvals.get(("dkin", i, k), 0) != 0]
+        body.append(f"out[d * {nx} + {i}] = {' + '.join(terms) or '0.0'};")
+    body.append(f"for (i = 0; i < {nu}; i++) out[d * {nx} + {nq} + i] = G[i];")
+    lines.append(f"{_IND}for (d = 0; d < k; d++) {{")
+    lines.append(f"{_IND * 2}dx = dirs + (size_t)d * {nx};")
+    lines += [_IND * 2 + line for line in body]
+    lines.append(f"{_IND}}}")
+    lines.append(f"{_IND}status = {ctx.name}_finite(xdot, {nx});")
+    lines.append(f"{_IND}if (status != EOMC_OK || k <= 0) return status;")
+    lines.append(f"{_IND}return {ctx.name}_finite(out, k * {nx});")
+    return lines

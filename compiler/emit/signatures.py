@@ -21,15 +21,17 @@ SIGNATURES = {
     "regressor": (("double", "t"), ("const double *", "x"), ("const double *", "udot"),
                   ("const double *", "p"), ("const double *", "r"),
                   ("double *", "out"), ("double *", "work")),
+    "jvp": _RHS + (("int", "k"), ("const double *", "dirs"), ("double *", "xdot"), ("double *", "out"),
+                   ("double *", "work")),
     "linearize": _RHS + (("double *", "A"), ("double *", "B"), ("double *", "work")),
     "events": _RHS + (("double *", "out"), ("double *", "work")),
 }
 
 FUNCTION_ORDER = ("rhs", "jac_x", "jac_r", "jac_p", "mass_matrix", "forcing", "inverse_dynamics",
-                  "outputs", "constraints", "constraints_jac", "linearize", "events", "regressor")
+                  "outputs", "constraints", "constraints_jac", "linearize", "events", "regressor", "jvp")
 
 # Generated only on request (``functions`` naming them), not by default.
-ON_REQUEST = ("jac_p", "regressor")
+ON_REQUEST = ("jac_p", "regressor", "jvp")
 
 # eomc_model fields holding function pointers (the rest are exported only).
 STRUCT_FIELDS = ("rhs", "jac_x", "jac_r", "mass_matrix", "forcing", "outputs",

@@ -50,6 +50,7 @@ FUNCTION_GROUPS = {
     "linearize": (),
     "events": ("ev",),
     "regressor": (),        # recursive formulation only (compiler/tree/regressor.py)
+    "jvp": ("A", "b", "kin", "dkin", "G", "Gtq", "Gtu"),   # xdot and J·d, d given (sensitivities)
 }
 
 
