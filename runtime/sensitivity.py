@@ -115,11 +115,28 @@ def check_request(model, sensitivities, events, r, K, x_ref, project, baumgarte)
     return xs, ps
 
 
-def run(model, a, xs, ps, stat_fields):
+def use_jvp(model, k, jvp=None):
+    """Whether S' = J S comes from the model's directional derivatives (``jvp``, when it was
+    built) rather than the full jac_x: ``None`` chooses by k -- the directions cost about a
+    tenth of jac_x each against one jac_x and an nx x nx x k product (JVP_MAX_SHARE)."""
+    if "jvp" not in model.functions:
+        if jvp:
+            raise ModelError(f"{model.name}: jvp=True needs the model built with 'jvp' "
+                             f"(eomc build --outputs ...,jvp)")
+        return False
+    return bool(jvp) if jvp is not None else k <= JVP_MAX_SHARE * model.nx
+
+
+# use the directional derivatives up to k = JVP_MAX_SHARE * nx sensitivity columns
+# (benchmarks/results/sensitivity_dop853.md: on the n = 8 cart, nx = 18 ...)
+JVP_MAX_SHARE = 0.5
+
+
+def run(model, a, xs, ps, stat_fields, jvp=None):
     """One C call for prepared arguments ``a`` (runtime/simulate.prepare, events off).
 
     Returns (x rows, stats dict, x_last, S) with S (n_eval, nx, k): the columns for
-    ``xs`` then ``ps``.
+    ``xs`` then ``ps``.  ``jvp``: see :func:`use_jvp`.
     """
     ffi, lib = _sens_ffi(model.ffi)
     nx, k = model.nx, len(xs) + len(ps)
@@ -129,8 +146,10 @@ def run(model, a, xs, ps, stat_fields):
     xcols = np.array(xs + [0], dtype=np.intc)
     pcols = np.array(ps + [0], dtype=np.intc)
     jac_p = getattr(model.model_lib, f"{model.name}_jac_p") if ps else ffi.NULL
+    jvp_fn = (getattr(model.model_lib, f"{model.name}_jvp") if use_jvp(model, len(xs) + len(ps), jvp)
+              else ffi.NULL)
     buf = lambda arr: ffi.from_buffer("double[]", arr)  # noqa: E731
-    status = lib.eomc_sens_init(s, model.c_model, jac_p, buf(a["p"]), len(xs),
+    status = lib.eomc_sens_init(s, model.c_model, jac_p, jvp_fn, buf(a["p"]), len(xs),
                                 ffi.from_buffer("int[]", xcols), len(ps),
                                 ffi.from_buffer("int[]", pcols), buf(scratch))
     if status:

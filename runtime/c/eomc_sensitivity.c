@@ -18,6 +18,7 @@ struct eomc_sens {
     double align_;            /* first: the context is aligned as a double */
     const eomc_model *m;
     eomc_mat_fn jac_p;
+    eomc_jvp_fn jvp;
     const double *p;
     int nx, np, nxcol, npcol;
     int xcols[EOMC_SENS_MAXCOL];
@@ -48,6 +49,19 @@ static int aug_rhs(double t, const double *X, const double *pc, const double *r,
     const eomc_model *m = s->m;
     int n = s->nx, k = s->nxcol + s->npcol, st;
     const double *S = X + n;
+    if (s->jvp) {
+        /* S is stored column after column: its columns are the k directions' rows */
+        if ((st = s->jvp(t, X, s->p, r, k, S, F, F + n, work))) return st;
+        if (s->npcol > 0) {
+            if ((st = s->jac_p(t, X, s->p, r, s->P, work))) return st;
+            for (int j = 0; j < s->npcol; j++) {
+                double *Fj = F + n + (size_t)(s->nxcol + j) * n;
+                for (int i = 0; i < n; i++)
+                    Fj[i] += s->P[(size_t)i * s->np + s->pcols[j]];
+            }
+        }
+        return EOMC_OK;
+    }
     if ((st = m->rhs(t, X, s->p, r, F, work))) return st;
     if ((st = m->jac_x(t, X, s->p, r, s->J, work))) return st;
     if (s->npcol > 0 && (st = s->jac_p(t, X, s->p, r, s->P, work))) return st;
@@ -80,7 +94,7 @@ static int aug_jac(double t, const double *X, const double *pc, const double *r,
     return EOMC_OK;
 }
 
-int eomc_sens_init(eomc_sens *s, const eomc_model *m, eomc_mat_fn jac_p, const double *p,
+int eomc_sens_init(eomc_sens *s, const eomc_model *m, eomc_mat_fn jac_p, eomc_jvp_fn jvp, const double *p,
                    int nxcol, const int *xcols, int npcol, const int *pcols, double *scratch)
 {
     if (!s || !m || !m->rhs || !scratch || nxcol < 0 || npcol < 0 || nxcol > EOMC_SENS_MAXCOL
@@ -88,7 +102,7 @@ int eomc_sens_init(eomc_sens *s, const eomc_model *m, eomc_mat_fn jac_p, const d
         return EOMC_BAD_ARGUMENT;
     if (!m->jac_x || (npcol > 0 && !jac_p)) return EOMC_NOT_AVAILABLE;
     memset(s, 0, sizeof *s);
-    s->m = m; s->jac_p = jac_p; s->p = p;
+    s->m = m; s->jac_p = jac_p; s->jvp = jvp; s->p = p;
     s->nx = m->nx; s->np = m->nparam; s->nxcol = nxcol; s->npcol = npcol;
     for (int j = 0; j < nxcol; j++) {
         if (xcols[j] < 0 || xcols[j] >= m->nx) return EOMC_BAD_ARGUMENT;

@@ -28,6 +28,10 @@ extern "C" {
 
 typedef struct eomc_sens eomc_sens;
 
+/* A model's generated NAME_jvp: xdot and J·d for k directions (rows of dirs) at once. */
+typedef int (*eomc_jvp_fn)(double t, const double *x, const double *p, const double *r, int k,
+                           const double *dirs, double *xdot, double *out, double *work);
+
 /* Bytes of an eomc_sens context. */
 size_t eomc_sens_size(void);
 
@@ -37,12 +41,14 @@ size_t eomc_sens_scratch_size(const eomc_model *m);
 /*
  * Set up the context: k = nxcol + npcol columns, first the initial states
  * xcols[0..nxcol), then the parameters pcols[0..npcol) (indices into x, p).
- * jac_p may be NULL when npcol == 0.  p: the model's parameters (nparam),
+ * jac_p may be NULL when npcol == 0.  jvp (may be NULL): the model's NAME_jvp;
+ * given, S' = J S comes from k directional derivatives instead of forming J
+ * (cheaper when k is small against nx).  p: the model's parameters (nparam),
  * read during the run.  Returns EOMC_NOT_AVAILABLE without jac_x (or jac_p
  * when parameter columns are asked for), EOMC_BAD_ARGUMENT for an index out
  * of range.
  */
-int eomc_sens_init(eomc_sens *s, const eomc_model *m, eomc_mat_fn jac_p, const double *p,
+int eomc_sens_init(eomc_sens *s, const eomc_model *m, eomc_mat_fn jac_p, eomc_jvp_fn jvp, const double *p,
                    int nxcol, const int *xcols, int npcol, const int *pcols, double *scratch);
 
 /* States of the augmented system: nx * (1 + k). */
