@@ -424,7 +424,8 @@ class Model:
 
     def jvp(self, t, x, directions, p=None, r=None):
         """(xdot, J·d for each row d of ``directions``): rhs and its directional derivatives
-        along k state directions (shape (k, nx)) without forming J = d rhs/d x.  Kane's
+        along k directions in (state, parameter) space without forming J = d rhs/d[x; p].
+        ``directions``: (k, nx) (state directions) or (k, nx + nparam).  Kane's
         formulation, on request (``functions`` including "jvp"); forward sensitivities use it."""
         given = (p, r)
         t, x, p, r = self._args(t, x, p, r)
@@ -432,7 +433,9 @@ class Model:
         D = np.asarray(directions, dtype=np.float64)
         if D.ndim == 1:
             D = D[None, :]
-        D = self._array(D, (D.shape[0], self.nx), "directions (k rows of nx)")
+        if D.ndim == 2 and D.shape[1] == self.nx:
+            D = np.hstack([D, np.zeros((D.shape[0], self.nparam))])
+        D = self._array(D, (D.shape[0], self.nx + self.nparam), "directions (k rows of nx or nx + nparam)")
         xdot, out = np.empty(self.nx), np.empty((D.shape[0], self.nx))
         status = kernel(t, x, p, r, D.shape[0], D.reshape(-1), xdot, out.reshape(-1), self._work()[1])
         if status:

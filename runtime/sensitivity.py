@@ -83,7 +83,9 @@ def columns(model, sensitivities):
 
 
 def _check_model(model, ps):
-    missing = [f for f, need in (("jac_x", True), ("jac_p", bool(ps))) if need and f not in model.functions]
+    need_p = bool(ps) and "jvp" not in model.functions     # jvp has the parameter directions too
+    missing = [f for f, need in (("jac_x", True), ("jac_p", need_p)) if need and f not in model.functions]
+    # (jac_x stays required: Radau's Newton matrix is built from it)
     if missing:
         have = ",".join(f for f in model.functions if f not in missing)
         raise ModelError(f"{model.name}: sensitivities need {' and '.join(missing)}, which this model "
@@ -115,21 +117,21 @@ def check_request(model, sensitivities, events, r, K, x_ref, project, baumgarte)
     return xs, ps
 
 
-def use_jvp(model, k, jvp=None):
-    """Whether S' = J S comes from the model's directional derivatives (``jvp``, when it was
-    built) rather than the full jac_x: ``None`` chooses by k -- the directions cost about a
-    tenth of jac_x each against one jac_x and an nx x nx x k product (JVP_MAX_SHARE)."""
+def use_jvp(model, jvp=None):
+    """Whether S' = J S + P comes from the model's directional derivatives (its ``jvp``,
+    when it was built: A and b factored once per stage, then per column a tangent and a
+    solve) rather than from jac_x, jac_p and an nx x nx x k product.  On the n = 8 cart
+    the directions are faster at every k up to nx + nparam (bench_sensitivity), so
+    ``PREFER_JVP`` is on; ``jvp`` overrides it for one run."""
     if "jvp" not in model.functions:
         if jvp:
             raise ModelError(f"{model.name}: jvp=True needs the model built with 'jvp' "
                              f"(eomc build --outputs ...,jvp)")
         return False
-    return bool(jvp) if jvp is not None else k <= JVP_MAX_SHARE * model.nx
+    return PREFER_JVP if jvp is None else bool(jvp)
 
 
-# use the directional derivatives up to k = JVP_MAX_SHARE * nx sensitivity columns
-# (benchmarks/results/sensitivity_dop853.md: on the n = 8 cart, nx = 18 ...)
-JVP_MAX_SHARE = 0.5
+PREFER_JVP = True
 
 
 def run(model, a, xs, ps, stat_fields, jvp=None):
@@ -142,12 +144,12 @@ def run(model, a, xs, ps, stat_fields, jvp=None):
     nx, k = model.nx, len(xs) + len(ps)
     ctx = ffi.new("char[]", int(lib.eomc_sens_size()))
     s = ffi.cast("eomc_sens *", ctx)
-    scratch = np.empty(lib.eomc_sens_scratch_size(model.c_model))
+    scratch = np.empty(lib.eomc_sens_scratch_size(model.c_model, len(xs) + len(ps)))
     xcols = np.array(xs + [0], dtype=np.intc)
     pcols = np.array(ps + [0], dtype=np.intc)
-    jac_p = getattr(model.model_lib, f"{model.name}_jac_p") if ps else ffi.NULL
-    jvp_fn = (getattr(model.model_lib, f"{model.name}_jvp") if use_jvp(model, len(xs) + len(ps), jvp)
-              else ffi.NULL)
+    jvp_fn = getattr(model.model_lib, f"{model.name}_jvp") if use_jvp(model, jvp) else ffi.NULL
+    jac_p = (getattr(model.model_lib, f"{model.name}_jac_p") if ps and "jac_p" in model.functions
+             else ffi.NULL)
     buf = lambda arr: ffi.from_buffer("double[]", arr)  # noqa: E731
     status = lib.eomc_sens_init(s, model.c_model, jac_p, jvp_fn, buf(a["p"]), len(xs),
                                 ffi.from_buffer("int[]", xcols), len(ps),

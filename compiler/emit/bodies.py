@@ -307,26 +307,50 @@ def void_unused(function, lines, signature=None):
     return "\n".join([f"{_IND}(void){a};" for a in unused] + lines)
 
 
-def jvp_body(ctx, program, W, seeds, nx, blocks):
-    """xdot and k directional derivatives J·d (J = d xdot/dx) in one call, for forward
+def jvp_body(ctx, program, W, seeds, nx, npar, blocks):
+    """xdot and k directional derivatives J·d (J = d xdot/d[x; p]) in one call, for forward
     sensitivities: A and b are evaluated and factored once, then per direction the
-    residual's tangent along d (the looped jac_x's tangent programs, ``blocks``, with
-    the seed array pointing at the direction) or, for few states, the unrolled
-    columns G times d, and one solve.  J itself is never formed.
+    residual's tangent along d's state part (the looped jac_x's tangent programs,
+    ``blocks``, with the seed array pointing at the direction) or, for few states, the
+    unrolled columns G times it, plus the unrolled parameter columns times d's parameter
+    part, and one solve.  J itself is never formed.  The parameter columns are computed
+    only when some direction has a nonzero parameter part.
 
-    The directions ``dirs`` are k rows of nx (row j: direction j); ``out`` gets k rows of nx.
+    ``dirs``: k rows of nx + nparam (state part, then parameter part); ``out``: k rows of nx.
     """
     nw, nq, nu = ctx.nw, ctx.nq, ctx.nu
+    nd = nx + npar
     pr = ctx.printer(program)
-    before, rest = split_on(program, W + seeds)
-    stage2, stage3 = split_on(program.with_(assignments=tuple(rest)), seeds)
-    lines = _solver_decls(ctx, [f"double G[{nw}];", "const double *dx;", "int i, d;"])
+    gp = program.result_exprs("Gp")
+    kp = program.result_exprs("dkin_p")
+    pexprs = list(gp.values()) + list(kp.values())
+    others = [e for key, e in program.results if key[0] not in ("Gp", "dkin_p")]
+    p_only = ({t for t, _ in needed_assignments(program.assignments, pexprs)}
+              - {t for t, _ in needed_assignments(program.assignments, others)})
+    main = program.with_(assignments=tuple(a for a in program.assignments if a[0] not in p_only))
+    before, rest = split_on(main, W + seeds)
+    stage2, stage3 = split_on(main.with_(assignments=tuple(rest)), seeds)
+    gp_nz = sorted(k for k, e in gp.items() if e != 0)
+    kp_nz = sorted(k for k, e in kp.items() if e != 0)
+    extra = [f"double G[{nw}];", "const double *dx;", "int i, d;"]
+    if gp_nz or kp_nz:
+        extra += ["const double *dp;", f"double Gp[{max(1, len(gp_nz) + len(kp_nz))}];", "int anyp = 0;"]
+    lines = _solver_decls(ctx, extra)
     lines += _temps(program, pr, before)
     lines += _load_dynamics(ctx, program, pr)
     lines += _temps(program, pr, stage2)
     kin = program.result_exprs("kin")
     lines += [_store(f"xdot[{i}]", kin.get(("kin", i), 0.0), pr) for i in range(nq)]
     lines += [f"{_IND}xdot[{nq + i}] = w[{i}];" for i in range(nu)]
+    slot = {key: j for j, key in enumerate(gp_nz + kp_nz)}
+    if slot:
+        lines += [f"{_IND}for (d = 0; d < k && !anyp; d++)",
+                  f"{_IND * 2}for (i = 0; i < {npar}; i++) if (dirs[(size_t)d * {nd} + {nx} + i] != 0.0) anyp = 1;",
+                  f"{_IND}if (anyp) {{"]
+        inner = [a for a in program.assignments if a[0] in p_only]
+        lines += [_IND + line for line in _temps(program, pr, inner)]
+        lines += [_IND + _store(f"Gp[{slot[key]}]", (gp if key[0] == "Gp" else kp)[key], pr) for key in slot]
+        lines.append(f"{_IND}}}")
     kvals = program.result_exprs("dkin")
     body = []
     if blocks:
@@ -346,14 +370,20 @@ def jvp_body(ctx, program, W, seeds, nx, blocks):
             terms = [f"({pr.doprint(gvals[('G', i, k)])}) * dx[{k}]" for k in range(nx)
                      if gvals.get(("G", i, k), 0) != 0]
             body.append(f"G[{i}] = {' + '.join(terms) or '0.0'};")
+    if slot:
+        body.append("if (anyp) {")
+        body.append(f"{_IND}dp = dx + {nx};")
+        body += [f"{_IND}G[{key[1]}] += Gp[{slot[key]}] * dp[{key[2]}];" for key in gp_nz]
+        body.append("}")
     body.append(f"{ctx.solver.solve_call('G')};")
     for i in range(nq):
         terms = [f"({pr.doprint(kvals[('dkin', i, k)])}) * dx[{k}]" for k in range(nx)
                  if kvals.get(("dkin", i, k), 0) != 0]
-        body.append(f"out[d * {nx} + {i}] = {' + '.join(terms) or '0.0'};")
-    body.append(f"for (i = 0; i < {nu}; i++) out[d * {nx} + {nq} + i] = G[i];")
+        terms += [f"(anyp ? Gp[{slot[key]}] * dx[{nx + key[2]}] : 0.0)" for key in kp_nz if key[1] == i]
+        body.append(f"out[(size_t)d * {nx} + {i}] = {' + '.join(terms) or '0.0'};")
+    body.append(f"for (i = 0; i < {nu}; i++) out[(size_t)d * {nx} + {nq} + i] = G[i];")
     lines.append(f"{_IND}for (d = 0; d < k; d++) {{")
-    lines.append(f"{_IND * 2}dx = dirs + (size_t)d * {nx};")
+    lines.append(f"{_IND * 2}dx = dirs + (size_t)d * {nd};")
     lines += [_IND * 2 + line for line in body]
     lines.append(f"{_IND}}}")
     lines.append(f"{_IND}status = {ctx.name}_finite(xdot, {nx});")

@@ -79,7 +79,8 @@ def _body(fn, ctx, prog, sym, layout, nx, functions, recursive=False):
     if fn == "jac_r":
         return helper_jacobian_body(ctx, prog, sym.W, nr, "dkin_r", "Gr")
     if fn == "jvp":
-        return jvp_body(ctx, prog, sym.W, sym.seeds, nx, _tangent_blocks(ctx) if _tangent(prog) else ())
+        return jvp_body(ctx, prog, sym.W, sym.seeds, nx, len(layout.p),
+                        _tangent_blocks(ctx) if _tangent(prog) else ())
     if fn == "jac_p":
         return helper_jacobian_body(ctx, prog, sym.W, len(layout.p), "dkin_p", "Gp")
     if fn == "linearize":

@@ -50,7 +50,8 @@ FUNCTION_GROUPS = {
     "linearize": (),
     "events": ("ev",),
     "regressor": (),        # recursive formulation only (compiler/tree/regressor.py)
-    "jvp": ("A", "b", "kin", "dkin", "G", "Gtq", "Gtu"),   # xdot and J·d, d given (sensitivities)
+    # xdot and J·d, d = [dx; dp] given (sensitivities): state tangents, parameter columns
+    "jvp": ("A", "b", "kin", "dkin", "G", "Gtq", "Gtu", "dkin_p", "Gp"),
 }
 
 

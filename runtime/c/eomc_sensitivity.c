@@ -24,6 +24,7 @@ struct eomc_sens {
     int xcols[EOMC_SENS_MAXCOL];
     int pcols[EOMC_SENS_MAXCOL];
     double *J, *P;            /* nx x nx, nx x nparam scratch */
+    double *D;                /* k x (nx + nparam): the directions handed to jvp */
     eomc_model aug;
 };
 
@@ -32,9 +33,10 @@ size_t eomc_sens_size(void)
     return sizeof(eomc_sens);
 }
 
-size_t eomc_sens_scratch_size(const eomc_model *m)
+size_t eomc_sens_scratch_size(const eomc_model *m, int k)
 {
-    return (size_t)m->nx * (size_t)m->nx + (size_t)m->nx * (size_t)m->nparam + 1;
+    size_t nx = (size_t)m->nx, np = (size_t)m->nparam;
+    return nx * nx + nx * np + (size_t)(k > 0 ? k : 0) * (nx + np) + 1;
 }
 
 static const eomc_sens *ctx_of(const double *p)
@@ -50,17 +52,11 @@ static int aug_rhs(double t, const double *X, const double *pc, const double *r,
     int n = s->nx, k = s->nxcol + s->npcol, st;
     const double *S = X + n;
     if (s->jvp) {
-        /* S is stored column after column: its columns are the k directions' rows */
-        if ((st = s->jvp(t, X, s->p, r, k, S, F, F + n, work))) return st;
-        if (s->npcol > 0) {
-            if ((st = s->jac_p(t, X, s->p, r, s->P, work))) return st;
-            for (int j = 0; j < s->npcol; j++) {
-                double *Fj = F + n + (size_t)(s->nxcol + j) * n;
-                for (int i = 0; i < n; i++)
-                    Fj[i] += s->P[(size_t)i * s->np + s->pcols[j]];
-            }
-        }
-        return EOMC_OK;
+        /* direction j = [S[:, j]; e_p for a parameter column]; S is stored column by column */
+        size_t nd = (size_t)n + (size_t)s->np;
+        for (int j = 0; j < k; j++)
+            memcpy(s->D + (size_t)j * nd, S + (size_t)j * n, (size_t)n * sizeof(double));
+        return s->jvp(t, X, s->p, r, k, s->D, F, F + n, work);
     }
     if ((st = m->rhs(t, X, s->p, r, F, work))) return st;
     if ((st = m->jac_x(t, X, s->p, r, s->J, work))) return st;
@@ -100,7 +96,7 @@ int eomc_sens_init(eomc_sens *s, const eomc_model *m, eomc_mat_fn jac_p, eomc_jv
     if (!s || !m || !m->rhs || !scratch || nxcol < 0 || npcol < 0 || nxcol > EOMC_SENS_MAXCOL
         || npcol > EOMC_SENS_MAXCOL)
         return EOMC_BAD_ARGUMENT;
-    if (!m->jac_x || (npcol > 0 && !jac_p)) return EOMC_NOT_AVAILABLE;
+    if (!m->jac_x || (npcol > 0 && !jac_p && !jvp)) return EOMC_NOT_AVAILABLE;
     memset(s, 0, sizeof *s);
     s->m = m; s->jac_p = jac_p; s->jvp = jvp; s->p = p;
     s->nx = m->nx; s->np = m->nparam; s->nxcol = nxcol; s->npcol = npcol;
@@ -114,6 +110,13 @@ int eomc_sens_init(eomc_sens *s, const eomc_model *m, eomc_mat_fn jac_p, eomc_jv
     }
     s->J = scratch;
     s->P = scratch + (size_t)m->nx * (size_t)m->nx;
+    s->D = s->P + (size_t)m->nx * (size_t)m->nparam;
+    {   /* the parameter parts of the directions: fixed unit vectors */
+        size_t nd = (size_t)m->nx + (size_t)m->nparam;
+        memset(s->D, 0, (size_t)(nxcol + npcol) * nd * sizeof(double));
+        for (int j = 0; j < npcol; j++)
+            s->D[(size_t)(nxcol + j) * nd + (size_t)m->nx + (size_t)pcols[j]] = 1.0;
+    }
     s->aug = *m;
     s->aug.nx = m->nx * (1 + nxcol + npcol);
     s->aug.nq = 0;

@@ -28,15 +28,16 @@ extern "C" {
 
 typedef struct eomc_sens eomc_sens;
 
-/* A model's generated NAME_jvp: xdot and J·d for k directions (rows of dirs) at once. */
+/* A model's generated NAME_jvp: xdot and J·d for k directions d = [dx; dp] (rows of dirs,
+ * nx + nparam each) at once, J = d xdot / d[x; p]. */
 typedef int (*eomc_jvp_fn)(double t, const double *x, const double *p, const double *r, int k,
                            const double *dirs, double *xdot, double *out, double *work);
 
 /* Bytes of an eomc_sens context. */
 size_t eomc_sens_size(void);
 
-/* Doubles of scratch eomc_sens_init needs: nx * nx + nx * nparam. */
-size_t eomc_sens_scratch_size(const eomc_model *m);
+/* Doubles of scratch eomc_sens_init needs for k columns: nx * nx + nx * nparam + k * (nx + nparam). */
+size_t eomc_sens_scratch_size(const eomc_model *m, int k);
 
 /*
  * Set up the context: k = nxcol + npcol columns, first the initial states

@@ -28,9 +28,11 @@ def cache(tmp_path_factory):
         os.environ["EOMC_CACHE_DIR"] = old
 
 
-@pytest.fixture(scope="module")
-def model(cache):
-    return eomc.compile(MODEL, functions=["rhs", "jac_x", "jac_p", "outputs"])
+@pytest.fixture(scope="module", params=["jac_x", "jvp"])
+def model(cache, request):
+    """Two builds: S' = J S + P from jac_x and jac_p, or from directional derivatives (jvp)."""
+    extra = ["jvp"] if request.param == "jvp" else []
+    return eomc.compile(MODEL, functions=["rhs", "jac_x", "jac_p", "outputs"] + extra)
 
 
 def _fd(model, method, which, j, h):
@@ -80,6 +82,8 @@ def test_bad_requests(model, cache):
     with pytest.raises(ValueError, match="twice"):
         model.simulate(X0, (0, 1), sensitivities=["g", "g"])
     bare = eomc.compile(MODEL, functions=["rhs", "jac_x"])
+    jvp_only = eomc.compile(MODEL, functions=["rhs", "jac_x", "jvp"])      # jvp has the parameter directions
+    assert jvp_only.simulate(X0, (0, 1), sensitivities=["g"], t_eval=[1.0]).dx_dp.shape == (1, 4, 1)
     with pytest.raises(ModelError, match=r"jac_p.*--outputs rhs,jac_x,jac_p"):
         bare.simulate(X0, (0, 1), sensitivities=True)
     assert bare.simulate(X0, (0, 1), sensitivities="x0", t_eval=[1.0]).dx_dx0.shape == (1, 4, 4)

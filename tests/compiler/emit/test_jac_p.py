@@ -155,3 +155,23 @@ def test_recursive_jac_p_matches_kane_and_differences(tree_pair):
             else:      # an inertia the planar motion never uses (Kane's equations lack it)
                 assert np.all(Jr[:, j] == 0.0), n
         assert _scaled(Jr, _fd_p(rec, x, pr, r)) < 1e-7
+
+
+@pytest.mark.parametrize("n", [2, 6])     # 2: unrolled columns; 6 (14 states): looped tangents
+def test_jvp_is_jacobian_times_direction(cache, n):
+    """jvp's J·[dx; dp] against jac_x·dx + jac_p·dp, and its xdot against rhs."""
+    kane, specified = zoo.n_link_pendulum_on_cart(n, sme)
+    params = sorted((kane.mass_matrix_full.free_symbols | kane.forcing_full.free_symbols)
+                    - {sme.dynamicsymbols._t}, key=str)
+    model = eomc.compile(kane, parameters={s: 0.7 + 0.1 * i for i, s in enumerate(params)},
+                         inputs=specified, functions=["rhs", "jac_x", "jac_p", "jvp"])
+    rng = np.random.default_rng(n)
+    x, r = rng.uniform(-1, 1, model.nx), rng.uniform(-1, 1, model.ninput)
+    D = rng.normal(size=(3, model.nx + model.nparam))
+    D[1, model.nx:] = 0.0
+    xdot, out = model.jvp(0.0, x, D, r=r)
+    ref = D[:, :model.nx] @ model.jacobian(0.0, x, r=r).T + D[:, model.nx:] @ model.jac_p(0.0, x, r=r).T
+    assert np.array_equal(xdot, model.rhs(0.0, x, r=r)) or _scaled(xdot, model.rhs(0.0, x, r=r)) < 1e-14
+    assert _scaled(out, ref) < 1e-12
+    _, only_x = model.jvp(0.0, x, D[:, :model.nx], r=r)      # state directions alone
+    assert _scaled(only_x, D[:, :model.nx] @ model.jacobian(0.0, x, r=r).T) < 1e-12
