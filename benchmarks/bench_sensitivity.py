@@ -5,7 +5,9 @@ rtol = atol = 1e-8, thread CPU time, interleaved, medians of --repeat:
 - one plain eomc simulation (the unit);
 - eomc ``simulate(..., sensitivities=cols)`` for k = 1, 4, every parameter, every
   state + parameter column (the variational equations integrated with the state
-  in C: rhs + jac_x + jac_p and an nx x nx x k product per stage, error control on S);
+  in C, error control on S), two ways per stage: "J" = rhs + jac_x + jac_p and an
+  nx x nx x k product; "jvp" = the generated directional derivatives (A, b factored
+  once, then a tangent and a solve per column; J never formed);
 - central differences of whole plain simulations for the same k columns (2k runs),
   the way one gets dx/dp without sensitivities.
 
@@ -36,7 +38,7 @@ def build(n):
     values = models.parameter_values(n)
     params = {s: values[str(s)] for s in syms}
     return eomc.compile(kane, parameters=params, inputs=specified,
-                        functions=["rhs", "jac_x", "jac_p"])
+                        functions=["rhs", "jac_x", "jac_p", "jvp"])
 
 
 def cpu(fn):
@@ -86,32 +88,42 @@ def main(argv=None):
                     out.append((plain(x=x1).x - plain(x=x2).x) / 2e-6)
             return np.stack(out, axis=2)
 
+        from eomc.runtime import sensitivity
         samples = {"plain": []}
         for label, _ in cases:
             samples[label] = []
+            samples[label + " jvp"] = []
             samples[label + " fd"] = []
         agree, nfev = {}, {}
         for _ in range(args.repeat):
             s, res0 = cpu(plain)
             samples["plain"].append(s)
             for label, cols in cases:
+                sensitivity.PREFER_JVP = False
                 s, res = cpu(lambda: model.simulate(x0, (0, T_END), sensitivities=cols, **kw))
                 samples[label].append(s)
+                sensitivity.PREFER_JVP = True
+                s, res_jvp = cpu(lambda: model.simulate(x0, (0, T_END), sensitivities=cols, **kw))
+                samples[label + " jvp"].append(s)
                 s, fd = cpu(lambda: differences(cols))
                 samples[label + " fd"].append(s)
                 S = np.concatenate([res.dx_dx0, res.dx_dp], axis=2)
-                agree[label] = float(np.max(np.abs(S - fd)) / np.max(np.abs(S)))
+                S2 = np.concatenate([res_jvp.dx_dx0, res_jvp.dx_dp], axis=2)
+                agree[label] = max(float(np.max(np.abs(S - fd)) / np.max(np.abs(S))),
+                                   float(np.max(np.abs(S2 - fd)) / np.max(np.abs(S2))))
                 nfev[label] = res.stats["nfev"]
         base = float(np.median(samples["plain"]))
-        rows.append([n, "plain simulation", 0, f"{base * 1e3:.2f}", "1.00", "", "", res0.stats["nfev"], ""])
+        rows.append([n, "plain simulation", 0, f"{base * 1e3:.2f}", "1.00", "", "", "", res0.stats["nfev"], ""])
         for label, cols in cases:
             k = (model.nx + len(params) if cols is True else len(params) if cols == "p" else len(cols))
             sens = float(np.median(samples[label]))
+            jvp = float(np.median(samples[label + " jvp"]))
             fd = float(np.median(samples[label + " fd"]))
-            rows.append([n, label, k, f"{sens * 1e3:.2f}", f"{sens / base:.2f}", f"{1 + k / 4:.2f}",
-                         f"{fd / base:.1f}", nfev[label], f"{agree[label]:.1e}"])
-            csv_rows.append([n, args.method, k, sens, base, fd, nfev[label], agree[label]])
-    headers = ["n", "columns", "k", "CPU ms", "x plain", "target 1 + k/4", "x plain: central differences (2k runs)",
+            rows.append([n, label, k, f"{jvp * 1e3:.2f}", f"{jvp / base:.2f}", f"{sens / base:.2f}",
+                         f"{1 + k / 4:.2f}", f"{fd / base:.1f}", nfev[label], f"{agree[label]:.1e}"])
+            csv_rows.append([n, args.method, k, jvp, sens, base, fd, nfev[label], agree[label]])
+    headers = ["n", "columns", "k", "CPU ms (jvp)", "x plain: jvp", "x plain: J", "target 1 + k/4",
+               "x plain: central differences (2k runs)",
                "rhs calls (augmented)", "max |S - differences| / max |S|"]
     table = format_table(headers, rows)
     print(table)
@@ -120,7 +132,7 @@ def main(argv=None):
                                   notes=["one process pinned to one core; contestants interleaved; "
                                          "thread CPU time, medians"]) + "\n" + table + "\n"
         write_results(f"sensitivity_{args.method}", text, csv_rows,
-                      ["n", "method", "k", "sens_s", "plain_s", "differences_s", "nfev", "agreement"])
+                      ["n", "method", "k", "jvp_s", "J_s", "plain_s", "differences_s", "nfev", "agreement"])
 
 
 if __name__ == "__main__":
