@@ -36,8 +36,9 @@ TOL = 1e-10
 
 
 def build():
-    """The cart-pole with rhs, jac_x and jac_p (sensitivities need the last two)."""
-    return eomc.compile(str(HERE / "cart_pole_system.py"), functions=["rhs", "jac_x", "jac_p", "outputs"])
+    """The cart-pole with rhs, jac_x, jac_p and jvp: sensitivities integrate S' = J S + P from
+    jvp's directional derivatives (jac_x alone would do, forming J at every stage)."""
+    return eomc.compile(str(HERE / "cart_pole_system.py"), functions=["rhs", "jac_x", "jac_p", "jvp", "outputs"])
 
 
 def excitation():
