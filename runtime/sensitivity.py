@@ -30,6 +30,7 @@ __all__ = ["columns", "check_request", "run", "attach", "SENS_CDEF"]
 
 SENS_CDEF = header_cdef("eomc_sensitivity.h")
 _LOCK = threading.Lock()
+MAX_COLUMNS = 4096          # EOMC_SENS_MAXCOL in eomc_sensitivity.c
 _FFIS = {}
 
 
@@ -79,6 +80,8 @@ def columns(model, sensitivities):
         raise ValueError(f"{model.name}: sensitivities names a state or parameter twice")
     if not xs and not ps:
         raise ValueError(f"{model.name}: sensitivities names no state and no parameter")
+    if len(xs) + len(ps) > MAX_COLUMNS:
+        raise ValueError(f"{model.name}: {len(xs) + len(ps)} sensitivity columns; at most {MAX_COLUMNS}")
     return xs, ps
 
 
