@@ -334,7 +334,7 @@ def jvp_body(ctx, program, W, seeds, nx, npar, blocks):
     kp_nz = sorted(k for k, e in kp.items() if e != 0)
     extra = [f"double G[{nw}];", "const double *dx;", "int i, d;"]
     if gp_nz or kp_nz:
-        extra += ["const double *dp;", f"double Gp[{max(1, len(gp_nz) + len(kp_nz))}];", "int anyp = 0;"]
+        extra += ["const double *dp;", f"double Gp[{max(1, len(gp_nz) + len(kp_nz))}] = {{0.0}};", "int anyp = 0;"]
     lines = _solver_decls(ctx, extra)
     lines += _temps(program, pr, before)
     lines += _load_dynamics(ctx, program, pr)

@@ -44,6 +44,7 @@ TREE_FUNCTION_GROUPS = {
     "constraints_jac": ("dcon",),
     "linearize": (),
     "regressor": ("Y",),
+    "jvp": ("ud", "Dpiv", "kin", "dkin", "dkin_p", "tjv", "dres_p", "sol"),   # see .jvp
 }
 TREE_HELPER_USERS = ()
 
@@ -119,7 +120,7 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         speeds = layout.x[nq:nq + nu]
         v, c = velocities(bodies, rec, speeds)
         extra, keep = [], {}
-        jac = set(functions) & {"jac_x", "jac_r", "jac_p"}
+        jac = set(functions) & {"jac_x", "jac_r", "jac_p", "jvp"}
         if "rhs" in functions or jac:
             for k, udd, D in aba(bodies, rec, speeds, gravity, v, c, keep=keep):
                 extra.append((("ud", k), udd))
@@ -172,8 +173,10 @@ def _with_jacobians(sym, layout, functions, nq, jacobian):
             derivatives.append(("tres", layout.x, "dres"))
     if "jac_r" in functions:
         derivatives.append(("tres", layout.r, "dres_r"))
-    if "jac_p" in functions:
+    if "jac_p" in functions or "jvp" in functions:
         derivatives.append(("tres", layout.p, "dres_p"))
+    if "jvp" in functions:     # one tangent along a whole state direction (seeds = the direction)
+        derivatives.append(("tres", dict(zip(layout.x, sym.seeds)), "tjv"))
     program = sym.program.with_(inputs=sym.program.inputs + solve_symbols(len(sym.UD)),
                                 results=sym.program.results + tuple(jacobian))
     return replace(sym, program=program, derivatives=sym.derivatives + tuple(derivatives))
