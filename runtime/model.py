@@ -425,8 +425,8 @@ class Model:
     def jvp(self, t, x, directions, p=None, r=None):
         """(xdot, J·d for each row d of ``directions``): rhs and its directional derivatives
         along k directions in (state, parameter) space without forming J = d rhs/d[x; p].
-        ``directions``: (k, nx) (state directions) or (k, nx + nparam).  Kane's
-        formulation, on request (``functions`` including "jvp"); forward sensitivities use it."""
+        ``directions``: (k, nx) (state directions) or (k, nx + nparam).  Both
+        formulations, on request (``functions`` including "jvp"); forward sensitivities use it."""
         given = (p, r)
         t, x, p, r = self._args(t, x, p, r)
         kernel = self._kernel("jvp")
