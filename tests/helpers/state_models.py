@@ -1,0 +1,51 @@
+"""Mechanisms with extra first-order states, built with eomc's or SymPy's mechanics.
+
+``torque_chain(n, mech)``: an n-link planar chain of pins (a joint tree, so both
+formulations take it) whose joint torques come from first-order "motor" states
+z_i (z_i' = (e_i - z_i)/tau_i + c·sin(q_i)·u_i: the mechanics depends on z, and z'
+on q, u, z and an input), plus one integrator state s' = q_1 (a controller's).
+Returns a dict: system (unformed System), states, parameters, inputs and the
+symbol lists, so a test can form the same thing with SymPy and compare.
+"""
+import sympy as sm
+
+
+def torque_chain(n, mech):
+    me = mech
+    q = me.dynamicsymbols(f"q1:{n + 1}")
+    u = me.dynamicsymbols(f"u1:{n + 1}")
+    z = me.dynamicsymbols(f"z1:{n + 1}")
+    e = me.dynamicsymbols(f"e1:{n + 1}")
+    s = me.dynamicsymbols("s")
+    m = sm.symbols(f"m1:{n + 1}")
+    l = sm.symbols(f"l1:{n + 1}")
+    tau = sm.symbols(f"tau1:{n + 1}")
+    g, c, kz, ki = sm.symbols("g c kz ki")
+    ground = me.RigidBody("ground")
+    bodies, joints = [], []
+    parent = ground
+    for i in range(n):
+        frame = me.ReferenceFrame(f"L{i + 1}")
+        body = me.RigidBody(f"link{i + 1}", frame=frame, mass=m[i])
+        body.central_inertia = me.inertia(frame, 0, 0, m[i] * l[i] ** 2 / 12)
+        joint = me.PinJoint(f"J{i + 1}", parent, body, q[i], u[i], joint_axis=parent.frame.z,
+                            parent_point=(l[i - 1] / 2 * parent.frame.x if i else parent.masscenter),
+                            child_point=-l[i] / 2 * frame.x)
+        bodies.append(body)
+        joints.append(joint)
+        parent = body
+    system = me.System.from_newtonian(ground)
+    system.add_joints(*joints)
+    system.apply_uniform_gravity(-g * ground.frame.y)
+    for i in range(n):
+        torque = kz * z[i] - (ki * s if i == 0 else 0)
+        prev = ground if i == 0 else bodies[i - 1]
+        system.add_actuators(me.TorqueActuator(torque, bodies[i].frame.z, bodies[i], prev))
+    states = {z[i]: (e[i] - z[i]) / tau[i] + c * sm.sin(q[i]) * u[i] for i in range(n)}
+    states[s] = q[0] + q[0].diff() / 10     # q' is allowed (the kinematics)
+    parameters = {g: 9.81, c: 0.3, kz: 2.0, ki: 0.5}
+    parameters.update({m[i]: 1.0 + 0.2 * i for i in range(n)})
+    parameters.update({l[i]: 0.5 + 0.1 * i for i in range(n)})
+    parameters.update({tau[i]: 0.05 + 0.01 * i for i in range(n)})
+    return {"system": system, "states": states, "parameters": parameters, "inputs": list(e),
+            "q": list(q), "u": list(u), "z": list(z) + [s], "e": list(e)}
