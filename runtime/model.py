@@ -123,6 +123,7 @@ class Model:
         self.name = metadata["name"]
         for size in ("nq", "nu", "nx", "nparam", "ninput", "noutput", "nhol", "nvel", "work_size"):
             setattr(self, size, int(metadata[size]))
+        self.nz = self.nx - self.nq - self.nu     # extra first-order states, after q and u in x
         self.state_names = tuple(metadata["state_names"])
         self.param_names = tuple(metadata["param_names"])
         self.input_names = tuple(metadata["input_names"])

@@ -49,3 +49,45 @@ def torque_chain(n, mech):
     parameters.update({tau[i]: 0.05 + 0.01 * i for i in range(n)})
     return {"system": system, "states": states, "parameters": parameters, "inputs": list(e),
             "q": list(q), "u": list(u), "z": list(z) + [s], "e": list(e)}
+
+
+# A mass hanging from one De Groote 2016 musculotendon with first-order activation
+# (the first-hour report's muscle_first_order.py), as a model file.  {mech}: the mechanics
+# module (eomc.mechanics or sympy.physics.mechanics), {formulation}: RIGID_TENDON or
+# FIBER_LENGTH_EXPLICIT.  No `states`: the System's musculotendon brings its own.
+MUSCLE = '''\
+from sympy import symbols
+from {mech} import *
+from sympy.physics.biomechanics import (MusculotendonDeGroote2016, MusculotendonFormulation,
+                                        FirstOrderActivationDeGroote2016)
+
+q, u = dynamicsymbols('q u')
+m, g = symbols('m g', positive=True)
+F_M_max, l_M_opt, l_T_slack, v_M_max, alpha_opt, beta = symbols(
+    'F_M_max l_M_opt l_T_slack v_M_max alpha_opt beta')
+
+ground = RigidBody('ground')
+block = RigidBody('block', mass=m)
+block.central_inertia = inertia(block.frame, 1, 1, 1)
+slider = PrismaticJoint('slider', ground, block, q, u, joint_axis=-ground.y)
+system = System.from_newtonian(ground)
+system.add_joints(slider)
+pathway = LinearPathway(ground.masscenter, block.masscenter)
+activation = FirstOrderActivationDeGroote2016.with_defaults('muscle')
+muscle = MusculotendonDeGroote2016.with_defaults(
+    'muscle', pathway, activation, musculotendon_dynamics=MusculotendonFormulation.{formulation},
+    tendon_slack_length=l_T_slack, peak_isometric_force=F_M_max, optimal_fiber_length=l_M_opt,
+    maximal_fiber_velocity=v_M_max, optimal_pennation_angle=alpha_opt, fiber_damping_coefficient=beta)
+system.add_actuators(muscle)
+system.apply_uniform_gravity(-g * ground.y)
+
+name = 'muscle_{formulation}'.lower()
+inputs = list(activation.r)
+parameters = {{m: 5.0, g: 9.81, F_M_max: 500.0, l_M_opt: 0.3, l_T_slack: 0.25, v_M_max: 10.0,
+               alpha_opt: 0.0}}
+if MusculotendonFormulation.{formulation} == MusculotendonFormulation.RIGID_TENDON:
+    parameters[beta] = 0.1      # fibre damping: the elastic-tendon equations do not use it
+initial_state = {{q: 0.55, u: 0.0, activation.a: 0.1}}
+if len(muscle.x) == 2:      # elastic tendon: the normalized fibre length, tendon 1 % past slack
+    initial_state[muscle.x[0]] = (0.55 - 0.2525) / 0.3
+'''
