@@ -13,7 +13,7 @@ from pathlib import Path
 from eomc.runtime.errors import EomcError, EomcWarning, ModelError, ModelFileError
 
 from .modelfile import assignment_lines, run_model_file
-from .states import attach_states
+from .states import attach_states, entry_line
 from .validate import (Invalid, check_equations, check_events, check_initial_state, check_inputs,
                        check_name, check_outputs, check_parameters, sanitize_name,
                        unset_parameters)
@@ -147,7 +147,10 @@ def _from_file(path, name, overrides, formulation="kane"):
     def where(exc):
         if exc.variable in overrides and overrides[exc.variable] is not None:
             return ModelError(str(exc))
-        return ModelFileError(str(exc), filename, lines.get(exc.variable))
+        line = lines.get(exc.variable)
+        if exc.variable == "states" and getattr(exc, "entry", None) is not None:
+            line = entry_line(source, exc.entry) or line    # the state's own entry in the dict
+        return ModelFileError(str(exc), filename, line)
     spec = _checked(values, formed, name, where, f"{filename}: ")
     return ModelSpec(**{**spec.__dict__, "path": Path(path)})
 

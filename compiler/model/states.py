@@ -20,7 +20,7 @@ from sympy.core.function import AppliedUndef
 
 from .validate import Invalid, _label, _names, _short, non_real_constants
 
-__all__ = ["attach_states", "musculotendon_states"]
+__all__ = ["attach_states", "musculotendon_states", "entry_line"]
 
 _T = sm.Symbol("t")
 
@@ -66,6 +66,30 @@ def _rate(value, label):
     return value
 
 
+def entry_line(source, index):
+    """Line of the ``index``-th key of the model file's module-level ``states = {...}`` literal
+    (None when ``states`` is not assigned a dict literal there)."""
+    import ast
+    try:
+        tree = ast.parse(source)
+    except SyntaxError:
+        return None
+    found = None
+    for node in tree.body:
+        if (isinstance(node, ast.Assign) and any(isinstance(t, ast.Name) and t.id == "states"
+                                                  for t in node.targets)):
+            found = node.value if isinstance(node.value, ast.Dict) else None
+    if found is None or not 0 <= index < len(found.keys) or found.keys[index] is None:
+        return None
+    return found.keys[index].lineno
+
+
+def _entry(exc, index):
+    """``exc`` (an Invalid) marked with the position of its state in the user's dict."""
+    exc.entry = index
+    return exc
+
+
 def _read(states):
     """[(state, rate)] of the model's ``states`` dict."""
     if states is None:
@@ -78,11 +102,14 @@ def _read(states):
                                     f"dict state -> derivative, e.g. `states = {{{label}: ...}}`")
         raise Invalid("states", f"`states` must be a dict state -> derivative, not {type(states).__name__}")
     out = []
-    for z, value in states.items():
+    for index, (z, value) in enumerate(states.items()):
         if not (isinstance(z, AppliedUndef) and z.args == (_T,)):
-            raise Invalid("states", f"state {z!r} is not a dynamic symbol of t (use "
-                                    f"dynamicsymbols('{z}'))")
-        out.append((z, _rate(value, _label(z))))
+            raise _entry(Invalid("states", f"state {z!r} is not a dynamic symbol of t (use "
+                                           f"dynamicsymbols('{z}'))"), index)
+        try:
+            out.append((z, _rate(value, _label(z))))
+        except Invalid as exc:
+            raise _entry(exc, index) from None
     return out
 
 
@@ -130,6 +157,11 @@ def _check_rate(z, rate, states, formed, inputs, parameters):
     return new_inputs, new_params
 
 
+def _about(exc, z):
+    exc.state = z
+    return exc
+
+
 def attach_states(formed, states=None, system=None, inputs=None, parameters=None):
     """``formed`` with the extra first-order states of ``states`` (dict) and of ``system``'s
     musculotendons attached (see the module docstring); ``formed`` itself without any.
@@ -139,9 +171,25 @@ def attach_states(formed, states=None, system=None, inputs=None, parameters=None
     """
     given = _read(states)
     declared = {z for z, _ in given}
-    pairs = [(z, r) for z, r, _ in musculotendon_states(system) if z not in declared] + given
+    auto = [(z, r, where) for z, r, where in musculotendon_states(system) if z not in declared]
+    # where each state came from: its position in the user's dict, or the musculotendon
+    origin = {z: where for z, _, where in auto}
+    origin.update({z: i for i, (z, _) in enumerate(given)})
+    pairs = [(z, r) for z, r, _ in auto] + given
     if not pairs:
         return formed
+    try:
+        return _attach(formed, pairs, inputs, parameters)
+    except Invalid as exc:
+        z = getattr(exc, "state", None)
+        if isinstance(origin.get(z), str):      # a musculotendon's: reported at `system`
+            raise Invalid("system", f"{exc} (a state of {origin[z]})") from None
+        if z in origin:
+            _entry(exc, origin[z])
+        raise
+
+
+def _attach(formed, pairs, inputs, parameters):
     taken = {}
     for z in tuple(formed.coordinates) + tuple(formed.speeds):
         taken[_label(z)] = "a coordinate" if z in set(formed.coordinates) else "a speed"
@@ -151,15 +199,18 @@ def attach_states(formed, states=None, system=None, inputs=None, parameters=None
     for z, _ in pairs:
         label = _label(z)
         if z in seen:
-            raise Invalid("states", f"state `{label}` is given twice")
+            raise _about(Invalid("states", f"state `{label}` is given twice"), z)
         if label in taken:
-            raise Invalid("states", f"state `{label}` has the name of {taken[label]} of the system; a "
-                                    f"state needs a name of its own")
+            raise _about(Invalid("states", f"state `{label}` has the name of {taken[label]} of the "
+                                           f"system; a state needs a name of its own"), z)
         seen.append(z)
     zs = tuple(z for z, _ in pairs)
     new_inputs, new_params = set(), set()
     for z, rate in pairs:
-        ni, np_ = _check_rate(z, rate, zs, formed, inputs, parameters)
+        try:
+            ni, np_ = _check_rate(z, rate, zs, formed, inputs, parameters)
+        except Invalid as exc:
+            raise _about(exc, z) from None
         new_inputs |= ni
         new_params |= np_
     names = {_label(z) for z in zs}
@@ -167,6 +218,12 @@ def attach_states(formed, states=None, system=None, inputs=None, parameters=None
         if _label(s) in names:
             raise Invalid("states", f"state `{_label(s)}` has the name of a symbol its derivatives use")
     kept = tuple(i for i in formed.inputs if i not in set(zs))
+    if inputs is not None:
+        unlisted = [i for i in kept if i not in set(inputs)]
+        if unlisted:
+            raise Invalid("states", f"the equations of motion use {_names(unlisted)}, which is neither "
+                                    f"a state nor listed in `inputs`: if it is a state, give its "
+                                    f"derivative in `states = {{{_label(unlisted[0])}: ...}}`")
     out = replace(formed, extra_states=zs, extra_rhs=tuple(r for _, r in pairs),
                   inputs=kept + tuple(sorted(new_inputs - set(kept), key=str)),
                   parameters=tuple(sorted(set(formed.parameters) | new_params, key=lambda s: s.name)))

@@ -91,3 +91,30 @@ initial_state = {{q: 0.55, u: 0.0, activation.a: 0.1}}
 if len(muscle.x) == 2:      # elastic tendon: the normalized fibre length, tendon 1 % past slack
     initial_state[muscle.x[0]] = (0.55 - 0.2525) / 0.3
 '''
+
+
+# A pendulum driven by a first-order motor torque k·z, z' = (e - z)/tau: the smallest model
+# file with `states`.  BAD_STATES: (states text, expected message, offset of the line from
+# the `states` line) for the bad-input tests.
+PENDULUM_Z = '''\
+import sympy as sm
+from eomc.mechanics import *
+
+q, u = dynamicsymbols("q u")
+z, e, w = dynamicsymbols("z e w")
+m, l, g, k, tau = sm.symbols("m l g k tau")
+N = ReferenceFrame("N")
+A = N.orientnew("A", "Axis", [q, N.z])
+A.set_ang_vel(N, u * N.z)
+O = Point("O")
+O.set_vel(N, 0)
+P = O.locatenew("P", l * A.x)
+P.v2pt_theory(O, N, A)
+bob = Particle("bob", P, m)
+kane = KanesMethod(N, q_ind=[q], u_ind=[u], kd_eqs=[q.diff() - u])
+kane.kanes_equations([bob], [(P, -m * g * N.y), (A, k * z * N.z)])
+system = kane
+name = "pendz"
+parameters = {m: 1.0, l: 0.5, g: 9.81, k: 2.0, tau: 0.1}
+inputs = [e]
+'''
