@@ -8,7 +8,7 @@ imports it; pytest runs them in one subprocess.  SymPy's biomechanics tests buil
 musculotendons, activation dynamics and curves on SymPy's pathways and actuators (which
 eomc uses unchanged) and never form equations, so this shows that eomc's mechanics
 leaves the biomechanics module intact; compiling musculotendons is checked against
-SymPy in tests/compiler/model/test_muscles.py and tests/examples/test_biomechanical_arm.py.
+SymPy in tests/compiler/model/test_muscles.py and test_biomechanical_arm.py.
 
 Every test must pass; the only skips allowed are SymPy's own for missing optional
 packages (JAX) and the Python version.  About 5 s of CPU (350 tests at SymPy 1.14.0).
