@@ -16,7 +16,7 @@ from eomc.cli import main
 from helpers.state_models import PENDULUM_Z
 
 MODEL = PENDULUM_Z + "states = {z: (e - z) / tau}\ninitial_state = {q: 0.3, z: 0.5}\n" \
-        "outputs = {'torque': k * z}\n"
+        "outputs = {'torque': k * z}\nevents = {'half_way': z - 1.0}\n"
 
 
 @pytest.fixture(scope="module")
@@ -44,6 +44,8 @@ def test_state_follows_its_ode_exactly(built):
     assert np.max(np.abs(res["z"] - exact)) < 1e-8
     np.testing.assert_allclose(res.outputs["torque"], 2.0 * res["z"], rtol=1e-14)
     assert abs(res["q"][-1] - 0.3) > 1e-3         # the torque moved the pendulum
+    # an event on the state: z = 1 at t = tau ln(1.5)
+    assert abs(res.t_events["half_way"][0] - 0.1 * np.log(1.5)) < 1e-9
 
 
 def test_cli_simulate_writes_the_states_to_csv(built, tmp_path):
