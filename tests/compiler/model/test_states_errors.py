@@ -48,3 +48,13 @@ def test_states_argument_errors_are_model_errors(tmp_path):
     with pytest.raises(ModelError, match=re.escape("state `z` has no derivative")):
         eomc.compile(ns["system"], parameters=ns["parameters"], inputs=ns["inputs"],
                      states={ns["z"]: None}, cache_dir=tmp_path)
+
+
+def test_show_prints_the_extra_states(tmp_path):
+    from eomc.cli.show import format_equations
+    from eomc.compiler.model import model_spec
+    path = tmp_path / "good.py"
+    path.write_text(PENDULUM_Z + "states = {z: (e - z) / tau}\n")
+    text = format_equations(model_spec(str(path)), ascii_only=True)
+    assert "states z:      z" in text and "extra states  z' =" in text
+    assert "inputs:        e" in text and "tau=0.1" in text
