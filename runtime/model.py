@@ -389,7 +389,8 @@ class Model:
         """Generalized forces tau = M u' - f needed for the accelerations udot, shape (nu,)."""
         given = (p, r)
         t, x, p, r = self._args(t, x, p, r)
-        udot = self._array(udot, (self.nu,), "udot (speed derivatives)", self.state_names[self.nq:])
+        udot = self._array(udot, (self.nu,), "udot (speed derivatives)",
+                           self.state_names[self.nq:self.nq + self.nu])
         kernel = self._kernel("inverse_dynamics")
         tau = np.empty(self.nu)
         status = kernel(t, x, udot, p, r, tau, self._work()[1])
