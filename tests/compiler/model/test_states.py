@@ -134,3 +134,34 @@ def test_generated_c_is_strict_c99_and_deterministic(built, form, tmp_path):
                       states=d["states"], formulation=form, use_cache=False)[1].c_source
              for _ in range(2)]
     assert texts[0] == texts[1] and "xdot[6]" in texts[0]
+
+
+LAGRANGE = '''
+import sympy as sm
+from eomc.mechanics import *
+q = dynamicsymbols("q"); qd = q.diff()
+z, e = dynamicsymbols("z e")
+m, l, g, k, tau = sm.symbols("m l g k tau")
+N = ReferenceFrame("N"); A = N.orientnew("A", "Axis", [q, N.z]); A.set_ang_vel(N, qd * N.z)
+O = Point("O"); O.set_vel(N, 0); P = O.locatenew("P", l * A.x); P.v2pt_theory(O, N, A)
+bob = Particle("bob", P, m); bob.potential_energy = m * g * P.pos_from(O).dot(N.y)
+lm = LagrangesMethod(Lagrangian(N, bob), [q], forcelist=[(A, k * z * N.z)], frame=N)
+lm.form_lagranges_equations()
+system = lm
+parameters = {m: 1.0, l: 0.5, g: 9.81, k: 2.0, tau: 0.1}
+inputs = [e]
+states = {z: (e - z) / tau + qd}        # a Lagrange speed is q': allowed in z'
+'''
+
+
+def test_lagrange_model_with_a_state_matches_closed_form(tmp_path):
+    path = tmp_path / "lag_z.py"
+    path.write_text(LAGRANGE)
+    model = eomc.compile(path, cache_dir=tmp_path / "cache")
+    assert model.state_names == ("q", "q'", "z")
+    x, r = np.array([0.3, 0.7, 0.2]), [1.0]
+    want = [0.7, (-9.81 * 0.5 * np.cos(0.3) + 2.0 * 0.2) / 0.25, (1.0 - 0.2) / 0.1 + 0.7]
+    np.testing.assert_allclose(model.rhs(0.0, x, r=r), want, rtol=1e-14)
+    J = model.jacobian(0.0, x, r=r)
+    np.testing.assert_allclose(J[2], [0.0, 1.0, -10.0], atol=1e-14)
+    np.testing.assert_allclose(J[1], [9.81 * 0.5 * np.sin(0.3) / 0.25, 0.0, 2.0 / 0.25], rtol=1e-13)
