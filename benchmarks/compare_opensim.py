@@ -80,6 +80,7 @@ MODEL = textwrap.dedent(f'''\
 
 def opensim_run(dt=0.01):
     import opensim as osim
+    osim.Logger.removeFileSink()        # OpenSim would write opensim.log into the working directory
     model = osim.Model()
     model.setGravity(osim.Vec3(0, -G, 0))
     ground = model.getGround()
