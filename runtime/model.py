@@ -131,6 +131,7 @@ class Model:
         self.name = metadata["name"]
         for size in ("nq", "nu", "nx", "nparam", "ninput", "noutput", "nhol", "nvel", "work_size"):
             setattr(self, size, int(metadata[size]))
+        self.nz = self.nx - self.nq - self.nu     # extra first-order states, after q and u in x
         self.state_names = tuple(metadata["state_names"])
         self.param_names = tuple(metadata["param_names"])
         self.input_names = tuple(metadata["input_names"])
@@ -411,7 +412,8 @@ class Model:
         """Generalized forces tau = M u' - f needed for the accelerations udot, shape (nu,)."""
         given = (p, r)
         t, x, p, r = self._args(t, x, p, r)
-        udot = self._array(udot, (self.nu,), "udot (speed derivatives)", self.state_names[self.nq:])
+        udot = self._array(udot, (self.nu,), "udot (speed derivatives)",
+                           self.state_names[self.nq:self.nq + self.nu])
         kernel = self._kernel("inverse_dynamics")
         tau = np.empty(self.nu)
         status = kernel(t, x, udot, p, r, tau, self._work()[1])
@@ -455,7 +457,8 @@ class Model:
         kernel = self._kernel("regressor")
         q = self._array(q, (self.nq,), "q (coordinates)", self.state_names[:self.nq])
         u = self._array(u, (self.nu,), "u (speeds)", self.state_names[self.nq:])
-        t, x, pp, r = self._args(t, np.concatenate([q, u]), p, None)
+        # extra first-order states (after q and u) do not enter the regressor: zeros
+        t, x, pp, r = self._args(t, np.concatenate([q, u, np.zeros(self.nx - self.nq - self.nu)]), p, None)
         udot = self._array(udot, (self.nu,), "udot (speed derivatives)", self.state_names[self.nq:])
         out = np.empty((self.nu, 10 * len(self.metadata.get("regressor_bodies", ()))))
         status = kernel(t, x, udot, pp, r, out.reshape(-1), self._work()[1])

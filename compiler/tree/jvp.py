@@ -21,10 +21,12 @@ def tree_jvp_body(ctx, program, W, G, seeds, nx, npar):
     pr = ctx.printer(program)
     for j, g in enumerate(G):
         pr._names[g] = f"G[{j}]"
+    first = nq + nu                      # the extra first-order states' rows follow
     gp = {k: e for k, e in program.result_exprs("dres_p").items() if e != 0}
     kp = {k: e for k, e in program.result_exprs("dkin_p").items() if e != 0}
+    kp.update({("dkin_p", first + k[1], k[2]): e for k, e in program.result_exprs("dzd_p").items() if e != 0})
     pexprs = list(gp.values()) + list(kp.values())
-    others = [e for key, e in program.results if key[0] not in ("dres_p", "dkin_p")]
+    others = [e for key, e in program.results if key[0] not in ("dres_p", "dkin_p", "dzd_p")]
     p_only = ({t for t, _ in needed_assignments(program.assignments, pexprs)}
               - {t for t, _ in needed_assignments(program.assignments, others)})
     main = program.with_(assignments=tuple(a for a in program.assignments if a[0] not in p_only))
@@ -51,6 +53,8 @@ def tree_jvp_body(ctx, program, W, G, seeds, nx, npar):
     kin = program.result_exprs("kin")
     lines += [_store(f"xdot[{i}]", kin.get(("kin", i), sm.S.Zero), pr) for i in range(nq)]
     lines += [f"{_IND}xdot[{nq + j}] = w[{j}];" for j in range(nu)]
+    zd = program.result_exprs("zd")
+    lines += [_store(f"xdot[{first + i}]", zd.get(("zd", i), sm.S.Zero), pr) for i in range(nx - first)]
     if slot:
         lines += [f"{_IND}for (d = 0; d < k && !anyp; d++)",
                   f"{_IND * 2}for (i = 0; i < {npar}; i++) if (dirs[(size_t)d * {nd} + {nx} + i] != 0.0) anyp = 1;",
@@ -60,6 +64,7 @@ def tree_jvp_body(ctx, program, W, G, seeds, nx, npar):
                   for key, j in slot.items()]
         lines.append(f"{_IND}}}")
     dkin = program.result_exprs("dkin")
+    dkin.update({("dkin", first + k[1], k[2]): e for k, e in program.result_exprs("dzd").items()})
     body = ["{"] + [x[len(_IND):] for x in _temps(program, pr, inner)]
     body += [f"G[{i}] = {pr.doprint(tangent.get(('tjv', i), sm.S.Zero))};" for i in range(nu)]
     body.append("}")
@@ -71,7 +76,7 @@ def tree_jvp_body(ctx, program, W, G, seeds, nx, npar):
     body += [x[len(_IND):] for x in _temps(program, pr, solve)]
     body += [f"out[(size_t)d * {nx} + {nq + i}] = {pr.doprint(sol.get(i, sm.S.Zero))};" for i in range(nu)]
     body.append("}")
-    for i in range(nq):
+    for i in list(range(nq)) + list(range(first, nx)):
         terms = [f"({pr.doprint(dkin[('dkin', i, c)])}) * dx[{c}]" for c in range(nx)
                  if dkin.get(("dkin", i, c), 0) != 0]
         terms += [f"(anyp ? Gp[{slot[key]}] * dx[{nx + key[2]}] : 0.0)" for key in sorted(kp) if key[1] == i]

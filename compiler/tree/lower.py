@@ -14,6 +14,8 @@ The program's result groups, all computed from one value-numbered trace:
                unrolled over the columns, for a few states
     dres_r     jac_r: d res / d inputs
     dres_p     jac_p: d res / d parameters (masses, lengths, gravity, ...), as jac_r
+    zd, dzd, dzd_r, dzd_p   z' of the extra first-order states and its jac_x / jac_r /
+               jac_p rows (the Kane path's groups, from build_symbolic)
 
 Coordinates and speeds are the Kane path's (same layout), so states are
 interchangeable and every function agrees with the Kane formulation.
@@ -32,10 +34,10 @@ from .model import NotATree
 __all__ = ["TREE_FUNCTION_GROUPS", "TREE_HELPER_USERS", "build_tree_symbolic"]
 
 TREE_FUNCTION_GROUPS = {
-    "rhs": ("kin", "ud", "Dpiv"),
-    "jac_x": ("ud", "Dpiv", "dkin", "tq", "tu", "dres", "sol"),
-    "jac_r": ("ud", "Dpiv", "dkin_r", "dres_r", "sol"),
-    "jac_p": ("ud", "Dpiv", "dkin_p", "dres_p", "sol"),
+    "rhs": ("kin", "ud", "Dpiv", "zd"),
+    "jac_x": ("ud", "Dpiv", "dkin", "tq", "tu", "dres", "sol", "dzd"),
+    "jac_r": ("ud", "Dpiv", "dkin_r", "dres_r", "sol", "dzd_r"),
+    "jac_p": ("ud", "Dpiv", "dkin_p", "dres_p", "sol", "dzd_p"),
     "mass_matrix": ("A",),
     "forcing": ("b",),
     "inverse_dynamics": ("tau",),
@@ -44,7 +46,7 @@ TREE_FUNCTION_GROUPS = {
     "constraints_jac": ("dcon",),
     "linearize": (),
     "regressor": ("Y",),
-    "jvp": ("ud", "Dpiv", "kin", "dkin", "dkin_p", "tjv", "dres_p", "sol"),   # see .jvp
+    "jvp": ("ud", "Dpiv", "kin", "dkin", "dkin_p", "tjv", "dres_p", "sol", "zd", "dzd", "dzd_p"),   # see .jvp
 }
 TREE_HELPER_USERS = ()
 
