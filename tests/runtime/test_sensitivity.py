@@ -74,7 +74,8 @@ def test_all_columns(model):
     assert np.allclose(only_x0.dx_dx0, res.dx_dx0, rtol=1e-6, atol=1e-9)
 
 
-def test_bad_requests(model, cache):
+def test_bad_requests(cache):
+    model = eomc.compile(MODEL, functions=["rhs", "jac_x", "jac_p", "outputs"])   # the fixture's (cached)
     with pytest.raises(ValueError, match="is neither a state"):
         model.simulate(X0, (0, 1), sensitivities=["mass"])
     with pytest.raises(ValueError, match="callable"):

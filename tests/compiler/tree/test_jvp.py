@@ -1,5 +1,7 @@
 """The recursive formulation's jvp (compiler/tree/jvp.py): xdot and J·[dx; dp] along given
 directions, against its own jac_x and jac_p, and sensitivities of a tree through it."""
+import warnings
+
 import numpy as np
 import pytest
 
@@ -10,7 +12,8 @@ from helpers.trees import cart_joints
 @pytest.fixture(scope="module")
 def model(tmp_path_factory):
     system, _ = cart_joints(2, rigid=True)
-    with pytest.warns(Warning):
+    with warnings.catch_warnings():  # the defaults-to-1.0 warning (once per process)
+        warnings.simplefilter("ignore")
         return eomc.compile(system, formulation="recursive", functions=["rhs", "jac_x", "jac_p", "jvp"],
                             cache_dir=tmp_path_factory.mktemp("cache"), progress=False)
 
