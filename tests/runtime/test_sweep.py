@@ -138,7 +138,7 @@ def test_bad_cases_are_named(model):
         case_arrays(model, {"q": [1.0, 2.0], "k": [1.0, 2.0, 3.0]})
     with pytest.raises(ValueError, match="nothing varies"):
         case_arrays(model, {"x0": [1.0, 0.0]})
-    with pytest.raises(ValueError, match=r"'p' must have shape \(3,\)"):
+    with pytest.raises(ValueError, match=r"'p' \(the whole parameter row\) must have shape \(3,\)"):
         case_arrays(model, {"p": np.ones((2, 2))})
     with pytest.raises(ValueError, match="case 1 has no 'k'"):
         case_arrays(model, [{"q": 1.0, "k": 2.0}, {"q": 1.0}])
