@@ -54,7 +54,11 @@ class ConstraintWarning(EomcWarning):
         """The advice with the flags of ``eomc simulate``."""
         if not hasattr(self, "hol"):
             return str(self)
-        return self._text(self.model_name, self.hol, self.vel, self.limit, "--consistent", "--project")
+        return self._text(self.model_name, self.hol, self.vel, self.limit, "--consistent",
+                          "--project").replace(
+            "(which moves the start onto the constraints, the coordinates you gave included)",
+            "(which completes the start the same way, holding the states given with --x0, and then "
+            "keeps the run on the constraints)")
 
 
 def start_residual(model, t, x, p=None, r=None):

@@ -488,7 +488,26 @@ def simulate(model, x0, t_span, p=None, r=None, method="dop853", rtol=1e-6, atol
                 baumgarte=baumgarte, pi_beta=pi_beta, events=events, max_events=max_events,
                 K=K, x_ref=x_ref)
     x_out, stats, x_last = run_prepared(model, a)
-    return finish(model, a, x_out, stats, x_last, raise_on_failure)
+    result = finish(model, a, x_out, stats, x_last, raise_on_failure)
+    if project and not consistent and model.nhol + model.nvel:
+        _say_projected(model, a, result, atol)
+    return result
+
+
+def _say_projected(model, a, result, atol):
+    """project=True moves a start off the constraints onto them, every state free to move
+    (minimum norm), the coordinates the user gave included: say which moved, and by how much."""
+    from .consistent import ConstraintWarning
+    if not len(result.t) or result.t[0] != a["t0"]:
+        return
+    limit = max(1e-8, 10 * float(atol))
+    moved = [f"{n} {old:.6g} -> {new:.6g}" for n, old, new in zip(model.state_names, a["x0"], result.x[0])
+             if abs(new - old) > limit * max(1.0, abs(old))]
+    if moved:
+        warnings.warn(ConstraintWarning(
+            f"{model.name}: x0 was off the constraints and project=True moved the start onto them: "
+            f"{', '.join(moved)}; pass consistent=True instead to keep the independent coordinates "
+            f"and speeds and solve for the others"), stacklevel=_user_level())
 
 
 def checked_start(model, x0, t_span, p, r, atol, consistent):

@@ -70,15 +70,20 @@ def main(argv=None):
     except ValueError as exc:  # bad arguments caught by the runtime's checks
         print(f"eomc {name}: error: {exc}", file=sys.stderr)
         return 2
+    except BrokenPipeError:  # `eomc ... | head` closed the pipe: not an error worth a traceback
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 141
+    except (OSError, MemoryError) as exc:  # a full disk, a vanished file: one line, not a traceback
+        detail = f"{exc.strerror}: {exc.filename}" if getattr(exc, "strerror", None) and \
+            getattr(exc, "filename", None) else (str(exc) or type(exc).__name__)
+        print(f"eomc {name}: error: {detail}", file=sys.stderr)
+        return 1
     except KeyboardInterrupt:
         print(f"eomc {name}: interrupted", file=sys.stderr)
         return 130
     except _Terminated:
         print(f"eomc {name}: terminated", file=sys.stderr)
         return 143
-    except BrokenPipeError:  # `eomc ... | head` closed the pipe: not an error worth a traceback
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-        return 141
     finally:
         warnings.formatwarning = previous_format
         if previous is not None:
