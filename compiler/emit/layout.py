@@ -89,8 +89,10 @@ def _name(obj):
 def _parameter_table(formed, parameters):
     """Ordered (symbol, default) pairs: the dict's order, then the rest sorted by name."""
     parameters = dict(parameters or {})
-    known = set(formed.parameters)
-    unknown = [s for s in parameters if s not in known]
+    # Parameters used only in outputs or events are legitimate (validate.check_parameters checked
+    # every key against the equations, the outputs and the events, naming file:line); only a key
+    # that is not a symbol at all is refused here.
+    unknown = [s for s in parameters if not isinstance(s, sm.Symbol)]
     if unknown:
         raise ModelError("parameters not used by the system: " + ", ".join(map(str, unknown)))
     table = [(s, float(v)) for s, v in parameters.items()]
