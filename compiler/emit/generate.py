@@ -190,7 +190,9 @@ def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions
     from the recursive formulation (ABA, RNEA, CRBA) instead of the formed A and b.
     """
     check_identifier(name)
-    layout = make_layout(formed, parameters, inputs, fold_parameters)
+    uses = {s for e in list((outputs or {}).values()) + list((events or {}).values())
+            for s in getattr(e, "free_symbols", ())}
+    layout = make_layout(formed, parameters, inputs, fold_parameters, uses)
     ncon = len(formed.holonomic_constraints) + len(formed.velocity_constraints)
     fns = _select(functions, len(layout.r), len(outputs or {}), ncon, len(events or {}))
     groups, helper_users = FUNCTION_GROUPS, HELPER_USERS
