@@ -39,6 +39,8 @@ COUNTS = {}
 
 import eomc  # noqa: E402
 from eomc.errors import EomcError  # noqa: E402
+from eomc.runtime.batch import simulate_many  # noqa: E402
+from eomc.runtime.simulate import simulate  # noqa: E402
 
 ROW_KEY_MODEL = textwrap.dedent('''\
     import sympy as sm
@@ -171,11 +173,11 @@ def cartpole_start(m, th):
 def n2(models):
     m = models["cartpole"]
     ths = [3.0, 2.9, 2.5]
-    singles = [eomc.simulate(m, cartpole_start(m, th), (0, 10)) for th in ths]
+    singles = [simulate(m, cartpole_start(m, th), (0, 10)) for th in ths]
 
     def many():
         X0 = np.array([list(cartpole_start(m, th).values()) for th in ths])
-        b = eomc.simulate_many(m, X0, (0, 10), progress=False)
+        b = simulate_many(m, X0, (0, 10), progress=False)
         ok = all(same(b.x_final[i], s.x_final) and b.t_final[i] == s.t_final and b.event_stop[i] == s.event_stop
                  and same(b.t_events[i]["fallen"], s.t_events["fallen"]) for i, s in enumerate(singles))
         return ("correct" if ok else "silent wrong",
@@ -199,8 +201,8 @@ def n2(models):
 
     def events_kept():
         X0 = np.array([list(cartpole_start(m, th).values()) for th in ths])
-        b = eomc.simulate_many(m, X0, (0, 3), progress=False, events={"fallen": {"terminal": False}})
-        s = eomc.simulate(m, X0[0], (0, 3), events={"fallen": {"terminal": False}})
+        b = simulate_many(m, X0, (0, 3), progress=False, events={"fallen": {"terminal": False}})
+        s = simulate(m, X0[0], (0, 3), events={"fallen": {"terminal": False}})
         ok = b.t_events is not None and same(b.t_events[0]["fallen"], s.t_events["fallen"])
         return ("correct" if ok else "silent wrong", f"events= records kept: {ok}")
     attempt("N2 simulate_many events= (3 cases) keeps the records", events_kept)
@@ -378,12 +380,12 @@ def n12(models):
     def huge():
         start = time.perf_counter()
         try:
-            eomc.simulate_many(m, np.tile(m.initial_state, (10 ** 6, 1)), (0, 1e-9), progress=False)
+            simulate_many(m, np.tile(m.initial_state, (10 ** 6, 1)), (0, 1e-9), progress=False)
         except ValueError as exc:
             return "clear error", f"{time.perf_counter() - start:.1f}s: {exc}"
         return "silent wrong", "10**6 cases x 1001 rows accepted"
     attempt("N12 simulate_many 10**6 cases x 1001 rows", huge)
-    refused("N12 max_events=10**10", lambda: eomc.simulate(m, m.initial_state, (0, 1), max_events=10 ** 10),
+    refused("N12 max_events=10**10", lambda: simulate(m, m.initial_state, (0, 1), max_events=10 ** 10),
             "max_events")
 
     def peak():
@@ -409,7 +411,7 @@ def n13(models):
 
     def named():
         res = eomc.sweep(rk, {"p": [1.0, 5.0], "q": [1.0, 1.1]}, (0, 1), reduce="final", progress=False)
-        want = [eomc.simulate(rk, None, (0, 1), p={"p": p, "q": q}).x_final for p, q in ((1, 1), (5, 1.1))]
+        want = [simulate(rk, None, (0, 1), p={"p": p, "q": q}).x_final for p, q in ((1, 1), (5, 1.1))]
         ok = all(same(res.x_final[i], w) for i, w in enumerate(want))
         return "correct" if ok else "silent wrong", f"parameter named p swept per case = simulate(p=...): {ok}"
     attempt("N13 API sweep: parameter named 'p', 2 rows (= nparam)", named)
@@ -418,7 +420,7 @@ def n13(models):
     def judge_p(run):
         import csv
         rows = list(csv.DictReader(open(WORK / "p2_out.csv")))
-        want = [eomc.simulate(rk, None, (0, 1), p={"p": p, "q": q}).x_final[0] for p, q in ((1, 1), (5, 1.1))]
+        want = [simulate(rk, None, (0, 1), p={"p": p, "q": q}).x_final[0] for p, q in ((1, 1), (5, 1.1))]
         ok = [float(r["final_q1"]) for r in rows] == want
         return "correct" if ok else "silent wrong", f"final_q1 = simulate(p per case): {ok}"
     cli("N13 eomc sweep: CSV column 'p' (a parameter named p)", ["sweep", str(WORK / "rowkeys"), "--cases",
@@ -429,7 +431,7 @@ def n13(models):
     def judge_r(run):
         import csv
         rows = list(csv.DictReader(open(WORK / "r2_out.csv")))
-        want = [eomc.simulate(rk, {"q1": q1}, (0, 1), r=[r]).x_final[0] for r, q1 in ((0.5, 0.1), (1.0, 0.2))]
+        want = [simulate(rk, {"q1": q1}, (0, 1), r=[r]).x_final[0] for r, q1 in ((0.5, 0.1), (1.0, 0.2))]
         ok = [float(row["final_q1"]) for row in rows] == want
         return "correct" if ok else "silent wrong", f"input named r swept per case: {ok}"
     cli("N13 eomc sweep: CSV column 'r' (an input named r)", ["sweep", str(WORK / "rowkeys"), "--cases",
@@ -463,7 +465,7 @@ def n13(models):
 
     def consistent():
         res = eomc.sweep(fb, {"q1": [-1.0, -0.9]}, (0, 0.5), consistent=True, reduce="final", progress=False)
-        want = [eomc.simulate(fb, {"q1": v}, (0, 0.5), consistent=True).x_final for v in (-1.0, -0.9)]
+        want = [simulate(fb, {"q1": v}, (0, 0.5), consistent=True).x_final for v in (-1.0, -0.9)]
         ok = all(same(res.x_final[i], w) for i, w in enumerate(want))
         return "correct" if ok else "silent wrong", f"= simulate(consistent=True): {ok}"
     attempt("N13 eomc.sweep(..., consistent=True) four-bar", consistent)
@@ -502,7 +504,7 @@ def n14(models):
     def many_consistent():
         X0 = np.tile(fb.initial_state, (2, 1))
         X0[:, 0] = [-1.0, -0.9]
-        b = eomc.simulate_many(fb, X0, (0, 0.1), consistent=True, progress=False, n_points=2)
+        b = simulate_many(fb, X0, (0, 0.1), consistent=True, progress=False, n_points=2)
         ok = all(same(b.x[i, 0], fb.consistent_state(X0[i])) for i in range(2))
         return "correct" if ok else "silent wrong", f"starts = consistent_state: {ok}"
     attempt("N14 simulate_many(consistent=True)", many_consistent)
@@ -527,13 +529,11 @@ def first_hour(models):
     for name in ("ball.py", "ball_R_in_output.py", "slider_crank.py"):
         if (fh / name).exists():
             shutil.copy(fh / name, folder / name)
-    ball_event = (folder / "ball.py").read_text().replace("'expr': y - 0.05", "'expr': y - R") \
-        if (folder / "ball.py").exists() else None
-    if ball_event and "y - R" in ball_event:
-        if "R" not in ball_event.split("parameters")[1].split("\n")[0]:
-            ball_event = ball_event.replace("symbols('m c g'", "symbols('m c g R'").replace(
-                "parameters = {", "parameters = {R: 0.05, ")
-        (folder / "ball_R_event.py").write_text(ball_event)
+    if (folder / "ball.py").exists():     # the report's ball with its radius R in the impact event
+        text = (folder / "ball.py").read_text()
+        text = text.replace("m, c, g = symbols('m c g'", "m, c, g, R = symbols('m c g R'")
+        text = text.replace("parameters = {m: 0.2, c: 0.05, g: 9.81}", "parameters = {m: 0.2, c: 0.05, g: 9.81, R: 0.05}")
+        (folder / "ball_R_event.py").write_text(text.replace("'expr': y - 0.05", "'expr': y - R"))
     for name in ("ball_R_in_output.py", "ball_R_event.py"):
         if not (folder / name).exists():
             continue

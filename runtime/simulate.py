@@ -419,9 +419,13 @@ def _nonfinite_events(model, a, t, x):
         bad = nonfinite_names(model, source, events, t, x, a["p"], r)
     except Exception:       # naming is a courtesy; the failure itself is already reported
         return ""
-    if not bad:
-        return ""
     what = "event function" if source == "events" else "output (outputs are evaluated as events)"
+    if not bad:     # finite at the last accepted step: a trial state inside the next step was not
+        names = [e.name for e in events] if source == "events" else list(model.output_names)
+        return (f"; the state was finite at the last accepted step and every {what.split(' (')[0]} "
+                f"({', '.join(names)}) is evaluated inside each step: check "
+                f"{'it' if len(names) == 1 else 'them'} for values outside {'its' if len(names) == 1 else 'their'} "
+                f"domain (a log or sqrt of a negative number)")
     return (f"; the state is finite, but the {what}{'s' if len(bad) > 1 else ''} "
             f"{', '.join(bad)} {'are' if len(bad) > 1 else 'is'} not finite there")
 

@@ -417,7 +417,9 @@ def sweep(model, cases, t_span, *, map=None, chunk_size=None, reduce=None, threa
         values = [v for part in parts for v in part["values"]]
         try:
             stacked = np.asarray(values)
-            values = stacked if stacked.dtype != object else values
+            # numbers stack; a value holding a string or an object stays as f returned it
+            # (np.asarray would turn (1.5, "fallen") into two strings)
+            values = stacked if stacked.dtype.kind in "biufc" else values
         except ValueError:   # ragged
             pass
         return SweepValues(values=values, status=status, messages=messages, stats=stats, **finals,

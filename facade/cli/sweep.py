@@ -114,6 +114,9 @@ def _dask_client(address, timeout):
         raise EomcError("--scheduler needs Dask: pip install 'eomc[dask]'") from None
     if not timeout > 0:
         raise ValueError(f"--connect-timeout must be > 0 seconds; got {timeout}")
+    import logging
+    for name in ("distributed", "tornado"):   # Dask logs its own tracebacks; eomc says it in one line
+        logging.getLogger(name).setLevel(logging.CRITICAL)
     try:
         client = Client(address, timeout=timeout)
     except ValueError:

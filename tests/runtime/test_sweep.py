@@ -244,6 +244,9 @@ def test_reduce_sees_exactly_what_simulate_returns(cartpole):
         for a, b in ((have[1], want[1]), (have[2], want[2]), (have[7], want[7])):
             np.testing.assert_array_equal(a, b)
     assert got.event_stop == ["fallen"] * 4 and np.all(np.isfinite(got.x_final))
+    mixed = eomc.sweep(cartpole, _cartpole_cases(cartpole), (0, 10), reduce=lambda r: (r.t_final, r.event_stop),
+                       progress=False)
+    assert mixed.values == [(t, "fallen") for t in got.t_final]     # not stacked into strings
 
 
 def test_whole_trajectories_keep_the_event_records(cartpole):
