@@ -26,6 +26,7 @@ import numpy as np
 
 from eomc.runtime.errors import SimulationError
 
+from .progress import is_terminal
 from .simulate import check_keywords, checked_start, finish, prepare, run_prepared
 
 __all__ = ["simulate_many", "BatchResult", "CaseError", "run_cases", "prepare_cases",
@@ -124,7 +125,8 @@ class _Progress:
     def __init__(self, total, enabled):
         self.total, self.done, self.bar, self.lock = total, 0, None, threading.Lock()
         self.enabled = enabled and total > 1
-        if self.enabled:
+        self.tty = is_terminal(sys.stderr)
+        if self.enabled and self.tty:       # a bar on a terminal; a log gets plain lines
             try:
                 from tqdm import tqdm
                 self.bar = tqdm(total=total, unit="case", desc="simulate")
@@ -139,13 +141,14 @@ class _Progress:
             if self.bar is not None:
                 self.bar.update(1)
             elif self.done == self.total or self.done % max(1, self.total // 20) == 0:
-                print(f"\rsimulate: {self.done}/{self.total} cases", end="", file=sys.stderr,
+                start, end = ("\r", "") if self.tty else ("", "\n")
+                print(f"{start}simulate: {self.done}/{self.total} cases", end=end, file=sys.stderr,
                       flush=True)
 
     def close(self):
         if self.bar is not None:
             self.bar.close()
-        elif self.enabled:
+        elif self.enabled and self.tty:
             print(file=sys.stderr)
 
 

@@ -113,9 +113,9 @@ def writable_file(path, what):
     parent = path.parent if str(path.parent) else Path(".")
     if not parent.is_dir():
         raise ValueError(f"{what} {path}: the directory {parent} does not exist")
+    _probe(parent, path, what)      # says why: permission denied, read-only file system, disk full
     if not os.access(parent, os.W_OK) or (path.exists() and not os.access(path, os.W_OK)):
         raise ValueError(f"{what} {path}: not writable (permission denied)")
-    _probe(parent, path, what)
     return path
 
 
