@@ -176,6 +176,8 @@ def _inputs(model, r, t0, t1):
             raise ValueError(f"{model.name}: r as a tuple is an input table (t_grid, values) or "
                              f"(t_grid, values, kind); got a tuple of {len(r)} items")
         return _grid(model, r[0], r[1])
+    if ni == 1 and isinstance(r, (numbers.Real, np.floating, np.integer)) and not isinstance(r, bool):
+        r = [r]     # one input: a number is its value
     values = _vector(model, r, ni, model.input_names, np.zeros(ni), "r (inputs)")
     return 1, np.zeros(1), values
 
@@ -530,6 +532,8 @@ def checked_start(model, x0, t_span, p, r, atol, consistent):
                 "x0 (initial state)")
     if consistent:
         r_vec = r if (r is not None and not callable(r) and not isinstance(r, tuple)) else None
+        if r_vec is not None and not isinstance(r_vec, dict) and np.ndim(r_vec) == 0:
+            r_vec = [r_vec]     # one input given as a number
         return consistent_state(model, x, t0, p_vec, r_vec)
     n_r, r_t, r_v = _inputs(model, r, t0, t0 + 1.0)    # residuals through C, as finish() computes them
     g = np.abs(_along(model, dict(p=np.append(p_vec, 0.0), n_r=n_r, r_t=r_t, r_v=r_v), 1,

@@ -170,3 +170,13 @@ def test_complex_or_text_feedback_and_tables_name_the_argument():
         kw = {"r": np.zeros(1), **kw}
         with pytest.raises(ValueError, match=match):
             simulate(m, [1.0, 0.0], (0, 1), **kw)
+
+
+def test_one_input_takes_a_number():
+    """First hour #7: r=0.5 for a one-input model was 'must have shape (1,)'."""
+    from helpers.stand_in import get_model
+    m = get_model("oscillator")
+    np.testing.assert_array_equal(simulate(m, [1.0, 0.0], (0, 1), r=0.5).x,
+                                  simulate(m, [1.0, 0.0], (0, 1), r=[0.5]).x)
+    with pytest.raises(ValueError, match="r \\(inputs\\) must be real numbers"):
+        simulate(m, [1.0, 0.0], (0, 1), r="0.5")
