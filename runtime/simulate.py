@@ -412,24 +412,53 @@ def _along(model, a, which, t, x):
 NONFINITE_STATUS = 3    # EOMC_NONFINITE
 
 
-def _nonfinite_events(model, a, t, x):
-    """' (event function(s) ... not finite there)' when the run stopped on a NaN event/output."""
+def _nonfinite_events(model, a, stats, x):
+    """'; ... the event function(s)/output(s) X not finite ...' when a run stopped on a NaN in
+    what it evaluates as events while the state stayed finite; '' when that is not the cause."""
     from .events import nonfinite_names
+    t = stats["t"]
     try:
-        r = applied_inputs(model, a)(t, x) if model.ninput else np.zeros(0)
         source, events = a["events"]
-        bad = nonfinite_names(model, source, events, t, x, a["p"], r)
+        bad = nonfinite_names(model, source, events, t, x, a["p"], _input_at(model, a, t, x))
+        where = "there"
+        if not bad:     # finite at the last accepted step: look inside the step that failed
+            bad, t_bad = _events_inside_step(model, a, stats, x)
+            where = f"at t={t_bad:.9g}, inside the next step" if bad else ""
     except Exception:       # naming is a courtesy; the failure itself is already reported
         return ""
+    if not bad:
+        return ""
     what = "event function" if source == "events" else "output (outputs are evaluated as events)"
-    if not bad:     # finite at the last accepted step: a trial state inside the next step was not
-        names = [e.name for e in events] if source == "events" else list(model.output_names)
-        return (f"; the state was finite at the last accepted step and every {what.split(' (')[0]} "
-                f"({', '.join(names)}) is evaluated inside each step: check "
-                f"{'it' if len(names) == 1 else 'them'} for values outside {'its' if len(names) == 1 else 'their'} "
-                f"domain (a log or sqrt of a negative number)")
-    return (f"; the state is finite, but the {what}{'s' if len(bad) > 1 else ''} "
-            f"{', '.join(bad)} {'are' if len(bad) > 1 else 'is'} not finite there")
+    if len(bad) > 1:
+        what = what.replace("function", "functions").replace("output ", "outputs ", 1)
+    return (f"; the state is finite, but the {what} {', '.join(bad)} "
+            f"{'are' if len(bad) > 1 else 'is'} not finite {where}")
+
+
+def _input_at(model, a, t, x):
+    return applied_inputs(model, a)(t, x) if model.ninput else np.zeros(0)
+
+
+def _events_inside_step(model, a, stats, x):
+    """(names, t): the event functions that are not finite along the failed step, found by running
+    that stretch again without events (the step's trial states are gone); ([], nan) if none."""
+    from .events import nonfinite_names
+    t0 = stats["t"]
+    t1 = min(a["t1"], t0 + 2.0 * max(stats["t_fail"] - t0, stats["h"], 1e-12))
+    if not t1 > t0:
+        return [], float("nan")
+    times = np.linspace(t0, t1, 65)
+    b = {k: v for k, v in a.items() if k not in ("events", "max_events", "_bindings")}
+    b.update(t0=t0, t1=t1, x0=np.array(x, dtype=np.float64), t_eval=times, max_steps=10000)
+    rows, st, _ = run_prepared(model, b)
+    source, events = a["events"]
+    for ti, xi in zip(times[:st["n_out"]], rows[:st["n_out"]]):
+        if not np.all(np.isfinite(xi)):
+            break
+        bad = nonfinite_names(model, source, events, ti, xi, a["p"], _input_at(model, b, ti, xi))
+        if bad:
+            return bad, float(ti)
+    return [], float("nan")
 
 
 def failure_message(model, method, stats, x_last, p=None):
@@ -566,7 +595,7 @@ def finish(model, a, x_out, stats, x_last, raise_on_failure=True):
     status, n = stats["status"], stats["n_out"]
     message = "ok" if status == 0 else failure_message(model, a["method"], stats, x_last, a.get("p"))
     if status == NONFINITE_STATUS and ev is not None and np.all(np.isfinite(x_last)):
-        message += _nonfinite_events(model, a, stats["t"], x_last)
+        message += _nonfinite_events(model, a, stats, x_last)
     if status == 0:
         stats.pop("t_fail", None)  # where the model failed: only meaningful for a failed run
     if status and raise_on_failure:

@@ -195,3 +195,12 @@ def test_max_events_beyond_memory_is_refused(nan_model):
     """N12: max_events=10**10 reserved 74.5 GiB before (numpy's MemoryError); now a clear error."""
     with pytest.raises(ValueError, match=r"max_events=10000000000 would reserve \d+ GiB"):
         nan_model.simulate([0.3, 0.0], (0, 1), events=["low"], max_events=10 ** 10)
+
+
+def test_a_nan_event_inside_a_step_is_named(nan_model):
+    """N14: the event function turns NaN mid-run (q passes 5): the last accepted state is finite
+    and the event there too; the stretch is rerun without events to find it."""
+    from eomc.errors import SimulationError
+    with pytest.raises(SimulationError, match=r"the event function bad is not finite (there|at t=[0-9.e-]+, "
+                                              r"inside the next step)"):
+        nan_model.simulate([4.5, 3.0], (0, 1), events=["bad"])
