@@ -11,7 +11,8 @@ Every attempt prints one line ``case | outcome | detail`` with outcome one of
 Models are built into a temporary directory with a private EOMC_CACHE_DIR; CLI attempts run as
 subprocesses (``python -m eomc``) with timeouts.  Usage: ``python benchmarks/reliability_r3_batch.py``
 (about 2-3 minutes on a quiet 2-core machine; add ``--no-dask-kill`` to skip the two attempts that
-start and kill a Dask scheduler and worker).
+start and kill a Dask scheduler and worker; ``--write`` also writes the lines to
+``benchmarks/results/reliability_r3_batch.md``).
 """
 import contextlib
 import os
@@ -83,10 +84,18 @@ EVENTS_MODEL = textwrap.dedent('''\
     ''')
 
 
+LINES = []
+
+
+def say(text):
+    LINES.append(text)
+    print(text, flush=True)
+
+
 def line(case, outcome, detail):
     COUNTS[outcome] = COUNTS.get(outcome, 0) + 1
-    detail = " ".join(str(detail).replace(str(WORK) + "/", "").split())
-    print(f"{case} | {outcome} | {detail[:400]}", flush=True)
+    detail = " ".join(str(detail).replace(str(WORK) + "/", "").split()).replace("|", "/")
+    say(f"{case} | {outcome} | {detail[:400]}")
 
 
 def attempt(case, fn, expect=None):
@@ -365,7 +374,7 @@ def _wait_line(case, proc, timeout):
     errors = [ln for ln in err.splitlines() if ": error:" in ln]
     if "Traceback" in err:
         line(case, "traceback", err.splitlines()[-1])
-    elif proc.returncode and len(errors) == 1:
+    elif proc.returncode and len(errors) == 1 and len(err.splitlines()) == 1:
         line(case, "clear error", f"rc={proc.returncode}: {errors[0]}")
     elif proc.returncode == 0:
         line(case, "correct", f"rc=0 (Dask recovered): {out.strip()[-150:]}")
@@ -595,10 +604,13 @@ def first_hour(models):
 
 def main():
     kill = "--no-dask-kill" not in sys.argv
-    print(f"# eomc reliability rerun, batch items (issue 24); {time.strftime('%Y-%m-%d %H:%M:%S %Z')}; "
-          f"load {os.getloadavg()[0]:.2f}; eomc {eomc.__version__}, numpy {np.__version__}, python "
-          f"{sys.version.split()[0]}")
-    print("case | outcome | detail")
+    import distributed
+    say(f"# eomc reliability rerun, batch items (issue 24); {time.strftime('%Y-%m-%d %H:%M:%S %Z')}; "
+        f"load {os.getloadavg()[0]:.2f} (1 min) on {os.cpu_count()} CPUs; eomc {eomc.__version__}, numpy "
+        f"{np.__version__}, distributed {distributed.__version__}, python {sys.version.split()[0]}")
+    say("")
+    say("case | outcome | detail")
+    say("---|---|---")
     try:
         models = build_models()
         n2(models)
@@ -610,7 +622,11 @@ def main():
         first_hour(models)
     finally:
         shutil.rmtree(WORK, ignore_errors=True)
-    print("# totals: " + ", ".join(f"{k}: {v}" for k, v in sorted(COUNTS.items())))
+    say("")
+    say("totals: " + ", ".join(f"{k}: {v}" for k, v in sorted(COUNTS.items())) +
+        f"; end load {os.getloadavg()[0]:.2f}")
+    if "--write" in sys.argv:
+        (ROOT / "benchmarks" / "results" / "reliability_r3_batch.md").write_text("\n".join(LINES) + "\n")
     return 0 if set(COUNTS) <= {"clear error", "correct"} else 1
 
 

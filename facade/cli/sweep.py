@@ -114,9 +114,7 @@ def _dask_client(address, timeout):
         raise EomcError("--scheduler needs Dask: pip install 'eomc[dask]'") from None
     if not timeout > 0:
         raise ValueError(f"--connect-timeout must be > 0 seconds; got {timeout}")
-    import logging
-    for name in ("distributed", "tornado"):   # Dask logs its own tracebacks; eomc says it in one line
-        logging.getLogger(name).setLevel(logging.CRITICAL)
+    _quiet_dask_logs()
     try:
         client = Client(address, timeout=timeout)
     except ValueError:
@@ -131,6 +129,16 @@ def _dask_client(address, timeout):
         raise EomcError(f"the Dask scheduler at {address} has no workers (none joined within "
                         f"{timeout:g} s: {_why(exc)}); start one with `dask worker {address}`") from None
     return client
+
+
+def _quiet_dask_logs():
+    """Dask logs its own errors and tracebacks (a lost scheduler, a reconnect that gave up) on
+    stderr; eomc reports the failure as one line, so only CRITICAL records get through.  dask's
+    logging config gives some loggers (distributed.client, ...) levels of their own: set each."""
+    import logging
+    names = [n for n in list(logging.root.manager.loggerDict) if n.split(".")[0] in ("distributed", "tornado")]
+    for name in ["distributed", "tornado", "asyncio", *names]:
+        logging.getLogger(name).setLevel(logging.CRITICAL)
 
 
 def _why(exc):
