@@ -226,6 +226,7 @@ def run_chunk(model, task):
             for name, v in final.items():
                 outputs[name][i] = v
         else:
+            r.t = r.t.copy()        # the cases share one array of output times; f gets its own
             values[i] = reduce(r)
     if reduce == "final":
         out.update(t=np.array([float(task["t_span"][1])]), x=out["x_final"][:, None, :],
