@@ -133,8 +133,9 @@ def _start(model, x0, given, args, params):
     limit = max(1e-8, 10 * args.atol)
     if not args.consistent and hol <= limit and vel <= limit:
         return x0
-    independent = ([n for n in model.state_names[:model.nq - model.nhol]]
-                   + [n for n in model.state_names[model.nq:model.nx - model.nvel]])
+    nqu = model.nq + model.nu       # extra first-order states (after q and u) are never solved for
+    independent = (list(model.state_names[:model.nq - model.nhol])
+                   + list(model.state_names[model.nq:nqu - model.nvel]) + list(model.state_names[nqu:]))
     tries = [None] if not given else [sorted(set(given) | set(independent)), sorted(given)]
     error = None
     for fixed in tries:
