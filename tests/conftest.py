@@ -17,7 +17,7 @@ import pytest
 # tests build throw-away mechanisms that way on purpose; the warning points at the first frame
 # outside eomc, so the filter below silences it only where that frame is the suite's own code
 # (tests.* modules, helpers.*) -- a test that checks the warning (pytest.warns) still sees it.
-OWN_MODEL_WARNING = r"ignore:model .* no .parameters. dict:eomc.errors.EomcWarning:(tests|helpers)(\.|$)"
+OWN_MODEL_WARNING = r"ignore:.* no .parameters. dict:eomc.errors.EomcWarning:(tests|helpers)(\.|$)"
 
 
 def pytest_configure(config):
