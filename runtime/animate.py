@@ -136,7 +136,7 @@ def _camera(poses, up):
     u = np.eye(3)[up_axis]
     side = np.eye(3)[(up_axis + 1) % 3]
     depth = np.eye(3)[(up_axis + 2) % 3]
-    position = center + scale * (2.2 * side - 2.6 * depth + 1.3 * u)
+    position = center + scale * (1.3 * side - 1.5 * depth + 0.8 * u)
     floor = center.copy()
     floor[up_axis] = lo[up_axis]
     grid = {2: "xy", 1: "xz", 0: "yz"}[up_axis]

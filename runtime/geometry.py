@@ -124,7 +124,9 @@ def _thin(vertices, faces, max_faces):
         counts = np.bincount(inverse, minlength=len(uniq))[:, None]
         f = inverse[faces]
         keep = (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])
-        f = np.unique(np.sort(f[keep], axis=1), axis=0) if keep.any() else f[keep]
+        f = f[keep]
+        if len(f):   # drop repeated triangles; keep each one's winding (its normal's side)
+            f = f[np.sort(np.unique(np.sort(f, axis=1), axis=0, return_index=True)[1])]
         if len(f) <= max_faces or cells <= 8:
             return sums / counts, f
         cells //= 2
@@ -139,7 +141,7 @@ def packed_mesh(path, scale=(1.0, 1.0, 1.0), max_faces=MAX_MESH_FACES):
     import trimesh
     if not Path(path).is_file():
         raise OSError(f"no such file {path}")
-    loaded = trimesh.load(str(path), force="mesh", process=False)
+    loaded = trimesh.load(str(path), force="mesh")   # process: merged vertices, smooth normals
     vertices = np.asarray(loaded.vertices, float) * np.asarray(scale, float)
     faces = np.asarray(loaded.faces, np.int64)
     if len(vertices) == 0 or len(faces) == 0:
