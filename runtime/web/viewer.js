@@ -77,7 +77,7 @@
     g.computeVertexNormals();
     return (meshCache[k] = g);
   }
-  function shapeObject(s, c) {
+  function shapeObject(s, c, forced) {
     let g;
     if (s.kind === "sphere") g = new T.SphereGeometry(s.size[0], 24, 16);
     else if (s.kind === "box") g = new T.BoxGeometry(s.size[0], s.size[1], s.size[2]);
@@ -86,11 +86,10 @@
       g.rotateX(Math.PI / 2);   // URDF's cylinders are along z, three.js's along y
     } else if (s.kind === "mesh") g = meshGeometry(s.mesh);
     else return null;
-    const obj = new T.Mesh(g, material(s.color ? new T.Color(s.color[0], s.color[1], s.color[2]) : c));
+    const obj = new T.Mesh(g, material(s.color && !forced ? new T.Color(s.color[0], s.color[1], s.color[2]) : c));
     const m = new T.Matrix4().fromArray(s.origin).transpose();   // row-major -> three.js
     obj.matrixAutoUpdate = false;
     obj.matrix.copy(m);
-    if (s.kind === "mesh" && s.scale) { /* scale was applied when the mesh was packed */ }
     return obj;
   }
 
@@ -101,7 +100,7 @@
     group.matrixAutoUpdate = false;
     const c = color(D.colors[name], i);
     const shapes = geometry[name];
-    if (shapes) shapes.forEach((s) => { const o = shapeObject(s, c); if (o) group.add(o); });
+    if (shapes) shapes.forEach((s) => { const o = shapeObject(s, c, !!D.colors[name]); if (o) group.add(o); });
     else group.add(new T.Mesh(new T.SphereGeometry(D.radius, 24, 16), material(c)));
     const axes = new T.AxesHelper(D.scale * 0.08);
     group.add(axes);
@@ -118,7 +117,8 @@
     const c = color(D.colors[name], nf + j);
     const group = new T.Group();
     const shapes = geometry[name];
-    if (shapes) shapes.forEach((s) => { const o = shapeObject(s, c); if (o) group.add(o); });
+    if (shapes) shapes.forEach((s) => { const o = shapeObject(s, c, !!D.colors[name]); if (o) group.add(o); });
+    else if (D.meshes.length && !D.colors[name]) { /* a robot with meshes: its points are the lines' ends only */ }
     else if (!D.fixed[j]) group.add(new T.Mesh(new T.SphereGeometry(D.radius, 24, 16), material(c)));
     else group.add(new T.Mesh(new T.SphereGeometry(D.radius * 0.4, 12, 8), material(new T.Color(0.3, 0.3, 0.3))));
     scene.add(group);
@@ -214,6 +214,15 @@
     place(i);
     drawPlot(i);
     renderer.render(scene, camera);
+    describe();
+  }
+  // for tests and tools: the frame shown, the camera's projection and the canvas's place
+  function describe() {
+    camera.updateMatrixWorld();
+    const pv = new T.Matrix4().multiplyMatrices(camera.projectionMatrix, camera.matrixWorldInverse);
+    const rect = renderer.domElement.getBoundingClientRect();
+    status.setAttribute("data-frame", String(current));
+    status.setAttribute("data-view", JSON.stringify({ pv: pv.elements, left: rect.left, top: rect.top, width: rect.width, height: rect.height }));
   }
   function resize() {
     const w = view.clientWidth, h = view.clientHeight;
@@ -233,10 +242,17 @@
     if (playing && current >= nt - 1) clock = times[0];
     last = null;
   });
-  controls.addEventListener("change", () => renderer.render(scene, camera));
+  controls.addEventListener("change", () => { renderer.render(scene, camera); describe(); });
   window.addEventListener("resize", resize);
 
-  // #t=1.5 shows that time, paused (for screenshots and links)
+  // #t=1.5 shows that time, paused (for screenshots and links); &size=800x450 fixes the scene's size
+  const sized = /[#&]size=(\d+)x(\d+)/.exec(location.hash);
+  if (sized) {
+    const main = document.getElementById("eomc-main");
+    main.style.height = sized[2] + "px";
+    view.style.flex = "none";
+    view.style.width = sized[1] + "px";
+  }
   const m = /(?:^#|[#&])t=([0-9.eE+-]+)/.exec(location.hash);
   if (m) { playing = false; playButton.textContent = "play"; clock = parseFloat(m[1]); current = index(clock); }
   resize();
@@ -253,17 +269,5 @@
   }
   requestAnimationFrame(tick);
 
-  // for tests and tools: the camera's projection and the canvas size, once drawn
-  camera.updateMatrixWorld();
-  const pv = new T.Matrix4().multiplyMatrices(camera.projectionMatrix, camera.matrixWorldInverse);
-  const gl = renderer.getContext();
-  const px = new Uint8Array(4 * 64 * 64);
-  gl.readPixels(Math.max(0, (renderer.domElement.width >> 1) - 32), Math.max(0, (renderer.domElement.height >> 1) - 32), 64, 64, gl.RGBA, gl.UNSIGNED_BYTE, px);
-  let distinct = new Set();
-  for (let k = 0; k < px.length; k += 4) distinct.add((px[k] << 16) | (px[k + 1] << 8) | px[k + 2]);
-  const rect = renderer.domElement.getBoundingClientRect();
   status.setAttribute("data-ready", "1");
-  status.setAttribute("data-frame", String(current));
-  status.setAttribute("data-colors", String(distinct.size));
-  status.setAttribute("data-view", JSON.stringify({ pv: pv.elements, left: rect.left, top: rect.top, width: rect.width, height: rect.height }));
 })();
