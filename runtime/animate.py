@@ -296,12 +296,17 @@ def animate_2d(res, path, *, model, fps=20, trace=None, dpi=80, size=4.0, t_max=
     allpos = np.concatenate([P.reshape(-1, 3), O.reshape(-1, 3)])
     lo, hi = allpos.min(0), allpos.max(0)
     pad = 0.1 * max(float(np.max(hi - lo)), 1e-3)
-    fig, ax = plt.subplots(figsize=(size, size), dpi=dpi)
+    wa, hb = hi[a] - lo[a] + 2 * pad, hi[b] - lo[b] + 2 * pad
+    fig = plt.figure(figsize=(size * min(1.0, wa / hb) if wa < hb else size,
+                              size * min(1.0, hb / wa) + 0.35), dpi=dpi)
+    ax = fig.add_axes([0.02, 0.02, 0.96, 0.96 * (1 - 0.35 / (size * min(1.0, hb / wa) + 0.35))])
     ax.set_xlim(lo[a] - pad, hi[a] + pad)
     ax.set_ylim(lo[b] - pad, hi[b] + pad)
     ax.set_aspect("equal")
     ax.set_xticks([]), ax.set_yticks([])
     ax.set_title(model.name, fontsize=10)
+    fixed = [j for j in range(P.shape[1]) if np.ptp(P[:, j, :], axis=0).max() <= 1e-12]
+    ax.plot(P[0, fixed, a], P[0, fixed, b], "o", ms=5, color="#555")
     traced = _default_trace(poses) if trace is None else list(trace)
     trace_lines = []
     for name in traced:
