@@ -132,13 +132,16 @@ def _camera(poses, up):
         floor = center - normal * scale * 0.5
         return {"up": np.eye(3)[up_axis].tolist(), "position": position.tolist(),
                 "target": center.tolist(), "grid": grid, "floor": floor.tolist()}, scale
-    up_axis = {"x": 0, "y": 1, "z": 2}.get(up or "z", 2)
-    u = np.eye(3)[up_axis]
+    up = up or "z"
+    if up not in ("x", "y", "z", "-x", "-y", "-z"):
+        raise ValueError(f"up must be x, y, z, -x, -y or -z, not {up!r}")
+    up_axis = "xyz".index(up[-1])
+    u = np.eye(3)[up_axis] * (-1 if up.startswith("-") else 1)
     side = np.eye(3)[(up_axis + 1) % 3]
     depth = np.eye(3)[(up_axis + 2) % 3]
     position = center + scale * (1.3 * side - 1.5 * depth + 0.8 * u)
     floor = center.copy()
-    floor[up_axis] = lo[up_axis]
+    floor[up_axis] = lo[up_axis] if u[up_axis] > 0 else hi[up_axis]
     grid = {2: "xy", 1: "xz", 0: "yz"}[up_axis]
     return {"up": u.tolist(), "position": position.tolist(), "target": center.tolist(),
             "grid": grid, "floor": floor.tolist()}, scale
@@ -254,8 +257,9 @@ def animate(res, path=None, *, model, fps=60, trace=None, colors=None, outputs=N
     ``fps``: frames per second of the run stored in the page; ``trace``: names of bodies or
     points whose paths are drawn (default: the one that travels farthest); ``colors``:
     {name: '#rrggbb' or (r, g, b)}; ``outputs``: names plotted beside the scene (default:
-    the model's outputs); ``up``: 'x', 'y' or 'z' (default z, or the view straight onto the
-    plane of a planar motion).  Writes ``path`` when given.  Returns an :class:`Animation`.
+    the model's outputs); ``up``: 'x', 'y', 'z', '-x', '-y' or '-z' (default z, or the view
+    straight onto the plane of a planar motion; '-z' for a z-down convention such as the
+    Whipple bicycle's).  Writes ``path`` when given.  Returns an :class:`Animation`.
     """
     if fps <= 0:
         raise ValueError(f"fps must be positive, not {fps}")

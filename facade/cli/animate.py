@@ -31,6 +31,9 @@ def configure(parser):
     parser.add_argument("--trace", metavar="NAMES",
                         help="bodies or points whose paths are drawn, comma-separated "
                              "(default: the one that travels farthest; 'none' for none)")
+    parser.add_argument("--up", choices=("x", "y", "z", "-x", "-y", "-z"),
+                        help="the world axis drawn upwards (default z; a planar motion is seen "
+                             "straight onto its plane)")
     parser.add_argument("--method", default="dop853", help="integrator (as eomc simulate)")
     parser.add_argument("--rtol", type=float, default=1e-8, help="relative tolerance")
     parser.add_argument("--atol", type=float, default=1e-8, help="absolute tolerance")
@@ -101,7 +104,7 @@ def run(args):
     trace = None if args.trace is None else (
         [] if args.trace.strip().lower() == "none" else [s.strip() for s in args.trace.split(",") if s.strip()])
     if args.output:
-        anim = animate(res, args.output, model=model, fps=args.fps, trace=trace)
+        anim = animate(res, args.output, model=model, fps=args.fps, trace=trace, up=args.up)
         print(f"wrote {args.output} ({len(anim.html) / 1e6:.2f} MB, {len(res.t)} rows, "
               f"t = [{res.t[0]:g}, {res.t[-1]:g}])")
     for path in (args.gif, args.mp4):
