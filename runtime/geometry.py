@@ -20,6 +20,7 @@ a robot's page stays a few megabytes.
 import base64
 import re
 import warnings
+from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -136,11 +137,19 @@ def _thin(vertices, faces, max_faces):
 def packed_mesh(path, scale=(1.0, 1.0, 1.0), max_faces=MAX_MESH_FACES):
     """{"lo", "hi", "v" (base64 uint16 xyz), "f" (base64 uint32), "nv", "nf"} of a mesh file.
 
-    Raises OSError/ValueError when the file is missing or unreadable.
+    Raises OSError/ValueError when the file is missing or unreadable.  Kept per process
+    (keyed by the file's path, size and mtime): a robot's meshes are read once.
     """
-    import trimesh
     if not Path(path).is_file():
         raise OSError(f"no such file {path}")
+    st = Path(path).stat()
+    return _packed(str(path), tuple(float(s) for s in np.broadcast_to(scale, 3)), max_faces,
+                   st.st_size, st.st_mtime_ns)
+
+
+@lru_cache(maxsize=64)
+def _packed(path, scale, max_faces, size, mtime):
+    import trimesh
     loaded = trimesh.load(str(path), force="mesh")   # process: merged vertices, smooth normals
     vertices = np.asarray(loaded.vertices, float) * np.asarray(scale, float)
     faces = np.asarray(loaded.faces, np.int64)

@@ -53,7 +53,10 @@ class Poses:
 
 
 def pose_layout(model):
-    """(frame names, point names, lines, size) from the metadata, type-checked."""
+    """(frame names, point names, lines, size) from the metadata, type-checked (once per model)."""
+    cached = getattr(model, "_pose_layout", None)
+    if cached is not None:
+        return cached
     meta = model.metadata.get("poses")
     if "poses" not in model.functions or not isinstance(meta, dict):
         raise ModelError(f"model {model.name!r} was built without `poses` (its bodies' positions); "
@@ -67,7 +70,9 @@ def pose_layout(model):
     if not ok:
         raise LoadError(f"{model.directory / (model.name + '.json')}: 'poses' must list frame and point "
                         f"names and point-index lines; rebuild the model (eomc build)")
-    return tuple(frames), tuple(points), tuple(tuple(p) for p in lines), 12 * len(frames) + 3 * len(points)
+    model._pose_layout = (tuple(frames), tuple(points), tuple(tuple(p) for p in lines),
+                          12 * len(frames) + 3 * len(points))
+    return model._pose_layout
 
 
 def pose_kernel(model):

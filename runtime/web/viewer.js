@@ -269,5 +269,20 @@
   }
   requestAnimationFrame(tick);
 
+  // #bench=N: draw N frames back to back (each finished on the GPU) and record the times
+  const bench = /[#&]bench=(\d+)/.exec(location.hash);
+  if (bench) {
+    playing = false;
+    const gl = renderer.getContext(), times_ms = [];
+    for (let k = 0; k < +bench[1]; k++) {
+      const t0 = performance.now();
+      show(k % nt);
+      gl.finish();
+      times_ms.push(performance.now() - t0);
+    }
+    times_ms.sort((a, b) => a - b);
+    status.setAttribute("data-bench", JSON.stringify({ n: times_ms.length, median_ms: times_ms[times_ms.length >> 1],
+      p90_ms: times_ms[Math.floor(times_ms.length * 0.9)], width: renderer.domElement.width, height: renderer.domElement.height }));
+  }
   status.setAttribute("data-ready", "1");
 })();
