@@ -81,13 +81,19 @@ def _with_poses(spec, functions):
         return spec
     try:
         poses = pose_source(spec.system, spec.geometry)
-    except ModelError as exc:
+    except (ModelError, ValueError) as exc:
         if spec.path is not None and spec.path.suffix == ".py":
             from eomc.runtime.errors import ModelFileError
             from .model.modelfile import assignment_lines
             line = assignment_lines(spec.path.read_text()).get("geometry")
             raise ModelFileError(str(exc), str(spec.path), line) from None
-        raise
+        raise ModelError(str(exc)) from None
+    except Exception as exc:   # poses are extra: a system they cannot read still builds, without them
+        import warnings
+        from eomc.runtime.errors import EomcWarning
+        warnings.warn(f"{spec.name}: built without poses (the animation's body positions): reading the "
+                      f"bodies failed with {type(exc).__name__}: {exc}", EomcWarning, stacklevel=3)
+        poses = None
     return dataclasses.replace(spec, poses=poses)
 
 

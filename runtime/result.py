@@ -138,12 +138,6 @@ class SimulationResult:
         return animate(self, path, model=options.pop("model", None) or self._model_for("animate()"),
                        **options)
 
-    def _repr_html_(self):
-        """In Jupyter, a result of a model with poses shows its animation inline."""
-        if self.model is None or "poses" not in getattr(self.model, "functions", ()):
-            return None
-        return self.animate()._repr_html_()
-
     def __repr__(self):
         s = self.stats
         return (f"<SimulationResult {self.model_name} {self.method}: {len(self.t)} rows, "
