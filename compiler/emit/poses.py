@@ -140,6 +140,13 @@ def pose_source(system, geometry=None):
     extra = [p for p, _ in order if p in skeleton and p not in taken]
     point_names = _unique([n for n, _ in points] + [p.name for p in extra])
     points = [(n, p) for n, (_, p) in zip(point_names, points + [(None, p) for p in extra])]
+    # points a `geometry` dict names by object (a pendulum's tip, a marker) join the named points
+    named = {p for _, p in points}
+    for key in (geometry or {}):
+        if isinstance(key, Point) and key not in named and key in parent_of:
+            names_now = {n for n, _ in points}
+            points.append((key.name if key.name not in names_now else f"{key.name}_{len(points)}", key))
+            named.add(key)
     index = {}
     for i, (_, p) in enumerate(points):
         index.setdefault(p, i)

@@ -171,6 +171,20 @@ def test_bad_geometry_is_reported_at_its_line(tmp_path):
         eomc.compile(path, cache_dir=tmp_path, progress=False)
 
 
+def test_geometry_can_add_a_point(cache, tmp_path):
+    """A point named by object in `geometry` (the lower rod's middle) becomes a pose point."""
+    src = (EXAMPLES / "double_pendulum.py").read_text() + (
+        "\nfrom eomc.geometry import sphere\nMid = P1.locatenew('Mid', -l2 / 2 * B.y)\n"
+        "geometry = {Mid: sphere(0.03, color='red'), 'Bob2': sphere(0.08)}\n")
+    path = tmp_path / "dp_mid.py"
+    path.write_text(src)
+    model = eomc.compile(path, cache_dir=cache, progress=False, functions=["poses"])
+    assert model.metadata["poses"]["points"] == ["Bob1", "Bob2", "O", "Mid"]
+    assert model.metadata["poses"]["geometry"]["Mid"][0]["color"] == [0.85, 0.2, 0.15]
+    poses = model.poses(0.0, np.array([0.3, 0.6, 0.0, 0.0]), p=[1, 1, 1, 1.5, 9.81])
+    np.testing.assert_allclose(poses["Mid"], (poses["Bob1"] + poses["Bob2"]) / 2, rtol=0, atol=1e-15)
+
+
 def test_missing_mesh_is_drawn_as_a_box_with_one_warning(tmp_path):
     urdf = tmp_path / "arm.urdf"
     urdf.write_text("""<?xml version="1.0"?>
