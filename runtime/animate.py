@@ -118,9 +118,28 @@ def _default_trace(poses):
     return [name] if name is not None and best > 0 else []
 
 
-def _camera(poses, up):
+def _reach(geometry, meshes):
+    """How far any shape reaches from its body's origin (the camera must see it whole)."""
+    reach = 0.0
+    for items in geometry.values():
+        for s in items:
+            offset = float(np.linalg.norm(np.reshape(s["origin"], (4, 4))[:3, 3]))
+            if s["kind"] == "mesh" and meshes[s["mesh"]] is not None:
+                m = meshes[s["mesh"]]
+                size = float(np.max(np.abs([m["lo"], m["hi"]])) * np.sqrt(3))
+            elif s["kind"] == "box":
+                size = float(np.linalg.norm(s["size"])) / 2
+            elif s["kind"] == "cylinder":
+                size = float(np.hypot(s["size"][0], s["size"][1] / 2))
+            else:
+                size = float(s["size"][0]) if s["size"] else 0.0
+            reach = max(reach, offset + size)
+    return reach
+
+
+def _camera(poses, up, reach=0.0):
     allpos = np.concatenate([poses.positions.reshape(-1, 3), poses.points.reshape(-1, 3)])
-    lo, hi = allpos.min(0), allpos.max(0)
+    lo, hi = allpos.min(0) - reach, allpos.max(0) + reach
     center = (lo + hi) / 2
     scale = max(float(np.max(hi - lo)), 1e-3)
     flat = plane_of(poses)
@@ -155,7 +174,6 @@ def page_data(res, model, *, fps=60, trace=None, colors=None, outputs=None, up=N
     nt = len(times)
     flat = np.concatenate([np.concatenate([poses.positions, poses.rotations.reshape(nt, -1, 9)], axis=2)
                            .reshape(nt, -1), poses.points.reshape(nt, -1)], axis=1)
-    camera, scale = _camera(poses, up)
     names = list(poses.frame_names) + list(poses.point_names)
     colors = {k: _color(v) for k, v in (colors or {}).items()}
     for k in colors:
@@ -183,6 +201,7 @@ def page_data(res, model, *, fps=60, trace=None, colors=None, outputs=None, up=N
         series.append({"name": name, "values": _b64(np.interp(times, t_run, np.asarray(values, float)))
                        if len(t_run) > 1 else _b64(values)})
     geometry, meshes = pack_shapes(model.metadata.get("poses", {}).get("geometry", {}))
+    camera, scale = _camera(poses, up, _reach({k: v for k, v in geometry.items() if k != "world"}, meshes))
     fixed = [bool(np.ptp(poses.points[:, j, :], axis=0).max() < 1e-12) if nt else False
              for j in range(len(poses.point_names))]
     return {"name": model.name, "t": _b64(times), "poses": _b64(flat), "frames": list(poses.frame_names),
