@@ -97,11 +97,15 @@ def pose_kernel(model):
     work = np.empty(max(model.work_size, 1))
     frombuf = ffi.from_buffer
     null = ffi.NULL
+    work_ptr = frombuf("double[]", work)
+    default_p = np.ascontiguousarray(model.param_defaults)
+    default_p_ptr = frombuf("double[]", default_p) if default_p.size else null
 
     def kernel(t, x, p, r, out):
-        return fn(t, frombuf("double[]", x), null if p is None or p.size == 0 else frombuf("double[]", p),
-                  null if r is None or r.size == 0 else frombuf("double[]", r), frombuf("double[]", out),
-                  frombuf("double[]", work))
+        pp = default_p_ptr if p is default_p else (null if p is None or p.size == 0 else frombuf("double[]", p))
+        return fn(t, frombuf("double[]", x), pp, null if r is None or r.size == 0 else frombuf("double[]", r),
+                  frombuf("double[]", out), work_ptr)
+    kernel.default_p = default_p
     kernel.lib = lib   # keep the library open as long as the kernel lives
     model._pose_kernel = kernel
     return kernel
@@ -116,7 +120,7 @@ def _split(flat, nf, npt):
 
 def _params(model, p):
     if p is None:
-        return np.ascontiguousarray(model.param_defaults)
+        return pose_kernel(model).default_p
     if isinstance(p, dict):
         return model._named(p, model.param_names, model.param_defaults, "parameter")
     return np.ascontiguousarray(model._array(p, (model.nparam,), "p (parameters)", model.param_names))
