@@ -116,10 +116,16 @@ class SimulationResult:
             return Path(path)
         return fig
 
+    def __getstate__(self):
+        """Pickles carry the numbers, not the model (a model pickles with its library's bytes)."""
+        state = dict(self.__dict__)
+        state["model"] = None
+        return state
+
     def _model_for(self, what):
         if self.model is None:
             raise ValueError(f"{what} needs the model: this result was not made by Model.simulate "
-                             f"(pass model=...)")
+                             f"in this process (pass model=...)")
         return self.model
 
     def poses(self, model=None):
