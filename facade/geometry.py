@@ -81,5 +81,13 @@ def cylinder(r, h, *, at=None, color=None):
 
 
 def mesh(path, *, scale=1.0, at=None, color=None):
-    """A triangle mesh file (STL, OBJ, DAE, ... read with trimesh when a page is written)."""
-    return Shape("mesh", path=Path(path).expanduser().resolve(), scale=scale, at=at, color=color)
+    """A triangle mesh file (STL, OBJ, DAE, ... read with trimesh when a page is written).
+
+    A relative path is relative to the file that calls ``mesh`` (the model file), not to
+    the directory eomc happens to run in."""
+    import sys
+    path = Path(path).expanduser()
+    if not path.is_absolute():
+        caller = sys._getframe(1).f_globals.get("__file__")
+        path = (Path(caller).resolve().parent if caller else Path.cwd()) / path
+    return Shape("mesh", path=path.resolve(), scale=scale, at=at, color=color)
