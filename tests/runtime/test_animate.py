@@ -185,6 +185,25 @@ def test_geometry_can_add_a_point(cache, tmp_path):
     np.testing.assert_allclose(poses["Mid"], (poses["Bob1"] + poses["Bob2"]) / 2, rtol=0, atol=1e-15)
 
 
+def test_model_file_mesh_relative_to_the_file(cache, tmp_path):
+    import trimesh
+    folder = tmp_path / "model"
+    folder.mkdir()
+    trimesh.creation.box(extents=(0.1, 0.2, 0.3)).export(folder / "bob.stl")
+    src = (EXAMPLES / "double_pendulum.py").read_text() + (
+        "\nfrom eomc.geometry import mesh\ngeometry = {'Bob1': mesh('bob.stl', color=(0, 1, 0))}\n")
+    (folder / "dp_mesh.py").write_text(src)
+    model = eomc.compile(folder / "dp_mesh.py", cache_dir=cache, progress=False, functions=["poses"])
+    shape, = model.metadata["poses"]["geometry"]["Bob1"]
+    assert shape["kind"] == "mesh" and Path(shape["path"]) == folder / "bob.stl"
+    t = np.linspace(0, 1, 11)
+    res = SimulationResult(t=t, x=np.column_stack([t, t, 0 * t, 0 * t]), state_names=model.state_names,
+                           stats={}, model=model)
+    data = json.loads(re.search(r'id="eomc-data">(.*?)</script>', res.animate().html, re.S).group(1))
+    mesh_data, = data["meshes"]
+    assert mesh_data["nf"] == 12 and np.allclose(mesh_data["hi"], [0.05, 0.1, 0.15])
+
+
 def test_missing_mesh_is_drawn_as_a_box_with_one_warning(tmp_path):
     urdf = tmp_path / "arm.urdf"
     urdf.write_text("""<?xml version="1.0"?>
