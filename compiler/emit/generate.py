@@ -320,7 +320,19 @@ def _vector_docs(meta):
         ("r", f"inputs (ninput = {meta['ninput']})", entries(meta["input_names"])),
         ("outputs", f"out[] of {meta['name']}_outputs (noutput = {meta['noutput']})",
          entries(meta["output_names"])),
-    ]
+    ] + _pose_docs(meta)
+
+
+def _pose_docs(meta):
+    """Where each body and point is in out[] of NAME_poses (NAME_pose_count() doubles)."""
+    poses = meta.get("poses")
+    if not poses:
+        return []
+    nf = len(poses["frames"])
+    rows = [f"[{12 * i}] {n}: origin x, y, z, then R row by row" for i, n in enumerate(poses["frames"])]
+    rows += [f"[{12 * nf + 3 * j}] {n}: x, y, z" for j, n in enumerate(poses["points"])]
+    return [("poses", f"out[] of {meta['name']}_poses ({poses['size']} doubles, world frame; R's "
+                      f"columns are the body's axes)", rows)]
 
 
 def _render(name, meta, fns, rendered, solver, layout, sym, helper, split=False):
