@@ -231,6 +231,26 @@ def test_missing_mesh_is_drawn_as_a_box_with_one_warning(tmp_path):
 
 # ---- the page ------------------------------------------------------------------------------
 
+SHIPPED = sorted(p.stem for p in EXAMPLES.glob("*.py"))
+
+
+@pytest.mark.parametrize("name", SHIPPED)
+def test_every_shipped_example_animates(cache, tmp_path, name):
+    """Each example's poses (built alone) along a small motion about its initial state: finite,
+    something moves, and the page is written (under 5 MB)."""
+    model = eomc.compile(EXAMPLES / f"{name}.py", cache_dir=cache, progress=False, functions=["poses"])
+    t = np.linspace(0.0, 1.0, 21)
+    x0 = model.initial_state if model.initial_state is not None else np.zeros(model.nx)
+    x = x0 + 0.2 * np.sin(np.outer(t, np.arange(1, model.nx + 1)))
+    res = SimulationResult(t=t, x=x, state_names=model.state_names, stats={}, model=model, nq=model.nq)
+    poses = res.poses()
+    assert len(poses.frame_names) + len(poses.point_names) > 0
+    moved = [np.ptp(a, axis=0).max() for a in (poses.positions, poses.rotations, poses.points) if a.size]
+    assert np.isfinite(poses.points).all() and np.isfinite(poses.rotations).all() and max(moved) > 1e-3
+    anim = res.animate(tmp_path / f"{name}.html", fps=20)
+    assert (tmp_path / f"{name}.html").stat().st_size == len(anim.html.encode()) < 5e6
+
+
 def test_page_is_one_offline_file(pendulum, tmp_path):
     model, res = pendulum
     anim = res.animate(tmp_path / "p.html")
