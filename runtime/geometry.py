@@ -81,6 +81,22 @@ def urdf_visuals(tree):
     return out
 
 
+def urdf_link_transforms(tree):
+    """{link name: (body name or "world", 4x4 pose of the link in that body's frame)} of every
+    link that is not a body's own frame: links welded to a body or to the ground."""
+    import yourdfpy
+    urdf = yourdfpy.URDF.load(str(tree.path), build_scene_graph=True, load_meshes=False,
+                              build_collision_scene_graph=False, load_collision_meshes=False)
+    out = {}
+    groups = [("world", tree.root, list(tree.ground_links) or [tree.root])]
+    groups += [(identifier(b.name), b.name, b.links) for b in tree.bodies.values()]
+    for key, frame_link, members in groups:
+        for name in members:
+            if name != frame_link or key == "world":
+                out[name] = (key, np.asarray(urdf.get_transform(frame_to=name, frame_from=frame_link), float))
+    return out
+
+
 def identifier(name):
     """A link name as the URDF System names its body (eomc.compiler.urdf.system.identifier;
     repeated here because the runtime does not import the compiler)."""

@@ -157,7 +157,10 @@ def pose_source(system, geometry=None):
             q = parent_of.get(q)
         if q is not None and p in index and index[p] != index[q] and p._pos_dict[parent_of[p]] != 0:
             lines.append((index[q], index[p]))
-    needed = set(skeleton) | {pt for _, _, pt in frames} | {pt for _, pt in points}
+    extra_frame_edges, extra_point_edges = [], []
+    if urdf is not None:   # every link frame: those welded to a body or to the ground too
+        frames, extra_frame_edges, extra_point_edges = _welded_links(urdf, frames, N, start)
+    needed = set(skeleton) | {pt for _, _, pt in frames if pt in parent_of} | {pt for _, pt in points}
     closure = set()
     for q in needed:   # the needed points and every point on their paths from the origin
         while q is not None and q not in closure:
@@ -166,7 +169,8 @@ def pose_source(system, geometry=None):
     point_edges = [(p, parent, p._pos_dict[parent] if parent is not None else None)
                    for p, parent in order if p in closure]
     frame_edges = [(f, parent, parent.dcm(f) if parent is not None else None)
-                   for f, parent in frames_order]
+                   for f, parent in frames_order] + extra_frame_edges
+    point_edges += extra_point_edges
     defaults = dict(getattr(urdf, "parameters", None) or {})
     geom = {}
     if urdf is not None:
@@ -175,6 +179,31 @@ def pose_source(system, geometry=None):
         geom = {**geom, **_checked_geometry(geometry, [n for n, *_ in frames], [n for n, _ in points])}
     return PoseSource(tuple(frames), tuple(points), tuple(sorted(set(lines))), tuple(frame_edges),
                       tuple(point_edges), defaults, geom)
+
+
+def _welded_links(urdf, frames, N, origin):
+    """Frames of the links fixed to a body (or the ground) with the constant transform between
+    them: a new frame and point per link, kept out of the user's graphs (edges here only)."""
+    from sympy.physics.vector import Point, ReferenceFrame, Vector
+    from eomc.runtime.geometry import identifier, urdf_link_transforms
+    by_name = {name: (frame, at) for name, frame, at in frames}
+    taken = set(by_name)
+    frame_edges, point_edges, out = [], [], list(frames)
+    for link, (body, T) in urdf_link_transforms(urdf.tree).items():
+        name = identifier(link)
+        if name in taken:
+            continue
+        parent_frame, parent_point = (N, origin) if body == "world" else by_name.get(body, (None, None))
+        if parent_frame is None:
+            continue
+        frame, point = ReferenceFrame(f"F_{name}"), Point(f"L_{name}")
+        rotation = sm.Matrix(3, 3, [sm.Float(v) if abs(v) > 1e-15 else sm.S.Zero for v in T[:3, :3].ravel()])
+        offset = sm.Matrix([sm.Float(v) if abs(v) > 1e-15 else sm.S.Zero for v in T[:3, 3]])
+        frame_edges.append((frame, parent_frame, rotation))
+        point_edges.append((point, parent_point, Vector([(offset, parent_frame)])))
+        out.append((name, frame, point))
+        taken.add(name)
+    return out, frame_edges, point_edges
 
 
 def _checked_geometry(geometry, frame_names, point_names):

@@ -101,13 +101,13 @@
     const c = color(D.colors[name], i);
     const shapes = geometry[name];
     if (shapes) shapes.forEach((s) => { const o = shapeObject(s, c, !!D.colors[name]); if (o) group.add(o); });
-    else group.add(new T.Mesh(new T.SphereGeometry(D.radius, 24, 16), material(c)));
+    else if (!Object.keys(geometry).length || D.colors[name]) group.add(new T.Mesh(new T.SphereGeometry(D.radius, 24, 16), material(c)));
     const axes = new T.AxesHelper(D.scale * 0.08);
     group.add(axes);
     scene.add(group);
     frameObjects.push(group);
   });
-  if (geometry.world) {
+  if (geometry.world && D.frames.indexOf("world") < 0) {
     const group = new T.Group();
     geometry.world.forEach((s) => { const o = shapeObject(s, new T.Color(0.55, 0.55, 0.6)); if (o) group.add(o); });
     scene.add(group);
