@@ -99,11 +99,13 @@ def _with_poses(spec, functions):
 
 def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, functions=None,
              fold_parameters=False, progress=None, cache_dir=None, use_cache=True, events=None,
-             formulation="kane"):
+             formulation="kane", states=None):
     """Derive and generate C without compiling: returns (ModelSpec, GeneratedModel).
 
     ``formulation``: "kane" (formed A, b; numeric LDLᵀ), "recursive" (ABA/RNEA/CRBA
     over the joint tree, eomc.compiler.tree) or "auto" (the cheaper rhs).
+    ``states``: {z: dz/dt} extra first-order states, appended to x after q and u (a
+    System's musculotendons bring theirs without it).
 
     With ``use_cache`` the C comes from the generation cache when the formed
     equations and options were seen before (see eomc.compiler.build.gencache).
@@ -117,7 +119,7 @@ def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, f
         raise ModelError(str(exc)) from None
     with progress.stage("derive"):
         spec = model_spec(system, name, parameters=parameters, inputs=inputs, outputs=outputs,
-                          events=events, formulation=formulation)
+                          events=events, formulation=formulation, states=states)
         spec = _with_poses(spec, functions)
     def run_generator():
         return generate_formulation(spec, functions, fold_parameters, formulation)
@@ -134,7 +136,7 @@ def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, f
 
 def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, functions=None,
             fold_parameters=False, backend="cffi", cflags=None, cache_dir=None, output_dir=None,
-            progress=None, events=None, formulation="kane"):
+            progress=None, events=None, formulation="kane", states=None):
     """Compile a model file (path) or a formed system into a loaded :class:`eomc.runtime.model.Model`.
 
     ``formulation``: "kane" (default), "recursive" or "auto" (see :func:`generate`).
@@ -144,7 +146,8 @@ def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, fu
     progress = Progress(progress)
     spec, generated = generate(system, name, parameters=parameters, inputs=inputs, outputs=outputs,
                                functions=functions, fold_parameters=fold_parameters, progress=progress,
-                               cache_dir=cache_dir, events=events, formulation=formulation)
+                               cache_dir=cache_dir, events=events, formulation=formulation,
+                               states=states)
     extra = {"initial_state": spec.initial_state} if spec.initial_state is not None else None
     source = system if isinstance(system, (str, os.PathLike)) else None
     return build_and_load(generated, backend=backend, cflags=cflags, cache_dir=cache_dir,

@@ -41,8 +41,9 @@ def start_residual(model, t, x, p=None, r=None):
 
 def _free(model, fixed):
     nq, nx = model.nq, model.nx
+    nqu = nq + model.nu     # extra first-order states follow; the constraints never involve them
     if fixed is None:
-        held = set(range(nq - model.nhol)) | set(range(nq, nx - model.nvel))
+        held = set(range(nq - model.nhol)) | set(range(nq, nqu - model.nvel)) | set(range(nqu, nx))
     else:
         if isinstance(fixed, (str, int)):
             fixed = [fixed]
@@ -51,7 +52,7 @@ def _free(model, fixed):
             held.add(item if isinstance(item, int) and 0 <= item < nx
                      else index_of(item, model.state_names, "fixed state", model.name))
     free_q = [i for i in range(nq) if i not in held]
-    free_u = [i for i in range(nq, nx) if i not in held]
+    free_u = [i for i in range(nq, nqu) if i not in held]
     return free_q, free_u
 
 

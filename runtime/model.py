@@ -123,6 +123,7 @@ class Model:
         self.name = metadata["name"]
         for size in ("nq", "nu", "nx", "nparam", "ninput", "noutput", "nhol", "nvel", "work_size"):
             setattr(self, size, int(metadata[size]))
+        self.nz = self.nx - self.nq - self.nu     # extra first-order states, after q and u in x
         self.state_names = tuple(metadata["state_names"])
         self.param_names = tuple(metadata["param_names"])
         self.input_names = tuple(metadata["input_names"])
@@ -388,7 +389,8 @@ class Model:
         """Generalized forces tau = M u' - f needed for the accelerations udot, shape (nu,)."""
         given = (p, r)
         t, x, p, r = self._args(t, x, p, r)
-        udot = self._array(udot, (self.nu,), "udot (speed derivatives)", self.state_names[self.nq:])
+        udot = self._array(udot, (self.nu,), "udot (speed derivatives)",
+                           self.state_names[self.nq:self.nq + self.nu])
         kernel = self._kernel("inverse_dynamics")
         tau = np.empty(self.nu)
         status = kernel(t, x, udot, p, r, tau, self._work()[1])

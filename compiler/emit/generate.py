@@ -95,9 +95,10 @@ def _tangent(prog):
 
 
 def _tangent_blocks(ctx, nq=None, nx=None):
-    """(result group, first column, end column) of the coordinates' and speeds' tangents."""
+    """(result group, first column, end column) of the coordinates' and speeds' tangents
+    (the speeds' block also covers the extra states' columns)."""
     nq = ctx.nq if nq is None else nq
-    nx = ctx.nq + ctx.nu if nx is None else nx
+    nx = ctx.nx if nx is None else nx
     return (("Gtq", 0, nq), ("Gtu", nq, nx))
 
 
@@ -118,7 +119,7 @@ def _tangent_ops(prog, seeds, blocks):
 
 
 def _ops(fn, prog, solver, nx, nr, seeds=(), helper=None, nu=0, nnz=0, solve_in=(), recursive=False,
-         W=()):
+         W=(), nq=None):
     c = count_program(prog) if prog is not None else Counter()
     if fn == "linearize":
         return None
@@ -127,7 +128,8 @@ def _ops(fn, prog, solver, nx, nr, seeds=(), helper=None, nu=0, nnz=0, solve_in=
     if recursive and fn in ("jac_x", "jac_r"):
         from ..tree.derivatives import solve_symbols
         from ..tree.emit import tree_jacobian_ops
-        return tree_jacobian_ops(prog, W, solve_symbols(nu), seeds, fn, nx - nu, nx, nr)
+        return tree_jacobian_ops(prog, W, solve_symbols(nu), seeds, fn, nx - nu if nq is None else nq,
+                                 nx, nr)
     if fn in HELPER_USERS or fn in solve_in:
         c += count_program(helper)
     if fn in solve_in:
@@ -135,7 +137,7 @@ def _ops(fn, prog, solver, nx, nr, seeds=(), helper=None, nu=0, nnz=0, solve_in=
     if fn == "inverse_dynamics":
         c += Counter(muls=nnz, adds=nnz)
     if fn == "jac_x" and _tangent(prog):
-        c = _tangent_ops(prog, seeds, _tangent_blocks(None, nq=nx - nu, nx=nx))
+        c = _tangent_ops(prog, seeds, _tangent_blocks(None, nq=nx - nu if nq is None else nq, nx=nx))
     if fn in _SOLVING:
         c += solver.factor_ops
         nsolve = 1 + {"rhs": 0, "jac_x": nx, "jac_r": nr}[fn]
@@ -248,7 +250,7 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
                 poses=poses)
     layout, sym, fns = low.layout, low.symbolic, low.functions
     recursive = low.formulation == "recursive"
-    nq, nu, nx, nw = formed.nq, formed.nu, formed.nq + formed.nu, sym.nw
+    nq, nu, nx, nw = formed.nq, formed.nu, len(layout.x), sym.nw   # x = [q; u; z]
     solver = (choose_ldlt(name, nw, sym.pattern) if sym.symmetric else
               sparse_lu_solver(name, nw, sym.pattern, sym.row_order))
     slots = dict(layout.c_names)
@@ -256,6 +258,7 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
     slots.update({s: f"udot[{j}]" for j, s in enumerate(sym.UD)})
     slots.update({s: f"dx[{j}]" for j, s in enumerate(sym.seeds)})
     ctx = BodyContext(name, nq, nu, nw, solver, slots, sym.symmetric, sym.pattern)
+    ctx.nz = nx - nq - nu
     helper = dynamics_helper(ctx, low.helper) if low.helper is not None else ""
     rendered, op_counts = [], {}
     for fn in fns:
@@ -269,7 +272,7 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
                          "parts": parts})
         op_counts[fn] = _ops(fn, prog, solver, nx, len(layout.r), sym.seeds, low.helper, nu,
                              sum(1 for i, j in sym.pattern if i < nu and j < nu), sym.solve_in,
-                             recursive, sym.W)
+                             recursive, sym.W, nq)
     if "poses" in fns:   # the number of doubles NAME_poses writes (the loader checks NAME.json by it)
         from .poses import pose_metadata
         rendered.append({"prototype": f"int {name}_pose_count(void)",
@@ -291,7 +294,7 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
 def _metadata(name, formed, layout, sym, fns, op_counts):
     return {
         "name": name, "abi_version": 1, "eomc_version": _eomc_version(),
-        "nq": formed.nq, "nu": formed.nu, "nx": formed.nq + formed.nu, "nparam": len(layout.p),
+        "nq": formed.nq, "nu": formed.nu, "nx": len(layout.x), "nparam": len(layout.p),
         "ninput": len(layout.r), "noutput": len(sym.output_names), "nhol": sym.nhol,
         "nvel": sym.nvel, "work_size": 0,
         "state_names": list(layout.state_names), "param_names": list(layout.param_names),
@@ -311,9 +314,11 @@ def _vector_docs(meta):
         if defaults is None:
             return [f"[{i}] {n}" for i, n in enumerate(names)]
         return [f"[{i}] {n} = {float(d)!r}" for i, (n, d) in enumerate(zip(names, defaults))]
+    nz = meta["nx"] - meta["nq"] - meta["nu"]
+    extra = f", then nz = {nz} extra first-order states" if nz else ""
     return [
-        ("x", f"state (nx = {meta['nx']}: nq = {meta['nq']} coordinates, then nu = {meta['nu']} speeds; "
-              f"udot, tau, forcing and mass_matrix rows follow the speeds)",
+        ("x", f"state (nx = {meta['nx']}: nq = {meta['nq']} coordinates, then nu = {meta['nu']} speeds"
+              f"{extra}; udot, tau, forcing and mass_matrix rows follow the speeds)",
          entries(meta["state_names"])),
         ("p", f"parameters (nparam = {meta['nparam']}), with the model's defaults",
          entries(meta["param_names"], meta["param_defaults"])),

@@ -1,6 +1,6 @@
 """Where each symbol of a formed system lives in the C arrays.
 
-q(t), u(t) -> x[i]; inputs r(t) -> r[k]; parameters -> p[j]; time -> t.
+q(t), u(t), then the extra first-order states z(t) -> x[i]; inputs r(t) -> r[k]; parameters -> p[j]; time -> t.
 Expressions are rewritten with plain slot symbols once (``xreplace``), so
 every later stage works on ordinary SymPy expressions of those symbols.
 """
@@ -107,7 +107,7 @@ def make_layout(formed, parameters=None, inputs=None, fold_parameters=False):
         raise ModelError("the system depends on inputs not listed in `inputs`: "
                          + ", ".join(map(_name, missing)))
     t = sm.Symbol("t", real=True)
-    states = tuple(formed.coordinates) + tuple(formed.speeds)
+    states = tuple(formed.coordinates) + tuple(formed.speeds) + tuple(getattr(formed, "extra_states", ()))
     x = tuple(sm.Symbol(f"x_{i}", real=True) for i in range(len(states)))
     r = tuple(sm.Symbol(f"r_{k}", real=True) for k in range(len(inputs)))
     table = _parameter_table(formed, parameters)

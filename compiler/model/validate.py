@@ -137,7 +137,7 @@ def _names(symbols):
 
 
 def _states(formed):
-    return tuple(formed.coordinates) + tuple(formed.speeds)
+    return tuple(formed.coordinates) + tuple(formed.speeds) + tuple(getattr(formed, "extra_states", ()))
 
 
 def _state_rate(d, formed):
