@@ -33,7 +33,7 @@ def _eomc_version():
         return "0+unknown"
 
 
-def _select(functions, ninput, noutput, ncon, nevent=0):
+def _select(functions, ninput, noutput, ncon, nevent=0, has_poses=False):
     """Requested functions that apply to this model, in canonical order."""
     wanted = set(ALL_FUNCTIONS if functions is None else
                  (_ALIASES.get(f, f) for f in functions))
@@ -44,7 +44,8 @@ def _select(functions, ninput, noutput, ncon, nevent=0):
     if "linearize" in wanted:
         wanted |= {"jac_x", "jac_r"}
     absent = {"jac_r": ninput == 0, "outputs": noutput == 0,
-              "constraints": ncon == 0, "constraints_jac": ncon == 0, "events": nevent == 0}
+              "constraints": ncon == 0, "constraints_jac": ncon == 0, "events": nevent == 0,
+              "poses": not has_poses}
     return tuple(f for f in ALL_FUNCTIONS if f in wanted and not absent.get(f, False))
 
 
@@ -182,10 +183,11 @@ class Lowered:
     programs: dict          # function -> Program (None when the function has no own code)
     helper: object          # Program of the shared NAME_dynamics helper (A, b), or None
     formulation: str = "kane"   # or "recursive" (eomc.compiler.tree)
+    poses: dict = None          # pose metadata (compiler/emit/poses.py) when poses is generated
 
 
 def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions=None,
-          fold_parameters=False, events=None, tree=None):
+          fold_parameters=False, events=None, tree=None, poses=None):
     """FormedSystem -> :class:`Lowered` (the IR the C printer and ``--print-ir`` read).
 
     With ``tree`` (an eomc.compiler.tree.Tree of the same system) the dynamics come
@@ -196,21 +198,27 @@ def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions
             for s in getattr(e, "free_symbols", ())}
     layout = make_layout(formed, parameters, inputs, fold_parameters, uses)
     ncon = len(formed.holonomic_constraints) + len(formed.velocity_constraints)
-    fns = _select(functions, len(layout.r), len(outputs or {}), ncon, len(events or {}))
+    fns = _select(functions, len(layout.r), len(outputs or {}), ncon, len(events or {}), poses is not None)
     groups, helper_users = FUNCTION_GROUPS, HELPER_USERS
+    base = tuple(f for f in fns if f != "poses")   # poses: appended below
     if tree is None:
-        sym = build_symbolic(formed, layout, fns, outputs, events)
+        sym = build_symbolic(formed, layout, base, outputs, events)
     else:
         from ..tree.lower import TREE_FUNCTION_GROUPS, TREE_HELPER_USERS, build_tree_symbolic
         groups, helper_users = TREE_FUNCTION_GROUPS, TREE_HELPER_USERS
-        sym = build_tree_symbolic(tree, formed, layout, fns, outputs, events)
+        sym = build_tree_symbolic(tree, formed, layout, base, outputs, events)
+    pose_meta = None
+    if "poses" in fns:   # appended to the shared program: sin/cos and products shared with rhs
+        from .poses import POSE_GROUP, with_poses
+        sym, pose_meta = with_poses(sym, poses, layout)
+        groups = {**groups, "poses": (POSE_GROUP,)}
     shared = verify(optimize_shared(sym.program, sym.derivatives))
     programs = {fn: finish_function(shared, groups[fn]) if groups[fn] else None
                 for fn in fns}
     helper = (finish_function(shared, ("A", "b")) if set(fns) & set(helper_users) or sym.solve_in
               else None)
     return Lowered(name, layout, sym, fns, programs, helper,
-                   "kane" if tree is None else "recursive")
+                   "kane" if tree is None else "recursive", pose_meta)
 
 
 def ir_listing(formed, name, **options):
@@ -224,7 +232,7 @@ def ir_listing(formed, name, **options):
 
 
 def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, functions=None,
-               fold_parameters=False, events=None, event_options=None, tree=None):
+               fold_parameters=False, events=None, event_options=None, tree=None, poses=None):
     """Lower ``formed`` (a FormedSystem) to C; returns a :class:`GeneratedModel`.
 
     ``parameters``: {symbol: default} giving order and defaults (others follow, sorted by
@@ -236,10 +244,12 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
     linearize brings jac_x and jac_r.  ``fold_parameters`` turns parameters into literals.
     ``events``: {name: expression} compiled into NAME_events (zero crossings for simulate),
     ``event_options``: their default terminal/direction, kept in the metadata.
+    ``poses``: a :class:`~.poses.PoseSource` (NAME_poses: body frames and points in the world).
     Deterministic: identical input gives byte-identical output.
     """
     low = lower(formed, name, parameters=parameters, inputs=inputs, outputs=outputs,
-                functions=functions, fold_parameters=fold_parameters, events=events, tree=tree)
+                functions=functions, fold_parameters=fold_parameters, events=events, tree=tree,
+                poses=poses)
     layout, sym, fns = low.layout, low.symbolic, low.functions
     recursive = low.formulation == "recursive"
     nq, nu, nx, nw = formed.nq, formed.nu, len(layout.x), sym.nw   # x = [q; u; z]
@@ -255,7 +265,9 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
     rendered, op_counts = [], {}
     for fn in fns:
         prog = low.programs[fn]
-        lines, parts = split_body(_body(fn, ctx, prog, sym, layout, nx, fns, recursive),
+        body = (plain_body(ctx, prog, "pose", (low.poses["size"],), "out") if fn == "poses" else
+                _body(fn, ctx, prog, sym, layout, nx, fns, recursive))
+        lines, parts = split_body(body,
                                   f"{name}_{fn}_part")
         ctx.split = ctx.split or bool(parts)
         rendered.append({"prototype": prototype(name, fn), "body": void_unused(fn, lines),
@@ -263,6 +275,10 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
         op_counts[fn] = _ops(fn, prog, solver, nx, len(layout.r), sym.seeds, low.helper, nu,
                              sum(1 for i, j in sym.pattern if i < nu and j < nu), sym.solve_in,
                              recursive, sym.W, nq)
+    if "poses" in fns:   # the number of doubles NAME_poses writes (the loader checks NAME.json by it)
+        from .poses import pose_metadata
+        rendered.append({"prototype": f"int {name}_pose_count(void)",
+                         "body": f"    return {low.poses['size']};", "parts": []})
     if "linearize" in op_counts:
         op_counts["linearize"] = {k: sum(op_counts[f][k] for f in ("jac_x", "jac_r") if f in op_counts)
                                   for k in ("adds", "muls", "divs", "calls")}
@@ -272,6 +288,8 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
         meta["events"] = [by_name.get(n, {"name": n, "terminal": 0, "direction": 0})
                           for n in sym.event_names]
     meta["formulation"] = low.formulation
+    if low.poses is not None:
+        meta["poses"] = pose_metadata(low.poses)
     return _render(name, meta, fns, rendered, solver, layout, sym, helper, ctx.split)
 
 
@@ -309,7 +327,19 @@ def _vector_docs(meta):
         ("r", f"inputs (ninput = {meta['ninput']})", entries(meta["input_names"])),
         ("outputs", f"out[] of {meta['name']}_outputs (noutput = {meta['noutput']})",
          entries(meta["output_names"])),
-    ]
+    ] + _pose_docs(meta)
+
+
+def _pose_docs(meta):
+    """Where each body and point is in out[] of NAME_poses (NAME_pose_count() doubles)."""
+    poses = meta.get("poses")
+    if not poses:
+        return []
+    nf = len(poses["frames"])
+    rows = [f"[{12 * i}] {n}: origin x, y, z, then R row by row" for i, n in enumerate(poses["frames"])]
+    rows += [f"[{12 * nf + 3 * j}] {n}: x, y, z" for j, n in enumerate(poses["points"])]
+    return [("poses", f"out[] of {meta['name']}_poses ({poses['size']} doubles, world frame; R's "
+                      f"columns are the body's axes)", rows)]
 
 
 def _render(name, meta, fns, rendered, solver, layout, sym, helper, split=False):
@@ -322,7 +352,8 @@ def _render(name, meta, fns, rendered, solver, layout, sym, helper, split=False)
     common = {k: meta[k] for k in ("nq", "nu", "nx", "nparam", "ninput", "noutput", "nhol",
                                    "nvel", "work_size", "eomc_version")}
     header = env.get_template("model.h.j2").render(
-        name=name, prototypes=[prototype(name, f) for f in fns], vectors=_vector_docs(meta), **common)
+        name=name, prototypes=[prototype(name, f) for f in fns]
+        + ([f"int {name}_pose_count(void)"] if "poses" in fns else []), vectors=_vector_docs(meta), **common)
     source = env.get_template("model.c.j2").render(
         name=name, functions=rendered,
         helper_code="\n".join(c for c in ((solver.code if uses_solver else ""), helper) if c),

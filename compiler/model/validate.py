@@ -315,7 +315,7 @@ def check_name(name):
 
 
 FUNCTIONS = ("rhs", "jac_x", "jac_r", "mass_matrix", "forcing", "inverse_dynamics", "outputs",
-             "constraints", "constraints_jac", "linearize", "events")
+             "constraints", "constraints_jac", "linearize", "events", "poses")
 ALIASES = {"jacobian": ("jac_x",), "input_jacobian": ("jac_r",), "constraints_jacobian": ("constraints_jac",)}
 
 

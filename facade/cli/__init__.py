@@ -1,7 +1,7 @@
 """The ``eomc`` command: one dispatcher and one module per subcommand.
 
 - compiler commands (import SymPy): ``show``, ``build``, ``inspect``
-- runtime commands (never import SymPy on a built model): ``simulate``, ``report``, ``check``,
+- runtime commands (never import SymPy on a built model): ``simulate``, ``report``, ``check``, ``animate``,
   sharing ``common.py`` (which model, from which state); ``cache``
 
 Each subcommand module exposes ``configure(parser)`` and ``run(args) -> int``.
@@ -29,6 +29,7 @@ SUBCOMMANDS = {
     "linearize": ("eomc.cli.linearize", "A, B and eigenvalues at an operating point (--reduced)"),
     "cache": ("eomc.cli.cache", "show, prune or clear the build cache"),
     "sweep": ("eomc.cli.sweep", "simulate every case of a CSV on local processes or a Dask cluster"),
+    "animate": ("eomc.cli.animate", "a self-contained HTML page (3-D) or GIF/MP4 (2-D) of the motion"),
 }
 
 
