@@ -18,6 +18,7 @@ from eomc.runtime.progress import ticker
 from .build import build, cache_root
 from .build.cache import BadEntry
 from .build.gencache import cached_generate
+from .emit.poses import pose_digest
 from .build.export import export
 from .model import model_spec
 from .model.validate import Invalid, check_functions
@@ -71,6 +72,31 @@ class Progress:
                 print(line, file=self.stream, flush=True)
 
 
+def _with_poses(spec, functions):
+    """``spec`` with the PoseSource of its system (compiler/emit/poses.py) when poses is
+    generated (the default set, or asked for); a bad `geometry` dict is reported at its line."""
+    import dataclasses
+    from .emit.poses import pose_source
+    if functions is not None and "poses" not in functions:
+        return spec
+    try:
+        poses = pose_source(spec.system, spec.geometry)
+    except (ModelError, ValueError) as exc:
+        if spec.path is not None and spec.path.suffix == ".py":
+            from eomc.runtime.errors import ModelFileError
+            from .model.modelfile import assignment_lines
+            line = assignment_lines(spec.path.read_text()).get("geometry")
+            raise ModelFileError(str(exc), str(spec.path), line) from None
+        raise ModelError(str(exc)) from None
+    except Exception as exc:   # poses are extra: a system they cannot read still builds, without them
+        import warnings
+        from eomc.runtime.errors import EomcWarning
+        warnings.warn(f"{spec.name}: built without poses (the animation's body positions): reading the "
+                      f"bodies failed with {type(exc).__name__}: {exc}", EomcWarning, stacklevel=3)
+        poses = None
+    return dataclasses.replace(spec, poses=poses)
+
+
 def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, functions=None,
              fold_parameters=False, progress=None, cache_dir=None, use_cache=True, events=None,
              formulation="kane", states=None):
@@ -94,13 +120,15 @@ def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, f
     with progress.stage("derive"):
         spec = model_spec(system, name, parameters=parameters, inputs=inputs, outputs=outputs,
                           events=events, formulation=formulation, states=states)
+        spec = _with_poses(spec, functions)
     def run_generator():
         return generate_formulation(spec, functions, fold_parameters, formulation)
     with progress.stage("generate"), reporting(progress.pass_done):
         if use_cache:
             generated, _ = cached_generate(spec, functions, fold_parameters, run_generator,
                                            cache_root(cache_dir),
-                                           extra=[formulation, tree_digest(spec)])
+                                           extra=[formulation, tree_digest(spec)]
+                                           + ([] if spec.poses is None else pose_digest(spec.poses)))
         else:
             generated = run_generator()
     return spec, generated

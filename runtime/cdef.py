@@ -45,6 +45,7 @@ _SIGNATURES = {
     "jvp": "int {n}_jvp(double t, const double *x, const double *p, const double *r, int k, const double *dirs, double *xdot, double *out, double *work);",
     "linearize": "int {n}_linearize(double t, const double *x, const double *p, const double *r, double *A, double *B, double *work);",
     "events": "int {n}_events(double t, const double *x, const double *p, const double *r, double *out, double *work);",
+    "poses": "int {n}_poses(double t, const double *x, const double *p, const double *r, double *out, double *work);",
 }
 
 
@@ -56,4 +57,6 @@ def model_function_cdef(name, functions):
     """
     lines = [f"const eomc_model *{name}_model(void);"]
     lines += [_SIGNATURES[f].format(n=name) for f in functions if f in _SIGNATURES]
+    if "poses" in functions:
+        lines.append(f"int {name}_pose_count(void);")
     return "\n".join(lines) + "\n"

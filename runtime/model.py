@@ -507,4 +507,25 @@ class Model:
         """Integrate from x0 over t_span; see eomc.runtime.simulate.simulate."""
         from .simulate import check_keywords, simulate
         check_keywords(kw, simulate, skip=3)
-        return simulate(self, x0, t_span, **kw)
+        result = simulate(self, x0, t_span, **kw)
+        # res.poses() / res.animate() evaluate the model again, with the run's parameters
+        result.model, result.p = self, kw.get("p")
+        if not callable(kw.get("r")) and not isinstance(kw.get("r"), tuple):
+            result.r = kw.get("r")
+        return result
+
+    def poses(self, t, x, p=None, r=None):
+        """Where the bodies are (eomc.runtime.poses.Poses): each body frame's origin and rotation
+        matrix and each named point's position in the world, computed by the generated C
+        ``NAME_poses``.  ``x``: one state (nx,) with scalar ``t``, or rows (n, nx) with t (n,)."""
+        from .poses import evaluate_poses
+        return evaluate_poses(self, t, x, p, r)
+
+    def animate(self, res=None, path=None, **options):
+        """A self-contained HTML animation (eomc.runtime.animate) of ``res`` (a SimulationResult;
+        default: 10 s from the initial state)."""
+        from .animate import animate
+        if res is None:
+            x0 = self.initial_state if self.initial_state is not None else np.zeros(self.nx)
+            res = self.simulate(x0, (0.0, 10.0), n_points=601)
+        return animate(res, path, model=self, **options)

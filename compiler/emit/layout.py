@@ -86,20 +86,24 @@ def _name(obj):
     return str(obj).replace("(t)", "")
 
 
-def _parameter_table(formed, parameters):
-    """Ordered (symbol, default) pairs: the dict's order, then the rest sorted by name."""
+def _parameter_table(formed, parameters, uses=()):
+    """Ordered (symbol, default) pairs: the dict's order, then the rest sorted by name.
+
+    ``uses``: the symbols the outputs and events use -- a parameter used only there (a ball's
+    radius in its impact event) is a parameter like the others."""
     parameters = dict(parameters or {})
-    known = set(formed.parameters)
+    known = set(formed.parameters) | set(uses)
     unknown = [s for s in parameters if s not in known]
     if unknown:
-        raise ModelError("parameters not used by the system: " + ", ".join(map(str, unknown)))
+        raise ModelError("parameters used neither by the system nor by its outputs or events: "
+                         + ", ".join(map(str, unknown)))
     table = [(s, float(v)) for s, v in parameters.items()]
     rest = sorted((s for s in formed.parameters if s not in parameters), key=lambda s: s.name)
     table += [(s, DEFAULT_PARAMETER_VALUE) for s in rest]
     return table
 
 
-def make_layout(formed, parameters=None, inputs=None, fold_parameters=False):
+def make_layout(formed, parameters=None, inputs=None, fold_parameters=False, uses=()):
     """The slot assignment of ``formed`` (see module docstring)."""
     inputs = tuple(formed.inputs if inputs is None else inputs)
     missing = [i for i in formed.inputs if i not in inputs]
@@ -110,7 +114,7 @@ def make_layout(formed, parameters=None, inputs=None, fold_parameters=False):
     states = tuple(formed.coordinates) + tuple(formed.speeds) + tuple(getattr(formed, "extra_states", ()))
     x = tuple(sm.Symbol(f"x_{i}", real=True) for i in range(len(states)))
     r = tuple(sm.Symbol(f"r_{k}", real=True) for k in range(len(inputs)))
-    table = _parameter_table(formed, parameters)
+    table = _parameter_table(formed, parameters, uses)
     subs = {dynamicsymbols._t: t}
     subs.update(zip(states, x))
     subs.update(zip(inputs, r))

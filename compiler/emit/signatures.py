@@ -25,10 +25,13 @@ SIGNATURES = {
                    ("double *", "work")),
     "linearize": _RHS + (("double *", "A"), ("double *", "B"), ("double *", "work")),
     "events": _RHS + (("double *", "out"), ("double *", "work")),
+    # body frames' positions and rotations, named points' positions (compiler/emit/poses.py)
+    "poses": _RHS + (("double *", "out"), ("double *", "work")),
 }
 
 FUNCTION_ORDER = ("rhs", "jac_x", "jac_r", "jac_p", "mass_matrix", "forcing", "inverse_dynamics",
-                  "outputs", "constraints", "constraints_jac", "linearize", "events", "regressor", "jvp")
+                  "outputs", "constraints", "constraints_jac", "linearize", "events", "poses", "regressor",
+                  "jvp")
 
 # Generated only on request (``functions`` naming them), not by default.
 ON_REQUEST = ("jac_p", "regressor", "jvp")
@@ -51,5 +54,7 @@ def prototype(name, function):
 def cdef(name, functions):
     """cffi declarations of a model's exported functions (``eomc_model`` must be declared first)."""
     lines = [prototype(name, f) + ";" for f in FUNCTION_ORDER if f in functions]
+    if "poses" in functions:   # how many doubles NAME_poses writes: the loader checks NAME.json by it
+        lines.append(f"int {name}_pose_count(void);")
     lines.append(f"const eomc_model *{name}_model(void);")
     return "\n".join(lines) + "\n"

@@ -32,6 +32,8 @@ class ModelSpec:
     events: dict = None                 # name -> event expression, or None
     event_options: list = None          # [{"name", "terminal", "direction"}] in events' order
     path: Path = None                   # the model file, if any
+    geometry: dict = None               # the model file's `geometry` (eomc.geometry shapes), or None
+    poses: object = None                # PoseSource (compiler/emit/poses.py), set by the driver
     system: object = field(default=None, repr=False)
 
 
@@ -117,7 +119,7 @@ def _checked(values, formed, name, where, origin=""):
                                         {**(outputs or {}), **(events or {})}),
             inputs=check_inputs(values.get("inputs"), formed),
             initial_state=check_initial_state(values.get("initial_state"), formed),
-            outputs=outputs, system=values.get("system"))
+            outputs=outputs, system=values.get("system"), geometry=values.get("geometry"))
     except Invalid as exc:
         raise where(exc) from None
 
@@ -136,7 +138,7 @@ def _from_file(path, name, overrides, formulation="kane"):
         raise ModelFileError(f"forming the equations of `system` failed: {type(exc).__name__}: {exc}",
                              filename, lines.get("system")) from exc
     values = {k: namespace.get(k) for k in ("system", "parameters", "inputs", "initial_state", "outputs",
-                                            "events", "states")}
+                                            "events", "states", "geometry")}
     given = {k: v for k, v in overrides.items() if v is not None}
     if isinstance(given.get("parameters"), dict) and isinstance(values["parameters"], dict):
         # parameters= overrides some of the file's defaults; the others keep the file's values
