@@ -17,16 +17,22 @@ divided by the noise's sigma), 95 % intervals ±1.96 standard deviations.
 
 Run: ``python examples/identify_cartpole.py`` (prints the estimates, their
 intervals and both fits' cost); benchmarks/bench_identification.py times the two.
+The file is also a model file (the plant, taken from cart_pole_system.py), so
+``eomc build examples/identify_cartpole.py`` builds what is identified here.
 """
+import runpy
 import time
 from pathlib import Path
 
 import numpy as np
-from scipy.optimize import least_squares
 
 import eomc
 
 HERE = Path(__file__).resolve().parent
+# the plant: this file is a model file too (eomc.compile / eomc build / eomc simulate take it)
+_PLANT = runpy.run_path(str(HERE / "cart_pole_system.py"))
+system, inputs, parameters = _PLANT["system"], _PLANT["inputs"], _PLANT["parameters"]
+initial_state, outputs = _PLANT["initial_state"], _PLANT["outputs"]
 UNKNOWN = ("m_cart", "m_pole", "c")            # model parameters to identify (+ the sensor bias)
 TRUE = {"m_cart": 1.3, "m_pole": 0.45, "c": 0.8, "bias": 0.02}
 GUESS = {"m_cart": 1.0, "m_pole": 0.3, "c": 0.3, "bias": 0.0}
@@ -38,7 +44,8 @@ TOL = 1e-10
 def build():
     """The cart-pole with rhs, jac_x, jac_p and jvp: sensitivities integrate S' = J S + P from
     jvp's directional derivatives (jac_x alone would do, forming J at every stage)."""
-    return eomc.compile(str(HERE / "cart_pole_system.py"), functions=["rhs", "jac_x", "jac_p", "jvp", "outputs"])
+    return eomc.compile(str(HERE / "cart_pole_system.py"), functions=["rhs", "jac_x", "jac_p", "jvp", "outputs"],
+                        progress=False)
 
 
 def excitation():
@@ -97,6 +104,7 @@ class Problem:
 def fit(problem, jac="sensitivities"):
     """least_squares from GUESS with ``jac`` = "sensitivities" or scipy's finite differences
     ("2-point", "3-point"); returns (solution, covariance, CPU seconds, simulations)."""
+    from scipy.optimize import least_squares
     problem.simulations = 0
     t0 = time.process_time()
     sol = least_squares(problem.residuals, problem.theta(GUESS), method="lm", x_scale="jac",
