@@ -15,6 +15,7 @@ published here is a hit there and the other way round
   so a reader sees either nothing or a whole entry.
 """
 import contextlib
+import errno
 import hashlib
 import json
 import os
@@ -26,7 +27,7 @@ from pathlib import Path
 from eomc.runtime.errors import EomcError
 
 __all__ = ["CACHE_SCHEMA", "MANIFEST", "cache_root", "hash_key", "sha256_bytes", "sha256_file",
-           "entry_path", "write_manifest", "find", "publish"]
+           "entry_path", "write_manifest", "find", "publish", "directory_lock", "disk_error"]
 
 CACHE_SCHEMA = 1          # eomc.compiler.build.cache uses this one (and the functions below)
 MANIFEST = "manifest.json"
@@ -51,6 +52,27 @@ def cache_root(cache_dir=None):
         raise EomcError(f"cannot use the build cache at {root} ({exc.strerror or exc}); "
                         f"set EOMC_CACHE_DIR to a writable directory") from None
     return root
+
+
+def disk_error(exc, doing):
+    """One clear EomcError for a write that failed: ``cannot <doing>: <why>``.
+
+    Why: a full disk (ENOSPC, EDQUOT) raised deep inside a copy is otherwise a
+    traceback (``shutil.Error`` holds a list of per-file failures); the user needs
+    to know which place is full or not writable, and nothing more.
+    """
+    if isinstance(exc, shutil.Error) and exc.args and isinstance(exc.args[0], list):
+        why = exc.args[0][0][2] if exc.args[0] else str(exc)
+        full = "No space left" in str(why) or "quota" in str(why).lower()
+        reason = str(why)
+    else:
+        full = getattr(exc, "errno", None) in (errno.ENOSPC, getattr(errno, "EDQUOT", errno.ENOSPC))
+        reason = exc.strerror or str(exc)
+    if full:
+        return EomcError(f"cannot {doing}: the file system is full ({reason}); free some space "
+                         f"(e.g. `eomc cache prune`) or set EOMC_CACHE_DIR elsewhere")
+    where = f" ({exc.filename})" if getattr(exc, "filename", None) else ""
+    return EomcError(f"cannot {doing}: {reason}{where}")
 
 
 def hash_key(parts):
@@ -96,6 +118,25 @@ def find(root, kind, key, verify=()):
     with contextlib.suppress(OSError):  # a use: pruning drops the least recently used first
         os.utime(entry / MANIFEST)
     return entry
+
+
+@contextlib.contextmanager
+def directory_lock(directory, exclusive):
+    """A flock on ``directory`` itself: ``eomc build -o`` publishes a model's files holding it
+    exclusively, the loader reads them holding it shared, so a load never sees half of one
+    build and half of another.  Best effort where a directory cannot be opened or locked."""
+    try:
+        fd = os.open(directory, os.O_RDONLY)
+    except OSError:
+        yield
+        return
+    try:
+        if fcntl is not None:
+            with contextlib.suppress(OSError):
+                fcntl.flock(fd, fcntl.LOCK_EX if exclusive else fcntl.LOCK_SH)
+        yield
+    finally:
+        os.close(fd)  # releases the lock
 
 
 @contextlib.contextmanager
