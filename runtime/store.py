@@ -100,8 +100,11 @@ def entry_path(root, kind, key):
 def find(root, kind, key, verify=()):
     """The published entry for ``key`` when it is whole, else None.
 
-    Whole means: the manifest names this key and schema, every listed file has
-    its size, and the files named in ``verify`` (the library) have their sha256.
+    Whole means what it means to the compiler's cache: the manifest names this key
+    and schema, and every listed file has its recorded size *and* sha256 -- a
+    same-size edit (an ``initial_state`` 1.0 -> 7.0 in NAME.json) is a miss, not
+    served (reliability report r3, N10).  ``verify`` must name listed files (the
+    library): an entry whose manifest does not list them is not whole either.
     """
     entry = entry_path(root, kind, key)
     try:
@@ -109,10 +112,12 @@ def find(root, kind, key, verify=()):
         if manifest.get("key") != key or manifest.get("schema") != CACHE_SCHEMA:
             return None
         files = manifest["files"]
-        if not all((entry / name).stat().st_size == info["size"] for name, info in files.items()):
+        if any(name not in files for name in verify):
             return None
-        if not all(sha256_bytes((entry / name).read_bytes()) == files[name]["sha256"] for name in verify):
-            return None
+        for name, info in files.items():
+            path = entry / name
+            if path.stat().st_size != info["size"] or sha256_file(path) != info["sha256"]:
+                return None
     except (OSError, ValueError, KeyError, TypeError, AttributeError):
         return None
     with contextlib.suppress(OSError):  # a use: pruning drops the least recently used first
@@ -141,7 +146,11 @@ def directory_lock(directory, exclusive):
 
 @contextlib.contextmanager
 def _locked(root, key):
-    with open(root / "locks" / f"{key}.lock", "a+") as fh:
+    try:
+        fh = open(root / "locks" / f"{key}.lock", "a+")
+    except OSError as exc:
+        raise disk_error(exc, f"lock an entry of the build cache at {root}") from None
+    with fh:
         if fcntl is not None:
             fcntl.flock(fh.fileno(), fcntl.LOCK_EX)
         try:
@@ -174,12 +183,18 @@ def publish(root, kind, key, write, inputs, verify=()):
         if found is not None:
             return found, False
         entry = entry_path(root, kind, key)
-        tmp = Path(tempfile.mkdtemp(prefix=f"{key[:12]}-", dir=root / "tmp"))
         try:
-            write(tmp)
-            write_manifest(tmp, key, kind, inputs)
+            tmp = Path(tempfile.mkdtemp(prefix=f"{key}-", dir=root / "tmp"))  # reclaimable (cache.reclaim_tmp)
+        except OSError as exc:
+            raise disk_error(exc, f"write into the build cache at {root}") from None
+        try:
+            try:
+                write(tmp)
+                write_manifest(tmp, key, kind, inputs)
+            except OSError as exc:
+                raise disk_error(exc, f"write into the build cache at {root}") from None
             if entry.exists():
-                trash = Path(tempfile.mkdtemp(prefix="trash-", dir=root / "tmp"))
+                trash = Path(tempfile.mkdtemp(prefix=f"trash-{os.getpid()}-", dir=root / "tmp"))
                 with contextlib.suppress(OSError):
                     os.replace(entry, trash / "entry")
                 shutil.rmtree(trash, ignore_errors=True)

@@ -36,7 +36,7 @@ import sys
 import threading
 from pathlib import Path
 
-from eomc.runtime.errors import CompileError, CompilerNotFoundError, ModelError
+from eomc.runtime.errors import CompileError, CompilerNotFoundError, EomcError, ModelError
 
 from . import store
 
@@ -214,7 +214,12 @@ def arrive(payload, load):
         steps.append(("library", lambda: _shipped_library(payload, root)))
     steps.append(("compiled", lambda: _compile_here(payload, root)))
     for arrival, step in steps:
-        entry = step()
+        try:
+            entry = step()
+        except (TravelError, CompileError, CompilerNotFoundError):
+            raise
+        except EomcError as exc:  # e.g. a full or read-only cache: one clear line, no traceback
+            raise TravelError(f"cannot unpickle model {name!r} here: {exc}") from None
         if entry is None:
             continue
         try:
