@@ -171,3 +171,21 @@ def test_a_model_whose_cache_entry_was_removed_sweeps_in_a_process_pool(builds, 
         result = eomc.sweep(model, cases, (0.0, 0.5), map=pool, progress=False)
     here = eomc.sweep(model, cases, (0.0, 0.5), progress=False)
     np.testing.assert_array_equal(result.x, here.x)
+
+
+def test_cython_backend_never_runs_a_stale_library(builds, tmp_path):
+    """The Cython extension binds libNAME.so by its bare name, once per process: a second,
+    different build of the same name through Cython is refused with the way out, not run stale."""
+    first = build(_variant(5.0), backend="cython", cache_dir=tmp_path / "cache")
+    out, rebuilt = tmp_path / "out", tmp_path / "rebuilt"
+    export(first, out)
+    assert load(out, backend="cython").rhs(0.0, X)[0] == pytest.approx(5 * -0.25)
+    # the glue depends only on the name and the functions: a rebuild of other equations is
+    # the same extension beside another libosc.so (built here without a second Cython run)
+    shutil.copytree(first.directory, rebuilt)
+    shutil.copyfile(builds[2.0].directory / "libosc.so", rebuilt / "libosc.so")
+    with pytest.raises(LoadError, match=r"another build of a model named 'osc' through Cython.*"
+                                        r"backend='cffi'"):
+        load(rebuilt, backend="cython")
+    assert load(rebuilt, backend="cffi").rhs(0.0, X)[0] == pytest.approx(2 * -0.25)  # the new library
+    assert load(out, backend="cython").rhs(0.0, X)[0] == pytest.approx(5 * -0.25)  # the bound one
