@@ -219,7 +219,7 @@ static void on_sigint(int sig, siginfo_t *info, void *uc)
 
 int eomc_interrupt_arm(void)
 {
-    struct sigaction cur, mine;
+    struct sigaction cur, mine, old;
     if (sigaction(SIGINT, NULL, &cur) != 0) return 0;
     if ((cur.sa_flags & SA_SIGINFO) && cur.sa_sigaction == on_sigint) return 1;  /* armed already */
     if (!(cur.sa_flags & SA_SIGINFO) && (cur.sa_handler == SIG_DFL || cur.sa_handler == SIG_IGN))
@@ -231,7 +231,11 @@ int eomc_interrupt_arm(void)
     mine.sa_flags |= cur.sa_flags & SA_ONSTACK;
 #endif
     sigemptyset(&mine.sa_mask);
-    return sigaction(SIGINT, &mine, &g_prev_sigint) == 0;
+    g_prev_sigint = cur;
+    if (sigaction(SIGINT, &mine, &old) != 0) return 0;
+    if ((old.sa_flags & SA_SIGINFO) && old.sa_sigaction == on_sigint) return 1;  /* raced: keep cur */
+    g_prev_sigint = old;     /* what was really replaced (never this handler: no self-chaining) */
+    return 1;
 }
 
 void eomc_interrupt_disarm(void)

@@ -157,7 +157,8 @@ int eomc_integrate_ex(const eomc_model *m, const eomc_options *opt,
  * with EOMC_ABORTED.  It returns 1 when armed (also when it already was), 0
  * when SIGINT is ignored or default (nothing to chain) or on a platform
  * without sigaction.  eomc_interrupt_disarm() puts the replaced handler back
- * if this one is still installed.  Not thread-safe: callers serialize them.
+ * if this one is still installed.  Callers should serialize them (a race is
+ * benign: the handler never chains to itself).
  */
 int eomc_interrupt_arm(void);
 void eomc_interrupt_disarm(void);
