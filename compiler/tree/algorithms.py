@@ -213,28 +213,20 @@ def _root_acceleration(gravity):
     return [0, 0, 0] + [-g for g in gravity]
 
 
-# A pivot D_i (or an LDL pivot d_j) not above PIVOT_TOL times its scale is singular: the
-# Kane path's LDLᵀ test (64·DBL_EPSILON·max diag M, compiler/emit/linsolve.py) made local.
-# A pivot that is zero only by rounding (a ball joint in gimbal lock: its first and third
-# axes line up, and D of the first is 1e-16 of the body's inertia) is then reported as
-# EOMC_SINGULAR_MASS_MATRIX instead of dividing by it (reliability report r3, N9).
+# A pivot (a one-speed D_i, or a k-speed joint's LDL pivot d_j) not above PIVOT_TOL times the
+# sum of all pivots is singular: the Kane path's LDLᵀ test (64·DBL_EPSILON·max diag M,
+# compiler/emit/linsolve.py), with the pivots standing in for M's diagonal.  A pivot that is
+# zero only by rounding (a ball joint in gimbal lock, whose first and third axes line up:
+# its first D is ~1e-16 of the others) is then EOMC_SINGULAR_MASS_MATRIX instead of a
+# division by noise (reliability report r3, N9).
 PIVOT_TOL = sm.Float(2.0 ** -46, 17)       # 64 * DBL_EPSILON, exactly
-
-
-def _pivot_scale(I, S):
-    """The scale a one-speed D = Sᵀ Iᴬ S is measured against: the traces of Iᴬ's rotational
-    and translational blocks, weighted by |ω|² and |v|² of S = [ω; v].  They do not shrink
-    when the children's joints take away the motion along S (as D then does)."""
-    w2 = sum((S[k] ** 2 for k in range(3)), sm.S.Zero)
-    v2 = sum((S[k] ** 2 for k in range(3, 6)), sm.S.Zero)
-    return w2 * (I[0][0] + I[1][1] + I[2][2]) + v2 * (I[3][3] + I[4][4] + I[5][5])
 
 
 def aba(bodies, rec, speeds, gravity, v, c, keep=None):
     """Articulated-body algorithm: [(u'_k expression, pivot margin, body)] per joint with a speed.
 
-    The pivot margin is D_i - PIVOT_TOL·scale (for a k-speed joint: each LDL pivot d_j -
-    PIVOT_TOL·trace D): the rhs is singular unless every margin is > 0.
+    The pivot margin is D_i - PIVOT_TOL·(sum of all pivots): the rhs is singular unless every
+    margin is > 0 (see PIVOT_TOL).
 
     ``keep``: a dict that receives {body index: (U_i, 1/D_i)} (for a k-speed joint:
     (the k rows of U_i, D_i factored)), the articulated quantities that M⁻¹ needs (see :mod:`.derivatives`)."""
@@ -246,7 +238,7 @@ def aba(bodies, rec, speeds, gravity, v, c, keep=None):
         if b.fext is not None:
             p = [p[k] - b.fext[k] for k in range(6)]
         pA.append(p)
-    U, Dinv, uu, D, margin = [None] * n, [None] * n, [None] * n, [None] * n, [None] * n
+    U, Dinv, uu, D = [None] * n, [None] * n, [None] * n, [None] * n
     ldl = {}                   # k-speed joints: their factored D
     for i in reversed(range(n)):
         b = bodies[i]
@@ -262,7 +254,6 @@ def aba(bodies, rec, speeds, gravity, v, c, keep=None):
             Dinv[i] = rec.let(1 / D[i])
             if keep is not None:
                 keep[i] = (U[i], Dinv[i])
-            margin[i] = rec.let(D[i] - PIVOT_TOL * _pivot_scale(Ii, b.S))
             uu[i] = rec.let(-_dot(b.S, pi))
             Ia = [[Ii[r][s] - U[i][r] * U[i][s] * Dinv[i] for s in range(6)] for r in range(6)]
             Ia = rec.sym6(Ia)
@@ -271,7 +262,6 @@ def aba(bodies, rec, speeds, gravity, v, c, keep=None):
         elif b.multi:
             U[i], ldl[i], uu[i] = _multi_articulate(b, rec, Ii, pi)
             D[i] = ldl[i].d
-            margin[i] = [rec.let(d - PIVOT_TOL * ldl[i].scale) for d in D[i]]
             if keep is not None:
                 keep[i] = (U[i], ldl[i])
             if b.parent < 0:
@@ -292,6 +282,8 @@ def aba(bodies, rec, speeds, gravity, v, c, keep=None):
             IA[b.parent] = [[IA[b.parent][r][s] + T[r][s] for s in range(6)] for r in range(6)]
             f = xt_force(b, pa)
             pA[b.parent] = [pA[b.parent][k] + f[k] for k in range(6)]
+    pivots = [d for Di in D if Di is not None for d in (Di if isinstance(Di, list) else [Di])]
+    threshold = rec.let(PIVOT_TOL * sum(pivots, sm.S.Zero))
     a, out = [None] * n, []
     for i, b in enumerate(bodies):
         ap = a[b.parent] if b.parent >= 0 else _root_acceleration(gravity)
@@ -300,7 +292,7 @@ def aba(bodies, rec, speeds, gravity, v, c, keep=None):
             ai = rec.vec(ai)
             udd = rec.let((uu[i] - _dot(U[i], ai)) * Dinv[i])
             ai = [ai[k] + b.S[k] * udd for k in range(6)]
-            out.append((b.speed, udd, margin[i]))
+            out.append((b.speed, udd, rec.let(D[i] - threshold)))
         elif b.multi:
             ai = rec.vec(ai)
             k = len(b.multi)
@@ -309,7 +301,7 @@ def aba(bodies, rec, speeds, gravity, v, c, keep=None):
             udd = ldl[i].solve(rhs)
             for m, (s, S) in enumerate(b.multi):
                 ai = [ai[j] + S[j] * udd[m] for j in range(6)]
-                out.append((s, udd[m], margin[i][m]))
+                out.append((s, udd[m], rec.let(D[i][m] - threshold)))
         a[i] = rec.vec(ai)
     return out
 
@@ -404,7 +396,6 @@ class _LDL:
     def __init__(self, Dm, rec, b):
         k = self.k = len(Dm)
         self.rec = rec
-        self.scale = sum((Dm[j][j] for j in range(k)), sm.S.Zero)   # what the pivots compare with
         L = self.L = [[sm.S.Zero] * k for _ in range(k)]
         d, dinv = self.d, self.dinv = [None] * k, [None] * k
         for j in range(k):
