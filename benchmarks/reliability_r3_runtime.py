@@ -382,7 +382,7 @@ def n10(run):
                 ok = "full" in str(exc) and "\\n" not in str(exc)
                 result("clear error" if ok else "traceback", exc)
         ''', env=dict(run.env, FULL_CACHE=str(full / "cache")))
-        proc = run.cli(["build", "-q", "cub.py", "--name", "cold_full"], env=env)
+        proc = run.cli(["build", "-q", "cub.py", "--name", "cold_full", "-o", "cold_out"], env=env)
         outcome, detail = cli_outcome(proc, "full")
         run.record("N10 cold `eomc build` with a full cache", outcome, detail)
         os.remove(full / "filler")

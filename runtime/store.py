@@ -54,7 +54,7 @@ def cache_root(cache_dir=None):
     return root
 
 
-def disk_error(exc, doing):
+def disk_error(exc, doing, hint="free some space (e.g. `eomc cache prune`) or set EOMC_CACHE_DIR elsewhere"):
     """One clear EomcError for a write that failed: ``cannot <doing>: <why>``.
 
     Why: a full disk (ENOSPC, EDQUOT) raised deep inside a copy is otherwise a
@@ -69,8 +69,7 @@ def disk_error(exc, doing):
         full = getattr(exc, "errno", None) in (errno.ENOSPC, getattr(errno, "EDQUOT", errno.ENOSPC))
         reason = exc.strerror or str(exc)
     if full:
-        return EomcError(f"cannot {doing}: the file system is full ({reason}); free some space "
-                         f"(e.g. `eomc cache prune`) or set EOMC_CACHE_DIR elsewhere")
+        return EomcError(f"cannot {doing}: the file system is full ({reason}); {hint}")
     where = f" ({exc.filename})" if getattr(exc, "filename", None) else ""
     return EomcError(f"cannot {doing}: {reason}{where}")
 

@@ -189,7 +189,8 @@ def export(built, output_dir, source=None):
             for fname in [*written, listing]:
                 os.replace(tmp / fname, output_dir / fname)
     except OSError as exc:
-        raise disk_error(exc, f"write the model into {output_dir}") from None
+        raise disk_error(exc, f"write the model into {output_dir}",
+                         hint="free some space there or build into another directory (-o)") from None
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     return output_dir.resolve()
