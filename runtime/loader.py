@@ -123,7 +123,7 @@ class _Snapshot:
                             f"rebuild the model") from None
         self.data = _parse_json(json_path, raw.decode("utf-8", "replace"))
         self.name = self.data["name"]
-        self.texts = {json_path.name: raw}
+        self.texts = {f"{self.name}.json": raw}
         build = self.data.get("build") or {}
         self.library = self._binary(self.directory / build.get("library", f"lib{self.name}.so"))
         for fname in (f"{self.name}.c", f"{self.name}.h", *RUNTIME_FILES):
