@@ -417,7 +417,7 @@ def main():
     counts = Counter(line.split(" | ")[1] for line in run.rows)
     head = [f"# Reliability report r3: rerun of N1, N4, N5, N6, N9, N10 ({time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())})",
             "", f"eomc {eomc.__version__}, Python {platform.python_version()}, {platform.platform()}; "
-            f"load average before/after: {os.getloadavg()[0]:.2f}; {took:.0f} s; N4 rounds: {args.rounds}.",
+            f"load average (1 min) at the end: {os.getloadavg()[0]:.2f}; {took:.0f} s; N4 rounds: {args.rounds}.",
             "", "Totals: " + ", ".join(f"{k} {v}" for k, v in sorted(counts.items())), "",
             "```", "case | outcome | detail"]
     Path(args.out).write_text("\n".join(head + run.rows + ["```", ""]))
