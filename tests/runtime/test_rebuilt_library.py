@@ -43,10 +43,11 @@ SPRING = textwrap.dedent('''\
     ''')
 
 
-def _variant(factor):
+def _variant(factor, name="osc"):
     """The oscillator whose q' is ``factor * u``: same name, sizes, names and defaults."""
-    text = osc_model.SOURCE.format(n="osc", N="OSC").replace("xdot[0] = x[1];", f"xdot[0] = {factor} * x[1];")
-    return osc_model.oscillator(c_source=text)
+    text = osc_model.SOURCE.format(n=name, N=name.upper()).replace("xdot[0] = x[1];",
+                                                                   f"xdot[0] = {factor} * x[1];")
+    return osc_model.oscillator(name, c_source=text)
 
 
 @pytest.fixture(scope="module")
@@ -173,18 +174,21 @@ def test_a_model_whose_cache_entry_was_removed_sweeps_in_a_process_pool(builds, 
     np.testing.assert_array_equal(result.x, here.x)
 
 
-def test_cython_backend_never_runs_a_stale_library(builds, tmp_path):
+def test_cython_backend_never_runs_a_stale_library(tmp_path):
     """The Cython extension binds libNAME.so by its bare name, once per process: a second,
-    different build of the same name through Cython is refused with the way out, not run stale."""
-    first = build(_variant(5.0), backend="cython", cache_dir=tmp_path / "cache")
+    different build of the same name through Cython is refused with the way out, not run stale.
+    (A name of its own: the binding is per process, and other tests load "osc" through Cython.)"""
+    name = "osc_stale_cy"
+    first = build(_variant(5.0, name), backend="cython", cache_dir=tmp_path / "cache")
+    other = build(_variant(2.0, name), cache_dir=tmp_path / "cache")
     out, rebuilt = tmp_path / "out", tmp_path / "rebuilt"
     export(first, out)
     assert load(out, backend="cython").rhs(0.0, X)[0] == pytest.approx(5 * -0.25)
     # the glue depends only on the name and the functions: a rebuild of other equations is
-    # the same extension beside another libosc.so (built here without a second Cython run)
+    # the same extension beside another library (made here without a second Cython run)
     shutil.copytree(first.directory, rebuilt)
-    shutil.copyfile(builds[2.0].directory / "libosc.so", rebuilt / "libosc.so")
-    with pytest.raises(LoadError, match=r"another build of a model named 'osc' through Cython.*"
+    shutil.copyfile(other.directory / f"lib{name}.so", rebuilt / f"lib{name}.so")
+    with pytest.raises(LoadError, match=rf"another build of a model named '{name}' through Cython.*"
                                         r"backend='cffi'"):
         load(rebuilt, backend="cython")
     assert load(rebuilt, backend="cffi").rhs(0.0, X)[0] == pytest.approx(2 * -0.25)  # the new library
