@@ -16,8 +16,10 @@ __all__ = ["tree_rhs_body", "tree_matrix_body", "tree_jacobian_body", "tree_jaco
 
 
 def tree_rhs_body(ctx, program):
-    """q' and u' straight from the ABA trace; a non-positive articulated inertia D
-    (a body with nothing to resist turning about its axis) is EOMC_SINGULAR_MASS_MATRIX."""
+    """q' and u' straight from the ABA trace; an articulated inertia D not above 64·DBL_EPSILON
+    times the sum of all of them (a body with nothing to resist turning about its axis, or a
+    ball joint in gimbal lock) is EOMC_SINGULAR_MASS_MATRIX.  The "Dpiv" results are those
+    margins (D - tol·sum, see algorithms.PIVOT_TOL), so the test is "every margin > 0"."""
     pr = ctx.printer(program)
     lines = _temps(program, pr)
     pivots = [pr.doprint(e) for k, e in program.results if k[0] == "Dpiv"]

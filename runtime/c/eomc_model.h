@@ -38,7 +38,9 @@ typedef enum eomc_status {
     EOMC_STEP_TOO_SMALL = 5,
     EOMC_MAX_STEPS = 6,
     EOMC_STIFF = 7,                  /* explicit method detected stiffness */
-    EOMC_NOT_AVAILABLE = 8           /* function not generated for this model */
+    EOMC_NOT_AVAILABLE = 8,          /* function not generated for this model */
+    EOMC_ABORTED = 9                 /* a caller's input callback failed, or the run was
+                                        interrupted (Ctrl-C): stop now, never retry */
 } eomc_status;
 
 /* xdot = f(t, x, p, r) */
