@@ -173,6 +173,11 @@ def run(model, a, xs, ps, stat_fields, jvp=None):
     opt.h0, opt.hmax, opt.max_steps = a["h0"], a["hmax"], a["max_steps"]
     opt.project, opt.stiff_check = 0, int(a["stiff_check"])
     opt.baumgarte, opt.pi_beta = 0.0, a["pi_beta"]
+    arm = getattr(model.integrators, "eomc_interrupt_arm", None)
+    if arm is not None:              # Ctrl-C stops the run within one evaluation (runtime/native.py)
+        from .native import _ARM_LOCK
+        with _ARM_LOCK:
+            arm()
     lib.eomc_sens_integrate(s, opt, a["t0"], a["t1"], buf(X0), a["n_r"], buf(a["r_t"]), buf(a["r_v"]),
                             n_eval, buf(a["t_eval"]), buf(X_out), buf(X_last), stats, buf(work),
                             work.size)
