@@ -52,6 +52,7 @@ class UrdfRobot:
     path: Path
     links: dict                       # name -> UrdfLink, in file order
     joints: list                      # UrdfJoint, in file order
+    line: int = None                  # the <robot> element's line
 
 
 def _fail(path, line, message):
@@ -73,6 +74,8 @@ def _strict_xml(path):
     root = tree.getroot()
     if root.tag != "robot":
         _fail(path, root.sourceline, f"the top element is <{root.tag}>, not <robot>: not a URDF file")
+    if not (root.get("name") or "").strip():
+        _fail(path, root.sourceline, "<robot> has no name attribute (URDF requires <robot name=\"...\">)")
     return root
 
 
@@ -103,6 +106,7 @@ def _check_structure(path, root):
                 _fail(path, sub.sourceline, f"joint '{name}' names {tag} link '{sub.get('link')}', "
                                             f"which the file does not define")
     _check_numbers(path, root)
+    _check_loose_numbers(path, root)
     return lines
 
 
@@ -121,13 +125,35 @@ def _check_numbers(path, root):
             except ValueError:
                 values = None
             if values is None or len(values) != count or not np.all(np.isfinite(values)):
-                owner = element.getparent()
-                while owner is not None and owner.tag not in ("link", "joint"):
-                    owner = owner.getparent()
-                who = f" in {owner.tag} '{owner.get('name')}'" if owner is not None else ""
+                who = _owner(element)
                 _fail(path, element.sourceline,
                       f"<{element.tag} {attribute}=\"{text}\">{who}: expected {count} finite "
                       f"number{'s' if count > 1 else ''}")
+
+
+def _owner(element):
+    owner = element.getparent()
+    while owner is not None and owner.tag not in ("link", "joint"):
+        owner = owner.getparent()
+    return f" in {owner.tag} '{owner.get('name')}'" if owner is not None else ""
+
+
+def _check_loose_numbers(path, root):
+    """Attributes eomc does not model (limits, dynamics, ...) but yourdfpy converts to float:
+    any number is accepted (NaN and inf too: they are not used), text is an error with a line."""
+    wanted = {"limit": ("lower", "upper", "effort", "velocity"), "dynamics": ("damping", "friction"),
+              "safety_controller": ("soft_lower_limit", "soft_upper_limit", "k_position", "k_velocity"),
+              "calibration": ("rising", "falling")}
+    for element in root.iter(*wanted):
+        for attribute in wanted[element.tag]:
+            text = element.get(attribute)
+            if text is None:
+                continue
+            try:
+                float(text)
+            except ValueError:
+                _fail(path, element.sourceline, f"<{element.tag} {attribute}=\"{text}\">"
+                                                f"{_owner(element)}: expected a number")
 
 
 def _parse(path):
@@ -161,9 +187,12 @@ def _link(link, line):
 
 def _joint(path, joint, line):
     axis = np.asarray(joint.axis if joint.axis is not None else (1.0, 0.0, 0.0), dtype=float)
-    norm = np.linalg.norm(axis)
-    if joint.type in ("revolute", "continuous", "prismatic", "planar") and norm == 0:
+    biggest = float(np.max(np.abs(axis)))
+    if joint.type in ("revolute", "continuous", "prismatic", "planar") and biggest < 1e-300:
         _fail(path, line, f"joint '{joint.name}' has a zero <axis>")
+    if biggest >= 1e-300:     # scaled first: the norm of 1e200-sized entries would overflow
+        axis = axis / biggest
+    norm = np.linalg.norm(axis)
     origin = np.eye(4) if joint.origin is None else np.asarray(joint.origin, dtype=float)
     mimic = None
     if joint.mimic is not None:
@@ -184,4 +213,4 @@ def read_urdf(path):
     robot = _parse(path).robot
     links = {link.name: _link(link, lines.get(("link", link.name))) for link in robot.links}
     joints = [_joint(path, j, lines.get(("joint", j.name))) for j in robot.joints]
-    return UrdfRobot(robot.name or path.stem, path, links, joints)
+    return UrdfRobot(robot.name or path.stem, path, links, joints, root.sourceline)
