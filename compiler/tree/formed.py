@@ -55,9 +55,10 @@ def formed_of_tree(tree):
     kept on it for the generator -- without any SymPy mechanics object."""
     q, u = tuple(tree.coordinates), tuple(tree.speeds)
     t = me.dynamicsymbols._t
+    states = set(q) | set(u)          # a set: membership in a tuple costs O(n) SymPy comparisons
     inputs, params = set(), set()
     for e in tree_exprs(tree):
-        inputs |= {a for a in e.atoms(AppliedUndef) if a not in q and a not in u}
+        inputs |= {a for a in e.atoms(AppliedUndef) if a not in states}
         params |= {s for s in e.free_symbols if s != t}
     nu = len(u)
     formed = FormedSystem(method="tree", coordinates=q, speeds=u, n_dependent_coordinates=0,

@@ -94,6 +94,9 @@ def _check_structure(path, root):
     for element in root.findall("joint"):
         name = element.get("name")
         kind = element.get("type")
+        mimic = element.find("mimic")
+        if mimic is not None and not mimic.get("joint"):
+            _fail(path, mimic.sourceline, f"joint '{name}': <mimic> has no joint attribute")
         if kind not in JOINT_TYPES:
             what = f"unknown type '{kind}'" if kind else "no type attribute"
             _fail(path, element.sourceline, f"joint '{name}' has {what}; URDF joint types are "
@@ -203,14 +206,88 @@ def _joint(path, joint, line):
                      axis / norm if norm else axis, mimic)
 
 
-def read_urdf(path):
-    """The robot in ``path`` as a :class:`UrdfRobot` (raises ModelFileError with file:line)."""
+def read_urdf(path, parser="lxml"):
+    """The robot in ``path`` as a :class:`UrdfRobot` (raises ModelFileError with file:line).
+
+    ``parser``: "lxml" reads the checked elements directly (the default: importing yourdfpy
+    pulls trimesh and scipy, over a second of every cold build); "yourdfpy" goes through
+    yourdfpy's model, which the tests use as the reference for the direct reading."""
     path = Path(path)
     if not path.is_file():
         _fail(path, None, "no such URDF file")
     root = _strict_xml(path)
     lines = _check_structure(path, root)
+    if parser == "lxml":
+        links = {e.get("name"): _link_element(e) for e in root.findall("link")}
+        joints = [_joint(path, _JointElement(e), e.sourceline) for e in root.findall("joint")]
+        return UrdfRobot(root.get("name"), path, links, joints, root.sourceline)
     robot = _parse(path).robot
     links = {link.name: _link(link, lines.get(("link", link.name))) for link in robot.links}
     joints = [_joint(path, j, lines.get(("joint", j.name))) for j in robot.joints]
     return UrdfRobot(robot.name or path.stem, path, links, joints, root.sourceline)
+
+
+def _numbers(element, attribute, default):
+    text = element.get(attribute) if element is not None else None
+    return np.array([float(v) for v in text.split()]) if text is not None else np.array(default, dtype=float)
+
+
+def _origin(element):
+    """4x4 of an <origin xyz rpy> (URDF: R = Rz(yaw) Ry(pitch) Rx(roll)); identity if absent."""
+    transform = np.eye(4)
+    if element is None:
+        return transform
+    r, p, y = _numbers(element, "rpy", (0.0, 0.0, 0.0))
+    cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
+    transform[:3, :3] = [[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+                         [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+                         [-sp, cp * sr, cp * cr]]
+    transform[:3, 3] = _numbers(element, "xyz", (0.0, 0.0, 0.0))
+    return transform
+
+
+def _link_element(element):
+    meshes = [m.get("filename") for tag in ("visual", "collision") for g in element.findall(tag)
+              for m in g.findall("geometry/mesh")]
+    inertial = element.find("inertial")
+    if inertial is None:
+        return UrdfLink(element.get("name"), element.sourceline, 0.0, np.zeros(3), np.zeros((3, 3)),
+                        False, meshes)
+    origin = _origin(inertial.find("origin"))
+    rotation = origin[:3, :3]
+    mass_element = inertial.find("mass")
+    mass = float(_numbers(mass_element, "value", (0.0,))[0]) if mass_element is not None else 0.0
+    box = inertial.find("inertia")
+    if box is None:
+        tensor = np.eye(3)
+    else:
+        v = {k: float(box.get(k, 0.0)) for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")}
+        tensor = np.array([[v["ixx"], v["ixy"], v["ixz"]], [v["ixy"], v["iyy"], v["iyz"]],
+                           [v["ixz"], v["iyz"], v["izz"]]])
+    return UrdfLink(element.get("name"), element.sourceline, mass, origin[:3, 3].copy(),
+                    rotation @ tensor @ rotation.T, True, meshes)
+
+
+class _JointElement:
+    """A <joint> element with the attributes :func:`_joint` reads (as yourdfpy's Joint)."""
+
+    def __init__(self, element):
+        self.name, self.type = element.get("name"), element.get("type")
+        self.parent = element.find("parent").get("link")
+        self.child = element.find("child").get("link")
+        axis = element.find("axis")
+        self.axis = _numbers(axis, "xyz", (1.0, 0.0, 0.0)) if axis is not None else None
+        self.origin = _origin(element.find("origin"))
+        mimic = element.find("mimic")
+        self.mimic = None
+        if mimic is not None:
+            self.mimic = _Mimic(mimic.get("joint"),
+                                float(mimic.get("multiplier")) if mimic.get("multiplier") else None,
+                                float(mimic.get("offset")) if mimic.get("offset") else None)
+
+
+@dataclass
+class _Mimic:
+    joint: str
+    multiplier: float
+    offset: float

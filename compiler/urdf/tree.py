@@ -162,8 +162,8 @@ def _moments(tensor):
     """(principal moments, their rotation, scale): scale the largest |moment| (0: none).
 
     Raises FloatingPointError when the tensor is too large for double precision."""
-    sym = 0.5 * (tensor + tensor.T)
     with np.errstate(all="raise"):
+        sym = 0.5 * (tensor + tensor.T)
         eig, vec = np.linalg.eigh(sym)
     if not np.all(np.isfinite(eig)):
         raise FloatingPointError
