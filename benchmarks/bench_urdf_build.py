@@ -39,7 +39,7 @@ FLOATING = ("a1", "alex", "alexander", "anymal", "b1", "bolt", "borinot", "go1",
             "solo", "talos_full", "talos_reduced", "g1", "human", "centauro", "tiago")
 
 CHILD = r"""
-import resource, runpy, sys, warnings
+import runpy, sys, warnings
 warnings.simplefilter("ignore")
 sys.argv = ["eomc"] + sys.argv[1:]
 try:
@@ -48,7 +48,9 @@ except SystemExit as exc:
     code = exc.code or 0
 else:
     code = 0
-print("RSS_KB", resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, file=sys.stderr)
+# VmHWM, not ru_maxrss: Linux keeps ru_maxrss across exec, so it would report the parent's
+hwm = [l.split()[1] for l in open("/proc/self/status") if l.startswith("VmHWM:")]
+print("RSS_KB", hwm[0] if hwm else 0, file=sys.stderr)
 sys.exit(code)
 """
 
@@ -107,11 +109,11 @@ def pinocchio_errors(path, fb, tree, cache):
     from helpers.robots import PinRef, relative_error
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        model = eomc.compile(path, functions=["rhs", "inverse_dynamics", "mass_matrix"],
-                             formulation="recursive", cache_dir=cache, progress=False) if not fb else \
-            eomc.compile(__import__("eomc.compiler.urdf.model", fromlist=["UrdfModel"]).UrdfModel(
-                path, floating_base=True), path.stem, functions=["rhs", "inverse_dynamics", "mass_matrix"],
-                formulation="recursive", cache_dir=cache, progress=False)
+        from eomc.compiler.model.validate import sanitize_name
+        from eomc.compiler.urdf.model import UrdfModel
+        model = eomc.compile(UrdfModel(path, floating_base=fb), sanitize_name(path.stem),
+                             functions=["rhs", "inverse_dynamics", "mass_matrix"],
+                             formulation="recursive", cache_dir=cache, progress=False)
     ref = PinRef(path, [(j.name, j.type) for j in tree.joints], floating=fb, locked=tree.locked)
     rng = np.random.default_rng(19)
     worst = [0.0, 0.0, 0.0]
@@ -184,7 +186,7 @@ def main():
             e = pinocchio_errors(path, fb, tree, work / "cache")
             errs = " / ".join(f"{x:.1e}" for x in e)
         except Exception as exc:
-            e, errs = None, f"check failed: {type(exc).__name__}: {str(exc)[:80]}"
+            e, errs = None, f"check failed: {type(exc).__name__}: {str(exc).replace(str(root) + '/', '')[-160:]}"
         rows.append([rel + (" (fb)" if fb else ""), dof, f"{t_tree:.3f}", f"{cpu:.2f}", f"{rss:.0f}",
                      f"{pin_load * 1e3:.1f}", errs, note])
         csv.append([rel, fb, dof, t_tree, cpu, wall, rss, pin_load] + (list(e) if e else [None] * 3))
