@@ -303,19 +303,26 @@ def build_tree(robot, floating_base=False):
         joints.append(joint)
         owner[link_name] = joint
 
-    # an explicit stack of (link, body it is welded into (None: ground), link frame in body)
+    # an explicit stack of work items, popped in the order the recursive walk visited them
+    # (depth first, joints in file order): ("visit", link, body it is welded into (None:
+    # ground), link frame in that body) or ("start", TreeJoint): a moving joint's new body
     stack = []
     if floating_base:
         if not carries[root]:
             _fail(robot, robot.links[root].line, f"--floating-base: the robot has no mass at all "
                                                  f"(root link '{root}' and everything on it)")
-        start(root, TreeJoint(f"{root}_floating", robot.links[root].line, "floating", None, root,
-                              np.eye(3), np.zeros(3), np.array([1.0, 0.0, 0.0])))
-        stack.append((root, root, np.eye(4)))
+        stack.append(("start", TreeJoint(f"{root}_floating", robot.links[root].line, "floating", None,
+                                         root, np.eye(3), np.zeros(3), np.array([1.0, 0.0, 0.0]))))
     else:
-        stack.append((root, None, np.eye(4)))
+        stack.append(("visit", root, None, np.eye(4)))
     while stack:
-        link_name, body_name, transform = stack.pop()
+        item = stack.pop()
+        if item[0] == "start":
+            joint = item[1]
+            start(joint.child, joint)
+            stack.append(("visit", joint.child, joint.child, np.eye(4)))
+            continue
+        _, link_name, body_name, transform = item
         link = robot.links[link_name]
         if body_name is None:
             ground.append(link_name)
@@ -332,13 +339,12 @@ def build_tree(robot, floating_base=False):
             if joint.type in MOVING and not carries[joint.child]:
                 _lock(robot, joint, children, body_name if body_name else link_name, locked, notes)
             if joint.type == "fixed" or not carries[joint.child]:
-                pending.append((joint.child, body_name, origin))
+                pending.append(("visit", joint.child, body_name, origin))
                 continue
-            start(joint.child, TreeJoint(joint.name, joint.line, joint.type, body_name, joint.child,
-                                         origin[:3, :3].copy(), origin[:3, 3].copy(), joint.axis,
-                                         joint.mimic))
-            pending.append((joint.child, joint.child, np.eye(4)))
-        stack.extend(reversed(pending))      # file order, depth first (as the recursion was)
+            pending.append(("start", TreeJoint(joint.name, joint.line, joint.type, body_name, joint.child,
+                                               origin[:3, :3].copy(), origin[:3, 3].copy(), joint.axis,
+                                               joint.mimic)))
+        stack.extend(reversed(pending))      # the first joint's subtree first, as recursion did
     if not joints:
         _fail(robot, robot.line, f"robot '{robot.name}' has no moving joint (only fixed joints"
                                  f"{' and massless links' if locked else ''}): a model without states; "
