@@ -209,3 +209,27 @@ def test_mimic_multiplier_zero_is_refused_naming_the_joint(tmp_path):
         from_urdf(path, mimic=True)
     assert info.value.lineno == 7
     assert len(from_urdf(path).q) == 2             # ignored without mimic=True, as in Pinocchio
+
+
+def test_joint_order_is_depth_first_in_file_order(tmp_path):
+    """The walk without recursion keeps the recursive walk's order (the state order of
+    every earlier build): a branch's whole subtree before the next sibling."""
+    text = _robot(("a", "revolute", "b", "c", '<axis xyz="0 0 1"/>'),
+                  ("s", "revolute", "b", "e", '<axis xyz="0 1 0"/>'),
+                  ("a1", "revolute", "c", "d", '<axis xyz="1 0 0"/>'), links=("b", "c", "d", "e"))
+    tree = build_tree(read_urdf(_write(tmp_path, text)))
+    assert [j.name for j in tree.joints] == ["a", "a1", "s"]
+
+
+def test_mimic_true_falls_back_to_the_system_with_the_reason(tmp_path):
+    """mimic=True makes a constraint, which the tree cannot carry: the System path, said."""
+    from eomc.compiler.urdf.model import UrdfModel
+    from eomc.runtime.errors import EomcWarning
+    text = ARM.replace('<axis xyz="0 1 0"/>\n  </joint>\n</robot>',
+                       '<axis xyz="0 1 0"/>\n    <mimic joint="shoulder" multiplier="2"/>\n  </joint>\n</robot>')
+    path = _write(tmp_path, text, "arm.urdf")
+    with pytest.warns(EomcWarning, match="mimic joints \\(elbow\\) are constraints"):
+        spec, _ = generate(UrdfModel(path, mimic=True), "arm", functions=["rhs"], formulation="auto",
+                           use_cache=False)
+    assert spec.formed.method == "kane" and len(spec.formed.speeds) == 2
+    assert spec.formed.n_dependent_speeds == 1
