@@ -144,75 +144,117 @@ def chain_text(n):
     return '<?xml version="1.0"?>\n<robot name="chain">\n' + "\n".join(links + joints) + "\n</robot>\n"
 
 
-def main():
-    import argparse
+def robot_row(path, root, work):
+    """(table row, csv row or None) of one URDF file."""
     import pinocchio as pin
+    rel = str(path.relative_to(root))
+    try:
+        pin.buildModelFromUrdf(str(path))
+    except Exception:
+        return [rel, "-", "-", "-", "-", "-", "Pinocchio refuses it", "-"], None
+    pin_load = median_time(lambda: pin.buildModelFromUrdf(str(path)))
+    fb = floating(path)
+    name = rel + (" (fb)" if fb else "")
+    try:
+        tree = to_tree(path, fb)
+    except Exception as exc:
+        return [name, "-", "-", "-", "-", f"{pin_load * 1e3:.1f}",
+                f"refused: {str(exc).replace(str(root) + '/', '')[-150:]}", "-"], None
+    dof = sum({"floating": 6, "planar": 3}.get(j.type, 1) for j in tree.joints)
+    t_tree = median_time(lambda: to_tree(path, fb))
+    cpu, wall, rss, err = cold_build(path, ["--floating-base"] if fb else [], work / path.stem)
+    note = f"{len(tree.locked)} massless joints locked" if tree.locked else ""
+    if cpu is None:
+        return [name, dof, f"{t_tree:.3f}", "failed", "-", f"{pin_load * 1e3:.1f}", err, note], None
+    try:
+        e = pinocchio_errors(path, fb, tree, work / "cache")
+        errs = " / ".join(f"{x:.1e}" for x in e)
+    except Exception as exc:
+        e, errs = None, f"check failed: {type(exc).__name__}: {str(exc).replace(str(root) + '/', '')[-160:]}"
+    return ([name, dof, f"{t_tree:.3f}", f"{cpu:.2f}", f"{rss:.0f}", f"{pin_load * 1e3:.1f}", errs, note],
+            [rel, fb, dof, t_tree, cpu, wall, rss, pin_load] + (list(e) if e else [None] * 3))
+
+
+def chain_row(n, work):
+    path = work / f"chain{n}.urdf"
+    path.write_text(chain_text(n))
+    t_tree = median_time(lambda: to_tree(path, False))
+    cpu, wall, rss, err = cold_build(path, [], work / f"chain{n}")
+    return [n, f"{t_tree:.3f}", f"{cpu:.2f}" if cpu else err, f"{wall:.2f}", f"{rss:.0f}" if rss else "-"], \
+        (n, cpu) if cpu else None
+
+
+def main():
+    """Serial by default; ``--part robots:I/M`` or ``--part chains`` append JSON lines to
+    ``--rows-out`` (parts run side by side), and ``--merge F1,F2,..`` writes the table."""
+    import argparse
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--only", help="substring of the URDF paths to run")
     parser.add_argument("--chains", default="25,50,100,200")
+    parser.add_argument("--part", help="robots:I/M (every M-th robot from the I-th) or chains")
+    parser.add_argument("--rows-out", help="append rows here as JSON lines (with --part)")
+    parser.add_argument("--merge", help="comma-separated --rows-out files: write the results table")
     parser.add_argument("--no-write", action="store_true")
     args = parser.parse_args()
     root = robots_root()
     work = Path(tempfile.mkdtemp(prefix="bench_urdf_build_"))
-    rows, csv = [], []
     load_start = os.getloadavg()
-    for path in sorted(root.rglob("*.urdf")):
-        rel = str(path.relative_to(root))
-        if args.only and args.only not in rel:
-            continue
-        try:
-            pin.buildModelFromUrdf(str(path))
-        except Exception:
-            rows.append([rel, "-", "-", "-", "-", "-", "Pinocchio refuses it", "-"])
-            continue
-        pin_load = median_time(lambda: pin.buildModelFromUrdf(str(path)))
-        fb = floating(path)
-        try:
-            tree = to_tree(path, fb)
-        except Exception as exc:
-            rows.append([rel, "-", "-", "-", "-", f"{pin_load * 1e3:.1f}", f"refused: {str(exc)[-120:]}", "-"])
-            print(rows[-1], flush=True)
-            continue
-        dof = sum({"floating": 6, "planar": 3}.get(j.type, 1) for j in tree.joints)
-        t_tree = median_time(lambda: to_tree(path, fb))
-        cpu, wall, rss, err = cold_build(path, ["--floating-base"] if fb else [], work / path.stem)
-        note = (f"{len(tree.locked)} massless joints locked" if tree.locked else "")
-        if cpu is None:
-            rows.append([rel + (" (fb)" if fb else ""), dof, f"{t_tree:.3f}", "failed", "-",
-                         f"{pin_load * 1e3:.1f}", err, note])
-            print(rows[-1], flush=True)
-            continue
-        try:
-            e = pinocchio_errors(path, fb, tree, work / "cache")
-            errs = " / ".join(f"{x:.1e}" for x in e)
-        except Exception as exc:
-            e, errs = None, f"check failed: {type(exc).__name__}: {str(exc).replace(str(root) + '/', '')[-160:]}"
-        rows.append([rel + (" (fb)" if fb else ""), dof, f"{t_tree:.3f}", f"{cpu:.2f}", f"{rss:.0f}",
-                     f"{pin_load * 1e3:.1f}", errs, note])
-        csv.append([rel, fb, dof, t_tree, cpu, wall, rss, pin_load] + (list(e) if e else [None] * 3))
-        print(rows[-1], flush=True)
-    chain_rows, fit = [], []
-    for n in [int(v) for v in args.chains.split(",") if v]:
-        path = work / f"chain{n}.urdf"
-        path.write_text(chain_text(n))
-        t_tree = median_time(lambda: to_tree(path, False))
-        cpu, wall, rss, err = cold_build(path, [], work / f"chain{n}")
-        chain_rows.append([n, f"{t_tree:.3f}", f"{cpu:.2f}" if cpu else err, f"{wall:.2f}",
-                           f"{rss:.0f}" if rss else "-"])
-        if cpu:
-            fit.append((n, cpu))
-        print(chain_rows[-1], flush=True)
+    rows, csv, chain_rows, fit = [], [], [], []
+
+    def emit(kind, row, extra):
+        print(row, flush=True)
+        if args.rows_out:
+            with open(args.rows_out, "a") as fh:
+                fh.write(json.dumps({"kind": kind, "row": row, "extra": extra,
+                                     "load": os.getloadavg()[0]}) + "\n")
+        (rows if kind == "robot" else chain_rows).append(row)
+        if extra is not None:
+            (csv if kind == "robot" else fit).append(extra)
+    if args.merge:
+        loads = []
+        for name in args.merge.split(","):
+            for line in Path(name).read_text().splitlines():
+                item = json.loads(line)
+                loads.append(item["load"])
+                (rows if item["kind"] == "robot" else chain_rows).append(item["row"])
+                if item["extra"] is not None:
+                    (csv if item["kind"] == "robot" else fit).append(item["extra"])
+        rows.sort(key=lambda r: r[0])
+        chain_rows.sort(key=lambda r: r[0])
+        load_start = (min(loads), float(np.median(loads)), max(loads)) if loads else load_start
+    else:
+        paths = sorted(root.rglob("*.urdf"))
+        if args.only:
+            paths = [p for p in paths if args.only in str(p)]
+        do_robots, do_chains = True, True
+        if args.part:
+            do_robots, do_chains = args.part.startswith("robots"), args.part == "chains"
+            if do_robots and ":" in args.part:
+                i, m = (int(v) for v in args.part.split(":")[1].split("/"))
+                paths = paths[i::m]
+        for path in paths if do_robots else ():
+            emit("robot", *robot_row(path, root, work))
+        for n in [int(v) for v in args.chains.split(",") if v] if do_chains else ():
+            emit("chain", *chain_row(n, work))
+        if args.part:
+            return
+    fit = [tuple(f) for f in fit]
     exponent = float(np.polyfit(np.log([n for n, _ in fit]), np.log([c for _, c in fit]), 1)[0]) \
         if len(fit) > 1 else float("nan")
     head = environment_header("URDF cold builds straight from the tree (issue 19)", args, notes=[
         "peers: " + ", ".join(peer_versions(["pinocchio"])),
-        f"load average at start: {load_start[0]:.2f} / {load_start[1]:.2f} / {load_start[2]:.2f}; "
-        f"2 cores shared with other jobs",
+        f"1-min load average while the rows ran: min {load_start[0]:.1f}, median {load_start[1]:.1f}, "
+        f"max {load_start[2]:.1f} on 2 cores shared with other jobs (CPU times, not wall, are the "
+        f"figures; they still suffer from the contention)" if args.merge else
+        f"load average at start: {load_start[0]:.2f} / {load_start[1]:.2f} / {load_start[2]:.2f}",
         "cold build: `eomc build FILE --formulation recursive --outputs rhs -q [--floating-base]` in a "
         "child process with an empty cache; CPU = user+sys of the child and gcc; RSS = the child "
-        "Python's peak",
+        "Python's peak (VmHWM)",
         "errors: max relative error over 5 random states of rhs u' vs pinocchio.aba, "
-        "inverse_dynamics vs pinocchio.rnea, mass_matrix vs pinocchio.crba; (fb) = floating base",
+        "inverse_dynamics vs pinocchio.rnea, mass_matrix vs pinocchio.crba (a second build with "
+        "those functions); (fb) = floating base; joints eomc locked are locked in Pinocchio's model "
+        "too (buildReducedModel)",
+        "Pinocchio load: pinocchio.buildModelFromUrdf, in-process, median of 3",
     ])
     table = format_table(["URDF", "dof", "URDF->tree s", "cold build CPU s", "peak RSS MB",
                           "Pinocchio load ms", "rel. err ABA / RNEA / CRBA", "notes"], rows)
