@@ -1,13 +1,14 @@
 """Read a URDF file into plain numbers: links, joints, line numbers; no SymPy here.
 
-The numbers (origins, axes, inertias, mimic tags) come from ``yourdfpy``, a
-maintained URDF parser on PyPI.  Two things it does not do are done here with
-``lxml`` (which it is built on): it reads malformed XML in "recover" mode and
-carries on silently, and it keeps no line numbers.  So the file is first
-parsed strictly, each ``<link>``/``<joint>`` element's line is recorded, and
-the structure yourdfpy assumes (names, ``<parent>``/``<child>``, joint
-types) is checked before it runs -- its own failures would be tracebacks
-from inside it.  Every mistake raises :class:`ModelFileError` as
+The file is parsed strictly with ``lxml`` (malformed XML is an error with its
+line, not "recovered"), each ``<link>``/``<joint>`` element's line is
+recorded, the structure (names, ``<parent>``/``<child>``, joint types, every
+number) is checked, and then the elements are read directly: origins (URDF's
+rpy: R = Rz(yaw) Ry(pitch) Rx(roll)), axes, inertials, mimic tags, mesh names.
+``yourdfpy``, the parser this module used before, stays available as
+``read_urdf(path, parser="yourdfpy")``: the tests compare the two readings;
+it is not the default because importing it (trimesh, scipy) costs more than a
+second of every cold build.  Every mistake raises :class:`ModelFileError` as
 ``file:line: message`` naming the link or joint.
 """
 import logging

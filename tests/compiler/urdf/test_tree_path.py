@@ -233,3 +233,21 @@ def test_mimic_true_falls_back_to_the_system_with_the_reason(tmp_path):
                            use_cache=False)
     assert spec.formed.method == "kane" and len(spec.formed.speeds) == 2
     assert spec.formed.n_dependent_speeds == 1
+
+
+@pytest.mark.parametrize("which", ["zoo", "solo12"])
+def test_the_direct_reader_reads_what_yourdfpy_reads(tmp_path, which):
+    """eomc reads the checked lxml elements itself; yourdfpy (the former parser) is the reference."""
+    path = _write(tmp_path, ZOO, "zoo.urdf") if which == "zoo" else robot_path("solo12")
+    a, b = read_urdf(path), read_urdf(path, parser="yourdfpy")
+    assert list(a.links) == list(b.links) and a.name == b.name
+    for name in a.links:
+        la, lb = a.links[name], b.links[name]
+        assert (la.line, la.mass, la.has_inertial, sorted(la.meshes)) == (lb.line, lb.mass, lb.has_inertial,
+                                                                           sorted(lb.meshes))
+        assert np.array_equal(la.com, lb.com) and np.allclose(la.inertia, lb.inertia, rtol=1e-15, atol=0)
+    for ja, jb in zip(a.joints, b.joints):
+        assert (ja.name, ja.line, ja.type, ja.parent, ja.child, ja.mimic) == \
+               (jb.name, jb.line, jb.type, jb.parent, jb.child, jb.mimic)
+        assert np.allclose(ja.origin, jb.origin, rtol=0, atol=1e-15) and np.array_equal(ja.axis, jb.axis)
+    assert len(a.joints) == len(b.joints)
