@@ -3,11 +3,12 @@
 Per URDF file of the installed example-robot-data wheel that Pinocchio loads:
 
 - dof (eomc's; merged massless subtrees drop joints, see the notes column),
-- URDF -> tree: read + checks + the tree IR (compiler/urdf/treeir.py), in-process, median of 3,
+- URDF -> tree: read + checks + the tree IR (compiler/urdf/treeir.py), in-process, CPU s, median of 3
+  (after a first call that pays the imports),
 - cold build: ``eomc build FILE --formulation recursive --outputs rhs`` (plus
   ``--floating-base`` for the robots that walk or fly) in a fresh child process and a
   fresh cache; CPU is the child's user+sys including gcc, peak RSS the child Python's,
-- Pinocchio's ``buildModelFromUrdf`` time, in-process, median of 3, in the same run,
+- Pinocchio's ``buildModelFromUrdf`` time, in-process, CPU s, median of 3, in the same run,
 - max relative error of eomc's rhs (u'), inverse_dynamics and mass_matrix against
   Pinocchio's ABA, RNEA and CRBA at 5 random states (a second, in-process build with
   those functions; joints eomc merged are locked at 0 in Pinocchio's model with
@@ -83,11 +84,12 @@ def cold_build(path, args, outdir):
 
 
 def median_time(fn, repeat=3):
+    """Median CPU seconds of this process (the machine is shared: wall time measures the load)."""
     samples = []
     for _ in range(repeat):
-        t0 = time.perf_counter()
+        t0 = time.process_time()
         fn()
-        samples.append(time.perf_counter() - t0)
+        samples.append(time.process_time() - t0)
     return float(np.median(samples))
 
 
@@ -254,7 +256,7 @@ def main():
         "inverse_dynamics vs pinocchio.rnea, mass_matrix vs pinocchio.crba (a second build with "
         "those functions); (fb) = floating base; joints eomc locked are locked in Pinocchio's model "
         "too (buildReducedModel)",
-        "Pinocchio load: pinocchio.buildModelFromUrdf, in-process, median of 3",
+        "URDF->tree and Pinocchio load (pinocchio.buildModelFromUrdf): in-process CPU time, median of 3",
     ])
     table = format_table(["URDF", "dof", "URDF->tree s", "cold build CPU s", "peak RSS MB",
                           "Pinocchio load ms", "rel. err ABA / RNEA / CRBA", "notes"], rows)
