@@ -221,6 +221,11 @@ def main():
                 (rows if item["kind"] == "robot" else chain_rows).append(item["row"])
                 if item["extra"] is not None:
                     (csv if item["kind"] == "robot" else fit).append(item["extra"])
+        # a robot or chain run again (after a fix) replaces its earlier row
+        rows = list({r[0]: r for r in rows}.values())
+        csv = list({c[0] + (" (fb)" if c[1] else ""): c for c in csv}.values())
+        chain_rows = list({r[0]: r for r in chain_rows}.values())
+        fit = list({f[0]: f for f in fit}.values())
         rows.sort(key=lambda r: r[0])
         chain_rows.sort(key=lambda r: r[0])
         load_start = (min(loads), float(np.median(loads)), max(loads)) if loads else load_start

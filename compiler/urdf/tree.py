@@ -142,20 +142,27 @@ def _parents_and_root(robot):
 
 
 def _combine(body, items):
-    """Mass, centre of mass and central inertia of (mass, com, inertia) items in one frame."""
+    """Mass, centre of mass and central inertia of (mass, com, inertia) items in one frame.
+
+    An item of zero mass may still carry rotational inertia (Bolt's feet: mass 0, inertia
+    5.7e-7): it adds its tensor and nothing else, as in Pinocchio.  A body of zero mass
+    keeps its link origin as its centre."""
     mass = sum(m for m, _, _ in items)
     body.mass = mass
-    if mass <= 0.0:
-        return
-    if len(items) == 1:   # one massive link: its own numbers, without rounding through the sums
+    massive = [item for item in items if item[0] > 0]
+    if len(items) == 1 and massive:   # one massive link: its own numbers, without rounding through the sums
         body.com, body.inertia = items[0][1], items[0][2]
         return
-    com = sum(m * c for m, c, _ in items) / mass
+    com = sum(m * c for m, c, _ in massive) / mass if mass > 0 else np.zeros(3)
     inertia = np.zeros((3, 3))
     for m, c, tensor in items:
         d = c - com
         inertia += tensor + m * (d @ d * np.eye(3) - np.outer(d, d))
     body.com, body.inertia = com, 0.5 * (inertia + inertia.T)
+
+
+def _has_inertia(link):
+    return link.mass > 0 or bool(np.any(link.inertia != 0))
 
 
 def _moments(tensor):
@@ -263,7 +270,7 @@ def _check_names(robot, joints, bodies):
 
 
 def _carries_mass(robot, children, root):
-    """link -> whether it or any link below it (through any joint) has mass; no recursion."""
+    """link -> whether it or any link below it (through any joint) has mass or inertia; no recursion."""
     order, stack = [], [root]
     while stack:
         link = stack.pop()
@@ -271,7 +278,7 @@ def _carries_mass(robot, children, root):
         stack.extend(j.child for j in children.get(link, ()))
     carries = {}
     for link in reversed(order):
-        carries[link] = robot.links[link].mass > 0 or any(carries[j.child] for j in children.get(link, ()))
+        carries[link] = _has_inertia(robot.links[link]) or any(carries[j.child] for j in children.get(link, ()))
     return carries
 
 
@@ -329,7 +336,7 @@ def build_tree(robot, floating_base=False):
         else:
             if link_name != body_name:
                 bodies[body_name].links.append(link_name)
-            if link.mass > 0:
+            if _has_inertia(link):
                 rotation, position = transform[:3, :3], transform[:3, 3]
                 items[body_name].append((link.mass, rotation @ link.com + position,
                                          rotation @ link.inertia @ rotation.T))

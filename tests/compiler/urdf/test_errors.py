@@ -66,9 +66,13 @@ def test_massless_moving_leaf_is_merged_with_a_warning(tmp_path):
     text = ARM[:start] + ARM[end:]
     system, _ = _warned(tmp_path, text, "link 'lower'", "joint 'elbow'", "carries no mass", "merged into 'upper'")
     assert [str(q) for q in system.q] == ["q_shoulder(t)"]
-    system, _ = _warned(tmp_path, ARM.replace('<mass value="1.0"/>', '<mass value="0"/>'), "link 'lower'",
-                        "carries no mass")
+    massless = ARM.replace('<mass value="1.0"/>', '<mass value="0"/>')
+    system, _ = _warned(tmp_path, massless.replace('ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.0005"',
+                                                   'ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"'),
+                        "link 'lower'", "carries no mass")
     assert len(system.q) == 1
+    # zero mass but a rotational inertia (Bolt's feet): kept, as Pinocchio keeps it
+    assert len(from_urdf(_write(tmp_path, massless)).q) == 2
 
 
 def test_mesh_only_leaf_says_meshes_are_not_used(tmp_path):
