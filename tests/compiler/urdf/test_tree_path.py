@@ -45,11 +45,11 @@ class _Values:
         return float(sm.sympify(expr.xreplace(self.values)))
 
 
-def _same_trees(path, floating=False):
+def _same_trees(path, floating=False, fold=False):
     """The direct tree and the recognized one agree symbol for symbol and number for number."""
     tree = build_tree(read_urdf(path), floating_base=floating)
-    mine = tree_ir(tree)
-    built = system_from_tree(tree)
+    mine = tree_ir(tree, fold=fold)
+    built = system_from_tree(tree, fold=fold)
     direct, read = formed_of_tree(mine.tree), tree_formed(built.system)
     assert (direct.coordinates, direct.speeds) == (read.coordinates, read.speeds)
     assert direct.inputs == read.inputs and list(mine.inputs) == list(built.inputs)
@@ -75,6 +75,13 @@ def _same_trees(path, floating=False):
 @pytest.mark.parametrize("floating", [False, True])
 def test_every_joint_type_gives_the_recognized_tree(tmp_path, floating):
     _same_trees(_write(tmp_path, ZOO), floating)
+
+
+def test_folded_parameters_give_the_recognized_tree(tmp_path):
+    """fold_parameters=True: every URDF value a literal on both routes (no parameters left)."""
+    _same_trees(_write(tmp_path, ZOO), floating=True, fold=True)
+    tree = build_tree(read_urdf(_write(tmp_path, ZOO)))
+    assert formed_of_tree(tree_ir(tree, fold=True).tree).parameters == ()
 
 
 def test_a_real_robot_gives_the_recognized_tree():
