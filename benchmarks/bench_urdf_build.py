@@ -266,7 +266,18 @@ def main():
     table = format_table(["URDF", "dof", "URDF->tree s", "cold build CPU s", "peak RSS MB",
                           "Pinocchio load ms", "rel. err ABA / RNEA / CRBA", "notes"], rows)
     chains = format_table(["links", "URDF->tree s", "cold build CPU s", "wall s", "peak RSS MB"], chain_rows)
-    text = (head + "\n## Robots\n\n" + table + "\n\n## Chains (alternating x/y axes, rhs only)\n\n" + chains
+    built = [c for c in csv if c[4] is not None]
+    checked = [c for c in built if c[8] is not None]
+    summary = ""
+    if checked:
+        worst = max(checked, key=lambda c: max(c[8:11]))
+        over = [f"{c[0]} ({max(c[8:11]):.1e})" for c in checked if max(c[8:11]) > 1e-12]
+        summary = (f"{len(built)} of {len(rows)} files built; {len(rows) - len(built)} not "
+                   f"(Pinocchio's own refusals included); largest relative error "
+                   f"{max(worst[8:11]):.1e} ({worst[0]}); above 1e-12: {', '.join(over) or 'none'}; "
+                   f"largest cold build {max(c[4] for c in built):.2f} s CPU, largest peak RSS "
+                   f"{max(c[6] for c in built):.0f} MB, largest URDF->tree {max(c[3] for c in built):.3f} s.\n\n")
+    text = (head + "\n## Robots\n\n" + summary + table + "\n\n## Chains (alternating x/y axes, rhs only)\n\n" + chains
             + f"\n\nfitted exponent of CPU s against n: **{exponent:.2f}**\n")
     print(text)
     if not args.no_write:
