@@ -89,6 +89,7 @@ def urdf_formed(model, formulation, overrides):
         from .treeir import tree_ir
         built = tree_ir(tree, fold=model.fold_parameters, gravity=model.gravity)
         formed = formed_of_tree(built.tree)
+        object.__setattr__(formed, "_urdf", built)   # for the animation's poses (treeir.pose_source)
         return formed, _merged(overrides, formed, built.parameters, built.inputs), None
     if formulation != "kane":
         warnings.warn(f"{model.path}: mimic joints ({', '.join(mimics[:5])}{', ...' if len(mimics) > 5 else ''}) "

@@ -27,6 +27,8 @@ frame), c the child's and c_p the parent's centre of mass:
 R0 a; a prismatic joint's force acts at the child's link origin and at the
 joint point of the parent.
 """
+from types import SimpleNamespace
+
 import numpy as np
 import sympy as sm
 from sympy.physics.vector import dynamicsymbols
@@ -65,7 +67,7 @@ def _num(value):
 class UrdfTree:
     """What :func:`tree_ir` returns: the Tree and the names and values beside it."""
 
-    def __init__(self, tree, coordinates, speeds, kinematics, parameters, inputs, source):
+    def __init__(self, tree, coordinates, speeds, kinematics, parameters, inputs, source, offsets=()):
         self.tree = tree                  # eomc.compiler.tree.model.Tree
         self.coordinates = coordinates    # q(t), joint order
         self.speeds = speeds              # u(t)
@@ -73,6 +75,7 @@ class UrdfTree:
         self.parameters = parameters      # Symbol -> URDF value
         self.inputs = inputs              # tau(t) per actuated joint, joint order
         self.source = source              # the urdf.tree.Tree
+        self.offsets = offsets            # per body: its link origin from its parent's, parent frame
 
 
 class _Parameters:
@@ -158,7 +161,7 @@ def _vec(values):
 def tree_ir(tree, *, fold=False, gravity=9.81):
     """The :class:`UrdfTree` of a :class:`.tree.Tree` (see the module docstring)."""
     params = _Parameters(fold)
-    bodies, coordinates, speeds, kinematics, inputs, loads = [], [], [], [], [], []
+    bodies, coordinates, speeds, kinematics, inputs, loads, offsets = [], [], [], [], [], [], []
     index, coms = {}, {}
     for tj in tree.joints:
         body = tree.bodies[tj.child]
@@ -194,6 +197,7 @@ def tree_ir(tree, *, fold=False, gravity=9.81):
             motion = tuple(av) + tuple(_cross(av, c))
             bodies.append(TreeBody(kind="revolute", speed=first, rotation=R.T, position=position,
                                    motion=motion, **common))
+            offsets.append(sm.Matrix(p))
             kinematics.append(us[0])
         elif tj.type == "prismatic":
             R0a = _times(R0, [a[k] * qs[0] for k in range(3)])
@@ -202,6 +206,7 @@ def tree_ir(tree, *, fold=False, gravity=9.81):
             motion = (0, 0, 0) + tuple(_vec(a))
             bodies.append(TreeBody(kind="prismatic", speed=first, rotation=sm.Matrix(R0.T).applyfunc(_num),
                                    position=position, motion=motion, **common))
+            offsets.append(sm.Matrix([p[r] + R0a[r] for r in range(3)]))
             kinematics.append(us[0])
         elif tj.type == "floating":
             Rf = floating_rotation(*qs[3:])
@@ -215,6 +220,7 @@ def tree_ir(tree, *, fold=False, gravity=9.81):
                 tuple(e_) + tuple(_cross(list(e_), c)) for e_ in unit)
             bodies.append(TreeBody(kind="free", speed=None, rotation=R.T, position=position, motion=None,
                                    speeds=tuple(range(first, first + 6)), motions=motions, **common))
+            offsets.append(sm.Matrix([p[r] + xyz[r] for r in range(3)]))
             kinematics += floating_kinematics(qs, us)
         elif tj.type == "planar":
             Z = _snapped(_z_to(tj.axis))
@@ -233,6 +239,7 @@ def tree_ir(tree, *, fold=False, gravity=9.81):
                        tuple(n) + tuple(_cross(n, c)))
             bodies.append(TreeBody(kind="3-speed", speed=None, rotation=R.T, position=position, motion=None,
                                    speeds=(first, first + 1, first + 2), motions=motions, **common))
+            offsets.append(sm.Matrix([p[r] + xy[r] for r in range(3)]))
             kinematics += [us[0] * cth - us[1] * sth, us[0] * sth + us[1] * cth, us[2]]
         else:
             raise NotImplementedError(f"joint type {tj.type}")
@@ -245,7 +252,33 @@ def tree_ir(tree, *, fold=False, gravity=9.81):
     g = params("g", gravity) if gravity else sm.S.Zero
     ir = Tree(bodies=tuple(bodies), coordinates=tuple(coordinates), speeds=tuple(speeds),
               kinematics=tuple(kinematics), gravity=sm.Matrix([0, 0, -g]), loads=tuple(loads))
-    return UrdfTree(ir, tuple(coordinates), tuple(speeds), tuple(kinematics), params.values, inputs, tree)
+    return UrdfTree(ir, tuple(coordinates), tuple(speeds), tuple(kinematics), params.values, inputs, tree,
+                    tuple(offsets))
+
+
+def pose_source(built):
+    """The animation's PoseSource (eomc.compiler.emit.poses) of a :class:`UrdfTree`, without a
+    System: one frame per link at its link origin, placed from its parent link by the joint's
+    R_PC(q) and origin offset; links welded to a body or to the ground and the visuals as
+    the System route gives them (the same helpers); a line from each parent link to its child."""
+    from sympy.physics.vector import Point, ReferenceFrame, Vector
+    from eomc.compiler.emit.poses import PoseSource, _urdf_geometry, _welded_links
+    N, O = ReferenceFrame("N"), Point("O")
+    frame_edges, point_edges = [(N, None, None)], [(O, None, None)]
+    frames, points, lines, placed = [], [("O", O)], [], []
+    for body, offset in zip(built.tree.bodies, built.offsets):
+        F, L = ReferenceFrame(f"F_{body.name}"), Point(f"L_{body.name}")
+        pframe, ppoint, pindex = (N, O, 0) if body.parent < 0 else placed[body.parent]
+        frame_edges.append((F, pframe, body.rotation.T))
+        point_edges.append((L, ppoint, Vector([(offset, pframe)])))
+        frames.append((body.name, F, L))
+        points.append((body.name, L))
+        lines.append((pindex, len(points) - 1))
+        placed.append((F, L, len(points) - 1))
+    urdf = SimpleNamespace(tree=built.source)      # what the System route's helpers read
+    frames, more_frames, more_points = _welded_links(urdf, frames, N, O)
+    return PoseSource(tuple(frames), tuple(points), tuple(lines), tuple(frame_edges + more_frames),
+                      tuple(point_edges + more_points), dict(built.parameters), _urdf_geometry(urdf))
 
 
 def _actuation(kind, tau, a, R0, c, p, cp, child, parent):

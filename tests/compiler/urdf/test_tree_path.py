@@ -102,8 +102,9 @@ def test_compiled_rhs_matches_the_system_path(tmp_path):
     identical names, rhs to 1e-12 at random states."""
     path = _write(tmp_path, ZOO, "zoo.urdf")
     cache = tmp_path / "cache"
-    direct = eomc.compile(path, functions=["rhs"], formulation="recursive", cache_dir=cache, progress=False)
-    system = eomc.compile(from_urdf(path), "zoo", functions=["rhs"], formulation="recursive",
+    direct = eomc.compile(path, functions=["rhs", "poses"], formulation="recursive", cache_dir=cache,
+                          progress=False)
+    system = eomc.compile(from_urdf(path), "zoo", functions=["rhs", "poses"], formulation="recursive",
                           cache_dir=cache, progress=False)
     assert direct.state_names == system.state_names and direct.input_names == system.input_names
     assert direct.param_names == system.param_names
@@ -114,6 +115,11 @@ def test_compiled_rhs_matches_the_system_path(tmp_path):
         r = rng.normal(size=direct.ninput)
         a, b = direct.rhs(0.0, x, r=r), system.rhs(0.0, x, r=r)
         assert np.max(np.abs(a - b)) <= 1e-12 * max(1.0, np.max(np.abs(b)))
+        # the animation's link frames (built from the tree, no System) are the System's
+        pa, pb = direct.poses(0.0, x), system.poses(0.0, x)
+        assert pa.frame_names == pb.frame_names and len(pa.frame_names) == 6   # 4 bodies, world, tool
+        assert np.max(np.abs(pa.positions - pb.positions)) < 1e-12
+        assert np.max(np.abs(pa.rotations - pb.rotations)) < 1e-12
 
 
 def test_no_system_is_built_under_recursive_and_auto(tmp_path, monkeypatch):
