@@ -80,7 +80,12 @@ def _with_poses(spec, functions):
     if functions is not None and "poses" not in functions:
         return spec
     try:
-        poses = pose_source(spec.system, spec.geometry)
+        built = getattr(spec.formed, "_urdf", None)   # a URDF read straight into the tree: no System
+        if spec.system is None and built is not None:
+            from .urdf.treeir import pose_source as urdf_pose_source
+            poses = urdf_pose_source(built)
+        else:
+            poses = pose_source(spec.system, spec.geometry)
     except (ModelError, ValueError) as exc:
         if spec.path is not None and spec.path.suffix == ".py":
             from eomc.runtime.errors import ModelFileError

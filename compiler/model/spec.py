@@ -164,18 +164,17 @@ def model_spec(system, name=None, *, parameters=None, inputs=None, initial_state
     ``states``: {z: dz/dt} extra first-order states appended to x after q and u."""
     overrides = dict(parameters=parameters, inputs=inputs, initial_state=initial_state, outputs=outputs,
                      events=events, states=states)
-    from eomc.compiler.urdf.model import is_urdf_path, load_urdf_model, urdf_overrides
-    path = None
-    if is_urdf_path(system):   # a robot: the file's System, named after the file
-        path, system = Path(system), load_urdf_model(system)
+    from eomc.compiler.urdf.model import UrdfModel, is_urdf_model, urdf_formed, urdf_overrides
+    if is_urdf_model(system):   # a robot: straight to the tree, or its System under kane
+        path = Path(system.path if isinstance(system, UrdfModel) else system)
         name = name or sanitize_name(path.stem)
-    elif isinstance(system, (str, Path)):
+        formed, values, robot = urdf_formed(system, formulation, overrides)
+        spec = _checked({**values, "system": robot}, formed, name,
+                        lambda exc: ModelFileError(str(exc), str(path)), f"{path}: ")
+        return ModelSpec(**{**spec.__dict__, "path": path})
+    if isinstance(system, (str, Path)):
         return _from_file(system, name, overrides, formulation)
     formed = formed_system(system, formulation)
     values = {**urdf_overrides(system, formed, overrides), "system": system}
-    if path is not None:
-        spec = _checked(values, formed, name, lambda exc: ModelFileError(str(exc), str(path)),
-                        f"{path}: ")
-        return ModelSpec(**{**spec.__dict__, "path": path})
     return _checked(values, formed, name or "model", lambda exc: ModelError(str(exc)),
                     f"model {name or 'model'}: ")
