@@ -20,6 +20,7 @@ SymPy's own kinematics at random states, so an unusual construction is
 refused (NotATree, naming the body and joint) rather than mis-read.
 """
 import random
+from dataclasses import replace
 
 import numpy as np
 import sympy as sm
@@ -304,6 +305,55 @@ def _joint(rd, name, joint, parent, pframe, porigin, frame, origin, speed, local
     return kind, E, r, tuple(S)
 
 
+def _effective_inertias(rd, bodies):
+    """Each body's inertia reduced to the part its motion can excite, so that only symbols
+    the equations use become parameters (Kane's equations drop the rest too).
+
+    A body that never turns (every joint from the ground to it translates or is fixed)
+    feels none of its rotational inertia; one that turns about a single axis a fixed in
+    it (all those joints' axes parallel: a planar chain) feels only aᵀIa.  Zeroing the
+    rest is exact: the inertia moments it removes are perpendicular to every joint axis
+    on the way, so they do no work in any speed (in ABA they only reach the ground's
+    articulated inertia, which nothing reads).  A turning axis is checked constant in
+    the body at random states; anything else keeps the whole inertia."""
+    out, axis = [], {}
+    for i, b in enumerate(bodies):
+        own = [m[:3] for _, m in b.dofs if any(c != 0 for c in m[:3])]
+        inherited = axis.get(b.parent) if b.parent >= 0 else None
+        mine = "general"
+        if len(own) > 1 or isinstance(inherited, str):
+            pass
+        elif inherited is None:
+            mine = sm.Matrix(own[0]) if own else None
+        else:
+            a = _mul(b.rotation, inherited)              # the parent's axis in this body
+            if _dynamic_matrix(a):
+                a0 = rd.only(a, None)
+                a = a0 if rd.numbers.same(a0, a) else None
+            if a is not None and not own:
+                mine = a
+            elif a is not None and _parallel(rd, a, sm.Matrix(own[0])):
+                mine = sm.Matrix(own[0])
+        axis[i] = mine
+        if isinstance(mine, str) or b.inertia == sm.zeros(3, 3):
+            out.append(b)
+            continue
+        if mine is None:
+            I = sm.zeros(3, 3)
+        else:
+            aa = (mine.T * mine)[0]
+            I = (mine.T * b.inertia * mine)[0] / aa**2 * (mine * mine.T)
+            I = I.applyfunc(sm.expand)
+        out.append(replace(b, inertia=I))
+    return out
+
+
+def _parallel(rd, a, w):
+    """a ∥ w (constant vectors, or checked at random numbers)."""
+    c = a.cross(w)
+    return all(sm.expand(x) == 0 for x in c) or rd.numbers.same(c, sm.zeros(3, 1))
+
+
 def _inertia(body, frame):
     if body is None:              # a massless intermediate frame of a ball joint
         return sm.S.Zero, sm.zeros(3, 3)
@@ -449,6 +499,7 @@ def _assemble(rd, entries, loads):
                        f"so their accelerations are undefined (a mass on the axis it turns about?)")
     if len(set(used)) != len(used):
         raise NotATree("a speed moves two bodies relative to their parents: not a tree of one-speed joints")
+    bodies = _effective_inertias(rd, bodies)
     basic = [(b.name, frames[i], origins[i], b.mass) for i, b in enumerate(bodies)]
     gravity, records = _loads(rd, loads, basic, frames, origins, [b.name for b in bodies])
     return Tree(bodies=tuple(bodies), coordinates=rd.q, speeds=rd.u, kinematics=rd.kin,
