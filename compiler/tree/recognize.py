@@ -513,6 +513,9 @@ def system_kinematics(system):
     look at its atoms, not the n x n Jacobian, which costs O(n²) derivatives); when every
     equation holds one rate linearly (q' = f(q, u) solved up to a factor, what every
     joint writes) it is solved alone, else the rates are solved together."""
+    if _is_kane(system):        # a KanesMethod: its kd_eqs were solved by its constructor
+        qdot = system.kindiffdict()
+        return tuple(qdot[qi.diff(_T)] for qi in system.q)
     q = list(system.q)
     qd = [qi.diff(_T) for qi in q]
     kdes = list(system.kdes)
@@ -545,6 +548,9 @@ def tree_from_system(system, kinematics=None):
     coordinates and speeds: the tree is put in order from them (parents before
     children, one pass) and each joint is read from its own objects
     (:func:`_joint_motion`), so the cost grows linearly with the number of joints."""
+    if _is_kane(system):        # a KanesMethod with pending equations (tree_formed's way in)
+        return tree_from_kane(system, kinematics if kinematics is not None
+                              else system_kinematics(system))
     if len(getattr(system, "q_dep", ())) or len(getattr(system, "u_dep", ())) or \
             len(getattr(system, "holonomic_constraints", ())) or \
             len(getattr(system, "nonholonomic_constraints", ())):
@@ -829,13 +835,17 @@ def _particle_frame(rd, particle, pframe, speed, taken):
     return found[0]
 
 
+def _is_kane(system):
+    return hasattr(system, "_bodylist") and hasattr(system, "_inertial") and hasattr(system, "_uaux")
+
+
 def tree_of(system, formed=None):
     """The Tree of ``system`` (a SymPy/eomc System or a KanesMethod); NotATree otherwise."""
     if isinstance(system, me.System):
         kin = tuple(formed.kinematics) if formed is not None else None
         return tree_from_system(system, kin)
-    if hasattr(system, "_bodylist") and hasattr(system, "_inertial") and hasattr(system, "_uaux"):
-        if formed is None:
-            formed = system.formed()
+    if _is_kane(system):
+        if formed is None:      # the kinematics alone: no need to form Kane's equations
+            return tree_from_kane(system, system_kinematics(system))
         return tree_from_kane(system, tuple(formed.kinematics))
     raise NotATree(f"a {type(system).__name__} is neither a System with joints nor a KanesMethod")
