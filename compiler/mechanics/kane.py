@@ -45,7 +45,7 @@ from eomc.runtime.errors import ModelError
 from .kane_forms import (FOLD_OPS, VectorReader, assemble, dot, fewer_trig_squares, read_bodies,
                          read_loads, run_angles, to_dynamic)
 from .kane_inputs import (as_symbol_list, names, check_bodies, check_time_functions,
-                          parse_loads, split_bodies_and_loads)
+                          frame_ang_vel, parse_loads, point_velocity, split_bodies_and_loads)
 from .kane_kinematics import constraint_matrices, kinematic_matrices, linear_solver
 from .plain import PlainSpace
 
@@ -95,6 +95,29 @@ def _frstar(mm, neg_nonmm, udot):
         terms = [sm.Mul(sm.S.NegativeOne, mm[r, c], udot[c]) for c in range(mm.cols) if mm[r, c] != 0]
         rows.append(sm.Add(*terms, neg_nonmm[r]))
     return sm.Matrix(len(rows), 1, rows)
+
+
+def _check_kinematics(N, bodies, parsed):
+    """What forming would refuse about the bodies' and loads' kinematics, refused when
+    ``kanes_equations`` is called (forming is deferred, its errors should not be): a body
+    point without a velocity in N, a rigid body's frame without an angular velocity, a
+    load written in a frame not oriented relative to N.  Look-ups only (what forming
+    reads first anyway, and SymPy caches)."""
+    for i, body in enumerate(bodies):
+        what = f"body #{i + 1} ({body.name})"
+        rigid = isinstance(body, sm.physics.mechanics.RigidBody)
+        point_velocity(body.masscenter if rigid else body.point, N, what)
+        if rigid:
+            frame_ang_vel(body.frame, N, what)
+    for name, kind, _vel, vec, _where in parsed:
+        for _comps, frame in vec.args:
+            try:
+                if frame != N:
+                    N._dict_list(frame, 0)      # a path of orientations to N exists
+            except ValueError:
+                raise ModelError(f"load on {'frame' if kind == 'torque' else 'point'} {name}: "
+                                 f"frame {frame.name} is not oriented relative to frame {N.name} "
+                                 f"(orient it with orient_axis/orientnew)") from None
 
 
 def _formed_on_use(name):
@@ -264,10 +287,12 @@ class KanesMethod:
             raise ModelError("kanes_equations needs kinematic differential equations: "
                              "pass kd_eqs=[...] to KanesMethod")
         bodies = check_bodies(bodies)
+        parsed = parse_loads(loads, self._inertial)    # bad loads are named here, as before
+        _check_kinematics(self._inertial, bodies, parsed)
         self._bodylist = bodies
         self._forcelist = None if loads is None else list(loads)
         self._formed_cache = None
-        self._pending = (bodies, loads)
+        self._pending = (bodies, parsed)
         return FormedOnUse(self)
 
     def _form_pending(self):
@@ -286,8 +311,7 @@ class KanesMethod:
         """False while ``kanes_equations`` was called but nothing has used its results."""
         return self.__dict__.get("_pending") is None
 
-    def _form(self, bodies, loads):
-        parsed = parse_loads(loads, self._inertial)
+    def _form(self, bodies, parsed):
         space = PlainSpace(list(self._q), list(self._u), self._uaux, self._qdot_u_map)
         reader = VectorReader(space, run_angles(self._inertial))
         self._body_terms = read_bodies(space, reader, self._inertial, bodies)
