@@ -120,11 +120,20 @@ class _Reader:
         return expr.xreplace({qi: 0 for qi in _dynamic_matrix(expr) & self.q_set if qi != keep})
 
     def speeds_in(self, *vectors):
+        """Indices of the speeds in ``vectors`` (coordinate rates counted by their
+        kinematics), read off the components without building new Vectors."""
+        if not hasattr(self, "_u_index"):
+            self._u_index = {s: i for i, s in enumerate(self.u)}
         atoms = set()
         for v in vectors:
-            if v != 0:
-                atoms |= _vector_atoms(v.xreplace(self.qd) if hasattr(v, "xreplace") else v)
-        return frozenset(self.u.index(a) for a in atoms if a in self.u)
+            for comps, _frame in (v.args if v != 0 else ()):
+                for c in comps:
+                    c = sm.sympify(c)
+                    atoms |= c.atoms(AppliedUndef)
+                    for d in c.atoms(sm.Derivative):
+                        if d in self.qd:
+                            atoms |= _dynamic(self.qd[d])
+        return frozenset(self._u_index[a] for a in atoms if a in self._u_index)
 
 
 def _relative_motion(rd, where, frame, pframe, origin, porigin):
@@ -826,8 +835,9 @@ def _particle_frame(rd, particle, pframe, speed, taken):
         # oriented from the previous one but given angular velocities in N has many
         rd._frame_speeds = {f: rd.speeds_in(f.ang_vel_in(rd.N)) for f in rd._frames if f != rd.N}
     want = rd.speeds_in(pframe.ang_vel_in(rd.N)) | {speed}
-    pos = particle.masscenter.pos_from(rd.O)
-    named = [f for _, f in pos.args]
+    # frames the particle's own offsets are written in (one step: its whole position from
+    # O would be a sum over every link before it, quadratic to build)
+    named = {f for v in particle.masscenter._pos_dict.values() for _, f in v.args}
     found = [f for f, s in rd._frame_speeds.items() if s == want]
     if not found:
         return pframe
