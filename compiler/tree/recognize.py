@@ -244,14 +244,12 @@ def _joint_motion(rd, joint, pframe, porigin, frame, origin):
     E = D_pb_cb.T                      # parent components -> child components
     D_cb_pi = _mul(D_cb_ci, D_ci_pi)
     to_child = {frame: sm.eye(3), ci: D_cb_ci, pi: D_cb_pi, pframe: E}
-    r = sm.zeros(3, 1)
-    for v in pieces:
-        c = _components(v, to_parent)
-        if c is None:
-            rd.notes.append(f"joint {joint.name}: an offset names a frame other than its bodies' "
-                            f"and interframes (read through SymPy's kinematics)")
-            return None
-        r += c
+    parts = [_components(v, to_parent) for v in pieces]
+    if any(c is None for c in parts):
+        rd.notes.append(f"joint {joint.name}: an offset names a frame other than its bodies' "
+                        f"and interframes (read through SymPy's kinematics)")
+        return None
+    r = parts[0] + parts[1] + parts[2]
     w_child = _components(w, to_child)
     if w_child is None:
         rd.notes.append(f"joint {joint.name}: its angular velocity names a frame other than its "
@@ -259,8 +257,13 @@ def _joint_motion(rd, joint, pframe, porigin, frame, origin):
         return None
     qd = rd.qd
     w_child = w_child.xreplace(qd)
-    v_parent = _rate(r, rd)
-    v_child = _mul(E, v_parent)
+    fixed_in_child = _components(pieces[2], to_child)
+    if not _dynamic_matrix(parts[0]) and not _dynamic_matrix(fixed_in_child):
+        # the parent point is fixed in the parent and the child's origin in the child: only
+        # the joint's own offset moves, the rest turns with the child (v = ṙ_J + ω × ρ)
+        v_child = _mul(E, _rate(parts[1], rd)) + w_child.cross(fixed_in_child)
+    else:
+        v_child = _mul(E, _rate(r, rd))
     stored = origin._vel_dict.get(pframe)
     if stored is not None:
         c = _components(stored, to_child)
