@@ -9,7 +9,7 @@ sizes and names read through this layout against each built model's metadata.
 from .header_cdef import header_cdef
 
 __all__ = ["ABI_VERSION", "MODEL_CDEF", "BATCH_CDEF", "STATUS_NAMES", "STATUS_SINGULAR_MASS_MATRIX",
-           "model_function_cdef"]
+           "STATUS_ABORTED", "model_function_cdef"]
 
 ABI_VERSION = 1
 
@@ -27,8 +27,10 @@ STATUS_NAMES = {
     6: "the maximum number of steps was reached",
     7: "the problem looks stiff for an explicit method",
     8: "the function was not generated for this model",
+    9: "the run was stopped: an input callable failed, or it was interrupted",
 }
 STATUS_SINGULAR_MASS_MATRIX = 1   # EOMC_SINGULAR_MASS_MATRIX
+STATUS_ABORTED = 9                # EOMC_ABORTED: a callback failed or Ctrl-C; the run stops at once
 
 _SIGNATURES = {
     "rhs": "int {n}_rhs(double t, const double *x, const double *p, const double *r, double *xdot, double *work);",
@@ -42,6 +44,7 @@ _SIGNATURES = {
     "inverse_dynamics": "int {n}_inverse_dynamics(double t, const double *x, const double *udot, const double *p, const double *r, double *tau, double *work);",
     "linearize": "int {n}_linearize(double t, const double *x, const double *p, const double *r, double *A, double *B, double *work);",
     "events": "int {n}_events(double t, const double *x, const double *p, const double *r, double *out, double *work);",
+    "poses": "int {n}_poses(double t, const double *x, const double *p, const double *r, double *out, double *work);",
 }
 
 
@@ -53,4 +56,6 @@ def model_function_cdef(name, functions):
     """
     lines = [f"const eomc_model *{name}_model(void);"]
     lines += [_SIGNATURES[f].format(n=name) for f in functions if f in _SIGNATURES]
+    if "poses" in functions:
+        lines.append(f"int {name}_pose_count(void);")
     return "\n".join(lines) + "\n"

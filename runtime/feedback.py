@@ -6,11 +6,16 @@ at every stage without Python (``eomc_feedback`` in eomc_integrators.h).  A
 Python callable ``r(t)`` or ``r(t, x)`` is the slow path: C calls back into
 Python once per stage (a few microseconds each), which is exact where the old
 sampling on a fixed grid silently missed a fast input.  This module checks
-the gain and reference and builds the C struct, the callback included.
+the gain and reference and builds the C struct, the callback included.  An
+exception in the callable (KeyboardInterrupt included) is kept and returns
+EOMC_ABORTED, on which the integrator stops at once; it is raised when the C
+call returns.
 """
 import inspect
 
 import numpy as np
+
+from .cdef import STATUS_ABORTED
 
 __all__ = ["FeedbackBinding", "callable_arity", "applied_inputs", "cubic_slopes"]
 
@@ -164,7 +169,9 @@ class FeedbackBinding:
                 except BaseException as exc:   # noqa: BLE001 - re-raised after the C call
                     if self.error is None:
                         self.error = exc
-                    return 4                   # EOMC_BAD_ARGUMENT: stops the run
+                    # EOMC_ABORTED, not a non-finite value: C stops the run at once -- no retry
+                    # of the stage, no further call of fun (report r3, N5)
+                    return STATUS_ABORTED
             self._callback = ffi.callback("eomc_input_fn", call)
             fb.fn = self._callback
 

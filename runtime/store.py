@@ -15,6 +15,7 @@ published here is a hit there and the other way round
   so a reader sees either nothing or a whole entry.
 """
 import contextlib
+import errno
 import hashlib
 import json
 import os
@@ -26,7 +27,7 @@ from pathlib import Path
 from eomc.runtime.errors import EomcError
 
 __all__ = ["CACHE_SCHEMA", "MANIFEST", "cache_root", "hash_key", "sha256_bytes", "sha256_file",
-           "entry_path", "write_manifest", "find", "publish"]
+           "entry_path", "write_manifest", "find", "publish", "directory_lock", "disk_error"]
 
 CACHE_SCHEMA = 1          # eomc.compiler.build.cache uses this one (and the functions below)
 MANIFEST = "manifest.json"
@@ -51,6 +52,26 @@ def cache_root(cache_dir=None):
         raise EomcError(f"cannot use the build cache at {root} ({exc.strerror or exc}); "
                         f"set EOMC_CACHE_DIR to a writable directory") from None
     return root
+
+
+def disk_error(exc, doing, hint="free some space (e.g. `eomc cache prune`) or set EOMC_CACHE_DIR elsewhere"):
+    """One clear EomcError for a write that failed: ``cannot <doing>: <why>``.
+
+    Why: a full disk (ENOSPC, EDQUOT) raised deep inside a copy is otherwise a
+    traceback (``shutil.Error`` holds a list of per-file failures); the user needs
+    to know which place is full or not writable, and nothing more.
+    """
+    if isinstance(exc, shutil.Error) and exc.args and isinstance(exc.args[0], list):
+        why = exc.args[0][0][2] if exc.args[0] else str(exc)
+        full = "No space left" in str(why) or "quota" in str(why).lower()
+        reason = str(why)
+    else:
+        full = getattr(exc, "errno", None) in (errno.ENOSPC, getattr(errno, "EDQUOT", errno.ENOSPC))
+        reason = exc.strerror or str(exc)
+    if full:
+        return EomcError(f"cannot {doing}: the file system is full ({reason}); {hint}")
+    where = f" ({exc.filename})" if getattr(exc, "filename", None) else ""
+    return EomcError(f"cannot {doing}: {reason}{where}")
 
 
 def hash_key(parts):
@@ -78,8 +99,11 @@ def entry_path(root, kind, key):
 def find(root, kind, key, verify=()):
     """The published entry for ``key`` when it is whole, else None.
 
-    Whole means: the manifest names this key and schema, every listed file has
-    its size, and the files named in ``verify`` (the library) have their sha256.
+    Whole means what it means to the compiler's cache: the manifest names this key
+    and schema, and every listed file has its recorded size *and* sha256 -- a
+    same-size edit (an ``initial_state`` 1.0 -> 7.0 in NAME.json) is a miss, not
+    served (reliability report r3, N10).  ``verify`` must name listed files (the
+    library): an entry whose manifest does not list them is not whole either.
     """
     entry = entry_path(root, kind, key)
     try:
@@ -87,10 +111,12 @@ def find(root, kind, key, verify=()):
         if manifest.get("key") != key or manifest.get("schema") != CACHE_SCHEMA:
             return None
         files = manifest["files"]
-        if not all((entry / name).stat().st_size == info["size"] for name, info in files.items()):
+        if any(name not in files for name in verify):
             return None
-        if not all(sha256_bytes((entry / name).read_bytes()) == files[name]["sha256"] for name in verify):
-            return None
+        for name, info in files.items():
+            path = entry / name
+            if path.stat().st_size != info["size"] or sha256_file(path) != info["sha256"]:
+                return None
     except (OSError, ValueError, KeyError, TypeError, AttributeError):
         return None
     with contextlib.suppress(OSError):  # a use: pruning drops the least recently used first
@@ -99,8 +125,31 @@ def find(root, kind, key, verify=()):
 
 
 @contextlib.contextmanager
+def directory_lock(directory, exclusive):
+    """A flock on ``directory`` itself: ``eomc build -o`` publishes a model's files holding it
+    exclusively, the loader reads them holding it shared, so a load never sees half of one
+    build and half of another.  Best effort where a directory cannot be opened or locked."""
+    try:
+        fd = os.open(directory, os.O_RDONLY)
+    except OSError:
+        yield
+        return
+    try:
+        if fcntl is not None:
+            with contextlib.suppress(OSError):
+                fcntl.flock(fd, fcntl.LOCK_EX if exclusive else fcntl.LOCK_SH)
+        yield
+    finally:
+        os.close(fd)  # releases the lock
+
+
+@contextlib.contextmanager
 def _locked(root, key):
-    with open(root / "locks" / f"{key}.lock", "a+") as fh:
+    try:
+        fh = open(root / "locks" / f"{key}.lock", "a+")
+    except OSError as exc:
+        raise disk_error(exc, f"lock an entry of the build cache at {root}") from None
+    with fh:
         if fcntl is not None:
             fcntl.flock(fh.fileno(), fcntl.LOCK_EX)
         try:
@@ -133,12 +182,18 @@ def publish(root, kind, key, write, inputs, verify=()):
         if found is not None:
             return found, False
         entry = entry_path(root, kind, key)
-        tmp = Path(tempfile.mkdtemp(prefix=f"{key[:12]}-", dir=root / "tmp"))
         try:
-            write(tmp)
-            write_manifest(tmp, key, kind, inputs)
+            tmp = Path(tempfile.mkdtemp(prefix=f"{key}-", dir=root / "tmp"))  # reclaimable (cache.reclaim_tmp)
+        except OSError as exc:
+            raise disk_error(exc, f"write into the build cache at {root}") from None
+        try:
+            try:
+                write(tmp)
+                write_manifest(tmp, key, kind, inputs)
+            except OSError as exc:
+                raise disk_error(exc, f"write into the build cache at {root}") from None
             if entry.exists():
-                trash = Path(tempfile.mkdtemp(prefix="trash-", dir=root / "tmp"))
+                trash = Path(tempfile.mkdtemp(prefix=f"trash-{os.getpid()}-", dir=root / "tmp"))
                 with contextlib.suppress(OSError):
                     os.replace(entry, trash / "entry")
                 shutil.rmtree(trash, ignore_errors=True)

@@ -36,18 +36,18 @@ import sys
 import threading
 from pathlib import Path
 
-from eomc.runtime.errors import CompileError, CompilerNotFoundError, ModelError
+from eomc.runtime.errors import CompileError, CompilerNotFoundError, EomcError, ModelError
 
 from . import store
 
-__all__ = ["TravelError", "pack", "arrive", "platform_tag", "FORMAT"]
+__all__ = ["TravelError", "pack", "arrive", "platform_tag", "FORMAT", "RUNTIME_FILES"]
 
 FORMAT = 1
 _FIELDS = ("eomc_travel", "name", "key", "platform", "abi_version", "library_name", "files", "library",
            "digest")
 _COMPILERS = ("cc", "gcc", "clang")
 # the shipped C beside a model's own NAME.c/.h/.json in its build directory (compiler/build/builder.py)
-_RUNTIME_FILES = ("eomc_model.h", "eomc_integrators.h", "eomc_batch.h", "eomc_batch.c")
+RUNTIME_FILES = ("eomc_model.h", "eomc_integrators.h", "eomc_batch.h", "eomc_batch.c")
 _KEY = re.compile(r"[0-9a-f]{64}")   # a sha256: the entry's directory name in the cache
 _RESTORED = {}                 # (key, digest) -> Model restored in this process
 _LOCK = threading.Lock()
@@ -76,12 +76,15 @@ def pack(model):
     cached = model.__dict__.get("_travel_payload")
     if cached is not None:
         return cached
-    directory, data = Path(model.directory), dict(model.metadata)
+    data = dict(model.metadata)
     build = dict(data.get("build") or {})
-    library = Path(model.library_path).read_bytes()
+    # read when the model was loaded (loader._Snapshot), so a cache entry or directory removed
+    # since (`eomc cache clear`, a prune) does not stop the model travelling (report r3, N6)
+    snapshot = model.__dict__.get("_travel_files") or _read_directory(model)
+    library, library_name = snapshot["library"], snapshot["library_name"]
     key = build.get("key") or store.sha256_bytes(library)
-    texts = [f"{model.name}.json", f"{model.name}.c", f"{model.name}.h", *_RUNTIME_FILES]
-    files = {n: (directory / n).read_text() for n in texts if (directory / n).is_file()}
+    texts = [f"{model.name}.json", f"{model.name}.c", f"{model.name}.h", *RUNTIME_FILES]
+    files = {n: snapshot["files"][n] for n in texts if n in snapshot["files"]}
     if build.get("backend", "cffi") != "cffi":
         # a Cython extension is tied to one Python; the library it wraps travels and loads with cffi
         build.update(backend="cffi", extension=None)
@@ -89,11 +92,23 @@ def pack(model):
         files[model.name + ".json"] = json.dumps(data, indent=1, sort_keys=True)
         key = store.hash_key({"travelled": key, "backend": "cffi"})
     payload = {"eomc_travel": FORMAT, "name": model.name, "key": key, "platform": platform_tag(),
-               "abi_version": data.get("abi_version"), "library_name": Path(model.library_path).name,
+               "abi_version": data.get("abi_version"), "library_name": library_name,
                "files": files, "library": library}
     payload["digest"] = _digest(payload)
     model.__dict__["_travel_payload"] = payload
     return payload
+
+
+def _read_directory(model):
+    """The snapshot of a Model made without the loader (its files, read now)."""
+    directory = Path(model.directory)
+    texts = [f"{model.name}.json", f"{model.name}.c", f"{model.name}.h", *RUNTIME_FILES]
+    try:
+        return {"files": {n: (directory / n).read_text() for n in texts if (directory / n).is_file()},
+                "library": Path(model.library_path).read_bytes(), "library_name": Path(model.library_path).name}
+    except OSError as exc:
+        raise TravelError(f"cannot pickle model {model.name!r}: its files in {directory} are gone "
+                          f"({exc.strerror or exc}); load it again") from None
 
 
 def _check(payload):
@@ -151,7 +166,7 @@ def _compile_here(payload, root):
     name = payload["name"]
     data = json.loads(payload["files"][f"{name}.json"])
     flags = list((data.get("build") or {}).get("cflags") or ["-O2", "-fPIC", "-std=c99"])
-    sources = [f"{name}.c"] + [n for n in _RUNTIME_FILES if n.endswith(".c") and n in payload["files"]]
+    sources = [f"{name}.c"] + [n for n in RUNTIME_FILES if n.endswith(".c") and n in payload["files"]]
     link = ["-Wl,-Bsymbolic"] if sys.platform.startswith("linux") else []
     argv, version = _compiler()
     command = [*argv, *flags, "-shared", "-o", payload["library_name"], *sources, "-lm", *link]
@@ -199,7 +214,12 @@ def arrive(payload, load):
         steps.append(("library", lambda: _shipped_library(payload, root)))
     steps.append(("compiled", lambda: _compile_here(payload, root)))
     for arrival, step in steps:
-        entry = step()
+        try:
+            entry = step()
+        except (TravelError, CompileError, CompilerNotFoundError):
+            raise
+        except EomcError as exc:  # e.g. a full or read-only cache: one clear line, no traceback
+            raise TravelError(f"cannot unpickle model {name!r} here: {exc}") from None
         if entry is None:
             continue
         try:

@@ -32,7 +32,7 @@ from pathlib import Path
 
 from eomc.runtime.errors import EomcError, EomcWarning
 # the layout, keys and manifests are shared with the runtime's SymPy-free publisher (travel.py)
-from eomc.runtime.store import (CACHE_SCHEMA, MANIFEST, cache_root, entry_path, hash_key,
+from eomc.runtime.store import (CACHE_SCHEMA, MANIFEST, cache_root, disk_error, entry_path, hash_key,
                                 sha256_file, write_manifest)
 
 __all__ = ["CACHE_SCHEMA", "cache_root", "hash_key", "sha256_file", "lookup", "get_or_build", "discard",
@@ -284,8 +284,11 @@ def get_or_build(root, kind, key, build, inputs, force=False, hold_in=None):
             except OSError as exc:
                 raise _not_writable(root, exc, "build") from None
             try:
-                build(tmp)
-                write_manifest(tmp, key, kind, inputs)
+                try:
+                    build(tmp)
+                    write_manifest(tmp, key, kind, inputs)
+                except OSError as exc:  # a full disk mid-build: one clear line (report r3, N10)
+                    raise disk_error(exc, f"build into the cache at {root}") from None
                 discard(root, entry)
                 entry.parent.mkdir(parents=True, exist_ok=True)
                 os.replace(tmp, entry)

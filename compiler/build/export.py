@@ -16,7 +16,10 @@ Everything is first assembled in a temporary directory inside DIR, each copy
 checked against the sha256 the cache entry recorded (a damaged entry is a
 :class:`~eomc.compiler.build.cache.BadEntry`, never copied over good files),
 and then moved into place file by file with ``os.replace``, so a failure
-leaves no half-written file behind.
+leaves no half-written file behind.  That last step holds an exclusive lock on
+DIR (``runtime.store.directory_lock``), which the loader takes shared: two
+builds into one DIR take turns, and no load sees a mix of two builds.  A disk
+that fills up midway is one clear error (``runtime.store.disk_error``).
 """
 import json
 import os
@@ -28,6 +31,7 @@ from pathlib import Path
 import jinja2
 
 from eomc.runtime.errors import EomcError
+from eomc.runtime.store import directory_lock, disk_error
 from eomc.runtime.version import __version__
 import eomc.templates
 
@@ -152,7 +156,6 @@ def export(built, output_dir, source=None):
     name = built.name
     expected = entry_files(built.directory)
     module_text = render_module(name)
-    recorded = _recorded(output_dir)
     _reclaim_tmp(output_dir)
     try:
         tmp = Path(tempfile.mkdtemp(prefix=f"{_TMP_PREFIX}{os.getpid()}-", dir=output_dir))
@@ -172,14 +175,22 @@ def export(built, output_dir, source=None):
             written[fname] = digest
         (tmp / f"{name}.py").write_text(module_text)
         written[f"{name}.py"] = sha256_file(tmp / f"{name}.py")
-        for fname, digest in written.items():
-            if not _ours(output_dir / fname, fname, name, digest, recorded):
-                raise _refuse(output_dir / fname, source)
         listing = written_list_name(name)
         (tmp / listing).write_text(json.dumps({"eomc_version": __version__, "model": name,
                                                "files": written}, indent=1, sort_keys=True))
-        for fname in [*written, listing]:
-            os.replace(tmp / fname, output_dir / fname)
+        # Publish the set under DIR's lock: two exports into one DIR take turns, so the files
+        # of a name are all from one build, and a load (which reads under the shared lock)
+        # never sees half of each (reliability report r3, N4).
+        with directory_lock(output_dir, exclusive=True):
+            recorded = _recorded(output_dir)
+            for fname, digest in written.items():
+                if not _ours(output_dir / fname, fname, name, digest, recorded):
+                    raise _refuse(output_dir / fname, source)
+            for fname in [*written, listing]:
+                os.replace(tmp / fname, output_dir / fname)
+    except OSError as exc:
+        raise disk_error(exc, f"write the model into {output_dir}",
+                         hint="free some space there or build into another directory (-o)") from None
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     return output_dir.resolve()

@@ -141,8 +141,15 @@ def run_compiler(argv, cwd, name, key, root):
         return proc
     kept = root / "failed" / f"{name}-{key[:12]}"
     discard(root, kept)
-    kept.parent.mkdir(parents=True, exist_ok=True)
-    shutil.copytree(cwd, kept)
+    try:
+        kept.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copytree(cwd, kept)
+        where = f"source kept in {kept}"
+    except OSError as exc:  # e.g. the disk is full (which is often why the compile failed)
+        discard(root, kept)
+        why = exc.args[0][0][2] if isinstance(exc, shutil.Error) and exc.args and exc.args[0] else \
+            (exc.strerror or exc)
+        where = f"the source could not be kept ({why})"
     message = (proc.stderr or proc.stdout).strip()
     raise CompileError(f"the C compiler failed on model {name!r} (exit status {proc.returncode}); "
-                       f"source kept in {kept}\ncommand: {shlex.join(argv)}\n{message}")
+                       f"{where}\ncommand: {shlex.join(argv)}\n{message}")

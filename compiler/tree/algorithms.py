@@ -213,8 +213,20 @@ def _root_acceleration(gravity):
     return [0, 0, 0] + [-g for g in gravity]
 
 
+# A pivot (a one-speed D_i, or a k-speed joint's LDL pivot d_j) not above PIVOT_TOL times the
+# sum of all pivots is singular: the Kane path's LDLᵀ test (64·DBL_EPSILON·max diag M,
+# compiler/emit/linsolve.py), with the pivots standing in for M's diagonal.  A pivot that is
+# zero only by rounding (a ball joint in gimbal lock, whose first and third axes line up:
+# its first D is ~1e-16 of the others) is then EOMC_SINGULAR_MASS_MATRIX instead of a
+# division by noise (reliability report r3, N9).
+PIVOT_TOL = sm.Float(2.0 ** -46, 17)       # 64 * DBL_EPSILON, exactly
+
+
 def aba(bodies, rec, speeds, gravity, v, c, keep=None):
-    """Articulated-body algorithm: [(u'_k expression, D_i, body)] per joint with a speed.
+    """Articulated-body algorithm: [(u'_k expression, pivot margin, body)] per joint with a speed.
+
+    The pivot margin is D_i - PIVOT_TOL·(sum of all pivots): the rhs is singular unless every
+    margin is > 0 (see PIVOT_TOL).
 
     ``keep``: a dict that receives {body index: (U_i, 1/D_i)} (for a k-speed joint:
     (the k rows of U_i, D_i factored)), the articulated quantities that M⁻¹ needs (see :mod:`.derivatives`)."""
@@ -270,6 +282,8 @@ def aba(bodies, rec, speeds, gravity, v, c, keep=None):
             IA[b.parent] = [[IA[b.parent][r][s] + T[r][s] for s in range(6)] for r in range(6)]
             f = xt_force(b, pa)
             pA[b.parent] = [pA[b.parent][k] + f[k] for k in range(6)]
+    pivots = [d for Di in D if Di is not None for d in (Di if isinstance(Di, list) else [Di])]
+    threshold = rec.let(PIVOT_TOL * sum(pivots, sm.S.Zero))
     a, out = [None] * n, []
     for i, b in enumerate(bodies):
         ap = a[b.parent] if b.parent >= 0 else _root_acceleration(gravity)
@@ -278,7 +292,7 @@ def aba(bodies, rec, speeds, gravity, v, c, keep=None):
             ai = rec.vec(ai)
             udd = rec.let((uu[i] - _dot(U[i], ai)) * Dinv[i])
             ai = [ai[k] + b.S[k] * udd for k in range(6)]
-            out.append((b.speed, udd, D[i]))
+            out.append((b.speed, udd, rec.let(D[i] - threshold)))
         elif b.multi:
             ai = rec.vec(ai)
             k = len(b.multi)
@@ -287,7 +301,7 @@ def aba(bodies, rec, speeds, gravity, v, c, keep=None):
             udd = ldl[i].solve(rhs)
             for m, (s, S) in enumerate(b.multi):
                 ai = [ai[j] + S[j] * udd[m] for j in range(6)]
-                out.append((s, udd[m], D[i][m]))
+                out.append((s, udd[m], rec.let(D[i][m] - threshold)))
         a[i] = rec.vec(ai)
     return out
 

@@ -11,7 +11,7 @@ from sympy.physics import mechanics as me
 from ..mechanics.formed import FormedSystem
 from .recognize import system_kinematics, tree_from_system
 
-__all__ = ["tree_formed", "tree_exprs"]
+__all__ = ["tree_formed", "tree_exprs", "formed_of_tree"]
 
 
 def tree_exprs(tree):
@@ -45,4 +45,28 @@ def tree_formed(system):
                           inputs=tuple(sorted(inputs, key=str)),
                           parameters=tuple(sorted(params, key=lambda s: s.name)))
     object.__setattr__(formed, "_tree", tree)     # found once, reused by the generator
+    return formed
+
+
+def formed_of_tree(tree):
+    """The FormedSystem (method "tree") of a Tree built directly, not read from a System
+    (the URDF reader's, eomc.compiler.urdf.treeir): the same record :func:`tree_formed`
+    makes -- states in the tree's order, inputs and parameters sorted by name, the tree
+    kept on it for the generator -- without any SymPy mechanics object."""
+    q, u = tuple(tree.coordinates), tuple(tree.speeds)
+    t = me.dynamicsymbols._t
+    states = set(q) | set(u)          # a set: membership in a tuple costs O(n) SymPy comparisons
+    inputs, params = set(), set()
+    for e in tree_exprs(tree):
+        inputs |= {a for a in e.atoms(AppliedUndef) if a not in states}
+        params |= {s for s in e.free_symbols if s != t}
+    nu = len(u)
+    formed = FormedSystem(method="tree", coordinates=q, speeds=u, n_dependent_coordinates=0,
+                          n_dependent_speeds=0, kinematics=sm.Matrix(list(tree.kinematics)),
+                          dynamics_matrix=sm.zeros(nu, nu), dynamics_rhs=sm.zeros(nu, 1),
+                          multipliers=(), holonomic_constraints=sm.Matrix(),
+                          velocity_constraints=sm.Matrix(),
+                          inputs=tuple(sorted(inputs, key=str)),
+                          parameters=tuple(sorted(params, key=lambda s: s.name)))
+    object.__setattr__(formed, "_tree", tree)
     return formed

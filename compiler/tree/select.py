@@ -96,7 +96,7 @@ def generate_formulation(spec, functions, fold_parameters, formulation="kane"):
     check_formulation(formulation)
     options = dict(parameters=spec.parameters, inputs=spec.inputs, outputs=spec.outputs,
                    functions=functions, fold_parameters=fold_parameters, events=spec.events,
-                   event_options=spec.event_options)
+                   event_options=spec.event_options, poses=getattr(spec, "poses", None))
     if formulation == "kane":
         return generate_c(_kane_formed(spec), spec.name, **options)
     try:

@@ -1,9 +1,11 @@
-"""eomc.compiler.urdf: robots from URDF files as SymPy mechanics Systems.
+"""eomc.compiler.urdf: robots from URDF files, as the recursive formulation's tree or as SymPy Systems.
 
     read_urdf      reader.py   the file -> links and joints (numbers, line numbers)
-    build_tree     tree.py     fixed joints merged, the tree checked
-    system_from_tree system.py SymPy System from SymPy's joint classes
-    from_urdf      (here)      all three
+    build_tree     tree.py     fixed joints merged, the tree checked (and repaired, warned)
+    tree_ir        treeir.py   the tree IR (eomc.compiler.tree.model.Tree) straight from it
+    system_from_tree system.py SymPy System from SymPy's joint classes (kane, user extensions)
+    urdf_formed    model.py    which of the two a URDF file becomes, per formulation
+    from_urdf      (here)      read + tree + System
 """
 from .reader import read_urdf
 from .tree import build_tree

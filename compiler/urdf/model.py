@@ -1,33 +1,59 @@
 """URDF files and URDF-built Systems as eomc models: forming, parameter defaults, inputs.
 
 ``eomc.compile("robot.urdf")`` and ``eomc.compile(from_urdf(path))`` land
-here through :func:`eomc.compiler.model.model_spec`.  A SymPy ``System``
-that has not formed its equations is formed with eomc's KanesMethod (not
-SymPy's, which is slower and which ``form_eoms`` insists on).  The URDF's
-values become the parameter defaults -- only for the parameters that survive
-in the equations (a link's mass on a vertical axis through its centre of
-mass does not) -- and the joint torques the inputs, in joint order; what
-the caller passes overrides them.
+here through :func:`eomc.compiler.model.model_spec`.  A URDF file (or a
+:class:`UrdfModel`: the file plus options, what ``--floating-base`` gives) goes
+straight to the recursive formulation's tree (:mod:`.treeir`) under the
+``recursive`` and ``auto`` formulations: no SymPy System, frames or velocities
+are built, which is what made large robots take minutes.  Under ``kane`` (and
+for ``mimic=True`` robots that have mimic joints: a constraint the tree cannot
+carry) the file becomes the System of :func:`.from_urdf`, formed with eomc's
+KanesMethod, as before.  Both give the same coordinates, speeds, parameters
+(names and URDF defaults) and inputs.
+
+The URDF's values become the parameter defaults -- on the Kane path only for
+the parameters that survive in the equations (a link's mass on a vertical axis
+through its centre of mass does not) -- and the joint torques the inputs, in
+joint order; what the caller passes overrides them.
 """
+import warnings
+from dataclasses import dataclass
 from pathlib import Path
 
-from sympy.physics import mechanics as sme
+from eomc.runtime.errors import EomcWarning
 
-__all__ = ["is_urdf_path", "urdf_overrides", "load_urdf_model", "with_options"]
+__all__ = ["is_urdf_path", "is_urdf_model", "UrdfModel", "urdf_overrides", "load_urdf_model",
+           "with_options", "urdf_formed"]
+
+
+@dataclass(frozen=True)
+class UrdfModel:
+    """A URDF file with the options of :func:`eomc.compiler.urdf.from_urdf`, not yet read."""
+    path: Path
+    floating_base: bool = False
+    fold_parameters: bool = False
+    mimic: bool = False
+    gravity: float = 9.81
+
+    def options(self):
+        return dict(floating_base=self.floating_base, fold_parameters=self.fold_parameters,
+                    mimic=self.mimic, gravity=self.gravity)
 
 
 def is_urdf_path(model):
     return isinstance(model, (str, Path)) and Path(model).suffix.lower() == ".urdf"
 
 
-def urdf_overrides(system, formed, overrides):
+def is_urdf_model(model):
+    """A URDF path or a :class:`UrdfModel`."""
+    return isinstance(model, UrdfModel) or is_urdf_path(model)
+
+
+def _merged(overrides, formed, defaults, joint_inputs):
     """``overrides`` with the URDF's parameter defaults and inputs filled in where not given."""
-    built = getattr(system, "urdf", None)
-    if built is None:
-        return overrides
     result = dict(overrides)
     used = set(formed.parameters)
-    defaults = {symbol: value for symbol, value in built.parameters.items() if symbol in used}
+    defaults = {symbol: value for symbol, value in defaults.items() if symbol in used}
     given = overrides.get("parameters")
     if isinstance(given, dict):
         by_name = {str(s): s for s in formed.parameters}
@@ -37,13 +63,48 @@ def urdf_overrides(system, formed, overrides):
         result["parameters"] = defaults
     if overrides.get("inputs") is None:
         present = set(formed.inputs)
-        extra = [r for r in formed.inputs if r not in built.inputs]   # the user's own, after the joints'
-        result["inputs"] = [r for r in built.inputs if r in present] + extra
+        extra = [r for r in formed.inputs if r not in joint_inputs]   # the user's own, after the joints'
+        result["inputs"] = [r for r in joint_inputs if r in present] + extra
     return result
 
 
+def urdf_overrides(system, formed, overrides):
+    """``overrides`` with a from_urdf System's parameter defaults and inputs filled in."""
+    built = getattr(system, "urdf", None)
+    if built is None:
+        return overrides
+    return _merged(overrides, formed, built.parameters, built.inputs)
+
+
+def urdf_formed(model, formulation, overrides):
+    """(FormedSystem, overrides with the URDF's defaults, System or None) of a URDF file or
+    :class:`UrdfModel` under ``formulation`` (see the module docstring)."""
+    from eomc.compiler.model.spec import formed_system
+    from . import build_tree, read_urdf, system_from_tree
+    model = model if isinstance(model, UrdfModel) else UrdfModel(Path(model))
+    tree = build_tree(read_urdf(model.path), floating_base=model.floating_base)
+    mimics = [j.name for j in tree.joints if j.mimic is not None]
+    if formulation != "kane" and not (model.mimic and mimics):
+        from eomc.compiler.tree.formed import formed_of_tree
+        from .treeir import tree_ir
+        built = tree_ir(tree, fold=model.fold_parameters, gravity=model.gravity)
+        formed = formed_of_tree(built.tree)
+        object.__setattr__(formed, "_urdf", built)   # for the animation's poses (treeir.pose_source)
+        return formed, _merged(overrides, formed, built.parameters, built.inputs), None
+    if formulation != "kane":
+        warnings.warn(f"{model.path}: mimic joints ({', '.join(mimics[:5])}{', ...' if len(mimics) > 5 else ''}) "
+                      f"are constraints, which the recursive formulation's tree cannot carry: the robot "
+                      f"goes through its SymPy System (formulation {formulation})", EomcWarning,
+                      stacklevel=3)
+    built = system_from_tree(tree, fold=model.fold_parameters, mimic=model.mimic, gravity=model.gravity)
+    system = built.system
+    system.urdf = built
+    formed = formed_system(system, formulation)
+    return formed, urdf_overrides(system, formed, overrides), system
+
+
 def with_options(model, name=None, *, floating_base=False):
-    """(model, name) for the driver: a URDF path with options becomes its System.
+    """(model, name) for the driver: a URDF path with options becomes a :class:`UrdfModel`.
 
     The CLI's ``--floating-base`` lands here; without options the path goes
     through unchanged (the driver reads URDF paths itself).
@@ -54,7 +115,7 @@ def with_options(model, name=None, *, floating_base=False):
         from eomc.runtime.errors import ModelError
         raise ModelError(f"--floating-base applies to URDF robots (.urdf), not to {model}")
     from eomc.compiler.model.validate import sanitize_name
-    return load_urdf_model(model, floating_base=True), name or sanitize_name(Path(model).stem)
+    return UrdfModel(Path(model), floating_base=True), name or sanitize_name(Path(model).stem)
 
 
 def load_urdf_model(path, **options):

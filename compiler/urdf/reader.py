@@ -1,13 +1,14 @@
 """Read a URDF file into plain numbers: links, joints, line numbers; no SymPy here.
 
-The numbers (origins, axes, inertias, mimic tags) come from ``yourdfpy``, a
-maintained URDF parser on PyPI.  Two things it does not do are done here with
-``lxml`` (which it is built on): it reads malformed XML in "recover" mode and
-carries on silently, and it keeps no line numbers.  So the file is first
-parsed strictly, each ``<link>``/``<joint>`` element's line is recorded, and
-the structure yourdfpy assumes (names, ``<parent>``/``<child>``, joint
-types) is checked before it runs -- its own failures would be tracebacks
-from inside it.  Every mistake raises :class:`ModelFileError` as
+The file is parsed strictly with ``lxml`` (malformed XML is an error with its
+line, not "recovered"), each ``<link>``/``<joint>`` element's line is
+recorded, the structure (names, ``<parent>``/``<child>``, joint types, every
+number) is checked, and then the elements are read directly: origins (URDF's
+rpy: R = Rz(yaw) Ry(pitch) Rx(roll)), axes, inertials, mimic tags, mesh names.
+``yourdfpy``, the parser this module used before, stays available as
+``read_urdf(path, parser="yourdfpy")``: the tests compare the two readings;
+it is not the default because importing it (trimesh, scipy) costs more than a
+second of every cold build.  Every mistake raises :class:`ModelFileError` as
 ``file:line: message`` naming the link or joint.
 """
 import logging
@@ -52,6 +53,7 @@ class UrdfRobot:
     path: Path
     links: dict                       # name -> UrdfLink, in file order
     joints: list                      # UrdfJoint, in file order
+    line: int = None                  # the <robot> element's line
 
 
 def _fail(path, line, message):
@@ -73,6 +75,8 @@ def _strict_xml(path):
     root = tree.getroot()
     if root.tag != "robot":
         _fail(path, root.sourceline, f"the top element is <{root.tag}>, not <robot>: not a URDF file")
+    if not (root.get("name") or "").strip():
+        _fail(path, root.sourceline, "<robot> has no name attribute (URDF requires <robot name=\"...\">)")
     return root
 
 
@@ -91,6 +95,9 @@ def _check_structure(path, root):
     for element in root.findall("joint"):
         name = element.get("name")
         kind = element.get("type")
+        mimic = element.find("mimic")
+        if mimic is not None and not mimic.get("joint"):
+            _fail(path, mimic.sourceline, f"joint '{name}': <mimic> has no joint attribute")
         if kind not in JOINT_TYPES:
             what = f"unknown type '{kind}'" if kind else "no type attribute"
             _fail(path, element.sourceline, f"joint '{name}' has {what}; URDF joint types are "
@@ -103,6 +110,7 @@ def _check_structure(path, root):
                 _fail(path, sub.sourceline, f"joint '{name}' names {tag} link '{sub.get('link')}', "
                                             f"which the file does not define")
     _check_numbers(path, root)
+    _check_loose_numbers(path, root)
     return lines
 
 
@@ -121,13 +129,35 @@ def _check_numbers(path, root):
             except ValueError:
                 values = None
             if values is None or len(values) != count or not np.all(np.isfinite(values)):
-                owner = element.getparent()
-                while owner is not None and owner.tag not in ("link", "joint"):
-                    owner = owner.getparent()
-                who = f" in {owner.tag} '{owner.get('name')}'" if owner is not None else ""
+                who = _owner(element)
                 _fail(path, element.sourceline,
                       f"<{element.tag} {attribute}=\"{text}\">{who}: expected {count} finite "
                       f"number{'s' if count > 1 else ''}")
+
+
+def _owner(element):
+    owner = element.getparent()
+    while owner is not None and owner.tag not in ("link", "joint"):
+        owner = owner.getparent()
+    return f" in {owner.tag} '{owner.get('name')}'" if owner is not None else ""
+
+
+def _check_loose_numbers(path, root):
+    """Attributes eomc does not model (limits, dynamics, ...) but yourdfpy converts to float:
+    any number is accepted (NaN and inf too: they are not used), text is an error with a line."""
+    wanted = {"limit": ("lower", "upper", "effort", "velocity"), "dynamics": ("damping", "friction"),
+              "safety_controller": ("soft_lower_limit", "soft_upper_limit", "k_position", "k_velocity"),
+              "calibration": ("rising", "falling")}
+    for element in root.iter(*wanted):
+        for attribute in wanted[element.tag]:
+            text = element.get(attribute)
+            if text is None:
+                continue
+            try:
+                float(text)
+            except ValueError:
+                _fail(path, element.sourceline, f"<{element.tag} {attribute}=\"{text}\">"
+                                                f"{_owner(element)}: expected a number")
 
 
 def _parse(path):
@@ -161,9 +191,12 @@ def _link(link, line):
 
 def _joint(path, joint, line):
     axis = np.asarray(joint.axis if joint.axis is not None else (1.0, 0.0, 0.0), dtype=float)
-    norm = np.linalg.norm(axis)
-    if joint.type in ("revolute", "continuous", "prismatic", "planar") and norm == 0:
+    biggest = float(np.max(np.abs(axis)))
+    if joint.type in ("revolute", "continuous", "prismatic", "planar") and biggest < 1e-300:
         _fail(path, line, f"joint '{joint.name}' has a zero <axis>")
+    if biggest >= 1e-300:     # scaled first: the norm of 1e200-sized entries would overflow
+        axis = axis / biggest
+    norm = np.linalg.norm(axis)
     origin = np.eye(4) if joint.origin is None else np.asarray(joint.origin, dtype=float)
     mimic = None
     if joint.mimic is not None:
@@ -174,14 +207,88 @@ def _joint(path, joint, line):
                      axis / norm if norm else axis, mimic)
 
 
-def read_urdf(path):
-    """The robot in ``path`` as a :class:`UrdfRobot` (raises ModelFileError with file:line)."""
+def read_urdf(path, parser="lxml"):
+    """The robot in ``path`` as a :class:`UrdfRobot` (raises ModelFileError with file:line).
+
+    ``parser``: "lxml" reads the checked elements directly (the default: importing yourdfpy
+    pulls trimesh and scipy, over a second of every cold build); "yourdfpy" goes through
+    yourdfpy's model, which the tests use as the reference for the direct reading."""
     path = Path(path)
     if not path.is_file():
         _fail(path, None, "no such URDF file")
     root = _strict_xml(path)
     lines = _check_structure(path, root)
+    if parser == "lxml":
+        links = {e.get("name"): _link_element(e) for e in root.findall("link")}
+        joints = [_joint(path, _JointElement(e), e.sourceline) for e in root.findall("joint")]
+        return UrdfRobot(root.get("name"), path, links, joints, root.sourceline)
     robot = _parse(path).robot
     links = {link.name: _link(link, lines.get(("link", link.name))) for link in robot.links}
     joints = [_joint(path, j, lines.get(("joint", j.name))) for j in robot.joints]
-    return UrdfRobot(robot.name or path.stem, path, links, joints)
+    return UrdfRobot(robot.name or path.stem, path, links, joints, root.sourceline)
+
+
+def _numbers(element, attribute, default):
+    text = element.get(attribute) if element is not None else None
+    return np.array([float(v) for v in text.split()]) if text is not None else np.array(default, dtype=float)
+
+
+def _origin(element):
+    """4x4 of an <origin xyz rpy> (URDF: R = Rz(yaw) Ry(pitch) Rx(roll)); identity if absent."""
+    transform = np.eye(4)
+    if element is None:
+        return transform
+    r, p, y = _numbers(element, "rpy", (0.0, 0.0, 0.0))
+    cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
+    transform[:3, :3] = [[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+                         [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+                         [-sp, cp * sr, cp * cr]]
+    transform[:3, 3] = _numbers(element, "xyz", (0.0, 0.0, 0.0))
+    return transform
+
+
+def _link_element(element):
+    meshes = [m.get("filename") for tag in ("visual", "collision") for g in element.findall(tag)
+              for m in g.findall("geometry/mesh")]
+    inertial = element.find("inertial")
+    if inertial is None:
+        return UrdfLink(element.get("name"), element.sourceline, 0.0, np.zeros(3), np.zeros((3, 3)),
+                        False, meshes)
+    origin = _origin(inertial.find("origin"))
+    rotation = origin[:3, :3]
+    mass_element = inertial.find("mass")
+    mass = float(_numbers(mass_element, "value", (0.0,))[0]) if mass_element is not None else 0.0
+    box = inertial.find("inertia")
+    if box is None:
+        tensor = np.eye(3)
+    else:
+        v = {k: float(box.get(k, 0.0)) for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")}
+        tensor = np.array([[v["ixx"], v["ixy"], v["ixz"]], [v["ixy"], v["iyy"], v["iyz"]],
+                           [v["ixz"], v["iyz"], v["izz"]]])
+    return UrdfLink(element.get("name"), element.sourceline, mass, origin[:3, 3].copy(),
+                    rotation @ tensor @ rotation.T, True, meshes)
+
+
+class _JointElement:
+    """A <joint> element with the attributes :func:`_joint` reads (as yourdfpy's Joint)."""
+
+    def __init__(self, element):
+        self.name, self.type = element.get("name"), element.get("type")
+        self.parent = element.find("parent").get("link")
+        self.child = element.find("child").get("link")
+        axis = element.find("axis")
+        self.axis = _numbers(axis, "xyz", (1.0, 0.0, 0.0)) if axis is not None else None
+        self.origin = _origin(element.find("origin"))
+        mimic = element.find("mimic")
+        self.mimic = None
+        if mimic is not None:
+            self.mimic = _Mimic(mimic.get("joint"),
+                                float(mimic.get("multiplier")) if mimic.get("multiplier") else None,
+                                float(mimic.get("offset")) if mimic.get("offset") else None)
+
+
+@dataclass
+class _Mimic:
+    joint: str
+    multiplier: float
+    offset: float

@@ -26,7 +26,6 @@ constraint ``q_B = k q_A + c`` with ``q_B`` and ``u_B`` dependent, when
 ``mimic=True``; otherwise (default) they move freely, as in Pinocchio's
 default URDF reader.  A mimic joint has no input of its own.
 """
-import re
 from dataclasses import dataclass
 
 import numpy as np
@@ -36,6 +35,7 @@ from sympy.physics import mechanics as sme
 from eomc.runtime.errors import ModelFileError
 
 from .joints import FloatingJoint, PlanarJoint
+from .tree import check_mimics, identifier
 
 __all__ = ["UrdfSystem", "system_from_tree", "make_system", "identifier"]
 
@@ -45,12 +45,6 @@ _SNAP = 1e-12
 def make_system(newtonian):
     """The System class eomc compiles.  One place to swap in eomc's own System at merge."""
     return sme.System.from_newtonian(newtonian)
-
-
-def identifier(name):
-    """``name`` as a C identifier fragment: other characters become ``_``."""
-    text = re.sub(r"[^A-Za-z0-9_]", "_", name)
-    return text if text and not text[0].isdigit() else f"_{text}"
 
 
 def _snap(value):
@@ -120,6 +114,8 @@ def _body(body, params):
 
 def system_from_tree(tree, *, fold=False, mimic=False, gravity=9.81):
     """Build the :class:`UrdfSystem` of a :class:`tree.Tree` (see the module docstring)."""
+    if mimic:
+        check_mimics(tree, tree.joints)
     params = _Parameters(fold)
     N = sme.ReferenceFrame("N")
     origin = sme.Point("O")

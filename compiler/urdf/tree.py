@@ -7,19 +7,53 @@ after the group's first link, and joints hanging off a merged link get their
 origin re-expressed in that body's frame.  With a fixed base, the root link
 and everything welded to it are the ground.  Still plain numbers (numpy).
 
-The checks here are the ones about the tree as a whole: one root, no loops, a
-mass on every moving body, inertias that can exist.  Errors name the link or
-joint and its line in the file.
+The checks here are the ones about the tree as a whole: one root, no loops,
+inertias that can exist, names that stay distinct as C identifiers, something
+to move.  Errors name the link or joint and its line in the file.  Real files
+(example-robot-data) carry rounding and dummies that Pinocchio accepts, so
+three things are warned about and repaired rather than refused (one line
+each, ``file:line``, naming the link):
+
+- principal moments negative or missing the triangle inequality by a rounding
+  amount (within 1e-9 of the largest moment): repaired;
+- a triangle inequality missed by more on a tensor that is positive
+  semi-definite, or any impossible inertia on a link welded into a body whose
+  combined inertia is possible: kept as given -- the dynamics only need each
+  moving body's combined inertia to be positive semi-definite, as in
+  Pinocchio; a moving body whose own inertia is not is still an error;
+- a moving link whose whole subtree carries no mass (a massless finger, a
+  sensor frame on a joint): its joints are locked at q = 0 and it is merged
+  into its parent, since nothing it could do changes the dynamics.
+
+Everything walks the tree with explicit stacks, so depth costs no recursion
+(a 1000-link chain reads in milliseconds).
 """
+import re
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from eomc.runtime.errors import ModelFileError
+from eomc.runtime.errors import EomcWarning, ModelFileError
 
-__all__ = ["Body", "TreeJoint", "Tree", "build_tree"]
+__all__ = ["Body", "TreeJoint", "Tree", "build_tree", "identifier", "coordinate_suffixes", "check_mimics"]
 
 MOVING = ("revolute", "continuous", "prismatic", "floating", "planar")
+ROUNDING = 1e-9          # relative to the largest principal moment
+
+COORDINATE_SUFFIXES = {"floating": (("x", "y", "z", "rx", "ry", "rz"), ("vx", "vy", "vz", "wx", "wy", "wz")),
+                       "planar": (("x", "y", "th"), ("vx", "vy", "w"))}
+
+
+def coordinate_suffixes(kind):
+    """(coordinate suffixes, speed suffixes) of a joint kind; ((""), ("")) for a 1-dof joint."""
+    return COORDINATE_SUFFIXES.get(kind, (("",), ("",)))
+
+
+def identifier(name):
+    """``name`` as a C identifier fragment: other characters become ``_``."""
+    text = re.sub(r"[^A-Za-z0-9_]", "_", name)
+    return text if text and not text[0].isdigit() else f"_{text}"
 
 
 @dataclass
@@ -55,21 +89,24 @@ class Tree:
     bodies: dict               # name -> Body, parents before children
     joints: list               # TreeJoint, parents before children
     ground_links: list         # links welded to the world (fixed base)
-    ignored: list              # notes on what was left out (e.g. massless fixed links)
+    ignored: list              # notes on what was left out or repaired (each also warned about)
+    locked: list = field(default_factory=list)   # joints locked at 0 (massless subtrees)
 
 
 def _fail(robot, line, message):
     raise ModelFileError(message, str(robot.path), line)
 
 
-def _homogeneous(rotation, position):
-    transform = np.eye(4)
-    transform[:3, :3], transform[:3, 3] = rotation, position
-    return transform
+def _warn(robot, line, message, notes):
+    where = f"{robot.path}:{line}: " if line else f"{robot.path}: "
+    notes.append(message)
+    warnings.warn(where + message, EomcWarning, stacklevel=4)
 
 
 def _parents_and_root(robot):
     """child link -> its joint, and the one root link; loops and forests are errors."""
+    if not robot.links:
+        _fail(robot, robot.line, f"robot '{robot.name}' has no <link>: nothing to build")
     parent_joint = {}
     for joint in robot.joints:
         if joint.child in parent_joint:
@@ -80,36 +117,43 @@ def _parents_and_root(robot):
         if joint.child == joint.parent:
             _fail(robot, joint.line, f"joint '{joint.name}' joins link '{joint.child}' to itself")
         parent_joint[joint.child] = joint
+    done = set()             # links known to reach a root: each link is walked once (O(n))
     for start in robot.links:   # follow parents from every link: a repeat is a cycle
-        seen, link = [], start
-        while link in parent_joint and link not in seen:
-            seen.append(link)
+        seen, order, link = set(), [], start
+        while link in parent_joint and link not in seen and link not in done:
+            seen.add(link)
+            order.append(link)
             link = parent_joint[link].parent
         if link in seen:
-            cycle = seen[seen.index(link):]
+            cycle = order[order.index(link):]
             joint = parent_joint[cycle[0]]
             _fail(robot, joint.line, f"joint loop: the links {' -> '.join(cycle + [cycle[0]])} form a "
                                      f"cycle through their parent joints (joint '{joint.name}' is one); "
                                      f"URDF describes trees")
+        done.update(order)
     roots = [name for name in robot.links if name not in parent_joint]
     if len(roots) > 1:
-        lines = ", ".join(f"'{name}' (line {robot.links[name].line})" for name in roots)
+        lines = ", ".join(f"'{name}' (line {robot.links[name].line})" for name in roots[:5])
+        more = f" and {len(roots) - 5} more" if len(roots) > 5 else ""
         _fail(robot, robot.links[roots[1]].line,
-              f"{len(roots)} links have no parent joint: {lines}; a URDF is one tree, so every link "
-              f"but the root must be the child of a joint")
+              f"{len(roots)} links have no parent joint: {lines}{more}; a URDF is one tree, so every "
+              f"link but the root must be the child of a joint")
     return parent_joint, roots[0]
 
 
 def _combine(body, items):
-    """Mass, centre of mass and central inertia of (mass, com, inertia) items in one frame."""
+    """Mass, centre of mass and central inertia of (mass, com, inertia) items in one frame.
+
+    An item of zero mass may still carry rotational inertia (Bolt's feet: mass 0, inertia
+    5.7e-7): it adds its tensor and nothing else, as in Pinocchio.  A body of zero mass
+    keeps its link origin as its centre."""
     mass = sum(m for m, _, _ in items)
     body.mass = mass
-    if mass <= 0.0:
-        return
-    if len(items) == 1:   # one massive link: its own numbers, without rounding through the sums
+    massive = [item for item in items if item[0] > 0]
+    if len(items) == 1 and massive:   # one massive link: its own numbers, without rounding through the sums
         body.com, body.inertia = items[0][1], items[0][2]
         return
-    com = sum(m * c for m, c, _ in items) / mass
+    com = sum(m * c for m, c, _ in massive) / mass if mass > 0 else np.zeros(3)
     inertia = np.zeros((3, 3))
     for m, c, tensor in items:
         d = c - com
@@ -117,83 +161,309 @@ def _combine(body, items):
     body.com, body.inertia = com, 0.5 * (inertia + inertia.T)
 
 
-def _check_inertia(robot, link):
+def _has_inertia(link):
+    return link.mass > 0 or bool(np.any(link.inertia != 0))
+
+
+def _moments(tensor):
+    """(principal moments, their rotation, scale): scale the largest |moment| (0: none).
+
+    Raises FloatingPointError when the tensor is too large for double precision."""
+    with np.errstate(all="raise"):
+        sym = 0.5 * (tensor + tensor.T)
+        eig, vec = np.linalg.eigh(sym)
+    if not np.all(np.isfinite(eig)):
+        raise FloatingPointError
+    return eig, vec, float(np.max(np.abs(eig))) if eig.size else 0.0
+
+
+def _describe(eig):
+    return ", ".join(f"{e:.6g}" for e in eig)
+
+
+def _link_inertia(robot, link, notes):
+    """Check one link's inertia: 'ok', 'impossible' (beyond rounding; the caller decides),
+    repairing rounding-level misses in place (with a warning)."""
     if link.mass < 0:
         _fail(robot, link.line, f"link '{link.name}' has a negative mass ({link.mass:g})")
-    eig = np.linalg.eigvalsh(0.5 * (link.inertia + link.inertia.T))
-    scale = max(1.0, float(np.max(np.abs(eig))))
-    if eig.min() < -1e-9 * scale or 2 * eig.max() - eig.sum() > 1e-9 * scale:
-        _fail(robot, link.line, f"link '{link.name}': its inertia tensor is not physically possible "
-                                f"(principal moments {', '.join(f'{e:.6g}' for e in eig)}: they must "
-                                f"be non-negative and obey the triangle inequality)")
+    try:
+        eig, vec, scale = _moments(link.inertia)
+    except (FloatingPointError, np.linalg.LinAlgError):
+        _fail(robot, link.line, f"link '{link.name}': its inertia tensor is too large to handle in "
+                                f"double precision (entries up to {np.max(np.abs(link.inertia)):.3g})")
+    if scale == 0.0:
+        return "ok"
+    # rounding is judged against the larger of the largest moment and the link's mass
+    # moment about its own origin (a point mass off the origin: 1e-20 entries are noise)
+    tol = ROUNDING * max(scale, link.mass * float(link.com @ link.com))
+    miss = 2 * eig.max() - eig.sum()
+    if eig.min() >= 0 and miss <= 0:
+        return "ok"
+    if eig.min() >= -tol and miss <= tol:          # rounding: repair, say so
+        fixed = np.maximum(eig, 0.0)
+        deficit = 2 * fixed.max() - fixed.sum()
+        if deficit > 0:                            # raise the two smaller moments to close it
+            order = np.argsort(fixed)
+            fixed[order[:2]] += deficit / 2
+        link.inertia = vec @ np.diag(fixed) @ vec.T
+        _warn(robot, link.line, f"link '{link.name}': principal moments {_describe(eig)} repaired "
+                                f"to {_describe(fixed)} (a rounding-level violation)", notes)
+        return "ok"
+    return "negative" if eig.min() < -tol else "triangle"
 
 
-def _massless(robot, body, joint):
-    link = robot.links[body.name]
-    welded = [name for name in body.links if name != body.name]
-    also = f" (nor do the links welded to it: {', '.join(welded)})" if welded else ""
-    if not any(robot.links[name].has_inertial for name in body.links):
-        hint = (" -- it has only mesh geometry, and eomc does not compute mass properties from "
-                "meshes" if link.meshes else "")
-        _fail(robot, link.line, f"link '{link.name}' is moved by joint '{joint.name}' but has no "
-                                f"<inertial>{also}{hint}; give it a <mass> and an <inertia>")
-    _fail(robot, link.line, f"link '{link.name}' is moved by joint '{joint.name}' but has zero mass"
-                            f"{also}; a moving link needs a positive <mass value=...>")
+def _check_body(robot, body, joint, verdicts, notes):
+    """A moving body's combined inertia must be positive semi-definite; links whose own
+    tensors are impossible are accepted (with a warning) when the combination is possible."""
+    bad = [name for name in body.links if verdicts.get(name, "ok") != "ok"]
+    if not bad:
+        return
+    try:
+        eig, _, scale = _moments(body.inertia)
+    except (FloatingPointError, np.linalg.LinAlgError):
+        eig, scale = np.array([-np.inf]), 1.0
+    tol = ROUNDING * max(scale, 1e-300)
+    for name in bad:
+        link = robot.links[name]
+        leig = _moments(link.inertia)[0]
+        if verdicts[name] == "negative" and (eig.min() < -tol or len(body.links) == 1):
+            _fail(robot, link.line, f"link '{name}': its inertia tensor is not physically possible "
+                                    f"(principal moments {_describe(leig)}: they must be non-negative "
+                                    f"and obey the triangle inequality; a negative one beyond rounding "
+                                    f"makes the mass matrix indefinite)")
+        if verdicts[name] == "triangle" and len(body.links) == 1:
+            what = "kept as given (as Pinocchio does): the dynamics need only a non-negative tensor"
+        else:
+            what = (f"kept as given: it is welded into body '{body.name}' (moved by joint "
+                    f"'{joint.name}'), whose combined inertia is possible")
+        _warn(robot, link.line, f"link '{name}': its inertia tensor is not physically possible "
+                                f"(principal moments {_describe(leig)} miss the triangle inequality"
+                                f"{' or are negative' if verdicts[name] == 'negative' else ''}); {what}",
+              notes)
+
+
+def _check_names(robot, joints, bodies):
+    """Joint and link names must stay distinct as C identifiers (q_<joint>, m_<link>, ...)."""
+    taken = {}
+    for joint in joints:
+        coords, speeds = coordinate_suffixes(joint.type)
+        ident = identifier(joint.name)
+        for prefix, suffixes in (("q", coords), ("u", speeds)):
+            for suffix in suffixes:
+                name = f"{prefix}_{ident}" + (f"_{suffix}" if suffix else "")
+                other = taken.get(name)
+                if other is not None and other is not joint:
+                    _fail(robot, joint.line, f"joint '{joint.name}' and joint '{other.name}' (line "
+                                             f"{other.line}) both give the C name {name}; rename one "
+                                             f"(names become C identifiers: characters other than "
+                                             f"letters, digits and _ turn into _)")
+                taken[name] = joint
+    seen = {}
+    for body in bodies.values():
+        ident = identifier(body.name)
+        if ident in seen:
+            other = seen[ident]
+            _fail(robot, body.line, f"link '{body.name}' and link '{other.name}' (line {other.line}) "
+                                    f"both give the C name {ident} (parameters m_{ident}, ...); rename "
+                                    f"one")
+        seen[ident] = body
+
+
+def _carries_mass(robot, children, root):
+    """link -> whether it or any link below it (through any joint) has mass or inertia; no recursion."""
+    order, stack = [], [root]
+    while stack:
+        link = stack.pop()
+        order.append(link)
+        stack.extend(j.child for j in children.get(link, ()))
+    carries = {}
+    for link in reversed(order):
+        carries[link] = _has_inertia(robot.links[link]) or any(carries[j.child] for j in children.get(link, ()))
+    return carries
+
+
+def _subtree(children, link):
+    out, stack = [], [link]
+    while stack:
+        name = stack.pop()
+        out.append(name)
+        stack.extend(j.child for j in children.get(name, ()))
+    return out
 
 
 def build_tree(robot, floating_base=False):
     """The :class:`Tree` of ``robot`` (a reader.UrdfRobot); see the module docstring."""
     parent_joint, root = _parents_and_root(robot)
-    for link in robot.links.values():
-        _check_inertia(robot, link)
+    notes, locked = [], []
+    verdicts = {name: _link_inertia(robot, link, notes) for name, link in robot.links.items()}
     children = {}
     for joint in robot.joints:
         children.setdefault(joint.parent, []).append(joint)
-    bodies, joints, ground, ignored = {}, [], [], []
+    carries = _carries_mass(robot, children, root)
+    bodies, joints, ground = {}, [], []
     items = {}   # body name -> [(mass, com, inertia)] in the body frame
+    owner = {}   # body name -> the TreeJoint that moves it
 
-    def visit(link_name, body_name, transform):
-        """Walk the links welded into body ``body_name`` (None: ground); ``transform``: link in body."""
+    def start(link_name, joint):
+        bodies[link_name] = Body(link_name, robot.links[link_name].line, [link_name])
+        items[link_name] = []
+        joints.append(joint)
+        owner[link_name] = joint
+
+    # an explicit stack of work items, popped in the order the recursive walk visited them
+    # (depth first, joints in file order): ("visit", link, body it is welded into (None:
+    # ground), link frame in that body) or ("start", TreeJoint): a moving joint's new body
+    stack = []
+    if floating_base:
+        if not carries[root]:
+            _fail(robot, robot.links[root].line, f"--floating-base: the robot has no mass at all "
+                                                 f"(root link '{root}' and everything on it)")
+        stack.append(("start", TreeJoint(f"{root}_floating", robot.links[root].line, "floating", None,
+                                         root, np.eye(3), np.zeros(3), np.array([1.0, 0.0, 0.0]))))
+    else:
+        stack.append(("visit", root, None, np.eye(4)))
+    while stack:
+        item = stack.pop()
+        if item[0] == "start":
+            joint = item[1]
+            start(joint.child, joint)
+            stack.append(("visit", joint.child, joint.child, np.eye(4)))
+            continue
+        _, link_name, body_name, transform = item
         link = robot.links[link_name]
         if body_name is None:
             ground.append(link_name)
         else:
             if link_name != body_name:
                 bodies[body_name].links.append(link_name)
-            if link.mass > 0:
+            if _has_inertia(link):
                 rotation, position = transform[:3, :3], transform[:3, 3]
                 items[body_name].append((link.mass, rotation @ link.com + position,
                                          rotation @ link.inertia @ rotation.T))
+        pending = []
         for joint in children.get(link_name, ()):
             origin = transform @ joint.origin
-            if joint.type == "fixed":
-                visit(joint.child, body_name, origin)
+            if joint.type in MOVING and not carries[joint.child]:
+                _lock(robot, joint, children, body_name if body_name else link_name, locked, notes)
+            if joint.type == "fixed" or not carries[joint.child]:
+                pending.append(("visit", joint.child, body_name, origin))
                 continue
-            start(joint.child, TreeJoint(joint.name, joint.line, joint.type, body_name, joint.child,
-                                         origin[:3, :3].copy(), origin[:3, 3].copy(), joint.axis,
-                                         joint.mimic))
-
-    def start(link_name, joint):
-        bodies[link_name] = Body(link_name, robot.links[link_name].line, [link_name])
-        items[link_name] = []
-        joints.append(joint)
-        visit(link_name, link_name, np.eye(4))
-
-    if floating_base:
-        start(root, TreeJoint(f"{root}_floating", robot.links[root].line, "floating", None, root,
-                              np.eye(3), np.zeros(3), np.array([1.0, 0.0, 0.0])))
-    else:
-        visit(root, None, np.eye(4))
+            pending.append(("start", TreeJoint(joint.name, joint.line, joint.type, body_name, joint.child,
+                                               origin[:3, :3].copy(), origin[:3, 3].copy(), joint.axis,
+                                               joint.mimic)))
+        stack.extend(reversed(pending))      # the first joint's subtree first, as recursion did
+    if not joints:
+        _fail(robot, robot.line, f"robot '{robot.name}' has no moving joint (only fixed joints"
+                                 f"{' and massless links' if locked else ''}): a model without states; "
+                                 f"give it a moving joint, or use --floating-base / floating_base=True "
+                                 f"to let the whole robot move")
+    _order_parents_first(joints)
+    bodies = {j.child: bodies[j.child] for j in joints}
     for joint in joints:
         body = bodies[joint.child]
         _combine(body, items[body.name])
-        if body.mass <= 0.0:
-            _massless(robot, body, joint)
-    _check_mimics(robot, joints)
-    return Tree(robot.name, robot.path, root, bodies, joints, ground, ignored)
+        _check_body(robot, body, joint, verdicts, notes)
+    for name in ground:      # welded to the world: they move nothing, so only say so
+        if verdicts.get(name, "ok") != "ok":
+            _warn(robot, robot.links[name].line, f"link '{name}': its inertia tensor is not physically "
+                                                 f"possible (principal moments "
+                                                 f"{_describe(_moments(robot.links[name].inertia)[0])}); "
+                                                 f"ignored: it is welded to the ground", notes)
+    _check_names(robot, joints, bodies)
+    tree = Tree(robot.name, robot.path, root, bodies, joints, ground, notes, locked)
+    _check_resisted(robot, tree)
+    return tree
 
 
-def _check_mimics(robot, joints):
+def _order_parents_first(joints):
+    """The depth-first walk already lists parents first; assert it cheaply."""
+    seen = {None}
+    for joint in joints:
+        assert joint.parent in seen, joint.name
+        seen.add(joint.child)
+
+
+def _lock(robot, joint, children, into, locked, notes):
+    """A moving joint whose subtree carries no mass: lock it (and everything below) at 0."""
+    if joint.name in locked:      # below one locked already
+        return
+    below = _subtree(children, joint.child)
+    moving = [j.name for link in below for j in children.get(link, ()) if j.type in MOVING]
+    locked += [joint.name] + moving
+    others = f", nor do the {len(below) - 1} link(s) below it" if len(below) > 1 else ""
+    joints = f"; joints {', '.join([joint.name] + moving)} locked at 0" if moving else ""
+    link = robot.links[joint.child]
+    mesh = " (it has only mesh geometry: eomc does not compute mass from meshes)" if (
+        link.meshes and not link.has_inertial) else ""
+    _warn(robot, link.line, f"link '{joint.child}' (moved by joint '{joint.name}', line {joint.line})"
+                            f" carries no mass{mesh}{others}: merged into '{into}' as if welded"
+                            f"{joints}; it cannot change the dynamics", notes)
+
+
+def _check_resisted(robot, tree):
+    """Every speed must move some mass: a joint whose subtree has no inertia along its motion
+    (a point mass on its own axis, a massless link carrying only a massless chain) would give a
+    singular mass matrix.  Numerically at q = 0: the subtree's composite inertia about the
+    joint (Featherstone's CRBA, one backward pass)."""
+    index = {j.child: k for k, j in enumerate(tree.joints)}
+    n = len(tree.joints)
+    composite = [None] * n
+    placement = []          # (E: parent->child components, r: child origin in parent) at q = 0
+    for joint in tree.joints:
+        body = tree.bodies[joint.child]
+        I6 = np.zeros((6, 6))
+        c = body.com
+        cx = np.array([[0, -c[2], c[1]], [c[2], 0, -c[0]], [-c[1], c[0], 0]])
+        I6[:3, :3] = body.inertia + body.mass * (cx @ cx.T)
+        I6[:3, 3:] = body.mass * cx
+        I6[3:, :3] = body.mass * cx.T
+        I6[3:, 3:] = body.mass * np.eye(3)
+        composite[index[joint.child]] = I6
+        placement.append((joint.rotation.T, joint.position))
+    for k in range(n - 1, -1, -1):
+        joint = tree.joints[k]
+        if joint.parent is None:
+            continue
+        E, r = placement[k]
+        rx = np.array([[0, -r[2], r[1]], [r[2], 0, -r[0]], [-r[1], r[0], 0]])
+        X = np.zeros((6, 6))           # motion transform parent -> child (about the link origins)
+        X[:3, :3], X[3:, 3:], X[3:, :3] = E, E, -E @ rx
+        p = index[joint.parent]
+        composite[p] = composite[p] + X.T @ composite[k] @ X
+    for k, joint in enumerate(tree.joints):
+        S = _motion(joint)
+        D = S.T @ composite[k] @ S
+        scale = max(np.max(np.abs(composite[k])), 1e-300)
+        if np.linalg.eigvalsh(0.5 * (D + D.T)).min() <= 1e-12 * scale:
+            _fail(robot, joint.line, f"joint '{joint.name}' moves no inertia along its motion: link "
+                                     f"'{joint.child}' and what it carries have no mass or inertia "
+                                     f"that resists it (a mass on the axis it turns about?); its "
+                                     f"acceleration would be undefined")
+
+
+def _motion(joint):
+    """6xk motion subspace about the child link origin, child components, at q = 0."""
+    a = np.asarray(joint.axis, dtype=float)
+    if joint.type in ("revolute", "continuous"):
+        return np.concatenate([a, np.zeros(3)])[:, None]
+    if joint.type == "prismatic":
+        return np.concatenate([np.zeros(3), a])[:, None]
+    if joint.type == "floating":
+        return np.eye(6)
+    # planar: two slides in the plane normal to the axis, a turn about it
+    z = a
+    helper = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    x = helper - (helper @ z) * z
+    x /= np.linalg.norm(x)
+    y = np.cross(z, x)
+    S = np.zeros((6, 3))
+    S[3:, 0], S[3:, 1], S[:3, 2] = x, y, z
+    return S
+
+
+def check_mimics(robot, joints):
+    """Mimic tags, when they are used (``mimic=True``): a target that moves, no chains, a
+    multiplier that is not zero.  (Ignored tags are not checked, as Pinocchio ignores them.)"""
     by_name = {j.name: j for j in joints}
     for joint in joints:
         if joint.mimic is None:
@@ -205,3 +475,7 @@ def _check_mimics(robot, joints):
         if target.mimic is not None:
             _fail(robot, joint.line, f"joint '{joint.name}' mimics '{target.name}', which itself mimics "
                                      f"'{target.mimic[0]}'; chains of mimic joints are not supported")
+        if joint.mimic[1] == 0:
+            _fail(robot, joint.line, f"joint '{joint.name}' mimics '{target.name}' with multiplier 0: "
+                                     f"it would stay at its offset {joint.mimic[2]:g}; make it a fixed "
+                                     f"joint instead")

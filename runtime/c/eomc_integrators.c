@@ -16,9 +16,13 @@
  * as published with Hairer's Fortran codes (tabulated identically in
  * scipy.integrate._ivp); tests check the orders of convergence.
  */
+#if !defined(_WIN32) && !defined(_POSIX_C_SOURCE)
+#define _POSIX_C_SOURCE 200809L   /* sigaction under -std=c99 */
+#endif
 #include "eomc_integrators.h"
 
 #include <complex.h>
+#include <signal.h>
 #include <float.h>
 #include <math.h>
 #include <string.h>
@@ -190,7 +194,67 @@ typedef struct ctx {
     eomc_events *ev;         /* event detection, or NULL */
     double ev_t;             /* time of the terminal event that stopped the run */
     double *ev_x;            /* its state (in the events' scratch) */
+    int abort;               /* nonzero: a callback failed or Ctrl-C -- the run's status, no retry */
+    long sigint0;            /* g_sigint at the start of the run */
 } ctx;
+
+/* ---------------------------------------------------------------- Ctrl-C */
+
+/* SIGINTs seen by the armed handler; a run stops when it changes (a count, never reset, so
+ * concurrent runs need no coordination and a stale signal never stops a later run). */
+static volatile sig_atomic_t g_sigint = 0;
+
+#if defined(_POSIX_VERSION) || defined(__unix__) || defined(__APPLE__)
+static struct sigaction g_prev_sigint;
+
+static void on_sigint(int sig, siginfo_t *info, void *uc)
+{
+    g_sigint = (sig_atomic_t)(g_sigint + 1);
+    if (g_prev_sigint.sa_flags & SA_SIGINFO) {
+        if (g_prev_sigint.sa_sigaction) g_prev_sigint.sa_sigaction(sig, info, uc);
+    } else if (g_prev_sigint.sa_handler != SIG_DFL && g_prev_sigint.sa_handler != SIG_IGN) {
+        g_prev_sigint.sa_handler(sig);
+    }
+}
+
+int eomc_interrupt_arm(void)
+{
+    struct sigaction cur, mine, old;
+    if (sigaction(SIGINT, NULL, &cur) != 0) return 0;
+    if ((cur.sa_flags & SA_SIGINFO) && cur.sa_sigaction == on_sigint) return 1;  /* armed already */
+    if (!(cur.sa_flags & SA_SIGINFO) && (cur.sa_handler == SIG_DFL || cur.sa_handler == SIG_IGN))
+        return 0;
+    memset(&mine, 0, sizeof mine);
+    mine.sa_sigaction = on_sigint;
+    mine.sa_flags = SA_SIGINFO;
+#ifdef SA_ONSTACK
+    mine.sa_flags |= cur.sa_flags & SA_ONSTACK;
+#endif
+    sigemptyset(&mine.sa_mask);
+    g_prev_sigint = cur;
+    if (sigaction(SIGINT, &mine, &old) != 0) return 0;
+    if ((old.sa_flags & SA_SIGINFO) && old.sa_sigaction == on_sigint) return 1;  /* raced: keep cur */
+    g_prev_sigint = old;     /* what was really replaced (never this handler: no self-chaining) */
+    return 1;
+}
+
+void eomc_interrupt_disarm(void)
+{
+    struct sigaction cur;
+    if (sigaction(SIGINT, NULL, &cur) == 0 && (cur.sa_flags & SA_SIGINFO) && cur.sa_sigaction == on_sigint)
+        sigaction(SIGINT, &g_prev_sigint, NULL);
+}
+#else
+int eomc_interrupt_arm(void) { return 0; }
+void eomc_interrupt_disarm(void) { }
+#endif
+
+/* Nonzero when the run must stop now (Ctrl-C, or a callback that failed). */
+static int aborted(ctx *c)
+{
+    if (!c->abort && g_sigint != c->sigint0) c->abort = EOMC_ABORTED;
+    return c->abort;
+}
 
 /* Dense output of the last accepted step [t, t + h], for events. */
 typedef struct interp {
@@ -303,7 +367,7 @@ static int inputs_at(ctx *c, double t, const double *x)
     }
     if (fb->fn) {
         int s = fb->fn(fb->user, t, x, c->r);
-        if (s) return s;
+        if (s) return c->abort = s;   /* the caller's callback failed: stop, never call it again */
     } else {
         if (c->nr <= 0) memset(c->r, 0, (size_t)ni * sizeof(double));
         else if (c->nr == 1) memcpy(c->r, c->rv, (size_t)ni * sizeof(double));
@@ -324,6 +388,7 @@ static int inputs_at(ctx *c, double t, const double *x)
 static int frhs(ctx *c, double t, const double *x, double *f)
 {
     int s;
+    if (aborted(c)) { c->st->t_fail = t; return c->abort; }
     if (!c->fb) grid_inputs_at(c, t);           /* the plain path, as before feedback existed */
     else if ((s = inputs_at(c, t, x))) { c->st->t_fail = t; return s; }
     c->st->nfev++;
@@ -338,6 +403,7 @@ static int fjac(ctx *c, double t, const double *x, double *J)
 {
     int s;
     if (!c->m->jac_x) return EOMC_NOT_AVAILABLE;
+    if (aborted(c)) { c->st->t_fail = t; return c->abort; }
     if ((s = inputs_at(c, t, x))) { c->st->t_fail = t; return s; }
     c->st->njev++;
     s = c->m->jac_x(t, x, c->p, c->r, J, c->mwork);
@@ -364,6 +430,7 @@ static int ctx_init(ctx *c, const eomc_model *m, const double *p, int nr,
 {
     c->m = m; c->p = p; c->nr = nr; c->rt = rt; c->rv = rv; c->st = st; c->n = m->nx;
     c->pj = NULL; c->stab = 0.0; c->fb = NULL; c->fbJ = NULL; c->ev = NULL; c->ev_t = 0.0; c->ev_x = NULL;
+    c->abort = 0; c->sigint0 = g_sigint;
     c->r = take(pos, (size_t)m->ninput + 1);
     c->mwork = take(pos, m->work_size + 1);
     if (m->ninput > 0) {
@@ -405,7 +472,7 @@ static int initial_step(ctx *c, double t0, double t1, const double *x, const dou
     h0 = fmin(h0, len);
     for (int i = 0; i < n; i++) tmp[i] = x[i] + h0 * f0[i];
     s = frhs(c, t0 + h0, tmp, f1);
-    if (s == EOMC_NONFINITE) { *h_out = fmin(h0 * 1e-3, hmax); return EOMC_OK; }
+    if (s == EOMC_NONFINITE && !c->abort) { *h_out = fmin(h0 * 1e-3, hmax); return EOMC_OK; }
     if (s) return s;
     for (int i = 0; i < n; i++) {
         double sc = atol + fabs(x[i]) * rtol;
@@ -839,6 +906,7 @@ static int run_erk(ctx *c, const erk *tb, const eomc_options *o, proj *pj,
             st->steps++;
             s = erk_trial(c, tb, t, h, x, K, ynew, ys, acc5);
             if (s) {        /* non-finite or model failure: shrink up to where it starts */
+                if (c->abort) return c->abort;  /* ... but a failed callback or Ctrl-C stops now */
                 last_bad = s; st->rejected++; rejected_now = 1;
                 h *= MIN_FACTOR;
                 continue;
@@ -1081,12 +1149,14 @@ static int radau_step(ctx *c, const radau_consts *k, radau_ws *w, const eomc_opt
         }
         for (int i = 0; i < n; i++) w->scale[i] = o->atol + fabs(y[i]) * o->rtol;
         for (;;) {
+            if (c->abort) return c->abort;    /* a failed callback or Ctrl-C: no retry */
             if (!*lu_ok) {
                 if (radau_factor(c, k, w, *h)) { conv = 0; break; }
                 *lu_ok = 1;
             }
             s = radau_newton(c, k, w, t, *h, y, tol, &conv, niter, rate);
             last_bad = s;
+            if (s && c->abort) return c->abort;
             if (s) { conv = 0; break; }    /* non-finite or model failure in a stage */
             if (conv || *cur_jac) break;
             if ((s = fjac(c, t, y, w->J))) return s;
@@ -1107,7 +1177,7 @@ static int radau_step(ctx *c, const radau_consts *k, radau_ws *w, const eomc_opt
         if (rejected && err > 1) {
             for (int i = 0; i < n; i++) w->tmp[i] = y[i] + w->err[i];
             s = frhs(c, t, w->tmp, w->err);
-            if (s && s != EOMC_NONFINITE) return s;
+            if (s && (s != EOMC_NONFINITE || c->abort)) return s;
             if (s == EOMC_OK) {
                 for (int i = 0; i < n; i++) w->err[i] += w->ze[i];
                 lu_solve(n, w->LUr, w->pivr, w->err);

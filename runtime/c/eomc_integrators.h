@@ -91,7 +91,8 @@ int eomc_integrate(const eomc_model *m, const eomc_options *opt,
  * Inputs with state feedback: r(t, x) = base(t, x) + K (x_ref - x), where
  * base is the input grid of eomc_integrate, or fn(user, t, x, r) when fn is
  * set (a caller's callback: the slow path, one call per stage; a nonzero
- * return stops the run with that status).  K: ninput x nx row-major (NULL: no
+ * return stops the run at once with that status -- the stage is not retried
+ * and fn is not called again; EOMC_ABORTED says "the callback failed").  K: ninput x nx row-major (NULL: no
  * linear feedback), x_ref: nx (NULL: zeros).  Radau's Jacobian includes
  * -jac_r K (it needs jac_r); a callback's dependence on x is not included.
  * r_slopes (n_rgrid x ninput, or NULL): dr/dt at the grid times, making the
@@ -147,6 +148,20 @@ int eomc_integrate_ex(const eomc_model *m, const eomc_options *opt,
                       int n_eval, const double *t_eval, double *x_out,
                       double *x_last, eomc_stats *stats,
                       double *work, size_t work_len);
+
+/*
+ * Ctrl-C during a run.  eomc_interrupt_arm() installs a SIGINT handler that
+ * counts the signal and then calls the handler it replaced (Python's, which
+ * raises KeyboardInterrupt when the C call returns); while it is installed,
+ * every run that started before the signal stops at its next model evaluation
+ * with EOMC_ABORTED.  It returns 1 when armed (also when it already was), 0
+ * when SIGINT is ignored or default (nothing to chain) or on a platform
+ * without sigaction.  eomc_interrupt_disarm() puts the replaced handler back
+ * if this one is still installed.  Callers should serialize them (a race is
+ * benign: the handler never chains to itself).
+ */
+int eomc_interrupt_arm(void);
+void eomc_interrupt_disarm(void);
 
 /*
  * Evaluate the model's outputs (which == 0; noutput columns) or constraint

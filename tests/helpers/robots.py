@@ -50,14 +50,19 @@ class PinRef:
 
     ``joints``: eomc's moving joints in its order, as (name, URDF type) -- e.g.
     ``[(j.name, j.type) for j in system.urdf.tree.joints]``; a floating base
-    comes first.  Pinocchio's continuous joints and planar joints keep an
+    comes first.  ``locked``: joints eomc locked at 0 (massless subtrees,
+    ``tree.locked``), removed from Pinocchio's model with ``buildReducedModel``.  Pinocchio's continuous joints and planar joints keep an
     angle as (cos, sin); eomc keeps the angle.
     """
 
-    def __init__(self, path, joints, floating=False, mimic=False):
+    def __init__(self, path, joints, floating=False, mimic=False, locked=()):
         root = pin.JointModelFreeFlyer() if floating else None
         self.model = (pin.buildModelFromUrdf(str(path), root, mimic=mimic) if floating
                       else pin.buildModelFromUrdf(str(path), mimic=mimic))
+        if locked:      # joints eomc merged (massless subtrees): locked at 0 here too
+            ids = [self.model.getJointId(name) for name in locked]
+            self.model = pin.buildReducedModel(self.model, [i for i in ids if i < self.model.njoints],
+                                               pin.neutral(self.model))
         self.data = self.model.createData()
         self.floating = floating
         self.parts, self.iq, self.iv, self.actuated = [], [], [], []     # parts: (eomc q index, kind, pinocchio q index)

@@ -56,3 +56,62 @@ def test_no_diagnosis_without_a_compiled_mass_matrix(arm, monkeypatch):
     assert singular_direction(arm, 0.0, x, _p(arm)) == ""      # M regular: nothing to say
     monkeypatch.setattr(arm, "functions", ("rhs",))
     assert singular_direction(arm, 0.0, x, _p(arm, m2=0.0)) == ""
+
+
+# ---- the recursive formulation at a singular configuration (reliability report r3, N9) ----------
+
+def _mixed_tree():
+    """The report's tree: a SphericalJoint (XYZ body angles), a prismatic child, a skew pin.
+    (A ball joint alone already rounds D to <= 0 in the lock; with this tree D stayed > 0.)"""
+    ground = em.RigidBody("ground")
+    s = em.System.from_newtonian(ground)
+    a = em.RigidBody("a", mass=sm.Symbol("ma"))
+    a.inertia = (em.inertia(a.frame, 1, 2, 3, 0.1, 0.2, 0.3), a.masscenter)
+    b = em.RigidBody("b", mass=sm.Symbol("mb"))
+    b.inertia = (em.inertia(b.frame, 2, 1, 2.5), b.masscenter)
+    c = em.RigidBody("c", mass=1)
+    c.inertia = (em.inertia(c.frame, 1, 1, 1), c.masscenter)
+    qa, ua = em.dynamicsymbols("qa1:4"), em.dynamicsymbols("ua1:4")
+    qb, ub = em.dynamicsymbols("qb ub")
+    qc, uc = em.dynamicsymbols("qc uc")
+    s.add_joints(em.SphericalJoint("S", ground, a, qa, ua, parent_point=0.1 * ground.x, child_point=-0.5 * a.z),
+                 em.PrismaticJoint("P", a, b, qb, ub, parent_point=0.5 * a.z, joint_axis=a.x),
+                 em.PinJoint("R", a, c, qc, uc, parent_point=0.3 * a.y, child_point=-0.2 * c.x,
+                             joint_axis=a.y + a.z))
+    s.apply_uniform_gravity(-9.81 * ground.z)
+    return s
+
+
+@pytest.fixture(scope="module")
+def mixed(tmp_path_factory):
+    # recursive only: Kane's derivation of a SphericalJoint costs ~12 s; its rhs (LDLᵀ of M)
+    # is the reference the singular test follows, and CRBA's M and f are the oracle below
+    return eomc.compile(_mixed_tree(), "mixed", progress=False, formulation="recursive",
+                        cache_dir=str(tmp_path_factory.mktemp("cache")), parameters={"ma": 2.0, "mb": 1.5},
+                        functions=["rhs", "mass_matrix", "forcing"])
+
+
+def _gimbal_state(model, offset):
+    x = np.zeros(model.nx)
+    x[1], x[model.nq:] = np.pi / 2 + offset, 0.3
+    return x
+
+
+@pytest.mark.parametrize("offset", [0.0, 1e-14, -1e-9, 1e-9])
+def test_recursive_rhs_in_gimbal_lock_is_singular_naming_the_speeds(mixed, offset):
+    """It used to return status 0 and one of infinitely many u' (up to 2e5 at -1e-9)."""
+    with pytest.raises(SimulationError, match=r"singular.*nothing resists motion along "
+                                              r"(ua1 \(1\), ua3 \(-1\)|ua3 \(1\), ua1 \(-1\))"):
+        mixed.rhs(0.0, _gimbal_state(mixed, offset))
+
+
+def test_recursive_rhs_near_gimbal_lock_and_elsewhere_is_not_refused(mixed):
+    """No misfire: regular states, and 1e-6 / 1e-3 from the lock (cond M ~ 1e12, 1e6), solve
+    M u' = f (CRBA's M and f, an algorithm independent of ABA)."""
+    rng = np.random.default_rng(7)
+    states = [rng.uniform(-1.4, 1.4, mixed.nx) for _ in range(20)]
+    states += [_gimbal_state(mixed, -1e-6), _gimbal_state(mixed, -1e-3)]
+    for x in states:
+        ud = mixed.rhs(0.0, x)[mixed.nq:]
+        M, f = mixed.mass_matrix(0.0, x), mixed.forcing(0.0, x)
+        assert np.linalg.norm(M @ ud - f) <= 1e-10 * max(1.0, np.linalg.norm(f)) * np.linalg.norm(M), x

@@ -10,6 +10,7 @@ import pytest
 
 from eomc.compiler.urdf import from_urdf
 from eomc.errors import ModelFileError
+from eomc.runtime.errors import EomcWarning
 from helpers.urdf_arm import ARM
 
 
@@ -48,29 +49,56 @@ def test_malformed_xml_gives_the_line(tmp_path):
     assert error.lineno == _line(text, '<joint name="shoulder"') + 5   # where the mismatch shows
 
 
-def test_missing_inertial_on_a_moving_link(tmp_path):
+def _warned(tmp_path, text, *needles):
+    """from_urdf(text) builds, warning once per link as ``file:line: ...`` with ``needles``."""
+    path = _write(tmp_path, text)
+    with pytest.warns(EomcWarning) as caught:
+        system = from_urdf(path)
+    messages = [str(w.message) for w in caught if issubclass(w.category, EomcWarning)]
+    assert any(m.startswith(f"{path}:") and all(n in m for n in needles) for m in messages), messages
+    return system, messages
+
+
+def test_massless_moving_leaf_is_merged_with_a_warning(tmp_path):
+    """No <inertial> (or zero mass) on the last link: it carries nothing, so its joint is
+    locked and it is merged into its parent, and the warning says so."""
     start, end = ARM.index("    <inertial>\n      <origin xyz=\"0 0 0.15\""), ARM.index("  </link>\n  <joint")
     text = ARM[:start] + ARM[end:]
-    message, error = _error(tmp_path, text)
-    assert "link 'lower'" in message and "joint 'elbow'" in message and "<inertial>" in message
-    assert error.lineno == _line(text, '<link name="lower">')
+    system, _ = _warned(tmp_path, text, "link 'lower'", "joint 'elbow'", "carries no mass", "merged into 'upper'")
+    assert [str(q) for q in system.q] == ["q_shoulder(t)"]
+    massless = ARM.replace('<mass value="1.0"/>', '<mass value="0"/>')
+    system, _ = _warned(tmp_path, massless.replace('ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.0005"',
+                                                   'ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"'),
+                        "link 'lower'", "carries no mass")
+    assert len(system.q) == 1
+    # zero mass but a rotational inertia (Bolt's feet): kept, as Pinocchio keeps it
+    assert len(from_urdf(_write(tmp_path, massless)).q) == 2
 
 
-def test_zero_mass_moving_link(tmp_path):
-    text = ARM.replace('<mass value="1.0"/>', '<mass value="0"/>')
-    message, error = _error(tmp_path, text)
-    assert "link 'lower'" in message and "zero mass" in message
-    assert error.lineno == _line(text, '<link name="lower">')
-
-
-def test_mesh_only_link_says_meshes_are_not_used(tmp_path):
+def test_mesh_only_leaf_says_meshes_are_not_used(tmp_path):
     start, end = ARM.index("    <inertial>\n      <origin xyz=\"0 0 0.15\""), ARM.index("  </link>\n  <joint")
     mesh = ('    <visual><geometry><mesh filename="package://arm/lower.stl"/></geometry></visual>\n'
             '    <collision><geometry><mesh filename="package://arm/lower.stl"/></geometry></collision>\n')
-    text = ARM[:start] + mesh + ARM[end:]
+    _warned(tmp_path, ARM[:start] + mesh + ARM[end:], "link 'lower'", "mesh", "carries no mass")
+
+
+def test_massless_link_carrying_mass_moves_it(tmp_path):
+    """A massless middle link (a 'virtual' link between two joints, as in human.urdf) is kept:
+    the mass beyond it resists its joint."""
+    start = ARM.index("    <inertial>\n      <origin xyz=\"0 0 0.2\"")
+    end = ARM.index("  </link>\n  <link name=\"lower\">")
+    system = from_urdf(_write(tmp_path, ARM[:start] + ARM[end:]))
+    assert len(system.q) == 2
+
+
+def test_a_joint_that_moves_no_inertia_is_refused(tmp_path):
+    """A point mass on its own joint's axis: nothing resists that joint (M singular)."""
+    text = ARM.replace('<origin xyz="0 0 0.15"/>', '<origin xyz="0 0 0"/>').replace(
+        'ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.0005"',
+        'ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"')
     message, error = _error(tmp_path, text)
-    assert "link 'lower'" in message and "mesh" in message and "<inertial>" in message
-    assert error.lineno == _line(text, '<link name="lower">')
+    assert "joint 'elbow'" in message and "moves no inertia" in message
+    assert error.lineno == _line(text, '<joint name="elbow"')
 
 
 def test_joint_loop_two_parents(tmp_path):
@@ -111,10 +139,31 @@ def test_undefined_link_and_missing_child(tmp_path):
 
 
 def test_impossible_inertia(tmp_path):
+    """A triangle inequality missed beyond rounding on a positive tensor: kept as given
+    (Pinocchio's choice: the dynamics are defined) with a warning naming the link; a
+    negative principal moment beyond rounding on a moving body: refused."""
     text = ARM.replace('ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.0005"',
                        'ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.05"')
+    _warned(tmp_path, text, "link 'lower'", "triangle", "kept as given")
+    text = ARM.replace('ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.0005"',
+                       'ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="-0.001"')
     message, error = _error(tmp_path, text)
-    assert "link 'lower'" in message and "inertia" in message and "triangle" in message
+    assert "link 'lower'" in message and "negative" in message
+    assert error.lineno == _line(text, '<link name="lower">')
+
+
+def test_rounding_level_violations_are_repaired(tmp_path):
+    """-2.5e-22 beside 3e-6 (HyQ's base), and a triangle missed by 1e-12 relative: one warning
+    each naming the link; the repaired tensor is what the model uses."""
+    text = ARM.replace('ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.0005"',
+                       'ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="-2.5e-22"')
+    system, _ = _warned(tmp_path, text, "link 'lower'", "repaired", "rounding")
+    assert "Izz_lower" not in {str(k) for k in system.urdf.parameters}      # repaired to 0
+    text = ARM.replace('ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.0005"',
+                       'ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.02000000000002"')
+    system, _ = _warned(tmp_path, text, "link 'lower'", "repaired")
+    values = {str(k): v for k, v in system.urdf.parameters.items()}
+    assert values["Ixx_lower"] + values["Iyy_lower"] >= values["Izz_lower"]
 
 
 def test_not_a_urdf(tmp_path):

@@ -1,0 +1,301 @@
+"""A URDF's body tree straight to the recursive formulation's Tree IR: numbers and symbols only.
+
+Why: the System route (:mod:`.system`, SymPy joints, then
+:mod:`eomc.compiler.tree.recognize` reading the tree back) spends nearly all of
+a large robot's build in SymPy's frame-graph searches (220 of 234 s for G1).
+Here each joint is written down in joint-local terms directly -- the rotation
+E(q) and offset r(q) of its body relative to its parent, the constant motion
+axes S, the joint's loads -- from the numbers of :mod:`.tree`, in O(n).
+
+The result is what the recognizer finds in the System of :mod:`.system` (the
+tests compare the two): the same coordinates, speeds and state order, the same
+parameters with the same names and defaults (zeros in the file stay literal
+zeros; ``fold`` makes every value a literal), the same inputs, the same
+kinematics q' = f(q, u), and the same bodies: the link frame as each body's
+frame, its combined centre of mass as its origin.  Per joint, with R0 the
+joint origin's rotation, a its axis, p its position (all in the parent body
+frame), c the child's and c_p the parent's centre of mass:
+
+- revolute/continuous: R_PC = R0 Rot(a, q); r = p - c_p + R_PC c; S = (a, a × c)
+- prismatic: R_PC = R0; r = p - c_p + R0 (a q + c); S = (0, a)
+- floating: R_PC = R0 Rx Ry Rz; r = p - c_p + R0 (x, y, z) + R_PC c; speeds the
+  child point's velocity and the angular velocity in child components
+- planar: in the frame A = R0 Z (Z turns z onto a): R_PC = A Rz(th) Zᵀ,
+  r = p - c_p + A (x, y, 0) + R_PC c; speeds as Pinocchio's planar joint
+
+(E = R_PCᵀ.)  Joint torques act on the child about a and on the parent about
+R0 a; a prismatic joint's force acts at the child's link origin and at the
+joint point of the parent.
+"""
+from types import SimpleNamespace
+
+import numpy as np
+import sympy as sm
+from sympy.physics.vector import dynamicsymbols
+
+from eomc.compiler.tree.model import Load, Tree, TreeBody
+
+from .tree import coordinate_suffixes, identifier
+
+__all__ = ["UrdfTree", "tree_ir", "floating_rotation", "floating_kinematics"]
+
+_SNAP = 1e-12
+_T = dynamicsymbols._t
+
+
+def _snap(value):
+    """Exact 0 and ±1 for numbers within 1e-12 of them (as :mod:`.system` does)."""
+    for exact in (0, 1, -1):
+        if abs(value - exact) < _SNAP:
+            return sm.Integer(exact)
+    return sm.Float(float(value), 17)
+
+
+def _snapped(array):
+    """A numpy array with entries within 1e-12 of 0, ±1 made exact (floats still)."""
+    out = np.array(array, dtype=float)
+    for exact in (0.0, 1.0, -1.0):
+        out[np.abs(out - exact) < _SNAP] = exact
+    return out
+
+
+def _num(value):
+    """A float as the SymPy literal the System path writes (exact 0/±1 or a 17-digit Float)."""
+    return _snap(value)
+
+
+class UrdfTree:
+    """What :func:`tree_ir` returns: the Tree and the names and values beside it."""
+
+    def __init__(self, tree, coordinates, speeds, kinematics, parameters, inputs, source, offsets=()):
+        self.tree = tree                  # eomc.compiler.tree.model.Tree
+        self.coordinates = coordinates    # q(t), joint order
+        self.speeds = speeds              # u(t)
+        self.kinematics = kinematics      # q' per coordinate
+        self.parameters = parameters      # Symbol -> URDF value
+        self.inputs = inputs              # tau(t) per actuated joint, joint order
+        self.source = source              # the urdf.tree.Tree
+        self.offsets = offsets            # per body: its link origin from its parent's, parent frame
+
+
+class _Parameters:
+    """Named symbols for non-zero numbers; exact zeros (and ``fold``) stay literal (as
+    :class:`.system._Parameters`; names are distinct: :func:`.tree.build_tree` checked)."""
+
+    def __init__(self, fold):
+        self.fold, self.values = fold, {}
+
+    def __call__(self, name, value):
+        value = float(value)
+        if value == 0.0:
+            return sm.Integer(0)
+        if self.fold:
+            return _snap(value)
+        symbol = sm.Symbol(name)
+        self.values[symbol] = value
+        return symbol
+
+
+def _lin(coefficients, functions):
+    """sum(c_k f_k) for numeric c_k (snapped), zero terms dropped."""
+    out = sm.S.Zero
+    for c, f in zip(coefficients, functions):
+        c = _num(c)
+        if c != 0:
+            out += c * f if f != 1 else c
+    return out
+
+
+def _rotation_terms(R0, axis):
+    """R_PC = A cos q + B sin q + C for R_PC = R0 Rot(axis, q) (Rodrigues), as numbers."""
+    a = np.asarray(axis, dtype=float)
+    ax = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+    aa = np.outer(a, a)
+    return (_snapped(R0 @ (np.eye(3) - aa)), _snapped(R0 @ ax), _snapped(R0 @ aa))
+
+
+def floating_rotation(rx, ry, rz):
+    """R = Rx Ry Rz (child components -> parent components) of body-fixed XYZ angles,
+    entry for entry as SymPy's ``orient_body_fixed(..., 'xyz')`` gives ``parent.dcm(child)``."""
+    cx, sx, cy, sy, cz, sz = sm.cos(rx), sm.sin(rx), sm.cos(ry), sm.sin(ry), sm.cos(rz), sm.sin(rz)
+    Rx = sm.Matrix([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
+    Ry = sm.Matrix([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
+    Rz = sm.Matrix([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
+    return Rx * Ry * Rz
+
+
+def floating_kinematics(q, u):
+    """q' of a floating joint (as :class:`.joints.FloatingJoint`): position' = R v, and the
+    body-XYZ Euler rates of the body-frame angular velocity in closed form."""
+    R = floating_rotation(*q[3:])
+    velocity = R * sm.Matrix(u[:3])
+    wx, wy, wz = u[3:]
+    cy, sz, cz = sm.cos(q[4]), sm.sin(q[5]), sm.cos(q[5])
+    rate_x = (wx * cz - wy * sz) / cy
+    return [velocity[0], velocity[1], velocity[2], rate_x, wx * sz + wy * cz, wz - rate_x * sm.sin(q[4])]
+
+
+def _z_to(axis):
+    """A rotation matrix whose third column is the unit vector ``axis`` (as :mod:`.system`)."""
+    z = np.asarray(axis, dtype=float)
+    helper = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    x = helper - (helper @ z) * z
+    x /= np.linalg.norm(x)
+    return np.column_stack([x, np.cross(z, x), z])
+
+
+def _cross(a, b):
+    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+
+
+def _times(M, v):
+    """Numeric 3x3 (snapped literals) times a symbolic 3-vector."""
+    return [sum((_num(M[i, k]) * v[k] for k in range(3) if _num(M[i, k]) != 0 and v[k] != 0), sm.S.Zero)
+            for i in range(3)]
+
+
+def _vec(values):
+    return [_num(v) for v in values]
+
+
+def tree_ir(tree, *, fold=False, gravity=9.81):
+    """The :class:`UrdfTree` of a :class:`.tree.Tree` (see the module docstring)."""
+    params = _Parameters(fold)
+    bodies, coordinates, speeds, kinematics, inputs, loads, offsets = [], [], [], [], [], [], []
+    index, coms = {}, {}
+    for tj in tree.joints:
+        body = tree.bodies[tj.child]
+        s = identifier(body.name)
+        mass = params(f"m_{s}", body.mass)
+        c = [params(f"{k}_{s}", v) for k, v in zip(("cx", "cy", "cz"), body.com)]
+        I = body.inertia
+        e = {key: params(f"I{key}_{s}", I[i, j]) for key, (i, j) in
+             (("xx", (0, 0)), ("yy", (1, 1)), ("zz", (2, 2)), ("xy", (0, 1)), ("xz", (0, 2)), ("yz", (1, 2)))}
+        inertia = sm.Matrix([[e["xx"], e["xy"], e["xz"]], [e["xy"], e["yy"], e["yz"]],
+                             [e["xz"], e["yz"], e["zz"]]])
+        j = identifier(tj.name)
+        p = [params(f"{k}_{j}", v) for k, v in zip("xyz", tj.position)]
+        cp = coms[tj.parent] if tj.parent is not None else [0, 0, 0]
+        base = [p[k] - cp[k] for k in range(3)]
+        parent = index[tj.parent] if tj.parent is not None else -1
+        R0 = _snapped(tj.rotation)
+        a = _snapped(tj.axis)
+        suffixes_q, suffixes_u = coordinate_suffixes(tj.type)
+        qs = [dynamicsymbols(f"q_{j}" + (f"_{x}" if x else "")) for x in suffixes_q]
+        us = [dynamicsymbols(f"u_{j}" + (f"_{x}" if x else "")) for x in suffixes_u]
+        first = len(speeds)
+        coordinates += qs
+        speeds += us
+        common = dict(name=s, joint=tj.name, parent=parent, mass=mass, inertia=inertia)
+        if tj.type in ("revolute", "continuous"):
+            A, B, C = _rotation_terms(R0, a)
+            cq, sq = sm.cos(qs[0]), sm.sin(qs[0])
+            R = sm.Matrix(3, 3, lambda r, k: _lin((A[r, k], B[r, k], C[r, k]), (cq, sq, 1)))
+            Rc = [sum((R[r, k] * c[k] for k in range(3) if c[k] != 0), sm.S.Zero) for r in range(3)]
+            position = sm.Matrix([base[r] + Rc[r] for r in range(3)])
+            av = _vec(a)
+            motion = tuple(av) + tuple(_cross(av, c))
+            bodies.append(TreeBody(kind="revolute", speed=first, rotation=R.T, position=position,
+                                   motion=motion, **common))
+            offsets.append(sm.Matrix(p))
+            kinematics.append(us[0])
+        elif tj.type == "prismatic":
+            R0a = _times(R0, [a[k] * qs[0] for k in range(3)])
+            R0c = _times(R0, c)
+            position = sm.Matrix([base[r] + R0c[r] + R0a[r] for r in range(3)])
+            motion = (0, 0, 0) + tuple(_vec(a))
+            bodies.append(TreeBody(kind="prismatic", speed=first, rotation=sm.Matrix(R0.T).applyfunc(_num),
+                                   position=position, motion=motion, **common))
+            offsets.append(sm.Matrix([p[r] + R0a[r] for r in range(3)]))
+            kinematics.append(us[0])
+        elif tj.type == "floating":
+            Rf = floating_rotation(*qs[3:])
+            R = sm.Matrix(3, 3, lambda r, k: sum((_num(R0[r, m]) * Rf[m, k] for m in range(3)
+                                                  if _num(R0[r, m]) != 0), sm.S.Zero))
+            xyz = _times(R0, qs[:3])
+            Rc = [sum((R[r, k] * c[k] for k in range(3) if c[k] != 0), sm.S.Zero) for r in range(3)]
+            position = sm.Matrix([base[r] + xyz[r] + Rc[r] for r in range(3)])
+            unit = [(1, 0, 0), (0, 1, 0), (0, 0, 1)]
+            motions = tuple((0, 0, 0) + e_ for e_ in unit) + tuple(
+                tuple(e_) + tuple(_cross(list(e_), c)) for e_ in unit)
+            bodies.append(TreeBody(kind="free", speed=None, rotation=R.T, position=position, motion=None,
+                                   speeds=tuple(range(first, first + 6)), motions=motions, **common))
+            offsets.append(sm.Matrix([p[r] + xyz[r] for r in range(3)]))
+            kinematics += floating_kinematics(qs, us)
+        elif tj.type == "planar":
+            Z = _snapped(_z_to(tj.axis))
+            Aj = _snapped(R0 @ Z)
+            cth, sth = sm.cos(qs[2]), sm.sin(qs[2])
+            # R_PC = Aj Rz(th) Zᵀ = P cos + Q sin + W
+            Pm = _snapped(Aj @ np.diag([1.0, 1.0, 0.0]) @ Z.T)
+            Qm = _snapped(Aj @ np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 0.0]]) @ Z.T)
+            Wm = _snapped(Aj @ np.diag([0.0, 0.0, 1.0]) @ Z.T)
+            R = sm.Matrix(3, 3, lambda r, k: _lin((Pm[r, k], Qm[r, k], Wm[r, k]), (cth, sth, 1)))
+            xy = _times(Aj, [qs[0], qs[1], 0])
+            Rc = [sum((R[r, k] * c[k] for k in range(3) if c[k] != 0), sm.S.Zero) for r in range(3)]
+            position = sm.Matrix([base[r] + xy[r] + Rc[r] for r in range(3)])
+            n = _vec(Z[:, 2])
+            motions = ((0, 0, 0) + tuple(_vec(Z[:, 0])), (0, 0, 0) + tuple(_vec(Z[:, 1])),
+                       tuple(n) + tuple(_cross(n, c)))
+            bodies.append(TreeBody(kind="3-speed", speed=None, rotation=R.T, position=position, motion=None,
+                                   speeds=(first, first + 1, first + 2), motions=motions, **common))
+            offsets.append(sm.Matrix([p[r] + xy[r] for r in range(3)]))
+            kinematics += [us[0] * cth - us[1] * sth, us[0] * sth + us[1] * cth, us[2]]
+        else:
+            raise NotImplementedError(f"joint type {tj.type}")
+        index[tj.child] = len(bodies) - 1
+        coms[tj.child] = c
+        if tj.type in ("revolute", "continuous", "prismatic"):
+            tau = dynamicsymbols(f"tau_{j}")
+            inputs.append(tau)
+            loads += _actuation(tj.type, tau, a, R0, c, p, cp, index[tj.child], parent)
+    g = params("g", gravity) if gravity else sm.S.Zero
+    ir = Tree(bodies=tuple(bodies), coordinates=tuple(coordinates), speeds=tuple(speeds),
+              kinematics=tuple(kinematics), gravity=sm.Matrix([0, 0, -g]), loads=tuple(loads))
+    return UrdfTree(ir, tuple(coordinates), tuple(speeds), tuple(kinematics), params.values, inputs, tree,
+                    tuple(offsets))
+
+
+def pose_source(built):
+    """The animation's PoseSource (eomc.compiler.emit.poses) of a :class:`UrdfTree`, without a
+    System: one frame per link at its link origin, placed from its parent link by the joint's
+    R_PC(q) and origin offset; links welded to a body or to the ground and the visuals as
+    the System route gives them (the same helpers); a line from each parent link to its child."""
+    from sympy.physics.vector import Point, ReferenceFrame, Vector
+    from eomc.compiler.emit.poses import PoseSource, _urdf_geometry, _welded_links
+    N, O = ReferenceFrame("N"), Point("O")
+    frame_edges, point_edges = [(N, None, None)], [(O, None, None)]
+    frames, points, lines, placed = [], [("O", O)], [], []
+    for body, offset in zip(built.tree.bodies, built.offsets):
+        F, L = ReferenceFrame(f"F_{body.name}"), Point(f"L_{body.name}")
+        pframe, ppoint, pindex = (N, O, 0) if body.parent < 0 else placed[body.parent]
+        frame_edges.append((F, pframe, body.rotation.T))
+        point_edges.append((L, ppoint, Vector([(offset, pframe)])))
+        frames.append((body.name, F, L))
+        points.append((body.name, L))
+        lines.append((pindex, len(points) - 1))
+        placed.append((F, L, len(points) - 1))
+    urdf = SimpleNamespace(tree=built.source)      # what the System route's helpers read
+    frames, more_frames, more_points = _welded_links(urdf, frames, N, O)
+    return PoseSource(tuple(frames), tuple(points), tuple(lines), tuple(frame_edges + more_frames),
+                      tuple(point_edges + more_points), dict(built.parameters), _urdf_geometry(urdf))
+
+
+def _actuation(kind, tau, a, R0, c, p, cp, child, parent):
+    """The joint's torque (revolute) or force (prismatic) on the child and its reaction on the
+    parent (none on the ground: it does no work), in body components."""
+    zero = sm.zeros(3, 1)
+    on_child = sm.Matrix([_num(v) * tau for v in a])
+    on_parent = sm.Matrix([-_num(v) * tau for v in _snapped(R0 @ a)])
+    out = []
+    if kind == "prismatic":
+        out.append(Load(body=child, frame="body", moment=zero, force=on_child,
+                        offset=sm.Matrix([-x for x in c])))
+        if parent >= 0:
+            out.append(Load(body=parent, frame="body", moment=zero, force=on_parent,
+                            offset=sm.Matrix([p[k] - cp[k] for k in range(3)])))
+        return out
+    out.append(Load(body=child, frame="body", moment=on_child, force=zero, offset=zero))
+    if parent >= 0:
+        out.append(Load(body=parent, frame="body", moment=on_parent, force=zero, offset=zero))
+    return out

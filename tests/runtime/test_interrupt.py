@@ -1,0 +1,122 @@
+"""An exception or Ctrl-C stops the integrator at once (reliability report 2026-11-r3, N5).
+
+The callable's failure used to look like a non-finite value to the C loop, which shrank the
+step and called the callable again: the run went on to t_final (720 more calls) and Ctrl-C
+landed 22-35 s late.  Now a failed callable returns EOMC_ABORTED (no retry, no further
+call), and a SIGINT during a long C run without callbacks stops it within one model
+evaluation (runtime/native.py arms eomc_interrupt_arm for the C call).
+"""
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+
+import numpy as np
+import pytest
+
+from helpers import osc_model
+from eomc.compiler.build import build
+from eomc.runtime.loader import load
+
+METHODS = ("rk4", "dopri5", "dop853", "radau")
+
+
+@pytest.fixture(scope="module")
+def built(tmp_path_factory):
+    return build(osc_model.oscillator(), cache_dir=tmp_path_factory.mktemp("cache"))
+
+
+@pytest.fixture(scope="module")
+def osc(built):
+    return load(built.directory)
+
+
+def _raises_once_at(t_raise, exc):
+    calls = {"after": 0, "raised": False}
+
+    def r(t):
+        if calls["raised"]:
+            calls["after"] += 1
+        elif t > t_raise:
+            calls["raised"] = True
+            raise exc
+        return 0.5
+    return r, calls
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_an_exception_in_the_callable_stops_the_run_at_once(osc, method):
+    r, calls = _raises_once_at(0.5, RuntimeError("sensor lost"))
+    kw = {"dt": 1e-3} if method == "rk4" else {}
+    with pytest.raises(ValueError, match=r"r\(t\) raised RuntimeError at t=0\.5.*sensor lost"):
+        osc.simulate([1.0, 0.0], (0, 30), r=r, method=method, **kw)
+    assert calls["raised"] and calls["after"] == 0  # never called again after it raised
+
+
+@pytest.mark.parametrize("exc", [KeyboardInterrupt, SystemExit])
+def test_keyboard_interrupt_in_the_callable_propagates_at_once(osc, exc):
+    r, calls = _raises_once_at(0.5, exc())
+    start = time.perf_counter()
+    with pytest.raises(exc):
+        osc.simulate([1.0, 0.0], (0, 1e4), r=r, max_steps=10 ** 9)
+    assert calls["after"] == 0
+    assert time.perf_counter() - start < 5.0  # the 1e4 s run would take minutes
+
+
+def test_a_callable_with_state_that_raises_stops_radau_too(osc):
+    seen = []
+
+    def r(t, x):
+        seen.append(t)
+        if t > 0.2:
+            raise ArithmeticError("controller fault")
+        return [0.0]
+    with pytest.raises(ValueError, match="controller fault"):
+        osc.simulate([1.0, 0.0], (0, 5), r=r, method="radau")
+    assert sum(t > 0.2 for t in seen) == 1
+
+
+CHILD = textwrap.dedent("""
+    import os, signal, sys, threading, time
+    from eomc.runtime.loader import load
+    model = load(sys.argv[1])
+    calls = {"n": 0}
+    def slow(t):
+        calls["n"] += 1
+        time.sleep(0.01)
+        return 0.5
+    kind = sys.argv[2]
+    kw = dict(r=slow) if kind == "callable" else dict(max_steps=10 ** 12, n_points=2, p=[2.0, 0.0, 8.0])
+    threading.Timer(0.5, lambda: (globals().__setitem__("sent", time.perf_counter()),
+                                  os.kill(os.getpid(), signal.SIGINT))).start()
+    try:
+        model.simulate([1.0, 0.0], (0, 1e9), **kw)
+        print("finished")
+    except KeyboardInterrupt:
+        print(f"interrupted {time.perf_counter() - sent:.3f} {calls['n']}")
+    # a later run in the same process is not stopped by that old signal
+    model.simulate([1.0, 0.0], (0, 1.0))
+    print("later run ok")
+""")
+
+
+@pytest.mark.parametrize("kind", ["callable", "plain C run"])
+def test_ctrl_c_lands_within_a_tenth_of_a_second(built, kind, tmp_path):
+    script = tmp_path / "child.py"
+    script.write_text(CHILD)
+    proc = subprocess.run([sys.executable, str(script), str(built.directory), kind.split()[0]],
+                          capture_output=True, text=True, timeout=60)
+    lines = proc.stdout.split("\n")
+    assert lines[0].startswith("interrupted"), proc.stdout + proc.stderr
+    latency = float(lines[0].split()[1])
+    assert latency < 0.1, lines[0]
+    assert lines[1] == "later run ok", proc.stdout + proc.stderr
+
+
+def test_sigint_handler_is_python_s_again_after_a_run(osc):
+    before = signal.getsignal(signal.SIGINT)
+    osc.simulate([1.0, 0.0], (0, 1.0))
+    assert signal.getsignal(signal.SIGINT) is before
+    assert np.isfinite(osc.simulate([1.0, 0.0], (0, 1.0)).x_final).all()
