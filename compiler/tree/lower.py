@@ -51,10 +51,21 @@ TREE_FUNCTION_GROUPS = {
 TREE_HELPER_USERS = ()
 
 
+_NONFINITE = (sm.nan, sm.zoo, sm.oo, -sm.oo)
+
+
 def _rename(layout, memo, what, absent):
     """Slot symbols; ``absent``: symbols Kane's equations do not contain (an inertia about
-    an axis nothing turns about), which therefore cannot change the result: set to zero."""
-    return lambda e: layout.apply(sm.sympify(e).xreplace(absent) if absent else e, what, memo)
+    an axis nothing turns about), which therefore cannot change the result: set to zero.
+    A non-finite constant (a load's 0/0 once became NAN in the C) is refused here, naming
+    the body, joint or load it came from."""
+    def ren(e):
+        e = sm.sympify(e)
+        if e.has(*_NONFINITE):
+            raise ModelError(f"recursive formulation: {what} has a non-finite constant ({e}); "
+                             f"no C is written")
+        return layout.apply(e.xreplace(absent) if absent else e, what, memo)
+    return ren
 
 
 def _absent(tree, layout):
