@@ -168,7 +168,7 @@ def model_spec(system, name=None, *, parameters=None, inputs=None, initial_state
     if is_urdf_model(system):   # a robot: straight to the tree, or its System under kane
         path = Path(system.path if isinstance(system, UrdfModel) else system)
         name = name or sanitize_name(path.stem)
-        formed, values, robot = urdf_formed(system, formulation, overrides)
+        formed, values, robot = urdf_formed(system, formulation, overrides, formed_system)
         spec = _checked({**values, "system": robot}, formed, name,
                         lambda exc: ModelFileError(str(exc), str(path)), f"{path}: ")
         return ModelSpec(**{**spec.__dict__, "path": path})

@@ -360,6 +360,12 @@ def _effective_inertias(rd, bodies):
     return out
 
 
+def effective_inertias(bodies, coordinates, speeds, kinematics):
+    """:func:`_effective_inertias` for a tree built elsewhere (the URDF reader's), so that
+    both routes to a tree name the same parameters."""
+    return _effective_inertias(_Reader(None, None, coordinates, speeds, kinematics), list(bodies))
+
+
 def _parallel(rd, a, w):
     """a ∥ w (constant vectors, or checked at random numbers)."""
     c = a.cross(w)
