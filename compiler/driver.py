@@ -12,7 +12,7 @@ import os
 import sys
 import time
 
-from eomc.runtime.errors import ModelError
+from eomc.runtime.errors import EomcError, ModelError
 from eomc.runtime.progress import ticker
 
 from .build import build, cache_root
@@ -73,11 +73,13 @@ class Progress:
 
 def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, functions=None,
              fold_parameters=False, progress=None, cache_dir=None, use_cache=True, events=None,
-             formulation="kane"):
+             formulation="auto"):
     """Derive and generate C without compiling: returns (ModelSpec, GeneratedModel).
 
-    ``formulation``: "kane" (formed A, b; numeric LDLᵀ), "recursive" (ABA/RNEA/CRBA
-    over the joint tree, eomc.compiler.tree) or "auto" (the cheaper rhs).
+    ``formulation``: "auto" (the default: the recursive form where it is cheaper, Kane's
+    where it is or where the recursion cannot take the system, with the reason in the
+    metadata's ``formulation_note``; see eomc.compiler.tree.select), "kane" (formed A, b;
+    numeric LDLᵀ) or "recursive" (ABA/RNEA/CRBA over the joint tree, eomc.compiler.tree).
 
     With ``use_cache`` the C comes from the generation cache when the formed
     equations and options were seen before (see eomc.compiler.build.gencache).
@@ -89,16 +91,33 @@ def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, f
         functions = check_functions(functions)
     except Invalid as exc:
         raise ModelError(str(exc)) from None
+
+    def derive(form):
+        return model_spec(system, name, parameters=parameters, inputs=inputs, outputs=outputs,
+                          events=events, formulation=form)
+    note = None
     with progress.stage("derive"):
-        spec = model_spec(system, name, parameters=parameters, inputs=inputs, outputs=outputs,
-                          events=events, formulation=formulation)
+        try:
+            spec = derive(formulation)
+        except EomcError as exc:
+            if formulation != "auto":
+                raise
+            # the tree was read but the model's variables do not fit it (e.g. a parameters
+            # dict without the inertias of the tree's bodies): Kane's form, or its own error
+            spec = derive("kane")
+            note = f"kane, the fallback (recursive: {exc})"
+
     def run_generator():
-        return generate_formulation(spec, functions, fold_parameters, formulation)
+        generated = generate_formulation(spec, functions, fold_parameters, formulation,
+                                         kane_spec=lambda: derive("kane"))
+        if note is not None:
+            generated.metadata["formulation_note"] = note
+        return generated
     with progress.stage("generate"), reporting(progress.pass_done):
         if use_cache:
             generated, _ = cached_generate(spec, functions, fold_parameters, run_generator,
                                            cache_root(cache_dir),
-                                           extra=[formulation, tree_digest(spec)])
+                                           extra=[formulation, tree_digest(spec), note or ""])
         else:
             generated = run_generator()
     return spec, generated
@@ -106,10 +125,10 @@ def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, f
 
 def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, functions=None,
             fold_parameters=False, backend="cffi", cflags=None, cache_dir=None, output_dir=None,
-            progress=None, events=None, formulation="kane"):
+            progress=None, events=None, formulation="auto"):
     """Compile a model file (path) or a formed system into a loaded :class:`eomc.runtime.model.Model`.
 
-    ``formulation``: "kane" (default), "recursive" or "auto" (see :func:`generate`).
+    ``formulation``: "auto" (default), "kane" or "recursive" (see :func:`generate`).
 
     Progress (stage timings on stderr) defaults to on when stderr is a terminal.
     """

@@ -34,6 +34,11 @@ class ModelSpec:
     system: object = field(default=None, repr=False)
 
 
+def _is_eomc_kane(system):
+    from eomc.compiler.tree.select import is_eomc_kane
+    return is_eomc_kane(system)
+
+
 def _is_sympy_method(system):
     # not hasattr(mass_matrix_full): an unformed SymPy System raises there, and it converts too
     return type(system).__module__.startswith("sympy.physics.mechanics")
@@ -42,26 +47,36 @@ def _is_sympy_method(system):
 def formed_system(system, formulation="kane"):
     """FormedSystem of ``system``: eomc's methods via .formed(), SymPy's via from_sympy.
 
-    An unformed System (joints, from_urdf) is formed by eomc's Kane for the kane
-    formulation; for recursive/auto the tree is read instead (no equations formed),
-    unless the recursion cannot take it."""
+    For the kane formulation the equations are formed (an unformed System by eomc's
+    Kane).  For recursive and auto an unformed System, or an eomc KanesMethod, is read
+    as a joint tree instead (a FormedSystem of method "tree": nothing formed, so a model
+    file's lazily formed KanesMethod is never formed); when the recursion cannot take it,
+    recursive is refused here, before anything is formed, and auto forms Kane's
+    equations (eomc.compiler.tree.select says why in the metadata)."""
     from eomc.compiler.mechanics.formed import FormedSystem
     if isinstance(system, FormedSystem):
         return system
     from eomc.compiler.mechanics.unformed import form_system, is_unformed_system
-    if is_unformed_system(system):
-        if formulation != "kane":
-            from eomc.compiler.tree.formed import tree_formed
-            from eomc.compiler.tree.model import NotATree
-            try:
+    unformed = is_unformed_system(system)
+    if formulation != "kane" and (unformed or _is_eomc_kane(system)):
+        from eomc.compiler.tree.model import NotATree
+        from eomc.compiler.tree.select import recursive_refusal
+        try:
+            if unformed:
+                from eomc.compiler.tree.formed import tree_formed
                 return tree_formed(system)
-            except NotATree as exc:
-                if formulation == "recursive":    # refused now, before forming Kane's equations
-                    from eomc.compiler.tree.select import recursive_refusal
-                    raise recursive_refusal(exc) from None
-            except ModelError:
-                if formulation == "recursive":
-                    raise
+            from eomc.compiler.tree.select import kane_tree_formed
+            return kane_tree_formed(system)
+        except NotATree as exc:
+            if formulation == "recursive":    # refused now, before forming Kane's equations
+                raise recursive_refusal(exc) from None
+        except EomcError:
+            if formulation == "recursive":
+                raise
+        except Exception:                 # noqa: BLE001 -- auto: Kane's form below, or its error
+            if formulation == "recursive":
+                raise
+    if unformed:
         system = form_system(system)
     if _is_sympy_method(system):
         try:
