@@ -105,7 +105,7 @@ def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, f
             # the tree was read but the model's variables do not fit it (e.g. a parameters
             # dict without the inertias of the tree's bodies): Kane's form, or its own error
             spec = derive("kane")
-            note = f"kane, the fallback (recursive: {exc})"
+            note = f"kane, the fallback (recursive formulation: {exc})"
 
     def run_generator():
         generated = generate_formulation(spec, functions, fold_parameters, formulation,

@@ -73,9 +73,10 @@ def formed_system(system, formulation="kane"):
         except EomcError:
             if formulation == "recursive":
                 raise
-        except Exception:                 # noqa: BLE001 -- auto: Kane's form below, or its error
+        except Exception as exc:          # noqa: BLE001 -- auto: Kane's form below, or its error
             if formulation == "recursive":
-                raise
+                raise ModelError(f"recursive formulation: reading the joint tree failed "
+                                 f"({type(exc).__name__}: {exc})") from exc
     if unformed:
         system = form_system(system)
     if _is_sympy_method(system):
@@ -175,7 +176,13 @@ def model_spec(system, name=None, *, parameters=None, inputs=None, initial_state
         name = name or sanitize_name(path.stem)
     elif isinstance(system, (str, Path)):
         return _from_file(system, name, overrides, formulation)
-    formed = formed_system(system, formulation)
+    try:
+        formed = formed_system(system, formulation)
+    except EomcError:
+        raise
+    except Exception as exc:   # SymPy's own errors on a system it cannot form: say what failed
+        raise ModelError(f"forming the equations of the system failed: {type(exc).__name__}: "
+                         f"{exc}") from exc
     values = {**urdf_overrides(system, formed, overrides), "system": system}
     if path is not None:
         spec = _checked(values, formed, name, lambda exc: ModelFileError(str(exc), str(path)),

@@ -41,6 +41,7 @@ TREE_FUNCTION_GROUPS = {
     "constraints": ("con",),
     "constraints_jac": ("dcon",),
     "linearize": (),
+    "events": ("ev",),
 }
 TREE_HELPER_USERS = ()
 

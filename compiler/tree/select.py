@@ -234,14 +234,14 @@ def recursive_refusal(exc):
                       f"'auto' falls back to kane)")
 
 
-def _reason(exc):
+def _reason(exc, formulation="recursive"):
     """One line saying why a formulation failed (eomc's own errors as they are)."""
     if isinstance(exc, NotATree):
         return f"not a tree: {exc}"
-    text = str(exc).replace("recursive formulation: ", "", 1)
-    if isinstance(exc, EomcError):
-        return text
-    return f"{type(exc).__name__}: {text}"
+    text = str(exc).replace(f"{formulation} formulation: ", "", 1)
+    if not isinstance(exc, EomcError):
+        text = f"{type(exc).__name__}: {text}"
+    return f"{formulation} formulation: {text}"
 
 
 def _options(spec, functions, fold_parameters):
@@ -300,8 +300,8 @@ def _generate_auto(spec, functions, fold_parameters, kane_spec):
         except Exception as kane_exc:
             if isinstance(exc, NotATree) or not isinstance(kane_exc, EomcError):
                 raise
-            raise ModelError(f"{kane_exc} (and the recursive formulation failed too: {why})") from None
-        generated.metadata["formulation_note"] = f"kane, the fallback (recursive: {why})"
+            raise ModelError(f"{kane_exc} (auto tried the recursive form first: {why})") from None
+        generated.metadata["formulation_note"] = f"kane, the fallback ({why})"
         return generated
     nu = spec.formed.nu
     if spec.formed.method == "tree" and nu > AUTO_KANE_MAX_SPEEDS:
@@ -319,7 +319,7 @@ def _generate_auto(spec, functions, fold_parameters, kane_spec):
                 return recursive
         kane = _generate_kane(kspec, functions, fold_parameters)
     except Exception as exc:          # noqa: BLE001 -- the recursive form works: keep it
-        recursive.metadata["formulation_note"] = f"recursive (kane failed: {_reason(exc)})"
+        recursive.metadata["formulation_note"] = f"recursive ({_reason(exc, 'kane')})"
         return recursive
     chosen = recursive if _rhs_cost(recursive) < _rhs_cost(kane) else kane
     chosen.metadata["formulation_costs"] = {"kane": _rhs_cost(kane), "recursive": _rhs_cost(recursive)}

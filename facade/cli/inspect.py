@@ -58,11 +58,11 @@ def compare_formulations(args, spec, generated, generate, error):
     meta = generated.metadata
     chosen = meta.get("formulation", "kane")
     other = "kane" if chosen == "recursive" else "recursive"
-    head = [f"formulation: {chosen}" + (f" (asked for: {args.formulation})"
-                                        if args.formulation != chosen else "")]
     note = meta.get("formulation_note")
-    if note:                 # auto fell back: the other form failed, and the note says why
-        head.append(f"  why: {note}")
+    # auto fell back: the other form failed, and the note says which was used and why
+    head = [f"formulation: {note}" if note else
+            f"formulation: {chosen}" + (f" (asked for: {args.formulation})"
+                                        if args.formulation != chosen else "")]
     costs = meta.get("formulation_costs")
     if costs:
         head.append("  auto compared rhs operations: " +
