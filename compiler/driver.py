@@ -18,6 +18,7 @@ from eomc.runtime.progress import ticker
 from .build import build, cache_root
 from .build.cache import BadEntry
 from .build.gencache import cached_generate
+from .emit.poses import pose_digest
 from .build.export import export
 from .model import model_spec
 from .model.validate import Invalid, check_functions
@@ -71,15 +72,42 @@ class Progress:
                 print(line, file=self.stream, flush=True)
 
 
+def _with_poses(spec, functions):
+    """``spec`` with the PoseSource of its system (compiler/emit/poses.py) when poses is
+    generated (the default set, or asked for); a bad `geometry` dict is reported at its line."""
+    import dataclasses
+    from .emit.poses import pose_source
+    if functions is not None and "poses" not in functions:
+        return spec
+    try:
+        poses = pose_source(spec.system, spec.geometry)
+    except (ModelError, ValueError) as exc:
+        if spec.path is not None and spec.path.suffix == ".py":
+            from eomc.runtime.errors import ModelFileError
+            from .model.modelfile import assignment_lines
+            line = assignment_lines(spec.path.read_text()).get("geometry")
+            raise ModelFileError(str(exc), str(spec.path), line) from None
+        raise ModelError(str(exc)) from None
+    except Exception as exc:   # poses are extra: a system they cannot read still builds, without them
+        import warnings
+        from eomc.runtime.errors import EomcWarning
+        warnings.warn(f"{spec.name}: built without poses (the animation's body positions): reading the "
+                      f"bodies failed with {type(exc).__name__}: {exc}", EomcWarning, stacklevel=3)
+        poses = None
+    return dataclasses.replace(spec, poses=poses)
+
+
 def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, functions=None,
              fold_parameters=False, progress=None, cache_dir=None, use_cache=True, events=None,
-             formulation="auto"):
+             formulation="auto", states=None):
     """Derive and generate C without compiling: returns (ModelSpec, GeneratedModel).
 
     ``formulation``: "auto" (the default: the recursive form where it is cheaper, Kane's
     where it is or where the recursion cannot take the system, with the reason in the
     metadata's ``formulation_note``; see eomc.compiler.tree.select), "kane" (formed A, b;
     numeric LDLᵀ) or "recursive" (ABA/RNEA/CRBA over the joint tree, eomc.compiler.tree).
+    ``states``: {z: dz/dt} extra first-order states, appended to x after q and u (a
+    System's musculotendons bring theirs without it).
 
     With ``use_cache`` the C comes from the generation cache when the formed
     equations and options were seen before (see eomc.compiler.build.gencache).
@@ -93,8 +121,9 @@ def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, f
         raise ModelError(str(exc)) from None
 
     def derive(form):
-        return model_spec(system, name, parameters=parameters, inputs=inputs, outputs=outputs,
-                          events=events, formulation=form)
+        spec = model_spec(system, name, parameters=parameters, inputs=inputs, outputs=outputs,
+                          events=events, formulation=form, states=states)
+        return _with_poses(spec, functions)
     note = None
     with progress.stage("derive"):
         try:
@@ -106,7 +135,6 @@ def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, f
             # dict without the inertias of the tree's bodies): Kane's form, or its own error
             spec = derive("kane")
             note = f"kane, the fallback (recursive formulation: {exc})"
-
     def run_generator():
         generated = generate_formulation(spec, functions, fold_parameters, formulation,
                                          kane_spec=lambda: derive("kane"))
@@ -117,7 +145,8 @@ def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, f
         if use_cache:
             generated, _ = cached_generate(spec, functions, fold_parameters, run_generator,
                                            cache_root(cache_dir),
-                                           extra=[formulation, tree_digest(spec), note or ""])
+                                           extra=[formulation, tree_digest(spec), note or ""]
+                                           + ([] if spec.poses is None else pose_digest(spec.poses)))
         else:
             generated = run_generator()
     return spec, generated
@@ -125,7 +154,7 @@ def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, f
 
 def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, functions=None,
             fold_parameters=False, backend="cffi", cflags=None, cache_dir=None, output_dir=None,
-            progress=None, events=None, formulation="auto"):
+            progress=None, events=None, formulation="auto", states=None):
     """Compile a model file (path) or a formed system into a loaded :class:`eomc.runtime.model.Model`.
 
     ``formulation``: "auto" (default), "kane" or "recursive" (see :func:`generate`).
@@ -135,7 +164,8 @@ def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, fu
     progress = Progress(progress)
     spec, generated = generate(system, name, parameters=parameters, inputs=inputs, outputs=outputs,
                                functions=functions, fold_parameters=fold_parameters, progress=progress,
-                               cache_dir=cache_dir, events=events, formulation=formulation)
+                               cache_dir=cache_dir, events=events, formulation=formulation,
+                               states=states)
     extra = {"initial_state": spec.initial_state} if spec.initial_state is not None else None
     source = system if isinstance(system, (str, os.PathLike)) else None
     return build_and_load(generated, backend=backend, cflags=cflags, cache_dir=cache_dir,

@@ -6,13 +6,15 @@ LinearPathway; a motor force ``F`` pushes it (ForceActuator on the same
 pathway) and a motor torque ``T`` turns the pole on its PinJoint relative to
 the cart (TorqueActuator, with the reaction on the cart).  ``F`` and ``T``
 are the model's inputs.  ``system`` is the System itself: eomc forms the
-equations with its own KanesMethod when it compiles it.
+equations with its own KanesMethod when it compiles it.  ``geometry`` says
+how ``eomc animate`` draws the cart and the pole.
 """
 import sympy as sm
 
 from eomc.mechanics import (ForceActuator, Inertia, LinearDamper, LinearPathway, LinearSpring,
                             PinJoint, PrismaticJoint, RigidBody, System, TorqueActuator,
                             dynamicsymbols)
+from eomc.geometry import box
 
 q_cart, q_pole = dynamicsymbols("q_cart q_pole")
 u_cart, u_pole = dynamicsymbols("u_cart u_pole")
@@ -50,3 +52,5 @@ outputs = {
     "tip_x": pole.masscenter.pos_from(ground.masscenter).dot(ground.x) * 2 - q_cart,
     "tip_y": pole.masscenter.pos_from(ground.masscenter).dot(ground.y) * 2,
 }
+# how `eomc animate` draws the bodies (without it: spheres, lines and small axes)
+geometry = {cart: box(0.4, 0.2, 0.2, color="blue"), pole: box(0.05, 1.0, 0.05, color="orange")}

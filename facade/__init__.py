@@ -23,6 +23,7 @@ _LAZY = {
     "compile": ("eomc.compiler.driver", "compile"),
     "load": ("eomc.runtime.loader", "load"),
     "mechanics": ("eomc.mechanics", None),
+    "geometry": ("eomc.geometry", None),
     "sweep": ("eomc.runtime.sweep", "sweep"),
 }
 

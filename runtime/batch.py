@@ -4,25 +4,56 @@ Why threads work here: each case is one foreign call into the C integrator,
 and cffi releases the GIL for the whole call, so cases run truly in parallel.
 Every case gets its own work buffer (the C code is reentrant) and writes
 straight into its slice of one preallocated (n_cases, n_t, nx) array.
+
+A batch carries what a single run carries (issue 24, N2): besides the rows on
+the shared time grid (NaN after a case stopped -- a failure or a terminal
+event), each case's real final state and time (``x_final``, ``t_final``: the
+event state for a run a terminal event ended), its event records
+(``t_events``, ``x_events``, ``event_stop``), status and message.  Memory is
+checked before anything is allocated (N12): a batch whose arrays would not fit
+is refused with the figure.  ``run_cases`` is the streaming core the sweep's
+reductions use: one case at a time per thread, each case's result handed to
+the caller and then dropped, so memory does not grow with the number of cases.
 """
 import os
 import sys
 import threading
-from concurrent.futures import ThreadPoolExecutor, as_completed
+import warnings
+from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from eomc.runtime.errors import SimulationError
 
-from .simulate import check_keywords, finish, prepare, run_prepared
+from .progress import is_terminal
+from .simulate import check_keywords, checked_start, finish, prepare, run_prepared
 
-__all__ = ["simulate_many", "BatchResult"]
+__all__ = ["simulate_many", "BatchResult", "CaseError", "run_cases", "prepare_cases",
+           "check_batch_memory"]
+
+CASE_OVERHEAD_BYTES = 2048     # a prepared case's own arrays and dict (x0, p, inputs, ...)
+
+
+class CaseError(ValueError):
+    """A bad value in one case of a batch; ``case`` is its index among all cases of the call
+    (a sweep's CSV reader turns it into the file's line)."""
+
+    def __init__(self, case, total, detail):
+        self.case, self.total, self.detail = case, total, detail
+        super().__init__(f"case {case} of {total}: {detail}")
+
+    def __reduce__(self):       # travels back from a worker process intact
+        return (CaseError, (self.case, self.total, self.detail))
 
 
 @dataclass
 class BatchResult:
-    """t (n_t,), x (n_cases, n_t, nx); rows after a failed case's stop are NaN."""
+    """t (n_t,), x (n_cases, n_t, nx); rows after a case's stop (a failure or a terminal
+    event) are NaN.  x_final (n_cases, nx) and t_final (n_cases,) are where each case
+    really ended (simulate()'s ``x_final``/``t_final``); with events, t_events/x_events
+    hold each case's records (a dict per case, as simulate() gives them) and event_stop
+    the terminal event that ended it (or None)."""
     t: np.ndarray
     x: np.ndarray
     state_names: tuple
@@ -30,6 +61,11 @@ class BatchResult:
     messages: list
     stats: list
     outputs: dict = field(default_factory=dict)   # name -> (n_cases, n_t)
+    x_final: np.ndarray = None
+    t_final: np.ndarray = None
+    t_events: list = None
+    x_events: list = None
+    event_stop: list = None
 
     @property
     def success(self):
@@ -41,18 +77,45 @@ class BatchResult:
         return self.outputs[name]
 
 
+def _memory_limit():
+    """Bytes one batch may allocate: half of this machine's memory (at least 2 GiB)."""
+    try:
+        total = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):
+        total = 0
+    return max(2 ** 31, total // 2) if total > 0 else 2 ** 33
+
+
+def check_batch_memory(n, rows, cols, what="simulate_many", advice=""):
+    """Refuse, before allocating anything, a batch whose arrays would not fit in memory."""
+    size = float(n) * (rows * max(cols, 1) * 8.0 + CASE_OVERHEAD_BYTES)
+    limit = _memory_limit()
+    if size > limit:
+        raise ValueError(
+            f"{what}: {n} cases x {rows} rows x {cols} columns (states and outputs) would need "
+            f"{size / 2 ** 30:.3g} GiB, more than eomc allocates for one batch ({limit / 2 ** 30:.3g} GiB, "
+            f"half of this machine's memory); "
+            + (advice or "run fewer cases per call, ask for fewer rows (n_points= or t_eval=), or use "
+                         "eomc.sweep(..., reduce='final' or reduce=f), which keeps only what it needs"))
+
+
 def _cases(value, size, what):
     """A list of n per-case values from one value, an (n, size) array or a list of dicts."""
     if value is None or isinstance(value, dict):
         return None
     if isinstance(value, (list, tuple)) and value and isinstance(value[0], dict):
         return list(value)
-    a = np.asarray(value, dtype=float)
+    a = np.asarray(value)
+    if a.dtype.kind not in "fiub":
+        raise ValueError(f"{what} must be real numbers; got dtype {a.dtype}")
+    a = np.asarray(a, dtype=float)
     if a.ndim == 1:
         return None
     if a.ndim != 2 or a.shape[1] != size:
         raise ValueError(f"{what} must have shape ({size},) for all cases or (n_cases, {size}); "
                          f"got {a.shape}")
+    if a.shape[0] == 0:
+        raise ValueError(f"{what} holds no cases (shape {a.shape})")
     return list(a)
 
 
@@ -62,7 +125,8 @@ class _Progress:
     def __init__(self, total, enabled):
         self.total, self.done, self.bar, self.lock = total, 0, None, threading.Lock()
         self.enabled = enabled and total > 1
-        if self.enabled:
+        self.tty = is_terminal(sys.stderr)
+        if self.enabled and self.tty:       # a bar on a terminal; a log gets plain lines
             try:
                 from tqdm import tqdm
                 self.bar = tqdm(total=total, unit="case", desc="simulate")
@@ -77,27 +141,15 @@ class _Progress:
             if self.bar is not None:
                 self.bar.update(1)
             elif self.done == self.total or self.done % max(1, self.total // 20) == 0:
-                print(f"\rsimulate: {self.done}/{self.total} cases", end="", file=sys.stderr,
+                start, end = ("\r", "") if self.tty else ("", "\n")
+                print(f"{start}simulate: {self.done}/{self.total} cases", end=end, file=sys.stderr,
                       flush=True)
 
     def close(self):
         if self.bar is not None:
             self.bar.close()
-        elif self.enabled:
+        elif self.enabled and self.tty:
             print(file=sys.stderr)
-
-
-def _prepare_case(model, i, n, x0, t_span, p, kw):
-    """prepare() for case i; a bad value's ValueError says which case (like a failed run does).
-
-    Errors about the model itself (a ModelError, e.g. built without rhs) concern every case and
-    pass through unchanged."""
-    try:
-        return prepare(model, x0, t_span, p=p, **kw)
-    except ValueError as exc:
-        if n == 1 or type(exc) is not ValueError:
-            raise
-        raise ValueError(f"case {i} of {n}: {exc}") from None
 
 
 def _input_cases(r, ninput):
@@ -111,16 +163,15 @@ def _input_cases(r, ninput):
     return None
 
 
-def simulate_many(model, x0, t_span, p=None, threads=None, progress=True,
-                  raise_on_failure=True, **kw):
-    """Integrate every case; x0 (nx,) or (n, nx), p None, (nparam,) or (n, nparam).
+def prepare_cases(model, x0, t_span, p=None, consistent=False, first=0, total=None,
+                  keep_rows=True, **kw):
+    """(preps, kw): every case checked and prepared before any runs.
 
-    r (constant inputs) may also be per case: an (n, ninput) array or a list of dicts.
-
-    All cases share t_span and the output times (t_eval / n_points / dt); other
-    keywords are simulate()'s.  threads=None uses every CPU.  Returns a
-    BatchResult; a failed case raises SimulationError naming the case unless
-    raise_on_failure=False (then its status is nonzero and its tail is NaN).
+    A bad value raises CaseError naming the case by its index ``first + i`` among
+    ``total`` cases (a sweep's chunk knows where it starts).  The cases share one
+    array of output times.  consistent=True completes each case's start on the
+    model's constraints (model.consistent_state); otherwise a start off the
+    constraints gives one ConstraintWarning for the whole batch.
     """
     check_keywords(kw, prepare, skip=4)
     xs = _cases(x0, model.nx, "x0")
@@ -133,37 +184,122 @@ def simulate_many(model, x0, t_span, p=None, threads=None, progress=True,
         if len(rs) != n:
             raise ValueError(f"r has {len(rs)} cases but x0/p have {n}; give as many of each")
         kw = {k: v for k, v in kw.items() if k != "r"}
-    preps = [_prepare_case(model, i, n, xs[i] if xs is not None else x0, t_span,
-                           ps[i] if ps is not None else p,
-                           kw if rs is None else {**kw, "r": rs[i]}) for i in range(n)]
-    t = preps[0]["t_eval"]
-    x = np.full((n, t.size, model.nx), np.nan)
-    raw = [None] * n
+    total = n if total is None else total
+    constrained = model.nhol + model.nvel and not kw.get("project") and not kw.get("baumgarte")
+    preps, off = [], []
+    for i in range(n):
+        xi = xs[i] if xs is not None else x0
+        pi = ps[i] if ps is not None else p
+        kwi = kw if rs is None else {**kw, "r": rs[i]}
+        if preps:   # share the first case's output times (not one copy per case)
+            kwi = {**kwi, "t_eval": preps[0]["t_eval"], "n_points": None}
+        try:
+            if consistent or constrained:
+                with warnings.catch_warnings(record=True) as seen:
+                    warnings.simplefilter("always")
+                    xi = checked_start(model, xi, t_span, pi, kwi.get("r"), kwi.get("atol", 1e-9),
+                                       consistent)
+                off += [w for w in seen]
+            preps.append(prepare(model, xi, t_span, p=pi, **kwi))
+        except ValueError as exc:
+            if type(exc) is not ValueError and not isinstance(exc, CaseError) and \
+                    not (consistent and isinstance(exc, ValueError)):
+                raise
+            if total == 1:
+                raise
+            raise CaseError(first + i, total, str(exc)) from None
+        if i == 0 and keep_rows:
+            check_batch_memory(n, preps[0]["t_eval"].size, model.nx + model.noutput)
+    if off:
+        w = off[0]
+        warnings.warn(w.message.__class__(f"{len(off)} of {n} cases: {w.message}")
+                      if len(off) > 1 else w.message, stacklevel=3)
+    return preps, kw
+
+
+def run_cases(model, preps, threads=None, progress=False, out=None, extra=None):
+    """Yield (i, SimulationResult) for every prepared case as it finishes, on threads.
+
+    At most a few cases per thread are in flight, and a case's prepared arguments
+    and event buffers are dropped once its result is handed over, so memory is
+    that of the results the caller keeps.  out: an (n, n_t, nx) array the cases
+    write their rows into (simulate_many), else each case has its own.  extra(a, result)
+    runs on the case's thread while its prepared arguments still exist; its value is
+    yielded too: (i, result, extra value).
+    """
+    n = len(preps)
     bar = _Progress(n, progress)
 
     def one(i):
-        raw[i] = run_prepared(model, preps[i], out=x[i])
+        a = preps[i]
+        x_out, stats, x_last = run_prepared(model, a, out=None if out is None else out[i])
+        res = finish(model, a, x_out, stats, x_last, raise_on_failure=False)
+        more = extra(a, res) if extra is not None else None
         bar.step()
+        return i, res, more
 
     workers = max(1, min(int(threads or os.cpu_count() or 1), n))
     try:
         with ThreadPoolExecutor(max_workers=workers) as pool:
-            for fut in as_completed([pool.submit(one, i) for i in range(n)]):
-                fut.result()
+            todo = iter(range(n))
+            pending = {pool.submit(one, i) for _, i in zip(range(4 * workers), todo)}
+            try:
+                while pending:
+                    done, pending = wait(pending, return_when=FIRST_COMPLETED)
+                    for fut in done:
+                        i, res, more = fut.result()
+                        preps[i] = None
+                        yield (i, res) if extra is None else (i, res, more)
+                        nxt = next(todo, None)
+                        if nxt is not None:
+                            pending.add(pool.submit(one, nxt))
+            finally:
+                for fut in pending:
+                    fut.cancel()
     finally:
         bar.close()
-    results = [finish(model, preps[i], raw[i][0], raw[i][1], raw[i][2], raise_on_failure=False)
-               for i in range(n)]
-    status = np.array([r.status for r in results])
+
+
+def simulate_many(model, x0, t_span, p=None, threads=None, progress=True,
+                  raise_on_failure=True, consistent=False, **kw):
+    """Integrate every case; x0 (nx,) or (n, nx) (or None: the model's initial_state),
+    p None, (nparam,) or (n, nparam).
+
+    r (constant inputs) may also be per case: an (n, ninput) array or a list of dicts.
+
+    All cases share t_span and the output times (t_eval / n_points / dt); other
+    keywords are simulate()'s (events=, K=, ...), and consistent=True completes
+    each case's start on the constraints as simulate() does.  threads=None uses
+    every CPU.  Returns a BatchResult; a failed case raises SimulationError naming
+    the case unless raise_on_failure=False (then its status is nonzero and its
+    tail is NaN).  A batch whose arrays would not fit in memory is refused first.
+    """
+    preps, kw = prepare_cases(model, x0, t_span, p=p, consistent=consistent, **kw)
+    return collect(model, preps, threads, progress, raise_on_failure)
+
+
+def collect(model, preps, threads=None, progress=False, raise_on_failure=True):
+    """Run prepared cases into one BatchResult (simulate_many's second half)."""
+    n = len(preps)
+    t = preps[0]["t_eval"]
+    x = np.full((n, t.size, model.nx), np.nan)
+    outputs = {name: np.full((n, t.size), np.nan) for name in model.output_names}
+    status = np.zeros(n, dtype=int)
+    messages, stats = [None] * n, [None] * n
+    x_final, t_final = np.full((n, model.nx), np.nan), np.full(n, np.nan)
+    with_events = "events" in preps[0]
+    t_events, x_events, event_stop = ([None] * n for _ in range(3))
+    for i, r in run_cases(model, preps, threads, progress, out=x):
+        status[i], messages[i], stats[i] = r.status, r.message, r.stats
+        x_final[i], t_final[i] = r.x_final, r.t_final
+        t_events[i], x_events[i], event_stop[i] = r.t_events, r.x_events, r.event_stop
+        for name, values in r.outputs.items():
+            outputs[name][i, :len(r.t)] = values
     if raise_on_failure and np.any(status):
         i = int(np.flatnonzero(status)[0])
-        raise SimulationError(f"case {i} of {n}: {results[i].message}")
-    outputs = {}
-    for name in model.output_names:
-        outputs[name] = np.full((n, t.size), np.nan)
-        for i, r in enumerate(results):
-            if name in r.outputs:
-                outputs[name][i, :len(r.t)] = r.outputs[name]
+        raise SimulationError(f"case {i} of {n}: {messages[i]}")
     return BatchResult(t=t, x=x, state_names=tuple(model.state_names), status=status,
-                       messages=[r.message for r in results], stats=[r.stats for r in results],
-                       outputs=outputs)
+                       messages=messages, stats=stats, outputs=outputs, x_final=x_final,
+                       t_final=t_final, t_events=t_events if with_events else None,
+                       x_events=x_events if with_events else None,
+                       event_stop=event_stop if with_events else None)

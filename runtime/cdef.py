@@ -42,6 +42,7 @@ _SIGNATURES = {
     "inverse_dynamics": "int {n}_inverse_dynamics(double t, const double *x, const double *udot, const double *p, const double *r, double *tau, double *work);",
     "linearize": "int {n}_linearize(double t, const double *x, const double *p, const double *r, double *A, double *B, double *work);",
     "events": "int {n}_events(double t, const double *x, const double *p, const double *r, double *out, double *work);",
+    "poses": "int {n}_poses(double t, const double *x, const double *p, const double *r, double *out, double *work);",
 }
 
 
@@ -53,4 +54,6 @@ def model_function_cdef(name, functions):
     """
     lines = [f"const eomc_model *{name}_model(void);"]
     lines += [_SIGNATURES[f].format(n=name) for f in functions if f in _SIGNATURES]
+    if "poses" in functions:
+        lines.append(f"int {name}_pose_count(void);")
     return "\n".join(lines) + "\n"

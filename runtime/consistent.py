@@ -17,17 +17,48 @@ and u_dependent come last; for Lagrange's method the last coordinates).
 is free, and with more free states than constraints the correction is the
 minimum-norm one.
 """
+import numbers
+
 import numpy as np
 
-from eomc.runtime.errors import ModelError
+from eomc.runtime.errors import EomcWarning, ModelError
 
 from .names import index_of
 
 __all__ = ["consistent_state", "start_residual", "ConstraintWarning"]
 
 
-class ConstraintWarning(UserWarning):
-    """An initial state violates the model's constraints."""
+class ConstraintWarning(EomcWarning):
+    """An initial state violates the model's constraints.
+
+    An EomcWarning, so the ``eomc`` command prints it as one line (no source line);
+    ``cli_text()`` is the same advice with the command line's flags.
+    """
+
+    @classmethod
+    def off(cls, model_name, hol, vel, limit):
+        w = cls(cls._text(model_name, hol, vel, limit, "consistent=True (or x0=model.consistent_state(x0))",
+                          "project=True"))
+        w.model_name, w.hol, w.vel, w.limit = model_name, hol, vel, limit
+        return w
+
+    @staticmethod
+    def _text(model_name, hol, vel, limit, consistent, project):
+        return (f"{model_name}: x0 is off the constraints (configuration residual {hol:.3g}, "
+                f"velocity residual {vel:.3g}; tolerance {limit:.3g}): the run would follow "
+                f"the wrong motion. Pass {consistent} to complete the dependent coordinates and "
+                f"speeds (keeping the independent ones), or {project} (which moves the start onto "
+                f"the constraints, the coordinates you gave included)")
+
+    def cli_text(self):
+        """The advice with the flags of ``eomc simulate``."""
+        if not hasattr(self, "hol"):
+            return str(self)
+        return self._text(self.model_name, self.hol, self.vel, self.limit, "--consistent",
+                          "--project").replace(
+            "(which moves the start onto the constraints, the coordinates you gave included)",
+            "(which completes the start the same way, holding the states given with --x0, and then "
+            "keeps the run on the constraints)")
 
 
 def start_residual(model, t, x, p=None, r=None):
@@ -41,8 +72,9 @@ def start_residual(model, t, x, p=None, r=None):
 
 def _free(model, fixed):
     nq, nx = model.nq, model.nx
+    nqu = nq + model.nu     # extra first-order states follow; the constraints never involve them
     if fixed is None:
-        held = set(range(nq - model.nhol)) | set(range(nq, nx - model.nvel))
+        held = set(range(nq - model.nhol)) | set(range(nq, nqu - model.nvel)) | set(range(nqu, nx))
     else:
         if isinstance(fixed, (str, int)):
             fixed = [fixed]
@@ -51,7 +83,7 @@ def _free(model, fixed):
             held.add(item if isinstance(item, int) and 0 <= item < nx
                      else index_of(item, model.state_names, "fixed state", model.name))
     free_q = [i for i in range(nq) if i not in held]
-    free_u = [i for i in range(nq, nx) if i not in held]
+    free_u = [i for i in range(nq, nqu) if i not in held]
     return free_q, free_u
 
 
@@ -70,20 +102,40 @@ def _step(J, g, names, what, model):
     return -J.T @ np.linalg.solve(J @ J.T, g)
 
 
+def _number(v, key, model):
+    if isinstance(v, bool) or not isinstance(v, numbers.Real):
+        raise ValueError(f"{model.name}: x0 {key} must be a real number; got {v!r}")
+    return float(v)
+
+
 def consistent_state(model, x0, t=0.0, p=None, r=None, fixed=None, tol=1e-12, max_iter=50):
     """A state on the model's constraints, keeping the states in ``fixed`` (default: the
     independent ones) and solving for the others; ModelError when Newton fails.
 
-    x0: array (nx,) or {name: value} (missing names: the model's initial_state, else 0) --
-    the dependent entries are the starting guess.  tol: on the max-abs residual.
+    x0: array (nx,) or {name: value} (missing names: the model's initial_state, else 0 -- the
+    rule simulate() follows too) or None (the initial_state) -- the dependent entries are the
+    starting guess.  tol: on the max-abs residual (a number > 0); max_iter: Newton's
+    iterations (an integer >= 1).
     """
+    if isinstance(tol, bool) or not isinstance(tol, numbers.Real) or not np.isfinite(tol) or tol <= 0:
+        raise ValueError(f"{model.name}: consistent_state tol must be a finite number > 0; got {tol!r}")
+    if isinstance(max_iter, bool) or not isinstance(max_iter, numbers.Integral) or max_iter < 1:
+        raise ValueError(f"{model.name}: consistent_state max_iter must be an integer >= 1; "
+                         f"got {max_iter!r}")
+    if x0 is None:
+        if getattr(model, "initial_state", None) is None:
+            raise ValueError(f"{model.name}: x0 is None and the model has no initial_state")
+        x0 = np.array(model.initial_state, dtype=np.float64)
     if isinstance(x0, dict):
         base = model.initial_state if model.initial_state is not None else np.zeros(model.nx)
         x = np.array(base, dtype=np.float64)
         for key, v in x0.items():
-            x[index_of(key, model.state_names, "state", model.name)] = float(v)
+            x[index_of(key, model.state_names, "state", model.name)] = _number(v, key, model)
     else:
-        x = np.array(x0, dtype=np.float64).reshape(-1)
+        a = np.asarray(x0)
+        if a.dtype.kind not in "fiub":
+            raise ValueError(f"{model.name}: x0 must hold real numbers; got dtype {a.dtype}")
+        x = np.array(a, dtype=np.float64).reshape(-1)
         if x.shape != (model.nx,):
             raise ValueError(f"{model.name}: x0 must have shape ({model.nx},); got {np.shape(x0)}")
     if not np.all(np.isfinite(x)):

@@ -18,6 +18,7 @@ import numpy as np
 __all__ = ["Event", "resolve_events", "EventsBinding", "DEFAULT_MAX_EVENTS"]
 
 DEFAULT_MAX_EVENTS = 10000    # recorded occurrences; more are counted and reported, not stored
+MAX_EVENT_BYTES = 2 ** 30     # one run's event records (t, id, state) beyond this are refused
 
 
 @dataclass(frozen=True)
@@ -110,6 +111,37 @@ def resolve_events(model, events):
                      f"per run (or add the outputs' expressions to the model's events)")
 
 
+def check_max_events(max_events, nx):
+    """max_events must be a positive integer whose record buffers fit (MAX_EVENT_BYTES)."""
+    if isinstance(max_events, bool) or not isinstance(max_events, numbers.Integral) or max_events < 1:
+        raise ValueError(f"max_events must be a positive integer; got {max_events!r}")
+    size = float(max_events) * (8 * (nx + 1) + 4)
+    if size > MAX_EVENT_BYTES:
+        raise ValueError(f"max_events={max_events} would reserve {size / 2 ** 30:.3g} GiB for the event "
+                         f"records (time, event and {nx} states each), more than eomc allocates for one "
+                         f"run ({MAX_EVENT_BYTES / 2 ** 30:g} GiB); pass a smaller max_events (occurrences "
+                         f"beyond it are counted, not stored)")
+
+
+def nonfinite_names(model, source, events, t, x, p, r):
+    """The names of the event functions (or outputs) that are not finite at (t, x): what to
+    name when a run stopped on a non-finite value although the state is finite."""
+    ffi = model.ffi
+    if source == "events":
+        names = [d["name"] for d in model.metadata.get("events", ())]
+        fn = ffi.cast("eomc_rhs_fn", getattr(model.model_lib, f"{model.name}_events"))
+    else:
+        names, fn = list(model.output_names), model.c_model.outputs
+    out = np.full(len(names), np.nan)
+    work = np.zeros(max(1, model.integrators.eomc_integrate_work_size(model.c_model, 0)))
+    buf = lambda a: ffi.from_buffer("double[]", a)  # noqa: E731
+    x = np.ascontiguousarray(x, dtype=np.float64)
+    p = np.ascontiguousarray(p, dtype=np.float64)
+    r = np.ascontiguousarray(np.append(np.asarray(r, dtype=np.float64).ravel(), 0.0))
+    fn(float(t), buf(x), buf(p), buf(r), buf(out), buf(work))
+    return [nm for nm, v in zip(names, out) if not np.isfinite(v)]
+
+
 class EventsBinding:
     """The C ``eomc_events`` struct for one run and every buffer it points to."""
 
@@ -124,8 +156,7 @@ class EventsBinding:
             fn = model.c_model.outputs
             if fn == ffi.NULL:
                 raise ValueError(f"{model.name}: was built without outputs, so outputs cannot be events")
-        if not isinstance(max_events, numbers.Integral) or max_events < 1:
-            raise ValueError(f"max_events must be a positive integer; got {max_events!r}")
+        check_max_events(max_events, model.nx)
         n, cap = len(events), int(max_events)
         self.col = np.array([names.index(e.name) for e in events], dtype=np.intc)
         self.direction = np.array([e.direction for e in events], dtype=np.intc)

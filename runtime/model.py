@@ -123,6 +123,7 @@ class Model:
         self.name = metadata["name"]
         for size in ("nq", "nu", "nx", "nparam", "ninput", "noutput", "nhol", "nvel", "work_size"):
             setattr(self, size, int(metadata[size]))
+        self.nz = self.nx - self.nq - self.nu     # extra first-order states, after q and u in x
         self.state_names = tuple(metadata["state_names"])
         self.param_names = tuple(metadata["param_names"])
         self.input_names = tuple(metadata["input_names"])
@@ -388,7 +389,8 @@ class Model:
         """Generalized forces tau = M u' - f needed for the accelerations udot, shape (nu,)."""
         given = (p, r)
         t, x, p, r = self._args(t, x, p, r)
-        udot = self._array(udot, (self.nu,), "udot (speed derivatives)", self.state_names[self.nq:])
+        udot = self._array(udot, (self.nu,), "udot (speed derivatives)",
+                           self.state_names[self.nq:self.nq + self.nu])
         kernel = self._kernel("inverse_dynamics")
         tau = np.empty(self.nu)
         status = kernel(t, x, udot, p, r, tau, self._work()[1])
@@ -428,4 +430,25 @@ class Model:
         """Integrate from x0 over t_span; see eomc.runtime.simulate.simulate."""
         from .simulate import check_keywords, simulate
         check_keywords(kw, simulate, skip=3)
-        return simulate(self, x0, t_span, **kw)
+        result = simulate(self, x0, t_span, **kw)
+        # res.poses() / res.animate() evaluate the model again, with the run's parameters
+        result.model, result.p = self, kw.get("p")
+        if not callable(kw.get("r")) and not isinstance(kw.get("r"), tuple):
+            result.r = kw.get("r")
+        return result
+
+    def poses(self, t, x, p=None, r=None):
+        """Where the bodies are (eomc.runtime.poses.Poses): each body frame's origin and rotation
+        matrix and each named point's position in the world, computed by the generated C
+        ``NAME_poses``.  ``x``: one state (nx,) with scalar ``t``, or rows (n, nx) with t (n,)."""
+        from .poses import evaluate_poses
+        return evaluate_poses(self, t, x, p, r)
+
+    def animate(self, res=None, path=None, **options):
+        """A self-contained HTML animation (eomc.runtime.animate) of ``res`` (a SimulationResult;
+        default: 10 s from the initial state)."""
+        from .animate import animate
+        if res is None:
+            x0 = self.initial_state if self.initial_state is not None else np.zeros(self.nx)
+            res = self.simulate(x0, (0.0, 10.0), n_points=601)
+        return animate(res, path, model=self, **options)

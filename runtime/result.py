@@ -39,6 +39,10 @@ class SimulationResult:
     t_events: dict = None   # event name -> times of its occurrences (runs with events)
     x_events: dict = None   # event name -> states there, (k, nx)
     event_stop: str = None  # the terminal event that ended the run, if one did
+    # the model, parameters and constant inputs of the run (Model.simulate sets them): poses/animate
+    model: object = field(default=None, repr=False, compare=False)
+    p: object = field(default=None, repr=False, compare=False)
+    r: object = field(default=None, repr=False, compare=False)
 
     @property
     def success(self):
@@ -111,6 +115,34 @@ class SimulationResult:
             plt.close(fig)
             return Path(path)
         return fig
+
+    def __getstate__(self):
+        """Pickles carry the numbers, not the model (a model pickles with its library's bytes)."""
+        state = dict(self.__dict__)
+        state["model"] = None
+        return state
+
+    def _model_for(self, what):
+        if self.model is None:
+            raise ValueError(f"{what} needs the model: this result was not made by Model.simulate "
+                             f"in this process (pass model=...)")
+        return self.model
+
+    def poses(self, model=None):
+        """Body frames' positions and rotations and named points along the trajectory
+        (eomc.runtime.poses.Poses, computed by the generated C ``NAME_poses``)."""
+        from .poses import evaluate_poses
+        model = model or self._model_for("poses()")
+        return evaluate_poses(model, self.t, self.x, self.p, self.r)
+
+    def animate(self, path=None, **options):
+        """A self-contained HTML page animating this run in 3-D (eomc.runtime.animate.animate).
+
+        Writes ``path`` if given; returns an :class:`~eomc.runtime.animate.Animation`, which a
+        Jupyter notebook displays inline."""
+        from .animate import animate
+        return animate(self, path, model=options.pop("model", None) or self._model_for("animate()"),
+                       **options)
 
     def __repr__(self):
         s = self.stats

@@ -106,6 +106,39 @@ def _real(value, what):
         raise ValueError(f"{what} must be a real number that fits a double; got {shown}") from None
 
 
+def state_defaults(model):
+    """The values of states a dict x0 leaves out: the model's initial_state, else 0.
+
+    One rule everywhere (simulate, simulate_many, sweep, consistent_state and the
+    command line's --x0): a state not named starts where the model file starts it.
+    """
+    base = getattr(model, "initial_state", None)
+    return np.zeros(model.nx) if base is None else np.array(base, dtype=np.float64)
+
+
+def start_or_default(model, x0):
+    """x0, or the model's initial_state for x0=None (a clear error when it has none)."""
+    if x0 is not None:
+        return x0
+    if getattr(model, "initial_state", None) is None:
+        raise ValueError(f"{model.name}: x0 is None and the model has no initial_state; give x0 "
+                         f"(an array of {model.nx} or a dict by state name)")
+    return np.array(model.initial_state, dtype=np.float64)
+
+
+def _real_array(value, what, dtype=np.float64):
+    """np.asarray(value, float) with a ValueError naming ``what`` for strings, complex, ragged."""
+    try:
+        a = np.asarray(value)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{what} must be an array of real numbers; got {type(value).__name__} "
+                         f"({exc})") from None
+    if a.dtype.kind not in "fiub":
+        kind = "complex numbers" if a.dtype.kind == "c" else f"dtype {a.dtype}"
+        raise ValueError(f"{what} must hold real numbers; got {kind}")
+    return np.asarray(a, dtype=dtype)
+
+
 def _vector(model, value, size, names, defaults, what):
     """A float64 vector of `size` from an array or a {name: value} dict (missing -> defaults)."""
     if isinstance(value, dict):
@@ -138,15 +171,20 @@ def _inputs(model, r, t0, t1):
     if callable(r):
         # evaluated at every stage through a callback (feedback.py), never resampled
         return 0, np.zeros(1), np.zeros(max(ni, 1))
-    if isinstance(r, tuple) and len(r) in (2, 3):
+    if isinstance(r, tuple):
+        if len(r) not in (2, 3):
+            raise ValueError(f"{model.name}: r as a tuple is an input table (t_grid, values) or "
+                             f"(t_grid, values, kind); got a tuple of {len(r)} items")
         return _grid(model, r[0], r[1])
+    if ni == 1 and isinstance(r, (numbers.Real, np.floating, np.integer)) and not isinstance(r, bool):
+        r = [r]     # one input: a number is its value
     values = _vector(model, r, ni, model.input_names, np.zeros(ni), "r (inputs)")
     return 1, np.zeros(1), values
 
 
 def _grid(model, t_grid, values):
-    t_grid = np.ascontiguousarray(t_grid, dtype=np.float64)
-    values = np.asarray(values, dtype=np.float64)
+    t_grid = np.ascontiguousarray(_real_array(t_grid, f"{model.name}: r=(t_grid, values): t_grid"))
+    values = _real_array(values, f"{model.name}: r=(t_grid, values): values")
     if values.ndim == 1 and model.ninput == 1:
         values = values[:, None]
     if t_grid.ndim != 1 or t_grid.size < 2 or values.shape != (t_grid.size, model.ninput):
@@ -248,7 +286,8 @@ def prepare(model, x0, t_span, p=None, r=None, method="dop853", rtol=1e-6, atol=
     if method == "radau" and model.c_model.jac_x == model.ffi.NULL:
         raise ValueError(f"{model.name}: method 'radau' needs the Jacobian jac_x, which this model "
                          f"was built without; rebuild with functions including 'jac_x'")
-    x0 = _vector(model, x0, model.nx, model.state_names, np.zeros(model.nx), "x0 (initial state)")
+    x0 = _vector(model, start_or_default(model, x0), model.nx, model.state_names, state_defaults(model),
+                 "x0 (initial state)")
     p = model.param_defaults if p is None else p
     p = _vector(model, p, model.nparam, model.param_names, model.param_defaults, "p (parameters)")
     n_r, r_t, r_v = _inputs(model, r, t0, t1)
@@ -281,6 +320,9 @@ def _extras(model, x0, t0, r, events, max_events, K, x_ref, method):
     if K is not None or x_ref is not None:
         if model.ninput == 0:
             raise ValueError(f"{model.name}: this model has no inputs, so it takes no feedback K")
+        K = _real_array(K, f"{model.name}: the feedback gain K") if K is not None else None
+        if x_ref is not None and not isinstance(x_ref, dict):
+            x_ref = _real_array(x_ref, f"{model.name}: x_ref")
         FeedbackBinding(model, K, x_ref)                        # checks the shapes
         if method == "radau" and model.c_model.jac_r == model.ffi.NULL:
             raise ValueError(f"{model.name}: method 'radau' with feedback K needs jac_r")
@@ -347,7 +389,7 @@ def _along(model, a, which, t, x):
         return None
     ffi, lib = model.ffi, model.integrators
     buf = lambda arr: ffi.from_buffer("double[]", arr)  # noqa: E731
-    out = np.empty((t.size, cols))
+    out = np.full((t.size, cols), np.nan)
     work = np.empty(lib.eomc_integrate_work_size(model.c_model, METHOD_IDS["rk4"]))
     x = np.ascontiguousarray(x)
     status = lib.eomc_eval_along(model.c_model, which, t.size, buf(t), buf(x), buf(a["p"]),
@@ -355,9 +397,68 @@ def _along(model, a, which, t, x):
                                  work.size)
     if status:
         what = "outputs" if which == 0 else "constraints"
+        names = model.output_names if which == 0 else [f"constraint {k}" for k in range(cols)]
+        bad = ~np.isfinite(out)
+        where = ""
+        if bad.any():   # the rows before the failing one are written: name the row and the columns
+            row = int(np.flatnonzero(bad.any(axis=1))[0])
+            where = (f" at t={t[row]:.9g}: {', '.join(n for n, b in zip(names, bad[row]) if b)} "
+                     f"{'is' if bad[row].sum() == 1 else 'are'} not finite there")
         raise SimulationError(f"{model.name}: evaluating {what} along the trajectory failed: "
-                              f"{STATUS_NAMES.get(status, status)}")
+                              f"{STATUS_NAMES.get(status, status)}{where}")
     return out
+
+
+NONFINITE_STATUS = 3    # EOMC_NONFINITE
+
+
+def _nonfinite_events(model, a, stats, x):
+    """'; ... the event function(s)/output(s) X not finite ...' when a run stopped on a NaN in
+    what it evaluates as events while the state stayed finite; '' when that is not the cause."""
+    from .events import nonfinite_names
+    t = stats["t"]
+    try:
+        source, events = a["events"]
+        bad = nonfinite_names(model, source, events, t, x, a["p"], _input_at(model, a, t, x))
+        where = "there"
+        if not bad:     # finite at the last accepted step: look inside the step that failed
+            bad, t_bad = _events_inside_step(model, a, stats, x)
+            where = f"at t={t_bad:.9g}, inside the next step" if bad else ""
+    except Exception:       # naming is a courtesy; the failure itself is already reported
+        return ""
+    if not bad:
+        return ""
+    what = "event function" if source == "events" else "output (outputs are evaluated as events)"
+    if len(bad) > 1:
+        what = what.replace("function", "functions").replace("output ", "outputs ", 1)
+    return (f"; the state is finite, but the {what} {', '.join(bad)} "
+            f"{'are' if len(bad) > 1 else 'is'} not finite {where}")
+
+
+def _input_at(model, a, t, x):
+    return applied_inputs(model, a)(t, x) if model.ninput else np.zeros(0)
+
+
+def _events_inside_step(model, a, stats, x):
+    """(names, t): the event functions that are not finite along the failed step, found by running
+    that stretch again without events (the step's trial states are gone); ([], nan) if none."""
+    from .events import nonfinite_names
+    t0 = stats["t"]
+    t1 = min(a["t1"], t0 + 2.0 * max(stats["t_fail"] - t0, stats["h"], 1e-12))
+    if not t1 > t0:
+        return [], float("nan")
+    times = np.linspace(t0, t1, 65)
+    b = {k: v for k, v in a.items() if k not in ("events", "max_events", "_bindings")}
+    b.update(t0=t0, t1=t1, x0=np.array(x, dtype=np.float64), t_eval=times, max_steps=10000)
+    rows, st, _ = run_prepared(model, b)
+    source, events = a["events"]
+    for ti, xi in zip(times[:st["n_out"]], rows[:st["n_out"]]):
+        if not np.all(np.isfinite(xi)):
+            break
+        bad = nonfinite_names(model, source, events, ti, xi, a["p"], _input_at(model, b, ti, xi))
+        if bad:
+            return bad, float(ti)
+    return [], float("nan")
 
 
 def failure_message(model, method, stats, x_last, p=None):
@@ -386,7 +487,8 @@ def simulate(model, x0, t_span, p=None, r=None, method="dop853", rtol=1e-6, atol
              K=None, x_ref=None, consistent=False):
     """Integrate ``model`` from ``x0`` over ``t_span``; returns a SimulationResult.
 
-    x0/p: arrays or {name: value} dicts (missing names -> 0 / defaults).  r: constant
+    x0/p: arrays or {name: value} dicts (missing names -> the model's initial_state (0 without
+    one) / the parameter defaults); x0=None starts at the model's initial_state.  r: constant
     array, (t_grid, values) interpolated linearly in C, (t_grid, values, "cubic") by a
     cubic spline (not-a-knot, scipy's CubicSpline) in C, or a callable (see below).
     method: rk4 (needs dt), dopri5/rk45, dop853, radau.  Output at
@@ -414,27 +516,53 @@ def simulate(model, x0, t_span, p=None, r=None, method="dop853", rtol=1e-6, atol
     independent ones).
     """
     if consistent or (not project and not baumgarte and model.nhol + model.nvel):
-        x0 = _checked_start(model, x0, t_span, p, r, atol, consistent)
+        x0 = checked_start(model, x0, t_span, p, r, atol, consistent)
     a = prepare(model, x0, t_span, p=p, r=r, method=method, rtol=rtol, atol=atol, t_eval=t_eval,
                 dt=dt, max_steps=max_steps, first_step=first_step, max_step=max_step,
                 project=project, stiff_check=stiff_check, n_points=n_points,
                 baumgarte=baumgarte, pi_beta=pi_beta, events=events, max_events=max_events,
                 K=K, x_ref=x_ref)
     x_out, stats, x_last = run_prepared(model, a)
-    return finish(model, a, x_out, stats, x_last, raise_on_failure)
+    result = finish(model, a, x_out, stats, x_last, raise_on_failure)
+    if project and not consistent and model.nhol + model.nvel:
+        _say_projected(model, a, result, atol)
+    return result
 
 
-def _checked_start(model, x0, t_span, p, r, atol, consistent):
-    """x0 made consistent (consistent=True) or checked against the constraints (a warning)."""
+def _say_projected(model, a, result, atol):
+    """project=True moves a start off the constraints onto them, every state free to move
+    (minimum norm), the coordinates the user gave included: say which moved, and by how much."""
+    from .consistent import ConstraintWarning
+    if not len(result.t) or result.t[0] != a["t0"]:
+        return
+    limit = max(1e-8, 10 * float(atol))
+    moved = [f"{n} {old:.6g} -> {new:.6g}" for n, old, new in zip(model.state_names, a["x0"], result.x[0])
+             if abs(new - old) > limit * max(1.0, abs(old))]
+    if moved:
+        warnings.warn(ConstraintWarning(
+            f"{model.name}: x0 was off the constraints and project=True moved the start onto them: "
+            f"{', '.join(moved)}; pass consistent=True instead to keep the independent coordinates "
+            f"and speeds and solve for the others"), stacklevel=_user_level())
+
+
+def checked_start(model, x0, t_span, p, r, atol, consistent):
+    """x0 made consistent (consistent=True) or checked against the constraints (a warning).
+
+    A dict x0 is completed from the model's initial_state first (state_defaults), the
+    same start consistent_state() uses for a dict.
+    """
     from .consistent import ConstraintWarning, consistent_state
     if model.nhol + model.nvel == 0 or model.c_model.constraints == model.ffi.NULL:
         return x0
     t0 = _span(t_span)[0]
     p_vec = _vector(model, model.param_defaults if p is None else p, model.nparam,
                     model.param_names, model.param_defaults, "p (parameters)")
-    x = _vector(model, x0, model.nx, model.state_names, np.zeros(model.nx), "x0 (initial state)")
+    x = _vector(model, start_or_default(model, x0), model.nx, model.state_names, state_defaults(model),
+                "x0 (initial state)")
     if consistent:
         r_vec = r if (r is not None and not callable(r) and not isinstance(r, tuple)) else None
+        if r_vec is not None and not isinstance(r_vec, dict) and np.ndim(r_vec) == 0:
+            r_vec = [r_vec]     # one input given as a number
         return consistent_state(model, x, t0, p_vec, r_vec)
     n_r, r_t, r_v = _inputs(model, r, t0, t0 + 1.0)    # residuals through C, as finish() computes them
     g = np.abs(_along(model, dict(p=np.append(p_vec, 0.0), n_r=n_r, r_t=r_t, r_v=r_v), 1,
@@ -443,12 +571,20 @@ def _checked_start(model, x0, t_span, p, r, atol, consistent):
     vel = float(g[model.nhol:].max()) if model.nvel else 0.0
     limit = max(1e-8, 10 * float(atol))
     if hol > limit or vel > limit:
-        warnings.warn(f"{model.name}: x0 is off the constraints (configuration residual {hol:.3g}, "
-                      f"velocity residual {vel:.3g}; tolerance {limit:.3g}): the run would follow "
-                      f"the wrong motion. Pass consistent=True (or x0=model.consistent_state(x0)) to "
-                      f"complete the dependent coordinates and speeds, or project=True",
-                      ConstraintWarning, stacklevel=3)
+        warnings.warn(ConstraintWarning.off(model.name, hol, vel, limit), stacklevel=_user_level())
     return x0
+
+
+_checked_start = checked_start
+
+
+def _user_level():
+    """warnings.warn's stacklevel for the first frame outside eomc (the user's call)."""
+    import sys
+    frame, level = sys._getframe(2), 2
+    while frame is not None and frame.f_globals.get("__name__", "").startswith("eomc"):
+        frame, level = frame.f_back, level + 1
+    return level
 
 
 def finish(model, a, x_out, stats, x_last, raise_on_failure=True):
@@ -458,6 +594,8 @@ def finish(model, a, x_out, stats, x_last, raise_on_failure=True):
         fb.raise_error()
     status, n = stats["status"], stats["n_out"]
     message = "ok" if status == 0 else failure_message(model, a["method"], stats, x_last, a.get("p"))
+    if status == NONFINITE_STATUS and ev is not None and np.all(np.isfinite(x_last)):
+        message += _nonfinite_events(model, a, stats, x_last)
     if status == 0:
         stats.pop("t_fail", None)  # where the model failed: only meaningful for a failed run
     if status and raise_on_failure:
@@ -479,6 +617,21 @@ def finish(model, a, x_out, stats, x_last, raise_on_failure=True):
             warnings.warn(f"{model.name}: {dropped} event occurrence(s) beyond max_events="
                           f"{a['max_events']} were not stored", RuntimeWarning, stacklevel=3)
     return result
+
+
+def final_outputs(model, a, t, x):
+    """{output: value} at one state (a run's x_final), with the inputs applied there; NaN
+    where the state is not finite or an output cannot be evaluated (a failed run)."""
+    if model.noutput == 0:
+        return {}
+    T, X = np.array([float(t)]), np.asarray(x, dtype=np.float64).reshape(1, model.nx)
+    try:
+        if a.get("_bindings", (None, None))[0] is not None:
+            a = _inputs_along(model, a, T, X)
+        out = _along(model, a, 0, T, X)[0]
+    except (SimulationError, ValueError, ArithmeticError):
+        out = np.full(model.noutput, np.nan)
+    return dict(zip(model.output_names, out))
 
 
 def _inputs_along(model, a, t, x):

@@ -19,6 +19,7 @@ Dask is optional and imported only when a Client is passed.
 """
 import builtins
 import math
+import numbers
 import os
 import sys
 from dataclasses import dataclass
@@ -29,10 +30,10 @@ import numpy as np
 from eomc.runtime.errors import SimulationError
 
 from . import loader  # noqa: F401  (registers Model pickling by content)
-from .batch import BatchResult, simulate_many
+from .batch import BatchResult, CaseError, check_batch_memory, collect, prepare_cases, run_cases
 from .names import index_of
-from .result import SimulationResult
-from .simulate import prepare
+from .progress import is_terminal
+from .simulate import final_outputs, prepare
 
 __all__ = ["sweep", "SweepValues", "case_arrays", "run_chunk"]
 
@@ -42,11 +43,15 @@ CHUNKS_PER_WORKER = 4
 
 @dataclass
 class SweepValues:
-    """values[i] = reduce(result of case i); status, messages and stats per case as in BatchResult."""
+    """values[i] = reduce(result of case i); status, messages, stats, x_final, t_final and
+    event_stop per case as in BatchResult."""
     values: object          # an (n_cases, ...) array when the values stack, else a list
     status: np.ndarray
     messages: list
     stats: list
+    x_final: np.ndarray = None
+    t_final: np.ndarray = None
+    event_stop: list = None
 
     @property
     def success(self):
@@ -54,8 +59,14 @@ class SweepValues:
 
 
 # ---- cases ------------------------------------------------------------------------------------
+ROW_KEYS = {"x0": "states", "p": "parameters", "r": "inputs"}
+
+
 def _column(value, what):
-    a = np.asarray(value, dtype=np.float64)
+    a = np.asarray(value)
+    if a.dtype.kind not in "fiub":
+        raise ValueError(f"sweep cases: column {what!r} must hold numbers; got dtype {a.dtype}")
+    a = np.asarray(a, dtype=np.float64)
     if a.ndim != 1:
         raise ValueError(f"sweep cases: column {what!r} must hold one number per case; got shape {a.shape}")
     return a
@@ -63,26 +74,33 @@ def _column(value, what):
 
 def _rows(value, size, what):
     """An (n, size) array of per-case rows, or a (size,) vector shared by every case."""
-    a = np.asarray(value, dtype=np.float64)
+    a = np.asarray(value)
+    if a.dtype.kind not in "fiub":
+        raise ValueError(f"sweep cases: {what!r} must hold numbers; got dtype {a.dtype}")
+    a = np.asarray(a, dtype=np.float64)
     if a.ndim == 1 and a.shape == (size,):
         return a
     if a.ndim != 2 or a.shape[1] != size:
-        raise ValueError(f"sweep cases: {what!r} must have shape ({size},) for every case or "
-                         f"(n_cases, {size}) for one row per case; got {a.shape}")
+        raise ValueError(f"sweep cases: {what!r} (the whole {ROW_KEYS[what][:-1]} row) must have shape "
+                         f"({size},) for every case or (n_cases, {size}) for one row per case; got {a.shape}")
     return a
 
 
-def case_arrays(model, cases):
+def case_arrays(model, cases, rows=True):
     """(n, X0, P, R) from ``cases``: X0 (n, nx); P (n, nparam) or None; R (n, ninput) or None.
 
     ``cases`` is one of
-    - a mapping of columns (a dict, a pandas DataFrame): "x0", "p", "r" hold whole rows
-      (one per case, or one shared); any state, parameter or input name holds one value
-      per case and overrides that entry;
+    - a mapping of columns (a dict, a pandas DataFrame): a state, parameter or input name
+      holds one value per case;
     - a list of dicts, one per case, keyed the same way;
     - an (n, nx) array: one initial state per case.
+    With rows=True (the Python API) the keys "x0", "p" and "r" hold whole rows (one per
+    case, or one shared) -- unless the model has a state, parameter or input of that
+    name: a model's own name always means its column (a 2-d value under it is an error,
+    not a guess).  rows=False (a CSV file) takes every key as a name.
     Unset states start at the model's initial_state (0 without one), unset parameters
-    keep their defaults and unset inputs are 0 (or simulate's r=, when given).
+    keep their defaults and unset inputs are 0 (or simulate's r=, when given).  A
+    non-finite value raises CaseError naming its case and column.
     """
     if isinstance(cases, (list, tuple)) and cases and isinstance(cases[0], dict):
         keys = list(dict.fromkeys(k for case in cases for k in case))
@@ -91,25 +109,36 @@ def case_arrays(model, cases):
             i, k = missing[0]
             raise ValueError(f"sweep cases: case {i} has no {k!r} (every case must set the same names)")
         cases = {k: [case[k] for case in cases] for k in keys}
+    elif isinstance(cases, (list, tuple)) and not cases:
+        raise ValueError("sweep cases: no cases (an empty list)")
     elif not hasattr(cases, "keys"):
         cases = {"x0": cases}
-    columns, rows = {}, {}
+    names = set(model.state_names) | set(model.param_names) | set(model.input_names)
+    columns, whole = {}, {}
     for key in cases.keys():
-        if str(key) in ("x0", "p", "r"):
-            size = {"x0": model.nx, "p": model.nparam, "r": model.ninput}[str(key)]
-            rows[str(key)] = _rows(cases[key], size, str(key))
-        else:
-            columns[key] = _column(cases[key], str(key))
+        name = str(key)
+        if rows and name in ROW_KEYS and name not in names:
+            size = {"x0": model.nx, "p": model.nparam, "r": model.ninput}[name]
+            whole[name] = _rows(cases[key], size, name)
+            continue
+        if name in ROW_KEYS and name in names and np.ndim(cases[key]) == 2:
+            raise ValueError(f"sweep cases: {name!r} is a {_kind(model, name, noun=True)} of {model.name}, "
+                             f"so cases[{name!r}] is its column (one number per case); it cannot also "
+                             f"be the whole {ROW_KEYS[name][:-1]} row: give the other "
+                             f"{ROW_KEYS[name]} by name")
+        columns[key] = _column(cases[key], name)
     lengths = {f"column {k!r}": len(v) for k, v in columns.items()}
-    lengths.update({f"{k!r}": len(v) for k, v in rows.items() if v.ndim == 2})
+    lengths.update({f"{k!r}": len(v) for k, v in whole.items() if v.ndim == 2})
     if not lengths:
-        raise ValueError("sweep cases: nothing varies from case to case; give per-case rows "
-                         "(x0, p, r) or columns named by states, parameters or inputs")
+        raise ValueError("sweep cases: nothing varies from case to case; give columns named by "
+                         "states, parameters or inputs" + (" (or per-case rows x0, p, r)" if rows else ""))
     n = next(iter(lengths.values()))
     if any(v != n for v in lengths.values()):
         raise ValueError("sweep cases: columns differ in length: "
                          + ", ".join(f"{k} has {v}" for k, v in lengths.items()))
-    kinds = {key: _kind(model, key) for key in columns}       # "x", "p" or "r"; unknown names fail here
+    if n == 0:
+        raise ValueError("sweep cases: no cases (the columns are empty)")
+    kinds = {key: _kind(model, key, rows=rows) for key in columns}   # "x", "p" or "r"; unknown fail here
 
     def per_case(row, default, kind, size):
         """(n, size) rows from the shared or per-case row, or None when no case sets any entry."""
@@ -118,47 +147,92 @@ def case_arrays(model, cases):
         return np.array(np.broadcast_to(default if row is None else row, (n, size)), dtype=np.float64)
 
     base = model.initial_state if model.initial_state is not None else np.zeros(model.nx)
-    X0 = np.array(np.broadcast_to(rows.get("x0", base), (n, model.nx)), dtype=np.float64)
-    P = per_case(rows.get("p"), model.param_defaults, "p", model.nparam)
-    R = per_case(rows.get("r"), np.zeros(model.ninput), "r", model.ninput)
+    X0 = np.array(np.broadcast_to(whole.get("x0", base), (n, model.nx)), dtype=np.float64)
+    P = per_case(whole.get("p"), model.param_defaults, "p", model.nparam)
+    R = per_case(whole.get("r"), np.zeros(model.ninput), "r", model.ninput)
     for key, values in columns.items():
-        target, names = {"x": (X0, model.state_names), "p": (P, model.param_names),
-                         "r": (R, model.input_names)}[kinds[key]]
-        target[:, index_of(key, names, "name", model.name)] = values
+        target, names_ = {"x": (X0, model.state_names), "p": (P, model.param_names),
+                          "r": (R, model.input_names)}[kinds[key]]
+        target[:, index_of(key, names_, "name", model.name)] = values
+    for array, labels, what in ((X0, model.state_names, "x0 (initial state)"),
+                                (P, model.param_names, "p (parameters)"),
+                                (R, model.input_names, "r (inputs)")):
+        if array is not None and not np.all(np.isfinite(array)):
+            bad = ~np.isfinite(array)
+            i = int(np.flatnonzero(bad.any(axis=1))[0])
+            raise CaseError(i, n, f"{model.name}: {what} is not finite for "
+                                  f"{', '.join(nm for nm, b in zip(labels, bad[i]) if b)}")
     return n, X0, P, R
 
 
-def _kind(model, key):
-    for kind, names in (("x", model.state_names), ("p", model.param_names), ("r", model.input_names)):
+def _kind(model, key, noun=False, rows=True):
+    for kind, names, word in (("x", model.state_names, "state"), ("p", model.param_names, "parameter"),
+                              ("r", model.input_names, "input")):
         try:
             index_of(key, names, "", model.name)
-            return kind
+            return word if noun else kind
         except ValueError:
             pass
+    hint = ("; whole rows (x0, p, r) are for the Python API (eomc.sweep), a CSV column names one "
+            "state, parameter or input" if not rows and str(key) in ROW_KEYS else "")
     raise ValueError(f"sweep cases: {key!r} is not a state, parameter or input of {model.name}; "
                      f"states: {', '.join(model.state_names)}; parameters: "
-                     f"{', '.join(model.param_names) or 'none'}; inputs: {', '.join(model.input_names) or 'none'}")
+                     f"{', '.join(model.param_names) or 'none'}; inputs: {', '.join(model.input_names) or 'none'}"
+                     + hint)
 
 
 # ---- the work of one chunk (runs on a worker) --------------------------------------------------
 def run_chunk(model, task):
-    """Simulate one chunk with simulate_many on threads, then reduce each case on the spot."""
+    """Simulate one chunk on threads and reduce each case on the spot.
+
+    reduce=None: simulate_many's BatchResult parts.  reduce="final": each case's real
+    final state, time, outputs there and event records -- the C loop is asked for the
+    last output row only (the steps do not depend on the output times), so no
+    trajectory is ever held.  reduce=f: f(result) of each case's SimulationResult,
+    exactly what simulate() returns, one case per thread at a time.
+    """
     kw = dict(task["simulate"])
+    consistent = kw.pop("consistent", False)
     if task["r"] is not None:
         kw["r"] = task["r"]
-    res = simulate_many(model, task["x0"], task["t_span"], p=task["p"], threads=task["threads"],
-                        progress=False, raise_on_failure=False, **kw)
-    out = {"start": task["start"], "status": res.status, "messages": res.messages, "stats": res.stats}
     reduce = task["reduce"]
+    start, total = task["start"], task.get("total")
+    if reduce == "final":
+        kw.update(t_eval=[float(task["t_span"][1])], n_points=None)
+    preps, _ = prepare_cases(model, task["x0"], task["t_span"], p=task["p"], consistent=consistent,
+                             first=start, total=total, keep_rows=reduce is None, **kw)
+    n = len(preps)
     if reduce is None:
-        out.update(t=res.t, x=res.x, outputs=res.outputs)
-    elif reduce == "final":
-        out.update(t=res.t[-1:], x=res.x[:, -1:, :], outputs={k: v[:, -1:] for k, v in res.outputs.items()})
+        res = collect(model, preps, task["threads"], progress=False, raise_on_failure=False)
+        return {"start": start, "status": res.status, "messages": res.messages, "stats": res.stats,
+                "t": res.t, "x": res.x, "outputs": res.outputs, "x_final": res.x_final,
+                "t_final": res.t_final, "t_events": res.t_events, "x_events": res.x_events,
+                "event_stop": res.event_stop}
+    out = {"start": start, "status": np.zeros(n, dtype=int), "messages": [None] * n, "stats": [None] * n,
+           "x_final": np.full((n, model.nx), np.nan), "t_final": np.full(n, np.nan),
+           "t_events": [None] * n, "x_events": [None] * n, "event_stop": [None] * n}
+    if reduce == "final":
+        outputs = {name: np.full(n, np.nan) for name in model.output_names}
+        stream = run_cases(model, preps, task["threads"],
+                           extra=lambda a, r: final_outputs(model, a, r.t_final, r.x_final))
     else:
-        out["values"] = [reduce(SimulationResult(
-            t=res.t, x=res.x[i], state_names=res.state_names, stats=res.stats[i], status=int(res.status[i]),
-            message=res.messages[i], model_name=model.name, nq=model.nq,
-            outputs={k: v[i] for k, v in res.outputs.items()})) for i in range(len(res.status))]
+        values = [None] * n
+        stream = ((i, r, None) for i, r in run_cases(model, preps, task["threads"]))
+    for i, r, final in stream:
+        out["status"][i], out["messages"][i], out["stats"][i] = r.status, r.message, r.stats
+        out["x_final"][i], out["t_final"][i] = r.x_final, r.t_final
+        out["t_events"][i], out["x_events"][i], out["event_stop"][i] = r.t_events, r.x_events, r.event_stop
+        if reduce == "final":
+            for name, v in final.items():
+                outputs[name][i] = v
+        else:
+            r.t = r.t.copy()        # the cases share one array of output times; f gets its own
+            values[i] = reduce(r)
+    if reduce == "final":
+        out.update(t=np.array([float(task["t_span"][1])]), x=out["x_final"][:, None, :],
+                   outputs={k: v[:, None] for k, v in outputs.items()})
+    else:
+        out["values"] = values
     return out
 
 
@@ -203,7 +277,8 @@ def _chunk_size(n, workers):
 
 
 class _Progress:
-    """tqdm when installed, else a line on stderr per finished chunk (at most ~20 lines)."""
+    """tqdm on a terminal (when installed), else a line on stderr per finished chunk (at most
+    ~20 lines): a log or a notebook's captured stderr gets plain lines, not bar redraws."""
 
     def __init__(self, n_cases, n_chunks, enabled, note=""):
         self.n_cases, self.n_chunks, self.cases, self.chunks = n_cases, n_chunks, 0, 0
@@ -213,7 +288,8 @@ class _Progress:
                 print(f"sweep: {note}", file=sys.stderr, flush=True)
             try:
                 from tqdm import tqdm
-                self.bar = tqdm(total=n_cases, unit="case", desc="sweep")
+                if is_terminal(sys.stderr):
+                    self.bar = tqdm(total=n_cases, unit="case", desc="sweep")
             except ImportError:
                 pass
 
@@ -267,37 +343,50 @@ def _dispatch(executor, kind, model, tasks):
 
 
 def sweep(model, cases, t_span, *, map=None, chunk_size=None, reduce=None, threads=None,
-          progress=True, raise_on_failure=True, **simulate_kw):
+          progress=True, raise_on_failure=True, consistent=False, **simulate_kw):
     """Simulate every case of ``cases`` (see :func:`case_arrays`) over ``t_span``, chunk by chunk.
 
     map: where chunks run -- None (here, on threads), builtins.map, a concurrent.futures
     executor, a multiprocessing Pool or a dask.distributed Client.  chunk_size: cases per
-    chunk (default: ~4 chunks per worker, at least 100 cases each).  threads: simulate_many's
-    threads per chunk (default: every core here, 1 when an executor runs the chunks in
-    parallel).  reduce: None (whole trajectories), "final" (the last output row of each case)
-    or a picklable callable f(SimulationResult) -> value, applied on the worker.  Other
-    keywords are simulate()'s (method, rtol, atol, t_eval, n_points, r, ...).
+    chunk, a positive integer (default: ~4 chunks per worker, at least 100 cases each).
+    threads: simulate_many's threads per chunk (default: every core here, 1 when an
+    executor runs the chunks in parallel).  reduce: None (whole trajectories), "final"
+    (each case's final state, time and outputs -- where the run really ended, a terminal
+    event's state included -- without holding any trajectory) or a picklable callable
+    f(SimulationResult) -> value, applied on the worker to exactly what simulate() returns.
+    consistent=True completes each case's start on the model's constraints.  Other
+    keywords are simulate()'s (method, rtol, atol, t_eval, n_points, r, events, ...).
 
-    Returns a BatchResult in case order (bit-identical to simulate_many for the same cases),
-    or a SweepValues for a callable reduce.  A failed case raises SimulationError naming it
-    unless raise_on_failure=False (its status is then nonzero, its tail NaN).
+    Returns a BatchResult in case order (bit-identical to simulate_many for the same cases;
+    with reduce="final" its x has one row, x[:, 0] = x_final), or a SweepValues for a
+    callable reduce.  Both carry each case's x_final, t_final and event records.  A failed
+    case raises SimulationError naming it unless raise_on_failure=False (its status is then
+    nonzero).  A bad value raises CaseError naming its case (index in ``cases``).
     """
-    if reduce is not None and reduce != "final" and not callable(reduce):
+    if reduce is not None and not (isinstance(reduce, str) and reduce == "final") and not callable(reduce):
         raise ValueError(f"sweep: reduce must be None, 'final' or a callable; got {reduce!r}")
+    if chunk_size is not None and (isinstance(chunk_size, bool) or not isinstance(chunk_size, numbers.Integral)
+                                   or chunk_size < 1):
+        raise ValueError(f"sweep: chunk_size must be a positive integer (or None for the default); "
+                         f"got {chunk_size!r}")
     kind = _kind_of(map)
     n, X0, P, R = case_arrays(model, cases)
     if R is not None and "r" in simulate_kw:
         raise ValueError("sweep: inputs are given per case and as r=; give one or the other")
-    # check the arguments here, once, rather than in every worker
-    prepare(model, X0[0], t_span, p=None if P is None else P[0],
-            **({**simulate_kw, "r": R[0]} if R is not None else simulate_kw))
+    # check the arguments here, once, rather than in every worker (the first case: its start too)
+    first, _ = prepare_cases(model, X0[:1], t_span, p=None if P is None else P[:1], consistent=consistent,
+                             total=n, keep_rows=False,
+                             **({**simulate_kw, "r": R[:1]} if R is not None else simulate_kw))
+    if reduce is None:
+        check_batch_memory(n, first[0]["t_eval"].size, model.nx + model.noutput, "sweep",
+                           "use reduce='final' or reduce=f (a callable run on the workers), which "
+                           "bring home only what they keep, or ask for fewer rows (n_points=, t_eval=)")
     workers = _workers(map, kind)
     size = int(chunk_size) if chunk_size else _chunk_size(n, workers)
-    if size < 1:
-        raise ValueError(f"sweep: chunk_size must be a positive integer; got {chunk_size!r}")
     if threads is None:
         threads = (os.cpu_count() or 1) if kind == "here" else 1
-    tasks = [{"start": lo, "x0": X0[lo:lo + size], "p": None if P is None else P[lo:lo + size],
+    simulate_kw = {**simulate_kw, "consistent": consistent} if consistent else simulate_kw
+    tasks = [{"start": lo, "total": n, "x0": X0[lo:lo + size], "p": None if P is None else P[lo:lo + size],
               "r": None if R is None else R[lo:lo + size], "t_span": tuple(t_span),
               "simulate": simulate_kw, "reduce": reduce, "threads": threads}
              for lo in range(0, n, size)]
@@ -319,15 +408,24 @@ def sweep(model, cases, t_span, *, map=None, chunk_size=None, reduce=None, threa
     if raise_on_failure and np.any(status):
         i = int(np.flatnonzero(status)[0])
         raise SimulationError(f"case {i} of {n}: {messages[i]}")
-    if callable(reduce) and reduce != "final":
+    finals = dict(x_final=np.concatenate([part["x_final"] for part in parts]),
+                  t_final=np.concatenate([part["t_final"] for part in parts]))
+    records = {key: [v for part in parts for v in (part[key] or [None] * len(part["status"]))]
+               for key in ("t_events", "x_events", "event_stop")}
+    if all(v is None for v in records["t_events"]):
+        records = dict.fromkeys(records)
+    if callable(reduce) and not isinstance(reduce, str):
         values = [v for part in parts for v in part["values"]]
         try:
             stacked = np.asarray(values)
-            values = stacked if stacked.dtype != object else values
+            # numbers stack; a value holding a string or an object stays as f returned it
+            # (np.asarray would turn (1.5, "fallen") into two strings)
+            values = stacked if stacked.dtype.kind in "biufc" else values
         except ValueError:   # ragged
             pass
-        return SweepValues(values=values, status=status, messages=messages, stats=stats)
+        return SweepValues(values=values, status=status, messages=messages, stats=stats, **finals,
+                           event_stop=records["event_stop"])
     return BatchResult(t=parts[0]["t"], x=np.concatenate([part["x"] for part in parts]),
                        state_names=tuple(model.state_names), status=status, messages=messages,
                        stats=stats, outputs={k: np.concatenate([part["outputs"][k] for part in parts])
-                                             for k in parts[0]["outputs"]})
+                                             for k in parts[0]["outputs"]}, **finals, **records)

@@ -82,7 +82,8 @@ def generation_key(spec, functions, fold_parameters, extra=None):
     formed = [f.method, f.n_dependent_coordinates, f.n_dependent_speeds] + [
         d(getattr(f, k)) for k in ("coordinates", "speeds", "kinematics", "dynamics_matrix", "dynamics_rhs",
                                    "multipliers", "holonomic_constraints", "velocity_constraints",
-                                   "inputs", "parameters")]
+                                   "inputs", "parameters")] + [
+        d(tuple(getattr(f, k, ()))) for k in ("extra_states", "extra_rhs")]
     return hash_key({
         "formed": formed, "name": spec.name,
         "parameters": None if spec.parameters is None else [[d(k), v] for k, v in spec.parameters.items()],

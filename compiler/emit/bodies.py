@@ -10,7 +10,7 @@ from .printer import CPrinter
 from .split import split_body
 from .signatures import SIGNATURES
 
-__all__ = ["BodyContext", "plain_body", "solved_plain_body", "rhs_body", "jacobian_body", "tangent_jacobian_body",
+__all__ = ["BodyContext", "extra_state_rows", "plain_body", "solved_plain_body", "rhs_body", "jacobian_body", "tangent_jacobian_body",
            "helper_jacobian_body", "needed_assignments",
            "linearize_body", "split_on", "dynamics_helper", "matrix_body",
            "void_unused"]
@@ -26,6 +26,11 @@ class BodyContext:
         self.solver, self.slot_names = solver, slot_names
         self.symmetric, self.pattern = symmetric, pattern
         self.split = False      # some body was cut into sub-functions (emit.split)
+        self.nz = 0             # extra first-order states, after q and u in x (set by the generator)
+
+    @property
+    def nx(self):
+        return self.nq + self.nu + self.nz
 
     def printer(self, program):
         names = dict(self.slot_names)
@@ -129,16 +134,28 @@ def _call_dynamics(ctx):
 
 
 def rhs_body(ctx, program):
-    """q' from the kinematics, u' from the factorized A·w = b."""
+    """q' from the kinematics, u' from the factorized A·w = b, z' of the extra states."""
     pr = ctx.printer(program)
     lines = _solver_decls(ctx) + _temps(program, pr)
     for (key, e) in program.results:
         if key[0] == "kin":
             lines.append(_store(f"xdot[{key[1]}]", e, pr))
+    lines += extra_state_rows(ctx, program, pr, "zd", "xdot")
     lines += [_call_dynamics(ctx)] + _factor_and_solve(ctx)
     lines += [f"{_IND}xdot[{ctx.nq + i}] = w[{i}];" for i in range(ctx.nu)]
-    lines.append(f"{_IND}return {ctx.name}_finite(xdot, {ctx.nq + ctx.nu});")
+    lines.append(f"{_IND}return {ctx.name}_finite(xdot, {ctx.nx});")
     return lines
+
+
+def extra_state_rows(ctx, program, pr, group, out, ncols=None):
+    """Stores of the extra states' rows (after q and u): z' itself (``ncols`` None) or its
+    derivatives ``(group, i, k)``, row-major with ``ncols`` columns."""
+    vals = program.result_exprs(group)
+    first = ctx.nq + ctx.nu
+    if ncols is None:
+        return [_store(f"{out}[{first + i}]", vals.get((group, i), 0.0), pr) for i in range(ctx.nz)]
+    return [_store(f"{out}[{(first + i) * ncols + k}]", vals.get((group, i, k), 0.0), pr)
+            for i in range(ctx.nz) for k in range(ncols)]
 
 
 def split_on(program, symbols):
@@ -200,6 +217,7 @@ def tangent_jacobian_body(ctx, program, W, seeds, ncols, blocks):
     for i in range(nq):
         for k in range(ncols):
             lines.append(_store(f"out[{i * ncols + k}]", kvals.get(("dkin", i, k), 0.0), pr))
+    lines += extra_state_rows(ctx, program, pr, "dzd", "out", ncols)
     lines.append(f"{_IND}for (i = 0; i < {ncols}; i++) dx[i] = 0.0;")
     for gvals, inner, start, end in per_block:
         group = next(iter(gvals))[0] if gvals else None
@@ -213,7 +231,7 @@ def tangent_jacobian_body(ctx, program, W, seeds, ncols, blocks):
                   f"{_IND * 2}{ctx.solver.solve_call('G')};",
                   f"{_IND * 2}for (i = 0; i < {nu}; i++) out[({nq} + i) * {ncols} + k] = G[i];",
                   f"{_IND}}}"]
-    lines.append(f"{_IND}return {ctx.name}_finite(out, {(nq + nu) * ncols});")
+    lines.append(f"{_IND}return {ctx.name}_finite(out, {ctx.nx * ncols});")
     return lines
 
 
@@ -226,11 +244,12 @@ def _solve_columns(ctx, program, pr, ncols, kin_group, g_group):
     kvals = program.result_exprs(kin_group)
     lines += [_store(f"out[{i * ncols + k}]", kvals.get((kin_group, i, k), 0.0), pr)
               for i in range(nq) for k in range(ncols)]
+    lines += extra_state_rows(ctx, program, pr, "dzd" if kin_group == "dkin" else "dzd_r", "out", ncols)
     return lines + [f"{_IND}for (k = 0; k < {ncols}; k++) {{",
                     f"{_IND * 2}{ctx.solver.solve_call(f'G + k * {nw}')};",
                     f"{_IND * 2}for (i = 0; i < {nu}; i++) out[({nq} + i) * {ncols} + k] = G[k * {nw} + i];",
                     f"{_IND}}}",
-                    f"{_IND}return {ctx.name}_finite(out, {(nq + nu) * ncols});"]
+                    f"{_IND}return {ctx.name}_finite(out, {ctx.nx * ncols});"]
 
 
 def jacobian_body(ctx, program, W, ncols, kin_group, g_group):

@@ -35,7 +35,7 @@ def _eomc_version():
         return "0+unknown"
 
 
-def _select(functions, ninput, noutput, ncon, nevent=0):
+def _select(functions, ninput, noutput, ncon, nevent=0, has_poses=False):
     """Requested functions that apply to this model, in canonical order."""
     wanted = set(ALL_FUNCTIONS if functions is None else
                  (_ALIASES.get(f, f) for f in functions))
@@ -46,7 +46,8 @@ def _select(functions, ninput, noutput, ncon, nevent=0):
     if "linearize" in wanted:
         wanted |= {"jac_x", "jac_r"}
     absent = {"jac_r": ninput == 0, "outputs": noutput == 0,
-              "constraints": ncon == 0, "constraints_jac": ncon == 0, "events": nevent == 0}
+              "constraints": ncon == 0, "constraints_jac": ncon == 0, "events": nevent == 0,
+              "poses": not has_poses}
     return tuple(f for f in ALL_FUNCTIONS if f in wanted and not absent.get(f, False))
 
 
@@ -96,9 +97,10 @@ def _tangent(prog):
 
 
 def _tangent_blocks(ctx, nq=None, nx=None):
-    """(result group, first column, end column) of the coordinates' and speeds' tangents."""
+    """(result group, first column, end column) of the coordinates' and speeds' tangents
+    (the speeds' block also covers the extra states' columns)."""
     nq = ctx.nq if nq is None else nq
-    nx = ctx.nq + ctx.nu if nx is None else nx
+    nx = ctx.nx if nx is None else nx
     return (("Gtq", 0, nq), ("Gtu", nq, nx))
 
 
@@ -119,7 +121,7 @@ def _tangent_ops(prog, seeds, blocks):
 
 
 def _ops(fn, prog, solver, nx, nr, seeds=(), helper=None, nu=0, nnz=0, solve_in=(), recursive=False,
-         W=()):
+         W=(), nq=None):
     c = count_program(prog) if prog is not None else Counter()
     if fn == "linearize":
         return None
@@ -128,7 +130,8 @@ def _ops(fn, prog, solver, nx, nr, seeds=(), helper=None, nu=0, nnz=0, solve_in=
     if recursive and fn in ("jac_x", "jac_r"):
         from ..tree.derivatives import solve_symbols
         from ..tree.emit import tree_jacobian_ops
-        return tree_jacobian_ops(prog, W, solve_symbols(nu), seeds, fn, nx - nu, nx, nr)
+        return tree_jacobian_ops(prog, W, solve_symbols(nu), seeds, fn, nx - nu if nq is None else nq,
+                                 nx, nr)
     if fn in HELPER_USERS or fn in solve_in:
         c += count_program(helper)
     if fn in solve_in:
@@ -136,7 +139,7 @@ def _ops(fn, prog, solver, nx, nr, seeds=(), helper=None, nu=0, nnz=0, solve_in=
     if fn == "inverse_dynamics":
         c += Counter(muls=nnz, adds=nnz)
     if fn == "jac_x" and _tangent(prog):
-        c = _tangent_ops(prog, seeds, _tangent_blocks(None, nq=nx - nu, nx=nx))
+        c = _tangent_ops(prog, seeds, _tangent_blocks(None, nq=nx - nu if nq is None else nq, nx=nx))
     if fn in _SOLVING:
         c += solver.factor_ops
         nsolve = 1 + {"rhs": 0, "jac_x": nx, "jac_r": nr}[fn]
@@ -182,33 +185,42 @@ class Lowered:
     programs: dict          # function -> Program (None when the function has no own code)
     helper: object          # Program of the shared NAME_dynamics helper (A, b), or None
     formulation: str = "kane"   # or "recursive" (eomc.compiler.tree)
+    poses: dict = None          # pose metadata (compiler/emit/poses.py) when poses is generated
 
 
 def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions=None,
-          fold_parameters=False, events=None, tree=None):
+          fold_parameters=False, events=None, tree=None, poses=None):
     """FormedSystem -> :class:`Lowered` (the IR the C printer and ``--print-ir`` read).
 
     With ``tree`` (an eomc.compiler.tree.Tree of the same system) the dynamics come
     from the recursive formulation (ABA, RNEA, CRBA) instead of the formed A and b.
     """
     check_identifier(name)
-    layout = make_layout(formed, parameters, inputs, fold_parameters)
+    uses = {s for e in list((outputs or {}).values()) + list((events or {}).values())
+            for s in getattr(e, "free_symbols", ())}
+    layout = make_layout(formed, parameters, inputs, fold_parameters, uses)
     ncon = len(formed.holonomic_constraints) + len(formed.velocity_constraints)
-    fns = _select(functions, len(layout.r), len(outputs or {}), ncon, len(events or {}))
+    fns = _select(functions, len(layout.r), len(outputs or {}), ncon, len(events or {}), poses is not None)
     groups, helper_users = FUNCTION_GROUPS, HELPER_USERS
+    base = tuple(f for f in fns if f != "poses")   # poses: appended below
     if tree is None:
-        sym = build_symbolic(formed, layout, fns, outputs, events)
+        sym = build_symbolic(formed, layout, base, outputs, events)
     else:
         from ..tree.lower import TREE_FUNCTION_GROUPS, TREE_HELPER_USERS, build_tree_symbolic
         groups, helper_users = TREE_FUNCTION_GROUPS, TREE_HELPER_USERS
-        sym = build_tree_symbolic(tree, formed, layout, fns, outputs, events)
+        sym = build_tree_symbolic(tree, formed, layout, base, outputs, events)
+    pose_meta = None
+    if "poses" in fns:   # appended to the shared program: sin/cos and products shared with rhs
+        from .poses import POSE_GROUP, with_poses
+        sym, pose_meta = with_poses(sym, poses, layout)
+        groups = {**groups, "poses": (POSE_GROUP,)}
     shared = verify(optimize_shared(sym.program, sym.derivatives))
     programs = {fn: finish_function(shared, groups[fn]) if groups[fn] else None
                 for fn in fns}
     helper = (finish_function(shared, ("A", "b")) if set(fns) & set(helper_users) or sym.solve_in
               else None)
     return Lowered(name, layout, sym, fns, programs, helper,
-                   "kane" if tree is None else "recursive")
+                   "kane" if tree is None else "recursive", pose_meta)
 
 
 def ir_listing(formed, name, **options):
@@ -222,7 +234,7 @@ def ir_listing(formed, name, **options):
 
 
 def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, functions=None,
-               fold_parameters=False, events=None, event_options=None, tree=None):
+               fold_parameters=False, events=None, event_options=None, tree=None, poses=None):
     """Lower ``formed`` (a FormedSystem) to C; returns a :class:`GeneratedModel`.
 
     ``parameters``: {symbol: default} giving order and defaults (others follow, sorted by
@@ -234,13 +246,15 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
     linearize brings jac_x and jac_r.  ``fold_parameters`` turns parameters into literals.
     ``events``: {name: expression} compiled into NAME_events (zero crossings for simulate),
     ``event_options``: their default terminal/direction, kept in the metadata.
+    ``poses``: a :class:`~.poses.PoseSource` (NAME_poses: body frames and points in the world).
     Deterministic: identical input gives byte-identical output.
     """
     low = lower(formed, name, parameters=parameters, inputs=inputs, outputs=outputs,
-                functions=functions, fold_parameters=fold_parameters, events=events, tree=tree)
+                functions=functions, fold_parameters=fold_parameters, events=events, tree=tree,
+                poses=poses)
     layout, sym, fns = low.layout, low.symbolic, low.functions
     recursive = low.formulation == "recursive"
-    nq, nu, nx, nw = formed.nq, formed.nu, formed.nq + formed.nu, sym.nw
+    nq, nu, nx, nw = formed.nq, formed.nu, len(layout.x), sym.nw   # x = [q; u; z]
     solver = (choose_ldlt(name, nw, sym.pattern) if sym.symmetric else
               sparse_lu_solver(name, nw, sym.pattern, sym.row_order))
     slots = dict(layout.c_names)
@@ -248,20 +262,26 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
     slots.update({s: f"udot[{j}]" for j, s in enumerate(sym.UD)})
     slots.update({s: f"dx[{j}]" for j, s in enumerate(sym.seeds)})
     ctx = BodyContext(name, nq, nu, nw, solver, slots, sym.symmetric, sym.pattern)
+    ctx.nz = nx - nq - nu
     with _naming_nonfinite(name, "dynamics helper (the mass matrix and forcing)"):
         helper = dynamics_helper(ctx, low.helper) if low.helper is not None else ""
     rendered, op_counts = [], {}
     for fn in fns:
         prog = low.programs[fn]
         with _naming_nonfinite(name, fn):
-            body = _body(fn, ctx, prog, sym, layout, nx, fns, recursive)
+            body = (plain_body(ctx, prog, "pose", (low.poses["size"],), "out") if fn == "poses" else
+                    _body(fn, ctx, prog, sym, layout, nx, fns, recursive))
         lines, parts = split_body(body, f"{name}_{fn}_part")
         ctx.split = ctx.split or bool(parts)
         rendered.append({"prototype": prototype(name, fn), "body": void_unused(fn, lines),
                          "parts": parts})
         op_counts[fn] = _ops(fn, prog, solver, nx, len(layout.r), sym.seeds, low.helper, nu,
                              sum(1 for i, j in sym.pattern if i < nu and j < nu), sym.solve_in,
-                             recursive, sym.W)
+                             recursive, sym.W, nq)
+    if "poses" in fns:   # the number of doubles NAME_poses writes (the loader checks NAME.json by it)
+        from .poses import pose_metadata
+        rendered.append({"prototype": f"int {name}_pose_count(void)",
+                         "body": f"    return {low.poses['size']};", "parts": []})
     if "linearize" in op_counts:
         op_counts["linearize"] = {k: sum(op_counts[f][k] for f in ("jac_x", "jac_r") if f in op_counts)
                                   for k in ("adds", "muls", "divs", "calls")}
@@ -271,6 +291,8 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
         meta["events"] = [by_name.get(n, {"name": n, "terminal": 0, "direction": 0})
                           for n in sym.event_names]
     meta["formulation"] = low.formulation
+    if low.poses is not None:
+        meta["poses"] = pose_metadata(low.poses)
     return _render(name, meta, fns, rendered, solver, layout, sym, helper, ctx.split)
 
 
@@ -290,7 +312,7 @@ def _naming_nonfinite(name, fn):
 def _metadata(name, formed, layout, sym, fns, op_counts):
     return {
         "name": name, "abi_version": 1, "eomc_version": _eomc_version(),
-        "nq": formed.nq, "nu": formed.nu, "nx": formed.nq + formed.nu, "nparam": len(layout.p),
+        "nq": formed.nq, "nu": formed.nu, "nx": len(layout.x), "nparam": len(layout.p),
         "ninput": len(layout.r), "noutput": len(sym.output_names), "nhol": sym.nhol,
         "nvel": sym.nvel, "work_size": 0,
         "state_names": list(layout.state_names), "param_names": list(layout.param_names),
@@ -310,16 +332,30 @@ def _vector_docs(meta):
         if defaults is None:
             return [f"[{i}] {n}" for i, n in enumerate(names)]
         return [f"[{i}] {n} = {float(d)!r}" for i, (n, d) in enumerate(zip(names, defaults))]
+    nz = meta["nx"] - meta["nq"] - meta["nu"]
+    extra = f", then nz = {nz} extra first-order states" if nz else ""
     return [
-        ("x", f"state (nx = {meta['nx']}: nq = {meta['nq']} coordinates, then nu = {meta['nu']} speeds; "
-              f"udot, tau, forcing and mass_matrix rows follow the speeds)",
+        ("x", f"state (nx = {meta['nx']}: nq = {meta['nq']} coordinates, then nu = {meta['nu']} speeds"
+              f"{extra}; udot, tau, forcing and mass_matrix rows follow the speeds)",
          entries(meta["state_names"])),
         ("p", f"parameters (nparam = {meta['nparam']}), with the model's defaults",
          entries(meta["param_names"], meta["param_defaults"])),
         ("r", f"inputs (ninput = {meta['ninput']})", entries(meta["input_names"])),
         ("outputs", f"out[] of {meta['name']}_outputs (noutput = {meta['noutput']})",
          entries(meta["output_names"])),
-    ]
+    ] + _pose_docs(meta)
+
+
+def _pose_docs(meta):
+    """Where each body and point is in out[] of NAME_poses (NAME_pose_count() doubles)."""
+    poses = meta.get("poses")
+    if not poses:
+        return []
+    nf = len(poses["frames"])
+    rows = [f"[{12 * i}] {n}: origin x, y, z, then R row by row" for i, n in enumerate(poses["frames"])]
+    rows += [f"[{12 * nf + 3 * j}] {n}: x, y, z" for j, n in enumerate(poses["points"])]
+    return [("poses", f"out[] of {meta['name']}_poses ({poses['size']} doubles, world frame; R's "
+                      f"columns are the body's axes)", rows)]
 
 
 def _render(name, meta, fns, rendered, solver, layout, sym, helper, split=False):
@@ -332,7 +368,8 @@ def _render(name, meta, fns, rendered, solver, layout, sym, helper, split=False)
     common = {k: meta[k] for k in ("nq", "nu", "nx", "nparam", "ninput", "noutput", "nhol",
                                    "nvel", "work_size", "eomc_version")}
     header = env.get_template("model.h.j2").render(
-        name=name, prototypes=[prototype(name, f) for f in fns], vectors=_vector_docs(meta), **common)
+        name=name, prototypes=[prototype(name, f) for f in fns]
+        + ([f"int {name}_pose_count(void)"] if "poses" in fns else []), vectors=_vector_docs(meta), **common)
     source = env.get_template("model.c.j2").render(
         name=name, functions=rendered,
         helper_code="\n".join(c for c in ((solver.code if uses_solver else ""), helper) if c),

@@ -1,6 +1,6 @@
 """Where each symbol of a formed system lives in the C arrays.
 
-q(t), u(t) -> x[i]; inputs r(t) -> r[k]; parameters -> p[j]; time -> t.
+q(t), u(t), then the extra first-order states z(t) -> x[i]; inputs r(t) -> r[k]; parameters -> p[j]; time -> t.
 Expressions are rewritten with plain slot symbols once (``xreplace``), so
 every later stage works on ordinary SymPy expressions of those symbols.
 """
@@ -86,20 +86,24 @@ def _name(obj):
     return str(obj).replace("(t)", "")
 
 
-def _parameter_table(formed, parameters):
-    """Ordered (symbol, default) pairs: the dict's order, then the rest sorted by name."""
+def _parameter_table(formed, parameters, uses=()):
+    """Ordered (symbol, default) pairs: the dict's order, then the rest sorted by name.
+
+    ``uses``: the symbols the outputs and events use -- a parameter used only there (a ball's
+    radius in its impact event) is a parameter like the others."""
     parameters = dict(parameters or {})
-    known = set(formed.parameters)
+    known = set(formed.parameters) | set(uses)
     unknown = [s for s in parameters if s not in known]
     if unknown:
-        raise ModelError("parameters not used by the system: " + ", ".join(map(str, unknown)))
+        raise ModelError("parameters used neither by the system nor by its outputs or events: "
+                         + ", ".join(map(str, unknown)))
     table = [(s, float(v)) for s, v in parameters.items()]
     rest = sorted((s for s in formed.parameters if s not in parameters), key=lambda s: s.name)
     table += [(s, DEFAULT_PARAMETER_VALUE) for s in rest]
     return table
 
 
-def make_layout(formed, parameters=None, inputs=None, fold_parameters=False):
+def make_layout(formed, parameters=None, inputs=None, fold_parameters=False, uses=()):
     """The slot assignment of ``formed`` (see module docstring)."""
     inputs = tuple(formed.inputs if inputs is None else inputs)
     missing = [i for i in formed.inputs if i not in inputs]
@@ -107,10 +111,10 @@ def make_layout(formed, parameters=None, inputs=None, fold_parameters=False):
         raise ModelError("the system depends on inputs not listed in `inputs`: "
                          + ", ".join(map(_name, missing)))
     t = sm.Symbol("t", real=True)
-    states = tuple(formed.coordinates) + tuple(formed.speeds)
+    states = tuple(formed.coordinates) + tuple(formed.speeds) + tuple(getattr(formed, "extra_states", ()))
     x = tuple(sm.Symbol(f"x_{i}", real=True) for i in range(len(states)))
     r = tuple(sm.Symbol(f"r_{k}", real=True) for k in range(len(inputs)))
-    table = _parameter_table(formed, parameters)
+    table = _parameter_table(formed, parameters, uses)
     subs = {dynamicsymbols._t: t}
     subs.update(zip(states, x))
     subs.update(zip(inputs, r))

@@ -19,10 +19,12 @@ SIGNATURES = {
                          ("double *", "tau"), ("double *", "work")),
     "linearize": _RHS + (("double *", "A"), ("double *", "B"), ("double *", "work")),
     "events": _RHS + (("double *", "out"), ("double *", "work")),
+    # body frames' positions and rotations, named points' positions (compiler/emit/poses.py)
+    "poses": _RHS + (("double *", "out"), ("double *", "work")),
 }
 
 FUNCTION_ORDER = ("rhs", "jac_x", "jac_r", "mass_matrix", "forcing", "inverse_dynamics",
-                  "outputs", "constraints", "constraints_jac", "linearize", "events")
+                  "outputs", "constraints", "constraints_jac", "linearize", "events", "poses")
 
 # eomc_model fields holding function pointers (the rest are exported only).
 STRUCT_FIELDS = ("rhs", "jac_x", "jac_r", "mass_matrix", "forcing", "outputs",
@@ -42,5 +44,7 @@ def prototype(name, function):
 def cdef(name, functions):
     """cffi declarations of a model's exported functions (``eomc_model`` must be declared first)."""
     lines = [prototype(name, f) + ";" for f in FUNCTION_ORDER if f in functions]
+    if "poses" in functions:   # how many doubles NAME_poses writes: the loader checks NAME.json by it
+        lines.append(f"int {name}_pose_count(void);")
     lines.append(f"const eomc_model *{name}_model(void);")
     return "\n".join(lines) + "\n"

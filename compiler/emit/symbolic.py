@@ -35,10 +35,12 @@ TANGENT_MIN_STATES = 12
 # (jac_x does not: its columns need most of A's and b's temporaries anyway.)
 HELPER_USERS = ("rhs", "mass_matrix", "forcing", "inverse_dynamics", "jac_r")
 
+# zd: z' of the extra first-order states (FormedSystem.extra_states), explicit like the
+# kinematics; dzd / dzd_r: its rows of jac_x / jac_r.
 FUNCTION_GROUPS = {
-    "rhs": ("kin",),                 # + the dynamics helper (A, b)
-    "jac_x": ("A", "b", "dkin", "G", "Gtq", "Gtu"),
-    "jac_r": ("dkin_r", "Gr"),            # + the dynamics helper (A, b)
+    "rhs": ("kin", "zd"),            # + the dynamics helper (A, b)
+    "jac_x": ("A", "b", "dkin", "G", "Gtq", "Gtu", "dzd"),
+    "jac_r": ("dkin_r", "Gr", "dzd_r"),   # + the dynamics helper (A, b)
     "mass_matrix": (),                # the dynamics helper only
     "forcing": (),
     "inverse_dynamics": (),
@@ -136,6 +138,16 @@ def _outputs(formed, layout, outputs, W=()):
     return tuple(names), exprs
 
 
+def _extra_rates(formed, layout):
+    """z' of the extra states in slot symbols; a coordinate's rate q' there is its kinematics.
+    (u' and z' were refused when the states were read: compiler/model/states.py.)"""
+    t = sm.Symbol("t")
+    kin = {sm.Derivative(q, t): k for q, k in zip(formed.coordinates, formed.kinematics)}
+    names = layout.state_names[formed.nq + formed.nu:]
+    return [layout.apply(sm.sympify(e).xreplace(kin), f"the derivative of state {n}")
+            for n, e in zip(names, getattr(formed, "extra_rhs", ()))]
+
+
 def _dynamics(formed, layout):
     memo = {}
     A = formed.dynamics_matrix.applyfunc(lambda e: layout.apply(e, "the mass matrix", memo))
@@ -190,6 +202,13 @@ def build_symbolic(formed, layout, functions, outputs=None, events=None, *, dyna
             derivatives.append(("kin", layout.r, "dkin_r"))
     if "kin" in groups:
         res += [(("kin", i), e) for i, e in enumerate(kin)]
+    zd = _extra_rates(formed, layout)
+    if zd and groups & {"zd", "dzd", "dzd_r"}:
+        res += [(("zd", i), e) for i, e in enumerate(zd)]
+        if "dzd" in groups:
+            derivatives.append(("zd", layout.x, "dzd"))
+        if "dzd_r" in groups:
+            derivatives.append(("zd", layout.r, "dzd_r"))
     if "A" in groups:
         res += [(("A", i, j), A[i, j]) for (i, j) in sorted(pattern) if not symmetric or i >= j]
     if "b" in groups:

@@ -5,9 +5,13 @@ Kane's and Lagrange's methods both end in the same shape,
     q' = kinematics(q, u, t)                      (nq rows)
     A(q, t) · [u'; λ] = b(q, u, t)                (nu + nλ rows)
 
+    z' = extra_rhs(t, q, u, z, r)                 (nz rows, optional)
+
 where λ are Lagrange multipliers (empty for Kane's method) and, for Kane's
 method with motion constraints, the last rows of A are the differentiated
-velocity constraints.  The compiler solves the second line numerically in C
+velocity constraints.  The third block z holds extra first-order states
+(a muscle's activation, a motor's current, a controller's integrator): the
+state is x = [q; u; z], and z may appear anywhere in the first two lines.  The compiler solves the second line numerically in C
 and never sees KanesMethod or LagrangesMethod themselves.
 """
 from dataclasses import dataclass
@@ -32,6 +36,8 @@ class FormedSystem:
     velocity_constraints: sm.Matrix  # nv x 1, in q, u, t, = 0 (may be empty)
     inputs: tuple                    # specified dynamic symbols (neither q, u nor their derivatives)
     parameters: tuple                # constant symbols, sorted by name
+    extra_states: tuple = ()         # z: extra first-order states (dynamic symbols), after q and u
+    extra_rhs: tuple = ()            # z' = extra_rhs, one expression per extra state
 
     @property
     def nq(self):
@@ -40,3 +46,7 @@ class FormedSystem:
     @property
     def nu(self):
         return len(self.speeds)
+
+    @property
+    def nz(self):
+        return len(self.extra_states)

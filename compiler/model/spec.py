@@ -13,6 +13,7 @@ from pathlib import Path
 from eomc.runtime.errors import EomcError, EomcWarning, ModelError, ModelFileError
 
 from .modelfile import assignment_lines, run_model_file
+from .states import attach_states, entry_line
 from .validate import (Invalid, check_equations, check_events, check_initial_state, check_inputs,
                        check_name, check_outputs, check_parameters, sanitize_name,
                        unset_parameters)
@@ -31,6 +32,8 @@ class ModelSpec:
     events: dict = None                 # name -> event expression, or None
     event_options: list = None          # [{"name", "terminal", "direction"}] in events' order
     path: Path = None                   # the model file, if any
+    geometry: dict = None               # the model file's `geometry` (eomc.geometry shapes), or None
+    poses: object = None                # PoseSource (compiler/emit/poses.py), set by the driver
     system: object = field(default=None, repr=False)
 
 
@@ -119,6 +122,9 @@ def _caller_level():
 def _checked(values, formed, name, where, origin=""):
     """Run the validators; ``where(variable)`` turns an Invalid into the right error."""
     try:
+        # extra first-order states (the `states` dict, a System's musculotendons): compiler/model/states.py
+        formed = attach_states(formed, values.get("states"), values.get("system"), values.get("inputs"),
+                               values.get("parameters"))
         check_equations(formed)
         outputs = check_outputs(values.get("outputs"), formed)
         _warn_unset_parameters(formed, values.get("parameters"), origin)
@@ -129,7 +135,7 @@ def _checked(values, formed, name, where, origin=""):
                                         {**(outputs or {}), **(events or {})}),
             inputs=check_inputs(values.get("inputs"), formed),
             initial_state=check_initial_state(values.get("initial_state"), formed),
-            outputs=outputs, system=values.get("system"))
+            outputs=outputs, system=values.get("system"), geometry=values.get("geometry"))
     except Invalid as exc:
         raise where(exc) from None
 
@@ -148,7 +154,7 @@ def _from_file(path, name, overrides, formulation="kane"):
         raise ModelFileError(f"forming the equations of `system` failed: {type(exc).__name__}: {exc}",
                              filename, lines.get("system")) from exc
     values = {k: namespace.get(k) for k in ("system", "parameters", "inputs", "initial_state", "outputs",
-                                            "events")}
+                                            "events", "states", "geometry")}
     given = {k: v for k, v in overrides.items() if v is not None}
     if isinstance(given.get("parameters"), dict) and isinstance(values["parameters"], dict):
         # parameters= overrides some of the file's defaults; the others keep the file's values
@@ -159,16 +165,21 @@ def _from_file(path, name, overrides, formulation="kane"):
     def where(exc):
         if exc.variable in overrides and overrides[exc.variable] is not None:
             return ModelError(str(exc))
-        return ModelFileError(str(exc), filename, lines.get(exc.variable))
+        line = lines.get(exc.variable)
+        if exc.variable == "states" and getattr(exc, "entry", None) is not None:
+            line = entry_line(source, exc.entry) or line    # the state's own entry in the dict
+        return ModelFileError(str(exc), filename, line)
     spec = _checked(values, formed, name, where, f"{filename}: ")
     return ModelSpec(**{**spec.__dict__, "path": Path(path)})
 
 
 def model_spec(system, name=None, *, parameters=None, inputs=None, initial_state=None, outputs=None,
-               events=None, formulation="kane"):
-    """Normalize a model file path or a system object into a ModelSpec (see the module docstring)."""
+               events=None, formulation="kane", states=None):
+    """Normalize a model file path or a system object into a ModelSpec (see the module docstring).
+
+    ``states``: {z: dz/dt} extra first-order states appended to x after q and u."""
     overrides = dict(parameters=parameters, inputs=inputs, initial_state=initial_state, outputs=outputs,
-                     events=events)
+                     events=events, states=states)
     from eomc.compiler.urdf.model import is_urdf_path, load_urdf_model, urdf_overrides
     path = None
     if is_urdf_path(system):   # a robot: the file's System, named after the file

@@ -137,7 +137,7 @@ def _names(symbols):
 
 
 def _states(formed):
-    return tuple(formed.coordinates) + tuple(formed.speeds)
+    return tuple(formed.coordinates) + tuple(formed.speeds) + tuple(getattr(formed, "extra_states", ()))
 
 
 def _state_rate(d, formed):
@@ -222,9 +222,19 @@ def check_events(events, formed):
 
 def check_parameters(parameters, formed, outputs=None):
     """dict Symbol (or its name) -> default value; every key must appear in the model, and
-    every parameter of the equations of motion needs a key (None: all default to 1.0)."""
+    every parameter of the equations of motion needs a key (None: all default to 1.0).
+
+    Parameters used only in outputs or events (a ball's radius in its impact event) are
+    parameters like the others: with no dict they default to 1.0 too."""
     if parameters is None:
-        return None
+        extra = set()
+        for expr in (outputs or {}).values():
+            extra |= {s for s in expr.free_symbols if isinstance(s, sm.Symbol)}
+        extra.discard(sm.Symbol("t"))
+        extra -= set(formed.parameters)
+        if not extra:
+            return None
+        return {s: 1.0 for s in sorted(set(formed.parameters) | extra, key=lambda s: s.name)}
     if not isinstance(parameters, Mapping):
         raise Invalid("parameters", f"`parameters` must be a dict symbol -> default value, "
                                     f"not {type(parameters).__name__}")
@@ -305,7 +315,7 @@ def check_name(name):
 
 
 FUNCTIONS = ("rhs", "jac_x", "jac_r", "mass_matrix", "forcing", "inverse_dynamics", "outputs",
-             "constraints", "constraints_jac", "linearize", "events")
+             "constraints", "constraints_jac", "linearize", "events", "poses")
 ALIASES = {"jacobian": ("jac_x",), "input_jacobian": ("jac_r",), "constraints_jacobian": ("constraints_jac",)}
 
 

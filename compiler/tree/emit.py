@@ -8,7 +8,7 @@ from collections import Counter
 
 import sympy as sm
 
-from ..emit.bodies import _IND, _store, _temps, needed_assignments, split_on
+from ..emit.bodies import _IND, _store, _temps, extra_state_rows, needed_assignments, split_on
 from ..ir import Names
 from ..ir.opcount import count_ops
 
@@ -29,7 +29,8 @@ def tree_rhs_body(ctx, program):
         lines.append(_store(f"xdot[{i}]", vals.get(("kin", i), 0.0), pr))
     for i in range(ctx.nu):
         lines.append(_store(f"xdot[{ctx.nq + i}]", vals.get(("ud", i), 0.0), pr))
-    lines.append(f"{_IND}return {ctx.name}_finite(xdot, {ctx.nq + ctx.nu});")
+    lines += extra_state_rows(ctx, program, pr, "zd", "xdot")
+    lines.append(f"{_IND}return {ctx.name}_finite(xdot, {ctx.nx});")
     return lines
 
 
@@ -84,6 +85,7 @@ def _make_plan(program, W, G, seeds, fn, nq, nx, nr):
         kin, ncols = program.result_exprs("dkin"), nx
         stores += [(f"out[{i * ncols + k}]", kin.get(("dkin", i, k), sm.S.Zero))
                    for i in range(nq) for k in range(ncols)]
+        stores += _extra_rows(program, "dzd", nq + nu, nx, ncols)
         tangents = [(g, start, end) for g, start, end in (("tq", 0, nq), ("tu", nq, nx))
                     if any(k[0] == g for k, _ in program.results)]
         unrolled = "dres" if not tangents else None
@@ -91,6 +93,7 @@ def _make_plan(program, W, G, seeds, fn, nq, nx, nr):
         kin, ncols = program.result_exprs("dkin_r"), nr
         stores += [(f"out[{i * ncols + k}]", kin.get(("dkin_r", i, k), sm.S.Zero))
                    for i in range(nq) for k in range(ncols)]
+        stores += _extra_rows(program, "dzd_r", nq + nu, nx, ncols)
         tangents, unrolled = [], "dres_r"
     if unrolled:
         vals = program.result_exprs(unrolled)
@@ -116,6 +119,13 @@ def _make_plan(program, W, G, seeds, fn, nq, nx, nr):
         loops.append((start, end, inner, [(f"G[{i}]", vals.get((g, i), sm.S.Zero)) for i in range(nu)],
                       solve, sol))
     return _hoist(program, once, stores, loops, set(seeds) | set(G))
+
+
+def _extra_rows(program, group, first, nx, ncols):
+    """(lvalue, expr) of the extra first-order states' rows first..nx of a Jacobian."""
+    vals = program.result_exprs(group)
+    return [(f"out[{i * ncols + k}]", vals.get((group, i - first, k), sm.S.Zero))
+            for i in range(first, nx) for k in range(ncols)]
 
 
 def _hoist(program, once, stores, loops, varying):
@@ -177,7 +187,7 @@ def tree_jacobian_body(ctx, program, W, G, seeds, fn, nr):
     then per column the residual's derivative G and u'-columns M⁻¹ G by the articulated-body
     recursion (no mass matrix, no factorization)."""
     nq, nu = ctx.nq, ctx.nu
-    nx = nq + nu
+    nx = ctx.nx     # q, u and the extra first-order states
     ncols = nx if fn == "jac_x" else nr
     program, once, stores, loops = _jacobian_plan(program, W, G, seeds, fn, nq, nx, nr)
     before, after = split_on(program.with_(assignments=tuple(once)), W)

@@ -13,6 +13,8 @@ The program's result groups, all computed from one value-numbered trace:
                ``sol`` once per column (see :mod:`.derivatives`).  ``dres``: the same
                unrolled over the columns, for a few states
     dres_r     jac_r: d res / d inputs
+    zd, dzd, dzd_r   z' of the extra first-order states and its jac_x / jac_r rows (the
+               Kane path's groups, from build_symbolic)
 
 Coordinates and speeds are the Kane path's (same layout), so states are
 interchangeable and every function agrees with the Kane formulation.
@@ -31,9 +33,9 @@ from .model import NotATree
 __all__ = ["TREE_FUNCTION_GROUPS", "TREE_HELPER_USERS", "build_tree_symbolic"]
 
 TREE_FUNCTION_GROUPS = {
-    "rhs": ("kin", "ud", "Dpiv"),
-    "jac_x": ("ud", "Dpiv", "dkin", "tq", "tu", "dres", "sol"),
-    "jac_r": ("ud", "Dpiv", "dkin_r", "dres_r", "sol"),
+    "rhs": ("kin", "ud", "Dpiv", "zd"),
+    "jac_x": ("ud", "Dpiv", "dkin", "tq", "tu", "dres", "sol", "dzd"),
+    "jac_r": ("ud", "Dpiv", "dkin_r", "dres_r", "sol", "dzd_r"),
     "mass_matrix": ("A",),
     "forcing": ("b",),
     "inverse_dynamics": ("tau",),

@@ -1,7 +1,7 @@
 """The ``eomc`` command: one dispatcher and one module per subcommand.
 
 - compiler commands (import SymPy): ``show``, ``build``, ``inspect``
-- runtime commands (never import SymPy on a built model): ``simulate``, ``report``, ``check``,
+- runtime commands (never import SymPy on a built model): ``simulate``, ``report``, ``check``, ``animate``,
   sharing ``common.py`` (which model, from which state); ``cache``
 
 Each subcommand module exposes ``configure(parser)`` and ``run(args) -> int``.
@@ -29,6 +29,7 @@ SUBCOMMANDS = {
     "linearize": ("eomc.cli.linearize", "A, B and eigenvalues at an operating point (--reduced)"),
     "cache": ("eomc.cli.cache", "show, prune or clear the build cache"),
     "sweep": ("eomc.cli.sweep", "simulate every case of a CSV on local processes or a Dask cluster"),
+    "animate": ("eomc.cli.animate", "a self-contained HTML page (3-D) or GIF/MP4 (2-D) of the motion"),
 }
 
 
@@ -70,15 +71,20 @@ def main(argv=None):
     except ValueError as exc:  # bad arguments caught by the runtime's checks
         print(f"eomc {name}: error: {exc}", file=sys.stderr)
         return 2
+    except BrokenPipeError:  # `eomc ... | head` closed the pipe: not an error worth a traceback
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 141
+    except (OSError, MemoryError) as exc:  # a full disk, a vanished file: one line, not a traceback
+        detail = f"{exc.strerror}: {exc.filename}" if getattr(exc, "strerror", None) and \
+            getattr(exc, "filename", None) else (str(exc) or type(exc).__name__)
+        print(f"eomc {name}: error: {detail}", file=sys.stderr)
+        return 1
     except KeyboardInterrupt:
         print(f"eomc {name}: interrupted", file=sys.stderr)
         return 130
     except _Terminated:
         print(f"eomc {name}: terminated", file=sys.stderr)
         return 143
-    except BrokenPipeError:  # `eomc ... | head` closed the pipe: not an error worth a traceback
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-        return 141
     finally:
         warnings.formatwarning = previous_format
         if previous is not None:

@@ -85,7 +85,8 @@ def parse_assignments(items, what):
 
 
 def initial_state(model, overrides):
-    """{state: value}: the model's initial_state (zeros if it has none) with overrides applied."""
+    """{state: value}: the model's initial_state (zeros if it has none) with overrides applied
+    (the rule of simulate()'s dict x0 too: runtime.simulate.state_defaults)."""
     unknown = sorted(set(overrides) - set(model.state_names))
     if unknown:
         raise ValueError(f"{model.name}: unknown state {', '.join(unknown)} in --x0; "
@@ -124,6 +125,20 @@ def writable_file(path, what):
     parent = path.parent if str(path.parent) else Path(".")
     if not parent.is_dir():
         raise ValueError(f"{what} {path}: the directory {parent} does not exist")
+    _probe(parent, path, what)      # says why: permission denied, read-only file system, disk full
     if not os.access(parent, os.W_OK) or (path.exists() and not os.access(path, os.W_OK)):
         raise ValueError(f"{what} {path}: not writable (permission denied)")
     return path
+
+
+def _probe(parent, path, what):
+    """Create and remove a file in ``parent``: the only test a read-only mount, a full disk or a
+    root user's view of file modes cannot fool (os.access trusts the mode bits)."""
+    import os
+    import tempfile
+    try:
+        fd, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".eomc-probe", dir=parent)
+    except OSError as exc:
+        raise ValueError(f"{what} {path}: cannot write in {parent} ({exc.strerror or exc})") from None
+    os.close(fd)
+    os.unlink(name)

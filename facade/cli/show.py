@@ -40,6 +40,9 @@ def format_equations(spec, ascii_only=False):
     out = [f"model {spec.name} ({f.method}): nq={f.nq}, nu={f.nu}"]
     out.append("coordinates q: " + ", ".join(_pretty(s, ascii_only) for s in f.coordinates))
     out.append("speeds u:      " + ", ".join(_pretty(s, ascii_only) for s in f.speeds))
+    extra = tuple(getattr(f, "extra_states", ()))
+    if extra:
+        out.append("states z:      " + ", ".join(_pretty(s, ascii_only) for s in extra))
     if f.multipliers:
         out.append("multipliers:   " + ", ".join(map(str, f.multipliers)))
     out.append("inputs:        " + (", ".join(_pretty(s, ascii_only) for s in f.inputs) or "-"))
@@ -50,6 +53,9 @@ def format_equations(spec, ascii_only=False):
     out.append(_pretty(sm.Matrix(f.dynamics_matrix), ascii_only))
     out.append("\nforcing  b =")
     out.append(_pretty(sm.Matrix(f.dynamics_rhs), ascii_only))
+    if extra:
+        out.append("\nextra states  z' =")
+        out.append(_pretty(sm.Matrix(list(f.extra_rhs)), ascii_only))
     for label, matrix in (("holonomic constraints (= 0)", f.holonomic_constraints),
                           ("velocity constraints (= 0)", f.velocity_constraints)):
         if matrix is not None and len(matrix):

@@ -25,8 +25,12 @@ def configure(parser):
     parser.add_argument("--dt", type=float, help="fixed step (rk4)")
     parser.add_argument("--points", type=int, default=1001, help="output rows (adaptive methods)")
     parser.add_argument("--max-steps", type=int, default=100000, help="step limit")
+    parser.add_argument("--consistent", action="store_true",
+                        help="constrained models: complete the dependent coordinates and speeds of the "
+                             "start on the constraints first, keeping the independent ones")
     parser.add_argument("--project", action="store_true",
-                        help="project onto the model's constraints after each step")
+                        help="project onto the model's constraints after each step (a start off the "
+                             "constraints is first completed keeping the states given with --x0)")
     parser.add_argument("--baumgarte", type=float, default=0.0, metavar="RATE",
                         help="Baumgarte-style constraint stabilization rate (1/time); 0 = off")
     parser.add_argument("--input", nargs="+", metavar="NAME=V|CSV", default=(),
@@ -111,18 +115,70 @@ def events_argument(text):
     return out
 
 
+def _start(model, x0, given, args, params):
+    """The start to run from: completed on the constraints for --consistent, or for --project
+    from a start off them, holding what the user gave with --x0 (a projection of the whole
+    state would move those too); a note on stderr says what was completed."""
+    import sys
+
+    import numpy as np
+
+    from eomc.errors import ModelError
+    from eomc.runtime.consistent import consistent_state, start_residual
+    if model.nhol + model.nvel == 0 or not (args.consistent or args.project):
+        return x0
+    x = np.array([x0[n] for n in model.state_names])
+    p = None if params is None else np.asarray(params, dtype=float)
+    hol, vel = start_residual(model, args.t0, x, p)
+    limit = max(1e-8, 10 * args.atol)
+    if not args.consistent and hol <= limit and vel <= limit:
+        return x0
+    nqu = model.nq + model.nu       # extra first-order states (after q and u) are never solved for
+    independent = (list(model.state_names[:model.nq - model.nhol])
+                   + list(model.state_names[model.nq:nqu - model.nvel]) + list(model.state_names[nqu:]))
+    tries = [None] if not given else [sorted(set(given) | set(independent)), sorted(given)]
+    error = None
+    for fixed in tries:
+        try:
+            done = consistent_state(model, x, args.t0, p, fixed=fixed)
+            break
+        except ModelError as exc:
+            error = exc
+    else:
+        raise ModelError(f"{error}; the states given with --x0 ({', '.join(sorted(given))}) are held")
+    moved = [f"{n}={v:.6g}" for n, v, old in zip(model.state_names, done, x) if v != old]
+    flag = "--consistent" if args.consistent else "--project"
+    if moved:
+        print(f"eomc simulate: note: {flag}: completed the start on the constraints: {', '.join(moved)}"
+              f" (held: {', '.join(fixed) if fixed else ', '.join(independent)})", file=sys.stderr)
+    return dict(zip(model.state_names, done.tolist()))
+
+
 def run(args):
+    import warnings
+
+    from eomc.runtime.consistent import ConstraintWarning
     from eomc.runtime.simulate import simulate
     cli_common.writable_file(args.output, "-o")
     cli_common.writable_file(args.plot, "--plot")
     model = cli_common.load_model(args.model, args.quiet, **cli_common.model_options(args))
-    x0 = cli_common.initial_state(model, cli_common.parse_assignments(args.x0, "x0"))
+    given = cli_common.parse_assignments(args.x0, "x0")
+    x0 = cli_common.initial_state(model, given)
     params = cli_common.parameter_values(model, cli_common.parse_assignments(args.param, "param"))
-    res = simulate(model, x0, (args.t0, args.t_final), p=params, method=args.method,
-                   rtol=args.rtol, atol=args.atol, dt=args.dt, max_steps=args.max_steps,
-                   n_points=None if args.dt else args.points, project=args.project,
-                   baumgarte=args.baumgarte, r=inputs_argument(model, args.input),
-                   events=events_argument(args.events))
+    x0 = _start(model, x0, given, args, params)
+    seen = []
+    try:
+        with warnings.catch_warnings(record=True) as seen:
+            warnings.simplefilter("always", ConstraintWarning)
+            res = simulate(model, x0, (args.t0, args.t_final), p=params, method=args.method,
+                           rtol=args.rtol, atol=args.atol, dt=args.dt, max_steps=args.max_steps,
+                           n_points=None if args.dt else args.points, project=args.project,
+                           baumgarte=args.baumgarte, r=inputs_argument(model, args.input),
+                           events=events_argument(args.events))
+    finally:    # also when the run then fails: the advice explains the failure
+        for w in seen:      # in the command line's words (--consistent, not consistent=True)
+            message = w.message.cli_text() if isinstance(w.message, ConstraintWarning) else w.message
+            warnings.warn_explicit(message, w.category, w.filename, w.lineno)
     s = res.stats
     print(f"{model.name}: {res.method} t=[{args.t0:g}, {args.t_final:g}]: {s['steps']} steps "
           f"({s['rejected']} rejected), {s['nfev']} rhs, {s['njev']} jacobian, {s['nlu']} LU")

@@ -37,6 +37,11 @@ def configure(parser):
     parser.add_argument("--workers", type=int, default=os.cpu_count() or 1,
                         help="local processes when no --scheduler is given")
     parser.add_argument("--chunk-size", type=int, help="cases per chunk (default: ~4 chunks per worker, >= 100)")
+    parser.add_argument("--connect-timeout", type=float, default=10.0, metavar="S",
+                        help="seconds to wait for the Dask scheduler to answer and for its first worker")
+    parser.add_argument("--consistent", action="store_true",
+                        help="complete each case's dependent coordinates and speeds on the model's "
+                             "constraints (keeping the independent ones) before it runs")
     parser.add_argument("--method", default="dop853", help="rk4 (needs --dt), dopri5 (rk45), dop853, radau")
     parser.add_argument("--rtol", type=float, default=1e-6, help="relative tolerance")
     parser.add_argument("--atol", type=float, default=1e-9, help="absolute tolerance")
@@ -46,14 +51,21 @@ def configure(parser):
     parser.formatter_class = argparse.ArgumentDefaultsHelpFormatter
 
 
-def read_cases(path):
-    """(ids or None, {column: float array}) from a CSV with a header row; errors name file:line."""
+def read_cases(path, with_lines=False):
+    """(ids or None, {column: float array}) from a CSV with a header row; errors name file:line.
+
+    with_lines=True adds a third item: the file's line number of each case (for errors found
+    later, e.g. a non-finite value).  An Excel byte-order mark before the header is dropped.
+    """
     path = Path(path)
     try:
-        with open(path, newline="") as fh:
+        with open(path, newline="", encoding="utf-8-sig") as fh:
             rows = list(csv.reader(fh))
     except OSError as exc:
         raise ValueError(f"{path}: cannot read the cases ({exc.strerror or exc})") from None
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"{path}: not a UTF-8 text CSV file (byte 0x{exc.object[exc.start]:02x} at "
+                         f"position {exc.start})") from None
     rows = [(i, r) for i, r in enumerate(rows, 1) if any(cell.strip() for cell in r)]
     if len(rows) < 2:
         raise ValueError(f"{path}: expected a header row naming states, parameters or inputs, "
@@ -74,20 +86,85 @@ def read_cases(path):
             except ValueError:
                 raise ValueError(f"{path}:{line}: column {name!r}: {cell.strip()!r} is not a number") from None
     ids = columns.pop("case", None)
-    return ids, {k: np.array(v) for k, v in columns.items()}
+    columns = {k: np.array(v) for k, v in columns.items()}
+    if with_lines:
+        return ids, columns, [line for line, _ in rows[1:]]
+    return ids, columns
 
 
 def _executor(args):
     if args.scheduler:
-        try:
-            from distributed import Client
-        except ImportError:
-            raise EomcError("--scheduler needs Dask: pip install 'eomc[dask]'") from None
-        return Client(args.scheduler)
+        return _dask_client(args.scheduler, args.connect_timeout)
     if args.workers < 1:
         raise ValueError(f"--workers must be at least 1; got {args.workers}")
     from concurrent.futures import ProcessPoolExecutor
     return ProcessPoolExecutor(max_workers=args.workers)
+
+
+def _dask_client(address, timeout):
+    """A Client of the scheduler at ``address`` with at least one worker, or one clear error.
+
+    Connecting is bounded by ``timeout`` (Dask's own default waits 30 s); something at the
+    address that is not a Dask scheduler makes Dask misread its bytes (it once tried to
+    allocate 3 EiB) -- that too is a connection failure, said as one.
+    """
+    try:
+        from distributed import Client
+    except ImportError:
+        raise EomcError("--scheduler needs Dask: pip install 'eomc[dask]'") from None
+    if not timeout > 0:
+        raise ValueError(f"--connect-timeout must be > 0 seconds; got {timeout}")
+    _quiet_dask_logs()
+    try:
+        client = Client(address, timeout=timeout)
+    except ValueError:
+        raise                     # a malformed address: Dask's message says which scheme is wrong
+    except Exception as exc:      # OSError, TimeoutError, MemoryError from a non-Dask peer, ...
+        raise EomcError(f"cannot connect to a Dask scheduler at {address} within {timeout:g} s "
+                        f"({_why(exc)}); is the scheduler running there, and is it a Dask scheduler?") from None
+    try:
+        client.wait_for_workers(1, timeout=timeout)
+    except Exception as exc:
+        client.close()
+        raise EomcError(f"the Dask scheduler at {address} has no workers (none joined within "
+                        f"{timeout:g} s: {_why(exc)}); start one with `dask worker {address}`") from None
+    return client
+
+
+def _quiet_dask_logs():
+    """Dask logs its own errors and tracebacks (a lost scheduler, a reconnect that gave up) on
+    stderr; eomc reports the failure as one line, so only CRITICAL records get through.  dask's
+    logging config gives some loggers (distributed.client, ...) levels of their own: set each."""
+    import logging
+    names = [n for n in list(logging.root.manager.loggerDict) if n.split(".")[0] in ("distributed", "tornado")]
+    for name in ["distributed", "tornado", "asyncio", *names]:
+        logging.getLogger(name).setLevel(logging.CRITICAL)
+
+
+def _why(exc):
+    text = " ".join(str(exc).split())
+    return f"{type(exc).__name__}: {text[:200]}" if text else type(exc).__name__
+
+
+def _cluster_failure(exc, address):
+    """An exception from the Dask machinery during a sweep, as one EomcError (else None)."""
+    import concurrent.futures
+    import asyncio
+    module = type(exc).__module__ or ""
+    if module.startswith(("distributed", "tornado", "dask")) or isinstance(
+            exc, (OSError, TimeoutError, concurrent.futures.CancelledError, asyncio.CancelledError)):
+        return EomcError(f"the Dask cluster at {address} failed during the sweep ({_why(exc)}); a worker "
+                         f"or the scheduler was lost -- no results were written")
+    return None
+
+
+def _pyarrow():
+    try:
+        import pyarrow
+        import pyarrow.parquet  # noqa: F401
+    except ImportError:
+        raise EomcError("writing .parquet needs pyarrow: pip install pyarrow (or write .csv)") from None
+    return pyarrow
 
 
 def _write(path, table):
@@ -96,14 +173,9 @@ def _write(path, table):
     path = Path(path)
     if path.suffix not in (".csv", ".parquet"):
         raise ValueError(f"-o {path}: write .csv or .parquet")
-    if path.suffix == ".parquet":
-        try:
-            import pyarrow
-            import pyarrow.parquet
-        except ImportError:
-            raise EomcError("writing .parquet needs pyarrow: pip install pyarrow (or write .csv)") from None
     with atomic_path(path) as tmp:
         if path.suffix == ".parquet":
+            pyarrow = _pyarrow()
             pyarrow.parquet.write_table(pyarrow.table(table), tmp)
         else:
             with open(tmp, "w", newline="") as fh:
@@ -116,32 +188,62 @@ def _write(path, table):
 
 
 def run(args):
+    from eomc.runtime.batch import CaseError
     from eomc.runtime.sweep import sweep
     if Path(args.output).suffix not in (".csv", ".parquet"):
         raise ValueError(f"-o {args.output}: write .csv or .parquet")
-    ids, columns = read_cases(args.cases)
+    cli_common.writable_file(args.output, "-o")     # before any work: a typo must not cost the sweep
+    if args.output.endswith(".parquet"):
+        _pyarrow()
+    if args.chunk_size is not None and args.chunk_size < 1:
+        raise ValueError(f"--chunk-size must be a positive number of cases; got {args.chunk_size}")
+    ids, columns, lines = read_cases(args.cases, with_lines=True)
     model = cli_common.load_model(args.model, quiet=args.quiet)
+    try:
+        from eomc.runtime.sweep import case_arrays
+        case_arrays(model, columns, rows=False)      # every cell checked before any worker starts
+    except CaseError as exc:
+        raise ValueError(f"{args.cases}:{lines[exc.case]}: {exc.detail}") from None
     executor = _executor(args)
     try:
         res = sweep(model, columns, (args.t0, args.t_final), map=executor, chunk_size=args.chunk_size,
                     reduce="final", progress=not args.quiet, raise_on_failure=False, method=args.method,
-                    rtol=args.rtol, atol=args.atol, dt=args.dt, max_steps=args.max_steps)
+                    rtol=args.rtol, atol=args.atol, dt=args.dt, max_steps=args.max_steps,
+                    consistent=args.consistent)
+    except CaseError as exc:
+        raise ValueError(f"{args.cases}:{lines[exc.case]}: {exc.detail}") from None
+    except (EomcError, ValueError, KeyboardInterrupt):
+        raise
+    except Exception as exc:
+        failure = _cluster_failure(exc, args.scheduler) if args.scheduler else None
+        if failure is None:
+            raise
+        raise failure from None
     finally:
-        (executor.close if args.scheduler else executor.shutdown)()
+        try:
+            (executor.close if args.scheduler else executor.shutdown)()
+        except Exception:       # a lost scheduler cannot be closed politely; the error above says so
+            pass
     n = len(res.status)
     table = {} if ids is None else {"case": ids}
     table.update({k: v.tolist() for k, v in columns.items()})
     table["status"] = res.status.astype(int).tolist()
-    table["t_final"] = [float(s["t"]) for s in res.stats]
+    table["t_final"] = res.t_final.tolist()
     for j, name in enumerate(model.state_names):
-        table[f"final_{name}"] = res.x[:, 0, j].tolist()
+        table[f"final_{name}"] = res.x_final[:, j].tolist()
     for name, values in res.outputs.items():
         table[f"final_{name}"] = values[:, 0].tolist()
+    if res.t_events is not None:
+        table["event_stop"] = [e or "" for e in res.event_stop]
+        for name in next(e for e in res.t_events if e is not None):
+            table[f"events_{name}"] = [0 if e is None else len(e[name]) for e in res.t_events]
+            table[f"first_{name}"] = [float("nan") if e is None or not len(e[name]) else float(e[name][0])
+                                      for e in res.t_events]
     table["message"] = ["" if s == 0 else m for s, m in zip(res.status, res.messages)]
     failed = int(np.count_nonzero(res.status))
     where = args.scheduler or f"{args.workers} local process{'es' if args.workers > 1 else ''}"
     print(f"{model.name}: {n} cases on {where}, {failed} failed; wrote {_write(args.output, table)}")
     if failed:
         first = int(np.flatnonzero(res.status)[0])
-        print(f"  first failure, case {first}: {res.messages[first]}")
+        print(f"  first failure, case {first} ({args.cases}:{lines[first]}): {res.messages[first]}")
     return 1 if failed == n else 0

@@ -6,7 +6,8 @@
  * Change it only together with EOMC_ABI_VERSION.
  *
  * Conventions
- *   - State x = [q (nq coordinates); u (nu speeds)], nx = nq + nu.
+ *   - State x = [q (nq coordinates); u (nu speeds); z (extra first-order
+ *     states, e.g. muscle activations)], nx = nq + nu + nz (nz may be 0).
  *   - p: nparam parameters, r: ninput inputs (may be NULL when ninput == 0).
  *   - Matrices are dense, row-major.
  *   - work: caller-supplied scratch of at least `work_size` doubles.  No
@@ -50,7 +51,7 @@ typedef int (*eomc_mat_fn)(double t, const double *x, const double *p,
 typedef struct eomc_model {
     int abi_version;          /* EOMC_ABI_VERSION */
     const char *name;
-    int nq, nu, nx;           /* coordinates, speeds, states (nx = nq + nu) */
+    int nq, nu, nx;           /* coordinates, speeds, states (nx = nq + nu + nz) */
     int nparam, ninput;
     int noutput;              /* named outputs (energy, contact forces, ...) */
     int nhol;                 /* holonomic (configuration) constraint residuals */

@@ -103,3 +103,96 @@ def test_report_output_onto_a_file_fails_before_running(pendulum, tmp_path, caps
     assert main(["report", "pend", "-o", str(target), "-q"]) == 2
     assert f"eomc report: error: -o {target} is a file" in capsys.readouterr().err
     assert target.read_text() == "keep me"
+
+
+# ---- issue 24: the first hour of round 3 ---------------------------------------------------------
+import os  # noqa: E402
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+import textwrap  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import eomc  # noqa: E402
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
+
+BALL = textwrap.dedent('''\
+    """A ball thrown with drag; its radius R is used only by the impact event and an output."""
+    from sympy import symbols
+    from eomc.mechanics import *
+
+    x, y = dynamicsymbols('x y')
+    vx, vy = dynamicsymbols('v_x v_y')
+    m, c, g, R = symbols('m c g R', positive=True)
+    N = ReferenceFrame('N')
+    O = Point('O')
+    O.set_vel(N, 0)
+    P = O.locatenew('P', x * N.x + y * N.y)
+    P.set_vel(N, vx * N.x + vy * N.y)
+    kane = KanesMethod(N, q_ind=[x, y], u_ind=[vx, vy], kd_eqs=[x.diff() - vx, y.diff() - vy])
+    kane.kanes_equations([Particle('ball', P, m)], [(P, -m * g * N.y - c * (vx * N.x + vy * N.y))])
+    system = kane
+    name = 'ball_r'
+    parameters = {m: 0.2, c: 0.05, g: 9.81, R: 0.05}
+    initial_state = {x: 0.0, y: 2.0, vx: 3.0, vy: 4.0}
+    events = {'impact': {'expr': y - R, 'direction': -1, 'terminal': True}}
+    outputs = {'radius': R}
+    ''')
+
+
+def test_a_parameter_used_only_in_an_event_or_output_is_accepted(tmp_path, capsys):
+    """First hour #4: 'parameters not used by the system: R' (no file:line) before."""
+    path = model_files.write(tmp_path, BALL, "ball")
+    assert main(["simulate", str(path), "--t-final", "3", "--param", "R=0.25", "-q"]) == 0
+    out = capsys.readouterr().out
+    assert "radius: start 0.25, end 0.25" in out and "stopped by event impact" in out
+    model = eomc.compile(str(path), progress=False)
+    res = model.simulate(None, (0, 3), p={"R": 0.25}, rtol=1e-10, atol=1e-12)
+    assert res.event_stop == "impact" and res.x_final[1] == pytest.approx(0.25, abs=1e-9)
+
+
+@pytest.fixture(scope="module")
+def fourbar(tmp_path_factory):
+    directory = tmp_path_factory.mktemp("fourbar")
+    eomc.compile(str(EXAMPLES / "four_bar_system.py"), output_dir=str(directory), progress=False)
+    return directory, eomc.load(directory)
+
+
+def test_the_constraint_warning_names_the_cli_flag_in_one_line(fourbar):
+    """First hour #8: the CLI said 'Pass consistent=True' and printed an eomc source line."""
+    directory, _ = fourbar
+    run = subprocess.run([sys.executable, "-m", "eomc", "simulate", str(directory), "--t-final", "0.01",
+                          "--x0", "q1=-0.9", "u1=1", "--points", "2"], capture_output=True, text=True,
+                         timeout=300, env=os.environ)
+    warning = [line for line in run.stderr.splitlines() if "warning" in line]
+    assert len(warning) == 1 and warning[0].startswith("eomc simulate: warning: four_bar_system: x0 is off")
+    assert "--consistent" in warning[0] and "consistent=True" not in warning[0]
+    assert "warnings.warn" not in run.stderr and "simulate.py" not in run.stderr
+
+
+def test_cli_consistent_and_project_keep_the_coordinates_given(fourbar, tmp_path, capsys):
+    """First hour #8: --consistent exists; --project no longer moves q1 = -0.9 (it moved 0.3 to 0.11)."""
+    directory, model = fourbar
+    want = model.consistent_state({"q1": -0.9, "u1": 1.0})
+    for flag in ("--consistent", "--project"):
+        out = tmp_path / f"{flag[2:]}.csv"
+        assert main(["simulate", str(directory), "--t-final", "0.01", "--x0", "q1=-0.9", "u1=1", flag,
+                     "--points", "2", "-o", str(out), "-q"]) == 0
+        first = np.loadtxt(out, delimiter=",", skiprows=1)[0, 1:1 + model.nx]
+        assert first[0] == -0.9 and first[3] == 1.0
+        np.testing.assert_allclose(first, want, rtol=0, atol=1e-10)
+        assert f"note: {flag}: completed the start on the constraints" in capsys.readouterr().err
+
+
+def test_python_project_says_which_states_it_moved(fourbar):
+    from eomc.runtime.consistent import ConstraintWarning
+    _, model = fourbar
+    with pytest.warns(ConstraintWarning, match=r"project=True moved the start onto them: q1 -0\.9 -> "):
+        model.simulate({"q1": -0.9, "u1": 1.0}, (0, 0.01), project=True, n_points=2)
+
+
+def test_the_suite_builds_into_its_own_cache(tmp_path_factory):
+    """First hour #9: the suite left entries in the user's cache; tests/conftest.py points
+    EOMC_CACHE_DIR into this session's temporary tree (a test may still set its own)."""
+    cache = Path(os.environ["EOMC_CACHE_DIR"]).resolve()
+    assert cache.is_relative_to(tmp_path_factory.getbasetemp().resolve())

@@ -120,3 +120,184 @@ def test_a_failed_write_leaves_the_previous_results_untouched(tmp_path, monkeypa
         cli_sweep._write(target, {"case": [0, 1], "q1": [0.5, 0.25]})
     assert target.read_text() == "previous results\n"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["results.csv"]
+
+
+# ---- issue 24: events in the table, output checked first, CSV lines, Dask failures ---------------
+import errno  # noqa: E402
+import socket  # noqa: E402
+import threading  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+CARTPOLE = str(Path(__file__).resolve().parents[2] / "examples" / "cartpole_lqr.py")
+
+
+@pytest.fixture(scope="module")
+def cartpole_dir(tmp_path_factory):
+    import eomc
+    model = eomc.compile(CARTPOLE, output_dir=str(tmp_path_factory.mktemp("cartpole")), progress=False)
+    return model
+
+
+def test_terminal_event_cases_report_the_event_state(cartpole_dir, tmp_path, capsys):
+    """N2: examples/cartpole_lqr.py's `fallen` stops each case; final_* = simulate()'s x_final."""
+    from eomc.runtime.simulate import simulate
+    cases = tmp_path / "cases.csv"
+    cases.write_text("th\n3.0\n2.9\n2.5\n")
+    out = tmp_path / "out.csv"
+    assert main(["sweep", str(Path(cartpole_dir.library_path).parent), "--cases", str(cases),
+                 "--t-final", "10", "-o", str(out), "-q", "--workers", "1"]) == 0
+    rows = _read(out)
+    for row, th in zip(rows, (3.0, 2.9, 2.5)):
+        x0 = dict(zip(cartpole_dir.state_names, cartpole_dir.initial_state), th=th)
+        single = simulate(cartpole_dir, x0, (0, 10))
+        got = [float(row[f"final_{n}"]) for n in cartpole_dir.state_names]
+        assert got == single.x_final.tolist() and float(row["t_final"]) == single.t_final
+        assert row["event_stop"] == "fallen" and row["events_fallen"] == "1"
+        assert float(row["first_fallen"]) == single.t_events["fallen"][0]
+        assert float(row["final_bob_height"]) == pytest.approx(-0.6 * np.cos(single.x_final[1]), abs=1e-15)
+
+
+@pytest.fixture
+def no_sweep(monkeypatch):
+    """Any attempt to run the sweep fails the test: the output must be refused before."""
+    import eomc.runtime.sweep as runtime_sweep
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("the sweep ran although its output cannot be written")
+    monkeypatch.setattr(runtime_sweep, "sweep", refuse)
+
+
+@pytest.mark.parametrize("target,message", [
+    ("missing/r.csv", "the directory missing does not exist"),
+    ("adir.csv", "adir.csv is a directory"),
+])
+def test_an_output_that_cannot_be_written_fails_before_the_sweep(built, cases_csv, tmp_path, capsys,
+                                                                 monkeypatch, no_sweep, target, message):
+    """N3: -o into a missing directory or onto a directory: one error line before any work."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "adir.csv").mkdir()
+    assert main(["sweep", str(built.directory), "--cases", str(cases_csv), "--t-final", "1",
+                 "-o", target, "-q"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("eomc sweep: error: -o ") and message in err and err.count("\n") == 1
+
+
+def test_a_read_only_directory_fails_before_the_sweep(built, cases_csv, tmp_path, capsys, monkeypatch,
+                                                      no_sweep):
+    """N3: a read-only mount (which root's os.access does not see) is found by creating a probe file;
+    the failure of that creation is simulated here, as the tester's bind mount cannot be made in CI."""
+    import tempfile
+
+    def read_only(*args, **kwargs):
+        raise OSError(errno.EROFS, "Read-only file system")
+    monkeypatch.setattr(tempfile, "mkstemp", read_only)
+    (tmp_path / "prev.csv").write_text("previous\n")
+    assert main(["sweep", str(built.directory), "--cases", str(cases_csv), "--t-final", "1",
+                 "-o", str(tmp_path / "prev.csv"), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert "cannot write in" in err and "Read-only file system" in err and err.count("\n") == 1
+    assert (tmp_path / "prev.csv").read_text() == "previous\n"
+
+
+def test_a_bad_cell_names_its_csv_line(built, tmp_path, capsys):
+    """N13: inf at line 352 (case 350) with chunks of 100 is reported at line 352."""
+    lines = ["m,q"] + ["2,0.1"] * 400
+    lines[351] = "inf,0.1"               # file line 352
+    cases = tmp_path / "cases.csv"
+    cases.write_text("\n".join(lines) + "\n")
+    assert main(["sweep", str(built.directory), "--cases", str(cases), "--t-final", "1", "-o",
+                 str(tmp_path / "r.csv"), "--chunk-size", "100", "-q", "--workers", "1"]) == 2
+    err = capsys.readouterr().err
+    assert f"{cases}:352: osc: p (parameters) is not finite for m" in err and err.count("\n") == 1
+
+
+@pytest.mark.parametrize("text,args,match", [
+    ("q,x0\n0.1,1\n0.2,2\n", [], "'x0' is not a state, parameter or input of osc"),
+    ("q\n0.1\n", ["--chunk-size", "0"], "--chunk-size must be a positive number of cases; got 0"),
+])
+def test_row_keys_and_chunk_size_zero_are_errors(built, tmp_path, capsys, monkeypatch, text, args, match):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "cases.csv").write_text(text)
+    assert main(["sweep", str(built.directory), "--cases", "cases.csv", "--t-final", "1", "-o", "r.csv",
+                 "-q"] + args) == 2
+    err = capsys.readouterr().err
+    assert match in err and err.count("\n") == 1
+
+
+def test_an_excel_bom_is_not_part_of_the_first_name(built, tmp_path):
+    cases = tmp_path / "cases.csv"
+    cases.write_bytes("\ufeffq,k\r\n0.1,4\r\n".encode("utf-8"))
+    out = tmp_path / "r.csv"
+    assert main(["sweep", str(built.directory), "--cases", str(cases), "--t-final", "1", "-o", str(out),
+                 "-q", "--workers", "1"]) == 0
+    assert list(_read(out)[0])[:2] == ["q", "k"]
+
+
+@pytest.fixture
+def not_dask():
+    """A TCP server that answers with bytes that are not Dask's protocol."""
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(4)
+    stop = threading.Event()
+
+    def serve():
+        server.settimeout(0.2)
+        while not stop.is_set():
+            try:
+                conn, _ = server.accept()
+            except OSError:
+                continue
+            try:
+                conn.sendall(b"HTTP/1.1 400 Bad Request\r\n\r\n" * 64)
+            except OSError:
+                pass
+            conn.close()
+    thread = threading.Thread(target=serve, daemon=True)
+    thread.start()
+    yield f"tcp://127.0.0.1:{server.getsockname()[1]}"
+    stop.set()
+    thread.join()
+    server.close()
+
+
+def _free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.mark.parametrize("where", ["refused", "not_dask"])
+def test_dask_connection_failures_are_one_line(built, cases_csv, tmp_path, capsys, request, where):
+    """N11: nothing listening, or something that is not Dask: one error line within the timeout."""
+    import time
+    address = (f"tcp://127.0.0.1:{_free_port()}" if where == "refused"
+               else request.getfixturevalue("not_dask"))
+    start = time.perf_counter()
+    rc = main(["sweep", str(built.directory), "--cases", str(cases_csv), "--t-final", "1",
+               "-o", str(tmp_path / "r.csv"), "--scheduler", address, "--connect-timeout", "2", "-q"])
+    err = capsys.readouterr().err
+    assert rc == 1 and err.startswith(f"eomc sweep: error: cannot connect to a Dask scheduler at {address}")
+    assert err.count("\n") == 1 and time.perf_counter() - start < 30
+
+
+def test_a_scheduler_without_workers_is_one_line(built, cases_csv, tmp_path, capsys):
+    import distributed
+    with distributed.LocalCluster(n_workers=0, processes=False, dashboard_address=None) as cluster:
+        rc = main(["sweep", str(built.directory), "--cases", str(cases_csv), "--t-final", "1",
+                   "-o", str(tmp_path / "r.csv"), "--scheduler", cluster.scheduler_address,
+                   "--connect-timeout", "1", "-q"])
+    err = capsys.readouterr().err
+    assert rc == 1 and "has no workers" in err and err.count("\n") == 1
+
+
+def test_a_lost_cluster_is_one_error(monkeypatch):
+    """N11: a worker or the scheduler lost mid-sweep surfaces as Dask's exceptions; they become
+    one EomcError (the mechanism; killing a real cluster is in benchmarks/reliability_r3_batch.py)."""
+    from distributed.client import FutureCancelledError
+
+    from eomc.cli import sweep as cli_sweep
+    failure = cli_sweep._cluster_failure(FutureCancelledError("run_chunk-1", reason="already forgotten"),
+                                         "tcp://h:8786")
+    assert "the Dask cluster at tcp://h:8786 failed during the sweep" in str(failure)
+    assert cli_sweep._cluster_failure(ValueError("mine"), "tcp://h:8786") is None

@@ -51,3 +51,73 @@ def test_batch_shape_errors():
         simulate_many(m, np.zeros((2, 2)), (0, 1), p=np.ones((3, 2)), progress=False)
     with pytest.raises(ValueError, match=r"\(n_cases, 2\)"):
         simulate_many(m, np.zeros((2, 3)), (0, 1), progress=False)
+
+
+# ---- issue 24: a batch carries what a single run carries; memory is refused up front ----------
+from pathlib import Path  # noqa: E402
+
+import eomc  # noqa: E402
+
+CARTPOLE = str(Path(__file__).resolve().parents[2] / "examples" / "cartpole_lqr.py")
+
+
+@pytest.fixture(scope="module")
+def cartpole():
+    """examples/cartpole_lqr.py: its terminal event `fallen` stops an uncontrolled pole."""
+    return eomc.compile(CARTPOLE, progress=False)
+
+
+def _starts(model, angles):
+    X0 = np.tile(model.initial_state, (len(angles), 1))
+    X0[:, model.state_names.index("th")] = angles
+    return X0
+
+
+def test_terminal_event_cases_carry_the_final_state_and_the_events(cartpole):
+    """N2: status 0 with x_final = the event state, as simulate() gives it, not the NaN grid rows."""
+    X0 = _starts(cartpole, [3.0, 2.9, 2.5])
+    batch = simulate_many(cartpole, X0, (0, 10), progress=False, n_points=201, threads=2)
+    assert batch.success and batch.event_stop == ["fallen"] * 3
+    for i in range(3):
+        single = simulate(cartpole, X0[i], (0, 10), n_points=201)
+        assert single.event_stop == "fallen" and single.t_final < 10
+        np.testing.assert_array_equal(batch.x_final[i], single.x_final)
+        assert batch.t_final[i] == single.t_final
+        np.testing.assert_array_equal(batch.t_events[i]["fallen"], single.t_events["fallen"])
+        np.testing.assert_array_equal(batch.x_events[i]["fallen"], single.x_events["fallen"])
+        n = len(single.t)
+        np.testing.assert_array_equal(batch.x[i, :n], single.x)
+        assert np.all(np.isnan(batch.x[i, n:]))          # after the stop: no made-up rows
+    assert np.all(np.isfinite(batch.x_final))
+
+
+def test_events_given_to_simulate_many_are_kept(cartpole):
+    X0 = _starts(cartpole, [3.0, 3.1])
+    batch = simulate_many(cartpole, X0, (0, 3), progress=False, n_points=11,
+                          events={"fallen": {"terminal": False}})
+    assert batch.event_stop == [None, None] and batch.t_final.tolist() == [3.0, 3.0]
+    for i in range(2):
+        single = simulate(cartpole, X0[i], (0, 3), n_points=11, events={"fallen": {"terminal": False}})
+        np.testing.assert_array_equal(batch.t_events[i]["fallen"], single.t_events["fallen"])
+
+
+def test_a_batch_too_large_for_memory_is_refused_with_the_figure(cartpole, monkeypatch):
+    """N12: 10**6 cases x 1001 rows of 4 states and an output (~39 GiB) is refused before any
+    case is prepared or run (the limit is half the machine's memory; fixed here at 8 GiB so the
+    test does not depend on the machine)."""
+    import time
+
+    from eomc.runtime import batch as batch_module
+    monkeypatch.setattr(batch_module, "_memory_limit", lambda: 2 ** 33)
+    X0 = np.tile(cartpole.initial_state, (10 ** 6, 1))
+    start = time.perf_counter()
+    with pytest.raises(ValueError, match=r"1000000 cases x 1001 rows x 5 columns \(states and outputs\) "
+                                         r"would need 39\.\d GiB, more than .* \(8 GiB"):
+        simulate_many(cartpole, X0, (0, 1e-9), progress=False)
+    assert time.perf_counter() - start < 20     # refused up front, not after preparing every case
+
+
+def test_case_errors_name_the_case(cartpole):
+    X0 = _starts(cartpole, [3.0, np.nan, 3.0])
+    with pytest.raises(ValueError, match=r"case 1 of 3: cartpole: x0 \(initial state\) is not finite for th"):
+        simulate_many(cartpole, X0, (0, 1), progress=False)

@@ -88,3 +88,52 @@ def test_unreachable_and_singular_starts_are_clear_errors(fourbar):
         fourbar.consistent_state([0.9, 0.1, -1.5, 0, 0, 0], fixed=["q1", "q2"])
     with pytest.raises(ValueError, match="unknown fixed state"):
         fourbar.consistent_state([0.9, 0.1, -1.5, 0, 0, 0], fixed=["qq"])
+
+
+# ---- issue 24: one rule for the states a start leaves out; arguments checked ----------------------
+from pathlib import Path  # noqa: E402
+
+from eomc.runtime.batch import simulate_many  # noqa: E402
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
+
+
+@pytest.fixture(scope="module")
+def fourbar_file():
+    """examples/four_bar_system.py: an initial_state far from 0 (q2 = pi + 1)."""
+    return eomc.compile(str(EXAMPLES / "four_bar_system.py"), progress=False)
+
+
+def test_a_dict_start_is_completed_from_initial_state_everywhere(fourbar_file):
+    """N14 / first hour #7: simulate(dict, consistent=True) started Newton from 0 (singular there)
+    while consistent_state(dict) started from initial_state; both now use initial_state."""
+    fb = fourbar_file
+    start = {"q1": -0.9, "u1": 1.0}
+    want = fb.consistent_state(start)
+    res = fb.simulate(start, (0, 0.2), consistent=True)
+    np.testing.assert_array_equal(res.x[0], want)
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        plain = fb.simulate({"u1": 0.0}, (0, 0.1), n_points=2)     # initial_state is consistent
+    assert not [w for w in seen if issubclass(w.category, ConstraintWarning)]
+    np.testing.assert_array_equal(plain.x[0], fb.initial_state)
+    np.testing.assert_array_equal(fb.simulate(None, (0, 0.1), n_points=2).x[0], fb.initial_state)
+    np.testing.assert_array_equal(fb.consistent_state(None), fb.consistent_state(fb.initial_state))
+
+
+def test_consistent_state_checks_tol_and_max_iter(fourbar_file):
+    for kw, what in ((dict(tol=-1), "tol"), (dict(tol=float("nan")), "tol"), (dict(max_iter=-1), "max_iter"),
+                     (dict(max_iter=2.5), "max_iter")):
+        with pytest.raises(ValueError, match=f"consistent_state {what} must be"):
+            fourbar_file.consistent_state({"q1": -0.9}, **kw)
+
+
+def test_simulate_many_completes_every_start(fourbar_file):
+    fb = fourbar_file
+    X0 = np.tile(fb.initial_state, (3, 1))
+    X0[:, 0] = [-1.0, -0.95, -0.9]
+    batch = simulate_many(fb, X0, (0, 0.2), consistent=True, progress=False, n_points=3)
+    for i in range(3):
+        np.testing.assert_array_equal(batch.x[i, 0], fb.consistent_state(X0[i]))
+    with pytest.warns(ConstraintWarning, match=r"2 of 3 cases: .*x0 is off the constraints"):
+        simulate_many(fb, X0, (0, 0.01), progress=False, n_points=2, raise_on_failure=False)

@@ -144,3 +144,63 @@ def test_event_with_unknown_symbol_is_a_model_file_error(tmp_path):
     path = model_files.write(tmp_path, text, "badev")
     with pytest.raises(ModelFileError, match=r"badev\.py:\d+: .*event `bad` uses w"):
         eomc.compile(str(path), cache_dir=tmp_path / "cache", progress=False)
+
+
+# ---- issue 24: NaN events and outputs are named; a parameter used only by an event ---------------
+# bad and nanout are NaN beyond q = 5 (C checks every compiled event function, chosen or not)
+NAN_EVENTS = model_files.PENDULUM.replace('parameters = {m: 2.0, l: 0.5, g: 9.81}\n',
+                                          'R = sm.Symbol("R")\n'
+                                          'parameters = {m: 2.0, l: 0.5, g: 9.81, R: 0.1}\n') \
+    + textwrap.dedent('''\
+    outputs["angle"] = q
+    outputs["nanout"] = sm.sqrt(5 - q)
+    events = {"bad": sm.sqrt(5 - q), "low": {"expr": q - R, "direction": -1}}
+    ''')
+
+
+@pytest.fixture(scope="module")
+def nan_model(tmp_path_factory):
+    d = tmp_path_factory.mktemp("nanev")
+    return eomc.compile(str(model_files.write(d, NAN_EVENTS, "nanev")), progress=False)
+
+
+def test_a_nan_event_function_is_named(nan_model):
+    """N14: the state is finite; the message names the event function that is not."""
+    from eomc.errors import SimulationError
+    with pytest.raises(SimulationError, match=r"stopped at t=0: a non-finite value appeared.*state is "
+                                              r"finite, but the event function bad is not finite there"):
+        nan_model.simulate([6.0, 0.0], (0, 1), events=["bad"])
+
+
+def test_a_nan_output_is_named_as_event_and_along_the_trajectory(nan_model):
+    from eomc.errors import SimulationError
+    with pytest.raises(SimulationError, match=r"the output \(outputs are evaluated as events\) nanout is "
+                                              r"not finite there"):
+        nan_model.simulate([6.0, 0.0], (0, 1), events=["angle"])
+    with pytest.raises(SimulationError, match=r"evaluating outputs along the trajectory failed: .* at t=0: "
+                                              r"nanout is not finite there"):
+        nan_model.simulate([6.0, 0.0], (0, 1), events=False)
+
+
+def test_a_parameter_used_only_by_an_event_is_a_parameter(nan_model):
+    """First hour #4: `low` is q - R with R in `parameters` only for the event."""
+    assert "R" in nan_model.param_names
+    for R in (0.1, 0.2):
+        res = nan_model.simulate([0.3, 0.0], (0, 2), events=["low"], p={"R": R}, rtol=1e-10, atol=1e-12)
+        assert len(res.t_events["low"]) >= 1
+        assert res.x_events["low"][0, 0] == pytest.approx(R, abs=1e-9)
+
+
+def test_max_events_beyond_memory_is_refused(nan_model):
+    """N12: max_events=10**10 reserved 74.5 GiB before (numpy's MemoryError); now a clear error."""
+    with pytest.raises(ValueError, match=r"max_events=10000000000 would reserve \d+ GiB"):
+        nan_model.simulate([0.3, 0.0], (0, 1), events=["low"], max_events=10 ** 10)
+
+
+def test_a_nan_event_inside_a_step_is_named(nan_model):
+    """N14: the event function turns NaN mid-run (q passes 5): the last accepted state is finite
+    and the event there too; the stretch is rerun without events to find it."""
+    from eomc.errors import SimulationError
+    with pytest.raises(SimulationError, match=r"the event function bad is not finite (there|at t=[0-9.e-]+, "
+                                              r"inside the next step)"):
+        nan_model.simulate([4.5, 3.0], (0, 1), events=["bad"])

@@ -150,3 +150,33 @@ def test_baumgarte_stabilization_pulls_residuals_back():
         simulate(get_model("pendulum"), [1.0, 0.0], (0, 1), baumgarte=1.0)
     with pytest.raises(ValueError, match="baumgarte"):
         simulate(m, x0, (0, 1), baumgarte=-1.0)
+
+
+# ---- issue 24 (N14): inputs and feedback that are not real numbers name the argument ---------------
+def test_complex_or_text_feedback_and_tables_name_the_argument():
+    from helpers.stand_in import get_model
+    m = get_model("oscillator")
+    K = np.ones((1, 2))
+    cases = [
+        (dict(K=K + 5j), r"the feedback gain K must hold real numbers; got complex numbers"),
+        (dict(K=K, x_ref=np.zeros(2) + 1j), r"x_ref must hold real numbers; got complex numbers"),
+        (dict(K=[["a", "b"]]), r"the feedback gain K must hold real numbers; got dtype <U1"),
+        (dict(r=(np.array([0.0, 1.0]), np.array(["a", "b"]))), r"r=\(t_grid, values\): values must hold real"),
+        (dict(r=(np.array([0.0, 1.0]), np.zeros(2), "cubic", 4)), r"r as a tuple is an input table .* got a "
+                                                                  r"tuple of 4 items"),
+        (dict(r=np.array([1 + 2j])), r"r \(inputs\) must be real numbers"),
+    ]
+    for kw, match in cases:
+        kw = {"r": np.zeros(1), **kw}
+        with pytest.raises(ValueError, match=match):
+            simulate(m, [1.0, 0.0], (0, 1), **kw)
+
+
+def test_one_input_takes_a_number():
+    """First hour #7: r=0.5 for a one-input model was 'must have shape (1,)'."""
+    from helpers.stand_in import get_model
+    m = get_model("oscillator")
+    np.testing.assert_array_equal(simulate(m, [1.0, 0.0], (0, 1), r=0.5).x,
+                                  simulate(m, [1.0, 0.0], (0, 1), r=[0.5]).x)
+    with pytest.raises(ValueError, match="r \\(inputs\\) must be real numbers"):
+        simulate(m, [1.0, 0.0], (0, 1), r="0.5")

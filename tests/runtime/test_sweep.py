@@ -138,7 +138,7 @@ def test_bad_cases_are_named(model):
         case_arrays(model, {"q": [1.0, 2.0], "k": [1.0, 2.0, 3.0]})
     with pytest.raises(ValueError, match="nothing varies"):
         case_arrays(model, {"x0": [1.0, 0.0]})
-    with pytest.raises(ValueError, match=r"'p' must have shape \(3,\)"):
+    with pytest.raises(ValueError, match=r"'p' \(the whole parameter row\) must have shape \(3,\)"):
         case_arrays(model, {"p": np.ones((2, 2))})
     with pytest.raises(ValueError, match="case 1 has no 'k'"):
         case_arrays(model, [{"q": 1.0, "k": 2.0}, {"q": 1.0}])
@@ -159,3 +159,158 @@ def test_a_failed_case_is_named_by_its_place_in_the_sweep(model, capsys):
     res = eomc.sweep(model, {"m": masses}, (0, 1), chunk_size=64, progress=False, n_points=5,
                      raise_on_failure=False)
     assert np.flatnonzero(res.status).tolist() == [150] and np.isnan(res.x[150, -1]).all()
+
+
+# ---- issue 24: what a sweep hands back, and how it reads its cases ------------------------------
+import textwrap  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+from helpers import model_files  # noqa: E402
+
+from eomc.runtime.batch import CaseError  # noqa: E402
+from eomc.runtime.simulate import simulate  # noqa: E402
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
+# a model whose parameter is named p, its input r and its coordinate x0: the sweep's whole-row keys
+ROW_KEY_NAMES = textwrap.dedent('''\
+    import sympy as sm
+    from eomc.mechanics import KanesMethod, Particle, Point, ReferenceFrame, dynamicsymbols
+    x0, u = dynamicsymbols("x0 u")
+    r = dynamicsymbols("r")
+    p, q = sm.symbols("p q")
+    N = ReferenceFrame("N")
+    O = Point("O")
+    O.set_vel(N, 0)
+    P = O.locatenew("P", x0 * N.x)
+    P.set_vel(N, u * N.x)
+    system = KanesMethod(N, q_ind=[x0], u_ind=[u], kd_eqs=[x0.diff() - u])
+    system.kanes_equations([Particle("b", P, q)], [(P, (-p * x0 + r) * N.x)])
+    parameters = {p: 2.0, q: 1.0}
+    inputs = [r]
+    initial_state = {x0: 1.0, u: 0.0}
+    ''')
+
+
+@pytest.fixture(scope="module")
+def cartpole():
+    return eomc.compile(str(EXAMPLES / "cartpole_lqr.py"), progress=False)
+
+
+@pytest.fixture(scope="module")
+def named(tmp_path_factory):
+    path = model_files.write(tmp_path_factory.mktemp("named"), ROW_KEY_NAMES, "rowkeys")
+    return eomc.compile(str(path), progress=False)
+
+
+def _cartpole_cases(model):
+    return {"th": [3.0, 2.9, 2.5, 3.1]}
+
+
+def _single(model, th, **kw):
+    x0 = dict(zip(model.state_names, model.initial_state), th=th)
+    return simulate(model, x0, (0, 10), **kw)
+
+
+@pytest.mark.parametrize("pool", [None, "threads"])
+def test_final_is_where_each_case_really_ended(cartpole, pool):
+    """N2: the terminal event `fallen` ends every case; final = simulate()'s x_final, not NaN."""
+    executor = ThreadPoolExecutor(2) if pool else None
+    try:
+        res = eomc.sweep(cartpole, _cartpole_cases(cartpole), (0, 10), reduce="final", map=executor,
+                         chunk_size=2, progress=False)
+    finally:
+        if executor:
+            executor.shutdown()
+    assert res.x.shape == (4, 1, 4) and res.event_stop == ["fallen"] * 4
+    for i, th in enumerate(_cartpole_cases(cartpole)["th"]):
+        single = _single(cartpole, th)
+        np.testing.assert_array_equal(res.x[i, 0], single.x_final)
+        np.testing.assert_array_equal(res.x_final[i], single.x_final)
+        assert res.t_final[i] == single.t_final < 10
+        np.testing.assert_array_equal(res.t_events[i]["fallen"], single.t_events["fallen"])
+        assert res["bob_height"][i, 0] == pytest.approx(cartpole.outputs(single.t_final, single.x_final)
+                                                        ["bob_height"], abs=1e-15)
+
+
+def test_reduce_sees_exactly_what_simulate_returns(cartpole):
+    def facts(r):
+        return (r.t_final, r.x_final.copy(), r.t_events["fallen"].copy(), r.event_stop, r.status, r.message,
+                len(r.t), r.x[-1].copy())
+    got = eomc.sweep(cartpole, _cartpole_cases(cartpole), (0, 10), reduce=facts, progress=False, n_points=51)
+    for i, th in enumerate(_cartpole_cases(cartpole)["th"]):
+        want = facts(_single(cartpole, th, n_points=51))
+        have = got.values[i]
+        assert have[0] == want[0] and have[3:7] == want[3:7]
+        for a, b in ((have[1], want[1]), (have[2], want[2]), (have[7], want[7])):
+            np.testing.assert_array_equal(a, b)
+    assert got.event_stop == ["fallen"] * 4 and np.all(np.isfinite(got.x_final))
+    mixed = eomc.sweep(cartpole, _cartpole_cases(cartpole), (0, 10), reduce=lambda r: (r.t_final, r.event_stop),
+                       progress=False)
+    assert mixed.values == [(t, "fallen") for t in got.t_final]     # not stacked into strings
+
+
+def test_whole_trajectories_keep_the_event_records(cartpole):
+    res = eomc.sweep(cartpole, _cartpole_cases(cartpole), (0, 10), progress=False, n_points=51)
+    assert res.event_stop == ["fallen"] * 4
+    single = _single(cartpole, 2.5, n_points=51)
+    np.testing.assert_array_equal(res.x_final[2], single.x_final)
+    np.testing.assert_array_equal(res.x[2, :len(single.t)], single.x)
+
+
+def test_final_does_not_hold_trajectories(cartpole):
+    """N12: reduce='final' asks the C loop for one row per case; whole trajectories would be
+    n x 1001 x 5 doubles (40 MB for 1000 cases in one chunk): the peak stays far below that."""
+    import tracemalloc
+    n = 1000
+    cases = {"th": np.linspace(3.0, 3.2, n)}
+    eomc.sweep(cartpole, {"th": cases["th"][:4]}, (0, 0.5), reduce="final", progress=False)   # warm
+    tracemalloc.start()
+    try:
+        res = eomc.sweep(cartpole, cases, (0, 0.5), reduce="final", progress=False, threads=2,
+                         chunk_size=n)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    trajectories = n * 1001 * 5 * 8
+    assert res.success and res.x.shape == (n, 1, 4)
+    assert peak < trajectories / 4, f"peak {peak / 2**20:.1f} MiB"   # event buffers, prepared cases
+    print(f"peak {peak / 2**20:.2f} MiB for {n} cases; trajectories {trajectories / 2**20:.1f} MiB")
+
+
+def test_names_that_are_also_row_keys_are_names(named):
+    """N13: a parameter named p, an input named r and a coordinate named x0 are swept by name;
+    (2 rows = nparam used to be read as one shared parameter row, silently)."""
+    res = eomc.sweep(named, {"p": [1.0, 5.0], "q": [1.0, 1.1], "r": [0.0, 0.5], "x0": [0.3, 0.7]},
+                     (0, 2), reduce="final", progress=False)
+    for i, (p, q, r, x0) in enumerate([(1.0, 1.0, 0.0, 0.3), (5.0, 1.1, 0.5, 0.7)]):
+        single = simulate(named, {"x0": x0}, (0, 2), p={"p": p, "q": q}, r=[r])
+        np.testing.assert_array_equal(res.x_final[i], single.x_final)
+    with pytest.raises(ValueError, match="'p' is a parameter of rowkeys, so cases\\['p'\\] is its column"):
+        eomc.sweep(named, {"p": np.ones((2, 2))}, (0, 1), progress=False)
+    # the model's own names win; a whole row is still a row where no name is taken
+    n, X0, P, R = case_arrays(named, {"x0": [0.1, 0.2]})
+    assert X0[:, 0].tolist() == [0.1, 0.2] and X0[:, 1].tolist() == [0.0, 0.0]
+
+
+def test_bad_cases_name_their_case_across_chunks(model):
+    """N13: case 350 with chunks of 100 is case 350 (not 'case 50 of 100'); empty columns, a
+    chunk size of 0 are clear errors."""
+    m = np.full(400, 2.0)
+    m[350] = np.inf
+    with pytest.raises(CaseError, match=r"case 350 of 400: osc: p \(parameters\) is not finite for m") as err:
+        eomc.sweep(model, {"m": m}, (0, 1), chunk_size=100, progress=False)
+    assert err.value.case == 350
+    with pytest.raises(ValueError, match="no cases"):
+        eomc.sweep(model, {"q": []}, (0, 1), progress=False)
+    with pytest.raises(ValueError, match="chunk_size must be a positive integer"):
+        eomc.sweep(model, {"q": [1.0]}, (0, 1), chunk_size=0, progress=False)
+
+
+def test_consistent_starts_in_a_sweep():
+    """N13/N14: consistent=True completes each case's start as simulate(consistent=True) does."""
+    fourbar = eomc.compile(str(EXAMPLES / "four_bar_system.py"), progress=False)
+    q1 = [-1.0, -0.9]
+    res = eomc.sweep(fourbar, {"q1": q1}, (0, 0.5), consistent=True, reduce="final", progress=False)
+    for i, v in enumerate(q1):
+        single = simulate(fourbar, {"q1": v}, (0, 0.5), consistent=True)
+        np.testing.assert_array_equal(res.x_final[i], single.x_final)

@@ -1,0 +1,114 @@
+"""``eomc animate MODEL [--t-final T | --from traj.csv] -o anim.html [--gif anim.gif | --mp4 anim.mp4]``.
+
+Simulates MODEL (a model file, a URDF robot or a built directory) from its
+initial state, or reads a trajectory CSV that ``eomc simulate -o`` wrote, and
+writes one self-contained HTML page that animates it in 3-D offline
+(eomc.runtime.animate); ``--gif``/``--mp4`` draw a planar motion in 2-D.  The
+model must have been built with ``poses`` (the default function set).
+"""
+import argparse
+
+from . import common as cli_common
+from .simulate import events_argument, inputs_argument
+
+__all__ = ["configure", "run", "read_trajectory"]
+
+
+def configure(parser):
+    cli_common.add_model_arguments(parser)
+    source = parser.add_mutually_exclusive_group()
+    source.add_argument("--t-final", type=float, metavar="T",
+                        help="simulate from t0 to T (default 10, when no --from)")
+    source.add_argument("--from", dest="trajectory", metavar="CSV",
+                        help="animate this trajectory (columns t and every state, as eomc simulate "
+                             "-o writes) instead of simulating")
+    parser.add_argument("--t0", type=float, default=0.0, help="start time")
+    parser.add_argument("-o", "--output", metavar="HTML", help="the HTML page to write")
+    parser.add_argument("--gif", metavar="GIF", help="also draw a planar motion to this GIF (2-D)")
+    parser.add_argument("--mp4", metavar="MP4", help="... or to this MP4 (needs ffmpeg)")
+    parser.add_argument("--fps", type=float, default=60.0, help="frames per second in the page")
+    parser.add_argument("--gif-fps", type=float, default=20.0, help="frames per second of --gif/--mp4")
+    parser.add_argument("--trace", metavar="NAMES",
+                        help="bodies or points whose paths are drawn, comma-separated "
+                             "(default: the one that travels farthest; 'none' for none)")
+    parser.add_argument("--up", choices=("x", "y", "z", "-x", "-y", "-z"),
+                        help="the world axis drawn upwards (default z; a planar motion is seen "
+                             "straight onto its plane)")
+    parser.add_argument("--method", default="dop853", help="integrator (as eomc simulate)")
+    parser.add_argument("--rtol", type=float, default=1e-8, help="relative tolerance")
+    parser.add_argument("--atol", type=float, default=1e-8, help="absolute tolerance")
+    parser.add_argument("--input", nargs="+", metavar="NAME=V|CSV", default=(),
+                        help="input values, as eomc simulate")
+    parser.add_argument("--events", metavar="LIST", help="events, as eomc simulate")
+    parser.add_argument("--formulation", choices=("auto", "kane", "recursive"), default="kane",
+                        help="dynamics formulation (model files and URDF)")
+    parser.formatter_class = argparse.ArgumentDefaultsHelpFormatter
+
+
+def read_trajectory(model, path):
+    """A SimulationResult from a CSV with columns t and the model's states (outputs optional).
+
+    ValueError naming the file and the missing column when a state is absent."""
+    import numpy as np
+    from eomc.runtime.result import SimulationResult
+    try:
+        with open(path, encoding="utf-8") as f:
+            header = [h.strip() for h in f.readline().strip().split(",")]
+        data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    except OSError as exc:
+        raise ValueError(f"--from {path}: cannot read it ({exc.strerror or exc})") from None
+    except ValueError as exc:
+        raise ValueError(f"--from {path}: not a numeric CSV with one header row ({exc})") from None
+    missing = [n for n in ("t",) + tuple(model.state_names) if n not in header]
+    if missing:
+        raise ValueError(f"--from {path}: no column {', '.join(missing)} (model {model.name} has states "
+                         f"{', '.join(model.state_names)}; the file has {', '.join(header)})")
+    if data.shape[1] != len(header):
+        raise ValueError(f"--from {path}: {data.shape[1]} values per row but {len(header)} names in the header")
+    t = data[:, header.index("t")]
+    if len(t) < 1 or np.any(np.diff(t) <= 0) or not np.all(np.isfinite(data)):
+        raise ValueError(f"--from {path}: times must increase strictly and every value be finite")
+    x = np.column_stack([data[:, header.index(n)] for n in model.state_names])
+    outputs = {n: data[:, header.index(n)] for n in model.output_names if n in header}
+    return SimulationResult(t=t, x=x, state_names=tuple(model.state_names), stats={}, method="csv",
+                            model_name=model.name, outputs=outputs, nq=model.nq, model=model)
+
+
+def run(args):
+    from eomc.runtime.animate import animate, animate_2d
+    if not (args.output or args.gif or args.mp4):
+        raise ValueError("say where to write: -o anim.html, --gif anim.gif or --mp4 anim.mp4")
+    for value, what, suffix in ((args.output, "-o", ".html"), (args.gif, "--gif", ".gif"),
+                                (args.mp4, "--mp4", ".mp4")):
+        cli_common.writable_file(value, what)
+        if value and not value.lower().endswith(suffix) and not (what == "-o" and value.lower().endswith(".htm")):
+            raise ValueError(f"{what} {value}: expected a {suffix} file")
+    if args.fps <= 0 or args.gif_fps <= 0:
+        raise ValueError("--fps and --gif-fps must be positive")
+    model = cli_common.load_model(args.model, args.quiet, **cli_common.model_options(args))
+    if "poses" not in model.functions:
+        raise ValueError(f"{model.name} was built without poses (its bodies' positions); rebuild it "
+                         f"with the default functions or --outputs ...,poses")
+    params = cli_common.parameter_values(model, cli_common.parse_assignments(args.param, "param"))
+    if args.trajectory:
+        res = read_trajectory(model, args.trajectory)
+        res.p = params
+    else:
+        x0 = cli_common.initial_state(model, cli_common.parse_assignments(args.x0, "x0"))
+        t_final = 10.0 if args.t_final is None else args.t_final
+        res = model.simulate(x0, (args.t0, t_final), p=params, method=args.method, rtol=args.rtol,
+                             atol=args.atol, r=inputs_argument(model, args.input),
+                             events=events_argument(args.events),
+                             n_points=max(2, int((t_final - args.t0) * args.fps) + 1))
+        res.p = params
+    trace = None if args.trace is None else (
+        [] if args.trace.strip().lower() == "none" else [s.strip() for s in args.trace.split(",") if s.strip()])
+    if args.output:
+        anim = animate(res, args.output, model=model, fps=args.fps, trace=trace, up=args.up)
+        print(f"wrote {args.output} ({len(anim.html) / 1e6:.2f} MB, {len(res.t)} rows, "
+              f"t = [{res.t[0]:g}, {res.t[-1]:g}])")
+    for path in (args.gif, args.mp4):
+        if path:
+            animate_2d(res, path, model=model, fps=args.gif_fps, trace=trace)
+            print(f"wrote {path}")
+    return 0

@@ -1,0 +1,361 @@
+"""See the motion: a run as one self-contained HTML page (3-D, three.js) or a 2-D GIF/MP4.
+
+Why a single HTML file with three.js inlined: it opens offline, from disk, in
+any browser, with no server and no kernel (a file can be mailed or attached to
+a report), and the same text is what Jupyter shows inline (an iframe's srcdoc).
+three.js is the renderer robotics viewers are built on (MeshCat, viser's
+client); r169's minified module (~690 kB) and its OrbitControls are vendored in
+``runtime/web/`` from the npm registry with their MIT licence, and nothing is
+fetched when a page opens.  viser and rerun would need a running server or a
+~50 MB wheel for the same picture.
+
+The numbers come from the generated ``NAME_poses`` (eomc.runtime.poses),
+evaluated in C at ``fps`` frames per second of the run (states interpolated
+linearly between the run's rows), stored as float32 in base64; meshes are
+packed by eomc.runtime.geometry.  The page (``runtime/web/viewer.js``) has a
+time slider, play/pause, playback speed, an orbit/zoom camera, traces of chosen
+points and the model's outputs plotted beside the scene with a cursor; a URL
+ending in ``#t=1.5`` opens paused at t = 1.5.
+
+Planar motion (every position in one coordinate plane) can also be drawn in
+2-D with matplotlib (:func:`animate_2d`): GIF through Pillow, MP4 through
+ffmpeg when it is installed.
+"""
+import base64
+import html
+import json
+import re
+import shutil
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+
+from .files import atomic_path
+from .poses import evaluate_poses
+
+__all__ = ["animate", "animate_2d", "Animation", "page_html", "plane_of"]
+
+_WEB = Path(__file__).parent / "web"
+_PALETTE = [(0.12, 0.47, 0.71), (0.84, 0.15, 0.16), (0.17, 0.63, 0.17), (1.0, 0.5, 0.05),
+            (0.58, 0.4, 0.74), (0.55, 0.34, 0.29), (0.09, 0.75, 0.81), (0.74, 0.74, 0.13)]
+
+
+@lru_cache(maxsize=1)
+def _three_script():
+    """three.js and OrbitControls as one classic script defining ``window.THREE``.
+
+    The vendored files are ES modules; an inline module cannot import another inline
+    one, so their ``export``/``import`` statements are rewritten into a global (read once)."""
+    core = (_WEB / "three.module.min.js").read_text(encoding="utf-8")
+    tail = re.search(r"export\{([^}]*)\};?\s*$", core)
+    if tail is None:
+        raise RuntimeError("the vendored three.module.min.js has no export list at its end")
+    pairs = [p.strip().split(" as ") for p in tail.group(1).split(",") if p.strip()]
+    mapping = ",".join(f"{p[-1]}:{p[0]}" for p in pairs)
+    core = core[:tail.start()] + f"window.THREE={{{mapping}}};"
+    orbit = (_WEB / "OrbitControls.js").read_text(encoding="utf-8")
+    orbit = re.sub(r"import\s*\{([^}]*)\}\s*from\s*'three';", r"const {\1} = window.THREE;", orbit)
+    orbit = re.sub(r"export\s*\{\s*OrbitControls\s*\};?", "window.THREE.OrbitControls = OrbitControls;", orbit)
+    licence = (_WEB / "three.LICENSE").read_text(encoding="utf-8")
+    return (f"/* three.js r169 and OrbitControls (https://threejs.org), MIT licence:\n{licence}*/\n"
+            f"(function(){{{core}\n}})();\n(function(){{{orbit}\n}})();\n")
+
+
+def _b64(a):
+    return base64.b64encode(np.ascontiguousarray(a, dtype="<f4").tobytes()).decode()
+
+
+def _resample(res, fps):
+    """(times, states) at ``fps`` frames per second over the run (linear in the states)."""
+    t = np.asarray(res.t, float)
+    if len(t) < 2:
+        return t, np.asarray(res.x, float)
+    n = max(2, int(np.floor((t[-1] - t[0]) * fps + 1e-9)) + 1)
+    times = t[0] + np.arange(n) / fps
+    times = times[times <= t[-1] + 1e-12]
+    X = np.column_stack([np.interp(times, t, res.x[:, k]) for k in range(res.x.shape[1])])
+    return times, X
+
+
+def plane_of(poses, tol=1e-9):
+    """The coordinate axis (0, 1, 2) every frame origin and point keeps constant, or None."""
+    allpos = np.concatenate([poses.positions.reshape(-1, 3), poses.points.reshape(-1, 3)])
+    if not len(allpos):
+        return None
+    span = allpos.max(0) - allpos.min(0)
+    scale = max(float(span.max()), 1e-12)
+    flat = [k for k in (2, 0, 1) if span[k] <= tol * scale]
+    if not flat:
+        return None
+    if poses.rotations.size:   # bodies must turn about that axis only
+        k = flat[0]
+        axis = np.eye(3)[k]
+        if not np.allclose(poses.rotations[..., k, :], axis, atol=1e-9):
+            return None
+    return flat[0]
+
+
+def _color(c):
+    if c is None:
+        return None
+    if isinstance(c, str):
+        from_hex = re.fullmatch(r"#([0-9a-fA-F]{6})", c)
+        if not from_hex:
+            raise ValueError(f"colours are '#rrggbb' or (r, g, b) in 0..1, not {c!r}")
+        return [int(c[i:i + 2], 16) / 255 for i in (1, 3, 5)]
+    return [float(v) for v in c][:3]
+
+
+def _default_trace(poses):
+    """The frame origin or point that travels farthest (a pendulum's tip, a robot's hand)."""
+    best, name = -1.0, None
+    for names, arr in ((poses.frame_names, poses.positions), (poses.point_names, poses.points)):
+        for i, n in enumerate(names):
+            length = float(np.sum(np.linalg.norm(np.diff(arr[:, i, :], axis=0), axis=1)))
+            if length > best + 1e-12:
+                best, name = length, n
+    return [name] if name is not None and best > 0 else []
+
+
+def _reach(geometry, meshes):
+    """How far any shape reaches from its body's origin (the camera must see it whole)."""
+    reach = 0.0
+    for items in geometry.values():
+        for s in items:
+            offset = float(np.linalg.norm(np.reshape(s["origin"], (4, 4))[:3, 3]))
+            if s["kind"] == "mesh" and meshes[s["mesh"]] is not None:
+                m = meshes[s["mesh"]]
+                size = float(np.max(np.abs([m["lo"], m["hi"]])) * np.sqrt(3))
+            elif s["kind"] == "box":
+                size = float(np.linalg.norm(s["size"])) / 2
+            elif s["kind"] == "cylinder":
+                size = float(np.hypot(s["size"][0], s["size"][1] / 2))
+            else:
+                size = float(s["size"][0]) if s["size"] else 0.0
+            reach = max(reach, offset + size)
+    return reach
+
+
+def _camera(poses, up, reach=0.0):
+    allpos = np.concatenate([poses.positions.reshape(-1, 3), poses.points.reshape(-1, 3)])
+    lo, hi = allpos.min(0) - reach, allpos.max(0) + reach
+    center = (lo + hi) / 2
+    scale = max(float(np.max(hi - lo)), 1e-3)
+    flat = plane_of(poses)
+    if flat is not None and up is None:
+        normal = np.eye(3)[flat]
+        up_axis = {2: 1, 0: 2, 1: 2}[flat]
+        position = center + normal * scale * 3.2
+        grid = {2: "xy", 0: "yz", 1: "xz"}[flat]
+        floor = center - normal * scale * 0.5
+        return {"up": np.eye(3)[up_axis].tolist(), "position": position.tolist(),
+                "target": center.tolist(), "grid": grid, "floor": floor.tolist()}, scale
+    up = up or "z"
+    if up not in ("x", "y", "z", "-x", "-y", "-z"):
+        raise ValueError(f"up must be x, y, z, -x, -y or -z, not {up!r}")
+    up_axis = "xyz".index(up[-1])
+    u = np.eye(3)[up_axis] * (-1 if up.startswith("-") else 1)
+    side = np.eye(3)[(up_axis + 1) % 3]
+    depth = np.eye(3)[(up_axis + 2) % 3]
+    position = center + scale * (1.15 * side - 1.35 * depth + 0.7 * u)
+    floor = center.copy()
+    floor[up_axis] = lo[up_axis] if u[up_axis] > 0 else hi[up_axis]
+    grid = {2: "xy", 1: "xz", 0: "yz"}[up_axis]
+    return {"up": u.tolist(), "position": position.tolist(), "target": center.tolist(),
+            "grid": grid, "floor": floor.tolist()}, scale
+
+
+def page_data(res, model, *, fps=60, trace=None, colors=None, outputs=None, up=None):
+    """The JSON the viewer reads (see the module docstring)."""
+    from .geometry import pack_shapes
+    times, X = _resample(res, fps)
+    poses = evaluate_poses(model, times, X, getattr(res, "p", None), getattr(res, "r", None))
+    nt = len(times)
+    flat = np.concatenate([np.concatenate([poses.positions, poses.rotations.reshape(nt, -1, 9)], axis=2)
+                           .reshape(nt, -1), poses.points.reshape(nt, -1)], axis=1)
+    names = list(poses.frame_names) + list(poses.point_names)
+    colors = {k: _color(v) for k, v in (colors or {}).items()}
+    for k in colors:
+        if k not in names:
+            raise ValueError(f"colors names {k!r}, which is no body or point; known: {', '.join(names)}")
+    traces = []
+    for name in (_default_trace(poses) if trace is None else list(trace)):
+        if name in poses.frame_names:
+            offset = 12 * poses.frame_names.index(name)
+        elif name in poses.point_names:
+            offset = 12 * len(poses.frame_names) + 3 * poses.point_names.index(name)
+        else:
+            raise ValueError(f"trace names {name!r}, which is no body or point; known: {', '.join(names)}")
+        traces.append({"name": name, "offset": offset})
+    t_run = np.asarray(res.t, float)
+    wanted = list(res.outputs) if outputs is None else list(outputs)
+    series = []
+    for name in wanted:
+        if name in res.outputs:
+            values = res.outputs[name]
+        elif name in res.state_names:
+            values = res.x[:, res.state_names.index(name)]
+        else:
+            raise ValueError(f"outputs names {name!r}, which is neither an output nor a state")
+        series.append({"name": name, "values": _b64(np.interp(times, t_run, np.asarray(values, float)))
+                       if len(t_run) > 1 else _b64(values)})
+    geometry, meshes = pack_shapes(model.metadata.get("poses", {}).get("geometry", {}))
+    camera, scale = _camera(poses, up, _reach({k: v for k, v in geometry.items() if k != "world"}, meshes))
+    fixed = [bool(np.ptp(poses.points[:, j, :], axis=0).max() < 1e-12) if nt else False
+             for j in range(len(poses.point_names))]
+    return {"name": model.name, "t": _b64(times), "poses": _b64(flat), "frames": list(poses.frame_names),
+            "points": list(poses.point_names), "lines": [list(p) for p in poses.lines],
+            "geometry": geometry, "meshes": meshes, "outputs": series, "traces": traces,
+            "colors": colors, "palette": _PALETTE, "camera": camera, "scale": scale,
+            "radius": 0.035 * scale, "fixed": fixed}, poses
+
+
+_PAGE = """<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8">
+<title>{title}</title>
+<style>
+html, body {{ margin: 0; height: 100%; font: 13px sans-serif; background: #fff; }}
+#eomc-main {{ display: flex; height: calc(100% - 40px); }}
+#eomc-view {{ flex: 3; position: relative; min-width: 0; }}
+#eomc-plot {{ flex: 2; min-width: 0; height: 100%; border-left: 1px solid #ddd; {plot_display} }}
+#eomc-bar {{ height: 40px; display: flex; align-items: center; gap: 10px; padding: 0 10px;
+            border-top: 1px solid #ddd; box-sizing: border-box; }}
+#eomc-slider {{ flex: 1; }}
+#eomc-time {{ width: 90px; font-variant-numeric: tabular-nums; }}
+</style></head>
+<body>
+<div id="eomc-main"><div id="eomc-view"></div><canvas id="eomc-plot"></canvas></div>
+<div id="eomc-bar"><button id="eomc-play">pause</button>
+<input id="eomc-slider" type="range" min="0" value="0" step="1">
+<span id="eomc-time"></span>
+<label>speed <select id="eomc-speed"><option>0.25</option><option>0.5</option>
+<option selected>1</option><option>2</option><option>4</option></select></label>
+<span>{title}</span></div>
+<div id="eomc-status" hidden></div>
+<script type="application/json" id="eomc-data">{data}</script>
+<script>{three}</script>
+<script>{viewer}</script>
+</body></html>
+"""
+
+
+def page_html(data, title):
+    """The page's text: data as JSON (``</`` escaped) and the scripts inlined."""
+    text = json.dumps(data, separators=(",", ":")).replace("</", "<\\/")
+    return _PAGE.format(title=html.escape(title), data=text, three=_three_script(),
+                        viewer=(_WEB / "viewer.js").read_text(encoding="utf-8"),
+                        plot_display="" if data["outputs"] else "display: none;")
+
+
+class Animation:
+    """An animation page: ``html`` (its text), ``path`` (where it was written, or None),
+    ``poses`` (the numbers it shows); a Jupyter notebook displays it inline."""
+
+    def __init__(self, html_text, path=None, poses=None):
+        self.html, self.path, self.poses = html_text, path, poses
+
+    def save(self, path):
+        with atomic_path(path) as tmp:
+            Path(tmp).write_text(self.html, encoding="utf-8")
+        self.path = Path(path)
+        return self.path
+
+    def _repr_html_(self):
+        return (f'<iframe srcdoc="{html.escape(self.html, quote=True)}" style="width: 100%; '
+                f'height: 520px; border: 1px solid #ddd;" sandbox="allow-scripts"></iframe>')
+
+    def __repr__(self):
+        return f"<Animation {len(self.html) / 1e6:.2f} MB{'' if self.path is None else f' at {self.path}'}>"
+
+
+def animate(res, path=None, *, model, fps=60, trace=None, colors=None, outputs=None, up=None,
+            title=None):
+    """A self-contained HTML animation of ``res`` (a SimulationResult of ``model``).
+
+    ``fps``: frames per second of the run stored in the page; ``trace``: names of bodies or
+    points whose paths are drawn (default: the one that travels farthest); ``colors``:
+    {name: '#rrggbb' or (r, g, b)}; ``outputs``: names plotted beside the scene (default:
+    the model's outputs); ``up``: 'x', 'y', 'z', '-x', '-y' or '-z' (default z, or the view
+    straight onto the plane of a planar motion; '-z' for a z-down convention such as the
+    Whipple bicycle's).  Writes ``path`` when given.  Returns an :class:`Animation`.
+    """
+    if fps <= 0:
+        raise ValueError(f"fps must be positive, not {fps}")
+    data, poses = page_data(res, model, fps=fps, trace=trace, colors=colors, outputs=outputs, up=up)
+    anim = Animation(page_html(data, title or f"{model.name} (eomc)"), None, poses)
+    if path is not None:
+        anim.save(path)
+    return anim
+
+
+def animate_2d(res, path, *, model, fps=20, trace=None, dpi=80, size=4.0, t_max=None):
+    """A 2-D drawing of a planar motion as GIF (Pillow) or MP4 (ffmpeg, when installed).
+
+    The view is straight onto the plane the motion keeps; a motion that leaves every
+    coordinate plane is refused with the reason.  Returns the path."""
+    import matplotlib
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+    from matplotlib import animation as mpl_animation
+    path = Path(path)
+    kind = path.suffix.lower()
+    if kind not in (".gif", ".mp4"):
+        raise ValueError(f"{path}: a 2-D animation is written as .gif or .mp4")
+    if kind == ".mp4" and shutil.which("ffmpeg") is None:
+        raise RuntimeError("writing .mp4 needs ffmpeg, which is not installed; write a .gif instead")
+    times, X = _resample(res, fps)
+    if t_max is not None:
+        keep = times <= times[0] + t_max + 1e-12
+        times, X = times[keep], X[keep]
+    poses = evaluate_poses(model, times, X, getattr(res, "p", None), getattr(res, "r", None))
+    flat = plane_of(poses)
+    if flat is None:
+        raise ValueError(f"{model.name}: the motion is not planar (no coordinate x, y or z stays constant "
+                         f"for every body and point), so it has no 2-D drawing; use the HTML animation")
+    a, b = [k for k in range(3) if k != flat]
+    P = poses.points
+    O = poses.positions
+    allpos = np.concatenate([P.reshape(-1, 3), O.reshape(-1, 3)])
+    lo, hi = allpos.min(0), allpos.max(0)
+    pad = 0.1 * max(float(np.max(hi - lo)), 1e-3)
+    wa, hb = hi[a] - lo[a] + 2 * pad, hi[b] - lo[b] + 2 * pad
+    fig = plt.figure(figsize=(size * min(1.0, wa / hb) if wa < hb else size,
+                              size * min(1.0, hb / wa) + 0.35), dpi=dpi)
+    ax = fig.add_axes([0.02, 0.02, 0.96, 0.96 * (1 - 0.35 / (size * min(1.0, hb / wa) + 0.35))])
+    ax.set_xlim(lo[a] - pad, hi[a] + pad)
+    ax.set_ylim(lo[b] - pad, hi[b] + pad)
+    ax.set_aspect("equal")
+    ax.set_xticks([]), ax.set_yticks([])
+    ax.set_title(model.name, fontsize=10)
+    fixed = [j for j in range(P.shape[1]) if np.ptp(P[:, j, :], axis=0).max() <= 1e-12]
+    ax.plot(P[0, fixed, a], P[0, fixed, b], "o", ms=5, color="#555")
+    traced = _default_trace(poses) if trace is None else list(trace)
+    trace_lines = []
+    for name in traced:
+        arr = poses[name]
+        (ln,) = ax.plot([], [], "-", lw=1, color="#d62728", alpha=0.6)
+        trace_lines.append((ln, arr))
+    segs = [ax.plot([], [], "-", lw=2.5, color="#333")[0] for _ in poses.lines]
+    moving = [j for j in range(P.shape[1]) if np.ptp(P[:, j, :], axis=0).max() > 1e-12]
+    (dots,) = ax.plot([], [], "o", ms=9, color="#1f77b4")
+    (centres,) = ax.plot([], [], "s", ms=7, color="#2ca02c")
+    label = ax.text(0.02, 0.96, "", transform=ax.transAxes, fontsize=9, va="top")
+
+    def frame(i):
+        for ln, (j, k) in zip(segs, poses.lines):
+            ln.set_data([P[i, j, a], P[i, k, a]], [P[i, j, b], P[i, k, b]])
+        dots.set_data(P[i, moving, a], P[i, moving, b])
+        centres.set_data(O[i, :, a], O[i, :, b])
+        for ln, arr in trace_lines:
+            ln.set_data(arr[:i + 1, a], arr[:i + 1, b])
+        label.set_text(f"t = {times[i]:.2f} s")
+        return segs + [dots, centres, label] + [ln for ln, _ in trace_lines]
+
+    anim = mpl_animation.FuncAnimation(fig, frame, frames=len(times), interval=1000 / fps, blit=False)
+    writer = (mpl_animation.PillowWriter(fps=fps) if kind == ".gif"
+              else mpl_animation.FFMpegWriter(fps=fps))
+    with atomic_path(path) as tmp:
+        anim.save(str(tmp), writer=writer)
+    plt.close(fig)
+    return path

@@ -1,0 +1,211 @@
+"""What the bodies look like: shapes as plain dicts, URDF visuals, meshes packed for a web page.
+
+A shape is a JSON-ready dict (it travels in NAME.json, so a built directory
+animates without its model file)::
+
+    {"kind": "sphere", "size": [r]}            {"kind": "box", "size": [a, b, c]}
+    {"kind": "cylinder", "size": [r, h]}       (axis along the body's z, as in URDF)
+    {"kind": "mesh", "path": "/abs/file.stl", "scale": [sx, sy, sz]}
+
+each with ``origin`` (the shape's pose in the body frame: a 4x4 row-major
+list of 16 numbers) and ``color`` ([r, g, b] in 0..1, or None).
+
+Meshes are read with trimesh (installed with yourdfpy) when a page is written,
+never when a model is built; a mesh that is missing or unreadable is drawn as a
+small box, with one warning naming the body and the file.  Vertices are
+quantized to 16 bits over the mesh's bounding box (error below 1/65535 of its
+size, invisible on screen) and big meshes are thinned by vertex clustering, so
+a robot's page stays a few megabytes.
+"""
+import base64
+import re
+import warnings
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+
+from eomc.runtime.errors import EomcWarning
+
+__all__ = ["shape", "urdf_visuals", "packed_mesh", "MAX_MESH_FACES"]
+
+# A mesh with more triangles than this is thinned (vertex clustering) before it is written.
+MAX_MESH_FACES = 20_000
+
+_IDENTITY = [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0]
+
+
+def shape(kind, size=(), *, path=None, scale=None, origin=None, color=None):
+    """A shape dict (see the module docstring), its numbers checked."""
+    size = [float(s) for s in size]
+    if any(not np.isfinite(s) or s <= 0 for s in size):
+        raise ValueError(f"{kind} sizes must be positive finite numbers, not {size}")
+    out = {"kind": kind, "size": size,
+           "origin": _IDENTITY if origin is None else [float(v) for v in np.asarray(origin, float).reshape(16)]}
+    if path is not None:
+        out["path"] = str(path)
+        out["scale"] = [1.0, 1.0, 1.0] if scale is None else [float(s) for s in np.broadcast_to(scale, 3)]
+    if color is not None:
+        out["color"] = [float(c) for c in color][:3]
+    return out
+
+
+def urdf_visuals(tree):
+    """{body name (a C identifier, as the System names it) or "world": [shapes]} of a URDF robot.
+
+    ``tree``: eomc.compiler.urdf's merged tree.  A link welded into a body (or into the
+    ground) is placed by the fixed joints between them, read at the zero configuration.
+    """
+    import yourdfpy
+    path = Path(tree.path)
+    urdf = yourdfpy.URDF.load(str(path), build_scene_graph=True, load_meshes=False,
+                              build_collision_scene_graph=False, load_collision_meshes=False)
+    links = {link.name: link for link in urdf.robot.links}
+    groups = [("world", tree.root, list(tree.ground_links) or [tree.root])]
+    groups += [(identifier(b.name), b.name, b.links) for b in tree.bodies.values()]
+    out = {}
+    for key, frame_link, members in groups:
+        items = []
+        for name in members:
+            link = links.get(name)
+            if link is None:
+                continue
+            T_body_link = np.asarray(urdf.get_transform(frame_to=name, frame_from=frame_link), float)
+            for visual in link.visuals:
+                item = _visual(visual, path.parent, T_body_link)
+                if item is not None:
+                    item["link"] = name
+                    items.append(item)
+        if items:
+            out[key] = items
+    return out
+
+
+def urdf_link_transforms(tree):
+    """{link name: (body name or "world", 4x4 pose of the link in that body's frame)} of every
+    link that is not a body's own frame: links welded to a body or to the ground."""
+    import yourdfpy
+    urdf = yourdfpy.URDF.load(str(tree.path), build_scene_graph=True, load_meshes=False,
+                              build_collision_scene_graph=False, load_collision_meshes=False)
+    out = {}
+    groups = [("world", tree.root, list(tree.ground_links) or [tree.root])]
+    groups += [(identifier(b.name), b.name, b.links) for b in tree.bodies.values()]
+    for key, frame_link, members in groups:
+        for name in members:
+            if name != frame_link or key == "world":
+                out[name] = (key, np.asarray(urdf.get_transform(frame_to=name, frame_from=frame_link), float))
+    return out
+
+
+def identifier(name):
+    """A link name as the URDF System names its body (eomc.compiler.urdf.system.identifier;
+    repeated here because the runtime does not import the compiler)."""
+    text = re.sub(r"[^A-Za-z0-9_]", "_", name)
+    return text if text and not text[0].isdigit() else f"_{text}"
+
+
+def _visual(visual, directory, T_body_link):
+    import yourdfpy
+    g = visual.geometry
+    if g is None:
+        return None
+    origin = T_body_link @ (np.eye(4) if visual.origin is None else np.asarray(visual.origin, float))
+    color = None
+    material = visual.material
+    if material is not None and material.color is not None and material.color.rgba is not None:
+        color = [float(c) for c in material.color.rgba[:3]]
+    if g.box is not None:
+        return shape("box", g.box.size, origin=origin, color=color)
+    if g.cylinder is not None:
+        return shape("cylinder", (g.cylinder.radius, g.cylinder.length), origin=origin, color=color)
+    if g.sphere is not None:
+        return shape("sphere", (g.sphere.radius,), origin=origin, color=color)
+    if g.mesh is not None:
+        resolved = yourdfpy.filename_handler_magic(g.mesh.filename, dir=str(directory))
+        return shape("mesh", path=resolved, scale=g.mesh.scale if g.mesh.scale is not None else None,
+                     origin=origin, color=color)
+    return None
+
+
+def _thin(vertices, faces, max_faces):
+    """Vertex clustering on a grid until at most ``max_faces`` triangles remain (crude, fast, no deps)."""
+    lo, hi = vertices.min(0), vertices.max(0)
+    extent = float(np.max(hi - lo)) or 1.0
+    cells = 256
+    while len(faces) > max_faces and cells >= 8:
+        key = np.floor((vertices - lo) / extent * (cells - 1e-9)).astype(np.int64)
+        flat = (key[:, 0] * cells + key[:, 1]) * cells + key[:, 2]
+        uniq, inverse = np.unique(flat, return_inverse=True)
+        sums = np.zeros((len(uniq), 3))
+        np.add.at(sums, inverse, vertices)
+        counts = np.bincount(inverse, minlength=len(uniq))[:, None]
+        f = inverse[faces]
+        keep = (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])
+        f = f[keep]
+        if len(f):   # drop repeated triangles; keep each one's winding (its normal's side)
+            f = f[np.sort(np.unique(np.sort(f, axis=1), axis=0, return_index=True)[1])]
+        if len(f) <= max_faces or cells <= 8:
+            return sums / counts, f
+        cells //= 2
+    return vertices, faces
+
+
+def packed_mesh(path, scale=(1.0, 1.0, 1.0), max_faces=MAX_MESH_FACES):
+    """{"lo", "hi", "v" (base64 uint16 xyz), "f" (base64 uint32), "nv", "nf"} of a mesh file.
+
+    Raises OSError/ValueError when the file is missing or unreadable.  Kept per process
+    (keyed by the file's path, size and mtime): a robot's meshes are read once.
+    """
+    if not Path(path).is_file():
+        raise OSError(f"no such file {path}")
+    st = Path(path).stat()
+    return _packed(str(path), tuple(float(s) for s in np.broadcast_to(scale, 3)), max_faces,
+                   st.st_size, st.st_mtime_ns)
+
+
+@lru_cache(maxsize=64)
+def _packed(path, scale, max_faces, size, mtime):
+    import trimesh
+    loaded = trimesh.load(str(path), force="mesh")   # process: merged vertices, smooth normals
+    vertices = np.asarray(loaded.vertices, float) * np.asarray(scale, float)
+    faces = np.asarray(loaded.faces, np.int64)
+    if len(vertices) == 0 or len(faces) == 0:
+        raise ValueError(f"{path} holds no triangles")
+    if len(faces) > max_faces:
+        vertices, faces = _thin(vertices, faces, max_faces)
+    lo, hi = vertices.min(0), vertices.max(0)
+    span = np.where(hi > lo, hi - lo, 1.0)
+    q = np.round((vertices - lo) / span * 65535).astype("<u2")
+    return {"lo": lo.tolist(), "hi": hi.tolist(), "nv": int(len(q)), "nf": int(len(faces)),
+            "v": base64.b64encode(q.tobytes()).decode(),
+            "f": base64.b64encode(faces.astype("<u4").tobytes()).decode()}
+
+
+def pack_shapes(geometry):
+    """{name: [shapes]} with each mesh's file replaced by its packed triangles (shared by path).
+
+    A mesh that cannot be read becomes a small box, with one warning naming the body and file.
+    """
+    meshes, out = {}, {}
+    for name, items in geometry.items():
+        packed = []
+        for item in items:
+            item = dict(item)
+            if item.get("kind") == "mesh":
+                key = (item["path"], tuple(item.get("scale", (1, 1, 1))))
+                if key not in meshes:
+                    try:
+                        meshes[key] = packed_mesh(*key)
+                    except Exception as exc:   # trimesh raises many kinds; the page must still open
+                        meshes[key] = None
+                        warnings.warn(f"{item.get('link', name)}: cannot read mesh {item['path']} "
+                                      f"({type(exc).__name__}: {exc}); drawn as a box", EomcWarning,
+                                      stacklevel=2)
+                if meshes[key] is None:
+                    item = shape("box", (0.05, 0.05, 0.05), origin=np.reshape(item["origin"], (4, 4)),
+                                 color=item.get("color"))
+                else:
+                    item["mesh"] = list(meshes).index(key)
+            packed.append(item)
+        out[name] = packed
+    return out, [m for m in meshes.values()]

@@ -1,0 +1,70 @@
+"""eomc animate: a built directory to HTML, a trajectory CSV, a GIF, and one-line errors."""
+import json
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from eomc.cli import main
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
+
+
+@pytest.fixture(scope="module")
+def built(tmp_path_factory):
+    """The double pendulum built into a directory once (`eomc build`, default functions)."""
+    tmp = tmp_path_factory.mktemp("animate")
+    out = tmp / "dp"
+    env_cache = tmp / "cache"
+    run = subprocess.run([sys.executable, "-m", "eomc", "build", str(EXAMPLES / "double_pendulum.py"),
+                          "-o", str(out), "-q"], capture_output=True, text=True, timeout=300,
+                         env={**__import__("os").environ, "EOMC_CACHE_DIR": str(env_cache)})
+    assert run.returncode == 0, run.stderr
+    return out
+
+
+def _data(page):
+    text = Path(page).read_text()
+    return json.loads(re.search(r'id="eomc-data">(.*?)</script>', text, re.S).group(1))
+
+
+def test_animate_a_built_directory(built, tmp_path, capsys):
+    page = tmp_path / "dp.html"
+    assert main(["animate", str(built), "--t-final", "2", "-o", str(page), "--fps", "30"]) == 0
+    assert "wrote" in capsys.readouterr().out
+    data = _data(page)
+    t = np.frombuffer(__import__("base64").b64decode(data["t"]), "<f4")
+    assert len(t) == 61 and t[-1] == pytest.approx(2.0)
+    assert data["points"] == ["Bob1", "Bob2", "O"] and data["traces"][0]["name"] == "Bob2"
+
+
+def test_animate_a_trajectory_csv_and_a_gif(built, tmp_path):
+    traj = tmp_path / "traj.csv"
+    assert main(["simulate", str(built), "--t-final", "1", "-o", str(traj), "--points", "11"]) == 0
+    page, gif = tmp_path / "dp.html", tmp_path / "dp.gif"
+    assert main(["animate", str(built), "--from", str(traj), "-o", str(page), "--gif", str(gif),
+                 "--gif-fps", "5", "--trace", "Bob1"]) == 0
+    data = _data(page)
+    assert data["traces"][0]["name"] == "Bob1" and [o["name"] for o in data["outputs"]] == ["energy", "tip_x", "tip_y"]
+    from PIL import Image
+    with Image.open(gif) as im:
+        assert im.n_frames == 6
+
+
+@pytest.mark.parametrize("argv,match", [
+    (["--t-final", "1"], "say where to write"),
+    (["--t-final", "1", "-o", "x.png"], "expected a .html file"),
+    (["--from", "{bad}", "-o", "x.html"], "no column q2, u2"),
+    (["--t-final", "1", "-o", "x.html", "--trace", "Bob7"], "trace names 'Bob7'"),
+])
+def test_animate_errors_are_one_line(built, tmp_path, capsys, argv, match):
+    bad = tmp_path / "bad.csv"
+    bad.write_text("t,q1,u1\n0,0.1,0\n0.1,0.2,0\n")
+    argv = [a.replace("{bad}", str(bad)) for a in argv]
+    argv = [str(tmp_path / a) if a.endswith((".html", ".png")) else a for a in argv]
+    assert main(["animate", str(built), *argv]) == 2
+    err = capsys.readouterr().err
+    assert match in err and "Traceback" not in err and len(err.strip().splitlines()) == 1, err
