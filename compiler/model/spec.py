@@ -177,7 +177,11 @@ def model_spec(system, name=None, *, parameters=None, inputs=None, initial_state
                events=None, formulation="kane", states=None):
     """Normalize a model file path or a system object into a ModelSpec (see the module docstring).
 
-    ``states``: {z: dz/dt} extra first-order states appended to x after q and u."""
+    ``states``: {z: dz/dt} extra first-order states appended to x after q and u.
+    ``formulation`` decides what is derived, not what is generated: "kane" (this function's
+    default, for callers that read the formed equations: `eomc show`, the tests) forms
+    them; "auto" and "recursive" read a tree instead where they can (:func:`formed_system`).
+    The compiler's default formulation is auto (eomc.compiler.driver)."""
     overrides = dict(parameters=parameters, inputs=inputs, initial_state=initial_state, outputs=outputs,
                      events=events, states=states)
     from eomc.compiler.urdf.model import is_urdf_path, load_urdf_model, urdf_overrides
