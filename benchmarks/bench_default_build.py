@@ -62,7 +62,7 @@ def main(argv=None):
                 shown = f"{cpu:.1f}" if cpu is not None else f"> {args.cpu_cap}"
                 print(f"n={n} {label}: {shown} s CPU, {wall:.1f} s wall, "
                       f"{meta['formulation'] if meta else '-'}", flush=True)
-    headers = ["n", "contestant", "formulation", "CPU s (median)", "wall s", "peak RSS MB",
+    headers = ["n", "contestant", "formulation", "CPU s (median)", "wall s", "peak RSS MB (largest child so far in the run)",
                "rhs ops", "jac_x ops"]
     rows = []
     for (n, label), runs in results.items():
