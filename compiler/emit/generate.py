@@ -1,5 +1,6 @@
 """``generate_c``: a FormedSystem to C99 source, header, cffi cdef and metadata."""
 from collections import Counter
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import jinja2
@@ -13,6 +14,7 @@ from .bodies import (BodyContext, dynamics_helper, helper_jacobian_body, jvp_bod
 from .generated import GeneratedModel
 from .layout import check_identifier, make_layout
 from .linsolve import choose_ldlt
+from .printer import NonFiniteLiteral
 from .sparse_lu import sparse_lu_solver
 from .split import NOINLINE_MACRO, split_body
 from .signatures import FUNCTION_ORDER, ON_REQUEST, STRUCT_FIELDS, cdef, prototype
@@ -285,14 +287,15 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
     slots.update({s: f"dx[{j}]" for j, s in enumerate(sym.seeds)})
     ctx = BodyContext(name, nq, nu, nw, solver, slots, sym.symmetric, sym.pattern)
     ctx.nz = nx - nq - nu
-    helper = dynamics_helper(ctx, low.helper) if low.helper is not None else ""
+    with _naming_nonfinite(name, "dynamics helper (the mass matrix and forcing)"):
+        helper = dynamics_helper(ctx, low.helper) if low.helper is not None else ""
     rendered, op_counts = [], {}
     for fn in fns:
         prog = low.programs[fn]
-        body = (plain_body(ctx, prog, "pose", (low.poses["size"],), "out") if fn == "poses" else
-                _body(fn, ctx, prog, sym, layout, nx, fns, recursive))
-        lines, parts = split_body(body,
-                                  f"{name}_{fn}_part")
+        with _naming_nonfinite(name, fn):
+            body = (plain_body(ctx, prog, "pose", (low.poses["size"],), "out") if fn == "poses" else
+                    _body(fn, ctx, prog, sym, layout, nx, fns, recursive))
+        lines, parts = split_body(body, f"{name}_{fn}_part")
         ctx.split = ctx.split or bool(parts)
         rendered.append({"prototype": prototype(name, fn), "body": void_unused(fn, lines),
                          "parts": parts})
@@ -320,6 +323,19 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
     if low.poses is not None:
         meta["poses"] = pose_metadata(low.poses)
     return _render(name, meta, fns, rendered, solver, layout, sym, helper, ctx.split)
+
+
+@contextmanager
+def _naming_nonfinite(name, fn):
+    """The C printer's last guard, as a ModelError naming the function: a NaN or infinite
+    constant is never written into generated C (the callers check the model's expressions
+    first and name the load, body or output; this catches what lowering itself produced)."""
+    try:
+        yield
+    except NonFiniteLiteral as exc:
+        raise ModelError(f"{name}_{fn} would compute the constant {exc} (a NaN or infinite "
+                         f"literal in the generated C): an expression of the model evaluates to "
+                         f"nan, zoo or oo; no C was written") from None
 
 
 def _metadata(name, formed, layout, sym, fns, op_counts):

@@ -47,6 +47,7 @@ TREE_FUNCTION_GROUPS = {
     "linearize": (),
     "regressor": ("Y",),
     "jvp": ("ud", "Dpiv", "kin", "dkin", "dkin_p", "tjv", "dres_p", "sol", "zd", "dzd", "dzd_p"),   # see .jvp
+    "events": ("ev",),
 }
 TREE_HELPER_USERS = ()
 

@@ -22,9 +22,8 @@ def add_generate_options(parser):
     parser.add_argument("--floating-base", action="store_true",
                         help="URDF: a 6-dof floating joint (position + body XYZ Euler angles) "
                              "between the world and the root link")
-    parser.add_argument("--formulation", choices=("auto", "kane", "recursive"), default="kane",
-                        help="dynamics formulation: kane (symbolic M and f, numeric LDLT), recursive "
-                             "(ABA/RNEA/CRBA over the joint tree) or auto (the cheaper rhs)")
+    from .common import add_formulation_argument
+    add_formulation_argument(parser)
 
 
 def configure(parser):
