@@ -52,7 +52,9 @@ def load_mjmodel(path):
     try:
         return mujoco.MjModel.from_xml_path(str(path))
     except ValueError as exc:
-        raise ModelFileError(f"MuJoCo could not compile the model: {exc}", str(path)) from None
+        line = re.search(r"\bline (\d+)", str(exc))
+        raise ModelFileError(f"MuJoCo could not compile the model: {exc}", str(path),
+                             int(line.group(1)) if line else None) from None
 
 
 def _line(path, tag):
@@ -70,13 +72,17 @@ def _name(m, kind, i, prefix):
     return mujoco.mj_id2name(m, kind, i) or f"{prefix} #{i}"
 
 
+def _known(ignore):
+    unknown = [x for x in ignore if x not in IGNORABLE]
+    if unknown:
+        raise ModelError(f"ignore={unknown}: unknown; what may be ignored: {', '.join(IGNORABLE)}")
+
+
 def check_model(m, path, ignore=()):
     """The actuator ids to drive as inputs; raises ModelFileError on what the tree cannot express
     unless ``ignore`` names it (then warns).  ``m`` is changed where ignoring needs it: nothing."""
     import mujoco
-    unknown = [x for x in ignore if x not in IGNORABLE]
-    if unknown:
-        raise ModelError(f"ignore={unknown}: unknown; what may be ignored: {', '.join(IGNORABLE)}")
+    _known(ignore)
     path = str(path)
     problems = []   # (ignore key, tag, message)
     J = mujoco.mjtObj.mjOBJ_JOINT
@@ -149,6 +155,7 @@ def mjcf_formed(model, overrides):
     from eomc.compiler.urdf.model import _merged
     from .treeir import tree_ir
     model = model if isinstance(model, MjcfModel) else MjcfModel(Path(model))
+    _known(model.ignore)
     m = load_mjmodel(model.path)
     motors = check_model(m, model.path, model.ignore)
     built = tree_ir(m, fold=model.fold_parameters, actuators=motors)
