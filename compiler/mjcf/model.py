@@ -57,13 +57,17 @@ def load_mjmodel(path):
                              int(line.group(1)) if line else None) from None
 
 
-def _line(path, tag):
-    """The line of the first ``<tag`` in the file (None when it is in an included file)."""
+def _line(path, tag, name=None):
+    """The line of the ``<tag`` element named ``name`` in the file, else of the first ``<tag``
+    (None when it is in an included file)."""
     try:
         text = Path(path).read_text(errors="replace")
     except OSError:
         return None
-    match = re.search(rf"<{tag}\b", text)
+    match = None
+    if name:
+        match = re.search(rf"<\w+\b[^>]*\bname\s*=\s*[\"']{re.escape(name)}[\"']", text)
+    match = match or re.search(rf"<{tag}\b", text)
     return text.count("\n", 0, match.start()) + 1 if match else None
 
 
@@ -84,7 +88,7 @@ def check_model(m, path, ignore=()):
     import mujoco
     _known(ignore)
     path = str(path)
-    problems = []   # (ignore key, tag, message)
+    problems = []   # (ignore key, tag, message[, element name])
     J = mujoco.mjtObj.mjOBJ_JOINT
     if m.ntendon:
         problems.append(("tendons", "tendon", f"{m.ntendon} tendon(s) (e.g. "
@@ -109,9 +113,9 @@ def check_model(m, path, ignore=()):
         ndof = {0: 6, 1: 3, 2: 1, 3: 1}[kind]
         if np.any(m.dof_armature[d:d + ndof]):
             problems.append(("armature", "joint", f"joint {jn}: armature {m.dof_armature[d]:g} (MuJoCo adds "
-                             f"it to the joint-space inertia; eomc's tree has no such term)"))
+                             f"it to the joint-space inertia; eomc's tree has no such term)", jn))
         if np.any(m.dof_frictionloss[d:d + ndof]):
-            problems.append(("frictionloss", "joint", f"joint {jn}: frictionloss (a constraint in MuJoCo)"))
+            problems.append(("frictionloss", "joint", f"joint {jn}: frictionloss (a constraint in MuJoCo)", jn))
         if kind == 0 and int(m.body_parentid[m.jnt_bodyid[j]]) != 0:
             problems.append(("", "freejoint", f"joint {jn}: a free joint on a body that is not a child of "
                              f"the world"))
@@ -136,16 +140,16 @@ def check_model(m, path, ignore=()):
         elif int(m.actuator_dyntype[k]) != 0 or int(m.actuator_gaintype[k]) != 0 or int(m.actuator_biastype[k]) != 0:
             why = "it is not a plain motor (activation dynamics, a muscle, or a bias such as a position servo)"
         if why:
-            problems.append(("actuators", "actuator", f"actuator {an}: {why}"))
+            problems.append(("actuators", "actuator", f"actuator {an}: {why}", an))
         else:
             motors.append(k)
-    for key, tag, message in problems:
+    for key, tag, message, *named in problems:
         if key and key in ignore:
             warnings.warn(f"{path}: ignored: {message}", EomcWarning, stacklevel=4)
             continue
         hint = f" (ignore=('{key}',) drops it, with a warning)" if key else ""
         raise ModelFileError(f"<{tag}>: {message}: a rigid-body tree cannot express it{hint}", path,
-                             _line(path, tag))
+                             _line(path, tag, named[0] if named else None))
     return motors
 
 

@@ -202,6 +202,23 @@ def test_ignored_on_request_with_a_warning(tmp_path):
     assert model.input_names == ("ctrl_mot",)
 
 
+def test_refusal_points_at_the_named_joint(tmp_path):
+    """Armature from a default class: the line of the first joint that has it, by name."""
+    path = tmp_path / "cls.xml"
+    path.write_text("""<mujoco>
+  <default><default class="heavy"><joint armature="0.5"/></default></default>
+  <worldbody>
+    <body><joint name="light" type="hinge"/><geom size="0.1"/>
+      <body pos="0 0 1">
+        <joint name="geared" class="heavy" type="hinge"/><geom size="0.1"/>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>""")
+    with pytest.raises(ModelFileError, match=r"cls.xml:6: <joint>: joint geared: armature 0.5"):
+        eomc.compile(str(path), functions=["rhs"], cache_dir=tmp_path / "c", progress=False)
+
+
 def test_bad_input_messages(tmp_path):
     with pytest.raises(ModelError, match=r"unknown; what may be ignored: tendons"):
         eomc.compile(MjcfModel(tmp_path / "x.xml", ignore=("tendon",)), progress=False)
