@@ -1,6 +1,8 @@
 """Issue 23 item 1: MuJoCo models (MJCF) -- build time, agreement with mj_forward, and speed against it.
 
-Per model (the MJCF files in the gymnasium wheel; ``pip install gymnasium``):
+Per model (the MJCF files in the gymnasium wheel, ``pip install gymnasium``; and, when
+dm_control is importable or ``--dm-suite DIR`` names the ``dm_control/suite`` folder of its
+wheel, dm_control's acrobot, cartpole and humanoid):
 
 - build: a fresh Python process runs ``eomc.compile(MjcfModel(path, ignore=...))`` for rhs
   into an empty cache (MuJoCo's compile + tree + generate + gcc + load); wall time in the
@@ -36,9 +38,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import environment_header, format_table, write_results  # noqa: E402
 from bench_urdf import _mujoco_dir, _run, _timed, _write, eomc_harness  # noqa: E402
 
-MODELS = [("inverted_pendulum", ()), ("inverted_double_pendulum", ()), ("hopper", ("armature",)),
-          ("walker2d", ("armature",)), ("half_cheetah", ("armature",)), ("ant", ("armature",)),
-          ("humanoid", ("armature", "tendons"))]
+MODELS = [("gym", "inverted_pendulum", ()), ("gym", "inverted_double_pendulum", ()),
+          ("gym", "hopper", ("armature",)), ("gym", "walker2d", ("armature",)),
+          ("gym", "half_cheetah", ("armature",)), ("gym", "ant", ("armature",)),
+          ("gym", "humanoid", ("armature", "tendons")),
+          ("dm", "acrobot", ()), ("dm", "cartpole", ()), ("dm", "humanoid", ("armature",))]
 NSTATES, NCALLS, REPEAT = 200, 20000, 7
 CORE = 1
 
@@ -133,7 +137,19 @@ def main():
     import gymnasium
     import mujoco
     from eomc.compiler.mjcf.compare import qacc_of, to_mujoco
-    assets = Path(gymnasium.__file__).parent / "envs" / "mujoco" / "assets"
+    import argparse
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--dm-suite", help="dm_control/suite folder (default: the installed dm_control's)")
+    args = parser.parse_args()
+    folders = {"gym": Path(gymnasium.__file__).parent / "envs" / "mujoco" / "assets"}
+    if args.dm_suite:
+        folders["dm"] = Path(args.dm_suite)
+    else:
+        try:
+            import dm_control
+            folders["dm"] = Path(dm_control.__file__).parent / "suite"
+        except ImportError:
+            print("dm_control not installed and no --dm-suite: its models are left out")
     os.sched_setaffinity(0, {CORE})
     rng = np.random.default_rng(23)
     rows, csv = [], []
@@ -143,8 +159,10 @@ def main():
         (tmp / "mj.c").write_text(MUJOCO_HARNESS)
         _run(["gcc", "-O2", "-std=c99", str(tmp / "mj.c"), f"-I{mjd / 'include'}", str(next(mjd.glob("libmujoco.so*"))),
               f"-Wl,-rpath,{mjd}", "-lm", "-o", str(tmp / "mj_forward")])
-        for name, ignore in MODELS:
-            path = assets / f"{name}.xml"
+        for source, stem, ignore in MODELS:
+            if source not in folders:
+                continue
+            path, name = folders[source] / f"{stem}.xml", f"{source}_{stem}"
             wall, cpu = cold_build(path, name, ignore, tmp)
             model = eomc.load(tmp / f"out_{name}")
             m, built, motors = prepared_pair(path, ignore)
@@ -181,7 +199,9 @@ def main():
     text = environment_header("MJCF models: eomc vs MuJoCo mj_forward (contacts/constraints/limits off)",
                               notes=(f"load average at end {load[0]:.2f} {load[1]:.2f} {load[2]:.2f} on a shared "
                                      f"2-core machine; pinned to core {CORE}",
-                                     f"models from gymnasium {gymnasium.__version__}'s wheel; mujoco {mujoco.__version__}",
+                                     f"models: gym_* from gymnasium {gymnasium.__version__}'s wheel, dm_* from "
+                                     f"{folders.get('dm', '(not run)')} (dm_control 1.0.50 wheel); "
+                                     f"mujoco {mujoco.__version__}",
                                      f"{NSTATES} states, {NCALLS} calls per run, {REPEAT} interleaved repeats, medians"))
     text += "\n" + format_table(headers, rows) + "\n\n" + (__doc__ or "")
     print(write_results("mjcf", text, csv, ["model", "dof", "build_wall_s", "build_cpu_s", "max_rel_err",
