@@ -119,6 +119,10 @@ def check_model(m, path, ignore=()):
         if kind == 0 and int(m.body_parentid[m.jnt_bodyid[j]]) != 0:
             problems.append(("", "freejoint", f"joint {jn}: a free joint on a body that is not a child of "
                              f"the world"))
+        if np.any(m.dof_damping[d:d + ndof] < 0) or m.jnt_stiffness[j] < 0:
+            raise ModelFileError(f"<joint>: joint {jn}: negative damping or stiffness "
+                                 f"({m.dof_damping[d]:g}, {m.jnt_stiffness[j]:g}): it would feed energy in",
+                                 path, _line(path, "joint", jn))
         if kind == 0 and int(m.body_jntnum[m.jnt_bodyid[j]]) > 1:
             problems.append(("", "freejoint", f"joint {jn}: a free joint with other joints on its body"))
         if kind in (0, 1) and m.jnt_stiffness[j]:

@@ -219,6 +219,25 @@ def test_refusal_points_at_the_named_joint(tmp_path):
         eomc.compile(str(path), functions=["rhs"], cache_dir=tmp_path / "c", progress=False)
 
 
+@pytest.mark.parametrize("joint, match", [
+    ('<freejoint name="f"/>', None),
+    ('<joint name="f" type="free" damping="0.1"/>', "joint f: damping on a free joint"),
+    ('<joint name="b" type="ball" stiffness="2"/>', "joint b: stiffness on a ball joint"),
+    ('<joint name="h" type="hinge" damping="-0.5"/>', r"xml:1: <joint>: joint h: negative damping"),
+    ('<joint name="h" type="hinge" stiffness="-2"/>', "joint h: negative damping or stiffness"),
+])
+def test_joint_checks(tmp_path, joint, match):
+    """What the joint-space loads cannot carry is refused (checked without building)."""
+    path = tmp_path / "j.xml"
+    path.write_text(f'<mujoco><worldbody><body>{joint}<geom size="0.1"/></body></worldbody></mujoco>')
+    m = load_mjmodel(path)
+    if match is None:
+        assert check_model(m, path) == []
+        return
+    with pytest.raises(ModelFileError, match=match):
+        check_model(m, path)
+
+
 def test_bad_input_messages(tmp_path):
     with pytest.raises(ModelError, match=r"unknown; what may be ignored: tendons"):
         eomc.compile(MjcfModel(tmp_path / "x.xml", ignore=("tendon",)), progress=False)
