@@ -24,10 +24,8 @@ wheel, dm_control's acrobot, cartpole and humanoid):
 import os
 import resource
 import statistics
-import subprocess
 import sys
 import tempfile
-import time
 import warnings
 from pathlib import Path
 
