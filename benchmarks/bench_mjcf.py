@@ -153,6 +153,8 @@ def main():
     rows, csv = [], []
     with tempfile.TemporaryDirectory(prefix="bench_mjcf_") as tmpname:
         tmp = Path(tmpname)
+        here = os.getcwd()
+        os.chdir(tmp)     # libmujoco's warnings (half_cheetah's settotalmass) go to ./MUJOCO_LOG.TXT
         mjd = _mujoco_dir()
         (tmp / "mj.c").write_text(MUJOCO_HARNESS)
         _run(["gcc", "-O2", "-std=c99", str(tmp / "mj.c"), f"-I{mjd / 'include'}", str(next(mjd.glob("libmujoco.so*"))),
@@ -191,6 +193,7 @@ def main():
                          f"{j / e:.2f}x", ",".join(ignore) or "-"])
             csv.append([name, nv, wall, cpu, max(err, c_err), e, j])
             print(" | ".join(rows[-1]), flush=True)
+        os.chdir(here)
     headers = ["model", "dof", "build wall s", "build CPU s", "max rel err", "eomc rhs ns", "mj_forward ns",
                "speedup", "ignored"]
     load = os.getloadavg()

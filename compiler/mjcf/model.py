@@ -49,12 +49,20 @@ def load_mjmodel(path):
             from None
     if not Path(path).is_file():
         raise ModelFileError("no such file", str(path))
+    # MuJoCo's warnings go to a MUJOCO_LOG.TXT in the working directory by default: ours instead
+    previous, messages = mujoco.get_mju_user_warning(), []
+    mujoco.set_mju_user_warning(messages.append)
     try:
-        return mujoco.MjModel.from_xml_path(str(path))
+        model = mujoco.MjModel.from_xml_path(str(path))
     except ValueError as exc:
         line = re.search(r"\bline (\d+)", str(exc))
         raise ModelFileError(f"MuJoCo could not compile the model: {exc}", str(path),
                              int(line.group(1)) if line else None) from None
+    finally:
+        mujoco.set_mju_user_warning(previous)
+    for message in messages:
+        warnings.warn(f"{path}: MuJoCo: {message}", EomcWarning, stacklevel=3)
+    return model
 
 
 def _line(path, tag, name=None):

@@ -238,6 +238,17 @@ def test_joint_checks(tmp_path, joint, match):
         check_model(m, path)
 
 
+def test_mujoco_warnings_become_ours(tmp_path, monkeypatch):
+    """MuJoCo's compiler warnings come out as EomcWarnings, not as a MUJOCO_LOG.TXT in the cwd."""
+    monkeypatch.chdir(tmp_path)
+    path = tmp_path / "old.xml"
+    path.write_text('<mujoco><compiler settotalmass="3"/><worldbody><body><joint type="hinge"/>'
+                    '<geom size="0.1"/></body></worldbody></mujoco>')
+    with pytest.warns(EomcWarning, match="old.xml: MuJoCo: compiler attribute 'settotalmass' is deprecated"):
+        load_mjmodel(path)
+    assert not (tmp_path / "MUJOCO_LOG.TXT").exists()
+
+
 def test_bad_input_messages(tmp_path):
     with pytest.raises(ModelError, match=r"unknown; what may be ignored: tendons"):
         eomc.compile(MjcfModel(tmp_path / "x.xml", ignore=("tendon",)), progress=False)
