@@ -79,6 +79,11 @@ def _with_poses(spec, functions):
     from .emit.poses import pose_source
     if functions is not None and "poses" not in functions:
         return spec
+    if spec.system is None and getattr(spec.formed, "_mjcf", None) is not None:   # an MJCF model
+        if functions is not None:
+            raise ModelError(f"{spec.name}: poses (the animation's body positions) are not generated for "
+                             f"MJCF models yet; leave 'poses' out of functions")
+        return dataclasses.replace(spec, poses=None)
     try:
         built = getattr(spec.formed, "_urdf", None)   # a URDF read straight into the tree: no System
         if spec.system is None and built is not None:

@@ -192,6 +192,14 @@ def model_spec(system, name=None, *, parameters=None, inputs=None, initial_state
         spec = _checked({**values, "system": robot}, formed, name,
                         lambda exc: ModelFileError(str(exc), str(path)), f"{path}: ")
         return ModelSpec(**{**spec.__dict__, "path": path})
+    from eomc.compiler.mjcf.model import MjcfModel, is_mjcf_model, mjcf_formed
+    if is_mjcf_model(system):   # a MuJoCo model: MuJoCo's compiler, then straight to the tree
+        path = Path(system.path if isinstance(system, MjcfModel) else system)
+        name = name or sanitize_name(path.stem)
+        formed, values = mjcf_formed(system, overrides)
+        spec = _checked({**values, "system": None}, formed, name,
+                        lambda exc: ModelFileError(str(exc), str(path)), f"{path}: ")
+        return ModelSpec(**{**spec.__dict__, "path": path})
     if isinstance(system, (str, Path)):
         return _from_file(system, name, overrides, formulation)
     try:

@@ -1,0 +1,71 @@
+"""eomc's states <-> MuJoCo's, to check a built MJCF model against ``mj_forward`` (tests, benchmark).
+
+Why a mapping: MuJoCo's ball and free joints carry a unit quaternion (4 coordinates),
+eomc's body-XYZ angles (3); MuJoCo's free-joint linear velocity is in world
+components, eomc's in body components.  Hinge and slide coordinates are the same.
+So a state is drawn in eomc's coordinates and mapped to MuJoCo's; eomc's speed
+derivatives are mapped to MuJoCo's qacc: for a free joint with R the body's
+rotation, v_world = R v_body, so qacc_lin = R (v_body' + w x v_body); angular
+speeds are body-frame in both.
+"""
+import numpy as np
+
+from .treeir import MjcfTree
+
+__all__ = ["to_mujoco", "qacc_of", "prepared"]
+
+
+def _xyz_matrix(rx, ry, rz):
+    cx, sx, cy, sy, cz, sz = np.cos(rx), np.sin(rx), np.cos(ry), np.sin(ry), np.cos(rz), np.sin(rz)
+    Rx = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
+    Ry = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
+    Rz = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
+    return Rx @ Ry @ Rz
+
+
+def _quat(R):
+    import mujoco
+    out = np.zeros(4)
+    mujoco.mju_mat2Quat(out, np.ascontiguousarray(R).ravel())
+    return out
+
+
+def prepared(m):
+    """``m`` with contacts, constraints, limits and control clamping off (what eomc models)."""
+    import mujoco
+    m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONTACT) | int(mujoco.mjtDisableBit.mjDSBL_CONSTRAINT) \
+        | int(mujoco.mjtDisableBit.mjDSBL_LIMIT) | int(mujoco.mjtDisableBit.mjDSBL_CLAMPCTRL)
+    return m
+
+
+def to_mujoco(m, built: MjcfTree, q, u):
+    """(qpos, qvel) of eomc's coordinates ``q`` and speeds ``u``."""
+    qpos, qvel = np.array(m.qpos0, dtype=float), np.zeros(m.nv)
+    for j, kind, iq, iu in built.joints:
+        a, d = int(m.jnt_qposadr[j]), int(m.jnt_dofadr[j])
+        if kind in (2, 3):
+            qpos[a], qvel[d] = q[iq], u[iu]
+        elif kind == 1:
+            qpos[a:a + 4] = _quat(_xyz_matrix(*q[iq:iq + 3]))
+            qvel[d:d + 3] = u[iu:iu + 3]
+        else:
+            R = _xyz_matrix(*q[iq + 3:iq + 6])
+            qpos[a:a + 3] = q[iq:iq + 3]
+            qpos[a + 3:a + 7] = _quat(R)
+            qvel[d:d + 3] = R @ u[iu:iu + 3]
+            qvel[d + 3:d + 6] = u[iu + 3:iu + 6]
+    return qpos, qvel
+
+
+def qacc_of(m, built: MjcfTree, q, u, du):
+    """MuJoCo's qacc for eomc's state (q, u) and speed derivatives ``du``."""
+    qacc = np.zeros(m.nv)
+    for j, kind, iq, iu in built.joints:
+        d = int(m.jnt_dofadr[j])
+        n = {0: 6, 1: 3, 2: 1, 3: 1}[kind]
+        qacc[d:d + n] = du[iu:iu + n]
+        if kind == 0:
+            R = _xyz_matrix(*q[iq + 3:iq + 6])
+            qacc[d:d + 3] = R @ (du[iu:iu + 3] + np.cross(u[iu + 3:iu + 6], u[iu:iu + 3]))
+    return qacc
+

@@ -1,0 +1,180 @@
+"""MJCF files as eomc models: MuJoCo compiles the file, we check it fits a rigid-body tree.
+
+``eomc.compile("model.xml")`` and ``eomc build model.xml`` land here through
+:func:`eomc.compiler.model.model_spec`.  MuJoCo (the optional extra
+``eomc[mujoco]``) reads the file with its defaults and classes applied; what
+its model holds that an open-chain rigid-body tree with joint-space forces
+cannot express is refused with the element named (file:line where the tag is
+found in the file), or dropped with a warning when the caller names it in
+``ignore``.  Contacts are off (eomc has no contact); joint limits are not
+modelled (a warning says so unless ``"limits"`` is in ``ignore``).
+"""
+import re
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from eomc.runtime.errors import EomcWarning, ModelError, ModelFileError
+
+__all__ = ["MjcfModel", "is_mjcf_path", "is_mjcf_model", "load_mjmodel", "check_model", "mjcf_formed",
+           "IGNORABLE"]
+
+IGNORABLE = ("tendons", "equality", "actuators", "armature", "frictionloss", "limits", "fluid", "plugins")
+
+
+@dataclass(frozen=True)
+class MjcfModel:
+    """An MJCF file with options, not yet read."""
+    path: Path
+    ignore: tuple = ()
+    fold_parameters: bool = False
+
+
+def is_mjcf_path(model):
+    return isinstance(model, (str, Path)) and Path(model).suffix.lower() in (".xml", ".mjcf")
+
+
+def is_mjcf_model(model):
+    return isinstance(model, MjcfModel) or is_mjcf_path(model)
+
+
+def load_mjmodel(path):
+    """MuJoCo's compiled model of the file ``path``; its errors as a ModelFileError."""
+    try:
+        import mujoco
+    except ImportError:
+        raise ModelError(f"{path}: MJCF models are read by MuJoCo's compiler: pip install 'eomc[mujoco]'") \
+            from None
+    if not Path(path).is_file():
+        raise ModelFileError("no such file", str(path))
+    # MuJoCo's warnings go to a MUJOCO_LOG.TXT in the working directory by default: ours instead
+    previous, messages = mujoco.get_mju_user_warning(), []
+    mujoco.set_mju_user_warning(messages.append)
+    try:
+        model = mujoco.MjModel.from_xml_path(str(path))
+    except ValueError as exc:
+        line = re.search(r"\bline (\d+)", str(exc))
+        raise ModelFileError(f"MuJoCo could not compile the model: {exc}", str(path),
+                             int(line.group(1)) if line else None) from None
+    finally:
+        mujoco.set_mju_user_warning(previous)
+    for message in messages:
+        warnings.warn(f"{path}: MuJoCo: {message}", EomcWarning, stacklevel=3)
+    return model
+
+
+def _line(path, tag, name=None):
+    """The line of the ``<tag`` element named ``name`` in the file, else of the first ``<tag``
+    (None when it is in an included file)."""
+    try:
+        text = Path(path).read_text(errors="replace")
+    except OSError:
+        return None
+    match = None
+    if name:
+        match = re.search(rf"<\w+\b[^>]*\bname\s*=\s*[\"']{re.escape(name)}[\"']", text)
+    match = match or re.search(rf"<{tag}\b", text)
+    return text.count("\n", 0, match.start()) + 1 if match else None
+
+
+def _name(m, kind, i, prefix):
+    import mujoco
+    return mujoco.mj_id2name(m, kind, i) or f"{prefix} #{i}"
+
+
+def _known(ignore):
+    unknown = [x for x in ignore if x not in IGNORABLE]
+    if unknown:
+        raise ModelError(f"ignore={unknown}: unknown; what may be ignored: {', '.join(IGNORABLE)}")
+
+
+def check_model(m, path, ignore=()):
+    """The actuator ids to drive as inputs; raises ModelFileError on what the tree cannot express
+    unless ``ignore`` names it (then warns).  ``m`` is changed where ignoring needs it: nothing."""
+    import mujoco
+    _known(ignore)
+    path = str(path)
+    problems = []   # (ignore key, tag, message[, element name])
+    J = mujoco.mjtObj.mjOBJ_JOINT
+    if m.ntendon:
+        problems.append(("tendons", "tendon", f"{m.ntendon} tendon(s) (e.g. "
+                         f"{_name(m, mujoco.mjtObj.mjOBJ_TENDON, 0, 'tendon')}): a tendon couples joints"))
+    if m.neq:
+        problems.append(("equality", "equality", f"{m.neq} equality constraint(s) (e.g. "
+                         f"{_name(m, mujoco.mjtObj.mjOBJ_EQUALITY, 0, 'equality')}): a constraint, not a tree"))
+    if m.nplugin:
+        problems.append(("plugins", "plugin", f"{m.nplugin} plugin(s)"))
+    if m.nflex:
+        problems.append(("", "flex", f"{m.nflex} flex(es): deformable bodies"))
+    if m.nmocap:
+        problems.append(("", "body", f"{m.nmocap} mocap body(ies): moved by the user, not by dynamics"))
+    if np.any(m.body_gravcomp):
+        b = int(np.flatnonzero(m.body_gravcomp)[0])
+        problems.append(("", "body", f"body {_name(m, mujoco.mjtObj.mjOBJ_BODY, b, 'body')}: gravcomp"))
+    if m.opt.density or m.opt.viscosity or np.any(m.opt.wind):
+        problems.append(("fluid", "option", "fluid forces (option density/viscosity/wind)"))
+    for j in range(m.njnt):
+        jn = _name(m, J, j, "joint")
+        kind, d = int(m.jnt_type[j]), int(m.jnt_dofadr[j])
+        ndof = {0: 6, 1: 3, 2: 1, 3: 1}[kind]
+        if np.any(m.dof_armature[d:d + ndof]):
+            problems.append(("armature", "joint", f"joint {jn}: armature {m.dof_armature[d]:g} (MuJoCo adds "
+                             f"it to the joint-space inertia; eomc's tree has no such term)", jn))
+        if np.any(m.dof_frictionloss[d:d + ndof]):
+            problems.append(("frictionloss", "joint", f"joint {jn}: frictionloss (a constraint in MuJoCo)", jn))
+        if kind == 0 and int(m.body_parentid[m.jnt_bodyid[j]]) != 0:
+            problems.append(("", "freejoint", f"joint {jn}: a free joint on a body that is not a child of "
+                             f"the world"))
+        if np.any(m.dof_damping[d:d + ndof] < 0) or m.jnt_stiffness[j] < 0:
+            raise ModelFileError(f"<joint>: joint {jn}: negative damping or stiffness "
+                                 f"({m.dof_damping[d]:g}, {m.jnt_stiffness[j]:g}): it would feed energy in",
+                                 path, _line(path, "joint", jn))
+        if kind == 0 and int(m.body_jntnum[m.jnt_bodyid[j]]) > 1:
+            problems.append(("", "freejoint", f"joint {jn}: a free joint with other joints on its body"))
+        if kind in (0, 1) and m.jnt_stiffness[j]:
+            problems.append(("", "joint", f"joint {jn}: stiffness on a {('free', 'ball')[kind]} joint"))
+        if kind == 0 and np.any(m.dof_damping[d:d + 6]):
+            problems.append(("", "joint", f"joint {jn}: damping on a free joint"))
+        if m.jnt_limited[j] and "limits" not in ignore:
+            warnings.warn(f"{path}: joint {jn}: its range limits are not modelled (contacts and limits are "
+                          f"off; ignore=('limits',) silences this)", EomcWarning, stacklevel=4)
+    motors = []
+    for k in range(m.nu):
+        an = _name(m, mujoco.mjtObj.mjOBJ_ACTUATOR, k, "actuator")
+        j = int(m.actuator_trnid[k, 0])
+        why = None
+        if int(m.actuator_trntype[k]) != int(mujoco.mjtTrn.mjTRN_JOINT):
+            why = "its transmission is not a joint"
+        elif int(m.jnt_type[j]) not in (2, 3):
+            why = "it drives a ball or free joint"
+        elif int(m.actuator_dyntype[k]) != 0 or int(m.actuator_gaintype[k]) != 0 or int(m.actuator_biastype[k]) != 0:
+            why = "it is not a plain motor (activation dynamics, a muscle, or a bias such as a position servo)"
+        if why:
+            problems.append(("actuators", "actuator", f"actuator {an}: {why}", an))
+        else:
+            motors.append(k)
+    for key, tag, message, *named in problems:
+        if key and key in ignore:
+            warnings.warn(f"{path}: ignored: {message}", EomcWarning, stacklevel=4)
+            continue
+        hint = f" (ignore=('{key}',) drops it, with a warning)" if key else ""
+        raise ModelFileError(f"<{tag}>: {message}: a rigid-body tree cannot express it{hint}", path,
+                             _line(path, tag, named[0] if named else None))
+    return motors
+
+
+def mjcf_formed(model, overrides):
+    """(FormedSystem, overrides with the model's parameter defaults and inputs) of an MJCF file."""
+    from eomc.compiler.tree.formed import formed_of_tree
+    from eomc.compiler.urdf.model import _merged
+    from .treeir import tree_ir
+    model = model if isinstance(model, MjcfModel) else MjcfModel(Path(model))
+    _known(model.ignore)
+    m = load_mjmodel(model.path)
+    motors = check_model(m, model.path, model.ignore)
+    built = tree_ir(m, fold=model.fold_parameters, actuators=motors)
+    formed = formed_of_tree(built.tree)
+    object.__setattr__(formed, "_mjcf", built)
+    return formed, _merged(overrides, formed, built.parameters, built.inputs)

@@ -1,0 +1,251 @@
+"""A MuJoCo model (MJCF, compiled by MuJoCo itself) straight to the recursive formulation's Tree IR.
+
+Why MuJoCo's compiler: MJCF's ``<default>`` classes, ``childclass``, frames,
+``fromto``, inertia from geoms and the angle conventions are a language of their
+own; reading the compiled ``MjModel`` arrays (``body_pos``/``body_quat``,
+``body_ipos``/``body_iquat``, ``body_mass``/``body_inertia``, ``jnt_*``,
+``dof_damping``, ``jnt_stiffness``, ``qpos_spring``, ``actuator_*``,
+``opt.gravity``) gives the kinematic tree with all of that already applied.
+
+Per MuJoCo body, its joints are applied in order as MuJoCo's ``mj_kinematics``
+does: a body with k joints becomes k tree bodies, the first k-1 massless (their
+frame the body frame after the joints so far), the last carrying the mass.
+Per joint, with R0, p the body frame relative to its parent's (identity and
+zero for the 2nd.. joint of a body), a the axis and s the anchor (``jnt_pos``)
+in the body frame, c the mass centre (``body_ipos``) and c_p the parent's
+(both in their body frames):
+
+- hinge: R_PC = R0 Rot(a, q - ref); r = p - c_p + R0 s + R_PC (c - s); S = (a, a × (c - s))
+- slide: R_PC = R0; r = p - c_p + R0 (a (q - ref) + c); S = (0, a)
+- ball: R_PC = R0 Rx Ry Rz (body-XYZ angles, not MuJoCo's quaternion); r as hinge;
+  speeds the body-frame angular velocity (MuJoCo's ball dofs)
+- free (on a world child only): R_PC = Rx Ry Rz; r = (x, y, z) + R_PC c; speeds the
+  body origin's velocity and the angular velocity, both in body components (MuJoCo:
+  the linear velocity in world components -- map the states to compare)
+
+Joint damping, stiffness/springref and motors (``gear`` x fixed gain) are a
+joint-space force tau on each hinge/slide dof: a torque on the child about a and
+its reaction on the parent about R0 a (a force along a for a slide).  What the
+tree cannot express is refused with the element named (:mod:`.model` decides
+what may be ignored).
+"""
+import numpy as np
+import sympy as sm
+from sympy.physics.vector import dynamicsymbols
+
+from eomc.compiler.tree.model import Load, Tree, TreeBody
+from eomc.compiler.tree.recognize import effective_inertias
+from eomc.compiler.urdf.tree import identifier
+from eomc.compiler.urdf.treeir import (_Parameters, _cross, _lin, _num, _rotation_terms, _snapped, _times,
+                                       _vec, floating_kinematics, floating_rotation)
+
+__all__ = ["MjcfTree", "tree_ir", "quat_matrix"]
+
+
+def quat_matrix(q):
+    """The rotation matrix of MuJoCo's unit quaternion (w, x, y, z)."""
+    w, x, y, z = np.asarray(q, dtype=float) / np.linalg.norm(q)
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+
+
+class MjcfTree:
+    """What :func:`tree_ir` returns: the Tree and the names and values beside it."""
+
+    def __init__(self, tree, coordinates, speeds, kinematics, parameters, inputs, joints):
+        self.tree = tree
+        self.coordinates = coordinates
+        self.speeds = speeds
+        self.kinematics = kinematics
+        self.parameters = parameters      # Symbol -> value from the model
+        self.inputs = inputs              # one per actuator, actuator order
+        self.joints = joints              # per MuJoCo joint: (id, type, first coordinate, first speed)
+
+
+_HINGE, _SLIDE, _BALL, _FREE = 3, 2, 1, 0
+
+
+def _names(m, kind, count, prefix):
+    """C-identifier names of ``count`` MuJoCo objects of ``kind``, unnamed ones numbered, made unique."""
+    import mujoco
+    seen, out = set(), []
+    for i in range(count):
+        raw = mujoco.mj_id2name(m, kind, i) or f"{prefix}{i}"
+        name = identifier(raw)
+        while name in seen:
+            name += f"_{i}"
+        seen.add(name)
+        out.append((raw, name))
+    return out
+
+
+def tree_ir(m, *, fold=False, actuators=None):
+    """The :class:`MjcfTree` of a compiled ``mujoco.MjModel`` ``m`` (see the module docstring).
+
+    ``m`` must already have passed :func:`eomc.compiler.mjcf.model.check_model`."""
+    import mujoco
+    params = _Parameters(fold)
+    body_names = _names(m, mujoco.mjtObj.mjOBJ_BODY, m.nbody, "body")
+    joint_names = _names(m, mujoco.mjtObj.mjOBJ_JOINT, m.njnt, "joint")
+    act_names = _names(m, mujoco.mjtObj.mjOBJ_ACTUATOR, m.nu, "actuator")
+    actuators = range(m.nu) if actuators is None else actuators
+    inputs = [dynamicsymbols(f"ctrl_{act_names[k][1]}") for k in actuators]
+    drive = {}   # joint id -> sum of gear * gain * ctrl
+    for i, k in enumerate(actuators):
+        j = int(m.actuator_trnid[k, 0])
+        gain = float(m.actuator_gear[k, 0]) * float(m.actuator_gainprm[k, 0])
+        drive[j] = drive.get(j, sm.S.Zero) + params(f"gear_{act_names[k][1]}", gain) * inputs[i]
+    bodies, coordinates, speeds, kinematics, loads, joints = [], [], [], [], [], []
+    last = {0: -1}          # MuJoCo body -> index of its mass-carrying tree body (-1: world)
+    com = {0: [0, 0, 0]}
+    for b in range(1, m.nbody):
+        raw, s = body_names[b]
+        parent = last[int(m.body_parentid[b])]
+        cp = com[int(m.body_parentid[b])]
+        jids = list(range(int(m.body_jntadr[b]), int(m.body_jntadr[b]) + int(m.body_jntnum[b])))
+        mass = params(f"m_{s}", m.body_mass[b])
+        Ri = quat_matrix(m.body_iquat[b])
+        I = _snapped(Ri @ np.diag(m.body_inertia[b]) @ Ri.T)
+        e = {key: params(f"I{key}_{s}", I[i, j]) for key, (i, j) in
+             (("xx", (0, 0)), ("yy", (1, 1)), ("zz", (2, 2)), ("xy", (0, 1)), ("xz", (0, 2)), ("yz", (1, 2)))}
+        inertia = sm.Matrix([[e["xx"], e["xy"], e["xz"]], [e["xy"], e["yy"], e["yz"]],
+                             [e["xz"], e["yz"], e["zz"]]])
+        c_mass = [params(f"{k}_{s}", v) for k, v in zip(("cx", "cy", "cz"), m.body_ipos[b])]
+        p_body = [params(f"{k}_{s}", v) for k, v in zip(("px", "py", "pz"), m.body_pos[b])]
+        R0_body = _snapped(quat_matrix(m.body_quat[b]))
+        if not jids:   # welded to its parent
+            c = c_mass
+            position = sm.Matrix(_times(R0_body, c)) + sm.Matrix([p_body[r] - cp[r] for r in range(3)])
+            bodies.append(TreeBody(name=s, joint=f"{raw} (welded)", kind="fixed", parent=parent, speed=None,
+                                   rotation=sm.Matrix(R0_body.T).applyfunc(_num), position=position,
+                                   motion=None, mass=mass, inertia=inertia))
+            last[b], com[b] = len(bodies) - 1, c
+            continue
+        for n_j, jid in enumerate(jids):
+            final = n_j == len(jids) - 1
+            jraw, jn = joint_names[jid]
+            kind = int(m.jnt_type[jid])
+            if n_j == 0:
+                p, R0, base_c = p_body, R0_body, cp
+            else:
+                p, R0, base_c = [0, 0, 0], np.eye(3), [0, 0, 0]
+            c = c_mass if final else [0, 0, 0]
+            name = s if final else f"{s}__{jn}"
+            bm = mass if final else sm.S.Zero
+            bI = inertia if final else sm.zeros(3, 3)
+            base = [p[r] - base_c[r] for r in range(3)]
+            a = _snapped(m.jnt_axis[jid])
+            anchor = [params(f"{k}_{jn}", v) for k, v in zip(("sx", "sy", "sz"), m.jnt_pos[jid])]
+            qadr, dadr = int(m.jnt_qposadr[jid]), int(m.jnt_dofadr[jid])
+            first_q, first = len(coordinates), len(speeds)
+            joints.append((jid, kind, first_q, first))
+            common = dict(name=name, joint=jraw, parent=parent, mass=bm, inertia=bI)
+            c_s = [c[r] - anchor[r] for r in range(3)]
+            if kind == _HINGE:
+                q, u = dynamicsymbols(f"q_{jn}"), dynamicsymbols(f"u_{jn}")
+                coordinates.append(q)
+                speeds.append(u)
+                ref = float(m.qpos0[qadr])
+                angle = q - _num(ref) if ref != 0 else q
+                A, B, C = _rotation_terms(R0, a)
+                cq, sq = sm.cos(angle), sm.sin(angle)
+                R = sm.Matrix(3, 3, lambda r, k: _lin((A[r, k], B[r, k], C[r, k]), (cq, sq, 1)))
+                R0s = _times(R0, anchor)
+                Rc = [sum((R[r, k] * c_s[k] for k in range(3) if c_s[k] != 0), sm.S.Zero) for r in range(3)]
+                position = sm.Matrix([base[r] + R0s[r] + Rc[r] for r in range(3)])
+                av = _vec(a)
+                bodies.append(TreeBody(kind="revolute", speed=first, rotation=R.T, position=position,
+                                       motion=tuple(av) + tuple(_cross(av, c_s)), **common))
+                kinematics.append(u)
+            elif kind == _SLIDE:
+                q, u = dynamicsymbols(f"q_{jn}"), dynamicsymbols(f"u_{jn}")
+                coordinates.append(q)
+                speeds.append(u)
+                ref = float(m.qpos0[qadr])
+                shift = q - _num(ref) if ref != 0 else q
+                R0a = _times(R0, [a[k] * shift for k in range(3)])
+                R0c = _times(R0, c)
+                position = sm.Matrix([base[r] + R0c[r] + R0a[r] for r in range(3)])
+                bodies.append(TreeBody(kind="prismatic", speed=first, rotation=sm.Matrix(R0.T).applyfunc(_num),
+                                       position=position, motion=(0, 0, 0) + tuple(_vec(a)), **common))
+                kinematics.append(u)
+            elif kind == _BALL:
+                qs = [dynamicsymbols(f"q_{jn}_{x}") for x in ("rx", "ry", "rz")]
+                us = [dynamicsymbols(f"u_{jn}_{x}") for x in ("wx", "wy", "wz")]
+                coordinates += qs
+                speeds += us
+                Rb = floating_rotation(*qs)
+                R = sm.Matrix(3, 3, lambda r, k: sum((_num(R0[r, t]) * Rb[t, k] for t in range(3)
+                                                      if _num(R0[r, t]) != 0), sm.S.Zero))
+                R0s = _times(R0, anchor)
+                Rc = [sum((R[r, k] * c_s[k] for k in range(3) if c_s[k] != 0), sm.S.Zero) for r in range(3)]
+                position = sm.Matrix([base[r] + R0s[r] + Rc[r] for r in range(3)])
+                unit = [(1, 0, 0), (0, 1, 0), (0, 0, 1)]
+                motions = tuple(tuple(e_) + tuple(_cross(list(e_), c_s)) for e_ in unit)
+                bodies.append(TreeBody(kind="3-speed", speed=None, rotation=R.T, position=position, motion=None,
+                                       speeds=(first, first + 1, first + 2), motions=motions, **common))
+                kinematics += floating_kinematics([0, 0, 0] + qs, [0, 0, 0] + us)[3:]
+            elif kind == _FREE:
+                qs = [dynamicsymbols(f"q_{jn}_{x}") for x in ("x", "y", "z", "rx", "ry", "rz")]
+                us = [dynamicsymbols(f"u_{jn}_{x}") for x in ("vx", "vy", "vz", "wx", "wy", "wz")]
+                coordinates += qs
+                speeds += us
+                R = floating_rotation(*qs[3:])
+                Rc = [sum((R[r, k] * c[k] for k in range(3) if c[k] != 0), sm.S.Zero) for r in range(3)]
+                position = sm.Matrix([qs[r] + Rc[r] for r in range(3)])
+                unit = [(1, 0, 0), (0, 1, 0), (0, 0, 1)]
+                motions = tuple((0, 0, 0) + e_ for e_ in unit) + tuple(
+                    tuple(e_) + tuple(_cross(list(e_), c)) for e_ in unit)
+                bodies.append(TreeBody(kind="free", speed=None, rotation=R.T, position=position, motion=None,
+                                       speeds=tuple(range(first, first + 6)), motions=motions, **common))
+                kinematics += floating_kinematics(qs, us)
+            child = len(bodies) - 1
+            if kind in (_HINGE, _SLIDE):
+                tau = drive.get(jid, sm.S.Zero)
+                damping = params(f"d_{jn}", m.dof_damping[dadr])
+                stiffness = params(f"k_{jn}", m.jnt_stiffness[jid])
+                if damping != 0:
+                    tau = tau - damping * speeds[first]
+                if stiffness != 0:
+                    rest = params(f"q0_{jn}", m.qpos_spring[qadr])
+                    tau = tau - stiffness * (coordinates[first_q] - rest)
+                if tau != 0:
+                    loads += _joint_force(kind, tau, a, R0, c, p, base_c, child, parent)
+            elif kind == _BALL and m.dof_damping[dadr] != 0:
+                ds = [params(f"d_{jn}_{x}", m.dof_damping[dadr + x]) for x in range(3)]
+                moment = sm.Matrix([-ds[x] * speeds[first + x] for x in range(3)])
+                loads.append(Load(body=child, frame="body", moment=moment, force=sm.zeros(3, 1),
+                                  offset=sm.zeros(3, 1)))
+                if parent >= 0:
+                    body_R = bodies[child].rotation.T   # R_PC: the child's moment in parent components
+                    back = [sum((body_R[r, k] * (-moment[k]) for k in range(3)), sm.S.Zero) for r in range(3)]
+                    loads.append(Load(body=parent, frame="body", moment=sm.Matrix(back), force=sm.zeros(3, 1),
+                                      offset=sm.zeros(3, 1)))
+            parent = child
+        last[b], com[b] = len(bodies) - 1, c_mass
+    gravity = sm.Matrix([params(f"g{x}", v) for x, v in zip("xyz", m.opt.gravity)])
+    bodies = effective_inertias(bodies, coordinates, speeds, kinematics)
+    ir = Tree(bodies=tuple(bodies), coordinates=tuple(coordinates), speeds=tuple(speeds),
+              kinematics=tuple(kinematics), gravity=gravity, loads=tuple(loads))
+    return MjcfTree(ir, tuple(coordinates), tuple(speeds), tuple(kinematics), params.values, inputs,
+                    tuple(joints))
+
+
+def _joint_force(kind, tau, a, R0, c, p, cp, child, parent):
+    """A hinge's torque (slide's force) tau on the child and its reaction on the parent."""
+    zero = sm.zeros(3, 1)
+    on_child = sm.Matrix([_num(v) * tau for v in a])
+    on_parent = sm.Matrix([-_num(v) * tau for v in _snapped(R0 @ a)])
+    out = []
+    if kind == _SLIDE:
+        out.append(Load(body=child, frame="body", moment=zero, force=on_child,
+                        offset=sm.Matrix([-x for x in c])))
+        if parent >= 0:
+            out.append(Load(body=parent, frame="body", moment=zero, force=on_parent,
+                            offset=sm.Matrix([p[k] - cp[k] for k in range(3)])))
+        return out
+    out.append(Load(body=child, frame="body", moment=on_child, force=zero, offset=zero))
+    if parent >= 0:
+        out.append(Load(body=parent, frame="body", moment=on_parent, force=zero, offset=zero))
+    return out
