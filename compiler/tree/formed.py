@@ -28,23 +28,8 @@ def tree_formed(system):
     """FormedSystem of a SymPy System with joints whose equations were not formed
     (method "tree": no A and b; only the recursive formulation can generate it).
     NotATree (naming the joint or body) when the recursion cannot take it."""
-    kin = system_kinematics(system)
-    tree = tree_from_system(system, kin)
-    q, u = tuple(system.q), tuple(system.u)
-    t = me.dynamicsymbols._t
-    inputs, params = set(), set()
-    for e in tree_exprs(tree):
-        inputs |= {a for a in e.atoms(AppliedUndef) if a not in q and a not in u}
-        params |= {s for s in e.free_symbols if s != t}
-    nu = len(u)
-    formed = FormedSystem(method="tree", coordinates=q, speeds=u, n_dependent_coordinates=0,
-                          n_dependent_speeds=0, kinematics=sm.Matrix(kin),
-                          dynamics_matrix=sm.zeros(nu, nu), dynamics_rhs=sm.zeros(nu, 1),
-                          multipliers=(), holonomic_constraints=sm.Matrix(),
-                          velocity_constraints=sm.Matrix(),
-                          inputs=tuple(sorted(inputs, key=str)),
-                          parameters=tuple(sorted(params, key=lambda s: s.name)))
-    object.__setattr__(formed, "_tree", tree)     # found once, reused by the generator
+    tree = tree_from_system(system, system_kinematics(system))
+    formed = formed_of_tree(tree)     # the tree's coordinates and speeds are the System's
     return formed
 
 

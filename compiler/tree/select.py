@@ -31,7 +31,7 @@ from sympy.physics import mechanics as me
 from eomc.runtime.errors import EomcError, ModelError
 
 from ..mechanics.formed import FormedSystem
-from .formed import tree_exprs
+from .formed import formed_of_tree, tree_exprs
 from .model import NotATree
 from .recognize import tree_of
 
@@ -74,35 +74,19 @@ def kane_tree_formed(kane):
     loads and kinematic equations without asking for its formed equations, so that a lazily
     formed KanesMethod is never formed when the recursive formulation takes it.  NotATree
     when the recursion cannot take it."""
-    from sympy.core.function import AppliedUndef
     from .recognize import tree_from_kane
     t = me.dynamicsymbols._t
     try:
         qdot = kane.kindiffdict()
     except EomcError as exc:
         raise NotATree(str(exc)) from None
-    q, u = tuple(kane.q), tuple(kane.u)
     try:
-        kin = tuple(qdot[c.diff(t)] for c in q)
+        kin = tuple(qdot[c.diff(t)] for c in kane.q)
     except KeyError as exc:
         raise NotATree(f"no kinematic differential equation gives {exc.args[0]}") from None
     if not getattr(kane, "_bodylist", None):
         raise NotATree("the KanesMethod has no bodies (kanes_equations was not called)")
-    tree = tree_from_kane(kane, kin)
-    inputs, params = set(), set()
-    for e in tree_exprs(tree) + list(kin):
-        inputs |= {a for a in e.atoms(AppliedUndef) if a not in q and a not in u}
-        params |= {s for s in e.free_symbols if s != t}
-    nu = len(u)
-    formed = FormedSystem(method="tree", coordinates=q, speeds=u, n_dependent_coordinates=0,
-                          n_dependent_speeds=0, kinematics=sm.Matrix(kin),
-                          dynamics_matrix=sm.zeros(nu, nu), dynamics_rhs=sm.zeros(nu, 1),
-                          multipliers=(), holonomic_constraints=sm.Matrix(),
-                          velocity_constraints=sm.Matrix(),
-                          inputs=tuple(sorted(inputs, key=str)),
-                          parameters=tuple(sorted(params, key=lambda s: s.name)))
-    object.__setattr__(formed, "_tree", tree)
-    return formed
+    return formed_of_tree(tree_from_kane(kane, kin))   # the KanesMethod's q and u, in order
 
 
 def _find_tree(spec):
