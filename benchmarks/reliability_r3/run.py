@@ -18,7 +18,7 @@ and every case the report has that this run did not record is listed as "not run
 
 Usage:  python benchmarks/reliability_r3/run.py [--scratch DIR] [--lanes 3] [--script-timeout 1500]
         [--scale-timeout 120] [--only s4_events,s6_consistent]
-Writes S/work/attempts.jsonl, S/logs/<script>.log and S/scripts.json; prints where.  Then
+Writes S/work/attempts.jsonl, S/logs/<script>.log and S/logs/<script>.status; prints where.  Then
 `python benchmarks/reliability_r3/review.py S` prints the tables (see its docstring).
 Needs root for the `unshare -m` + bind/tmpfs mounts of s1 (F6), s7 and s8, as the report did.
 """
@@ -34,11 +34,12 @@ import time
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
+LOCK = threading.Lock()
 REPO = HERE.parent.parent
 
 # lanes: scripts in a lane run one after another; "after" waits for a script of another lane.
 LANES = [
-    ["s2_urdf", "s2b_urdf", "s2c_urdf", "s2d_cont", "s2f_scale"],
+    ["s2_urdf", "s2b_urdf", "s2c_urdf", "s2d_cont", "s2f_scale", "s2_urdf_retry"],
     ["s1_rerun", "s1b_f8", "s3_system", "verify_s3", "verify_gimbal", "s4_events", "s6_consistent",
      "s10_sanitize", "s10b_sanitize"],
     ["s5_inputs", "s7_travel", "s9_cache", "s9b_cache", "s9c_cache", "s11_handrun"],
@@ -70,9 +71,20 @@ def prepare(S):
     S = Path(S)
     (S / "work").mkdir(parents=True, exist_ok=True)
     (S / "logs").mkdir(exist_ok=True)
-    for name, target in (("venv", sys.prefix), ("eomc", str(REPO))):
-        if not (S / name).exists():
-            os.symlink(target, S / name)
+    if not (S / "eomc").exists():
+        os.symlink(str(REPO), S / "eomc")
+    # S/venv: the running venv's bin and lib, plus a `dask` command when the venv has none (a venv
+    # over system site-packages has dask importable but its console script elsewhere).
+    (S / "venv" / "bin").mkdir(parents=True, exist_ok=True)
+    for f in Path(sys.prefix).iterdir():   # pyvenv.cfg above all: without it S/venv/bin/python is the base
+        if f.name != "bin" and not (S / "venv" / f.name).exists():   # interpreter, with another eomc
+            os.symlink(f, S / "venv" / f.name)
+    for f in Path(sys.prefix, "bin").iterdir():
+        if not (S / "venv" / "bin" / f.name).exists():
+            os.symlink(f, S / "venv" / "bin" / f.name)
+    if not (S / "venv" / "bin" / "dask").exists():
+        (S / "venv" / "bin" / "dask").write_text(f'#!/bin/sh\nexec {sys.executable} -m dask "$@"\n')
+        (S / "venv" / "bin" / "dask").chmod(0o755)
     erd = erd_path()
     for f in HERE.iterdir():
         if f.suffix in (".py", ".tpl") and f.name not in ("run.py", "review.py"):
@@ -89,13 +101,17 @@ def run_script(S, name, timeout, scale_timeout, status):
     cmd += [str(S / "venv" / "bin" / "python"), "-u", name + ".py"]
     env = dict(os.environ, REL_LOG=str(S / "work" / "attempts.jsonl"), REL_SCALE_TIMEOUT=str(scale_timeout),
                PYTHONDONTWRITEBYTECODE="1")
+    jl = S / "work" / "attempts.jsonl"
+    if jl.exists():   # a rerun of one script replaces its earlier records
+        with LOCK:
+            keep = [l for l in jl.read_text().splitlines(True) if json.loads(l).get("script") != name + ".py"]
+            jl.write_text("".join(keep))
     t = time.time()
     with open(log, "w") as fh:
         rc = subprocess.run(cmd, cwd=S / "work", stdout=fh, stderr=subprocess.STDOUT, env=env).returncode
     status[name] = {"rc": rc, "seconds": round(time.time() - t, 1), "timed_out": rc in (124, 137)}
     print(f"[run] {name}: rc={rc} {time.time() - t:.0f}s (log {log})", flush=True)
-    (S / "scripts.json").write_text(json.dumps(dict(status, **{k: {"rc": None, "not_run": v}
-                                                               for k, v in NOT_RUN.items()}), indent=1))
+    (S / "logs" / f"{name}.status").write_text(json.dumps(status[name]))
 
 
 def main():
@@ -109,7 +125,10 @@ def main():
     S = prepare(a.scratch or tempfile.mkdtemp(prefix="eomc-rel-r3-"))
     print(f"[run] scratch {S}", flush=True)
     only = set(a.only.split(",")) if a.only else None
-    status, done = {}, {n: threading.Event() for lane in LANES for n in lane}
+    status = {}
+    for k, v in NOT_RUN.items():
+        (S / "logs" / f"{k}.status").write_text(json.dumps({"rc": None, "not_run": v}))
+    done = {n: threading.Event() for lane in LANES for n in lane}
 
     def lane(names):
         for n in names:
