@@ -70,7 +70,10 @@ class CpuProgress(driver.Progress):
         return _S()
 
 driver.Progress = CpuProgress       # compile() builds its own Progress: this one
-driver.compile(sys.argv[1], progress=False, output_dir=sys.argv[2])
+kw = {}
+if os.environ.get("EOMC_BENCH_FORMULATION"):      # the front-end rows: rhs only, one formulation
+    kw = dict(functions=["rhs"], formulation=os.environ["EOMC_BENCH_FORMULATION"])
+driver.compile(sys.argv[1], progress=False, output_dir=sys.argv[2], **kw)
 t = T
 print("STAGES", imports, t["derive_cpu"], t["generate_cpu"], t["compile_cpu"], t["load_cpu"])
 """
@@ -132,15 +135,23 @@ class _Children:
     wait4's rusage."""
 
     @staticmethod
-    def run(argv, cwd=None, env=None):
+    def run(argv, cwd=None, env=None, timeout=None):
+        import threading
         with tempfile.TemporaryFile("w+") as errfile:
             proc = subprocess.Popen(argv, cwd=cwd, env=env, stdout=subprocess.PIPE,
                                     stderr=errfile, text=True)
+            timer = threading.Timer(timeout, proc.kill) if timeout else None
+            if timer:
+                timer.start()
             out = proc.stdout.read()
             _, status, usage = os.wait4(proc.pid, 0)
+            if timer:
+                timer.cancel()
             errfile.seek(0)
             err = errfile.read()
         proc.returncode = os.waitstatus_to_exitcode(status)
+        if timeout and proc.returncode == -9:
+            raise subprocess.TimeoutExpired(argv, timeout)
         if proc.returncode != 0:
             raise RuntimeError(f"{' '.join(map(str, argv))} failed:\n{err}")
         return usage.ru_utime + usage.ru_stime, usage.ru_maxrss / 1024.0, out
@@ -162,6 +173,73 @@ def bicycle_stages(repeat, baseline=None):
                 stages = [float(v) for v in out.split("STAGES", 1)[1].split()]
                 rows[variant].append([cpu, rss] + stages)
     return {k: [statistics.median(col) for col in zip(*v)] for k, v in rows.items()}
+
+
+CART_CLASSIC = ROOT / "benchmarks" / "tree_models" / "cart_rel_kane.py"
+FRONT_END_TIMEOUT = 600
+
+
+def front_end(cases, repeat, baseline):
+    """Issue 19: cold `eomc build --formulation recursive --outputs rhs` of a System of joints
+    and of the classic frames-and-points file with ``kanes_equations``, in fresh processes
+    and caches, the current generator and (where feasible) ``baseline`` interleaved.
+    {(label, variant): [(cpu, rss, imports, derive, generate, compile, load), ...]}; a
+    baseline run that exceeds FRONT_END_TIMEOUT s is recorded as None."""
+    rows = {}
+    for _ in range(repeat):
+        for label, path, n, with_baseline in cases:
+            for variant in ("current", "baseline") if (baseline and with_baseline) else ("current",):
+                with tempfile.TemporaryDirectory(prefix="bsc_fe_") as tmp:
+                    env = dict(os.environ, EOMC_CACHE_DIR=os.path.join(tmp, "cache"),
+                               EOMC_N_LINKS=str(n), EOMC_BENCH_FORMULATION="recursive")
+                    argv = [sys.executable, "-c", STAGE_RUNNER, str(path), os.path.join(tmp, "out")]
+                    if variant == "baseline":
+                        argv.append(str(baseline))
+                    try:
+                        cpu, rss, out = _Children.run(argv, env=env, timeout=FRONT_END_TIMEOUT)
+                        stages = [float(v) for v in out.split("STAGES", 1)[1].split()]
+                        rows.setdefault((label, variant), []).append([cpu, rss] + stages)
+                    except subprocess.TimeoutExpired:
+                        rows.setdefault((label, variant), []).append(None)
+                print(label, variant, rows[(label, variant)][-1], flush=True)
+    return rows
+
+
+def front_end_table(rows, baseline):
+    out = []
+    for (label, variant), runs in rows.items():
+        done = [r for r in runs if r is not None]
+        name = "current" if variant == "current" else f"baseline {baseline}"
+        if not done:
+            out.append([label, name, f"> {FRONT_END_TIMEOUT} (killed)", "", "", "", "", "", len(runs)])
+            continue
+        cpu, rss, imports, derive, generate, compile_, load = [statistics.median(c) for c in zip(*done)]
+        out.append([label, name, f"{cpu:.2f}", f"{rss:.0f}", f"{imports:.2f}", f"{derive:.2f}",
+                    f"{generate:.2f}", f"{compile_ + load:.2f}", len(done)])
+    return format_table(["model", "generator", "total CPU s", "peak RSS MB", "imports",
+                         "derive (model file + tree)", "generate", "compile + load", "runs"], out)
+
+
+def main_front_end(args):
+    cases = []
+    for n in args.front_end:
+        cases.append((f"System of joints n={n}", CART_JOINTS, n, True))
+        # the classic file's own kanes_equations took 29 s at n = 40, > 7 min at n = 80
+        cases.append((f"frames and points + kanes_equations n={n}", CART_CLASSIC, n, n <= 40))
+    with tempfile.TemporaryDirectory(prefix="bsc_base_") as base:
+        baseline = extract(args.baseline, Path(base)) if args.baseline else None
+        rows = front_end(cases, args.repeat, baseline)
+    notes = ["each build: `eomc build MODEL --formulation recursive --outputs rhs` in a fresh process "
+             "and cache (the model file runs in 'derive'); medians of the runs",
+             "baseline: the older `eomc.compiler` and templates from `git archive` with today's "
+             "runtime and facade, interleaved with the current one; the classic file's baseline "
+             "at n > 40 is not run (its own kanes_equations alone took > 7 min)"]
+    text = [environment_header("Build scaling: the front end of the recursive formulation "
+                               "(issue 19)", args, notes),
+            "## Cold recursive builds, rhs only", "",
+            front_end_table(rows, args.baseline), ""]
+    print("\n".join(text))
+    write_results(args.out, "\n".join(text))
 
 
 def extract(commit, directory):
@@ -250,7 +328,13 @@ def main():
     ap.add_argument("--no-bicycle", action="store_true", help="skip the bicycle (stages and gcc)")
     ap.add_argument("--baseline", help="git commit whose generator the bicycle stages are compared "
                                        "with, in the same run (e.g. the commit before the speed-ups)")
+    ap.add_argument("--front-end", type=int, nargs="*",
+                    help="only the issue-19 front-end rows: cold recursive rhs builds of the System "
+                         "of joints and of the classic frames-and-points cart at these n (with "
+                         "--baseline: the older generator too, where it finishes in time)")
     args = ap.parse_args()
+    if args.front_end:
+        return main_front_end(args)
     from eomc.compiler.emit import split
     split.CHUNK = args.chunk or split.CHUNK
     split.SPLIT_MIN = args.split_min or split.SPLIT_MIN

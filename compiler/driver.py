@@ -12,7 +12,7 @@ import os
 import sys
 import time
 
-from eomc.runtime.errors import ModelError
+from eomc.runtime.errors import EomcError, ModelError
 from eomc.runtime.progress import ticker
 
 from .build import build, cache_root
@@ -104,11 +104,13 @@ def _with_poses(spec, functions):
 
 def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, functions=None,
              fold_parameters=False, progress=None, cache_dir=None, use_cache=True, events=None,
-             formulation="kane", states=None):
+             formulation="auto", states=None):
     """Derive and generate C without compiling: returns (ModelSpec, GeneratedModel).
 
-    ``formulation``: "kane" (formed A, b; numeric LDLᵀ), "recursive" (ABA/RNEA/CRBA
-    over the joint tree, eomc.compiler.tree) or "auto" (the cheaper rhs).
+    ``formulation``: "auto" (the default: the recursive form where it is cheaper, Kane's
+    where it is or where the recursion cannot take the system, with the reason in the
+    metadata's ``formulation_note``; see eomc.compiler.tree.select), "kane" (formed A, b;
+    numeric LDLᵀ) or "recursive" (ABA/RNEA/CRBA over the joint tree, eomc.compiler.tree).
     ``states``: {z: dz/dt} extra first-order states, appended to x after q and u (a
     System's musculotendons bring theirs without it).
 
@@ -122,17 +124,33 @@ def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, f
         functions = check_functions(functions)
     except Invalid as exc:
         raise ModelError(str(exc)) from None
-    with progress.stage("derive"):
+
+    def derive(form):
         spec = model_spec(system, name, parameters=parameters, inputs=inputs, outputs=outputs,
-                          events=events, formulation=formulation, states=states)
-        spec = _with_poses(spec, functions)
+                          events=events, formulation=form, states=states)
+        return _with_poses(spec, functions)
+    note = None
+    with progress.stage("derive"):
+        try:
+            spec = derive(formulation)
+        except EomcError as exc:
+            if formulation != "auto":
+                raise
+            # the tree was read but the model's variables do not fit it (e.g. a parameters
+            # dict without the inertias of the tree's bodies): Kane's form, or its own error
+            spec = derive("kane")
+            note = f"kane, the fallback (recursive formulation: {exc})"
     def run_generator():
-        return generate_formulation(spec, functions, fold_parameters, formulation)
+        generated = generate_formulation(spec, functions, fold_parameters, formulation,
+                                         kane_spec=lambda: derive("kane"))
+        if note is not None:
+            generated.metadata["formulation_note"] = note
+        return generated
     with progress.stage("generate"), reporting(progress.pass_done):
         if use_cache:
             generated, _ = cached_generate(spec, functions, fold_parameters, run_generator,
                                            cache_root(cache_dir),
-                                           extra=[formulation, tree_digest(spec)]
+                                           extra=[formulation, tree_digest(spec), note or ""]
                                            + ([] if spec.poses is None else pose_digest(spec.poses)))
         else:
             generated = run_generator()
@@ -141,10 +159,10 @@ def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, f
 
 def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, functions=None,
             fold_parameters=False, backend="cffi", cflags=None, cache_dir=None, output_dir=None,
-            progress=None, events=None, formulation="kane", states=None):
+            progress=None, events=None, formulation="auto", states=None):
     """Compile a model file (path) or a formed system into a loaded :class:`eomc.runtime.model.Model`.
 
-    ``formulation``: "kane" (default), "recursive" or "auto" (see :func:`generate`).
+    ``formulation``: "auto" (default), "kane" or "recursive" (see :func:`generate`).
 
     Progress (stage timings on stderr) defaults to on when stderr is a terminal.
     """

@@ -65,6 +65,14 @@ def _cffi_backend(ffi, lib, model_lib, c_model, name, functions):
                                                                prepare)
     if "linearize" in functions:
         kernels["linearize"] = _linearize_kernel(getattr(model_lib, f"{name}_linearize"), prepare)
+    if "regressor" in functions:   # (t, x, udot, p, r, out, work), as inverse_dynamics
+        kernels["regressor"] = _inverse_dynamics_kernel(getattr(model_lib, f"{name}_regressor"), prepare)
+    if "jvp" in functions:
+        fp_jvp = getattr(model_lib, f"{name}_jvp")
+        kernels["jvp"] = lambda t, x, p, r, k, dirs, xdot, out, work: fp_jvp(
+            t, frombuf("double[]", x), p, r, k, prepare(dirs), prepare(xdot), prepare(out), work)
+    if "jac_p" in functions:     # exported, not in the eomc_model struct (ABI unchanged)
+        kernels["jac_p"] = vector_kernel(getattr(model_lib, f"{name}_jac_p"))
     if "rhs" in kernels:
         many = lib.eomc_rhs_many
 
@@ -355,6 +363,21 @@ class Model:
             return np.empty((self.nx, 0))
         return self._matrix_call("jac_r", self.nx, self.ninput, t, x, p, r)
 
+    def jac_p(self, t, x, r=None, p=None):
+        """d rhs / d p, shape (nx, nparam): columns in ``param_names`` order.
+
+        Generated only on request (``functions`` including ``"jac_p"``, ``eomc build
+        --outputs ...,jac_p``).  Note the argument order (t, x, r, p), as the issue
+        asks; keywords work either way.  A parameter folded into literals
+        (``fold_parameters``) has no column.
+        """
+        if self.nparam == 0:
+            self._args(t, x, p, r)
+            return np.empty((self.nx, 0))
+        return self._matrix_call("jac_p", self.nx, self.nparam, t, x, p, r)
+
+    parameter_jacobian = jac_p
+
     def mass_matrix(self, t, x, p=None, r=None):
         """M(q), shape (nu, nu)."""
         return self._matrix_call("mass_matrix", self.nu, self.nu, t, x, p, r)
@@ -401,8 +424,62 @@ class Model:
             self._fail("inverse_dynamics", status, t, x, inputs=given)
         return tau
 
-    def linearize(self, t, x, p=None, r=None):
-        """(A, B) = (d rhs/d x, d rhs/d r) at an operating point."""
+    def jvp(self, t, x, directions, p=None, r=None):
+        """(xdot, J·d for each row d of ``directions``): rhs and its directional derivatives
+        along k directions in (state, parameter) space without forming J = d rhs/d[x; p].
+        ``directions``: (k, nx) (state directions) or (k, nx + nparam).  Both
+        formulations, on request (``functions`` including "jvp"); forward sensitivities use it."""
+        given = (p, r)
+        t, x, p, r = self._args(t, x, p, r)
+        kernel = self._kernel("jvp")
+        D = np.asarray(directions, dtype=np.float64)
+        if D.ndim == 1:
+            D = D[None, :]
+        if D.ndim == 2 and D.shape[1] == self.nx:
+            D = np.hstack([D, np.zeros((D.shape[0], self.nparam))])
+        D = self._array(D, (D.shape[0], self.nx + self.nparam), "directions (k rows of nx or nx + nparam)")
+        xdot, out = np.empty(self.nx), np.empty((D.shape[0], self.nx))
+        status = kernel(t, x, p, r, D.shape[0], D.reshape(-1), xdot, out.reshape(-1), self._work()[1])
+        if status:
+            self._fail("jvp", status, t, x, inputs=given)
+        return xdot, out
+
+    def regressor(self, q, u, udot, p=None, t=0.0):
+        """Y(q, u, u'), shape (nu, 10 * bodies), with inverse dynamics = Y @ pi at zero inputs.
+
+        pi holds 10 numbers per body (``regressor_columns`` names them): mass, first
+        moments m·c and the inertia about the body's reference point (its link frame
+        for a URDF robot, as Pinocchio's ``computeJointTorqueRegressor``; else its mass
+        centre), in Pinocchio's order.  Recursive formulation, on request
+        (``functions`` including "regressor").  ``p`` only places the joints (the
+        inertial parameters do not enter Y).
+        """
+        kernel = self._kernel("regressor")
+        q = self._array(q, (self.nq,), "q (coordinates)", self.state_names[:self.nq])
+        u = self._array(u, (self.nu,), "u (speeds)", self.state_names[self.nq:])
+        # extra first-order states (after q and u) do not enter the regressor: zeros
+        t, x, pp, r = self._args(t, np.concatenate([q, u, np.zeros(self.nx - self.nq - self.nu)]), p, None)
+        udot = self._array(udot, (self.nu,), "udot (speed derivatives)", self.state_names[self.nq:])
+        out = np.empty((self.nu, 10 * len(self.metadata.get("regressor_bodies", ()))))
+        status = kernel(t, x, udot, pp, r, out.reshape(-1), self._work()[1])
+        if status:
+            self._fail("regressor", status, t, x, inputs=(p, None))
+        return out
+
+    @property
+    def regressor_columns(self):
+        """Names of the regressor's columns: ``<parameter>_<body>`` (see :meth:`regressor`)."""
+        names = self.metadata.get("regressor_parameters", ())
+        return tuple(f"{k}_{b}" for b in self.metadata.get("regressor_bodies", ()) for k in names)
+
+    def linearize(self, t, x, p=None, r=None, parameters=False):
+        """(A, B) = (d rhs/d x, d rhs/d r) at an operating point; with ``parameters=True``
+        (A, B, P), P = d rhs/d p (the model must have been built with jac_p)."""
+        if parameters:
+            if self.nparam and "jac_p" not in self._kernels:
+                raise self._missing("jac_p")
+            A, B = self.linearize(t, x, p, r)
+            return A, B, self.jac_p(t, x, r=r, p=p)
         if "linearize" not in self._kernels:
             return self.jacobian(t, x, p, r), self.input_jacobian(t, x, p, r)
         given = (p, r)

@@ -39,6 +39,12 @@ class SimulationResult:
     t_events: dict = None   # event name -> times of its occurrences (runs with events)
     x_events: dict = None   # event name -> states there, (k, nx)
     event_stop: str = None  # the terminal event that ended the run, if one did
+    # simulate(..., sensitivities=...) (runtime/sensitivity.py): d x(t) / d x0[chosen states],
+    # (n_t, nx, len(sensitivity_states)), and d x(t) / d p[chosen parameters]
+    dx_dx0: np.ndarray = None
+    dx_dp: np.ndarray = None
+    sensitivity_states: tuple = None
+    sensitivity_params: tuple = None
     # the model, parameters and constant inputs of the run (Model.simulate sets them): poses/animate
     model: object = field(default=None, repr=False, compare=False)
     p: object = field(default=None, repr=False, compare=False)

@@ -19,7 +19,7 @@ from .toolchain import run_compiler
 __all__ = ["extension_key_inputs", "build_extension"]
 
 _TEMPLATE = "model.pyx.j2"
-_VECTOR_FUNCTIONS = ("rhs", "jac_x", "jac_r", "mass_matrix", "forcing", "outputs",
+_VECTOR_FUNCTIONS = ("rhs", "jac_x", "jac_r", "jac_p", "mass_matrix", "forcing", "outputs",
                      "constraints", "constraints_jac")
 
 

@@ -13,7 +13,7 @@ from .signatures import SIGNATURES
 __all__ = ["BodyContext", "extra_state_rows", "plain_body", "solved_plain_body", "rhs_body", "jacobian_body", "tangent_jacobian_body",
            "helper_jacobian_body", "needed_assignments",
            "linearize_body", "split_on", "dynamics_helper", "matrix_body",
-           "void_unused"]
+           "void_unused", "jvp_body"]
 
 _IND = "    "
 
@@ -244,7 +244,8 @@ def _solve_columns(ctx, program, pr, ncols, kin_group, g_group):
     kvals = program.result_exprs(kin_group)
     lines += [_store(f"out[{i * ncols + k}]", kvals.get((kin_group, i, k), 0.0), pr)
               for i in range(nq) for k in range(ncols)]
-    lines += extra_state_rows(ctx, program, pr, "dzd" if kin_group == "dkin" else "dzd_r", "out", ncols)
+    zgroup = {"dkin": "dzd", "dkin_r": "dzd_r", "dkin_p": "dzd_p"}[kin_group]
+    lines += extra_state_rows(ctx, program, pr, zgroup, "out", ncols)
     return lines + [f"{_IND}for (k = 0; k < {ncols}; k++) {{",
                     f"{_IND * 2}{ctx.solver.solve_call(f'G + k * {nw}')};",
                     f"{_IND * 2}for (i = 0; i < {nu}; i++) out[({nq} + i) * {ncols} + k] = G[k * {nw} + i];",
@@ -324,3 +325,93 @@ def void_unused(function, lines, signature=None):
     signature = SIGNATURES[function] if signature is None else signature
     unused = [a for _, a in signature if not re.search(rf"\b{a}\b", text)]
     return "\n".join([f"{_IND}(void){a};" for a in unused] + lines)
+
+
+def jvp_body(ctx, program, W, seeds, nx, npar, blocks):
+    """xdot and k directional derivatives J·d (J = d xdot/d[x; p]) in one call, for forward
+    sensitivities: A and b are evaluated and factored once, then per direction the
+    residual's tangent along d's state part (the looped jac_x's tangent programs,
+    ``blocks``, with the seed array pointing at the direction) or, for few states, the
+    unrolled columns G times it, plus the unrolled parameter columns times d's parameter
+    part, and one solve.  J itself is never formed.  The parameter columns are computed
+    only when some direction has a nonzero parameter part.
+
+    ``dirs``: k rows of nx + nparam (state part, then parameter part); ``out``: k rows of nx.
+    """
+    nw, nq, nu = ctx.nw, ctx.nq, ctx.nu
+    nd = nx + npar
+    pr = ctx.printer(program)
+    gp = program.result_exprs("Gp")
+    kp = program.result_exprs("dkin_p")
+    zp = program.result_exprs("dzd_p")      # the extra first-order states' rows
+    zfirst = ctx.nq + ctx.nu
+    kp.update(((("dkin_p", zfirst + key[1], key[2]), e) for key, e in zp.items()))
+    pexprs = list(gp.values()) + list(kp.values())
+    others = [e for key, e in program.results if key[0] not in ("Gp", "dkin_p", "dzd_p")]
+    p_only = ({t for t, _ in needed_assignments(program.assignments, pexprs)}
+              - {t for t, _ in needed_assignments(program.assignments, others)})
+    main = program.with_(assignments=tuple(a for a in program.assignments if a[0] not in p_only))
+    before, rest = split_on(main, W + seeds)
+    stage2, stage3 = split_on(main.with_(assignments=tuple(rest)), seeds)
+    gp_nz = sorted(k for k, e in gp.items() if e != 0)
+    kp_nz = sorted(k for k, e in kp.items() if e != 0)
+    extra = [f"double G[{nw}];", "const double *dx;", "int i, d;"]
+    if gp_nz or kp_nz:
+        extra += ["const double *dp;", f"double Gp[{max(1, len(gp_nz) + len(kp_nz))}] = {{0.0}};", "int anyp = 0;"]
+    lines = _solver_decls(ctx, extra)
+    lines += _temps(program, pr, before)
+    lines += _load_dynamics(ctx, program, pr)
+    lines += _temps(program, pr, stage2)
+    kin = program.result_exprs("kin")
+    lines += [_store(f"xdot[{i}]", kin.get(("kin", i), 0.0), pr) for i in range(nq)]
+    lines += [f"{_IND}xdot[{nq + i}] = w[{i}];" for i in range(nu)]
+    lines += extra_state_rows(ctx, program, pr, "zd", "xdot")
+    slot = {key: j for j, key in enumerate(gp_nz + kp_nz)}
+    if slot:
+        lines += [f"{_IND}for (d = 0; d < k && !anyp; d++)",
+                  f"{_IND * 2}for (i = 0; i < {npar}; i++) if (dirs[(size_t)d * {nd} + {nx} + i] != 0.0) anyp = 1;",
+                  f"{_IND}if (anyp) {{"]
+        inner = [a for a in program.assignments if a[0] in p_only]
+        lines += [_IND + line for line in _temps(program, pr, inner)]
+        lines += [_IND + _store(f"Gp[{slot[key]}]", (gp if key[0] == "Gp" else kp)[key], pr) for key in slot]
+        lines.append(f"{_IND}}}")
+    kvals = program.result_exprs("dkin")
+    kvals.update(((("dkin", zfirst + key[1], key[2]), e) for key, e in program.result_exprs("dzd").items()))
+    body = []
+    if blocks:
+        first = True
+        for group, _, _ in blocks:
+            gvals = program.result_exprs(group)
+            inner = needed_assignments(stage3, gvals.values())
+            body += ["{"] + [line[len(_IND):] if line.startswith(_IND) else line
+                             for line in _temps(program, pr, inner)]
+            op = "=" if first else "+="
+            body += [f"G[{i}] {op} {pr.doprint(gvals.get((group, i), 0.0))};" for i in range(nw)]
+            body.append("}")
+            first = False
+    else:
+        gvals = program.result_exprs("G")
+        for i in range(nw):
+            terms = [f"({pr.doprint(gvals[('G', i, k)])}) * dx[{k}]" for k in range(nx)
+                     if gvals.get(("G", i, k), 0) != 0]
+            body.append(f"G[{i}] = {' + '.join(terms) or '0.0'};")
+    if slot:
+        body.append("if (anyp) {")
+        body.append(f"{_IND}dp = dx + {nx};")
+        body += [f"{_IND}G[{key[1]}] += Gp[{slot[key]}] * dp[{key[2]}];" for key in gp_nz]
+        body.append("}")
+    body.append(f"{ctx.solver.solve_call('G')};")
+    for i in list(range(nq)) + list(range(zfirst, nx)):     # q rows, then the extra states' rows
+        terms = [f"({pr.doprint(kvals[('dkin', i, k)])}) * dx[{k}]" for k in range(nx)
+                 if kvals.get(("dkin", i, k), 0) != 0]
+        terms += [f"(anyp ? Gp[{slot[key]}] * dx[{nx + key[2]}] : 0.0)" for key in kp_nz if key[1] == i]
+        body.append(f"out[(size_t)d * {nx} + {i}] = {' + '.join(terms) or '0.0'};")
+    body.append(f"for (i = 0; i < {nu}; i++) out[(size_t)d * {nx} + {nq} + i] = G[i];")
+    lines.append(f"{_IND}for (d = 0; d < k; d++) {{")
+    lines.append(f"{_IND * 2}dx = dirs + (size_t)d * {nd};")
+    lines += [_IND * 2 + line for line in body]
+    lines.append(f"{_IND}}}")
+    lines.append(f"{_IND}status = {ctx.name}_finite(xdot, {nx});")
+    lines.append(f"{_IND}if (status != EOMC_OK || k <= 0) return status;")
+    lines.append(f"{_IND}return {ctx.name}_finite(out, k * {nx});")
+    return lines

@@ -1,5 +1,6 @@
 """``generate_c``: a FormedSystem to C99 source, header, cffi cdef and metadata."""
 from collections import Counter
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import jinja2
@@ -7,22 +8,23 @@ import jinja2
 from eomc.runtime.errors import ModelError
 from ..passes import finish_function, optimize_shared
 from ..ir import count_program, format_program, verify
-from .bodies import (BodyContext, dynamics_helper, helper_jacobian_body, matrix_body, needed_assignments, split_on, jacobian_body,
+from .bodies import (BodyContext, dynamics_helper, helper_jacobian_body, jvp_body, matrix_body, needed_assignments, split_on, jacobian_body,
                      linearize_body, plain_body, rhs_body, solved_plain_body, tangent_jacobian_body,
                      void_unused)
 from .generated import GeneratedModel
 from .layout import check_identifier, make_layout
 from .linsolve import choose_ldlt
+from .printer import NonFiniteLiteral
 from .sparse_lu import sparse_lu_solver
 from .split import NOINLINE_MACRO, split_body
-from .signatures import FUNCTION_ORDER, STRUCT_FIELDS, cdef, prototype
+from .signatures import FUNCTION_ORDER, ON_REQUEST, STRUCT_FIELDS, cdef, prototype
 from .symbolic import FUNCTION_GROUPS, HELPER_USERS, build_symbolic
 
 __all__ = ["generate_c", "lower", "ir_listing", "Lowered", "ALL_FUNCTIONS"]
 
 ALL_FUNCTIONS = FUNCTION_ORDER
 _ALIASES = {"jacobian": "jac_x"}
-_SOLVING = ("rhs", "jac_x", "jac_r")
+_SOLVING = ("rhs", "jac_x", "jac_r", "jac_p", "jvp")
 
 
 def _eomc_version():
@@ -33,9 +35,10 @@ def _eomc_version():
         return "0+unknown"
 
 
-def _select(functions, ninput, noutput, ncon, nevent=0, has_poses=False):
-    """Requested functions that apply to this model, in canonical order."""
-    wanted = set(ALL_FUNCTIONS if functions is None else
+def _select(functions, ninput, noutput, ncon, nevent=0, has_poses=False, nparam=None):
+    """Requested functions that apply to this model, in canonical order (``functions=None``:
+    all but the ones generated only on request: jac_p, jvp, regressor)."""
+    wanted = set((f for f in ALL_FUNCTIONS if f not in ON_REQUEST) if functions is None else
                  (_ALIASES.get(f, f) for f in functions))
     unknown = sorted(wanted - set(ALL_FUNCTIONS))
     if unknown:
@@ -43,7 +46,7 @@ def _select(functions, ninput, noutput, ncon, nevent=0, has_poses=False):
                          f"choose from {', '.join(ALL_FUNCTIONS)}")
     if "linearize" in wanted:
         wanted |= {"jac_x", "jac_r"}
-    absent = {"jac_r": ninput == 0, "outputs": noutput == 0,
+    absent = {"jac_r": ninput == 0, "jac_p": nparam == 0, "outputs": noutput == 0,
               "constraints": ncon == 0, "constraints_jac": ncon == 0, "events": nevent == 0,
               "poses": not has_poses}
     return tuple(f for f in ALL_FUNCTIONS if f in wanted and not absent.get(f, False))
@@ -63,10 +66,15 @@ def _body(fn, ctx, prog, sym, layout, nx, functions, recursive=False):
     if recursive and fn in ("mass_matrix", "forcing", "inverse_dynamics"):
         from ..tree.emit import tree_matrix_body
         return tree_matrix_body(ctx, prog, fn)
-    if recursive and fn in ("jac_x", "jac_r"):
+    if recursive and fn == "jvp":
+        from ..tree.derivatives import solve_symbols
+        from ..tree.jvp import tree_jvp_body
+        return tree_jvp_body(ctx, prog, sym.W, solve_symbols(ctx.nu), sym.seeds, nx, len(layout.p))
+    if recursive and fn in ("jac_x", "jac_r", "jac_p"):
         from ..tree.derivatives import solve_symbols
         from ..tree.emit import tree_jacobian_body
-        return tree_jacobian_body(ctx, prog, sym.W, solve_symbols(ctx.nu), sym.seeds, fn, nr)
+        return tree_jacobian_body(ctx, prog, sym.W, solve_symbols(ctx.nu), sym.seeds, fn,
+                                  len(layout.p) if fn == "jac_p" else nr)
     if fn == "rhs":
         return rhs_body(ctx, prog)
     if fn in ("mass_matrix", "forcing", "inverse_dynamics"):
@@ -77,16 +85,27 @@ def _body(fn, ctx, prog, sym, layout, nx, functions, recursive=False):
         return jacobian_body(ctx, prog, sym.W, nx, "dkin", "G")
     if fn == "jac_r":
         return helper_jacobian_body(ctx, prog, sym.W, nr, "dkin_r", "Gr")
+    if fn == "jvp":
+        return jvp_body(ctx, prog, sym.W, sym.seeds, nx, len(layout.p),
+                        _tangent_blocks(ctx) if _tangent(prog) else ())
+    if fn == "jac_p":
+        return helper_jacobian_body(ctx, prog, sym.W, len(layout.p), "dkin_p", "Gp")
     if fn == "linearize":
         return linearize_body(ctx, "jac_r" in functions)
     shapes = {"outputs": ("out", (len(sym.output_names),), "out"),
               "events": ("ev", (len(sym.event_names),), "out"),
               "constraints": ("con", (sym.nhol + sym.nvel,), "out"),
-              "constraints_jac": ("dcon", (sym.nhol + sym.nvel, nx), "out")}
+              "constraints_jac": ("dcon", (sym.nhol + sym.nvel, nx), "out"),
+              "regressor": ("Y", (nu_of(sym), 10 * len(sym.regressor_bodies)), "out")}
     group, shape, out = shapes[fn]
     if fn in sym.solve_in:
         return solved_plain_body(ctx, prog, group, shape, out)
     return plain_body(ctx, prog, group, shape, out)
+
+
+def nu_of(sym):
+    """Speeds: the unknowns of the dynamics solve that are not multipliers."""
+    return len(sym.UD)
 
 
 def _tangent(prog):
@@ -119,17 +138,17 @@ def _tangent_ops(prog, seeds, blocks):
 
 
 def _ops(fn, prog, solver, nx, nr, seeds=(), helper=None, nu=0, nnz=0, solve_in=(), recursive=False,
-         W=(), nq=None):
+         W=(), npar=0, nq=None):
     c = count_program(prog) if prog is not None else Counter()
     if fn == "linearize":
         return None
-    if recursive and fn in ("rhs", "mass_matrix", "forcing", "inverse_dynamics") and fn not in solve_in:
+    if recursive and fn in ("rhs", "mass_matrix", "forcing", "inverse_dynamics", "jvp") and fn not in solve_in:
         return {k: int(c.get(k, 0)) for k in ("adds", "muls", "divs", "calls")}
-    if recursive and fn in ("jac_x", "jac_r"):
+    if recursive and fn in ("jac_x", "jac_r", "jac_p"):
         from ..tree.derivatives import solve_symbols
         from ..tree.emit import tree_jacobian_ops
         return tree_jacobian_ops(prog, W, solve_symbols(nu), seeds, fn, nx - nu if nq is None else nq,
-                                 nx, nr)
+                                 nx, npar if fn == "jac_p" else nr)
     if fn in HELPER_USERS or fn in solve_in:
         c += count_program(helper)
     if fn in solve_in:
@@ -138,9 +157,12 @@ def _ops(fn, prog, solver, nx, nr, seeds=(), helper=None, nu=0, nnz=0, solve_in=
         c += Counter(muls=nnz, adds=nnz)
     if fn == "jac_x" and _tangent(prog):
         c = _tangent_ops(prog, seeds, _tangent_blocks(None, nq=nx - nu if nq is None else nq, nx=nx))
+    if fn == "jvp" and _tangent(prog):   # the tangents once (one direction), not per column
+        c = count_program(prog)
     if fn in _SOLVING:
         c += solver.factor_ops
-        nsolve = 1 + {"rhs": 0, "jac_x": nx, "jac_r": nr}[fn]
+        # jvp: per direction; its count is xdot and one direction
+        nsolve = 1 + {"rhs": 0, "jac_x": nx, "jac_r": nr, "jac_p": npar, "jvp": 1}[fn]
         for _ in range(nsolve):
             c += solver.solve_ops
     return {k: int(c.get(k, 0)) for k in ("adds", "muls", "divs", "calls")}
@@ -198,7 +220,11 @@ def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions
             for s in getattr(e, "free_symbols", ())}
     layout = make_layout(formed, parameters, inputs, fold_parameters, uses)
     ncon = len(formed.holonomic_constraints) + len(formed.velocity_constraints)
-    fns = _select(functions, len(layout.r), len(outputs or {}), ncon, len(events or {}), poses is not None)
+    fns = _select(functions, len(layout.r), len(outputs or {}), ncon, len(events or {}), poses is not None,
+                  len(layout.p))
+    if "regressor" in fns and tree is None:
+        raise ModelError("the inverse-dynamics regressor is generated by the recursive formulation "
+                         "only: build with formulation='recursive' (--formulation recursive)")
     groups, helper_users = FUNCTION_GROUPS, HELPER_USERS
     base = tuple(f for f in fns if f != "poses")   # poses: appended below
     if tree is None:
@@ -261,20 +287,21 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
     slots.update({s: f"dx[{j}]" for j, s in enumerate(sym.seeds)})
     ctx = BodyContext(name, nq, nu, nw, solver, slots, sym.symmetric, sym.pattern)
     ctx.nz = nx - nq - nu
-    helper = dynamics_helper(ctx, low.helper) if low.helper is not None else ""
+    with _naming_nonfinite(name, "dynamics helper (the mass matrix and forcing)"):
+        helper = dynamics_helper(ctx, low.helper) if low.helper is not None else ""
     rendered, op_counts = [], {}
     for fn in fns:
         prog = low.programs[fn]
-        body = (plain_body(ctx, prog, "pose", (low.poses["size"],), "out") if fn == "poses" else
-                _body(fn, ctx, prog, sym, layout, nx, fns, recursive))
-        lines, parts = split_body(body,
-                                  f"{name}_{fn}_part")
+        with _naming_nonfinite(name, fn):
+            body = (plain_body(ctx, prog, "pose", (low.poses["size"],), "out") if fn == "poses" else
+                    _body(fn, ctx, prog, sym, layout, nx, fns, recursive))
+        lines, parts = split_body(body, f"{name}_{fn}_part")
         ctx.split = ctx.split or bool(parts)
         rendered.append({"prototype": prototype(name, fn), "body": void_unused(fn, lines),
                          "parts": parts})
         op_counts[fn] = _ops(fn, prog, solver, nx, len(layout.r), sym.seeds, low.helper, nu,
                              sum(1 for i, j in sym.pattern if i < nu and j < nu), sym.solve_in,
-                             recursive, sym.W, nq)
+                             recursive, sym.W, len(layout.p), nq)
     if "poses" in fns:   # the number of doubles NAME_poses writes (the loader checks NAME.json by it)
         from .poses import pose_metadata
         rendered.append({"prototype": f"int {name}_pose_count(void)",
@@ -288,9 +315,27 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
         meta["events"] = [by_name.get(n, {"name": n, "terminal": 0, "direction": 0})
                           for n in sym.event_names]
     meta["formulation"] = low.formulation
+    if "regressor" in fns:
+        from ..tree.regressor import PI_NAMES
+        meta["regressor_bodies"] = list(sym.regressor_bodies)
+        meta["regressor_reference"] = list(sym.regressor_reference)
+        meta["regressor_parameters"] = list(PI_NAMES)
     if low.poses is not None:
         meta["poses"] = pose_metadata(low.poses)
     return _render(name, meta, fns, rendered, solver, layout, sym, helper, ctx.split)
+
+
+@contextmanager
+def _naming_nonfinite(name, fn):
+    """The C printer's last guard, as a ModelError naming the function: a NaN or infinite
+    constant is never written into generated C (the callers check the model's expressions
+    first and name the load, body or output; this catches what lowering itself produced)."""
+    try:
+        yield
+    except NonFiniteLiteral as exc:
+        raise ModelError(f"{name}_{fn} would compute the constant {exc} (a NaN or infinite "
+                         f"literal in the generated C): an expression of the model evaluates to "
+                         f"nan, zoo or oo; no C was written") from None
 
 
 def _metadata(name, formed, layout, sym, fns, op_counts):

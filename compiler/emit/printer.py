@@ -12,7 +12,13 @@ import sympy as sm
 from sympy.printing.c import C99CodePrinter
 from sympy.printing.precedence import PRECEDENCE
 
-__all__ = ["CPrinter"]
+__all__ = ["CPrinter", "NonFiniteLiteral"]
+
+
+class NonFiniteLiteral(ValueError):
+    """A NaN or infinite constant reached the printer; generate_c turns it into a ModelError
+    naming the function (C99 has no portable literal for them, and a model that computes a
+    constant NaN is wrong: eomc refuses it rather than compile it)."""
 
 
 class CPrinter(C99CodePrinter):
@@ -31,8 +37,16 @@ class CPrinter(C99CodePrinter):
     def _print_Float(self, expr):
         text = repr(float(expr))
         if "inf" in text or "nan" in text:
-            raise ValueError(f"non-finite literal {expr} in generated code")
+            raise NonFiniteLiteral(text)
         return text if ("." in text or "e" in text) else text + ".0"
+
+    def _refuse(self, expr):
+        raise NonFiniteLiteral(str(expr))
+
+    _print_NaN = _refuse
+    _print_Infinity = _refuse
+    _print_NegativeInfinity = _refuse
+    _print_ComplexInfinity = _refuse
 
     def _print_Integer(self, expr):
         return f"{int(expr)}.0"

@@ -1,6 +1,6 @@
 """The one table of generated C signatures: header, definitions and cffi cdef all come from it."""
 
-__all__ = ["SIGNATURES", "FUNCTION_ORDER", "STRUCT_FIELDS", "prototype", "cdef"]
+__all__ = ["SIGNATURES", "FUNCTION_ORDER", "ON_REQUEST", "STRUCT_FIELDS", "prototype", "cdef"]
 
 _RHS = (("double", "t"), ("const double *", "x"), ("const double *", "p"),
         ("const double *", "r"))
@@ -9,6 +9,7 @@ SIGNATURES = {
     "rhs": _RHS + (("double *", "xdot"), ("double *", "work")),
     "jac_x": _RHS + (("double *", "out"), ("double *", "work")),
     "jac_r": _RHS + (("double *", "out"), ("double *", "work")),
+    "jac_p": _RHS + (("double *", "out"), ("double *", "work")),
     "mass_matrix": _RHS + (("double *", "out"), ("double *", "work")),
     "forcing": _RHS + (("double *", "out"), ("double *", "work")),
     "outputs": _RHS + (("double *", "out"), ("double *", "work")),
@@ -17,14 +18,23 @@ SIGNATURES = {
     "inverse_dynamics": (("double", "t"), ("const double *", "x"), ("const double *", "udot"),
                          ("const double *", "p"), ("const double *", "r"),
                          ("double *", "tau"), ("double *", "work")),
+    "regressor": (("double", "t"), ("const double *", "x"), ("const double *", "udot"),
+                  ("const double *", "p"), ("const double *", "r"),
+                  ("double *", "out"), ("double *", "work")),
+    "jvp": _RHS + (("int", "k"), ("const double *", "dirs"), ("double *", "xdot"), ("double *", "out"),
+                   ("double *", "work")),
     "linearize": _RHS + (("double *", "A"), ("double *", "B"), ("double *", "work")),
     "events": _RHS + (("double *", "out"), ("double *", "work")),
     # body frames' positions and rotations, named points' positions (compiler/emit/poses.py)
     "poses": _RHS + (("double *", "out"), ("double *", "work")),
 }
 
-FUNCTION_ORDER = ("rhs", "jac_x", "jac_r", "mass_matrix", "forcing", "inverse_dynamics",
-                  "outputs", "constraints", "constraints_jac", "linearize", "events", "poses")
+FUNCTION_ORDER = ("rhs", "jac_x", "jac_r", "jac_p", "mass_matrix", "forcing", "inverse_dynamics",
+                  "outputs", "constraints", "constraints_jac", "linearize", "events", "poses", "regressor",
+                  "jvp")
+
+# Generated only on request (``functions`` naming them), not by default.
+ON_REQUEST = ("jac_p", "regressor", "jvp")
 
 # eomc_model fields holding function pointers (the rest are exported only).
 STRUCT_FIELDS = ("rhs", "jac_x", "jac_r", "mass_matrix", "forcing", "outputs",

@@ -33,14 +33,16 @@ TANGENT_MIN_STATES = 12
 # jac_r is one: its columns A⁻¹ ∂(b − A·W)/∂r need A but only the few
 # temporaries of ∂/∂r, so it calls the helper instead of repeating A's code.
 # (jac_x does not: its columns need most of A's and b's temporaries anyway.)
-HELPER_USERS = ("rhs", "mass_matrix", "forcing", "inverse_dynamics", "jac_r")
+# jac_p (d xdot / d parameters) is built as jac_r is, with the parameters' directions.
+HELPER_USERS = ("rhs", "mass_matrix", "forcing", "inverse_dynamics", "jac_r", "jac_p")
 
 # zd: z' of the extra first-order states (FormedSystem.extra_states), explicit like the
-# kinematics; dzd / dzd_r: its rows of jac_x / jac_r.
+# kinematics; dzd / dzd_r / dzd_p: its rows of jac_x / jac_r / jac_p.
 FUNCTION_GROUPS = {
     "rhs": ("kin", "zd"),            # + the dynamics helper (A, b)
     "jac_x": ("A", "b", "dkin", "G", "Gtq", "Gtu", "dzd"),
     "jac_r": ("dkin_r", "Gr", "dzd_r"),   # + the dynamics helper (A, b)
+    "jac_p": ("dkin_p", "Gp", "dzd_p"),   # + the dynamics helper (A, b)
     "mass_matrix": (),                # the dynamics helper only
     "forcing": (),
     "inverse_dynamics": (),
@@ -49,6 +51,9 @@ FUNCTION_GROUPS = {
     "constraints_jac": ("dcon",),
     "linearize": (),
     "events": ("ev",),
+    "regressor": (),        # recursive formulation only (compiler/tree/regressor.py)
+    # xdot and J·d, d = [dx; dp] given (sensitivities): state tangents, parameter columns
+    "jvp": ("A", "b", "kin", "dkin", "G", "Gtq", "Gtu", "dkin_p", "Gp", "zd", "dzd", "dzd_p"),
 }
 
 
@@ -68,6 +73,8 @@ class Symbolic:
     output_names: tuple
     event_names: tuple = ()
     solve_in: tuple = ()    # outputs/events that read u' or multipliers: they solve A w = b first
+    regressor_bodies: tuple = ()     # column blocks of the regressor (recursive formulation)
+    regressor_reference: tuple = ()  # per block: "link frame" or "mass centre"
 
 
 def _is_symmetric(A, seed=0):
@@ -194,26 +201,30 @@ def build_symbolic(formed, layout, functions, outputs=None, events=None, *, dyna
     UD = tuple(sm.Symbol(f"ud_{j}", real=True) for j in range(nu))
     res = []
     derivatives = []
-    if "dkin" in groups or "dkin_r" in groups:
+    if "dkin" in groups or "dkin_r" in groups or "dkin_p" in groups:
         groups.add("kin")
         if "dkin" in groups:
             derivatives.append(("kin", layout.x, "dkin"))
         if "dkin_r" in groups:
             derivatives.append(("kin", layout.r, "dkin_r"))
+        if "dkin_p" in groups:
+            derivatives.append(("kin", layout.p, "dkin_p"))
     if "kin" in groups:
         res += [(("kin", i), e) for i, e in enumerate(kin)]
     zd = _extra_rates(formed, layout)
-    if zd and groups & {"zd", "dzd", "dzd_r"}:
+    if zd and groups & {"zd", "dzd", "dzd_r", "dzd_p"}:
         res += [(("zd", i), e) for i, e in enumerate(zd)]
         if "dzd" in groups:
             derivatives.append(("zd", layout.x, "dzd"))
         if "dzd_r" in groups:
             derivatives.append(("zd", layout.r, "dzd_r"))
+        if "dzd_p" in groups:
+            derivatives.append(("zd", layout.p, "dzd_p"))
     if "A" in groups:
         res += [(("A", i, j), A[i, j]) for (i, j) in sorted(pattern) if not symmetric or i >= j]
     if "b" in groups:
         res += [(("b", i), e) for i, e in enumerate(b)]
-    if "G" in groups or "Gr" in groups:
+    if "G" in groups or "Gr" in groups or "Gp" in groups:
         res += [(("res", i), b[i] - sm.Add(*[A[i, j] * W[j] for j in range(nw) if (i, j) in pattern]))
                 for i in range(nw)]
         if "G" in groups and len(layout.x) > TANGENT_MIN_STATES:
@@ -224,6 +235,8 @@ def build_symbolic(formed, layout, functions, outputs=None, events=None, *, dyna
             derivatives.append(("res", layout.x, "G"))
         if "Gr" in groups:
             derivatives.append(("res", layout.r, "Gr"))
+        if "Gp" in groups:
+            derivatives.append(("res", layout.p, "Gp"))
     if "out" in groups:
         res += [(("out", i), e) for i, e in enumerate(outs)]
     if "ev" in groups:

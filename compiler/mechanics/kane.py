@@ -28,6 +28,13 @@ Differences from SymPy 1.14, on purpose:
 * Bad input raises :class:`eomc.runtime.errors.ModelError` naming the culprit.
 * Accelerations set explicitly on points/frames (``set_acc``) are not used:
   accelerations are always the time derivatives of the velocities.
+* ``kanes_equations`` records the bodies and loads and forms the equations on
+  first use of any result (``fr``, ``frstar``, ``mass_matrix``, ``forcing``,
+  ``formed()``, unpacking its return value, ...), which then is exactly what
+  forming at once gives.  A model file that calls it only to hand the method to
+  the compiler pays nothing when the recursive formulation reads the tree from
+  the recorded bodies and loads instead (minutes at 80 bodies).  Errors that
+  forming finds (a load on a point without a velocity) surface at that first use.
 """
 import sympy as sm
 from sympy.physics.mechanics import ReferenceFrame
@@ -38,7 +45,7 @@ from eomc.runtime.errors import ModelError
 from .kane_forms import (FOLD_OPS, VectorReader, assemble, dot, fewer_trig_squares, read_bodies,
                          read_loads, run_angles, to_dynamic)
 from .kane_inputs import (as_symbol_list, names, check_bodies, check_time_functions,
-                          parse_loads, split_bodies_and_loads)
+                          frame_ang_vel, parse_loads, point_velocity, split_bodies_and_loads)
 from .kane_kinematics import constraint_matrices, kinematic_matrices, linear_solver
 from .plain import PlainSpace
 
@@ -90,12 +97,99 @@ def _frstar(mm, neg_nonmm, udot):
     return sm.Matrix(len(rows), 1, rows)
 
 
+def _check_kinematics(N, bodies, parsed):
+    """What forming would refuse about the bodies' and loads' kinematics, refused when
+    ``kanes_equations`` is called (forming is deferred, its errors should not be): a body
+    point without a velocity in N, a rigid body's frame without an angular velocity, a
+    load written in a frame not oriented relative to N.  Look-ups only (what forming
+    reads first anyway, and SymPy caches)."""
+    for i, body in enumerate(bodies):
+        what = f"body #{i + 1} ({body.name})"
+        rigid = isinstance(body, sm.physics.mechanics.RigidBody)
+        point_velocity(body.masscenter if rigid else body.point, N, what)
+        if rigid:
+            frame_ang_vel(body.frame, N, what)
+    for name, kind, _vel, vec, _where in parsed:
+        for _comps, frame in vec.args:
+            try:
+                if frame != N:
+                    N._dict_list(frame, 0)      # a path of orientations to N exists
+            except ValueError:
+                raise ModelError(f"load on {'frame' if kind == 'torque' else 'point'} {name}: "
+                                 f"frame {frame.name} is not oriented relative to frame {N.name} "
+                                 f"(orient it with orient_axis/orientnew)") from None
+
+
+def _formed_on_use(name):
+    """An attribute holding a result of forming: reading it forms pending equations."""
+    key = "_v" + name
+
+    def get(self):
+        if self.__dict__.get("_pending") is not None:
+            self._form_pending()
+        return self.__dict__.get(key)
+
+    def set(self, value):
+        self.__dict__[key] = value
+    return property(get, set)
+
+
+class FormedOnUse(tuple):
+    """What ``kanes_equations`` returns: ``(fr, frstar)``, formed when first unpacked,
+    indexed, compared or printed (``fr, frstar = km.kanes_equations(...)`` forms them at
+    once; a model file that ignores the result and hands the method to the compiler
+    never does).  A tuple, so ``isinstance(result, tuple)`` holds as with SymPy."""
+
+    def __new__(cls, method):
+        self = super().__new__(cls, ())
+        self._method = method
+        return self
+
+    def _pair(self):
+        return (self._method.fr, self._method.frstar)
+
+    def __iter__(self):
+        return iter(self._pair())
+
+    def __getitem__(self, k):
+        return self._pair()[k]
+
+    def __len__(self):
+        return 2
+
+    def __eq__(self, other):
+        return self._pair() == (tuple(other) if isinstance(other, tuple) else other)
+
+    def __ne__(self, other):
+        return not self == other
+
+    __hash__ = None
+
+    def __repr__(self):
+        return repr(self._pair())
+
+    __str__ = __repr__
+
+    def __reduce__(self):
+        return (tuple, (self._pair(),))
+
+
 class KanesMethod:
     """Kane's method: forms Fr, Fr*, the mass matrix and forcing vector.
 
     Parameters are those of ``sympy.physics.mechanics.KanesMethod`` (1.14).
     See the module docstring for the (few, deliberate) differences.
     """
+
+    _pending = None
+    _fr = _formed_on_use("_fr")
+    _frstar = _formed_on_use("_frstar")
+    _k_d = _formed_on_use("_k_d")
+    _forcing_d = _formed_on_use("_forcing_d")
+    _aux_eq = _formed_on_use("_aux_eq")
+    _body_terms = _formed_on_use("_body_terms")
+    _load_terms = _formed_on_use("_load_terms")
+    _space = _formed_on_use("_space")
 
     def __init__(self, frame, q_ind, u_ind, kd_eqs=None, q_dependent=None,
                  configuration_constraints=None, u_dependent=None,
@@ -193,7 +287,31 @@ class KanesMethod:
             raise ModelError("kanes_equations needs kinematic differential equations: "
                              "pass kd_eqs=[...] to KanesMethod")
         bodies = check_bodies(bodies)
-        parsed = parse_loads(loads, self._inertial)
+        parsed = parse_loads(loads, self._inertial)    # bad loads are named here, as before
+        _check_kinematics(self._inertial, bodies, parsed)
+        self._bodylist = bodies
+        self._forcelist = None if loads is None else list(loads)
+        self._formed_cache = None
+        self._pending = (bodies, parsed)
+        return FormedOnUse(self)
+
+    def _form_pending(self):
+        """Form the equations recorded by the last ``kanes_equations`` call (see the
+        module docstring: Kane's equations are formed on first use)."""
+        bodies, loads = self._pending
+        self._pending = None
+        try:
+            self._form(bodies, loads)
+        except BaseException:
+            self._pending = (bodies, loads)
+            raise
+
+    @property
+    def is_formed(self):
+        """False while ``kanes_equations`` was called but nothing has used its results."""
+        return self.__dict__.get("_pending") is None
+
+    def _form(self, bodies, parsed):
         space = PlainSpace(list(self._q), list(self._u), self._uaux, self._qdot_u_map)
         reader = VectorReader(space, run_angles(self._inertial))
         self._body_terms = read_bodies(space, reader, self._inertial, bodies)
@@ -206,9 +324,6 @@ class KanesMethod:
         neg_nonmm = sm.Matrix(o + s, 1, neg_nonmm)
         fr = sm.Matrix(o + s, 1, fr)
         self._finish(MM, neg_nonmm, fr, o, s)
-        self._bodylist = bodies
-        self._forcelist = None if loads is None else list(loads)
-        return self._fr, self._frstar
 
     def _finish(self, MM, neg_nonmm, fr, o, s):
         """Eliminate dependent speeds; store k_d, forcing, Fr, Fr* (and auxiliary rows).
@@ -277,9 +392,10 @@ class KanesMethod:
                              f"(got {fl!r})")
         bodies = self._bodylist
         self.kanes_equations(bodies if bodies is not None else [], fl)
+        fr = self._fr
         if bodies is None:
             self._bodylist, self._frstar = None, None
-        return self._fr
+        return fr
 
     @property
     def _f_d(self):

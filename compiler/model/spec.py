@@ -37,6 +37,11 @@ class ModelSpec:
     system: object = field(default=None, repr=False)
 
 
+def _is_eomc_kane(system):
+    from eomc.compiler.tree.select import is_eomc_kane
+    return is_eomc_kane(system)
+
+
 def _is_sympy_method(system):
     # not hasattr(mass_matrix_full): an unformed SymPy System raises there, and it converts too
     return type(system).__module__.startswith("sympy.physics.mechanics")
@@ -45,26 +50,37 @@ def _is_sympy_method(system):
 def formed_system(system, formulation="kane"):
     """FormedSystem of ``system``: eomc's methods via .formed(), SymPy's via from_sympy.
 
-    An unformed System (joints, from_urdf) is formed by eomc's Kane for the kane
-    formulation; for recursive/auto the tree is read instead (no equations formed),
-    unless the recursion cannot take it."""
+    For the kane formulation the equations are formed (an unformed System by eomc's
+    Kane).  For recursive and auto an unformed System, or an eomc KanesMethod, is read
+    as a joint tree instead (a FormedSystem of method "tree": nothing formed, so a model
+    file's lazily formed KanesMethod is never formed); when the recursion cannot take it,
+    recursive is refused here, before anything is formed, and auto forms Kane's
+    equations (eomc.compiler.tree.select says why in the metadata)."""
     from eomc.compiler.mechanics.formed import FormedSystem
     if isinstance(system, FormedSystem):
         return system
     from eomc.compiler.mechanics.unformed import form_system, is_unformed_system
-    if is_unformed_system(system):
-        if formulation != "kane":
-            from eomc.compiler.tree.formed import tree_formed
-            from eomc.compiler.tree.model import NotATree
-            try:
+    unformed = is_unformed_system(system)
+    if formulation != "kane" and (unformed or _is_eomc_kane(system)):
+        from eomc.compiler.tree.model import NotATree
+        from eomc.compiler.tree.select import recursive_refusal
+        try:
+            if unformed:
+                from eomc.compiler.tree.formed import tree_formed
                 return tree_formed(system)
-            except NotATree as exc:
-                if formulation == "recursive":    # refused now, before forming Kane's equations
-                    from eomc.compiler.tree.select import recursive_refusal
-                    raise recursive_refusal(exc) from None
-            except ModelError:
-                if formulation == "recursive":
-                    raise
+            from eomc.compiler.tree.select import kane_tree_formed
+            return kane_tree_formed(system)
+        except NotATree as exc:
+            if formulation == "recursive":    # refused now, before forming Kane's equations
+                raise recursive_refusal(exc) from None
+        except EomcError:
+            if formulation == "recursive":
+                raise
+        except Exception as exc:          # noqa: BLE001 -- auto: Kane's form below, or its error
+            if formulation == "recursive":
+                raise ModelError(f"recursive formulation: reading the joint tree failed "
+                                 f"({type(exc).__name__}: {exc})") from exc
+    if unformed:
         system = form_system(system)
     if _is_sympy_method(system):
         try:
@@ -161,20 +177,30 @@ def model_spec(system, name=None, *, parameters=None, inputs=None, initial_state
                events=None, formulation="kane", states=None):
     """Normalize a model file path or a system object into a ModelSpec (see the module docstring).
 
-    ``states``: {z: dz/dt} extra first-order states appended to x after q and u."""
+    ``states``: {z: dz/dt} extra first-order states appended to x after q and u.
+    ``formulation`` decides what is derived, not what is generated: "kane" (this function's
+    default, for callers that read the formed equations: `eomc show`, the tests) forms
+    them; "auto" and "recursive" read a tree instead where they can (:func:`formed_system`).
+    The compiler's default formulation is auto (eomc.compiler.driver)."""
     overrides = dict(parameters=parameters, inputs=inputs, initial_state=initial_state, outputs=outputs,
                      events=events, states=states)
     from eomc.compiler.urdf.model import UrdfModel, is_urdf_model, urdf_formed, urdf_overrides
     if is_urdf_model(system):   # a robot: straight to the tree, or its System under kane
         path = Path(system.path if isinstance(system, UrdfModel) else system)
         name = name or sanitize_name(path.stem)
-        formed, values, robot = urdf_formed(system, formulation, overrides)
+        formed, values, robot = urdf_formed(system, formulation, overrides, formed_system)
         spec = _checked({**values, "system": robot}, formed, name,
                         lambda exc: ModelFileError(str(exc), str(path)), f"{path}: ")
         return ModelSpec(**{**spec.__dict__, "path": path})
     if isinstance(system, (str, Path)):
         return _from_file(system, name, overrides, formulation)
-    formed = formed_system(system, formulation)
+    try:
+        formed = formed_system(system, formulation)
+    except EomcError:
+        raise
+    except Exception as exc:   # SymPy's own errors on a system it cannot form: say what failed
+        raise ModelError(f"forming the equations of the system failed: {type(exc).__name__}: "
+                         f"{exc}") from exc
     values = {**urdf_overrides(system, formed, overrides), "system": system}
     return _checked(values, formed, name or "model", lambda exc: ModelError(str(exc)),
                     f"model {name or 'model'}: ")

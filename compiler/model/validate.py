@@ -321,9 +321,9 @@ def check_name(name):
     return name
 
 
-FUNCTIONS = ("rhs", "jac_x", "jac_r", "mass_matrix", "forcing", "inverse_dynamics", "outputs",
-             "constraints", "constraints_jac", "linearize", "events", "poses")
-ALIASES = {"jacobian": ("jac_x",), "input_jacobian": ("jac_r",), "constraints_jacobian": ("constraints_jac",)}
+FUNCTIONS = ("rhs", "jac_x", "jac_r", "jac_p", "mass_matrix", "forcing", "inverse_dynamics", "outputs",
+             "constraints", "constraints_jac", "linearize", "events", "poses", "regressor", "jvp")
+ALIASES = {"jacobian": ("jac_x",), "input_jacobian": ("jac_r",), "parameter_jacobian": ("jac_p",), "constraints_jacobian": ("constraints_jac",)}
 
 
 def check_functions(functions):

@@ -58,6 +58,17 @@ def tree_matrix_body(ctx, program, fn):
 
 
 def _jacobian_plan(program, W, G, seeds, fn, nq, nx, nr):
+    """:func:`_make_plan`, computed once per program and function (the C body and the op
+    count both need it, and it is a large part of a big model's generate time); kept on
+    the (immutable) program itself, so it lives exactly as long as the program."""
+    args = (fn, tuple(W), tuple(G), tuple(seeds), nq, nx, nr)
+    plans = program.__dict__.setdefault("_jacobian_plans", {})
+    if args not in plans:
+        plans[args] = _make_plan(program, W, G, seeds, fn, nq, nx, nr)
+    return plans[args]
+
+
+def _make_plan(program, W, G, seeds, fn, nq, nx, nr):
     """How a recursive jac_x / jac_r runs, for the C body and for the op count.
 
     Returns (program, once, stores, loops): the program with the temporaries
@@ -80,12 +91,13 @@ def _jacobian_plan(program, W, G, seeds, fn, nq, nx, nr):
         tangents = [(g, start, end) for g, start, end in (("tq", 0, nq), ("tu", nq, nx))
                     if any(k[0] == g for k, _ in program.results)]
         unrolled = "dres" if not tangents else None
-    else:
-        kin, ncols = program.result_exprs("dkin_r"), nr
-        stores += [(f"out[{i * ncols + k}]", kin.get(("dkin_r", i, k), sm.S.Zero))
+    else:   # jac_r, jac_p (nr: the number of inputs or parameters)
+        tag = fn[-1]
+        kin, ncols = program.result_exprs(f"dkin_{tag}"), nr
+        stores += [(f"out[{i * ncols + k}]", kin.get((f"dkin_{tag}", i, k), sm.S.Zero))
                    for i in range(nq) for k in range(ncols)]
-        stores += _extra_rows(program, "dzd_r", nq + nu, nx, ncols)
-        tangents, unrolled = [], "dres_r"
+        stores += _extra_rows(program, f"dzd_{tag}", nq + nu, nx, ncols)
+        tangents, unrolled = [], f"dres_{tag}"
     if unrolled:
         vals = program.result_exprs(unrolled)
         stores += [(f"Gm[{k * nu + i}]", vals.get((unrolled, i, k), sm.S.Zero))
@@ -179,7 +191,7 @@ def tree_jacobian_body(ctx, program, W, G, seeds, fn, nr):
     recursion (no mass matrix, no factorization)."""
     nq, nu = ctx.nq, ctx.nu
     nx = ctx.nx     # q, u and the extra first-order states
-    ncols = nx if fn == "jac_x" else nr
+    ncols = nx if fn == "jac_x" else nr     # nr: inputs (jac_r) or parameters (jac_p)
     program, once, stores, loops = _jacobian_plan(program, W, G, seeds, fn, nq, nx, nr)
     before, after = split_on(program.with_(assignments=tuple(once)), W)
     pr = ctx.printer(program)
@@ -189,10 +201,13 @@ def tree_jacobian_body(ctx, program, W, G, seeds, fn, nr):
     # values the loops read live in an array, not in hundreds of loop-invariant locals
     # (which make C compilers' register allocation slow on large models)
     defined = {t for t, _ in once}
-    live = []
+    live, seen = [], set()
     for _, _, inner, gstores, solve, sol in loops:
         for e in [e for _, e in inner + solve] + [e for _, e in gstores] + list(sol.values()):
-            live += [s for s in e.free_symbols if s in defined and s not in live]
+            for s in e.free_symbols:
+                if s in defined and s not in seen:
+                    seen.add(s)
+                    live.append(s)
     live.sort(key=lambda s: pr._names[s])
     live.sort(key=lambda s: len(pr._names[s]))
     for j, s in enumerate(live):

@@ -13,8 +13,9 @@ The program's result groups, all computed from one value-numbered trace:
                ``sol`` once per column (see :mod:`.derivatives`).  ``dres``: the same
                unrolled over the columns, for a few states
     dres_r     jac_r: d res / d inputs
-    zd, dzd, dzd_r   z' of the extra first-order states and its jac_x / jac_r rows (the
-               Kane path's groups, from build_symbolic)
+    dres_p     jac_p: d res / d parameters (masses, lengths, gravity, ...), as jac_r
+    zd, dzd, dzd_r, dzd_p   z' of the extra first-order states and its jac_x / jac_r /
+               jac_p rows (the Kane path's groups, from build_symbolic)
 
 Coordinates and speeds are the Kane path's (same layout), so states are
 interchangeable and every function agrees with the Kane formulation.
@@ -36,6 +37,7 @@ TREE_FUNCTION_GROUPS = {
     "rhs": ("kin", "ud", "Dpiv", "zd"),
     "jac_x": ("ud", "Dpiv", "dkin", "tq", "tu", "dres", "sol", "dzd"),
     "jac_r": ("ud", "Dpiv", "dkin_r", "dres_r", "sol", "dzd_r"),
+    "jac_p": ("ud", "Dpiv", "dkin_p", "dres_p", "sol", "dzd_p"),
     "mass_matrix": ("A",),
     "forcing": ("b",),
     "inverse_dynamics": ("tau",),
@@ -43,14 +45,28 @@ TREE_FUNCTION_GROUPS = {
     "constraints": ("con",),
     "constraints_jac": ("dcon",),
     "linearize": (),
+    "regressor": ("Y",),
+    "jvp": ("ud", "Dpiv", "kin", "dkin", "dkin_p", "tjv", "dres_p", "sol", "zd", "dzd", "dzd_p"),   # see .jvp
+    "events": ("ev",),
 }
 TREE_HELPER_USERS = ()
 
 
+_NONFINITE = (sm.nan, sm.zoo, sm.oo, -sm.oo)
+
+
 def _rename(layout, memo, what, absent):
     """Slot symbols; ``absent``: symbols Kane's equations do not contain (an inertia about
-    an axis nothing turns about), which therefore cannot change the result: set to zero."""
-    return lambda e: layout.apply(sm.sympify(e).xreplace(absent) if absent else e, what, memo)
+    an axis nothing turns about), which therefore cannot change the result: set to zero.
+    A non-finite constant (a load's 0/0 once became NAN in the C) is refused here, naming
+    the body, joint or load it came from."""
+    def ren(e):
+        e = sm.sympify(e)
+        if e.has(*_NONFINITE):
+            raise ModelError(f"recursive formulation: {what} has a non-finite constant ({e}); "
+                             f"no C is written")
+        return layout.apply(e.xreplace(absent) if absent else e, what, memo)
+    return ren
 
 
 def _absent(tree, layout):
@@ -118,7 +134,7 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         speeds = layout.x[nq:nq + nu]
         v, c = velocities(bodies, rec, speeds)
         extra, keep = [], {}
-        jac = set(functions) & {"jac_x", "jac_r"}
+        jac = set(functions) & {"jac_x", "jac_r", "jac_p", "jvp"}
         if "rhs" in functions or jac:
             for k, udd, D in aba(bodies, rec, speeds, gravity, v, c, keep=keep):
                 extra.append((("ud", k), udd))
@@ -134,6 +150,11 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         if "inverse_dynamics" in functions:
             tau = rnea(bodies, rec, UD, gravity, v, c)
             extra += [(("tau", k), tau[k]) for k in range(nu)]
+        regressor = None
+        if "regressor" in functions:
+            from .regressor import regressor_results
+            entries, *regressor = regressor_results(tree, bodies, rec, layout, UD, gravity, v, c)
+            extra += entries
         # outputs and events that read u' solve A·u' = b (the Kane path's code)
         if set(functions) & _NEED_AB or ("outputs" in functions and outputs) or (
                 "events" in functions and events):
@@ -148,6 +169,8 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
     sym = build_symbolic(formed, layout, functions, outputs, events, dynamics=(A, b),
                          prelude=(rec.assignments, rec.count, sorted(extra, key=_order)),
                          function_groups=TREE_FUNCTION_GROUPS, helper_users=TREE_HELPER_USERS)
+    if regressor:
+        sym = replace(sym, regressor_bodies=regressor[0], regressor_reference=regressor[1])
     if not jacobian:
         return sym
     return _with_jacobians(sym, layout, functions, nq, jacobian)
@@ -164,6 +187,10 @@ def _with_jacobians(sym, layout, functions, nq, jacobian):
             derivatives.append(("tres", layout.x, "dres"))
     if "jac_r" in functions:
         derivatives.append(("tres", layout.r, "dres_r"))
+    if "jac_p" in functions or "jvp" in functions:
+        derivatives.append(("tres", layout.p, "dres_p"))
+    if "jvp" in functions:     # one tangent along a whole state direction (seeds = the direction)
+        derivatives.append(("tres", dict(zip(layout.x, sym.seeds)), "tjv"))
     program = sym.program.with_(inputs=sym.program.inputs + solve_symbols(len(sym.UD)),
                                 results=sym.program.results + tuple(jacobian))
     return replace(sym, program=program, derivatives=sym.derivatives + tuple(derivatives))

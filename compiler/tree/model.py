@@ -82,6 +82,7 @@ class Tree:
     kinematics: tuple            # q' in q, u (one per coordinate)
     gravity: sm.Matrix           # 3x1 in ground components (zero when absent)
     loads: tuple                 # Load
+    notes: tuple = ()            # how the reading went where it was not the direct way (str)
 
     @property
     def n(self):

@@ -20,6 +20,7 @@ SymPy's own kinematics at random states, so an unusual construction is
 refused (NotATree, naming the body and joint) rather than mis-read.
 """
 import random
+from dataclasses import replace
 
 import numpy as np
 import sympy as sm
@@ -51,9 +52,16 @@ class _Numbers:
         return sm.N(expr.xreplace(vals), 20)
 
     def same(self, a, b):
+        """Equal at every random state; a non-finite value (0/0 from a coordinate set to
+        zero, say) is never equal to anything."""
         for k in range(_CHECKS):
             for x, y in zip(sm.Matrix(a), sm.Matrix(b)):
-                vx, vy = complex(self.evaluate(x, k)), complex(self.evaluate(y, k))
+                try:
+                    vx, vy = complex(self.evaluate(x, k)), complex(self.evaluate(y, k))
+                except (TypeError, ValueError):
+                    return False
+                if not (np.isfinite(vx) and np.isfinite(vy)):
+                    return False
                 if abs(vx - vy) > _TOL * max(1.0, abs(vx), abs(vy)):
                     return False
         return True
@@ -66,6 +74,13 @@ def _nm(x):
 
 def _dynamic(expr):
     return {a for a in sm.sympify(expr).atoms(AppliedUndef)}
+
+
+def _dynamic_matrix(M):
+    out = set()
+    for c in M:
+        out |= _dynamic(c)
+    return out
 
 
 def _vector_atoms(vec):
@@ -84,7 +99,10 @@ class _Reader:
         self.q, self.u = tuple(coordinates), tuple(speeds)
         self.kin = tuple(kinematics)
         self.qd = {qi.diff(_T): k for qi, k in zip(self.q, self.kin)}
+        self.qd_of = dict(zip(self.q, self.kin))
+        self.q_set, self.u_set = set(self.q), set(self.u)
         self.numbers = _Numbers()
+        self.notes = []             # joints read through SymPy's kinematics, and why
         self.coordinate_of = {}     # speed index -> coordinate index with q' = c·u, c constant
         for i, k in enumerate(self.kin):
             atoms = [a for a in _dynamic(k)]
@@ -98,14 +116,24 @@ class _Reader:
 
     def only(self, expr, keep):
         """``expr`` with every coordinate but ``keep`` set to zero."""
-        return sm.Matrix(expr).xreplace({qi: 0 for qi in self.q if qi != keep})
+        expr = sm.Matrix(expr)
+        return expr.xreplace({qi: 0 for qi in _dynamic_matrix(expr) & self.q_set if qi != keep})
 
     def speeds_in(self, *vectors):
+        """Indices of the speeds in ``vectors`` (coordinate rates counted by their
+        kinematics), read off the components without building new Vectors."""
+        if not hasattr(self, "_u_index"):
+            self._u_index = {s: i for i, s in enumerate(self.u)}
         atoms = set()
         for v in vectors:
-            if v != 0:
-                atoms |= _vector_atoms(v.xreplace(self.qd) if hasattr(v, "xreplace") else v)
-        return frozenset(self.u.index(a) for a in atoms if a in self.u)
+            for comps, _frame in (v.args if v != 0 else ()):
+                for c in comps:
+                    c = sm.sympify(c)
+                    atoms |= c.atoms(AppliedUndef)
+                    for d in c.atoms(sm.Derivative):
+                        if d in self.qd:
+                            atoms |= _dynamic(self.qd[d])
+        return frozenset(self._u_index[a] for a in atoms if a in self._u_index)
 
 
 def _relative_motion(rd, where, frame, pframe, origin, porigin):
@@ -122,8 +150,134 @@ def _relative_motion(rd, where, frame, pframe, origin, porigin):
     return E_full, rd.vec(r_vec, pframe), rd.vec(w_rel, frame).col_join(rd.vec(v_rel, frame))
 
 
-def _joint(rd, name, joint, parent, pframe, porigin, frame, origin, speed):
-    """TreeBody geometry of ``frame``/``origin`` hanging from ``pframe``/``porigin``."""
+def _near_dcm(A, B):
+    """A.dcm(B) (B components -> A components) when A is B or was oriented directly from B
+    (or B from A): one dictionary look-up, never SymPy's search of the frame graph."""
+    if A is B:
+        return sm.eye(3)
+    direct = A._dcm_dict.get(B)
+    return None if direct is None else sm.Matrix(direct)
+
+
+def _near_pos(P, Q):
+    """P.pos_from(Q) when P is Q or one was located directly from the other, else None."""
+    if P is Q:
+        return me.Vector(0)
+    direct = P._pos_dict.get(Q)
+    return direct
+
+
+def _mul(A, B):
+    """A·B of small SymPy matrices, skipping identity factors and zero terms (SymPy's own
+    product goes through its domain machinery: most of a joint's reading time)."""
+    if _is_eye(A):
+        return B
+    if _is_eye(B):
+        return A
+    rows, inner, cols = A.shape[0], A.shape[1], B.shape[1]
+    return sm.Matrix(rows, cols, lambda i, j: sm.Add(*[A[i, k] * B[k, j] for k in range(inner)
+                                                       if A[i, k] != 0 and B[k, j] != 0]))
+
+
+def _is_eye(A):
+    return A.shape[0] == A.shape[1] and all(
+        A[i, j] == (1 if i == j else 0) for i in range(A.shape[0]) for j in range(A.shape[1]))
+
+
+def _components(vec, known):
+    """``vec``'s components in the frame ``known`` maps to ({frame: DCM to it}), or None
+    when it names a frame not in ``known``."""
+    out = sm.zeros(3, 1)
+    if vec == 0:
+        return out
+    for comps, f in vec.args:
+        D = known.get(f)
+        if D is None:
+            return None
+        out += _mul(D, sm.Matrix(comps))
+    return out
+
+
+def _rate(expr, rd):
+    """d/dt of ``expr`` (a function of coordinates) with q' from the kinematics: the
+    coordinates become plain symbols for the differentiation (SymPy differentiates with
+    respect to a symbol much faster than through q(t)'s chain rule)."""
+    qs = [qi for qi in _dynamic(expr) if qi in rd.qd_of]
+    if not qs:
+        return sm.zeros(*expr.shape)
+    plain = {qi: sm.Dummy() for qi in qs}
+    back = {v: k for k, v in plain.items()}
+    e = expr.xreplace(plain)
+    out = sm.zeros(*expr.shape)
+    for qi in qs:    # element by element: Matrix.diff goes through array derivatives, slowly
+        d = sm.Matrix(expr.shape[0], expr.shape[1], [c.diff(plain[qi]) for c in e])
+        out += d.xreplace(back) * rd.qd_of[qi]
+    return out
+
+
+def _joint_motion(rd, joint, pframe, porigin, frame, origin):
+    """A joint's relative motion (as :func:`_relative_motion` returns it) read from the
+    joint object alone: the DCMs and position vectors its constructor set between the
+    parent body, the parent interframe and point, the child interframe and point and the
+    child body (each one hop), the relative angular velocity it set on the interframes and
+    the derivative of the offset in the parent's frame.  No frame-graph search: O(1) per
+    joint.  None (and a note on ``rd``) when a piece is not one hop away -- a frame or
+    point the user related through others --; the caller then asks SymPy's kinematics.
+
+    The velocity SymPy stored for the child's mass centre relative to the parent (SymPy's
+    joints set it) is compared with the one read here at random numbers, so a joint class
+    whose velocities contradict its positions is refused, not mis-read."""
+    t = _T
+    pi, ci = joint.parent_interframe, joint.child_interframe
+    pp, cp = joint.parent_point, joint.child_point
+    D_pb_pi, D_ci_pi, D_cb_ci = _near_dcm(pframe, pi), _near_dcm(ci, pi), _near_dcm(frame, ci)
+    pieces = [_near_pos(pp, porigin), _near_pos(cp, pp), _near_pos(origin, cp)]
+    w = ci._ang_vel_dict.get(pi)
+    if any(D is None for D in (D_pb_pi, D_ci_pi, D_cb_ci)) or any(v is None for v in pieces) \
+            or w is None or _dynamic(D_pb_pi) or _dynamic(D_cb_ci):
+        rd.notes.append(f"joint {joint.name}: its frames or points are not one step from its "
+                        f"bodies' (read through SymPy's kinematics)")
+        return None
+    D_pb_ci = _mul(D_pb_pi, D_ci_pi.T)
+    D_pb_cb = _mul(D_pb_ci, D_cb_ci.T)
+    to_parent = {pframe: sm.eye(3), pi: D_pb_pi, ci: D_pb_ci, frame: D_pb_cb}
+    E = D_pb_cb.T                      # parent components -> child components
+    D_cb_pi = _mul(D_cb_ci, D_ci_pi)
+    to_child = {frame: sm.eye(3), ci: D_cb_ci, pi: D_cb_pi, pframe: E}
+    parts = [_components(v, to_parent) for v in pieces]
+    if any(c is None for c in parts):
+        rd.notes.append(f"joint {joint.name}: an offset names a frame other than its bodies' "
+                        f"and interframes (read through SymPy's kinematics)")
+        return None
+    r = parts[0] + parts[1] + parts[2]
+    w_child = _components(w, to_child)
+    if w_child is None:
+        rd.notes.append(f"joint {joint.name}: its angular velocity names a frame other than its "
+                        f"interframes (read through SymPy's kinematics)")
+        return None
+    qd = rd.qd
+    w_child = w_child.xreplace(qd)
+    fixed_in_child = _components(pieces[2], to_child)
+    if not _dynamic_matrix(parts[0]) and not _dynamic_matrix(fixed_in_child):
+        # the parent point is fixed in the parent and the child's origin in the child: only
+        # the joint's own offset moves, the rest turns with the child (v = ṙ_J + ω × ρ)
+        v_child = _mul(E, _rate(parts[1], rd)) + w_child.cross(fixed_in_child)
+    else:
+        v_child = _mul(E, _rate(r, rd))
+    stored = origin._vel_dict.get(pframe)
+    if stored is not None:
+        c = _components(stored, to_child)
+        if c is not None and not rd.numbers.same(c.xreplace(qd), v_child):
+            raise NotATree(f"joint {joint.name}: the velocity SymPy stored for {origin} relative "
+                           f"to {pframe} is not the rate of change of its position")
+    return E, r, w_child.col_join(v_child)
+
+
+def _joint(rd, name, joint, parent, pframe, porigin, frame, origin, speed, local=None):
+    """TreeBody geometry of ``frame``/``origin`` hanging from ``pframe``/``porigin``.
+
+    ``local``: the joint's relative motion read from its own objects
+    (:func:`_joint_motion`), else SymPy's kinematics are asked (:func:`_relative_motion`)."""
     where = f"body {name} (joint {joint})"
     if speed is None:
         keep = None
@@ -132,26 +286,90 @@ def _joint(rd, name, joint, parent, pframe, porigin, frame, origin, speed):
             raise NotATree(f"{where}: its speed {_nm(rd.u[speed])} is not a constant times the time "
                            f"derivative of one coordinate (q' = c·u), which the recursion needs")
         keep = rd.q[rd.coordinate_of[speed]]
-    E_full, r_full, wv = _relative_motion(rd, where, frame, pframe, origin, porigin)
-    E, r = rd.only(E_full, keep), rd.only(r_full, keep)
-    if not (rd.numbers.same(E, E_full) and rd.numbers.same(r, r_full)):
-        raise NotATree(f"{where}: its placement relative to body {parent} depends on more than "
-                       f"its own coordinate {keep}")
+    E_full, r_full, wv = local or _relative_motion(rd, where, frame, pframe, origin, porigin)
+    if _dynamic(E_full) | _dynamic(r_full) <= {keep}:
+        E, r = E_full, r_full           # nothing else to set to zero: no check needed
+    else:
+        E, r = rd.only(E_full, keep), rd.only(r_full, keep)
+        if not (rd.numbers.same(E, E_full) and rd.numbers.same(r, r_full)):
+            raise NotATree(f"{where}: its placement relative to body {parent} depends on more than "
+                           f"its own coordinate {keep}")
     if speed is None:
-        if not rd.numbers.same(wv, sm.zeros(6, 1)):
+        if any(sm.expand(c) != 0 for c in wv) and not rd.numbers.same(wv, sm.zeros(6, 1)):
             raise NotATree(f"{where}: moves relative to its parent without a speed of its own")
         return "fixed", E, r, None
     us = rd.u[speed]
-    S = sm.Matrix([sm.expand(c).diff(us) for c in wv])
+    present = _dynamic_matrix(wv) & rd.u_set
+    if local and all(c == 0 for c in wv.xreplace({v: 0 for v in present})):
+        # linear in the speeds by construction: read the axis off, checked numerically below
+        S = wv.xreplace({v: (1 if v == us else 0) for v in present})
+    else:
+        S = sm.Matrix([sm.expand(c).diff(us) for c in wv])
     S = sm.Matrix([sm.nsimplify(c) if c.is_Float else c for c in
-                   (rd.only(S, None).xreplace({v: 0 for v in rd.u}))])
-    if _dynamic(S) or not rd.numbers.same(S * us, wv):
+                   (rd.only(S, None).xreplace({v: 0 for v in _dynamic_matrix(S) & rd.u_set}))])
+    if _dynamic(S) or not (all(sm.expand(a - b) == 0 for a, b in zip(S * us, wv))
+                           or rd.numbers.same(S * us, wv)):
         raise NotATree(f"{where}: its velocity relative to its parent is not a constant axis "
                        f"times {_nm(us)} (only revolute, prismatic and fixed joints are recursive)")
     if all(c == 0 for c in S):
         raise NotATree(f"{where}: its speed {_nm(us)} does not move it relative to its parent")
     kind = "revolute" if any(c != 0 for c in S[:3]) else "prismatic"
     return kind, E, r, tuple(S)
+
+
+def _effective_inertias(rd, bodies):
+    """Each body's inertia reduced to the part its motion can excite, so that only symbols
+    the equations use become parameters (Kane's equations drop the rest too).
+
+    A body that never turns (every joint from the ground to it translates or is fixed)
+    feels none of its rotational inertia; one that turns about a single axis a fixed in
+    it (all those joints' axes parallel: a planar chain) feels only aᵀIa.  Zeroing the
+    rest is exact: the inertia moments it removes are perpendicular to every joint axis
+    on the way, so they do no work in any speed (in ABA they only reach the ground's
+    articulated inertia, which nothing reads).  A turning axis is checked constant in
+    the body at random states; anything else keeps the whole inertia."""
+    out, axis = [], {}
+    for i, b in enumerate(bodies):
+        own = [m[:3] for _, m in b.dofs if any(c != 0 for c in m[:3])]
+        inherited = axis.get(b.parent) if b.parent >= 0 else None
+        mine = "general"
+        if len(own) > 1 or isinstance(inherited, str):
+            pass
+        elif inherited is None:
+            mine = sm.Matrix(own[0]) if own else None
+        else:
+            a = _mul(b.rotation, inherited)              # the parent's axis in this body
+            if _dynamic_matrix(a):
+                a0 = rd.only(a, None)
+                a = a0 if rd.numbers.same(a0, a) else None
+            if a is not None and not own:
+                mine = a
+            elif a is not None and _parallel(rd, a, sm.Matrix(own[0])):
+                mine = sm.Matrix(own[0])
+        axis[i] = mine
+        if isinstance(mine, str) or b.inertia == sm.zeros(3, 3):
+            out.append(b)
+            continue
+        if mine is None:
+            I = sm.zeros(3, 3)
+        else:
+            aa = (mine.T * mine)[0]
+            I = (mine.T * b.inertia * mine)[0] / aa**2 * (mine * mine.T)
+            I = I.applyfunc(sm.expand)
+        out.append(replace(b, inertia=I))
+    return out
+
+
+def effective_inertias(bodies, coordinates, speeds, kinematics):
+    """:func:`_effective_inertias` for a tree built elsewhere (the URDF reader's), so that
+    both routes to a tree name the same parameters."""
+    return _effective_inertias(_Reader(None, None, coordinates, speeds, kinematics), list(bodies))
+
+
+def _parallel(rd, a, w):
+    """a ∥ w (constant vectors, or checked at random numbers)."""
+    c = a.cross(w)
+    return all(sm.expand(x) == 0 for x in c) or rd.numbers.same(c, sm.zeros(3, 1))
 
 
 def _inertia(body, frame):
@@ -274,18 +492,20 @@ def _point_on_body(rd, point, frames, origins, names):
 def _assemble(rd, entries, loads):
     """entries: (name, joint, parent index, body, frame, origin, speed index) in tree order."""
     bodies, frames, origins = [], [], []
-    for name, joint, parent, body, frame, origin, speed in entries:
+    for name, joint, parent, body, frame, origin, speed, *obj in entries:
         pframe, porigin = (rd.N, rd.O) if parent < 0 else (frames[parent], origins[parent])
         pname = "ground" if parent < 0 else bodies[parent].name
         mass, I = _inertia(body, frame)
+        local = _joint_motion(rd, obj[0], pframe, porigin, frame, origin) if obj and obj[0] else None
         if isinstance(speed, tuple):          # one joint of several speeds
             kind, E, r, motions = _multi_joint(rd, name, joint, pname, pframe, porigin, frame,
-                                               origin, speed)
+                                               origin, speed, local)
             bodies.append(TreeBody(name=name, joint=joint, kind=kind, parent=parent, speed=None,
                                    rotation=E, position=r, motion=None, mass=mass, inertia=I,
                                    speeds=speed, motions=motions))
         else:
-            kind, E, r, S = _joint(rd, name, joint, pname, pframe, porigin, frame, origin, speed)
+            kind, E, r, S = _joint(rd, name, joint, pname, pframe, porigin, frame, origin, speed,
+                                   local)
             bodies.append(TreeBody(name=name, joint=joint, kind=kind, parent=parent, speed=speed,
                                    rotation=E, position=r, motion=S, mass=mass, inertia=I))
         frames.append(frame)
@@ -297,29 +517,58 @@ def _assemble(rd, entries, loads):
                        f"so their accelerations are undefined (a mass on the axis it turns about?)")
     if len(set(used)) != len(used):
         raise NotATree("a speed moves two bodies relative to their parents: not a tree of one-speed joints")
+    bodies = _effective_inertias(rd, bodies)
     basic = [(b.name, frames[i], origins[i], b.mass) for i, b in enumerate(bodies)]
     gravity, records = _loads(rd, loads, basic, frames, origins, [b.name for b in bodies])
     return Tree(bodies=tuple(bodies), coordinates=rd.q, speeds=rd.u, kinematics=rd.kin,
-                gravity=gravity, loads=records)
+                gravity=gravity, loads=records, notes=tuple(rd.notes))
 
 
 def system_kinematics(system):
-    """Explicit q' of a SymPy System's kinematic differential equations."""
+    """Explicit q' of a SymPy System's kinematic differential equations.
+
+    Each equation is read for the coordinate rates it contains (a joint's own: one
+    look at its atoms, not the n x n Jacobian, which costs O(n²) derivatives); when every
+    equation holds one rate linearly (q' = f(q, u) solved up to a factor, what every
+    joint writes) it is solved alone, else the rates are solved together."""
+    if _is_kane(system):        # a KanesMethod: its kd_eqs were solved by its constructor
+        qdot = system.kindiffdict()
+        return tuple(qdot[qi.diff(_T)] for qi in system.q)
     q = list(system.q)
     qd = [qi.diff(_T) for qi in q]
-    kdes = sm.Matrix(system.kdes)
+    kdes = list(system.kdes)
     if len(kdes) != len(q):
         raise NotATree(f"the system has {len(q)} coordinates but {len(kdes)} kinematic equations")
-    K = kdes.jacobian(qd)
-    rest = kdes.xreplace({d: 0 for d in qd})
-    if K.is_diagonal():     # q' = f(q, u) solved already (up to the sign): keep its form
-        return tuple(-rest[i] * K[i, i] if K[i, i] in (1, -1) else sm.simplify(-rest[i] / K[i, i])
-                     for i in range(len(q)))
+    where = {d: i for i, d in enumerate(qd)}
+    solved = [None] * len(q)
+    for e in kdes:
+        e = sm.sympify(e)
+        rates = [d for d in e.atoms(sm.Derivative) if d in where]
+        if len(rates) != 1 or solved[where[rates[0]]] is not None:
+            break
+        d = rates[0]
+        K = e.diff(d)
+        if _dynamic(K) or K.has(sm.Derivative) or K == 0:
+            break
+        rest = e.xreplace({d: 0})
+        solved[where[d]] = -rest * K if K in (1, -1) else sm.simplify(-rest / K)
+    else:
+        return tuple(solved)
+    K = sm.Matrix(kdes).jacobian(qd)
+    rest = sm.Matrix(kdes).xreplace({d: 0 for d in qd})
     return tuple(-K.LUsolve(rest))
 
 
 def tree_from_system(system, kinematics=None):
-    """Tree of a SymPy ``System`` built with one-speed joints (pin, prismatic) and welds."""
+    """Tree of a SymPy ``System`` built with joints (see the module docstring).
+
+    Each joint object names its parent and child and carries its interframes, points,
+    coordinates and speeds: the tree is put in order from them (parents before
+    children, one pass) and each joint is read from its own objects
+    (:func:`_joint_motion`), so the cost grows linearly with the number of joints."""
+    if _is_kane(system):        # a KanesMethod with pending equations (tree_formed's way in)
+        return tree_from_kane(system, kinematics if kinematics is not None
+                              else system_kinematics(system))
     if len(getattr(system, "q_dep", ())) or len(getattr(system, "u_dep", ())) or \
             len(getattr(system, "holonomic_constraints", ())) or \
             len(getattr(system, "nonholonomic_constraints", ())):
@@ -328,38 +577,42 @@ def tree_from_system(system, kinematics=None):
     rd = _Reader(system.frame, system.fixed_point, system.q, system.u, kin)
     ground = [b for b in system.bodies if getattr(b, "frame", None) == system.frame
               and b.masscenter == system.fixed_point]
-    parent_of, body_frame = {}, {}
+    speed_index = {s: i for i, s in enumerate(rd.u)}
+    parent_of, body_frame, children = {}, {}, {}
     for j in system.joints:
         if j.child in parent_of:
             raise NotATree(f"body {j.child.name} is the child of joints {parent_of[j.child][0]} and "
                            f"{j.name}: a closed loop, not a tree")
-        speed = list(system.u).index(j.speeds[0]) if len(j.speeds) else None
+        speed = speed_index[j.speeds[0]] if len(j.speeds) else None
         if len(j.speeds) > 1 and not isinstance(j, _STAGED):
-            speed = tuple(list(system.u).index(s) for s in j.speeds)
+            speed = tuple(speed_index[s] for s in j.speeds)
         parent_of[j.child] = (j.name, j.parent, speed, j)
+        children.setdefault(j.parent, []).append(j.child)
         body_frame[j.child] = j.child.frame if hasattr(j.child, "frame") else j.child_interframe
     order, index, added = [], {}, []
     remaining = [b for b in system.bodies if b not in ground]
     for b in remaining:
         if b not in parent_of:
             raise NotATree(f"body {b.name} is attached by no joint")
-    while remaining:
-        progress = False
-        for b in list(remaining):
-            jname, p, speed, joint = parent_of[b]
-            if p in ground or p in index:
-                pi = -1 if p in ground else index[p]
-                if isinstance(joint, me.SphericalJoint):
-                    pi, speed = _ball_stages(system, joint, pi, order, added)
-                elif isinstance(joint, me.PlanarJoint):
-                    pi, speed = _planar_stages(system, joint, pi, order, added)
-                index[b] = len(order)
-                order.append((b.name, jname, pi, b, body_frame[b], b.masscenter, speed))
-                remaining.remove(b)
-                progress = True
-        if not progress:
-            raise NotATree("joints " + ", ".join(parent_of[b][0] for b in remaining)
-                           + " form a loop or hang from a body outside the system")
+    members = set(remaining)
+    queue = [b for b in remaining if parent_of[b][1] in ground]
+    while queue:
+        b = queue.pop(0)
+        jname, p, speed, joint = parent_of[b]
+        pi = -1 if p in ground else index[p]
+        obj = joint
+        if isinstance(joint, me.SphericalJoint):
+            pi, speed = _ball_stages(system, joint, pi, order, added)
+            obj = None
+        elif isinstance(joint, me.PlanarJoint):
+            pi, speed = _planar_stages(system, joint, pi, order, added)
+            obj = None
+        index[b] = len(order)
+        order.append((b.name, jname, pi, b, body_frame[b], b.masscenter, speed, obj))
+        queue += [c for c in children.get(b, ()) if c in members]
+    if len(index) < len(remaining):
+        raise NotATree("joints " + ", ".join(parent_of[b][0] for b in remaining if b not in index)
+                       + " form a loop or hang from a body outside the system")
     # actuators (springs, dampers, forces, torques along pathways) act through their loads
     loads = list(system.loads) + [load for actuator in system.actuators for load in actuator.to_loads()]
     try:
@@ -456,7 +709,7 @@ def _planar_stages(system, joint, parent, order, added):
     return index, list(system.u).index(joint.rotation_speed)
 
 
-def _multi_joint(rd, name, joint, parent, pframe, porigin, frame, origin, speeds):
+def _multi_joint(rd, name, joint, parent, pframe, porigin, frame, origin, speeds, local=None):
     """A joint of k speeds (indices ``speeds``) read as one: E(q_J), r(q_J) and constant axes.
 
     Its coordinates q_J are those whose rates the kinematics give in terms of its
@@ -469,10 +722,11 @@ def _multi_joint(rd, name, joint, parent, pframe, porigin, frame, origin, speeds
     where = f"body {name} (joint {joint})"
     mine = {rd.u[k] for k in speeds}
     keep = {qi for qi, kin in zip(rd.q, rd.kin) if _dynamic(kin) & mine}
-    E_full, r_full, wv = _relative_motion(rd, where, frame, pframe, origin, porigin)
+    E_full, r_full, wv = local or _relative_motion(rd, where, frame, pframe, origin, porigin)
     others = {qi: 0 for qi in rd.q if qi not in keep}
     E, r = E_full.xreplace(others), r_full.xreplace(others)
-    if not (rd.numbers.same(E, E_full) and rd.numbers.same(r, r_full)):
+    if not (_dynamic(E_full) | _dynamic(r_full) <= keep) and not (
+            rd.numbers.same(E, E_full) and rd.numbers.same(r, r_full)):
         raise NotATree(f"{where}: its placement relative to body {parent} depends on more than its "
                        f"own coordinates {', '.join(_nm(q) for q in rd.q if q in keep)}")
     zero = {qi: 0 for qi in rd.q} | {v: 0 for v in rd.u}
@@ -590,8 +844,9 @@ def _particle_frame(rd, particle, pframe, speed, taken):
         # oriented from the previous one but given angular velocities in N has many
         rd._frame_speeds = {f: rd.speeds_in(f.ang_vel_in(rd.N)) for f in rd._frames if f != rd.N}
     want = rd.speeds_in(pframe.ang_vel_in(rd.N)) | {speed}
-    pos = particle.masscenter.pos_from(rd.O)
-    named = [f for _, f in pos.args]
+    # frames the particle's own offsets are written in (one step: its whole position from
+    # O would be a sum over every link before it, quadratic to build)
+    named = {f for v in particle.masscenter._pos_dict.values() for _, f in v.args}
     found = [f for f, s in rd._frame_speeds.items() if s == want]
     if not found:
         return pframe
@@ -599,13 +854,17 @@ def _particle_frame(rd, particle, pframe, speed, taken):
     return found[0]
 
 
+def _is_kane(system):
+    return hasattr(system, "_bodylist") and hasattr(system, "_inertial") and hasattr(system, "_uaux")
+
+
 def tree_of(system, formed=None):
     """The Tree of ``system`` (a SymPy/eomc System or a KanesMethod); NotATree otherwise."""
     if isinstance(system, me.System):
         kin = tuple(formed.kinematics) if formed is not None else None
         return tree_from_system(system, kin)
-    if hasattr(system, "_bodylist") and hasattr(system, "_inertial") and hasattr(system, "_uaux"):
-        if formed is None:
-            formed = system.formed()
+    if _is_kane(system):
+        if formed is None:      # the kinematics alone: no need to form Kane's equations
+            return tree_from_kane(system, system_kinematics(system))
         return tree_from_kane(system, tuple(formed.kinematics))
     raise NotATree(f"a {type(system).__name__} is neither a System with joints nor a KanesMethod")

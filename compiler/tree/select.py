@@ -1,30 +1,46 @@
 """Which formulation generates a model: Kane's (formed A, b and a numeric LDLᵀ) or the
-recursive one (ABA/RNEA/CRBA over the tree).
+recursive one (ABA/RNEA/CRBA over the tree).  ``auto``, the default, never fails where
+either one works.
 
-``auto`` builds the tree when the system is one, lowers both formulations and
-keeps the one whose rhs has fewer operations (all requested functions' operations
-when rhs is not requested).  Lowering Kane's form of a large tree is the costly
-part of a build (minutes at 40 bodies), and there its rhs cannot win: it must at
-least factor and solve the formed mass matrix.  So the recursive form is lowered
-first, and Kane's is skipped when the LDLᵀ of its mass matrix alone (counted
-exactly as the emitter would write it, from the formed matrix's nonzeros) already
-costs as much as the whole recursive rhs.  A System without formed equations has no Kane form
-to compare with: forming it costs more than the whole recursive build, so auto
-takes the recursive one there.
+``auto`` reads the tree first (no equations formed) and lowers the recursive form.
+Kane's form is then lowered too, and the one whose rhs has fewer operations is kept
+(all requested functions' operations when rhs is not requested), only where it can
+win:
+
+* Kane's equations are formed for the comparison only for a small tree
+  (:data:`AUTO_KANE_MAX_SPEEDS` speeds): forming them is the costly part of a build
+  (a minute at 40 bodies, not finishing for a 35-dof humanoid), and on every model
+  measured Kane's rhs wins only up to 6 speeds (the n-link cart at n <= 4, 307 against
+  502 operations at n = 4, recursive from n = 8 on, 1178 against 1349; the UR10 and
+  Kinova arms by 1-5 %, the 7-dof xArm by neither: 6401 against 4257;
+  benchmarks/results/tree.md, ../performance reports).  A model file that forms Kane's
+  equations itself therefore does not have them forced when auto takes the tree.
+* Lowering Kane's form is skipped when the LDLᵀ of its mass matrix alone (counted
+  exactly as the emitter would write it, from the formed matrix's nonzeros) already
+  costs as much as the whole recursive rhs.
+
+When the recursion refuses the system (not a tree, constraints, Lagrange's method)
+or the recursive lowering fails in any way, auto uses Kane's formulation and
+records why in the metadata (``formulation_note``, shown by `eomc build` and
+`eomc inspect`); when Kane's fails and the recursive one worked, the recursive one
+is kept, with Kane's failure in the note.
 """
 import sympy as sm
 from sympy.physics import mechanics as me
 
-from eomc.runtime.errors import ModelError
+from eomc.runtime.errors import EomcError, ModelError
 
 from ..mechanics.formed import FormedSystem
 from .formed import tree_exprs
 from .model import NotATree
 from .recognize import tree_of
 
-__all__ = ["FORMULATIONS", "generate_formulation", "check_formulation", "tree_digest"]
+__all__ = ["FORMULATIONS", "DEFAULT_FORMULATION", "AUTO_KANE_MAX_SPEEDS", "generate_formulation",
+           "check_formulation", "tree_digest", "kane_tree_formed", "check_tree_finite"]
 
 FORMULATIONS = ("auto", "kane", "recursive")
+DEFAULT_FORMULATION = "auto"
+AUTO_KANE_MAX_SPEEDS = 6      # see the module docstring: above this Kane's rhs never won
 
 
 def check_formulation(formulation):
@@ -47,6 +63,48 @@ def tree_digest(spec):
     return tree_exprs(tree) + [sm.Integer(k) for pair in shape for k in pair]
 
 
+def is_eomc_kane(system):
+    """An eomc KanesMethod (the only one whose tree is read before its equations are formed)."""
+    from ..mechanics.kane import KanesMethod
+    return isinstance(system, KanesMethod)
+
+
+def kane_tree_formed(kane):
+    """FormedSystem (method "tree", no A and b) of an eomc KanesMethod, read from its bodies,
+    loads and kinematic equations without asking for its formed equations, so that a lazily
+    formed KanesMethod is never formed when the recursive formulation takes it.  NotATree
+    when the recursion cannot take it."""
+    from sympy.core.function import AppliedUndef
+    from .recognize import tree_from_kane
+    t = me.dynamicsymbols._t
+    try:
+        qdot = kane.kindiffdict()
+    except EomcError as exc:
+        raise NotATree(str(exc)) from None
+    q, u = tuple(kane.q), tuple(kane.u)
+    try:
+        kin = tuple(qdot[c.diff(t)] for c in q)
+    except KeyError as exc:
+        raise NotATree(f"no kinematic differential equation gives {exc.args[0]}") from None
+    if not getattr(kane, "_bodylist", None):
+        raise NotATree("the KanesMethod has no bodies (kanes_equations was not called)")
+    tree = tree_from_kane(kane, kin)
+    inputs, params = set(), set()
+    for e in tree_exprs(tree) + list(kin):
+        inputs |= {a for a in e.atoms(AppliedUndef) if a not in q and a not in u}
+        params |= {s for s in e.free_symbols if s != t}
+    nu = len(u)
+    formed = FormedSystem(method="tree", coordinates=q, speeds=u, n_dependent_coordinates=0,
+                          n_dependent_speeds=0, kinematics=sm.Matrix(kin),
+                          dynamics_matrix=sm.zeros(nu, nu), dynamics_rhs=sm.zeros(nu, 1),
+                          multipliers=(), holonomic_constraints=sm.Matrix(),
+                          velocity_constraints=sm.Matrix(),
+                          inputs=tuple(sorted(inputs, key=str)),
+                          parameters=tuple(sorted(params, key=lambda s: s.name)))
+    object.__setattr__(formed, "_tree", tree)
+    return formed
+
+
 def _find_tree(spec):
     tree = getattr(spec.formed, "_tree", None)
     if tree is not None:
@@ -56,6 +114,91 @@ def _find_tree(spec):
     if spec.formed.method != "kane" and not isinstance(spec.system, me.System):
         raise NotATree(f"the system was formed by {spec.formed.method}'s method")
     return tree_of(spec.system, spec.formed)
+
+
+_NONFINITE = (sm.nan, sm.zoo, sm.oo, -sm.oo)
+
+
+def nonfinite(expr):
+    """The first non-finite constant (nan, zoo, ±oo) in ``expr``, or None."""
+    expr = sm.sympify(expr)
+    for bad in _NONFINITE:
+        if expr.has(bad):
+            return bad
+    return None
+
+
+def _sources_on(system, body_name):
+    """What of ``system`` acts on the body named ``body_name``: its actuators (by type and
+    pathway) and loads, for a message about a load the tree holds for that body."""
+    if not isinstance(system, me.System):
+        return ""
+    body = next((b for b in system.bodies if b.name == body_name), None)
+    if body is None:
+        return ""
+    where = {body.masscenter} | ({body.frame} if isinstance(body, me.RigidBody) else set())
+    found = []
+    for act in system.actuators:
+        try:
+            hits = any(ld.location in where for ld in act.to_loads())
+        except Exception:             # noqa: BLE001 -- only a hint for the message
+            hits = False
+        if hits:
+            path = getattr(act, "pathway", None)
+            found.append(type(act).__name__ + (f" on a {type(path).__name__}" if path is not None else ""))
+    for ld in system.loads:
+        if ld.location in where:
+            found.append(f"{type(ld).__name__} {ld.vector}")
+    return f"; acting there: {', '.join(found)}" if found else ""
+
+
+def check_tree_finite(tree, system=None):
+    """ModelError naming the body, joint or load whose expression holds nan, zoo or ±oo:
+    the recursion would carry it into every u' as a literal NAN."""
+    for b in tree.bodies:
+        for what, exprs in (("mass", [b.mass]), ("inertia", list(b.inertia)),
+                            ("rotation", list(b.rotation)), ("position", list(b.position)),
+                            ("joint axis", [c for m in b.dofs for c in (m[1] or ())])):
+            for e in exprs:
+                bad = nonfinite(e)
+                if bad is not None:
+                    raise ModelError(f"recursive formulation: the {what} of body {b.name} "
+                                     f"(joint {b.joint}) is {bad}: {e}")
+    for k, load in enumerate(tree.loads):
+        body = tree.bodies[load.body]
+        for what in ("force", "moment", "offset"):
+            for e in getattr(load, what):
+                bad = nonfinite(e)
+                if bad is not None:
+                    raise ModelError(
+                        f"recursive formulation: the {what} of load {k + 1} on body {body.name} "
+                        f"(joint {body.joint}{_sources_on(system, body.name)}) has the "
+                        f"non-finite component {e}")
+    for i, e in enumerate(tree.gravity):
+        if nonfinite(e) is not None:
+            raise ModelError(f"recursive formulation: gravity component {i} is {e}")
+
+
+def check_formed_finite(spec):
+    """ModelError naming the coordinate, speed, output or event whose expression holds a
+    non-finite constant (it would be printed as a literal NAN or INFINITY)."""
+    f = spec.formed
+    rows = [(f"the kinematic equation of {c}", e) for c, e in zip(f.coordinates, f.kinematics)]
+    if f.method != "tree":
+        speeds = list(f.speeds) + list(f.multipliers)
+        rows += [(f"the mass matrix row of {speeds[i] if i < len(speeds) else i}", e)
+                 for i in range(f.dynamics_matrix.rows) for e in f.dynamics_matrix.row(i)]
+        rows += [(f"the forcing of {speeds[i] if i < len(speeds) else i}", e)
+                 for i, e in enumerate(f.dynamics_rhs)]
+    rows += [(f"holonomic constraint {i + 1}", e) for i, e in enumerate(f.holonomic_constraints)]
+    rows += [(f"velocity constraint {i + 1}", e) for i, e in enumerate(f.velocity_constraints)]
+    rows += [(f"output {name!r}", e) for name, e in (spec.outputs or {}).items()]
+    rows += [(f"event {name!r}", e) for name, e in (spec.events or {}).items()]
+    for where, e in rows:
+        bad = nonfinite(e)
+        if bad is not None:
+            raise ModelError(f"{where} contains {bad} (a non-finite constant), so the generated C "
+                             f"would compute NaN or inf: {e}")
 
 
 def _kane_formed(spec):
@@ -69,7 +212,8 @@ def _kane_formed(spec):
 
 def _rhs_cost(generated):
     counts = generated.metadata["op_counts"]
-    fns = ["rhs"] if "rhs" in counts else [f for f in counts if counts[f]]
+    # linearize only calls jac_x and jac_r: its counts are theirs again
+    fns = ["rhs"] if "rhs" in counts else [f for f in counts if counts[f] and f != "linearize"]
     return sum(sum(counts[f].values()) for f in fns if counts[f])
 
 
@@ -90,33 +234,93 @@ def recursive_refusal(exc):
                       f"'auto' falls back to kane)")
 
 
-def generate_formulation(spec, functions, fold_parameters, formulation="kane"):
-    """GeneratedModel of ``spec`` in the requested formulation (see module docstring)."""
+def _reason(exc, formulation="recursive"):
+    """One line saying why a formulation failed (eomc's own errors as they are)."""
+    if isinstance(exc, NotATree):
+        return f"not a tree: {exc}"
+    text = str(exc).replace(f"{formulation} formulation: ", "", 1)
+    if not isinstance(exc, EomcError):
+        text = f"{type(exc).__name__}: {text}"
+    return f"{formulation} formulation: {text}"
+
+
+def _options(spec, functions, fold_parameters):
+    return dict(parameters=spec.parameters, inputs=spec.inputs, outputs=spec.outputs,
+                functions=functions, fold_parameters=fold_parameters, events=spec.events,
+                event_options=spec.event_options, poses=getattr(spec, "poses", None))
+
+
+def _generate_kane(spec, functions, fold_parameters):
     from ..emit import generate_c
+    check_formed_finite(spec)
+    return generate_c(_kane_formed(spec), spec.name, **_options(spec, functions, fold_parameters))
+
+
+def _generate_recursive(spec, functions, fold_parameters):
+    from ..emit import generate_c
+    tree = _find_tree(spec)
+    check_tree_finite(tree, spec.system)
+    check_formed_finite(spec)
+    return generate_c(spec.formed, spec.name, tree=tree, **_options(spec, functions, fold_parameters))
+
+
+def generate_formulation(spec, functions, fold_parameters, formulation=DEFAULT_FORMULATION,
+                         kane_spec=None):
+    """GeneratedModel of ``spec`` in the requested formulation (see module docstring).
+
+    ``kane_spec()``: the same model with Kane-formed equations (a ModelSpec), for auto
+    when ``spec`` holds only the tree (method "tree"); without it such a spec has no
+    Kane form."""
     check_formulation(formulation)
-    options = dict(parameters=spec.parameters, inputs=spec.inputs, outputs=spec.outputs,
-                   functions=functions, fold_parameters=fold_parameters, events=spec.events,
-                   event_options=spec.event_options, poses=getattr(spec, "poses", None))
     if formulation == "kane":
-        return generate_c(_kane_formed(spec), spec.name, **options)
-    try:
-        tree = _find_tree(spec)
-    except NotATree as exc:
-        if formulation == "recursive":
+        return _generate_kane(spec, functions, fold_parameters)
+    if formulation == "recursive":
+        try:
+            return _generate_recursive(spec, functions, fold_parameters)
+        except NotATree as exc:
             raise recursive_refusal(exc) from None
-        generated = generate_c(spec.formed, spec.name, **options)
-        generated.metadata["formulation_note"] = f"kane, the fallback (not a tree: {exc})"
+    return _generate_auto(spec, functions, fold_parameters, kane_spec)
+
+
+def _kane_side(spec, kane_spec):
+    if spec.formed.method != "tree":
+        return spec
+    if kane_spec is None:
+        raise ModelError("the System's equations are not formed")
+    return kane_spec()
+
+
+def _generate_auto(spec, functions, fold_parameters, kane_spec):
+    try:
+        recursive = _generate_recursive(spec, functions, fold_parameters)
+    except Exception as exc:          # noqa: BLE001 -- auto must not fail where Kane works
+        why = _reason(exc)
+        try:
+            generated = _generate_kane(_kane_side(spec, kane_spec), functions, fold_parameters)
+        except Exception as kane_exc:
+            if isinstance(exc, NotATree) or not isinstance(kane_exc, EomcError):
+                raise
+            raise ModelError(f"{kane_exc} (auto tried the recursive form first: {why})") from None
+        generated.metadata["formulation_note"] = f"kane, the fallback ({why})"
         return generated
-    recursive = generate_c(spec.formed, spec.name, tree=tree, **options)
-    if formulation == "recursive" or spec.formed.method == "tree":
+    nu = spec.formed.nu
+    if spec.formed.method == "tree" and nu > AUTO_KANE_MAX_SPEEDS:
+        recursive.metadata["formulation_costs"] = {
+            "kane": f"not formed ({nu} speeds > {AUTO_KANE_MAX_SPEEDS}: Kane's rhs has not won there)",
+            "recursive": _rhs_cost(recursive)}
         return recursive
-    if "rhs" in functions and spec.formed.method == "kane":
-        floor = kane_solve_floor(spec.formed)
-        if floor >= _rhs_cost(recursive):
-            recursive.metadata["formulation_costs"] = {"kane": f">= {floor} (its LDLT alone)",
-                                                       "recursive": _rhs_cost(recursive)}
-            return recursive
-    kane = generate_c(spec.formed, spec.name, **options)
+    try:
+        kspec = _kane_side(spec, kane_spec)
+        if functions is None or "rhs" in functions:
+            floor = kane_solve_floor(kspec.formed)
+            if floor >= _rhs_cost(recursive):
+                recursive.metadata["formulation_costs"] = {"kane": f">= {floor} (its LDLT alone)",
+                                                           "recursive": _rhs_cost(recursive)}
+                return recursive
+        kane = _generate_kane(kspec, functions, fold_parameters)
+    except Exception as exc:          # noqa: BLE001 -- the recursive form works: keep it
+        recursive.metadata["formulation_note"] = f"recursive ({_reason(exc, 'kane')})"
+        return recursive
     chosen = recursive if _rhs_cost(recursive) < _rhs_cost(kane) else kane
     chosen.metadata["formulation_costs"] = {"kane": _rhs_cost(kane), "recursive": _rhs_cost(recursive)}
     return chosen

@@ -76,10 +76,13 @@ def urdf_overrides(system, formed, overrides):
     return _merged(overrides, formed, built.parameters, built.inputs)
 
 
-def urdf_formed(model, formulation, overrides):
+def urdf_formed(model, formulation, overrides, formed_system):
     """(FormedSystem, overrides with the URDF's defaults, System or None) of a URDF file or
-    :class:`UrdfModel` under ``formulation`` (see the module docstring)."""
-    from eomc.compiler.model.spec import formed_system
+    :class:`UrdfModel` under ``formulation`` (see the module docstring).
+
+    ``formed_system(system, formulation)`` forms the robot's System when it takes that
+    route (the caller's, :func:`eomc.compiler.model.spec.formed_system`: passed in so
+    that the URDF package does not import the model layer that imports it)."""
     from . import build_tree, read_urdf, system_from_tree
     model = model if isinstance(model, UrdfModel) else UrdfModel(Path(model))
     tree = build_tree(read_urdf(model.path), floating_base=model.floating_base)

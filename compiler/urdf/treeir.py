@@ -34,6 +34,7 @@ import sympy as sm
 from sympy.physics.vector import dynamicsymbols
 
 from eomc.compiler.tree.model import Load, Tree, TreeBody
+from eomc.compiler.tree.recognize import effective_inertias
 
 from .tree import coordinate_suffixes, identifier
 
@@ -250,6 +251,9 @@ def tree_ir(tree, *, fold=False, gravity=9.81):
             inputs.append(tau)
             loads += _actuation(tj.type, tau, a, R0, c, p, cp, index[tj.child], parent)
     g = params("g", gravity) if gravity else sm.S.Zero
+    # what the motion cannot excite is dropped, as the System route does: only the symbols
+    # the equations use become parameters
+    bodies = effective_inertias(bodies, coordinates, speeds, kinematics)
     ir = Tree(bodies=tuple(bodies), coordinates=tuple(coordinates), speeds=tuple(speeds),
               kinematics=tuple(kinematics), gravity=sm.Matrix([0, 0, -g]), loads=tuple(loads))
     return UrdfTree(ir, tuple(coordinates), tuple(speeds), tuple(kinematics), params.values, inputs, tree,

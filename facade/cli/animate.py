@@ -40,7 +40,7 @@ def configure(parser):
     parser.add_argument("--input", nargs="+", metavar="NAME=V|CSV", default=(),
                         help="input values, as eomc simulate")
     parser.add_argument("--events", metavar="LIST", help="events, as eomc simulate")
-    parser.add_argument("--formulation", choices=("auto", "kane", "recursive"), default="kane",
+    parser.add_argument("--formulation", choices=("auto", "kane", "recursive"), default="auto",
                         help="dynamics formulation (model files and URDF)")
     parser.formatter_class = argparse.ArgumentDefaultsHelpFormatter
 

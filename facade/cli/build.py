@@ -15,15 +15,15 @@ def add_generate_options(parser):
     parser.add_argument("--name", help="model name (default: the file's `name` or its stem)")
     parser.add_argument("--outputs", metavar="LIST",
                         help="comma-separated functions to generate, e.g. rhs,jacobian,mass_matrix "
-                             "(default: all the model supports)")
+                             "(default: all the model supports but jac_p, jvp and regressor, which are "
+                             "generated only when named)")
     parser.add_argument("--fold-parameters", action="store_true",
                         help="fold parameter defaults into literals instead of runtime arguments")
     parser.add_argument("--floating-base", action="store_true",
                         help="URDF: a 6-dof floating joint (position + body XYZ Euler angles) "
                              "between the world and the root link")
-    parser.add_argument("--formulation", choices=("auto", "kane", "recursive"), default="kane",
-                        help="dynamics formulation: kane (symbolic M and f, numeric LDLT), recursive "
-                             "(ABA/RNEA/CRBA over the joint tree) or auto (the cheaper rhs)")
+    from .common import add_formulation_argument
+    add_formulation_argument(parser)
 
 
 def configure(parser):

@@ -13,6 +13,7 @@ __all__ = ["configure", "run"]
 
 def configure(parser):
     cli_common.add_model_arguments(parser)
+    cli_common.add_formulation_argument(parser)
     parser.add_argument("--t-final", type=float, default=10.0, metavar="T", help="horizon")
     parser.add_argument("--rtol", type=float, default=1e-8, help="relative tolerance to check")
     parser.add_argument("--atol", type=float, default=1e-10, help="absolute tolerance to check")

@@ -7,7 +7,7 @@ Mistakes in them are ValueErrors, which `eomc` prints as one line (exit status 2
 """
 from pathlib import Path
 
-__all__ = ["add_model_arguments", "load_model", "model_options", "parse_assignments", "initial_state",
+__all__ = ["add_model_arguments", "add_formulation_argument", "FORMULATION_HELP", "load_model", "model_options", "parse_assignments", "initial_state",
            "parameter_values", "writable_file"]
 
 
@@ -25,18 +25,30 @@ def add_model_arguments(parser):
                         help="URDF: a 6-dof floating joint between the world and the root link")
 
 
+FORMULATION_HELP = ("dynamics formulation: auto (default: the cheaper rhs of the two; kane where the "
+                    "recursion cannot take the system, saying why), kane (symbolic M and f, numeric "
+                    "LDLT) or recursive (ABA/RNEA/CRBA over the joint tree)")
+
+
+def add_formulation_argument(parser):
+    """--formulation for the commands that compile a model file (auto unless given)."""
+    parser.add_argument("--formulation", choices=("auto", "kane", "recursive"), default="auto",
+                        help=FORMULATION_HELP)
+
+
 def model_options(args):
     """Keyword arguments of load_model for the options given: a URDF's floating base, a
-    formulation other than kane (none unless given, so stand-ins of load_model stay simple)."""
+    formulation other than the default auto (none unless given, so stand-ins of load_model
+    stay simple)."""
     options = {}
     if getattr(args, "floating_base", False):
         options["floating_base"] = True
-    if getattr(args, "formulation", "kane") != "kane":
+    if getattr(args, "formulation", None) not in (None, "auto"):
         options["formulation"] = args.formulation
     return options
 
 
-def load_model(path, quiet=False, floating_base=False, formulation="kane"):
+def load_model(path, quiet=False, floating_base=False, formulation="auto"):
     """A runtime Model from a model file (compiled) or a built directory / json (loaded).
 
     Compiling shows its stages on stderr when that is a terminal, unless ``quiet``.

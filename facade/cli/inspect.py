@@ -22,7 +22,11 @@ def format_report(metadata):
     lines.append(f"{'function':<18}{'adds':>8}{'muls':>8}{'divs':>8}{'calls':>8}{'total':>9}")
     for function, counts in metadata.get("op_counts", {}).items():
         ops = [int(counts.get(k, 0)) for k in ("adds", "muls", "divs", "calls")]
-        lines.append(f"{function:<18}" + "".join(f"{v:>8}" for v in ops) + f"{sum(ops):>9}")
+        label = function + ("*" if function == "linearize" else "")
+        lines.append(f"{label:<18}" + "".join(f"{v:>8}" for v in ops) + f"{sum(ops):>9}")
+    if "linearize" in metadata.get("op_counts", {}):
+        lines.append("* a call of linearize runs jac_x and jac_r (no code of its own): "
+                     "these are their operations")
     sparsity = metadata.get("mass_matrix_sparsity") or []
     if sparsity:
         nonzero = sum(row.count("x") for row in sparsity)
@@ -47,28 +51,44 @@ def run(args):
 
 
 def compare_formulations(args, spec, generated, generate, error):
-    """Total operations per function in both formulations (the other one generated too)."""
-    chosen = generated.metadata.get("formulation", "kane")
+    """Which formulation generated the model and why (auto's reason for a fallback, its cost
+    comparison), then total operations per function in both formulations (the other one
+    generated too, unless that means forming a large System's equations)."""
+    from eomc.compiler.tree.select import AUTO_KANE_MAX_SPEEDS
+    meta = generated.metadata
+    chosen = meta.get("formulation", "kane")
     other = "kane" if chosen == "recursive" else "recursive"
-    note = generated.metadata.get("formulation_note")
-    if note:                 # auto fell back: the other form does not exist, and the note says why
-        return f"formulation: {note}"
-    if spec.formed.method == "tree":
-        return (f"formulation: {chosen} (kane not compared: the System's equations are not formed, "
-                f"and forming them is what the recursive formulation avoids)")
+    note = meta.get("formulation_note")
+    # auto fell back: the other form failed, and the note says which was used and why
+    head = [f"formulation: {note}" if note else
+            f"formulation: {chosen}" + (f" (asked for: {args.formulation})"
+                                        if args.formulation != chosen else "")]
+    costs = meta.get("formulation_costs")
+    if costs:
+        head.append("  auto compared rhs operations: " +
+                    ", ".join(f"{k} {v}" for k, v in sorted(costs.items())))
+    if note and chosen == "kane":
+        return "\n".join(head)
+    if spec.formed.method == "tree" and spec.formed.nu > AUTO_KANE_MAX_SPEEDS:
+        head.append(f"  kane not compared: the System's equations are not formed ({spec.formed.nu} "
+                    f"speeds), and forming them is what the recursive formulation avoids")
+        return "\n".join(head)
     try:
         _, alt = generate(args.model, args.name, functions=args.outputs,
                           fold_parameters=args.fold_parameters, progress=False, formulation=other)
         alt_counts = alt.metadata["op_counts"]
     except error as exc:
-        return f"formulation: {chosen} (no {other} form: {exc})"
-    counts = {chosen: generated.metadata["op_counts"], other: alt_counts}
-    lines = [f"formulation: {chosen}; total operations per function:",
-             f"  {'':<18}{'kane':>10}{'recursive':>11}"]
-    for fn in generated.metadata["op_counts"]:
+        head.append(f"  no {other} form: {exc}")
+        return "\n".join(head)
+    counts = {chosen: meta["op_counts"], other: alt_counts}
+    lines = head + ["total operations per function:", f"  {'':<18}{'kane':>10}{'recursive':>11}"]
+    for fn in meta["op_counts"]:
         cells = []
         for f in ("kane", "recursive"):
             c = counts[f].get(fn)
             cells.append(sum(c.values()) if c else "-")
-        lines.append(f"  {fn + ':':<18}{cells[0]:>10}{cells[1]:>11}")
+        label = fn + ":" if fn != "linearize" else "linearize*:"
+        lines.append(f"  {label:<18}{cells[0]:>10}{cells[1]:>11}")
+    if "linearize" in meta["op_counts"]:
+        lines.append("  * linearize calls jac_x and jac_r (its count is theirs; it has no code of its own)")
     return "\n".join(lines)

@@ -16,6 +16,7 @@ __all__ = ["configure", "run"]
 
 def configure(parser):
     cli_common.add_model_arguments(parser)
+    cli_common.add_formulation_argument(parser)
     parser.add_argument("--t", type=float, default=0.0, help="time of the operating point")
     parser.add_argument("--input", nargs="+", metavar="NAME=V", default=(),
                         help="input values at the operating point (others 0)")
@@ -37,7 +38,7 @@ def _matrix(label, M, rows, cols):
 
 
 def run(args):
-    model = cli_common.load_model(args.model)
+    model = cli_common.load_model(args.model, **cli_common.model_options(args))
     x0 = cli_common.initial_state(model, cli_common.parse_assignments(args.x0, "x0"))
     p = cli_common.parameter_values(model, cli_common.parse_assignments(args.param, "param"))
     inputs = cli_common.parse_assignments(args.input, "input")

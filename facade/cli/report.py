@@ -21,6 +21,7 @@ def configure(parser):
     from eomc.runtime.report import DEFAULT_METHODS, DEFAULT_TARGET, DEFAULT_TOLERANCES
     parser.formatter_class = argparse.ArgumentDefaultsHelpFormatter
     cli_common.add_model_arguments(parser)
+    cli_common.add_formulation_argument(parser)
     parser.add_argument("--t-final", type=float, default=10.0, help="end of the time span")
     parser.add_argument("--t0", type=float, default=0.0, help="start of the time span")
     parser.add_argument("--methods", nargs="+", default=list(DEFAULT_METHODS),

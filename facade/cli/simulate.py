@@ -40,7 +40,7 @@ def configure(parser):
                         help="events to detect: names of compiled events or outputs, comma-separated, "
                              "NAME:terminal / NAME:rising / NAME:falling to set options; 'none' for "
                              "none (default: the model file's events)")
-    parser.add_argument("--formulation", choices=("auto", "kane", "recursive"), default="kane",
+    parser.add_argument("--formulation", choices=("auto", "kane", "recursive"), default="auto",
                         help="dynamics formulation: kane (symbolic M and f, numeric LDLT), recursive "
                              "(ABA/RNEA/CRBA over the joint tree) or auto (the cheaper rhs)")
     parser.formatter_class = argparse.ArgumentDefaultsHelpFormatter

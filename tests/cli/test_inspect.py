@@ -34,3 +34,30 @@ def test_report_shows_structural_zeros():
     text = format_report(metadata)
     assert "mass matrix sparsity (2 of 4 entries nonzero):\n  x .\n  . x" in text
     assert "rhs                      1       2       3       4       10" in text
+
+
+def test_inspect_says_which_formulation_auto_took_and_why(tmp_path, capsys):
+    """No --formulation: auto.  The cart (a formed KanesMethod, a tree of 2 speeds): both
+    forms are compared, the cheaper rhs is kept, and inspect prints both counts."""
+    model = model_files.write(tmp_path, model_files.CART, "cart")
+    assert main(["inspect", str(model)]) == 0
+    out = capsys.readouterr().out
+    lines = [line for line in out.splitlines() if line.startswith("formulation: ")]
+    assert len(lines) == 1, out
+    chosen = lines[0].split()[1]
+    assert chosen in ("kane", "recursive") and "(asked for: auto)" in lines[0]
+    assert "auto compared rhs operations: kane " in out
+    rows = {line.split()[0]: line.split()[1:] for line in out.splitlines() if line.startswith("  rhs:")}
+    kane_ops, rec_ops = map(int, rows["rhs:"])
+    assert chosen == ("kane" if kane_ops <= rec_ops else "recursive")
+    # linearize has no code of its own: its row is marked as jac_x + jac_r
+    assert "linearize*" in out and "runs jac_x and jac_r" in out
+
+
+def test_report_marks_linearize_as_the_sum_of_the_jacobians():
+    metadata = {"name": "m", "nq": 1, "nu": 1, "state_names": ["a", "b"], "param_names": [],
+                "input_names": [], "output_names": [],
+                "op_counts": {"jac_x": {"adds": 5, "muls": 5, "divs": 0, "calls": 0},
+                              "linearize": {"adds": 5, "muls": 5, "divs": 0, "calls": 0}}}
+    text = format_report(metadata)
+    assert "linearize*" in text and "no code of its own" in text

@@ -295,3 +295,97 @@ def spring_damper_chain(n, mech):
     kane = me.KanesMethod(N, q_ind=q, u_ind=u, kd_eqs=kd)
     kane.kanes_equations(particles, loads)
     return kane, [F]
+
+
+ACTUATOR_KINDS = ("force", "spring", "damper", "duffing", "muscle")
+PATHWAY_KINDS = ("linear", "obstacle", "cylinder", "sphere")
+
+
+def actuators_on_pathways(mech, actuators=ACTUATOR_KINDS, pathways=PATHWAY_KINDS):
+    """(System, inputs, parameters, labels): one small subsystem per actuator x pathway pair,
+    side by side in one System (so the whole matrix costs one build per formulation).
+
+    Each subsystem: body A slides on ground's x (PrismaticJoint), body B turns about A's z
+    through A's centre (PinJoint), with a gravity field along -y; the pathway runs from a
+    point on the ground (linear, obstacle via a point on A) or on A (sphere) to a point on
+    B at radius r from the pin, so it stays on the surface of a sphere fixed in A at A's
+    centre -- the wrapping reaction then acts on A, a body point, not the ground.  The
+    cylinder (SymPy needs a numeric central angle) lies along the slide, fixed in the
+    ground, its path from the ground to a point on A.  Plus a TorqueActuator between A and B in every
+    subsystem (a joint torque with its reaction).  ``labels[k]``: the pair speed k belongs to.
+    """
+    me = mech
+    from sympy.physics import biomechanics as bm
+    ground = me.RigidBody("ground")
+    N = ground.frame
+    system = me.System.from_newtonian(ground)
+    g = sm.Symbol("g")
+    inputs, params, labels = [], {g: 9.81}, []
+    for k, (act, path) in enumerate((a, p) for p in pathways for a in actuators):
+        tag = f"{act}_{path}"
+        mA, mB, r, c = sm.symbols(f"mA_{k} mB_{k} r_{k} c_{k}", positive=True)
+        IA = sm.symbols(f"IAxx_{k} IAyy_{k} IAzz_{k}", positive=True)
+        IB = sm.symbols(f"IBxx_{k} IByy_{k} IBzz_{k} IBxy_{k}", positive=True)
+        A = me.RigidBody(f"A_{k}", mass=mA)
+        A.central_inertia = me.inertia(A.frame, *IA)
+        B = me.RigidBody(f"B_{k}", mass=mB)
+        B.central_inertia = me.inertia(B.frame, IB[0], IB[1], IB[2], IB[3])
+        q = me.dynamicsymbols(f"qa_{k} qb_{k}")
+        u = me.dynamicsymbols(f"ua_{k} ub_{k}")
+        anchor = ground.masscenter.locatenew(f"O_{k}", 3 * k * N.z)
+        slide = me.PrismaticJoint(f"slide_{k}", ground, A, q[0], u[0], parent_point=anchor,
+                                  joint_axis=N.x)
+        pin = me.PinJoint(f"pin_{k}", A, B, q[1], u[1], child_point=-c * B.frame.y,
+                          joint_axis=A.frame.z)
+        system.add_joints(slide, pin)
+        pB = B.masscenter.locatenew(f"pB_{k}", -c * B.frame.y + r * B.frame.x)   # r from the pin
+        if path == "linear":
+            pG = anchor.locatenew(f"pG_{k}", -2 * r * N.y)
+            pathway = me.LinearPathway(pG, pB)
+        elif path == "obstacle":
+            pG = anchor.locatenew(f"pG_{k}", -2 * r * N.y)
+            pO = A.masscenter.locatenew(f"pO_{k}", r * A.frame.y)
+            pathway = me.ObstacleSetPathway(pG, pO, pB)
+        elif path == "cylinder":
+            # SymPy computes a cylinder's geodesic only for a numeric central angle: the
+            # cylinder lies along the slide (ground x through the anchor), the path runs
+            # from the ground at angle 0 to A at a quarter turn, a helix as A slides
+            pG = anchor.locatenew(f"pG_{k}", r * N.y)
+            pA = A.masscenter.locatenew(f"pA_{k}", r * A.frame.z)
+            pathway = me.WrappingPathway(pG, pA, me.WrappingCylinder(r, anchor, N.x))
+        else:
+            pA = A.masscenter.locatenew(f"pA_{k}", r * A.frame.y)
+            pathway = me.WrappingPathway(pA, pB, me.WrappingSphere(r, A.masscenter))
+        if act == "force":
+            F = me.dynamicsymbols(f"F_{k}")
+            inputs.append(F)
+            actuator = me.ForceActuator(F, pathway)
+        elif act == "spring":
+            kk, l0 = sm.symbols(f"k_{k} l0_{k}", positive=True)
+            params.update({kk: 40.0, l0: 0.5})
+            actuator = me.LinearSpring(kk, pathway, l0)
+        elif act == "damper":
+            cc = sm.Symbol(f"cd_{k}", positive=True)
+            params[cc] = 3.0
+            actuator = me.LinearDamper(cc, pathway)
+        elif act == "duffing":
+            k1, k3, l0 = sm.symbols(f"k1_{k} k3_{k} l0_{k}", positive=True)
+            params.update({k1: 30.0, k3: 5.0, l0: 0.4})
+            actuator = me.DuffingSpring(k1, k3, pathway, l0)
+        else:
+            activation = bm.ZerothOrderActivation(f"m{k}")
+            actuator = bm.MusculotendonDeGroote2016.with_defaults(
+                f"m{k}", pathway, activation, tendon_slack_length=sm.Symbol(f"lts_{k}"),
+                peak_isometric_force=sm.Symbol(f"fmax_{k}"),
+                optimal_fiber_length=sm.Symbol(f"lmopt_{k}"))
+            params.update({sm.Symbol(f"lts_{k}"): 0.3, sm.Symbol(f"fmax_{k}"): 20.0,
+                           sm.Symbol(f"lmopt_{k}"): 0.6})
+            inputs.extend(activation.r)
+        T = me.dynamicsymbols(f"T_{k}")
+        inputs.append(T)
+        system.add_actuators(actuator, me.TorqueActuator(T, A.frame.z, B, A))
+        # A only slides and B turns about z: the other inertias are in no equation
+        params.update({mA: 2.0, mB: 1.0, r: 0.3, c: 0.2, IB[2]: 0.07})
+        labels += [tag, tag]
+    system.apply_uniform_gravity(-g * N.y)
+    return system, inputs, params, labels

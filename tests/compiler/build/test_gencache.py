@@ -25,9 +25,10 @@ def counted(monkeypatch):
 
 
 def test_second_generation_is_served_from_the_cache(tmp_path, counted):
+    # formulation="kane": one generate_c per generation (auto lowers two forms of a small tree)
     path = model_files.write(tmp_path, model_files.PENDULUM, "p")
-    _, first = generate(path, cache_dir=tmp_path / "c", progress=False)
-    _, second = generate(path, cache_dir=tmp_path / "c", progress=False)
+    _, first = generate(path, cache_dir=tmp_path / "c", progress=False, formulation="kane")
+    _, second = generate(path, cache_dir=tmp_path / "c", progress=False, formulation="kane")
     assert counted == ["pend"]
     assert second.c_source == first.c_source and second.cdef == first.cdef
     assert json.dumps(second.metadata, sort_keys=True) == json.dumps(first.metadata, sort_keys=True)
@@ -38,8 +39,8 @@ def test_second_generation_is_served_from_the_cache(tmp_path, counted):
 ])
 def test_changed_inputs_are_misses(tmp_path, counted, change):
     path = model_files.write(tmp_path, model_files.PENDULUM, "p")
-    generate(path, cache_dir=tmp_path / "c", progress=False)
-    generate(path, cache_dir=tmp_path / "c", progress=False, **change)
+    generate(path, cache_dir=tmp_path / "c", progress=False, formulation="kane")
+    generate(path, cache_dir=tmp_path / "c", progress=False, formulation="kane", **change)
     assert len(counted) == 2
 
 
@@ -60,8 +61,8 @@ def test_digest_distinguishes_structure_and_assumptions():
 
 def test_unreadable_entry_is_regenerated(tmp_path, counted):
     path = model_files.write(tmp_path, model_files.PENDULUM, "p")
-    generate(path, cache_dir=tmp_path / "c", progress=False)
+    generate(path, cache_dir=tmp_path / "c", progress=False, formulation="kane")
     stored, = (cache_root(tmp_path / "c") / "generated").rglob("generated.json")
     stored.write_text("{" + " " * (stored.stat().st_size - 1))  # same size, not JSON
-    _, again = generate(path, cache_dir=tmp_path / "c", progress=False)
+    _, again = generate(path, cache_dir=tmp_path / "c", progress=False, formulation="kane")
     assert len(counted) == 2 and "pend_rhs" in again.c_source

@@ -119,3 +119,156 @@ def test_auto_skips_lowering_kane_when_its_solve_alone_costs_more(monkeypatch):
     monkeypatch.setattr(select, "kane_solve_floor", lambda formed: 0)
     gm = _gen(kane, "auto", ["rhs"], inputs=inputs)
     assert isinstance(gm.metadata["formulation_costs"]["kane"], int)
+
+
+# --- auto as the default (issue 19) ---------------------------------------------------------
+
+def test_auto_is_the_default_of_generate_compile_and_the_commands():
+    import inspect as pyinspect
+    import argparse
+    from eomc.compiler import driver
+    from eomc.cli import build, check, linearize, report
+    from eomc.cli import common
+    for fn in (driver.generate, driver.compile, common.load_model):
+        assert pyinspect.signature(fn).parameters["formulation"].default == "auto", fn
+    for module in (build, check, linearize, report):
+        parser = argparse.ArgumentParser()
+        module.configure(parser)
+        assert parser.get_default("formulation") == "auto", module
+
+
+def test_auto_with_the_default_functions_on_a_formed_kanes_method():
+    """The crash of the 2026-11 reports (select.py: `"rhs" in None`): the default function set."""
+    kane, inputs = cart_relative(2, em)
+    gm = _gen(kane, "auto", None, inputs=inputs)
+    assert "linearize" in gm.metadata["functions"]
+    costs = gm.metadata["formulation_costs"]
+    assert gm.metadata["formulation"] == min(costs, key=costs.get)
+
+
+@pytest.mark.parametrize("n, expected", [(3, "kane"), (4, "kane"), (8, "recursive")])
+def test_auto_on_the_cart_system_kane_up_to_4_links_recursive_from_8(n, expected, monkeypatch):
+    """A System of joints (equations not formed): Kane's are formed and compared only for a
+    small tree; from 8 links they are not formed at all."""
+    from eomc.compiler.mechanics import unformed
+    formed = []
+    original = unformed.form_system
+    monkeypatch.setattr(unformed, "form_system", lambda s: formed.append(s) or original(s))
+    system, inputs = cart_joints(n)
+    gm = _gen(system, "auto", ["rhs"], inputs=inputs)
+    assert gm.metadata["formulation"] == expected
+    costs = gm.metadata["formulation_costs"]
+    if n <= 4:
+        assert costs["kane"] < costs["recursive"] and formed
+    else:
+        assert str(costs["kane"]).startswith("not formed") and not formed
+
+
+def test_auto_does_not_ask_a_kanes_method_for_its_formed_equations_on_a_large_tree(monkeypatch):
+    """A model file's KanesMethod: auto reads its tree from bodies, loads and kinematics; the
+    formed equations (which eomc's KanesMethod may form lazily) are not asked for."""
+    from eomc.compiler.mechanics.kane import KanesMethod
+    kane, inputs = cart_relative(7, em)
+    asked = []
+    original = KanesMethod.formed
+    monkeypatch.setattr(KanesMethod, "formed", lambda self: asked.append(1) or original(self))
+    gm = _gen(kane, "auto", ["rhs"], inputs=inputs)
+    assert gm.metadata["formulation"] == "recursive" and not asked
+    gm = _gen(kane, "kane", ["rhs"], inputs=inputs)
+    assert asked
+
+
+def test_auto_falls_back_to_kane_when_the_recursive_lowering_fails(monkeypatch):
+    """Anything the recursive path raises: Kane's form, with the reason in the metadata."""
+    from eomc.compiler.tree import select
+    def broken(*args, **kwargs):
+        raise RuntimeError("a bug in the recursion")
+    monkeypatch.setattr(select, "check_tree_finite", broken)
+    kane, inputs = cart_relative(2, em)
+    gm = _gen(kane, "auto", ["rhs"], inputs=inputs)
+    assert gm.metadata["formulation"] == "kane"
+    assert "RuntimeError: a bug in the recursion" in gm.metadata["formulation_note"]
+    with pytest.raises(RuntimeError):
+        _gen(kane, "recursive", ["rhs"], inputs=inputs)
+
+
+def test_auto_keeps_the_recursive_form_when_kanes_fails(monkeypatch):
+    from eomc.compiler.tree import select
+    original = select._generate_kane
+
+    def broken(spec, *args):
+        raise ModelError("kane broke here")
+    monkeypatch.setattr(select, "_generate_kane", broken)
+    kane, inputs = cart_relative(2, em)
+    gm = _gen(kane, "auto", ["rhs"], inputs=inputs)
+    assert gm.metadata["formulation"] == "recursive"
+    assert gm.metadata["formulation_note"] == "recursive (kane formulation: kane broke here)"
+    monkeypatch.setattr(select, "_generate_kane", original)
+
+
+# --- no NaN or inf constant in generated C ---------------------------------------------------
+
+def _spring_on_a_pathway(nan_force=False):
+    """A carriage on a slider with a LinearSpring and LinearDamper on a LinearPathway and a
+    pendulum below it (the hanging arm of the 2026-11 first-hour report, smaller)."""
+    import sympy as sm
+    import sympy.physics.mechanics as me
+    q0, q1, u0, u1 = me.dynamicsymbols("q0 q1 u0 u1")
+    M, m, L, k, c, h, g = sm.symbols("M m L k c h g", positive=True)
+    ceiling = me.RigidBody("ceiling")
+    carriage = me.RigidBody("carriage", mass=M)
+    carriage.central_inertia = me.inertia(carriage.frame, 0, 0, M / 10)
+    link = me.RigidBody("link", mass=m)
+    link.central_inertia = me.inertia(link.frame, 0, 0, m * L ** 2 / 12)
+    system = me.System.from_newtonian(ceiling)
+    system.add_joints(
+        me.PrismaticJoint("slider", ceiling, carriage, q0, u0, joint_axis=-ceiling.y),
+        me.PinJoint("pin", carriage, link, q1, u1, child_point=L / 2 * link.y, joint_axis=carriage.z))
+    pathway = me.LinearPathway(ceiling.masscenter, carriage.masscenter)
+    system.add_actuators(me.LinearSpring(k, pathway, equilibrium_length=h), me.LinearDamper(c, pathway))
+    if nan_force:
+        # (SymPy's Vector cannot be multiplied by nan; built from its components instead)
+        system.add_loads(me.Force(link.masscenter, me.Vector([(sm.Matrix([sm.nan, 0, 0]),
+                                                               ceiling.frame)])))
+    system.apply_uniform_gravity(-g * ceiling.y)
+    return system
+
+
+def test_a_nan_in_a_load_is_refused_naming_the_body_and_what_acts_there():
+    system = _spring_on_a_pathway(nan_force=True)
+    with pytest.raises(ModelError, match=r"recursive formulation: the force of load \d+ on body "
+                                         r"link \(joint pin; acting there: Force"):
+        _gen(system, "recursive", ["rhs"])
+    with pytest.raises(ModelError, match=r"the forcing row \d contains nan"):
+        _gen(system, "kane", ["rhs"])
+    with pytest.raises(ModelError, match=r"contains nan.*auto tried the recursive form first"):
+        _gen(system, "auto", ["rhs"])
+
+
+def test_the_printer_refuses_a_nonfinite_constant_naming_the_function():
+    """The last guard: whatever reaches the printer (here an output that skipped the model's
+    validation), no NAN/HUGE_VAL literal is written; the error names the function."""
+    import sympy as sm
+    from eomc.compiler.emit import generate_c
+    from eomc.compiler.model import model_spec
+    from eomc.compiler.tree.select import _find_tree
+    kane, inputs = cart_relative(1, em)
+    spec = model_spec(kane, inputs=inputs)
+    for bad, tree in ((sm.nan, None), (sm.oo, _find_tree(spec))):
+        with pytest.raises(ModelError, match=rf"m_outputs would compute the constant {bad}"):
+            generate_c(spec.formed, "m", functions=["rhs", "outputs"], inputs=inputs, tree=tree,
+                       outputs={"bad": bad + kane.q[0]})
+
+
+def test_spring_and_damper_on_a_pathway_never_writes_nan():
+    """The reported case: recursive either agrees with Kane or is refused before C, and auto
+    builds (recursive or Kane) without a NaN literal."""
+    system = _spring_on_a_pathway()
+    gm = _gen(system, "auto", ["rhs"])
+    assert "NAN" not in gm.c_source
+    try:
+        rec = _gen(system, "recursive", ["rhs"])
+    except ModelError as exc:
+        assert "carriage" in str(exc)
+    else:
+        assert "NAN" not in rec.c_source

@@ -57,15 +57,25 @@ def _same_trees(path, floating=False, fold=False):
     value = _Values()
     pairs = list(zip(direct.kinematics, read.kinematics))
     A, B = mine.tree, read._tree
-    assert [(b.name, b.joint, b.parent, b.speed, b.speeds) for b in A.bodies] == \
-           [(b.name, b.joint, b.parent, b.speed, b.speeds) for b in B.bodies]
-    for a, b in zip(A.bodies, B.bodies):
+    # the two routes may list the bodies in different (both topological) orders: compare
+    # them by name, each with its parent's name
+    def described(tree):
+        return sorted((b.name, b.joint, tree.bodies[b.parent].name if b.parent >= 0 else None,
+                       b.speed, b.speeds) for b in tree.bodies)
+    assert described(A) == described(B)
+    by_name = {b.name: b for b in B.bodies}
+    for a in A.bodies:
+        b = by_name[a.name]
         pairs += list(zip(a.rotation, b.rotation)) + list(zip(a.position, b.position))
         pairs += list(zip(a.inertia, b.inertia)) + [(a.mass, b.mass)]
         pairs += list(zip(a.motion or (), b.motion or ()))
         pairs += [p for m1, m2 in zip(a.motions, b.motions) for p in zip(m1, m2)]
-    assert [(ld.body, ld.frame) for ld in A.loads] == [(ld.body, ld.frame) for ld in B.loads]
-    for la, lb in zip(A.loads, B.loads):
+    def loads(tree):
+        key = lambda ld: (tree.bodies[ld.body].name, str(ld.frame))
+        return sorted(tree.loads, key=key), [key(ld) for ld in sorted(tree.loads, key=key)]
+    (la_sorted, ka), (lb_sorted, kb) = loads(A), loads(B)
+    assert ka == kb
+    for la, lb in zip(la_sorted, lb_sorted):
         pairs += list(zip(la.moment, lb.moment)) + list(zip(la.force, lb.force)) + list(zip(la.offset, lb.offset))
     pairs += list(zip(A.gravity, B.gravity))
     worst = max(abs(value(x) - value(y)) / max(1.0, abs(value(y))) for x, y in pairs)

@@ -1,0 +1,80 @@
+/*
+ * eomc_sensitivity.h -- forward sensitivities dx(t)/dx0 and dx(t)/dp by the
+ * variational equations, integrated with the state (shipped with eomc).
+ *
+ * With S = dx/dtheta (nx x k; theta = chosen initial states and parameters):
+ *     S' = jac_x(t, x) S + jac_p(t, x)[:, parameter columns],
+ *     S(t0) = [e_i for the chosen initial states | 0 for the parameters].
+ * The state and S form one augmented system of nx (1 + k) states, which the
+ * unchanged integrators of eomc_integrators.c integrate (simultaneous
+ * approach: error control covers S too, as CVODES with errconS).  Radau gets
+ * the block-diagonal Jacobian diag(J, ..., J) of the augmented system (the
+ * coupling dS'/dx is left out of the Newton matrix, so the Newton iteration
+ * converges a little slower; the solution is the same).
+ *
+ * The context is opaque (eomc_sens_size() bytes, caller-allocated, aligned as
+ * malloc aligns); no globals, no allocation: reentrant.
+ */
+#ifndef EOMC_SENSITIVITY_H
+#define EOMC_SENSITIVITY_H
+
+#include <stddef.h>
+#include "eomc_model.h"
+#include "eomc_integrators.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct eomc_sens eomc_sens;
+
+/* A model's generated NAME_jvp: xdot and J·d for k directions d = [dx; dp] (rows of dirs,
+ * nx + nparam each) at once, J = d xdot / d[x; p]. */
+typedef int (*eomc_jvp_fn)(double t, const double *x, const double *p, const double *r, int k,
+                           const double *dirs, double *xdot, double *out, double *work);
+
+/* Bytes of an eomc_sens context. */
+size_t eomc_sens_size(void);
+
+/* Doubles of scratch eomc_sens_init needs for k columns: nx * nx + nx * nparam + k * (nx + nparam). */
+size_t eomc_sens_scratch_size(const eomc_model *m, int k);
+
+/*
+ * Set up the context: k = nxcol + npcol columns, first the initial states
+ * xcols[0..nxcol), then the parameters pcols[0..npcol) (indices into x, p).
+ * jac_p may be NULL when npcol == 0.  jvp (may be NULL): the model's NAME_jvp;
+ * given, S' = J S comes from k directional derivatives instead of forming J
+ * (cheaper when k is small against nx).  p: the model's parameters (nparam),
+ * read during the run.  Returns EOMC_NOT_AVAILABLE without jac_x (or jac_p
+ * when parameter columns are asked for), EOMC_BAD_ARGUMENT for an index out
+ * of range.
+ */
+int eomc_sens_init(eomc_sens *s, const eomc_model *m, eomc_mat_fn jac_p, eomc_jvp_fn jvp, const double *p,
+                   int nxcol, const int *xcols, int npcol, const int *pcols, double *scratch);
+
+/* States of the augmented system: nx * (1 + k). */
+int eomc_sens_nstates(const eomc_sens *s);
+
+/* The augmented start X0 (nx (1 + k)) from x0 (nx). */
+void eomc_sens_start(const eomc_sens *s, const double *x0, double *X0);
+
+/* eomc_integrate_work_size for the augmented system. */
+size_t eomc_sens_work_size(const eomc_sens *s, int method);
+
+/*
+ * eomc_integrate over the augmented system: X_out rows are [x, S column by
+ * column] (nx (1 + k) doubles; S[:, j] at nx + j nx).  Options, inputs and
+ * statistics as eomc_integrate (nfev counts augmented rhs calls, each one
+ * rhs + jac_x (+ jac_p) of the model); constraint projection is not done.
+ */
+int eomc_sens_integrate(eomc_sens *s, const eomc_options *opt, double t0, double t1,
+                        const double *X0, int n_rgrid, const double *r_tgrid,
+                        const double *r_values, int n_eval, const double *t_eval,
+                        double *X_out, double *X_last, eomc_stats *stats,
+                        double *work, size_t work_len);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* EOMC_SENSITIVITY_H */

@@ -1,0 +1,51 @@
+"""The recursive formulation's jvp (compiler/tree/jvp.py): xdot and J·[dx; dp] along given
+directions, against its own jac_x and jac_p, and sensitivities of a tree through it."""
+import warnings
+
+import numpy as np
+import pytest
+
+import eomc
+from helpers.trees import cart_joints
+
+
+@pytest.fixture(scope="module")
+def model(tmp_path_factory):
+    system, _ = cart_joints(2, rigid=True)
+    with warnings.catch_warnings():  # the defaults-to-1.0 warning (once per process)
+        warnings.simplefilter("ignore")
+        return eomc.compile(system, formulation="recursive", functions=["rhs", "jac_x", "jac_p", "jvp"],
+                            cache_dir=tmp_path_factory.mktemp("cache"), progress=False)
+
+
+def test_jvp_matches_jacobians(model):
+    assert model.metadata["formulation"] == "recursive"
+    rng = np.random.default_rng(5)
+    for _ in range(3):
+        p = rng.uniform(0.5, 1.5, model.nparam)
+        x, r = rng.uniform(-1, 1, model.nx), rng.uniform(-1, 1, model.ninput)
+        D = rng.normal(size=(4, model.nx + model.nparam))
+        D[0, model.nx:] = 0.0
+        xdot, out = model.jvp(0.0, x, D, p=p, r=r)
+        ref = D[:, :model.nx] @ model.jacobian(0.0, x, p=p, r=r).T + D[:, model.nx:] @ model.jac_p(0.0, x, p=p, r=r).T
+        assert np.max(np.abs(xdot - model.rhs(0.0, x, p=p, r=r))) < 1e-14 * max(1.0, np.max(np.abs(xdot)))
+        assert np.max(np.abs(out - ref)) < 1e-12 * max(1.0, np.max(np.abs(ref)))
+
+
+def test_tree_sensitivities_through_jvp_and_jacobian_agree(model):
+    from eomc.runtime import sensitivity
+    x0 = np.zeros(model.nx)
+    x0[1:model.nq] = 0.4
+    names = ["q1", "m", "l"]
+    runs = []
+    for prefer in (True, False):
+        old = sensitivity.PREFER_JVP
+        sensitivity.PREFER_JVP = prefer
+        try:
+            runs.append(model.simulate(x0, (0, 1), t_eval=[0.5, 1.0], rtol=1e-10, atol=1e-10,
+                                       sensitivities=names))
+        finally:
+            sensitivity.PREFER_JVP = old
+    a, b = runs
+    S = np.concatenate([b.dx_dx0, b.dx_dp], axis=2)
+    assert np.max(np.abs(np.concatenate([a.dx_dx0, a.dx_dp], axis=2) - S)) < 1e-7 * np.max(np.abs(S))

@@ -1,0 +1,96 @@
+"""Forward sensitivities (runtime/sensitivity.py, runtime/c/eomc_sensitivity.c).
+
+dx(t)/dx0 and dx(t)/dp from the variational equations, checked against
+central differences of whole simulations (run at tighter tolerance) for the
+explicit methods and Radau, plus the errors for what cannot be computed.
+"""
+import numpy as np
+import pytest
+
+import eomc
+from eomc.errors import ModelError
+
+MODEL = "examples/cart_pole_system.py"
+T = np.linspace(0.0, 2.0, 9)
+X0 = np.array([0.1, 0.5, 0.0, 0.3])
+R = np.array([0.2, -0.1])
+
+
+@pytest.fixture(scope="module")
+def cache(tmp_path_factory):
+    import os
+    old = os.environ.get("EOMC_CACHE_DIR")
+    os.environ["EOMC_CACHE_DIR"] = str(tmp_path_factory.mktemp("cache"))
+    yield
+    if old is None:
+        del os.environ["EOMC_CACHE_DIR"]
+    else:
+        os.environ["EOMC_CACHE_DIR"] = old
+
+
+@pytest.fixture(scope="module", params=["jac_x", "jvp"])
+def model(cache, request):
+    """Two builds: S' = J S + P from jac_x and jac_p, or from directional derivatives (jvp)."""
+    extra = ["jvp"] if request.param == "jvp" else []
+    return eomc.compile(MODEL, functions=["rhs", "jac_x", "jac_p", "outputs"] + extra)
+
+
+def _fd(model, method, which, j, h):
+    def run(sign):
+        x0, p = X0.copy(), model.param_defaults.copy()
+        (x0 if which == "x" else p)[j] += sign * h
+        return model.simulate(x0, (0, 2), p=p, r=R, method=method, rtol=1e-12, atol=1e-12, t_eval=T).x
+    return (run(1) - run(-1)) / (2 * h)
+
+
+@pytest.mark.parametrize("method", ["dop853", "dopri5", "radau"])
+def test_sensitivities_match_differences_of_whole_runs(model, method):
+    names = ["q_pole", "u_cart", "m_pole", "l", "c", "g"]
+    res = model.simulate(X0, (0, 2), r=R, method=method, rtol=1e-10, atol=1e-10, t_eval=T,
+                         sensitivities=names)
+    assert res.sensitivity_states == ("q_pole", "u_cart")
+    assert res.sensitivity_params == ("m_pole", "l", "c", "g")
+    assert res.dx_dx0.shape == (T.size, 4, 2) and res.dx_dp.shape == (T.size, 4, 4)
+    # the state itself is the plain run's
+    plain = model.simulate(X0, (0, 2), r=R, method=method, rtol=1e-10, atol=1e-10, t_eval=T)
+    assert np.max(np.abs(res.x - plain.x)) < 1e-8
+    assert np.array_equal(res.dx_dx0[0], np.eye(4)[:, [1, 2]])
+    assert np.all(res.dx_dp[0] == 0.0)
+    for k, (which, j) in enumerate([("x", 1), ("x", 2)]):
+        fd = _fd(model, method, which, j, 1e-6)
+        assert np.max(np.abs(res.dx_dx0[:, :, k] - fd)) < 1e-6 * np.max(np.abs(fd))
+    for k, name in enumerate(res.sensitivity_params):
+        j = model.param_names.index(name)
+        fd = _fd(model, method, "p", j, 1e-6 * max(1.0, abs(model.param_defaults[j])))
+        assert np.max(np.abs(res.dx_dp[:, :, k] - fd)) < 1e-6 * np.max(np.abs(fd)), name
+
+
+def test_all_columns(model):
+    res = model.simulate(X0, (0, 1), t_eval=[0.0, 1.0], sensitivities=True, rtol=1e-8, atol=1e-8)
+    assert res.dx_dx0.shape == (2, 4, 4) and res.dx_dp.shape == (2, 4, model.nparam)
+    assert res.sensitivity_params == model.param_names
+    only_x0 = model.simulate(X0, (0, 1), t_eval=[0.0, 1.0], sensitivities="x0", rtol=1e-8, atol=1e-8)
+    assert only_x0.dx_dp.shape == (2, 4, 0)
+    assert np.allclose(only_x0.dx_dx0, res.dx_dx0, rtol=1e-6, atol=1e-9)
+
+
+def test_bad_requests(cache):
+    model = eomc.compile(MODEL, functions=["rhs", "jac_x", "jac_p", "outputs"])   # the fixture's (cached)
+    with pytest.raises(ValueError, match="is neither a state"):
+        model.simulate(X0, (0, 1), sensitivities=["mass"])
+    with pytest.raises(ValueError, match="callable"):
+        model.simulate(X0, (0, 1), r=lambda t: R, sensitivities=True)
+    with pytest.raises(ValueError, match="twice"):
+        model.simulate(X0, (0, 1), sensitivities=["g", "g"])
+    bare = eomc.compile(MODEL, functions=["rhs", "jac_x"])
+    jvp_only = eomc.compile(MODEL, functions=["rhs", "jac_x", "jvp"])      # jvp has the parameter directions
+    assert jvp_only.simulate(X0, (0, 1), sensitivities=["g"], t_eval=[1.0]).dx_dp.shape == (1, 4, 1)
+    with pytest.raises(ModelError, match=r"jac_p.*--outputs rhs,jac_x,jac_p"):
+        bare.simulate(X0, (0, 1), sensitivities=True)
+    assert bare.simulate(X0, (0, 1), sensitivities="x0", t_eval=[1.0]).dx_dx0.shape == (1, 4, 4)
+    rhs_only = eomc.compile(MODEL, functions=["rhs"])
+    with pytest.raises(ModelError, match="jac_x"):
+        rhs_only.simulate(X0, (0, 1), sensitivities="x0")
+    folded = eomc.compile(MODEL, functions=["rhs", "jac_x", "jac_p"], fold_parameters=True)
+    with pytest.raises(ModelError, match="'m_pole' was folded"):
+        folded.simulate(X0, (0, 1), sensitivities=["m_pole"])
