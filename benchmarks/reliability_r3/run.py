@@ -39,13 +39,14 @@ REPO = HERE.parent.parent
 
 # lanes: scripts in a lane run one after another; "after" waits for a script of another lane.
 LANES = [
-    ["s2_urdf", "s2b_urdf", "s2c_urdf", "s2d_cont", "s2f_scale", "s2_urdf_retry"],
+    ["s2_urdf"],
+    ["s2b_urdf", "s2c_urdf", "s2d_cont", "s2f_scale"],
     ["s1_rerun", "s1b_f8", "s3_system", "verify_s3", "verify_gimbal", "s4_events", "s6_consistent",
      "s10_sanitize", "s10b_sanitize"],
     ["s5_inputs", "s7_travel", "s9_cache", "s9b_cache", "s9c_cache", "s11_handrun"],
     ["s8_sweep", "s8b_sweep", "s8c_dask"],
 ]
-AFTER = {"s11_handrun": "s5_inputs", "s10_sanitize": "s2b_urdf", "s10b_sanitize": "s2b_urdf", "s2d_cont": "s2b_urdf"}
+AFTER = {"s11_handrun": "s6_consistent", "s10_sanitize": "s2b_urdf", "s10b_sanitize": "s2b_urdf", "s2d_cont": "s2b_urdf"}
 HEAVY = {"s2f_scale", "s2b_urdf", "s2c_urdf", "s10_sanitize", "s10b_sanitize", "s8b_sweep", "s1b_f8"}
 # Scripts of the tester's folder that record no attempt and need hand-made inputs: not run, said so.
 NOT_RUN = {"s9v_sweep_prune_race": "a hand check of the tester (needs sp0.py/sp1.py/cases.csv made by hand "

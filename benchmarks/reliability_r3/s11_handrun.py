@@ -153,3 +153,41 @@ for rnd in range(2, 6):
     record("cache", f"4 concurrent `eomc sweep model.py` + prune/clear loop, round {rnd}",
            "ok" if rcs == [0] * 4 and same else ("raw" if tb else "clear"),
            f"exit {rcs}; a0==a2 {same}; tracebacks {tb[:2]}; {[last_line(o[1])[:120] for o in outs if o[1].strip()][:2]}")
+
+# ---- consistent_state: the tester's re-runs of two test bugs, residual checked with the p used (rows 553, 554)
+S6 = Path(W) / "s6"
+fb = eomc.load(S6 / "four_bar_system")
+wb = eomc.load(S6 / "whipple_bicycle")
+for case, model, target, p in [
+        ("four-bar p with zero crank length (l2=0), residual checked with that p", fb, {"q1": 0.3}, {"l2": 0.0}),
+        ("bicycle consistent_state all-zero parameters, residual checked with that p", wb, {},
+         {n: 0.0 for n in wb.param_names})]:
+    kind, v = api(lambda: model.consistent_state(target, p=p))
+    if kind == "ok":
+        res = float(np.max(np.abs(model.constraints(0.0, v, p=p)))) if model.nhol + model.nvel else 0.0
+        record("consistent", case, "ok" if res < 1e-9 else "wrong", f"x={np.round(v, 6).tolist()} residual {res:.1e}")
+    else:
+        record("consistent", case, "clear" if kind == "eomc" else "raw", v)
+
+# ---- events: `eomc sweep examples/cartpole_lqr.py` (terminal event 'fallen'), 3 cases (row 322)
+import csv
+cases = D / "cp_cases.csv"
+cases.write_text("x\n0.0\n0.1\n-0.1\n")
+rc, so, se, dt = cli(["sweep", str(Path(EX) / "cartpole_lqr.py"), "--cases", str(cases), "--t-final", "5",
+                      "-o", str(D / "cp_res.csv"), "-q"], envv=E)
+if rc == 0:
+    rows = list(csv.DictReader(open(D / "cp_res.csv")))
+    bad = []
+    for row in rows:
+        x0 = dict(zip(cpl.state_names, cpl.initial_state), x=float(row["x"]))
+        ref = cpl.simulate(x0, (0, 5))
+        got = np.array([float(row[f"final_{n}"]) for n in cpl.state_names])
+        if int(row["status"]) != ref.status or not np.allclose(got, ref.x_final, rtol=1e-9, atol=1e-12) \
+                or abs(float(row["t_final"]) - ref.t_final) > 1e-12:
+            bad.append((row["x"], row["status"], row["t_final"], got.tolist(), ref.t_final, ref.x_final.tolist()))
+    record("events", "eomc sweep examples/cartpole_lqr.py (its terminal event 'fallen'), 3 cases",
+           "ok" if not bad and len(rows) == 3 else "wrong",
+           f"{len(rows)} rows; final state, t_final and status equal simulate()'s: {not bad} {str(bad)[:300]}")
+else:
+    record("events", "eomc sweep examples/cartpole_lqr.py (its terminal event 'fallen'), 3 cases",
+           classify_cli(rc, so, se), f"rc={rc} {last_line(se)[:300]}")
