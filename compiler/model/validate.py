@@ -87,13 +87,20 @@ def _derivative_inputs(formed):
 
 
 def check_equations(formed):
-    """The formed equations must be real and finite, and their inputs plain dynamic symbols.
+    """The model must have states; its equations must be real and finite, and their inputs
+    plain dynamic symbols.
 
     Caught here, the user hears which equation is wrong at the `system` line;
     left alone, zoo/nan/I reach the C printer (a SymPy traceback) or the C
     compiler (`'I' undeclared`), and the derivative of an undeclared dynamic
     symbol w would silently become a second, independent input named w'.
     """
+    if not _states(formed):
+        # Left alone, a 0-state model builds and the integrator then fails with "bad argument
+        # (the model failed at t=nan ...)", which names nothing (reliability r3: an empty System).
+        raise Invalid("system", "the system has no coordinates, speeds or states: a model without "
+                                "states has nothing to integrate; add a joint (or q_ind/u_ind) that moves "
+                                "a body")
     derivs = _derivative_inputs(formed)
     if derivs:
         d = derivs[0]
