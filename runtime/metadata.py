@@ -13,7 +13,8 @@ disk) can change it.  So the loader trusts it as little as possible:
   state/parameter/input/output names and parameter defaults are read from the
   library's own ``eomc_model`` struct -- what the C code was compiled with --
   and a NAME.json that disagrees is refused.  Only the facts the struct does
-  not carry (initial_state, op_counts, sparsity) come from the JSON, type-checked.
+  not carry (initial_state, op_counts, sparsity, and the notes on how the model was
+  formulated: formulation_note, tree_notes) come from the JSON, type-checked.
 
 Every inconsistency is a LoadError that says to rebuild the model.
 """
@@ -138,6 +139,12 @@ def from_library(path, data, c_model, ffi, library):
         meta[field] = value
     if data.get("initial_state") is not None:
         meta["initial_state"] = _real_list(path, data["initial_state"], nx, "initial_state")
+    for field in ("formulation_note",):   # shown to users (eomc inspect): text, if anything
+        if data.get(field) is not None and not isinstance(data[field], str):
+            raise _bad(path, f"{field} must be a string, not {data[field]!r}")
+    notes = data.get("tree_notes")   # the System -> tree reader's fallbacks (compiler/tree/recognize.py)
+    if notes is not None and (not isinstance(notes, list) or any(not isinstance(n, str) for n in notes)):
+        raise _bad(path, f"tree_notes must be a list of strings, not {notes!r}")
     ops = data.get("op_counts", {})
     if not isinstance(ops, dict) or any(
             not isinstance(c, dict) or any(not isinstance(v, int) or isinstance(v, bool) for v in c.values())

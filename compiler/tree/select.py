@@ -51,8 +51,8 @@ def check_formulation(formulation):
 
 def tree_digest(spec):
     """The tree's expressions and shape (each body's parent and speed: two trees can have
-    the same expressions and differ only there), for the generation cache key of a
-    formed-less System."""
+    the same expressions and differ only there) and the reader's notes (the metadata's
+    ``tree_notes``), for the generation cache key of a formed-less System."""
     tree = getattr(spec.formed, "_tree", None)
     if tree is None:
         return None
@@ -60,7 +60,8 @@ def tree_digest(spec):
     shape = [(b.parent, b.speed) if b.speed is not None else
              (b.parent, -2 - len(b.speeds)) + tuple(b.speeds) if b.speeds else (b.parent, -1)
              for b in tree.bodies]
-    return tree_exprs(tree) + [sm.Integer(k) for pair in shape for k in pair]
+    notes = list(getattr(tree, "notes", ()))   # they go into the metadata (tree_notes)
+    return tree_exprs(tree) + [sm.Integer(k) for pair in shape for k in pair] + notes
 
 
 def is_eomc_kane(system):
@@ -245,7 +246,10 @@ def _generate_recursive(spec, functions, fold_parameters):
     tree = _find_tree(spec)
     check_tree_finite(tree, spec.system)
     check_formed_finite(spec)
-    return generate_c(spec.formed, spec.name, tree=tree, **_options(spec, functions, fold_parameters))
+    generated = generate_c(spec.formed, spec.name, tree=tree, **_options(spec, functions, fold_parameters))
+    if getattr(tree, "notes", ()):   # joints the System reader took through SymPy's kinematics, and why
+        generated.metadata["tree_notes"] = list(tree.notes)
+    return generated
 
 
 def generate_formulation(spec, functions, fold_parameters, formulation=DEFAULT_FORMULATION,

@@ -46,14 +46,21 @@ def run(args):
                                progress=False if args.quiet else None, formulation=args.formulation)
     print(format_report(generated.metadata))
     print("")
-    print(compare_formulations(args, spec, generated, generate, ModelError))
+    print(compare_formulations(args, spec, generated, generate, ModelError, source=source, name=name))
     return 0
 
 
-def compare_formulations(args, spec, generated, generate, error):
+def compare_formulations(args, spec, generated, generate, error, *, source=None, name=None):
     """Which formulation generated the model and why (auto's reason for a fallback, its cost
-    comparison), then total operations per function in both formulations (the other one
-    generated too, unless that means forming a large System's equations)."""
+    comparison, the joints the tree reader read through SymPy's kinematics), then total
+    operations per function in both formulations (the other one generated too, unless that
+    means forming a large System's equations).
+
+    ``source``, ``name``: the model as the first generation got it (a URDF with its options,
+    e.g. ``--floating-base``: eomc.compiler.urdf.model.with_options); the other formulation is
+    generated from the same, so both columns describe the same robot."""
+    source = args.model if source is None else source
+    name = args.name if name is None else name
     from eomc.compiler.tree.select import AUTO_KANE_MAX_SPEEDS
     meta = generated.metadata
     chosen = meta.get("formulation", "kane")
@@ -63,6 +70,8 @@ def compare_formulations(args, spec, generated, generate, error):
     head = [f"formulation: {note}" if note else
             f"formulation: {chosen}" + (f" (asked for: {args.formulation})"
                                         if args.formulation != chosen else "")]
+    for tree_note in meta.get("tree_notes") or ():   # the System -> tree reader's fallbacks
+        head.append(f"  tree reader: {tree_note}")
     costs = meta.get("formulation_costs")
     if costs:
         head.append("  auto compared rhs operations: " +
@@ -74,7 +83,7 @@ def compare_formulations(args, spec, generated, generate, error):
                     f"speeds), and forming them is what the recursive formulation avoids")
         return "\n".join(head)
     try:
-        _, alt = generate(args.model, args.name, functions=args.outputs,
+        _, alt = generate(source, name, functions=args.outputs,
                           fold_parameters=args.fold_parameters, progress=False, formulation=other)
         alt_counts = alt.metadata["op_counts"]
     except error as exc:
