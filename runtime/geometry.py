@@ -18,8 +18,10 @@ size, invisible on screen) and big meshes are thinned by vertex clustering, so
 a robot's page stays a few megabytes.
 """
 import base64
+import logging
 import re
 import warnings
+from contextlib import contextmanager
 from functools import lru_cache
 from pathlib import Path
 
@@ -33,6 +35,22 @@ __all__ = ["shape", "urdf_visuals", "packed_mesh", "MAX_MESH_FACES"]
 MAX_MESH_FACES = 20_000
 
 _IDENTITY = [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0]
+
+
+@contextmanager
+def _quiet_mesh_loggers():
+    """yourdfpy and trimesh log what they cannot find or read ("Unable to resolve filename:
+    ...") straight to stderr; eomc says it once itself (a warning naming the body and the
+    file, in :func:`pack_shapes`), so their records below ERROR are dropped meanwhile."""
+    loggers = [logging.getLogger(name) for name in ("yourdfpy", "trimesh")]
+    levels = [logger.level for logger in loggers]
+    for logger in loggers:
+        logger.setLevel(logging.ERROR)
+    try:
+        yield
+    finally:
+        for logger, level in zip(loggers, levels):
+            logger.setLevel(level)
 
 
 def shape(kind, size=(), *, path=None, scale=None, origin=None, color=None):
@@ -56,6 +74,11 @@ def urdf_visuals(tree):
     ``tree``: eomc.compiler.urdf's merged tree.  A link welded into a body (or into the
     ground) is placed by the fixed joints between them, read at the zero configuration.
     """
+    with _quiet_mesh_loggers():
+        return _urdf_visuals(tree)
+
+
+def _urdf_visuals(tree):
     import yourdfpy
     path = Path(tree.path)
     urdf = yourdfpy.URDF.load(str(path), build_scene_graph=True, load_meshes=False,
@@ -85,8 +108,9 @@ def urdf_link_transforms(tree):
     """{link name: (body name or "world", 4x4 pose of the link in that body's frame)} of every
     link that is not a body's own frame: links welded to a body or to the ground."""
     import yourdfpy
-    urdf = yourdfpy.URDF.load(str(tree.path), build_scene_graph=True, load_meshes=False,
-                              build_collision_scene_graph=False, load_collision_meshes=False)
+    with _quiet_mesh_loggers():
+        urdf = yourdfpy.URDF.load(str(tree.path), build_scene_graph=True, load_meshes=False,
+                                  build_collision_scene_graph=False, load_collision_meshes=False)
     out = {}
     groups = [("world", tree.root, list(tree.ground_links) or [tree.root])]
     groups += [(identifier(b.name), b.name, b.links) for b in tree.bodies.values()]
@@ -166,7 +190,8 @@ def packed_mesh(path, scale=(1.0, 1.0, 1.0), max_faces=MAX_MESH_FACES):
 @lru_cache(maxsize=64)
 def _packed(path, scale, max_faces, size, mtime):
     import trimesh
-    loaded = trimesh.load(str(path), force="mesh")   # process: merged vertices, smooth normals
+    with _quiet_mesh_loggers():
+        loaded = trimesh.load(str(path), force="mesh")   # process: merged vertices, smooth normals
     vertices = np.asarray(loaded.vertices, float) * np.asarray(scale, float)
     faces = np.asarray(loaded.faces, np.int64)
     if len(vertices) == 0 or len(faces) == 0:
