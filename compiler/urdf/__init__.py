@@ -14,20 +14,25 @@ from .system import UrdfSystem, system_from_tree
 __all__ = ["from_urdf", "urdf_system", "read_urdf", "build_tree", "system_from_tree", "UrdfSystem"]
 
 
-def urdf_system(path, *, floating_base=False, fold_parameters=False, mimic=False, gravity=9.81):
+def urdf_system(path, *, floating_base=False, fold_parameters=False, mimic=False, gravity=9.81,
+                allow_nonphysical_inertia=False):
     """The :class:`UrdfSystem` of the URDF file ``path`` (System, parameters, inputs, ...)."""
-    tree = build_tree(read_urdf(path), floating_base=floating_base)
+    tree = build_tree(read_urdf(path), floating_base=floating_base,
+                      allow_nonphysical_inertia=allow_nonphysical_inertia)
     return system_from_tree(tree, fold=fold_parameters, mimic=mimic, gravity=gravity)
 
 
-def from_urdf(path, *, floating_base=False, fold_parameters=False, mimic=False, gravity=9.81):
+def from_urdf(path, *, floating_base=False, fold_parameters=False, mimic=False, gravity=9.81,
+              allow_nonphysical_inertia=False):
     """A SymPy ``System`` of the robot in the URDF file ``path``, ready to extend and compile.
 
     Its ``parameters`` (Symbol -> URDF value) and ``inputs`` (joint torques) are
     attached as attributes ``urdf_parameters`` and ``urdf_inputs``.
+    ``allow_nonphysical_inertia``: build a robot whose moving links have negative principal
+    moments beyond rounding (refused by default), with a warning naming each link.
     """
     built = urdf_system(path, floating_base=floating_base, fold_parameters=fold_parameters,
-                        mimic=mimic, gravity=gravity)
+                        mimic=mimic, gravity=gravity, allow_nonphysical_inertia=allow_nonphysical_inertia)
     system = built.system
     system.urdf = built
     return system

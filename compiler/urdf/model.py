@@ -34,10 +34,12 @@ class UrdfModel:
     fold_parameters: bool = False
     mimic: bool = False
     gravity: float = 9.81
+    allow_nonphysical_inertia: bool = False
 
     def options(self):
         return dict(floating_base=self.floating_base, fold_parameters=self.fold_parameters,
-                    mimic=self.mimic, gravity=self.gravity)
+                    mimic=self.mimic, gravity=self.gravity,
+                    allow_nonphysical_inertia=self.allow_nonphysical_inertia)
 
 
 def is_urdf_path(model):
@@ -85,7 +87,8 @@ def urdf_formed(model, formulation, overrides, formed_system):
     that the URDF package does not import the model layer that imports it)."""
     from . import build_tree, read_urdf, system_from_tree
     model = model if isinstance(model, UrdfModel) else UrdfModel(Path(model))
-    tree = build_tree(read_urdf(model.path), floating_base=model.floating_base)
+    tree = build_tree(read_urdf(model.path), floating_base=model.floating_base,
+                      allow_nonphysical_inertia=model.allow_nonphysical_inertia)
     mimics = [j.name for j in tree.joints if j.mimic is not None]
     if formulation != "kane" and not (model.mimic and mimics):
         from eomc.compiler.tree.formed import formed_of_tree
@@ -106,19 +109,22 @@ def urdf_formed(model, formulation, overrides, formed_system):
     return formed, urdf_overrides(system, formed, overrides), system
 
 
-def with_options(model, name=None, *, floating_base=False):
+def with_options(model, name=None, *, floating_base=False, allow_nonphysical_inertia=False):
     """(model, name) for the driver: a URDF path with options becomes a :class:`UrdfModel`.
 
-    The CLI's ``--floating-base`` lands here; without options the path goes
-    through unchanged (the driver reads URDF paths itself).
+    The CLI's ``--floating-base`` and ``--allow-nonphysical-inertia`` land here; without
+    options the path goes through unchanged (the driver reads URDF paths itself).
     """
-    if not floating_base:
+    given = {k: v for k, v in (("floating_base", floating_base),
+                               ("allow_nonphysical_inertia", allow_nonphysical_inertia)) if v}
+    if not given:
         return model, name
     if not is_urdf_path(model):
         from eomc.runtime.errors import ModelError
-        raise ModelError(f"--floating-base applies to URDF robots (.urdf), not to {model}")
+        flags = " and ".join("--" + k.replace("_", "-") for k in given)
+        raise ModelError(f"{flags} applies to URDF robots (.urdf), not to {model}")
     from eomc.compiler.model.validate import sanitize_name
-    return UrdfModel(Path(model), floating_base=True), name or sanitize_name(Path(model).stem)
+    return UrdfModel(Path(model), **given), name or sanitize_name(Path(model).stem)
 
 
 def load_urdf_model(path, **options):

@@ -25,6 +25,9 @@ each, ``file:line``, naming the link):
   sensor frame on a joint): its joints are locked at q = 0 and it is merged
   into its parent, since nothing it could do changes the dynamics.
 
+A moving body with a negative principal moment beyond rounding stays an error, unless
+the caller opts in (``allow_nonphysical_inertia``: kept as given, one warning per link).
+
 Everything walks the tree with explicit stacks, so depth costs no recursion
 (a 1000-link chain reads in milliseconds).
 """
@@ -212,9 +215,12 @@ def _link_inertia(robot, link, notes):
     return "negative" if eig.min() < -tol else "triangle"
 
 
-def _check_body(robot, body, joint, verdicts, notes):
+def _check_body(robot, body, joint, verdicts, notes, allow_nonphysical=False):
     """A moving body's combined inertia must be positive semi-definite; links whose own
-    tensors are impossible are accepted (with a warning) when the combination is possible."""
+    tensors are impossible are accepted (with a warning) when the combination is possible.
+    ``allow_nonphysical`` (the user's opt-in, ``allow_nonphysical_inertia``): a negative
+    principal moment beyond rounding is kept as given too, with a warning naming the link
+    (Pinocchio loads such files; the mass matrix may then be indefinite)."""
     bad = [name for name in body.links if verdicts.get(name, "ok") != "ok"]
     if not bad:
         return
@@ -227,10 +233,20 @@ def _check_body(robot, body, joint, verdicts, notes):
         link = robot.links[name]
         leig = _moments(link.inertia)[0]
         if verdicts[name] == "negative" and (eig.min() < -tol or len(body.links) == 1):
+            if allow_nonphysical:
+                whole = (f"; the body '{body.name}' it is welded into: {_describe(eig)}"
+                         if len(body.links) > 1 else "")
+                _warn(robot, link.line, f"link '{name}' (moved by joint '{joint.name}'): its inertia "
+                                        f"tensor is not physically possible (principal moments "
+                                        f"{_describe(leig)}{whole}); kept as given "
+                                        f"(allow_nonphysical_inertia): the mass matrix may be indefinite",
+                      notes)
+                continue
             _fail(robot, link.line, f"link '{name}': its inertia tensor is not physically possible "
                                     f"(principal moments {_describe(leig)}: they must be non-negative "
                                     f"and obey the triangle inequality; a negative one beyond rounding "
-                                    f"makes the mass matrix indefinite)")
+                                    f"makes the mass matrix indefinite; allow_nonphysical_inertia=True / "
+                                    f"--allow-nonphysical-inertia builds it anyway, as Pinocchio does)")
         if verdicts[name] == "triangle" and len(body.links) == 1:
             what = "kept as given (as Pinocchio does): the dynamics need only a non-negative tensor"
         else:
@@ -291,8 +307,10 @@ def _subtree(children, link):
     return out
 
 
-def build_tree(robot, floating_base=False):
-    """The :class:`Tree` of ``robot`` (a reader.UrdfRobot); see the module docstring."""
+def build_tree(robot, floating_base=False, allow_nonphysical_inertia=False):
+    """The :class:`Tree` of ``robot`` (a reader.UrdfRobot); see the module docstring.
+    ``allow_nonphysical_inertia``: keep moving bodies whose principal moments are negative
+    beyond rounding, with a warning per link, instead of refusing the file."""
     parent_joint, root = _parents_and_root(robot)
     notes, locked = [], []
     verdicts = {name: _link_inertia(robot, link, notes) for name, link in robot.links.items()}
@@ -362,7 +380,7 @@ def build_tree(robot, floating_base=False):
     for joint in joints:
         body = bodies[joint.child]
         _combine(body, items[body.name])
-        _check_body(robot, body, joint, verdicts, notes)
+        _check_body(robot, body, joint, verdicts, notes, allow_nonphysical_inertia)
     for name in ground:      # welded to the world: they move nothing, so only say so
         if verdicts.get(name, "ok") != "ok":
             _warn(robot, robot.links[name].line, f"link '{name}': its inertia tensor is not physically "

@@ -23,6 +23,9 @@ def add_model_arguments(parser):
                         help="no progress on stderr (compiling a model file, long runs)")
     parser.add_argument("--floating-base", action="store_true",
                         help="URDF: a 6-dof floating joint between the world and the root link")
+    parser.add_argument("--allow-nonphysical-inertia", action="store_true",
+                        help="URDF: build moving links whose principal moments are negative (refused "
+                             "by default), with a warning naming each")
 
 
 FORMULATION_HELP = ("dynamics formulation: auto (default: the cheaper rhs of the two; kane where the "
@@ -43,12 +46,14 @@ def model_options(args):
     options = {}
     if getattr(args, "floating_base", False):
         options["floating_base"] = True
+    if getattr(args, "allow_nonphysical_inertia", False):
+        options["allow_nonphysical_inertia"] = True
     if getattr(args, "formulation", None) not in (None, "auto"):
         options["formulation"] = args.formulation
     return options
 
 
-def load_model(path, quiet=False, floating_base=False, formulation="auto"):
+def load_model(path, quiet=False, floating_base=False, formulation="auto", allow_nonphysical_inertia=False):
     """A runtime Model from a model file (compiled) or a built directory / json (loaded).
 
     Compiling shows its stages on stderr when that is a terminal, unless ``quiet``.
@@ -59,7 +64,8 @@ def load_model(path, quiet=False, floating_base=False, formulation="auto"):
     if path.is_file() and path.suffix.lower() in (".py", ".urdf"):
         from eomc.compiler.driver import compile as compile_model
         from eomc.compiler.urdf.model import with_options
-        source, name = with_options(str(path), floating_base=floating_base)
+        source, name = with_options(str(path), floating_base=floating_base,
+                                    allow_nonphysical_inertia=allow_nonphysical_inertia)
         return compile_model(source, name, progress=False if quiet else None,
                              formulation=formulation)
     from eomc.runtime.loader import load
