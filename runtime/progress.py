@@ -1,4 +1,5 @@
-"""Progress on stderr for long steps: a live ticker or a bar, only on a terminal.
+"""Progress on stderr for long steps: a live ticker or a bar on a terminal, sparse plain
+lines for an integration whose stderr is a log.
 
 Why: deriving, generating and compiling a big model (the bicycle: a minute
 or more) or running a report grid used to leave the terminal blank.  A
@@ -7,12 +8,26 @@ what it is doing now, redrawn twice a second from a thread); a loop of known
 length gets a *bar*.  Both are drawn by tqdm, and both are off when the
 stream is not a terminal (logs and pipes keep the plain stage lines) or when
 the caller says so (``-q``).
+
+An integration is one C call, so it is followed from a thread (:func:`integration`):
+the integrators write the time they have reached into their stats as they step
+(runtime/c/eomc_integrators.c), which the thread reads while the call runs
+without the GIL.  On a terminal it draws a bar over the time span; in a log (CI,
+a notebook's captured stderr, ``2> run.log``) it prints a plain line only when
+both LINE_FRACTION of the span and LINE_SECONDS of wall time have passed since
+the last one -- whichever is rarer -- so a short run prints nothing and a long
+one about ten lines.
 """
 import threading
+import time
+from contextlib import contextmanager
 
-__all__ = ["ticker", "bar", "is_terminal"]
+__all__ = ["ticker", "bar", "is_terminal", "integration", "follow_integration"]
 
 REFRESH_S = 0.5
+LINE_FRACTION = 0.1     # plain lines: at least this much more of the time span ...
+LINE_SECONDS = 5.0      # ... and at least this many seconds of wall time since the last one
+POLL_S = 0.25
 
 
 def is_terminal(stream):
@@ -112,3 +127,97 @@ def bar(total, label, stream, enabled=True, unit="run"):
     if not enabled or total < 2 or not is_terminal(stream) or _tqdm() is None:
         return _Off()
     return _Bar(total, label, stream, unit)
+
+
+_current = threading.local()     # the integration() the calling thread is inside, if any
+
+
+class _Follower:
+    """Follows one C integration from a thread: ``run`` polls ``read()`` -> (t, steps)."""
+
+    def __init__(self, label, stream, live, clock):
+        self.label, self.stream, self.live, self.clock = label, stream, live, clock
+        self.lines = 0
+        self._bar = None
+
+    def begin(self, t0, t1):
+        self.t0, self.t1 = t0, t1
+        self.start = self.clock()
+        self.frac, self.wall, self.shown = 0.0, self.start, 0
+        if self.live:
+            self._bar = _tqdm()(total=100, desc=self.label, file=self.stream, leave=False, unit="%",
+                                bar_format="{desc} {percentage:3.0f}%|{bar}| {elapsed}{postfix}")
+
+    def _line(self, t, steps):
+        span = self.t1 - self.t0
+        share = 100.0 * (t - self.t0) / span if span else 100.0
+        print(f"{self.label}: t = {t:.6g} of [{self.t0:.6g}, {self.t1:.6g}] ({share:.0f} %), "
+              f"{steps} steps, {self.clock() - self.start:.0f} s", file=self.stream, flush=True)
+        self.lines += 1
+
+    def poll(self, t, steps):
+        """The integrator reached ``t`` after ``steps`` steps: redraw the bar, or print a line
+        if LINE_FRACTION of the span and LINE_SECONDS have passed since the last one."""
+        span = (self.t1 - self.t0) or 1.0
+        frac = min(max((t - self.t0) / span, 0.0), 1.0)
+        if self._bar is not None:
+            shown = int(100 * frac)
+            if shown > self.shown:
+                self._bar.update(shown - self.shown)
+                self.shown = shown
+            self._bar.set_postfix_str(f"t={t:.4g}, {steps} steps", refresh=True)
+            return
+        now = self.clock()
+        if frac - self.frac >= LINE_FRACTION and now - self.wall >= LINE_SECONDS:
+            self._line(t, steps)
+            self.frac, self.wall = frac, now
+
+    def end(self, t, steps):
+        if self._bar is not None:
+            self._bar.close()
+            self._bar = None
+        elif self.lines:                   # a long run said how far it got: say where it ended
+            self._line(t, steps)
+
+    def run(self, read, t0, t1, call):
+        """``call()`` (the C call) while a thread polls how far ``read()`` says it got."""
+        stop = threading.Event()
+        self.begin(t0, t1)
+
+        def watch():
+            while not stop.wait(POLL_S):
+                self.poll(*read())
+        thread = threading.Thread(target=watch, name="eomc-integration-progress", daemon=True)
+        thread.start()
+        try:
+            return call()
+        finally:
+            stop.set()
+            thread.join()
+            self.end(*read())
+
+
+@contextmanager
+def integration(label, stream, enabled=True, clock=time.monotonic):
+    """Integrations run inside this block (on this thread) report progress on ``stream``: a bar
+    on a terminal, sparse plain lines otherwise (module docstring); nothing when not
+    ``enabled`` (``-q``).  The integrator's caller hands each C call to
+    :func:`follow_integration`."""
+    previous = getattr(_current, "follower", None)
+    live = is_terminal(stream)
+    _current.follower = (_Follower(label, stream, live and _tqdm() is not None, clock)
+                         if enabled and (not live or _tqdm() is not None) else None)
+    try:
+        yield _current.follower
+    finally:
+        _current.follower = previous
+
+
+def follow_integration(read, t0, t1, call):
+    """``call()``, followed by the enclosing :func:`integration` if there is one (else just
+    the call).  ``read()`` -> (time reached, steps taken), read from another thread while
+    ``call`` runs: it must be safe for that (a look at the integrator's stats struct)."""
+    follower = getattr(_current, "follower", None)
+    if follower is None:
+        return call()
+    return follower.run(read, t0, t1, call)

@@ -21,6 +21,7 @@ from .integrators_api import METHOD_ALIASES, METHOD_IDS, STATUS_NAMES
 from .events import DEFAULT_MAX_EVENTS, EventsBinding, resolve_events
 from .feedback import FeedbackBinding, applied_inputs, check_callable, cubic_slopes
 from .names import index_of
+from .progress import follow_integration
 from .result import SimulationResult
 
 __all__ = ["simulate", "prepare", "run_prepared", "scipy_fun", "resolve_method", "METHODS",
@@ -377,7 +378,8 @@ _STAT_FIELDS = ("steps", "accepted", "rejected", "nfev", "njev", "nlu", "nproj",
 def run_prepared(model, a, out=None):
     """One C call: returns (x_out rows written, stats dict, x_last).  Releases the GIL."""
     call, x_out, x_last, stats = bind_call(model, a, out)
-    call()
+    # a caller inside runtime.progress.integration() (eomc simulate) sees how far it got
+    follow_integration(lambda: (stats.t, stats.steps), a["t0"], a["t1"], call)
     return x_out, {f: getattr(stats, f) for f in _STAT_FIELDS}, x_last
 
 

@@ -155,9 +155,11 @@ def _start(model, x0, given, args, params):
 
 
 def run(args):
+    import sys
     import warnings
 
     from eomc.runtime.consistent import ConstraintWarning
+    from eomc.runtime.progress import integration
     from eomc.runtime.simulate import simulate
     cli_common.writable_file(args.output, "-o")
     cli_common.writable_file(args.plot, "--plot")
@@ -170,11 +172,14 @@ def run(args):
     try:
         with warnings.catch_warnings(record=True) as seen:
             warnings.simplefilter("always", ConstraintWarning)
-            res = simulate(model, x0, (args.t0, args.t_final), p=params, method=args.method,
-                           rtol=args.rtol, atol=args.atol, dt=args.dt, max_steps=args.max_steps,
-                           n_points=None if args.dt else args.points, project=args.project,
-                           baumgarte=args.baumgarte, r=inputs_argument(model, args.input),
-                           events=events_argument(args.events))
+            # long runs report how far they got (a bar on a terminal, a line every ~10 % of
+            # the span and >= 5 s otherwise: runtime/progress.py); -q: nothing
+            with integration(f"eomc simulate {model.name}", sys.stderr, not args.quiet):
+                res = simulate(model, x0, (args.t0, args.t_final), p=params, method=args.method,
+                               rtol=args.rtol, atol=args.atol, dt=args.dt, max_steps=args.max_steps,
+                               n_points=None if args.dt else args.points, project=args.project,
+                               baumgarte=args.baumgarte, r=inputs_argument(model, args.input),
+                               events=events_argument(args.events))
     finally:    # also when the run then fails: the advice explains the failure
         for w in seen:      # in the command line's words (--consistent, not consistent=True)
             message = w.message.cli_text() if isinstance(w.message, ConstraintWarning) else w.message
