@@ -20,7 +20,20 @@ and a joint whose coordinates or speeds another joint already uses;
 ``form_eoms`` names the actuator whose load acts on a point without a
 velocity.  ``formed()`` hands the equations to the compiler, so a ``System``
 is a model by itself (``system = ...`` in a model file, ``eomc.compile``).
+
+``form_eoms()`` with eomc's KanesMethod forms nothing yet: it records the
+equations (``kanes_equations``, which checks the bodies and loads at once, as
+SymPy's forming would) and returns them as a Matrix that forms them when first
+read (:class:`EquationsOnUse`).  Why: a model file written in SymPy's
+documented style calls ``system.form_eoms()`` and hands ``system`` to eomc; when
+the build takes the recursive formulation (auto, from about eight bodies) it
+reads the joint tree instead, and forming Kane's equations there cost the file
+most of its build (the n-link cart at n = 40: benchmarks/results/form_eoms_build.md).
+``kane_pending()`` says whether the System still stands as it was recorded,
+with nothing formed, so that the compiler may read its tree instead
+(eomc.compiler.mechanics.unformed).
 """
+from sympy.matrices.dense import MutableDenseMatrix
 from sympy.physics.mechanics import kane as _sympy_kane
 from sympy.physics.mechanics.body_base import BodyBase
 from sympy.physics.mechanics.joint import Joint
@@ -37,7 +50,7 @@ from .energy import Lagrangian
 from .kane import KanesMethod
 from .lagrange import LagrangesMethod
 
-__all__ = ["System", "JointsMethod"]
+__all__ = ["System", "JointsMethod", "EquationsOnUse"]
 
 _SYMPY_KANE = _sympy_kane.KanesMethod
 _SYMPY_LAGRANGE = _sympy_lagrange.LagrangesMethod
@@ -140,6 +153,63 @@ def _actuator_loads(actuator, frame):
     return loads
 
 
+class EquationsOnUse(MutableDenseMatrix):
+    """What ``System.form_eoms()`` returns with eomc's KanesMethod: ``fr + frstar`` as a
+    SymPy ``Matrix`` (a subclass: ``isinstance(eoms, Matrix)`` holds), formed the first time
+    anything reads it -- its shape, entries, printing, arithmetic, ``xreplace``, pickling.
+    Until then nothing is formed (see the module docstring)."""
+
+    def __new__(cls, form):
+        self = object.__new__(cls)
+        self.__dict__["_form_now"] = form
+        return self
+
+    def _formed(self):
+        d = self.__dict__
+        if "_formed_rep" not in d:
+            matrix = d["_form_now"]()
+            d["_formed_rep"] = matrix._rep.copy()
+            d["_formed_rows"], d["_formed_cols"] = matrix.shape
+        return d
+
+    def _setter(key):                 # noqa: N805 -- a helper of the class body
+        def set_(self, value):
+            self._formed()[key] = value
+        return set_
+
+    _rep = property(lambda self: self._formed()["_formed_rep"], _setter("_formed_rep"))
+    rows = property(lambda self: self._formed()["_formed_rows"], _setter("_formed_rows"))
+    cols = property(lambda self: self._formed()["_formed_cols"], _setter("_formed_cols"))
+    del _setter
+
+    @property
+    def is_formed(self):
+        return "_formed_rep" in self.__dict__
+
+    @classmethod
+    def _fromrep(cls, rep):
+        """Results of operations on it are plain Matrices."""
+        return MutableDenseMatrix._fromrep(rep)
+
+    def __reduce__(self):
+        rows, cols = self.rows, self.cols
+        return (MutableDenseMatrix, (rows, cols, [self[i, j] for i in range(rows) for j in range(cols)]))
+
+
+def _state_of(system):
+    """What a System's equations are formed from (identities): changed after form_eoms(),
+    the recorded equations no longer describe the System."""
+    return tuple(tuple(getattr(system, name)) for name in (
+        "joints", "bodies", "loads", "actuators", "q_ind", "q_dep", "u_ind", "u_dep", "u_aux",
+        "kdes", "holonomic_constraints", "nonholonomic_constraints"))
+
+
+def _same(a, b):
+    """The same objects (identity: cheap, and a rebuilt equal one only costs the shortcut)."""
+    return len(a) == len(b) and all(len(x) == len(y) and all(p is q for p, q in zip(x, y))
+                                    for x, y in zip(a, b))
+
+
 class System(_SymPySystem):
     """SymPy 1.14's ``System``, whose ``form_eoms`` uses eomc's KanesMethod/LagrangesMethod.
 
@@ -197,7 +267,21 @@ class System(_SymPySystem):
             kwargs["Lagrangian"] = Lagrangian(kwargs["frame"], *kwargs["bodies"])
         self._eom_method = eom_method(**kwargs)
         _name_joints(self._eom_method, self.joints)
-        return self.eom_method._form_eoms()
+        method = self._eom_method
+        if family == "kane" and type(method)._form_eoms is KanesMethod._form_eoms:
+            # record now (bad bodies or loads are refused here), form on first use
+            method.kanes_equations(method._bodylist, method._forcelist)
+            self._recorded = (_state_of(self), "acceleration_constraints" in kwargs)
+            return EquationsOnUse(lambda: method.fr + method.frstar)
+        return method._form_eoms()
+
+    def kane_pending(self):
+        """True when ``form_eoms()`` recorded eomc's Kane equations, nothing has read them
+        (so they are not formed) and the System is as it was then: its joint tree may be
+        read instead of forming them."""
+        method, recorded = self.eom_method, self.__dict__.get("_recorded")
+        return (isinstance(method, KanesMethod) and not method.is_formed and recorded is not None
+                and not recorded[1] and _same(recorded[0], _state_of(self)))
 
     def validate_system(self, eom_method=KanesMethod, check_duplicates=False):
         """SymPy's checks, for eomc's classes as for SymPy's (see ``System.validate_system``)."""

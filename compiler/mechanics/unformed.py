@@ -21,11 +21,13 @@ PENDING_KANE_MIN_BODIES = 8
 
 
 def is_unformed_system(system):
-    """A System whose equations were never formed, or an eomc KanesMethod of at least
+    """A System whose equations were never formed (or, eomc's System, whose form_eoms()
+    recorded Kane's equations that nobody has read: System.kane_pending), or an eomc
+    KanesMethod of at least
     PENDING_KANE_MIN_BODIES bodies and no constraints whose ``kanes_equations`` results
     nobody has used yet (so they were not formed: see :mod:`.kane`)."""
-    if isinstance(system, sme.System):
-        return system.eom_method is None
+    if isinstance(system, sme.System):   # (eomc's form_eoms() only records Kane's equations)
+        return system.eom_method is None or bool(getattr(system, "kane_pending", bool)())
     from .kane import KanesMethod
     return (isinstance(system, KanesMethod) and not system.is_formed
             and len(system._bodylist or ()) >= PENDING_KANE_MIN_BODIES
