@@ -278,6 +278,13 @@ class KanesMethod:
         With auxiliary speeds the returned vectors have the auxiliary rows
         appended; ``auxiliary_eqs`` holds their sum (the constraint forces).
         """
+        return self._record(bodies, loads)
+
+    def _record(self, bodies, loads, kinematics_now=True):
+        """kanes_equations' recording; ``kinematics_now=False`` (eomc's System.form_eoms)
+        leaves the loads' and bodies' velocities -- SymPy's path search through the frame
+        and point graph, O(n^2) for a chain of joints -- to forming, whose first step they
+        are anyway: their errors come then, as the same ModelErrors."""
         bodies, loads = split_bodies_and_loads(bodies, loads)
         if bodies is None:
             bodies = self._bodylist
@@ -287,23 +294,29 @@ class KanesMethod:
             raise ModelError("kanes_equations needs kinematic differential equations: "
                              "pass kd_eqs=[...] to KanesMethod")
         bodies = check_bodies(bodies)
-        parsed = parse_loads(loads, self._inertial)    # bad loads are named here, as before
-        _check_kinematics(self._inertial, bodies, parsed)
+        # bad loads are named here, as before (their velocities too, unless deferred)
+        parsed = parse_loads(loads, self._inertial, velocities=kinematics_now)
+        if kinematics_now:
+            _check_kinematics(self._inertial, bodies, parsed)
         self._bodylist = bodies
         self._forcelist = None if loads is None else list(loads)
         self._formed_cache = None
-        self._pending = (bodies, parsed)
+        self._pending = (bodies, parsed, kinematics_now)
         return FormedOnUse(self)
 
     def _form_pending(self):
         """Form the equations recorded by the last ``kanes_equations`` call (see the
         module docstring: Kane's equations are formed on first use)."""
-        bodies, loads = self._pending
+        pending = self._pending
+        bodies, parsed, checked = pending
         self._pending = None
         try:
-            self._form(bodies, loads)
+            if not checked:
+                parsed = parse_loads(self._forcelist, self._inertial)
+                _check_kinematics(self._inertial, bodies, parsed)
+            self._form(bodies, parsed)
         except BaseException:
-            self._pending = (bodies, loads)
+            self._pending = pending
             raise
 
     @property

@@ -133,8 +133,9 @@ def frame_ang_vel(frame, inertial, what):
             "is undefined (orient the frame or set its angular velocity)") from None
 
 
-def parse_loads(loads, inertial):
-    """Return a list of (label, kind, velocity, vector, point or frame), kind 'force' or 'torque'."""
+def parse_loads(loads, inertial, velocities=True):
+    """Return a list of (label, kind, velocity, vector, point or frame), kind 'force' or 'torque'
+    (velocity None when not ``velocities``: the shapes checked, the kinematics left for later)."""
     if loads is None:
         return []
     if not hasattr(loads, "__iter__") or isinstance(loads, (sm.Basic, str)):
@@ -155,10 +156,12 @@ def parse_loads(loads, inertial):
             raise ModelError(f"{shape}: its second item must be a Vector, got {vec!r}")
         if isinstance(where, Point):
             label = f"load #{i + 1} on point {where.name}"
-            out.append((where.name, "force", point_velocity(where, inertial, label), vec, where))
+            out.append((where.name, "force", point_velocity(where, inertial, label) if velocities
+                        else None, vec, where))
         elif isinstance(where, ReferenceFrame):
             label = f"load #{i + 1} on frame {where.name}"
-            out.append((where.name, "torque", frame_ang_vel(where, inertial, label), vec, where))
+            out.append((where.name, "torque", frame_ang_vel(where, inertial, label) if velocities
+                        else None, vec, where))
         else:
             raise ModelError(f"{shape}: its first item must be a Point or a ReferenceFrame, "
                              f"got {where!r}")

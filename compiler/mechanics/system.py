@@ -22,9 +22,10 @@ velocity.  ``formed()`` hands the equations to the compiler, so a ``System``
 is a model by itself (``system = ...`` in a model file, ``eomc.compile``).
 
 ``form_eoms()`` with eomc's KanesMethod forms nothing yet: it records the
-equations (``kanes_equations``, which checks the bodies and loads at once, as
-SymPy's forming would) and returns them as a Matrix that forms them when first
-read (:class:`EquationsOnUse`).  Why: a model file written in SymPy's
+equations (as ``kanes_equations`` does, the bodies and loads checked at once,
+their velocities -- SymPy's frame-graph search, O(n^2) on a chain of joints --
+left to forming, which reports a missing one by the same ModelError) and returns
+them as a Matrix that forms them when first read (:class:`EquationsOnUse`).  Why: a model file written in SymPy's
 documented style calls ``system.form_eoms()`` and hands ``system`` to eomc; when
 the build takes the recursive formulation (auto, from about eight bodies) it
 reads the joint tree instead, and forming Kane's equations there cost the file
@@ -269,8 +270,9 @@ class System(_SymPySystem):
         _name_joints(self._eom_method, self.joints)
         method = self._eom_method
         if family == "kane" and type(method)._form_eoms is KanesMethod._form_eoms:
-            # record now (bad bodies or loads are refused here), form on first use
-            method.kanes_equations(method._bodylist, method._forcelist)
+            # record now (malformed bodies or loads are refused here); the velocities and
+            # the equations come on first use (the tree reader needs neither)
+            method._record(method._bodylist, method._forcelist, kinematics_now=False)
             self._recorded = (_state_of(self), "acceleration_constraints" in kwargs)
             return EquationsOnUse(lambda: method.fr + method.frstar)
         return method._form_eoms()

@@ -103,3 +103,18 @@ def test_recursive_build_of_a_form_eoms_file_forms_no_kane_and_agrees(tmp_path):
         x, r = rng.normal(size=6), rng.normal(size=1)
         a, b = (models[f].rhs(0.0, x, r=r) for f in ("recursive", "kane"))
         assert np.max(np.abs(a - b)) <= 1e-12 * max(1.0, np.max(np.abs(b)))
+
+
+def test_a_load_without_a_velocity_is_named_when_the_equations_are_read():
+    """form_eoms() leaves the velocities (SymPy's frame-graph search) to forming: a load on a
+    point with none is still a ModelError naming it, when the equations are first read."""
+    from eomc.errors import ModelError
+    import pytest
+    system, _, _ = _cart(me, 1)
+    loose = me.Point("loose")
+    system.add_loads(me.Force(loose, system.frame.x))
+    eoms = system.form_eoms()
+    with pytest.raises(ModelError, match=r"load #\d+ on point loose: the velocity of point loose"):
+        eoms.shape
+    with pytest.raises(ModelError, match="point loose"):      # still pending: said again
+        system.mass_matrix
