@@ -9,6 +9,8 @@ Contestants, interleaved per n and repeat, each in a fresh child process with a 
 - "form_eoms(), result read": the same file also reads the returned equations
   (EOMC_READ_EOMS=1: their shape), so Kane's equations are formed in the file whatever the
   build does -- what every form_eoms() call cost before it was made lazy;
+- "no form_eoms() (unformed System)": the same file without the call (EOMC_FORM_EOMS=0),
+  the cost the lazy call should come close to.
 
 The default function set unless --outputs.  A build past --cpu-cap CPU s is stopped.
 
@@ -27,7 +29,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import environment_header, format_table, median_iqr, parse_args, write_results  # noqa: E402
 
 MODEL = Path(__file__).resolve().parent / "tree_models" / "cart_rel_joints_form_eoms.py"
-CONTESTANTS = {"form_eoms(), result unused": {}, "form_eoms(), result read": {"EOMC_READ_EOMS": "1"}}
+CONTESTANTS = {"form_eoms(), result unused": {}, "form_eoms(), result read": {"EOMC_READ_EOMS": "1"},
+               "no form_eoms() (unformed System)": {"EOMC_FORM_EOMS": "0"}}
 
 
 def build(n, env_extra, cap, outputs):

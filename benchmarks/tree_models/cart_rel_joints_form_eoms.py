@@ -1,7 +1,8 @@
 """The n-link cart of cart_rel_joints.py (SD/FAST's system: one PrismaticJoint and n PinJoints,
 EOMC_N_LINKS) as eomc's System, written the way SymPy's documentation writes it: the file
 calls ``system.form_eoms()`` itself.  EOMC_READ_EOMS=1 also reads the returned equations
-(their shape), which forms Kane's equations in the file whatever the build does with them."""
+(their shape), which forms Kane's equations in the file whatever the build does with them;
+EOMC_FORM_EOMS=0 leaves form_eoms() out (the unformed System, for comparison)."""
 import os
 
 import sympy as sm
@@ -28,8 +29,9 @@ system = me.System.from_newtonian(ground)
 system.add_joints(*joints)
 system.apply_uniform_gravity(-g * ground.frame.y)
 system.add_loads(me.Force(cart.masscenter, F * ground.frame.x))
-eoms = system.form_eoms()
-if os.environ.get("EOMC_READ_EOMS") == "1":
-    assert eoms.shape == (n + 1, 1)
+if os.environ.get("EOMC_FORM_EOMS", "1") == "1":
+    eoms = system.form_eoms()
+    if os.environ.get("EOMC_READ_EOMS") == "1":
+        assert eoms.shape == (n + 1, 1)
 parameters = {m0: 2.0, m: 0.5, l: 0.75, g: 9.81}
 inputs = [F]
