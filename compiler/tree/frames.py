@@ -155,7 +155,7 @@ def resolve_frames(spec, names):
     if urdf is not None or system_urdf is not None:
         tree, specs, defaults = _urdf_frames(urdf, system_urdf, wanted, where)
     elif getattr(formed, "_mjcf", None) is not None:
-        tree, specs, defaults = _mjcf_frames(formed._mjcf, wanted, where)
+        tree, specs, defaults = _mjcf_frames(formed._mjcf, spec.path, wanted, where)
     else:
         tree = _system_tree(spec, where)
         specs, defaults = _body_frames(tree, wanted, where), dict(spec.parameters or {})
@@ -286,8 +286,31 @@ def _link_placements(source):
     return {link: out[link] for link in robot.links if link in out}
 
 
-def _mjcf_frames(built, wanted, where):
-    raise ModelError(f"{where}: frame outputs are not available for MuJoCo models yet")
+def _mjcf_frames(built, path, wanted, where):
+    """(Tree, FrameSpecs, defaults) of MuJoCo bodies at their body frames (``xpos``, ``xmat``):
+    the tree body carrying the MuJoCo body's mass has its frame and sits at its mass centre
+    ``body_ipos`` (eomc.compiler.mjcf.treeir), so the frame is that body, offset by -ipos."""
+    import mujoco
+    from eomc.compiler.mjcf.model import load_mjmodel
+    from eomc.compiler.mjcf.treeir import _names
+    m = load_mjmodel(path)
+    names = _names(m, mujoco.mjtObj.mjOBJ_BODY, m.nbody, "body")
+    index = {b.name: i for i, b in enumerate(built.tree.bodies)}
+    lookup = {}
+    for b, (raw, s) in enumerate(names):
+        lookup.setdefault(raw, (b, s))
+        lookup.setdefault(s, (b, s))
+    out = []
+    for name in wanted:
+        if name not in lookup:
+            raise _unknown(name, [raw for raw, _ in names], where, "body")
+        b, s = lookup[name]
+        if b == 0:        # the world body
+            out.append(FrameSpec(_safe(name), -1, _IDENTITY, (0, 0, 0)))
+            continue
+        c = [_com_symbol(f"c{a}_{s}", v, built.parameters) for a, v in zip(_AXES, m.body_ipos[b])]
+        out.append(FrameSpec(_safe(name), index[s], _IDENTITY, tuple(-x for x in c)))
+    return built.tree, out, dict(built.parameters)
 
 
 # ---------------------------------------------------------------- lowering
