@@ -150,7 +150,7 @@ def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, f
     def derive(form):
         spec = model_spec(system, name, parameters=parameters, inputs=inputs, outputs=outputs,
                           events=events, formulation=form, states=states)
-        return _with_frames(_with_poses(spec, functions), frames, functions)
+        return _with_poses(spec, functions)
     note = None
     with progress.stage("derive"):
         try:
@@ -162,9 +162,11 @@ def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, f
             # dict without the inertias of the tree's bodies): Kane's form, or its own error
             spec = derive("kane")
             note = f"kane, the fallback (recursive formulation: {exc})"
+        # after the fallback: a frame name the model lacks is the user's mistake, not the tree's
+        spec = _with_frames(spec, frames, functions)
     def run_generator():
         generated = generate_formulation(spec, functions, fold_parameters, formulation,
-                                         kane_spec=lambda: derive("kane"))
+                                         kane_spec=lambda: _with_frames(derive("kane"), frames, functions))
         if note is not None:
             generated.metadata["formulation_note"] = note
         return generated
