@@ -183,7 +183,7 @@ def run(args):
     s = res.stats
     print(f"{model.name}: {res.method} t=[{args.t0:g}, {args.t_final:g}]: {s['steps']} steps "
           f"({s['rejected']} rejected), {s['nfev']} rhs, {s['njev']} jacobian, {s['nlu']} LU")
-    frames = model.frame_names
+    frames = getattr(model, "frame_names", ())
     for name, values in res.outputs.items():
         if name.partition(".")[0] in frames:      # frame outputs: one line per frame, below
             continue
