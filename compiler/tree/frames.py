@@ -159,6 +159,12 @@ def resolve_frames(spec, names):
     else:
         tree = _system_tree(spec, where)
         specs, defaults = _body_frames(tree, wanted, where), dict(spec.parameters or {})
+    seen = {}
+    for f, asked in zip(specs, wanted):
+        if f.name in seen or f.name == COM:
+            raise ModelError(f"{where}: frames {seen.get(f.name, COM)!r} and {asked!r} would both be "
+                             f"output as {f.name!r}.*; ask for one of them")
+        seen[f.name] = asked
     return FrameSource(tree=tree, frames=tuple(specs), com=com, nu=formed.nu,
                        columns=_columns(tree, formed.speeds, where), defaults=defaults)
 
