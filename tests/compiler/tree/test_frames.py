@@ -294,3 +294,29 @@ def test_mjcf_bodies_agree_with_mujoco(tmp_path, cache):
         worst = max(worst, float(np.max(np.abs(c.p - d.subtree_com[0]))),
                     float(np.max(np.abs(c.v - d.subtree_linvel[0]))))
     assert worst < TOL
+
+
+def _chain(n):
+    inertial = ('<inertial><origin xyz="0.1 0.01 0.2"/><mass value="1"/><inertia ixx="0.01" ixy="0" ixz="0" '
+                'iyy="0.02" iyz="0" izz="0.03"/></inertial>')
+    links = ['<link name="base"/>'] + [f'<link name="l{i}">{inertial}</link>' for i in range(n)] + ['<link name="tool"/>']
+    joints = [f'<joint name="j{i}" type="revolute"><parent link="{"base" if i == 0 else f"l{i - 1}"}"/>'
+              f'<child link="l{i}"/><origin xyz="0 0 0.3" rpy="0.1 0 0"/><axis xyz="{"1 0 0" if i % 2 else "0 1 0"}"/>'
+              f'<limit lower="-1" upper="1" effort="1" velocity="1"/></joint>' for i in range(n)]
+    joints.append(f'<joint name="jt" type="fixed"><parent link="l{n - 1}"/><child link="tool"/>'
+                  f'<origin xyz="0 0.1 0.1"/></joint>')
+    return '<robot name="chain">' + "".join(links + joints) + "</robot>"
+
+
+def test_code_grows_linearly_with_depth(tmp_path):
+    """The tip of an n-link chain and the centre of mass: O(n) operations, not O(n^2)."""
+    from eomc.compiler.driver import generate
+    ops = {}
+    for n in (6, 12, 24):
+        path = tmp_path / f"chain{n}.urdf"
+        path.write_text(_chain(n))
+        meta = generate(path, f"chain{n}", functions=["outputs"], formulation="recursive", use_cache=False,
+                        frames=["tool", "com"])[1].metadata
+        ops[n] = sum(meta["op_counts"]["outputs"].values())
+    per_link = [(ops[b] - ops[a]) / (b - a) for a, b in ((6, 12), (12, 24))]
+    assert per_link[1] < 1.1 * per_link[0], ops
