@@ -320,3 +320,12 @@ def test_code_grows_linearly_with_depth(tmp_path):
         ops[n] = sum(meta["op_counts"]["outputs"].values())
     per_link = [(ops[b] - ops[a]) / (b - a) for a, b in ((6, 12), (12, 24))]
     assert per_link[1] < 1.1 * per_link[0], ops
+
+
+def test_a_system_the_tree_reader_refuses_says_why(cache):
+    """Absolute angles (the double pendulum): no joint tree, so no frames -- refused with the reason."""
+    path = Path(__file__).resolve().parents[3] / "examples" / "double_pendulum.py"
+    with pytest.raises(ModelError, match=r"double_pendulum.py: frame outputs are computed along the joint tree.*"
+                                         r"body Bob2 .*depends on more than its own coordinate"):
+        eomc.compile(str(path), "dp_frames", functions=["outputs"], cache_dir=cache, progress=False,
+                     frames=["Bob2"])
