@@ -34,6 +34,7 @@ Where the names come from (:func:`resolve_frames`):
 - Systems and KanesMethods: every body of the joint tree, at its mass centre with its frame.
 """
 import difflib
+import re
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -104,6 +105,9 @@ def _requested(names):
         return [], False
     if isinstance(names, str):
         names = [names]
+    if isinstance(names, (set, frozenset, dict)):     # no order: the outputs' order would vary by run
+        raise ModelError(f"frames= takes a list of frame names (its order is the outputs' order), "
+                         f"not a {type(names).__name__}")
     try:
         names = list(names)
     except TypeError:
@@ -200,7 +204,6 @@ def _body_frames(tree, wanted, where):
 
 def _safe(name):
     """A frame name as an output prefix: a '.' or ',' would break the names (and CSV headers)."""
-    import re
     return re.sub(r"[.,\s\[\]]", "_", name)
 
 

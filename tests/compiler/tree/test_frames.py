@@ -193,6 +193,9 @@ def test_unknown_link_lists_the_nearest_names(small, cache):
         eomc.compile(path, "small_bad", functions=["rhs"], frames=["tip"], cache_dir=cache, progress=False)
     with pytest.raises(ModelError, match="list of frame names"):
         eomc.compile(path, "small_bad", functions=["outputs"], frames=3, cache_dir=cache, progress=False)
+    with pytest.raises(ModelError, match="its order is the outputs' order"):
+        eomc.compile(path, "small_bad", functions=["outputs"], frames={"tip", "com"}, cache_dir=cache,
+                     progress=False)
 
 
 def test_command_line(small, tmp_path, cache, capsys):
