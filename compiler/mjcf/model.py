@@ -92,10 +92,15 @@ def _known(ignore):
 
 def check_model(m, path, ignore=()):
     """The actuator ids to drive as inputs; raises ModelFileError on what the tree cannot express
-    unless ``ignore`` names it (then warns).  ``m`` is changed where ignoring needs it: nothing."""
+    unless ``ignore`` names it (then warns).  ``m`` is changed where ignoring needs it: its
+    ``dof_armature`` is zeroed when ``"armature"`` is ignored (the tree reads it from ``m``)."""
     import mujoco
     _known(ignore)
     path = str(path)
+    if "armature" in ignore and np.any(m.dof_armature):
+        warnings.warn(f"{path}: ignored: armature on {int(np.count_nonzero(m.dof_armature))} dof(s) "
+                      f"(MuJoCo adds it to the joint-space inertia)", EomcWarning, stacklevel=3)
+        m.dof_armature[:] = 0
     problems = []   # (ignore key, tag, message[, element name])
     J = mujoco.mjtObj.mjOBJ_JOINT
     if m.ntendon:
@@ -119,9 +124,13 @@ def check_model(m, path, ignore=()):
         jn = _name(m, J, j, "joint")
         kind, d = int(m.jnt_type[j]), int(m.jnt_dofadr[j])
         ndof = {0: 6, 1: 3, 2: 1, 3: 1}[kind]
-        if np.any(m.dof_armature[d:d + ndof]):
-            problems.append(("armature", "joint", f"joint {jn}: armature {m.dof_armature[d]:g} (MuJoCo adds "
-                             f"it to the joint-space inertia; eomc's tree has no such term)", jn))
+        if np.any(m.dof_armature[d:d + ndof] < 0):
+            raise ModelFileError(f"<joint>: joint {jn}: negative armature {min(m.dof_armature[d:d + ndof]):g}: "
+                                 f"an inertia cannot be negative", path, _line(path, "joint", jn))
+        if kind == 0 and np.any(m.dof_armature[d:d + 3]):
+            problems.append(("armature", "joint", f"joint {jn}: armature on a free joint's linear dofs "
+                             f"({m.dof_armature[d]:g}; MuJoCo's are world-frame velocities, eomc's body-frame, "
+                             f"so it is not a constant diagonal here)", jn))
         if np.any(m.dof_frictionloss[d:d + ndof]):
             problems.append(("frictionloss", "joint", f"joint {jn}: frictionloss (a constraint in MuJoCo)", jn))
         if kind == 0 and int(m.body_parentid[m.jnt_bodyid[j]]) != 0:

@@ -23,6 +23,11 @@ in the body frame, c the mass centre (``body_ipos``) and c_p the parent's
   body origin's velocity and the angular velocity, both in body components (MuJoCo:
   the linear velocity in world components -- map the states to compare)
 
+Armature (``dof_armature``) is each speed's ``TreeBody.armature`` (parameters
+``arm_<joint>``, ``arm_<joint>_<axis>`` for ball/free): M_ii += a, as MuJoCo adds
+it.  Ball and free-joint angular speeds are body-frame in both, so it carries over;
+a free joint's linear armature (MuJoCo's world-frame dofs) is refused.
+
 Joint damping, stiffness/springref and motors (``gear`` x fixed gain) are a
 joint-space force tau on each hinge/slide dof: a torque on the child about a and
 its reaction on the parent about R0 a (a force along a for a slide).  What the
@@ -140,7 +145,8 @@ def tree_ir(m, *, fold=False, actuators=None):
             qadr, dadr = int(m.jnt_qposadr[jid]), int(m.jnt_dofadr[jid])
             first_q, first = len(coordinates), len(speeds)
             joints.append((jid, kind, first_q, first))
-            common = dict(name=name, joint=jraw, parent=parent, mass=bm, inertia=bI)
+            common = dict(name=name, joint=jraw, parent=parent, mass=bm, inertia=bI,
+                          armature=_armature(m, params, jn, kind, dadr))
             c_s = [c[r] - anchor[r] for r in range(3)]
             if kind == _HINGE:
                 q, u = dynamicsymbols(f"q_{jn}"), dynamicsymbols(f"u_{jn}")
@@ -230,6 +236,20 @@ def tree_ir(m, *, fold=False, actuators=None):
               kinematics=tuple(kinematics), gravity=gravity, loads=tuple(loads))
     return MjcfTree(ir, tuple(coordinates), tuple(speeds), tuple(kinematics), params.values, inputs,
                     tuple(joints))
+
+
+def _armature(m, params, jn, kind, dadr):
+    """The joint's armature per speed (MuJoCo's ``dof_armature``; () when all zero).  A free
+    joint's linear ones are refused by check_model (its linear speeds are body components here,
+    MuJoCo's world components), so they are zero."""
+    n = {_HINGE: 1, _SLIDE: 1, _BALL: 3, _FREE: 6}[kind]
+    values = [float(x) for x in m.dof_armature[dadr:dadr + n]]
+    if not any(values):
+        return ()
+    if n == 1:
+        return (params(f"arm_{jn}", values[0]),)
+    axes = ("x", "y", "z") if kind == _BALL else ("vx", "vy", "vz", "wx", "wy", "wz")
+    return tuple(params(f"arm_{jn}_{x}", v) for x, v in zip(axes, values))
 
 
 def _joint_force(kind, tau, a, R0, c, p, cp, child, parent):

@@ -25,14 +25,15 @@ SMALL = """<mujoco model="small">
   <default><joint damping="0.05"/></default>
   <worldbody>
     <body name="base" pos="0.1 0.2 0.3" quat="0.9 0.1 0.2 0.3">
-      <joint name="slider" type="slide" axis="1 0.2 0" ref="0.1"/>
+      <joint name="slider" type="slide" axis="1 0.2 0" ref="0.1" armature="0.3"/>
       <geom type="box" size="0.1 0.2 0.05" mass="2"/>
       <body name="link1" pos="0 0 -0.2" euler="10 20 30">
-        <joint name="h1" type="hinge" axis="0 1 0.3" pos="0.05 0 0.1" stiffness="2" springref="0.3"/>
+        <joint name="h1" type="hinge" axis="0 1 0.3" pos="0.05 0 0.1" stiffness="2" springref="0.3"
+               armature="0.05"/>
         <joint name="h2" type="hinge" axis="1 0 0" pos="0 0.02 0" ref="0.2"/>
         <geom type="capsule" fromto="0 0 0 0.1 0.05 -0.4" size="0.03"/>
         <body name="link2" pos="0.1 0.05 -0.4">
-          <joint name="ball" type="ball" pos="0 0 0.01"/>
+          <joint name="ball" type="ball" pos="0 0 0.01" armature="0.02"/>
           <geom type="box" size="0.05 0.08 0.12" pos="0.02 0 -0.1" euler="5 10 15"/>
           <body name="welded" pos="0 0.1 -0.2" euler="0 0 40">
             <geom type="sphere" size="0.04" pos="0.01 0 0"/>
@@ -64,8 +65,6 @@ def _worst(model, path, ignore=(), trials=6):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", EomcWarning)
         motors = check_model(m, path, ignore)
-    if "armature" in ignore:
-        m.dof_armature[:] = 0
     built = tree_ir(m, actuators=motors)
     d = mujoco.MjData(m)
     rng = np.random.default_rng(7)
@@ -98,7 +97,8 @@ def small(tmp_path_factory):
 
 def test_small_model_matches_mj_forward(small):
     """Hinge chain with two joints on one body (refs, anchor, spring, damping), slide, ball,
-    a welded body, a free body with a child, general gravity and motors: qacc to 1e-10."""
+    a welded body, a free body with a child, general gravity and motors, armature on a slide,
+    a hinge and a ball joint (MuJoCo's dof_armature kept): qacc to 1e-10."""
     path, model = small
     assert model.state_names[:3] == ("q_slider", "q_h1", "q_h2")
     assert model.input_names == ("ctrl_actuator0", "ctrl_m1", "ctrl_actuator2")
@@ -127,10 +127,72 @@ def _gym_asset(name):
     return Path(gym.__file__).parent / "envs" / "mujoco" / "assets" / name
 
 
+def test_small_model_jacobian_has_the_armature(small):
+    """jac_x of a model with armature (slide, hinge, ball) against central differences of its rhs;
+    and the armature matters: without it the rhs differs."""
+    path, model = small
+    rng = np.random.default_rng(3)
+    x = np.concatenate([rng.uniform(-1, 1, model.nq), rng.uniform(-1, 1, model.nx - model.nq)])
+    r = rng.uniform(-1, 1, model.ninput)
+    J = model.jacobian(0.0, x, r=r)
+    h = 1e-6
+    fd = np.column_stack([(model.rhs(0.0, x + h * e, r=r) - model.rhs(0.0, x - h * e, r=r)) / (2 * h)
+                          for e in np.eye(model.nx)])
+    assert np.max(np.abs(J - fd)) < 1e-6 * max(1.0, np.max(np.abs(J)))
+    names = model.param_names
+    p = np.array(model.param_defaults, dtype=float)
+    assert {"arm_slider", "arm_h1", "arm_ball_x", "arm_ball_y", "arm_ball_z"} <= set(names)
+    p0 = p.copy()
+    p0[[names.index(k) for k in names if k.startswith("arm_")]] = 0
+    assert np.max(np.abs(model.rhs(0.0, x, p=p0, r=r) - model.rhs(0.0, x, p=p, r=r))) > 1e-3
+
+
+@pytest.fixture(scope="module")
+def hopper(tmp_path_factory):
+    path = _gym_asset("hopper.xml")
+    model = eomc.compile(MjcfModel(path, ignore=("limits",)),
+                         functions=["rhs", "mass_matrix", "inverse_dynamics"],
+                         cache_dir=tmp_path_factory.mktemp("hopper"), progress=False)
+    return path, model
+
+
+def test_hopper_mass_matrix_and_inverse_dynamics_with_armature(hopper):
+    """Hopper (hinges and slides, armature 1 on its leg joints): M against mj_fullM and inverse
+    dynamics against mj_rne + armature·qacc - qfrc_passive (MuJoCo's mj_rne leaves the armature
+    out; mj_inverse adds it), to 1e-12 relative."""
+    path, model = hopper
+    m = prepared(load_mjmodel(path))
+    assert np.any(m.dof_armature)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", EomcWarning)
+        built = tree_ir(m, actuators=check_model(m, path, ("limits",)))
+    d, rng = mujoco.MjData(m), np.random.default_rng(5)
+    for _ in range(3):
+        q, u, w = rng.uniform(-1, 1, m.nq), rng.uniform(-2, 2, m.nv), rng.uniform(-3, 3, m.nv)
+        x = np.concatenate([q, u])
+        d.qpos[:], d.qvel[:] = to_mujoco(m, built, q, u)
+        mujoco.mj_forward(m, d)
+        M = np.zeros((m.nv, m.nv))
+        mujoco.mj_fullM(m, d, M)
+        assert np.max(np.abs(model.mass_matrix(0.0, x) - M)) < 1e-12 * np.max(np.abs(M))
+        d.qacc[:] = w
+        res = np.zeros(m.nv)
+        mujoco.mj_rne(m, d, 1, res)
+        tau = model.inverse_dynamics(0.0, x, w)
+        expected = res + m.dof_armature * w - d.qfrc_passive
+        assert np.max(np.abs(tau - expected)) < 1e-12 * max(1.0, np.max(np.abs(expected)))
+        assert np.max(np.abs(tau - (res - d.qfrc_passive))) > 1e-2     # the armature term is there
+
+
 @pytest.mark.parametrize("asset, ignore", [("inverted_double_pendulum.xml", ()),
-                                           ("hopper.xml", ("armature", "limits"))])
+                                           ("hopper.xml", ("limits",)),
+                                           ("walker2d.xml", ("limits",)),
+                                           ("half_cheetah.xml", ("limits",)),
+                                           ("ant.xml", ("limits",)),
+                                           ("humanoid.xml", ("limits", "tendons"))])
 def test_gymnasium_model_matches_mj_forward(asset, ignore, tmp_path):
-    """Shipped models (gymnasium's wheel); hopper's armature is dropped on both sides."""
+    """Shipped models (gymnasium's wheel), their armature kept on both sides (humanoid's two
+    fixed tendons dropped: MuJoCo uses them only for limits, which are off)."""
     path = _gym_asset(asset)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", EomcWarning)
@@ -157,7 +219,6 @@ def _refused(tmp_path, body, match, *, actuator="", extra="", ignore=()):
 
 
 @pytest.mark.parametrize("kw, match, line", [
-    (dict(body='armature="0.1"'), r"bad.xml:4: <joint>: joint j: armature 0.1", 4),
     (dict(body='frictionloss="0.1"'), r"joint j: frictionloss", 4),
     (dict(body="", extra='<tendon><fixed name="t"><joint joint="j" coef="1"/></fixed></tendon>'),
      r"<tendon>: 1 tendon\(s\) \(e.g. t\)", 2),
@@ -203,19 +264,18 @@ def test_ignored_on_request_with_a_warning(tmp_path):
 
 
 def test_refusal_points_at_the_named_joint(tmp_path):
-    """Armature from a default class: the line of the first joint that has it, by name."""
+    """Armature from a default class on a free joint: the line of the joint that has it, by name."""
     path = tmp_path / "cls.xml"
     path.write_text("""<mujoco>
   <default><default class="heavy"><joint armature="0.5"/></default></default>
   <worldbody>
-    <body><joint name="light" type="hinge"/><geom size="0.1"/>
-      <body pos="0 0 1">
-        <joint name="geared" class="heavy" type="hinge"/><geom size="0.1"/>
-      </body>
+    <body><joint name="light" type="hinge" class="heavy"/><geom size="0.1"/></body>
+    <body pos="0 0 1">
+      <joint name="geared" class="heavy" type="free"/><geom size="0.1"/>
     </body>
   </worldbody>
 </mujoco>""")
-    with pytest.raises(ModelFileError, match=r"cls.xml:6: <joint>: joint geared: armature 0.5"):
+    with pytest.raises(ModelFileError, match=r"cls.xml:6: <joint>: joint geared: armature on a free joint"):
         eomc.compile(str(path), functions=["rhs"], cache_dir=tmp_path / "c", progress=False)
 
 
@@ -225,6 +285,7 @@ def test_refusal_points_at_the_named_joint(tmp_path):
     ('<joint name="b" type="ball" stiffness="2"/>', "joint b: stiffness on a ball joint"),
     ('<joint name="h" type="hinge" damping="-0.5"/>', r"xml:1: <joint>: joint h: negative damping"),
     ('<joint name="h" type="hinge" stiffness="-2"/>', "joint h: negative damping or stiffness"),
+    ('<joint name="h" type="hinge" armature="-0.1"/>', r"xml:1: <joint>: joint h: negative armature -0.1"),
 ])
 def test_joint_checks(tmp_path, joint, match):
     """What the joint-space loads cannot carry is refused (checked without building)."""
@@ -268,3 +329,11 @@ def test_cli_build(small, tmp_path):
                          capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
     assert any((tmp_path / "out").rglob("*.c"))
+
+
+def test_regressor_refuses_armature(small, tmp_path):
+    """Y·pi has no column for the armature's a·u': asking for the regressor says so, naming the joint."""
+    path, _ = small
+    with pytest.raises(ModelError, match=r"regressor is not generated for a tree with armature \(body base, "
+                                         r"joint slider\)"):
+        eomc.compile(str(path), functions=["regressor"], cache_dir=tmp_path, progress=False)
