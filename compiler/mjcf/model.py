@@ -19,7 +19,7 @@ import numpy as np
 from eomc.runtime.errors import EomcWarning, ModelError, ModelFileError
 
 __all__ = ["MjcfModel", "is_mjcf_path", "is_mjcf_model", "load_mjmodel", "check_model", "mjcf_formed",
-           "IGNORABLE"]
+           "IGNORABLE", "with_ignore"]
 
 IGNORABLE = ("tendons", "equality", "actuators", "armature", "frictionloss", "limits", "fluid", "plugins")
 
@@ -38,6 +38,22 @@ def is_mjcf_path(model):
 
 def is_mjcf_model(model):
     return isinstance(model, MjcfModel) or is_mjcf_path(model)
+
+
+def with_ignore(model, name=None, ignore=()):
+    """(model, name) for the driver: an MJCF path with ``ignore`` (the CLI's ``--ignore
+    WHAT[,WHAT]``: a string or a sequence) becomes an :class:`MjcfModel`; without it the
+    model goes through unchanged."""
+    if isinstance(ignore, str):
+        ignore = [ignore]
+    items = tuple(x.strip() for text in (ignore or ()) for x in text.split(",") if x.strip())
+    if not items:
+        return model, name
+    if not is_mjcf_path(model):
+        raise ModelError(f"--ignore applies to MuJoCo models (.xml), not to {model}")
+    _known(items)
+    from eomc.compiler.model.validate import sanitize_name
+    return MjcfModel(Path(model), ignore=items), name or sanitize_name(Path(model).stem)
 
 
 def load_mjmodel(path):
@@ -87,7 +103,8 @@ def _name(m, kind, i, prefix):
 def _known(ignore):
     unknown = [x for x in ignore if x not in IGNORABLE]
     if unknown:
-        raise ModelError(f"ignore={unknown}: unknown; what may be ignored: {', '.join(IGNORABLE)}")
+        raise ModelError(f"ignore {', '.join(map(str, unknown))}: unknown; what may be ignored: "
+                         f"{', '.join(IGNORABLE)}")
 
 
 def check_model(m, path, ignore=()):
