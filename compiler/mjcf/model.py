@@ -202,5 +202,6 @@ def mjcf_formed(model, overrides):
     motors = check_model(m, model.path, model.ignore)
     built = tree_ir(m, fold=model.fold_parameters, actuators=motors)
     formed = formed_of_tree(built.tree)
+    built.mjmodel = m              # what the animation's poses read the geoms from (compiler/mjcf/poses.py)
     object.__setattr__(formed, "_mjcf", built)
     return formed, _merged(overrides, formed, built.parameters, built.inputs)

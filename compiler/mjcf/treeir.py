@@ -58,7 +58,7 @@ def quat_matrix(q):
 class MjcfTree:
     """What :func:`tree_ir` returns: the Tree and the names and values beside it."""
 
-    def __init__(self, tree, coordinates, speeds, kinematics, parameters, inputs, joints):
+    def __init__(self, tree, coordinates, speeds, kinematics, parameters, inputs, joints, owners=()):
         self.tree = tree
         self.coordinates = coordinates
         self.speeds = speeds
@@ -66,6 +66,10 @@ class MjcfTree:
         self.parameters = parameters      # Symbol -> value from the model
         self.inputs = inputs              # one per actuator, actuator order
         self.joints = joints              # per MuJoCo joint: (id, type, first coordinate, first speed)
+        # per tree body: (MuJoCo body id, its mass centre in its frame) when it carries a MuJoCo
+        # body (its last joint's tree body, or a welded one), else None (the massless 1st.. of
+        # several joints); the animation's poses place the MuJoCo body frames from these
+        self.owners = owners
 
 
 _HINGE, _SLIDE, _BALL, _FREE = 3, 2, 1, 0
@@ -101,7 +105,7 @@ def tree_ir(m, *, fold=False, actuators=None):
         j = int(m.actuator_trnid[k, 0])
         gain = float(m.actuator_gear[k, 0]) * float(m.actuator_gainprm[k, 0])
         drive[j] = drive.get(j, sm.S.Zero) + params(f"gear_{act_names[k][1]}", gain) * inputs[i]
-    bodies, coordinates, speeds, kinematics, loads, joints = [], [], [], [], [], []
+    bodies, coordinates, speeds, kinematics, loads, joints, owners = [], [], [], [], [], [], []
     last = {0: -1}          # MuJoCo body -> index of its mass-carrying tree body (-1: world)
     com = {0: [0, 0, 0]}
     for b in range(1, m.nbody):
@@ -126,6 +130,7 @@ def tree_ir(m, *, fold=False, actuators=None):
                                    rotation=sm.Matrix(R0_body.T).applyfunc(_num), position=position,
                                    motion=None, mass=mass, inertia=inertia))
             last[b], com[b] = len(bodies) - 1, c
+            owners.append((b, tuple(c)))
             continue
         for n_j, jid in enumerate(jids):
             final = n_j == len(jids) - 1
@@ -207,6 +212,7 @@ def tree_ir(m, *, fold=False, actuators=None):
                                        speeds=tuple(range(first, first + 6)), motions=motions, **common))
                 kinematics += floating_kinematics(qs, us)
             child = len(bodies) - 1
+            owners.append((b, tuple(c_mass)) if final else None)
             if kind in (_HINGE, _SLIDE):
                 tau = drive.get(jid, sm.S.Zero)
                 damping = params(f"d_{jn}", m.dof_damping[dadr])
@@ -235,7 +241,7 @@ def tree_ir(m, *, fold=False, actuators=None):
     ir = Tree(bodies=tuple(bodies), coordinates=tuple(coordinates), speeds=tuple(speeds),
               kinematics=tuple(kinematics), gravity=gravity, loads=tuple(loads))
     return MjcfTree(ir, tuple(coordinates), tuple(speeds), tuple(kinematics), params.values, inputs,
-                    tuple(joints))
+                    tuple(joints), tuple(owners))
 
 
 def _armature(m, params, jn, kind, dadr):

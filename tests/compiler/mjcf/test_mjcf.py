@@ -337,3 +337,30 @@ def test_regressor_refuses_armature(small, tmp_path):
     with pytest.raises(ModelError, match=r"regressor is not generated for a tree with armature \(body base, "
                                          r"joint slider\)"):
         eomc.compile(str(path), functions=["regressor"], cache_dir=tmp_path, progress=False)
+
+
+def test_poses_are_mujocos_body_frames(small):
+    """The animation's poses: every MuJoCo body frame's origin and rotation equal MuJoCo's xpos and
+    xmat at random states (to 1e-12), welded and multi-joint bodies included; geoms as shapes."""
+    path, model = small
+    m = prepared(load_mjmodel(path))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", EomcWarning)
+        built = tree_ir(m, actuators=check_model(m, path))
+    names = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) for b in range(1, m.nbody)]
+    d, rng = mujoco.MjData(m), np.random.default_rng(11)
+    for _ in range(3):
+        q, u = rng.uniform(-1.5, 1.5, model.nq), rng.uniform(-1, 1, model.nx - model.nq)
+        poses = model.poses(0.0, np.concatenate([q, u]))
+        assert list(poses.frame_names) == names
+        d.qpos[:], d.qvel[:] = to_mujoco(m, built, q, u)
+        mujoco.mj_kinematics(m, d)
+        for b, name in enumerate(names, start=1):
+            assert np.max(np.abs(poses[name] - d.xpos[b])) < 1e-12
+            assert np.max(np.abs(poses.rotation(name) - d.xmat[b].reshape(3, 3))) < 1e-12
+    shapes = model.metadata["poses"]["geometry"]
+    kinds = {k: sorted(s["kind"] for s in v) for k, v in shapes.items()}
+    assert kinds["link1"] == ["cylinder", "sphere", "sphere"]          # the capsule
+    assert kinds["floater"] == ["box"]                                 # the ellipsoid's bounding box
+    assert kinds["welded"] == ["sphere"] and kinds["base"] == ["box"]
+    assert shapes["base"][0]["size"] == [0.2, 0.4, 0.1]
