@@ -175,8 +175,10 @@ def check_model(m, path, ignore=()):
             why = "its transmission is not a joint"
         elif int(m.jnt_type[j]) not in (2, 3):
             why = "it drives a ball or free joint"
-        elif int(m.actuator_dyntype[k]) != 0 or int(m.actuator_gaintype[k]) != 0 or int(m.actuator_biastype[k]) != 0:
-            why = "it is not a plain motor (activation dynamics, a muscle, or a bias such as a position servo)"
+        elif int(m.actuator_dyntype[k]) != 0:
+            why = "it has activation dynamics (dyntype: an integrator, filter or muscle activation)"
+        elif int(m.actuator_gaintype[k]) not in (0, 1) or int(m.actuator_biastype[k]) not in (0, 1):
+            why = "its gain or bias is not fixed or affine (a muscle or a user-defined one)"
         if why:
             problems.append(("actuators", "actuator", f"actuator {an}: {why}", an))
         else:

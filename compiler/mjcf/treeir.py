@@ -100,11 +100,13 @@ def tree_ir(m, *, fold=False, actuators=None):
     act_names = _names(m, mujoco.mjtObj.mjOBJ_ACTUATOR, m.nu, "actuator")
     actuators = range(m.nu) if actuators is None else actuators
     inputs = [dynamicsymbols(f"ctrl_{act_names[k][1]}") for k in actuators]
-    drive = {}   # joint id -> sum of gear * gain * ctrl
+    drive = {}   # joint id -> sum of the actuators' joint forces (see _actuator_force)
     for i, k in enumerate(actuators):
         j = int(m.actuator_trnid[k, 0])
-        gain = float(m.actuator_gear[k, 0]) * float(m.actuator_gainprm[k, 0])
-        drive[j] = drive.get(j, sm.S.Zero) + params(f"gear_{act_names[k][1]}", gain) * inputs[i]
+        jn = joint_names[j][1]
+        force = _actuator_force(m, params, k, act_names[k][1], inputs[i], dynamicsymbols(f"q_{jn}"),
+                                dynamicsymbols(f"u_{jn}"))
+        drive[j] = drive.get(j, sm.S.Zero) + force
     bodies, coordinates, speeds, kinematics, loads, joints, owners = [], [], [], [], [], [], []
     last = {0: -1}          # MuJoCo body -> index of its mass-carrying tree body (-1: world)
     com = {0: [0, 0, 0]}
@@ -242,6 +244,40 @@ def tree_ir(m, *, fold=False, actuators=None):
               kinematics=tuple(kinematics), gravity=gravity, loads=tuple(loads))
     return MjcfTree(ir, tuple(coordinates), tuple(speeds), tuple(kinematics), params.values, inputs,
                     tuple(joints), tuple(owners))
+
+
+def _clamped(value, low, high):
+    from .clamp import Clamp
+    return Clamp(value, sm.Float(float(low)), sm.Float(float(high)))
+
+
+def _actuator_force(m, params, k, name, ctrl, q, u):
+    """The joint force of actuator ``k`` on its hinge/slide joint (coordinate ``q``, speed ``u``),
+    as MuJoCo's mj_fwdActuation computes it without activation dynamics: the control clamped to
+    ``ctrlrange`` when ctrllimited, force = gain·ctrl + bias with gain = g0 (+ g1 L + g2 V when
+    affine), bias = b0 + b1 L + b2 V (affine; a position servo is b1 = -kp, a velocity servo
+    b2 = -kv), L = gear·q and V = gear·u the actuator's length and velocity, the force clamped to
+    ``forcerange`` when forcelimited, and gear·force on the joint.  A plain motor keeps one
+    parameter ``gear_<actuator>`` = gear·gain."""
+    gear = float(m.actuator_gear[k, 0])
+    if m.actuator_ctrllimited[k]:
+        ctrl = _clamped(ctrl, *m.actuator_ctrlrange[k])
+    affine_gain, affine_bias = int(m.actuator_gaintype[k]) == 1, int(m.actuator_biastype[k]) == 1
+    if not (affine_gain or affine_bias or m.actuator_forcelimited[k]):    # a plain motor
+        return params(f"gear_{name}", gear * float(m.actuator_gainprm[k, 0])) * ctrl
+    g = params(f"gear_{name}", gear)
+    length, velocity = g * q, g * u
+    gp, bp = m.actuator_gainprm[k], m.actuator_biasprm[k]
+    gain = params(f"gain_{name}", gp[0])
+    if affine_gain:
+        gain += params(f"gain1_{name}", gp[1]) * length + params(f"gain2_{name}", gp[2]) * velocity
+    force = gain * ctrl
+    if affine_bias:
+        force += (params(f"bias0_{name}", bp[0]) + params(f"bias1_{name}", bp[1]) * length
+                  + params(f"bias2_{name}", bp[2]) * velocity)
+    if m.actuator_forcelimited[k]:
+        force = _clamped(force, *m.actuator_forcerange[k])
+    return g * force
 
 
 def _armature(m, params, jn, kind, dadr):

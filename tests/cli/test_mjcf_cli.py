@@ -69,3 +69,12 @@ def test_ignore_mistakes_are_one_line_errors(arm, tmp_path, capsys, argv, messag
     assert main(argv) != 0
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err
+
+
+def test_animate_an_mjcf_model(arm, tmp_path, capsys):
+    """`eomc animate model.xml`: a page with MuJoCo's bodies and the geoms as shapes."""
+    page = tmp_path / "arm.html"
+    assert main(["animate", str(arm), "--t-final", "0.3", "-o", str(page), "--ignore", "tendons,limits",
+                 "-q"]) == 0
+    text = page.read_text()
+    assert '"upper"' in text and '"lower"' in text and '"cylinder"' in text

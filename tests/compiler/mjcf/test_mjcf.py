@@ -73,7 +73,7 @@ def _worst(model, path, ignore=(), trials=6):
     worst = 0.0
     for _ in range(trials):
         q, u = rng.uniform(-1.2, 1.2, nq), rng.uniform(-2, 2, nu)
-        r = rng.uniform(-1, 1, len(motors))
+        r = rng.uniform(-1.5, 1.5, len(motors))       # beyond ctrlrange too: MuJoCo clamps, so must eomc
         xd = model.rhs(0.0, np.concatenate([q, u]), r=r)
         d.qpos[:], d.qvel[:] = to_mujoco(m, built, q, u)
         d.ctrl[:] = 0
@@ -224,10 +224,10 @@ def _refused(tmp_path, body, match, *, actuator="", extra="", ignore=()):
      r"<tendon>: 1 tendon\(s\) \(e.g. t\)", 2),
     (dict(body="", extra='<equality><joint name="eq" joint1="j" joint2="k"/></equality>'),
      r"<equality>: 1 equality constraint\(s\) \(e.g. eq\)", 2),
-    (dict(body="", actuator='<actuator><position name="servo" joint="j" kp="10"/></actuator>'),
-     r"<actuator>: actuator servo: it is not a plain motor", 8),
+    (dict(body="", actuator='<actuator><intvelocity name="mus" joint="j" kp="1" actrange="-1 1"/></actuator>'),
+     r"<actuator>: actuator mus: it has activation dynamics", 8),
     (dict(body="", actuator='<actuator><general name="filt" joint="j" dyntype="filter"/></actuator>'),
-     r"actuator filt: it is not a plain motor", 8),
+     r"actuator filt: it has activation dynamics", 8),
     (dict(body="", extra='<option density="1.2"/>'), r"<option>: fluid forces", 2),
 ])
 def test_refused_with_element_and_line(tmp_path, kw, match, line):
@@ -249,12 +249,13 @@ def test_mujoco_errors_keep_their_line(tmp_path):
 
 
 def test_ignored_on_request_with_a_warning(tmp_path):
-    """A tendon and a servo dropped on request: a warning each; the servo is no input."""
+    """A tendon and a filtered actuator dropped on request: a warning each; the latter is no input."""
     path = tmp_path / "ok.xml"
     path.write_text("""<mujoco><worldbody><body><joint name="j" type="hinge"/><geom size="0.1"/>
       <body pos="0 0 -1"><joint name="k" type="hinge"/><geom size="0.1"/></body></body></worldbody>
       <tendon><fixed name="t"><joint joint="j" coef="1"/></fixed></tendon>
-      <actuator><position name="servo" joint="j"/><motor name="mot" joint="k"/></actuator></mujoco>""")
+      <actuator><general name="servo" joint="j" dyntype="filter"/><motor name="mot" joint="k"/></actuator>
+      </mujoco>""")
     with pytest.warns(EomcWarning) as record:
         model = eomc.compile(MjcfModel(path, ignore=("tendons", "actuators")), functions=["rhs"],
                              cache_dir=tmp_path / "c", progress=False)
@@ -322,10 +323,11 @@ def test_bad_input_messages(tmp_path):
 
 
 def test_cli_build(small, tmp_path):
-    """`eomc build model.xml` builds it (through the same dispatch)."""
+    """`python -m eomc build model.xml` builds it (through the same dispatch; the fixture's cache,
+    so the child only exports what the fixture built)."""
     path, _ = small
     out = subprocess.run([sys.executable, "-m", "eomc", "build", str(path), "-o", str(tmp_path / "out"),
-                          "--cache-dir", str(tmp_path / "cache")],
+                          "--cache-dir", str(path.parent / "cache")],
                          capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
     assert any((tmp_path / "out").rglob("*.c"))
@@ -364,3 +366,62 @@ def test_poses_are_mujocos_body_frames(small):
     assert kinds["floater"] == ["box"]                                 # the ellipsoid's bounding box
     assert kinds["welded"] == ["sphere"] and kinds["base"] == ["box"]
     assert shapes["base"][0]["size"] == [0.2, 0.4, 0.1]
+
+
+SERVO = """<mujoco model="servo">
+  <worldbody>
+    <body name="a" pos="0 0 1">
+      <joint name="j1" type="hinge" axis="0 1 0" armature="0.1"/>
+      <geom type="capsule" fromto="0 0 0 0.4 0 0" size="0.04"/>
+      <body name="b" pos="0.4 0 0">
+        <joint name="j2" type="hinge" axis="0 1 0.2" ref="0.3"/>
+        <geom type="box" size="0.15 0.03 0.03" pos="0.15 0 0"/>
+        <body name="c" pos="0.3 0 0">
+          <joint name="s3" type="slide" axis="1 0 0"/>
+          <geom type="sphere" size="0.05"/>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+  <actuator>
+    <position name="p1" joint="j1" kp="20" kv="2" gear="1.5" ctrlrange="-0.5 0.5"/>
+    <velocity name="v2" joint="j2" kv="3" gear="0.8"/>
+    <motor name="m2" joint="j2" gear="2" ctrlrange="-1 1" ctrllimited="true"/>
+    <position name="p3" joint="s3" kp="50" forcerange="-4 4"/>
+    <general name="g3" joint="s3" gaintype="affine" gainprm="1 0.5 0.2" biastype="affine" biasprm="0.1 -2 -0.3"/>
+  </actuator>
+</mujoco>
+"""
+
+
+def test_servos_and_clamping_match_mj_forward(tmp_path):
+    """Position and velocity servos (kp, kv, gear), an affine general actuator, ctrlrange and
+    forcerange clamping: qacc against mj_forward with controls beyond their ranges (to 1e-10),
+    and jac_x, jac_r against central differences (the clamps' slopes included)."""
+    path = tmp_path / "servo.xml"
+    path.write_text(SERVO)
+    model = eomc.compile(str(path), functions=["rhs", "jac_x", "jac_r"], cache_dir=tmp_path / "c",
+                         progress=False)
+    assert model.input_names == ("ctrl_p1", "ctrl_v2", "ctrl_m2", "ctrl_p3", "ctrl_g3")
+    assert _worst(model, path, trials=8) < 1e-10
+    m = prepared(load_mjmodel(path))
+    built = tree_ir(m, actuators=check_model(m, path))
+    d, rng = mujoco.MjData(m), np.random.default_rng(2)
+    clamped = 0
+    for _ in range(4):
+        x = np.concatenate([rng.uniform(-1, 1, model.nq), rng.uniform(-1, 1, model.nx - model.nq)])
+        r = rng.uniform(-2, 2, model.ninput)
+        d.qpos[:], d.qvel[:] = to_mujoco(m, built, x[:model.nq], x[model.nq:])
+        d.ctrl[:] = r
+        mujoco.mj_forward(m, d)
+        clamped += int(abs(d.actuator_force[3]) == 4.0) + int(abs(r[0]) > 0.5)
+        h = 1e-6
+        fd = np.column_stack([(model.rhs(0.0, x + h * e, r=r) - model.rhs(0.0, x - h * e, r=r)) / (2 * h)
+                              for e in np.eye(model.nx)])
+        J = model.jacobian(0.0, x, r=r)
+        assert np.max(np.abs(J - fd)) < 1e-6 * max(1.0, np.max(np.abs(J)))
+        fd = np.column_stack([(model.rhs(0.0, x, r=r + h * e) - model.rhs(0.0, x, r=r - h * e)) / (2 * h)
+                              for e in np.eye(model.ninput)])
+        B = model.input_jacobian(0.0, x, r=r)
+        assert np.max(np.abs(B - fd)) < 1e-6 * max(1.0, np.max(np.abs(B)))
+    assert clamped >= 2                                   # the clamps were exercised
