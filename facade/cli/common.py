@@ -27,9 +27,14 @@ def add_model_arguments(parser):
     add_ignore_argument(parser)
 
 
+# eomc.compiler.mjcf.model.IGNORABLE, written out: the CLI must not import the compiler to
+# configure its parsers (`eomc simulate DIR` starts without it; tests/cli/test_mjcf_cli.py
+# checks the two lists agree)
+IGNORABLE = ("tendons", "equality", "actuators", "armature", "frictionloss", "limits", "fluid", "plugins")
+
+
 def add_ignore_argument(parser):
     """--ignore for MJCF models: what the tree cannot express, dropped with a warning."""
-    from eomc.compiler.mjcf.model import IGNORABLE
     parser.add_argument("--ignore", metavar="WHAT[,WHAT]", action="append", default=[],
                         help=f"MJCF (.xml): drop these with a warning instead of refusing the model "
                              f"({', '.join(IGNORABLE)})")
@@ -69,11 +74,12 @@ def load_model(path, quiet=False, floating_base=False, formulation="auto", ignor
     path = Path(path)
     if not path.exists():
         raise ValueError(f"{path}: no such model file or built model directory")
-    from eomc.compiler.mjcf.model import with_ignore
     if ignore and not (path.is_file() and path.suffix.lower() in (".xml", ".mjcf")):
+        from eomc.compiler.mjcf.model import with_ignore
         with_ignore(str(path), ignore=ignore)        # says what --ignore applies to
     if path.is_file() and path.suffix.lower() in (".py", ".urdf", ".xml", ".mjcf"):
         from eomc.compiler.driver import compile as compile_model
+        from eomc.compiler.mjcf.model import with_ignore
         from eomc.compiler.urdf.model import with_options
         source, name = with_options(str(path), floating_base=floating_base)
         source, name = with_ignore(source, name, ignore)

@@ -78,3 +78,10 @@ def test_animate_an_mjcf_model(arm, tmp_path, capsys):
                  "-q"]) == 0
     text = page.read_text()
     assert '"upper"' in text and '"lower"' in text and '"cylinder"' in text
+
+
+def test_cli_ignorable_list_is_the_compilers():
+    """The CLI writes the list out (it must not import the compiler to build its parsers)."""
+    from eomc.cli.common import IGNORABLE as cli
+    from eomc.compiler.mjcf.model import IGNORABLE
+    assert cli == IGNORABLE
