@@ -144,10 +144,11 @@ def check_model(m, path, ignore=()):
         if np.any(m.dof_armature[d:d + ndof] < 0):
             raise ModelFileError(f"<joint>: joint {jn}: negative armature {min(m.dof_armature[d:d + ndof]):g}: "
                                  f"an inertia cannot be negative", path, _line(path, "joint", jn))
-        if kind == 0 and np.any(m.dof_armature[d:d + 3]):
+        if kind == 0 and len(set(m.dof_armature[d:d + 3])) > 1:
             problems.append(("armature", "joint", f"joint {jn}: armature on a free joint's linear dofs "
-                             f"({m.dof_armature[d]:g}; MuJoCo's are world-frame velocities, eomc's body-frame, "
-                             f"so it is not a constant diagonal here)", jn))
+                             f"differs between them ({', '.join(f'{x:g}' for x in m.dof_armature[d:d + 3])}; "
+                             f"MuJoCo's are world-frame velocities, eomc's body-frame: only an equal one "
+                             f"carries over)", jn))
         if np.any(m.dof_frictionloss[d:d + ndof]):
             problems.append(("frictionloss", "joint", f"joint {jn}: frictionloss (a constraint in MuJoCo)", jn))
         if kind == 0 and int(m.body_parentid[m.jnt_bodyid[j]]) != 0:

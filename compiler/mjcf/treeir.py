@@ -26,7 +26,9 @@ in the body frame, c the mass centre (``body_ipos``) and c_p the parent's
 Armature (``dof_armature``) is each speed's ``TreeBody.armature`` (parameters
 ``arm_<joint>``, ``arm_<joint>_<axis>`` for ball/free): M_ii += a, as MuJoCo adds
 it.  Ball and free-joint angular speeds are body-frame in both, so it carries over;
-a free joint's linear armature (MuJoCo's world-frame dofs) is refused.
+a free joint's linear armature is on MuJoCo's world-frame velocity, so on eomc's
+body-frame speeds it also brings a velocity term (:func:`_free_armature_load`;
+the three linear values must be equal, as MJCF's one ``armature`` per joint makes them).
 
 Joint damping, stiffness/springref and motors (``gear`` x fixed gain) are a
 joint-space force tau on each hinge/slide dof: a torque on the child about a and
@@ -213,6 +215,8 @@ def tree_ir(m, *, fold=False, actuators=None):
                 bodies.append(TreeBody(kind="free", speed=None, rotation=R.T, position=position, motion=None,
                                        speeds=tuple(range(first, first + 6)), motions=motions, **common))
                 kinematics += floating_kinematics(qs, us)
+                if common["armature"] and common["armature"][0] != 0:
+                    loads.append(_free_armature_load(len(bodies) - 1, common["armature"][0], us, c))
             child = len(bodies) - 1
             owners.append((b, tuple(c_mass)) if final else None)
             if kind in (_HINGE, _SLIDE):
@@ -280,10 +284,22 @@ def _actuator_force(m, params, k, name, ctrl, q, u):
     return g * force
 
 
+def _free_armature_load(body, a, us, c):
+    """The velocity term of a free joint's linear armature ``a`` (the same on its three linear
+    dofs: check_model refuses others).  MuJoCo adds a·I to M on its world-frame linear dofs, so
+    its generalized force there is a·d(R v)/dt = R a (v' + ω × v) with v, ω eomc's body-frame
+    speeds: on eomc's linear speeds a (v' + ω × v) -- a v' is the armature on D, and this load is
+    the rest, -a ω × v, a force at the MuJoCo body origin (offset -c from the mass centre) so
+    that it does no work on the angular speeds."""
+    v, w = us[:3], us[3:]
+    force = sm.Matrix([-a * x for x in _cross(list(w), list(v))])
+    return Load(body=body, frame="body", moment=sm.zeros(3, 1), force=force,
+                offset=sm.Matrix([-sm.sympify(x) for x in c]))
+
+
 def _armature(m, params, jn, kind, dadr):
-    """The joint's armature per speed (MuJoCo's ``dof_armature``; () when all zero).  A free
-    joint's linear ones are refused by check_model (its linear speeds are body components here,
-    MuJoCo's world components), so they are zero."""
+    """The joint's armature per speed (MuJoCo's ``dof_armature``; () when all zero); a free
+    joint's linear ones come with :func:`_free_armature_load`."""
     n = {_HINGE: 1, _SLIDE: 1, _BALL: 3, _FREE: 6}[kind]
     values = [float(x) for x in m.dof_armature[dadr:dadr + n]]
     if not any(values):

@@ -42,7 +42,7 @@ SMALL = """<mujoco model="small">
       </body>
     </body>
     <body name="floater" pos="1 0 1">
-      <freejoint name="free"/>
+      <joint name="free" type="free" armature="0.15" damping="0"/>
       <geom type="ellipsoid" size="0.1 0.2 0.3" pos="0.05 0.02 0.01" euler="20 30 40"/>
       <body name="tip" pos="0.3 0 0">
         <joint name="h3" type="hinge" axis="0 0 1" range="-1 1"/>
@@ -98,7 +98,8 @@ def small(tmp_path_factory):
 def test_small_model_matches_mj_forward(small):
     """Hinge chain with two joints on one body (refs, anchor, spring, damping), slide, ball,
     a welded body, a free body with a child, general gravity and motors, armature on a slide,
-    a hinge and a ball joint (MuJoCo's dof_armature kept): qacc to 1e-10."""
+    a hinge, a ball and a free joint (MuJoCo's dof_armature kept; the free joint's on MuJoCo's
+    world-frame linear dofs): qacc to 1e-10."""
     path, model = small
     assert model.state_names[:3] == ("q_slider", "q_h1", "q_h2")
     assert model.input_names == ("ctrl_actuator0", "ctrl_m1", "ctrl_actuator2")
@@ -128,7 +129,7 @@ def _gym_asset(name):
 
 
 def test_small_model_jacobian_has_the_armature(small):
-    """jac_x of a model with armature (slide, hinge, ball) against central differences of its rhs;
+    """jac_x of a model with armature (slide, hinge, ball, free) against central differences of its rhs;
     and the armature matters: without it the rhs differs."""
     path, model = small
     rng = np.random.default_rng(3)
@@ -141,7 +142,8 @@ def test_small_model_jacobian_has_the_armature(small):
     assert np.max(np.abs(J - fd)) < 1e-6 * max(1.0, np.max(np.abs(J)))
     names = model.param_names
     p = np.array(model.param_defaults, dtype=float)
-    assert {"arm_slider", "arm_h1", "arm_ball_x", "arm_ball_y", "arm_ball_z"} <= set(names)
+    assert {"arm_slider", "arm_h1", "arm_ball_x", "arm_ball_y", "arm_ball_z", "arm_free_vx",
+            "arm_free_wz"} <= set(names)
     p0 = p.copy()
     p0[[names.index(k) for k in names if k.startswith("arm_")]] = 0
     assert np.max(np.abs(model.rhs(0.0, x, p=p0, r=r) - model.rhs(0.0, x, p=p, r=r))) > 1e-3
@@ -265,18 +267,19 @@ def test_ignored_on_request_with_a_warning(tmp_path):
 
 
 def test_refusal_points_at_the_named_joint(tmp_path):
-    """Armature from a default class on a free joint: the line of the joint that has it, by name."""
+    """A negative armature from a default class: the line of the joint that has it, by name."""
     path = tmp_path / "cls.xml"
     path.write_text("""<mujoco>
-  <default><default class="heavy"><joint armature="0.5"/></default></default>
+  <default><default class="heavy"><joint armature="-0.5"/></default></default>
   <worldbody>
-    <body><joint name="light" type="hinge" class="heavy"/><geom size="0.1"/></body>
-    <body pos="0 0 1">
-      <joint name="geared" class="heavy" type="free"/><geom size="0.1"/>
+    <body><joint name="light" type="hinge"/><geom size="0.1"/>
+      <body pos="0 0 1">
+        <joint name="geared" class="heavy" type="hinge"/><geom size="0.1"/>
+      </body>
     </body>
   </worldbody>
 </mujoco>""")
-    with pytest.raises(ModelFileError, match=r"cls.xml:6: <joint>: joint geared: armature on a free joint"):
+    with pytest.raises(ModelFileError, match=r"cls.xml:6: <joint>: joint geared: negative armature -0.5"):
         eomc.compile(str(path), functions=["rhs"], cache_dir=tmp_path / "c", progress=False)
 
 
