@@ -85,3 +85,9 @@ def test_cli_ignorable_list_is_the_compilers():
     from eomc.cli.common import IGNORABLE as cli
     from eomc.compiler.mjcf.model import IGNORABLE
     assert cli == IGNORABLE
+
+
+def test_check_an_mjcf_model(arm, capsys):
+    """`eomc check model.xml --ignore ...` runs its checks on the MuJoCo model."""
+    assert main(["check", str(arm), "--ignore", "tendons,limits", "-q"]) == 0
+    assert "checks passed" in capsys.readouterr().out
