@@ -30,8 +30,10 @@ a free joint's linear armature is on MuJoCo's world-frame velocity, so on eomc's
 body-frame speeds it also brings a velocity term (:func:`_free_armature_load`;
 the three linear values must be equal, as MJCF's one ``armature`` per joint makes them).
 
-Joint damping, stiffness/springref and motors (``gear`` x fixed gain) are a
-joint-space force tau on each hinge/slide dof: a torque on the child about a and
+Joint damping, stiffness/springref and actuators (motors, position/velocity
+servos, affine ``<general>``: :func:`_actuator_force`, with MuJoCo's ctrlrange and
+forcerange clamps as :class:`.clamp.Clamp`) are a joint-space force tau on each
+hinge/slide dof: a torque on the child about a and
 its reaction on the parent about R0 a (a force along a for a slide).  What the
 tree cannot express is refused with the element named (:mod:`.model` decides
 what may be ignored).
