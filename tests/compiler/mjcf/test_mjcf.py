@@ -428,3 +428,9 @@ def test_servos_and_clamping_match_mj_forward(tmp_path):
         B = model.input_jacobian(0.0, x, r=r)
         assert np.max(np.abs(B - fd)) < 1e-6 * max(1.0, np.max(np.abs(B)))
     assert clamped >= 2                                   # the clamps were exercised
+
+
+def test_kane_formulation_is_refused_saying_why(small, tmp_path):
+    path, _ = small
+    with pytest.raises(ModelError, match="an MJCF model has the recursive formulation only"):
+        eomc.compile(str(path), functions=["rhs"], formulation="kane", cache_dir=tmp_path, progress=False)
