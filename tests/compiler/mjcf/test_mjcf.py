@@ -149,6 +149,16 @@ def test_small_model_jacobian_has_the_armature(small):
     assert np.max(np.abs(model.rhs(0.0, x, p=p0, r=r) - model.rhs(0.0, x, p=p, r=r))) > 1e-3
 
 
+def _full_mass_matrix(m, d):
+    """mj_fullM across MuJoCo versions (4.x takes the MjData, 3.x the sparse qM)."""
+    M = np.zeros((m.nv, m.nv))
+    try:
+        mujoco.mj_fullM(m, d, M)
+    except TypeError:
+        mujoco.mj_fullM(m, M, d.qM)
+    return M
+
+
 @pytest.fixture(scope="module")
 def hopper(tmp_path_factory):
     path = _gym_asset("hopper.xml")
@@ -174,8 +184,7 @@ def test_hopper_mass_matrix_and_inverse_dynamics_with_armature(hopper):
         x = np.concatenate([q, u])
         d.qpos[:], d.qvel[:] = to_mujoco(m, built, q, u)
         mujoco.mj_forward(m, d)
-        M = np.zeros((m.nv, m.nv))
-        mujoco.mj_fullM(m, d, M)
+        M = _full_mass_matrix(m, d)
         assert np.max(np.abs(model.mass_matrix(0.0, x) - M)) < 1e-12 * np.max(np.abs(M))
         d.qacc[:] = w
         res = np.zeros(m.nv)
@@ -363,6 +372,14 @@ def test_poses_are_mujocos_body_frames(small):
         for b, name in enumerate(names, start=1):
             assert np.max(np.abs(poses[name] - d.xpos[b])) < 1e-12
             assert np.max(np.abs(poses.rotation(name) - d.xmat[b].reshape(3, 3))) < 1e-12
+        placed = []           # every shape's pose in the world: body pose x its origin
+        for name, items in model.metadata["poses"]["geometry"].items():
+            T = np.eye(4)
+            T[:3, :3], T[:3, 3] = poses.rotation(name), poses[name]
+            placed += [T @ np.array(item["origin"]).reshape(4, 4) for item in items]
+        for g in range(m.ngeom):          # each geom is drawn where MuJoCo has it
+            assert min(np.max(np.abs(P[:3, 3] - d.geom_xpos[g])) + np.max(np.abs(P[:3, :3] - d.geom_xmat[g].reshape(3, 3)))
+                       for P in placed) < 1e-12
     shapes = model.metadata["poses"]["geometry"]
     kinds = {k: sorted(s["kind"] for s in v) for k, v in shapes.items()}
     assert kinds["link1"] == ["cylinder", "sphere", "sphere"]          # the capsule
