@@ -207,4 +207,32 @@ def mjcf_formed(model, overrides):
     formed = formed_of_tree(built.tree)
     built.mjmodel = m              # what the animation's poses read the geoms from (compiler/mjcf/poses.py)
     object.__setattr__(formed, "_mjcf", built)
-    return formed, _merged(overrides, formed, built.parameters, built.inputs)
+    values = _merged(overrides, formed, built.parameters, built.inputs)
+    if values.get("initial_state") is None:
+        values["initial_state"] = reference_state(m, built)
+    return formed, values
+
+
+def _xyz_angles(R):
+    """Body-XYZ angles (R = Rx Ry Rz, eomc's ball and free joints) of a rotation matrix."""
+    return (float(np.arctan2(-R[1, 2], R[2, 2])), float(np.arcsin(np.clip(R[0, 2], -1.0, 1.0))),
+            float(np.arctan2(-R[0, 1], R[0, 0])))
+
+
+def reference_state(m, built):
+    """{coordinate name: value}: MuJoCo's qpos0 (where mj_resetData starts: hinge/slide ``ref``, a
+    free body where the file puts it) in eomc's coordinates; speeds zero.  Zeros are left out."""
+    from .treeir import quat_matrix
+    out = {}
+    for j, kind, iq, _ in built.joints:
+        a = int(m.jnt_qposadr[j])
+        if kind in (2, 3):
+            values = [float(m.qpos0[a])]
+        elif kind == 1:
+            values = list(_xyz_angles(quat_matrix(m.qpos0[a:a + 4])))
+        else:
+            values = [float(x) for x in m.qpos0[a:a + 3]] + list(_xyz_angles(quat_matrix(m.qpos0[a + 3:a + 7])))
+        for k, v in enumerate(values):
+            if v != 0.0:
+                out[str(built.coordinates[iq + k]).replace("(t)", "")] = v
+    return out

@@ -451,3 +451,28 @@ def test_kane_formulation_is_refused_saying_why(small, tmp_path):
     path, _ = small
     with pytest.raises(ModelError, match="an MJCF model has the recursive formulation only"):
         eomc.compile(str(path), functions=["rhs"], formulation="kane", cache_dir=tmp_path, progress=False)
+
+
+def test_initial_state_is_mujocos_qpos0(small, tmp_path):
+    """A model starts where mj_resetData puts it: refs, and a free body where (and as turned as)
+    the file puts it, in eomc's coordinates (mapped back, the same qpos0; quaternions compared as
+    rotations)."""
+    path, model = small
+    m = load_mjmodel(path)
+    built = tree_ir(m, actuators=check_model(m, path, ("limits",)))
+    x0 = np.asarray(model.initial_state)
+    assert x0[model.state_names.index("q_slider")] == pytest.approx(0.1)
+    qpos, _ = to_mujoco(m, built, x0[:model.nq], x0[model.nq:])
+    assert np.max(np.abs(qpos - m.qpos0)) < 1e-15
+    turned = tmp_path / "turned.xml"
+    turned.write_text('<mujoco><worldbody><body pos="0.5 -1 2" euler="30 -70 120"><freejoint name="f"/>'
+                      '<geom size="0.1"/></body></worldbody></mujoco>')
+    from eomc.compiler.mjcf.model import reference_state
+    from eomc.compiler.mjcf.treeir import quat_matrix
+    m = load_mjmodel(turned)
+    built = tree_ir(m, actuators=[])
+    state = reference_state(m, built)
+    q = np.array([state.get(str(c).replace("(t)", ""), 0.0) for c in built.coordinates])
+    qpos, _ = to_mujoco(m, built, q, np.zeros(6))
+    assert np.max(np.abs(qpos[:3] - [0.5, -1, 2])) < 1e-15
+    assert np.max(np.abs(quat_matrix(qpos[3:]) - quat_matrix(m.qpos0[3:]))) < 1e-14
