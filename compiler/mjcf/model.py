@@ -188,7 +188,7 @@ def check_model(m, path, ignore=()):
         if key and key in ignore:
             warnings.warn(f"{path}: ignored: {message}", EomcWarning, stacklevel=4)
             continue
-        hint = f" (ignore=('{key}',) drops it, with a warning)" if key else ""
+        hint = f" (ignore=('{key}',), or --ignore {key} on the command line, drops it with a warning)" if key else ""
         raise ModelFileError(f"<{tag}>: {message}: a rigid-body tree cannot express it{hint}", path,
                              _line(path, tag, named[0] if named else None))
     return motors
