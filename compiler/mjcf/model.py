@@ -120,9 +120,22 @@ def check_model(m, path, ignore=()):
         m.dof_armature[:] = 0
     problems = []   # (ignore key, tag, message[, element name])
     J = mujoco.mjtObj.mjOBJ_JOINT
-    if m.ntendon:
-        problems.append(("tendons", "tendon", f"{m.ntendon} tendon(s) (e.g. "
-                         f"{_name(m, mujoco.mjtObj.mjOBJ_TENDON, 0, 'tendon')}): a tendon couples joints"))
+    # a tendon acts only through its stiffness, damping, friction, armature, limits and the
+    # actuators and equalities on it (refused below on their own): one with none of these
+    # (gymnasium's humanoid's two) changes nothing here; one with a range only is a limit
+    zero = np.zeros(m.ntendon)
+    acting = [t for t in range(m.ntendon)
+              if m.tendon_stiffness[t] or m.tendon_damping[t] or m.tendon_frictionloss[t]
+              or getattr(m, "tendon_armature", zero)[t]]
+    if acting:
+        problems.append(("tendons", "tendon", f"{len(acting)} tendon(s) with stiffness, damping, friction or "
+                         f"armature (e.g. {_name(m, mujoco.mjtObj.mjOBJ_TENDON, acting[0], 'tendon')}): a "
+                         f"tendon couples joints"))
+    for t in range(m.ntendon):
+        if t not in acting and m.tendon_limited[t] and "limits" not in ignore and "tendons" not in ignore:
+            warnings.warn(f"{path}: tendon {_name(m, mujoco.mjtObj.mjOBJ_TENDON, t, 'tendon')}: its range "
+                          f"limits are not modelled (contacts and limits are off; ignore=('limits',) silences "
+                          f"this)", EomcWarning, stacklevel=3)
     if m.neq:
         problems.append(("equality", "equality", f"{m.neq} equality constraint(s) (e.g. "
                          f"{_name(m, mujoco.mjtObj.mjOBJ_EQUALITY, 0, 'equality')}): a constraint, not a tree"))

@@ -200,10 +200,10 @@ def test_hopper_mass_matrix_and_inverse_dynamics_with_armature(hopper):
                                            ("walker2d.xml", ("limits",)),
                                            ("half_cheetah.xml", ("limits",)),
                                            ("ant.xml", ("limits",)),
-                                           ("humanoid.xml", ("limits", "tendons"))])
+                                           ("humanoid.xml", ("limits",))])
 def test_gymnasium_model_matches_mj_forward(asset, ignore, tmp_path):
-    """Shipped models (gymnasium's wheel), their armature kept on both sides (humanoid's two
-    fixed tendons dropped: MuJoCo uses them only for limits, which are off)."""
+    """Shipped models (gymnasium's wheel), their armature kept on both sides, with no ignore but
+    the limits warning (humanoid's two fixed tendons apply no force: accepted as they are)."""
     path = _gym_asset(asset)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", EomcWarning)
@@ -231,8 +231,8 @@ def _refused(tmp_path, body, match, *, actuator="", extra="", ignore=()):
 
 @pytest.mark.parametrize("kw, match, line", [
     (dict(body='frictionloss="0.1"'), r"joint j: frictionloss", 4),
-    (dict(body="", extra='<tendon><fixed name="t"><joint joint="j" coef="1"/></fixed></tendon>'),
-     r"<tendon>: 1 tendon\(s\) \(e.g. t\)", 2),
+    (dict(body="", extra='<tendon><fixed name="t" stiffness="3"><joint joint="j" coef="1"/></fixed></tendon>'),
+     r"<tendon>: 1 tendon\(s\) with stiffness, damping, friction or armature \(e.g. t\)", 2),
     (dict(body="", extra='<equality><joint name="eq" joint1="j" joint2="k"/></equality>'),
      r"<equality>: 1 equality constraint\(s\) \(e.g. eq\)", 2),
     (dict(body="", actuator='<actuator><intvelocity name="mus" joint="j" kp="1" actrange="-1 1"/></actuator>'),
@@ -264,7 +264,7 @@ def test_ignored_on_request_with_a_warning(tmp_path):
     path = tmp_path / "ok.xml"
     path.write_text("""<mujoco><worldbody><body><joint name="j" type="hinge"/><geom size="0.1"/>
       <body pos="0 0 -1"><joint name="k" type="hinge"/><geom size="0.1"/></body></body></worldbody>
-      <tendon><fixed name="t"><joint joint="j" coef="1"/></fixed></tendon>
+      <tendon><fixed name="t" damping="0.5"><joint joint="j" coef="1"/></fixed></tendon>
       <actuator><general name="servo" joint="j" dyntype="filter"/><motor name="mot" joint="k"/></actuator>
       </mujoco>""")
     with pytest.warns(EomcWarning) as record:
@@ -476,3 +476,25 @@ def test_initial_state_is_mujocos_qpos0(small, tmp_path):
     qpos, _ = to_mujoco(m, built, q, np.zeros(6))
     assert np.max(np.abs(qpos[:3] - [0.5, -1, 2])) < 1e-15
     assert np.max(np.abs(quat_matrix(qpos[3:]) - quat_matrix(m.qpos0[3:]))) < 1e-14
+
+
+def test_a_tendon_that_applies_no_force_is_accepted(tmp_path):
+    """A tendon with no stiffness, damping, friction or armature changes nothing with limits off:
+    accepted (a limited one with the limits warning); one with stiffness is refused."""
+    def tendon(attrs):
+        path = tmp_path / "t.xml"
+        path.write_text(f"""<mujoco><worldbody><body><joint name="j" type="hinge"/><geom size="0.1"/>
+          <body pos="0 0 -1"><joint name="k" type="hinge"/><geom size="0.1"/></body></body></worldbody>
+          <tendon><fixed name="t" {attrs}><joint joint="j" coef="1"/><joint joint="k" coef="-1"/></fixed></tendon>
+          </mujoco>""")
+        return load_mjmodel(path), path
+    m, path = tendon("")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert check_model(m, path) == []
+    m, path = tendon('limited="true" range="-0.1 0.1"')
+    with pytest.warns(EomcWarning, match="tendon t: its range limits are not modelled"):
+        check_model(m, path)
+    m, path = tendon('stiffness="2"')
+    with pytest.raises(ModelFileError, match=r"t.xml:3: <tendon>: 1 tendon\(s\) with stiffness"):
+        check_model(m, path)
