@@ -417,12 +417,13 @@ SERVO = """<mujoco model="servo">
 def test_servos_and_clamping_match_mj_forward(tmp_path):
     """Position and velocity servos (kp, kv, gear), an affine general actuator, ctrlrange and
     forcerange clamping: qacc against mj_forward with controls beyond their ranges (to 1e-10),
-    and jac_x, jac_r against central differences (the clamps' slopes included)."""
+    and jac_x, jac_r, jac_p against central differences (the clamps' slopes included)."""
     path = tmp_path / "servo.xml"
     path.write_text(SERVO)
-    model = eomc.compile(str(path), functions=["rhs", "jac_x", "jac_r"], cache_dir=tmp_path / "c",
+    model = eomc.compile(str(path), functions=["rhs", "jac_x", "jac_r", "jac_p"], cache_dir=tmp_path / "c",
                          progress=False)
     assert model.input_names == ("ctrl_p1", "ctrl_v2", "ctrl_m2", "ctrl_p3", "ctrl_g3")
+    assert {"arm_j1", "gain_p1", "bias1_p1", "bias2_p1", "bias2_v2", "gain2_g3", "bias0_g3"} <= set(model.param_names)
     assert _worst(model, path, trials=8) < 1e-10
     m = prepared(load_mjmodel(path))
     built = tree_ir(m, actuators=check_model(m, path))
@@ -444,6 +445,11 @@ def test_servos_and_clamping_match_mj_forward(tmp_path):
                               for e in np.eye(model.ninput)])
         B = model.input_jacobian(0.0, x, r=r)
         assert np.max(np.abs(B - fd)) < 1e-6 * max(1.0, np.max(np.abs(B)))
+        p = model.param_defaults
+        fd = np.column_stack([(model.rhs(0.0, x, p=p + h * e, r=r) - model.rhs(0.0, x, p=p - h * e, r=r)) / (2 * h)
+                              for e in np.eye(model.nparam)])
+        P = model.jac_p(0.0, x, r=r)          # the armature, gains and biases as parameters
+        assert np.max(np.abs(P - fd)) < 1e-6 * max(1.0, np.max(np.abs(P)))
     assert clamped >= 2                                   # the clamps were exercised
 
 
