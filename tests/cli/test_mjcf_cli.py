@@ -92,3 +92,14 @@ def test_check_an_mjcf_model(arm, capsys):
     """`eomc check model.xml --ignore ...` runs its checks on the MuJoCo model."""
     assert main(["check", str(arm), "--ignore", "tendons,limits", "-q"]) == 0
     assert "checks passed" in capsys.readouterr().out
+
+
+def test_show_says_an_mjcf_model_has_no_formed_equations(tmp_path, capsys):
+    """`eomc show model.xml` prints what it has and says M and f are not formed (never zeros)."""
+    path = tmp_path / "pend.xml"
+    path.write_text('<mujoco><worldbody><body><joint name="j" type="hinge" armature="0.2"/>'
+                    '<geom type="capsule" fromto="0 0 0 0 0 -1" size="0.05"/></body></worldbody></mujoco>')
+    assert main(["show", str(path), "-q"]) == 0
+    text = capsys.readouterr().out
+    assert "coordinates q: q_j" in text and "arm_j=0.2" in text
+    assert "mass matrix and forcing: not formed" in text and "mass matrix  (A" not in text
