@@ -80,14 +80,13 @@ def _with_poses(spec, functions):
     from .emit.poses import pose_source
     if functions is not None and "poses" not in functions:
         return spec
-    if spec.system is None and getattr(spec.formed, "_mjcf", None) is not None:   # an MJCF model
-        if functions is not None:
-            raise ModelError(f"{spec.name}: poses (the animation's body positions) are not generated for "
-                             f"MJCF models yet; leave 'poses' out of functions")
-        return dataclasses.replace(spec, poses=None)
     try:
         built = getattr(spec.formed, "_urdf", None)   # a URDF read straight into the tree: no System
-        if spec.system is None and built is not None:
+        mjcf = getattr(spec.formed, "_mjcf", None)    # an MJCF model: MuJoCo's bodies from the tree
+        if spec.system is None and mjcf is not None:
+            from .mjcf.poses import mjcf_pose_source
+            poses = mjcf_pose_source(mjcf, mjcf.mjmodel)
+        elif spec.system is None and built is not None:
             from .urdf.treeir import pose_source as urdf_pose_source
             poses = urdf_pose_source(built)
         else:

@@ -71,7 +71,7 @@ def _rename(layout, memo, what, absent):
 
 def _absent(tree, layout):
     from sympy.physics.mechanics import dynamicsymbols
-    exprs = [e for b in tree.bodies for e in list(b.inertia) + [b.mass]] + list(tree.gravity)
+    exprs = [e for b in tree.bodies for e in list(b.inertia) + [b.mass] + list(b.armature)] + list(tree.gravity)
     exprs += [e for ld in tree.loads for e in list(ld.moment) + list(ld.force) + list(ld.offset)]
     free = set().union(*(sm.sympify(e).free_symbols for e in exprs)) if exprs else set()
     return {s: 0 for s in free if s not in layout.subs and s != dynamicsymbols._t}
@@ -103,7 +103,8 @@ def _lowered_bodies(tree, layout, rec):
         r = b.position.applyfunc(ren)
         S = None if b.motion is None else [ren(s) for s in b.motion]
         multi = [(k, [ren(s) for s in m]) for k, m in zip(b.speeds, b.motions)] or None
-        bodies.append(LoweredBody(b, rec, E, r, S, ren(b.mass), b.inertia.applyfunc(ren), None, multi))
+        arm = [ren(a) for a in b.armatures] if b.armature else None
+        bodies.append(LoweredBody(b, rec, E, r, S, ren(b.mass), b.inertia.applyfunc(ren), None, multi, arm))
     for load in tree.loads:
         i = load.body
         ren = _rename(layout, memo, f"a load on body {tree.bodies[i].name}", absent)

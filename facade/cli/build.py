@@ -11,7 +11,8 @@ __all__ = ["configure", "run", "add_generate_options"]
 
 def add_generate_options(parser):
     """Options shared by the commands that generate code (build, inspect)."""
-    parser.add_argument("model", help="model file (Python) defining `system`, or a robot's URDF file")
+    parser.add_argument("model", help="model file (Python) defining `system`, a robot's URDF file or a "
+                                      "MuJoCo model (.xml)")
     parser.add_argument("--name", help="model name (default: the file's `name` or its stem)")
     parser.add_argument("--outputs", metavar="LIST",
                         help="comma-separated functions to generate, e.g. rhs,jacobian,mass_matrix "
@@ -22,8 +23,9 @@ def add_generate_options(parser):
     parser.add_argument("--floating-base", action="store_true",
                         help="URDF: a 6-dof floating joint (position + body XYZ Euler angles) "
                              "between the world and the root link")
-    from .common import add_formulation_argument
+    from .common import add_formulation_argument, add_ignore_argument
     add_formulation_argument(parser)
+    add_ignore_argument(parser)
 
 
 def configure(parser):
@@ -43,8 +45,10 @@ def configure(parser):
 
 def run(args):
     from eomc.compiler.driver import compile
+    from eomc.compiler.mjcf.model import with_ignore
     from eomc.compiler.urdf.model import with_options
     source, name = with_options(args.model, args.name, floating_base=args.floating_base)
+    source, name = with_ignore(source, name, args.ignore)
     model = compile(source, name, functions=args.outputs, fold_parameters=args.fold_parameters,
                     backend=args.backend, cflags=args.cflags, cache_dir=args.cache_dir,
                     output_dir=args.output, progress=not args.quiet, formulation=args.formulation,

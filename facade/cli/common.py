@@ -13,7 +13,8 @@ __all__ = ["add_model_arguments", "add_formulation_argument", "add_frame_argumen
 
 def add_model_arguments(parser):
     """The positional MODEL and the --x0/--param overrides."""
-    parser.add_argument("model", help="model file (.py), robot (.urdf) or built model directory / NAME.json")
+    parser.add_argument("model", help="model file (.py), robot (.urdf), MuJoCo model (.xml) or built model "
+                                      "directory / NAME.json")
     parser.add_argument("--x0", nargs="+", metavar="NAME=V", default=(),
                         help="initial state entries; states not named keep the model's initial_state "
                              "(0 when it has none)")
@@ -23,6 +24,20 @@ def add_model_arguments(parser):
                         help="no progress on stderr (compiling a model file, long runs)")
     parser.add_argument("--floating-base", action="store_true",
                         help="URDF: a 6-dof floating joint between the world and the root link")
+    add_ignore_argument(parser)
+
+
+# eomc.compiler.mjcf.model.IGNORABLE, written out: the CLI must not import the compiler to
+# configure its parsers (`eomc simulate DIR` starts without it; tests/cli/test_mjcf_cli.py
+# checks the two lists agree)
+IGNORABLE = ("tendons", "equality", "actuators", "armature", "frictionloss", "limits", "fluid", "plugins")
+
+
+def add_ignore_argument(parser):
+    """--ignore for MJCF models: what the tree cannot express, dropped with a warning."""
+    parser.add_argument("--ignore", metavar="WHAT[,WHAT]", action="append", default=[],
+                        help=f"MJCF (.xml): drop these with a warning instead of refusing the model "
+                             f"({', '.join(IGNORABLE)})")
 
 
 FORMULATION_HELP = ("dynamics formulation: auto (default: the cheaper rhs of the two; kane where the "
@@ -47,6 +62,8 @@ def model_options(args):
         options["formulation"] = args.formulation
     if getattr(args, "frame", None):
         options["frames"] = list(args.frame)
+    if getattr(args, "ignore", None):
+        options["ignore"] = args.ignore
     return options
 
 
@@ -60,8 +77,9 @@ def add_frame_argument(parser):
     parser.add_argument("--frame", action="append", metavar="NAME", help=FRAME_HELP)
 
 
-def load_model(path, quiet=False, floating_base=False, formulation="auto", frames=None):
-    """A runtime Model from a model file (compiled) or a built directory / json (loaded).
+def load_model(path, quiet=False, floating_base=False, formulation="auto", frames=None, ignore=()):
+    """A runtime Model from a model file (.py, .urdf, MuJoCo's .xml; compiled) or a built
+    directory / json (loaded).  ``ignore``: an MJCF model's ignorable elements (--ignore).
 
     Compiling shows its stages on stderr when that is a terminal, unless ``quiet``.
     ``frames``: frame outputs to compile in; a built model must already have them.
@@ -69,10 +87,15 @@ def load_model(path, quiet=False, floating_base=False, formulation="auto", frame
     path = Path(path)
     if not path.exists():
         raise ValueError(f"{path}: no such model file or built model directory")
-    if path.is_file() and path.suffix.lower() in (".py", ".urdf"):
+    if ignore and not (path.is_file() and path.suffix.lower() in (".xml", ".mjcf")):
+        from eomc.compiler.mjcf.model import with_ignore
+        with_ignore(str(path), ignore=ignore)        # says what --ignore applies to
+    if path.is_file() and path.suffix.lower() in (".py", ".urdf", ".xml", ".mjcf"):
         from eomc.compiler.driver import compile as compile_model
+        from eomc.compiler.mjcf.model import with_ignore
         from eomc.compiler.urdf.model import with_options
         source, name = with_options(str(path), floating_base=floating_base)
+        source, name = with_ignore(source, name, ignore)
         return compile_model(source, name, progress=False if quiet else None,
                              formulation=formulation, frames=frames)
     from eomc.runtime.loader import load

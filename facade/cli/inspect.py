@@ -38,9 +38,12 @@ def format_report(metadata):
 
 def run(args):
     from eomc.compiler.driver import generate
+    from eomc.compiler.mjcf.model import with_ignore
     from eomc.compiler.urdf.model import with_options
     from eomc.errors import ModelError
     source, name = with_options(args.model, args.name, floating_base=args.floating_base)
+    source, name = with_ignore(source, name, args.ignore)
+    args.model, args.name = source, name       # the other formulation is generated from the same
     spec, generated = generate(source, name, functions=args.outputs,
                                fold_parameters=args.fold_parameters,
                                progress=False if args.quiet else None, formulation=args.formulation)
