@@ -1,0 +1,2 @@
+placeholder = None
+class ContactSpec: pass
