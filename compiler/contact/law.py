@@ -37,9 +37,9 @@ __all__ = ["DEFAULTS", "EXPONENT", "ContactForces", "ground_forces", "damping_fr
 #                  plane, k = (4/3)·E*·sqrt(R) with E* ≈ 5 MPa: a 10 kg robot on four feet
 #                  sinks by about 0.3 mm, stiff enough to stand, soft enough that explicit
 #                  methods are not forced to microsecond steps.
-# c   2 s/m        Hunt–Crossley damping: restitution e ≈ 1 - (2/3)·c·v_in = 0.6 for a
-#                  0.3 m/s touch-down (a foot landing), and it damps a standing robot's
-#                  bounce on its feet within a few tenths of a second.
+# c   2 s/m        Hunt–Crossley damping: restitution e ≈ 1 - c·v_in = 0.4 for a 0.3 m/s
+#                  touch-down (a foot landing: most of the impact is absorbed), and it damps
+#                  a standing robot's bounce on its feet within a few tenths of a second.
 # mu  1.0          rubber on a hard floor; MuJoCo's default sliding friction too.
 # vs  0.01 m/s     the regularisation's speed: slip slower than this is viscous.  Smaller is
 #                  closer to Coulomb (less creep) but stiffer (slope μ·F_n/v_s).
@@ -68,17 +68,18 @@ def check_value(name, key, value, where=None):
 
 
 def damping_from_restitution(e, impact_speed):
-    """Hunt–Crossley's c for a restitution ``e`` at ``impact_speed``: c = 3(1 - e)/(2·v_in).
+    """The damping c of this law for a restitution ``e`` at ``impact_speed``: c = (1 - e)/v_in.
 
-    First order in (1 - e) (Hunt & Crossley 1975; Marhefka & Orin 1999): the simulated
-    restitution is close to ``e`` only near ``impact_speed`` and for e near 1 (the
-    sphere test measures how close)."""
+    Hunt & Crossley's relation is λ/k = 3(1 - e)/(2·v_in) for F = k·δ^p + λ·δ^p·δ̇; this
+    law writes λ/k = (3/2)·c, so c = (1 - e)/v_in.  First order in (1 - e): the simulated
+    restitution is close to ``e`` only near ``impact_speed`` and for e near 1
+    (tests/compiler/contact/test_sphere.py measures how close)."""
     e, v = float(e), float(impact_speed)
     if not 0.0 <= e <= 1.0:
         raise ValueError(f"restitution e = {e:g} must be in [0, 1]")
     if not v > 0.0:
         raise ValueError(f"impact speed {v:g} must be > 0 to turn a restitution into a damping")
-    return 3.0 * (1.0 - e) / (2.0 * v)
+    return (1.0 - e) / v
 
 
 class ContactForces:

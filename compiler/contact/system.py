@@ -75,7 +75,7 @@ def parameter_defaults(name, k=None, c=None, mu=None, vs=None, radius=None, rest
             raise ValueError(f"contact {name!r}: give the damping c or a restitution, not both")
         if impact_speed is None:
             raise ValueError(f"contact {name!r}: a restitution needs the impact_speed it holds at "
-                             f"(Hunt–Crossley's c = 3(1 - e)/(2 v_in) depends on it)")
+                             f"(c = (1 - e)/v_in depends on it)")
         try:
             given["c"] = damping_from_restitution(restitution, impact_speed)
         except ValueError as exc:
