@@ -102,6 +102,9 @@ def urdf_formed(model, formulation, overrides, formed_system):
         return formed, _merged(overrides, formed, built.parameters, built.inputs), None
     if model.contacts:
         from eomc.runtime.errors import ModelError
+        from eomc.compiler.contact.tree import with_contacts
+        from .treeir import tree_ir
+        with_contacts(tree_ir(tree, fold=model.fold_parameters, gravity=model.gravity), model.contacts)
         raise ModelError(f"{model.path}: ground contacts on a URDF robot are lowered by the recursive "
                          f"formulation only (formulation 'recursive' or 'auto'"
                          f"{'; mimic=True robots with mimic joints take Kane' if mimics else ''})")
