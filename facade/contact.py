@@ -5,6 +5,6 @@ defaults).  For URDF robots pass ``contacts=[...]`` to :func:`eomc.compile` inst
 """
 from eomc.compiler.contact import *  # noqa: F401,F403
 from eomc.compiler.contact import __all__  # noqa: F401
-from eomc.compiler.contact.spec import ContactSpec  # noqa: F401,E402
+from eomc.compiler.contact.tree import COLLISION_SPHERES, ContactSpec  # noqa: F401,E402
 
-__all__ = [*__all__, "ContactSpec"]
+__all__ = [*__all__, "ContactSpec", "COLLISION_SPHERES"]

@@ -24,8 +24,8 @@ from eomc.runtime.errors import ModelError
 from .law import DEFAULTS, ground_forces
 from .system import contact_symbols, parameter_defaults, unit_normal
 
-__all__ = ["ContactSpec", "ContactLoad", "ContactValue", "parse_contact", "with_contacts",
-           "lower_contacts", "contact_outputs"]
+__all__ = ["ContactSpec", "ContactLoad", "ContactValue", "COLLISION_SPHERES", "parse_contact",
+           "collision_spheres", "with_contacts", "lower_contacts", "contact_outputs"]
 
 # what each contact adds to the outputs (placeholders' kind index) and its event
 OUTPUT_KINDS = ("Fn", "Ftx", "Fty", "Ftz", "depth")
@@ -71,11 +71,57 @@ def parse_contact(text):
     return ContactSpec(parts[0], point, radius)
 
 
+COLLISION_SPHERES = "@collision"     # contacts=[...] entry: every <collision><sphere> of the URDF
+
+
+def collision_spheres(path):
+    """[ContactSpec] of every ``<collision>`` whose geometry is a ``<sphere>`` in the URDF at
+    ``path``: on its link, centred at the collision's origin, of its radius; named
+    ``<link>`` (``<link>_<k>`` for the k-th sphere of a link that has several)."""
+    from lxml import etree
+    root = etree.parse(str(path)).getroot()
+    out = []
+    for link in root.iter("link"):
+        spheres = []
+        for col in link.findall("collision"):
+            sphere = col.find("geometry/sphere")
+            if sphere is None:
+                continue
+            origin = col.find("origin")
+            xyz = (origin.get("xyz") if origin is not None else None) or "0 0 0"
+            try:
+                point = tuple(float(v) for v in xyz.split())
+                radius = float(sphere.get("radius"))
+            except (TypeError, ValueError):
+                raise ModelError(f"{path}:{sphere.sourceline}: link {link.get('name')!r}: a collision "
+                                 f"sphere with a bad radius or origin") from None
+            spheres.append((point, radius))
+        for k, (point, radius) in enumerate(spheres):
+            from eomc.compiler.urdf.tree import identifier
+            name = identifier(link.get("name")) + (f"_{k}" if len(spheres) > 1 else "")
+            out.append(ContactSpec(link.get("name"), point, radius, name=name))
+    return out
+
+
+def _expanded(specs, path):
+    out = []
+    for spec in specs:
+        if spec.link == COLLISION_SPHERES:
+            found = collision_spheres(path)
+            if not found:
+                raise ModelError(f"{path}: contacts {COLLISION_SPHERES}: the robot has no "
+                                 f"<collision> with a <sphere> geometry; name the contact links instead")
+            out += found
+        else:
+            out.append(spec)
+    return out
+
+
 def _as_spec(item):
     if isinstance(item, ContactSpec):
         return item
     if isinstance(item, str):
-        return parse_contact(item)
+        return ContactSpec(COLLISION_SPHERES) if item == COLLISION_SPHERES else parse_contact(item)
     if isinstance(item, dict):
         try:
             return ContactSpec(**item)
@@ -142,7 +188,7 @@ def with_contacts(built, contacts, fold=False):
     import dataclasses
     import numpy as np
     from eomc.compiler.urdf.tree import identifier
-    specs = [_as_spec(c) for c in contacts]
+    specs = _expanded([_as_spec(c) for c in contacts], built.source.path)
     tree = built.tree
     by_body = {b.name: i for i, b in enumerate(tree.bodies)}
     bodies_by_key = {identifier(b.name): b for b in built.source.bodies.values()}

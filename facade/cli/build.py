@@ -22,6 +22,8 @@ def add_generate_options(parser):
     parser.add_argument("--floating-base", action="store_true",
                         help="URDF: a 6-dof floating joint (position + body XYZ Euler angles) "
                              "between the world and the root link")
+    parser.add_argument("--contact", action="append", metavar="LINK[:x,y,z[:radius]]", default=None,
+                        help="URDF: a ground contact sphere on LINK, centred at x,y,z in the link frame (default 0,0,0), of the given radius (default 0); repeat for more; @collision adds every <collision><sphere>; parameters k_/c_/mu_/vs_/r_<link> (see README, Ground contact)")
     from .common import add_formulation_argument
     add_formulation_argument(parser)
 
@@ -45,7 +47,8 @@ def run(args):
     source, name = with_options(args.model, args.name, floating_base=args.floating_base)
     model = compile(source, name, functions=args.outputs, fold_parameters=args.fold_parameters,
                     backend=args.backend, cflags=args.cflags, cache_dir=args.cache_dir,
-                    output_dir=args.output, progress=not args.quiet, formulation=args.formulation)
+                    output_dir=args.output, progress=not args.quiet, formulation=args.formulation,
+                    contacts=args.contact)
     files = sorted(p.name for p in model.directory.iterdir() if p.is_file() and not p.name.startswith("."))
     print(f"built model {model.name!r} (nq={model.nq}, nu={model.nu}, nparam={model.nparam}, "
           f"ninput={model.ninput}) in {model.directory}:")

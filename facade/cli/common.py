@@ -23,6 +23,8 @@ def add_model_arguments(parser):
                         help="no progress on stderr (compiling a model file, long runs)")
     parser.add_argument("--floating-base", action="store_true",
                         help="URDF: a 6-dof floating joint between the world and the root link")
+    parser.add_argument("--contact", action="append", metavar="LINK[:x,y,z[:radius]]", default=None,
+                        help="URDF: a ground contact sphere on LINK, centred at x,y,z in the link frame (default 0,0,0), of the given radius (default 0); repeat for more; @collision adds every <collision><sphere>; parameters k_/c_/mu_/vs_/r_<link> (see README, Ground contact)")
 
 
 FORMULATION_HELP = ("dynamics formulation: auto (default: the cheaper rhs of the two; kane where the "
@@ -43,12 +45,14 @@ def model_options(args):
     options = {}
     if getattr(args, "floating_base", False):
         options["floating_base"] = True
+    if getattr(args, "contact", None):
+        options["contacts"] = args.contact
     if getattr(args, "formulation", None) not in (None, "auto"):
         options["formulation"] = args.formulation
     return options
 
 
-def load_model(path, quiet=False, floating_base=False, formulation="auto"):
+def load_model(path, quiet=False, floating_base=False, formulation="auto", contacts=None):
     """A runtime Model from a model file (compiled) or a built directory / json (loaded).
 
     Compiling shows its stages on stderr when that is a terminal, unless ``quiet``.
@@ -61,7 +65,9 @@ def load_model(path, quiet=False, floating_base=False, formulation="auto"):
         from eomc.compiler.urdf.model import with_options
         source, name = with_options(str(path), floating_base=floating_base)
         return compile_model(source, name, progress=False if quiet else None,
-                             formulation=formulation)
+                             formulation=formulation, contacts=contacts)
+    if contacts:
+        raise ValueError(f"{path}: --contact applies to a robot (.urdf) being compiled, not to a built model")
     from eomc.runtime.loader import load
     return load(path)
 

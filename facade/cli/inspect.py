@@ -43,7 +43,8 @@ def run(args):
     source, name = with_options(args.model, args.name, floating_base=args.floating_base)
     spec, generated = generate(source, name, functions=args.outputs,
                                fold_parameters=args.fold_parameters,
-                               progress=False if args.quiet else None, formulation=args.formulation)
+                               progress=False if args.quiet else None, formulation=args.formulation,
+                               contacts=args.contact)
     print(format_report(generated.metadata))
     print("")
     print(compare_formulations(args, spec, generated, generate, ModelError))

@@ -1,2 +1,0 @@
-placeholder = None
-class ContactSpec: pass
