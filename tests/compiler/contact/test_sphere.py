@@ -51,8 +51,9 @@ def test_dropped_sphere_conserves_energy_without_damping(sphere):
 
 @pytest.mark.parametrize("e", [0.9, 0.7])
 def test_bounce_restitution_matches_hunt_crossley(sphere, e):
-    """c = 3(1 - e)/(2 v_in) is first order in (1 - e): the measured restitution (exit
-    over entry speed at the contact events) is within 0.02 of e at 0.9, 0.05 at 0.7."""
+    """c = (1 - e)/v_in (Hunt–Crossley's 3(1 - e)/(2 v_in) for this law's (3/2)·c) is first
+    order in (1 - e): measured (exit over entry speed at the contact events) 0.9007 for
+    e = 0.9 and 0.748 for e = 0.7 (0.818 at 0.8, 0.635 at 0.5): within 0.002 at 0.9, 0.06 at 0.7."""
     z0 = 0.4
     v_in = np.sqrt(2 * G * (z0 - R))
     c = eomc.contact.damping_from_restitution(e, v_in)
@@ -64,7 +65,7 @@ def test_bounce_restitution_matches_hunt_crossley(sphere, e):
     v_touch, v_lift = xe[0][vz], xe[1][vz]
     assert v_touch == pytest.approx(-v_in, rel=1e-6)
     measured = v_lift / -v_touch
-    assert abs(measured - e) < (0.02 if e == 0.9 else 0.05)
+    assert abs(measured - e) < (0.002 if e == 0.9 else 0.06)
     # apex after the bounce: e² of the drop height above touch-down
     after = res.t > res.t_events["contact_ball"][1]
     free = after & (res.t < res.t_events["contact_ball"][2])
@@ -89,8 +90,10 @@ def test_sliding_sphere_reaches_rolling_at_five_sevenths(sphere):
     # softens the last v_s-sized part, so compare where slip passes 5 v_s
     s1 = 5 * vs
     t1 = np.interp(-s1, -slip, res.t)
-    assert t1 == pytest.approx(t_roll - s1 / (3.5 * mu * G), abs=2 * vs / (mu * G) + 2e-3 * t_roll)
-    assert vx[-1] == pytest.approx(5 / 7 * v0, rel=2e-3)
+    # measured: 6e-6 s from the Coulomb time (t_roll = 0.1165 s); allowed v_s/(4 mu g) = 5e-5 s
+    assert t1 == pytest.approx(t_roll - s1 / (3.5 * mu * G), abs=vs / (4 * mu * G))
+    # angular momentum about the contact point is conserved by any friction law: 5/7 exactly
+    assert vx[-1] == pytest.approx(5 / 7 * v0, rel=1e-6)
     assert abs(slip[-1]) < 2 * vs
     fn = res.outputs["Fn_ball"]
     assert np.median(fn) == pytest.approx(M * G, rel=1e-3)
