@@ -185,18 +185,14 @@ def with_contacts(built, contacts, fold=False):
     """(UrdfTree with the contacts in its tree's loads and their parameters, outputs, events).
 
     ``built``: eomc.compiler.urdf.treeir.UrdfTree.  Errors name the contact and link."""
-    import dataclasses
     import numpy as np
     from eomc.compiler.urdf.tree import identifier
     specs = _expanded([_as_spec(c) for c in contacts], built.source.path)
-    tree = built.tree
-    by_body = {b.name: i for i, b in enumerate(tree.bodies)}
+    by_body = {b.name: i for i, b in enumerate(built.tree.bodies)}
     bodies_by_key = {identifier(b.name): b for b in built.source.bodies.values()}
-    names = set()
-    loads, outputs, events = list(tree.loads), {}, {}
-    parameters = dict(built.parameters)
     known = _all_links(built.source)
-    for j, spec in enumerate(specs):
+
+    def locate(spec, point):
         link = spec.link
         found = _link_frames(built.source, link)
         if found is None:
@@ -206,14 +202,74 @@ def with_contacts(built, contacts, fold=False):
         if body_link == "world":
             raise ModelError(f"contact on link {link!r}: the link is welded to the ground, "
                              f"so it cannot touch it")
+        i = by_body.get(body_link)
+        if i is None:
+            raise ModelError(f"contact on link {link!r}: its body {body_link!r} does not move "
+                             f"(locked or welded), so it is not in the tree")
+        T = np.asarray(T, dtype=float)
+        source = bodies_by_key.get(body_link)
+        com = getattr(source, "com", (0.0, 0.0, 0.0)) if source is not None else (0.0, 0.0, 0.0)
+        return i, T[:3, :3] @ np.array(point) + T[:3, 3], com     # point in the body's first link frame
+    return _with_located(built, specs, locate, fold, "link", identifier)
+
+
+def with_mjcf_contacts(built, m, contacts, fold=False):
+    """As :func:`with_contacts` for an MJCF model (``built``: its MjcfTree, ``m``: the compiled
+    MjModel): contacts on MuJoCo bodies, points in the body frame; ``@collision`` takes every
+    sphere geom on a body that is not the world."""
+    import mujoco
+    import numpy as np
+    from eomc.compiler.urdf.tree import identifier
+    by_body = {b.name: i for i, b in enumerate(built.tree.bodies)}
+    names = {(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) or f"body{b}"): b for b in range(m.nbody)}
+    specs = []
+    for spec in (_as_spec(c) for c in contacts):
+        if spec.link != COLLISION_SPHERES:
+            specs.append(spec)
+            continue
+        found = []
+        for g in range(m.ngeom):
+            b = int(m.geom_bodyid[g])
+            if int(m.geom_type[g]) != int(mujoco.mjtGeom.mjGEOM_SPHERE) or b == 0:
+                continue
+            body = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) or f"body{b}"
+            gname = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g)
+            found.append(ContactSpec(body, tuple(float(v) for v in m.geom_pos[g]), float(m.geom_size[g][0]),
+                                     name=identifier(gname) if gname else f"{identifier(body)}_geom{g}"))
+        if not found:
+            raise ModelError(f"contacts {COLLISION_SPHERES}: the model has no sphere geom on a moving body")
+        specs += found
+    known = sorted(n for n, b in names.items() if b != 0)
+
+    def locate(spec, point):
+        b = names.get(spec.link)
+        if b is None:
+            raise ModelError(f"contact on body {spec.link!r}: the model has no such body (bodies: "
+                             f"{', '.join(known[:12])}{', ...' if len(known) > 12 else ''})")
+        if b == 0:
+            raise ModelError(f"contact on body {spec.link!r}: the world cannot touch the ground")
+        i = by_body.get(identifier(spec.link) if spec.link in names else spec.link)
+        if i is None:
+            raise ModelError(f"contact on body {spec.link!r}: it is not in the tree")
+        return i, np.array(point, dtype=float), tuple(float(v) for v in m.body_ipos[b])
+    return _with_located(built, specs, locate, fold, "body", identifier)
+
+
+def _with_located(built, specs, locate, fold, what, identifier):
+    """The common part: checks, parameters, ContactLoads, outputs and events.
+    ``locate(spec, point)`` -> (tree body index, point in its frame (numpy), its mass centre)."""
+    import dataclasses
+    import numpy as np
+    tree = built.tree
+    names = set()
+    loads, outputs, events = list(tree.loads), {}, {}
+    parameters = dict(built.parameters)
+    for j, spec in enumerate(specs):
+        link = spec.link
         name = spec.name or identifier(link)
-        if not name.isidentifier() or name in names:
-            raise ModelError(f"contact name {name!r} on link {link!r} is "
-                             + ("used twice" if name in names else "not an identifier"))
-        names.add(name)
         try:
             values = parameter_defaults(name, spec.k, spec.c, spec.mu, spec.vs, spec.radius,
-                                        spec.restitution, spec.impact_speed, where=f"link {link}")
+                                        spec.restitution, spec.impact_speed, where=f"{what} {link}")
             n = unit_normal(spec.normal, name)
             point = [float(x) for x in spec.point]
             height = float(spec.height)
@@ -221,13 +277,12 @@ def with_contacts(built, contacts, fold=False):
                 raise ValueError(f"contact {name!r}: point and height must be finite numbers")
         except (ValueError, TypeError) as exc:
             raise ModelError(str(exc)) from None
-        i = by_body.get(body_link)
-        if i is None:
-            raise ModelError(f"contact on link {link!r}: its body {body_link!r} does not move "
-                             f"(locked or welded), so it is not in the tree")
-        T = np.asarray(T, dtype=float)
-        p_body = T[:3, :3] @ np.array(point) + T[:3, 3]    # in the body's first link frame
-        com = _com(built, tree.bodies[i].name, bodies_by_key.get(body_link))
+        i, p_body, com_values = locate(spec, point)
+        if not name.isidentifier() or name in names:
+            raise ModelError(f"contact name {name!r} on {what} {link!r} is "
+                             + ("used twice" if name in names else "not an identifier"))
+        names.add(name)
+        com = _com(built, tree.bodies[i].name, com_values)
         offset = sm.Matrix([sm.Float(p_body[r], 17) - com[r] for r in range(3)])
         syms = contact_symbols(name)
         if fold:
@@ -237,7 +292,7 @@ def with_contacts(built, contacts, fold=False):
             for key, symbol in syms.items():
                 if symbol in parameters:
                     raise ModelError(f"contact {name!r}: its parameter {symbol} is already a "
-                                     f"parameter of the robot; name the contact differently")
+                                     f"parameter of the model; name the contact differently")
                 parameters[symbol] = values[key]
         loads.append(ContactLoad(i, name, offset, params, tuple(n),
                                  sm.Float(height, 17) if height else sm.S.Zero))
@@ -256,15 +311,18 @@ def with_contact_specs(model, contacts):
     eomc.compile does.  Other models are refused with the way to give them contacts."""
     import dataclasses
     from pathlib import Path
+    from eomc.compiler.mjcf.model import MjcfModel, is_mjcf_path
     from eomc.compiler.urdf.model import UrdfModel, is_urdf_path
     if isinstance(contacts, (str, ContactSpec, dict)):
         contacts = [contacts]
     specs = tuple(_as_spec(c) for c in contacts)
-    if isinstance(model, UrdfModel):
+    if isinstance(model, (UrdfModel, MjcfModel)):
         return dataclasses.replace(model, contacts=tuple(model.contacts) + specs)
     if is_urdf_path(model):
         return UrdfModel(Path(model), contacts=specs)
-    raise ModelError("contacts= applies to URDF robots; a model written with SymPy mechanics adds "
+    if is_mjcf_path(model):
+        return MjcfModel(Path(model), contacts=specs)
+    raise ModelError("contacts= applies to URDF and MJCF robots; a model written with SymPy mechanics adds "
                      "eomc.contact.ground(point, body, world=system, ...) loads itself")
 
 
@@ -279,14 +337,13 @@ def merged_outputs(overrides, outputs, events):
     return result
 
 
-def _com(built, body_name, source_body):
-    """The body origin (its combined centre of mass) in its link frame, as the tree writes it:
-    the parameters cx_/cy_/cz_<body> where they are symbols, else the literal values."""
-    values = {str(s): s for s in built.parameters}
-    com = list(getattr(source_body, "com", (0.0, 0.0, 0.0))) if source_body is not None else [0.0] * 3
+def _com(built, body_name, values):
+    """The body origin (its mass centre) in its frame, as the tree writes it: the parameters
+    cx_/cy_/cz_<body> where they are symbols, else the literal ``values``."""
+    by_name = {str(s): s for s in built.parameters}
     out = []
-    for axis, value in zip(("cx", "cy", "cz"), com):
-        symbol = values.get(f"{axis}_{body_name}")
+    for axis, value in zip(("cx", "cy", "cz"), values):
+        symbol = by_name.get(f"{axis}_{body_name}")
         out.append(symbol if symbol is not None else (sm.Float(float(value), 17) if value else sm.S.Zero))
     return out
 
