@@ -106,5 +106,5 @@ def test_bad_contacts_are_refused(tmp_path):
                      cache_dir=tmp_path)
     with pytest.raises(ModelError, match="radius r = -0.1"):
         eomc.compile(path, contacts=["FL_FOOT:0,0,0:-0.1"], cache_dir=tmp_path)
-    with pytest.raises(ModelError, match="contacts= applies to URDF robots"):
+    with pytest.raises(ModelError, match="contacts= applies to URDF and MJCF robots"):
         eomc.compile("examples/double_pendulum.py", contacts=["FL_FOOT"], cache_dir=tmp_path)
