@@ -128,7 +128,7 @@ def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, f
     progress = progress if isinstance(progress, Progress) else Progress(progress)
     check_formulation(formulation)
     if contacts:
-        from .contact.tree import with_contact_specs
+        from .contact.models import with_contact_specs
         system = with_contact_specs(system, contacts)
     try:
         functions = check_functions(functions)

@@ -80,10 +80,10 @@ def main(argv=None):
     mg = total_mass(model) * 9.81
     print(f"base height: start {z[0]:.5f} m, last half {z[late].min():.6f} .. {z[late].max():.6f} m "
           f"(range {1e3 * np.ptp(z[late]):.4f} mm)")
-    print(f"feet normal forces at the end: " + ", ".join(f"{leg} {res.outputs[f'Fn_{leg}_FOOT'][-1]:.3f} N"
+    print("feet normal forces at the end: " + ", ".join(f"{leg} {res.outputs[f'Fn_{leg}_FOOT'][-1]:.3f} N"
                                                           for leg in LEGS)
           + f"; sum {fn[-1]:.4f} N, m g = {mg:.4f} N")
-    print(f"touch-down/lift-off events: " + ", ".join(f"{leg} {len(res.t_events[f'contact_{leg}_FOOT'])}"
+    print("touch-down/lift-off events: " + ", ".join(f"{leg} {len(res.t_events[f'contact_{leg}_FOOT'])}"
                                                      for leg in LEGS) + f"; stats {res.stats}")
     return res
 

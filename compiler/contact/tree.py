@@ -117,7 +117,8 @@ def _expanded(specs, path):
     return out
 
 
-def _as_spec(item):
+def as_spec(item):
+    """A ContactSpec of a link name, 'LINK:x,y,z:radius', '@collision', a dict or a ContactSpec."""
     if isinstance(item, ContactSpec):
         return item
     if isinstance(item, str):
@@ -187,7 +188,7 @@ def with_contacts(built, contacts, fold=False):
     ``built``: eomc.compiler.urdf.treeir.UrdfTree.  Errors name the contact and link."""
     import numpy as np
     from eomc.compiler.urdf.tree import identifier
-    specs = _expanded([_as_spec(c) for c in contacts], built.source.path)
+    specs = _expanded([as_spec(c) for c in contacts], built.source.path)
     by_body = {b.name: i for i, b in enumerate(built.tree.bodies)}
     bodies_by_key = {identifier(b.name): b for b in built.source.bodies.values()}
     known = _all_links(built.source)
@@ -223,7 +224,7 @@ def with_mjcf_contacts(built, m, contacts, fold=False):
     by_body = {b.name: i for i, b in enumerate(built.tree.bodies)}
     names = {(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) or f"body{b}"): b for b in range(m.nbody)}
     specs = []
-    for spec in (_as_spec(c) for c in contacts):
+    for spec in (as_spec(c) for c in contacts):
         if spec.link != COLLISION_SPHERES:
             specs.append(spec)
             continue
@@ -306,26 +307,6 @@ def _with_located(built, specs, locate, fold, what, identifier):
     return new, outputs, events
 
 
-def with_contact_specs(model, contacts):
-    """``model`` (a URDF path or UrdfModel) carrying ``contacts``: what ``contacts=`` of
-    eomc.compile does.  Other models are refused with the way to give them contacts."""
-    import dataclasses
-    from pathlib import Path
-    from eomc.compiler.mjcf.model import MjcfModel, is_mjcf_path
-    from eomc.compiler.urdf.model import UrdfModel, is_urdf_path
-    if isinstance(contacts, (str, ContactSpec, dict)):
-        contacts = [contacts]
-    specs = tuple(_as_spec(c) for c in contacts)
-    if isinstance(model, (UrdfModel, MjcfModel)):
-        return dataclasses.replace(model, contacts=tuple(model.contacts) + specs)
-    if is_urdf_path(model):
-        return UrdfModel(Path(model), contacts=specs)
-    if is_mjcf_path(model):
-        return MjcfModel(Path(model), contacts=specs)
-    raise ModelError("contacts= applies to URDF and MJCF robots; a model written with SymPy mechanics adds "
-                     "eomc.contact.ground(point, body, world=system, ...) loads itself")
-
-
 def merged_outputs(overrides, outputs, events):
     """``overrides`` (the model_spec keyword arguments) with the contacts' outputs and
     events added after the caller's own (whose names win)."""
@@ -406,8 +387,7 @@ def lower_contacts(tree, bodies, rec, v, rename):
         return {}
     poses = WorldPoses(bodies, rec)
     values = {}
-    j = 0
-    for load in contacts:
+    for index, load in enumerate(contacts):
         i = load.body
         what = f"contact {load.name} on body {tree.bodies[i].name}"
         off = [rename(x, what) for x in load.offset]
@@ -427,9 +407,7 @@ def lower_contacts(tree, bodies, rec, v, rename):
         n_b = _cross(lever, f_b)
         old = bodies[i].fext or [0] * 6
         bodies[i].fext = [old[k] + x for k, x in enumerate(n_b + f_b)]
-        quantities = [forces.normal, *forces.friction, forces.depth]
-        index = [ld for ld in tree.loads if isinstance(ld, ContactLoad)].index(load)
+        quantities = [forces.normal, *forces.friction, forces.depth]     # OUTPUT_KINDS' order
         for kind, value in enumerate(quantities):
             values[ContactValue(index, kind)] = value
-        j += 1
     return values

@@ -6,7 +6,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import sympy as sm
 
 import eomc
 import eomc.contact
