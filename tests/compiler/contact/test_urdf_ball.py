@@ -64,3 +64,34 @@ def test_cli_contact_option(ball_path, tmp_path, capsys):
     assert status != 0
     assert "contact on link 'nolink': the robot has no such link (links: ball)" in capsys.readouterr().err
     assert not (tmp_path / "b").exists()
+
+
+def test_generation_cache_tells_contacts_apart(ball_path, tmp_path):
+    """The generation cache's key holds the contact's point (and body, normal, height): a
+    contact moved elsewhere is generated again, never served from the other's entry."""
+    from eomc.compiler.driver import generate
+    model = UrdfModel(ball_path, floating_base=True)
+    seen = []
+    for point in ("0,0,0", "0,0,-0.01", "0,0,0"):
+        _, generated = generate(model, contacts=[f"ball:{point}:0.05"], functions=("rhs",),
+                                cache_dir=tmp_path)
+        seen.append(generated.c_source)
+    assert seen[0] != seen[1] and seen[0] == seen[2]
+
+
+def test_plane_normal_and_height(ball_path, tmp_path):
+    """A tilted plane n·x = h: the depth is r - (n·c - h) and the force pushes along n."""
+    n = np.array([0.0, 0.6, 0.8])
+    model = eomc.compile(UrdfModel(ball_path, floating_base=True), name="ball_tilted",
+                         contacts=[dict(link="ball", radius=0.05, normal=(0, 3, 4), height=0.1)],
+                         functions=("rhs", "outputs"), cache_dir=tmp_path)
+    x = np.zeros(len(model.state_names))
+    centre = np.array([0.3, -0.2, 0.0])
+    centre[2] = (0.1 + 0.05 - 0.004 - n[1] * centre[1]) / n[2]        # 4 mm into the plane
+    x[:3] = centre
+    out = model.outputs(0.0, x)
+    assert out["depth_ball"] == pytest.approx(0.004, abs=1e-12)
+    fn = 1e6 * 0.004 ** 1.5
+    assert out["Fn_ball"] == pytest.approx(fn, rel=1e-12)
+    ud = model.rhs(0.0, x)[model.nq:model.nq + 3]                      # at rest, unrotated: v'
+    assert ud == pytest.approx(fn * n / 2.0 - np.array([0, 0, 9.81]), rel=1e-12, abs=1e-12)
