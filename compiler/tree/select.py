@@ -231,7 +231,8 @@ def _reason(exc, formulation="recursive"):
 def _options(spec, functions, fold_parameters):
     return dict(parameters=spec.parameters, inputs=spec.inputs, outputs=spec.outputs,
                 functions=functions, fold_parameters=fold_parameters, events=spec.events,
-                event_options=spec.event_options, poses=getattr(spec, "poses", None))
+                event_options=spec.event_options, poses=getattr(spec, "poses", None),
+                frames=getattr(spec, "frames", None))
 
 
 def _generate_kane(spec, functions, fold_parameters):

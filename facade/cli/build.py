@@ -39,6 +39,8 @@ def configure(parser):
                                          "and inf are still reported as errors")
     parser.add_argument("--cache-dir", help="build cache root (default $EOMC_CACHE_DIR or ~/.cache/eomc)")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
+    from .common import add_frame_argument
+    add_frame_argument(parser)
 
 
 def run(args):
@@ -48,7 +50,7 @@ def run(args):
     model = compile(source, name, functions=args.outputs, fold_parameters=args.fold_parameters,
                     backend=args.backend, cflags=args.cflags, cache_dir=args.cache_dir,
                     output_dir=args.output, progress=not args.quiet, formulation=args.formulation,
-                    contacts=args.contact)
+                    contacts=args.contact, frames=args.frame)
     files = sorted(p.name for p in model.directory.iterdir() if p.is_file() and not p.name.startswith("."))
     print(f"built model {model.name!r} (nq={model.nq}, nu={model.nu}, nparam={model.nparam}, "
           f"ninput={model.ninput}) in {model.directory}:")

@@ -7,7 +7,7 @@ Mistakes in them are ValueErrors, which `eomc` prints as one line (exit status 2
 """
 from pathlib import Path
 
-__all__ = ["add_model_arguments", "add_formulation_argument", "FORMULATION_HELP", "load_model", "model_options", "parse_assignments", "initial_state",
+__all__ = ["add_model_arguments", "add_formulation_argument", "add_frame_argument", "FORMULATION_HELP", "load_model", "model_options", "parse_assignments", "initial_state",
            "parameter_values", "writable_file"]
 
 
@@ -49,13 +49,26 @@ def model_options(args):
         options["contacts"] = args.contact
     if getattr(args, "formulation", None) not in (None, "auto"):
         options["formulation"] = args.formulation
+    if getattr(args, "frame", None):
+        options["frames"] = list(args.frame)
     return options
 
 
-def load_model(path, quiet=False, floating_base=False, formulation="auto", contacts=None):
+FRAME_HELP = ("output the world pose, velocity and Jacobian of this frame (a URDF link, tool0 and "
+              "other welded links too; an MJCF or System body) or, for 'com', the centre of mass "
+              "and its velocity; repeatable")
+
+
+def add_frame_argument(parser):
+    """--frame NAME (repeatable): frame outputs (eomc.compiler.tree.frames)."""
+    parser.add_argument("--frame", action="append", metavar="NAME", help=FRAME_HELP)
+
+
+def load_model(path, quiet=False, floating_base=False, formulation="auto", frames=None, contacts=None):
     """A runtime Model from a model file (compiled) or a built directory / json (loaded).
 
     Compiling shows its stages on stderr when that is a terminal, unless ``quiet``.
+    ``frames``: frame outputs to compile in; a built model must already have them.
     """
     path = Path(path)
     if not path.exists():
@@ -65,11 +78,18 @@ def load_model(path, quiet=False, floating_base=False, formulation="auto", conta
         from eomc.compiler.urdf.model import with_options
         source, name = with_options(str(path), floating_base=floating_base)
         return compile_model(source, name, progress=False if quiet else None,
-                             formulation=formulation, contacts=contacts)
+                             formulation=formulation, frames=frames, contacts=contacts)
     if contacts:
         raise ValueError(f"{path}: --contact applies to a robot (.urdf) being compiled, not to a built model")
     from eomc.runtime.loader import load
-    return load(path)
+    model = load(path)
+    missing = [f for f in (frames or ()) if f not in model.frame_names]
+    if missing:
+        have = ", ".join(model.frame_names) or "none"
+        raise ValueError(f"{path}: built without the frame output(s) {', '.join(missing)} (it has: "
+                         f"{have}); frames are compiled in: rebuild with eomc build "
+                         f"{' '.join('--frame ' + f for f in missing)}, or simulate the model file")
+    return model
 
 
 def parse_assignments(items, what):
