@@ -118,10 +118,9 @@ def ground(point, body, world, *, name=None, radius=None, k=None, c=None, restit
         raise ModelError(f"contact {name!r}: point {point} is not connected to the world origin "
                          f"{O}: {exc}") from None
     centre = [r.dot(N.x), r.dot(N.y), r.dot(N.z)]
-    try:
-        v = point.vel(N)
-    except ValueError:
-        v = r.dt(N)
+    v = getattr(point, "_vel_dict", {}).get(N)     # set by the model (a joint, set_vel) ...
+    if v is None:                                   # ... or the rate of its position from the
+        v = r.dt(N)                                 # world origin, which is fixed in N
     velocity = [v.dot(N.x), v.dot(N.y), v.dot(N.z)]
     w = frame.ang_vel_in(N) if frame is not None else None
     omega = [w.dot(N.x), w.dot(N.y), w.dot(N.z)] if w is not None else [0, 0, 0]
