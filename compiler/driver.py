@@ -123,8 +123,10 @@ def _with_frames(spec, frames, functions):
 
 def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, functions=None,
              fold_parameters=False, progress=None, cache_dir=None, use_cache=True, events=None,
-             formulation="auto", states=None, frames=None):
+             formulation="auto", states=None, contacts=None, frames=None):
     """Derive and generate C without compiling: returns (ModelSpec, GeneratedModel).
+
+    ``contacts``: ground contacts on a URDF robot's links (eomc.compiler.contact.tree).
 
     ``formulation``: "auto" (the default: the recursive form where it is cheaper, Kane's
     where it is or where the recursion cannot take the system, with the reason in the
@@ -141,6 +143,9 @@ def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, f
     from .tree.select import check_formulation, generate_formulation, tree_digest
     progress = progress if isinstance(progress, Progress) else Progress(progress)
     check_formulation(formulation)
+    if contacts:
+        from .contact.models import with_contact_specs
+        system = with_contact_specs(system, contacts)
     try:
         functions = check_functions(functions)
     except Invalid as exc:
@@ -183,7 +188,7 @@ def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, f
 
 def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, functions=None,
             fold_parameters=False, backend="cffi", cflags=None, cache_dir=None, output_dir=None,
-            progress=None, events=None, formulation="auto", states=None, frames=None):
+            progress=None, events=None, formulation="auto", states=None, contacts=None, frames=None):
     """Compile a model file (path) or a formed system into a loaded :class:`eomc.runtime.model.Model`.
 
     ``formulation``: "auto" (default), "kane" or "recursive" (see :func:`generate`).
@@ -196,7 +201,7 @@ def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, fu
     spec, generated = generate(system, name, parameters=parameters, inputs=inputs, outputs=outputs,
                                functions=functions, fold_parameters=fold_parameters, progress=progress,
                                cache_dir=cache_dir, events=events, formulation=formulation,
-                               states=states, frames=frames)
+                               states=states, contacts=contacts, frames=frames)
     extra = {"initial_state": spec.initial_state} if spec.initial_state is not None else None
     source = system if isinstance(system, (str, os.PathLike)) else None
     return build_and_load(generated, backend=backend, cflags=cflags, cache_dir=cache_dir,

@@ -30,6 +30,7 @@ class MjcfModel:
     path: Path
     ignore: tuple = ()
     fold_parameters: bool = False
+    contacts: tuple = ()        # ground contacts on bodies (eomc.compiler.contact.tree)
 
 
 def is_mjcf_path(model):
@@ -217,6 +218,10 @@ def mjcf_formed(model, overrides):
     m = load_mjmodel(model.path)
     motors = check_model(m, model.path, model.ignore)
     built = tree_ir(m, fold=model.fold_parameters, actuators=motors)
+    if model.contacts:
+        from eomc.compiler.contact.tree import merged_outputs, with_mjcf_contacts
+        built, outputs, events = with_mjcf_contacts(built, m, model.contacts, fold=model.fold_parameters)
+        overrides = merged_outputs(overrides, outputs, events)
     formed = formed_of_tree(built.tree)
     built.mjmodel = m              # what the animation's poses read the geoms from (compiler/mjcf/poses.py)
     object.__setattr__(formed, "_mjcf", built)

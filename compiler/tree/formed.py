@@ -21,6 +21,7 @@ def tree_exprs(tree):
         out += [c for m in b.motions for c in m] + list(b.armature)
     for load in tree.loads:
         out += list(load.moment) + list(load.force) + list(load.offset)
+        out += list(getattr(load, "exprs", ()))      # a ground contact's parameters (compiler/contact)
     return [sm.sympify(e) for e in out]
 
 

@@ -23,7 +23,8 @@ def add_generate_options(parser):
     parser.add_argument("--floating-base", action="store_true",
                         help="URDF: a 6-dof floating joint (position + body XYZ Euler angles) "
                              "between the world and the root link")
-    from .common import add_formulation_argument, add_ignore_argument
+    from .common import add_contact_argument, add_formulation_argument, add_ignore_argument
+    add_contact_argument(parser)
     add_formulation_argument(parser)
     add_ignore_argument(parser)
 
@@ -52,7 +53,7 @@ def run(args):
     model = compile(source, name, functions=args.outputs, fold_parameters=args.fold_parameters,
                     backend=args.backend, cflags=args.cflags, cache_dir=args.cache_dir,
                     output_dir=args.output, progress=not args.quiet, formulation=args.formulation,
-                    frames=args.frame)
+                    contacts=args.contact, frames=args.frame)
     files = sorted(p.name for p in model.directory.iterdir() if p.is_file() and not p.name.startswith("."))
     print(f"built model {model.name!r} (nq={model.nq}, nu={model.nu}, nparam={model.nparam}, "
           f"ninput={model.ninput}) in {model.directory}:")

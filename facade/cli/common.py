@@ -24,7 +24,19 @@ def add_model_arguments(parser):
                         help="no progress on stderr (compiling a model file, long runs)")
     parser.add_argument("--floating-base", action="store_true",
                         help="URDF: a 6-dof floating joint between the world and the root link")
+    add_contact_argument(parser)
     add_ignore_argument(parser)
+
+
+CONTACT_HELP = ("URDF/MJCF: a ground contact sphere on LINK (an MJCF body), centred at x,y,z in its frame "
+                "(default 0,0,0), of the given radius (default 0); repeat for more; @collision adds every "
+                "collision sphere; parameters k_/c_/mu_/vs_/r_<link> (see README, Ground contact)")
+
+
+def add_contact_argument(parser):
+    """--contact LINK[:x,y,z[:radius]] (repeatable): ground contacts (eomc.compiler.contact)."""
+    parser.add_argument("--contact", action="append", metavar="LINK[:x,y,z[:radius]]", default=None,
+                        help=CONTACT_HELP)
 
 
 # eomc.compiler.mjcf.model.IGNORABLE, written out: the CLI must not import the compiler to
@@ -58,6 +70,8 @@ def model_options(args):
     options = {}
     if getattr(args, "floating_base", False):
         options["floating_base"] = True
+    if getattr(args, "contact", None):
+        options["contacts"] = args.contact
     if getattr(args, "formulation", None) not in (None, "auto"):
         options["formulation"] = args.formulation
     if getattr(args, "frame", None):
@@ -77,7 +91,8 @@ def add_frame_argument(parser):
     parser.add_argument("--frame", action="append", metavar="NAME", help=FRAME_HELP)
 
 
-def load_model(path, quiet=False, floating_base=False, formulation="auto", frames=None, ignore=()):
+def load_model(path, quiet=False, floating_base=False, formulation="auto", frames=None, ignore=(),
+               contacts=None):
     """A runtime Model from a model file (.py, .urdf, MuJoCo's .xml; compiled) or a built
     directory / json (loaded).  ``ignore``: an MJCF model's ignorable elements (--ignore).
 
@@ -97,7 +112,9 @@ def load_model(path, quiet=False, floating_base=False, formulation="auto", frame
         source, name = with_options(str(path), floating_base=floating_base)
         source, name = with_ignore(source, name, ignore)
         return compile_model(source, name, progress=False if quiet else None,
-                             formulation=formulation, frames=frames)
+                             formulation=formulation, frames=frames, contacts=contacts)
+    if contacts:
+        raise ValueError(f"{path}: --contact applies to a robot (.urdf, .xml) being compiled, not to a built model")
     from eomc.runtime.loader import load
     model = load(path)
     missing = [f for f in (frames or ()) if f not in model.frame_names]

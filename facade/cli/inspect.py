@@ -46,7 +46,8 @@ def run(args):
     args.model, args.name = source, name       # the other formulation is generated from the same
     spec, generated = generate(source, name, functions=args.outputs,
                                fold_parameters=args.fold_parameters,
-                               progress=False if args.quiet else None, formulation=args.formulation)
+                               progress=False if args.quiet else None, formulation=args.formulation,
+                               contacts=args.contact)
     print(format_report(generated.metadata))
     print("")
     print(compare_formulations(args, spec, generated, generate, ModelError))
