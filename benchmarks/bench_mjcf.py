@@ -2,22 +2,22 @@
 
 Per model (the MJCF files in the gymnasium wheel, ``pip install gymnasium``; and, when
 dm_control is importable or ``--dm-suite DIR`` names the ``dm_control/suite`` folder of its
-wheel, dm_control's acrobot, cartpole and humanoid):
+wheel, dm_control's acrobot, cartpole, hopper, walker, cheetah and humanoid):
 
 - build: a fresh Python process runs ``eomc.compile(MjcfModel(path, ignore=...))`` for rhs
   into an empty cache (MuJoCo's compile + tree + generate + gcc + load); wall time in the
   child, CPU its user+sys including gcc.
 - error: max over 20 random states and controls of |qacc_eomc - qacc_mujoco| / max(1, |qacc|),
   eomc's states mapped to MuJoCo's (eomc.compiler.mjcf.compare: quaternions for free/ball
-  joints, world-frame free-joint velocity), MuJoCo with contacts, constraints, limits and
-  control clamping off.  Armature is not modelled by eomc: where a model has it, it is
-  dropped on both sides (``ignore=("armature",)`` and ``dof_armature = 0``); likewise
-  humanoid's two fixed tendons (used only by limits, which are off).
+  joints, world-frame free-joint velocity), MuJoCo with contacts, constraints and limits off;
+  controls drawn in [-1.5, 1.5], beyond most ctrlranges: both clamp them.  Armature is
+  kept on both sides (eomc adds it to the joint-space inertia as MuJoCo does); nothing is
+  ignored (gymnasium humanoid's two fixed tendons apply no force and are accepted as they are).
 - ns per call, each in its own C harness timed with CLOCK_THREAD_CPUTIME_ID over the same
   NSTATES random states (each in its own coordinates), zero controls, the two harnesses
   interleaved repeat by repeat, the process pinned to one core:
     eomc    NAME_rhs (q' and u' from x), eomc's default flags (gcc -O2); harness gcc -O2
-    MuJoCo  mj_forward (libmujoco from the mujoco wheel), the same flags and armature zeroed
+    MuJoCo  mj_forward (libmujoco from the mujoco wheel), the same flags (armature kept)
   mj_forward also runs MuJoCo's position/velocity/sensor stages and computes the
   quantities its constraint and contact stages would need; eomc's rhs also returns q'.
 """
@@ -37,10 +37,10 @@ from common import environment_header, format_table, write_results  # noqa: E402
 from bench_urdf import _mujoco_dir, _run, _timed, _write, eomc_harness  # noqa: E402
 
 MODELS = [("gym", "inverted_pendulum", ()), ("gym", "inverted_double_pendulum", ()),
-          ("gym", "hopper", ("armature",)), ("gym", "walker2d", ("armature",)),
-          ("gym", "half_cheetah", ("armature",)), ("gym", "ant", ("armature",)),
-          ("gym", "humanoid", ("armature", "tendons")),
-          ("dm", "acrobot", ()), ("dm", "cartpole", ()), ("dm", "humanoid", ("armature",))]
+          ("gym", "hopper", ()), ("gym", "walker2d", ()), ("gym", "half_cheetah", ()), ("gym", "ant", ()),
+          ("gym", "humanoid", ()),
+          ("dm", "acrobot", ()), ("dm", "cartpole", ()), ("dm", "hopper", ()), ("dm", "walker", ()),
+          ("dm", "cheetah", ()), ("dm", "humanoid", ())]
 NSTATES, NCALLS, REPEAT = 200, 20000, 7
 CORE = 1
 
@@ -55,8 +55,7 @@ int main(int argc, char **argv) {
     char err[1000];
     mjModel *m = mj_loadXML(argv[1], NULL, err, sizeof err);
     if (!m) { fprintf(stderr, "%s\n", err); return 2; }
-    m->opt.disableflags |= mjDSBL_CONTACT | mjDSBL_CONSTRAINT | mjDSBL_LIMIT | mjDSBL_CLAMPCTRL;
-    for (int i = 0; i < m->nv; ++i) m->dof_armature[i] = 0;
+    m->opt.disableflags |= mjDSBL_CONTACT | mjDSBL_CONSTRAINT | mjDSBL_LIMIT;
     mjData *d = mj_makeData(m);
     const int nq = m->nq, nv = m->nv, ns = atoi(argv[3]); const long nc = atol(argv[4]);
     double *Q = malloc(sizeof(double) * nq * ns), *V = malloc(sizeof(double) * nv * ns);
@@ -109,7 +108,6 @@ def prepared_pair(path, ignore):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         motors = check_model(m, path, ignore)
-    m.dof_armature[:] = 0
     return m, tree_ir(m, actuators=motors), motors
 
 
@@ -120,7 +118,7 @@ def max_error(model, m, built, motors, rng, trials=20):
     worst = 0.0
     for _ in range(trials):
         q, u = rng.uniform(-1, 1, nq), rng.uniform(-1, 1, model.nx - nq)
-        r = rng.uniform(-1, 1, len(motors))
+        r = rng.uniform(-1.5, 1.5, len(motors))
         xd = model.rhs(0.0, np.concatenate([q, u]), r=r)
         d.qpos[:], d.qvel[:] = to_mujoco(m, built, q, u)
         d.ctrl[:] = 0
@@ -197,7 +195,8 @@ def main():
     headers = ["model", "dof", "build wall s", "build CPU s", "max rel err", "eomc rhs ns", "mj_forward ns",
                "speedup", "ignored"]
     load = os.getloadavg()
-    text = environment_header("MJCF models: eomc vs MuJoCo mj_forward (contacts/constraints/limits off)",
+    text = environment_header("MJCF models: eomc vs MuJoCo mj_forward (contacts/constraints/limits off, "
+                              "armature kept)",
                               notes=(f"load average at end {load[0]:.2f} {load[1]:.2f} {load[2]:.2f} on a shared "
                                      f"2-core machine; pinned to core {CORE}",
                                      f"models: gym_* from gymnasium {gymnasium.__version__}'s wheel, dm_* from "

@@ -19,6 +19,7 @@ from .build import build, cache_root
 from .build.cache import BadEntry
 from .build.gencache import cached_generate
 from .emit.poses import pose_digest
+from .tree.frames import frames_digest
 from .build.export import export
 from .model import model_spec
 from .model.validate import Invalid, check_functions
@@ -79,14 +80,13 @@ def _with_poses(spec, functions):
     from .emit.poses import pose_source
     if functions is not None and "poses" not in functions:
         return spec
-    if spec.system is None and getattr(spec.formed, "_mjcf", None) is not None:   # an MJCF model
-        if functions is not None:
-            raise ModelError(f"{spec.name}: poses (the animation's body positions) are not generated for "
-                             f"MJCF models yet; leave 'poses' out of functions")
-        return dataclasses.replace(spec, poses=None)
     try:
         built = getattr(spec.formed, "_urdf", None)   # a URDF read straight into the tree: no System
-        if spec.system is None and built is not None:
+        mjcf = getattr(spec.formed, "_mjcf", None)    # an MJCF model: MuJoCo's bodies from the tree
+        if spec.system is None and mjcf is not None:
+            from .mjcf.poses import mjcf_pose_source
+            poses = mjcf_pose_source(mjcf, mjcf.mjmodel)
+        elif spec.system is None and built is not None:
             from .urdf.treeir import pose_source as urdf_pose_source
             poses = urdf_pose_source(built)
         else:
@@ -107,15 +107,33 @@ def _with_poses(spec, functions):
     return dataclasses.replace(spec, poses=poses)
 
 
+def _with_frames(spec, frames, functions):
+    """``spec`` with the FrameSource of the frames asked for (compiler/tree/frames.py): they are
+    outputs, so a ``functions`` list without 'outputs' cannot carry them."""
+    import dataclasses
+    from .tree.frames import resolve_frames
+    source = resolve_frames(spec, frames)
+    if source is None:
+        return spec
+    if functions is not None and "outputs" not in functions:
+        raise ModelError(f"{spec.name}: frame outputs ({', '.join(frames if not isinstance(frames, str) else [frames])}) "
+                         f"are outputs of the model: add 'outputs' to the functions (--outputs ...,outputs)")
+    return dataclasses.replace(spec, frames=source)
+
+
 def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, functions=None,
              fold_parameters=False, progress=None, cache_dir=None, use_cache=True, events=None,
-             formulation="auto", states=None):
+             formulation="auto", states=None, contacts=None, frames=None):
     """Derive and generate C without compiling: returns (ModelSpec, GeneratedModel).
+
+    ``contacts``: ground contacts on a URDF robot's links (eomc.compiler.contact.tree).
 
     ``formulation``: "auto" (the default: the recursive form where it is cheaper, Kane's
     where it is or where the recursion cannot take the system, with the reason in the
     metadata's ``formulation_note``; see eomc.compiler.tree.select), "kane" (formed A, b;
     numeric LDLᵀ) or "recursive" (ABA/RNEA/CRBA over the joint tree, eomc.compiler.tree).
+    ``frames``: names of frames (URDF links, MJCF or System bodies, "com" for the centre of
+    mass) whose pose, velocity and Jacobian become outputs (eomc.compiler.tree.frames).
     ``states``: {z: dz/dt} extra first-order states, appended to x after q and u (a
     System's musculotendons bring theirs without it).
 
@@ -125,6 +143,9 @@ def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, f
     from .tree.select import check_formulation, generate_formulation, tree_digest
     progress = progress if isinstance(progress, Progress) else Progress(progress)
     check_formulation(formulation)
+    if contacts:
+        from .contact.models import with_contact_specs
+        system = with_contact_specs(system, contacts)
     try:
         functions = check_functions(functions)
     except Invalid as exc:
@@ -145,9 +166,11 @@ def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, f
             # dict without the inertias of the tree's bodies): Kane's form, or its own error
             spec = derive("kane")
             note = f"kane, the fallback (recursive formulation: {exc})"
+        # after the fallback: a frame name the model lacks is the user's mistake, not the tree's
+        spec = _with_frames(spec, frames, functions)
     def run_generator():
         generated = generate_formulation(spec, functions, fold_parameters, formulation,
-                                         kane_spec=lambda: derive("kane"))
+                                         kane_spec=lambda: _with_frames(derive("kane"), frames, functions))
         if note is not None:
             generated.metadata["formulation_note"] = note
         return generated
@@ -156,7 +179,8 @@ def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, f
             generated, _ = cached_generate(spec, functions, fold_parameters, run_generator,
                                            cache_root(cache_dir),
                                            extra=[formulation, tree_digest(spec), note or ""]
-                                           + ([] if spec.poses is None else pose_digest(spec.poses)))
+                                           + ([] if spec.poses is None else pose_digest(spec.poses))
+                                           + frames_digest(spec.frames))
         else:
             generated = run_generator()
     return spec, generated
@@ -164,10 +188,12 @@ def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, f
 
 def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, functions=None,
             fold_parameters=False, backend="cffi", cflags=None, cache_dir=None, output_dir=None,
-            progress=None, events=None, formulation="auto", states=None):
+            progress=None, events=None, formulation="auto", states=None, contacts=None, frames=None):
     """Compile a model file (path) or a formed system into a loaded :class:`eomc.runtime.model.Model`.
 
     ``formulation``: "auto" (default), "kane" or "recursive" (see :func:`generate`).
+    ``frames``: e.g. ``["tool0", "com"]``: frame poses, velocities, Jacobians and the centre of
+    mass as outputs (see :func:`generate`; read them with ``model.frame(name, t, x)``).
 
     Progress (stage timings on stderr) defaults to on when stderr is a terminal.
     """
@@ -175,7 +201,7 @@ def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, fu
     spec, generated = generate(system, name, parameters=parameters, inputs=inputs, outputs=outputs,
                                functions=functions, fold_parameters=fold_parameters, progress=progress,
                                cache_dir=cache_dir, events=events, formulation=formulation,
-                               states=states)
+                               states=states, contacts=contacts, frames=frames)
     extra = {"initial_state": spec.initial_state} if spec.initial_state is not None else None
     source = system if isinstance(system, (str, os.PathLike)) else None
     return build_and_load(generated, backend=backend, cflags=cflags, cache_dir=cache_dir,

@@ -24,6 +24,7 @@ _LAZY = {
     "load": ("eomc.runtime.loader", "load"),
     "mechanics": ("eomc.mechanics", None),
     "geometry": ("eomc.geometry", None),
+    "contact": ("eomc.contact", None),
     "sweep": ("eomc.runtime.sweep", "sweep"),
 }
 

@@ -394,6 +394,30 @@ class Model:
         values = self._vector_call("outputs", self.noutput, t, x, p, r)
         return dict(zip(self.output_names, values.tolist()))
 
+    @property
+    def frame_names(self):
+        """Frames whose pose, velocity and Jacobian are outputs (built with ``frames=[...]``)."""
+        from .frames import frame_names
+        return frame_names(self.output_names)
+
+    def frame(self, name, t, x, p=None, r=None):
+        """Frame output ``name`` (eomc.runtime.frames.Frame: ``p``, ``R``, ``v``, ``w``, ``J`` in
+        world components; ``com``: ``p`` and ``v``) at one state (nx,), or along rows (n, nx)
+        with t (n,).  The model must have been built with ``frames=[name]``."""
+        from .frames import frame_from_columns, frame_indices
+        frame_indices(self.output_names, name)          # a KeyError naming the frames first
+        X = np.asarray(x, dtype=np.float64)
+        if X.ndim == 2:
+            T = np.asarray(t, dtype=np.float64)
+            if T.shape != (X.shape[0],):
+                raise ValueError(f"frame along rows needs t of shape ({X.shape[0]},), got {T.shape}")
+            rows = [self._vector_call("outputs", self.noutput, float(ti), np.ascontiguousarray(xi), p, r)
+                    for ti, xi in zip(T, X)]
+            return frame_from_columns(self.output_names, np.array(rows).reshape(len(rows), self.noutput),
+                                      name)
+        return frame_from_columns(self.output_names, self._vector_call("outputs", self.noutput, t, x, p, r),
+                                  name)
+
     def constraints(self, t, x, p=None, r=None):
         """Constraint residuals (nhol holonomic, then nvel velocity-level)."""
         if self.nhol + self.nvel == 0:

@@ -103,8 +103,8 @@ class SimulationResult:
                       ("speeds", list(self.state_names[self.nq:]))]
         else:
             panels = [("", list(self.state_names))]
-        if names is None and self.outputs and len(self.t):
-            panels.append(("outputs", list(self.outputs)))
+        if names is None and self.outputs and len(self.t):   # frame outputs: positions and velocities
+            panels.append(("outputs", [n for n in self.outputs if ".R[" not in n and ".J[" not in n]))
         fig, axes = plt.subplots(len(panels), 1, figsize=(8, 2.0 + 2.5 * len(panels)),
                                  sharex=True, squeeze=False)
         for ax, (label, panel) in zip(axes[:, 0], panels):
@@ -133,6 +133,15 @@ class SimulationResult:
             raise ValueError(f"{what} needs the model: this result was not made by Model.simulate "
                              f"in this process (pass model=...)")
         return self.model
+
+    def frame(self, name):
+        """Frame output ``name`` along the run (eomc.runtime.frames.Frame, n_t first): ``p``
+        (n_t, 3), ``R`` (n_t, 3, 3), ``v``, ``w`` (n_t, 3), ``J`` (n_t, 6, nu); ``com``: p, v."""
+        from .frames import frame_from_columns, frame_indices
+        names = tuple(self.outputs)
+        frame_indices(names, name)
+        cols = np.stack([np.asarray(self.outputs[n], dtype=float) for n in names], axis=-1) if names else None
+        return frame_from_columns(names, cols, name)
 
     def poses(self, model=None):
         """Body frames' positions and rotations and named points along the trajectory

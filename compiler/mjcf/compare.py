@@ -31,10 +31,11 @@ def _quat(R):
 
 
 def prepared(m):
-    """``m`` with contacts, constraints, limits and control clamping off (what eomc models)."""
+    """``m`` with contacts, constraints and limits off (what eomc does not model; control clamping
+    to ctrlrange stays on: eomc clamps as MuJoCo does)."""
     import mujoco
     m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONTACT) | int(mujoco.mjtDisableBit.mjDSBL_CONSTRAINT) \
-        | int(mujoco.mjtDisableBit.mjDSBL_LIMIT) | int(mujoco.mjtDisableBit.mjDSBL_CLAMPCTRL)
+        | int(mujoco.mjtDisableBit.mjDSBL_LIMIT)
     return m
 
 

@@ -19,7 +19,7 @@ import numpy as np
 from eomc.runtime.errors import EomcWarning, ModelError, ModelFileError
 
 __all__ = ["MjcfModel", "is_mjcf_path", "is_mjcf_model", "load_mjmodel", "check_model", "mjcf_formed",
-           "IGNORABLE"]
+           "IGNORABLE", "with_ignore"]
 
 IGNORABLE = ("tendons", "equality", "actuators", "armature", "frictionloss", "limits", "fluid", "plugins")
 
@@ -30,6 +30,7 @@ class MjcfModel:
     path: Path
     ignore: tuple = ()
     fold_parameters: bool = False
+    contacts: tuple = ()        # ground contacts on bodies (eomc.compiler.contact.tree)
 
 
 def is_mjcf_path(model):
@@ -38,6 +39,22 @@ def is_mjcf_path(model):
 
 def is_mjcf_model(model):
     return isinstance(model, MjcfModel) or is_mjcf_path(model)
+
+
+def with_ignore(model, name=None, ignore=()):
+    """(model, name) for the driver: an MJCF path with ``ignore`` (the CLI's ``--ignore
+    WHAT[,WHAT]``: a string or a sequence) becomes an :class:`MjcfModel`; without it the
+    model goes through unchanged."""
+    if isinstance(ignore, str):
+        ignore = [ignore]
+    items = tuple(x.strip() for text in (ignore or ()) for x in text.split(",") if x.strip())
+    if not items:
+        return model, name
+    if not is_mjcf_path(model):
+        raise ModelError(f"--ignore applies to MuJoCo models (.xml), not to {model}")
+    _known(items)
+    from eomc.compiler.model.validate import sanitize_name
+    return MjcfModel(Path(model), ignore=items), name or sanitize_name(Path(model).stem)
 
 
 def load_mjmodel(path):
@@ -87,20 +104,39 @@ def _name(m, kind, i, prefix):
 def _known(ignore):
     unknown = [x for x in ignore if x not in IGNORABLE]
     if unknown:
-        raise ModelError(f"ignore={unknown}: unknown; what may be ignored: {', '.join(IGNORABLE)}")
+        raise ModelError(f"ignore {', '.join(map(str, unknown))}: unknown; what may be ignored: "
+                         f"{', '.join(IGNORABLE)}")
 
 
 def check_model(m, path, ignore=()):
     """The actuator ids to drive as inputs; raises ModelFileError on what the tree cannot express
-    unless ``ignore`` names it (then warns).  ``m`` is changed where ignoring needs it: nothing."""
+    unless ``ignore`` names it (then warns).  ``m`` is changed where ignoring needs it: its
+    ``dof_armature`` is zeroed when ``"armature"`` is ignored (the tree reads it from ``m``)."""
     import mujoco
     _known(ignore)
     path = str(path)
+    if "armature" in ignore and np.any(m.dof_armature):
+        warnings.warn(f"{path}: ignored: armature on {int(np.count_nonzero(m.dof_armature))} dof(s) "
+                      f"(MuJoCo adds it to the joint-space inertia)", EomcWarning, stacklevel=3)
+        m.dof_armature[:] = 0
     problems = []   # (ignore key, tag, message[, element name])
     J = mujoco.mjtObj.mjOBJ_JOINT
-    if m.ntendon:
-        problems.append(("tendons", "tendon", f"{m.ntendon} tendon(s) (e.g. "
-                         f"{_name(m, mujoco.mjtObj.mjOBJ_TENDON, 0, 'tendon')}): a tendon couples joints"))
+    # a tendon acts only through its stiffness, damping, friction, armature, limits and the
+    # actuators and equalities on it (refused below on their own): one with none of these
+    # (gymnasium's humanoid's two) changes nothing here; one with a range only is a limit
+    zero = np.zeros(m.ntendon)
+    acting = [t for t in range(m.ntendon)
+              if m.tendon_stiffness[t] or m.tendon_damping[t] or m.tendon_frictionloss[t]
+              or getattr(m, "tendon_armature", zero)[t]]
+    if acting:
+        problems.append(("tendons", "tendon", f"{len(acting)} tendon(s) with stiffness, damping, friction or "
+                         f"armature (e.g. {_name(m, mujoco.mjtObj.mjOBJ_TENDON, acting[0], 'tendon')}): a "
+                         f"tendon couples joints"))
+    for t in range(m.ntendon):
+        if t not in acting and m.tendon_limited[t] and "limits" not in ignore and "tendons" not in ignore:
+            warnings.warn(f"{path}: tendon {_name(m, mujoco.mjtObj.mjOBJ_TENDON, t, 'tendon')}: its range "
+                          f"limits are not modelled (contacts and limits are off; ignore=('limits',) silences "
+                          f"this)", EomcWarning, stacklevel=3)
     if m.neq:
         problems.append(("equality", "equality", f"{m.neq} equality constraint(s) (e.g. "
                          f"{_name(m, mujoco.mjtObj.mjOBJ_EQUALITY, 0, 'equality')}): a constraint, not a tree"))
@@ -119,9 +155,14 @@ def check_model(m, path, ignore=()):
         jn = _name(m, J, j, "joint")
         kind, d = int(m.jnt_type[j]), int(m.jnt_dofadr[j])
         ndof = {0: 6, 1: 3, 2: 1, 3: 1}[kind]
-        if np.any(m.dof_armature[d:d + ndof]):
-            problems.append(("armature", "joint", f"joint {jn}: armature {m.dof_armature[d]:g} (MuJoCo adds "
-                             f"it to the joint-space inertia; eomc's tree has no such term)", jn))
+        if np.any(m.dof_armature[d:d + ndof] < 0):
+            raise ModelFileError(f"<joint>: joint {jn}: negative armature {min(m.dof_armature[d:d + ndof]):g}: "
+                                 f"an inertia cannot be negative", path, _line(path, "joint", jn))
+        if kind == 0 and len(set(m.dof_armature[d:d + 3])) > 1:
+            problems.append(("armature", "joint", f"joint {jn}: armature on a free joint's linear dofs "
+                             f"differs between them ({', '.join(f'{x:g}' for x in m.dof_armature[d:d + 3])}; "
+                             f"MuJoCo's are world-frame velocities, eomc's body-frame: only an equal one "
+                             f"carries over)", jn))
         if np.any(m.dof_frictionloss[d:d + ndof]):
             problems.append(("frictionloss", "joint", f"joint {jn}: frictionloss (a constraint in MuJoCo)", jn))
         if kind == 0 and int(m.body_parentid[m.jnt_bodyid[j]]) != 0:
@@ -149,8 +190,10 @@ def check_model(m, path, ignore=()):
             why = "its transmission is not a joint"
         elif int(m.jnt_type[j]) not in (2, 3):
             why = "it drives a ball or free joint"
-        elif int(m.actuator_dyntype[k]) != 0 or int(m.actuator_gaintype[k]) != 0 or int(m.actuator_biastype[k]) != 0:
-            why = "it is not a plain motor (activation dynamics, a muscle, or a bias such as a position servo)"
+        elif int(m.actuator_dyntype[k]) != 0:
+            why = "it has activation dynamics (dyntype: an integrator, filter or muscle activation)"
+        elif int(m.actuator_gaintype[k]) not in (0, 1) or int(m.actuator_biastype[k]) not in (0, 1):
+            why = "its gain or bias is not fixed or affine (a muscle or a user-defined one)"
         if why:
             problems.append(("actuators", "actuator", f"actuator {an}: {why}", an))
         else:
@@ -159,7 +202,7 @@ def check_model(m, path, ignore=()):
         if key and key in ignore:
             warnings.warn(f"{path}: ignored: {message}", EomcWarning, stacklevel=4)
             continue
-        hint = f" (ignore=('{key}',) drops it, with a warning)" if key else ""
+        hint = f" (ignore=('{key}',), or --ignore {key} on the command line, drops it with a warning)" if key else ""
         raise ModelFileError(f"<{tag}>: {message}: a rigid-body tree cannot express it{hint}", path,
                              _line(path, tag, named[0] if named else None))
     return motors
@@ -175,6 +218,39 @@ def mjcf_formed(model, overrides):
     m = load_mjmodel(model.path)
     motors = check_model(m, model.path, model.ignore)
     built = tree_ir(m, fold=model.fold_parameters, actuators=motors)
+    if model.contacts:
+        from eomc.compiler.contact.tree import merged_outputs, with_mjcf_contacts
+        built, outputs, events = with_mjcf_contacts(built, m, model.contacts, fold=model.fold_parameters)
+        overrides = merged_outputs(overrides, outputs, events)
     formed = formed_of_tree(built.tree)
+    built.mjmodel = m              # what the animation's poses read the geoms from (compiler/mjcf/poses.py)
     object.__setattr__(formed, "_mjcf", built)
-    return formed, _merged(overrides, formed, built.parameters, built.inputs)
+    values = _merged(overrides, formed, built.parameters, built.inputs)
+    if values.get("initial_state") is None:
+        values["initial_state"] = reference_state(m, built)
+    return formed, values
+
+
+def _xyz_angles(R):
+    """Body-XYZ angles (R = Rx Ry Rz, eomc's ball and free joints) of a rotation matrix."""
+    return (float(np.arctan2(-R[1, 2], R[2, 2])), float(np.arcsin(np.clip(R[0, 2], -1.0, 1.0))),
+            float(np.arctan2(-R[0, 1], R[0, 0])))
+
+
+def reference_state(m, built):
+    """{coordinate name: value}: MuJoCo's qpos0 (where mj_resetData starts: hinge/slide ``ref``, a
+    free body where the file puts it) in eomc's coordinates; speeds zero.  Zeros are left out."""
+    from .treeir import quat_matrix
+    out = {}
+    for j, kind, iq, _ in built.joints:
+        a = int(m.jnt_qposadr[j])
+        if kind in (2, 3):
+            values = [float(m.qpos0[a])]
+        elif kind == 1:
+            values = list(_xyz_angles(quat_matrix(m.qpos0[a:a + 4])))
+        else:
+            values = [float(x) for x in m.qpos0[a:a + 3]] + list(_xyz_angles(quat_matrix(m.qpos0[a + 3:a + 7])))
+        for k, v in enumerate(values):
+            if v != 0.0:
+                out[str(built.coordinates[iq + k]).replace("(t)", "")] = v
+    return out

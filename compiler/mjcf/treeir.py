@@ -23,8 +23,17 @@ in the body frame, c the mass centre (``body_ipos``) and c_p the parent's
   body origin's velocity and the angular velocity, both in body components (MuJoCo:
   the linear velocity in world components -- map the states to compare)
 
-Joint damping, stiffness/springref and motors (``gear`` x fixed gain) are a
-joint-space force tau on each hinge/slide dof: a torque on the child about a and
+Armature (``dof_armature``) is each speed's ``TreeBody.armature`` (parameters
+``arm_<joint>``, ``arm_<joint>_<axis>`` for ball/free): M_ii += a, as MuJoCo adds
+it.  Ball and free-joint angular speeds are body-frame in both, so it carries over;
+a free joint's linear armature is on MuJoCo's world-frame velocity, so on eomc's
+body-frame speeds it also brings a velocity term (:func:`_free_armature_load`;
+the three linear values must be equal, as MJCF's one ``armature`` per joint makes them).
+
+Joint damping, stiffness/springref and actuators (motors, position/velocity
+servos, affine ``<general>``: :func:`_actuator_force`, with MuJoCo's ctrlrange and
+forcerange clamps as :class:`.clamp.Clamp`) are a joint-space force tau on each
+hinge/slide dof: a torque on the child about a and
 its reaction on the parent about R0 a (a force along a for a slide).  What the
 tree cannot express is refused with the element named (:mod:`.model` decides
 what may be ignored).
@@ -53,7 +62,7 @@ def quat_matrix(q):
 class MjcfTree:
     """What :func:`tree_ir` returns: the Tree and the names and values beside it."""
 
-    def __init__(self, tree, coordinates, speeds, kinematics, parameters, inputs, joints):
+    def __init__(self, tree, coordinates, speeds, kinematics, parameters, inputs, joints, owners=()):
         self.tree = tree
         self.coordinates = coordinates
         self.speeds = speeds
@@ -61,6 +70,10 @@ class MjcfTree:
         self.parameters = parameters      # Symbol -> value from the model
         self.inputs = inputs              # one per actuator, actuator order
         self.joints = joints              # per MuJoCo joint: (id, type, first coordinate, first speed)
+        # per tree body: (MuJoCo body id, its mass centre in its frame) when it carries a MuJoCo
+        # body (its last joint's tree body, or a welded one), else None (the massless 1st.. of
+        # several joints); the animation's poses place the MuJoCo body frames from these
+        self.owners = owners
 
 
 _HINGE, _SLIDE, _BALL, _FREE = 3, 2, 1, 0
@@ -91,12 +104,14 @@ def tree_ir(m, *, fold=False, actuators=None):
     act_names = _names(m, mujoco.mjtObj.mjOBJ_ACTUATOR, m.nu, "actuator")
     actuators = range(m.nu) if actuators is None else actuators
     inputs = [dynamicsymbols(f"ctrl_{act_names[k][1]}") for k in actuators]
-    drive = {}   # joint id -> sum of gear * gain * ctrl
+    drive = {}   # joint id -> sum of the actuators' joint forces (see _actuator_force)
     for i, k in enumerate(actuators):
         j = int(m.actuator_trnid[k, 0])
-        gain = float(m.actuator_gear[k, 0]) * float(m.actuator_gainprm[k, 0])
-        drive[j] = drive.get(j, sm.S.Zero) + params(f"gear_{act_names[k][1]}", gain) * inputs[i]
-    bodies, coordinates, speeds, kinematics, loads, joints = [], [], [], [], [], []
+        jn = joint_names[j][1]
+        force = _actuator_force(m, params, k, act_names[k][1], inputs[i], dynamicsymbols(f"q_{jn}"),
+                                dynamicsymbols(f"u_{jn}"))
+        drive[j] = drive.get(j, sm.S.Zero) + force
+    bodies, coordinates, speeds, kinematics, loads, joints, owners = [], [], [], [], [], [], []
     last = {0: -1}          # MuJoCo body -> index of its mass-carrying tree body (-1: world)
     com = {0: [0, 0, 0]}
     for b in range(1, m.nbody):
@@ -121,6 +136,7 @@ def tree_ir(m, *, fold=False, actuators=None):
                                    rotation=sm.Matrix(R0_body.T).applyfunc(_num), position=position,
                                    motion=None, mass=mass, inertia=inertia))
             last[b], com[b] = len(bodies) - 1, c
+            owners.append((b, tuple(c)))
             continue
         for n_j, jid in enumerate(jids):
             final = n_j == len(jids) - 1
@@ -140,7 +156,8 @@ def tree_ir(m, *, fold=False, actuators=None):
             qadr, dadr = int(m.jnt_qposadr[jid]), int(m.jnt_dofadr[jid])
             first_q, first = len(coordinates), len(speeds)
             joints.append((jid, kind, first_q, first))
-            common = dict(name=name, joint=jraw, parent=parent, mass=bm, inertia=bI)
+            common = dict(name=name, joint=jraw, parent=parent, mass=bm, inertia=bI,
+                          armature=_armature(m, params, jn, kind, dadr))
             c_s = [c[r] - anchor[r] for r in range(3)]
             if kind == _HINGE:
                 q, u = dynamicsymbols(f"q_{jn}"), dynamicsymbols(f"u_{jn}")
@@ -200,7 +217,10 @@ def tree_ir(m, *, fold=False, actuators=None):
                 bodies.append(TreeBody(kind="free", speed=None, rotation=R.T, position=position, motion=None,
                                        speeds=tuple(range(first, first + 6)), motions=motions, **common))
                 kinematics += floating_kinematics(qs, us)
+                if common["armature"] and common["armature"][0] != 0:
+                    loads.append(_free_armature_load(len(bodies) - 1, common["armature"][0], us, c))
             child = len(bodies) - 1
+            owners.append((b, tuple(c_mass)) if final else None)
             if kind in (_HINGE, _SLIDE):
                 tau = drive.get(jid, sm.S.Zero)
                 damping = params(f"d_{jn}", m.dof_damping[dadr])
@@ -229,7 +249,67 @@ def tree_ir(m, *, fold=False, actuators=None):
     ir = Tree(bodies=tuple(bodies), coordinates=tuple(coordinates), speeds=tuple(speeds),
               kinematics=tuple(kinematics), gravity=gravity, loads=tuple(loads))
     return MjcfTree(ir, tuple(coordinates), tuple(speeds), tuple(kinematics), params.values, inputs,
-                    tuple(joints))
+                    tuple(joints), tuple(owners))
+
+
+def _clamped(value, low, high):
+    from .clamp import Clamp
+    return Clamp(value, sm.Float(float(low)), sm.Float(float(high)))
+
+
+def _actuator_force(m, params, k, name, ctrl, q, u):
+    """The joint force of actuator ``k`` on its hinge/slide joint (coordinate ``q``, speed ``u``),
+    as MuJoCo's mj_fwdActuation computes it without activation dynamics: the control clamped to
+    ``ctrlrange`` when ctrllimited, force = gain·ctrl + bias with gain = g0 (+ g1 L + g2 V when
+    affine), bias = b0 + b1 L + b2 V (affine; a position servo is b1 = -kp, a velocity servo
+    b2 = -kv), L = gear·q and V = gear·u the actuator's length and velocity, the force clamped to
+    ``forcerange`` when forcelimited, and gear·force on the joint.  A plain motor keeps one
+    parameter ``gear_<actuator>`` = gear·gain."""
+    gear = float(m.actuator_gear[k, 0])
+    if m.actuator_ctrllimited[k]:
+        ctrl = _clamped(ctrl, *m.actuator_ctrlrange[k])
+    affine_gain, affine_bias = int(m.actuator_gaintype[k]) == 1, int(m.actuator_biastype[k]) == 1
+    if not (affine_gain or affine_bias or m.actuator_forcelimited[k]):    # a plain motor
+        return params(f"gear_{name}", gear * float(m.actuator_gainprm[k, 0])) * ctrl
+    g = params(f"gear_{name}", gear)
+    length, velocity = g * q, g * u
+    gp, bp = m.actuator_gainprm[k], m.actuator_biasprm[k]
+    gain = params(f"gain_{name}", gp[0])
+    if affine_gain:
+        gain += params(f"gain1_{name}", gp[1]) * length + params(f"gain2_{name}", gp[2]) * velocity
+    force = gain * ctrl
+    if affine_bias:
+        force += (params(f"bias0_{name}", bp[0]) + params(f"bias1_{name}", bp[1]) * length
+                  + params(f"bias2_{name}", bp[2]) * velocity)
+    if m.actuator_forcelimited[k]:
+        force = _clamped(force, *m.actuator_forcerange[k])
+    return g * force
+
+
+def _free_armature_load(body, a, us, c):
+    """The velocity term of a free joint's linear armature ``a`` (the same on its three linear
+    dofs: check_model refuses others).  MuJoCo adds a·I to M on its world-frame linear dofs, so
+    its generalized force there is a·d(R v)/dt = R a (v' + ω × v) with v, ω eomc's body-frame
+    speeds: on eomc's linear speeds a (v' + ω × v) -- a v' is the armature on D, and this load is
+    the rest, -a ω × v, a force at the MuJoCo body origin (offset -c from the mass centre) so
+    that it does no work on the angular speeds."""
+    v, w = us[:3], us[3:]
+    force = sm.Matrix([-a * x for x in _cross(list(w), list(v))])
+    return Load(body=body, frame="body", moment=sm.zeros(3, 1), force=force,
+                offset=sm.Matrix([-sm.sympify(x) for x in c]))
+
+
+def _armature(m, params, jn, kind, dadr):
+    """The joint's armature per speed (MuJoCo's ``dof_armature``; () when all zero); a free
+    joint's linear ones come with :func:`_free_armature_load`."""
+    n = {_HINGE: 1, _SLIDE: 1, _BALL: 3, _FREE: 6}[kind]
+    values = [float(x) for x in m.dof_armature[dadr:dadr + n]]
+    if not any(values):
+        return ()
+    if n == 1:
+        return (params(f"arm_{jn}", values[0]),)
+    axes = ("x", "y", "z") if kind == _BALL else ("vx", "vy", "vz", "wx", "wy", "wz")
+    return tuple(params(f"arm_{jn}_{x}", v) for x, v in zip(axes, values))
 
 
 def _joint_force(kind, tau, a, R0, c, p, cp, child, parent):

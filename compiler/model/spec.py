@@ -34,6 +34,7 @@ class ModelSpec:
     path: Path = None                   # the model file, if any
     geometry: dict = None               # the model file's `geometry` (eomc.geometry shapes), or None
     poses: object = None                # PoseSource (compiler/emit/poses.py), set by the driver
+    frames: object = None               # FrameSource (compiler/tree/frames.py), set by the driver
     system: object = field(default=None, repr=False)
 
 

@@ -22,6 +22,12 @@ no chain of one-axis joints has those as its speeds, while S is constant in the
 body frame, so the general form costs no joint-motion derivative terms
 (c_J = 0) and keeps the Kane path's state.  One-speed joints keep their own
 scalar code path.
+
+Armature (``TreeBody.armature``: an inertia a on a joint's own speed, M_ii += a)
+enters each recursion where the joint's inertia about its own axis does: ABA's
+D_i = Sᵀ Iᴬ S + a (a k-speed joint: D + diag(a)), RNEA's τ_i += a u'_i, CRBA's
+M_ii += a.  The articulated solve of :mod:`.derivatives` reuses ABA's D, so M⁻¹
+includes it too.
 """
 import sympy as sm
 
@@ -66,9 +72,11 @@ class Recorder:
 class LoweredBody:
     """A TreeBody in slot symbols, with its transform's entries named once."""
 
-    def __init__(self, body, rec, E, r, S, mass, inertia, fext, multi=None):
+    def __init__(self, body, rec, E, r, S, mass, inertia, fext, multi=None, armature=None):
         self.parent, self.speed, self.name, self.joint = body.parent, body.speed, body.name, body.joint
         self.multi = multi         # [(speed index, 6-list axis)] of a k > 1 speed joint, else None
+        # per speed (S's, or multi's in order): the armature, in slot symbols (zeros when none)
+        self.armature = list(armature) if armature else [0] * (1 if S is not None else len(multi or ()))
         self.E = [[rec.let(E[i, j]) for j in range(3)] for i in range(3)]
         self.r = rec.vec(r)
         self.S = list(S) if S is not None else None
@@ -246,7 +254,7 @@ def aba(bodies, rec, speeds, gravity, v, c, keep=None):
         pi = rec.vec(pA[i])
         if b.S is not None:
             U[i] = rec.vec(_times(Ii, b.S))
-            D[i] = rec.let(_dot(b.S, U[i]))
+            D[i] = rec.let(_dot(b.S, U[i]) + b.armature[0])
             if D[i] == 0:
                 from .model import NotATree
                 raise NotATree(f"body {b.name} (joint {b.joint}) has no inertia about its joint "
@@ -329,10 +337,10 @@ def rnea(bodies, rec, speed_accels, gravity, v, c):
         b = bodies[i]
         fi = rec.vec(f[i])
         if b.S is not None:
-            tau[b.speed] = rec.let(_dot(b.S, fi))
+            tau[b.speed] = rec.let(_dot(b.S, fi) + b.armature[0] * speed_accels[b.speed])
         elif b.multi:
-            for s, S in b.multi:
-                tau[s] = rec.let(_dot(S, fi))
+            for (s, S), arm in zip(b.multi, b.armature):
+                tau[s] = rec.let(_dot(S, fi) + arm * speed_accels[s])
         if b.parent >= 0:
             fp = xt_force(b, fi)
             f[b.parent] = [f[b.parent][k] + fp[k] for k in range(6)]
@@ -360,7 +368,7 @@ def crba(bodies, rec):
             F = rec.vec(_times(Ii, S))
             for s2, S2 in columns[:col]:
                 H[(speed, s2)] = H[(s2, speed)] = rec.let(_dot(S2, F))
-            H[(speed, speed)] = rec.let(_dot(S, F))
+            H[(speed, speed)] = rec.let(_dot(S, F) + b.armature[col])
             j = i
             while bodies[j].parent >= 0:
                 F = rec.vec(xt_force(bodies[j], F))
@@ -381,7 +389,7 @@ def _multi_articulate(b, rec, Ii, pi):
     Dm = [[None] * k for _ in range(k)]
     for r in range(k):
         for s in range(r + 1):
-            Dm[r][s] = Dm[s][r] = rec.let(_dot(Ss[r], U[s]))
+            Dm[r][s] = Dm[s][r] = rec.let(_dot(Ss[r], U[s]) + (b.armature[r] if r == s else 0))
     uu = [rec.let(-_dot(S, pi)) for S in Ss]
     return U, _LDL(Dm, rec, b), uu
 

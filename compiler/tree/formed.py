@@ -18,9 +18,10 @@ def tree_exprs(tree):
     out = list(tree.kinematics) + list(tree.gravity)
     for b in tree.bodies:
         out += list(b.rotation) + list(b.position) + list(b.motion or ()) + [b.mass] + list(b.inertia)
-        out += [c for m in b.motions for c in m]
+        out += [c for m in b.motions for c in m] + list(b.armature)
     for load in tree.loads:
         out += list(load.moment) + list(load.force) + list(load.offset)
+        out += list(getattr(load, "exprs", ()))      # a ground contact's parameters (compiler/contact)
     return [sm.sympify(e) for e in out]
 
 

@@ -71,7 +71,7 @@ def _rename(layout, memo, what, absent):
 
 def _absent(tree, layout):
     from sympy.physics.mechanics import dynamicsymbols
-    exprs = [e for b in tree.bodies for e in list(b.inertia) + [b.mass]] + list(tree.gravity)
+    exprs = [e for b in tree.bodies for e in list(b.inertia) + [b.mass] + list(b.armature)] + list(tree.gravity)
     exprs += [e for ld in tree.loads for e in list(ld.moment) + list(ld.force) + list(ld.offset)]
     free = set().union(*(sm.sympify(e).free_symbols for e in exprs)) if exprs else set()
     return {s: 0 for s in free if s not in layout.subs and s != dynamicsymbols._t}
@@ -103,8 +103,11 @@ def _lowered_bodies(tree, layout, rec):
         r = b.position.applyfunc(ren)
         S = None if b.motion is None else [ren(s) for s in b.motion]
         multi = [(k, [ren(s) for s in m]) for k, m in zip(b.speeds, b.motions)] or None
-        bodies.append(LoweredBody(b, rec, E, r, S, ren(b.mass), b.inertia.applyfunc(ren), None, multi))
+        arm = [ren(a) for a in b.armatures] if b.armature else None
+        bodies.append(LoweredBody(b, rec, E, r, S, ren(b.mass), b.inertia.applyfunc(ren), None, multi, arm))
     for load in tree.loads:
+        if load.frame == "contact":     # ground contacts: lowered with the velocities (_contacts)
+            continue
         i = load.body
         ren = _rename(layout, memo, f"a load on body {tree.bodies[i].name}", absent)
         n = [ren(x) for x in load.moment]
@@ -133,6 +136,7 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         nq, nu = len(tree.coordinates), len(tree.speeds)
         speeds = layout.x[nq:nq + nu]
         v, c = velocities(bodies, rec, speeds)
+        contact_values = _contacts(tree, bodies, rec, v, layout)
         extra, keep = [], {}
         jac = set(functions) & {"jac_x", "jac_r", "jac_p", "jvp"}
         if "rhs" in functions or jac:
@@ -169,11 +173,32 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
     sym = build_symbolic(formed, layout, functions, outputs, events, dynamics=(A, b),
                          prelude=(rec.assignments, rec.count, sorted(extra, key=_order)),
                          function_groups=TREE_FUNCTION_GROUPS, helper_users=TREE_HELPER_USERS)
+    if contact_values:
+        sym = _with_contact_values(sym, contact_values)
     if regressor:
         sym = replace(sym, regressor_bodies=regressor[0], regressor_reference=regressor[1])
     if not jacobian:
         return sym
     return _with_jacobians(sym, layout, functions, nq, jacobian)
+
+
+def _contacts(tree, bodies, rec, v, layout):
+    """Ground contacts (eomc.compiler.contact.tree): their forces into the bodies' ``fext``
+    from the world positions and velocities of their points, built recursively with ``rec``;
+    returns {placeholder of a contact output or event: its temporary}."""
+    if not any(load.frame == "contact" for load in tree.loads):
+        return {}
+    from ..contact.tree import lower_contacts
+    memo = {}
+    return lower_contacts(tree, bodies, rec, v, lambda e, what: _rename(layout, memo, what, None)(e))
+
+
+def _with_contact_values(sym, values):
+    """Outputs and events that name a contact's force or depth: the placeholder replaced by
+    the temporary the recursion computed (the same value the rhs uses)."""
+    results = tuple((key, e.xreplace(values) if getattr(e, "has", None) and e.has(*values) else e)
+                    for key, e in sym.program.results)
+    return replace(sym, program=sym.program.with_(results=results))
 
 
 def _with_jacobians(sym, layout, functions, nq, jacobian):

@@ -10,6 +10,10 @@ Every body has its own frame and origin (its mass centre).  Body ``i`` hangs fro
   velocity of its origin), in body-frame components, per unit of its speed
   u_k; constant (revolute and prismatic joints with fixed axes).  ``None`` for a
   fixed joint.
+* ``armature``  per speed, an inertia added to the joint-space mass matrix's
+  diagonal (M_ii += a_i; no velocity or gravity term): a motor's rotor inertia
+  reflected through its gear, as MuJoCo's ``dof_armature``.  Empty (the
+  default) means none, so a reader that never sets it is unaffected.
 
 A joint of k > 1 speeds (a free joint with body-frame twist speeds, a planar
 or cylindrical joint) has ``speed``/``motion`` ``None`` and lists its speeds
@@ -51,6 +55,19 @@ class TreeBody:
     inertia: sm.Matrix           # 3x3 about the mass centre, body-frame components
     speeds: tuple = ()           # a joint of k > 1 speeds: their indices into Tree.speeds
     motions: tuple = ()          # ... and their constant axes (k tuples of 6)
+    armature: tuple = ()         # per speed, in ``dofs`` order: a joint-space inertia added to M's
+                                 # diagonal (a rotor's inertia through its gear: MuJoCo's
+                                 # dof_armature); () is none
+
+    @property
+    def armatures(self):
+        """The armature of each speed in ``dofs`` order (zeros when the joint has none)."""
+        if not self.armature:
+            return (0,) * len(self.dofs)
+        if len(self.armature) != len(self.dofs):
+            raise NotATree(f"body {self.name} (joint {self.joint}): {len(self.armature)} armature values "
+                           f"for {len(self.dofs)} speeds")
+        return tuple(self.armature)
 
     @property
     def dofs(self):

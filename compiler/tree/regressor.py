@@ -91,6 +91,12 @@ def _urdf_body(layout, name):
 def regressor_results(tree, bodies, rec, layout, speed_accels, gravity, v, c):
     """[(("Y", row, column), expression)] of the nonzero entries, and the body names of the
     column blocks (10 columns each, in tree order)."""
+    geared = [b for b in tree.bodies if any(x != 0 for x in b.armature)]
+    if geared:   # tau = Y pi would miss the armature's a u' (not a body's inertial parameter)
+        from eomc.runtime.errors import ModelError
+        raise ModelError(f"the inverse-dynamics regressor is not generated for a tree with armature "
+                         f"(body {geared[0].name}, joint {geared[0].joint}): Y·pi would leave out "
+                         f"its a·u' term")
     asym, vsym, A = _coefficients()
     n = len(bodies)
     offsets = reference_offsets(tree, layout)

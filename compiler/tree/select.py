@@ -189,6 +189,9 @@ def check_formed_finite(spec):
 def _kane_formed(spec):
     """The Kane FormedSystem.  An unformed System reaches here formed already: model_spec
     forms it with eomc's Kane when the kane formulation is asked for."""
+    if spec.formed.method == "tree" and getattr(spec.formed, "_mjcf", None) is not None:
+        raise ModelError("an MJCF model has the recursive formulation only: MuJoCo's model is read "
+                         "straight into the joint tree, with no SymPy System to form Kane's equations of")
     if spec.formed.method == "tree":
         raise ModelError("the kane formulation needs formed equations; this System was read as a "
                          "joint tree only (compile it with formulation='kane' from the start)")
@@ -232,7 +235,8 @@ def _reason(exc, formulation="recursive"):
 def _options(spec, functions, fold_parameters):
     return dict(parameters=spec.parameters, inputs=spec.inputs, outputs=spec.outputs,
                 functions=functions, fold_parameters=fold_parameters, events=spec.events,
-                event_options=spec.event_options, poses=getattr(spec, "poses", None))
+                event_options=spec.event_options, poses=getattr(spec, "poses", None),
+                frames=getattr(spec, "frames", None))
 
 
 def _generate_kane(spec, functions, fold_parameters):

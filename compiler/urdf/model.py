@@ -34,6 +34,7 @@ class UrdfModel:
     fold_parameters: bool = False
     mimic: bool = False
     gravity: float = 9.81
+    contacts: tuple = ()        # ground contacts (eomc.compiler.contact.tree.ContactSpec or text)
     allow_nonphysical_inertia: bool = False
 
     def options(self):
@@ -94,9 +95,22 @@ def urdf_formed(model, formulation, overrides, formed_system):
         from eomc.compiler.tree.formed import formed_of_tree
         from .treeir import tree_ir
         built = tree_ir(tree, fold=model.fold_parameters, gravity=model.gravity)
+        if model.contacts:
+            from eomc.compiler.contact.tree import with_contacts, merged_outputs
+            built, contact_outputs, contact_events = with_contacts(built, model.contacts,
+                                                                  fold=model.fold_parameters)
+            overrides = merged_outputs(overrides, contact_outputs, contact_events)
         formed = formed_of_tree(built.tree)
         object.__setattr__(formed, "_urdf", built)   # for the animation's poses (treeir.pose_source)
         return formed, _merged(overrides, formed, built.parameters, built.inputs), None
+    if model.contacts:
+        from eomc.runtime.errors import ModelError
+        from eomc.compiler.contact.tree import with_contacts
+        from .treeir import tree_ir
+        with_contacts(tree_ir(tree, fold=model.fold_parameters, gravity=model.gravity), model.contacts)
+        raise ModelError(f"{model.path}: ground contacts on a URDF robot are lowered by the recursive "
+                         f"formulation only (formulation 'recursive' or 'auto'"
+                         f"{'; mimic=True robots with mimic joints take Kane' if mimics else ''})")
     if formulation != "kane":
         warnings.warn(f"{model.path}: mimic joints ({', '.join(mimics[:5])}{', ...' if len(mimics) > 5 else ''}) "
                       f"are constraints, which the recursive formulation's tree cannot carry: the robot "

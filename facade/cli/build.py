@@ -11,7 +11,8 @@ __all__ = ["configure", "run", "add_generate_options"]
 
 def add_generate_options(parser):
     """Options shared by the commands that generate code (build, inspect)."""
-    parser.add_argument("model", help="model file (Python) defining `system`, or a robot's URDF file")
+    parser.add_argument("model", help="model file (Python) defining `system`, a robot's URDF file or a "
+                                      "MuJoCo model (.xml)")
     parser.add_argument("--name", help="model name (default: the file's `name` or its stem)")
     parser.add_argument("--outputs", metavar="LIST",
                         help="comma-separated functions to generate, e.g. rhs,jacobian,mass_matrix "
@@ -25,8 +26,10 @@ def add_generate_options(parser):
     parser.add_argument("--allow-nonphysical-inertia", action="store_true",
                         help="URDF: build moving links whose principal moments are negative (refused "
                              "by default), with a warning naming each")
-    from .common import add_formulation_argument
+    from .common import add_contact_argument, add_formulation_argument, add_ignore_argument
+    add_contact_argument(parser)
     add_formulation_argument(parser)
+    add_ignore_argument(parser)
 
 
 def configure(parser):
@@ -40,16 +43,21 @@ def configure(parser):
                                          "and inf are still reported as errors")
     parser.add_argument("--cache-dir", help="build cache root (default $EOMC_CACHE_DIR or ~/.cache/eomc)")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
+    from .common import add_frame_argument
+    add_frame_argument(parser)
 
 
 def run(args):
     from eomc.compiler.driver import compile
+    from eomc.compiler.mjcf.model import with_ignore
     from eomc.compiler.urdf.model import with_options
     source, name = with_options(args.model, args.name, floating_base=args.floating_base,
                                 allow_nonphysical_inertia=args.allow_nonphysical_inertia)
+    source, name = with_ignore(source, name, args.ignore)
     model = compile(source, name, functions=args.outputs, fold_parameters=args.fold_parameters,
                     backend=args.backend, cflags=args.cflags, cache_dir=args.cache_dir,
-                    output_dir=args.output, progress=not args.quiet, formulation=args.formulation)
+                    output_dir=args.output, progress=not args.quiet, formulation=args.formulation,
+                    contacts=args.contact, frames=args.frame)
     files = sorted(p.name for p in model.directory.iterdir() if p.is_file() and not p.name.startswith("."))
     print(f"built model {model.name!r} (nq={model.nq}, nu={model.nu}, nparam={model.nparam}, "
           f"ninput={model.ninput}) in {model.directory}:")

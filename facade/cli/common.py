@@ -7,13 +7,14 @@ Mistakes in them are ValueErrors, which `eomc` prints as one line (exit status 2
 """
 from pathlib import Path
 
-__all__ = ["add_model_arguments", "add_formulation_argument", "FORMULATION_HELP", "load_model", "model_options", "parse_assignments", "initial_state",
+__all__ = ["add_model_arguments", "add_formulation_argument", "add_frame_argument", "FORMULATION_HELP", "load_model", "model_options", "parse_assignments", "initial_state",
            "parameter_values", "writable_file"]
 
 
 def add_model_arguments(parser):
     """The positional MODEL and the --x0/--param overrides."""
-    parser.add_argument("model", help="model file (.py), robot (.urdf) or built model directory / NAME.json")
+    parser.add_argument("model", help="model file (.py), robot (.urdf), MuJoCo model (.xml) or built model "
+                                      "directory / NAME.json")
     parser.add_argument("--x0", nargs="+", metavar="NAME=V", default=(),
                         help="initial state entries; states not named keep the model's initial_state "
                              "(0 when it has none)")
@@ -26,6 +27,32 @@ def add_model_arguments(parser):
     parser.add_argument("--allow-nonphysical-inertia", action="store_true",
                         help="URDF: build moving links whose principal moments are negative (refused "
                              "by default), with a warning naming each")
+    add_contact_argument(parser)
+    add_ignore_argument(parser)
+
+
+CONTACT_HELP = ("URDF/MJCF: a ground contact sphere on LINK (an MJCF body), centred at x,y,z in its frame "
+                "(default 0,0,0), of the given radius (default 0); repeat for more; @collision adds every "
+                "collision sphere; parameters k_/c_/mu_/vs_/r_<link> (see README, Ground contact)")
+
+
+def add_contact_argument(parser):
+    """--contact LINK[:x,y,z[:radius]] (repeatable): ground contacts (eomc.compiler.contact)."""
+    parser.add_argument("--contact", action="append", metavar="LINK[:x,y,z[:radius]]", default=None,
+                        help=CONTACT_HELP)
+
+
+# eomc.compiler.mjcf.model.IGNORABLE, written out: the CLI must not import the compiler to
+# configure its parsers (`eomc simulate DIR` starts without it; tests/cli/test_mjcf_cli.py
+# checks the two lists agree)
+IGNORABLE = ("tendons", "equality", "actuators", "armature", "frictionloss", "limits", "fluid", "plugins")
+
+
+def add_ignore_argument(parser):
+    """--ignore for MJCF models: what the tree cannot express, dropped with a warning."""
+    parser.add_argument("--ignore", metavar="WHAT[,WHAT]", action="append", default=[],
+                        help=f"MJCF (.xml): drop these with a warning instead of refusing the model "
+                             f"({', '.join(IGNORABLE)})")
 
 
 FORMULATION_HELP = ("dynamics formulation: auto (default: the cheaper rhs of the two; kane where the "
@@ -48,28 +75,61 @@ def model_options(args):
         options["floating_base"] = True
     if getattr(args, "allow_nonphysical_inertia", False):
         options["allow_nonphysical_inertia"] = True
+    if getattr(args, "contact", None):
+        options["contacts"] = args.contact
     if getattr(args, "formulation", None) not in (None, "auto"):
         options["formulation"] = args.formulation
+    if getattr(args, "frame", None):
+        options["frames"] = list(args.frame)
+    if getattr(args, "ignore", None):
+        options["ignore"] = args.ignore
     return options
 
 
-def load_model(path, quiet=False, floating_base=False, formulation="auto", allow_nonphysical_inertia=False):
-    """A runtime Model from a model file (compiled) or a built directory / json (loaded).
+FRAME_HELP = ("output the world pose, velocity and Jacobian of this frame (a URDF link, tool0 and "
+              "other welded links too; an MJCF or System body) or, for 'com', the centre of mass "
+              "and its velocity; repeatable")
+
+
+def add_frame_argument(parser):
+    """--frame NAME (repeatable): frame outputs (eomc.compiler.tree.frames)."""
+    parser.add_argument("--frame", action="append", metavar="NAME", help=FRAME_HELP)
+
+
+def load_model(path, quiet=False, floating_base=False, formulation="auto", frames=None, ignore=(),
+               contacts=None, allow_nonphysical_inertia=False):
+    """A runtime Model from a model file (.py, .urdf, MuJoCo's .xml; compiled) or a built
+    directory / json (loaded).  ``ignore``: an MJCF model's ignorable elements (--ignore).
 
     Compiling shows its stages on stderr when that is a terminal, unless ``quiet``.
+    ``frames``: frame outputs to compile in; a built model must already have them.
     """
     path = Path(path)
     if not path.exists():
         raise ValueError(f"{path}: no such model file or built model directory")
-    if path.is_file() and path.suffix.lower() in (".py", ".urdf"):
+    if ignore and not (path.is_file() and path.suffix.lower() in (".xml", ".mjcf")):
+        from eomc.compiler.mjcf.model import with_ignore
+        with_ignore(str(path), ignore=ignore)        # says what --ignore applies to
+    if path.is_file() and path.suffix.lower() in (".py", ".urdf", ".xml", ".mjcf"):
         from eomc.compiler.driver import compile as compile_model
+        from eomc.compiler.mjcf.model import with_ignore
         from eomc.compiler.urdf.model import with_options
         source, name = with_options(str(path), floating_base=floating_base,
                                     allow_nonphysical_inertia=allow_nonphysical_inertia)
+        source, name = with_ignore(source, name, ignore)
         return compile_model(source, name, progress=False if quiet else None,
-                             formulation=formulation)
+                             formulation=formulation, frames=frames, contacts=contacts)
+    if contacts:
+        raise ValueError(f"{path}: --contact applies to a robot (.urdf, .xml) being compiled, not to a built model")
     from eomc.runtime.loader import load
-    return load(path)
+    model = load(path)
+    missing = [f for f in (frames or ()) if f not in model.frame_names]
+    if missing:
+        have = ", ".join(model.frame_names) or "none"
+        raise ValueError(f"{path}: built without the frame output(s) {', '.join(missing)} (it has: "
+                         f"{have}); frames are compiled in: rebuild with eomc build "
+                         f"{' '.join('--frame ' + f for f in missing)}, or simulate the model file")
+    return model
 
 
 def parse_assignments(items, what):

@@ -38,13 +38,16 @@ def format_report(metadata):
 
 def run(args):
     from eomc.compiler.driver import generate
+    from eomc.compiler.mjcf.model import with_ignore
     from eomc.compiler.urdf.model import with_options
     from eomc.errors import ModelError
     source, name = with_options(args.model, args.name, floating_base=args.floating_base,
                                 allow_nonphysical_inertia=args.allow_nonphysical_inertia)
+    source, name = with_ignore(source, name, args.ignore)
     spec, generated = generate(source, name, functions=args.outputs,
                                fold_parameters=args.fold_parameters,
-                               progress=False if args.quiet else None, formulation=args.formulation)
+                               progress=False if args.quiet else None, formulation=args.formulation,
+                               contacts=args.contact)
     print(format_report(generated.metadata))
     print("")
     print(compare_formulations(args, spec, generated, generate, ModelError, source=source, name=name))
@@ -85,7 +88,8 @@ def compare_formulations(args, spec, generated, generate, error, *, source=None,
         return "\n".join(head)
     try:
         _, alt = generate(source, name, functions=args.outputs,
-                          fold_parameters=args.fold_parameters, progress=False, formulation=other)
+                          fold_parameters=args.fold_parameters, progress=False, formulation=other,
+                          contacts=getattr(args, "contact", None))
         alt_counts = alt.metadata["op_counts"]
     except error as exc:
         head.append(f"  no {other} form: {exc}")

@@ -49,10 +49,15 @@ def format_equations(spec, ascii_only=False):
     out.append("parameters:    " + (", ".join(f"{s}={v:g}" for s, v in parameter_order(spec)) or "-"))
     out.append("\nkinematics  q' =")
     out.append(_pretty(sm.Matrix(f.kinematics), ascii_only))
-    out.append("\nmass matrix  (A in A [u'; lambda] = b)" if f.multipliers else "\nmass matrix  (A in A u' = b)")
-    out.append(_pretty(sm.Matrix(f.dynamics_matrix), ascii_only))
-    out.append("\nforcing  b =")
-    out.append(_pretty(sm.Matrix(f.dynamics_rhs), ascii_only))
+    if f.method == "tree":     # an MJCF model: read straight into the joint tree, never formed
+        out.append("\nmass matrix and forcing: not formed (the model is read straight into the joint tree "
+                   "and built by the recursive formulation; `eomc inspect` shows its operation counts, "
+                   "a built model's mass_matrix and forcing give the numbers)")
+    else:
+        out.append("\nmass matrix  (A in A [u'; lambda] = b)" if f.multipliers else "\nmass matrix  (A in A u' = b)")
+        out.append(_pretty(sm.Matrix(f.dynamics_matrix), ascii_only))
+        out.append("\nforcing  b =")
+        out.append(_pretty(sm.Matrix(f.dynamics_rhs), ascii_only))
     if extra:
         out.append("\nextra states  z' =")
         out.append(_pretty(sm.Matrix(list(f.extra_rhs)), ascii_only))

@@ -43,6 +43,7 @@ def configure(parser):
     parser.add_argument("--formulation", choices=("auto", "kane", "recursive"), default="auto",
                         help="dynamics formulation: kane (symbolic M and f, numeric LDLT), recursive "
                              "(ABA/RNEA/CRBA over the joint tree) or auto (the cheaper rhs)")
+    cli_common.add_frame_argument(parser)
     parser.formatter_class = argparse.ArgumentDefaultsHelpFormatter
 
 
@@ -187,9 +188,16 @@ def run(args):
     s = res.stats
     print(f"{model.name}: {res.method} t=[{args.t0:g}, {args.t_final:g}]: {s['steps']} steps "
           f"({s['rejected']} rejected), {s['nfev']} rhs, {s['njev']} jacobian, {s['nlu']} LU")
+    frames = getattr(model, "frame_names", ())
     for name, values in res.outputs.items():
+        if name.partition(".")[0] in frames:      # frame outputs: one line per frame, below
+            continue
         print(f"  {name}: start {values[0]:.10g}, end {values[-1]:.10g}, "
               f"change {values[-1] - values[0]:.3g}")
+    for name in frames:
+        p = res.frame(name).p
+        print(f"  {name}: position start ({', '.join(f'{v:.6g}' for v in p[0])}), "
+              f"end ({', '.join(f'{v:.6g}' for v in p[-1])})")
     if res.constraint_residual is not None:
         print(f"  constraint residual: max {res.constraint_residual.max():.3g}")
     for name, times in (res.t_events or {}).items():

@@ -25,14 +25,15 @@ SMALL = """<mujoco model="small">
   <default><joint damping="0.05"/></default>
   <worldbody>
     <body name="base" pos="0.1 0.2 0.3" quat="0.9 0.1 0.2 0.3">
-      <joint name="slider" type="slide" axis="1 0.2 0" ref="0.1"/>
+      <joint name="slider" type="slide" axis="1 0.2 0" ref="0.1" armature="0.3"/>
       <geom type="box" size="0.1 0.2 0.05" mass="2"/>
       <body name="link1" pos="0 0 -0.2" euler="10 20 30">
-        <joint name="h1" type="hinge" axis="0 1 0.3" pos="0.05 0 0.1" stiffness="2" springref="0.3"/>
+        <joint name="h1" type="hinge" axis="0 1 0.3" pos="0.05 0 0.1" stiffness="2" springref="0.3"
+               armature="0.05"/>
         <joint name="h2" type="hinge" axis="1 0 0" pos="0 0.02 0" ref="0.2"/>
         <geom type="capsule" fromto="0 0 0 0.1 0.05 -0.4" size="0.03"/>
         <body name="link2" pos="0.1 0.05 -0.4">
-          <joint name="ball" type="ball" pos="0 0 0.01"/>
+          <joint name="ball" type="ball" pos="0 0 0.01" armature="0.02"/>
           <geom type="box" size="0.05 0.08 0.12" pos="0.02 0 -0.1" euler="5 10 15"/>
           <body name="welded" pos="0 0.1 -0.2" euler="0 0 40">
             <geom type="sphere" size="0.04" pos="0.01 0 0"/>
@@ -41,7 +42,7 @@ SMALL = """<mujoco model="small">
       </body>
     </body>
     <body name="floater" pos="1 0 1">
-      <freejoint name="free"/>
+      <joint name="free" type="free" armature="0.15" damping="0"/>
       <geom type="ellipsoid" size="0.1 0.2 0.3" pos="0.05 0.02 0.01" euler="20 30 40"/>
       <body name="tip" pos="0.3 0 0">
         <joint name="h3" type="hinge" axis="0 0 1" range="-1 1"/>
@@ -64,8 +65,6 @@ def _worst(model, path, ignore=(), trials=6):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", EomcWarning)
         motors = check_model(m, path, ignore)
-    if "armature" in ignore:
-        m.dof_armature[:] = 0
     built = tree_ir(m, actuators=motors)
     d = mujoco.MjData(m)
     rng = np.random.default_rng(7)
@@ -74,7 +73,7 @@ def _worst(model, path, ignore=(), trials=6):
     worst = 0.0
     for _ in range(trials):
         q, u = rng.uniform(-1.2, 1.2, nq), rng.uniform(-2, 2, nu)
-        r = rng.uniform(-1, 1, len(motors))
+        r = rng.uniform(-1.5, 1.5, len(motors))       # beyond ctrlrange too: MuJoCo clamps, so must eomc
         xd = model.rhs(0.0, np.concatenate([q, u]), r=r)
         d.qpos[:], d.qvel[:] = to_mujoco(m, built, q, u)
         d.ctrl[:] = 0
@@ -98,7 +97,9 @@ def small(tmp_path_factory):
 
 def test_small_model_matches_mj_forward(small):
     """Hinge chain with two joints on one body (refs, anchor, spring, damping), slide, ball,
-    a welded body, a free body with a child, general gravity and motors: qacc to 1e-10."""
+    a welded body, a free body with a child, general gravity and motors, armature on a slide,
+    a hinge, a ball and a free joint (MuJoCo's dof_armature kept; the free joint's on MuJoCo's
+    world-frame linear dofs): qacc to 1e-10."""
     path, model = small
     assert model.state_names[:3] == ("q_slider", "q_h1", "q_h2")
     assert model.input_names == ("ctrl_actuator0", "ctrl_m1", "ctrl_actuator2")
@@ -127,10 +128,82 @@ def _gym_asset(name):
     return Path(gym.__file__).parent / "envs" / "mujoco" / "assets" / name
 
 
+def test_small_model_jacobian_has_the_armature(small):
+    """jac_x of a model with armature (slide, hinge, ball, free) against central differences of its rhs;
+    and the armature matters: without it the rhs differs."""
+    path, model = small
+    rng = np.random.default_rng(3)
+    x = np.concatenate([rng.uniform(-1, 1, model.nq), rng.uniform(-1, 1, model.nx - model.nq)])
+    r = rng.uniform(-1, 1, model.ninput)
+    J = model.jacobian(0.0, x, r=r)
+    h = 1e-6
+    fd = np.column_stack([(model.rhs(0.0, x + h * e, r=r) - model.rhs(0.0, x - h * e, r=r)) / (2 * h)
+                          for e in np.eye(model.nx)])
+    assert np.max(np.abs(J - fd)) < 1e-6 * max(1.0, np.max(np.abs(J)))
+    names = model.param_names
+    p = np.array(model.param_defaults, dtype=float)
+    assert {"arm_slider", "arm_h1", "arm_ball_x", "arm_ball_y", "arm_ball_z", "arm_free_vx",
+            "arm_free_wz"} <= set(names)
+    p0 = p.copy()
+    p0[[names.index(k) for k in names if k.startswith("arm_")]] = 0
+    assert np.max(np.abs(model.rhs(0.0, x, p=p0, r=r) - model.rhs(0.0, x, p=p, r=r))) > 1e-3
+
+
+def _full_mass_matrix(m, d):
+    """mj_fullM across MuJoCo versions (4.x takes the MjData, 3.x the sparse qM)."""
+    M = np.zeros((m.nv, m.nv))
+    try:
+        mujoco.mj_fullM(m, d, M)
+    except TypeError:
+        mujoco.mj_fullM(m, M, d.qM)
+    return M
+
+
+@pytest.fixture(scope="module")
+def hopper(tmp_path_factory):
+    path = _gym_asset("hopper.xml")
+    model = eomc.compile(MjcfModel(path, ignore=("limits",)),
+                         functions=["rhs", "mass_matrix", "inverse_dynamics"],
+                         cache_dir=tmp_path_factory.mktemp("hopper"), progress=False)
+    return path, model
+
+
+def test_hopper_mass_matrix_and_inverse_dynamics_with_armature(hopper):
+    """Hopper (hinges and slides, armature 1 on its leg joints): M against mj_fullM and inverse
+    dynamics against mj_rne + armature·qacc - qfrc_passive (MuJoCo's mj_rne leaves the armature
+    out; mj_inverse adds it), to 1e-12 relative."""
+    path, model = hopper
+    m = prepared(load_mjmodel(path))
+    assert np.any(m.dof_armature)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", EomcWarning)
+        built = tree_ir(m, actuators=check_model(m, path, ("limits",)))
+    d, rng = mujoco.MjData(m), np.random.default_rng(5)
+    for _ in range(3):
+        q, u, w = rng.uniform(-1, 1, m.nq), rng.uniform(-2, 2, m.nv), rng.uniform(-3, 3, m.nv)
+        x = np.concatenate([q, u])
+        d.qpos[:], d.qvel[:] = to_mujoco(m, built, q, u)
+        mujoco.mj_forward(m, d)
+        M = _full_mass_matrix(m, d)
+        assert np.max(np.abs(model.mass_matrix(0.0, x) - M)) < 1e-12 * np.max(np.abs(M))
+        d.qacc[:] = w
+        res = np.zeros(m.nv)
+        mujoco.mj_rne(m, d, 1, res)
+        tau = model.inverse_dynamics(0.0, x, w)
+        expected = res + m.dof_armature * w - d.qfrc_passive
+        assert np.max(np.abs(tau - expected)) < 1e-12 * max(1.0, np.max(np.abs(expected)))
+        assert np.max(np.abs(tau - (res - d.qfrc_passive))) > 1e-2     # the armature term is there
+
+
 @pytest.mark.parametrize("asset, ignore", [("inverted_double_pendulum.xml", ()),
-                                           ("hopper.xml", ("armature", "limits"))])
+                                           ("hopper.xml", ("limits",)),
+                                           ("walker2d.xml", ("limits",)),
+                                           ("half_cheetah.xml", ("limits",)),
+                                           ("ant.xml", ("limits",)),
+                                           ("humanoid.xml", ("limits",))])
 def test_gymnasium_model_matches_mj_forward(asset, ignore, tmp_path):
-    """Shipped models (gymnasium's wheel); hopper's armature is dropped on both sides."""
+    """Shipped models (gymnasium's wheel), their armature kept on both sides, with no ignore but
+    the limits warning (humanoid's two fixed tendons apply no force: accepted as they are)."""
     path = _gym_asset(asset)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", EomcWarning)
@@ -157,16 +230,15 @@ def _refused(tmp_path, body, match, *, actuator="", extra="", ignore=()):
 
 
 @pytest.mark.parametrize("kw, match, line", [
-    (dict(body='armature="0.1"'), r"bad.xml:4: <joint>: joint j: armature 0.1", 4),
     (dict(body='frictionloss="0.1"'), r"joint j: frictionloss", 4),
-    (dict(body="", extra='<tendon><fixed name="t"><joint joint="j" coef="1"/></fixed></tendon>'),
-     r"<tendon>: 1 tendon\(s\) \(e.g. t\)", 2),
+    (dict(body="", extra='<tendon><fixed name="t" stiffness="3"><joint joint="j" coef="1"/></fixed></tendon>'),
+     r"<tendon>: 1 tendon\(s\) with stiffness, damping, friction or armature \(e.g. t\)", 2),
     (dict(body="", extra='<equality><joint name="eq" joint1="j" joint2="k"/></equality>'),
      r"<equality>: 1 equality constraint\(s\) \(e.g. eq\)", 2),
-    (dict(body="", actuator='<actuator><position name="servo" joint="j" kp="10"/></actuator>'),
-     r"<actuator>: actuator servo: it is not a plain motor", 8),
+    (dict(body="", actuator='<actuator><intvelocity name="mus" joint="j" kp="1" actrange="-1 1"/></actuator>'),
+     r"<actuator>: actuator mus: it has activation dynamics", 8),
     (dict(body="", actuator='<actuator><general name="filt" joint="j" dyntype="filter"/></actuator>'),
-     r"actuator filt: it is not a plain motor", 8),
+     r"actuator filt: it has activation dynamics", 8),
     (dict(body="", extra='<option density="1.2"/>'), r"<option>: fluid forces", 2),
 ])
 def test_refused_with_element_and_line(tmp_path, kw, match, line):
@@ -188,12 +260,13 @@ def test_mujoco_errors_keep_their_line(tmp_path):
 
 
 def test_ignored_on_request_with_a_warning(tmp_path):
-    """A tendon and a servo dropped on request: a warning each; the servo is no input."""
+    """A tendon and a filtered actuator dropped on request: a warning each; the latter is no input."""
     path = tmp_path / "ok.xml"
     path.write_text("""<mujoco><worldbody><body><joint name="j" type="hinge"/><geom size="0.1"/>
       <body pos="0 0 -1"><joint name="k" type="hinge"/><geom size="0.1"/></body></body></worldbody>
-      <tendon><fixed name="t"><joint joint="j" coef="1"/></fixed></tendon>
-      <actuator><position name="servo" joint="j"/><motor name="mot" joint="k"/></actuator></mujoco>""")
+      <tendon><fixed name="t" damping="0.5"><joint joint="j" coef="1"/></fixed></tendon>
+      <actuator><general name="servo" joint="j" dyntype="filter"/><motor name="mot" joint="k"/></actuator>
+      </mujoco>""")
     with pytest.warns(EomcWarning) as record:
         model = eomc.compile(MjcfModel(path, ignore=("tendons", "actuators")), functions=["rhs"],
                              cache_dir=tmp_path / "c", progress=False)
@@ -203,10 +276,10 @@ def test_ignored_on_request_with_a_warning(tmp_path):
 
 
 def test_refusal_points_at_the_named_joint(tmp_path):
-    """Armature from a default class: the line of the first joint that has it, by name."""
+    """A negative armature from a default class: the line of the joint that has it, by name."""
     path = tmp_path / "cls.xml"
     path.write_text("""<mujoco>
-  <default><default class="heavy"><joint armature="0.5"/></default></default>
+  <default><default class="heavy"><joint armature="-0.5"/></default></default>
   <worldbody>
     <body><joint name="light" type="hinge"/><geom size="0.1"/>
       <body pos="0 0 1">
@@ -215,7 +288,7 @@ def test_refusal_points_at_the_named_joint(tmp_path):
     </body>
   </worldbody>
 </mujoco>""")
-    with pytest.raises(ModelFileError, match=r"cls.xml:6: <joint>: joint geared: armature 0.5"):
+    with pytest.raises(ModelFileError, match=r"cls.xml:6: <joint>: joint geared: negative armature -0.5"):
         eomc.compile(str(path), functions=["rhs"], cache_dir=tmp_path / "c", progress=False)
 
 
@@ -225,6 +298,7 @@ def test_refusal_points_at_the_named_joint(tmp_path):
     ('<joint name="b" type="ball" stiffness="2"/>', "joint b: stiffness on a ball joint"),
     ('<joint name="h" type="hinge" damping="-0.5"/>', r"xml:1: <joint>: joint h: negative damping"),
     ('<joint name="h" type="hinge" stiffness="-2"/>', "joint h: negative damping or stiffness"),
+    ('<joint name="h" type="hinge" armature="-0.1"/>', r"xml:1: <joint>: joint h: negative armature -0.1"),
 ])
 def test_joint_checks(tmp_path, joint, match):
     """What the joint-space loads cannot carry is refused (checked without building)."""
@@ -261,10 +335,172 @@ def test_bad_input_messages(tmp_path):
 
 
 def test_cli_build(small, tmp_path):
-    """`eomc build model.xml` builds it (through the same dispatch)."""
+    """`python -m eomc build model.xml` builds it (through the same dispatch; the fixture's cache,
+    so the child only exports what the fixture built)."""
     path, _ = small
     out = subprocess.run([sys.executable, "-m", "eomc", "build", str(path), "-o", str(tmp_path / "out"),
-                          "--cache-dir", str(tmp_path / "cache")],
+                          "--cache-dir", str(path.parent / "cache")],
                          capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
     assert any((tmp_path / "out").rglob("*.c"))
+
+
+def test_regressor_refuses_armature(small, tmp_path):
+    """Y·pi has no column for the armature's a·u': asking for the regressor says so, naming the joint."""
+    path, _ = small
+    with pytest.raises(ModelError, match=r"regressor is not generated for a tree with armature \(body base, "
+                                         r"joint slider\)"):
+        eomc.compile(str(path), functions=["regressor"], cache_dir=tmp_path, progress=False)
+
+
+def test_poses_are_mujocos_body_frames(small):
+    """The animation's poses: every MuJoCo body frame's origin and rotation equal MuJoCo's xpos and
+    xmat at random states (to 1e-12), welded and multi-joint bodies included; geoms as shapes."""
+    path, model = small
+    m = prepared(load_mjmodel(path))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", EomcWarning)
+        built = tree_ir(m, actuators=check_model(m, path))
+    names = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) for b in range(1, m.nbody)]
+    d, rng = mujoco.MjData(m), np.random.default_rng(11)
+    for _ in range(3):
+        q, u = rng.uniform(-1.5, 1.5, model.nq), rng.uniform(-1, 1, model.nx - model.nq)
+        poses = model.poses(0.0, np.concatenate([q, u]))
+        assert list(poses.frame_names) == names
+        d.qpos[:], d.qvel[:] = to_mujoco(m, built, q, u)
+        mujoco.mj_kinematics(m, d)
+        for b, name in enumerate(names, start=1):
+            assert np.max(np.abs(poses[name] - d.xpos[b])) < 1e-12
+            assert np.max(np.abs(poses.rotation(name) - d.xmat[b].reshape(3, 3))) < 1e-12
+        placed = []           # every shape's pose in the world: body pose x its origin
+        for name, items in model.metadata["poses"]["geometry"].items():
+            T = np.eye(4)
+            T[:3, :3], T[:3, 3] = poses.rotation(name), poses[name]
+            placed += [T @ np.array(item["origin"]).reshape(4, 4) for item in items]
+        for g in range(m.ngeom):          # each geom is drawn where MuJoCo has it
+            assert min(np.max(np.abs(P[:3, 3] - d.geom_xpos[g])) + np.max(np.abs(P[:3, :3] - d.geom_xmat[g].reshape(3, 3)))
+                       for P in placed) < 1e-12
+    shapes = model.metadata["poses"]["geometry"]
+    kinds = {k: sorted(s["kind"] for s in v) for k, v in shapes.items()}
+    assert kinds["link1"] == ["cylinder", "sphere", "sphere"]          # the capsule
+    assert kinds["floater"] == ["box"]                                 # the ellipsoid's bounding box
+    assert kinds["welded"] == ["sphere"] and kinds["base"] == ["box"]
+    assert shapes["base"][0]["size"] == [0.2, 0.4, 0.1]
+
+
+SERVO = """<mujoco model="servo">
+  <worldbody>
+    <body name="a" pos="0 0 1">
+      <joint name="j1" type="hinge" axis="0 1 0" armature="0.1"/>
+      <geom type="capsule" fromto="0 0 0 0.4 0 0" size="0.04"/>
+      <body name="b" pos="0.4 0 0">
+        <joint name="j2" type="hinge" axis="0 1 0.2" ref="0.3"/>
+        <geom type="box" size="0.15 0.03 0.03" pos="0.15 0 0"/>
+        <body name="c" pos="0.3 0 0">
+          <joint name="s3" type="slide" axis="1 0 0"/>
+          <geom type="sphere" size="0.05"/>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+  <actuator>
+    <position name="p1" joint="j1" kp="20" kv="2" gear="1.5" ctrlrange="-0.5 0.5"/>
+    <velocity name="v2" joint="j2" kv="3" gear="0.8"/>
+    <motor name="m2" joint="j2" gear="2" ctrlrange="-1 1" ctrllimited="true"/>
+    <position name="p3" joint="s3" kp="50" forcerange="-4 4"/>
+    <general name="g3" joint="s3" gaintype="affine" gainprm="1 0.5 0.2" biastype="affine" biasprm="0.1 -2 -0.3"/>
+  </actuator>
+</mujoco>
+"""
+
+
+def test_servos_and_clamping_match_mj_forward(tmp_path):
+    """Position and velocity servos (kp, kv, gear), an affine general actuator, ctrlrange and
+    forcerange clamping: qacc against mj_forward with controls beyond their ranges (to 1e-10),
+    and jac_x, jac_r, jac_p against central differences (the clamps' slopes included)."""
+    path = tmp_path / "servo.xml"
+    path.write_text(SERVO)
+    model = eomc.compile(str(path), functions=["rhs", "jac_x", "jac_r", "jac_p"], cache_dir=tmp_path / "c",
+                         progress=False)
+    assert model.input_names == ("ctrl_p1", "ctrl_v2", "ctrl_m2", "ctrl_p3", "ctrl_g3")
+    assert {"arm_j1", "gain_p1", "bias1_p1", "bias2_p1", "bias2_v2", "gain2_g3", "bias0_g3"} <= set(model.param_names)
+    assert _worst(model, path, trials=8) < 1e-10
+    m = prepared(load_mjmodel(path))
+    built = tree_ir(m, actuators=check_model(m, path))
+    d, rng = mujoco.MjData(m), np.random.default_rng(2)
+    clamped = 0
+    for _ in range(4):
+        x = np.concatenate([rng.uniform(-1, 1, model.nq), rng.uniform(-1, 1, model.nx - model.nq)])
+        r = rng.uniform(-2, 2, model.ninput)
+        d.qpos[:], d.qvel[:] = to_mujoco(m, built, x[:model.nq], x[model.nq:])
+        d.ctrl[:] = r
+        mujoco.mj_forward(m, d)
+        clamped += int(abs(d.actuator_force[3]) == 4.0) + int(abs(r[0]) > 0.5)
+        h = 1e-6
+        fd = np.column_stack([(model.rhs(0.0, x + h * e, r=r) - model.rhs(0.0, x - h * e, r=r)) / (2 * h)
+                              for e in np.eye(model.nx)])
+        J = model.jacobian(0.0, x, r=r)
+        assert np.max(np.abs(J - fd)) < 1e-6 * max(1.0, np.max(np.abs(J)))
+        fd = np.column_stack([(model.rhs(0.0, x, r=r + h * e) - model.rhs(0.0, x, r=r - h * e)) / (2 * h)
+                              for e in np.eye(model.ninput)])
+        B = model.input_jacobian(0.0, x, r=r)
+        assert np.max(np.abs(B - fd)) < 1e-6 * max(1.0, np.max(np.abs(B)))
+        p = model.param_defaults
+        fd = np.column_stack([(model.rhs(0.0, x, p=p + h * e, r=r) - model.rhs(0.0, x, p=p - h * e, r=r)) / (2 * h)
+                              for e in np.eye(model.nparam)])
+        P = model.jac_p(0.0, x, r=r)          # the armature, gains and biases as parameters
+        assert np.max(np.abs(P - fd)) < 1e-6 * max(1.0, np.max(np.abs(P)))
+    assert clamped >= 2                                   # the clamps were exercised
+
+
+def test_kane_formulation_is_refused_saying_why(small, tmp_path):
+    path, _ = small
+    with pytest.raises(ModelError, match="an MJCF model has the recursive formulation only"):
+        eomc.compile(str(path), functions=["rhs"], formulation="kane", cache_dir=tmp_path, progress=False)
+
+
+def test_initial_state_is_mujocos_qpos0(small, tmp_path):
+    """A model starts where mj_resetData puts it: refs, and a free body where (and as turned as)
+    the file puts it, in eomc's coordinates (mapped back, the same qpos0; quaternions compared as
+    rotations)."""
+    path, model = small
+    m = load_mjmodel(path)
+    built = tree_ir(m, actuators=check_model(m, path, ("limits",)))
+    x0 = np.asarray(model.initial_state)
+    assert x0[model.state_names.index("q_slider")] == pytest.approx(0.1)
+    qpos, _ = to_mujoco(m, built, x0[:model.nq], x0[model.nq:])
+    assert np.max(np.abs(qpos - m.qpos0)) < 1e-15
+    turned = tmp_path / "turned.xml"
+    turned.write_text('<mujoco><worldbody><body pos="0.5 -1 2" euler="30 -70 120"><freejoint name="f"/>'
+                      '<geom size="0.1"/></body></worldbody></mujoco>')
+    from eomc.compiler.mjcf.model import reference_state
+    from eomc.compiler.mjcf.treeir import quat_matrix
+    m = load_mjmodel(turned)
+    built = tree_ir(m, actuators=[])
+    state = reference_state(m, built)
+    q = np.array([state.get(str(c).replace("(t)", ""), 0.0) for c in built.coordinates])
+    qpos, _ = to_mujoco(m, built, q, np.zeros(6))
+    assert np.max(np.abs(qpos[:3] - [0.5, -1, 2])) < 1e-15
+    assert np.max(np.abs(quat_matrix(qpos[3:]) - quat_matrix(m.qpos0[3:]))) < 1e-14
+
+
+def test_a_tendon_that_applies_no_force_is_accepted(tmp_path):
+    """A tendon with no stiffness, damping, friction or armature changes nothing with limits off:
+    accepted (a limited one with the limits warning); one with stiffness is refused."""
+    def tendon(attrs):
+        path = tmp_path / "t.xml"
+        path.write_text(f"""<mujoco><worldbody><body><joint name="j" type="hinge"/><geom size="0.1"/>
+          <body pos="0 0 -1"><joint name="k" type="hinge"/><geom size="0.1"/></body></body></worldbody>
+          <tendon><fixed name="t" {attrs}><joint joint="j" coef="1"/><joint joint="k" coef="-1"/></fixed></tendon>
+          </mujoco>""")
+        return load_mjmodel(path), path
+    m, path = tendon("")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert check_model(m, path) == []
+    m, path = tendon('limited="true" range="-0.1 0.1"')
+    with pytest.warns(EomcWarning, match="tendon t: its range limits are not modelled"):
+        check_model(m, path)
+    m, path = tendon('stiffness="2"')
+    with pytest.raises(ModelFileError, match=r"t.xml:3: <tendon>: 1 tendon\(s\) with stiffness"):
+        check_model(m, path)

@@ -1,0 +1,130 @@
+"""The compliant ground-contact law, on plain SymPy scalars: Hunt–Crossley + regularised Coulomb.
+
+One job: given the world position and velocity of a contact sphere's centre, the
+body's angular velocity and the ground plane, return the penetration, the normal
+force and the friction force (world components).  Both routes use it -- the SymPy
+System route (:mod:`.system`, nested expressions) and the joint tree's
+(:mod:`.tree`, where every argument is already a named temporary of the recursion),
+so both compute the same numbers.
+
+Normal force (Hunt & Crossley 1975, Hertz exponent p = 3/2 for a sphere):
+
+    δ = r - (n·c - h)            penetration of the sphere (centre c, radius r) into
+                                 the plane {x: n·x = h}; δ > 0 in contact
+    F_n = k·δ₊^p·(1 + (3/2)·c_d·δ̇),   δ̇ = -n·v_c,   clipped at F_n ≥ 0
+
+written without branches, δ₊ = (δ + |δ|)/2 and F_n = (F + |F|)/2, so the C code
+has no ``if`` and its derivatives (jac_x) exist everywhere but at δ = 0 and F = 0
+(F_n is C¹ in δ there: δ₊^{3/2} has a zero slope at 0).
+
+Friction (regularised Coulomb): the slip velocity of the material point at the
+bottom of the sphere, v_p = v_c + ω × (-r·n), has the tangential part
+v_t = v_p - (n·v_p)·n, and
+
+    F_t = -μ·F_n·v_t / sqrt(|v_t|² + v_s²)
+
+which is Coulomb's μ·F_n opposing the slip for |v_t| ≫ v_s and a viscous
+μ·F_n/v_s for |v_t| ≪ v_s (no true sticking: a body on a slope creeps at about
+v_s·tanθ/μ).  The force acts at the contact point p = c - r·n.
+"""
+import sympy as sm
+
+__all__ = ["DEFAULTS", "EXPONENT", "ContactForces", "ground_forces", "damping_from_restitution",
+           "check_value"]
+
+# Default parameters per contact (SI units), and why:
+# k   1e6 N/m^1.5  Hertz for a sphere of radius R = 2 cm of rubber-like stiffness on a rigid
+#                  plane, k = (4/3)·E*·sqrt(R) with E* ≈ 5 MPa: a 10 kg robot on four feet
+#                  sinks by about 0.3 mm, stiff enough to stand, soft enough that explicit
+#                  methods are not forced to microsecond steps.
+# c   2 s/m        Hunt–Crossley damping: restitution e ≈ 1 - c·v_in = 0.4 for a 0.3 m/s
+#                  touch-down (a foot landing: most of the impact is absorbed), and it damps
+#                  a standing robot's bounce on its feet within a few tenths of a second.
+# mu  1.0          rubber on a hard floor; MuJoCo's default sliding friction too.
+# vs  0.01 m/s     the regularisation's speed: slip slower than this is viscous.  Smaller is
+#                  closer to Coulomb (less creep) but stiffer (slope μ·F_n/v_s).
+# r   0 m          a point (a sphere of radius 0).
+DEFAULTS = {"k": 1.0e6, "c": 2.0, "mu": 1.0, "vs": 0.01, "r": 0.0}
+EXPONENT = sm.Rational(3, 2)      # Hertz: a sphere on a plane
+
+_MEANING = {"k": "stiffness", "c": "damping", "mu": "friction coefficient",
+            "vs": "friction regularisation speed", "r": "radius"}
+
+
+def check_value(name, key, value, where=None):
+    """A contact parameter's default: a finite number, ≥ 0 (> 0 for v_s); ValueError naming it."""
+    import math
+    label = f"contact {name!r}" + (f" ({where})" if where else "")
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{label}: {_MEANING[key]} {key} must be a number, not {value!r}") from None
+    if not math.isfinite(x):
+        raise ValueError(f"{label}: {_MEANING[key]} {key} must be finite, not {value!r}")
+    if x < 0 or (key == "vs" and x == 0):
+        need = "> 0" if key == "vs" else ">= 0"
+        raise ValueError(f"{label}: {_MEANING[key]} {key} = {x:g} must be {need}")
+    return x
+
+
+def damping_from_restitution(e, impact_speed):
+    """The damping c of this law for a restitution ``e`` at ``impact_speed``: c = (1 - e)/v_in.
+
+    Hunt & Crossley's relation is λ/k = 3(1 - e)/(2·v_in) for F = k·δ^p + λ·δ^p·δ̇; this
+    law writes λ/k = (3/2)·c, so c = (1 - e)/v_in.  First order in (1 - e): the simulated
+    restitution is close to ``e`` only near ``impact_speed`` and for e near 1
+    (tests/compiler/contact/test_sphere.py measures how close)."""
+    e, v = float(e), float(impact_speed)
+    if not 0.0 <= e <= 1.0:
+        raise ValueError(f"restitution e = {e:g} must be in [0, 1]")
+    if not v > 0.0:
+        raise ValueError(f"impact speed {v:g} must be > 0 to turn a restitution into a damping")
+    return (1.0 - e) / v
+
+
+class ContactForces:
+    """What :func:`ground_forces` returns: SymPy expressions (world components)."""
+
+    def __init__(self, depth, normal, friction, force, point_offset):
+        self.depth = depth            # δ (signed: < 0 out of contact)
+        self.normal = normal          # F_n ≥ 0 (scalar, along n)
+        self.friction = friction      # F_t, 3 world components
+        self.force = force            # F_n·n + F_t, 3 world components
+        self.point_offset = point_offset   # contact point from the sphere centre, world: -r·n
+
+
+def _dot(a, b):
+    return sum((x * y for x, y in zip(a, b)), sm.S.Zero)
+
+
+def _cross(a, b):
+    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+
+
+def _pos(x):
+    return (x + sm.Abs(x)) / 2
+
+
+def ground_forces(centre, velocity, omega, params, normal=(0, 0, 1), height=0, let=None):
+    """:class:`ContactForces` of a sphere (centre, its velocity, the body's angular velocity:
+    3 world components each) on the plane n·x = height.
+
+    ``params``: {"k", "c", "mu", "vs", "r"} -> SymPy symbols or numbers.  ``let``: a
+    function naming an intermediate value (the tree's Recorder.let), identity by default."""
+    let = let or (lambda e: e)
+    n = [sm.sympify(x) for x in normal]
+    k, c, mu, vs, r = (params[x] for x in ("k", "c", "mu", "vs", "r"))
+    depth = let(r - (_dot(n, centre) - height))
+    rate = let(-_dot(n, velocity))
+    dpos = let(_pos(depth))
+    elastic = k * sm.Abs(dpos) ** EXPONENT     # |.|: rounding can leave δ₊ at -1e-17, and (-x)^1.5 is NaN
+    fn = let(_pos(let(elastic * (1 + sm.Rational(3, 2) * c * rate))))
+    arm = [-r * x for x in n]                       # centre -> contact point
+    w_arm = _cross(omega, arm)
+    vp = [velocity[i] + w_arm[i] for i in range(3)]
+    vn = let(_dot(n, vp))
+    vt = [let(vp[i] - vn * n[i]) for i in range(3)]
+    scale = let(-mu * fn / sm.sqrt(_dot(vt, vt) + vs ** 2))
+    ft = [let(scale * vt[i]) for i in range(3)]
+    force = [let(fn * n[i] + ft[i]) for i in range(3)]
+    return ContactForces(depth, fn, ft, force, arm)

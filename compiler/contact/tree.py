@@ -1,0 +1,413 @@
+"""Ground contacts on the links of a robot read into the joint tree (URDF).
+
+One job: put contact spheres on tree bodies and lower them into the recursion.
+
+- :class:`ContactSpec` is what a user names: a link, a point in the link frame, a
+  radius and the law's parameters (``contacts=[...]`` of :func:`eomc.compile`,
+  ``--contact LINK[:x,y,z[:radius]]`` on the command line).
+- :func:`with_contacts` turns them into :class:`ContactLoad` entries of the Tree (the
+  body, the point from the body's origin, the parameters ``k_<name>``, ...) plus the
+  model's contact outputs and events, written as placeholders :class:`ContactValue`.
+- :func:`lower_contacts` (called by :mod:`eomc.compiler.tree.lower`) computes, with
+  the recursion's Recorder, each body's world rotation and origin from its parent's
+  (so a foot's position and velocity are O(depth) named temporaries, never nested
+  SymPy products of the whole chain), the point's world position and velocity from
+  the body's spatial velocity, the law of :mod:`.law`, and adds the force and its
+  moment to the body's external load; the placeholders become those temporaries.
+"""
+from dataclasses import dataclass, field
+
+import sympy as sm
+
+from eomc.runtime.errors import ModelError
+
+from .law import DEFAULTS, ground_forces
+from .system import contact_symbols, parameter_defaults, unit_normal
+
+__all__ = ["ContactSpec", "ContactLoad", "ContactValue", "COLLISION_SPHERES", "parse_contact",
+           "collision_spheres", "with_contacts", "lower_contacts", "contact_outputs"]
+
+# what each contact adds to the outputs (placeholders' kind index) and its event
+OUTPUT_KINDS = ("Fn", "Ftx", "Fty", "Ftz", "depth")
+
+
+@dataclass(frozen=True)
+class ContactSpec:
+    """A contact sphere on ``link``: centre ``point`` (link frame), law parameters as
+    :func:`eomc.contact.ground` (None: the defaults of :data:`.law.DEFAULTS`)."""
+    link: str
+    point: tuple = (0.0, 0.0, 0.0)
+    radius: float = None
+    name: str = None
+    k: float = None
+    c: float = None
+    mu: float = None
+    vs: float = None
+    restitution: float = None
+    impact_speed: float = None
+    normal: tuple = (0.0, 0.0, 1.0)
+    height: float = 0.0
+
+
+def parse_contact(text):
+    """``LINK[:x,y,z[:radius]]`` (the command line's --contact) -> ContactSpec."""
+    parts = str(text).split(":")
+    if not parts[0] or len(parts) > 3:
+        raise ValueError(f"--contact {text!r}: expected LINK[:x,y,z[:radius]]")
+    point = (0.0, 0.0, 0.0)
+    if len(parts) > 1:
+        try:
+            point = tuple(float(v) for v in parts[1].split(","))
+        except ValueError:
+            point = ()
+        if len(point) != 3:
+            raise ValueError(f"--contact {text!r}: the point must be three numbers x,y,z") from None
+    radius = None
+    if len(parts) > 2:
+        try:
+            radius = float(parts[2])
+        except ValueError:
+            raise ValueError(f"--contact {text!r}: the radius must be a number") from None
+    return ContactSpec(parts[0], point, radius)
+
+
+COLLISION_SPHERES = "@collision"     # contacts=[...] entry: every <collision><sphere> of the URDF
+
+
+def collision_spheres(path):
+    """[ContactSpec] of every ``<collision>`` whose geometry is a ``<sphere>`` in the URDF at
+    ``path``: on its link, centred at the collision's origin, of its radius; named
+    ``<link>`` (``<link>_<k>`` for the k-th sphere of a link that has several)."""
+    from lxml import etree
+    root = etree.parse(str(path)).getroot()
+    out = []
+    for link in root.iter("link"):
+        spheres = []
+        for col in link.findall("collision"):
+            sphere = col.find("geometry/sphere")
+            if sphere is None:
+                continue
+            origin = col.find("origin")
+            xyz = (origin.get("xyz") if origin is not None else None) or "0 0 0"
+            try:
+                point = tuple(float(v) for v in xyz.split())
+                radius = float(sphere.get("radius"))
+            except (TypeError, ValueError):
+                raise ModelError(f"{path}:{sphere.sourceline}: link {link.get('name')!r}: a collision "
+                                 f"sphere with a bad radius or origin") from None
+            spheres.append((point, radius))
+        for k, (point, radius) in enumerate(spheres):
+            from eomc.compiler.urdf.tree import identifier
+            name = identifier(link.get("name")) + (f"_{k}" if len(spheres) > 1 else "")
+            out.append(ContactSpec(link.get("name"), point, radius, name=name))
+    return out
+
+
+def _expanded(specs, path):
+    out = []
+    for spec in specs:
+        if spec.link == COLLISION_SPHERES:
+            found = collision_spheres(path)
+            if not found:
+                raise ModelError(f"{path}: contacts {COLLISION_SPHERES}: the robot has no "
+                                 f"<collision> with a <sphere> geometry; name the contact links instead")
+            out += found
+        else:
+            out.append(spec)
+    return out
+
+
+def as_spec(item):
+    """A ContactSpec of a link name, 'LINK:x,y,z:radius', '@collision', a dict or a ContactSpec."""
+    if isinstance(item, ContactSpec):
+        return item
+    if isinstance(item, str):
+        return ContactSpec(COLLISION_SPHERES) if item == COLLISION_SPHERES else parse_contact(item)
+    if isinstance(item, dict):
+        try:
+            return ContactSpec(**item)
+        except TypeError as exc:
+            raise ValueError(f"contact {item!r}: {exc}") from None
+    raise ValueError(f"a contact is a link name, 'LINK:x,y,z:radius', a dict or an "
+                     f"eomc.contact.ContactSpec, not {item!r}")
+
+
+class ContactValue(sm.Function):
+    """Placeholder for a contact's computed quantity in outputs and events:
+    ContactValue(contact index, kind index into OUTPUT_KINDS); replaced by the
+    recursion's temporaries in :func:`lower_contacts`."""
+    nargs = 2
+
+    def _eval_derivative(self, s):       # never differentiated before it is replaced
+        return sm.S.Zero
+
+
+@dataclass(frozen=True)
+class ContactLoad:
+    """A contact in the Tree's loads: no force of its own until :func:`lower_contacts`."""
+    body: int
+    name: str
+    offset: sm.Matrix                  # sphere centre from the body origin, body frame
+    params: dict                       # "k", "c", "mu", "vs", "r" -> Symbol (or literal if folded)
+    normal: tuple                      # unit, world
+    height: object
+    frame: str = "contact"
+    moment: sm.Matrix = field(default_factory=lambda: sm.zeros(3, 1))
+    force: sm.Matrix = field(default_factory=lambda: sm.zeros(3, 1))
+
+    @property
+    def exprs(self):
+        """Everything that defines it, for the generation cache's key (tree_exprs)."""
+        return ([sm.Integer(self.body)] + list(self.offset)
+                + [self.params[k] for k in DEFAULTS] + list(self.normal) + [self.height])
+
+
+def _link_frames(source, link):
+    """(body key or "world", 4x4 pose of ``link`` in that body's frame), or None if no such link.
+    A body's own link needs no file reading; a welded one asks the geometry helper."""
+    import numpy as np
+    from eomc.compiler.urdf.tree import identifier
+    for b in source.bodies.values():
+        if b.name == link:
+            return identifier(b.name), np.eye(4)
+    members = {name for b in source.bodies.values() for name in b.links} | set(source.ground_links)
+    if link not in members and link != source.root:
+        return None
+    from eomc.runtime.geometry import urdf_link_transforms
+    return urdf_link_transforms(source).get(link)
+
+
+def _all_links(source):
+    return sorted({name for b in source.bodies.values() for name in b.links} | set(source.ground_links)
+                  | {source.root})
+
+
+def with_contacts(built, contacts, fold=False):
+    """(UrdfTree with the contacts in its tree's loads and their parameters, outputs, events).
+
+    ``built``: eomc.compiler.urdf.treeir.UrdfTree.  Errors name the contact and link."""
+    import numpy as np
+    from eomc.compiler.urdf.tree import identifier
+    specs = _expanded([as_spec(c) for c in contacts], built.source.path)
+    by_body = {b.name: i for i, b in enumerate(built.tree.bodies)}
+    bodies_by_key = {identifier(b.name): b for b in built.source.bodies.values()}
+    known = _all_links(built.source)
+
+    def locate(spec, point):
+        link = spec.link
+        found = _link_frames(built.source, link)
+        if found is None:
+            raise ModelError(f"contact on link {link!r}: the robot has no such link (links: "
+                             f"{', '.join(known[:12])}{', ...' if len(known) > 12 else ''})")
+        body_link, T = found
+        if body_link == "world":
+            raise ModelError(f"contact on link {link!r}: the link is welded to the ground, "
+                             f"so it cannot touch it")
+        i = by_body.get(body_link)
+        if i is None:
+            raise ModelError(f"contact on link {link!r}: its body {body_link!r} does not move "
+                             f"(locked or welded), so it is not in the tree")
+        T = np.asarray(T, dtype=float)
+        source = bodies_by_key.get(body_link)
+        com = getattr(source, "com", (0.0, 0.0, 0.0)) if source is not None else (0.0, 0.0, 0.0)
+        return i, T[:3, :3] @ np.array(point) + T[:3, 3], com     # point in the body's first link frame
+    return _with_located(built, specs, locate, fold, "link", identifier)
+
+
+def with_mjcf_contacts(built, m, contacts, fold=False):
+    """As :func:`with_contacts` for an MJCF model (``built``: its MjcfTree, ``m``: the compiled
+    MjModel): contacts on MuJoCo bodies, points in the body frame; ``@collision`` takes every
+    sphere geom on a body that is not the world."""
+    import mujoco
+    import numpy as np
+    from eomc.compiler.urdf.tree import identifier
+    by_body = {b.name: i for i, b in enumerate(built.tree.bodies)}
+    names = {(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) or f"body{b}"): b for b in range(m.nbody)}
+    specs = []
+    for spec in (as_spec(c) for c in contacts):
+        if spec.link != COLLISION_SPHERES:
+            specs.append(spec)
+            continue
+        found = []
+        for g in range(m.ngeom):
+            b = int(m.geom_bodyid[g])
+            if int(m.geom_type[g]) != int(mujoco.mjtGeom.mjGEOM_SPHERE) or b == 0:
+                continue
+            body = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) or f"body{b}"
+            gname = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g)
+            found.append(ContactSpec(body, tuple(float(v) for v in m.geom_pos[g]), float(m.geom_size[g][0]),
+                                     name=identifier(gname) if gname else f"{identifier(body)}_geom{g}"))
+        if not found:
+            raise ModelError(f"contacts {COLLISION_SPHERES}: the model has no sphere geom on a moving body")
+        specs += found
+    known = sorted(n for n, b in names.items() if b != 0)
+
+    def locate(spec, point):
+        b = names.get(spec.link)
+        if b is None:
+            raise ModelError(f"contact on body {spec.link!r}: the model has no such body (bodies: "
+                             f"{', '.join(known[:12])}{', ...' if len(known) > 12 else ''})")
+        if b == 0:
+            raise ModelError(f"contact on body {spec.link!r}: the world cannot touch the ground")
+        i = by_body.get(identifier(spec.link) if spec.link in names else spec.link)
+        if i is None:
+            raise ModelError(f"contact on body {spec.link!r}: it is not in the tree")
+        return i, np.array(point, dtype=float), tuple(float(v) for v in m.body_ipos[b])
+    return _with_located(built, specs, locate, fold, "body", identifier)
+
+
+def _with_located(built, specs, locate, fold, what, identifier):
+    """The common part: checks, parameters, ContactLoads, outputs and events.
+    ``locate(spec, point)`` -> (tree body index, point in its frame (numpy), its mass centre)."""
+    import dataclasses
+    import numpy as np
+    tree = built.tree
+    names = set()
+    loads, outputs, events = list(tree.loads), {}, {}
+    parameters = dict(built.parameters)
+    for j, spec in enumerate(specs):
+        link = spec.link
+        name = spec.name or identifier(link)
+        try:
+            values = parameter_defaults(name, spec.k, spec.c, spec.mu, spec.vs, spec.radius,
+                                        spec.restitution, spec.impact_speed, where=f"{what} {link}")
+            n = unit_normal(spec.normal, name)
+            point = [float(x) for x in spec.point]
+            height = float(spec.height)
+            if len(point) != 3 or not all(np.isfinite(point + [height])):
+                raise ValueError(f"contact {name!r}: point and height must be finite numbers")
+        except (ValueError, TypeError) as exc:
+            raise ModelError(str(exc)) from None
+        i, p_body, com_values = locate(spec, point)
+        if not name.isidentifier() or name in names:
+            raise ModelError(f"contact name {name!r} on {what} {link!r} is "
+                             + ("used twice" if name in names else "not an identifier"))
+        names.add(name)
+        com = _com(built, tree.bodies[i].name, com_values)
+        offset = sm.Matrix([sm.Float(p_body[r], 17) - com[r] for r in range(3)])
+        syms = contact_symbols(name)
+        if fold:
+            params = {k: sm.Float(values[k], 17) for k in syms}
+        else:
+            params = dict(syms)
+            for key, symbol in syms.items():
+                if symbol in parameters:
+                    raise ModelError(f"contact {name!r}: its parameter {symbol} is already a "
+                                     f"parameter of the model; name the contact differently")
+                parameters[symbol] = values[key]
+        loads.append(ContactLoad(i, name, offset, params, tuple(n),
+                                 sm.Float(height, 17) if height else sm.S.Zero))
+        for kind, label in enumerate(OUTPUT_KINDS):
+            outputs[f"{label}_{name}"] = ContactValue(j, kind)
+        events[f"contact_{name}"] = ContactValue(j, OUTPUT_KINDS.index("depth"))
+    new_tree = dataclasses.replace(tree, loads=tuple(loads))
+    new = type(built).__new__(type(built))
+    new.__dict__.update(built.__dict__)
+    new.tree, new.parameters = new_tree, parameters
+    return new, outputs, events
+
+
+def merged_outputs(overrides, outputs, events):
+    """``overrides`` (the model_spec keyword arguments) with the contacts' outputs and
+    events added after the caller's own (whose names win)."""
+    result = dict(overrides)
+    result["outputs"] = {**outputs, **(overrides.get("outputs") or {})}
+    given = overrides.get("events")
+    if given is not False:
+        result["events"] = {**events, **(given or {})}
+    return result
+
+
+def _com(built, body_name, values):
+    """The body origin (its mass centre) in its frame, as the tree writes it: the parameters
+    cx_/cy_/cz_<body> where they are symbols, else the literal ``values``."""
+    by_name = {str(s): s for s in built.parameters}
+    out = []
+    for axis, value in zip(("cx", "cy", "cz"), values):
+        symbol = by_name.get(f"{axis}_{body_name}")
+        out.append(symbol if symbol is not None else (sm.Float(float(value), 17) if value else sm.S.Zero))
+    return out
+
+
+def contact_outputs(tree):
+    return [ld for ld in tree.loads if isinstance(ld, ContactLoad)]
+
+
+def _mat3(E, v):
+    return [sum((E[i][j] * v[j] for j in range(3)), sm.S.Zero) for i in range(3)]
+
+
+def _mat3T(E, v):
+    return [sum((E[j][i] * v[j] for j in range(3)), sm.S.Zero) for i in range(3)]
+
+
+def _cross(a, b):
+    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+
+
+class WorldPoses:
+    """Each body's world rotation (world -> body components) and origin (world), built
+    from its parent's on demand with the Recorder: O(depth) named entries per body."""
+
+    def __init__(self, bodies, rec):
+        self.bodies, self.rec, self.R, self.p = bodies, rec, {}, {}
+
+    def rotation(self, i):
+        if i not in self.R:
+            b = self.bodies[i]
+            if b.parent < 0:
+                self.R[i] = b.E
+            else:
+                Rp = self.rotation(b.parent)
+                self.R[i] = [[self.rec.let(sum((b.E[r][k] * Rp[k][s] for k in range(3)), sm.S.Zero))
+                              for s in range(3)] for r in range(3)]
+        return self.R[i]
+
+    def origin(self, i):
+        if i not in self.p:
+            b = self.bodies[i]
+            if b.parent < 0:
+                self.p[i] = list(b.r)
+            else:
+                Rp = self.rotation(b.parent)
+                po = self.origin(b.parent)
+                step = _mat3T(Rp, b.r)          # parent components -> world
+                self.p[i] = [self.rec.let(po[k] + step[k]) for k in range(3)]
+        return self.p[i]
+
+
+def lower_contacts(tree, bodies, rec, v, rename):
+    """Add every ContactLoad's force to its body's ``fext`` (LoweredBody, body components
+    about the origin); return {ContactValue placeholder: temporary}.
+
+    ``v``: the bodies' spatial velocities [ω; v_origin] (body components, the recursion's);
+    ``rename(expr, what)``: mechanics symbols -> slot symbols (parameters)."""
+    contacts = contact_outputs(tree)
+    if not contacts:
+        return {}
+    poses = WorldPoses(bodies, rec)
+    values = {}
+    for index, load in enumerate(contacts):
+        i = load.body
+        what = f"contact {load.name} on body {tree.bodies[i].name}"
+        off = [rename(x, what) for x in load.offset]
+        params = {k: rename(s, what) for k, s in load.params.items()}
+        R = poses.rotation(i)
+        o = poses.origin(i)
+        w_b, v_b = v[i][:3], v[i][3:]
+        vp_b = [v_b[k] + c for k, c in enumerate(_cross(w_b, off))]
+        centre = [rec.let(o[k] + x) for k, x in enumerate(_mat3T(R, off))]
+        velocity = rec.vec(_mat3T(R, vp_b))
+        omega = rec.vec(_mat3T(R, w_b))
+        forces = ground_forces(centre, velocity, omega, params, load.normal, rename(load.height, what),
+                               let=rec.let)
+        f_b = rec.vec(_mat3(R, forces.force))
+        arm_b = _mat3(R, forces.point_offset)
+        lever = [off[k] + arm_b[k] for k in range(3)]
+        n_b = _cross(lever, f_b)
+        old = bodies[i].fext or [0] * 6
+        bodies[i].fext = [old[k] + x for k, x in enumerate(n_b + f_b)]
+        quantities = [forces.normal, *forces.friction, forces.depth]     # OUTPUT_KINDS' order
+        for kind, value in enumerate(quantities):
+            values[ContactValue(index, kind)] = value
+    return values

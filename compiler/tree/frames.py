@@ -1,0 +1,465 @@
+"""Frame outputs: where named frames are, how fast they move, their Jacobians, the centre of mass.
+
+``eomc.compile(robot, frames=["tool0", "com"])`` / ``--frame tool0`` adds, per named frame,
+outputs of the model (the generated ``NAME_outputs``) in the world frame:
+
+    F.p.x  F.p.y  F.p.z              origin position
+    F.R[i][j]                        rotation matrix, row-major (columns: the frame's axes)
+    F.v.x  F.v.y  F.v.z              velocity of the origin
+    F.w.x  F.w.y  F.w.z              angular velocity
+    F.J[i][j]                        6 x nu Jacobian: rows v.x, v.y, v.z, w.x, w.y, w.z,
+                                     columns the model's speeds, so (v; w) = J u
+
+and for ``com``: ``com.p.x`` ... (the whole robot's mass centre) and ``com.v.x`` ...  This is
+Pinocchio's LOCAL_WORLD_ALIGNED convention (``getFrameVelocity`` / ``getFrameJacobian``:
+linear velocity of the frame's origin, then angular velocity, world components), entry
+for entry.  The runtime reads them back as arrays (eomc.runtime.frames).
+
+Why from the tree and not by differentiating positions: every quantity is built along the
+path from the root, one named temporary per entry (the Recorder of the recursive
+formulation), so a frame at depth d costs O(d) code and the centre of mass O(n); the
+Jacobian's column of speed k of body j is the joint's motion axis carried to the world,
+``[R_j S_v + (R_j S_w) x (p_F - p_j); R_j S_w]`` (S = (S_w, S_v): the body's velocity per
+unit speed, its origin's linear part), no symbolic differentiation anywhere.  The code is
+appended to the program of whichever formulation generates the model (Kane's or the
+recursive one), so the optimizer shares sin/cos and products with the dynamics; rhs is
+unchanged (outputs are their own C function).
+
+A named frame is a body of the tree plus a constant placement on it (:class:`FrameSpec`).
+Where the names come from (:func:`resolve_frames`):
+
+- URDF robots: every link, links welded by fixed joints (tool0, ee_link) included, at its
+  own frame -- their fixed offset from the body they were merged into is kept;
+- MuJoCo models: every body, at its body frame (MuJoCo's ``xpos``/``xmat``);
+- Systems and KanesMethods: every body of the joint tree, at its mass centre with its frame.
+"""
+import difflib
+import re
+from dataclasses import dataclass, field
+
+import numpy as np
+import sympy as sm
+
+from eomc.runtime.errors import ModelError
+
+from .algorithms import Recorder
+from .model import NotATree
+
+__all__ = ["FrameSpec", "FrameSource", "resolve_frames", "with_frames", "frame_output_names",
+           "frames_digest", "COM"]
+
+COM = "com"
+_AXES = ("x", "y", "z")
+
+
+@dataclass(frozen=True)
+class FrameSpec:
+    """A named frame fixed to tree body ``body`` (-1: the ground).
+
+    ``rotation``: 3x3 numbers, the frame's axes in body components; ``offset``: 3
+    expressions (mechanics symbols: parameters such as the body's mass-centre coordinates),
+    the frame's origin from the body's origin, body components."""
+    name: str
+    body: int
+    rotation: tuple
+    offset: tuple
+
+
+@dataclass(frozen=True)
+class FrameSource:
+    """What the frame outputs are computed from (before lowering).
+
+    ``columns[k]``: the model speed (index into the model's speeds) of the tree's speed k;
+    ``defaults``: values of symbols a placement uses that the model's equations lack (a URDF
+    number that only places a link)."""
+    tree: object
+    frames: tuple
+    com: bool
+    nu: int
+    columns: tuple
+    defaults: dict = field(default_factory=dict)
+
+    def names(self):
+        return frame_output_names([f.name for f in self.frames], self.com, self.nu)
+
+
+def frame_output_names(frames, com, nu):
+    """The output names, in order, of frames named ``frames`` (and the centre of mass)."""
+    out = []
+    for f in frames:
+        out += [f"{f}.p.{a}" for a in _AXES]
+        out += [f"{f}.R[{i}][{j}]" for i in range(3) for j in range(3)]
+        out += [f"{f}.v.{a}" for a in _AXES] + [f"{f}.w.{a}" for a in _AXES]
+        out += [f"{f}.J[{i}][{j}]" for i in range(6) for j in range(nu)]
+    if com:
+        out += [f"{COM}.p.{a}" for a in _AXES] + [f"{COM}.v.{a}" for a in _AXES]
+    return out
+
+
+# ---------------------------------------------------------------- which frames there are
+
+
+def _requested(names):
+    """(unique frame names in order, com wanted) of ``frames=`` (a name or a list of names)."""
+    if names is None:
+        return [], False
+    if isinstance(names, str):
+        names = [names]
+    if isinstance(names, (set, frozenset, dict)):     # no order: the outputs' order would vary by run
+        raise ModelError(f"frames= takes a list of frame names (its order is the outputs' order), "
+                         f"not a {type(names).__name__}")
+    try:
+        names = list(names)
+    except TypeError:
+        raise ModelError(f"frames= takes a list of frame names (e.g. ['tool0', 'com']), "
+                         f"not {names!r}") from None
+    out, com = [], False
+    for n in names:
+        if not isinstance(n, str) or not n.strip():
+            raise ModelError(f"frames=: each frame is named by a non-empty string, not {n!r}")
+        n = n.strip()
+        if n == COM:
+            com = True
+        elif n not in out:
+            out.append(n)
+    return out, com
+
+
+def _unknown(name, known, where, what):
+    close = difflib.get_close_matches(name, known, n=5, cutoff=0.4)
+    hint = (f"nearest: {', '.join(close)}" if close else
+            f"{what}s: {', '.join(known[:12])}{', ...' if len(known) > 12 else ''}")
+    return ModelError(f"{where}: no {what} named {name!r} to output as a frame ({hint}; "
+                      f"'{COM}' is the centre of mass)")
+
+
+def _columns(tree, speeds, where):
+    """Tree speed k -> its index among the model's speeds (the same symbols)."""
+    index = {s: j for j, s in enumerate(speeds)}
+    out = []
+    for s in tree.speeds:
+        if s not in index:
+            raise ModelError(f"{where}: frame outputs: the joint tree's speed {s} is not a speed of "
+                             f"the model (a constrained or reduced system?); frames are not available")
+        out.append(index[s])
+    return tuple(out)
+
+
+def resolve_frames(spec, names):
+    """The :class:`FrameSource` of the frames ``names`` asks for in the model ``spec``
+    (a :class:`~eomc.compiler.model.spec.ModelSpec`), or None when none is asked for.
+    An unknown name is a ModelError listing the nearest names the model has."""
+    wanted, com = _requested(names)
+    if not wanted and not com:
+        return None
+    where = str(spec.path) if spec.path is not None else f"model {spec.name}"
+    formed = spec.formed
+    urdf = getattr(formed, "_urdf", None)
+    system_urdf = getattr(spec.system, "urdf", None)
+    if urdf is not None or system_urdf is not None:
+        tree, specs, defaults = _urdf_frames(urdf, system_urdf, wanted, where)
+    elif getattr(formed, "_mjcf", None) is not None:
+        tree, specs, defaults = _mjcf_frames(formed._mjcf, spec.path, wanted, where)
+    else:
+        tree = _system_tree(spec, where)
+        specs, defaults = _body_frames(tree, wanted, where), dict(spec.parameters or {})
+    seen = {}
+    for f, asked in zip(specs, wanted):
+        if f.name in seen or f.name == COM:
+            raise ModelError(f"{where}: frames {seen.get(f.name, COM)!r} and {asked!r} would both be "
+                             f"output as {f.name!r}.*; ask for one of them")
+        seen[f.name] = asked
+    return FrameSource(tree=tree, frames=tuple(specs), com=com, nu=formed.nu,
+                       columns=_columns(tree, formed.speeds, where), defaults=defaults)
+
+
+def _system_tree(spec, where):
+    tree = getattr(spec.formed, "_tree", None)
+    if tree is not None:
+        return tree
+    from .recognize import tree_of
+    if spec.system is None:
+        raise ModelError(f"{where}: frame outputs need the model's joint tree; only formed "
+                         f"equations were given (pass the System or KanesMethod itself)")
+    try:
+        return tree_of(spec.system, spec.formed)
+    except NotATree as exc:
+        raise ModelError(f"{where}: frame outputs are computed along the joint tree, and this "
+                         f"system is not one the tree reader takes ({exc})") from None
+
+
+_IDENTITY = ((1, 0, 0), (0, 1, 0), (0, 0, 1))
+
+
+def _body_frames(tree, wanted, where):
+    """Bodies of a System's tree by name: the mass centre, the body's frame."""
+    index = {b.name: i for i, b in enumerate(tree.bodies)}
+    out = []
+    for name in wanted:
+        if name not in index:
+            raise _unknown(name, list(index), where, "body")
+        out.append(FrameSpec(_safe(name), index[name], _IDENTITY, (0, 0, 0)))
+    return out
+
+
+def _safe(name):
+    """A frame name as an output prefix: a '.' or ',' would break the names (and CSV headers)."""
+    return re.sub(r"[.,\s\[\]]", "_", name)
+
+
+def _urdf_frames(built, system_urdf, wanted, where):
+    """(Tree, FrameSpecs, defaults) of URDF links: the tree route's UrdfTree (``built``) or,
+    on Kane's route, the System's UrdfSystem (the same tree built from its numbers: its
+    symbols are the System's, names and all)."""
+    from eomc.compiler.urdf.treeir import tree_ir
+    if built is None:
+        folded = not system_urdf.parameters
+        built = tree_ir(system_urdf.tree, fold=folded)
+    source = built.source
+    placements = _link_placements(source)
+    by_identifier = {}
+    for link in placements:
+        by_identifier.setdefault(_ident(link), link)
+    body_index = {j.child: k for k, j in enumerate(source.joints)}
+    out = []
+    for name in wanted:
+        link = name if name in placements else by_identifier.get(name)
+        if link is None:
+            raise _unknown(name, list(placements), where, "link")
+        owner, T = placements[link]
+        if owner is None:
+            out.append(FrameSpec(_safe(name), -1, _numbers(T[:3, :3]), _numbers(T[:3, 3])))
+            continue
+        body = source.bodies[owner]
+        s = _ident(owner)
+        c = [_com_symbol(f"c{a}_{s}", v, built.parameters) for a, v in zip(_AXES, body.com)]
+        offset = tuple(_number(T[k, 3]) - c[k] for k in range(3))
+        out.append(FrameSpec(_safe(name), body_index[owner], _numbers(T[:3, :3]), offset))
+    return built.tree, out, dict(built.parameters)
+
+
+def _ident(name):
+    from eomc.compiler.urdf.tree import identifier
+    return identifier(name)
+
+
+def _number(v):
+    from eomc.compiler.urdf.treeir import _num
+    return _num(float(v))
+
+
+def _numbers(a):
+    a = np.asarray(a, dtype=float)
+    if a.ndim == 1:
+        return tuple(_number(v) for v in a)
+    return tuple(tuple(_number(v) for v in row) for row in a)
+
+
+def _com_symbol(name, value, parameters):
+    """The mass-centre coordinate as the tree writes it: its parameter, or the literal
+    (a zero, or any value when the parameters were folded)."""
+    symbol = sm.Symbol(name)
+    return symbol if symbol in parameters else _number(value)
+
+
+def _link_placements(source):
+    """{link: (body link or None for the ground, 4x4 pose in that body's link frame)} of every
+    link of a URDF tree (eomc.compiler.urdf.tree.Tree): a body's own link at the identity,
+    links merged into it (welded, or below a joint locked at 0) through their joints' origins."""
+    from eomc.compiler.urdf.reader import read_urdf
+    robot = read_urdf(source.path)
+    parent_joint = {j.child: j for j in robot.joints}
+    out = {}
+    moving_root = source.root in source.bodies
+    for link in robot.links:
+        chain, at = [], link
+        while at not in out and at not in source.bodies and not (at == source.root and not moving_root):
+            joint = parent_joint.get(at)
+            if joint is None:     # not reached from the root (build_tree refused such files)
+                break
+            chain.append(joint)
+            at = joint.parent
+        if at in out:
+            owner, T = out[at]
+        elif at in source.bodies:
+            owner, T = at, np.eye(4)
+            out[at] = (owner, T)
+        elif at == source.root:
+            owner, T = None, np.eye(4)
+            out[at] = (owner, T)
+        else:
+            continue
+        for joint in reversed(chain):
+            T = T @ joint.origin
+            out[joint.child] = (owner, T)
+    return {link: out[link] for link in robot.links if link in out}
+
+
+def _mjcf_frames(built, path, wanted, where):
+    """(Tree, FrameSpecs, defaults) of MuJoCo bodies at their body frames (``xpos``, ``xmat``):
+    the tree body carrying the MuJoCo body's mass has its frame and sits at its mass centre
+    ``body_ipos`` (eomc.compiler.mjcf.treeir), so the frame is that body, offset by -ipos."""
+    import mujoco
+    from eomc.compiler.mjcf.model import load_mjmodel
+    from eomc.compiler.mjcf.treeir import _names
+    m = load_mjmodel(path)
+    names = _names(m, mujoco.mjtObj.mjOBJ_BODY, m.nbody, "body")
+    index = {b.name: i for i, b in enumerate(built.tree.bodies)}
+    lookup = {}
+    for b, (raw, s) in enumerate(names):
+        lookup.setdefault(raw, (b, s))
+        lookup.setdefault(s, (b, s))
+    out = []
+    for name in wanted:
+        if name not in lookup:
+            raise _unknown(name, [raw for raw, _ in names], where, "body")
+        b, s = lookup[name]
+        if b == 0:        # the world body
+            out.append(FrameSpec(_safe(name), -1, _IDENTITY, (0, 0, 0)))
+            continue
+        c = [_com_symbol(f"c{a}_{s}", v, built.parameters) for a, v in zip(_AXES, m.body_ipos[b])]
+        out.append(FrameSpec(_safe(name), index[s], _IDENTITY, tuple(-x for x in c)))
+    return built.tree, out, dict(built.parameters)
+
+
+# ---------------------------------------------------------------- lowering
+
+
+def frames_digest(source):
+    """Everything of ``source`` that shapes the generated code, for the generation cache key
+    (the tree itself is in the key already, through the formed system or its digest)."""
+    if source is None:
+        return []
+    out = ["frames", str(source.com), str(source.columns)]
+    for f in source.frames:
+        out += [f.name, str(f.body), str(f.rotation), str(f.offset)]
+    out += [f"{s}={v!r}" for s, v in sorted(source.defaults.items(), key=lambda kv: str(kv[0]))]
+    if source.frames or source.com:
+        from .formed import tree_exprs
+        out += [str(len(source.tree.bodies))] + [str(b.parent) for b in source.tree.bodies]
+        out += [str(e) for e in tree_exprs(source.tree)]
+    return out
+
+
+def _cross(a, b):
+    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+
+
+def _dot3(M, v):
+    return [sum((M[i][k] * v[k] for k in range(3)), sm.S.Zero) for i in range(3)]
+
+
+class _World:
+    """Per tree body, built once on demand and from the root down (no recursion: depth is
+    free): R (body axes in world components), p (its origin), w (angular velocity), v (its
+    origin's velocity), and its joint's axes in the world [(model speed, axis_w, origin_v)]."""
+
+    def __init__(self, tree, rec, ren, speeds, columns):
+        self.tree, self.rec, self.ren, self.speeds, self.columns = tree, rec, ren, speeds, columns
+        self.done = {}
+
+    def ground(self):
+        one, zero = sm.S.One, sm.S.Zero
+        return ([[one if i == j else zero for j in range(3)] for i in range(3)], [zero] * 3,
+                [zero] * 3, [zero] * 3, [])
+
+    def __call__(self, i):
+        if i < 0:
+            return self.ground()
+        chain = []
+        while i >= 0 and i not in self.done:
+            chain.append(i)
+            i = self.tree.bodies[i].parent
+        for j in reversed(chain):
+            self.done[j] = self._place(j)
+        return self.done[chain[0]] if chain else self.done[i]
+
+    def _place(self, i):
+        b, let = self.tree.bodies[i], self.rec.let
+        what = f"body {b.name} (joint {b.joint})"
+        Rp, pp, wp, vp, _ = self(b.parent) if b.parent >= 0 else self.ground()
+        E = [[self.ren(b.rotation[r, c], what) for c in range(3)] for r in range(3)]
+        r = [self.ren(b.position[k], what) for k in range(3)]
+        R = [[let(sum((Rp[a][k] * E[c][k] for k in range(3)), sm.S.Zero)) for c in range(3)]
+             for a in range(3)]
+        Rr = _dot3(Rp, r)
+        p = [let(pp[k] + Rr[k]) for k in range(3)]
+        axes = []
+        w, v = list(wp), [vp[k] + x for k, x in enumerate(_cross(wp, [let(x) for x in Rr]))]
+        for k, S in b.dofs:
+            S = [self.ren(s, what) for s in S]
+            aw = [let(x) for x in _dot3(R, S[:3])]
+            av = [let(x) for x in _dot3(R, S[3:])]
+            u = self.speeds[self.columns[k]]
+            axes.append((self.columns[k], aw, av))
+            w = [w[m] + aw[m] * u for m in range(3)]
+            v = [v[m] + av[m] * u for m in range(3)]
+        return R, p, [let(x) for x in w], [let(x) for x in v], axes
+
+    def path(self, i):
+        """Bodies from ``i`` up to the root."""
+        out = []
+        while i >= 0:
+            out.append(i)
+            i = self.tree.bodies[i].parent
+        return out
+
+
+def with_frames(sym, source, layout, nq):
+    """``sym`` (a :class:`~eomc.compiler.emit.symbolic.Symbolic`) with the frame outputs of
+    ``source`` appended to its ``outputs`` group (after the model's own outputs)."""
+    from dataclasses import replace
+    program = sym.program
+    rec = Recorder(program.ntemp)
+    memo = {}
+    defaults = {s: sm.Float(v) for s, v in source.defaults.items()
+                if isinstance(s, sm.Symbol) and s not in layout.subs}
+
+    def ren(e, what):
+        e = sm.sympify(e)
+        if defaults:
+            e = e.xreplace(defaults)
+        return layout.apply(e, f"frame outputs: {what}", memo)
+
+    speeds = layout.x[nq:nq + source.nu]
+    world = _World(source.tree, rec, ren, speeds, source.columns)
+    values = []
+    for f in source.frames:
+        R, p, w, v, _ = world(f.body)
+        C = [[sm.sympify(x) for x in row] for row in f.rotation]
+        o = [ren(x, f"the placement of frame {f.name}") for x in f.offset]
+        Ro = [rec.let(x) for x in _dot3(R, o)]
+        pf = [rec.let(p[k] + Ro[k]) for k in range(3)]
+        Rf = [[rec.let(sum((R[a][k] * C[k][c] for k in range(3)), sm.S.Zero)) for c in range(3)]
+              for a in range(3)]
+        vf = [rec.let(v[k] + x) for k, x in enumerate(_cross(w, Ro))]
+        J = [[sm.S.Zero] * source.nu for _ in range(6)]
+        for j in world.path(f.body):
+            pj = world(j)[1]
+            arm = [rec.let(pf[k] - pj[k]) for k in range(3)]
+            for col, aw, av in world(j)[4]:
+                lin = _cross(aw, arm)
+                for k in range(3):
+                    J[k][col] = rec.let(av[k] + lin[k])
+                    J[3 + k][col] = aw[k]
+        values += pf + [Rf[a][c] for a in range(3) for c in range(3)] + vf + list(w)
+        values += [J[i][j] for i in range(6) for j in range(source.nu)]
+    if source.com:
+        total, mp, mv = sm.S.Zero, [sm.S.Zero] * 3, [sm.S.Zero] * 3
+        for i, b in enumerate(source.tree.bodies):
+            m = ren(b.mass, f"the mass of body {b.name}")
+            if m == 0:
+                continue
+            _, p, _, v, _ = world(i)
+            total += m
+            mp = [mp[k] + m * p[k] for k in range(3)]
+            mv = [mv[k] + m * v[k] for k in range(3)]
+        if total == 0:
+            raise ModelError("frame outputs: the centre of mass of a model without mass")
+        inv = rec.let(1 / rec.let(total))
+        values += [rec.let(x * inv) for x in mp] + [rec.let(x * inv) for x in mv]
+    first = len(sym.output_names)
+    results = tuple((("out", first + k), e) for k, e in enumerate(values))
+    program = program.with_(assignments=program.assignments + tuple(rec.assignments),
+                            results=program.results + results, ntemp=rec.count)
+    return replace(sym, program=program, output_names=tuple(sym.output_names) + tuple(source.names()))

@@ -1,0 +1,105 @@
+"""MuJoCo models (.xml) on the command line: build, inspect, simulate, animate, --ignore.
+
+Models are compiled in process (eomc.cli.main) into the session's temporary cache; the
+model is a two-link arm with armature, a limit and a fixed tendon, so --ignore matters.
+"""
+import numpy as np
+import pytest
+
+pytest.importorskip("mujoco")
+
+from eomc.cli import main  # noqa: E402
+
+ARM = """<mujoco model="arm">
+  <worldbody>
+    <body name="upper" pos="0 0 1">
+      <joint name="shoulder" type="hinge" axis="0 1 0" armature="0.1" damping="0.2"/>
+      <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.04"/>
+      <body name="lower" pos="0.3 0 0">
+        <joint name="elbow" type="hinge" axis="0 1 0" range="-2 2"/>
+        <geom type="box" size="0.15 0.03 0.03" pos="0.15 0 0"/>
+      </body>
+    </body>
+  </worldbody>
+  <tendon><fixed name="coupling" stiffness="5"><joint joint="shoulder" coef="1"/><joint joint="elbow" coef="-1"/></fixed></tendon>
+  <actuator><motor name="m" joint="shoulder" gear="2"/></actuator>
+</mujoco>
+"""
+
+
+@pytest.fixture(scope="module")
+def arm(tmp_path_factory):
+    path = tmp_path_factory.mktemp("arm") / "arm.xml"
+    path.write_text(ARM)
+    return path
+
+
+def test_build_and_inspect_with_ignore(arm, tmp_path, capsys):
+    out = tmp_path / "out"
+    assert main(["build", str(arm), "-o", str(out), "--ignore", "tendons,limits", "-q"]) == 0
+    assert (out / "arm.c").is_file() and (out / "libarm.so").is_file()
+    assert "built model 'arm' (nq=2, nu=2" in capsys.readouterr().out
+    assert main(["inspect", str(arm), "--ignore", "tendons", "--ignore", "limits", "-q"]) == 0
+    text = capsys.readouterr().out
+    assert "parameters:" in text and "arm_shoulder" in text and "inputs: ctrl_m" in text
+
+
+def test_simulate_refuses_the_tendon_unless_ignored(arm, tmp_path, capsys):
+    traj = tmp_path / "traj.csv"
+    assert main(["simulate", str(arm), "--t-final", "0.2", "-o", str(traj), "-q"]) != 0
+    assert "<tendon>: 1 tendon(s) with stiffness, damping, friction or armature (e.g. coupling)" in \
+        capsys.readouterr().err
+    assert not traj.exists()
+    assert main(["simulate", str(arm), "--t-final", "0.2", "-o", str(traj), "--ignore", "tendons,limits",
+                 "--x0", "q_shoulder=0.3", "-q"]) == 0
+    data = np.genfromtxt(traj, delimiter=",", names=True)
+    assert data["t"][-1] == pytest.approx(0.2) and data["q_shoulder"][0] == 0.3
+    assert abs(data["q_shoulder"][-1] - 0.3) > 1e-3          # it falls
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["build", "{py}", "-o", "{tmp}/o", "--ignore", "tendons"], "--ignore applies to MuJoCo models (.xml)"),
+    (["simulate", "{py}", "--t-final", "1", "--ignore", "tendons"], "--ignore applies to MuJoCo models (.xml)"),
+    (["build", "{xml}", "-o", "{tmp}/o", "--ignore", "tendon"],
+     "ignore tendon: unknown; what may be ignored: tendons, equality"),
+])
+def test_ignore_mistakes_are_one_line_errors(arm, tmp_path, capsys, argv, message):
+    py = tmp_path / "m.py"
+    py.write_text("raise SystemExit('never read')\n")
+    argv = [a.format(py=py, xml=arm, tmp=tmp_path) for a in argv]
+    assert main(argv) != 0
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
+
+
+def test_animate_an_mjcf_model(arm, tmp_path, capsys):
+    """`eomc animate model.xml`: a page with MuJoCo's bodies and the geoms as shapes."""
+    page = tmp_path / "arm.html"
+    assert main(["animate", str(arm), "--t-final", "0.3", "-o", str(page), "--ignore", "tendons,limits",
+                 "-q"]) == 0
+    text = page.read_text()
+    assert '"upper"' in text and '"lower"' in text and '"cylinder"' in text
+
+
+def test_cli_ignorable_list_is_the_compilers():
+    """The CLI writes the list out (it must not import the compiler to build its parsers)."""
+    from eomc.cli.common import IGNORABLE as cli
+    from eomc.compiler.mjcf.model import IGNORABLE
+    assert cli == IGNORABLE
+
+
+def test_check_an_mjcf_model(arm, capsys):
+    """`eomc check model.xml --ignore ...` runs its checks on the MuJoCo model."""
+    assert main(["check", str(arm), "--ignore", "tendons,limits", "-q"]) == 0
+    assert "checks passed" in capsys.readouterr().out
+
+
+def test_show_says_an_mjcf_model_has_no_formed_equations(tmp_path, capsys):
+    """`eomc show model.xml` prints what it has and says M and f are not formed (never zeros)."""
+    path = tmp_path / "pend.xml"
+    path.write_text('<mujoco><worldbody><body><joint name="j" type="hinge" armature="0.2"/>'
+                    '<geom type="capsule" fromto="0 0 0 0 0 -1" size="0.05"/></body></worldbody></mujoco>')
+    assert main(["show", str(path), "-q"]) == 0
+    text = capsys.readouterr().out
+    assert "coordinates q: q_j" in text and "arm_j=0.2" in text
+    assert "mass matrix and forcing: not formed" in text and "mass matrix  (A" not in text
