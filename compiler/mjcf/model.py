@@ -6,8 +6,10 @@
 its model holds that an open-chain rigid-body tree with joint-space forces
 cannot express is refused with the element named (file:line where the tag is
 found in the file), or dropped with a warning when the caller names it in
-``ignore``.  Contacts are off (eomc has no contact); joint limits are not
-modelled (a warning says so unless ``"limits"`` is in ``ignore``).
+``ignore``.  Contacts are off (eomc has no contact).  Joint range limits
+(soft, see :mod:`eomc.compiler.tree.joint_laws`) and ``frictionloss``
+(regularised Coulomb friction, not MuJoCo's constraint) act unless
+``limits=False`` (or ``ignore`` names ``"limits"`` / ``"frictionloss"``).
 """
 import re
 import warnings
@@ -30,6 +32,7 @@ class MjcfModel:
     path: Path
     ignore: tuple = ()
     fold_parameters: bool = False
+    limits: bool = True          # range limits and frictionloss act (False: both ignored)
 
 
 def is_mjcf_path(model):
@@ -122,8 +125,16 @@ def check_model(m, path, ignore=()):
         if np.any(m.dof_armature[d:d + ndof]):
             problems.append(("armature", "joint", f"joint {jn}: armature {m.dof_armature[d]:g} (MuJoCo adds "
                              f"it to the joint-space inertia; eomc's tree has no such term)", jn))
-        if np.any(m.dof_frictionloss[d:d + ndof]):
-            problems.append(("frictionloss", "joint", f"joint {jn}: frictionloss (a constraint in MuJoCo)", jn))
+        if np.any(m.dof_frictionloss[d:d + ndof]) and kind in (0, 1) and "frictionloss" not in ignore:
+            problems.append(("frictionloss", "joint", f"joint {jn}: frictionloss on a {('free', 'ball')[kind]} "
+                             f"joint (eomc models it on hinges and slides)", jn))
+        if np.any(m.dof_frictionloss[d:d + ndof] < 0) or np.any(~np.isfinite(m.dof_frictionloss[d:d + ndof])):
+            raise ModelFileError(f"<joint>: joint {jn}: frictionloss {m.dof_frictionloss[d]:g}: it must be a "
+                                 f"finite number >= 0", path, _line(path, "joint", jn))
+        if m.jnt_limited[j] and kind in (2, 3) and (not np.all(np.isfinite(m.jnt_range[j]))
+                                                    or m.jnt_range[j][0] > m.jnt_range[j][1]):
+            raise ModelFileError(f"<joint>: joint {jn}: range {m.jnt_range[j][0]:g} {m.jnt_range[j][1]:g}: "
+                                 f"lower must be <= upper, both finite", path, _line(path, "joint", jn))
         if kind == 0 and int(m.body_parentid[m.jnt_bodyid[j]]) != 0:
             problems.append(("", "freejoint", f"joint {jn}: a free joint on a body that is not a child of "
                              f"the world"))
@@ -137,9 +148,10 @@ def check_model(m, path, ignore=()):
             problems.append(("", "joint", f"joint {jn}: stiffness on a {('free', 'ball')[kind]} joint"))
         if kind == 0 and np.any(m.dof_damping[d:d + 6]):
             problems.append(("", "joint", f"joint {jn}: damping on a free joint"))
-        if m.jnt_limited[j] and "limits" not in ignore:
-            warnings.warn(f"{path}: joint {jn}: its range limits are not modelled (contacts and limits are "
-                          f"off; ignore=('limits',) silences this)", EomcWarning, stacklevel=4)
+        if m.jnt_limited[j] and kind in (0, 1) and "limits" not in ignore:
+            warnings.warn(f"{path}: joint {jn}: range limits of {('free', 'ball')[kind]} joints are not "
+                          f"modelled (hinges' and slides' are; ignore=('limits',) silences this)",
+                          EomcWarning, stacklevel=4)
     motors = []
     for k in range(m.nu):
         an = _name(m, mujoco.mjtObj.mjOBJ_ACTUATOR, k, "actuator")
@@ -174,7 +186,9 @@ def mjcf_formed(model, overrides):
     _known(model.ignore)
     m = load_mjmodel(model.path)
     motors = check_model(m, model.path, model.ignore)
-    built = tree_ir(m, fold=model.fold_parameters, actuators=motors)
+    built = tree_ir(m, fold=model.fold_parameters, actuators=motors,
+                    limits=model.limits and "limits" not in model.ignore,
+                    friction=model.limits and "frictionloss" not in model.ignore, path=model.path)
     formed = formed_of_tree(built.tree)
     object.__setattr__(formed, "_mjcf", built)
     return formed, _merged(overrides, formed, built.parameters, built.inputs)

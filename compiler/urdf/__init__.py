@@ -14,20 +14,21 @@ from .system import UrdfSystem, system_from_tree
 __all__ = ["from_urdf", "urdf_system", "read_urdf", "build_tree", "system_from_tree", "UrdfSystem"]
 
 
-def urdf_system(path, *, floating_base=False, fold_parameters=False, mimic=False, gravity=9.81):
-    """The :class:`UrdfSystem` of the URDF file ``path`` (System, parameters, inputs, ...)."""
+def urdf_system(path, *, floating_base=False, fold_parameters=False, mimic=False, gravity=9.81, limits=True):
+    """The :class:`UrdfSystem` of the URDF file ``path`` (System, parameters, inputs, ...);
+    ``limits=False`` leaves out the joints' limits, damping and friction."""
     tree = build_tree(read_urdf(path), floating_base=floating_base)
-    return system_from_tree(tree, fold=fold_parameters, mimic=mimic, gravity=gravity)
+    return system_from_tree(tree, fold=fold_parameters, mimic=mimic, gravity=gravity, laws=limits)
 
 
-def from_urdf(path, *, floating_base=False, fold_parameters=False, mimic=False, gravity=9.81):
+def from_urdf(path, *, floating_base=False, fold_parameters=False, mimic=False, gravity=9.81, limits=True):
     """A SymPy ``System`` of the robot in the URDF file ``path``, ready to extend and compile.
 
     Its ``parameters`` (Symbol -> URDF value) and ``inputs`` (joint torques) are
     attached as attributes ``urdf_parameters`` and ``urdf_inputs``.
     """
     built = urdf_system(path, floating_base=floating_base, fold_parameters=fold_parameters,
-                        mimic=mimic, gravity=gravity)
+                        mimic=mimic, gravity=gravity, limits=limits)
     system = built.system
     system.urdf = built
     return system

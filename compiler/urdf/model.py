@@ -34,10 +34,11 @@ class UrdfModel:
     fold_parameters: bool = False
     mimic: bool = False
     gravity: float = 9.81
+    limits: bool = True          # the file's joint limits, damping and friction act (False: ignored)
 
     def options(self):
         return dict(floating_base=self.floating_base, fold_parameters=self.fold_parameters,
-                    mimic=self.mimic, gravity=self.gravity)
+                    mimic=self.mimic, gravity=self.gravity, limits=self.limits)
 
 
 def is_urdf_path(model):
@@ -90,7 +91,7 @@ def urdf_formed(model, formulation, overrides, formed_system):
     if formulation != "kane" and not (model.mimic and mimics):
         from eomc.compiler.tree.formed import formed_of_tree
         from .treeir import tree_ir
-        built = tree_ir(tree, fold=model.fold_parameters, gravity=model.gravity)
+        built = tree_ir(tree, fold=model.fold_parameters, gravity=model.gravity, laws=model.limits)
         formed = formed_of_tree(built.tree)
         object.__setattr__(formed, "_urdf", built)   # for the animation's poses (treeir.pose_source)
         return formed, _merged(overrides, formed, built.parameters, built.inputs), None
@@ -99,26 +100,35 @@ def urdf_formed(model, formulation, overrides, formed_system):
                       f"are constraints, which the recursive formulation's tree cannot carry: the robot "
                       f"goes through its SymPy System (formulation {formulation})", EomcWarning,
                       stacklevel=3)
-    built = system_from_tree(tree, fold=model.fold_parameters, mimic=model.mimic, gravity=model.gravity)
+    built = system_from_tree(tree, fold=model.fold_parameters, mimic=model.mimic, gravity=model.gravity,
+                             laws=model.limits)
     system = built.system
     system.urdf = built
     formed = formed_system(system, formulation)
     return formed, urdf_overrides(system, formed, overrides), system
 
 
-def with_options(model, name=None, *, floating_base=False):
-    """(model, name) for the driver: a URDF path with options becomes a :class:`UrdfModel`.
+def with_options(model, name=None, *, floating_base=False, limits=True):
+    """(model, name) for the driver: a URDF path with options becomes a :class:`UrdfModel`
+    (an MJCF path with ``limits=False`` an :class:`~eomc.compiler.mjcf.model.MjcfModel`).
 
-    The CLI's ``--floating-base`` lands here; without options the path goes
-    through unchanged (the driver reads URDF paths itself).
+    The CLI's ``--floating-base`` and ``--limits off`` land here; without options the path
+    goes through unchanged (the driver reads URDF paths itself).
     """
-    if not floating_base:
+    if not floating_base and limits:
         return model, name
+    from eomc.compiler.model.validate import sanitize_name
+    if not floating_base and not is_urdf_path(model):
+        from eomc.compiler.mjcf.model import MjcfModel, is_mjcf_path
+        if is_mjcf_path(model):
+            return MjcfModel(Path(model), limits=False), name or sanitize_name(Path(model).stem)
     if not is_urdf_path(model):
         from eomc.runtime.errors import ModelError
-        raise ModelError(f"--floating-base applies to URDF robots (.urdf), not to {model}")
-    from eomc.compiler.model.validate import sanitize_name
-    return UrdfModel(Path(model), floating_base=True), name or sanitize_name(Path(model).stem)
+        flag = "--floating-base" if floating_base else "--limits off"
+        raise ModelError(f"{flag} applies to URDF robots (.urdf){'' if floating_base else ' and MJCF models'}, "
+                         f"not to {model}")
+    return (UrdfModel(Path(model), floating_base=floating_base, limits=limits),
+            name or sanitize_name(Path(model).stem))
 
 
 def load_urdf_model(path, **options):

@@ -112,11 +112,14 @@ def _body(body, params):
     return rigid, com
 
 
-def system_from_tree(tree, *, fold=False, mimic=False, gravity=9.81):
-    """Build the :class:`UrdfSystem` of a :class:`tree.Tree` (see the module docstring)."""
+def system_from_tree(tree, *, fold=False, mimic=False, gravity=9.81, laws=True):
+    """Build the :class:`UrdfSystem` of a :class:`tree.Tree` (see the module docstring); ``laws``:
+    the joints' limits, damping and friction act (as in :func:`.treeir.law_torque`)."""
+    from .treeir import joint_inertias, law_torque
     if mimic:
         check_mimics(tree, tree.joints)
     params = _Parameters(fold)
+    inertias = joint_inertias(tree) if laws else None
     N = sme.ReferenceFrame("N")
     origin = sme.Point("O")
     origin.set_vel(N, 0)
@@ -155,6 +158,8 @@ def system_from_tree(tree, *, fold=False, mimic=False, gravity=9.81):
         if tj.type in ("revolute", "continuous", "prismatic") and not (mimic and tj.mimic):
             tau = sme.dynamicsymbols(f"tau_{s}")
             inputs.append(tau)
+            if laws:
+                tau = tau + law_torque(tree, tj, joint.coordinates[0], joint.speeds[0], params, inertias)
             loads += _actuation(tj.type, tau, joint, parent_frame, child, parent_point, child_point)
     if mimic:
         _add_mimics(system, tree, joints)

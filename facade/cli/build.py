@@ -22,8 +22,9 @@ def add_generate_options(parser):
     parser.add_argument("--floating-base", action="store_true",
                         help="URDF: a 6-dof floating joint (position + body XYZ Euler angles) "
                              "between the world and the root link")
-    from .common import add_formulation_argument
+    from .common import add_formulation_argument, add_limits_argument
     add_formulation_argument(parser)
+    add_limits_argument(parser)
 
 
 def configure(parser):
@@ -42,7 +43,8 @@ def configure(parser):
 def run(args):
     from eomc.compiler.driver import compile
     from eomc.compiler.urdf.model import with_options
-    source, name = with_options(args.model, args.name, floating_base=args.floating_base)
+    source, name = with_options(args.model, args.name, floating_base=args.floating_base,
+                                limits=args.limits != "off")
     model = compile(source, name, functions=args.outputs, fold_parameters=args.fold_parameters,
                     backend=args.backend, cflags=args.cflags, cache_dir=args.cache_dir,
                     output_dir=args.output, progress=not args.quiet, formulation=args.formulation)

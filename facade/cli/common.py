@@ -23,6 +23,14 @@ def add_model_arguments(parser):
                         help="no progress on stderr (compiling a model file, long runs)")
     parser.add_argument("--floating-base", action="store_true",
                         help="URDF: a 6-dof floating joint between the world and the root link")
+    add_limits_argument(parser)
+
+
+def add_limits_argument(parser):
+    """--limits on|off: the model file's joint limits, damping and friction (on by default)."""
+    parser.add_argument("--limits", choices=("on", "off"), default="on",
+                        help="URDF/MJCF: the file's joint limits (soft), damping and friction act "
+                             "(on, default) or are ignored (off)")
 
 
 FORMULATION_HELP = ("dynamics formulation: auto (default: the cheaper rhs of the two; kane where the "
@@ -45,10 +53,12 @@ def model_options(args):
         options["floating_base"] = True
     if getattr(args, "formulation", None) not in (None, "auto"):
         options["formulation"] = args.formulation
+    if getattr(args, "limits", "on") == "off":
+        options["limits"] = False
     return options
 
 
-def load_model(path, quiet=False, floating_base=False, formulation="auto"):
+def load_model(path, quiet=False, floating_base=False, formulation="auto", limits=True):
     """A runtime Model from a model file (compiled) or a built directory / json (loaded).
 
     Compiling shows its stages on stderr when that is a terminal, unless ``quiet``.
@@ -59,7 +69,7 @@ def load_model(path, quiet=False, floating_base=False, formulation="auto"):
     if path.is_file() and path.suffix.lower() in (".py", ".urdf"):
         from eomc.compiler.driver import compile as compile_model
         from eomc.compiler.urdf.model import with_options
-        source, name = with_options(str(path), floating_base=floating_base)
+        source, name = with_options(str(path), floating_base=floating_base, limits=limits)
         return compile_model(source, name, progress=False if quiet else None,
                              formulation=formulation)
     from eomc.runtime.loader import load

@@ -40,7 +40,8 @@ def run(args):
     from eomc.compiler.driver import generate
     from eomc.compiler.urdf.model import with_options
     from eomc.errors import ModelError
-    source, name = with_options(args.model, args.name, floating_base=args.floating_base)
+    source, name = with_options(args.model, args.name, floating_base=args.floating_base,
+                                limits=args.limits != "off")
     spec, generated = generate(source, name, functions=args.outputs,
                                fold_parameters=args.fold_parameters,
                                progress=False if args.quiet else None, formulation=args.formulation)
