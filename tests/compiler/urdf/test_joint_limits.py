@@ -280,3 +280,22 @@ def test_limits_off_drops_the_laws_and_the_flag_reaches_the_model(tmp_path):
     from eomc.compiler.urdf import from_urdf
     sys_on = {str(s) for s in from_urdf(path).urdf.parameters}
     assert law_names <= sys_on and not law_names & {str(s) for s in from_urdf(path, limits=False).urdf.parameters}
+
+
+def test_the_cli_flag(tmp_path):
+    """`--limits off` on the commands that load a model (simulate ...) and on build/inspect."""
+    import argparse
+    from eomc.cli import build as cli_build, common, simulate as cli_simulate
+    path = _write(tmp_path, ARM, "arm.urdf")
+    parser = argparse.ArgumentParser()
+    cli_simulate.configure(parser)
+    assert common.model_options(parser.parse_args([str(path), "--t-final", "1"])) == {}
+    options = common.model_options(parser.parse_args([str(path), "--t-final", "1", "--limits", "off"]))
+    assert options == {"limits": False}
+    model = common.load_model(path, quiet=True, **options)
+    assert not [n for n in model.param_names if n.startswith(("limit_", "damping_", "friction"))]
+    parser = argparse.ArgumentParser()
+    cli_build.configure(parser)
+    assert parser.parse_args([str(path), "-o", "x", "--limits", "off"]).limits == "off"
+    with pytest.raises(SystemExit):
+        parser.parse_args([str(path), "-o", "x", "--limits", "maybe"])
