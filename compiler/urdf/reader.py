@@ -145,8 +145,9 @@ def _owner(element):
 
 
 def _check_loose_numbers(path, root):
-    """Attributes eomc does not model (limits, dynamics, ...) but yourdfpy converts to float:
-    any number is accepted (NaN and inf too: they are not used), text is an error with a line."""
+    """Attributes yourdfpy converts to float: text is an error with a line; any number passes
+    here (limits and dynamics are checked where they are used, naming the joint:
+    :func:`eomc.compiler.urdf.treeir.joint_law`; the others are not used)."""
     wanted = {"limit": ("lower", "upper", "effort", "velocity"), "dynamics": ("damping", "friction"),
               "safety_controller": ("soft_lower_limit", "soft_upper_limit", "k_position", "k_velocity"),
               "calibration": ("rising", "falling")}
