@@ -125,7 +125,7 @@ def check_model(m, path, ignore=()):
         if np.any(m.dof_armature[d:d + ndof]):
             problems.append(("armature", "joint", f"joint {jn}: armature {m.dof_armature[d]:g} (MuJoCo adds "
                              f"it to the joint-space inertia; eomc's tree has no such term)", jn))
-        if np.any(m.dof_frictionloss[d:d + ndof]) and kind in (0, 1) and "frictionloss" not in ignore:
+        if np.any(m.dof_frictionloss[d:d + ndof]) and kind in (0, 1):
             problems.append(("frictionloss", "joint", f"joint {jn}: frictionloss on a {('free', 'ball')[kind]} "
                              f"joint (eomc models it on hinges and slides)", jn))
         if np.any(m.dof_frictionloss[d:d + ndof] < 0) or np.any(~np.isfinite(m.dof_frictionloss[d:d + ndof])):

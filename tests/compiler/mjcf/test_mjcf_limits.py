@@ -176,7 +176,19 @@ def test_limits_off_and_bad_numbers(tmp_path):
 </mujoco>""")
     with pytest.raises(ModelFileError, match=r"ball.xml:3: <joint>: joint socket: frictionloss on a ball joint"):
         eomc.compile(MjcfModel(ball), functions=["rhs"], cache_dir=tmp_path / "c", progress=False)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", EomcWarning)
+    with pytest.warns(EomcWarning, match="ignored: joint socket: frictionloss on a ball joint"):
         eomc.compile(MjcfModel(ball, ignore=("frictionloss",)), functions=["rhs"], cache_dir=tmp_path / "c",
                      progress=False)
+
+
+def test_negative_frictionloss_names_the_joint(tmp_path):
+    """MuJoCo accepts it (its constraint would clamp it); as a law it would feed energy in."""
+    path = tmp_path / "neg.xml"
+    path.write_text("""<mujoco>
+  <worldbody>
+    <body name="a"><joint name="pin" type="hinge" frictionloss="-0.1"/><geom size="0.1" pos="0 0 -0.3"/></body>
+  </worldbody>
+</mujoco>""")
+    with pytest.raises(ModelFileError, match=r"neg.xml:3: <joint>: joint pin: frictionloss -0.1: it must be a "
+                                             r"finite number >= 0"):
+        eomc.compile(MjcfModel(path), functions=["rhs"], cache_dir=tmp_path / "c", progress=False)
