@@ -168,9 +168,6 @@ def limit_spring(d, e):
     return r ** 2 / (r + e)
 
 
-def _weight(d, e):
-    r = ramp(d)
-    return r ** 2 / (r + e) ** 2
 
 
 def joint_torque(q, u, law, params, name, inertia):
@@ -190,16 +187,16 @@ def joint_torque(q, u, law, params, name, inertia):
         E = params(f"{NAMES['width']}_{name}", law.width)
         if E == 0:
             raise JointLawError(f"joint '{law.joint}': limit width must be > 0")
-        spring, weight = sm.S.Zero, sm.S.Zero
+        # per side, with r = ramp(d) and g = r/(r + e): k s + c u w = g (k r + c u g)
+        # (one division per side; the same numbers as the docstring's form)
         if law.upper is not None and math.isfinite(law.upper):
-            d = q - params(f"{NAMES['upper']}_{name}", law.upper)
-            spring += limit_spring(d, E)
-            weight += _weight(d, E)
+            r = ramp(q - params(f"{NAMES['upper']}_{name}", law.upper))
+            g = r / (r + E)
+            tau += -g * (K * r + C * u * g)
         if law.lower is not None and math.isfinite(law.lower):
-            d = params(f"{NAMES['lower']}_{name}", law.lower) - q
-            spring -= limit_spring(d, E)
-            weight += _weight(d, E)
-        tau += -K * spring - C * u * weight
+            r = ramp(params(f"{NAMES['lower']}_{name}", law.lower) - q)
+            g = r / (r + E)
+            tau += g * (K * r - C * u * g)
     if law.damping:
         tau += -params(f"{NAMES['damping']}_{name}", law.damping) * u
     if law.friction:
