@@ -186,9 +186,14 @@ def mjcf_formed(model, overrides):
     _known(model.ignore)
     m = load_mjmodel(model.path)
     motors = check_model(m, model.path, model.ignore)
-    built = tree_ir(m, fold=model.fold_parameters, actuators=motors,
-                    limits=model.limits and "limits" not in model.ignore,
-                    friction=model.limits and "frictionloss" not in model.ignore, path=model.path)
+    from eomc.compiler.tree.joint_laws import JointLawError
+    try:
+        built = tree_ir(m, fold=model.fold_parameters, actuators=motors,
+                        limits=model.limits and "limits" not in model.ignore,
+                        friction=model.limits and "frictionloss" not in model.ignore)
+    except JointLawError as exc:     # the numbers of a joint's limit or friction: its line
+        raise ModelFileError(f"<joint>: {exc}", str(model.path), _line(model.path, "joint", exc.joint)) \
+            from None
     formed = formed_of_tree(built.tree)
     object.__setattr__(formed, "_mjcf", built)
     return formed, _merged(overrides, formed, built.parameters, built.inputs)

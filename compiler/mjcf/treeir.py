@@ -80,7 +80,7 @@ def _names(m, kind, count, prefix):
     return out
 
 
-def tree_ir(m, *, fold=False, actuators=None, limits=True, friction=True, path=None):
+def tree_ir(m, *, fold=False, actuators=None, limits=True, friction=True):
     """The :class:`MjcfTree` of a compiled ``mujoco.MjModel`` ``m`` (see the module docstring);
     ``limits``/``friction``: hinge and slide range limits / frictionloss act (:func:`_law`).
 
@@ -212,7 +212,7 @@ def tree_ir(m, *, fold=False, actuators=None, limits=True, friction=True, path=N
                     rest = params(f"q0_{jn}", m.qpos_spring[qadr])
                     tau = tau - stiffness * (coordinates[first_q] - rest)
                 tau = tau + _law(m, jid, jraw, jn, coordinates[first_q], speeds[first], params,
-                                 limits, friction, path)
+                                 limits, friction)
                 if tau != 0:
                     loads += _joint_force(kind, tau, a, R0, c, p, base_c, child, parent)
             elif kind == _BALL and m.dof_damping[dadr] != 0:
@@ -235,7 +235,7 @@ def tree_ir(m, *, fold=False, actuators=None, limits=True, friction=True, path=N
                     tuple(joints))
 
 
-def _law(m, jid, jraw, jn, q, u, params, limits, friction, path):
+def _law(m, jid, jraw, jn, q, u, params, limits, friction):
     """The range limit and frictionloss of a hinge or slide (:mod:`eomc.compiler.tree.joint_laws`).
 
     The limit's stiffness and damping are MuJoCo's own for the joint's ``solref``
@@ -245,8 +245,7 @@ def _law(m, jid, jraw, jn, q, u, params, limits, friction, path):
     directly.  MuJoCo's limit is a soft constraint solved with the other constraints
     (impedance, ``margin``): here it is a spring-damper, so the motion past the limit
     differs (the README says how much); inside the range both exert nothing."""
-    from eomc.compiler.tree.joint_laws import JointLaw, JointLawError, joint_torque
-    from eomc.runtime.errors import ModelFileError
+    from eomc.compiler.tree.joint_laws import JointLaw, joint_torque
     dadr = int(m.jnt_dofadr[jid])
     lower = upper = None
     if limits and m.jnt_limited[jid]:
@@ -260,12 +259,7 @@ def _law(m, jid, jraw, jn, q, u, params, limits, friction, path):
     else:
         k, c = -tc * inertia / dmax ** 2, -z * inertia / dmax
     law = JointLaw(jraw, lower=lower, upper=upper, friction=fl, stiffness=k, limit_damping=c)
-    try:
-        return joint_torque(q, u, law, params, jn, inertia)
-    except JointLawError as exc:
-        from .model import _line
-        raise ModelFileError(f"<joint>: {exc}", str(path), _line(path, "joint", jraw) if path else None) \
-            from None
+    return joint_torque(q, u, law, params, jn, inertia)     # JointLawError: the caller places it
 
 
 def _joint_force(kind, tau, a, R0, c, p, cp, child, parent):

@@ -54,7 +54,12 @@ NAMES = {"lower": "limit_lo", "upper": "limit_hi", "stiffness": "limit_k", "limi
 
 
 class JointLawError(ValueError):
-    """A joint's numbers make no law (the message names the joint and what is wrong)."""
+    """A joint's numbers make no law (the message names the joint and what is wrong; ``joint``
+    is its name, for the reader to find its line)."""
+
+    def __init__(self, joint, message):
+        super().__init__(message)
+        self.joint = joint
 
 
 class JointLaw:
@@ -84,21 +89,21 @@ def check_law(law):
     for what in ("lower", "upper"):
         v = getattr(law, what)
         if v is not None and math.isnan(v):
-            raise JointLawError(f"joint '{j}': limit {what} is NaN")
+            raise JointLawError(j, f"joint '{j}': limit {what} is NaN")
     if law.lower is not None and law.upper is not None and law.lower > law.upper:
-        raise JointLawError(f"joint '{j}': limit lower {law.lower:g} > upper {law.upper:g}")
+        raise JointLawError(j, f"joint '{j}': limit lower {law.lower:g} > upper {law.upper:g}")
     for what in ("damping", "friction", "stiffness", "limit_damping", "width", "friction_speed"):
         v = getattr(law, what)
         if v is None:
             continue
         if not math.isfinite(v):
-            raise JointLawError(f"joint '{j}': {what} {v} is not a finite number")
+            raise JointLawError(j, f"joint '{j}': {what} {v} is not a finite number")
         if v < 0:
-            raise JointLawError(f"joint '{j}': negative {what} ({v:g}): it would feed energy in")
+            raise JointLawError(j, f"joint '{j}': negative {what} ({v:g}): it would feed energy in")
     if law.width is not None and law.width <= 0 and law.limited:
-        raise JointLawError(f"joint '{j}': limit width must be > 0 (got {law.width:g})")
+        raise JointLawError(j, f"joint '{j}': limit width must be > 0 (got {law.width:g})")
     if law.friction and not law.friction_speed:
-        raise JointLawError(f"joint '{j}': friction speed must be > 0 (got {law.friction_speed:g})")
+        raise JointLawError(j, f"joint '{j}': friction speed must be > 0 (got {law.friction_speed:g})")
 
 
 def limit_gains(inertia, time_constant=TIME_CONSTANT):
@@ -186,7 +191,7 @@ def joint_torque(q, u, law, params, name, inertia):
         C = params(f"{NAMES['limit_damping']}_{name}", c)
         E = params(f"{NAMES['width']}_{name}", law.width)
         if E == 0:
-            raise JointLawError(f"joint '{law.joint}': limit width must be > 0")
+            raise JointLawError(law.joint, f"joint '{law.joint}': limit width must be > 0")
         # per side, with r = ramp(d) and g = r/(r + e): k s + c u w = g (k r + c u g)
         # (one division per side; the same numbers as the docstring's form)
         if law.upper is not None and math.isfinite(law.upper):

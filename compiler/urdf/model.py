@@ -109,24 +109,20 @@ def urdf_formed(model, formulation, overrides, formed_system):
 
 
 def with_options(model, name=None, *, floating_base=False, limits=True):
-    """(model, name) for the driver: a URDF path with options becomes a :class:`UrdfModel`
-    (an MJCF path with ``limits=False`` an :class:`~eomc.compiler.mjcf.model.MjcfModel`).
+    """(model, name) for the driver: a URDF path with options becomes a :class:`UrdfModel`.
 
-    The CLI's ``--floating-base`` and ``--limits off`` land here; without options the path
-    goes through unchanged (the driver reads URDF paths itself).
+    The CLI's ``--floating-base`` and ``--limits off`` land here (an MJCF path with
+    ``--limits off`` is the CLI's own: :func:`eomc.cli.common.with_options`); without
+    options the path goes through unchanged (the driver reads URDF paths itself).
     """
     if not floating_base and limits:
         return model, name
-    from eomc.compiler.model.validate import sanitize_name
-    if not floating_base and not is_urdf_path(model):
-        from eomc.compiler.mjcf.model import MjcfModel, is_mjcf_path
-        if is_mjcf_path(model):
-            return MjcfModel(Path(model), limits=False), name or sanitize_name(Path(model).stem)
     if not is_urdf_path(model):
         from eomc.runtime.errors import ModelError
         flag = "--floating-base" if floating_base else "--limits off"
         raise ModelError(f"{flag} applies to URDF robots (.urdf){'' if floating_base else ' and MJCF models'}, "
                          f"not to {model}")
+    from eomc.compiler.model.validate import sanitize_name
     return (UrdfModel(Path(model), floating_base=floating_base, limits=limits),
             name or sanitize_name(Path(model).stem))
 

@@ -42,7 +42,7 @@ def configure(parser):
 
 def run(args):
     from eomc.compiler.driver import compile
-    from eomc.compiler.urdf.model import with_options
+    from .common import with_options
     source, name = with_options(args.model, args.name, floating_base=args.floating_base,
                                 limits=args.limits != "off")
     model = compile(source, name, functions=args.outputs, fold_parameters=args.fold_parameters,

@@ -7,7 +7,7 @@ Mistakes in them are ValueErrors, which `eomc` prints as one line (exit status 2
 """
 from pathlib import Path
 
-__all__ = ["add_model_arguments", "add_formulation_argument", "FORMULATION_HELP", "load_model", "model_options", "parse_assignments", "initial_state",
+__all__ = ["with_options", "add_model_arguments", "add_formulation_argument", "FORMULATION_HELP", "load_model", "model_options", "parse_assignments", "initial_state",
            "parameter_values", "writable_file"]
 
 
@@ -58,6 +58,17 @@ def model_options(args):
     return options
 
 
+def with_options(model, name=None, *, floating_base=False, limits=True):
+    """(model, name) for the driver with the command line's model options: a URDF's
+    (:func:`eomc.compiler.urdf.model.with_options`), or an MJCF file with ``--limits off``."""
+    from eomc.compiler.mjcf.model import MjcfModel, is_mjcf_path
+    if not limits and not floating_base and is_mjcf_path(model):
+        from eomc.compiler.model.validate import sanitize_name
+        return MjcfModel(Path(model), limits=False), name or sanitize_name(Path(model).stem)
+    from eomc.compiler.urdf.model import with_options as urdf_options
+    return urdf_options(model, name, floating_base=floating_base, limits=limits)
+
+
 def load_model(path, quiet=False, floating_base=False, formulation="auto", limits=True):
     """A runtime Model from a model file (compiled) or a built directory / json (loaded).
 
@@ -68,7 +79,6 @@ def load_model(path, quiet=False, floating_base=False, formulation="auto", limit
         raise ValueError(f"{path}: no such model file or built model directory")
     if path.is_file() and path.suffix.lower() in (".py", ".urdf"):
         from eomc.compiler.driver import compile as compile_model
-        from eomc.compiler.urdf.model import with_options
         source, name = with_options(str(path), floating_base=floating_base, limits=limits)
         return compile_model(source, name, progress=False if quiet else None,
                              formulation=formulation)

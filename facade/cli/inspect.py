@@ -38,7 +38,7 @@ def format_report(metadata):
 
 def run(args):
     from eomc.compiler.driver import generate
-    from eomc.compiler.urdf.model import with_options
+    from .common import with_options
     from eomc.errors import ModelError
     source, name = with_options(args.model, args.name, floating_base=args.floating_base,
                                 limits=args.limits != "off")

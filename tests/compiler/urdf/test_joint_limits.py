@@ -299,3 +299,7 @@ def test_the_cli_flag(tmp_path):
     assert parser.parse_args([str(path), "-o", "x", "--limits", "off"]).limits == "off"
     with pytest.raises(SystemExit):
         parser.parse_args([str(path), "-o", "x", "--limits", "maybe"])
+    from eomc.compiler.mjcf.model import MjcfModel
+    assert common.with_options(str(tmp_path / "m.xml"), limits=False)[0] == MjcfModel(tmp_path / "m.xml",
+                                                                                      limits=False)
+    assert common.with_options(str(path), limits=False)[0] == UrdfModel(path, limits=False)
