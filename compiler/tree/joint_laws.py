@@ -20,16 +20,17 @@ For coordinate q, speed u (s = the joint's C name):
   infinite side has no limit): with penetrations d_hi = q - hi, d_lo = lo - q,
 
       tau = -k (s(d_hi) - s(d_lo)) - c u (w(d_hi) + w(d_lo))
-      s(d) = d² / (d + e),  w(d) = d² / (d + e)²  for d > 0, both 0 for d <= 0
+      s(d) = d³ / (d + e)²,  w(d) = d³ / (d + e)³  for d > 0, both 0 for d <= 0
 
-  (``limit_k_s``, ``limit_c_s``, ``limit_e_s``).  s and w are C¹ at the
-  boundary (value and slope 0 from both sides), so the right-hand side is C¹
-  in q: no kink for the step-size control, Radau's Newton iteration or jac_x
-  to trip on, hence no events are needed to locate the boundary.  A width
-  e (default :data:`WIDTH` = 1e-4 rad or m) past the boundary the law
-  becomes the linear spring-damper of MuJoCo and Drake: s -> d - e,
-  w -> 1.  A static load F holds the joint at d = (F + sqrt(F² + 4 k F e)) / (2k)
-  past the limit (F/k + e when F >> k e).
+  (``limit_k_s``, ``limit_c_s``, ``limit_e_s``).  s and w are C² at the
+  boundary (value, slope and curvature 0 from both sides), so the right-hand
+  side is C² in q: no kink for the step-size control, Radau's Newton iteration
+  or jac_x to trip on (and central differences of the rhs agree with jac_x
+  even at a state on the boundary), hence no events are needed to locate the
+  boundary.  A few widths e (default :data:`WIDTH` = 1e-4 rad or m) past the
+  boundary the law is the linear spring-damper of MuJoCo and Drake: s -> d - 2e,
+  w -> 1.  A static load F holds the joint where k d³/(d + e)² = F past the
+  limit (F/k + 2e when F >> k e).
   Default stiffness and damping as Drake's penalty joint limits and MuJoCo's
   default ``solref`` choose them: a critically damped spring-damper of time
   constant tc on the joint's effective inertia m (k = m / tc², c = 2 m / tc),
@@ -170,7 +171,7 @@ class ramp(sm.Function):
 def limit_spring(d, e):
     """s(d) of the module docstring (numbers or SymPy)."""
     r = ramp(d)
-    return r ** 2 / (r + e)
+    return r ** 3 / (r + e) ** 2
 
 
 
@@ -192,16 +193,16 @@ def joint_torque(q, u, law, params, name, inertia):
         E = params(f"{NAMES['width']}_{name}", law.width)
         if E == 0:
             raise JointLawError(law.joint, f"joint '{law.joint}': limit width must be > 0")
-        # per side, with r = ramp(d) and g = r/(r + e): k s + c u w = g (k r + c u g)
+        # per side, with r = ramp(d) and g = r/(r + e): k s + c u w = g² (k r + c u g)
         # (one division per side; the same numbers as the docstring's form)
         if law.upper is not None and math.isfinite(law.upper):
             r = ramp(q - params(f"{NAMES['upper']}_{name}", law.upper))
             g = r / (r + E)
-            tau += -g * (K * r + C * u * g)
+            tau += -g ** 2 * (K * r + C * u * g)
         if law.lower is not None and math.isfinite(law.lower):
             r = ramp(params(f"{NAMES['lower']}_{name}", law.lower) - q)
             g = r / (r + E)
-            tau += g * (K * r - C * u * g)
+            tau += g ** 2 * (K * r - C * u * g)
     if law.damping:
         tau += -params(f"{NAMES['damping']}_{name}", law.damping) * u
     if law.friction:

@@ -14,6 +14,7 @@ import warnings
 
 import numpy as np
 import pytest
+from scipy.optimize import brentq
 
 mujoco = pytest.importorskip("mujoco")
 
@@ -145,8 +146,8 @@ def test_past_the_limit_compared_with_mujoco(tmp_path):
                    n_points=20001)
     ours_deep, ours_rest = res.x[:, 0].max(), res.x[-1, 0]
     k, e, F = p["limit_k_hinge"], p["limit_e_hinge"], 1.0 * 9.81 * 0.5
-    static = (F / k + math.sqrt((F / k) ** 2 + 4 * F / k * e)) / 2      # k d²/(d+e) = F (cos d ≈ 1)
-    assert ours_rest == pytest.approx(static, rel=1e-3)
+    static = brentq(lambda d: k * d ** 3 / (d + e) ** 2 - F * math.cos(d), 1e-9, 0.5, xtol=1e-15)
+    assert ours_rest == pytest.approx(static, rel=1e-6)
     theirs_deep, theirs_rest = _mujoco_drop(path, 2.0)
     print(f"\ndrop onto a limit: deepest eomc {ours_deep:.4g} MuJoCo {theirs_deep:.4g} rad; "
           f"rest eomc {ours_rest:.4g} MuJoCo {theirs_rest:.4g} rad")
