@@ -27,7 +27,7 @@ For coordinate q, speed u (s = the joint's C name):
   side is C² in q: no kink for the step-size control, Radau's Newton iteration
   or jac_x to trip on (and central differences of the rhs agree with jac_x
   even at a state on the boundary), hence no events are needed to locate the
-  boundary.  A few widths e (default :data:`WIDTH` = 1e-4 rad or m) past the
+  boundary.  A few widths e (default :data:`WIDTH` = 3e-4 rad or m) past the
   boundary the law is the linear spring-damper of MuJoCo and Drake: s -> d - 2e,
   w -> 1.  A static load F holds the joint where k d³/(d + e)² = F past the
   limit (F/k + 2e when F >> k e).
@@ -47,7 +47,7 @@ __all__ = ["ramp", "step", "JointLaw", "joint_torque", "check_law", "TIME_CONSTA
            "limit_gains", "limit_spring", "JointLawError"]
 
 TIME_CONSTANT = 0.01
-WIDTH = 1e-4
+WIDTH = 3e-4
 FRICTION_SPEED = 0.01
 
 NAMES = {"lower": "limit_lo", "upper": "limit_hi", "stiffness": "limit_k", "limit_damping": "limit_c",
