@@ -25,9 +25,10 @@ For coordinate q, speed u (s = the joint's C name):
   (``limit_k_s``, ``limit_c_s``, ``limit_e_s``).  s and w are C² at the
   boundary (value, slope and curvature 0 from both sides), so the right-hand
   side is C² in q: no kink for the step-size control, Radau's Newton iteration
-  or jac_x to trip on (and central differences of the rhs agree with jac_x
-  even at a state on the boundary), hence no events are needed to locate the
-  boundary.  A few widths e (default :data:`WIDTH` = 3e-4 rad or m) past the
+  or jac_x to trip on (central differences of the rhs with steps well below e
+  agree with jac_x even at a state on the boundary: ``eomc check`` on Panda,
+  whose fingers start on their lower limit), hence no events are needed to
+  locate the boundary.  A few widths e (default :data:`WIDTH` = 3e-4 rad or m) past the
   boundary the law is the linear spring-damper of MuJoCo and Drake: s -> d - 2e,
   w -> 1.  A static load F holds the joint where k d³/(d + e)² = F past the
   limit (F/k + 2e when F >> k e).
