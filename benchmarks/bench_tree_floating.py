@@ -45,7 +45,7 @@ t0 = time.perf_counter()
 import eomc
 from eomc.compiler.urdf import from_urdf
 path, name, cache, out, formulation = sys.argv[1:6]
-model = eomc.compile(from_urdf(path, floating_base=True), name, functions="@FUNCTIONS@".split(","),
+model = eomc.compile(from_urdf(path, floating_base=True, limits=False), name, functions="@FUNCTIONS@".split(","),
                      cache_dir=cache, output_dir=out, progress=False, formulation=formulation)
 print("wall", time.perf_counter() - t0)
 """

@@ -140,7 +140,7 @@ t0 = time.perf_counter()
 import eomc
 from eomc.compiler.urdf import from_urdf
 path, floating, name, cache, out = sys.argv[1], sys.argv[2] == "1", sys.argv[3], sys.argv[4], sys.argv[5]
-model = eomc.compile(from_urdf(path, floating_base=floating), name, functions="@FUNCTIONS@".split(","),
+model = eomc.compile(from_urdf(path, floating_base=floating, limits=False), name, functions="@FUNCTIONS@".split(","),
                      cache_dir=cache, output_dir=out, progress=False)
 print("wall", time.perf_counter() - t0)
 """

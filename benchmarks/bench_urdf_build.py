@@ -113,7 +113,7 @@ def pinocchio_errors(path, fb, tree, cache):
         warnings.simplefilter("ignore")
         from eomc.compiler.model.validate import sanitize_name
         from eomc.compiler.urdf.model import UrdfModel
-        model = eomc.compile(UrdfModel(path, floating_base=fb), sanitize_name(path.stem),
+        model = eomc.compile(UrdfModel(path, floating_base=fb, limits=False), sanitize_name(path.stem),
                              functions=["rhs", "inverse_dynamics", "mass_matrix"],
                              formulation="recursive", cache_dir=cache, progress=False)
     ref = PinRef(path, [(j.name, j.type) for j in tree.joints], floating=fb, locked=tree.locked)

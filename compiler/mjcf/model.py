@@ -6,8 +6,11 @@
 its model holds that an open-chain rigid-body tree with joint-space forces
 cannot express is refused with the element named (file:line where the tag is
 found in the file), or dropped with a warning when the caller names it in
-``ignore``.  Contacts are off (eomc has no contact); joint limits are not
-modelled (a warning says so unless ``"limits"`` is in ``ignore``).
+``ignore``.  MuJoCo's own contacts are off (ground contacts: ``contacts=``,
+:mod:`eomc.compiler.contact`).  Joint range limits
+(soft, see :mod:`eomc.compiler.tree.joint_laws`) and ``frictionloss``
+(regularised Coulomb friction, not MuJoCo's constraint) act unless
+``limits=False`` (or ``ignore`` names ``"limits"`` / ``"frictionloss"``).
 """
 import re
 import warnings
@@ -31,6 +34,7 @@ class MjcfModel:
     ignore: tuple = ()
     fold_parameters: bool = False
     contacts: tuple = ()        # ground contacts on bodies (eomc.compiler.contact.tree)
+    limits: bool = True          # range limits and frictionloss act (False: both ignored)
 
 
 def is_mjcf_path(model):
@@ -41,20 +45,20 @@ def is_mjcf_model(model):
     return isinstance(model, MjcfModel) or is_mjcf_path(model)
 
 
-def with_ignore(model, name=None, ignore=()):
+def with_ignore(model, name=None, ignore=(), limits=True):
     """(model, name) for the driver: an MJCF path with ``ignore`` (the CLI's ``--ignore
-    WHAT[,WHAT]``: a string or a sequence) becomes an :class:`MjcfModel`; without it the
-    model goes through unchanged."""
+    WHAT[,WHAT]``: a string or a sequence) or ``limits=False`` (``--limits off``) becomes an
+    :class:`MjcfModel`; without them the model goes through unchanged."""
     if isinstance(ignore, str):
         ignore = [ignore]
     items = tuple(x.strip() for text in (ignore or ()) for x in text.split(",") if x.strip())
-    if not items:
-        return model, name
-    if not is_mjcf_path(model):
+    if items and not is_mjcf_path(model):
         raise ModelError(f"--ignore applies to MuJoCo models (.xml), not to {model}")
+    if not items and (limits or not is_mjcf_path(model)):
+        return model, name
     _known(items)
     from eomc.compiler.model.validate import sanitize_name
-    return MjcfModel(Path(model), ignore=items), name or sanitize_name(Path(model).stem)
+    return MjcfModel(Path(model), ignore=items, limits=limits), name or sanitize_name(Path(model).stem)
 
 
 def load_mjmodel(path):
@@ -163,8 +167,16 @@ def check_model(m, path, ignore=()):
                              f"differs between them ({', '.join(f'{x:g}' for x in m.dof_armature[d:d + 3])}; "
                              f"MuJoCo's are world-frame velocities, eomc's body-frame: only an equal one "
                              f"carries over)", jn))
-        if np.any(m.dof_frictionloss[d:d + ndof]):
-            problems.append(("frictionloss", "joint", f"joint {jn}: frictionloss (a constraint in MuJoCo)", jn))
+        if np.any(m.dof_frictionloss[d:d + ndof]) and kind in (0, 1):
+            problems.append(("frictionloss", "joint", f"joint {jn}: frictionloss on a {('free', 'ball')[kind]} "
+                             f"joint (eomc models it on hinges and slides)", jn))
+        if np.any(m.dof_frictionloss[d:d + ndof] < 0) or np.any(~np.isfinite(m.dof_frictionloss[d:d + ndof])):
+            raise ModelFileError(f"<joint>: joint {jn}: frictionloss {m.dof_frictionloss[d]:g}: it must be a "
+                                 f"finite number >= 0", path, _line(path, "joint", jn))
+        if m.jnt_limited[j] and kind in (2, 3) and (not np.all(np.isfinite(m.jnt_range[j]))
+                                                    or m.jnt_range[j][0] > m.jnt_range[j][1]):
+            raise ModelFileError(f"<joint>: joint {jn}: range {m.jnt_range[j][0]:g} {m.jnt_range[j][1]:g}: "
+                                 f"lower must be <= upper, both finite", path, _line(path, "joint", jn))
         if kind == 0 and int(m.body_parentid[m.jnt_bodyid[j]]) != 0:
             problems.append(("", "freejoint", f"joint {jn}: a free joint on a body that is not a child of "
                              f"the world"))
@@ -178,9 +190,10 @@ def check_model(m, path, ignore=()):
             problems.append(("", "joint", f"joint {jn}: stiffness on a {('free', 'ball')[kind]} joint"))
         if kind == 0 and np.any(m.dof_damping[d:d + 6]):
             problems.append(("", "joint", f"joint {jn}: damping on a free joint"))
-        if m.jnt_limited[j] and "limits" not in ignore:
-            warnings.warn(f"{path}: joint {jn}: its range limits are not modelled (contacts and limits are "
-                          f"off; ignore=('limits',) silences this)", EomcWarning, stacklevel=4)
+        if m.jnt_limited[j] and kind in (0, 1) and "limits" not in ignore:
+            warnings.warn(f"{path}: joint {jn}: range limits of {('free', 'ball')[kind]} joints are not "
+                          f"modelled (hinges' and slides' are; ignore=('limits',) silences this)",
+                          EomcWarning, stacklevel=4)
     motors = []
     for k in range(m.nu):
         an = _name(m, mujoco.mjtObj.mjOBJ_ACTUATOR, k, "actuator")
@@ -217,7 +230,14 @@ def mjcf_formed(model, overrides):
     _known(model.ignore)
     m = load_mjmodel(model.path)
     motors = check_model(m, model.path, model.ignore)
-    built = tree_ir(m, fold=model.fold_parameters, actuators=motors)
+    from eomc.compiler.tree.joint_laws import JointLawError
+    try:
+        built = tree_ir(m, fold=model.fold_parameters, actuators=motors,
+                        limits=model.limits and "limits" not in model.ignore,
+                        friction=model.limits and "frictionloss" not in model.ignore)
+    except JointLawError as exc:     # the numbers of a joint's limit or friction: its line
+        raise ModelFileError(f"<joint>: {exc}", str(model.path), _line(model.path, "joint", exc.joint)) \
+            from None
     if model.contacts:
         from eomc.compiler.contact.tree import merged_outputs, with_mjcf_contacts
         built, outputs, events = with_mjcf_contacts(built, m, model.contacts, fold=model.fold_parameters)

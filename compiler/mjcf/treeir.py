@@ -93,8 +93,9 @@ def _names(m, kind, count, prefix):
     return out
 
 
-def tree_ir(m, *, fold=False, actuators=None):
-    """The :class:`MjcfTree` of a compiled ``mujoco.MjModel`` ``m`` (see the module docstring).
+def tree_ir(m, *, fold=False, actuators=None, limits=True, friction=True):
+    """The :class:`MjcfTree` of a compiled ``mujoco.MjModel`` ``m`` (see the module docstring);
+    ``limits``/``friction``: hinge and slide range limits / frictionloss act (:func:`_law`).
 
     ``m`` must already have passed :func:`eomc.compiler.mjcf.model.check_model`."""
     import mujoco
@@ -230,6 +231,8 @@ def tree_ir(m, *, fold=False, actuators=None):
                 if stiffness != 0:
                     rest = params(f"q0_{jn}", m.qpos_spring[qadr])
                     tau = tau - stiffness * (coordinates[first_q] - rest)
+                tau = tau + _law(m, jid, jraw, jn, coordinates[first_q], speeds[first], params,
+                                 limits, friction)
                 if tau != 0:
                     loads += _joint_force(kind, tau, a, R0, c, p, base_c, child, parent)
             elif kind == _BALL and m.dof_damping[dadr] != 0:
@@ -310,6 +313,33 @@ def _armature(m, params, jn, kind, dadr):
         return (params(f"arm_{jn}", values[0]),)
     axes = ("x", "y", "z") if kind == _BALL else ("vx", "vy", "vz", "wx", "wy", "wz")
     return tuple(params(f"arm_{jn}_{x}", v) for x, v in zip(axes, values))
+
+
+def _law(m, jid, jraw, jn, q, u, params, limits, friction):
+    """The range limit and frictionloss of a hinge or slide (:mod:`eomc.compiler.tree.joint_laws`).
+
+    The limit's stiffness and damping are MuJoCo's own for the joint's ``solref``
+    (timeconst tc, dampratio z) and ``solimp`` (dmax): its reference acceleration
+    -b v - k r with k = 1/(dmax² tc² z²), b = 2/(dmax tc), times the joint's effective
+    inertia 1/``dof_invweight0`` (MuJoCo's own scale); a negative ``solref`` gives k, b
+    directly.  MuJoCo's limit is a soft constraint solved with the other constraints
+    (impedance, ``margin``): here it is a spring-damper, so the motion past the limit
+    differs (the README says how much); inside the range both exert nothing."""
+    from eomc.compiler.tree.joint_laws import JointLaw, joint_torque
+    dadr = int(m.jnt_dofadr[jid])
+    lower = upper = None
+    if limits and m.jnt_limited[jid]:
+        lower, upper = (float(v) for v in m.jnt_range[jid])
+    fl = float(m.dof_frictionloss[dadr]) if friction else 0.0
+    inertia = 1.0 / float(m.dof_invweight0[dadr]) if m.dof_invweight0[dadr] > 0 else 1.0
+    tc, z = (float(v) for v in m.jnt_solref[jid][:2])
+    dmax = float(m.jnt_solimp[jid][1])
+    if tc > 0:
+        k, c = inertia / (dmax * tc * z) ** 2, 2.0 * inertia / (dmax * tc)
+    else:
+        k, c = -tc * inertia / dmax ** 2, -z * inertia / dmax
+    law = JointLaw(jraw, lower=lower, upper=upper, friction=fl, stiffness=k, limit_damping=c)
+    return joint_torque(q, u, law, params, jn, inertia)     # JointLawError: the caller places it
 
 
 def _joint_force(kind, tau, a, R0, c, p, cp, child, parent):

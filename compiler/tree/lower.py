@@ -105,13 +105,16 @@ def _lowered_bodies(tree, layout, rec):
         multi = [(k, [ren(s) for s in m]) for k, m in zip(b.speeds, b.motions)] or None
         arm = [ren(a) for a in b.armatures] if b.armature else None
         bodies.append(LoweredBody(b, rec, E, r, S, ren(b.mass), b.inertia.applyfunc(ren), None, multi, arm))
-    for load in tree.loads:
-        if load.frame == "contact":     # ground contacts: lowered with the velocities (_contacts)
-            continue
+    loads = [load for load in tree.loads if load.frame != "contact"]   # contacts: lowered with the velocities (_contacts)
+    renamed = []
+    for load in loads:
+        ren = _rename(layout, memo, f"a load on body {tree.bodies[load.body].name}", absent)
+        renamed.append(([ren(x) for x in load.moment], [ren(x) for x in load.force]))
+    shared = _shared_loads(rec, [e for n, f in renamed for e in n + f])
+    for k, load in enumerate(loads):
         i = load.body
         ren = _rename(layout, memo, f"a load on body {tree.bodies[i].name}", absent)
-        n = [ren(x) for x in load.moment]
-        f = [ren(x) for x in load.force]
+        n, f = shared[6 * k:6 * k + 3], shared[6 * k + 3:6 * k + 6]
         if load.frame == "world":
             R = rotation0(i)
             n = [sum((R[r][k] * n[k] for k in range(3)), sm.S.Zero) for r in range(3)]
@@ -122,6 +125,20 @@ def _lowered_bodies(tree, layout, rec):
         bodies[i].fext = [old[k] + v for k, v in enumerate(n + f)]
     gravity = [_rename(layout, memo, "gravity", absent)(g) for g in tree.gravity]
     return bodies, gravity
+
+
+def _shared_loads(rec, exprs):
+    """The loads' components with their common subexpressions named once (a joint's law
+    appears in its child's and its parent's load, and in every component of each); loads
+    without function calls (plain inputs, springs) are left as they are."""
+    if not any(isinstance(e, sm.Expr) and e.atoms(sm.Function) - e.atoms(sm.core.function.AppliedUndef)
+               for e in exprs):
+        return exprs
+    repl, reduced = sm.cse(exprs, symbols=sm.numbered_symbols("_load"), order="none")
+    names = {}
+    for s, e in repl:
+        names[s] = rec.let(e.xreplace(names))
+    return [sm.sympify(e).xreplace(names) for e in reduced]
 
 
 def _cross(a, b):

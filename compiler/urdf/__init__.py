@@ -14,15 +14,16 @@ from .system import UrdfSystem, system_from_tree
 __all__ = ["from_urdf", "urdf_system", "read_urdf", "build_tree", "system_from_tree", "UrdfSystem"]
 
 
-def urdf_system(path, *, floating_base=False, fold_parameters=False, mimic=False, gravity=9.81,
+def urdf_system(path, *, floating_base=False, fold_parameters=False, mimic=False, gravity=9.81, limits=True,
                 allow_nonphysical_inertia=False):
-    """The :class:`UrdfSystem` of the URDF file ``path`` (System, parameters, inputs, ...)."""
+    """The :class:`UrdfSystem` of the URDF file ``path`` (System, parameters, inputs, ...);
+    ``limits=False`` leaves out the joints' limits, damping and friction."""
     tree = build_tree(read_urdf(path), floating_base=floating_base,
                       allow_nonphysical_inertia=allow_nonphysical_inertia)
-    return system_from_tree(tree, fold=fold_parameters, mimic=mimic, gravity=gravity)
+    return system_from_tree(tree, fold=fold_parameters, mimic=mimic, gravity=gravity, laws=limits)
 
 
-def from_urdf(path, *, floating_base=False, fold_parameters=False, mimic=False, gravity=9.81,
+def from_urdf(path, *, floating_base=False, fold_parameters=False, mimic=False, gravity=9.81, limits=True,
               allow_nonphysical_inertia=False):
     """A SymPy ``System`` of the robot in the URDF file ``path``, ready to extend and compile.
 
@@ -32,7 +33,8 @@ def from_urdf(path, *, floating_base=False, fold_parameters=False, mimic=False, 
     moments beyond rounding (refused by default), with a warning naming each link.
     """
     built = urdf_system(path, floating_base=floating_base, fold_parameters=fold_parameters,
-                        mimic=mimic, gravity=gravity, allow_nonphysical_inertia=allow_nonphysical_inertia)
+                        mimic=mimic, gravity=gravity, limits=limits,
+                        allow_nonphysical_inertia=allow_nonphysical_inertia)
     system = built.system
     system.urdf = built
     return system

@@ -34,12 +34,13 @@ class UrdfModel:
     fold_parameters: bool = False
     mimic: bool = False
     gravity: float = 9.81
+    limits: bool = True          # the file's joint limits, damping and friction act (False: ignored)
     contacts: tuple = ()        # ground contacts (eomc.compiler.contact.tree.ContactSpec or text)
     allow_nonphysical_inertia: bool = False
 
     def options(self):
         return dict(floating_base=self.floating_base, fold_parameters=self.fold_parameters,
-                    mimic=self.mimic, gravity=self.gravity,
+                    mimic=self.mimic, gravity=self.gravity, limits=self.limits,
                     allow_nonphysical_inertia=self.allow_nonphysical_inertia)
 
 
@@ -94,7 +95,7 @@ def urdf_formed(model, formulation, overrides, formed_system):
     if formulation != "kane" and not (model.mimic and mimics):
         from eomc.compiler.tree.formed import formed_of_tree
         from .treeir import tree_ir
-        built = tree_ir(tree, fold=model.fold_parameters, gravity=model.gravity)
+        built = tree_ir(tree, fold=model.fold_parameters, gravity=model.gravity, laws=model.limits)
         if model.contacts:
             from eomc.compiler.contact.tree import with_contacts, merged_outputs
             built, contact_outputs, contact_events = with_contacts(built, model.contacts,
@@ -116,27 +117,33 @@ def urdf_formed(model, formulation, overrides, formed_system):
                       f"are constraints, which the recursive formulation's tree cannot carry: the robot "
                       f"goes through its SymPy System (formulation {formulation})", EomcWarning,
                       stacklevel=3)
-    built = system_from_tree(tree, fold=model.fold_parameters, mimic=model.mimic, gravity=model.gravity)
+    built = system_from_tree(tree, fold=model.fold_parameters, mimic=model.mimic, gravity=model.gravity,
+                             laws=model.limits)
     system = built.system
     system.urdf = built
     formed = formed_system(system, formulation)
     return formed, urdf_overrides(system, formed, overrides), system
 
 
-def with_options(model, name=None, *, floating_base=False, allow_nonphysical_inertia=False):
+def with_options(model, name=None, *, floating_base=False, allow_nonphysical_inertia=False, limits=True):
     """(model, name) for the driver: a URDF path with options becomes a :class:`UrdfModel`.
 
-    The CLI's ``--floating-base`` and ``--allow-nonphysical-inertia`` land here; without
-    options the path goes through unchanged (the driver reads URDF paths itself).
+    The CLI's ``--floating-base``, ``--allow-nonphysical-inertia`` and ``--limits off`` land
+    here (an MJCF path with ``--limits off`` is the CLI's own:
+    :func:`eomc.cli.common.with_options`); without options the path goes through unchanged
+    (the driver reads URDF paths itself).
     """
     given = {k: v for k, v in (("floating_base", floating_base),
                                ("allow_nonphysical_inertia", allow_nonphysical_inertia)) if v}
+    if not limits:
+        given["limits"] = False
     if not given:
         return model, name
     if not is_urdf_path(model):
         from eomc.runtime.errors import ModelError
-        flags = " and ".join("--" + k.replace("_", "-") for k in given)
-        raise ModelError(f"{flags} applies to URDF robots (.urdf), not to {model}")
+        flags = " and ".join("--limits off" if k == "limits" else "--" + k.replace("_", "-") for k in given)
+        raise ModelError(f"{flags} applies to URDF robots (.urdf){' and MJCF models' if given == {'limits': False} else ''}, "
+                         f"not to {model}")
     from eomc.compiler.model.validate import sanitize_name
     return UrdfModel(Path(model), **given), name or sanitize_name(Path(model).stem)
 

@@ -45,6 +45,8 @@ class UrdfJoint:
     origin: np.ndarray                # 4x4: child link frame at q = 0 in the parent link frame
     axis: np.ndarray                  # unit vector in the joint (= child link) frame
     mimic: tuple = None               # (joint, multiplier, offset) or None
+    limit: tuple = None               # <limit lower upper> as (lower, upper), None where absent
+    dynamics: tuple = (0.0, 0.0)      # <dynamics damping friction>, 0 where absent
 
 
 @dataclass
@@ -143,8 +145,9 @@ def _owner(element):
 
 
 def _check_loose_numbers(path, root):
-    """Attributes eomc does not model (limits, dynamics, ...) but yourdfpy converts to float:
-    any number is accepted (NaN and inf too: they are not used), text is an error with a line."""
+    """Attributes yourdfpy converts to float: text is an error with a line; any number passes
+    here (limits and dynamics are checked where they are used, naming the joint:
+    :func:`eomc.compiler.urdf.treeir.joint_law`; the others are not used)."""
     wanted = {"limit": ("lower", "upper", "effort", "velocity"), "dynamics": ("damping", "friction"),
               "safety_controller": ("soft_lower_limit", "soft_upper_limit", "k_position", "k_velocity"),
               "calibration": ("rising", "falling")}
@@ -203,8 +206,14 @@ def _joint(path, joint, line):
         mimic = (joint.mimic.joint, float(joint.mimic.multiplier if joint.mimic.multiplier is not None
                                           else 1.0),
                  float(joint.mimic.offset if joint.mimic.offset is not None else 0.0))
+    limit = getattr(joint, "limit", None)
+    if limit is not None:
+        limit = tuple(None if v is None else float(v) for v in (limit.lower, limit.upper))
+    dynamics = getattr(joint, "dynamics", None)
+    dynamics = (0.0, 0.0) if dynamics is None else tuple(float(v or 0.0) for v in (dynamics.damping,
+                                                                                     dynamics.friction))
     return UrdfJoint(joint.name, line, joint.type, joint.parent, joint.child, origin,
-                     axis / norm if norm else axis, mimic)
+                     axis / norm if norm else axis, mimic, limit, dynamics)
 
 
 def read_urdf(path, parser="lxml"):
@@ -279,6 +288,11 @@ class _JointElement:
         axis = element.find("axis")
         self.axis = _numbers(axis, "xyz", (1.0, 0.0, 0.0)) if axis is not None else None
         self.origin = _origin(element.find("origin"))
+        limit, dynamics = element.find("limit"), element.find("dynamics")
+        self.limit = None if limit is None else _Limit(*(float(limit.get(k)) if limit.get(k) is not None
+                                                         else None for k in ("lower", "upper")))
+        self.dynamics = None if dynamics is None else _Dynamics(*(float(dynamics.get(k, 0.0))
+                                                                  for k in ("damping", "friction")))
         mimic = element.find("mimic")
         self.mimic = None
         if mimic is not None:
@@ -292,3 +306,15 @@ class _Mimic:
     joint: str
     multiplier: float
     offset: float
+
+
+@dataclass
+class _Limit:
+    lower: float
+    upper: float
+
+
+@dataclass
+class _Dynamics:
+    damping: float
+    friction: float

@@ -112,11 +112,14 @@ def _body(body, params):
     return rigid, com
 
 
-def system_from_tree(tree, *, fold=False, mimic=False, gravity=9.81):
-    """Build the :class:`UrdfSystem` of a :class:`tree.Tree` (see the module docstring)."""
+def system_from_tree(tree, *, fold=False, mimic=False, gravity=9.81, laws=True):
+    """Build the :class:`UrdfSystem` of a :class:`tree.Tree` (see the module docstring); ``laws``:
+    the joints' limits, damping and friction act (as in :func:`.treeir.law_torque`)."""
+    from .treeir import joint_inertias, law_torque
     if mimic:
         check_mimics(tree, tree.joints)
     params = _Parameters(fold)
+    inertias = joint_inertias(tree) if laws else None
     N = sme.ReferenceFrame("N")
     origin = sme.Point("O")
     origin.set_vel(N, 0)
@@ -155,7 +158,11 @@ def system_from_tree(tree, *, fold=False, mimic=False, gravity=9.81):
         if tj.type in ("revolute", "continuous", "prismatic") and not (mimic and tj.mimic):
             tau = sme.dynamicsymbols(f"tau_{s}")
             inputs.append(tau)
-            loads += _actuation(tj.type, tau, joint, parent_frame, child, parent_point, child_point)
+            law = law_torque(tree, tj, joint.coordinates[0], joint.speeds[0], params, inertias) if laws else 0
+            if law == 0:
+                loads += _actuation(tj.type, tau, joint, parent_frame, child, parent_point, child_point)
+            else:
+                loads += _body_actuation(tj, tau + law, parent_frame, child, parent_point, child_point)
     if mimic:
         _add_mimics(system, tree, joints)
     g = params("g", gravity) if gravity else 0
@@ -238,6 +245,22 @@ def _actuation(kind, tau, joint, parent_frame, child, parent_point, child_point)
     if kind == "prismatic":
         return [sme.Force(child_point, tau * axis), sme.Force(parent_point, -tau * axis)]
     return [sme.Torque(child.frame, tau * axis), sme.Torque(parent_frame, -tau * axis)]
+
+
+def _body_actuation(tj, tau, parent_frame, child, parent_point, child_point):
+    """:func:`_actuation` with the axis in the child's frame (the same numbers: URDF's axis is in
+    the joint frame, which is the child link frame) and the reaction's in the parent's (R0 a).
+
+    Why not the joint frame: a torque whose magnitude depends on q (a limit's spring) would
+    no longer have constant components in the child frame at q = 0, which is how the tree
+    reader (:func:`eomc.compiler.tree.recognize._body_components`) decides a load is a
+    body-frame one; here both frames are the bodies' own, as in :mod:`.treeir`."""
+    a = [_snap(v) for v in tj.axis]
+    back = [_snap(v) for v in np.asarray(tj.rotation, dtype=float) @ np.asarray(tj.axis, dtype=float)]
+    on_child, on_parent = _vector(child.frame, [tau * v for v in a]), _vector(parent_frame, [-tau * v for v in back])
+    if tj.type == "prismatic":
+        return [sme.Force(child_point, on_child), sme.Force(parent_point, on_parent)]
+    return [sme.Torque(child.frame, on_child), sme.Torque(parent_frame, on_parent)]
 
 
 def _add_mimics(system, tree, joints):

@@ -82,6 +82,8 @@ class TreeJoint:
     position: np.ndarray       # joint frame origin in the parent body frame
     axis: np.ndarray           # unit axis in the joint frame
     mimic: tuple = None        # (joint, multiplier, offset) or None
+    limit: tuple = None        # the URDF's <limit> (lower, upper), None where absent
+    dynamics: tuple = (0.0, 0.0)   # the URDF's <dynamics> (damping, friction)
 
 
 @dataclass
@@ -368,7 +370,7 @@ def build_tree(robot, floating_base=False, allow_nonphysical_inertia=False):
                 continue
             pending.append(("start", TreeJoint(joint.name, joint.line, joint.type, body_name, joint.child,
                                                origin[:3, :3].copy(), origin[:3, 3].copy(), joint.axis,
-                                               joint.mimic)))
+                                               joint.mimic, joint.limit, joint.dynamics)))
         stack.extend(reversed(pending))      # the first joint's subtree first, as recursion did
     if not joints:
         _fail(robot, robot.line, f"robot '{robot.name}' has no moving joint (only fixed joints"

@@ -159,9 +159,11 @@ def _vec(values):
     return [_num(v) for v in values]
 
 
-def tree_ir(tree, *, fold=False, gravity=9.81):
-    """The :class:`UrdfTree` of a :class:`.tree.Tree` (see the module docstring)."""
+def tree_ir(tree, *, fold=False, gravity=9.81, laws=True):
+    """The :class:`UrdfTree` of a :class:`.tree.Tree` (see the module docstring); ``laws``: the
+    joints' declared limits, damping and friction (:func:`law_torque`) act, else they are ignored."""
     params = _Parameters(fold)
+    inertias = joint_inertias(tree) if laws else None
     bodies, coordinates, speeds, kinematics, inputs, loads, offsets = [], [], [], [], [], [], []
     index, coms = {}, {}
     for tj in tree.joints:
@@ -249,6 +251,8 @@ def tree_ir(tree, *, fold=False, gravity=9.81):
         if tj.type in ("revolute", "continuous", "prismatic"):
             tau = dynamicsymbols(f"tau_{j}")
             inputs.append(tau)
+            if laws:
+                tau = tau + law_torque(tree, tj, qs[0], us[0], params, inertias)
             loads += _actuation(tj.type, tau, a, R0, c, p, cp, index[tj.child], parent)
     g = params("g", gravity) if gravity else sm.S.Zero
     # what the motion cannot excite is dropped, as the System route does: only the symbols
@@ -283,6 +287,62 @@ def pose_source(built):
     frames, more_frames, more_points = _welded_links(urdf, frames, N, O)
     return PoseSource(tuple(frames), tuple(points), tuple(lines), tuple(frame_edges + more_frames),
                       tuple(point_edges + more_points), dict(built.parameters), _urdf_geometry(urdf))
+
+
+def joint_law(tree, tj):
+    """The :class:`~eomc.compiler.tree.joint_laws.JointLaw` of a 1-dof joint's <limit> and
+    <dynamics> (a continuous joint has no limits), checked: bad numbers are a
+    ModelFileError at the joint's line."""
+    from eomc.compiler.tree.joint_laws import JointLaw, JointLawError, check_law
+    from eomc.runtime.errors import ModelFileError
+    lower, upper = tj.limit if tj.limit is not None and tj.type != "continuous" else (None, None)
+    law = JointLaw(tj.name, lower=lower, upper=upper, damping=tj.dynamics[0], friction=tj.dynamics[1])
+    try:
+        check_law(law)
+    except JointLawError as exc:
+        raise ModelFileError(str(exc), str(tree.path), tj.line) from None
+    return law
+
+
+def law_torque(tree, tj, q, u, params, inertias):
+    """The joint-space torque (force) of the joint's declared limits, damping and friction."""
+    from eomc.compiler.tree.joint_laws import joint_torque
+    law = joint_law(tree, tj)
+    if not law.active:
+        return sm.S.Zero
+    return joint_torque(q, u, law, params, identifier(tj.name), inertias[tj.name])
+
+
+def joint_inertias(tree):
+    """joint name -> the inertia its 1-dof motion moves at q = 0 with the other joints held
+    (the mass matrix's diagonal entry: the subtree's composite inertia about the joint), the
+    scale of the default limit stiffness and damping."""
+    from .tree import _motion
+    index = {j.child: k for k, j in enumerate(tree.joints)}
+    composite = []
+    for joint in tree.joints:
+        body = tree.bodies[joint.child]
+        c = np.asarray(body.com, dtype=float)
+        cx = np.array([[0, -c[2], c[1]], [c[2], 0, -c[0]], [-c[1], c[0], 0]])
+        I6 = np.zeros((6, 6))
+        I6[:3, :3] = body.inertia + body.mass * (cx @ cx.T)
+        I6[:3, 3:], I6[3:, :3], I6[3:, 3:] = body.mass * cx, body.mass * cx.T, body.mass * np.eye(3)
+        composite.append(I6)
+    for k in range(len(tree.joints) - 1, -1, -1):
+        joint = tree.joints[k]
+        if joint.parent is None:
+            continue
+        E, r = joint.rotation.T, joint.position
+        rx = np.array([[0, -r[2], r[1]], [r[2], 0, -r[0]], [-r[1], r[0], 0]])
+        X = np.zeros((6, 6))
+        X[:3, :3], X[3:, 3:], X[3:, :3] = E, E, -E @ rx
+        composite[index[joint.parent]] = composite[index[joint.parent]] + X.T @ composite[k] @ X
+    out = {}
+    for k, joint in enumerate(tree.joints):
+        if joint.type in ("revolute", "continuous", "prismatic"):
+            S = _motion(joint)
+            out[joint.name] = float((S.T @ composite[k] @ S)[0, 0])
+    return out
 
 
 def _actuation(kind, tau, a, R0, c, p, cp, child, parent):

@@ -26,10 +26,11 @@ def add_generate_options(parser):
     parser.add_argument("--allow-nonphysical-inertia", action="store_true",
                         help="URDF: build moving links whose principal moments are negative (refused "
                              "by default), with a warning naming each")
-    from .common import add_contact_argument, add_formulation_argument, add_ignore_argument
+    from .common import add_contact_argument, add_formulation_argument, add_ignore_argument, add_limits_argument
     add_contact_argument(parser)
     add_formulation_argument(parser)
     add_ignore_argument(parser)
+    add_limits_argument(parser)
 
 
 def configure(parser):
@@ -49,11 +50,10 @@ def configure(parser):
 
 def run(args):
     from eomc.compiler.driver import compile
-    from eomc.compiler.mjcf.model import with_ignore
-    from eomc.compiler.urdf.model import with_options
+    from .common import with_options
     source, name = with_options(args.model, args.name, floating_base=args.floating_base,
-                                allow_nonphysical_inertia=args.allow_nonphysical_inertia)
-    source, name = with_ignore(source, name, args.ignore)
+                                allow_nonphysical_inertia=args.allow_nonphysical_inertia,
+                                limits=args.limits != "off", ignore=args.ignore)
     model = compile(source, name, functions=args.outputs, fold_parameters=args.fold_parameters,
                     backend=args.backend, cflags=args.cflags, cache_dir=args.cache_dir,
                     output_dir=args.output, progress=not args.quiet, formulation=args.formulation,

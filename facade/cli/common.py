@@ -7,7 +7,7 @@ Mistakes in them are ValueErrors, which `eomc` prints as one line (exit status 2
 """
 from pathlib import Path
 
-__all__ = ["add_model_arguments", "add_formulation_argument", "add_frame_argument", "FORMULATION_HELP", "load_model", "model_options", "parse_assignments", "initial_state",
+__all__ = ["with_options", "add_model_arguments", "add_formulation_argument", "add_frame_argument", "FORMULATION_HELP", "load_model", "model_options", "parse_assignments", "initial_state",
            "parameter_values", "writable_file"]
 
 
@@ -29,6 +29,7 @@ def add_model_arguments(parser):
                              "by default), with a warning naming each")
     add_contact_argument(parser)
     add_ignore_argument(parser)
+    add_limits_argument(parser)
 
 
 CONTACT_HELP = ("URDF/MJCF: a ground contact sphere on LINK (an MJCF body), centred at x,y,z in its frame "
@@ -53,6 +54,13 @@ def add_ignore_argument(parser):
     parser.add_argument("--ignore", metavar="WHAT[,WHAT]", action="append", default=[],
                         help=f"MJCF (.xml): drop these with a warning instead of refusing the model "
                              f"({', '.join(IGNORABLE)})")
+
+
+def add_limits_argument(parser):
+    """--limits on|off: the model file's joint limits, damping and friction (on by default)."""
+    parser.add_argument("--limits", choices=("on", "off"), default="on",
+                        help="URDF/MJCF: the file's joint limits (soft), damping and friction act "
+                             "(on, default) or are ignored (off)")
 
 
 FORMULATION_HELP = ("dynamics formulation: auto (default: the cheaper rhs of the two; kane where the "
@@ -83,7 +91,23 @@ def model_options(args):
         options["frames"] = list(args.frame)
     if getattr(args, "ignore", None):
         options["ignore"] = args.ignore
+    if getattr(args, "limits", "on") == "off":
+        options["limits"] = False
     return options
+
+
+def with_options(model, name=None, *, floating_base=False, allow_nonphysical_inertia=False, limits=True,
+                 ignore=()):
+    """(model, name) for the driver with the command line's model options: an MJCF file's
+    (``--ignore``, ``--limits off``: :func:`eomc.compiler.mjcf.model.with_ignore`) or a URDF's
+    (:func:`eomc.compiler.urdf.model.with_options`, which refuses URDF flags on anything else)."""
+    from eomc.compiler.mjcf.model import is_mjcf_path, with_ignore
+    from eomc.compiler.urdf.model import with_options as urdf_options
+    if is_mjcf_path(model) and not (floating_base or allow_nonphysical_inertia):
+        return with_ignore(model, name, ignore, limits=limits)
+    with_ignore(model, name, ignore)        # --ignore on anything but MJCF: says what it applies to
+    return urdf_options(model, name, floating_base=floating_base,
+                        allow_nonphysical_inertia=allow_nonphysical_inertia, limits=limits)
 
 
 FRAME_HELP = ("output the world pose, velocity and Jacobian of this frame (a URDF link, tool0 and "
@@ -97,7 +121,7 @@ def add_frame_argument(parser):
 
 
 def load_model(path, quiet=False, floating_base=False, formulation="auto", frames=None, ignore=(),
-               contacts=None, allow_nonphysical_inertia=False):
+               contacts=None, allow_nonphysical_inertia=False, limits=True):
     """A runtime Model from a model file (.py, .urdf, MuJoCo's .xml; compiled) or a built
     directory / json (loaded).  ``ignore``: an MJCF model's ignorable elements (--ignore).
 
@@ -112,11 +136,9 @@ def load_model(path, quiet=False, floating_base=False, formulation="auto", frame
         with_ignore(str(path), ignore=ignore)        # says what --ignore applies to
     if path.is_file() and path.suffix.lower() in (".py", ".urdf", ".xml", ".mjcf"):
         from eomc.compiler.driver import compile as compile_model
-        from eomc.compiler.mjcf.model import with_ignore
-        from eomc.compiler.urdf.model import with_options
-        source, name = with_options(str(path), floating_base=floating_base,
-                                    allow_nonphysical_inertia=allow_nonphysical_inertia)
-        source, name = with_ignore(source, name, ignore)
+        source, name = with_options(str(path), name=None, floating_base=floating_base,
+                                    allow_nonphysical_inertia=allow_nonphysical_inertia, limits=limits,
+                                    ignore=ignore)
         return compile_model(source, name, progress=False if quiet else None,
                              formulation=formulation, frames=frames, contacts=contacts)
     if contacts:

@@ -38,12 +38,11 @@ def format_report(metadata):
 
 def run(args):
     from eomc.compiler.driver import generate
-    from eomc.compiler.mjcf.model import with_ignore
-    from eomc.compiler.urdf.model import with_options
+    from .common import with_options
     from eomc.errors import ModelError
     source, name = with_options(args.model, args.name, floating_base=args.floating_base,
-                                allow_nonphysical_inertia=args.allow_nonphysical_inertia)
-    source, name = with_ignore(source, name, args.ignore)
+                                allow_nonphysical_inertia=args.allow_nonphysical_inertia,
+                                limits=args.limits != "off", ignore=args.ignore)
     spec, generated = generate(source, name, functions=args.outputs,
                                fold_parameters=args.fold_parameters,
                                progress=False if args.quiet else None, formulation=args.formulation,

@@ -28,7 +28,7 @@ def robots(cache):
     built = {}
     for name, floating in CASES.items():
         path = robot_path(name)
-        system = from_urdf(path, floating_base=floating)
+        system = from_urdf(path, floating_base=floating, limits=False)
         model = eomc.compile(system, name, functions=FUNCTIONS, cache_dir=cache, progress=False)
         built[name] = model, PinRef(path, joints_of(system), floating=floating)
     return built

@@ -24,7 +24,7 @@ def cache(tmp_path_factory):
 
 
 def _compile(name, cache, floating=False):
-    system = from_urdf(robot_path(name), floating_base=floating)
+    system = from_urdf(robot_path(name), floating_base=floating, limits=False)
     model = eomc.compile(system, name, functions=["rhs"], cache_dir=cache, progress=False)
     return model, PinRef(robot_path(name), joints_of(system), floating=floating)
 

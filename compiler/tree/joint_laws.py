@@ -1,0 +1,212 @@
+"""Joint-space force laws of a 1-dof joint: soft limits, viscous damping, regularised Coulomb friction.
+
+Why one module: URDF (``<limit>``, ``<dynamics>``) and MJCF (``range``,
+``damping``, ``frictionloss``) declare the same three things; both readers and
+both formulations (the tree of :mod:`eomc.compiler.urdf.treeir` and the SymPy
+System of :mod:`eomc.compiler.urdf.system`) take the torque (force, for a
+slide) of :func:`joint_torque` and apply it on the child about the joint axis
+with its reaction on the parent, so the laws are written, checked and
+defaulted in one place.  Every number is a named parameter (changeable at run
+time without a rebuild); the names are in :data:`NAMES`.
+
+For coordinate q, speed u (s = the joint's C name):
+
+- viscous damping: tau = -b u                     (``damping_s``)
+- Coulomb friction, regularised: tau = -f tanh(u / v)   (``friction_s``, ``friction_v_s``;
+  v defaults to :data:`FRICTION_SPEED` = 0.01 rad/s or m/s: below it the law
+  is a steep viscous one, so a stopped joint creeps under a load below f
+  instead of sticking -- not stick-slip)
+- soft limits past [lo, hi] (``limit_lo_s``, ``limit_hi_s``; an absent or
+  infinite side has no limit): with penetrations d_hi = q - hi, d_lo = lo - q,
+
+      tau = -k (s(d_hi) - s(d_lo)) - c u (w(d_hi) + w(d_lo))
+      s(d) = d³ / (d + e)²,  w(d) = d³ / (d + e)³  for d > 0, both 0 for d <= 0
+
+  (``limit_k_s``, ``limit_c_s``, ``limit_e_s``).  s and w are C² at the
+  boundary (value, slope and curvature 0 from both sides), so the right-hand
+  side is C² in q: no kink for the step-size control, Radau's Newton iteration
+  or jac_x to trip on (central differences of the rhs with steps well below e
+  agree with jac_x even at a state on the boundary: ``eomc check`` on Panda,
+  whose fingers start on their lower limit), hence no events are needed to
+  locate the boundary.  A few widths e (default :data:`WIDTH` = 3e-4 rad or m) past the
+  boundary the law is the linear spring-damper of MuJoCo and Drake: s -> d - 2e,
+  w -> 1.  A static load F holds the joint where k d³/(d + e)² = F past the
+  limit (F/k + 2e when F >> k e).
+  Default stiffness and damping as Drake's penalty joint limits and MuJoCo's
+  default ``solref`` choose them: a critically damped spring-damper of time
+  constant tc on the joint's effective inertia m (k = m / tc², c = 2 m / tc),
+  tc = :data:`TIME_CONSTANT` = 0.01 s for URDF (MJCF: the joint's own
+  ``solref`` time constant, 0.02 s by default).  The damping may pull a joint
+  that leaves its limit fast back towards it (as in Drake's penalty law; MuJoCo's
+  constraint forces never pull).
+"""
+import math
+
+import sympy as sm
+
+__all__ = ["ramp", "step", "JointLaw", "joint_torque", "check_law", "TIME_CONSTANT", "WIDTH", "FRICTION_SPEED", "NAMES",
+           "limit_gains", "limit_spring", "JointLawError"]
+
+TIME_CONSTANT = 0.01
+WIDTH = 3e-4
+FRICTION_SPEED = 0.01
+
+NAMES = {"lower": "limit_lo", "upper": "limit_hi", "stiffness": "limit_k", "limit_damping": "limit_c",
+         "width": "limit_e", "damping": "damping", "friction": "friction", "friction_speed": "friction_v"}
+
+
+class JointLawError(ValueError):
+    """A joint's numbers make no law (the message names the joint and what is wrong; ``joint``
+    is its name, for the reader to find its line)."""
+
+    def __init__(self, joint, message):
+        super().__init__(message)
+        self.joint = joint
+
+
+class JointLaw:
+    """The declared numbers of one joint (``None``: not declared / no limit on that side)."""
+
+    def __init__(self, joint, *, lower=None, upper=None, damping=0.0, friction=0.0, stiffness=None,
+                 limit_damping=None, width=WIDTH, friction_speed=FRICTION_SPEED):
+        self.joint = joint
+        self.lower, self.upper = lower, upper
+        self.damping, self.friction = damping, friction
+        self.stiffness, self.limit_damping = stiffness, limit_damping
+        self.width, self.friction_speed = width, friction_speed
+
+    @property
+    def limited(self):
+        return any(v is not None and math.isfinite(v) for v in (self.lower, self.upper))
+
+    @property
+    def active(self):
+        """Whether the law adds anything."""
+        return self.limited or bool(self.damping) or bool(self.friction)
+
+
+def check_law(law):
+    """Raise :class:`JointLawError` naming the joint: NaN, lower > upper, negative coefficients."""
+    j = law.joint
+    for what in ("lower", "upper"):
+        v = getattr(law, what)
+        if v is not None and math.isnan(v):
+            raise JointLawError(j, f"joint '{j}': limit {what} is NaN")
+    if law.lower is not None and law.upper is not None and law.lower > law.upper:
+        raise JointLawError(j, f"joint '{j}': limit lower {law.lower:g} > upper {law.upper:g}")
+    for what in ("damping", "friction", "stiffness", "limit_damping", "width", "friction_speed"):
+        v = getattr(law, what)
+        if v is None:
+            continue
+        if not math.isfinite(v):
+            raise JointLawError(j, f"joint '{j}': {what} {v} is not a finite number")
+        if v < 0:
+            raise JointLawError(j, f"joint '{j}': negative {what} ({v:g}): it would feed energy in")
+    if law.width is not None and law.width <= 0 and law.limited:
+        raise JointLawError(j, f"joint '{j}': limit width must be > 0 (got {law.width:g})")
+    if law.friction and not law.friction_speed:
+        raise JointLawError(j, f"joint '{j}': friction speed must be > 0 (got {law.friction_speed:g})")
+
+
+def limit_gains(inertia, time_constant=TIME_CONSTANT):
+    """(k, c) of a critically damped spring-damper of time constant ``time_constant`` on ``inertia``."""
+    return inertia / time_constant ** 2, 2.0 * inertia / time_constant
+
+
+class step(sm.Function):
+    """1 for x > 0, else 0: the derivative of :class:`ramp`.  Its own derivative is taken as 0
+    (it multiplies ramp(x), which vanishes where step jumps, in every law here)."""
+    nargs = 1
+
+    @classmethod
+    def eval(cls, x):
+        if x.is_Number:
+            return sm.S.One if x > 0 else sm.S.Zero
+
+    def fdiff(self, argindex=1):
+        return sm.S.Zero
+
+    def _eval_evalf(self, prec):
+        x = self.args[0].evalf(prec)
+        return (sm.S.One if x > 0 else sm.S.Zero) if x.is_Number else None
+
+    def _ccode(self, printer):
+        return f"(({printer._print(self.args[0])}) > 0.0 ? 1.0 : 0.0)"
+
+    def _numpycode(self, printer):
+        return f"numpy.heaviside({printer._print(self.args[0])}, 0.0)"
+
+    def _pythoncode(self, printer):
+        return f"(1.0 if ({printer._print(self.args[0])}) > 0 else 0.0)"
+
+
+class ramp(sm.Function):
+    """max(x, 0), as a SymPy function the C printer writes as ``fmax(x, 0.0)`` and the
+    differentiation passes take through :meth:`fdiff` (SymPy's ``Max`` differentiates to a
+    Heaviside that C99 cannot print, ``Piecewise`` leaves relationals that the passes
+    cannot differentiate)."""
+    nargs = 1
+
+    @classmethod
+    def eval(cls, x):
+        if x.is_Number:
+            return x if x > 0 else sm.S.Zero
+
+    def fdiff(self, argindex=1):
+        return step(self.args[0])
+
+    def _eval_evalf(self, prec):
+        x = self.args[0].evalf(prec)
+        return (x if x > 0 else sm.S.Zero) if x.is_Number else None
+
+    def _ccode(self, printer):
+        return f"fmax({printer._print(self.args[0])}, 0.0)"
+
+    def _numpycode(self, printer):
+        return f"numpy.maximum({printer._print(self.args[0])}, 0.0)"
+
+    def _pythoncode(self, printer):
+        return f"max({printer._print(self.args[0])}, 0.0)"
+
+
+def limit_spring(d, e):
+    """s(d) of the module docstring (numbers or SymPy)."""
+    r = ramp(d)
+    return r ** 3 / (r + e) ** 2
+
+
+
+
+def joint_torque(q, u, law, params, name, inertia):
+    """The torque (force) of ``law`` on the joint's child, a SymPy expression in q, u and parameters.
+
+    ``params(name, value)`` makes the parameters (a symbol, or a literal: 0 stays 0);
+    ``name`` is the joint's C name; ``inertia`` its effective inertia (for the default
+    limit stiffness and damping)."""
+    check_law(law)
+    tau = sm.S.Zero
+    if law.limited:
+        k, c = limit_gains(inertia)
+        k = law.stiffness if law.stiffness is not None else k
+        c = law.limit_damping if law.limit_damping is not None else c
+        K = params(f"{NAMES['stiffness']}_{name}", k)
+        C = params(f"{NAMES['limit_damping']}_{name}", c)
+        E = params(f"{NAMES['width']}_{name}", law.width)
+        if E == 0:
+            raise JointLawError(law.joint, f"joint '{law.joint}': limit width must be > 0")
+        # per side, with r = ramp(d) and g = r/(r + e): k s + c u w = g² (k r + c u g)
+        # (one division per side; the same numbers as the docstring's form)
+        if law.upper is not None and math.isfinite(law.upper):
+            r = ramp(q - params(f"{NAMES['upper']}_{name}", law.upper))
+            g = r / (r + E)
+            tau += -g ** 2 * (K * r + C * u * g)
+        if law.lower is not None and math.isfinite(law.lower):
+            r = ramp(params(f"{NAMES['lower']}_{name}", law.lower) - q)
+            g = r / (r + E)
+            tau += g ** 2 * (K * r - C * u * g)
+    if law.damping:
+        tau += -params(f"{NAMES['damping']}_{name}", law.damping) * u
+    if law.friction:
+        V = params(f"{NAMES['friction_speed']}_{name}", law.friction_speed)
+        tau += -params(f"{NAMES['friction']}_{name}", law.friction) * sm.tanh(u / V)
+    return tau

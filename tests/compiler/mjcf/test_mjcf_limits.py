@@ -1,0 +1,195 @@
+"""MJCF range limits, damping and frictionloss (eomc.compiler.tree.joint_laws) against MuJoCo.
+
+Inside the range eomc's limit exerts nothing and MuJoCo's limit constraint is
+inactive, so qacc agrees with mj_forward with limits *on* on both sides (to 1e-10).
+Past the range both are soft but differ in kind (MuJoCo: a constraint solved with
+impedance and reference acceleration; eomc: a spring-damper with MuJoCo's solref
+gains), so a pendulum dropped onto its limit is compared by where it comes to rest
+and how deep it first goes, with the differences stated.  frictionloss is eomc's
+regularised Coulomb friction, not MuJoCo's dry-friction constraint: checked
+against its formula, MuJoCo's own friction switched off.
+"""
+import math
+import warnings
+
+import numpy as np
+import pytest
+from scipy.optimize import brentq
+
+mujoco = pytest.importorskip("mujoco")
+
+import eomc  # noqa: E402
+from eomc.compiler.mjcf.compare import qacc_of, to_mujoco  # noqa: E402
+from eomc.compiler.mjcf.model import MjcfModel, check_model, load_mjmodel  # noqa: E402
+from eomc.compiler.mjcf.treeir import tree_ir  # noqa: E402
+from eomc.runtime.errors import EomcWarning, ModelFileError  # noqa: E402
+from eomc.runtime.simulate import simulate  # noqa: E402
+
+ARM = """<mujoco model="limited">
+  <option gravity="0 0 -9.81" timestep="0.0002"/>
+  <worldbody>
+    <body name="cart">
+      <joint name="slide" type="slide" axis="1 0 0" range="-0.5 0.5" damping="0.3" frictionloss="0.2"/>
+      <geom type="box" size="0.1 0.1 0.05" mass="1.5"/>
+      <body name="upper" pos="0 0 -0.05">
+        <joint name="shoulder" type="hinge" axis="0 1 0" range="-60 45" damping="0.05"/>
+        <geom type="capsule" fromto="0 0 0 0.4 0 0" size="0.03" mass="1"/>
+        <body name="lower" pos="0.4 0 0">
+          <joint name="elbow" type="hinge" axis="0 1 0" range="-30 80" damping="0.02" frictionloss="0.05"/>
+          <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.025" mass="0.6"/>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+DROP = """<mujoco model="drop">
+  <option gravity="0 0 -9.81" timestep="0.0001" integrator="RK4"/>
+  <worldbody>
+    <body name="arm">
+      <joint name="hinge" type="hinge" axis="0 1 0" range="-60 0"/>
+      <geom type="sphere" size="0.02" pos="0.5 0 0" mass="1"/>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+@pytest.fixture(scope="module")
+def arm(tmp_path_factory):
+    root = tmp_path_factory.mktemp("limited")
+    path = root / "limited.xml"
+    path.write_text(ARM)
+    model = eomc.compile(MjcfModel(path), functions=["rhs", "mass_matrix"], cache_dir=root / "cache",
+                         progress=False)
+    return path, model
+
+
+def test_inside_the_range_qacc_matches_mj_forward_with_limits_on(arm):
+    path, model = arm
+    m = load_mjmodel(path)
+    m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_FRICTIONLOSS)    # MuJoCo's is a constraint
+    built = tree_ir(m, actuators=check_model(m, path))
+    p = model.param_defaults.copy()
+    p[[i for i, n in enumerate(model.param_names) if n.startswith("friction_")
+       and not n.startswith("friction_v")]] = 0.0
+    d = mujoco.MjData(m)
+    rng = np.random.default_rng(3)
+    lo, hi = m.jnt_range[:, 0], m.jnt_range[:, 1]
+    worst, seen = 0.0, 0
+    for _ in range(20):
+        q = rng.uniform(lo + 0.01, hi - 0.01)
+        u = rng.uniform(-2, 2, 3)
+        d.qpos[:], d.qvel[:] = to_mujoco(m, built, q, u)
+        mujoco.mj_forward(m, d)
+        assert d.nefc == 0                     # no constraint row: the limits are inactive in MuJoCo too
+        xd = model.rhs(0.0, np.concatenate([q, u]), p=p)
+        mine = qacc_of(m, built, q, u, xd[3:])
+        worst = max(worst, np.max(np.abs(mine - d.qacc)) / max(1.0, np.max(np.abs(d.qacc))))
+        seen += 1
+    assert seen == 20 and worst < 1e-10, worst
+    # and the damping is in it: without eomc's damping the two differ
+    nodamp = p.copy()
+    nodamp[[i for i, n in enumerate(model.param_names) if n.startswith("d_")]] = 0.0
+    q, u = (lo + hi) / 2, np.array([1.0, -1.0, 2.0])
+    d.qpos[:], d.qvel[:] = to_mujoco(m, built, q, u)
+    mujoco.mj_forward(m, d)
+    assert np.max(np.abs(model.rhs(0.0, np.concatenate([q, u]), p=nodamp)[3:] - d.qacc)) > 1e-2
+
+
+def test_frictionloss_is_the_regularised_coulomb_law(arm):
+    """rhs with frictionloss = rhs without it + M⁻¹ (-f tanh(u / v)) on each joint that has one."""
+    path, model = arm
+    names = list(model.param_names)
+    p = model.param_defaults.copy()
+    assert p[names.index("friction_slide")] == 0.2 and p[names.index("friction_elbow")] == 0.05
+    assert "friction_shoulder" not in names
+    none = p.copy()
+    none[[names.index("friction_slide"), names.index("friction_elbow")]] = 0.0
+    x = np.array([0.1, 0.2, 0.3, 0.004, -0.5, 0.02])
+    v = p[names.index("friction_v_slide")]
+    tau = np.array([-0.2 * math.tanh(0.004 / v), 0.0, -0.05 * math.tanh(0.02 / v)])
+    direct = model.rhs(0.0, x, p=p)[3:] - model.rhs(0.0, x, p=none)[3:]
+    expected = np.linalg.solve(model.mass_matrix(0.0, x, p=p), tau)
+    assert np.max(np.abs(direct - expected)) < 1e-12 * max(1.0, np.max(np.abs(expected)))
+    assert np.max(np.abs(expected)) > 0.01
+
+
+def _mujoco_drop(path, t_final):
+    m = load_mjmodel(path)
+    d = mujoco.MjData(m)
+    d.qpos[0] = -0.5
+    deepest, n = 0.0, int(round(t_final / m.opt.timestep))
+    for _ in range(n):
+        mujoco.mj_step(m, d)
+        deepest = max(deepest, d.qpos[0])
+    return deepest, float(d.qpos[0])
+
+
+def test_past_the_limit_compared_with_mujoco(tmp_path):
+    """A 0.5 m pendulum falls 0.5 rad onto its upper limit 0 and rests against it.  eomc's
+    spring-damper with MuJoCo's solref gains (k = m̃/(dmax tc z)², c = 2 m̃/(dmax tc)) rests at
+    k s(d) = m g l; MuJoCo's soft constraint rests (1-d)/d as deep (its impedance d and
+    regulariser, not a spring), while the first penetration, set by the reference
+    acceleration, is nearly the same.  Numbers in the README."""
+    path = tmp_path / "drop.xml"
+    path.write_text(DROP)
+    model = eomc.compile(MjcfModel(path), functions=["rhs", "jac_x"], cache_dir=tmp_path / "c", progress=False)
+    p = dict(zip(model.param_names, model.param_defaults))
+    m = load_mjmodel(path)
+    inertia = 1.0 / m.dof_invweight0[0]
+    tc, z, dmax = m.jnt_solref[0][0], m.jnt_solref[0][1], m.jnt_solimp[0][1]
+    assert p["limit_k_hinge"] == pytest.approx(inertia / (dmax * tc * z) ** 2, rel=1e-12)
+    assert p["limit_c_hinge"] == pytest.approx(2 * inertia / (dmax * tc), rel=1e-12)
+    res = simulate(model, np.array([-0.5, 0.0]), (0.0, 2.0), method="radau", rtol=1e-9, atol=1e-11,
+                   n_points=20001)
+    ours_deep, ours_rest = res.x[:, 0].max(), res.x[-1, 0]
+    k, e, F = p["limit_k_hinge"], p["limit_e_hinge"], 1.0 * 9.81 * 0.5
+    static = brentq(lambda d: k * d ** 3 / (d + e) ** 2 - F * math.cos(d), 1e-9, 0.5, xtol=1e-15)
+    assert ours_rest == pytest.approx(static, rel=1e-6)
+    theirs_deep, theirs_rest = _mujoco_drop(path, 2.0)
+    print(f"\ndrop onto a limit: deepest eomc {ours_deep:.4g} MuJoCo {theirs_deep:.4g} rad; "
+          f"rest eomc {ours_rest:.4g} MuJoCo {theirs_rest:.4g} rad")
+    # the impact is the spring-damper's: its first penetration within 20% of MuJoCo's
+    assert 0.8 < ours_deep / theirs_deep < 1.25
+    # at rest MuJoCo's constraint (impedance d in [dmin, dmax] = solimp[:2], regulariser
+    # R = A (1-d)/d) balances gravity with a_ref = -k r at r = (F/k)(1-d)/d: (1-d)/d of the
+    # spring's deflection F/k (measured: 0.0794, d = 0.926)
+    dmin = m.jnt_solimp[0][0]
+    assert 0.9 * (1 - dmax) / dmax < theirs_rest / (F / k) < 1.1 * (1 - dmin) / dmin
+
+
+def test_limits_off_and_bad_numbers(tmp_path):
+    path = tmp_path / "limited.xml"
+    path.write_text(ARM)
+    m = load_mjmodel(path)
+    on = {str(s) for s in tree_ir(m).parameters}
+    off = {str(s) for s in tree_ir(m, limits=False, friction=False).parameters}
+    assert on - off == {f"{k}_{j}" for j in ("slide", "shoulder", "elbow") for k in
+                        ("limit_k", "limit_c", "limit_e", "limit_lo", "limit_hi")} | {
+        "friction_slide", "friction_v_slide", "friction_elbow", "friction_v_elbow"}
+    ball = tmp_path / "ball.xml"
+    ball.write_text("""<mujoco>
+  <worldbody>
+    <body name="a"><joint name="socket" type="ball" frictionloss="0.1"/><geom size="0.1" pos="0 0 -0.3"/></body>
+  </worldbody>
+</mujoco>""")
+    with pytest.raises(ModelFileError, match=r"ball.xml:3: <joint>: joint socket: frictionloss on a ball joint"):
+        eomc.compile(MjcfModel(ball), functions=["rhs"], cache_dir=tmp_path / "c", progress=False)
+    with pytest.warns(EomcWarning, match="ignored: joint socket: frictionloss on a ball joint"):
+        eomc.compile(MjcfModel(ball, ignore=("frictionloss",)), functions=["rhs"], cache_dir=tmp_path / "c",
+                     progress=False)
+
+
+def test_negative_frictionloss_names_the_joint(tmp_path):
+    """MuJoCo accepts it (its constraint would clamp it); as a law it would feed energy in."""
+    path = tmp_path / "neg.xml"
+    path.write_text("""<mujoco>
+  <worldbody>
+    <body name="a"><joint name="pin" type="hinge" frictionloss="-0.1"/><geom size="0.1" pos="0 0 -0.3"/></body>
+  </worldbody>
+</mujoco>""")
+    with pytest.raises(ModelFileError, match=r"neg.xml:3: <joint>: joint pin: frictionloss -0.1: it must be a "
+                                             r"finite number >= 0"):
+        eomc.compile(MjcfModel(path), functions=["rhs"], cache_dir=tmp_path / "c", progress=False)
