@@ -154,10 +154,13 @@ def _split_run(lines, start, end, base, scratch, slots):
         name = m.group(0)
         return f"{scratch}[{slot_of[name]}]" if name in slot_of and name not in local else name
 
+    released = {}                    # chunk -> the temps whose last reader was the chunk before
+    for name, c_last in last.items():
+        released.setdefault(c_last + 1, []).append(name)
     parts = []
     for c, chunk in enumerate(chunks):
-        for name, c_last in last.items():
-            if c_last == c - 1 and name not in after:
+        for name in released.get(c, ()):
+            if name not in after:
                 slots.give(slot_of[name])
         body, local, written = [], set(), set()
         for _, name, lvalue, expr in chunk:
