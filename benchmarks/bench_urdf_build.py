@@ -197,6 +197,8 @@ def main():
     parser.add_argument("--rows-out", help="append rows here as JSON lines (with --part)")
     parser.add_argument("--merge", help="comma-separated --rows-out files: write the results table")
     parser.add_argument("--no-write", action="store_true")
+    parser.add_argument("--note", action="append", default=[],
+                        help="a line for the results header (e.g. which merged rows are older)")
     args = parser.parse_args()
     root = robots_root()
     work = Path(tempfile.mkdtemp(prefix="bench_urdf_build_"))
@@ -262,7 +264,7 @@ def main():
         "those functions); (fb) = floating base; joints eomc locked are locked in Pinocchio's model "
         "too (buildReducedModel)",
         "URDF->tree and Pinocchio load (pinocchio.buildModelFromUrdf): in-process CPU time, median of 3",
-    ])
+    ] + args.note)
     table = format_table(["URDF", "dof", "URDF->tree s", "cold build CPU s", "peak RSS MB",
                           "Pinocchio load ms", "rel. err ABA / RNEA / CRBA", "notes"], rows)
     chains = format_table(["links", "URDF->tree s", "cold build CPU s", "wall s", "peak RSS MB"], chain_rows)

@@ -38,7 +38,16 @@ SPLIT_MIN = 300      # statements: shorter runs stay as they are
 CHUNK = 100          # statements per sub-function, at most
 CHUNK_BYTES = 8000   # characters of C per sub-function, about (a chunk ends past this)
 
-NOINLINE_MACRO = """#if defined(__GNUC__)
+# gcc (not clang, which also defines __GNUC__) compiles the sub-functions at -O1 when the
+# library is built optimized (-O2/-O3; not -O0, -Og or -Os, which keep their own choice):
+# -O2's extra passes on long straight-line code (SLP vectorization, the second scheduling,
+# PRE) took a third of gcc's time on a 200-link chain's rhs and a 40-link cart's jac_x,
+# and the code ran no faster for them (benchmarks/results/urdf_build.md, default_build.md).
+# -DEOMC_PARTS_FULL_OPT in CFLAGS keeps the command line's level for them too.
+NOINLINE_MACRO = """#if defined(__GNUC__) && !defined(__clang__) && defined(__OPTIMIZE__) \\
+    && !defined(__OPTIMIZE_SIZE__) && !defined(__NO_INLINE__) && !defined(EOMC_PARTS_FULL_OPT)
+#define EOMC_NOINLINE __attribute__((noinline, optimize("O1")))
+#elif defined(__GNUC__)
 #define EOMC_NOINLINE __attribute__((noinline))
 #else
 #define EOMC_NOINLINE
@@ -145,10 +154,13 @@ def _split_run(lines, start, end, base, scratch, slots):
         name = m.group(0)
         return f"{scratch}[{slot_of[name]}]" if name in slot_of and name not in local else name
 
+    released = {}                    # chunk -> the temps whose last reader was the chunk before
+    for name, c_last in last.items():
+        released.setdefault(c_last + 1, []).append(name)
     parts = []
     for c, chunk in enumerate(chunks):
-        for name, c_last in last.items():
-            if c_last == c - 1 and name not in after:
+        for name in released.get(c, ()):
+            if name not in after:
                 slots.give(slot_of[name])
         body, local, written = [], set(), set()
         for _, name, lvalue, expr in chunk:

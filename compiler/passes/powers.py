@@ -38,6 +38,8 @@ class _Rewriter:
     def rewrite(self, expr):
         if expr.is_Atom:
             return expr
+        if not expr.is_Pow and all(a.is_Atom for a in expr.args):
+            return expr             # nothing to rewrite below (most nodes: t1*t2, t3 + t4): no calls
         args = [self.rewrite(a) for a in expr.args]
         if expr.is_Pow and expr.exp.is_Integer and 2 <= abs(int(expr.exp)) <= MAX_EXPONENT:
             n = int(expr.exp)

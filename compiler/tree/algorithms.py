@@ -30,6 +30,7 @@ M_ii += a.  The articulated solve of :mod:`.derivatives` reuses ABA's D, so M⁻
 includes it too.
 """
 import sympy as sm
+from sympy.core.mul import _args_sortkey
 
 __all__ = ["Recorder", "LoweredBody", "aba", "rnea", "crba"]
 
@@ -44,7 +45,8 @@ class Recorder:
 
     def let(self, expr):
         """A name for ``expr`` (atoms and -atom stay as they are; a repeat gets the same name)."""
-        expr = sm.sympify(expr)
+        if not isinstance(expr, sm.Basic):
+            expr = sm.sympify(expr)
         if expr.is_Atom or (expr.is_Mul and len(expr.args) == 2 and expr.args[0] == -1
                             and expr.args[1].is_Atom):
             return expr
@@ -88,23 +90,133 @@ class LoweredBody:
         self.fext = fext           # 6-list or None
 
 
+# Expression construction is most of a large tree's build time (0.1 s a body on a chain).
+# The helpers below build the same SymPy expressions as the plain operators and
+# sum(..., S.Zero) did, for less: structural zeros are dropped before any SymPy operation
+# (``_nz`` answers for ints, Zero and Symbols without SymPy's __ne__), and the commonest
+# shapes skip SymPy's flatten altogether: a product of distinct commutative Symbols, and a
+# sum of Symbols and such products (a rational coefficient allowed) with no two alike, are
+# their arguments in SymPy's canonical order (``_args_sortkey``, the key flatten sorts
+# by) -- exactly the objects Mul(...) and Add(...) return.  Anything else is summed or
+# multiplied left to right as before (an n-ary Add or Mul is not always the same: Floats
+# that are zero, a rational times a sum).  So ``_add(ts)`` is ``t1 + t2 + ...`` of the
+# terms that are not 0 / S.Zero, object for object (a Float 0.0 stays; SymPy's Zero + 0.0
+# is Zero, so this can differ from sum(ts, S.Zero) in the type of a number, never in its
+# value); tests/compiler/tree/test_algorithms_construction.py checks both on random input.
+_ZERO = sm.S.Zero
+_Add, _Mul, _Symbol = sm.Add, sm.Mul, sm.Symbol
+
+
+def _plain_mul(f):
+    """f is a product of commutative Symbols and at most a leading number."""
+    if type(f) is not _Mul:
+        return False
+    args = f.args
+    first = 1 if args[0].is_Rational else 0
+    return all(type(a) is _Symbol and a.is_commutative for a in args[first:])
+
+
+def _term_key(t):
+    """What Add.flatten collects ``t`` under (its non-numeric factors), or None when ``t``
+    is not a Symbol or a plain product (then SymPy's own flatten decides)."""
+    if type(t) is _Symbol:
+        return (t,) if t.is_commutative else None
+    if _plain_mul(t):
+        args = t.args
+        return args[1:] if args[0].is_Rational else args
+    return None
+
+
+def _fast_add(terms):
+    keys = set()
+    for t in terms:
+        k = _term_key(t)
+        if k is None or k in keys:
+            return None
+        keys.add(k)
+    return _Add._from_args(tuple(sorted(terms, key=_args_sortkey)), True)
+
+
+def _fast_mul(factors):
+    for f in factors:
+        if type(f) is not _Symbol or not f.is_commutative:
+            return None
+    if len(set(factors)) < len(factors):
+        return None
+    return _Mul._from_args(tuple(sorted(factors, key=_args_sortkey)), True)
+
+
+def _nz(x):
+    """``x != 0``, fast for the common cases (an int, Zero, a Symbol)."""
+    t = type(x)
+    if t is int:
+        return x != 0
+    if x is _ZERO:
+        return False
+    if t is _Symbol:
+        return True
+    return x != 0
+
+
+def _add(terms):
+    """The terms that are not zero, summed left to right (see above)."""
+    terms = [t for t in terms if _nz(t)]
+    if not terms:
+        return _ZERO
+    if len(terms) == 1:
+        t = terms[0]
+        return t if isinstance(t, sm.Basic) else sm.sympify(t)
+    fast = _fast_add(terms)
+    if fast is not None:
+        return fast
+    out = terms[0]
+    for t in terms[1:]:
+        out = out + t
+    return out
+
+
+def _mul(*factors):
+    """The product (zero if a factor is)."""
+    for f in factors:
+        if not _nz(f):
+            return _ZERO
+    fast = _fast_mul(factors)
+    if fast is not None:
+        return fast
+    out = factors[0]
+    for f in factors[1:]:
+        out = out * f
+    return out
+
+
 def _cross(a, b):
-    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    return [_add((_mul(a[1], b[2]), -_mul(a[2], b[1]))), _add((_mul(a[2], b[0]), -_mul(a[0], b[2]))),
+            _add((_mul(a[0], b[1]), -_mul(a[1], b[0])))]
 
 
 def _mat3(E, v):
-    return [sum((E[i][j] * v[j] for j in range(3)), sm.S.Zero) for i in range(3)]
+    return [_add([_mul(E[i][j], v[j]) for j in range(3)]) for i in range(3)]
 
 
 def _mat3T(E, v):
-    return [sum((E[j][i] * v[j] for j in range(3)), sm.S.Zero) for i in range(3)]
+    return [_add([_mul(E[j][i], v[j]) for j in range(3)]) for i in range(3)]
+
+
+def _sym6_plus(A, T):
+    """A + T of symmetric 6x6s: the lower triangle summed, mirrored (``Recorder.sym6``
+    reads no more)."""
+    out = [[None] * 6 for _ in range(6)]
+    for i in range(6):
+        for j in range(i + 1):
+            out[i][j] = out[j][i] = _add((A[i][j], T[i][j]))
+    return out
 
 
 def x_motion(b, m):
     """Parent motion vector -> body components about the body origin."""
     w, v = m[:3], m[3:]
     rw = _cross(b.r, w)
-    return _mat3(b.E, w) + _mat3(b.E, [v[i] - rw[i] for i in range(3)])
+    return _mat3(b.E, w) + _mat3(b.E, [_add((v[i], -rw[i])) for i in range(3)])
 
 
 def xt_force(b, f):
@@ -113,27 +225,23 @@ def xt_force(b, f):
     fp = _mat3T(b.E, fo)
     rf = _cross(b.r, fp)
     nb = _mat3T(b.E, n)
-    return [nb[i] + rf[i] for i in range(3)] + fp
+    return [_add((nb[i], rf[i])) for i in range(3)] + fp
 
 
 def _rot_sym(E, A, rec):
     """Eᵀ A E of a symmetric 3x3 (lower triangle named)."""
-    AE = [[rec.let(sum((A[i][k] * E[k][j] for k in range(3) if A[i][k] != 0 and E[k][j] != 0), sm.S.Zero))
-           for j in range(3)] for i in range(3)]
+    AE = [[rec.let(_add([_mul(A[i][k], E[k][j]) for k in range(3)])) for j in range(3)] for i in range(3)]
     out = [[None] * 3 for _ in range(3)]
     for i in range(3):
         for j in range(i + 1):
-            out[i][j] = out[j][i] = rec.let(sum((E[k][i] * AE[k][j] for k in range(3)
-                                                 if E[k][i] != 0 and AE[k][j] != 0), sm.S.Zero))
+            out[i][j] = out[j][i] = rec.let(_add([_mul(E[k][i], AE[k][j]) for k in range(3)]))
     return out
 
 
 def _rot_gen(E, B, rec):
     """Eᵀ B E of a general 3x3 (named)."""
-    BE = [[rec.let(sum((B[i][k] * E[k][j] for k in range(3) if B[i][k] != 0 and E[k][j] != 0), sm.S.Zero))
-           for j in range(3)] for i in range(3)]
-    return [[rec.let(sum((E[k][i] * BE[k][j] for k in range(3) if E[k][i] != 0 and BE[k][j] != 0), sm.S.Zero))
-             for j in range(3)] for i in range(3)]
+    BE = [[rec.let(_add([_mul(B[i][k], E[k][j]) for k in range(3)])) for j in range(3)] for i in range(3)]
+    return [[rec.let(_add([_mul(E[k][i], BE[k][j]) for k in range(3)])) for j in range(3)] for i in range(3)]
 
 
 def xt_inertia_x(b, rec, I):
@@ -147,21 +255,21 @@ def xt_inertia_x(b, rec, I):
     B = [[I[i][j + 3] for j in range(3)] for i in range(3)]
     C = [[I[i + 3][j + 3] for j in range(3)] for i in range(3)]
     A, C = _rot_sym(E, A, rec), _rot_sym(E, C, rec)
-    B = _rot_gen(E, B, rec) if any(x != 0 for row in B for x in row) else B
+    B = _rot_gen(E, B, rec) if any(_nz(x) for row in B for x in row) else B
     rx = [[0, -r[2], r[1]], [r[2], 0, -r[0]], [-r[1], r[0], 0]]
 
-    def mul(P, Q):
-        return [[sum((P[i][k] * Q[k][j] for k in range(3) if P[i][k] != 0 and Q[k][j] != 0), sm.S.Zero)
+    def mul(P, Q, lower=False):
+        return [[_add([_mul(P[i][k], Q[k][j]) for k in range(3)]) if j <= i or not lower else None
                  for j in range(3)] for i in range(3)]
     rC = mul(rx, C)
-    Bn = [[rec.let(B[i][j] + rC[i][j]) for j in range(3)] for i in range(3)]     # B' + r×C'
+    Bn = [[rec.let(_add((B[i][j], rC[i][j]))) for j in range(3)] for i in range(3)]     # B' + r×C'
     Bt = [[B[j][i] for j in range(3)] for i in range(3)]
-    rB = mul(rx, Bt)
-    Bnr = mul(Bn, rx)
+    rB = mul(rx, Bt, lower=True)
+    Bnr = mul(Bn, rx, lower=True)
     out = [[None] * 6 for _ in range(6)]
     for i in range(3):
         for j in range(i + 1):
-            out[i][j] = out[j][i] = A[i][j] + rB[i][j] - Bnr[i][j]
+            out[i][j] = out[j][i] = _add((A[i][j], rB[i][j], -Bnr[i][j]))
     for i in range(3):
         for j in range(3):
             out[i][j + 3] = out[j + 3][i] = Bn[i][j]
@@ -175,7 +283,7 @@ def cross_motion(v, m):
     w, vv = v[:3], v[3:]
     a, b = m[:3], m[3:]
     t1, t2 = _cross(w, b), _cross(vv, a)
-    return _cross(w, a) + [t1[i] + t2[i] for i in range(3)]
+    return _cross(w, a) + [_add((t1[i], t2[i])) for i in range(3)]
 
 
 def cross_force(v, f):
@@ -183,16 +291,16 @@ def cross_force(v, f):
     w, vv = v[:3], v[3:]
     n, fo = f[:3], f[3:]
     t1, t2 = _cross(w, n), _cross(vv, fo)
-    return [t1[i] + t2[i] for i in range(3)] + _cross(w, fo)
+    return [_add((t1[i], t2[i])) for i in range(3)] + _cross(w, fo)
 
 
 def _times(I, v):
-    return [sum((I[i][k] * v[k] for k in range(6) if I[i][k] != 0 and v[k] != 0), sm.S.Zero)
-            for i in range(6)]
+    nzv = [k for k in range(6) if _nz(v[k])]
+    return [_add([_mul(I[i][k], v[k]) for k in nzv]) for i in range(6)]
 
 
 def _dot(a, b):
-    return sum((x * y for x, y in zip(a, b) if x != 0 and y != 0), sm.S.Zero)
+    return _add([_mul(x, y) for x, y in zip(a, b)])
 
 
 def velocities(bodies, rec, speeds):
@@ -202,13 +310,13 @@ def velocities(bodies, rec, speeds):
         vp = v[b.parent] if b.parent >= 0 else [0] * 6
         vi = x_motion(b, vp)
         if b.S is not None:
-            vj = [s * speeds[b.speed] for s in b.S]
-            vi = [vi[k] + vj[k] for k in range(6)]
+            vj = [_mul(s, speeds[b.speed]) for s in b.S]
+            vi = [_add((vi[k], vj[k])) for k in range(6)]
             vi = rec.vec(vi)
             c.append(rec.vec(cross_motion(vi, vj)))
         elif b.multi:
-            vj = [sum((S[k] * speeds[s] for s, S in b.multi if S[k] != 0), sm.S.Zero) for k in range(6)]
-            vi = rec.vec([vi[k] + vj[k] for k in range(6)])
+            vj = [_add([_mul(S[k], speeds[s]) for s, S in b.multi]) for k in range(6)]
+            vi = rec.vec([_add((vi[k], vj[k])) for k in range(6)])
             c.append(rec.vec(cross_motion(vi, vj)))
         else:
             vi = rec.vec(vi)
@@ -244,7 +352,7 @@ def aba(bodies, rec, speeds, gravity, v, c, keep=None):
     for i, b in enumerate(bodies):
         p = cross_force(v[i], _times(b.I, v[i]))
         if b.fext is not None:
-            p = [p[k] - b.fext[k] for k in range(6)]
+            p = [_add((p[k], -b.fext[k])) for k in range(6)]
         pA.append(p)
     U, Dinv, uu, D = [None] * n, [None] * n, [None] * n, [None] * n
     ldl = {}                   # k-speed joints: their factored D
@@ -263,10 +371,11 @@ def aba(bodies, rec, speeds, gravity, v, c, keep=None):
             if keep is not None:
                 keep[i] = (U[i], Dinv[i])
             uu[i] = rec.let(-_dot(b.S, pi))
-            Ia = [[Ii[r][s] - U[i][r] * U[i][s] * Dinv[i] for s in range(6)] for r in range(6)]
+            Ia = [[_add((Ii[r][s], -_mul(U[i][r], U[i][s], Dinv[i]))) if s <= r else None
+                   for s in range(6)] for r in range(6)]      # sym6 reads the lower triangle
             Ia = rec.sym6(Ia)
             Iac = _times(Ia, c[i])
-            pa = [pi[k] + Iac[k] + U[i][k] * uu[i] * Dinv[i] for k in range(6)]
+            pa = [_add((pi[k], Iac[k], _mul(U[i][k], uu[i], Dinv[i]))) for k in range(6)]
         elif b.multi:
             U[i], ldl[i], uu[i] = _multi_articulate(b, rec, Ii, pi)
             D[i] = ldl[i].d
@@ -276,10 +385,10 @@ def aba(bodies, rec, speeds, gravity, v, c, keep=None):
                 continue          # a root (a floating base): nothing to hand on
             Ut = U[i]
             W = [ldl[i].solve([Ut[m][r] for m in range(len(Ut))]) for r in range(6)]   # U D⁻¹, 6xk
-            Ia = rec.sym6([[Ii[r][s] - sum((W[r][m] * Ut[m][s] for m in range(len(Ut))), sm.S.Zero)
-                            for s in range(6)] for r in range(6)])
+            Ia = rec.sym6([[_add((Ii[r][s], -_add([_mul(W[r][m], Ut[m][s]) for m in range(len(Ut))])))
+                            if s <= r else None for s in range(6)] for r in range(6)])
             Iac = _times(Ia, c[i])
-            pa = [pi[k] + Iac[k] + sum((W[k][m] * uu[i][m] for m in range(len(Ut))), sm.S.Zero)
+            pa = [_add((pi[k], Iac[k], _add([_mul(W[k][m], uu[i][m]) for m in range(len(Ut))])))
                   for k in range(6)]
         else:
             Ia = Ii
@@ -287,28 +396,28 @@ def aba(bodies, rec, speeds, gravity, v, c, keep=None):
         if b.parent >= 0:
             pa = rec.vec(pa)
             T = xt_inertia_x(b, rec, Ia)
-            IA[b.parent] = [[IA[b.parent][r][s] + T[r][s] for s in range(6)] for r in range(6)]
+            IA[b.parent] = _sym6_plus(IA[b.parent], T)
             f = xt_force(b, pa)
-            pA[b.parent] = [pA[b.parent][k] + f[k] for k in range(6)]
+            pA[b.parent] = [_add((pA[b.parent][k], f[k])) for k in range(6)]
     pivots = [d for Di in D if Di is not None for d in (Di if isinstance(Di, list) else [Di])]
-    threshold = rec.let(PIVOT_TOL * sum(pivots, sm.S.Zero))
+    threshold = rec.let(PIVOT_TOL * _add(pivots))
     a, out = [None] * n, []
     for i, b in enumerate(bodies):
         ap = a[b.parent] if b.parent >= 0 else _root_acceleration(gravity)
-        ai = [x + y for x, y in zip(x_motion(b, ap), c[i])]
+        ai = [_add((x, y)) for x, y in zip(x_motion(b, ap), c[i])]
         if b.S is not None:
             ai = rec.vec(ai)
             udd = rec.let((uu[i] - _dot(U[i], ai)) * Dinv[i])
-            ai = [ai[k] + b.S[k] * udd for k in range(6)]
+            ai = [_add((ai[k], _mul(b.S[k], udd))) for k in range(6)]
             out.append((b.speed, udd, rec.let(D[i] - threshold)))
         elif b.multi:
             ai = rec.vec(ai)
             k = len(b.multi)
-            rhs = [uu[i][m] - _dot(U[i][m], ai) for m in range(k)]
+            rhs = [_add((uu[i][m], -_dot(U[i][m], ai))) for m in range(k)]
             rhs = rec.vec(rhs)
             udd = ldl[i].solve(rhs)
             for m, (s, S) in enumerate(b.multi):
-                ai = [ai[j] + S[j] * udd[m] for j in range(6)]
+                ai = [_add((ai[j], _mul(S[j], udd[m]))) for j in range(6)]
                 out.append((s, udd[m], rec.let(D[i][m] - threshold)))
         a[i] = rec.vec(ai)
     return out
@@ -321,16 +430,16 @@ def rnea(bodies, rec, speed_accels, gravity, v, c):
     a = [None] * n
     for i, b in enumerate(bodies):
         ap = a[b.parent] if b.parent >= 0 else _root_acceleration(gravity)
-        ai = [x + y for x, y in zip(x_motion(b, ap), c[i])]
+        ai = [_add((x, y)) for x, y in zip(x_motion(b, ap), c[i])]
         if b.S is not None:
-            ai = [ai[k] + b.S[k] * speed_accels[b.speed] for k in range(6)]
+            ai = [_add((ai[k], _mul(b.S[k], speed_accels[b.speed]))) for k in range(6)]
         elif b.multi:
             for s, S in b.multi:
-                ai = [ai[k] + S[k] * speed_accels[s] for k in range(6)]
+                ai = [_add((ai[k], _mul(S[k], speed_accels[s]))) for k in range(6)]
         a[i] = rec.vec(ai)
-        fi = [x + y for x, y in zip(_times(b.I, a[i]), cross_force(v[i], _times(b.I, v[i])))]
+        fi = [_add((x, y)) for x, y in zip(_times(b.I, a[i]), cross_force(v[i], _times(b.I, v[i])))]
         if b.fext is not None:
-            fi = [fi[k] - b.fext[k] for k in range(6)]
+            fi = [_add((fi[k], -b.fext[k])) for k in range(6)]
         f[i] = fi
     tau = {}
     for i in reversed(range(n)):
@@ -343,7 +452,7 @@ def rnea(bodies, rec, speed_accels, gravity, v, c):
                 tau[s] = rec.let(_dot(S, fi) + arm * speed_accels[s])
         if b.parent >= 0:
             fp = xt_force(b, fi)
-            f[b.parent] = [f[b.parent][k] + fp[k] for k in range(6)]
+            f[b.parent] = [_add((f[b.parent][k], fp[k])) for k in range(6)]
     return tau
 
 
@@ -357,7 +466,7 @@ def crba(bodies, rec):
         Ii = rec.sym6(Ic[i])
         if b.parent >= 0:
             T = xt_inertia_x(b, rec, Ii)
-            Ic[b.parent] = [[Ic[b.parent][r][s] + T[r][s] for s in range(6)] for r in range(6)]
+            Ic[b.parent] = _sym6_plus(Ic[b.parent], T)
         if b.S is not None:
             columns = [(b.speed, b.S)]
         elif b.multi:

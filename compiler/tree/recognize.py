@@ -104,12 +104,15 @@ class _Reader:
         self.numbers = _Numbers()
         self.notes = []             # joints read through SymPy's kinematics, and why
         self.coordinate_of = {}     # speed index -> coordinate index with q' = c·u, c constant
+        first = {}                  # speed -> its first index (a dict: `in`/.index on the tuple were O(n²))
+        for j, s in enumerate(self.u):
+            first.setdefault(s, j)
         for i, k in enumerate(self.kin):
             atoms = [a for a in _dynamic(k)]
-            if len(atoms) == 1 and atoms[0] in self.u:
+            if len(atoms) == 1 and atoms[0] in first:
                 c = sm.simplify(k / atoms[0])
                 if not _dynamic(c) and c != 0:
-                    self.coordinate_of.setdefault(self.u.index(atoms[0]), i)
+                    self.coordinate_of.setdefault(first[atoms[0]], i)
 
     def vec(self, v, frame):
         return sm.Matrix(v.to_matrix(frame)).xreplace(self.qd) if v != 0 else sm.zeros(3, 1)
