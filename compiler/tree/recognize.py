@@ -569,11 +569,13 @@ def tree_from_system(system, kinematics=None):
     if _is_kane(system):        # a KanesMethod with pending equations (tree_formed's way in)
         return tree_from_kane(system, kinematics if kinematics is not None
                               else system_kinematics(system))
-    if len(getattr(system, "q_dep", ())) or len(getattr(system, "u_dep", ())) or \
-            len(getattr(system, "holonomic_constraints", ())) or \
-            len(getattr(system, "nonholonomic_constraints", ())):
+    if len(getattr(system, "nonholonomic_constraints", ())):
         raise NotATree(_constrained(system))
     kin = kinematics if kinematics is not None else system_kinematics(system)
+    # loop-closing (holonomic) constraints: the spanning tree plus a constraint solve
+    # (compiler/tree/constrained.py); read before the tree, so a refusal costs nothing
+    from .constrained import attach, loops_of_system
+    loops = loops_of_system(system, system.q, system.u, kin)
     rd = _Reader(system.frame, system.fixed_point, system.q, system.u, kin)
     ground = [b for b in system.bodies if getattr(b, "frame", None) == system.frame
               and b.masscenter == system.fixed_point]
@@ -582,7 +584,8 @@ def tree_from_system(system, kinematics=None):
     for j in system.joints:
         if j.child in parent_of:
             raise NotATree(f"body {j.child.name} is the child of joints {parent_of[j.child][0]} and "
-                           f"{j.name}: a closed loop, not a tree")
+                           f"{j.name}: a closed loop, not a tree (leave one joint of the loop out "
+                           f"and close the loop with holonomic constraints instead)")
         speed = speed_index[j.speeds[0]] if len(j.speeds) else None
         if len(j.speeds) > 1 and not isinstance(j, _STAGED):
             speed = tuple(speed_index[s] for s in j.speeds)
@@ -616,7 +619,7 @@ def tree_from_system(system, kinematics=None):
     # actuators (springs, dampers, forces, torques along pathways) act through their loads
     loads = list(system.loads) + [load for actuator in system.actuators for load in actuator.to_loads()]
     try:
-        return _assemble(rd, order, loads)
+        return attach(_assemble(rd, order, loads), loops)
     finally:
         _forget(added)
 

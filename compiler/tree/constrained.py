@@ -1,0 +1,266 @@
+"""Closed loops on the tree: a spanning tree of joints plus loop-closing (holonomic) constraints.
+
+A SymPy ``System`` whose joints form a tree and whose loops are closed by holonomic
+constraints (a four-bar, a slider-crank, a five-bar or delta linkage: one joint of each
+loop is left out and replaced by the constraints that it would enforce) is the tree's
+dynamics plus a constraint solve, as in Featherstone's "Rigid Body Dynamics Algorithms"
+ch. 8 and Drake's / Pinocchio's constrained dynamics:
+
+    M u' = b + Jᵀ λ,      J u' = -γ            (n speeds, m constraints)
+
+with M and b the spanning tree's (never formed: ABA gives a0 = M⁻¹ b, and the
+articulated-body recursion on ABA's factors gives the columns Y = M⁻¹ Jᵀ, O(n) each),
+then the m x m system S λ = -γ - J a0 with S = J Y (symmetric positive definite when the
+constraints are independent; LDLᵀ unrolled) and u' = a0 + Y λ.  O(n·m + m³).
+
+J and γ come from the System's velocity constraints f_v(q, u) = 0 (the time derivative
+of the holonomic ones unless the user set others), with q' from the kinematics:
+J = ∂f_v/∂u and γ = d f_v/dt at u' = 0 -- the rows Kane's path appends to its mass
+matrix.  That makes the result Kane's at *every* state, consistent or not: Kane's
+equations are Nᵀ(M u' - b) = 0 with N = [I; A_rs] a basis of J's null space, plus
+J u' = -γ; and Nᵀ(M u' - b) = 0 holds exactly when M u' - b lies in the range of Jᵀ.
+
+State layout and meaning are the Kane path's for the same System: x = [q; u] with every
+coordinate and speed (independent first, then dependent, as KanesMethod orders them);
+rhs gives every u'.  ``mass_matrix``, ``forcing`` and ``inverse_dynamics`` return Kane's
+form too ([Nᵀ M; J] and [Nᵀ b; -γ], A_rs = -J_d⁻¹ J_i from an unrolled elimination),
+and outputs or events that read u' solve that system as on the Kane path.
+
+Not generated here (ModelError, so ``auto`` falls back to Kane's formulation and says
+why): jac_x, jac_r, jac_p, jvp (their derivative of the constrained solve is not built)
+and the regressor.  Nonholonomic constraints stay Kane's (the recogniser refuses them).
+"""
+from dataclasses import dataclass, replace
+
+import sympy as sm
+from sympy.core.function import AppliedUndef
+from sympy.physics import mechanics as me
+
+from eomc.runtime.errors import ModelError
+
+from .algorithms import PIVOT_TOL, _LDL
+from .derivatives import articulated_solve
+from .model import NotATree
+
+__all__ = ["Loops", "loops_of_system", "tree_loops", "with_loops", "loop_exprs",
+           "UNSUPPORTED", "check_functions", "lower_loops", "kane_form"]
+
+_T = me.dynamicsymbols._t
+
+# Functions the constrained tree does not generate (auto takes Kane's formulation for them).
+UNSUPPORTED = ("jac_x", "jac_r", "jac_p", "jvp", "regressor", "linearize")
+
+
+@dataclass(frozen=True)
+class Loops:
+    """The loop-closing constraints of a tree, in the mechanics objects' symbols."""
+    holonomic: tuple          # f_h(q, t) = 0
+    velocity: tuple           # f_v(q, u, t) = 0 (q' replaced by the kinematics)
+    jacobian: tuple           # m rows of n: ∂f_v/∂u
+    bias: tuple               # m: d f_v/dt at u' = 0 (γ)
+    n_dependent_coordinates: int
+    n_dependent_speeds: int
+    joints: tuple = ()        # the joints the constraints tie (for messages)
+
+    @property
+    def m(self):
+        return len(self.velocity)
+
+
+def _nm(x):
+    return str(x).replace("(t)", "")
+
+
+def _dynamic(expr):
+    return set(sm.sympify(expr).atoms(AppliedUndef))
+
+
+def loops_of_system(system, coordinates, speeds, kinematics):
+    """The Loops of a System with holonomic constraints (None without any).
+
+    NotATree, naming what is wrong, for what the constrained tree does not take:
+    nonholonomic constraints (Kane's formulation keeps those), dependent coordinates or
+    speeds that do not match the constraints' count, velocity constraints that do not
+    determine the dependent speeds."""
+    hol = list(getattr(system, "holonomic_constraints", ()))
+    nonhol = list(getattr(system, "nonholonomic_constraints", ()))
+    q_dep, u_dep = list(getattr(system, "q_dep", ())), list(getattr(system, "u_dep", ()))
+    if not (hol or nonhol or q_dep or u_dep):
+        return None
+    if nonhol:
+        raise NotATree(f"the system has {len(nonhol)} nonholonomic constraint"
+                       f"{'s' if len(nonhol) != 1 else ''}: the recursion takes loop-closing "
+                       f"(holonomic) constraints only")
+    if len(hol) != len(q_dep):
+        raise NotATree(f"{len(hol)} holonomic constraint(s) but {len(q_dep)} dependent coordinate(s) "
+                       f"({', '.join(_nm(x) for x in q_dep) or 'none'}): set q_dep to one coordinate "
+                       f"per constraint")
+    vel = list(system.velocity_constraints)
+    if len(vel) != len(u_dep):
+        raise NotATree(f"{len(vel)} velocity constraint(s) but {len(u_dep)} dependent speed(s) "
+                       f"({', '.join(_nm(x) for x in u_dep) or 'none'}): set u_dep to one speed per "
+                       f"constraint")
+    q, u = list(coordinates), list(speeds)
+    n, m = len(u), len(u_dep)
+    if list(u[n - m:]) != u_dep:
+        raise NotATree("the dependent speeds are not the last speeds of the system")
+    qd = {qi.diff(_T): k for qi, k in zip(q, kinematics)}
+    vel = [sm.sympify(e).xreplace(qd) for e in vel]
+    leftover = [e for e in vel if e.has(sm.Derivative)]
+    if leftover:
+        raise NotATree(f"velocity constraint {leftover[0]} holds a derivative the kinematics do not give")
+    plain = {x: sm.Dummy(_nm(x)) for x in q + u}
+    back = {v: k for k, v in plain.items()}
+    jac, bias = [], []
+    for e in vel:
+        p = e.xreplace(plain)
+        free = p.free_symbols
+        jac.append(tuple(p.diff(plain[uj]).xreplace(back) if plain[uj] in free else sm.S.Zero
+                         for uj in u))
+        g = sm.Add(*[p.diff(plain[qk]).xreplace(back) * kin
+                     for qk, kin in zip(q, kinematics) if plain[qk] in free])
+        g += p.diff(_T).xreplace(back) if p.has(_T) else 0
+        bias.append(g)
+    for i, row in enumerate(jac):
+        if any(_dynamic(c) & set(u) for c in row):
+            raise NotATree(f"velocity constraint {i + 1} is not linear in the speeds")
+    atoms = set().union(*(_dynamic(c) for c in hol)) if hol else set()
+    tied = tuple(j.name for j in system.joints
+                 if atoms & (set(getattr(j, "coordinates", ())) | set(getattr(j, "speeds", ()))))
+    return Loops(holonomic=tuple(sm.sympify(c) for c in hol), velocity=tuple(vel),
+                 jacobian=tuple(jac), bias=tuple(bias), n_dependent_coordinates=len(q_dep),
+                 n_dependent_speeds=m, joints=tied)
+
+
+def tree_loops(tree):
+    """The Loops a tree carries (attached by the recogniser), or None."""
+    return getattr(tree, "_loops", None)
+
+
+def attach(tree, loops):
+    if loops is not None:
+        object.__setattr__(tree, "_loops", loops)
+    return tree
+
+
+def loop_exprs(loops):
+    """Every expression of the loops (for the cache key and the parameter list)."""
+    if loops is None:
+        return []
+    out = list(loops.holonomic) + list(loops.velocity) + list(loops.bias)
+    out += [c for row in loops.jacobian for c in row]
+    return [sm.sympify(e) for e in out] + [sm.Integer(loops.n_dependent_coordinates),
+                                           sm.Integer(loops.n_dependent_speeds)]
+
+
+def with_loops(formed, tree):
+    """The FormedSystem of a tree (method "tree") with its loops' constraints, dependent
+    counts, and the parameters and inputs only the constraints name (a ground link's
+    length appears nowhere else)."""
+    loops = tree_loops(tree)
+    if loops is None:
+        return formed
+    states = set(formed.coordinates) | set(formed.speeds)
+    inputs, params = set(formed.inputs), set(formed.parameters)
+    for e in loop_exprs(loops):
+        inputs |= {a for a in e.atoms(AppliedUndef) if a not in states}
+        params |= {s for s in e.free_symbols if s != _T}
+    out = replace(formed, n_dependent_coordinates=loops.n_dependent_coordinates,
+                  n_dependent_speeds=loops.n_dependent_speeds,
+                  holonomic_constraints=sm.Matrix(list(loops.holonomic)) if loops.holonomic
+                  else sm.zeros(0, 1),
+                  velocity_constraints=sm.Matrix(list(loops.velocity)),
+                  inputs=tuple(sorted(inputs, key=str)),
+                  parameters=tuple(sorted(params, key=lambda s: s.name)))
+    object.__setattr__(out, "_tree", tree)
+    return out
+
+
+def check_functions(functions):
+    """ModelError for the functions the constrained tree does not generate (see the module
+    docstring); auto then uses Kane's formulation and gives this reason."""
+    bad = [f for f in UNSUPPORTED if f in functions]
+    if bad:
+        raise ModelError(f"recursive formulation: {', '.join(bad)} of a tree closed by constraints "
+                         f"are not generated by the recursion (rhs, mass_matrix, forcing, "
+                         f"inverse_dynamics, outputs, events and constraints are); use "
+                         f"formulation 'kane' for them, or ask for rhs only")
+
+
+class _Where:
+    name, joint = "the loop constraints", "closing the loops"
+
+
+def lower_loops(loops, ren):
+    """J (m x n) and γ (m) renamed to slot symbols by ``ren``."""
+    J = [[ren(c) for c in row] for row in loops.jacobian]
+    gamma = [ren(c) for c in loops.bias]
+    return J, gamma
+
+
+def accelerations(J, gamma, bodies, rec, keep, free):
+    """u' of the closed tree from ABA's ``free`` [(speed, u'_free, pivot margin)] and factors.
+
+    Returns ([(speed, u', the tree's pivot margin)], [the m pivot margins of S = J M⁻¹ Jᵀ])
+    (each less PIVOT_TOL times S's trace: a configuration where the constraints are
+    dependent -- a four-bar folded flat -- is EOMC_SINGULAR_MASS_MATRIX, as Kane's LU
+    finds it)."""
+    nu = len(free)
+    a0 = {k: udd for k, udd, _ in free}
+    tree_margin = {k: D for k, _, D in free}
+    margins = []
+    m = len(J)
+    Y = [articulated_solve(bodies, rec, keep, J[j]) for j in range(m)]   # M⁻¹ Jᵀ, column j
+    S = [[None] * m for _ in range(m)]
+    for i in range(m):
+        for j in range(i + 1):
+            S[i][j] = S[j][i] = rec.let(sm.Add(*[J[i][k] * Y[j][k] for k in range(nu)
+                                                 if J[i][k] != 0 and Y[j].get(k, 0) != 0]))
+    r = [rec.let(-gamma[i] - sm.Add(*[J[i][k] * a0[k] for k in range(nu) if J[i][k] != 0]))
+         for i in range(m)]
+    try:
+        ldl = _LDL(S, rec, _Where)
+    except NotATree:
+        raise NotATree("the loop constraints do not involve the motion of any body (J M⁻¹ Jᵀ "
+                       "is singular as an expression)") from None
+    lam = ldl.solve(r)
+    threshold = rec.let(PIVOT_TOL * sm.Add(*[S[i][i] for i in range(m)]))
+    margins += [rec.let(d - threshold) for d in ldl.d]
+    out = [(k, rec.let(a0[k] + sm.Add(*[Y[j][k] * lam[j] for j in range(m) if Y[j].get(k, 0) != 0])),
+            tree_margin[k]) for k in sorted(a0)]
+    return out, margins
+
+
+def kane_form(J, gamma, H, f, nu, rec):
+    """Kane's mass matrix and forcing of the closed tree, [Nᵀ M; J] and [Nᵀ b; -γ]:
+    N = [I; A_rs], A_rs = -J_d⁻¹ J_i (the dependent speeds are the last m).  ``H``: CRBA's
+    {(i, j): M_ij}; ``f``: b = -RNEA(u' = 0)."""
+    m = len(J)
+    p = nu - m
+    # A_rs by Gauss-Jordan on [J_d | J_i], unrolled (Kane's path solves the same system)
+    aug = [[J[i][p + k] for k in range(m)] + [J[i][k] for k in range(p)] for i in range(m)]
+    for c in range(m):
+        piv = rec.let(1 / aug[c][c]) if aug[c][c] != 0 else None
+        if piv is None:
+            raise NotATree("the dependent speeds' columns of the velocity constraints have a "
+                           "structural zero pivot; order u_dep so that each constraint names its "
+                           "dependent speed")
+        aug[c] = [rec.let(x * piv) for x in aug[c]]
+        for i in range(m):
+            if i != c and aug[i][c] != 0:
+                fac = aug[i][c]
+                aug[i] = [rec.let(aug[i][k] - fac * aug[c][k]) for k in range(m + p)]
+    Ars = [[-aug[s][m + r] for r in range(p)] for s in range(m)]       # m x p
+    M = sm.Matrix(nu, nu, lambda i, j: H.get((i, j), 0))
+    A = sm.zeros(nu, nu)
+    b = [None] * nu
+    for r in range(p):
+        for j in range(nu):
+            A[r, j] = rec.let(M[r, j] + sm.Add(*[Ars[s][r] * M[p + s, j] for s in range(m)
+                                                 if M[p + s, j] != 0]))
+        b[r] = rec.let(f[r] + sm.Add(*[Ars[s][r] * f[p + s] for s in range(m)]))
+    for s in range(m):
+        for j in range(nu):
+            A[p + s, j] = J[s][j]
+        b[p + s] = -gamma[s]
+    return A, b
