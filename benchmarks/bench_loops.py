@@ -71,8 +71,7 @@ def slider_crank(mech=None):
 def closed_chain(n, mech=None):
     """(system, parameters, initial state) of n rods pinned in series from the ground, the last
     rod's end pinned to the ground at (d, 0): 2 holonomic constraints, n - 2 dof (n = 4: a
-    five-bar linkage), gravity along -y.  The initial state is a regular polygon's half
-    (consistent up to the dependent coordinates, which consistent_state completes)."""
+    five-bar linkage), gravity along -y.  The initial state is that arch at rest (consistent)."""
     me = mech or __import__("eomc.mechanics", fromlist=["System"])
     q = me.dynamicsymbols(f"q1:{n + 1}")
     u = me.dynamicsymbols(f"u1:{n + 1}")
@@ -98,8 +97,9 @@ def closed_chain(n, mech=None):
     system.u_ind, system.u_dep = list(u[:n - 2]), list(u[n - 2:])
     system.apply_uniform_gravity(-g * ground.y)
     system.validate_system()
-    # an arch: link k's absolute angle pi - (k + 1/2)·pi/n, unit rods; ground gap spans it
-    ang = [np.pi - (k + 0.5) * np.pi / n for k in range(n)]
+    # an arch: link k's absolute angle pi/2 - (k + 1/2)·pi/n (up, over, down), unit rods, so
+    # the heights cancel and the ground gap d is the arch's span
+    ang = [np.pi / 2 - (k + 0.5) * np.pi / n for k in range(n)]
     span = float(sum(np.cos(a) for a in ang))
     params = {d: span, g: 9.81, **{x: 1.0 for x in L}, **{x: 1.0 + 0.1 * k for k, x in enumerate(m)}}
     rel = [ang[0]] + [ang[k] - ang[k - 1] for k in range(1, n)]
