@@ -19,7 +19,13 @@ win:
   exactly as the emitter would write it, from the formed matrix's nonzeros) already
   costs as much as the whole recursive rhs.
 
-When the recursion refuses the system (not a tree, constraints, Lagrange's method)
+A tree closed by holonomic constraints (compiler/tree/constrained.py) is compared the
+same way up to :data:`AUTO_KANE_MAX_SPEEDS_LOOPS` speeds: the constraint solve adds
+O(n·m + m³) to the tree's rhs, and Kane's reduced equations stay small for longer (a
+five-bar: 600 operations against 1056; the closed 8-link chain about even).
+
+When the recursion refuses the system (not a tree, nonholonomic constraints, Lagrange's
+method, a function the constrained tree does not build)
 or the recursive lowering fails in any way, auto uses Kane's formulation and
 records why in the metadata (``formulation_note``, shown by `eomc build` and
 `eomc inspect`); when Kane's fails and the recursive one worked, the recursive one
@@ -35,12 +41,14 @@ from .formed import formed_of_tree, tree_exprs
 from .model import NotATree
 from .recognize import tree_of
 
-__all__ = ["FORMULATIONS", "DEFAULT_FORMULATION", "AUTO_KANE_MAX_SPEEDS", "generate_formulation",
+__all__ = ["FORMULATIONS", "DEFAULT_FORMULATION", "AUTO_KANE_MAX_SPEEDS", "AUTO_KANE_MAX_SPEEDS_LOOPS",
+           "generate_formulation",
            "check_formulation", "tree_digest", "kane_tree_formed", "check_tree_finite"]
 
 FORMULATIONS = ("auto", "kane", "recursive")
 DEFAULT_FORMULATION = "auto"
 AUTO_KANE_MAX_SPEEDS = 6      # see the module docstring: above this Kane's rhs never won
+AUTO_KANE_MAX_SPEEDS_LOOPS = 8   # a tree closed by constraints (benchmarks/results/loops.md)
 
 
 def check_formulation(formulation):
@@ -60,7 +68,9 @@ def tree_digest(spec):
     shape = [(b.parent, b.speed) if b.speed is not None else
              (b.parent, -2 - len(b.speeds)) + tuple(b.speeds) if b.speeds else (b.parent, -1)
              for b in tree.bodies]
-    return tree_exprs(tree) + [sm.Integer(k) for pair in shape for k in pair]
+    from .constrained import loop_exprs, tree_loops   # a tree closed by constraints: them too
+    return (tree_exprs(tree) + [sm.Integer(k) for pair in shape for k in pair]
+            + loop_exprs(tree_loops(tree)))
 
 
 def is_eomc_kane(system):
@@ -288,9 +298,10 @@ def _generate_auto(spec, functions, fold_parameters, kane_spec):
         generated.metadata["formulation_note"] = f"kane, the fallback ({why})"
         return generated
     nu = spec.formed.nu
-    if spec.formed.method == "tree" and nu > AUTO_KANE_MAX_SPEEDS:
+    limit = AUTO_KANE_MAX_SPEEDS if not spec.formed.n_dependent_speeds else AUTO_KANE_MAX_SPEEDS_LOOPS
+    if spec.formed.method == "tree" and nu > limit:
         recursive.metadata["formulation_costs"] = {
-            "kane": f"not formed ({nu} speeds > {AUTO_KANE_MAX_SPEEDS}: Kane's rhs has not won there)",
+            "kane": f"not formed ({nu} speeds > {limit}: Kane's rhs has not won there)",
             "recursive": _rhs_cost(recursive)}
         return recursive
     try:
