@@ -5,6 +5,7 @@ Models (SymPy 1.14 ``System``s of joints whose loops are closed by holonomic con
 * ``four_bar``      examples/four_bar_system.py (3 pins, 2 constraints, 1 dof);
 * ``slider_crank``  crank and rod pinned in series, a slider on the ground, the rod's end
                     pinned to the slider by 2 constraints (1 dof);
+* ``rssr``          a spatial four-bar: pin, ball joint, pin; 3 constraints (2 dof);
 * ``chain_n``       n rods pinned in series from the ground, the last one's end pinned to
                     the ground at (d, 0) by 2 constraints (n - 2 dof; n = 4 is a five-bar).
 
@@ -107,8 +108,55 @@ def closed_chain(n, mech=None):
     return system, params, x0
 
 
+def rssr(mech=None):
+    """(system, parameters, initial state) of a spatial RSSR four-bar: a crank pinned about the
+    ground's z axis, a coupler on a ball joint at the crank's tip (SymPy's SphericalJoint), a
+    rocker pinned about the ground's x axis at (1, 0, 0.5); 3 holonomic constraints put the
+    coupler's far end at the rocker's tip (5 coordinates, 2 dof: the crank and the coupler's
+    spin about its own axis).  Gravity along -z.  The initial state solves the constraints
+    at q1 = q2 = 0 (Newton, SymPy's nsolve)."""
+    me = mech or __import__("eomc.mechanics", fromlist=["System"])
+    q = me.dynamicsymbols("q1:6")
+    u = me.dynamicsymbols("u1:6")
+    a, L, b, g = sm.symbols("a L b g", positive=True)
+    m = sm.symbols("m1:4", positive=True)
+    ground = me.RigidBody("ground")
+    crank, coupler, rocker = (me.RigidBody(n, mass=mk) for n, mk in
+                              (("crank", m[0]), ("coupler", m[1]), ("rocker", m[2])))
+    crank.inertia = me.Inertia.from_inertia_scalars(crank.masscenter, crank.frame, m[0] / 100,
+                                                    m[0] * a**2 / 12, m[0] * a**2 / 12)
+    coupler.inertia = me.Inertia.from_inertia_scalars(coupler.masscenter, coupler.frame, m[1] / 50,
+                                                      m[1] * L**2 / 12, m[1] * L**2 / 12)
+    rocker.inertia = me.Inertia.from_inertia_scalars(rocker.masscenter, rocker.frame,
+                                                     m[2] * b**2 / 12, m[2] / 100, m[2] * b**2 / 12)
+    joints = [
+        me.PinJoint("crank_pin", ground, crank, q[0], u[0], child_point=-a / 2 * crank.x,
+                    joint_axis=ground.z),
+        me.SphericalJoint("ball", crank, coupler, [q[1], q[2], q[3]], [u[1], u[2], u[3]],
+                          parent_point=a / 2 * crank.x, child_point=-L / 2 * coupler.x),
+        me.PinJoint("rocker_pin", ground, rocker, q[4], u[4],
+                    parent_point=ground.x + ground.z / 2, child_point=-b / 2 * rocker.y,
+                    joint_axis=ground.x),
+    ]
+    system = me.System.from_newtonian(ground)
+    system.add_joints(*joints)
+    gap = coupler.masscenter.pos_from(rocker.masscenter) + L / 2 * coupler.x - b / 2 * rocker.y
+    system.add_holonomic_constraints(*(gap.dot(v) for v in (ground.x, ground.y, ground.z)))
+    system.q_ind, system.q_dep = list(q[:2]), list(q[2:])
+    system.u_ind, system.u_dep = list(u[:2]), list(u[2:])
+    system.apply_uniform_gravity(-g * ground.z)
+    system.validate_system()
+    params = {a: 0.3, L: 1.0, b: 0.5, g: 9.81, m[0]: 1.0, m[1]: 1.5, m[2]: 0.8}
+    hol = sm.Matrix(list(system.holonomic_constraints)).xreplace(params).xreplace({q[0]: 0, q[1]: 0})
+    x = sm.symbols("x3:6")
+    sol = sm.nsolve(hol.xreplace(dict(zip(q[2:], x))), x, (-0.5, 0.5, 0.1))
+    x0 = {q[0]: 0.0, q[1]: 0.0, **{qk: float(v) for qk, v in zip(q[2:], sol)},
+          **{uk: 0.0 for uk in u}}
+    return system, params, x0
+
+
 def models(ns):
-    out = {"four_bar": (str(FOUR_BAR), None, None), "slider_crank": slider_crank()}
+    out = {"four_bar": (str(FOUR_BAR), None, None), "slider_crank": slider_crank(), "rssr": rssr()}
     for n in ns:
         out[f"chain_{n}"] = closed_chain(n)
     return out

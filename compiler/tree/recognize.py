@@ -12,6 +12,10 @@ Two sources give the same :class:`~.model.Tree`:
   from another, each point located from another): the parent of a body is the
   body whose speeds are the largest subset of its own.
 
+A System whose loops holonomic constraints close (one joint of each loop left out) is
+read as its spanning tree, and the constraints ride along on it (``Tree._loops``,
+:mod:`.constrained`); nonholonomic constraints are refused.
+
 Either way each joint is then read in joint-local terms (:func:`_joint`): the
 rotation and offset of the body relative to its parent as functions of the
 joint's own coordinate, and the constant motion axis S of its speed.  These
@@ -628,8 +632,9 @@ _STAGED = (me.SphericalJoint, me.PlanarJoint)   # read as single-axis stages, no
 
 
 def _constrained(system):
-    """Why a System with constraints is not a tree, naming the joints the constraints tie
-    (a four-bar's loop-closing constraints name all its joints) and the dependent variables."""
+    """Why a System with nonholonomic constraints is not taken, naming the joints the
+    constraints tie and the dependent variables (holonomic ones close loops on the tree:
+    compiler/tree/constrained.py)."""
     hol = list(getattr(system, "holonomic_constraints", ()))
     nonhol = list(getattr(system, "nonholonomic_constraints", ()))
     atoms = set()
@@ -642,11 +647,12 @@ def _constrained(system):
     kinds = ", ".join(f"{len(c)} {k} constraint{'s' if len(c) != 1 else ''}"
                       for c, k in ((hol, "holonomic"), (nonhol, "nonholonomic")) if len(c))
     why = f"{kinds or 'constraints'}" + (f" (dependent {', '.join(dep)})" if dep else "")
+    only = "the recursion takes loop-closing (holonomic) constraints only"
     if len(tied) > 1:
-        return f"joints {', '.join(tied)} form a closed loop: {why} tie them; the recursion needs a tree"
+        return f"joints {', '.join(tied)} are tied by {why}; {only}"
     if tied:
-        return f"joint {tied[0]} is constrained: {why}; the recursion needs a tree without constraints"
-    return f"the system has {why}: the recursion needs a tree without constraints"
+        return f"joint {tied[0]} is constrained: {why}; {only}"
+    return f"the system has {why}: {only}"
 
 
 def _ball_stages(system, joint, parent, order, added):

@@ -1,14 +1,14 @@
 """Issue 19 item 3: closed loops on the tree (compiler/tree/constrained.py).
 
 A System of joints whose loops holonomic constraints close -- the four-bar example, a
-slider-crank, a five-bar -- runs as its spanning tree's dynamics plus a constraint solve.
+slider-crank, a five-bar, a spatial RSSR four-bar through a ball joint -- runs as its spanning tree's dynamics plus a constraint solve.
 The oracle is eomc's Kane formulation of the same System (itself checked against SymPy's
 KanesMethod elsewhere): same states, and every function agrees to 1e-12 at random
 consistent states (rhs, mass matrix, forcing, inverse dynamics, outputs and an event
 that read u', constraints), simulations agree and keep the constraints, and what the
 recursion does not build (jac_x, ...) makes auto fall back to Kane saying why.
 
-Cheap: three small models, each compiled once per formulation (module fixture).
+Cheap: four small models, each compiled once per formulation (module fixture).
 """
 import importlib.util
 import runpy
@@ -50,7 +50,8 @@ def _models():
     from eomc.mechanics import dynamicsymbols
     for label, (system, params, x0), inputs in (
             ("slider_crank", bench_loops.slider_crank(), [dynamicsymbols("T")]),
-            ("five_bar", bench_loops.closed_chain(4), [])):
+            ("five_bar", bench_loops.closed_chain(4), []),
+            ("spatial_rssr", bench_loops.rssr(), [])):
         u = list(system.u)
         out[label] = (system, params, x0, inputs, {"acc": u[0].diff(t) + u[-1].diff(t) * u[0]},
                       {"acc_zero": u[0].diff(t) - 0.25})
@@ -98,13 +99,14 @@ def _rel(a, b):
     return float(np.max(np.abs(a - b) / np.maximum(1.0, np.abs(a))))
 
 
-@pytest.mark.parametrize("label", ["four_bar", "slider_crank", "five_bar"])
+@pytest.mark.parametrize("label", ["four_bar", "slider_crank", "five_bar", "spatial_rssr"])
 def test_recursive_and_kane_agree_at_random_consistent_states(built, label):
     pair, x0 = built[label]
     rec, kane = pair["recursive"], pair["kane"]
     assert rec.metadata["formulation"] == "recursive" and kane.metadata["formulation"] == "kane"
     assert rec.state_names == kane.state_names and rec.param_names == kane.param_names
-    assert (rec.nhol, rec.nvel) == (kane.nhol, kane.nvel) == (2, 2)
+    m = 3 if label == "spatial_rssr" else 2
+    assert (rec.nhol, rec.nvel) == (kane.nhol, kane.nvel) == (m, m)
     rng = np.random.default_rng(19)
     r = np.full(kane.ninput, 0.7)
     for x in _consistent_states(kane, x0, 4, rng):
@@ -120,8 +122,8 @@ def test_recursive_and_kane_agree_at_random_consistent_states(built, label):
         # the dependent accelerations keep the velocity constraints: d/dt (J u) = 0
         xd = rec.rhs(0.0, x, r=r)
         h = 1e-6
-        g1 = rec.constraints(0.0, x + h * xd, r=r)[2:]
-        g0 = rec.constraints(0.0, x - h * xd, r=r)[2:]
+        g1 = rec.constraints(0.0, x + h * xd, r=r)[m:]
+        g0 = rec.constraints(0.0, x - h * xd, r=r)[m:]
         assert np.max(np.abs(g1 - g0)) / (2 * h) < 1e-6
 
 
