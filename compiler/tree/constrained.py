@@ -61,6 +61,7 @@ class Loops:
     n_dependent_coordinates: int
     n_dependent_speeds: int
     joints: tuple = ()        # the joints the constraints tie (for messages)
+    defs: tuple = ()          # ((symbol, expr), ...): named intermediate values J and γ read
 
     @property
     def m(self):
@@ -109,6 +110,31 @@ def loops_of_system(system, coordinates, speeds, kinematics):
     leftover = [e for e in vel if e.has(sm.Derivative)]
     if leftover:
         raise NotATree(f"velocity constraint {leftover[0]} holds a derivative the kinematics do not give")
+    if getattr(system, "_vel_constrs", None) is None and not any(c.has(_T) for c in
+                                                                 _explicit_time(hol, q + u)):
+        defs, jac, bias = _rates_on_dag(hol, q, u, kinematics)
+    else:          # velocity constraints the user set: differentiated as they are
+        defs, (jac, bias) = (), _rates_of(vel, q, u, kinematics)
+    for i, row in enumerate(jac):
+        if any(_dynamic(c) & set(u) for c in row):
+            raise NotATree(f"velocity constraint {i + 1} is not linear in the speeds")
+    atoms = set().union(*(_dynamic(c) for c in hol)) if hol else set()
+    tied = tuple(j.name for j in system.joints
+                 if atoms & (set(getattr(j, "coordinates", ())) | set(getattr(j, "speeds", ()))))
+    return Loops(holonomic=tuple(sm.sympify(c) for c in hol), velocity=tuple(vel),
+                 jacobian=tuple(tuple(r) for r in jac), bias=tuple(bias), n_dependent_coordinates=len(q_dep),
+                 n_dependent_speeds=m, joints=tied, defs=tuple(defs))
+
+
+def _explicit_time(exprs, states):
+    """``exprs`` with the coordinates and speeds taken out: what is left of t is explicit."""
+    plain = {x: sm.Symbol(f"_s{k}") for k, x in enumerate(states)}
+    return [sm.sympify(e).xreplace(plain) for e in exprs]
+
+
+def _rates_of(vel, q, u, kinematics):
+    """J = ∂f_v/∂u and γ = d f_v/dt at u' = 0 by SymPy's differentiation (velocity
+    constraints the user gave)."""
     plain = {x: sm.Dummy(_nm(x)) for x in q + u}
     back = {v: k for k, v in plain.items()}
     jac, bias = [], []
@@ -121,15 +147,69 @@ def loops_of_system(system, coordinates, speeds, kinematics):
                      for qk, kin in zip(q, kinematics) if plain[qk] in free])
         g += p.diff(_T).xreplace(back) if p.has(_T) else 0
         bias.append(g)
-    for i, row in enumerate(jac):
-        if any(_dynamic(c) & set(u) for c in row):
-            raise NotATree(f"velocity constraint {i + 1} is not linear in the speeds")
-    atoms = set().union(*(_dynamic(c) for c in hol)) if hol else set()
-    tied = tuple(j.name for j in system.joints
-                 if atoms & (set(getattr(j, "coordinates", ())) | set(getattr(j, "speeds", ()))))
-    return Loops(holonomic=tuple(sm.sympify(c) for c in hol), velocity=tuple(vel),
-                 jacobian=tuple(jac), bias=tuple(bias), n_dependent_coordinates=len(q_dep),
-                 n_dependent_speeds=m, joints=tied)
+    return jac, bias
+
+
+class _Names:
+    """Deterministic names for the loops' intermediate values (identical input, identical C)."""
+
+    def __init__(self):
+        self.k = 0
+
+    def __call__(self):
+        self.k += 1
+        return sm.Symbol(f"_loop{self.k}", real=True)
+
+    def stream(self):
+        while True:
+            yield self()
+
+
+def _forward(defs, outs, rates, fresh):
+    """Forward-mode derivative through a DAG: ``defs`` [(symbol, expr)] in order, ``rates``
+    {atom: its derivative} (absent: 0).  Returns (new defs, derivatives of ``outs``); each
+    derivative of a def becomes one new named value, so the work and the result stay
+    proportional to the DAG (SymPy's diff of the expanded tree is what took minutes)."""
+    d = {a: r for a, r in rates.items() if r != 0}
+    new = []
+    for sym, e in defs:
+        terms = [e.diff(a) * d[a] for a in e.free_symbols if a in d]
+        if terms:
+            ds = fresh()
+            new.append((ds, sm.Add(*terms)))
+            d[sym] = ds
+    return new, [sm.Add(*[o.diff(a) * d[a] for a in o.free_symbols if a in d]) for o in outs], d
+
+
+def _rates_on_dag(hol, q, u, kinematics):
+    """(defs, J, γ) of the default velocity constraints f_v = d f_h/dt, computed on the CSE'd
+    DAG of f_h: J's column j is f_h's derivative along ∂q'/∂u_j, f_v its derivative along q',
+    and γ the derivative of f_v along q' with u' = 0."""
+    fresh = _Names()
+    plain = {x: sm.Symbol(f"_s{k}", real=True) for k, x in enumerate(q + u)}
+    back = {v: k for k, v in plain.items()}
+    pq, pu = [plain[x] for x in q], [plain[x] for x in u]
+    kin = [sm.sympify(k).xreplace(plain) for k in kinematics]
+    f = [sm.sympify(c).xreplace(plain) for c in hol]
+    reps, f = sm.cse(f, symbols=fresh.stream(), order="none", list=True)
+    defs = list(reps)
+    jac_cols = []
+    for uj in pu:
+        dk = {qk: k.diff(uj) for qk, k in zip(pq, kin) if uj in k.free_symbols}
+        new, col, _ = _forward(defs, f, dk, fresh)
+        defs += new
+        jac_cols.append(col)
+    base = list(defs[:len(reps)])
+    new, vel, dq = _forward(base, f, dict(zip(pq, kin)), fresh)
+    defs += new
+    # γ: d/dt of f_v (= vel) with u' = 0; D of f_h's values is known (dq), D of q is q'
+    rates = {a: r for a, r in dq.items()}
+    new2, gamma, _ = _forward(new, vel, rates, fresh)
+    defs += new2
+    jac = [[jac_cols[j][i] for j in range(len(pu))] for i in range(len(f))]
+    unplain = lambda e: sm.sympify(e).xreplace(back)    # noqa: E731
+    return ([(sym, unplain(e)) for sym, e in defs], [[unplain(c) for c in row] for row in jac],
+            [unplain(g) for g in gamma])
 
 
 def tree_loops(tree):
@@ -149,6 +229,7 @@ def loop_exprs(loops):
         return []
     out = list(loops.holonomic) + list(loops.velocity) + list(loops.bias)
     out += [c for row in loops.jacobian for c in row]
+    out += [x for pair in loops.defs for x in pair]
     return [sm.sympify(e) for e in out] + [sm.Integer(loops.n_dependent_coordinates),
                                            sm.Integer(loops.n_dependent_speeds)]
 
@@ -162,9 +243,10 @@ def with_loops(formed, tree):
         return formed
     states = set(formed.coordinates) | set(formed.speeds)
     inputs, params = set(formed.inputs), set(formed.parameters)
+    named = {sym for sym, _ in loops.defs}
     for e in loop_exprs(loops):
         inputs |= {a for a in e.atoms(AppliedUndef) if a not in states}
-        params |= {s for s in e.free_symbols if s != _T}
+        params |= {s for s in e.free_symbols if s != _T and s not in named}
     out = replace(formed, n_dependent_coordinates=loops.n_dependent_coordinates,
                   n_dependent_speeds=loops.n_dependent_speeds,
                   holonomic_constraints=sm.Matrix(list(loops.holonomic)) if loops.holonomic
@@ -191,20 +273,33 @@ class _Where:
     name, joint = "the loop constraints", "closing the loops"
 
 
-def lower_loops(loops, ren, rec):
-    """J (m x n) and γ (m) renamed to slot symbols by ``ren``, their common subexpressions
-    named in ``rec``.  The program's CSE pass leaves the trace's assignments as they are
-    (the recursions name every value they make), so these expressions -- products of the
-    joints' rotations, O(n) deep in a chain -- are CSE'd here, once, like Kane's results:
-    without it a five-bar's rhs had 2.5 times the operations."""
-    n = len(loops.jacobian[0]) if loops.jacobian else 0
-    exprs = [ren(c) for row in loops.jacobian for c in row] + [ren(c) for c in loops.bias]
-    replacements, reduced = sm.cse(exprs, symbols=sm.numbered_symbols("_loop", real=True),
-                                   order="none", list=True)
+def lower_loops(loops, layout, rec):
+    """J (m x n) and γ (m) in slot symbols, their named intermediate values (``Loops.defs``)
+    and common subexpressions named in ``rec``.  The program's CSE pass leaves the trace's
+    assignments as they are (the recursions name every value they make), so these
+    expressions are CSE'd here, once, like Kane's results: without it a five-bar's rhs had
+    2.5 times the operations."""
+    keep = tuple(sym for sym, _ in loops.defs)
+    memo = {}
+
+    def ren(e):
+        e = sm.sympify(e)
+        if e.has(sm.nan, sm.zoo, sm.oo, -sm.oo):
+            raise ModelError(f"recursive formulation: the loop constraints have a non-finite "
+                             f"constant ({e}); no C is written")
+        return layout.apply(e, "the loop constraints", memo, keep=keep)
     named = {}
+    for sym, e in loops.defs:
+        named[sym] = rec.let(ren(e).xreplace(named))
+    n = len(loops.jacobian[0]) if loops.jacobian else 0
+    exprs = [ren(c).xreplace(named) for row in loops.jacobian for c in row]
+    exprs += [ren(c).xreplace(named) for c in loops.bias]
+    replacements, reduced = sm.cse(exprs, symbols=sm.numbered_symbols("_loopcse", real=True),
+                                   order="none", list=True)
+    cse_named = {}
     for sym, e in replacements:
-        named[sym] = rec.let(e.xreplace(named))
-    reduced = [e.xreplace(named) for e in reduced]
+        cse_named[sym] = rec.let(e.xreplace(cse_named))
+    reduced = [e.xreplace(cse_named) for e in reduced]
     m = len(loops.jacobian)
     J = [[rec.let(reduced[i * n + k]) if reduced[i * n + k] != 0 else sm.S.Zero for k in range(n)]
          for i in range(m)]

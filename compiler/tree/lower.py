@@ -139,7 +139,7 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         v, c = velocities(bodies, rec, speeds)
         extra, keep = [], {}
         if loops is not None:
-            J, gamma = lower_loops(loops, _rename(layout, {}, "the loop constraints", None), rec)
+            J, gamma = lower_loops(loops, layout, rec)
         jac = set(functions) & {"jac_x", "jac_r", "jac_p", "jvp"}
         if "rhs" in functions or jac:
             out, margins = aba(bodies, rec, speeds, gravity, v, c, keep=keep), []
