@@ -158,10 +158,12 @@ def rssr(mech=None):
 
 
 def models(ns):
-    out = {"four_bar": (str(FOUR_BAR), None, None), "slider_crank": slider_crank(), "rssr": rssr()}
+    """(label, model) pairs, each model built when its turn comes."""
+    yield "four_bar", (str(FOUR_BAR), None, None)
+    yield "slider_crank", slider_crank()
+    yield "rssr", rssr()
     for n in ns:
-        out[f"chain_{n}"] = closed_chain(n)
-    return out
+        yield f"chain_{n}", closed_chain(n)
 
 
 def _cpu(fn):
@@ -223,7 +225,7 @@ def main(argv=None):
     rows = []
     load_before = os.getloadavg()
     with tempfile.TemporaryDirectory() as cache:
-        for label, model in models(ns).items():
+        for label, model in models(ns):
             built, build_s, ops = {}, {}, {}
             for f in ("recursive", "kane"):        # interleaved per model
                 built[f], build_s[f] = _build(label, model, f, cache)
