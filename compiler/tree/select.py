@@ -19,10 +19,13 @@ win:
   exactly as the emitter would write it, from the formed matrix's nonzeros) already
   costs as much as the whole recursive rhs.
 
-A tree closed by holonomic constraints (compiler/tree/constrained.py) is compared the
-same way up to :data:`AUTO_KANE_MAX_SPEEDS_LOOPS` speeds: the constraint solve adds
-O(n·m + m³) to the tree's rhs, and Kane's reduced equations stay small for longer (a
-five-bar: 600 operations against 1056; the closed 8-link chain about even).
+A tree closed by holonomic constraints (compiler/tree/constrained.py) is treated the
+same way, with the same limit, measured on closed n-link chains
+(benchmarks/results/loops.md): Kane's rhs has fewer operations up to 6 speeds (the
+five-bar 623 against 1145, the 6-link chain 1614 against 2074, about even in time
+there), and at 8 speeds the recursive rhs has fewer (3090 against 3171) and runs twice
+as fast, while forming Kane's equations took 15 s of the build against the whole
+recursive build's 2 s.
 
 When the recursion refuses the system (not a tree, nonholonomic constraints, Lagrange's
 method, a function the constrained tree does not build)
@@ -41,14 +44,12 @@ from .formed import formed_of_tree, tree_exprs
 from .model import NotATree
 from .recognize import tree_of
 
-__all__ = ["FORMULATIONS", "DEFAULT_FORMULATION", "AUTO_KANE_MAX_SPEEDS", "AUTO_KANE_MAX_SPEEDS_LOOPS",
-           "generate_formulation",
+__all__ = ["FORMULATIONS", "DEFAULT_FORMULATION", "AUTO_KANE_MAX_SPEEDS", "generate_formulation",
            "check_formulation", "tree_digest", "kane_tree_formed", "check_tree_finite"]
 
 FORMULATIONS = ("auto", "kane", "recursive")
 DEFAULT_FORMULATION = "auto"
 AUTO_KANE_MAX_SPEEDS = 6      # see the module docstring: above this Kane's rhs never won
-AUTO_KANE_MAX_SPEEDS_LOOPS = 8   # a tree closed by constraints (benchmarks/results/loops.md)
 
 
 def check_formulation(formulation):
@@ -298,10 +299,9 @@ def _generate_auto(spec, functions, fold_parameters, kane_spec):
         generated.metadata["formulation_note"] = f"kane, the fallback ({why})"
         return generated
     nu = spec.formed.nu
-    limit = AUTO_KANE_MAX_SPEEDS if not spec.formed.n_dependent_speeds else AUTO_KANE_MAX_SPEEDS_LOOPS
-    if spec.formed.method == "tree" and nu > limit:
+    if spec.formed.method == "tree" and nu > AUTO_KANE_MAX_SPEEDS:
         recursive.metadata["formulation_costs"] = {
-            "kane": f"not formed ({nu} speeds > {limit}: Kane's rhs has not won there)",
+            "kane": f"not formed ({nu} speeds > {AUTO_KANE_MAX_SPEEDS}: Kane's rhs has not won there)",
             "recursive": _rhs_cost(recursive)}
         return recursive
     try:
