@@ -196,14 +196,13 @@ def _rates_on_dag(hol, q, u, kinematics):
     kin = [sm.sympify(k).xreplace(plain) for k in kinematics]
     f = [sm.sympify(c).xreplace(plain) for c in hol]
     reps, f = sm.cse(f, symbols=fresh.stream(), order="none", list=True)
-    defs = list(reps)
+    base, defs = list(reps), list(reps)
     jac_cols = []
-    for uj in pu:
+    for uj in pu:          # each column reads f_h's values only: one pass over them
         dk = {qk: k.diff(uj) for qk, k in zip(pq, kin) if uj in k.free_symbols}
-        new, col, _ = _forward(defs, f, dk, fresh)
+        new, col, _ = _forward(base, f, dk, fresh)
         defs += new
         jac_cols.append(col)
-    base = list(defs[:len(reps)])
     new, vel, dq = _forward(base, f, dict(zip(pq, kin)), fresh)
     defs += new
     # γ: d/dt of f_v (= vel) with u' = 0; D of f_h's values is known (dq), D of q is q'
@@ -284,20 +283,18 @@ def lower_loops(loops, layout, rec):
     expressions are CSE'd here, once, like Kane's results: without it a five-bar's rhs had
     2.5 times the operations."""
     keep = tuple(sym for sym, _ in loops.defs)
-    memo = {}
-
-    def ren(e):
-        e = sm.sympify(e)
-        if e.has(sm.nan, sm.zoo, sm.oo, -sm.oo):
-            raise ModelError(f"recursive formulation: the loop constraints have a non-finite "
-                             f"constant ({e}); no C is written")
-        return layout.apply(e, "the loop constraints", memo, keep=keep)
-    named = {}
-    for sym, e in loops.defs:
-        named[sym] = rec.let(ren(e).xreplace(named))
     n = len(loops.jacobian[0]) if loops.jacobian else 0
-    exprs = [ren(c).xreplace(named) for row in loops.jacobian for c in row]
-    exprs += [ren(c).xreplace(named) for c in loops.bias]
+    raw = [e for _, e in loops.defs] + [c for row in loops.jacobian for c in row] + list(loops.bias)
+    bad = next((e for e in raw if sm.sympify(e).has(sm.nan, sm.zoo, sm.oo, -sm.oo)), None)
+    if bad is not None:
+        raise ModelError(f"recursive formulation: the loop constraints have a non-finite "
+                         f"constant ({bad}); no C is written")
+    # one rename of everything (apply builds its substitution map per call)
+    renamed = list(layout.apply(sm.Tuple(*raw), "the loop constraints", {}, keep=keep))
+    named = {}
+    for (sym, _), e in zip(loops.defs, renamed):
+        named[sym] = rec.let(e.xreplace(named))
+    exprs = [e.xreplace(named) for e in renamed[len(keep):]]
     replacements, reduced = sm.cse(exprs, symbols=sm.numbered_symbols("_loopcse", real=True),
                                    order="none", list=True)
     cse_named = {}
