@@ -19,8 +19,8 @@ J = ∂f_v/∂u and γ = d f_v/dt at u' = 0 -- the rows Kane's path appends to i
 matrix.  For the default f_v = d f_h/dt they are derived by forward-mode rates on the
 CSE'd DAG of f_h (:func:`_rates_on_dag`: J's columns are f_h's derivatives along
 ∂q'/∂u_j, γ the second derivative along q'), named values kept in ``Loops.defs``: SymPy's
-diff of the expanded expressions, O(n) rotations deep in an n-link chain, took 150 s of
-an 8-link chain's build.  That makes the result Kane's at *every* state, consistent or not: Kane's
+diff of the expanded expressions, O(n) rotations deep in an n-link chain, took most of
+a 10-link chain's 8 s build (now 2.6 s).  That makes the result Kane's at *every* state, consistent or not: Kane's
 equations are Nᵀ(M u' - b) = 0 with N = [I; A_rs] a basis of J's null space, plus
 J u' = -γ; and Nᵀ(M u' - b) = 0 holds exactly when M u' - b lies in the range of Jᵀ.
 
