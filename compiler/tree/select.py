@@ -22,7 +22,7 @@ win:
 A tree closed by holonomic constraints (compiler/tree/constrained.py) is treated the
 same way, with the same limit, measured on closed n-link chains
 (benchmarks/results/loops.md): Kane's rhs has fewer operations up to 6 speeds (the
-five-bar 623 against 1145, the 6-link chain 1614 against 2074, about even in time
+five-bar 623 against 1145, the 6-link chain 1614 against 2076, about even in time
 there), and at 8 speeds the recursive rhs has fewer (3092 against 3171) and runs twice
 as fast, while Kane's build took 12.6 s CPU against the recursive build's 1.2 s.
 

@@ -224,3 +224,20 @@ def test_nonholonomic_constraints_stay_kanes():
     system.u_ind, system.u_dep = [], [u1]
     with pytest.raises(NotATree, match="1 nonholonomic constraint"):
         tree_from_system(system)
+
+
+def test_auto_takes_the_tree_for_a_long_closed_chain_without_forming_kane(monkeypatch):
+    """Above 6 speeds a closed tree's recursive rhs has won on every chain measured
+    (benchmarks/results/loops.md): auto lowers it without forming Kane's equations."""
+    from eomc.compiler.mechanics import unformed
+
+    def forbidden(system):
+        raise AssertionError("Kane's equations were formed")
+
+    monkeypatch.setattr(unformed, "form_system", forbidden)
+    system, params, _ = bench_loops.closed_chain(8)
+    _, gm = generate(system, "chain8", formulation="auto", functions=["rhs"], parameters=params,
+                     use_cache=False, progress=False)
+    assert gm.metadata["formulation"] == "recursive"
+    assert gm.metadata["formulation_costs"]["kane"].startswith("not formed (8 speeds > 6")
+    assert (gm.metadata["nhol"], gm.metadata["nvel"]) == (2, 2)
