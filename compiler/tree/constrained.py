@@ -46,7 +46,7 @@ from .algorithms import PIVOT_TOL, _LDL
 from .derivatives import articulated_solve
 from .model import NotATree
 
-__all__ = ["Loops", "loops_of_system", "tree_loops", "with_loops", "loop_exprs",
+__all__ = ["Loops", "loops_of_system", "loops_of_kane", "tree_loops", "with_loops", "loop_exprs",
            "UNSUPPORTED", "check_functions", "lower_loops", "kane_form"]
 
 _T = me.dynamicsymbols._t
@@ -128,6 +128,34 @@ def loops_of_system(system, coordinates, speeds, kinematics):
     return Loops(holonomic=tuple(sm.sympify(c) for c in hol), velocity=tuple(vel),
                  jacobian=tuple(tuple(r) for r in jac), bias=tuple(bias), n_dependent_coordinates=len(q_dep),
                  n_dependent_speeds=m, joints=tied, defs=tuple(defs))
+
+
+def loops_of_kane(kane):
+    """The Loops of a KanesMethod with dependent coordinates and speeds: its own constraint
+    matrices (formed when it was made), so J u' = -γ are exactly the rows Kane's mass
+    matrix appends: J = k_dnh, γ = f_dnh, and the velocity constraints k_nh u + f_nh."""
+    qdep, udep = list(kane._qdep), list(kane._udep)
+    if not (qdep or udep):
+        return None
+    if not udep:
+        raise NotATree(f"dependent coordinates ({', '.join(_nm(x) for x in qdep)}) without dependent "
+                       f"speeds: give the velocity constraints and u_dependent")
+    if len(udep) > len(qdep):
+        raise NotATree(f"{len(udep) - len(qdep)} of its velocity constraints are nonholonomic (more "
+                       f"dependent speeds than dependent coordinates): the recursion takes "
+                       f"loop-closing (holonomic) constraints only")
+    k_nh, f_nh = sm.Matrix(kane._k_nh), sm.Matrix(kane._f_nh)
+    k_dnh, f_dnh = sm.Matrix(kane._k_dnh), sm.Matrix(kane._f_dnh)
+    if k_dnh.shape != k_nh.shape or any(sm.expand(a - b) != 0 for a, b in zip(k_dnh, k_nh)):
+        raise NotATree("the acceleration constraints given are not the velocity constraints' "
+                       "rate: the constrained tree takes loop-closing constraints")
+    u = list(kane._u)
+    vel = [sm.Add(*[k_nh[i, j] * u[j] for j in range(len(u))]) + f_nh[i] for i in range(k_nh.rows)]
+    hol = list(kane._f_h) if kane._f_h.rows else []
+    return Loops(holonomic=tuple(hol), velocity=tuple(vel),
+                 jacobian=tuple(tuple(k_nh.row(i)) for i in range(k_nh.rows)),
+                 bias=tuple(f_dnh), n_dependent_coordinates=len(qdep),
+                 n_dependent_speeds=len(udep), joints=())
 
 
 def _explicit_time(exprs, states):

@@ -776,11 +776,11 @@ def _forget(added):
 
 def tree_from_kane(kane, kinematics):
     """Tree of a KanesMethod formed from hand-built frames and points."""
-    if len(kane._qdep) or len(kane._udep) or len(kane._uaux):
-        extra = [_nm(x) for x in list(kane._qdep) + list(kane._udep) + list(kane._uaux)]
-        raise NotATree(f"the system has dependent or auxiliary coordinates or speeds "
-                       f"({', '.join(extra)}): constraints close a loop or add speeds, so it is "
-                       f"not a tree")
+    if len(kane._uaux):
+        raise NotATree(f"the system has auxiliary speeds ({', '.join(_nm(x) for x in kane._uaux)}): "
+                       f"they add speeds no joint has, so it is not a tree")
+    from .constrained import attach, loops_of_kane   # dependent speeds: loops closed by constraints
+    loops = loops_of_kane(kane)
     bodies = list(kane._bodylist or [])
     if not bodies:
         raise NotATree("the KanesMethod has no bodies")
@@ -814,7 +814,7 @@ def tree_from_kane(kane, kinematics):
         frames[i] = frame
         entries.append((b.name, f"of {b.name}", -1 if p is None else index[p], b, frame,
                         b.masscenter, speed))
-    return _assemble(rd, entries, kane._forcelist)
+    return attach(_assemble(rd, entries, kane._forcelist), loops)
 
 
 def _fixed_point(rd, start):

@@ -274,9 +274,13 @@ def test_constrained_systems_run_on_the_tree_unless_nonholonomic(matrix):
             # holonomic only: a hand-built KanesMethod with dependent speeds, or a System
             # formed by Lagrange's method (q_dep but no u_dep: multipliers, not a Kane state)
             why = str(rec)
-            hand_built = "dependent or auxiliary coordinates or speeds" in why
-            assert hand_built or ("nonholonomic" in why if nonholonomic else
-                                  "0 dependent speed(s)" in why), (case_id, rec)
+            # nonholonomic; a System formed by Lagrange's method (dependent coordinates, no
+            # dependent speeds); hand-built KanesMethods that are no relative-coordinate tree
+            # (absolute angles, a body moving with two new speeds, auxiliary speeds)
+            reasons = ("nonholonomic", "0 dependent speed(s)", "depends on more than its own",
+                       "moves with speeds", "auxiliary speeds")
+            assert any(r in why for r in reasons), (case_id, rec)
+            assert not nonholonomic or "nonholonomic" in why or "System" not in case_id, case_id
             continue
         assert not nonholonomic, case_id
         on_tree.append(case_id)

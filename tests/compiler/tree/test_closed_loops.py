@@ -241,3 +241,25 @@ def test_auto_takes_the_tree_for_a_long_closed_chain_without_forming_kane(monkey
     assert gm.metadata["formulation"] == "recursive"
     assert gm.metadata["formulation_costs"]["kane"].startswith("not formed (8 speeds > 6")
     assert (gm.metadata["nhol"], gm.metadata["nvel"]) == (2, 2)
+
+
+def test_a_systems_formed_kanes_method_closes_its_loops_too(tmp_path):
+    """The KanesMethod a System forms (dependent speeds, its constraint matrices) is read as a
+    tree plus its loops; it agrees with Kane's formulation of the same KanesMethod."""
+    system, params, _, inputs, _ = _four_bar()
+    system.form_eoms()
+    km = system.eom_method
+    models = {}
+    for f in ("recursive", "kane"):
+        p = dict(params)
+        if f == "recursive":     # the tree keeps the ground body's mass symbol (it moves nothing)
+            p[sm.Symbol("ground_mass")] = 1.0
+        models[f] = eomc.compile(km, formulation=f, functions=["rhs", "mass_matrix"], inputs=inputs,
+                                 parameters=p, cache_dir=str(tmp_path / f))
+    assert models["recursive"].metadata["formulation"] == "recursive"
+    rng = np.random.default_rng(5)
+    for _ in range(3):
+        x, r = rng.uniform(-1, 1, 6), rng.uniform(-1, 1, 1)
+        for fn in ("rhs", "mass_matrix"):
+            a, b = (getattr(models[f], fn)(0.0, x, r=r) for f in ("kane", "recursive"))
+            assert _rel(a, b) < 1e-12, (fn, a, b)
