@@ -30,6 +30,10 @@ rhs gives every u'.  ``mass_matrix``, ``forcing`` and ``inverse_dynamics`` retur
 form too ([Nᵀ M; J] and [Nᵀ b; -γ], A_rs = -J_d⁻¹ J_i from an unrolled elimination),
 and outputs or events that read u' solve that system as on the Kane path.
 
+A KanesMethod with dependent speeds (hand-built in relative coordinates, or the one a
+System forms) is read the same way, its loops from its own constraint matrices
+(:func:`loops_of_kane`: J = k_dnh, γ = f_dnh).
+
 Not generated here (ModelError, so ``auto`` falls back to Kane's formulation and says
 why): jac_x, jac_r, jac_p, jvp (their derivative of the constrained solve is not built)
 and the regressor.  Nonholonomic constraints stay Kane's (the recogniser refuses them).

@@ -14,7 +14,8 @@ Two sources give the same :class:`~.model.Tree`:
 
 A System whose loops holonomic constraints close (one joint of each loop left out) is
 read as its spanning tree, and the constraints ride along on it (``Tree._loops``,
-:mod:`.constrained`); nonholonomic constraints are refused.
+:mod:`.constrained`), as are a KanesMethod's dependent speeds and its constraint
+matrices; nonholonomic constraints are refused.
 
 Either way each joint is then read in joint-local terms (:func:`_joint`): the
 rotation and offset of the body relative to its parent as functions of the
