@@ -43,9 +43,12 @@ def tree_matrix_body(ctx, program, fn):
     vals = dict(program.results)
     nu = ctx.nu
     if fn == "mass_matrix":
+        # CRBA's M: the lower triangle; a tree closed by constraints: Kane's whole [NᵀM; J]
+        full = any(k[0] == "A" and k[1] < k[2] for k in vals)
         for i in range(nu):
             for j in range(nu):
-                lines.append(_store(f"out[{i * nu + j}]", vals.get(("A", max(i, j), min(i, j)), 0.0), pr))
+                key = ("A", i, j) if full else ("A", max(i, j), min(i, j))
+                lines.append(_store(f"out[{i * nu + j}]", vals.get(key, 0.0), pr))
         out, size = "out", nu * nu
     elif fn == "forcing":
         lines += [_store(f"out[{i}]", vals.get(("b", i), 0.0), pr) for i in range(nu)]

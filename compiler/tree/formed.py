@@ -55,4 +55,5 @@ def formed_of_tree(tree):
                           inputs=tuple(sorted(inputs, key=str)),
                           parameters=tuple(sorted(params, key=lambda s: s.name)))
     object.__setattr__(formed, "_tree", tree)
-    return formed
+    from .constrained import with_loops     # loop-closing constraints, if the tree has any
+    return with_loops(formed, tree)

@@ -28,6 +28,7 @@ from eomc.runtime.errors import ModelError
 
 from ..emit.symbolic import TANGENT_MIN_STATES, build_symbolic
 from .algorithms import LoweredBody, Recorder, aba, crba, rnea, velocities
+from .constrained import accelerations, check_functions, kane_form, lower_loops, tree_loops
 from .derivatives import articulated_solve, solve_symbols
 from .model import NotATree
 
@@ -148,6 +149,9 @@ def _cross(a, b):
 def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=None):
     """Symbolic (as :func:`~eomc.compiler.emit.symbolic.build_symbolic`) from the recursions."""
     rec = Recorder()
+    loops = tree_loops(tree)           # a tree closed by constraints: see .constrained
+    if loops is not None:
+        check_functions(functions)
     try:
         bodies, gravity = _lowered_bodies(tree, layout, rec)
         nq, nu = len(tree.coordinates), len(tree.speeds)
@@ -155,11 +159,17 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         v, c = velocities(bodies, rec, speeds)
         contact_values = _contacts(tree, bodies, rec, v, layout)
         extra, keep = [], {}
+        if loops is not None:
+            J, gamma = lower_loops(loops, layout, rec)
         jac = set(functions) & {"jac_x", "jac_r", "jac_p", "jvp"}
         if "rhs" in functions or jac:
-            for k, udd, D in aba(bodies, rec, speeds, gravity, v, c, keep=keep):
+            out, margins = aba(bodies, rec, speeds, gravity, v, c, keep=keep), []
+            if loops is not None:      # u' = a0 + M⁻¹Jᵀλ; the m pivots of J M⁻¹ Jᵀ join ABA's
+                out, margins = accelerations(J, gamma, bodies, rec, keep, out)
+            for k, udd, D in out:
                 extra.append((("ud", k), udd))
                 extra.append((("Dpiv", k), D))
+            extra += [(("Dpiv", nu + j), D) for j, D in enumerate(margins)]
         UD = tuple(sm.Symbol(f"ud_{j}", real=True) for j in range(nu))
         jacobian = []
         if jac:
@@ -168,7 +178,7 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
             sol = articulated_solve(bodies, rec, keep, solve_symbols(nu))
             jacobian = ([(("tres", k), -tau_w[k]) for k in range(nu)]
                         + [(("sol", k), sol[k]) for k in range(nu)])
-        if "inverse_dynamics" in functions:
+        if "inverse_dynamics" in functions and loops is None:
             tau = rnea(bodies, rec, UD, gravity, v, c)
             extra += [(("tau", k), tau[k]) for k in range(nu)]
         regressor = None
@@ -178,11 +188,18 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
             extra += entries
         # outputs and events that read u' solve A·u' = b (the Kane path's code)
         if set(functions) & _NEED_AB or ("outputs" in functions and outputs) or (
-                "events" in functions and events):
+                "events" in functions and events) or (loops and "inverse_dynamics" in functions):
             H = crba(bodies, rec)
             f0 = rnea(bodies, rec, [0] * nu, gravity, v, c)
             A = sm.Matrix(nu, nu, lambda i, j: H.get((i, j), 0))
             b = [-f0[k] for k in range(nu)]
+            if loops is not None:       # Kane's form [Nᵀ M; J], [Nᵀ b; -γ]
+                A, b = kane_form(J, gamma, H, b, nu, rec)
+                if "inverse_dynamics" in functions:
+                    extra += [(("tau", k), rec.let(sm.Add(*[A[k, j] * UD[j] for j in range(nu)])
+                                                   - b[k])) for k in range(nu)]
+        elif loops is not None:   # not computed: Kane's form is dense
+            A, b = sm.ones(nu, nu), [0] * nu
         else:   # not computed: a stand-in with M's structure (for the metadata)
             A, b = _structure(tree), [0] * nu
     except NotATree as exc:

@@ -12,6 +12,11 @@ Two sources give the same :class:`~.model.Tree`:
   from another, each point located from another): the parent of a body is the
   body whose speeds are the largest subset of its own.
 
+A System whose loops holonomic constraints close (one joint of each loop left out) is
+read as its spanning tree, and the constraints ride along on it (``Tree._loops``,
+:mod:`.constrained`), as are a KanesMethod's dependent speeds and its constraint
+matrices; nonholonomic constraints are refused.
+
 Either way each joint is then read in joint-local terms (:func:`_joint`): the
 rotation and offset of the body relative to its parent as functions of the
 joint's own coordinate, and the constant motion axis S of its speed.  These
@@ -572,11 +577,13 @@ def tree_from_system(system, kinematics=None):
     if _is_kane(system):        # a KanesMethod with pending equations (tree_formed's way in)
         return tree_from_kane(system, kinematics if kinematics is not None
                               else system_kinematics(system))
-    if len(getattr(system, "q_dep", ())) or len(getattr(system, "u_dep", ())) or \
-            len(getattr(system, "holonomic_constraints", ())) or \
-            len(getattr(system, "nonholonomic_constraints", ())):
+    if len(getattr(system, "nonholonomic_constraints", ())):
         raise NotATree(_constrained(system))
     kin = kinematics if kinematics is not None else system_kinematics(system)
+    # loop-closing (holonomic) constraints: the spanning tree plus a constraint solve
+    # (compiler/tree/constrained.py); read before the tree, so a refusal costs nothing
+    from .constrained import attach, loops_of_system
+    loops = loops_of_system(system, system.q, system.u, kin)
     rd = _Reader(system.frame, system.fixed_point, system.q, system.u, kin)
     ground = [b for b in system.bodies if getattr(b, "frame", None) == system.frame
               and b.masscenter == system.fixed_point]
@@ -585,7 +592,8 @@ def tree_from_system(system, kinematics=None):
     for j in system.joints:
         if j.child in parent_of:
             raise NotATree(f"body {j.child.name} is the child of joints {parent_of[j.child][0]} and "
-                           f"{j.name}: a closed loop, not a tree")
+                           f"{j.name}: a closed loop, not a tree (leave one joint of the loop out "
+                           f"and close the loop with holonomic constraints instead)")
         speed = speed_index[j.speeds[0]] if len(j.speeds) else None
         if len(j.speeds) > 1 and not isinstance(j, _STAGED):
             speed = tuple(speed_index[s] for s in j.speeds)
@@ -619,7 +627,7 @@ def tree_from_system(system, kinematics=None):
     # actuators (springs, dampers, forces, torques along pathways) act through their loads
     loads = list(system.loads) + [load for actuator in system.actuators for load in actuator.to_loads()]
     try:
-        return _assemble(rd, order, loads)
+        return attach(_assemble(rd, order, loads), loops)
     finally:
         _forget(added)
 
@@ -628,8 +636,9 @@ _STAGED = (me.SphericalJoint, me.PlanarJoint)   # read as single-axis stages, no
 
 
 def _constrained(system):
-    """Why a System with constraints is not a tree, naming the joints the constraints tie
-    (a four-bar's loop-closing constraints name all its joints) and the dependent variables."""
+    """Why a System with nonholonomic constraints is not taken, naming the joints the
+    constraints tie and the dependent variables (holonomic ones close loops on the tree:
+    compiler/tree/constrained.py)."""
     hol = list(getattr(system, "holonomic_constraints", ()))
     nonhol = list(getattr(system, "nonholonomic_constraints", ()))
     atoms = set()
@@ -642,11 +651,12 @@ def _constrained(system):
     kinds = ", ".join(f"{len(c)} {k} constraint{'s' if len(c) != 1 else ''}"
                       for c, k in ((hol, "holonomic"), (nonhol, "nonholonomic")) if len(c))
     why = f"{kinds or 'constraints'}" + (f" (dependent {', '.join(dep)})" if dep else "")
+    only = "the recursion takes loop-closing (holonomic) constraints only"
     if len(tied) > 1:
-        return f"joints {', '.join(tied)} form a closed loop: {why} tie them; the recursion needs a tree"
+        return f"joints {', '.join(tied)} are tied by {why}; {only}"
     if tied:
-        return f"joint {tied[0]} is constrained: {why}; the recursion needs a tree without constraints"
-    return f"the system has {why}: the recursion needs a tree without constraints"
+        return f"joint {tied[0]} is constrained: {why}; {only}"
+    return f"the system has {why}: {only}"
 
 
 def _ball_stages(system, joint, parent, order, added):
@@ -770,11 +780,11 @@ def _forget(added):
 
 def tree_from_kane(kane, kinematics):
     """Tree of a KanesMethod formed from hand-built frames and points."""
-    if len(kane._qdep) or len(kane._udep) or len(kane._uaux):
-        extra = [_nm(x) for x in list(kane._qdep) + list(kane._udep) + list(kane._uaux)]
-        raise NotATree(f"the system has dependent or auxiliary coordinates or speeds "
-                       f"({', '.join(extra)}): constraints close a loop or add speeds, so it is "
-                       f"not a tree")
+    if len(kane._uaux):
+        raise NotATree(f"the system has auxiliary speeds ({', '.join(_nm(x) for x in kane._uaux)}): "
+                       f"they add speeds no joint has, so it is not a tree")
+    from .constrained import attach, loops_of_kane   # dependent speeds: loops closed by constraints
+    loops = loops_of_kane(kane)
     bodies = list(kane._bodylist or [])
     if not bodies:
         raise NotATree("the KanesMethod has no bodies")
@@ -808,7 +818,7 @@ def tree_from_kane(kane, kinematics):
         frames[i] = frame
         entries.append((b.name, f"of {b.name}", -1 if p is None else index[p], b, frame,
                         b.masscenter, speed))
-    return _assemble(rd, entries, kane._forcelist)
+    return attach(_assemble(rd, entries, kane._forcelist), loops)
 
 
 def _fixed_point(rd, start):

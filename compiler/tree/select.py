@@ -19,7 +19,15 @@ win:
   exactly as the emitter would write it, from the formed matrix's nonzeros) already
   costs as much as the whole recursive rhs.
 
-When the recursion refuses the system (not a tree, constraints, Lagrange's method)
+A tree closed by holonomic constraints (compiler/tree/constrained.py) is treated the
+same way, with the same limit, measured on closed n-link chains
+(benchmarks/results/loops.md): Kane's rhs has fewer operations up to 6 speeds (the
+five-bar 623 against 1145, the 6-link chain 1614 against 2076, about even in time
+there), and at 8 speeds the recursive rhs has fewer (3092 against 3171) and runs twice
+as fast, while Kane's build took 12.6 s CPU against the recursive build's 1.2 s.
+
+When the recursion refuses the system (not a tree, nonholonomic constraints, Lagrange's
+method, a function the constrained tree does not build)
 or the recursive lowering fails in any way, auto uses Kane's formulation and
 records why in the metadata (``formulation_note``, shown by `eomc build` and
 `eomc inspect`); when Kane's fails and the recursive one worked, the recursive one
@@ -61,7 +69,9 @@ def tree_digest(spec):
              (b.parent, -2 - len(b.speeds)) + tuple(b.speeds) if b.speeds else (b.parent, -1)
              for b in tree.bodies]
     notes = list(getattr(tree, "notes", ()))   # they go into the metadata (tree_notes)
-    return tree_exprs(tree) + [sm.Integer(k) for pair in shape for k in pair] + notes
+    from .constrained import loop_exprs, tree_loops   # a tree closed by constraints: them too
+    return (tree_exprs(tree) + [sm.Integer(k) for pair in shape for k in pair]
+            + loop_exprs(tree_loops(tree)) + notes)
 
 
 def is_eomc_kane(system):

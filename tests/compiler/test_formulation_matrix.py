@@ -253,3 +253,40 @@ def test_kane_and_recursive_agree_at_random_states(matrix):
         assert checked == 3, f"{case_id}: no well-conditioned state found"
         compared += 1
     assert compared >= 5
+
+
+def test_constrained_systems_run_on_the_tree_unless_nonholonomic(matrix):
+    """Issue 19 item 3: a System whose loops holonomic constraints close runs on the tree
+    (spanning tree + constraint solve) and agrees with Kane (the test above); nonholonomic
+    constraints and hand-built KanesMethods with dependent speeds stay Kane's, refused with
+    the reason, as does a System formed by Lagrange's method with dependent coordinates only.
+    Before, every constrained case went to Kane."""
+    rows, _ = matrix
+    on_tree, kane_only = [], []
+    for case_id, r in rows.items():
+        kane = r["kane"]
+        if isinstance(kane, Exception) or not kane.metadata["nvel"]:
+            continue
+        rec = r["recursive"]
+        nonholonomic = kane.metadata["nvel"] > kane.metadata["nhol"]
+        if isinstance(rec, Exception):
+            kane_only.append(case_id)
+            # holonomic only: a hand-built KanesMethod with dependent speeds, or a System
+            # formed by Lagrange's method (q_dep but no u_dep: multipliers, not a Kane state)
+            why = str(rec)
+            # nonholonomic; a System formed by Lagrange's method (dependent coordinates, no
+            # dependent speeds); hand-built KanesMethods that are no relative-coordinate tree
+            # (absolute angles, a body moving with two new speeds, auxiliary speeds)
+            reasons = ("nonholonomic", "0 dependent speed(s)", "depends on more than its own",
+                       "moves with speeds", "auxiliary speeds")
+            assert any(r in why for r in reasons), (case_id, rec)
+            assert not nonholonomic or "nonholonomic" in why or "System" not in case_id, case_id
+            continue
+        assert not nonholonomic, case_id
+        on_tree.append(case_id)
+        assert (rec.metadata["nhol"], rec.metadata["nvel"]) == (kane.metadata["nhol"], kane.metadata["nvel"])
+        assert rec.metadata["state_names"] == kane.metadata["state_names"]
+    # SymPy's constrained test Systems and the four-bar example run on the tree now
+    assert "example_four_bar_system" in on_tree, (on_tree, kane_only)
+    assert sum(i.startswith("sympy") for i in on_tree) >= 1, (on_tree, kane_only)
+    print("on the tree:", on_tree, "Kane only:", kane_only)

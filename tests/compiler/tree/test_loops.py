@@ -1,53 +1,58 @@
-"""Issue 8, bad input: a joint loop where a tree is required names the joints and the fallback."""
+"""Issue 8 / issue 19: a joint loop closed by constraints runs on the tree; what the tree does not
+build is refused naming it, and auto says why it fell back."""
 from pathlib import Path
 
 import pytest
 
 from eomc.cli import main
 from eomc.compiler.driver import generate
-from eomc.errors import ModelFileError
+from eomc.errors import ModelError
 
 ROOT = Path(__file__).resolve().parents[3]
 FOUR_BAR = ROOT / "examples" / "four_bar_system.py"
 
 
-def test_recursive_names_the_joints_of_the_loop_and_the_way_out(tmp_path, monkeypatch):
+def test_recursive_builds_the_loop_and_names_what_it_does_not_build(tmp_path, monkeypatch):
+    """Closed loops run on the tree (issue 19, tests/compiler/tree/test_closed_loops.py); the
+    derivatives of the constrained solve are not built: refused, naming them and the way out."""
     monkeypatch.setenv("EOMC_CACHE_DIR", str(tmp_path / "cache"))
-    with pytest.raises(ModelFileError) as info:    # refused while the file is read: file:line
-        generate(str(FOUR_BAR), functions=["rhs"], formulation="recursive", use_cache=False,
+    _, gm = generate(str(FOUR_BAR), functions=["rhs"], formulation="recursive", use_cache=False,
+                     progress=False)
+    assert gm.metadata["formulation"] == "recursive"
+    with pytest.raises(ModelError) as info:
+        generate(str(FOUR_BAR), functions=["rhs", "jac_x"], formulation="recursive", use_cache=False,
                  progress=False)
     msg = str(info.value)
-    assert msg.startswith(f"{FOUR_BAR}:")
-    assert "joints J1, J2, J3 form a closed loop" in msg
-    assert "2 holonomic constraints" in msg and "q2, q3" in msg
-    assert "'auto' falls back to kane" in msg
+    assert "jac_x of a tree closed by constraints" in msg and "formulation 'kane'" in msg
 
 
 def test_auto_says_it_fell_back_to_kane_and_why(tmp_path, monkeypatch, capsys):
     monkeypatch.setenv("EOMC_CACHE_DIR", str(tmp_path / "cache"))
-    _, gm = generate(str(FOUR_BAR), functions=["rhs"], formulation="auto", use_cache=False,
-                     progress=False)
+    _, gm = generate(str(FOUR_BAR), formulation="auto", use_cache=False, progress=False)
     assert gm.metadata["formulation"] == "kane"
-    assert gm.metadata["formulation_note"].startswith("kane, the fallback (not a tree: joints J1, J2, J3")
-    assert main(["inspect", "-q", str(FOUR_BAR), "--outputs", "rhs", "--formulation", "auto"]) == 0
+    assert gm.metadata["formulation_note"].startswith(
+        "kane, the fallback (recursive formulation: jac_x, jac_r, linearize of a tree closed by constraints")
+    assert main(["inspect", "-q", str(FOUR_BAR), "--formulation", "auto"]) == 0
     out = capsys.readouterr().out
-    assert "formulation: kane, the fallback (not a tree: joints J1, J2, J3 form a closed loop" in out
+    assert "formulation: kane, the fallback (recursive formulation: jac_x, jac_r, linearize" in out
 
 
-def test_hand_built_constrained_kane_names_its_dependent_variables():
-    """A hand-built KanesMethod has no joints: the refusal names the dependent q and u."""
+def test_hand_built_constrained_kane_says_why_it_is_no_tree():
+    """A hand-built KanesMethod with dependent speeds is read like any KanesMethod (its loops
+    are closed by its constraint matrices); the zoo's four-bar uses absolute angles, which
+    are no relative-coordinate tree: refused, naming the body and coordinate."""
     import eomc.mechanics as em
     from eomc.compiler.tree.model import NotATree
     from eomc.compiler.tree.recognize import tree_of
     from helpers import zoo
     km, _ = zoo.four_bar(em)
-    with pytest.raises(NotATree, match=r"dependent or auxiliary coordinates or speeds \(q2, q3, u2, u3\)"):
+    with pytest.raises(NotATree, match=r"body Link2 .*depends on more than its own coordinate q2"):
         tree_of(km)
 
 
-def test_recursive_refuses_before_forming_kanes_equations(tmp_path, monkeypatch):
-    """Forming Kane's equations of a System the recursion cannot take would be wasted work
-    (minutes for a large one) before the same refusal."""
+def test_recursive_never_forms_kanes_equations_of_the_loop(tmp_path, monkeypatch):
+    """The loop's tree and constraints are read from the System; Kane's equations (minutes for
+    a large one) are never formed."""
     from eomc.compiler.mechanics import unformed
 
     def forbidden(system):
@@ -55,6 +60,6 @@ def test_recursive_refuses_before_forming_kanes_equations(tmp_path, monkeypatch)
 
     monkeypatch.setattr(unformed, "form_system", forbidden)
     monkeypatch.setenv("EOMC_CACHE_DIR", str(tmp_path / "cache"))
-    with pytest.raises(ModelFileError, match="form a closed loop"):
-        generate(str(FOUR_BAR), functions=["rhs"], formulation="recursive", use_cache=False,
-                 progress=False)
+    _, gm = generate(str(FOUR_BAR), functions=["rhs"], formulation="recursive", use_cache=False,
+                     progress=False)
+    assert gm.metadata["nhol"] == gm.metadata["nvel"] == 2

@@ -46,7 +46,7 @@ def test_three_speed_body_is_refused_naming_it():
 
 def test_constrained_system_is_not_a_tree():
     kane, _ = zoo.rolling_disc(em)
-    with pytest.raises(NotATree, match="dependent"):
+    with pytest.raises(NotATree, match="2 of its velocity constraints are nonholonomic"):
         tree_of(kane)
 
 
@@ -78,7 +78,7 @@ def test_multi_speed_joint_is_one_body():
 
 def test_closed_loop_is_not_a_tree():
     kane, _ = zoo.four_bar(em)
-    with pytest.raises(NotATree, match="dependent"):
+    with pytest.raises(NotATree, match="depends on more than its own coordinate"):   # absolute angles
         tree_of(kane)
 
 
