@@ -114,8 +114,9 @@ def urdf_formed(model, formulation, overrides, formed_system):
                          f"{'; mimic=True robots with mimic joints take Kane' if mimics else ''})")
     if formulation != "kane":
         warnings.warn(f"{model.path}: mimic joints ({', '.join(mimics[:5])}{', ...' if len(mimics) > 5 else ''}) "
-                      f"are constraints, which the recursive formulation's tree cannot carry: the robot "
-                      f"goes through its SymPy System (formulation {formulation})", EomcWarning,
+                      f"are constraints, which the URDF reader's tree does not carry: the robot goes "
+                      f"through its SymPy System, whose constraints close the joint tree (formulation "
+                      f"{formulation})", EomcWarning,
                       stacklevel=3)
     built = system_from_tree(tree, fold=model.fold_parameters, mimic=model.mimic, gravity=model.gravity,
                              laws=model.limits)

@@ -40,7 +40,7 @@ def romeo(tmp_path_factory):
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         tree = build_tree(read_urdf(path), floating_base=True, allow_nonphysical_inertia=True)
-        model = eomc.compile(UrdfModel(path, floating_base=True, allow_nonphysical_inertia=True),
+        model = eomc.compile(UrdfModel(path, floating_base=True, allow_nonphysical_inertia=True, limits=False),
                              "romeo_small", functions=FUNCTIONS, formulation="recursive",
                              cache_dir=tmp_path_factory.mktemp("cache"), progress=False)
     notes = [str(w.message) for w in caught if issubclass(w.category, EomcWarning)]
