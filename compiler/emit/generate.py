@@ -67,9 +67,9 @@ def _body(fn, ctx, prog, sym, layout, nx, functions, recursive=False):
         from ..tree.emit import tree_matrix_body
         return tree_matrix_body(ctx, prog, fn)
     if recursive and fn == "jvp":
-        from ..tree.derivatives import solve_symbols
+        from ..tree.constrained import jacobian_symbols
         from ..tree.jvp import tree_jvp_body
-        return tree_jvp_body(ctx, prog, sym.W, solve_symbols(ctx.nu), sym.seeds, nx, len(layout.p))
+        return tree_jvp_body(ctx, prog, *jacobian_symbols(prog, sym.W, ctx.nu), sym.seeds, nx, len(layout.p))
     if recursive and fn in ("jac_x", "jac_r", "jac_p"):
         from ..tree.constrained import jacobian_symbols
         from ..tree.emit import tree_jacobian_body

@@ -48,7 +48,7 @@ TREE_FUNCTION_GROUPS = {
     "constraints_jac": ("dcon",),
     "linearize": (),
     "regressor": ("Y",),
-    "jvp": ("ud", "Dpiv", "kin", "dkin", "dkin_p", "tjv", "dres_p", "sol", "zd", "dzd", "dzd_p"),   # see .jvp
+    "jvp": ("ud", "lam", "Dpiv", "kin", "dkin", "dkin_p", "tjv", "dres_p", "sol", "zd", "dzd", "dzd_p"),   # see .jvp
     "events": ("ev",),
 }
 TREE_HELPER_USERS = ()

@@ -1,4 +1,4 @@
-"""Issue 19 item 3: jac_x, jac_r, jac_p and linearize of a tree closed by constraints.
+"""Issue 19 item 3: jac_x, jac_r, jac_p, jvp and linearize of a tree closed by constraints.
 
 The recursion differentiates the KKT system's residual (M u' - b - Jᵀλ; J u' + γ) at the
 solved u' and λ and solves the tangent KKT system on the rhs's own factors
@@ -28,7 +28,7 @@ _spec = importlib.util.spec_from_file_location("bench_loops", ROOT / "benchmarks
 bench_loops = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(bench_loops)
 
-FUNCTIONS = ["rhs", "jac_x", "jac_r", "jac_p", "linearize", "constraints", "constraints_jac"]
+FUNCTIONS = ["rhs", "jac_x", "jac_r", "jac_p", "jvp", "linearize", "constraints", "constraints_jac"]
 
 
 def _models():
@@ -158,10 +158,18 @@ def test_linearize_at_the_hanging_equilibrium_is_kanes(built):
     assert np.all(np.abs(ev.real) < 1e-8) and np.all(np.abs(ev.imag) > 0.1)
 
 
-def test_jvp_is_refused_by_name():
-    with pytest.raises(ModelError, match=r"jvp of a tree closed by constraints"):
-        generate(str(FOUR_BAR), "fb", formulation="recursive", functions=["rhs", "jvp"],
-                 use_cache=False, progress=False)
+def test_jvp_is_kanes_along_state_and_parameter_directions(built):
+    pair, x0 = built["five_bar"]
+    rec, kane = pair["recursive"], pair["kane"]
+    rng = np.random.default_rng(4)
+    D = rng.uniform(-1.0, 1.0, (3, rec.nx + rec.nparam))
+    D[0, rec.nx:] = 0.0                      # one direction without a parameter part
+    for x in _states(rec, x0, 2, seed=5):
+        xd, JD = rec.jvp(0.0, x, D)
+        xk, JK = kane.jvp(0.0, x, D)
+        assert _rel(xd, xk) < 1e-11 and _rel(JD, JK) < 1e-11
+        full = np.hstack([rec.jacobian(0.0, x), rec.jac_p(0.0, x)])
+        assert _rel(JD, D @ full.T) < 1e-11
 
 
 def test_auto_keeps_the_tree_with_the_default_functions_on_a_long_chain(monkeypatch):
