@@ -20,7 +20,6 @@ import pytest
 
 import eomc
 from eomc.compiler.driver import generate
-from eomc.errors import ModelError
 
 ROOT = Path(__file__).resolve().parents[3]
 FOUR_BAR = ROOT / "examples" / "four_bar_system.py"
