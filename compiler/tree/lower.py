@@ -12,6 +12,9 @@ The program's result groups, all computed from one value-numbered trace:
                res = -RNEA(u' = W) with W the solved u' (``w_j``); the C code runs it and
                ``sol`` once per column (see :mod:`.derivatives`).  ``dres``: the same
                unrolled over the columns, for a few states
+               On a tree closed by constraints res is the KKT system's residual (nu + m rows,
+               at W and the solved λ, group ``lam``) and ``sol`` its tangent solve
+               (:func:`.constrained.kkt_residual`, :func:`.constrained.kkt_solve`)
     dres_r     jac_r: d res / d inputs
     dres_p     jac_p: d res / d parameters (masses, lengths, gravity, ...), as jac_r
     zd, dzd, dzd_r, dzd_p   z' of the extra first-order states and its jac_x / jac_r /
