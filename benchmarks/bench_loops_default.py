@@ -11,7 +11,9 @@ Contestants, interleaved per repetition:
               on PYTHONPATH), so the same interpreter and C compiler build both;
 * ``kane``    this checkout with ``--formulation kane`` (the peer auto falls back to).
 
-Run:  python benchmarks/bench_loops_default.py --before /tmp/main-wt [--n 8,10] [--reps 1]
+Run:  git worktree add --detach /tmp/main-wt main && cp runtime/*.so /tmp/main-wt/runtime/
+      python benchmarks/bench_loops_default.py --before /tmp/main-wt [--n 8,10] [--reps 1]
+(the compiled runtime extensions are not in git: the checkout borrows this one's)
 """
 import argparse
 import json
