@@ -67,13 +67,13 @@ def _body(fn, ctx, prog, sym, layout, nx, functions, recursive=False):
         from ..tree.emit import tree_matrix_body
         return tree_matrix_body(ctx, prog, fn)
     if recursive and fn == "jvp":
-        from ..tree.derivatives import solve_symbols
+        from ..tree.constrained import jacobian_symbols
         from ..tree.jvp import tree_jvp_body
-        return tree_jvp_body(ctx, prog, sym.W, solve_symbols(ctx.nu), sym.seeds, nx, len(layout.p))
+        return tree_jvp_body(ctx, prog, *jacobian_symbols(prog, sym.W, ctx.nu), sym.seeds, nx, len(layout.p))
     if recursive and fn in ("jac_x", "jac_r", "jac_p"):
-        from ..tree.derivatives import solve_symbols
+        from ..tree.constrained import jacobian_symbols
         from ..tree.emit import tree_jacobian_body
-        return tree_jacobian_body(ctx, prog, sym.W, solve_symbols(ctx.nu), sym.seeds, fn,
+        return tree_jacobian_body(ctx, prog, *jacobian_symbols(prog, sym.W, ctx.nu), sym.seeds, fn,
                                   len(layout.p) if fn == "jac_p" else nr)
     if fn == "rhs":
         return rhs_body(ctx, prog)
@@ -145,9 +145,9 @@ def _ops(fn, prog, solver, nx, nr, seeds=(), helper=None, nu=0, nnz=0, solve_in=
     if recursive and fn in ("rhs", "mass_matrix", "forcing", "inverse_dynamics", "jvp") and fn not in solve_in:
         return {k: int(c.get(k, 0)) for k in ("adds", "muls", "divs", "calls")}
     if recursive and fn in ("jac_x", "jac_r", "jac_p"):
-        from ..tree.derivatives import solve_symbols
+        from ..tree.constrained import jacobian_symbols
         from ..tree.emit import tree_jacobian_ops
-        return tree_jacobian_ops(prog, W, solve_symbols(nu), seeds, fn, nx - nu if nq is None else nq,
+        return tree_jacobian_ops(prog, *jacobian_symbols(prog, W, nu), seeds, fn, nx - nu if nq is None else nq,
                                  nx, npar if fn == "jac_p" else nr)
     if fn in HELPER_USERS or fn in solve_in:
         c += count_program(helper)

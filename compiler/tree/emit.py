@@ -86,6 +86,8 @@ def _make_plan(program, W, G, seeds, fn, nq, nx, nr):
     nu = len(G)
     sol = {k[1]: e for k, e in program.results if k[0] == "sol"}
     stores = [(f"w[{j}]", e) for k, e in program.results if k[0] == "ud" for j in (k[1],)]
+    nud = len(stores)      # a closed tree's λ follow u' in w (constrained.kkt_residual)
+    stores += [(f"w[{nud + k[1]}]", e) for k, e in program.results if k[0] == "lam"]
     if fn == "jac_x":
         kin, ncols = program.result_exprs("dkin"), nx
         stores += [(f"out[{i * ncols + k}]", kin.get(("dkin", i, k), sm.S.Zero))
@@ -201,6 +203,9 @@ def tree_jacobian_body(ctx, program, W, G, seeds, fn, nr):
     unrolled = any(not inner for _, _, inner, _, _, _ in loops)
     for j, g in enumerate(G):
         pr._names[g] = f"G[{j}]"
+    for j, s in enumerate(W[nu:]):      # a closed tree's λ (constrained.jacobian_symbols)
+        pr._names[s] = f"w[{nu + j}]"
+    ng = len(G)           # nu, or nu + m on a closed tree (the constraints' rows)
     # values the loops read live in an array, not in hundreds of loop-invariant locals
     # (which make C compilers' register allocation slow on large models)
     defined = {t for t, _ in once}
@@ -215,8 +220,8 @@ def tree_jacobian_body(ctx, program, W, G, seeds, fn, nr):
     live.sort(key=lambda s: len(pr._names[s]))
     for j, s in enumerate(live):
         pr._names[s] = f"P[{j}]"
-    decls = [f"double w[{nu}];"] if any(lv.startswith("w[") for lv, _ in stores) else []
-    decls += ([f"double Gm[{ncols * nu}];", "const double *G;"] if unrolled else [f"double G[{nu}];"])
+    decls = [f"double w[{len(W)}];"] if any(lv.startswith("w[") for lv, _ in stores) else []
+    decls += ([f"double Gm[{ncols * ng}];", "const double *G;"] if unrolled else [f"double G[{ng}];"])
     if any(inner for _, _, inner, _, _, _ in loops):
         decls += [f"double dx[{nx}];", "int i;"]
     decls.append("int k;")
@@ -235,7 +240,7 @@ def tree_jacobian_body(ctx, program, W, G, seeds, fn, nr):
     for start, end, inner, gstores, solve, sol in loops:
         body = _temps(program, pr, inner) + [_store(lv, e, pr) for lv, e in gstores]
         if not inner:
-            body.append(f"{_IND}G = Gm + k * {nu};")
+            body.append(f"{_IND}G = Gm + k * {ng};")
         body += _temps(program, pr, solve)
         body += [_store(f"out[{(nq + i) * ncols} + k]", sol.get(i, sm.S.Zero), pr) for i in range(nu)]
         lines.append(f"{_IND}for (k = {start}; k < {end}; k++) {{")

@@ -21,6 +21,9 @@ def tree_jvp_body(ctx, program, W, G, seeds, nx, npar):
     pr = ctx.printer(program)
     for j, g in enumerate(G):
         pr._names[g] = f"G[{j}]"
+    for j, s in enumerate(W[nu:]):      # a closed tree's λ after u' (constrained.jacobian_symbols)
+        pr._names[s] = f"w[{nu + j}]"
+    ng = len(G)                         # nu, or nu + m rows on a closed tree
     first = nq + nu                      # the extra first-order states' rows follow
     gp = {k: e for k, e in program.result_exprs("dres_p").items() if e != 0}
     kp = {k: e for k, e in program.result_exprs("dkin_p").items() if e != 0}
@@ -38,7 +41,7 @@ def tree_jvp_body(ctx, program, W, G, seeds, nx, npar):
     solve = needed_assignments(rest, sol.values())
     solve = [a for a in solve if a not in inner] if inner else solve
     slot = {key: j for j, key in enumerate(sorted(gp) + sorted(kp))}
-    decls = [f"double w[{nu}];", f"double G[{nu}];", "const double *dx;", "int i, d;"]
+    decls = [f"double w[{len(W)}];", f"double G[{ng}];", "const double *dx;", "int i, d;"]
     if slot:
         decls += ["const double *dp;", f"double Gp[{len(slot)}] = {{0.0}};   /* set when a direction has a parameter part */", "int anyp = 0;"]
     lines = [f"{_IND}{x}" for x in decls]
@@ -49,6 +52,8 @@ def tree_jvp_body(ctx, program, W, G, seeds, nx, npar):
                      f"return EOMC_SINGULAR_MASS_MATRIX;")
     ud = program.result_exprs("ud")
     lines += [_store(f"w[{j}]", ud[("ud", j)], pr) for j in range(nu)]
+    lam = program.result_exprs("lam")
+    lines += [_store(f"w[{nu + j}]", lam[("lam", j)], pr) for j in range(len(W) - nu)]
     lines += _temps(program, pr, after)
     kin = program.result_exprs("kin")
     lines += [_store(f"xdot[{i}]", kin.get(("kin", i), sm.S.Zero), pr) for i in range(nq)]
@@ -66,7 +71,7 @@ def tree_jvp_body(ctx, program, W, G, seeds, nx, npar):
     dkin = program.result_exprs("dkin")
     dkin.update({("dkin", first + k[1], k[2]): e for k, e in program.result_exprs("dzd").items()})
     body = ["{"] + [x[len(_IND):] for x in _temps(program, pr, inner)]
-    body += [f"G[{i}] = {pr.doprint(tangent.get(('tjv', i), sm.S.Zero))};" for i in range(nu)]
+    body += [f"G[{i}] = {pr.doprint(tangent.get(('tjv', i), sm.S.Zero))};" for i in range(ng)]
     body.append("}")
     if gp:
         body += ["if (anyp) {", f"{_IND}dp = dx + {nx};"]

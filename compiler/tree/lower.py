@@ -12,6 +12,9 @@ The program's result groups, all computed from one value-numbered trace:
                res = -RNEA(u' = W) with W the solved u' (``w_j``); the C code runs it and
                ``sol`` once per column (see :mod:`.derivatives`).  ``dres``: the same
                unrolled over the columns, for a few states
+               On a tree closed by constraints res is the KKT system's residual (nu + m rows,
+               at W and the solved λ, group ``lam``) and ``sol`` its tangent solve
+               (:func:`.constrained.kkt_residual`, :func:`.constrained.kkt_solve`)
     dres_r     jac_r: d res / d inputs
     dres_p     jac_p: d res / d parameters (masses, lengths, gravity, ...), as jac_r
     zd, dzd, dzd_r, dzd_p   z' of the extra first-order states and its jac_x / jac_r /
@@ -28,7 +31,8 @@ from eomc.runtime.errors import ModelError
 
 from ..emit.symbolic import TANGENT_MIN_STATES, build_symbolic
 from .algorithms import LoweredBody, Recorder, aba, crba, rnea, velocities
-from .constrained import accelerations, check_functions, kane_form, lower_loops, tree_loops
+from .constrained import (accelerations, check_functions, kane_form, kkt_residual, kkt_solve,
+                          lower_loops, multiplier_symbols, tree_loops)
 from .derivatives import articulated_solve, solve_symbols
 from .model import NotATree
 
@@ -36,9 +40,9 @@ __all__ = ["TREE_FUNCTION_GROUPS", "TREE_HELPER_USERS", "build_tree_symbolic"]
 
 TREE_FUNCTION_GROUPS = {
     "rhs": ("kin", "ud", "Dpiv", "zd"),
-    "jac_x": ("ud", "Dpiv", "dkin", "tq", "tu", "dres", "sol", "dzd"),
-    "jac_r": ("ud", "Dpiv", "dkin_r", "dres_r", "sol", "dzd_r"),
-    "jac_p": ("ud", "Dpiv", "dkin_p", "dres_p", "sol", "dzd_p"),
+    "jac_x": ("ud", "lam", "Dpiv", "dkin", "tq", "tu", "dres", "sol", "dzd"),
+    "jac_r": ("ud", "lam", "Dpiv", "dkin_r", "dres_r", "sol", "dzd_r"),
+    "jac_p": ("ud", "lam", "Dpiv", "dkin_p", "dres_p", "sol", "dzd_p"),
     "mass_matrix": ("A",),
     "forcing": ("b",),
     "inverse_dynamics": ("tau",),
@@ -47,7 +51,7 @@ TREE_FUNCTION_GROUPS = {
     "constraints_jac": ("dcon",),
     "linearize": (),
     "regressor": ("Y",),
-    "jvp": ("ud", "Dpiv", "kin", "dkin", "dkin_p", "tjv", "dres_p", "sol", "zd", "dzd", "dzd_p"),   # see .jvp
+    "jvp": ("ud", "lam", "Dpiv", "kin", "dkin", "dkin_p", "tjv", "dres_p", "sol", "zd", "dzd", "dzd_p"),   # see .jvp
     "events": ("ev",),
 }
 TREE_HELPER_USERS = ()
@@ -165,7 +169,8 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         if "rhs" in functions or jac:
             out, margins = aba(bodies, rec, speeds, gravity, v, c, keep=keep), []
             if loops is not None:      # u' = a0 + M⁻¹Jᵀλ; the m pivots of J M⁻¹ Jᵀ join ABA's
-                out, margins = accelerations(J, gamma, bodies, rec, keep, out)
+                out, margins, kkt = accelerations(J, gamma, bodies, rec, keep, out)
+                extra += [(("lam", j), lam) for j, lam in enumerate(kkt[2])]
             for k, udd, D in out:
                 extra.append((("ud", k), udd))
                 extra.append((("Dpiv", k), D))
@@ -175,8 +180,15 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         if jac:
             W = tuple(sm.Symbol(f"w_{j}", real=True) for j in range(nu))
             tau_w = rnea(bodies, rec, W, gravity, v, c)
-            sol = articulated_solve(bodies, rec, keep, solve_symbols(nu))
-            jacobian = ([(("tres", k), -tau_w[k]) for k in range(nu)]
+            if loops is None:
+                sol = articulated_solve(bodies, rec, keep, solve_symbols(nu))
+                res, more = [-tau_w[k] for k in range(nu)], ()
+            else:     # the KKT system's residual and solve (see constrained.kkt_residual)
+                lam = multiplier_symbols(len(J))
+                res = kkt_residual(tau_w, J, gamma, W, lam)
+                sol = kkt_solve(bodies, rec, keep, J, kkt, solve_symbols(len(res)))
+                more = solve_symbols(len(res))[nu:] + lam
+            jacobian = ([(("tres", k), e) for k, e in enumerate(res)]
                         + [(("sol", k), sol[k]) for k in range(nu)])
         if "inverse_dynamics" in functions and loops is None:
             tau = rnea(bodies, rec, UD, gravity, v, c)
@@ -213,7 +225,7 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         sym = replace(sym, regressor_bodies=regressor[0], regressor_reference=regressor[1])
     if not jacobian:
         return sym
-    return _with_jacobians(sym, layout, functions, nq, jacobian)
+    return _with_jacobians(sym, layout, functions, nq, jacobian, more)
 
 
 def _contacts(tree, bodies, rec, v, layout):
@@ -235,7 +247,7 @@ def _with_contact_values(sym, values):
     return replace(sym, program=sym.program.with_(results=results))
 
 
-def _with_jacobians(sym, layout, functions, nq, jacobian):
+def _with_jacobians(sym, layout, functions, nq, jacobian, more=()):
     """Add the residual and the M⁻¹ solve to the program, and ask for their derivatives."""
     derivatives = []
     if "jac_x" in functions:
@@ -250,7 +262,8 @@ def _with_jacobians(sym, layout, functions, nq, jacobian):
         derivatives.append(("tres", layout.p, "dres_p"))
     if "jvp" in functions:     # one tangent along a whole state direction (seeds = the direction)
         derivatives.append(("tres", dict(zip(layout.x, sym.seeds)), "tjv"))
-    program = sym.program.with_(inputs=sym.program.inputs + solve_symbols(len(sym.UD)),
+    # ``more``: a closed tree's g_nu.. (constraint rows) and λ symbols (constrained.kkt_residual)
+    program = sym.program.with_(inputs=sym.program.inputs + solve_symbols(len(sym.UD)) + tuple(more),
                                 results=sym.program.results + tuple(jacobian))
     return replace(sym, program=program, derivatives=sym.derivatives + tuple(derivatives))
 

@@ -24,10 +24,13 @@ same way, with the same limit, measured on closed n-link chains
 (benchmarks/results/loops.md): Kane's rhs has fewer operations up to 6 speeds (the
 five-bar 623 against 1145, the 6-link chain 1614 against 2076, about even in time
 there), and at 8 speeds the recursive rhs has fewer (3092 against 3171) and runs twice
-as fast, while Kane's build took 12.6 s CPU against the recursive build's 1.2 s.
+as fast, while Kane's build took 12.6 s CPU against the recursive build's 1.2 s.  The
+closed tree builds the default function set too (jac_x, jac_r and linearize by the KKT
+system's tangent, constrained.py), so those no longer send it to Kane: with no flags the
+8- and 10-link chains keep the recursive form without Kane's equations being formed.
 
 When the recursion refuses the system (not a tree, nonholonomic constraints, Lagrange's
-method, a function the constrained tree does not build)
+method)
 or the recursive lowering fails in any way, auto uses Kane's formulation and
 records why in the metadata (``formulation_note``, shown by `eomc build` and
 `eomc inspect`); when Kane's fails and the recursive one worked, the recursive one

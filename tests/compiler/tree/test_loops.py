@@ -13,28 +13,31 @@ FOUR_BAR = ROOT / "examples" / "four_bar_system.py"
 
 
 def test_recursive_builds_the_loop_and_names_what_it_does_not_build(tmp_path, monkeypatch):
-    """Closed loops run on the tree (issue 19, tests/compiler/tree/test_closed_loops.py); the
-    derivatives of the constrained solve are not built: refused, naming them and the way out."""
+    """Closed loops run on the tree (issue 19, tests/compiler/tree/test_closed_loops.py), their
+    derivatives too (test_closed_loop_derivatives.py); the regressor is not built: refused,
+    naming it."""
     monkeypatch.setenv("EOMC_CACHE_DIR", str(tmp_path / "cache"))
-    _, gm = generate(str(FOUR_BAR), functions=["rhs"], formulation="recursive", use_cache=False,
-                     progress=False)
+    _, gm = generate(str(FOUR_BAR), functions=["rhs", "jac_x"], formulation="recursive",
+                     use_cache=False, progress=False)
     assert gm.metadata["formulation"] == "recursive"
     with pytest.raises(ModelError) as info:
-        generate(str(FOUR_BAR), functions=["rhs", "jac_x"], formulation="recursive", use_cache=False,
-                 progress=False)
-    msg = str(info.value)
-    assert "jac_x of a tree closed by constraints" in msg and "formulation 'kane'" in msg
+        generate(str(FOUR_BAR), functions=["rhs", "regressor"], formulation="recursive",
+                 use_cache=False, progress=False)
+    assert "regressor of a tree closed by constraints is not generated" in str(info.value)
 
 
-def test_auto_says_it_fell_back_to_kane_and_why(tmp_path, monkeypatch, capsys):
+def test_auto_compares_the_two_with_the_default_functions_and_says_so(tmp_path, monkeypatch, capsys):
+    """The default functions (jac_x, jac_r, linearize) no longer force Kane: auto builds both
+    and keeps the cheaper rhs (Kane's at the four-bar's 3 speeds, benchmarks/results/loops.md)."""
     monkeypatch.setenv("EOMC_CACHE_DIR", str(tmp_path / "cache"))
     _, gm = generate(str(FOUR_BAR), formulation="auto", use_cache=False, progress=False)
-    assert gm.metadata["formulation"] == "kane"
-    assert gm.metadata["formulation_note"].startswith(
-        "kane, the fallback (recursive formulation: jac_x, jac_r, linearize of a tree closed by constraints")
+    costs = gm.metadata["formulation_costs"]
+    assert gm.metadata["formulation"] == min(("kane", "recursive"), key=lambda f: costs[f])
+    assert "formulation_note" not in gm.metadata
     assert main(["inspect", "-q", str(FOUR_BAR), "--formulation", "auto"]) == 0
     out = capsys.readouterr().out
-    assert "formulation: kane, the fallback (recursive formulation: jac_x, jac_r, linearize" in out
+    assert (f"auto compared rhs operations: kane {costs['kane']}, recursive {costs['recursive']}"
+            in out)
 
 
 def test_hand_built_constrained_kane_says_why_it_is_no_tree():
