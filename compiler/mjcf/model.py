@@ -141,9 +141,7 @@ def check_model(m, path, ignore=()):
             warnings.warn(f"{path}: tendon {_name(m, mujoco.mjtObj.mjOBJ_TENDON, t, 'tendon')}: its range "
                           f"limits are not modelled (contacts and limits are off; ignore=('limits',) silences "
                           f"this)", EomcWarning, stacklevel=3)
-    if m.neq:
-        problems.append(("equality", "equality", f"{m.neq} equality constraint(s) (e.g. "
-                         f"{_name(m, mujoco.mjtObj.mjOBJ_EQUALITY, 0, 'equality')}): a constraint, not a tree"))
+    problems += _equality_problems(m, path, ignore)
     if m.nplugin:
         problems.append(("plugins", "plugin", f"{m.nplugin} plugin(s)"))
     if m.nflex:
@@ -219,6 +217,42 @@ def check_model(m, path, ignore=()):
         raise ModelFileError(f"<{tag}>: {message}: a rigid-body tree cannot express it{hint}", path,
                              _line(path, tag, named[0] if named else None))
     return motors
+
+
+_EQ_KINDS = {0: ("connect", "a ball-joint loop closure between bodies"),
+             1: ("weld", "a weld between bodies"), 3: ("tendon", "a tendon coupling"),
+             4: ("flex", "a flex constraint"), 5: ("flexvert", "a flex constraint"),
+             6: ("flexstrain", "a flex constraint"), 7: ("distance", "a distance constraint")}
+
+
+def _equality_problems(m, path, ignore):
+    """Joint couplings (``<equality><joint>``) become holonomic constraints on the tree
+    (:mod:`.equality`); every other equality kind is a problem (ignorable, element named),
+    and a coupling that cannot be one is an error with its line (``ignore`` drops the other
+    kinds, never a coupling: it is modelled).  Inactive couplings
+    (``active="false"``: MuJoCo starts without them) are left out with a warning."""
+    import mujoco
+    from .equality import couplings
+    out = []
+    for e in range(m.neq):
+        name = _name(m, mujoco.mjtObj.mjOBJ_EQUALITY, e, "equality")
+        kind = int(m.eq_type[e])
+        if kind == int(mujoco.mjtEq.mjEQ_JOINT):
+            if not m.eq_active0[e]:
+                warnings.warn(f"{path}: equality {name}: inactive (active=\"false\"): left out (MuJoCo "
+                              f"starts without it; eomc cannot switch it on later)", EomcWarning, stacklevel=4)
+            continue
+        tag, what = _EQ_KINDS.get(kind, (f"type {kind}", "an equality constraint"))
+        out.append(("equality", tag, f"equality {name}: <{tag}> is {what}: only joint couplings "
+                    f"(<joint joint1 joint2 polycoef>) are modelled", None if name.startswith("equality #")
+                    else name))
+    try:
+        couplings(m)
+    except ValueError as exc:
+        named = re.match(r"equality (\S+):", str(exc))
+        raise ModelFileError(f"<equality><joint>: {exc}", path,
+                             _line(path, "equality", named.group(1) if named else None)) from None
+    return out
 
 
 def mjcf_formed(model, overrides):
