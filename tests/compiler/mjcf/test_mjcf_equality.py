@@ -252,3 +252,58 @@ def test_mj_forward_with_a_stiff_coupling_comes_close(models):
           "moving %.2e (to the reduced dynamics without J̇v: %.2e)" % (worst[False][0], *worst[True]))
     assert worst[False][0] < 1e-3
     assert worst[True][1] < 1e-3 < worst[True][0]
+
+
+def _file(tmp_path, equality, name="m.xml"):
+    path = tmp_path / name
+    path.write_text(f"""<mujoco>
+  <worldbody>
+    <body name="a"><joint name="j" type="hinge"/><geom size="0.1"/>
+      <body name="b" pos="0 0 -1"><joint name="k" type="hinge"/><geom size="0.1"/>
+        <body name="c" pos="0 0 -1"><joint name="s" type="slide"/><geom size="0.1"/></body>
+      </body>
+    </body>
+  </worldbody>
+  <equality>
+{equality}
+  </equality>
+</mujoco>""")
+    return path
+
+
+@pytest.mark.parametrize("equality, match, line", [
+    ('    <connect name="pin" body1="a" body2="c" anchor="0 0 0"/>',
+     r"m.xml:10: <connect>: equality pin: <connect> is a ball-joint loop closure between bodies: only "
+     r"joint couplings", 10),
+    ('    <joint joint1="k" joint2="j"/>\n    <weld name="glue" body1="b" body2="c"/>',
+     r"<weld>: equality glue: <weld> is a weld", 11),
+    ('    <joint name="one" joint1="k" joint2="j"/>\n    <joint name="two" joint1="k" joint2="s"/>',
+     r"equality two: joint k is already joint1 of equality one", 11),
+])
+def test_what_is_not_a_coupling_is_refused_with_element_and_line(tmp_path, equality, match, line):
+    with pytest.raises(ModelFileError, match=match) as info:
+        eomc.compile(str(_file(tmp_path, equality)), functions=["rhs"], cache_dir=tmp_path / "c",
+                     progress=False)
+    assert info.value.lineno == line
+
+
+def test_ignore_drops_other_kinds_and_keeps_the_coupling_and_inactive_ones_are_left_out(tmp_path):
+    path = _file(tmp_path, '    <joint name="c1" joint1="s" joint2="k" polycoef="0 0.2 0 0 0"/>\n'
+                           '    <joint name="off" joint1="j" active="false"/>\n'
+                           '    <connect name="pin" body1="a" body2="c" anchor="0 0 0"/>')
+    with pytest.warns(EomcWarning) as record:
+        model = eomc.compile(MjcfModel(path, ignore=("equality",)), functions=["rhs", "constraints"],
+                             cache_dir=tmp_path / "c", progress=False)
+    text = " ".join(str(w.message) for w in record)
+    assert "ignored: equality pin" in text and "equality off: inactive" in text
+    assert (model.nhol, model.state_names[:3]) == (1, ("q_j", "q_k", "q_s"))
+    x = np.array([0.3, 0.5, 0.2 * 0.5, 0.0, 1.0, 0.2])
+    assert np.max(np.abs(model.constraints(0.0, x))) < 1e-15
+    # the polycoef number is a parameter: changing it moves the constraint
+    assert np.isclose(model.constraints(0.0, x, p={"eq_c1_p1": 0.3})[0], -0.1 * 0.5)
+
+
+def test_derivatives_asked_for_are_refused_saying_why(tmp_path):
+    path = _file(tmp_path, '    <joint name="c1" joint1="s" joint2="k" polycoef="0 0.2 0 0 0"/>')
+    with pytest.raises(ModelError, match=r"jac_x of a tree closed by constraints are not generated"):
+        eomc.compile(str(path), functions=["rhs", "jac_x"], cache_dir=tmp_path / "c", progress=False)
