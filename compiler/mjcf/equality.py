@@ -25,7 +25,7 @@ from dataclasses import replace
 
 import sympy as sm
 
-__all__ = ["couplings", "coupled_states", "coupling_loops", "default_functions"]
+__all__ = ["couplings", "coupled_states", "coupling_loops", "default_functions", "coupled_qpos"]
 
 
 def couplings(m):
@@ -165,3 +165,21 @@ def default_functions(tree):
     return keep, (f"{', '.join(left)} not generated: their derivative of the "
                   f"constraint solve is not built for a tree closed by the joint equality "
                   f"coupling(s) of {', '.join(loops.joints)}")
+
+
+def coupled_qpos(m):
+    """MuJoCo's qpos0 with each coupling's joint1 set from its joint2 by the polynomial
+    (a chain of couplings, in any order of the file: one pass per coupling)."""
+    import numpy as np
+    qpos = np.array(m.qpos0, dtype=float)
+    found = couplings(m)
+    for _ in range(len(found)):
+        for e, j1, j2 in found:
+            a1 = int(m.jnt_qposadr[j1])
+            value = float(m.eq_data[e, 0])
+            if j2 is not None:
+                a2 = int(m.jnt_qposadr[j2])
+                d = qpos[a2] - m.qpos0[a2]
+                value += sum(float(m.eq_data[e, k]) * d ** k for k in range(1, 5))
+            qpos[a1] = m.qpos0[a1] + value
+    return qpos

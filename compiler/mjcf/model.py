@@ -293,13 +293,17 @@ def _xyz_angles(R):
 
 def reference_state(m, built):
     """{coordinate name: value}: MuJoCo's qpos0 (where mj_resetData starts: hinge/slide ``ref``, a
-    free body where the file puts it) in eomc's coordinates; speeds zero.  Zeros are left out."""
+    free body where the file puts it) in eomc's coordinates, with each joint coupling's joint1
+    put on its coupling (qpos0 need not satisfy a polycoef's p0: eomc's constraint is exact,
+    so the start must be on it); speeds zero.  Zeros are left out."""
+    from .equality import coupled_qpos
     from .treeir import quat_matrix
     out = {}
+    qpos0 = coupled_qpos(m)
     for j, kind, iq, _ in built.joints:
         a = int(m.jnt_qposadr[j])
         if kind in (2, 3):
-            values = [float(m.qpos0[a])]
+            values = [float(qpos0[a])]
         elif kind == 1:
             values = list(_xyz_angles(quat_matrix(m.qpos0[a:a + 4])))
         else:

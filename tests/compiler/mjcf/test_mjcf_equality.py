@@ -307,3 +307,11 @@ def test_derivatives_asked_for_are_refused_saying_why(tmp_path):
     path = _file(tmp_path, '    <joint name="c1" joint1="s" joint2="k" polycoef="0 0.2 0 0 0"/>')
     with pytest.raises(ModelError, match=r"jac_x of a tree closed by constraints are not generated"):
         eomc.compile(str(path), functions=["rhs", "jac_x"], cache_dir=tmp_path / "c", progress=False)
+
+
+def test_the_default_initial_state_is_on_the_couplings(models):
+    """MuJoCo's qpos0 is not on a coupling with p0 != 0: eomc's start is (joint1 set from joint2)."""
+    coupled, _, _ = models
+    x0 = coupled.initial_state
+    assert x0[coupled.state_names.index("q_elbow")] == pytest.approx(0.2 + 0.1)
+    assert np.max(np.abs(coupled.constraints(0.0, x0, r=R))) < 1e-14
