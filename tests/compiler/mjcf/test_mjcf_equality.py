@@ -315,3 +315,11 @@ def test_the_default_initial_state_is_on_the_couplings(models):
     x0 = coupled.initial_state
     assert x0[coupled.state_names.index("q_elbow")] == pytest.approx(0.2 + 0.1)
     assert np.max(np.abs(coupled.constraints(0.0, x0, r=R))) < 1e-14
+
+
+def test_ground_contacts_keep_the_couplings(tmp_path):
+    """The contact reader makes a new Tree: the couplings ride along on it too."""
+    path = _file(tmp_path, '    <joint name="c1" joint1="s" joint2="k" polycoef="0 0.2 0 0 0"/>')
+    model = eomc.compile(str(path), contacts=["c"], functions=["rhs", "constraints"],
+                         cache_dir=tmp_path / "c", progress=False)
+    assert model.nhol == 1 and model.state_names[2] == "q_s"
