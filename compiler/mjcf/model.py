@@ -87,15 +87,17 @@ def load_mjmodel(path):
 
 
 def _line(path, tag, name=None):
-    """The line of the ``<tag`` element named ``name`` in the file, else of the first ``<tag``
+    """The line of the ``<tag`` element named ``name`` in the file (else of any element so
+    named), else of the first ``<tag``
     (None when it is in an included file)."""
     try:
         text = Path(path).read_text(errors="replace")
     except OSError:
         return None
     match = None
-    if name:
-        match = re.search(rf"<\w+\b[^>]*\bname\s*=\s*[\"']{re.escape(name)}[\"']", text)
+    if name:    # the <tag> of that name first (an equality is often named as the tendon it ties)
+        match = (re.search(rf"<{tag}\b[^>]*\bname\s*=\s*[\"']{re.escape(name)}[\"']", text)
+                 or re.search(rf"<\w+\b[^>]*\bname\s*=\s*[\"']{re.escape(name)}[\"']", text))
     match = match or re.search(rf"<{tag}\b", text)
     return text.count("\n", 0, match.start()) + 1 if match else None
 
