@@ -327,3 +327,16 @@ def test_ground_contacts_keep_the_couplings(tmp_path):
     model = eomc.compile(str(path), contacts=["c"], functions=["rhs", "constraints"],
                          cache_dir=tmp_path / "c", progress=False)
     assert model.nhol == 1 and model.state_names[2] == "q_s"
+
+
+def test_poses_follow_the_reordered_states(models):
+    """The animation's body frames at a coupled state are MuJoCo's xpos/xmat (states reordered)."""
+    coupled, _, d = models
+    m, data = _mujoco(d / "coupled.xml")
+    names = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) for b in range(1, m.nbody)]
+    for q, u in _states(np.random.default_rng(5), 2):
+        poses = coupled.poses(0.0, _state(coupled, q, u))
+        _set(m, data, q, u)
+        for b, name in enumerate(names, start=1):
+            assert np.max(np.abs(poses[name] - data.xpos[b])) < 1e-12
+            assert np.max(np.abs(poses.rotation(name) - data.xmat[b].reshape(3, 3))) < 1e-12
