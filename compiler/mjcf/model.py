@@ -87,15 +87,17 @@ def load_mjmodel(path):
 
 
 def _line(path, tag, name=None):
-    """The line of the ``<tag`` element named ``name`` in the file, else of the first ``<tag``
+    """The line of the ``<tag`` element named ``name`` in the file (else of any element so
+    named), else of the first ``<tag``
     (None when it is in an included file)."""
     try:
         text = Path(path).read_text(errors="replace")
     except OSError:
         return None
     match = None
-    if name:
-        match = re.search(rf"<\w+\b[^>]*\bname\s*=\s*[\"']{re.escape(name)}[\"']", text)
+    if name:    # the <tag> of that name first (an equality is often named as the tendon it ties)
+        match = (re.search(rf"<{tag}\b[^>]*\bname\s*=\s*[\"']{re.escape(name)}[\"']", text)
+                 or re.search(rf"<\w+\b[^>]*\bname\s*=\s*[\"']{re.escape(name)}[\"']", text))
     match = match or re.search(rf"<{tag}\b", text)
     return text.count("\n", 0, match.start()) + 1 if match else None
 
@@ -141,9 +143,7 @@ def check_model(m, path, ignore=()):
             warnings.warn(f"{path}: tendon {_name(m, mujoco.mjtObj.mjOBJ_TENDON, t, 'tendon')}: its range "
                           f"limits are not modelled (contacts and limits are off; ignore=('limits',) silences "
                           f"this)", EomcWarning, stacklevel=3)
-    if m.neq:
-        problems.append(("equality", "equality", f"{m.neq} equality constraint(s) (e.g. "
-                         f"{_name(m, mujoco.mjtObj.mjOBJ_EQUALITY, 0, 'equality')}): a constraint, not a tree"))
+    problems += _equality_problems(m, path, ignore)
     if m.nplugin:
         problems.append(("plugins", "plugin", f"{m.nplugin} plugin(s)"))
     if m.nflex:
@@ -221,6 +221,42 @@ def check_model(m, path, ignore=()):
     return motors
 
 
+_EQ_KINDS = {0: ("connect", "a ball-joint loop closure between bodies"),
+             1: ("weld", "a weld between bodies"), 3: ("tendon", "a tendon coupling"),
+             4: ("flex", "a flex constraint"), 5: ("flexvert", "a flex constraint"),
+             6: ("flexstrain", "a flex constraint"), 7: ("distance", "a distance constraint")}
+
+
+def _equality_problems(m, path, ignore):
+    """Joint couplings (``<equality><joint>``) become holonomic constraints on the tree
+    (:mod:`.equality`); every other equality kind is a problem (ignorable, element named),
+    and a coupling that cannot be one is an error with its line (``ignore`` drops the other
+    kinds, never a coupling: it is modelled).  Inactive couplings
+    (``active="false"``: MuJoCo starts without them) are left out with a warning."""
+    import mujoco
+    from .equality import couplings
+    out = []
+    for e in range(m.neq):
+        name = _name(m, mujoco.mjtObj.mjOBJ_EQUALITY, e, "equality")
+        kind = int(m.eq_type[e])
+        if kind == int(mujoco.mjtEq.mjEQ_JOINT):
+            if not m.eq_active0[e]:
+                warnings.warn(f"{path}: equality {name}: inactive (active=\"false\"): left out (MuJoCo "
+                              f"starts without it; eomc cannot switch it on later)", EomcWarning, stacklevel=4)
+            continue
+        tag, what = _EQ_KINDS.get(kind, (f"type {kind}", "an equality constraint"))
+        out.append(("equality", tag, f"equality {name}: <{tag}> is {what}: only joint couplings "
+                    f"(<joint joint1 joint2 polycoef>) are modelled", None if name.startswith("equality #")
+                    else name))
+    try:
+        couplings(m)
+    except ValueError as exc:
+        named = re.match(r"equality (\S+):", str(exc))
+        raise ModelFileError(f"<equality><joint>: {exc}", path,
+                             _line(path, "equality", named.group(1) if named else None)) from None
+    return out
+
+
 def mjcf_formed(model, overrides):
     """(FormedSystem, overrides with the model's parameter defaults and inputs) of an MJCF file."""
     from eomc.compiler.tree.formed import formed_of_tree
@@ -240,7 +276,10 @@ def mjcf_formed(model, overrides):
             from None
     if model.contacts:
         from eomc.compiler.contact.tree import merged_outputs, with_mjcf_contacts
+        from eomc.compiler.tree.constrained import attach, tree_loops
+        loops = tree_loops(built.tree)
         built, outputs, events = with_mjcf_contacts(built, m, model.contacts, fold=model.fold_parameters)
+        built.tree = attach(built.tree, loops)       # its new Tree (dataclasses.replace) keeps the couplings
         overrides = merged_outputs(overrides, outputs, events)
     formed = formed_of_tree(built.tree)
     built.mjmodel = m              # what the animation's poses read the geoms from (compiler/mjcf/poses.py)
@@ -259,13 +298,17 @@ def _xyz_angles(R):
 
 def reference_state(m, built):
     """{coordinate name: value}: MuJoCo's qpos0 (where mj_resetData starts: hinge/slide ``ref``, a
-    free body where the file puts it) in eomc's coordinates; speeds zero.  Zeros are left out."""
+    free body where the file puts it) in eomc's coordinates, with each joint coupling's joint1
+    put on its coupling (qpos0 need not satisfy a polycoef's p0: eomc's constraint is exact,
+    so the start must be on it); speeds zero.  Zeros are left out."""
+    from .equality import coupled_qpos
     from .treeir import quat_matrix
     out = {}
+    qpos0 = coupled_qpos(m)
     for j, kind, iq, _ in built.joints:
         a = int(m.jnt_qposadr[j])
         if kind in (2, 3):
-            values = [float(m.qpos0[a])]
+            values = [float(qpos0[a])]
         elif kind == 1:
             values = list(_xyz_angles(quat_matrix(m.qpos0[a:a + 4])))
         else:

@@ -248,9 +248,17 @@ def tree_ir(m, *, fold=False, actuators=None, limits=True, friction=True):
             parent = child
         last[b], com[b] = len(bodies) - 1, c_mass
     gravity = sm.Matrix([params(f"g{x}", v) for x, v in zip("xyz", m.opt.gravity)])
+    # joint equalities: holonomic constraints, joint1's state last (compiler/mjcf/equality.py)
+    from .equality import coupled_states, coupling_loops, couplings
+    found = couplings(m)
+    bodies, coordinates, speeds, kinematics, joints = coupled_states(
+        bodies, coordinates, speeds, kinematics, joints, [j1 for _, j1, _ in found])
     bodies = effective_inertias(bodies, coordinates, speeds, kinematics)
     ir = Tree(bodies=tuple(bodies), coordinates=tuple(coordinates), speeds=tuple(speeds),
               kinematics=tuple(kinematics), gravity=gravity, loads=tuple(loads))
+    if found:
+        from eomc.compiler.tree.constrained import attach
+        ir = attach(ir, coupling_loops(m, params, found, coordinates, speeds, joints, joint_names))
     return MjcfTree(ir, tuple(coordinates), tuple(speeds), tuple(kinematics), params.values, inputs,
                     tuple(joints), tuple(owners))
 

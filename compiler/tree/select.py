@@ -263,7 +263,15 @@ def _generate_recursive(spec, functions, fold_parameters):
     tree = _find_tree(spec)
     check_tree_finite(tree, spec.system)
     check_formed_finite(spec)
+    note = None
+    if functions is None and getattr(spec.formed, "_mjcf", None) is not None:
+        # an MJCF tree closed by joint couplings has no Kane form to fall back to: the
+        # default set without what the constrained tree does not build, and a note saying so
+        from ..mjcf.equality import default_functions
+        functions, note = default_functions(tree)
     generated = generate_c(spec.formed, spec.name, tree=tree, **_options(spec, functions, fold_parameters))
+    if note:
+        generated.metadata["formulation_note"] = note
     if getattr(tree, "notes", ()):   # joints the System reader took through SymPy's kinematics, and why
         generated.metadata["tree_notes"] = list(tree.notes)
     return generated
@@ -324,7 +332,9 @@ def _generate_auto(spec, functions, fold_parameters, kane_spec):
                 return recursive
         kane = _generate_kane(kspec, functions, fold_parameters)
     except Exception as exc:          # noqa: BLE001 -- the recursive form works: keep it
-        recursive.metadata["formulation_note"] = f"recursive ({_reason(exc, 'kane')})"
+        before = recursive.metadata.get("formulation_note")     # e.g. functions left out
+        recursive.metadata["formulation_note"] = (f"recursive ({_reason(exc, 'kane')})"
+                                                  + (f"; {before}" if before else ""))
         return recursive
     chosen = recursive if _rhs_cost(recursive) < _rhs_cost(kane) else kane
     chosen.metadata["formulation_costs"] = {"kane": _rhs_cost(kane), "recursive": _rhs_cost(recursive)}

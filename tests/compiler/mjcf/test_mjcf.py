@@ -231,8 +231,8 @@ def _refused(tmp_path, body, match, *, actuator="", extra="", ignore=()):
 @pytest.mark.parametrize("kw, match, line", [
     (dict(body="", extra='<tendon><fixed name="t" stiffness="3"><joint joint="j" coef="1"/></fixed></tendon>'),
      r"<tendon>: 1 tendon\(s\) with stiffness, damping, friction or armature \(e.g. t\)", 2),
-    (dict(body="", extra='<equality><joint name="eq" joint1="j" joint2="k"/></equality>'),
-     r"<equality>: 1 equality constraint\(s\) \(e.g. eq\)", 2),
+    (dict(body="", extra='<equality><weld name="eq" body1="a" body2="b"/></equality>'),
+     r"<weld>: equality eq: <weld> is a weld between bodies", 2),
     (dict(body="", actuator='<actuator><intvelocity name="mus" joint="j" kp="1" actrange="-1 1"/></actuator>'),
      r"<actuator>: actuator mus: it has activation dynamics", 8),
     (dict(body="", actuator='<actuator><general name="filt" joint="j" dyntype="filter"/></actuator>'),

@@ -1,0 +1,185 @@
+"""MJCF ``<equality><joint joint1 joint2 polycoef>`` couplings as loop-closing constraints on the tree.
+
+MuJoCo's joint equality ties two hinge/slide joints by a quartic (``mj_instantiateEquality``):
+
+    q1 - r1 = p0 + p1 d + p2 d² + p3 d³ + p4 d⁴,   d = q2 - r2
+
+with r1, r2 the joints' reference positions (``qpos0``: their ``ref``); without ``joint2``,
+q1 - r1 = p0.  MuJoCo enforces it softly (solref/solimp, solved with the other
+constraints); here it is a holonomic constraint solved exactly through the recursion
+(:mod:`eomc.compiler.tree.constrained`), so a model drifts off it only by the
+integrator's error, and MuJoCo's motion differs from eomc's by its constraint's
+softness (tests/compiler/mjcf/test_mjcf_equality.py measures how much).
+
+Why the reordering: the constrained tree's state layout is Kane's -- independent
+coordinates and speeds first, the dependent ones (one per constraint) last.  joint1's
+coordinate and speed are the dependent ones (its row of the constraint Jacobian has a
+1 there, so the dependent block never has a zero pivot for a chain of couplings), so
+they are moved to the end, in equality order; every other state keeps MuJoCo's order.
+
+The polycoef numbers are parameters ``eq_<name>_p0`` .. ``_p4`` (zeros stay literal,
+like every MJCF number; ``fold_parameters`` folds them).  Which couplings are taken
+and which refused is decided in :func:`couplings` (the model check uses it too).
+"""
+from dataclasses import replace
+
+import sympy as sm
+
+__all__ = ["couplings", "coupled_states", "coupling_loops", "default_functions", "coupled_qpos"]
+
+
+def couplings(m):
+    """[(equality id, joint1 id, joint2 id or None)] of the active joint equalities of ``m``.
+
+    Inactive ones (``active="false"``) are not returned: MuJoCo starts without them (the
+    model check warns that they are left out).  ValueError naming the equality for what
+    cannot be a coupling of hinge/slide coordinates (the model check places it)."""
+    import mujoco
+    out, dependent = [], {}
+    for e in range(m.neq):
+        if int(m.eq_type[e]) != int(mujoco.mjtEq.mjEQ_JOINT) or not _active(m, e):
+            continue
+        j1, j2 = int(m.eq_obj1id[e]), int(m.eq_obj2id[e])
+        j2 = None if j2 < 0 else j2
+        name = _eq_name(m, e)
+        for j in (j1, j2):
+            if j is not None and int(m.jnt_type[j]) not in (2, 3):
+                raise ValueError(f"equality {name}: joint {_jname(m, j)} is a ball or free joint "
+                                 f"(a joint coupling ties hinge and slide joints)")
+        if j1 == j2:
+            raise ValueError(f"equality {name}: joint1 and joint2 are both {_jname(m, j1)}")
+        if j1 in dependent:
+            raise ValueError(f"equality {name}: joint {_jname(m, j1)} is already joint1 of equality "
+                             f"{dependent[j1]}: two couplings cannot both set the same joint")
+        dependent[j1] = name
+        out.append((e, j1, j2))
+    return out
+
+
+def _active(m, e):
+    active = getattr(m, "eq_active0", None)
+    return bool(active[e]) if active is not None else True
+
+
+def _eq_name(m, e):
+    import mujoco
+    return mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_EQUALITY, e) or f"#{e}"
+
+
+def _jname(m, j):
+    import mujoco
+    return mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) or f"#{j}"
+
+
+def coupled_states(bodies, coordinates, speeds, kinematics, joints, dependent):
+    """The tree's states with the dependent joints' coordinate and speed moved to the end
+    (``dependent``: MuJoCo joint ids in equality order).  Returns (bodies, coordinates,
+    speeds, kinematics, joints) with every index (a body's speed, ``joints``' first
+    coordinate/speed) renumbered."""
+    if not dependent:
+        return bodies, coordinates, speeds, kinematics, joints
+    first = {jid: (iq, iu) for jid, _, iq, iu in joints}
+    dep_q = [first[j][0] for j in dependent]
+    dep_u = [first[j][1] for j in dependent]
+    order_q = [k for k in range(len(coordinates)) if k not in dep_q] + dep_q
+    order_u = [k for k in range(len(speeds)) if k not in dep_u] + dep_u
+    new_q = {old: new for new, old in enumerate(order_q)}
+    new_u = {old: new for new, old in enumerate(order_u)}
+    out = []
+    for b in bodies:
+        if b.speed is not None:
+            b = replace(b, speed=new_u[b.speed])
+        elif b.speeds:
+            b = replace(b, speeds=tuple(new_u[k] for k in b.speeds))
+        out.append(b)
+    joints = [(jid, kind, new_q[iq], new_u[iu]) for jid, kind, iq, iu in joints]
+    return (out, [coordinates[k] for k in order_q], [speeds[k] for k in order_u],
+            [kinematics[k] for k in order_q], joints)
+
+
+def coupling_loops(m, params, found, coordinates, speeds, joints, joint_names):
+    """The :class:`eomc.compiler.tree.constrained.Loops` of the couplings ``found`` (from
+    :func:`couplings`) on the reordered states: per coupling
+
+        f_h = q1 - r1 - P(d),  f_v = u1 - P'(d) u2,  J = ∂f_v/∂u,  γ = -P''(d) u2²
+
+    (hinge and slide coordinates have q' = u; γ is d f_v/dt at u' = 0)."""
+    from eomc.compiler.tree.constrained import Loops
+    from eomc.compiler.urdf.treeir import _num
+    first = {jid: (iq, iu) for jid, _, iq, iu in joints}
+    n = len(speeds)
+    hol, vel, jac, bias, tied = [], [], [], [], []
+    for e, j1, j2 in found:
+        ename = _param_name(m, e)
+        p = [params(f"eq_{ename}_p{k}", m.eq_data[e, k]) for k in range(5)]
+        q1, u1 = coordinates[first[j1][0]], speeds[first[j1][1]]
+        r1 = _num(float(m.qpos0[int(m.jnt_qposadr[j1])]))
+        row = [sm.S.Zero] * n
+        row[first[j1][1]] = sm.S.One
+        tied.append(joint_names[j1][0])
+        if j2 is None:
+            hol.append(q1 - r1 - p[0])
+            vel.append(u1)
+            bias.append(sm.S.Zero)
+        else:
+            q2, u2 = coordinates[first[j2][0]], speeds[first[j2][1]]
+            r2 = _num(float(m.qpos0[int(m.jnt_qposadr[j2])]))
+            d = q2 - r2 if r2 != 0 else q2
+            poly = p[0] + p[1] * d + p[2] * d ** 2 + p[3] * d ** 3 + p[4] * d ** 4
+            slope = p[1] + 2 * p[2] * d + 3 * p[3] * d ** 2 + 4 * p[4] * d ** 3
+            curve = 2 * p[2] + 6 * p[3] * d + 12 * p[4] * d ** 2
+            hol.append(q1 - r1 - poly)
+            vel.append(u1 - slope * u2)
+            row[first[j2][1]] = -slope
+            bias.append(-curve * u2 ** 2)
+            tied.append(joint_names[j2][0])
+        jac.append(tuple(row))
+    return Loops(holonomic=tuple(hol), velocity=tuple(vel), jacobian=tuple(jac), bias=tuple(bias),
+                 n_dependent_coordinates=len(found), n_dependent_speeds=len(found),
+                 joints=tuple(dict.fromkeys(tied)))
+
+
+def _param_name(m, e):
+    """The equality's name as a C identifier part (``eq<k>`` when unnamed)."""
+    import mujoco
+    from eomc.compiler.urdf.tree import identifier
+    raw = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_EQUALITY, e)
+    return identifier(raw) if raw else f"eq{e}"
+
+
+def default_functions(tree):
+    """(functions, note) for an MJCF build that names no functions: (None, None) for an open
+    tree; for one closed by couplings, the default set without what the constrained tree
+    does not generate (jac_x, jac_r, linearize: the derivative of the constraint solve is
+    not built), and a note naming them.  An MJCF model has no Kane form to fall back to, and
+    building rhs, outputs and the rest beats refusing the whole model; asking for jac_x
+    explicitly still gets the refusal that says why."""
+    from eomc.compiler.emit.generate import ALL_FUNCTIONS
+    from eomc.compiler.emit.signatures import ON_REQUEST
+    from eomc.compiler.tree.constrained import UNSUPPORTED, tree_loops
+    loops = tree_loops(tree)
+    if loops is None:
+        return None, None
+    left = [f for f in ALL_FUNCTIONS if f not in ON_REQUEST and f in UNSUPPORTED]
+    keep = [f for f in ALL_FUNCTIONS if f not in ON_REQUEST and f not in UNSUPPORTED]
+    return keep, (f"{', '.join(left)} not generated: their derivative of the "
+                  f"constraint solve is not built for a tree closed by the joint equality "
+                  f"coupling(s) of {', '.join(loops.joints)}")
+
+
+def coupled_qpos(m):
+    """MuJoCo's qpos0 with each coupling's joint1 set from its joint2 by the polynomial
+    (a chain of couplings, in any order of the file: one pass per coupling)."""
+    import numpy as np
+    qpos = np.array(m.qpos0, dtype=float)
+    found = couplings(m)
+    for _ in range(len(found)):
+        for e, j1, j2 in found:
+            a1 = int(m.jnt_qposadr[j1])
+            value = float(m.eq_data[e, 0])
+            if j2 is not None:
+                a2 = int(m.jnt_qposadr[j2])
+                d = qpos[a2] - m.qpos0[a2]
+                value += sum(float(m.eq_data[e, k]) * d ** k for k in range(1, 5))
+            qpos[a1] = m.qpos0[a1] + value
+    return qpos
