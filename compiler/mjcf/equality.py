@@ -25,7 +25,7 @@ from dataclasses import replace
 
 import sympy as sm
 
-__all__ = ["couplings", "coupled_states", "coupling_loops", "default_functions", "coupled_qpos"]
+__all__ = ["couplings", "coupled_states", "coupling_loops", "coupled_qpos"]
 
 
 def couplings(m):
@@ -145,26 +145,6 @@ def _param_name(m, e):
     from eomc.compiler.urdf.tree import identifier
     raw = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_EQUALITY, e)
     return identifier(raw) if raw else f"eq{e}"
-
-
-def default_functions(tree):
-    """(functions, note) for an MJCF build that names no functions: (None, None) for an open
-    tree; for one closed by couplings, the default set without what the constrained tree
-    does not generate (jac_x, jac_r, linearize: the derivative of the constraint solve is
-    not built), and a note naming them.  An MJCF model has no Kane form to fall back to, and
-    building rhs, outputs and the rest beats refusing the whole model; asking for jac_x
-    explicitly still gets the refusal that says why."""
-    from eomc.compiler.emit.generate import ALL_FUNCTIONS
-    from eomc.compiler.emit.signatures import ON_REQUEST
-    from eomc.compiler.tree.constrained import UNSUPPORTED, tree_loops
-    loops = tree_loops(tree)
-    if loops is None:
-        return None, None
-    left = [f for f in ALL_FUNCTIONS if f not in ON_REQUEST and f in UNSUPPORTED]
-    keep = [f for f in ALL_FUNCTIONS if f not in ON_REQUEST and f not in UNSUPPORTED]
-    return keep, (f"{', '.join(left)} not generated: their derivative of the "
-                  f"constraint solve is not built for a tree closed by the joint equality "
-                  f"coupling(s) of {', '.join(loops.joints)}")
 
 
 def coupled_qpos(m):

@@ -263,15 +263,7 @@ def _generate_recursive(spec, functions, fold_parameters):
     tree = _find_tree(spec)
     check_tree_finite(tree, spec.system)
     check_formed_finite(spec)
-    note = None
-    if functions is None and getattr(spec.formed, "_mjcf", None) is not None:
-        # an MJCF tree closed by joint couplings has no Kane form to fall back to: the
-        # default set without what the constrained tree does not build, and a note saying so
-        from ..mjcf.equality import default_functions
-        functions, note = default_functions(tree)
     generated = generate_c(spec.formed, spec.name, tree=tree, **_options(spec, functions, fold_parameters))
-    if note:
-        generated.metadata["formulation_note"] = note
     if getattr(tree, "notes", ()):   # joints the System reader took through SymPy's kinematics, and why
         generated.metadata["tree_notes"] = list(tree.notes)
     return generated

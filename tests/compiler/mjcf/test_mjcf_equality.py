@@ -132,12 +132,22 @@ def test_states_parameters_and_default_functions(models):
     for k in range(5):
         assert f"eq_quad_p{k}" in coupled.param_names
     assert [f"eq_lin_p{k}" in coupled.param_names for k in range(5)] == [True, True, False, False, False]
-    # no functions named: what the constrained tree builds, and a note naming what it left out
+    # no functions named: the whole default set, the derivatives of the constrained tree included
     fns = coupled.metadata["functions"]
-    assert "rhs" in fns and "constraints" in fns and "mass_matrix" in fns
-    assert not {"jac_x", "jac_r", "linearize"} & set(fns)
-    note = coupled.metadata["formulation_note"]
-    assert "jac_x, jac_r, linearize not generated" in note and "elbow" in note
+    assert {"rhs", "constraints", "mass_matrix", "jac_x", "jac_r", "linearize"} <= set(fns)
+
+
+def test_jac_x_and_jac_r_are_the_derivatives_of_the_rhs(models):
+    """The constrained tree's jac_x/jac_r (KKT residual's tangents) against central differences."""
+    coupled, _, _ = models
+    rng = np.random.default_rng(7)
+    for q, u in _states(rng, 3):
+        x = _state(coupled, q, u)
+        J = coupled.jacobian(0.0, x, r=R)
+        h = 1e-6
+        fd = np.column_stack([(coupled.rhs(0.0, x + h * e, r=R) - coupled.rhs(0.0, x - h * e, r=R)) / (2 * h)
+                              for e in np.eye(coupled.nx)])
+        assert np.max(np.abs(J - fd)) < 1e-6 * max(1.0, np.max(np.abs(J)))
 
 
 def test_couplings_read_as_mujoco_reads_them(models):
@@ -305,12 +315,6 @@ def test_ignore_drops_other_kinds_and_keeps_the_coupling_and_inactive_ones_are_l
     assert np.max(np.abs(model.constraints(0.0, x))) < 1e-15
     # the polycoef number is a parameter: changing it moves the constraint
     assert np.isclose(model.constraints(0.0, x, p={"eq_c1_p1": 0.3})[0], -0.1 * 0.5)
-
-
-def test_derivatives_asked_for_are_refused_saying_why(tmp_path):
-    path = _file(tmp_path, '    <joint name="c1" joint1="s" joint2="k" polycoef="0 0.2 0 0 0"/>')
-    with pytest.raises(ModelError, match=r"jac_x of a tree closed by constraints are not generated"):
-        eomc.compile(str(path), functions=["rhs", "jac_x"], cache_dir=tmp_path / "c", progress=False)
 
 
 def test_the_default_initial_state_is_on_the_couplings(models):
