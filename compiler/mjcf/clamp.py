@@ -17,6 +17,14 @@ def _bounds(lo, hi):
         raise ValueError(f"clamp bounds must be numbers, not {lo}, {hi}")
 
 
+def _clamped(x, lo, hi):
+    return min(max(x, lo), hi) if x.is_Number else None
+
+
+def _slope(x, lo, hi):
+    return (sm.S.One if lo < x < hi else sm.S.Zero) if x.is_Number else None
+
+
 class Clamp(sm.Function):
     """min(max(x, lo), hi)."""
     nargs = 3
@@ -25,9 +33,7 @@ class Clamp(sm.Function):
     @classmethod
     def eval(cls, x, lo, hi):
         _bounds(lo, hi)
-        if x.is_Number:
-            return min(max(x, lo), hi)
-        return None
+        return _clamped(x, lo, hi)
 
     def fdiff(self, argindex=1):
         if argindex == 1:
@@ -35,8 +41,7 @@ class Clamp(sm.Function):
         raise ArgumentIndexError(self, argindex)
 
     def _eval_evalf(self, prec):
-        x, lo, hi = (a.evalf(prec) for a in self.args)
-        return min(max(x, lo), hi) if x.is_Number else None
+        return _clamped(*(a.evalf(prec) for a in self.args))
 
     def _ccode(self, printer):
         x, lo, hi = (printer._print(a) for a in self.args)
@@ -51,16 +56,13 @@ class ClampSlope(sm.Function):
     @classmethod
     def eval(cls, x, lo, hi):
         _bounds(lo, hi)
-        if x.is_Number:
-            return sm.S.One if lo < x < hi else sm.S.Zero
-        return None
+        return _slope(x, lo, hi)
 
     def fdiff(self, argindex=1):
         return sm.S.Zero
 
     def _eval_evalf(self, prec):
-        x, lo, hi = (a.evalf(prec) for a in self.args)
-        return (sm.S.One if lo < x < hi else sm.S.Zero) if x.is_Number else None
+        return _slope(*(a.evalf(prec) for a in self.args))
 
     def _ccode(self, printer):
         x, lo, hi = (printer._print(a) for a in self.args)

@@ -276,10 +276,7 @@ def mjcf_formed(model, overrides):
             from None
     if model.contacts:
         from eomc.compiler.contact.tree import merged_outputs, with_mjcf_contacts
-        from eomc.compiler.tree.constrained import attach, tree_loops
-        loops = tree_loops(built.tree)
         built, outputs, events = with_mjcf_contacts(built, m, model.contacts, fold=model.fold_parameters)
-        built.tree = attach(built.tree, loops)       # its new Tree (dataclasses.replace) keeps the couplings
         overrides = merged_outputs(overrides, outputs, events)
     formed = formed_of_tree(built.tree)
     built.mjmodel = m              # what the animation's poses read the geoms from (compiler/mjcf/poses.py)

@@ -259,14 +259,13 @@ def _rates_on_dag(hol, q, u, kinematics):
 
 
 def tree_loops(tree):
-    """The Loops a tree carries (attached by the recogniser), or None."""
-    return getattr(tree, "_loops", None)
+    """The Loops a tree carries (attached by the recogniser or a reader), or None."""
+    return tree.loops
 
 
 def attach(tree, loops):
-    if loops is not None:
-        object.__setattr__(tree, "_loops", loops)
-    return tree
+    """``tree`` closed by ``loops`` (None: as it is)."""
+    return tree if loops is None else replace(tree, loops=loops)
 
 
 def loop_exprs(loops):

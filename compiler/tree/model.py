@@ -30,7 +30,7 @@ parameters, inputs); the lowering renames them to C slots.  A tree says nothing
 of *how* it was found (SymPy joints or hand-built frames, see
 :mod:`.recognize`); the algorithms in :mod:`.algorithms` read only this.
 """
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import sympy as sm
 
@@ -100,6 +100,9 @@ class Tree:
     gravity: sm.Matrix           # 3x1 in ground components (zero when absent)
     loads: tuple                 # Load
     notes: tuple = ()            # how the reading went where it was not the direct way (str)
+    # the holonomic constraints closing the tree (compiler/tree/constrained.Loops), or None; a
+    # field, so a Tree rebuilt with dataclasses.replace (contacts, ...) keeps them
+    loops: object = field(default=None, compare=False)
 
     @property
     def n(self):

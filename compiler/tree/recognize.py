@@ -13,7 +13,7 @@ Two sources give the same :class:`~.model.Tree`:
   body whose speeds are the largest subset of its own.
 
 A System whose loops holonomic constraints close (one joint of each loop left out) is
-read as its spanning tree, and the constraints ride along on it (``Tree._loops``,
+read as its spanning tree, and the constraints ride along on it (``Tree.loops``,
 :mod:`.constrained`), as are a KanesMethod's dependent speeds and its constraint
 matrices; nonholonomic constraints are refused.
 

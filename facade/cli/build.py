@@ -20,17 +20,9 @@ def add_generate_options(parser):
                              "generated only when named)")
     parser.add_argument("--fold-parameters", action="store_true",
                         help="fold parameter defaults into literals instead of runtime arguments")
-    parser.add_argument("--floating-base", action="store_true",
-                        help="URDF: a 6-dof floating joint (position + body XYZ Euler angles) "
-                             "between the world and the root link")
-    parser.add_argument("--allow-nonphysical-inertia", action="store_true",
-                        help="URDF: build moving links whose principal moments are negative (refused "
-                             "by default), with a warning naming each")
-    from .common import add_contact_argument, add_formulation_argument, add_ignore_argument, add_limits_argument
-    add_contact_argument(parser)
+    from .common import add_formulation_argument, add_robot_arguments
+    add_robot_arguments(parser)
     add_formulation_argument(parser)
-    add_ignore_argument(parser)
-    add_limits_argument(parser)
 
 
 def configure(parser):

@@ -7,7 +7,7 @@ Mistakes in them are ValueErrors, which `eomc` prints as one line (exit status 2
 """
 from pathlib import Path
 
-__all__ = ["with_options", "add_model_arguments", "add_formulation_argument", "add_frame_argument", "FORMULATION_HELP", "load_model", "model_options", "parse_assignments", "initial_state",
+__all__ = ["with_options", "add_model_arguments", "add_robot_arguments", "add_formulation_argument", "add_frame_argument", "FORMULATION_HELP", "load_model", "model_options", "parse_assignments", "initial_state",
            "parameter_values", "writable_file"]
 
 
@@ -22,8 +22,14 @@ def add_model_arguments(parser):
                         help="parameter values (others keep their defaults)")
     parser.add_argument("-q", "--quiet", action="store_true",
                         help="no progress on stderr (compiling a model file, long runs)")
+    add_robot_arguments(parser)
+
+
+def add_robot_arguments(parser):
+    """The options of a robot file (URDF, MJCF), for build, inspect and the model commands."""
     parser.add_argument("--floating-base", action="store_true",
-                        help="URDF: a 6-dof floating joint between the world and the root link")
+                        help="URDF: a 6-dof floating joint (position + body XYZ Euler angles) "
+                             "between the world and the root link")
     parser.add_argument("--allow-nonphysical-inertia", action="store_true",
                         help="URDF: build moving links whose principal moments are negative (refused "
                              "by default), with a warning naming each")

@@ -158,7 +158,7 @@ def test_the_tree_is_the_spanning_tree_and_the_constraints_ride_along():
     system, *_ = _four_bar()
     tree = tree_from_system(system)
     assert [b.joint for b in tree.bodies] == ["J1", "J2", "J3"]
-    loops = tree._loops
+    loops = tree.loops
     assert loops.m == 2 and loops.joints == ("J1", "J2", "J3")
     assert (loops.n_dependent_coordinates, loops.n_dependent_speeds) == (2, 2)
 
