@@ -17,8 +17,8 @@ MuJoCo's filters (``mj_collision``), applied as MuJoCo applies them:
 
 The parameters of two geoms are mixed as ``mj_contactParam`` mixes them: the higher
 ``priority`` wins, else friction and ``condim`` are the larger, ``solref``/``solimp`` the
-``solmix``-weighted mean (a direct, negative ``solref``: the smaller), ``margin`` and
-``gap`` the larger.
+``solmix``-weighted mean (a direct, negative ``solref``: the smaller); ``margin`` and
+``gap`` are the sums of the two geoms' (MuJoCo 3+: ``mjContact.includemargin``).
 
 The mapping to eomc's law, per geom (the *documented rule*; the README quotes it):
 
@@ -218,8 +218,8 @@ def ground_geoms(m, path=None):
                 continue
             condim, friction, solref, solimp = _mix(m, plane, g)
             pairs[(plane, g)] = (condim, friction, solref, solimp,
-                                 max(float(m.geom_margin[plane]), float(m.geom_margin[g])),
-                                 max(float(m.geom_gap[plane]), float(m.geom_gap[g])))
+                                 float(m.geom_margin[plane]) + float(m.geom_margin[g]),
+                                 float(m.geom_gap[plane]) + float(m.geom_gap[g]))
     out, skipped = [], set()
     for (plane, g), (condim, friction, solref, solimp, margin, gap) in sorted(pairs.items(), key=lambda x: x[0][::-1]):
         kind = GEOM_KINDS.get(int(m.geom_type[g]), str(int(m.geom_type[g])))

@@ -146,7 +146,9 @@ def check_model(m, path, ignore=()):
             warnings.warn(f"{path}: tendon {_name(m, mujoco.mjtObj.mjOBJ_TENDON, t, 'tendon')}: its range "
                           f"limits are not modelled (contacts and limits are off; ignore=('limits',) silences "
                           f"this)", EomcWarning, stacklevel=3)
-    problems += _equality_problems(m, path, ignore)
+    from .options import disabled
+    if not {"equality", "constraint"} & disabled(m):     # <flag equality="disable"/>: none acts
+        problems += _equality_problems(m, path, ignore)
     if m.nplugin:
         problems.append(("plugins", "plugin", f"{m.nplugin} plugin(s)"))
     if m.nflex:
@@ -268,12 +270,18 @@ def mjcf_formed(model, overrides):
     model = model if isinstance(model, MjcfModel) else MjcfModel(Path(model))
     _known(model.ignore)
     m = load_mjmodel(model.path)
+    from .options import apply_flags
+    limits_flag, friction_flag, actuation = apply_flags(m, model.path)     # <option><flag>: on eomc's copy of m
     motors = check_model(m, model.path, model.ignore)
+    if not actuation and motors:
+        warnings.warn(f"{model.path}: <flag actuation=\"disable\"/>: the {len(motors)} actuator(s) are left out "
+                      f"(MuJoCo applies no actuator force; the model has no inputs)", EomcWarning, stacklevel=3)
+        motors = []
     from eomc.compiler.tree.joint_laws import JointLawError
     try:
         built = tree_ir(m, fold=model.fold_parameters, actuators=motors,
-                        limits=model.limits and "limits" not in model.ignore,
-                        friction=model.limits and "frictionloss" not in model.ignore)
+                        limits=model.limits and limits_flag and "limits" not in model.ignore,
+                        friction=model.limits and friction_flag and "frictionloss" not in model.ignore)
     except JointLawError as exc:     # the numbers of a joint's limit or friction: its line
         raise ModelFileError(f"<joint>: {exc}", str(model.path), _line(model.path, "joint", exc.joint)) \
             from None
@@ -284,6 +292,7 @@ def mjcf_formed(model, overrides):
     values = _merged(overrides, formed, built.parameters, built.inputs)
     if values.get("initial_state") is None:
         values["initial_state"] = reference_state(m, built)
+    values["timestep"] = float(m.opt.timestep)       # into the built model's metadata (model.timestep)
     return formed, values
 
 

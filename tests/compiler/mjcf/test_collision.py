@@ -126,3 +126,12 @@ def test_parameter_rule():
     # the law linearised at rest, F ≈ W + 1.5 W/δ (x) + 1.5 c W (v), per unit mass W/g: ratio z
     assert 1.5 * c * 9.81 == pytest.approx(2 * omega, rel=1e-12)
     assert law_parameters((0.02, 1.0), (0.9, 0.95, 0.001, 0.5, 2.0), (0.7, 0, 0), 1, 9.81, 10.0)[2] == 0.0
+
+
+def test_margin_is_mujocos(tmp_path):
+    """The plane is raised by the margin MuJoCo includes in the contact (the two geoms' added)."""
+    m = _model(tmp_path, SPHERE.format(extra='margin="0.01"', mass=1.0).replace('pos="0 0 0.12"', 'pos="0 0 0.115"'))
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    (found,) = ground_geoms(m)
+    assert d.ncon == 1 and found.height == pytest.approx(d.contact[0].includemargin, abs=1e-15)
