@@ -271,7 +271,7 @@ def mjcf_formed(model, overrides):
     _known(model.ignore)
     m = load_mjmodel(model.path)
     from .options import apply_flags
-    limits_flag, friction_flag, actuation = apply_flags(m, model.path)     # <option><flag>: on eomc's copy of m
+    limits_flag, friction_flag, actuation = apply_flags(m, model.path, _line)     # <option><flag>: on eomc's copy of m
     motors = check_model(m, model.path, model.ignore)
     if not actuation and motors:
         warnings.warn(f"{model.path}: <flag actuation=\"disable\"/>: the {len(motors)} actuator(s) are left out "
