@@ -302,10 +302,10 @@ def _with_contacts(model, m, built, overrides):
     contacts are named without ``"@collision"`` (or ``"@none"``: no contacts), or ``geoms`` says."""
     from eomc.compiler.contact.tree import COLLISION_SPHERES, as_spec, merged_outputs, with_mjcf_contacts
     specs = [as_spec(c) for c in model.contacts]
-    named = [s for s in specs if s.link not in (COLLISION_SPHERES, "@none")]
+    named = [s for s in specs if s.link not in (COLLISION_SPHERES, "@none", "@ground")]
     geoms = model.geoms
     if geoms is None:
-        geoms = not specs or any(s.link == COLLISION_SPHERES for s in specs)
+        geoms = not specs or any(s.link in (COLLISION_SPHERES, "@ground") for s in specs)
     outputs, events = {}, {}
     if named:
         built, outputs, events = with_mjcf_contacts(built, m, named, fold=model.fold_parameters)

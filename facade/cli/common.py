@@ -47,6 +47,10 @@ def add_contact_argument(parser):
     """--contact LINK[:x,y,z[:radius]] (repeatable): ground contacts (eomc.compiler.contact)."""
     parser.add_argument("--contact", action="append", metavar="LINK[:x,y,z[:radius]]", default=None,
                         help=CONTACT_HELP)
+    parser.add_argument("--ground", dest="contact", action="append_const", const="@ground",
+                        help="URDF: the robot's <collision> geometry (boxes, cylinders, spheres, meshes) touches "
+                             "the plane z = 0, with MuJoCo's default contact (same as --contact @ground; MJCF "
+                             "models take their collision geoms without it)")
 
 
 # eomc.compiler.mjcf.model.IGNORABLE, written out: the CLI must not import the compiler to
