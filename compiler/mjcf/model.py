@@ -71,6 +71,8 @@ def load_mjmodel(path):
     except ImportError:
         raise ModelError(f"{path}: MJCF models are read by MuJoCo's compiler: pip install 'eomc[mujoco]'") \
             from None
+    from .files import check_files
+    check_files(path)           # a FIFO or device as the file, an <include> or an asset: refused unopened
     if not Path(path).is_file():
         raise ModelFileError("no such file", str(path))
     # MuJoCo's warnings go to a MUJOCO_LOG.TXT in the working directory by default: ours instead
@@ -89,20 +91,10 @@ def load_mjmodel(path):
     return model
 
 
-def _line(path, tag, name=None):
-    """The line of the ``<tag`` element named ``name`` in the file (else of any element so
-    named), else of the first ``<tag``
-    (None when it is in an included file)."""
-    try:
-        text = Path(path).read_text(errors="replace")
-    except OSError:
-        return None
-    match = None
-    if name:    # the <tag> of that name first (an equality is often named as the tendon it ties)
-        match = (re.search(rf"<{tag}\b[^>]*\bname\s*=\s*[\"']{re.escape(name)}[\"']", text)
-                 or re.search(rf"<\w+\b[^>]*\bname\s*=\s*[\"']{re.escape(name)}[\"']", text))
-    match = match or re.search(rf"<{tag}\b", text)
-    return text.count("\n", 0, match.start()) + 1 if match else None
+def _where(path, tag, name=None):
+    """(file, line) of the element: in the main file or an ``<include>``d one (.files.locate)."""
+    from .files import locate
+    return locate(path, tag, name)
 
 
 def _name(m, kind, i, prefix):
@@ -166,7 +158,7 @@ def check_model(m, path, ignore=()):
         ndof = {0: 6, 1: 3, 2: 1, 3: 1}[kind]
         if np.any(m.dof_armature[d:d + ndof] < 0):
             raise ModelFileError(f"<joint>: joint {jn}: negative armature {min(m.dof_armature[d:d + ndof]):g}: "
-                                 f"an inertia cannot be negative", path, _line(path, "joint", jn))
+                                 f"an inertia cannot be negative", *_where(path, "joint", jn))
         if kind == 0 and len(set(m.dof_armature[d:d + 3])) > 1:
             problems.append(("armature", "joint", f"joint {jn}: armature on a free joint's linear dofs "
                              f"differs between them ({', '.join(f'{x:g}' for x in m.dof_armature[d:d + 3])}; "
@@ -177,18 +169,18 @@ def check_model(m, path, ignore=()):
                              f"joint (eomc models it on hinges and slides)", jn))
         if np.any(m.dof_frictionloss[d:d + ndof] < 0) or np.any(~np.isfinite(m.dof_frictionloss[d:d + ndof])):
             raise ModelFileError(f"<joint>: joint {jn}: frictionloss {m.dof_frictionloss[d]:g}: it must be a "
-                                 f"finite number >= 0", path, _line(path, "joint", jn))
+                                 f"finite number >= 0", *_where(path, "joint", jn))
         if m.jnt_limited[j] and kind in (2, 3) and (not np.all(np.isfinite(m.jnt_range[j]))
                                                     or m.jnt_range[j][0] > m.jnt_range[j][1]):
             raise ModelFileError(f"<joint>: joint {jn}: range {m.jnt_range[j][0]:g} {m.jnt_range[j][1]:g}: "
-                                 f"lower must be <= upper, both finite", path, _line(path, "joint", jn))
+                                 f"lower must be <= upper, both finite", *_where(path, "joint", jn))
         if kind == 0 and int(m.body_parentid[m.jnt_bodyid[j]]) != 0:
             problems.append(("", "freejoint", f"joint {jn}: a free joint on a body that is not a child of "
                              f"the world"))
         if np.any(m.dof_damping[d:d + ndof] < 0) or m.jnt_stiffness[j] < 0:
             raise ModelFileError(f"<joint>: joint {jn}: negative damping or stiffness "
                                  f"({m.dof_damping[d]:g}, {m.jnt_stiffness[j]:g}): it would feed energy in",
-                                 path, _line(path, "joint", jn))
+                                 *_where(path, "joint", jn))
         if kind == 0 and int(m.body_jntnum[m.jnt_bodyid[j]]) > 1:
             problems.append(("", "freejoint", f"joint {jn}: a free joint with other joints on its body"))
         if kind in (0, 1) and m.jnt_stiffness[j]:
@@ -221,8 +213,8 @@ def check_model(m, path, ignore=()):
             warnings.warn(f"{path}: ignored: {message}", EomcWarning, stacklevel=4)
             continue
         hint = f" (ignore=('{key}',), or --ignore {key} on the command line, drops it with a warning)" if key else ""
-        raise ModelFileError(f"<{tag}>: {message}: a rigid-body tree cannot express it{hint}", path,
-                             _line(path, tag, named[0] if named else None))
+        raise ModelFileError(f"<{tag}>: {message}: a rigid-body tree cannot express it{hint}", 
+                             *_where(path, tag, named[0] if named else None))
     return motors
 
 
@@ -257,8 +249,8 @@ def _equality_problems(m, path, ignore):
         couplings(m)
     except ValueError as exc:
         named = re.match(r"equality (\S+):", str(exc))
-        raise ModelFileError(f"<equality><joint>: {exc}", path,
-                             _line(path, "equality", named.group(1) if named else None)) from None
+        raise ModelFileError(f"<equality><joint>: {exc}", 
+                             *_where(path, "equality", named.group(1) if named else None)) from None
     return out
 
 
@@ -271,7 +263,7 @@ def mjcf_formed(model, overrides):
     _known(model.ignore)
     m = load_mjmodel(model.path)
     from .options import apply_flags
-    limits_flag, friction_flag, actuation = apply_flags(m, model.path, _line)     # <option><flag>: on eomc's copy of m
+    limits_flag, friction_flag, actuation = apply_flags(m, model.path, _where)     # <option><flag>: on eomc's copy of m
     motors = check_model(m, model.path, model.ignore)
     if not actuation and motors:
         warnings.warn(f"{model.path}: <flag actuation=\"disable\"/>: the {len(motors)} actuator(s) are left out "
@@ -283,7 +275,7 @@ def mjcf_formed(model, overrides):
                         limits=model.limits and limits_flag and "limits" not in model.ignore,
                         friction=model.limits and friction_flag and "frictionloss" not in model.ignore)
     except JointLawError as exc:     # the numbers of a joint's limit or friction: its line
-        raise ModelFileError(f"<joint>: {exc}", str(model.path), _line(model.path, "joint", exc.joint)) \
+        raise ModelFileError(f"<joint>: {exc}", *_where(model.path, "joint", exc.joint)) \
             from None
     built, overrides = _with_contacts(model, m, built, overrides)
     formed = formed_of_tree(built.tree)

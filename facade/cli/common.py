@@ -141,6 +141,9 @@ def load_model(path, quiet=False, floating_base=False, formulation="auto", frame
     path = Path(path)
     if not path.exists():
         raise ValueError(f"{path}: no such model file or built model directory")
+    if not path.is_dir():
+        from eomc.runtime.readable import check_regular_file
+        check_regular_file(path, "model file")        # a FIFO or device: refused before it is opened
     if ignore and not (path.is_file() and path.suffix.lower() in (".xml", ".mjcf")):
         from eomc.compiler.mjcf.model import with_ignore
         with_ignore(str(path), ignore=ignore)        # says what --ignore applies to
