@@ -150,8 +150,11 @@ def check_model(m, path, ignore=()):
     if np.any(m.body_gravcomp):
         b = int(np.flatnonzero(m.body_gravcomp)[0])
         problems.append(("", "body", f"body {_name(m, mujoco.mjtObj.mjOBJ_BODY, b, 'body')}: gravcomp"))
-    if m.opt.density or m.opt.viscosity or np.any(m.opt.wind):
-        problems.append(("fluid", "option", "fluid forces (option density/viscosity/wind)"))
+    ellipsoid = [g for g in range(m.ngeom) if m.geom_fluid[g][0] != 0]      # fluidshape="ellipsoid"
+    if (m.opt.density or m.opt.viscosity) and ellipsoid:
+        problems.append(("fluid", "geom", f"geom {_name(m, mujoco.mjtObj.mjOBJ_GEOM, ellipsoid[0], 'geom')}: "
+                         f"fluidshape=\"ellipsoid\" (MuJoCo's ellipsoid fluid model; the inertia-box model is "
+                         f"modelled)", _name(m, mujoco.mjtObj.mjOBJ_GEOM, ellipsoid[0], 'geom')))
     for j in range(m.njnt):
         jn = _name(m, J, j, "joint")
         kind, d = int(m.jnt_type[j]), int(m.jnt_dofadr[j])
@@ -277,6 +280,9 @@ def mjcf_formed(model, overrides):
     except JointLawError as exc:     # the numbers of a joint's limit or friction: its line
         raise ModelFileError(f"<joint>: {exc}", *_where(model.path, "joint", exc.joint)) \
             from None
+    if "fluid" not in model.ignore:
+        from .fluid import with_fluid
+        built = with_fluid(built, m, fold=model.fold_parameters)     # <option density viscosity wind>
     built, overrides = _with_contacts(model, m, built, overrides)
     formed = formed_of_tree(built.tree)
     built.mjmodel = m              # what the animation's poses read the geoms from (compiler/mjcf/poses.py)
