@@ -122,22 +122,32 @@ def check_model(m, path, ignore=()):
         m.dof_armature[:] = 0
     problems = []   # (ignore key, tag, message[, element name])
     J = mujoco.mjtObj.mjOBJ_JOINT
-    # a tendon acts only through its stiffness, damping, friction, armature, limits and the
-    # actuators and equalities on it (refused below on their own): one with none of these
-    # (gymnasium's humanoid's two) changes nothing here; one with a range only is a limit
+    # fixed tendons (joint coefficients) act as joint-space forces (.tendon); a spatial one (sites,
+    # wrapping) acts only through its stiffness, damping, friction, armature, limits and the actuators
+    # on it: one with none of these changes nothing here
+    from .tendon import is_fixed
     zero = np.zeros(m.ntendon)
-    acting = [t for t in range(m.ntendon)
-              if m.tendon_stiffness[t] or m.tendon_damping[t] or m.tendon_frictionloss[t]
-              or getattr(m, "tendon_armature", zero)[t]]
-    if acting:
-        problems.append(("tendons", "tendon", f"{len(acting)} tendon(s) with stiffness, damping, friction or "
-                         f"armature (e.g. {_name(m, mujoco.mjtObj.mjOBJ_TENDON, acting[0], 'tendon')}): a "
-                         f"tendon couples joints"))
-    for t in range(m.ntendon):
-        if t not in acting and m.tendon_limited[t] and "limits" not in ignore and "tendons" not in ignore:
-            warnings.warn(f"{path}: tendon {_name(m, mujoco.mjtObj.mjOBJ_TENDON, t, 'tendon')}: its range "
-                          f"limits are not modelled (contacts and limits are off; ignore=('limits',) silences "
-                          f"this)", EomcWarning, stacklevel=3)
+    armature = [t for t in range(m.ntendon) if getattr(m, "tendon_armature", zero)[t]]
+    spatial = [t for t in range(m.ntendon) if not is_fixed(m, t) and (
+        m.tendon_stiffness[t] or m.tendon_damping[t] or m.tendon_frictionloss[t] or m.tendon_limited[t]
+        or any(int(m.actuator_trntype[k]) == int(mujoco.mjtTrn.mjTRN_TENDON) and int(m.actuator_trnid[k, 0]) == t
+               for k in range(m.nu)))]
+    for t, why in [(t, "armature (an inertia along the tendon)") for t in armature] + \
+                  [(t, "a spatial tendon (sites, wrapping): only fixed tendons are modelled") for t in spatial]:
+        tn = _name(m, mujoco.mjtObj.mjOBJ_TENDON, t, 'tendon')
+        problems.append(("tendons", "tendon", f"tendon {tn}: {why}", tn))
+        break
+    if "tendons" in ignore and m.ntendon:
+        acting = [t for t in range(m.ntendon) if m.tendon_stiffness[t] or m.tendon_damping[t]
+                  or m.tendon_frictionloss[t] or m.tendon_limited[t]]
+        if acting:
+            warnings.warn(f"{path}: ignored: {len(acting)} tendon(s) with stiffness, damping, friction or limits "
+                          f"(e.g. {_name(m, mujoco.mjtObj.mjOBJ_TENDON, acting[0], 'tendon')})", EomcWarning,
+                          stacklevel=3)
+        m.tendon_stiffness[:] = 0
+        m.tendon_damping[:] = 0
+        m.tendon_frictionloss[:] = 0
+        m.tendon_limited[:] = 0
     from .options import disabled
     if not {"equality", "constraint"} & disabled(m):     # <flag equality="disable"/>: none acts
         problems += _equality_problems(m, path, ignore)
@@ -199,10 +209,17 @@ def check_model(m, path, ignore=()):
         an = _name(m, mujoco.mjtObj.mjOBJ_ACTUATOR, k, "actuator")
         j = int(m.actuator_trnid[k, 0])
         why = None
-        if int(m.actuator_trntype[k]) != int(mujoco.mjtTrn.mjTRN_JOINT):
-            why = "its transmission is not a joint"
+        if int(m.actuator_trntype[k]) == int(mujoco.mjtTrn.mjTRN_TENDON):
+            if not is_fixed(m, j):
+                why = "its transmission is a spatial tendon"
+            elif "tendons" in ignore:
+                why = "its transmission is a tendon, and tendons are ignored"
+        elif int(m.actuator_trntype[k]) != int(mujoco.mjtTrn.mjTRN_JOINT):
+            why = "its transmission is not a joint or a fixed tendon"
         elif int(m.jnt_type[j]) not in (2, 3):
             why = "it drives a ball or free joint"
+        if why:
+            pass
         elif int(m.actuator_dyntype[k]) != 0:
             why = "it has activation dynamics (dyntype: an integrator, filter or muscle activation)"
         elif int(m.actuator_gaintype[k]) not in (0, 1) or int(m.actuator_biastype[k]) not in (0, 1):
