@@ -34,7 +34,7 @@ def configure(parser):
     parser.add_argument("--up", choices=("x", "y", "z", "-x", "-y", "-z"),
                         help="the world axis drawn upwards (default z; a planar motion is seen "
                              "straight onto its plane)")
-    parser.add_argument("--method", default="dop853", help="integrator (as eomc simulate)")
+    parser.add_argument("--method", default="auto", help="integrator (as eomc simulate; default auto)")
     parser.add_argument("--rtol", type=float, default=1e-8, help="relative tolerance")
     parser.add_argument("--atol", type=float, default=1e-8, help="absolute tolerance")
     parser.add_argument("--input", nargs="+", metavar="NAME=V|CSV", default=(),
