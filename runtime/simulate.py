@@ -17,7 +17,7 @@ import numpy as np
 from eomc.runtime.errors import SimulationError
 
 from .diagnose import SINGULAR_STATUS, singular_direction
-from .integrators_api import METHOD_ALIASES, METHOD_IDS, STATUS_NAMES
+from .integrators_api import FIXED_STEP, METHOD_ALIASES, METHOD_IDS, STATUS_NAMES
 from .law_parameters import check_law_parameters
 from .events import DEFAULT_MAX_EVENTS, EventsBinding, resolve_events
 from .feedback import FeedbackBinding, applied_inputs, check_callable, cubic_slopes
@@ -228,10 +228,10 @@ def _check_rows(rows, nx, why):
 
 def _t_eval(t_eval, t0, t1, method, dt, n_points, nx=1):
     if t_eval is None:
-        if method == "rk4":
+        if method in FIXED_STEP:
             n = _rk4_steps(t0, t1, dt)
-            _check_rows(n + 1, nx, "rk4 writes every step; pass t_eval= with the times you need "
-                                   "or a larger dt")
+            _check_rows(n + 1, nx, f"{method} writes every step; pass t_eval= with the times you "
+                                   "need or a larger dt")
             n = int(n)
             return np.append(t0 + dt * np.arange(n), t1)
         n = _n_points(n_points)
@@ -275,27 +275,27 @@ def prepare(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6,
     auto = method == "auto"
     if auto:
         if dt is not None:
-            raise ValueError("dt= is only for the fixed-step method 'rk4'; the default method 'auto' is "
-                             "adaptive (pass method='rk4' with dt)")
+            raise ValueError(f"dt= is only for the fixed-step methods {', '.join(map(repr, FIXED_STEP))}; "
+                             f"the default method 'auto' is adaptive (pass method= one of them with dt)")
         method, may_switch = auto_method(model)
         stiff_check = stiff_check or may_switch
     t0, t1 = _span(t_span)
     rtol, atol = _positive(rtol, "rtol"), _positive(atol, "atol")
-    if method == "rk4":
+    if method in FIXED_STEP:
         if dt is None:
-            raise ValueError("method='rk4' is fixed-step: give the step size (dt= in Python, "
+            raise ValueError(f"method={method!r} is fixed-step: give the step size (dt= in Python, "
                              "--dt on the command line)")
         first_step = _positive(dt, "dt")
     elif dt is not None:
-        raise ValueError(f"dt= is only for the fixed-step method 'rk4'; {method!r} is adaptive "
-                         f"(use first_step= or max_step=)")
+        raise ValueError(f"dt= is only for the fixed-step methods {', '.join(map(repr, FIXED_STEP))}; "
+                         f"{method!r} is adaptive (use first_step= or max_step=)")
     first_step = _positive(first_step, "first_step", allow_none=True)
     max_step = _positive(max_step, "max_step", allow_none=True)
     if not isinstance(max_steps, numbers.Integral) or isinstance(max_steps, (bool, np.bool_)) \
             or not 0 < max_steps <= C_LONG_MAX:
         raise ValueError(f"max_steps must be a positive integer up to 2**63 - 1; got {max_steps!r}")
-    if method == "rk4" and _rk4_steps(t0, t1, first_step) > max_steps:
-        raise ValueError(f"rk4 with dt={first_step:g} needs {_rk4_steps(t0, t1, first_step):.4g} steps "
+    if method in FIXED_STEP and _rk4_steps(t0, t1, first_step) > max_steps:
+        raise ValueError(f"{method} with dt={first_step:g} needs {_rk4_steps(t0, t1, first_step):.4g} steps "
                          f"over t_span ({t0:g}, {t1:g}), more than max_steps={max_steps}; raise "
                          f"max_steps or dt (or use an adaptive method)")
     if not isinstance(pi_beta, numbers.Real) or not 0.0 <= pi_beta <= 0.1:
@@ -309,8 +309,8 @@ def prepare(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6,
                          f"constraints_jac; this model has none")
     if model.c_model.rhs == model.ffi.NULL:
         raise model._missing("rhs")  # every method integrates rhs
-    if method == "radau" and model.c_model.jac_x == model.ffi.NULL:
-        raise ValueError(f"{model.name}: method 'radau' needs the Jacobian jac_x, which this model "
+    if method in ("radau", "implicitfast") and model.c_model.jac_x == model.ffi.NULL:
+        raise ValueError(f"{model.name}: method {method!r} needs the Jacobian jac_x, which this model "
                          f"was built without; rebuild with functions including 'jac_x'")
     x0 = _vector(model, start_or_default(model, x0), model.nx, model.state_names, state_defaults(model),
                  "x0 (initial state)")
@@ -360,8 +360,8 @@ def _extras(model, x0, t0, r, events, max_events, K, x_ref, method):
         if x_ref is not None and not isinstance(x_ref, dict):
             x_ref = _real_array(x_ref, f"{model.name}: x_ref")
         FeedbackBinding(model, K, x_ref)                        # checks the shapes
-        if method == "radau" and model.c_model.jac_r == model.ffi.NULL:
-            raise ValueError(f"{model.name}: method 'radau' with feedback K needs jac_r")
+        if method in ("radau", "implicitfast") and model.c_model.jac_r == model.ffi.NULL:
+            raise ValueError(f"{model.name}: method {method!r} with feedback K needs jac_r")
         out["K"], out["x_ref"] = K, x_ref
     return out
 
@@ -545,6 +545,9 @@ def failure_message(model, method, stats, x_last, p=None):
     elif status == 6:
         msg += f" ({stats['steps']} steps); raise max_steps or, if the problem is stiff, " \
                f"{STIFF_ADVICE}"
+    elif status == 5 and method == "implicitfast":
+        msg += (f" (dt={stats['h']:.3g}): the implicit Euler equation has no solution near the "
+                f"step, even split into 64; the solution may blow up here, or use a smaller dt")
     elif status == 5:
         msg += f" (h={stats['h']:.3g}); the solution may blow up or be discontinuous here"
     why = singular_direction(model, stats["t_fail"], x_last, p) if status == SINGULAR_STATUS else ""
@@ -565,9 +568,10 @@ def simulate(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6
     method: "auto" (the default: DOP853 while the problem is not stiff, Radau from the
     start for a model with ground contacts, and Radau from wherever DOP853 detects
     stiffness -- the run continues, LSODA-like), rk4 (needs dt), dopri5/rk45, dop853,
-    radau.  Output at
+    radau, implicitfast (needs dt and jac_x: fixed-step linearly implicit Euler for
+    stiff contact at real-time steps, first order; runtime/c/eomc_fixedstep.c).  Output at
     t_eval (dense output) or, by default, on n_points (1001) equally spaced times
-    (rk4: its step grid).  project=True projects onto the model's constraints
+    (rk4, implicitfast: their step grid).  project=True projects onto the model's constraints
     after each step; baumgarte=a > 0 instead adds -a G^+ g to the rhs, so
     constraint residuals decay like exp(-a t) (Baumgarte-style).  pi_beta: Hairer's
     stabilized step control for dopri5/dop853 (0.04; 0 gives the classical control,

@@ -20,6 +20,7 @@
 #define _POSIX_C_SOURCE 200809L   /* sigaction under -std=c99 */
 #endif
 #include "eomc_integrators.h"
+#include "eomc_fixedstep.h"
 
 #include <complex.h>
 #include <signal.h>
@@ -276,6 +277,7 @@ static int events_commit(ctx *c, double tn, const double *xn, int recompute);
 static int sw_detect(ctx *c, double t, const double *x, double tn, const double *xn, int nst,
                      const double *tst, const double *xst, int *ncross);
 static int sw_locate(ctx *c, const interp *ip, double *t_cut);
+static int sw_watch(ctx *c, double t, const double *x, double tn, const double *xn);
 struct outw;
 EOMC_NOINLINE int events_in_step(ctx *c, const interp *ip, struct outw *ow, double *x);
 
@@ -308,6 +310,7 @@ size_t eomc_integrate_work_size(const eomc_model *m, int method)
     case EOMC_DOPRI5:
     case EOMC_DOP853: extra = 32 * n; break;
     case EOMC_RADAU5: extra = 6 * n * n + 40 * n; break;
+    case EOMC_IMPLICITFAST: extra = eomc_fs_work_size(m->nx); break;
     default: extra = 0;
     }
     return base_size(m) + extra;
@@ -733,6 +736,7 @@ static int run_rk4(ctx *c, const eomc_options *o, proj *pj, double t0, double t1
         if (!all_finite(n, x1)) return EOMC_NONFINITE;
         if ((s = frhs(c, tn, x1, k2))) return s;        /* k2 := f(tn, x1) */
         st->accepted++;
+        if (c->nsw && (s = sw_watch(c, t, x, tn, x1))) return s;
         if (c->ev) {
             int hits = 0;
             if ((s = events_cross(c, tn, x1, &hits))) return s;
@@ -1641,6 +1645,21 @@ static int sw_locate(ctx *c, const interp *ip, double *t_cut)
     return EOMC_OK;
 }
 
+/* Fixed-step methods keep their grid: they do not end a step at a crossing, but the
+ * switching functions are still watched (gmax, sides) so every run gets its verdict. */
+static int sw_watch(ctx *c, double t, const double *x, double tn, const double *xn)
+{
+    int ncross = 0, s;
+    if (!c->nsw) return EOMC_OK;
+    if ((s = sw_detect(c, t, x, tn, xn, 0, NULL, NULL, &ncross))) return s;
+    if (ncross) {
+        swparts w = sw_parts(c);
+        for (int j = 0; j < c->ev->n + c->ev->nlin; j++)
+            if (w.cross[j] != 0.0) w.side[j] = w.ge[j] > 0.0;
+    }
+    return EOMC_OK;
+}
+
 /* The step's end becomes the next step's start (re-evaluated after a projection). */
 static int events_commit(ctx *c, double tn, const double *xn, int recompute)
 {
@@ -1651,6 +1670,69 @@ static int events_commit(ctx *c, double tn, const double *xn, int recompute)
     return EOMC_OK;
 }
 
+/* ----------------------------------------- fixed-step implicit (eomc_fixedstep.c) */
+/* The step is in eomc_fixedstep.c; what every method shares (inputs, checks, events,
+ * output rows, projection) is handed to it through these callbacks. */
+
+typedef struct fs_glue {
+    ctx *c;
+    proj *pj;
+    outw *ow;
+} fs_glue;
+
+static int fs_rhs(void *g, double t, const double *x, double *f)
+{
+    return frhs(((fs_glue *)g)->c, t, x, f);
+}
+
+static int fs_jac(void *g, double t, const double *x, double *J)
+{
+    return fjac(((fs_glue *)g)->c, t, x, J);
+}
+
+/* As RK4 does after its step; the dense output is the step's line (Hermite with the
+ * secant as both slopes). */
+static int fs_accept(void *g, double t, double tn, double *x, const double *slope, double *x1,
+                     double *f1, int *stop)
+{
+    ctx *c = ((fs_glue *)g)->c;
+    proj *pj = ((fs_glue *)g)->pj;
+    outw *ow = ((fs_glue *)g)->ow;
+    int n = c->n, s;
+    double hh = tn - t;
+    *stop = 0;
+    if (!all_finite(n, x1)) return EOMC_NONFINITE;
+    if (c->nsw && (s = sw_watch(c, t, x, tn, x1))) return s;
+    if (c->ev) {
+        int hits = 0;
+        if ((s = events_cross(c, tn, x1, &hits))) return s;
+        if (hits) {
+            interp ip = {0, n, t, hh, x, slope, x1, slope, NULL, NULL, NULL};
+            if ((s = events_in_step(c, &ip, ow, x))) return s;
+            if (c->ev->terminated) { *stop = 1; return EOMC_OK; }
+        }
+    }
+    EMIT_UNTIL(ow, tn, hermite(n, hh, (tau - t) / hh, x, slope, x1, slope, row));
+    if (pj->on) {
+        if ((s = project_state(c, pj, tn, x1))) return s;
+        fix_last_row(ow, tn, x1);
+        if ((s = frhs(c, tn, x1, f1))) return s;
+    }
+    if (c->ev && (s = events_commit(c, tn, x1, pj->on))) return s;
+    return EOMC_OK;
+}
+
+static int run_implicitfast(ctx *c, const eomc_options *o, proj *pj, double t0, double t1,
+                            double *x, outw *ow, double **pos)
+{
+    fs_glue g = {c, pj, ow};
+    eomc_fs_ops ops = {&g, fs_rhs, fs_jac, fs_accept};
+    int s = eomc_fs_run(&ops, c->st, c->n, o->h0, o->max_steps, t0, t1, x,
+                        take(pos, eomc_fs_work_size(c->n)));
+    if (s == EOMC_OK && !(c->ev && c->ev->terminated)) c->st->t = t1;
+    return s;
+}
+
 /* ------------------------------------------------------------ public API */
 
 static int check_args(const eomc_model *m, const eomc_options *o, double t0, double t1,
@@ -1658,9 +1740,11 @@ static int check_args(const eomc_model *m, const eomc_options *o, double t0, dou
 {
     if (!m || !o || !x0 || !m->rhs || m->nx <= 0) return EOMC_BAD_ARGUMENT;
     if (!isfinite(t0) || !isfinite(t1) || !(t1 > t0)) return EOMC_BAD_ARGUMENT;
-    if (o->method < EOMC_RK4 || o->method > EOMC_RADAU5) return EOMC_BAD_ARGUMENT;
-    if (o->method != EOMC_RK4 && !(o->rtol > 0 && o->atol > 0)) return EOMC_BAD_ARGUMENT;
-    if (o->method == EOMC_RADAU5 && !m->jac_x) return EOMC_NOT_AVAILABLE;
+    if (o->method < EOMC_RK4 || o->method > EOMC_IMPLICITFAST) return EOMC_BAD_ARGUMENT;
+    if (o->method != EOMC_RK4 && o->method != EOMC_IMPLICITFAST && !(o->rtol > 0 && o->atol > 0))
+        return EOMC_BAD_ARGUMENT;
+    if ((o->method == EOMC_RADAU5 || o->method == EOMC_IMPLICITFAST) && !m->jac_x)
+        return EOMC_NOT_AVAILABLE;
     if (!(o->baumgarte >= 0.0) || !isfinite(o->baumgarte)) return EOMC_BAD_ARGUMENT;
     if (n_eval < 0 || (n_eval > 0 && (!t_eval || !x_out))) return EOMC_BAD_ARGUMENT;
     for (int i = 0; i < n_eval; i++)
@@ -1755,6 +1839,7 @@ int eomc_integrate_ex(const eomc_model *m, const eomc_options *opt,
         case EOMC_RK4: s = run_rk4(&c, opt, &pj, t0, t1, x, &ow, &pos); break;
         case EOMC_DOPRI5: s = run_erk(&c, &ERK_DP5, opt, &pj, t0, t1, x, &ow, &pos); break;
         case EOMC_DOP853: s = run_erk(&c, &ERK_D853, opt, &pj, t0, t1, x, &ow, &pos); break;
+        case EOMC_IMPLICITFAST: s = run_implicitfast(&c, opt, &pj, t0, t1, x, &ow, &pos); break;
         default: s = run_radau(&c, opt, &pj, t0, t1, x, &ow, &pos); break;
         }
     }

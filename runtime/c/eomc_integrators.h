@@ -15,6 +15,11 @@
  *   EOMC_DOP853  Hairer's DOP853 8(5,3), 7th-order dense output.
  *   EOMC_RADAU5  Radau IIA order 5 (implicit, stiff), simplified Newton with
  *                the model's jac_x; real and complex LU written here.
+ *   EOMC_IMPLICITFAST  fixed-step (opt->h0) linearly implicit Euler with the
+ *                model's jac_x, kept across steps while it predicts the step
+ *                and refreshed (with Newton) when not: for real-time and
+ *                learning use on stiff contact (eomc_fixedstep.c).  First
+ *                order; linear interpolation between steps.  rtol/atol unused.
  *
  * Output is written at caller-given times t_eval (increasing, inside
  * [t0, t1]) by dense output, not by stepping to each time.
@@ -37,11 +42,12 @@ extern "C" {
 #define EOMC_DOPRI5 1
 #define EOMC_DOP853 2
 #define EOMC_RADAU5 3
+#define EOMC_IMPLICITFAST 4
 
 typedef struct eomc_options {
-    int method;          /* EOMC_RK4 ... EOMC_RADAU5 */
+    int method;          /* EOMC_RK4 ... EOMC_IMPLICITFAST */
     double rtol, atol;   /* > 0 (ignored by RK4) */
-    double h0;           /* first step; 0 = automatic.  RK4: the fixed step (> 0) */
+    double h0;           /* first step; 0 = automatic.  RK4, IMPLICITFAST: the fixed step (> 0) */
     double hmax;         /* largest step; 0 = t1 - t0 */
     long max_steps;      /* attempted steps before EOMC_MAX_STEPS; <= 0 = 100000 */
     int project;         /* 1: project onto constraints after each accepted step */
