@@ -137,3 +137,13 @@ def test_a_start_outside_a_joints_range_warns_naming_the_joint(stop):
     with warnings.catch_warnings():
         warnings.simplefilter("error", PhysicsWarning)
         stop.simulate({"q_elbow": 0.5}, (0, 0.01))        # on the limit: inside
+
+
+@pytest.mark.parametrize("method", ["rk4", "implicitfast"])
+def test_fixed_step_methods_keep_their_grid_but_get_the_verdict_too(ball, method):
+    """Fixed-step methods do not end a step at a crossing (their grid is the output), but
+    the switching functions are watched: a contact too soft for the load still warns."""
+    with pytest.warns(PhysicsWarning, match=r"contact ball penetrated 0\.1\d* m"):
+        res = _drop(ball, p=_p(ball, k_ball=1e3, c_ball=0.0), method=method, dt=1e-3)
+    assert res.status == 0 and res.stats["nswitch"] == 0
+    assert np.allclose(np.diff(res.t), 1e-3)
