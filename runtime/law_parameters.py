@@ -14,6 +14,8 @@ import of the compiler.
 """
 import numpy as np
 
+from .switching import contact_parameter
+
 __all__ = ["check_law_parameters"]
 
 # parameter prefix -> (what it is, strictly positive?)
@@ -39,9 +41,9 @@ def _rules(model):
             continue
         contact = name[len("contact_"):]
         for key, (what, strict) in _CONTACT.items():
-            i = index.get(f"{key}_{contact}")
-            if i is not None:
-                rules.append((i, f"{key}_{contact}", f"{what} of contact {contact}", strict))
+            i = contact_parameter(index, key, contact)
+            if i >= 0 and all(r[0] != i for r in rules):
+                rules.append((i, model.param_names[i], f"{what} of contact {contact}", strict))
     for pname, i in index.items():
         for key in sorted(_JOINT, key=len, reverse=True):     # friction_v before friction
             if pname.startswith(key + "_") and f"q_{pname[len(key) + 1:]}" in states:

@@ -75,6 +75,15 @@ class Switches:
 _LIMIT = re.compile(r"limit_(lo|hi)_(.+)\Z")
 
 
+def contact_parameter(params, key, name):
+    """Index of ``<key>_<name>``, or of ``<key>_<geom>`` for a contact point ``<geom>_<i>`` of an
+    MJCF geom with several points (they share the geom's parameters); -1 if neither."""
+    if f"{key}_{name}" in params:
+        return params[f"{key}_{name}"]
+    m = re.match(r"(.+)_\d+\Z", name)
+    return params.get(f"{key}_{m.group(1)}", -1) if m else -1
+
+
 def find_switches(model):
     """The model's contacts and joint limits, found by their parameter and event names."""
     cached = getattr(model, "_switches", None)
@@ -83,7 +92,7 @@ def find_switches(model):
     params = {n: i for i, n in enumerate(model.param_names)}
     states = {n: i for i, n in enumerate(model.state_names)}
     events = [d["name"] for d in model.metadata.get("events", ())]
-    contacts = tuple(Contact(e[len("contact_"):], e, params.get(f"r_{e[len('contact_'):]}", -1))
+    contacts = tuple(Contact(e[len("contact_"):], e, contact_parameter(params, "r", e[len("contact_"):]))
                      for e in events if e.startswith("contact_"))
     limits = []
     for name, i in params.items():

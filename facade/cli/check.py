@@ -4,7 +4,6 @@ Runs eomc.runtime.stability.check_model from the model's initial state (or
 --x0) and prints each check with what was expected and what was measured.
 Exit status 1 when a check failed, so it can gate CI.
 """
-import argparse
 
 from . import common as cli_common
 
@@ -20,7 +19,6 @@ def configure(parser):
     parser.add_argument("--methods", default=None,
                         help="methods to check, comma-separated (default: auto and every method that "
                              "applies: dopri5, dop853, radau; on a model with ground contacts auto and radau)")
-    parser.formatter_class = argparse.ArgumentDefaultsHelpFormatter
 
 
 def run(args):
