@@ -84,7 +84,7 @@ def _urdf_visuals(tree):
     urdf = yourdfpy.URDF.load(str(path), build_scene_graph=True, load_meshes=False,
                               build_collision_scene_graph=False, load_collision_meshes=False)
     links = {link.name: link for link in urdf.robot.links}
-    groups = [("world", tree.root, list(tree.ground_links) or [tree.root])]
+    groups = [("world", tree.root, list(tree.ground_links))]   # none on a floating base
     groups += [(identifier(b.name), b.name, b.links) for b in tree.bodies.values()]
     out = {}
     for key, frame_link, members in groups:
@@ -112,7 +112,7 @@ def urdf_link_transforms(tree):
         urdf = yourdfpy.URDF.load(str(tree.path), build_scene_graph=True, load_meshes=False,
                                   build_collision_scene_graph=False, load_collision_meshes=False)
     out = {}
-    groups = [("world", tree.root, list(tree.ground_links) or [tree.root])]
+    groups = [("world", tree.root, list(tree.ground_links))]   # none on a floating base
     groups += [(identifier(b.name), b.name, b.links) for b in tree.bodies.values()]
     for key, frame_link, members in groups:
         for name in members:
