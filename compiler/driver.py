@@ -214,6 +214,8 @@ def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, fu
                                cache_dir=cache_dir, events=events, formulation=formulation,
                                states=states, contacts=contacts, frames=frames, target=target)
     extra = {"initial_state": spec.initial_state} if spec.initial_state is not None else None
+    if getattr(spec, "timestep", None) is not None:      # the file's own step (MJCF <option timestep>)
+        extra = {**(extra or {}), "timestep": spec.timestep}
     source = system if isinstance(system, (str, os.PathLike)) else None
     return build_and_load(generated, backend=backend, cflags=cflags, cache_dir=cache_dir,
                           output_dir=output_dir, extra_metadata=extra, source=source, progress=progress)

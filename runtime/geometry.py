@@ -10,14 +10,17 @@ animates without its model file)::
 each with ``origin`` (the shape's pose in the body frame: a 4x4 row-major
 list of 16 numbers) and ``color`` ([r, g, b] in 0..1, or None).
 
-Meshes are read with trimesh (installed with yourdfpy) when a page is written,
-never when a model is built; a mesh that is missing or unreadable is drawn as a
-small box, with one warning naming the body and the file.  Vertices are
+Meshes are read with trimesh (and DAE files with pycollada: the ``mesh`` extra, kept out of
+the base install because trimesh's usual extras weigh about 95 MB) when a page is written,
+never when a model is built.  Without the extra, drawing a model that has meshes is an error
+naming it; a mesh that is missing or unreadable is drawn as a small box, with one warning
+naming the body and the file.  Vertices are
 quantized to 16 bits over the mesh's bounding box (error below 1/65535 of its
 size, invisible on screen) and big meshes are thinned by vertex clustering, so
 a robot's page stays a few megabytes.
 """
 import base64
+import importlib.util
 import logging
 import re
 import warnings
@@ -27,7 +30,8 @@ from pathlib import Path
 
 import numpy as np
 
-from eomc.runtime.errors import EomcWarning
+from eomc.runtime.errors import EomcWarning, MissingExtraError
+from eomc.runtime.urdf_scene import load_scene, resolve_filename
 
 __all__ = ["shape", "urdf_visuals", "packed_mesh", "MAX_MESH_FACES"]
 
@@ -79,12 +83,10 @@ def urdf_visuals(tree):
 
 
 def _urdf_visuals(tree):
-    import yourdfpy
     path = Path(tree.path)
-    urdf = yourdfpy.URDF.load(str(path), build_scene_graph=True, load_meshes=False,
-                              build_collision_scene_graph=False, load_collision_meshes=False)
+    urdf = load_scene(path)
     links = {link.name: link for link in urdf.robot.links}
-    groups = [("world", tree.root, list(tree.ground_links) or [tree.root])]
+    groups = [("world", tree.root, list(tree.ground_links))]   # none on a floating base
     groups += [(identifier(b.name), b.name, b.links) for b in tree.bodies.values()]
     out = {}
     for key, frame_link, members in groups:
@@ -107,12 +109,9 @@ def _urdf_visuals(tree):
 def urdf_link_transforms(tree):
     """{link name: (body name or "world", 4x4 pose of the link in that body's frame)} of every
     link that is not a body's own frame: links welded to a body or to the ground."""
-    import yourdfpy
-    with _quiet_mesh_loggers():
-        urdf = yourdfpy.URDF.load(str(tree.path), build_scene_graph=True, load_meshes=False,
-                                  build_collision_scene_graph=False, load_collision_meshes=False)
+    urdf = load_scene(tree.path)
     out = {}
-    groups = [("world", tree.root, list(tree.ground_links) or [tree.root])]
+    groups = [("world", tree.root, list(tree.ground_links))]   # none on a floating base
     groups += [(identifier(b.name), b.name, b.links) for b in tree.bodies.values()]
     for key, frame_link, members in groups:
         for name in members:
@@ -129,7 +128,6 @@ def identifier(name):
 
 
 def _visual(visual, directory, T_body_link):
-    import yourdfpy
     g = visual.geometry
     if g is None:
         return None
@@ -145,7 +143,7 @@ def _visual(visual, directory, T_body_link):
     if g.sphere is not None:
         return shape("sphere", (g.sphere.radius,), origin=origin, color=color)
     if g.mesh is not None:
-        resolved = yourdfpy.filename_handler_magic(g.mesh.filename, dir=str(directory))
+        resolved = resolve_filename(g.mesh.filename, str(directory))
         return shape("mesh", path=resolved, scale=g.mesh.scale if g.mesh.scale is not None else None,
                      origin=origin, color=color)
     return None
@@ -206,11 +204,30 @@ def _packed(path, scale, max_faces, size, mtime):
             "f": base64.b64encode(faces.astype("<u4").tobytes()).decode()}
 
 
+# the modules that read a mesh file of each kind (trimesh reads STL and OBJ itself)
+_READERS = {".dae": ("trimesh", "collada")}
+
+
+def _require_mesh_readers(geometry):
+    files = sorted({item["path"] for items in geometry.values() for item in items
+                    if item.get("kind") == "mesh"})
+    needed = {"trimesh"} if files else set()
+    for path in files:
+        needed.update(_READERS.get(Path(path).suffix.lower(), ()))
+    missing = sorted(m for m in needed if importlib.util.find_spec(m) is None)
+    if missing:
+        names = {"collada": "pycollada"}
+        raise MissingExtraError(f"drawing this model's meshes ({len(files)} file{'s' * (len(files) > 1)}, "
+                                f"e.g. {Path(files[0]).name})", "mesh", [names.get(m, m) for m in missing])
+
+
 def pack_shapes(geometry):
     """{name: [shapes]} with each mesh's file replaced by its packed triangles (shared by path).
 
     A mesh that cannot be read becomes a small box, with one warning naming the body and file.
+    Raises MissingExtraError when the model has meshes and the ``mesh`` extra is missing.
     """
+    _require_mesh_readers(geometry)
     meshes, out = {}, {}
     for name, items in geometry.items():
         packed = []

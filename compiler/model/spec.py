@@ -36,6 +36,7 @@ class ModelSpec:
     poses: object = None                # PoseSource (compiler/emit/poses.py), set by the driver
     frames: object = None               # FrameSource (compiler/tree/frames.py), set by the driver
     system: object = field(default=None, repr=False)
+    timestep: float = None              # the model file's own time step (MJCF <option timestep>), or None
 
 
 def _is_eomc_kane(system):
@@ -136,7 +137,8 @@ def _checked(values, formed, name, where, origin=""):
                                         {**(outputs or {}), **(events or {})}),
             inputs=check_inputs(values.get("inputs"), formed),
             initial_state=check_initial_state(values.get("initial_state"), formed),
-            outputs=outputs, system=values.get("system"), geometry=values.get("geometry"))
+            outputs=outputs, system=values.get("system"), geometry=values.get("geometry"),
+            timestep=values.get("timestep"))
     except Invalid as exc:
         raise where(exc) from None
 

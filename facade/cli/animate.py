@@ -6,7 +6,6 @@ writes one self-contained HTML page that animates it in 3-D offline
 (eomc.runtime.animate); ``--gif``/``--mp4`` draw a planar motion in 2-D.  The
 model must have been built with ``poses`` (the default function set).
 """
-import argparse
 
 from . import common as cli_common
 from .simulate import events_argument, inputs_argument
@@ -25,7 +24,11 @@ def configure(parser):
     parser.add_argument("--t0", type=float, default=0.0, help="start time")
     parser.add_argument("-o", "--output", metavar="HTML", help="the HTML page to write")
     parser.add_argument("--gif", metavar="GIF", help="also draw a planar motion to this GIF (2-D)")
-    parser.add_argument("--mp4", metavar="MP4", help="... or to this MP4 (needs ffmpeg)")
+    parser.add_argument("--mp4", metavar="MP4", help='... or to this MP4 (ffmpeg on PATH, or pip install '
+                                                      '"eomc[video]")')
+    parser.add_argument("--axes", choices=("on", "off"),
+                        help="draw each body's frame axes (default: off for a robot drawn by its "
+                             "meshes, on otherwise; the page has a toggle)")
     parser.add_argument("--fps", type=float, default=60.0, help="frames per second in the page")
     parser.add_argument("--gif-fps", type=float, default=20.0, help="frames per second of --gif/--mp4")
     parser.add_argument("--trace", metavar="NAMES",
@@ -42,7 +45,6 @@ def configure(parser):
     parser.add_argument("--events", metavar="LIST", help="events, as eomc simulate")
     parser.add_argument("--formulation", choices=("auto", "kane", "recursive"), default="auto",
                         help="dynamics formulation (model files and URDF)")
-    parser.formatter_class = argparse.ArgumentDefaultsHelpFormatter
 
 
 def read_trajectory(model, path):
@@ -104,7 +106,8 @@ def run(args):
     trace = None if args.trace is None else (
         [] if args.trace.strip().lower() == "none" else [s.strip() for s in args.trace.split(",") if s.strip()])
     if args.output:
-        anim = animate(res, args.output, model=model, fps=args.fps, trace=trace, up=args.up)
+        anim = animate(res, args.output, model=model, fps=args.fps, trace=trace, up=args.up,
+                       axes=None if args.axes is None else args.axes == "on")
         print(f"wrote {args.output} ({len(anim.html) / 1e6:.2f} MB, {len(res.t)} rows, "
               f"t = [{res.t[0]:g}, {res.t[-1]:g}])")
     for path in (args.gif, args.mp4):

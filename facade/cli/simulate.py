@@ -5,7 +5,6 @@ imported only then, so simulating a built model never imports SymPy) or a
 built model directory / NAME.json / libNAME.so (loaded with eomc.load).  The
 start is the model's ``initial_state`` unless ``--x0`` overrides entries.
 """
-import argparse
 
 from . import common as cli_common
 
@@ -17,7 +16,11 @@ def configure(parser):
     parser.add_argument("--t-final", type=float, required=True, metavar="T", help="end time")
     parser.add_argument("--t0", type=float, default=0.0, help="start time")
     parser.add_argument("-o", "--output", metavar="CSV", help="trajectory CSV to write")
-    parser.add_argument("--plot", metavar="PNG", help="also draw the states to this PNG (matplotlib)")
+    parser.add_argument("--plot", metavar="PNG", help="also draw the states and outputs to this PNG "
+                        "(matplotlib; panels by kind, at most 8 curves each; a robot's run makes "
+                        "several pages: traj.png, traj-2.png, ...)")
+    parser.add_argument("--plot-states", metavar="NAMES",
+                        help="with --plot: only these states and outputs, comma-separated")
     parser.add_argument("--method", default="dop853",
                         help="rk4 (needs --dt), dopri5 (rk45), dop853, radau")
     parser.add_argument("--rtol", type=float, default=1e-6, help="relative tolerance")
@@ -44,7 +47,6 @@ def configure(parser):
                         help="dynamics formulation: kane (symbolic M and f, numeric LDLT), recursive "
                              "(ABA/RNEA/CRBA over the joint tree) or auto (the cheaper rhs)")
     cli_common.add_frame_argument(parser)
-    parser.formatter_class = argparse.ArgumentDefaultsHelpFormatter
 
 
 def _input_table(path, name):
@@ -155,6 +157,16 @@ def _start(model, x0, given, args, params):
     return dict(zip(model.state_names, done.tolist()))
 
 
+def plot_names(text):
+    """--plot-states' names, or None (everything)."""
+    if text is None:
+        return None
+    names = [n.strip() for n in text.split(",") if n.strip()]
+    if not names:
+        raise ValueError("--plot-states: give names, comma-separated")
+    return names
+
+
 def run(args):
     import sys
     import warnings
@@ -208,5 +220,7 @@ def run(args):
     if args.output:
         print(f"wrote {res.to_csv(args.output)}")
     if args.plot:
-        print(f"wrote {res.plot(args.plot)}")
+        written = res.plot(args.plot, names=plot_names(args.plot_states))
+        for path in (written if isinstance(written, list) else [written]):
+            print(f"wrote {path}")
     return 0
