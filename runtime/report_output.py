@@ -216,13 +216,26 @@ def _short(report, message):
     return message[len(prefix):] if message.startswith(prefix) else message
 
 
+MISSED_FACTOR = 1e5    # error beyond this many tolerances: the run missed it by orders of magnitude
+
+
 def _run_notes(report):
-    """Methods that could not run on this model and runs that failed (other than stiffness)."""
+    """Methods that could not run on this model, runs that failed (other than stiffness) and
+    runs that missed their tolerance by orders of magnitude (failed too: issue 29)."""
     notes = [f"{m} not run: {why}" for m, why in report.skipped.items()]
     for r in report.rows:
         if r["status"] != 0 and not (r["method"] in EXPLICIT and r["status"] in (6, 7)):
             notes.append(f"{r['method']} at {_setting(r)} failed: {_short(report, r['message'])}")
-    return notes[:8]
+    missed = [r for r in report.ok_rows() if r["method"] != "rk4"
+              and r["error"] > MISSED_FACTOR * r["tolerance"]]
+    if missed:
+        notes.append("FAILED, tolerance missed by orders of magnitude (error > 1e5 x tolerance): "
+                     + "; ".join(f"{r['method']} at {_setting(r)} (error {r['error']:.2g})" for r in missed[:6]))
+    stopped = [r for r in report.rows if r["status"] != 0]
+    if stopped:
+        notes.append(f"FAILED, stopped: {len(stopped)} of {len(report.rows)} runs "
+                     f"({', '.join(sorted({r['method'] for r in stopped}))}); they are never recommended")
+    return notes[:10]
 
 
 def _energy_notes(report):

@@ -78,10 +78,18 @@ class SimulationResult:
         return names, np.hstack(cols)
 
     def to_csv(self, path):
-        """Write t, states, outputs (and the constraint residual) as CSV with a header row."""
+        """Write t, states, outputs (and the constraint residual) as CSV with a header row.
+
+        A failed run's rows (up to where it stopped) are written too, followed by one
+        comment line ``# incomplete: <why>`` (numpy.loadtxt and pandas with comment="#"
+        skip it), so what was computed is kept and marked as such."""
         names, data = self.columns()
+        footer = "" if self.status == 0 else "incomplete: " + " ".join(str(self.message).split())
         with atomic_path(path) as tmp:
             np.savetxt(tmp, data, delimiter=",", header=",".join(names), comments="", fmt="%.17g")
+            if footer:
+                with open(tmp, "a") as fh:
+                    fh.write(f"# {footer}\n")
         return Path(path)
 
     def plot(self, path=None, names=None):

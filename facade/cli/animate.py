@@ -37,7 +37,7 @@ def configure(parser):
     parser.add_argument("--up", choices=("x", "y", "z", "-x", "-y", "-z"),
                         help="the world axis drawn upwards (default z; a planar motion is seen "
                              "straight onto its plane)")
-    parser.add_argument("--method", default="dop853", help="integrator (as eomc simulate)")
+    parser.add_argument("--method", default="auto", help="integrator (as eomc simulate; default auto)")
     parser.add_argument("--rtol", type=float, default=1e-8, help="relative tolerance")
     parser.add_argument("--atol", type=float, default=1e-8, help="absolute tolerance")
     parser.add_argument("--input", nargs="+", metavar="NAME=V|CSV", default=(),
@@ -101,8 +101,12 @@ def run(args):
         res = model.simulate(x0, (args.t0, t_final), p=params, method=args.method, rtol=args.rtol,
                              atol=args.atol, r=inputs_argument(model, args.input),
                              events=events_argument(args.events),
-                             n_points=max(2, int((t_final - args.t0) * args.fps) + 1))
+                             n_points=max(2, int((t_final - args.t0) * args.fps) + 1),
+                             raise_on_failure=False)
         res.p = params
+        if res.status != 0 and len(res.t) < 2:
+            from eomc.runtime.errors import SimulationError
+            raise SimulationError(res.message)
     trace = None if args.trace is None else (
         [] if args.trace.strip().lower() == "none" else [s.strip() for s in args.trace.split(",") if s.strip()])
     if args.output:
@@ -114,4 +118,8 @@ def run(args):
         if path:
             animate_2d(res, path, model=model, fps=args.gif_fps, trace=trace)
             print(f"wrote {path}")
+    if res.status != 0:     # what was computed is drawn; the command still fails
+        from eomc.runtime.errors import SimulationError
+        raise SimulationError(f"{res.message}; the animation shows the {len(res.t)} rows computed up to "
+                              f"t={res.t[-1]:.9g} (incomplete)")
     return 0
