@@ -86,7 +86,7 @@ def _urdf_visuals(tree):
     path = Path(tree.path)
     urdf = load_scene(path)
     links = {link.name: link for link in urdf.robot.links}
-    groups = [("world", tree.root, list(tree.ground_links) or [tree.root])]
+    groups = [("world", tree.root, list(tree.ground_links))]   # none on a floating base
     groups += [(identifier(b.name), b.name, b.links) for b in tree.bodies.values()]
     out = {}
     for key, frame_link, members in groups:
@@ -111,7 +111,7 @@ def urdf_link_transforms(tree):
     link that is not a body's own frame: links welded to a body or to the ground."""
     urdf = load_scene(tree.path)
     out = {}
-    groups = [("world", tree.root, list(tree.ground_links) or [tree.root])]
+    groups = [("world", tree.root, list(tree.ground_links))]   # none on a floating base
     groups += [(identifier(b.name), b.name, b.links) for b in tree.bodies.values()]
     for key, frame_link, members in groups:
         for name in members:
