@@ -96,6 +96,7 @@ def run(args):
             raise ValueError(f"--package-dir {folder}: no such folder")
     if args.fps <= 0 or args.gif_fps <= 0:
         raise ValueError("--fps and --gif-fps must be positive")
+    cli_common.check_before_build(args)   # a robot's names are known before it is built
     model = cli_common.load_model(args.model, args.quiet, **cli_common.model_options(args))
     if "poses" not in model.functions:
         raise ValueError(f"{model.name} was built without poses (its bodies' positions); rebuild it "
