@@ -51,3 +51,33 @@ def test_build_says_fixed_base_and_the_formulation(tmp_path, capsys):
     assert len(notes) == 1 and "--floating-base" in notes[0]
     lines = [line for line in captured.out.splitlines() if line.startswith("formulation: ")]
     assert len(lines) == 1 and ("auto" in lines[0] or "fallback" in lines[0]), captured.out
+
+
+def test_animate_from_a_csv_builds_the_poses_only(tmp_path, monkeypatch, capsys):
+    """Drawing a saved run of a robot needs its poses: rhs and poses are built (seconds), not
+    the Jacobians, outputs and events of a full build; the CSV's frame positions are still
+    plotted (its rotation entries are not)."""
+    import numpy as np
+
+    import eomc.compiler.driver as driver
+    from eomc.compiler.urdf.names import urdf_names
+    names = urdf_names(str(robot_path(GO2)), floating_base=True)
+    t = np.linspace(0, 0.5, 6)
+    columns = {"t": t, **{n: 0 * t for n in names.states}, "FL_foot.p.x": t, "FL_foot.R[0][0]": 1 + 0 * t}
+    columns["q_base_floating_z"] = 0.4 + 0 * t
+    csv = tmp_path / "traj.csv"
+    np.savetxt(csv, np.column_stack(list(columns.values())), delimiter=",", header=",".join(columns),
+               comments="")
+    seen = []
+    real = driver.compile
+
+    def spy(*args, **kwargs):
+        seen.append(kwargs)
+        return real(*args, **kwargs)
+    monkeypatch.setattr(driver, "compile", spy)
+    page = tmp_path / "go2.html"
+    assert main(["animate", str(robot_path(GO2)), "--floating-base", "--from", str(csv),
+                 "-o", str(page), "-q"]) == 0
+    assert len(seen) == 1 and seen[0]["functions"] == ["rhs", "poses"]
+    text = page.read_text()
+    assert '"name":"FL_foot.p.x"' in text and "FL_foot.R[0][0]" not in text.split('"outputs"')[1][:2000]
