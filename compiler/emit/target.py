@@ -217,8 +217,8 @@ def embedded_tail(name, meta):
     upper = name.upper()
     parts = []
     if meta["nparam"]:
-        vals = ", ".join(_float_literal(repr(float(v)), f"{name} parameter defaults")
-                         for v in meta["param_defaults"])
+        vals = ", ".join(_float_literal(repr(float(v)), f"{name}: parameter {pname}'s default")
+                         for pname, v in zip(meta["param_names"], meta["param_defaults"]))
         parts.append(f"const float {name}_param_defaults[{upper}_NPARAM] = {{{vals}}};\n")
     nx = f"{upper}_NX"
     parts.append(f"""int {name}_step_rk4(float t, float h, float *x, const float *p, const float *r, float *work)
