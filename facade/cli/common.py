@@ -47,6 +47,10 @@ def add_contact_argument(parser):
     """--contact LINK[:x,y,z[:radius]] (repeatable): ground contacts (eomc.compiler.contact)."""
     parser.add_argument("--contact", action="append", metavar="LINK[:x,y,z[:radius]]", default=None,
                         help=CONTACT_HELP)
+    parser.add_argument("--ground", dest="contact", action="append_const", const="@ground",
+                        help="URDF: the robot's <collision> geometry (boxes, cylinders, spheres, meshes) touches "
+                             "the plane z = 0, with MuJoCo's default contact (same as --contact @ground; MJCF "
+                             "models take their collision geoms without it)")
 
 
 # eomc.compiler.mjcf.model.IGNORABLE, written out: the CLI must not import the compiler to
@@ -137,6 +141,9 @@ def load_model(path, quiet=False, floating_base=False, formulation="auto", frame
     path = Path(path)
     if not path.exists():
         raise ValueError(f"{path}: no such model file or built model directory")
+    if not path.is_dir():
+        from eomc.runtime.readable import check_regular_file
+        check_regular_file(path, "model file")        # a FIFO or device: refused before it is opened
     if ignore and not (path.is_file() and path.suffix.lower() in (".xml", ".mjcf")):
         from eomc.compiler.mjcf.model import with_ignore
         with_ignore(str(path), ignore=ignore)        # says what --ignore applies to
