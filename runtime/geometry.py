@@ -68,21 +68,37 @@ def shape(kind, size=(), *, path=None, scale=None, origin=None, color=None):
     return out
 
 
-def urdf_visuals(tree):
+def loaded_urdf(path, xml=None):
+    """yourdfpy's model of the URDF file ``path`` (scene graph, no meshes loaded); from ``xml``,
+    the document a reader parsed already (lxml), without reading the file again."""
+    import yourdfpy
+    options = dict(build_scene_graph=True, load_meshes=False, build_collision_scene_graph=False,
+                   load_collision_meshes=False)
+    with _quiet_mesh_loggers():
+        if xml is None:
+            return yourdfpy.URDF.load(str(path), **options)
+        import copy
+        from lxml import etree
+        root = copy.deepcopy(xml)     # what URDF.load does to the document after parsing it
+        etree.strip_tags(root, etree.Comment)
+        etree.cleanup_namespaces(root)
+        return yourdfpy.URDF(robot=yourdfpy.URDF._parse_robot(xml_element=root),
+                             mesh_dir=str(Path(path).parent), **options)
+
+
+def urdf_visuals(tree, urdf=None):
     """{body name (a C identifier, as the System names it) or "world": [shapes]} of a URDF robot.
 
     ``tree``: eomc.compiler.urdf's merged tree.  A link welded into a body (or into the
     ground) is placed by the fixed joints between them, read at the zero configuration.
+    ``urdf``: the file's :func:`loaded_urdf` when the caller has it (else the file is read).
     """
     with _quiet_mesh_loggers():
-        return _urdf_visuals(tree)
+        return _urdf_visuals(tree, urdf if urdf is not None else loaded_urdf(tree.path))
 
 
-def _urdf_visuals(tree):
-    import yourdfpy
+def _urdf_visuals(tree, urdf):
     path = Path(tree.path)
-    urdf = yourdfpy.URDF.load(str(path), build_scene_graph=True, load_meshes=False,
-                              build_collision_scene_graph=False, load_collision_meshes=False)
     links = {link.name: link for link in urdf.robot.links}
     groups = [("world", tree.root, list(tree.ground_links) or [tree.root])]
     groups += [(identifier(b.name), b.name, b.links) for b in tree.bodies.values()]
@@ -104,13 +120,12 @@ def _urdf_visuals(tree):
     return out
 
 
-def urdf_link_transforms(tree):
+def urdf_link_transforms(tree, urdf=None):
     """{link name: (body name or "world", 4x4 pose of the link in that body's frame)} of every
-    link that is not a body's own frame: links welded to a body or to the ground."""
-    import yourdfpy
-    with _quiet_mesh_loggers():
-        urdf = yourdfpy.URDF.load(str(tree.path), build_scene_graph=True, load_meshes=False,
-                                  build_collision_scene_graph=False, load_collision_meshes=False)
+    link that is not a body's own frame: links welded to a body or to the ground.  ``urdf``:
+    the file's :func:`loaded_urdf` when the caller has it (else the file is read)."""
+    if urdf is None:
+        urdf = loaded_urdf(tree.path)
     out = {}
     groups = [("world", tree.root, list(tree.ground_links) or [tree.root])]
     groups += [(identifier(b.name), b.name, b.links) for b in tree.bodies.values()]
