@@ -84,7 +84,7 @@ from pathlib import Path
 from eomc.compiler.mjcf.model import MjcfModel
 path, name, cache, out, ignore = sys.argv[1], sys.argv[2], sys.argv[3], sys.argv[4], sys.argv[5]
 warnings.simplefilter("ignore")
-model = eomc.compile(MjcfModel(Path(path), ignore=tuple(x for x in ignore.split(",") if x), limits=False), name,
+model = eomc.compile(MjcfModel(Path(path), ignore=tuple(x for x in ignore.split(",") if x), limits=False, geoms=False), name,
                      functions=["rhs"], cache_dir=cache, output_dir=out, progress=False)
 print("wall", time.perf_counter() - t0)
 """

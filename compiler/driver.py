@@ -118,8 +118,13 @@ def _with_frames(spec, frames, functions):
 
 def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, functions=None,
              fold_parameters=False, progress=None, cache_dir=None, use_cache=True, events=None,
-             formulation="auto", states=None, contacts=None, frames=None):
+             formulation="auto", states=None, contacts=None, frames=None, target=None):
     """Derive and generate C without compiling: returns (ModelSpec, GeneratedModel).
+
+    ``target``: "c99-f64" (the default: double C and the eomc_model ABI) or "c99-f32"
+    (float C for firmware, with NAME_step_rk4 and without the struct; see
+    eomc.compiler.emit.target).  The generation cache holds the double C; the float C
+    is derived from it.
 
     ``contacts``: ground contacts on a URDF robot's links (eomc.compiler.contact.tree).
 
@@ -136,8 +141,10 @@ def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, f
     equations and options were seen before (see eomc.compiler.build.gencache).
     """
     from .tree.select import check_formulation, generate_formulation, tree_digest
+    from .emit.target import check_target, retarget
     progress = progress if isinstance(progress, Progress) else Progress(progress)
     check_formulation(formulation)
+    target = check_target(target)
     if contacts:
         from .contact.models import with_contact_specs
         system = with_contact_specs(system, contacts)
@@ -180,17 +187,21 @@ def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, f
                                            + frames_digest(spec.frames))
         else:
             generated = run_generator()
+        generated = retarget(generated, target)
     return spec, generated
 
 
 def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, functions=None,
             fold_parameters=False, backend="cffi", cflags=None, cache_dir=None, output_dir=None,
-            progress=None, events=None, formulation="auto", states=None, contacts=None, frames=None):
+            progress=None, events=None, formulation="auto", states=None, contacts=None, frames=None,
+            target=None):
     """Compile a model file (path) or a formed system into a loaded :class:`eomc.runtime.model.Model`.
 
     ``formulation``: "auto" (default), "kane" or "recursive" (see :func:`generate`).
     ``frames``: e.g. ``["tool0", "com"]``: frame poses, velocities, Jacobians and the centre of
     mass as outputs (see :func:`generate`; read them with ``model.frame(name, t, x)``).
+    ``target``: "c99-f64" (default) or "c99-f32" (float C for firmware; the model loads as an
+    :class:`eomc.runtime.float32.Float32Model`, which evaluates but does not simulate).
 
     Progress (stage timings on stderr) defaults to on when stderr is a terminal.
     """
@@ -198,8 +209,10 @@ def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, fu
     spec, generated = generate(system, name, parameters=parameters, inputs=inputs, outputs=outputs,
                                functions=functions, fold_parameters=fold_parameters, progress=progress,
                                cache_dir=cache_dir, events=events, formulation=formulation,
-                               states=states, contacts=contacts, frames=frames)
+                               states=states, contacts=contacts, frames=frames, target=target)
     extra = {"initial_state": spec.initial_state} if spec.initial_state is not None else None
+    if getattr(spec, "timestep", None) is not None:      # the file's own step (MJCF <option timestep>)
+        extra = {**(extra or {}), "timestep": spec.timestep}
     source = system if isinstance(system, (str, os.PathLike)) else None
     return build_and_load(generated, backend=backend, cflags=cflags, cache_dir=cache_dir,
                           output_dir=output_dir, extra_metadata=extra, source=source, progress=progress)

@@ -12,6 +12,7 @@ __all__ = [
     "CompilerNotFoundError",
     "CompileError",
     "SimulationError",
+    "MissingExtraError",
     "EomcWarning",
 ]
 
@@ -45,6 +46,16 @@ class CompileError(EomcError, RuntimeError):
 
 class SimulationError(EomcError, RuntimeError):
     """An integration stopped (singular mass matrix, non-finite state, step size underflow, ...)."""
+
+
+class MissingExtraError(EomcError, ImportError):
+    """An optional dependency is not installed; the message names the extra that brings it."""
+
+    def __init__(self, what, extra, modules):
+        self.extra = extra
+        super().__init__(f"{what} needs {' and '.join(modules)}, which {'is' if len(modules) == 1 else 'are'} "
+                         f"not installed: pip install \"eomc[{extra}]\" (from a clone of eomc: "
+                         f"pip install \".[{extra}]\")")
 
 
 class EomcWarning(UserWarning):

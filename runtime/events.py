@@ -143,24 +143,60 @@ def nonfinite_names(model, source, events, t, x, p, r):
 
 
 class EventsBinding:
-    """The C ``eomc_events`` struct for one run and every buffer it points to."""
+    """The C ``eomc_events`` struct for one run and every buffer it points to.
 
-    def __init__(self, model, source, events, max_events=DEFAULT_MAX_EVENTS):
+    ``switches`` (runtime/switching.py): the model's contacts and joint limits, whose
+    switching functions end the integrator's steps; a contact event the caller did not
+    ask for is added as switching only (never recorded), and each limit is a linear
+    switching function of one coordinate and one parameter.  ``gmax`` receives the
+    largest value each switching function reached (``contact_gmax``, ``limit_gmax``)."""
+
+    def __init__(self, model, source, events, max_events=DEFAULT_MAX_EVENTS, switches=None,
+                 observe_only=False):
         ffi = model.ffi
         self.model, self.events = model, list(events)
+        if source is None:      # no events asked for: the switching functions only
+            source = "events" if (switches is not None and switches.contacts) else None
         if source == "events":
             names = [d["name"] for d in model.metadata.get("events", ())]
             fn = ffi.cast("eomc_rhs_fn", getattr(model.model_lib, f"{model.name}_events"))
-        else:
+        elif source == "outputs":
             names = list(model.output_names)
             fn = model.c_model.outputs
             if fn == ffi.NULL:
                 raise ValueError(f"{model.name}: was built without outputs, so outputs cannot be events")
+        else:
+            names, fn = [], ffi.NULL
         check_max_events(max_events, model.nx)
-        n, cap = len(events), int(max_events)
-        self.col = np.array([names.index(e.name) for e in events], dtype=np.intc)
-        self.direction = np.array([e.direction for e in events], dtype=np.intc)
-        self.terminal = np.array([e.terminal for e in events], dtype=np.intc)
+        everything = list(self.events)
+        switching = [0] * len(everything)
+        self.contact_slots = []
+        for c in (switches.contacts if switches is not None else ()):
+            column = c.event if source == "events" else f"depth_{c.name}"
+            if column not in names:
+                self.contact_slots.append(-1)
+                continue
+            slot = next((i for i, e in enumerate(everything) if e.name == column), None)
+            if slot is None:
+                everything.append(Event(column))
+                switching.append(2)         # switching only: not recorded, never terminal
+                slot = len(everything) - 1
+            else:
+                switching[slot] = 1
+            self.contact_slots.append(slot)
+        limits = switches.limits if switches is not None else ()
+        n, cap = len(everything), int(max_events)
+        self.col = np.array([names.index(e.name) for e in everything], dtype=np.intc)
+        self.direction = np.array([e.direction for e in everything], dtype=np.intc)
+        self.terminal = np.array([e.terminal if s != 2 else 0 for e, s in zip(everything, switching)],
+                                 dtype=np.intc)
+        self.switching = np.array(switching + [0], dtype=np.intc)
+        self.lin_x = np.array([lim.state for lim in limits] + [0], dtype=np.intc)
+        self.lin_p = np.array([lim.param for lim in limits] + [0], dtype=np.intc)
+        self.lin_s = np.array([lim.sign for lim in limits] + [0.0])
+        self.gmax = np.full(n + len(limits) + 1, -np.inf)
+        self.sw_scratch = np.empty(model.integrators.eomc_switch_scratch_size(n, len(limits)))
+        self.limit_slots = list(range(n, n + len(limits)))
         self.t_rec = np.empty(cap)
         self.id_rec = np.empty(cap, dtype=np.intc)
         self.x_rec = np.empty((cap, model.nx))
@@ -173,8 +209,21 @@ class EventsBinding:
         ev.capacity = cap
         ev.t_rec, ev.id_rec, ev.x_rec = dbl(self.t_rec), ints(self.id_rec), dbl(self.x_rec)
         ev.scratch = dbl(self.scratch)
+        ev.nlin = len(limits)
+        has_switch = any(switching) or limits
+        ev.switching = ints(self.switching) if has_switch else ffi.NULL
+        ev.lin_x, ev.lin_p, ev.lin_s = ints(self.lin_x), ints(self.lin_p), dbl(self.lin_s)
+        ev.gmax, ev.sw_scratch = dbl(self.gmax), dbl(self.sw_scratch)
+        ev.sw_observe = int(bool(observe_only))
         # cffi keeps a from_buffer pointer valid only while its cdata lives
-        self._keep = [ev.col, ev.direction, ev.terminal, ev.t_rec, ev.id_rec, ev.x_rec, ev.scratch]
+        self._keep = [ev.col, ev.direction, ev.terminal, ev.t_rec, ev.id_rec, ev.x_rec, ev.scratch,
+                      ev.switching, ev.lin_x, ev.lin_p, ev.lin_s, ev.gmax, ev.sw_scratch]
+
+    def switch_maxima(self):
+        """The largest value each contact's penetration and each limit's overshoot reached
+        (contacts first, then limits, in find_switches' order; -inf where not tracked)."""
+        return np.array([self.gmax[s] if s >= 0 else -np.inf for s in self.contact_slots]
+                        + [self.gmax[s] for s in self.limit_slots])
 
     def results(self):
         """(t_events, x_events, stopped_by, dropped): dicts name -> times (k,) / states (k, nx),

@@ -10,14 +10,17 @@ animates without its model file)::
 each with ``origin`` (the shape's pose in the body frame: a 4x4 row-major
 list of 16 numbers) and ``color`` ([r, g, b] in 0..1, or None).
 
-Meshes are read with trimesh (installed with yourdfpy) when a page is written,
-never when a model is built; a mesh that is missing or unreadable is drawn as a
-small box, with one warning naming the body and the file.  Vertices are
+Meshes are read with trimesh (and DAE files with pycollada: the ``mesh`` extra, kept out of
+the base install because trimesh's usual extras weigh about 95 MB) when a page is written,
+never when a model is built.  Without the extra, drawing a model that has meshes is an error
+naming it; a mesh that is missing or unreadable is drawn as a small box, with one warning
+naming the body and the file.  Vertices are
 quantized to 16 bits over the mesh's bounding box (error below 1/65535 of its
 size, invisible on screen) and big meshes are thinned by vertex clustering, so
 a robot's page stays a few megabytes.
 """
 import base64
+import importlib.util
 import logging
 import re
 import warnings
@@ -27,7 +30,8 @@ from pathlib import Path
 
 import numpy as np
 
-from eomc.runtime.errors import EomcWarning
+from eomc.runtime.errors import EomcWarning, MissingExtraError
+from eomc.runtime.urdf_scene import load_scene, resolve_filename
 
 __all__ = ["shape", "urdf_visuals", "packed_mesh", "MAX_MESH_FACES"]
 
@@ -68,33 +72,16 @@ def shape(kind, size=(), *, path=None, scale=None, origin=None, color=None):
     return out
 
 
-def loaded_urdf(path, xml=None):
-    """yourdfpy's model of the URDF file ``path`` (scene graph, no meshes loaded); from ``xml``,
-    the document a reader parsed already (lxml), without reading the file again."""
-    import yourdfpy
-    options = dict(build_scene_graph=True, load_meshes=False, build_collision_scene_graph=False,
-                   load_collision_meshes=False)
-    with _quiet_mesh_loggers():
-        if xml is None:
-            return yourdfpy.URDF.load(str(path), **options)
-        import copy
-        from lxml import etree
-        root = copy.deepcopy(xml)     # what URDF.load does to the document after parsing it
-        etree.strip_tags(root, etree.Comment)
-        etree.cleanup_namespaces(root)
-        return yourdfpy.URDF(robot=yourdfpy.URDF._parse_robot(xml_element=root),
-                             mesh_dir=str(Path(path).parent), **options)
-
-
 def urdf_visuals(tree, urdf=None):
     """{body name (a C identifier, as the System names it) or "world": [shapes]} of a URDF robot.
 
     ``tree``: eomc.compiler.urdf's merged tree.  A link welded into a body (or into the
     ground) is placed by the fixed joints between them, read at the zero configuration.
-    ``urdf``: the file's :func:`loaded_urdf` when the caller has it (else the file is read).
+    ``urdf``: the file's :func:`~eomc.runtime.urdf_scene.load_scene` when the caller has it
+    (a reader that parsed the file already), else the file is read.
     """
     with _quiet_mesh_loggers():
-        return _urdf_visuals(tree, urdf if urdf is not None else loaded_urdf(tree.path))
+        return _urdf_visuals(tree, urdf if urdf is not None else load_scene(tree.path))
 
 
 def _urdf_visuals(tree, urdf):
@@ -123,9 +110,9 @@ def _urdf_visuals(tree, urdf):
 def urdf_link_transforms(tree, urdf=None):
     """{link name: (body name or "world", 4x4 pose of the link in that body's frame)} of every
     link that is not a body's own frame: links welded to a body or to the ground.  ``urdf``:
-    the file's :func:`loaded_urdf` when the caller has it (else the file is read)."""
+    the file's :func:`~eomc.runtime.urdf_scene.load_scene` when the caller has it."""
     if urdf is None:
-        urdf = loaded_urdf(tree.path)
+        urdf = load_scene(tree.path)
     out = {}
     groups = [("world", tree.root, list(tree.ground_links) or [tree.root])]
     groups += [(identifier(b.name), b.name, b.links) for b in tree.bodies.values()]
@@ -144,7 +131,6 @@ def identifier(name):
 
 
 def _visual(visual, directory, T_body_link):
-    import yourdfpy
     g = visual.geometry
     if g is None:
         return None
@@ -160,7 +146,7 @@ def _visual(visual, directory, T_body_link):
     if g.sphere is not None:
         return shape("sphere", (g.sphere.radius,), origin=origin, color=color)
     if g.mesh is not None:
-        resolved = yourdfpy.filename_handler_magic(g.mesh.filename, dir=str(directory))
+        resolved = resolve_filename(g.mesh.filename, str(directory))
         return shape("mesh", path=resolved, scale=g.mesh.scale if g.mesh.scale is not None else None,
                      origin=origin, color=color)
     return None
@@ -221,11 +207,30 @@ def _packed(path, scale, max_faces, size, mtime):
             "f": base64.b64encode(faces.astype("<u4").tobytes()).decode()}
 
 
+# the modules that read a mesh file of each kind (trimesh reads STL and OBJ itself)
+_READERS = {".dae": ("trimesh", "collada")}
+
+
+def _require_mesh_readers(geometry):
+    files = sorted({item["path"] for items in geometry.values() for item in items
+                    if item.get("kind") == "mesh"})
+    needed = {"trimesh"} if files else set()
+    for path in files:
+        needed.update(_READERS.get(Path(path).suffix.lower(), ()))
+    missing = sorted(m for m in needed if importlib.util.find_spec(m) is None)
+    if missing:
+        names = {"collada": "pycollada"}
+        raise MissingExtraError(f"drawing this model's meshes ({len(files)} file{'s' * (len(files) > 1)}, "
+                                f"e.g. {Path(files[0]).name})", "mesh", [names.get(m, m) for m in missing])
+
+
 def pack_shapes(geometry):
     """{name: [shapes]} with each mesh's file replaced by its packed triangles (shared by path).
 
     A mesh that cannot be read becomes a small box, with one warning naming the body and file.
+    Raises MissingExtraError when the model has meshes and the ``mesh`` extra is missing.
     """
+    _require_mesh_readers(geometry)
     meshes, out = {}, {}
     for name, items in geometry.items():
         packed = []

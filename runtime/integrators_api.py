@@ -8,14 +8,17 @@ here (a test checks them against the header's EOMC_* defines).
 from .header_cdef import header_cdef
 
 
-__all__ = ["INTEGRATOR_CDEF", "METHOD_IDS", "METHOD_ALIASES", "STATUS_NAMES", "STATUS_OK"]
+__all__ = ["INTEGRATOR_CDEF", "METHOD_IDS", "METHOD_ALIASES", "FIXED_STEP", "STATUS_NAMES", "STATUS_OK"]
 
 INTEGRATOR_CDEF = header_cdef("eomc_integrators.h")
 
 # Canonical method name -> EOMC_* number in eomc_integrators.h.
-METHOD_IDS = {"rk4": 0, "dopri5": 1, "dop853": 2, "radau": 3}
+METHOD_IDS = {"rk4": 0, "dopri5": 1, "dop853": 2, "radau": 3, "implicitfast": 4}
 # Other accepted spellings.
-METHOD_ALIASES = {"rk45": "dopri5", "radau5": "radau", "radauiia": "radau"}
+METHOD_ALIASES = {"rk45": "dopri5", "radau5": "radau", "radauiia": "radau",
+                  "implicit": "implicitfast", "implicitfixed": "implicitfast"}
+# Fixed-step methods: they take dt= and write every step unless given t_eval.
+FIXED_STEP = ("rk4", "implicitfast")
 
 STATUS_OK = 0
 # eomc_status -> what went wrong, in words: one table for the whole runtime (cdef.py).

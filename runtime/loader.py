@@ -48,6 +48,7 @@ import cffi
 from .cdef import BATCH_CDEF, MODEL_CDEF, model_function_cdef
 from .integrators_api import INTEGRATOR_CDEF
 from .metadata import EXPORTED_FUNCTIONS, LoadError, check_json, from_library
+from .float32 import FLOAT32_TARGET, Float32Model
 from .model import Model
 from .native import integrator_library
 from . import store
@@ -331,11 +332,22 @@ def _open_extension(snap):
 
 
 def load(dir_or_path, name=None, backend=None):
-    """Load the model built in ``dir_or_path``; ``backend`` is "cffi" or "cython" (default: as built)."""
+    """Load the model built in ``dir_or_path``; ``backend`` is "cffi" or "cython" (default: as built).
+
+    A c99-f32 build loads as a :class:`~.float32.Float32Model` (its float functions, for
+    comparison with double; it does not simulate)."""
     json_path = find_model_json(dir_or_path, name)
     # shared: `eomc build -o` publishes a directory's files under the exclusive lock (N4)
     with store.directory_lock(json_path.parent, exclusive=False):
         snap = _Snapshot(json_path)
+        if snap.data.get("target", "c99-f64") == FLOAT32_TARGET:   # firmware C: no eomc_model struct
+            if backend not in (None, "cffi"):
+                raise LoadError(f"model {snap.name!r} is built for {FLOAT32_TARGET}: it loads through cffi only")
+            library, blob, digest, _ = snap.library
+            if _claim(library, digest):
+                return Float32Model(library, snap.data, snap.directory)
+            with _private_copies({library.name: blob}) as private:   # stale mapping (N1)
+                return Float32Model(private / library.name, snap.data, snap.directory)
         ffi, lib, model_lib, c_model, library = _open_cffi(snap)
         data = from_library(json_path, snap.data, c_model, ffi, library)
         backend = backend or data.get("build", {}).get("backend", "cffi")

@@ -80,8 +80,11 @@ def check_json(path, data):
     functions = data.get("functions", ())
     if not isinstance(functions, list) or any(f not in FUNCTIONS for f in functions):
         raise _bad(path, f"functions must be a list of {', '.join(FUNCTIONS)}; got {functions!r}")
+    target = data.get("target", "c99-f64")
+    if target not in ("c99-f64", "c99-f32"):
+        raise _bad(path, f"target must be c99-f64 or c99-f32, not {target!r}")
     cdef = data.get("cdef")
-    if cdef is not None:
+    if cdef is not None and target == "c99-f64":   # a c99-f32 load declares its own (runtime/float32.py)
         expected = set(model_function_cdef(name, functions).split("\n")) - {""}
         if not isinstance(cdef, str) or {line.strip() for line in cdef.split("\n")} - {""} != expected:
             raise _bad(path, "its C declarations (cdef) do not match the functions it lists")

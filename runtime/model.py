@@ -140,6 +140,8 @@ class Model:
         self.param_defaults.setflags(write=False)
         x0 = metadata.get("initial_state")
         self.initial_state = None if x0 is None else np.array(x0, dtype=np.float64)
+        # the model file's own time step (MJCF <option timestep>): what its author integrates at
+        self.timestep = metadata.get("timestep")
         self.directory = Path(directory)
         self.library_path = Path(library_path)
         self.source_path = self.directory / f"{self.name}.c"

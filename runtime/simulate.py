@@ -17,7 +17,7 @@ import numpy as np
 from eomc.runtime.errors import SimulationError
 
 from .diagnose import SINGULAR_STATUS, singular_direction
-from .integrators_api import METHOD_ALIASES, METHOD_IDS, STATUS_NAMES
+from .integrators_api import FIXED_STEP, METHOD_ALIASES, METHOD_IDS, STATUS_NAMES
 from .events import DEFAULT_MAX_EVENTS, EventsBinding, resolve_events
 from .feedback import FeedbackBinding, applied_inputs, check_callable, cubic_slopes
 from .names import index_of
@@ -223,10 +223,10 @@ def _check_rows(rows, nx, why):
 
 def _t_eval(t_eval, t0, t1, method, dt, n_points, nx=1):
     if t_eval is None:
-        if method == "rk4":
+        if method in FIXED_STEP:
             n = _rk4_steps(t0, t1, dt)
-            _check_rows(n + 1, nx, "rk4 writes every step; pass t_eval= with the times you need "
-                                   "or a larger dt")
+            _check_rows(n + 1, nx, f"{method} writes every step; pass t_eval= with the times you "
+                                   "need or a larger dt")
             n = int(n)
             return np.append(t0 + dt * np.arange(n), t1)
         n = _n_points(n_points)
@@ -251,26 +251,30 @@ def _t_eval(t_eval, t0, t1, method, dt, n_points, nx=1):
 def prepare(model, x0, t_span, p=None, r=None, method="dop853", rtol=1e-6, atol=1e-9,
             t_eval=None, dt=None, max_steps=100000, first_step=None, max_step=None,
             project=False, stiff_check=True, n_points=None, baumgarte=0.0, pi_beta=PI_BETA,
-            events=None, max_events=DEFAULT_MAX_EVENTS, K=None, x_ref=None):
-    """Check every argument and return the dict run_prepared() passes to C."""
+            events=None, max_events=DEFAULT_MAX_EVENTS, K=None, x_ref=None, switching=True):
+    """Check every argument and return the dict run_prepared() passes to C.
+
+    switching: end steps at the model's contact and limit switching points
+    (runtime/switching.py); False only to measure what the bare integrator does
+    (benchmarks).  The run's physics is judged either way."""
     method = resolve_method(method)
     t0, t1 = _span(t_span)
     rtol, atol = _positive(rtol, "rtol"), _positive(atol, "atol")
-    if method == "rk4":
+    if method in FIXED_STEP:
         if dt is None:
-            raise ValueError("method='rk4' is fixed-step: give the step size (dt= in Python, "
+            raise ValueError(f"method={method!r} is fixed-step: give the step size (dt= in Python, "
                              "--dt on the command line)")
         first_step = _positive(dt, "dt")
     elif dt is not None:
-        raise ValueError(f"dt= is only for the fixed-step method 'rk4'; {method!r} is adaptive "
-                         f"(use first_step= or max_step=)")
+        raise ValueError(f"dt= is only for the fixed-step methods {', '.join(map(repr, FIXED_STEP))}; "
+                         f"{method!r} is adaptive (use first_step= or max_step=)")
     first_step = _positive(first_step, "first_step", allow_none=True)
     max_step = _positive(max_step, "max_step", allow_none=True)
     if not isinstance(max_steps, numbers.Integral) or isinstance(max_steps, (bool, np.bool_)) \
             or not 0 < max_steps <= C_LONG_MAX:
         raise ValueError(f"max_steps must be a positive integer up to 2**63 - 1; got {max_steps!r}")
-    if method == "rk4" and _rk4_steps(t0, t1, first_step) > max_steps:
-        raise ValueError(f"rk4 with dt={first_step:g} needs {_rk4_steps(t0, t1, first_step):.4g} steps "
+    if method in FIXED_STEP and _rk4_steps(t0, t1, first_step) > max_steps:
+        raise ValueError(f"{method} with dt={first_step:g} needs {_rk4_steps(t0, t1, first_step):.4g} steps "
                          f"over t_span ({t0:g}, {t1:g}), more than max_steps={max_steps}; raise "
                          f"max_steps or dt (or use an adaptive method)")
     if not isinstance(pi_beta, numbers.Real) or not 0.0 <= pi_beta <= 0.1:
@@ -284,8 +288,8 @@ def prepare(model, x0, t_span, p=None, r=None, method="dop853", rtol=1e-6, atol=
                          f"constraints_jac; this model has none")
     if model.c_model.rhs == model.ffi.NULL:
         raise model._missing("rhs")  # every method integrates rhs
-    if method == "radau" and model.c_model.jac_x == model.ffi.NULL:
-        raise ValueError(f"{model.name}: method 'radau' needs the Jacobian jac_x, which this model "
+    if method in ("radau", "implicitfast") and model.c_model.jac_x == model.ffi.NULL:
+        raise ValueError(f"{model.name}: method {method!r} needs the Jacobian jac_x, which this model "
                          f"was built without; rebuild with functions including 'jac_x'")
     x0 = _vector(model, start_or_default(model, x0), model.nx, model.state_names, state_defaults(model),
                  "x0 (initial state)")
@@ -297,6 +301,12 @@ def prepare(model, x0, t_span, p=None, r=None, method="dop853", rtol=1e-6, atol=
         raise ValueError(f"the output times are not distinct near t={t1:.3g}: doubles there are "
                          f"{np.spacing(t1):.3g} apart; shift the time origin or use fewer points")
     extras = _extras(model, x0, t0, r, events, max_events, K, x_ref, method)
+    from .switching import find_switches
+    sw = find_switches(model)
+    if sw:
+        extras["switches"] = sw
+        extras["switch_steps"] = bool(switching)
+        extras.setdefault("max_events", max_events)
     return dict(method=method, t0=t0, t1=t1, x0=x0, p=np.append(p, 0.0), n_r=n_r, r_t=r_t,
                 r_v=r_v, t_eval=times, rtol=rtol, atol=atol, h0=first_step or 0.0,
                 hmax=max_step or 0.0, max_steps=int(max_steps), project=bool(project),
@@ -325,8 +335,8 @@ def _extras(model, x0, t0, r, events, max_events, K, x_ref, method):
         if x_ref is not None and not isinstance(x_ref, dict):
             x_ref = _real_array(x_ref, f"{model.name}: x_ref")
         FeedbackBinding(model, K, x_ref)                        # checks the shapes
-        if method == "radau" and model.c_model.jac_r == model.ffi.NULL:
-            raise ValueError(f"{model.name}: method 'radau' with feedback K needs jac_r")
+        if method in ("radau", "implicitfast") and model.c_model.jac_r == model.ffi.NULL:
+            raise ValueError(f"{model.name}: method {method!r} with feedback K needs jac_r")
         out["K"], out["x_ref"] = K, x_ref
     return out
 
@@ -358,11 +368,14 @@ def bind_call(model, a, out=None):
     head = (model.c_model, _options(ffi, a), a["t0"], a["t1"], buf(a["x0"]), buf(a["p"]), a["n_r"],
             buf(a["r_t"]), buf(a["r_v"]))
     tail = (n_eval, buf(a["t_eval"]), buf(x_out), buf(x_last), stats, buf(work), work.size)
-    if not feedback and "events" not in a:
+    if not feedback and "events" not in a and "switches" not in a:
         return (lambda: lib.eomc_integrate(*head, *tail)), x_out, x_last, stats
     fb = (FeedbackBinding(model, a.get("K"), a.get("x_ref"), a.get("r_fun"), a.get("r_slopes"))
           if feedback else None)
-    ev = EventsBinding(model, *a["events"], max_events=a["max_events"]) if "events" in a else None
+    source, chosen = a.get("events", (None, []))
+    ev = (EventsBinding(model, source, chosen, max_events=a["max_events"], switches=a.get("switches"),
+                        observe_only=not a.get("switch_steps", True))
+          if "events" in a or "switches" in a else None)
     a["_bindings"] = (fb, ev)       # finish() reads the events and any callable's exception
     extras = (fb.struct if fb else ffi.NULL, ev.struct if ev else ffi.NULL)
 
@@ -372,7 +385,7 @@ def bind_call(model, a, out=None):
 
 
 _STAT_FIELDS = ("steps", "accepted", "rejected", "nfev", "njev", "nlu", "nproj", "status", "n_out",
-                "t", "t_fail", "h", "stiff_hlambda", "max_residual")
+                "t", "t_fail", "h", "stiff_hlambda", "max_residual", "nswitch")
 
 
 def run_prepared(model, a, out=None):
@@ -476,6 +489,9 @@ def failure_message(model, method, stats, x_last, p=None):
     elif status == 6:
         msg += f" ({stats['steps']} steps); raise max_steps or, if the problem is stiff, " \
                f"{STIFF_ADVICE}"
+    elif status == 5 and method == "implicitfast":
+        msg += (f" (dt={stats['h']:.3g}): the implicit Euler equation has no solution near the "
+                f"step, even split into 64; the solution may blow up here, or use a smaller dt")
     elif status == 5:
         msg += f" (h={stats['h']:.3g}); the solution may blow up or be discontinuous here"
     why = singular_direction(model, stats["t_fail"], x_last, p) if status == SINGULAR_STATUS else ""
@@ -486,16 +502,18 @@ def simulate(model, x0, t_span, p=None, r=None, method="dop853", rtol=1e-6, atol
              t_eval=None, dt=None, max_steps=100000, first_step=None, max_step=None,
              project=False, stiff_check=True, n_points=None, baumgarte=0.0,
              pi_beta=PI_BETA, raise_on_failure=True, events=None, max_events=DEFAULT_MAX_EVENTS,
-             K=None, x_ref=None, consistent=False, sensitivities=False):
+             K=None, x_ref=None, consistent=False, sensitivities=False, switching=True):
     """Integrate ``model`` from ``x0`` over ``t_span``; returns a SimulationResult.
 
     x0/p: arrays or {name: value} dicts (missing names -> the model's initial_state (0 without
     one) / the parameter defaults); x0=None starts at the model's initial_state.  r: constant
     array, (t_grid, values) interpolated linearly in C, (t_grid, values, "cubic") by a
     cubic spline (not-a-knot, scipy's CubicSpline) in C, or a callable (see below).
-    method: rk4 (needs dt), dopri5/rk45, dop853, radau.  Output at
+    method: rk4 (needs dt), dopri5/rk45, dop853, radau, implicitfast (needs dt and
+    jac_x: fixed-step linearly implicit Euler for stiff contact at real-time steps,
+    first order; runtime/c/eomc_fixedstep.c).  Output at
     t_eval (dense output) or, by default, on n_points (1001) equally spaced times
-    (rk4: its step grid).  project=True projects onto the model's constraints
+    (rk4, implicitfast: their step grid).  project=True projects onto the model's constraints
     after each step; baumgarte=a > 0 instead adds -a G^+ g to the rhs, so
     constraint residuals decay like exp(-a t) (Baumgarte-style).  pi_beta: Hairer's
     stabilized step control for dopri5/dop853 (0.04; 0 gives the classical control,
@@ -520,6 +538,12 @@ def simulate(model, x0, t_span, p=None, r=None, method="dop853", rtol=1e-6, atol
     sensitivities: True, "x0", "p" or a list of state/parameter names integrates the
     variational equations too (runtime/sensitivity.py; needs jac_x, and jac_p for
     parameters): result.dx_dx0 (n_t, nx, states) and result.dx_dp (n_t, nx, parameters).
+
+    Contacts and joint limits (runtime/switching.py): every method ends its steps at
+    touch-down, lift-off and limit entry and restarts there (switching=False turns that
+    off, to measure the bare method); a run that penetrates a contact or overshoots a
+    limit beyond the stated bounds warns (PhysicsWarning, naming the contact or joint),
+    and one that creates energy in a passive model with an ``energy`` output fails.
     """
     if sensitivities is not False and sensitivities is not None:
         return _simulate_sensitivities(model, x0, t_span, sensitivities, p=p, r=r, method=method,
@@ -535,7 +559,7 @@ def simulate(model, x0, t_span, p=None, r=None, method="dop853", rtol=1e-6, atol
                 dt=dt, max_steps=max_steps, first_step=first_step, max_step=max_step,
                 project=project, stiff_check=stiff_check, n_points=n_points,
                 baumgarte=baumgarte, pi_beta=pi_beta, events=events, max_events=max_events,
-                K=K, x_ref=x_ref)
+                K=K, x_ref=x_ref, switching=switching)
     x_out, stats, x_last = run_prepared(model, a)
     result = finish(model, a, x_out, stats, x_last, raise_on_failure)
     if project and not consistent and model.nhol + model.nvel:
@@ -642,7 +666,15 @@ def finish(model, a, x_out, stats, x_last, raise_on_failure=True):
         constraint_residual=None if residual is None else np.max(np.abs(residual), axis=1),
         stats=stats, status=status, message=message, method=a["method"], model_name=model.name,
         x_final=x_last, t_final=stats["t"], nq=model.nq)
-    if ev is not None:
+    if ev is not None and "switches" in a and status == 0:
+        from .switching import verdict
+        bad, why = verdict(model, a, result, ev.switch_maxima(), a["switches"])
+        if bad:
+            result.status = bad
+            result.message = f"{model.name}: {a['method']}: {why}"
+            if raise_on_failure:
+                raise SimulationError(result.message)
+    if ev is not None and "events" in a:
         result.t_events, result.x_events, result.event_stop, dropped = ev.results()
         if dropped:
             warnings.warn(f"{model.name}: {dropped} event occurrence(s) beyond max_events="

@@ -21,6 +21,7 @@ from eomc.runtime.version import __version__
 
 from .cache import CACHE_SCHEMA, cache_root, get_or_build, hash_key, sha256_file
 from .cache_admin import auto_prune, max_size_from_env
+from .stack import CALLGRAPH_FLAG, measure_stack, stack_header_block, supports_callgraph
 from .toolchain import DEFAULT_CFLAGS, find_compiler, run_compiler
 
 __all__ = ["BuildResult", "build", "shipped_c_dir", "SHIPPED_HEADERS", "resolve_cflags"]
@@ -103,10 +104,17 @@ def build(generated, *, backend="cffi", cflags=None, cache_dir=None, force=False
     name = generated.name
     tc = find_compiler()
     flags = resolve_cflags(cflags)
+    embedded = generated.metadata.get("target", "c99-f64") != "c99-f64"
+    if embedded and backend != "cffi":
+        raise ValueError(f"model {name!r} is built for {generated.metadata['target']}: its Python "
+                         f"module loads through cffi only (backend='cffi'); the Cython backend "
+                         f"binds the double ABI")
+    measured = embedded and supports_callgraph(tc)
     root = cache_root(cache_dir)
     c_dir = shipped_c_dir()
     lib = f"lib{name}.so"
-    link = [*tc.argv, *flags, "-shared", "-o", lib, f"{name}.c", *MODEL_RUNTIME_SOURCES, "-lm", *_link_flags()]
+    link = [*tc.argv, *flags, *([CALLGRAPH_FLAG] if measured else []), "-shared", "-o", lib, f"{name}.c",
+            *MODEL_RUNTIME_SOURCES, "-lm", *_link_flags()]
     inputs = {**_base_inputs(tc, flags), "backend": backend,
               "argv": link[len(tc.argv):],
               "source": hash_key(generated.c_source), "header": hash_key(generated.header),
@@ -123,14 +131,38 @@ def build(generated, *, backend="cffi", cflags=None, cache_dir=None, force=False
         for n in SHIPPED_HEADERS + MODEL_RUNTIME_SOURCES:
             shutil.copyfile(c_dir / n, tmp / n)
         run_compiler(link, tmp, name, key, root)
+        stack = _stack(tmp, generated, tc, measured) if embedded else None
         extension = None
         if backend == "cython":
             from .cython_ext import build_extension
             extension = build_extension(tmp, generated, tc, flags, key, root)
         (tmp / f"{name}.json").write_text(
-            _model_json(generated, key, backend, tc, flags, extra_metadata, extension))
+            _model_json(generated, key, backend, tc, flags, {**(extra_metadata or {}), **(stack or {})},
+                        extension))
 
     entry, hit = get_or_build(root, "models", key, compile_model, inputs, force=force, hold_in=hold_in)
     if not hit:
         auto_prune(root, keep=(key,))
     return BuildResult(name, entry, entry / lib, key, hit, backend)
+
+
+def _stack(tmp, generated, tc, measured):
+    """An embedded target's worst-case stack per function: into NAME.h (#defines) and NAME.json.
+
+    Measured from gcc's call-graph dump of this very compile (compiler/build/stack.py); the dump
+    files are removed after.  With a compiler that has no dump, NAME.json says so instead.
+    """
+    name = generated.name
+    if not measured:
+        return {"stack": None, "stack_note": f"not measured: {tc.version} has no {CALLGRAPH_FLAG} "
+                                             f"(gcc 10 or later does)"}
+    functions = list(generated.metadata["functions"]) + ["step_rk4"]
+    stack = measure_stack(tmp, name, functions) or {}
+    for path in list(tmp.glob("*.ci")) + list(tmp.glob("*.su")):
+        path.unlink()
+    header = tmp / f"{name}.h"
+    text = header.read_text()
+    anchor = "\n#ifdef __cplusplus\n}"
+    at = text.rfind(anchor)
+    header.write_text(text[:at] + "\n" + stack_header_block(name, stack, tc.version) + text[at:])
+    return {"stack": stack}

@@ -12,6 +12,7 @@ from pathlib import Path
 import jinja2
 
 import eomc.templates
+from eomc.runtime.errors import MissingExtraError
 
 from .cache import sha256_file
 from .toolchain import run_compiler
@@ -28,7 +29,11 @@ def _template_dir():
 
 
 def extension_key_inputs():
-    import Cython
+    try:
+        import Cython
+    except ImportError:
+        raise MissingExtraError("the Cython backend (backend='cython', --backend cython)", "cython",
+                                ["Cython"]) from None
     import numpy
     return {"cython": Cython.__version__, "numpy": numpy.__version__, "numpy_include": numpy.get_include(), "soabi": sysconfig.get_config_var("SOABI"),
             "ext_suffix": sysconfig.get_config_var("EXT_SUFFIX"),

@@ -50,10 +50,21 @@ def _environment():
                               undefined=jinja2.StrictUndefined, keep_trailing_newline=True)
 
 
-def render_module(name):
-    """The text of NAME.py."""
+_F32_METHODS = ("rhs", "jacobian", "mass_matrix", "forcing", "outputs", "step_rk4")
+
+
+def render_module(name, target="c99-f64"):
+    """The text of NAME.py (a c99-f32 build exposes its float functions: runtime/float32.py)."""
+    methods = _METHODS if target == "c99-f64" else _F32_METHODS
     return _environment().get_template("module.py.j2").render(
-        name=name, version=__version__, methods=_METHODS, exported=["model", *_METHODS])
+        name=name, version=__version__, methods=methods, exported=["model", *methods])
+
+
+def _target(json_path):
+    try:
+        return json.loads(Path(json_path).read_text()).get("target", "c99-f64")
+    except (OSError, ValueError, AttributeError):
+        return "c99-f64"
 
 
 def written_list_name(name):
@@ -155,7 +166,7 @@ def export(built, output_dir, source=None):
     source = Path(source).resolve() if source is not None else None
     name = built.name
     expected = entry_files(built.directory)
-    module_text = render_module(name)
+    module_text = render_module(name, _target(built.directory / f"{name}.json"))
     _reclaim_tmp(output_dir)
     try:
         tmp = Path(tempfile.mkdtemp(prefix=f"{_TMP_PREFIX}{os.getpid()}-", dir=output_dir))

@@ -154,12 +154,16 @@ class ContactLoad:
     frame: str = "contact"
     moment: sm.Matrix = field(default_factory=lambda: sm.zeros(3, 1))
     force: sm.Matrix = field(default_factory=lambda: sm.zeros(3, 1))
+    # an ellipsoid's A = R diag(a²) Rᵀ (body frame, 3x3 rows): the point is its support point
+    # in the plane's normal, found at each call (eomc.compiler.contact.geometry); else None
+    shape: tuple = None
 
     @property
     def exprs(self):
         """Everything that defines it, for the generation cache's key (tree_exprs)."""
+        more = [x for row in self.shape for x in row] if self.shape is not None else []
         return ([sm.Integer(self.body)] + list(self.offset)
-                + [self.params[k] for k in DEFAULTS] + list(self.normal) + [self.height])
+                + [self.params[k] for k in DEFAULTS] + list(self.normal) + [self.height] + more)
 
 
 def _link_frames(source, link):
@@ -394,6 +398,11 @@ def lower_contacts(tree, bodies, rec, v, rename):
         params = {k: rename(s, what) for k, s in load.params.items()}
         R = poses.rotation(i)
         o = poses.origin(i)
+        if load.shape is not None:      # an ellipsoid: its support point c - A n / sqrt(n A n)
+            n_b = _mat3(R, load.normal)
+            An = [sum((a * x for a, x in zip(row, n_b)), sm.S.Zero) for row in load.shape]
+            s = rec.let(sm.sqrt(sum((x * y for x, y in zip(n_b, An)), sm.S.Zero)))
+            off = [rec.let(off[k] - An[k] / s) for k in range(3)]
         w_b, v_b = v[i][:3], v[i][3:]
         vp_b = [v_b[k] + c for k, c in enumerate(_cross(w_b, off))]
         centre = [rec.let(o[k] + x) for k, x in enumerate(_mat3T(R, off))]

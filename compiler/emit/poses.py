@@ -163,8 +163,9 @@ def pose_source(system, geometry=None, model=None):
     extra_frame_edges, extra_point_edges = [], []
     if urdf is not None:   # every link frame: those welded to a body or to the ground too
         if model is None:
-            from eomc.runtime.geometry import loaded_urdf, urdf_link_transforms, urdf_visuals
-            loaded = loaded_urdf(urdf.tree.path)
+            from eomc.runtime.geometry import urdf_link_transforms, urdf_visuals
+            from eomc.runtime.urdf_scene import load_scene
+            loaded = load_scene(urdf.tree.path)
             welds, shapes = urdf_link_transforms(urdf.tree, loaded), urdf_visuals(urdf.tree, loaded)
         else:
             welds, shapes = model.welds, model.shapes

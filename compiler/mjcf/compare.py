@@ -12,7 +12,7 @@ import numpy as np
 
 from .treeir import MjcfTree
 
-__all__ = ["to_mujoco", "qacc_of", "prepared"]
+__all__ = ["to_mujoco", "from_mujoco", "qacc_of", "prepared"]
 
 
 def _xyz_matrix(rx, ry, rz):
@@ -56,6 +56,27 @@ def to_mujoco(m, built: MjcfTree, q, u):
             qvel[d:d + 3] = R @ u[iu:iu + 3]
             qvel[d + 3:d + 6] = u[iu + 3:iu + 6]
     return qpos, qvel
+
+
+def from_mujoco(m, built: MjcfTree, qpos, qvel):
+    """(q, u): eomc's coordinates and speeds of MuJoCo's (qpos, qvel), the inverse of :func:`to_mujoco`."""
+    from .treeir import quat_matrix
+    from .model import _xyz_angles
+    q, u = np.zeros(len(built.coordinates)), np.zeros(len(built.speeds))
+    for j, kind, iq, iu in built.joints:
+        a, d = int(m.jnt_qposadr[j]), int(m.jnt_dofadr[j])
+        if kind in (2, 3):
+            q[iq], u[iu] = qpos[a], qvel[d]
+        elif kind == 1:
+            q[iq:iq + 3] = _xyz_angles(quat_matrix(qpos[a:a + 4]))
+            u[iu:iu + 3] = qvel[d:d + 3]
+        else:
+            R = quat_matrix(qpos[a + 3:a + 7])
+            q[iq:iq + 3] = qpos[a:a + 3]
+            q[iq + 3:iq + 6] = _xyz_angles(R)
+            u[iu:iu + 3] = R.T @ qvel[d:d + 3]
+            u[iu + 3:iu + 6] = qvel[d + 3:d + 6]
+    return q, u
 
 
 def qacc_of(m, built: MjcfTree, q, u, du):

@@ -57,6 +57,9 @@ def couplings(m):
 
 
 def _active(m, e):
+    from .options import disabled
+    if {"equality", "constraint"} & disabled(m):      # <flag equality="disable"/>: none acts
+        return False
     active = getattr(m, "eq_active0", None)
     return bool(active[e]) if active is not None else True
 

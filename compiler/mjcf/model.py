@@ -36,6 +36,9 @@ class MjcfModel:
     fold_parameters: bool = False
     contacts: tuple = ()        # ground contacts on bodies (eomc.compiler.contact.tree)
     limits: bool = True          # range limits and frictionloss act (False: both ignored)
+    # the file's collision geoms touch its ground planes as MuJoCo collides them (mjcf/collision.py):
+    # None = yes unless ``contacts`` names contacts without "@collision"; True/False = yes/no
+    geoms: bool = None
 
 
 def is_mjcf_path(model):
@@ -144,7 +147,9 @@ def check_model(m, path, ignore=()):
             warnings.warn(f"{path}: tendon {_name(m, mujoco.mjtObj.mjOBJ_TENDON, t, 'tendon')}: its range "
                           f"limits are not modelled (contacts and limits are off; ignore=('limits',) silences "
                           f"this)", EomcWarning, stacklevel=3)
-    problems += _equality_problems(m, path, ignore)
+    from .options import disabled
+    if not {"equality", "constraint"} & disabled(m):     # <flag equality="disable"/>: none acts
+        problems += _equality_problems(m, path, ignore)
     if m.nplugin:
         problems.append(("plugins", "plugin", f"{m.nplugin} plugin(s)"))
     if m.nflex:
@@ -270,19 +275,22 @@ def read_model(model, poses=False):
     model = model if isinstance(model, MjcfModel) else MjcfModel(Path(model))
     _known(model.ignore)
     m = load_mjmodel(model.path)
+    from .options import apply_flags
+    limits_flag, friction_flag, actuation = apply_flags(m, model.path, _line)     # <option><flag>: on eomc's copy of m
     motors = check_model(m, model.path, model.ignore)
+    if not actuation and motors:
+        warnings.warn(f"{model.path}: <flag actuation=\"disable\"/>: the {len(motors)} actuator(s) are left out "
+                      f"(MuJoCo applies no actuator force; the model has no inputs)", EomcWarning, stacklevel=3)
+        motors = []
     from eomc.compiler.tree.joint_laws import JointLawError
     try:
         built = tree_ir(m, fold=model.fold_parameters, actuators=motors,
-                        limits=model.limits and "limits" not in model.ignore,
-                        friction=model.limits and "frictionloss" not in model.ignore)
+                        limits=model.limits and limits_flag and "limits" not in model.ignore,
+                        friction=model.limits and friction_flag and "frictionloss" not in model.ignore)
     except JointLawError as exc:     # the numbers of a joint's limit or friction: its line
         raise ModelFileError(f"<joint>: {exc}", str(model.path), _line(model.path, "joint", exc.joint)) \
             from None
-    outputs, events = {}, {}
-    if model.contacts:
-        from eomc.compiler.contact.tree import with_mjcf_contacts
-        built, outputs, events = with_mjcf_contacts(built, m, model.contacts, fold=model.fold_parameters)
+    built, outputs, events = _with_contacts(model, m, built)
     extra = {}
     if poses:
         from .poses import mjcf_pose_source
@@ -299,6 +307,7 @@ def read_model(model, poses=False):
     return model_of_tree(built.tree, Provenance("mjcf", str(model.path)), frames=tuple(frames),
                          defaults=dict(built.parameters), joint_inputs=tuple(built.inputs),
                          outputs=outputs, events=events, initial_state=reference_state(m, built),
+                         timestep=float(m.opt.timestep),
                          kane_refusal="an MJCF model has the recursive formulation only: MuJoCo's model is "
                                       "read straight into the joint tree, with no SymPy System to form "
                                       "Kane's equations of", **extra)
@@ -324,7 +333,42 @@ def mjcf_formed(read, overrides):
     values = merged_defaults(overrides, read, read.defaults, read.joint_inputs)
     if values.get("initial_state") is None:
         values["initial_state"] = dict(read.initial_state)
+    values["timestep"] = read.timestep       # into the built model's metadata (model.timestep)
     return read, values
+
+
+def _with_contacts(model, m, built):
+    """(built, outputs, events) with the ground contacts: the ones ``model.contacts`` names (spheres
+    on bodies), and the file's collision geoms against its ground planes (:mod:`.collision`) unless
+    contacts are named without ``"@collision"`` (or ``"@none"``: no contacts), or ``geoms`` says."""
+    from eomc.compiler.contact.tree import COLLISION_SPHERES, as_spec, with_mjcf_contacts
+    specs = [as_spec(c) for c in model.contacts]
+    named = [s for s in specs if s.link not in (COLLISION_SPHERES, "@none")]
+    geoms = model.geoms
+    if geoms is None:
+        geoms = not specs or any(s.link == COLLISION_SPHERES for s in specs)
+    outputs, events = {}, {}
+    if named:
+        built, outputs, events = with_mjcf_contacts(built, m, named, fold=model.fold_parameters)
+    if geoms:
+        from eomc.compiler.contact.geometry import with_shapes
+        from eomc.compiler.contact.tree import _com
+        from .collision import ground_geoms
+        found = ground_geoms(m, model.path)
+        if found:
+            built, more_outputs, more_events = with_shapes(built, _shapes(built, found), lambda i: _com(
+                built, built.tree.bodies[i].name, built.owners[i][1]), fold=model.fold_parameters)
+            outputs, events = {**outputs, **more_outputs}, {**events, **more_events}
+    return built, outputs, events
+
+
+def _shapes(built, found):
+    """The contact shapes (eomc.compiler.contact.geometry.Shape) of MuJoCo's ground geoms."""
+    from eomc.compiler.contact.geometry import Shape
+    tree_body = {owner[0]: i for i, owner in enumerate(built.owners) if owner is not None}
+    return [Shape(name=g.name, body=tree_body[g.body], kind=g.kind, size=g.size, pos=g.pos, rot=g.rot,
+                  normal=g.normal, height=g.height, k=g.k, c=g.c, mu=g.mu, vertices=g.vertices,
+                  where=f"geom {g.name}") for g in found]
 
 
 def _xyz_angles(R):

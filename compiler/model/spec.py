@@ -44,6 +44,7 @@ class ModelSpec:
     # the multibody model a reader produced (a robot file's, or a System's tree): frames,
     # poses, shapes; on a robot's Kane route beside Kane's formed system
     model: Optional[Model] = field(default=None, repr=False)
+    timestep: float = None              # the model file's own time step (MJCF <option timestep>), or None
 
 
 @dataclass(frozen=True)
@@ -162,7 +163,8 @@ def _checked(values, formed, name, where, origin=""):
                                         {**(outputs or {}), **(events or {})}),
             inputs=check_inputs(values.get("inputs"), formed),
             initial_state=check_initial_state(values.get("initial_state"), formed),
-            outputs=outputs, system=values.get("system"), geometry=values.get("geometry"))
+            outputs=outputs, system=values.get("system"), geometry=values.get("geometry"),
+            timestep=values.get("timestep"))
     except Invalid as exc:
         raise where(exc) from None
 

@@ -94,6 +94,7 @@ class Model:
     outputs: Mapping[str, sm.Expr] = field(default_factory=dict, compare=False)
     events: Mapping[str, sm.Expr] = field(default_factory=dict, compare=False)
     initial_state: Optional[Mapping[str, float]] = None
+    timestep: Optional[float] = None     # the file's own time step (MJCF <option timestep>)
     mechanics: Optional[Callable[[], sm.physics.mechanics.System]] = field(default=None, compare=False,
                                                                          repr=False)
     refusal: Optional[str] = None

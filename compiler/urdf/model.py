@@ -66,8 +66,8 @@ def urdf_overrides(system, formed, overrides):
 def read_model(model, poses=False):
     """The :class:`~eomc.compiler.multibody.model.Model` of a URDF file or :class:`UrdfModel`:
     the file parsed once (lxml), its links merged into the joint tree, every link a frame,
-    and with ``poses`` the animation's bodies and visuals (yourdfpy's model built from the
-    same parsed document).  Nothing after this reads the file."""
+    and with ``poses`` the animation's bodies and visuals (eomc.runtime.urdf_scene read from
+    the same parsed document).  Nothing after this reads the file."""
     from . import build_tree, read_urdf
     model = model if isinstance(model, UrdfModel) else UrdfModel(Path(model))
     robot = read_urdf(model.path)
@@ -95,8 +95,9 @@ def model_of_robot(robot, tree, model, poses=False):
         built, outputs, events = with_contacts(built, model.contacts, fold=model.fold_parameters)
     extra = {}
     if poses:
-        from eomc.runtime.geometry import loaded_urdf, urdf_link_transforms, urdf_visuals
-        loaded = loaded_urdf(robot.path, robot.xml)
+        from eomc.runtime.geometry import urdf_link_transforms, urdf_visuals
+        from eomc.runtime.urdf_scene import load_scene
+        loaded = load_scene(robot.path, robot.xml)
         extra["welds"] = urdf_link_transforms(tree, loaded)
         extra["shapes"] = urdf_visuals(tree, loaded)
         extra["poses"] = pose_source(built, extra["welds"], extra["shapes"])

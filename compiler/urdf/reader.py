@@ -57,7 +57,7 @@ class UrdfRobot:
     joints: list                      # UrdfJoint, in file order
     line: int = None                  # the <robot> element's line
     # the parsed document (lxml), for a reader that needs more of it than these records (the
-    # visuals: eomc.runtime.geometry builds yourdfpy's model from it without parsing again)
+    # visuals: eomc.runtime.urdf_scene reads them from it without parsing again)
     xml: "lxml.etree._Element" = field(default=None, repr=False, compare=False)
 
 

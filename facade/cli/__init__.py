@@ -18,15 +18,19 @@ from importlib import import_module
 from eomc import __version__
 from eomc.errors import EomcError, EomcWarning
 
+from .helptext import DESCRIPTION, EPILOG, OptionHelp
+
 # subcommand -> (module, one-line help)
 SUBCOMMANDS = {
     "show": ("eomc.cli.show", "derive a model file's equations of motion and print them"),
     "build": ("eomc.cli.build", "compile a model file to C, a shared library and a Python module"),
     "inspect": ("eomc.cli.inspect", "print operation counts, mass-matrix sparsity and sizes"),
     "simulate": ("eomc.cli.simulate", "integrate a model and write its trajectory"),
-    "report": ("eomc.cli.report", "error against run time over methods and tolerances"),
-    "check": ("eomc.cli.check", "stability checks on stiff and extreme cases"),
-    "linearize": ("eomc.cli.linearize", "A, B and eigenvalues at an operating point (--reduced)"),
+    "report": ("eomc.cli.report", "compare integration methods and tolerances (error against cost) and "
+                                  "recommend one"),
+    "check": ("eomc.cli.check", "check a model before trusting its runs: stiffness, accuracy, drift, "
+                                "conditioning"),
+    "linearize": ("eomc.cli.linearize", "A, B and eigenvalues at a state"),
     "cache": ("eomc.cli.cache", "show, prune or clear the build cache"),
     "sweep": ("eomc.cli.sweep", "simulate every case of a CSV on local processes or a Dask cluster"),
     "animate": ("eomc.cli.animate", "a self-contained HTML page (3-D) or GIF/MP4 (2-D) of the motion"),
@@ -34,12 +38,23 @@ SUBCOMMANDS = {
 
 
 def _parser():
-    parser = argparse.ArgumentParser(prog="eomc", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="eomc", description=DESCRIPTION, epilog=EPILOG,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--version", action="version", version=f"eomc {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name, (module_name, help_text) in SUBCOMMANDS.items():
         sub.add_parser(name, help=help_text, add_help=False)
     return parser
+
+
+def command_parser(name):
+    """(module, argparse parser) of subcommand ``name``, configured as ``eomc NAME`` parses."""
+    module_name, help_text = SUBCOMMANDS[name]
+    module = import_module(module_name)
+    sub = argparse.ArgumentParser(prog=f"eomc {name}", description=help_text)
+    module.configure(sub)
+    sub.formatter_class = OptionHelp
+    return module, sub
 
 
 def main(argv=None):
@@ -50,16 +65,14 @@ def main(argv=None):
         parser.print_help()
         return 2
     name, rest = argv[0], argv[1:]
-    module_name, help_text = SUBCOMMANDS[name]
+    module_name = SUBCOMMANDS[name][0]
     try:
-        module = import_module(module_name)
+        module, sub = command_parser(name)
     except ModuleNotFoundError as exc:
         if exc.name == module_name:
             print(f"eomc {name}: not available in this version", file=sys.stderr)
             return 2
         raise
-    sub = argparse.ArgumentParser(prog=f"eomc {name}", description=help_text)
-    module.configure(sub)
     args = sub.parse_args(rest)
     previous_format = _plain_warnings(name)
     previous = _terminate_as_interrupt()

@@ -6,7 +6,6 @@ writes one self-contained HTML page that animates it in 3-D offline
 (eomc.runtime.animate); ``--gif``/``--mp4`` draw a planar motion in 2-D.  The
 model must have been built with ``poses`` (the default function set).
 """
-import argparse
 
 from . import common as cli_common
 from .simulate import events_argument, inputs_argument
@@ -42,7 +41,6 @@ def configure(parser):
     parser.add_argument("--events", metavar="LIST", help="events, as eomc simulate")
     parser.add_argument("--formulation", choices=("auto", "kane", "recursive"), default="auto",
                         help="dynamics formulation (model files and URDF)")
-    parser.formatter_class = argparse.ArgumentDefaultsHelpFormatter
 
 
 def read_trajectory(model, path):

@@ -28,6 +28,10 @@ def add_generate_options(parser):
 def configure(parser):
     add_generate_options(parser)
     parser.add_argument("-o", "--output", required=True, metavar="DIR", help="directory to write into")
+    parser.add_argument("--target", choices=("c99-f64", "c99-f32"), default="c99-f64",
+                        help="generated C: c99-f64 (default; double, loads into Python) or c99-f32 "
+                             "(float for microcontrollers: sinf/sqrtf only, no heap, a stack bound per "
+                             "function in NAME.h, a fixed-step NAME_step_rk4)")
     parser.add_argument("--backend", choices=("cffi", "cython"), default="cffi",
                         help="Python binding: cffi (ABI mode, no extension to compile; default) or cython")
     parser.add_argument("--cflags", help="C compiler flags replacing the default '-O2 -fPIC -std=c99' "
@@ -49,12 +53,16 @@ def run(args):
     model = compile(source, name, functions=args.outputs, fold_parameters=args.fold_parameters,
                     backend=args.backend, cflags=args.cflags, cache_dir=args.cache_dir,
                     output_dir=args.output, progress=not args.quiet, formulation=args.formulation,
-                    contacts=args.contact, frames=args.frame)
+                    contacts=args.contact, frames=args.frame, target=args.target)
     files = sorted(p.name for p in model.directory.iterdir() if p.is_file() and not p.name.startswith("."))
     print(f"built model {model.name!r} (nq={model.nq}, nu={model.nu}, nparam={model.nparam}, "
           f"ninput={model.ninput}) in {model.directory}:")
     for name in files:
         print(f"  {name}")
+    stack = model.metadata.get("stack")
+    if stack:                # c99-f32: the worst-case stack measured at build time
+        print("stack (bytes, worst case over the calls inside NAME.c): "
+              + ", ".join(f"{fn} {s['bytes']}" for fn, s in stack.items()))
     note = model.metadata.get("formulation_note")
     if note:                 # auto fell back from the recursive formulation: say to what and why
         print(f"formulation: {note}")

@@ -4,7 +4,6 @@ Runs eomc.runtime.stability.check_model from the model's initial state (or
 --x0) and prints each check with what was expected and what was measured.
 Exit status 1 when a check failed, so it can gate CI.
 """
-import argparse
 
 from . import common as cli_common
 
@@ -18,7 +17,6 @@ def configure(parser):
     parser.add_argument("--rtol", type=float, default=1e-8, help="relative tolerance to check")
     parser.add_argument("--atol", type=float, default=1e-10, help="absolute tolerance to check")
     parser.add_argument("--methods", default="dopri5,dop853,radau", help="methods to check")
-    parser.formatter_class = argparse.ArgumentDefaultsHelpFormatter
 
 
 def run(args):

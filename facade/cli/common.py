@@ -40,7 +40,7 @@ def add_robot_arguments(parser):
 
 CONTACT_HELP = ("URDF/MJCF: a ground contact sphere on LINK (an MJCF body), centred at x,y,z in its frame "
                 "(default 0,0,0), of the given radius (default 0); repeat for more; @collision adds every "
-                "collision sphere; parameters k_/c_/mu_/vs_/r_<link> (see README, Ground contact)")
+                "collision sphere; parameters k_/c_/mu_/vs_/r_<link> (see docs/contact.md)")
 
 
 def add_contact_argument(parser):

@@ -5,7 +5,6 @@ constraints with --consistent); --reduced eliminates the dependent states
 through the constraint Jacobian (model.linearize_reduced), --fixed names the
 independent states to keep instead of the model's own.
 """
-import argparse
 
 import numpy as np
 
@@ -26,7 +25,6 @@ def configure(parser):
                         help="with --reduced: the independent states, comma-separated")
     parser.add_argument("--consistent", action="store_true",
                         help="complete the dependent coordinates and speeds of the point first")
-    parser.formatter_class = argparse.ArgumentDefaultsHelpFormatter
 
 
 def _matrix(label, M, rows, cols):

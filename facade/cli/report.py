@@ -6,7 +6,6 @@ OUTDIR/report.csv, report.png and report.md (see eomc.runtime.report for what
 each column means) and prints the table and the recommendation; progress goes
 to stderr.
 """
-import argparse
 import sys
 from pathlib import Path
 
@@ -19,7 +18,6 @@ __all__ = ["configure", "run"]
 
 def configure(parser):
     from eomc.runtime.report import DEFAULT_METHODS, DEFAULT_TARGET, DEFAULT_TOLERANCES
-    parser.formatter_class = argparse.ArgumentDefaultsHelpFormatter
     cli_common.add_model_arguments(parser)
     cli_common.add_formulation_argument(parser)
     parser.add_argument("--t-final", type=float, default=10.0, help="end of the time span")

@@ -5,7 +5,6 @@ imported only then, so simulating a built model never imports SymPy) or a
 built model directory / NAME.json / libNAME.so (loaded with eomc.load).  The
 start is the model's ``initial_state`` unless ``--x0`` overrides entries.
 """
-import argparse
 
 from . import common as cli_common
 
@@ -44,7 +43,6 @@ def configure(parser):
                         help="dynamics formulation: kane (symbolic M and f, numeric LDLT), recursive "
                              "(ABA/RNEA/CRBA over the joint tree) or auto (the cheaper rhs)")
     cli_common.add_frame_argument(parser)
-    parser.formatter_class = argparse.ArgumentDefaultsHelpFormatter
 
 
 def _input_table(path, name):

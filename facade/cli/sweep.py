@@ -9,7 +9,6 @@ local processes, or on a Dask cluster when ``--scheduler`` gives its address
 CSV, then status, t_final, the final state and outputs (``final_NAME``) and
 the failure message, if any.  Whole trajectories stay on the workers.
 """
-import argparse
 import csv
 import os
 from pathlib import Path
@@ -48,7 +47,6 @@ def configure(parser):
     parser.add_argument("--dt", type=float, help="fixed step (rk4)")
     parser.add_argument("--max-steps", type=int, default=100000, help="step limit")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
-    parser.formatter_class = argparse.ArgumentDefaultsHelpFormatter
 
 
 def read_cases(path, with_lines=False):

@@ -20,6 +20,7 @@
 #define _POSIX_C_SOURCE 200809L   /* sigaction under -std=c99 */
 #endif
 #include "eomc_integrators.h"
+#include "eomc_fixedstep.h"
 
 #include <complex.h>
 #include <signal.h>
@@ -196,6 +197,10 @@ typedef struct ctx {
     double *ev_x;            /* its state (in the events' scratch) */
     int abort;               /* nonzero: a callback failed or Ctrl-C -- the run's status, no retry */
     long sigint0;            /* g_sigint at the start of the run */
+    int nsw;                 /* switching functions (events marked switching + linear ones) */
+    int nswe;                /* of which events (a model call each) */
+    int gnew_ok;             /* the events' gnew already holds g at the step's end */
+    int sw_cuts;             /* consecutive steps cut at a switching point */
 } ctx;
 
 /* ---------------------------------------------------------------- Ctrl-C */
@@ -269,6 +274,9 @@ static int events_eval(ctx *c, double t, const double *x, double *g);
 static int events_cross(ctx *c, double tn, const double *xn, int *hits);
 static int events_locate(ctx *c, const interp *ip);
 static int events_commit(ctx *c, double tn, const double *xn, int recompute);
+static int sw_detect(ctx *c, double t, const double *x, double tn, const double *xn, int nst,
+                     const double *tst, const double *xst, int *ncross);
+static int sw_locate(ctx *c, const interp *ip, double *t_cut);
 struct outw;
 EOMC_NOINLINE int events_in_step(ctx *c, const interp *ip, struct outw *ow, double *x);
 
@@ -301,6 +309,7 @@ size_t eomc_integrate_work_size(const eomc_model *m, int method)
     case EOMC_DOPRI5:
     case EOMC_DOP853: extra = 32 * n; break;
     case EOMC_RADAU5: extra = 6 * n * n + 40 * n; break;
+    case EOMC_IMPLICITFAST: extra = eomc_fs_work_size(m->nx); break;
     default: extra = 0;
     }
     return base_size(m) + extra;
@@ -431,6 +440,7 @@ static int ctx_init(ctx *c, const eomc_model *m, const double *p, int nr,
     c->m = m; c->p = p; c->nr = nr; c->rt = rt; c->rv = rv; c->st = st; c->n = m->nx;
     c->pj = NULL; c->stab = 0.0; c->fb = NULL; c->fbJ = NULL; c->ev = NULL; c->ev_t = 0.0; c->ev_x = NULL;
     c->abort = 0; c->sigint0 = g_sigint;
+    c->nsw = 0; c->nswe = 0; c->gnew_ok = 0; c->sw_cuts = 0;
     c->r = take(pos, (size_t)m->ninput + 1);
     c->mwork = take(pos, m->work_size + 1);
     if (m->ninput > 0) {
@@ -877,7 +887,7 @@ static double stiff_hlambda(int n, double h, const double *ynew, const double *y
 static int run_erk(ctx *c, const erk *tb, const eomc_options *o, proj *pj,
                    double t0, double t1, double *x, outw *ow, double **pos)
 {
-    int n = c->n, s, iasti = 0, nonsti = 0, last_bad = 0, hits, rows;
+    int n = c->n, s, iasti = 0, nonsti = 0, last_bad = 0, hits, rows, restart;
     long maxs = o->max_steps > 0 ? o->max_steps : DEFAULT_MAX_STEPS;
     double *K = take(pos, 16 * (size_t)n), *F = take(pos, 7 * (size_t)n);
     double *ynew = take(pos, n), *ys = take(pos, n), *tmp = take(pos, n);
@@ -917,13 +927,31 @@ static int run_erk(ctx *c, const erk *tb, const eomc_options *o, proj *pj,
             st->rejected++; rejected_now = 1;
             h *= fmax(MIN_FACTOR, SAFETY * pow(err, expo));
         }
+        hits = 0; restart = 0;
+        if (c->nsw) {
+            int ncross = 0;
+            if ((s = sw_detect(c, t, x, tn, ynew, 0, NULL, NULL, &ncross))) return s;
+            if (ncross) {       /* a switching point inside the step: end the step there */
+                double tcut;
+                interp ip = {tb->is853 ? 2 : 1, n, t, tn - t, x, NULL, ynew, NULL, K, F, NULL};
+                if (tb->is853 && (s = d853_dense_prepare(c, t, tn - t, x, ynew, K, F, tmp, acc5)))
+                    return s;
+                if ((s = sw_locate(c, &ip, &tcut))) return s;
+                if (tcut > t) {                 /* redo the step up to just past the crossing */
+                    st->rejected++;
+                    h = tcut - t;
+                    c->gnew_ok = 0;
+                    continue;
+                }
+                restart = !c->ev->sw_observe;
+            }
+        }
         st->accepted++;
-        hits = 0;
         if (c->ev && (s = events_cross(c, tn, ynew, &hits))) return s;
         rows = ow->i < ow->n && ow->t[ow->i] <= tn;
         /* one call site of the DOP853 interpolant's set-up, so it stays inlined with its
            constant tables (an out-of-line copy cost 5% of a plain run under -fwrapv) */
-        if (tb->is853 && (rows || hits)
+        if (tb->is853 && (rows || hits) && !restart
             && (s = d853_dense_prepare(c, t, tn - t, x, ynew, K, F, tmp, acc5)))
             return s;
         if (hits) {
@@ -963,6 +991,10 @@ static int run_erk(ctx *c, const erk *tb, const eomc_options *o, proj *pj,
             err_old = fmax(err, 1e-4);
             if (rejected_now) f = fmin(1.0, f);
             h = (tn - t) * f;
+            if (restart) {      /* the law changed form: forget the step history */
+                err_old = 1e-4;
+                h = fmin(h, tn - t);
+            }
         }
         memcpy(K, K + (size_t)tb->s * n, (size_t)n * sizeof(double));
         if (pj->on) {
@@ -1207,7 +1239,7 @@ static int radau_step(ctx *c, const radau_consts *k, radau_ws *w, const eomc_opt
 static int run_radau(ctx *c, const eomc_options *o, proj *pj, double t0, double t1,
                      double *x, outw *ow, double **pos)
 {
-    int n = c->n, s, have_sol = 0, lu_ok = 0, cur_jac = 1, niter = 0;
+    int n = c->n, s, have_sol = 0, lu_ok = 0, cur_jac = 1, niter = 0, restart = 0;
     double *f = take(pos, n), hmax = o->hmax > 0 ? o->hmax : t1 - t0, h, t = t0;
     double h_old = -1.0, err_old = -1.0, rate = -1.0, hprev = 1.0, tprev = t0;
     radau_consts k;
@@ -1225,13 +1257,36 @@ static int run_radau(ctx *c, const eomc_options *o, proj *pj, double t0, double 
         if ((s = radau_step(c, &k, &w, o, t, t1, x, f, &h, &have_sol, hprev, tprev, &lu_ok,
                             &cur_jac, &h_old, &err_old, &tn, &niter, &rate)))
             return s;
-        c->st->accepted++;
         hused = tn - t;
-        if ((s = frhs(c, tn, w.ynew, w.fnew))) { c->st->t = t; return s; }
         for (int i = 0; i < n; i++)                  /* Q = Z^T P */
             for (int a = 0; a < 3; a++)
                 w.Q[a * n + i] = w.Z[i] * k.P[0][a] + w.Z[n + i] * k.P[1][a] + w.Z[2 * n + i] * k.P[2][a];
         memcpy(w.yold, x, (size_t)n * sizeof(double));
+        restart = 0;
+        if (c->nsw) {
+            int ncross = 0;
+            double tst[2];
+            for (int a = 0; a < 2; a++) {            /* the interior collocation points */
+                tst[a] = t + k.C[a] * hused;
+                for (int i = 0; i < n; i++) w.W[a * n + i] = x[i] + w.Z[a * n + i];
+            }
+            if ((s = sw_detect(c, t, x, tn, w.ynew, 2, tst, w.W, &ncross))) return s;
+            if (ncross) {
+                double tcut;
+                interp ip = {3, n, t, hused, w.yold, NULL, w.ynew, NULL, NULL, NULL, w.Q};
+                if ((s = sw_locate(c, &ip, &tcut))) return s;
+                if (tcut > t) {     /* redo up to just past the crossing; guess from this step */
+                    c->st->rejected++;
+                    h = tcut - t;
+                    lu_ok = 0; have_sol = 1; hprev = hused; tprev = t;
+                    c->gnew_ok = 0;
+                    continue;
+                }
+                restart = !c->ev->sw_observe;
+            }
+        }
+        c->st->accepted++;
+        if ((s = frhs(c, tn, w.ynew, w.fnew))) { c->st->t = t; return s; }
         if (c->ev) {
             int hits = 0;
             if ((s = events_cross(c, tn, w.ynew, &hits))) return s;
@@ -1248,13 +1303,17 @@ static int run_radau(ctx *c, const eomc_options *o, proj *pj, double t0, double 
             if ((s = frhs(c, tn, w.ynew, w.fnew))) return s;
         }
         if (c->ev && (s = events_commit(c, tn, w.ynew, pj->on))) return s;
-        if (have_sol == -1) {
+        if (have_sol == -1 || restart) {
             if ((s = fjac(c, tn, w.ynew, w.J))) { c->st->t = t; return s; }
             cur_jac = 1;
         } else {
             cur_jac = 0;
         }
         have_sol = 1; hprev = hused; tprev = t;
+        if (restart) {      /* the law changed form: no extrapolated guess, no step history */
+            have_sol = 0; lu_ok = 0; h_old = -1.0; err_old = -1.0;
+            h = fmin(h, hused);
+        }
         memcpy(x, w.ynew, (size_t)n * sizeof(double));
         memcpy(f, w.fnew, (size_t)n * sizeof(double));
         t = tn;
@@ -1316,12 +1375,15 @@ static int events_cross(ctx *c, double tn, const double *xn, int *hits)
     evparts e = ev_parts(c);
     int s;
     *hits = 0;
-    if ((s = events_eval(c, tn, xn, e.gnew))) return s;
+    if (ev->n == 0) return EOMC_OK;
+    if (!c->gnew_ok && (s = events_eval(c, tn, xn, e.gnew))) return s;
+    c->gnew_ok = 0;
     for (int k = 0; k < ev->n; k++) {
         double a = e.gold[ev->col[k]], b = e.gnew[ev->col[k]];
         int dir = ev->direction ? ev->direction[k] : 0;
         int up = a < 0.0 && b >= 0.0, down = a > 0.0 && b <= 0.0;
-        int hit = (up && dir >= 0) || (down && dir <= 0);
+        int hit = ((up && dir >= 0) || (down && dir <= 0))
+                  && !(ev->switching && ev->switching[k] == 2);     /* 2: switching only */
         e.hit[k] = hit;
         *hits += hit;
     }
@@ -1332,10 +1394,16 @@ static int events_cross(ctx *c, double tn, const double *xn, int *hits)
 static int event_at(ctx *c, const interp *ip, int k, double tau, double *val)
 {
     evparts e = ev_parts(c);
+    const eomc_events *ev = c->ev;
     int s;
     interp_eval(ip, tau, e.xtmp);
+    if (k >= ev->n) {           /* a linear switching function: no model call */
+        int j = k - ev->n;
+        *val = ev->lin_s[j] * (e.xtmp[ev->lin_x[j]] - c->p[ev->lin_p[j]]);
+        return EOMC_OK;
+    }
     if ((s = events_eval(c, tau, e.xtmp, e.gtmp))) return s;
-    *val = e.gtmp[c->ev->col[k]];
+    *val = e.gtmp[ev->col[k]];
     return EOMC_OK;
 }
 
@@ -1431,13 +1499,220 @@ EOMC_NOINLINE int events_in_step(ctx *c, const interp *ip, struct outw *ow, doub
     return EOMC_OK;
 }
 
+/* ------------------------------------------------------ switching functions */
+
+/* A step must end where a switching function crosses zero: the law changes form there
+ * (a contact's force starts or stops, a limit's spring engages), so a step straddling the
+ * point integrates a right-hand side that is not smooth and its error estimate does not
+ * see it -- Radau accepted steps over a whole stiff impact and gained energy (issue 29).
+ * A step whose switching function changed sign is redone to end just past the first
+ * crossing (SW_FRAC of the step beyond it); a step whose first crossing lies within its
+ * last SW_FRAC is accepted and the method restarts there. */
+#define SW_FRAC 0.01
+#define SW_MAX_CUTS 12
+
+size_t eomc_switch_scratch_size(int n, int nlin)
+{
+    return 6 * (size_t)((n > 0 ? n : 0) + (nlin > 0 ? nlin : 0)) + 8;
+}
+
+/* Per switching function: its side (1 on, 0 off), the value at the step's start, the
+ * bracket end (then root) time and value where it first differs from its side, the value
+ * at the step's end, and whether it crossed. */
+typedef struct swparts {
+    double *side, *ga, *tb, *gb, *ge, *cross;
+} swparts;
+
+static swparts sw_parts(const ctx *c)
+{
+    size_t m = (size_t)(c->ev->n + c->ev->nlin);
+    swparts w;
+    w.side = c->ev->sw_scratch; w.ga = w.side + m; w.tb = w.ga + m; w.gb = w.tb + m;
+    w.ge = w.gb + m; w.cross = w.ge + m;
+    return w;
+}
+
+static int is_switch(const eomc_events *ev, int j)
+{
+    return j >= ev->n || (ev->switching && ev->switching[j]);
+}
+
+static double sw_lin(const ctx *c, int j, const double *x)
+{
+    const eomc_events *ev = c->ev;
+    int l = j - ev->n;
+    return ev->lin_s[l] * (x[ev->lin_x[l]] - c->p[ev->lin_p[l]]);
+}
+
+static void sw_seen(const ctx *c, int j, double g)
+{
+    if (c->ev->gmax && g > c->ev->gmax[j]) c->ev->gmax[j] = g;
+}
+
+/* Sides and gmax at the start (the events' gold holds g there). */
+static void sw_start(ctx *c, const double *x)
+{
+    eomc_events *ev = c->ev;
+    evparts e = ev_parts(c);
+    swparts w = sw_parts(c);
+    int m = ev->n + ev->nlin;
+    for (int j = 0; j < m; j++) {
+        double g;
+        if (ev->gmax) ev->gmax[j] = -HUGE_VAL;
+        if (!is_switch(ev, j)) continue;
+        g = j < ev->n ? e.gold[ev->col[j]] : sw_lin(c, j, x);
+        w.side[j] = g > 0.0;
+        sw_seen(c, j, g);
+    }
+}
+
+/* Which switching functions leave their side over the step [t, tn]: at its end, or at
+ * one of nst interior points (tst, states xst, in time order: Radau's collocation
+ * points).  Leaves g(tn) in the events' gnew (gnew_ok) for events_cross. */
+static int sw_detect(ctx *c, double t, const double *x, double tn, const double *xn, int nst,
+                     const double *tst, const double *xst, int *ncross)
+{
+    eomc_events *ev = c->ev;
+    evparts e = ev_parts(c);
+    swparts w = sw_parts(c);
+    int m = ev->n + ev->nlin, s, nx = c->n;
+    (void)t;
+    *ncross = 0;
+    if (c->nswe) {
+        if ((s = events_eval(c, tn, xn, e.gnew))) return s;
+        c->gnew_ok = 1;
+    }
+    for (int j = 0; j < m; j++) {
+        double ge;
+        w.cross[j] = 0.0;
+        if (!is_switch(ev, j)) continue;
+        if (j < ev->n) { ge = e.gnew[ev->col[j]]; w.ga[j] = e.gold[ev->col[j]]; }
+        else { ge = sw_lin(c, j, xn); w.ga[j] = sw_lin(c, j, x); }
+        sw_seen(c, j, ge);
+        w.ge[j] = ge;
+        if ((ge > 0.0) != (w.side[j] > 0.0)) {
+            w.cross[j] = 1.0; w.tb[j] = tn; w.gb[j] = ge; ++*ncross;
+        }
+    }
+    for (int a = 0; a < nst; a++) {
+        const double *xa = xst + (size_t)a * nx;
+        if (c->nswe && (s = events_eval(c, tst[a], xa, e.gtmp))) return s;
+        for (int j = 0; j < m; j++) {
+            double g;
+            if (!is_switch(ev, j)) continue;
+            g = j < ev->n ? e.gtmp[ev->col[j]] : sw_lin(c, j, xa);
+            sw_seen(c, j, g);
+            if ((g > 0.0) != (w.side[j] > 0.0) && !(w.cross[j] != 0.0 && w.tb[j] <= tst[a])) {
+                if (w.cross[j] == 0.0) ++*ncross;
+                w.cross[j] = 1.0; w.tb[j] = tst[a]; w.gb[j] = g;
+            }
+        }
+    }
+    return EOMC_OK;
+}
+
+/* The first crossing on the step's dense output: *t_cut = the end of a step to redo that
+ * stops just past it, or *t_cut = the step's start when the step is accepted as it is
+ * (the crossing lies at its end): the sides flip and the caller restarts the method. */
+static int sw_locate(ctx *c, const interp *ip, double *t_cut)
+{
+    eomc_events *ev = c->ev;
+    swparts w = sw_parts(c);
+    int m = ev->n + ev->nlin, s;
+    double t = ip->t, tn = ip->t + ip->h, tr = INFINITY, cut;
+    for (int j = 0; j < m; j++) {
+        double root = t;
+        if (w.cross[j] == 0.0) continue;
+        if ((w.ga[j] > 0.0) != (w.gb[j] > 0.0)
+            && (s = event_root(c, ip, j, t, w.tb[j], w.ga[j], w.gb[j], &root)))
+            return s;
+        tr = fmin(tr, root);
+    }
+    cut = t + (tr - t) * (1.0 + 0.25 * SW_FRAC);
+    if (tn - tr > SW_FRAC * ip->h && c->sw_cuts < SW_MAX_CUTS && cut - t >= min_step(t) && cut < tn
+        && !ev->sw_observe) {
+        c->sw_cuts++;
+        *t_cut = cut;
+        return EOMC_OK;
+    }
+    for (int j = 0; j < m; j++)
+        if (w.cross[j] != 0.0) w.side[j] = w.ge[j] > 0.0;
+    c->sw_cuts = 0;
+    c->st->nswitch++;
+    *t_cut = t;
+    return EOMC_OK;
+}
+
 /* The step's end becomes the next step's start (re-evaluated after a projection). */
 static int events_commit(ctx *c, double tn, const double *xn, int recompute)
 {
     evparts e = ev_parts(c);
+    if (c->ev->n == 0) return EOMC_OK;
     if (recompute) return events_eval(c, tn, xn, e.gold);
     memcpy(e.gold, e.gnew, (size_t)c->ev->ncol * sizeof(double));
     return EOMC_OK;
+}
+
+/* ----------------------------------------- fixed-step implicit (eomc_fixedstep.c) */
+/* The step is in eomc_fixedstep.c; what every method shares (inputs, checks, events,
+ * output rows, projection) is handed to it through these callbacks. */
+
+typedef struct fs_glue {
+    ctx *c;
+    proj *pj;
+    outw *ow;
+} fs_glue;
+
+static int fs_rhs(void *g, double t, const double *x, double *f)
+{
+    return frhs(((fs_glue *)g)->c, t, x, f);
+}
+
+static int fs_jac(void *g, double t, const double *x, double *J)
+{
+    return fjac(((fs_glue *)g)->c, t, x, J);
+}
+
+/* As RK4 does after its step; the dense output is the step's line (Hermite with the
+ * secant as both slopes). */
+static int fs_accept(void *g, double t, double tn, double *x, const double *slope, double *x1,
+                     double *f1, int *stop)
+{
+    ctx *c = ((fs_glue *)g)->c;
+    proj *pj = ((fs_glue *)g)->pj;
+    outw *ow = ((fs_glue *)g)->ow;
+    int n = c->n, s;
+    double hh = tn - t;
+    *stop = 0;
+    if (!all_finite(n, x1)) return EOMC_NONFINITE;
+    if (c->ev) {
+        int hits = 0;
+        if ((s = events_cross(c, tn, x1, &hits))) return s;
+        if (hits) {
+            interp ip = {0, n, t, hh, x, slope, x1, slope, NULL, NULL, NULL};
+            if ((s = events_in_step(c, &ip, ow, x))) return s;
+            if (c->ev->terminated) { *stop = 1; return EOMC_OK; }
+        }
+    }
+    EMIT_UNTIL(ow, tn, hermite(n, hh, (tau - t) / hh, x, slope, x1, slope, row));
+    if (pj->on) {
+        if ((s = project_state(c, pj, tn, x1))) return s;
+        fix_last_row(ow, tn, x1);
+        if ((s = frhs(c, tn, x1, f1))) return s;
+    }
+    if (c->ev && (s = events_commit(c, tn, x1, pj->on))) return s;
+    return EOMC_OK;
+}
+
+static int run_implicitfast(ctx *c, const eomc_options *o, proj *pj, double t0, double t1,
+                            double *x, outw *ow, double **pos)
+{
+    fs_glue g = {c, pj, ow};
+    eomc_fs_ops ops = {&g, fs_rhs, fs_jac, fs_accept};
+    int s = eomc_fs_run(&ops, c->st, c->n, o->h0, o->max_steps, t0, t1, x,
+                        take(pos, eomc_fs_work_size(c->n)));
+    if (s == EOMC_OK && !(c->ev && c->ev->terminated)) c->st->t = t1;
+    return s;
 }
 
 /* ------------------------------------------------------------ public API */
@@ -1447,9 +1722,11 @@ static int check_args(const eomc_model *m, const eomc_options *o, double t0, dou
 {
     if (!m || !o || !x0 || !m->rhs || m->nx <= 0) return EOMC_BAD_ARGUMENT;
     if (!isfinite(t0) || !isfinite(t1) || !(t1 > t0)) return EOMC_BAD_ARGUMENT;
-    if (o->method < EOMC_RK4 || o->method > EOMC_RADAU5) return EOMC_BAD_ARGUMENT;
-    if (o->method != EOMC_RK4 && !(o->rtol > 0 && o->atol > 0)) return EOMC_BAD_ARGUMENT;
-    if (o->method == EOMC_RADAU5 && !m->jac_x) return EOMC_NOT_AVAILABLE;
+    if (o->method < EOMC_RK4 || o->method > EOMC_IMPLICITFAST) return EOMC_BAD_ARGUMENT;
+    if (o->method != EOMC_RK4 && o->method != EOMC_IMPLICITFAST && !(o->rtol > 0 && o->atol > 0))
+        return EOMC_BAD_ARGUMENT;
+    if ((o->method == EOMC_RADAU5 || o->method == EOMC_IMPLICITFAST) && !m->jac_x)
+        return EOMC_NOT_AVAILABLE;
     if (!(o->baumgarte >= 0.0) || !isfinite(o->baumgarte)) return EOMC_BAD_ARGUMENT;
     if (n_eval < 0 || (n_eval > 0 && (!t_eval || !x_out))) return EOMC_BAD_ARGUMENT;
     for (int i = 0; i < n_eval; i++)
@@ -1477,6 +1754,15 @@ static int check_extras(const eomc_model *m, const eomc_feedback *fb, const eomc
         for (int k = 0; k < ev->n; k++)
             if (ev->col[k] < 0 || ev->col[k] >= ev->ncol) return EOMC_BAD_ARGUMENT;
     }
+    if (ev && ev->nlin > 0) {
+        if (!ev->lin_x || !ev->lin_p || !ev->lin_s) return EOMC_BAD_ARGUMENT;
+        for (int j = 0; j < ev->nlin; j++)
+            if (ev->lin_x[j] < 0 || ev->lin_x[j] >= m->nx || ev->lin_p[j] < 0
+                || ev->lin_p[j] >= m->nparam || !isfinite(ev->lin_s[j]))
+                return EOMC_BAD_ARGUMENT;
+    }
+    if (ev && (ev->nlin > 0 || ev->switching) && !ev->sw_scratch) return EOMC_BAD_ARGUMENT;
+    if (ev && ev->nlin < 0) return EOMC_BAD_ARGUMENT;
     return EOMC_OK;
 }
 
@@ -1518,12 +1804,16 @@ int eomc_integrate_ex(const eomc_model *m, const eomc_options *opt,
     memcpy(x, x0, (size_t)m->nx * sizeof(double));
     ow.n = n_eval; ow.i = 0; ow.nx = m->nx; ow.t = t_eval; ow.x = x_out;
     if (pj.on) s = project_state(&c, &pj, t0, x);
-    if (s == EOMC_OK && ev && ev->n > 0) {
+    if (s == EOMC_OK && ev && (ev->n > 0 || ev->nlin > 0)) {
         evparts e;
         c.ev = ev;
         e = ev_parts(&c);
         memset(e.count, 0, (size_t)ev->n * sizeof(double));
-        s = events_eval(&c, t0, x, e.gold);
+        if (ev->n > 0) s = events_eval(&c, t0, x, e.gold);
+        for (int k = 0; k < ev->n; k++)
+            if (ev->switching && ev->switching[k]) c.nswe++;
+        c.nsw = c.nswe + ev->nlin;
+        if (s == EOMC_OK && c.nsw && !c.abort) sw_start(&c, x);
     }
     EMIT_UNTIL(&ow, t0, memcpy(row, x, (size_t)m->nx * sizeof(double)));
     if (s == EOMC_OK) {
@@ -1531,6 +1821,7 @@ int eomc_integrate_ex(const eomc_model *m, const eomc_options *opt,
         case EOMC_RK4: s = run_rk4(&c, opt, &pj, t0, t1, x, &ow, &pos); break;
         case EOMC_DOPRI5: s = run_erk(&c, &ERK_DP5, opt, &pj, t0, t1, x, &ow, &pos); break;
         case EOMC_DOP853: s = run_erk(&c, &ERK_D853, opt, &pj, t0, t1, x, &ow, &pos); break;
+        case EOMC_IMPLICITFAST: s = run_implicitfast(&c, opt, &pj, t0, t1, x, &ow, &pos); break;
         default: s = run_radau(&c, opt, &pj, t0, t1, x, &ow, &pos); break;
         }
     }

@@ -15,6 +15,11 @@
  *   EOMC_DOP853  Hairer's DOP853 8(5,3), 7th-order dense output.
  *   EOMC_RADAU5  Radau IIA order 5 (implicit, stiff), simplified Newton with
  *                the model's jac_x; real and complex LU written here.
+ *   EOMC_IMPLICITFAST  fixed-step (opt->h0) linearly implicit Euler with the
+ *                model's jac_x, kept across steps while it predicts the step
+ *                and refreshed (with Newton) when not: for real-time and
+ *                learning use on stiff contact (eomc_fixedstep.c).  First
+ *                order; linear interpolation between steps.  rtol/atol unused.
  *
  * Output is written at caller-given times t_eval (increasing, inside
  * [t0, t1]) by dense output, not by stepping to each time.
@@ -37,11 +42,12 @@ extern "C" {
 #define EOMC_DOPRI5 1
 #define EOMC_DOP853 2
 #define EOMC_RADAU5 3
+#define EOMC_IMPLICITFAST 4
 
 typedef struct eomc_options {
-    int method;          /* EOMC_RK4 ... EOMC_RADAU5 */
+    int method;          /* EOMC_RK4 ... EOMC_IMPLICITFAST */
     double rtol, atol;   /* > 0 (ignored by RK4) */
-    double h0;           /* first step; 0 = automatic.  RK4: the fixed step (> 0) */
+    double h0;           /* first step; 0 = automatic.  RK4, IMPLICITFAST: the fixed step (> 0) */
     double hmax;         /* largest step; 0 = t1 - t0 */
     long max_steps;      /* attempted steps before EOMC_MAX_STEPS; <= 0 = 100000 */
     int project;         /* 1: project onto constraints after each accepted step */
@@ -67,6 +73,7 @@ typedef struct eomc_stats {
     double h;            /* last step size tried */
     double stiff_hlambda;/* last h*|lambda| estimate of the stiffness test */
     double max_residual; /* max-norm constraint residual after projection (0 if none) */
+    long nswitch;        /* steps ended at a switching point (touch-down, lift-off, limit entry) */
 } eomc_stats;
 
 /* Doubles of work buffer eomc_integrate needs for this model and method. */
@@ -134,9 +141,32 @@ typedef struct eomc_events {
     int n_rec;           /* out */
     int terminated;      /* out: 1 if a terminal event stopped the run */
     double *scratch;
+    /* Switching functions: where the model's law changes form (a contact's penetration
+     * at touch-down and lift-off, a joint's distance past its limit).  The law is only
+     * piecewise smooth there, so no step may straddle such a point: a step over which
+     * a switching function changes sign (at its ends, or, for Radau, at an interior
+     * collocation point) is redone to end just past the crossing, and the method
+     * restarts there (fresh step-size history; Radau: new Jacobian, no extrapolated
+     * guess).  switching[k] != 0 marks event k (NULL: none).  nlin more switching
+     * functions need no model call: g_j = lin_s[j] * (x[lin_x[j]] - p[lin_p[j]])
+     * (a joint limit: q - hi, or -(q - lo)).  "On" means g > 0.  gmax (n + nlin, may be
+     * NULL) receives the largest value of each switching function seen at step ends,
+     * stage points and crossings (-HUGE_VAL if never evaluated); the caller turns it
+     * into a verdict (penetration, limit overshoot).  sw_scratch: at least
+     * eomc_switch_scratch_size(n, nlin) doubles when any switching function is given. */
+    const int *switching;
+    int nlin;
+    const int *lin_x;
+    const int *lin_p;
+    const double *lin_s;
+    double *gmax;        /* out */
+    double *sw_scratch;
+    int sw_observe;      /* 1: track gmax only, never end a step at a crossing (to measure
+                            what the bare method does) */
 } eomc_events;
 
 size_t eomc_events_scratch_size(const eomc_model *m, int ncol, int n);
+size_t eomc_switch_scratch_size(int n, int nlin);
 
 /* eomc_integrate with state feedback and/or events (see above); work needs
  * eomc_integrate_work_size(m, method) + m->ninput * m->nx doubles when

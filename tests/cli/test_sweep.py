@@ -293,7 +293,7 @@ def test_a_scheduler_without_workers_is_one_line(built, cases_csv, tmp_path, cap
 
 def test_a_lost_cluster_is_one_error(monkeypatch):
     """N11: a worker or the scheduler lost mid-sweep surfaces as Dask's exceptions; they become
-    one EomcError (the mechanism; killing a real cluster is in benchmarks/reliability_r3_batch.py)."""
+    one EomcError (the mechanism; killing a real cluster is in benchmarks/reliability_batches.py)."""
     from distributed.client import FutureCancelledError
 
     from eomc.cli import sweep as cli_sweep

@@ -1,6 +1,6 @@
-"""Ground contacts on an MJCF model (its sphere geoms, @collision): depths, forces and the
-dynamics against MuJoCo's own kinematics and mj_forward with the same forces applied
-(MuJoCo's contacts off: its contact model is not this law)."""
+"""Ground contacts named on an MJCF model's bodies (the file's geoms left out: naming contacts
+replaces them): depths, forces and the dynamics against MuJoCo's own kinematics and mj_forward
+with the same forces applied (MuJoCo's contacts off: its contact model is not this law)."""
 import numpy as np
 import pytest
 
@@ -33,7 +33,9 @@ XML = """<mujoco model="hopper1">
 def hopper(tmp_path_factory):
     path = tmp_path_factory.mktemp("mjcf") / "hopper1.xml"
     path.write_text(XML)
-    model = eomc.compile(MjcfModel(path), contacts="@collision", functions=("rhs", "outputs"),
+    spheres = [{"link": "torso", "point": (0.1, 0, 0), "radius": 0.02, "name": "nose"},
+               {"link": "leg", "point": (0.01, 0.02, -0.3), "radius": 0.03, "name": "foot"}]
+    model = eomc.compile(MjcfModel(path), contacts=spheres, functions=("rhs", "outputs"),
                          cache_dir=tmp_path_factory.mktemp("cache"))
     return path, model
 

@@ -161,7 +161,7 @@ def _full_mass_matrix(m, d):
 @pytest.fixture(scope="module")
 def hopper(tmp_path_factory):
     path = _gym_asset("hopper.xml")
-    model = eomc.compile(MjcfModel(path, ignore=("limits",)),
+    model = eomc.compile(MjcfModel(path, ignore=("limits",), geoms=False),   # MuJoCo's contacts off too
                          functions=["rhs", "mass_matrix", "inverse_dynamics"],
                          cache_dir=tmp_path_factory.mktemp("hopper"), progress=False)
     return path, model
@@ -202,11 +202,12 @@ def test_hopper_mass_matrix_and_inverse_dynamics_with_armature(hopper):
                                            ("humanoid.xml", ("limits",))])
 def test_gymnasium_model_matches_mj_forward(asset, ignore, tmp_path):
     """Shipped models (gymnasium's wheel), their armature kept on both sides, with no ignore but
-    the limits warning (humanoid's two fixed tendons apply no force: accepted as they are)."""
+    the limits warning (humanoid's two fixed tendons apply no force: accepted as they are).
+    Ground contacts off on both sides (tests/compiler/mjcf/test_ground_drops.py has them)."""
     path = _gym_asset(asset)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", EomcWarning)
-        model = eomc.compile(MjcfModel(path, ignore=ignore), functions=["rhs"], cache_dir=tmp_path,
+        model = eomc.compile(MjcfModel(path, ignore=ignore, geoms=False), functions=["rhs"], cache_dir=tmp_path,
                              progress=False)
     assert _worst(model, path, ignore) < 1e-10
 

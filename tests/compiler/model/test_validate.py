@@ -11,6 +11,8 @@ import warnings
 import pytest
 
 from helpers import model_files
+import eomc
+from eomc import mechanics as em
 from eomc.cli import main
 from eomc.compiler.model import model_spec
 from eomc.compiler.model.validate import non_real_constants
@@ -159,3 +161,14 @@ def test_cli_prints_the_warning_as_one_line(tmp_path, capsys):
     assert run.returncode == 0, run.stderr
     assert run.stderr.startswith(f"eomc show: warning: {path}: no `parameters` dict")
     assert "EomcWarning" not in run.stderr and run.stderr.count("\n") == 1
+
+
+def test_empty_system_is_refused_naming_the_missing_states(tmp_path, monkeypatch):
+    """A System with no joints or bodies used to build a 0-state model whose simulate() then
+    failed with "bad argument (the model failed at t=nan ...)"; it is refused before any C."""
+    monkeypatch.setenv("EOMC_CACHE_DIR", str(tmp_path / "cache"))
+    ground = em.RigidBody("ground")
+    system = em.System.from_newtonian(ground)
+    with pytest.raises(ModelError, match="no coordinates, speeds or states.*nothing to integrate"):
+        eomc.compile(system, progress=False)
+    assert not (tmp_path / "cache").exists() or not any((tmp_path / "cache").rglob("*.so"))

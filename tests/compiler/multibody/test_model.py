@@ -1,7 +1,7 @@
 """The multibody Model (eomc.compiler.multibody): a reader fills it once, nothing after it reads files.
 
-Counted, not assumed: parses of a URDF (lxml and yourdfpy, the two ways a URDF was read
-before the Model existed) and executions of a model file during a default (``auto``)
+Counted, not assumed: parses of a URDF (lxml: the reader's, and the visuals' and welded
+links' reader's, which read the file again before the Model existed) and executions of a model file during a default (``auto``)
 build with a frame output and the animation's poses; MuJoCo compilations of an MJCF
 file the same way.  And the defect the Model removes by construction: a URDF robot
 given an extra first-order state kept its welded links and its poses (they used to ride
@@ -47,27 +47,18 @@ def arm(tmp_path):
 
 @pytest.fixture
 def counted(monkeypatch):
-    """{"lxml": n, "yourdfpy": n, "model file": n, "mujoco": n}: reads of a file, by kind."""
-    import yourdfpy
+    """{"xml": n, "model file": n, "mujoco": n}: reads of a file, by kind (every URDF reader,
+    eomc's, eomc.runtime.urdf_scene's or yourdfpy's, parses through lxml.etree.parse)."""
     from lxml import etree
     from eomc.compiler.mjcf import model as mjcf_model
-    counts = {"lxml": 0, "yourdfpy": 0, "model file": 0, "mujoco": 0}
-    inside_yourdfpy = []
+    counts = {"xml": 0, "model file": 0, "mujoco": 0}
 
     def wrap(key, real):
         def counting(*args, **kwargs):
-            if key != "lxml" or not inside_yourdfpy:   # yourdfpy parses through lxml: one read
-                counts[key] += 1
-            if key == "yourdfpy":
-                inside_yourdfpy.append(1)
-            try:
-                return real(*args, **kwargs)
-            finally:
-                if key == "yourdfpy":
-                    inside_yourdfpy.pop()
+            counts[key] += 1
+            return real(*args, **kwargs)
         return counting
-    monkeypatch.setattr(etree, "parse", wrap("lxml", etree.parse))
-    monkeypatch.setattr(yourdfpy.URDF, "load", staticmethod(wrap("yourdfpy", yourdfpy.URDF.load)))
+    monkeypatch.setattr(etree, "parse", wrap("xml", etree.parse))
     monkeypatch.setattr(spec_module, "run_model_file", wrap("model file", spec_module.run_model_file))
     monkeypatch.setattr(mjcf_model, "load_mjmodel", wrap("mujoco", mjcf_model.load_mjmodel))
     return counts
@@ -77,7 +68,7 @@ def counted(monkeypatch):
 def test_a_urdf_is_parsed_once(arm, counted, formulation):
     _, generated = generate(str(arm), frames=["tool0"], formulation=formulation, use_cache=False,
                             progress=False)
-    assert (counted["lxml"], counted["yourdfpy"]) == (1, 0)
+    assert counted["xml"] == 1
     assert "poses" in generated.metadata["functions"] and "outputs" in generated.metadata["functions"]
     poses = generated.metadata["poses"]
     assert "tool0" in str(poses) and "box" in str(poses)    # the welded link and the visual, from the one read

@@ -20,7 +20,8 @@ static int run(const eomc_model *m, int method, const double *x0, const double *
     double te[NE], *xo = malloc(sizeof(double) * NE * m->nx), *xl = malloc(sizeof(double) * m->nx);
     size_t nw = eomc_integrate_work_size(m, method);
     double *w = malloc(sizeof(double) * nw);
-    eomc_options o = {method, 1e-7, 1e-9, method == EOMC_RK4 ? 0.01 : 0.0, 0.0, 20000,
+    eomc_options o = {method, 1e-7, 1e-9, method == EOMC_RK4 || method == EOMC_IMPLICITFAST ? 0.01 : 0.0,
+                      0.0, 20000,
                       project == 1, 1, project == 2 ? 5.0 : 0.0, 0.04};  /* project 2: baumgarte */
     eomc_stats st;
     int s;
@@ -60,6 +61,11 @@ int main(void)
         ok &= run(singular_model(), method == EOMC_RADAU5 ? EOMC_DOP853 : method, xb, ps, 0,
                   NULL, NULL, 0, 1.0, EOMC_SINGULAR_MASS_MATRIX);
     }
+    /* the fixed-step implicit method: inputs, a stiff chain, a blow-up */
+    ok &= run(oscillator_model(), EOMC_IMPLICITFAST, xp, po, 3, rt, rv, 0, 3.0, 0);
+    ok &= run(pendulum_model(), EOMC_IMPLICITFAST, xp, pp, 0, NULL, NULL, 0, 5.0, 0);
+    ok &= run(chain_model(), EOMC_IMPLICITFAST, xc, pc, 0, NULL, NULL, 0, 2.0, 0);
+    ok &= run(blowup_model(), EOMC_IMPLICITFAST, xb, NULL, 0, NULL, NULL, 0, 2.0, -2);
     ok &= run(blowup_model(), EOMC_DOPRI5, xb, NULL, 0, NULL, NULL, 0, 2.0, -2);
     ok &= run(blowup_model(), EOMC_RADAU5, xb, NULL, 0, NULL, NULL, 0, 2.0, -2);
     puts(ok ? "SANITIZE OK" : "SANITIZE MISMATCH");

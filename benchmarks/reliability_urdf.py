@@ -6,7 +6,7 @@ outcome: "clear error" (exit 1, one line naming file:line), "correct" (built, an
 built model passes the case's check), "silent wrong" (built what should have been
 refused, or a wrong model), "traceback", "hang" (over the time limit).  Each case
 runs `eomc build` in a child process with a fresh cache, as a user would.
-Usage: python benchmarks/reliability_r3_urdf.py [--quick | --n8]  (--quick: skip the longest
+Usage: python benchmarks/reliability_urdf.py [--quick | --n8]  (--quick: skip the longest
 chains; --n8: only the N8 inputs)
 """
 import os

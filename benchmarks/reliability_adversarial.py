@@ -2,7 +2,7 @@
 
 Runs the report's cases -- every F1-F13 reproduction, the appendix table of Python API
 calls, the CLI cases -- against the installed eomc, in a private EOMC_CACHE_DIR and temporary
-directories, and writes ``benchmarks/results/reliability.md``: the summary by the report's
+directories, and writes ``benchmarks/results/reliability_adversarial.md``: the summary by the report's
 categories and columns, then one line per case.
 
 Columns (as in the report):
@@ -17,7 +17,7 @@ Columns (as in the report):
   skipped  -- needs root-only tricks (read-only bind mounts); the test suite covers it by patches
 
 Python API cases run in a child process (one per group, restarted after a crash or hang), CLI
-cases as subprocesses with timeouts.  Usage: ``python benchmarks/reliability_rerun.py``.
+cases as subprocesses with timeouts.  Usage: ``python benchmarks/reliability_adversarial.py``.
 """
 import json
 import math
@@ -34,7 +34,7 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
-RESULTS = HERE / "results" / "reliability.md"
+RESULTS = HERE / "results" / "reliability_adversarial.md"
 PY = sys.executable
 EOMC = [PY, "-m", "eomc"]
 
@@ -1262,7 +1262,7 @@ def write_results(all_cases, meta):
     for c in all_cases:
         counts.setdefault(c["cat"], {k: 0 for k in COLUMNS})[c["outcome"]] += 1
     lines = ["# Reliability report rerun (issue 10)", "",
-             "Produced by `benchmarks/reliability_rerun.py`: the cases of "
+             "Produced by `benchmarks/reliability_adversarial.py`: the cases of "
              "`shared/reports/reliability-2026-11.md` (F1-F13 reproductions, the appendix of Python API "
              "calls, the CLI cases) rerun against the installed eomc with a private `EOMC_CACHE_DIR`.", ""]
     lines += [f"- {k}: {v}" for k, v in meta.items()]

@@ -10,8 +10,8 @@ the case's timeout), "skipped" (needs root for a small tmpfs).
 
 Each attempt runs in its own child Python (or CLI process) in a temporary directory with a
 private EOMC_CACHE_DIR, so nothing touches the user's cache.  Usage:
-``python benchmarks/reliability_r3_runtime.py [--rounds N] [--out FILE]``; the table is also
-written to benchmarks/results/reliability_r3_runtime.md with the load and versions.
+``python benchmarks/reliability_runtime.py [--rounds N] [--out FILE]``; the table is also
+written to benchmarks/results/reliability_runtime.md with the load and versions.
 """
 import argparse
 import os
@@ -400,7 +400,7 @@ def n10(run):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--rounds", type=int, default=10, help="N4 rounds (the report ran 20)")
-    ap.add_argument("--out", default=str(HERE / "results" / "reliability_r3_runtime.md"))
+    ap.add_argument("--out", default=str(HERE / "results" / "reliability_runtime.md"))
     args = ap.parse_args()
     with tempfile.TemporaryDirectory(prefix="eomc-r3-") as work:
         run = Run(work)

@@ -16,10 +16,10 @@ example-robot-data robots, then runs every surface script under `timeout` and `n
 Nothing is skipped silently: a script that fails, times out or cannot run is a row of the table,
 and every case the report has that this run did not record is listed as "not run".
 
-Usage:  python benchmarks/reliability_r3/run.py [--scratch DIR] [--lanes 3] [--script-timeout 1500]
+Usage:  python benchmarks/reliability_scripts/run.py [--scratch DIR] [--lanes 3] [--script-timeout 1500]
         [--scale-timeout 120] [--only s4_events,s6_consistent]
 Writes S/work/attempts.jsonl, S/logs/<script>.log and S/logs/<script>.status; prints where.  Then
-`python benchmarks/reliability_r3/review.py S` prints the tables (see its docstring).
+`python benchmarks/reliability_scripts/review.py S` prints the tables (see its docstring).
 Needs root for the `unshare -m` + bind/tmpfs mounts of s1 (F6), s7 and s8, as the report did.
 """
 import argparse

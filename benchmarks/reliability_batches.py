@@ -9,10 +9,10 @@ Every attempt prints one line ``case | outcome | detail`` with outcome one of
   traceback    -- another exception, a Traceback on stderr, or an error that does not say what is wrong
   hang         -- no answer within the attempt's timeout
 Models are built into a temporary directory with a private EOMC_CACHE_DIR; CLI attempts run as
-subprocesses (``python -m eomc``) with timeouts.  Usage: ``python benchmarks/reliability_r3_batch.py``
+subprocesses (``python -m eomc``) with timeouts.  Usage: ``python benchmarks/reliability_batches.py``
 (about 2-3 minutes on a quiet 2-core machine; add ``--no-dask-kill`` to skip the two attempts that
 start and kill a Dask scheduler and worker; ``--write`` also writes the lines to
-``benchmarks/results/reliability_r3_batch.md``).
+``benchmarks/results/reliability_batches.md``).
 """
 import contextlib
 import os
@@ -626,7 +626,7 @@ def main():
     say("totals: " + ", ".join(f"{k}: {v}" for k, v in sorted(COUNTS.items())) +
         f"; end load {os.getloadavg()[0]:.2f}")
     if "--write" in sys.argv:
-        (ROOT / "benchmarks" / "results" / "reliability_r3_batch.md").write_text("\n".join(LINES) + "\n")
+        (ROOT / "benchmarks" / "results" / "reliability_batches.md").write_text("\n".join(LINES) + "\n")
     return 0 if set(COUNTS) <= {"clear error", "correct"} else 1
 
 

@@ -10,7 +10,7 @@ for the tester's outputs of 2026-11; those reasons do not carry over to new outp
 Every case of the report's attempts.md that this run did not record is listed as "not run", and every
 script that failed or timed out is named.
 
-Usage: python benchmarks/reliability_r3/review.py SCRATCH [--md]   (SCRATCH as printed by run.py)
+Usage: python benchmarks/reliability_scripts/review.py SCRATCH [--md]   (SCRATCH as printed by run.py)
 """
 import collections
 import json

@@ -1,0 +1,166 @@
+"""Collision geometry against a ground plane: which points of a shape can touch it.
+
+One job: turn a primitive shape (or a mesh) fixed in a body into contact points of the
+smooth law (:mod:`.law`), and those into the Tree's :class:`~.tree.ContactLoad` entries.
+The law is written for a sphere (centre, radius) on a plane; every shape here is a set
+of such spheres or a support function, so the force is the law's and the generated
+code costs O(points):
+
+- sphere     its centre, its radius (exact)
+- capsule    its two end spheres (exact for a plane: the deepest point of a capsule is on
+             one of the hemispheres; lying flat, both carry half)
+- box        its 8 corners, radius 0 (exact for the box's corners; lying on a face, four
+             corners share the load)
+- cylinder   ``CYLINDER_RIM`` points on each end's rim, radius 0 (upright: the rim points
+             of the bottom disk share the load; rolling on its side, the lowest rim point
+             is up to R·(1 - cos(π/CYLINDER_RIM)) above the true lowest line)
+- ellipsoid  its support point: for the plane's normal n in body components and the
+             ellipsoid's A = R·diag(a²)·Rᵀ, the deepest point is c - A·n/sqrt(nᵀ·A·n)
+             (exact and smooth: computed in the generated code at each call)
+- mesh       the vertices of its convex hull, radius 0 (MuJoCo collides a mesh's hull too)
+
+Where the shapes come from is the reader's job (MJCF: :mod:`eomc.compiler.mjcf.collision`;
+URDF: ``<collision>``); the parameters are given per shape and shared by its points.
+"""
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import sympy as sm
+
+from eomc.runtime.errors import ModelError
+
+__all__ = ["CYLINDER_RIM", "Shape", "shape_points", "with_shapes"]
+
+CYLINDER_RIM = 8
+
+
+@dataclass(frozen=True)
+class Shape:
+    """A shape fixed in a moving body, touching the plane n·x = height (world)."""
+    name: str                  # names the parameters (k_<name>, ...) and the points' outputs
+    body: int                  # the Tree body index
+    kind: str                  # sphere, capsule, box, cylinder, ellipsoid, mesh
+    size: tuple                # MuJoCo's convention: radius; radius, half length; half sizes; ...
+    pos: tuple                 # the shape's frame in the body frame: origin (from the body origin)
+    rot: tuple                 # rotation rows: shape -> body components
+    normal: tuple
+    height: float
+    k: float
+    c: float
+    mu: float
+    vs: float = 0.01
+    vertices: tuple = ()       # a mesh's vertices, shape frame
+    where: str = ""            # for messages: "geom foot_geom", "link base collision 2"
+
+
+def shape_points(kind, size, vertices=()):
+    """(points in the shape frame, radius of each point's sphere, semi-axes or None).
+
+    The semi-axes are an ellipsoid's (its single point is its centre, and the support
+    point is found in the generated code)."""
+    s = [float(x) for x in size]
+    if kind == "sphere":
+        return [(0.0, 0.0, 0.0)], s[0], None
+    if kind == "capsule":
+        return [(0.0, 0.0, -s[1]), (0.0, 0.0, s[1])], s[0], None
+    if kind == "box":
+        return [(sx * s[0], sy * s[1], sz * s[2]) for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], 0.0, None
+    if kind == "cylinder":
+        ring = [(s[0] * math.cos(2 * math.pi * i / CYLINDER_RIM), s[0] * math.sin(2 * math.pi * i / CYLINDER_RIM))
+                for i in range(CYLINDER_RIM)]
+        ring = [(0.0 if abs(x) < 1e-15 else x, 0.0 if abs(y) < 1e-15 else y) for x, y in ring]
+        return [(x, y, z * s[1]) for z in (-1, 1) for x, y in ring], 0.0, None
+    if kind == "ellipsoid":
+        return [(0.0, 0.0, 0.0)], 0.0, tuple(s[:3])
+    if kind == "mesh":
+        v = np.asarray(vertices, dtype=float).reshape(-1, 3)
+        if len(v) < 4:
+            return [tuple(x) for x in v], 0.0, None
+        from scipy.spatial import ConvexHull
+        try:
+            hull = ConvexHull(v)
+            keep = sorted(set(int(i) for i in hull.vertices))
+        except Exception:               # flat or degenerate: every vertex
+            keep = range(len(v))
+        return [tuple(float(x) for x in v[i]) for i in keep], 0.0, None
+    raise ValueError(f"no contact for a {kind} against a plane")
+
+
+def _symbols(name, with_radius, taken):
+    """The shape's parameters k_, c_, mu_, vs_ (and r_) <name>; '_geom' appended when a name is
+    already a parameter of the model (a joint's stiffness k_<joint> of the same name)."""
+    keys = ("k", "c", "mu", "vs") + (("r",) if with_radius else ())
+    base = name
+    while any(f"{key}_{base}" in taken for key in keys):
+        base += "_geom"
+    return {key: sm.Symbol(f"{key}_{base}", real=True) for key in keys}, base
+
+
+def with_shapes(built, shapes, com_of, fold=False):
+    """(built with the shapes' contacts in its tree's loads and their parameters, outputs,
+    events).  ``built``: a reader's tree record (``.tree``, ``.parameters``); ``com_of(i)``:
+    Tree body ``i``'s origin (its mass centre) in its frame, as the tree writes it (symbols
+    or numbers).  Each point's outputs ``Fn_``/``Ftx_``/``Fty_``/``Ftz_``/``depth_<point>``
+    and event ``contact_<point>``: <point> is the shape's name, with ``_<i>`` when it has several."""
+    import dataclasses
+    from .law import check_value
+    from .tree import OUTPUT_KINDS, ContactLoad, ContactValue
+    tree = built.tree
+    loads = list(tree.loads)
+    first = sum(1 for ld in loads if isinstance(ld, ContactLoad))
+    parameters = dict(built.parameters)
+    taken = {str(s) for s in parameters}
+    outputs, events, seen = {}, {}, set()
+    for shape in shapes:
+        try:
+            points, radius, axes = shape_points(shape.kind, shape.size, shape.vertices)
+        except ValueError as exc:
+            raise ModelError(f"{shape.where or shape.name}: {exc}") from None
+        if not points:
+            continue
+        values = {"k": shape.k, "c": shape.c, "mu": shape.mu, "vs": shape.vs}
+        for key, value in values.items():
+            try:
+                check_value(shape.name, key, value, shape.where or None)
+            except ValueError as exc:
+                raise ModelError(str(exc)) from None
+        syms, base = _symbols(shape.name, radius > 0, taken)
+        if base in seen:
+            raise ModelError(f"{shape.where or shape.name}: contact name {base!r} is used twice")
+        seen.add(base)
+        values["r"] = radius
+        if fold:
+            params = {key: sm.Float(values[key], 17) for key in syms}
+        else:
+            params = dict(syms)
+            for key, symbol in syms.items():
+                parameters[symbol] = values[key]
+                taken.add(str(symbol))
+        if "r" not in params:
+            params["r"] = sm.S.Zero
+        R = np.asarray(shape.rot, dtype=float).reshape(3, 3)
+        origin = np.asarray(shape.pos, dtype=float)
+        com = com_of(shape.body)
+        shape_matrix = None
+        if axes is not None:
+            A = R @ np.diag(np.square(axes)) @ R.T
+            shape_matrix = tuple(tuple(sm.Float(float(A[r, k]), 17) if abs(A[r, k]) > 1e-300 else sm.S.Zero
+                                       for k in range(3)) for r in range(3))
+        n = [sm.Integer(int(x)) if float(x) == int(x) else sm.Float(float(x), 17) for x in shape.normal]
+        height = sm.Float(float(shape.height), 17) if shape.height else sm.S.Zero
+        for i, p in enumerate(points):
+            point = origin + R @ np.asarray(p, dtype=float)
+            label = base if len(points) == 1 else f"{base}_{i}"
+            offset = sm.Matrix([(sm.Float(float(point[r]), 17) if point[r] != 0 else sm.S.Zero) - com[r]
+                                for r in range(3)])
+            j = first + len(loads) - len(tree.loads)
+            loads.append(ContactLoad(shape.body, label, offset, params, tuple(n), height, shape=shape_matrix))
+            for kind, what in enumerate(OUTPUT_KINDS):
+                outputs[f"{what}_{label}"] = ContactValue(j, kind)
+            events[f"contact_{label}"] = ContactValue(j, OUTPUT_KINDS.index("depth"))
+    new = type(built).__new__(type(built))
+    new.__dict__.update(built.__dict__)
+    new.tree = dataclasses.replace(tree, loads=tuple(loads))
+    new.parameters = parameters
+    return new, outputs, events

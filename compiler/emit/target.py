@@ -1,0 +1,227 @@
+"""Code-generation targets: ``c99-f64`` (the default, what every printer writes) and ``c99-f32``.
+
+Why a pass over the finished C rather than a type threaded through every printer: the
+bodies come from a dozen emitters (Kane and recursive bodies, linear solves, split parts,
+tangent loops), and the generation cache stores their double text.  The generated C is a
+small, regular subset of C99 (no macros of its own but one, no hex floats, no strings in
+bodies), so a tokenizer that sees comments, strings, numbers and identifiers retargets it
+exactly: ``double`` -> ``float``, every floating literal gets an ``f`` suffix (the compiler
+rounds the decimal text straight to float, one rounding), every libm call its ``f``
+variant, the DBL_ limits their FLT_ counterparts.  The default target never passes here,
+so its C stays byte-identical.  Anything this pass cannot place (an unknown libm function,
+a literal outside float's range) is an error naming it, and the result is compiled by the
+tests under ``-Wdouble-promotion -Wfloat-conversion -Werror``, which catch any double left.
+
+The f32 target is for firmware: the ``eomc_model`` struct (double function pointers) and
+its name tables are left out; the parameter defaults become an exported const array and a
+fixed-step RK4 (``NAME_step_rk4``) is appended, so the C file needs nothing of eomc's
+runtime library (see :func:`embedded_tail`).
+"""
+import re
+import struct
+from dataclasses import replace
+
+from eomc.runtime.errors import ModelError
+
+__all__ = ["TARGETS", "DEFAULT_TARGET", "check_target", "retarget", "to_float_text", "FLT_MAX"]
+
+DEFAULT_TARGET = "c99-f64"
+TARGETS = ("c99-f64", "c99-f32")
+FLT_MAX = struct.unpack("<f", b"\xff\xff\x7f\x7f")[0]
+FLT_TRUE_MIN = struct.unpack("<f", b"\x01\x00\x00\x00")[0]
+FLT_EPSILON = 2.0 ** -23
+
+# C99's <math.h> functions of double and their float variants (7.12); the printer uses a few
+# of them, the rest are here so that a new printer rule cannot slip a double call through.
+_MATH = ("sin", "cos", "tan", "asin", "acos", "atan", "atan2", "sinh", "cosh", "tanh", "asinh",
+         "acosh", "atanh", "exp", "exp2", "expm1", "log", "log2", "log10", "log1p", "sqrt", "cbrt",
+         "pow", "fabs", "floor", "ceil", "fmod", "hypot", "fmin", "fmax", "copysign", "round",
+         "trunc", "erf", "erfc", "tgamma", "lgamma", "fma", "remainder", "nearbyint", "rint")
+_MATH_F = {f: f + "f" for f in _MATH}
+_CONSTANTS = {"DBL_EPSILON": "FLT_EPSILON", "DBL_MAX": "FLT_MAX", "DBL_MIN": "FLT_MIN",
+              "HUGE_VAL": "HUGE_VALF", "double": "float"}
+# identifiers the generated C may call besides its own NAME_* functions and the map above
+_KNOWN_CALLS = {"isfinite", "defined", "sizeof", "if", "for", "while", "return", "__attribute__",
+                "noinline", "optimize", "__noinline__"}
+
+_TOKEN = re.compile(r"""
+    (?P<comment>/\*.*?\*/|//[^\n]*)
+  | (?P<string>"(?:\\.|[^"\\\n])*"|'(?:\\.|[^'\\\n])*')
+  | (?P<number>\.?[0-9](?:[eEpP][+-]|[0-9A-Za-z_.])*)
+  | (?P<ident>[A-Za-z_][A-Za-z_0-9]*)
+  | (?P<other>\s+|.)
+""", re.S | re.X)
+
+
+def check_target(target):
+    """The target name, checked: a clear error listing the choices."""
+    target = DEFAULT_TARGET if target is None else target
+    if target not in TARGETS:
+        raise ModelError(f"unknown target {target!r}; choose one of {', '.join(TARGETS)}")
+    return target
+
+
+def _pivot_literals():
+    """Double pivot tolerances baked into expressions as literals -> their float values.
+
+    The recursive formulation's singularity test is ``D_i > 2^-46 * sum(D)`` (64 DBL_EPSILON,
+    compiler/tree/algorithms.PIVOT_TOL), printed as a number; in float the same test needs
+    64 FLT_EPSILON = 2^-17, or it would pass pivots that are rounding noise.
+    """
+    from ..tree.algorithms import PIVOT_TOL
+    return {repr(float(PIVOT_TOL)): repr(64 * FLT_EPSILON)}
+
+
+def _float_literal(text, where):
+    """``1.5`` -> ``1.5f``; refuses a literal float cannot hold (never a silent inf or 0)."""
+    low = text.lower()
+    if low.startswith("0x") or low[-1] in "fl":
+        raise ModelError(f"{where}: cannot retarget the literal {text} to float (compiler bug)")
+    value = float(text)
+    if abs(value) > FLT_MAX:
+        raise ModelError(f"{where}: the constant {text} overflows float (largest {FLT_MAX:.6g}); "
+                         f"rescale the model's units or build for c99-f64")
+    if value != 0.0 and abs(value) < FLT_TRUE_MIN:
+        raise ModelError(f"{where}: the constant {text} underflows float to zero (smallest "
+                         f"{FLT_TRUE_MIN:.3g}); rescale the model's units or build for c99-f64")
+    return text + "f"
+
+
+def to_float_text(source, where, own_prefix=None):
+    """C99 double source -> float source (see the module docstring)."""
+    pivots = _pivot_literals()
+    out = []
+    tokens = [(m.lastgroup, m.group()) for m in _TOKEN.finditer(source)]
+    for i, (kind, text) in enumerate(tokens):
+        if kind == "number" and ("." in text or "e" in text.lower()) and not text.lower().startswith("0x"):
+            text = _float_literal(pivots.get(text, text), where)
+        elif kind == "ident":
+            if text in _CONSTANTS:
+                text = _CONSTANTS[text]
+            elif _next_is_call(tokens, i):
+                if text in _MATH_F:
+                    text = _MATH_F[text]
+                elif not (text in _KNOWN_CALLS or (own_prefix and text.lower().startswith(own_prefix.lower()))):
+                    raise ModelError(f"{where}: the generated C calls {text}(), which the c99-f32 "
+                                     f"target does not know how to take to float (compiler bug)")
+        elif kind == "comment":
+            text = text.replace(" doubles", " floats")
+        out.append(text)
+    return "".join(out)
+
+
+def _next_is_call(tokens, i):
+    for kind, text in tokens[i + 1:]:
+        if kind == "other" and text.isspace():
+            continue
+        return text == "("
+    return False
+
+
+def retarget(generated, target):
+    """A :class:`GeneratedModel` for ``target`` (the default target: ``generated`` itself)."""
+    target = check_target(target)
+    if target == DEFAULT_TARGET:
+        return generated
+    name = generated.name
+    meta = dict(generated.metadata)
+    source = _cut_struct(generated.c_source, name)
+    source = to_float_text(source, f"{name}.c", own_prefix=f"{name}_")
+    source += embedded_tail(name, meta)
+    header = _f32_header(generated.header, name, meta)
+    cdef = to_float_text("\n".join(l for l in generated.cdef.split("\n")
+                                   if not l.startswith(f"const eomc_model *{name}_model(")),
+                         f"{name} declarations", own_prefix=f"{name}_")
+    cdef += f"int {name}_step_rk4(float t, float h, float *x, const float *p, const float *r, float *work);\n"
+    meta["target"] = target
+    meta["embedded"] = {"step": f"{name}_step_rk4", "param_defaults": f"{name}_param_defaults"}
+    return replace(generated, c_source=source, header=header, cdef=cdef, metadata=meta)
+
+
+def _cut_struct(source, name):
+    """The C without the name tables, the eomc_model struct and NAME_model (double ABI)."""
+    marker = f"\nstatic const char *const {name}_state_names[]"
+    at = source.find(marker)
+    if at < 0 or f"static const eomc_model {name}_model_data" not in source[at:]:
+        raise ModelError(f"{name}.c does not end with the model struct the c99-f32 target replaces "
+                         f"(compiler bug)")
+    head = source[:at].rstrip("\n") + "\n"
+    return head.replace(" * Reentrant: no globals except the static const tables at the end.",
+                        " * Target c99-f32: float only, no heap, no mutable static state; reentrant.")
+
+
+def _f32_header(header, name, meta):
+    upper = name.upper()
+    line = f"const eomc_model *{name}_model(void);\n"
+    if line not in header:
+        raise ModelError(f"{name}.h lacks the {name}_model declaration the c99-f32 target replaces "
+                         f"(compiler bug)")
+    extra = (f"#define {upper}_TARGET_F32 1\n"
+             f"/* Work arrays: {upper}_WORK_SIZE floats; declare them with {upper}_WORK_LEN, never 0 long. */\n"
+             f"#define {upper}_WORK_LEN ({upper}_WORK_SIZE > 0 ? {upper}_WORK_SIZE : 1)\n")
+    if meta["nparam"]:
+        extra += f"extern const float {name}_param_defaults[{upper}_NPARAM];\n"
+    extra += (f"/* One fixed step of the classical RK4 from (t, x) with step h, inputs r held over the\n"
+              f" * step; x is updated in place only when every stage succeeded (else left as it was). */\n"
+              f"int {name}_step_rk4(float t, float h, float *x, const float *p, const float *r, float *work);\n")
+    header = header.replace(line, extra)
+    return to_float_text(header, f"{name}.h", own_prefix=f"{name}_")
+
+
+def embedded_tail(name, meta):
+    """Parameter defaults (exported const) and NAME_step_rk4, in float C99.
+
+    The step keeps its stages in automatic arrays sized by NAME_NX: no heap, no static state,
+    its stack is measured with the rest (-fstack-usage).  One exit (MISRA C:2012 15.5).
+    """
+    upper = name.upper()
+    parts = []
+    if meta["nparam"]:
+        vals = ", ".join(_float_literal(repr(float(v)), f"{name} parameter defaults")
+                         for v in meta["param_defaults"])
+        parts.append(f"const float {name}_param_defaults[{upper}_NPARAM] = {{{vals}}};\n")
+    nx = f"{upper}_NX"
+    parts.append(f"""int {name}_step_rk4(float t, float h, float *x, const float *p, const float *r, float *work)
+{{
+    float k1[{nx}];
+    float k2[{nx}];
+    float k3[{nx}];
+    float k4[{nx}];
+    float xs[{nx}];
+    const float half = 0.5f * h;
+    const float sixth = h / 6.0f;
+    int i;
+    int status = {name}_rhs(t, x, p, r, k1, work);
+    if (status == EOMC_OK) {{
+        for (i = 0; i < {nx}; i++) {{
+            xs[i] = x[i] + (half * k1[i]);
+        }}
+        status = {name}_rhs(t + half, xs, p, r, k2, work);
+    }}
+    if (status == EOMC_OK) {{
+        for (i = 0; i < {nx}; i++) {{
+            xs[i] = x[i] + (half * k2[i]);
+        }}
+        status = {name}_rhs(t + half, xs, p, r, k3, work);
+    }}
+    if (status == EOMC_OK) {{
+        for (i = 0; i < {nx}; i++) {{
+            xs[i] = x[i] + (h * k3[i]);
+        }}
+        status = {name}_rhs(t + h, xs, p, r, k4, work);
+    }}
+    if (status == EOMC_OK) {{
+        for (i = 0; i < {nx}; i++) {{
+            xs[i] = x[i] + (sixth * (k1[i] + (2.0f * (k2[i] + k3[i])) + k4[i]));
+        }}
+        status = {name}_finite(xs, {nx});
+    }}
+    if (status == EOMC_OK) {{
+        for (i = 0; i < {nx}; i++) {{
+            x[i] = xs[i];
+        }}
+    }}
+    return status;
+}}
+""")
+    return "\n" + "\n".join(parts)

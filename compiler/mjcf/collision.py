@@ -1,0 +1,255 @@
+"""Which geoms of an MJCF model touch the ground, and with which contact law: MuJoCo's own rules.
+
+One job: from the compiled ``MjModel``, the list of :class:`GroundGeom` -- a geom on a
+moving body that MuJoCo would collide with a plane fixed in the world -- with the
+parameters of eomc's smooth law (:mod:`eomc.compiler.contact.law`) chosen so that the
+contact behaves as MuJoCo's does.  The geometry (which points of the geom can touch)
+is :mod:`eomc.compiler.contact.geometry`'s job.
+
+MuJoCo's filters (``mj_collision``), applied as MuJoCo applies them:
+
+- dynamic pairs (unless ``<flag contact="disable"/>``): the plane's and the geom's bodies
+  are not welded to one body; not parent and child of each other (both welds not the
+  world, unless ``<flag filterparent="disable"/>``); the pair not named in
+  ``<contact><exclude>``; ``(contype1 & conaffinity2) || (contype2 & conaffinity1)``;
+- explicit ``<contact><pair>``: always, with the pair's own parameters (a dynamic pair of
+  the same two geoms is replaced by it).
+
+The parameters of two geoms are mixed as ``mj_contactParam`` mixes them: the higher
+``priority`` wins, else friction and ``condim`` are the larger, ``solref``/``solimp`` the
+``solmix``-weighted mean (a direct, negative ``solref``: the smaller); ``margin`` and
+``gap`` are the sums of the two geoms' (MuJoCo 3+: ``mjContact.includemargin``).
+
+The mapping to eomc's law, per geom (the *documented rule*; the README quotes it):
+
+- δ_ref, MuJoCo's resting penetration of a contact: at rest its soft constraint holds
+  d·k·r = (1 - d)·g (acceleration space: the same for any mass) with MuJoCo's
+  k = d(r)/(dmax·tc·z)² (``solref`` = (tc, z), tc at least 2 time steps unless
+  ``refsafe`` is disabled; a negative ``solref`` gives k = -solref[0]/dmax² directly) and
+  d(r) the ``solimp`` impedance at penetration r: the fixed point of
+  r = (1 - d(r))·g/(d(r)·k(r)), g = |gravity| (9.81 without gravity).
+- stiffness k = W/δ_ref^1.5 with W = g·(mass of the geom's kinematic tree: what rests on it
+  when it alone carries the robot), so that geom rests at MuJoCo's depth.
+- damping c = 2·z·ω/(1.5·g), ω = sqrt(1.5·g/δ_ref): the linearised law at rest has the
+  damping ratio z of ``solref`` (z = b/(2·sqrt(k)) for a direct ``solref``).
+- friction coefficient mu = the sliding friction (``friction[0]``); 0 when ``condim`` = 1.
+  Torsional and rolling friction (condim 4, 6) are not modelled.
+- ``margin``: MuJoCo's constraint pulls the surfaces to ``margin`` apart, so the plane is
+  raised by ``margin`` for that geom; ``gap`` (contacts inside the margin left out) is not
+  modelled.
+- vs (the friction's regularisation speed): eomc's default, 0.01 m/s: MuJoCo's friction is
+  a soft constraint with no such speed.
+"""
+import math
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from eomc.runtime.errors import EomcWarning
+
+__all__ = ["GroundGeom", "ground_geoms", "law_parameters", "resting_depth", "GEOM_KINDS"]
+
+MINVAL = 1e-15                 # mjMINVAL
+GEOM_KINDS = {0: "plane", 1: "hfield", 2: "sphere", 3: "capsule", 4: "ellipsoid", 5: "cylinder", 6: "box",
+              7: "mesh", 8: "sdf"}
+TOUCHING = ("sphere", "capsule", "ellipsoid", "cylinder", "box", "mesh")
+
+
+@dataclass(frozen=True)
+class GroundGeom:
+    """A geom that touches a ground plane: what :mod:`eomc.compiler.contact.geometry` needs."""
+    geom: int                  # MuJoCo geom id
+    body: int                  # MuJoCo body id (a moving one)
+    name: str                  # the geom's name (or <body>_geom<id>): names parameters and outputs
+    kind: str                  # one of TOUCHING
+    size: tuple                # MuJoCo's geom_size
+    pos: tuple                 # geom frame in the body frame: origin ...
+    rot: tuple                 # ... and rotation (3x3, rows), geom -> body components
+    vertices: tuple            # a mesh's vertices (geom frame), else ()
+    normal: tuple              # the plane's unit normal (world)
+    height: float              # n·x of the plane, raised by the margin
+    k: float
+    c: float
+    mu: float
+    plane: str                 # the plane geom's name
+
+
+def _impedance(solimp, r):
+    """MuJoCo's d(r) (mju_impedance-like: solimp = d0, dmax, width, midpoint, power)."""
+    d0, dmax, width, mid, power = (float(x) for x in solimp[:5])
+    d0, dmax = min(max(d0, 1e-4), 0.9999), min(max(dmax, 1e-4), 0.9999)
+    if width <= MINVAL or d0 == dmax:
+        return 0.5 * (d0 + dmax)
+    x = min(abs(r) / width, 1.0)
+    if x >= 1.0:
+        return dmax
+    power = max(power, 1.0)
+    if power == 1:
+        y = x
+    elif x <= mid:
+        y = x ** power / mid ** (power - 1)
+    else:
+        y = 1 - (1 - x) ** power / (1 - mid) ** (power - 1)
+    return d0 + y * (dmax - d0)
+
+
+def resting_depth(solref, solimp, g, timestep=None):
+    """(δ_ref, damping ratio z): MuJoCo's penetration of a contact at rest under gravity ``g``
+    and the ratio of its damping (see the module docstring)."""
+    tc, z = float(solref[0]), float(solref[1])
+    dmax = min(max(float(solimp[1]), 1e-4), 0.9999)
+    if tc > 0 and timestep:
+        tc = max(tc, 2.0 * timestep)
+    r = 1e-3
+    for _ in range(200):
+        d = _impedance(solimp, r)
+        if tc > 0:
+            k = d / (dmax * tc * z) ** 2 if z > 0 else d / (dmax * tc) ** 2
+        else:
+            k = d * -tc / dmax ** 2
+        new = (1 - d) * g / (d * k)
+        if abs(new - r) <= 1e-15 + 1e-12 * r:
+            r = new
+            break
+        r = 0.5 * (r + new)
+    if tc > 0:
+        ratio = z if z > 0 else 1.0
+    else:
+        ratio = (-z / dmax) / (2.0 * math.sqrt(-tc / dmax ** 2)) if tc < 0 and z < 0 else 1.0
+    return r, ratio
+
+
+def law_parameters(solref, solimp, friction, condim, g, weight, timestep=None):
+    """(k, c, mu) of eomc's law for MuJoCo's contact parameters (the module docstring's rule);
+    ``weight`` (N) is what the geom carries when it alone holds its robot."""
+    depth, ratio = resting_depth(solref, solimp, g, timestep)
+    k = weight / depth ** 1.5
+    omega = math.sqrt(1.5 * g / depth)
+    c = 2.0 * ratio * omega / (1.5 * g)
+    mu = 0.0 if condim == 1 else float(friction[0])
+    return k, c, mu
+
+
+def _mix(m, g1, g2):
+    """(condim, friction, solref, solimp) of a dynamic pair, as mj_contactParam mixes them."""
+    p1, p2 = int(m.geom_priority[g1]), int(m.geom_priority[g2])
+    if p1 != p2:
+        top = g1 if p1 > p2 else g2
+        return (int(m.geom_condim[top]), np.array(m.geom_friction[top]), np.array(m.geom_solref[top]),
+                np.array(m.geom_solimp[top]))
+    s1, s2 = float(m.geom_solmix[g1]), float(m.geom_solmix[g2])
+    if s1 >= MINVAL and s2 >= MINVAL:
+        mix = s1 / (s1 + s2)
+    elif s1 < MINVAL and s2 < MINVAL:
+        mix = 0.5
+    else:
+        mix = 0.0 if s1 < MINVAL else 1.0
+    r1, r2 = np.array(m.geom_solref[g1]), np.array(m.geom_solref[g2])
+    solref = mix * r1 + (1 - mix) * r2 if r1[0] > 0 and r2[0] > 0 else np.minimum(r1, r2)
+    solimp = mix * np.array(m.geom_solimp[g1]) + (1 - mix) * np.array(m.geom_solimp[g2])
+    friction = np.maximum(m.geom_friction[g1], m.geom_friction[g2])
+    return max(int(m.geom_condim[g1]), int(m.geom_condim[g2])), friction, solref, solimp
+
+
+def _excluded(m):
+    return {int(s) for s in m.exclude_signature[:m.nexclude]}
+
+
+def _filtered(m, g1, g2, excluded, filterparent):
+    """True when MuJoCo's dynamic collision leaves the pair (g1, g2) out."""
+    b1, b2 = int(m.geom_bodyid[g1]), int(m.geom_bodyid[g2])
+    w1, w2 = int(m.body_weldid[b1]), int(m.body_weldid[b2])
+    if w1 == w2:
+        return True
+    wp1, wp2 = int(m.body_weldid[m.body_parentid[w1]]), int(m.body_weldid[m.body_parentid[w2]])
+    if filterparent and w1 != 0 and w2 != 0 and (w1 == wp2 or w2 == wp1):
+        return True
+    lo, hi = min(b1, b2), max(b1, b2)
+    if ((lo << 16) + hi) in excluded:
+        return True
+    return not ((int(m.geom_contype[g1]) & int(m.geom_conaffinity[g2]))
+                or (int(m.geom_contype[g2]) & int(m.geom_conaffinity[g1])))
+
+
+def _geom_name(m, g):
+    import mujoco
+    from eomc.compiler.urdf.tree import identifier
+    name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g)
+    if name:
+        return identifier(name)
+    body = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, int(m.geom_bodyid[g])) or f"body{int(m.geom_bodyid[g])}"
+    return f"{identifier(body)}_geom{g}"
+
+
+def _rows(R):
+    return tuple(tuple(float(x) for x in row) for row in np.asarray(R).reshape(3, 3))
+
+
+def ground_geoms(m, path=None):
+    """[GroundGeom]: every (geom, ground plane) pair MuJoCo would collide (module docstring).
+
+    Height fields and SDF geoms on moving bodies have no contact here: left out with a
+    warning naming them (MuJoCo allows planes on static bodies only)."""
+    import mujoco
+    from .treeir import quat_matrix
+    where = f"{path}: " if path else ""
+    if m.opt.disableflags & int(mujoco.mjtDisableBit.mjDSBL_CONTACT):
+        return []
+    d = mujoco.MjData(m)
+    mujoco.mj_kinematics(m, d)          # static planes' world frames
+    weld = m.body_weldid
+    planes = [g for g in range(m.ngeom) if GEOM_KINDS.get(int(m.geom_type[g])) == "plane"]  # static: MuJoCo's rule
+    excluded = _excluded(m)
+    filterparent = not (m.opt.disableflags & int(mujoco.mjtDisableBit.mjDSBL_FILTERPARENT))
+    g_mag = float(np.linalg.norm(m.opt.gravity)) or 9.81
+    timestep = None if m.opt.disableflags & int(mujoco.mjtDisableBit.mjDSBL_REFSAFE) else float(m.opt.timestep)
+    pairs = {}
+    for q in range(m.npair):                # explicit pairs first: they replace dynamic ones
+        g1, g2 = int(m.pair_geom1[q]), int(m.pair_geom2[q])
+        plane, other = (g1, g2) if g1 in planes else (g2, g1) if g2 in planes else (None, None)
+        if plane is None:
+            continue
+        pairs[(plane, other)] = (int(m.pair_dim[q]), np.array(m.pair_friction[q]), np.array(m.pair_solref[q]),
+                                 np.array(m.pair_solimp[q]), float(m.pair_margin[q]), float(m.pair_gap[q]))
+    for plane in planes:
+        for g in range(m.ngeom):
+            if g == plane or (plane, g) in pairs or _filtered(m, plane, g, excluded, filterparent):
+                continue
+            condim, friction, solref, solimp = _mix(m, plane, g)
+            pairs[(plane, g)] = (condim, friction, solref, solimp,
+                                 float(m.geom_margin[plane]) + float(m.geom_margin[g]),
+                                 float(m.geom_gap[plane]) + float(m.geom_gap[g]))
+    out, skipped = [], set()
+    for (plane, g), (condim, friction, solref, solimp, margin, gap) in sorted(pairs.items(), key=lambda x: x[0][::-1]):
+        kind = GEOM_KINDS.get(int(m.geom_type[g]), str(int(m.geom_type[g])))
+        b = int(m.geom_bodyid[g])
+        if int(weld[b]) == 0:
+            continue                         # welded to the world: it never moves
+        if kind not in TOUCHING:
+            if g not in skipped:
+                skipped.add(g)
+                warnings.warn(f"{where}geom {_geom_name(m, g)} ({kind}) on a moving body: eomc has no contact "
+                              f"for a {kind} against a plane; it passes through the ground", EomcWarning,
+                              stacklevel=3)
+            continue
+        if gap:
+            warnings.warn(f"{where}geom {_geom_name(m, g)}: contact gap {gap:g} is not modelled (the force "
+                          f"starts at the margin)", EomcWarning, stacklevel=3)
+        n = np.array(d.geom_xmat[plane]).reshape(3, 3)[:, 2]
+        height = float(n @ d.geom_xpos[plane]) + margin
+        weight = g_mag * float(m.body_subtreemass[int(m.body_rootid[b])])
+        k, c, mu = law_parameters(solref, solimp, friction, condim, g_mag, weight, timestep)
+        verts = ()
+        if kind == "mesh":
+            mesh = int(m.geom_dataid[g])
+            a, nv = int(m.mesh_vertadr[mesh]), int(m.mesh_vertnum[mesh])
+            verts = tuple(tuple(float(x) for x in v) for v in m.mesh_vert[a:a + nv])
+        name = _geom_name(m, g)
+        if len(planes) > 1:
+            name = f"{name}_{_geom_name(m, plane)}"
+        out.append(GroundGeom(geom=g, body=b, name=name, kind=kind, size=tuple(float(x) for x in m.geom_size[g]),
+                              pos=tuple(float(x) for x in m.geom_pos[g]), rot=_rows(quat_matrix(m.geom_quat[g])),
+                              vertices=verts, normal=tuple(float(x) for x in n), height=height, k=k, c=c, mu=mu,
+                              plane=_geom_name(m, plane)))
+    return out

@@ -1,0 +1,127 @@
+"""A c99-f32 build, loaded: its float functions callable from Python, for comparison with double.
+
+A c99-f32 model is firmware code (``eomc build --target c99-f32``): float signatures and no
+``eomc_model`` struct, so the integrators, sweeps and the Model class (all double) cannot
+run it.  What Python can usefully do with it is evaluate it next to the double build --
+the price of float, measured on the host -- so :class:`Float32Model` calls NAME_rhs,
+NAME_jac_x, NAME_mass_matrix, NAME_forcing, NAME_outputs and NAME_step_rk4 through cffi
+with float32 arrays, and everything else is a clear error saying what to build instead.
+"""
+import cffi
+import numpy as np
+
+from .cdef import STATUS_NAMES
+from .errors import EomcError
+
+__all__ = ["Float32Model", "FLOAT32_TARGET", "float32_cdef"]
+
+FLOAT32_TARGET = "c99-f32"
+_ARGS = "float t, const float *x, const float *p, const float *r"
+_SHAPES = {"rhs": ("nx",), "jac_x": ("nx", "nx"), "jac_r": ("nx", "ninput"),
+           "mass_matrix": ("nu", "nu"), "forcing": ("nu",), "outputs": ("noutput",),
+           "constraints": ("ncon",), "events": ("nevent",)}
+
+
+def float32_cdef(name, functions):
+    """The declarations of a c99-f32 library (compiler/emit/target.py writes the same text)."""
+    lines = [f"int {name}_{fn}({_ARGS}, float *out, float *work);" for fn in _SHAPES if fn in functions]
+    lines.append(f"int {name}_step_rk4(float t, float h, float *x, const float *p, const float *r, float *work);")
+    return "\n".join(lines) + "\n"
+
+
+class Float32Model:
+    """The float functions of a c99-f32 build (see the module docstring)."""
+
+    def __init__(self, library, metadata, directory):
+        self.metadata = metadata
+        self.name = metadata["name"]
+        self.directory = directory
+        self.target = FLOAT32_TARGET
+        for key in ("nq", "nu", "nx", "nparam", "ninput", "noutput", "work_size"):
+            setattr(self, key, int(metadata[key]))
+        self.ncon = int(metadata["nhol"]) + int(metadata["nvel"])
+        self.nevent = len(metadata.get("events") or ())
+        self.state_names = list(metadata["state_names"])
+        self.param_names = list(metadata["param_names"])
+        self.param_defaults = np.asarray(metadata["param_defaults"], dtype=np.float32)
+        self.functions = tuple(metadata["functions"])
+        self._ffi = cffi.FFI()
+        self._ffi.cdef(float32_cdef(self.name, self.functions))
+        try:
+            self._lib = self._ffi.dlopen(str(library))
+            for fn in list(_SHAPES) + ["step_rk4"]:
+                if fn in self.functions or fn == "step_rk4":
+                    getattr(self._lib, f"{self.name}_{fn}")
+        except (OSError, AttributeError) as exc:
+            from .metadata import LoadError
+            raise LoadError(f"cannot load the c99-f32 model {self.name!r} from {library}: {exc}") from None
+
+    def _vec(self, value, n, what):
+        a = np.ascontiguousarray(value, dtype=np.float32).reshape(-1)
+        if a.shape != (n,):
+            raise EomcError(f"{self.name}: {what} has {a.size} entries; the model expects {n}")
+        return a
+
+    def _ptr(self, a):
+        return self._ffi.cast("float *", self._ffi.from_buffer(a))
+
+    def _inputs(self, x, p, r):
+        x = self._vec(x, self.nx, "x")
+        p = self.param_defaults if p is None else self._vec(p, self.nparam, "p")
+        r = np.zeros(self.ninput, np.float32) if r is None else self._vec(r, self.ninput, "r")
+        return x, p, r
+
+    def _call(self, fn, t, x, p, r):
+        if fn not in self.functions:
+            raise EomcError(f"{self.name}_{fn} was not generated for this model")
+        x, p, r = self._inputs(x, p, r)
+        shape = tuple(getattr(self, k) for k in _SHAPES[fn])
+        out = np.empty(int(np.prod(shape)), np.float32)
+        work = np.empty(max(self.work_size, 1), np.float32)
+        status = getattr(self._lib, f"{self.name}_{fn}")(
+            float(t), self._ptr(x), self._ptr(p), self._ptr(r), self._ptr(out), self._ptr(work))
+        if status:
+            raise EomcError(f"{self.name}_{fn} (float) failed at t={float(t):g}: "
+                            f"{STATUS_NAMES.get(status, f'status {status}')}")
+        return out.reshape(shape)
+
+    def rhs(self, t, x, p=None, r=None):
+        """xdot in float32, shape (nx,)."""
+        return self._call("rhs", t, x, p, r)
+
+    def jacobian(self, t, x, p=None, r=None):
+        """d rhs / d x in float32, shape (nx, nx)."""
+        return self._call("jac_x", t, x, p, r)
+
+    def mass_matrix(self, t, x, p=None, r=None):
+        return self._call("mass_matrix", t, x, p, r)
+
+    def forcing(self, t, x, p=None, r=None):
+        return self._call("forcing", t, x, p, r)
+
+    def outputs(self, t, x, p=None, r=None):
+        """The named outputs as a dict name -> float (computed in float32)."""
+        values = self._call("outputs", t, x, p, r)
+        return dict(zip(self.metadata["output_names"], values.tolist()))
+
+    def step_rk4(self, t, h, x, p=None, r=None):
+        """One NAME_step_rk4 step from (t, x): the new state (float32); x is not modified."""
+        x, p, r = self._inputs(x, p, r)
+        x = x.copy()
+        work = np.empty(max(self.work_size, 1), np.float32)
+        status = getattr(self._lib, f"{self.name}_step_rk4")(
+            float(t), float(h), self._ptr(x), self._ptr(p), self._ptr(r), self._ptr(work))
+        if status:
+            raise EomcError(f"{self.name}_step_rk4 (float) failed at t={float(t):g}: "
+                            f"{STATUS_NAMES.get(status, f'status {status}')}")
+        return x
+
+    def __getattr__(self, attr):
+        if attr.startswith("_"):
+            raise AttributeError(attr)
+        raise EomcError(f"model {self.name!r} was built for {FLOAT32_TARGET} (firmware): from Python it "
+                        f"evaluates rhs, jacobian, mass_matrix, forcing, outputs and step_rk4 in float; "
+                        f"{attr} runs on double builds: rebuild with --target c99-f64 (the default)")
+
+    def __repr__(self):
+        return f"<eomc Float32Model {self.name!r} nx={self.nx} ({FLOAT32_TARGET}) in {self.directory}>"

@@ -1,0 +1,166 @@
+"""Where a model's law changes form, and the verdict on a run that crossed such places.
+
+Why this module: a ground contact's force starts at touch-down and stops at lift-off,
+a joint limit's spring engages when the coordinate passes the limit.  The right-hand
+side is only piecewise smooth there, and an integrator that steps across such a point
+can accept a step its error estimate does not see (Radau gained 3.6 MJ on a 4.9 J
+bouncing ball, issue 29).  The C integrators end a step at every crossing of a
+*switching function* and restart there (runtime/c/eomc_integrators.c); this module
+finds the switching functions by the names the contact and joint-law builders give
+(``contact_<name>`` events with the radius ``r_<name>``; ``limit_lo_<joint>`` /
+``limit_hi_<joint>`` with the width ``limit_e_<joint>`` on the coordinate
+``q_<joint>``) and turns what the integrator saw into a verdict:
+
+- a contact that penetrates deeper than :data:`PENETRATION_FRACTION` of its radius
+  (:data:`POINT_PENETRATION` for a point contact, r = 0): a :class:`PhysicsWarning`
+  naming the contact -- the law is followed, but the contact is too soft for the load
+  (raise k) or the run jumped through the ground;
+- a joint past its limit by more than :data:`LIMIT_OVERSHOOT_WIDTHS` widths: a
+  :class:`PhysicsWarning` naming the joint;
+- a model with an ``energy`` output and no inputs that *gains* energy while only
+  passive laws act: beyond :func:`energy_tolerance` a :class:`PhysicsWarning`, beyond
+  :data:`ENERGY_FAIL` times it a failed run (status :data:`STATUS_ENERGY`), never
+  status 0 with energy created from nothing.
+"""
+import re
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import EomcWarning
+
+__all__ = ["Switches", "find_switches", "PhysicsWarning", "verdict", "PENETRATION_FRACTION",
+           "POINT_PENETRATION", "LIMIT_OVERSHOOT_WIDTHS", "STATUS_ENERGY", "ENERGY_FAIL",
+           "energy_tolerance"]
+
+PENETRATION_FRACTION = 0.5      # of the contact radius
+POINT_PENETRATION = 0.01        # m, for a point contact (radius 0)
+LIMIT_OVERSHOOT_WIDTHS = 100    # limit widths past the limit (100 x 3e-4 rad = 0.03 rad by default)
+STATUS_ENERGY = 20              # a run that created energy (set by the runtime, not by C)
+ENERGY_FAIL = 100               # the tolerance multiple beyond which an energy gain fails the run
+
+
+class PhysicsWarning(EomcWarning):
+    """A run finished, but what it computed breaks a physical expectation (named in the text)."""
+
+
+@dataclass(frozen=True)
+class Contact:
+    name: str
+    event: str          # the model event (its penetration): contact_<name>
+    radius: int         # parameter index of r_<name> (or -1)
+
+
+@dataclass(frozen=True)
+class Limit:
+    joint: str
+    state: int          # index of q_<joint>
+    param: int          # index of limit_lo_/limit_hi_<joint>
+    sign: float         # +1: q - hi; -1: lo - q
+    width: int          # parameter index of limit_e_<joint> (or -1)
+    side: str           # "upper" / "lower"
+
+
+@dataclass(frozen=True)
+class Switches:
+    contacts: tuple
+    limits: tuple
+
+    def __bool__(self):
+        return bool(self.contacts or self.limits)
+
+
+_LIMIT = re.compile(r"limit_(lo|hi)_(.+)\Z")
+
+
+def find_switches(model):
+    """The model's contacts and joint limits, found by their parameter and event names."""
+    cached = getattr(model, "_switches", None)
+    if cached is not None:
+        return cached
+    params = {n: i for i, n in enumerate(model.param_names)}
+    states = {n: i for i, n in enumerate(model.state_names)}
+    events = [d["name"] for d in model.metadata.get("events", ())]
+    contacts = tuple(Contact(e[len("contact_"):], e, params.get(f"r_{e[len('contact_'):]}", -1))
+                     for e in events if e.startswith("contact_"))
+    limits = []
+    for name, i in params.items():
+        m = _LIMIT.match(name)
+        if m and f"q_{m.group(2)}" in states:
+            joint = m.group(2)
+            limits.append(Limit(joint, states[f"q_{joint}"], i, 1.0 if m.group(1) == "hi" else -1.0,
+                                params.get(f"limit_e_{joint}", -1), "upper" if m.group(1) == "hi" else "lower"))
+    found = Switches(contacts, tuple(limits))
+    try:
+        model._switches = found
+    except AttributeError:
+        pass
+    return found
+
+
+def energy_tolerance(rtol, atol):
+    """The energy gain (relative to the energy's scale) a passive run may show from integration
+    error: 100 rtol (at least 1e-6) -- the global error of a run of many steps, each held to
+    rtol, measured at 1e-5 relative with rtol 1e-6 on the bouncing ball (DOP853, DOPRI5, Radau)."""
+    return max(100.0 * rtol, 1e-6)
+
+
+def _energy_gain(result, a):
+    E = result.outputs.get("energy")
+    if E is None or len(E) < 2 or not np.all(np.isfinite(E)):
+        return None
+    E0 = float(E[0])
+    scale = max(abs(E0), float(np.max(np.abs(E - E0))) if len(E) else 0.0, 1e-300)
+    gain = float(np.max(E) - E0)
+    return gain, scale
+
+
+def verdict(model, a, result, gmax, sw):
+    """Warnings (and a failed status for created energy) from what the run saw; returns
+    (status, message addition) -- (0, "") when the physics looks right."""
+    notes = []
+    p = a["p"]
+    ncontact = len(sw.contacts)
+    for j, c in enumerate(sw.contacts):
+        depth = gmax[j] if gmax is not None and j < len(gmax) else -np.inf
+        r = float(p[c.radius]) if c.radius >= 0 else 0.0
+        allowed = PENETRATION_FRACTION * r if r > 0 else POINT_PENETRATION
+        if np.isfinite(depth) and depth > allowed:
+            what = (f"{PENETRATION_FRACTION:g} of its radius {r:g} m" if r > 0
+                    else f"{POINT_PENETRATION:g} m (a point contact)")
+            notes.append(f"contact {c.name} penetrated {depth:.3g} m, more than {what}: the contact is "
+                         f"too soft for the load (raise k_{c.name}) or the run went through the ground")
+    for j, lim in enumerate(sw.limits):
+        over = gmax[ncontact + j] if gmax is not None and ncontact + j < len(gmax) else -np.inf
+        e = float(p[lim.width]) if lim.width >= 0 else 3e-4
+        if np.isfinite(over) and over > LIMIT_OVERSHOOT_WIDTHS * e:
+            notes.append(f"joint {lim.joint} went {over:.3g} past its {lim.side} limit "
+                         f"{float(p[lim.param]):g}, more than {LIMIT_OVERSHOOT_WIDTHS} widths "
+                         f"({LIMIT_OVERSHOOT_WIDTHS * e:.3g}): its limit stiffness limit_k_{lim.joint} is "
+                         f"too soft for the load")
+    status, extra = 0, ""
+    got = _energy_gain(result, a) if (sw and "energy" in result.outputs and model.ninput == 0) else None
+    if got is not None:
+        gain, scale = got
+        tol = energy_tolerance(a["rtol"], a["atol"]) * scale
+        if gain > max(tol, min(ENERGY_FAIL * tol, 0.05 * scale)):
+            status = STATUS_ENERGY
+            extra = (f"the energy rose by {gain:.3g} (from {result.outputs['energy'][0]:.6g}) in a model "
+                     f"whose contacts and limits can only take energy out: the integration is wrong "
+                     f"here (method {a['method']}, rtol {a['rtol']:g})")
+        elif gain > tol:
+            notes.append(f"the energy rose by {gain:.3g} (from {result.outputs['energy'][0]:.6g}, "
+                         f"{gain / scale:.2g} of its scale) with only passive contacts and limits acting: "
+                         f"more than the tolerance explains; tighten rtol")
+    if notes:       # one warning per run, naming every contact and joint
+        warnings.warn(PhysicsWarning(f"{model.name}: " + "; ".join(notes)), stacklevel=_user_level())
+    return status, extra
+
+
+def _user_level():
+    import sys
+    frame, level = sys._getframe(2), 2
+    while frame is not None and frame.f_globals.get("__name__", "").startswith("eomc"):
+        frame, level = frame.f_back, level + 1
+    return level

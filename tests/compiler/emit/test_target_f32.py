@@ -1,0 +1,180 @@
+"""The c99-f32 target (compiler/emit/target.py): float C that compiles without a single double
+under -Wdouble-promotion -Wfloat-conversion -Werror (gcc and clang), agrees with the double
+build within a bound set by M's condition number, keeps the status codes, and states its
+stack; the default c99-f64 stays the double C it always was."""
+import re
+import shutil
+import subprocess
+import warnings
+
+import numpy as np
+import pytest
+
+import eomc
+from eomc.compiler.driver import generate
+from eomc.compiler.emit.target import FLT_MAX, check_target, retarget, to_float_text
+from eomc.compiler.urdf.model import with_options
+from eomc.runtime.errors import EomcError, ModelError
+from eomc.runtime.float32 import Float32Model
+
+from tests.helpers.robots import robot_path
+
+EXAMPLES = __import__("pathlib").Path(__file__).resolve().parents[3] / "examples"
+STRICT = ["-std=c99", "-O2", "-Wall", "-Wextra", "-Wdouble-promotion", "-Wfloat-conversion",
+          "-Wpedantic", "-Werror"]
+EPS32 = float(np.finfo(np.float32).eps)
+
+
+def _models():
+    """A shipped example (Kane, LDLᵀ), a URDF arm (recursive ABA) and a floating-base robot."""
+    return {"double_pendulum": (str(EXAMPLES / "double_pendulum.py"), None, {}),
+            "ur5": (str(robot_path("ur5")), None, {}),
+            "solo": with_options(str(robot_path("solo12")), "solo", floating_base=True) + ({"functions": ["rhs", "jac_x", "mass_matrix"]},)}
+
+
+@pytest.fixture(scope="module")
+def generated():
+    out = {}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for key, (source, name, kw) in _models().items():
+            out[key] = (generate(source, name or key, target="c99-f32", **kw)[1],
+                        generate(source, name or key, **kw)[1])
+    return out
+
+
+@pytest.mark.parametrize("cc", ["gcc", "clang"])
+def test_float_c_compiles_clean_without_any_double(generated, cc, tmp_path):
+    if shutil.which(cc) is None:
+        pytest.skip(f"{cc} is not installed")
+    shutil.copy(eomc.runtime.header_cdef.C_DIR / "eomc_model.h", tmp_path)
+    for key, (f32, _) in generated.items():
+        (tmp_path / f"{f32.name}.c").write_text(f32.c_source)
+        (tmp_path / f"{f32.name}.h").write_text(f32.header)
+        run = subprocess.run([cc, *STRICT, "-c", f"{f32.name}.c"], cwd=tmp_path, capture_output=True,
+                             text=True, timeout=300)
+        assert run.returncode == 0, f"{key} ({cc}):\n{run.stderr[:3000]}"
+        code = re.sub(r"/\*.*?\*/", "", f32.c_source, flags=re.S)
+        assert not re.search(r"\bdouble\b", code.replace(f"{f32.name}_", "")), key
+        # no call of a double libm function, no unsuffixed floating literal, no heap, no static mutable
+        assert not re.search(r"\b(sin|cos|tan|sqrt|exp|log|pow|fabs|fmax|fmin|atan2)\s*\(", code), key
+        assert not re.search(r"(?<![\w.])\d+\.\d*(e[+-]?\d+)?(?![\w.])", code), key
+        assert not re.search(r"\b(malloc|calloc|realloc|free|alloca)\b", code), key
+        assert not re.search(r"^\s*static\s+(?!const\b|int\b|void\b|EOMC_NOINLINE\b)", code, flags=re.M), key
+        assert "static const eomc_model" not in code and "DBL_" not in code and "HUGE_VAL)" not in code
+
+
+def test_default_target_is_the_double_code(generated):
+    for key, (f32, f64) in generated.items():
+        assert retarget(f64, "c99-f64") is f64 and retarget(f64, None) is f64
+        assert "target" not in f64.metadata and f32.metadata["target"] == "c99-f32"
+        assert f"int {f64.name}_rhs(double t," in f64.c_source and "step_rk4" not in f64.c_source
+
+
+def test_unknown_target_and_bad_literals_are_clear_errors():
+    with pytest.raises(ModelError, match="unknown target 'c99-f16'; choose one of c99-f64, c99-f32"):
+        check_target("c99-f16")
+    with pytest.raises(ModelError, match=r"m.c: the constant 1e\+300 overflows float"):
+        to_float_text("const double a = 1e+300;", "m.c")
+    with pytest.raises(ModelError, match="underflows float to zero"):
+        to_float_text("const double a = 1e-60;", "m.c")
+    with pytest.raises(ModelError, match="calls lgammaq"):
+        to_float_text("const double a = lgammaq(1.0);", "m.c")
+    assert to_float_text("x = 3.4e38 + sqrt(2.0) + q[3]; /* 3 doubles */", "m.c") == \
+        "x = 3.4e38f + sqrtf(2.0f) + q[3]; /* 3 floats */"
+    assert 3.4e38 < FLT_MAX
+
+
+def test_pivot_tests_are_scaled_for_float(generated):
+    """LDLᵀ: 64·FLT_EPSILON·max|diag|; the recursive ABA's 2^-46·sum(D) becomes 2^-17·sum(D)."""
+    dp = generated["double_pendulum"][0].c_source
+    assert "tol = 64.0f * FLT_EPSILON * scale;" in dp
+    from eomc.compiler.tree.algorithms import PIVOT_TOL
+    assert float(PIVOT_TOL) == 2.0 ** -46
+    assert to_float_text("const double t9 = 1.4210854715202004e-14*S_[3] + t2;", "m.c") == \
+        "const float t9 = 7.62939453125e-06f*S_[3] + t2;"
+    for f32, _ in generated.values():
+        assert "1.4210854715202004e-14" not in f32.c_source
+
+
+@pytest.fixture(scope="module")
+def pendulums(tmp_path_factory):
+    cache = tmp_path_factory.mktemp("cache")
+    path = str(EXAMPLES / "double_pendulum.py")
+    return (eomc.compile(path, "dp32", target="c99-f32", cache_dir=cache, progress=False),
+            eomc.compile(path, "dp64", cache_dir=cache, progress=False))
+
+
+def test_float_rhs_agrees_with_double_within_the_condition_bound(pendulums):
+    f32, f64 = pendulums
+    assert isinstance(f32, Float32Model)
+    rng = np.random.default_rng(3)
+    for _ in range(200):
+        x = rng.uniform(-3, 3, 4).astype(np.float32)
+        p = (f64.param_defaults * rng.uniform(0.5, 2.0, 5)).astype(np.float32)
+        x64, p64 = x.astype(np.float64), p.astype(np.float64)   # the same inputs, exactly
+        ref = f64.rhs(0.0, x64, p64)
+        got = f32.rhs(0.0, x, p)
+        cond = np.linalg.cond(f64.mass_matrix(0.0, x64, p64))
+        scale = np.abs(ref).max() + np.abs(f64.forcing(0.0, x64, p64)).max() / np.abs(
+            np.diag(f64.mass_matrix(0.0, x64, p64))).min()
+        assert np.abs(got - ref).max() <= 64 * EPS32 * cond * scale, (x, p, got, ref)
+        assert np.allclose(f32.mass_matrix(0.0, x, p), f64.mass_matrix(0.0, x64, p64), rtol=1e-5, atol=1e-6)
+        assert np.allclose(f32.jacobian(0.0, x, p), f64.jacobian(0.0, x64, p64), rtol=1e-3,
+                           atol=1e-3 * np.abs(f64.jacobian(0.0, x64, p64)).max())
+
+
+def test_step_rk4_is_one_classical_rk4_step(pendulums):
+    f32, f64 = pendulums
+    x, h = np.array([1.0, 0.5, 0.1, -0.2]), 0.01
+    k1 = f64.rhs(0.0, x)
+    k2 = f64.rhs(h / 2, x + h / 2 * k1)
+    k3 = f64.rhs(h / 2, x + h / 2 * k2)
+    k4 = f64.rhs(h, x + h * k3)
+    ref = x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+    assert np.allclose(f32.step_rk4(0.0, h, x), ref, rtol=0, atol=2e-6)
+
+
+def test_too_ill_conditioned_for_float_is_a_singular_status_not_noise(pendulums):
+    """m1/m2 = 1e-6: M's second pivot is ~1e-6 of its diagonal, above double's 64 eps but below
+    float's, so the double build solves and the float build says the matrix is singular."""
+    f32, f64 = pendulums
+    x = np.array([0.3, 0.3, 0.0, 0.0])
+    p = np.array([1e-6, 1.0, 1.0, 1.0, 9.81])
+    assert np.isfinite(f64.rhs(0.0, x, p)).all()
+    with pytest.raises(EomcError, match="dp32_rhs \\(float\\) failed at t=0: the mass matrix is singular"):
+        f32.rhs(0.0, x, p)
+    with pytest.raises(EomcError, match="dp32_step_rk4 \\(float\\) failed .* singular"):
+        f32.step_rk4(0.0, 0.01, x, p)
+
+
+def test_float_model_refuses_what_needs_double(pendulums):
+    f32, _ = pendulums
+    with pytest.raises(EomcError, match="built for c99-f32 .* simulate runs on double builds: rebuild "
+                                        "with --target c99-f64"):
+        f32.simulate((0, 1), [1, 0, 0, 0])
+    with pytest.raises(EomcError, match="x has 3 entries; the model expects 4"):
+        f32.rhs(0.0, [1, 2, 3])
+
+
+def test_stack_bound_and_work_size_in_header_and_json(pendulums):
+    f32, _ = pendulums
+    header = (f32.directory / "dp32.h").read_text()
+    stack = f32.metadata["stack"]
+    if stack is None:
+        assert "not measured" in f32.metadata["stack_note"]
+        pytest.skip("the compiler has no -fcallgraph-info")
+    for fn in ("rhs", "jac_x", "mass_matrix", "step_rk4"):
+        assert f"#define DP32_STACK_{fn.upper()} {stack[fn]['bytes']}\n" in header
+        assert stack[fn]["bytes"] >= stack[fn]["frame"] > 0
+    # the step calls rhs: its bound holds rhs's
+    assert stack["step_rk4"]["bytes"] >= stack["step_rk4"]["frame"] + stack["rhs"]["bytes"]
+    assert "#define DP32_WORK_SIZE 0\n" in header
+    assert "#define DP32_WORK_LEN (DP32_WORK_SIZE > 0 ? DP32_WORK_SIZE : 1)" in header
+    assert "extern const float dp32_param_defaults[DP32_NPARAM];" in header
+
+
+def test_cython_backend_is_refused_for_float(tmp_path):
+    with pytest.raises(ValueError, match="built for c99-f32: its Python module loads through cffi only"):
+        eomc.compile(str(EXAMPLES / "double_pendulum.py"), "dpcy", target="c99-f32", backend="cython",
+                     cache_dir=tmp_path, progress=False)

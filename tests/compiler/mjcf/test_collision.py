@@ -1,0 +1,137 @@
+"""MuJoCo's collision filters and contact parameters, as eomc reads them (compiler/mjcf/collision.py)."""
+import warnings
+
+import numpy as np
+import pytest
+
+mujoco = pytest.importorskip("mujoco")
+
+from eomc.compiler.mjcf.collision import ground_geoms, law_parameters, resting_depth  # noqa: E402
+
+FILTERS = """<mujoco model="filters">
+  <worldbody>
+    <geom name="floor" type="plane" size="5 5 0.1"/>
+    <geom name="deco" type="box" size="1 1 0.01" pos="0 0 -1"/>
+    <body name="a" pos="0 0 1">
+      <freejoint/>
+      <geom name="a_touch" type="sphere" size="0.1"/>
+      <geom name="a_ghost" type="sphere" size="0.1" contype="0" conaffinity="0"/>
+      <geom name="a_one_way" type="box" size="0.1 0.1 0.1" contype="2" conaffinity="0"/>
+      <body name="b" pos="0 0 -0.5">
+        <joint type="hinge"/>
+        <geom name="b_capsule" type="capsule" size="0.05 0.2"/>
+        <body name="c" pos="0 0 -0.5">
+          <joint type="hinge"/>
+          <geom name="c_cyl" type="cylinder" size="0.05 0.1"/>
+        </body>
+      </body>
+    </body>
+    <body name="e" pos="2 0 1">
+      <freejoint/>
+      <geom name="e_ellipsoid" type="ellipsoid" size="0.1 0.2 0.3" contype="4" conaffinity="4"/>
+    </body>
+  </worldbody>
+  <contact>
+    <exclude body1="world" body2="c"/>
+    <pair geom1="floor" geom2="e_ellipsoid" friction="0.3 0.3 0.005 0.0001 0.0001" solref="0.01 0.5"/>
+  </contact>
+</mujoco>
+"""
+
+
+def _model(tmp_path, text):
+    path = tmp_path / "m.xml"
+    path.write_text(text)
+    return mujoco.MjModel.from_xml_path(str(path))
+
+
+def test_filters_as_mujoco(tmp_path):
+    m = _model(tmp_path, FILTERS)
+    found = {g.name: g for g in ground_geoms(m)}
+    # a_ghost: contype 0; a_one_way: its contype 2 meets no conaffinity 1 of the floor and its own
+    # conaffinity is 0; c_cyl: <exclude>; e_ellipsoid: contype 4, but its explicit <pair>
+    assert set(found) == {"a_touch", "b_capsule", "e_ellipsoid"}
+    assert found["e_ellipsoid"].mu == 0.3
+    assert found["a_touch"].mu == 1.0
+    # the pair's solref (0.01 0.5) is its own: stiffer than the defaults (0.02 1)
+    assert found["e_ellipsoid"].k > 4 * found["a_touch"].k
+
+
+def test_mujoco_collides_the_same_geoms(tmp_path):
+    """Every geom placed into the floor: MuJoCo's contacts are between the floor and exactly ours."""
+    m = _model(tmp_path, FILTERS.replace('pos="0 0 1"', 'pos="0 0 0.05"').replace('pos="2 0 1"', 'pos="2 0 0.1"')
+               .replace('pos="0 0 -0.5"', 'pos="0.5 0 0" euler="1.5708 0 0"'))
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    floor = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "floor")
+    theirs = set()
+    for c in d.contact[:d.ncon]:
+        if floor in (c.geom1, c.geom2):
+            other = c.geom2 if c.geom1 == floor else c.geom1
+            theirs.add(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, other))
+    mine = {g.name for g in ground_geoms(m)}
+    assert theirs and theirs <= mine
+    # the ones MuJoCo does not report here are not touching in this pose
+    for name in mine - theirs:
+        g = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, name)
+        assert mujoco.mj_geomDistance(m, d, floor, g, 10.0, None) > 0
+
+
+def test_contact_disabled_and_height_fields(tmp_path):
+    m = _model(tmp_path, FILTERS.replace("<worldbody>", '<option><flag contact="disable"/></option><worldbody>'))
+    assert ground_geoms(m) == []
+    m = _model(tmp_path, FILTERS.replace('<worldbody>', '<asset><hfield name="hf" nrow="3" ncol="3" '
+                                         'size="1 1 0.1 0.1"/></asset><worldbody>')
+               .replace('<geom name="b_capsule"', '<geom name="bumpy" type="hfield" hfield="hf"/><geom name="b_capsule"'))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        names = {g.name for g in ground_geoms(m)}
+    assert "bumpy" not in names and "b_capsule" in names
+    assert any("geom bumpy (hfield) on a moving body" in str(w.message) for w in caught)
+
+
+SPHERE = """<mujoco>
+  <option timestep="0.001"/>
+  <worldbody>
+    <geom name="floor" type="plane" size="5 5 0.1" {extra}/>
+    <body pos="0 0 0.12"><freejoint/><geom name="ball" type="sphere" size="0.1" mass="{mass}" {extra}/></body>
+  </worldbody>
+</mujoco>
+"""
+
+
+@pytest.mark.parametrize("extra", ["", 'solref="0.01 1"', 'solimp="0.8 0.8 0.01"', 'solref="-20000 -100"'])
+@pytest.mark.parametrize("mass", [0.5, 20.0])
+def test_resting_depth_is_mujocos(tmp_path, extra, mass):
+    """MuJoCo's sphere at rest sinks by resting_depth (whatever its mass), and eomc's law with
+    the mapped k sinks the same under the sphere's weight."""
+    m = _model(tmp_path, SPHERE.format(extra=extra, mass=mass))
+    d = mujoco.MjData(m)
+    for _ in range(4000):
+        mujoco.mj_step(m, d)
+    sunk = 0.1 - d.qpos[2]
+    g = 9.81
+    expected, _ = resting_depth(m.geom_solref[1], m.geom_solimp[1], g, m.opt.timestep)
+    assert sunk == pytest.approx(expected, rel=0.02)
+    (found,) = ground_geoms(m)
+    assert (mass * g / found.k) ** (2 / 3) == pytest.approx(expected, rel=1e-12)
+
+
+def test_parameter_rule():
+    k, c, mu = law_parameters((0.02, 1.0), (0.9, 0.95, 0.001, 0.5, 2.0), (0.7, 0.005, 1e-4), 3, 9.81, 10.0)
+    depth, ratio = resting_depth((0.02, 1.0), (0.9, 0.95, 0.001, 0.5, 2.0), 9.81)
+    assert ratio == 1.0 and mu == 0.7
+    assert k == pytest.approx(10.0 / depth ** 1.5, rel=1e-15)
+    omega = np.sqrt(1.5 * 9.81 / depth)
+    # the law linearised at rest, F ≈ W + 1.5 W/δ (x) + 1.5 c W (v), per unit mass W/g: ratio z
+    assert 1.5 * c * 9.81 == pytest.approx(2 * omega, rel=1e-12)
+    assert law_parameters((0.02, 1.0), (0.9, 0.95, 0.001, 0.5, 2.0), (0.7, 0, 0), 1, 9.81, 10.0)[2] == 0.0
+
+
+def test_margin_is_mujocos(tmp_path):
+    """The plane is raised by the margin MuJoCo includes in the contact (the two geoms' added)."""
+    m = _model(tmp_path, SPHERE.format(extra='margin="0.01"', mass=1.0).replace('pos="0 0 0.12"', 'pos="0 0 0.115"'))
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    (found,) = ground_geoms(m)
+    assert d.ncon == 1 and found.height == pytest.approx(d.contact[0].includemargin, abs=1e-15)

@@ -1,0 +1,173 @@
+"""The fixed-step implicit integrator (method="implicitfast", runtime/c/eomc_fixedstep.c).
+
+Oracles: the oscillator's closed form and energy, the matrix exponential of the stiff
+chain, a tight-tolerance run of Radau (1e-10) on the bouncing
+sphere and the standing Solo12, and energy (kinetic + potential + the contact spring's)
+on the undamped bouncing sphere, which an implicit step must never create.
+"""
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.linalg import expm
+
+from helpers.stand_in import get_model
+
+import eomc
+from eomc.runtime.simulate import simulate
+
+ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(ROOT / "tests" / "compiler" / "contact"))
+from sphere_model import sphere_model  # noqa: E402
+
+
+def test_oscillator_first_order_and_never_gains_energy():
+    """Implicit Euler on x'' = -4x: error ~ h (slope 1), amplitude shrinks every step."""
+    m = get_model("oscillator")
+    errs = []
+    hs = (0.02, 0.01, 0.005, 0.0025)
+    for h in hs:
+        res = simulate(m, [1.0, 0.0], (0.0, 2.0), method="implicitfast", dt=h)
+        assert res.status == 0
+        errs.append(abs(res.x[-1, 0] - np.cos(4.0)))
+        energy = 4.0 * res.x[:, 0] ** 2 + res.x[:, 1] ** 2          # k x^2 + m v^2, k = 4
+        assert np.all(np.diff(energy) <= 1e-12 * energy[0])
+    slopes = np.diff(np.log(errs)) / np.diff(np.log(hs))
+    assert np.all((slopes > 0.85) & (slopes < 1.15)), (errs, slopes)
+
+
+def test_stiff_chain_stable_far_beyond_the_explicit_limit():
+    """k2 = 1e6 (omega 1.4e3): explicit methods need h < 1.4e-3; h = 0.01 stays stable and
+    converges to the exact (matrix exponential) solution as h shrinks."""
+    m = get_model("chain")
+    p = np.array([1.0, 1e6, 0.1, 2e3])
+    x0 = np.array([1.0, 1.0, 0.0, 0.0])
+    J = m.jacobian(0.0, x0, p)
+    exact = expm(J * 2.0) @ x0
+    errs = []
+    for h in (0.02, 0.01, 0.005):
+        res = simulate(m, x0, (0.0, 2.0), p=p, method="implicitfast", dt=h, t_eval=[2.0])
+        assert res.status == 0
+        errs.append(np.abs(res.x[-1] - exact).max())
+    assert errs[0] < 0.1 and errs[2] < errs[1] < errs[0], errs
+    # the step's Jacobian is kept: a linear model needs it once
+    assert res.stats["njev"] == 1 and res.stats["rejected"] == 0
+
+
+def test_output_is_the_step_grid_and_linear_in_between():
+    m = get_model("oscillator")
+    res = simulate(m, [1.0, 0.0], (0.0, 0.1), method="implicitfast", dt=0.01)
+    assert res.t.size == 11 and np.allclose(np.diff(res.t), 0.01)
+    mid = simulate(m, [1.0, 0.0], (0.0, 0.1), method="implicitfast", dt=0.01, t_eval=[0.035])
+    assert mid.x[0] == pytest.approx(0.5 * (res.x[3] + res.x[4]), abs=1e-14)
+
+
+def test_arguments_checked():
+    m = get_model("oscillator")
+    with pytest.raises(ValueError, match="fixed-step: give the step size"):
+        simulate(m, [1.0, 0.0], (0.0, 1.0), method="implicitfast")
+    with pytest.raises(ValueError, match="dt must be"):
+        simulate(m, [1.0, 0.0], (0.0, 1.0), method="implicitfast", dt=-1.0)
+    with pytest.raises(ValueError, match="implicitfast with dt=1e-09 needs 1e\\+09 steps"):
+        simulate(m, [1.0, 0.0], (0.0, 1.0), method="implicitfast", dt=1e-9)
+    assert simulate(m, [1.0, 0.0], (0.0, 0.1), method="implicit_fast", dt=0.01).method == "implicitfast"
+
+
+def test_blowup_fails_loudly():
+    """x' = x^2 from 1 is infinite at t = 1: the run must not end with status 0."""
+    m = get_model("blowup")
+    res = simulate(m, [1.0], (0.0, 2.0), method="implicitfast", dt=0.01, raise_on_failure=False)
+    assert res.status != 0 and 0.9 < res.stats["t"] <= 1.0
+    assert "no solution near the step" in res.message or "non-finite" in res.message
+
+
+# ------------------------------------------------------------ generated models
+
+@pytest.fixture(scope="module")
+def sphere(tmp_path_factory):
+    spec, _ = sphere_model(radius=0.1, k=1e5, c=0.0, mu=0.5, vs=1e-3)
+    system = spec.pop("system")
+    return eomc.compile(system, name="implicitfast_sphere", formulation="kane",
+                        cache_dir=tmp_path_factory.mktemp("cache"), **spec)
+
+
+def _p(model, **values):
+    p = np.array(model.param_defaults, dtype=float)
+    for k, v in values.items():
+        p[model.param_names.index(k)] = v
+    return p
+
+
+@pytest.mark.parametrize("k", [1e3, 1e5, 1e8, 1e10, 1e12])
+@pytest.mark.parametrize("dt", [5e-3, 1e-3, 2e-4])
+def test_bouncing_sphere_never_creates_energy(sphere, k, dt):
+    """c = 0: kinetic + potential + the spring's k delta^2.5 / 2.5 never exceeds the start's,
+    at every step, for soft to very stiff ground; the sphere ends resting on the ground,
+    not below it (static penetration (m g / k)^(2/3)).  Or the run fails loudly: at
+    k = 1e12 and dt = 5 ms the touch-down step has no implicit Euler solution Newton can
+    find even split into 64 (measured); status 0 is required everywhere else."""
+    x0 = np.zeros(12)
+    x0[2] = 0.5
+    res = sphere.simulate(x0, (0, 2.0), p=_p(sphere, k_ball=k, c_ball=0.0), method="implicitfast",
+                          dt=dt, raise_on_failure=False)
+    if res.status:
+        assert (k, dt) == (1e12, 5e-3), res.message
+        assert "use a smaller dt" in res.message
+        return
+    d = res.outputs["depth_ball"]
+    total = res.outputs["energy"] + k * np.maximum(d, 0) ** 2.5 / 2.5
+    assert total.max() <= total[0] * (1 + 1e-9), total.max() - total[0]
+    static = (9.81 / k) ** (2 / 3)
+    assert d.max() < max(0.4, 3 * static)            # never tunnels through the floor
+    if k >= 1e8:                                       # stiff: implicit Euler ends the bounce
+        assert d[-1] == pytest.approx(static, rel=0.05)
+
+
+def test_bouncing_sphere_converges_to_the_tight_reference(sphere):
+    """Soft damped ground (k = 1e5, c = 2): the final state approaches DOP853 at 1e-10 as dt
+    shrinks (first order: halving dt about halves the error) against Radau at 1e-10, and the touch-down event is
+    found within one step of the reference's."""
+    x0 = np.zeros(12)
+    x0[2] = 0.5
+    x0[sphere.state_names.index("vx")] = 0.3
+    p = _p(sphere, k_ball=1e5, c_ball=2.0)
+    ref = sphere.simulate(x0, (0, 0.6), p=p, method="radau", rtol=1e-10, atol=1e-10, t_eval=[0.6])
+    errs = []
+    dts = (4e-3, 2e-3, 1e-3, 5e-4, 2.5e-4)
+    for dt in dts:
+        res = sphere.simulate(x0, (0, 0.6), p=p, method="implicitfast", dt=dt)
+        errs.append(np.abs(res.x[-1] - ref.x[-1]).max())
+        touch = res.t_events["contact_ball"][0]
+        assert touch == pytest.approx(ref.t_events["contact_ball"][0], abs=dt)
+    assert all(b < a for a, b in zip(errs, errs[1:])), errs
+    slope = np.polyfit(np.log(dts), np.log(errs), 1)[0]
+    assert 0.7 < slope < 1.5, (errs, slope)
+
+
+@pytest.fixture(scope="module")
+def solo(tmp_path_factory):
+    sys.path.insert(0, str(ROOT / "examples"))
+    import quadruped_stand as qs
+    return qs, qs.build(cache_dir=tmp_path_factory.mktemp("solo"))
+
+
+def test_solo12_stands_at_real_time_steps(solo):
+    """Solo12 on four compliant feet (friction regularised at v_s = 1e-4 m/s: stiff in the
+    velocities) under joint PD, 1 s: stable at 5, 2 and 1 ms, within 1e-5 of Radau at 1e-10
+    (error shrinking with dt), every step's implicit equation solved (no unconverged steps),
+    the feet carrying m g at the end."""
+    qs, m = solo
+    x0, K, x_ref = qs.stance(m)
+    ref = m.simulate(x0, (0, 1), K=K, x_ref=x_ref, method="radau", rtol=1e-10, atol=1e-10,
+                     t_eval=[1.0])
+    weight = sum(ref.outputs[f"Fn_{leg}_FOOT"][-1] for leg in qs.LEGS)   # m g, standing still
+    errs = []
+    for dt in (5e-3, 1e-3, 2.5e-4):
+        res = m.simulate(x0, (0, 1), K=K, x_ref=x_ref, method="implicitfast", dt=dt)
+        assert res.status == 0 and res.stats["rejected"] == 0
+        errs.append(np.abs(res.x[-1] - ref.x[-1])[:m.nq].max())
+        fn = sum(res.outputs[f"Fn_{leg}_FOOT"][-1] for leg in qs.LEGS)
+        assert fn == pytest.approx(weight, rel=1e-4)
+    assert errs[0] < 1e-5 and errs[2] < errs[0], errs
+

@@ -1,0 +1,129 @@
+"""Integration through contact and limits (runtime/switching.py, the switching points in
+runtime/c/eomc_integrators.c) and the verdict on every run with contacts or limits.
+
+The bouncing sphere of tests/compiler/contact/ is the oracle: with c = 0 the law is
+conservative (energy kept to the tolerance), and its bounce height is what a 1-D
+reference of the same normal law predicts (bounce_grid.py).  Issue 29's reproduction:
+Radau at k = 1e9 rose to 3502 m with status 0.
+"""
+import itertools
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import eomc
+from eomc.runtime.errors import SimulationError
+from eomc.runtime.switching import STATUS_ENERGY, PhysicsWarning
+
+sys.path.insert(0, str(Path(__file__).parents[1] / "compiler" / "contact"))
+import bounce_grid as bg  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def ball(tmp_path_factory):
+    return bg.build(tmp_path_factory.mktemp("cache"))
+
+
+def _p(model, **values):
+    p = np.array(model.param_defaults)
+    for k, v in values.items():
+        p[model.param_names.index(k)] = v
+    return p
+
+
+def _drop(model, **kw):
+    x0 = np.zeros(12)
+    x0[2] = 0.5
+    return model.simulate(x0, (0, 3), raise_on_failure=False, **kw)
+
+
+@pytest.mark.parametrize("k", [1e9, 1e10, 1e12])
+@pytest.mark.parametrize("rtol", [1e-6, 1e-4])
+def test_radau_keeps_the_energy_of_a_stiff_elastic_bounce(ball, k, rtol):
+    """Issue 29 R1: k = 1e9 rose to 3502 m, 1e12 sank to z = -3.1 m and rose to 23 km."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", PhysicsWarning)
+        res = _drop(ball, p=_p(ball, k_ball=k, c_ball=0.0, mu_ball=0.0), method="radau", rtol=rtol,
+                    atol=rtol * 1e-3)
+    assert res.status == 0, res.message
+    E = res.outputs["energy"]
+    assert E.max() - E[0] < 100 * rtol * E[0]
+    assert res["z"].max() == pytest.approx(0.5, abs=1e-3)
+    assert res["z"].min() > 0.09                 # penetration of a stiff ball: tens of microns
+    assert res.stats["nswitch"] >= 4             # touch-down and lift-off, at least twice
+
+
+def test_without_switching_radau_steps_over_the_impact_and_the_run_fails(ball):
+    """switching=False shows the bare method: the energy it creates fails the run (never status 0)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", PhysicsWarning)
+        res = _drop(ball, p=_p(ball, k_ball=1e9, c_ball=0.0, mu_ball=0.0), method="radau", switching=False)
+    assert res.status == STATUS_ENERGY
+    assert "energy rose" in res.message and "radau" in res.message
+    with pytest.raises(SimulationError, match="energy rose"):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", PhysicsWarning)
+            ball.simulate(np.r_[0, 0, 0.5, np.zeros(9)], (0, 3), p=_p(ball, k_ball=1e9, c_ball=0.0),
+                          method="radau", switching=False)
+
+
+def test_a_contact_too_soft_for_the_load_warns_naming_it(ball):
+    with pytest.warns(PhysicsWarning, match=r"contact ball penetrated 0\.1\d* m, more than 0\.5 of its radius"):
+        res = _drop(ball, p=_p(ball, k_ball=1e3, c_ball=0.0), method="dop853")
+    assert res.status == 0      # the law was followed; the warning says the contact is too soft
+
+
+GRID = list(itertools.product((1e3, 1e6, 1e9, 1e12), bg.DAMPING.values(), bg.FRICTION, bg.METHODS, bg.RTOLS))
+
+
+def test_bouncing_sphere_grid_is_right_or_loud(ball):
+    """The fast subset of benchmarks/bench_bounce_grid.py: every case is right (energy kept,
+    bounce as the law predicts) or fails or warns; none is silently wrong."""
+    silent = []
+    verdicts = {}
+    for k, c, mu, method, rtol in GRID:
+        verdict, detail = bg.run_case(ball, k, c, mu, method, rtol)
+        verdicts[verdict] = verdicts.get(verdict, 0) + 1
+        if verdict == "SILENT":
+            silent.append(f"k={k:g} c={c:g} mu={mu:g} {method} rtol={rtol:g}: {detail}")
+    assert not silent, "\n".join(silent)
+    assert verdicts.get("right", 0) >= len(GRID) // 2      # mostly right, not mostly refused
+
+
+LIMITED = """<?xml version="1.0"?>
+<robot name="stop">
+  <link name="base"/>
+  <link name="arm"><inertial><origin xyz="0.4 0 0"/><mass value="2.0"/>
+    <inertia ixx="0.001" iyy="0.002" izz="0.001" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <joint name="elbow" type="revolute">
+    <parent link="base"/><child link="arm"/><axis xyz="0 1 0"/>
+    <limit lower="-0.5" upper="0.5" effort="1" velocity="1"/>
+  </joint>
+</robot>
+"""
+
+
+@pytest.fixture(scope="module")
+def stop(tmp_path_factory):
+    d = tmp_path_factory.mktemp("stop")
+    (d / "stop.urdf").write_text(LIMITED)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return eomc.compile(d / "stop.urdf", "stop", cache_dir=d / "cache", progress=False)
+
+
+def test_limit_entry_ends_a_step_and_a_soft_limit_warns_naming_the_joint(stop):
+    """The arm falls from horizontal onto its limit at 0.5 rad: the steps end at the entry
+    (nswitch), the default limit holds it within the stated overshoot; at a thousandth of
+    the stiffness the joint goes far past and the warning names it."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", PhysicsWarning)
+        res = stop.simulate({"q_elbow": 0.0}, (0, 1.0), method="radau")
+    assert res.stats["nswitch"] >= 1
+    assert res["q_elbow"].max() < 0.5 + 100 * 3e-4
+    p = _p(stop, limit_k_elbow=stop.param_defaults[stop.param_names.index("limit_k_elbow")] * 1e-3)
+    with pytest.warns(PhysicsWarning, match=r"joint elbow went .* past its upper limit 0\.5"):
+        stop.simulate({"q_elbow": 0.0}, (0, 1.0), p=p, method="dop853")

@@ -1,0 +1,102 @@
+"""README.md and docs/ as a user meets them, from a clone: the quick start is the two commands
+CI runs, every install line names extras pyproject.toml defines and installs from the clone
+(eomc is not on a package index), every `eomc ...` command shown parses, every file a
+command names exists, and every relative link resolves."""
+import re
+import shlex
+import tomllib
+from pathlib import Path
+
+import pytest
+
+from eomc.cli import SUBCOMMANDS, command_parser
+
+ROOT = Path(__file__).resolve().parent.parent
+README = ROOT / "README.md"
+PAGES = [README, *sorted((ROOT / "docs").glob("*.md"))]
+EXTRAS = set(tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["optional-dependencies"])
+
+
+def _shell_lines(path):
+    """(line number, command) of every line of the page's ```bash blocks, comments dropped."""
+    out, inside = [], False
+    for number, line in enumerate(path.read_text().splitlines(), 1):
+        if line.startswith("```"):
+            inside = line.strip() in ("```bash", "```sh", "```console")
+            continue
+        if inside and line.strip() and not line.lstrip().startswith("#"):
+            out.append((number, re.sub(r"\s+#.*$", "", line.strip())))
+    return out
+
+
+def _commands(path):
+    """Every simple command of the page's shell blocks, and the inline `pip install ...` spans."""
+    for number, line in _shell_lines(path):
+        for part in re.split(r"&&|\|\||;", line):
+            if part.strip():
+                yield number, shlex.split(part)
+    for number, line in enumerate(path.read_text().splitlines(), 1):
+        for span in re.findall(r"`(pip install [^`]+)`", line):
+            yield number, shlex.split(span)
+
+
+def _eomc_installs(path):
+    for number, argv in _commands(path):
+        if argv[:2] == ["pip", "install"]:
+            specs = [a for a in argv[2:] if not a.startswith("-")]
+            if any(s.startswith(".") or s.startswith("eomc") for s in specs):
+                yield number, argv, specs
+
+
+def test_quick_start_is_two_commands_and_ci_runs_the_second():
+    text = README.read_text()
+    section = text[text.index("## Quick start"):]
+    block = section[section.index("```bash") + len("```bash"):]
+    block = block[:block.index("```")].strip().splitlines()
+    assert len(block) == 2, block
+    assert block[0].startswith('pip install ".[plot]" && eomc simulate examples/')
+    ci = (ROOT / ".ci" / "run").read_text().splitlines()
+    assert block[1] in [line.strip() for line in ci], "CI must run the README's second command as written"
+
+
+def test_readme_is_a_guide_of_at_most_250_lines():
+    assert len(README.read_text().splitlines()) <= 250
+
+
+@pytest.mark.parametrize("page", PAGES, ids=lambda p: p.name)
+def test_install_lines_work_from_a_clone_with_extras_that_exist(page):
+    for number, argv, specs in _eomc_installs(page):
+        for spec in specs:
+            match = re.fullmatch(r"\.(?:\[([\w,-]+)\])?", spec)
+            assert match, f"{page.name}:{number}: {' '.join(argv)}: install eomc from the clone as " \
+                          f"\".[EXTRA]\" (eomc is not on a package index)"
+            for extra in (match.group(1) or "").split(","):
+                assert not extra or extra in EXTRAS, f"{page.name}:{number}: no extra {extra!r} in pyproject.toml"
+
+
+def test_every_extra_is_documented_in_readme():
+    installs = {e for _, _, specs in _eomc_installs(README) for s in specs
+                for e in re.findall(r"[\w-]+", s.partition("[")[2])}
+    assert EXTRAS <= installs, f"extras README does not show: {sorted(EXTRAS - installs)}"
+
+
+@pytest.mark.parametrize("page", PAGES, ids=lambda p: p.name)
+def test_every_eomc_command_shown_parses_and_its_shipped_files_exist(page, capsys):
+    for number, argv in _commands(page):
+        if argv[0] != "eomc" or len(argv) < 2 or argv[1] not in SUBCOMMANDS:
+            continue
+        _, parser = command_parser(argv[1])
+        try:
+            parser.parse_args(argv[2:])
+        except SystemExit:
+            pytest.fail(f"{page.name}:{number}: {' '.join(argv)}: {capsys.readouterr().err.strip()}")
+        for arg in argv[2:]:
+            if arg.startswith(("examples/", "benchmarks/", "tests/")):
+                assert (ROOT / arg).exists(), f"{page.name}:{number}: {arg} does not exist"
+
+
+@pytest.mark.parametrize("page", PAGES, ids=lambda p: p.name)
+def test_relative_links_resolve(page):
+    for target in re.findall(r"\]\(([^)\s#]+)(?:#[^)]*)?\)", page.read_text()):
+        if "://" not in target:
+            assert (page.parent / target).exists(), f"{page.name}: link to {target} does not resolve"
