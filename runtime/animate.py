@@ -137,20 +137,68 @@ def _reach(geometry, meshes):
     return reach
 
 
+def _framing(poses, reach):
+    """(per-frame lo, per-frame hi, lo, hi): the box of the moving bodies and points at each
+    frame (each side padded by ``reach``, what the shapes add), and the box of everything over
+    the run (fixed points too).  A fixed point (a floating base's world origin) is no part of
+    the robot, so it is left out of the per-frame box."""
+    nt = poses.positions.shape[0]
+    P = np.concatenate([poses.positions.reshape(nt, -1, 3), poses.points.reshape(nt, -1, 3)], axis=1)
+    if P.shape[1] == 0:
+        zero = np.zeros((max(nt, 1), 3))
+        return zero, zero, np.zeros(3), np.zeros(3)
+    moving = np.ptp(P, axis=0).max(axis=1) > 1e-12 if nt > 1 else np.ones(P.shape[1], bool)
+    if not moving.any():
+        moving[:] = True
+    lo_t, hi_t = P[:, moving].min(axis=1) - reach, P[:, moving].max(axis=1) + reach
+    lo = np.minimum(lo_t.min(0), P[:, ~moving].min(axis=(0, 1)) - reach) if (~moving).any() else lo_t.min(0)
+    hi = np.maximum(hi_t.max(0), P[:, ~moving].max(axis=(0, 1)) + reach) if (~moving).any() else hi_t.max(0)
+    return lo_t, hi_t, lo, hi
+
+
+# The camera follows the robot when the run's box is this many times the robot's own size
+# (a fall, a walk); otherwise it frames the whole run once (a pendulum, an arm).
+FOLLOW_RATIO = 1.6
+
+
+def _smoothed(centres, window):
+    """A centred moving average along the rows (a bouncing robot must not shake the view)."""
+    if window <= 1 or len(centres) < 3:
+        return centres
+    window = min(window, len(centres))
+    pad = window // 2
+    padded = np.concatenate([np.repeat(centres[:1], pad, 0), centres, np.repeat(centres[-1:], window - 1 - pad, 0)])
+    kernel = np.ones(window) / window
+    return np.column_stack([np.convolve(padded[:, k], kernel, mode="valid") for k in range(3)])
+
+
 def _camera(poses, up, reach=0.0):
-    allpos = np.concatenate([poses.positions.reshape(-1, 3), poses.points.reshape(-1, 3)])
-    lo, hi = allpos.min(0) - reach, allpos.max(0) + reach
+    """(camera dict for the viewer, scale): where the camera looks from, the floor grid, and
+    ``follow`` (per-frame targets, base64) when the run's extent dwarfs the robot: then the
+    camera keeps the robot's size on screen and moves with it instead of fitting the run."""
+    lo_t, hi_t, lo, hi = _framing(poses, reach)
+    size = max(float(np.max(hi_t - lo_t)), 1e-3)
+    whole = max(float(np.max(hi - lo)), 1e-3)
+    follow = len(lo_t) > 1 and whole > FOLLOW_RATIO * size
     center = (lo + hi) / 2
-    scale = max(float(np.max(hi - lo)), 1e-3)
+    scale = size if follow else whole
+    targets = _smoothed((lo_t + hi_t) / 2, 9) if follow else None
+    target = targets[0] if follow else center
+    grid_size = (whole + 4 * scale) if follow else 4 * scale
+    extra = {"follow": _b64(targets) if follow else None, "gridSize": grid_size,
+             "gridDivisions": int(min(400, max(20, round(grid_size / (scale / 5))))),
+             "far": float(max(100 * scale, 4 * (whole + scale)))}
     flat = plane_of(poses)
     if flat is not None and up is None:
         normal = np.eye(3)[flat]
         up_axis = {2: 1, 0: 2, 1: 2}[flat]
-        position = center + normal * scale * 3.2
+        position = target + normal * scale * 3.2
         grid = {2: "xy", 0: "yz", 1: "xz"}[flat]
         floor = center - normal * scale * 0.5
+        if follow:
+            floor[flat] = target[flat] - scale * 0.5
         return {"up": np.eye(3)[up_axis].tolist(), "position": position.tolist(),
-                "target": center.tolist(), "grid": grid, "floor": floor.tolist()}, scale
+                "target": target.tolist(), "grid": grid, "floor": floor.tolist(), **extra}, scale
     up = up or "z"
     if up not in ("x", "y", "z", "-x", "-y", "-z"):
         raise ValueError(f"up must be x, y, z, -x, -y or -z, not {up!r}")
@@ -158,15 +206,74 @@ def _camera(poses, up, reach=0.0):
     u = np.eye(3)[up_axis] * (-1 if up.startswith("-") else 1)
     side = np.eye(3)[(up_axis + 1) % 3]
     depth = np.eye(3)[(up_axis + 2) % 3]
-    position = center + scale * (1.15 * side - 1.35 * depth + 0.7 * u)
+    # following, the robot's own box is the scale: a closer view keeps it large on screen
+    position = target + scale * (0.65 if follow else 1.0) * (1.15 * side - 1.35 * depth + 0.7 * u)
     floor = center.copy()
     floor[up_axis] = lo[up_axis] if u[up_axis] > 0 else hi[up_axis]
     grid = {2: "xy", 1: "xz", 0: "yz"}[up_axis]
-    return {"up": u.tolist(), "position": position.tolist(), "target": center.tolist(),
-            "grid": grid, "floor": floor.tolist()}, scale
+    return {"up": u.tolist(), "position": position.tolist(), "target": target.tolist(),
+            "grid": grid, "floor": floor.tolist(), **extra}, scale
 
 
-def page_data(res, model, *, fps=60, trace=None, colors=None, outputs=None, up=None):
+def _frame_part(name):
+    """"R", "J", "p", "v", "w" for a frame output (``tool0.R[0][1]``, ``com.p.x``), else None."""
+    m = re.fullmatch(r".+\.(R|J)\[\d+\]\[\d+\]|.+\.(p|v|w)\.[xyz]", name)
+    return None if m is None else (m.group(1) or m.group(2))
+
+
+def page_outputs(names):
+    """The outputs a page plots by default: every output but the frames' rotations, Jacobians
+    and twists; a frame is summed up by its position (three curves in one strip)."""
+    return [n for n in names if _frame_part(n) in (None, "p")]
+
+
+def _strips(names, most=8):
+    """Groups of ``names`` drawn in one strip each: a frame's position (x, y, z) together,
+    every other output alone; at most ``most`` strips (the rest is left off, counted)."""
+    groups, by_frame = [], {}
+    for k, name in enumerate(names):
+        if _frame_part(name) == "p":
+            frame = name[:-4]
+            if frame not in by_frame:
+                by_frame[frame] = len(groups)
+                groups.append({"label": f"{frame}.p", "series": []})
+            groups[by_frame[frame]]["series"].append(k)
+        else:
+            groups.append({"label": name, "series": [k]})
+    return groups[:most], max(0, len(groups) - most)
+
+
+def _drawn_lines(poses):
+    """The skeleton's lines but those from a fixed point to a moving one whose length changes:
+    a floating base's "line" from the world origin is no part of the robot (a fall would draw
+    it metres long)."""
+    P = poses.points
+    if P.ndim < 3 or len(P) < 2:
+        return list(poses.lines)
+    fixed = np.ptp(P, axis=0).max(axis=1) < 1e-12
+    kept = []
+    for j, k in poses.lines:
+        length = np.linalg.norm(P[:, j, :] - P[:, k, :], axis=1)
+        if not ((fixed[j] or fixed[k]) and np.ptp(length) > 1e-9 * max(1.0, float(length.max()))):
+            kept.append((j, k))
+    return kept
+
+
+def _ghost_free(geometry, frame_names):
+    """Drop "world" shapes of a link that is itself a moving body: a model built before the
+    floating base's root stopped being drawn at the origin too carries that copy in NAME.json."""
+    if "world" not in geometry:
+        return geometry
+    from .geometry import identifier
+    moving = set(frame_names)
+    kept = [s for s in geometry["world"] if identifier(s.get("link", "")) not in moving]
+    out = {k: v for k, v in geometry.items() if k != "world"}
+    if kept:
+        out["world"] = kept
+    return out
+
+
+def page_data(res, model, *, fps=60, trace=None, colors=None, outputs=None, up=None, axes=None):
     """The JSON the viewer reads (see the module docstring)."""
     from .geometry import pack_shapes
     times, X = _resample(res, fps)
@@ -189,7 +296,7 @@ def page_data(res, model, *, fps=60, trace=None, colors=None, outputs=None, up=N
             raise ValueError(f"trace names {name!r}, which is no body or point; known: {', '.join(names)}")
         traces.append({"name": name, "offset": offset})
     t_run = np.asarray(res.t, float)
-    wanted = list(res.outputs) if outputs is None else list(outputs)
+    wanted = page_outputs(res.outputs) if outputs is None else list(outputs)
     series = []
     for name in wanted:
         if name in res.outputs:
@@ -200,15 +307,20 @@ def page_data(res, model, *, fps=60, trace=None, colors=None, outputs=None, up=N
             raise ValueError(f"outputs names {name!r}, which is neither an output nor a state")
         series.append({"name": name, "values": _b64(np.interp(times, t_run, np.asarray(values, float)))
                        if len(t_run) > 1 else _b64(values)})
-    geometry, meshes = pack_shapes(model.metadata.get("poses", {}).get("geometry", {}))
+    geometry, meshes = pack_shapes(_ghost_free(model.metadata.get("poses", {}).get("geometry", {}),
+                                               poses.frame_names))
     camera, scale = _camera(poses, up, _reach({k: v for k, v in geometry.items() if k != "world"}, meshes))
     fixed = [bool(np.ptp(poses.points[:, j, :], axis=0).max() < 1e-12) if nt else False
              for j in range(len(poses.point_names))]
+    lines = [list(p) for p in (_drawn_lines(poses) if geometry else poses.lines)]
+    strips, left_off = _strips([s["name"] for s in series])
+    robot = any(geometry.get(name) for name in poses.frame_names)
     return {"name": model.name, "t": _b64(times), "poses": _b64(flat), "frames": list(poses.frame_names),
-            "points": list(poses.point_names), "lines": [list(p) for p in poses.lines],
-            "geometry": geometry, "meshes": meshes, "outputs": series, "traces": traces,
+            "points": list(poses.point_names), "lines": lines,
+            "geometry": geometry, "meshes": meshes, "outputs": series, "strips": strips,
+            "strips_left_off": left_off, "traces": traces,
             "colors": colors, "palette": _PALETTE, "camera": camera, "scale": scale,
-            "radius": 0.035 * scale, "fixed": fixed}, poses
+            "radius": 0.035 * scale, "fixed": fixed, "axes": (not robot) if axes is None else bool(axes)}, poses
 
 
 _PAGE = """<!DOCTYPE html>
@@ -231,6 +343,7 @@ html, body {{ margin: 0; height: 100%; font: 13px sans-serif; background: #fff; 
 <span id="eomc-time"></span>
 <label>speed <select id="eomc-speed"><option>0.25</option><option>0.5</option>
 <option selected>1</option><option>2</option><option>4</option></select></label>
+<label><input id="eomc-axes" type="checkbox"> axes</label>
 <span>{title}</span></div>
 <div id="eomc-status" hidden></div>
 <script type="application/json" id="eomc-data">{data}</script>
@@ -245,7 +358,7 @@ def page_html(data, title):
     text = json.dumps(data, separators=(",", ":")).replace("</", "<\\/")
     return _PAGE.format(title=html.escape(title), data=text, three=_three_script(),
                         viewer=(_WEB / "viewer.js").read_text(encoding="utf-8"),
-                        plot_display="" if data["outputs"] else "display: none;")
+                        plot_display="" if data.get("strips", data["outputs"]) else "display: none;")
 
 
 class Animation:
@@ -270,7 +383,7 @@ class Animation:
 
 
 def animate(res, path=None, *, model, fps=60, trace=None, colors=None, outputs=None, up=None,
-            title=None):
+            title=None, axes=None):
     """A self-contained HTML animation of ``res`` (a SimulationResult of ``model``).
 
     ``fps``: frames per second of the run stored in the page; ``trace``: names of bodies or
@@ -278,22 +391,66 @@ def animate(res, path=None, *, model, fps=60, trace=None, colors=None, outputs=N
     {name: '#rrggbb' or (r, g, b)}; ``outputs``: names plotted beside the scene (default:
     the model's outputs); ``up``: 'x', 'y', 'z', '-x', '-y' or '-z' (default z, or the view
     straight onto the plane of a planar motion; '-z' for a z-down convention such as the
-    Whipple bicycle's).  Writes ``path`` when given.  Returns an :class:`Animation`.
+    Whipple bicycle's); ``axes``: draw each body's frame axes (default: only for a model
+    without shapes; a robot's meshes would be buried under them; the page has a toggle).
+    Frame outputs' rotations, Jacobians and twists are never plotted by default (a frame is
+    shown by its position), and at most 8 strips are drawn.  When the run covers much more
+    ground than the robot (a fall, a walk) the camera follows it.
+    Writes ``path`` when given.  Returns an :class:`Animation`.
     """
     if fps <= 0:
         raise ValueError(f"fps must be positive, not {fps}")
-    data, poses = page_data(res, model, fps=fps, trace=trace, colors=colors, outputs=outputs, up=up)
+    data, poses = page_data(res, model, fps=fps, trace=trace, colors=colors, outputs=outputs, up=up,
+                            axes=axes)
     anim = Animation(page_html(data, title or f"{model.name} (eomc)"), None, poses)
     if path is not None:
         anim.save(path)
     return anim
 
 
+def ffmpeg_path():
+    """The ffmpeg that writes MP4: the one on PATH, else the binary the imageio-ffmpeg wheel
+    ships (``pip install "eomc[video]"``); ValueError with that line when there is none."""
+    found = shutil.which("ffmpeg")
+    if found:
+        return found
+    try:
+        import imageio_ffmpeg
+        return imageio_ffmpeg.get_ffmpeg_exe()
+    except (ImportError, RuntimeError):
+        raise ValueError('writing .mp4 needs ffmpeg: pip install "eomc[video]" (the imageio-ffmpeg wheel '
+                         'ships one), or write a .gif') from None
+
+
+# The short side of a GIF/MP4 in pixels, at least (a tall robot is not drawn as a sliver).
+MIN_SHORT_SIDE = 320
+
+
+def _window_2d(poses, a, b, reach=0.0):
+    """(per-frame centres (n_t, 2) or None, half-widths (ha, hb), fixed centre or None) of
+    the 2-D view: the whole run when it is not much larger than the robot, else a window of
+    the robot's own size that follows it (as the 3-D page's camera does)."""
+    lo_t, hi_t, lo, hi = _framing(poses, reach)
+    size = hi_t - lo_t
+    whole = hi - lo
+    robot = max(float(np.max(size[:, [a, b]])), 1e-3)
+    if len(lo_t) > 1 and float(np.max(whole[[a, b]])) > FOLLOW_RATIO * robot:
+        half = size[:, [a, b]].max(axis=0) / 2 + 0.2 * robot
+        centres = _smoothed((lo_t + hi_t) / 2, 9)[:, [a, b]]
+        return centres, half, None
+    pad = 0.1 * max(float(np.max(whole)), 1e-3)
+    return None, ((whole[a] / 2 + pad), (whole[b] / 2 + pad)), (lo + hi) / 2
+
+
 def animate_2d(res, path, *, model, fps=20, trace=None, dpi=80, size=4.0, t_max=None):
-    """A 2-D drawing of a planar motion as GIF (Pillow) or MP4 (ffmpeg, when installed).
+    """A 2-D drawing of a planar motion as GIF (Pillow) or MP4 (ffmpeg: on PATH or from the
+    imageio-ffmpeg wheel, the ``eomc[video]`` extra).
 
     The view is straight onto the plane the motion keeps; a motion that leaves every
-    coordinate plane is refused with the reason.  Returns the path."""
+    coordinate plane is refused with the reason.  The picture's short side is at least
+    ``size`` inches (``MIN_SHORT_SIDE`` pixels at the default dpi) and its long side at most
+    twice that; when the run covers much more ground than the robot (a fall, a hop) the view
+    follows the robot at its own size.  Returns the path."""
     import matplotlib
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
@@ -302,8 +459,7 @@ def animate_2d(res, path, *, model, fps=20, trace=None, dpi=80, size=4.0, t_max=
     kind = path.suffix.lower()
     if kind not in (".gif", ".mp4"):
         raise ValueError(f"{path}: a 2-D animation is written as .gif or .mp4")
-    if kind == ".mp4" and shutil.which("ffmpeg") is None:
-        raise RuntimeError("writing .mp4 needs ffmpeg, which is not installed; write a .gif instead")
+    ffmpeg = ffmpeg_path() if kind == ".mp4" else None
     times, X = _resample(res, fps)
     if t_max is not None:
         keep = times <= times[0] + t_max + 1e-12
@@ -316,15 +472,23 @@ def animate_2d(res, path, *, model, fps=20, trace=None, dpi=80, size=4.0, t_max=
     a, b = [k for k in range(3) if k != flat]
     P = poses.points
     O = poses.positions
-    allpos = np.concatenate([P.reshape(-1, 3), O.reshape(-1, 3)])
-    lo, hi = allpos.min(0), allpos.max(0)
-    pad = 0.1 * max(float(np.max(hi - lo)), 1e-3)
-    wa, hb = hi[a] - lo[a] + 2 * pad, hi[b] - lo[b] + 2 * pad
-    fig = plt.figure(figsize=(size * min(1.0, wa / hb) if wa < hb else size,
-                              size * min(1.0, hb / wa) + 0.35), dpi=dpi)
-    ax = fig.add_axes([0.02, 0.02, 0.96, 0.96 * (1 - 0.35 / (size * min(1.0, hb / wa) + 0.35))])
-    ax.set_xlim(lo[a] - pad, hi[a] + pad)
-    ax.set_ylim(lo[b] - pad, hi[b] + pad)
+    framing = _window_2d(poses, a, b)
+    follow, (ha, hb) = framing[0], framing[1]
+    centre = None if follow is not None else framing[2][[a, b]]
+    ha, hb = max(ha, 1e-3), max(hb, 1e-3)
+    # width / height of the picture within 1/2..2: a tall thin robot gets room beside it
+    ha, hb = max(ha, hb / 2), max(hb, ha / 2)
+    ratio = ha / hb
+    width, height = (size * ratio, size) if ratio >= 1 else (size, size / ratio)
+    title = 0.35
+    fig = plt.figure(figsize=(width, height + title), dpi=dpi)
+    ax = fig.add_axes([0.0, 0.0, 1.0, height / (height + title)])
+
+    def window(i):
+        c = centre if follow is None else follow[i]
+        ax.set_xlim(c[0] - ha, c[0] + ha)
+        ax.set_ylim(c[1] - hb, c[1] + hb)
+    window(0)
     ax.set_aspect("equal")
     ax.set_xticks([]), ax.set_yticks([])
     ax.set_title(model.name, fontsize=10)
@@ -336,23 +500,28 @@ def animate_2d(res, path, *, model, fps=20, trace=None, dpi=80, size=4.0, t_max=
         arr = poses[name]
         (ln,) = ax.plot([], [], "-", lw=1, color="#d62728", alpha=0.6)
         trace_lines.append((ln, arr))
-    segs = [ax.plot([], [], "-", lw=2.5, color="#333")[0] for _ in poses.lines]
+    drawn = _drawn_lines(poses)
+    segs = [ax.plot([], [], "-", lw=2.5, color="#333")[0] for _ in drawn]
     moving = [j for j in range(P.shape[1]) if np.ptp(P[:, j, :], axis=0).max() > 1e-12]
     (dots,) = ax.plot([], [], "o", ms=9, color="#1f77b4")
     (centres,) = ax.plot([], [], "s", ms=7, color="#2ca02c")
     label = ax.text(0.02, 0.96, "", transform=ax.transAxes, fontsize=9, va="top")
 
     def frame(i):
-        for ln, (j, k) in zip(segs, poses.lines):
+        for ln, (j, k) in zip(segs, drawn):
             ln.set_data([P[i, j, a], P[i, k, a]], [P[i, j, b], P[i, k, b]])
         dots.set_data(P[i, moving, a], P[i, moving, b])
         centres.set_data(O[i, :, a], O[i, :, b])
         for ln, arr in trace_lines:
             ln.set_data(arr[:i + 1, a], arr[:i + 1, b])
         label.set_text(f"t = {times[i]:.2f} s")
+        if follow is not None:
+            window(i)
         return segs + [dots, centres, label] + [ln for ln, _ in trace_lines]
 
     anim = mpl_animation.FuncAnimation(fig, frame, frames=len(times), interval=1000 / fps, blit=False)
+    if ffmpeg is not None:
+        matplotlib.rcParams["animation.ffmpeg_path"] = ffmpeg
     writer = (mpl_animation.PillowWriter(fps=fps) if kind == ".gif"
               else mpl_animation.FFMpegWriter(fps=fps))
     with atomic_path(path) as tmp:

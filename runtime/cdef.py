@@ -44,6 +44,7 @@ _SIGNATURES = {
     "constraints_jac": "int {n}_constraints_jac(double t, const double *x, const double *p, const double *r, double *out, double *work);",
     "inverse_dynamics": "int {n}_inverse_dynamics(double t, const double *x, const double *udot, const double *p, const double *r, double *tau, double *work);",
     "regressor": "int {n}_regressor(double t, const double *x, const double *udot, const double *p, const double *r, double *out, double *work);",
+    "jac_id": "int {n}_jac_id(double t, const double *x, const double *udot, const double *p, const double *r, double *out, double *work);",
     "jvp": "int {n}_jvp(double t, const double *x, const double *p, const double *r, int k, const double *dirs, double *xdot, double *out, double *work);",
     "linearize": "int {n}_linearize(double t, const double *x, const double *p, const double *r, double *A, double *B, double *work);",
     "events": "int {n}_events(double t, const double *x, const double *p, const double *r, double *out, double *work);",

@@ -185,7 +185,8 @@ class EventsBinding:
                 switching[slot] = 1
             self.contact_slots.append(slot)
         limits = switches.limits if switches is not None else ()
-        n, cap = len(everything), int(max_events)
+        n = len(everything)
+        cap = int(max_events) if self.events else 1     # switching only: nothing is recorded
         self.col = np.array([names.index(e.name) for e in everything], dtype=np.intc)
         self.direction = np.array([e.direction for e in everything], dtype=np.intc)
         self.terminal = np.array([e.terminal if s != 2 else 0 for e, s in zip(everything, switching)],

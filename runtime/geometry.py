@@ -87,7 +87,7 @@ def urdf_visuals(tree, urdf=None):
 def _urdf_visuals(tree, urdf):
     path = Path(tree.path)
     links = {link.name: link for link in urdf.robot.links}
-    groups = [("world", tree.root, list(tree.ground_links) or [tree.root])]
+    groups = [("world", tree.root, list(tree.ground_links))]   # none on a floating base
     groups += [(identifier(b.name), b.name, b.links) for b in tree.bodies.values()]
     out = {}
     for key, frame_link, members in groups:
@@ -114,7 +114,7 @@ def urdf_link_transforms(tree, urdf=None):
     if urdf is None:
         urdf = load_scene(tree.path)
     out = {}
-    groups = [("world", tree.root, list(tree.ground_links) or [tree.root])]
+    groups = [("world", tree.root, list(tree.ground_links))]   # none on a floating base
     groups += [(identifier(b.name), b.name, b.links) for b in tree.bodies.values()]
     for key, frame_link, members in groups:
         for name in members:

@@ -67,6 +67,8 @@ def _cffi_backend(ffi, lib, model_lib, c_model, name, functions):
         kernels["linearize"] = _linearize_kernel(getattr(model_lib, f"{name}_linearize"), prepare)
     if "regressor" in functions:   # (t, x, udot, p, r, out, work), as inverse_dynamics
         kernels["regressor"] = _inverse_dynamics_kernel(getattr(model_lib, f"{name}_regressor"), prepare)
+    if "jac_id" in functions:      # (t, x, udot, p, r, out, work), as inverse_dynamics
+        kernels["jac_id"] = _inverse_dynamics_kernel(getattr(model_lib, f"{name}_jac_id"), prepare)
     if "jvp" in functions:
         fp_jvp = getattr(model_lib, f"{name}_jvp")
         kernels["jvp"] = lambda t, x, p, r, k, dirs, xdot, out, work: fp_jvp(
@@ -163,6 +165,9 @@ class Model:
                                          self._zero_inputs, self.nx, self.work_size)
         elif extension is None:
             self._install_fast_calls(ffi, c_model)
+        # every generated function under its C name too (NAME_jac_x -> model.jac_x), bound to
+        # whatever the fast path installed
+        self.jac_x = self.jacobian
 
     def _install_fast_calls(self, ffi, c_model):
         """The cffi backend's per-call fast path: rhs, jacobian, mass_matrix and forcing through
@@ -355,11 +360,13 @@ class Model:
         return XD
 
     def jacobian(self, t, x, p=None, r=None):
-        """d rhs / d x, shape (nx, nx)."""
+        """d rhs / d x, shape (nx, nx); also ``jac_x``, its C name."""
         return self._matrix_call("jac_x", self.nx, self.nx, t, x, p, r)
 
+    jac_x = jacobian      # the C name (an instance binds it to the fast path, see __init__)
+
     def input_jacobian(self, t, x, p=None, r=None):
-        """d rhs / d r, shape (nx, ninput)."""
+        """d rhs / d r, shape (nx, ninput); also ``jac_r``, its C name."""
         if self.ninput == 0:
             self._args(t, x, p, r)
             return np.empty((self.nx, 0))
@@ -428,7 +435,7 @@ class Model:
         return self._vector_call("constraints", self.nhol + self.nvel, t, x, p, r)
 
     def constraints_jacobian(self, t, x, p=None, r=None):
-        """d constraints / d x, shape (nhol + nvel, nx)."""
+        """d constraints / d x, shape (nhol + nvel, nx); also ``constraints_jac``, its C name."""
         if self.nhol + self.nvel == 0:
             self._args(t, x, p, r)
             return np.empty((0, self.nx))
@@ -449,6 +456,29 @@ class Model:
                                       f"{', '.join(f'{v}' for v in udot)}")
             self._fail("inverse_dynamics", status, t, x, inputs=given)
         return tau
+
+    def jac_id(self, t, x, udot, p=None, r=None):
+        """d tau / d x of inverse dynamics (tau = M u' - f at the given ``udot``), shape (nu, nx):
+        columns [:, :nq] are d tau/dq, [:, nq:nq + nu] d tau/du (d tau/du' is the mass matrix).
+
+        On request (``functions`` including "jac_id"), recursive formulation.  Pinocchio's
+        ``computeRNEADerivatives`` differentiates along its Lie-group tangent instead of q:
+        on a floating base its dtau_dq is ``jac_id[:, :nq] @ K`` with K = dq'/du
+        (``jac_x[:nq, nq:nq + nu]``); on joints with one angle each they are the same.
+        """
+        given = (p, r)
+        t, x, p, r = self._args(t, x, p, r)
+        udot = self._array(udot, (self.nu,), "udot (speed derivatives)",
+                           self.state_names[self.nq:self.nq + self.nu])
+        kernel = self._kernel("jac_id")
+        out = np.empty((self.nu, self.nx))
+        status = kernel(t, x, udot, p, r, out.reshape(-1), self._work()[1])
+        if status:
+            if not np.all(np.isfinite(udot)):
+                raise SimulationError(f"{self.name}.jac_id: non-finite input: udot "
+                                      f"{', '.join(f'{v}' for v in udot)}")
+            self._fail("jac_id", status, t, x, inputs=given)
+        return out
 
     def jvp(self, t, x, directions, p=None, r=None):
         """(xdot, J·d for each row d of ``directions``): rhs and its directional derivatives
@@ -491,6 +521,9 @@ class Model:
         if status:
             self._fail("regressor", status, t, x, inputs=(p, None))
         return out
+
+    jac_r = input_jacobian
+    constraints_jac = constraints_jacobian
 
     @property
     def regressor_columns(self):

@@ -24,6 +24,9 @@ Definitions used throughout:
   buffer allocation and output evaluation excluded): the median over
   ``repeats`` samples, each the mean of enough back-to-back calls to last
   >= 5 ms (at most 200 calls); the minimum sample is kept too (wall_time_min_s).
+* CPU time -- the same samples' thread CPU time (``time.thread_time``): what the
+  integration cost this thread, which another process's load does not inflate
+  the way it inflates wall time; the diagram's time axis (cpu_time_s).
 * cost -- the work of a run in rhs-equivalents: nfev + w_jac * njev + w_lu * nlu,
   with w_jac = ops(jac_x) / ops(rhs) and w_lu = (5/3) nx^3 / ops(rhs) (one real
   or complex LU; Radau counts two per factorization) from the model's operation
@@ -125,7 +128,8 @@ def _c_call(model, a):
 
 
 def _timed(model, a, repeats):
-    """(SimulationResult, median, min wall time per integration) over `repeats` samples.
+    """(SimulationResult, (median, min) wall time, median thread CPU time per integration)
+    over `repeats` samples.
 
     The result comes from simulate.run_prepared (the public path).  A timing
     sample repeats the bare C call (:func:`_c_call`) until it lasts
@@ -137,22 +141,23 @@ def _timed(model, a, repeats):
     first = time.perf_counter() - start
     res = finish(model, a, x_out, stats, x_last, raise_on_failure=False)
     if res.status:
-        return res, first, first
+        return res, (first, first), first
     call = _c_call(model, a)
     start = time.perf_counter()
     call()
     first = time.perf_counter() - start
     inner = int(min(MAX_INNER, max(1, np.ceil(MIN_SAMPLE_S / max(first, 1e-9)))))
-    samples = []
+    samples, cpu = [], []
     for _ in range(max(1, int(repeats))):
-        start = time.perf_counter()
+        start, start_cpu = time.perf_counter(), time.thread_time()
         for _ in range(inner):
             call()
+        cpu.append((time.thread_time() - start_cpu) / inner)
         samples.append((time.perf_counter() - start) / inner)
-    return res, float(np.median(samples)), float(np.min(samples))
+    return res, (float(np.median(samples)), float(np.min(samples))), float(np.median(cpu))
 
 
-def _row(method, tol, dt, a, res, wall, ref):
+def _row(method, tol, dt, a, res, wall, ref, cpu=float("nan")):
     wall, wall_min = wall
     s = res.stats
     ok = res.status == 0
@@ -161,7 +166,8 @@ def _row(method, tol, dt, a, res, wall, ref):
         atol=a["atol"] if method != "rk4" else None, dt=dt, status=res.status,
         error=scaled_error(res.x, ref.x, ref.scale) if ok else float("nan"),
         wall_time_s=wall if ok else float("nan"),
-        wall_time_min_s=wall_min if ok else float("nan"), steps=s["steps"], accepted=s["accepted"],
+        wall_time_min_s=wall_min if ok else float("nan"), cpu_time_s=cpu if ok else float("nan"),
+        steps=s["steps"], accepted=s["accepted"],
         rejected=s["rejected"], nfev=s["nfev"], njev=s["njev"], nlu=s["nlu"],
         energy_drift=energy_drift(res.outputs) if ok else None,
         constraint_residual=(float(np.max(res.constraint_residual))
@@ -172,7 +178,8 @@ def _row(method, tol, dt, a, res, wall, ref):
 def _failed_row(method, tol, dt, message):
     row = {c: None for c in COLUMNS}
     row.update(method=method, tolerance=tol, dt=dt, status=-1, error=float("nan"),
-               wall_time_s=float("nan"), wall_time_min_s=float("nan"), message=message)
+               wall_time_s=float("nan"), wall_time_min_s=float("nan"), cpu_time_s=float("nan"),
+               message=message)
     return row
 
 
@@ -190,8 +197,8 @@ def _one(model, method, tol, dt, common, repeats, ref):
         a = prepare(model, max_steps=10 ** 7, stiff_check=True, **common, method=method, **kw)
     except ValueError as exc:                 # e.g. radau without a Jacobian
         return _failed_row(method, tol, dt, f"not run: {exc}"), None
-    res, wall, wall_min = _timed(model, a, repeats)
-    return _row(method, tol, dt, a, res, (wall, wall_min), ref), res
+    res, wall, cpu = _timed(model, a, repeats)
+    return _row(method, tol, dt, a, res, wall, ref, cpu), res
 
 
 def _dopri5_for_rk4(model, tol, common, ref, cache):

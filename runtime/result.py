@@ -78,49 +78,31 @@ class SimulationResult:
         return names, np.hstack(cols)
 
     def to_csv(self, path):
-        """Write t, states, outputs (and the constraint residual) as CSV with a header row."""
+        """Write t, states, outputs (and the constraint residual) as CSV with a header row.
+
+        A failed run's rows (up to where it stopped) are written too, followed by one
+        comment line ``# incomplete: <why>`` (numpy.loadtxt and pandas with comment="#"
+        skip it), so what was computed is kept and marked as such."""
         names, data = self.columns()
+        footer = "" if self.status == 0 else "incomplete: " + " ".join(str(self.message).split())
         with atomic_path(path) as tmp:
             np.savetxt(tmp, data, delimiter=",", header=",".join(names), comments="", fmt="%.17g")
+            if footer:
+                with open(tmp, "a") as fh:
+                    fh.write(f"# {footer}\n")
         return Path(path)
 
     def plot(self, path=None, names=None):
-        """Plot states (or the given names) against t; saved to ``path`` (PNG) if given.
+        """Plot states and outputs (or the given names) against t; saved to ``path`` (PNG) if given.
 
-        By default coordinates and speeds get a panel each: their scales differ
-        (a wheel's spin rate would flatten a bicycle's lean angle on one axis);
-        the model's outputs (energy, ...) get a panel of their own, since an
-        energy drift is what a user looks at first.
+        Panels by kind (coordinates, speeds, extra states, outputs of one scale, a frame's
+        position or velocity), at most 8 curves each with the legend outside the data, at
+        most 6 panels a page: a robot's run makes several pages (``traj.png``,
+        ``traj-2.png``, ...).  Returns the Path (a list of Paths for several pages), or the
+        Figure(s) without ``path``.  See eomc.runtime.plotting.
         """
-        import matplotlib
-        if path is not None:
-            matplotlib.use("Agg", force=False)
-        import matplotlib.pyplot as plt
-        if names is not None:
-            panels = [("", list(names))]
-        elif self.nq and 0 < self.nq < len(self.state_names):
-            panels = [("coordinates", list(self.state_names[:self.nq])),
-                      ("speeds", list(self.state_names[self.nq:]))]
-        else:
-            panels = [("", list(self.state_names))]
-        if names is None and self.outputs and len(self.t):   # frame outputs: positions and velocities
-            panels.append(("outputs", [n for n in self.outputs if ".R[" not in n and ".J[" not in n]))
-        fig, axes = plt.subplots(len(panels), 1, figsize=(8, 2.0 + 2.5 * len(panels)),
-                                 sharex=True, squeeze=False)
-        for ax, (label, panel) in zip(axes[:, 0], panels):
-            for name in panel:
-                ax.plot(self.t, self[name], label=name)
-            ax.set_ylabel(label)
-            ax.legend(loc="upper right", fontsize="small", ncol=max(1, len(panel) // 6))
-            ax.grid(True, alpha=0.3)
-        axes[-1, 0].set_xlabel("t")
-        axes[0, 0].set_title(f"{self.model_name} ({self.method})")
-        if path is not None:
-            with atomic_path(path) as tmp:
-                fig.savefig(tmp, dpi=120, bbox_inches="tight", format=Path(path).suffix[1:] or "png")
-            plt.close(fig)
-            return Path(path)
-        return fig
+        from .plotting import plot_result
+        return plot_result(self, path, names)
 
     def __getstate__(self):
         """Pickles carry the numbers, not the model (a model pickles with its library's bytes)."""

@@ -18,6 +18,7 @@ from eomc.runtime.errors import SimulationError
 
 from .diagnose import SINGULAR_STATUS, singular_direction
 from .integrators_api import FIXED_STEP, METHOD_ALIASES, METHOD_IDS, STATUS_NAMES
+from .law_parameters import check_law_parameters
 from .events import DEFAULT_MAX_EVENTS, EventsBinding, resolve_events
 from .feedback import FeedbackBinding, applied_inputs, check_callable, cubic_slopes
 from .names import index_of
@@ -25,9 +26,13 @@ from .progress import follow_integration
 from .result import SimulationResult
 
 __all__ = ["simulate", "prepare", "run_prepared", "scipy_fun", "resolve_method", "METHODS",
-           "DEFAULT_POINTS", "check_keywords"]
+           "DEFAULT_POINTS", "check_keywords", "DEFAULT_METHOD", "auto_method"]
 
-METHODS = tuple(METHOD_IDS)
+METHODS = tuple(METHOD_IDS) + ("auto",)
+# The default: DOP853 while the problem is not stiff, Radau from the start for a model with
+# ground contacts (stiff and only piecewise smooth), and Radau from where DOP853 detects
+# stiffness otherwise (as LSODA switches) -- so no default run stops with "looks stiff".
+DEFAULT_METHOD = "auto"
 DEFAULT_POINTS = 1001      # output rows when neither t_eval nor dt is given
 # Hairer's stabilized (PI) step control for DOPRI5/DOP853.  On the n-link cart at
 # rtol = atol = 1e-8 it rejects ~4x fewer steps than the classical control
@@ -59,8 +64,8 @@ def resolve_method(method):
     """Canonical method name; ValueError listing the valid ones otherwise."""
     key = str(method).lower().replace("-", "").replace("_", "")
     key = METHOD_ALIASES.get(key, key)
-    if key not in METHOD_IDS:
-        valid = ", ".join(list(METHOD_IDS) + list(METHOD_ALIASES))
+    if key not in METHOD_IDS and key != "auto":
+        valid = ", ".join(["auto"] + list(METHOD_IDS) + list(METHOD_ALIASES))
         raise ValueError(f"unknown integration method {method!r}; valid methods: {valid}")
     return key
 
@@ -248,7 +253,16 @@ def _t_eval(t_eval, t0, t1, method, dt, n_points, nx=1):
     return np.ascontiguousarray(t)
 
 
-def prepare(model, x0, t_span, p=None, r=None, method="dop853", rtol=1e-6, atol=1e-9,
+def auto_method(model):
+    """(first method, may switch to radau) of method="auto" for this model."""
+    from .switching import find_switches
+    implicit = model.c_model.jac_x != model.ffi.NULL
+    if implicit and find_switches(model).contacts:
+        return "radau", False
+    return "dop853", implicit
+
+
+def prepare(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6, atol=1e-9,
             t_eval=None, dt=None, max_steps=100000, first_step=None, max_step=None,
             project=False, stiff_check=True, n_points=None, baumgarte=0.0, pi_beta=PI_BETA,
             events=None, max_events=DEFAULT_MAX_EVENTS, K=None, x_ref=None, switching=True):
@@ -258,6 +272,13 @@ def prepare(model, x0, t_span, p=None, r=None, method="dop853", rtol=1e-6, atol=
     (runtime/switching.py); False only to measure what the bare integrator does
     (benchmarks).  The run's physics is judged either way."""
     method = resolve_method(method)
+    auto = method == "auto"
+    if auto:
+        if dt is not None:
+            raise ValueError(f"dt= is only for the fixed-step methods {', '.join(map(repr, FIXED_STEP))}; "
+                             f"the default method 'auto' is adaptive (pass method= one of them with dt)")
+        method, may_switch = auto_method(model)
+        stiff_check = stiff_check or may_switch
     t0, t1 = _span(t_span)
     rtol, atol = _positive(rtol, "rtol"), _positive(atol, "atol")
     if method in FIXED_STEP:
@@ -295,6 +316,7 @@ def prepare(model, x0, t_span, p=None, r=None, method="dop853", rtol=1e-6, atol=
                  "x0 (initial state)")
     p = model.param_defaults if p is None else p
     p = _vector(model, p, model.nparam, model.param_names, model.param_defaults, "p (parameters)")
+    check_law_parameters(model, p)      # the build's refusals, for values changed at run time
     n_r, r_t, r_v = _inputs(model, r, t0, t1)
     times = _t_eval(t_eval, t0, t1, method, first_step, n_points, model.nx)
     if times.size > 1 and np.any(np.diff(times) <= 0):
@@ -307,11 +329,14 @@ def prepare(model, x0, t_span, p=None, r=None, method="dop853", rtol=1e-6, atol=
         extras["switches"] = sw
         extras["switch_steps"] = bool(switching)
         extras.setdefault("max_events", max_events)
+    if auto and may_switch and "r_fun" not in extras and ("K" not in extras
+                                                            or model.c_model.jac_r != model.ffi.NULL):
+        extras["auto_switch"] = True
     return dict(method=method, t0=t0, t1=t1, x0=x0, p=np.append(p, 0.0), n_r=n_r, r_t=r_t,
                 r_v=r_v, t_eval=times, rtol=rtol, atol=atol, h0=first_step or 0.0,
                 hmax=max_step or 0.0, max_steps=int(max_steps), project=bool(project),
                 stiff_check=bool(stiff_check), baumgarte=float(baumgarte), pi_beta=float(pi_beta),
-                **extras)
+                auto=auto, **extras)
 
 
 def _extras(model, x0, t0, r, events, max_events, K, x_ref, method):
@@ -389,11 +414,42 @@ _STAT_FIELDS = ("steps", "accepted", "rejected", "nfev", "njev", "nlu", "nproj",
 
 
 def run_prepared(model, a, out=None):
-    """One C call: returns (x_out rows written, stats dict, x_last).  Releases the GIL."""
+    """One C call: returns (x_out rows written, stats dict, x_last).  Releases the GIL.
+
+    method="auto" (a["auto_switch"]): where DOP853 stops because the problem looks stiff,
+    a second call continues with Radau from that state into the same output rows."""
     call, x_out, x_last, stats = bind_call(model, a, out)
     # a caller inside runtime.progress.integration() (eomc simulate) sees how far it got
     follow_integration(lambda: (stats.t, stats.steps), a["t0"], a["t1"], call)
-    return x_out, {f: getattr(stats, f) for f in _STAT_FIELDS}, x_last
+    got = {f: getattr(stats, f) for f in _STAT_FIELDS}
+    if a.get("auto_switch") and got["status"] == STIFF_STATUS and got["t"] < a["t1"]:
+        return _continue_implicit(model, a, x_out, got, x_last)
+    return x_out, got, x_last
+
+
+STIFF_STATUS = 7    # EOMC_STIFF
+
+
+def _continue_implicit(model, a, x_out, first, x_last):
+    """The rest of an "auto" run with Radau, from where DOP853 found the problem stiff."""
+    n1 = first["n_out"]
+    fb, ev = a.get("_bindings", (None, None))
+    b = dict(a)
+    b.pop("_bindings", None)
+    b.update(method="radau", t0=float(first["t"]), x0=np.array(x_last), auto_switch=False,
+             t_eval=np.ascontiguousarray(a["t_eval"][n1:]), h0=0.0)
+    if b["t_eval"].size and b["t_eval"][0] <= b["t0"]:
+        b["t_eval"] = b["t_eval"][b["t_eval"] > b["t0"]]
+    rows, second, x_end = run_prepared(model, b, out=x_out[n1:n1 + b["t_eval"].size])
+    merged = dict(second)
+    for f in ("steps", "accepted", "rejected", "nfev", "njev", "nlu", "nproj", "nswitch"):
+        merged[f] = first[f] + second[f]
+    merged["n_out"] = n1 + second["n_out"]
+    merged["switched_at"] = first["t"]
+    a["_first_bindings"] = (fb, ev)
+    a["_bindings"] = b.get("_bindings", (None, None))
+    a["method_used"] = f"dop853, then radau from t={first['t']:.6g} (stiff)"
+    return x_out, merged, x_end
 
 
 def _along(model, a, which, t, x):
@@ -489,16 +545,13 @@ def failure_message(model, method, stats, x_last, p=None):
     elif status == 6:
         msg += f" ({stats['steps']} steps); raise max_steps or, if the problem is stiff, " \
                f"{STIFF_ADVICE}"
-    elif status == 5 and method == "implicitfast":
-        msg += (f" (dt={stats['h']:.3g}): the implicit Euler equation has no solution near the "
-                f"step, even split into 64; the solution may blow up here, or use a smaller dt")
     elif status == 5:
         msg += f" (h={stats['h']:.3g}); the solution may blow up or be discontinuous here"
     why = singular_direction(model, stats["t_fail"], x_last, p) if status == SINGULAR_STATUS else ""
     return f"{msg}; state {state}{why}"
 
 
-def simulate(model, x0, t_span, p=None, r=None, method="dop853", rtol=1e-6, atol=1e-9,
+def simulate(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6, atol=1e-9,
              t_eval=None, dt=None, max_steps=100000, first_step=None, max_step=None,
              project=False, stiff_check=True, n_points=None, baumgarte=0.0,
              pi_beta=PI_BETA, raise_on_failure=True, events=None, max_events=DEFAULT_MAX_EVENTS,
@@ -509,9 +562,11 @@ def simulate(model, x0, t_span, p=None, r=None, method="dop853", rtol=1e-6, atol
     one) / the parameter defaults); x0=None starts at the model's initial_state.  r: constant
     array, (t_grid, values) interpolated linearly in C, (t_grid, values, "cubic") by a
     cubic spline (not-a-knot, scipy's CubicSpline) in C, or a callable (see below).
-    method: rk4 (needs dt), dopri5/rk45, dop853, radau, implicitfast (needs dt and
-    jac_x: fixed-step linearly implicit Euler for stiff contact at real-time steps,
-    first order; runtime/c/eomc_fixedstep.c).  Output at
+    method: "auto" (the default: DOP853 while the problem is not stiff, Radau from the
+    start for a model with ground contacts, and Radau from wherever DOP853 detects
+    stiffness -- the run continues, LSODA-like), rk4 (needs dt), dopri5/rk45, dop853,
+    radau, implicitfast (needs dt and jac_x: fixed-step linearly implicit Euler for
+    stiff contact at real-time steps, first order; runtime/c/eomc_fixedstep.c).  Output at
     t_eval (dense output) or, by default, on n_points (1001) equally spaced times
     (rk4, implicitfast: their step grid).  project=True projects onto the model's constraints
     after each step; baumgarte=a > 0 instead adds -a G^+ g to the rhs, so
@@ -560,6 +615,9 @@ def simulate(model, x0, t_span, p=None, r=None, method="dop853", rtol=1e-6, atol
                 project=project, stiff_check=stiff_check, n_points=n_points,
                 baumgarte=baumgarte, pi_beta=pi_beta, events=events, max_events=max_events,
                 K=K, x_ref=x_ref, switching=switching)
+    if "switches" in a and a["switches"].limits:
+        from .switching import warn_outside_limits
+        warn_outside_limits(model, a["x0"], a["p"])
     x_out, stats, x_last = run_prepared(model, a)
     result = finish(model, a, x_out, stats, x_last, raise_on_failure)
     if project and not consistent and model.nhol + model.nvel:
@@ -645,10 +703,13 @@ def _user_level():
 def finish(model, a, x_out, stats, x_last, raise_on_failure=True):
     """Wrap C's arrays in a SimulationResult (or raise on failure)."""
     fb, ev = a.get("_bindings", (None, None))
-    if fb is not None:
-        fb.raise_error()
+    fb1, ev1 = a.get("_first_bindings", (None, None))     # method="auto" before it switched
+    for binding in (fb1, fb):
+        if binding is not None:
+            binding.raise_error()
+    method = a.get("method_used", a["method"])
     status, n = stats["status"], stats["n_out"]
-    message = "ok" if status == 0 else failure_message(model, a["method"], stats, x_last, a.get("p"))
+    message = "ok" if status == 0 else failure_message(model, method, stats, x_last, a.get("p"))
     if status == NONFINITE_STATUS and ev is not None and np.all(np.isfinite(x_last)):
         message += _nonfinite_events(model, a, stats, x_last)
     if status == 0:
@@ -664,18 +725,34 @@ def finish(model, a, x_out, stats, x_last, raise_on_failure=True):
         t=t, x=x, state_names=tuple(model.state_names),
         outputs={} if outputs is None else dict(zip(model.output_names, outputs.T)),
         constraint_residual=None if residual is None else np.max(np.abs(residual), axis=1),
-        stats=stats, status=status, message=message, method=a["method"], model_name=model.name,
+        stats=stats, status=status, message=message, method=method, model_name=model.name,
         x_final=x_last, t_final=stats["t"], nq=model.nq)
+    if a["method"] == "implicitfast" and status == 0 and stats["rejected"]:
+        import warnings
+        from .switching import PhysicsWarning
+        warnings.warn(PhysicsWarning(
+            f"{model.name}: implicitfast: the implicit Euler equation of {stats['rejected']} "
+            f"(sub-)step(s) was not solved to tolerance even split into 64 (a hard impact, or "
+            f"the solution blows up); a smaller dt, or method='radau', checks the result"), stacklevel=3)
     if ev is not None and "switches" in a and status == 0:
         from .switching import verdict
-        bad, why = verdict(model, a, result, ev.switch_maxima(), a["switches"])
+        seen = ev.switch_maxima()
+        if ev1 is not None:
+            seen = np.maximum(seen, ev1.switch_maxima())
+        bad, why = verdict(model, a, result, seen, a["switches"])
         if bad:
-            result.status = bad
-            result.message = f"{model.name}: {a['method']}: {why}"
+            result.status = stats["status"] = bad
+            result.message = f"{model.name}: {method}: {why}"
             if raise_on_failure:
                 raise SimulationError(result.message)
     if ev is not None and "events" in a:
         result.t_events, result.x_events, result.event_stop, dropped = ev.results()
+        if ev1 is not None:     # the events before "auto" switched to Radau come first
+            t1_, x1_, _, dropped1 = ev1.results()
+            for name in result.t_events:
+                result.t_events[name] = np.concatenate([t1_[name], result.t_events[name]])
+                result.x_events[name] = np.concatenate([x1_[name], result.x_events[name]])
+            dropped += dropped1
         if dropped:
             warnings.warn(f"{model.name}: {dropped} event occurrence(s) beyond max_events="
                           f"{a['max_events']} were not stored", RuntimeWarning, stacklevel=3)

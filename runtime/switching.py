@@ -30,7 +30,8 @@ import numpy as np
 
 from .errors import EomcWarning
 
-__all__ = ["Switches", "find_switches", "PhysicsWarning", "verdict", "PENETRATION_FRACTION",
+__all__ = ["Switches", "find_switches", "PhysicsWarning", "verdict", "warn_outside_limits",
+           "PENETRATION_FRACTION",
            "POINT_PENETRATION", "LIMIT_OVERSHOOT_WIDTHS", "STATUS_ENERGY", "ENERGY_FAIL",
            "energy_tolerance"]
 
@@ -74,6 +75,15 @@ class Switches:
 _LIMIT = re.compile(r"limit_(lo|hi)_(.+)\Z")
 
 
+def contact_parameter(params, key, name):
+    """Index of ``<key>_<name>``, or of ``<key>_<geom>`` for a contact point ``<geom>_<i>`` of an
+    MJCF geom with several points (they share the geom's parameters); -1 if neither."""
+    if f"{key}_{name}" in params:
+        return params[f"{key}_{name}"]
+    m = re.match(r"(.+)_\d+\Z", name)
+    return params.get(f"{key}_{m.group(1)}", -1) if m else -1
+
+
 def find_switches(model):
     """The model's contacts and joint limits, found by their parameter and event names."""
     cached = getattr(model, "_switches", None)
@@ -82,7 +92,7 @@ def find_switches(model):
     params = {n: i for i, n in enumerate(model.param_names)}
     states = {n: i for i, n in enumerate(model.state_names)}
     events = [d["name"] for d in model.metadata.get("events", ())]
-    contacts = tuple(Contact(e[len("contact_"):], e, params.get(f"r_{e[len('contact_'):]}", -1))
+    contacts = tuple(Contact(e[len("contact_"):], e, contact_parameter(params, "r", e[len("contact_"):]))
                      for e in events if e.startswith("contact_"))
     limits = []
     for name, i in params.items():
@@ -134,7 +144,9 @@ def verdict(model, a, result, gmax, sw):
     for j, lim in enumerate(sw.limits):
         over = gmax[ncontact + j] if gmax is not None and ncontact + j < len(gmax) else -np.inf
         e = float(p[lim.width]) if lim.width >= 0 else 3e-4
-        if np.isfinite(over) and over > LIMIT_OVERSHOOT_WIDTHS * e:
+        start = lim.sign * (float(a["x0"][lim.state]) - float(p[lim.param]))
+        if np.isfinite(over) and over > LIMIT_OVERSHOOT_WIDTHS * e and over > start + e:
+            # (a joint that started outside and only came back is warned about at the start)
             notes.append(f"joint {lim.joint} went {over:.3g} past its {lim.side} limit "
                          f"{float(p[lim.param]):g}, more than {LIMIT_OVERSHOOT_WIDTHS} widths "
                          f"({LIMIT_OVERSHOOT_WIDTHS * e:.3g}): its limit stiffness limit_k_{lim.joint} is "
@@ -156,6 +168,27 @@ def verdict(model, a, result, gmax, sw):
     if notes:       # one warning per run, naming every contact and joint
         warnings.warn(PhysicsWarning(f"{model.name}: " + "; ".join(notes)), stacklevel=_user_level())
     return status, extra
+
+
+def warn_outside_limits(model, x0, p):
+    """A PhysicsWarning naming every joint that starts outside its range (Go2's zero pose has
+    its knees 0.84 rad outside: the limits' springs then fire at once, issue 29)."""
+    sw = find_switches(model)
+    if not sw.limits:
+        return
+    x0, p = np.asarray(x0, dtype=float), np.asarray(p, dtype=float)
+    out = []
+    for lim in sw.limits:
+        past = lim.sign * (x0[lim.state] - p[lim.param])
+        e = float(p[lim.width]) if lim.width >= 0 else 3e-4
+        if past > e:
+            out.append(f"{lim.joint} (q_{lim.joint} = {x0[lim.state]:.6g}, {past:.3g} "
+                       f"{'above' if lim.sign > 0 else 'below'} its {lim.side} limit {p[lim.param]:.6g})")
+    if out:
+        warnings.warn(PhysicsWarning(
+            f"{model.name}: the start is outside the range of joint{'s' if len(out) > 1 else ''} "
+            f"{'; '.join(out)}: the limit springs push back at once (give x0 inside the ranges)"),
+            stacklevel=_user_level())
 
 
 def _user_level():

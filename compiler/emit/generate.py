@@ -38,7 +38,7 @@ def _eomc_version():
 
 def _select(functions, ninput, noutput, ncon, nevent=0, has_poses=False, nparam=None):
     """Requested functions that apply to this model, in canonical order (``functions=None``:
-    all but the ones generated only on request: jac_p, jvp, regressor)."""
+    all but the ones generated only on request: jac_p, jvp, regressor, jac_id)."""
     wanted = set((f for f in ALL_FUNCTIONS if f not in ON_REQUEST) if functions is None else
                  (_ALIASES.get(f, f) for f in functions))
     unknown = sorted(wanted - set(ALL_FUNCTIONS))

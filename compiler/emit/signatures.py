@@ -21,6 +21,10 @@ SIGNATURES = {
     "regressor": (("double", "t"), ("const double *", "x"), ("const double *", "udot"),
                   ("const double *", "p"), ("const double *", "r"),
                   ("double *", "out"), ("double *", "work")),
+    # d tau / d x of inverse dynamics at given udot, row-major nu x nx (compiler/tree/inverse_derivatives.py)
+    "jac_id": (("double", "t"), ("const double *", "x"), ("const double *", "udot"),
+               ("const double *", "p"), ("const double *", "r"),
+               ("double *", "out"), ("double *", "work")),
     "jvp": _RHS + (("int", "k"), ("const double *", "dirs"), ("double *", "xdot"), ("double *", "out"),
                    ("double *", "work")),
     "linearize": _RHS + (("double *", "A"), ("double *", "B"), ("double *", "work")),
@@ -31,10 +35,10 @@ SIGNATURES = {
 
 FUNCTION_ORDER = ("rhs", "jac_x", "jac_r", "jac_p", "mass_matrix", "forcing", "inverse_dynamics",
                   "outputs", "constraints", "constraints_jac", "linearize", "events", "poses", "regressor",
-                  "jvp")
+                  "jvp", "jac_id")
 
 # Generated only on request (``functions`` naming them), not by default.
-ON_REQUEST = ("jac_p", "regressor", "jvp")
+ON_REQUEST = ("jac_p", "regressor", "jvp", "jac_id")
 
 # eomc_model fields holding function pointers (the rest are exported only).
 STRUCT_FIELDS = ("rhs", "jac_x", "jac_r", "mass_matrix", "forcing", "outputs",

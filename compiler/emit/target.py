@@ -110,6 +110,46 @@ def to_float_text(source, where, own_prefix=None):
     return "".join(out)
 
 
+# eomc_status's constants (runtime/c/eomc_model.h): an enum, while the functions return int
+_STATUS = {"EOMC_OK", "EOMC_SINGULAR_MASS_MATRIX", "EOMC_SINGULAR_CONSTRAINTS", "EOMC_NONFINITE",
+           "EOMC_BAD_ARGUMENT", "EOMC_NOT_AVAILABLE"}
+_SIGN = re.compile(r"\(\(\((?P<a>[\w\[\]]+)\) > 0\) - \(\((?P=a)\) < 0\)\)")
+_BARE_HEAD = re.compile(r"^([ \t]*)(?:if|for) \(")
+
+
+def misra_fixes(source):
+    """What MISRA C:2012's required rules ask of the float C that a rewrite can give (docs/misra.md).
+
+    * 10.3/10.4 (essential types): the status constants are an enum and the functions return int;
+      every use becomes ``(int)EOMC_...``, so comparisons and returns stay within signed int.
+    * 10.3/10.4 again: SymPy's sign(a), ``(((a) > 0) - ((a) < 0))``, an int difference of
+      comparisons assigned to a float, becomes ``((a > 0.0f) ? 1.0f : ((a < 0.0f) ? -1.0f : 0.0f))``.
+    * 15.6 (compound bodies): ``if (c) stmt;`` on one line becomes ``if (c) { stmt; }``.
+    The default target keeps its bytes; this runs on the c99-f32 text only.
+    """
+    source = _SIGN.sub(lambda m: f"(({m['a']} > 0.0f) ? 1.0f : (({m['a']} < 0.0f) ? -1.0f : 0.0f))", source)
+    out = []
+    for kind, text in ((m.lastgroup, m.group()) for m in _TOKEN.finditer(source)):
+        out.append(f"(int){text}" if kind == "ident" and text in _STATUS else text)
+    return "\n".join(_braced(line) for line in "".join(out).split("\n"))
+
+
+def _braced(line):
+    """``if (c) stmt;`` / ``for (...) stmt;`` on one line -> ``... { stmt; }`` (else the line)."""
+    m = _BARE_HEAD.match(line)
+    if m is None:
+        return line
+    depth = 0
+    for i in range(m.end() - 1, len(line)):
+        depth += {"(": 1, ")": -1}.get(line[i], 0)
+        if depth == 0:
+            head, stmt = line[:i + 1], line[i + 1:].strip()
+            if stmt.endswith(";") and "{" not in stmt and "}" not in stmt and stmt != ";":
+                return f"{head} {{ {stmt} }}"
+            return line
+    return line
+
+
 def _next_is_call(tokens, i):
     for kind, text in tokens[i + 1:]:
         if kind == "other" and text.isspace():
@@ -127,7 +167,7 @@ def retarget(generated, target):
     meta = dict(generated.metadata)
     source = _cut_struct(generated.c_source, name)
     source = to_float_text(source, f"{name}.c", own_prefix=f"{name}_")
-    source += embedded_tail(name, meta)
+    source = misra_fixes(source + embedded_tail(name, meta))
     header = _f32_header(generated.header, name, meta)
     cdef = to_float_text("\n".join(l for l in generated.cdef.split("\n")
                                    if not l.startswith(f"const eomc_model *{name}_model(")),

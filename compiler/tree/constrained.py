@@ -67,7 +67,7 @@ __all__ = ["Loops", "loops_of_system", "loops_of_kane", "tree_loops", "with_loop
 _T = me.dynamicsymbols._t
 
 # Functions the constrained tree does not generate (auto takes Kane's formulation for them).
-UNSUPPORTED = ("regressor",)
+UNSUPPORTED = ("regressor", "jac_id")
 
 
 @dataclass(frozen=True)
@@ -310,8 +310,8 @@ def check_functions(functions):
         raise ModelError(f"recursive formulation: {', '.join(bad)} of a tree closed by constraints "
                          f"{'is' if len(bad) == 1 else 'are'} not generated (rhs, jac_x, jac_r, "
                          f"jac_p, jvp, linearize, mass_matrix, forcing, inverse_dynamics, outputs, "
-                         f"events and constraints are): the regressor needs the open tree's "
-                         f"inverse dynamics; leave it out")
+                         f"events and constraints are): the regressor and jac_id need the open "
+                         f"tree's inverse dynamics; leave {'it' if len(bad) == 1 else 'them'} out")
 
 
 class _Where:

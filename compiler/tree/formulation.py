@@ -11,6 +11,7 @@ from collections import Counter
 from ..emit.formulation import Formulation
 from ..ir import count_program
 from .constrained import jacobian_symbols
+from .inverse_derivatives import jac_id_body, jac_id_ops
 from .emit import tree_jacobian_body, tree_jacobian_ops, tree_matrix_body, tree_rhs_body
 from .jvp import tree_jvp_body
 from .lower import TREE_FUNCTION_GROUPS, TREE_HELPER_USERS, build_tree_symbolic
@@ -43,6 +44,8 @@ class Recursive(Formulation):
             return tree_rhs_body(ctx, prog)
         if fn in ("mass_matrix", "forcing", "inverse_dynamics"):
             return tree_matrix_body(ctx, prog, fn)
+        if fn == "jac_id":
+            return jac_id_body(ctx, prog, sym.seeds)
         if fn == "jvp":
             return tree_jvp_body(ctx, prog, *jacobian_symbols(prog, sym.W, ctx.nu), sym.seeds, nx, len(layout.p))
         if fn in _JACOBIANS:
@@ -54,6 +57,8 @@ class Recursive(Formulation):
         if fn in _OWN_COUNTS and fn not in solve_in:
             c = count_program(prog) if prog is not None else Counter()
             return {k: int(c.get(k, 0)) for k in ("adds", "muls", "divs", "calls")}
+        if fn == "jac_id":
+            return jac_id_ops(prog, sym.seeds, nx - nu if nq is None else nq, nu, nx)
         if fn in _JACOBIANS:
             return tree_jacobian_ops(prog, *jacobian_symbols(prog, sym.W, nu), sym.seeds, fn,
                                      nx - nu if nq is None else nq, nx, npar if fn == "jac_p" else nr)

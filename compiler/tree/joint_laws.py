@@ -36,7 +36,12 @@ For coordinate q, speed u (s = the joint's C name):
   default ``solref`` choose them: a critically damped spring-damper of time
   constant tc on the joint's effective inertia m (k = m / tc², c = 2 m / tc),
   tc = :data:`TIME_CONSTANT` = 0.01 s for URDF (MJCF: the joint's own
-  ``solref`` time constant, 0.02 s by default).  The damping may pull a joint
+  ``solref`` time constant, 0.02 s by default).  A URDF joint that carries a load
+  (:class:`JointScale`: its subtree's weight on its lever, and on a floating-base robot
+  the rest of the robot's weight on the lever to its subtree's farthest body -- a knee
+  holding up the body) gets at least the stiffness that holds that load within
+  :data:`LOAD_GIVE` past the limit, critically damped (c = 2 sqrt(k m)): the inertia rule
+  alone let a collapsing Go2's knees go 0.46 rad past (issue 29).  The damping may pull a joint
   that leaves its limit fast back towards it (as in Drake's penalty law; MuJoCo's
   constraint forces never pull).
 """
@@ -45,10 +50,11 @@ import math
 import sympy as sm
 
 __all__ = ["ramp", "step", "JointLaw", "joint_torque", "check_law", "TIME_CONSTANT", "WIDTH", "FRICTION_SPEED", "NAMES",
-           "limit_gains", "limit_spring", "JointLawError"]
+           "limit_gains", "limit_spring", "JointLawError", "JointScale", "LOAD_GIVE"]
 
 TIME_CONSTANT = 0.01
 WIDTH = 3e-4
+LOAD_GIVE = 0.002     # rad (m for a slide): the static give past a limit under the joint's load
 FRICTION_SPEED = 0.01
 
 NAMES = {"lower": "limit_lo", "upper": "limit_hi", "stiffness": "limit_k", "limit_damping": "limit_c",
@@ -108,9 +114,22 @@ def check_law(law):
         raise JointLawError(j, f"joint '{j}': friction speed must be > 0 (got {law.friction_speed:g})")
 
 
-def limit_gains(inertia, time_constant=TIME_CONSTANT):
-    """(k, c) of a critically damped spring-damper of time constant ``time_constant`` on ``inertia``."""
-    return inertia / time_constant ** 2, 2.0 * inertia / time_constant
+class JointScale(tuple):
+    """(inertia, load): the effective inertia a joint moves and the static torque (force) it
+    may have to hold at a limit; the scales of its default limit stiffness and damping."""
+
+    def __new__(cls, inertia, load=0.0):
+        return super().__new__(cls, (float(inertia), float(load)))
+
+
+def limit_gains(inertia, time_constant=TIME_CONSTANT, load=0.0):
+    """(k, c) of a critically damped spring-damper of time constant ``time_constant`` on ``inertia``,
+    stiffened where needed so that a static ``load`` gives at most :data:`LOAD_GIVE`."""
+    k, c = inertia / time_constant ** 2, 2.0 * inertia / time_constant
+    if load / LOAD_GIVE > k:
+        k = load / LOAD_GIVE
+        c = 2.0 * math.sqrt(k * inertia)
+    return k, c
 
 
 class step(sm.Function):
@@ -186,7 +205,8 @@ def joint_torque(q, u, law, params, name, inertia):
     check_law(law)
     tau = sm.S.Zero
     if law.limited:
-        k, c = limit_gains(inertia)
+        k, c = (limit_gains(inertia[0], load=inertia[1]) if isinstance(inertia, JointScale)
+                else limit_gains(inertia))
         k = law.stiffness if law.stiffness is not None else k
         c = law.limit_damping if law.limit_damping is not None else c
         K = params(f"{NAMES['stiffness']}_{name}", k)

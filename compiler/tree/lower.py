@@ -53,6 +53,7 @@ TREE_FUNCTION_GROUPS = {
     "regressor": ("Y",),
     "jvp": ("ud", "lam", "Dpiv", "kin", "dkin", "dkin_p", "tjv", "dres_p", "sol", "zd", "dzd", "dzd_p"),   # see .jvp
     "events": ("ev",),
+    "jac_id": ("did", "idq", "idu"),     # see .inverse_derivatives
 }
 TREE_HELPER_USERS = ()
 
@@ -176,7 +177,7 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
                 extra.append((("Dpiv", k), D))
             extra += [(("Dpiv", nu + j), D) for j, D in enumerate(margins)]
         UD = tuple(sm.Symbol(f"ud_{j}", real=True) for j in range(nu))
-        jacobian = []
+        jacobian, more = [], ()
         if jac:
             W = tuple(sm.Symbol(f"w_{j}", real=True) for j in range(nu))
             tau_w = rnea(bodies, rec, W, gravity, v, c)
@@ -193,6 +194,9 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         if "inverse_dynamics" in functions and loops is None:
             tau = rnea(bodies, rec, UD, gravity, v, c)
             extra += [(("tau", k), tau[k]) for k in range(nu)]
+        if "jac_id" in functions:        # d tau / d x (compiler/tree/inverse_derivatives.py)
+            from .inverse_derivatives import inverse_dynamics_results
+            jacobian += inverse_dynamics_results(bodies, rec, UD, gravity, v, c)
         regressor = None
         if "regressor" in functions:
             from .regressor import regressor_results
@@ -250,6 +254,9 @@ def _with_contact_values(sym, values):
 def _with_jacobians(sym, layout, functions, nq, jacobian, more=()):
     """Add the residual and the M⁻¹ solve to the program, and ask for their derivatives."""
     derivatives = []
+    if "jac_id" in functions:
+        from .inverse_derivatives import inverse_dynamics_derivatives
+        derivatives += inverse_dynamics_derivatives(layout, sym.seeds, nq)
     if "jac_x" in functions:
         if len(layout.x) > TANGENT_MIN_STATES:
             derivatives += [("tres", dict(zip(layout.x[:nq], sym.seeds[:nq])), "tq"),

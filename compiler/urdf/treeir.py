@@ -32,6 +32,7 @@ import sympy as sm
 from sympy.physics.vector import dynamicsymbols
 
 from eomc.compiler.tree.model import Load, Tree, TreeBody
+from eomc.compiler.tree.joint_laws import JointScale
 from eomc.compiler.tree.recognize import effective_inertias
 
 from ..multibody.joints import Parameters, cross, lin, rotation_terms, snap, snapped, times, vec
@@ -231,7 +232,7 @@ def joint_law(tree, tj):
     return law
 
 
-def law_torque(tree, tj, q, u, params, inertias):
+def law_torque(tree, tj, q, u, params, inertias):  # inertias: joint -> JointScale
     """The joint-space torque (force) of the joint's declared limits, damping and friction."""
     from eomc.compiler.tree.joint_laws import joint_torque
     law = joint_law(tree, tj)
@@ -264,11 +265,55 @@ def joint_inertias(tree):
         X = np.zeros((6, 6))
         X[:3, :3], X[3:, 3:], X[3:, :3] = E, E, -E @ rx
         composite[index[joint.parent]] = composite[index[joint.parent]] + X.T @ composite[k] @ X
+    loads = joint_loads(tree)
     out = {}
     for k, joint in enumerate(tree.joints):
         if joint.type in ("revolute", "continuous", "prismatic"):
             S = _motion(joint)
-            out[joint.name] = float((S.T @ composite[k] @ S)[0, 0])
+            out[joint.name] = JointScale(float((S.T @ composite[k] @ S)[0, 0]), loads[joint.name])
+    return out
+
+
+def joint_loads(tree, gravity=9.81):
+    """joint name -> the static torque (force) its limit may have to hold, at q = 0: the
+    subtree's weight on its lever about the axis (all of it for a slide) and, on a
+    floating-base robot, the rest of the robot's weight on the lever of the subtree's
+    farthest body (a knee holding up the body through its foot)."""
+    R, P, world = {}, {}, {}
+    for joint in tree.joints:      # parents come first
+        Rp = R[joint.parent] if joint.parent is not None else np.eye(3)
+        Pp = P[joint.parent] if joint.parent is not None else np.zeros(3)
+        R[joint.child] = Rp @ np.asarray(joint.rotation, dtype=float)
+        P[joint.child] = Pp + Rp @ np.asarray(joint.position, dtype=float)
+        body = tree.bodies[joint.child]
+        world[joint.child] = (P[joint.child] + R[joint.child] @ np.asarray(body.com, dtype=float), body.mass)
+    floating = any(j.parent is None and j.type == "floating" for j in tree.joints)
+    total = sum(m for _, m in world.values())
+    children = {}
+    for joint in tree.joints:
+        children.setdefault(joint.parent, []).append(joint.child)
+    out = {}
+    for joint in tree.joints:
+        if joint.type not in ("revolute", "continuous", "prismatic"):
+            continue
+        stack, below = [joint.child], []
+        while stack:
+            b = stack.pop()
+            below.append(b)
+            stack.extend(children.get(b, ()))
+        mass = sum(world[b][1] for b in below)
+        if joint.type == "prismatic":
+            out[joint.name] = gravity * (mass + (total - mass if floating else 0.0))
+            continue
+        a = R[joint.child] @ np.asarray(joint.axis, dtype=float)
+        origin = P[joint.child]
+        lever = lambda x: float(np.linalg.norm(np.cross(a, x - origin)))  # noqa: E731
+        com = sum(world[b][0] * world[b][1] for b in below) / mass if mass > 0 else origin
+        load = gravity * mass * lever(com)
+        if floating:
+            reach = max([lever(world[b][0]) for b in below] + [lever(P[b]) for b in below])
+            load = max(load, gravity * (total - mass) * reach)
+        out[joint.name] = load
     return out
 
 

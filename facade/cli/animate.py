@@ -24,7 +24,11 @@ def configure(parser):
     parser.add_argument("--t0", type=float, default=0.0, help="start time")
     parser.add_argument("-o", "--output", metavar="HTML", help="the HTML page to write")
     parser.add_argument("--gif", metavar="GIF", help="also draw a planar motion to this GIF (2-D)")
-    parser.add_argument("--mp4", metavar="MP4", help="... or to this MP4 (needs ffmpeg)")
+    parser.add_argument("--mp4", metavar="MP4", help='... or to this MP4 (ffmpeg on PATH, or pip install '
+                                                      '"eomc[video]")')
+    parser.add_argument("--axes", choices=("on", "off"),
+                        help="draw each body's frame axes (default: off for a robot drawn by its "
+                             "meshes, on otherwise; the page has a toggle)")
     parser.add_argument("--fps", type=float, default=60.0, help="frames per second in the page")
     parser.add_argument("--gif-fps", type=float, default=20.0, help="frames per second of --gif/--mp4")
     parser.add_argument("--trace", metavar="NAMES",
@@ -33,7 +37,7 @@ def configure(parser):
     parser.add_argument("--up", choices=("x", "y", "z", "-x", "-y", "-z"),
                         help="the world axis drawn upwards (default z; a planar motion is seen "
                              "straight onto its plane)")
-    parser.add_argument("--method", default="dop853", help="integrator (as eomc simulate)")
+    parser.add_argument("--method", default="auto", help="integrator (as eomc simulate; default auto)")
     parser.add_argument("--rtol", type=float, default=1e-8, help="relative tolerance")
     parser.add_argument("--atol", type=float, default=1e-8, help="absolute tolerance")
     parser.add_argument("--input", nargs="+", metavar="NAME=V|CSV", default=(),
@@ -97,16 +101,25 @@ def run(args):
         res = model.simulate(x0, (args.t0, t_final), p=params, method=args.method, rtol=args.rtol,
                              atol=args.atol, r=inputs_argument(model, args.input),
                              events=events_argument(args.events),
-                             n_points=max(2, int((t_final - args.t0) * args.fps) + 1))
+                             n_points=max(2, int((t_final - args.t0) * args.fps) + 1),
+                             raise_on_failure=False)
         res.p = params
+        if res.status != 0 and len(res.t) < 2:
+            from eomc.runtime.errors import SimulationError
+            raise SimulationError(res.message)
     trace = None if args.trace is None else (
         [] if args.trace.strip().lower() == "none" else [s.strip() for s in args.trace.split(",") if s.strip()])
     if args.output:
-        anim = animate(res, args.output, model=model, fps=args.fps, trace=trace, up=args.up)
+        anim = animate(res, args.output, model=model, fps=args.fps, trace=trace, up=args.up,
+                       axes=None if args.axes is None else args.axes == "on")
         print(f"wrote {args.output} ({len(anim.html) / 1e6:.2f} MB, {len(res.t)} rows, "
               f"t = [{res.t[0]:g}, {res.t[-1]:g}])")
     for path in (args.gif, args.mp4):
         if path:
             animate_2d(res, path, model=model, fps=args.gif_fps, trace=trace)
             print(f"wrote {path}")
+    if res.status != 0:     # what was computed is drawn; the command still fails
+        from eomc.runtime.errors import SimulationError
+        raise SimulationError(f"{res.message}; the animation shows the {len(res.t)} rows computed up to "
+                              f"t={res.t[-1]:.9g} (incomplete)")
     return 0

@@ -16,7 +16,9 @@ def configure(parser):
     parser.add_argument("--t-final", type=float, default=10.0, metavar="T", help="horizon")
     parser.add_argument("--rtol", type=float, default=1e-8, help="relative tolerance to check")
     parser.add_argument("--atol", type=float, default=1e-10, help="absolute tolerance to check")
-    parser.add_argument("--methods", default="dopri5,dop853,radau", help="methods to check")
+    parser.add_argument("--methods", default=None,
+                        help="methods to check, comma-separated (default: auto and every method that "
+                             "applies: dopri5, dop853, radau; on a model with ground contacts auto and radau)")
 
 
 def run(args):
@@ -29,7 +31,8 @@ def run(args):
     with ticker(f"eomc check {model.name}", sys.stderr, not args.quiet):
         checks = check_model(model, [x0[n] for n in model.state_names], args.t_final, p=p,
                              rtol=args.rtol, atol=args.atol,
-                             methods=tuple(m for m in args.methods.split(",") if m))
+                             methods=None if args.methods is None
+                             else tuple(m for m in args.methods.split(",") if m))
     print(f"eomc check {model.name}: t_final={args.t_final:g}, rtol={args.rtol:g}, "
           f"atol={args.atol:g}")
     print(format_checks(checks))

@@ -16,9 +16,15 @@ def configure(parser):
     parser.add_argument("--t-final", type=float, required=True, metavar="T", help="end time")
     parser.add_argument("--t0", type=float, default=0.0, help="start time")
     parser.add_argument("-o", "--output", metavar="CSV", help="trajectory CSV to write")
-    parser.add_argument("--plot", metavar="PNG", help="also draw the states to this PNG (matplotlib)")
-    parser.add_argument("--method", default="dop853",
-                        help="rk4 (needs --dt), dopri5 (rk45), dop853, radau")
+    parser.add_argument("--plot", metavar="PNG", help="also draw the states and outputs to this PNG "
+                        "(matplotlib; panels by kind, at most 8 curves each; a robot's run makes "
+                        "several pages: traj.png, traj-2.png, ...)")
+    parser.add_argument("--plot-states", metavar="NAMES",
+                        help="with --plot: only these states and outputs, comma-separated")
+    parser.add_argument("--method", default="auto",
+                        help="auto (default: dop853, radau from the start with contacts or from where "
+                             "dop853 finds the problem stiff), rk4 (needs --dt), dopri5 (rk45), dop853, "
+                             "radau, implicitfast (needs --dt)")
     parser.add_argument("--rtol", type=float, default=1e-6, help="relative tolerance")
     parser.add_argument("--atol", type=float, default=1e-9, help="absolute tolerance")
     parser.add_argument("--dt", type=float, help="fixed step (rk4)")
@@ -153,6 +159,16 @@ def _start(model, x0, given, args, params):
     return dict(zip(model.state_names, done.tolist()))
 
 
+def plot_names(text):
+    """--plot-states' names, or None (everything)."""
+    if text is None:
+        return None
+    names = [n.strip() for n in text.split(",") if n.strip()]
+    if not names:
+        raise ValueError("--plot-states: give names, comma-separated")
+    return names
+
+
 def run(args):
     import sys
     import warnings
@@ -178,11 +194,19 @@ def run(args):
                                rtol=args.rtol, atol=args.atol, dt=args.dt, max_steps=args.max_steps,
                                n_points=None if args.dt else args.points, project=args.project,
                                baumgarte=args.baumgarte, r=inputs_argument(model, args.input),
-                               events=events_argument(args.events))
+                               events=events_argument(args.events), raise_on_failure=False)
     finally:    # also when the run then fails: the advice explains the failure
         for w in seen:      # in the command line's words (--consistent, not consistent=True)
             message = w.message.cli_text() if isinstance(w.message, ConstraintWarning) else w.message
             warnings.warn_explicit(message, w.category, w.filename, w.lineno)
+    if res.status != 0:     # keep what was computed, marked incomplete, then fail
+        from eomc.runtime.errors import SimulationError
+        kept = ""
+        if args.output and len(res.t):
+            res.to_csv(args.output)
+            kept = (f"; wrote the {len(res.t)} rows computed up to t={res.t[-1]:.9g} to {args.output} "
+                    f"(marked '# incomplete' on its last line)")
+        raise SimulationError(f"{res.message}{kept}")
     s = res.stats
     print(f"{model.name}: {res.method} t=[{args.t0:g}, {args.t_final:g}]: {s['steps']} steps "
           f"({s['rejected']} rejected), {s['nfev']} rhs, {s['njev']} jacobian, {s['nlu']} LU")
@@ -206,5 +230,7 @@ def run(args):
     if args.output:
         print(f"wrote {res.to_csv(args.output)}")
     if args.plot:
-        print(f"wrote {res.plot(args.plot)}")
+        written = res.plot(args.plot, names=plot_names(args.plot_states))
+        for path in (written if isinstance(written, list) else [written]):
+            print(f"wrote {path}")
     return 0

@@ -277,6 +277,7 @@ static int events_commit(ctx *c, double tn, const double *xn, int recompute);
 static int sw_detect(ctx *c, double t, const double *x, double tn, const double *xn, int nst,
                      const double *tst, const double *xst, int *ncross);
 static int sw_locate(ctx *c, const interp *ip, double *t_cut);
+static int sw_watch(ctx *c, double t, const double *x, double tn, const double *xn);
 struct outw;
 EOMC_NOINLINE int events_in_step(ctx *c, const interp *ip, struct outw *ow, double *x);
 
@@ -735,6 +736,7 @@ static int run_rk4(ctx *c, const eomc_options *o, proj *pj, double t0, double t1
         if (!all_finite(n, x1)) return EOMC_NONFINITE;
         if ((s = frhs(c, tn, x1, k2))) return s;        /* k2 := f(tn, x1) */
         st->accepted++;
+        if (c->nsw && (s = sw_watch(c, t, x, tn, x1))) return s;
         if (c->ev) {
             int hits = 0;
             if ((s = events_cross(c, tn, x1, &hits))) return s;
@@ -1643,6 +1645,21 @@ static int sw_locate(ctx *c, const interp *ip, double *t_cut)
     return EOMC_OK;
 }
 
+/* Fixed-step methods keep their grid: they do not end a step at a crossing, but the
+ * switching functions are still watched (gmax, sides) so every run gets its verdict. */
+static int sw_watch(ctx *c, double t, const double *x, double tn, const double *xn)
+{
+    int ncross = 0, s;
+    if (!c->nsw) return EOMC_OK;
+    if ((s = sw_detect(c, t, x, tn, xn, 0, NULL, NULL, &ncross))) return s;
+    if (ncross) {
+        swparts w = sw_parts(c);
+        for (int j = 0; j < c->ev->n + c->ev->nlin; j++)
+            if (w.cross[j] != 0.0) w.side[j] = w.ge[j] > 0.0;
+    }
+    return EOMC_OK;
+}
+
 /* The step's end becomes the next step's start (re-evaluated after a projection). */
 static int events_commit(ctx *c, double tn, const double *xn, int recompute)
 {
@@ -1685,6 +1702,7 @@ static int fs_accept(void *g, double t, double tn, double *x, const double *slop
     double hh = tn - t;
     *stop = 0;
     if (!all_finite(n, x1)) return EOMC_NONFINITE;
+    if (c->nsw && (s = sw_watch(c, t, x, tn, x1))) return s;
     if (c->ev) {
         int hits = 0;
         if ((s = events_cross(c, tn, x1, &hits))) return s;

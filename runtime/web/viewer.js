@@ -13,7 +13,9 @@
   const origError = console.error;
   console.error = function () { report(Array.from(arguments).join(" ")); origError.apply(console, arguments); };
 
-  const D = JSON.parse(document.getElementById("eomc-data").textContent);
+  const dataElement = document.getElementById("eomc-data");
+  const D = JSON.parse(dataElement.textContent);
+  dataElement.textContent = "";   // parsed once: a robot's megabytes of text need not stay in the DOM
   const T = window.THREE;
 
   function f32(b64) {
@@ -39,14 +41,14 @@
   scene.add(sun);
   const up = new T.Vector3().fromArray(D.camera.up);
   T.Object3D.DEFAULT_UP.copy(up);
-  const camera = new T.PerspectiveCamera(35, 1, D.scale * 0.01, D.scale * 100);
+  const camera = new T.PerspectiveCamera(35, 1, D.scale * 0.01, D.camera.far || D.scale * 100);
   camera.up.copy(up);
   camera.position.fromArray(D.camera.position);
   const controls = new T.OrbitControls(camera, renderer.domElement);
   controls.target.fromArray(D.camera.target);
   controls.update();
 
-  const grid = new T.GridHelper(D.scale * 4, 20, 0xbbbbbb, 0xdddddd);
+  const grid = new T.GridHelper(D.camera.gridSize || D.scale * 4, D.camera.gridDivisions || 20, 0xbbbbbb, 0xdddddd);
   if (D.camera.grid === "xy") grid.rotation.x = Math.PI / 2;
   else if (D.camera.grid === "yz") grid.rotation.z = Math.PI / 2;
   grid.position.fromArray(D.camera.floor);
@@ -94,7 +96,7 @@
   }
 
   const geometry = D.geometry;
-  const frameObjects = [];
+  const frameObjects = [], axesObjects = [];
   D.frames.forEach((name, i) => {
     const group = new T.Group();
     group.matrixAutoUpdate = false;
@@ -103,6 +105,8 @@
     if (shapes) shapes.forEach((s) => { const o = shapeObject(s, c, !!D.colors[name]); if (o) group.add(o); });
     else if (!Object.keys(geometry).length || D.colors[name]) group.add(new T.Mesh(new T.SphereGeometry(D.radius, 24, 16), material(c)));
     const axes = new T.AxesHelper(D.scale * 0.08);
+    axes.visible = !!D.axes;   // off for a robot drawn by its meshes: the toggle in the bar
+    axesObjects.push(axes);
     group.add(axes);
     scene.add(group);
     frameObjects.push(group);
@@ -144,7 +148,18 @@
     scene.add(line);
   });
 
+  // the camera follows the robot (a fall, a walk): per-frame targets; the user's orbit is kept
+  const follow = D.camera.follow ? new Float32Array(f32(D.camera.follow)) : null;
+  function aim(i) {
+    if (!follow) return;
+    const d = new T.Vector3(follow[3 * i], follow[3 * i + 1], follow[3 * i + 2]).sub(controls.target);
+    controls.target.add(d);
+    camera.position.add(d);
+    camera.updateMatrixWorld();
+  }
+
   function place(i) {
+    aim(i);
     const base = i * stride;
     for (let k = 0; k < nf; k++) {
       const o = base + 12 * k, R = poses.subarray(o + 3, o + 12);
@@ -164,28 +179,36 @@
   const plot = document.getElementById("eomc-plot");
   const ctx = plot.getContext("2d");
   const plotColors = ["#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#17becf"];
+  const strips = D.strips || outputs.map((o, k) => ({ label: o.name, series: [k] }));
   function drawPlot(i) {
     const w = plot.width, h = plot.height;
     ctx.clearRect(0, 0, w, h);
-    if (!outputs.length) return;
-    const rows = outputs.length, rh = h / rows, t0 = times[0], t1 = times[nt - 1] || 1;
+    if (!strips.length) return;
+    const foot = D.strips_left_off ? 16 : 0;
+    const rows = strips.length, rh = (h - foot) / rows, t0 = times[0], t1 = times[nt - 1] || 1;
     const X = (t) => 40 + ((t - t0) / (t1 - t0 || 1)) * (w - 50);
-    outputs.forEach((o, k) => {
+    strips.forEach((strip, k) => {
       let lo = Infinity, hi = -Infinity;
-      for (const v of o.v) { if (v < lo) lo = v; if (v > hi) hi = v; }
+      strip.series.forEach((s) => { for (const v of outputs[s].v) { if (v < lo) lo = v; if (v > hi) hi = v; } });
       // a conserved quantity's float32 noise is not a signal: show at least 1e-4 of its size
       const least = Math.max(1e-4 * Math.max(Math.abs(lo), Math.abs(hi)), 1e-12);
       if (hi - lo < least) { const mid = (hi + lo) / 2; lo = mid - least / 2; hi = mid + least / 2; }
       const Y = (v) => k * rh + rh - 6 - ((v - lo) / (hi - lo)) * (rh - 22);
-      ctx.strokeStyle = plotColors[k % plotColors.length];
-      ctx.lineWidth = 1.5;
-      ctx.beginPath();
-      for (let n = 0; n < nt; n++) { const x = X(times[n]), y = Y(o.v[n]); n ? ctx.lineTo(x, y) : ctx.moveTo(x, y); }
-      ctx.stroke();
+      const texts = [];
+      strip.series.forEach((s, c) => {
+        const o = outputs[s];
+        ctx.strokeStyle = plotColors[(strip.series.length > 1 ? c : k) % plotColors.length];
+        ctx.lineWidth = 1.5;
+        ctx.beginPath();
+        for (let n = 0; n < nt; n++) { const x = X(times[n]), y = Y(o.v[n]); n ? ctx.lineTo(x, y) : ctx.moveTo(x, y); }
+        ctx.stroke();
+        texts.push(strip.series.length > 1 ? `${o.name.slice(o.name.lastIndexOf(".") + 1)} ${o.v[i].toPrecision(4)}` : `${o.name} = ${o.v[i].toPrecision(6)}`);
+      });
       ctx.fillStyle = "#222";
       ctx.font = "12px sans-serif";
-      ctx.fillText(`${o.name} = ${o.v[i].toPrecision(6)}`, 44, k * rh + 14);
+      ctx.fillText(strip.series.length > 1 ? `${strip.label}: ${texts.join(", ")}` : texts[0], 44, k * rh + 14);
     });
+    if (foot) { ctx.fillStyle = "#666"; ctx.fillText(`${D.strips_left_off} more outputs not drawn (outputs=[...] picks them)`, 44, h - 4); }
     ctx.strokeStyle = "#000";
     ctx.lineWidth = 1;
     ctx.beginPath();
@@ -199,6 +222,14 @@
   const label = document.getElementById("eomc-time");
   const playButton = document.getElementById("eomc-play");
   const speedSelect = document.getElementById("eomc-speed");
+  const axesBox = document.getElementById("eomc-axes");
+  axesBox.checked = !!D.axes;
+  status.setAttribute("data-axes", D.axes ? "1" : "0");
+  axesBox.addEventListener("change", () => {
+    axesObjects.forEach((a) => { a.visible = axesBox.checked; });
+    status.setAttribute("data-axes", axesBox.checked ? "1" : "0");
+    renderer.render(scene, camera);
+  });
   slider.max = String(nt - 1);
   let playing = true, current = 0, clock = times[0], last = null;
 
@@ -243,6 +274,7 @@
     last = null;
   });
   controls.addEventListener("change", () => { renderer.render(scene, camera); describe(); });
+  if (/[#&]grid=0/.test(location.hash)) grid.visible = false;   // for screenshots that measure the robot
   window.addEventListener("resize", resize);
 
   // #t=1.5 shows that time, paused (for screenshots and links); &size=800x450 fixes the scene's size

@@ -74,3 +74,17 @@ def test_simulate_of_a_built_directory_imports_nothing_heavy(tmp_path):
     assert run.returncode == 0, run.stderr
     assert run.stdout.splitlines()[-1] == "0 []"
     assert (tmp_path / "t.csv").read_text().startswith("t,")
+
+
+def test_a_failed_run_keeps_its_rows_marked_incomplete(pendulum, tmp_path, capsys):
+    """Issue 29: a run that stops still writes what it computed, marked as such (the CSV's last
+    line is a '# incomplete: ...' comment numpy.loadtxt skips), and the command fails."""
+    out = tmp_path / "traj.csv"
+    assert main(["simulate", "pend", "--t-final", "20", "-o", str(out), "--max-steps", "30",
+                 "--rtol", "1e-10", "--atol", "1e-10"]) != 0
+    err = capsys.readouterr().err
+    assert "maximum number of steps" in err and "rows computed up to t=" in err and "incomplete" in err
+    lines = out.read_text().splitlines()
+    assert lines[-1].startswith("# incomplete: ") and "maximum number of steps" in lines[-1]
+    data = np.loadtxt(out, delimiter=",", skiprows=1, ndmin=2)
+    assert 1 < len(data) < 1001 and data[0, 1] == 0.5 and np.all(np.isfinite(data))

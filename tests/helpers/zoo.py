@@ -338,6 +338,9 @@ def actuators_on_pathways(mech, actuators=ACTUATOR_KINDS, pathways=PATHWAY_KINDS
         pin = me.PinJoint(f"pin_{k}", A, B, q[1], u[1], child_point=-c * B.frame.y,
                           joint_axis=A.frame.z)
         system.add_joints(slide, pin)
+        # B's centre moves with the pin; said once, so SymPy need not guess between the pin
+        # and the pathway's point pB (its "automatically calculated" warning)
+        B.masscenter.v2pt_theory(pin.child_point, N, B.frame)
         pB = B.masscenter.locatenew(f"pB_{k}", -c * B.frame.y + r * B.frame.x)   # r from the pin
         if path == "linear":
             pG = anchor.locatenew(f"pG_{k}", -2 * r * N.y)

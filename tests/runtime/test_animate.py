@@ -310,7 +310,14 @@ def _open(page, t, tmp_path, size=(900, 600)):
            f"--user-data-dir={tmp_path / 'profile'}", f"--window-size={size[0]},{size[1]}",
            "--virtual-time-budget=1500", f"--screenshot={shot}", "--dump-dom",
            f"{page.as_uri()}#t={t}&size={size[0] - 360}x{size[1] - 160}"]   # one size in both phases
-    out = subprocess.run(cmd, capture_output=True, text=True, timeout=180)
+    # headless chromium now and then never exits on a loaded machine (the screenshot already
+    # written): a second try with a fresh profile, never a third
+    limit = int(os.environ.get("EOMC_BROWSER_TIMEOUT", "120"))
+    try:
+        out = subprocess.run(cmd, capture_output=True, text=True, timeout=limit)
+    except subprocess.TimeoutExpired:
+        cmd = [c if not c.startswith("--user-data-dir=") else c + "-again" for c in cmd]
+        out = subprocess.run(cmd, capture_output=True, text=True, timeout=limit)
     tag = re.search(r'<div id="eomc-status"[^>]*>', out.stdout)
     assert tag, f"the page never ran: {out.stdout[-500:]} {out.stderr[-2000:]}"
     attrs = {k: __import__("html").unescape(v) for k, v in re.findall(r'data-([a-z]+)="([^"]*)"', tag.group(0))}

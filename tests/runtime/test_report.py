@@ -103,6 +103,7 @@ def test_csv_rows_and_columns(osc_report, tmp_path):
         {(m, t) for m in METHODS for t in TOLS}
     for r in rows:
         assert r["status"] == "0" and float(r["error"]) > 0 and float(r["wall_time_s"]) > 0
+        assert 0 < float(r["cpu_time_s"]) < 10 * float(r["wall_time_s"]) + 1e-3   # thread CPU time, measured
         assert int(r["nfev"]) > 0 and float(r["energy_drift"]) >= 0
         assert r["constraint_residual"] == ""            # the oscillator has no constraints
         assert (r["dt"] != "") == (r["method"] == "rk4")
@@ -294,7 +295,7 @@ def test_a_failing_reference_is_a_simulation_error():
 
 
 def test_recommendation_is_deterministic_under_timing_noise(osc, monkeypatch):
-    """Three runs with wall times scrambled by up to 10x (a busy machine) recommend the same run."""
+    """Three runs with wall and CPU times scrambled by up to 10x (a busy machine) recommend the same run."""
     import eomc.runtime.report as report_module
     timed = report_module._timed
     picks, texts = [], []
@@ -302,9 +303,9 @@ def test_recommendation_is_deterministic_under_timing_noise(osc, monkeypatch):
         rng = np.random.default_rng(seed)
 
         def noisy(model, a, repeats, rng=rng):
-            res, median, low = timed(model, a, repeats)
+            res, (median, low), cpu = timed(model, a, repeats)
             factor = 10.0 ** rng.uniform(0, 1)
-            return res, median * factor, low * factor
+            return res, (median * factor, low * factor), cpu * factor
         monkeypatch.setattr(report_module, "_timed", noisy)
         rep = work_precision(osc, [1.0, 0.0], (0.0, T), methods=METHODS, tolerances=TOLS,
                              repeats=1, progress=False, n_points=51)

@@ -101,6 +101,7 @@ LIMITED = """<?xml version="1.0"?>
   <joint name="elbow" type="revolute">
     <parent link="base"/><child link="arm"/><axis xyz="0 1 0"/>
     <limit lower="-0.5" upper="0.5" effort="1" velocity="1"/>
+    <dynamics damping="0.01" friction="0.01"/>
   </joint>
 </robot>
 """
@@ -127,3 +128,22 @@ def test_limit_entry_ends_a_step_and_a_soft_limit_warns_naming_the_joint(stop):
     p = _p(stop, limit_k_elbow=stop.param_defaults[stop.param_names.index("limit_k_elbow")] * 1e-3)
     with pytest.warns(PhysicsWarning, match=r"joint elbow went .* past its upper limit 0\.5"):
         stop.simulate({"q_elbow": 0.0}, (0, 1.0), p=p, method="dop853")
+
+
+def test_a_start_outside_a_joints_range_warns_naming_the_joint(stop):
+    with pytest.warns(PhysicsWarning, match=r"outside the range of joint elbow \(q_elbow = 0\.84, 0\.34 above "
+                                            r"its upper limit 0\.5\)"):
+        stop.simulate({"q_elbow": 0.84}, (0, 0.1))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", PhysicsWarning)
+        stop.simulate({"q_elbow": 0.5}, (0, 0.01))        # on the limit: inside
+
+
+@pytest.mark.parametrize("method", ["rk4", "implicitfast"])
+def test_fixed_step_methods_keep_their_grid_but_get_the_verdict_too(ball, method):
+    """Fixed-step methods do not end a step at a crossing (their grid is the output), but
+    the switching functions are watched: a contact too soft for the load still warns."""
+    with pytest.warns(PhysicsWarning, match=r"contact ball penetrated 0\.1\d* m"):
+        res = _drop(ball, p=_p(ball, k_ball=1e3, c_ball=0.0), method=method, dt=1e-3)
+    assert res.status == 0 and res.stats["nswitch"] == 0
+    assert np.allclose(np.diff(res.t), 1e-3)

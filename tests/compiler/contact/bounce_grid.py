@@ -64,7 +64,7 @@ def reference_apex(k, c):
     return R + v_out ** 2 / (2 * G)
 
 
-def run_case(model, k, c, mu, method, rtol):
+def run_case(model, k, c, mu, method, rtol, switching=True):
     """(verdict, detail): verdict "right", "loud" or "SILENT" (wrong physics with status 0)."""
     from eomc.runtime.switching import PhysicsWarning, energy_tolerance
     names = model.param_names
@@ -75,7 +75,8 @@ def run_case(model, k, c, mu, method, rtol):
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         res = model.simulate(x0, (0, T_FINAL), p=p, method=method, rtol=rtol, atol=rtol * 1e-3,
-                             raise_on_failure=False, n_points=2401, max_steps=200000)
+                             raise_on_failure=False, n_points=2401, max_steps=200000,
+                             switching=switching)
     loud = [w for w in caught if issubclass(w.category, PhysicsWarning)]
     if res.status != 0:
         return "loud", f"status {res.status}: {res.message[:90]}"

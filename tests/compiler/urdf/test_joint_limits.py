@@ -16,7 +16,7 @@ import pytest
 from scipy.optimize import brentq
 
 import eomc
-from eomc.compiler.tree.joint_laws import FRICTION_SPEED, TIME_CONSTANT, WIDTH
+from eomc.compiler.tree.joint_laws import FRICTION_SPEED, LOAD_GIVE, TIME_CONSTANT, WIDTH
 from eomc.compiler.urdf import build_tree, read_urdf
 from eomc.compiler.urdf.model import UrdfModel, with_options
 from eomc.compiler.urdf.treeir import tree_ir
@@ -126,8 +126,12 @@ def test_pendulum_settles_at_its_limit_with_the_static_deflection(three):
     p = dict(zip(three.param_names, three.param_defaults))
     k, e = p["limit_k_j_stop"], p["limit_e_j_stop"]
     inertia = ICM + M * L * L
-    assert k == pytest.approx(inertia / TIME_CONSTANT ** 2, rel=1e-12)      # the documented default
-    assert p["limit_c_j_stop"] == pytest.approx(2 * inertia / TIME_CONSTANT, rel=1e-12)
+    # the documented default: the inertia's spring (I/tc²), stiffened to hold the joint's load
+    # (here its own weight on its lever, m g L) within LOAD_GIVE; critically damped
+    assert k == pytest.approx(max(inertia / TIME_CONSTANT ** 2, M * 9.81 * L / LOAD_GIVE), rel=1e-12)
+    assert k > inertia / TIME_CONSTANT ** 2
+    assert p["limit_c_j_stop"] == pytest.approx(2 * math.sqrt(k * inertia), rel=1e-12)
+    tc = math.sqrt(inertia / k)         # the time constant of that critically damped pair
     assert e == WIDTH
     x0 = _state(three, q_j_stop=-0.3)
     res = simulate(three, x0, (0.0, 3.0), method="radau", rtol=1e-10, atol=1e-12, n_points=301)
@@ -139,7 +143,7 @@ def test_pendulum_settles_at_its_limit_with_the_static_deflection(three):
     # the impact: a critically damped spring-damper of time constant tc entered at speed v goes
     # v tc / e deep (x = v t exp(-t/tc)); v at most what gravity gave it from -0.3 rad
     v = math.sqrt(2 * M * 9.81 * L * math.sin(0.3) / inertia)
-    assert 0.5 * v * TIME_CONSTANT / math.e < q.max() < 1.2 * v * TIME_CONSTANT / math.e + static
+    assert 0.5 * v * tc / math.e < q.max() < 1.2 * v * tc / math.e + static
 
 
 def test_damping_decays_as_the_linear_damped_oscillator(three):

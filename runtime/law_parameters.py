@@ -1,0 +1,84 @@
+"""The build's refusals for contact and joint-law parameters, applied where run-time values enter.
+
+Why: the builders refuse a negative contact stiffness, a friction coefficient below 0,
+lower > upper on a limit, a negative damping (compiler/contact/law.py check_value,
+compiler/tree/joint_laws.py check_law), but the same numbers are parameters that
+``simulate(p=...)``, ``--param``, ``simulate_many`` and sweep rows change without a
+rebuild.  Unchecked, mu = -1 made a sliding ball gain 1440 J in 3 s and
+limit_e = 0 ended in "a non-finite value appeared" (issue 29 R2, R4) -- with status 0
+or without naming the parameter.  This module checks a parameter vector against the
+same rules, found by the parameters' names (contacts: ``k_/c_/mu_/vs_/r_<name>`` of a
+``contact_<name>`` event; joints: ``limit_*/damping/friction*_<joint>`` of a coordinate
+``q_<joint>``), and raises a ValueError naming the parameter.  runtime/ only: no
+import of the compiler.
+"""
+import numpy as np
+
+from .switching import contact_parameter
+
+__all__ = ["check_law_parameters"]
+
+# parameter prefix -> (what it is, strictly positive?)
+_CONTACT = {"k": ("contact stiffness", False), "c": ("contact damping", False),
+            "mu": ("friction coefficient", False), "vs": ("friction regularisation speed", True),
+            "r": ("contact radius", False)}
+_JOINT = {"limit_k": ("limit stiffness", False), "limit_c": ("limit damping", False),
+          "limit_e": ("limit width", True), "damping": ("damping", False),
+          "friction": ("friction", False), "friction_v": ("friction speed", True)}
+
+
+def _rules(model):
+    """[(parameter index, name, meaning, strict)] and [(joint, lo index, hi index)], cached."""
+    cached = getattr(model, "_law_rules", None)
+    if cached is not None:
+        return cached
+    index = {n: i for i, n in enumerate(model.param_names)}
+    states = set(model.state_names)
+    rules, pairs = [], []
+    for d in model.metadata.get("events", ()):
+        name = d["name"]
+        if not name.startswith("contact_"):
+            continue
+        contact = name[len("contact_"):]
+        for key, (what, strict) in _CONTACT.items():
+            i = contact_parameter(index, key, contact)
+            if i >= 0 and all(r[0] != i for r in rules):
+                rules.append((i, model.param_names[i], f"{what} of contact {contact}", strict))
+    for pname, i in index.items():
+        for key in sorted(_JOINT, key=len, reverse=True):     # friction_v before friction
+            if pname.startswith(key + "_") and f"q_{pname[len(key) + 1:]}" in states:
+                joint = pname[len(key) + 1:]
+                what, strict = _JOINT[key]
+                rules.append((i, pname, f"{what} of joint {joint}", strict))
+                break
+        if pname.startswith("limit_lo_") and f"q_{pname[9:]}" in states:
+            hi = index.get(f"limit_hi_{pname[9:]}")
+            if hi is not None:
+                pairs.append((pname[9:], i, hi))
+    found = (tuple(rules), tuple(pairs))
+    try:
+        model._law_rules = found
+    except AttributeError:
+        pass
+    return found
+
+
+def check_law_parameters(model, p, where=""):
+    """ValueError naming the first contact or joint-law parameter in ``p`` that the build
+    would refuse (negative, or 0 where the law divides by it; limit lower > upper)."""
+    rules, pairs = _rules(model)
+    p = np.asarray(p, dtype=np.float64)
+    at = f" ({where})" if where else ""
+    for i, name, what, strict in rules:
+        v = float(p[i])
+        if v < 0 or (strict and v == 0):
+            need = "> 0" if strict else ">= 0"
+            why = ("the law divides by it" if strict and v == 0
+                   else "the build refuses a negative one too: the law would be unphysical")
+            raise ValueError(f"{model.name}: parameter {name} = {v:g}{at} must be {need} "
+                             f"({what}): {why}")
+    for joint, lo, hi in pairs:
+        if float(p[lo]) > float(p[hi]):
+            raise ValueError(f"{model.name}: parameters limit_lo_{joint} = {float(p[lo]):g} > "
+                             f"limit_hi_{joint} = {float(p[hi]):g}{at}: joint {joint}'s lower limit "
+                             f"must not exceed its upper")

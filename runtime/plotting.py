@@ -1,0 +1,151 @@
+"""A run's states and outputs as pictures a person can read: panels by kind, a few curves each.
+
+Why panels by kind and a cap per panel: a robot has dozens of states and
+outputs; drawn in one axes they are a tangle of repeated colours under a
+legend that hides the data.  Here every panel holds one kind of quantity --
+coordinates, speeds, extra states (a muscle's activation, a controller's
+integral), outputs of one scale, one frame's position or velocity -- and at
+most :data:`MAX_CURVES` curves, each with its own colour, with the legend
+outside the axes, to the right.  A page holds at most :data:`MAX_PANELS`
+panels; more make more pages (``traj.png``, ``traj-2.png``, ...).
+
+Frames' rotations and Jacobians (``tool0.R[0][1]``, ``tool0.J[2][5]``) and
+twists are never plotted: a frame is shown by its position and velocity.
+"""
+import re
+from pathlib import Path
+
+import numpy as np
+
+from .files import atomic_path
+
+__all__ = ["panels", "plot_result", "MAX_CURVES", "MAX_PANELS"]
+
+MAX_CURVES = 8     # curves in one panel (tab10's distinct colours, with room to tell them apart)
+MAX_PANELS = 6     # panels on one page
+_SCALE_RATIO = 8.0  # outputs whose magnitudes differ by more than this share no panel
+
+_FRAME = re.compile(r"(.+)\.(?:(R|J)\[\d+\]\[\d+\]|(p|v|w)\.[xyz])")
+
+
+def _frame_part(name):
+    m = _FRAME.fullmatch(name)
+    return None if m is None else (m.group(1), m.group(2) or m.group(3))
+
+
+def _chunks(label, names):
+    """``names`` in panels of at most MAX_CURVES, labelled "label (1/3)" when split."""
+    parts = [names[k:k + MAX_CURVES] for k in range(0, len(names), MAX_CURVES)]
+    if len(parts) == 1:
+        return [(label, parts[0])]
+    return [(f"{label} ({k + 1}/{len(parts)})", part) for k, part in enumerate(parts)]
+
+
+def _magnitude(values):
+    v = np.asarray(values, float)
+    v = v[np.isfinite(v)]
+    return float(np.max(np.abs(v))) if len(v) else 0.0
+
+
+def _by_scale(res, names):
+    """Groups of ``names`` whose largest magnitudes lie within _SCALE_RATIO of each other
+    (an energy of -19 J does not flatten tip positions of +-2 m)."""
+    if not names:
+        return []
+    scaled = sorted(names, key=lambda n: _magnitude(res[n]))
+    groups, low = [[scaled[0]]], max(_magnitude(res[scaled[0]]), 1e-300)
+    for name in scaled[1:]:
+        m = _magnitude(res[name])
+        if m > _SCALE_RATIO * low:
+            groups.append([])
+            low = max(m, 1e-300)
+        groups[-1].append(name)
+    order = {n: k for k, n in enumerate(names)}     # within a group, the model's order
+    return [sorted(g, key=order.get) for g in groups]
+
+
+def panels(res, names=None):
+    """[(label, [names])] of a run: what :func:`plot_result` draws, one entry per panel."""
+    states = list(res.state_names)
+    nq = res.nq if res.nq and 0 < res.nq < len(states) else None
+    model = getattr(res, "model", None)
+    nu = getattr(model, "nu", None) if model is not None else None
+    if names is not None:
+        unknown = [n for n in names if n not in res.keys()]
+        if unknown:
+            raise ValueError(f"cannot plot {', '.join(unknown)}: not a state or output of {res.model_name} "
+                             f"(states: {', '.join(states)}; outputs: {', '.join(res.outputs) or 'none'})")
+        wanted = set(names)
+    else:
+        wanted = None
+
+    def keep(seq):
+        return [n for n in seq if wanted is None or n in wanted]
+    out = []
+    if nq is None:
+        out += _chunks("states", keep(states))
+    else:
+        speeds_end = nq + nu if nu is not None and nq + nu <= len(states) else len(states)
+        out += _chunks("coordinates", keep(states[:nq]))
+        out += _chunks("speeds", keep(states[nq:speeds_end]))
+        out += _chunks("extra states", keep(states[speeds_end:]))
+    frames, plain = {}, []
+    for name in res.outputs:
+        part = _frame_part(name)
+        if part is None:
+            plain.append(name)
+        elif part[1] in ("p", "v") and (wanted is None or name in wanted):
+            frames.setdefault((part[0], part[1]), []).append(name)
+        elif wanted is not None and name in wanted:     # asked for by name: drawn, in its own panel
+            frames.setdefault((part[0], part[1]), []).append(name)
+    for group in _by_scale(res, keep(plain)):
+        out += _chunks("outputs", group)
+    for (frame, part), group in frames.items():
+        label = {"p": "position", "v": "velocity", "w": "angular velocity",
+                 "R": "rotation", "J": "Jacobian"}[part]
+        out += _chunks(f"{frame} {label}", group)
+    return [(label, group) for label, group in out if group]
+
+
+def _page_paths(path, pages):
+    path = Path(path)
+    return [path] + [path.with_name(f"{path.stem}-{k}{path.suffix}") for k in range(2, pages + 1)]
+
+
+def plot_result(res, path=None, names=None):
+    """Draw ``res`` (see the module docstring).  With ``path``: the pages written, a Path
+    (one page) or a list of Paths; without: the Figure (one page) or a list of Figures."""
+    import matplotlib
+    if path is not None:
+        matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+    chosen = panels(res, names)
+    if not chosen:
+        raise ValueError(f"{res.model_name}: nothing to plot")
+    pages = [chosen[k:k + MAX_PANELS] for k in range(0, len(chosen), MAX_PANELS)]
+    colors = plt.get_cmap("tab10").colors
+    figures = []
+    for number, page in enumerate(pages, 1):
+        fig, axes = plt.subplots(len(page), 1, figsize=(10, 1.2 + 2.3 * len(page)), sharex=True,
+                                 squeeze=False, layout="constrained")
+        for ax, (label, group) in zip(axes[:, 0], page):
+            for k, name in enumerate(group):
+                ax.plot(res.t, res[name], label=name, color=colors[k % len(colors)], lw=1.3)
+            ax.set_ylabel(label)
+            ax.grid(True, alpha=0.3)
+            # outside the data, to the right: a legend never hides a curve
+            ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize="small", borderaxespad=0.0,
+                      frameon=False)
+        axes[-1, 0].set_xlabel("t")
+        more = f", page {number} of {len(pages)}" if len(pages) > 1 else ""
+        axes[0, 0].set_title(f"{res.model_name} ({res.method}{more})")
+        figures.append(fig)
+    if path is None:
+        return figures[0] if len(figures) == 1 else figures
+    written = []
+    for fig, target in zip(figures, _page_paths(path, len(figures))):
+        with atomic_path(target) as tmp:
+            fig.savefig(tmp, dpi=110, format=Path(target).suffix[1:] or "png")
+        plt.close(fig)
+        written.append(Path(target))
+    return written[0] if len(written) == 1 else written

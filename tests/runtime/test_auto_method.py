@@ -1,0 +1,56 @@
+"""method="auto", the default (runtime/simulate.py; issue 29): DOP853 while the problem is not
+stiff, Radau from the start on a model with ground contacts, Radau from where DOP853 finds
+the problem stiff -- the run goes on and agrees with Radau throughout."""
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from helpers.stand_in import get_model
+
+from eomc.runtime.simulate import DEFAULT_METHOD, simulate
+from eomc.runtime.switching import PhysicsWarning
+
+sys.path.insert(0, str(Path(__file__).parents[1] / "compiler" / "contact"))
+import bounce_grid as bg  # noqa: E402
+
+CHAIN = dict(x0=[1, 1, 0, 0], p=[1.0, 1e8, 0.1, 2e4])    # stiffness ratio 1e8 (test_stability)
+
+
+def test_auto_is_the_default():
+    assert DEFAULT_METHOD == "auto"
+    res = simulate(get_model("pendulum"), [0.5, 0.0], (0, 2), rtol=1e-9, atol=1e-12)
+    assert res.status == 0 and res.method == "dop853"         # not stiff: the explicit method
+
+
+def test_auto_switches_to_radau_where_dop853_finds_the_problem_stiff():
+    chain = get_model("chain")
+    t = np.linspace(0, 10, 201)
+    explicit = simulate(chain, CHAIN["x0"], (0, 10), p=CHAIN["p"], method="dop853", rtol=1e-6, atol=1e-8,
+                        t_eval=t, raise_on_failure=False)
+    assert explicit.status == 7                                # looks stiff: stops
+    auto = simulate(chain, CHAIN["x0"], (0, 10), p=CHAIN["p"], rtol=1e-6, atol=1e-8, t_eval=t)
+    radau = simulate(chain, CHAIN["x0"], (0, 10), p=CHAIN["p"], method="radau", rtol=1e-10, atol=1e-12,
+                     t_eval=t)
+    assert auto.status == 0 and auto.t.shape == (201,) and np.all(np.isfinite(auto.x))
+    assert auto.method.startswith("dop853, then radau from t=")
+    assert auto.stats["switched_at"] == pytest.approx(explicit.stats["t"])
+    assert auto.stats["steps"] < explicit.stats["steps"] + 2000
+    assert np.max(np.abs(auto.x - radau.x)) < 1e-4
+
+
+@pytest.fixture(scope="module")
+def ball(tmp_path_factory):
+    return bg.build(tmp_path_factory.mktemp("cache"))
+
+
+def test_auto_takes_radau_from_the_start_with_contacts(ball):
+    p = np.array(ball.param_defaults)
+    p[ball.param_names.index("k_ball")] = 1e9
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", PhysicsWarning)
+        res = ball.simulate(np.r_[0, 0, 0.5, np.zeros(9)], (0, 3), p=p)
+    assert res.status == 0 and res.method == "radau"
+    assert res["z"].max() == pytest.approx(0.5, abs=1e-3)

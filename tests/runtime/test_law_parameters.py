@@ -1,0 +1,72 @@
+"""Run-time parameters meet the build's refusals (runtime/law_parameters.py; issue 29 R2, R4):
+simulate(p=...), simulate_many and sweep rows refuse what the builder refuses, naming the
+parameter, instead of running with status 0 (mu = -1 gained 1440 J) or ending in an
+unnamed non-finite value (limit_e = 0)."""
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import eomc
+
+sys.path.insert(0, str(Path(__file__).parents[1] / "compiler" / "contact"))
+sys.path.insert(0, str(Path(__file__).parent))
+import bounce_grid as bg  # noqa: E402
+from test_switching import LIMITED  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def ball(tmp_path_factory):
+    return bg.build(tmp_path_factory.mktemp("cache"))
+
+
+@pytest.fixture(scope="module")
+def stop(tmp_path_factory):
+    d = tmp_path_factory.mktemp("stop")
+    (d / "stop.urdf").write_text(LIMITED)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return eomc.compile(d / "stop.urdf", "stop", cache_dir=d / "cache", progress=False)
+
+
+X0 = np.r_[0, 0, 0.5, np.zeros(9)]
+
+
+@pytest.mark.parametrize("name, value, says", [
+    ("mu_ball", -1.0, r"mu_ball = -1 must be >= 0 \(friction coefficient of contact ball\)"),
+    ("k_ball", -1e6, r"k_ball = -1e\+06 must be >= 0 \(contact stiffness"),
+    ("c_ball", -5.0, r"c_ball = -5 must be >= 0 \(contact damping"),
+    ("r_ball", -0.1, r"r_ball = -0.1 must be >= 0 \(contact radius"),
+    ("vs_ball", 0.0, r"vs_ball = 0 must be > 0 \(friction regularisation speed of contact ball\): the law divides"),
+])
+def test_contact_parameters_are_checked_at_run_time(ball, name, value, says):
+    with pytest.raises(ValueError, match=says):
+        ball.simulate(X0, (0, 1), p={name: value})
+
+
+@pytest.mark.parametrize("values, says", [
+    ({"limit_k_elbow": -100.0}, r"limit_k_elbow = -100 must be >= 0 \(limit stiffness of joint elbow\)"),
+    ({"limit_c_elbow": -1.0}, r"limit_c_elbow = -1 must be >= 0"),
+    ({"limit_e_elbow": 0.0}, r"limit_e_elbow = 0 must be > 0 \(limit width of joint elbow\): the law divides"),
+    ({"friction_v_elbow": 0.0}, r"friction_v_elbow = 0 must be > 0 \(friction speed of joint elbow\)"),
+    ({"damping_elbow": -5.0}, r"damping_elbow = -5 must be >= 0 \(damping of joint elbow\)"),
+    ({"friction_elbow": -1.0}, r"friction_elbow = -1 must be >= 0 \(friction of joint elbow\)"),
+    ({"limit_lo_elbow": 1.0, "limit_hi_elbow": -1.0}, r"limit_lo_elbow = 1 > limit_hi_elbow = -1"),
+])
+def test_joint_law_parameters_are_checked_at_run_time(stop, values, says):
+    with pytest.raises(ValueError, match=says):
+        stop.simulate({"q_elbow": 0.0}, (0, 1), p=values)
+
+
+def test_sweep_rows_name_the_case_and_the_parameter(stop):
+    from eomc.runtime.batch import simulate_many
+    with pytest.raises(ValueError, match=r"case 1\b.*limit_k_elbow = -1 must be >= 0"):
+        simulate_many(stop, {"q_elbow": 0.0}, (0, 0.1), p=[{"limit_k_elbow": 1.0}, {"limit_k_elbow": -1.0}],
+                      progress=False)
+
+
+def test_good_values_still_run(stop, ball):
+    assert stop.simulate({"q_elbow": 0.0}, (0, 0.2), p={"limit_k_elbow": 0.0, "damping_elbow": 0.0}).status == 0
+    assert ball.simulate(X0, (0, 0.2), p={"mu_ball": 0.0, "c_ball": 0.0, "r_ball": 0.0}).status == 0

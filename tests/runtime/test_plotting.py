@@ -1,0 +1,78 @@
+"""Plots a person can read: no panel above its curve cap, no legend over the data, kinds apart."""
+import numpy as np
+import pytest
+
+from eomc.runtime.plotting import MAX_CURVES, MAX_PANELS, panels, plot_result
+from eomc.runtime.result import SimulationResult
+
+matplotlib = pytest.importorskip("matplotlib")
+matplotlib.use("Agg")
+
+
+class _Model:
+    nu = 18
+
+
+def _go2_like(extra=0):
+    """A Go2-sized run: 18 coordinates, 18 speeds, `extra` activations, 36 outputs (an energy,
+    two frames' positions and velocities, one frame's rotation and Jacobian entries)."""
+    t = np.linspace(0.0, 1.0, 101)
+    names = [f"q{k}" for k in range(18)] + [f"u{k}" for k in range(18)] + [f"a{k}" for k in range(extra)]
+    rng = np.random.default_rng(1)
+    x = np.sin(np.outer(t, rng.uniform(1, 6, len(names))) + rng.uniform(0, 3, len(names)))
+    outputs = {"energy": -19 + 0.01 * t, "tip_x": 2 * np.cos(t), "tip_y": 2 * np.sin(t)}
+    for frame in ("FL_foot", "com"):
+        for part in "pv":
+            for a in "xyz":
+                outputs[f"{frame}.{part}.{a}"] = rng.uniform(-1, 1) * t
+    outputs.update({f"FL_foot.R[{i}][{j}]": t * 0 + (i == j) for i in range(3) for j in range(3)})
+    outputs.update({f"FL_foot.J[{i}][{j}]": t * 0.1 for i in range(6) for j in range(18)})
+    res = SimulationResult(t=t, x=x, state_names=tuple(names), stats={}, model_name="go2", method="radau",
+                           outputs=outputs, nq=18)
+    res.model = _Model()
+    return res
+
+
+def _overlaps(a, b):
+    return a.x0 < b.x1 and b.x0 < a.x1 and a.y0 < b.y1 and b.y0 < a.y1
+
+
+def test_many_states_make_capped_panels_with_legends_outside(tmp_path):
+    res = _go2_like(extra=3)
+    chosen = panels(res)
+    labels = [label for label, _ in chosen]
+    assert all(len(group) <= MAX_CURVES for _, group in chosen)
+    drawn = {n for _, group in chosen for n in group}
+    assert not any(".R[" in n or ".J[" in n for n in drawn), "rotations/Jacobians plotted"
+    assert {f"q{k}" for k in range(18)} | {f"u{k}" for k in range(18)} <= drawn
+    # activations are extra states, not speeds; the energy is not on the tips' axis
+    assert any(label.startswith("extra states") and "a0" in group for label, group in chosen)
+    assert not any("energy" in group and "tip_x" in group for _, group in chosen)
+    assert "FL_foot position" in labels and "com velocity" in labels
+    figures = plot_result(res)
+    assert isinstance(figures, list) and len(figures) == -(-len(chosen) // MAX_PANELS)
+    for fig in figures:
+        fig.canvas.draw()
+        renderer = fig.canvas.get_renderer()
+        axes = fig.axes
+        assert len(axes) <= MAX_PANELS
+        for ax in axes:
+            assert len(ax.lines) <= MAX_CURVES
+            colors = [tuple(line.get_color()) if not isinstance(line.get_color(), str) else line.get_color()
+                      for line in ax.lines]
+            assert len(set(colors)) == len(colors), "a colour repeats within a panel"
+            legend = ax.get_legend().get_window_extent(renderer)
+            for other in axes:   # the legend covers no axes' data area, its own or another's
+                assert not _overlaps(legend, other.get_window_extent(renderer)), (ax.get_ylabel(), other.get_ylabel())
+    written = plot_result(res, tmp_path / "go2.png")
+    assert [p.name for p in written][:2] == ["go2.png", "go2-2.png"] and all(p.is_file() for p in written)
+
+
+def test_chosen_names_and_a_bad_name(tmp_path):
+    res = _go2_like()
+    assert panels(res, ["q0", "u3", "energy"]) == [("coordinates", ["q0"]), ("speeds", ["u3"]),
+                                                   ("outputs", ["energy"])]
+    out = res.plot(tmp_path / "one.png", names=["q0", "q1"])
+    assert out.is_file()
+    with pytest.raises(ValueError, match="cannot plot q99"):
+        res.plot(tmp_path / "bad.png", names=["q99"])
