@@ -214,8 +214,15 @@ def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, fu
     if getattr(spec, "timestep", None) is not None:      # the file's own step (MJCF <option timestep>)
         extra = {**(extra or {}), "timestep": spec.timestep}
     source = system if isinstance(system, (str, os.PathLike)) else None
-    return build_and_load(generated, backend=backend, cflags=cflags, cache_dir=cache_dir,
-                          output_dir=output_dir, extra_metadata=extra, source=source, progress=progress)
+    model = build_and_load(generated, backend=backend, cflags=cflags, cache_dir=cache_dir,
+                           output_dir=output_dir, extra_metadata=extra, source=source, progress=progress)
+    if generated.metadata.get("target", "c99-f64") != "c99-f64":   # what float cannot hold, said at build
+        import warnings
+        from eomc.runtime.errors import EomcWarning
+        for concern in model.float_concerns(spec.initial_state):
+            warnings.warn(f"{generated.name} ({generated.metadata['target']}): {concern}", EomcWarning,
+                          stacklevel=2)
+    return model
 
 
 def build_and_load(generated, *, backend="cffi", cflags=None, cache_dir=None, output_dir=None,

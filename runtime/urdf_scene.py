@@ -297,8 +297,9 @@ def _strip_package(fname):
 
 def resolve_filename(fname, directory):
     """A mesh's file as the URDF names it, found as yourdfpy finds it: next to the URDF (the
-    ``package://NAME/`` prefix dropped), as given, then relative to each folder above the URDF's.
-    Returns the input when no candidate exists."""
+    ``package://NAME/`` prefix dropped), as given, then relative to each folder above the URDF's;
+    then a ``package://`` file in the package folders (eomc.runtime.packages: ROS_PACKAGE_PATH,
+    AMENT_PREFIX_PATH, the example-robot-data layout).  Returns the input when none exists."""
     candidates = [os.path.join(directory, _strip_package(fname)), _strip_directive(fname)]
     folder = directory
     for _ in range(len(os.path.normpath(directory).split(os.path.sep))):
@@ -307,5 +308,9 @@ def resolve_filename(fname, directory):
     for candidate in candidates:
         if os.path.isfile(candidate):
             return candidate
+    from .packages import find_package_file     # a URDF copied out of its package: ROS's way
+    found = find_package_file(fname)
+    if found is not None:
+        return found
     _log.debug("unable to resolve mesh file %s", fname)
     return fname

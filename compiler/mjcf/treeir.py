@@ -106,12 +106,22 @@ def tree_ir(m, *, fold=False, actuators=None, limits=True, friction=True):
     actuators = range(m.nu) if actuators is None else actuators
     inputs = [dynamicsymbols(f"ctrl_{act_names[k][1]}") for k in actuators]
     drive = {}   # joint id -> sum of the actuators' joint forces (see _actuator_force)
+    from .tendon import tendon_forces, tendon_length
+    tendon_names = _names(m, mujoco.mjtObj.mjOBJ_TENDON, m.ntendon, "tendon")
     for i, k in enumerate(actuators):
         j = int(m.actuator_trnid[k, 0])
+        if int(m.actuator_trntype[k]) == int(mujoco.mjtTrn.mjTRN_TENDON):    # a fixed tendon: L = Σ c q
+            L, V, pairs = tendon_length(m, j, joint_names)
+            force = _actuator_force(m, params, k, act_names[k][1], inputs[i], L, V)
+            for jj, coef in pairs:
+                drive[jj] = drive.get(jj, sm.S.Zero) + sm.Float(coef, 17) * force
+            continue
         jn = joint_names[j][1]
         force = _actuator_force(m, params, k, act_names[k][1], inputs[i], dynamicsymbols(f"q_{jn}"),
                                 dynamicsymbols(f"u_{jn}"))
         drive[j] = drive.get(j, sm.S.Zero) + force
+    for j, tau in tendon_forces(m, params, joint_names, tendon_names, limits, friction).items():
+        drive[j] = drive.get(j, sm.S.Zero) + tau         # fixed tendons' springs, dampers, limits, friction
     bodies, coordinates, speeds, kinematics, loads, joints, owners = [], [], [], [], [], [], []
     last = {0: -1}          # MuJoCo body -> index of its mass-carrying tree body (-1: world)
     com = {0: [0, 0, 0]}

@@ -39,6 +39,8 @@ class UrdfModel:
     limits: bool = True          # the file's joint limits, damping and friction act (False: ignored)
     contacts: tuple = ()        # ground contacts (eomc.compiler.contact.tree.ContactSpec or text)
     allow_nonphysical_inertia: bool = False
+    ground: bool = False        # the <collision> geometry touches the plane z = 0 (.collision); also
+                                # contacts=["@ground"] / --ground
 
     def options(self):
         return dict(floating_base=self.floating_base, fold_parameters=self.fold_parameters,
@@ -90,9 +92,13 @@ def model_of_robot(robot, tree, model, poses=False):
                f"constraints, which the URDF reader's tree does not carry") if model.mimic and mimics else None
     built = tree_ir(tree, fold=model.fold_parameters, gravity=model.gravity, laws=model.limits)
     outputs, events = {}, {}
-    if model.contacts:
+    named, ground = _ground(model)
+    if named:
         from eomc.compiler.contact.tree import with_contacts
-        built, outputs, events = with_contacts(built, model.contacts, fold=model.fold_parameters)
+        built, outputs, events = with_contacts(built, named, fold=model.fold_parameters)
+    if ground:
+        built, more_outputs, more_events = _with_ground(built, model.fold_parameters)
+        outputs, events = {**outputs, **more_outputs}, {**events, **more_events}
     extra = {}
     if poses:
         from eomc.runtime.geometry import urdf_link_transforms, urdf_visuals
@@ -192,6 +198,33 @@ def urdf_formed(read, formulation, overrides, formed_system):
     system = read.mechanics()
     formed = formed_system(system, formulation)
     return formed, urdf_overrides(system, formed, overrides), system
+
+
+GROUND = "@ground"      # contacts=[...] entry: the robot's <collision> geometry on the plane z = 0
+
+
+def _ground(model):
+    """(the named contact specs, whether the collision geometry touches the ground)."""
+    from eomc.compiler.contact.tree import as_spec
+    specs = [as_spec(c) for c in model.contacts]
+    return [s for s in specs if s.link != GROUND], model.ground or any(s.link == GROUND for s in specs)
+
+
+def _with_ground(built, fold):
+    """(built, outputs, events) with the <collision> shapes on the ground (.collision)."""
+    from eomc.compiler.contact.geometry import with_shapes
+    from eomc.compiler.contact.tree import _com
+    from eomc.runtime.errors import ModelError
+    from .collision import collision_shapes
+    from .tree import identifier
+    shapes = collision_shapes(built)
+    if not shapes:
+        raise ModelError(f"{built.source.path}: a ground was asked for (--ground, ground=True), but no moving "
+                         f"link has <collision> geometry")
+    coms = {identifier(b.name): tuple(float(x) for x in b.com) for b in built.source.bodies.values()}
+    return with_shapes(built, shapes, lambda i: _com(built, built.tree.bodies[i].name,
+                                                     coms.get(built.tree.bodies[i].name, (0.0, 0.0, 0.0))),
+                       fold=fold)
 
 
 def with_options(model, name=None, *, floating_base=False, allow_nonphysical_inertia=False, limits=True):

@@ -226,6 +226,8 @@ def read_urdf(path, parser="lxml"):
     pulls trimesh and scipy, over a second of every cold build); "yourdfpy" goes through
     yourdfpy's model, which the tests use as the reference for the direct reading."""
     path = Path(path)
+    from eomc.runtime.readable import check_regular_file
+    check_regular_file(path, "URDF file")        # a FIFO or device: refused before it is opened
     if not path.is_file():
         _fail(path, None, "no such URDF file")
     root = _strict_xml(path)

@@ -43,7 +43,7 @@ def test_required_options_are_shown_as_required(command, option, capsys):
 
 def test_defaults_worth_reading_are_still_shown(capsys):
     text = " ".join(_help("simulate", capsys=capsys).split())
-    assert "(default: dop853)" in text and "(default: 1e-06)" in text and "(default: 0.0)" in text
+    assert "(default: auto)" in text and "(default: 1e-06)" in text and "(default: 0.0)" in text
 
 
 @pytest.mark.parametrize("command", sorted(set(SUBCOMMANDS)))
