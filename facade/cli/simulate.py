@@ -27,7 +27,7 @@ def configure(parser):
                              "radau, implicitfast (needs --dt)")
     parser.add_argument("--rtol", type=float, default=1e-6, help="relative tolerance")
     parser.add_argument("--atol", type=float, default=1e-9, help="absolute tolerance")
-    parser.add_argument("--dt", type=float, help="fixed step (rk4)")
+    parser.add_argument("--dt", type=float, help="fixed step (rk4, implicitfast)")
     parser.add_argument("--points", type=int, default=1001, help="output rows (adaptive methods)")
     parser.add_argument("--max-steps", type=int, default=100000, help="step limit")
     parser.add_argument("--consistent", action="store_true",
