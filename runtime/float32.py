@@ -25,7 +25,8 @@ _SHAPES = {"rhs": ("nx",), "jac_x": ("nx", "nx"), "jac_r": ("nx", "ninput"),
 def float32_cdef(name, functions):
     """The declarations of a c99-f32 library (compiler/emit/target.py writes the same text)."""
     lines = [f"int {name}_{fn}({_ARGS}, float *out, float *work);" for fn in _SHAPES if fn in functions]
-    lines.append(f"int {name}_step_rk4(float t, float h, float *x, const float *p, const float *r, float *work);")
+    if "rhs" in functions:   # the step exists when rhs does (compiler/emit/target.py)
+        lines.append(f"int {name}_step_rk4(float t, float h, float *x, const float *p, const float *r, float *work);")
     return "\n".join(lines) + "\n"
 
 
@@ -50,7 +51,7 @@ class Float32Model:
         try:
             self._lib = self._ffi.dlopen(str(library))
             for fn in list(_SHAPES) + ["step_rk4"]:
-                if fn in self.functions or fn == "step_rk4":
+                if fn in self.functions or (fn == "step_rk4" and "rhs" in self.functions):
                     getattr(self._lib, f"{self.name}_{fn}")
         except (OSError, AttributeError) as exc:
             from .metadata import LoadError
@@ -106,6 +107,8 @@ class Float32Model:
 
     def step_rk4(self, t, h, x, p=None, r=None):
         """One NAME_step_rk4 step from (t, x): the new state (float32); x is not modified."""
+        if "rhs" not in self.functions:
+            raise EomcError(f"{self.name}_step_rk4 was not generated: the model was built without rhs")
         x, p, r = self._inputs(x, p, r)
         x = x.copy()
         work = np.empty(max(self.work_size, 1), np.float32)
@@ -136,7 +139,8 @@ class Float32Model:
         if out:
             return out
         try:
-            self.rhs(0.0, x0)
+            if "rhs" in self.functions:
+                self.rhs(0.0, x0)
         except EomcError as exc:
             out.append(f"at the default state the float rhs fails: {exc}")
         if "mass_matrix" in self.functions:

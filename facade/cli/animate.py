@@ -77,7 +77,8 @@ def read_trajectory(model, path):
     if len(t) < 1 or np.any(np.diff(t) <= 0) or not np.all(np.isfinite(data)):
         raise ValueError(f"--from {path}: times must increase strictly and every value be finite")
     x = np.column_stack([data[:, header.index(n)] for n in model.state_names])
-    outputs = {n: data[:, header.index(n)] for n in model.output_names if n in header}
+    skip = {"t", "constraint_residual", *model.state_names}
+    outputs = {n: data[:, k] for k, n in enumerate(header) if n not in skip}   # as saved, built or not
     return SimulationResult(t=t, x=x, state_names=tuple(model.state_names), stats={}, method="csv",
                             model_name=model.name, outputs=outputs, nq=model.nq, model=model)
 
@@ -96,7 +97,14 @@ def run(args):
             raise ValueError(f"--package-dir {folder}: no such folder")
     if args.fps <= 0 or args.gif_fps <= 0:
         raise ValueError("--fps and --gif-fps must be positive")
-    model = cli_common.load_model(args.model, args.quiet, **cli_common.model_options(args))
+    cli_common.check_before_build(args)   # a robot's names are known before it is built
+    options = cli_common.model_options(args)
+    if args.trajectory and os.path.isfile(args.model):
+        # drawing a saved run needs the bodies' poses only: no Jacobians, frames or events to
+        # build (a robot's full build took 42 s); the CSV's other columns are plotted as saved
+        options.pop("frames", None)
+        options["functions"] = ["rhs", "poses"]
+    model = cli_common.load_model(args.model, args.quiet, **options)
     if "poses" not in model.functions:
         raise ValueError(f"{model.name} was built without poses (its bodies' positions); rebuild it "
                          f"with the default functions or --outputs ...,poses")
