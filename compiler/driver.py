@@ -32,13 +32,21 @@ class Progress:
     """Stage timings on stderr, e.g. ``eomc: generate  0.84 s``; silent when off."""
 
     PASS_SHOWN = 0.25   # seconds: compiler passes at least this long are listed under their stage
+    # quiet (-q) on a terminal: a stage that lasts this long still gets its live line (a
+    # 5000-link robot builds for many minutes; silence would look like a hang)
+    QUIET_LIVE_AFTER = 20.0
     PASS_LABELS = {"cse": "common subexpressions", "differentiate": "Jacobians",
                    "tangent": "Jacobians (tangent)", "share_sincos": "sharing sin/cos",
                    "fold_constants": "folding constants", "fold_parameters": "folding parameters",
                    "dce": "dropping unused code", "expand_powers": "powers to products"}
 
     def __init__(self, enabled=None, stream=None):
+        """``enabled``: None (on when stderr is a terminal), True, False, or "quiet" (the
+        command line's -q: off, but a stage lasting QUIET_LIVE_AFTER seconds on a terminal
+        still gets its live line)."""
         self.stream = stream or sys.stderr
+        self.quiet_live = enabled == "quiet"
+        enabled = False if self.quiet_live else enabled
         self.enabled = self.stream.isatty() if enabled is None else bool(enabled)
         self.timings = {}
         self.live = ticker("", self.stream, enabled=False)
@@ -49,7 +57,10 @@ class Progress:
         class _Stage:
             def __enter__(self):
                 # on a terminal, a live line with the seconds so far (runtime/progress.py)
-                progress.live = ticker(f"eomc: {label}", progress.stream, progress.enabled)
+                progress.live = (ticker(f"eomc: {label}", progress.stream, progress.enabled)
+                                 if not progress.quiet_live else
+                                 ticker(f"eomc: {label}", progress.stream, True,
+                                        delay=progress.QUIET_LIVE_AFTER))
                 if progress.enabled and not progress.live.active:
                     print(f"eomc: {label} ...", file=progress.stream, flush=True)
                 self.start = time.perf_counter()

@@ -257,21 +257,28 @@ def _equality_problems(m, path, ignore):
     for e in range(m.neq):
         name = _name(m, mujoco.mjtObj.mjOBJ_EQUALITY, e, "equality")
         kind = int(m.eq_type[e])
-        if kind == int(mujoco.mjtEq.mjEQ_JOINT):
+        if kind in (int(mujoco.mjtEq.mjEQ_JOINT), int(mujoco.mjtEq.mjEQ_TENDON)):
             if not m.eq_active0[e]:
                 warnings.warn(f"{path}: equality {name}: inactive (active=\"false\"): left out (MuJoCo "
                               f"starts without it; eomc cannot switch it on later)", EomcWarning, stacklevel=4)
             continue
         tag, what = _EQ_KINDS.get(kind, (f"type {kind}", "an equality constraint"))
         out.append(("equality", tag, f"equality {name}: <{tag}> is {what}: only joint couplings "
-                    f"(<joint joint1 joint2 polycoef>) are modelled", None if name.startswith("equality #")
+                    f"(<joint joint1 joint2 polycoef>) and couplings of fixed tendons (<tendon>) are modelled", None if name.startswith("equality #")
                     else name))
     try:
-        couplings(m)
+        found = couplings(m)
     except ValueError as exc:
         named = re.match(r"equality (\S+):", str(exc))
-        raise ModelFileError(f"<equality><joint>: {exc}", 
+        raise ModelFileError(f"<equality><joint>: {exc}",
                              *_where(path, "equality", named.group(1) if named else None)) from None
+    try:
+        from .equality import tendon_couplings
+        tendon_couplings(m, [j1 for _, j1, _ in found])
+    except ValueError as exc:      # the <tendon> element of the equality's name first (dm_control names them so)
+        named = re.match(r"equality (\S+):", str(exc))
+        raise ModelFileError(f"<equality><tendon>: {exc}", *_where(path, "tendon", named.group(1) if named else None)) \
+            from None
     return out
 
 

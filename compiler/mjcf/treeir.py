@@ -259,16 +259,17 @@ def tree_ir(m, *, fold=False, actuators=None, limits=True, friction=True):
         last[b], com[b] = len(bodies) - 1, c_mass
     gravity = sm.Matrix([params(f"g{x}", v) for x, v in zip("xyz", m.opt.gravity)])
     # joint equalities: holonomic constraints, joint1's state last (compiler/mjcf/equality.py)
-    from .equality import coupled_states, coupling_loops, couplings
+    from .equality import coupled_states, coupling_loops, couplings, tendon_couplings
     found = couplings(m)
+    tied = tendon_couplings(m, [j1 for _, j1, _ in found])      # <equality><tendon>: after them
     bodies, coordinates, speeds, kinematics, joints = coupled_states(
-        bodies, coordinates, speeds, kinematics, joints, [j1 for _, j1, _ in found])
+        bodies, coordinates, speeds, kinematics, joints, [j1 for _, j1, _ in found] + [t[1] for t in tied])
     bodies = effective_inertias(bodies, coordinates, speeds, kinematics)
     ir = Tree(bodies=tuple(bodies), coordinates=tuple(coordinates), speeds=tuple(speeds),
               kinematics=tuple(kinematics), gravity=gravity, loads=tuple(loads))
-    if found:
+    if found or tied:
         from eomc.compiler.tree.constrained import attach
-        ir = attach(ir, coupling_loops(m, params, found, coordinates, speeds, joints, joint_names))
+        ir = attach(ir, coupling_loops(m, params, found, coordinates, speeds, joints, joint_names, tied))
     return MjcfTree(ir, tuple(coordinates), tuple(speeds), tuple(kinematics), params.values, inputs,
                     tuple(joints), tuple(owners))
 
