@@ -61,7 +61,7 @@ def with_ignore(model, name=None, ignore=(), limits=True):
     if not items and (limits or not is_mjcf_path(model)):
         return model, name
     _known(items)
-    from eomc.compiler.model.validate import sanitize_name
+    from eomc.compiler.emit.layout import sanitize_name
     return MjcfModel(Path(model), ignore=items, limits=limits), name or sanitize_name(Path(model).stem)
 
 
@@ -374,11 +374,11 @@ def _with_contacts(model, m, built):
         built, outputs, events = with_mjcf_contacts(built, m, named, fold=model.fold_parameters)
     if geoms:
         from eomc.compiler.contact.geometry import with_shapes
-        from eomc.compiler.contact.tree import _com
+        from eomc.compiler.contact.tree import body_com
         from .collision import ground_geoms
         found = ground_geoms(m, model.path)
         if found:
-            built, more_outputs, more_events = with_shapes(built, _shapes(built, found), lambda i: _com(
+            built, more_outputs, more_events = with_shapes(built, _shapes(built, found), lambda i: body_com(
                 built, built.tree.bodies[i].name, built.owners[i][1]), fold=model.fold_parameters)
             outputs, events = {**outputs, **more_outputs}, {**events, **more_events}
     return built, outputs, events

@@ -13,6 +13,7 @@ from collections.abc import Mapping
 import sympy as sm
 from sympy.core.function import AppliedUndef
 
+from ..emit.layout import sanitize_name  # noqa: F401 -- model files' names; the CLI imports it here
 from ..mechanics.formed import FormedSystem
 
 __all__ = ["Invalid", "check_functions", "FUNCTIONS", "check_parameters", "check_inputs", "check_initial_state", "check_outputs",
@@ -309,12 +310,6 @@ def check_initial_state(initial_state, formed):
                                            f"(states: {', '.join(map(_label, states))})")
         x0[symbol] = _real(value, f"initial_state[{_label(symbol)}]", "initial_state")
     return [x0[s] for s in states]
-
-
-def sanitize_name(stem):
-    """A C identifier from a file stem: other characters become _, a leading digit gets a prefix."""
-    name = re.sub(r"[^A-Za-z0-9_]", "_", stem)
-    return name if _IDENT.match(name) else f"model_{name}"
 
 
 def check_name(name):

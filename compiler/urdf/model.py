@@ -213,7 +213,7 @@ def _ground(model):
 def _with_ground(built, fold):
     """(built, outputs, events) with the <collision> shapes on the ground (.collision)."""
     from eomc.compiler.contact.geometry import with_shapes
-    from eomc.compiler.contact.tree import _com
+    from eomc.compiler.contact.tree import body_com
     from eomc.runtime.errors import ModelError
     from .collision import collision_shapes
     from .tree import identifier
@@ -222,7 +222,7 @@ def _with_ground(built, fold):
         raise ModelError(f"{built.source.path}: a ground was asked for (--ground, ground=True), but no moving "
                          f"link has <collision> geometry")
     coms = {identifier(b.name): tuple(float(x) for x in b.com) for b in built.source.bodies.values()}
-    return with_shapes(built, shapes, lambda i: _com(built, built.tree.bodies[i].name,
+    return with_shapes(built, shapes, lambda i: body_com(built, built.tree.bodies[i].name,
                                                      coms.get(built.tree.bodies[i].name, (0.0, 0.0, 0.0))),
                        fold=fold)
 
@@ -246,7 +246,7 @@ def with_options(model, name=None, *, floating_base=False, allow_nonphysical_ine
         flags = " and ".join("--limits off" if k == "limits" else "--" + k.replace("_", "-") for k in given)
         raise ModelError(f"{flags} applies to URDF robots (.urdf){' and MJCF models' if given == {'limits': False} else ''}, "
                          f"not to {model}")
-    from eomc.compiler.model.validate import sanitize_name
+    from eomc.compiler.emit.layout import sanitize_name
     return UrdfModel(Path(model), **given), name or sanitize_name(Path(model).stem)
 
 
