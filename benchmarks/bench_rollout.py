@@ -14,9 +14,10 @@ qpos0) for NSTEP steps:
   mujoco       mujoco.rollout.rollout(...)   -- writes the full physics state at every step
   simulate     a Python loop of eomc simulate(..., method="rk4", dt, t_eval=[T]) (threads=1
                only; NROLL_LOOP starts, scaled to steps/s)
-Wall time (the threaded contestants cannot be timed by thread CPU time), the process pinned
-to cores 0,1 (taskset), contestants interleaved repeat by repeat, medians.  steps/s =
-NROLL * NSTEP / median wall time.  Agreement: max over rows and states of |x_eomc - x_mujoco|
+Wall time (what a user waits for) and process CPU time (all threads; steadier on a loaded
+machine, and the cost of the work whatever the thread count), the process pinned to cores 0,1
+(taskset), contestants interleaved repeat by repeat, medians of REPEAT.  steps/s =
+NROLL * NSTEP / median time.  Agreement: max over rows and states of |x_eomc - x_mujoco|
 / max(1, |x|) at the final step (different arithmetic, same method: round-off level expected).
 
     taskset -c 0,1 nice python benchmarks/bench_rollout.py
@@ -33,7 +34,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import environment_header, format_table, write_results  # noqa: E402
 
 MODELS = ("inverted_double_pendulum", "hopper")
-NROLL, NSTEP, NROLL_LOOP, REPEAT = 256, 500, 32, 5
+NROLL, NSTEP, NROLL_LOOP, REPEAT = 256, 500, 32, 7
 
 
 def _models(name):
@@ -91,20 +92,24 @@ def _case(name, threads_list):
                                                                  t_eval=[NSTEP * dt]).x[-1]
                                                         for i in range(NROLL_LOOP)]
             times = {c: [] for c in contestants}
+            cpu = {c: [] for c in contestants}
             out = {}
             for _ in range(REPEAT):
                 for c, f in contestants.items():
-                    t0 = time.perf_counter()
+                    t0, c0 = time.perf_counter(), time.process_time()
                     out[c] = f()
                     times[c].append(time.perf_counter() - t0)
+                    cpu[c].append(time.process_time() - c0)
         mj_final = out["mujoco"][:, -1, 1:1 + 2 * mm.nq]          # [time, qpos, qvel, ...]
         ours = out["eomc final"][:, order]
         agree = float(np.max(np.abs(ours - mj_final) / np.maximum(1.0, np.abs(mj_final))))
         assert np.array_equal(out["eomc steps"][:, -1], out["eomc final"])
-        sps = {c: (NROLL_LOOP if c == "simulate loop" else NROLL) * NSTEP / statistics.median(v)
-               for c, v in times.items()}
+        total = {c: (NROLL_LOOP if c == "simulate loop" else NROLL) * NSTEP for c in contestants}
+        sps = {c: total[c] / statistics.median(v) for c, v in times.items()}
+        cps = {c: total[c] / statistics.median(v) for c, v in cpu.items()}
         for c in contestants:
             rows.append([name, k, c, f"{sps[c]:.3g}", f"{sps[c] / sps['mujoco']:.2f}",
+                         f"{cps[c]:.3g}", f"{cps[c] / cps['mujoco']:.2f}",
                          f"{agree:.1e}" if c == "eomc final" else ""])
         print(rows[-len(contestants):], flush=True)
     return rows, dt
@@ -116,13 +121,13 @@ def main():
     for name in MODELS:
         r, dts[name] = _case(name, threads)
         rows += r
-    table = format_table(["model", "threads", "contestant", "steps/s", "vs mujoco.rollout",
-                          "final-state agreement"], rows)
+    table = format_table(["model", "threads", "contestant", "steps/s (wall)", "vs mujoco.rollout",
+                          "steps/CPU-s", "vs mujoco.rollout (CPU)", "final-state agreement"], rows)
     text = environment_header(
         "Rollouts: eomc.rollout vs mujoco.rollout vs a Python loop over simulate (issue 31)",
         notes=[f"{NROLL} starts x {NSTEP} steps per call (simulate loop: {NROLL_LOOP} starts), RK4 on both sides "
                f"at the model's timestep ({', '.join(f'{n} {dt:g} s' for n, dt in dts.items())}); contacts, "
-               f"constraints and limits off on both sides; zero controls; wall-time medians of {REPEAT} "
+               f"constraints and limits off on both sides; zero controls; wall and process-CPU medians of {REPEAT} "
                f"interleaved repeats, process pinned to cores {sorted(os.sched_getaffinity(0))}; shared noisy "
                f"machine.  Agreement: max |x_eomc - x_mujoco| / max(1, |x|) over rows and states at the end."]
     ) + "\n" + table + "\n"
