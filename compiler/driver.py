@@ -21,7 +21,7 @@ from .build.gencache import cached_generate
 from .emit.poses import pose_digest
 from .tree.frames import frames_digest
 from .build.export import export
-from .model import model_spec
+from .model.spec import read_model, spec_of
 from .model.validate import Invalid, check_functions
 from .passes.timing import reporting
 
@@ -92,16 +92,11 @@ def _with_poses(spec, functions):
     if functions is not None and "poses" not in functions:
         return spec
     try:
-        built = getattr(spec.formed, "_urdf", None)   # a URDF read straight into the tree: no System
-        mjcf = getattr(spec.formed, "_mjcf", None)    # an MJCF model: MuJoCo's bodies from the tree
-        if spec.system is None and mjcf is not None:
-            from .mjcf.poses import mjcf_pose_source
-            poses = mjcf_pose_source(mjcf, mjcf.mjmodel)
-        elif spec.system is None and built is not None:
-            from .urdf.treeir import pose_source as urdf_pose_source
-            poses = urdf_pose_source(built)
+        if spec.system is None and spec.model is not None:   # a robot read straight into the tree
+            poses = spec.model.poses
         else:
-            poses = pose_source(spec.system, spec.geometry)
+            robot = spec.model if spec.model is not None and spec.model.source.format != "system" else None
+            poses = pose_source(spec.system, spec.geometry, robot)
     except (ModelError, ValueError) as exc:
         if spec.path is not None and spec.path.suffix == ".py":
             from eomc.runtime.errors import ModelFileError
@@ -170,11 +165,13 @@ def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, f
         raise ModelError(str(exc)) from None
 
     def derive(form):
-        spec = model_spec(system, name, parameters=parameters, inputs=inputs, outputs=outputs,
-                          events=events, formulation=form, states=states)
+        spec = spec_of(read, parameters=parameters, inputs=inputs, outputs=outputs,
+                       events=events, formulation=form, states=states)
         return _with_poses(spec, functions)
     note = None
     with progress.stage("derive"):
+        # every file is read here, once; each formulation auto compares derives from the reading
+        read = read_model(system, name, poses=functions is None or "poses" in functions)
         try:
             spec = derive(formulation)
         except EomcError as exc:

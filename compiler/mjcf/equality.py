@@ -108,7 +108,7 @@ def coupling_loops(m, params, found, coordinates, speeds, joints, joint_names, t
 
     (hinge and slide coordinates have q' = u; γ is d f_v/dt at u' = 0)."""
     from eomc.compiler.tree.constrained import Loops
-    from eomc.compiler.urdf.treeir import _num
+    from eomc.compiler.multibody.joints import snap
     first = {jid: (iq, iu) for jid, _, iq, iu in joints}
     n = len(speeds)
     hol, vel, jac, bias, tied = [], [], [], [], []
@@ -116,7 +116,7 @@ def coupling_loops(m, params, found, coordinates, speeds, joints, joint_names, t
         ename = _param_name(m, e)
         p = [params(f"eq_{ename}_p{k}", m.eq_data[e, k]) for k in range(5)]
         q1, u1 = coordinates[first[j1][0]], speeds[first[j1][1]]
-        r1 = _num(float(m.qpos0[int(m.jnt_qposadr[j1])]))
+        r1 = snap(float(m.qpos0[int(m.jnt_qposadr[j1])]))
         row = [sm.S.Zero] * n
         row[first[j1][1]] = sm.S.One
         tied.append(joint_names[j1][0])
@@ -126,7 +126,7 @@ def coupling_loops(m, params, found, coordinates, speeds, joints, joint_names, t
             bias.append(sm.S.Zero)
         else:
             q2, u2 = coordinates[first[j2][0]], speeds[first[j2][1]]
-            r2 = _num(float(m.qpos0[int(m.jnt_qposadr[j2])]))
+            r2 = snap(float(m.qpos0[int(m.jnt_qposadr[j2])]))
             d = q2 - r2 if r2 != 0 else q2
             poly = p[0] + p[1] * d + p[2] * d ** 2 + p[3] * d ** 3 + p[4] * d ** 4
             slope = p[1] + 2 * p[2] * d + 3 * p[3] * d ** 2 + 4 * p[4] * d ** 3
