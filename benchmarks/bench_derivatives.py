@@ -22,7 +22,7 @@ kinematic rows of jac_x).  Also the C++ model rebuilt from text against the whee
 derivatives at state 0).
 
 Usage: python benchmarks/bench_derivatives.py [--cart 4,8,20,40,80] [--robots ur10,panda,go2,g1,talos]
-       [--rounds 9] [--write]      (--write: appends a section to results/derivatives.md)
+       [--rounds 9] [--write]      (--write: appends a section to results/derivatives.md, row by row)
 """
 import argparse
 import datetime
@@ -110,7 +110,6 @@ LABELS = ("eomc jac_x", "eomc jac_id", "Pinocchio computeABADerivatives", "Pinoc
 
 def pin_text(model, gravity):
     """pinocchio.Model -> the text pin_derivatives.cpp reads."""
-    import pinocchio as pin
     rows = ["gravity " + " ".join(repr(float(g)) for g in gravity)]
     for i in range(1, model.njoints):
         j = model.joints[i]
@@ -121,7 +120,6 @@ def pin_text(model, gravity):
         vals = (list(axis) + list(np.asarray(P.rotation).reshape(-1)) + list(P.translation) + [I.mass]
                 + list(I.lever) + list(np.asarray(I.inertia).reshape(-1)))
         rows.append(f"{model.names[i]} {model.parents[i]} {sn} " + " ".join(repr(float(v)) for v in vals))
-    del pin
     return "\n".join(rows) + "\n"
 
 
@@ -227,10 +225,6 @@ def harness(model, ref, data, tmp, pin_obj, rounds):
            .replace("@V@", c_array(V)).replace("@A@", c_array(A))
            .replace("@P@", ", ".join(repr(float(v)) for v in model.param_defaults) or "0.0")
            .replace("@R@", ", ".join("0.0" for _ in range(max(model.ninput, 1)))))
-    if ref.model.nv != model.nu or list(ref.iv) != list(range(model.nu)):
-        # Pinocchio orders speeds its own way: its V/A rows are permuted copies (ref.v); the
-        # timing does not care, the check below reads through ref.iv
-        pass
     c = tmp / f"h_{name}.c"
     c.write_text(src)
     d = model.directory
@@ -285,17 +279,16 @@ def main():
         row = dict(case=case, nx=model.nx, nu=model.nu, times=times, agree=agree, text=text_model,
                    ops={f: sum(ops[f].values()) for f in ("rhs", "jac_x", "jac_id")}, build=built)
         rows.append(row)
+        if a.write:      # row by row: a long run interrupted keeps what it measured
+            with open(HERE / "results" / "derivatives.md", "a") as f:
+                f.write((header(a.rounds) if len(rows) == 1 else "") + render_row(row) + "\n")
         print(f"{case}: nx {model.nx}  " + "  ".join(f"{k} {v:.0f} ns" for k, v in times.items())
               + f"  ABA/jac_x {times[LABELS[2]] / times[LABELS[0]]:.2f}  RNEA/jac_id {times[LABELS[3]] / times[LABELS[1]]:.2f}"
               f"  agree {agree}  text model {text_model:.1e}  (built in {built:.1f} s wall)", flush=True)
-    table = render(rows, a.rounds)
-    print(table)
-    if a.write:
-        with open(HERE / "results" / "derivatives.md", "a") as f:
-            f.write(table)
+    print(header(a.rounds) + "".join(render_row(r) + "\n" for r in rows))
 
 
-def render(rows, rounds):
+def header(rounds):
     import pinocchio
     import eomc
     commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"], capture_output=True,
@@ -313,13 +306,15 @@ def render(rows, rounds):
              "| model | nx | eomc jac_x ns | Pinocchio ABA derivs ns | **ABA / jac_x** | eomc jac_id ns | "
              "Pinocchio RNEA derivs ns | **RNEA / jac_id** | ops rhs / jac_x / jac_id | agreement jac_x, jac_id |",
              "|---|--:|--:|--:|--:|--:|--:|--:|--|--|"]
-    for r in rows:
-        t = r["times"]
-        lines.append(f"| {r['case']} | {r['nx']} | {t[LABELS[0]]:.0f} | {t[LABELS[2]]:.0f} | "
-                     f"**{t[LABELS[2]] / t[LABELS[0]]:.2f}** | {t[LABELS[1]]:.0f} | {t[LABELS[3]]:.0f} | "
-                     f"**{t[LABELS[3]] / t[LABELS[1]]:.2f}** | {r['ops']['rhs']} / {r['ops']['jac_x']} / "
-                     f"{r['ops']['jac_id']} | {r['agree']['jac_x']:.1e}, {r['agree']['jac_id']:.1e} |")
     return "\n".join(lines) + "\n"
+
+
+def render_row(r):
+    t = r["times"]
+    return (f"| {r['case']} | {r['nx']} | {t[LABELS[0]]:.0f} | {t[LABELS[2]]:.0f} | "
+            f"**{t[LABELS[2]] / t[LABELS[0]]:.2f}** | {t[LABELS[1]]:.0f} | {t[LABELS[3]]:.0f} | "
+            f"**{t[LABELS[3]] / t[LABELS[1]]:.2f}** | {r['ops']['rhs']} / {r['ops']['jac_x']} / "
+            f"{r['ops']['jac_id']} | {r['agree']['jac_x']:.1e}, {r['agree']['jac_id']:.1e} |")
 
 
 if __name__ == "__main__":

@@ -188,7 +188,7 @@ def main():
         errs, conds = errors(f32, f64, angle, rng)
         err_rows.append([key, f64.nx, f"{np.median(errs):.2e}", f"{np.percentile(errs, 99):.2e}",
                          f"{errs.max():.2e}", f"{np.median(conds):.2e}", f"{conds.max():.2e}",
-                         f"{np.max(errs / (conds * np.finfo(np.float32).eps)):.2f}"])
+                         f"{np.max(errs / (conds * np.finfo(np.float32).eps)):.2g}"])
         edges = [1, 1e2, 1e3, 1e4, 1e5, np.inf]
         for lo, hi in zip(edges[:-1], edges[1:]):
             sel = (conds >= lo) & (conds < hi)

@@ -273,7 +273,8 @@ def _ghost_free(geometry, frame_names):
     return out
 
 
-def page_data(res, model, *, fps=60, trace=None, colors=None, outputs=None, up=None, axes=None):
+def page_data(res, model, *, fps=60, trace=None, colors=None, outputs=None, up=None, axes=None,
+              package_dirs=()):
     """The JSON the viewer reads (see the module docstring)."""
     from .geometry import pack_shapes
     times, X = _resample(res, fps)
@@ -308,7 +309,7 @@ def page_data(res, model, *, fps=60, trace=None, colors=None, outputs=None, up=N
         series.append({"name": name, "values": _b64(np.interp(times, t_run, np.asarray(values, float)))
                        if len(t_run) > 1 else _b64(values)})
     geometry, meshes = pack_shapes(_ghost_free(model.metadata.get("poses", {}).get("geometry", {}),
-                                               poses.frame_names))
+                                               poses.frame_names), package_dirs)
     camera, scale = _camera(poses, up, _reach({k: v for k, v in geometry.items() if k != "world"}, meshes))
     fixed = [bool(np.ptp(poses.points[:, j, :], axis=0).max() < 1e-12) if nt else False
              for j in range(len(poses.point_names))]
@@ -383,7 +384,7 @@ class Animation:
 
 
 def animate(res, path=None, *, model, fps=60, trace=None, colors=None, outputs=None, up=None,
-            title=None, axes=None):
+            title=None, axes=None, package_dirs=()):
     """A self-contained HTML animation of ``res`` (a SimulationResult of ``model``).
 
     ``fps``: frames per second of the run stored in the page; ``trace``: names of bodies or
@@ -396,12 +397,15 @@ def animate(res, path=None, *, model, fps=60, trace=None, colors=None, outputs=N
     Frame outputs' rotations, Jacobians and twists are never plotted by default (a frame is
     shown by its position), and at most 8 strips are drawn.  When the run covers much more
     ground than the robot (a fall, a walk) the camera follows it.
+    ``package_dirs``: folders holding the ROS packages a URDF's ``package://`` meshes name
+    (Pinocchio's argument; ROS_PACKAGE_PATH, AMENT_PREFIX_PATH and the example-robot-data
+    layout are searched after them: eomc.runtime.packages).
     Writes ``path`` when given.  Returns an :class:`Animation`.
     """
     if fps <= 0:
         raise ValueError(f"fps must be positive, not {fps}")
     data, poses = page_data(res, model, fps=fps, trace=trace, colors=colors, outputs=outputs, up=up,
-                            axes=axes)
+                            axes=axes, package_dirs=package_dirs)
     anim = Animation(page_html(data, title or f"{model.name} (eomc)"), None, poses)
     if path is not None:
         anim.save(path)

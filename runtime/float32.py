@@ -25,7 +25,8 @@ _SHAPES = {"rhs": ("nx",), "jac_x": ("nx", "nx"), "jac_r": ("nx", "ninput"),
 def float32_cdef(name, functions):
     """The declarations of a c99-f32 library (compiler/emit/target.py writes the same text)."""
     lines = [f"int {name}_{fn}({_ARGS}, float *out, float *work);" for fn in _SHAPES if fn in functions]
-    lines.append(f"int {name}_step_rk4(float t, float h, float *x, const float *p, const float *r, float *work);")
+    if "rhs" in functions:   # the step exists when rhs does (compiler/emit/target.py)
+        lines.append(f"int {name}_step_rk4(float t, float h, float *x, const float *p, const float *r, float *work);")
     return "\n".join(lines) + "\n"
 
 
@@ -50,7 +51,7 @@ class Float32Model:
         try:
             self._lib = self._ffi.dlopen(str(library))
             for fn in list(_SHAPES) + ["step_rk4"]:
-                if fn in self.functions or fn == "step_rk4":
+                if fn in self.functions or (fn == "step_rk4" and "rhs" in self.functions):
                     getattr(self._lib, f"{self.name}_{fn}")
         except (OSError, AttributeError) as exc:
             from .metadata import LoadError
@@ -106,6 +107,8 @@ class Float32Model:
 
     def step_rk4(self, t, h, x, p=None, r=None):
         """One NAME_step_rk4 step from (t, x): the new state (float32); x is not modified."""
+        if "rhs" not in self.functions:
+            raise EomcError(f"{self.name}_step_rk4 was not generated: the model was built without rhs")
         x, p, r = self._inputs(x, p, r)
         x = x.copy()
         work = np.empty(max(self.work_size, 1), np.float32)
@@ -115,6 +118,45 @@ class Float32Model:
             raise EomcError(f"{self.name}_step_rk4 (float) failed at t={float(t):g}: "
                             f"{STATUS_NAMES.get(status, f'status {status}')}")
         return x
+
+    def float_concerns(self, x0=None):
+        """What float cannot hold at the model's default state, in words naming the coordinate,
+        speed or parameter: values beyond float's range, an rhs that fails in float, and a mass
+        matrix whose condition number times float's epsilon passes 1% (the relative error the
+        speeds' derivatives may then carry; benchmarks/results/embedded.md measures it).
+        ``x0``: the default state (the model file's initial_state), else zeros."""
+        out = []
+        finfo = np.finfo(np.float32)
+        x0 = np.zeros(self.nx) if x0 is None else np.asarray(x0, dtype=np.float64)
+        for kind, names, values in (("state", self.state_names, x0),
+                                    ("parameter", self.param_names, self.metadata["param_defaults"])):
+            for n, v in zip(names, values):
+                if abs(v) > finfo.max:
+                    out.append(f"{kind} {n} = {v:g} overflows float (largest {float(finfo.max):.4g}): it would be inf")
+                elif 0 < abs(v) < finfo.tiny:
+                    out.append(f"{kind} {n} = {v:g} is below float's smallest normal number "
+                               f"({float(finfo.tiny):.3g}): it loses its digits")
+        if out:
+            return out
+        try:
+            if "rhs" in self.functions:
+                self.rhs(0.0, x0)
+        except EomcError as exc:
+            out.append(f"at the default state the float rhs fails: {exc}")
+        if "mass_matrix" in self.functions:
+            try:
+                M = self.mass_matrix(0.0, x0).astype(np.float64)
+                cond = np.linalg.cond(M)
+            except (EomcError, np.linalg.LinAlgError):
+                return out
+            if not np.isfinite(cond) or cond * float(finfo.eps) > 1e-2:
+                _, vectors = np.linalg.eigh(0.5 * (M + M.T))
+                speed = self.state_names[self.nq + int(np.argmax(np.abs(vectors[:, 0])))]
+                out.append(f"the mass matrix is ill-conditioned for float at the default state "
+                           f"(cond(M) = {cond:.3g}: relative errors up to ~{cond * float(finfo.eps):.1g} "
+                           f"in the accelerations); its weakest direction is mostly the speed {speed}: "
+                           f"rescale that body's mass or inertia, or build for c99-f64")
+        return out
 
     def __getattr__(self, attr):
         if attr.startswith("_"):

@@ -72,19 +72,20 @@ def shape(kind, size=(), *, path=None, scale=None, origin=None, color=None):
     return out
 
 
-def urdf_visuals(tree):
+def urdf_visuals(tree, urdf=None):
     """{body name (a C identifier, as the System names it) or "world": [shapes]} of a URDF robot.
 
     ``tree``: eomc.compiler.urdf's merged tree.  A link welded into a body (or into the
     ground) is placed by the fixed joints between them, read at the zero configuration.
+    ``urdf``: the file's :func:`~eomc.runtime.urdf_scene.load_scene` when the caller has it
+    (a reader that parsed the file already), else the file is read.
     """
     with _quiet_mesh_loggers():
-        return _urdf_visuals(tree)
+        return _urdf_visuals(tree, urdf if urdf is not None else load_scene(tree.path))
 
 
-def _urdf_visuals(tree):
+def _urdf_visuals(tree, urdf):
     path = Path(tree.path)
-    urdf = load_scene(path)
     links = {link.name: link for link in urdf.robot.links}
     groups = [("world", tree.root, list(tree.ground_links))]   # none on a floating base
     groups += [(identifier(b.name), b.name, b.links) for b in tree.bodies.values()]
@@ -106,10 +107,12 @@ def _urdf_visuals(tree):
     return out
 
 
-def urdf_link_transforms(tree):
+def urdf_link_transforms(tree, urdf=None):
     """{link name: (body name or "world", 4x4 pose of the link in that body's frame)} of every
-    link that is not a body's own frame: links welded to a body or to the ground."""
-    urdf = load_scene(tree.path)
+    link that is not a body's own frame: links welded to a body or to the ground.  ``urdf``:
+    the file's :func:`~eomc.runtime.urdf_scene.load_scene` when the caller has it."""
+    if urdf is None:
+        urdf = load_scene(tree.path)
     out = {}
     groups = [("world", tree.root, list(tree.ground_links))]   # none on a floating base
     groups += [(identifier(b.name), b.name, b.links) for b in tree.bodies.values()]
@@ -221,14 +224,33 @@ def _require_mesh_readers(geometry):
                                 f"e.g. {Path(files[0]).name})", "mesh", [names.get(m, m) for m in missing])
 
 
-def pack_shapes(geometry):
+def _located(geometry, package_dirs):
+    """``geometry`` with each mesh still named ``package://...`` (not found when the model
+    was built) looked up in the package folders (``package_dirs`` first)."""
+    from .packages import find_package_file
+    out = {}
+    for name, items in geometry.items():
+        out[name] = []
+        for item in items:
+            if item.get("kind") == "mesh" and str(item.get("path", "")).startswith("package://"):
+                found = find_package_file(item["path"], package_dirs)
+                if found is not None:
+                    item = {**item, "path": found}
+            out[name].append(item)
+    return out
+
+
+def pack_shapes(geometry, package_dirs=()):
     """{name: [shapes]} with each mesh's file replaced by its packed triangles (shared by path).
 
-    A mesh that cannot be read becomes a small box, with one warning naming the body and file.
-    Raises MissingExtraError when the model has meshes and the ``mesh`` extra is missing.
+    A mesh that cannot be read becomes a small box; one warning names the first such body and
+    file and counts the others (with a hint for ``package://`` files: where packages are
+    looked for, eomc.runtime.packages).  Raises MissingExtraError when the model has meshes
+    and the ``mesh`` extra is missing.
     """
+    geometry = _located(geometry, package_dirs)
     _require_mesh_readers(geometry)
-    meshes, out = {}, {}
+    meshes, out, failed = {}, {}, []
     for name, items in geometry.items():
         packed = []
         for item in items:
@@ -240,9 +262,7 @@ def pack_shapes(geometry):
                         meshes[key] = packed_mesh(*key)
                     except Exception as exc:   # trimesh raises many kinds; the page must still open
                         meshes[key] = None
-                        warnings.warn(f"{item.get('link', name)}: cannot read mesh {item['path']} "
-                                      f"({type(exc).__name__}: {exc}); drawn as a box", EomcWarning,
-                                      stacklevel=2)
+                        failed.append((item.get("link", name), item["path"], exc))
                 if meshes[key] is None:
                     item = shape("box", (0.05, 0.05, 0.05), origin=np.reshape(item["origin"], (4, 4)),
                                  color=item.get("color"))
@@ -250,4 +270,13 @@ def pack_shapes(geometry):
                     item["mesh"] = list(meshes).index(key)
             packed.append(item)
         out[name] = packed
+    if failed:
+        link, path, exc = failed[0]
+        more = f" and {len(failed) - 1} more mesh{'es' * (len(failed) > 2)}" if len(failed) > 1 else ""
+        hint = ""
+        if any(str(p).startswith("package://") for _, p, _ in failed):
+            from .packages import PACKAGE_HINT
+            hint = f"; a package:// file: {PACKAGE_HINT}"
+        warnings.warn(f"{link}: cannot read mesh {path} ({type(exc).__name__}: {exc}){more}; drawn as "
+                      f"{'boxes' if more else 'a box'}{hint}", EomcWarning, stacklevel=2)
     return out, [m for m in meshes.values()]

@@ -540,7 +540,11 @@ def failure_message(model, method, stats, x_last, p=None):
     msg = f"{model.name}: {method} stopped at t={stats['t']:.9g}: {reason}"
     if f"{stats['t_fail']:.9g}" != f"{stats['t']:.9g}":
         msg += f" (the model failed at t={stats['t_fail']:.9g}, inside the next step)"
-    if status == 7:
+    if status == 7 and model.c_model.jac_x == model.ffi.NULL:
+        msg += (f" (h*|lambda| ~ {stats['stiff_hlambda']:.3g}); an implicit method needs the Jacobian "
+                f"jac_x, which this model was built without: rebuild it with jac_x (the default "
+                f"functions include it), and the default method='auto' goes on with radau here")
+    elif status == 7:
         msg += f" (h*|lambda| ~ {stats['stiff_hlambda']:.3g}); {STIFF_ADVICE}"
     elif status == 6:
         msg += f" ({stats['steps']} steps); raise max_steps or, if the problem is stiff, " \

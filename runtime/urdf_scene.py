@@ -226,8 +226,8 @@ class UrdfScene:
     """The links of a URDF file with their visuals, and ``get_transform`` between link frames
     at the zero configuration (the subset of yourdfpy.URDF that drawing needs)."""
 
-    def __init__(self, path):
-        root = etree.parse(str(path)).getroot()
+    def __init__(self, path, root=None):
+        root = etree.parse(str(path)).getroot() if root is None else root
         self.path = str(path)
         self.robot = Robot(root.get("name"))
         for element in root.findall("link"):
@@ -275,9 +275,10 @@ class UrdfScene:
         return _fix_rigid(matrix)
 
 
-def load_scene(path):
-    """The URDF at ``path`` as a :class:`UrdfScene`."""
-    return UrdfScene(path)
+def load_scene(path, root=None):
+    """The URDF at ``path`` as a :class:`UrdfScene`; ``root``: its document when a reader
+    parsed it already (lxml; eomc.compiler.urdf.reader), so the file is read once."""
+    return UrdfScene(path, root)
 
 
 def _strip_directive(fname):
@@ -296,8 +297,9 @@ def _strip_package(fname):
 
 def resolve_filename(fname, directory):
     """A mesh's file as the URDF names it, found as yourdfpy finds it: next to the URDF (the
-    ``package://NAME/`` prefix dropped), as given, then relative to each folder above the URDF's.
-    Returns the input when no candidate exists."""
+    ``package://NAME/`` prefix dropped), as given, then relative to each folder above the URDF's;
+    then a ``package://`` file in the package folders (eomc.runtime.packages: ROS_PACKAGE_PATH,
+    AMENT_PREFIX_PATH, the example-robot-data layout).  Returns the input when none exists."""
     candidates = [os.path.join(directory, _strip_package(fname)), _strip_directive(fname)]
     folder = directory
     for _ in range(len(os.path.normpath(directory).split(os.path.sep))):
@@ -306,5 +308,9 @@ def resolve_filename(fname, directory):
     for candidate in candidates:
         if os.path.isfile(candidate):
             return candidate
+    from .packages import find_package_file     # a URDF copied out of its package: ROS's way
+    found = find_package_file(fname)
+    if found is not None:
+        return found
     _log.debug("unable to resolve mesh file %s", fname)
     return fname

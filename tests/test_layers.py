@@ -166,3 +166,13 @@ def test_the_checks_can_fail():
     assert _violations("eomc.compiler", ["sympy"]) != []
     assert "eomc.runtime.errors" in _graph()["eomc.compiler.driver"] | {
         m for n in _graph() if n.startswith("eomc.compiler") for m in _graph()[n]}
+
+
+def test_the_compiler_docstring_names_every_subpackage():
+    """compiler/__init__.py is the map a newcomer reads first: every subpackage is on it."""
+    import re
+    doc = ast.get_docstring(ast.parse((ROOT / "compiler" / "__init__.py").read_text()))
+    named = set(re.findall(r"``(\w+)/``", doc))
+    packages = {p.parent.name for p in (ROOT / "compiler").glob("*/__init__.py")}
+    assert packages - named == set(), f"compiler/__init__.py does not name {sorted(packages - named)}"
+    assert named - packages == set(), f"compiler/__init__.py names missing packages {sorted(named - packages)}"

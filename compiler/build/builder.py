@@ -156,7 +156,7 @@ def _stack(tmp, generated, tc, measured):
     if not measured:
         return {"stack": None, "stack_note": f"not measured: {tc.version} has no {CALLGRAPH_FLAG} "
                                              f"(gcc 10 or later does)"}
-    functions = list(generated.metadata["functions"]) + ["step_rk4"]
+    functions = list(generated.metadata["functions"]) + (["step_rk4"] if "rhs" in generated.metadata["functions"] else [])
     stack = measure_stack(tmp, name, functions) or {}
     for path in list(tmp.glob("*.ci")) + list(tmp.glob("*.su")):
         path.unlink()

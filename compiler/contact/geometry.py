@@ -17,7 +17,10 @@ code costs O(points):
 - ellipsoid  its support point: for the plane's normal n in body components and the
              ellipsoid's A = R·diag(a²)·Rᵀ, the deepest point is c - A·n/sqrt(nᵀ·A·n)
              (exact and smooth: computed in the generated code at each call)
-- mesh       the vertices of its convex hull, radius 0 (MuJoCo collides a mesh's hull too)
+- mesh       the vertices of its convex hull, radius 0 (MuJoCo collides a mesh's hull too); a
+             hull of more than ``MESH_POINTS`` vertices is thinned to that many by farthest-point
+             sampling (spread over the hull, its extreme points first), and how far the thinned
+             hull falls inside the full one is :func:`hull_shortfall` (a warning gives it)
 
 Where the shapes come from is the reader's job (MJCF: :mod:`eomc.compiler.mjcf.collision`;
 URDF: ``<collision>``); the parameters are given per shape and shared by its points.
@@ -30,9 +33,10 @@ import sympy as sm
 
 from eomc.runtime.errors import ModelError
 
-__all__ = ["CYLINDER_RIM", "Shape", "shape_points", "with_shapes"]
+__all__ = ["CYLINDER_RIM", "MESH_POINTS", "Shape", "shape_points", "with_shapes", "hull_shortfall"]
 
 CYLINDER_RIM = 8
+MESH_POINTS = 32
 
 
 @dataclass(frozen=True)
@@ -82,9 +86,35 @@ def shape_points(kind, size, vertices=()):
             hull = ConvexHull(v)
             keep = sorted(set(int(i) for i in hull.vertices))
         except Exception:               # flat or degenerate: every vertex
-            keep = range(len(v))
+            keep = list(range(len(v)))
+        if len(keep) > MESH_POINTS:
+            keep = _farthest(v[keep], MESH_POINTS, keep)
         return [tuple(float(x) for x in v[i]) for i in keep], 0.0, None
     raise ValueError(f"no contact for a {kind} against a plane")
+
+
+def _farthest(points, count, index):
+    """``count`` of ``index`` (the rows of ``points``) by farthest-point sampling, starting from the
+    six extreme points along the axes: the sorted chosen indices."""
+    chosen = sorted({int(np.argmin(points[:, a])) for a in range(3)} | {int(np.argmax(points[:, a])) for a in range(3)})
+    gap = np.min(np.linalg.norm(points[:, None, :] - points[None, chosen, :], axis=2), axis=1)
+    while len(chosen) < count:
+        k = int(np.argmax(gap))
+        chosen.append(k)
+        gap = np.minimum(gap, np.linalg.norm(points - points[k], axis=1))
+    return sorted(index[k] for k in chosen[:count])
+
+
+def hull_shortfall(vertices, kept):
+    """How far (m) the hull of ``kept`` points falls inside the hull of ``vertices``: the largest
+    distance of a vertex outside the kept hull's facet planes (0 when nothing was dropped)."""
+    from scipy.spatial import ConvexHull
+    v, k = np.asarray(vertices, dtype=float).reshape(-1, 3), np.asarray(kept, dtype=float).reshape(-1, 3)
+    try:
+        eq = ConvexHull(k).equations
+    except Exception:
+        return float("nan")
+    return float(max(0.0, np.max(v @ eq[:, :3].T + eq[:, 3])))
 
 
 def _symbols(name, with_radius, taken):
@@ -119,6 +149,14 @@ def with_shapes(built, shapes, com_of, fold=False):
             raise ModelError(f"{shape.where or shape.name}: {exc}") from None
         if not points:
             continue
+        if shape.kind == "mesh" and len(points) == MESH_POINTS:
+            short = hull_shortfall(shape.vertices, points)
+            if short > 0:
+                import warnings
+                from eomc.runtime.errors import EomcWarning
+                warnings.warn(f"{shape.where or shape.name}: its mesh's convex hull is thinned to {MESH_POINTS} "
+                              f"contact points (a contact may start up to {short * 1e3:.2g} mm late)", EomcWarning,
+                              stacklevel=3)
         values = {"k": shape.k, "c": shape.c, "mu": shape.mu, "vs": shape.vs}
         for key, value in values.items():
             try:

@@ -387,9 +387,13 @@ def lower_contacts(tree, bodies, rec, v, rename):
     ``v``: the bodies' spatial velocities [ω; v_origin] (body components, the recursion's);
     ``rename(expr, what)``: mechanics symbols -> slot symbols (parameters)."""
     contacts = contact_outputs(tree)
-    if not contacts:
+    # other velocity-dependent loads lowered here (MJCF fluid forces: eomc.compiler.mjcf.fluid)
+    others = [ld for ld in tree.loads if not isinstance(ld, ContactLoad) and hasattr(ld, "lower")]
+    if not contacts and not others:
         return {}
     poses = WorldPoses(bodies, rec)
+    for load in others:
+        load.lower(bodies, rec, v, rename, poses)
     values = {}
     for index, load in enumerate(contacts):
         i = load.body

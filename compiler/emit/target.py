@@ -172,9 +172,12 @@ def retarget(generated, target):
     cdef = to_float_text("\n".join(l for l in generated.cdef.split("\n")
                                    if not l.startswith(f"const eomc_model *{name}_model(")),
                          f"{name} declarations", own_prefix=f"{name}_")
-    cdef += f"int {name}_step_rk4(float t, float h, float *x, const float *p, const float *r, float *work);\n"
+    step = "rhs" in meta["functions"]   # the step calls NAME_rhs
+    if step:
+        cdef += f"int {name}_step_rk4(float t, float h, float *x, const float *p, const float *r, float *work);\n"
     meta["target"] = target
-    meta["embedded"] = {"step": f"{name}_step_rk4", "param_defaults": f"{name}_param_defaults"}
+    meta["embedded"] = {"step": f"{name}_step_rk4" if step else None,
+                        "param_defaults": f"{name}_param_defaults" if meta["nparam"] else None}
     return replace(generated, c_source=source, header=header, cdef=cdef, metadata=meta)
 
 
@@ -201,9 +204,10 @@ def _f32_header(header, name, meta):
              f"#define {upper}_WORK_LEN ({upper}_WORK_SIZE > 0 ? {upper}_WORK_SIZE : 1)\n")
     if meta["nparam"]:
         extra += f"extern const float {name}_param_defaults[{upper}_NPARAM];\n"
-    extra += (f"/* One fixed step of the classical RK4 from (t, x) with step h, inputs r held over the\n"
-              f" * step; x is updated in place only when every stage succeeded (else left as it was). */\n"
-              f"int {name}_step_rk4(float t, float h, float *x, const float *p, const float *r, float *work);\n")
+    if "rhs" in meta["functions"]:
+        extra += (f"/* One fixed step of the classical RK4 from (t, x) with step h, inputs r held over the\n"
+                  f" * step; x is updated in place only when every stage succeeded (else left as it was). */\n"
+                  f"int {name}_step_rk4(float t, float h, float *x, const float *p, const float *r, float *work);\n")
     header = header.replace(line, extra)
     return to_float_text(header, f"{name}.h", own_prefix=f"{name}_")
 
@@ -217,10 +221,12 @@ def embedded_tail(name, meta):
     upper = name.upper()
     parts = []
     if meta["nparam"]:
-        vals = ", ".join(_float_literal(repr(float(v)), f"{name} parameter defaults")
-                         for v in meta["param_defaults"])
+        vals = ", ".join(_float_literal(repr(float(v)), f"{name}: parameter {pname}'s default")
+                         for pname, v in zip(meta["param_names"], meta["param_defaults"]))
         parts.append(f"const float {name}_param_defaults[{upper}_NPARAM] = {{{vals}}};\n")
     nx = f"{upper}_NX"
+    if "rhs" not in meta["functions"]:   # built without rhs (--outputs): no step to write
+        return "\n" + "\n".join(parts) if parts else ""
     parts.append(f"""int {name}_step_rk4(float t, float h, float *x, const float *p, const float *r, float *work)
 {{
     float k1[{nx}];

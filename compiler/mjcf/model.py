@@ -18,6 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import sympy as sm
 
 from eomc.runtime.errors import EomcWarning, ModelError, ModelFileError
 
@@ -71,6 +72,8 @@ def load_mjmodel(path):
     except ImportError:
         raise ModelError(f"{path}: MJCF models are read by MuJoCo's compiler: pip install 'eomc[mujoco]'") \
             from None
+    from .files import check_files
+    check_files(path)           # a FIFO or device as the file, an <include> or an asset: refused unopened
     if not Path(path).is_file():
         raise ModelFileError("no such file", str(path))
     # MuJoCo's warnings go to a MUJOCO_LOG.TXT in the working directory by default: ours instead
@@ -89,20 +92,10 @@ def load_mjmodel(path):
     return model
 
 
-def _line(path, tag, name=None):
-    """The line of the ``<tag`` element named ``name`` in the file (else of any element so
-    named), else of the first ``<tag``
-    (None when it is in an included file)."""
-    try:
-        text = Path(path).read_text(errors="replace")
-    except OSError:
-        return None
-    match = None
-    if name:    # the <tag> of that name first (an equality is often named as the tendon it ties)
-        match = (re.search(rf"<{tag}\b[^>]*\bname\s*=\s*[\"']{re.escape(name)}[\"']", text)
-                 or re.search(rf"<\w+\b[^>]*\bname\s*=\s*[\"']{re.escape(name)}[\"']", text))
-    match = match or re.search(rf"<{tag}\b", text)
-    return text.count("\n", 0, match.start()) + 1 if match else None
+def _where(path, tag, name=None):
+    """(file, line) of the element: in the main file or an ``<include>``d one (.files.locate)."""
+    from .files import locate
+    return locate(path, tag, name)
 
 
 def _name(m, kind, i, prefix):
@@ -130,22 +123,32 @@ def check_model(m, path, ignore=()):
         m.dof_armature[:] = 0
     problems = []   # (ignore key, tag, message[, element name])
     J = mujoco.mjtObj.mjOBJ_JOINT
-    # a tendon acts only through its stiffness, damping, friction, armature, limits and the
-    # actuators and equalities on it (refused below on their own): one with none of these
-    # (gymnasium's humanoid's two) changes nothing here; one with a range only is a limit
+    # fixed tendons (joint coefficients) act as joint-space forces (.tendon); a spatial one (sites,
+    # wrapping) acts only through its stiffness, damping, friction, armature, limits and the actuators
+    # on it: one with none of these changes nothing here
+    from .tendon import is_fixed
     zero = np.zeros(m.ntendon)
-    acting = [t for t in range(m.ntendon)
-              if m.tendon_stiffness[t] or m.tendon_damping[t] or m.tendon_frictionloss[t]
-              or getattr(m, "tendon_armature", zero)[t]]
-    if acting:
-        problems.append(("tendons", "tendon", f"{len(acting)} tendon(s) with stiffness, damping, friction or "
-                         f"armature (e.g. {_name(m, mujoco.mjtObj.mjOBJ_TENDON, acting[0], 'tendon')}): a "
-                         f"tendon couples joints"))
-    for t in range(m.ntendon):
-        if t not in acting and m.tendon_limited[t] and "limits" not in ignore and "tendons" not in ignore:
-            warnings.warn(f"{path}: tendon {_name(m, mujoco.mjtObj.mjOBJ_TENDON, t, 'tendon')}: its range "
-                          f"limits are not modelled (contacts and limits are off; ignore=('limits',) silences "
-                          f"this)", EomcWarning, stacklevel=3)
+    armature = [t for t in range(m.ntendon) if getattr(m, "tendon_armature", zero)[t]]
+    spatial = [t for t in range(m.ntendon) if not is_fixed(m, t) and (
+        m.tendon_stiffness[t] or m.tendon_damping[t] or m.tendon_frictionloss[t] or m.tendon_limited[t]
+        or any(int(m.actuator_trntype[k]) == int(mujoco.mjtTrn.mjTRN_TENDON) and int(m.actuator_trnid[k, 0]) == t
+               for k in range(m.nu)))]
+    for t, why in [(t, "armature (an inertia along the tendon)") for t in armature] + \
+                  [(t, "a spatial tendon (sites, wrapping): only fixed tendons are modelled") for t in spatial]:
+        tn = _name(m, mujoco.mjtObj.mjOBJ_TENDON, t, 'tendon')
+        problems.append(("tendons", "tendon", f"tendon {tn}: {why}", tn))
+        break
+    if "tendons" in ignore and m.ntendon:
+        acting = [t for t in range(m.ntendon) if m.tendon_stiffness[t] or m.tendon_damping[t]
+                  or m.tendon_frictionloss[t] or m.tendon_limited[t]]
+        if acting:
+            warnings.warn(f"{path}: ignored: {len(acting)} tendon(s) with stiffness, damping, friction or limits "
+                          f"(e.g. {_name(m, mujoco.mjtObj.mjOBJ_TENDON, acting[0], 'tendon')})", EomcWarning,
+                          stacklevel=3)
+        m.tendon_stiffness[:] = 0
+        m.tendon_damping[:] = 0
+        m.tendon_frictionloss[:] = 0
+        m.tendon_limited[:] = 0
     from .options import disabled
     if not {"equality", "constraint"} & disabled(m):     # <flag equality="disable"/>: none acts
         problems += _equality_problems(m, path, ignore)
@@ -158,15 +161,18 @@ def check_model(m, path, ignore=()):
     if np.any(m.body_gravcomp):
         b = int(np.flatnonzero(m.body_gravcomp)[0])
         problems.append(("", "body", f"body {_name(m, mujoco.mjtObj.mjOBJ_BODY, b, 'body')}: gravcomp"))
-    if m.opt.density or m.opt.viscosity or np.any(m.opt.wind):
-        problems.append(("fluid", "option", "fluid forces (option density/viscosity/wind)"))
+    ellipsoid = [g for g in range(m.ngeom) if m.geom_fluid[g][0] != 0]      # fluidshape="ellipsoid"
+    if (m.opt.density or m.opt.viscosity) and ellipsoid:
+        problems.append(("fluid", "geom", f"geom {_name(m, mujoco.mjtObj.mjOBJ_GEOM, ellipsoid[0], 'geom')}: "
+                         f"fluidshape=\"ellipsoid\" (MuJoCo's ellipsoid fluid model; the inertia-box model is "
+                         f"modelled)", _name(m, mujoco.mjtObj.mjOBJ_GEOM, ellipsoid[0], 'geom')))
     for j in range(m.njnt):
         jn = _name(m, J, j, "joint")
         kind, d = int(m.jnt_type[j]), int(m.jnt_dofadr[j])
         ndof = {0: 6, 1: 3, 2: 1, 3: 1}[kind]
         if np.any(m.dof_armature[d:d + ndof] < 0):
             raise ModelFileError(f"<joint>: joint {jn}: negative armature {min(m.dof_armature[d:d + ndof]):g}: "
-                                 f"an inertia cannot be negative", path, _line(path, "joint", jn))
+                                 f"an inertia cannot be negative", *_where(path, "joint", jn))
         if kind == 0 and len(set(m.dof_armature[d:d + 3])) > 1:
             problems.append(("armature", "joint", f"joint {jn}: armature on a free joint's linear dofs "
                              f"differs between them ({', '.join(f'{x:g}' for x in m.dof_armature[d:d + 3])}; "
@@ -177,18 +183,18 @@ def check_model(m, path, ignore=()):
                              f"joint (eomc models it on hinges and slides)", jn))
         if np.any(m.dof_frictionloss[d:d + ndof] < 0) or np.any(~np.isfinite(m.dof_frictionloss[d:d + ndof])):
             raise ModelFileError(f"<joint>: joint {jn}: frictionloss {m.dof_frictionloss[d]:g}: it must be a "
-                                 f"finite number >= 0", path, _line(path, "joint", jn))
+                                 f"finite number >= 0", *_where(path, "joint", jn))
         if m.jnt_limited[j] and kind in (2, 3) and (not np.all(np.isfinite(m.jnt_range[j]))
                                                     or m.jnt_range[j][0] > m.jnt_range[j][1]):
             raise ModelFileError(f"<joint>: joint {jn}: range {m.jnt_range[j][0]:g} {m.jnt_range[j][1]:g}: "
-                                 f"lower must be <= upper, both finite", path, _line(path, "joint", jn))
+                                 f"lower must be <= upper, both finite", *_where(path, "joint", jn))
         if kind == 0 and int(m.body_parentid[m.jnt_bodyid[j]]) != 0:
             problems.append(("", "freejoint", f"joint {jn}: a free joint on a body that is not a child of "
                              f"the world"))
         if np.any(m.dof_damping[d:d + ndof] < 0) or m.jnt_stiffness[j] < 0:
             raise ModelFileError(f"<joint>: joint {jn}: negative damping or stiffness "
                                  f"({m.dof_damping[d]:g}, {m.jnt_stiffness[j]:g}): it would feed energy in",
-                                 path, _line(path, "joint", jn))
+                                 *_where(path, "joint", jn))
         if kind == 0 and int(m.body_jntnum[m.jnt_bodyid[j]]) > 1:
             problems.append(("", "freejoint", f"joint {jn}: a free joint with other joints on its body"))
         if kind in (0, 1) and m.jnt_stiffness[j]:
@@ -204,10 +210,17 @@ def check_model(m, path, ignore=()):
         an = _name(m, mujoco.mjtObj.mjOBJ_ACTUATOR, k, "actuator")
         j = int(m.actuator_trnid[k, 0])
         why = None
-        if int(m.actuator_trntype[k]) != int(mujoco.mjtTrn.mjTRN_JOINT):
-            why = "its transmission is not a joint"
+        if int(m.actuator_trntype[k]) == int(mujoco.mjtTrn.mjTRN_TENDON):
+            if not is_fixed(m, j):
+                why = "its transmission is a spatial tendon"
+            elif "tendons" in ignore:
+                why = "its transmission is a tendon, and tendons are ignored"
+        elif int(m.actuator_trntype[k]) != int(mujoco.mjtTrn.mjTRN_JOINT):
+            why = "its transmission is not a joint or a fixed tendon"
         elif int(m.jnt_type[j]) not in (2, 3):
             why = "it drives a ball or free joint"
+        if why:
+            pass
         elif int(m.actuator_dyntype[k]) != 0:
             why = "it has activation dynamics (dyntype: an integrator, filter or muscle activation)"
         elif int(m.actuator_gaintype[k]) not in (0, 1) or int(m.actuator_biastype[k]) not in (0, 1):
@@ -221,8 +234,8 @@ def check_model(m, path, ignore=()):
             warnings.warn(f"{path}: ignored: {message}", EomcWarning, stacklevel=4)
             continue
         hint = f" (ignore=('{key}',), or --ignore {key} on the command line, drops it with a warning)" if key else ""
-        raise ModelFileError(f"<{tag}>: {message}: a rigid-body tree cannot express it{hint}", path,
-                             _line(path, tag, named[0] if named else None))
+        raise ModelFileError(f"<{tag}>: {message}: a rigid-body tree cannot express it{hint}", 
+                             *_where(path, tag, named[0] if named else None))
     return motors
 
 
@@ -244,34 +257,45 @@ def _equality_problems(m, path, ignore):
     for e in range(m.neq):
         name = _name(m, mujoco.mjtObj.mjOBJ_EQUALITY, e, "equality")
         kind = int(m.eq_type[e])
-        if kind == int(mujoco.mjtEq.mjEQ_JOINT):
+        if kind in (int(mujoco.mjtEq.mjEQ_JOINT), int(mujoco.mjtEq.mjEQ_TENDON)):
             if not m.eq_active0[e]:
                 warnings.warn(f"{path}: equality {name}: inactive (active=\"false\"): left out (MuJoCo "
                               f"starts without it; eomc cannot switch it on later)", EomcWarning, stacklevel=4)
             continue
         tag, what = _EQ_KINDS.get(kind, (f"type {kind}", "an equality constraint"))
         out.append(("equality", tag, f"equality {name}: <{tag}> is {what}: only joint couplings "
-                    f"(<joint joint1 joint2 polycoef>) are modelled", None if name.startswith("equality #")
+                    f"(<joint joint1 joint2 polycoef>) and couplings of fixed tendons (<tendon>) are modelled", None if name.startswith("equality #")
                     else name))
     try:
-        couplings(m)
+        found = couplings(m)
     except ValueError as exc:
         named = re.match(r"equality (\S+):", str(exc))
-        raise ModelFileError(f"<equality><joint>: {exc}", path,
-                             _line(path, "equality", named.group(1) if named else None)) from None
+        raise ModelFileError(f"<equality><joint>: {exc}",
+                             *_where(path, "equality", named.group(1) if named else None)) from None
+    try:
+        from .equality import tendon_couplings
+        tendon_couplings(m, [j1 for _, j1, _ in found])
+    except ValueError as exc:      # the <tendon> element of the equality's name first (dm_control names them so)
+        named = re.match(r"equality (\S+):", str(exc))
+        raise ModelFileError(f"<equality><tendon>: {exc}", *_where(path, "tendon", named.group(1) if named else None)) \
+            from None
     return out
 
 
-def mjcf_formed(model, overrides):
-    """(FormedSystem, overrides with the model's parameter defaults and inputs) of an MJCF file."""
-    from eomc.compiler.tree.formed import formed_of_tree
-    from eomc.compiler.urdf.model import _merged
-    from .treeir import tree_ir
+def read_model(model, poses=False):
+    """The :class:`~eomc.compiler.multibody.model.Model` of an MJCF file or :class:`MjcfModel`:
+    MuJoCo's compiler run once, its model checked and read into the joint tree, every
+    MuJoCo body a frame, qpos0 the initial state, and with ``poses`` the animation's bodies
+    and geoms.  Nothing after this reads the file."""
+    import mujoco
+    from eomc.compiler.multibody.model import Frame, Provenance
+    from eomc.compiler.tree.formed import model_of_tree
+    from .treeir import _names, tree_ir
     model = model if isinstance(model, MjcfModel) else MjcfModel(Path(model))
     _known(model.ignore)
     m = load_mjmodel(model.path)
     from .options import apply_flags
-    limits_flag, friction_flag, actuation = apply_flags(m, model.path, _line)     # <option><flag>: on eomc's copy of m
+    limits_flag, friction_flag, actuation = apply_flags(m, model.path, _where)     # <option><flag>: on eomc's copy of m
     motors = check_model(m, model.path, model.ignore)
     if not actuation and motors:
         warnings.warn(f"{model.path}: <flag actuation=\"disable\"/>: the {len(motors)} actuator(s) are left out "
@@ -283,29 +307,68 @@ def mjcf_formed(model, overrides):
                         limits=model.limits and limits_flag and "limits" not in model.ignore,
                         friction=model.limits and friction_flag and "frictionloss" not in model.ignore)
     except JointLawError as exc:     # the numbers of a joint's limit or friction: its line
-        raise ModelFileError(f"<joint>: {exc}", str(model.path), _line(model.path, "joint", exc.joint)) \
+        raise ModelFileError(f"<joint>: {exc}", *_where(model.path, "joint", exc.joint)) \
             from None
-    built, overrides = _with_contacts(model, m, built, overrides)
-    formed = formed_of_tree(built.tree)
-    built.mjmodel = m              # what the animation's poses read the geoms from (compiler/mjcf/poses.py)
-    object.__setattr__(formed, "_mjcf", built)
-    values = _merged(overrides, formed, built.parameters, built.inputs)
+    if "fluid" not in model.ignore:
+        from .fluid import with_fluid
+        built = with_fluid(built, m, fold=model.fold_parameters)     # <option density viscosity wind>
+    built, outputs, events = _with_contacts(model, m, built)
+    extra = {}
+    if poses:
+        from .poses import mjcf_pose_source
+        extra["poses"] = mjcf_pose_source(built, m)
+    index = {b.name: i for i, b in enumerate(built.tree.bodies)}
+    frames = []
+    for b, (raw, s) in enumerate(_names(m, mujoco.mjtObj.mjOBJ_BODY, m.nbody, "body")):
+        if b == 0:        # the world body
+            frames.append(Frame(raw, -1, _IDENTITY, (0, 0, 0), (s,)))
+            continue
+        # the tree body carrying the MuJoCo body's mass sits at its mass centre body_ipos
+        c = [_com_symbol(f"c{a}_{s}", v, built.parameters) for a, v in zip("xyz", m.body_ipos[b])]
+        frames.append(Frame(raw, index[s], _IDENTITY, tuple(-x for x in c), (s,)))
+    return model_of_tree(built.tree, Provenance("mjcf", str(model.path)), frames=tuple(frames),
+                         defaults=dict(built.parameters), joint_inputs=tuple(built.inputs),
+                         outputs=outputs, events=events, initial_state=reference_state(m, built),
+                         timestep=float(m.opt.timestep),
+                         kane_refusal="an MJCF model has the recursive formulation only: MuJoCo's model is "
+                                      "read straight into the joint tree, with no SymPy System to form "
+                                      "Kane's equations of", **extra)
+
+
+_IDENTITY = ((1, 0, 0), (0, 1, 0), (0, 0, 1))
+
+
+def _com_symbol(name, value, parameters):
+    """A mass-centre coordinate as the tree writes it: its parameter, or the literal."""
+    from eomc.compiler.multibody.joints import snap
+    symbol = sm.Symbol(name)
+    return symbol if symbol in parameters else snap(float(value))
+
+
+def mjcf_formed(read, overrides):
+    """(the Model, overrides with the model's parameter defaults, inputs, contact outputs and
+    initial state) of an MJCF model's :func:`read_model`."""
+    from eomc.compiler.contact.tree import merged_outputs
+    from eomc.compiler.multibody.model import merged_defaults
+    if read.outputs or read.events:
+        overrides = merged_outputs(overrides, dict(read.outputs), dict(read.events))
+    values = merged_defaults(overrides, read, read.defaults, read.joint_inputs)
     if values.get("initial_state") is None:
-        values["initial_state"] = reference_state(m, built)
-    values["timestep"] = float(m.opt.timestep)       # into the built model's metadata (model.timestep)
-    return formed, values
+        values["initial_state"] = dict(read.initial_state)
+    values["timestep"] = read.timestep       # into the built model's metadata (model.timestep)
+    return read, values
 
 
-def _with_contacts(model, m, built, overrides):
-    """(built, overrides) with the ground contacts: the ones ``model.contacts`` names (spheres on
-    bodies), and the file's collision geoms against its ground planes (:mod:`.collision`) unless
+def _with_contacts(model, m, built):
+    """(built, outputs, events) with the ground contacts: the ones ``model.contacts`` names (spheres
+    on bodies), and the file's collision geoms against its ground planes (:mod:`.collision`) unless
     contacts are named without ``"@collision"`` (or ``"@none"``: no contacts), or ``geoms`` says."""
-    from eomc.compiler.contact.tree import COLLISION_SPHERES, as_spec, merged_outputs, with_mjcf_contacts
+    from eomc.compiler.contact.tree import COLLISION_SPHERES, as_spec, with_mjcf_contacts
     specs = [as_spec(c) for c in model.contacts]
-    named = [s for s in specs if s.link not in (COLLISION_SPHERES, "@none")]
+    named = [s for s in specs if s.link not in (COLLISION_SPHERES, "@none", "@ground")]
     geoms = model.geoms
     if geoms is None:
-        geoms = not specs or any(s.link == COLLISION_SPHERES for s in specs)
+        geoms = not specs or any(s.link in (COLLISION_SPHERES, "@ground") for s in specs)
     outputs, events = {}, {}
     if named:
         built, outputs, events = with_mjcf_contacts(built, m, named, fold=model.fold_parameters)
@@ -318,9 +381,7 @@ def _with_contacts(model, m, built, overrides):
             built, more_outputs, more_events = with_shapes(built, _shapes(built, found), lambda i: _com(
                 built, built.tree.bodies[i].name, built.owners[i][1]), fold=model.fold_parameters)
             outputs, events = {**outputs, **more_outputs}, {**events, **more_events}
-    if outputs:
-        overrides = merged_outputs(overrides, outputs, events)
-    return built, overrides
+    return built, outputs, events
 
 
 def _shapes(built, found):

@@ -49,21 +49,21 @@ def disabled(m):
     return {name for name, bit in _bits(mujoco.mjtDisableBit, "mjDSBL_").items() if m.opt.disableflags & bit}
 
 
-def apply_flags(m, path, line_of=lambda path, tag: None):
+def apply_flags(m, path, where_of=lambda path, tag: (str(path), None)):
     """Apply the flags to ``m`` (eomc's copy); returns (limits, frictionloss, actuation): whether
-    each still acts.  ModelFileError naming a flag eomc cannot honour (its ``<flag>`` line:
-    ``line_of(path, "flag")``)."""
+    each still acts.  ModelFileError naming a flag eomc cannot honour (its ``<flag>``'s file and
+    line: ``where_of(path, "flag")``)."""
     import mujoco
     off = disabled(m)
     enabled = {name for name, bit in _bits(mujoco.mjtEnableBit, "mjENBL_").items() if m.opt.enableflags & bit}
     for name in sorted(enabled):
         if name in ENABLE_REFUSED:
             raise ModelFileError(f"<option><flag {name}=\"enable\"/>: {ENABLE_REFUSED[name]}: eomc does not "
-                                 f"model it", str(path), line_of(path, "flag"))
+                                 f"model it", *where_of(path, "flag"))
     unknown = off - set(EFFECTS) - set(NO_EFFECT)
     if unknown:      # a MuJoCo newer than this table
         raise ModelFileError(f"<option><flag {sorted(unknown)[0]}=\"disable\"/>: eomc does not know what this "
-                             f"MuJoCo flag changes", str(path), line_of(path, "flag"))
+                             f"MuJoCo flag changes", *where_of(path, "flag"))
     if "gravity" in off:
         m.opt.gravity[:] = 0
     if "spring" in off:

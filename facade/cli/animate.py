@@ -7,6 +7,8 @@ writes one self-contained HTML page that animates it in 3-D offline
 model must have been built with ``poses`` (the default function set).
 """
 
+import os
+
 from . import common as cli_common
 from .simulate import events_argument, inputs_argument
 
@@ -26,6 +28,10 @@ def configure(parser):
     parser.add_argument("--gif", metavar="GIF", help="also draw a planar motion to this GIF (2-D)")
     parser.add_argument("--mp4", metavar="MP4", help='... or to this MP4 (ffmpeg on PATH, or pip install '
                                                       '"eomc[video]")')
+    parser.add_argument("--package-dir", action="append", default=[], metavar="DIR",
+                        help="a folder holding the ROS packages a URDF's package:// meshes name "
+                             "(repeat for more; searched before ROS_PACKAGE_PATH, AMENT_PREFIX_PATH "
+                             "and the example-robot-data layout)")
     parser.add_argument("--axes", choices=("on", "off"),
                         help="draw each body's frame axes (default: off for a robot drawn by its "
                              "meshes, on otherwise; the page has a toggle)")
@@ -71,7 +77,8 @@ def read_trajectory(model, path):
     if len(t) < 1 or np.any(np.diff(t) <= 0) or not np.all(np.isfinite(data)):
         raise ValueError(f"--from {path}: times must increase strictly and every value be finite")
     x = np.column_stack([data[:, header.index(n)] for n in model.state_names])
-    outputs = {n: data[:, header.index(n)] for n in model.output_names if n in header}
+    skip = {"t", "constraint_residual", *model.state_names}
+    outputs = {n: data[:, k] for k, n in enumerate(header) if n not in skip}   # as saved, built or not
     return SimulationResult(t=t, x=x, state_names=tuple(model.state_names), stats={}, method="csv",
                             model_name=model.name, outputs=outputs, nq=model.nq, model=model)
 
@@ -85,9 +92,19 @@ def run(args):
         cli_common.writable_file(value, what)
         if value and not value.lower().endswith(suffix) and not (what == "-o" and value.lower().endswith(".htm")):
             raise ValueError(f"{what} {value}: expected a {suffix} file")
+    for folder in args.package_dir:
+        if not os.path.isdir(folder):
+            raise ValueError(f"--package-dir {folder}: no such folder")
     if args.fps <= 0 or args.gif_fps <= 0:
         raise ValueError("--fps and --gif-fps must be positive")
-    model = cli_common.load_model(args.model, args.quiet, **cli_common.model_options(args))
+    cli_common.check_before_build(args)   # a robot's names are known before it is built
+    options = cli_common.model_options(args)
+    if args.trajectory and os.path.isfile(args.model):
+        # drawing a saved run needs the bodies' poses only: no Jacobians, frames or events to
+        # build (a robot's full build took 42 s); the CSV's other columns are plotted as saved
+        options.pop("frames", None)
+        options["functions"] = ["rhs", "poses"]
+    model = cli_common.load_model(args.model, args.quiet, **options)
     if "poses" not in model.functions:
         raise ValueError(f"{model.name} was built without poses (its bodies' positions); rebuild it "
                          f"with the default functions or --outputs ...,poses")
@@ -111,7 +128,8 @@ def run(args):
         [] if args.trace.strip().lower() == "none" else [s.strip() for s in args.trace.split(",") if s.strip()])
     if args.output:
         anim = animate(res, args.output, model=model, fps=args.fps, trace=trace, up=args.up,
-                       axes=None if args.axes is None else args.axes == "on")
+                       axes=None if args.axes is None else args.axes == "on",
+                       package_dirs=args.package_dir)
         print(f"wrote {args.output} ({len(anim.html) / 1e6:.2f} MB, {len(res.t)} rows, "
               f"t = [{res.t[0]:g}, {res.t[-1]:g}])")
     for path in (args.gif, args.mp4):

@@ -46,13 +46,15 @@ def configure(parser):
 
 def run(args):
     from eomc.compiler.driver import compile
-    from .common import with_options
+    from .common import fixed_base_note, with_options
+    if not args.quiet:
+        fixed_base_note(args.model, args.floating_base)
     source, name = with_options(args.model, args.name, floating_base=args.floating_base,
                                 allow_nonphysical_inertia=args.allow_nonphysical_inertia,
                                 limits=args.limits != "off", ignore=args.ignore)
     model = compile(source, name, functions=args.outputs, fold_parameters=args.fold_parameters,
                     backend=args.backend, cflags=args.cflags, cache_dir=args.cache_dir,
-                    output_dir=args.output, progress=not args.quiet, formulation=args.formulation,
+                    output_dir=args.output, progress="quiet" if args.quiet else True, formulation=args.formulation,
                     contacts=args.contact, frames=args.frame, target=args.target)
     files = sorted(p.name for p in model.directory.iterdir() if p.is_file() and not p.name.startswith("."))
     print(f"built model {model.name!r} (nq={model.nq}, nu={model.nu}, nparam={model.nparam}, "
@@ -63,7 +65,21 @@ def run(args):
     if stack:                # c99-f32: the worst-case stack measured at build time
         print("stack (bytes, worst case over the calls inside NAME.c): "
               + ", ".join(f"{fn} {s['bytes']}" for fn, s in stack.items()))
-    note = model.metadata.get("formulation_note")
-    if note:                 # auto fell back from the recursive formulation: say to what and why
-        print(f"formulation: {note}")
+    print(formulation_line(model.metadata, args.formulation))
     return 0
+
+
+def formulation_line(meta, asked):
+    """One line: the formulation that generated the model and why (auto's comparison of rhs
+    operations, its fallback's reason, or the user's choice)."""
+    chosen = meta.get("formulation", "kane")
+    note = meta.get("formulation_note")
+    if note:                 # auto fell back, or left something out: say to what and why
+        return f"formulation: {note}"
+    if asked not in (None, "auto"):
+        return f"formulation: {chosen} (asked for)"
+    costs = meta.get("formulation_costs")
+    if costs:
+        return (f"formulation: {chosen} (auto: the cheaper rhs; operations " +
+                ", ".join(f"{k} {v}" for k, v in sorted(costs.items())) + ")")
+    return f"formulation: {chosen} (auto)"

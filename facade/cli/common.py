@@ -47,6 +47,10 @@ def add_contact_argument(parser):
     """--contact LINK[:x,y,z[:radius]] (repeatable): ground contacts (eomc.compiler.contact)."""
     parser.add_argument("--contact", action="append", metavar="LINK[:x,y,z[:radius]]", default=None,
                         help=CONTACT_HELP)
+    parser.add_argument("--ground", dest="contact", action="append_const", const="@ground",
+                        help="URDF: the robot's <collision> geometry (boxes, cylinders, spheres, meshes) touches "
+                             "the plane z = 0, with MuJoCo's default contact (same as --contact @ground; MJCF "
+                             "models take their collision geoms without it)")
 
 
 # eomc.compiler.mjcf.model.IGNORABLE, written out: the CLI must not import the compiler to
@@ -127,7 +131,7 @@ def add_frame_argument(parser):
 
 
 def load_model(path, quiet=False, floating_base=False, formulation="auto", frames=None, ignore=(),
-               contacts=None, allow_nonphysical_inertia=False, limits=True):
+               contacts=None, allow_nonphysical_inertia=False, limits=True, functions=None):
     """A runtime Model from a model file (.py, .urdf, MuJoCo's .xml; compiled) or a built
     directory / json (loaded).  ``ignore``: an MJCF model's ignorable elements (--ignore).
 
@@ -137,15 +141,20 @@ def load_model(path, quiet=False, floating_base=False, formulation="auto", frame
     path = Path(path)
     if not path.exists():
         raise ValueError(f"{path}: no such model file or built model directory")
+    if not path.is_dir():
+        from eomc.runtime.readable import check_regular_file
+        check_regular_file(path, "model file")        # a FIFO or device: refused before it is opened
     if ignore and not (path.is_file() and path.suffix.lower() in (".xml", ".mjcf")):
         from eomc.compiler.mjcf.model import with_ignore
         with_ignore(str(path), ignore=ignore)        # says what --ignore applies to
     if path.is_file() and path.suffix.lower() in (".py", ".urdf", ".xml", ".mjcf"):
         from eomc.compiler.driver import compile as compile_model
+        if not quiet:
+            fixed_base_note(path, floating_base)
         source, name = with_options(str(path), name=None, floating_base=floating_base,
                                     allow_nonphysical_inertia=allow_nonphysical_inertia, limits=limits,
                                     ignore=ignore)
-        return compile_model(source, name, progress=False if quiet else None,
+        return compile_model(source, name, progress="quiet" if quiet else None, functions=functions,
                              formulation=formulation, frames=frames, contacts=contacts)
     if contacts:
         raise ValueError(f"{path}: --contact applies to a robot (.urdf, .xml) being compiled, not to a built model")
@@ -236,3 +245,57 @@ def _probe(parent, path, what):
         raise ValueError(f"{what} {path}: cannot write in {parent} ({exc.strerror or exc})") from None
     os.close(fd)
     os.unlink(name)
+
+
+def _unknown(stem, kind, option, unknown, known):
+    """One line: the unknown names, the nearest known ones, and a short list of what there is."""
+    import difflib
+    near = sorted({m for n in unknown for m in difflib.get_close_matches(n, known, n=2, cutoff=0.6)})
+    hint = f" (did you mean {', '.join(near)}?)" if near else ""
+    shown = ", ".join(known[:12]) + (f", ... ({len(known)} in all)" if len(known) > 12 else "")
+    return ValueError(f"{stem}: unknown {kind} {', '.join(unknown)} in {option}{hint}; {kind}s: {shown or 'none'}")
+
+
+def check_before_build(args):
+    """Check a URDF robot's run options against its names before it is built (ValueError).
+
+    The names come from the file's tree (eomc.compiler.urdf.names, milliseconds), so a typo
+    in --x0, --input, --frame or --contact costs no build; parameters are only known once the
+    equations are derived and are checked then.  Other models are checked after loading."""
+    path = Path(args.model)
+    if not (path.is_file() and path.suffix.lower() == ".urdf"):
+        return
+    from eomc.compiler.urdf.names import urdf_names
+    names = urdf_names(str(path), floating_base=bool(getattr(args, "floating_base", False)))
+    stem = path.stem
+    x0 = parse_assignments(getattr(args, "x0", ()), "x0")
+    unknown = [n for n in x0 if n not in names.states]
+    if unknown:
+        error = _unknown(stem, "state", "--x0", unknown, list(names.states))
+        if not names.floating and any(n.startswith("q_") and "floating" in n for n in unknown):
+            error = ValueError(f"{error} (floating-base coordinates exist with --floating-base)")
+        raise error
+    pieces = [p.strip() for text in getattr(args, "input", ()) or () for p in text.split(",") if p.strip()]
+    unknown = [p.partition("=")[0].strip() for p in pieces if "=" in p]
+    unknown = [n for n in unknown if n not in names.inputs]
+    if unknown:
+        raise _unknown(stem, "input", "--input", unknown, list(names.inputs))
+    links = list(names.links)
+    unknown = [f for f in (getattr(args, "frame", None) or ()) if f not in links and f != "com"]
+    if unknown:
+        raise _unknown(stem, "frame", "--frame", unknown, ["com"] + links)
+    contacts = [c.split(":")[0].strip() for c in (getattr(args, "contact", None) or ())]
+    unknown = [c for c in contacts if c and not c.startswith("@") and c not in links]
+    if unknown:
+        raise _unknown(stem, "link", "--contact", unknown, links)
+
+
+def fixed_base_note(path, floating_base, stream=None):
+    """One line on stderr when a URDF robot is built with its root welded to the world (a
+    quadruped then hangs in the air): what happened and the option that floats it."""
+    import sys
+    path = Path(path)
+    if floating_base or path.suffix.lower() != ".urdf":
+        return
+    print(f"eomc: note: {path.name}: fixed base (the root link is welded to the world); "
+          f"--floating-base lets the whole robot move", file=stream or sys.stderr)

@@ -22,12 +22,12 @@ def configure(parser):
     parser.add_argument("--plot-states", metavar="NAMES",
                         help="with --plot: only these states and outputs, comma-separated")
     parser.add_argument("--method", default="auto",
-                        help="auto (default: dop853, radau from the start with contacts or from where "
+                        help="auto (dop853; radau from the start with contacts, or from where "
                              "dop853 finds the problem stiff), rk4 (needs --dt), dopri5 (rk45), dop853, "
                              "radau, implicitfast (needs --dt)")
     parser.add_argument("--rtol", type=float, default=1e-6, help="relative tolerance")
     parser.add_argument("--atol", type=float, default=1e-9, help="absolute tolerance")
-    parser.add_argument("--dt", type=float, help="fixed step (rk4)")
+    parser.add_argument("--dt", type=float, help="fixed step (rk4, implicitfast)")
     parser.add_argument("--points", type=int, default=1001, help="output rows (adaptive methods)")
     parser.add_argument("--max-steps", type=int, default=100000, help="step limit")
     parser.add_argument("--consistent", action="store_true",
@@ -121,16 +121,18 @@ def events_argument(text):
 
 
 def _start(model, x0, given, args, params):
-    """The start to run from: completed on the constraints for --consistent, or for --project
-    from a start off them, holding what the user gave with --x0 (a projection of the whole
-    state would move those too); a note on stderr says what was completed."""
+    """The start to run from: completed on the constraints for --consistent, and by default
+    (or for --project) when the start is off them beyond max(1e-8, 10 atol), holding what the
+    user gave with --x0 (a projection of the whole state would move those too); a note on
+    stderr says by how much it was off and what was completed.  An inconsistent start that
+    cannot be completed is refused (running it drove the slider-crank into u = 4e7)."""
     import sys
 
     import numpy as np
 
     from eomc.errors import ModelError
     from eomc.runtime.consistent import consistent_state, start_residual
-    if model.nhol + model.nvel == 0 or not (args.consistent or args.project):
+    if model.nhol + model.nvel == 0:
         return x0
     x = np.array([x0[n] for n in model.state_names])
     p = None if params is None else np.asarray(params, dtype=float)
@@ -150,9 +152,13 @@ def _start(model, x0, given, args, params):
         except ModelError as exc:
             error = exc
     else:
-        raise ModelError(f"{error}; the states given with --x0 ({', '.join(sorted(given))}) are held")
+        held = f"; the states given with --x0 ({', '.join(sorted(given))}) are held" if given else ""
+        raise ModelError(f"the start is off the constraints (position residual {hol:.3g}, velocity "
+                         f"residual {vel:.3g}) and cannot be completed on them: {error}{held}; give "
+                         f"a consistent --x0 (the dependent coordinates and speeds too)")
     moved = [f"{n}={v:.6g}" for n, v, old in zip(model.state_names, done, x) if v != old]
-    flag = "--consistent" if args.consistent else "--project"
+    flag = ("--consistent" if args.consistent else "--project" if args.project else
+            f"the start was off the constraints (position residual {hol:.3g}, velocity residual {vel:.3g})")
     if moved:
         print(f"eomc simulate: note: {flag}: completed the start on the constraints: {', '.join(moved)}"
               f" (held: {', '.join(fixed) if fixed else ', '.join(independent)})", file=sys.stderr)
@@ -178,10 +184,18 @@ def run(args):
     from eomc.runtime.simulate import simulate
     cli_common.writable_file(args.output, "-o")
     cli_common.writable_file(args.plot, "--plot")
+    cli_common.check_before_build(args)   # a robot's names are known before it is built
     model = cli_common.load_model(args.model, args.quiet, **cli_common.model_options(args))
     given = cli_common.parse_assignments(args.x0, "x0")
     x0 = cli_common.initial_state(model, given)
     params = cli_common.parameter_values(model, cli_common.parse_assignments(args.param, "param"))
+    chosen = plot_names(args.plot_states)      # checked before the run, not after it
+    if chosen is not None:
+        unknown = [n for n in chosen if n not in model.state_names and n not in model.output_names]
+        if unknown:
+            raise ValueError(f"{model.name}: --plot-states names {', '.join(unknown)}, which is no state or "
+                             f"output (states: {', '.join(model.state_names[:12])}"
+                             f"{', ...' if model.nx > 12 else ''})")
     x0 = _start(model, x0, given, args, params)
     seen = []
     try:

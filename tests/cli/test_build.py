@@ -79,3 +79,46 @@ def test_unknown_function_is_named_and_fold_parameters_bakes_defaults(tmp_path, 
     assert folded.nparam == 0
     x = np.array([0.1, 0.4, 0.3, -0.2])
     np.testing.assert_allclose(folded.rhs(0.0, x, r=[1.0]), model_files.cart_rhs(x, 1.0), rtol=1e-12)
+
+
+def test_build_target_f32_writes_float_c_with_its_stack_and_a_float_module(tmp_path, capsys):
+    model = model_files.write(tmp_path, model_files.CART, "cart")
+    out = tmp_path / "out32"
+    code = main(["build", str(model), "-o", str(out), "--name", "trolley32", "--target", "c99-f32",
+                 "--cache-dir", str(tmp_path / "cache"), "-q"])
+    assert code == 0
+    printed = capsys.readouterr().out
+    assert "stack (bytes, worst case over the calls inside NAME.c): " in printed and "rhs " in printed
+    header = (out / "trolley32.h").read_text()
+    assert "int trolley32_rhs(float t, const float *x" in header and "trolley32_step_rk4" in header
+    assert "trolley32_model(void)" not in header
+    script = ("import sys; sys.modules['sympy'] = None; sys.path.insert(0, sys.argv[1]); import trolley32, json;"
+              "print(json.dumps([float(v) for v in trolley32.rhs(0.0, [0.1, 0.4, 0.3, -0.2], r=[1.5])]))")
+    run = subprocess.run([sys.executable, "-c", script, str(out)], capture_output=True, text=True, timeout=120,
+                         cwd=tmp_path)
+    assert run.returncode == 0, run.stderr
+    import json
+    np.testing.assert_allclose(json.loads(run.stdout), model_files.cart_rhs(np.array([0.1, 0.4, 0.3, -0.2]), 1.5),
+                               rtol=1e-5, atol=1e-6)
+
+
+def test_build_target_f32_without_rhs_has_no_step(tmp_path):
+    model = model_files.write(tmp_path, model_files.CART, "cart")
+    out = tmp_path / "mm"
+    assert main(["build", str(model), "-o", str(out), "--name", "mm32", "--target", "c99-f32", "--outputs",
+                 "mass_matrix", "--cache-dir", str(tmp_path / "cache"), "-q"]) == 0
+    assert "step_rk4" not in (out / "mm32.c").read_text()
+    import eomc
+    m = eomc.load(out)
+    assert m.mass_matrix(0.0, [0.1, 0.4, 0.3, -0.2]).shape == (2, 2)
+    import pytest
+    with pytest.raises(eomc.runtime.errors.EomcError, match="mm32_step_rk4 was not generated"):
+        m.step_rk4(0.0, 0.01, [0.1, 0.4, 0.3, -0.2])
+
+
+def test_build_target_choices_are_listed(tmp_path, capsys):
+    model = model_files.write(tmp_path, model_files.CART, "cart")
+    import pytest
+    with pytest.raises(SystemExit):
+        main(["build", str(model), "-o", str(tmp_path / "x"), "--target", "c99-f16"])
+    assert "invalid choice: 'c99-f16' (choose from 'c99-f64', 'c99-f32')" in capsys.readouterr().err

@@ -140,16 +140,23 @@ def fourbar(tmp_path_factory):
     return directory, eomc.load(directory)
 
 
-def test_the_constraint_warning_names_the_cli_flag_in_one_line(fourbar):
-    """First hour #8: the CLI said 'Pass consistent=True' and printed an eomc source line."""
-    directory, _ = fourbar
+def test_an_inconsistent_start_is_completed_by_default_with_one_note(fourbar, tmp_path):
+    """First hour #8, round 4: a start off the constraints was warned about and then run into a
+    blow-up (the slider-crank reached u = 4e7); now it is completed on the constraints, holding
+    the states given, with one note saying by how much it was off."""
+    directory, model = fourbar
+    out = tmp_path / "default.csv"
     run = subprocess.run([sys.executable, "-m", "eomc", "simulate", str(directory), "--t-final", "0.01",
-                          "--x0", "q1=-0.9", "u1=1", "--points", "2"], capture_output=True, text=True,
-                         timeout=300, env=os.environ)
-    warning = [line for line in run.stderr.splitlines() if "warning" in line]
-    assert len(warning) == 1 and warning[0].startswith("eomc simulate: warning: four_bar_system: x0 is off")
-    assert "--consistent" in warning[0] and "consistent=True" not in warning[0]
+                          "--x0", "q1=-0.9", "u1=1", "--points", "2", "-o", str(out)], capture_output=True,
+                         text=True, timeout=300, env=os.environ)
+    assert run.returncode == 0, run.stderr
+    notes = [line for line in run.stderr.splitlines() if "note" in line or "warning" in line]
+    assert len(notes) == 1 and notes[0].startswith("eomc simulate: note: the start was off the constraints "
+                                                   "(position residual "), run.stderr
+    assert "completed the start on the constraints" in notes[0]
     assert "warnings.warn" not in run.stderr and "simulate.py" not in run.stderr
+    first = np.loadtxt(out, delimiter=",", skiprows=1)[0, 1:1 + model.nx]
+    np.testing.assert_allclose(first, model.consistent_state({"q1": -0.9, "u1": 1.0}), rtol=0, atol=1e-10)
 
 
 def test_cli_consistent_and_project_keep_the_coordinates_given(fourbar, tmp_path, capsys):

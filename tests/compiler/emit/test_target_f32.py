@@ -178,3 +178,39 @@ def test_cython_backend_is_refused_for_float(tmp_path):
     with pytest.raises(ValueError, match="built for c99-f32: its Python module loads through cffi only"):
         eomc.compile(str(EXAMPLES / "double_pendulum.py"), "dpcy", target="c99-f32", backend="cython",
                      cache_dir=tmp_path, progress=False)
+
+
+def _pendulum_file(tmp_path, parameters=None, initial=None):
+    text = (EXAMPLES / "double_pendulum.py").read_text()
+    if parameters:
+        text = text.replace("parameters = {m1: 1.0, m2: 1.0, l1: 1.0, l2: 1.0, g: 9.81}", parameters)
+    if initial:
+        text = text.replace("initial_state = {q1: 1.0, q2: 0.5, u1: 0.0, u2: 0.0}", initial)
+    path = tmp_path / "pendulum.py"
+    path.write_text(text)
+    return str(path)
+
+
+def test_build_warns_when_m_is_too_ill_conditioned_for_float(tmp_path):
+    # rods in line (q1 = q2) and m1 = 1e-6 m2: M's second pivot is ~1e-6 of its diagonal
+    path = _pendulum_file(tmp_path, parameters="parameters = {m1: 1e-6, m2: 1.0, l1: 1.0, l2: 1.0, g: 9.81}",
+                          initial="initial_state = {q1: 0.3, q2: 0.3, u1: 0.0, u2: 0.0}")
+    with pytest.warns(eomc.runtime.errors.EomcWarning) as record:
+        eomc.compile(path, "illcond", target="c99-f32", cache_dir=tmp_path / "cache", progress=False)
+    text = "\n".join(str(w.message) for w in record)
+    assert "illcond (c99-f32): the mass matrix is ill-conditioned for float at the default state" in text
+    assert "mostly the speed u" in text
+    assert "at the default state the float rhs fails: illcond_rhs (float) failed at t=0: the mass matrix is singular" in text
+    # the double build of the same model is quiet
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", eomc.runtime.errors.EomcWarning)
+        eomc.compile(path, "illcond64", cache_dir=tmp_path / "cache", progress=False)
+
+
+def test_state_or_parameter_beyond_float_is_named(tmp_path):
+    path = _pendulum_file(tmp_path, initial="initial_state = {q1: 1.0, q2: 0.5, u1: 1e39, u2: 0.0}")
+    with pytest.warns(eomc.runtime.errors.EomcWarning, match=r"big \(c99-f32\): state u1 = 1e\+39 overflows float"):
+        eomc.compile(path, "big", target="c99-f32", cache_dir=tmp_path / "cache", progress=False)
+    path = _pendulum_file(tmp_path, parameters="parameters = {m1: 1.0, m2: 1e39, l1: 1.0, l2: 1.0, g: 9.81}")
+    with pytest.raises(ModelError, match=r"bigp: parameter m2's default: the constant 1e\+39 overflows float"):
+        eomc.compile(path, "bigp", target="c99-f32", cache_dir=tmp_path / "cache", progress=False)

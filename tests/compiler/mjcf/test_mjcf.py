@@ -236,15 +236,16 @@ def _refused(tmp_path, body, match, *, actuator="", extra="", ignore=()):
 
 
 @pytest.mark.parametrize("kw, match, line", [
-    (dict(body="", extra='<tendon><fixed name="t" stiffness="3"><joint joint="j" coef="1"/></fixed></tendon>'),
-     r"<tendon>: 1 tendon\(s\) with stiffness, damping, friction or armature \(e.g. t\)", 2),
+    (dict(body="", extra='<tendon><fixed name="t" armature="0.1"><joint joint="j" coef="1"/></fixed></tendon>'),
+     r"<tendon>: tendon t: armature", 2),
     (dict(body="", extra='<equality><weld name="eq" body1="a" body2="b"/></equality>'),
      r"<weld>: equality eq: <weld> is a weld between bodies", 2),
     (dict(body="", actuator='<actuator><intvelocity name="mus" joint="j" kp="1" actrange="-1 1"/></actuator>'),
      r"<actuator>: actuator mus: it has activation dynamics", 8),
     (dict(body="", actuator='<actuator><general name="filt" joint="j" dyntype="filter"/></actuator>'),
      r"actuator filt: it has activation dynamics", 8),
-    (dict(body="", extra='<option density="1.2"/>'), r"<option>: fluid forces", 2),
+    (dict(body="", extra='<option density="1.2"/><default><geom fluidshape="ellipsoid"/></default>'),
+     r'<geom>: geom geom #0: fluidshape="ellipsoid"', 2),
 ])
 def test_refused_with_element_and_line(tmp_path, kw, match, line):
     error = _refused(tmp_path, match=match, **kw)
@@ -496,9 +497,9 @@ def test_initial_state_is_mujocos_qpos0(small, tmp_path):
     assert np.max(np.abs(quat_matrix(qpos[3:]) - quat_matrix(m.qpos0[3:]))) < 1e-14
 
 
-def test_a_tendon_that_applies_no_force_is_accepted(tmp_path):
-    """A tendon with no stiffness, damping, friction or armature changes nothing with limits off:
-    accepted (a limited one with the limits warning); one with stiffness is refused."""
+def test_fixed_tendons_are_accepted(tmp_path):
+    """Fixed tendons are modelled (tests/compiler/mjcf/test_mjcf_tendon.py): with or without
+    stiffness, limits, friction, accepted with no warning; one with armature is refused."""
     def tendon(attrs):
         path = tmp_path / "t.xml"
         path.write_text(f"""<mujoco><worldbody><body><joint name="j" type="hinge"/><geom size="0.1"/>
@@ -506,13 +507,11 @@ def test_a_tendon_that_applies_no_force_is_accepted(tmp_path):
           <tendon><fixed name="t" {attrs}><joint joint="j" coef="1"/><joint joint="k" coef="-1"/></fixed></tendon>
           </mujoco>""")
         return load_mjmodel(path), path
-    m, path = tendon("")
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")
-        assert check_model(m, path) == []
-    m, path = tendon('limited="true" range="-0.1 0.1"')
-    with pytest.warns(EomcWarning, match="tendon t: its range limits are not modelled"):
-        check_model(m, path)
-    m, path = tendon('stiffness="2"')
-    with pytest.raises(ModelFileError, match=r"t.xml:3: <tendon>: 1 tendon\(s\) with stiffness"):
+    for attrs in ("", 'limited="true" range="-0.1 0.1"', 'stiffness="2" frictionloss="0.1"'):
+        m, path = tendon(attrs)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            assert check_model(m, path) == []
+    m, path = tendon('armature="0.2"')
+    with pytest.raises(ModelFileError, match=r"t.xml:3: <tendon>: tendon t: armature"):
         check_model(m, path)

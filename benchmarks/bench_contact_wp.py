@@ -1,0 +1,136 @@
+"""Work-precision through contact, 1 s: eomc's default (method="auto") and Radau against scipy's
+LSODA and BDF on eomc's own compiled rhs and jac_x.
+
+    python benchmarks/bench_contact_wp.py [--models solo12,hopper,ant] [--tols 1e-2,...,1e-8]
+
+Models: Solo12 standing (examples/quadruped_stand.py: four foot spheres, joint PD K (x_ref - x)
+evaluated in C for eomc and in NumPy for scipy, the Jacobian jac_x - jac_r K), gymnasium's
+hopper and ant dropped from qpos0 with zero control (their ground contacts from the file,
+as in bench_fixedstep.py).  Every contestant at rtol = atol = tol.
+eomc is timed as a user calls it: ``model.simulate(x0, (0, 1), t_eval=[1], rtol=tol,
+atol=tol)`` (its Python side, checks and verdict included); scipy ``solve_ivp(...,
+method="LSODA"/"BDF", jac=...)``.  Error: max abs over the coordinates q at t = 1 against
+eomc's Radau at rtol = atol = 1e-11.  Thread CPU time, contestants interleaved (order
+rotated per repeat), median of --repeat runs; pinned to one core.
+"""
+import argparse
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+sys.path.insert(0, str(HERE.parent / "examples"))
+from common import environment_header, pin_to_one_core, write_results  # noqa: E402
+
+TOLS = (1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8)
+
+
+def solo12(cache_dir):
+    import quadruped_stand as qs
+    model = qs.build(cache_dir=cache_dir)
+    x0, K, x_ref = qs.stance(model)
+    return model, x0, dict(K=K, x_ref=x_ref)
+
+
+def gym(name, cache_dir):
+    import mujoco
+    import bench_fixedstep as fs
+    base = mujoco.MjModel.from_xml_path(str(fs.gym_xml(name)))
+    model = fs.eomc_model(name, cache_dir)
+    return model, fs.eomc_start(model, base), {}
+
+
+def scipy_problem(model, fb):
+    """(fun, jac) over the compiled functions; with feedback r = K (x_ref - x)."""
+    K, x_ref = fb.get("K"), fb.get("x_ref")
+    if K is None:
+        def fun(t, x):
+            return np.array(model.rhs(t, x), dtype=float)
+
+        def jac(t, x):
+            return np.array(model.jacobian(t, x), dtype=float)
+        return fun, jac
+
+    def fun(t, x):
+        return np.array(model.rhs(t, x, r=K @ (x_ref - x)), dtype=float)
+
+    def jac(t, x):
+        r = K @ (x_ref - x)
+        return model.jacobian(t, x, r=r) - model.input_jacobian(t, x, r=r) @ K
+    return fun, jac
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--models", default="solo12,hopper,ant")
+    parser.add_argument("--tols", default=",".join(f"{t:g}" for t in TOLS))
+    parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--cache-dir", default=None)
+    parser.add_argument("--no-write", action="store_true")
+    args = parser.parse_args()
+    from scipy.integrate import solve_ivp
+    import scipy
+    core = pin_to_one_core()
+    tols = [float(t) for t in args.tols.split(",")]
+    warnings.simplefilter("ignore")
+    rows = []
+    for name in args.models.split(","):
+        model, x0, fb = solo12(args.cache_dir) if name == "solo12" else gym(name, args.cache_dir)
+        nq = model.nq
+        ref = model.simulate(x0, (0, 1.0), method="radau", rtol=1e-11, atol=1e-11, t_eval=[1.0],
+                             max_steps=10 ** 7, **fb)
+        q_ref = ref.x[-1][:nq]
+        fun, jac = scipy_problem(model, fb)
+        print(f"{name}: nx={model.nx}, reference status {ref.status}, nfev {ref.stats['nfev']}", flush=True)
+        for tol in tols:
+            def eomc_run(method, tol=tol):
+                res = model.simulate(x0, (0, 1.0), method=method, rtol=tol, atol=tol, t_eval=[1.0],
+                                     max_steps=10 ** 6, raise_on_failure=False, **fb)
+                err = np.abs(res.x[-1][:nq] - q_ref).max() if res.status == 0 else np.nan
+                return err, res.stats["nfev"], res.status, res.method if hasattr(res, "method") else method
+
+            def scipy_run(method, tol=tol):
+                sol = solve_ivp(fun, (0, 1.0), x0, method=method, rtol=tol, atol=tol, jac=jac,
+                                t_eval=[1.0])
+                err = np.abs(sol.y[:nq, -1] - q_ref).max() if sol.status == 0 else np.nan
+                return err, sol.nfev, sol.status, method
+
+            contestants = {"eomc auto (default)": lambda: eomc_run("auto"),
+                           "eomc radau": lambda: eomc_run("radau"),
+                           "scipy LSODA": lambda: scipy_run("LSODA"),
+                           "scipy BDF": lambda: scipy_run("BDF")}
+            times = {k: [] for k in contestants}
+            out = {}
+            order = list(contestants)
+            for rep in range(args.repeat):
+                k = rep % len(order)
+                for label in order[k:] + order[:k]:
+                    t0 = time.thread_time()
+                    out[label] = contestants[label]()
+                    times[label].append(time.thread_time() - t0)
+            base_t = float(np.median(times["eomc auto (default)"]))
+            for label in order:
+                err, nfev, status, used = out[label]
+                t = float(np.median(times[label]))
+                rows.append((name, tol, label, err, t * 1e3, t / base_t, nfev, status, used))
+                print(f"  {tol:7.0e} {label:22s} err {err:9.2e}  {t * 1e3:9.2f} ms  x{t / base_t:5.2f}"
+                      f"  nfev {nfev} status {status} ({used})", flush=True)
+    head = environment_header("Work-precision through contact, 1 s: eomc vs scipy LSODA / BDF", args,
+                              notes=[f"pinned to core {core}; scipy {scipy.__version__}; "
+                                     f"{args.repeat} interleaved repeats, median thread CPU"])
+    table = ["| model | rtol = atol | contestant | error (max abs q, t = 1) | CPU ms | time / eomc default | rhs calls | status |",
+             "|---|--:|---|--:|--:|--:|--:|--:|"]
+    for name, tol, label, err, ms, ratio, nfev, status, used in rows:
+        table.append(f"| {name} | {tol:.0e} | {label} | {err:.2e} | {ms:.2f} | {ratio:.2f} | {nfev} | {status} |")
+    text = head + "\n" + __doc__.split("\n\n", 2)[2] + "\n\n" + "\n".join(table) + "\n"
+    print("\n".join(table))
+    if not args.no_write:
+        write_results("contact_wp", text)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,224 @@
+"""Fixed step at each model's MJCF timestep: eomc's implicitfast against MuJoCo's mj_step.
+
+    python benchmarks/bench_fixedstep.py [--models hopper,walker2d,ant,humanoid] [--rounds 7]
+
+The gymnasium models (hopper, walker2d, ant, humanoid) dropped from their qpos0 with zero
+control, 1 simulated second, at the XML's own timestep, each side with the contacts it reads
+from the file: MuJoCo its geoms against the floor plane; eomc the same geoms' ground contacts
+(compiler/mjcf/collision.py: capsules as their two end spheres, parameters matched to the
+geom's solref/solimp/friction; docs/contact.md).  MuJoCo: the XML as shipped, run in C by
+``mujoco.rollout`` (no Python loop) with its default integrator (Euler), with implicitfast,
+and with the XML's own (RK4).  eomc: its C loop (``simulate``'s prepared C call, no events:
+what a control loop runs), method="implicitfast" at dt = timestep.  The contact laws differ
+(MuJoCo's soft constraints, eomc's compliant law tuned to rest at the same depth), so each
+side's error is against its own reference: eomc against its own Radau at rtol = atol = 1e-9,
+MuJoCo against itself with RK4 at timestep / 16.  Error: max abs over
+the joint coordinates at t = 1 (free joints: the base position; MuJoCo's qpos holds a
+quaternion, eomc body-XYZ angles, so the angles are left out of the error on both sides).
+
+Time: process CPU of one simulated second, pinned to one core, contestants interleaved
+(order rotated per round), median over rounds of blocks of runs.
+"""
+import argparse
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from common import environment_header, pin_to_one_core, write_results  # noqa: E402
+
+MODELS = ("hopper", "walker2d", "ant", "humanoid")
+
+
+def gym_xml(name):
+    import gymnasium
+    return Path(gymnasium.__file__).parent / "envs" / "mujoco" / "assets" / f"{name}.xml"
+
+
+def eomc_model(name, cache_dir):
+    """The XML as shipped: its ground contacts come from the file."""
+    import eomc
+    from eomc.compiler.mjcf.model import MjcfModel
+    return eomc.compile(MjcfModel(gym_xml(name)), name=f"fs_{name}", cache_dir=cache_dir)
+
+
+def mujoco_model(name, integrator=None, timestep=None):
+    """The XML as shipped; integrator None = the XML's own, else a mjtIntegrator name
+    ("EULER", "IMPLICITFAST", "RK4")."""
+    import mujoco
+    spec = mujoco.MjSpec.from_file(str(gym_xml(name)))
+    if integrator is not None:
+        spec.option.integrator = getattr(mujoco.mjtIntegrator, f"mjINT_{integrator}")
+    if timestep is not None:
+        spec.option.timestep = timestep
+    return spec.compile()
+
+
+def eomc_start(model, m_mj):
+    """eomc's state at MuJoCo's qpos0 (free joints: position, zero angles), zero speeds."""
+    import mujoco
+    x = np.zeros(model.nx)
+    names = list(model.state_names)
+    for j in range(m_mj.njnt):
+        a = int(m_mj.jnt_qposadr[j])
+        jn = m_mj.joint(j).name
+        if int(m_mj.jnt_type[j]) == int(mujoco.mjtJoint.mjJNT_FREE):
+            coords = [n for n in names[:model.nq] if n.startswith(f"q_{jn}")]
+            for k, v in enumerate(m_mj.qpos0[a:a + 3]):
+                x[names.index(coords[k])] = v
+        elif int(m_mj.jnt_type[j]) in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)):
+            x[names.index(f"q_{jn}")] = m_mj.qpos0[a]
+    return x
+
+
+def compared_q(model, m_mj, x=None, qpos=None):
+    """The coordinates the error is taken over, in MuJoCo's joint order: hinge and slide
+    values, free joints' positions (angles left out: quaternion vs XYZ angles)."""
+    import mujoco
+    out = []
+    names = list(model.state_names)
+    for j in range(m_mj.njnt):
+        a = int(m_mj.jnt_qposadr[j])
+        jn = m_mj.joint(j).name
+        if int(m_mj.jnt_type[j]) == int(mujoco.mjtJoint.mjJNT_FREE):
+            coords = [n for n in names[:model.nq] if n.startswith(f"q_{jn}")][:3]
+            out.extend(qpos[a:a + 3] if qpos is not None else [x[names.index(c)] for c in coords])
+        elif int(m_mj.jnt_type[j]) in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)):
+            out.append(qpos[a] if qpos is not None else x[names.index(f"q_{jn}")])
+    return np.array(out)
+
+
+def eomc_call(model, x0, dt, t1=1.0):
+    """(call, x_last, stats): the C call of one fixed-step run, events and switching off."""
+    from eomc.runtime.simulate import bind_call, prepare
+    a = prepare(model, x0, (0.0, t1), method="implicitfast", dt=dt, t_eval=[t1], events=False,
+                max_steps=10 ** 7)
+    a.pop("switches", None)          # the verdict's observers: not part of a control loop
+    a.pop("switch_steps", None)
+    call, _, x_last, stats = bind_call(model, a)
+    return call, x_last, stats
+
+
+def mujoco_call(m, nstep):
+    import mujoco
+    from mujoco import rollout
+    d = mujoco.MjData(m)
+    mujoco.mj_resetData(m, d)
+    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    state0 = np.zeros(mujoco.mj_stateSize(m, spec))
+    mujoco.mj_getState(m, d, state0, spec)
+    out = np.zeros((1, nstep, state0.size))
+    ctrl = np.zeros((1, nstep, m.nu))
+
+    def call():
+        rollout.rollout([m], [d], state0[None, :], ctrl, nstep=nstep, state=out, skip_checks=True)
+        return out
+    return call, m.nq
+
+
+def cpu_block(call, min_time=0.02):
+    """CPU seconds per call, over a block of calls lasting at least min_time."""
+    n, t = 0, 0.0
+    t0 = time.process_time()
+    while t < min_time or n < 1:
+        call()
+        n += 1
+        t = time.process_time() - t0
+    return t / n
+
+
+def run_model(name, rounds, cache_dir, log):
+    import mujoco
+    base = mujoco.MjModel.from_xml_path(str(gym_xml(name)))
+    ts = float(base.opt.timestep)
+    shipped = mujoco.mjtIntegrator(base.opt.integrator).name.replace("mjINT_", "")
+    t0 = time.time()
+    model = eomc_model(name, cache_dir)
+    npts = sum(1 for o in model.output_names if o.startswith("depth_"))
+    log(f"{name}: {npts} eomc contact points, eomc nq={model.nq} built/loaded in {time.time() - t0:.1f} s")
+    x0 = eomc_start(model, base)
+    nstep = int(round(1.0 / ts))
+    # references: eomc's own Radau, MuJoCo's own RK4 at ts / 16
+    ref = model.simulate(x0, (0, 1.0), method="radau", rtol=1e-9, atol=1e-9, t_eval=[1.0],
+                         max_steps=10 ** 7, raise_on_failure=False)
+    q_ref = compared_q(model, base, x=ref.x[-1]) if ref.status == 0 else None
+    fine = mujoco_model(name, "RK4", ts / 16)
+    fcall, _ = mujoco_call(fine, nstep * 16)
+    qpos_fine = fcall()[0, -1, 1:1 + fine.nq]
+    q_fine = compared_q(model, fine, qpos=qpos_fine)
+    contestants = {}
+    call, x_last, stats = eomc_call(model, x0, ts)
+    contestants["eomc implicitfast"] = call
+    mj = {}
+    for integ in ("EULER", "IMPLICITFAST", shipped):
+        label = f"mj_step {integ.lower()}" + (" (XML's)" if integ == shipped else "")
+        if label in contestants:
+            continue
+        mm = mujoco_model(name, integ, ts)
+        c, _ = mujoco_call(mm, nstep)
+        contestants[label] = c
+        mj[label] = (mm, c)
+    samples = {k: [] for k in contestants}
+    order = list(contestants)
+    for r in range(rounds):
+        k = r % len(order)
+        for label in order[k:] + order[:k]:
+            samples[label].append(cpu_block(contestants[label]))
+    rows = []
+    call()
+    st = {f: getattr(stats, f) for f in ("status", "steps", "nfev", "njev", "nlu", "rejected")}
+    err_e = (np.abs(compared_q(model, base, x=x_last) - q_ref).max() if q_ref is not None else float("nan"))
+    t_e = float(np.median(samples["eomc implicitfast"]))
+    rows.append(dict(model=name, dof=model.nu, contacts=npts, timestep=ts,
+                     contestant="eomc implicitfast", cpu_ms=t_e * 1e3, ratio=1.0, error=err_e,
+                     ref="eomc Radau 1e-9" + ("" if q_ref is not None else f" FAILED: {ref.message}"),
+                     note=f"status {st['status']}, {st['nfev']} rhs, {st['njev']} jac_x, "
+                          f"{st['rejected']} unconverged"))
+    for label, (mm, c) in mj.items():
+        out = c()
+        qpos = out[0, -1, 1:1 + mm.nq]
+        err = np.abs(compared_q(model, mm, qpos=qpos) - q_fine).max()
+        t_m = float(np.median(samples[label]))
+        rows.append(dict(model=name, dof=model.nu, contacts=npts, timestep=ts, contestant=label,
+                         cpu_ms=t_m * 1e3, ratio=t_m / t_e, error=err, ref="MuJoCo RK4 at timestep/16",
+                         note=f"finite: {bool(np.all(np.isfinite(qpos)))}"))
+    for row in rows:
+        log(f"  {row['contestant']:28s} {row['cpu_ms']:9.3f} ms  x{row['ratio']:.2f}  err {row['error']:.2e}  {row['note']}")
+    return rows
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--models", default=",".join(MODELS))
+    parser.add_argument("--rounds", type=int, default=7)
+    parser.add_argument("--cache-dir", default=os.environ.get("EOMC_CACHE_DIR"))
+    parser.add_argument("--no-write", action="store_true")
+    args = parser.parse_args()
+    core = pin_to_one_core()
+    lines = []
+    log = lambda s: (print(s, flush=True), lines.append(s))  # noqa: E731
+    rows = []
+    for name in args.models.split(","):
+        rows.extend(run_model(name, args.rounds, args.cache_dir, log))
+    import mujoco
+    head = environment_header(
+        "Fixed step at the MJCF timestep: eomc implicitfast vs MuJoCo mj_step (rollout, C loop)", args,
+        notes=[f"pinned to core {core}; MuJoCo {mujoco.__version__}; 1 simulated second per run; "
+               f"{args.rounds} interleaved rounds, median of per-round block means (process CPU)"])
+    table = ["| model | dof | eomc contact points | timestep | contestant | CPU ms per simulated s | "
+             "time / eomc | error (max abs q at t = 1) | error against | notes |",
+             "|---|--:|--:|--:|---|--:|--:|--:|---|---|"]
+    for r in rows:
+        table.append(f"| {r['model']} | {r['dof']} | {r['contacts']} | {r['timestep']:g} | {r['contestant']} | "
+                     f"{r['cpu_ms']:.3f} | {r['ratio']:.2f} | {r['error']:.2e} | {r['ref']} | {r['note']} |")
+    text = head + "\n" + (__doc__.split("\n\n", 2)[2]) + "\n\n" + "\n".join(table) + "\n"
+    print("\n".join(table))
+    if not args.no_write:
+        write_results("fixedstep", text)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,112 @@
+"""The files an MJCF model is read from: the main file, its ``<include>``s and its assets.
+
+One job, before MuJoCo opens anything: list the model's files (``<include file>`` resolved
+as MuJoCo resolves it, relative to the main file's folder, recursively) so that
+
+- a file that is not a regular file (a FIFO, a device: MuJoCo would block on it or read
+  without end) is refused by name and line before it is opened -- includes, and the
+  ``file`` of meshes, height fields, textures and skins (``<compiler meshdir texturedir
+  assetdir>`` applied);
+- a problem found on the compiled model is reported at the file and line of its element,
+  also when that element is in an included file (:func:`locate`).
+"""
+import re
+from pathlib import Path
+
+from eomc.runtime.readable import check_regular_file
+
+__all__ = ["model_files", "check_files", "locate"]
+
+_ASSETS = {"mesh": "meshdir", "hfield": "meshdir", "skin": "meshdir", "texture": "texturedir"}
+
+
+def _parse(path):
+    from lxml import etree
+    try:
+        return etree.parse(str(path), etree.XMLParser(remove_comments=True)).getroot()
+    except Exception:          # MuJoCo's own parser says what is wrong with it
+        return None
+
+
+def model_files(path, check=False):
+    """[(path, root element or None)]: the main file, then each included file (depth first, in
+    document order).  ``check``: refuse non-regular includes and assets (ModelFileError at the
+    element's file and line) before anything is opened."""
+    path = Path(path)
+    base = path.parent
+    out, seen = [], set()
+
+    def visit(file):
+        key = str(Path(file).resolve()) if Path(file).exists() else str(file)
+        if key in seen:
+            return
+        seen.add(key)
+        root = _parse(file)
+        out.append((Path(file), root))
+        if root is None:
+            return
+        for inc in root.iter("include"):
+            name = inc.get("file")
+            if not name:
+                continue
+            target = Path(name) if Path(name).is_absolute() else base / name
+            if check:
+                check_regular_file(target, "<include> file", file, inc.sourceline)
+            if target.is_file():
+                visit(target)
+    if check:
+        check_regular_file(path, "MJCF file")
+    visit(path)
+    if check:
+        dirs = {"meshdir": None, "texturedir": None, "assetdir": None}
+        for _, root in out:
+            if root is None:
+                continue
+            for comp in root.iter("compiler"):
+                for key in dirs:
+                    if comp.get(key) is not None:
+                        dirs[key] = comp.get(key)
+        for file, root in out:
+            if root is None:
+                continue
+            for tag, key in _ASSETS.items():
+                for el in root.iter(tag):
+                    name = el.get("file")
+                    if not name:
+                        continue
+                    folder = dirs[key] if dirs[key] is not None else dirs["assetdir"]
+                    target = Path(name)
+                    if not target.is_absolute():
+                        target = base / (folder or "") / name
+                    check_regular_file(target, f"<{tag}> file", file, el.sourceline)
+    return out
+
+
+def check_files(path):
+    """Refuse (ModelFileError) an include or asset that is not a regular file; see :func:`model_files`."""
+    model_files(path, check=True)
+
+
+def _search(text, tag, name):
+    match = None
+    if name:    # the <tag> of that name first (an equality is often named as the tendon it ties)
+        match = (re.search(rf"<{tag}\b[^>]*\bname\s*=\s*[\"']{re.escape(name)}[\"']", text)
+                 or re.search(rf"<\w+\b[^>]*\bname\s*=\s*[\"']{re.escape(name)}[\"']", text))
+    return match
+
+
+def locate(path, tag, name=None):
+    """(file, line) of the ``<tag`` element named ``name`` (else of any element so named), in the
+    main file or an included one; else of the first ``<tag`` in any of them; else (path, None)."""
+    texts = []
+    for file, _ in model_files(path):
+        try:
+            texts.append((file, Path(file).read_text(errors="replace")))
+        except OSError:
+            continue
+    for pattern in ([lambda t: _search(t, tag, name)] if name else []) + [lambda t: re.search(rf"<{tag}\b", t)]:
+        for file, text in texts:
+            match = pattern(text)
+            if match:
+                return str(file), text.count("\n", 0, match.start()) + 1
+    return str(path), None

@@ -1,0 +1,97 @@
+"""Run options checked before a robot is built; what a build chose and why, in one line."""
+import time
+
+import pytest
+
+from eomc.cli import main
+from helpers.robots import robot_path
+
+GO2 = "go2_description/urdf/go2.urdf"
+
+
+@pytest.fixture
+def no_compiling(monkeypatch):
+    """Any compile is a failure here: the typo must be caught before."""
+    import eomc.compiler.driver as driver
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("a model was compiled")
+    monkeypatch.setattr(driver, "compile", refuse)
+    monkeypatch.setattr(driver, "generate", refuse)
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["--x0", "q_floating_base_joint_z=0.4"], ["unknown state q_floating_base_joint_z in --x0",
+                                                "did you mean q_base_floating_z"]),
+    (["--input", "tau_FL_knee=1"], ["unknown input tau_FL_knee in --input", "tau_FL_"]),
+    (["--frame", "FL_fot"], ["unknown frame FL_fot in --frame", "did you mean FL_foot"]),
+    (["--contact", "FL_fot:0,0,0:0.02"], ["unknown link FL_fot in --contact", "did you mean FL_foot"]),
+])
+def test_a_typo_is_reported_before_anything_is_built(argv, words, no_compiling, tmp_path, capsys):
+    start = time.process_time()
+    code = main(["simulate", str(robot_path(GO2)), "--floating-base", "--t-final", "1", "-q", *argv])
+    spent = time.process_time() - start
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1, err
+    for w in words:
+        assert w in err, err
+    assert spent < 2.0, spent          # CPU seconds: reading the file, no C compiled
+
+
+def test_the_floating_coordinates_hint_without_floating_base(no_compiling, capsys):
+    assert main(["animate", str(robot_path(GO2)), "-o", "x.html", "-q", "--x0", "q_base_floating_z=0.4"]) == 2
+    assert "exist with --floating-base" in capsys.readouterr().err
+
+
+def test_build_says_fixed_base_and_the_formulation(tmp_path, capsys):
+    path = robot_path("ur5")
+    assert main(["build", str(path), "--outputs", "rhs", "-o", str(tmp_path / "ur5")]) == 0
+    captured = capsys.readouterr()
+    notes = [line for line in captured.err.splitlines() if "fixed base" in line]
+    assert len(notes) == 1 and "--floating-base" in notes[0]
+    lines = [line for line in captured.out.splitlines() if line.startswith("formulation: ")]
+    assert len(lines) == 1 and ("auto" in lines[0] or "fallback" in lines[0]), captured.out
+
+
+def test_animate_from_a_csv_builds_the_poses_only(tmp_path, monkeypatch, capsys):
+    """Drawing a saved run of a robot needs its poses: rhs and poses are built (seconds), not
+    the Jacobians, outputs and events of a full build; the CSV's frame positions are still
+    plotted (its rotation entries are not)."""
+    import numpy as np
+
+    import eomc.compiler.driver as driver
+    from eomc.compiler.urdf.names import urdf_names
+    names = urdf_names(str(robot_path(GO2)), floating_base=True)
+    t = np.linspace(0, 0.5, 6)
+    columns = {"t": t, **{n: 0 * t for n in names.states}, "FL_foot.p.x": t, "FL_foot.R[0][0]": 1 + 0 * t}
+    columns["q_base_floating_z"] = 0.4 + 0 * t
+    csv = tmp_path / "traj.csv"
+    np.savetxt(csv, np.column_stack(list(columns.values())), delimiter=",", header=",".join(columns),
+               comments="")
+    seen = []
+    real = driver.compile
+
+    def spy(*args, **kwargs):
+        seen.append(kwargs)
+        return real(*args, **kwargs)
+    monkeypatch.setattr(driver, "compile", spy)
+    page = tmp_path / "go2.html"
+    assert main(["animate", str(robot_path(GO2)), "--floating-base", "--from", str(csv),
+                 "-o", str(page), "-q"]) == 0
+    assert len(seen) == 1 and seen[0]["functions"] == ["rhs", "poses"]
+    text = page.read_text()
+    assert '"name":"FL_foot.p.x"' in text and "FL_foot.R[0][0]" not in text.split('"outputs"')[1][:2000]
+
+
+def test_plot_states_are_checked_before_the_run(tmp_path, monkeypatch, capsys):
+    from pathlib import Path
+
+    import eomc.runtime.simulate as simulate_module
+    examples = Path(__file__).resolve().parents[2] / "examples"
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("the run started")
+    monkeypatch.setattr(simulate_module, "simulate", refuse)
+    code = main(["simulate", str(examples / "double_pendulum.py"), "--t-final", "1", "-q",
+                 "--plot", str(tmp_path / "p.png"), "--plot-states", "q1,q9"])
+    assert code == 2 and "--plot-states names q9" in capsys.readouterr().err
