@@ -8,8 +8,9 @@ options ``simulate`` would pass, so every row equals the scalar ``simulate`` res
 for bit.  The GIL is released for the whole call (cffi releases it on every C call).
 
 First piece of issue 31: fixed-step methods (rk4, implicitfast), no inputs (r = 0),
-no events, no contacts or joint limits (their switching needs the event machinery of
-``simulate``; such a model is refused with a message saying so).
+no events (a model with a terminal event is refused; other events are not recorded), no
+contacts or joint limits (their switching needs the event machinery of ``simulate``; such a
+model is refused with a message saying so).
 """
 import numbers
 import os
@@ -156,6 +157,13 @@ def rollout(model, x0s, *, dt, t_final=None, steps=None, method="rk4", p=None, t
     if find_switches(model):
         raise ValueError(f"{model.name}: this model has contacts or joint limits, whose switching points "
                          f"rollout does not handle yet; use simulate_many")
+    from .events import model_events
+    stopping = [e.name for e in model_events(model) if e.terminal]
+    if stopping:
+        # rollout runs every row to t_final: a run that simulate would end at a terminal event
+        # must not silently go on past it
+        raise ValueError(f"{model.name}: its terminal event(s) {', '.join(stopping)} would end a run "
+                         f"early, and rollout does not handle events yet; use simulate_many")
     if model.c_model.rhs == model.ffi.NULL:
         raise model._missing("rhs")
     nthreads = _threads(threads)

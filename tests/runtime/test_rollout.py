@@ -104,3 +104,14 @@ def test_bad_input_says_what_is_wrong():
         rollout(m, good, steps=10, dt=0.01, p=np.ones((2, 2)))
     with pytest.raises(ValueError, match="record must be 'final' or 'steps'"):
         rollout(m, good, steps=10, dt=0.01, record="all")
+
+
+def test_model_with_a_terminal_event_is_refused_not_run_past_it():
+    """simulate ends such a run at the event; rollout would run every row to t_final, so it
+    refuses the model (naming the event) instead of returning states simulate never reaches."""
+    m = get_model("pendulum")
+    m.metadata = {**m.metadata, "events": [{"name": "fallen", "terminal": 1, "direction": 1}]}
+    with pytest.raises(ValueError, match="terminal event.*fallen.*simulate_many"):
+        rollout(m, np.zeros((2, 2)), steps=10, dt=0.01)
+    m.metadata = {**m.metadata, "events": [{"name": "crossing", "terminal": 0}]}
+    assert rollout(m, np.zeros((2, 2)), steps=10, dt=0.01).ok.all()
