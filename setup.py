@@ -19,13 +19,14 @@ setup(
         Extension(
             "eomc.runtime._eomc_integrators",
             sources=["runtime/c/eomc_integrators.c", "runtime/c/eomc_fixedstep.c",
-                     "runtime/c/eomc_sensitivity.c"],
+                     "runtime/c/eomc_sensitivity.c", "runtime/c/eomc_rollout.c"],
             include_dirs=["runtime/c"],
             # Aligned functions and loops: otherwise the hot loops' speed depends on where
             # they happen to land (+-5% on a DOP853 run from edits elsewhere in the file;
             # benchmarks/results/events.md).
-            extra_compile_args=["-O2", "-std=c99", "-falign-functions=64", "-falign-loops=32"],
-            libraries=["m"],
+            extra_compile_args=["-O2", "-std=c99", "-pthread", "-falign-functions=64", "-falign-loops=32"],
+            libraries=["m", "pthread"],
+            extra_link_args=["-pthread"],
         )
     ] + cythonize(
         [

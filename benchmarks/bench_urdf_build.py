@@ -94,13 +94,13 @@ def median_time(fn, repeat=3):
 
 
 def to_tree(path, fb):
-    from eomc.compiler.tree.formed import formed_of_tree
+    from eomc.compiler.tree.formed import model_of_tree
     from eomc.compiler.urdf import build_tree, read_urdf
     from eomc.compiler.urdf.treeir import tree_ir
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         tree = build_tree(read_urdf(path), floating_base=fb)
-        formed_of_tree(tree_ir(tree).tree)
+        model_of_tree(tree_ir(tree).tree)
     return tree
 
 

@@ -1,11 +1,26 @@
 """eomc.compiler: the symbolic half -- model in, built library out (uses SymPy).
 
-The pipeline, in order (``driver.compile`` runs it top to bottom):
+Stages, as ``driver.generate`` runs them (docs/architecture.md draws them):
 
-- ``model/``      read a model file or a system object; check it (errors as file:line)
-- ``urdf/``       a URDF robot as a SymPy mechanics System (read, merge fixed links, build)
-- ``mechanics/``  front end: Kane's and Lagrange's methods -> ``FormedSystem``
-- ``emit/``       FormedSystem -> IR programs -> C99 source, header, cdef, metadata
+    read      model/ (model files, system objects), urdf/, mjcf/ (robot files)  -> multibody.Model
+    derive    tree/ (a System's or a Model's joint tree, the recursions) or
+              mechanics/ (Kane's, Lagrange's methods -> FormedSystem); model/ checks the variables
+    lower     emit/ (C-slot layout, function bodies, solvers) onto ir/ programs
+    optimize  passes/ (cse, differentiation, sin/cos sharing, folding, dce, powers)
+    emit      emit/ + templates: C99 source, header, cdef, metadata
+    build     build/ (C compiler, content-addressed caches, export) -> eomc.runtime loads it
+
+The subpackages:
+
+- ``multibody/``  the format-neutral multibody Model every reader produces (tree, frames, poses)
+- ``model/``      read a model file or a system object once; check it (errors as file:line)
+- ``urdf/``       URDF robots: read (lxml), merge fixed links, -> Model (or a SymPy System for Kane)
+- ``mjcf/``       MJCF models through MuJoCo's compiler -> Model; couplings; a MuJoCo oracle
+- ``contact/``    Hunt-Crossley ground contact: the law, SymPy loads, loads on the tree
+- ``tree/``       the joint-tree IR, ABA/RNEA/CRBA and derivatives, loops, frame outputs,
+                  the SymPy System reader and the choice of formulation
+- ``mechanics/``  Kane's and Lagrange's methods, System, linearizer -> ``FormedSystem``
+- ``emit/``       FormedSystem or tree -> IR programs -> C99 source, header, cdef, metadata
 - ``ir/``         the single-assignment program the optimizer works on
 - ``passes/``     optimizer: cse, folding, sin/cos sharing, powers, dce, differentiation
 - ``build/``      C compiler, content-addressed caches, export into a user's folder

@@ -16,7 +16,7 @@ from importlib import import_module
 
 from eomc.runtime.version import __version__
 
-__all__ = ["__version__", "compile", "load", "mechanics", "sweep"]
+__all__ = ["__version__", "compile", "load", "mechanics", "rollout", "sweep"]
 
 # name -> (module, attribute or None for the module itself)
 _LAZY = {
@@ -26,6 +26,7 @@ _LAZY = {
     "geometry": ("eomc.geometry", None),
     "contact": ("eomc.contact", None),
     "sweep": ("eomc.runtime.sweep", "sweep"),
+    "rollout": ("eomc.runtime.rollout", "rollout"),
 }
 
 

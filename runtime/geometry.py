@@ -72,19 +72,20 @@ def shape(kind, size=(), *, path=None, scale=None, origin=None, color=None):
     return out
 
 
-def urdf_visuals(tree):
+def urdf_visuals(tree, urdf=None):
     """{body name (a C identifier, as the System names it) or "world": [shapes]} of a URDF robot.
 
     ``tree``: eomc.compiler.urdf's merged tree.  A link welded into a body (or into the
     ground) is placed by the fixed joints between them, read at the zero configuration.
+    ``urdf``: the file's :func:`~eomc.runtime.urdf_scene.load_scene` when the caller has it
+    (a reader that parsed the file already), else the file is read.
     """
     with _quiet_mesh_loggers():
-        return _urdf_visuals(tree)
+        return _urdf_visuals(tree, urdf if urdf is not None else load_scene(tree.path))
 
 
-def _urdf_visuals(tree):
+def _urdf_visuals(tree, urdf):
     path = Path(tree.path)
-    urdf = load_scene(path)
     links = {link.name: link for link in urdf.robot.links}
     groups = [("world", tree.root, list(tree.ground_links))]   # none on a floating base
     groups += [(identifier(b.name), b.name, b.links) for b in tree.bodies.values()]
@@ -106,10 +107,12 @@ def _urdf_visuals(tree):
     return out
 
 
-def urdf_link_transforms(tree):
+def urdf_link_transforms(tree, urdf=None):
     """{link name: (body name or "world", 4x4 pose of the link in that body's frame)} of every
-    link that is not a body's own frame: links welded to a body or to the ground."""
-    urdf = load_scene(tree.path)
+    link that is not a body's own frame: links welded to a body or to the ground.  ``urdf``:
+    the file's :func:`~eomc.runtime.urdf_scene.load_scene` when the caller has it."""
+    if urdf is None:
+        urdf = load_scene(tree.path)
     out = {}
     groups = [("world", tree.root, list(tree.ground_links))]   # none on a floating base
     groups += [(identifier(b.name), b.name, b.links) for b in tree.bodies.values()]

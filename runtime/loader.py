@@ -20,11 +20,12 @@ bytes and the model's texts.  Three things rest on that snapshot:
 - No stale library (reliability report r3, N1).  ``dlopen`` of a path the process
   has already opened returns the library mapped then, even when the file was
   rebuilt since (``eomc.compile(..., output_dir="out")`` twice in a notebook).
-  So every library opened by path is recorded with its sha256; when the same path
-  now holds other bytes, the snapshot is written to a uniquely named private copy
-  (``<cache>/tmp/trash-<pid>-load-*``, removed right after the dlopen -- the
-  mapping outlives the file, and a process killed in between leaves a directory
-  that the cache reclaims) and that copy is opened instead.
+  So the cffi backend opens every library from a uniquely named private copy of
+  the snapshot (``<cache>/tmp/trash-<pid>-load-*``, removed right after the
+  dlopen -- the mapping outlives the file, and a process killed in between leaves
+  a directory that the cache reclaims).  The same copy keeps a loaded model alive
+  when another process rewrites its files in place (round 4: ``cp`` over an
+  exported ``libNAME.so`` killed the process using it with SIGBUS).
 - One consistent set (N4).  An exported directory lists what eomc wrote in
   ``.eomc-files-NAME.json``; the snapshot must match it file by file, and it is
   taken under a shared lock on the directory that ``eomc build -o`` holds
@@ -216,9 +217,10 @@ def _private_copies(files):
     except OSError as exc:
         if private is not None:
             shutil.rmtree(private, ignore_errors=True)
-        raise LoadError(f"cannot load a rebuilt library: this process already runs an older build from "
-                        f"the same path, and a private copy could not be written in {base} "
-                        f"({exc.strerror or exc}); restart Python or free space there") from None
+        raise LoadError(f"cannot load the model: its library is opened from a private copy (so that "
+                        f"another process rewriting the file cannot crash this one), and the copy could "
+                        f"not be written in {base} ({exc.strerror or exc}); free space there or set "
+                        f"EOMC_CACHE_DIR to a writable folder") from None
     try:
         yield private
     finally:
@@ -268,8 +270,7 @@ def _open_cffi(snap):
 
     The declarations come from the function list (checked), never from text in NAME.json,
     and the library is the bare file name NAME.json gives, inside the directory -- opened
-    by its path, or from a private copy of the bytes read when the process already mapped
-    other bytes under that path (see the module docstring).
+    from a private copy of the bytes read at load time (see the module docstring).
     """
     name, data = snap.name, snap.data
     ffi = _base_ffi()
@@ -277,13 +278,12 @@ def _open_cffi(snap):
     model_ffi.include(ffi)
     functions = data.get("functions", ())
     model_ffi.cdef(model_function_cdef(name, functions))
-    library, blob, digest, ident = snap.library
+    library, blob, _, _ = snap.library
     try:
-        if _claim(library, digest):
-            lib, model_lib, c_model = _dlopen(ffi, model_ffi, library, name, functions)
-            if _identity(library) == ident:
-                return ffi, lib, model_lib, c_model, library
-            _taint(library)  # replaced while being opened: what got mapped is not known
+        # always from a private copy of the bytes read at load time: the dynamic loader maps
+        # the file it opens, so another process rewriting that file in place (`cp` over an
+        # exported libNAME.so, a sync tool) would kill this one with SIGBUS at its next call;
+        # nobody else knows the copy's path, and the mapping outlives its removal
         with _private_copies({library.name: blob}) as private:
             lib, model_lib, c_model = _dlopen(ffi, model_ffi, private / library.name, name, functions)
     except (OSError, AttributeError) as exc:

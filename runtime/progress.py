@@ -72,8 +72,10 @@ def _tqdm():
 class _Ticker(_Off):
     active = True
 
-    def __init__(self, label, stream):
-        self._bar = _tqdm()(total=None, desc=label, file=stream, leave=False,
+    def __init__(self, label, stream, delay=0.0):
+        # delay > 0: nothing is drawn before that many seconds (a quiet build that turns long)
+        self._shown_after = time.monotonic() + delay
+        self._bar = _tqdm()(total=None, desc=label, file=stream, leave=False, delay=delay,
                             bar_format="{desc} {elapsed}{postfix}", mininterval=REFRESH_S)
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="eomc-progress", daemon=True)
@@ -81,11 +83,12 @@ class _Ticker(_Off):
 
     def _run(self):
         while not self._stop.wait(REFRESH_S):
-            self._bar.refresh()
+            if time.monotonic() >= self._shown_after:
+                self._bar.refresh()
 
     def note(self, text):
         """What the stage is doing now (e.g. the compiler pass), shown after the time."""
-        self._bar.set_postfix_str(text, refresh=True)
+        self._bar.set_postfix_str(text, refresh=time.monotonic() >= self._shown_after)
 
     def write(self, line):
         self._bar.write(line, file=self._bar.fp)
@@ -115,11 +118,12 @@ class _Bar(_Off):
         self._bar.close()
 
 
-def ticker(label, stream, enabled=True):
-    """A live 'label 0:12 postfix' line for a step of unknown length (use as a context manager)."""
+def ticker(label, stream, enabled=True, delay=0.0):
+    """A live 'label 0:12 postfix' line for a step of unknown length (use as a context manager);
+    ``delay``: drawn only once the step has lasted that many seconds."""
     if not enabled or not is_terminal(stream) or _tqdm() is None:
         return _Off()
-    return _Ticker(label, stream)
+    return _Ticker(label, stream, delay)
 
 
 def bar(total, label, stream, enabled=True, unit="run"):

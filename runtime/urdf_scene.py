@@ -226,8 +226,8 @@ class UrdfScene:
     """The links of a URDF file with their visuals, and ``get_transform`` between link frames
     at the zero configuration (the subset of yourdfpy.URDF that drawing needs)."""
 
-    def __init__(self, path):
-        root = etree.parse(str(path)).getroot()
+    def __init__(self, path, root=None):
+        root = etree.parse(str(path)).getroot() if root is None else root
         self.path = str(path)
         self.robot = Robot(root.get("name"))
         for element in root.findall("link"):
@@ -275,9 +275,10 @@ class UrdfScene:
         return _fix_rigid(matrix)
 
 
-def load_scene(path):
-    """The URDF at ``path`` as a :class:`UrdfScene`."""
-    return UrdfScene(path)
+def load_scene(path, root=None):
+    """The URDF at ``path`` as a :class:`UrdfScene`; ``root``: its document when a reader
+    parsed it already (lxml; eomc.compiler.urdf.reader), so the file is read once."""
+    return UrdfScene(path, root)
 
 
 def _strip_directive(fname):

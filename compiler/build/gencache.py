@@ -80,9 +80,9 @@ def generation_key(spec, functions, fold_parameters, extra=None):
     d = _Digester()
     f = spec.formed
     formed = [f.method, f.n_dependent_coordinates, f.n_dependent_speeds] + [
-        d(getattr(f, k)) for k in ("coordinates", "speeds", "kinematics", "dynamics_matrix", "dynamics_rhs",
-                                   "multipliers", "holonomic_constraints", "velocity_constraints",
-                                   "inputs", "parameters")] + [
+        d(getattr(f, k, ())) for k in ("coordinates", "speeds", "kinematics", "dynamics_matrix", "dynamics_rhs",
+                                       "multipliers", "holonomic_constraints", "velocity_constraints",
+                                       "inputs", "parameters")] + [
         d(tuple(getattr(f, k, ()))) for k in ("extra_states", "extra_rhs")]
     return hash_key({
         "formed": formed, "name": spec.name,

@@ -25,7 +25,7 @@ from .law import DEFAULTS, ground_forces
 from .system import contact_symbols, parameter_defaults, unit_normal
 
 __all__ = ["ContactSpec", "ContactLoad", "ContactValue", "COLLISION_SPHERES", "parse_contact",
-           "collision_spheres", "with_contacts", "lower_contacts", "contact_outputs"]
+           "collision_spheres", "with_contacts", "lower_contacts", "contact_outputs", "body_com"]
 
 # what each contact adds to the outputs (placeholders' kind index) and its event
 OUTPUT_KINDS = ("Fn", "Ftx", "Fty", "Ftz", "depth")
@@ -97,7 +97,7 @@ def collision_spheres(path):
                                  f"sphere with a bad radius or origin") from None
             spheres.append((point, radius))
         for k, (point, radius) in enumerate(spheres):
-            from eomc.compiler.urdf.tree import identifier
+            from eomc.runtime.geometry import identifier
             name = identifier(link.get("name")) + (f"_{k}" if len(spheres) > 1 else "")
             out.append(ContactSpec(link.get("name"), point, radius, name=name))
     return out
@@ -170,7 +170,7 @@ def _link_frames(source, link):
     """(body key or "world", 4x4 pose of ``link`` in that body's frame), or None if no such link.
     A body's own link needs no file reading; a welded one asks the geometry helper."""
     import numpy as np
-    from eomc.compiler.urdf.tree import identifier
+    from eomc.runtime.geometry import identifier
     for b in source.bodies.values():
         if b.name == link:
             return identifier(b.name), np.eye(4)
@@ -191,7 +191,7 @@ def with_contacts(built, contacts, fold=False):
 
     ``built``: eomc.compiler.urdf.treeir.UrdfTree.  Errors name the contact and link."""
     import numpy as np
-    from eomc.compiler.urdf.tree import identifier
+    from eomc.runtime.geometry import identifier
     specs = _expanded([as_spec(c) for c in contacts], built.source.path)
     by_body = {b.name: i for i, b in enumerate(built.tree.bodies)}
     bodies_by_key = {identifier(b.name): b for b in built.source.bodies.values()}
@@ -224,7 +224,7 @@ def with_mjcf_contacts(built, m, contacts, fold=False):
     sphere geom on a body that is not the world."""
     import mujoco
     import numpy as np
-    from eomc.compiler.urdf.tree import identifier
+    from eomc.runtime.geometry import identifier
     by_body = {b.name: i for i, b in enumerate(built.tree.bodies)}
     names = {(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) or f"body{b}"): b for b in range(m.nbody)}
     specs = []
@@ -287,7 +287,7 @@ def _with_located(built, specs, locate, fold, what, identifier):
             raise ModelError(f"contact name {name!r} on {what} {link!r} is "
                              + ("used twice" if name in names else "not an identifier"))
         names.add(name)
-        com = _com(built, tree.bodies[i].name, com_values)
+        com = body_com(built, tree.bodies[i].name, com_values)
         offset = sm.Matrix([sm.Float(p_body[r], 17) - com[r] for r in range(3)])
         syms = contact_symbols(name)
         if fold:
@@ -322,7 +322,7 @@ def merged_outputs(overrides, outputs, events):
     return result
 
 
-def _com(built, body_name, values):
+def body_com(built, body_name, values):
     """The body origin (its mass centre) in its frame, as the tree writes it: the parameters
     cx_/cy_/cz_<body> where they are symbols, else the literal ``values``."""
     by_name = {str(s): s for s in built.parameters}

@@ -13,9 +13,9 @@ from .signatures import SIGNATURES
 __all__ = ["BodyContext", "extra_state_rows", "plain_body", "solved_plain_body", "rhs_body", "jacobian_body", "tangent_jacobian_body",
            "helper_jacobian_body", "needed_assignments",
            "linearize_body", "split_on", "dynamics_helper", "matrix_body",
-           "void_unused", "jvp_body"]
+           "void_unused", "jvp_body", "IND", "temps", "store"]
 
-_IND = "    "
+IND = "    "    # one level of indentation in a generated function body
 
 
 class BodyContext:
@@ -38,33 +38,35 @@ class BodyContext:
         return CPrinter(names)
 
 
-def _temps(program, printer, assignments=None):
+def temps(program, printer, assignments=None):
+    """C lines of ``assignments`` (default: all of ``program``'s), one temporary each."""
     assignments = program.assignments if assignments is None else assignments
     names = printer._names
-    return [f"{_IND}{'' if names[s].endswith(']') else 'const double '}{names[s]} = "
+    return [f"{IND}{'' if names[s].endswith(']') else 'const double '}{names[s]} = "
             f"{printer.doprint(e)};" for s, e in assignments]
 
 
-def _store(lvalue, expr, printer):
-    return f"{_IND}{lvalue} = {printer.doprint(expr)};"
+def store(lvalue, expr, printer):
+    """One C line: ``lvalue = expr;``."""
+    return f"{IND}{lvalue} = {printer.doprint(expr)};"
 
 
 def plain_body(ctx, program, group, shape, out="out"):
     """Assign a vector (rows,) or a row-major matrix (rows, cols) result group to ``out``."""
     pr = ctx.printer(program)
-    lines = _temps(program, pr)
+    lines = temps(program, pr)
     vals = program.result_exprs(group)
     if len(shape) == 1:
         for i in range(shape[0]):
-            lines.append(_store(f"{out}[{i}]", vals.get((group, i), 0.0), pr))
+            lines.append(store(f"{out}[{i}]", vals.get((group, i), 0.0), pr))
         size = shape[0]
     else:
         rows, cols = shape
         for i in range(rows):
             for k in range(cols):
-                lines.append(_store(f"{out}[{i * cols + k}]", vals.get((group, i, k), 0.0), pr))
+                lines.append(store(f"{out}[{i * cols + k}]", vals.get((group, i, k), 0.0), pr))
         size = rows * cols
-    lines.append(f"{_IND}return {ctx.name}_finite({out}, {size});")
+    lines.append(f"{IND}return {ctx.name}_finite({out}, {size});")
     return lines
 
 
@@ -76,11 +78,11 @@ def solved_plain_body(ctx, program, group, shape, out="out"):
 
 def _solver_decls(ctx, extra=()):
     s = ctx.solver
-    lines = [f"{_IND}double F[{s.fsize}];", f"{_IND}double w[{ctx.nw}];"]
+    lines = [f"{IND}double F[{s.fsize}];", f"{IND}double w[{ctx.nw}];"]
     if s.pivots:
-        lines.append(f"{_IND}int piv[{s.npiv}];")
-    lines += [f"{_IND}{d}" for d in extra]
-    lines.append(f"{_IND}int status;")
+        lines.append(f"{IND}int piv[{s.npiv}];")
+    lines += [f"{IND}{d}" for d in extra]
+    lines.append(f"{IND}int status;")
     return lines
 
 
@@ -89,21 +91,21 @@ def _store_dynamics(ctx, program, pr):
     if ctx.solver.pivots or ctx.solver.reads_lower:
         # the dense LU reads every entry, the loop LDLT every lower one: structural zeros too
         nonzero = {(k[1], k[2]) for k, _ in program.results if k[0] == "A"}
-        lines += [f"{_IND}F[{i * ctx.nw + j}] = 0.0;" for i in range(ctx.nw)
+        lines += [f"{IND}F[{i * ctx.nw + j}] = 0.0;" for i in range(ctx.nw)
                   for j in range(i + 1 if ctx.solver.reads_lower else ctx.nw) if (i, j) not in nonzero]
     for (key, e) in program.results:
         if key[0] == "A":
-            lines.append(_store(f"F[{key[1] * ctx.nw + key[2]}]", e, pr))
+            lines.append(store(f"F[{key[1] * ctx.nw + key[2]}]", e, pr))
         elif key[0] == "b":
-            lines.append(_store(f"w[{key[1]}]", e, pr))
+            lines.append(store(f"w[{key[1]}]", e, pr))
     return lines
 
 
 def _factor_and_solve(ctx):
     s = ctx.solver
-    return [f"{_IND}status = {s.factor_call()};",
-              f"{_IND}if (status != EOMC_OK) return status;",
-              f"{_IND}{s.solve_call('w')};"]
+    return [f"{IND}status = {s.factor_call()};",
+              f"{IND}if (status != EOMC_OK) return status;",
+              f"{IND}{s.solve_call('w')};"]
 
 
 def _load_dynamics(ctx, program, pr):
@@ -118,7 +120,7 @@ def dynamics_helper(ctx, program):
     """``static void NAME_dynamics(t, x, p, r, F, w)``: A into F, b into w.  rhs,
     mass_matrix, forcing and inverse_dynamics call it, so its code is compiled once."""
     pr = ctx.printer(program)
-    lines, parts = split_body(_temps(program, pr) + _store_dynamics(ctx, program, pr),
+    lines, parts = split_body(temps(program, pr) + _store_dynamics(ctx, program, pr),
                               f"{ctx.name}_dynamics_part")
     ctx.split = ctx.split or bool(parts)
     text = "\n".join(lines)
@@ -130,20 +132,20 @@ def dynamics_helper(ctx, program):
 
 
 def _call_dynamics(ctx):
-    return f"{_IND}{ctx.name}_dynamics({', '.join(ctx.helper_args)});"
+    return f"{IND}{ctx.name}_dynamics({', '.join(ctx.helper_args)});"
 
 
 def rhs_body(ctx, program):
     """q' from the kinematics, u' from the factorized A·w = b, z' of the extra states."""
     pr = ctx.printer(program)
-    lines = _solver_decls(ctx) + _temps(program, pr)
+    lines = _solver_decls(ctx) + temps(program, pr)
     for (key, e) in program.results:
         if key[0] == "kin":
-            lines.append(_store(f"xdot[{key[1]}]", e, pr))
+            lines.append(store(f"xdot[{key[1]}]", e, pr))
     lines += extra_state_rows(ctx, program, pr, "zd", "xdot")
     lines += [_call_dynamics(ctx)] + _factor_and_solve(ctx)
-    lines += [f"{_IND}xdot[{ctx.nq + i}] = w[{i}];" for i in range(ctx.nu)]
-    lines.append(f"{_IND}return {ctx.name}_finite(xdot, {ctx.nx});")
+    lines += [f"{IND}xdot[{ctx.nq + i}] = w[{i}];" for i in range(ctx.nu)]
+    lines.append(f"{IND}return {ctx.name}_finite(xdot, {ctx.nx});")
     return lines
 
 
@@ -153,8 +155,8 @@ def extra_state_rows(ctx, program, pr, group, out, ncols=None):
     vals = program.result_exprs(group)
     first = ctx.nq + ctx.nu
     if ncols is None:
-        return [_store(f"{out}[{first + i}]", vals.get((group, i), 0.0), pr) for i in range(ctx.nz)]
-    return [_store(f"{out}[{(first + i) * ncols + k}]", vals.get((group, i, k), 0.0), pr)
+        return [store(f"{out}[{first + i}]", vals.get((group, i), 0.0), pr) for i in range(ctx.nz)]
+    return [store(f"{out}[{(first + i) * ncols + k}]", vals.get((group, i, k), 0.0), pr)
             for i in range(ctx.nz) for k in range(ncols)]
 
 
@@ -210,28 +212,28 @@ def tangent_jacobian_body(ctx, program, W, seeds, ncols, blocks):
         pr._names[s] = f"P[{j}]"
     lines = _solver_decls(ctx, [f"double G[{nw}];", f"double dx[{ncols}];", "int i, k;"]
                           + ([f"double P[{len(live)}];"] if live else []))
-    lines += _temps(program, pr, before)
+    lines += temps(program, pr, before)
     lines += _load_dynamics(ctx, program, pr)
-    lines += _temps(program, pr, stage2)
+    lines += temps(program, pr, stage2)
     kvals = program.result_exprs("dkin")
     for i in range(nq):
         for k in range(ncols):
-            lines.append(_store(f"out[{i * ncols + k}]", kvals.get(("dkin", i, k), 0.0), pr))
+            lines.append(store(f"out[{i * ncols + k}]", kvals.get(("dkin", i, k), 0.0), pr))
     lines += extra_state_rows(ctx, program, pr, "dzd", "out", ncols)
-    lines.append(f"{_IND}for (i = 0; i < {ncols}; i++) dx[i] = 0.0;")
+    lines.append(f"{IND}for (i = 0; i < {ncols}; i++) dx[i] = 0.0;")
     for gvals, inner, start, end in per_block:
         group = next(iter(gvals))[0] if gvals else None
-        body = _temps(program, pr, inner)
-        body += [_store(f"G[{i}]", gvals.get((group, i), 0.0), pr) for i in range(nw)]
-        lines += [f"{_IND}for (k = {start}; k < {end}; k++) {{",
-                  f"{_IND * 2}dx[k] = 1.0;", f"{_IND * 2}{{"]
-        lines += [_IND * 2 + line for line in body]
-        lines += [f"{_IND * 2}}}",
-                  f"{_IND * 2}dx[k] = 0.0;",
-                  f"{_IND * 2}{ctx.solver.solve_call('G')};",
-                  f"{_IND * 2}for (i = 0; i < {nu}; i++) out[({nq} + i) * {ncols} + k] = G[i];",
-                  f"{_IND}}}"]
-    lines.append(f"{_IND}return {ctx.name}_finite(out, {ctx.nx * ncols});")
+        body = temps(program, pr, inner)
+        body += [store(f"G[{i}]", gvals.get((group, i), 0.0), pr) for i in range(nw)]
+        lines += [f"{IND}for (k = {start}; k < {end}; k++) {{",
+                  f"{IND * 2}dx[k] = 1.0;", f"{IND * 2}{{"]
+        lines += [IND * 2 + line for line in body]
+        lines += [f"{IND * 2}}}",
+                  f"{IND * 2}dx[k] = 0.0;",
+                  f"{IND * 2}{ctx.solver.solve_call('G')};",
+                  f"{IND * 2}for (i = 0; i < {nu}; i++) out[({nq} + i) * {ncols} + k] = G[i];",
+                  f"{IND}}}"]
+    lines.append(f"{IND}return {ctx.name}_finite(out, {ctx.nx * ncols});")
     return lines
 
 
@@ -239,18 +241,18 @@ def _solve_columns(ctx, program, pr, ncols, kin_group, g_group):
     """Store G and the kinematic rows, then one solve per column of G into ``out``."""
     nw, nq, nu = ctx.nw, ctx.nq, ctx.nu
     gvals = program.result_exprs(g_group)
-    lines = [_store(f"G[{k * nw + i}]", gvals.get((g_group, i, k), 0.0), pr)
+    lines = [store(f"G[{k * nw + i}]", gvals.get((g_group, i, k), 0.0), pr)
              for k in range(ncols) for i in range(nw)]
     kvals = program.result_exprs(kin_group)
-    lines += [_store(f"out[{i * ncols + k}]", kvals.get((kin_group, i, k), 0.0), pr)
+    lines += [store(f"out[{i * ncols + k}]", kvals.get((kin_group, i, k), 0.0), pr)
               for i in range(nq) for k in range(ncols)]
     zgroup = {"dkin": "dzd", "dkin_r": "dzd_r", "dkin_p": "dzd_p"}[kin_group]
     lines += extra_state_rows(ctx, program, pr, zgroup, "out", ncols)
-    return lines + [f"{_IND}for (k = 0; k < {ncols}; k++) {{",
-                    f"{_IND * 2}{ctx.solver.solve_call(f'G + k * {nw}')};",
-                    f"{_IND * 2}for (i = 0; i < {nu}; i++) out[({nq} + i) * {ncols} + k] = G[k * {nw} + i];",
-                    f"{_IND}}}",
-                    f"{_IND}return {ctx.name}_finite(out, {ctx.nx * ncols});"]
+    return lines + [f"{IND}for (k = 0; k < {ncols}; k++) {{",
+                    f"{IND * 2}{ctx.solver.solve_call(f'G + k * {nw}')};",
+                    f"{IND * 2}for (i = 0; i < {nu}; i++) out[({nq} + i) * {ncols} + k] = G[k * {nw} + i];",
+                    f"{IND}}}",
+                    f"{IND}return {ctx.name}_finite(out, {ctx.nx * ncols});"]
 
 
 def jacobian_body(ctx, program, W, ncols, kin_group, g_group):
@@ -258,9 +260,9 @@ def jacobian_body(ctx, program, W, ncols, kin_group, g_group):
     pr = ctx.printer(program)
     before, after = split_on(program, W)
     lines = _solver_decls(ctx, [f"double G[{ncols * ctx.nw}];", "int i, k;"])
-    lines += _temps(program, pr, before)
+    lines += temps(program, pr, before)
     lines += _load_dynamics(ctx, program, pr)
-    lines += _temps(program, pr, after)
+    lines += temps(program, pr, after)
     return lines + _solve_columns(ctx, program, pr, ncols, kin_group, g_group)
 
 
@@ -270,23 +272,23 @@ def helper_jacobian_body(ctx, program, W, ncols, kin_group, g_group):
     pr = ctx.printer(program)
     s = ctx.solver
     lines = _solver_decls(ctx, [f"double G[{ncols * ctx.nw}];", "int i, k;"])
-    lines += [_call_dynamics(ctx), f"{_IND}status = {s.factor_call()};",
-              f"{_IND}if (status != EOMC_OK) return status;"]
+    lines += [_call_dynamics(ctx), f"{IND}status = {s.factor_call()};",
+              f"{IND}if (status != EOMC_OK) return status;"]
     if any(e.free_symbols & set(W) for _, e in program.assignments + program.results):
-        lines.append(f"{_IND}{s.solve_call('w')};")
-    lines += _temps(program, pr)
+        lines.append(f"{IND}{s.solve_call('w')};")
+    lines += temps(program, pr)
     return lines + _solve_columns(ctx, program, pr, ncols, kin_group, g_group)
 
 
 def linearize_body(ctx, has_inputs):
     """A = jac_x, B = jac_r (B untouched when the model has no inputs)."""
     n = ctx.name
-    lines = [f"{_IND}int status = {n}_jac_x(t, x, p, r, A, work);"]
+    lines = [f"{IND}int status = {n}_jac_x(t, x, p, r, A, work);"]
     if has_inputs:
-        lines += [f"{_IND}if (status != EOMC_OK) return status;",
-                  f"{_IND}return {n}_jac_r(t, x, p, r, B, work);"]
+        lines += [f"{IND}if (status != EOMC_OK) return status;",
+                  f"{IND}return {n}_jac_r(t, x, p, r, B, work);"]
     else:
-        lines.append(f"{_IND}return status;")
+        lines.append(f"{IND}return status;")
     return lines
 
 
@@ -300,22 +302,22 @@ def _entry(ctx, i, j):
 def matrix_body(ctx, fn):
     """mass_matrix, forcing or inverse_dynamics from the dynamics helper's A and b."""
     nu = ctx.nu
-    lines = [f"{_IND}double F[{ctx.nw * ctx.nw}];", f"{_IND}double w[{ctx.nw}];",
+    lines = [f"{IND}double F[{ctx.nw * ctx.nw}];", f"{IND}double w[{ctx.nw}];",
              _call_dynamics(ctx)]
     if fn == "mass_matrix":
-        lines += [f"{_IND}out[{i * nu + j}] = {_entry(ctx, i, j)};"
+        lines += [f"{IND}out[{i * nu + j}] = {_entry(ctx, i, j)};"
                   for i in range(nu) for j in range(nu)]
         out, size = "out", nu * nu
     elif fn == "forcing":
-        lines += [f"{_IND}out[{i}] = w[{i}];" for i in range(nu)]
+        lines += [f"{IND}out[{i}] = w[{i}];" for i in range(nu)]
         out, size = "out", nu
     else:
         for i in range(nu):
             terms = [f"{_entry(ctx, i, j)} * udot[{j}]" for j in range(nu)
                      if _entry(ctx, i, j) != "0.0"]
-            lines.append(f"{_IND}tau[{i}] = {' + '.join(terms) or '0.0'} - w[{i}];")
+            lines.append(f"{IND}tau[{i}] = {' + '.join(terms) or '0.0'} - w[{i}];")
         out, size = "tau", nu
-    lines.append(f"{_IND}return {ctx.name}_finite({out}, {size});")
+    lines.append(f"{IND}return {ctx.name}_finite({out}, {size});")
     return lines
 
 
@@ -324,7 +326,7 @@ def void_unused(function, lines, signature=None):
     text = "\n".join(lines)
     signature = SIGNATURES[function] if signature is None else signature
     unused = [a for _, a in signature if not re.search(rf"\b{a}\b", text)]
-    return "\n".join([f"{_IND}(void){a};" for a in unused] + lines)
+    return "\n".join([f"{IND}(void){a};" for a in unused] + lines)
 
 
 def jvp_body(ctx, program, W, seeds, nx, npar, blocks):
@@ -359,22 +361,22 @@ def jvp_body(ctx, program, W, seeds, nx, npar, blocks):
     if gp_nz or kp_nz:
         extra += ["const double *dp;", f"double Gp[{max(1, len(gp_nz) + len(kp_nz))}] = {{0.0}};", "int anyp = 0;"]
     lines = _solver_decls(ctx, extra)
-    lines += _temps(program, pr, before)
+    lines += temps(program, pr, before)
     lines += _load_dynamics(ctx, program, pr)
-    lines += _temps(program, pr, stage2)
+    lines += temps(program, pr, stage2)
     kin = program.result_exprs("kin")
-    lines += [_store(f"xdot[{i}]", kin.get(("kin", i), 0.0), pr) for i in range(nq)]
-    lines += [f"{_IND}xdot[{nq + i}] = w[{i}];" for i in range(nu)]
+    lines += [store(f"xdot[{i}]", kin.get(("kin", i), 0.0), pr) for i in range(nq)]
+    lines += [f"{IND}xdot[{nq + i}] = w[{i}];" for i in range(nu)]
     lines += extra_state_rows(ctx, program, pr, "zd", "xdot")
     slot = {key: j for j, key in enumerate(gp_nz + kp_nz)}
     if slot:
-        lines += [f"{_IND}for (d = 0; d < k && !anyp; d++)",
-                  f"{_IND * 2}for (i = 0; i < {npar}; i++) if (dirs[(size_t)d * {nd} + {nx} + i] != 0.0) anyp = 1;",
-                  f"{_IND}if (anyp) {{"]
+        lines += [f"{IND}for (d = 0; d < k && !anyp; d++)",
+                  f"{IND * 2}for (i = 0; i < {npar}; i++) if (dirs[(size_t)d * {nd} + {nx} + i] != 0.0) anyp = 1;",
+                  f"{IND}if (anyp) {{"]
         inner = [a for a in program.assignments if a[0] in p_only]
-        lines += [_IND + line for line in _temps(program, pr, inner)]
-        lines += [_IND + _store(f"Gp[{slot[key]}]", (gp if key[0] == "Gp" else kp)[key], pr) for key in slot]
-        lines.append(f"{_IND}}}")
+        lines += [IND + line for line in temps(program, pr, inner)]
+        lines += [IND + store(f"Gp[{slot[key]}]", (gp if key[0] == "Gp" else kp)[key], pr) for key in slot]
+        lines.append(f"{IND}}}")
     kvals = program.result_exprs("dkin")
     kvals.update(((("dkin", zfirst + key[1], key[2]), e) for key, e in program.result_exprs("dzd").items()))
     body = []
@@ -383,8 +385,8 @@ def jvp_body(ctx, program, W, seeds, nx, npar, blocks):
         for group, _, _ in blocks:
             gvals = program.result_exprs(group)
             inner = needed_assignments(stage3, gvals.values())
-            body += ["{"] + [line[len(_IND):] if line.startswith(_IND) else line
-                             for line in _temps(program, pr, inner)]
+            body += ["{"] + [line[len(IND):] if line.startswith(IND) else line
+                             for line in temps(program, pr, inner)]
             op = "=" if first else "+="
             body += [f"G[{i}] {op} {pr.doprint(gvals.get((group, i), 0.0))};" for i in range(nw)]
             body.append("}")
@@ -397,8 +399,8 @@ def jvp_body(ctx, program, W, seeds, nx, npar, blocks):
             body.append(f"G[{i}] = {' + '.join(terms) or '0.0'};")
     if slot:
         body.append("if (anyp) {")
-        body.append(f"{_IND}dp = dx + {nx};")
-        body += [f"{_IND}G[{key[1]}] += Gp[{slot[key]}] * dp[{key[2]}];" for key in gp_nz]
+        body.append(f"{IND}dp = dx + {nx};")
+        body += [f"{IND}G[{key[1]}] += Gp[{slot[key]}] * dp[{key[2]}];" for key in gp_nz]
         body.append("}")
     body.append(f"{ctx.solver.solve_call('G')};")
     for i in list(range(nq)) + list(range(zfirst, nx)):     # q rows, then the extra states' rows
@@ -407,11 +409,11 @@ def jvp_body(ctx, program, W, seeds, nx, npar, blocks):
         terms += [f"(anyp ? Gp[{slot[key]}] * dx[{nx + key[2]}] : 0.0)" for key in kp_nz if key[1] == i]
         body.append(f"out[(size_t)d * {nx} + {i}] = {' + '.join(terms) or '0.0'};")
     body.append(f"for (i = 0; i < {nu}; i++) out[(size_t)d * {nx} + {nq} + i] = G[i];")
-    lines.append(f"{_IND}for (d = 0; d < k; d++) {{")
-    lines.append(f"{_IND * 2}dx = dirs + (size_t)d * {nd};")
-    lines += [_IND * 2 + line for line in body]
-    lines.append(f"{_IND}}}")
-    lines.append(f"{_IND}status = {ctx.name}_finite(xdot, {nx});")
-    lines.append(f"{_IND}if (status != EOMC_OK || k <= 0) return status;")
-    lines.append(f"{_IND}return {ctx.name}_finite(out, k * {nx});")
+    lines.append(f"{IND}for (d = 0; d < k; d++) {{")
+    lines.append(f"{IND * 2}dx = dirs + (size_t)d * {nd};")
+    lines += [IND * 2 + line for line in body]
+    lines.append(f"{IND}}}")
+    lines.append(f"{IND}status = {ctx.name}_finite(xdot, {nx});")
+    lines.append(f"{IND}if (status != EOMC_OK || k <= 0) return status;")
+    lines.append(f"{IND}return {ctx.name}_finite(out, k * {nx});")
     return lines

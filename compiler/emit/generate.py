@@ -11,6 +11,7 @@ from ..ir import count_program, format_program, verify
 from .bodies import (BodyContext, dynamics_helper, helper_jacobian_body, jvp_body, matrix_body, needed_assignments, split_on, jacobian_body,
                      linearize_body, plain_body, rhs_body, solved_plain_body, tangent_jacobian_body,
                      void_unused)
+from .formulation import KANE, Formulation
 from .generated import GeneratedModel
 from .layout import check_identifier, make_layout
 from .linsolve import choose_ldlt
@@ -18,7 +19,7 @@ from .printer import NonFiniteLiteral
 from .sparse_lu import sparse_lu_solver
 from .split import NOINLINE_MACRO, split_body
 from .signatures import FUNCTION_ORDER, ON_REQUEST, STRUCT_FIELDS, cdef, prototype
-from .symbolic import FUNCTION_GROUPS, HELPER_USERS, build_symbolic
+from .symbolic import HELPER_USERS
 
 __all__ = ["generate_c", "lower", "ir_listing", "Lowered", "ALL_FUNCTIONS"]
 
@@ -58,26 +59,11 @@ def _environment():
                               trim_blocks=True, lstrip_blocks=True, autoescape=False)
 
 
-def _body(fn, ctx, prog, sym, layout, nx, functions, recursive=False):
+def _body(fn, ctx, prog, sym, layout, nx, functions, formulation=KANE):
     nr = len(layout.r)
-    if recursive and fn == "rhs":
-        from ..tree.emit import tree_rhs_body
-        return tree_rhs_body(ctx, prog)
-    if recursive and fn in ("mass_matrix", "forcing", "inverse_dynamics"):
-        from ..tree.emit import tree_matrix_body
-        return tree_matrix_body(ctx, prog, fn)
-    if recursive and fn == "jvp":
-        from ..tree.constrained import jacobian_symbols
-        from ..tree.jvp import tree_jvp_body
-        return tree_jvp_body(ctx, prog, *jacobian_symbols(prog, sym.W, ctx.nu), sym.seeds, nx, len(layout.p))
-    if recursive and fn == "jac_id":
-        from ..tree.inverse_derivatives import jac_id_body
-        return jac_id_body(ctx, prog, sym.seeds)
-    if recursive and fn in ("jac_x", "jac_r", "jac_p"):
-        from ..tree.constrained import jacobian_symbols
-        from ..tree.emit import tree_jacobian_body
-        return tree_jacobian_body(ctx, prog, *jacobian_symbols(prog, sym.W, ctx.nu), sym.seeds, fn,
-                                  len(layout.p) if fn == "jac_p" else nr)
+    own = formulation.body(fn, ctx, prog, sym, layout, nx)
+    if own is not None:
+        return own
     if fn == "rhs":
         return rhs_body(ctx, prog)
     if fn in ("mass_matrix", "forcing", "inverse_dynamics"):
@@ -140,21 +126,14 @@ def _tangent_ops(prog, seeds, blocks):
     return c
 
 
-def _ops(fn, prog, solver, nx, nr, seeds=(), helper=None, nu=0, nnz=0, solve_in=(), recursive=False,
-         W=(), npar=0, nq=None):
+def _ops(fn, prog, solver, nx, nr, seeds=(), helper=None, nu=0, nnz=0, solve_in=(), formulation=KANE,
+         sym=None, npar=0, nq=None):
     c = count_program(prog) if prog is not None else Counter()
     if fn == "linearize":
         return None
-    if recursive and fn in ("rhs", "mass_matrix", "forcing", "inverse_dynamics", "jvp") and fn not in solve_in:
-        return {k: int(c.get(k, 0)) for k in ("adds", "muls", "divs", "calls")}
-    if recursive and fn == "jac_id":
-        from ..tree.inverse_derivatives import jac_id_ops
-        return jac_id_ops(prog, seeds, nx - nu if nq is None else nq, nu, nx)
-    if recursive and fn in ("jac_x", "jac_r", "jac_p"):
-        from ..tree.constrained import jacobian_symbols
-        from ..tree.emit import tree_jacobian_ops
-        return tree_jacobian_ops(prog, *jacobian_symbols(prog, W, nu), seeds, fn, nx - nu if nq is None else nq,
-                                 nx, npar if fn == "jac_p" else nr)
+    own = formulation.ops(fn, prog, sym, nx, nr, npar, nq, nu, solve_in)
+    if own is not None:
+        return own
     if fn in HELPER_USERS or fn in solve_in:
         c += count_program(helper)
     if fn in solve_in:
@@ -210,16 +189,16 @@ class Lowered:
     functions: tuple
     programs: dict          # function -> Program (None when the function has no own code)
     helper: object          # Program of the shared NAME_dynamics helper (A, b), or None
-    formulation: str = "kane"   # or "recursive" (eomc.compiler.tree)
+    formulation: Formulation = KANE   # or the recursive one (eomc.compiler.tree.formulation)
     poses: dict = None          # pose metadata (compiler/emit/poses.py) when poses is generated
 
 
 def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions=None,
-          fold_parameters=False, events=None, tree=None, poses=None, frames=None):
-    """FormedSystem -> :class:`Lowered` (the IR the C printer and ``--print-ir`` read).
+          fold_parameters=False, events=None, formulation=KANE, poses=None, frames=None):
+    """FormedSystem (or Model) -> :class:`Lowered` (the IR the C printer and ``--print-ir`` read).
 
-    With ``tree`` (an eomc.compiler.tree.Tree of the same system) the dynamics come
-    from the recursive formulation (ABA, RNEA, CRBA) instead of the formed A and b.
+    ``formulation`` (:mod:`.formulation`) lowers the dynamics: Kane's from the formed A and
+    b, or the recursive one (ABA, RNEA, CRBA) from its joint tree.
     """
     check_identifier(name)
     uses = {s for e in list((outputs or {}).values()) + list((events or {}).values())
@@ -229,23 +208,14 @@ def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions
     nframe = 0 if frames is None else len(frames.names())   # frame outputs (compiler/tree/frames.py)
     fns = _select(functions, len(layout.r), len(outputs or {}) + nframe, ncon, len(events or {}),
                   poses is not None, len(layout.p))
-    if "regressor" in fns and tree is None:
-        raise ModelError("the inverse-dynamics regressor is generated by the recursive formulation "
-                         "only: build with formulation='recursive' (--formulation recursive)")
-    if "jac_id" in fns and tree is None:
-        raise ModelError("jac_id (the derivatives of inverse dynamics) is generated by the recursive "
-                         "formulation only: build with formulation='recursive' (--formulation recursive)")
-    groups, helper_users = FUNCTION_GROUPS, HELPER_USERS
+    refusal = formulation.refusal(fns)
+    if refusal:
+        raise ModelError(refusal)
+    groups, helper_users = formulation.groups, formulation.helper_users
     base = tuple(f for f in fns if f != "poses")   # poses: appended below
-    if tree is None:
-        sym = build_symbolic(formed, layout, base, outputs, events)
-    else:
-        from ..tree.lower import TREE_FUNCTION_GROUPS, TREE_HELPER_USERS, build_tree_symbolic
-        groups, helper_users = TREE_FUNCTION_GROUPS, TREE_HELPER_USERS
-        sym = build_tree_symbolic(tree, formed, layout, base, outputs, events)
+    sym = formulation.symbolic(formed, layout, base, outputs, events)
     if nframe and "outputs" in fns:   # appended to the outputs, after the model's own
-        from ..tree.frames import with_frames
-        sym = with_frames(sym, frames, layout, formed.nq)
+        sym = frames.lowered(sym, layout, formed.nq)
     pose_meta = None
     if "poses" in fns:   # appended to the shared program: sin/cos and products shared with rhs
         from .poses import POSE_GROUP, with_poses
@@ -256,8 +226,7 @@ def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions
                 for fn in fns}
     helper = (finish_function(shared, ("A", "b")) if set(fns) & set(helper_users) or sym.solve_in
               else None)
-    return Lowered(name, layout, sym, fns, programs, helper,
-                   "kane" if tree is None else "recursive", pose_meta)
+    return Lowered(name, layout, sym, fns, programs, helper, formulation, pose_meta)
 
 
 def ir_listing(formed, name, **options):
@@ -271,7 +240,7 @@ def ir_listing(formed, name, **options):
 
 
 def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, functions=None,
-               fold_parameters=False, events=None, event_options=None, tree=None, poses=None,
+               fold_parameters=False, events=None, event_options=None, formulation=KANE, poses=None,
                frames=None):
     """Lower ``formed`` (a FormedSystem) to C; returns a :class:`GeneratedModel`.
 
@@ -289,10 +258,9 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
     Deterministic: identical input gives byte-identical output.
     """
     low = lower(formed, name, parameters=parameters, inputs=inputs, outputs=outputs,
-                functions=functions, fold_parameters=fold_parameters, events=events, tree=tree,
-                poses=poses, frames=frames)
+                functions=functions, fold_parameters=fold_parameters, events=events,
+                formulation=formulation, poses=poses, frames=frames)
     layout, sym, fns = low.layout, low.symbolic, low.functions
-    recursive = low.formulation == "recursive"
     nq, nu, nx, nw = formed.nq, formed.nu, len(layout.x), sym.nw   # x = [q; u; z]
     solver = (choose_ldlt(name, nw, sym.pattern) if sym.symmetric else
               sparse_lu_solver(name, nw, sym.pattern, sym.row_order))
@@ -309,14 +277,14 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
         prog = low.programs[fn]
         with _naming_nonfinite(name, fn):
             body = (plain_body(ctx, prog, "pose", (low.poses["size"],), "out") if fn == "poses" else
-                    _body(fn, ctx, prog, sym, layout, nx, fns, recursive))
+                    _body(fn, ctx, prog, sym, layout, nx, fns, formulation))
         lines, parts = split_body(body, f"{name}_{fn}_part")
         ctx.split = ctx.split or bool(parts)
         rendered.append({"prototype": prototype(name, fn), "body": void_unused(fn, lines),
                          "parts": parts})
         op_counts[fn] = _ops(fn, prog, solver, nx, len(layout.r), sym.seeds, low.helper, nu,
                              sum(1 for i, j in sym.pattern if i < nu and j < nu), sym.solve_in,
-                             recursive, sym.W, len(layout.p), nq)
+                             formulation, sym, len(layout.p), nq)
     if "poses" in fns:   # the number of doubles NAME_poses writes (the loader checks NAME.json by it)
         from .poses import pose_metadata
         rendered.append({"prototype": f"int {name}_pose_count(void)",
@@ -329,15 +297,11 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
         by_name = {o["name"]: o for o in (event_options or ())}
         meta["events"] = [by_name.get(n, {"name": n, "terminal": 0, "direction": 0})
                           for n in sym.event_names]
-    meta["formulation"] = low.formulation
-    if "regressor" in fns:
-        from ..tree.regressor import PI_NAMES
-        meta["regressor_bodies"] = list(sym.regressor_bodies)
-        meta["regressor_reference"] = list(sym.regressor_reference)
-        meta["regressor_parameters"] = list(PI_NAMES)
+    meta["formulation"] = formulation.name
+    meta.update(formulation.metadata(sym, fns))
     if low.poses is not None:
         meta["poses"] = pose_metadata(low.poses)
-    return _render(name, meta, fns, rendered, solver, layout, sym, helper, ctx.split)
+    return _render(name, meta, fns, rendered, solver, layout, sym, helper, ctx.split, formulation)
 
 
 @contextmanager
@@ -402,12 +366,11 @@ def _pose_docs(meta):
                       f"columns are the body's axes)", rows)]
 
 
-def _render(name, meta, fns, rendered, solver, layout, sym, helper, split=False):
+def _render(name, meta, fns, rendered, solver, layout, sym, helper, split=False, formulation=KANE):
     tables, table_refs = _tables(name, layout, sym.output_names)
     pointers = [f"{name}_{f}" if f in fns else "NULL" for f in STRUCT_FIELDS]
     # the recursive formulation's rhs, jac_x and jac_r solve by ABA (no factorization)
-    uses_solver = ((meta.get("formulation") != "recursive" and any(f in fns for f in _SOLVING))
-                   or bool(sym.solve_in))
+    uses_solver = ((formulation.solves and any(f in fns for f in _SOLVING)) or bool(sym.solve_in))
     env = _environment()
     common = {k: meta[k] for k in ("nq", "nu", "nx", "nparam", "ninput", "noutput", "nhol",
                                    "nvel", "work_size", "eomc_version")}

@@ -13,7 +13,7 @@ from sympy.physics.vector import dynamicsymbols
 
 from eomc.runtime.errors import ModelError
 
-__all__ = ["Layout", "make_layout", "check_identifier", "DEFAULT_PARAMETER_VALUE"]
+__all__ = ["Layout", "make_layout", "check_identifier", "sanitize_name", "DEFAULT_PARAMETER_VALUE"]
 
 DEFAULT_PARAMETER_VALUE = 1.0
 _IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
@@ -135,6 +135,12 @@ def make_layout(formed, parameters=None, inputs=None, fold_parameters=False, use
                   param_defaults=tuple(v for _, v in table),
                   input_names=tuple(_name(i) for i in inputs),
                   folded=folded, c_names=c_names)
+
+
+def sanitize_name(stem):
+    """A C identifier from a file stem: other characters become _, a leading digit gets a prefix."""
+    name = re.sub(r"[^A-Za-z0-9_]", "_", stem)
+    return name if _IDENT.match(name) else f"model_{name}"
 
 
 def check_identifier(name):

@@ -27,7 +27,7 @@ import sympy as sm
 
 from eomc.runtime.errors import EomcWarning, ModelError
 
-__all__ = ["PoseSource", "pose_source", "with_poses", "pose_metadata", "pose_digest", "POSE_GROUP"]
+__all__ = ["PoseSource", "pose_source", "welded_links", "with_poses", "pose_metadata", "pose_digest", "POSE_GROUP"]
 
 POSE_GROUP = "pose"
 
@@ -88,8 +88,11 @@ def _parts(system):
     return frame, None, list(bodies), []
 
 
-def pose_source(system, geometry=None):
-    """The :class:`PoseSource` of a mechanics object, or None when it has no bodies to show."""
+def pose_source(system, geometry=None, model=None):
+    """The :class:`PoseSource` of a mechanics object, or None when it has no bodies to show.
+    ``model``: the robot file's :class:`~eomc.compiler.multibody.model.Model` when the object
+    is a URDF robot's System, whose welded links and shapes it carries (else the System's
+    file is read for them)."""
     from sympy.physics.vector import Point
     if system is None:
         return None
@@ -159,7 +162,14 @@ def pose_source(system, geometry=None):
             lines.append((index[q], index[p]))
     extra_frame_edges, extra_point_edges = [], []
     if urdf is not None:   # every link frame: those welded to a body or to the ground too
-        frames, extra_frame_edges, extra_point_edges = _welded_links(urdf, frames, N, start)
+        if model is None:
+            from eomc.runtime.geometry import urdf_link_transforms, urdf_visuals
+            from eomc.runtime.urdf_scene import load_scene
+            loaded = load_scene(urdf.tree.path)
+            welds, shapes = urdf_link_transforms(urdf.tree, loaded), urdf_visuals(urdf.tree, loaded)
+        else:
+            welds, shapes = model.welds, model.shapes
+        frames, extra_frame_edges, extra_point_edges = welded_links(welds, frames, N, start)
     needed = set(skeleton) | {pt for _, _, pt in frames if pt in parent_of} | {pt for _, pt in points}
     closure = set()
     for q in needed:   # the needed points and every point on their paths from the origin
@@ -174,22 +184,23 @@ def pose_source(system, geometry=None):
     defaults = dict(getattr(urdf, "parameters", None) or {})
     geom = {}
     if urdf is not None:
-        geom = _urdf_geometry(urdf)
+        geom = dict(shapes)
     if geometry:
         geom = {**geom, **_checked_geometry(geometry, [n for n, *_ in frames], [n for n, _ in points])}
     return PoseSource(tuple(frames), tuple(points), tuple(sorted(set(lines))), tuple(frame_edges),
                       tuple(point_edges), defaults, geom)
 
 
-def _welded_links(urdf, frames, N, origin):
+def welded_links(welds, frames, N, origin):
     """Frames of the links fixed to a body (or the ground) with the constant transform between
-    them: a new frame and point per link, kept out of the user's graphs (edges here only)."""
+    them (``welds``: {link: (body or "world", 4x4)}, eomc.runtime.geometry.urdf_link_transforms):
+    a new frame and point per link, kept out of the user's graphs (edges here only)."""
     from sympy.physics.vector import Point, ReferenceFrame, Vector
-    from eomc.runtime.geometry import identifier, urdf_link_transforms
+    from eomc.runtime.geometry import identifier
     by_name = {name: (frame, at) for name, frame, at in frames}
     taken = set(by_name)
     frame_edges, point_edges, out = [], [], list(frames)
-    for link, (body, T) in urdf_link_transforms(urdf.tree).items():
+    for link, (body, T) in welds.items():
         name = identifier(link)
         if name in taken:
             continue
@@ -226,12 +237,6 @@ def _checked_geometry(geometry, frame_names, point_names):
                                  f"(sphere, box, cylinder, mesh) or a list of them, not {item!r}")
         out[name] = [s.as_dict() for s in items]
     return out
-
-
-def _urdf_geometry(urdf):
-    """{body name or "world": [visual dicts]}: each link's <visual>s in its body's frame."""
-    from eomc.runtime.geometry import urdf_visuals
-    return urdf_visuals(urdf.tree)
 
 
 def pose_digest(source):

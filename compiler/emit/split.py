@@ -10,7 +10,7 @@ fastest of 100/250/500, and the split code ran no slower than the unsplit (up to
 faster: gcc spills less badly in small functions).
 
 How: a *run* is a maximal block of consecutive statements of two shapes, at one
-indentation: ``const double tN = ...;`` (what :func:`eomc.compiler.emit.bodies._temps`
+indentation: ``const double tN = ...;`` (what :func:`eomc.compiler.emit.bodies.temps`
 prints) and stores to a constant index, ``F[12] = ...;`` (the results).  A run longer
 than :data:`SPLIT_MIN` statements is cut into consecutive chunks of at most
 :data:`CHUNK` statements and :data:`CHUNK_BYTES` characters of C (Kane's mass matrix

@@ -100,7 +100,7 @@ def coupled_states(bodies, coordinates, speeds, kinematics, joints, dependent):
             [kinematics[k] for k in order_q], joints)
 
 
-def coupling_loops(m, params, found, coordinates, speeds, joints, joint_names):
+def coupling_loops(m, params, found, coordinates, speeds, joints, joint_names, tendons=()):
     """The :class:`eomc.compiler.tree.constrained.Loops` of the couplings ``found`` (from
     :func:`couplings`) on the reordered states: per coupling
 
@@ -108,7 +108,7 @@ def coupling_loops(m, params, found, coordinates, speeds, joints, joint_names):
 
     (hinge and slide coordinates have q' = u; γ is d f_v/dt at u' = 0)."""
     from eomc.compiler.tree.constrained import Loops
-    from eomc.compiler.urdf.treeir import _num
+    from eomc.compiler.multibody.joints import snap
     first = {jid: (iq, iu) for jid, _, iq, iu in joints}
     n = len(speeds)
     hol, vel, jac, bias, tied = [], [], [], [], []
@@ -116,7 +116,7 @@ def coupling_loops(m, params, found, coordinates, speeds, joints, joint_names):
         ename = _param_name(m, e)
         p = [params(f"eq_{ename}_p{k}", m.eq_data[e, k]) for k in range(5)]
         q1, u1 = coordinates[first[j1][0]], speeds[first[j1][1]]
-        r1 = _num(float(m.qpos0[int(m.jnt_qposadr[j1])]))
+        r1 = snap(float(m.qpos0[int(m.jnt_qposadr[j1])]))
         row = [sm.S.Zero] * n
         row[first[j1][1]] = sm.S.One
         tied.append(joint_names[j1][0])
@@ -126,7 +126,7 @@ def coupling_loops(m, params, found, coordinates, speeds, joints, joint_names):
             bias.append(sm.S.Zero)
         else:
             q2, u2 = coordinates[first[j2][0]], speeds[first[j2][1]]
-            r2 = _num(float(m.qpos0[int(m.jnt_qposadr[j2])]))
+            r2 = snap(float(m.qpos0[int(m.jnt_qposadr[j2])]))
             d = q2 - r2 if r2 != 0 else q2
             poly = p[0] + p[1] * d + p[2] * d ** 2 + p[3] * d ** 3 + p[4] * d ** 4
             slope = p[1] + 2 * p[2] * d + 3 * p[3] * d ** 2 + 4 * p[4] * d ** 3
@@ -137,8 +137,13 @@ def coupling_loops(m, params, found, coordinates, speeds, joints, joint_names):
             bias.append(-curve * u2 ** 2)
             tied.append(joint_names[j2][0])
         jac.append(tuple(row))
+    if tendons:          # <equality><tendon> couplings (tendon_couplings), after the joint couplings
+        more = tendon_coupling_loops(m, params, tendons, coordinates, speeds, joints)
+        for mine, extra in zip((hol, vel, jac, bias, tied), more):
+            mine += list(extra)
+    count = len(found) + len(tendons)
     return Loops(holonomic=tuple(hol), velocity=tuple(vel), jacobian=tuple(jac), bias=tuple(bias),
-                 n_dependent_coordinates=len(found), n_dependent_speeds=len(found),
+                 n_dependent_coordinates=count, n_dependent_speeds=count,
                  joints=tuple(dict.fromkeys(tied)))
 
 
@@ -165,4 +170,90 @@ def coupled_qpos(m):
                 d = qpos[a2] - m.qpos0[a2]
                 value += sum(float(m.eq_data[e, k]) * d ** k for k in range(1, 5))
             qpos[a1] = m.qpos0[a1] + value
+    for e, dep, p1, p2 in tendon_couplings(m, [j1 for _, j1, _ in found]):   # at qpos0: d = 0, so L1 - L1_0 = p0
+        c = dict(p1)[dep]
+        rest = sum(cc * (qpos[int(m.jnt_qposadr[j])] - m.qpos0[int(m.jnt_qposadr[j])]) for j, cc in p1 if j != dep)
+        d = sum(cc * (qpos[int(m.jnt_qposadr[j])] - m.qpos0[int(m.jnt_qposadr[j])]) for j, cc in p2) if p2 else 0.0
+        value = sum(float(m.eq_data[e, k]) * d ** k for k in range(5))
+        a = int(m.jnt_qposadr[dep])
+        qpos[a] = m.qpos0[a] + (value - rest) / c
     return qpos
+
+
+def tendon_couplings(m, taken=()):
+    """[(equality id, dependent joint id, [(joint, c)] of tendon1, [(joint, c)] of tendon2 or None)]
+    of the active ``<equality><tendon>`` couplings between fixed tendons:
+
+        L1 - L1_0 = p0 + p1 d + ... + p4 d⁴,   d = L2 - L2_0
+
+    (L = Σ c q, L_0 its length at qpos0).  Tendon1's first joint that is not in tendon2 and not
+    already dependent (``taken``: joint couplings' joint1) becomes the dependent coordinate.
+    ValueError naming the equality for what cannot be one (a spatial tendon; no free joint)."""
+    import mujoco
+    from .tendon import is_fixed, tendon_joints
+    out, dependent = [], set(taken)
+    for e in range(m.neq):
+        if int(m.eq_type[e]) != int(mujoco.mjtEq.mjEQ_TENDON) or not _active(m, e):
+            continue
+        name = _eq_name(m, e)
+        t1, t2 = int(m.eq_obj1id[e]), int(m.eq_obj2id[e])
+        t2 = None if t2 < 0 else t2
+        for t in (t1, t2):
+            if t is not None and not is_fixed(m, t):
+                raise ValueError(f"equality {name}: tendon {_tname(m, t)} is a spatial tendon (only fixed "
+                                 f"tendons are coupled)")
+        p1 = tendon_joints(m, t1)
+        p2 = tendon_joints(m, t2) if t2 is not None else None
+        second = {j for j, _ in p2} if p2 else set()
+        dep = next((j for j, c in p1 if c != 0 and j not in second and j not in dependent), None)
+        if dep is None:
+            raise ValueError(f"equality {name}: every joint of tendon {_tname(m, t1)} is in tendon2 or already "
+                             f"set by another coupling: no coordinate to make dependent")
+        dependent.add(dep)
+        out.append((e, dep, p1, p2))
+    return out
+
+
+def _tname(m, t):
+    import mujoco
+    return mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_TENDON, t) or f"#{t}"
+
+
+def tendon_coupling_loops(m, params, found, coordinates, speeds, joints):
+    """(holonomic, velocity, jacobian rows, bias, joint names) of the tendon couplings ``found``
+    (:func:`tendon_couplings`): f_h = L1 - L1_0 - P(d), f_v = L1' - P'(d) L2', γ = -P''(d) L2'²."""
+    import mujoco
+    first = {jid: (iq, iu) for jid, _, iq, iu in joints}
+    n = len(speeds)
+    hol, vel, jac, bias, tied = [], [], [], [], []
+    for e, _, p1, p2 in found:
+        ename = _param_name(m, e)
+        p = [params(f"eq_{ename}_p{k}", m.eq_data[e, k]) for k in range(5)]
+
+        def length(pairs):
+            L = sum((sm.Float(c, 17) * (coordinates[first[j][0]] - sm.Float(float(m.qpos0[int(m.jnt_qposadr[j])]), 17))
+                     for j, c in pairs), sm.S.Zero)
+            V = sum((sm.Float(c, 17) * speeds[first[j][1]] for j, c in pairs), sm.S.Zero)
+            return L, V
+        L1, V1 = length(p1)
+        row = [sm.S.Zero] * n
+        for j, c in p1:
+            row[first[j][1]] += sm.Float(c, 17)
+        tied += [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) or f"joint{j}" for j, _ in p1]
+        if p2 is None:
+            hol.append(L1 - p[0])
+            vel.append(V1)
+            bias.append(sm.S.Zero)
+        else:
+            d, V2 = length(p2)
+            poly = p[0] + p[1] * d + p[2] * d ** 2 + p[3] * d ** 3 + p[4] * d ** 4
+            slope = p[1] + 2 * p[2] * d + 3 * p[3] * d ** 2 + 4 * p[4] * d ** 3
+            curve = 2 * p[2] + 6 * p[3] * d + 12 * p[4] * d ** 2
+            hol.append(L1 - poly)
+            vel.append(V1 - slope * V2)
+            for j, c in p2:
+                row[first[j][1]] += -slope * sm.Float(c, 17)
+            bias.append(-curve * V2 ** 2)
+            tied += [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) or f"joint{j}" for j, _ in p2]
+        jac.append(tuple(row))
+    return hol, vel, jac, bias, tied

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import sympy as sm
 
 from eomc.runtime.errors import EomcWarning, ModelError, ModelFileError
 
@@ -60,7 +61,7 @@ def with_ignore(model, name=None, ignore=(), limits=True):
     if not items and (limits or not is_mjcf_path(model)):
         return model, name
     _known(items)
-    from eomc.compiler.model.validate import sanitize_name
+    from eomc.compiler.emit.layout import sanitize_name
     return MjcfModel(Path(model), ignore=items, limits=limits), name or sanitize_name(Path(model).stem)
 
 
@@ -256,29 +257,40 @@ def _equality_problems(m, path, ignore):
     for e in range(m.neq):
         name = _name(m, mujoco.mjtObj.mjOBJ_EQUALITY, e, "equality")
         kind = int(m.eq_type[e])
-        if kind == int(mujoco.mjtEq.mjEQ_JOINT):
+        if kind in (int(mujoco.mjtEq.mjEQ_JOINT), int(mujoco.mjtEq.mjEQ_TENDON)):
             if not m.eq_active0[e]:
                 warnings.warn(f"{path}: equality {name}: inactive (active=\"false\"): left out (MuJoCo "
                               f"starts without it; eomc cannot switch it on later)", EomcWarning, stacklevel=4)
             continue
         tag, what = _EQ_KINDS.get(kind, (f"type {kind}", "an equality constraint"))
         out.append(("equality", tag, f"equality {name}: <{tag}> is {what}: only joint couplings "
-                    f"(<joint joint1 joint2 polycoef>) are modelled", None if name.startswith("equality #")
+                    f"(<joint joint1 joint2 polycoef>) and couplings of fixed tendons (<tendon>) are modelled", None if name.startswith("equality #")
                     else name))
     try:
-        couplings(m)
+        found = couplings(m)
     except ValueError as exc:
         named = re.match(r"equality (\S+):", str(exc))
-        raise ModelFileError(f"<equality><joint>: {exc}", 
+        raise ModelFileError(f"<equality><joint>: {exc}",
                              *_where(path, "equality", named.group(1) if named else None)) from None
+    try:
+        from .equality import tendon_couplings
+        tendon_couplings(m, [j1 for _, j1, _ in found])
+    except ValueError as exc:      # the <tendon> element of the equality's name first (dm_control names them so)
+        named = re.match(r"equality (\S+):", str(exc))
+        raise ModelFileError(f"<equality><tendon>: {exc}", *_where(path, "tendon", named.group(1) if named else None)) \
+            from None
     return out
 
 
-def mjcf_formed(model, overrides):
-    """(FormedSystem, overrides with the model's parameter defaults and inputs) of an MJCF file."""
-    from eomc.compiler.tree.formed import formed_of_tree
-    from eomc.compiler.urdf.model import _merged
-    from .treeir import tree_ir
+def read_model(model, poses=False):
+    """The :class:`~eomc.compiler.multibody.model.Model` of an MJCF file or :class:`MjcfModel`:
+    MuJoCo's compiler run once, its model checked and read into the joint tree, every
+    MuJoCo body a frame, qpos0 the initial state, and with ``poses`` the animation's bodies
+    and geoms.  Nothing after this reads the file."""
+    import mujoco
+    from eomc.compiler.multibody.model import Frame, Provenance
+    from eomc.compiler.tree.formed import model_of_tree
+    from .treeir import _names, tree_ir
     model = model if isinstance(model, MjcfModel) else MjcfModel(Path(model))
     _known(model.ignore)
     m = load_mjmodel(model.path)
@@ -300,22 +312,58 @@ def mjcf_formed(model, overrides):
     if "fluid" not in model.ignore:
         from .fluid import with_fluid
         built = with_fluid(built, m, fold=model.fold_parameters)     # <option density viscosity wind>
-    built, overrides = _with_contacts(model, m, built, overrides)
-    formed = formed_of_tree(built.tree)
-    built.mjmodel = m              # what the animation's poses read the geoms from (compiler/mjcf/poses.py)
-    object.__setattr__(formed, "_mjcf", built)
-    values = _merged(overrides, formed, built.parameters, built.inputs)
+    built, outputs, events = _with_contacts(model, m, built)
+    extra = {}
+    if poses:
+        from .poses import mjcf_pose_source
+        extra["poses"] = mjcf_pose_source(built, m)
+    index = {b.name: i for i, b in enumerate(built.tree.bodies)}
+    frames = []
+    for b, (raw, s) in enumerate(_names(m, mujoco.mjtObj.mjOBJ_BODY, m.nbody, "body")):
+        if b == 0:        # the world body
+            frames.append(Frame(raw, -1, _IDENTITY, (0, 0, 0), (s,)))
+            continue
+        # the tree body carrying the MuJoCo body's mass sits at its mass centre body_ipos
+        c = [_com_symbol(f"c{a}_{s}", v, built.parameters) for a, v in zip("xyz", m.body_ipos[b])]
+        frames.append(Frame(raw, index[s], _IDENTITY, tuple(-x for x in c), (s,)))
+    return model_of_tree(built.tree, Provenance("mjcf", str(model.path)), frames=tuple(frames),
+                         defaults=dict(built.parameters), joint_inputs=tuple(built.inputs),
+                         outputs=outputs, events=events, initial_state=reference_state(m, built),
+                         timestep=float(m.opt.timestep),
+                         kane_refusal="an MJCF model has the recursive formulation only: MuJoCo's model is "
+                                      "read straight into the joint tree, with no SymPy System to form "
+                                      "Kane's equations of", **extra)
+
+
+_IDENTITY = ((1, 0, 0), (0, 1, 0), (0, 0, 1))
+
+
+def _com_symbol(name, value, parameters):
+    """A mass-centre coordinate as the tree writes it: its parameter, or the literal."""
+    from eomc.compiler.multibody.joints import snap
+    symbol = sm.Symbol(name)
+    return symbol if symbol in parameters else snap(float(value))
+
+
+def mjcf_formed(read, overrides):
+    """(the Model, overrides with the model's parameter defaults, inputs, contact outputs and
+    initial state) of an MJCF model's :func:`read_model`."""
+    from eomc.compiler.contact.tree import merged_outputs
+    from eomc.compiler.multibody.model import merged_defaults
+    if read.outputs or read.events:
+        overrides = merged_outputs(overrides, dict(read.outputs), dict(read.events))
+    values = merged_defaults(overrides, read, read.defaults, read.joint_inputs)
     if values.get("initial_state") is None:
-        values["initial_state"] = reference_state(m, built)
-    values["timestep"] = float(m.opt.timestep)       # into the built model's metadata (model.timestep)
-    return formed, values
+        values["initial_state"] = dict(read.initial_state)
+    values["timestep"] = read.timestep       # into the built model's metadata (model.timestep)
+    return read, values
 
 
-def _with_contacts(model, m, built, overrides):
-    """(built, overrides) with the ground contacts: the ones ``model.contacts`` names (spheres on
-    bodies), and the file's collision geoms against its ground planes (:mod:`.collision`) unless
+def _with_contacts(model, m, built):
+    """(built, outputs, events) with the ground contacts: the ones ``model.contacts`` names (spheres
+    on bodies), and the file's collision geoms against its ground planes (:mod:`.collision`) unless
     contacts are named without ``"@collision"`` (or ``"@none"``: no contacts), or ``geoms`` says."""
-    from eomc.compiler.contact.tree import COLLISION_SPHERES, as_spec, merged_outputs, with_mjcf_contacts
+    from eomc.compiler.contact.tree import COLLISION_SPHERES, as_spec, with_mjcf_contacts
     specs = [as_spec(c) for c in model.contacts]
     named = [s for s in specs if s.link not in (COLLISION_SPHERES, "@none", "@ground")]
     geoms = model.geoms
@@ -326,16 +374,14 @@ def _with_contacts(model, m, built, overrides):
         built, outputs, events = with_mjcf_contacts(built, m, named, fold=model.fold_parameters)
     if geoms:
         from eomc.compiler.contact.geometry import with_shapes
-        from eomc.compiler.contact.tree import _com
+        from eomc.compiler.contact.tree import body_com
         from .collision import ground_geoms
         found = ground_geoms(m, model.path)
         if found:
-            built, more_outputs, more_events = with_shapes(built, _shapes(built, found), lambda i: _com(
+            built, more_outputs, more_events = with_shapes(built, _shapes(built, found), lambda i: body_com(
                 built, built.tree.bodies[i].name, built.owners[i][1]), fold=model.fold_parameters)
             outputs, events = {**outputs, **more_outputs}, {**events, **more_events}
-    if outputs:
-        overrides = merged_outputs(overrides, outputs, events)
-    return built, overrides
+    return built, outputs, events
 
 
 def _shapes(built, found):

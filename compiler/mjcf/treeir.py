@@ -45,8 +45,8 @@ from sympy.physics.vector import dynamicsymbols
 from eomc.compiler.tree.model import Load, Tree, TreeBody
 from eomc.compiler.tree.recognize import effective_inertias
 from eomc.compiler.urdf.tree import identifier
-from eomc.compiler.urdf.treeir import (_Parameters, _cross, _lin, _num, _rotation_terms, _snapped, _times,
-                                       _vec, floating_kinematics, floating_rotation)
+from eomc.compiler.multibody.joints import Parameters, cross, lin, rotation_terms, snap, snapped, times, vec
+from eomc.compiler.urdf.treeir import floating_kinematics, floating_rotation
 
 __all__ = ["MjcfTree", "tree_ir", "quat_matrix"]
 
@@ -99,7 +99,7 @@ def tree_ir(m, *, fold=False, actuators=None, limits=True, friction=True):
 
     ``m`` must already have passed :func:`eomc.compiler.mjcf.model.check_model`."""
     import mujoco
-    params = _Parameters(fold)
+    params = Parameters(fold)
     body_names = _names(m, mujoco.mjtObj.mjOBJ_BODY, m.nbody, "body")
     joint_names = _names(m, mujoco.mjtObj.mjOBJ_JOINT, m.njnt, "joint")
     act_names = _names(m, mujoco.mjtObj.mjOBJ_ACTUATOR, m.nu, "actuator")
@@ -132,19 +132,19 @@ def tree_ir(m, *, fold=False, actuators=None, limits=True, friction=True):
         jids = list(range(int(m.body_jntadr[b]), int(m.body_jntadr[b]) + int(m.body_jntnum[b])))
         mass = params(f"m_{s}", m.body_mass[b])
         Ri = quat_matrix(m.body_iquat[b])
-        I = _snapped(Ri @ np.diag(m.body_inertia[b]) @ Ri.T)
+        I = snapped(Ri @ np.diag(m.body_inertia[b]) @ Ri.T)
         e = {key: params(f"I{key}_{s}", I[i, j]) for key, (i, j) in
              (("xx", (0, 0)), ("yy", (1, 1)), ("zz", (2, 2)), ("xy", (0, 1)), ("xz", (0, 2)), ("yz", (1, 2)))}
         inertia = sm.Matrix([[e["xx"], e["xy"], e["xz"]], [e["xy"], e["yy"], e["yz"]],
                              [e["xz"], e["yz"], e["zz"]]])
         c_mass = [params(f"{k}_{s}", v) for k, v in zip(("cx", "cy", "cz"), m.body_ipos[b])]
         p_body = [params(f"{k}_{s}", v) for k, v in zip(("px", "py", "pz"), m.body_pos[b])]
-        R0_body = _snapped(quat_matrix(m.body_quat[b]))
+        R0_body = snapped(quat_matrix(m.body_quat[b]))
         if not jids:   # welded to its parent
             c = c_mass
-            position = sm.Matrix(_times(R0_body, c)) + sm.Matrix([p_body[r] - cp[r] for r in range(3)])
+            position = sm.Matrix(times(R0_body, c)) + sm.Matrix([p_body[r] - cp[r] for r in range(3)])
             bodies.append(TreeBody(name=s, joint=f"{raw} (welded)", kind="fixed", parent=parent, speed=None,
-                                   rotation=sm.Matrix(R0_body.T).applyfunc(_num), position=position,
+                                   rotation=sm.Matrix(R0_body.T).applyfunc(snap), position=position,
                                    motion=None, mass=mass, inertia=inertia))
             last[b], com[b] = len(bodies) - 1, c
             owners.append((b, tuple(c)))
@@ -162,7 +162,7 @@ def tree_ir(m, *, fold=False, actuators=None, limits=True, friction=True):
             bm = mass if final else sm.S.Zero
             bI = inertia if final else sm.zeros(3, 3)
             base = [p[r] - base_c[r] for r in range(3)]
-            a = _snapped(m.jnt_axis[jid])
+            a = snapped(m.jnt_axis[jid])
             anchor = [params(f"{k}_{jn}", v) for k, v in zip(("sx", "sy", "sz"), m.jnt_pos[jid])]
             qadr, dadr = int(m.jnt_qposadr[jid]), int(m.jnt_dofadr[jid])
             first_q, first = len(coordinates), len(speeds)
@@ -175,28 +175,28 @@ def tree_ir(m, *, fold=False, actuators=None, limits=True, friction=True):
                 coordinates.append(q)
                 speeds.append(u)
                 ref = float(m.qpos0[qadr])
-                angle = q - _num(ref) if ref != 0 else q
-                A, B, C = _rotation_terms(R0, a)
+                angle = q - snap(ref) if ref != 0 else q
+                A, B, C = rotation_terms(R0, a)
                 cq, sq = sm.cos(angle), sm.sin(angle)
-                R = sm.Matrix(3, 3, lambda r, k: _lin((A[r, k], B[r, k], C[r, k]), (cq, sq, 1)))
-                R0s = _times(R0, anchor)
+                R = sm.Matrix(3, 3, lambda r, k: lin((A[r, k], B[r, k], C[r, k]), (cq, sq, 1)))
+                R0s = times(R0, anchor)
                 Rc = [sum((R[r, k] * c_s[k] for k in range(3) if c_s[k] != 0), sm.S.Zero) for r in range(3)]
                 position = sm.Matrix([base[r] + R0s[r] + Rc[r] for r in range(3)])
-                av = _vec(a)
+                av = vec(a)
                 bodies.append(TreeBody(kind="revolute", speed=first, rotation=R.T, position=position,
-                                       motion=tuple(av) + tuple(_cross(av, c_s)), **common))
+                                       motion=tuple(av) + tuple(cross(av, c_s)), **common))
                 kinematics.append(u)
             elif kind == _SLIDE:
                 q, u = dynamicsymbols(f"q_{jn}"), dynamicsymbols(f"u_{jn}")
                 coordinates.append(q)
                 speeds.append(u)
                 ref = float(m.qpos0[qadr])
-                shift = q - _num(ref) if ref != 0 else q
-                R0a = _times(R0, [a[k] * shift for k in range(3)])
-                R0c = _times(R0, c)
+                shift = q - snap(ref) if ref != 0 else q
+                R0a = times(R0, [a[k] * shift for k in range(3)])
+                R0c = times(R0, c)
                 position = sm.Matrix([base[r] + R0c[r] + R0a[r] for r in range(3)])
-                bodies.append(TreeBody(kind="prismatic", speed=first, rotation=sm.Matrix(R0.T).applyfunc(_num),
-                                       position=position, motion=(0, 0, 0) + tuple(_vec(a)), **common))
+                bodies.append(TreeBody(kind="prismatic", speed=first, rotation=sm.Matrix(R0.T).applyfunc(snap),
+                                       position=position, motion=(0, 0, 0) + tuple(vec(a)), **common))
                 kinematics.append(u)
             elif kind == _BALL:
                 qs = [dynamicsymbols(f"q_{jn}_{x}") for x in ("rx", "ry", "rz")]
@@ -204,13 +204,13 @@ def tree_ir(m, *, fold=False, actuators=None, limits=True, friction=True):
                 coordinates += qs
                 speeds += us
                 Rb = floating_rotation(*qs)
-                R = sm.Matrix(3, 3, lambda r, k: sum((_num(R0[r, t]) * Rb[t, k] for t in range(3)
-                                                      if _num(R0[r, t]) != 0), sm.S.Zero))
-                R0s = _times(R0, anchor)
+                R = sm.Matrix(3, 3, lambda r, k: sum((snap(R0[r, t]) * Rb[t, k] for t in range(3)
+                                                      if snap(R0[r, t]) != 0), sm.S.Zero))
+                R0s = times(R0, anchor)
                 Rc = [sum((R[r, k] * c_s[k] for k in range(3) if c_s[k] != 0), sm.S.Zero) for r in range(3)]
                 position = sm.Matrix([base[r] + R0s[r] + Rc[r] for r in range(3)])
                 unit = [(1, 0, 0), (0, 1, 0), (0, 0, 1)]
-                motions = tuple(tuple(e_) + tuple(_cross(list(e_), c_s)) for e_ in unit)
+                motions = tuple(tuple(e_) + tuple(cross(list(e_), c_s)) for e_ in unit)
                 bodies.append(TreeBody(kind="3-speed", speed=None, rotation=R.T, position=position, motion=None,
                                        speeds=(first, first + 1, first + 2), motions=motions, **common))
                 kinematics += floating_kinematics([0, 0, 0] + qs, [0, 0, 0] + us)[3:]
@@ -224,7 +224,7 @@ def tree_ir(m, *, fold=False, actuators=None, limits=True, friction=True):
                 position = sm.Matrix([qs[r] + Rc[r] for r in range(3)])
                 unit = [(1, 0, 0), (0, 1, 0), (0, 0, 1)]
                 motions = tuple((0, 0, 0) + e_ for e_ in unit) + tuple(
-                    tuple(e_) + tuple(_cross(list(e_), c)) for e_ in unit)
+                    tuple(e_) + tuple(cross(list(e_), c)) for e_ in unit)
                 bodies.append(TreeBody(kind="free", speed=None, rotation=R.T, position=position, motion=None,
                                        speeds=tuple(range(first, first + 6)), motions=motions, **common))
                 kinematics += floating_kinematics(qs, us)
@@ -259,16 +259,17 @@ def tree_ir(m, *, fold=False, actuators=None, limits=True, friction=True):
         last[b], com[b] = len(bodies) - 1, c_mass
     gravity = sm.Matrix([params(f"g{x}", v) for x, v in zip("xyz", m.opt.gravity)])
     # joint equalities: holonomic constraints, joint1's state last (compiler/mjcf/equality.py)
-    from .equality import coupled_states, coupling_loops, couplings
+    from .equality import coupled_states, coupling_loops, couplings, tendon_couplings
     found = couplings(m)
+    tied = tendon_couplings(m, [j1 for _, j1, _ in found])      # <equality><tendon>: after them
     bodies, coordinates, speeds, kinematics, joints = coupled_states(
-        bodies, coordinates, speeds, kinematics, joints, [j1 for _, j1, _ in found])
+        bodies, coordinates, speeds, kinematics, joints, [j1 for _, j1, _ in found] + [t[1] for t in tied])
     bodies = effective_inertias(bodies, coordinates, speeds, kinematics)
     ir = Tree(bodies=tuple(bodies), coordinates=tuple(coordinates), speeds=tuple(speeds),
               kinematics=tuple(kinematics), gravity=gravity, loads=tuple(loads))
-    if found:
+    if found or tied:
         from eomc.compiler.tree.constrained import attach
-        ir = attach(ir, coupling_loops(m, params, found, coordinates, speeds, joints, joint_names))
+        ir = attach(ir, coupling_loops(m, params, found, coordinates, speeds, joints, joint_names, tied))
     return MjcfTree(ir, tuple(coordinates), tuple(speeds), tuple(kinematics), params.values, inputs,
                     tuple(joints), tuple(owners))
 
@@ -315,7 +316,7 @@ def _free_armature_load(body, a, us, c):
     the rest, -a ω × v, a force at the MuJoCo body origin (offset -c from the mass centre) so
     that it does no work on the angular speeds."""
     v, w = us[:3], us[3:]
-    force = sm.Matrix([-a * x for x in _cross(list(w), list(v))])
+    force = sm.Matrix([-a * x for x in cross(list(w), list(v))])
     return Load(body=body, frame="body", moment=sm.zeros(3, 1), force=force,
                 offset=sm.Matrix([-sm.sympify(x) for x in c]))
 
@@ -363,8 +364,8 @@ def _law(m, jid, jraw, jn, q, u, params, limits, friction):
 def _joint_force(kind, tau, a, R0, c, p, cp, child, parent):
     """A hinge's torque (slide's force) tau on the child and its reaction on the parent."""
     zero = sm.zeros(3, 1)
-    on_child = sm.Matrix([_num(v) * tau for v in a])
-    on_parent = sm.Matrix([-_num(v) * tau for v in _snapped(R0 @ a)])
+    on_child = sm.Matrix([snap(v) * tau for v in a])
+    on_parent = sm.Matrix([-snap(v) * tau for v in snapped(R0 @ a)])
     out = []
     if kind == _SLIDE:
         out.append(Load(body=child, frame="body", moment=zero, force=on_child,

@@ -9,22 +9,27 @@ import sys
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any, Callable, Mapping, Optional, Union
 
 from eomc.runtime.errors import EomcError, EomcWarning, ModelError, ModelFileError
 
+from ..mechanics.formed import FormedSystem
+from ..multibody.model import Model
 from .modelfile import assignment_lines, run_model_file
 from .states import attach_states, entry_line
 from .validate import (Invalid, check_equations, check_events, check_initial_state, check_inputs,
                        check_name, check_outputs, check_parameters, sanitize_name,
                        unset_parameters)
 
-__all__ = ["ModelSpec", "model_spec", "formed_system"]
+__all__ = ["ModelSpec", "Reading", "model_spec", "read_model", "spec_of", "formed_system"]
 
 
 @dataclass(frozen=True)
 class ModelSpec:
     name: str
-    formed: object                      # FormedSystem
+    # what the generator lowers: Kane's or Lagrange's FormedSystem, or -- a tree read, nothing
+    # formed -- the Model itself (the same variables' names; eomc.compiler.multibody)
+    formed: Union[FormedSystem, Model]
     parameters: dict = None             # Symbol -> default, or None
     inputs: list = None                 # dynamic symbols in order, or None
     initial_state: list = None          # values in state order, or None
@@ -36,7 +41,28 @@ class ModelSpec:
     poses: object = None                # PoseSource (compiler/emit/poses.py), set by the driver
     frames: object = None               # FrameSource (compiler/tree/frames.py), set by the driver
     system: object = field(default=None, repr=False)
+    # the multibody model a reader produced (a robot file's, or a System's tree): frames,
+    # poses, shapes; on a robot's Kane route beside Kane's formed system
+    model: Optional[Model] = field(default=None, repr=False)
     timestep: float = None              # the model file's own time step (MJCF <option timestep>), or None
+
+
+@dataclass(frozen=True)
+class Reading:
+    """A model as read, once: what :func:`model_spec` derives from under any formulation.
+
+    ``kind``: "robot" (a URDF or MJCF file: ``model`` is its Model), "file" (a model file:
+    ``values`` are its variables, ``lines`` their lines) or "object" (a system passed in);
+    ``formed_by``: the robot reader's formed step (eomc.compiler.urdf.model.urdf_formed, ...)."""
+    kind: str
+    path: Optional[Path] = None
+    name: Optional[str] = None
+    values: Mapping[str, Any] = field(default_factory=dict)
+    lines: Mapping[str, int] = field(default_factory=dict)
+    source: str = ""
+    filename: str = ""
+    model: Optional[Model] = None
+    formed_by: Optional[Callable] = field(default=None, repr=False)
 
 
 def _is_eomc_kane(system):
@@ -143,27 +169,33 @@ def _checked(values, formed, name, where, origin=""):
         raise where(exc) from None
 
 
-def _from_file(path, name, overrides, formulation="kane"):
+def _read_file(path, name):
     namespace, source, filename = run_model_file(path)
     lines = assignment_lines(source)
     if "system" not in namespace:
         raise ModelFileError("does not define `system` (assign a System, or a formed KanesMethod or "
                              "LagrangesMethod, to a module-level variable named system)", filename)
+    values = {k: namespace.get(k) for k in ("system", "parameters", "inputs", "initial_state", "outputs",
+                                            "events", "states", "geometry")}
+    name = name or namespace.get("name") or sanitize_name(Path(path).stem)
+    return Reading("file", Path(path), name, values, lines, source, filename)
+
+
+def _from_file(read, overrides, formulation="kane"):
+    lines, filename, source = read.lines, read.filename, read.source
     try:
-        formed = formed_system(namespace["system"], formulation)
+        formed = formed_system(read.values["system"], formulation)
     except EomcError as exc:
         raise ModelFileError(str(exc), filename, lines.get("system")) from None
     except Exception as exc:
         raise ModelFileError(f"forming the equations of `system` failed: {type(exc).__name__}: {exc}",
                              filename, lines.get("system")) from exc
-    values = {k: namespace.get(k) for k in ("system", "parameters", "inputs", "initial_state", "outputs",
-                                            "events", "states", "geometry")}
+    values = dict(read.values)
     given = {k: v for k, v in overrides.items() if v is not None}
     if isinstance(given.get("parameters"), dict) and isinstance(values["parameters"], dict):
         # parameters= overrides some of the file's defaults; the others keep the file's values
         given["parameters"] = {**values["parameters"], **given["parameters"]}
     values.update(given)
-    name = name or namespace.get("name") or sanitize_name(Path(path).stem)
 
     def where(exc):
         if exc.variable in overrides and overrides[exc.variable] is not None:
@@ -172,8 +204,65 @@ def _from_file(path, name, overrides, formulation="kane"):
         if exc.variable == "states" and getattr(exc, "entry", None) is not None:
             line = entry_line(source, exc.entry) or line    # the state's own entry in the dict
         return ModelFileError(str(exc), filename, line)
-    spec = _checked(values, formed, name, where, f"{filename}: ")
-    return ModelSpec(**{**spec.__dict__, "path": Path(path)})
+    spec = _checked(values, formed, read.name, where, f"{filename}: ")
+    return ModelSpec(**{**spec.__dict__, "path": read.path})
+
+
+def read_model(system, name=None, poses=False):
+    """The :class:`Reading` of ``system`` (a model file path, a URDF or MJCF file or model,
+    a system object): every file read here, once.  ``poses``: robot readers also read what
+    the animation's poses need (visuals, welded links)."""
+    from eomc.compiler.urdf.model import UrdfModel, is_urdf_model
+    if is_urdf_model(system):   # a robot: straight to the tree, or its System under kane
+        from eomc.compiler.urdf.model import read_model as read_urdf_model, urdf_formed
+        path = Path(system.path if isinstance(system, UrdfModel) else system)
+        return Reading("robot", path, name or sanitize_name(path.stem), model=read_urdf_model(system, poses),
+                       formed_by=lambda model, form, overrides: urdf_formed(model, form, overrides, formed_system))
+    from eomc.compiler.mjcf.model import MjcfModel, is_mjcf_model
+    if is_mjcf_model(system):   # a MuJoCo model: MuJoCo's compiler, then straight to the tree
+        from eomc.compiler.mjcf.model import mjcf_formed, read_model as read_mjcf_model
+        path = Path(system.path if isinstance(system, MjcfModel) else system)
+        return Reading("robot", path, name or sanitize_name(path.stem), model=read_mjcf_model(system, poses),
+                       formed_by=lambda model, form, overrides: (*mjcf_formed(model, overrides), None))
+    if isinstance(system, (str, Path)):
+        return _read_file(system, name)
+    return Reading("object", None, name, {"system": system})
+
+
+def spec_of(read, *, parameters=None, inputs=None, initial_state=None, outputs=None, events=None,
+            formulation="kane", states=None):
+    """The ModelSpec of a :class:`Reading` under ``formulation`` (see :func:`model_spec`):
+    called once per formulation ``auto`` compares, the files read once before."""
+    overrides = dict(parameters=parameters, inputs=inputs, initial_state=initial_state, outputs=outputs,
+                     events=events, states=states)
+    if read.kind == "robot":
+        path = read.path
+        formed, values, robot = read.formed_by(read.model, formulation, overrides)
+        spec = _checked({**values, "system": robot}, formed, read.name,
+                        lambda exc: ModelFileError(str(exc), str(path)), f"{path}: ")
+        return ModelSpec(**{**spec.__dict__, "path": path, "model": _model_of(spec, read.model)})
+    if read.kind == "file":
+        spec = _from_file(read, overrides, formulation)
+        return ModelSpec(**{**spec.__dict__, "model": _model_of(spec)})
+    from eomc.compiler.urdf.model import urdf_overrides
+    system, name = read.values["system"], read.name
+    try:
+        formed = formed_system(system, formulation)
+    except EomcError:
+        raise
+    except Exception as exc:   # SymPy's own errors on a system it cannot form: say what failed
+        raise ModelError(f"forming the equations of the system failed: {type(exc).__name__}: "
+                         f"{exc}") from exc
+    values = {**urdf_overrides(system, formed, overrides), "system": system}
+    spec = _checked(values, formed, name or "model", lambda exc: ModelError(str(exc)),
+                    f"model {name or 'model'}: ")
+    return ModelSpec(**{**spec.__dict__, "model": _model_of(spec)})
+
+
+def _model_of(spec, read=None):
+    """The spec's Model: what the recursive route lowers (extra states attached), else the
+    robot reader's beside Kane's formed system, else none."""
+    return spec.formed if isinstance(spec.formed, Model) else read
 
 
 def model_spec(system, name=None, *, parameters=None, inputs=None, initial_state=None, outputs=None,
@@ -184,34 +273,9 @@ def model_spec(system, name=None, *, parameters=None, inputs=None, initial_state
     ``formulation`` decides what is derived, not what is generated: "kane" (this function's
     default, for callers that read the formed equations: `eomc show`, the tests) forms
     them; "auto" and "recursive" read a tree instead where they can (:func:`formed_system`).
-    The compiler's default formulation is auto (eomc.compiler.driver)."""
-    overrides = dict(parameters=parameters, inputs=inputs, initial_state=initial_state, outputs=outputs,
-                     events=events, states=states)
-    from eomc.compiler.urdf.model import UrdfModel, is_urdf_model, urdf_formed, urdf_overrides
-    if is_urdf_model(system):   # a robot: straight to the tree, or its System under kane
-        path = Path(system.path if isinstance(system, UrdfModel) else system)
-        name = name or sanitize_name(path.stem)
-        formed, values, robot = urdf_formed(system, formulation, overrides, formed_system)
-        spec = _checked({**values, "system": robot}, formed, name,
-                        lambda exc: ModelFileError(str(exc), str(path)), f"{path}: ")
-        return ModelSpec(**{**spec.__dict__, "path": path})
-    from eomc.compiler.mjcf.model import MjcfModel, is_mjcf_model, mjcf_formed
-    if is_mjcf_model(system):   # a MuJoCo model: MuJoCo's compiler, then straight to the tree
-        path = Path(system.path if isinstance(system, MjcfModel) else system)
-        name = name or sanitize_name(path.stem)
-        formed, values = mjcf_formed(system, overrides)
-        spec = _checked({**values, "system": None}, formed, name,
-                        lambda exc: ModelFileError(str(exc), str(path)), f"{path}: ")
-        return ModelSpec(**{**spec.__dict__, "path": path})
-    if isinstance(system, (str, Path)):
-        return _from_file(system, name, overrides, formulation)
-    try:
-        formed = formed_system(system, formulation)
-    except EomcError:
-        raise
-    except Exception as exc:   # SymPy's own errors on a system it cannot form: say what failed
-        raise ModelError(f"forming the equations of the system failed: {type(exc).__name__}: "
-                         f"{exc}") from exc
-    values = {**urdf_overrides(system, formed, overrides), "system": system}
-    return _checked(values, formed, name or "model", lambda exc: ModelError(str(exc)),
-                    f"model {name or 'model'}: ")
+    The compiler's default formulation is auto (eomc.compiler.driver), which reads once
+    (:func:`read_model`) and derives each formulation it compares from the reading
+    (:func:`spec_of`)."""
+    return spec_of(read_model(system, name), parameters=parameters, inputs=inputs,
+                   initial_state=initial_state, outputs=outputs, events=events,
+                   formulation=formulation, states=states)

@@ -163,7 +163,7 @@ def _about(exc, z):
 
 
 def attach_states(formed, states=None, system=None, inputs=None, parameters=None):
-    """``formed`` with the extra first-order states of ``states`` (dict) and of ``system``'s
+    """``formed`` (a FormedSystem, or a Model read as a tree) with the extra first-order states of ``states`` (dict) and of ``system``'s
     musculotendons attached (see the module docstring); ``formed`` itself without any.
 
     ``inputs``/``parameters``: the model's own lists, when it gives them: a derivative
@@ -227,7 +227,4 @@ def _attach(formed, pairs, inputs, parameters):
     out = replace(formed, extra_states=zs, extra_rhs=tuple(r for _, r in pairs),
                   inputs=kept + tuple(sorted(new_inputs - set(kept), key=str)),
                   parameters=tuple(sorted(set(formed.parameters) | new_params, key=lambda s: s.name)))
-    tree = getattr(formed, "_tree", None)
-    if tree is not None:    # an unformed System read as a tree keeps its tree (tree/formed.py)
-        object.__setattr__(out, "_tree", tree)
-    return out
+    return out    # a Model (a tree read, nothing formed) stays one, tree, frames and poses kept

@@ -13,6 +13,9 @@ from collections.abc import Mapping
 import sympy as sm
 from sympy.core.function import AppliedUndef
 
+from ..emit.layout import sanitize_name  # noqa: F401 -- model files' names; the CLI imports it here
+from ..mechanics.formed import FormedSystem
+
 __all__ = ["Invalid", "check_functions", "FUNCTIONS", "check_parameters", "check_inputs", "check_initial_state", "check_outputs",
            "check_name", "sanitize_name", "check_equations", "non_real_constants", "unset_parameters"]
 
@@ -111,9 +114,10 @@ def check_equations(formed):
                                 f"(with a speed and a kinematic equation), or give its rate its own "
                                 f"input symbol")
     parts = [("kinematic equation of " + _label(q), [k]) for q, k in zip(formed.coordinates, formed.kinematics)]
-    nrows = formed.dynamics_matrix.rows
-    parts += [(f"mass matrix row {i + 1}", list(formed.dynamics_matrix.row(i))) for i in range(nrows)]
-    parts += [(f"forcing row {i + 1}", [e]) for i, e in enumerate(formed.dynamics_rhs)]
+    if isinstance(formed, FormedSystem):    # a Model (a tree read) has no A and b
+        nrows = formed.dynamics_matrix.rows
+        parts += [(f"mass matrix row {i + 1}", list(formed.dynamics_matrix.row(i))) for i in range(nrows)]
+        parts += [(f"forcing row {i + 1}", [e]) for i, e in enumerate(formed.dynamics_rhs)]
     parts += [(f"holonomic constraint {i + 1}", [e]) for i, e in enumerate(formed.holonomic_constraints)]
     parts += [(f"velocity constraint {i + 1}", [e]) for i, e in enumerate(formed.velocity_constraints)]
     for where, exprs in parts:
@@ -306,12 +310,6 @@ def check_initial_state(initial_state, formed):
                                            f"(states: {', '.join(map(_label, states))})")
         x0[symbol] = _real(value, f"initial_state[{_label(symbol)}]", "initial_state")
     return [x0[s] for s in states]
-
-
-def sanitize_name(stem):
-    """A C identifier from a file stem: other characters become _, a leading digit gets a prefix."""
-    name = re.sub(r"[^A-Za-z0-9_]", "_", stem)
-    return name if _IDENT.match(name) else f"model_{name}"
 
 
 def check_name(name):

@@ -280,7 +280,7 @@ def loop_exprs(loops):
 
 
 def with_loops(formed, tree):
-    """The FormedSystem of a tree (method "tree") with its loops' constraints, dependent
+    """The Model of a tree (eomc.compiler.multibody) with its loops' constraints, dependent
     counts, and the parameters and inputs only the constraints name (a ground link's
     length appears nowhere else)."""
     loops = tree_loops(tree)
@@ -299,7 +299,6 @@ def with_loops(formed, tree):
                   velocity_constraints=sm.Matrix(list(loops.velocity)),
                   inputs=tuple(sorted(inputs, key=str)),
                   parameters=tuple(sorted(params, key=lambda s: s.name)))
-    object.__setattr__(out, "_tree", tree)
     return out
 
 

@@ -8,7 +8,7 @@ from collections import Counter
 
 import sympy as sm
 
-from ..emit.bodies import _IND, _store, _temps, extra_state_rows, needed_assignments, split_on
+from ..emit.bodies import IND, store, temps, extra_state_rows, needed_assignments, split_on
 from ..ir import Names
 from ..ir.opcount import count_ops
 
@@ -21,25 +21,25 @@ def tree_rhs_body(ctx, program):
     ball joint in gimbal lock) is EOMC_SINGULAR_MASS_MATRIX.  The "Dpiv" results are those
     margins (D - tol·sum, see algorithms.PIVOT_TOL), so the test is "every margin > 0"."""
     pr = ctx.printer(program)
-    lines = _temps(program, pr)
+    lines = temps(program, pr)
     pivots = [pr.doprint(e) for k, e in program.results if k[0] == "Dpiv"]
     if pivots:
         cond = " || ".join(f"!({d} > 0.0)" for d in pivots)
-        lines.append(f"{_IND}if ({cond}) return EOMC_SINGULAR_MASS_MATRIX;")
+        lines.append(f"{IND}if ({cond}) return EOMC_SINGULAR_MASS_MATRIX;")
     vals = dict(program.results)
     for i in range(ctx.nq):
-        lines.append(_store(f"xdot[{i}]", vals.get(("kin", i), 0.0), pr))
+        lines.append(store(f"xdot[{i}]", vals.get(("kin", i), 0.0), pr))
     for i in range(ctx.nu):
-        lines.append(_store(f"xdot[{ctx.nq + i}]", vals.get(("ud", i), 0.0), pr))
+        lines.append(store(f"xdot[{ctx.nq + i}]", vals.get(("ud", i), 0.0), pr))
     lines += extra_state_rows(ctx, program, pr, "zd", "xdot")
-    lines.append(f"{_IND}return {ctx.name}_finite(xdot, {ctx.nx});")
+    lines.append(f"{IND}return {ctx.name}_finite(xdot, {ctx.nx});")
     return lines
 
 
 def tree_matrix_body(ctx, program, fn):
     """mass_matrix (CRBA, group A: lower triangle), forcing (b) or inverse_dynamics (tau)."""
     pr = ctx.printer(program)
-    lines = _temps(program, pr)
+    lines = temps(program, pr)
     vals = dict(program.results)
     nu = ctx.nu
     if fn == "mass_matrix":
@@ -48,15 +48,15 @@ def tree_matrix_body(ctx, program, fn):
         for i in range(nu):
             for j in range(nu):
                 key = ("A", i, j) if full else ("A", max(i, j), min(i, j))
-                lines.append(_store(f"out[{i * nu + j}]", vals.get(key, 0.0), pr))
+                lines.append(store(f"out[{i * nu + j}]", vals.get(key, 0.0), pr))
         out, size = "out", nu * nu
     elif fn == "forcing":
-        lines += [_store(f"out[{i}]", vals.get(("b", i), 0.0), pr) for i in range(nu)]
+        lines += [store(f"out[{i}]", vals.get(("b", i), 0.0), pr) for i in range(nu)]
         out, size = "out", nu
     else:
-        lines += [_store(f"tau[{i}]", vals.get(("tau", i), 0.0), pr) for i in range(nu)]
+        lines += [store(f"tau[{i}]", vals.get(("tau", i), 0.0), pr) for i in range(nu)]
         out, size = "tau", nu
-    lines.append(f"{_IND}return {ctx.name}_finite({out}, {size});")
+    lines.append(f"{IND}return {ctx.name}_finite({out}, {size});")
     return lines
 
 
@@ -226,34 +226,34 @@ def tree_jacobian_body(ctx, program, W, G, seeds, fn, nr):
         decls += [f"double dx[{nx}];", "int i;"]
     decls.append("int k;")
     decls += [f"double P[{len(live)}];"] if live else []
-    lines = [f"{_IND}{d}" for d in decls]
-    lines += _temps(program, pr, before)
+    lines = [f"{IND}{d}" for d in decls]
+    lines += temps(program, pr, before)
     pivots = [pr.doprint(e) for k, e in program.results if k[0] == "Dpiv"]
     if pivots:
         cond = " || ".join(f"!({d} > 0.0)" for d in pivots)
-        lines.append(f"{_IND}if ({cond}) return EOMC_SINGULAR_MASS_MATRIX;")
-    lines += [_store(lv, e, pr) for lv, e in stores if lv.startswith("w[")]
-    lines += _temps(program, pr, after)
-    lines += [_store(lv, e, pr) for lv, e in stores if not lv.startswith("w[")]
+        lines.append(f"{IND}if ({cond}) return EOMC_SINGULAR_MASS_MATRIX;")
+    lines += [store(lv, e, pr) for lv, e in stores if lv.startswith("w[")]
+    lines += temps(program, pr, after)
+    lines += [store(lv, e, pr) for lv, e in stores if not lv.startswith("w[")]
     if any(inner for _, _, inner, _, _, _ in loops):
-        lines.append(f"{_IND}for (i = 0; i < {nx}; i++) dx[i] = 0.0;")
+        lines.append(f"{IND}for (i = 0; i < {nx}; i++) dx[i] = 0.0;")
     for start, end, inner, gstores, solve, sol in loops:
-        body = _temps(program, pr, inner) + [_store(lv, e, pr) for lv, e in gstores]
+        body = temps(program, pr, inner) + [store(lv, e, pr) for lv, e in gstores]
         if not inner:
-            body.append(f"{_IND}G = Gm + k * {ng};")
-        body += _temps(program, pr, solve)
-        body += [_store(f"out[{(nq + i) * ncols} + k]", sol.get(i, sm.S.Zero), pr) for i in range(nu)]
-        lines.append(f"{_IND}for (k = {start}; k < {end}; k++) {{")
+            body.append(f"{IND}G = Gm + k * {ng};")
+        body += temps(program, pr, solve)
+        body += [store(f"out[{(nq + i) * ncols} + k]", sol.get(i, sm.S.Zero), pr) for i in range(nu)]
+        lines.append(f"{IND}for (k = {start}; k < {end}; k++) {{")
         if inner:
-            lines += [f"{_IND * 2}dx[k] = 1.0;", f"{_IND * 2}{{"]
+            lines += [f"{IND * 2}dx[k] = 1.0;", f"{IND * 2}{{"]
         else:
-            lines.append(f"{_IND * 2}{{")
-        lines += [_IND * 2 + line for line in body]
-        lines.append(f"{_IND * 2}}}")
+            lines.append(f"{IND * 2}{{")
+        lines += [IND * 2 + line for line in body]
+        lines.append(f"{IND * 2}}}")
         if inner:
-            lines.append(f"{_IND * 2}dx[k] = 0.0;")
-        lines.append(f"{_IND}}}")
-    lines.append(f"{_IND}return {ctx.name}_finite(out, {nx * ncols});")
+            lines.append(f"{IND * 2}dx[k] = 0.0;")
+        lines.append(f"{IND}}}")
+    lines.append(f"{IND}return {ctx.name}_finite(out, {nx * ncols});")
     return lines
 
 

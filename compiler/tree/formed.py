@@ -1,17 +1,18 @@
-"""The FormedSystem of a SymPy System of joints whose equations were never formed.
+"""The :class:`~eomc.compiler.multibody.model.Model` of a joint tree: its state's variables.
 
-Its method is "tree": it has coordinates, speeds, kinematics, inputs and
-parameters, but no A and b, so only the recursive formulation generates it;
-the Tree found on the way is kept on it for the generator.
+A tree read from a SymPy System or KanesMethod (nothing formed) or built by a robot
+reader becomes a Model here: coordinates and speeds in the tree's order, inputs and
+parameters sorted by name, the loops' constraints -- what the model checks and the
+generator read, as they read Kane's FormedSystem.
 """
 import sympy as sm
 from sympy.core.function import AppliedUndef
 from sympy.physics import mechanics as me
 
-from ..mechanics.formed import FormedSystem
+from ..multibody.model import Frame, Model, Provenance
 from .recognize import system_kinematics, tree_from_system
 
-__all__ = ["tree_formed", "tree_exprs", "formed_of_tree"]
+__all__ = ["tree_formed", "tree_exprs", "model_of_tree", "body_frames"]
 
 
 def tree_exprs(tree):
@@ -26,19 +27,25 @@ def tree_exprs(tree):
 
 
 def tree_formed(system):
-    """FormedSystem of a SymPy System with joints whose equations were not formed
-    (method "tree": no A and b; only the recursive formulation can generate it).
-    NotATree (naming the joint or body) when the recursion cannot take it."""
+    """The Model of a SymPy System with joints whose equations were not formed (only the
+    recursive formulation generates it).  NotATree (naming the joint or body) when the
+    recursion cannot take it."""
     tree = tree_from_system(system, system_kinematics(system))
-    formed = formed_of_tree(tree)     # the tree's coordinates and speeds are the System's
-    return formed
+    return model_of_tree(tree)     # the tree's coordinates and speeds are the System's
 
 
-def formed_of_tree(tree):
-    """The FormedSystem (method "tree") of a Tree built directly, not read from a System
-    (the URDF reader's, eomc.compiler.urdf.treeir): the same record :func:`tree_formed`
-    makes -- states in the tree's order, inputs and parameters sorted by name, the tree
-    kept on it for the generator -- without any SymPy mechanics object."""
+_IDENTITY = ((1, 0, 0), (0, 1, 0), (0, 0, 1))
+
+
+def body_frames(tree):
+    """A System's frames: each body of its tree, at its mass centre with its frame."""
+    return tuple(Frame(b.name, i, _IDENTITY, (0, 0, 0)) for i, b in enumerate(tree.bodies))
+
+
+def model_of_tree(tree, source=None, **fields):
+    """The :class:`Model` of ``tree`` (see the module docstring): states in the tree's order,
+    inputs and parameters sorted by name, its loops' constraints; ``fields``: what the
+    reader adds (frames, poses, defaults, ...; a System's tree gets its bodies as frames)."""
     q, u = tuple(tree.coordinates), tuple(tree.speeds)
     t = me.dynamicsymbols._t
     states = set(q) | set(u)          # a set: membership in a tuple costs O(n) SymPy comparisons
@@ -46,14 +53,11 @@ def formed_of_tree(tree):
     for e in tree_exprs(tree):
         inputs |= {a for a in e.atoms(AppliedUndef) if a not in states}
         params |= {s for s in e.free_symbols if s != t}
-    nu = len(u)
-    formed = FormedSystem(method="tree", coordinates=q, speeds=u, n_dependent_coordinates=0,
-                          n_dependent_speeds=0, kinematics=sm.Matrix(list(tree.kinematics)),
-                          dynamics_matrix=sm.zeros(nu, nu), dynamics_rhs=sm.zeros(nu, 1),
-                          multipliers=(), holonomic_constraints=sm.Matrix(),
-                          velocity_constraints=sm.Matrix(),
-                          inputs=tuple(sorted(inputs, key=str)),
-                          parameters=tuple(sorted(params, key=lambda s: s.name)))
-    object.__setattr__(formed, "_tree", tree)
+    fields.setdefault("frames", body_frames(tree))
+    model = Model(tree=tree, coordinates=q, speeds=u, kinematics=sm.Matrix(list(tree.kinematics)),
+                  holonomic_constraints=sm.Matrix(), velocity_constraints=sm.Matrix(),
+                  inputs=tuple(sorted(inputs, key=str)),
+                  parameters=tuple(sorted(params, key=lambda s: s.name)),
+                  source=source or Provenance("system"), **fields)
     from .constrained import with_loops     # loop-closing constraints, if the tree has any
-    return with_loops(formed, tree)
+    return with_loops(model, tree)

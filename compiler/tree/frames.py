@@ -37,7 +37,6 @@ import difflib
 import re
 from dataclasses import dataclass, field
 
-import numpy as np
 import sympy as sm
 
 from eomc.runtime.errors import ModelError
@@ -81,6 +80,10 @@ class FrameSource:
 
     def names(self):
         return frame_output_names([f.name for f in self.frames], self.com, self.nu)
+
+    def lowered(self, sym, layout, nq):
+        """``sym`` (a Symbolic of either formulation) with these frames' outputs appended."""
+        return with_frames(sym, self, layout, nq)
 
 
 def frame_output_names(frames, com, nu):
@@ -128,7 +131,7 @@ def _requested(names):
 def _unknown(name, known, where, what):
     close = difflib.get_close_matches(name, known, n=5, cutoff=0.4)
     hint = (f"nearest: {', '.join(close)}" if close else
-            f"{what}s: {', '.join(known[:12])}{', ...' if len(known) > 12 else ''}")
+            f"{'bodies' if what == 'body' else what + 's'}: {', '.join(known[:12])}{', ...' if len(known) > 12 else ''}")
     return ModelError(f"{where}: no {what} named {name!r} to output as a frame ({hint}; "
                       f"'{COM}' is the centre of mass)")
 
@@ -154,12 +157,13 @@ def resolve_frames(spec, names):
         return None
     where = str(spec.path) if spec.path is not None else f"model {spec.name}"
     formed = spec.formed
-    urdf = getattr(formed, "_urdf", None)
     system_urdf = getattr(spec.system, "urdf", None)
-    if urdf is not None or system_urdf is not None:
-        tree, specs, defaults = _urdf_frames(urdf, system_urdf, wanted, where)
-    elif getattr(formed, "_mjcf", None) is not None:
-        tree, specs, defaults = _mjcf_frames(formed._mjcf, spec.path, wanted, where)
+    if spec.model is not None:
+        tree, specs = spec.model.tree, _model_frames(spec.model, wanted, where)
+        defaults = (dict(spec.model.defaults) if spec.model.source.format != "system"
+                    else dict(spec.parameters or {}))
+    elif system_urdf is not None:   # a URDF robot's System passed in (from_urdf): its links
+        tree, specs, defaults = _urdf_frames(system_urdf, wanted, where)
     else:
         tree = _system_tree(spec, where)
         specs, defaults = _body_frames(tree, wanted, where), dict(spec.parameters or {})
@@ -173,10 +177,18 @@ def resolve_frames(spec, names):
                        columns=_columns(tree, formed.speeds, where), defaults=defaults)
 
 
+def _model_frames(model, wanted, where):
+    """The FrameSpecs of the frames ``wanted`` among the Model's named frames."""
+    out = []
+    for name in wanted:
+        frame = model.frame(name)
+        if frame is None:
+            raise _unknown(name, [f.name for f in model.frames], where, model.frame_noun)
+        out.append(FrameSpec(_safe(name), frame.body, frame.rotation, frame.offset))
+    return out
+
+
 def _system_tree(spec, where):
-    tree = getattr(spec.formed, "_tree", None)
-    if tree is not None:
-        return tree
     from .recognize import tree_of
     if spec.system is None:
         raise ModelError(f"{where}: frame outputs need the model's joint tree; only formed "
@@ -207,119 +219,16 @@ def _safe(name):
     return re.sub(r"[.,\s\[\]]", "_", name)
 
 
-def _urdf_frames(built, system_urdf, wanted, where):
-    """(Tree, FrameSpecs, defaults) of URDF links: the tree route's UrdfTree (``built``) or,
-    on Kane's route, the System's UrdfSystem (the same tree built from its numbers: its
-    symbols are the System's, names and all)."""
-    from eomc.compiler.urdf.treeir import tree_ir
-    if built is None:
-        folded = not system_urdf.parameters
-        built = tree_ir(system_urdf.tree, fold=folded)
-    source = built.source
-    placements = _link_placements(source)
-    by_identifier = {}
-    for link in placements:
-        by_identifier.setdefault(_ident(link), link)
-    body_index = {j.child: k for k, j in enumerate(source.joints)}
-    out = []
-    for name in wanted:
-        link = name if name in placements else by_identifier.get(name)
-        if link is None:
-            raise _unknown(name, list(placements), where, "link")
-        owner, T = placements[link]
-        if owner is None:
-            out.append(FrameSpec(_safe(name), -1, _numbers(T[:3, :3]), _numbers(T[:3, 3])))
-            continue
-        body = source.bodies[owner]
-        s = _ident(owner)
-        c = [_com_symbol(f"c{a}_{s}", v, built.parameters) for a, v in zip(_AXES, body.com)]
-        offset = tuple(_number(T[k, 3]) - c[k] for k in range(3))
-        out.append(FrameSpec(_safe(name), body_index[owner], _numbers(T[:3, :3]), offset))
-    return built.tree, out, dict(built.parameters)
-
-
-def _ident(name):
-    from eomc.compiler.urdf.tree import identifier
-    return identifier(name)
-
-
-def _number(v):
-    from eomc.compiler.urdf.treeir import _num
-    return _num(float(v))
-
-
-def _numbers(a):
-    a = np.asarray(a, dtype=float)
-    if a.ndim == 1:
-        return tuple(_number(v) for v in a)
-    return tuple(tuple(_number(v) for v in row) for row in a)
-
-
-def _com_symbol(name, value, parameters):
-    """The mass-centre coordinate as the tree writes it: its parameter, or the literal
-    (a zero, or any value when the parameters were folded)."""
-    symbol = sm.Symbol(name)
-    return symbol if symbol in parameters else _number(value)
-
-
-def _link_placements(source):
-    """{link: (body link or None for the ground, 4x4 pose in that body's link frame)} of every
-    link of a URDF tree (eomc.compiler.urdf.tree.Tree): a body's own link at the identity,
-    links merged into it (welded, or below a joint locked at 0) through their joints' origins."""
+def _urdf_frames(system_urdf, wanted, where):
+    """(Tree, FrameSpecs, defaults) of the links of a URDF robot's System (from_urdf), passed
+    in as an object: its file is read by the URDF reader (eomc.compiler.urdf.model), as a
+    robot file is (the same tree built from its numbers: its symbols are the System's)."""
+    from eomc.compiler.urdf.model import UrdfModel, model_of_robot
     from eomc.compiler.urdf.reader import read_urdf
-    robot = read_urdf(source.path)
-    parent_joint = {j.child: j for j in robot.joints}
-    out = {}
-    moving_root = source.root in source.bodies
-    for link in robot.links:
-        chain, at = [], link
-        while at not in out and at not in source.bodies and not (at == source.root and not moving_root):
-            joint = parent_joint.get(at)
-            if joint is None:     # not reached from the root (build_tree refused such files)
-                break
-            chain.append(joint)
-            at = joint.parent
-        if at in out:
-            owner, T = out[at]
-        elif at in source.bodies:
-            owner, T = at, np.eye(4)
-            out[at] = (owner, T)
-        elif at == source.root:
-            owner, T = None, np.eye(4)
-            out[at] = (owner, T)
-        else:
-            continue
-        for joint in reversed(chain):
-            T = T @ joint.origin
-            out[joint.child] = (owner, T)
-    return {link: out[link] for link in robot.links if link in out}
-
-
-def _mjcf_frames(built, path, wanted, where):
-    """(Tree, FrameSpecs, defaults) of MuJoCo bodies at their body frames (``xpos``, ``xmat``):
-    the tree body carrying the MuJoCo body's mass has its frame and sits at its mass centre
-    ``body_ipos`` (eomc.compiler.mjcf.treeir), so the frame is that body, offset by -ipos."""
-    import mujoco
-    from eomc.compiler.mjcf.model import load_mjmodel
-    from eomc.compiler.mjcf.treeir import _names
-    m = load_mjmodel(path)
-    names = _names(m, mujoco.mjtObj.mjOBJ_BODY, m.nbody, "body")
-    index = {b.name: i for i, b in enumerate(built.tree.bodies)}
-    lookup = {}
-    for b, (raw, s) in enumerate(names):
-        lookup.setdefault(raw, (b, s))
-        lookup.setdefault(s, (b, s))
-    out = []
-    for name in wanted:
-        if name not in lookup:
-            raise _unknown(name, [raw for raw, _ in names], where, "body")
-        b, s = lookup[name]
-        if b == 0:        # the world body
-            out.append(FrameSpec(_safe(name), -1, _IDENTITY, (0, 0, 0)))
-            continue
-        c = [_com_symbol(f"c{a}_{s}", v, built.parameters) for a, v in zip(_AXES, m.body_ipos[b])]
-        out.append(FrameSpec(_safe(name), index[s], _IDENTITY, tuple(-x for x in c)))
-    return built.tree, out, dict(built.parameters)
+    source = system_urdf.tree
+    model = model_of_robot(read_urdf(source.path), source,
+                           UrdfModel(source.path, fold_parameters=not system_urdf.parameters))
+    return model.tree, _model_frames(model, wanted, where), dict(model.defaults)
 
 
 # ---------------------------------------------------------------- lowering

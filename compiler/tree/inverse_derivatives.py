@@ -22,7 +22,7 @@ from collections import Counter
 
 import sympy as sm
 
-from ..emit.bodies import _IND, _store, _temps, needed_assignments, split_on
+from ..emit.bodies import IND, store, temps, needed_assignments, split_on
 from ..emit.symbolic import TANGENT_MIN_STATES
 from ..ir.opcount import count_ops
 from .algorithms import rnea
@@ -98,17 +98,17 @@ def jac_id_body(ctx, program, seeds):
     for j, s in enumerate(live):
         pr._names[s] = f"P[{j}]"
     decls = ([f"double dx[{nx}];", "int i, k;"] if loops else []) + ([f"double P[{len(live)}];"] if live else [])
-    lines = [f"{_IND}{d}" for d in decls]
-    lines += _temps(program, pr, once)
-    lines += [_store(lv, e, pr) for lv, e in stores]
+    lines = [f"{IND}{d}" for d in decls]
+    lines += temps(program, pr, once)
+    lines += [store(lv, e, pr) for lv, e in stores]
     if loops:
-        lines.append(f"{_IND}for (i = 0; i < {nx}; i++) dx[i] = 0.0;")
+        lines.append(f"{IND}for (i = 0; i < {nx}; i++) dx[i] = 0.0;")
     for start, end, inner, col in loops:
-        body = _temps(program, pr, inner) + [_store(lv, e, pr) for lv, e in col]
-        lines += [f"{_IND}for (k = {start}; k < {end}; k++) {{", f"{_IND * 2}dx[k] = 1.0;", f"{_IND * 2}{{"]
-        lines += [_IND * 2 + line for line in body]
-        lines += [f"{_IND * 2}}}", f"{_IND * 2}dx[k] = 0.0;", f"{_IND}}}"]
-    lines.append(f"{_IND}return {ctx.name}_finite(out, {nu * nx});")
+        body = temps(program, pr, inner) + [store(lv, e, pr) for lv, e in col]
+        lines += [f"{IND}for (k = {start}; k < {end}; k++) {{", f"{IND * 2}dx[k] = 1.0;", f"{IND * 2}{{"]
+        lines += [IND * 2 + line for line in body]
+        lines += [f"{IND * 2}}}", f"{IND * 2}dx[k] = 0.0;", f"{IND}}}"]
+    lines.append(f"{IND}return {ctx.name}_finite(out, {nu * nx});")
     return lines
 
 

@@ -10,7 +10,7 @@ cost O(k n), where jac_x costs O(n²).  Forward sensitivities use it.
 """
 import sympy as sm
 
-from ..emit.bodies import _IND, _store, _temps, needed_assignments, split_on
+from ..emit.bodies import IND, store, temps, needed_assignments, split_on
 
 __all__ = ["tree_jvp_body"]
 
@@ -44,41 +44,41 @@ def tree_jvp_body(ctx, program, W, G, seeds, nx, npar):
     decls = [f"double w[{len(W)}];", f"double G[{ng}];", "const double *dx;", "int i, d;"]
     if slot:
         decls += ["const double *dp;", f"double Gp[{len(slot)}] = {{0.0}};   /* set when a direction has a parameter part */", "int anyp = 0;"]
-    lines = [f"{_IND}{x}" for x in decls]
-    lines += _temps(program, pr, before)
+    lines = [f"{IND}{x}" for x in decls]
+    lines += temps(program, pr, before)
     pivots = [pr.doprint(e) for k, e in program.results if k[0] == "Dpiv"]
     if pivots:
-        lines.append(f"{_IND}if ({' || '.join(f'!({d} > 0.0)' for d in pivots)}) "
+        lines.append(f"{IND}if ({' || '.join(f'!({d} > 0.0)' for d in pivots)}) "
                      f"return EOMC_SINGULAR_MASS_MATRIX;")
     ud = program.result_exprs("ud")
-    lines += [_store(f"w[{j}]", ud[("ud", j)], pr) for j in range(nu)]
+    lines += [store(f"w[{j}]", ud[("ud", j)], pr) for j in range(nu)]
     lam = program.result_exprs("lam")
-    lines += [_store(f"w[{nu + j}]", lam[("lam", j)], pr) for j in range(len(W) - nu)]
-    lines += _temps(program, pr, after)
+    lines += [store(f"w[{nu + j}]", lam[("lam", j)], pr) for j in range(len(W) - nu)]
+    lines += temps(program, pr, after)
     kin = program.result_exprs("kin")
-    lines += [_store(f"xdot[{i}]", kin.get(("kin", i), sm.S.Zero), pr) for i in range(nq)]
-    lines += [f"{_IND}xdot[{nq + j}] = w[{j}];" for j in range(nu)]
+    lines += [store(f"xdot[{i}]", kin.get(("kin", i), sm.S.Zero), pr) for i in range(nq)]
+    lines += [f"{IND}xdot[{nq + j}] = w[{j}];" for j in range(nu)]
     zd = program.result_exprs("zd")
-    lines += [_store(f"xdot[{first + i}]", zd.get(("zd", i), sm.S.Zero), pr) for i in range(nx - first)]
+    lines += [store(f"xdot[{first + i}]", zd.get(("zd", i), sm.S.Zero), pr) for i in range(nx - first)]
     if slot:
-        lines += [f"{_IND}for (d = 0; d < k && !anyp; d++)",
-                  f"{_IND * 2}for (i = 0; i < {npar}; i++) if (dirs[(size_t)d * {nd} + {nx} + i] != 0.0) anyp = 1;",
-                  f"{_IND}if (anyp) {{"]
-        lines += [_IND + x for x in _temps(program, pr, [a for a in program.assignments if a[0] in p_only])]
-        lines += [_IND + _store(f"Gp[{j}]", (gp if key[0] == "dres_p" else kp)[key], pr)
+        lines += [f"{IND}for (d = 0; d < k && !anyp; d++)",
+                  f"{IND * 2}for (i = 0; i < {npar}; i++) if (dirs[(size_t)d * {nd} + {nx} + i] != 0.0) anyp = 1;",
+                  f"{IND}if (anyp) {{"]
+        lines += [IND + x for x in temps(program, pr, [a for a in program.assignments if a[0] in p_only])]
+        lines += [IND + store(f"Gp[{j}]", (gp if key[0] == "dres_p" else kp)[key], pr)
                   for key, j in slot.items()]
-        lines.append(f"{_IND}}}")
+        lines.append(f"{IND}}}")
     dkin = program.result_exprs("dkin")
     dkin.update({("dkin", first + k[1], k[2]): e for k, e in program.result_exprs("dzd").items()})
-    body = ["{"] + [x[len(_IND):] for x in _temps(program, pr, inner)]
+    body = ["{"] + [x[len(IND):] for x in temps(program, pr, inner)]
     body += [f"G[{i}] = {pr.doprint(tangent.get(('tjv', i), sm.S.Zero))};" for i in range(ng)]
     body.append("}")
     if gp:
-        body += ["if (anyp) {", f"{_IND}dp = dx + {nx};"]
-        body += [f"{_IND}G[{key[1]}] += Gp[{slot[key]}] * dp[{key[2]}];" for key in sorted(gp)]
+        body += ["if (anyp) {", f"{IND}dp = dx + {nx};"]
+        body += [f"{IND}G[{key[1]}] += Gp[{slot[key]}] * dp[{key[2]}];" for key in sorted(gp)]
         body.append("}")
     body.append("{")
-    body += [x[len(_IND):] for x in _temps(program, pr, solve)]
+    body += [x[len(IND):] for x in temps(program, pr, solve)]
     body += [f"out[(size_t)d * {nx} + {nq + i}] = {pr.doprint(sol.get(i, sm.S.Zero))};" for i in range(nu)]
     body.append("}")
     for i in list(range(nq)) + list(range(first, nx)):
@@ -86,11 +86,11 @@ def tree_jvp_body(ctx, program, W, G, seeds, nx, npar):
                  if dkin.get(("dkin", i, c), 0) != 0]
         terms += [f"(anyp ? Gp[{slot[key]}] * dx[{nx + key[2]}] : 0.0)" for key in sorted(kp) if key[1] == i]
         body.append(f"out[(size_t)d * {nx} + {i}] = {' + '.join(terms) or '0.0'};")
-    lines.append(f"{_IND}for (d = 0; d < k; d++) {{")
-    lines.append(f"{_IND * 2}dx = dirs + (size_t)d * {nd};")
-    lines += [_IND * 2 + x for x in body]
-    lines.append(f"{_IND}}}")
-    lines.append(f"{_IND}i = {ctx.name}_finite(xdot, {nx});")
-    lines.append(f"{_IND}if (i != EOMC_OK || k <= 0) return i;")
-    lines.append(f"{_IND}return {ctx.name}_finite(out, k * {nx});")
+    lines.append(f"{IND}for (d = 0; d < k; d++) {{")
+    lines.append(f"{IND * 2}dx = dirs + (size_t)d * {nd};")
+    lines += [IND * 2 + x for x in body]
+    lines.append(f"{IND}}}")
+    lines.append(f"{IND}i = {ctx.name}_finite(xdot, {nx});")
+    lines.append(f"{IND}if (i != EOMC_OK || k <= 0) return i;")
+    lines.append(f"{IND}return {ctx.name}_finite(out, k * {nx});")
     return lines

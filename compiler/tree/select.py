@@ -42,7 +42,8 @@ from sympy.physics import mechanics as me
 from eomc.runtime.errors import EomcError, ModelError
 
 from ..mechanics.formed import FormedSystem
-from .formed import formed_of_tree, tree_exprs
+from ..multibody.model import Model
+from .formed import model_of_tree, tree_exprs
 from .model import NotATree
 from .recognize import tree_of
 
@@ -64,9 +65,9 @@ def tree_digest(spec):
     """The tree's expressions and shape (each body's parent and speed: two trees can have
     the same expressions and differ only there) and the reader's notes (the metadata's
     ``tree_notes``), for the generation cache key of a formed-less System."""
-    tree = getattr(spec.formed, "_tree", None)
-    if tree is None:
+    if not isinstance(spec.formed, Model):
         return None
+    tree = spec.formed.tree
     # per body: parent, then its speed (>= 0), -1 (fixed) or -2-k followed by a k-speed joint's speeds
     shape = [(b.parent, b.speed) if b.speed is not None else
              (b.parent, -2 - len(b.speeds)) + tuple(b.speeds) if b.speeds else (b.parent, -1)
@@ -84,7 +85,7 @@ def is_eomc_kane(system):
 
 
 def kane_tree_formed(kane):
-    """FormedSystem (method "tree", no A and b) of an eomc KanesMethod, read from its bodies,
+    """The Model (a tree: nothing formed) of an eomc KanesMethod, read from its bodies,
     loads and kinematic equations without asking for its formed equations, so that a lazily
     formed KanesMethod is never formed when the recursive formulation takes it.  NotATree
     when the recursion cannot take it."""
@@ -100,13 +101,12 @@ def kane_tree_formed(kane):
         raise NotATree(f"no kinematic differential equation gives {exc.args[0]}") from None
     if not getattr(kane, "_bodylist", None):
         raise NotATree("the KanesMethod has no bodies (kanes_equations was not called)")
-    return formed_of_tree(tree_from_kane(kane, kin))   # the KanesMethod's q and u, in order
+    return model_of_tree(tree_from_kane(kane, kin))   # the KanesMethod's q and u, in order
 
 
 def _find_tree(spec):
-    tree = getattr(spec.formed, "_tree", None)
-    if tree is not None:
-        return tree
+    if isinstance(spec.formed, Model):
+        return spec.formed.tree
     if spec.system is None or isinstance(spec.system, FormedSystem):
         raise NotATree("only a FormedSystem was given (pass the System or KanesMethod itself)")
     if spec.formed.method != "kane" and not isinstance(spec.system, me.System):
@@ -182,7 +182,7 @@ def check_formed_finite(spec):
     non-finite constant (it would be printed as a literal NAN or INFINITY)."""
     f = spec.formed
     rows = [(f"the kinematic equation of {c}", e) for c, e in zip(f.coordinates, f.kinematics)]
-    if f.method != "tree":
+    if not isinstance(f, Model):
         speeds = list(f.speeds) + list(f.multipliers)
         rows += [(f"the mass matrix row of {speeds[i] if i < len(speeds) else i}", e)
                  for i in range(f.dynamics_matrix.rows) for e in f.dynamics_matrix.row(i)]
@@ -202,10 +202,9 @@ def check_formed_finite(spec):
 def _kane_formed(spec):
     """The Kane FormedSystem.  An unformed System reaches here formed already: model_spec
     forms it with eomc's Kane when the kane formulation is asked for."""
-    if spec.formed.method == "tree" and getattr(spec.formed, "_mjcf", None) is not None:
-        raise ModelError("an MJCF model has the recursive formulation only: MuJoCo's model is read "
-                         "straight into the joint tree, with no SymPy System to form Kane's equations of")
-    if spec.formed.method == "tree":
+    if isinstance(spec.formed, Model) and spec.formed.kane_refusal:
+        raise ModelError(spec.formed.kane_refusal)
+    if isinstance(spec.formed, Model):
         raise ModelError("the kane formulation needs formed equations; this System was read as a "
                          "joint tree only (compile it with formulation='kane' from the start)")
     return spec.formed
@@ -260,10 +259,12 @@ def _generate_kane(spec, functions, fold_parameters):
 
 def _generate_recursive(spec, functions, fold_parameters):
     from ..emit import generate_c
+    from .formulation import Recursive
     tree = _find_tree(spec)
     check_tree_finite(tree, spec.system)
     check_formed_finite(spec)
-    generated = generate_c(spec.formed, spec.name, tree=tree, **_options(spec, functions, fold_parameters))
+    generated = generate_c(spec.formed, spec.name, formulation=Recursive(tree),
+                           **_options(spec, functions, fold_parameters))
     if getattr(tree, "notes", ()):   # joints the System reader took through SymPy's kinematics, and why
         generated.metadata["tree_notes"] = list(tree.notes)
     return generated
@@ -288,11 +289,13 @@ def generate_formulation(spec, functions, fold_parameters, formulation=DEFAULT_F
 
 
 def _kane_side(spec, kane_spec):
-    if spec.formed.method != "tree":
+    if not isinstance(spec.formed, Model):
         return spec
     if kane_spec is None:
         raise ModelError("the System's equations are not formed")
-    return kane_spec()
+    spec = kane_spec()
+    _kane_formed(spec)        # a model with no System to form (MJCF) is refused here, saying so
+    return spec
 
 
 def _generate_auto(spec, functions, fold_parameters, kane_spec):
@@ -309,7 +312,7 @@ def _generate_auto(spec, functions, fold_parameters, kane_spec):
         generated.metadata["formulation_note"] = f"kane, the fallback ({why})"
         return generated
     nu = spec.formed.nu
-    if spec.formed.method == "tree" and nu > AUTO_KANE_MAX_SPEEDS:
+    if isinstance(spec.formed, Model) and nu > AUTO_KANE_MAX_SPEEDS:
         recursive.metadata["formulation_costs"] = {
             "kane": f"not formed ({nu} speeds > {AUTO_KANE_MAX_SPEEDS}: Kane's rhs has not won there)",
             "recursive": _rhs_cost(recursive)}

@@ -22,8 +22,10 @@ from pathlib import Path
 
 from eomc.runtime.errors import EomcWarning
 
+from ..multibody.model import merged_defaults
+
 __all__ = ["is_urdf_path", "is_urdf_model", "UrdfModel", "urdf_overrides", "load_urdf_model",
-           "with_options", "urdf_formed"]
+           "with_options", "read_model", "model_of_robot", "urdf_formed"]
 
 
 @dataclass(frozen=True)
@@ -55,80 +57,145 @@ def is_urdf_model(model):
     return isinstance(model, UrdfModel) or is_urdf_path(model)
 
 
-def _merged(overrides, formed, defaults, joint_inputs):
-    """``overrides`` with the URDF's parameter defaults and inputs filled in where not given."""
-    result = dict(overrides)
-    used = set(formed.parameters)
-    defaults = {symbol: value for symbol, value in defaults.items() if symbol in used}
-    given = overrides.get("parameters")
-    if isinstance(given, dict):
-        by_name = {str(s): s for s in formed.parameters}
-        given = {by_name.get(k, k) if isinstance(k, str) else k: v for k, v in given.items()}
-        result["parameters"] = {**defaults, **given}
-    elif given is None:
-        result["parameters"] = defaults
-    if overrides.get("inputs") is None:
-        present = set(formed.inputs)
-        extra = [r for r in formed.inputs if r not in joint_inputs]   # the user's own, after the joints'
-        result["inputs"] = [r for r in joint_inputs if r in present] + extra
-    return result
-
-
 def urdf_overrides(system, formed, overrides):
     """``overrides`` with a from_urdf System's parameter defaults and inputs filled in."""
     built = getattr(system, "urdf", None)
     if built is None:
         return overrides
-    return _merged(overrides, formed, built.parameters, built.inputs)
+    return merged_defaults(overrides, formed, built.parameters, built.inputs)
 
 
-def urdf_formed(model, formulation, overrides, formed_system):
-    """(FormedSystem, overrides with the URDF's defaults, System or None) of a URDF file or
-    :class:`UrdfModel` under ``formulation`` (see the module docstring).
+def read_model(model, poses=False):
+    """The :class:`~eomc.compiler.multibody.model.Model` of a URDF file or :class:`UrdfModel`:
+    the file parsed once (lxml), its links merged into the joint tree, every link a frame,
+    and with ``poses`` the animation's bodies and visuals (eomc.runtime.urdf_scene read from
+    the same parsed document).  Nothing after this reads the file."""
+    from . import build_tree, read_urdf
+    model = model if isinstance(model, UrdfModel) else UrdfModel(Path(model))
+    robot = read_urdf(model.path)
+    tree = build_tree(robot, floating_base=model.floating_base,
+                      allow_nonphysical_inertia=model.allow_nonphysical_inertia)
+    return model_of_robot(robot, tree, model, poses)
+
+
+def model_of_robot(robot, tree, model, poses=False):
+    """The Model of a URDF robot read (``robot``, eomc.compiler.urdf.reader) and merged into
+    its link tree (``tree``) with ``model``'s options (see :func:`read_model`)."""
+    from eomc.compiler.multibody.model import Frame, Provenance
+    from eomc.compiler.tree.formed import model_of_tree
+    from . import system_from_tree
+    from .tree import identifier
+    from ..multibody.joints import snap
+    from .treeir import pose_source, tree_ir
+    mimics = [j.name for j in tree.joints if j.mimic is not None]
+    refusal = (f"mimic joints ({', '.join(mimics[:5])}{', ...' if len(mimics) > 5 else ''}) are "
+               f"constraints, which the URDF reader's tree does not carry") if model.mimic and mimics else None
+    built = tree_ir(tree, fold=model.fold_parameters, gravity=model.gravity, laws=model.limits)
+    outputs, events = {}, {}
+    named, ground = _ground(model)
+    if named:
+        from eomc.compiler.contact.tree import with_contacts
+        built, outputs, events = with_contacts(built, named, fold=model.fold_parameters)
+    if ground:
+        built, more_outputs, more_events = _with_ground(built, model.fold_parameters)
+        outputs, events = {**outputs, **more_outputs}, {**events, **more_events}
+    extra = {}
+    if poses:
+        from eomc.runtime.geometry import urdf_link_transforms, urdf_visuals
+        from eomc.runtime.urdf_scene import load_scene
+        loaded = load_scene(robot.path, robot.xml)
+        extra["welds"] = urdf_link_transforms(tree, loaded)
+        extra["shapes"] = urdf_visuals(tree, loaded)
+        extra["poses"] = pose_source(built, extra["welds"], extra["shapes"])
+
+    def mechanics():
+        """The robot's SymPy System (Kane's formulation), from the tree read above."""
+        made = system_from_tree(tree, fold=model.fold_parameters, mimic=model.mimic, gravity=model.gravity,
+                                laws=model.limits)
+        made.system.urdf = made
+        return made.system
+
+    body_index = {j.child: k for k, j in enumerate(tree.joints)}
+    frames = []
+    for link, (owner, T) in _link_placements(robot, tree).items():
+        rotation = tuple(tuple(snap(float(v)) for v in row) for row in T[:3, :3])
+        if owner is None:
+            frames.append(Frame(link, -1, rotation, tuple(snap(float(v)) for v in T[:3, 3]),
+                                (identifier(link),)))
+            continue
+        s = identifier(owner)
+        c = [_com_symbol(f"c{a}_{s}", v, built.parameters) for a, v in zip("xyz", tree.bodies[owner].com)]
+        offset = tuple(snap(float(T[k, 3])) - c[k] for k in range(3))
+        frames.append(Frame(link, body_index[owner], rotation, offset, (identifier(link),)))
+    return model_of_tree(built.tree, Provenance("urdf", str(model.path), robot.line), frames=tuple(frames),
+                         defaults=dict(built.parameters), joint_inputs=tuple(built.inputs), outputs=outputs,
+                         events=events, mechanics=mechanics, refusal=refusal, frame_noun="link", **extra)
+
+
+def _com_symbol(name, value, parameters):
+    """The mass-centre coordinate as the tree writes it: its parameter, or the literal
+    (a zero, or any value when the parameters were folded)."""
+    import sympy as sm
+    from ..multibody.joints import snap
+    symbol = sm.Symbol(name)
+    return symbol if symbol in parameters else snap(float(value))
+
+
+def _link_placements(robot, source):
+    """{link: (body link or None for the ground, 4x4 pose in that body's link frame)} of every
+    link of the robot (its merged tree ``source``, eomc.compiler.urdf.tree.Tree): a body's own
+    link at the identity, links merged into it (welded, or below a joint locked at 0) through
+    their joints' origins."""
+    import numpy as np
+    parent_joint = {j.child: j for j in robot.joints}
+    out = {}
+    moving_root = source.root in source.bodies
+    for link in robot.links:
+        chain, at = [], link
+        while at not in out and at not in source.bodies and not (at == source.root and not moving_root):
+            joint = parent_joint.get(at)
+            if joint is None:     # not reached from the root (build_tree refused such files)
+                break
+            chain.append(joint)
+            at = joint.parent
+        if at in out:
+            owner, T = out[at]
+        elif at in source.bodies:
+            owner, T = at, np.eye(4)
+            out[at] = (owner, T)
+        elif at == source.root:
+            owner, T = None, np.eye(4)
+            out[at] = (owner, T)
+        else:
+            continue
+        for joint in reversed(chain):
+            T = T @ joint.origin
+            out[joint.child] = (owner, T)
+    return {link: out[link] for link in robot.links if link in out}
+
+
+def urdf_formed(read, formulation, overrides, formed_system):
+    """(FormedSystem or the Model itself, overrides with the URDF's defaults, System or None)
+    of a URDF robot's :func:`read_model` under ``formulation`` (see the module docstring).
 
     ``formed_system(system, formulation)`` forms the robot's System when it takes that
     route (the caller's, :func:`eomc.compiler.model.spec.formed_system`: passed in so
     that the URDF package does not import the model layer that imports it)."""
-    from . import build_tree, read_urdf, system_from_tree
-    model = model if isinstance(model, UrdfModel) else UrdfModel(Path(model))
-    tree = build_tree(read_urdf(model.path), floating_base=model.floating_base,
-                      allow_nonphysical_inertia=model.allow_nonphysical_inertia)
-    mimics = [j.name for j in tree.joints if j.mimic is not None]
-    if formulation != "kane" and not (model.mimic and mimics):
-        from eomc.compiler.tree.formed import formed_of_tree
-        from .treeir import tree_ir
-        built = tree_ir(tree, fold=model.fold_parameters, gravity=model.gravity, laws=model.limits)
-        named, ground = _ground(model)
-        if named or ground:
-            from eomc.compiler.contact.tree import with_contacts, merged_outputs
-            contact_outputs, contact_events = {}, {}
-            if named:
-                built, contact_outputs, contact_events = with_contacts(built, named, fold=model.fold_parameters)
-            if ground:
-                built, more_outputs, more_events = _with_ground(built, model.fold_parameters)
-                contact_outputs, contact_events = {**contact_outputs, **more_outputs}, {**contact_events, **more_events}
-            overrides = merged_outputs(overrides, contact_outputs, contact_events)
-        formed = formed_of_tree(built.tree)
-        object.__setattr__(formed, "_urdf", built)   # for the animation's poses (treeir.pose_source)
-        return formed, _merged(overrides, formed, built.parameters, built.inputs), None
-    if model.contacts or model.ground:
+    if formulation != "kane" and read.refusal is None:
+        from eomc.compiler.contact.tree import merged_outputs
+        if read.outputs or read.events:
+            overrides = merged_outputs(overrides, dict(read.outputs), dict(read.events))
+        return read, merged_defaults(overrides, read, read.defaults, read.joint_inputs), None
+    if read.outputs or read.events:
         from eomc.runtime.errors import ModelError
-        from eomc.compiler.contact.tree import with_contacts
-        from .treeir import tree_ir
-        with_contacts(tree_ir(tree, fold=model.fold_parameters, gravity=model.gravity), _ground(model)[0])
-        raise ModelError(f"{model.path}: ground contacts on a URDF robot are lowered by the recursive "
+        raise ModelError(f"{read.source.path}: ground contacts on a URDF robot are lowered by the recursive "
                          f"formulation only (formulation 'recursive' or 'auto'"
-                         f"{'; mimic=True robots with mimic joints take Kane' if mimics else ''})")
+                         f"{'; mimic=True robots with mimic joints take Kane' if read.refusal else ''})")
     if formulation != "kane":
-        warnings.warn(f"{model.path}: mimic joints ({', '.join(mimics[:5])}{', ...' if len(mimics) > 5 else ''}) "
-                      f"are constraints, which the URDF reader's tree does not carry: the robot goes "
-                      f"through its SymPy System, whose constraints close the joint tree (formulation "
-                      f"{formulation})", EomcWarning,
+        warnings.warn(f"{read.source.path}: {read.refusal}: the robot goes through its SymPy System, whose "
+                      f"constraints close the joint tree (formulation {formulation})", EomcWarning,
                       stacklevel=3)
-    built = system_from_tree(tree, fold=model.fold_parameters, mimic=model.mimic, gravity=model.gravity,
-                             laws=model.limits)
-    system = built.system
-    system.urdf = built
+    system = read.mechanics()
     formed = formed_system(system, formulation)
     return formed, urdf_overrides(system, formed, overrides), system
 
@@ -146,7 +213,7 @@ def _ground(model):
 def _with_ground(built, fold):
     """(built, outputs, events) with the <collision> shapes on the ground (.collision)."""
     from eomc.compiler.contact.geometry import with_shapes
-    from eomc.compiler.contact.tree import _com
+    from eomc.compiler.contact.tree import body_com
     from eomc.runtime.errors import ModelError
     from .collision import collision_shapes
     from .tree import identifier
@@ -155,7 +222,7 @@ def _with_ground(built, fold):
         raise ModelError(f"{built.source.path}: a ground was asked for (--ground, ground=True), but no moving "
                          f"link has <collision> geometry")
     coms = {identifier(b.name): tuple(float(x) for x in b.com) for b in built.source.bodies.values()}
-    return with_shapes(built, shapes, lambda i: _com(built, built.tree.bodies[i].name,
+    return with_shapes(built, shapes, lambda i: body_com(built, built.tree.bodies[i].name,
                                                      coms.get(built.tree.bodies[i].name, (0.0, 0.0, 0.0))),
                        fold=fold)
 
@@ -179,7 +246,7 @@ def with_options(model, name=None, *, floating_base=False, allow_nonphysical_ine
         flags = " and ".join("--limits off" if k == "limits" else "--" + k.replace("_", "-") for k in given)
         raise ModelError(f"{flags} applies to URDF robots (.urdf){' and MJCF models' if given == {'limits': False} else ''}, "
                          f"not to {model}")
-    from eomc.compiler.model.validate import sanitize_name
+    from eomc.compiler.emit.layout import sanitize_name
     return UrdfModel(Path(model), **given), name or sanitize_name(Path(model).stem)
 
 

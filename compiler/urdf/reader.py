@@ -56,6 +56,9 @@ class UrdfRobot:
     links: dict                       # name -> UrdfLink, in file order
     joints: list                      # UrdfJoint, in file order
     line: int = None                  # the <robot> element's line
+    # the parsed document (lxml), for a reader that needs more of it than these records (the
+    # visuals: eomc.runtime.urdf_scene reads them from it without parsing again)
+    xml: "lxml.etree._Element" = field(default=None, repr=False, compare=False)
 
 
 def _fail(path, line, message):
@@ -232,7 +235,7 @@ def read_urdf(path, parser="lxml"):
     if parser == "lxml":
         links = {e.get("name"): _link_element(e) for e in root.findall("link")}
         joints = [_joint(path, _JointElement(e), e.sourceline) for e in root.findall("joint")]
-        return UrdfRobot(root.get("name"), path, links, joints, root.sourceline)
+        return UrdfRobot(root.get("name"), path, links, joints, root.sourceline, root)
     robot = _parse(path).robot
     links = {link.name: _link(link, lines.get(("link", link.name))) for link in robot.links}
     joints = [_joint(path, j, lines.get(("joint", j.name))) for j in robot.joints]

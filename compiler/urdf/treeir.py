@@ -27,8 +27,6 @@ frame), c the child's and c_p the parent's centre of mass:
 R0 a; a prismatic joint's force acts at the child's link origin and at the
 joint point of the parent.
 """
-from types import SimpleNamespace
-
 import numpy as np
 import sympy as sm
 from sympy.physics.vector import dynamicsymbols
@@ -37,33 +35,12 @@ from eomc.compiler.tree.model import Load, Tree, TreeBody
 from eomc.compiler.tree.joint_laws import JointScale
 from eomc.compiler.tree.recognize import effective_inertias
 
+from ..multibody.joints import Parameters, cross, lin, rotation_terms, snap, snapped, times, vec
 from .tree import coordinate_suffixes, identifier
 
 __all__ = ["UrdfTree", "tree_ir", "floating_rotation", "floating_kinematics"]
 
-_SNAP = 1e-12
 _T = dynamicsymbols._t
-
-
-def _snap(value):
-    """Exact 0 and ±1 for numbers within 1e-12 of them (as :mod:`.system` does)."""
-    for exact in (0, 1, -1):
-        if abs(value - exact) < _SNAP:
-            return sm.Integer(exact)
-    return sm.Float(float(value), 17)
-
-
-def _snapped(array):
-    """A numpy array with entries within 1e-12 of 0, ±1 made exact (floats still)."""
-    out = np.array(array, dtype=float)
-    for exact in (0.0, 1.0, -1.0):
-        out[np.abs(out - exact) < _SNAP] = exact
-    return out
-
-
-def _num(value):
-    """A float as the SymPy literal the System path writes (exact 0/±1 or a 17-digit Float)."""
-    return _snap(value)
 
 
 class UrdfTree:
@@ -78,42 +55,6 @@ class UrdfTree:
         self.inputs = inputs              # tau(t) per actuated joint, joint order
         self.source = source              # the urdf.tree.Tree
         self.offsets = offsets            # per body: its link origin from its parent's, parent frame
-
-
-class _Parameters:
-    """Named symbols for non-zero numbers; exact zeros (and ``fold``) stay literal (as
-    :class:`.system._Parameters`; names are distinct: :func:`.tree.build_tree` checked)."""
-
-    def __init__(self, fold):
-        self.fold, self.values = fold, {}
-
-    def __call__(self, name, value):
-        value = float(value)
-        if value == 0.0:
-            return sm.Integer(0)
-        if self.fold:
-            return _snap(value)
-        symbol = sm.Symbol(name)
-        self.values[symbol] = value
-        return symbol
-
-
-def _lin(coefficients, functions):
-    """sum(c_k f_k) for numeric c_k (snapped), zero terms dropped."""
-    out = sm.S.Zero
-    for c, f in zip(coefficients, functions):
-        c = _num(c)
-        if c != 0:
-            out += c * f if f != 1 else c
-    return out
-
-
-def _rotation_terms(R0, axis):
-    """R_PC = A cos q + B sin q + C for R_PC = R0 Rot(axis, q) (Rodrigues), as numbers."""
-    a = np.asarray(axis, dtype=float)
-    ax = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
-    aa = np.outer(a, a)
-    return (_snapped(R0 @ (np.eye(3) - aa)), _snapped(R0 @ ax), _snapped(R0 @ aa))
 
 
 def floating_rotation(rx, ry, rz):
@@ -146,24 +87,10 @@ def _z_to(axis):
     return np.column_stack([x, np.cross(z, x), z])
 
 
-def _cross(a, b):
-    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-
-
-def _times(M, v):
-    """Numeric 3x3 (snapped literals) times a symbolic 3-vector."""
-    return [sum((_num(M[i, k]) * v[k] for k in range(3) if _num(M[i, k]) != 0 and v[k] != 0), sm.S.Zero)
-            for i in range(3)]
-
-
-def _vec(values):
-    return [_num(v) for v in values]
-
-
 def tree_ir(tree, *, fold=False, gravity=9.81, laws=True):
     """The :class:`UrdfTree` of a :class:`.tree.Tree` (see the module docstring); ``laws``: the
     joints' declared limits, damping and friction (:func:`law_torque`) act, else they are ignored."""
-    params = _Parameters(fold)
+    params = Parameters(fold)
     inertias = joint_inertias(tree) if laws else None
     bodies, coordinates, speeds, kinematics, inputs, loads, offsets = [], [], [], [], [], [], []
     index, coms = {}, {}
@@ -182,8 +109,8 @@ def tree_ir(tree, *, fold=False, gravity=9.81, laws=True):
         cp = coms[tj.parent] if tj.parent is not None else [0, 0, 0]
         base = [p[k] - cp[k] for k in range(3)]
         parent = index[tj.parent] if tj.parent is not None else -1
-        R0 = _snapped(tj.rotation)
-        a = _snapped(tj.axis)
+        R0 = snapped(tj.rotation)
+        a = snapped(tj.axis)
         suffixes_q, suffixes_u = coordinate_suffixes(tj.type)
         qs = [dynamicsymbols(f"q_{j}" + (f"_{x}" if x else "")) for x in suffixes_q]
         us = [dynamicsymbols(f"u_{j}" + (f"_{x}" if x else "")) for x in suffixes_u]
@@ -192,55 +119,55 @@ def tree_ir(tree, *, fold=False, gravity=9.81, laws=True):
         speeds += us
         common = dict(name=s, joint=tj.name, parent=parent, mass=mass, inertia=inertia)
         if tj.type in ("revolute", "continuous"):
-            A, B, C = _rotation_terms(R0, a)
+            A, B, C = rotation_terms(R0, a)
             cq, sq = sm.cos(qs[0]), sm.sin(qs[0])
-            R = sm.Matrix(3, 3, lambda r, k: _lin((A[r, k], B[r, k], C[r, k]), (cq, sq, 1)))
+            R = sm.Matrix(3, 3, lambda r, k: lin((A[r, k], B[r, k], C[r, k]), (cq, sq, 1)))
             Rc = [sum((R[r, k] * c[k] for k in range(3) if c[k] != 0), sm.S.Zero) for r in range(3)]
             position = sm.Matrix([base[r] + Rc[r] for r in range(3)])
-            av = _vec(a)
-            motion = tuple(av) + tuple(_cross(av, c))
+            av = vec(a)
+            motion = tuple(av) + tuple(cross(av, c))
             bodies.append(TreeBody(kind="revolute", speed=first, rotation=R.T, position=position,
                                    motion=motion, **common))
             offsets.append(sm.Matrix(p))
             kinematics.append(us[0])
         elif tj.type == "prismatic":
-            R0a = _times(R0, [a[k] * qs[0] for k in range(3)])
-            R0c = _times(R0, c)
+            R0a = times(R0, [a[k] * qs[0] for k in range(3)])
+            R0c = times(R0, c)
             position = sm.Matrix([base[r] + R0c[r] + R0a[r] for r in range(3)])
-            motion = (0, 0, 0) + tuple(_vec(a))
-            bodies.append(TreeBody(kind="prismatic", speed=first, rotation=sm.Matrix(R0.T).applyfunc(_num),
+            motion = (0, 0, 0) + tuple(vec(a))
+            bodies.append(TreeBody(kind="prismatic", speed=first, rotation=sm.Matrix(R0.T).applyfunc(snap),
                                    position=position, motion=motion, **common))
             offsets.append(sm.Matrix([p[r] + R0a[r] for r in range(3)]))
             kinematics.append(us[0])
         elif tj.type == "floating":
             Rf = floating_rotation(*qs[3:])
-            R = sm.Matrix(3, 3, lambda r, k: sum((_num(R0[r, m]) * Rf[m, k] for m in range(3)
-                                                  if _num(R0[r, m]) != 0), sm.S.Zero))
-            xyz = _times(R0, qs[:3])
+            R = sm.Matrix(3, 3, lambda r, k: sum((snap(R0[r, m]) * Rf[m, k] for m in range(3)
+                                                  if snap(R0[r, m]) != 0), sm.S.Zero))
+            xyz = times(R0, qs[:3])
             Rc = [sum((R[r, k] * c[k] for k in range(3) if c[k] != 0), sm.S.Zero) for r in range(3)]
             position = sm.Matrix([base[r] + xyz[r] + Rc[r] for r in range(3)])
             unit = [(1, 0, 0), (0, 1, 0), (0, 0, 1)]
             motions = tuple((0, 0, 0) + e_ for e_ in unit) + tuple(
-                tuple(e_) + tuple(_cross(list(e_), c)) for e_ in unit)
+                tuple(e_) + tuple(cross(list(e_), c)) for e_ in unit)
             bodies.append(TreeBody(kind="free", speed=None, rotation=R.T, position=position, motion=None,
                                    speeds=tuple(range(first, first + 6)), motions=motions, **common))
             offsets.append(sm.Matrix([p[r] + xyz[r] for r in range(3)]))
             kinematics += floating_kinematics(qs, us)
         elif tj.type == "planar":
-            Z = _snapped(_z_to(tj.axis))
-            Aj = _snapped(R0 @ Z)
+            Z = snapped(_z_to(tj.axis))
+            Aj = snapped(R0 @ Z)
             cth, sth = sm.cos(qs[2]), sm.sin(qs[2])
             # R_PC = Aj Rz(th) Zᵀ = P cos + Q sin + W
-            Pm = _snapped(Aj @ np.diag([1.0, 1.0, 0.0]) @ Z.T)
-            Qm = _snapped(Aj @ np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 0.0]]) @ Z.T)
-            Wm = _snapped(Aj @ np.diag([0.0, 0.0, 1.0]) @ Z.T)
-            R = sm.Matrix(3, 3, lambda r, k: _lin((Pm[r, k], Qm[r, k], Wm[r, k]), (cth, sth, 1)))
-            xy = _times(Aj, [qs[0], qs[1], 0])
+            Pm = snapped(Aj @ np.diag([1.0, 1.0, 0.0]) @ Z.T)
+            Qm = snapped(Aj @ np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 0.0]]) @ Z.T)
+            Wm = snapped(Aj @ np.diag([0.0, 0.0, 1.0]) @ Z.T)
+            R = sm.Matrix(3, 3, lambda r, k: lin((Pm[r, k], Qm[r, k], Wm[r, k]), (cth, sth, 1)))
+            xy = times(Aj, [qs[0], qs[1], 0])
             Rc = [sum((R[r, k] * c[k] for k in range(3) if c[k] != 0), sm.S.Zero) for r in range(3)]
             position = sm.Matrix([base[r] + xy[r] + Rc[r] for r in range(3)])
-            n = _vec(Z[:, 2])
-            motions = ((0, 0, 0) + tuple(_vec(Z[:, 0])), (0, 0, 0) + tuple(_vec(Z[:, 1])),
-                       tuple(n) + tuple(_cross(n, c)))
+            n = vec(Z[:, 2])
+            motions = ((0, 0, 0) + tuple(vec(Z[:, 0])), (0, 0, 0) + tuple(vec(Z[:, 1])),
+                       tuple(n) + tuple(cross(n, c)))
             bodies.append(TreeBody(kind="3-speed", speed=None, rotation=R.T, position=position, motion=None,
                                    speeds=(first, first + 1, first + 2), motions=motions, **common))
             offsets.append(sm.Matrix([p[r] + xy[r] for r in range(3)]))
@@ -265,13 +192,14 @@ def tree_ir(tree, *, fold=False, gravity=9.81, laws=True):
                     tuple(offsets))
 
 
-def pose_source(built):
+def pose_source(built, welds, shapes):
     """The animation's PoseSource (eomc.compiler.emit.poses) of a :class:`UrdfTree`, without a
     System: one frame per link at its link origin, placed from its parent link by the joint's
-    R_PC(q) and origin offset; links welded to a body or to the ground and the visuals as
-    the System route gives them (the same helpers); a line from each parent link to its child."""
+    R_PC(q) and origin offset; links welded to a body or to the ground (``welds``) and the
+    visuals (``shapes``) as the System route gives them; a line from each parent link to its
+    child."""
     from sympy.physics.vector import Point, ReferenceFrame, Vector
-    from eomc.compiler.emit.poses import PoseSource, _urdf_geometry, _welded_links
+    from eomc.compiler.emit.poses import PoseSource, welded_links
     N, O = ReferenceFrame("N"), Point("O")
     frame_edges, point_edges = [(N, None, None)], [(O, None, None)]
     frames, points, lines, placed = [], [("O", O)], [], []
@@ -284,10 +212,9 @@ def pose_source(built):
         points.append((body.name, L))
         lines.append((pindex, len(points) - 1))
         placed.append((F, L, len(points) - 1))
-    urdf = SimpleNamespace(tree=built.source)      # what the System route's helpers read
-    frames, more_frames, more_points = _welded_links(urdf, frames, N, O)
+    frames, more_frames, more_points = welded_links(welds, frames, N, O)
     return PoseSource(tuple(frames), tuple(points), tuple(lines), tuple(frame_edges + more_frames),
-                      tuple(point_edges + more_points), dict(built.parameters), _urdf_geometry(urdf))
+                      tuple(point_edges + more_points), dict(built.parameters), dict(shapes))
 
 
 def joint_law(tree, tj):
@@ -394,8 +321,8 @@ def _actuation(kind, tau, a, R0, c, p, cp, child, parent):
     """The joint's torque (revolute) or force (prismatic) on the child and its reaction on the
     parent (none on the ground: it does no work), in body components."""
     zero = sm.zeros(3, 1)
-    on_child = sm.Matrix([_num(v) * tau for v in a])
-    on_parent = sm.Matrix([-_num(v) * tau for v in _snapped(R0 @ a)])
+    on_child = sm.Matrix([snap(v) * tau for v in a])
+    on_parent = sm.Matrix([-snap(v) * tau for v in snapped(R0 @ a)])
     out = []
     if kind == "prismatic":
         out.append(Load(body=child, frame="body", moment=zero, force=on_child,

@@ -54,7 +54,7 @@ def run(args):
                                 limits=args.limits != "off", ignore=args.ignore)
     model = compile(source, name, functions=args.outputs, fold_parameters=args.fold_parameters,
                     backend=args.backend, cflags=args.cflags, cache_dir=args.cache_dir,
-                    output_dir=args.output, progress=not args.quiet, formulation=args.formulation,
+                    output_dir=args.output, progress="quiet" if args.quiet else True, formulation=args.formulation,
                     contacts=args.contact, frames=args.frame, target=args.target)
     files = sorted(p.name for p in model.directory.iterdir() if p.is_file() and not p.name.startswith("."))
     print(f"built model {model.name!r} (nq={model.nq}, nu={model.nu}, nparam={model.nparam}, "

@@ -154,7 +154,7 @@ def load_model(path, quiet=False, floating_base=False, formulation="auto", frame
         source, name = with_options(str(path), name=None, floating_base=floating_base,
                                     allow_nonphysical_inertia=allow_nonphysical_inertia, limits=limits,
                                     ignore=ignore)
-        return compile_model(source, name, progress=False if quiet else None, functions=functions,
+        return compile_model(source, name, progress="quiet" if quiet else None, functions=functions,
                              formulation=formulation, frames=frames, contacts=contacts)
     if contacts:
         raise ValueError(f"{path}: --contact applies to a robot (.urdf, .xml) being compiled, not to a built model")

@@ -189,6 +189,13 @@ def run(args):
     given = cli_common.parse_assignments(args.x0, "x0")
     x0 = cli_common.initial_state(model, given)
     params = cli_common.parameter_values(model, cli_common.parse_assignments(args.param, "param"))
+    chosen = plot_names(args.plot_states)      # checked before the run, not after it
+    if chosen is not None:
+        unknown = [n for n in chosen if n not in model.state_names and n not in model.output_names]
+        if unknown:
+            raise ValueError(f"{model.name}: --plot-states names {', '.join(unknown)}, which is no state or "
+                             f"output (states: {', '.join(model.state_names[:12])}"
+                             f"{', ...' if model.nx > 12 else ''})")
     x0 = _start(model, x0, given, args, params)
     seen = []
     try:

@@ -81,3 +81,17 @@ def test_animate_from_a_csv_builds_the_poses_only(tmp_path, monkeypatch, capsys)
     assert len(seen) == 1 and seen[0]["functions"] == ["rhs", "poses"]
     text = page.read_text()
     assert '"name":"FL_foot.p.x"' in text and "FL_foot.R[0][0]" not in text.split('"outputs"')[1][:2000]
+
+
+def test_plot_states_are_checked_before_the_run(tmp_path, monkeypatch, capsys):
+    from pathlib import Path
+
+    import eomc.runtime.simulate as simulate_module
+    examples = Path(__file__).resolve().parents[2] / "examples"
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("the run started")
+    monkeypatch.setattr(simulate_module, "simulate", refuse)
+    code = main(["simulate", str(examples / "double_pendulum.py"), "--t-final", "1", "-q",
+                 "--plot", str(tmp_path / "p.png"), "--plot-states", "q1,q9"])
+    assert code == 2 and "--plot-states names q9" in capsys.readouterr().err

@@ -193,3 +193,33 @@ def test_cython_backend_never_runs_a_stale_library(tmp_path):
         load(rebuilt, backend="cython")
     assert load(rebuilt, backend="cffi").rhs(0.0, X)[0] == pytest.approx(2 * -0.25)  # the new library
     assert load(out, backend="cython").rhs(0.0, X)[0] == pytest.approx(5 * -0.25)  # the bound one
+
+
+def test_a_loaded_model_survives_its_library_rewritten_in_place(builds, tmp_path):
+    """Round 4: `cp new.so out/libosc.so` while another process runs the old one killed that
+    process with SIGBUS (the loader maps the file by its path).  Run in a child process: a
+    crash must fail this test, not end the test session."""
+    import subprocess
+    import sys
+    import textwrap
+    out = tmp_path / "out"
+    shutil.copytree(builds[1.0].directory, out)
+    new = builds[2.0].directory / "libosc.so"
+    script = textwrap.dedent(f"""
+        import numpy as np
+        from eomc.runtime.loader import load
+        model = load({str(out)!r})
+        x = np.array({X.tolist()!r})
+        before = model.rhs(0.0, x)[0]
+        with open({str(out / 'libosc.so')!r}, "r+b") as fh:   # in place: same inode, new bytes
+            fh.write(b"\\0" * 4096)
+            fh.flush()
+            fh.seek(0)
+            fh.write(open({str(new)!r}, "rb").read())
+            fh.truncate()
+        after = [model.rhs(0.0, x)[0] for _ in range(3)]
+        print(before, *after)
+    """)
+    run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, (run.returncode, run.stderr[-2000:])
+    np.testing.assert_allclose([float(v) for v in run.stdout.split()], [-0.25] * 4)

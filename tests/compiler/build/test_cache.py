@@ -10,6 +10,7 @@ import pytest
 
 from helpers import osc_model
 from eomc.compiler.build import build, cache_root
+from eomc.compiler.build.cache import CacheWarning
 from eomc.errors import CompileError, CompilerNotFoundError
 from eomc.runtime.loader import load
 
@@ -53,7 +54,8 @@ def test_corrupt_entry_is_rebuilt(tmp_path, damage):
         manifest = json.loads((entry / "manifest.json").read_text())
         manifest["key"] = "0" * 64
         (entry / "manifest.json").write_text(json.dumps(manifest))
-    again = build(osc_model.oscillator(), cache_dir=tmp_path)
+    with pytest.warns(CacheWarning, match=r"the build cache entry .* was damaged .*; rebuilding it"):
+        again = build(osc_model.oscillator(), cache_dir=tmp_path)
     assert not again.hit and again.directory == entry
     model = load(again.directory)
     assert np.allclose(model.rhs(0.0, [0.3, -0.2]), osc_model.oscillator_rhs(0.0, [0.3, -0.2]))

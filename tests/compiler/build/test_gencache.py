@@ -7,6 +7,7 @@ import sympy as sm
 from helpers import model_files
 import eomc.compiler.emit as emit
 from eomc.compiler.build import cache_root
+from eomc.compiler.build.cache import CacheWarning
 from eomc.compiler.build.gencache import _Digester, generation_key
 from eomc.compiler.driver import generate
 from eomc.compiler.model import model_spec
@@ -64,5 +65,6 @@ def test_unreadable_entry_is_regenerated(tmp_path, counted):
     generate(path, cache_dir=tmp_path / "c", progress=False, formulation="kane")
     stored, = (cache_root(tmp_path / "c") / "generated").rglob("generated.json")
     stored.write_text("{" + " " * (stored.stat().st_size - 1))  # same size, not JSON
-    _, again = generate(path, cache_dir=tmp_path / "c", progress=False, formulation="kane")
+    with pytest.warns(CacheWarning, match=r"generated.json differs from the file that was built\); rebuilding"):
+        _, again = generate(path, cache_dir=tmp_path / "c", progress=False, formulation="kane")
     assert len(counted) == 2 and "pend_rhs" in again.c_source

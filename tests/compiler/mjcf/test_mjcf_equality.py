@@ -291,8 +291,9 @@ def _file(tmp_path, equality, name="m.xml"):
      r"equality two: joint k is already joint1 of equality one", 11),
     # dm_control's quadruped names each tendon equality as its tendon: the equality's line
     ('  </equality>\n  <tendon>\n    <fixed name="t"><joint joint="j" coef="1"/><joint joint="k" '
-     'coef="-1"/></fixed>\n  </tendon>\n  <equality>\n    <tendon name="t" tendon1="t"/>',
-     r"<tendon>: equality t: <tendon> is a tendon coupling", 15),
+     'coef="-1"/></fixed><fixed name="u"><joint joint="k" coef="2"/><joint joint="j" coef="1"/></fixed>\n'
+     '  </tendon>\n  <equality>\n    <tendon name="t" tendon1="t" tendon2="u"/>',
+     r"<equality><tendon>: equality t: every joint of tendon t is in tendon2", 15),
 ])
 def test_what_is_not_a_coupling_is_refused_with_element_and_line(tmp_path, equality, match, line):
     with pytest.raises(ModelFileError, match=match) as info:

@@ -251,13 +251,15 @@ def test_the_printer_refuses_a_nonfinite_constant_naming_the_function():
     import sympy as sm
     from eomc.compiler.emit import generate_c
     from eomc.compiler.model import model_spec
+    from eomc.compiler.emit.formulation import KANE
+    from eomc.compiler.tree.formulation import Recursive
     from eomc.compiler.tree.select import _find_tree
     kane, inputs = cart_relative(1, em)
     spec = model_spec(kane, inputs=inputs)
-    for bad, tree in ((sm.nan, None), (sm.oo, _find_tree(spec))):
+    for bad, formulation in ((sm.nan, KANE), (sm.oo, Recursive(_find_tree(spec)))):
         with pytest.raises(ModelError, match=rf"m_outputs would compute the constant {bad}"):
-            generate_c(spec.formed, "m", functions=["rhs", "outputs"], inputs=inputs, tree=tree,
-                       outputs={"bad": bad + kane.q[0]})
+            generate_c(spec.formed, "m", functions=["rhs", "outputs"], inputs=inputs,
+                       formulation=formulation, outputs={"bad": bad + kane.q[0]})
 
 
 def test_spring_and_damper_on_a_pathway_never_writes_nan():

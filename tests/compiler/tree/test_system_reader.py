@@ -265,7 +265,7 @@ def test_a_pending_kanes_method_is_read_as_a_tree_without_forming(monkeypatch):
                         original(self, *a))
     for formulation in ("recursive", "auto"):
         fs = formed_system(kane, formulation)
-        assert fs.method == "tree" and len(fs._tree.bodies) == PENDING_KANE_MIN_BODIES + 1
+        assert fs.method == "tree" and len(fs.tree.bodies) == PENDING_KANE_MIN_BODIES + 1
     assert formed_calls == [] and not kane.is_formed
     fs = formed_system(kane, "kane")          # Kane's formulation forms it, once
     assert fs.method == "kane" and formed_calls == [1] and kane.is_formed

@@ -17,7 +17,7 @@ from sympy.core.function import AppliedUndef
 
 import eomc
 from eomc.compiler.driver import generate
-from eomc.compiler.tree.formed import formed_of_tree, tree_formed
+from eomc.compiler.tree.formed import model_of_tree, tree_formed
 from eomc.compiler.urdf import build_tree, from_urdf, read_urdf, system_from_tree
 from eomc.compiler.urdf.joints import FloatingJoint
 from eomc.compiler.urdf.treeir import floating_rotation, tree_ir
@@ -50,13 +50,13 @@ def _same_trees(path, floating=False, fold=False):
     tree = build_tree(read_urdf(path), floating_base=floating)
     mine = tree_ir(tree, fold=fold)
     built = system_from_tree(tree, fold=fold)
-    direct, read = formed_of_tree(mine.tree), tree_formed(built.system)
+    direct, read = model_of_tree(mine.tree), tree_formed(built.system)
     assert (direct.coordinates, direct.speeds) == (read.coordinates, read.speeds)
     assert direct.inputs == read.inputs and list(mine.inputs) == list(built.inputs)
     assert direct.parameters == read.parameters and mine.parameters == built.parameters
     value = _Values()
     pairs = list(zip(direct.kinematics, read.kinematics))
-    A, B = mine.tree, read._tree
+    A, B = mine.tree, read.tree
     # the two routes may list the bodies in different (both topological) orders: compare
     # them by name, each with its parent's name
     def described(tree):
@@ -91,7 +91,7 @@ def test_folded_parameters_give_the_recognized_tree(tmp_path):
     """fold_parameters=True: every URDF value a literal on both routes (no parameters left)."""
     _same_trees(_write(tmp_path, ZOO), floating=True, fold=True)
     tree = build_tree(read_urdf(_write(tmp_path, ZOO)))
-    assert formed_of_tree(tree_ir(tree, fold=True).tree).parameters == ()
+    assert model_of_tree(tree_ir(tree, fold=True).tree).parameters == ()
 
 
 def test_a_real_robot_gives_the_recognized_tree():
@@ -170,7 +170,7 @@ def test_a_1000_link_chain_reads_into_a_tree(tmp_path):
     tree = build_tree(read_urdf(_write(tmp_path, _chain(1000), "chain.urdf")))
     ir = tree_ir(tree).tree
     assert len(ir.bodies) == 1000 and ir.bodies[-1].parent == 998
-    assert len(formed_of_tree(ir).coordinates) == 1000
+    assert len(model_of_tree(ir).coordinates) == 1000
 
 
 def _refused(tmp_path, text, *needles, line=None, **options):

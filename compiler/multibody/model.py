@@ -1,0 +1,149 @@
+"""The multibody model: what a reader (URDF, MJCF, a SymPy System or KanesMethod) found.
+
+Why a record of its own: everything after the reader -- frame outputs, the animation's
+poses, the recursive formulation, Kane's formulation for a robot file, extra states --
+needs to know what the robot *is*, and before this record existed each went back to the
+file for it (a two-joint URDF arm was parsed eight times by one default build) or read
+it off private attributes stuck on Kane's record, which a copy could drop (an extra
+state lost a URDF robot's poses and its welded links).  A reader fills one
+:class:`Model`; nothing after it opens a file.
+
+The record is formulation-neutral: it carries the joint tree (eomc.compiler.tree.model,
+the recursive formulation's input), the state's variables in the order the generated C
+uses (the names a :class:`~eomc.compiler.mechanics.formed.FormedSystem` gives them, so
+the model checks read either), the named frames, the animation's poses and shapes, the
+parameter defaults and joint inputs the file declares, where it came from, and -- for
+robot files -- how to build the SymPy System Kane's formulation forms, from what was
+read.  Joint laws (limits, damping, friction), armature, contacts and loop closures
+are in the tree (its loads, ``TreeBody.armature``, ``Tree.loops``).
+"""
+from dataclasses import dataclass, field
+from typing import Callable, Mapping, Optional, Tuple
+
+import sympy as sm
+import sympy.physics.mechanics   # noqa: F401 -- the System type named below
+
+from ..emit.poses import PoseSource
+from ..tree.model import Tree
+
+__all__ = ["Model", "Frame", "Provenance", "merged_defaults"]
+
+
+@dataclass(frozen=True)
+class Provenance:
+    """Where a model came from: its format ("urdf", "mjcf", "system") and file:line."""
+    format: str
+    path: Optional[str] = None
+    line: Optional[int] = None
+
+    def __str__(self):
+        return f"{self.path}:{self.line}" if self.line else (self.path or f"a {self.format} model")
+
+
+@dataclass(frozen=True)
+class Frame:
+    """A named frame fixed to tree body ``body`` (-1: the ground): every URDF link (welded
+    ones included), every MuJoCo body, every body of a System's tree.
+
+    ``rotation``: 3x3 numbers, the frame's axes in body components; ``offset``: 3
+    expressions (the body's mass-centre parameters where the tree has them), the frame's
+    origin from the body's origin in body components.  ``aliases``: other names it answers
+    to (a link's C identifier, a MuJoCo body's sanitized name)."""
+    name: str
+    body: int
+    rotation: tuple
+    offset: tuple
+    aliases: tuple = ()
+
+
+@dataclass(frozen=True)
+class Model:
+    """One multibody model as read (see the module docstring).
+
+    ``coordinates`` ... ``extra_rhs``: x = [q; u; z] and q' as the generated C orders them,
+    named as in FormedSystem (nothing is formed: there is no A or b).  ``frames``: the
+    frames ``frames=["tool0"]`` may name.  ``poses``: the animation's bodies along the tree
+    (a :class:`~eomc.compiler.emit.poses.PoseSource`), ``shapes``: {body or "world":
+    [eomc.geometry shape dicts]} and ``welds``: {link: (body or "world", 4x4)}, the links
+    welded to a body, when the reader was asked for poses.  ``defaults``/``joint_inputs``:
+    the file's parameter values and its joints' torques in joint order; ``outputs``/
+    ``events``: those the reader defines (contact depths).  ``initial_state``: {coordinate
+    name: value} the file starts from.  ``mechanics``: builds the SymPy System Kane's
+    formulation forms, from what was read (None: the format has none, e.g. MJCF).
+    ``refusal``: why the recursive formulation does not take it (a URDF's mimic joints
+    under mimic=True), or None; ``kane_refusal``: why Kane's cannot, or None."""
+    tree: Tree
+    coordinates: tuple
+    speeds: tuple
+    kinematics: sm.Matrix
+    inputs: tuple
+    parameters: tuple
+    source: Provenance
+    n_dependent_coordinates: int = 0
+    n_dependent_speeds: int = 0
+    holonomic_constraints: sm.Matrix = field(default_factory=sm.Matrix)
+    velocity_constraints: sm.Matrix = field(default_factory=sm.Matrix)
+    extra_states: tuple = ()
+    extra_rhs: tuple = ()
+    frames: Tuple[Frame, ...] = ()
+    poses: Optional[PoseSource] = field(default=None, compare=False)
+    shapes: Mapping[str, list] = field(default_factory=dict, compare=False)
+    welds: Mapping[str, tuple] = field(default_factory=dict, compare=False)
+    defaults: Mapping[sm.Symbol, float] = field(default_factory=dict, compare=False)
+    joint_inputs: tuple = ()
+    outputs: Mapping[str, sm.Expr] = field(default_factory=dict, compare=False)
+    events: Mapping[str, sm.Expr] = field(default_factory=dict, compare=False)
+    initial_state: Optional[Mapping[str, float]] = None
+    timestep: Optional[float] = None     # the file's own time step (MJCF <option timestep>)
+    mechanics: Optional[Callable[[], sm.physics.mechanics.System]] = field(default=None, compare=False,
+                                                                         repr=False)
+    refusal: Optional[str] = None
+    kane_refusal: Optional[str] = None   # why Kane's formulation cannot take it (no System: MJCF)
+    frame_noun: str = "body"      # what its frames are called in messages ("link" for URDF)
+
+    method = "tree"           # what the generator lowers it by (FormedSystem: "kane" or "lagrange")
+    multipliers = ()          # no Lagrange multipliers: the tree's constraints are its loops
+
+    @property
+    def nq(self):
+        return len(self.coordinates)
+
+    @property
+    def nu(self):
+        return len(self.speeds)
+
+    @property
+    def nz(self):
+        return len(self.extra_states)
+
+    def frame(self, name):
+        """The :class:`Frame` named (or aliased) ``name``, or None."""
+        for f in self.frames:
+            if f.name == name:
+                return f
+        for f in self.frames:
+            if name in f.aliases:
+                return f
+        return None
+
+
+def merged_defaults(overrides, formed, defaults, joint_inputs):
+    """``overrides`` (the caller's parameters, inputs, ...) with a robot file's parameter
+    ``defaults`` and ``joint_inputs`` filled in where not given: the defaults of the
+    parameters ``formed`` (a Model or FormedSystem) has, the joints' inputs in joint order
+    and the caller's own after them."""
+    result = dict(overrides)
+    used = set(formed.parameters)
+    defaults = {symbol: value for symbol, value in defaults.items() if symbol in used}
+    given = overrides.get("parameters")
+    if isinstance(given, dict):
+        by_name = {str(s): s for s in formed.parameters}
+        given = {by_name.get(k, k) if isinstance(k, str) else k: v for k, v in given.items()}
+        result["parameters"] = {**defaults, **given}
+    elif given is None:
+        result["parameters"] = defaults
+    if overrides.get("inputs") is None:
+        present = set(formed.inputs)
+        extra = [r for r in formed.inputs if r not in joint_inputs]   # the user's own, after the joints'
+        result["inputs"] = [r for r in joint_inputs if r in present] + extra
+    return result

@@ -1,0 +1,72 @@
+"""The recursive formulation as the C emitter's peer of Kane's (eomc.compiler.emit.formulation).
+
+ABA for u', RNEA for the inverse dynamics and the Jacobians' residuals, CRBA for the mass
+matrix, all over the joint tree (:mod:`.lower`); its own C bodies where the articulated
+recursion replaces a factorization (:mod:`.emit`, :mod:`.jvp`) and its own operation counts
+for them.  Everything else -- outputs, events, constraints, the extra states' rows, poses --
+is emit's default, the same code as Kane's.
+"""
+from collections import Counter
+
+from ..emit.formulation import Formulation
+from ..ir import count_program
+from .constrained import jacobian_symbols
+from .inverse_derivatives import jac_id_body, jac_id_ops
+from .emit import tree_jacobian_body, tree_jacobian_ops, tree_matrix_body, tree_rhs_body
+from .jvp import tree_jvp_body
+from .lower import TREE_FUNCTION_GROUPS, TREE_HELPER_USERS, build_tree_symbolic
+from .regressor import PI_NAMES
+
+__all__ = ["Recursive"]
+
+_OWN_COUNTS = ("rhs", "mass_matrix", "forcing", "inverse_dynamics", "jvp")
+_JACOBIANS = ("jac_x", "jac_r", "jac_p")
+
+
+class Recursive(Formulation):
+    """The recursive formulation of the joint tree ``tree`` (eomc.compiler.tree.model.Tree)."""
+    name = "recursive"
+    groups = TREE_FUNCTION_GROUPS
+    helper_users = TREE_HELPER_USERS
+    solves = False            # rhs, jac_x and jac_r solve by ABA (no factorization)
+
+    def __init__(self, tree):
+        self.tree = tree
+
+    def refusal(self, functions):
+        return None
+
+    def symbolic(self, formed, layout, functions, outputs=None, events=None):
+        return build_tree_symbolic(self.tree, formed, layout, functions, outputs, events)
+
+    def body(self, fn, ctx, prog, sym, layout, nx):
+        if fn == "rhs":
+            return tree_rhs_body(ctx, prog)
+        if fn in ("mass_matrix", "forcing", "inverse_dynamics"):
+            return tree_matrix_body(ctx, prog, fn)
+        if fn == "jac_id":
+            return jac_id_body(ctx, prog, sym.seeds)
+        if fn == "jvp":
+            return tree_jvp_body(ctx, prog, *jacobian_symbols(prog, sym.W, ctx.nu), sym.seeds, nx, len(layout.p))
+        if fn in _JACOBIANS:
+            return tree_jacobian_body(ctx, prog, *jacobian_symbols(prog, sym.W, ctx.nu), sym.seeds, fn,
+                                      len(layout.p) if fn == "jac_p" else len(layout.r))
+        return None
+
+    def ops(self, fn, prog, sym, nx, nr, npar, nq, nu, solve_in):
+        if fn in _OWN_COUNTS and fn not in solve_in:
+            c = count_program(prog) if prog is not None else Counter()
+            return {k: int(c.get(k, 0)) for k in ("adds", "muls", "divs", "calls")}
+        if fn == "jac_id":
+            return jac_id_ops(prog, sym.seeds, nx - nu if nq is None else nq, nu, nx)
+        if fn in _JACOBIANS:
+            return tree_jacobian_ops(prog, *jacobian_symbols(prog, sym.W, nu), sym.seeds, fn,
+                                     nx - nu if nq is None else nq, nx, npar if fn == "jac_p" else nr)
+        return None
+
+    def metadata(self, sym, functions):
+        if "regressor" not in functions:
+            return {}
+        return {"regressor_bodies": list(sym.regressor_bodies),
+                "regressor_reference": list(sym.regressor_reference),
+                "regressor_parameters": list(PI_NAMES)}

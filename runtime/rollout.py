@@ -1,0 +1,207 @@
+"""``eomc.rollout``: many trajectories of one model, integrated in C threads on all cores.
+
+Monte Carlo, reinforcement learning and sampling-based MPC integrate thousands of
+starts over the same span.  ``simulate_many`` makes one Python-level call per case;
+here Python crosses into C once: ``eomc_rollout`` (runtime/c/eomc_rollout.c) hands the
+rows to POSIX threads, each row being exactly one ``eomc_integrate`` call with the
+options ``simulate`` would pass, so every row equals the scalar ``simulate`` result bit
+for bit.  The GIL is released for the whole call (cffi releases it on every C call).
+
+First piece of issue 31: fixed-step methods (rk4, implicitfast), no inputs (r = 0),
+no events (a model with a terminal event is refused; other events are not recorded), no
+contacts or joint limits (their switching needs the event machinery of ``simulate``; such a
+model is refused with a message saying so).
+"""
+import numbers
+import os
+import threading
+from dataclasses import dataclass
+
+import cffi
+import numpy as np
+
+from .errors import SimulationError
+from .header_cdef import header_cdef
+from .integrators_api import FIXED_STEP, METHOD_IDS, STATUS_NAMES
+from .law_parameters import check_law_parameters
+from .native import _library_path, integrator_library
+from .simulate import _options, failure_message, prepare, resolve_method
+
+__all__ = ["rollout", "RolloutResult"]
+
+ROLLOUT_CDEF = header_cdef("eomc_rollout.h")
+_LOCK = threading.Lock()
+_FFIS = {}
+
+
+def _rollout_ffi(base):
+    """(ffi, lib): eomc_rollout in an FFI that includes the model's base FFI (shared types)."""
+    with _LOCK:
+        hit = _FFIS.get(id(base))
+        if hit is None or hit[0] is not base:
+            ffi = cffi.FFI()
+            ffi.include(base)
+            ffi.cdef(ROLLOUT_CDEF)
+            hit = _FFIS[id(base)] = (base, ffi, ffi.dlopen(str(_library_path())))
+        return hit[1], hit[2]
+
+
+@dataclass
+class RolloutResult:
+    """What ``rollout`` returns.
+
+    x: (n, nx) final states (record="final"), or (n, n_t, nx) with the state at every
+    step (record="steps"; row 0 is x0).  t: the times of x's rows ((1,) = t_final for
+    "final").  status: (n,) eomc_status per trajectory (0 = ok); steps: (n,) steps taken.
+    A failed trajectory's final row holds its last good state.
+    """
+    t: np.ndarray
+    x: np.ndarray
+    status: np.ndarray
+    steps: np.ndarray
+    state_names: tuple
+
+    @property
+    def ok(self):
+        """(n,) bool: which trajectories ran to the end."""
+        return self.status == 0
+
+
+def _threads(threads):
+    if threads is None:
+        try:
+            return len(os.sched_getaffinity(0))
+        except AttributeError:      # not Linux
+            return os.cpu_count() or 1
+    if isinstance(threads, bool) or not isinstance(threads, numbers.Integral) or threads < 1:
+        raise ValueError(f"threads must be a whole number >= 1 (or None for every core); got {threads!r}")
+    return int(threads)
+
+
+def _x0s(model, x0s):
+    a = np.asarray(x0s)
+    if a.dtype.kind not in "fiu":
+        raise ValueError(f"{model.name}: x0s must be an (n, {model.nx}) array of real initial states; "
+                         f"got dtype {a.dtype}")
+    a = np.ascontiguousarray(a, dtype=np.float64)
+    if a.ndim != 2 or a.shape[1] != model.nx:
+        raise ValueError(f"{model.name}: x0s must have shape (n, {model.nx}) -- one row per trajectory, "
+                         f"columns {', '.join(model.state_names)}; got shape {a.shape}")
+    bad = np.argwhere(~np.isfinite(a))
+    if bad.size:
+        i, j = bad[0]
+        raise ValueError(f"{model.name}: x0s row {i} has a non-finite {model.state_names[j]} "
+                         f"({a[i, j]}); {len(bad)} non-finite value(s) in all")
+    return a
+
+
+def _params(model, p, n):
+    """(P, stride): rows of nparam + 1 doubles (the padding simulate adds), stride 0 for one row."""
+    if p is None:
+        rows = np.asarray(model.param_defaults, dtype=np.float64).reshape(1, -1)
+    else:
+        a = np.asarray(p)
+        if a.dtype.kind not in "fiu":
+            raise ValueError(f"{model.name}: p must hold real parameter values; got dtype {a.dtype}")
+        rows = np.asarray(a, dtype=np.float64)
+        if rows.ndim == 1:
+            rows = rows.reshape(1, -1)
+        if rows.ndim != 2 or rows.shape[1] != model.nparam or rows.shape[0] not in (1, n):
+            raise ValueError(f"{model.name}: p must have shape ({model.nparam},) or ({n}, {model.nparam}) "
+                             f"(parameters {', '.join(model.param_names)}); got shape {a.shape}")
+        bad = np.argwhere(~np.isfinite(rows))
+        if bad.size:
+            i, j = bad[0]
+            raise ValueError(f"{model.name}: p row {i} has a non-finite {model.param_names[j]} ({rows[i, j]})")
+    for i, row in enumerate(rows):
+        check_law_parameters(model, row, where=f" (p row {i})" if len(rows) > 1 else "")
+    P = np.ascontiguousarray(np.hstack([rows, np.zeros((len(rows), 1))]))
+    return P, (0 if len(rows) == 1 else P.shape[1])
+
+
+def rollout(model, x0s, *, dt, t_final=None, steps=None, method="rk4", p=None, threads=None,
+            record="final", raise_on_failure=True):
+    """Integrate every row of ``x0s`` ((n, nx)) from t = 0 with a fixed step ``dt``.
+
+    Give the span as ``t_final`` or as ``steps`` (t_final = steps * dt); the last step is
+    shortened to end on t_final, as ``simulate`` does.  method: "rk4" or "implicitfast"
+    (needs jac_x).  p: None (defaults), (nparam,) for all rows or (n, nparam), one
+    parameter row per trajectory.  threads: C threads (None: every core this process
+    may run on).  record: "final" (x is (n, nx): what Monte Carlo and RL episodes
+    consume, n * nx doubles whatever the span) or "steps" (x is (n, steps + 1, nx), the
+    step grid of ``simulate``).  Row i equals ``simulate(model, x0s[i], (0, t_final),
+    p=..., method=method, dt=dt)`` bit for bit (its ``x[-1]``, or all of ``x``).
+
+    A failed trajectory (singular mass matrix, non-finite state) raises SimulationError
+    naming the first failed row; with raise_on_failure=False, result.status says which
+    rows failed and their final rows hold the last good state.
+    """
+    method = resolve_method(method)
+    if method not in FIXED_STEP:
+        raise ValueError(f"rollout takes a fixed-step method ({', '.join(FIXED_STEP)}) so far; got {method!r} "
+                         f"(adaptive methods: simulate_many)")
+    if record not in ("final", "steps"):
+        raise ValueError(f"record must be 'final' or 'steps'; got {record!r}")
+    if isinstance(dt, bool) or not isinstance(dt, numbers.Real) or not np.isfinite(dt) or dt <= 0:
+        raise ValueError(f"dt must be a finite step > 0; got {dt!r}")
+    if (t_final is None) == (steps is None):
+        raise ValueError("give the span as exactly one of t_final= or steps=")
+    if steps is not None:
+        if isinstance(steps, bool) or not isinstance(steps, numbers.Integral) or steps < 1:
+            raise ValueError(f"steps must be a whole number >= 1; got {steps!r}")
+        t_final = float(steps) * float(dt)
+    elif (isinstance(t_final, bool) or not isinstance(t_final, numbers.Real) or not np.isfinite(t_final)
+          or t_final <= 0):
+        raise ValueError(f"t_final must be a finite time > 0; got {t_final!r}")
+    from .switching import find_switches
+    if find_switches(model):
+        raise ValueError(f"{model.name}: this model has contacts or joint limits, whose switching points "
+                         f"rollout does not handle yet; use simulate_many")
+    from .events import model_events
+    stopping = [e.name for e in model_events(model) if e.terminal]
+    if stopping:
+        # rollout runs every row to t_final: a run that simulate would end at a terminal event
+        # must not silently go on past it
+        raise ValueError(f"{model.name}: its terminal event(s) {', '.join(stopping)} would end a run "
+                         f"early, and rollout does not handle events yet; use simulate_many")
+    if model.c_model.rhs == model.ffi.NULL:
+        raise model._missing("rhs")
+    nthreads = _threads(threads)
+    X0 = _x0s(model, x0s)
+    n = X0.shape[0]
+    P, p_stride = _params(model, p, n)
+    nsteps = int(np.ceil(t_final / dt * (1 - 1e-12)))
+    # The options and step grid simulate would use (and its checks: jac_x for implicitfast).
+    a = prepare(model, X0[0] if n else None, (0.0, float(t_final)), p=P[0, :-1], method=method, dt=float(dt),
+                max_steps=max(100000, nsteps + 10), events=False, switching=False)
+    ffi, lib = _rollout_ffi(model.ffi)
+    t_eval = a["t_eval"] if record == "steps" else np.array([float(t_final)])
+    n_eval = t_eval.size if record == "steps" else 0
+    X_out = np.empty((n, t_eval.size, model.nx)) if record == "steps" else None
+    X_last = np.empty((n, model.nx))
+    status = np.empty(n, dtype=np.intc)
+    nstep = np.empty(n, dtype=np.int_ if ffi.sizeof("long") == 8 else np.int32)
+    buf = lambda arr: ffi.from_buffer("double[]", arr)  # noqa: E731
+    integrator_library(model.ffi)._arm()      # Ctrl-C stops every thread at its next evaluation
+    if n:
+        lib.eomc_rollout(model.c_model, _options(ffi, a), 0.0, float(t_final), n, buf(X0), buf(P), p_stride,
+                         n_eval, buf(t_eval), buf(X_out) if X_out is not None else ffi.NULL, buf(X_last),
+                         ffi.from_buffer("int[]", status), ffi.from_buffer("long[]", nstep), nthreads)
+    failed = np.flatnonzero(status != 0)
+    if failed.size and raise_on_failure:
+        i = int(failed[0])
+        if status[i] == 9:
+            raise KeyboardInterrupt
+        stats = {"status": int(status[i]), "t": float("nan"), "t_fail": float("nan"), "steps": int(nstep[i]),
+                 "h": float(dt), "stiff_hlambda": 0.0}
+        reason = STATUS_NAMES.get(int(status[i]), f"status {status[i]}")
+        raise SimulationError(f"{model.name}: rollout row {i} of {n} failed ({reason}; {failed.size} row(s) "
+                              f"failed in all) -- "
+                              + failure_message(model, method, stats, X_last[i], P[0 if p_stride == 0 else i, :-1])
+                              + "; pass raise_on_failure=False to keep the other rows")
+    return RolloutResult(t=np.asarray(t_eval, dtype=np.float64).copy(),
+                         x=X_out if record == "steps" else X_last, status=status.astype(int),
+                         steps=nstep.astype(int), state_names=tuple(model.state_names))
+
+
+assert set(FIXED_STEP) <= set(METHOD_IDS)

@@ -1,0 +1,117 @@
+"""eomc.rollout (runtime/rollout.py, runtime/c/eomc_rollout.c): every row equals simulate bit for bit.
+
+Oracle: the scalar ``simulate`` path with the same method, step and span -- rollout rows are
+eomc_integrate calls made from C threads, so anything but exact equality (a shared work
+buffer, a wrong row stride, a parameter row mixed up between threads) is a bug.
+"""
+import numpy as np
+import pytest
+
+from helpers.stand_in import get_model
+
+import eomc
+from eomc.errors import SimulationError
+from eomc.runtime.rollout import rollout
+from eomc.runtime.simulate import simulate
+
+
+def _pendulum_starts(n, seed=0):
+    rng = np.random.default_rng(seed)
+    return np.column_stack([rng.uniform(-3.0, 3.0, n), rng.uniform(-2.0, 2.0, n)])
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_rk4_final_states_equal_simulate_bit_for_bit(threads):
+    m = get_model("pendulum")
+    X0 = _pendulum_starts(13)
+    res = rollout(m, X0, steps=250, dt=0.01, method="rk4", threads=threads)
+    assert res.x.shape == (13, 2) and res.ok.all() and (res.steps == 250).all()
+    assert res.t.tolist() == [2.5]
+    for i in range(13):
+        single = simulate(m, X0[i], (0.0, 2.5), method="rk4", dt=0.01)
+        np.testing.assert_array_equal(res.x[i], single.x[-1])
+    # the motion is not trivial: the final states differ from the starts and from each other
+    assert np.abs(res.x - X0).min() > 1e-3 and len(np.unique(res.x[:, 0])) == 13
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_rk4_every_step_recorded_equals_simulate(threads):
+    m = get_model("pendulum")
+    X0 = _pendulum_starts(5, seed=1)
+    res = rollout(m, X0, t_final=1.234, dt=0.01, record="steps", threads=threads)
+    single0 = simulate(m, X0[0], (0.0, 1.234), method="rk4", dt=0.01)
+    assert res.x.shape == (5, single0.t.size, 2)
+    np.testing.assert_array_equal(res.t, single0.t)     # the shortened last step ends on 1.234
+    for i in range(5):
+        np.testing.assert_array_equal(res.x[i], simulate(m, X0[i], (0.0, 1.234), method="rk4", dt=0.01).x)
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_implicitfast_with_one_parameter_row_per_trajectory(threads):
+    m = get_model("chain")
+    X0 = np.array([[1.0, 1.0, 0.0, 0.0], [0.5, -0.2, 0.1, 0.0], [0.0, 0.3, -1.0, 2.0], [2.0, 0.0, 0.0, 0.0]])
+    P = np.array([[1.0, 1e6, 0.1, 2e3], [1.0, 1e3, 0.1, 10.0], [2.0, 1e4, 0.5, 1.0], [1.0, 50.0, 0.0, 0.0]])
+    res = rollout(m, X0, steps=200, dt=0.01, method="implicitfast", p=P, threads=threads)
+    for i in range(4):
+        single = simulate(m, X0[i], (0.0, 2.0), p=P[i], method="implicitfast", dt=0.01)
+        np.testing.assert_array_equal(res.x[i], single.x[-1])
+    # the rows really got their own parameters: the same start under row 0's p differs
+    other = simulate(m, X0[1], (0.0, 2.0), p=P[0], method="implicitfast", dt=0.01)
+    assert np.abs(other.x[-1] - res.x[1]).max() > 1e-3
+
+
+def test_facade_name_and_more_rows_than_threads():
+    m = get_model("pendulum")
+    X0 = _pendulum_starts(101, seed=2)
+    res = eomc.rollout(m, X0, steps=50, dt=0.02, threads=7)
+    ref = rollout(m, X0, steps=50, dt=0.02, threads=1)
+    np.testing.assert_array_equal(res.x, ref.x)
+
+
+def test_failed_row_is_named_and_the_others_kept():
+    m = get_model("singular")
+    P = np.array([[2.0], [0.5], [3.0]])
+    with pytest.raises(SimulationError, match="row 1 of 3 failed.*singular"):
+        rollout(m, np.zeros((3, m.nx)), steps=100, dt=0.01, p=P, threads=2)
+    res = rollout(m, np.zeros((3, m.nx)), steps=100, dt=0.01, p=P, threads=2, raise_on_failure=False)
+    assert res.status.tolist()[0] == 0 and res.status[1] != 0 and res.status[2] == 0
+    np.testing.assert_array_equal(res.x[2], simulate(m, np.zeros(m.nx), (0, 1.0), p=P[2], method="rk4",
+                                                     dt=0.01).x[-1])
+
+
+def test_bad_input_says_what_is_wrong():
+    m = get_model("pendulum")
+    good = np.zeros((3, 2))
+    with pytest.raises(ValueError, match=r"x0s must have shape \(n, 2\).*got shape \(3, 3\)"):
+        rollout(m, np.zeros((3, 3)), steps=10, dt=0.01)
+    with pytest.raises(ValueError, match=r"x0s must have shape \(n, 2\).*got shape \(2,\)"):
+        rollout(m, np.zeros(2), steps=10, dt=0.01)
+    bad = good.copy()
+    bad[2, 1] = np.nan
+    with pytest.raises(ValueError, match=f"x0s row 2 has a non-finite {m.state_names[1]}"):
+        rollout(m, bad, steps=10, dt=0.01)
+    with pytest.raises(ValueError, match="unknown integration method 'rk5'"):
+        rollout(m, good, steps=10, dt=0.01, method="rk5")
+    with pytest.raises(ValueError, match="fixed-step method.*'dop853'"):
+        rollout(m, good, steps=10, dt=0.01, method="dop853")
+    with pytest.raises(ValueError, match="exactly one of t_final= or steps="):
+        rollout(m, good, dt=0.01)
+    with pytest.raises(ValueError, match="dt must be a finite step > 0"):
+        rollout(m, good, steps=10, dt=0.0)
+    with pytest.raises(ValueError, match="threads must be a whole number >= 1"):
+        rollout(m, good, steps=10, dt=0.01, threads=0)
+    with pytest.raises(ValueError, match=r"p must have shape \(2,\) or \(3, 2\)"):
+        rollout(m, good, steps=10, dt=0.01, p=np.ones((2, 2)))
+    with pytest.raises(ValueError, match="record must be 'final' or 'steps'"):
+        rollout(m, good, steps=10, dt=0.01, record="all")
+
+
+def test_model_with_a_terminal_event_is_refused_not_run_past_it():
+    """simulate ends such a run at the event; rollout would run every row to t_final, so it
+    refuses the model (naming the event) instead of returning states simulate never reaches."""
+    m = get_model("pendulum")
+    m.metadata = {**m.metadata, "events": [{"name": "fallen", "terminal": 1, "direction": 1}]}
+    with pytest.raises(ValueError, match="terminal event.*fallen.*simulate_many"):
+        rollout(m, np.zeros((2, 2)), steps=10, dt=0.01)
+    m.metadata = {**m.metadata, "events": [{"name": "crossing", "terminal": 0}]}
+    assert rollout(m, np.zeros((2, 2)), steps=10, dt=0.01).ok.all()
