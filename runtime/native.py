@@ -10,11 +10,14 @@ import importlib.machinery
 import threading
 from pathlib import Path
 
+import cffi
+
 from eomc.runtime.errors import EomcError
 
-__all__ = ["integrator_library"]
+__all__ = ["integrator_library", "extension_library"]
 
 _OPENED = {}
+_EXTENSIONS = {}
 _LOCK = threading.Lock()
 _ARM_LOCK = threading.Lock()
 
@@ -73,3 +76,19 @@ def integrator_library(ffi):
         if key not in _OPENED:
             _OPENED[key] = (ffi, _Interruptible(ffi.dlopen(str(_library_path()))))
         return _OPENED[key][1]
+
+
+def extension_library(base, cdef):
+    """(ffi, lib): a further API of the integrator library (sensitivities, rollouts) declared
+    by ``cdef`` in an FFI that includes the model's ``base`` FFI, so the two share the model
+    struct's type.  One per (base, cdef), kept while ``base`` lives (``id`` is checked against
+    the kept object, so a reused id of a collected FFI is not mistaken for it)."""
+    with _LOCK:
+        key = (id(base), cdef)
+        hit = _EXTENSIONS.get(key)
+        if hit is None or hit[0] is not base:
+            ffi = cffi.FFI()
+            ffi.include(base)
+            ffi.cdef(cdef)
+            hit = _EXTENSIONS[key] = (base, ffi, ffi.dlopen(str(_library_path())))
+        return hit[1], hit[2]

@@ -14,36 +14,25 @@ model is refused with a message saying so).
 """
 import numbers
 import os
-import threading
 from dataclasses import dataclass
 
-import cffi
 import numpy as np
 
 from .errors import SimulationError
 from .header_cdef import header_cdef
 from .integrators_api import FIXED_STEP, METHOD_IDS, STATUS_NAMES
 from .law_parameters import check_law_parameters
-from .native import _library_path, integrator_library
+from .native import extension_library, integrator_library
 from .simulate import _options, failure_message, prepare, resolve_method
 
 __all__ = ["rollout", "RolloutResult"]
 
 ROLLOUT_CDEF = header_cdef("eomc_rollout.h")
-_LOCK = threading.Lock()
-_FFIS = {}
 
 
 def _rollout_ffi(base):
     """(ffi, lib): eomc_rollout in an FFI that includes the model's base FFI (shared types)."""
-    with _LOCK:
-        hit = _FFIS.get(id(base))
-        if hit is None or hit[0] is not base:
-            ffi = cffi.FFI()
-            ffi.include(base)
-            ffi.cdef(ROLLOUT_CDEF)
-            hit = _FFIS[id(base)] = (base, ffi, ffi.dlopen(str(_library_path())))
-        return hit[1], hit[2]
+    return extension_library(base, ROLLOUT_CDEF)
 
 
 @dataclass

@@ -15,35 +15,24 @@ C call here (:func:`run`).  Which
 columns: ``True`` (every initial state and every parameter), ``"x0"`` or
 ``"p"`` (all of one kind), or a list of state and parameter names.
 """
-import threading
 
-import cffi
 import numpy as np
 
 from eomc.runtime.errors import ModelError
 
 from .header_cdef import header_cdef
 from .integrators_api import METHOD_IDS
-from .native import _library_path
+from .native import extension_library
 
 __all__ = ["columns", "check_request", "run", "attach", "SENS_CDEF"]
 
 SENS_CDEF = header_cdef("eomc_sensitivity.h")
-_LOCK = threading.Lock()
 MAX_COLUMNS = 4096          # EOMC_SENS_MAXCOL in eomc_sensitivity.c
-_FFIS = {}
 
 
 def _sens_ffi(base):
     """(ffi, lib): the sensitivity API in an FFI that includes the model's base FFI (shared types)."""
-    with _LOCK:
-        hit = _FFIS.get(id(base))
-        if hit is None or hit[0] is not base:
-            ffi = cffi.FFI()
-            ffi.include(base)
-            ffi.cdef(SENS_CDEF)
-            hit = _FFIS[id(base)] = (base, ffi, ffi.dlopen(str(_library_path())))
-        return hit[1], hit[2]
+    return extension_library(base, SENS_CDEF)
 
 
 def columns(model, sensitivities):

@@ -190,6 +190,25 @@ def _hoist(program, once, stores, loops, varying):
     return program, once, stores, new_loops
 
 
+
+def name_loop_inputs(pr, once, exprs):
+    """Name P[0], P[1], ... the values computed once (``once``) that the column loops read
+    (``exprs``, in loop order), and return how many: they live in an array, not in hundreds
+    of loop-invariant locals, which make C compilers' register allocation slow on large
+    models.  Sorted by printed name (length first) so the C is the same for the same input."""
+    defined = {t for t, _ in once}
+    live, seen = [], set()
+    for e in exprs:
+        for s in e.free_symbols:
+            if s in defined and s not in seen:
+                seen.add(s)
+                live.append(s)
+    live.sort(key=lambda s: pr._names[s])
+    live.sort(key=lambda s: len(pr._names[s]))
+    for j, s in enumerate(live):
+        pr._names[s] = f"P[{j}]"
+    return len(live)
+
 def tree_jacobian_body(ctx, program, W, G, seeds, fn, nr):
     """jac_x (d xdot/dx) or jac_r (d xdot/dr) of the recursive formulation: ABA's u' into w,
     then per column the residual's derivative G and u'-columns M⁻¹ G by the articulated-body
@@ -206,26 +225,15 @@ def tree_jacobian_body(ctx, program, W, G, seeds, fn, nr):
     for j, s in enumerate(W[nu:]):      # a closed tree's λ (constrained.jacobian_symbols)
         pr._names[s] = f"w[{nu + j}]"
     ng = len(G)           # nu, or nu + m on a closed tree (the constraints' rows)
-    # values the loops read live in an array, not in hundreds of loop-invariant locals
-    # (which make C compilers' register allocation slow on large models)
-    defined = {t for t, _ in once}
-    live, seen = [], set()
-    for _, _, inner, gstores, solve, sol in loops:
-        for e in [e for _, e in inner + solve] + [e for _, e in gstores] + list(sol.values()):
-            for s in e.free_symbols:
-                if s in defined and s not in seen:
-                    seen.add(s)
-                    live.append(s)
-    live.sort(key=lambda s: pr._names[s])
-    live.sort(key=lambda s: len(pr._names[s]))
-    for j, s in enumerate(live):
-        pr._names[s] = f"P[{j}]"
+    nlive = name_loop_inputs(pr, once, (e for _, _, inner, gstores, solve, sol in loops
+                                        for e in [e for _, e in inner + solve] + [e for _, e in gstores]
+                                        + list(sol.values())))
     decls = [f"double w[{len(W)}];"] if any(lv.startswith("w[") for lv, _ in stores) else []
     decls += ([f"double Gm[{ncols * ng}];", "const double *G;"] if unrolled else [f"double G[{ng}];"])
     if any(inner for _, _, inner, _, _, _ in loops):
         decls += [f"double dx[{nx}];", "int i;"]
     decls.append("int k;")
-    decls += [f"double P[{len(live)}];"] if live else []
+    decls += [f"double P[{nlive}];"] if nlive else []
     lines = [f"{IND}{d}" for d in decls]
     lines += temps(program, pr, before)
     pivots = [pr.doprint(e) for k, e in program.results if k[0] == "Dpiv"]

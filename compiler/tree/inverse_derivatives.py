@@ -26,6 +26,7 @@ from ..emit.bodies import IND, store, temps, needed_assignments, split_on
 from ..emit.symbolic import TANGENT_MIN_STATES
 from ..ir.opcount import count_ops
 from .algorithms import rnea
+from .emit import _hoist, name_loop_inputs
 
 __all__ = ["inverse_dynamics_results", "inverse_dynamics_derivatives", "jac_id_body", "jac_id_ops"]
 
@@ -60,7 +61,6 @@ def _plan(program, seeds, nq, nu, nx):
 
 
 def _make_plan(program, seeds, nq, nu, nx):
-    from .emit import _hoist
     unrolled = program.result_exprs(UNROLLED)
     stores = [(f"out[{i * nx + k}]", unrolled.get((UNROLLED, i, k), sm.S.Zero))
               for i in range(nu) for k in range(nx)] if unrolled else []
@@ -85,19 +85,9 @@ def jac_id_body(ctx, program, seeds):
     nq, nu, nx = ctx.nq, ctx.nu, ctx.nx
     program, once, stores, loops = _plan(program, seeds, nq, nu, nx)
     pr = ctx.printer(program)
-    defined = {t for t, _ in once}
-    live, seen = [], set()
-    for _, _, inner, col in loops:     # values the loops read: an array, not hundreds of locals
-        for e in [e for _, e in inner] + [e for _, e in col]:
-            for s in e.free_symbols:
-                if s in defined and s not in seen:
-                    seen.add(s)
-                    live.append(s)
-    live.sort(key=lambda s: pr._names[s])
-    live.sort(key=lambda s: len(pr._names[s]))
-    for j, s in enumerate(live):
-        pr._names[s] = f"P[{j}]"
-    decls = ([f"double dx[{nx}];", "int i, k;"] if loops else []) + ([f"double P[{len(live)}];"] if live else [])
+    nlive = name_loop_inputs(pr, once, (e for _, _, inner, col in loops
+                                        for e in [e for _, e in inner] + [e for _, e in col]))
+    decls = ([f"double dx[{nx}];", "int i, k;"] if loops else []) + ([f"double P[{nlive}];"] if nlive else [])
     lines = [f"{IND}{d}" for d in decls]
     lines += temps(program, pr, once)
     lines += [store(lv, e, pr) for lv, e in stores]
