@@ -199,9 +199,7 @@ def _f32_header(header, name, meta):
     if line not in header:
         raise ModelError(f"{name}.h lacks the {name}_model declaration the c99-f32 target replaces "
                          f"(compiler bug)")
-    extra = (f"#define {upper}_TARGET_F32 1\n"
-             f"/* Work arrays: {upper}_WORK_SIZE floats; declare them with {upper}_WORK_LEN, never 0 long. */\n"
-             f"#define {upper}_WORK_LEN ({upper}_WORK_SIZE > 0 ? {upper}_WORK_SIZE : 1)\n")
+    extra = f"#define {upper}_TARGET_F32 1\n"      # NAME_WORK_LEN comes from the template (both targets)
     if meta["nparam"]:
         extra += f"extern const float {name}_param_defaults[{upper}_NPARAM];\n"
     if "rhs" in meta["functions"]:

@@ -66,3 +66,23 @@ def test_ir_listing_names_temporaries_in_order():
     text = ir_listing(formed, "pendulum", parameters=params, functions=["rhs"])
     assert text.startswith("# pendulum_rhs\n")
     assert "t0 = sin(x_0)" in text and "kin[0] <- x_1" in text
+
+
+def test_a_zero_work_model_declares_a_work_array_in_strict_c99(tmp_path):
+    """NAME_WORK_LEN: the mass-spring needs no work (WORK_SIZE 0), and the array an embedder
+    declares from the header must still be legal C99 (a zero-length array is not)."""
+    import shutil
+    import subprocess
+    formed, params = mass_spring()
+    gm = generate_c(formed, "ms", parameters=params)
+    assert "#define MS_WORK_SIZE 0\n" in gm.header
+    (tmp_path / "ms.h").write_text(gm.header)
+    (tmp_path / "use.c").write_text('#include "ms.h"\nint main(void) { double work[MS_WORK_LEN]; '
+                                    'work[0] = 0.0; return (int)work[0]; }\n')
+    cc = shutil.which("gcc") or shutil.which("cc")
+    if cc is None:
+        pytest.fail("no C compiler (gcc or cc) to check the header with")
+    runtime_c = os.path.join(os.path.dirname(__import__("eomc.runtime").runtime.__file__), "c")
+    done = subprocess.run([cc, "-std=c99", "-pedantic-errors", "-Wall", "-Wextra", "-Werror", "-I", runtime_c,
+                           "-fsyntax-only", str(tmp_path / "use.c")], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr

@@ -28,6 +28,8 @@ extern "C" {
 #define MASS_SPRING_NINPUT 0
 #define MASS_SPRING_NOUTPUT 0
 #define MASS_SPRING_WORK_SIZE 0
+/* Declare work arrays MASS_SPRING_WORK_LEN long: the work size, or 1 when it is 0 (C has no zero-length arrays). */
+#define MASS_SPRING_WORK_LEN (MASS_SPRING_WORK_SIZE > 0 ? MASS_SPRING_WORK_SIZE : 1)
 
 int mass_spring_rhs(double t, const double *x, const double *p, const double *r, double *xdot, double *work);
 int mass_spring_jac_x(double t, const double *x, const double *p, const double *r, double *out, double *work);

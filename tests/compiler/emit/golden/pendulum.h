@@ -29,6 +29,8 @@ extern "C" {
 #define PENDULUM_NINPUT 0
 #define PENDULUM_NOUTPUT 0
 #define PENDULUM_WORK_SIZE 0
+/* Declare work arrays PENDULUM_WORK_LEN long: the work size, or 1 when it is 0 (C has no zero-length arrays). */
+#define PENDULUM_WORK_LEN (PENDULUM_WORK_SIZE > 0 ? PENDULUM_WORK_SIZE : 1)
 
 int pendulum_rhs(double t, const double *x, const double *p, const double *r, double *xdot, double *work);
 int pendulum_jac_x(double t, const double *x, const double *p, const double *r, double *out, double *work);
