@@ -9,6 +9,7 @@ import pytest
 from helpers import model_files
 import eomc
 from eomc.compiler.build import build
+from eomc.compiler.build.cache import CacheWarning
 from eomc.compiler.driver import Progress, generate
 from eomc.errors import ModelError
 
@@ -83,7 +84,8 @@ def test_library_that_does_not_load_is_rebuilt(files, tmp_path):
     spec, generated = generate(files["pend"], progress=False)
     library = build(generated, cache_dir=tmp_path, extra_metadata={"initial_state": spec.initial_state}).library
     library.write_bytes(b"\0" * library.stat().st_size)  # same size: the manifest check passes, dlopen fails
-    second = eomc.compile(files["pend"], cache_dir=tmp_path, progress=False)
+    with pytest.warns(CacheWarning, match="was damaged .*rebuilding it"):
+        second = eomc.compile(files["pend"], cache_dir=tmp_path, progress=False)
     assert second.library_path == library
     assert second.rhs(0, [0.3, 0.0])[1] == pytest.approx(model_files.pendulum_rhs([0.3, 0.0])[1], rel=1e-12)
 

@@ -136,12 +136,20 @@ def test_bouncing_sphere_converges_to_the_tight_reference(sphere):
     ref = sphere.simulate(x0, (0, 0.6), p=p, method="radau", rtol=1e-10, atol=1e-10, t_eval=[0.6])
     errs = []
     dts = (4e-3, 2e-3, 1e-3, 5e-4, 2.5e-4)
+    warned = []
     for dt in dts:
-        res = sphere.simulate(x0, (0, 0.6), p=p, method="implicitfast", dt=dt)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            res = sphere.simulate(x0, (0, 0.6), p=p, method="implicitfast", dt=dt)
+        if any("not solved to tolerance" in str(w.message) for w in caught):
+            warned.append(dt)
         assert res.status == 0
         errs.append(np.abs(res.x[-1] - ref.x[-1]).max())
         touch = res.t_events["contact_ball"][0]
         assert touch == pytest.approx(ref.t_events["contact_ball"][0], abs=dt)
+    # the touch-down at the coarsest steps may leave sub-steps unsolved (said by a warning);
+    # from 1 ms down every step is solved
+    assert all(dt > 1e-3 for dt in warned), warned
     assert all(b < a for a, b in zip(errs, errs[1:])), errs
     slope = np.polyfit(np.log(dts), np.log(errs), 1)[0]
     assert 0.7 < slope < 1.5, (errs, slope)
