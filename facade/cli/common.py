@@ -295,24 +295,51 @@ def check_before_build(args):
 
 
 def read_checks(args):
-    """{"check": ...} for :func:`load_model` when a robot file (.urdf, .xml) is given --param:
-    its parameters are known once the file is read (the multibody Model's parameters and
-    defaults, contacts' and joint laws' included), so an unknown name -- or a value the
-    build would refuse, e.g. a negative contact stiffness (eomc.runtime.law_parameters) --
-    is reported then, from the one reading, before anything is derived or compiled.  {}
-    otherwise (other models' parameters are known after deriving; checked after loading)."""
+    """{"check": ...} for :func:`load_model` when a robot file (.urdf, .xml) is given --param
+    (or an MJCF file --x0, --input or --frame): its names are known once the file is read (the
+    multibody Model's parameters and defaults, contacts' and joint laws' included; its states,
+    inputs and bodies), so an unknown name -- or a parameter value the build would refuse,
+    e.g. a negative contact stiffness (eomc.runtime.law_parameters) -- is reported then, from
+    the one reading, before anything is derived or compiled.  A URDF's other names are
+    checked before that (:func:`check_before_build`).  {} otherwise (other models' names are
+    known after deriving; checked after loading)."""
     path = Path(args.model)
     given = parse_assignments(getattr(args, "param", ()), "param")
-    if not (given and path.is_file() and path.suffix.lower() in (".urdf", ".xml", ".mjcf")):
+    mjcf = path.suffix.lower() in (".xml", ".mjcf")
+    x0 = parse_assignments(getattr(args, "x0", ()), "x0") if mjcf else {}
+    pieces = [p.strip() for text in getattr(args, "input", ()) or () for p in text.split(",") if p.strip()]
+    inputs = [p.partition("=")[0].strip() for p in pieces if "=" in p] if mjcf else []
+    frames = [f for f in (getattr(args, "frame", None) or ()) if f != "com"] if mjcf else []
+    if not ((given or x0 or inputs or frames) and path.is_file()
+            and (mjcf or path.suffix.lower() == ".urdf")):
         return {}
 
     def check(read):
+        stem = path.stem
+        states = [_plain(v) for v in (*read.coordinates, *read.speeds, *read.extra_states)]
+        unknown = [n for n in x0 if n not in states]
+        if unknown:
+            raise _unknown(stem, "state", "--x0", unknown, states)
+        names = [_plain(v) for v in read.inputs]
+        unknown = [n for n in inputs if n not in names]
+        if unknown:
+            raise _unknown(stem, "input", "--input", unknown, names)
+        unknown = [f for f in frames if read.frame(f) is None]
+        if unknown:
+            raise _unknown(stem, "frame", "--frame", unknown, ["com"] + [f.name for f in read.frames])
         names = [str(p) for p in read.parameters]
         unknown = [n for n in given if n not in names]
         if unknown:
-            raise _unknown(path.stem, "parameter", "--param", unknown, names)
-        _check_law_values(path.stem, read, names, given)
+            raise _unknown(stem, "parameter", "--param", unknown, names)
+        if given:
+            _check_law_values(stem, read, names, given)
     return {"check": check}
+
+
+def _plain(v):
+    """A state's or input's name: q_hinge for q_hinge(t)."""
+    text = str(v)
+    return text[:-3] if text.endswith("(t)") else text
 
 
 def _check_law_values(stem, read, names, given):
@@ -323,13 +350,10 @@ def _check_law_values(stem, read, names, given):
 
     from eomc.runtime.law_parameters import check_law_parameters
 
-    def plain(v):
-        text = str(v)
-        return text[:-3] if text.endswith("(t)") else text
     defaults = {str(s): float(v) for s, v in read.defaults.items()}
     values = [given.get(n, defaults.get(n, float("nan"))) for n in names]
     stand_in = SimpleNamespace(name=stem, param_names=names,
-                               state_names=[plain(v) for v in (*read.coordinates, *read.speeds)],
+                               state_names=[_plain(v) for v in (*read.coordinates, *read.speeds)],
                                metadata={"events": [{"name": str(e)} for e in read.events]})
     check_law_parameters(stand_in, values)
 

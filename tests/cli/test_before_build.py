@@ -167,3 +167,29 @@ def test_correct_params_still_run(arm_urdf, tmp_path, capsys):
                      "--contact", "lower:0,0,0.3:0.05", "-o", str(out), *params]) == 0, capsys.readouterr().err
         runs[label] = np.genfromtxt(out, delimiter=",", names=True)
     assert not np.allclose(runs["default"]["q_shoulder"], runs["changed"]["q_shoulder"])
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["--x0", "q_hinje=0.3"], "unknown state q_hinje in --x0 (did you mean q_hinge"),
+    (["--input", "ctrl_actuator=1"], "unknown input ctrl_actuator in --input (did you mean ctrl_actuator0?)"),
+    (["--frame", "ram"], "unknown frame ram in --frame (did you mean arm?)"),
+])
+def test_mjcf_run_option_typos_are_reported_before_deriving(argv, words, nothing_derived, tmp_path, capsys):
+    pytest.importorskip("mujoco")
+    path = tmp_path / "pendulum.xml"
+    path.write_text(MJCF_PENDULUM)
+    assert main(["simulate", str(path), "--t-final", "1", "-q", *argv]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and words in err, err
+
+
+def test_correct_mjcf_options_still_run(tmp_path, capsys):
+    pytest.importorskip("mujoco")
+    path = tmp_path / "pendulum.xml"
+    path.write_text(MJCF_PENDULUM)
+    out = tmp_path / "run.csv"
+    assert main(["simulate", str(path), "--t-final", "0.2", "-q", "--x0", "q_hinge=0.3", "--input",
+                 "ctrl_actuator0=0.5", "--frame", "arm", "--param", "d_hinge=0.2", "-o", str(out)]) == 0, \
+        capsys.readouterr().err
+    header = out.read_text().splitlines()[0]
+    assert "q_hinge" in header and "arm.p.x" in header, header
