@@ -129,8 +129,13 @@ def _with_frames(spec, frames, functions):
 
 def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, functions=None,
              fold_parameters=False, progress=None, cache_dir=None, use_cache=True, events=None,
-             formulation="auto", states=None, contacts=None, frames=None, target=None):
+             formulation="auto", states=None, contacts=None, frames=None, target=None, check=None):
     """Derive and generate C without compiling: returns (ModelSpec, GeneratedModel).
+
+    ``check``: called with a robot file's multibody Model (URDF, MJCF) as soon as the file
+    is read, before anything is derived: the command line checks its run options (--param
+    names and values) there, so a typo costs the reading, not the build, and the file is
+    still read once.
 
     ``target``: "c99-f64" (the default: double C and the eomc_model ABI) or "c99-f32"
     (float C for firmware, with NAME_step_rk4 and without the struct; see
@@ -172,6 +177,8 @@ def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, f
     with progress.stage("derive"):
         # every file is read here, once; each formulation auto compares derives from the reading
         read = read_model(system, name, poses=functions is None or "poses" in functions)
+        if check is not None and read.model is not None:
+            check(read.model)
         try:
             spec = derive(formulation)
         except EomcError as exc:
@@ -205,7 +212,7 @@ def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, f
 def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, functions=None,
             fold_parameters=False, backend="cffi", cflags=None, cache_dir=None, output_dir=None,
             progress=None, events=None, formulation="auto", states=None, contacts=None, frames=None,
-            target=None):
+            target=None, check=None):
     """Compile a model file (path) or a formed system into a loaded :class:`eomc.runtime.model.Model`.
 
     ``formulation``: "auto" (default), "kane" or "recursive" (see :func:`generate`).
@@ -213,6 +220,7 @@ def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, fu
     mass as outputs (see :func:`generate`; read them with ``model.frame(name, t, x)``).
     ``target``: "c99-f64" (default) or "c99-f32" (float C for firmware; the model loads as an
     :class:`eomc.runtime.float32.Float32Model`, which evaluates but does not simulate).
+    ``check``: see :func:`generate`.
 
     Progress (stage timings on stderr) defaults to on when stderr is a terminal.
     """
@@ -220,7 +228,8 @@ def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, fu
     spec, generated = generate(system, name, parameters=parameters, inputs=inputs, outputs=outputs,
                                functions=functions, fold_parameters=fold_parameters, progress=progress,
                                cache_dir=cache_dir, events=events, formulation=formulation,
-                               states=states, contacts=contacts, frames=frames, target=target)
+                               states=states, contacts=contacts, frames=frames, target=target,
+                               check=check)
     extra = {"initial_state": spec.initial_state} if spec.initial_state is not None else None
     if getattr(spec, "timestep", None) is not None:      # the file's own step (MJCF <option timestep>)
         extra = {**(extra or {}), "timestep": spec.timestep}

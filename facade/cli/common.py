@@ -131,12 +131,14 @@ def add_frame_argument(parser):
 
 
 def load_model(path, quiet=False, floating_base=False, formulation="auto", frames=None, ignore=(),
-               contacts=None, allow_nonphysical_inertia=False, limits=True, functions=None):
+               contacts=None, allow_nonphysical_inertia=False, limits=True, functions=None, check=None):
     """A runtime Model from a model file (.py, .urdf, MuJoCo's .xml; compiled) or a built
     directory / json (loaded).  ``ignore``: an MJCF model's ignorable elements (--ignore).
 
     Compiling shows its stages on stderr when that is a terminal, unless ``quiet``.
     ``frames``: frame outputs to compile in; a built model must already have them.
+    ``check``: called with a robot file's multibody Model once it is read, before anything
+    is derived (:func:`read_checks`).
     """
     path = Path(path)
     if not path.exists():
@@ -154,8 +156,9 @@ def load_model(path, quiet=False, floating_base=False, formulation="auto", frame
         source, name = with_options(str(path), name=None, floating_base=floating_base,
                                     allow_nonphysical_inertia=allow_nonphysical_inertia, limits=limits,
                                     ignore=ignore)
+        extra = {} if check is None else {"check": check}
         return compile_model(source, name, progress="quiet" if quiet else None, functions=functions,
-                             formulation=formulation, frames=frames, contacts=contacts)
+                             formulation=formulation, frames=frames, contacts=contacts, **extra)
     if contacts:
         raise ValueError(f"{path}: --contact applies to a robot (.urdf, .xml) being compiled, not to a built model")
     from eomc.runtime.loader import load
@@ -260,8 +263,9 @@ def check_before_build(args):
     """Check a URDF robot's run options against its names before it is built (ValueError).
 
     The names come from the file's tree (eomc.compiler.urdf.names, milliseconds), so a typo
-    in --x0, --input, --frame or --contact costs no build; parameters are only known once the
-    equations are derived and are checked then.  Other models are checked after loading."""
+    in --x0, --input, --frame or --contact costs no build; --param is checked from the build's
+    own reading of the file, before anything is derived (:func:`read_checks`).  Other models
+    are checked after loading."""
     path = Path(args.model)
     if not (path.is_file() and path.suffix.lower() == ".urdf"):
         return
@@ -288,6 +292,46 @@ def check_before_build(args):
     unknown = [c for c in contacts if c and not c.startswith("@") and c not in links]
     if unknown:
         raise _unknown(stem, "link", "--contact", unknown, links)
+
+
+def read_checks(args):
+    """{"check": ...} for :func:`load_model` when a robot file (.urdf, .xml) is given --param:
+    its parameters are known once the file is read (the multibody Model's parameters and
+    defaults, contacts' and joint laws' included), so an unknown name -- or a value the
+    build would refuse, e.g. a negative contact stiffness (eomc.runtime.law_parameters) --
+    is reported then, from the one reading, before anything is derived or compiled.  {}
+    otherwise (other models' parameters are known after deriving; checked after loading)."""
+    path = Path(args.model)
+    given = parse_assignments(getattr(args, "param", ()), "param")
+    if not (given and path.is_file() and path.suffix.lower() in (".urdf", ".xml", ".mjcf")):
+        return {}
+
+    def check(read):
+        names = [str(p) for p in read.parameters]
+        unknown = [n for n in given if n not in names]
+        if unknown:
+            raise _unknown(path.stem, "parameter", "--param", unknown, names)
+        _check_law_values(path.stem, read, names, given)
+    return {"check": check}
+
+
+def _check_law_values(stem, read, names, given):
+    """The build's refusals (eomc.runtime.law_parameters) on the defaults with ``given``
+    applied, on a stand-in of the built model made of what the reader knows: parameter
+    and state names and the contacts (``contact_<name>`` events)."""
+    from types import SimpleNamespace
+
+    from eomc.runtime.law_parameters import check_law_parameters
+
+    def plain(v):
+        text = str(v)
+        return text[:-3] if text.endswith("(t)") else text
+    defaults = {str(s): float(v) for s, v in read.defaults.items()}
+    values = [given.get(n, defaults.get(n, float("nan"))) for n in names]
+    stand_in = SimpleNamespace(name=stem, param_names=names,
+                               state_names=[plain(v) for v in (*read.coordinates, *read.speeds)],
+                               metadata={"events": [{"name": str(e)} for e in read.events]})
+    check_law_parameters(stand_in, values)
 
 
 def fixed_base_note(path, floating_base, stream=None):

@@ -95,3 +95,74 @@ def test_plot_states_are_checked_before_the_run(tmp_path, monkeypatch, capsys):
     code = main(["simulate", str(examples / "double_pendulum.py"), "--t-final", "1", "-q",
                  "--plot", str(tmp_path / "p.png"), "--plot-states", "q1,q9"])
     assert code == 2 and "--plot-states names q9" in capsys.readouterr().err
+
+
+@pytest.fixture
+def nothing_derived(monkeypatch):
+    """The file may be read (once: the parameters are the reader's), but deriving the
+    equations or compiling C fails the test: a --param mistake must be caught between."""
+    import eomc.compiler.driver as driver
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("the model was derived or compiled")
+    monkeypatch.setattr(driver, "spec_of", refuse)
+    monkeypatch.setattr(driver, "build_and_load", refuse)
+
+
+MJCF_PENDULUM = """<mujoco><worldbody><body name="arm" pos="0 0 1">
+  <joint name="hinge" type="hinge" axis="0 1 0" damping="0.1"/>
+  <geom type="capsule" fromto="0 0 0 0 0 -0.5" size="0.05" mass="1"/></body></worldbody>
+  <actuator><motor joint="hinge"/></actuator></mujoco>"""
+
+
+@pytest.fixture
+def arm_urdf(tmp_path):
+    from helpers.urdf_arm import ARM
+    path = tmp_path / "arm.urdf"
+    path.write_text(ARM)
+    return path
+
+
+@pytest.mark.parametrize("command", ["simulate", "animate"])
+def test_a_misspelt_param_on_a_urdf_robot_is_reported_before_deriving(command, nothing_derived, tmp_path,
+                                                                        capsys):
+    options = ["--t-final", "1"] if command == "simulate" else ["-o", str(tmp_path / "go2.html")]
+    start = time.process_time()
+    code = main([command, str(robot_path(GO2)), "--floating-base", "-q", *options, "--param", "m_FL_thgh=2"])
+    spent = time.process_time() - start
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1, err
+    assert "go2: unknown parameter m_FL_thgh in --param (did you mean m_FL_thigh" in err, err
+    assert spent < 2.0, spent          # CPU seconds: reading the file, nothing derived or compiled
+
+
+def test_a_misspelt_param_on_an_mjcf_model_is_reported_before_deriving(nothing_derived, tmp_path, capsys):
+    pytest.importorskip("mujoco")
+    path = tmp_path / "pendulum.xml"
+    path.write_text(MJCF_PENDULUM)
+    assert main(["simulate", str(path), "--t-final", "1", "-q", "--param", "d_hinje=0.2"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "unknown parameter d_hinje in --param (did you mean d_hinge?)" in err, err
+
+
+def test_a_refused_param_value_is_reported_before_deriving(arm_urdf, nothing_derived, capsys):
+    """The run-time law check (eomc.runtime.law_parameters) on the reader's names: a negative
+    contact stiffness is refused before the build, naming the parameter and the contact."""
+    code = main(["simulate", str(arm_urdf), "--t-final", "1", "-q", "--contact", "lower:0,0,0.3:0.05",
+                 "--param", "k_lower=-5"])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1, err
+    assert "parameter k_lower = -5 must be >= 0 (contact stiffness of contact lower)" in err, err
+
+
+def test_correct_params_still_run(arm_urdf, tmp_path, capsys):
+    """The early check passes what the build has: the run takes the values (a heavier lower
+    link and a softer contact change the trajectory)."""
+    import numpy as np
+    runs = {}
+    for label, params in (("default", []), ("changed", ["--param", "m_lower=3", "k_lower=2e5"])):
+        out = tmp_path / f"{label}.csv"
+        assert main(["simulate", str(arm_urdf), "--t-final", "0.3", "-q", "--x0", "q_shoulder=0.5",
+                     "--contact", "lower:0,0,0.3:0.05", "-o", str(out), *params]) == 0, capsys.readouterr().err
+        runs[label] = np.genfromtxt(out, delimiter=",", names=True)
+    assert not np.allclose(runs["default"]["q_shoulder"], runs["changed"]["q_shoulder"])
