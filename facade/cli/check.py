@@ -25,7 +25,8 @@ def run(args):
     import sys
     from eomc.runtime.progress import ticker
     from eomc.runtime.stability import check_model, format_checks
-    model = cli_common.load_model(args.model, args.quiet, **cli_common.model_options(args))
+    model = cli_common.load_model(args.model, args.quiet, **cli_common.model_options(args),
+                                  **cli_common.read_checks(args))   # --param, from the one reading
     x0 = cli_common.initial_state(model, cli_common.parse_assignments(args.x0, "x0"))
     p = cli_common.parameter_values(model, cli_common.parse_assignments(args.param, "param"))
     with ticker(f"eomc check {model.name}", sys.stderr, not args.quiet):

@@ -58,7 +58,8 @@ def run(args):
     from eomc.runtime.report import work_precision
     if args.output and Path(args.output).exists() and not Path(args.output).is_dir():
         raise ValueError(f"-o {args.output} is a file; give a directory for report.csv/.png/.md")
-    model = cli_common.load_model(args.model, args.quiet, **cli_common.model_options(args))
+    model = cli_common.load_model(args.model, args.quiet, **cli_common.model_options(args),
+                                  **cli_common.read_checks(args))   # --param, from the one reading
     methods = [m for text in args.methods for m in text.split(",") if m]
     x0 = cli_common.initial_state(model, cli_common.parse_assignments(args.x0, "x0"))
     p = cli_common.parameter_values(model, cli_common.parse_assignments(args.param, "param"))

@@ -123,10 +123,11 @@ def arm_urdf(tmp_path):
     return path
 
 
-@pytest.mark.parametrize("command", ["simulate", "animate"])
+@pytest.mark.parametrize("command", ["simulate", "animate", "check", "report", "linearize"])
 def test_a_misspelt_param_on_a_urdf_robot_is_reported_before_deriving(command, nothing_derived, tmp_path,
                                                                         capsys):
-    options = ["--t-final", "1"] if command == "simulate" else ["-o", str(tmp_path / "go2.html")]
+    options = {"simulate": ["--t-final", "1"], "animate": ["-o", str(tmp_path / "go2.html")],
+               "report": ["-o", str(tmp_path / "report")]}.get(command, [])
     start = time.process_time()
     code = main([command, str(robot_path(GO2)), "--floating-base", "-q", *options, "--param", "m_FL_thgh=2"])
     spent = time.process_time() - start
