@@ -109,14 +109,18 @@ def build(generated, *, backend="cffi", cflags=None, cache_dir=None, force=False
         raise ValueError(f"model {name!r} is built for {generated.metadata['target']}: its Python "
                          f"module loads through cffi only (backend='cffi'); the Cython backend "
                          f"binds the double ABI")
-    measured = embedded and supports_callgraph(tc)
+    # Every target's worst-case stack is measured by the compile that builds the library (one
+    # flag; it changes no generated code).  The c99-f64 key keeps the argv without the flag, so
+    # the keys of double builds are what they were before the measurement existed.
+    measured = supports_callgraph(tc)
     root = cache_root(cache_dir)
     c_dir = shipped_c_dir()
     lib = f"lib{name}.so"
-    link = [*tc.argv, *flags, *([CALLGRAPH_FLAG] if measured else []), "-shared", "-o", lib, f"{name}.c",
-            *MODEL_RUNTIME_SOURCES, "-lm", *_link_flags()]
+    tail = ["-shared", "-o", lib, f"{name}.c", *MODEL_RUNTIME_SOURCES, "-lm", *_link_flags()]
+    link = [*tc.argv, *flags, *([CALLGRAPH_FLAG] if measured else []), *tail]
+    keyed = link if embedded else [*tc.argv, *flags, *tail]
     inputs = {**_base_inputs(tc, flags), "backend": backend,
-              "argv": link[len(tc.argv):],
+              "argv": keyed[len(tc.argv):],
               "source": hash_key(generated.c_source), "header": hash_key(generated.header),
               "headers": {n: sha256_file(c_dir / n) for n in SHIPPED_HEADERS + MODEL_RUNTIME_SOURCES},
               "metadata": hash_key([generated.metadata, generated.cdef, extra_metadata])}
@@ -131,7 +135,7 @@ def build(generated, *, backend="cffi", cflags=None, cache_dir=None, force=False
         for n in SHIPPED_HEADERS + MODEL_RUNTIME_SOURCES:
             shutil.copyfile(c_dir / n, tmp / n)
         run_compiler(link, tmp, name, key, root)
-        stack = _stack(tmp, generated, tc, measured) if embedded else None
+        stack = _stack(tmp, generated, tc, measured)
         extension = None
         if backend == "cython":
             from .cython_ext import build_extension
@@ -147,7 +151,7 @@ def build(generated, *, backend="cffi", cflags=None, cache_dir=None, force=False
 
 
 def _stack(tmp, generated, tc, measured):
-    """An embedded target's worst-case stack per function: into NAME.h (#defines) and NAME.json.
+    """The worst-case stack per function (every target): into NAME.h (#defines) and NAME.json.
 
     Measured from gcc's call-graph dump of this very compile (compiler/build/stack.py); the dump
     files are removed after.  With a compiler that has no dump, NAME.json says so instead.
@@ -156,7 +160,9 @@ def _stack(tmp, generated, tc, measured):
     if not measured:
         return {"stack": None, "stack_note": f"not measured: {tc.version} has no {CALLGRAPH_FLAG} "
                                              f"(gcc 10 or later does)"}
-    functions = list(generated.metadata["functions"]) + (["step_rk4"] if "rhs" in generated.metadata["functions"] else [])
+    functions = list(generated.metadata["functions"])
+    if generated.metadata.get("target", "c99-f64") != "c99-f64" and "rhs" in functions:
+        functions.append("step_rk4")   # the float target's generated integrator step
     stack = measure_stack(tmp, name, functions) or {}
     for path in list(tmp.glob("*.ci")) + list(tmp.glob("*.su")):
         path.unlink()

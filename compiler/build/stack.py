@@ -8,8 +8,9 @@ inside NAME.c.  Calls that leave the file (libm's sinf, sqrtf) are listed by nam
 frames belong to the C library the firmware links, not to eomc.  A frame gcc marks
 dynamic (alloca, VLAs: the generator writes none) makes the bound unknown, and says so.
 
-Only the c99-f32 target is measured (its build adds the flag); clang has no call-graph
-dump, so a clang build records why there is no figure instead of a wrong one.
+Every target is measured (the compile that builds the library adds the flag; it changes no
+generated code); clang has no call-graph dump, so a clang build records why there is no
+figure instead of a wrong one.
 """
 import re
 from pathlib import Path
@@ -88,7 +89,7 @@ def stack_header_block(name, stack, compiler):
     upper = name.upper()
     lines = [f"/* Worst-case stack in bytes per function, measured at build time ({compiler}, "
              f"{CALLGRAPH_FLAG}):", " * the function's frame plus its deepest chain of calls inside "
-             f"{name}.c; calls into libm", " * (listed in {name}.json under stack.external) come on "
+             f"{name}.c; calls into libm", f" * (listed in {name}.json under stack.external) come on "
              f"top.  Other compilers and flags differ: re-measure for yours. */"]
     for fn, info in stack.items():
         if info["bytes"] is not None:

@@ -62,7 +62,7 @@ def run(args):
     for name in files:
         print(f"  {name}")
     stack = model.metadata.get("stack")
-    if stack:                # c99-f32: the worst-case stack measured at build time
+    if stack:                # the worst-case stack measured at build time (gcc 10+)
         print("stack (bytes, worst case over the calls inside NAME.c): "
               + ", ".join(f"{fn} {s['bytes']}" for fn, s in stack.items()))
     print(formulation_line(model.metadata, args.formulation))
