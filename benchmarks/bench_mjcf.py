@@ -44,6 +44,7 @@ MODELS = [("gym", "inverted_pendulum", ()), ("gym", "inverted_double_pendulum", 
 NSTATES, NCALLS, REPEAT = 200, 20000, 7
 CORE = 1
 
+CONTACTS_OFF = "    m->opt.disableflags |= mjDSBL_CONTACT | mjDSBL_CONSTRAINT | mjDSBL_LIMIT;\n"
 MUJOCO_HARNESS = r"""
 #define _POSIX_C_SOURCE 199309L
 #include <stdio.h>

@@ -33,41 +33,15 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from common import environment_header, format_table, write_results  # noqa: E402
 from bench_urdf import _mujoco_dir, _run, _timed, _write, eomc_harness  # noqa: E402
+import bench_mjcf  # noqa: E402
 
 MODELS = ["hopper", "walker2d", "ant", "humanoid"]
 NSTATES, NCALLS, REPEAT = 100, 20000, 7
 CORE = 1
 
-MUJOCO_HARNESS = r"""
-#define _POSIX_C_SOURCE 199309L
-#include <stdio.h>
-#include <stdlib.h>
-#include <time.h>
-#include <mujoco/mujoco.h>
-static double cpu(void) { struct timespec t; clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t); return t.tv_sec + 1e-9 * t.tv_nsec; }
-int main(int argc, char **argv) {
-    char err[1000];
-    mjModel *m = mj_loadXML(argv[1], NULL, err, sizeof err);
-    if (!m) { fprintf(stderr, "%s\n", err); return 2; }
-    mjData *d = mj_makeData(m);
-    const int nq = m->nq, nv = m->nv, ns = atoi(argv[3]); const long nc = atol(argv[4]);
-    double *Q = malloc(sizeof(double) * nq * ns), *V = malloc(sizeof(double) * nv * ns);
-    FILE *f = fopen(argv[2], "rb");
-    for (int k = 0; k < ns; ++k)
-        if (fread(Q + k * nq, sizeof(double), nq, f) != (size_t)nq || fread(V + k * nv, sizeof(double), nv, f) != (size_t)nv) return 3;
-    fclose(f);
-    mju_copy(d->qpos, Q, nq); mju_copy(d->qvel, V, nv); mj_forward(m, d);
-    printf("first"); for (int j = 0; j < nv; ++j) printf(" %.17g", d->qacc[j]); printf("\n");
-    double sum = 0.0, t0 = cpu();
-    for (long i = 0; i < nc; ++i) {
-        mju_copy(d->qpos, Q + (i % ns) * nq, nq); mju_copy(d->qvel, V + (i % ns) * nv, nv);
-        mj_forward(m, d); sum += d->qacc[nv - 1];
-    }
-    printf("ns %.3f\nchecksum %g\n", 1e9 * (cpu() - t0) / nc, sum);
-    mj_deleteData(d); mj_deleteModel(m);
-    return 0;
-}
-"""
+# bench_mjcf.py's mj_forward timing harness with MuJoCo's contacts, constraints and limits left on
+MUJOCO_HARNESS = bench_mjcf.MUJOCO_HARNESS.replace(bench_mjcf.CONTACTS_OFF, "")
+assert MUJOCO_HARNESS != bench_mjcf.MUJOCO_HARNESS, "bench_mjcf's harness no longer switches contacts off"
 
 COLD_BUILD = r"""
 import sys, time, warnings
