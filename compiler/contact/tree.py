@@ -21,7 +21,7 @@ import sympy as sm
 
 from eomc.runtime.errors import ModelError
 
-from .law import DEFAULTS, ground_forces
+from .law import DEFAULTS, ground_forces, ground_jacobians
 from .system import contact_symbols, parameter_defaults, unit_normal
 
 __all__ = ["ContactSpec", "ContactLoad", "ContactValue", "COLLISION_SPHERES", "parse_contact",
@@ -380,18 +380,23 @@ class WorldPoses:
         return self.p[i]
 
 
-def lower_contacts(tree, bodies, rec, v, rename):
+def lower_contacts(tree, bodies, rec, v, rename, implicit=None):
     """Add every ContactLoad's force to its body's ``fext`` (LoweredBody, body components
     about the origin); return {ContactValue placeholder: temporary}.
 
     ``v``: the bodies' spatial velocities [ω; v_origin] (body components, the recursion's);
-    ``rename(expr, what)``: mechanics symbols -> slot symbols (parameters)."""
+    ``rename(expr, what)``: mechanics symbols -> slot symbols (parameters).
+    ``implicit``: a dict to fill for the fixed-step integrator's NAME_implicit (None: not
+    built, no temporaries added): "poses" (the WorldPoses) and "contacts", per contact
+    (depth, contact point, its velocity, K, C of :func:`.law.ground_jacobians`), world."""
     contacts = contact_outputs(tree)
     # other velocity-dependent loads lowered here (MJCF fluid forces: eomc.compiler.mjcf.fluid)
     others = [ld for ld in tree.loads if not isinstance(ld, ContactLoad) and hasattr(ld, "lower")]
     if not contacts and not others:
         return {}
     poses = WorldPoses(bodies, rec)
+    if implicit is not None:
+        implicit["poses"], implicit["contacts"] = poses, []
     for load in others:
         load.lower(bodies, rec, v, rename, poses)
     values = {}
@@ -420,6 +425,12 @@ def lower_contacts(tree, bodies, rec, v, rename):
         n_b = _cross(lever, f_b)
         old = bodies[i].fext or [0] * 6
         bodies[i].fext = [old[k] + x for k, x in enumerate(n_b + f_b)]
+        if implicit is not None:
+            arm_w = forces.point_offset
+            point = [rec.let(centre[k] + arm_w[k]) for k in range(3)]
+            K, C = ground_jacobians(forces, rec.let)
+            implicit["contacts"].append({"depth": forces.depth, "point": point,
+                                         "velocity": list(forces.parts["slip"]), "K": K, "C": C})
         quantities = [forces.normal, *forces.friction, forces.depth]     # OUTPUT_KINDS' order
         for kind, value in enumerate(quantities):
             values[ContactValue(index, kind)] = value

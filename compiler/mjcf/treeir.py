@@ -123,6 +123,7 @@ def tree_ir(m, *, fold=False, actuators=None, limits=True, friction=True):
     for j, tau in tendon_forces(m, params, joint_names, tendon_names, limits, friction).items():
         drive[j] = drive.get(j, sm.S.Zero) + tau         # fixed tendons' springs, dampers, limits, friction
     bodies, coordinates, speeds, kinematics, loads, joints, owners = [], [], [], [], [], [], []
+    torques = []
     last = {0: -1}          # MuJoCo body -> index of its mass-carrying tree body (-1: world)
     com = {0: [0, 0, 0]}
     for b in range(1, m.nbody):
@@ -243,6 +244,7 @@ def tree_ir(m, *, fold=False, actuators=None, limits=True, friction=True):
                     tau = tau - stiffness * (coordinates[first_q] - rest)
                 tau = tau + _law(m, jid, jraw, jn, coordinates[first_q], speeds[first], params,
                                  limits, friction)
+                torques.append((coordinates[first_q], speeds[first], tau))
                 if tau != 0:
                     loads += _joint_force(kind, tau, a, R0, c, p, base_c, child, parent)
             elif kind == _BALL and m.dof_damping[dadr] != 0:
@@ -266,7 +268,8 @@ def tree_ir(m, *, fold=False, actuators=None, limits=True, friction=True):
         bodies, coordinates, speeds, kinematics, joints, [j1 for _, j1, _ in found] + [t[1] for t in tied])
     bodies = effective_inertias(bodies, coordinates, speeds, kinematics)
     ir = Tree(bodies=tuple(bodies), coordinates=tuple(coordinates), speeds=tuple(speeds),
-              kinematics=tuple(kinematics), gravity=gravity, loads=tuple(loads))
+              kinematics=tuple(kinematics), gravity=gravity, loads=tuple(loads),
+              joint_torques=tuple(torques))
     if found or tied:
         from eomc.compiler.tree.constrained import attach
         ir = attach(ir, coupling_loops(m, params, found, coordinates, speeds, joints, joint_names, tied))

@@ -103,6 +103,10 @@ class Tree:
     # the holonomic constraints closing the tree (compiler/tree/constrained.Loops), or None; a
     # field, so a Tree rebuilt with dataclasses.replace (contacts, ...) keeps them
     loops: object = field(default=None, compare=False)
+    # ((coordinate, speed, torque), ...): each 1-dof joint's torque (force) on its child about
+    # its axis, a function of its own coordinate and speed (damping, spring, limits, friction)
+    # and inputs; read by the fixed-step integrator's NAME_implicit (compiler/tree/lower.py)
+    joint_torques: tuple = field(default=(), compare=False)
 
     @property
     def n(self):
