@@ -309,7 +309,8 @@ def prepare(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6,
                          f"constraints_jac; this model has none")
     if model.c_model.rhs == model.ffi.NULL:
         raise model._missing("rhs")  # every method integrates rhs
-    if method in ("radau", "implicitfast") and model.c_model.jac_x == model.ffi.NULL:
+    if ((method == "radau" or (method == "implicitfast" and "implicit" not in model.functions))
+            and model.c_model.jac_x == model.ffi.NULL):
         raise ValueError(f"{model.name}: method {method!r} needs the Jacobian jac_x, which this model "
                          f"was built without; rebuild with functions including 'jac_x'")
     x0 = _vector(model, start_or_default(model, x0), model.nx, model.state_names, state_defaults(model),

@@ -155,13 +155,17 @@ def ground_jacobians(forces, let=None):
     n, k, c, vs = q["normal"], q["k"], q["c"], q["vs"]
     on = step(forces.normal)
     half = sm.Rational(3, 2)
-    kn = let(half * k * sm.sqrt(sm.Abs(q["dpos"])) * (1 + half * c * q["rate"]) * on)
-    cn = let(half * c * q["elastic"] * on)
+    # δ₊^{3/2} as δ₊·sqrt(δ₊), 1/s once: one sqrt and one division per contact besides the
+    # law's own (sqrt(|v_t|² + v_s²) written as the law writes it, so the passes share it)
+    depth = sm.Abs(q["dpos"])
+    sq = let(sm.sqrt(depth))
+    kn = let(half * k * sq * (1 + half * c * q["rate"]) * on)
+    cn = let(half * c * k * depth * sq * on)
     vt = q["vt"]
-    s2 = let(_dot(vt, vt) + vs ** 2)
+    inv_s = let(1 / let(sm.sqrt(_dot(vt, vt) + vs ** 2)))
     gf = let(-q["scale"])                    # μ F_n / s
-    ms = let(q["mu"] / sm.sqrt(s2))          # μ / s
-    gs = let(gf / s2)
+    ms = let(q["mu"] * inv_s)                # μ / s
+    gs = let(gf * inv_s * inv_s)             # μ F_n / s³
     carry = [let(n[i] - ms * vt[i]) for i in range(3)]
     K = [[kn * carry[i] * n[j] for j in range(3)] for i in range(3)]
     C = [[cn * carry[i] * n[j] + gf * ((1 if i == j else 0) - n[i] * n[j]) - gs * vt[i] * vt[j]

@@ -390,7 +390,8 @@ static fs_layout fs_layout_of(int nq, int nu, int nc)
 size_t eomc_fs_implicit_work_size(int nq, int nu, int ncontact)
 {
     size_t u = (size_t)nu, x = (size_t)nq + u;
-    return fs_layout_of(nq, nu, ncontact).size + u * u + 6 * u + 3 * x + 8;
+    /* + the ancestor lists: nu + 1 + nu (nu - 1) / 2 ints, in nu * nu / 2 + nu + 1 doubles */
+    return fs_layout_of(nq, nu, ncontact).size + u * u + 6 * u + 3 * x + 8 + u * u / 2 + u + 2;
 }
 
 /* A = U D L in place (D on the diagonal, unit U above it, unit L below it): A has nonzeros
@@ -401,50 +402,60 @@ size_t eomc_fs_implicit_work_size(int nq, int nu, int ncontact)
  * a negative pivot is no failure (A is not symmetric: a sliding contact's friction carried
  * by its normal force makes it indefinite, and measured on the falling humanoid a foot's
  * pivot goes negative while the step is fine). */
-#define FS_UP(k) (parent ? parent[k] : (k) - 1)
-static int fs_tree_lu(int n, double *A, const int *parent)
+/* anc[start[k] .. start[k + 1]) = speed k's ancestors, nearest first (parent[] NULL: every
+ * earlier speed); the elimination below walks these lists, not the parent chain (a chain of
+ * dependent loads: measured on the humanoid, the walk was 40% of the step outside the model). */
+static void fs_ancestors(int n, const int *parent, int *start, int *anc)
+{
+    int pos = 0;
+    for (int k = 0; k < n; k++) {
+        start[k] = pos;
+        for (int i = parent ? parent[k] : k - 1; i >= 0; i = parent ? parent[i] : i - 1) anc[pos++] = i;
+    }
+    start[n] = pos;
+}
+
+static int fs_tree_lu(int n, double *A, const int *start, const int *anc)
 {
     double scale = 0.0;
     for (int k = 0; k < n; k++)
         if (fabs(A[(size_t)k * n + k]) > scale) scale = fabs(A[(size_t)k * n + k]);
     if (!isfinite(scale)) return 1;
     for (int k = n - 1; k >= 0; k--) {
-        double dk = A[(size_t)k * n + k], inv;
+        const int *a = anc + start[k];
+        int na = start[k + 1] - start[k];
+        double dk = A[(size_t)k * n + k], inv, *rk = A + (size_t)k * n;
         if (!(fabs(dk) > 64 * DBL_EPSILON * scale) || !isfinite(dk)) return 1;
         inv = 1.0 / dk;
-        for (int i = FS_UP(k); i >= 0; i = FS_UP(i)) {
-            double u = A[(size_t)i * n + k] * inv;
+        for (int x = 0; x < na; x++) {
+            int i = a[x];
+            double *ri = A + (size_t)i * n, u = ri[k] * inv;
             if (u != 0.0)
-                for (int j = FS_UP(k); j >= 0; j = FS_UP(j))
-                    A[(size_t)i * n + j] -= u * A[(size_t)k * n + j];
-            A[(size_t)i * n + k] = u;
+                for (int y = 0; y < na; y++) ri[a[y]] -= u * rk[a[y]];
+            ri[k] = u;
         }
-        for (int j = FS_UP(k); j >= 0; j = FS_UP(j)) A[(size_t)k * n + j] *= inv;
+        for (int y = 0; y < na; y++) rk[a[y]] *= inv;
     }
     return 0;
 }
 
-static void fs_tree_solve(int n, const double *A, const int *parent, double *b)
+static void fs_tree_solve(int n, const double *A, const int *start, const int *anc, double *b)
 {
     for (int k = n - 1; k >= 0; k--)
-        for (int i = FS_UP(k); i >= 0; i = FS_UP(i))
-            b[i] -= A[(size_t)i * n + k] * b[k];
+        for (int x = start[k]; x < start[k + 1]; x++) b[anc[x]] -= A[(size_t)anc[x] * n + k] * b[k];
     for (int k = 0; k < n; k++) b[k] /= A[(size_t)k * n + k];
     for (int k = 0; k < n; k++)
-        for (int j = FS_UP(k); j >= 0; j = FS_UP(j))
-            b[k] -= A[(size_t)k * n + j] * b[j];
+        for (int x = start[k]; x < start[k + 1]; x++) b[k] -= A[(size_t)k * n + anc[x]] * b[anc[x]];
 }
-#undef FS_UP
 
 /* One step (2) from (t, x) with the terms T = NAME_implicit(t, x): x1. */
 static int fs_fast_step(const eomc_fs_ops *ops, const fs_layout *L, double h, const double *x,
                         const double *T, double *A, double *du, double *J, double *GJ,
-                        double *Kv, double *x1)
+                        double *Kv, double *x1, const int *start, const int *anc)
 {
     const eomc_implicit *imp = ops->imp;
     int nq = ops->nq, nu = ops->nu;
     const double *u = x + nq, *scr = T + L->screw, *jl = T + L->joint;
-    const int *parent = imp->parent;
     memcpy(A, T + L->M, (size_t)nu * nu * sizeof(double));
     memcpy(du, T + L->f, (size_t)nu * sizeof(double));
     for (int s = 0; s < nu; s++) {                   /* joint laws: diagonal */
@@ -490,9 +501,9 @@ static int fs_fast_step(const eomc_fs_ops *ops, const fs_layout *L, double h, co
             }
         }
     }
-    if (fs_tree_lu(nu, A, parent)) return EOMC_SINGULAR_MASS_MATRIX;
+    if (fs_tree_lu(nu, A, start, anc)) return EOMC_SINGULAR_MASS_MATRIX;
     for (int s = 0; s < nu; s++) du[s] *= h;
-    fs_tree_solve(nu, A, parent, du);
+    fs_tree_solve(nu, A, start, anc, du);
     {
         const double *qd = T + L->qd, *N = T + L->N;
         for (int i = 0; i < nq; i++) {
@@ -515,9 +526,11 @@ static int fs_run_fast(const eomc_fs_ops *ops, eomc_stats *st, double h, long ma
     fs_layout L = fs_layout_of(nq, nu, ops->imp->ncontact);
     double *T = work, *A = T + L.size, *du = A + (size_t)nu * nu, *J = du + nu, *GJ = J + 3 * (size_t)nu;
     double *Kv = GJ + 3 * (size_t)nu, *x1 = Kv + 4, *slope = x1 + n, *f1 = slope + n;
+    int *start = (int *)(f1 + n), *anc = start + nu + 1;
     long nsteps = (long)ceil((t1 - t0) / h * (1 - 1e-12));
     if (nsteps < 1) nsteps = 1;
     memset(f1, 0, (size_t)n * sizeof(double));
+    fs_ancestors(nu, ops->imp->parent, start, anc);
     for (long k = 0; k < nsteps; k++) {
         double t = t0 + k * h, tn = (k == nsteps - 1) ? t1 : t0 + (k + 1) * h;
         double hh = (k == nsteps - 1) ? t1 - t : h;
@@ -526,7 +539,7 @@ static int fs_run_fast(const eomc_fs_ops *ops, eomc_stats *st, double h, long ma
         if (st->steps >= maxs) return EOMC_MAX_STEPS;
         st->steps++;
         if ((s = ops->terms(ops->ctx, t, x, T))) return s;
-        if ((s = fs_fast_step(ops, &L, hh, x, T, A, du, J, GJ, Kv, x1))) {
+        if ((s = fs_fast_step(ops, &L, hh, x, T, A, du, J, GJ, Kv, x1, start, anc))) {
             st->t_fail = tn;
             return s;
         }

@@ -1775,7 +1775,7 @@ static int check_args(const eomc_model *m, const eomc_options *o, double t0, dou
     if (o->method < EOMC_RK4 || o->method > EOMC_IMPLICITFAST) return EOMC_BAD_ARGUMENT;
     if (o->method != EOMC_RK4 && o->method != EOMC_IMPLICITFAST && !(o->rtol > 0 && o->atol > 0))
         return EOMC_BAD_ARGUMENT;
-    if ((o->method == EOMC_RADAU5 || o->method == EOMC_IMPLICITFAST) && !m->jac_x)
+    if ((o->method == EOMC_RADAU5 || (o->method == EOMC_IMPLICITFAST && !o->implicit)) && !m->jac_x)
         return EOMC_NOT_AVAILABLE;
     if (!(o->baumgarte >= 0.0) || !isfinite(o->baumgarte)) return EOMC_BAD_ARGUMENT;
     if (n_eval < 0 || (n_eval > 0 && (!t_eval || !x_out))) return EOMC_BAD_ARGUMENT;
