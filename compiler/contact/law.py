@@ -134,7 +134,7 @@ def ground_forces(centre, velocity, omega, params, normal=(0, 0, 1), height=0, l
     return ContactForces(depth, fn, ft, force, arm, parts)
 
 
-def ground_jacobians(forces, let=None):
+def ground_jacobians(forces, step, let=None):
     """(K, C): 3x3 nested lists (row i, column j), K = -dF/dp and C = -dF/dv of the force F
     of :func:`ground_forces` in the contact point p and its velocity v, world components;
     what the fixed-step implicit integrator treats implicitly (runtime/c/eomc_fixedstep.c):
@@ -148,8 +148,8 @@ def ground_jacobians(forces, let=None):
     contact's friction grows with its normal force, as stiff in the penetration as the
     normal force itself) and the regularised friction's slope in the slip.  Not symmetric:
     the integrator factors with an LU.  Both vanish out of contact and where F_n is clipped
-    at 0 (the factor step(F_n))."""
-    from eomc.compiler.tree.joint_laws import step
+    at 0 (the factor step(F_n): ``step`` is eomc.compiler.tree.joint_laws.step, handed in by
+    the caller, which sits above this module)."""
     let = let or (lambda e: e)
     q = forces.parts
     n, k, c, vs = q["normal"], q["k"], q["c"], q["vs"]

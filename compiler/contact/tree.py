@@ -387,7 +387,8 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None):
     ``v``: the bodies' spatial velocities [ω; v_origin] (body components, the recursion's);
     ``rename(expr, what)``: mechanics symbols -> slot symbols (parameters).
     ``implicit``: a dict to fill for the fixed-step integrator's NAME_implicit (None: not
-    built, no temporaries added): "poses" (the WorldPoses) and "contacts", per contact
+    built, no temporaries added), holding "step" (the C-printable unit step function); filled
+    with "poses" (the WorldPoses) and "contacts", per contact
     (depth, contact point, its velocity, K, C of :func:`.law.ground_jacobians`), world."""
     contacts = contact_outputs(tree)
     # other velocity-dependent loads lowered here (MJCF fluid forces: eomc.compiler.mjcf.fluid)
@@ -428,7 +429,7 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None):
         if implicit is not None:
             arm_w = forces.point_offset
             point = [rec.let(centre[k] + arm_w[k]) for k in range(3)]
-            K, C = ground_jacobians(forces, rec.let)
+            K, C = ground_jacobians(forces, implicit["step"], rec.let)
             implicit["contacts"].append({"depth": forces.depth, "point": point,
                                          "velocity": list(forces.parts["slip"]), "K": K, "C": C})
         quantities = [forces.normal, *forces.friction, forces.depth]     # OUTPUT_KINDS' order

@@ -30,7 +30,8 @@ import sympy as sm
 from eomc.runtime.errors import ModelError
 
 from ..emit.symbolic import TANGENT_MIN_STATES, build_symbolic
-from .algorithms import LoweredBody, Recorder, aba, crba, rnea, velocities
+from .algorithms import LoweredBody, Recorder, _mat3T, aba, crba, rnea, velocities
+from .joint_laws import step
 from .constrained import (accelerations, check_functions, kane_form, kkt_residual, kkt_solve,
                           lower_loops, multiplier_symbols, tree_loops)
 from .derivatives import articulated_solve, solve_symbols
@@ -163,7 +164,7 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         nq, nu = len(tree.coordinates), len(tree.speeds)
         speeds = layout.x[nq:nq + nu]
         v, c = velocities(bodies, rec, speeds)
-        implicit = {} if "implicit" in functions else None
+        implicit = {"step": step} if "implicit" in functions else None
         contact_values = _contacts(tree, bodies, rec, v, layout, implicit)
         extra, keep = [], {}
         if loops is not None:
@@ -271,7 +272,6 @@ def implicit_layout(nq, nu, ncontact):
 
 def _implicit_results(tree, bodies, formed, layout, A, b, implicit, nq, nu):
     """The ("imp", k) results of NAME_implicit, laid out as :func:`implicit_layout`."""
-    from ..contact.tree import _cross, _mat3T
     contacts = implicit.get("contacts", [])
     poses = implicit["poses"]
     at = implicit_layout(nq, nu, len(contacts))
