@@ -145,7 +145,8 @@ def with_site_tendons(built, m, fold=False, limits=True, friction=True):
                 kl, cl = inertia / (dmax * tc * z) ** 2, 2.0 * inertia / (dmax * tc)
             else:
                 kl, cl = -tc * inertia / dmax ** 2, -z * inertia / dmax
-            law = JointLaw(f"tendon {raw}", lower=lower, upper=upper, friction=fl, stiffness=kl, limit_damping=cl)
+            law = JointLaw(f"tendon {raw}", lower=lower, upper=upper, friction=fl, stiffness=kl, limit_damping=cl,
+                           unilateral=True)
             tau += joint_torque(L, V, law, params, name, inertia)
         if tau == 0:
             continue

@@ -396,7 +396,7 @@ def _law(m, jid, jraw, jn, q, u, params, limits, friction):
         k, c = inertia / (dmax * tc * z) ** 2, 2.0 * inertia / (dmax * tc)
     else:
         k, c = -tc * inertia / dmax ** 2, -z * inertia / dmax
-    law = JointLaw(jraw, lower=lower, upper=upper, friction=fl, stiffness=k, limit_damping=c)
+    law = JointLaw(jraw, lower=lower, upper=upper, friction=fl, stiffness=k, limit_damping=c, unilateral=True)
     return joint_torque(q, u, law, params, jn, inertia)     # JointLawError: the caller places it
 
 
