@@ -32,7 +32,7 @@ from eomc.runtime.errors import ModelError
 from ..emit.reverse import refuse_reverse, reverse_requests
 from ..emit.symbolic import TANGENT_MIN_STATES, build_symbolic
 from .algorithms import LoweredBody, Recorder, _mat3T, aba, crba, rnea, velocities
-from .joint_laws import step
+from .joint_laws import ramp, step
 from .constrained import (accelerations, check_functions, kane_form, kkt_residual, kkt_solve,
                           lower_loops, multiplier_symbols, tree_loops)
 from .derivatives import articulated_solve, solve_symbols
@@ -312,7 +312,9 @@ def _implicit_results(tree, bodies, formed, layout, A, b, implicit, nq, nu):
             continue
         k, qi = speed_of[u], coords.index(q)
         what = f"the law of the joint of speed {layout.state_names[nq + k]}"
-        t = layout.apply(tau, what, memo)
+        # |a| as 2 ramp(a) - a before differentiating: SymPy's d|a| divides by |a| (0/0 where a
+        # unilateral limit is not engaged); ramp's derivative is the step function
+        t = layout.apply(tau, what, memo).replace(sm.Abs, lambda a: 2 * ramp(a) - a)
         qs, us = layout.x[qi], layout.x[nq + k]
         out[at["joint"] + 2 * k] = -sm.diff(t, us)
         if sm.simplify(kin[qi] - us) == 0:        # q' = u: dq/du of the step is h
