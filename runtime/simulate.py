@@ -317,7 +317,7 @@ def prepare(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6,
                          f"constraints_jac; this model has none")
     if model.c_model.rhs == model.ffi.NULL:
         raise model._missing("rhs")  # every method integrates rhs
-    if ((method == "radau" or (method == "implicitfast" and "implicit" not in model.functions))
+    if ((method == "radau" or (method == "implicitfast" and "implicit" not in getattr(model, "functions", ())))
             and model.c_model.jac_x == model.ffi.NULL):
         raise ValueError(f"{model.name}: method {method!r} needs the Jacobian jac_x, which this model "
                          f"was built without; rebuild with functions including 'jac_x'")
@@ -395,8 +395,9 @@ def implicit_terms(model):
     if cached is not None:
         return cached[0]
     ffi, found = model.ffi, (None,)
-    info = model.metadata.get("implicit")
-    if info and "implicit" in model.functions and model.nz == 0 and model.backend == "cffi":
+    info = (getattr(model, "metadata", None) or {}).get("implicit")
+    if (info and "implicit" in getattr(model, "functions", ()) and model.nz == 0
+            and getattr(model, "backend", None) == "cffi"):
         try:
             fp = ffi.addressof(model.model_lib, f"{model.name}_implicit")
         except (AttributeError, KeyError, ffi.error):
