@@ -46,10 +46,10 @@ def configure(parser):
 
 def run(args):
     from eomc.compiler.driver import compile
-    from .common import fixed_base_note, with_options
+    from .common import fixed_base_note, floating_base_of, with_options
     if not args.quiet:
         fixed_base_note(args.model, args.floating_base)
-    source, name = with_options(args.model, args.name, floating_base=args.floating_base,
+    source, name = with_options(args.model, args.name, floating_base=floating_base_of(args),
                                 allow_nonphysical_inertia=args.allow_nonphysical_inertia,
                                 limits=args.limits != "off", ignore=args.ignore)
     model = compile(source, name, functions=args.outputs, fold_parameters=args.fold_parameters,

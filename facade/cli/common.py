@@ -28,8 +28,12 @@ def add_model_arguments(parser):
 def add_robot_arguments(parser):
     """The options of a robot file (URDF, MJCF), for build, inspect and the model commands."""
     parser.add_argument("--floating-base", action="store_true",
-                        help="URDF: a 6-dof floating joint (position + body XYZ Euler angles) "
-                             "between the world and the root link")
+                        help="URDF: a 6-dof floating joint (position + body XYZ Euler angles, or a "
+                             "quaternion with --orientation quaternion) between the world and the root link")
+    parser.add_argument("--orientation", choices=("euler", "quaternion"), default=None,
+                        help="how a free joint's orientation is written: euler (default; body XYZ "
+                             "angles, singular at pitch +-90 deg) or quaternion (w, x, y, z; no "
+                             "singularity, kept unit by the integrators); URDF with --floating-base")
     parser.add_argument("--allow-nonphysical-inertia", action="store_true",
                         help="URDF: build moving links whose principal moments are negative (refused "
                              "by default), with a warning naming each")
@@ -84,13 +88,30 @@ def add_formulation_argument(parser):
                         help=FORMULATION_HELP)
 
 
+def floating_base_of(args):
+    """The floating_base= of the command line: False, True (Euler angles) or "quaternion"
+    (``--floating-base --orientation quaternion``); ``--orientation`` without a free joint to
+    apply to is refused."""
+    floating = bool(getattr(args, "floating_base", False))
+    orientation = getattr(args, "orientation", None)
+    if orientation is None:
+        return floating
+    if not floating:
+        model = str(getattr(args, "model", ""))
+        if not model.lower().endswith(".urdf"):
+            return False      # MJCF: its own free joints (with_options)
+        raise ValueError(f"--orientation {orientation}: a URDF robot has a free joint only with "
+                         f"--floating-base")
+    return "quaternion" if orientation == "quaternion" else True
+
+
 def model_options(args):
     """Keyword arguments of load_model for the options given: a URDF's floating base, a
     formulation other than the default auto (none unless given, so stand-ins of load_model
     stay simple)."""
     options = {}
     if getattr(args, "floating_base", False):
-        options["floating_base"] = True
+        options["floating_base"] = floating_base_of(args)
     if getattr(args, "allow_nonphysical_inertia", False):
         options["allow_nonphysical_inertia"] = True
     if getattr(args, "contact", None):
@@ -270,7 +291,7 @@ def check_before_build(args):
     if not (path.is_file() and path.suffix.lower() == ".urdf"):
         return
     from eomc.compiler.urdf.names import urdf_names
-    names = urdf_names(str(path), floating_base=bool(getattr(args, "floating_base", False)))
+    names = urdf_names(str(path), floating_base=floating_base_of(args))
     stem = path.stem
     x0 = parse_assignments(getattr(args, "x0", ()), "x0")
     unknown = [n for n in x0 if n not in names.states]

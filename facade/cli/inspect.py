@@ -38,9 +38,9 @@ def format_report(metadata):
 
 def run(args):
     from eomc.compiler.driver import generate
-    from .common import with_options
+    from .common import floating_base_of, with_options
     from eomc.errors import ModelError
-    source, name = with_options(args.model, args.name, floating_base=args.floating_base,
+    source, name = with_options(args.model, args.name, floating_base=floating_base_of(args),
                                 allow_nonphysical_inertia=args.allow_nonphysical_inertia,
                                 limits=args.limits != "off", ignore=args.ignore)
     spec, generated = generate(source, name, functions=args.outputs,
