@@ -22,7 +22,7 @@ from pathlib import Path
 
 from eomc.runtime.errors import EomcWarning
 
-from ..multibody.model import merged_defaults
+from ..multibody.model import merged_defaults, merged_initial_state
 
 __all__ = ["is_urdf_path", "is_urdf_model", "UrdfModel", "urdf_overrides", "load_urdf_model",
            "with_options", "read_model", "model_of_robot", "urdf_formed"]
@@ -138,23 +138,6 @@ def model_of_robot(robot, tree, model, poses=False):
     return model_of_tree(built.tree, Provenance("urdf", str(model.path), robot.line), frames=tuple(frames),
                          defaults=dict(built.parameters), joint_inputs=tuple(built.inputs), outputs=outputs,
                          events=events, mechanics=mechanics, refusal=refusal, frame_noun="link", **extra)
-
-
-def merged_initial_state(overrides, read):
-    """``overrides`` with the reader's initial state (a quaternion's w = 1) under the caller's:
-    the caller names only what differs (an initial_state without the quaternion still starts
-    upright)."""
-    own = getattr(read, "initial_state", None)
-    if not own:
-        return overrides
-    given = overrides.get("initial_state")
-    if given is not None and not isinstance(given, dict):
-        return overrides          # check_initial_state refuses it, naming what is wrong
-    from eomc.compiler.model.validate import _label
-    merged = dict(own)
-    for key, value in (given or {}).items():
-        merged[key if isinstance(key, str) else _label(key)] = value
-    return {**overrides, "initial_state": merged}
 
 
 def _com_symbol(name, value, parameters):

@@ -51,7 +51,8 @@ def run(args):
         fixed_base_note(args.model, args.floating_base)
     source, name = with_options(args.model, args.name, floating_base=floating_base_of(args),
                                 allow_nonphysical_inertia=args.allow_nonphysical_inertia,
-                                limits=args.limits != "off", ignore=args.ignore)
+                                limits=args.limits != "off", ignore=args.ignore,
+                                orientation=getattr(args, "orientation", None))
     model = compile(source, name, functions=args.outputs, fold_parameters=args.fold_parameters,
                     backend=args.backend, cflags=args.cflags, cache_dir=args.cache_dir,
                     output_dir=args.output, progress="quiet" if args.quiet else True, formulation=args.formulation,

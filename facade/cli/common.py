@@ -31,8 +31,8 @@ def add_robot_arguments(parser):
                         help="URDF: a 6-dof floating joint (position + body XYZ Euler angles, or a "
                              "quaternion with --orientation quaternion) between the world and the root link")
     parser.add_argument("--orientation", choices=("euler", "quaternion"), default=None,
-                        help="how a free joint's orientation is written: euler (default; body XYZ "
-                             "angles, singular at pitch +-90 deg) or quaternion (w, x, y, z; no "
+                        help="how free (and MJCF ball) joints' orientation is written: euler (default; "
+                             "body XYZ angles, singular at pitch +-90 deg) or quaternion (w, x, y, z; no "
                              "singularity, kept unit by the integrators); URDF with --floating-base")
     parser.add_argument("--allow-nonphysical-inertia", action="store_true",
                         help="URDF: build moving links whose principal moments are negative (refused "
@@ -112,6 +112,8 @@ def model_options(args):
     options = {}
     if getattr(args, "floating_base", False):
         options["floating_base"] = floating_base_of(args)
+    if getattr(args, "orientation", None) and not str(getattr(args, "model", "")).lower().endswith(".urdf"):
+        options["orientation"] = args.orientation          # an MJCF model's ball and free joints
     if getattr(args, "allow_nonphysical_inertia", False):
         options["allow_nonphysical_inertia"] = True
     if getattr(args, "contact", None):
@@ -128,14 +130,14 @@ def model_options(args):
 
 
 def with_options(model, name=None, *, floating_base=False, allow_nonphysical_inertia=False, limits=True,
-                 ignore=()):
+                 ignore=(), orientation=None):
     """(model, name) for the driver with the command line's model options: an MJCF file's
     (``--ignore``, ``--limits off``: :func:`eomc.compiler.mjcf.model.with_ignore`) or a URDF's
     (:func:`eomc.compiler.urdf.model.with_options`, which refuses URDF flags on anything else)."""
     from eomc.compiler.mjcf.model import is_mjcf_path, with_ignore
     from eomc.compiler.urdf.model import with_options as urdf_options
     if is_mjcf_path(model) and not (floating_base or allow_nonphysical_inertia):
-        return with_ignore(model, name, ignore, limits=limits)
+        return with_ignore(model, name, ignore, limits=limits, orientation=orientation)
     with_ignore(model, name, ignore)        # --ignore on anything but MJCF: says what it applies to
     return urdf_options(model, name, floating_base=floating_base,
                         allow_nonphysical_inertia=allow_nonphysical_inertia, limits=limits)
@@ -152,7 +154,8 @@ def add_frame_argument(parser):
 
 
 def load_model(path, quiet=False, floating_base=False, formulation="auto", frames=None, ignore=(),
-               contacts=None, allow_nonphysical_inertia=False, limits=True, functions=None, check=None):
+               contacts=None, allow_nonphysical_inertia=False, limits=True, functions=None, check=None,
+               orientation=None):
     """A runtime Model from a model file (.py, .urdf, MuJoCo's .xml; compiled) or a built
     directory / json (loaded).  ``ignore``: an MJCF model's ignorable elements (--ignore).
 
@@ -176,7 +179,7 @@ def load_model(path, quiet=False, floating_base=False, formulation="auto", frame
             fixed_base_note(path, floating_base)
         source, name = with_options(str(path), name=None, floating_base=floating_base,
                                     allow_nonphysical_inertia=allow_nonphysical_inertia, limits=limits,
-                                    ignore=ignore)
+                                    ignore=ignore, orientation=orientation)
         extra = {} if check is None else {"check": check}
         return compile_model(source, name, progress="quiet" if quiet else None, functions=functions,
                              formulation=formulation, frames=frames, contacts=contacts, **extra)

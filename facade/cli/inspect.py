@@ -42,7 +42,8 @@ def run(args):
     from eomc.errors import ModelError
     source, name = with_options(args.model, args.name, floating_base=floating_base_of(args),
                                 allow_nonphysical_inertia=args.allow_nonphysical_inertia,
-                                limits=args.limits != "off", ignore=args.ignore)
+                                limits=args.limits != "off", ignore=args.ignore,
+                                orientation=getattr(args, "orientation", None))
     spec, generated = generate(source, name, functions=args.outputs,
                                fold_parameters=args.fold_parameters,
                                progress=False if args.quiet else None, formulation=args.formulation,

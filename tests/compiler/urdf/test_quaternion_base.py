@@ -5,7 +5,7 @@ one 6x6 articulated solve at the root); only its orientation coordinates differ:
 (w, x, y, z) with q' = ½ q ⊗ (0, ω), and a rotation that does not depend on the
 quaternion's length.  Checked against Pinocchio's JointModelFreeFlyer (the same
 speeds): ABA, RNEA and CRBA at random states on Solo12, Go2, G1 and Talos full
-body (1e-12); q' against pinocchio.integrate; jac_x against central differences;
+body (1e-12); q' against pinocchio.integrate; jac_x and jvp against central differences;
 frame outputs against Pinocchio's frame placement and velocity; the Euler build's
 trajectory away from pitch ±90°; a torque-free body through pitch 90° against an
 independent rotation-matrix integration (the Euler build cannot start there); the
@@ -50,8 +50,8 @@ def _state(model, rng, unit=True):
 
 @pytest.fixture(scope="module")
 def solo(cache):
-    return _build(cache, "solo12", "solo_quat", functions=("rhs", "jac_x", "mass_matrix", "inverse_dynamics",
-                                                             "outputs"), frames=["FL_FOOT"])
+    return _build(cache, "solo12", "solo_quat", functions=("rhs", "jac_x", "jvp", "mass_matrix",
+                                                             "inverse_dynamics", "outputs"), frames=["FL_FOOT"])
 
 
 def test_layout_names_and_upright_start(solo):
@@ -92,7 +92,7 @@ def test_coordinate_rates_match_pinocchio_integrate(solo):
         assert np.max(np.abs(xd[7:model.nq] - v[6:])) == 0.0
 
 
-def test_jac_x_matches_central_differences(solo):
+def test_jac_x_and_jvp_match_central_differences(solo):
     model, _ = solo
     rng = np.random.default_rng(7)
     q, v = _state(model, rng)
@@ -104,6 +104,9 @@ def test_jac_x_matches_central_differences(solo):
         e[k] = 1e-6
         D[:, k] = (model.rhs(0.0, x + e, r=r) - model.rhs(0.0, x - e, r=r)) / 2e-6
     assert np.max(np.abs(J - D)) < 1e-6 * max(1.0, np.max(np.abs(J)))
+    V = rng.normal(size=(2, model.nx))
+    _, JV = model.jvp(0.0, x, V, r=r)
+    assert np.max(np.abs(JV - V @ J.T)) < 1e-12 * np.max(np.abs(J)) * model.nx
     # the rhs does not depend on the quaternion's length: u' has no radial derivative
     assert np.max(np.abs(J[model.nq:, 3:7] @ q[3:7])) < 1e-9 * np.max(np.abs(J))
 
