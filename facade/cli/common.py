@@ -110,8 +110,9 @@ def model_options(args):
     formulation other than the default auto (none unless given, so stand-ins of load_model
     stay simple)."""
     options = {}
-    if getattr(args, "floating_base", False):
-        options["floating_base"] = floating_base_of(args)
+    floating = floating_base_of(args)       # --orientation without a free joint: refused here
+    if floating:
+        options["floating_base"] = floating
     if getattr(args, "orientation", None) and not str(getattr(args, "model", "")).lower().endswith(".urdf"):
         options["orientation"] = args.orientation          # an MJCF model's ball and free joints
     if getattr(args, "allow_nonphysical_inertia", False):
