@@ -262,9 +262,14 @@ def initial_state(model, overrides):
     return _onto_ground(model, x0, overrides)
 
 
+GROUND_CLEARANCE = 1e-3     # m between the lowest contact and the ground at a lifted start
+
+
 def _onto_ground(model, x0, overrides):
     """A floating-base robot with ground contacts whose start puts a contact under the ground
-    is lifted (its base's height only) until the deepest contact just touches, with a note.
+    is lifted (its base's height only) until the deepest contact is GROUND_CLEARANCE above the
+    ground, with a note (a start exactly on the ground sits on the contact law's onset, where
+    k d^1.5 has no second derivative: `eomc check`'s Jacobian test saw it as a 56x error).
 
     Why: a URDF's zero pose has the base at z = 0, so a standing robot's feet start tens of
     centimetres inside the ground; the contact law then throws it out violently (Go2: feet
@@ -286,12 +291,12 @@ def _onto_ground(model, x0, overrides):
     if not deepest > 0.0:
         return x0
     lifted = dict(x0)
-    lifted[zs[0]] = x0[zs[0]] + deepest
+    lifted[zs[0]] = x0[zs[0]] + deepest + GROUND_CLEARANCE
     after = model.outputs(0.0, [lifted[n] for n in model.state_names])
-    if max(after[d] for d in depths) > 1e-9 * max(1.0, deepest):
+    if abs(max(after[d] for d in depths) + GROUND_CLEARANCE) > 1e-9 * max(1.0, deepest):
         return x0       # the base's z does not move the contacts straight up: leave the start
     print(f"eomc: note: {model.name}'s start put its contacts up to {deepest:.4g} m under the ground; "
-          f"starting with {zs[0]} = {lifted[zs[0]]:.6g} so the deepest just touches "
+          f"starting with {zs[0]} = {lifted[zs[0]]:.6g}, the deepest {GROUND_CLEARANCE * 1e3:g} mm above it "
           f"(give --x0 {zs[0]}=... to choose)", file=sys.stderr)
     return lifted
 

@@ -31,15 +31,15 @@ def _run(block, tmp_path, capsys, *extra):
 
 def test_contacts_under_the_ground_at_the_start_lift_the_base_onto_it(block, tmp_path, capsys):
     """The zero pose has the sphere (centre 0.1 m below the base, radius 0.05) 0.15 m deep:
-    the run starts with the base at 0.15 (the sphere just touching), says so, and does not
-    throw the block out of the ground (before: it started 0.15 m deep, a 3x radius penetration)."""
+    the run starts with the base at 0.151 (the sphere 1 mm above the ground), says so, and does
+    not throw the block out of the ground (before: it started 0.15 m deep, 3x its radius)."""
     traj, err = _run(block, tmp_path, capsys)
     z = traj["q_body_floating_z"]
-    assert z[0] == pytest.approx(0.15, abs=1e-12)
-    assert "starting with q_body_floating_z = 0.15 so the deepest just touches" in err, err
+    assert z[0] == pytest.approx(0.151, abs=1e-12)
+    assert "starting with q_body_floating_z = 0.151, the deepest 1 mm above it" in err, err
     assert abs(z[-1] - 0.15) < 0.01             # it rests on the ground, not launched
 
 
 def test_a_given_base_height_is_kept(block, tmp_path, capsys):
     traj, err = _run(block, tmp_path, capsys, "--x0", "q_body_floating_z=0.5")
-    assert traj["q_body_floating_z"][0] == 0.5 and "just touches" not in err
+    assert traj["q_body_floating_z"][0] == 0.5 and "above it" not in err
