@@ -55,15 +55,21 @@ def _jacobian_vs_fd(model, x0, p):
     J, err = _try(lambda: model.jacobian(0.0, x0, p))
     if err:
         return Check("jacobian", "finite", err, False)
-    fd = np.empty_like(J)
+    # Per column the closest of the central and the two one-sided differences: a start on a
+    # kink of a law (a joint at its push-only limit, gymnasium's hopper at qpos0) has no
+    # derivative there, and jac_x is one of the one-sided ones (the central one was 1.5e-2 off).
+    f0 = np.asarray(model.rhs(0.0, x0, p), dtype=float)
+    worst = 0.0
     for j in range(model.nx):
         h = 1e-6 * max(1.0, abs(x0[j]))
         e = np.zeros(model.nx)
         e[j] = h
-        fd[:, j] = (model.rhs(0.0, x0 + e, p) - model.rhs(0.0, x0 - e, p)) / (2 * h)
-    rel = np.max(np.abs(J - fd)) / max(1.0, np.max(np.abs(J)))
-    return Check("jacobian", f"jac_x = central differences of rhs (rel. < {FD_TOL:g})",
-                 f"rel. difference {rel:.2e}", rel < FD_TOL)
+        up, down = np.asarray(model.rhs(0.0, x0 + e, p)), np.asarray(model.rhs(0.0, x0 - e, p))
+        worst = max(worst, min(np.max(np.abs(J[:, j] - d)) for d in
+                               ((up - down) / (2 * h), (up - f0) / h, (f0 - down) / h)))
+    rel = worst / max(1.0, np.max(np.abs(J)))
+    return Check("jacobian", f"jac_x = central differences of rhs, or one-sided ones on a kink "
+                 f"(rel. < {FD_TOL:g})", f"rel. difference {rel:.2e}", rel < FD_TOL)
 
 
 def _stiffness(model, x0, p, t_final):
