@@ -82,6 +82,9 @@ class Recursive(Formulation):
         out = {}
         if "implicit" in functions:
             out["implicit"] = self.implicit_metadata()
+        if getattr(self.tree, "quaternions", ()):
+            # x indices of each quaternion's w (x, y, z follow): the runtime keeps them unit
+            out["quaternions"] = [int(k) for k in self.tree.quaternions]
         if "regressor" not in functions:
             return out
         return {**out, "regressor_bodies": list(sym.regressor_bodies),

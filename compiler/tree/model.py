@@ -103,6 +103,9 @@ class Tree:
     # the holonomic constraints closing the tree (compiler/tree/constrained.Loops), or None; a
     # field, so a Tree rebuilt with dataclasses.replace (contacts, ...) keeps them
     loops: object = field(default=None, compare=False)
+    # the index into ``coordinates`` of each quaternion's w (x, y, z follow): the integrators
+    # keep these unit (free joints with floating_base="quaternion"); () when there are none
+    quaternions: tuple = ()
     # ((coordinate, speed, torque), ...): each 1-dof joint's torque (force) on its child about
     # its axis, a function of its own coordinate and speed (damping, spring, limits, friction)
     # and inputs; read by the fixed-step integrator's NAME_implicit (compiler/tree/lower.py)
