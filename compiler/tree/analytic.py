@@ -1,0 +1,452 @@
+"""Analytic first-order derivatives of RNEA (Carpentier & Mansard, RSS 2018), as C loops.
+
+Why: differentiating RNEA's straight-line trace along every state column (the tangent
+path of :mod:`.inverse_derivatives` and :mod:`.derivatives`) costs O(n) work per column,
+O(n²) in all, and its unrolled variants O(n²) code.  Carpentier and Mansard's algorithm
+works in the world frame, where a joint's motion axis S_j, once placed, is the same for
+every body it moves; the derivatives of the joint forces then are short dot products of
+per-body 6-vectors over the pairs (joint, joint in its support): O(n·depth) work with
+small constants, and -- written as C loops over tree arrays -- O(n) code whatever n is.
+
+What is generated (:func:`kernel_c`): one static function per model, ``NAME_rnea_derivs``,
+fed by straight-line code that computes per body its parent-to-body rotation E and
+position r, its joints' body-frame axes S, mass and inertia about its mass centre, its
+body-frame load, and gravity (the ``anx`` result group, in the program's own slot
+symbols, so the usual optimizer shares their sines and cosines); the function places
+the bodies in the world, runs the forward pass (velocities v, accelerations a with
+gravity as the root's acceleration, ∂v/∂q, ∂a/∂q, ∂a/∂v per joint axis; world inertias
+Y and their variation Ẏ + (h ×*)) and the backward pass (composite Y, Ẏ and forces; for
+every pair of a joint and one of its support the four entries ∂τ/∂q, ∂τ/∂v both ways).
+
+Coordinates: a one-speed joint's coordinate is its speed's integral (q' = u, checked).
+A joint of k speeds (the Euler-angle free joint, a ball, planar, cylindrical joint) has
+k coordinates with q' = K(q) u; the algorithm differentiates along the body-frame
+perturbation ξ of the joint's placement, the direction its speeds move it, and
+δξ = K⁻¹ δq, so ∂τ/∂q = ∂τ/∂ξ · K⁻¹ (K inverted numerically, k ≤ 6, once a call).
+
+Where it applies (:func:`analytic_plan`): an open tree whose loads are body-frame loads
+that do not depend on the state (inputs, parameters, time: motor torques, forces on a
+body); state-dependent loads (joint laws, contacts, world-frame forces) and trees closed
+by constraints keep the tangent path.
+
+Checked against central differences and Pinocchio's ``computeRNEADerivatives`` /
+``computeABADerivatives`` (tests/compiler/tree/test_analytic_derivatives.py).
+"""
+from dataclasses import dataclass
+
+import sympy as sm
+
+__all__ = ["AnalyticPlan", "analytic_plan", "kernel_c", "ANX", "analytic_ops"]
+
+ANX = "anx"      # the result group of the kernel's inputs
+
+
+@dataclass(frozen=True)
+class AnalyticPlan:
+    nb: int                 # bodies (fixed-joint bodies included)
+    nd: int                 # speeds (dofs), numbered body by body
+    par: tuple              # parent body, -1 at the ground
+    first: tuple            # first dof of each body
+    count: tuple            # dofs of each body
+    row: tuple              # speed index of each dof
+    qcol: tuple             # the dof's coordinate column (for a k-speed joint: its tangent's, see module doc)
+    multi: tuple            # (first dof, k, offset of K in anx) of each k-speed joint
+    loads: bool             # some body has a load (the anx block F exists)
+    offsets: dict           # anx block -> first index: E, r, S, I, F, g, K
+    size: int               # len(anx)
+
+    def dofs(self, b):
+        return range(self.first[b], self.first[b] + self.count[b])
+
+
+def analytic_plan(tree, bodies, gravity, layout, rename):
+    """(plan, [(("anx", i), expr)]) when the tree qualifies (see the module doc), else (None, [])."""
+    if tree.loops is not None:
+        return None, []
+    nq, nu = len(tree.coordinates), len(tree.speeds)
+    xs = set(layout.x)
+    for load in tree.loads:
+        if load.frame != "body":
+            return None, []
+        for e in list(load.moment) + list(load.force) + list(load.offset):
+            if rename(e, "a load").free_symbols & xs:
+                return None, []
+    kin = [rename(k, "the kinematics") for k in tree.kinematics]
+    if len(kin) != nq:
+        return None, []
+    speeds = layout.x[nq:nq + nu]
+    nb = len(bodies)
+    par, first, count, row, qcol, multi = [], [], [], [], [], []
+    E, r, S, I, F, K = [], [], [], [], [], []
+    used = set()
+    for b in bodies:
+        par.append(b.parent)
+        first.append(len(row))
+        if b.S is not None:
+            dofs = [(b.speed, b.S)]
+        elif b.multi:
+            dofs = list(b.multi)
+        else:
+            dofs = []
+        count.append(len(dofs))
+        if len(dofs) == 1:
+            s = dofs[0][0]
+            hit = [i for i, k in enumerate(kin) if k == speeds[s]]
+            if len(hit) != 1 or hit[0] in used:
+                return None, []
+            used.add(hit[0])
+            qcol.append(hit[0])
+        elif dofs:
+            mine = {speeds[s] for s, _ in dofs}
+            rows = [i for i, k in enumerate(kin) if k.free_symbols & mine]
+            if len(rows) != len(dofs) or used & set(rows):
+                return None, []
+            others = set(speeds) - mine
+            if any(kin[i].free_symbols & others for i in rows):
+                return None, []
+            used.update(rows)
+            multi.append((len(row), len(dofs), len(K)))
+            for i in rows:
+                K += [sm.diff(kin[i], speeds[s]) for s, _ in dofs]
+            qcol += rows
+        for s, axis in dofs:
+            row.append(s)
+            S += list(axis)
+        E += [b.E[i][j] for i in range(3) for j in range(3)]
+        r += list(b.r)
+        m = b.I[3][3]
+        I += [m] + [b.I[i][j] for i in range(3) for j in range(3)]
+        F += list(b.fext) if b.fext is not None else [0] * 6
+    if len(used) != nq or len(row) != nu:
+        return None, []
+    loads = any(b.fext is not None for b in bodies)
+    blocks = [("E", E), ("r", r), ("S", S), ("I", I)] + ([("F", F)] if loads else []) + [
+        ("g", list(gravity)), ("K", K)]
+    offsets, values = {}, []
+    for name, vals in blocks:
+        offsets[name] = len(values)
+        values += vals
+    plan = AnalyticPlan(nb, len(row), tuple(par), tuple(first), tuple(count), tuple(row),
+                        tuple(qcol), tuple(multi), loads, offsets, len(values))
+    return plan, [((ANX, i), sm.sympify(v)) for i, v in enumerate(values)]
+
+
+def _table(name, vals):
+    return f"    static const int {name}[{len(vals)}] = {{{', '.join(str(v) for v in vals)}}};"
+
+
+def kernel_c(name, plan, nq):
+    """The C text of ``NAME_rnea_derivs`` (see the module doc) and its small helpers.
+
+    ``NAME_rnea_derivs(an, u, ud, out, stride, row0, sign)`` writes, for every speed i
+    and state column k of the coordinates and speeds, ``out[(row0 + i) * stride + k] =
+    sign * ∂τ_i/∂x_k`` at the velocities ``u`` and accelerations ``ud`` (per dof, in the
+    plan's dof order), zeroing the rest of those rows."""
+    nb, nd, o = plan.nb, plan.nd, plan.offsets
+    fn = f"{name}_rnea_derivs"
+    lines = [
+        f"static void {name}_rd_cross(const double *v, const double *m, double *out)",
+        "{   /* out = v x m (motion cross product) */",
+        "    out[0] = v[1] * m[2] - v[2] * m[1];",
+        "    out[1] = v[2] * m[0] - v[0] * m[2];",
+        "    out[2] = v[0] * m[1] - v[1] * m[0];",
+        "    out[3] = v[1] * m[5] - v[2] * m[4] + v[4] * m[2] - v[5] * m[1];",
+        "    out[4] = v[2] * m[3] - v[0] * m[5] + v[5] * m[0] - v[3] * m[2];",
+        "    out[5] = v[0] * m[4] - v[1] * m[3] + v[3] * m[1] - v[4] * m[0];",
+        "}",
+        "",
+        f"static void {name}_rd_crossf(const double *v, const double *f, double *out)",
+        "{   /* out = v x* f (force cross product) */",
+        "    out[0] = v[1] * f[2] - v[2] * f[1] + v[4] * f[5] - v[5] * f[4];",
+        "    out[1] = v[2] * f[0] - v[0] * f[2] + v[5] * f[3] - v[3] * f[5];",
+        "    out[2] = v[0] * f[1] - v[1] * f[0] + v[3] * f[4] - v[4] * f[3];",
+        "    out[3] = v[1] * f[5] - v[2] * f[4];",
+        "    out[4] = v[2] * f[3] - v[0] * f[5];",
+        "    out[5] = v[0] * f[4] - v[1] * f[3];",
+        "}",
+        "",
+        f"static double {name}_rd_dot(const double *a, const double *b)",
+        "{",
+        "    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] + a[4] * b[4] + a[5] * b[5];",
+        "}",
+        "",
+        f"static void {name}_rd_mul(const double *M, const double *x, double *out)",
+        "{   /* out = M x, M 6x6 row-major */",
+        "    int i;",
+        "    for (i = 0; i < 6; i++) {",
+        "        const double *m = M + 6 * i;",
+        "        out[i] = m[0] * x[0] + m[1] * x[1] + m[2] * x[2] + m[3] * x[3] + m[4] * x[4] + m[5] * x[5];",
+        "    }",
+        "}",
+        "",
+        f"static void {name}_rd_mult(const double *M, const double *x, double *out)",
+        "{   /* out = M^T x */",
+        "    int i;",
+        "    for (i = 0; i < 6; i++) {",
+        "        out[i] = M[i] * x[0] + M[6 + i] * x[1] + M[12 + i] * x[2] + M[18 + i] * x[3]"
+        " + M[24 + i] * x[4] + M[30 + i] * x[5];",
+        "    }",
+        "}",
+        "",
+        f"/* d tau / d(q, u) of RNEA by Carpentier and Mansard's algorithm (compiler/tree/analytic.py):",
+        f"   out[(row0 + i) * stride + k] = sign * d tau_i / d x_k for the {nd} speeds i and the",
+        "   coordinate and speed columns k, at velocities u and accelerations ud (per dof). */",
+        f"static void {fn}(const double *an, const double *u, const double *ud, double *out, "
+        "int stride, int row0, double sign)",
+        "{",
+        _table("par", plan.par),
+        _table("d0", plan.first),
+        _table("nd", plan.count),
+        _table("row", plan.row),
+        _table("qc", plan.qcol),
+        _table("uc", [nq + s for s in plan.row]),
+        f"    double R[{9 * nb}], P[{3 * nb}], V[{6 * nb}], A[{6 * nb}], Y[{36 * nb}], dY[{36 * nb}], F[{6 * nb}];",
+        f"    double Sw[{6 * nd}], dV[{6 * nd}], dA[{6 * nd}], dAv[{6 * nd}];",
+        "    double fa[36], ft[36], fq[36], fv[36];",
+        "    int b, i, j, k, e, c, l, a;",
+        f"    for (e = 0; e < {nd}; e++)",
+        "        for (k = 0; k < stride; k++) out[(row0 + row[e]) * stride + k] = 0.0;",
+        f"    for (b = 0; b < {nb}; b++) {{",
+        f"        const double *E = an + 9 * b, *r = an + {o['r']} + 3 * b, *In = an + {o['I']} + 10 * b;",
+        "        double *Rb = R + 9 * b, *pb = P + 3 * b, *vb = V + 6 * b, *ab = A + 6 * b;",
+        "        double *Yb = Y + 36 * b, *dYb = dY + 36 * b, *fb = F + 6 * b;",
+        "        double vl[6], al[6], IR[9], t[6], hm[6], m, pp;",
+        "        l = par[b];",
+        "        if (l >= 0) {",
+        "            const double *Rl = R + 9 * l, *pl = P + 3 * l;",
+        "            for (i = 0; i < 3; i++) {",
+        "                for (j = 0; j < 3; j++)",
+        "                    Rb[3 * i + j] = Rl[3 * i] * E[3 * j] + Rl[3 * i + 1] * E[3 * j + 1] + Rl[3 * i + 2] * E[3 * j + 2];",
+        "                pb[i] = pl[i] + Rl[3 * i] * r[0] + Rl[3 * i + 1] * r[1] + Rl[3 * i + 2] * r[2];",
+        "            }",
+        "            for (i = 0; i < 6; i++) {",
+        "                vl[i] = V[6 * l + i];",
+        "                al[i] = A[6 * l + i];",
+        "            }",
+        "        } else {",
+        "            for (i = 0; i < 3; i++) {",
+        "                for (j = 0; j < 3; j++) Rb[3 * i + j] = E[3 * j + i];",
+        "                pb[i] = r[i];",
+        "                vl[i] = vl[i + 3] = al[i] = 0.0;",
+        f"                al[i + 3] = -an[{o['g']} + i];",
+        "            }",
+        "        }",
+        "        for (i = 0; i < 6; i++) {",
+        "            vb[i] = vl[i];",
+        "            ab[i] = al[i];",
+        "        }",
+        "        for (e = d0[b]; e < d0[b] + nd[b]; e++) {   /* the axes in the world, v */",
+        f"            const double *S = an + {o['S']} + 6 * e;",
+        "            double *s = Sw + 6 * e;",
+        "            for (i = 0; i < 3; i++) {",
+        "                s[i] = Rb[3 * i] * S[0] + Rb[3 * i + 1] * S[1] + Rb[3 * i + 2] * S[2];",
+        "                s[i + 3] = Rb[3 * i] * S[3] + Rb[3 * i + 1] * S[4] + Rb[3 * i + 2] * S[5];",
+        "            }",
+        "            s[3] += pb[1] * s[2] - pb[2] * s[1];",
+        "            s[4] += pb[2] * s[0] - pb[0] * s[2];",
+        "            s[5] += pb[0] * s[1] - pb[1] * s[0];",
+        "            for (i = 0; i < 6; i++) vb[i] += s[i] * u[e];",
+        "        }",
+        "        for (e = d0[b]; e < d0[b] + nd[b]; e++) {   /* a, and the axes' derivative terms */",
+        "            const double *s = Sw + 6 * e;",
+        f"            {name}_rd_cross(vb, s, t);",
+        "            for (i = 0; i < 6; i++) {",
+        "                ab[i] += s[i] * ud[e] + t[i] * u[e];",
+        "                dAv[6 * e + i] = t[i];",
+        "            }",
+        f"            {name}_rd_cross(vl, s, dV + 6 * e);",
+        f"            {name}_rd_cross(al, s, dA + 6 * e);",
+        f"            {name}_rd_cross(vl, dV + 6 * e, t);",
+        "            for (i = 0; i < 6; i++) {",
+        "                dA[6 * e + i] += t[i];",
+        "                dAv[6 * e + i] += dV[6 * e + i];",
+        "            }",
+        "        }",
+        "        /* the world inertia about the world origin: [[I_O, h x], [(h x)^T, m 1]], h = m p */",
+        "        m = In[0];",
+        "        for (i = 0; i < 3; i++)",
+        "            for (j = 0; j < 3; j++)",
+        "                IR[3 * i + j] = Rb[3 * i] * In[1 + j] + Rb[3 * i + 1] * In[4 + j] + Rb[3 * i + 2] * In[7 + j];",
+        "        pp = pb[0] * pb[0] + pb[1] * pb[1] + pb[2] * pb[2];",
+        "        for (i = 0; i < 3; i++) {",
+        "            for (j = 0; j < 3; j++) {",
+        "                Yb[6 * i + j] = IR[3 * i] * Rb[3 * j] + IR[3 * i + 1] * Rb[3 * j + 1] + IR[3 * i + 2] * Rb[3 * j + 2]",
+        "                    + m * ((i == j ? pp : 0.0) - pb[i] * pb[j]);",
+        "                Yb[6 * (i + 3) + j + 3] = i == j ? m : 0.0;",
+        "            }",
+        "        }",
+        "        Yb[4] = -m * pb[2]; Yb[5] = m * pb[1]; Yb[9] = m * pb[2];",
+        "        Yb[11] = -m * pb[0]; Yb[15] = -m * pb[1]; Yb[16] = m * pb[0];",
+        "        Yb[3] = Yb[10] = Yb[17] = 0.0;",
+        "        for (i = 0; i < 3; i++)",
+        "            for (j = 0; j < 3; j++) Yb[6 * (j + 3) + i] = Yb[6 * i + j + 3];",
+        "        /* momentum h, force f = Y a + v x* h - load, dY = v x* Y - Y v x + (. x* h) */",
+        f"        {name}_rd_mul(Yb, vb, hm);",
+        f"        {name}_rd_mul(Yb, ab, fb);",
+        f"        {name}_rd_crossf(vb, hm, t);",
+        "        for (i = 0; i < 6; i++) fb[i] += t[i];",
+    ]
+    if plan.loads:
+        lines += [
+            f"        {{   /* the body-frame load about the body origin, into the world */",
+            f"            const double *fe = an + {o['F']} + 6 * b;",
+            "            double n[3], f[3];",
+            "            for (i = 0; i < 3; i++) {",
+            "                n[i] = Rb[3 * i] * fe[0] + Rb[3 * i + 1] * fe[1] + Rb[3 * i + 2] * fe[2];",
+            "                f[i] = Rb[3 * i] * fe[3] + Rb[3 * i + 1] * fe[4] + Rb[3 * i + 2] * fe[5];",
+            "            }",
+            "            fb[0] -= n[0] + pb[1] * f[2] - pb[2] * f[1];",
+            "            fb[1] -= n[1] + pb[2] * f[0] - pb[0] * f[2];",
+            "            fb[2] -= n[2] + pb[0] * f[1] - pb[1] * f[0];",
+            "            fb[3] -= f[0];",
+            "            fb[4] -= f[1];",
+            "            fb[5] -= f[2];",
+            "        }",
+        ]
+    lines += [
+        "        for (j = 0; j < 6; j++) {   /* column j of v x* Y - Y (v x) */",
+        "            double y[6], ev[6], cy[6], ye[6];",
+        "            for (i = 0; i < 6; i++) {",
+        "                y[i] = Yb[6 * i + j];",
+        "                ev[i] = i == j ? 1.0 : 0.0;",
+        "            }",
+        f"            {name}_rd_crossf(vb, y, cy);",
+        f"            {name}_rd_cross(vb, ev, t);",
+        f"            {name}_rd_mul(Yb, t, ye);",
+        "            for (i = 0; i < 6; i++) dYb[6 * i + j] = cy[i] - ye[i];",
+        "        }",
+        "        dYb[1] += hm[2]; dYb[2] -= hm[1]; dYb[6] -= hm[2]; dYb[8] += hm[0]; dYb[12] += hm[1]; dYb[13] -= hm[0];",
+        "        dYb[4] += hm[5]; dYb[5] -= hm[4]; dYb[9] -= hm[5]; dYb[11] += hm[3]; dYb[15] += hm[4]; dYb[16] -= hm[3];",
+        "        dYb[19] += hm[5]; dYb[20] -= hm[4]; dYb[24] -= hm[5]; dYb[26] += hm[3]; dYb[30] += hm[4]; dYb[31] -= hm[3];",
+        "    }",
+        f"    for (b = {nb - 1}; b >= 0; b--) {{",
+        "        const double *Yb = Y + 36 * b, *dYb = dY + 36 * b, *fb = F + 6 * b;",
+        "        double t[6];",
+        "        for (e = d0[b]; e < d0[b] + nd[b]; e++) {",
+        "            const int m = 6 * (e - d0[b]);",
+        "            const double *s = Sw + 6 * e;",
+        f"            {name}_rd_mul(Yb, s, fa + m);",
+        f"            {name}_rd_mult(dYb, s, ft + m);",
+        f"            {name}_rd_mul(dYb, dV + 6 * e, fq + m);",
+        f"            {name}_rd_mul(Yb, dA + 6 * e, t);",
+        "            for (i = 0; i < 6; i++) fq[m + i] += t[i];",
+        f"            {name}_rd_mul(dYb, s, fv + m);",
+        f"            {name}_rd_mul(Yb, dAv + 6 * e, t);",
+        "            for (i = 0; i < 6; i++) fv[m + i] += t[i];",
+        "        }",
+        "        for (e = d0[b]; e < d0[b] + nd[b]; e++) {   /* the joint's own block */",
+        "            double *o = out + (row0 + row[e]) * stride;",
+        "            for (c = d0[b]; c < d0[b] + nd[b]; c++) {",
+        "                const int m = 6 * (c - d0[b]);",
+        f"                o[qc[c]] = sign * {name}_rd_dot(Sw + 6 * e, fq + m);",
+        f"                o[uc[c]] = sign * {name}_rd_dot(Sw + 6 * e, fv + m);",
+        "            }",
+        "        }",
+        "        for (c = d0[b]; c < d0[b] + nd[b]; c++) {",
+        "            const int m = 6 * (c - d0[b]);",
+        f"            {name}_rd_crossf(Sw + 6 * c, fb, t);",
+        "            for (i = 0; i < 6; i++) fq[m + i] += t[i];",
+        "        }",
+        "        for (l = par[b]; l >= 0; l = par[l]) {   /* pairs with the joints of the support */",
+        "            for (a = d0[l]; a < d0[l] + nd[l]; a++) {",
+        "                const double *sa = Sw + 6 * a;",
+        "                double *oa = out + (row0 + row[a]) * stride;",
+        "                for (c = d0[b]; c < d0[b] + nd[b]; c++) {",
+        "                    const int m = 6 * (c - d0[b]);",
+        "                    double *oc = out + (row0 + row[c]) * stride;",
+        f"                    oa[qc[c]] = sign * {name}_rd_dot(sa, fq + m);",
+        f"                    oa[uc[c]] = sign * {name}_rd_dot(sa, fv + m);",
+        f"                    oc[qc[a]] = sign * ({name}_rd_dot(fa + m, dA + 6 * a) + {name}_rd_dot(ft + m, dV + 6 * a));",
+        f"                    oc[uc[a]] = sign * ({name}_rd_dot(fa + m, dAv + 6 * a) + {name}_rd_dot(ft + m, sa));",
+        "                }",
+        "            }",
+        "        }",
+        "        l = par[b];",
+        "        if (l >= 0) {   /* composite inertia, its variation and force */",
+        "            for (i = 0; i < 36; i++) {",
+        "                Y[36 * l + i] += Yb[i];",
+        "                dY[36 * l + i] += dYb[i];",
+        "            }",
+        "            for (i = 0; i < 6; i++) F[6 * l + i] += fb[i];",
+        "        }",
+        "    }",
+    ]
+    for e0, k, koff in plan.multi:
+        lines += [
+            f"    {{   /* a {k}-speed joint: d tau/dq = d tau/d xi K^-1, q' = K u (Gauss-Jordan, partial pivoting) */",
+            f"        double Km[{k * k}], Ki[{k * k}], x[{k}], piv, tmp;",
+            "        int p;",
+            f"        for (i = 0; i < {k * k}; i++) {{",
+            f"            Km[i] = an[{o['K'] + koff} + i];",
+            f"            Ki[i] = i % {k + 1} == 0 ? 1.0 : 0.0;",
+            "        }",
+            f"        for (j = 0; j < {k}; j++) {{",
+            "            p = j;",
+            f"            for (i = j + 1; i < {k}; i++)",
+            f"                if (fabs(Km[{k} * i + j]) > fabs(Km[{k} * p + j])) p = i;",
+            f"            for (c = 0; c < {k}; c++) {{",
+            f"                tmp = Km[{k} * j + c]; Km[{k} * j + c] = Km[{k} * p + c]; Km[{k} * p + c] = tmp;",
+            f"                tmp = Ki[{k} * j + c]; Ki[{k} * j + c] = Ki[{k} * p + c]; Ki[{k} * p + c] = tmp;",
+            "            }",
+            f"            piv = 1.0 / Km[{k} * j + j];",
+            f"            for (c = 0; c < {k}; c++) {{",
+            f"                Km[{k} * j + c] *= piv;",
+            f"                Ki[{k} * j + c] *= piv;",
+            "            }",
+            f"            for (i = 0; i < {k}; i++) {{",
+            "                if (i == j) continue;",
+            f"                tmp = Km[{k} * i + j];",
+            f"                for (c = 0; c < {k}; c++) {{",
+            f"                    Km[{k} * i + c] -= tmp * Km[{k} * j + c];",
+            f"                    Ki[{k} * i + c] -= tmp * Ki[{k} * j + c];",
+            "                }",
+            "            }",
+            "        }",
+            f"        for (e = 0; e < {nd}; e++) {{",
+            "            double *o = out + (row0 + row[e]) * stride;",
+            f"            for (c = 0; c < {k}; c++) x[c] = o[qc[{e0} + c]];",
+            f"            for (c = 0; c < {k}; c++) {{",
+            "                tmp = 0.0;",
+            f"                for (i = 0; i < {k}; i++) tmp += x[i] * Ki[{k} * i + c];",
+            f"                o[qc[{e0} + c]] = tmp;",
+            "            }",
+            "        }",
+            "    }",
+        ]
+    lines.append("}")
+    return "\n".join(lines)
+
+
+def call_lines(name, plan, ind, x_name, ud_expr, row0, sign, stride, nq):
+    """The C lines that fill u[], ud[] per dof and call NAME_rnea_derivs (inside a function
+    whose ``an[]`` holds the plan's inputs)."""
+    rows = ", ".join(str(s) for s in plan.row)
+    return [f"{ind}{{",
+            f"{ind}    static const int sp[{plan.nd}] = {{{rows}}};",
+            f"{ind}    double u[{plan.nd}], ud[{plan.nd}];",
+            f"{ind}    int e;",
+            f"{ind}    for (e = 0; e < {plan.nd}; e++) {{",
+            f"{ind}        u[e] = {x_name}[{nq} + sp[e]];",
+            f"{ind}        ud[e] = {ud_expr}[sp[e]];",
+            f"{ind}    }}",
+            f"{ind}    {name}_rnea_derivs(an, u, ud, out, {stride}, {row0}, {sign});",
+            f"{ind}}}"]
+
+
+def analytic_ops(plan):
+    """Floating-point operations of one NAME_rnea_derivs call (counted from the C above,
+    multiply-adds as one mul and one add): per body ~1,150 (placement, v, a, Y, Ẏ),
+    per dof ~330 (axes, their terms, the backward products), per (dof, support dof) pair 48."""
+    pairs = 0
+    for b in range(plan.nb):
+        l = plan.par[b]
+        while l >= 0:
+            pairs += plan.count[b] * plan.count[l]
+            l = plan.par[l]
+        pairs += plan.count[b] * plan.count[b]
+    muls = 580 * plan.nb + 170 * plan.nd + 24 * pairs
+    adds = 570 * plan.nb + 160 * plan.nd + 24 * pairs
+    for _, k, _ in plan.multi:
+        muls += 2 * k ** 3 + plan.nd * k * k
+        adds += 2 * k ** 3 + plan.nd * k * k
+    return {"adds": adds, "muls": muls, "divs": sum(k for _, k, _ in plan.multi), "calls": 0}
