@@ -52,8 +52,11 @@ class AnalyticPlan:
     qcol: tuple             # the dof's coordinate column (for a k-speed joint: its tangent's, see module doc)
     multi: tuple            # (first dof, k, offset of K in anx) of each k-speed joint
     loads: bool             # some body has a load (the anx block F exists)
-    offsets: dict           # anx block -> first index: E, r, S, I, F, g, K
+    offsets: dict           # anx block -> first index: E, r, S, I, F, g, K, arm
     size: int               # len(anx)
+    lam: tuple = ()         # the dof before each dof on its path to the root (-1: none)
+    dep: tuple = ()         # the number of dofs before it on that path
+    off: tuple = ()         # where its row of M (itself, then its support, nearest first) starts
 
     def dofs(self, b):
         return range(self.first[b], self.first[b] + self.count[b])
@@ -77,7 +80,8 @@ def analytic_plan(tree, bodies, gravity, layout, rename):
     speeds = layout.x[nq:nq + nu]
     nb = len(bodies)
     par, first, count, row, qcol, multi = [], [], [], [], [], []
-    E, r, S, I, F, K = [], [], [], [], [], []
+    E, r, S, I, F, K, arm = [], [], [], [], [], [], []
+    lam, dep, last = [], [], {}     # last: body -> its last dof, or its nearest ancestor's
     used = set()
     for b in bodies:
         par.append(b.parent)
@@ -109,9 +113,15 @@ def analytic_plan(tree, bodies, gravity, layout, rename):
             for i in rows:
                 K += [sm.diff(kin[i], speeds[s]) for s, _ in dofs]
             qcol += rows
-        for s, axis in dofs:
+        before = last.get(b.parent, -1)
+        for (s, axis), a in zip(dofs, b.armature):
+            lam.append(before)
+            dep.append(dep[before] + 1 if before >= 0 else 0)
+            before = len(row)
             row.append(s)
             S += list(axis)
+            arm.append(a)
+        last[len(par) - 1] = before
         E += [b.E[i][j] for i in range(3) for j in range(3)]
         r += list(b.r)
         m = b.I[3][3]
@@ -121,13 +131,17 @@ def analytic_plan(tree, bodies, gravity, layout, rename):
         return None, []
     loads = any(b.fext is not None for b in bodies)
     blocks = [("E", E), ("r", r), ("S", S), ("I", I)] + ([("F", F)] if loads else []) + [
-        ("g", list(gravity)), ("K", K)]
+        ("g", list(gravity)), ("K", K), ("arm", arm)]
     offsets, values = {}, []
     for name, vals in blocks:
         offsets[name] = len(values)
         values += vals
+    off = [0]
+    for d in dep:
+        off.append(off[-1] + d + 1)
     plan = AnalyticPlan(nb, len(row), tuple(par), tuple(first), tuple(count), tuple(row),
-                        tuple(qcol), tuple(multi), loads, offsets, len(values))
+                        tuple(qcol), tuple(multi), loads, offsets, len(values), tuple(lam), tuple(dep),
+                        tuple(off))
     return plan, [((ANX, i), sm.sympify(v)) for i, v in enumerate(values)]
 
 
@@ -135,13 +149,21 @@ def _table(name, vals):
     return f"    static const int {name}[{len(vals)}] = {{{', '.join(str(v) for v in vals)}}};"
 
 
-def kernel_c(name, plan, nq):
+def kernel_c(name, plan, nq, solve=False):
     """The C text of ``NAME_rnea_derivs`` (see the module doc) and its small helpers.
 
     ``NAME_rnea_derivs(an, u, ud, out, stride, row0, sign)`` writes, for every speed i
     and state column k of the coordinates and speeds, ``out[(row0 + i) * stride + k] =
     sign * ∂τ_i/∂x_k`` at the velocities ``u`` and accelerations ``ud`` (per dof, in the
-    plan's dof order), zeroing the rest of those rows."""
+    plan's dof order), zeroing the rest of those rows.
+
+    ``solve`` (jac_x): with ``msolve`` set, those rows are then multiplied by M⁻¹: M from
+    the same composite inertias (M_ac = S_aᵀ Yᶜ S_c, the armature on its diagonal), stored
+    by rows of a dof and its support (nearest first), factored M = Lᵀ D L in place
+    (Featherstone's LTDL, O(n·d²)) and applied to the rows as whole-row updates (O(n·d) row
+    operations of nq + nu entries each)."""
+    ncol = nq + plan.nd
+    msize = plan.off[-1]
     nb, nd, o = plan.nb, plan.nd, plan.offsets
     fn = f"{name}_rnea_derivs"
     lines = [
@@ -192,7 +214,7 @@ def kernel_c(name, plan, nq):
         f"   out[(row0 + i) * stride + k] = sign * d tau_i / d x_k for the {nd} speeds i and the",
         "   coordinate and speed columns k, at velocities u and accelerations ud (per dof). */",
         f"static void {fn}(const double *an, const double *u, const double *ud, double *out, "
-        "int stride, int row0, double sign)",
+        "int stride, int row0, double sign, int msolve)",
         "{",
         _table("par", plan.par),
         _table("d0", plan.first),
@@ -204,6 +226,12 @@ def kernel_c(name, plan, nq):
         f"    double Sw[{6 * nd}], dV[{6 * nd}], dA[{6 * nd}], dAv[{6 * nd}];",
         "    double fa[36], ft[36], fq[36], fv[36];",
         "    int b, i, j, k, e, c, l, a;",
+    ] + ([
+        _table("lam", plan.lam),
+        _table("dep", plan.dep),
+        _table("off", plan.off[:-1]),
+        f"    double Mc[{msize}];",
+    ] if solve else ["    (void)msolve;"]) + [
         f"    for (e = 0; e < {nd}; e++)",
         "        for (k = 0; k < stride; k++) out[(row0 + row[e]) * stride + k] = 0.0;",
         f"    for (b = 0; b < {nb}; b++) {{",
@@ -340,6 +368,11 @@ def kernel_c(name, plan, nq):
         "                const int m = 6 * (c - d0[b]);",
         f"                o[qc[c]] = sign * {name}_rd_dot(Sw + 6 * e, fq + m);",
         f"                o[uc[c]] = sign * {name}_rd_dot(Sw + 6 * e, fv + m);",
+    ] + ([
+        "                if (msolve && e <= c)",
+        f"                    Mc[off[c] + dep[c] - dep[e]] = {name}_rd_dot(Sw + 6 * e, fa + m)"
+        f" + (e == c ? an[{o['arm']} + c] : 0.0);",
+    ] if solve else []) + [
         "            }",
         "        }",
         "        for (c = d0[b]; c < d0[b] + nd[b]; c++) {",
@@ -358,6 +391,9 @@ def kernel_c(name, plan, nq):
         f"                    oa[uc[c]] = sign * {name}_rd_dot(sa, fv + m);",
         f"                    oc[qc[a]] = sign * ({name}_rd_dot(fa + m, dA + 6 * a) + {name}_rd_dot(ft + m, dV + 6 * a));",
         f"                    oc[uc[a]] = sign * ({name}_rd_dot(fa + m, dAv + 6 * a) + {name}_rd_dot(ft + m, sa));",
+    ] + ([
+        f"                    if (msolve) Mc[off[c] + dep[c] - dep[a]] = {name}_rd_dot(sa, fa + m);",
+    ] if solve else []) + [
         "                }",
         "            }",
         "        }",
@@ -413,11 +449,44 @@ def kernel_c(name, plan, nq):
             "        }",
             "    }",
         ]
+    if solve:
+        lines += [
+            "    if (!msolve) return;",
+            f"    for (k = {plan.nd - 1}; k >= 0; k--) {{   /* M = L^T D L */",
+            "        const double dk = Mc[off[k]];",
+            "        for (i = lam[k]; i >= 0; i = lam[i]) {",
+            "            const double f = Mc[off[k] + dep[k] - dep[i]] / dk;",
+            "            for (j = i; j >= 0; j = lam[j]) Mc[off[i] + dep[i] - dep[j]] -= f * Mc[off[k] + dep[k] - dep[j]];",
+            "            Mc[off[k] + dep[k] - dep[i]] = f;",
+            "        }",
+            "    }",
+            f"    for (k = {plan.nd - 1}; k >= 0; k--) {{   /* rows <- L^-T rows */",
+            "        const double *yk = out + (row0 + row[k]) * stride;",
+            "        for (i = lam[k]; i >= 0; i = lam[i]) {",
+            "            const double f = Mc[off[k] + dep[k] - dep[i]];",
+            "            double *yi = out + (row0 + row[i]) * stride;",
+            f"            for (c = 0; c < {ncol}; c++) yi[c] -= f * yk[c];",
+            "        }",
+            "    }",
+            f"    for (k = 0; k < {plan.nd}; k++) {{   /* D^-1, then L^-1 */",
+            "        double *yk = out + (row0 + row[k]) * stride;",
+            "        const double f = 1.0 / Mc[off[k]];",
+            f"        for (c = 0; c < {ncol}; c++) yk[c] *= f;",
+            "    }",
+            f"    for (k = 0; k < {plan.nd}; k++) {{",
+            "        double *yk = out + (row0 + row[k]) * stride;",
+            "        for (i = lam[k]; i >= 0; i = lam[i]) {",
+            "            const double f = Mc[off[k] + dep[k] - dep[i]];",
+            "            const double *yi = out + (row0 + row[i]) * stride;",
+            f"            for (c = 0; c < {ncol}; c++) yk[c] -= f * yi[c];",
+            "        }",
+            "    }",
+        ]
     lines.append("}")
     return "\n".join(lines)
 
 
-def call_lines(name, plan, ind, x_name, ud_expr, row0, sign, stride, nq):
+def call_lines(name, plan, ind, x_name, ud_expr, row0, sign, stride, nq, msolve=0):
     """The C lines that fill u[], ud[] per dof and call NAME_rnea_derivs (inside a function
     whose ``an[]`` holds the plan's inputs)."""
     rows = ", ".join(str(s) for s in plan.row)
@@ -429,23 +498,23 @@ def call_lines(name, plan, ind, x_name, ud_expr, row0, sign, stride, nq):
             f"{ind}        u[e] = {x_name}[{nq} + sp[e]];",
             f"{ind}        ud[e] = {ud_expr}[sp[e]];",
             f"{ind}    }}",
-            f"{ind}    {name}_rnea_derivs(an, u, ud, out, {stride}, {row0}, {sign});",
+            f"{ind}    {name}_rnea_derivs(an, u, ud, out, {stride}, {row0}, {sign}, {msolve});",
             f"{ind}}}"]
 
 
-def analytic_ops(plan):
+def analytic_ops(plan, ncol=0):
     """Floating-point operations of one NAME_rnea_derivs call (counted from the C above,
     multiply-adds as one mul and one add): per body ~1,150 (placement, v, a, Y, Ẏ),
-    per dof ~330 (axes, their terms, the backward products), per (dof, support dof) pair 48."""
-    pairs = 0
-    for b in range(plan.nb):
-        l = plan.par[b]
-        while l >= 0:
-            pairs += plan.count[b] * plan.count[l]
-            l = plan.par[l]
-        pairs += plan.count[b] * plan.count[b]
+    per dof ~330 (axes, their terms, the backward products), per (dof, support dof) pair 48;
+    with the M⁻¹ solve on ``ncol`` columns (jac_x) 2·ncol more per pair and the factorization."""
+    pairs = sum(plan.dep)
     muls = 580 * plan.nb + 170 * plan.nd + 24 * pairs
     adds = 570 * plan.nb + 160 * plan.nd + 24 * pairs
+    if ncol:
+        muls += (6 + 2 * ncol) * pairs + ncol * plan.nd
+        adds += (6 + 2 * ncol) * pairs
+        muls += sum(d * (d + 1) // 2 for d in plan.dep)
+        adds += sum(d * (d + 1) // 2 for d in plan.dep)
     for _, k, _ in plan.multi:
         muls += 2 * k ** 3 + plan.nd * k * k
         adds += 2 * k ** 3 + plan.nd * k * k

@@ -4,9 +4,9 @@ jac_id: the kernel's inputs (``an[]``, straight-line), then one call of
 ``NAME_rnea_derivs`` writing d tau/dx into ``out``.
 
 jac_x: ABA's u' into ``w`` and the kinematic rows as before; the kernel at u' = w
-writes -d tau/dx (= the residual's derivative G, see :mod:`.derivatives`) into the
-u'-rows of ``out``; then per column the articulated-body solve M⁻¹ G in place
-(the code of the solve written once, run in a loop over the columns).
+writes -d tau/dx (= the residual's derivative, see :mod:`.derivatives`) into the
+u'-rows of ``out`` and multiplies them by M⁻¹ in place (M from the kernel's own
+composite inertias, factored LᵀDL over the tree: no straight-line solve code).
 """
 from collections import Counter
 
@@ -15,7 +15,7 @@ import sympy as sm
 from ..emit.bodies import IND, store, temps, needed_assignments, split_on
 from ..ir.opcount import count_ops
 from .analytic import ANX, analytic_ops, call_lines
-from .emit import _extra_rows, name_loop_inputs
+from .emit import _extra_rows
 
 __all__ = ["has_analytic", "analytic_jac_id_body", "analytic_jac_x_body", "analytic_body_ops"]
 
@@ -44,32 +44,23 @@ def _jac_x_plan(program, W, G, nq, nu, nx):
     key = ("analytic_jac_x", tuple(W), tuple(G), nq, nu, nx)
     plans = program.__dict__.setdefault("_jacobian_plans", {})
     if key not in plans:
-        sol = {k[1]: e for k, e in program.results if k[0] == "sol"}
         stores = [(f"w[{k[1]}]", e) for k, e in program.results if k[0] == "ud"]
         kin = program.result_exprs("dkin")
         rows = [(f"out[{i * nx + k}]", kin.get(("dkin", i, k), sm.S.Zero)) for i in range(nq) for k in range(nx)]
         rows += _extra_rows(program, "dzd", nq + nu, nx, nx)
         anx = list(program.result_exprs(ANX).values())
-        exprs = [e for _, e in stores + rows] + anx + list(sol.values())
-        exprs += list(program.result_exprs("Dpiv").values())
-        prog = program.with_(assignments=tuple(needed_assignments(program.assignments, exprs)))
-        once, rest = split_on(prog, tuple(G))
-        solve = needed_assignments(rest, sol.values())
-        plans[key] = (once, stores, rows, solve, sol)
+        exprs = [e for _, e in stores + rows] + anx + list(program.result_exprs("Dpiv").values())
+        plans[key] = (needed_assignments(program.assignments, exprs), stores, rows)
     return plans[key]
 
 
 def analytic_jac_x_body(ctx, program, sym, W, G):
     plan = sym.analytic
     nq, nu, nx = ctx.nq, ctx.nu, ctx.nx
-    once, stores, rows, solve, sol = _jac_x_plan(program, W, G, nq, nu, nx)
+    once, stores, rows = _jac_x_plan(program, W, G, nq, nu, nx)
     before, after = split_on(program.with_(assignments=tuple(once)), W)
     pr = ctx.printer(program)
-    for j, g in enumerate(G):
-        pr._names[g] = f"G[{j}]"
-    nlive = name_loop_inputs(pr, once, [e for _, e in solve] + list(sol.values()))
-    decls = [f"double w[{nu}];", f"double an[{plan.size}];", f"double G[{nu}];", "int i, k;"]
-    decls += [f"double P[{nlive}];"] if nlive else []
+    decls = [f"double w[{nu}];", f"double an[{plan.size}];"]
     lines = [f"{IND}{d}" for d in decls]
     lines += temps(program, pr, before)
     pivots = [pr.doprint(e) for k, e in program.results if k[0] == "Dpiv"]
@@ -80,36 +71,22 @@ def analytic_jac_x_body(ctx, program, sym, W, G):
     lines += temps(program, pr, after)
     lines += [store(lv, e, pr) for lv, e in rows]
     lines += _inputs(program, pr)
-    lines += call_lines(ctx.name, plan, IND, "x", "w", nq, "-1.0", nx, nq)
-    lines += [f"{IND}for (k = 0; k < {nx}; k++) {{",
-              f"{IND * 2}for (i = 0; i < {nu}; i++) G[i] = out[({nq} + i) * {nx} + k];",
-              f"{IND * 2}{{"]
-    body = temps(program, pr, solve) + [store(f"out[{(nq + i) * nx} + k]", sol.get(i, sm.S.Zero), pr)
-                                        for i in range(nu)]
-    lines += [IND * 2 + line for line in body]
-    lines += [f"{IND * 2}}}", f"{IND}}}"]
+    lines += call_lines(ctx.name, plan, IND, "x", "w", nq, "-1.0", nx, nq, 1)
     lines.append(f"{IND}return {ctx.name}_finite(out, {nx * nx});")
     return lines
 
 
 def analytic_body_ops(fn, program, sym, W, G, nq, nu, nx):
     """Operations of the bodies above: the straight-line part, the kernel (counted from its
-    C, :func:`~.analytic.analytic_ops`), and for jac_x the solve once per column."""
-    c = Counter(analytic_ops(sym.analytic))
+    C, :func:`~.analytic.analytic_ops`, the solve included for jac_x)."""
+    c = Counter(analytic_ops(sym.analytic, nq + nu if fn == "jac_x" else 0))
     if fn == "jac_id":
         for _, e in program.assignments:
             count_ops(e, c)
         for e in program.result_exprs(ANX).values():
             count_ops(e, c)
     else:
-        once, stores, rows, solve, sol = _jac_x_plan(program, W, G, nq, nu, nx)
+        once, stores, rows = _jac_x_plan(program, W, G, nq, nu, nx)
         for _, e in list(once) + stores + rows:
             count_ops(e, c)
-        per = Counter()
-        for _, e in solve:
-            count_ops(e, per)
-        for e in sol.values():
-            count_ops(e, per)
-        for _ in range(nx):
-            c += per
     return {k: int(c.get(k, 0)) for k in ("adds", "muls", "divs", "calls")}

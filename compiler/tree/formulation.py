@@ -77,7 +77,7 @@ class Recursive(Formulation):
         """NAME_rnea_derivs (:mod:`.analytic`) when jac_x or jac_id use it."""
         if sym.analytic is None or not {"jac_x", "jac_id"} & set(functions):
             return ""
-        return kernel_c(name, sym.analytic, nq)
+        return kernel_c(name, sym.analytic, nq, solve="jac_x" in functions)
 
     def metadata(self, sym, functions):
         if "regressor" not in functions:

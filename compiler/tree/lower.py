@@ -181,7 +181,7 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         analytic = None
         if loops is None and ("jac_id" in functions or "jac_x" in functions):
             analytic, anx = _analytic(tree, bodies, gravity, layout, functions)
-        if jac:
+        if jac and (analytic is None or jac != {"jac_x"}):    # the analytic jac_x needs no residual
             W = tuple(sm.Symbol(f"w_{j}", real=True) for j in range(nu))
             tau_w = rnea(bodies, rec, W, gravity, v, c)
             if loops is None:
