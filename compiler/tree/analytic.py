@@ -164,6 +164,7 @@ def kernel_c(name, plan, nq, solve=False):
     operations of nq + nu entries each)."""
     ncol = nq + plan.nd
     msize = plan.off[-1]
+    axpy = _axpy_lines(ncol)
     nb, nd, o = plan.nb, plan.nd, plan.offsets
     fn = f"{name}_rnea_derivs"
     lines = [
@@ -220,6 +221,7 @@ def kernel_c(name, plan, nq, solve=False):
         "    out[3] = out[4] = out[5] = 0.0;",
         "}",
         "",
+    ] + ([x.replace("{name}", name) for x in axpy] if solve else []) + [
         f"/* d tau / d(q, u) of RNEA by Carpentier and Mansard's algorithm (compiler/tree/analytic.py):",
         f"   out[(row0 + i) * stride + k] = sign * d tau_i / d x_k for the {nd} speeds i and the",
         "   coordinate and speed columns k, at velocities u and accelerations ud (per dof). */",
@@ -467,12 +469,9 @@ def kernel_c(name, plan, nq, solve=False):
             "        }",
             "    }",
             f"    for (k = {plan.nd - 1}; k >= 0; k--) {{   /* rows <- L^-T rows */",
-            "        const double *yk = out + (row0 + row[k]) * stride;",
-            "        for (i = lam[k]; i >= 0; i = lam[i]) {",
-            "            const double f = Mc[off[k] + dep[k] - dep[i]];",
-            "            double *yi = out + (row0 + row[i]) * stride;",
-            f"            for (c = 0; c < {ncol}; c++) yi[c] -= f * yk[c];",
-            "        }",
+            "        for (i = lam[k]; i >= 0; i = lam[i])",
+            f"            {name}_rd_axpy(out + (row0 + row[i]) * stride, out + (row0 + row[k]) * stride, "
+            "Mc[off[k] + dep[k] - dep[i]]);",
             "    }",
             f"    for (k = 0; k < {plan.nd}; k++) {{   /* D^-1, then L^-1 */",
             "        double *yk = out + (row0 + row[k]) * stride;",
@@ -480,16 +479,25 @@ def kernel_c(name, plan, nq, solve=False):
             f"        for (c = 0; c < {ncol}; c++) yk[c] *= f;",
             "    }",
             f"    for (k = 0; k < {plan.nd}; k++) {{",
-            "        double *yk = out + (row0 + row[k]) * stride;",
-            "        for (i = lam[k]; i >= 0; i = lam[i]) {",
-            "            const double f = Mc[off[k] + dep[k] - dep[i]];",
-            "            const double *yi = out + (row0 + row[i]) * stride;",
-            f"            for (c = 0; c < {ncol}; c++) yk[c] -= f * yi[c];",
-            "        }",
+            "        for (i = lam[k]; i >= 0; i = lam[i])",
+            f"            {name}_rd_axpy(out + (row0 + row[k]) * stride, out + (row0 + row[i]) * stride, "
+            "Mc[off[k] + dep[k] - dep[i]]);",
             "    }",
         ]
     lines.append("}")
     return "\n".join(lines)
+
+
+def _axpy_lines(ncol):
+    """y -= f x over one row of ncol entries: restrict rows and an even trip count, so that
+    gcc -O2's cheap vectorizer takes it (the LTDL solve's inner loop)."""
+    even = ncol - ncol % 2
+    return [
+        "static void {name}_rd_axpy(double *restrict y, const double *restrict x, double f)",
+        "{",
+        "    int c;",
+        f"    for (c = 0; c < {even}; c++) y[c] -= f * x[c];",
+    ] + ([f"    y[{even}] -= f * x[{even}];"] if even < ncol else []) + ["}", ""]
 
 
 def call_lines(name, plan, ind, x_name, ud_expr, row0, sign, stride, nq, msolve=0):
