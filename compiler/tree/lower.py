@@ -179,7 +179,7 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         UD = tuple(sm.Symbol(f"ud_{j}", real=True) for j in range(nu))
         jacobian, more = [], ()
         analytic = None
-        if loops is None and ("jac_id" in functions or "jac_x" in functions):
+        if loops is None and ("jac_id" in functions or "jac_x" in functions) and len(layout.x) > TANGENT_MIN_STATES:
             analytic, anx = _analytic(tree, bodies, gravity, layout, functions)
         if jac and (analytic is None or jac != {"jac_x"}):    # the analytic jac_x needs no residual
             W = tuple(sm.Symbol(f"w_{j}", real=True) for j in range(nu))
@@ -241,7 +241,11 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
 
 def _analytic(tree, bodies, gravity, layout, functions):
     """(plan, results) of the analytic RNEA derivatives (:mod:`.analytic`) for jac_x and jac_id,
-    or (None, []) where the tree does not qualify (then both keep the tangent path)."""
+    or (None, []) where the tree does not qualify (then both keep the tangent path).
+
+    Asked only above TANGENT_MIN_STATES states: below, the unrolled columns are faster
+    (measured, benchmarks/results/derivatives.md: cart n = 4 jac_x 0.55 vs 1.4 µs, UR10
+    1.6 vs 2.0 µs), and their C stays as it was."""
     from .analytic import analytic_plan
     absent = _absent(tree, layout)
     memo = {}
