@@ -9,6 +9,7 @@ is emit's default, the same code as Kane's.
 from collections import Counter
 
 from ..emit.formulation import Formulation
+from ..emit.reverse import REVERSE_FUNCTIONS, reverse_body
 from ..ir import count_program
 from .analytic import kernel_c
 from .analytic_emit import analytic_body_ops, analytic_jac_id_body, analytic_jac_x_body, has_analytic
@@ -21,7 +22,7 @@ from .regressor import PI_NAMES
 
 __all__ = ["Recursive"]
 
-_OWN_COUNTS = ("rhs", "mass_matrix", "forcing", "inverse_dynamics", "jvp")
+_OWN_COUNTS = ("rhs", "mass_matrix", "forcing", "inverse_dynamics", "jvp", "vjp", "hvp")
 _JACOBIANS = ("jac_x", "jac_r", "jac_p")
 
 
@@ -52,6 +53,8 @@ class Recursive(Formulation):
             return analytic_jac_x_body(ctx, prog, sym, *jacobian_symbols(prog, sym.W, ctx.nu))
         if fn == "jac_id":
             return jac_id_body(ctx, prog, sym.seeds)
+        if fn in REVERSE_FUNCTIONS:
+            return reverse_body(fn, ctx, prog, sym, nx, len(layout.p), jacobian_symbols(prog, sym.W, ctx.nu)[1])
         if fn == "jvp":
             return tree_jvp_body(ctx, prog, *jacobian_symbols(prog, sym.W, ctx.nu), sym.seeds, nx, len(layout.p))
         if fn in _JACOBIANS:
