@@ -150,6 +150,9 @@ class Model:
         self.output_names = tuple(metadata["output_names"])
         self.param_defaults = np.array(metadata["param_defaults"], dtype=np.float64).reshape(self.nparam)
         self.param_defaults.setflags(write=False)
+        # x indices of each unit quaternion's w (a free joint with floating_base="quaternion");
+        # the integrators keep them unit
+        self.quaternions = tuple(int(i) for i in metadata.get("quaternions", ()))
         x0 = metadata.get("initial_state")
         self.initial_state = None if x0 is None else np.array(x0, dtype=np.float64)
         # the model file's own time step (MJCF <option timestep>): what its author integrates at

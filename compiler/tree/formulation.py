@@ -70,8 +70,12 @@ class Recursive(Formulation):
         return None
 
     def metadata(self, sym, functions):
+        out = {}
+        if getattr(self.tree, "quaternions", ()):
+            # x indices of each quaternion's w (x, y, z follow): the runtime keeps them unit
+            out["quaternions"] = [int(k) for k in self.tree.quaternions]
         if "regressor" not in functions:
-            return {}
-        return {"regressor_bodies": list(sym.regressor_bodies),
+            return out
+        return {**out, "regressor_bodies": list(sym.regressor_bodies),
                 "regressor_reference": list(sym.regressor_reference),
                 "regressor_parameters": list(PI_NAMES)}
