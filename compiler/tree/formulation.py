@@ -9,7 +9,7 @@ is emit's default, the same code as Kane's.
 from collections import Counter
 
 from ..emit.formulation import Formulation
-from ..emit.reverse import REVERSE_FUNCTIONS, reverse_body
+from ..emit.reverse import REVERSE_FUNCTIONS, hess_id_body, hess_id_ops, reverse_body
 from ..ir import count_program
 from .analytic import kernel_c
 from .analytic_emit import analytic_body_ops, analytic_jac_id_body, analytic_jac_x_body, has_analytic
@@ -53,6 +53,8 @@ class Recursive(Formulation):
             return analytic_jac_x_body(ctx, prog, sym, *jacobian_symbols(prog, sym.W, ctx.nu))
         if fn == "jac_id":
             return jac_id_body(ctx, prog, sym.seeds)
+        if fn == "hess_id":
+            return hess_id_body(ctx, prog, sym, nx)
         if fn in REVERSE_FUNCTIONS:
             return reverse_body(fn, ctx, prog, sym, nx, len(layout.p), jacobian_symbols(prog, sym.W, ctx.nu)[1])
         if fn == "jvp":
@@ -63,6 +65,8 @@ class Recursive(Formulation):
         return None
 
     def ops(self, fn, prog, sym, nx, nr, npar, nq, nu, solve_in):
+        if fn == "hess_id":      # the sweep once per row, its tangent once per row and column
+            return hess_id_ops(prog, sym, nx, nu)
         if fn in _OWN_COUNTS and fn not in solve_in:
             c = count_program(prog) if prog is not None else Counter()
             return {k: int(c.get(k, 0)) for k in ("adds", "muls", "divs", "calls")}
