@@ -83,7 +83,8 @@ def tendon_forces(m, params, joint_names, tendon_names, limits=True, friction=Tr
                 kl, cl = inertia / (dmax * tc * z) ** 2, 2.0 * inertia / (dmax * tc)
             else:
                 kl, cl = -tc * inertia / dmax ** 2, -z * inertia / dmax
-            law = JointLaw(f"tendon {raw}", lower=lower, upper=upper, friction=fl, stiffness=kl, limit_damping=cl)
+            law = JointLaw(f"tendon {raw}", lower=lower, upper=upper, friction=fl, stiffness=kl, limit_damping=cl,
+                           unilateral=True)
             f += joint_torque(L, V, law, params, name, inertia)
         if f == 0:
             continue
