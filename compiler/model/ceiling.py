@@ -51,6 +51,8 @@ def _say_the_cost(name, n):
 
 
 def _size(n):
+    if n >= 1e12:
+        return f"{n / 1e12:.2g} TB"
     return f"{n / 1e9:.2g} GB" if n >= 1e9 else f"{n / 1e6:.0f} MB"
 
 
