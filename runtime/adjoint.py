@@ -12,8 +12,9 @@ sum of running costs, a least-squares fit to measurements -- given as
 Method: fixed-step classic RK4 (the discretization is part of the model being
 differentiated, so the gradient is exact for the simulated trajectory, what central
 differences of ``simulate(method="rk4", dt=...)`` approach).  The forward run stores
-every grid state (the checkpoints); the backward run (runtime/c/eomc_adjoint.c)
-recomputes each step's stages from its checkpoint and pulls the adjoint through them
+every grid state (the checkpoints) and, up to :data:`KEEP_STAGES_MAX` doubles, every step's
+stage states; the backward run (runtime/c/eomc_adjoint.c) takes them (or recomputes a
+step's stages from its checkpoint) and pulls the adjoint through them
 with the model's generated ``vjp`` (one reverse sweep of the rhs for all states and
 parameters at once).  Both runs are single C calls.  Inputs are constant over the run.
 Models need ``vjp`` in their functions (``functions=[..., "vjp"]``).
@@ -84,7 +85,7 @@ def gradient(model, x0, t_final, *, dt, cost, p=None, r=None):
         raise ModelError(f"{model.name}: eomc.gradient needs the model built with 'vjp' "
                          f"(functions=[..., 'vjp'] or eomc build --outputs ...,vjp)")
     a = _prepare(model, x0, t_final, dt, p, r)
-    X, (ffi, lib) = _forward(model, a)
+    X, (ffi, lib) = _forward(model, a, keep_stages=True)
     value, G = cost(a["t"], X.copy())
     G = np.ascontiguousarray(G, dtype=np.float64)
     if G.shape != X.shape:
@@ -96,7 +97,7 @@ def gradient(model, x0, t_final, *, dt, cost, p=None, r=None):
     lam0, gp = np.empty(model.nx), np.empty(max(model.nparam, 1))
     vjp = getattr(model.model_lib, f"{model.name}_vjp")
     status = lib.eomc_adjoint_rk4_backward(model.c_model, vjp, 0.0, a["h"], a["n"], buf(a["p"]),
-                                           a["rptr"], buf(X), buf(G), buf(lam0), buf(gp),
+                                           a["rptr"], buf(X), a["S"], buf(G), buf(lam0), buf(gp),
                                            buf(a["work"]))
     if status:
         raise SimulationError(f"{model.name}: the adjoint (backward) run failed: "
@@ -139,14 +140,22 @@ def _prepare(model, x0, t_final, dt, p, r):
             "r": r, "rptr": rptr, "work": work, "ffi": ffi, "lib": lib}
 
 
-def _forward(model, a):
+# stage states kept for the backward run up to this many doubles (80 MB); beyond, recomputed
+KEEP_STAGES_MAX = 10_000_000
+
+
+def _forward(model, a, keep_stages=False):
     ffi, lib = a["ffi"], a["lib"]
     X = np.empty((a["n"] + 1, model.nx))
+    a["S"], a["stages"] = ffi.NULL, None
+    if keep_stages and 3 * a["n"] * model.nx <= KEEP_STAGES_MAX:
+        a["stages"] = np.empty(3 * a["n"] * model.nx)
+        a["S"] = ffi.from_buffer("double[]", a["stages"])
     X[0] = a["x0"]
     buf = lambda arr: ffi.from_buffer("double[]", arr)  # noqa: E731
     failed = ffi.new("int *")
     status = lib.eomc_adjoint_rk4_forward(model.c_model, 0.0, a["h"], a["n"], buf(a["p"]), a["rptr"],
-                                          buf(X), buf(a["work"]), failed)
+                                          buf(X), a["S"], buf(a["work"]), failed)
     if status:
         k = int(failed[0])
         raise SimulationError(f"{model.name}: the RK4 run failed at step {k} (t = {k * a['h']:g}): "

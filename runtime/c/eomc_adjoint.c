@@ -37,7 +37,7 @@ static int stages(const eomc_model *m, double t, double h, const double *x, cons
 }
 
 int eomc_adjoint_rk4_forward(const eomc_model *m, double t0, double h, int nsteps,
-                             const double *p, const double *r, double *X, double *work,
+                             const double *p, const double *r, double *X, double *S, double *work,
                              int *failed_step)
 {
     int nx, k, i, status;
@@ -50,7 +50,9 @@ int eomc_adjoint_rk4_forward(const eomc_model *m, double t0, double h, int nstep
         const double *x = X + (size_t)k * nx;
         double *x1 = X + (size_t)(k + 1) * nx;
         if (failed_step) *failed_step = k;
-        status = stages(m, t0 + k * h, h, x, p, r, ks, x2, x3, x4, acc, mwork);
+        double *s2 = S ? S + (size_t)k * 3 * nx : x2;
+        status = stages(m, t0 + k * h, h, x, p, r, ks, s2, s2 == x2 ? x3 : s2 + nx,
+                        s2 == x2 ? x4 : s2 + 2 * nx, acc, mwork);
         if (status != EOMC_OK) return status;
         for (i = 0; i < nx; i++) {
             x1[i] = x[i] + h / 6.0 * acc[i];
@@ -73,7 +75,8 @@ static int pull(eomc_vjp_fn vjp, double t, const double *x, const double *p, con
 
 int eomc_adjoint_rk4_backward(const eomc_model *m, eomc_vjp_fn vjp, double t0, double h,
                               int nsteps, const double *p, const double *r, const double *X,
-                              const double *G, double *lam0, double *gp, double *work)
+                              const double *S, const double *G, double *lam0, double *gp,
+                              double *work)
 {
     int nx, np, k, i, status;
     double *ks, *x2, *x3, *x4, *lam, *xb, *kb, *gx, *gpt, *mwork;
@@ -89,19 +92,26 @@ int eomc_adjoint_rk4_backward(const eomc_model *m, eomc_vjp_fn vjp, double t0, d
     for (k = nsteps - 1; k >= 0; k--) {
         const double *x = X + (size_t)k * nx;
         double t = t0 + k * h;
-        status = stages(m, t, h, x, p, r, ks, x2, x3, x4, NULL, mwork);
-        if (status != EOMC_OK) return status;
+        const double *y2 = x2, *y3 = x3, *y4 = x4;
+        if (S) {
+            y2 = S + (size_t)k * 3 * nx;
+            y3 = y2 + nx;
+            y4 = y3 + nx;
+        } else {
+            status = stages(m, t, h, x, p, r, ks, x2, x3, x4, NULL, mwork);
+            if (status != EOMC_OK) return status;
+        }
         memcpy(xb, lam, (size_t)nx * sizeof(double));
         /* x1 = x + h/6 (k1 + 2 k2 + 2 k3 + k4), ki = f(xi), x4 = x + h k3, x3 = x + h/2 k2,
          * x2 = x + h/2 k1: the stages' adjoints last to first */
         for (i = 0; i < nx; i++) kb[i] = h / 6.0 * lam[i];
-        status = pull(vjp, t + h, x4, p, r, kb, gx, gpt, xb, gp, nx, np, mwork);
+        status = pull(vjp, t + h, y4, p, r, kb, gx, gpt, xb, gp, nx, np, mwork);
         if (status != EOMC_OK) return status;
         for (i = 0; i < nx; i++) kb[i] = h / 3.0 * lam[i] + h * gx[i];
-        status = pull(vjp, t + 0.5 * h, x3, p, r, kb, gx, gpt, xb, gp, nx, np, mwork);
+        status = pull(vjp, t + 0.5 * h, y3, p, r, kb, gx, gpt, xb, gp, nx, np, mwork);
         if (status != EOMC_OK) return status;
         for (i = 0; i < nx; i++) kb[i] = h / 3.0 * lam[i] + 0.5 * h * gx[i];
-        status = pull(vjp, t + 0.5 * h, x2, p, r, kb, gx, gpt, xb, gp, nx, np, mwork);
+        status = pull(vjp, t + 0.5 * h, y2, p, r, kb, gx, gpt, xb, gp, nx, np, mwork);
         if (status != EOMC_OK) return status;
         for (i = 0; i < nx; i++) kb[i] = h / 6.0 * lam[i] + 0.5 * h * gx[i];
         status = pull(vjp, t, x, p, r, kb, gx, gpt, xb, gp, nx, np, mwork);

@@ -26,18 +26,21 @@ typedef int (*eomc_vjp_fn)(double t, const double *x, const double *p, const dou
 size_t eomc_adjoint_work_size(int nx, int nparam);
 
 /* Forward: X (nsteps + 1) x nx, row 0 = x0 (copied in by the caller), row k the RK4
- * state at t0 + k h, inputs r held constant.  An eomc_status (the first failing rhs's, or
- * EOMC_NONFINITE_STATE when a state stops being finite); *failed_step the step. */
+ * state at t0 + k h, inputs r held constant.  S (may be NULL): nsteps x 3 x nx, each step's
+ * stage states x + h/2 k1, x + h/2 k2, x + h k3, kept so the backward run need not
+ * recompute them (3 rhs per step saved for 3 nx doubles per step).  An eomc_status (the
+ * first failing rhs's, or EOMC_NONFINITE when a state stops being finite); *failed_step the step. */
 int eomc_adjoint_rk4_forward(const eomc_model *m, double t0, double h, int nsteps,
-                             const double *p, const double *r, double *X, double *work,
+                             const double *p, const double *r, double *X, double *S, double *work,
                              int *failed_step);
 
 /* Backward: G (nsteps + 1) x nx = dJ/dx_k (the cost's own gradient at each grid state);
- * writes lam0 = dJ/dx_0 (nx) and gp = dJ/dp (nparam; may be NULL).  X from the forward
- * call.  An eomc_status. */
+ * writes lam0 = dJ/dx_0 (nx) and gp = dJ/dp (nparam; may be NULL).  X (and S, or NULL to
+ * recompute the stages) from the forward call.  An eomc_status. */
 int eomc_adjoint_rk4_backward(const eomc_model *m, eomc_vjp_fn vjp, double t0, double h,
                               int nsteps, const double *p, const double *r, const double *X,
-                              const double *G, double *lam0, double *gp, double *work);
+                              const double *S, const double *G, double *lam0, double *gp,
+                              double *work);
 
 #ifdef __cplusplus
 }
