@@ -25,7 +25,7 @@ from .law import DEFAULTS, ground_forces
 from .system import contact_symbols, parameter_defaults, unit_normal
 
 __all__ = ["ContactSpec", "ContactLoad", "ContactValue", "COLLISION_SPHERES", "parse_contact",
-           "collision_spheres", "with_contacts", "lower_contacts", "contact_outputs", "body_com"]
+           "collision_spheres", "link_frame", "with_contacts", "lower_contacts", "contact_outputs", "body_com"]
 
 # what each contact adds to the outputs (placeholders' kind index) and its event
 OUTPUT_KINDS = ("Fn", "Ftx", "Fty", "Ftz", "depth")
@@ -74,40 +74,36 @@ def parse_contact(text):
 COLLISION_SPHERES = "@collision"     # contacts=[...] entry: every <collision><sphere> of the URDF
 
 
-def collision_spheres(path):
-    """[ContactSpec] of every ``<collision>`` whose geometry is a ``<sphere>`` in the URDF at
-    ``path``: on its link, centred at the collision's origin, of its radius; named
+def collision_spheres(collisions, path):
+    """[ContactSpec] of every ``<collision>`` whose geometry is a ``<sphere>`` among the reader's
+    ``collisions`` (eomc.compiler.multibody.Collision records, in file order; ``path``: the
+    file, for messages): on its link, centred at the collision's origin, of its radius; named
     ``<link>`` (``<link>_<k>`` for the k-th sphere of a link that has several)."""
-    from lxml import etree
-    root = etree.parse(str(path)).getroot()
+    from eomc.runtime.geometry import identifier
+    by_link = {}
+    for col in collisions:
+        if col.geometry != "sphere":
+            continue
+        try:
+            radius = float(col.attribute("radius"))
+        except (TypeError, ValueError):
+            raise ModelError(f"{path}:{col.geometry_line}: link {col.frame!r}: a collision "
+                             f"sphere with a bad radius or origin") from None
+        point = tuple(float(v) for v in (row[3] for row in col.origin[:3]))
+        by_link.setdefault(col.frame, []).append((point, radius))
     out = []
-    for link in root.iter("link"):
-        spheres = []
-        for col in link.findall("collision"):
-            sphere = col.find("geometry/sphere")
-            if sphere is None:
-                continue
-            origin = col.find("origin")
-            xyz = (origin.get("xyz") if origin is not None else None) or "0 0 0"
-            try:
-                point = tuple(float(v) for v in xyz.split())
-                radius = float(sphere.get("radius"))
-            except (TypeError, ValueError):
-                raise ModelError(f"{path}:{sphere.sourceline}: link {link.get('name')!r}: a collision "
-                                 f"sphere with a bad radius or origin") from None
-            spheres.append((point, radius))
+    for link, spheres in by_link.items():
         for k, (point, radius) in enumerate(spheres):
-            from eomc.runtime.geometry import identifier
-            name = identifier(link.get("name")) + (f"_{k}" if len(spheres) > 1 else "")
-            out.append(ContactSpec(link.get("name"), point, radius, name=name))
+            name = identifier(link) + (f"_{k}" if len(spheres) > 1 else "")
+            out.append(ContactSpec(link, point, radius, name=name))
     return out
 
 
-def _expanded(specs, path):
+def _expanded(specs, collisions, path):
     out = []
     for spec in specs:
         if spec.link == COLLISION_SPHERES:
-            found = collision_spheres(path)
+            found = collision_spheres(collisions, path)
             if not found:
                 raise ModelError(f"{path}: contacts {COLLISION_SPHERES}: the robot has no "
                                  f"<collision> with a <sphere> geometry; name the contact links instead")
@@ -166,9 +162,11 @@ class ContactLoad:
                 + [self.params[k] for k in DEFAULTS] + list(self.normal) + [self.height] + more)
 
 
-def _link_frames(source, link):
+def link_frame(source, link, placements):
     """(body key or "world", 4x4 pose of ``link`` in that body's frame), or None if no such link.
-    A body's own link needs no file reading; a welded one asks the geometry helper."""
+    ``source``: the URDF's merged tree (eomc.compiler.urdf.tree.Tree); ``placements``: the
+    welded links' poses the reader found ({link: (body key or "world", 4x4)},
+    eomc.runtime.geometry.urdf_link_transforms of the document it parsed)."""
     import numpy as np
     from eomc.runtime.geometry import identifier
     for b in source.bodies.values():
@@ -177,8 +175,7 @@ def _link_frames(source, link):
     members = {name for b in source.bodies.values() for name in b.links} | set(source.ground_links)
     if link not in members and link != source.root:
         return None
-    from eomc.runtime.geometry import urdf_link_transforms
-    return urdf_link_transforms(source).get(link)
+    return placements.get(link)
 
 
 def _all_links(source):
@@ -186,20 +183,22 @@ def _all_links(source):
                   | {source.root})
 
 
-def with_contacts(built, contacts, fold=False):
+def with_contacts(built, contacts, collisions, placements, fold=False):
     """(UrdfTree with the contacts in its tree's loads and their parameters, outputs, events).
 
-    ``built``: eomc.compiler.urdf.treeir.UrdfTree.  Errors name the contact and link."""
+    ``built``: eomc.compiler.urdf.treeir.UrdfTree; ``collisions`` and ``placements``: what the
+    reader found (see :func:`collision_spheres`, :func:`link_frame`).  Errors name the
+    contact and link."""
     import numpy as np
     from eomc.runtime.geometry import identifier
-    specs = _expanded([as_spec(c) for c in contacts], built.source.path)
+    specs = _expanded([as_spec(c) for c in contacts], collisions, built.source.path)
     by_body = {b.name: i for i, b in enumerate(built.tree.bodies)}
     bodies_by_key = {identifier(b.name): b for b in built.source.bodies.values()}
     known = _all_links(built.source)
 
     def locate(spec, point):
         link = spec.link
-        found = _link_frames(built.source, link)
+        found = link_frame(built.source, link, placements)
         if found is None:
             raise ModelError(f"contact on link {link!r}: the robot has no such link (links: "
                              f"{', '.join(known[:12])}{', ...' if len(known) > 12 else ''})")

@@ -91,8 +91,8 @@ def _parts(system):
 def pose_source(system, geometry=None, model=None):
     """The :class:`PoseSource` of a mechanics object, or None when it has no bodies to show.
     ``model``: the robot file's :class:`~eomc.compiler.multibody.model.Model` when the object
-    is a URDF robot's System, whose welded links and shapes it carries (else the System's
-    file is read for them)."""
+    is a URDF robot's System, whose welded links and shapes it carries (else they come from
+    the document from_urdf parsed)."""
     from sympy.physics.vector import Point
     if system is None:
         return None
@@ -165,7 +165,7 @@ def pose_source(system, geometry=None, model=None):
         if model is None:
             from eomc.runtime.geometry import urdf_link_transforms, urdf_visuals
             from eomc.runtime.urdf_scene import load_scene
-            loaded = load_scene(urdf.tree.path)
+            loaded = load_scene(urdf.tree.path, getattr(urdf.tree.robot, "xml", None))   # from_urdf's reading
             welds, shapes = urdf_link_transforms(urdf.tree, loaded), urdf_visuals(urdf.tree, loaded)
         else:
             welds, shapes = model.welds, model.shapes

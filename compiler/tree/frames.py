@@ -158,12 +158,14 @@ def resolve_frames(spec, names):
     where = str(spec.path) if spec.path is not None else f"model {spec.name}"
     formed = spec.formed
     system_urdf = getattr(spec.system, "urdf", None)
-    if spec.model is not None:
+    if system_urdf is not None:   # a URDF robot's System passed in (from_urdf): its links, under
+        # every formulation (not the bodies of the tree recognized from the System: a link's frame is
+        # at its joint, a System body's at its mass centre, and welded links are no bodies)
+        tree, specs, defaults = _urdf_frames(system_urdf, wanted, where)
+    elif spec.model is not None:
         tree, specs = spec.model.tree, _model_frames(spec.model, wanted, where)
         defaults = (dict(spec.model.defaults) if spec.model.source.format != "system"
                     else dict(spec.parameters or {}))
-    elif system_urdf is not None:   # a URDF robot's System passed in (from_urdf): its links
-        tree, specs, defaults = _urdf_frames(system_urdf, wanted, where)
     else:
         tree = _system_tree(spec, where)
         specs, defaults = _body_frames(tree, wanted, where), dict(spec.parameters or {})
@@ -221,13 +223,11 @@ def _safe(name):
 
 def _urdf_frames(system_urdf, wanted, where):
     """(Tree, FrameSpecs, defaults) of the links of a URDF robot's System (from_urdf), passed
-    in as an object: its file is read by the URDF reader (eomc.compiler.urdf.model), as a
-    robot file is (the same tree built from its numbers: its symbols are the System's)."""
+    in as an object: the Model of the reading from_urdf made (eomc.compiler.urdf.model), as a
+    robot file's (the same tree built from its numbers: its symbols are the System's)."""
     from eomc.compiler.urdf.model import UrdfModel, model_of_robot
-    from eomc.compiler.urdf.reader import read_urdf
     source = system_urdf.tree
-    model = model_of_robot(read_urdf(source.path), source,
-                           UrdfModel(source.path, fold_parameters=not system_urdf.parameters))
+    model = model_of_robot(source.robot, source, UrdfModel(source.path, fold_parameters=not system_urdf.parameters))
     return model.tree, _model_frames(model, wanted, where), dict(model.defaults)
 
 
