@@ -243,6 +243,8 @@ def pose_digest(source):
     """Everything of ``source`` that shapes the generated code, for the generation cache key."""
     if source is None:
         return None
+    if hasattr(source, "digest"):
+        return source.digest()
     out = [str([n for n, *_ in source.frames]), str([n for n, _ in source.points]), str(source.lines),
            str(sorted(source.geometry.items()))]
     for f, parent, dcm in source.frame_edges:
@@ -272,18 +274,26 @@ class _Let:
         return hit
 
 
-def _lowering(source, layout, let):
-    """(rotation(frame), position(point)) in slot symbols, memoized; None where unmappable."""
-    memo, frames, points = {}, {}, {}
+def _slot(source, layout):
+    """expr -> the program's symbols: the source's default values for symbols the model does
+    not have, then the layout (a ModelError where a symbol is none of the model's)."""
+    memo = {}
     defaults = {s: sm.Float(v) for s, v in source.defaults.items() if s not in layout.subs}
-    frame_edge = {f: (parent, dcm) for f, parent, dcm in source.frame_edges}
-    point_edge = {p: (parent, vec) for p, parent, vec in source.point_edges}
 
     def slot(e, what):
         e = sm.sympify(e)
         if defaults:
             e = e.xreplace(defaults)
         return layout.apply(e, what, memo)
+    return slot
+
+
+def _lowering(source, slot, let):
+    """(frame(k) -> (R, p) or None, point(k) -> p or None) of a System's frame graphs in slot
+    symbols, memoized; None where unmappable."""
+    frames, points = {}, {}
+    frame_edge = {f: (parent, dcm) for f, parent, dcm in source.frame_edges}
+    point_edge = {p: (parent, vec) for p, parent, vec in source.point_edges}
 
     def rotation(f):
         if f not in frames:
@@ -327,7 +337,27 @@ def _lowering(source, layout, let):
                     out = [out[i] + sum((R[i][k] * c[k] for k in range(3)), sm.S.Zero) for i in range(3)]
                 points[p] = [let(v) for v in out]
         return points[p]
-    return rotation, position
+
+    def frame(k):
+        _, f, at = source.frames[k]
+        R, r = rotation(f), position(at)
+        return None if R is None or r is None else (R, r)
+    return frame, lambda k: position(source.points[k][1])
+
+
+def _tree_lowering(source, slot, let):
+    """As :func:`_lowering` for a robot's :class:`~eomc.compiler.tree.poses.TreePoseSource`
+    (its own placement along the tree); None where unmappable."""
+    frame_at, point_at = source.placer(slot, let)
+
+    def guarded(place):
+        def call(k):
+            try:
+                return place(k)
+            except ModelError:
+                return None
+        return call
+    return guarded(frame_at), guarded(point_at)
 
 
 def with_poses(sym, source, layout):
@@ -339,17 +369,19 @@ def with_poses(sym, source, layout):
     """
     program = sym.program
     let = _Let(program.ntemp)
-    rotation, position = _lowering(source, layout, let)
+    lowering = _tree_lowering if hasattr(source, "placer") else _lowering
+    frame_at, point_at = lowering(source, _slot(source, layout), let)
     values, frames, points, dropped, kept = [], [], [], [], {}
-    for name, frame, at in source.frames:
-        R, r = rotation(frame), position(at)
-        if R is None or r is None:
+    for k, (name, *_) in enumerate(source.frames):
+        placed = frame_at(k)
+        if placed is None:
             dropped.append(name)
             continue
+        R, r = placed
         values += list(r) + [R[i][j] for i in range(3) for j in range(3)]
         frames.append(name)
-    for i, (name, p) in enumerate(source.points):
-        r = position(p)
+    for i, (name, _) in enumerate(source.points):
+        r = point_at(i)
         if r is None:
             dropped.append(name)
             continue

@@ -43,6 +43,7 @@ from eomc.runtime.errors import ModelError
 
 from .algorithms import Recorder
 from .model import NotATree
+from .placement import IDENTITY, Placement
 
 __all__ = ["FrameSpec", "FrameSource", "resolve_frames", "with_frames", "frame_output_names",
            "frames_digest", "COM"]
@@ -260,17 +261,25 @@ def _dot3(M, v):
 
 class _World:
     """Per tree body, built once on demand and from the root down (no recursion: depth is
-    free): R (body axes in world components), p (its origin), w (angular velocity), v (its
-    origin's velocity), and its joint's axes in the world [(model speed, axis_w, origin_v)]."""
+    free): R (body axes in world components) and p (its origin), placed along the tree
+    (:class:`.placement.Placement`), w (angular velocity), v (its origin's velocity), and
+    its joint's axes in the world [(model speed, axis_w, origin_v)]."""
 
     def __init__(self, tree, rec, ren, speeds, columns):
         self.tree, self.rec, self.ren, self.speeds, self.columns = tree, rec, ren, speeds, columns
         self.done = {}
 
+        def E(i):
+            b = tree.bodies[i]
+            return [[ren(b.rotation[r, c], f"body {b.name} (joint {b.joint})") for c in range(3)] for r in range(3)]
+
+        def r(i):
+            b = tree.bodies[i]
+            return [ren(b.position[k], f"body {b.name} (joint {b.joint})") for k in range(3)]
+        self.placement = Placement([b.parent for b in tree.bodies], E, r, rec.let)
+
     def ground(self):
-        one, zero = sm.S.One, sm.S.Zero
-        return ([[one if i == j else zero for j in range(3)] for i in range(3)], [zero] * 3,
-                [zero] * 3, [zero] * 3, [])
+        return IDENTITY, [sm.S.Zero] * 3, [sm.S.Zero] * 3, [sm.S.Zero] * 3, []
 
     def __call__(self, i):
         if i < 0:
@@ -286,13 +295,9 @@ class _World:
     def _place(self, i):
         b, let = self.tree.bodies[i], self.rec.let
         what = f"body {b.name} (joint {b.joint})"
-        Rp, pp, wp, vp, _ = self(b.parent) if b.parent >= 0 else self.ground()
-        E = [[self.ren(b.rotation[r, c], what) for c in range(3)] for r in range(3)]
-        r = [self.ren(b.position[k], what) for k in range(3)]
-        R = [[let(sum((Rp[a][k] * E[c][k] for k in range(3)), sm.S.Zero)) for c in range(3)]
-             for a in range(3)]
-        Rr = _dot3(Rp, r)
-        p = [let(pp[k] + Rr[k]) for k in range(3)]
+        _, _, wp, vp, _ = self(b.parent) if b.parent >= 0 else self.ground()
+        R, p = self.placement.rotation(i), self.placement.origin(i)
+        Rr = self.placement.arm(i)
         axes = []
         w, v = list(wp), [vp[k] + x for k, x in enumerate(_cross(wp, [let(x) for x in Rr]))]
         for k, S in b.dofs:

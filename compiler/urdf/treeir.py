@@ -193,28 +193,19 @@ def tree_ir(tree, *, fold=False, gravity=9.81, laws=True):
 
 
 def pose_source(built, welds, shapes):
-    """The animation's PoseSource (eomc.compiler.emit.poses) of a :class:`UrdfTree`, without a
-    System: one frame per link at its link origin, placed from its parent link by the joint's
-    R_PC(q) and origin offset; links welded to a body or to the ground (``welds``) and the
-    visuals (``shapes``) as the System route gives them; a line from each parent link to its
-    child."""
-    from sympy.physics.vector import Point, ReferenceFrame, Vector
-    from eomc.compiler.emit.poses import PoseSource, welded_links
-    N, O = ReferenceFrame("N"), Point("O")
-    frame_edges, point_edges = [(N, None, None)], [(O, None, None)]
-    frames, points, lines, placed = [], [("O", O)], [], []
-    for body, offset in zip(built.tree.bodies, built.offsets):
-        F, L = ReferenceFrame(f"F_{body.name}"), Point(f"L_{body.name}")
-        pframe, ppoint, pindex = (N, O, 0) if body.parent < 0 else placed[body.parent]
-        frame_edges.append((F, pframe, body.rotation.T))
-        point_edges.append((L, ppoint, Vector([(offset, pframe)])))
-        frames.append((body.name, F, L))
-        points.append((body.name, L))
-        lines.append((pindex, len(points) - 1))
-        placed.append((F, L, len(points) - 1))
-    frames, more_frames, more_points = welded_links(welds, frames, N, O)
-    return PoseSource(tuple(frames), tuple(points), tuple(lines), tuple(frame_edges + more_frames),
-                      tuple(point_edges + more_points), dict(built.parameters), dict(shapes))
+    """The animation's poses (eomc.compiler.tree.poses.TreePoseSource) of a :class:`UrdfTree`,
+    without a System: one frame per link at its link origin, placed from its parent link by
+    the joint's rotation and origin offset; links welded to a body or to the ground
+    (``welds``) and the visuals (``shapes``) as the System route gives them; a line from
+    each parent link to its child."""
+    from eomc.compiler.tree.poses import TreePoseSource, welded_frames
+    frames, points, lines = [], [("O", None)], []
+    for i, body in enumerate(built.tree.bodies):
+        frames.append((body.name, i, None, None))
+        points.append((body.name, i))
+        lines.append((0 if body.parent < 0 else body.parent + 1, len(points) - 1))
+    return TreePoseSource(built.tree, tuple(tuple(o) for o in built.offsets), tuple(welded_frames(welds, frames)),
+                          tuple(points), tuple(lines), dict(built.parameters), dict(shapes))
 
 
 def joint_law(tree, tj):
