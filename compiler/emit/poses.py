@@ -27,29 +27,37 @@ import sympy as sm
 
 from eomc.runtime.errors import EomcWarning, ModelError
 
-__all__ = ["PoseSource", "pose_source", "welded_links", "with_poses", "pose_metadata", "pose_digest", "POSE_GROUP"]
+__all__ = ["Shown", "PoseSource", "pose_source", "welded_links", "with_poses", "pose_metadata", "pose_digest", "POSE_GROUP"]
 
 POSE_GROUP = "pose"
 
 
 @dataclass(frozen=True)
-class PoseSource:
-    """What ``NAME_poses`` computes, before lowering (expressions in mechanics symbols).
+class Shown:
+    """What an animation shows, whatever places it: ``frames`` (name first in each entry),
+    ``points`` ((name, ...) each), ``lines``: (i, j) pairs of ``points`` indices drawn as a
+    skeleton; ``defaults``: values for symbols the equations do not contain (a URDF's
+    numbers that only place things); ``geometry``: JSON-ready shapes (see eomc.geometry)."""
+    frames: tuple
+    points: tuple
+    lines: tuple
+    defaults: dict = field(default_factory=dict)
+    geometry: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True, kw_only=True)
+class PoseSource(Shown):
+    """What ``NAME_poses`` computes for a System, before lowering (expressions in mechanics
+    symbols): its own frame and point graphs.
 
     ``frame_edges``: (frame, parent frame or None, parent.dcm(frame)) in breadth-first
     order from the world frame; ``point_edges``: (point, parent point or None, vector
     from the parent) from the origin.  ``frames``: (name, frame, origin point) of each
-    body; ``points``: (name, point); ``lines``: (i, j) pairs of ``points`` indices drawn
-    as a skeleton; ``defaults``: values for symbols the equations do not contain (a URDF's
-    numbers that only place things); ``geometry``: JSON-ready shapes (see eomc.geometry).
+    body; ``points``: (name, point).  (A robot read into a joint tree is placed along the
+    tree instead: eomc.compiler.tree.poses.TreePoseSource.)
     """
-    frames: tuple
-    points: tuple
-    lines: tuple
     frame_edges: tuple
     point_edges: tuple
-    defaults: dict = field(default_factory=dict)
-    geometry: dict = field(default_factory=dict)
 
 
 def _bfs(start, neighbours):
@@ -187,8 +195,8 @@ def pose_source(system, geometry=None, model=None):
         geom = dict(shapes)
     if geometry:
         geom = {**geom, **_checked_geometry(geometry, [n for n, *_ in frames], [n for n, _ in points])}
-    return PoseSource(tuple(frames), tuple(points), tuple(sorted(set(lines))), tuple(frame_edges),
-                      tuple(point_edges), defaults, geom)
+    return PoseSource(tuple(frames), tuple(points), tuple(sorted(set(lines))), defaults, geom,
+                      frame_edges=tuple(frame_edges), point_edges=tuple(point_edges))
 
 
 def welded_links(welds, frames, N, origin):

@@ -40,8 +40,8 @@ def mjcf_pose_source(built, m):
         shown[b] = len(points) - 1
         lines.append((shown[int(m.body_parentid[b])], len(points) - 1))
     steps = tuple(tuple(body.position) for body in built.tree.bodies)
-    return TreePoseSource(built.tree, steps, tuple(frames), tuple(points), tuple(lines), dict(built.parameters),
-                          mjcf_geometry(built, m))
+    return TreePoseSource(tuple(frames), tuple(points), tuple(lines), dict(built.parameters), mjcf_geometry(built, m),
+                          tree=built.tree, steps=steps)
 
 
 def _transform(R, p):

@@ -24,6 +24,7 @@ import sympy as sm
 import sympy.physics.mechanics   # noqa: F401 -- the System type named below
 
 from ..emit.poses import PoseSource
+from ..mechanics.formed import StateSizes
 from ..tree.model import Tree
 
 __all__ = ["Model", "Frame", "Collision", "Provenance", "merged_defaults"]
@@ -77,11 +78,12 @@ class Collision:
 
 
 @dataclass(frozen=True)
-class Model:
+class Model(StateSizes):
     """One multibody model as read (see the module docstring).
 
     ``coordinates`` ... ``extra_rhs``: x = [q; u; z] and q' as the generated C orders them,
-    named as in FormedSystem (nothing is formed: there is no A or b).  ``frames``: the
+    named as in FormedSystem (nothing is formed: there is no A or b, and no ``method`` that
+    formed them: ``isinstance(record, Model)`` tells a model as read from formed equations).  ``frames``: the
     frames ``frames=["tool0"]`` may name.  ``poses``: the animation's bodies along the tree
     (a :class:`~eomc.compiler.emit.poses.PoseSource`), ``shapes``: {body or "world":
     [eomc.geometry shape dicts]} and ``welds``: {link: (body or "world", 4x4)}, the links
@@ -123,20 +125,7 @@ class Model:
     kane_refusal: Optional[str] = None   # why Kane's formulation cannot take it (no System: MJCF)
     frame_noun: str = "body"      # what its frames are called in messages ("link" for URDF)
 
-    method = "tree"           # what the generator lowers it by (FormedSystem: "kane" or "lagrange")
     multipliers = ()          # no Lagrange multipliers: the tree's constraints are its loops
-
-    @property
-    def nq(self):
-        return len(self.coordinates)
-
-    @property
-    def nu(self):
-        return len(self.speeds)
-
-    @property
-    def nz(self):
-        return len(self.extra_states)
 
     def frame(self, name):
         """The :class:`Frame` named (or aliased) ``name``, or None."""

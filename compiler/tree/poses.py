@@ -12,28 +12,22 @@ fixed to a placed body (-1: the world) by a constant rotation and offset (None: 
 own).  Each is placed when first asked for, in the order the shown frames are listed, so
 the generated C is what the frame-graph lowering gave for the same robot.
 """
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import sympy as sm
 
+from ..emit.poses import Shown
 from .placement import Placement, ZERO, to_world
 
 __all__ = ["TreePoseSource", "welded_frames"]
 
 
-@dataclass(frozen=True)
-class TreePoseSource:
+@dataclass(frozen=True, kw_only=True)
+class TreePoseSource(Shown):
     """See the module docstring.  ``points``: (name, index into ``frames`` of the frame whose
-    origin it is, or None: the world's origin); ``lines``: (i, j) pairs of ``points``;
-    ``defaults``: values of symbols the equations do not have (numbers that only place
-    things); ``geometry``: JSON-ready shapes (eomc.geometry)."""
+    origin it is, or None: the world's origin); the rest as :class:`~eomc.compiler.emit.poses.Shown`."""
     tree: object
     steps: tuple
-    frames: tuple
-    points: tuple
-    lines: tuple
-    defaults: dict = field(default_factory=dict)
-    geometry: dict = field(default_factory=dict)
 
     def placer(self, slot, let):
         """(frame(k) -> (R, p), point(k) -> p) in the program's symbols; ``slot(expr, what)``

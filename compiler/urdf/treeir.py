@@ -31,11 +31,12 @@ import numpy as np
 import sympy as sm
 from sympy.physics.vector import dynamicsymbols
 
-from eomc.compiler.tree.model import Load, Tree, TreeBody
+from eomc.compiler.tree.model import Tree, TreeBody
 from eomc.compiler.tree.joint_laws import JointScale
 from eomc.compiler.tree.recognize import effective_inertias
 
-from ..multibody.joints import Parameters, cross, lin, rotation_terms, snap, snapped, times, vec
+from ..multibody.joints import (Parameters, actuation, cross, lin, rotation_terms, snap, snapped, times, vec,
+                               z_to)
 from .tree import coordinate_suffixes, identifier
 
 __all__ = ["UrdfTree", "tree_ir", "floating_rotation", "floating_kinematics"]
@@ -76,15 +77,6 @@ def floating_kinematics(q, u):
     cy, sz, cz = sm.cos(q[4]), sm.sin(q[5]), sm.cos(q[5])
     rate_x = (wx * cz - wy * sz) / cy
     return [velocity[0], velocity[1], velocity[2], rate_x, wx * sz + wy * cz, wz - rate_x * sm.sin(q[4])]
-
-
-def _z_to(axis):
-    """A rotation matrix whose third column is the unit vector ``axis`` (as :mod:`.system`)."""
-    z = np.asarray(axis, dtype=float)
-    helper = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    x = helper - (helper @ z) * z
-    x /= np.linalg.norm(x)
-    return np.column_stack([x, np.cross(z, x), z])
 
 
 def tree_ir(tree, *, fold=False, gravity=9.81, laws=True):
@@ -154,7 +146,7 @@ def tree_ir(tree, *, fold=False, gravity=9.81, laws=True):
             offsets.append(sm.Matrix([p[r] + xyz[r] for r in range(3)]))
             kinematics += floating_kinematics(qs, us)
         elif tj.type == "planar":
-            Z = snapped(_z_to(tj.axis))
+            Z = snapped(z_to(tj.axis))
             Aj = snapped(R0 @ Z)
             cth, sth = sm.cos(qs[2]), sm.sin(qs[2])
             # R_PC = Aj Rz(th) Zᵀ = P cos + Q sin + W
@@ -181,7 +173,7 @@ def tree_ir(tree, *, fold=False, gravity=9.81, laws=True):
             inputs.append(tau)
             if laws:
                 tau = tau + law_torque(tree, tj, qs[0], us[0], params, inertias)
-            loads += _actuation(tj.type, tau, a, R0, c, p, cp, index[tj.child], parent)
+            loads += actuation(tj.type == "prismatic", tau, a, R0, c, p, cp, index[tj.child], parent)
     g = params("g", gravity) if gravity else sm.S.Zero
     # what the motion cannot excite is dropped, as the System route does: only the symbols
     # the equations use become parameters
@@ -204,8 +196,8 @@ def pose_source(built, welds, shapes):
         frames.append((body.name, i, None, None))
         points.append((body.name, i))
         lines.append((0 if body.parent < 0 else body.parent + 1, len(points) - 1))
-    return TreePoseSource(built.tree, tuple(tuple(o) for o in built.offsets), tuple(welded_frames(welds, frames)),
-                          tuple(points), tuple(lines), dict(built.parameters), dict(shapes))
+    return TreePoseSource(tuple(welded_frames(welds, frames)), tuple(points), tuple(lines), dict(built.parameters),
+                          dict(shapes), tree=built.tree, steps=tuple(tuple(o) for o in built.offsets))
 
 
 def joint_law(tree, tj):
@@ -305,24 +297,4 @@ def joint_loads(tree, gravity=9.81):
             reach = max([lever(world[b][0]) for b in below] + [lever(P[b]) for b in below])
             load = max(load, gravity * (total - mass) * reach)
         out[joint.name] = load
-    return out
-
-
-def _actuation(kind, tau, a, R0, c, p, cp, child, parent):
-    """The joint's torque (revolute) or force (prismatic) on the child and its reaction on the
-    parent (none on the ground: it does no work), in body components."""
-    zero = sm.zeros(3, 1)
-    on_child = sm.Matrix([snap(v) * tau for v in a])
-    on_parent = sm.Matrix([-snap(v) * tau for v in snapped(R0 @ a)])
-    out = []
-    if kind == "prismatic":
-        out.append(Load(body=child, frame="body", moment=zero, force=on_child,
-                        offset=sm.Matrix([-x for x in c])))
-        if parent >= 0:
-            out.append(Load(body=parent, frame="body", moment=zero, force=on_parent,
-                            offset=sm.Matrix([p[k] - cp[k] for k in range(3)])))
-        return out
-    out.append(Load(body=child, frame="body", moment=on_child, force=zero, offset=zero))
-    if parent >= 0:
-        out.append(Load(body=parent, frame="body", moment=on_parent, force=zero, offset=zero))
     return out
