@@ -193,13 +193,6 @@ BACK_EDGES = {
     ("eomc.compiler.tree.select", "eomc.compiler.multibody.model"),
     # frames of a from_urdf System passed in as an object: its link placements
     ("eomc.compiler.tree.frames", "eomc.compiler.urdf.model"),
-    # contacts= dispatches on the robot formats: belongs in model/ with the other dispatch
-    ("eomc.compiler.contact.models", "eomc.compiler.mjcf.model"),
-    ("eomc.compiler.contact.models", "eomc.compiler.urdf.model"),
-    # the float32 target's pivot threshold is the recursion's (a constant of tree/algorithms)
-    ("eomc.compiler.emit.target", "eomc.compiler.tree.algorithms"),
-    # URDF collision contacts take the MJCF reader's contact-law defaults (shared: multibody/)
-    ("eomc.compiler.urdf.collision", "eomc.compiler.mjcf.collision"),
 }
 # Private names still taken across packages (the same ratchet): what is shared should be public
 PRIVATE_IMPORTS = set()

@@ -5,7 +5,7 @@ One job: every ``<collision>`` (box, cylinder, sphere, mesh) of a link that move
 link welded into a body through its fixed joints); the shapes touch the plane z = 0.  URDF has
 no contact parameters: each shape takes the law's parameters MuJoCo's default contact would
 have on this robot (solref 0.02 1, solimp 0.9 0.95 0.001, sliding friction 1; the rule of
-:mod:`eomc.compiler.mjcf.collision`: k = W/δ_ref^1.5 with W the robot's weight, so a robot
+:mod:`eomc.compiler.contact.mujoco_law`: k = W/δ_ref^1.5 with W the robot's weight, so a robot
 resting on one shape sinks as deep as MuJoCo's default contact lets it).  Meshes are read
 with trimesh (their convex hull's vertices); one that cannot be read is left out with a warning.
 """
@@ -15,9 +15,9 @@ import numpy as np
 
 from eomc.runtime.errors import EomcWarning, ModelError
 
-__all__ = ["collision_shapes", "MUJOCO_DEFAULTS"]
+from ..contact.mujoco_law import MUJOCO_DEFAULTS, law_parameters
 
-MUJOCO_DEFAULTS = {"solref": (0.02, 1.0), "solimp": (0.9, 0.95, 0.001, 0.5, 2.0), "friction": (1.0, 0.005, 1e-4)}
+__all__ = ["collision_shapes", "MUJOCO_DEFAULTS"]
 
 
 def _mesh_vertices(filename, directory, scale, where):
@@ -53,7 +53,6 @@ def collision_shapes(built, collisions, placements, height=0.0):
     "world", 4x4 pose in that body's frame)} (:func:`eomc.compiler.contact.tree.link_frame`)."""
     from eomc.compiler.contact.geometry import Shape
     from eomc.compiler.contact.tree import link_frame
-    from eomc.compiler.mjcf.collision import law_parameters
     from .tree import identifier
     source = built.source
     path = source.path
