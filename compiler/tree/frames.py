@@ -245,7 +245,7 @@ def frames_digest(source):
         out += [f.name, str(f.body), str(f.rotation), str(f.offset)]
     out += [f"{s}={v!r}" for s, v in sorted(source.defaults.items(), key=lambda kv: str(kv[0]))]
     if source.frames or source.com:
-        from .formed import tree_exprs
+        from .model import tree_exprs
         out += [str(len(source.tree.bodies))] + [str(b.parent) for b in source.tree.bodies]
         out += [str(e) for e in tree_exprs(source.tree)]
     return out

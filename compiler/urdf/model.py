@@ -82,7 +82,7 @@ def model_of_robot(robot, tree, model, poses=False):
     """The Model of a URDF robot read (``robot``, eomc.compiler.urdf.reader) and merged into
     its link tree (``tree``) with ``model``'s options (see :func:`read_model`)."""
     from eomc.compiler.multibody.model import Frame, Provenance
-    from eomc.compiler.tree.formed import model_of_tree
+    from eomc.compiler.multibody.formed import model_of_tree
     from . import system_from_tree
     from .tree import identifier
     from ..multibody.joints import snap

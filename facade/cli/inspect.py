@@ -64,7 +64,7 @@ def compare_formulations(args, spec, generated, generate, error, *, source=None,
     generated from the same, so both columns describe the same robot."""
     source = args.model if source is None else source
     name = args.name if name is None else name
-    from eomc.compiler.tree.select import AUTO_KANE_MAX_SPEEDS
+    from eomc.compiler.formulations.select import AUTO_KANE_MAX_SPEEDS
     meta = generated.metadata
     chosen = meta.get("formulation", "kane")
     other = "kane" if chosen == "recursive" else "recursive"
