@@ -224,11 +224,9 @@ def _safe(name):
 
 def _urdf_frames(system_urdf, wanted, where):
     """(Tree, FrameSpecs, defaults) of the links of a URDF robot's System (from_urdf), passed
-    in as an object: the Model of the reading from_urdf made (eomc.compiler.urdf.model), as a
-    robot file's (the same tree built from its numbers: its symbols are the System's)."""
-    from eomc.compiler.urdf.model import UrdfModel, model_of_robot
-    source = system_urdf.tree
-    model = model_of_robot(source.robot, source, UrdfModel(source.path, fold_parameters=not system_urdf.parameters))
+    in as an object: the Model of the reading from_urdf made (its ``model()``:
+    eomc.compiler.urdf.system.UrdfSystem), as a robot file's."""
+    model = system_urdf.model()
     return model.tree, _model_frames(model, wanted, where), dict(model.defaults)
 
 

@@ -71,6 +71,14 @@ class UrdfSystem:
     bodies: dict                # body name -> RigidBody
     tree: object                # the tree.Tree it came from
 
+    def model(self):
+        """The multibody Model of the reading this System was built from (its links, welded
+        ones included, as frames; its tree's symbols are this System's), read again from
+        nothing: what frame outputs of a from_urdf System passed in as an object name."""
+        from .model import UrdfModel, model_of_robot
+        return model_of_robot(self.tree.robot, self.tree,
+                              UrdfModel(self.tree.path, fold_parameters=not self.parameters))
+
 
 class _Parameters:
     """Named symbols for non-zero numbers; exact zeros (and ``fold``) stay literal."""
