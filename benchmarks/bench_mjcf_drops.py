@@ -85,7 +85,10 @@ def main():
     rows, csv = [], []
     with tempfile.TemporaryDirectory(prefix="bench_drops_") as tmp, warnings.catch_warnings():
         warnings.simplefilter("ignore")
+        only = [a for a in sys.argv[1:] if not a.startswith("-")]     # model names: only these (not written)
         for stem, T in MODELS:
+            if only and stem not in only:
+                continue
             path = folder / f"{stem}.xml"
             td_m, z_m, deep_m, wall_m, cpu_m = mujoco_drop(path, T)
             td_e, z_e, deep_e, wall_e, cpu_e, points = eomc_drop(path, T, Path(tmp))
@@ -103,6 +106,9 @@ def main():
                                      f"2-core machine",
                                      f"models from gymnasium {gymnasium.__version__}'s wheel; mujoco {mujoco.__version__}"))
     text += "\n" + format_table(headers, rows) + "\n\n" + (__doc__ or "")
+    if only:
+        print(format_table(headers, rows))
+        return
     print(write_results("mjcf_drops", text, csv, ["model", "T", "points", "touchdown_mujoco", "touchdown_eomc",
                                                   "root_z_mujoco", "root_z_eomc", "deepest_mujoco", "deepest_eomc",
                                                   "wall_mujoco", "cpu_mujoco", "wall_eomc", "cpu_eomc"]))

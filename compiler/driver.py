@@ -21,6 +21,7 @@ from .build.gencache import cached_generate
 from .emit.poses import pose_digest
 from .tree.frames import frames_digest
 from .build.export import export
+from .model.ceiling import check_ceiling
 from .model.spec import read_model, spec_of
 from .model.validate import Invalid, check_functions
 from .passes.timing import reporting
@@ -132,10 +133,11 @@ def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, f
              formulation="auto", states=None, contacts=None, frames=None, target=None, check=None):
     """Derive and generate C without compiling: returns (ModelSpec, GeneratedModel).
 
-    ``check``: called with a robot file's multibody Model (URDF, MJCF) as soon as the file
-    is read, before anything is derived: the command line checks its run options (--param
-    names and values) there, so a typo costs the reading, not the build, and the file is
-    still read once.
+    ``check``: called with the :class:`~eomc.compiler.model.spec.Reading` as soon as the
+    model is read (a robot file's multibody Model, a model file's variables once it has
+    run), before anything is derived: the command line checks its run options (--x0,
+    --input, --frame, --param names and values) there, so a typo costs the reading, not
+    the build, and the file is still read once.
 
     ``target``: "c99-f64" (the default: double C and the eomc_model ABI) or "c99-f32"
     (float C for firmware, with NAME_step_rk4 and without the struct; see
@@ -177,8 +179,9 @@ def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, f
     with progress.stage("derive"):
         # every file is read here, once; each formulation auto compares derives from the reading
         read = read_model(system, name, poses=functions is None or "poses" in functions)
-        if check is not None and read.model is not None:
-            check(read.model)
+        if check is not None:
+            check(read)
+        check_ceiling(read, functions, name)     # a robot too large for dense Jacobians: at once
         try:
             spec = derive(formulation)
         except EomcError as exc:

@@ -14,7 +14,7 @@ import warnings
 
 import numpy as np
 
-from eomc.runtime.errors import SimulationError
+from eomc.runtime.errors import ModelError, SimulationError
 
 from .diagnose import SINGULAR_STATUS, singular_direction
 from .integrators_api import FIXED_STEP, METHOD_ALIASES, METHOD_IDS, STATUS_NAMES
@@ -559,7 +559,7 @@ def simulate(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6
              t_eval=None, dt=None, max_steps=100000, first_step=None, max_step=None,
              project=False, stiff_check=True, n_points=None, baumgarte=0.0,
              pi_beta=PI_BETA, raise_on_failure=True, events=None, max_events=DEFAULT_MAX_EVENTS,
-             K=None, x_ref=None, consistent=False, sensitivities=False, switching=True):
+             K=None, x_ref=None, consistent=None, sensitivities=False, switching=True):
     """Integrate ``model`` from ``x0`` over ``t_span``; returns a SimulationResult.
 
     x0/p: arrays or {name: value} dicts (missing names -> the model's initial_state (0 without
@@ -588,11 +588,15 @@ def simulate(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6
     on the dense output; result.t_events / x_events hold them by name and
     result.event_stop names a terminal event that ended the run.
 
-    Constrained models: a start off the constraints by more than max(1e-8, 10 atol)
-    gives a ConstraintWarning saying by how much (unless project=True, which
-    projects the start, or baumgarte > 0, which pulls it back); consistent=True instead completes the dependent
-    coordinates and speeds first (model.consistent_state, keeping the
-    independent ones).
+    Constrained models: a start off the constraints by more than max(1e-8, 10 atol) is
+    completed on them by default (consistent=None), as `eomc simulate` does: the states a
+    dict x0 names and the independent ones are held, the dependent coordinates and speeds
+    solved for, and one ConstraintWarning says by how much the start was off and what moved;
+    a start that cannot be completed is refused (run as given, one drove the slider-crank to
+    u = 4e7).  consistent=True completes every start (model.consistent_state, keeping the
+    independent ones); consistent=False runs from x0 as given, with a ConstraintWarning
+    saying by how much it is off.  project=True (which projects the start) and
+    baumgarte > 0 (which pulls it back) leave the start to themselves.
 
     sensitivities: True, "x0", "p" or a list of state/parameter names integrates the
     variational equations too (runtime/sensitivity.py; needs jac_x, and jac_p for
@@ -663,7 +667,9 @@ def _say_projected(model, a, result, atol):
 
 
 def checked_start(model, x0, t_span, p, r, atol, consistent):
-    """x0 made consistent (consistent=True) or checked against the constraints (a warning).
+    """x0 made consistent (consistent=True), completed when it is off the constraints
+    (consistent=None, simulate's default: see :func:`_completed`) or checked against them
+    (consistent=False: a warning).
 
     A dict x0 is completed from the model's initial_state first (state_defaults), the
     same start consistent_state() uses for a dict.
@@ -676,10 +682,10 @@ def checked_start(model, x0, t_span, p, r, atol, consistent):
                     model.param_names, model.param_defaults, "p (parameters)")
     x = _vector(model, start_or_default(model, x0), model.nx, model.state_names, state_defaults(model),
                 "x0 (initial state)")
+    r_vec = r if (r is not None and not callable(r) and not isinstance(r, tuple)) else None
+    if r_vec is not None and not isinstance(r_vec, dict) and np.ndim(r_vec) == 0:
+        r_vec = [r_vec]     # one input given as a number
     if consistent:
-        r_vec = r if (r is not None and not callable(r) and not isinstance(r, tuple)) else None
-        if r_vec is not None and not isinstance(r_vec, dict) and np.ndim(r_vec) == 0:
-            r_vec = [r_vec]     # one input given as a number
         return consistent_state(model, x, t0, p_vec, r_vec)
     n_r, r_t, r_v = _inputs(model, r, t0, t0 + 1.0)    # residuals through C, as finish() computes them
     g = np.abs(_along(model, dict(p=np.append(p_vec, 0.0), n_r=n_r, r_t=r_t, r_v=r_v), 1,
@@ -687,9 +693,49 @@ def checked_start(model, x0, t_span, p, r, atol, consistent):
     hol = float(g[:model.nhol].max()) if model.nhol else 0.0
     vel = float(g[model.nhol:].max()) if model.nvel else 0.0
     limit = max(1e-8, 10 * float(atol))
-    if hol > limit or vel > limit:
-        warnings.warn(ConstraintWarning.off(model.name, hol, vel, limit), stacklevel=_user_level())
+    if hol <= limit and vel <= limit:
+        return x0
+    if consistent is None:
+        given = list(x0) if isinstance(x0, dict) else []
+        return _completed(model, x, t0, p_vec, r_vec, given, hol, vel)
+    warnings.warn(ConstraintWarning.off(model.name, hol, vel, limit), stacklevel=_user_level())
     return x0
+
+
+def _completed(model, x, t0, p_vec, r_vec, given, hol, vel):
+    """A start off the constraints, completed on them: the states a dict x0 named and the
+    independent ones held (then the named ones only, then the independent ones only, when
+    that leaves too few free), the others solved for; one ConstraintWarning says how far
+    off it was and what moved.
+    ModelError, with the ways out, when it cannot be completed."""
+    from .consistent import ConstraintWarning, consistent_state
+    nq, nqu = model.nq, model.nq + model.nu
+    names = [str(n) for n in model.state_names]
+    independent = names[:nq - model.nhol] + names[nq:nqu - model.nvel] + names[nqu:]
+    given = [names[index_of(k, model.state_names, "state", model.name)] for k in given]
+    # a dict naming every state (zeros for the speeds it did not mean) leaves nothing free
+    # under the first two: the independent states alone are held then
+    tries = [None] if not given else [sorted(set(given) | set(independent)), sorted(set(given)), None]
+    error = None
+    for fixed in tries:
+        try:
+            done = consistent_state(model, x, t0, p_vec, r_vec, fixed=fixed)
+            break
+        except ModelError as exc:
+            error = exc
+    else:
+        held = f"; the states x0 names ({', '.join(given)}) are held" if given else ""
+        raise ModelError(f"{model.name}: x0 is off the constraints (configuration residual {hol:.3g}, "
+                         f"velocity residual {vel:.3g}) and cannot be completed on them: {error}{held}; "
+                         f"give a consistent x0 (the dependent coordinates and speeds too), or "
+                         f"consistent=False to run from it as given")
+    moved = [f"{n} {old:.6g} -> {new:.6g}" for n, old, new in zip(names, x, done) if new != old]
+    warnings.warn(ConstraintWarning(
+        f"{model.name}: x0 was off the constraints (configuration residual {hol:.3g}, velocity "
+        f"residual {vel:.3g}); completed it on them: {', '.join(moved)} (held: "
+        f"{', '.join(fixed if fixed is not None else independent)}; consistent=False runs from x0 "
+        f"as given)"), stacklevel=_user_level())
+    return done
 
 
 _checked_start = checked_start

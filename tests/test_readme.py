@@ -48,7 +48,7 @@ def _eomc_installs(path):
                 yield number, argv, specs
 
 
-def test_quick_start_is_two_commands_and_ci_runs_the_second():
+def test_quick_start_is_two_commands_and_ci_runs_both():
     text = README.read_text()
     section = text[text.index("## Quick start"):]
     block = section[section.index("```bash") + len("```bash"):]
@@ -56,7 +56,8 @@ def test_quick_start_is_two_commands_and_ci_runs_the_second():
     assert len(block) == 2, block
     assert block[0].startswith('pip install ".[plot]" && eomc simulate examples/')
     ci = (ROOT / ".ci" / "run").read_text().splitlines()
-    assert block[1] in [line.strip() for line in ci], "CI must run the README's second command as written"
+    for command in block:
+        assert command in [line.strip() for line in ci], f"CI must run the README's command as written: {command}"
 
 
 def test_readme_is_a_guide_of_at_most_250_lines():

@@ -15,7 +15,6 @@ import contextlib
 import hashlib
 import json
 import sys
-from pathlib import Path
 
 import sympy as sm
 
@@ -23,27 +22,9 @@ from eomc.runtime.version import __version__
 
 from ..mechanics.formed import FormedSystem
 from .cache import get_or_build, hash_key
+from .reuse import compiler_digest
 
 __all__ = ["generation_key", "cached_generate"]
-
-_SOURCE_DIGEST = []
-
-
-def _source_digest():
-    """sha256 over eomc.compiler's .py files, the templates and the shipped C: a changed generator is a new key."""
-    if not _SOURCE_DIGEST:
-        import eomc.compiler
-        import eomc.templates
-        from eomc.runtime.header_cdef import C_DIR
-        digest = hashlib.sha256()
-        for root in (Path(eomc.compiler.__file__).resolve().parent,
-                     Path(eomc.templates.__file__).resolve().parent, C_DIR):
-            for path in sorted(root.rglob("*")):
-                if path.suffix in (".py", ".j2", ".c", ".h") and "__pycache__" not in path.parts:
-                    digest.update(str(path.relative_to(root)).encode())
-                    digest.update(path.read_bytes())
-        _SOURCE_DIGEST.append(digest.hexdigest())
-    return _SOURCE_DIGEST[0]
 
 
 class _Digester:
@@ -96,7 +77,7 @@ def generation_key(spec, functions, fold_parameters, extra=None):
            {"events": [[k, d(v)] for k, v in spec.events.items()], "event_options": spec.event_options}),
         **({} if extra is None else {"extra": d(list(extra))}),
         "eomc": __version__, "sympy": sm.__version__, "python": sys.version_info[:2],
-        "source": _source_digest()})
+        "source": compiler_digest()})
 
 
 def cached_generate(spec, functions, fold_parameters, generate, cache_root_dir, extra=None):

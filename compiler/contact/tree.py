@@ -198,8 +198,8 @@ def with_contacts(built, contacts, collisions, placements, fold=False):
         link = spec.link
         found = link_frame(built.source, link, placements)
         if found is None:
-            raise ModelError(f"contact on link {link!r}: the robot has no such link (links: "
-                             f"{', '.join(known[:12])}{', ...' if len(known) > 12 else ''})")
+            raise ModelError(f"contact on link {link!r}: the robot has no such link{_nearest(link, known)} "
+                             f"(links: {', '.join(known[:12])}{', ...' if len(known) > 12 else ''})")
         body_link, T = found
         if body_link == "world":
             raise ModelError(f"contact on link {link!r}: the link is welded to the ground, "
@@ -213,6 +213,13 @@ def with_contacts(built, contacts, collisions, placements, fold=False):
         com = getattr(source, "com", (0.0, 0.0, 0.0)) if source is not None else (0.0, 0.0, 0.0)
         return i, T[:3, :3] @ np.array(point) + T[:3, 3], com     # point in the body's first link frame
     return _with_located(built, specs, locate, fold, "link", identifier)
+
+
+def _nearest(name, known):
+    """"; did you mean X?" for a misspelt link or body name (a contact is named before the build)."""
+    import difflib
+    near = difflib.get_close_matches(name, list(known), n=2, cutoff=0.6)
+    return f"; did you mean {', '.join(near)}?" if near else ""
 
 
 def with_mjcf_contacts(built, m, contacts, fold=False):
@@ -246,8 +253,9 @@ def with_mjcf_contacts(built, m, contacts, fold=False):
     def locate(spec, point):
         b = names.get(spec.link)
         if b is None:
-            raise ModelError(f"contact on body {spec.link!r}: the model has no such body (bodies: "
-                             f"{', '.join(known[:12])}{', ...' if len(known) > 12 else ''})")
+            raise ModelError(f"contact on body {spec.link!r}: the model has no such body"
+                             f"{_nearest(spec.link, known)} (bodies: {', '.join(known[:12])}"
+                             f"{', ...' if len(known) > 12 else ''})")
         if b == 0:
             raise ModelError(f"contact on body {spec.link!r}: the world cannot touch the ground")
         i = by_body.get(identifier(spec.link) if spec.link in names else spec.link)

@@ -86,6 +86,22 @@ def _body_name(body):
     return getattr(body, "name", repr(body))
 
 
+def check_single_parents(joints):
+    """Refuse a body that is the child of two joints, naming both: SymPy's System takes such
+    joints, and then its equations fail far from the cause (a joint "without inertia")."""
+    parent_of = {}
+    for joint in joints or ():
+        child = getattr(joint, "child", None)
+        if child is None:
+            continue
+        if child in parent_of:
+            raise ModelError(
+                f"body {_body_name(child)} is the child of two joints, {parent_of[child].name} and "
+                f"{joint.name}; a body can be the child of one joint only (a closed loop: leave one "
+                f"of them out and close the loop with add_holonomic_constraints instead)")
+        parent_of[child] = joint
+
+
 def check_new_joints(old_joints, new_joints, root=None):
     """Refuse joints that break the tree of bodies, naming the joint and the body.
 

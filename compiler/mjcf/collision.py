@@ -134,7 +134,11 @@ def ground_geoms(m, path=None):
     """[GroundGeom]: every (geom, ground plane) pair MuJoCo would collide (module docstring).
 
     Height fields and SDF geoms on moving bodies have no contact here: left out with a
-    warning naming them (MuJoCo allows planes on static bodies only)."""
+    warning naming them (MuJoCo allows planes on static bodies only).  A height field in the
+    world that a moving geom can touch is a plane at its top when its elevation data are all
+    equal (dm_control's quadruped's terrain before a task fills it; its finite extent is not
+    kept: MuJoCo's planes are infinite too, its hfield is not); with varying elevation it is
+    refused (ModelFileError at the geom's line)."""
     import mujoco
     from .treeir import quat_matrix
     where = f"{path}: " if path else ""
@@ -146,6 +150,30 @@ def ground_geoms(m, path=None):
     planes = [g for g in range(m.ngeom) if GEOM_KINDS.get(int(m.geom_type[g])) == "plane"]  # static: MuJoCo's rule
     excluded = _excluded(m)
     filterparent = not (m.opt.disableflags & int(mujoco.mjtDisableBit.mjDSBL_FILTERPARENT))
+    surface = {}          # a flat height field: the height of its top in its own frame
+    for g in range(m.ngeom):
+        if GEOM_KINDS.get(int(m.geom_type[g])) != "hfield" or int(weld[int(m.geom_bodyid[g])]) != 0:
+            continue
+        touching = [o for o in range(m.ngeom) if o != g and int(weld[int(m.geom_bodyid[o])]) != 0
+                    and not _filtered(m, g, o, excluded, filterparent)]
+        touching += [int(m.pair_geom2[q]) if int(m.pair_geom1[q]) == g else int(m.pair_geom1[q])
+                     for q in range(m.npair) if g in (int(m.pair_geom1[q]), int(m.pair_geom2[q]))]
+        if not touching:
+            continue
+        h = int(m.geom_dataid[g])
+        adr, count = int(m.hfield_adr[h]), int(m.hfield_nrow[h]) * int(m.hfield_ncol[h])
+        data = np.asarray(m.hfield_data[adr:adr + count], dtype=float)
+        if count and np.ptp(data) == 0.0:      # flat: its top is a plane (MuJoCo's elevation = size[2]·data)
+            surface[g] = float(m.hfield_size[h][2]) * float(data[0])
+            planes.append(g)
+            continue
+        from eomc.runtime.errors import ModelFileError
+        from .files import locate
+        raw = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g)
+        raise ModelFileError(f"<geom>: geom {raw or f'#{g}'}: a height field (hfield) with varying elevation, "
+                             f"which geom {_geom_name(m, touching[0])} can touch: eomc has no contact with a height "
+                             f"field's terrain (a flat one is a plane; contype=\"0\" conaffinity=\"0\" on it leaves it "
+                             f"out)", *(locate(path, "geom", raw) if path else (None, None)))
     g_mag = float(np.linalg.norm(m.opt.gravity)) or 9.81
     timestep = None if m.opt.disableflags & int(mujoco.mjtDisableBit.mjDSBL_REFSAFE) else float(m.opt.timestep)
     pairs = {}
@@ -181,7 +209,7 @@ def ground_geoms(m, path=None):
             warnings.warn(f"{where}geom {_geom_name(m, g)}: contact gap {gap:g} is not modelled (the force "
                           f"starts at the margin)", EomcWarning, stacklevel=3)
         n = np.array(d.geom_xmat[plane]).reshape(3, 3)[:, 2]
-        height = float(n @ d.geom_xpos[plane]) + margin
+        height = float(n @ d.geom_xpos[plane]) + surface.get(plane, 0.0) + margin
         weight = g_mag * float(m.body_subtreemass[int(m.body_rootid[b])])
         k, c, mu = law_parameters(solref, solimp, friction, condim, g_mag, weight, timestep)
         verts = ()
@@ -197,3 +225,75 @@ def ground_geoms(m, path=None):
                               vertices=verts, normal=tuple(float(x) for x in n), height=height, k=k, c=c, mu=mu,
                               plane=_geom_name(m, plane)))
     return out
+
+
+@dataclass(frozen=True)
+class BodyPair:
+    """Two geoms MuJoCo would collide that are not a plane (see :func:`body_pairs`)."""
+    geoms: tuple               # (g1, g2) MuJoCo geom ids; g1 may be static (a world geom)
+    name: str
+    kinds: tuple
+    k: float
+    c: float
+    mu: float
+    margin: float
+    explicit: bool = False     # a <contact><pair> of the file
+    same_tree: bool = False    # both geoms in one kinematic tree (a self-collision)
+
+
+def body_pairs(m, path=None):
+    """([BodyPair] of every pair of non-plane geoms MuJoCo would collide, at least one of them on a
+    moving body, whose kinds eomc models (eomc.compiler.contact.pairs.PAIR_KINDS); the pairs left
+    out for their kinds as {"kind-kind": (count, example name)}).
+
+    The filters and parameter mixing are :func:`ground_geoms`' (MuJoCo's); k, c, mu by the same
+    rule with the weight of the lighter of the two geoms' kinematic trees (what one rests on the
+    other with); a static geom's tree weighs nothing, so there the moving one's."""
+    import mujoco
+    from eomc.compiler.contact.pairs import pair_supported
+    if m.opt.disableflags & int(mujoco.mjtDisableBit.mjDSBL_CONTACT):
+        return [], {}
+    weld = m.body_weldid
+    excluded = _excluded(m)
+    filterparent = not (m.opt.disableflags & int(mujoco.mjtDisableBit.mjDSBL_FILTERPARENT))
+    g_mag = float(np.linalg.norm(m.opt.gravity)) or 9.81
+    timestep = None if m.opt.disableflags & int(mujoco.mjtDisableBit.mjDSBL_REFSAFE) else float(m.opt.timestep)
+    flat = ("plane", "hfield")
+
+    def kind(g):
+        return GEOM_KINDS.get(int(m.geom_type[g]), str(int(m.geom_type[g])))
+
+    def moving(g):
+        return int(weld[int(m.geom_bodyid[g])]) != 0
+    found = {}
+    for q in range(m.npair):
+        g1, g2 = sorted((int(m.pair_geom1[q]), int(m.pair_geom2[q])))
+        if kind(g1) in flat or kind(g2) in flat or not (moving(g1) or moving(g2)):
+            continue
+        found[(g1, g2)] = (int(m.pair_dim[q]), np.array(m.pair_friction[q]), np.array(m.pair_solref[q]),
+                           np.array(m.pair_solimp[q]), float(m.pair_margin[q]))
+    explicit = set(found)
+    for g1 in range(m.ngeom):
+        if kind(g1) in flat:
+            continue
+        for g2 in range(g1 + 1, m.ngeom):
+            if (g1, g2) in found or kind(g2) in flat or not (moving(g1) or moving(g2)) \
+                    or _filtered(m, g1, g2, excluded, filterparent):
+                continue
+            condim, friction, solref, solimp = _mix(m, g1, g2)
+            found[(g1, g2)] = (condim, friction, solref, solimp, float(m.geom_margin[g1]) + float(m.geom_margin[g2]))
+    out, skipped = [], {}
+    for (g1, g2), (condim, friction, solref, solimp, margin) in sorted(found.items()):
+        k1, k2 = kind(g1), kind(g2)
+        name = f"{_geom_name(m, g1)}__{_geom_name(m, g2)}"
+        if not pair_supported(k1, k2):
+            key = "-".join(sorted((k1, k2)))
+            count, example = skipped.get(key, (0, name))
+            skipped[key] = (count + 1, example)
+            continue
+        masses = [float(m.body_subtreemass[int(m.body_rootid[int(m.geom_bodyid[g])])]) for g in (g1, g2) if moving(g)]
+        k, c, mu = law_parameters(solref, solimp, friction, condim, g_mag, g_mag * min(masses), timestep)
+        roots = {int(m.body_rootid[int(m.geom_bodyid[g])]) for g in (g1, g2)}
+        out.append(BodyPair((g1, g2), name, (k1, k2), k, c, mu, margin, (g1, g2) in explicit,
+                            len(roots) == 1 and moving(g1) and moving(g2)))
+    return out, skipped

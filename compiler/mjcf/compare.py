@@ -12,7 +12,7 @@ import numpy as np
 
 from .treeir import MjcfTree
 
-__all__ = ["to_mujoco", "from_mujoco", "qacc_of", "prepared"]
+__all__ = ["to_mujoco", "from_mujoco", "qacc_of", "prepared", "coupled_qacc", "rhs_error"]
 
 
 def _xyz_matrix(rx, ry, rz):
@@ -91,3 +91,128 @@ def qacc_of(m, built: MjcfTree, q, u, du):
             qacc[d:d + 3] = R @ (du[iu:iu + 3] + np.cross(u[iu + 3:iu + 6], u[iu:iu + 3]))
     return qacc
 
+
+
+def coupled_qacc(m, d):
+    """MuJoCo's qacc with the file's active joint and tendon couplings (``<equality><joint>``,
+    ``<equality><tendon>``) as exact constraints, as eomc models them; ``d`` after ``mj_forward``
+    with constraints off (``prepared``), so ``d.qacc`` is the unconstrained a0 = M⁻¹ f.
+
+    Why not MuJoCo's own constrained qacc: its equality is soft (solref/solimp), so it differs
+    from an exact one by the softness; this is the exact answer from MuJoCo's own M, f and tendon
+    Jacobians. Per coupling  g = L1 - L1_0 - P(L2 - L2_0) = 0 (for a joint coupling L = q):
+    J = ∂L1/∂q - P'(d) ∂L2/∂q and J qacc = P''(d) L2'², so
+    qacc = a0 - M⁻¹Jᵀ (J M⁻¹ Jᵀ)⁻¹ (J a0 - γ)."""
+    import mujoco
+    from .equality import couplings, tendon_couplings
+    rows, gamma = [], []
+
+    def unit(j):
+        row = np.zeros(m.nv)
+        row[int(m.jnt_dofadr[j])] = 1.0
+        return row, float(d.qpos[int(m.jnt_qposadr[j])] - m.qpos0[int(m.jnt_qposadr[j])]), \
+            float(d.qvel[int(m.jnt_dofadr[j])])
+
+    def tendon(t):
+        row = _ten_row(m, t)
+        return row, float(d.ten_length[t]) - _tendon_length0(m, t), float(row @ d.qvel)
+
+    flags = m.opt.disableflags        # prepared() switched constraints off: the couplings are the file's
+    m.opt.disableflags = flags & ~int(mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)
+    try:
+        found = couplings(m)
+        tied = tendon_couplings(m, [j1 for _, j1, _ in found])
+    finally:
+        m.opt.disableflags = flags
+    items = [(e, unit(j1), unit(j2) if j2 is not None else None) for e, j1, j2 in found]
+    for e, _, _, _ in tied:
+        t1, t2 = int(m.eq_obj1id[e]), int(m.eq_obj2id[e])
+        items.append((e, tendon(t1), tendon(t2) if t2 >= 0 else None))
+    for e, (r1, _, _), second in items:
+        p = m.eq_data[e, :5]
+        if second is None:
+            rows.append(r1)
+            gamma.append(0.0)
+            continue
+        r2, x, v = second
+        slope = p[1] + 2 * p[2] * x + 3 * p[3] * x ** 2 + 4 * p[4] * x ** 3
+        curve = 2 * p[2] + 6 * p[3] * x + 12 * p[4] * x ** 2
+        rows.append(r1 - slope * r2)
+        gamma.append(curve * v * v)
+    a0 = np.array(d.qacc, dtype=float)
+    if not rows:
+        return a0
+    M = np.zeros((m.nv, m.nv))
+    try:
+        mujoco.mj_fullM(m, d, M)      # MuJoCo 4 takes the MjData
+    except TypeError:
+        mujoco.mj_fullM(m, M, d.qM)   # 3.x the sparse qM
+    J, g = np.array(rows), np.array(gamma)
+    MiJt = np.linalg.solve(M, J.T)
+    lam = np.linalg.solve(J @ MiJt, J @ a0 - g)
+    return a0 - MiJt @ lam
+
+
+def _ten_row(m, t):
+    """Row t of a fixed tendon's Jacobian ∂L/∂qvel: its coefficients at its joints' dofs."""
+    from .tendon import tendon_joints
+    row = np.zeros(m.nv)
+    for j, c in tendon_joints(m, t):
+        row[int(m.jnt_dofadr[j])] += c
+    return row
+
+
+def _tendon_length0(m, t):
+    """A fixed tendon's length at qpos0 (MuJoCo's L_0 of a tendon coupling): Σ c qpos0."""
+    from .tendon import tendon_joints
+    return sum(c * float(m.qpos0[int(m.jnt_qposadr[j])]) for j, c in tendon_joints(m, t))
+
+
+def rhs_error(path, model, trials=4, seed=3):
+    """max over random states of |eomc - MuJoCo| / max(1, |MuJoCo|) of qacc (and act_dot) for a
+    ``model`` built from the MJCF file ``path`` with ``limits=False, geoms=False``: MuJoCo with
+    contacts, constraints and limits off (:func:`prepared`), the file's couplings exact
+    (:func:`coupled_qacc`, eomc's states put on them), activations (MuJoCo's ``act``) after q, u."""
+    import warnings
+    import mujoco
+    from .model import check_model, load_mjmodel
+    from .treeir import tree_ir
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        m0 = load_mjmodel(path)
+        motors = check_model(m0, path)
+        built = tree_ir(m0, actuators=motors, limits=False, friction=False)
+        m = prepared(load_mjmodel(path))
+    d = mujoco.MjData(m)
+    rng = np.random.default_rng(seed)
+    nq = len(built.coordinates)
+    loops = getattr(built.tree, "loops", None)
+    ndep = loops.n_dependent_coordinates if loops is not None else 0
+    acts = [k for k in motors if m.actuator_dyntype[k]]
+    if model.nx != 2 * nq + len(acts):
+        raise ValueError(f"{path}: the model has {model.nx} states, MuJoCo's mapping {2 * nq + len(acts)}")
+    worst = 0.0
+    for _ in range(trials):
+        q, u, z = rng.uniform(-0.8, 0.8, nq), rng.uniform(-1.5, 1.5, nq), rng.uniform(-1, 1, len(acts))
+        x = np.concatenate([q, u, z])
+        if ndep:          # on the couplings: the dependent coordinates and speeds from the others
+            x = model.consistent_state(x, fixed=list(model.state_names[:nq - ndep]))
+            x[2 * nq:] = z
+            q, u = x[:nq], x[nq:2 * nq]
+        r = rng.uniform(-1.2, 1.2, len(motors))       # beyond ctrlrange too: both clamp
+        xd = model.rhs(0.0, x, r=r) if motors else model.rhs(0.0, x)
+        d.qpos[:], d.qvel[:] = to_mujoco(m, built, q, u)
+        d.ctrl[:] = 0
+        d.ctrl[motors] = r
+        for i, k in enumerate(acts):
+            d.act[m.actuator_actadr[k]] = z[i]
+        mujoco.mj_forward(m, d)
+        ref = coupled_qacc(m, d)
+        if np.max(np.abs(ref)) <= 1e-3:
+            raise ValueError(f"{path}: a random state that does not move: the comparison would say nothing")
+        mine = qacc_of(m, built, q, u, xd[nq:2 * nq])
+        worst = max(worst, np.max(np.abs(mine - ref)) / max(1.0, np.max(np.abs(ref))))
+        if acts:
+            act_dot = np.array([d.act_dot[m.actuator_actadr[k]] for k in acts])
+            worst = max(worst, np.max(np.abs(xd[2 * nq:] - act_dot)) / max(1.0, np.max(np.abs(act_dot))))
+    return worst

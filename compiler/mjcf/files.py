@@ -87,10 +87,16 @@ def check_files(path):
     model_files(path, check=True)
 
 
+# an actuator is written as its kind (<motor>, <general>, ...): a joint of the same name must not
+# be found first (dm_control names an actuator as the joint it drives)
+_KINDS = {"actuator": "actuator|motor|position|velocity|intvelocity|damper|cylinder|muscle|adhesion|general|plugin"}
+
+
 def _search(text, tag, name):
     match = None
     if name:    # the <tag> of that name first (an equality is often named as the tendon it ties)
-        match = (re.search(rf"<{tag}\b[^>]*\bname\s*=\s*[\"']{re.escape(name)}[\"']", text)
+        tags = f"(?:{_KINDS.get(tag, tag)})"
+        match = (re.search(rf"<{tags}\b[^>]*\bname\s*=\s*[\"']{re.escape(name)}[\"']", text)
                  or re.search(rf"<\w+\b[^>]*\bname\s*=\s*[\"']{re.escape(name)}[\"']", text))
     return match
 

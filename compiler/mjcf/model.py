@@ -39,6 +39,10 @@ class MjcfModel:
     # the file's collision geoms touch its ground planes as MuJoCo collides them (mjcf/collision.py):
     # None = yes unless ``contacts`` names contacts without "@collision"; True/False = yes/no
     geoms: bool = None
+    # body–body contacts between the file's geoms (mjcf/collision.body_pairs), when its geoms are
+    # contacts: None = between different kinematic trees (and the world's geoms) and the file's
+    # <pair>s; True = also within one tree (self-collisions); False = none
+    pairs: bool = None
 
 
 def is_mjcf_path(model):
@@ -129,12 +133,14 @@ def check_model(m, path, ignore=()):
     from .tendon import is_fixed
     zero = np.zeros(m.ntendon)
     armature = [t for t in range(m.ntendon) if getattr(m, "tendon_armature", zero)[t]]
-    spatial = [t for t in range(m.ntendon) if not is_fixed(m, t) and (
+    from .spatial import is_site_tendon
+    spatial = [t for t in range(m.ntendon) if not is_fixed(m, t) and not is_site_tendon(m, t) and (
         m.tendon_stiffness[t] or m.tendon_damping[t] or m.tendon_frictionloss[t] or m.tendon_limited[t]
         or any(int(m.actuator_trntype[k]) == int(mujoco.mjtTrn.mjTRN_TENDON) and int(m.actuator_trnid[k, 0]) == t
                for k in range(m.nu)))]
     for t, why in [(t, "armature (an inertia along the tendon)") for t in armature] + \
-                  [(t, "a spatial tendon (sites, wrapping): only fixed tendons are modelled") for t in spatial]:
+                  [(t, "a spatial tendon that wraps around geoms or has a pulley: fixed tendons and spatial "
+                       "ones through sites only are modelled") for t in spatial]:
         tn = _name(m, mujoco.mjtObj.mjOBJ_TENDON, t, 'tendon')
         problems.append(("tendons", "tendon", f"tendon {tn}: {why}", tn))
         break
@@ -212,7 +218,7 @@ def check_model(m, path, ignore=()):
         why = None
         if int(m.actuator_trntype[k]) == int(mujoco.mjtTrn.mjTRN_TENDON):
             if not is_fixed(m, j):
-                why = "its transmission is a spatial tendon"
+                why = "its transmission is a spatial tendon (only fixed tendons drive actuators here)"
             elif "tendons" in ignore:
                 why = "its transmission is a tendon, and tendons are ignored"
         elif int(m.actuator_trntype[k]) != int(mujoco.mjtTrn.mjTRN_JOINT):
@@ -221,8 +227,11 @@ def check_model(m, path, ignore=()):
             why = "it drives a ball or free joint"
         if why:
             pass
-        elif int(m.actuator_dyntype[k]) != 0:
-            why = "it has activation dynamics (dyntype: an integrator, filter or muscle activation)"
+        elif int(m.actuator_dyntype[k]) not in (0, 1, 2, 3):
+            why = "it has muscle or user-defined activation dynamics (dyntype; integrator and filter are modelled)"
+        elif int(m.actuator_dyntype[k]) != 0 and (m.actuator_actlimited[k] or getattr(m, "actuator_actearly",
+                                                                                     np.zeros(m.nu))[k]):
+            why = "its activation is limited (actlimited) or acts early (actearly): not modelled"
         elif int(m.actuator_gaintype[k]) not in (0, 1) or int(m.actuator_biastype[k]) not in (0, 1):
             why = "its gain or bias is not fixed or affine (a muscle or a user-defined one)"
         if why:
@@ -312,6 +321,11 @@ def read_model(model, poses=False):
     if "fluid" not in model.ignore:
         from .fluid import with_fluid
         built = with_fluid(built, m, fold=model.fold_parameters)     # <option density viscosity wind>
+    if "tendons" not in model.ignore:       # spatial tendons through sites (ball_in_cup's string)
+        from .spatial import with_site_tendons
+        built = with_site_tendons(built, m, fold=model.fold_parameters,
+                                  limits=model.limits and limits_flag and "limits" not in model.ignore,
+                                  friction=model.limits and friction_flag and "frictionloss" not in model.ignore)
     built, outputs, events = _with_contacts(model, m, built)
     extra = {}
     if poses:
@@ -326,13 +340,36 @@ def read_model(model, poses=False):
         # the tree body carrying the MuJoCo body's mass sits at its mass centre body_ipos
         c = [_com_symbol(f"c{a}_{s}", v, built.parameters) for a, v in zip("xyz", m.body_ipos[b])]
         frames.append(Frame(raw, index[s], _IDENTITY, tuple(-x for x in c), (s,)))
-    return model_of_tree(built.tree, Provenance("mjcf", str(model.path)), frames=tuple(frames),
+    read = model_of_tree(built.tree, Provenance("mjcf", str(model.path)), frames=tuple(frames),
                          defaults=dict(built.parameters), joint_inputs=tuple(built.inputs),
                          outputs=outputs, events=events, initial_state=reference_state(m, built),
                          timestep=float(m.opt.timestep),
                          kane_refusal="an MJCF model has the recursive formulation only: MuJoCo's model is "
                                       "read straight into the joint tree, with no SymPy System to form "
                                       "Kane's equations of", **extra)
+    return _with_activations(read, getattr(built, "activations", ()))
+
+
+def _with_activations(read, activations):
+    """The Model with the actuators' activation states (MuJoCo's ``act``, after q and u, in
+    actuator order; zero at the start as in mj_resetData) as extra first-order states: taken out
+    of the inputs the tree's loads made of them, the controls and time constants that only their
+    rates name added."""
+    if not activations:
+        return read
+    import dataclasses
+    acts = tuple(a for a, _ in activations)
+    rates = tuple(r for _, r in activations)
+    inputs = set(read.inputs) - set(acts)
+    params = set(read.parameters)
+    t = sm.Symbol("t")
+    from sympy.core.function import AppliedUndef
+    for r in rates:
+        inputs |= {a for a in r.atoms(AppliedUndef) if a not in set(acts) and a.args == (t,)}
+        params |= {s for s in r.free_symbols if s != t}
+    return dataclasses.replace(read, extra_states=acts, extra_rhs=rates,
+                               inputs=tuple(sorted(inputs, key=str)),
+                               parameters=tuple(sorted(params, key=lambda s: s.name)))
 
 
 _IDENTITY = ((1, 0, 0), (0, 1, 0), (0, 0, 1))
@@ -381,7 +418,58 @@ def _with_contacts(model, m, built):
             built, more_outputs, more_events = with_shapes(built, _shapes(built, found), lambda i: body_com(
                 built, built.tree.bodies[i].name, built.owners[i][1]), fold=model.fold_parameters)
             outputs, events = {**outputs, **more_outputs}, {**events, **more_events}
+        if model.pairs is not False:
+            built = _with_pairs(model, m, built)
     return built, outputs, events
+
+
+def _with_pairs(model, m, built):
+    """``built`` with the body–body contacts MuJoCo's filters let through (:func:`.collision.body_pairs`);
+    pairs of kinds eomc does not model are named in one warning.
+
+    Why self-collisions are left out unless ``pairs=True``: their number grows as the square of a
+    tree's geoms (gymnasium's humanoid: 109, its rhs 3.1 -> 11.4 µs; dm_control's humanoid_CMU
+    ~1000), the generated code has no run-time broad phase to skip the far ones, and the
+    motions these models are made for rarely bring a tree's limbs together.  A warning says how
+    many were left out."""
+    import mujoco
+    from eomc.compiler.contact.pairs import PairShape, PairSpec, with_pairs
+    from eomc.compiler.contact.tree import body_com
+    from .collision import body_pairs
+    from .treeir import quat_matrix
+    found, skipped = body_pairs(m, model.path)
+    if model.pairs is None:
+        own = [p for p in found if p.same_tree and not p.explicit]
+        if own:
+            warnings.warn(f"{model.path}: {len(own)} contact pair(s) between geoms of one kinematic tree (e.g. "
+                          f"{own[0].name}) left out: self-collisions cost as the square of the geoms (MjcfModel("
+                          f"path, pairs=True) adds them)", EomcWarning, stacklevel=4)
+            found = [p for p in found if not p.same_tree or p.explicit]
+    if skipped:
+        text = "; ".join(f"{n} {kinds} pair(s) (e.g. {example})" for kinds, (n, example) in sorted(skipped.items()))
+        warnings.warn(f"{model.path}: no contact between these geoms MuJoCo would collide: {text}: they pass "
+                      f"through each other (eomc models sphere, capsule and sphere-box pairs)", EomcWarning,
+                      stacklevel=4)
+    if not found:
+        return built
+    tree_body = {owner[0]: i for i, owner in enumerate(built.owners) if owner is not None}
+    d = mujoco.MjData(m)
+    mujoco.mj_kinematics(m, d)
+
+    def shape(g):
+        b = int(m.geom_bodyid[g])
+        kind = {2: "sphere", 3: "capsule", 6: "box"}[int(m.geom_type[g])]
+        size = tuple(float(x) for x in m.geom_size[g])
+        if int(m.body_weldid[b]) == 0:           # static: where it is in the world
+            return PairShape(-1, kind, size, tuple(float(x) for x in d.geom_xpos[g]),
+                             tuple(tuple(float(x) for x in row) for row in np.array(d.geom_xmat[g]).reshape(3, 3)))
+        i = tree_body[b]
+        com = body_com(built, built.tree.bodies[i].name, built.owners[i][1])
+        offset = tuple((sm.Float(float(p), 17) if p else sm.S.Zero) - c for p, c in zip(m.geom_pos[g], com))
+        rot = tuple(tuple(float(x) for x in row) for row in quat_matrix(m.geom_quat[g]))
+        return PairShape(i, kind, size, offset, rot)
+    specs = [PairSpec(p.name, shape(p.geoms[0]), shape(p.geoms[1]), p.k, p.c, p.mu, margin=p.margin) for p in found]
+    return with_pairs(built, specs, fold=model.fold_parameters)
 
 
 def _shapes(built, found):

@@ -109,16 +109,18 @@ def tree_ir(m, *, fold=False, actuators=None, limits=True, friction=True):
     drive = {}   # joint id -> sum of the actuators' joint forces (see _actuator_force)
     from .tendon import tendon_forces, tendon_length
     tendon_names = _names(m, mujoco.mjtObj.mjOBJ_TENDON, m.ntendon, "tendon")
+    activations = []      # (act(t), act') of actuators with activation dynamics, actuator order
     for i, k in enumerate(actuators):
         j = int(m.actuator_trnid[k, 0])
+        drive_by = _activation(m, params, k, act_names[k][1], inputs[i], activations)
         if int(m.actuator_trntype[k]) == int(mujoco.mjtTrn.mjTRN_TENDON):    # a fixed tendon: L = Σ c q
             L, V, pairs = tendon_length(m, j, joint_names)
-            force = _actuator_force(m, params, k, act_names[k][1], inputs[i], L, V)
+            force = _actuator_force(m, params, k, act_names[k][1], drive_by, L, V)
             for jj, coef in pairs:
                 drive[jj] = drive.get(jj, sm.S.Zero) + sm.Float(coef, 17) * force
             continue
         jn = joint_names[j][1]
-        force = _actuator_force(m, params, k, act_names[k][1], inputs[i], dynamicsymbols(f"q_{jn}"),
+        force = _actuator_force(m, params, k, act_names[k][1], drive_by, dynamicsymbols(f"q_{jn}"),
                                 dynamicsymbols(f"u_{jn}"))
         drive[j] = drive.get(j, sm.S.Zero) + force
     for j, tau in tendon_forces(m, params, joint_names, tendon_names, limits, friction).items():
@@ -271,8 +273,43 @@ def tree_ir(m, *, fold=False, actuators=None, limits=True, friction=True):
     if found or tied:
         from eomc.compiler.tree.constrained import attach
         ir = attach(ir, coupling_loops(m, params, found, coordinates, speeds, joints, joint_names, tied))
-    return MjcfTree(ir, tuple(coordinates), tuple(speeds), tuple(kinematics), params.values, inputs,
-                    tuple(joints), tuple(owners))
+    out = MjcfTree(ir, tuple(coordinates), tuple(speeds), tuple(kinematics), params.values, inputs,
+                   tuple(joints), tuple(owners))
+    out.activations = tuple(activations)
+    return out
+
+
+_DYN_INTEGRATOR, _DYN_FILTER, _DYN_FILTEREXACT = 1, 2, 3
+
+
+def _activation(m, params, k, name, ctrl, activations):
+    """What drives actuator ``k``'s force: its control, or -- with activation dynamics -- its
+    activation state act(t) (``act_<actuator>``, appended to ``activations`` with its rate), as
+    MuJoCo's mj_fwdActuation has it: the control clamped to ``ctrlrange`` when ctrllimited, then
+    act' = ctrl (``dyntype="integrator"``) or act' = (ctrl - act)/τ with τ = ``dynprm[0]``
+    (``filter``, ``filterexact``: the same rate; MuJoCo's step integrates the latter exactly),
+    and the force gain·act + bias.  ``actlimited``, ``actearly`` and muscle/user dynamics are
+    refused by the model check."""
+    dyn = int(m.actuator_dyntype[k])
+    if dyn == 0:
+        return ctrl
+    u = _clamped(ctrl, *m.actuator_ctrlrange[k]) if m.actuator_ctrllimited[k] else ctrl
+    act = dynamicsymbols(f"act_{name}")
+    if dyn == _DYN_INTEGRATOR:
+        rate = u
+    else:
+        tau = params(f"tau_{name}", max(float(m.actuator_dynprm[k, 0]), 1e-15))
+        rate = (u - act) / tau
+    activations.append((act, rate))
+    return _Activation(act)
+
+
+class _Activation:
+    """An activation state given to :func:`_actuator_force` in place of the control: not clamped
+    again (MuJoCo clamps the control before the dynamics, not the activation)."""
+
+    def __init__(self, symbol):
+        self.symbol = symbol
 
 
 def _clamped(value, low, high):
@@ -289,7 +326,9 @@ def _actuator_force(m, params, k, name, ctrl, q, u):
     ``forcerange`` when forcelimited, and gear·force on the joint.  A plain motor keeps one
     parameter ``gear_<actuator>`` = gear·gain."""
     gear = float(m.actuator_gear[k, 0])
-    if m.actuator_ctrllimited[k]:
+    if isinstance(ctrl, _Activation):
+        ctrl = ctrl.symbol
+    elif m.actuator_ctrllimited[k]:
         ctrl = _clamped(ctrl, *m.actuator_ctrlrange[k])
     affine_gain, affine_bias = int(m.actuator_gaintype[k]) == 1, int(m.actuator_biastype[k]) == 1
     if not (affine_gain or affine_bias or m.actuator_forcelimited[k]):    # a plain motor

@@ -87,8 +87,10 @@ def formed_system(system, formulation="kane"):
     from eomc.compiler.mechanics.formed import FormedSystem
     if isinstance(system, FormedSystem):
         return system
+    from eomc.compiler.mechanics.system import check_single_parents
     from eomc.compiler.mechanics.unformed import form_system, is_unformed_system
     unformed = is_unformed_system(system)
+    check_single_parents(getattr(system, "joints", None))   # before a tree or Kane's form is tried
     if formulation != "kane" and (unformed or _is_eomc_kane(system)):
         from eomc.compiler.tree.model import NotATree
         from eomc.compiler.formulations.select import recursive_refusal

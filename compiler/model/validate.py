@@ -280,15 +280,18 @@ def check_inputs(inputs, formed):
     for item in inputs:
         if not isinstance(item, AppliedUndef):
             raise Invalid("inputs", f"input {item} is not a dynamic symbol (use dynamicsymbols('F'))")
-    unknown = [i for i in inputs if i not in formed.inputs]
+    # sets, not lists: `x in list` compares SymPy functions one by one (quadratic: a 5000-joint
+    # robot spent most of its derivation here)
+    known, listed = set(formed.inputs), set(inputs)
+    unknown = [i for i in inputs if i not in known]
     if unknown:
         raise Invalid("inputs", f"unknown input(s) {_names(unknown)}: not in the equations of motion "
                                 f"(the system's inputs: {_names(formed.inputs)})")
-    missing = [i for i in formed.inputs if i not in inputs]
+    missing = [i for i in formed.inputs if i not in listed]
     if missing:
         raise Invalid("inputs", f"the equations of motion use input(s) {_names(missing)} that `inputs` "
                                 f"does not list")
-    if len(set(inputs)) != len(inputs):
+    if len(listed) != len(inputs):
         raise Invalid("inputs", "`inputs` lists a symbol twice")
     return inputs
 

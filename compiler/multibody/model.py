@@ -154,7 +154,7 @@ def merged_defaults(overrides, formed, defaults, joint_inputs):
     elif given is None:
         result["parameters"] = defaults
     if overrides.get("inputs") is None:
-        present = set(formed.inputs)
-        extra = [r for r in formed.inputs if r not in joint_inputs]   # the user's own, after the joints'
+        present, joints = set(formed.inputs), set(joint_inputs)     # sets: linear in the joints
+        extra = [r for r in formed.inputs if r not in joints]   # the user's own, after the joints'
         result["inputs"] = [r for r in joint_inputs if r in present] + extra
     return result

@@ -97,7 +97,6 @@ def run(args):
             raise ValueError(f"--package-dir {folder}: no such folder")
     if args.fps <= 0 or args.gif_fps <= 0:
         raise ValueError("--fps and --gif-fps must be positive")
-    cli_common.check_before_build(args)   # a robot's names are known before it is built
     options = {**cli_common.model_options(args), **cli_common.read_checks(args)}   # --param: once read
     if args.trajectory and os.path.isfile(args.model):
         # drawing a saved run needs the bodies' poses only: no Jacobians, frames or events to

@@ -184,7 +184,6 @@ def run(args):
     from eomc.runtime.simulate import simulate
     cli_common.writable_file(args.output, "-o")
     cli_common.writable_file(args.plot, "--plot")
-    cli_common.check_before_build(args)   # a robot's names are known before it is built
     model = cli_common.load_model(args.model, args.quiet, **cli_common.model_options(args),
                                   **cli_common.read_checks(args))   # --param, from the one reading
     given = cli_common.parse_assignments(args.x0, "x0")

@@ -150,8 +150,9 @@ typedef struct eomc_events {
      * guess).  switching[k] != 0 marks event k (NULL: none).  nlin more switching
      * functions need no model call: g_j = lin_s[j] * (x[lin_x[j]] - p[lin_p[j]])
      * (a joint limit: q - hi, or -(q - lo)).  "On" means g > 0.  gmax (n + nlin, may be
-     * NULL) receives the largest value of each switching function seen at step ends,
-     * stage points and crossings (-HUGE_VAL if never evaluated); the caller turns it
+     * NULL) receives the largest value of each switching function seen at the ends and
+     * stage points of the steps kept (not of trial steps that were cut at a crossing or
+     * rejected) and at the start (-HUGE_VAL if never evaluated); the caller turns it
      * into a verdict (penetration, limit overshoot).  sw_scratch: at least
      * eomc_switch_scratch_size(n, nlin) doubles when any switching function is given. */
     const int *switching;

@@ -5,6 +5,7 @@ constraint in closed form) and the four-bar's loop closure solved by scipy's
 fsolve; the constraint residual along runs started either way.
 """
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -50,9 +51,13 @@ def test_rolling_disc_completes_height_and_contact_speeds(disc):
     assert np.max(np.abs(disc.constraints(0.0, x))) < 1e-12
     with pytest.warns(ConstraintWarning, match=r"off the constraints \(configuration residual "
                                                r"0\.478, velocity residual"):
-        bad = disc.simulate(x0, (0, 2), rtol=1e-9, atol=1e-9)
+        bad = disc.simulate(x0, (0, 2), rtol=1e-9, atol=1e-9, consistent=False)     # run as given
     good = disc.simulate(x0, (0, 2), rtol=1e-9, atol=1e-9, consistent=True)
     np.testing.assert_array_equal(good.x[0], x)
+    with pytest.warns(ConstraintWarning, match=r"x0 was off the constraints \(configuration residual "
+                                               r"0\.478.*completed it on them"):
+        default = disc.simulate(x0, (0, 2), rtol=1e-9, atol=1e-9)    # completed like consistent=True
+    np.testing.assert_array_equal(default.x[0], x)
     assert good.constraint_residual.max() < 1e-6 < bad.constraint_residual.max()
     with warnings.catch_warnings():
         warnings.simplefilter("error")               # a consistent start: no warning
@@ -137,3 +142,47 @@ def test_simulate_many_completes_every_start(fourbar_file):
         np.testing.assert_array_equal(batch.x[i, 0], fb.consistent_state(X0[i]))
     with pytest.warns(ConstraintWarning, match=r"2 of 3 cases: .*x0 is off the constraints"):
         simulate_many(fb, X0, (0, 0.01), progress=False, n_points=2, raise_on_failure=False)
+
+
+# ---- issue 34: simulate() completes an inconsistent start by default, as `eomc simulate` does ---------
+import importlib.util  # noqa: E402
+
+_spec = importlib.util.spec_from_file_location("bench_loops", Path(__file__).resolve().parents[2]
+                                               / "benchmarks" / "bench_loops.py")
+bench_loops = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(bench_loops)
+
+
+@pytest.fixture(scope="module")
+def slider_crank(tmp_path_factory):
+    system, params, x0 = bench_loops.slider_crank(me)
+    model = eomc.compile(system, "slider_crank", parameters=params, cache_dir=tmp_path_factory.mktemp("cache"),
+                         progress=False)
+    return model, {str(k)[:-3] if str(k).endswith("(t)") else str(k): float(v) for k, v in x0.items()}
+
+
+def test_the_slider_crank_start_is_completed_by_default(slider_crank):
+    """The first-hour case: the crank's angle and speed given, the rod's and slider's speeds
+    left at 0 (off the velocity constraints).  By default the dependent speeds are solved for,
+    the given and independent states held, with one ConstraintWarning saying how far off;
+    consistent=False runs from the start as given (the warning of old) and leaves the
+    constraints; a start that cannot be completed is refused with the ways out."""
+    model, x0 = slider_crank
+    start = {**x0, "u1": 3.0}
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        res = model.simulate(start, (0, 1), rtol=1e-9, atol=1e-9)
+    notes = [str(w.message) for w in seen if issubclass(w.category, ConstraintWarning)]
+    assert len(notes) == 1 and "\n" not in notes[0], notes
+    assert "x0 was off the constraints (configuration residual " in notes[0], notes
+    assert "velocity residual 3.63); completed it on them" in notes[0], notes
+    assert "u2 0 -> " in notes[0] and "u3 0 -> " in notes[0] and "consistent=False" in notes[0], notes
+    want = model.consistent_state(start)
+    np.testing.assert_array_equal(res.x[0], want)
+    assert res.x[0][model.state_names.index("u1")] == 3.0          # what was given is held
+    assert res.constraint_residual.max() < 1e-6
+    with pytest.warns(ConstraintWarning, match="x0 is off the constraints"):
+        raw = model.simulate(start, (0, 1), rtol=1e-9, atol=1e-9, consistent=False, raise_on_failure=False)
+    assert raw.constraint_residual.max() > 1e-2                     # as given: off the constraints
+    with pytest.raises(ModelError, match="cannot be completed on them.*consistent=False"):
+        model.simulate({"q1": 0.7}, (0, 1), p={"l": 0.1})   # a rod shorter than the crank cannot reach

@@ -241,9 +241,9 @@ def _refused(tmp_path, body, match, *, actuator="", extra="", ignore=()):
     (dict(body="", extra='<equality><weld name="eq" body1="a" body2="b"/></equality>'),
      r"<weld>: equality eq: <weld> is a weld between bodies", 2),
     (dict(body="", actuator='<actuator><intvelocity name="mus" joint="j" kp="1" actrange="-1 1"/></actuator>'),
-     r"<actuator>: actuator mus: it has activation dynamics", 8),
-    (dict(body="", actuator='<actuator><general name="filt" joint="j" dyntype="filter"/></actuator>'),
-     r"actuator filt: it has activation dynamics", 8),
+     r"<actuator>: actuator mus: its activation is limited", 8),
+    (dict(body="", actuator='<actuator><general name="filt" joint="j" dyntype="muscle"/></actuator>'),
+     r"actuator filt: it has muscle or user-defined activation dynamics", 8),
     (dict(body="", extra='<option density="1.2"/><default><geom fluidshape="ellipsoid"/></default>'),
      r'<geom>: geom geom #0: fluidshape="ellipsoid"', 2),
 ])
@@ -266,12 +266,12 @@ def test_mujoco_errors_keep_their_line(tmp_path):
 
 
 def test_ignored_on_request_with_a_warning(tmp_path):
-    """A tendon and a filtered actuator dropped on request: a warning each; the latter is no input."""
+    """A tendon and a muscle-activated actuator dropped on request: a warning each; the latter is no input."""
     path = tmp_path / "ok.xml"
     path.write_text("""<mujoco><worldbody><body><joint name="j" type="hinge"/><geom size="0.1"/>
       <body pos="0 0 -1"><joint name="k" type="hinge"/><geom size="0.1"/></body></body></worldbody>
       <tendon><fixed name="t" damping="0.5"><joint joint="j" coef="1"/></fixed></tendon>
-      <actuator><general name="servo" joint="j" dyntype="filter"/><motor name="mot" joint="k"/></actuator>
+      <actuator><general name="servo" joint="j" dyntype="muscle"/><motor name="mot" joint="k"/></actuator>
       </mujoco>""")
     with pytest.warns(EomcWarning) as record:
         model = eomc.compile(MjcfModel(path, ignore=("tendons", "actuators")), functions=["rhs"],

@@ -89,11 +89,41 @@ def test_tendon_limit_acts_on_the_length(tmp_path):
     assert on.rhs(0.0, x_in, r=[0, 0])[k] == pytest.approx(off.rhs(0.0, x_in, r=[0, 0])[k], abs=1e-12)
 
 
-def test_spatial_tendon_refused_by_name(tmp_path):
+def _with_sites(tendon):
+    return (XML.replace("<tendon>", "<tendon>" + tendon)
+            .replace('<geom type="sphere"', '<site name="s2" pos="0.02 0.03 0"/><geom type="sphere"')
+            .replace('<joint name="h1"', '<site name="s1" pos="0.1 0 0.05"/><joint name="h1"')
+            .replace("<worldbody>", '<worldbody><site name="s0" pos="0.2 0.1 1.3"/>'))
+
+
+def test_wrapping_spatial_tendon_refused_by_name(tmp_path):
+    """A spatial tendon with a pulley (or wrapping geoms): refused, naming it."""
     path = tmp_path / "s.xml"
-    path.write_text(XML.replace("<tendon>", '<tendon><spatial name="rope" stiffness="2"><site site="s1"/>'
-                                '<site site="s2"/></spatial>')
-                    .replace('<geom type="sphere"', '<site name="s2"/><geom type="sphere"')
-                    .replace('<joint name="h1"', '<site name="s1"/><joint name="h1"'))
-    with pytest.raises(ModelFileError, match="<tendon>: tendon rope: a spatial tendon"):
+    path.write_text(_with_sites('<spatial name="rope" stiffness="2"><site site="s1"/><site site="s2"/>'
+                                '<pulley divisor="2"/><site site="s1"/><site site="s0"/></spatial>'))
+    with pytest.raises(ModelFileError, match="<tendon>: tendon rope: a spatial tendon that wraps"):
         eomc.compile(str(path), functions=["rhs"], cache_dir=tmp_path / "c", progress=False)
+
+
+def test_site_tendon_spring_and_damper_match_mj_forward(tmp_path):
+    """A spatial tendon through three sites (one in the world, two on moving bodies), with a spring
+    and a damper: MuJoCo applies them as passive forces Jᵀτ, so qacc matches mj_forward (1e-12)."""
+    path = tmp_path / "s.xml"
+    path.write_text(_with_sites('<spatial name="rope" stiffness="7" damping="0.4" springlength="0.3">'
+                                '<site site="s0"/><site site="s1"/><site site="s2"/></spatial>'))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = eomc.compile(MjcfModel(path, limits=False), functions=["rhs"], cache_dir=tmp_path / "c",
+                             progress=False)
+    m = prepared(load_mjmodel(path))
+    built = tree_ir(m, actuators=[0, 1], limits=False, friction=False)
+    d = mujoco.MjData(m)
+    rng = np.random.default_rng(4)
+    for _ in range(6):
+        q, u = rng.uniform(-1, 1, 3), rng.uniform(-2, 2, 3)
+        d.qpos[:], d.qvel[:] = to_mujoco(m, built, q, u)
+        d.ctrl[:] = 0
+        mujoco.mj_forward(m, d)
+        assert abs(d.qfrc_passive @ d.qvel) > 0        # the tendon acts
+        mine = qacc_of(m, built, q, u, model.rhs(0.0, np.concatenate([q, u]), r=[0, 0])[3:])
+        assert np.max(np.abs(mine - d.qacc)) < 1e-12 * max(1.0, np.max(np.abs(d.qacc)))

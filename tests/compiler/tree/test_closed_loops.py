@@ -210,6 +210,26 @@ def test_a_loop_closed_by_a_joint_without_constraints_names_the_joints():
             tree_from_system(system)
 
 
+@pytest.mark.parametrize("formulation", ["auto", "kane", "recursive"])
+def test_compiling_a_sympy_system_with_a_doubly_attached_body_names_it(formulation):
+    """Issue 34: compiling such a System said "joint J2 has no inertia" (auto and kane); every
+    formulation now names the body and both joints before anything is formed."""
+    import sympy.physics.mechanics as sme
+    import warnings
+    import eomc
+    from eomc.runtime.errors import ModelError
+    q, u = sme.dynamicsymbols("q1:4"), sme.dynamicsymbols("u1:4")
+    ground, a, b = sme.RigidBody("ground"), sme.RigidBody("a", mass=1), sme.RigidBody("b", mass=1)
+    system = sme.System.from_newtonian(ground)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")          # SymPy warns of the frames' loop
+        system.add_joints(sme.PinJoint("J1", ground, a, q[0], u[0]), sme.PinJoint("J2", a, b, q[1], u[1]),
+                          sme.PinJoint("J3", ground, b, q[2], u[2]))
+    with pytest.raises(ModelError, match=r"^body b is the child of two joints, J2 and J3; .*"
+                                         r"add_holonomic_constraints"):
+        eomc.compile(system, "loop", formulation=formulation, functions=["rhs"], progress=False)
+
+
 def test_nonholonomic_constraints_stay_kanes():
     from eomc.mechanics import PinJoint, RigidBody, System, dynamicsymbols
     q1, u1 = dynamicsymbols("q1 u1")

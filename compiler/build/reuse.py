@@ -1,0 +1,242 @@
+"""A model file built before, found again without deriving it: the command line's second run.
+
+Why: `eomc simulate robot.urdf ...` run twice used to derive the model again (~1 s, more on a
+large robot, plus the ~1 s SymPy import) only to find, at the build cache's lookup, the library
+it already had -- the build cache's key needs the generated C, and the C needs the derivation.
+This cache maps what the command was given -- the model file's bytes, the build options and
+eomc's compiler sources -- to the build cache entry the first run loaded, so the second run
+goes straight to the library.
+
+What else the first run read is recorded too: a model file may import a module beside it,
+load a data file, a URDF may name collision meshes, an MJCF file includes other files and
+meshes.  Every file opened for reading while the model was built (Python's ``open`` audit
+event, which covers imports) and, for MJCF, every file its XML names (MuJoCo reads those in
+C, out of Python's sight) is kept with its sha256; a hit needs each to be unchanged, else the
+model is derived as before.  The warnings the build gave are kept and given again on a hit
+(a fixed mistake in the file must still be pointed at).
+
+This module does not import SymPy: a hit costs reading the file and loading the library.
+"""
+import contextlib
+import contextvars
+import hashlib
+import importlib
+import json
+import os
+import sys
+import warnings
+from pathlib import Path
+
+from eomc.runtime.version import __version__
+
+from .cache import entry_path, get_or_build, hash_key, lookup, sha256_file
+
+__all__ = ["source_key", "recording", "find", "remember", "warn_again", "compiler_digest", "KIND"]
+
+KIND = "sources"
+_READS = contextvars.ContextVar("eomc_reads", default=None)
+_HOOKED = []
+_DIGEST = []
+
+
+def compiler_digest():
+    """sha256 over eomc.compiler's .py files, the templates and the shipped C: a changed
+    generator is a new key (the generation cache's key holds it too)."""
+    if not _DIGEST:
+        import eomc.compiler
+        import eomc.templates
+        from eomc.runtime.header_cdef import C_DIR
+        digest = hashlib.sha256()
+        for root in (Path(eomc.compiler.__file__).resolve().parent,
+                     Path(eomc.templates.__file__).resolve().parent, C_DIR):
+            for path in sorted(root.rglob("*")):
+                if path.suffix in (".py", ".j2", ".c", ".h") and "__pycache__" not in path.parts:
+                    digest.update(str(path.relative_to(root)).encode())
+                    digest.update(path.read_bytes())
+        _DIGEST.append(digest.hexdigest())
+    return _DIGEST[0]
+
+
+def source_key(path, options):
+    """Key of a build of the model file ``path`` with ``options`` (JSON-able: the command
+    line's model options, functions, formulation, ...)."""
+    return hash_key({"file": sha256_file(path), "suffix": Path(path).suffix.lower(),
+                     "name": Path(path).stem, "options": options, "eomc": __version__,
+                     "python": list(sys.version_info[:2]), "compiler": compiler_digest(),
+                     "cc": os.environ.get("CC"), "cflags": os.environ.get("CFLAGS")})
+
+
+def _outside_python(root):
+    """Folders whose files are Python's, the libraries', eomc's own (keyed by
+    :func:`compiler_digest`) or the cache's (``root``)."""
+    import sysconfig
+    import eomc.compiler
+    import eomc.runtime
+    import eomc.templates
+    places = {sys.prefix, sys.base_prefix, sys.exec_prefix, str(root), "/proc", "/dev", "/sys"}
+    # the top package (the facade) is loaded whenever a subpackage is: found, not imported
+    packages = (sys.modules.get("eomc"), eomc.compiler, eomc.runtime, eomc.templates)
+    places |= {str(Path(m.__file__).resolve().parent) for m in packages if getattr(m, "__file__", None)}
+    for key in ("stdlib", "platstdlib", "purelib", "platlib"):
+        with contextlib.suppress(KeyError):
+            places.add(sysconfig.get_paths()[key])
+    return tuple(os.path.join(os.path.realpath(p), "") for p in places if p)
+
+
+def _hook(event, args):
+    reads = _READS.get()
+    if reads is None or event != "open" or not args:
+        return
+    path, mode = args[0], args[1] if len(args) > 1 else None
+    if isinstance(path, int):
+        return
+    flags = args[2] if len(args) > 2 and isinstance(args[2], int) else 0
+    if (isinstance(mode, str) and any(c in mode for c in "wax+")) or flags & (os.O_WRONLY | os.O_RDWR):
+        return
+    try:
+        reads.add(os.path.realpath(os.fsdecode(path)))
+    except (TypeError, ValueError):
+        pass
+
+
+@contextlib.contextmanager
+def recording():
+    """Collect the files opened for reading in this context (and in the threads it starts
+    with its context); yields the set."""
+    if not _HOOKED:
+        sys.addaudithook(_hook)      # process-wide and permanent: idle unless a recording is on
+        _HOOKED.append(True)
+    reads = set()
+    token = _READS.set(reads)
+    try:
+        yield reads
+    finally:
+        _READS.reset(token)
+
+
+def _mjcf_files(path, seen=None):
+    """The files an MJCF file names (includes, meshes, textures, ...), resolved as MuJoCo
+    resolves them, or None when one cannot be found (then nothing is reused)."""
+    import xml.etree.ElementTree as ET
+    seen = set() if seen is None else seen
+    path = Path(path).resolve()
+    if path in seen:
+        return []
+    seen.add(path)
+    try:
+        root = ET.parse(path).getroot()
+    except (OSError, ET.ParseError):
+        return None
+    base = path.parent
+    dirs = {"meshdir": None, "texturedir": None, "assetdir": None}
+    for compiler in root.iter("compiler"):
+        for k in dirs:
+            if compiler.get(k):
+                dirs[k] = compiler.get(k)
+    found = []
+    for element in root.iter():
+        name = element.get("file")
+        if not name:
+            continue
+        where = [dirs["meshdir"] if element.tag in ("mesh", "skin", "hfield") else
+                 dirs["texturedir"] if element.tag == "texture" else None, dirs["assetdir"], ""]
+        candidates = [base / d / name for d in where if d is not None] + [Path(name)]
+        hit = next((c for c in candidates if c.is_file()), None)
+        if hit is None:
+            return None
+        found.append(hit.resolve())
+        if element.tag == "include":
+            more = _mjcf_files(hit, seen)
+            if more is None:
+                return None
+            found += more
+    return found
+
+
+def _dependencies(root, path, reads):
+    """{file: sha256} of what the build read besides ``path`` (see the module docstring), or
+    None when it cannot be told."""
+    outside = _outside_python(root)
+    files = {Path(p) for p in reads}
+    if Path(path).suffix.lower() in (".xml", ".mjcf"):
+        named = _mjcf_files(path)
+        if named is None:
+            return None
+        files |= set(named)
+    main = Path(path).resolve()
+    deps = {}
+    for f in sorted(files):
+        text = os.path.join(str(f), "")
+        if f == main or text.startswith(outside) or not f.is_file() or "__pycache__" in f.parts:
+            continue
+        deps[str(f)] = sha256_file(f)
+    return deps
+
+
+def remember(root, key, path, model, reads, recorded):
+    """Record that ``key`` built ``model`` (loaded from a build cache entry), having read
+    ``reads`` and given the warnings ``recorded``.  Best effort: a cache that cannot be
+    written only costs the next run its derivation."""
+    build = (getattr(model, "metadata", None) or {}).get("build") or {}
+    if not build.get("key"):
+        return
+    try:
+        deps = _dependencies(root, path, reads)
+        if deps is None:
+            return
+        shown = [[w.category.__module__, w.category.__qualname__, str(w.message), str(w.filename), w.lineno]
+                 for w in recorded]
+        data = {"build": build["key"], "name": model.name, "dependencies": deps, "warnings": shown}
+
+        def write(tmp):
+            (tmp / "source.json").write_text(json.dumps(data, sort_keys=True))
+        get_or_build(root, KIND, key, write, {"name": model.name}, force=entry_path(root, KIND, key).exists())
+    except Exception:       # noqa: BLE001 -- a cache shortcut must never fail the build it follows
+        return
+
+
+def _category(module, qualname):
+    from eomc.runtime.errors import EomcWarning
+    try:
+        found = importlib.import_module(module)
+        for part in qualname.split("."):
+            found = getattr(found, part)
+        return found if isinstance(found, type) and issubclass(found, Warning) else EomcWarning
+    except Exception:       # noqa: BLE001
+        return EomcWarning
+
+
+def find(root, key, held):
+    """The build cache entry (a directory) ``key`` was built into, held in ``held`` (an
+    ExitStack) while it is loaded, with the warnings of that build given again; None when
+    there is none, a file it read changed, or the entry is gone."""
+    entry = lookup(root, KIND, key)
+    if entry is None:
+        return None
+    try:
+        data = json.loads((entry / "source.json").read_text())
+        for dep, digest in data["dependencies"].items():
+            if not os.path.isfile(dep) or sha256_file(dep) != digest:
+                return None
+        built = lookup(root, "models", data["build"], hold_in=held)
+        if built is None:
+            return None
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return None
+    for module, qualname, message, filename, lineno in data.get("warnings", ()):
+        try:
+            warning = _category(module, qualname)(message)
+        except Exception:       # noqa: BLE001 -- a category that wants more than its text
+            from eomc.runtime.errors import EomcWarning
+            warning = EomcWarning(message)
+        warn_again(warning, filename, lineno)
+    return built, data["name"]
+
+
+def warn_again(message, filename, lineno, source=None):
+    """Give a warning again where it was first given (a recorded or remembered one), with
+    its module when that is imported (warning filters match on it)."""
+    module = next((n for n, m in list(sys.modules.items()) if getattr(m, "__file__", None) == filename), None)
+    # module=None given explicitly would match no filter and show nothing: left out instead
+    where = {} if module is None else {"module": module}
+    warnings.warn_explicit(message, type(message), filename, lineno, registry={}, source=source, **where)

@@ -1,0 +1,263 @@
+"""Contacts between two shapes on bodies (body–body pairs): the distance of two primitives and the law.
+
+One job: for a pair of primitive shapes -- each fixed in a moving tree body or in the world --
+compute, in the generated code, their signed distance, the contact normal and point, and
+put the smooth law's force on both bodies (:class:`PairLoad`, lowered with the ground
+contacts by :func:`eomc.compiler.contact.tree.lower_contacts`).  Which pairs exist is the
+reader's job (MJCF: :func:`eomc.compiler.mjcf.collision.body_pairs`, MuJoCo's filters).
+
+Every pair is reduced to two spheres: the closest points of the shapes' cores (a sphere's
+centre, a capsule's segment, a box's solid) with the radii around them --
+
+- sphere–sphere    the centres
+- sphere–capsule   the centre and its nearest point on the segment (clamped projection)
+- capsule–capsule  the segments' nearest points: s₀ = clamp((b f - c)/(1 - b²)), t = clamp(b s₀ + f),
+                   s = clamp(b t - c) (Ericson's clamped solution, written without branches:
+                   parallel segments give one of their nearest pairs)
+- sphere–box       the centre and its nearest point of the box (the centre clamped to the box
+                   in the box frame, radius 0 on the box's side); a centre inside the box has
+                   no direction: such a pair (penetration beyond the sphere's radius) pushes
+                   with a direction regularised by ``EPS`` instead
+
+then with d the vector between those points (A to B), |d| = sqrt(d·d + EPS²):
+
+    n = d/|d|,   δ = r_A + r_B + margin - |d|,   p = x_A + (r_A - δ/2) n
+
+and the law of :mod:`.law` (Hunt–Crossley F_n = k δ₊^{3/2}(1 + 3/2 c δ̇), δ̇ = -n·v_rel;
+regularised Coulomb on the slip v_rel's tangential part), v_rel = v_B(p) - v_A(p) of the
+bodies' material points at p: +F on B at p, -F on A.  Everything is branch-free, so the
+generated code's cost is O(pairs); a pair the filters exclude is never emitted.
+"""
+from dataclasses import dataclass, field
+
+import numpy as np
+import sympy as sm
+
+from .law import EXPONENT
+
+__all__ = ["PAIR_KINDS", "PairShape", "PairLoad", "pair_supported", "closest_points"]
+
+# the kinds whose pairs are modelled (either order)
+PAIR_KINDS = {("sphere", "sphere"), ("sphere", "capsule"), ("capsule", "capsule"), ("sphere", "box")}
+EPS = 1e-12     # m: regularises |d| so that coincident centres give a finite (zero) force
+
+
+def pair_supported(kind_a, kind_b):
+    return (kind_a, kind_b) in PAIR_KINDS or (kind_b, kind_a) in PAIR_KINDS
+
+
+@dataclass(frozen=True)
+class PairShape:
+    """A primitive fixed in tree body ``body`` (-1: the world)."""
+    body: int
+    kind: str                  # sphere, capsule, box
+    size: tuple                # MuJoCo's: radius; radius, half length; half sizes
+    offset: tuple              # the shape's centre from the body origin (its mass centre), body frame
+                               # (numbers, or SymPy expressions of the mass centre's parameters);
+                               # in the world: the centre, world frame
+    rot: tuple                 # rotation rows: shape -> body components (3x3)
+    where: str = ""
+
+
+@dataclass(frozen=True)
+class PairLoad:
+    """A contact between shapes ``a`` and ``b``: no force of its own until :meth:`lower`.
+    ``body`` is b's tree body (never the world: a pair of static shapes is never made)."""
+    name: str
+    a: PairShape
+    b: PairShape
+    params: dict               # "k", "c", "mu", "vs" -> Symbol (or literal when folded)
+    margin: float = 0.0
+    frame: str = "contact"
+    moment: sm.Matrix = field(default_factory=lambda: sm.zeros(3, 1))
+    force: sm.Matrix = field(default_factory=lambda: sm.zeros(3, 1))
+    offset: sm.Matrix = field(default_factory=lambda: sm.zeros(3, 1))
+
+    @property
+    def body(self):
+        return self.b.body
+
+    @property
+    def exprs(self):
+        """Everything that defines it, for the generation cache's key."""
+        out = [sm.Integer(self.a.body), sm.Integer(self.b.body), sm.Float(self.margin, 17)]
+        for s in (self.a, self.b):
+            out += [sm.Float(float(x), 17) for x in s.size] + [sm.sympify(x) for x in s.offset]
+            out += [sm.Float(float(x), 17) for row in s.rot for x in row]
+            out += [sm.Integer(("sphere", "capsule", "box").index(s.kind))]
+        return out + [self.params[k] for k in ("k", "c", "mu", "vs")]
+
+    def lower(self, bodies, rec, v, rename, poses):
+        """Add the pair's force to both bodies' fext (body components, about their origins)."""
+        what = f"the contact {self.name}"
+        params = {k: rename(s, what) for k, s in self.params.items()}
+        ren = lambda e: rename(e, what)      # noqa: E731 -- mass-centre parameters -> their slots
+        a, b = _placed(self.a, poses, rec, ren), _placed(self.b, poses, rec, ren)
+        xa, xb, ra, rb = closest_points(a, b, rec.let)
+        d = [rec.let(xb[k] - xa[k]) for k in range(3)]
+        dist = rec.let(sm.sqrt(_dot(d, d) + EPS ** 2))
+        n = [rec.let(x / dist) for x in d]
+        depth = rec.let(ra + rb + sm.Float(self.margin, 17) - dist) if self.margin else rec.let(ra + rb - dist)
+        p = [rec.let(xa[k] + (ra - depth / 2) * n[k]) for k in range(3)]
+        va, vb = _point_velocity(self.a, p, poses, v, rec), _point_velocity(self.b, p, poses, v, rec)
+        vrel = [rec.let(vb[k] - va[k]) for k in range(3)]
+        rate = rec.let(-_dot(n, vrel))
+        dpos = rec.let((depth + sm.Abs(depth)) / 2)
+        elastic = params["k"] * sm.Abs(dpos) ** EXPONENT
+        fn = rec.let(_pos(rec.let(elastic * (1 + sm.Rational(3, 2) * params["c"] * rate))))
+        vn = rec.let(_dot(n, vrel))
+        vt = [rec.let(vrel[k] - vn * n[k]) for k in range(3)]
+        scale = rec.let(-params["mu"] * fn / sm.sqrt(_dot(vt, vt) + params["vs"] ** 2))
+        f = [rec.let(fn * n[k] + scale * vt[k]) for k in range(3)]      # on B, world components
+        _apply(self.b, f, p, poses, bodies, rec)
+        _apply(self.a, [-x for x in f], p, poses, bodies, rec)
+
+
+def _dot(a, b):
+    return sum((x * y for x, y in zip(a, b)), sm.S.Zero)
+
+
+def _cross(a, b):
+    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+
+
+def _pos(x):
+    return (x + sm.Abs(x)) / 2
+
+
+def _num(x):
+    x = float(x)
+    return sm.S.Zero if x == 0 else (sm.Integer(int(x)) if x == int(x) and abs(x) < 1e6 else sm.Float(x, 17))
+
+
+def _placed(shape, poses, rec, rename):
+    """{kind, centre (world), axes (3 world vectors: the shape's x, y, z), size} of a shape."""
+    rot = np.asarray(shape.rot, dtype=float).reshape(3, 3)
+    off = [rename(x) if isinstance(x, sm.Basic) else _num(x) for x in shape.offset]
+    if shape.body < 0:                      # in the world: numbers
+        centre = off
+        axes = [[_num(rot[r, k]) for r in range(3)] for k in range(3)]
+    else:
+        R = poses.rotation(shape.body)      # world -> body components
+        o = poses.origin(shape.body)
+        centre = [rec.let(o[k] + sum((R[j][k] * off[j] for j in range(3) if off[j] != 0), sm.S.Zero))
+                  for k in range(3)]
+        axes = []
+        for k in range(3):                  # shape axis k in body components: column k of rot
+            col = [_num(rot[r, k]) for r in range(3)]
+            axes.append([rec.let(sum((R[j][w] * col[j] for j in range(3) if col[j] != 0), sm.S.Zero))
+                         for w in range(3)])
+    return {"kind": shape.kind, "centre": centre, "axes": axes, "size": [float(x) for x in shape.size]}
+
+
+def _clamp(x, lo, hi):
+    """min(max(x, lo), hi) for numbers lo < hi, without branches: (|x - lo| - |x - hi| + lo + hi)/2."""
+    lo, hi = _num(lo), _num(hi)
+    return (sm.Abs(x - lo) - sm.Abs(x - hi) + lo + hi) / 2
+
+
+def closest_points(a, b, let=lambda e: e):
+    """(x_A, x_B, r_A, r_B): the nearest points of the two shapes' cores and their radii (the
+    module docstring); ``a``, ``b``: {kind, centre, axes, size} in world components."""
+    if a["kind"] == "box" or (a["kind"] == "capsule" and b["kind"] == "sphere"):
+        xb, xa, rb, ra = closest_points(b, a, let)
+        return xa, xb, ra, rb
+    ka, kb = a["kind"], b["kind"]
+    ca, cb = a["centre"], b["centre"]
+    if ka == "sphere" and kb == "sphere":
+        return ca, cb, a["size"][0], b["size"][0]
+    if ka == "sphere" and kb == "capsule":
+        axis, h = b["axes"][2], b["size"][1]
+        t = let(_clamp(_dot([ca[k] - cb[k] for k in range(3)], axis), -h, h))
+        return ca, [let(cb[k] + t * axis[k]) for k in range(3)], a["size"][0], b["size"][0]
+    if ka == "capsule" and kb == "capsule":
+        a1, a2, h1, h2 = a["axes"][2], b["axes"][2], a["size"][1], b["size"][1]
+        r = [let(ca[k] - cb[k]) for k in range(3)]
+        bb, c, f = let(_dot(a1, a2)), let(_dot(a1, r)), let(_dot(a2, r))
+        den = let(1 - bb * bb)          # 0 for parallel segments: (bf - c)·den/(den² + tiny) is then 0
+        s0 = let(_clamp((bb * f - c) * den / (den ** 2 + sm.Float(1e-300)), -h1, h1))
+        t = let(_clamp(bb * s0 + f, -h2, h2))
+        s = let(_clamp(bb * t - c, -h1, h1))
+        return ([let(ca[k] + s * a1[k]) for k in range(3)], [let(cb[k] + t * a2[k]) for k in range(3)],
+                a["size"][0], b["size"][0])
+    if ka == "sphere" and kb == "box":
+        rel = [ca[k] - cb[k] for k in range(3)]
+        local = [let(_clamp(_dot(rel, b["axes"][j]), -b["size"][j], b["size"][j])) for j in range(3)]
+        q = [let(cb[k] + sum((local[j] * b["axes"][j][k] for j in range(3)), sm.S.Zero)) for k in range(3)]
+        return ca, q, a["size"][0], 0.0
+    raise ValueError(f"no contact between a {ka} and a {kb}")
+
+
+def _point_velocity(shape, p, poses, v, rec):
+    """World velocity of body ``shape.body``'s material point at world position ``p``."""
+    if shape.body < 0:
+        return [sm.S.Zero] * 3
+    i = shape.body
+    R, o = poses.rotation(i), poses.origin(i)
+    rel = [p[k] - o[k] for k in range(3)]
+    rel_b = [rec.let(sum((R[r][k] * rel[k] for k in range(3)), sm.S.Zero)) for r in range(3)]
+    w_b, v_b = v[i][:3], v[i][3:]
+    vp_b = [v_b[k] + x for k, x in enumerate(_cross(w_b, rel_b))]
+    return [rec.let(sum((R[r][k] * vp_b[r] for r in range(3)), sm.S.Zero)) for k in range(3)]
+
+
+def _apply(shape, f, p, poses, bodies, rec):
+    """Force ``f`` (world) at world point ``p`` on the shape's body: into its fext."""
+    if shape.body < 0:
+        return
+    i = shape.body
+    R, o = poses.rotation(i), poses.origin(i)
+    f_b = [rec.let(sum((R[r][k] * f[k] for k in range(3)), sm.S.Zero)) for r in range(3)]
+    lever = [sum((R[r][k] * (p[k] - o[k]) for k in range(3)), sm.S.Zero) for r in range(3)]
+    moment = _cross(lever, f_b)
+    old = bodies[i].fext or [0] * 6
+    bodies[i].fext = [old[k] + x for k, x in enumerate(moment + f_b)]
+
+
+@dataclass(frozen=True)
+class PairSpec:
+    """A pair as a reader gives it: its shapes and the law's parameters."""
+    name: str
+    a: PairShape
+    b: PairShape
+    k: float
+    c: float
+    mu: float
+    vs: float = 0.01
+    margin: float = 0.0
+
+
+def with_pairs(built, specs, fold=False):
+    """``built`` (a reader's tree record: ``.tree``, ``.parameters``) with a :class:`PairLoad` per
+    :class:`PairSpec` in its tree's loads and the parameters ``k_``/``c_``/``mu_``/``vs_<name>``."""
+    import dataclasses
+    from eomc.runtime.errors import ModelError
+    from .geometry import _symbols
+    from .law import check_value
+    if not specs:
+        return built
+    loads = list(built.tree.loads)
+    parameters = dict(built.parameters)
+    taken = {str(s) for s in parameters}
+    for spec in specs:
+        values = {"k": spec.k, "c": spec.c, "mu": spec.mu, "vs": spec.vs}
+        for key, value in values.items():
+            try:
+                check_value(spec.name, key, value)
+            except ValueError as exc:
+                raise ModelError(str(exc)) from None
+        syms, base = _symbols(spec.name, False, taken)
+        if fold:
+            params = {key: sm.Float(values[key], 17) for key in syms}
+        else:
+            params = dict(syms)
+            for key, symbol in syms.items():
+                parameters[symbol] = values[key]
+                taken.add(str(symbol))
+        a, b = (spec.a, spec.b) if spec.b.body >= 0 else (spec.b, spec.a)     # b moves: the load's body
+        loads.append(PairLoad(base, a, b, params, float(spec.margin)))
+    new = type(built).__new__(type(built))
+    new.__dict__.update(built.__dict__)
+    new.tree = dataclasses.replace(built.tree, loads=tuple(loads))
+    new.parameters = parameters
+    return new

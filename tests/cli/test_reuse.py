@@ -1,0 +1,162 @@
+"""A command repeated on an unchanged model file loads the model it built, without deriving it;
+a robot file is read once per command (eomc.compiler.build.reuse, eomc.cli.common)."""
+import warnings
+
+import numpy as np
+import pytest
+
+from eomc.cli import main
+
+PENDULUM = '''
+import sympy as sm
+from eomc.mechanics import KanesMethod, Particle, Point, ReferenceFrame, dynamicsymbols
+{extra}
+q, u = dynamicsymbols("q u")
+m, l, g = sm.symbols("m l g", positive=True)
+N = ReferenceFrame("N")
+A = N.orientnew("A", "Axis", [q, N.z])
+A.set_ang_vel(N, u * N.z)
+O = Point("O")
+O.set_vel(N, 0)
+P = O.locatenew("P", -l * A.y)
+P.v2pt_theory(O, N, A)
+system = KanesMethod(N, q_ind=[q], u_ind=[u], kd_eqs=[q.diff() - u])
+system.kanes_equations([Particle("bob", P, m)], [(P, -m * g * N.y)])
+parameters = {{m: 1.0, l: LENGTH, g: 9.81}}
+initial_state = {{q: 1.0, u: 0.0}}
+'''
+
+
+@pytest.fixture
+def counted(monkeypatch, tmp_path):
+    """A fresh cache, and counters of what a command does: readings of a model (the start of
+    every derivation), derivations, C compiles."""
+    import eomc.compiler.build.builder as builder
+    import eomc.compiler.driver as driver
+    monkeypatch.setenv("EOMC_CACHE_DIR", str(tmp_path / "cache"))
+    counts = {"read": 0, "derive": 0, "compile C": 0}
+
+    def counting(name, real):
+        def wrapper(*args, **kwargs):
+            counts[name] += 1
+            return real(*args, **kwargs)
+        return wrapper
+    monkeypatch.setattr(driver, "read_model", counting("read", driver.read_model))
+    monkeypatch.setattr(driver, "spec_of", counting("derive", driver.spec_of))
+    monkeypatch.setattr(builder, "run_compiler", counting("compile C", builder.run_compiler))
+    return counts
+
+
+def _model_file(tmp_path, extra="", length="1.0"):
+    (tmp_path / "lengths.py").write_text(f"LENGTH = {length}\n")
+    path = tmp_path / "pendulum.py"
+    path.write_text(PENDULUM.format(extra=extra or "from lengths import LENGTH"))
+    return path
+
+
+def _run(path, out, *argv):
+    assert main(["simulate", str(path), "--t-final", "0.5", "-q", "-o", str(out), *argv]) == 0
+    return np.genfromtxt(out, delimiter=",", names=True)
+
+
+def test_the_second_run_derives_nothing(counted, tmp_path):
+    path = _model_file(tmp_path)
+    first = _run(path, tmp_path / "1.csv")
+    assert counted["read"] == 1 and counted["derive"] >= 1 and counted["compile C"] == 1, counted
+    counted.update({k: 0 for k in counted})
+    second = _run(path, tmp_path / "2.csv")
+    assert counted == {"read": 0, "derive": 0, "compile C": 0}, counted
+    assert np.array_equal(first["q"], second["q"])
+
+
+def test_a_changed_file_or_option_is_derived_again(counted, tmp_path):
+    """The file's bytes and the options are in the key: each change derives again."""
+    path = _model_file(tmp_path, extra="LENGTH = 1.0")
+    _run(path, tmp_path / "1.csv")
+    counted.update({k: 0 for k in counted})
+    _run(path, tmp_path / "2.csv", "--formulation", "kane")     # another option
+    assert counted["read"] == 1, counted
+    counted.update({k: 0 for k in counted})
+    path.write_text(path.read_text().replace("LENGTH = 1.0", "LENGTH = 2.0"))     # the file itself
+    _run(path, tmp_path / "3.csv")
+    assert counted["read"] == 1 and counted["compile C"] == 1, counted
+
+
+def test_a_changed_module_beside_the_file_is_derived_again(tmp_path):
+    """A module the model file imports is a dependency of the build: changed, the model is
+    derived again (fresh processes, as the command line runs: a module imported once stays
+    imported in a process)."""
+    import os
+    import subprocess
+    import sys
+    path = _model_file(tmp_path)
+    env = {**os.environ, "EOMC_CACHE_DIR": str(tmp_path / "cache")}
+
+    def run(out):
+        done = subprocess.run([sys.executable, "-m", "eomc", "simulate", str(path), "--t-final", "0.5", "-q",
+                               "-o", str(out)], capture_output=True, text=True, env=env, cwd=tmp_path)
+        assert done.returncode == 0, done.stderr
+        return np.genfromtxt(out, delimiter=",", names=True)["q"]
+    first, again = run(tmp_path / "1.csv"), run(tmp_path / "2.csv")
+    assert np.array_equal(first, again)
+    _model_file(tmp_path, length="2.0")
+    assert not np.allclose(first, run(tmp_path / "3.csv"))      # the longer pendulum swings slower
+
+
+def test_a_reused_build_warns_again_and_checks_the_options(counted, tmp_path, capsys):
+    """What the build said is said again on a reuse; a misspelt --param is still one line."""
+    path = _model_file(tmp_path, extra='import warnings\nwarnings.warn("lengths are in metres")\nLENGTH = 1.0')
+    with pytest.warns(UserWarning, match="lengths are in metres"):
+        _run(path, tmp_path / "1.csv")
+    counted.update({k: 0 for k in counted})
+    with pytest.warns(UserWarning, match="lengths are in metres"):
+        _run(path, tmp_path / "2.csv")
+    assert counted["read"] == 0, counted
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        capsys.readouterr()
+        assert main(["simulate", str(path), "--t-final", "0.5", "-q", "--param", "lenght=2"]) == 2
+    err = capsys.readouterr().err
+    assert "unknown parameter lenght in --param" in err and err.count("\n") == 1, err
+    assert counted["read"] == 0, counted
+
+
+def test_a_robot_is_read_once_per_command(monkeypatch, tmp_path, capsys):
+    """--x0, --input, --frame and --param are checked on the build's own reading of the URDF."""
+    import eomc.compiler.urdf as urdf
+    import eomc.compiler.urdf.reader as reader
+    from helpers.urdf_arm import ARM
+    monkeypatch.setenv("EOMC_CACHE_DIR", str(tmp_path / "cache"))
+    path = tmp_path / "arm.urdf"
+    path.write_text(ARM)
+    reads = []
+    real = reader.read_urdf
+
+    def counting(*args, **kwargs):
+        reads.append(args[0] if args else kwargs)
+        return real(*args, **kwargs)
+    monkeypatch.setattr(reader, "read_urdf", counting)
+    monkeypatch.setattr(urdf, "read_urdf", counting)
+    assert main(["simulate", str(path), "--t-final", "0.1", "-q", "--x0", "q_shoulder=0.3", "--input",
+                 "tau_elbow=0.1", "--frame", "lower", "--param", "m_lower=2"]) == 0, capsys.readouterr().err
+    assert len(reads) == 1, reads
+    reads.clear()       # a typo: one reading, one line, nothing derived
+    assert main(["simulate", str(path), "--t-final", "0.1", "-q", "--x0", "q_shouldr=0.3"]) == 2
+    assert len(reads) == 1 and "did you mean q_shoulder" in capsys.readouterr().err
+
+
+def test_a_model_files_param_is_checked_once_it_has_run(monkeypatch, tmp_path, capsys):
+    """A .py model's parameters are known when the file has run: a misspelt --param is
+    refused then, before its equations are derived or any C is generated."""
+    import eomc.compiler.driver as driver
+    monkeypatch.setenv("EOMC_CACHE_DIR", str(tmp_path / "cache"))
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("the model was derived or compiled")
+    monkeypatch.setattr(driver, "spec_of", refuse)
+    monkeypatch.setattr(driver, "build_and_load", refuse)
+    path = _model_file(tmp_path)
+    for command in (["simulate", "--t-final", "1"], ["check", "--t-final", "1"]):
+        assert main([command[0], str(path), *command[1:], "-q", "--param", "ln=2"]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "unknown parameter ln in --param (did you mean l?)" in err, err
