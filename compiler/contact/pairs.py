@@ -138,7 +138,7 @@ def _placed(shape, poses, rec, rename):
         centre = off
         axes = [[_num(rot[r, k]) for r in range(3)] for k in range(3)]
     else:
-        R = poses.rotation(shape.body)      # world -> body components
+        R = poses.world_to_body(shape.body)   # world -> body components
         o = poses.origin(shape.body)
         centre = [rec.let(o[k] + sum((R[j][k] * off[j] for j in range(3) if off[j] != 0), sm.S.Zero))
                   for k in range(3)]
@@ -193,7 +193,7 @@ def _point_velocity(shape, p, poses, v, rec):
     if shape.body < 0:
         return [sm.S.Zero] * 3
     i = shape.body
-    R, o = poses.rotation(i), poses.origin(i)
+    R, o = poses.world_to_body(i), poses.origin(i)
     rel = [p[k] - o[k] for k in range(3)]
     rel_b = [rec.let(sum((R[r][k] * rel[k] for k in range(3)), sm.S.Zero)) for r in range(3)]
     w_b, v_b = v[i][:3], v[i][3:]
@@ -206,7 +206,7 @@ def _apply(shape, f, p, poses, bodies, rec):
     if shape.body < 0:
         return
     i = shape.body
-    R, o = poses.rotation(i), poses.origin(i)
+    R, o = poses.world_to_body(i), poses.origin(i)
     f_b = [rec.let(sum((R[r][k] * f[k] for k in range(3)), sm.S.Zero)) for r in range(3)]
     lever = [sum((R[r][k] * (p[k] - o[k]) for k in range(3)), sm.S.Zero) for r in range(3)]
     moment = _cross(lever, f_b)

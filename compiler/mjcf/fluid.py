@@ -64,8 +64,8 @@ class FluidLoad:
             return [rec.let(sum((A[k][r] * vec[k] for k in range(3)), sm.S.Zero)) for r in range(3)]
         w_b, v_b = v[i][:3], list(v[i][3:])
         if any(self.wind):
-            R = poses.rotation(i)     # body i's axes in world components (eomc.compiler.tree.placement)
-            wind_b = [sum((R[k][r] * sm.Float(self.wind[k], 17) for k in range(3) if self.wind[k]), sm.S.Zero)
+            R = poses.world_to_body(i)     # world -> body components (eomc.compiler.tree.placement)
+            wind_b = [sum((R[r][k] * sm.Float(self.wind[k], 17) for k in range(3) if self.wind[k]), sm.S.Zero)
                       for r in range(3)]
             v_b = [v_b[r] - wind_b[r] for r in range(3)]
         w, u = to_local(w_b), to_local(v_b)

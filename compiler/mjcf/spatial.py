@@ -65,7 +65,7 @@ class SiteTendonLoad:
                 points.append(off)
                 velocities.append([sm.S.Zero] * 3)
                 continue
-            R, o = poses.rotation(b), poses.origin(b)
+            R, o = poses.world_to_body(b), poses.origin(b)
             points.append([rec.let(o[k] + sum((R[j][k] * off[j] for j in range(3)), sm.S.Zero)) for k in range(3)])
             w, vb = v[b][:3], v[b][3:]
             vp = [vb[k] + c for k, c in enumerate(_cross(w, off))]
@@ -96,7 +96,7 @@ def _apply(site, f, p, poses, bodies, rec):
     b, _ = site
     if b < 0:
         return
-    R, o = poses.rotation(b), poses.origin(b)
+    R, o = poses.world_to_body(b), poses.origin(b)
     f_b = [rec.let(sum((R[r][k] * f[k] for k in range(3)), sm.S.Zero)) for r in range(3)]
     lever = [sum((R[r][k] * (p[k] - o[k]) for k in range(3)), sm.S.Zero) for r in range(3)]
     old = bodies[b].fext or [0] * 6

@@ -76,6 +76,12 @@ class Placement:
             self.p[j] = [self.let(pp[k] + arm[k]) for k in range(3)]
         return self.p[i]
 
+    def world_to_body(self, i):
+        """Body i's rotation as rows world -> body components: the transpose of
+        :meth:`rotation` (the same named entries, nothing new emitted)."""
+        R = self.rotation(i)
+        return [[R[s][r] for s in range(3)] for r in range(3)]
+
     def arm(self, i):
         """Body i's origin from its parent's, world components (as placed; not named)."""
         self.origin(i)
