@@ -9,7 +9,7 @@ since URDF has no contact parameters).
 """
 import math
 
-__all__ = ["law_parameters", "resting_depth", "MUJOCO_DEFAULTS", "MINVAL"]
+__all__ = ["law_parameters", "resting_depth", "limit_spring", "MUJOCO_DEFAULTS", "MINVAL"]
 
 MINVAL = 1e-15                 # mjMINVAL
 # MuJoCo's default contact: solref, solimp, friction (sliding, torsional, rolling)
@@ -70,3 +70,15 @@ def law_parameters(solref, solimp, friction, condim, g, weight, timestep=None):
     c = 2.0 * ratio * omega / (1.5 * g)
     mu = 0.0 if condim == 1 else float(friction[0])
     return k, c, mu
+
+
+def limit_spring(inertia, solref, solimp):
+    """(k, c) of MuJoCo's soft limit (a joint's or a tendon's) as a spring-damper: its reference
+    acceleration -b v - k r with k = 1/(dmax² tc² z²), b = 2/(dmax tc) (``solref`` = (tc, z),
+    dmax = ``solimp[1]``), times the effective ``inertia``; a negative ``solref`` gives k, b
+    directly."""
+    tc, z = (float(v) for v in solref[:2])
+    dmax = float(solimp[1])
+    if tc > 0:
+        return inertia / (dmax * tc * z) ** 2, 2.0 * inertia / (dmax * tc)
+    return -tc * inertia / dmax ** 2, -z * inertia / dmax

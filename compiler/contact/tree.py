@@ -22,7 +22,8 @@ from .law import DEFAULTS
 from .system import contact_symbols, parameter_defaults, unit_normal
 
 __all__ = ["ContactSpec", "ContactLoad", "ContactValue", "COLLISION_SPHERES", "parse_contact",
-           "collision_spheres", "link_frame", "with_contacts", "contact_outputs", "body_com"]
+           "collision_spheres", "link_frame", "with_contacts", "contact_outputs", "body_com",
+           "LoweredLoad"]
 
 # what each contact adds to the outputs (placeholders' kind index) and its event
 OUTPUT_KINDS = ("Fn", "Ftx", "Fty", "Ftz", "depth")
@@ -133,6 +134,18 @@ class ContactValue(sm.Function):
 
     def _eval_derivative(self, s):       # never differentiated before it is replaced
         return sm.S.Zero
+
+
+@dataclass(frozen=True, kw_only=True)
+class LoweredLoad:
+    """A load of the Tree that computes its force itself when the recursion is lowered
+    (``lower(bodies, rec, v, rename, placement)``, eomc.compiler.tree.contacts): MJCF fluid
+    forces, body-body contact pairs, site tendons.  ``frame == "contact"`` keeps it out of the
+    plain loads, whose moment, force and offset it has as zeros."""
+    frame: str = "contact"
+    moment: sm.Matrix = field(default_factory=lambda: sm.zeros(3, 1))
+    force: sm.Matrix = field(default_factory=lambda: sm.zeros(3, 1))
+    offset: sm.Matrix = field(default_factory=lambda: sm.zeros(3, 1))
 
 
 @dataclass(frozen=True)

@@ -384,6 +384,7 @@ def _law(m, jid, jraw, jn, q, u, params, limits, friction):
     directly.  MuJoCo's limit is a soft constraint solved with the other constraints
     (impedance, ``margin``): here it is a spring-damper, so the motion past the limit
     differs (the README says how much); inside the range both exert nothing."""
+    from eomc.compiler.contact.mujoco_law import limit_spring
     from eomc.compiler.tree.joint_laws import JointLaw, joint_torque
     dadr = int(m.jnt_dofadr[jid])
     lower = upper = None
@@ -391,11 +392,6 @@ def _law(m, jid, jraw, jn, q, u, params, limits, friction):
         lower, upper = (float(v) for v in m.jnt_range[jid])
     fl = float(m.dof_frictionloss[dadr]) if friction else 0.0
     inertia = 1.0 / float(m.dof_invweight0[dadr]) if m.dof_invweight0[dadr] > 0 else 1.0
-    tc, z = (float(v) for v in m.jnt_solref[jid][:2])
-    dmax = float(m.jnt_solimp[jid][1])
-    if tc > 0:
-        k, c = inertia / (dmax * tc * z) ** 2, 2.0 * inertia / (dmax * tc)
-    else:
-        k, c = -tc * inertia / dmax ** 2, -z * inertia / dmax
+    k, c = limit_spring(inertia, m.jnt_solref[jid], m.jnt_solimp[jid])
     law = JointLaw(jraw, lower=lower, upper=upper, friction=fl, stiffness=k, limit_damping=c)
     return joint_torque(q, u, law, params, jn, inertia)     # JointLawError: the caller places it
