@@ -19,7 +19,8 @@ setup(
         Extension(
             "eomc.runtime._eomc_integrators",
             sources=["runtime/c/eomc_integrators.c", "runtime/c/eomc_fixedstep.c",
-                     "runtime/c/eomc_sensitivity.c", "runtime/c/eomc_rollout.c"],
+                     "runtime/c/eomc_sensitivity.c", "runtime/c/eomc_rollout.c",
+                     "runtime/c/eomc_adjoint.c"],
             include_dirs=["runtime/c"],
             # Aligned functions and loops: otherwise the hot loops' speed depends on where
             # they happen to land (+-5% on a DOP853 run from edits elsewhere in the file;

@@ -73,6 +73,14 @@ def _cffi_backend(ffi, lib, model_lib, c_model, name, functions):
         fp_jvp = getattr(model_lib, f"{name}_jvp")
         kernels["jvp"] = lambda t, x, p, r, k, dirs, xdot, out, work: fp_jvp(
             t, frombuf("double[]", x), p, r, k, prepare(dirs), prepare(xdot), prepare(out), work)
+    if "vjp" in functions:
+        fp_vjp = getattr(model_lib, f"{name}_vjp")
+        kernels["vjp"] = lambda t, x, p, r, lam, xdot, gx, gp, work: fp_vjp(
+            t, frombuf("double[]", x), p, r, prepare(lam), prepare(xdot), prepare(gx), prepare(gp), work)
+    if "hvp" in functions:
+        fp_hvp = getattr(model_lib, f"{name}_hvp")
+        kernels["hvp"] = lambda t, x, p, r, lam, v, out, work: fp_hvp(
+            t, frombuf("double[]", x), p, r, prepare(lam), prepare(v), prepare(out), work)
     if "jac_p" in functions:     # exported, not in the eomc_model struct (ABI unchanged)
         kernels["jac_p"] = vector_kernel(getattr(model_lib, f"{name}_jac_p"))
     if "rhs" in kernels:
@@ -499,6 +507,36 @@ class Model:
         if status:
             self._fail("jvp", status, t, x, inputs=given)
         return xdot, out
+
+    def vjp(self, t, x, lam, p=None, r=None):
+        """(xdot, lamᵀ·∂rhs/∂x, lamᵀ·∂rhs/∂p): the vector-Jacobian products with respect to
+        the state and every parameter by one reverse sweep (cost a few rhs, whatever nx and
+        nparam), what adjoint sensitivities and gradient-based fitting need.  Both
+        formulations, on request (``functions`` including "vjp")."""
+        given = (p, r)
+        t, x, p, r = self._args(t, x, p, r)
+        kernel = self._kernel("vjp")
+        lam = self._array(lam, (self.nx,), "lam (one weight per state)", self.state_names)
+        xdot, gx, gp = np.empty(self.nx), np.empty(self.nx), np.empty(self.nparam)
+        status = kernel(t, x, p, r, lam, xdot, gx, gp, self._work()[1])
+        if status:
+            self._fail("vjp", status, t, x, inputs=given)
+        return xdot, gx, gp
+
+    def hvp(self, t, x, lam, v, p=None, r=None):
+        """(∂²(lamᵀ·rhs)/∂x²)·v: the directional second derivative of lamᵀ·rhs (what DDP and
+        interior-point solvers consume), by forward over reverse mode.  Both formulations,
+        on request (``functions`` including "hvp")."""
+        given = (p, r)
+        t, x, p, r = self._args(t, x, p, r)
+        kernel = self._kernel("hvp")
+        lam = self._array(lam, (self.nx,), "lam (one weight per state)", self.state_names)
+        v = self._array(v, (self.nx,), "v (a state direction)", self.state_names)
+        out = np.empty(self.nx)
+        status = kernel(t, x, p, r, lam, v, out, self._work()[1])
+        if status:
+            self._fail("hvp", status, t, x, inputs=given)
+        return out
 
     def regressor(self, q, u, udot, p=None, t=0.0):
         """Y(q, u, u'), shape (nu, 10 * bodies), with inverse dynamics = Y @ pi at zero inputs.

@@ -159,8 +159,11 @@ def closest_points(a, b, let=lambda e: e):
         a1, a2, h1, h2 = a["axes"][2], b["axes"][2], a["size"][1], b["size"][1]
         r = [let(ca[k] - cb[k]) for k in range(3)]
         bb, c, f = let(_dot(a1, a2)), let(_dot(a1, r)), let(_dot(a2, r))
-        den = let(1 - bb * bb)          # 0 for parallel segments: (bf - c)·den/(den² + tiny) is then 0
-        s0 = let(_clamp((bb * f - c) * den / (den ** 2 + sm.Float(1e-300)), -h1, h1))
+        # den = 0 for parallel segments (then bf - c = 0 too): (bf - c)·den/(den² + 1e-24) is 0 there
+        # and finite with its derivatives (jac_x: (den² + ε)² must not underflow, so ε = 1e-24, not
+        # smaller); it is 1/den to 1e-8 relative once den > 1e-8
+        den = let(1 - bb * bb)
+        s0 = let(_clamp((bb * f - c) * den / (den ** 2 + sm.Float(1e-24)), -h1, h1))
         t = let(_clamp(bb * s0 + f, -h2, h2))
         s = let(_clamp(bb * t - c, -h1, h1))
         return ([let(ca[k] + s * a1[k]) for k in range(3)], [let(cb[k] + t * a2[k]) for k in range(3)],

@@ -16,6 +16,7 @@ from .generated import GeneratedModel
 from .layout import check_identifier, make_layout
 from .linsolve import choose_ldlt
 from .printer import NonFiniteLiteral
+from .reverse import REVERSE_FUNCTIONS, reverse_body, reverse_nsolve
 from .sparse_lu import sparse_lu_solver
 from .split import NOINLINE_MACRO, split_body
 from .signatures import FUNCTION_ORDER, ON_REQUEST, STRUCT_FIELDS, cdef, prototype
@@ -25,7 +26,7 @@ __all__ = ["generate_c", "lower", "ir_listing", "Lowered", "ALL_FUNCTIONS"]
 
 ALL_FUNCTIONS = FUNCTION_ORDER
 _ALIASES = {"jacobian": "jac_x"}
-_SOLVING = ("rhs", "jac_x", "jac_r", "jac_p", "jvp")
+_SOLVING = ("rhs", "jac_x", "jac_r", "jac_p", "jvp", "vjp", "hvp")
 
 
 def _eomc_version():
@@ -77,6 +78,8 @@ def _body(fn, ctx, prog, sym, layout, nx, functions, formulation=KANE):
     if fn == "jvp":
         return jvp_body(ctx, prog, sym.W, sym.seeds, nx, len(layout.p),
                         _tangent_blocks(ctx) if _tangent(prog) else ())
+    if fn in REVERSE_FUNCTIONS:
+        return reverse_body(fn, ctx, prog, sym, nx, len(layout.p))
     if fn == "jac_p":
         return helper_jacobian_body(ctx, prog, sym.W, len(layout.p), "dkin_p", "Gp")
     if fn == "linearize":
@@ -147,7 +150,7 @@ def _ops(fn, prog, solver, nx, nr, seeds=(), helper=None, nu=0, nnz=0, solve_in=
     if fn in _SOLVING:
         c += solver.factor_ops
         # jvp: per direction; its count is xdot and one direction
-        nsolve = 1 + {"rhs": 0, "jac_x": nx, "jac_r": nr, "jac_p": npar, "jvp": 1}[fn]
+        nsolve = 1 + {"rhs": 0, "jac_x": nx, "jac_r": nr, "jac_p": npar, "jvp": 1, **reverse_nsolve}[fn]
         for _ in range(nsolve):
             c += solver.solve_ops
     return {k: int(c.get(k, 0)) for k in ("adds", "muls", "divs", "calls")}

@@ -27,6 +27,11 @@ SIGNATURES = {
                ("double *", "out"), ("double *", "work")),
     "jvp": _RHS + (("int", "k"), ("const double *", "dirs"), ("double *", "xdot"), ("double *", "out"),
                    ("double *", "work")),
+    # wᵀ·∂rhs/∂x and wᵀ·∂rhs/∂p by one reverse sweep (compiler/emit/reverse.py); xdot, gp may be NULL
+    "vjp": _RHS + (("const double *", "lam"), ("double *", "xdot"), ("double *", "gx"), ("double *", "gp"),
+                   ("double *", "work")),
+    # (∂²(lamᵀ·rhs)/∂x²)·v, forward over reverse
+    "hvp": _RHS + (("const double *", "lam"), ("const double *", "v"), ("double *", "out"), ("double *", "work")),
     "linearize": _RHS + (("double *", "A"), ("double *", "B"), ("double *", "work")),
     "events": _RHS + (("double *", "out"), ("double *", "work")),
     # body frames' positions and rotations, named points' positions (compiler/emit/poses.py)
@@ -35,10 +40,10 @@ SIGNATURES = {
 
 FUNCTION_ORDER = ("rhs", "jac_x", "jac_r", "jac_p", "mass_matrix", "forcing", "inverse_dynamics",
                   "outputs", "constraints", "constraints_jac", "linearize", "events", "poses", "regressor",
-                  "jvp", "jac_id")
+                  "jvp", "jac_id", "vjp", "hvp")
 
 # Generated only on request (``functions`` naming them), not by default.
-ON_REQUEST = ("jac_p", "regressor", "jvp", "jac_id")
+ON_REQUEST = ("jac_p", "regressor", "jvp", "jac_id", "vjp", "hvp")
 
 # eomc_model fields holding function pointers (the rest are exported only).
 STRUCT_FIELDS = ("rhs", "jac_x", "jac_r", "mass_matrix", "forcing", "outputs",

@@ -20,6 +20,7 @@ import sympy as sm
 
 from eomc.runtime.errors import ModelError
 from ..ir import Program
+from .reverse import refuse_reverse, reverse_requests
 from .sparse_lu import static_row_order
 
 __all__ = ["FUNCTION_GROUPS", "HELPER_USERS", "Symbolic", "build_symbolic", "TANGENT_MIN_STATES"]
@@ -54,6 +55,9 @@ FUNCTION_GROUPS = {
     "regressor": (),        # recursive formulation only (compiler/tree/regressor.py)
     # xdot and J·d, d = [dx; dp] given (sensitivities): state tangents, parameter columns
     "jvp": ("A", "b", "kin", "dkin", "G", "Gtq", "Gtu", "dkin_p", "Gp", "zd", "dzd", "dzd_p"),
+    # wᵀ J and (∂²(λᵀ xdot)/∂x²)·v by reverse mode (compiler/emit/reverse.py)
+    "vjp": ("A", "b", "kin", "zd", "res", "vj"),
+    "hvp": ("A", "b", "kin", "zd", "res", "hr", "ha", "hb"),
 }
 
 
@@ -224,7 +228,13 @@ def build_symbolic(formed, layout, functions, outputs=None, events=None, *, dyna
         res += [(("A", i, j), A[i, j]) for (i, j) in sorted(pattern) if not symmetric or i >= j]
     if "b" in groups:
         res += [(("b", i), e) for i, e in enumerate(b)]
-    if "G" in groups or "Gr" in groups or "Gp" in groups:
+    reverse_inputs = ()
+    if "res" in groups:      # vjp, hvp (Kane's: the recursive formulation's residual is "tres")
+        if not symmetric or nw != nu:
+            refuse_reverse(functions, "has constraints (multipliers or a non-symmetric matrix)")
+        groups |= {"kin"}
+        reverse_inputs, requests = reverse_requests(functions, layout, "res", formed.nq, nu, W, seeds)
+    if "G" in groups or "Gr" in groups or "Gp" in groups or "res" in groups:
         res += [(("res", i), b[i] - sm.Add(*[A[i, j] * W[j] for j in range(nw) if (i, j) in pattern]))
                 for i in range(nw)]
         if "G" in groups and len(layout.x) > TANGENT_MIN_STATES:
@@ -237,6 +247,8 @@ def build_symbolic(formed, layout, functions, outputs=None, events=None, *, dyna
             derivatives.append(("res", layout.r, "Gr"))
         if "Gp" in groups:
             derivatives.append(("res", layout.p, "Gp"))
+        if reverse_inputs:
+            derivatives += requests
     if "out" in groups:
         res += [(("out", i), e) for i, e in enumerate(outs)]
     if "ev" in groups:
@@ -248,7 +260,7 @@ def build_symbolic(formed, layout, functions, outputs=None, events=None, *, dyna
         derivatives.append(("con", layout.x, "dcon"))
     if "con" in groups:
         res += [(("con", i), e) for i, e in enumerate(hol + vel)]
-    inputs = (layout.t,) + layout.x + layout.p + layout.r + W + UD + seeds
+    inputs = (layout.t,) + layout.x + layout.p + layout.r + W + UD + seeds + reverse_inputs
     if prelude is None:
         program = Program(inputs=inputs, results=tuple(res))
     else:

@@ -9,6 +9,7 @@ is emit's default, the same code as Kane's.
 from collections import Counter
 
 from ..emit.formulation import Formulation
+from ..emit.reverse import REVERSE_FUNCTIONS, reverse_body
 from ..ir import count_program
 from ..tree.constrained import jacobian_symbols
 from ..tree.inverse_derivatives import jac_id_body, jac_id_ops
@@ -19,7 +20,7 @@ from ..tree.regressor import PI_NAMES
 
 __all__ = ["Recursive"]
 
-_OWN_COUNTS = ("rhs", "mass_matrix", "forcing", "inverse_dynamics", "jvp")
+_OWN_COUNTS = ("rhs", "mass_matrix", "forcing", "inverse_dynamics", "jvp", "vjp", "hvp")
 _JACOBIANS = ("jac_x", "jac_r", "jac_p")
 
 
@@ -46,6 +47,8 @@ class Recursive(Formulation):
             return tree_matrix_body(ctx, prog, fn)
         if fn == "jac_id":
             return jac_id_body(ctx, prog, sym.seeds)
+        if fn in REVERSE_FUNCTIONS:
+            return reverse_body(fn, ctx, prog, sym, nx, len(layout.p), jacobian_symbols(prog, sym.W, ctx.nu)[1])
         if fn == "jvp":
             return tree_jvp_body(ctx, prog, *jacobian_symbols(prog, sym.W, ctx.nu), sym.seeds, nx, len(layout.p))
         if fn in _JACOBIANS:

@@ -33,7 +33,7 @@ The mapping to eomc's law, per geom (the *documented rule*; the README quotes it
 - damping c = 2·z·ω/(1.5·g), ω = sqrt(1.5·g/δ_ref): the linearised law at rest has the
   damping ratio z of ``solref`` (z = b/(2·sqrt(k)) for a direct ``solref``).
 - friction coefficient mu = the sliding friction (``friction[0]``); 0 when ``condim`` = 1.
-  Torsional and rolling friction (condim 4, 6) are not modelled.
+  Torsional and rolling friction (condim 4, 6) are not modelled: a warning names such pairs.
 - ``margin``: MuJoCo's constraint pulls the surfaces to ``margin`` apart, so the plane is
   raised by ``margin`` for that geom; ``gap`` (contacts inside the margin left out) is not
   modelled.
@@ -94,6 +94,17 @@ def _mix(m, g1, g2):
     solimp = mix * np.array(m.geom_solimp[g1]) + (1 - mix) * np.array(m.geom_solimp[g2])
     friction = np.maximum(m.geom_friction[g1], m.geom_friction[g2])
     return max(int(m.geom_condim[g1]), int(m.geom_condim[g2])), friction, solref, solimp
+
+
+def _warn_condim(m, pairs, where):
+    """One warning naming the pairs whose condim (4: torsional, 6: and rolling friction) asks for
+    more than the sliding friction eomc's law has (dm_control's quadruped's ball: condim 6)."""
+    more = sorted((a, b, c) for a, b, c in pairs if c > 3)
+    if more:
+        a, b, c = more[0]
+        warnings.warn(f"{where}{len(more)} contact pair(s) with condim {c} (e.g. geoms {_geom_name(m, a)} and "
+                      f"{_geom_name(m, b)}): torsional{' and rolling' if c == 6 else ''} friction are not "
+                      f"modelled, only the sliding friction", EomcWarning, stacklevel=4)
 
 
 def _excluded(m):
@@ -192,6 +203,7 @@ def ground_geoms(m, path=None):
             pairs[(plane, g)] = (condim, friction, solref, solimp,
                                  float(m.geom_margin[plane]) + float(m.geom_margin[g]),
                                  float(m.geom_gap[plane]) + float(m.geom_gap[g]))
+    _warn_condim(m, [(p, g, v[0]) for (p, g), v in pairs.items() if int(weld[int(m.geom_bodyid[g])]) != 0], where)
     out, skipped = [], set()
     for (plane, g), (condim, friction, solref, solimp, margin, gap) in sorted(pairs.items(), key=lambda x: x[0][::-1]):
         kind = GEOM_KINDS.get(int(m.geom_type[g]), str(int(m.geom_type[g])))
@@ -282,6 +294,7 @@ def body_pairs(m, path=None):
                 continue
             condim, friction, solref, solimp = _mix(m, g1, g2)
             found[(g1, g2)] = (condim, friction, solref, solimp, float(m.geom_margin[g1]) + float(m.geom_margin[g2]))
+    _warn_condim(m, [(g1, g2, v[0]) for (g1, g2), v in found.items()], f"{path}: " if path else "")
     out, skipped = [], {}
     for (g1, g2), (condim, friction, solref, solimp, margin) in sorted(found.items()):
         k1, k2 = kind(g1), kind(g2)

@@ -70,7 +70,8 @@ def tendon_force(m, t, raw, name, L, V, params, limits=True, friction=True):
     if lower is not None or fl:
         inertia = 1.0 / float(m.tendon_invweight0[t]) if m.tendon_invweight0[t] > 0 else 1.0
         kl, cl = limit_spring(inertia, m.tendon_solref_lim[t], m.tendon_solimp_lim[t])
-        law = JointLaw(f"tendon {raw}", lower=lower, upper=upper, friction=fl, stiffness=kl, limit_damping=cl)
+        law = JointLaw(f"tendon {raw}", lower=lower, upper=upper, friction=fl, stiffness=kl, limit_damping=cl,
+                       unilateral=True)
         f += joint_torque(L, V, law, params, name, inertia)
     return f
 

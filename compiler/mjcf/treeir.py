@@ -393,5 +393,5 @@ def _law(m, jid, jraw, jn, q, u, params, limits, friction):
     fl = float(m.dof_frictionloss[dadr]) if friction else 0.0
     inertia = 1.0 / float(m.dof_invweight0[dadr]) if m.dof_invweight0[dadr] > 0 else 1.0
     k, c = limit_spring(inertia, m.jnt_solref[jid], m.jnt_solimp[jid])
-    law = JointLaw(jraw, lower=lower, upper=upper, friction=fl, stiffness=k, limit_damping=c)
+    law = JointLaw(jraw, lower=lower, upper=upper, friction=fl, stiffness=k, limit_damping=c, unilateral=True)
     return joint_torque(q, u, law, params, jn, inertia)     # JointLawError: the caller places it

@@ -74,8 +74,11 @@ class JointLaw:
     """The declared numbers of one joint (``None``: not declared / no limit on that side)."""
 
     def __init__(self, joint, *, lower=None, upper=None, damping=0.0, friction=0.0, stiffness=None,
-                 limit_damping=None, width=WIDTH, friction_speed=FRICTION_SPEED):
+                 limit_damping=None, width=WIDTH, friction_speed=FRICTION_SPEED, unilateral=False):
         self.joint = joint
+        # unilateral: the limit only pushes (its spring-damper force clipped at 0, as MuJoCo's limit
+        # constraint force is); else its damping may also pull the joint back toward the limit
+        self.unilateral = unilateral
         self.lower, self.upper = lower, upper
         self.damping, self.friction = damping, friction
         self.stiffness, self.limit_damping = stiffness, limit_damping
@@ -219,11 +222,13 @@ def joint_torque(q, u, law, params, name, inertia):
         if law.upper is not None and math.isfinite(law.upper):
             r = ramp(q - params(f"{NAMES['upper']}_{name}", law.upper))
             g = r / (r + E)
-            tau += -g ** 2 * (K * r + C * u * g)
+            side = K * r + C * u * g
+            tau += -g ** 2 * ((side + sm.Abs(side)) / 2 if law.unilateral else side)
         if law.lower is not None and math.isfinite(law.lower):
             r = ramp(params(f"{NAMES['lower']}_{name}", law.lower) - q)
             g = r / (r + E)
-            tau += g ** 2 * (K * r - C * u * g)
+            side = K * r - C * u * g
+            tau += g ** 2 * ((side + sm.Abs(side)) / 2 if law.unilateral else side)
     if law.damping:
         tau += -params(f"{NAMES['damping']}_{name}", law.damping) * u
     if law.friction:

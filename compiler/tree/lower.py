@@ -29,6 +29,7 @@ import sympy as sm
 
 from eomc.runtime.errors import ModelError
 
+from ..emit.reverse import refuse_reverse, reverse_requests
 from ..emit.symbolic import TANGENT_MIN_STATES, build_symbolic
 from .algorithms import LoweredBody, Recorder, aba, crba, rnea, velocities
 from .constrained import (accelerations, check_functions, kane_form, kkt_residual, kkt_solve,
@@ -54,6 +55,9 @@ TREE_FUNCTION_GROUPS = {
     "jvp": ("ud", "lam", "Dpiv", "kin", "dkin", "dkin_p", "tjv", "dres_p", "sol", "zd", "dzd", "dzd_p"),   # see .jvp
     "events": ("ev",),
     "jac_id": ("did", "idq", "idu"),     # see .inverse_derivatives
+    # reverse mode (compiler/emit/reverse.py)
+    "vjp": ("ud", "Dpiv", "kin", "zd", "sol", "vj"),
+    "hvp": ("ud", "Dpiv", "kin", "zd", "sol", "hr", "ha", "hb"),
 }
 TREE_HELPER_USERS = ()
 
@@ -157,6 +161,7 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
     loops = tree_loops(tree)           # a tree closed by constraints: see .constrained
     if loops is not None:
         check_functions(functions)
+        refuse_reverse(functions, "is a tree closed by constraints")
     try:
         bodies, gravity = _lowered_bodies(tree, layout, rec)
         nq, nu = len(tree.coordinates), len(tree.speeds)
@@ -166,7 +171,7 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         extra, keep = [], {}
         if loops is not None:
             J, gamma = lower_loops(loops, layout, rec)
-        jac = set(functions) & {"jac_x", "jac_r", "jac_p", "jvp"}
+        jac = set(functions) & {"jac_x", "jac_r", "jac_p", "jvp", "vjp", "hvp"}
         if "rhs" in functions or jac:
             out, margins = aba(bodies, rec, speeds, gravity, v, c, keep=keep), []
             if loops is not None:      # u' = a0 + M⁻¹Jᵀλ; the m pivots of J M⁻¹ Jᵀ join ABA's
@@ -269,6 +274,9 @@ def _with_jacobians(sym, layout, functions, nq, jacobian, more=()):
         derivatives.append(("tres", layout.p, "dres_p"))
     if "jvp" in functions:     # one tangent along a whole state direction (seeds = the direction)
         derivatives.append(("tres", dict(zip(layout.x, sym.seeds)), "tjv"))
+    reverse_inputs, requests = reverse_requests(functions, layout, "tres", nq, len(sym.UD), sym.W, sym.seeds)
+    derivatives += requests
+    more = tuple(more) + reverse_inputs
     # ``more``: a closed tree's g_nu.. (constraint rows) and λ symbols (constrained.kkt_residual)
     program = sym.program.with_(inputs=sym.program.inputs + solve_symbols(len(sym.UD)) + tuple(more),
                                 results=sym.program.results + tuple(jacobian))

@@ -259,7 +259,46 @@ def initial_state(model, overrides):
     if base is not None:
         x0.update(zip(model.state_names, (float(v) for v in base)))
     x0.update(overrides)
-    return x0
+    return _onto_ground(model, x0, overrides)
+
+
+GROUND_CLEARANCE = 1e-3     # m between the lowest contact and the ground at a lifted start
+
+
+def _onto_ground(model, x0, overrides):
+    """A floating-base robot with ground contacts whose start puts a contact under the ground
+    is lifted (its base's height only) until the deepest contact is GROUND_CLEARANCE above the
+    ground, with a note (a start exactly on the ground sits on the contact law's onset, where
+    k d^1.5 has no second derivative: `eomc check`'s Jacobian test saw it as a 56x error).
+
+    Why: a URDF's zero pose has the base at z = 0, so a standing robot's feet start tens of
+    centimetres inside the ground; the contact law then throws it out violently (Go2: feet
+    0.45 m deep, a run no tolerance follows) instead of letting it stand or collapse.  A base
+    height given with --x0 is kept as given."""
+    import sys
+
+    from eomc.runtime.switching import find_switches
+    zs = [n for n in model.state_names[:model.nq] if n.endswith("_floating_z")]
+    if len(zs) != 1 or zs[0] in overrides or model.noutput == 0:
+        return x0
+    contacts = find_switches(model).contacts
+    depths = [f"depth_{c.name}" for c in contacts if f"depth_{c.name}" in model.output_names]
+    if not depths:
+        return x0
+    x = [x0[n] for n in model.state_names]
+    out = model.outputs(0.0, x)
+    deepest = max(out[d] for d in depths)
+    if not deepest > 0.0:
+        return x0
+    lifted = dict(x0)
+    lifted[zs[0]] = x0[zs[0]] + deepest + GROUND_CLEARANCE
+    after = model.outputs(0.0, [lifted[n] for n in model.state_names])
+    if abs(max(after[d] for d in depths) + GROUND_CLEARANCE) > 1e-9 * max(1.0, deepest):
+        return x0       # the base's z does not move the contacts straight up: leave the start
+    print(f"eomc: note: {model.name}'s start put its contacts up to {deepest:.4g} m under the ground; "
+          f"starting with {zs[0]} = {lifted[zs[0]]:.6g}, the deepest {GROUND_CLEARANCE * 1e3:g} mm above it "
+          f"(give --x0 {zs[0]}=... to choose)", file=sys.stderr)
+    return lifted
 
 
 def parameter_values(model, overrides):

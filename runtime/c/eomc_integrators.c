@@ -278,6 +278,9 @@ static int sw_detect(ctx *c, double t, const double *x, double tn, const double 
 static int sw_locate(ctx *c, const interp *ip, double *t_cut);
 static int sw_watch(ctx *c, double t, const double *x, double tn, const double *xn);
 static void sw_keep(ctx *c);
+static void sw_lin_extrema(ctx *c, double t, double h, const double *x, const double *f0,
+                           const double *xn, const double *f1, const interp *ip, double rtol,
+                           double atol, int *ncross, int *near);
 struct outw;
 EOMC_NOINLINE int events_in_step(ctx *c, const interp *ip, struct outw *ow, double *x);
 
@@ -929,7 +932,7 @@ static int run_erk(ctx *c, const erk *tb, const eomc_options *o, proj *pj,
     long maxs = o->max_steps > 0 ? o->max_steps : DEFAULT_MAX_STEPS;
     double *K = take(pos, 16 * (size_t)n), *F = take(pos, 7 * (size_t)n);
     double *ynew = take(pos, n), *ys = take(pos, n), *tmp = take(pos, n);
-    double *acc5 = take(pos, n), *acc3 = take(pos, n);
+    double *acc5 = take(pos, n), *acc3 = take(pos, n), *xst = take(pos, 2 * (size_t)n);
     double hmax = o->hmax > 0 ? o->hmax : t1 - t0, h, t = t0;
     double expo = -1.0 / (tb->err_order + 1), err_old = 1e-4;
     eomc_stats *st = c->st;
@@ -967,21 +970,37 @@ static int run_erk(ctx *c, const erk *tb, const eomc_options *o, proj *pj,
         }
         hits = 0; restart = 0;
         if (c->nsw) {
-            int ncross = 0;
-            if ((s = sw_detect(c, t, x, tn, ynew, 0, NULL, NULL, &ncross))) return s;
-            if (ncross) {       /* a switching point inside the step: end the step there */
+            int ncross = 0, near = 0;
+            double tst[2];
+            /* Interior points too (a contact's onset crossed and left again inside one step: a
+             * grazing foot, a short impact): the states at 1/3 and 2/3 of the step from the
+             * cubic Hermite interpolant of its ends and slopes (K[s] = f(ynew)), no rhs call. */
+            for (int a = 0; a < 2; a++) {
+                tst[a] = t + (a + 1) * (tn - t) / 3.0;
+                hermite(n, tn - t, (a + 1) / 3.0, x, K, ynew, K + (size_t)tb->s * n, xst + (size_t)a * n);
+            }
+            if ((s = sw_detect(c, t, x, tn, ynew, 2, tst, xst, &ncross))) return s;
+            if (c->ev->nlin)
+                sw_lin_extrema(c, t, tn - t, x, K, ynew, K + (size_t)tb->s * n, NULL, o->rtol,
+                               o->atol, &ncross, &near);
+            if (ncross || near) {   /* a switching point inside the step: end the step there */
                 double tcut;
                 interp ip = {tb->is853 ? 2 : 1, n, t, tn - t, x, NULL, ynew, NULL, K, F, NULL};
                 if (tb->is853 && (s = d853_dense_prepare(c, t, tn - t, x, ynew, K, F, tmp, acc5)))
                     return s;
-                if ((s = sw_locate(c, &ip, &tcut))) return s;
-                if (tcut > t) {                 /* redo the step up to just past the crossing */
-                    st->rejected++;
-                    h = tcut - t;
-                    c->gnew_ok = 0;
-                    continue;
+                if (near)           /* a limit nearly reached: the dense output decides */
+                    sw_lin_extrema(c, t, tn - t, x, K, ynew, K + (size_t)tb->s * n, &ip, o->rtol,
+                                   o->atol, &ncross, &near);
+                if (ncross) {
+                    if ((s = sw_locate(c, &ip, &tcut))) return s;
+                    if (tcut > t) {                 /* redo the step up to just past the crossing */
+                        st->rejected++;
+                        h = tcut - t;
+                        c->gnew_ok = 0;
+                        continue;
+                    }
+                    restart = !c->ev->sw_observe;
                 }
-                restart = !c->ev->sw_observe;
             }
             sw_keep(c);
         }
@@ -1746,6 +1765,60 @@ static void sw_keep(ctx *c)
     swparts w = sw_parts(c);
     for (int j = 0; j < ev->n + ev->nlin; j++)
         if (is_switch(ev, j)) sw_seen(c, j, w.seen[j]);
+}
+
+/* A linear switching function (a joint limit) between the sampled points: its coordinate
+ * along the step's cubic Hermite interpolant has at most two extrema, found in closed form,
+ * so a joint that passes its limit and comes back inside one step is seen however short the
+ * excursion (sampling alone misses excursions shorter than the sample spacing).  With ip ==
+ * NULL an extremum within NEAR_SCALES tolerance scales of the limit only sets *near (the cubic
+ * is an approximation); with the method's own dense output ip the value there decides. */
+#define NEAR_SCALES 1e3
+static void sw_lin_extrema(ctx *c, double t, double h, const double *x, const double *f0,
+                           const double *xn, const double *f1, const interp *ip, double rtol,
+                           double atol, int *ncross, int *near)
+{
+    eomc_events *ev = c->ev;
+    swparts w = sw_parts(c);
+    evparts e = ev_parts(c);
+    *near = 0;
+    for (int j = ev->n; j < ev->n + ev->nlin; j++) {
+        int l = j - ev->n, i = ev->lin_x[l];
+        /* x(th) = x0 + h f0 th + (3 d - h (2 f0 + f1)) th^2 + (h (f0 + f1) - 2 d) th^3, d = x1 - x0 */
+        double d = xn[i] - x[i], b1 = h * f0[i], b2 = 3 * d - h * (2 * f0[i] + f1[i]);
+        double b3 = h * (f0[i] + f1[i]) - 2 * d, qa = 3 * b3, qb = 2 * b2, qc = b1, th[2];
+        int nr = 0;
+        if (fabs(qa) > 1e-300) {
+            double disc = qb * qb - 4 * qa * qc;
+            if (disc >= 0) {
+                double sq = sqrt(disc), qq = -0.5 * (qb + copysign(sq, qb));
+                if (qq != 0.0) { th[nr++] = qq / qa; th[nr++] = qc / qq; }
+            }
+        } else if (fabs(qb) > 1e-300) {
+            th[nr++] = -qc / qb;
+        }
+        for (int k = 0; k < nr; k++) {
+            double tk = th[k], xi, g, tt = t + th[k] * h;
+            if (!(tk > 0.0 && tk < 1.0)) continue;
+            xi = x[i] + tk * (b1 + tk * (b2 + tk * b3));
+            if (ip) {
+                interp_eval(ip, tt, e.xtmp);
+                xi = e.xtmp[i];
+            }
+            g = ev->lin_s[l] * (xi - c->p[ev->lin_p[l]]);
+            if (!ip) {
+                if ((g > 0.0) == (w.side[j] > 0.0)
+                    && fabs(g) > NEAR_SCALES * (atol + rtol * fabs(xi))) continue;
+                *near = 1;
+                continue;
+            }
+            w.seen[j] = fmax(w.seen[j], g);
+            if ((g > 0.0) != (w.side[j] > 0.0) && !(w.cross[j] != 0.0 && w.tb[j] <= tt)) {
+                if (w.cross[j] == 0.0) ++*ncross;
+                w.cross[j] = 1.0; w.tb[j] = tt; w.gb[j] = g;
+            }
+        }
+    }
 }
 
 /* The first crossing on the step's dense output: *t_cut = the end of a step to redo that

@@ -147,3 +147,32 @@ def test_fixed_step_methods_keep_their_grid_but_get_the_verdict_too(ball, method
         res = _drop(ball, p=_p(ball, k_ball=1e3, c_ball=0.0), method=method, dt=1e-3)
     assert res.status == 0 and res.stats["nswitch"] == 0
     assert np.allclose(np.diff(res.t), 1e-3)
+
+
+SWING = LIMITED.replace('name="stop"', 'name="swing"').replace(
+    '<limit lower="-0.5" upper="0.5" effort="1" velocity="1"/>\n    <dynamics damping="0.01" friction="0.01"/>',
+    '<limit lower="-3.0" upper="2.1707" effort="1" velocity="1"/>')
+
+
+@pytest.fixture(scope="module")
+def swing(tmp_path_factory):
+    d = tmp_path_factory.mktemp("swing")
+    (d / "swing.urdf").write_text(SWING)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return eomc.compile(d / "swing.urdf", "swing", cache_dir=d / "cache", progress=False)
+
+
+@pytest.mark.parametrize("method", ["dopri5", "dop853"])
+def test_a_limit_grazed_inside_one_step_ends_the_step_there(swing, method):
+    """The undamped arm swings from pi/2 - 0.6 to pi/2 + 0.6 = 2.17080 rad, 1e-4 past its limit
+    at 2.1707: a few-millisecond excursion inside one explicit step of ~0.1 s.  Both ends of
+    that step are inside the range; the crossing and the way back are seen between them
+    (the limit's coordinate along the step's interpolant, in closed form) and end the steps
+    there (before: DOPRI5 stepped over it, nswitch 0)."""
+    assert SWING != LIMITED and 'upper="2.1707"' in SWING
+    res = swing.simulate({"q_elbow": np.pi / 2 - 0.6}, (0, 1.0), method=method, rtol=1e-6, atol=1e-6,
+                         t_eval=np.linspace(0, 1, 1001))
+    assert res.status == 0
+    assert res["q_elbow"].max() > 2.1707            # it did pass the limit
+    assert res.stats["nswitch"] >= 2                # entry and exit each ended a step

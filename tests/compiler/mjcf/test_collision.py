@@ -7,6 +7,7 @@ import pytest
 mujoco = pytest.importorskip("mujoco")
 
 from eomc.compiler.mjcf.collision import ground_geoms, law_parameters, resting_depth  # noqa: E402
+from eomc.runtime.errors import EomcWarning  # noqa: E402
 
 FILTERS = """<mujoco model="filters">
   <worldbody>
@@ -135,3 +136,17 @@ def test_margin_is_mujocos(tmp_path):
     mujoco.mj_forward(m, d)
     (found,) = ground_geoms(m)
     assert d.ncon == 1 and found.height == pytest.approx(d.contact[0].includemargin, abs=1e-15)
+
+
+def test_torsional_and_rolling_friction_are_named(tmp_path):
+    """condim 4/6 asks for torsional/rolling friction, which the law lacks: one warning naming the pair."""
+    xml = """<mujoco><worldbody><geom name="floor" type="plane" size="1 1 .1"/>
+      <body pos="0 0 .2"><freejoint/><geom name="ball" type="sphere" size=".1" condim="{c}"/></body></worldbody></mujoco>"""
+    for condim, words in ((6, "torsional and rolling friction"), (4, "torsional friction")):
+        m = _model(tmp_path, xml.format(c=condim))
+        with pytest.warns(EomcWarning, match=f"condim {condim} \\(e.g. geoms floor and ball\\): {words} are not"):
+            assert len(ground_geoms(m, "f.xml")) == 1
+    m = _model(tmp_path, xml.format(c=3))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        ground_geoms(m)

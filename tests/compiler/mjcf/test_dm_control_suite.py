@@ -173,3 +173,16 @@ def test_filter_and_integrator_activations_match_mj_forward(tmp_path):
     assert model.state_names[-3:] == ("act_f", "act_x", "act_i")
     assert model.input_names == ("ctrl_f", "ctrl_x", "ctrl_i")
     assert rhs_error(path, model, trials=6) < 1e-12
+
+
+@pytest.mark.parametrize("name", ["finger", "cartpole", "point_mass", "swimmer"])
+def test_suite_model_simulates_with_no_flags(name, tmp_path):
+    """Built as a user would (no flags: ground contacts, body–body pairs, limits) and run 5 s with
+    the default method: it finishes with finite states.  finger's capsules start exactly parallel
+    to the spinner's (the pair's nearest points must stay finite, with their Jacobian)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = eomc.compile(SUITE / f"{name}.xml", cache_dir=tmp_path, progress=False)
+    assert np.isfinite(model.jacobian(0.0, model.initial_state)).all()
+    res = model.simulate(model.initial_state, (0.0, 5.0))
+    assert res.t[-1] == pytest.approx(5.0) and np.isfinite(res.x).all()

@@ -1,0 +1,119 @@
+"""`eomc simulate` and `eomc check` with no method or tolerance flags on the robots a new user
+tries first (issue 29's "done when"): Go2 and G1 with a floating base and their feet as
+contacts, Solo12, and gymnasium's hopper, ant and humanoid (contacts from the MJCF file).
+
+    python benchmarks/contact_defaults.py [--only go2,solo12] [--t-final 1] [--no-write]
+
+Each command runs as a user types it (a fresh process, the model cache warm from a first
+build that is not timed); recorded: exit status, wall and CPU time (children included), the
+physics warnings printed, and where the robot ends: the floating base's height at the start
+and the end (it stands, sits or falls as the contact law says) and the lowest base height.
+"""
+import argparse
+import csv
+import os
+import resource
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+from common import environment_header, write_results  # noqa: E402
+
+ROBOTS = Path("/root/.pyenv/versions/3.11.7/lib/python3.11/site-packages/cmeel.prefix/share/"
+              "example-robot-data/robots")
+
+
+def robots():
+    import gymnasium
+    gym = Path(gymnasium.__file__).parent / "envs" / "mujoco" / "assets"
+    try:
+        import example_robot_data as erd       # noqa: F401
+    except ImportError:
+        pass
+    go2 = ROBOTS / "go2_description" / "urdf" / "go2.urdf"
+    g1 = ROBOTS / "g1_description" / "urdf" / "g1_29dof_rev_1_0.urdf"
+    solo = ROBOTS / "solo_description" / "robots" / "solo12.urdf"
+    feet = lambda names, r: [a for n in names for a in ("--contact", f"{n}:0,0,0:{r}")]  # noqa: E731
+    return {
+        "go2": [str(go2), "--floating-base", *feet(["FL_foot", "FR_foot", "RL_foot", "RR_foot"], 0.022)],
+        "g1": [str(g1), "--floating-base", "--contact", "@collision"],
+        "solo12": [str(solo), "--floating-base", *feet(["FL_FOOT", "FR_FOOT", "HL_FOOT", "HR_FOOT"], 0.016)],
+        "hopper": [str(gym / "hopper.xml")],
+        "ant": [str(gym / "ant.xml")],
+        "humanoid": [str(gym / "humanoid.xml")],
+    }
+
+
+def run(cmd, cwd):
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    p = subprocess.run(cmd, cwd=cwd, capture_output=True, text=True)
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return p, wall, cpu
+
+
+def base_height(csv_path):
+    """(start, end, lowest) of the floating base's height column, or None."""
+    with open(csv_path) as f:
+        rows = [r for r in csv.reader(f) if r and not r[0].startswith("#")]
+    head, data = rows[0], rows[1:]
+    cols = [i for i, h in enumerate(head) if h.startswith("q_") and (h.endswith("_z") or h == "q_rootz")]
+    if not cols or not data:
+        return None
+    z = [float(r[cols[0]]) for r in data]
+    return z[0], z[-1], min(z), head[cols[0]]
+
+
+def warnings_of(text):
+    return [ln.strip() for ln in text.splitlines() if "Warning" in ln or "warning:" in ln.lower()]
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--only", default="")
+    ap.add_argument("--t-final", default="1")
+    ap.add_argument("--no-write", action="store_true")
+    ap.add_argument("--cache-dir", default="/tmp/eomc-contact-defaults-cache")
+    args = ap.parse_args()
+    eomc = str(Path(sys.executable).parent / "eomc")
+    env_cache = {**os.environ, "EOMC_CACHE_DIR": args.cache_dir}
+    os.environ.update(env_cache)
+    rows = []
+    for name, spec in robots().items():
+        if args.only and name not in args.only.split(","):
+            continue
+        work = Path(f"/tmp/contact-defaults/{name}")
+        work.mkdir(parents=True, exist_ok=True)
+        sim = [eomc, "simulate", *spec, "--t-final", args.t_final, "-o", "traj.csv"]
+        chk = [eomc, "check", *spec, "--t-final", args.t_final]
+        run(sim, work)                                    # build once (not timed)
+        for label, cmd in (("simulate", sim), ("check", chk)):
+            p, wall, cpu = run(cmd, work)
+            h = base_height(work / "traj.csv") if label == "simulate" and p.returncode == 0 else None
+            warn = warnings_of(p.stderr + p.stdout)
+            tail = (p.stdout + p.stderr).strip().splitlines()[-1:] or [""]
+            rows.append((name, label, p.returncode, wall, cpu, h, warn, tail[0]))
+            print(f"{name:9s} {label:8s} rc {p.returncode} wall {wall:6.1f} s cpu {cpu:6.1f} s "
+                  f"base {h} warnings {len(warn)} | {tail[0][:150]}", flush=True)
+            for w in warn:
+                print("    " + w[:300], flush=True)
+    table = ["| robot | command | exit | wall s | CPU s | base height start → end (lowest) | physics warnings | last line |",
+             "|---|---|--:|--:|--:|---|---|---|"]
+    for name, label, rc, wall, cpu, h, warn, tail in rows:
+        hh = f"{h[0]:.3f} → {h[1]:.3f} ({h[2]:.3f}) [{h[3]}]" if h else ""
+        ww = "<br>".join(w.replace("|", "/")[:200] for w in warn) or "none"
+        table.append(f"| {name} | {label} | {rc} | {wall:.1f} | {cpu:.1f} | {hh} | {ww} | {tail.replace('|', '/')[:160]} |")
+    text = environment_header("eomc simulate / check with no method flags on contact robots", args) \
+        + "\n" + __doc__.split("\n\n", 2)[2] + "\n\n" + "\n".join(table) + "\n"
+    print("\n".join(table))
+    if not args.no_write:
+        write_results("contact_defaults", text)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,88 @@
+"""eomc.gradient (runtime/adjoint.py, runtime/c/eomc_adjoint.c): the adjoint gradient of a
+trajectory cost against central differences of whole simulations, both formulations."""
+import warnings
+
+import numpy as np
+import pytest
+
+import eomc
+from eomc.runtime.adjoint import simulate_grid
+from eomc.runtime.errors import ModelError
+from helpers.trees import cart_joints
+
+T, DT = 0.6, 0.01
+
+
+@pytest.fixture(scope="module", params=["kane", "recursive"])
+def model(request, tmp_path_factory):
+    system, _ = cart_joints(2, rigid=True)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return eomc.compile(system, formulation=request.param, functions=["rhs", "vjp"],
+                            cache_dir=tmp_path_factory.mktemp("cache"), progress=False)
+
+
+def _cost(target, weights):
+    """A running least-squares cost on every grid state plus a terminal cost on the last."""
+    def cost(t, X):
+        d = X - target
+        G = weights * d
+        G[-1] += np.sin(X[-1])
+        return 0.5 * float(np.sum(weights * d * d)) - float(np.sum(np.cos(X[-1]))), G
+    return cost
+
+
+def test_gradient_matches_central_differences(model):
+    rng = np.random.default_rng(2)
+    x0 = rng.uniform(-0.5, 0.5, model.nx)
+    p = np.asarray(model.param_defaults) * rng.uniform(0.8, 1.2, model.nparam)
+    r = rng.uniform(-1, 1, model.ninput)
+    t, target = simulate_grid(model, x0 * 0.5, T, dt=DT, p=p * 1.1, r=r)
+    cost = _cost(target, rng.uniform(0.5, 2.0, target.shape))
+    g = eomc.gradient(model, x0, T, dt=DT, cost=cost, p=p, r=r)
+    assert np.isclose(g.value, cost(t, g.x)[0])
+
+    def J(x, pp):
+        return cost(*simulate_grid(model, x, T, dt=DT, p=pp, r=r))[0]
+    h = 1e-6
+    fx = np.array([(J(x0 + h * e, p) - J(x0 - h * e, p)) / (2 * h) for e in np.eye(model.nx)])
+    fp = np.array([(J(x0, p + h * p[i] * e) - J(x0, p - h * p[i] * e)) / (2 * h * p[i])
+                   for i, e in enumerate(np.eye(model.nparam))])
+    assert np.max(np.abs(g.dx0 - fx)) <= 1e-6 * np.max(np.abs(fx))
+    assert np.max(np.abs(g.dp - fp)) <= 1e-6 * np.max(np.abs(fp))
+    assert set(g.dp_named()) == set(model.param_names)
+
+
+def test_trajectory_is_simulates_rk4(model):
+    """The trajectory differentiated is the one simulate(method='rk4', dt=) computes."""
+    x0 = np.full(model.nx, 0.3)
+    t, X = simulate_grid(model, x0, T, dt=DT)
+    res = model.simulate(x0, (0.0, T), method="rk4", dt=DT, t_eval=t)
+    assert np.max(np.abs(res.x - X)) < 1e-12
+
+
+def test_clear_errors(model, tmp_path):
+    x0 = np.zeros(model.nx)
+    with pytest.raises(ValueError, match="whole number of steps"):
+        eomc.gradient(model, x0, 0.105, dt=0.01, cost=lambda t, X: (0.0, X))
+    with pytest.raises(ValueError, match="shaped as X"):
+        eomc.gradient(model, x0, T, dt=DT, cost=lambda t, X: (0.0, X[:, :2]))
+    system, _ = cart_joints(1, rigid=True)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        plain = eomc.compile(system, functions=["rhs"], cache_dir=tmp_path, progress=False)
+    with pytest.raises(ModelError, match="built with 'vjp'"):
+        eomc.gradient(plain, np.zeros(plain.nx), T, dt=DT, cost=lambda t, X: (0.0, X))
+
+
+def test_stored_and_recomputed_stages_agree(model, monkeypatch):
+    """The backward run with the forward run's stage states and with them recomputed
+    (a long run past KEEP_STAGES_MAX) gives the same gradient."""
+    from eomc.runtime import adjoint
+    x0 = np.full(model.nx, 0.2)
+    cost = lambda t, X: (float(np.sum(X[-1] ** 2)), np.vstack([np.zeros_like(X[:-1]), 2 * X[-1:]]))  # noqa: E731
+    a = eomc.gradient(model, x0, T, dt=DT, cost=cost)
+    monkeypatch.setattr(adjoint, "KEEP_STAGES_MAX", 0)
+    b = eomc.gradient(model, x0, T, dt=DT, cost=cost)
+    assert np.max(np.abs(a.dx0 - b.dx0)) <= 1e-13 * np.max(np.abs(a.dx0))
+    assert np.max(np.abs(a.dp - b.dp)) <= 1e-13 * np.max(np.abs(a.dp))
