@@ -1,6 +1,7 @@
 """Issue 33: passive drops of gymnasium models with the file's contacts, eomc vs MuJoCo's mj_step.
 
-Per model (hopper, walker2d, ant, humanoid from the gymnasium wheel), both start at the
+Per model (hopper, walker2d, ant, humanoid from the gymnasium wheel; humanoid again with its
+self-collision pairs, which eomc leaves out by default and MuJoCo has), both start at the
 model's initial state (MuJoCo's qpos0) with no control and run T seconds:
 
 - MuJoCo: ``mj_step`` at the file's time step and integrator (its own contacts, limits,
@@ -27,7 +28,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from common import environment_header, format_table, write_results  # noqa: E402
 
-MODELS = [("hopper", 3.0), ("walker2d", 3.0), ("ant", 3.0), ("humanoid", 3.0)]
+# (file stem, T, row label, eomc's self-collision pairs: MjcfModel(pairs=True))
+MODELS = [("hopper", 3.0, "hopper", None), ("walker2d", 3.0, "walker2d", None), ("ant", 3.0, "ant", None),
+          ("humanoid", 3.0, "humanoid", None), ("humanoid", 3.0, "humanoid, pairs=True", True)]
 
 
 def _touchdown(times, lowest):
@@ -57,13 +60,15 @@ def mujoco_drop(path, T):
     return _touchdown(times, lowest), float(d.xpos[1][2]), deepest, wall, cpu
 
 
-def eomc_drop(path, T, cache):
+def eomc_drop(path, T, cache, pairs=None):
     import eomc
+    from eomc.compiler.mjcf import MjcfModel
     import mujoco
     from eomc.compiler.mjcf.compare import to_mujoco
     from eomc.compiler.mjcf.model import load_mjmodel
     from eomc.compiler.mjcf.treeir import tree_ir
-    model = eomc.compile(str(path), functions=("rhs", "outputs", "jac_x"), cache_dir=cache, progress=False)
+    model = eomc.compile(MjcfModel(Path(path), pairs=pairs) if pairs else str(path),
+                         functions=("rhs", "outputs", "jac_x"), cache_dir=cache, progress=False)
     t0, c0 = time.perf_counter(), time.process_time()
     res = model.simulate(model.initial_state, (0.0, T), method="radau", n_points=int(T * 2000) + 1)
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
@@ -86,16 +91,16 @@ def main():
     with tempfile.TemporaryDirectory(prefix="bench_drops_") as tmp, warnings.catch_warnings():
         warnings.simplefilter("ignore")
         only = [a for a in sys.argv[1:] if not a.startswith("-")]     # model names: only these (not written)
-        for stem, T in MODELS:
+        for stem, T, label, pairs in MODELS:
             if only and stem not in only:
                 continue
             path = folder / f"{stem}.xml"
             td_m, z_m, deep_m, wall_m, cpu_m = mujoco_drop(path, T)
-            td_e, z_e, deep_e, wall_e, cpu_e, points = eomc_drop(path, T, Path(tmp))
-            rows.append([stem, f"{T:g}", str(points), f"{td_m:.4f}", f"{td_e:.4f}", f"{100 * (td_e / td_m - 1):+.1f} %",
+            td_e, z_e, deep_e, wall_e, cpu_e, points = eomc_drop(path, T, Path(tmp), pairs)
+            rows.append([label, f"{T:g}", str(points), f"{td_m:.4f}", f"{td_e:.4f}", f"{100 * (td_e / td_m - 1):+.1f} %",
                          f"{z_m:.4f}", f"{z_e:.4f}", f"{1e3 * (z_e - z_m):+.1f}", f"{1e3 * deep_m:.2f}",
                          f"{1e3 * deep_e:.2f}", f"{wall_m:.2f}/{cpu_m:.2f}", f"{wall_e:.2f}/{cpu_e:.2f}"])
-            csv.append([stem, T, points, td_m, td_e, z_m, z_e, deep_m, deep_e, wall_m, cpu_m, wall_e, cpu_e])
+            csv.append([label, T, points, td_m, td_e, z_m, z_e, deep_m, deep_e, wall_m, cpu_m, wall_e, cpu_e])
             print(" | ".join(rows[-1]), flush=True)
     headers = ["model", "T s", "eomc points", "touch-down MuJoCo s", "touch-down eomc s", "diff", "root z MuJoCo m",
                "root z eomc m", "diff mm", "deepest MuJoCo mm", "deepest eomc mm", "MuJoCo wall/CPU s",

@@ -23,7 +23,7 @@ from .header_cdef import header_cdef
 from .integrators_api import FIXED_STEP, METHOD_IDS, STATUS_NAMES
 from .law_parameters import check_law_parameters
 from .native import extension_library, integrator_library
-from .simulate import _options, failure_message, prepare, resolve_method
+from .simulate import _options, check_quaternions, failure_message, prepare, resolve_method
 
 __all__ = ["rollout", "RolloutResult"]
 
@@ -163,6 +163,7 @@ def rollout(model, x0s, *, dt, t_final=None, steps=None, method="rk4", p=None, t
     # The options and step grid simulate would use (and its checks: jac_x for implicitfast).
     a = prepare(model, X0[0] if n else None, (0.0, float(t_final)), p=P[0, :-1], method=method, dt=float(dt),
                 max_steps=max(100000, nsteps + 10), events=False, switching=False)
+    check_quaternions(model, X0, "x0s")     # every row's (the first one's: prepare)
     ffi, lib = _rollout_ffi(model.ffi)
     t_eval = a["t_eval"] if record == "steps" else np.array([float(t_final)])
     n_eval = t_eval.size if record == "steps" else 0

@@ -322,6 +322,7 @@ def prepare(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6,
                          f"was built without; rebuild with functions including 'jac_x'")
     x0 = _vector(model, start_or_default(model, x0), model.nx, model.state_names, state_defaults(model),
                  "x0 (initial state)")
+    quat = check_quaternions(model, x0, "x0 (initial state)")
     p = model.param_defaults if p is None else p
     p = _vector(model, p, model.nparam, model.param_names, model.param_defaults, "p (parameters)")
     check_law_parameters(model, p)      # the build's refusals, for values changed at run time
@@ -344,7 +345,28 @@ def prepare(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6,
                 r_v=r_v, t_eval=times, rtol=rtol, atol=atol, h0=first_step or 0.0,
                 hmax=max_step or 0.0, max_steps=int(max_steps), project=bool(project),
                 stiff_check=bool(stiff_check), baumgarte=float(baumgarte), pi_beta=float(pi_beta),
-                auto=auto, **extras)
+                auto=auto, **quat, **extras)
+
+
+def check_quaternions(model, x, what):
+    """{} for a model without quaternions, else {"quat": the C int array of their w indices}
+    (eomc_options.quat: the integrators keep them unit), after checking that every
+    quaternion of ``x`` (a state, or rows of states) has a length to normalise: a zero
+    one is no orientation at all (its rhs would be NaN)."""
+    starts = getattr(model, "quaternions", ())
+    if not starts:
+        return {}
+    rows = np.atleast_2d(np.asarray(x, dtype=float))
+    for i in starts:
+        norms = np.linalg.norm(rows[:, i:i + 4], axis=1)
+        bad = np.flatnonzero(~(norms > 1e-150) | ~np.isfinite(norms))
+        if bad.size:
+            names = ", ".join(model.state_names[i:i + 4])
+            row = f" (row {bad[0]})" if rows.shape[0] > 1 else ""
+            raise ValueError(f"{model.name}: {what}{row}: the quaternion ({names}) is "
+                             f"{'zero' if np.isfinite(norms[bad[0]]) else 'not finite'}: it is no "
+                             f"orientation (upright is {model.state_names[i]}=1, the others 0)")
+    return {"quat": model.ffi.new("int[]", [int(i) for i in starts])}
 
 
 def _extras(model, x0, t0, r, events, max_events, K, x_ref, method):
@@ -380,6 +402,8 @@ def _options(ffi, a):
     opt.h0, opt.hmax, opt.max_steps = a["h0"], a["hmax"], a["max_steps"]
     opt.project, opt.stiff_check = int(a["project"]), int(a["stiff_check"])
     opt.baumgarte, opt.pi_beta = a["baumgarte"], a["pi_beta"]
+    if a.get("quat") is not None:       # kept alive by ``a`` for the call
+        opt.nquat, opt.quat = len(a["quat"]), a["quat"]
     return opt
 
 

@@ -58,6 +58,7 @@ FUNCTION_GROUPS = {
     # wᵀ J and (∂²(λᵀ xdot)/∂x²)·v by reverse mode (compiler/emit/reverse.py)
     "vjp": ("A", "b", "kin", "zd", "res", "vj"),
     "hvp": ("A", "b", "kin", "zd", "res", "hr", "ha", "hb"),
+    "hess_id": (),          # recursive formulation only (compiler/emit/reverse.py)
 }
 
 

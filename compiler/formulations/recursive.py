@@ -9,7 +9,7 @@ is emit's default, the same code as Kane's.
 from collections import Counter
 
 from ..emit.formulation import Formulation
-from ..emit.reverse import REVERSE_FUNCTIONS, reverse_body
+from ..emit.reverse import REVERSE_FUNCTIONS, hess_id_body, reverse_body
 from ..ir import count_program
 from ..tree.constrained import jacobian_symbols
 from ..tree.inverse_derivatives import jac_id_body, jac_id_ops
@@ -20,7 +20,7 @@ from ..tree.regressor import PI_NAMES
 
 __all__ = ["Recursive"]
 
-_OWN_COUNTS = ("rhs", "mass_matrix", "forcing", "inverse_dynamics", "jvp", "vjp", "hvp")
+_OWN_COUNTS = ("rhs", "mass_matrix", "forcing", "inverse_dynamics", "jvp", "vjp", "hvp", "hess_id")
 _JACOBIANS = ("jac_x", "jac_r", "jac_p")
 
 
@@ -47,6 +47,8 @@ class Recursive(Formulation):
             return tree_matrix_body(ctx, prog, fn)
         if fn == "jac_id":
             return jac_id_body(ctx, prog, sym.seeds)
+        if fn == "hess_id":
+            return hess_id_body(ctx, prog, sym, nx)
         if fn in REVERSE_FUNCTIONS:
             return reverse_body(fn, ctx, prog, sym, nx, len(layout.p), jacobian_symbols(prog, sym.W, ctx.nu)[1])
         if fn == "jvp":
@@ -68,8 +70,12 @@ class Recursive(Formulation):
         return None
 
     def metadata(self, sym, functions):
+        out = {}
+        if getattr(self.tree, "quaternions", ()):
+            # x indices of each quaternion's w (x, y, z follow): the runtime keeps them unit
+            out["quaternions"] = [int(k) for k in self.tree.quaternions]
         if "regressor" not in functions:
-            return {}
-        return {"regressor_bodies": list(sym.regressor_bodies),
+            return out
+        return {**out, "regressor_bodies": list(sym.regressor_bodies),
                 "regressor_reference": list(sym.regressor_reference),
                 "regressor_parameters": list(PI_NAMES)}

@@ -1,7 +1,8 @@
 """eomc's states <-> MuJoCo's, to check a built MJCF model against ``mj_forward`` (tests, benchmark).
 
 Why a mapping: MuJoCo's ball and free joints carry a unit quaternion (4 coordinates),
-eomc's body-XYZ angles (3); MuJoCo's free-joint linear velocity is in world
+eomc's body-XYZ angles (3) unless built with orientation="quaternion" (then the same
+(w, x, y, z)); MuJoCo's free-joint linear velocity is in world
 components, eomc's in body components.  Hinge and slide coordinates are the same.
 So a state is drawn in eomc's coordinates and mapped to MuJoCo's; eomc's speed
 derivatives are mapped to MuJoCo's qacc: for a free joint with R the body's
@@ -39,6 +40,19 @@ def prepared(m):
     return m
 
 
+def _quaternion(built, iq):
+    """Whether the orientation coordinates at ``iq`` are a quaternion (orientation="quaternion")."""
+    return iq in getattr(built.tree, "quaternions", ())
+
+
+def _rotation(built, q, iq):
+    """The rotation matrix of the orientation coordinates at ``iq`` (angles or quaternion)."""
+    if _quaternion(built, iq):
+        from .treeir import quat_matrix
+        return quat_matrix(q[iq:iq + 4])
+    return _xyz_matrix(*q[iq:iq + 3])
+
+
 def to_mujoco(m, built: MjcfTree, q, u):
     """(qpos, qvel) of eomc's coordinates ``q`` and speeds ``u``."""
     qpos, qvel = np.array(m.qpos0, dtype=float), np.zeros(m.nv)
@@ -47,10 +61,10 @@ def to_mujoco(m, built: MjcfTree, q, u):
         if kind in (2, 3):
             qpos[a], qvel[d] = q[iq], u[iu]
         elif kind == 1:
-            qpos[a:a + 4] = _quat(_xyz_matrix(*q[iq:iq + 3]))
+            qpos[a:a + 4] = _quat(_rotation(built, q, iq))
             qvel[d:d + 3] = u[iu:iu + 3]
         else:
-            R = _xyz_matrix(*q[iq + 3:iq + 6])
+            R = _rotation(built, q, iq + 3)
             qpos[a:a + 3] = q[iq:iq + 3]
             qpos[a + 3:a + 7] = _quat(R)
             qvel[d:d + 3] = R @ u[iu:iu + 3]
@@ -68,12 +82,18 @@ def from_mujoco(m, built: MjcfTree, qpos, qvel):
         if kind in (2, 3):
             q[iq], u[iu] = qpos[a], qvel[d]
         elif kind == 1:
-            q[iq:iq + 3] = _xyz_angles(quat_matrix(qpos[a:a + 4]))
+            if _quaternion(built, iq):
+                q[iq:iq + 4] = np.asarray(qpos[a:a + 4]) / np.linalg.norm(qpos[a:a + 4])
+            else:
+                q[iq:iq + 3] = _xyz_angles(quat_matrix(qpos[a:a + 4]))
             u[iu:iu + 3] = qvel[d:d + 3]
         else:
             R = quat_matrix(qpos[a + 3:a + 7])
             q[iq:iq + 3] = qpos[a:a + 3]
-            q[iq + 3:iq + 6] = _xyz_angles(R)
+            if _quaternion(built, iq + 3):
+                q[iq + 3:iq + 7] = np.asarray(qpos[a + 3:a + 7]) / np.linalg.norm(qpos[a + 3:a + 7])
+            else:
+                q[iq + 3:iq + 6] = _xyz_angles(R)
             u[iu:iu + 3] = R.T @ qvel[d:d + 3]
             u[iu + 3:iu + 6] = qvel[d + 3:d + 6]
     return q, u
@@ -87,7 +107,7 @@ def qacc_of(m, built: MjcfTree, q, u, du):
         n = {0: 6, 1: 3, 2: 1, 3: 1}[kind]
         qacc[d:d + n] = du[iu:iu + n]
         if kind == 0:
-            R = _xyz_matrix(*q[iq + 3:iq + 6])
+            R = _rotation(built, q, iq + 3)
             qacc[d:d + 3] = R @ (du[iu:iu + 3] + np.cross(u[iu + 3:iu + 6], u[iu:iu + 3]))
     return qacc
 

@@ -43,6 +43,14 @@ class MjcfModel:
     # contacts: None = between different kinematic trees (and the world's geoms) and the file's
     # <pair>s; True = also within one tree (self-collisions); False = none
     pairs: bool = None
+    # how ball and free joints turn: "euler" (body-XYZ angles, singular at pitch +-90 deg) or
+    # "quaternion" (MuJoCo's own (w, x, y, z); the integrators keep it unit)
+    orientation: str = "euler"
+
+    def __post_init__(self):
+        if self.orientation not in ("euler", "quaternion"):
+            raise ModelError(f"{self.path}: orientation={self.orientation!r}: choose 'euler' (body XYZ "
+                             f"angles) or 'quaternion'")
 
 
 def is_mjcf_path(model):
@@ -53,20 +61,23 @@ def is_mjcf_model(model):
     return isinstance(model, MjcfModel) or is_mjcf_path(model)
 
 
-def with_ignore(model, name=None, ignore=(), limits=True):
+def with_ignore(model, name=None, ignore=(), limits=True, orientation="euler"):
     """(model, name) for the driver: an MJCF path with ``ignore`` (the CLI's ``--ignore
-    WHAT[,WHAT]``: a string or a sequence) or ``limits=False`` (``--limits off``) becomes an
-    :class:`MjcfModel`; without them the model goes through unchanged."""
+    WHAT[,WHAT]``: a string or a sequence), ``limits=False`` (``--limits off``) or
+    ``orientation="quaternion"`` (``--orientation quaternion``) becomes an :class:`MjcfModel`;
+    without them the model goes through unchanged."""
     if isinstance(ignore, str):
         ignore = [ignore]
     items = tuple(x.strip() for text in (ignore or ()) for x in text.split(",") if x.strip())
     if items and not is_mjcf_path(model):
         raise ModelError(f"--ignore applies to MuJoCo models (.xml), not to {model}")
-    if not items and (limits or not is_mjcf_path(model)):
+    orientation = orientation or "euler"
+    if not items and ((limits and orientation == "euler") or not is_mjcf_path(model)):
         return model, name
     _known(items)
     from eomc.compiler.emit.layout import sanitize_name
-    return MjcfModel(Path(model), ignore=items, limits=limits), name or sanitize_name(Path(model).stem)
+    return (MjcfModel(Path(model), ignore=items, limits=limits, orientation=orientation),
+            name or sanitize_name(Path(model).stem))
 
 
 def load_mjmodel(path):
@@ -314,7 +325,8 @@ def read_model(model, poses=False):
     try:
         built = tree_ir(m, fold=model.fold_parameters, actuators=motors,
                         limits=model.limits and limits_flag and "limits" not in model.ignore,
-                        friction=model.limits and friction_flag and "frictionloss" not in model.ignore)
+                        friction=model.limits and friction_flag and "frictionloss" not in model.ignore,
+                        quaternion=model.orientation == "quaternion")
     except JointLawError as exc:     # the numbers of a joint's limit or friction: its line
         raise ModelFileError(f"<joint>: {exc}", *_where(model.path, "joint", exc.joint)) \
             from None
@@ -392,6 +404,9 @@ def mjcf_formed(read, overrides):
     values = merged_defaults(overrides, read, read.defaults, read.joint_inputs)
     if values.get("initial_state") is None:
         values["initial_state"] = dict(read.initial_state)
+    elif getattr(read.tree, "quaternions", ()):
+        from eomc.compiler.multibody.model import merged_initial_state
+        values = merged_initial_state(values, read)     # the quaternions' start under the caller's
     values["timestep"] = read.timestep       # into the built model's metadata (model.timestep)
     return read, values
 
@@ -487,6 +502,12 @@ def _xyz_angles(R):
             float(np.arctan2(-R[0, 1], R[0, 0])))
 
 
+def _unit(quat):
+    """MuJoCo's quaternion (w, x, y, z) scaled to length 1, as floats."""
+    q = np.asarray(quat, dtype=float)
+    return [float(v) for v in q / np.linalg.norm(q)]
+
+
 def reference_state(m, built):
     """{coordinate name: value}: MuJoCo's qpos0 (where mj_resetData starts: hinge/slide ``ref``, a
     free body where the file puts it) in eomc's coordinates, with each joint coupling's joint1
@@ -498,12 +519,15 @@ def reference_state(m, built):
     qpos0 = coupled_qpos(m)
     for j, kind, iq, _ in built.joints:
         a = int(m.jnt_qposadr[j])
+        quaternion = kind in (0, 1) and iq + (3 if kind == 0 else 0) in built.tree.quaternions
         if kind in (2, 3):
             values = [float(qpos0[a])]
         elif kind == 1:
-            values = list(_xyz_angles(quat_matrix(m.qpos0[a:a + 4])))
+            values = (_unit(m.qpos0[a:a + 4]) if quaternion else
+                      list(_xyz_angles(quat_matrix(m.qpos0[a:a + 4]))))
         else:
-            values = [float(x) for x in m.qpos0[a:a + 3]] + list(_xyz_angles(quat_matrix(m.qpos0[a + 3:a + 7])))
+            values = [float(x) for x in m.qpos0[a:a + 3]] + (
+                _unit(m.qpos0[a + 3:a + 7]) if quaternion else list(_xyz_angles(quat_matrix(m.qpos0[a + 3:a + 7]))))
         for k, v in enumerate(values):
             if v != 0.0:
                 out[str(built.coordinates[iq + k]).replace("(t)", "")] = v

@@ -17,9 +17,9 @@ in the body frame, c the mass centre (``body_ipos``) and c_p the parent's
 
 - hinge: R_PC = R0 Rot(a, q - ref); r = p - c_p + R0 s + R_PC (c - s); S = (a, a × (c - s))
 - slide: R_PC = R0; r = p - c_p + R0 (a (q - ref) + c); S = (0, a)
-- ball: R_PC = R0 Rx Ry Rz (body-XYZ angles, not MuJoCo's quaternion); r as hinge;
-  speeds the body-frame angular velocity (MuJoCo's ball dofs)
-- free (on a world child only): R_PC = Rx Ry Rz; r = (x, y, z) + R_PC c; speeds the
+- ball: R_PC = R0 Rx Ry Rz (body-XYZ angles; with ``quaternion=True`` R0 R(w, x, y, z),
+  MuJoCo's own quaternion); r as hinge; speeds the body-frame angular velocity (MuJoCo's ball dofs)
+- free (on a world child only): R_PC = Rx Ry Rz (or R(w, x, y, z)); r = (x, y, z) + R_PC c; speeds the
   body origin's velocity and the angular velocity, both in body components (MuJoCo:
   the linear velocity in world components -- map the states to compare)
 
@@ -47,7 +47,8 @@ from eomc.compiler.tree.recognize import effective_inertias
 from eomc.compiler.urdf.tree import identifier
 from eomc.compiler.multibody.joints import (Parameters, actuation, cross, lin, rotation_terms, snap, snapped,
                                            times, vec)
-from eomc.compiler.urdf.treeir import floating_kinematics, floating_rotation
+from eomc.compiler.urdf.treeir import (floating_kinematics, floating_rotation, quaternion_kinematics,
+                                       quaternion_rotation)
 
 __all__ = ["MjcfTree", "tree_ir", "quat_matrix"]
 
@@ -94,9 +95,11 @@ def _names(m, kind, count, prefix):
     return out
 
 
-def tree_ir(m, *, fold=False, actuators=None, limits=True, friction=True):
+def tree_ir(m, *, fold=False, actuators=None, limits=True, friction=True, quaternion=False):
     """The :class:`MjcfTree` of a compiled ``mujoco.MjModel`` ``m`` (see the module docstring);
-    ``limits``/``friction``: hinge and slide range limits / frictionloss act (:func:`_law`).
+    ``limits``/``friction``: hinge and slide range limits / frictionloss act (:func:`_law`);
+    ``quaternion``: ball and free joints turn by a quaternion (w, x, y, z) as in MuJoCo's qpos
+    (4 coordinates, no singularity; the integrators keep it unit) instead of body-XYZ angles.
 
     ``m`` must already have passed :func:`eomc.compiler.mjcf.model.check_model`."""
     import mujoco
@@ -126,6 +129,7 @@ def tree_ir(m, *, fold=False, actuators=None, limits=True, friction=True):
     for j, tau in tendon_forces(m, params, joint_names, tendon_names, limits, friction).items():
         drive[j] = drive.get(j, sm.S.Zero) + tau         # fixed tendons' springs, dampers, limits, friction
     bodies, coordinates, speeds, kinematics, loads, joints, owners = [], [], [], [], [], [], []
+    quaternions = []        # each ball/free joint's w coordinate, with quaternion=True
     last = {0: -1}          # MuJoCo body -> index of its mass-carrying tree body (-1: world)
     com = {0: [0, 0, 0]}
     for b in range(1, m.nbody):
@@ -202,11 +206,12 @@ def tree_ir(m, *, fold=False, actuators=None, limits=True, friction=True):
                                        position=position, motion=(0, 0, 0) + tuple(vec(a)), **common))
                 kinematics.append(u)
             elif kind == _BALL:
-                qs = [dynamicsymbols(f"q_{jn}_{x}") for x in ("rx", "ry", "rz")]
+                qs = [dynamicsymbols(f"q_{jn}_{x}") for x in (("qw", "qx", "qy", "qz") if quaternion
+                                                               else ("rx", "ry", "rz"))]
                 us = [dynamicsymbols(f"u_{jn}_{x}") for x in ("wx", "wy", "wz")]
                 coordinates += qs
                 speeds += us
-                Rb = floating_rotation(*qs)
+                Rb = quaternion_rotation(*qs) if quaternion else floating_rotation(*qs)
                 R = sm.Matrix(3, 3, lambda r, k: sum((snap(R0[r, t]) * Rb[t, k] for t in range(3)
                                                       if snap(R0[r, t]) != 0), sm.S.Zero))
                 R0s = times(R0, anchor)
@@ -216,13 +221,17 @@ def tree_ir(m, *, fold=False, actuators=None, limits=True, friction=True):
                 motions = tuple(tuple(e_) + tuple(cross(list(e_), c_s)) for e_ in unit)
                 bodies.append(TreeBody(kind="3-speed", speed=None, rotation=R.T, position=position, motion=None,
                                        speeds=(first, first + 1, first + 2), motions=motions, **common))
-                kinematics += floating_kinematics([0, 0, 0] + qs, [0, 0, 0] + us)[3:]
+                kinematics += (quaternion_kinematics if quaternion else floating_kinematics)(
+                    [0, 0, 0] + qs, [0, 0, 0] + us)[3:]
+                if quaternion:
+                    quaternions.append(qs[0])
             elif kind == _FREE:
-                qs = [dynamicsymbols(f"q_{jn}_{x}") for x in ("x", "y", "z", "rx", "ry", "rz")]
+                qs = [dynamicsymbols(f"q_{jn}_{x}") for x in ("x", "y", "z") + (("qw", "qx", "qy", "qz") if quaternion
+                                                                                else ("rx", "ry", "rz"))]
                 us = [dynamicsymbols(f"u_{jn}_{x}") for x in ("vx", "vy", "vz", "wx", "wy", "wz")]
                 coordinates += qs
                 speeds += us
-                R = floating_rotation(*qs[3:])
+                R = quaternion_rotation(*qs[3:]) if quaternion else floating_rotation(*qs[3:])
                 Rc = [sum((R[r, k] * c[k] for k in range(3) if c[k] != 0), sm.S.Zero) for r in range(3)]
                 position = sm.Matrix([qs[r] + Rc[r] for r in range(3)])
                 unit = [(1, 0, 0), (0, 1, 0), (0, 0, 1)]
@@ -230,7 +239,9 @@ def tree_ir(m, *, fold=False, actuators=None, limits=True, friction=True):
                     tuple(e_) + tuple(cross(list(e_), c)) for e_ in unit)
                 bodies.append(TreeBody(kind="free", speed=None, rotation=R.T, position=position, motion=None,
                                        speeds=tuple(range(first, first + 6)), motions=motions, **common))
-                kinematics += floating_kinematics(qs, us)
+                kinematics += (quaternion_kinematics if quaternion else floating_kinematics)(qs, us)
+                if quaternion:
+                    quaternions.append(qs[3])
                 if common["armature"] and common["armature"][0] != 0:
                     loads.append(_free_armature_load(len(bodies) - 1, common["armature"][0], us, c))
             child = len(bodies) - 1
@@ -269,7 +280,8 @@ def tree_ir(m, *, fold=False, actuators=None, limits=True, friction=True):
         bodies, coordinates, speeds, kinematics, joints, [j1 for _, j1, _ in found] + [t[1] for t in tied])
     bodies = effective_inertias(bodies, coordinates, speeds, kinematics)
     ir = Tree(bodies=tuple(bodies), coordinates=tuple(coordinates), speeds=tuple(speeds),
-              kinematics=tuple(kinematics), gravity=gravity, loads=tuple(loads))
+              kinematics=tuple(kinematics), gravity=gravity, loads=tuple(loads),
+              quaternions=tuple(coordinates.index(w) for w in quaternions))
     if found or tied:
         from eomc.compiler.tree.constrained import attach
         ir = attach(ir, coupling_loops(m, params, found, coordinates, speeds, joints, joint_names, tied))

@@ -27,7 +27,7 @@ from ..emit.poses import PoseSource
 from ..mechanics.formed import StateSizes
 from ..tree.model import Tree
 
-__all__ = ["Model", "Frame", "Collision", "Provenance", "merged_defaults"]
+__all__ = ["Model", "Frame", "Collision", "Provenance", "merged_defaults", "merged_initial_state"]
 
 
 @dataclass(frozen=True)
@@ -158,3 +158,21 @@ def merged_defaults(overrides, formed, defaults, joint_inputs):
         extra = [r for r in formed.inputs if r not in joints]   # the user's own, after the joints'
         result["inputs"] = [r for r in joint_inputs if r in present] + extra
     return result
+
+
+def merged_initial_state(overrides, read):
+    """``overrides`` with the reader's initial state (a quaternion's w = 1) under the caller's:
+    the caller names only what differs (an initial_state without the quaternion still starts
+    upright)."""
+    own = getattr(read, "initial_state", None)
+    if not own:
+        return overrides
+    given = overrides.get("initial_state")
+    if given is not None and not isinstance(given, dict):
+        return overrides          # check_initial_state refuses it, naming what is wrong
+    from sympy.core.function import AppliedUndef
+    merged = dict(own)
+    for key, value in (given or {}).items():     # a dynamic symbol q(t) is the state named q
+        merged[key if isinstance(key, str) else key.func.__name__ if isinstance(key, AppliedUndef)
+               else str(key)] = value
+    return {**overrides, "initial_state": merged}

@@ -29,7 +29,7 @@ import sympy as sm
 
 from eomc.runtime.errors import ModelError
 
-from ..emit.reverse import refuse_reverse, reverse_requests
+from ..emit.reverse import hess_id_requests, refuse_reverse, reverse_requests
 from ..emit.symbolic import TANGENT_MIN_STATES, build_symbolic
 from .algorithms import LoweredBody, Recorder, aba, crba, rnea, velocities
 from .constrained import (accelerations, check_functions, kane_form, kkt_residual, kkt_solve,
@@ -58,6 +58,7 @@ TREE_FUNCTION_GROUPS = {
     # reverse mode (compiler/emit/reverse.py)
     "vjp": ("ud", "Dpiv", "kin", "zd", "sol", "vj"),
     "hvp": ("ud", "Dpiv", "kin", "zd", "sol", "hr", "ha", "hb"),
+    "hess_id": ("tau", "hg"),
 }
 TREE_HELPER_USERS = ()
 
@@ -196,7 +197,7 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
                 more = solve_symbols(len(res))[nu:] + lam
             jacobian = ([(("tres", k), e) for k, e in enumerate(res)]
                         + [(("sol", k), sol[k]) for k in range(nu)])
-        if "inverse_dynamics" in functions and loops is None:
+        if ("inverse_dynamics" in functions or "hess_id" in functions) and loops is None:
             tau = rnea(bodies, rec, UD, gravity, v, c)
             extra += [(("tau", k), tau[k]) for k in range(nu)]
         if "jac_id" in functions:        # d tau / d x (compiler/tree/inverse_derivatives.py)
@@ -232,6 +233,13 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         sym = _with_contact_values(sym, contact_values)
     if regressor:
         sym = replace(sym, regressor_bodies=regressor[0], regressor_reference=regressor[1])
+    if "hess_id" in functions:      # second-order inverse dynamics (compiler/emit/reverse.py)
+        if loops is not None:
+            raise ModelError("hess_id (second-order inverse dynamics) is not generated for a tree "
+                             "closed by constraints")
+        inputs, requests = hess_id_requests(layout, nu, sym.seeds)
+        sym = replace(sym, program=sym.program.with_(inputs=sym.program.inputs + inputs),
+                      derivatives=sym.derivatives + requests)
     if not jacobian:
         return sym
     return _with_jacobians(sym, layout, functions, nq, jacobian, more)

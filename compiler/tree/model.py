@@ -103,6 +103,9 @@ class Tree:
     # the holonomic constraints closing the tree (compiler/tree/constrained.Loops), or None; a
     # field, so a Tree rebuilt with dataclasses.replace (contacts, ...) keeps them
     loops: object = field(default=None, compare=False)
+    # the index into ``coordinates`` of each quaternion's w (x, y, z follow): the integrators
+    # keep these unit (free joints with floating_base="quaternion"); () when there are none
+    quaternions: tuple = ()
 
     @property
     def n(self):

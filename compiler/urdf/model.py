@@ -22,7 +22,7 @@ from pathlib import Path
 
 from eomc.runtime.errors import EomcWarning
 
-from ..multibody.model import merged_defaults
+from ..multibody.model import merged_defaults, merged_initial_state
 
 __all__ = ["is_urdf_path", "is_urdf_model", "UrdfModel", "urdf_overrides", "load_urdf_model",
            "with_options", "read_model", "model_of_robot", "urdf_formed"]
@@ -32,7 +32,7 @@ __all__ = ["is_urdf_path", "is_urdf_model", "UrdfModel", "urdf_overrides", "load
 class UrdfModel:
     """A URDF file with the options of :func:`eomc.compiler.urdf.from_urdf`, not yet read."""
     path: Path
-    floating_base: bool = False
+    floating_base: object = False  # False, True (= "euler": body XYZ angles) or "quaternion"
     fold_parameters: bool = False
     mimic: bool = False
     gravity: float = 9.81
@@ -41,6 +41,10 @@ class UrdfModel:
     allow_nonphysical_inertia: bool = False
     ground: bool = False        # the <collision> geometry touches the plane z = 0 (.collision); also
                                 # contacts=["@ground"] / --ground
+
+    def __post_init__(self):
+        from .tree import floating_base_type
+        floating_base_type(self.floating_base)        # a bad value: a ModelError naming the choices
 
     def options(self):
         return dict(floating_base=self.floating_base, fold_parameters=self.fold_parameters,
@@ -136,6 +140,10 @@ def model_of_robot(robot, tree, model, poses=False):
         c = [_com_symbol(f"c{a}_{s}", v, built.parameters) for a, v in zip("xyz", tree.bodies[owner].com)]
         offset = tuple(snap(float(T[k, 3])) - c[k] for k in range(3))
         frames.append(Frame(link, body_index[owner], rotation, offset, (identifier(link),)))
+    # a quaternion floating base starts upright (w = 1), not at the zero quaternion
+    quaternion = {f"q_{identifier(j.name)}_qw": 1.0 for j in tree.joints if j.type == "floating_quaternion"}
+    if quaternion:
+        extra["initial_state"] = quaternion
     return model_of_tree(built.tree, Provenance("urdf", str(model.path), robot.line), frames=tuple(frames),
                          defaults=dict(built.parameters), joint_inputs=tuple(built.inputs), outputs=outputs,
                          events=events, mechanics=mechanics, refusal=refusal, frame_noun="link",
@@ -195,7 +203,8 @@ def urdf_formed(read, formulation, overrides, formed_system):
         from eomc.compiler.contact.tree import merged_outputs
         if read.outputs or read.events:
             overrides = merged_outputs(overrides, dict(read.outputs), dict(read.events))
-        return read, merged_defaults(overrides, read, read.defaults, read.joint_inputs), None
+        return read, merged_initial_state(merged_defaults(overrides, read, read.defaults, read.joint_inputs),
+                                          read), None
     if read.outputs or read.events:
         from eomc.runtime.errors import ModelError
         raise ModelError(f"{read.source.path}: ground contacts on a URDF robot are lowered by the recursive "

@@ -233,6 +233,11 @@ def _joint(tj, s, parent, child, parent_point, child_point, interframe, axis, ch
         qs = sme.dynamicsymbols(" ".join(f"q_{s}_{c}" for c in ("x", "y", "z", "rx", "ry", "rz")))
         us = sme.dynamicsymbols(" ".join(f"u_{s}_{c}" for c in ("vx", "vy", "vz", "wx", "wy", "wz")))
         return FloatingJoint(tj.name, parent, child, qs, us, **common)
+    if tj.type == "floating_quaternion":
+        from eomc.runtime.errors import ModelError
+        raise ModelError(f"joint {tj.name}: a quaternion floating base (floating_base='quaternion') is "
+                         f"lowered by the recursive formulation only (formulation 'recursive' or 'auto'); "
+                         f"Kane's formulation takes floating_base='euler' (body XYZ angles)")
     if tj.type == "planar":
         qs = sme.dynamicsymbols(" ".join(f"q_{s}_{c}" for c in ("x", "y", "th")))
         us = sme.dynamicsymbols(" ".join(f"u_{s}_{c}" for c in ("vx", "vy", "w")))

@@ -39,13 +39,38 @@ import numpy as np
 
 from eomc.runtime.errors import EomcWarning, ModelFileError
 
-__all__ = ["Body", "TreeJoint", "Tree", "build_tree", "identifier", "coordinate_suffixes", "check_mimics"]
+__all__ = ["Body", "TreeJoint", "Tree", "build_tree", "identifier", "coordinate_suffixes", "check_mimics",
+           "FLOATING_BASES", "floating_base_type"]
 
 MOVING = ("revolute", "continuous", "prismatic", "floating", "planar")
 ROUNDING = 1e-9          # relative to the largest principal moment
 
 COORDINATE_SUFFIXES = {"floating": (("x", "y", "z", "rx", "ry", "rz"), ("vx", "vy", "vz", "wx", "wy", "wz")),
+                       "floating_quaternion": (("x", "y", "z", "qw", "qx", "qy", "qz"),
+                                               ("vx", "vy", "vz", "wx", "wy", "wz")),
                        "planar": (("x", "y", "th"), ("vx", "vy", "w"))}
+
+
+# --floating-base / floating_base=: how the added free joint turns.  "euler" (also True): body
+# XYZ angles, 6 coordinates (singular at pitch +-90 deg); "quaternion": a unit quaternion
+# (w, x, y, z), 7 coordinates, no singularity (the integrators keep it unit).  Both have the
+# same 6 speeds (the joint origin's velocity and the angular velocity, body components).
+FLOATING_BASES = ("euler", "quaternion")
+
+
+def floating_base_type(floating_base):
+    """The TreeJoint type of the free joint ``floating_base`` asks for (None: a fixed base):
+    False/None -> None, True/"euler" -> "floating", "quaternion" -> "floating_quaternion";
+    anything else a ValueError naming the choices."""
+    if floating_base is None or floating_base is False:
+        return None
+    if floating_base is True or floating_base == "euler":
+        return "floating"
+    if floating_base == "quaternion":
+        return "floating_quaternion"
+    from eomc.runtime.errors import ModelError
+    raise ModelError(f"floating_base={floating_base!r}: choose False, True (= 'euler': body XYZ angles) "
+                     f"or 'quaternion'")
 
 
 def coordinate_suffixes(kind):
@@ -337,11 +362,12 @@ def build_tree(robot, floating_base=False, allow_nonphysical_inertia=False):
     # (depth first, joints in file order): ("visit", link, body it is welded into (None:
     # ground), link frame in that body) or ("start", TreeJoint): a moving joint's new body
     stack = []
-    if floating_base:
+    free_type = floating_base_type(floating_base)
+    if free_type:
         if not carries[root]:
             _fail(robot, robot.links[root].line, f"--floating-base: the robot has no mass at all "
                                                  f"(root link '{root}' and everything on it)")
-        stack.append(("start", TreeJoint(f"{root}_floating", robot.links[root].line, "floating", None,
+        stack.append(("start", TreeJoint(f"{root}_floating", robot.links[root].line, free_type, None,
                                          root, np.eye(3), np.zeros(3), np.array([1.0, 0.0, 0.0]))))
     else:
         stack.append(("visit", root, None, np.eye(4)))
@@ -471,7 +497,7 @@ def _motion(joint):
         return np.concatenate([a, np.zeros(3)])[:, None]
     if joint.type == "prismatic":
         return np.concatenate([np.zeros(3), a])[:, None]
-    if joint.type == "floating":
+    if joint.type in ("floating", "floating_quaternion"):
         return np.eye(6)
     # planar: two slides in the plane normal to the axis, a turn about it
     z = a

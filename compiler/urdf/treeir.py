@@ -20,6 +20,7 @@ frame), c the child's and c_p the parent's centre of mass:
 - prismatic: R_PC = R0; r = p - c_p + R0 (a q + c); S = (0, a)
 - floating: R_PC = R0 Rx Ry Rz; r = p - c_p + R0 (x, y, z) + R_PC c; speeds the
   child point's velocity and the angular velocity in child components
+  (floating_quaternion: R_PC = R0 R(w, x, y, z), :func:`quaternion_rotation`; the same speeds)
 - planar: in the frame A = R0 Z (Z turns z onto a): R_PC = A Rz(th) Zᵀ,
   r = p - c_p + A (x, y, 0) + R_PC c; speeds as Pinocchio's planar joint
 
@@ -39,7 +40,8 @@ from ..multibody.joints import (Parameters, actuation, cross, lin, rotation_term
                                z_to)
 from .tree import coordinate_suffixes, identifier
 
-__all__ = ["UrdfTree", "tree_ir", "floating_rotation", "floating_kinematics"]
+__all__ = ["UrdfTree", "tree_ir", "floating_rotation", "floating_kinematics", "quaternion_rotation",
+           "quaternion_kinematics", "free_joint"]
 
 _T = dynamicsymbols._t
 
@@ -79,13 +81,49 @@ def floating_kinematics(q, u):
     return [velocity[0], velocity[1], velocity[2], rate_x, wx * sz + wy * cz, wz - rate_x * sm.sin(q[4])]
 
 
+def quaternion_rotation(w, x, y, z):
+    """R (child components -> parent components) of the quaternion (w, x, y, z), a rotation for
+    any nonzero length: R = I + s [[-(y²+z²), xy-wz, xz+wy], ...] with s = 2/(w²+x²+y²+z²)
+    (the unit-quaternion formula with 2 replaced by 2/|q|²).  Why not assume |q| = 1: an
+    integrator's step leaves |q| off 1 by its error (until the step's end normalises it), a
+    Newton iterate or a caller's x0 by more; this way the rhs is the same at q and at any
+    multiple of it -- the dynamics never sees |q| -- for one division, no sin/cos."""
+    s = 2 / (w ** 2 + x ** 2 + y ** 2 + z ** 2)
+    xx, yy, zz, xy, xz, yz, wx, wy, wz = x * x, y * y, z * z, x * y, x * z, y * z, w * x, w * y, w * z
+    return sm.Matrix([[1 - s * (yy + zz), s * (xy - wz), s * (xz + wy)],
+                      [s * (xy + wz), 1 - s * (xx + zz), s * (yz - wx)],
+                      [s * (xz - wy), s * (yz + wx), 1 - s * (xx + yy)]])
+
+
+def quaternion_kinematics(q, u):
+    """q' of a quaternion free joint, q = (x, y, z, w, qx, qy, qz), u = (v, ω) in body
+    components: position' = R v, and quat' = ½ quat ⊗ (0, ω) (Hamilton product; linear in
+    the quaternion, so its length is constant along exact solutions)."""
+    R = quaternion_rotation(*q[3:])
+    velocity = R * sm.Matrix(u[:3])
+    w, x, y, z = q[3:]
+    a, b, c = u[3:]
+    half = sm.Rational(1, 2)
+    return [velocity[0], velocity[1], velocity[2],
+            -half * (x * a + y * b + z * c), half * (w * a + y * c - z * b),
+            half * (w * b + z * a - x * c), half * (w * c + x * b - y * a)]
+
+
+def free_joint(qs, us, quaternion):
+    """(R, q') of a free joint's coordinates ``qs`` (position, then 3 angles or a
+    quaternion) and body-frame speeds ``us``."""
+    if quaternion:
+        return quaternion_rotation(*qs[3:]), quaternion_kinematics(qs, us)
+    return floating_rotation(*qs[3:]), floating_kinematics(qs, us)
+
+
 def tree_ir(tree, *, fold=False, gravity=9.81, laws=True):
     """The :class:`UrdfTree` of a :class:`.tree.Tree` (see the module docstring); ``laws``: the
     joints' declared limits, damping and friction (:func:`law_torque`) act, else they are ignored."""
     params = Parameters(fold)
     inertias = joint_inertias(tree) if laws else None
     bodies, coordinates, speeds, kinematics, inputs, loads, offsets = [], [], [], [], [], [], []
-    index, coms = {}, {}
+    index, coms, quaternions = {}, {}, []
     for tj in tree.joints:
         body = tree.bodies[tj.child]
         s = identifier(body.name)
@@ -131,8 +169,8 @@ def tree_ir(tree, *, fold=False, gravity=9.81, laws=True):
                                    position=position, motion=motion, **common))
             offsets.append(sm.Matrix([p[r] + R0a[r] for r in range(3)]))
             kinematics.append(us[0])
-        elif tj.type == "floating":
-            Rf = floating_rotation(*qs[3:])
+        elif tj.type in ("floating", "floating_quaternion"):
+            Rf, qdot = free_joint(qs, us, tj.type == "floating_quaternion")
             R = sm.Matrix(3, 3, lambda r, k: sum((snap(R0[r, m]) * Rf[m, k] for m in range(3)
                                                   if snap(R0[r, m]) != 0), sm.S.Zero))
             xyz = times(R0, qs[:3])
@@ -144,7 +182,9 @@ def tree_ir(tree, *, fold=False, gravity=9.81, laws=True):
             bodies.append(TreeBody(kind="free", speed=None, rotation=R.T, position=position, motion=None,
                                    speeds=tuple(range(first, first + 6)), motions=motions, **common))
             offsets.append(sm.Matrix([p[r] + xyz[r] for r in range(3)]))
-            kinematics += floating_kinematics(qs, us)
+            kinematics += qdot
+            if tj.type == "floating_quaternion":
+                quaternions.append(len(coordinates) - 4)
         elif tj.type == "planar":
             Z = snapped(z_to(tj.axis))
             Aj = snapped(R0 @ Z)
@@ -179,7 +219,8 @@ def tree_ir(tree, *, fold=False, gravity=9.81, laws=True):
     # the equations use become parameters
     bodies = effective_inertias(bodies, coordinates, speeds, kinematics)
     ir = Tree(bodies=tuple(bodies), coordinates=tuple(coordinates), speeds=tuple(speeds),
-              kinematics=tuple(kinematics), gravity=sm.Matrix([0, 0, -g]), loads=tuple(loads))
+              kinematics=tuple(kinematics), gravity=sm.Matrix([0, 0, -g]), loads=tuple(loads),
+              quaternions=tuple(quaternions))
     return UrdfTree(ir, tuple(coordinates), tuple(speeds), tuple(kinematics), params.values, inputs, tree,
                     tuple(offsets))
 
@@ -270,7 +311,7 @@ def joint_loads(tree, gravity=9.81):
         P[joint.child] = Pp + Rp @ np.asarray(joint.position, dtype=float)
         body = tree.bodies[joint.child]
         world[joint.child] = (P[joint.child] + R[joint.child] @ np.asarray(body.com, dtype=float), body.mass)
-    floating = any(j.parent is None and j.type == "floating" for j in tree.joints)
+    floating = any(j.parent is None and j.type in ("floating", "floating_quaternion") for j in tree.joints)
     total = sum(m for _, m in world.values())
     children = {}
     for joint in tree.joints:

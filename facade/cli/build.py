@@ -46,12 +46,13 @@ def configure(parser):
 
 def run(args):
     from eomc.compiler.driver import compile
-    from .common import fixed_base_note, with_options
+    from .common import fixed_base_note, floating_base_of, with_options
     if not args.quiet:
         fixed_base_note(args.model, args.floating_base)
-    source, name = with_options(args.model, args.name, floating_base=args.floating_base,
+    source, name = with_options(args.model, args.name, floating_base=floating_base_of(args),
                                 allow_nonphysical_inertia=args.allow_nonphysical_inertia,
-                                limits=args.limits != "off", ignore=args.ignore)
+                                limits=args.limits != "off", ignore=args.ignore,
+                                orientation=getattr(args, "orientation", None))
     model = compile(source, name, functions=args.outputs, fold_parameters=args.fold_parameters,
                     backend=args.backend, cflags=args.cflags, cache_dir=args.cache_dir,
                     output_dir=args.output, progress="quiet" if args.quiet else True, formulation=args.formulation,

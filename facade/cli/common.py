@@ -28,8 +28,12 @@ def add_model_arguments(parser):
 def add_robot_arguments(parser):
     """The options of a robot file (URDF, MJCF), for build, inspect and the model commands."""
     parser.add_argument("--floating-base", action="store_true",
-                        help="URDF: a 6-dof floating joint (position + body XYZ Euler angles) "
-                             "between the world and the root link")
+                        help="URDF: a 6-dof floating joint (position + body XYZ Euler angles, or a "
+                             "quaternion with --orientation quaternion) between the world and the root link")
+    parser.add_argument("--orientation", choices=("euler", "quaternion"), default=None,
+                        help="how free (and MJCF ball) joints' orientation is written: euler (default; "
+                             "body XYZ angles, singular at pitch +-90 deg) or quaternion (w, x, y, z; no "
+                             "singularity, kept unit by the integrators); URDF with --floating-base")
     parser.add_argument("--allow-nonphysical-inertia", action="store_true",
                         help="URDF: build moving links whose principal moments are negative (refused "
                              "by default), with a warning naming each")
@@ -84,13 +88,33 @@ def add_formulation_argument(parser):
                         help=FORMULATION_HELP)
 
 
+def floating_base_of(args):
+    """The floating_base= of the command line: False, True (Euler angles) or "quaternion"
+    (``--floating-base --orientation quaternion``); ``--orientation`` without a free joint to
+    apply to is refused."""
+    floating = bool(getattr(args, "floating_base", False))
+    orientation = getattr(args, "orientation", None)
+    if orientation is None:
+        return floating
+    if not floating:
+        model = str(getattr(args, "model", ""))
+        if not model.lower().endswith(".urdf"):
+            return False      # MJCF: its own free joints (with_options)
+        raise ValueError(f"--orientation {orientation}: a URDF robot has a free joint only with "
+                         f"--floating-base")
+    return "quaternion" if orientation == "quaternion" else True
+
+
 def model_options(args):
     """Keyword arguments of load_model for the options given: a URDF's floating base, a
     formulation other than the default auto (none unless given, so stand-ins of load_model
     stay simple)."""
     options = {}
-    if getattr(args, "floating_base", False):
-        options["floating_base"] = True
+    floating = floating_base_of(args)       # --orientation without a free joint: refused here
+    if floating:
+        options["floating_base"] = floating
+    if getattr(args, "orientation", None) and not str(getattr(args, "model", "")).lower().endswith(".urdf"):
+        options["orientation"] = args.orientation          # an MJCF model's ball and free joints
     if getattr(args, "allow_nonphysical_inertia", False):
         options["allow_nonphysical_inertia"] = True
     if getattr(args, "contact", None):
@@ -107,14 +131,14 @@ def model_options(args):
 
 
 def with_options(model, name=None, *, floating_base=False, allow_nonphysical_inertia=False, limits=True,
-                 ignore=()):
+                 ignore=(), orientation=None):
     """(model, name) for the driver with the command line's model options: an MJCF file's
     (``--ignore``, ``--limits off``: :func:`eomc.compiler.mjcf.model.with_ignore`) or a URDF's
     (:func:`eomc.compiler.urdf.model.with_options`, which refuses URDF flags on anything else)."""
     from eomc.compiler.mjcf.model import is_mjcf_path, with_ignore
     from eomc.compiler.urdf.model import with_options as urdf_options
     if is_mjcf_path(model) and not (floating_base or allow_nonphysical_inertia):
-        return with_ignore(model, name, ignore, limits=limits)
+        return with_ignore(model, name, ignore, limits=limits, orientation=orientation)
     with_ignore(model, name, ignore)        # --ignore on anything but MJCF: says what it applies to
     return urdf_options(model, name, floating_base=floating_base,
                         allow_nonphysical_inertia=allow_nonphysical_inertia, limits=limits)
@@ -131,7 +155,8 @@ def add_frame_argument(parser):
 
 
 def load_model(path, quiet=False, floating_base=False, formulation="auto", frames=None, ignore=(),
-               contacts=None, allow_nonphysical_inertia=False, limits=True, functions=None, check=None):
+               contacts=None, allow_nonphysical_inertia=False, limits=True, functions=None, check=None,
+               orientation=None):
     """A runtime Model from a model file (.py, .urdf, MuJoCo's .xml; compiled) or a built
     directory / json (loaded).  ``ignore``: an MJCF model's ignorable elements (--ignore).
 
@@ -155,10 +180,13 @@ def load_model(path, quiet=False, floating_base=False, formulation="auto", frame
     if path.is_file() and path.suffix.lower() in (".py", ".urdf", ".xml", ".mjcf"):
         if not quiet:
             fixed_base_note(path, floating_base)
-        options = dict(floating_base=bool(floating_base), formulation=formulation, frames=list(frames or ()),
+        options = dict(floating_base=floating_base if floating_base == "quaternion" else bool(floating_base),
+                       formulation=formulation, frames=list(frames or ()),
                        ignore=list(ignore or ()), contacts=list(contacts or ()),
                        allow_nonphysical_inertia=bool(allow_nonphysical_inertia), limits=bool(limits),
                        functions=None if functions is None else list(functions))
+        if orientation:        # only when given: the reuse key of every other build stays as it was
+            options["orientation"] = orientation
         model, key = _reused(path, options, check)
         if model is not None:
             return model
@@ -212,7 +240,8 @@ def _compiled(path, options, key, quiet, check):
     from eomc.compiler.driver import compile as compile_model
     source, name = with_options(str(path), name=None, floating_base=options["floating_base"],
                                 allow_nonphysical_inertia=options["allow_nonphysical_inertia"],
-                                limits=options["limits"], ignore=options["ignore"])
+                                limits=options["limits"], ignore=options["ignore"],
+                                orientation=options.get("orientation"))
     extra = {} if check is None else {"check": check}
     recorded = []
     try:
@@ -377,7 +406,7 @@ def read_checks(args):
     frames = [f for f in (getattr(args, "frame", None) or ()) if f != "com"] if robot else []
     if not (given or x0 or inputs or frames):
         return {}
-    floated = bool(getattr(args, "floating_base", False)) or suffix != ".urdf"
+    floated = bool(floating_base_of(args)) or suffix != ".urdf"
 
     def check(read):
         names = _RunNames.of(read, path.stem)

@@ -38,11 +38,12 @@ def format_report(metadata):
 
 def run(args):
     from eomc.compiler.driver import generate
-    from .common import with_options
+    from .common import floating_base_of, with_options
     from eomc.errors import ModelError
-    source, name = with_options(args.model, args.name, floating_base=args.floating_base,
+    source, name = with_options(args.model, args.name, floating_base=floating_base_of(args),
                                 allow_nonphysical_inertia=args.allow_nonphysical_inertia,
-                                limits=args.limits != "off", ignore=args.ignore)
+                                limits=args.limits != "off", ignore=args.ignore,
+                                orientation=getattr(args, "orientation", None))
     spec, generated = generate(source, name, functions=args.outputs,
                                fold_parameters=args.fold_parameters,
                                progress=False if args.quiet else None, formulation=args.formulation,

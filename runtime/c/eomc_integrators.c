@@ -200,6 +200,8 @@ typedef struct ctx {
     int nswe;                /* of which events (a model call each) */
     int gnew_ok;             /* the events' gnew already holds g at the step's end */
     int sw_cuts;             /* consecutive steps cut at a switching point */
+    int nquat;               /* unit quaternions in x (eomc_options.nquat, .quat) */
+    const int *quat;
 } ctx;
 
 /* ---------------------------------------------------------------- Ctrl-C */
@@ -445,6 +447,7 @@ static int ctx_init(ctx *c, const eomc_model *m, const double *p, int nr,
     c->pj = NULL; c->stab = 0.0; c->fb = NULL; c->fbJ = NULL; c->ev = NULL; c->ev_t = 0.0; c->ev_x = NULL;
     c->abort = 0; c->sigint0 = g_sigint;
     c->nsw = 0; c->nswe = 0; c->gnew_ok = 0; c->sw_cuts = 0;
+    c->nquat = 0; c->quat = NULL;
     c->r = take(pos, (size_t)m->ninput + 1);
     c->mwork = take(pos, m->work_size + 1);
     if (m->ninput > 0) {
@@ -611,6 +614,28 @@ static void lu_solve_c(int n, const eomc_cplx *A, const int *piv, eomc_cplx *b)
         }
         q = c_recip(A[i * n + i]);
         b[i] = (sr * creal(q) - si * cimag(q)) + I * (sr * cimag(q) + si * creal(q));
+    }
+}
+
+/* ---------------------------------------------------- unit quaternions */
+
+/* Each quaternion of x scaled to length 1 (a zero or non-finite one is left for the rhs
+ * to report); f (may be NULL), the derivative at x, gets its quaternion rows scaled by
+ * the same factor: the rhs of a quaternion free joint is independent of the quaternion's
+ * length and linear in it in these rows, so that is f at the normalised x, exactly,
+ * without another rhs call. */
+static void unit_quats(const ctx *c, double *x, double *f)
+{
+    for (int k = 0; k < c->nquat; k++) {
+        int i = c->quat[k];
+        double n2 = x[i] * x[i] + x[i + 1] * x[i + 1] + x[i + 2] * x[i + 2] + x[i + 3] * x[i + 3];
+        double s;
+        if (!(n2 > 0.0) || !isfinite(n2)) continue;
+        s = 1.0 / sqrt(n2);
+        for (int j = 0; j < 4; j++) {
+            x[i + j] *= s;
+            if (f) f[i + j] *= s;
+        }
     }
 }
 
@@ -786,6 +811,7 @@ static int run_rk4(ctx *c, const eomc_options *o, proj *pj, double t0, double t1
             }
         }
         EMIT_UNTIL(ow, tn, hermite(n, hh, (tau - t) / hh, x, k1, x1, k2, row));
+        if (c->nquat) { unit_quats(c, x1, k2); fix_last_row(ow, tn, x1); }
         if (pj->on) {
             if ((s = project_state(c, pj, tn, x1))) return s;
             fix_last_row(ow, tn, x1);
@@ -1055,6 +1081,7 @@ static int run_erk(ctx *c, const erk *tb, const eomc_options *o, proj *pj,
             }
         }
         memcpy(K, K + (size_t)tb->s * n, (size_t)n * sizeof(double));
+        if (c->nquat) { unit_quats(c, ynew, K); fix_last_row(ow, tn, ynew); }
         if (pj->on) {
             if ((s = project_state(c, pj, tn, ynew))) return s;
             fix_last_row(ow, tn, ynew);
@@ -1442,6 +1469,7 @@ static int run_radau(ctx *c, const eomc_options *o, proj *pj, double t0, double 
             }
         }
         EMIT_UNTIL(ow, tn, radau_dense(n, w.Q, w.yold, (tau - t) / hused, row));
+        if (c->nquat) { unit_quats(c, w.ynew, w.fnew); fix_last_row(ow, tn, w.ynew); }
         if (pj->on) {
             if ((s = project_state(c, pj, tn, w.ynew))) return s;
             fix_last_row(ow, tn, w.ynew);
@@ -1922,6 +1950,7 @@ static int fs_accept(void *g, double t, double tn, double *x, const double *slop
         }
     }
     EMIT_UNTIL(ow, tn, hermite(n, hh, (tau - t) / hh, x, slope, x1, slope, row));
+    if (c->nquat) { unit_quats(c, x1, f1); fix_last_row(ow, tn, x1); }
     if (pj->on) {
         if ((s = project_state(c, pj, tn, x1))) return s;
         fix_last_row(ow, tn, x1);
@@ -2029,6 +2058,12 @@ int eomc_integrate_ex(const eomc_model *m, const eomc_options *opt,
         c.stab = opt->baumgarte;
     x = take(&pos, m->nx);
     memcpy(x, x0, (size_t)m->nx * sizeof(double));
+    if (opt->nquat > 0 && opt->quat) {
+        for (int k = 0; k < opt->nquat; k++)
+            if (opt->quat[k] < 0 || opt->quat[k] + 4 > m->nq) s = EOMC_BAD_ARGUMENT;
+        c.nquat = opt->nquat; c.quat = opt->quat;
+        if (s == EOMC_OK) unit_quats(&c, x, NULL);
+    }
     ow.n = n_eval; ow.i = 0; ow.nx = m->nx; ow.t = t_eval; ow.x = x_out;
     if (pj.on) s = project_state(&c, &pj, t0, x);
     if (s == EOMC_OK && ev && (ev->n > 0 || ev->nlin > 0)) {

@@ -57,6 +57,12 @@ typedef struct eomc_options {
     double pi_beta;      /* DOPRI5/DOP853 step control: beta of Hairer's stabilized (PI)
                             control, 0.04 in his DOPRI5; 0 = the classical control that
                             scipy.integrate uses (steps then match scipy's) */
+    int nquat;           /* unit quaternions in x (a free joint's orientation): each accepted
+                            step ends with them normalised (and, at the start, x0's) */
+    const int *quat;     /* nquat x indices into x of each quaternion's w (x, y, z follow).
+                            The model's rhs must not depend on a quaternion's length and be
+                            linear in it in its own rows (eomc's quaternion free joint), so
+                            the step's end derivative is rescaled, not recomputed */
 } eomc_options;
 
 typedef struct eomc_stats {

@@ -7,7 +7,7 @@ eomc and Pinocchio order and parametrize joints differently; :class:`PinRef`
 maps by joint name.  Floating base: eomc's coordinates are position + body XYZ
 Euler angles with body-frame speeds (see eomc.compiler.urdf.joints);
 Pinocchio's are position + quaternion (x, y, z, w) with the same body-frame
-speeds, so speeds, accelerations, forces and the mass matrix compare entry
+speeds (eomc's floating_base="quaternion": position + quaternion (w, x, y, z)), so speeds, accelerations, forces and the mass matrix compare entry
 for entry and only the orientation is converted.
 """
 from importlib.metadata import distribution
@@ -69,7 +69,7 @@ class PinRef:
         k = 0
         for name, kind in joints:
             jid = self.model.getJointId(name)
-            if kind == "floating" and jid >= self.model.njoints:
+            if kind in ("floating", "floating_quaternion") and jid >= self.model.njoints:
                 jid = 1           # eomc's --floating-base joint: Pinocchio's root_joint
             assert jid < self.model.njoints, f"Pinocchio has no joint {name}"
             iq, iv, nv = self.model.idx_qs[jid], self.model.idx_vs[jid], self.model.nvs[jid]
@@ -77,7 +77,7 @@ class PinRef:
             self.iv += list(range(iv, iv + nv))
             if kind in ("revolute", "continuous", "prismatic"):
                 self.actuated += list(range(iv, iv + nv))
-            k += {"floating": 6, "planar": 3}.get(kind, 1)
+            k += {"floating": 6, "floating_quaternion": 7, "planar": 3}.get(kind, 1)
         self.iq = [iq for _, kind, iq in self.parts if kind in ("revolute", "prismatic")]
         assert len(self.iv) == self.model.nv, "eomc and Pinocchio disagree on the number of speeds"
 
@@ -87,6 +87,10 @@ class PinRef:
             if kind == "floating":
                 out[iq:iq + 3] = q[k:k + 3]
                 out[iq + 3:iq + 7] = pin.Quaternion(rotation_xyz(*q[k + 3:k + 6])).coeffs()
+            elif kind == "floating_quaternion":     # eomc (w, x, y, z), Pinocchio (x, y, z, w), unit
+                w, x, y, z = np.asarray(q[k + 3:k + 7], dtype=float) / np.linalg.norm(q[k + 3:k + 7])
+                out[iq:iq + 3] = q[k:k + 3]
+                out[iq + 3:iq + 7] = [x, y, z, w]
             elif kind == "planar":
                 out[iq:iq + 4] = [q[k], q[k + 1], np.cos(q[k + 2]), np.sin(q[k + 2])]
             elif kind == "continuous":

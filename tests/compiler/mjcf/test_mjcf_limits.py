@@ -146,7 +146,9 @@ def test_past_the_limit_compared_with_mujoco(tmp_path):
                    n_points=20001)
     ours_deep, ours_rest = res.x[:, 0].max(), res.x[-1, 0]
     k, e, F = p["limit_k_hinge"], p["limit_e_hinge"], 1.0 * 9.81 * 0.5
-    static = brentq(lambda d: k * d ** 3 / (d + e) ** 2 - F * math.cos(d), 1e-9, 0.5, xtol=1e-15)
+    # the limit only pushes: its force (k d + sqrt((k d)² + (k e/10)²))/2 at rest, times (d/(d+e))²
+    static = brentq(lambda d: (k * d + math.hypot(k * d, k * e / 10)) / 2 * d ** 2 / (d + e) ** 2
+                    - F * math.cos(d), 1e-9, 0.5, xtol=1e-15)
     assert ours_rest == pytest.approx(static, rel=1e-6)
     theirs_deep, theirs_rest = _mujoco_drop(path, 2.0)
     print(f"\ndrop onto a limit: deepest eomc {ours_deep:.4g} MuJoCo {theirs_deep:.4g} rad; "
