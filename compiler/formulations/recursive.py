@@ -9,7 +9,7 @@ is emit's default, the same code as Kane's.
 from collections import Counter
 
 from ..emit.formulation import Formulation
-from ..emit.reverse import REVERSE_FUNCTIONS, hess_id_body, reverse_body
+from ..emit.reverse import REVERSE_FUNCTIONS, hess_id_body, hess_id_ops, reverse_body
 from ..ir import count_program
 from ..tree.constrained import jacobian_symbols
 from ..tree.inverse_derivatives import jac_id_body, jac_id_ops
@@ -20,7 +20,7 @@ from ..tree.regressor import PI_NAMES
 
 __all__ = ["Recursive"]
 
-_OWN_COUNTS = ("rhs", "mass_matrix", "forcing", "inverse_dynamics", "jvp", "vjp", "hvp", "hess_id")
+_OWN_COUNTS = ("rhs", "mass_matrix", "forcing", "inverse_dynamics", "jvp", "vjp", "hvp")
 _JACOBIANS = ("jac_x", "jac_r", "jac_p")
 
 
@@ -59,6 +59,8 @@ class Recursive(Formulation):
         return None
 
     def ops(self, fn, prog, sym, nx, nr, npar, nq, nu, solve_in):
+        if fn == "hess_id":      # the sweep once per row, its tangent once per row and column
+            return hess_id_ops(prog, sym, nx, nu)
         if fn in _OWN_COUNTS and fn not in solve_in:
             c = count_program(prog) if prog is not None else Counter()
             return {k: int(c.get(k, 0)) for k in ("adds", "muls", "divs", "calls")}
