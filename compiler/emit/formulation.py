@@ -54,6 +54,10 @@ class Formulation:
         """Operation counts of ``fn`` when the formulation counts them itself, else None."""
         return None
 
+    def c_helpers(self, name, sym, functions, nq):
+        """Static C functions the formulation's bodies call (emitted once, before them)."""
+        return ""
+
     def metadata(self, sym, functions):
         """What the formulation adds to NAME.json."""
         return {}

@@ -275,6 +275,7 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
     ctx.nz = nx - nq - nu
     with _naming_nonfinite(name, "dynamics helper (the mass matrix and forcing)"):
         helper = dynamics_helper(ctx, low.helper) if low.helper is not None else ""
+    helper = "\n".join(c for c in (helper, formulation.c_helpers(name, sym, fns, nq)) if c)
     rendered, op_counts = [], {}
     for fn in fns:
         prog = low.programs[fn]

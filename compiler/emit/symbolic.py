@@ -80,6 +80,7 @@ class Symbolic:
     solve_in: tuple = ()    # outputs/events that read u' or multipliers: they solve A w = b first
     regressor_bodies: tuple = ()     # column blocks of the regressor (recursive formulation)
     regressor_reference: tuple = ()  # per block: "link frame" or "mass centre"
+    analytic: object = None          # recursive formulation: compiler/tree/analytic.AnalyticPlan
 
 
 def _is_symmetric(A, seed=0):
