@@ -85,7 +85,8 @@ def load_mjmodel(path):
     try:
         import mujoco
     except ImportError:
-        raise ModelError(f"{path}: MJCF models are read by MuJoCo's compiler: pip install 'eomc[mujoco]'") \
+        raise ModelError(f"{path}: MJCF models are read by MuJoCo's compiler: install the mujoco extra "
+                          "(pip install '.[mujoco]' in eomc's clone)") \
             from None
     from .files import check_files
     check_files(path)           # a FIFO or device as the file, an <include> or an asset: refused unopened
