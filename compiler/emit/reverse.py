@@ -30,7 +30,7 @@ from eomc.runtime.errors import ModelError
 from .bodies import (IND, _load_dynamics, _solver_decls, extra_state_rows, needed_assignments,
                      store, temps)
 
-__all__ = ["hess_id_requests", "hess_id_body", "REVERSE_FUNCTIONS", "reverse_symbols", "reverse_requests", "reverse_body",
+__all__ = ["hess_id_requests", "hess_id_body", "hess_id_ops", "REVERSE_FUNCTIONS", "reverse_symbols", "reverse_requests", "reverse_body",
            "refuse_reverse", "reverse_nsolve"]
 
 REVERSE_FUNCTIONS = ("vjp", "hvp")
@@ -268,6 +268,22 @@ def hess_id_body(ctx, program, sym, nx):
               f"{IND * 2}lam[i] = 0.0;", f"{IND}}}",
               f"{IND}return {ctx.name}_finite(out, {nu * nx * nx});"]
     return lines
+
+
+def hess_id_ops(program, sym, nx, nu):
+    """Operation counts of NAME_hess_id as it runs: the prologue once, the row sweep nu times,
+    the column tangent and stores nu·nx times."""
+    from ..ir import count_program
+    lam = reverse_symbols(nx, 0)[0][:nu]
+    st = _stages(program.assignments, [lam, tuple(sym.seeds)], set())
+    c = count_program(program.with_(assignments=tuple(st[0]), results=()))
+    row = count_program(program.with_(assignments=tuple(st[1]), results=()))
+    col = count_program(program.with_(assignments=tuple(st[2]), results=program.select(("hg",)).results))
+    for _ in range(nu):
+        c += row
+    for _ in range(nu * nx):
+        c += col
+    return {k: int(c.get(k, 0)) for k in ("adds", "muls", "divs", "calls")}
 
 
 def _sum(a, b):

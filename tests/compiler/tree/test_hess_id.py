@@ -34,6 +34,8 @@ def test_against_central_differences_of_jac_id(case, tmp_path):
     else:
         system, inputs = build(FLOATING)
         model = _model(system, tmp_path, inputs=inputs)
+    ops = model.metadata["op_counts"]      # counted as the loops run: above first order's
+    assert ops["hess_id"]["muls"] > ops["jac_id"]["muls"] > 0
     rng = np.random.default_rng(3)
     h = 1e-5
     for _ in range(2):
