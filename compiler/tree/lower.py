@@ -31,7 +31,7 @@ from eomc.runtime.errors import ModelError
 
 from ..emit.reverse import hess_id_requests, refuse_reverse, reverse_requests
 from ..emit.symbolic import TANGENT_MIN_STATES, build_symbolic
-from .algorithms import LoweredBody, Recorder, _mat3T, aba, crba, rnea, velocities
+from .algorithms import LoweredBody, Recorder, aba, crba, rnea, velocities
 from .joint_laws import ramp, step
 from .constrained import (accelerations, check_functions, kane_form, kkt_residual, kkt_solve,
                           lower_loops, multiplier_symbols, tree_loops)
@@ -276,7 +276,7 @@ def _contacts(tree, bodies, rec, v, layout, implicit=None):
     returns {placeholder of a contact output or event: its temporary}."""
     if not any(load.frame == "contact" for load in tree.loads):
         return {}
-    from ..contact.tree import lower_contacts
+    from .contacts import lower_contacts
     memo = {}
     return lower_contacts(tree, bodies, rec, v, lambda e, what: _rename(layout, memo, what, None)(e),
                           implicit)
@@ -323,10 +323,10 @@ def _implicit_results(tree, bodies, formed, layout, A, b, implicit, nq, nu):
         motions = ([(body.speed, body.S)] if body.S is not None else list(body.multi or ()))
         if not motions:
             continue
-        R, o = poses.rotation(i), poses.origin(i)
+        o = poses.origin(i)
         for k, S in motions:
-            w = _mat3T(R, S[:3])
-            vo = _mat3T(R, S[3:])
+            w = poses.to_world(i, S[:3])
+            vo = poses.to_world(i, S[3:])
             wxo = _cross(w, o)
             base = at["screw"] + 6 * k
             for a in range(3):
