@@ -10,7 +10,7 @@ back; now a formulation is an object passed in, and a new one is a new subclass
 :class:`Formulation` is Kane's (formed A u' = b, solved numerically by LDLᵀ or LU): its
 lowering is :func:`.symbolic.build_symbolic` and every body is emit's own.  The recursive
 formulation (ABA, RNEA, CRBA over the joint tree) is
-:class:`eomc.compiler.tree.formulation.Recursive`.
+:class:`eomc.compiler.formulations.recursive.Recursive`.
 """
 from .symbolic import FUNCTION_GROUPS, HELPER_USERS, build_symbolic
 

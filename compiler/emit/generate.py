@@ -192,7 +192,7 @@ class Lowered:
     functions: tuple
     programs: dict          # function -> Program (None when the function has no own code)
     helper: object          # Program of the shared NAME_dynamics helper (A, b), or None
-    formulation: Formulation = KANE   # or the recursive one (eomc.compiler.tree.formulation)
+    formulation: Formulation = KANE   # or the recursive one (eomc.compiler.formulations.recursive)
     poses: dict = None          # pose metadata (compiler/emit/poses.py) when poses is generated
 
 

@@ -130,7 +130,7 @@ def _solved_quantities(formed, W):
     t = sm.Symbol("t")
     ud = {s.diff(t): W[i] for i, s in enumerate(formed.speeds)}
     qdd = {q.diff(t, 2): k.diff(t) for q, k in zip(formed.coordinates, formed.kinematics)}
-    sign = -1 if formed.method == "lagrange" else 1
+    sign = -1 if formed.multipliers and formed.method == "lagrange" else 1   # only formed systems have λ
     lam = {m: sign * W[formed.nu + k] for k, m in enumerate(formed.multipliers)}
     return ud, qdd, lam
 

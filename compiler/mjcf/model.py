@@ -310,7 +310,7 @@ def read_model(model, poses=False):
     and geoms.  Nothing after this reads the file."""
     import mujoco
     from eomc.compiler.multibody.model import Frame, Provenance
-    from eomc.compiler.tree.formed import model_of_tree
+    from eomc.compiler.multibody.formed import model_of_tree
     from .treeir import _names, tree_ir
     model = model if isinstance(model, MjcfModel) else MjcfModel(Path(model))
     _known(model.ignore)

@@ -271,7 +271,7 @@ def _contacts(tree, bodies, rec, v, layout):
     returns {placeholder of a contact output or event: its temporary}."""
     if not any(load.frame == "contact" for load in tree.loads):
         return {}
-    from ..contact.tree import lower_contacts
+    from .contacts import lower_contacts
     memo = {}
     return lower_contacts(tree, bodies, rec, v, lambda e, what: _rename(layout, memo, what, None)(e))
 

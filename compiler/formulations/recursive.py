@@ -11,14 +11,14 @@ from collections import Counter
 from ..emit.formulation import Formulation
 from ..emit.reverse import REVERSE_FUNCTIONS, hess_id_body, hess_id_ops, reverse_body
 from ..ir import count_program
-from .analytic import kernel_c
-from .analytic_emit import analytic_body_ops, analytic_jac_id_body, analytic_jac_x_body, has_analytic
-from .constrained import jacobian_symbols
-from .inverse_derivatives import jac_id_body, jac_id_ops
-from .emit import tree_jacobian_body, tree_jacobian_ops, tree_matrix_body, tree_rhs_body
-from .jvp import tree_jvp_body
-from .lower import TREE_FUNCTION_GROUPS, TREE_HELPER_USERS, build_tree_symbolic
-from .regressor import PI_NAMES
+from ..tree.analytic import kernel_c
+from ..tree.analytic_emit import analytic_body_ops, analytic_jac_id_body, analytic_jac_x_body, has_analytic
+from ..tree.constrained import jacobian_symbols
+from ..tree.inverse_derivatives import jac_id_body, jac_id_ops
+from ..tree.emit import tree_jacobian_body, tree_jacobian_ops, tree_matrix_body, tree_rhs_body
+from ..tree.jvp import tree_jvp_body
+from ..tree.lower import TREE_FUNCTION_GROUPS, TREE_HELPER_USERS, build_tree_symbolic
+from ..tree.regressor import PI_NAMES
 
 __all__ = ["Recursive"]
 
