@@ -168,3 +168,22 @@ def consistent_state(model, x0, t=0.0, p=None, r=None, fixed=None, tol=1e-12, ma
         raise ModelError(f"{model.name}: the velocity constraints could not be solved for "
                          f"{', '.join(names[i] for i in free_u)} (residual {np.max(np.abs(g[nh:])):.3g})")
     return x
+
+
+def complete_start(model, x, t=0.0, p=None, r=None, given=()):
+    """A start off the constraints completed on them, for simulate() and the command line
+    alike: first holding the states the user gave and the independent ones, then the given
+    ones only, then the independent ones only (a start naming every state leaves nothing
+    free under the first two). Returns (state, names held); the last attempt's ModelError
+    when none works, for the caller to word in its own terms (x0 or --x0)."""
+    nq, nqu = model.nq, model.nq + model.nu       # extra first-order states are never solved for
+    names = [str(n) for n in model.state_names]
+    independent = names[:nq - model.nhol] + names[nq:nqu - model.nvel] + names[nqu:]
+    tries = [None] if not given else [sorted(set(given) | set(independent)), sorted(set(given)), None]
+    error = None
+    for fixed in tries:
+        try:
+            return consistent_state(model, x, t, p, r, fixed=fixed), (independent if fixed is None else fixed)
+        except ModelError as exc:
+            error = exc
+    raise error

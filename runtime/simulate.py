@@ -779,32 +779,22 @@ def _completed(model, x, t0, p_vec, r_vec, given, hol, vel):
     that leaves too few free), the others solved for; one ConstraintWarning says how far
     off it was and what moved.
     ModelError, with the ways out, when it cannot be completed."""
-    from .consistent import ConstraintWarning, consistent_state
-    nq, nqu = model.nq, model.nq + model.nu
+    from .consistent import ConstraintWarning, complete_start
     names = [str(n) for n in model.state_names]
-    independent = names[:nq - model.nhol] + names[nq:nqu - model.nvel] + names[nqu:]
     given = [names[index_of(k, model.state_names, "state", model.name)] for k in given]
-    # a dict naming every state (zeros for the speeds it did not mean) leaves nothing free
-    # under the first two: the independent states alone are held then
-    tries = [None] if not given else [sorted(set(given) | set(independent)), sorted(set(given)), None]
-    error = None
-    for fixed in tries:
-        try:
-            done = consistent_state(model, x, t0, p_vec, r_vec, fixed=fixed)
-            break
-        except ModelError as exc:
-            error = exc
-    else:
-        held = f"; the states x0 names ({', '.join(given)}) are held" if given else ""
+    try:
+        done, held = complete_start(model, x, t0, p_vec, r_vec, given)
+    except ModelError as error:
+        named = f"; the states x0 names ({', '.join(given)}) are held" if given else ""
         raise ModelError(f"{model.name}: x0 is off the constraints (configuration residual {hol:.3g}, "
-                         f"velocity residual {vel:.3g}) and cannot be completed on them: {error}{held}; "
+                         f"velocity residual {vel:.3g}) and cannot be completed on them: {error}{named}; "
                          f"give a consistent x0 (the dependent coordinates and speeds too), or "
-                         f"consistent=False to run from it as given")
+                         f"consistent=False to run from it as given") from None
     moved = [f"{n} {old:.6g} -> {new:.6g}" for n, old, new in zip(names, x, done) if new != old]
     warnings.warn(ConstraintWarning(
         f"{model.name}: x0 was off the constraints (configuration residual {hol:.3g}, velocity "
         f"residual {vel:.3g}); completed it on them: {', '.join(moved)} (held: "
-        f"{', '.join(fixed if fixed is not None else independent)}; consistent=False runs from x0 "
+        f"{', '.join(held)}; consistent=False runs from x0 "
         f"as given)"), stacklevel=_user_level())
     return done
 

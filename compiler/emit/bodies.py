@@ -417,3 +417,14 @@ def jvp_body(ctx, program, W, seeds, nx, npar, blocks):
     lines.append(f"{IND}if (status != EOMC_OK || k <= 0) return status;")
     lines.append(f"{IND}return {ctx.name}_finite(out, k * {nx});")
     return lines
+
+
+def singular_guard(program, pr):
+    """The line that returns EOMC_SINGULAR_MASS_MATRIX when an articulated inertia the
+    recursion divides by (the program's "Dpiv" results) is not positive: every function
+    built on ABA checks them before its first division. Empty without such results."""
+    pivots = [pr.doprint(e) for k, e in program.results if k[0] == "Dpiv"]
+    if not pivots:
+        return []
+    cond = " || ".join(f"!({d} > 0.0)" for d in pivots)
+    return [f"{IND}if ({cond}) return EOMC_SINGULAR_MASS_MATRIX;"]

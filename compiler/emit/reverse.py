@@ -28,7 +28,7 @@ import sympy as sm
 
 from eomc.runtime.errors import ModelError
 from .bodies import (IND, _load_dynamics, _solver_decls, extra_state_rows, needed_assignments,
-                     store, temps)
+                     singular_guard, store, temps)
 
 __all__ = ["hess_id_requests", "hess_id_body", "hess_id_ops", "REVERSE_FUNCTIONS", "reverse_symbols", "reverse_requests", "reverse_body",
            "refuse_reverse", "reverse_nsolve"]
@@ -125,10 +125,7 @@ class _TreeSolves:
         for j, g in enumerate(self.G):
             pr._names[g] = f"G[{j}]"
         lines = temps(program, pr, stage0)
-        pivots = [pr.doprint(e) for k, e in program.results if k[0] == "Dpiv"]
-        if pivots:
-            lines.append(f"{IND}if ({' || '.join(f'!({d} > 0.0)' for d in pivots)}) "
-                         f"return EOMC_SINGULAR_MASS_MATRIX;")
+        lines += singular_guard(program, pr)
         ud = program.result_exprs("ud")
         return lines + [store(f"w[{j}]", ud[("ud", j)], pr) for j in range(self.ctx.nu)]
 

@@ -12,7 +12,7 @@ from collections import Counter
 
 import sympy as sm
 
-from ..emit.bodies import IND, store, temps, needed_assignments, split_on
+from ..emit.bodies import IND, singular_guard, store, temps, needed_assignments, split_on
 from ..ir.opcount import count_ops
 from .analytic import ANX, analytic_ops, call_lines
 from .emit import _extra_rows
@@ -63,10 +63,7 @@ def analytic_jac_x_body(ctx, program, sym, W, G):
     decls = [f"double w[{nu}];", f"double an[{plan.size}];"]
     lines = [f"{IND}{d}" for d in decls]
     lines += temps(program, pr, before)
-    pivots = [pr.doprint(e) for k, e in program.results if k[0] == "Dpiv"]
-    if pivots:
-        cond = " || ".join(f"!({d} > 0.0)" for d in pivots)
-        lines.append(f"{IND}if ({cond}) return EOMC_SINGULAR_MASS_MATRIX;")
+    lines += singular_guard(program, pr)
     lines += [store(lv, e, pr) for lv, e in stores]
     lines += temps(program, pr, after)
     lines += [store(lv, e, pr) for lv, e in rows]

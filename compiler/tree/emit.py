@@ -8,7 +8,7 @@ from collections import Counter
 
 import sympy as sm
 
-from ..emit.bodies import IND, store, temps, extra_state_rows, needed_assignments, split_on
+from ..emit.bodies import IND, singular_guard, store, temps, extra_state_rows, needed_assignments, split_on
 from ..ir import Names
 from ..ir.opcount import count_ops
 
@@ -22,10 +22,7 @@ def tree_rhs_body(ctx, program):
     margins (D - tol·sum, see algorithms.PIVOT_TOL), so the test is "every margin > 0"."""
     pr = ctx.printer(program)
     lines = temps(program, pr)
-    pivots = [pr.doprint(e) for k, e in program.results if k[0] == "Dpiv"]
-    if pivots:
-        cond = " || ".join(f"!({d} > 0.0)" for d in pivots)
-        lines.append(f"{IND}if ({cond}) return EOMC_SINGULAR_MASS_MATRIX;")
+    lines += singular_guard(program, pr)
     vals = dict(program.results)
     for i in range(ctx.nq):
         lines.append(store(f"xdot[{i}]", vals.get(("kin", i), 0.0), pr))
@@ -236,10 +233,7 @@ def tree_jacobian_body(ctx, program, W, G, seeds, fn, nr):
     decls += [f"double P[{nlive}];"] if nlive else []
     lines = [f"{IND}{d}" for d in decls]
     lines += temps(program, pr, before)
-    pivots = [pr.doprint(e) for k, e in program.results if k[0] == "Dpiv"]
-    if pivots:
-        cond = " || ".join(f"!({d} > 0.0)" for d in pivots)
-        lines.append(f"{IND}if ({cond}) return EOMC_SINGULAR_MASS_MATRIX;")
+    lines += singular_guard(program, pr)
     lines += [store(lv, e, pr) for lv, e in stores if lv.startswith("w[")]
     lines += temps(program, pr, after)
     lines += [store(lv, e, pr) for lv, e in stores if not lv.startswith("w[")]

@@ -131,7 +131,7 @@ def _start(model, x0, given, args, params):
     import numpy as np
 
     from eomc.errors import ModelError
-    from eomc.runtime.consistent import consistent_state, start_residual
+    from eomc.runtime.consistent import complete_start, start_residual
     if model.nhol + model.nvel == 0:
         return x0
     x = np.array([x0[n] for n in model.state_names])
@@ -140,28 +140,19 @@ def _start(model, x0, given, args, params):
     limit = max(1e-8, 10 * args.atol)
     if not args.consistent and hol <= limit and vel <= limit:
         return x0
-    nqu = model.nq + model.nu       # extra first-order states (after q and u) are never solved for
-    independent = (list(model.state_names[:model.nq - model.nhol])
-                   + list(model.state_names[model.nq:nqu - model.nvel]) + list(model.state_names[nqu:]))
-    tries = [None] if not given else [sorted(set(given) | set(independent)), sorted(given)]
-    error = None
-    for fixed in tries:
-        try:
-            done = consistent_state(model, x, args.t0, p, fixed=fixed)
-            break
-        except ModelError as exc:
-            error = exc
-    else:
-        held = f"; the states given with --x0 ({', '.join(sorted(given))}) are held" if given else ""
+    try:
+        done, held = complete_start(model, x, args.t0, p, given=sorted(given))
+    except ModelError as error:
+        named = f"; the states given with --x0 ({', '.join(sorted(given))}) are held" if given else ""
         raise ModelError(f"the start is off the constraints (position residual {hol:.3g}, velocity "
-                         f"residual {vel:.3g}) and cannot be completed on them: {error}{held}; give "
-                         f"a consistent --x0 (the dependent coordinates and speeds too)")
+                         f"residual {vel:.3g}) and cannot be completed on them: {error}{named}; give "
+                         f"a consistent --x0 (the dependent coordinates and speeds too)") from None
     moved = [f"{n}={v:.6g}" for n, v, old in zip(model.state_names, done, x) if v != old]
     flag = ("--consistent" if args.consistent else "--project" if args.project else
             f"the start was off the constraints (position residual {hol:.3g}, velocity residual {vel:.3g})")
     if moved:
         print(f"eomc simulate: note: {flag}: completed the start on the constraints: {', '.join(moved)}"
-              f" (held: {', '.join(fixed) if fixed else ', '.join(independent)})", file=sys.stderr)
+              f" (held: {', '.join(held)})", file=sys.stderr)
     return dict(zip(model.state_names, done.tolist()))
 
 
