@@ -215,10 +215,10 @@ def _kane_formed(spec):
 
 
 # The cost model of auto (issue 31 item 5), in units of one add or multiply of the recursive
-# form.  Fitted to rhs times measured on this project's machine (Xeon, gcc -O2; thread CPU, pinned,
-# interleaved, medians): the n-link cart System at n = 1-4 and the UR10 and Kinova arms
-# (../shared/reports/performance-2026-11-r4.md §3, notes/s2/report-freejoint.md; re-measured in
-# benchmarks/results/auto_choice.md).  Operation counts alone kept Kane's rhs at n = 3-4, UR10 and
+# form.  Fitted to rhs times measured with gcc -O2 (thread CPU, pinned, interleaved, medians) on
+# the n-link cart System at n = 1-4 and the UR10 and Kinova arms on an Intel Xeon
+# (../shared/reports/performance-2026-11-r4.md §3), and checked on an AMD EPYC, where the pick
+# is the faster form on all six (benchmarks/bench_auto_choice.py, results/auto_choice.md).  Operation counts alone kept Kane's rhs at n = 3-4, UR10 and
 # Kinova where it is 8-50 % slower: Kane's equations formed from a System call sin/cos of sums of
 # angles (20 calls at n = 4 against the recursion's 8), and its long, register-hungry straight-line
 # code runs 1.13-1.76x slower per operation than the recursion's.
