@@ -5,7 +5,7 @@ Per model, `eomc build MODEL --outputs rhs --fold-parameters` with ``--formulati
 both rhs, checks they agree on 64 random states, and times them in thread CPU time
 (CLOCK_THREAD_CPUTIME_ID), contestants interleaved round by round, pinned to core 1
 (taskset -c 1), median of the rounds.  The old pick is what auto did before (fewer rhs
-operations), the new one what it does now (eomc.compiler.tree.select.rhs_cost): both computed
+operations), the new one what it does now (eomc.compiler.formulations.select.rhs_cost): both computed
 from the two builds' operation counts, exactly as auto compares them.
 
 Models: the cart System auto sees (benchmarks/tree_models/cart_rel_joints.py, n = 1-4), and
@@ -93,7 +93,7 @@ def build(model, env, form, outdir):
 
 
 def measure(label, model, env, tmp, rounds):
-    from eomc.compiler.tree.select import rhs_cost
+    from eomc.compiler.formulations.select import rhs_cost
     d = tmp / label.replace(" ", "_").replace("=", "")
     d.mkdir()
     metas = {f: build(model, env, f, d) for f in ("kane", "recursive")}

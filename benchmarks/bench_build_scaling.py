@@ -255,7 +255,7 @@ def generated(path, n, functions, formulation="kane"):
     threshold out of reach) and split (no generation cache)."""
     from eomc.compiler.emit import split
     from eomc.compiler.model import model_spec
-    from eomc.compiler.tree.select import generate_formulation
+    from eomc.compiler.formulations.select import generate_formulation
     if n is not None:
         os.environ["EOMC_N_LINKS"] = str(n)
     try:

@@ -94,7 +94,7 @@ def median_time(fn, repeat=3):
 
 
 def to_tree(path, fb):
-    from eomc.compiler.tree.formed import model_of_tree
+    from eomc.compiler.multibody.formed import model_of_tree
     from eomc.compiler.urdf import build_tree, read_urdf
     from eomc.compiler.urdf.treeir import tree_ir
     with warnings.catch_warnings():

@@ -52,6 +52,23 @@ def _arm(directory, tool=True):
     return path
 
 
+def _colliding_arm(directory):
+    """The arm with a box and a sphere colliding on its welded tool0, touching the ground."""
+    from eomc.compiler.urdf.model import UrdfModel
+    path = Path(directory) / "arm_colliding.urdf"
+    path.write_text(_arm(directory).read_text().replace(
+        '<link name="tool0"/>', '<link name="tool0"><collision><origin xyz="0 0 0.3" rpy="0 0.2 0"/><geometry>'
+        '<box size="0.05 0.05 0.1"/></geometry></collision><collision><origin xyz="0.01 0 0.3"/><geometry>'
+        '<sphere radius="0.03"/></geometry></collision></link>'))
+    return UrdfModel(path, ground=True)
+
+
+def _ground_robot(rel):
+    from eomc.compiler.urdf.model import UrdfModel
+    from helpers.robots import robot_path
+    return UrdfModel(robot_path(rel), floating_base=True, limits=False, ground=True)
+
+
 def cases(directory):
     """name -> function returning (model, keyword arguments of eomc.compiler.driver.generate)."""
     import eomc.mechanics as me
@@ -113,6 +130,10 @@ def cases(directory):
         "solo12", True, contacts=[dict(link=f"{leg}_FOOT", radius=0.016, vs=1e-4) for leg in ("FL", "FR", "HL", "HR")],
         formulation="recursive", functions=("rhs", "jac_x", "jac_r", "outputs", "events"))
 
+    # the ground from the file's <collision> geometry (boxes, spheres, meshes; a welded link's too)
+    out["arm_tool0:ground"] = lambda: (_colliding_arm(directory), {"frames": ["tool0"]})
+    out["robot:solo12:ground"] = lambda: (_ground_robot("solo12"), {"functions": ("rhs", "outputs", "events")})
+
     def gym(asset):
         def make():
             import gymnasium
@@ -141,6 +162,8 @@ def run_case(make, directory=""):
             first = (str(exc).splitlines() or [""])[0].replace(str(directory), "<tmp>")
             return {"error": f"{type(exc).__name__}: {first}"}
     metadata = json.dumps(generated.metadata, sort_keys=True, default=str)
+    if directory:     # a message naming a file written to this run's temporary folder
+        metadata = metadata.replace(str(directory), "<tmp>")
     notes = sorted({str(w.message) for w in caught if issubclass(w.category, EomcWarning)})
     return {"c": digest(generated.c_source), "h": digest(generated.header), "cdef": digest(generated.cdef),
             "metadata": digest(metadata), "functions": sorted(generated.metadata.get("functions", [])),

@@ -3,8 +3,9 @@
 Stages, as ``driver.generate`` runs them (docs/architecture.md draws them):
 
     read      model/ (model files, system objects), urdf/, mjcf/ (robot files)  -> multibody.Model
-    derive    tree/ (a System's or a Model's joint tree, the recursions) or
-              mechanics/ (Kane's, Lagrange's methods -> FormedSystem); model/ checks the variables
+    derive    formulations/: recursive (tree/: a System's or a Model's joint tree, the recursions)
+              or Kane's (mechanics/: Kane's, Lagrange's methods -> FormedSystem); model/ checks
+              the variables
     lower     emit/ (C-slot layout, function bodies, solvers) onto ir/ programs
     optimize  passes/ (cse, differentiation, sin/cos sharing, folding, dce, powers)
     emit      emit/ + templates: C99 source, header, cdef, metadata
@@ -12,13 +13,16 @@ Stages, as ``driver.generate`` runs them (docs/architecture.md draws them):
 
 The subpackages:
 
-- ``multibody/``  the format-neutral multibody Model every reader produces (tree, frames, poses)
+- ``formulations/`` the formulations as peers (Kane's is emit's base Formulation, the recursive one
+                  here) and ``auto``'s choice between them on one reading
+- ``multibody/``  the format-neutral multibody Model every reader produces (tree, frames, collision
+                  geometry, poses), and the Model of a joint tree (formed.py); joint formulas
 - ``model/``      read a model file or a system object once; check it (errors as file:line)
 - ``urdf/``       URDF robots: read (lxml), merge fixed links, -> Model (or a SymPy System for Kane)
 - ``mjcf/``       MJCF models through MuJoCo's compiler -> Model; couplings; a MuJoCo oracle
-- ``contact/``    Hunt-Crossley ground contact: the law, SymPy loads, loads on the tree
-- ``tree/``       the joint-tree IR, ABA/RNEA/CRBA and derivatives, loops, frame outputs,
-                  the SymPy System reader and the choice of formulation
+- ``contact/``    Hunt-Crossley ground contact: the law, SymPy loads, loads on the tree, shapes
+- ``tree/``       the joint-tree IR, ABA/RNEA/CRBA and derivatives, loops, body placement
+                  (frame outputs, contacts, a robot's poses), the SymPy System reader
 - ``mechanics/``  Kane's and Lagrange's methods, System, linearizer -> ``FormedSystem``
 - ``emit/``       FormedSystem or tree -> IR programs -> C99 source, header, cdef, metadata
 - ``ir/``         the single-assignment program the optimizer works on

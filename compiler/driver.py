@@ -148,7 +148,7 @@ def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, f
 
     ``formulation``: "auto" (the default: the recursive form where it is cheaper, Kane's
     where it is or where the recursion cannot take the system, with the reason in the
-    metadata's ``formulation_note``; see eomc.compiler.tree.select), "kane" (formed A, b;
+    metadata's ``formulation_note``; see eomc.compiler.formulations.select), "kane" (formed A, b;
     numeric LDLᵀ) or "recursive" (ABA/RNEA/CRBA over the joint tree, eomc.compiler.tree).
     ``frames``: names of frames (URDF links, MJCF or System bodies, "com" for the centre of
     mass) whose pose, velocity and Jacobian become outputs (eomc.compiler.tree.frames).
@@ -158,13 +158,13 @@ def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, f
     With ``use_cache`` the C comes from the generation cache when the formed
     equations and options were seen before (see eomc.compiler.build.gencache).
     """
-    from .tree.select import check_formulation, generate_formulation, tree_digest
+    from .formulations.select import check_formulation, generate_formulation, tree_digest
     from .emit.target import check_target, retarget
     progress = progress if isinstance(progress, Progress) else Progress(progress)
     check_formulation(formulation)
     target = check_target(target)
     if contacts:
-        from .contact.models import with_contact_specs
+        from .model.contacts import with_contact_specs
         system = with_contact_specs(system, contacts)
     try:
         functions = check_functions(functions)

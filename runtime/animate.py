@@ -414,7 +414,8 @@ def animate(res, path=None, *, model, fps=60, trace=None, colors=None, outputs=N
 
 def ffmpeg_path():
     """The ffmpeg that writes MP4: the one on PATH, else the binary the imageio-ffmpeg wheel
-    ships (``pip install "eomc[video]"``); ValueError with that line when there is none."""
+    ships (the video extra: ``pip install ".[video]"`` in eomc's clone); ValueError with that
+    line when there is none."""
     found = shutil.which("ffmpeg")
     if found:
         return found
@@ -422,8 +423,8 @@ def ffmpeg_path():
         import imageio_ffmpeg
         return imageio_ffmpeg.get_ffmpeg_exe()
     except (ImportError, RuntimeError):
-        raise ValueError('writing .mp4 needs ffmpeg: pip install "eomc[video]" (the imageio-ffmpeg wheel '
-                         'ships one), or write a .gif') from None
+        raise ValueError('writing .mp4 needs ffmpeg: install the video extra (pip install ".[video]" in '
+                         "eomc's clone; the imageio-ffmpeg wheel ships one), or write a .gif") from None
 
 
 # The short side of a GIF/MP4 in pixels, at least (a tall robot is not drawn as a sliver).
@@ -448,7 +449,7 @@ def _window_2d(poses, a, b, reach=0.0):
 
 def animate_2d(res, path, *, model, fps=20, trace=None, dpi=80, size=4.0, t_max=None):
     """A 2-D drawing of a planar motion as GIF (Pillow) or MP4 (ffmpeg: on PATH or from the
-    imageio-ffmpeg wheel, the ``eomc[video]`` extra).
+    imageio-ffmpeg wheel, the ``video`` extra).
 
     The view is straight onto the plane the motion keeps; a motion that leaves every
     coordinate plane is refused with the reason.  The picture's short side is at least

@@ -48,6 +48,7 @@ _SIGNATURES = {
     "jvp": "int {n}_jvp(double t, const double *x, const double *p, const double *r, int k, const double *dirs, double *xdot, double *out, double *work);",
     "vjp": "int {n}_vjp(double t, const double *x, const double *p, const double *r, const double *lam, double *xdot, double *gx, double *gp, double *work);",
     "hvp": "int {n}_hvp(double t, const double *x, const double *p, const double *r, const double *lam, const double *v, double *out, double *work);",
+    "hess_id": "int {n}_hess_id(double t, const double *x, const double *udot, const double *p, const double *r, double *out, double *work);",
     "linearize": "int {n}_linearize(double t, const double *x, const double *p, const double *r, double *A, double *B, double *work);",
     "events": "int {n}_events(double t, const double *x, const double *p, const double *r, double *out, double *work);",
     "poses": "int {n}_poses(double t, const double *x, const double *p, const double *r, double *out, double *work);",

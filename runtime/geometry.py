@@ -33,7 +33,7 @@ import numpy as np
 from eomc.runtime.errors import EomcWarning, MissingExtraError
 from eomc.runtime.urdf_scene import load_scene, resolve_filename
 
-__all__ = ["shape", "urdf_visuals", "packed_mesh", "MAX_MESH_FACES"]
+__all__ = ["shape", "urdf_visuals", "urdf_link_transforms", "packed_mesh", "quiet_mesh_loggers", "MAX_MESH_FACES"]
 
 # A mesh with more triangles than this is thinned (vertex clustering) before it is written.
 MAX_MESH_FACES = 20_000
@@ -42,7 +42,7 @@ _IDENTITY = [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.
 
 
 @contextmanager
-def _quiet_mesh_loggers():
+def quiet_mesh_loggers():
     """yourdfpy and trimesh log what they cannot find or read ("Unable to resolve filename:
     ...") straight to stderr; eomc says it once itself (a warning naming the body and the
     file, in :func:`pack_shapes`), so their records below ERROR are dropped meanwhile."""
@@ -80,7 +80,7 @@ def urdf_visuals(tree, urdf=None):
     ``urdf``: the file's :func:`~eomc.runtime.urdf_scene.load_scene` when the caller has it
     (a reader that parsed the file already), else the file is read.
     """
-    with _quiet_mesh_loggers():
+    with quiet_mesh_loggers():
         return _urdf_visuals(tree, urdf if urdf is not None else load_scene(tree.path))
 
 
@@ -191,7 +191,7 @@ def packed_mesh(path, scale=(1.0, 1.0, 1.0), max_faces=MAX_MESH_FACES):
 @lru_cache(maxsize=64)
 def _packed(path, scale, max_faces, size, mtime):
     import trimesh
-    with _quiet_mesh_loggers():
+    with quiet_mesh_loggers():
         loaded = trimesh.load(str(path), force="mesh")   # process: merged vertices, smooth normals
     vertices = np.asarray(loaded.vertices, float) * np.asarray(scale, float)
     faces = np.asarray(loaded.faces, np.int64)

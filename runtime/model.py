@@ -73,6 +73,8 @@ def _cffi_backend(ffi, lib, model_lib, c_model, name, functions):
         fp_jvp = getattr(model_lib, f"{name}_jvp")
         kernels["jvp"] = lambda t, x, p, r, k, dirs, xdot, out, work: fp_jvp(
             t, frombuf("double[]", x), p, r, k, prepare(dirs), prepare(xdot), prepare(out), work)
+    if "hess_id" in functions:     # (t, x, udot, p, r, out, work), as inverse_dynamics
+        kernels["hess_id"] = _inverse_dynamics_kernel(getattr(model_lib, f"{name}_hess_id"), prepare)
     if "vjp" in functions:
         fp_vjp = getattr(model_lib, f"{name}_vjp")
         kernels["vjp"] = lambda t, x, p, r, lam, xdot, gx, gp, work: fp_vjp(
@@ -510,6 +512,21 @@ class Model:
         if status:
             self._fail("jvp", status, t, x, inputs=given)
         return xdot, out
+
+    def hess_id(self, t, x, udot, p=None, r=None):
+        """∂²τ/∂x² of inverse dynamics at given udot, shape (nu, nx, nx): [i, j, k] =
+        ∂²τ_i/∂x_j∂x_k (blocks [:, :nq, :nq] = ∂²τ/∂q², [:, :nq, nq:] = ∂²τ/∂q∂u, ...), by
+        forward over reverse on RNEA.  Recursive formulation, on request ("hess_id")."""
+        given = (p, r)
+        t, x, p, r = self._args(t, x, p, r)
+        udot = self._array(udot, (self.nu,), "udot (speed derivatives)",
+                           self.state_names[self.nq:self.nq + self.nu])
+        kernel = self._kernel("hess_id")
+        out = np.empty((self.nu, self.nx, self.nx))
+        status = kernel(t, x, udot, p, r, out.reshape(-1), self._work()[1])
+        if status:
+            self._fail("hess_id", status, t, x, inputs=given)
+        return out
 
     def vjp(self, t, x, lam, p=None, r=None):
         """(xdot, lamᵀ·∂rhs/∂x, lamᵀ·∂rhs/∂p): the vector-Jacobian products with respect to

@@ -20,6 +20,7 @@ import sympy as sm
 
 from eomc.runtime.version import __version__
 
+from ..mechanics.formed import FormedSystem
 from .cache import get_or_build, hash_key
 from .reuse import compiler_digest
 
@@ -60,7 +61,8 @@ def generation_key(spec, functions, fold_parameters, extra=None):
     formulation and a formed-less System's tree)."""
     d = _Digester()
     f = spec.formed
-    formed = [f.method, f.n_dependent_coordinates, f.n_dependent_speeds] + [
+    kind = f.method if isinstance(f, FormedSystem) else "multibody model"     # formed by, or as read
+    formed = [kind, f.n_dependent_coordinates, f.n_dependent_speeds] + [
         d(getattr(f, k, ())) for k in ("coordinates", "speeds", "kinematics", "dynamics_matrix", "dynamics_rhs",
                                        "multipliers", "holonomic_constraints", "velocity_constraints",
                                        "inputs", "parameters")] + [

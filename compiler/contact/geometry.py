@@ -33,7 +33,7 @@ import sympy as sm
 
 from eomc.runtime.errors import ModelError
 
-__all__ = ["CYLINDER_RIM", "MESH_POINTS", "Shape", "shape_points", "with_shapes", "hull_shortfall"]
+__all__ = ["CYLINDER_RIM", "MESH_POINTS", "Shape", "shape_points", "with_shapes", "hull_shortfall", "law_symbols"]
 
 CYLINDER_RIM = 8
 MESH_POINTS = 32
@@ -127,6 +127,17 @@ def _symbols(name, with_radius, taken):
     return {key: sm.Symbol(f"{key}_{base}", real=True) for key in keys}, base
 
 
+def law_symbols(syms, values, fold, parameters, taken):
+    """{law key: what the generated code uses}: the numbers ``values`` themselves when folded,
+    else the symbols ``syms``, each added to ``parameters`` (symbol -> its value) and ``taken``."""
+    if fold:
+        return {key: sm.Float(values[key], 17) for key in syms}
+    for key, symbol in syms.items():
+        parameters[symbol] = values[key]
+        taken.add(str(symbol))
+    return dict(syms)
+
+
 def with_shapes(built, shapes, com_of, fold=False):
     """(built with the shapes' contacts in its tree's loads and their parameters, outputs,
     events).  ``built``: a reader's tree record (``.tree``, ``.parameters``); ``com_of(i)``:
@@ -168,13 +179,7 @@ def with_shapes(built, shapes, com_of, fold=False):
             raise ModelError(f"{shape.where or shape.name}: contact name {base!r} is used twice")
         seen.add(base)
         values["r"] = radius
-        if fold:
-            params = {key: sm.Float(values[key], 17) for key in syms}
-        else:
-            params = dict(syms)
-            for key, symbol in syms.items():
-                parameters[symbol] = values[key]
-                taken.add(str(symbol))
+        params = law_symbols(syms, values, fold, parameters, taken)
         if "r" not in params:
             params["r"] = sm.S.Zero
         R = np.asarray(shape.rot, dtype=float).reshape(3, 3)

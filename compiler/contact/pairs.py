@@ -28,12 +28,13 @@ regularised Coulomb on the slip v_rel's tangential part), v_rel = v_B(p) - v_A(p
 bodies' material points at p: +F on B at p, -F on A.  Everything is branch-free, so the
 generated code's cost is O(pairs); a pair the filters exclude is never emitted.
 """
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 import sympy as sm
 
-from .law import EXPONENT
+from .law import EXPONENT, _cross, _dot, _pos
+from .tree import LoweredLoad
 
 __all__ = ["PAIR_KINDS", "PairShape", "PairLoad", "pair_supported", "closest_points"]
 
@@ -60,7 +61,7 @@ class PairShape:
 
 
 @dataclass(frozen=True)
-class PairLoad:
+class PairLoad(LoweredLoad):
     """A contact between shapes ``a`` and ``b``: no force of its own until :meth:`lower`.
     ``body`` is b's tree body (never the world: a pair of static shapes is never made)."""
     name: str
@@ -68,10 +69,6 @@ class PairLoad:
     b: PairShape
     params: dict               # "k", "c", "mu", "vs" -> Symbol (or literal when folded)
     margin: float = 0.0
-    frame: str = "contact"
-    moment: sm.Matrix = field(default_factory=lambda: sm.zeros(3, 1))
-    force: sm.Matrix = field(default_factory=lambda: sm.zeros(3, 1))
-    offset: sm.Matrix = field(default_factory=lambda: sm.zeros(3, 1))
 
     @property
     def body(self):
@@ -113,18 +110,6 @@ class PairLoad:
         _apply(self.a, [-x for x in f], p, poses, bodies, rec)
 
 
-def _dot(a, b):
-    return sum((x * y for x, y in zip(a, b)), sm.S.Zero)
-
-
-def _cross(a, b):
-    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-
-
-def _pos(x):
-    return (x + sm.Abs(x)) / 2
-
-
 def _num(x):
     x = float(x)
     return sm.S.Zero if x == 0 else (sm.Integer(int(x)) if x == int(x) and abs(x) < 1e6 else sm.Float(x, 17))
@@ -138,7 +123,7 @@ def _placed(shape, poses, rec, rename):
         centre = off
         axes = [[_num(rot[r, k]) for r in range(3)] for k in range(3)]
     else:
-        R = poses.rotation(shape.body)      # world -> body components
+        R = poses.world_to_body(shape.body)   # world -> body components
         o = poses.origin(shape.body)
         centre = [rec.let(o[k] + sum((R[j][k] * off[j] for j in range(3) if off[j] != 0), sm.S.Zero))
                   for k in range(3)]
@@ -196,7 +181,7 @@ def _point_velocity(shape, p, poses, v, rec):
     if shape.body < 0:
         return [sm.S.Zero] * 3
     i = shape.body
-    R, o = poses.rotation(i), poses.origin(i)
+    R, o = poses.world_to_body(i), poses.origin(i)
     rel = [p[k] - o[k] for k in range(3)]
     rel_b = [rec.let(sum((R[r][k] * rel[k] for k in range(3)), sm.S.Zero)) for r in range(3)]
     w_b, v_b = v[i][:3], v[i][3:]
@@ -209,7 +194,7 @@ def _apply(shape, f, p, poses, bodies, rec):
     if shape.body < 0:
         return
     i = shape.body
-    R, o = poses.rotation(i), poses.origin(i)
+    R, o = poses.world_to_body(i), poses.origin(i)
     f_b = [rec.let(sum((R[r][k] * f[k] for k in range(3)), sm.S.Zero)) for r in range(3)]
     lever = [sum((R[r][k] * (p[k] - o[k]) for k in range(3)), sm.S.Zero) for r in range(3)]
     moment = _cross(lever, f_b)
@@ -235,7 +220,7 @@ def with_pairs(built, specs, fold=False):
     :class:`PairSpec` in its tree's loads and the parameters ``k_``/``c_``/``mu_``/``vs_<name>``."""
     import dataclasses
     from eomc.runtime.errors import ModelError
-    from .geometry import _symbols
+    from .geometry import _symbols, law_symbols
     from .law import check_value
     if not specs:
         return built
@@ -250,13 +235,7 @@ def with_pairs(built, specs, fold=False):
             except ValueError as exc:
                 raise ModelError(str(exc)) from None
         syms, base = _symbols(spec.name, False, taken)
-        if fold:
-            params = {key: sm.Float(values[key], 17) for key in syms}
-        else:
-            params = dict(syms)
-            for key, symbol in syms.items():
-                parameters[symbol] = values[key]
-                taken.add(str(symbol))
+        params = law_symbols(syms, values, fold, parameters, taken)
         a, b = (spec.a, spec.b) if spec.b.body >= 0 else (spec.b, spec.a)     # b moves: the load's body
         loads.append(PairLoad(base, a, b, params, float(spec.margin)))
     new = type(built).__new__(type(built))

@@ -8,12 +8,9 @@ One job: put contact spheres on tree bodies and lower them into the recursion.
 - :func:`with_contacts` turns them into :class:`ContactLoad` entries of the Tree (the
   body, the point from the body's origin, the parameters ``k_<name>``, ...) plus the
   model's contact outputs and events, written as placeholders :class:`ContactValue`.
-- :func:`lower_contacts` (called by :mod:`eomc.compiler.tree.lower`) computes, with
-  the recursion's Recorder, each body's world rotation and origin from its parent's
-  (so a foot's position and velocity are O(depth) named temporaries, never nested
-  SymPy products of the whole chain), the point's world position and velocity from
-  the body's spatial velocity, the law of :mod:`.law`, and adds the force and its
-  moment to the body's external load; the placeholders become those temporaries.
+- :func:`eomc.compiler.tree.contacts.lower_contacts` lowers them into the recursion (the
+  bodies placed along the tree by :mod:`eomc.compiler.tree.placement`, the law of
+  :mod:`.law`); the placeholders become the recursion's temporaries.
 """
 from dataclasses import dataclass, field
 
@@ -21,11 +18,12 @@ import sympy as sm
 
 from eomc.runtime.errors import ModelError
 
-from .law import DEFAULTS, ground_forces
+from .law import DEFAULTS
 from .system import contact_symbols, parameter_defaults, unit_normal
 
 __all__ = ["ContactSpec", "ContactLoad", "ContactValue", "COLLISION_SPHERES", "parse_contact",
-           "collision_spheres", "with_contacts", "lower_contacts", "contact_outputs", "body_com"]
+           "collision_spheres", "link_frame", "with_contacts", "contact_outputs", "body_com",
+           "LoweredLoad"]
 
 # what each contact adds to the outputs (placeholders' kind index) and its event
 OUTPUT_KINDS = ("Fn", "Ftx", "Fty", "Ftz", "depth")
@@ -74,40 +72,36 @@ def parse_contact(text):
 COLLISION_SPHERES = "@collision"     # contacts=[...] entry: every <collision><sphere> of the URDF
 
 
-def collision_spheres(path):
-    """[ContactSpec] of every ``<collision>`` whose geometry is a ``<sphere>`` in the URDF at
-    ``path``: on its link, centred at the collision's origin, of its radius; named
+def collision_spheres(collisions, path):
+    """[ContactSpec] of every ``<collision>`` whose geometry is a ``<sphere>`` among the reader's
+    ``collisions`` (eomc.compiler.multibody.Collision records, in file order; ``path``: the
+    file, for messages): on its link, centred at the collision's origin, of its radius; named
     ``<link>`` (``<link>_<k>`` for the k-th sphere of a link that has several)."""
-    from lxml import etree
-    root = etree.parse(str(path)).getroot()
+    from eomc.runtime.geometry import identifier
+    by_link = {}
+    for col in collisions:
+        if col.geometry != "sphere":
+            continue
+        try:
+            radius = float(col.attribute("radius"))
+        except (TypeError, ValueError):
+            raise ModelError(f"{path}:{col.geometry_line}: link {col.frame!r}: a collision "
+                             f"sphere with a bad radius or origin") from None
+        point = tuple(float(v) for v in (row[3] for row in col.origin[:3]))
+        by_link.setdefault(col.frame, []).append((point, radius))
     out = []
-    for link in root.iter("link"):
-        spheres = []
-        for col in link.findall("collision"):
-            sphere = col.find("geometry/sphere")
-            if sphere is None:
-                continue
-            origin = col.find("origin")
-            xyz = (origin.get("xyz") if origin is not None else None) or "0 0 0"
-            try:
-                point = tuple(float(v) for v in xyz.split())
-                radius = float(sphere.get("radius"))
-            except (TypeError, ValueError):
-                raise ModelError(f"{path}:{sphere.sourceline}: link {link.get('name')!r}: a collision "
-                                 f"sphere with a bad radius or origin") from None
-            spheres.append((point, radius))
+    for link, spheres in by_link.items():
         for k, (point, radius) in enumerate(spheres):
-            from eomc.runtime.geometry import identifier
-            name = identifier(link.get("name")) + (f"_{k}" if len(spheres) > 1 else "")
-            out.append(ContactSpec(link.get("name"), point, radius, name=name))
+            name = identifier(link) + (f"_{k}" if len(spheres) > 1 else "")
+            out.append(ContactSpec(link, point, radius, name=name))
     return out
 
 
-def _expanded(specs, path):
+def _expanded(specs, collisions, path):
     out = []
     for spec in specs:
         if spec.link == COLLISION_SPHERES:
-            found = collision_spheres(path)
+            found = collision_spheres(collisions, path)
             if not found:
                 raise ModelError(f"{path}: contacts {COLLISION_SPHERES}: the robot has no "
                                  f"<collision> with a <sphere> geometry; name the contact links instead")
@@ -135,16 +129,29 @@ def as_spec(item):
 class ContactValue(sm.Function):
     """Placeholder for a contact's computed quantity in outputs and events:
     ContactValue(contact index, kind index into OUTPUT_KINDS); replaced by the
-    recursion's temporaries in :func:`lower_contacts`."""
+    recursion's temporaries in :func:`eomc.compiler.tree.contacts.lower_contacts`."""
     nargs = 2
 
     def _eval_derivative(self, s):       # never differentiated before it is replaced
         return sm.S.Zero
 
 
+@dataclass(frozen=True, kw_only=True)
+class LoweredLoad:
+    """A load of the Tree that computes its force itself when the recursion is lowered
+    (``lower(bodies, rec, v, rename, placement)``, eomc.compiler.tree.contacts): MJCF fluid
+    forces, body-body contact pairs, site tendons.  ``frame == "contact"`` keeps it out of the
+    plain loads, whose moment, force and offset it has as zeros."""
+    frame: str = "contact"
+    moment: sm.Matrix = field(default_factory=lambda: sm.zeros(3, 1))
+    force: sm.Matrix = field(default_factory=lambda: sm.zeros(3, 1))
+    offset: sm.Matrix = field(default_factory=lambda: sm.zeros(3, 1))
+
+
 @dataclass(frozen=True)
 class ContactLoad:
-    """A contact in the Tree's loads: no force of its own until :func:`lower_contacts`."""
+    """A contact in the Tree's loads: no force of its own until it is lowered
+    (:func:`eomc.compiler.tree.contacts.lower_contacts`)."""
     body: int
     name: str
     offset: sm.Matrix                  # sphere centre from the body origin, body frame
@@ -166,9 +173,11 @@ class ContactLoad:
                 + [self.params[k] for k in DEFAULTS] + list(self.normal) + [self.height] + more)
 
 
-def _link_frames(source, link):
+def link_frame(source, link, placements):
     """(body key or "world", 4x4 pose of ``link`` in that body's frame), or None if no such link.
-    A body's own link needs no file reading; a welded one asks the geometry helper."""
+    ``source``: the URDF's merged tree (eomc.compiler.urdf.tree.Tree); ``placements``: the
+    welded links' poses the reader found ({link: (body key or "world", 4x4)},
+    eomc.runtime.geometry.urdf_link_transforms of the document it parsed)."""
     import numpy as np
     from eomc.runtime.geometry import identifier
     for b in source.bodies.values():
@@ -177,8 +186,7 @@ def _link_frames(source, link):
     members = {name for b in source.bodies.values() for name in b.links} | set(source.ground_links)
     if link not in members and link != source.root:
         return None
-    from eomc.runtime.geometry import urdf_link_transforms
-    return urdf_link_transforms(source).get(link)
+    return placements.get(link)
 
 
 def _all_links(source):
@@ -186,20 +194,22 @@ def _all_links(source):
                   | {source.root})
 
 
-def with_contacts(built, contacts, fold=False):
+def with_contacts(built, contacts, collisions, placements, fold=False):
     """(UrdfTree with the contacts in its tree's loads and their parameters, outputs, events).
 
-    ``built``: eomc.compiler.urdf.treeir.UrdfTree.  Errors name the contact and link."""
+    ``built``: eomc.compiler.urdf.treeir.UrdfTree; ``collisions`` and ``placements``: what the
+    reader found (see :func:`collision_spheres`, :func:`link_frame`).  Errors name the
+    contact and link."""
     import numpy as np
     from eomc.runtime.geometry import identifier
-    specs = _expanded([as_spec(c) for c in contacts], built.source.path)
+    specs = _expanded([as_spec(c) for c in contacts], collisions, built.source.path)
     by_body = {b.name: i for i, b in enumerate(built.tree.bodies)}
     bodies_by_key = {identifier(b.name): b for b in built.source.bodies.values()}
     known = _all_links(built.source)
 
     def locate(spec, point):
         link = spec.link
-        found = _link_frames(built.source, link)
+        found = link_frame(built.source, link, placements)
         if found is None:
             raise ModelError(f"contact on link {link!r}: the robot has no such link{_nearest(link, known)} "
                              f"(links: {', '.join(known[:12])}{', ...' if len(known) > 12 else ''})")
@@ -343,92 +353,3 @@ def body_com(built, body_name, values):
 
 def contact_outputs(tree):
     return [ld for ld in tree.loads if isinstance(ld, ContactLoad)]
-
-
-def _mat3(E, v):
-    return [sum((E[i][j] * v[j] for j in range(3)), sm.S.Zero) for i in range(3)]
-
-
-def _mat3T(E, v):
-    return [sum((E[j][i] * v[j] for j in range(3)), sm.S.Zero) for i in range(3)]
-
-
-def _cross(a, b):
-    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-
-
-class WorldPoses:
-    """Each body's world rotation (world -> body components) and origin (world), built
-    from its parent's on demand with the Recorder: O(depth) named entries per body."""
-
-    def __init__(self, bodies, rec):
-        self.bodies, self.rec, self.R, self.p = bodies, rec, {}, {}
-
-    def rotation(self, i):
-        if i not in self.R:
-            b = self.bodies[i]
-            if b.parent < 0:
-                self.R[i] = b.E
-            else:
-                Rp = self.rotation(b.parent)
-                self.R[i] = [[self.rec.let(sum((b.E[r][k] * Rp[k][s] for k in range(3)), sm.S.Zero))
-                              for s in range(3)] for r in range(3)]
-        return self.R[i]
-
-    def origin(self, i):
-        if i not in self.p:
-            b = self.bodies[i]
-            if b.parent < 0:
-                self.p[i] = list(b.r)
-            else:
-                Rp = self.rotation(b.parent)
-                po = self.origin(b.parent)
-                step = _mat3T(Rp, b.r)          # parent components -> world
-                self.p[i] = [self.rec.let(po[k] + step[k]) for k in range(3)]
-        return self.p[i]
-
-
-def lower_contacts(tree, bodies, rec, v, rename):
-    """Add every ContactLoad's force to its body's ``fext`` (LoweredBody, body components
-    about the origin); return {ContactValue placeholder: temporary}.
-
-    ``v``: the bodies' spatial velocities [ω; v_origin] (body components, the recursion's);
-    ``rename(expr, what)``: mechanics symbols -> slot symbols (parameters)."""
-    contacts = contact_outputs(tree)
-    # other velocity-dependent loads lowered here (MJCF fluid forces: eomc.compiler.mjcf.fluid)
-    others = [ld for ld in tree.loads if not isinstance(ld, ContactLoad) and hasattr(ld, "lower")]
-    if not contacts and not others:
-        return {}
-    poses = WorldPoses(bodies, rec)
-    for load in others:
-        load.lower(bodies, rec, v, rename, poses)
-    values = {}
-    for index, load in enumerate(contacts):
-        i = load.body
-        what = f"contact {load.name} on body {tree.bodies[i].name}"
-        off = [rename(x, what) for x in load.offset]
-        params = {k: rename(s, what) for k, s in load.params.items()}
-        R = poses.rotation(i)
-        o = poses.origin(i)
-        if load.shape is not None:      # an ellipsoid: its support point c - A n / sqrt(n A n)
-            n_b = _mat3(R, load.normal)
-            An = [sum((a * x for a, x in zip(row, n_b)), sm.S.Zero) for row in load.shape]
-            s = rec.let(sm.sqrt(sum((x * y for x, y in zip(n_b, An)), sm.S.Zero)))
-            off = [rec.let(off[k] - An[k] / s) for k in range(3)]
-        w_b, v_b = v[i][:3], v[i][3:]
-        vp_b = [v_b[k] + c for k, c in enumerate(_cross(w_b, off))]
-        centre = [rec.let(o[k] + x) for k, x in enumerate(_mat3T(R, off))]
-        velocity = rec.vec(_mat3T(R, vp_b))
-        omega = rec.vec(_mat3T(R, w_b))
-        forces = ground_forces(centre, velocity, omega, params, load.normal, rename(load.height, what),
-                               let=rec.let)
-        f_b = rec.vec(_mat3(R, forces.force))
-        arm_b = _mat3(R, forces.point_offset)
-        lever = [off[k] + arm_b[k] for k in range(3)]
-        n_b = _cross(lever, f_b)
-        old = bodies[i].fext or [0] * 6
-        bodies[i].fext = [old[k] + x for k, x in enumerate(n_b + f_b)]
-        quantities = [forces.normal, *forces.friction, forces.depth]     # OUTPUT_KINDS' order
-        for kind, value in enumerate(quantities):
-            values[ContactValue(index, kind)] = value
-    return values

@@ -192,7 +192,7 @@ class Lowered:
     functions: tuple
     programs: dict          # function -> Program (None when the function has no own code)
     helper: object          # Program of the shared NAME_dynamics helper (A, b), or None
-    formulation: Formulation = KANE   # or the recursive one (eomc.compiler.tree.formulation)
+    formulation: Formulation = KANE   # or the recursive one (eomc.compiler.formulations.recursive)
     poses: dict = None          # pose metadata (compiler/emit/poses.py) when poses is generated
 
 
@@ -275,6 +275,7 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
     ctx.nz = nx - nq - nu
     with _naming_nonfinite(name, "dynamics helper (the mass matrix and forcing)"):
         helper = dynamics_helper(ctx, low.helper) if low.helper is not None else ""
+    helper = "\n".join(c for c in (helper, formulation.c_helpers(name, sym, fns, nq)) if c)
     rendered, op_counts = [], {}
     for fn in fns:
         prog = low.programs[fn]

@@ -16,7 +16,15 @@ operation counts for the metadata.
 from collections import Counter
 from dataclasses import dataclass
 
-__all__ = ["Solver", "minus_terms", "forward_substitution", "ldlt_solver", "ldlt_loop_solver", "choose_ldlt", "dense_lu_code", "dense_lu_ops"]
+import sympy as sm
+
+__all__ = ["PIVOT_TOL", "Solver", "minus_terms", "forward_substitution", "ldlt_solver", "ldlt_loop_solver", "choose_ldlt", "dense_lu_code", "dense_lu_ops"]
+
+
+# The singularity threshold of both formulations: 64·DBL_EPSILON (times the scale), the test
+# the C below makes at run time; the recursive formulation bakes it into its expressions
+# (eomc.compiler.tree.algorithms), which the float target retargets (emit/target.py).
+PIVOT_TOL = sm.Float(2.0 ** -46, 17)       # 64 * DBL_EPSILON, exactly
 
 
 @dataclass(frozen=True)

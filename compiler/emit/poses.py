@@ -27,29 +27,37 @@ import sympy as sm
 
 from eomc.runtime.errors import EomcWarning, ModelError
 
-__all__ = ["PoseSource", "pose_source", "welded_links", "with_poses", "pose_metadata", "pose_digest", "POSE_GROUP"]
+__all__ = ["Shown", "PoseSource", "pose_source", "welded_links", "with_poses", "pose_metadata", "pose_digest", "POSE_GROUP"]
 
 POSE_GROUP = "pose"
 
 
 @dataclass(frozen=True)
-class PoseSource:
-    """What ``NAME_poses`` computes, before lowering (expressions in mechanics symbols).
+class Shown:
+    """What an animation shows, whatever places it: ``frames`` (name first in each entry),
+    ``points`` ((name, ...) each), ``lines``: (i, j) pairs of ``points`` indices drawn as a
+    skeleton; ``defaults``: values for symbols the equations do not contain (a URDF's
+    numbers that only place things); ``geometry``: JSON-ready shapes (see eomc.geometry)."""
+    frames: tuple
+    points: tuple
+    lines: tuple
+    defaults: dict = field(default_factory=dict)
+    geometry: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True, kw_only=True)
+class PoseSource(Shown):
+    """What ``NAME_poses`` computes for a System, before lowering (expressions in mechanics
+    symbols): its own frame and point graphs.
 
     ``frame_edges``: (frame, parent frame or None, parent.dcm(frame)) in breadth-first
     order from the world frame; ``point_edges``: (point, parent point or None, vector
     from the parent) from the origin.  ``frames``: (name, frame, origin point) of each
-    body; ``points``: (name, point); ``lines``: (i, j) pairs of ``points`` indices drawn
-    as a skeleton; ``defaults``: values for symbols the equations do not contain (a URDF's
-    numbers that only place things); ``geometry``: JSON-ready shapes (see eomc.geometry).
+    body; ``points``: (name, point).  (A robot read into a joint tree is placed along the
+    tree instead: eomc.compiler.tree.poses.TreePoseSource.)
     """
-    frames: tuple
-    points: tuple
-    lines: tuple
     frame_edges: tuple
     point_edges: tuple
-    defaults: dict = field(default_factory=dict)
-    geometry: dict = field(default_factory=dict)
 
 
 def _bfs(start, neighbours):
@@ -91,8 +99,8 @@ def _parts(system):
 def pose_source(system, geometry=None, model=None):
     """The :class:`PoseSource` of a mechanics object, or None when it has no bodies to show.
     ``model``: the robot file's :class:`~eomc.compiler.multibody.model.Model` when the object
-    is a URDF robot's System, whose welded links and shapes it carries (else the System's
-    file is read for them)."""
+    is a URDF robot's System, whose welded links and shapes it carries (else they come from
+    the document from_urdf parsed)."""
     from sympy.physics.vector import Point
     if system is None:
         return None
@@ -165,7 +173,7 @@ def pose_source(system, geometry=None, model=None):
         if model is None:
             from eomc.runtime.geometry import urdf_link_transforms, urdf_visuals
             from eomc.runtime.urdf_scene import load_scene
-            loaded = load_scene(urdf.tree.path)
+            loaded = load_scene(urdf.tree.path, getattr(urdf.tree.robot, "xml", None))   # from_urdf's reading
             welds, shapes = urdf_link_transforms(urdf.tree, loaded), urdf_visuals(urdf.tree, loaded)
         else:
             welds, shapes = model.welds, model.shapes
@@ -187,8 +195,8 @@ def pose_source(system, geometry=None, model=None):
         geom = dict(shapes)
     if geometry:
         geom = {**geom, **_checked_geometry(geometry, [n for n, *_ in frames], [n for n, _ in points])}
-    return PoseSource(tuple(frames), tuple(points), tuple(sorted(set(lines))), tuple(frame_edges),
-                      tuple(point_edges), defaults, geom)
+    return PoseSource(tuple(frames), tuple(points), tuple(sorted(set(lines))), defaults, geom,
+                      frame_edges=tuple(frame_edges), point_edges=tuple(point_edges))
 
 
 def welded_links(welds, frames, N, origin):
@@ -243,6 +251,8 @@ def pose_digest(source):
     """Everything of ``source`` that shapes the generated code, for the generation cache key."""
     if source is None:
         return None
+    if hasattr(source, "digest"):
+        return source.digest()
     out = [str([n for n, *_ in source.frames]), str([n for n, _ in source.points]), str(source.lines),
            str(sorted(source.geometry.items()))]
     for f, parent, dcm in source.frame_edges:
@@ -272,18 +282,26 @@ class _Let:
         return hit
 
 
-def _lowering(source, layout, let):
-    """(rotation(frame), position(point)) in slot symbols, memoized; None where unmappable."""
-    memo, frames, points = {}, {}, {}
+def _slot(source, layout):
+    """expr -> the program's symbols: the source's default values for symbols the model does
+    not have, then the layout (a ModelError where a symbol is none of the model's)."""
+    memo = {}
     defaults = {s: sm.Float(v) for s, v in source.defaults.items() if s not in layout.subs}
-    frame_edge = {f: (parent, dcm) for f, parent, dcm in source.frame_edges}
-    point_edge = {p: (parent, vec) for p, parent, vec in source.point_edges}
 
     def slot(e, what):
         e = sm.sympify(e)
         if defaults:
             e = e.xreplace(defaults)
         return layout.apply(e, what, memo)
+    return slot
+
+
+def _lowering(source, slot, let):
+    """(frame(k) -> (R, p) or None, point(k) -> p or None) of a System's frame graphs in slot
+    symbols, memoized; None where unmappable."""
+    frames, points = {}, {}
+    frame_edge = {f: (parent, dcm) for f, parent, dcm in source.frame_edges}
+    point_edge = {p: (parent, vec) for p, parent, vec in source.point_edges}
 
     def rotation(f):
         if f not in frames:
@@ -327,7 +345,27 @@ def _lowering(source, layout, let):
                     out = [out[i] + sum((R[i][k] * c[k] for k in range(3)), sm.S.Zero) for i in range(3)]
                 points[p] = [let(v) for v in out]
         return points[p]
-    return rotation, position
+
+    def frame(k):
+        _, f, at = source.frames[k]
+        R, r = rotation(f), position(at)
+        return None if R is None or r is None else (R, r)
+    return frame, lambda k: position(source.points[k][1])
+
+
+def _tree_lowering(source, slot, let):
+    """As :func:`_lowering` for a robot's :class:`~eomc.compiler.tree.poses.TreePoseSource`
+    (its own placement along the tree); None where unmappable."""
+    frame_at, point_at = source.placer(slot, let)
+
+    def guarded(place):
+        def call(k):
+            try:
+                return place(k)
+            except ModelError:
+                return None
+        return call
+    return guarded(frame_at), guarded(point_at)
 
 
 def with_poses(sym, source, layout):
@@ -339,17 +377,19 @@ def with_poses(sym, source, layout):
     """
     program = sym.program
     let = _Let(program.ntemp)
-    rotation, position = _lowering(source, layout, let)
+    lowering = _tree_lowering if hasattr(source, "placer") else _lowering
+    frame_at, point_at = lowering(source, _slot(source, layout), let)
     values, frames, points, dropped, kept = [], [], [], [], {}
-    for name, frame, at in source.frames:
-        R, r = rotation(frame), position(at)
-        if R is None or r is None:
+    for k, (name, *_) in enumerate(source.frames):
+        placed = frame_at(k)
+        if placed is None:
             dropped.append(name)
             continue
+        R, r = placed
         values += list(r) + [R[i][j] for i in range(3) for j in range(3)]
         frames.append(name)
-    for i, (name, p) in enumerate(source.points):
-        r = position(p)
+    for i, (name, _) in enumerate(source.points):
+        r = point_at(i)
         if r is None:
             dropped.append(name)
             continue

@@ -30,7 +30,7 @@ from eomc.runtime.errors import ModelError
 from .bodies import (IND, _load_dynamics, _solver_decls, extra_state_rows, needed_assignments,
                      store, temps)
 
-__all__ = ["REVERSE_FUNCTIONS", "reverse_symbols", "reverse_requests", "reverse_body",
+__all__ = ["hess_id_requests", "hess_id_body", "hess_id_ops", "REVERSE_FUNCTIONS", "reverse_symbols", "reverse_requests", "reverse_body",
            "refuse_reverse", "reverse_nsolve"]
 
 REVERSE_FUNCTIONS = ("vjp", "hvp")
@@ -232,6 +232,58 @@ def _hvp(ctx, program, pr, solves, st, nx, nq, nu, nw):
         lines.append(store(f"out[{k}]", _sum(a, b), pr))
     lines.append(f"{IND}return {ctx.name}_finite(out, {nx});")
     return lines
+
+
+def hess_id_requests(layout, nu, seeds):
+    """(extra inputs, requests) of hess_id: a reverse sweep of Σ e_i·τ_i over x, then its
+    tangent along a unit state direction; the C loops i over τ's rows and k over columns."""
+    x = tuple(layout.x)
+    lam = reverse_symbols(len(x), 0)[0][:nu]
+    return lam, (({("tau", i): lam[i] for i in range(nu)}, x, "hg0"),
+                 ("hg0", dict(zip(x, seeds)), "hg"))
+
+
+def hess_id_body(ctx, program, sym, nx):
+    """NAME_hess_id: out[(i nx + j) nx + k] = ∂²τ_i/∂x_j∂x_k.  Per row i one reverse sweep
+    (weights e_i), per column k its tangent (seed e_k): nu·nx tangents of a sweep, O(n²)
+    calls of O(n) code, the code written once."""
+    nu = ctx.nu
+    lam = reverse_symbols(nx, 0)[0][:nu]
+    pr = ctx.printer(program)
+    for j, s in enumerate(lam):
+        pr._names[s] = f"lam[{j}]"
+    st = _stages(program.assignments, [lam, tuple(sym.seeds)], set())
+    hg = program.result_exprs("hg")
+    lines = [f"{IND}double lam[{nu}];", f"{IND}double dx[{nx}];", f"{IND}int i, k;"]
+    lines += temps(program, pr, st[0])
+    lines += [f"{IND}for (i = 0; i < {nu}; i++) lam[i] = 0.0;",
+              f"{IND}for (k = 0; k < {nx}; k++) dx[k] = 0.0;",
+              f"{IND}for (i = 0; i < {nu}; i++) {{", f"{IND * 2}lam[i] = 1.0;", f"{IND * 2}{{"]
+    lines += [IND * 2 + x for x in temps(program, pr, st[1])]
+    lines += [f"{IND * 3}for (k = 0; k < {nx}; k++) {{", f"{IND * 4}dx[k] = 1.0;", f"{IND * 4}{{"]
+    lines += [IND * 4 + x for x in temps(program, pr, st[2])]
+    lines += [IND * 4 + store(f"out[((size_t)i * {nx} + {j}) * {nx} + k]", hg.get(("hg", j), sm.S.Zero), pr)
+              for j in range(nx)]
+    lines += [f"{IND * 4}}}", f"{IND * 4}dx[k] = 0.0;", f"{IND * 3}}}", f"{IND * 2}}}",
+              f"{IND * 2}lam[i] = 0.0;", f"{IND}}}",
+              f"{IND}return {ctx.name}_finite(out, {nu * nx * nx});"]
+    return lines
+
+
+def hess_id_ops(program, sym, nx, nu):
+    """Operation counts of NAME_hess_id as it runs: the prologue once, the row sweep nu times,
+    the column tangent and stores nu·nx times."""
+    from ..ir import count_program
+    lam = reverse_symbols(nx, 0)[0][:nu]
+    st = _stages(program.assignments, [lam, tuple(sym.seeds)], set())
+    c = count_program(program.with_(assignments=tuple(st[0]), results=()))
+    row = count_program(program.with_(assignments=tuple(st[1]), results=()))
+    col = count_program(program.with_(assignments=tuple(st[2]), results=program.select(("hg",)).results))
+    for _ in range(nu):
+        c += row
+    for _ in range(nu * nx):
+        c += col
+    return {k: int(c.get(k, 0)) for k in ("adds", "muls", "divs", "calls")}
 
 
 def _sum(a, b):

@@ -32,6 +32,9 @@ SIGNATURES = {
                    ("double *", "work")),
     # (∂²(lamᵀ·rhs)/∂x²)·v, forward over reverse
     "hvp": _RHS + (("const double *", "lam"), ("const double *", "v"), ("double *", "out"), ("double *", "work")),
+    # ∂²τ/∂x² of inverse dynamics at given udot, nu x nx x nx row-major (recursive formulation)
+    "hess_id": (("double", "t"), ("const double *", "x"), ("const double *", "udot"),
+                ("const double *", "p"), ("const double *", "r"), ("double *", "out"), ("double *", "work")),
     "linearize": _RHS + (("double *", "A"), ("double *", "B"), ("double *", "work")),
     "events": _RHS + (("double *", "out"), ("double *", "work")),
     # body frames' positions and rotations, named points' positions (compiler/emit/poses.py)
@@ -40,10 +43,10 @@ SIGNATURES = {
 
 FUNCTION_ORDER = ("rhs", "jac_x", "jac_r", "jac_p", "mass_matrix", "forcing", "inverse_dynamics",
                   "outputs", "constraints", "constraints_jac", "linearize", "events", "poses", "regressor",
-                  "jvp", "jac_id", "vjp", "hvp")
+                  "jvp", "jac_id", "vjp", "hvp", "hess_id")
 
 # Generated only on request (``functions`` naming them), not by default.
-ON_REQUEST = ("jac_p", "regressor", "jvp", "jac_id", "vjp", "hvp")
+ON_REQUEST = ("jac_p", "regressor", "jvp", "jac_id", "vjp", "hvp", "hess_id")
 
 # eomc_model fields holding function pointers (the rest are exported only).
 STRUCT_FIELDS = ("rhs", "jac_x", "jac_r", "mass_matrix", "forcing", "outputs",

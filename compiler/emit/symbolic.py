@@ -58,6 +58,7 @@ FUNCTION_GROUPS = {
     # wᵀ J and (∂²(λᵀ xdot)/∂x²)·v by reverse mode (compiler/emit/reverse.py)
     "vjp": ("A", "b", "kin", "zd", "res", "vj"),
     "hvp": ("A", "b", "kin", "zd", "res", "hr", "ha", "hb"),
+    "hess_id": (),          # recursive formulation only (compiler/emit/reverse.py)
 }
 
 
@@ -79,6 +80,7 @@ class Symbolic:
     solve_in: tuple = ()    # outputs/events that read u' or multipliers: they solve A w = b first
     regressor_bodies: tuple = ()     # column blocks of the regressor (recursive formulation)
     regressor_reference: tuple = ()  # per block: "link frame" or "mass centre"
+    analytic: object = None          # recursive formulation: compiler/tree/analytic.AnalyticPlan
 
 
 def _is_symmetric(A, seed=0):
@@ -128,7 +130,7 @@ def _solved_quantities(formed, W):
     t = sm.Symbol("t")
     ud = {s.diff(t): W[i] for i, s in enumerate(formed.speeds)}
     qdd = {q.diff(t, 2): k.diff(t) for q, k in zip(formed.coordinates, formed.kinematics)}
-    sign = -1 if formed.method == "lagrange" else 1
+    sign = -1 if formed.multipliers and formed.method == "lagrange" else 1   # only formed systems have λ
     lam = {m: sign * W[formed.nu + k] for k, m in enumerate(formed.multipliers)}
     return ud, qdd, lam
 

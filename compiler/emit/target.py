@@ -65,10 +65,10 @@ def _pivot_literals():
     """Double pivot tolerances baked into expressions as literals -> their float values.
 
     The recursive formulation's singularity test is ``D_i > 2^-46 * sum(D)`` (64 DBL_EPSILON,
-    compiler/tree/algorithms.PIVOT_TOL), printed as a number; in float the same test needs
+    PIVOT_TOL of compiler/emit/linsolve.py), printed as a number; in float the same test needs
     64 FLT_EPSILON = 2^-17, or it would pass pivots that are rounding noise.
     """
-    from ..tree.algorithms import PIVOT_TOL
+    from .linsolve import PIVOT_TOL
     return {repr(float(PIVOT_TOL)): repr(64 * FLT_EPSILON)}
 
 

@@ -18,11 +18,29 @@ from dataclasses import dataclass
 
 import sympy as sm
 
-__all__ = ["FormedSystem"]
+__all__ = ["FormedSystem", "StateSizes"]
+
+
+class StateSizes:
+    """nq, nu, nz of a record with ``coordinates``, ``speeds`` and ``extra_states``: the
+    formed equations (:class:`FormedSystem`) and the multibody model as read
+    (eomc.compiler.multibody.Model) both state x = [q; u; z]."""
+
+    @property
+    def nq(self):
+        return len(self.coordinates)
+
+    @property
+    def nu(self):
+        return len(self.speeds)
+
+    @property
+    def nz(self):
+        return len(self.extra_states)
 
 
 @dataclass(frozen=True)
-class FormedSystem:
+class FormedSystem(StateSizes):
     method: str                      # "kane" or "lagrange"
     coordinates: tuple               # q: independent first, then dependent
     speeds: tuple                    # u: independent first, then dependent (Lagrange: the q')
@@ -38,15 +56,3 @@ class FormedSystem:
     parameters: tuple                # constant symbols, sorted by name
     extra_states: tuple = ()         # z: extra first-order states (dynamic symbols), after q and u
     extra_rhs: tuple = ()            # z' = extra_rhs, one expression per extra state
-
-    @property
-    def nq(self):
-        return len(self.coordinates)
-
-    @property
-    def nu(self):
-        return len(self.speeds)
-
-    @property
-    def nz(self):
-        return len(self.extra_states)

@@ -40,7 +40,6 @@ The mapping to eomc's law, per geom (the *documented rule*; the README quotes it
 - vs (the friction's regularisation speed): eomc's default, 0.01 m/s: MuJoCo's friction is
   a soft constraint with no such speed.
 """
-import math
 import warnings
 from dataclasses import dataclass
 
@@ -48,9 +47,10 @@ import numpy as np
 
 from eomc.runtime.errors import EomcWarning
 
+from ..contact.mujoco_law import MINVAL, law_parameters, resting_depth  # noqa: F401 -- this module's rule, public here
+
 __all__ = ["GroundGeom", "ground_geoms", "law_parameters", "resting_depth", "GEOM_KINDS"]
 
-MINVAL = 1e-15                 # mjMINVAL
 GEOM_KINDS = {0: "plane", 1: "hfield", 2: "sphere", 3: "capsule", 4: "ellipsoid", 5: "cylinder", 6: "box",
               7: "mesh", 8: "sdf"}
 TOUCHING = ("sphere", "capsule", "ellipsoid", "cylinder", "box", "mesh")
@@ -73,62 +73,6 @@ class GroundGeom:
     c: float
     mu: float
     plane: str                 # the plane geom's name
-
-
-def _impedance(solimp, r):
-    """MuJoCo's d(r) (mju_impedance-like: solimp = d0, dmax, width, midpoint, power)."""
-    d0, dmax, width, mid, power = (float(x) for x in solimp[:5])
-    d0, dmax = min(max(d0, 1e-4), 0.9999), min(max(dmax, 1e-4), 0.9999)
-    if width <= MINVAL or d0 == dmax:
-        return 0.5 * (d0 + dmax)
-    x = min(abs(r) / width, 1.0)
-    if x >= 1.0:
-        return dmax
-    power = max(power, 1.0)
-    if power == 1:
-        y = x
-    elif x <= mid:
-        y = x ** power / mid ** (power - 1)
-    else:
-        y = 1 - (1 - x) ** power / (1 - mid) ** (power - 1)
-    return d0 + y * (dmax - d0)
-
-
-def resting_depth(solref, solimp, g, timestep=None):
-    """(δ_ref, damping ratio z): MuJoCo's penetration of a contact at rest under gravity ``g``
-    and the ratio of its damping (see the module docstring)."""
-    tc, z = float(solref[0]), float(solref[1])
-    dmax = min(max(float(solimp[1]), 1e-4), 0.9999)
-    if tc > 0 and timestep:
-        tc = max(tc, 2.0 * timestep)
-    r = 1e-3
-    for _ in range(200):
-        d = _impedance(solimp, r)
-        if tc > 0:
-            k = d / (dmax * tc * z) ** 2 if z > 0 else d / (dmax * tc) ** 2
-        else:
-            k = d * -tc / dmax ** 2
-        new = (1 - d) * g / (d * k)
-        if abs(new - r) <= 1e-15 + 1e-12 * r:
-            r = new
-            break
-        r = 0.5 * (r + new)
-    if tc > 0:
-        ratio = z if z > 0 else 1.0
-    else:
-        ratio = (-z / dmax) / (2.0 * math.sqrt(-tc / dmax ** 2)) if tc < 0 and z < 0 else 1.0
-    return r, ratio
-
-
-def law_parameters(solref, solimp, friction, condim, g, weight, timestep=None):
-    """(k, c, mu) of eomc's law for MuJoCo's contact parameters (the module docstring's rule);
-    ``weight`` (N) is what the geom carries when it alone holds its robot."""
-    depth, ratio = resting_depth(solref, solimp, g, timestep)
-    k = weight / depth ** 1.5
-    omega = math.sqrt(1.5 * g / depth)
-    c = 2.0 * ratio * omega / (1.5 * g)
-    mu = 0.0 if condim == 1 else float(friction[0])
-    return k, c, mu
 
 
 def _mix(m, g1, g2):

@@ -15,10 +15,12 @@ applied at the mass centre.  ``fluid_density`` and ``fluid_viscosity`` are param
 inertia, not the inertia parameters).  A geom that asks for MuJoCo's ellipsoid model
 (``fluidshape="ellipsoid"``) is refused by :func:`eomc.compiler.mjcf.model.check_model`.
 """
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 import sympy as sm
+
+from ..contact.tree import LoweredLoad
 
 __all__ = ["FluidLoad", "with_fluid", "box_sides"]
 
@@ -33,7 +35,7 @@ def box_sides(inertia, mass):
 
 
 @dataclass(frozen=True)
-class FluidLoad:
+class FluidLoad(LoweredLoad):
     """A body's fluid force, computed in :func:`lower` from its velocity (lowered beside the
     ground contacts: ``frame == "contact"`` keeps it out of the plain loads)."""
     body: int
@@ -43,10 +45,6 @@ class FluidLoad:
     density: object                     # Symbol (or number when folded)
     viscosity: object
     wind: tuple                         # world
-    frame: str = "contact"
-    moment: sm.Matrix = field(default_factory=lambda: sm.zeros(3, 1))
-    force: sm.Matrix = field(default_factory=lambda: sm.zeros(3, 1))
-    offset: sm.Matrix = field(default_factory=lambda: sm.zeros(3, 1))
 
     @property
     def exprs(self):
@@ -64,7 +62,7 @@ class FluidLoad:
             return [rec.let(sum((A[k][r] * vec[k] for k in range(3)), sm.S.Zero)) for r in range(3)]
         w_b, v_b = v[i][:3], list(v[i][3:])
         if any(self.wind):
-            R = poses.rotation(i)     # world -> body components
+            R = poses.world_to_body(i)     # world -> body components (eomc.compiler.tree.placement)
             wind_b = [sum((R[r][k] * sm.Float(self.wind[k], 17) for k in range(3) if self.wind[k]), sm.S.Zero)
                       for r in range(3)]
             v_b = [v_b[r] - wind_b[r] for r in range(3)]

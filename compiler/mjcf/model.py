@@ -85,7 +85,8 @@ def load_mjmodel(path):
     try:
         import mujoco
     except ImportError:
-        raise ModelError(f"{path}: MJCF models are read by MuJoCo's compiler: pip install 'eomc[mujoco]'") \
+        raise ModelError(f"{path}: MJCF models are read by MuJoCo's compiler: install the mujoco extra "
+                          "(pip install '.[mujoco]' in eomc's clone)") \
             from None
     from .files import check_files
     check_files(path)           # a FIFO or device as the file, an <include> or an asset: refused unopened
@@ -309,7 +310,7 @@ def read_model(model, poses=False):
     and geoms.  Nothing after this reads the file."""
     import mujoco
     from eomc.compiler.multibody.model import Frame, Provenance
-    from eomc.compiler.tree.formed import model_of_tree
+    from eomc.compiler.multibody.formed import model_of_tree
     from .treeir import _names, tree_ir
     model = model if isinstance(model, MjcfModel) else MjcfModel(Path(model))
     _known(model.ignore)

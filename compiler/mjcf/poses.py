@@ -25,31 +25,23 @@ __all__ = ["mjcf_pose_source", "mjcf_geometry"]
 
 
 def mjcf_pose_source(built, m):
-    """The PoseSource of an :class:`~.treeir.MjcfTree` ``built`` read from the MjModel ``m``."""
-    from sympy.physics.vector import Point, ReferenceFrame, Vector
-    from eomc.compiler.emit.poses import PoseSource
-    N, O = ReferenceFrame("N"), Point("O")
-    frame_edges, point_edges = [(N, None, None)], [(O, None, None)]
-    frames, points, lines = [], [("O", O)], []
-    placed = []            # per tree body: (frame, mass-centre point)
+    """The poses (eomc.compiler.tree.poses.TreePoseSource) of an :class:`~.treeir.MjcfTree`
+    ``built`` read from the MjModel ``m``: each MuJoCo body's frame its tree body's origin
+    (the mass centre) less the mass-centre offset, in the body's axes."""
+    from eomc.compiler.tree.poses import TreePoseSource
+    frames, points, lines = [], [("O", None)], []
     shown = {0: 0}         # MuJoCo body -> index into points of its frame origin (0: the world's O)
-    for body, owner in zip(built.tree.bodies, built.owners):
-        F, C = ReferenceFrame(f"F_{body.name}"), Point(f"C_{body.name}")
-        pframe, ppoint = (N, O) if body.parent < 0 else placed[body.parent]
-        frame_edges.append((F, pframe, body.rotation.T))
-        point_edges.append((C, ppoint, Vector([(body.position, pframe)])))
-        placed.append((F, C))
+    for i, (body, owner) in enumerate(zip(built.tree.bodies, built.owners)):
         if owner is None:
             continue
         b, c = owner
-        L = Point(f"L_{body.name}")
-        point_edges.append((L, C, Vector([(sm.Matrix([-sm.sympify(x) for x in c]), F)])))
-        frames.append((body.name, F, L))
-        points.append((body.name, L))
+        frames.append((body.name, i, None, tuple(-sm.sympify(x) for x in c)))
+        points.append((body.name, len(frames) - 1))
         shown[b] = len(points) - 1
         lines.append((shown[int(m.body_parentid[b])], len(points) - 1))
-    return PoseSource(tuple(frames), tuple(points), tuple(lines), tuple(frame_edges), tuple(point_edges),
-                      dict(built.parameters), mjcf_geometry(built, m))
+    steps = tuple(tuple(body.position) for body in built.tree.bodies)
+    return TreePoseSource(tuple(frames), tuple(points), tuple(lines), dict(built.parameters), mjcf_geometry(built, m),
+                          tree=built.tree, steps=steps)
 
 
 def _transform(R, p):

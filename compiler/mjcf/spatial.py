@@ -14,10 +14,11 @@ Lowered with the contacts (``frame == "contact"``: the sites' world positions an
 come from the same recursion) by :meth:`SiteTendonLoad.lower`.  Wrapping tendons (spheres,
 cylinders) and pulleys are refused by the model check, naming the tendon and its line.
 """
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
-import numpy as np
 import sympy as sm
+
+from ..contact.tree import LoweredLoad
 
 __all__ = ["is_site_tendon", "SiteTendonLoad", "with_site_tendons"]
 
@@ -31,17 +32,13 @@ def is_site_tendon(m, t):
 
 
 @dataclass(frozen=True)
-class SiteTendonLoad:
+class SiteTendonLoad(LoweredLoad):
     """A site tendon's tension on the bodies its sites are fixed in (no force until :meth:`lower`)."""
     name: str
     sites: tuple               # ((tree body or -1 for the world, offset from its origin: 3 exprs), ...)
     tension: object            # τ as a SymPy expression of the placeholders ``length``, ``speed``
     length: sm.Symbol
     speed: sm.Symbol
-    frame: str = "contact"
-    moment: sm.Matrix = field(default_factory=lambda: sm.zeros(3, 1))
-    force: sm.Matrix = field(default_factory=lambda: sm.zeros(3, 1))
-    offset: sm.Matrix = field(default_factory=lambda: sm.zeros(3, 1))
 
     @property
     def body(self):
@@ -65,7 +62,7 @@ class SiteTendonLoad:
                 points.append(off)
                 velocities.append([sm.S.Zero] * 3)
                 continue
-            R, o = poses.rotation(b), poses.origin(b)
+            R, o = poses.world_to_body(b), poses.origin(b)
             points.append([rec.let(o[k] + sum((R[j][k] * off[j] for j in range(3)), sm.S.Zero)) for k in range(3)])
             w, vb = v[b][:3], v[b][3:]
             vp = [vb[k] + c for k, c in enumerate(_cross(w, off))]
@@ -96,7 +93,7 @@ def _apply(site, f, p, poses, bodies, rec):
     b, _ = site
     if b < 0:
         return
-    R, o = poses.rotation(b), poses.origin(b)
+    R, o = poses.world_to_body(b), poses.origin(b)
     f_b = [rec.let(sum((R[r][k] * f[k] for k in range(3)), sm.S.Zero)) for r in range(3)]
     lever = [sum((R[r][k] * (p[k] - o[k]) for k in range(3)), sm.S.Zero) for r in range(3)]
     old = bodies[b].fext or [0] * 6
@@ -110,7 +107,7 @@ def with_site_tendons(built, m, fold=False, limits=True, friction=True):
     import mujoco
     from eomc.compiler.contact.tree import body_com
     from eomc.compiler.multibody.joints import Parameters
-    from eomc.compiler.tree.joint_laws import JointLaw, joint_torque, ramp
+    from .tendon import tendon_force
     from .treeir import _names
     tendons = [t for t in range(m.ntendon) if is_site_tendon(m, t)]
     if not tendons:
@@ -123,31 +120,7 @@ def with_site_tendons(built, m, fold=False, limits=True, friction=True):
         raw, tn = names[t]
         name = f"tendon_{tn}"
         L, V = sm.Symbol(f"_L_{tn}"), sm.Symbol(f"_V_{tn}")
-        tau = sm.S.Zero
-        if m.tendon_stiffness[t]:
-            k = params(f"k_{name}", float(m.tendon_stiffness[t]))
-            low, high = (float(x) for x in m.tendon_lengthspring[t])
-            if low == high:
-                tau += -k * (L - params(f"L0_{name}", low))
-            else:
-                tau += -k * (ramp(L - params(f"L0hi_{name}", high)) - ramp(params(f"L0lo_{name}", low) - L))
-        if m.tendon_damping[t]:
-            tau += -params(f"d_{name}", float(m.tendon_damping[t])) * V
-        lower = upper = None
-        if limits and m.tendon_limited[t]:
-            lower, upper = (float(x) for x in m.tendon_range[t])
-        fl = float(m.tendon_frictionloss[t]) if friction else 0.0
-        if lower is not None or fl:
-            inertia = 1.0 / float(m.tendon_invweight0[t]) if m.tendon_invweight0[t] > 0 else 1.0
-            tc, z = (float(v) for v in m.tendon_solref_lim[t][:2])
-            dmax = float(m.tendon_solimp_lim[t][1])
-            if tc > 0:
-                kl, cl = inertia / (dmax * tc * z) ** 2, 2.0 * inertia / (dmax * tc)
-            else:
-                kl, cl = -tc * inertia / dmax ** 2, -z * inertia / dmax
-            law = JointLaw(f"tendon {raw}", lower=lower, upper=upper, friction=fl, stiffness=kl, limit_damping=cl,
-                           unilateral=True)
-            tau += joint_torque(L, V, law, params, name, inertia)
+        tau = tendon_force(m, t, raw, name, L, V, params, limits, friction)
         if tau == 0:
             continue
         sites = []

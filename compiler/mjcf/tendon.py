@@ -20,7 +20,7 @@ refuses them when they act.
 import sympy as sm
 from sympy.physics.vector import dynamicsymbols
 
-__all__ = ["is_fixed", "tendon_joints", "tendon_length", "tendon_forces"]
+__all__ = ["is_fixed", "tendon_joints", "tendon_length", "tendon_force", "tendon_forces"]
 
 _WRAP_JOINT = 1
 
@@ -46,14 +46,38 @@ def tendon_length(m, t, joint_names, params=None):
     return L, V, pairs
 
 
-def _ramp(x):
-    from eomc.compiler.tree.joint_laws import ramp
-    return ramp(x)
+def tendon_force(m, t, raw, name, L, V, params, limits=True, friction=True):
+    """Tendon ``t``'s force along its length L (speed V): MuJoCo's spring (a dead band between
+    ``lengthspring``'s two lengths), damper, limits (its solref/solimp as a stiff law) and
+    friction loss, in the parameters ``k_``/``L0_``/``d_`` ... ``<name>`` (0: none acts).
+    Fixed tendons (here) and site tendons (:mod:`.spatial`) share it."""
+    from eomc.compiler.contact.mujoco_law import limit_spring
+    from eomc.compiler.tree.joint_laws import JointLaw, joint_torque, ramp
+    f = sm.S.Zero
+    if m.tendon_stiffness[t]:
+        k = params(f"k_{name}", float(m.tendon_stiffness[t]))
+        low, high = (float(x) for x in m.tendon_lengthspring[t])
+        if low == high:
+            f += -k * (L - params(f"L0_{name}", low))
+        else:
+            f += -k * (ramp(L - params(f"L0hi_{name}", high)) - ramp(params(f"L0lo_{name}", low) - L))
+    if m.tendon_damping[t]:
+        f += -params(f"d_{name}", float(m.tendon_damping[t])) * V
+    lower = upper = None
+    if limits and m.tendon_limited[t]:
+        lower, upper = (float(x) for x in m.tendon_range[t])
+    fl = float(m.tendon_frictionloss[t]) if friction else 0.0
+    if lower is not None or fl:
+        inertia = 1.0 / float(m.tendon_invweight0[t]) if m.tendon_invweight0[t] > 0 else 1.0
+        kl, cl = limit_spring(inertia, m.tendon_solref_lim[t], m.tendon_solimp_lim[t])
+        law = JointLaw(f"tendon {raw}", lower=lower, upper=upper, friction=fl, stiffness=kl, limit_damping=cl,
+                       unilateral=True)
+        f += joint_torque(L, V, law, params, name, inertia)
+    return f
 
 
 def tendon_forces(m, params, joint_names, tendon_names, limits=True, friction=True):
     """{joint id: generalized force} of every fixed tendon's spring, damper, limits and friction."""
-    from eomc.compiler.tree.joint_laws import JointLaw, joint_torque
     out = {}
     for t in range(m.ntendon):
         if not is_fixed(m, t):
@@ -61,31 +85,7 @@ def tendon_forces(m, params, joint_names, tendon_names, limits=True, friction=Tr
         raw, tn = tendon_names[t]
         name = f"tendon_{tn}"
         L, V, pairs = tendon_length(m, t, joint_names)
-        f = sm.S.Zero
-        if m.tendon_stiffness[t]:
-            k = params(f"k_{name}", float(m.tendon_stiffness[t]))
-            low, high = (float(x) for x in m.tendon_lengthspring[t])
-            if low == high:
-                f += -k * (L - params(f"L0_{name}", low))
-            else:
-                f += -k * (_ramp(L - params(f"L0hi_{name}", high)) - _ramp(params(f"L0lo_{name}", low) - L))
-        if m.tendon_damping[t]:
-            f += -params(f"d_{name}", float(m.tendon_damping[t])) * V
-        lower = upper = None
-        if limits and m.tendon_limited[t]:
-            lower, upper = (float(x) for x in m.tendon_range[t])
-        fl = float(m.tendon_frictionloss[t]) if friction else 0.0
-        if lower is not None or fl:
-            inertia = 1.0 / float(m.tendon_invweight0[t]) if m.tendon_invweight0[t] > 0 else 1.0
-            tc, z = (float(v) for v in m.tendon_solref_lim[t][:2])
-            dmax = float(m.tendon_solimp_lim[t][1])
-            if tc > 0:
-                kl, cl = inertia / (dmax * tc * z) ** 2, 2.0 * inertia / (dmax * tc)
-            else:
-                kl, cl = -tc * inertia / dmax ** 2, -z * inertia / dmax
-            law = JointLaw(f"tendon {raw}", lower=lower, upper=upper, friction=fl, stiffness=kl, limit_damping=cl,
-                           unilateral=True)
-            f += joint_torque(L, V, law, params, name, inertia)
+        f = tendon_force(m, t, raw, name, L, V, params, limits, friction)
         if f == 0:
             continue
         for j, c in pairs:

@@ -45,7 +45,8 @@ from sympy.physics.vector import dynamicsymbols
 from eomc.compiler.tree.model import Load, Tree, TreeBody
 from eomc.compiler.tree.recognize import effective_inertias
 from eomc.compiler.urdf.tree import identifier
-from eomc.compiler.multibody.joints import Parameters, cross, lin, rotation_terms, snap, snapped, times, vec
+from eomc.compiler.multibody.joints import (Parameters, actuation, cross, lin, rotation_terms, snap, snapped,
+                                           times, vec)
 from eomc.compiler.urdf.treeir import (floating_kinematics, floating_rotation, quaternion_kinematics,
                                        quaternion_rotation)
 
@@ -257,7 +258,7 @@ def tree_ir(m, *, fold=False, actuators=None, limits=True, friction=True, quater
                 tau = tau + _law(m, jid, jraw, jn, coordinates[first_q], speeds[first], params,
                                  limits, friction)
                 if tau != 0:
-                    loads += _joint_force(kind, tau, a, R0, c, p, base_c, child, parent)
+                    loads += actuation(kind == _SLIDE, tau, a, R0, c, p, base_c, child, parent)
             elif kind == _BALL and m.dof_damping[dadr] != 0:
                 ds = [params(f"d_{jn}_{x}", m.dof_damping[dadr + x]) for x in range(3)]
                 moment = sm.Matrix([-ds[x] * speeds[first + x] for x in range(3)])
@@ -395,6 +396,7 @@ def _law(m, jid, jraw, jn, q, u, params, limits, friction):
     directly.  MuJoCo's limit is a soft constraint solved with the other constraints
     (impedance, ``margin``): here it is a spring-damper, so the motion past the limit
     differs (the README says how much); inside the range both exert nothing."""
+    from eomc.compiler.contact.mujoco_law import limit_spring
     from eomc.compiler.tree.joint_laws import JointLaw, joint_torque
     dadr = int(m.jnt_dofadr[jid])
     lower = upper = None
@@ -402,30 +404,6 @@ def _law(m, jid, jraw, jn, q, u, params, limits, friction):
         lower, upper = (float(v) for v in m.jnt_range[jid])
     fl = float(m.dof_frictionloss[dadr]) if friction else 0.0
     inertia = 1.0 / float(m.dof_invweight0[dadr]) if m.dof_invweight0[dadr] > 0 else 1.0
-    tc, z = (float(v) for v in m.jnt_solref[jid][:2])
-    dmax = float(m.jnt_solimp[jid][1])
-    if tc > 0:
-        k, c = inertia / (dmax * tc * z) ** 2, 2.0 * inertia / (dmax * tc)
-    else:
-        k, c = -tc * inertia / dmax ** 2, -z * inertia / dmax
+    k, c = limit_spring(inertia, m.jnt_solref[jid], m.jnt_solimp[jid])
     law = JointLaw(jraw, lower=lower, upper=upper, friction=fl, stiffness=k, limit_damping=c, unilateral=True)
     return joint_torque(q, u, law, params, jn, inertia)     # JointLawError: the caller places it
-
-
-def _joint_force(kind, tau, a, R0, c, p, cp, child, parent):
-    """A hinge's torque (slide's force) tau on the child and its reaction on the parent."""
-    zero = sm.zeros(3, 1)
-    on_child = sm.Matrix([snap(v) * tau for v in a])
-    on_parent = sm.Matrix([-snap(v) * tau for v in snapped(R0 @ a)])
-    out = []
-    if kind == _SLIDE:
-        out.append(Load(body=child, frame="body", moment=zero, force=on_child,
-                        offset=sm.Matrix([-x for x in c])))
-        if parent >= 0:
-            out.append(Load(body=parent, frame="body", moment=zero, force=on_parent,
-                            offset=sm.Matrix([p[k] - cp[k] for k in range(3)])))
-        return out
-    out.append(Load(body=child, frame="body", moment=on_child, force=zero, offset=zero))
-    if parent >= 0:
-        out.append(Load(body=parent, frame="body", moment=on_parent, force=zero, offset=zero))
-    return out

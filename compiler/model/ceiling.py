@@ -9,13 +9,16 @@ default build writes 6.9 MB of C (gcc: 58 s, 0.84 GB), a 200-link chain's 27 MB 
 workstation has; a 5000-link one built for 20 minutes and 8 GB before it was stopped, saying
 nothing.  The rhs alone grows linearly (about 0.1 s of CPU per link), so past the ceiling
 the build is refused at once, naming the figure and the way out (``--outputs rhs,...``).
-``EOMC_BUILD_CEILING=off`` builds anyway.
+``EOMC_BUILD_CEILING=off`` builds anyway.  Without dense Jacobians a robot of more than
+LARGE_COORDINATES coordinates is built, after one warning stating the time and memory to
+expect (generating a 2000-link chain's rhs: 147 s of CPU and 1.7 GB; it grows a little faster
+than linearly).
 """
 import os
 
 from eomc.runtime.errors import ModelError
 
-__all__ = ["MAX_DENSE_COORDINATES", "check_ceiling"]
+__all__ = ["MAX_DENSE_COORDINATES", "LARGE_COORDINATES", "check_ceiling"]
 
 # coordinates above which a build with dense Jacobians is refused (a 300-link chain: ~60 MB
 # of C, about 8 GB and half an hour of gcc by the measured n^2 growth)
@@ -24,6 +27,11 @@ DENSE = ("jac_x", "jac_r", "linearize")
 # measured on a chain of 200 links (benchmarks/results/build_ceiling.md): C bytes, gcc's
 # seconds and peak bytes; each grows at least with the square of the coordinates
 _AT_200 = (27.3e6, 372.0, 3.5e9)
+# without them (the rhs): CPU seconds and peak bytes of generating a 2000-link chain's C (the C
+# compiler's own cost comes on top), growing about as n^1.45 from 500 to 2000 links
+_RHS_AT_2000 = (147.0, 1.66e9)
+_GROWTH = 1.45
+LARGE_COORDINATES = 1000       # a build this large says what it will cost before it starts
 
 
 def _defaults():
@@ -31,7 +39,20 @@ def _defaults():
     return [f for f in FUNCTION_ORDER if f not in ON_REQUEST]
 
 
+def _say_the_cost(name, n):
+    """One warning before a long build without dense Jacobians: what it will take, from the
+    measured growth (a build of minutes and gigabytes must not look like a hang)."""
+    import warnings
+    from eomc.runtime.errors import EomcWarning
+    cpu, peak = (v * (n / 2000.0) ** _GROWTH for v in _RHS_AT_2000)
+    warnings.warn(f"{name}: {n} coordinates: expect this build to take about {_duration(cpu)} of CPU and "
+                  f"{_size(peak)} of memory (measured on a 2000-link chain: {_duration(_RHS_AT_2000[0])}, "
+                  f"{_size(_RHS_AT_2000[1])}; growing as n^{_GROWTH})", EomcWarning, stacklevel=4)
+
+
 def _size(n):
+    if n >= 1e12:
+        return f"{n / 1e12:.2g} TB"
     return f"{n / 1e9:.2g} GB" if n >= 1e9 else f"{n / 1e6:.0f} MB"
 
 
@@ -50,6 +71,8 @@ def check_ceiling(read, functions, name=None):
     n = len(model.coordinates)
     asked = _defaults() if functions is None else ["jac_x" if f == "jacobian" else f for f in functions]
     wanted = [f for f in asked if f in DENSE]
+    if not wanted and n > LARGE_COORDINATES:
+        _say_the_cost(name or read.name, n)
     if n <= MAX_DENSE_COORDINATES or not wanted:
         return
     scale = (n / 200.0) ** 2

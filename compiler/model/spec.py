@@ -66,7 +66,7 @@ class Reading:
 
 
 def _is_eomc_kane(system):
-    from eomc.compiler.tree.select import is_eomc_kane
+    from eomc.compiler.formulations.select import is_eomc_kane
     return is_eomc_kane(system)
 
 
@@ -83,7 +83,7 @@ def formed_system(system, formulation="kane"):
     as a joint tree instead (a FormedSystem of method "tree": nothing formed, so a model
     file's lazily formed KanesMethod is never formed); when the recursion cannot take it,
     recursive is refused here, before anything is formed, and auto forms Kane's
-    equations (eomc.compiler.tree.select says why in the metadata)."""
+    equations (eomc.compiler.formulations.select says why in the metadata)."""
     from eomc.compiler.mechanics.formed import FormedSystem
     if isinstance(system, FormedSystem):
         return system
@@ -93,12 +93,12 @@ def formed_system(system, formulation="kane"):
     check_single_parents(getattr(system, "joints", None))   # before a tree or Kane's form is tried
     if formulation != "kane" and (unformed or _is_eomc_kane(system)):
         from eomc.compiler.tree.model import NotATree
-        from eomc.compiler.tree.select import recursive_refusal
+        from eomc.compiler.formulations.select import recursive_refusal
         try:
             if unformed:
-                from eomc.compiler.tree.formed import tree_formed
+                from eomc.compiler.multibody.formed import tree_formed
                 return tree_formed(system)
-            from eomc.compiler.tree.select import kane_tree_formed
+            from eomc.compiler.formulations.select import kane_tree_formed
             return kane_tree_formed(system)
         except NotATree as exc:
             if formulation == "recursive":    # refused now, before forming Kane's equations

@@ -1,7 +1,8 @@
 """eomc.compiler.multibody: the format-neutral multibody model every reader produces.
 
-    Model, Frame, Provenance   model.py   the joint tree, frames, poses, defaults, inputs, where from
+    Model, Frame, Collision, Provenance   model.py   the joint tree, frames, collision geometry,
+                                          poses, defaults, inputs, where from
 """
-from .model import Frame, Model, Provenance
+from .model import Collision, Frame, Model, Provenance
 
-__all__ = ["Model", "Frame", "Provenance"]
+__all__ = ["Model", "Frame", "Collision", "Provenance"]

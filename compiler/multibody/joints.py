@@ -9,7 +9,8 @@ generated C of a URDF robot and of its MJCF twin agree).  Both readers
 import numpy as np
 import sympy as sm
 
-__all__ = ["snap", "snapped", "Parameters", "lin", "rotation_terms", "cross", "times", "vec"]
+__all__ = ["snap", "snapped", "Parameters", "lin", "rotation_terms", "cross", "times", "vec", "z_to",
+           "actuation"]
 
 _SNAP = 1e-12
 
@@ -82,3 +83,36 @@ def times(M, v):
 def vec(values):
     """A vector of numbers as snapped SymPy literals."""
     return [snap(v) for v in values]
+
+
+def z_to(axis):
+    """A rotation matrix whose third column is the unit vector ``axis`` (exact for ±x, ±y, ±z)."""
+    z = np.asarray(axis, dtype=float)
+    helper = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    x = helper - (helper @ z) * z
+    x /= np.linalg.norm(x)
+    return np.column_stack([x, np.cross(z, x), z])
+
+
+def actuation(sliding, tau, a, R0, c, p, cp, child, parent):
+    """A joint's torque (a hinge: ``sliding`` false) or force (a slide) ``tau`` along its axis
+    ``a`` on the child tree body and its reaction on the parent (none on the ground: it does
+    no work), as the Tree's loads in body components (``R0``: the joint's rotation at q = 0;
+    ``c``/``cp``: the child's and parent's mass centres, ``p``: the joint's origin in the
+    parent)."""
+    from eomc.compiler.tree.model import Load
+    zero = sm.zeros(3, 1)
+    on_child = sm.Matrix([snap(v) * tau for v in a])
+    on_parent = sm.Matrix([-snap(v) * tau for v in snapped(R0 @ a)])
+    out = []
+    if sliding:
+        out.append(Load(body=child, frame="body", moment=zero, force=on_child,
+                        offset=sm.Matrix([-x for x in c])))
+        if parent >= 0:
+            out.append(Load(body=parent, frame="body", moment=zero, force=on_parent,
+                            offset=sm.Matrix([p[k] - cp[k] for k in range(3)])))
+        return out
+    out.append(Load(body=child, frame="body", moment=on_child, force=zero, offset=zero))
+    if parent >= 0:
+        out.append(Load(body=parent, frame="body", moment=on_parent, force=zero, offset=zero))
+    return out

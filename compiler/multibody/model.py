@@ -24,9 +24,10 @@ import sympy as sm
 import sympy.physics.mechanics   # noqa: F401 -- the System type named below
 
 from ..emit.poses import PoseSource
+from ..mechanics.formed import StateSizes
 from ..tree.model import Tree
 
-__all__ = ["Model", "Frame", "Provenance", "merged_defaults", "merged_initial_state"]
+__all__ = ["Model", "Frame", "Collision", "Provenance", "merged_defaults", "merged_initial_state"]
 
 
 @dataclass(frozen=True)
@@ -57,15 +58,37 @@ class Frame:
 
 
 @dataclass(frozen=True)
-class Model:
+class Collision:
+    """A collision shape as the file wrote it, on frame ``frame`` (a URDF link): ``origin``,
+    its 4x4 placement in the frame's axes (rows); ``geometry``, the shape's tag ("box",
+    "cylinder", "sphere", "capsule", "mesh", or whatever the file has) and ``attributes``, its
+    attributes as written ((name, text) pairs: sizes are read, and refused with this record's
+    line, only when a contact uses them -- a robot that never touches the ground does not
+    fail on a collision shape it never uses); ``line``/``geometry_line``: the element's and
+    the shape's lines in the file."""
+    frame: str
+    origin: tuple
+    geometry: Optional[str]
+    attributes: tuple = ()
+    line: Optional[int] = None
+    geometry_line: Optional[int] = None
+
+    def attribute(self, name):
+        return dict(self.attributes).get(name)
+
+
+@dataclass(frozen=True)
+class Model(StateSizes):
     """One multibody model as read (see the module docstring).
 
     ``coordinates`` ... ``extra_rhs``: x = [q; u; z] and q' as the generated C orders them,
-    named as in FormedSystem (nothing is formed: there is no A or b).  ``frames``: the
+    named as in FormedSystem (nothing is formed: there is no A or b, and no ``method`` that
+    formed them: ``isinstance(record, Model)`` tells a model as read from formed equations).  ``frames``: the
     frames ``frames=["tool0"]`` may name.  ``poses``: the animation's bodies along the tree
     (a :class:`~eomc.compiler.emit.poses.PoseSource`), ``shapes``: {body or "world":
     [eomc.geometry shape dicts]} and ``welds``: {link: (body or "world", 4x4)}, the links
-    welded to a body, when the reader was asked for poses.  ``defaults``/``joint_inputs``:
+    welded to a body, when the reader was asked for poses.  ``collisions``: the file's
+    collision geometry (:class:`Collision`), what ground contacts are made from.  ``defaults``/``joint_inputs``:
     the file's parameter values and its joints' torques in joint order; ``outputs``/
     ``events``: those the reader defines (contact depths).  ``initial_state``: {coordinate
     name: value} the file starts from.  ``mechanics``: builds the SymPy System Kane's
@@ -86,6 +109,7 @@ class Model:
     extra_states: tuple = ()
     extra_rhs: tuple = ()
     frames: Tuple[Frame, ...] = ()
+    collisions: Tuple[Collision, ...] = field(default=(), compare=False)
     poses: Optional[PoseSource] = field(default=None, compare=False)
     shapes: Mapping[str, list] = field(default_factory=dict, compare=False)
     welds: Mapping[str, tuple] = field(default_factory=dict, compare=False)
@@ -101,20 +125,7 @@ class Model:
     kane_refusal: Optional[str] = None   # why Kane's formulation cannot take it (no System: MJCF)
     frame_noun: str = "body"      # what its frames are called in messages ("link" for URDF)
 
-    method = "tree"           # what the generator lowers it by (FormedSystem: "kane" or "lagrange")
     multipliers = ()          # no Lagrange multipliers: the tree's constraints are its loops
-
-    @property
-    def nq(self):
-        return len(self.coordinates)
-
-    @property
-    def nu(self):
-        return len(self.speeds)
-
-    @property
-    def nz(self):
-        return len(self.extra_states)
 
     def frame(self, name):
         """The :class:`Frame` named (or aliased) ``name``, or None."""

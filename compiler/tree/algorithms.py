@@ -32,6 +32,8 @@ includes it too.
 import sympy as sm
 from sympy.core.mul import _args_sortkey
 
+from ..emit.linsolve import PIVOT_TOL
+
 __all__ = ["Recorder", "LoweredBody", "aba", "rnea", "crba"]
 
 
@@ -334,8 +336,8 @@ def _root_acceleration(gravity):
 # compiler/emit/linsolve.py), with the pivots standing in for M's diagonal.  A pivot that is
 # zero only by rounding (a ball joint in gimbal lock, whose first and third axes line up:
 # its first D is ~1e-16 of the others) is then EOMC_SINGULAR_MASS_MATRIX instead of a
-# division by noise (reliability report r3, N9).
-PIVOT_TOL = sm.Float(2.0 ** -46, 17)       # 64 * DBL_EPSILON, exactly
+# division by noise (reliability report r3, N9).  PIVOT_TOL (64 * DBL_EPSILON, exactly) is
+# defined with the Kane path's solvers (compiler/emit/linsolve.py): one number for both.
 
 
 def aba(bodies, rec, speeds, gravity, v, c, keep=None):

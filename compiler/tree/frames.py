@@ -43,6 +43,7 @@ from eomc.runtime.errors import ModelError
 
 from .algorithms import Recorder
 from .model import NotATree
+from .placement import IDENTITY, Placement
 
 __all__ = ["FrameSpec", "FrameSource", "resolve_frames", "with_frames", "frame_output_names",
            "frames_digest", "COM"]
@@ -158,12 +159,14 @@ def resolve_frames(spec, names):
     where = str(spec.path) if spec.path is not None else f"model {spec.name}"
     formed = spec.formed
     system_urdf = getattr(spec.system, "urdf", None)
-    if spec.model is not None:
+    if system_urdf is not None:   # a URDF robot's System passed in (from_urdf): its links, under
+        # every formulation (not the bodies of the tree recognized from the System: a link's frame is
+        # at its joint, a System body's at its mass centre, and welded links are no bodies)
+        tree, specs, defaults = _urdf_frames(system_urdf, wanted, where)
+    elif spec.model is not None:
         tree, specs = spec.model.tree, _model_frames(spec.model, wanted, where)
         defaults = (dict(spec.model.defaults) if spec.model.source.format != "system"
                     else dict(spec.parameters or {}))
-    elif system_urdf is not None:   # a URDF robot's System passed in (from_urdf): its links
-        tree, specs, defaults = _urdf_frames(system_urdf, wanted, where)
     else:
         tree = _system_tree(spec, where)
         specs, defaults = _body_frames(tree, wanted, where), dict(spec.parameters or {})
@@ -221,13 +224,9 @@ def _safe(name):
 
 def _urdf_frames(system_urdf, wanted, where):
     """(Tree, FrameSpecs, defaults) of the links of a URDF robot's System (from_urdf), passed
-    in as an object: its file is read by the URDF reader (eomc.compiler.urdf.model), as a
-    robot file is (the same tree built from its numbers: its symbols are the System's)."""
-    from eomc.compiler.urdf.model import UrdfModel, model_of_robot
-    from eomc.compiler.urdf.reader import read_urdf
-    source = system_urdf.tree
-    model = model_of_robot(read_urdf(source.path), source,
-                           UrdfModel(source.path, fold_parameters=not system_urdf.parameters))
+    in as an object: the Model of the reading from_urdf made (its ``model()``:
+    eomc.compiler.urdf.system.UrdfSystem), as a robot file's."""
+    model = system_urdf.model()
     return model.tree, _model_frames(model, wanted, where), dict(model.defaults)
 
 
@@ -244,7 +243,7 @@ def frames_digest(source):
         out += [f.name, str(f.body), str(f.rotation), str(f.offset)]
     out += [f"{s}={v!r}" for s, v in sorted(source.defaults.items(), key=lambda kv: str(kv[0]))]
     if source.frames or source.com:
-        from .formed import tree_exprs
+        from .model import tree_exprs
         out += [str(len(source.tree.bodies))] + [str(b.parent) for b in source.tree.bodies]
         out += [str(e) for e in tree_exprs(source.tree)]
     return out
@@ -260,17 +259,25 @@ def _dot3(M, v):
 
 class _World:
     """Per tree body, built once on demand and from the root down (no recursion: depth is
-    free): R (body axes in world components), p (its origin), w (angular velocity), v (its
-    origin's velocity), and its joint's axes in the world [(model speed, axis_w, origin_v)]."""
+    free): R (body axes in world components) and p (its origin), placed along the tree
+    (:class:`.placement.Placement`), w (angular velocity), v (its origin's velocity), and
+    its joint's axes in the world [(model speed, axis_w, origin_v)]."""
 
     def __init__(self, tree, rec, ren, speeds, columns):
         self.tree, self.rec, self.ren, self.speeds, self.columns = tree, rec, ren, speeds, columns
         self.done = {}
 
+        def E(i):
+            b = tree.bodies[i]
+            return [[ren(b.rotation[r, c], f"body {b.name} (joint {b.joint})") for c in range(3)] for r in range(3)]
+
+        def r(i):
+            b = tree.bodies[i]
+            return [ren(b.position[k], f"body {b.name} (joint {b.joint})") for k in range(3)]
+        self.placement = Placement([b.parent for b in tree.bodies], E, r, rec.let)
+
     def ground(self):
-        one, zero = sm.S.One, sm.S.Zero
-        return ([[one if i == j else zero for j in range(3)] for i in range(3)], [zero] * 3,
-                [zero] * 3, [zero] * 3, [])
+        return IDENTITY, [sm.S.Zero] * 3, [sm.S.Zero] * 3, [sm.S.Zero] * 3, []
 
     def __call__(self, i):
         if i < 0:
@@ -286,13 +293,9 @@ class _World:
     def _place(self, i):
         b, let = self.tree.bodies[i], self.rec.let
         what = f"body {b.name} (joint {b.joint})"
-        Rp, pp, wp, vp, _ = self(b.parent) if b.parent >= 0 else self.ground()
-        E = [[self.ren(b.rotation[r, c], what) for c in range(3)] for r in range(3)]
-        r = [self.ren(b.position[k], what) for k in range(3)]
-        R = [[let(sum((Rp[a][k] * E[c][k] for k in range(3)), sm.S.Zero)) for c in range(3)]
-             for a in range(3)]
-        Rr = _dot3(Rp, r)
-        p = [let(pp[k] + Rr[k]) for k in range(3)]
+        _, _, wp, vp, _ = self(b.parent) if b.parent >= 0 else self.ground()
+        R, p = self.placement.rotation(i), self.placement.origin(i)
+        Rr = self.placement.arm(i)
         axes = []
         w, v = list(wp), [vp[k] + x for k, x in enumerate(_cross(wp, [let(x) for x in Rr]))]
         for k, S in b.dofs:

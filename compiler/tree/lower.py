@@ -29,7 +29,7 @@ import sympy as sm
 
 from eomc.runtime.errors import ModelError
 
-from ..emit.reverse import refuse_reverse, reverse_requests
+from ..emit.reverse import hess_id_requests, refuse_reverse, reverse_requests
 from ..emit.symbolic import TANGENT_MIN_STATES, build_symbolic
 from .algorithms import LoweredBody, Recorder, aba, crba, rnea, velocities
 from .constrained import (accelerations, check_functions, kane_form, kkt_residual, kkt_solve,
@@ -41,7 +41,7 @@ __all__ = ["TREE_FUNCTION_GROUPS", "TREE_HELPER_USERS", "build_tree_symbolic"]
 
 TREE_FUNCTION_GROUPS = {
     "rhs": ("kin", "ud", "Dpiv", "zd"),
-    "jac_x": ("ud", "lam", "Dpiv", "dkin", "tq", "tu", "dres", "sol", "dzd"),
+    "jac_x": ("ud", "lam", "Dpiv", "dkin", "tq", "tu", "dres", "sol", "dzd", "anx"),
     "jac_r": ("ud", "lam", "Dpiv", "dkin_r", "dres_r", "sol", "dzd_r"),
     "jac_p": ("ud", "lam", "Dpiv", "dkin_p", "dres_p", "sol", "dzd_p"),
     "mass_matrix": ("A",),
@@ -54,10 +54,11 @@ TREE_FUNCTION_GROUPS = {
     "regressor": ("Y",),
     "jvp": ("ud", "lam", "Dpiv", "kin", "dkin", "dkin_p", "tjv", "dres_p", "sol", "zd", "dzd", "dzd_p"),   # see .jvp
     "events": ("ev",),
-    "jac_id": ("did", "idq", "idu"),     # see .inverse_derivatives
+    "jac_id": ("did", "idq", "idu", "anx"),     # see .inverse_derivatives, .analytic
     # reverse mode (compiler/emit/reverse.py)
     "vjp": ("ud", "Dpiv", "kin", "zd", "sol", "vj"),
     "hvp": ("ud", "Dpiv", "kin", "zd", "sol", "hr", "ha", "hb"),
+    "hess_id": ("tau", "hg"),
 }
 TREE_HELPER_USERS = ()
 
@@ -183,7 +184,10 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
             extra += [(("Dpiv", nu + j), D) for j, D in enumerate(margins)]
         UD = tuple(sm.Symbol(f"ud_{j}", real=True) for j in range(nu))
         jacobian, more = [], ()
-        if jac:
+        analytic = None
+        if loops is None and ("jac_id" in functions or "jac_x" in functions) and len(layout.x) > TANGENT_MIN_STATES:
+            analytic, anx = _analytic(tree, bodies, gravity, layout, functions)
+        if jac and (analytic is None or jac != {"jac_x"}):    # the analytic jac_x needs no residual
             W = tuple(sm.Symbol(f"w_{j}", real=True) for j in range(nu))
             tau_w = rnea(bodies, rec, W, gravity, v, c)
             if loops is None:
@@ -196,10 +200,12 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
                 more = solve_symbols(len(res))[nu:] + lam
             jacobian = ([(("tres", k), e) for k, e in enumerate(res)]
                         + [(("sol", k), sol[k]) for k in range(nu)])
-        if "inverse_dynamics" in functions and loops is None:
+        if analytic is not None:
+            jacobian += anx
+        if ("inverse_dynamics" in functions or "hess_id" in functions) and loops is None:
             tau = rnea(bodies, rec, UD, gravity, v, c)
             extra += [(("tau", k), tau[k]) for k in range(nu)]
-        if "jac_id" in functions:        # d tau / d x (compiler/tree/inverse_derivatives.py)
+        if "jac_id" in functions and analytic is None:        # d tau / d x (compiler/tree/inverse_derivatives.py)
             from .inverse_derivatives import inverse_dynamics_results
             jacobian += inverse_dynamics_results(bodies, rec, UD, gravity, v, c)
         regressor = None
@@ -232,9 +238,31 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         sym = _with_contact_values(sym, contact_values)
     if regressor:
         sym = replace(sym, regressor_bodies=regressor[0], regressor_reference=regressor[1])
+    if analytic is not None:
+        sym = replace(sym, analytic=analytic)
+    if "hess_id" in functions:      # second-order inverse dynamics (compiler/emit/reverse.py)
+        if loops is not None:
+            raise ModelError("hess_id (second-order inverse dynamics) is not generated for a tree "
+                             "closed by constraints")
+        inputs, requests = hess_id_requests(layout, nu, sym.seeds)
+        sym = replace(sym, program=sym.program.with_(inputs=sym.program.inputs + inputs),
+                      derivatives=sym.derivatives + requests)
     if not jacobian:
         return sym
-    return _with_jacobians(sym, layout, functions, nq, jacobian, more)
+    return _with_jacobians(sym, layout, functions, nq, jacobian, more, analytic is not None)
+
+
+def _analytic(tree, bodies, gravity, layout, functions):
+    """(plan, results) of the analytic RNEA derivatives (:mod:`.analytic`) for jac_x and jac_id,
+    or (None, []) where the tree does not qualify (then both keep the tangent path).
+
+    Asked only above TANGENT_MIN_STATES states: below, the unrolled columns are faster
+    (measured, benchmarks/results/derivatives.md: cart n = 4 jac_x 0.55 vs 1.4 µs, UR10
+    1.6 vs 2.0 µs), and their C stays as it was."""
+    from .analytic import analytic_plan
+    absent = _absent(tree, layout)
+    memo = {}
+    return analytic_plan(tree, bodies, gravity, layout, lambda e, what: _rename(layout, memo, what, absent)(e))
 
 
 def _contacts(tree, bodies, rec, v, layout):
@@ -243,7 +271,7 @@ def _contacts(tree, bodies, rec, v, layout):
     returns {placeholder of a contact output or event: its temporary}."""
     if not any(load.frame == "contact" for load in tree.loads):
         return {}
-    from ..contact.tree import lower_contacts
+    from .contacts import lower_contacts
     memo = {}
     return lower_contacts(tree, bodies, rec, v, lambda e, what: _rename(layout, memo, what, None)(e))
 
@@ -256,13 +284,14 @@ def _with_contact_values(sym, values):
     return replace(sym, program=sym.program.with_(results=results))
 
 
-def _with_jacobians(sym, layout, functions, nq, jacobian, more=()):
-    """Add the residual and the M⁻¹ solve to the program, and ask for their derivatives."""
+def _with_jacobians(sym, layout, functions, nq, jacobian, more=(), analytic=False):
+    """Add the residual and the M⁻¹ solve to the program, and ask for their derivatives
+    (``analytic``: jac_x and jac_id take theirs from :mod:`.analytic` instead)."""
     derivatives = []
-    if "jac_id" in functions:
+    if "jac_id" in functions and not analytic:
         from .inverse_derivatives import inverse_dynamics_derivatives
         derivatives += inverse_dynamics_derivatives(layout, sym.seeds, nq)
-    if "jac_x" in functions:
+    if "jac_x" in functions and not analytic:
         if len(layout.x) > TANGENT_MIN_STATES:
             derivatives += [("tres", dict(zip(layout.x[:nq], sym.seeds[:nq])), "tq"),
                             ("tres", dict(zip(layout.x[nq:], sym.seeds[nq:])), "tu")]

@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 
 import sympy as sm
 
-__all__ = ["TreeBody", "Load", "Tree", "NotATree"]
+__all__ = ["TreeBody", "Load", "Tree", "NotATree", "tree_exprs"]
 
 
 class NotATree(ValueError):
@@ -110,3 +110,16 @@ class Tree:
     @property
     def n(self):
         return len(self.bodies)
+
+
+def tree_exprs(tree):
+    """Every expression that defines ``tree`` (the generation cache's key, the checks for
+    non-finite numbers), in a fixed order."""
+    out = list(tree.kinematics) + list(tree.gravity)
+    for b in tree.bodies:
+        out += list(b.rotation) + list(b.position) + list(b.motion or ()) + [b.mass] + list(b.inertia)
+        out += [c for m in b.motions for c in m] + list(b.armature)
+    for load in tree.loads:
+        out += list(load.moment) + list(load.force) + list(load.offset)
+        out += list(getattr(load, "exprs", ()))      # a ground contact's parameters (compiler/contact)
+    return [sm.sympify(e) for e in out]

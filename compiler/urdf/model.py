@@ -86,7 +86,7 @@ def model_of_robot(robot, tree, model, poses=False):
     """The Model of a URDF robot read (``robot``, eomc.compiler.urdf.reader) and merged into
     its link tree (``tree``) with ``model``'s options (see :func:`read_model`)."""
     from eomc.compiler.multibody.model import Frame, Provenance
-    from eomc.compiler.tree.formed import model_of_tree
+    from eomc.compiler.multibody.formed import model_of_tree
     from . import system_from_tree
     from .tree import identifier
     from ..multibody.joints import snap
@@ -95,21 +95,30 @@ def model_of_robot(robot, tree, model, poses=False):
     refusal = (f"mimic joints ({', '.join(mimics[:5])}{', ...' if len(mimics) > 5 else ''}) are "
                f"constraints, which the URDF reader's tree does not carry") if model.mimic and mimics else None
     built = tree_ir(tree, fold=model.fold_parameters, gravity=model.gravity, laws=model.limits)
+    collisions = tuple(c for link in robot.links.values() for c in link.collisions)
     outputs, events = {}, {}
     named, ground = _ground(model)
+    scene = []
+
+    def welds():
+        """The welded links' placements, from the document the reader parsed (made once)."""
+        if not scene:
+            from eomc.runtime.geometry import urdf_link_transforms
+            from eomc.runtime.urdf_scene import load_scene
+            loaded = load_scene(robot.path, robot.xml)
+            scene.extend([loaded, urdf_link_transforms(tree, loaded)])
+        return scene[1]
     if named:
         from eomc.compiler.contact.tree import with_contacts
-        built, outputs, events = with_contacts(built, named, fold=model.fold_parameters)
+        built, outputs, events = with_contacts(built, named, collisions, welds(), fold=model.fold_parameters)
     if ground:
-        built, more_outputs, more_events = _with_ground(built, model.fold_parameters)
+        built, more_outputs, more_events = _with_ground(built, model.fold_parameters, collisions, welds())
         outputs, events = {**outputs, **more_outputs}, {**events, **more_events}
     extra = {}
     if poses:
-        from eomc.runtime.geometry import urdf_link_transforms, urdf_visuals
-        from eomc.runtime.urdf_scene import load_scene
-        loaded = load_scene(robot.path, robot.xml)
-        extra["welds"] = urdf_link_transforms(tree, loaded)
-        extra["shapes"] = urdf_visuals(tree, loaded)
+        from eomc.runtime.geometry import urdf_visuals
+        extra["welds"] = welds()
+        extra["shapes"] = urdf_visuals(tree, scene[0])
         extra["poses"] = pose_source(built, extra["welds"], extra["shapes"])
 
     def mechanics():
@@ -137,7 +146,8 @@ def model_of_robot(robot, tree, model, poses=False):
         extra["initial_state"] = quaternion
     return model_of_tree(built.tree, Provenance("urdf", str(model.path), robot.line), frames=tuple(frames),
                          defaults=dict(built.parameters), joint_inputs=tuple(built.inputs), outputs=outputs,
-                         events=events, mechanics=mechanics, refusal=refusal, frame_noun="link", **extra)
+                         events=events, mechanics=mechanics, refusal=refusal, frame_noun="link",
+                         collisions=collisions, **extra)
 
 
 def _com_symbol(name, value, parameters):
@@ -219,14 +229,15 @@ def _ground(model):
     return [s for s in specs if s.link != GROUND], model.ground or any(s.link == GROUND for s in specs)
 
 
-def _with_ground(built, fold):
-    """(built, outputs, events) with the <collision> shapes on the ground (.collision)."""
+def _with_ground(built, fold, collisions, placements):
+    """(built, outputs, events) with the <collision> shapes on the ground (.collision):
+    ``collisions`` and ``placements`` as the reader found them."""
     from eomc.compiler.contact.geometry import with_shapes
     from eomc.compiler.contact.tree import body_com
     from eomc.runtime.errors import ModelError
     from .collision import collision_shapes
     from .tree import identifier
-    shapes = collision_shapes(built)
+    shapes = collision_shapes(built, collisions, placements)
     if not shapes:
         raise ModelError(f"{built.source.path}: a ground was asked for (--ground, ground=True), but no moving "
                          f"link has <collision> geometry")

@@ -19,6 +19,8 @@ import numpy as np
 
 from eomc.runtime.errors import ModelFileError
 
+from ..multibody.model import Collision
+
 __all__ = ["JOINT_TYPES", "UrdfLink", "UrdfJoint", "UrdfRobot", "read_urdf"]
 
 JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")
@@ -33,6 +35,7 @@ class UrdfLink:
     inertia: np.ndarray = None        # 3x3 about the centre of mass, in the link frame
     has_inertial: bool = False
     meshes: list = field(default_factory=list)   # mesh file names (visual/collision)
+    collisions: tuple = ()            # its <collision> elements (eomc.compiler.multibody.Collision)
 
 
 @dataclass
@@ -238,8 +241,11 @@ def read_urdf(path, parser="lxml"):
         return UrdfRobot(root.get("name"), path, links, joints, root.sourceline, root)
     robot = _parse(path).robot
     links = {link.name: _link(link, lines.get(("link", link.name))) for link in robot.links}
+    for element in root.findall("link"):       # collision geometry: read from the document either way
+        if element.get("name") in links:
+            links[element.get("name")].collisions = _collisions(element)
     joints = [_joint(path, j, lines.get(("joint", j.name))) for j in robot.joints]
-    return UrdfRobot(robot.name or path.stem, path, links, joints, root.sourceline)
+    return UrdfRobot(robot.name or path.stem, path, links, joints, root.sourceline, root)
 
 
 def _numbers(element, attribute, default):
@@ -261,13 +267,26 @@ def _origin(element):
     return transform
 
 
+def _collisions(element):
+    """The <collision> elements of a <link> as Collision records (origin read, shape as written)."""
+    out = []
+    for col in element.findall("collision"):
+        geometry = col.find("geometry")
+        item = geometry[0] if geometry is not None and len(geometry) else None
+        tag = item.tag if item is not None and isinstance(item.tag, str) else None
+        out.append(Collision(element.get("name"), tuple(map(tuple, _origin(col.find("origin")))), tag,
+                             tuple(item.attrib.items()) if tag is not None else (), col.sourceline,
+                             item.sourceline if tag is not None else None))
+    return tuple(out)
+
+
 def _link_element(element):
     meshes = [m.get("filename") for tag in ("visual", "collision") for g in element.findall(tag)
               for m in g.findall("geometry/mesh")]
     inertial = element.find("inertial")
     if inertial is None:
         return UrdfLink(element.get("name"), element.sourceline, 0.0, np.zeros(3), np.zeros((3, 3)),
-                        False, meshes)
+                        False, meshes, _collisions(element))
     origin = _origin(inertial.find("origin"))
     rotation = origin[:3, :3]
     mass_element = inertial.find("mass")
@@ -280,7 +299,7 @@ def _link_element(element):
         tensor = np.array([[v["ixx"], v["ixy"], v["ixz"]], [v["ixy"], v["iyy"], v["iyz"]],
                            [v["ixz"], v["iyz"], v["izz"]]])
     return UrdfLink(element.get("name"), element.sourceline, mass, origin[:3, 3].copy(),
-                    rotation @ tensor @ rotation.T, True, meshes)
+                    rotation @ tensor @ rotation.T, True, meshes, _collisions(element))
 
 
 class _JointElement:

@@ -34,6 +34,7 @@ from sympy.physics import mechanics as sme
 
 from eomc.runtime.errors import ModelFileError
 
+from ..multibody.joints import z_to
 from .joints import FloatingJoint, PlanarJoint
 from .tree import check_mimics, identifier
 
@@ -69,6 +70,14 @@ class UrdfSystem:
     joints: dict                # joint name -> SymPy joint
     bodies: dict                # body name -> RigidBody
     tree: object                # the tree.Tree it came from
+
+    def model(self):
+        """The multibody Model of the reading this System was built from (its links, welded
+        ones included, as frames; its tree's symbols are this System's), read again from
+        nothing: what frame outputs of a from_urdf System passed in as an object name."""
+        from .model import UrdfModel, model_of_robot
+        return model_of_robot(self.tree.robot, self.tree,
+                              UrdfModel(self.tree.path, fold_parameters=not self.parameters))
 
 
 class _Parameters:
@@ -142,7 +151,7 @@ def system_from_tree(tree, *, fold=False, mimic=False, gravity=9.81, laws=True):
         interframe = sme.ReferenceFrame(f"J_{s}")
         child_interframe = None
         if tj.type == "planar":   # interframes whose z is the plane's normal
-            align = _z_to(tj.axis)
+            align = z_to(tj.axis)
             interframe.orient_explicit(parent_frame, _number(tj.rotation @ align))
             child_interframe = sme.ReferenceFrame(f"K_{s}")
             child_interframe.orient_explicit(child.frame, _number(align))
@@ -210,15 +219,6 @@ def _add_joint(system, joint, dependent=False):
     system.add_kdes(*joint.kdes)
     system.add_bodies(joint.child)
     system.add_joints(joint)
-
-
-def _z_to(axis):
-    """A rotation matrix whose third column is the unit vector ``axis`` (exact for ±x, ±y, ±z)."""
-    z = np.asarray(axis, dtype=float)
-    helper = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    x = helper - (helper @ z) * z
-    x /= np.linalg.norm(x)
-    return np.column_stack([x, np.cross(z, x), z])
 
 
 def _joint(tj, s, parent, child, parent_point, child_point, interframe, axis, child_interframe=None):

@@ -121,6 +121,9 @@ class Tree:
     ground_links: list         # links welded to the world (fixed base)
     ignored: list              # notes on what was left out or repaired (each also warned about)
     locked: list = field(default_factory=list)   # joints locked at 0 (massless subtrees)
+    # the reading it was built from (eomc.compiler.urdf.reader.UrdfRobot, with its parsed
+    # document): what later steps need of the file (welded links, visuals) without reading it again
+    robot: object = field(default=None, repr=False, compare=False)
 
 
 def _fail(robot, line, message):
@@ -416,7 +419,7 @@ def build_tree(robot, floating_base=False, allow_nonphysical_inertia=False):
                                                  f"{_describe(_moments(robot.links[name].inertia)[0])}); "
                                                  f"ignored: it is welded to the ground", notes)
     _check_names(robot, joints, bodies)
-    tree = Tree(robot.name, robot.path, root, bodies, joints, ground, notes, locked)
+    tree = Tree(robot.name, robot.path, root, bodies, joints, ground, notes, locked, robot)
     _check_resisted(robot, tree)
     return tree
 

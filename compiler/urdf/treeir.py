@@ -32,11 +32,12 @@ import numpy as np
 import sympy as sm
 from sympy.physics.vector import dynamicsymbols
 
-from eomc.compiler.tree.model import Load, Tree, TreeBody
+from eomc.compiler.tree.model import Tree, TreeBody
 from eomc.compiler.tree.joint_laws import JointScale
 from eomc.compiler.tree.recognize import effective_inertias
 
-from ..multibody.joints import Parameters, cross, lin, rotation_terms, snap, snapped, times, vec
+from ..multibody.joints import (Parameters, actuation, cross, lin, rotation_terms, snap, snapped, times, vec,
+                               z_to)
 from .tree import coordinate_suffixes, identifier
 
 __all__ = ["UrdfTree", "tree_ir", "floating_rotation", "floating_kinematics", "quaternion_rotation",
@@ -116,15 +117,6 @@ def free_joint(qs, us, quaternion):
     return floating_rotation(*qs[3:]), floating_kinematics(qs, us)
 
 
-def _z_to(axis):
-    """A rotation matrix whose third column is the unit vector ``axis`` (as :mod:`.system`)."""
-    z = np.asarray(axis, dtype=float)
-    helper = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    x = helper - (helper @ z) * z
-    x /= np.linalg.norm(x)
-    return np.column_stack([x, np.cross(z, x), z])
-
-
 def tree_ir(tree, *, fold=False, gravity=9.81, laws=True):
     """The :class:`UrdfTree` of a :class:`.tree.Tree` (see the module docstring); ``laws``: the
     joints' declared limits, damping and friction (:func:`law_torque`) act, else they are ignored."""
@@ -194,7 +186,7 @@ def tree_ir(tree, *, fold=False, gravity=9.81, laws=True):
             if tj.type == "floating_quaternion":
                 quaternions.append(len(coordinates) - 4)
         elif tj.type == "planar":
-            Z = snapped(_z_to(tj.axis))
+            Z = snapped(z_to(tj.axis))
             Aj = snapped(R0 @ Z)
             cth, sth = sm.cos(qs[2]), sm.sin(qs[2])
             # R_PC = Aj Rz(th) Zᵀ = P cos + Q sin + W
@@ -221,7 +213,7 @@ def tree_ir(tree, *, fold=False, gravity=9.81, laws=True):
             inputs.append(tau)
             if laws:
                 tau = tau + law_torque(tree, tj, qs[0], us[0], params, inertias)
-            loads += _actuation(tj.type, tau, a, R0, c, p, cp, index[tj.child], parent)
+            loads += actuation(tj.type == "prismatic", tau, a, R0, c, p, cp, index[tj.child], parent)
     g = params("g", gravity) if gravity else sm.S.Zero
     # what the motion cannot excite is dropped, as the System route does: only the symbols
     # the equations use become parameters
@@ -234,28 +226,19 @@ def tree_ir(tree, *, fold=False, gravity=9.81, laws=True):
 
 
 def pose_source(built, welds, shapes):
-    """The animation's PoseSource (eomc.compiler.emit.poses) of a :class:`UrdfTree`, without a
-    System: one frame per link at its link origin, placed from its parent link by the joint's
-    R_PC(q) and origin offset; links welded to a body or to the ground (``welds``) and the
-    visuals (``shapes``) as the System route gives them; a line from each parent link to its
-    child."""
-    from sympy.physics.vector import Point, ReferenceFrame, Vector
-    from eomc.compiler.emit.poses import PoseSource, welded_links
-    N, O = ReferenceFrame("N"), Point("O")
-    frame_edges, point_edges = [(N, None, None)], [(O, None, None)]
-    frames, points, lines, placed = [], [("O", O)], [], []
-    for body, offset in zip(built.tree.bodies, built.offsets):
-        F, L = ReferenceFrame(f"F_{body.name}"), Point(f"L_{body.name}")
-        pframe, ppoint, pindex = (N, O, 0) if body.parent < 0 else placed[body.parent]
-        frame_edges.append((F, pframe, body.rotation.T))
-        point_edges.append((L, ppoint, Vector([(offset, pframe)])))
-        frames.append((body.name, F, L))
-        points.append((body.name, L))
-        lines.append((pindex, len(points) - 1))
-        placed.append((F, L, len(points) - 1))
-    frames, more_frames, more_points = welded_links(welds, frames, N, O)
-    return PoseSource(tuple(frames), tuple(points), tuple(lines), tuple(frame_edges + more_frames),
-                      tuple(point_edges + more_points), dict(built.parameters), dict(shapes))
+    """The animation's poses (eomc.compiler.tree.poses.TreePoseSource) of a :class:`UrdfTree`,
+    without a System: one frame per link at its link origin, placed from its parent link by
+    the joint's rotation and origin offset; links welded to a body or to the ground
+    (``welds``) and the visuals (``shapes``) as the System route gives them; a line from
+    each parent link to its child."""
+    from eomc.compiler.tree.poses import TreePoseSource, welded_frames
+    frames, points, lines = [], [("O", None)], []
+    for i, body in enumerate(built.tree.bodies):
+        frames.append((body.name, i, None, None))
+        points.append((body.name, i))
+        lines.append((0 if body.parent < 0 else body.parent + 1, len(points) - 1))
+    return TreePoseSource(tuple(welded_frames(welds, frames)), tuple(points), tuple(lines), dict(built.parameters),
+                          dict(shapes), tree=built.tree, steps=tuple(tuple(o) for o in built.offsets))
 
 
 def joint_law(tree, tj):
@@ -355,24 +338,4 @@ def joint_loads(tree, gravity=9.81):
             reach = max([lever(world[b][0]) for b in below] + [lever(P[b]) for b in below])
             load = max(load, gravity * (total - mass) * reach)
         out[joint.name] = load
-    return out
-
-
-def _actuation(kind, tau, a, R0, c, p, cp, child, parent):
-    """The joint's torque (revolute) or force (prismatic) on the child and its reaction on the
-    parent (none on the ground: it does no work), in body components."""
-    zero = sm.zeros(3, 1)
-    on_child = sm.Matrix([snap(v) * tau for v in a])
-    on_parent = sm.Matrix([-snap(v) * tau for v in snapped(R0 @ a)])
-    out = []
-    if kind == "prismatic":
-        out.append(Load(body=child, frame="body", moment=zero, force=on_child,
-                        offset=sm.Matrix([-x for x in c])))
-        if parent >= 0:
-            out.append(Load(body=parent, frame="body", moment=zero, force=on_parent,
-                            offset=sm.Matrix([p[k] - cp[k] for k in range(3)])))
-        return out
-    out.append(Load(body=child, frame="body", moment=on_child, force=zero, offset=zero))
-    if parent >= 0:
-        out.append(Load(body=parent, frame="body", moment=on_parent, force=zero, offset=zero))
     return out

@@ -26,8 +26,8 @@ def configure(parser):
     parser.add_argument("--t0", type=float, default=0.0, help="start time")
     parser.add_argument("-o", "--output", metavar="HTML", help="the HTML page to write")
     parser.add_argument("--gif", metavar="GIF", help="also draw a planar motion to this GIF (2-D)")
-    parser.add_argument("--mp4", metavar="MP4", help='... or to this MP4 (ffmpeg on PATH, or pip install '
-                                                      '"eomc[video]")')
+    parser.add_argument("--mp4", metavar="MP4", help='... or to this MP4 (ffmpeg on PATH, or the video '
+                                                      'extra: pip install ".[video]" in eomc\'s clone)')
     parser.add_argument("--package-dir", action="append", default=[], metavar="DIR",
                         help="a folder holding the ROS packages a URDF's package:// meshes name "
                              "(repeat for more; searched before ROS_PACKAGE_PATH, AMENT_PREFIX_PATH "
@@ -97,6 +97,9 @@ def run(args):
             raise ValueError(f"--package-dir {folder}: no such folder")
     if args.fps <= 0 or args.gif_fps <= 0:
         raise ValueError("--fps and --gif-fps must be positive")
+    if args.mp4:        # no ffmpeg: said now, not after the build and the run
+        from eomc.runtime.animate import ffmpeg_path
+        ffmpeg_path()
     options = {**cli_common.model_options(args), **cli_common.read_checks(args)}   # --param: once read
     if args.trajectory and os.path.isfile(args.model):
         # drawing a saved run needs the bodies' poses only: no Jacobians, frames or events to

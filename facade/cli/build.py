@@ -16,7 +16,7 @@ def add_generate_options(parser):
     parser.add_argument("--name", help="model name (default: the file's `name` or its stem)")
     parser.add_argument("--outputs", metavar="LIST",
                         help="comma-separated functions to generate, e.g. rhs,jacobian,mass_matrix "
-                             "(default: all the model supports but jac_p, jvp, regressor and jac_id, which are "
+                             "(default: all the model supports but jac_p, jvp, vjp, hvp, regressor, jac_id and hess_id, which are "
                              "generated only when named)")
     parser.add_argument("--fold-parameters", action="store_true",
                         help="fold parameter defaults into literals instead of runtime arguments")
@@ -81,7 +81,7 @@ def formulation_line(meta, asked):
         return f"formulation: {chosen} (asked for)"
     costs = meta.get("formulation_costs")
     if costs:
-        from eomc.compiler.tree.select import COST_MODEL
+        from eomc.compiler.formulations.select import COST_MODEL
         return (f"formulation: {chosen} (auto: the cheaper rhs; costs " +
                 ", ".join(f"{k} {v}" for k, v in sorted(costs.items())) +
                 f"; {COST_MODEL})")

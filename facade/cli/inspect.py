@@ -65,7 +65,7 @@ def compare_formulations(args, spec, generated, generate, error, *, source=None,
     generated from the same, so both columns describe the same robot."""
     source = args.model if source is None else source
     name = args.name if name is None else name
-    from eomc.compiler.tree.select import AUTO_KANE_MAX_SPEEDS, COST_MODEL
+    from eomc.compiler.formulations.select import AUTO_KANE_MAX_SPEEDS, COST_MODEL
     meta = generated.metadata
     chosen = meta.get("formulation", "kane")
     other = "kane" if chosen == "recursive" else "recursive"
@@ -82,7 +82,8 @@ def compare_formulations(args, spec, generated, generate, error, *, source=None,
                     ", ".join(f"{k} {v}" for k, v in sorted(costs.items())))
     if note and chosen == "kane":
         return "\n".join(head)
-    if spec.formed.method == "tree" and spec.formed.nu > AUTO_KANE_MAX_SPEEDS:
+    from eomc.compiler.multibody import Model
+    if isinstance(spec.formed, Model) and spec.formed.nu > AUTO_KANE_MAX_SPEEDS:
         head.append(f"  kane not compared: the System's equations are not formed ({spec.formed.nu} "
                     f"speeds), and forming them is what the recursive formulation avoids")
         return "\n".join(head)

@@ -37,7 +37,9 @@ def format_equations(spec, ascii_only=False):
     """The text `eomc show` prints for a ModelSpec."""
     import sympy as sm
     f = spec.formed
-    out = [f"model {spec.name} ({f.method}): nq={f.nq}, nu={f.nu}"]
+    from eomc.compiler.multibody import Model
+    read = isinstance(f, Model)     # read straight into the joint tree (a robot file), never formed
+    out = [f"model {spec.name} ({'multibody model as read' if read else f.method}): nq={f.nq}, nu={f.nu}"]
     out.append("coordinates q: " + ", ".join(_pretty(s, ascii_only) for s in f.coordinates))
     out.append("speeds u:      " + ", ".join(_pretty(s, ascii_only) for s in f.speeds))
     extra = tuple(getattr(f, "extra_states", ()))
@@ -49,7 +51,7 @@ def format_equations(spec, ascii_only=False):
     out.append("parameters:    " + (", ".join(f"{s}={v:g}" for s, v in parameter_order(spec)) or "-"))
     out.append("\nkinematics  q' =")
     out.append(_pretty(sm.Matrix(f.kinematics), ascii_only))
-    if f.method == "tree":     # an MJCF model: read straight into the joint tree, never formed
+    if read:
         out.append("\nmass matrix and forcing: not formed (the model is read straight into the joint tree "
                    "and built by the recursive formulation; `eomc inspect` shows its operation counts, "
                    "a built model's mass_matrix and forcing give the numbers)")

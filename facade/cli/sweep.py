@@ -110,7 +110,8 @@ def _dask_client(address, timeout):
     try:
         from distributed import Client
     except ImportError:
-        raise EomcError("--scheduler needs Dask: pip install 'eomc[dask]'") from None
+        raise EomcError("--scheduler needs Dask: install the dask extra (pip install '.[dask]' in eomc's "
+                        "clone)") from None
     if not timeout > 0:
         raise ValueError(f"--connect-timeout must be > 0 seconds; got {timeout}")
     _quiet_dask_logs()

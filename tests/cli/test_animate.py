@@ -68,3 +68,20 @@ def test_animate_errors_are_one_line(built, tmp_path, capsys, argv, match):
     assert main(["animate", str(built), *argv]) == 2
     err = capsys.readouterr().err
     assert match in err and "Traceback" not in err and len(err.strip().splitlines()) == 1, err
+
+
+def test_mp4_without_ffmpeg_is_one_line(built, tmp_path, monkeypatch, capsys):
+    """No ffmpeg on PATH and no imageio-ffmpeg wheel: one line naming the extra to install
+    from the clone, no traceback, status 2 -- before the model is loaded or run."""
+    import eomc.cli.common as cli_common
+    import eomc.runtime.animate as animate_module
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("the model was loaded before the missing ffmpeg was reported")
+    monkeypatch.setattr(cli_common, "load_model", refuse)
+    monkeypatch.setattr(animate_module.shutil, "which", lambda name: None)
+    monkeypatch.setitem(sys.modules, "imageio_ffmpeg", None)
+    assert main(["animate", str(built), "--t-final", "0.5", "--mp4", str(tmp_path / "dp.mp4")]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
+    assert 'writing .mp4 needs ffmpeg: install the video extra (pip install ".[video]"' in err, err

@@ -45,6 +45,16 @@ def cart_relative(n, mech, torques=False):
     return kane, inputs
 
 
+def add_joint_spring(system, index, k, c):
+    """A torsional spring-damper -(k q + c u) on ``system.joints[index]`` (a PinJoint): a load
+    that depends on the state (the recursive Jacobians then keep their tangent path)."""
+    joint = system.joints[index]
+    q, u = joint.coordinates[0], joint.speeds[0]
+    tau = -(k * q + c * u) * joint.joint_axis
+    system.add_loads(sme.Torque(joint.child_interframe, tau), sme.Torque(joint.parent_interframe, -tau))
+    return system
+
+
 def cart_joints(n, rigid=False):
     """SymPy System: cart on a PrismaticJoint, n links on PinJoints (relative angles).
 

@@ -124,7 +124,7 @@ def test_mp4_through_the_bundled_ffmpeg(hopper, tmp_path, monkeypatch):
     out = animate_2d(res, tmp_path / "hopper.mp4", model=model, t_max=0.5)
     assert out.stat().st_size > 1000 and out.read_bytes()[4:8] == b"ftyp"
     monkeypatch.setitem(sys.modules, "imageio_ffmpeg", None)
-    with pytest.raises(ValueError, match=r'pip install "eomc\[video\]"'):
+    with pytest.raises(ValueError, match=r'pip install "\.\[video\]" in eomc\'s clone'):
         animate_2d(res, tmp_path / "again.mp4", model=model)
 
 

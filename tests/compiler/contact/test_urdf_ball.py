@@ -26,7 +26,8 @@ def ball_path(tmp_path_factory):
 
 
 def test_collision_spheres_are_read(ball_path):
-    (spec,) = collision_spheres(ball_path)
+    from eomc.compiler.urdf.model import read_model
+    (spec,) = collision_spheres(read_model(UrdfModel(ball_path, floating_base=True)).collisions, ball_path)
     assert (spec.link, spec.point, spec.radius, spec.name) == ("ball", (0.0, 0.0, 0.0), 0.05, "ball")
     assert parse_contact("FL_FOOT:0,0.01,-0.02:0.016").point == (0.0, 0.01, -0.02)
     for bad in ("", "a:1,2", "a:1,2,3:x", "a:1:2:3"):

@@ -72,11 +72,18 @@ def test_extra_states(formulation, tmp_path_factory):
     check(model, 4)
 
 
-@settings(max_examples=4, deadline=None, suppress_health_check=list(HealthCheck))
+@settings(max_examples=4, deadline=None, derandomize=True, suppress_health_check=list(HealthCheck))
 @given(tree(max_bodies=3, free=True))
 def test_random_floating_trees(tmp_path_factory, spec):
+    """Random floating trees; a tree whose acceleration is undefined (a body with no inertia
+    about its joint axis, even with everything beyond it) is refused by the build, which
+    is the right answer there, so only that refusal is let through."""
     system, inputs = build(spec)
-    model = _compile(system, tmp_path_factory.mktemp("c"), inputs=inputs, formulation="recursive")
+    try:
+        model = _compile(system, tmp_path_factory.mktemp("c"), inputs=inputs, formulation="recursive")
+    except ModelError as exc:
+        assert "has no inertia about its joint axis" in str(exc)
+        return
     check(model, 7, nstates=2)
 
 

@@ -57,3 +57,13 @@ def test_the_rhs_alone_and_the_override_pass(long_chain, monkeypatch):
     small = read_model(str(chain(long_chain.with_name("small.urdf"), MAX_DENSE_COORDINATES)))
     monkeypatch.delenv("EOMC_BUILD_CEILING")
     check_ceiling(small, None)
+
+
+def test_a_large_build_without_dense_jacobians_states_its_cost(tmp_path, monkeypatch):
+    from eomc.compiler.model.ceiling import LARGE_COORDINATES
+    from eomc.runtime.errors import EomcWarning
+    monkeypatch.delenv("EOMC_BUILD_CEILING", raising=False)
+    read = read_model(str(chain(tmp_path / "big.urdf", LARGE_COORDINATES + 1)))
+    with pytest.warns(EomcWarning, match=rf"big: {LARGE_COORDINATES + 1} coordinates: expect this build "
+                                         r"to take about [\d.]+ min of CPU and [\d.]+ MB of memory"):
+        check_ceiling(read, ["rhs"])

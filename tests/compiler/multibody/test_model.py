@@ -74,6 +74,59 @@ def test_a_urdf_is_parsed_once(arm, counted, formulation):
     assert "tool0" in str(poses) and "box" in str(poses)    # the welded link and the visual, from the one read
 
 
+COLLIDING = ('<link name="tool0">\n    <collision><origin xyz="0 0 0.3" rpy="0 0.2 0"/><geometry><box '
+             'size="0.05 0.05 0.1"/></geometry></collision>\n    <collision><origin xyz="0 0 0.3"/><geometry>'
+             '<sphere radius="0.03"/></geometry></collision>\n  </link>')
+
+
+@pytest.mark.parametrize("contact", ["--contact", "--ground", "@collision"])
+def test_contacts_and_the_ground_take_the_collision_geometry_from_the_one_read(arm, counted, contact):
+    """Contact spheres on a welded link (tool0), @collision spheres and --ground's <collision>
+    shapes come from the reader's Model (its collisions and welded links): the file is parsed
+    once, and the geometry is where the file puts it (a box and a sphere on the welded tool0)."""
+    from eomc.compiler.urdf.model import UrdfModel
+    path = arm.with_name("colliding.urdf")
+    path.write_text(arm.read_text().replace('<link name="tool0"/>', COLLIDING, 1))
+    model = {"--contact": UrdfModel(path, contacts=("tool0:0,0,0.1:0.02",)),
+             "--ground": UrdfModel(path, ground=True),
+             "@collision": UrdfModel(path, contacts=("@collision",))}[contact]
+    _, generated = generate(model, frames=["tool0"], use_cache=False, progress=False)
+    assert counted["xml"] == 1
+    depths = [n for n in generated.metadata["output_names"] if n.startswith("depth_")]
+    box = [f"depth_tool0_col0_{k}" for k in range(8)]      # a box touches by its corners
+    assert depths == {"--contact": ["depth_tool0"], "--ground": box + ["depth_tool0_col1"],
+                      "@collision": ["depth_tool0"]}[contact]
+
+
+@pytest.mark.parametrize("formulation", ["kane", "auto"])
+def test_a_from_urdf_system_is_not_read_again(arm, counted, formulation):
+    """A System from_urdf made (the file read there, once) builds with its welded links as
+    frames and its poses from that reading: no parse during the build."""
+    from eomc.compiler.urdf import from_urdf
+    system = from_urdf(arm)
+    assert counted["xml"] == 1
+    _, generated = generate(system, name="arm", frames=["tool0"], formulation=formulation, use_cache=False,
+                            progress=False)
+    assert counted["xml"] == 1
+    assert "tool0.p.z" in generated.metadata["output_names"] and "tool0" in str(generated.metadata["poses"])
+
+
+def test_a_from_urdf_systems_frames_are_its_links_under_every_formulation(arm, tmp_path):
+    """The frame 'upper' of a from_urdf System is the link's frame (at its joint) under auto as
+    under kane; before, auto took the bodies of the tree recognized from the System (at their
+    mass centres) and did not know the welded tool0."""
+    from eomc.compiler.urdf import from_urdf
+    built = {form: eomc.compile(from_urdf(arm), name=f"arm_{form}", frames=["upper", "tool0"],
+                                formulation=form, cache_dir=tmp_path, progress=False)
+             for form in ("kane", "auto")}
+    x = np.array([0.3, -0.7, 0.2, 0.5])
+    for frame in ("upper", "tool0"):
+        a, b = (built[form].frame(frame, 0.0, x) for form in ("kane", "auto"))
+        for key in ("p", "R", "v", "w", "J"):
+            assert np.allclose(getattr(a, key), getattr(b, key), atol=1e-13, rtol=0), (frame, key)
+    assert abs(built["auto"].frame("upper", 0.0, x).p[2] - 0.1) < 1e-14     # the shoulder, not the mass centre
+
+
 def test_a_model_file_is_executed_once(counted):
     _, generated = generate(str(EXAMPLES / "cart_pole_system.py"), frames=["com"], use_cache=False,
                             progress=False)

@@ -26,7 +26,7 @@ from eomc.compiler.urdf.joints import PlanarJoint as UrdfPlanar
 from eomc.errors import ModelError
 from helpers import random_trees
 from helpers.robots import PinRef, joints_of, relative_error, robot_path
-from helpers.trees import cart_joints
+from helpers.trees import add_joint_spring, cart_joints
 
 
 @pytest.fixture(autouse=True)
@@ -61,13 +61,17 @@ def worst_against_fd(model, seed, nstates=3):
 
 @pytest.mark.parametrize("n", [2, 8])
 def test_cart_both_code_paths(n):
-    """n = 2: 6 states, columns unrolled; n = 8: 18 states, the tangent looped in C."""
+    """The tangent paths, kept where a load depends on the state (here a joint spring; without
+    it the analytic path, tests/compiler/tree/test_analytic_derivatives.py): n = 2: 6 states,
+    columns unrolled; n = 8: 18 states, the tangent looped in C."""
     system, _ = cart_joints(n, rigid=True)
+    add_joint_spring(system, 1, *sm.symbols("k_s c_s"))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         model = eomc.compile(system, f"cid{n}", functions=["inverse_dynamics", "jac_id"],
                              formulation="recursive", progress=False)
     assert model.functions == ("inverse_dynamics", "jac_id")
+    assert "_rnea_derivs(" not in model.source_path.read_text()
     looped = "for (k = " in model.source_path.read_text()
     assert looped == (model.nx > TANGENT_MIN_STATES)
     assert worst_against_fd(model, seed=n) < 1e-7

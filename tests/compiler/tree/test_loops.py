@@ -6,7 +6,7 @@ import pytest
 
 from eomc.cli import main
 from eomc.compiler.driver import generate
-from eomc.compiler.tree.select import COST_MODEL
+from eomc.compiler.formulations.select import COST_MODEL
 from eomc.errors import ModelError
 
 ROOT = Path(__file__).resolve().parents[3]

@@ -9,14 +9,16 @@ is emit's default, the same code as Kane's.
 from collections import Counter
 
 from ..emit.formulation import Formulation
-from ..emit.reverse import REVERSE_FUNCTIONS, reverse_body
+from ..emit.reverse import REVERSE_FUNCTIONS, hess_id_body, hess_id_ops, reverse_body
 from ..ir import count_program
-from .constrained import jacobian_symbols
-from .inverse_derivatives import jac_id_body, jac_id_ops
-from .emit import tree_jacobian_body, tree_jacobian_ops, tree_matrix_body, tree_rhs_body
-from .jvp import tree_jvp_body
-from .lower import TREE_FUNCTION_GROUPS, TREE_HELPER_USERS, build_tree_symbolic
-from .regressor import PI_NAMES
+from ..tree.analytic import kernel_c
+from ..tree.analytic_emit import analytic_body_ops, analytic_jac_id_body, analytic_jac_x_body, has_analytic
+from ..tree.constrained import jacobian_symbols
+from ..tree.inverse_derivatives import jac_id_body, jac_id_ops
+from ..tree.emit import tree_jacobian_body, tree_jacobian_ops, tree_matrix_body, tree_rhs_body
+from ..tree.jvp import tree_jvp_body
+from ..tree.lower import TREE_FUNCTION_GROUPS, TREE_HELPER_USERS, build_tree_symbolic
+from ..tree.regressor import PI_NAMES
 
 __all__ = ["Recursive"]
 
@@ -45,8 +47,14 @@ class Recursive(Formulation):
             return tree_rhs_body(ctx, prog)
         if fn in ("mass_matrix", "forcing", "inverse_dynamics"):
             return tree_matrix_body(ctx, prog, fn)
+        if fn == "jac_id" and has_analytic(prog, sym):
+            return analytic_jac_id_body(ctx, prog, sym)
+        if fn == "jac_x" and has_analytic(prog, sym):
+            return analytic_jac_x_body(ctx, prog, sym, *jacobian_symbols(prog, sym.W, ctx.nu))
         if fn == "jac_id":
             return jac_id_body(ctx, prog, sym.seeds)
+        if fn == "hess_id":
+            return hess_id_body(ctx, prog, sym, nx)
         if fn in REVERSE_FUNCTIONS:
             return reverse_body(fn, ctx, prog, sym, nx, len(layout.p), jacobian_symbols(prog, sym.W, ctx.nu)[1])
         if fn == "jvp":
@@ -57,15 +65,26 @@ class Recursive(Formulation):
         return None
 
     def ops(self, fn, prog, sym, nx, nr, npar, nq, nu, solve_in):
+        if fn == "hess_id":      # the sweep once per row, its tangent once per row and column
+            return hess_id_ops(prog, sym, nx, nu)
         if fn in _OWN_COUNTS and fn not in solve_in:
             c = count_program(prog) if prog is not None else Counter()
             return {k: int(c.get(k, 0)) for k in ("adds", "muls", "divs", "calls")}
+        if fn in ("jac_id", "jac_x") and has_analytic(prog, sym):
+            nq_ = nx - nu if nq is None else nq
+            return analytic_body_ops(fn, prog, sym, *jacobian_symbols(prog, sym.W, nu), nq_, nu, nx)
         if fn == "jac_id":
             return jac_id_ops(prog, sym.seeds, nx - nu if nq is None else nq, nu, nx)
         if fn in _JACOBIANS:
             return tree_jacobian_ops(prog, *jacobian_symbols(prog, sym.W, nu), sym.seeds, fn,
                                      nx - nu if nq is None else nq, nx, npar if fn == "jac_p" else nr)
         return None
+
+    def c_helpers(self, name, sym, functions, nq):
+        """NAME_rnea_derivs (:mod:`.analytic`) when jac_x or jac_id use it."""
+        if sym.analytic is None or not {"jac_x", "jac_id"} & set(functions):
+            return ""
+        return kernel_c(name, sym.analytic, nq, solve="jac_x" in functions)
 
     def metadata(self, sym, functions):
         out = {}

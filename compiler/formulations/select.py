@@ -45,10 +45,10 @@ from sympy.physics import mechanics as me
 from eomc.runtime.errors import EomcError, ModelError
 
 from ..mechanics.formed import FormedSystem
+from ..multibody.formed import model_of_tree
 from ..multibody.model import Model
-from .formed import model_of_tree, tree_exprs
-from .model import NotATree
-from .recognize import tree_of
+from ..tree.model import NotATree, tree_exprs
+from ..tree.recognize import tree_of
 
 __all__ = ["FORMULATIONS", "DEFAULT_FORMULATION", "AUTO_KANE_MAX_SPEEDS", "generate_formulation",
            "rhs_cost", "KANE_OP_WEIGHT", "DIV_WEIGHT", "CALL_WEIGHT", "COST_MODEL",
@@ -77,7 +77,7 @@ def tree_digest(spec):
              (b.parent, -2 - len(b.speeds)) + tuple(b.speeds) if b.speeds else (b.parent, -1)
              for b in tree.bodies]
     notes = list(getattr(tree, "notes", ()))   # they go into the metadata (tree_notes)
-    from .constrained import loop_exprs, tree_loops   # a tree closed by constraints: them too
+    from ..tree.constrained import loop_exprs, tree_loops   # a tree closed by constraints: them too
     return (tree_exprs(tree) + [sm.Integer(k) for pair in shape for k in pair]
             + loop_exprs(tree_loops(tree)) + notes)
 
@@ -93,7 +93,7 @@ def kane_tree_formed(kane):
     loads and kinematic equations without asking for its formed equations, so that a lazily
     formed KanesMethod is never formed when the recursive formulation takes it.  NotATree
     when the recursion cannot take it."""
-    from .recognize import tree_from_kane
+    from ..tree.recognize import tree_from_kane
     t = me.dynamicsymbols._t
     try:
         qdot = kane.kindiffdict()
@@ -288,7 +288,7 @@ def _generate_kane(spec, functions, fold_parameters):
 
 def _generate_recursive(spec, functions, fold_parameters):
     from ..emit import generate_c
-    from .formulation import Recursive
+    from .recursive import Recursive
     tree = _find_tree(spec)
     check_tree_finite(tree, spec.system)
     check_formed_finite(spec)

@@ -11,7 +11,7 @@ from eomc.compiler.driver import generate
 from eomc.errors import ModelError
 from helpers import zoo
 from helpers.trees import cart_joints, cart_relative
-from eomc.compiler.tree.select import rhs_cost
+from eomc.compiler.formulations.select import rhs_cost
 
 ROOT = Path(__file__).resolve().parents[3]
 RUNTIME_C = ROOT / "runtime" / "c"
@@ -115,7 +115,7 @@ def test_zero_articulated_inertia_is_a_status_not_a_nan(tmp_path, monkeypatch):
 @pytest.mark.parametrize("n", [1, 3, 5])
 def test_kane_solve_floor_is_a_lower_bound_on_kanes_rhs(n):
     """auto may skip lowering Kane's form on this bound: it must never exceed Kane's real rhs."""
-    from eomc.compiler.tree.select import kane_solve_floor
+    from eomc.compiler.formulations.select import kane_solve_floor
     kane, inputs = cart_relative(n, em)
     spec, gm = generate(kane, "m", functions=["rhs"], formulation="kane", inputs=inputs,
                         use_cache=False, progress=False)
@@ -124,7 +124,7 @@ def test_kane_solve_floor_is_a_lower_bound_on_kanes_rhs(n):
 
 
 def test_auto_skips_lowering_kane_when_its_solve_alone_costs_more(monkeypatch):
-    from eomc.compiler.tree import select
+    from eomc.compiler.formulations import select
     kane, inputs = cart_relative(2, em)
     monkeypatch.setattr(select, "kane_solve_floor", lambda formed: 10 ** 9)
     gm = _gen(kane, "auto", ["rhs"], inputs=inputs)
@@ -198,7 +198,7 @@ def test_auto_does_not_ask_a_kanes_method_for_its_formed_equations_on_a_large_tr
 
 def test_auto_falls_back_to_kane_when_the_recursive_lowering_fails(monkeypatch):
     """Anything the recursive path raises: Kane's form, with the reason in the metadata."""
-    from eomc.compiler.tree import select
+    from eomc.compiler.formulations import select
     def broken(*args, **kwargs):
         raise RuntimeError("a bug in the recursion")
     monkeypatch.setattr(select, "check_tree_finite", broken)
@@ -211,7 +211,7 @@ def test_auto_falls_back_to_kane_when_the_recursive_lowering_fails(monkeypatch):
 
 
 def test_auto_keeps_the_recursive_form_when_kanes_fails(monkeypatch):
-    from eomc.compiler.tree import select
+    from eomc.compiler.formulations import select
     original = select._generate_kane
 
     def broken(spec, *args):
@@ -270,8 +270,8 @@ def test_the_printer_refuses_a_nonfinite_constant_naming_the_function():
     from eomc.compiler.emit import generate_c
     from eomc.compiler.model import model_spec
     from eomc.compiler.emit.formulation import KANE
-    from eomc.compiler.tree.formulation import Recursive
-    from eomc.compiler.tree.select import _find_tree
+    from eomc.compiler.formulations.recursive import Recursive
+    from eomc.compiler.formulations.select import _find_tree
     kane, inputs = cart_relative(1, em)
     spec = model_spec(kane, inputs=inputs)
     for bad, formulation in ((sm.nan, KANE), (sm.oo, Recursive(_find_tree(spec)))):

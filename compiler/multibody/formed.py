@@ -9,21 +9,11 @@ import sympy as sm
 from sympy.core.function import AppliedUndef
 from sympy.physics import mechanics as me
 
-from ..multibody.model import Frame, Model, Provenance
-from .recognize import system_kinematics, tree_from_system
+from ..tree.model import tree_exprs
+from ..tree.recognize import system_kinematics, tree_from_system
+from .model import Frame, Model, Provenance
 
-__all__ = ["tree_formed", "tree_exprs", "model_of_tree", "body_frames"]
-
-
-def tree_exprs(tree):
-    out = list(tree.kinematics) + list(tree.gravity)
-    for b in tree.bodies:
-        out += list(b.rotation) + list(b.position) + list(b.motion or ()) + [b.mass] + list(b.inertia)
-        out += [c for m in b.motions for c in m] + list(b.armature)
-    for load in tree.loads:
-        out += list(load.moment) + list(load.force) + list(load.offset)
-        out += list(getattr(load, "exprs", ()))      # a ground contact's parameters (compiler/contact)
-    return [sm.sympify(e) for e in out]
+__all__ = ["tree_formed", "model_of_tree", "body_frames"]
 
 
 def tree_formed(system):
@@ -59,5 +49,5 @@ def model_of_tree(tree, source=None, **fields):
                   inputs=tuple(sorted(inputs, key=str)),
                   parameters=tuple(sorted(params, key=lambda s: s.name)),
                   source=source or Provenance("system"), **fields)
-    from .constrained import with_loops     # loop-closing constraints, if the tree has any
+    from ..tree.constrained import with_loops     # loop-closing constraints, if the tree has any
     return with_loops(model, tree)

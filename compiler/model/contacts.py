@@ -1,11 +1,11 @@
 """``contacts=`` of eomc.compile: which models take ground contacts, and how they carry them.
 
-One job, kept apart from :mod:`.tree` so that the robot readers (URDF, MJCF), which
-import :mod:`.tree` to lower the contacts, are not imported back by it.
+One job: the dispatch on the robot formats (as :func:`.spec.read_model`'s), so it lives
+with the model layer, above the readers, which the contact package is below.
 """
 from eomc.runtime.errors import ModelError
 
-from .tree import ContactSpec, as_spec
+from ..contact.tree import ContactSpec, as_spec
 
 __all__ = ["with_contact_specs"]
 

@@ -1,0 +1,535 @@
+"""Analytic first-order derivatives of RNEA (Carpentier & Mansard, RSS 2018), as C loops.
+
+Why: differentiating RNEA's straight-line trace along every state column (the tangent
+path of :mod:`.inverse_derivatives` and :mod:`.derivatives`) costs O(n) work per column,
+O(n²) in all, and its unrolled variants O(n²) code.  Carpentier and Mansard's algorithm
+works in the world frame, where a joint's motion axis S_j, once placed, is the same for
+every body it moves; the derivatives of the joint forces then are short dot products of
+per-body 6-vectors over the pairs (joint, joint in its support): O(n·depth) work with
+small constants, and -- written as C loops over tree arrays -- O(n) code whatever n is.
+
+What is generated (:func:`kernel_c`): one static function per model, ``NAME_rnea_derivs``,
+fed by straight-line code that computes per body its parent-to-body rotation E and
+position r, its joints' body-frame axes S, mass and inertia about its mass centre, its
+body-frame load, and gravity (the ``anx`` result group, in the program's own slot
+symbols, so the usual optimizer shares their sines and cosines); the function places
+the bodies in the world, runs the forward pass (velocities v, accelerations a with
+gravity as the root's acceleration, ∂v/∂q, ∂a/∂q, ∂a/∂v per joint axis; world inertias
+Y and their variation Ẏ + (h ×*)) and the backward pass (composite Y, Ẏ and forces; for
+every pair of a joint and one of its support the four entries ∂τ/∂q, ∂τ/∂v both ways).
+
+Coordinates: a one-speed joint's coordinate is its speed's integral (q' = u, checked).
+A joint of k speeds (the Euler-angle free joint, a ball, planar, cylindrical joint) has
+k coordinates with q' = K(q) u; the algorithm differentiates along the body-frame
+perturbation ξ of the joint's placement, the direction its speeds move it, and
+δξ = K⁻¹ δq, so ∂τ/∂q = ∂τ/∂ξ · K⁻¹ (K inverted numerically, k ≤ 6, once a call).
+
+Where it applies (:func:`analytic_plan`): an open tree whose loads are body-frame loads
+that do not depend on the state (inputs, parameters, time: motor torques, forces on a
+body); state-dependent loads (joint laws, contacts, world-frame forces) and trees closed
+by constraints keep the tangent path.
+
+Checked against central differences and Pinocchio's ``computeRNEADerivatives`` /
+``computeABADerivatives`` (tests/compiler/tree/test_analytic_derivatives.py).
+"""
+from dataclasses import dataclass
+
+import sympy as sm
+
+__all__ = ["AnalyticPlan", "analytic_plan", "kernel_c", "ANX", "analytic_ops"]
+
+ANX = "anx"      # the result group of the kernel's inputs
+
+
+@dataclass(frozen=True)
+class AnalyticPlan:
+    nb: int                 # bodies (fixed-joint bodies included)
+    nd: int                 # speeds (dofs), numbered body by body
+    par: tuple              # parent body, -1 at the ground
+    first: tuple            # first dof of each body
+    count: tuple            # dofs of each body
+    row: tuple              # speed index of each dof
+    qcol: tuple             # the dof's coordinate column (for a k-speed joint: its tangent's, see module doc)
+    multi: tuple            # (first dof, k, offset of K in anx) of each k-speed joint
+    loads: bool             # some body has a load (the anx block F exists)
+    offsets: dict           # anx block -> first index: E, r, S, I, F, g, K, arm
+    size: int               # len(anx)
+    lam: tuple = ()         # the dof before each dof on its path to the root (-1: none)
+    dep: tuple = ()         # the number of dofs before it on that path
+    off: tuple = ()         # where its row of M (itself, then its support, nearest first) starts
+
+    def dofs(self, b):
+        return range(self.first[b], self.first[b] + self.count[b])
+
+
+def analytic_plan(tree, bodies, gravity, layout, rename):
+    """(plan, [(("anx", i), expr)]) when the tree qualifies (see the module doc), else (None, [])."""
+    if tree.loops is not None:
+        return None, []
+    nq, nu = len(tree.coordinates), len(tree.speeds)
+    xs = set(layout.x)
+    for load in tree.loads:
+        if load.frame != "body":
+            return None, []
+        for e in list(load.moment) + list(load.force) + list(load.offset):
+            if rename(e, "a load").free_symbols & xs:
+                return None, []
+    kin = [rename(k, "the kinematics") for k in tree.kinematics]
+    if len(kin) != nq:
+        return None, []
+    speeds = layout.x[nq:nq + nu]
+    nb = len(bodies)
+    par, first, count, row, qcol, multi = [], [], [], [], [], []
+    E, r, S, I, F, K, arm = [], [], [], [], [], [], []
+    lam, dep, last = [], [], {}     # last: body -> its last dof, or its nearest ancestor's
+    used = set()
+    for b in bodies:
+        par.append(b.parent)
+        first.append(len(row))
+        if b.S is not None:
+            dofs = [(b.speed, b.S)]
+        elif b.multi:
+            dofs = list(b.multi)
+        else:
+            dofs = []
+        count.append(len(dofs))
+        if len(dofs) == 1:
+            s = dofs[0][0]
+            hit = [i for i, k in enumerate(kin) if k == speeds[s]]
+            if len(hit) != 1 or hit[0] in used:
+                return None, []
+            used.add(hit[0])
+            qcol.append(hit[0])
+        elif dofs:
+            mine = {speeds[s] for s, _ in dofs}
+            rows = [i for i, k in enumerate(kin) if k.free_symbols & mine]
+            if len(rows) != len(dofs) or used & set(rows):
+                return None, []
+            others = set(speeds) - mine
+            if any(kin[i].free_symbols & others for i in rows):
+                return None, []
+            used.update(rows)
+            multi.append((len(row), len(dofs), len(K)))
+            for i in rows:
+                K += [sm.diff(kin[i], speeds[s]) for s, _ in dofs]
+            qcol += rows
+        before = last.get(b.parent, -1)
+        for (s, axis), a in zip(dofs, b.armature):
+            lam.append(before)
+            dep.append(dep[before] + 1 if before >= 0 else 0)
+            before = len(row)
+            row.append(s)
+            S += list(axis)
+            arm.append(a)
+        last[len(par) - 1] = before
+        E += [b.E[i][j] for i in range(3) for j in range(3)]
+        r += list(b.r)
+        m = b.I[3][3]
+        I += [m] + [b.I[i][j] for i in range(3) for j in range(3)]
+        F += list(b.fext) if b.fext is not None else [0] * 6
+    if len(used) != nq or len(row) != nu:
+        return None, []
+    loads = any(b.fext is not None for b in bodies)
+    blocks = [("E", E), ("r", r), ("S", S), ("I", I)] + ([("F", F)] if loads else []) + [
+        ("g", list(gravity)), ("K", K), ("arm", arm)]
+    offsets, values = {}, []
+    for name, vals in blocks:
+        offsets[name] = len(values)
+        values += vals
+    off = [0]
+    for d in dep:
+        off.append(off[-1] + d + 1)
+    plan = AnalyticPlan(nb, len(row), tuple(par), tuple(first), tuple(count), tuple(row),
+                        tuple(qcol), tuple(multi), loads, offsets, len(values), tuple(lam), tuple(dep),
+                        tuple(off))
+    return plan, [((ANX, i), sm.sympify(v)) for i, v in enumerate(values)]
+
+
+def _table(name, vals):
+    return f"    static const int {name}[{len(vals)}] = {{{', '.join(str(v) for v in vals)}}};"
+
+
+def kernel_c(name, plan, nq, solve=False):
+    """The C text of ``NAME_rnea_derivs`` (see the module doc) and its small helpers.
+
+    ``NAME_rnea_derivs(an, u, ud, out, stride, row0, sign)`` writes, for every speed i
+    and state column k of the coordinates and speeds, ``out[(row0 + i) * stride + k] =
+    sign * ∂τ_i/∂x_k`` at the velocities ``u`` and accelerations ``ud`` (per dof, in the
+    plan's dof order), zeroing the rest of those rows.
+
+    ``solve`` (jac_x): with ``msolve`` set, those rows are then multiplied by M⁻¹: M from
+    the same composite inertias (M_ac = S_aᵀ Yᶜ S_c, the armature on its diagonal), stored
+    by rows of a dof and its support (nearest first), factored M = Lᵀ D L in place
+    (Featherstone's LTDL, O(n·d²)) and applied to the rows as whole-row updates (O(n·d) row
+    operations of nq + nu entries each)."""
+    ncol = nq + plan.nd
+    msize = plan.off[-1]
+    axpy = _axpy_lines(ncol)
+    nb, nd, o = plan.nb, plan.nd, plan.offsets
+    fn = f"{name}_rnea_derivs"
+    lines = [
+        f"static void {name}_rd_cross(const double *v, const double *m, double *out)",
+        "{   /* out = v x m (motion cross product) */",
+        "    out[0] = v[1] * m[2] - v[2] * m[1];",
+        "    out[1] = v[2] * m[0] - v[0] * m[2];",
+        "    out[2] = v[0] * m[1] - v[1] * m[0];",
+        "    out[3] = v[1] * m[5] - v[2] * m[4] + v[4] * m[2] - v[5] * m[1];",
+        "    out[4] = v[2] * m[3] - v[0] * m[5] + v[5] * m[0] - v[3] * m[2];",
+        "    out[5] = v[0] * m[4] - v[1] * m[3] + v[3] * m[1] - v[4] * m[0];",
+        "}",
+        "",
+        f"static void {name}_rd_crossf(const double *v, const double *f, double *out)",
+        "{   /* out = v x* f (force cross product) */",
+        "    out[0] = v[1] * f[2] - v[2] * f[1] + v[4] * f[5] - v[5] * f[4];",
+        "    out[1] = v[2] * f[0] - v[0] * f[2] + v[5] * f[3] - v[3] * f[5];",
+        "    out[2] = v[0] * f[1] - v[1] * f[0] + v[3] * f[4] - v[4] * f[3];",
+        "    out[3] = v[1] * f[5] - v[2] * f[4];",
+        "    out[4] = v[2] * f[3] - v[0] * f[5];",
+        "    out[5] = v[0] * f[4] - v[1] * f[3];",
+        "}",
+        "",
+        f"static double {name}_rd_dot(const double *a, const double *b)",
+        "{",
+        "    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] + a[4] * b[4] + a[5] * b[5];",
+        "}",
+        "",
+        f"static void {name}_rd_ymul(const double *y, const double *x, double *out)",
+        "{   /* out = Y x, Y = {m, c (= m p), I_O (xx yy zz xy xz yz)}: [I_O x_w + c x x_l; m x_l - c x x_w] */",
+        "    out[0] = y[4] * x[0] + y[7] * x[1] + y[8] * x[2] + y[2] * x[5] - y[3] * x[4];",
+        "    out[1] = y[7] * x[0] + y[5] * x[1] + y[9] * x[2] + y[3] * x[3] - y[1] * x[5];",
+        "    out[2] = y[8] * x[0] + y[9] * x[1] + y[6] * x[2] + y[1] * x[4] - y[2] * x[3];",
+        "    out[3] = y[0] * x[3] - y[2] * x[2] + y[3] * x[1];",
+        "    out[4] = y[0] * x[4] - y[3] * x[0] + y[1] * x[2];",
+        "    out[5] = y[0] * x[5] - y[1] * x[1] + y[2] * x[0];",
+        "}",
+        "",
+        f"static void {name}_rd_dmul(const double *d, const double *x, double *out)",
+        "{   /* out = dY x, dY = [[T, 0], [-2 [h]x, 0]], d = {T row-major, h} */",
+        "    out[0] = d[0] * x[0] + d[1] * x[1] + d[2] * x[2];",
+        "    out[1] = d[3] * x[0] + d[4] * x[1] + d[5] * x[2];",
+        "    out[2] = d[6] * x[0] + d[7] * x[1] + d[8] * x[2];",
+        "    out[3] = 2.0 * (d[11] * x[1] - d[10] * x[2]);",
+        "    out[4] = 2.0 * (d[9] * x[2] - d[11] * x[0]);",
+        "    out[5] = 2.0 * (d[10] * x[0] - d[9] * x[1]);",
+        "}",
+        "",
+        f"static void {name}_rd_dmult(const double *d, const double *x, double *out)",
+        "{   /* out = dY^T x = [T^T x_w + 2 h x x_l; 0] */",
+        "    out[0] = d[0] * x[0] + d[3] * x[1] + d[6] * x[2] + 2.0 * (d[10] * x[5] - d[11] * x[4]);",
+        "    out[1] = d[1] * x[0] + d[4] * x[1] + d[7] * x[2] + 2.0 * (d[11] * x[3] - d[9] * x[5]);",
+        "    out[2] = d[2] * x[0] + d[5] * x[1] + d[8] * x[2] + 2.0 * (d[9] * x[4] - d[10] * x[3]);",
+        "    out[3] = out[4] = out[5] = 0.0;",
+        "}",
+        "",
+    ] + ([x.replace("{name}", name) for x in axpy] if solve else []) + [
+        f"/* d tau / d(q, u) of RNEA by Carpentier and Mansard's algorithm (compiler/tree/analytic.py):",
+        f"   out[(row0 + i) * stride + k] = sign * d tau_i / d x_k for the {nd} speeds i and the",
+        "   coordinate and speed columns k, at velocities u and accelerations ud (per dof). */",
+        f"static void {fn}(const double *an, const double *u, const double *ud, double *out, "
+        "int stride, int row0, double sign, int msolve)",
+        "{",
+        _table("par", plan.par),
+        _table("d0", plan.first),
+        _table("nd", plan.count),
+        _table("row", plan.row),
+        _table("qc", plan.qcol),
+        _table("uc", [nq + s for s in plan.row]),
+        f"    double R[{9 * nb}], P[{3 * nb}], V[{6 * nb}], A[{6 * nb}], Y[{10 * nb}], dY[{12 * nb}], F[{6 * nb}];",
+        f"    double Sw[{6 * nd}], dV[{6 * nd}], dA[{6 * nd}], dAv[{6 * nd}];",
+        "    double fa[36], ft[36], fq[36], fv[36];",
+        "    int b, i, j, k, e, c, l, a;",
+    ] + ([
+        _table("lam", plan.lam),
+        _table("dep", plan.dep),
+        _table("off", plan.off[:-1]),
+        f"    double Mc[{msize}];",
+    ] if solve else ["    (void)msolve;"]) + [
+        f"    for (e = 0; e < {nd}; e++)",
+        "        for (k = 0; k < stride; k++) out[(row0 + row[e]) * stride + k] = 0.0;",
+        f"    for (b = 0; b < {nb}; b++) {{",
+        f"        const double *E = an + 9 * b, *r = an + {o['r']} + 3 * b, *In = an + {o['I']} + 10 * b;",
+        "        double *Rb = R + 9 * b, *pb = P + 3 * b, *vb = V + 6 * b, *ab = A + 6 * b;",
+        "        double *Yb = Y + 10 * b, *dYb = dY + 12 * b, *fb = F + 6 * b;",
+        "        double vl[6], al[6], IR[9], IO[9], C[9], t[6], hm[6], m, pp, vc;",
+        "        l = par[b];",
+        "        if (l >= 0) {",
+        "            const double *Rl = R + 9 * l, *pl = P + 3 * l;",
+        "            for (i = 0; i < 3; i++) {",
+        "                for (j = 0; j < 3; j++)",
+        "                    Rb[3 * i + j] = Rl[3 * i] * E[3 * j] + Rl[3 * i + 1] * E[3 * j + 1] + Rl[3 * i + 2] * E[3 * j + 2];",
+        "                pb[i] = pl[i] + Rl[3 * i] * r[0] + Rl[3 * i + 1] * r[1] + Rl[3 * i + 2] * r[2];",
+        "            }",
+        "            for (i = 0; i < 6; i++) {",
+        "                vl[i] = V[6 * l + i];",
+        "                al[i] = A[6 * l + i];",
+        "            }",
+        "        } else {",
+        "            for (i = 0; i < 3; i++) {",
+        "                for (j = 0; j < 3; j++) Rb[3 * i + j] = E[3 * j + i];",
+        "                pb[i] = r[i];",
+        "                vl[i] = vl[i + 3] = al[i] = 0.0;",
+        f"                al[i + 3] = -an[{o['g']} + i];",
+        "            }",
+        "        }",
+        "        for (i = 0; i < 6; i++) {",
+        "            vb[i] = vl[i];",
+        "            ab[i] = al[i];",
+        "        }",
+        "        for (e = d0[b]; e < d0[b] + nd[b]; e++) {   /* the axes in the world, v */",
+        f"            const double *S = an + {o['S']} + 6 * e;",
+        "            double *s = Sw + 6 * e;",
+        "            for (i = 0; i < 3; i++) {",
+        "                s[i] = Rb[3 * i] * S[0] + Rb[3 * i + 1] * S[1] + Rb[3 * i + 2] * S[2];",
+        "                s[i + 3] = Rb[3 * i] * S[3] + Rb[3 * i + 1] * S[4] + Rb[3 * i + 2] * S[5];",
+        "            }",
+        "            s[3] += pb[1] * s[2] - pb[2] * s[1];",
+        "            s[4] += pb[2] * s[0] - pb[0] * s[2];",
+        "            s[5] += pb[0] * s[1] - pb[1] * s[0];",
+        "            for (i = 0; i < 6; i++) vb[i] += s[i] * u[e];",
+        "        }",
+        "        for (e = d0[b]; e < d0[b] + nd[b]; e++) {   /* a, and the axes' derivative terms */",
+        "            const double *s = Sw + 6 * e;",
+        f"            {name}_rd_cross(vb, s, t);",
+        "            for (i = 0; i < 6; i++) {",
+        "                ab[i] += s[i] * ud[e] + t[i] * u[e];",
+        "                dAv[6 * e + i] = t[i];",
+        "            }",
+        f"            {name}_rd_cross(vl, s, dV + 6 * e);",
+        f"            {name}_rd_cross(al, s, dA + 6 * e);",
+        f"            {name}_rd_cross(vl, dV + 6 * e, t);",
+        "            for (i = 0; i < 6; i++) {",
+        "                dA[6 * e + i] += t[i];",
+        "                dAv[6 * e + i] += dV[6 * e + i];",
+        "            }",
+        "        }",
+        "        /* the world inertia about the world origin: {m, c = m p, I_O = R I_c R^T + m (p.p 1 - p p^T)} */",
+        "        m = In[0];",
+        "        for (i = 0; i < 3; i++)",
+        "            for (j = 0; j < 3; j++)",
+        "                IR[3 * i + j] = Rb[3 * i] * In[1 + j] + Rb[3 * i + 1] * In[4 + j] + Rb[3 * i + 2] * In[7 + j];",
+        "        pp = pb[0] * pb[0] + pb[1] * pb[1] + pb[2] * pb[2];",
+        "        for (i = 0; i < 3; i++)",
+        "            for (j = 0; j < 3; j++)",
+        "                IO[3 * i + j] = IR[3 * i] * Rb[3 * j] + IR[3 * i + 1] * Rb[3 * j + 1] + IR[3 * i + 2] * Rb[3 * j + 2]",
+        "                    + m * ((i == j ? pp : 0.0) - pb[i] * pb[j]);",
+        "        Yb[0] = m;",
+        "        Yb[1] = m * pb[0]; Yb[2] = m * pb[1]; Yb[3] = m * pb[2];",
+        "        Yb[4] = IO[0]; Yb[5] = IO[4]; Yb[6] = IO[8];",
+        "        Yb[7] = 0.5 * (IO[1] + IO[3]); Yb[8] = 0.5 * (IO[2] + IO[6]); Yb[9] = 0.5 * (IO[5] + IO[7]);",
+        "        IO[1] = IO[3] = Yb[7]; IO[2] = IO[6] = Yb[8]; IO[5] = IO[7] = Yb[9];",
+        "        /* momentum h, force f = Y a + v x* h - load */",
+        f"        {name}_rd_ymul(Yb, vb, hm);",
+        f"        {name}_rd_ymul(Yb, ab, fb);",
+        f"        {name}_rd_crossf(vb, hm, t);",
+        "        for (i = 0; i < 6; i++) fb[i] += t[i];",
+    ]
+    if plan.loads:
+        lines += [
+            f"        {{   /* the body-frame load about the body origin, into the world */",
+            f"            const double *fe = an + {o['F']} + 6 * b;",
+            "            double n[3], f[3];",
+            "            for (i = 0; i < 3; i++) {",
+            "                n[i] = Rb[3 * i] * fe[0] + Rb[3 * i + 1] * fe[1] + Rb[3 * i + 2] * fe[2];",
+            "                f[i] = Rb[3 * i] * fe[3] + Rb[3 * i + 1] * fe[4] + Rb[3 * i + 2] * fe[5];",
+            "            }",
+            "            fb[0] -= n[0] + pb[1] * f[2] - pb[2] * f[1];",
+            "            fb[1] -= n[1] + pb[2] * f[0] - pb[0] * f[2];",
+            "            fb[2] -= n[2] + pb[0] * f[1] - pb[1] * f[0];",
+            "            fb[3] -= f[0];",
+            "            fb[4] -= f[1];",
+            "            fb[5] -= f[2];",
+            "        }",
+        ]
+    lines += [
+        "        /* dY = v x* Y - Y (v x) + (. x* h) = [[T, 0], [-2 [h_f]x, 0]] (compiler/tree/analytic.py):",
+        "           T = C + C^T - c v_l^T - v_l c^T + 2 (v_l . c) 1 - [h_n]x, C's columns w x I_O's */",
+        "        for (j = 0; j < 3; j++) {",
+        "            const double *aj = IO + 3 * j;   /* I_O symmetric: column j = row j */",
+        "            C[j] = vb[1] * aj[2] - vb[2] * aj[1];",
+        "            C[3 + j] = vb[2] * aj[0] - vb[0] * aj[2];",
+        "            C[6 + j] = vb[0] * aj[1] - vb[1] * aj[0];",
+        "        }",
+        "        vc = 2.0 * (vb[3] * Yb[1] + vb[4] * Yb[2] + vb[5] * Yb[3]);",
+        "        for (i = 0; i < 3; i++)",
+        "            for (j = 0; j < 3; j++)",
+        "                dYb[3 * i + j] = C[3 * i + j] + C[3 * j + i] - Yb[1 + i] * vb[3 + j] - vb[3 + i] * Yb[1 + j]"
+        " + (i == j ? vc : 0.0);",
+        "        dYb[1] += hm[2]; dYb[2] -= hm[1]; dYb[3] -= hm[2]; dYb[5] += hm[0]; dYb[6] += hm[1]; dYb[7] -= hm[0];",
+        "        dYb[9] = hm[3]; dYb[10] = hm[4]; dYb[11] = hm[5];",
+        "    }",
+        f"    for (b = {nb - 1}; b >= 0; b--) {{",
+        "        const double *Yb = Y + 10 * b, *dYb = dY + 12 * b, *fb = F + 6 * b;",
+        "        double t[6];",
+        "        for (e = d0[b]; e < d0[b] + nd[b]; e++) {",
+        "            const int m = 6 * (e - d0[b]);",
+        "            const double *s = Sw + 6 * e;",
+        f"            {name}_rd_ymul(Yb, s, fa + m);",
+        f"            {name}_rd_dmult(dYb, s, ft + m);",
+        f"            {name}_rd_dmul(dYb, dV + 6 * e, fq + m);",
+        f"            {name}_rd_ymul(Yb, dA + 6 * e, t);",
+        "            for (i = 0; i < 6; i++) fq[m + i] += t[i];",
+        f"            {name}_rd_dmul(dYb, s, fv + m);",
+        f"            {name}_rd_ymul(Yb, dAv + 6 * e, t);",
+        "            for (i = 0; i < 6; i++) fv[m + i] += t[i];",
+        "        }",
+        "        for (e = d0[b]; e < d0[b] + nd[b]; e++) {   /* the joint's own block */",
+        "            double *o = out + (row0 + row[e]) * stride;",
+        "            for (c = d0[b]; c < d0[b] + nd[b]; c++) {",
+        "                const int m = 6 * (c - d0[b]);",
+        f"                o[qc[c]] = sign * {name}_rd_dot(Sw + 6 * e, fq + m);",
+        f"                o[uc[c]] = sign * {name}_rd_dot(Sw + 6 * e, fv + m);",
+    ] + ([
+        "                if (msolve && e <= c)",
+        f"                    Mc[off[c] + dep[c] - dep[e]] = {name}_rd_dot(Sw + 6 * e, fa + m)"
+        f" + (e == c ? an[{o['arm']} + c] : 0.0);",
+    ] if solve else []) + [
+        "            }",
+        "        }",
+        "        for (c = d0[b]; c < d0[b] + nd[b]; c++) {",
+        "            const int m = 6 * (c - d0[b]);",
+        f"            {name}_rd_crossf(Sw + 6 * c, fb, t);",
+        "            for (i = 0; i < 6; i++) fq[m + i] += t[i];",
+        "        }",
+        "        for (l = par[b]; l >= 0; l = par[l]) {   /* pairs with the joints of the support */",
+        "            for (a = d0[l]; a < d0[l] + nd[l]; a++) {",
+        "                const double *sa = Sw + 6 * a;",
+        "                double *oa = out + (row0 + row[a]) * stride;",
+        "                for (c = d0[b]; c < d0[b] + nd[b]; c++) {",
+        "                    const int m = 6 * (c - d0[b]);",
+        "                    double *oc = out + (row0 + row[c]) * stride;",
+        f"                    oa[qc[c]] = sign * {name}_rd_dot(sa, fq + m);",
+        f"                    oa[uc[c]] = sign * {name}_rd_dot(sa, fv + m);",
+        f"                    oc[qc[a]] = sign * ({name}_rd_dot(fa + m, dA + 6 * a) + {name}_rd_dot(ft + m, dV + 6 * a));",
+        f"                    oc[uc[a]] = sign * ({name}_rd_dot(fa + m, dAv + 6 * a) + {name}_rd_dot(ft + m, sa));",
+    ] + ([
+        f"                    if (msolve) Mc[off[c] + dep[c] - dep[a]] = {name}_rd_dot(sa, fa + m);",
+    ] if solve else []) + [
+        "                }",
+        "            }",
+        "        }",
+        "        l = par[b];",
+        "        if (l >= 0) {   /* composite inertia, its variation and force */",
+        "            for (i = 0; i < 10; i++) Y[10 * l + i] += Yb[i];",
+        "            for (i = 0; i < 12; i++) dY[12 * l + i] += dYb[i];",
+        "            for (i = 0; i < 6; i++) F[6 * l + i] += fb[i];",
+        "        }",
+        "    }",
+    ]
+    for e0, k, koff in plan.multi:
+        lines += [
+            f"    {{   /* a {k}-speed joint: d tau/dq = d tau/d xi K^-1, q' = K u (Gauss-Jordan, partial pivoting) */",
+            f"        double Km[{k * k}], Ki[{k * k}], x[{k}], piv, tmp;",
+            "        int p;",
+            f"        for (i = 0; i < {k * k}; i++) {{",
+            f"            Km[i] = an[{o['K'] + koff} + i];",
+            f"            Ki[i] = i % {k + 1} == 0 ? 1.0 : 0.0;",
+            "        }",
+            f"        for (j = 0; j < {k}; j++) {{",
+            "            p = j;",
+            f"            for (i = j + 1; i < {k}; i++)",
+            f"                if (fabs(Km[{k} * i + j]) > fabs(Km[{k} * p + j])) p = i;",
+            f"            for (c = 0; c < {k}; c++) {{",
+            f"                tmp = Km[{k} * j + c]; Km[{k} * j + c] = Km[{k} * p + c]; Km[{k} * p + c] = tmp;",
+            f"                tmp = Ki[{k} * j + c]; Ki[{k} * j + c] = Ki[{k} * p + c]; Ki[{k} * p + c] = tmp;",
+            "            }",
+            f"            piv = 1.0 / Km[{k} * j + j];",
+            f"            for (c = 0; c < {k}; c++) {{",
+            f"                Km[{k} * j + c] *= piv;",
+            f"                Ki[{k} * j + c] *= piv;",
+            "            }",
+            f"            for (i = 0; i < {k}; i++) {{",
+            "                if (i == j) continue;",
+            f"                tmp = Km[{k} * i + j];",
+            f"                for (c = 0; c < {k}; c++) {{",
+            f"                    Km[{k} * i + c] -= tmp * Km[{k} * j + c];",
+            f"                    Ki[{k} * i + c] -= tmp * Ki[{k} * j + c];",
+            "                }",
+            "            }",
+            "        }",
+            f"        for (e = 0; e < {nd}; e++) {{",
+            "            double *o = out + (row0 + row[e]) * stride;",
+            f"            for (c = 0; c < {k}; c++) x[c] = o[qc[{e0} + c]];",
+            f"            for (c = 0; c < {k}; c++) {{",
+            "                tmp = 0.0;",
+            f"                for (i = 0; i < {k}; i++) tmp += x[i] * Ki[{k} * i + c];",
+            f"                o[qc[{e0} + c]] = tmp;",
+            "            }",
+            "        }",
+            "    }",
+        ]
+    if solve:
+        lines += [
+            "    if (!msolve) return;",
+            f"    for (k = {plan.nd - 1}; k >= 0; k--) {{   /* M = L^T D L */",
+            "        const double dk = Mc[off[k]];",
+            "        for (i = lam[k]; i >= 0; i = lam[i]) {",
+            "            const double f = Mc[off[k] + dep[k] - dep[i]] / dk;",
+            "            for (j = i; j >= 0; j = lam[j]) Mc[off[i] + dep[i] - dep[j]] -= f * Mc[off[k] + dep[k] - dep[j]];",
+            "            Mc[off[k] + dep[k] - dep[i]] = f;",
+            "        }",
+            "    }",
+            f"    for (k = {plan.nd - 1}; k >= 0; k--) {{   /* rows <- L^-T rows */",
+            "        for (i = lam[k]; i >= 0; i = lam[i])",
+            f"            {name}_rd_axpy(out + (row0 + row[i]) * stride, out + (row0 + row[k]) * stride, "
+            "Mc[off[k] + dep[k] - dep[i]]);",
+            "    }",
+            f"    for (k = 0; k < {plan.nd}; k++) {{   /* D^-1, then L^-1 */",
+            "        double *yk = out + (row0 + row[k]) * stride;",
+            "        const double f = 1.0 / Mc[off[k]];",
+            f"        for (c = 0; c < {ncol}; c++) yk[c] *= f;",
+            "    }",
+            f"    for (k = 0; k < {plan.nd}; k++) {{",
+            "        for (i = lam[k]; i >= 0; i = lam[i])",
+            f"            {name}_rd_axpy(out + (row0 + row[k]) * stride, out + (row0 + row[i]) * stride, "
+            "Mc[off[k] + dep[k] - dep[i]]);",
+            "    }",
+        ]
+    lines.append("}")
+    return "\n".join(lines)
+
+
+def _axpy_lines(ncol):
+    """y -= f x over one row of ncol entries: restrict rows and an even trip count, so that
+    gcc -O2's cheap vectorizer takes it (the LTDL solve's inner loop)."""
+    even = ncol - ncol % 2
+    return [
+        "static void {name}_rd_axpy(double *restrict y, const double *restrict x, double f)",
+        "{",
+        "    int c;",
+        f"    for (c = 0; c < {even}; c++) y[c] -= f * x[c];",
+    ] + ([f"    y[{even}] -= f * x[{even}];"] if even < ncol else []) + ["}", ""]
+
+
+def call_lines(name, plan, ind, x_name, ud_expr, row0, sign, stride, nq, msolve=0):
+    """The C lines that fill u[], ud[] per dof and call NAME_rnea_derivs (inside a function
+    whose ``an[]`` holds the plan's inputs)."""
+    rows = ", ".join(str(s) for s in plan.row)
+    return [f"{ind}{{",
+            f"{ind}    static const int sp[{plan.nd}] = {{{rows}}};",
+            f"{ind}    double u[{plan.nd}], ud[{plan.nd}];",
+            f"{ind}    int e;",
+            f"{ind}    for (e = 0; e < {plan.nd}; e++) {{",
+            f"{ind}        u[e] = {x_name}[{nq} + sp[e]];",
+            f"{ind}        ud[e] = {ud_expr}[sp[e]];",
+            f"{ind}    }}",
+            f"{ind}    {name}_rnea_derivs(an, u, ud, out, {stride}, {row0}, {sign}, {msolve});",
+            f"{ind}}}"]
+
+
+def analytic_ops(plan, ncol=0):
+    """Floating-point operations of one NAME_rnea_derivs call (counted from the C above,
+    multiply-adds as one mul and one add): per body ~1,150 (placement, v, a, Y, Ẏ),
+    per dof ~330 (axes, their terms, the backward products), per (dof, support dof) pair 48;
+    with the M⁻¹ solve on ``ncol`` columns (jac_x) 2·ncol more per pair and the factorization."""
+    pairs = sum(plan.dep)
+    muls = 580 * plan.nb + 170 * plan.nd + 24 * pairs
+    adds = 570 * plan.nb + 160 * plan.nd + 24 * pairs
+    if ncol:
+        muls += (6 + 2 * ncol) * pairs + ncol * plan.nd
+        adds += (6 + 2 * ncol) * pairs
+        muls += sum(d * (d + 1) // 2 for d in plan.dep)
+        adds += sum(d * (d + 1) // 2 for d in plan.dep)
+    for _, k, _ in plan.multi:
+        muls += 2 * k ** 3 + plan.nd * k * k
+        adds += 2 * k ** 3 + plan.nd * k * k
+    return {"adds": adds, "muls": muls, "divs": sum(k for _, k, _ in plan.multi), "calls": 0}

@@ -1,0 +1,92 @@
+"""C bodies of jac_id and jac_x on the analytic RNEA derivatives (:mod:`.analytic`).
+
+jac_id: the kernel's inputs (``an[]``, straight-line), then one call of
+``NAME_rnea_derivs`` writing d tau/dx into ``out``.
+
+jac_x: ABA's u' into ``w`` and the kinematic rows as before; the kernel at u' = w
+writes -d tau/dx (= the residual's derivative, see :mod:`.derivatives`) into the
+u'-rows of ``out`` and multiplies them by M⁻¹ in place (M from the kernel's own
+composite inertias, factored LᵀDL over the tree: no straight-line solve code).
+"""
+from collections import Counter
+
+import sympy as sm
+
+from ..emit.bodies import IND, store, temps, needed_assignments, split_on
+from ..ir.opcount import count_ops
+from .analytic import ANX, analytic_ops, call_lines
+from .emit import _extra_rows
+
+__all__ = ["has_analytic", "analytic_jac_id_body", "analytic_jac_x_body", "analytic_body_ops"]
+
+
+def has_analytic(program, sym):
+    return sym.analytic is not None and any(k[0] == ANX for k, _ in program.results)
+
+
+def _inputs(program, pr):
+    vals = program.result_exprs(ANX)
+    return [store(f"an[{k[1]}]", e, pr) for k, e in sorted(vals.items(), key=lambda kv: kv[0][1])]
+
+
+def analytic_jac_id_body(ctx, program, sym):
+    plan = sym.analytic
+    pr = ctx.printer(program)
+    lines = [f"{IND}double an[{plan.size}];"]
+    lines += temps(program, pr)
+    lines += _inputs(program, pr)
+    lines += call_lines(ctx.name, plan, IND, "x", "udot", 0, "1.0", ctx.nx, ctx.nq)
+    lines.append(f"{IND}return {ctx.name}_finite(out, {ctx.nu * ctx.nx});")
+    return lines
+
+
+def _jac_x_plan(program, W, G, nq, nu, nx):
+    key = ("analytic_jac_x", tuple(W), tuple(G), nq, nu, nx)
+    plans = program.__dict__.setdefault("_jacobian_plans", {})
+    if key not in plans:
+        stores = [(f"w[{k[1]}]", e) for k, e in program.results if k[0] == "ud"]
+        kin = program.result_exprs("dkin")
+        rows = [(f"out[{i * nx + k}]", kin.get(("dkin", i, k), sm.S.Zero)) for i in range(nq) for k in range(nx)]
+        rows += _extra_rows(program, "dzd", nq + nu, nx, nx)
+        anx = list(program.result_exprs(ANX).values())
+        exprs = [e for _, e in stores + rows] + anx + list(program.result_exprs("Dpiv").values())
+        plans[key] = (needed_assignments(program.assignments, exprs), stores, rows)
+    return plans[key]
+
+
+def analytic_jac_x_body(ctx, program, sym, W, G):
+    plan = sym.analytic
+    nq, nu, nx = ctx.nq, ctx.nu, ctx.nx
+    once, stores, rows = _jac_x_plan(program, W, G, nq, nu, nx)
+    before, after = split_on(program.with_(assignments=tuple(once)), W)
+    pr = ctx.printer(program)
+    decls = [f"double w[{nu}];", f"double an[{plan.size}];"]
+    lines = [f"{IND}{d}" for d in decls]
+    lines += temps(program, pr, before)
+    pivots = [pr.doprint(e) for k, e in program.results if k[0] == "Dpiv"]
+    if pivots:
+        cond = " || ".join(f"!({d} > 0.0)" for d in pivots)
+        lines.append(f"{IND}if ({cond}) return EOMC_SINGULAR_MASS_MATRIX;")
+    lines += [store(lv, e, pr) for lv, e in stores]
+    lines += temps(program, pr, after)
+    lines += [store(lv, e, pr) for lv, e in rows]
+    lines += _inputs(program, pr)
+    lines += call_lines(ctx.name, plan, IND, "x", "w", nq, "-1.0", nx, nq, 1)
+    lines.append(f"{IND}return {ctx.name}_finite(out, {nx * nx});")
+    return lines
+
+
+def analytic_body_ops(fn, program, sym, W, G, nq, nu, nx):
+    """Operations of the bodies above: the straight-line part, the kernel (counted from its
+    C, :func:`~.analytic.analytic_ops`, the solve included for jac_x)."""
+    c = Counter(analytic_ops(sym.analytic, nq + nu if fn == "jac_x" else 0))
+    if fn == "jac_id":
+        for _, e in program.assignments:
+            count_ops(e, c)
+        for e in program.result_exprs(ANX).values():
+            count_ops(e, c)
+    else:
+        once, stores, rows = _jac_x_plan(program, W, G, nq, nu, nx)
+        for _, e in list(once) + stores + rows:
+            count_ops(e, c)
+    return {k: int(c.get(k, 0)) for k in ("adds", "muls", "divs", "calls")}

@@ -1,0 +1,95 @@
+"""The animation's poses of a robot read into a joint tree (URDF, MJCF), placed along the tree.
+
+``NAME_poses`` of a robot file: each shown frame's world position and rotation.  The bodies
+are placed by :class:`.placement.Placement`, the one placement frame outputs and contacts
+use; no SymPy frame graph is built (a System's poses still come from its own graphs:
+:mod:`eomc.compiler.emit.poses`, which also writes the metadata and lowers either source).
+
+A :class:`TreePoseSource` says which point of each body is placed (``steps``: its offset
+from the parent's placed point, parent components -- a URDF link's origin, or the tree
+body's own origin for MJCF) and which frames are shown: ``(name, body, rotation, offset)``
+fixed to a placed body (-1: the world) by a constant rotation and offset (None: the body's
+own).  Each is placed when first asked for, in the order the shown frames are listed, so
+the generated C is what the frame-graph lowering gave for the same robot.
+"""
+from dataclasses import dataclass
+
+import sympy as sm
+
+from ..emit.poses import Shown
+from .placement import Placement, ZERO, to_world
+
+__all__ = ["TreePoseSource", "welded_frames"]
+
+
+@dataclass(frozen=True, kw_only=True)
+class TreePoseSource(Shown):
+    """See the module docstring.  ``points``: (name, index into ``frames`` of the frame whose
+    origin it is, or None: the world's origin); the rest as :class:`~eomc.compiler.emit.poses.Shown`."""
+    tree: object
+    steps: tuple
+
+    def placer(self, slot, let):
+        """(frame(k) -> (R, p), point(k) -> p) in the program's symbols; ``slot(expr, what)``
+        maps mechanics symbols (raises ModelError where it cannot)."""
+        bodies = self.tree.bodies
+        placement = Placement([b.parent for b in bodies],
+                              lambda i: [[slot(bodies[i].rotation[r, c], f"the orientation of body {bodies[i].name}")
+                                          for c in range(3)] for r in range(3)],
+                              lambda i: [slot(x, f"the position of body {bodies[i].name}") for x in self.steps[i]],
+                              let)
+        placed = {}
+
+        def frame(k):
+            if k not in placed:
+                name, body, rotation, offset = self.frames[k]
+                R = placement.rotation(body)
+                if rotation is not None:
+                    D = [[slot(x, f"the orientation of frame {name}") for x in row] for row in rotation]
+                    R = [[let(sum((R[a][m] * D[m][c] for m in range(3)), sm.S.Zero)) for c in range(3)]
+                         for a in range(3)]
+                p = placement.origin(body)
+                if offset is not None:
+                    o = [slot(x, f"the position of frame {name}") for x in offset]
+                    Rb = placement.rotation(body)
+                    p = [let(p[a] + x) for a, x in enumerate(to_world(Rb, o))]
+                placed[k] = (R, list(p))
+            return placed[k]
+
+        def point(k):
+            at = self.points[k][1]
+            return list(ZERO) if at is None else frame(at)[1]
+        return frame, point
+
+    def digest(self):
+        """Everything that shapes the generated code, for the generation cache key."""
+        out = ["tree poses", str([f[0] for f in self.frames]), str([p[0] for p in self.points]), str(self.lines),
+               str(sorted(self.geometry.items()))]
+        for b, step in zip(self.tree.bodies, self.steps):
+            out += [str(b.parent), b.rotation, *step]
+        for name, body, rotation, offset in self.frames:
+            out += [name, str(body), str(rotation), str(offset)]
+        out += [f"{s}={v!r}" for s, v in sorted(self.defaults.items(), key=lambda kv: str(kv[0]))]
+        return out
+
+
+def welded_frames(welds, frames):
+    """``frames`` with the links fixed to a body or the ground (``welds``: {link: (body key or
+    "world", 4x4)}, eomc.runtime.geometry.urdf_link_transforms) added after them, as
+    (name, body, rotation, offset) entries; a link named like a frame already there is not."""
+    from eomc.runtime.geometry import identifier
+    by_name = {f[0]: f[1] for f in frames}
+    out = list(frames)
+    for link, (body, T) in welds.items():
+        name = identifier(link)
+        if name in by_name:
+            continue
+        index = -1 if body == "world" else by_name.get(body)
+        if index is None:
+            continue
+        rotation = tuple(tuple(sm.Float(v) if abs(v) > 1e-15 else sm.S.Zero for v in row) for row in T[:3, :3])
+        offset = tuple(sm.Float(v) if abs(v) > 1e-15 else sm.S.Zero for v in T[:3, 3])
+        out.append((name, index, rotation, offset))
+        by_name[name] = index
+    return out
+

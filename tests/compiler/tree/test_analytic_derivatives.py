@@ -1,0 +1,151 @@
+"""The analytic RNEA derivatives (compiler/tree/analytic.py) behind jac_id and jac_x.
+
+Checked, compiled, against references that do not share its algorithm: central
+differences of the compiled inverse_dynamics and rhs on random branching trees with
+pins, sliders, balls and free joints (hypothesis), the tangent path of the same
+functions (the code the analytic path replaces, itself checked against central
+differences and Pinocchio), and Pinocchio's computeRNEADerivatives and
+computeABADerivatives on real robots (on a floating base Pinocchio differentiates
+along its Lie-group tangent: its d/dq is ours times K = dq'/du).  A tree whose loads
+depend on the state (a joint spring) keeps the tangent path, still right.
+"""
+import warnings
+
+import numpy as np
+import pinocchio as pin
+import pytest
+import sympy as sm
+from hypothesis import HealthCheck, Phase, given, settings
+from hypothesis import strategies as st
+
+import eomc
+from eomc.compiler.emit.symbolic import TANGENT_MIN_STATES
+from eomc.compiler.tree.recognize import tree_of
+from eomc.compiler.urdf import from_urdf
+from eomc.errors import ModelError
+from helpers import random_trees
+from helpers.robots import PinRef, joints_of, relative_error, robot_path
+from helpers.trees import add_joint_spring, cart_joints
+
+FNS = ["rhs", "jac_x", "inverse_dynamics", "jac_id"]
+
+
+@pytest.fixture(autouse=True)
+def _cache(tmp_path, monkeypatch):
+    monkeypatch.setenv("EOMC_CACHE_DIR", str(tmp_path / "cache"))
+
+
+def analytic(model):
+    return "_rnea_derivs(" in model.source_path.read_text()
+
+
+def central(f, x, nx):
+    cols = []
+    for k in range(nx):
+        h = 1e-6 * max(1.0, abs(x[k]))
+        up, dn = x.copy(), x.copy()
+        up[k] += h
+        dn[k] -= h
+        cols.append((f(up) - f(dn)) / (2 * h))
+    return np.array(cols).T
+
+
+def worst(model, seed, nstates=3):
+    """Largest relative error of jac_id and jac_x against central differences."""
+    rng = np.random.default_rng(seed)
+    out = 0.0
+    for _ in range(nstates):
+        x, ud = rng.uniform(-1, 1, model.nx), rng.normal(size=model.nu)
+        r = rng.normal(size=model.ninput) if model.ninput else None
+        for J, ref in ((model.jac_id(0.0, x, ud, r=r),
+                        central(lambda y: model.inverse_dynamics(0.0, y, ud, r=r), x, model.nx)),
+                       (model.jac_x(0.0, x, r=r), central(lambda y: model.rhs(0.0, y, r=r), x, model.nx))):
+            out = max(out, np.max(np.abs(J - ref)) / max(1.0, np.max(np.abs(ref))))
+    return out
+
+
+@settings(max_examples=6, deadline=None, derandomize=True, phases=(Phase.explicit, Phase.generate),
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(spec=random_trees.tree(max_bodies=5, free=True), seed=st.integers(0, 2**32 - 1))
+def test_random_trees_against_central_differences(spec, seed):
+    """Loads between a body and its parent body only (a free root's load would act against the
+    ground, a world-frame load: the tangent path's, tests/compiler/tree/test_inverse_derivatives.py)."""
+    spec = [dict(b, load=b["load"] and b["kind"] != "free") for b in spec]
+    system, inputs = random_trees.build(spec)
+    try:
+        model = eomc.compile(system, "ran", inputs=inputs, functions=FNS, formulation="recursive",
+                             progress=False)
+    except ModelError as exc:       # a speed nothing resists: refused (test_agreement)
+        assert "no inertia" in str(exc)
+        return
+    # loads in body frames that do not depend on the state: the analytic path above
+    # TANGENT_MIN_STATES states (a ball joint's torque is read as a world-frame load)
+    body_loads = all(load.frame == "body" for load in tree_of(system).loads)
+    assert analytic(model) == (model.nx > TANGENT_MIN_STATES and body_loads)
+    assert worst(model, seed) < 1e-6
+
+
+def test_small_models_keep_the_unrolled_columns():
+    """At most TANGENT_MIN_STATES states the unrolled derivatives are faster: unchanged C."""
+    system, _ = cart_joints(4, rigid=True)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = eomc.compile(system, "acart4", functions=FNS, formulation="recursive", progress=False)
+    assert model.nx <= TANGENT_MIN_STATES and not analytic(model)
+
+
+def test_cart_and_kernel_is_one_function():
+    """The kernel is emitted once, and its text does not grow with the number of links:
+    only its tables and the straight-line inputs do."""
+    sizes = {}
+    for n in (6, 12):
+        system, _ = cart_joints(n, rigid=True)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            model = eomc.compile(system, f"acart{n}", functions=FNS, formulation="recursive", progress=False)
+        text = model.source_path.read_text()
+        assert text.count(f"static void acart{n}_rnea_derivs(") == 1
+        assert text.count(f"acart{n}_rnea_derivs(an, ") == 2          # jac_x and jac_id
+        start = text.index(f"static void acart{n}_rnea_derivs(")
+        sizes[n] = text[start:text.index("\n}\n", start)].count("\n")
+        assert worst(model, seed=n) < 1e-7
+    assert sizes[6] == sizes[12]
+
+
+def test_state_dependent_loads_keep_the_tangent_path():
+    """A joint spring and damper (a load in q and u): the tangent path, still right."""
+    system, _ = cart_joints(7, rigid=True)
+    add_joint_spring(system, 1, *sm.symbols("k_s c_s"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = eomc.compile(system, "aspring", functions=FNS, formulation="recursive", progress=False)
+    assert not analytic(model)
+    assert worst(model, seed=7) < 1e-7
+
+
+ROBOTS = {"panda": False, "solo12": True}     # UR5 (12 states) keeps the unrolled columns
+
+
+@pytest.mark.parametrize("name", list(ROBOTS))
+def test_jac_x_against_pinocchio_aba_derivatives(name):
+    floating = ROBOTS[name]
+    path = robot_path(name)
+    system = from_urdf(path, floating_base=floating, limits=False)
+    model = eomc.compile(system, f"{name}_ad", functions=FNS, formulation="recursive", progress=False)
+    assert analytic(model)
+    ref = PinRef(path, joints_of(system), floating=floating)
+    nq, nu = model.nq, model.nu
+    rng = np.random.default_rng(31)
+    for _ in range(4):
+        q = rng.uniform(-np.pi, np.pi, nq)
+        if floating:
+            q[:3], q[3:6] = rng.normal(size=3), rng.uniform(-1.2, 1.2, 3)
+        v = rng.normal(size=nu)
+        x = np.concatenate([q, v])
+        J = model.jac_x(0.0, x)                  # zero inputs, as Pinocchio's zero torques
+        pin.computeABADerivatives(ref.model, ref.data, ref.q(q), ref.v(v), np.zeros(ref.model.nv))
+        iv = ref.iv
+        dq, dv = ref.data.ddq_dq[np.ix_(iv, iv)], ref.data.ddq_dv[np.ix_(iv, iv)]
+        K = J[:nq, nq:nq + nu]
+        assert relative_error(J[nq:nq + nu, nq:nq + nu], dv) < 1e-11
+        assert relative_error(J[nq:nq + nu, :nq] @ K, dq) < 1e-11
