@@ -16,7 +16,7 @@ MuJoCo against itself with RK4 at timestep / 16.  Error: max abs over
 the joint coordinates at t = 1 (free joints: the base position; MuJoCo's qpos holds a
 quaternion, eomc body-XYZ angles, so the angles are left out of the error on both sides).
 
-Time: process CPU of one simulated second, pinned to one core, contestants interleaved
+Time: thread CPU of one simulated second, pinned to one core, contestants interleaved
 (order rotated per round), median over rounds of blocks of runs.
 """
 import argparse
@@ -91,13 +91,15 @@ def compared_q(model, m_mj, x=None, qpos=None):
     return np.array(out)
 
 
-def eomc_call(model, x0, dt, t1=1.0):
-    """(call, x_last, stats): the C call of one fixed-step run, events and switching off."""
+def eomc_call(model, x0, dt, t1=1.0, fast=True):
+    """(call, x_last, stats): the C call of one fixed-step run, events and switching off.
+    fast=False: the W-method on the whole jac_x (what implicitfast ran before NAME_implicit)."""
     from eomc.runtime.simulate import bind_call, prepare
     a = prepare(model, x0, (0.0, t1), method="implicitfast", dt=dt, t_eval=[t1], events=False,
                 max_steps=10 ** 7)
     a.pop("switches", None)          # the verdict's observers: not part of a control loop
     a.pop("switch_steps", None)
+    a["fast"] = fast
     call, _, x_last, stats = bind_call(model, a)
     return call, x_last, stats
 
@@ -122,11 +124,11 @@ def mujoco_call(m, nstep):
 def cpu_block(call, min_time=0.02):
     """CPU seconds per call, over a block of calls lasting at least min_time."""
     n, t = 0, 0.0
-    t0 = time.process_time()
+    t0 = time.thread_time()
     while t < min_time or n < 1:
         call()
         n += 1
-        t = time.process_time() - t0
+        t = time.thread_time() - t0
     return t / n
 
 
@@ -152,6 +154,8 @@ def run_model(name, rounds, cache_dir, log):
     contestants = {}
     call, x_last, stats = eomc_call(model, x0, ts)
     contestants["eomc implicitfast"] = call
+    wcall, w_last, w_stats = eomc_call(model, x0, ts, fast=False)
+    contestants["eomc W-method (jac_x)"] = wcall
     mj = {}
     for integ in ("EULER", "IMPLICITFAST", shipped):
         label = f"mj_step {integ.lower()}" + (" (XML's)" if integ == shipped else "")
@@ -168,15 +172,21 @@ def run_model(name, rounds, cache_dir, log):
         for label in order[k:] + order[:k]:
             samples[label].append(cpu_block(contestants[label]))
     rows = []
-    call()
-    st = {f: getattr(stats, f) for f in ("status", "steps", "nfev", "njev", "nlu", "rejected")}
-    err_e = (np.abs(compared_q(model, base, x=x_last) - q_ref).max() if q_ref is not None else float("nan"))
+    from eomc.runtime.simulate import implicit_terms
+    fast = implicit_terms(model) is not None
     t_e = float(np.median(samples["eomc implicitfast"]))
-    rows.append(dict(model=name, dof=model.nu, contacts=npts, timestep=ts,
-                     contestant="eomc implicitfast", cpu_ms=t_e * 1e3, ratio=1.0, error=err_e,
-                     ref="eomc Radau 1e-9" + ("" if q_ref is not None else f" FAILED: {ref.message}"),
-                     note=f"status {st['status']}, {st['nfev']} rhs, {st['njev']} jac_x, "
-                          f"{st['rejected']} unconverged"))
+    for label, c, xl, sts in (("eomc implicitfast", call, x_last, stats),
+                              ("eomc W-method (jac_x)", wcall, w_last, w_stats)):
+        c()
+        st = {f: getattr(sts, f) for f in ("status", "steps", "nfev", "njev", "nlu", "rejected")}
+        err_e = (np.abs(compared_q(model, base, x=xl) - q_ref).max() if q_ref is not None else float("nan"))
+        t_c = float(np.median(samples[label]))
+        what = (f"{st['nfev']} NAME_implicit calls, 0 jac_x" if fast and label == "eomc implicitfast"
+                else f"{st['nfev']} rhs, {st['njev']} jac_x, {st['rejected']} unconverged")
+        rows.append(dict(model=name, dof=model.nu, contacts=npts, timestep=ts,
+                         contestant=label, cpu_ms=t_c * 1e3, ratio=t_c / t_e, error=err_e,
+                         ref="eomc Radau 1e-9" + ("" if q_ref is not None else f" FAILED: {ref.message}"),
+                         note=f"status {st['status']}, {what}, finite: {bool(np.all(np.isfinite(xl)))}"))
     for label, (mm, c) in mj.items():
         out = c()
         qpos = out[0, -1, 1:1 + mm.nq]
@@ -207,7 +217,7 @@ def main():
     head = environment_header(
         "Fixed step at the MJCF timestep: eomc implicitfast vs MuJoCo mj_step (rollout, C loop)", args,
         notes=[f"pinned to core {core}; MuJoCo {mujoco.__version__}; 1 simulated second per run; "
-               f"{args.rounds} interleaved rounds, median of per-round block means (process CPU)"])
+               f"{args.rounds} interleaved rounds, median of per-round block means (thread CPU)"])
     table = ["| model | dof | eomc contact points | timestep | contestant | CPU ms per simulated s | "
              "time / eomc | error (max abs q at t = 1) | error against | notes |",
              "|---|--:|--:|--:|---|--:|--:|--:|---|---|"]

@@ -52,6 +52,7 @@ _SIGNATURES = {
     "linearize": "int {n}_linearize(double t, const double *x, const double *p, const double *r, double *A, double *B, double *work);",
     "events": "int {n}_events(double t, const double *x, const double *p, const double *r, double *out, double *work);",
     "poses": "int {n}_poses(double t, const double *x, const double *p, const double *r, double *out, double *work);",
+    "implicit": "int {n}_implicit(double t, const double *x, const double *p, const double *r, double *out, double *work);",
 }
 
 

@@ -317,7 +317,8 @@ def prepare(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6,
                          f"constraints_jac; this model has none")
     if model.c_model.rhs == model.ffi.NULL:
         raise model._missing("rhs")  # every method integrates rhs
-    if method in ("radau", "implicitfast") and model.c_model.jac_x == model.ffi.NULL:
+    if ((method == "radau" or (method == "implicitfast" and "implicit" not in getattr(model, "functions", ())))
+            and model.c_model.jac_x == model.ffi.NULL):
         raise ValueError(f"{model.name}: method {method!r} needs the Jacobian jac_x, which this model "
                          f"was built without; rebuild with functions including 'jac_x'")
     x0 = _vector(model, start_or_default(model, x0), model.nx, model.state_names, state_defaults(model),
@@ -396,7 +397,7 @@ def _extras(model, x0, t0, r, events, max_events, K, x_ref, method):
     return out
 
 
-def _options(ffi, a):
+def _options(ffi, a, implicit=None):
     opt = ffi.new("eomc_options *")
     opt.method, opt.rtol, opt.atol = METHOD_IDS[a["method"]], a["rtol"], a["atol"]
     opt.h0, opt.hmax, opt.max_steps = a["h0"], a["hmax"], a["max_steps"]
@@ -404,7 +405,43 @@ def _options(ffi, a):
     opt.baumgarte, opt.pi_beta = a["baumgarte"], a["pi_beta"]
     if a.get("quat") is not None:       # kept alive by ``a`` for the call
         opt.nquat, opt.quat = len(a["quat"]), a["quat"]
+    if implicit is not None:
+        opt.implicit = implicit
     return opt
+
+
+def implicit_terms(model):
+    """The C ``eomc_implicit`` of ``model`` (its NAME_implicit and the structure NAME.json's
+    "implicit" gives), or None when the model has none: then method="implicitfast" runs the
+    linearly implicit Euler on the whole jac_x (runtime/c/eomc_fixedstep.c).  Built once per
+    model; the struct and the arrays it points to live on the model."""
+    cached = model.__dict__.get("_implicit_struct")
+    if cached is not None:
+        return cached[0]
+    ffi, found = model.ffi, (None,)
+    info = (getattr(model, "metadata", None) or {}).get("implicit")
+    if (info and "implicit" in getattr(model, "functions", ()) and model.nz == 0
+            and getattr(model, "backend", None) == "cffi"):
+        try:
+            fp = ffi.addressof(model.model_lib, f"{model.name}_implicit")
+        except (AttributeError, KeyError, ffi.error):
+            fp = None
+        if fp is not None:
+            contacts = info["contacts"]
+            starts = np.cumsum([0] + [len(c["speeds"]) for c in contacts]).tolist()
+            chain = [int(s) for c in contacts for s in c["speeds"]]
+            parents = [int(x) for x in info["parents"]]
+            tree = len(parents) == model.nu and all(-1 <= q < s for s, q in enumerate(parents))
+            keep = (ffi.new("int[]", starts), ffi.new("int[]", chain or [0]),
+                    ffi.new("int[]", parents) if tree else ffi.NULL)
+            st = ffi.new("eomc_implicit *")
+            st.terms = ffi.cast("eomc_mat_fn", fp)
+            st.ncontact = len(contacts)
+            st.chain_start, st.chain, st.parent = keep
+            st.work_len = model.integrators.eomc_fs_implicit_work_size(model.nq, model.nu, len(contacts))
+            found = (st, keep, fp)
+    model._implicit_struct = found
+    return found[0]
 
 
 def bind_call(model, a, out=None):
@@ -419,10 +456,12 @@ def bind_call(model, a, out=None):
     x_out = np.full((n_eval, model.nx), np.nan) if out is None else out
     x_last = np.empty(model.nx)
     feedback = "r_fun" in a or "K" in a or "r_slopes" in a
+    implicit = implicit_terms(model) if a["method"] == "implicitfast" and a.get("fast", True) else None
     work = np.empty(lib.eomc_integrate_work_size(model.c_model, METHOD_IDS[a["method"]])
-                    + (model.ninput * model.nx if feedback else 0))
+                    + (model.ninput * model.nx if feedback else 0)
+                    + (implicit.work_len if implicit is not None else 0))
     stats = ffi.new("eomc_stats *")
-    head = (model.c_model, _options(ffi, a), a["t0"], a["t1"], buf(a["x0"]), buf(a["p"]), a["n_r"],
+    head = (model.c_model, _options(ffi, a, implicit), a["t0"], a["t1"], buf(a["x0"]), buf(a["p"]), a["n_r"],
             buf(a["r_t"]), buf(a["r_v"]))
     tail = (n_eval, buf(a["t_eval"]), buf(x_out), buf(x_last), stats, buf(work), work.size)
     if not feedback and "events" not in a and "switches" not in a:

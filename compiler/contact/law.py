@@ -29,8 +29,8 @@ v_s·tanθ/μ).  The force acts at the contact point p = c - r·n.
 """
 import sympy as sm
 
-__all__ = ["DEFAULTS", "EXPONENT", "ContactForces", "ground_forces", "damping_from_restitution",
-           "check_value"]
+__all__ = ["DEFAULTS", "EXPONENT", "ContactForces", "ground_forces", "ground_jacobians",
+           "damping_from_restitution", "check_value"]
 
 # Default parameters per contact (SI units), and why:
 # k   1e6 N/m^1.5  Hertz for a sphere of radius R = 2 cm of rubber-like stiffness on a rigid
@@ -85,8 +85,10 @@ def damping_from_restitution(e, impact_speed):
 class ContactForces:
     """What :func:`ground_forces` returns: SymPy expressions (world components)."""
 
-    def __init__(self, depth, normal, friction, force, point_offset):
+    def __init__(self, depth, normal, friction, force, point_offset, parts=None):
         self.depth = depth            # δ (signed: < 0 out of contact)
+        # the law's intermediate values (named temporaries), for ground_jacobians
+        self.parts = parts or {}
         self.normal = normal          # F_n ≥ 0 (scalar, along n)
         self.friction = friction      # F_t, 3 world components
         self.force = force            # F_n·n + F_t, 3 world components
@@ -127,4 +129,45 @@ def ground_forces(centre, velocity, omega, params, normal=(0, 0, 1), height=0, l
     scale = let(-mu * fn / sm.sqrt(_dot(vt, vt) + vs ** 2))
     ft = [let(scale * vt[i]) for i in range(3)]
     force = [let(fn * n[i] + ft[i]) for i in range(3)]
-    return ContactForces(depth, fn, ft, force, arm)
+    parts = {"rate": rate, "dpos": dpos, "elastic": elastic, "slip": vp, "vt": vt, "scale": scale,
+             "normal": n, "k": k, "c": c, "vs": vs, "mu": mu}
+    return ContactForces(depth, fn, ft, force, arm, parts)
+
+
+def ground_jacobians(forces, step, let=None):
+    """(K, C): 3x3 nested lists (row i, column j), K = -dF/dp and C = -dF/dv of the force F
+    of :func:`ground_forces` in the contact point p and its velocity v, world components;
+    what the fixed-step implicit integrator treats implicitly (runtime/c/eomc_fixedstep.c):
+
+        K = F_n,δ · (n - μ v_t/s) nᵀ           F_n,δ = (3/2) k δ₊^½ (1 + (3/2) c δ̇)
+        C = F_n,δ̇ · (n - μ v_t/s) nᵀ + (μ F_n / s)(P - v_t v_tᵀ / s²)
+                                              F_n,δ̇ = (3/2) c k δ₊^{3/2},
+                                              P = I - n nᵀ, s² = |v_t|² + v_s²
+
+    the normal force's stiffness and damping (with the friction they carry: a sliding
+    contact's friction grows with its normal force, as stiff in the penetration as the
+    normal force itself) and the regularised friction's slope in the slip.  Not symmetric:
+    the integrator factors with an LU.  Both vanish out of contact and where F_n is clipped
+    at 0 (the factor step(F_n): ``step`` is eomc.compiler.tree.joint_laws.step, handed in by
+    the caller, which sits above this module)."""
+    let = let or (lambda e: e)
+    q = forces.parts
+    n, k, c, vs = q["normal"], q["k"], q["c"], q["vs"]
+    on = step(forces.normal)
+    half = sm.Rational(3, 2)
+    # δ₊^{3/2} as δ₊·sqrt(δ₊), 1/s once: one sqrt and one division per contact besides the
+    # law's own (sqrt(|v_t|² + v_s²) written as the law writes it, so the passes share it)
+    depth = sm.Abs(q["dpos"])
+    sq = let(sm.sqrt(depth))
+    kn = let(half * k * sq * (1 + half * c * q["rate"]) * on)
+    cn = let(half * c * k * depth * sq * on)
+    vt = q["vt"]
+    inv_s = let(1 / let(sm.sqrt(_dot(vt, vt) + vs ** 2)))
+    gf = let(-q["scale"])                    # μ F_n / s
+    ms = let(q["mu"] * inv_s)                # μ / s
+    gs = let(gf * inv_s * inv_s)             # μ F_n / s³
+    carry = [let(n[i] - ms * vt[i]) for i in range(3)]
+    K = [[kn * carry[i] * n[j] for j in range(3)] for i in range(3)]
+    C = [[cn * carry[i] * n[j] + gf * ((1 if i == j else 0) - n[i] * n[j]) - gs * vt[i] * vt[j]
+          for j in range(3)] for i in range(3)]
+    return K, C

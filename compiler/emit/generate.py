@@ -211,6 +211,8 @@ def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions
     nframe = 0 if frames is None else len(frames.names())   # frame outputs (compiler/tree/frames.py)
     fns = _select(functions, len(layout.r), len(outputs or {}) + nframe, ncon, len(events or {}),
                   poses is not None, len(layout.p))
+    if "implicit" in fns and not formulation.builds_implicit(functions is not None and "implicit" in functions):
+        fns = tuple(f for f in fns if f != "implicit")
     refusal = formulation.refusal(fns)
     if refusal:
         raise ModelError(refusal)

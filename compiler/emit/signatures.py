@@ -39,11 +39,13 @@ SIGNATURES = {
     "events": _RHS + (("double *", "out"), ("double *", "work")),
     # body frames' positions and rotations, named points' positions (compiler/emit/poses.py)
     "poses": _RHS + (("double *", "out"), ("double *", "work")),
+    # what one step of the fixed-step implicit integrator needs (compiler/tree/lower.implicit_layout)
+    "implicit": _RHS + (("double *", "out"), ("double *", "work")),
 }
 
 FUNCTION_ORDER = ("rhs", "jac_x", "jac_r", "jac_p", "mass_matrix", "forcing", "inverse_dynamics",
                   "outputs", "constraints", "constraints_jac", "linearize", "events", "poses", "regressor",
-                  "jvp", "jac_id", "vjp", "hvp", "hess_id")
+                  "jvp", "jac_id", "vjp", "hvp", "hess_id", "implicit")
 
 # Generated only on request (``functions`` naming them), not by default.
 ON_REQUEST = ("jac_p", "regressor", "jvp", "jac_id", "vjp", "hvp", "hess_id")

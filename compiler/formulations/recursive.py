@@ -19,6 +19,9 @@ from ..tree.emit import tree_jacobian_body, tree_jacobian_ops, tree_matrix_body,
 from ..tree.jvp import tree_jvp_body
 from ..tree.lower import TREE_FUNCTION_GROUPS, TREE_HELPER_USERS, build_tree_symbolic
 from ..tree.regressor import PI_NAMES
+from ..contact.tree import contact_outputs
+from ..emit.bodies import plain_body
+from ..tree.lower import implicit_layout
 
 __all__ = ["Recursive"]
 
@@ -39,6 +42,12 @@ class Recursive(Formulation):
     def refusal(self, functions):
         return None
 
+    def builds_implicit(self, requested):
+        from ..contact.tree import contact_outputs
+        if contact_outputs(self.tree) and self.tree.loops is None:
+            return True
+        return super().builds_implicit(requested)
+
     def symbolic(self, formed, layout, functions, outputs=None, events=None):
         return build_tree_symbolic(self.tree, formed, layout, functions, outputs, events)
 
@@ -57,6 +66,9 @@ class Recursive(Formulation):
             return hess_id_body(ctx, prog, sym, nx)
         if fn in REVERSE_FUNCTIONS:
             return reverse_body(fn, ctx, prog, sym, nx, len(layout.p), jacobian_symbols(prog, sym.W, ctx.nu)[1])
+        if fn == "implicit":
+            size = implicit_layout(ctx.nq, ctx.nu, len(contact_outputs(self.tree)))["size"]
+            return plain_body(ctx, prog, "imp", (size,), "out")
         if fn == "jvp":
             return tree_jvp_body(ctx, prog, *jacobian_symbols(prog, sym.W, ctx.nu), sym.seeds, nx, len(layout.p))
         if fn in _JACOBIANS:
@@ -88,6 +100,8 @@ class Recursive(Formulation):
 
     def metadata(self, sym, functions):
         out = {}
+        if "implicit" in functions:
+            out["implicit"] = self.implicit_metadata()
         if getattr(self.tree, "quaternions", ()):
             # x indices of each quaternion's w (x, y, z follow): the runtime keeps them unit
             out["quaternions"] = [int(k) for k in self.tree.quaternions]
@@ -96,3 +110,31 @@ class Recursive(Formulation):
         return {**out, "regressor_bodies": list(sym.regressor_bodies),
                 "regressor_reference": list(sym.regressor_reference),
                 "regressor_parameters": list(PI_NAMES)}
+
+    def implicit_metadata(self):
+        """What runtime/c/eomc_fixedstep.c needs besides NAME_implicit's numbers: per contact
+        the speeds that move its body (its chain to the root), and per speed its parent in
+        the tree (the previous speed of its joint or of the nearest moving ancestor; -1 at
+        the root), for M's tree-sparse LDLᵀ."""
+        bodies = self.tree.bodies
+        own = [[s for s, _ in b.dofs] for b in bodies]
+
+        def chain(i):
+            out = []
+            while i >= 0:
+                out = own[i] + out
+                i = bodies[i].parent
+            return out
+        parent = [-1] * len(self.tree.speeds)
+        for i, b in enumerate(bodies):
+            j, last = b.parent, -1
+            while j >= 0 and not own[j]:
+                j = bodies[j].parent
+            if j >= 0:
+                last = own[j][-1]
+            for s in own[i]:
+                parent[s], last = last, s
+        nq, nu = len(self.tree.coordinates), len(self.tree.speeds)
+        contacts = contact_outputs(self.tree)
+        return {"contacts": [{"name": c.name, "speeds": chain(c.body)} for c in contacts],
+                "parents": parent, "layout": implicit_layout(nq, nu, len(contacts))}

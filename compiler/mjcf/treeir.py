@@ -130,6 +130,7 @@ def tree_ir(m, *, fold=False, actuators=None, limits=True, friction=True, quater
         drive[j] = drive.get(j, sm.S.Zero) + tau         # fixed tendons' springs, dampers, limits, friction
     bodies, coordinates, speeds, kinematics, loads, joints, owners = [], [], [], [], [], [], []
     quaternions = []        # each ball/free joint's w coordinate, with quaternion=True
+    torques = []
     last = {0: -1}          # MuJoCo body -> index of its mass-carrying tree body (-1: world)
     com = {0: [0, 0, 0]}
     for b in range(1, m.nbody):
@@ -257,6 +258,7 @@ def tree_ir(m, *, fold=False, actuators=None, limits=True, friction=True, quater
                     tau = tau - stiffness * (coordinates[first_q] - rest)
                 tau = tau + _law(m, jid, jraw, jn, coordinates[first_q], speeds[first], params,
                                  limits, friction)
+                torques.append((coordinates[first_q], speeds[first], tau))
                 if tau != 0:
                     loads += actuation(kind == _SLIDE, tau, a, R0, c, p, base_c, child, parent)
             elif kind == _BALL and m.dof_damping[dadr] != 0:
@@ -281,7 +283,8 @@ def tree_ir(m, *, fold=False, actuators=None, limits=True, friction=True, quater
     bodies = effective_inertias(bodies, coordinates, speeds, kinematics)
     ir = Tree(bodies=tuple(bodies), coordinates=tuple(coordinates), speeds=tuple(speeds),
               kinematics=tuple(kinematics), gravity=gravity, loads=tuple(loads),
-              quaternions=tuple(coordinates.index(w) for w in quaternions))
+              quaternions=tuple(coordinates.index(w) for w in quaternions),
+              joint_torques=tuple(torques))
     if found or tied:
         from eomc.compiler.tree.constrained import attach
         ir = attach(ir, coupling_loops(m, params, found, coordinates, speeds, joints, joint_names, tied))

@@ -10,7 +10,7 @@ this module is the recursion's side of it (called by :mod:`.lower`).
 """
 import sympy as sm
 
-from ..contact.law import ground_forces
+from ..contact.law import ground_forces, ground_jacobians
 from ..contact.tree import ContactLoad, ContactValue, contact_outputs
 from .placement import Placement
 
@@ -28,19 +28,25 @@ def world_placement(bodies, rec):
                      by_columns=True)
 
 
-def lower_contacts(tree, bodies, rec, v, rename):
+def lower_contacts(tree, bodies, rec, v, rename, implicit=None):
     """Add every ContactLoad's force to its body's ``fext`` (LoweredBody, body components
     about the origin); return {ContactValue placeholder: temporary}.
 
     ``v``: the bodies' spatial velocities [ω; v_origin] (body components, the recursion's);
     ``rename(expr, what)``: mechanics symbols -> slot symbols (parameters).  Other loads
     with a ``lower(bodies, rec, v, rename, placement)`` method (MJCF fluid forces:
-    eomc.compiler.mjcf.fluid) are lowered here too, with the same placement."""
+    eomc.compiler.mjcf.fluid) are lowered here too, with the same placement.
+    ``implicit``: a dict to fill for the fixed-step integrator's NAME_implicit (None: not
+    built, no temporaries added), holding "step" (the C-printable unit step function); filled
+    with "poses" (the placement) and "contacts", per contact (depth, contact point, its
+    velocity, K, C of :func:`eomc.compiler.contact.law.ground_jacobians`), world."""
     contacts = contact_outputs(tree)
     others = [ld for ld in tree.loads if not isinstance(ld, ContactLoad) and hasattr(ld, "lower")]
     if not contacts and not others:
         return {}
     poses = world_placement(bodies, rec)
+    if implicit is not None:
+        implicit["poses"], implicit["contacts"] = poses, []
     for load in others:
         load.lower(bodies, rec, v, rename, poses)
     values = {}
@@ -69,6 +75,12 @@ def lower_contacts(tree, bodies, rec, v, rename):
         n_b = _cross(lever, f_b)
         old = bodies[i].fext or [0] * 6
         bodies[i].fext = [old[k] + x for k, x in enumerate(n_b + f_b)]
+        if implicit is not None:
+            arm_w = forces.point_offset
+            point = [rec.let(centre[k] + arm_w[k]) for k in range(3)]
+            K, C = ground_jacobians(forces, implicit["step"], rec.let)
+            implicit["contacts"].append({"depth": forces.depth, "point": point,
+                                         "velocity": list(forces.parts["slip"]), "K": K, "C": C})
         quantities = [forces.normal, *forces.friction, forces.depth]     # OUTPUT_KINDS' order
         for kind, value in enumerate(quantities):
             values[ContactValue(index, kind)] = value

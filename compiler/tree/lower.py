@@ -32,6 +32,7 @@ from eomc.runtime.errors import ModelError
 from ..emit.reverse import hess_id_requests, refuse_reverse, reverse_requests
 from ..emit.symbolic import TANGENT_MIN_STATES, build_symbolic
 from .algorithms import LoweredBody, Recorder, aba, crba, rnea, velocities
+from .joint_laws import ramp, step
 from .constrained import (accelerations, check_functions, kane_form, kkt_residual, kkt_solve,
                           lower_loops, multiplier_symbols, tree_loops)
 from .derivatives import articulated_solve, solve_symbols
@@ -59,6 +60,7 @@ TREE_FUNCTION_GROUPS = {
     "vjp": ("ud", "Dpiv", "kin", "zd", "sol", "vj"),
     "hvp": ("ud", "Dpiv", "kin", "zd", "sol", "hr", "ha", "hb"),
     "hess_id": ("tau", "hg"),
+    "implicit": ("imp",),                # see implicit_layout
 }
 TREE_HELPER_USERS = ()
 
@@ -168,7 +170,8 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         nq, nu = len(tree.coordinates), len(tree.speeds)
         speeds = layout.x[nq:nq + nu]
         v, c = velocities(bodies, rec, speeds)
-        contact_values = _contacts(tree, bodies, rec, v, layout)
+        implicit = {"step": step} if "implicit" in functions else None
+        contact_values = _contacts(tree, bodies, rec, v, layout, implicit)
         extra, keep = [], {}
         if loops is not None:
             J, gamma = lower_loops(loops, layout, rec)
@@ -229,6 +232,8 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
             A, b = sm.ones(nu, nu), [0] * nu
         else:   # not computed: a stand-in with M's structure (for the metadata)
             A, b = _structure(tree), [0] * nu
+        if implicit is not None:
+            extra += _implicit_results(tree, bodies, formed, layout, A, b, implicit, nq, nu)
     except NotATree as exc:
         raise ModelError(f"recursive formulation: {exc}") from None
     sym = build_symbolic(formed, layout, functions, outputs, events, dynamics=(A, b),
@@ -265,7 +270,7 @@ def _analytic(tree, bodies, gravity, layout, functions):
     return analytic_plan(tree, bodies, gravity, layout, lambda e, what: _rename(layout, memo, what, absent)(e))
 
 
-def _contacts(tree, bodies, rec, v, layout):
+def _contacts(tree, bodies, rec, v, layout, implicit=None):
     """Ground contacts (eomc.compiler.contact.tree): their forces into the bodies' ``fext``
     from the world positions and velocities of their points, built recursively with ``rec``;
     returns {placeholder of a contact output or event: its temporary}."""
@@ -273,7 +278,82 @@ def _contacts(tree, bodies, rec, v, layout):
         return {}
     from .contacts import lower_contacts
     memo = {}
-    return lower_contacts(tree, bodies, rec, v, lambda e, what: _rename(layout, memo, what, None)(e))
+    return lower_contacts(tree, bodies, rec, v, lambda e, what: _rename(layout, memo, what, None)(e),
+                          implicit)
+
+
+def implicit_layout(nq, nu, ncontact):
+    """Offsets into out[] of NAME_implicit (runtime/c/eomc_fixedstep.c reads it so):
+
+        M      nu*nu   the mass matrix, row-major (both triangles)
+        f      nu      the forcing (M u' = f)
+        qd     nq      q' at (q, u)
+        N      nq*nu   dq'/du (q' is linear in u: q'(q, u + du) = q' + N du)
+        screw  6*nu    per speed, its motion in the world: (ω, v0), the velocity of a point p
+                       of a body it moves is ω x p + v0 per unit speed
+        joint  2*nu    per speed, -d(joint law)/du and -d(joint law)/dq (0: none)
+        contact 25 per contact: depth, point (3), its velocity (3), K (9), C (9), world
+                       (compiler/contact/law.ground_jacobians)"""
+    out, pos = {}, 0
+    for key, size in (("M", nu * nu), ("f", nu), ("qd", nq), ("N", nq * nu), ("screw", 6 * nu),
+                      ("joint", 2 * nu), ("contact", 25 * ncontact)):
+        out[key] = pos
+        pos += size
+    out["size"] = pos
+    return out
+
+
+def _implicit_results(tree, bodies, formed, layout, A, b, implicit, nq, nu):
+    """The ("imp", k) results of NAME_implicit, laid out as :func:`implicit_layout`."""
+    contacts = implicit.get("contacts", [])
+    poses = implicit["poses"]
+    at = implicit_layout(nq, nu, len(contacts))
+    out = {}
+    for i in range(nu):
+        for j in range(nu):
+            out[at["M"] + i * nu + j] = A[max(i, j), min(i, j)]
+        out[at["f"] + i] = b[i]
+    speeds = layout.x[nq:nq + nu]
+    kin = [layout.apply(e, "the kinematic equations") for e in formed.kinematics]
+    for i, e in enumerate(kin):
+        out[at["qd"] + i] = e
+        for j, u in enumerate(speeds):
+            out[at["N"] + i * nu + j] = sm.diff(e, u)
+    for i, body in enumerate(bodies):
+        motions = ([(body.speed, body.S)] if body.S is not None else list(body.multi or ()))
+        if not motions:
+            continue
+        o = poses.origin(i)
+        for k, S in motions:
+            w = poses.to_world(i, S[:3])
+            vo = poses.to_world(i, S[3:])
+            wxo = _cross(w, o)
+            base = at["screw"] + 6 * k
+            for a in range(3):
+                out[base + a] = w[a]
+                out[base + 3 + a] = vo[a] - wxo[a]
+    coords = list(tree.coordinates)
+    speed_of = {u: k for k, u in enumerate(tree.speeds)}
+    memo = {}
+    for q, u, tau in getattr(tree, "joint_torques", ()):
+        if u not in speed_of or q not in coords or tau == 0:
+            continue
+        k, qi = speed_of[u], coords.index(q)
+        what = f"the law of the joint of speed {layout.state_names[nq + k]}"
+        # |a| as 2 ramp(a) - a before differentiating: SymPy's d|a| divides by |a| (0/0 where a
+        # unilateral limit is not engaged); ramp's derivative is the step function
+        t = layout.apply(tau, what, memo).replace(sm.Abs, lambda a: 2 * ramp(a) - a)
+        qs, us = layout.x[qi], layout.x[nq + k]
+        out[at["joint"] + 2 * k] = -sm.diff(t, us)
+        if sm.simplify(kin[qi] - us) == 0:        # q' = u: dq/du of the step is h
+            out[at["joint"] + 2 * k + 1] = -sm.diff(t, qs)
+    for c, item in enumerate(contacts):
+        base = at["contact"] + 25 * c
+        vals = ([item["depth"]] + list(item["point"]) + list(item["velocity"])
+                + [x for row in item["K"] for x in row] + [x for row in item["C"] for x in row])
+        for a, e in enumerate(vals):
+            out[base + a] = e
+    return [(("imp", k), e) for k, e in sorted(out.items()) if e != 0]
 
 
 def _with_contact_values(sym, values):
@@ -312,7 +392,7 @@ def _with_jacobians(sym, layout, functions, nq, jacobian, more=(), analytic=Fals
     return replace(sym, program=program, derivatives=sym.derivatives + tuple(derivatives))
 
 
-_NEED_AB = {"mass_matrix", "forcing"}
+_NEED_AB = {"mass_matrix", "forcing", "implicit"}
 
 
 def _structure(tree):

@@ -106,6 +106,10 @@ class Tree:
     # the index into ``coordinates`` of each quaternion's w (x, y, z follow): the integrators
     # keep these unit (free joints with floating_base="quaternion"); () when there are none
     quaternions: tuple = ()
+    # ((coordinate, speed, torque), ...): each 1-dof joint's torque (force) on its child about
+    # its axis, a function of its own coordinate and speed (damping, spring, limits, friction)
+    # and inputs; read by the fixed-step integrator's NAME_implicit (compiler/tree/lower.py)
+    joint_torques: tuple = field(default=(), compare=False)
 
     @property
     def n(self):

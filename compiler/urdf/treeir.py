@@ -124,6 +124,7 @@ def tree_ir(tree, *, fold=False, gravity=9.81, laws=True):
     inertias = joint_inertias(tree) if laws else None
     bodies, coordinates, speeds, kinematics, inputs, loads, offsets = [], [], [], [], [], [], []
     index, coms, quaternions = {}, {}, []
+    torques = []
     for tj in tree.joints:
         body = tree.bodies[tj.child]
         s = identifier(body.name)
@@ -213,6 +214,7 @@ def tree_ir(tree, *, fold=False, gravity=9.81, laws=True):
             inputs.append(tau)
             if laws:
                 tau = tau + law_torque(tree, tj, qs[0], us[0], params, inertias)
+            torques.append((qs[0], us[0], tau))
             loads += actuation(tj.type == "prismatic", tau, a, R0, c, p, cp, index[tj.child], parent)
     g = params("g", gravity) if gravity else sm.S.Zero
     # what the motion cannot excite is dropped, as the System route does: only the symbols
@@ -220,7 +222,8 @@ def tree_ir(tree, *, fold=False, gravity=9.81, laws=True):
     bodies = effective_inertias(bodies, coordinates, speeds, kinematics)
     ir = Tree(bodies=tuple(bodies), coordinates=tuple(coordinates), speeds=tuple(speeds),
               kinematics=tuple(kinematics), gravity=sm.Matrix([0, 0, -g]), loads=tuple(loads),
-              quaternions=tuple(quaternions))
+              quaternions=tuple(quaternions),
+              joint_torques=tuple(torques))
     return UrdfTree(ir, tuple(coordinates), tuple(speeds), tuple(kinematics), params.values, inputs, tree,
                     tuple(offsets))
 

@@ -55,6 +55,7 @@
  */
 #include "eomc_fixedstep.h"
 
+#include <float.h>
 #include <math.h>
 #include <string.h>
 
@@ -338,6 +339,221 @@ static int fs_advance(fs *w, double t, double h, const double *x)
     return EOMC_OK;
 }
 
+/* ------------------------------------------------------------------ the fast path
+ *
+ * With the model's NAME_implicit (eomc_implicit, from eomc_options.implicit) the step is
+ * MuJoCo's implicitfast: velocities first, through the mass matrix and the slopes of the
+ * smooth forces in the velocities, positions then with the new velocities:
+ *
+ *   (M + h C~ + h^2 K~) du = h (f - h K~ u),   u1 = u + du,   q1 = q + h (q'(q, u) + N du)  (2)
+ *
+ * where C~ = -d(contacts, joint laws)/du and K~ = -d(contacts, joint laws)/dq N are those
+ * forces' slopes: per contact in touch Jᵀ C J and Jᵀ K J (J the contact point's 3 x nu
+ * velocity Jacobian, built here from the speeds' world motions for the contacts in touch
+ * only; C, K of compiler/contact/law.ground_jacobians: the normal force's stiffness and
+ * damping with the friction they carry, the regularised friction's slope in the slip),
+ * per joint law its damping and stiffness (their positive part) on the diagonal.  (2) is
+ * linearly implicit Euler with that part of the Jacobian and q' linearised in u: the
+ * stiff contact, friction and limit forces are damped, never amplified, and the smooth
+ * rest is integrated symplectically.  Coriolis terms and the contact Jacobian's change
+ * with q stay explicit (MuJoCo's implicitfast skips the same kind of terms).
+ * Measured on gymnasium's ant at its 10 ms step: with C and K symmetrised (the friction
+ * carried by the normal force left out) the ant blew up after 1 s of standing; with it,
+ * it stands.  One NAME_implicit call per step, no Jacobian of the whole rhs, no Newton
+ * iteration: the matrix of (2) has M's tree sparsity (a contact couples only the speeds
+ * of its body's chain to the root), so it is factored without fill-in from the leaves up
+ * in O(nu * depth^2) (parent[] given; dense without it).
+ *
+ * First order, like the W-method above and MuJoCo's own Euler and implicitfast; no
+ * error control (a fixed step is what control and learning loops want).
+ */
+
+typedef struct fs_layout {
+    size_t M, f, qd, N, screw, joint, contact, size;
+} fs_layout;
+
+static fs_layout fs_layout_of(int nq, int nu, int nc)
+{
+    fs_layout L;
+    size_t q = (size_t)nq, u = (size_t)nu;
+    L.M = 0;
+    L.f = u * u;
+    L.qd = L.f + u;
+    L.N = L.qd + q;
+    L.screw = L.N + q * u;
+    L.joint = L.screw + 6 * u;
+    L.contact = L.joint + 2 * u;
+    L.size = L.contact + 25 * (size_t)nc;
+    return L;
+}
+
+size_t eomc_fs_implicit_work_size(int nq, int nu, int ncontact)
+{
+    size_t u = (size_t)nu, x = (size_t)nq + u;
+    /* + the ancestor lists: nu + 1 + nu (nu - 1) / 2 ints, in nu * nu / 2 + nu + 1 doubles */
+    return fs_layout_of(nq, nu, ncontact).size + u * u + 6 * u + 3 * x + 8 + u * u / 2 + u + 2;
+}
+
+/* A = U D L in place (D on the diagonal, unit U above it, unit L below it): A has nonzeros
+ * only between a speed and its ancestors (parent[k] < k; NULL: every earlier speed, i.e.
+ * dense), so eliminating from the leaves up (Featherstone's LTDL, RBDA table 6.3, here
+ * without symmetry: A is M plus the contacts' slopes, not symmetric) makes no fill-in.
+ * 1 when a pivot is zero to rounding (64 eps of the largest diagonal entry) or not finite;
+ * a negative pivot is no failure (A is not symmetric: a sliding contact's friction carried
+ * by its normal force makes it indefinite, and measured on the falling humanoid a foot's
+ * pivot goes negative while the step is fine). */
+/* anc[start[k] .. start[k + 1]) = speed k's ancestors, nearest first (parent[] NULL: every
+ * earlier speed); the elimination below walks these lists, not the parent chain (a chain of
+ * dependent loads: measured on the humanoid, the walk was 40% of the step outside the model). */
+static void fs_ancestors(int n, const int *parent, int *start, int *anc)
+{
+    int pos = 0;
+    for (int k = 0; k < n; k++) {
+        start[k] = pos;
+        for (int i = parent ? parent[k] : k - 1; i >= 0; i = parent ? parent[i] : i - 1) anc[pos++] = i;
+    }
+    start[n] = pos;
+}
+
+static int fs_tree_lu(int n, double *A, const int *start, const int *anc)
+{
+    double scale = 0.0;
+    for (int k = 0; k < n; k++)
+        if (fabs(A[(size_t)k * n + k]) > scale) scale = fabs(A[(size_t)k * n + k]);
+    if (!isfinite(scale)) return 1;
+    for (int k = n - 1; k >= 0; k--) {
+        const int *a = anc + start[k];
+        int na = start[k + 1] - start[k];
+        double dk = A[(size_t)k * n + k], inv, *rk = A + (size_t)k * n;
+        if (!(fabs(dk) > 64 * DBL_EPSILON * scale) || !isfinite(dk)) return 1;
+        inv = 1.0 / dk;
+        for (int x = 0; x < na; x++) {
+            int i = a[x];
+            double *ri = A + (size_t)i * n, u = ri[k] * inv;
+            if (u != 0.0)
+                for (int y = 0; y < na; y++) ri[a[y]] -= u * rk[a[y]];
+            ri[k] = u;
+        }
+        for (int y = 0; y < na; y++) rk[a[y]] *= inv;
+    }
+    return 0;
+}
+
+static void fs_tree_solve(int n, const double *A, const int *start, const int *anc, double *b)
+{
+    for (int k = n - 1; k >= 0; k--)
+        for (int x = start[k]; x < start[k + 1]; x++) b[anc[x]] -= A[(size_t)anc[x] * n + k] * b[k];
+    for (int k = 0; k < n; k++) b[k] /= A[(size_t)k * n + k];
+    for (int k = 0; k < n; k++)
+        for (int x = start[k]; x < start[k + 1]; x++) b[k] -= A[(size_t)k * n + anc[x]] * b[anc[x]];
+}
+
+/* One step (2) from (t, x) with the terms T = NAME_implicit(t, x): x1. */
+static int fs_fast_step(const eomc_fs_ops *ops, const fs_layout *L, double h, const double *x,
+                        const double *T, double *A, double *du, double *J, double *GJ,
+                        double *Kv, double *x1, const int *start, const int *anc)
+{
+    const eomc_implicit *imp = ops->imp;
+    int nq = ops->nq, nu = ops->nu;
+    const double *u = x + nq, *scr = T + L->screw, *jl = T + L->joint;
+    memcpy(A, T + L->M, (size_t)nu * nu * sizeof(double));
+    memcpy(du, T + L->f, (size_t)nu * sizeof(double));
+    for (int s = 0; s < nu; s++) {                   /* joint laws: diagonal */
+        /* their semidefinite part only (a limit's damping, as it fades in past the limit,
+         * can have a negative slope in q) */
+        double d = jl[2 * s] > 0.0 ? jl[2 * s] : 0.0, k = jl[2 * s + 1] > 0.0 ? jl[2 * s + 1] : 0.0;
+        if (d != 0.0 || k != 0.0) {
+            A[(size_t)s * nu + s] += h * d + h * h * k;
+            du[s] -= h * k * u[s];
+        }
+    }
+    for (int c = 0; c < imp->ncontact; c++) {
+        const double *e = T + L->contact + 25 * (size_t)c;
+        const double *p = e + 1, *vp = e + 4, *K = e + 7, *C = e + 16;
+        const int *cols = imp->chain + imp->chain_start[c];
+        int m = imp->chain_start[c + 1] - imp->chain_start[c];
+        double G[9];
+        int any = 0;
+        if (!(e[0] > 0.0)) continue;                  /* not touching: no force, no slope */
+        for (int a = 0; a < 9; a++) {
+            G[a] = h * C[a] + h * h * K[a];
+            any |= G[a] != 0.0;
+        }
+        if (!any) continue;
+        for (int a = 0; a < 3; a++)
+            Kv[a] = K[3 * a] * vp[0] + K[3 * a + 1] * vp[1] + K[3 * a + 2] * vp[2];
+        for (int b = 0; b < m; b++) {                 /* J[:, b] = w x p + v0 of speed cols[b] */
+            const double *w = scr + 6 * (size_t)cols[b], *v0 = w + 3;
+            double *j = J + 3 * b;
+            j[0] = v0[0] + w[1] * p[2] - w[2] * p[1];
+            j[1] = v0[1] + w[2] * p[0] - w[0] * p[2];
+            j[2] = v0[2] + w[0] * p[1] - w[1] * p[0];
+            for (int a = 0; a < 3; a++)
+                GJ[3 * b + a] = G[3 * a] * j[0] + G[3 * a + 1] * j[1] + G[3 * a + 2] * j[2];
+            du[cols[b]] -= h * (j[0] * Kv[0] + j[1] * Kv[1] + j[2] * Kv[2]);
+        }
+        for (int a = 0; a < m; a++) {
+            const double *ja = J + 3 * a;
+            double *row = A + (size_t)cols[a] * nu;
+            for (int b = 0; b < m; b++) {
+                const double *g = GJ + 3 * b;
+                row[cols[b]] += ja[0] * g[0] + ja[1] * g[1] + ja[2] * g[2];
+            }
+        }
+    }
+    if (fs_tree_lu(nu, A, start, anc)) return EOMC_SINGULAR_MASS_MATRIX;
+    for (int s = 0; s < nu; s++) du[s] *= h;
+    fs_tree_solve(nu, A, start, anc, du);
+    {
+        const double *qd = T + L->qd, *N = T + L->N;
+        for (int i = 0; i < nq; i++) {
+            const double *row = N + (size_t)i * nu;
+            double v = qd[i];
+            for (int s = 0; s < nu; s++) v += row[s] * du[s];
+            x1[i] = x[i] + h * v;
+        }
+        for (int s = 0; s < nu; s++) x1[nq + s] = u[s] + du[s];
+    }
+    for (int i = 0; i < nq + nu; i++)
+        if (!isfinite(x1[i])) return EOMC_NONFINITE;
+    return EOMC_OK;
+}
+
+static int fs_run_fast(const eomc_fs_ops *ops, eomc_stats *st, double h, long maxs, double t0,
+                       double t1, double *x, double *work)
+{
+    int nq = ops->nq, nu = ops->nu, n = nq + nu, s;
+    fs_layout L = fs_layout_of(nq, nu, ops->imp->ncontact);
+    double *T = work, *A = T + L.size, *du = A + (size_t)nu * nu, *J = du + nu, *GJ = J + 3 * (size_t)nu;
+    double *Kv = GJ + 3 * (size_t)nu, *x1 = Kv + 4, *slope = x1 + n, *f1 = slope + n;
+    int *start = (int *)(f1 + n), *anc = start + nu + 1;
+    long nsteps = (long)ceil((t1 - t0) / h * (1 - 1e-12));
+    if (nsteps < 1) nsteps = 1;
+    memset(f1, 0, (size_t)n * sizeof(double));
+    fs_ancestors(nu, ops->imp->parent, start, anc);
+    for (long k = 0; k < nsteps; k++) {
+        double t = t0 + k * h, tn = (k == nsteps - 1) ? t1 : t0 + (k + 1) * h;
+        double hh = (k == nsteps - 1) ? t1 - t : h;
+        int stop = 0;
+        st->t = t; st->h = hh;
+        if (st->steps >= maxs) return EOMC_MAX_STEPS;
+        st->steps++;
+        if ((s = ops->terms(ops->ctx, t, x, T))) return s;
+        if ((s = fs_fast_step(ops, &L, hh, x, T, A, du, J, GJ, Kv, x1, start, anc))) {
+            st->t_fail = tn;
+            return s;
+        }
+        st->nlu++;
+        st->accepted++;
+        for (int i = 0; i < n; i++) slope[i] = (x1[i] - x[i]) / hh;
+        if ((s = ops->accept(ops->ctx, t, tn, x, slope, x1, f1, &stop))) return s;
+        if (stop) return EOMC_OK;
+        memcpy(x, x1, (size_t)n * sizeof(double));
+    }
+    st->t = t1;
+    return EOMC_OK;
+}
+
 int eomc_fs_run(const eomc_fs_ops *ops, eomc_stats *st, int nx, double h, long max_steps,
                 double t0, double t1, double *x, double *work)
 {
@@ -346,6 +562,7 @@ int eomc_fs_run(const eomc_fs_ops *ops, eomc_stats *st, int nx, double h, long m
     long nsteps, maxs = max_steps > 0 ? max_steps : DEFAULT_MAX_STEPS;
     double *pos = work;
     if (!(h > 0) || !isfinite(h)) return EOMC_BAD_ARGUMENT;
+    if (ops->terms) return fs_run_fast(ops, st, h, maxs, t0, t1, x, work);
     w.ops = ops; w.st = st; w.n = n; w.h_lu = 0.0;
     w.J = pos; pos += (size_t)n * n;
     w.A = pos; pos += (size_t)n * n;

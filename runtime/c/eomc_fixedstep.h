@@ -25,6 +25,12 @@ typedef struct eomc_fs_ops {
      * holds the event's state).  An eomc_status. */
     int (*accept)(void *ctx, double t, double tn, double *x, const double *slope, double *x1,
                   double *f1, int *stop);
+    /* The fast path (MuJoCo's implicitfast, see eomc_fixedstep.c), when not NULL: out =
+     * NAME_implicit(t, x) with the run's inputs; an eomc_status.  imp: its structure; the
+     * state is x = [q (nq); u (nu)] (no extra states). */
+    int (*terms)(void *ctx, double t, const double *x, double *out);
+    const eomc_implicit *imp;
+    int nq, nu;
 } eomc_fs_ops;
 
 /* Doubles of work eomc_fs_run needs for nx states. */

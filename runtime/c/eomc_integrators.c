@@ -1915,7 +1915,32 @@ typedef struct fs_glue {
     ctx *c;
     proj *pj;
     outw *ow;
+    const eomc_implicit *imp;
 } fs_glue;
+
+/* NAME_implicit with the run's inputs at t (as frhs: grid or callback; counted in nfev). */
+static int fs_terms(void *g, double t, const double *x, double *out)
+{
+    ctx *c = ((fs_glue *)g)->c;
+    int s;
+    if (aborted(c)) { c->st->t_fail = t; return c->abort; }
+    if (!c->fb) grid_inputs_at(c, t);
+    else if ((s = inputs_at(c, t, x))) { c->st->t_fail = t; return s; }
+    c->st->nfev++;
+    s = ((fs_glue *)g)->imp->terms(t, x, c->p, c->r, out, c->mwork);
+    if (s != EOMC_OK) c->st->t_fail = t;
+    return s;
+}
+
+/* The fast path applies: the model's terms were given, no projection (it needs f at the
+ * step's end), no linear feedback (its slope jac_r K is not in the terms), no extra states. */
+static int fs_fast_ok(const ctx *c, const eomc_options *o, const proj *pj)
+{
+    const eomc_implicit *imp = o->implicit;
+    return imp && imp->terms && !pj->on && !(c->fb && c->fb->K) && c->stab == 0.0
+           && c->m->nx == c->m->nq + c->m->nu && imp->ncontact >= 0
+           && (imp->ncontact == 0 || (imp->chain_start && imp->chain));
+}
 
 static int fs_rhs(void *g, double t, const double *x, double *f)
 {
@@ -1963,10 +1988,17 @@ static int fs_accept(void *g, double t, double tn, double *x, const double *slop
 static int run_implicitfast(ctx *c, const eomc_options *o, proj *pj, double t0, double t1,
                             double *x, outw *ow, double **pos)
 {
-    fs_glue g = {c, pj, ow};
-    eomc_fs_ops ops = {&g, fs_rhs, fs_jac, fs_accept};
-    int s = eomc_fs_run(&ops, c->st, c->n, o->h0, o->max_steps, t0, t1, x,
-                        take(pos, eomc_fs_work_size(c->n)));
+    fs_glue g = {c, pj, ow, o->implicit};
+    eomc_fs_ops ops = {&g, fs_rhs, fs_jac, fs_accept, NULL, NULL, 0, 0};
+    int fast = fs_fast_ok(c, o, pj), s;
+    if (fast) {
+        ops.terms = fs_terms;
+        ops.imp = o->implicit;
+        ops.nq = c->m->nq;
+        ops.nu = c->m->nu;
+    }
+    s = eomc_fs_run(&ops, c->st, c->n, o->h0, o->max_steps, t0, t1, x,
+                    take(pos, fast ? o->implicit->work_len : eomc_fs_work_size(c->n)));
     if (s == EOMC_OK && !(c->ev && c->ev->terminated)) c->st->t = t1;
     return s;
 }
@@ -1981,7 +2013,7 @@ static int check_args(const eomc_model *m, const eomc_options *o, double t0, dou
     if (o->method < EOMC_RK4 || o->method > EOMC_IMPLICITFAST) return EOMC_BAD_ARGUMENT;
     if (o->method != EOMC_RK4 && o->method != EOMC_IMPLICITFAST && !(o->rtol > 0 && o->atol > 0))
         return EOMC_BAD_ARGUMENT;
-    if ((o->method == EOMC_RADAU5 || o->method == EOMC_IMPLICITFAST) && !m->jac_x)
+    if ((o->method == EOMC_RADAU5 || (o->method == EOMC_IMPLICITFAST && !o->implicit)) && !m->jac_x)
         return EOMC_NOT_AVAILABLE;
     if (!(o->baumgarte >= 0.0) || !isfinite(o->baumgarte)) return EOMC_BAD_ARGUMENT;
     if (n_eval < 0 || (n_eval > 0 && (!t_eval || !x_out))) return EOMC_BAD_ARGUMENT;
@@ -2042,7 +2074,9 @@ int eomc_integrate_ex(const eomc_model *m, const eomc_options *opt,
     s = check_args(m, opt, t0, t1, x0, n_eval, t_eval, x_out);
     if (s == EOMC_OK) s = check_extras(m, fb, ev);
     if (s == EOMC_OK && (!work || work_len < eomc_integrate_work_size(m, opt->method)
-                         + (fb ? (size_t)m->ninput * (size_t)m->nx : 0)))
+                         + (fb ? (size_t)m->ninput * (size_t)m->nx : 0)
+                         + (opt->method == EOMC_IMPLICITFAST && opt->implicit
+                            ? opt->implicit->work_len : 0)))
         s = EOMC_BAD_ARGUMENT;
     if (s == EOMC_OK)
         s = ctx_init(&c, m, p, n_rgrid, r_tgrid, r_values, stats, &pos);

@@ -44,6 +44,26 @@ extern "C" {
 #define EOMC_RADAU5 3
 #define EOMC_IMPLICITFAST 4
 
+/*
+ * The fixed-step implicit integrator's fast path (EOMC_IMPLICITFAST, runtime/c/eomc_fixedstep.c):
+ * the model's NAME_implicit (M, f, q', dq'/du, the speeds' world motions, the joint laws' and
+ * the contacts' slopes; compiler/tree/lower.implicit_layout) and the structure NAME.json's
+ * "implicit" entry gives.  Set in eomc_options.implicit; NULL there: the linearly implicit
+ * Euler on the full jac_x.
+ */
+typedef struct eomc_implicit {
+    eomc_mat_fn terms;        /* NAME_implicit */
+    int ncontact;
+    const int *chain_start;   /* ncontact + 1 offsets into chain */
+    const int *chain;         /* the speeds that move contact k: chain[chain_start[k] ..] */
+    const int *parent;        /* nu: each speed's parent in the tree (-1: root), parent[s] < s;
+                                 NULL: M is factored dense */
+    size_t work_len;          /* doubles of work the path needs: eomc_fs_implicit_work_size */
+} eomc_implicit;
+
+/* Doubles of work the fast path needs (add to eomc_integrate_work_size). */
+size_t eomc_fs_implicit_work_size(int nq, int nu, int ncontact);
+
 typedef struct eomc_options {
     int method;          /* EOMC_RK4 ... EOMC_IMPLICITFAST */
     double rtol, atol;   /* > 0 (ignored by RK4) */
@@ -63,6 +83,7 @@ typedef struct eomc_options {
                             The model's rhs must not depend on a quaternion's length and be
                             linear in it in its own rows (eomc's quaternion free joint), so
                             the step's end derivative is rescaled, not recomputed */
+    const eomc_implicit *implicit;  /* EOMC_IMPLICITFAST: the fast path (see above), or NULL */
 } eomc_options;
 
 typedef struct eomc_stats {

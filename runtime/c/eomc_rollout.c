@@ -81,7 +81,8 @@ int eomc_rollout(const eomc_model *m, const eomc_options *opt, double t0, double
     job.X0 = X0; job.P = P; job.p_stride = p_stride;
     job.n_eval = n_eval; job.t_eval = t_eval; job.X_out = n_eval > 0 ? X_out : NULL;
     job.X_last = X_last; job.status = status; job.steps = steps;
-    job.work_len = eomc_integrate_work_size(m, opt->method);
+    job.work_len = eomc_integrate_work_size(m, opt->method)
+                   + (opt->method == EOMC_IMPLICITFAST && opt->implicit ? opt->implicit->work_len : 0);
     job.next = 0;
     for (k = 0; k < n; ++k)
         status[k] = EOMC_ABORTED;        /* until its run says otherwise */

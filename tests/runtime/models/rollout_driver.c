@@ -22,7 +22,7 @@ static int check(const eomc_model *m, int method, const double *P, size_t p_stri
     double *w = malloc(sizeof(double) * nw);
     int status[N], bad = 0;
     long steps[N];
-    eomc_options o = {method, 1e-7, 1e-9, 0.01, 0.0, 20000, 0, 1, 0.0, 0.04};
+    eomc_options o = {method, 1e-7, 1e-9, 0.01, 0.0, 20000, 0, 1, 0.0, 0.04, 0, NULL, NULL};
     for (int i = 0; i < N * nx; i++) X0[i] = 0.1 * (i % 7) - 0.3;
     for (int i = 0; i < NE; i++) te[i] = 0.1 * i;
     int s = eomc_rollout(m, &o, 0.0, 1.0, N, X0, P, p_stride, NE, te, X_out, X_last, status, steps, 3);
