@@ -89,3 +89,21 @@ def test_wheel_in_fresh_venv_builds_and_loads_without_sympy(tmp_path):
     assert shown["name"] == "double_pendulum" and len(shown["xdot"]) == 4
     assert shown["xdot"][:2] == [0.0, 0.0] and shown["xdot"][2] != 0.0
     assert len(shown["end"]) == 4 and shown["end"] != [1.0, -0.5, 0.0, 0.0]
+
+
+def test_every_source_package_is_in_the_wheel_list():
+    """pyproject lists the packages by hand (the import name differs from the folders), so
+    a new folder under compiler/ or runtime/ is missing from a non-editable install until
+    it is added there; editable installs hide that. The list must match the folders."""
+    import tomllib
+
+    config = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
+    listed = set(config["packages"])
+    roots = {folder: name for name, folder in config["package-dir"].items()}
+    on_disk = set()
+    for folder, name in roots.items():
+        for init in (ROOT / folder).rglob("__init__.py"):
+            parts = init.parent.relative_to(ROOT / folder).parts
+            if "__pycache__" not in parts:
+                on_disk.add(".".join((name, *parts)))
+    assert on_disk - listed == set(), "add these to [tool.setuptools] packages in pyproject.toml"
