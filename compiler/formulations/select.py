@@ -3,9 +3,12 @@ recursive one (ABA/RNEA/CRBA over the tree).  ``auto``, the default, never fails
 either one works.
 
 ``auto`` reads the tree first (no equations formed) and lowers the recursive form.
-Kane's form is then lowered too, and the one whose rhs has fewer operations is kept
-(all requested functions' operations when rhs is not requested), only where it can
-win:
+Kane's form is then lowered too, and the one whose rhs costs less is kept (all requested
+functions' costs when rhs is not requested), only where it can win.  The cost
+(:func:`rhs_cost`) weighs the operation counts by what they take in time: a sin/cos call
+about 25 operations, a division 4, and Kane's arithmetic 1.15x the recursion's; counting
+operations alone kept Kane's slower rhs on the cart at 3-4 links and on the UR10 and Kinova
+arms (benchmarks/results/auto_choice.md).
 
 * Kane's equations are formed for the comparison only for a small tree
   (:data:`AUTO_KANE_MAX_SPEEDS` speeds): forming them is the costly part of a build
@@ -48,6 +51,7 @@ from ..tree.model import NotATree, tree_exprs
 from ..tree.recognize import tree_of
 
 __all__ = ["FORMULATIONS", "DEFAULT_FORMULATION", "AUTO_KANE_MAX_SPEEDS", "generate_formulation",
+           "rhs_cost", "KANE_OP_WEIGHT", "DIV_WEIGHT", "CALL_WEIGHT", "COST_MODEL",
            "check_formulation", "tree_digest", "kane_tree_formed", "check_tree_finite"]
 
 FORMULATIONS = ("auto", "kane", "recursive")
@@ -210,11 +214,36 @@ def _kane_formed(spec):
     return spec.formed
 
 
-def _rhs_cost(generated):
+# The cost model of auto (issue 31 item 5), in units of one add or multiply of the recursive
+# form.  Fitted to rhs times measured with gcc -O2 (thread CPU, pinned, interleaved, medians) on
+# the n-link cart System at n = 1-4 and the UR10 and Kinova arms on an Intel Xeon
+# (../shared/reports/performance-2026-11-r4.md §3), and checked on an AMD EPYC, where the pick
+# is the faster form on all six (benchmarks/bench_auto_choice.py, results/auto_choice.md).  Operation counts alone kept Kane's rhs at n = 3-4, UR10 and
+# Kinova where it is 8-50 % slower: Kane's equations formed from a System call sin/cos of sums of
+# angles (20 calls at n = 4 against the recursion's 8), and its long, register-hungry straight-line
+# code runs 1.13-1.76x slower per operation than the recursion's.
+KANE_OP_WEIGHT = 1.15    # one of Kane's adds/muls against one of the recursion's
+DIV_WEIGHT = 4           # a division (latency ~4 multiplies on x86-64)
+CALL_WEIGHT = 25         # a sin, cos, sqrt, ... call (libm, not inlined at -O2)
+COST_MODEL = (f"operations weighted: a call {CALL_WEIGHT}, a division {DIV_WEIGHT}, "
+              f"Kane's {KANE_OP_WEIGHT}x")   # for the messages of eomc build and inspect
+
+
+def rhs_cost(counts, formulation):
+    """The estimated cost of a function from its operation counts ({adds, muls, divs, calls}),
+    so that auto compares time, not the number of operations: a call weighs CALL_WEIGHT
+    operations, a division DIV_WEIGHT, and Kane's arithmetic KANE_OP_WEIGHT (see above)."""
+    flops = counts.get("adds", 0) + counts.get("muls", 0)
+    weight = KANE_OP_WEIGHT if formulation == "kane" else 1.0
+    return round(weight * flops + DIV_WEIGHT * counts.get("divs", 0)
+                 + CALL_WEIGHT * counts.get("calls", 0))
+
+
+def _rhs_cost(generated, formulation):
     counts = generated.metadata["op_counts"]
     # linearize only calls jac_x and jac_r: its counts are theirs again
     fns = ["rhs"] if "rhs" in counts else [f for f in counts if counts[f] and f != "linearize"]
-    return sum(sum(counts[f].values()) for f in fns if counts[f])
+    return sum(rhs_cost(counts[f], formulation) for f in fns if counts[f])
 
 
 def kane_solve_floor(formed):
@@ -315,15 +344,17 @@ def _generate_auto(spec, functions, fold_parameters, kane_spec):
     if isinstance(spec.formed, Model) and nu > AUTO_KANE_MAX_SPEEDS:
         recursive.metadata["formulation_costs"] = {
             "kane": f"not formed ({nu} speeds > {AUTO_KANE_MAX_SPEEDS}: Kane's rhs has not won there)",
-            "recursive": _rhs_cost(recursive)}
+            "recursive": _rhs_cost(recursive, "recursive")}
         return recursive
     try:
         kspec = _kane_side(spec, kane_spec)
         if functions is None or "rhs" in functions:
-            floor = kane_solve_floor(kspec.formed)
-            if floor >= _rhs_cost(recursive):
-                recursive.metadata["formulation_costs"] = {"kane": f">= {floor} (its LDLT alone)",
-                                                           "recursive": _rhs_cost(recursive)}
+            # a lower bound on Kane's cost: its LDLT's operations, each at least a flop of Kane's
+            floor = round(KANE_OP_WEIGHT * kane_solve_floor(kspec.formed))
+            if floor >= _rhs_cost(recursive, "recursive"):
+                recursive.metadata["formulation_costs"] = {
+                    "kane": f">= {floor} (its LDLT alone)",
+                    "recursive": _rhs_cost(recursive, "recursive")}
                 return recursive
         kane = _generate_kane(kspec, functions, fold_parameters)
     except Exception as exc:          # noqa: BLE001 -- the recursive form works: keep it
@@ -331,6 +362,7 @@ def _generate_auto(spec, functions, fold_parameters, kane_spec):
         recursive.metadata["formulation_note"] = (f"recursive ({_reason(exc, 'kane')})"
                                                   + (f"; {before}" if before else ""))
         return recursive
-    chosen = recursive if _rhs_cost(recursive) < _rhs_cost(kane) else kane
-    chosen.metadata["formulation_costs"] = {"kane": _rhs_cost(kane), "recursive": _rhs_cost(recursive)}
+    costs = {"kane": _rhs_cost(kane, "kane"), "recursive": _rhs_cost(recursive, "recursive")}
+    chosen = recursive if costs["recursive"] < costs["kane"] else kane
+    chosen.metadata["formulation_costs"] = costs
     return chosen

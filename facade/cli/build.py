@@ -81,6 +81,8 @@ def formulation_line(meta, asked):
         return f"formulation: {chosen} (asked for)"
     costs = meta.get("formulation_costs")
     if costs:
-        return (f"formulation: {chosen} (auto: the cheaper rhs; operations " +
-                ", ".join(f"{k} {v}" for k, v in sorted(costs.items())) + ")")
+        from eomc.compiler.formulations.select import COST_MODEL
+        return (f"formulation: {chosen} (auto: the cheaper rhs; costs " +
+                ", ".join(f"{k} {v}" for k, v in sorted(costs.items())) +
+                f"; {COST_MODEL})")
     return f"formulation: {chosen} (auto)"

@@ -65,7 +65,7 @@ def compare_formulations(args, spec, generated, generate, error, *, source=None,
     generated from the same, so both columns describe the same robot."""
     source = args.model if source is None else source
     name = args.name if name is None else name
-    from eomc.compiler.formulations.select import AUTO_KANE_MAX_SPEEDS
+    from eomc.compiler.formulations.select import AUTO_KANE_MAX_SPEEDS, COST_MODEL
     meta = generated.metadata
     chosen = meta.get("formulation", "kane")
     other = "kane" if chosen == "recursive" else "recursive"
@@ -78,7 +78,7 @@ def compare_formulations(args, spec, generated, generate, error, *, source=None,
         head.append(f"  tree reader: {tree_note}")
     costs = meta.get("formulation_costs")
     if costs:
-        head.append("  auto compared rhs operations: " +
+        head.append(f"  auto compared rhs costs ({COST_MODEL}): " +
                     ", ".join(f"{k} {v}" for k, v in sorted(costs.items())))
     if note and chosen == "kane":
         return "\n".join(head)

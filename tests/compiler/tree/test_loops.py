@@ -6,6 +6,7 @@ import pytest
 
 from eomc.cli import main
 from eomc.compiler.driver import generate
+from eomc.compiler.formulations.select import COST_MODEL
 from eomc.errors import ModelError
 
 ROOT = Path(__file__).resolve().parents[3]
@@ -36,7 +37,8 @@ def test_auto_compares_the_two_with_the_default_functions_and_says_so(tmp_path, 
     assert "formulation_note" not in gm.metadata
     assert main(["inspect", "-q", str(FOUR_BAR), "--formulation", "auto"]) == 0
     out = capsys.readouterr().out
-    assert (f"auto compared rhs operations: kane {costs['kane']}, recursive {costs['recursive']}"
+    assert (f"auto compared rhs costs ({COST_MODEL}): kane {costs['kane']}, "
+            f"recursive {costs['recursive']}"
             in out)
 
 
