@@ -44,7 +44,9 @@ def pendulum(cache):
 
 @pytest.fixture(scope="module")
 def ur5(cache):
-    model = eomc.compile(robot_path("ur5"), cache_dir=cache, progress=False)
+    # Kane's form, as this fixture was written for (auto picks the recursive form for UR5 since
+    # the cost-weighted choice; the browser test's motion under it is open on issue 31)
+    model = eomc.compile(robot_path("ur5"), cache_dir=cache, progress=False, formulation="kane")
     # a prescribed motion the camera sees well: shoulder pan and elbow sweep, the rest held
     t = np.linspace(0.0, 2.0, 121)
     x = np.zeros((len(t), model.nx))
