@@ -697,6 +697,8 @@ def simulate(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6
     if "switches" in a and a["switches"].limits:
         from .switching import warn_outside_limits
         warn_outside_limits(model, a["x0"], a["p"])
+    from .switching import warn_unchecked
+    warn_unchecked(model)
     x_out, stats, x_last = run_prepared(model, a)
     result = finish(model, a, x_out, stats, x_last, raise_on_failure)
     if project and not consistent and model.nhol + model.nvel:

@@ -30,11 +30,13 @@ import numpy as np
 
 from .errors import EomcWarning
 
-__all__ = ["Switches", "find_switches", "PhysicsWarning", "verdict", "warn_outside_limits",
+__all__ = ["CONTACT_EVENT_PREFIX", "Switches", "find_switches", "PhysicsWarning", "verdict", "warn_outside_limits",
+           "warn_unchecked",
            "PENETRATION_FRACTION",
            "POINT_PENETRATION", "LIMIT_OVERSHOOT_WIDTHS", "STATUS_ENERGY", "ENERGY_FAIL",
            "energy_tolerance"]
 
+CONTACT_EVENT_PREFIX = "contact_"  # a contact's penetration event: contact_<name> (the compiler emits it always)
 PENETRATION_FRACTION = 0.5      # of the contact radius
 POINT_PENETRATION = 0.01        # m, for a point contact (radius 0)
 LIMIT_OVERSHOOT_WIDTHS = 100    # limit widths past the limit (100 x 3e-4 rad = 0.03 rad by default)
@@ -67,9 +69,10 @@ class Limit:
 class Switches:
     contacts: tuple
     limits: tuple
+    unchecked: tuple = ()   # contacts (by their law's parameters) with no contact_<name> event
 
-    def __bool__(self):
-        return bool(self.contacts or self.limits)
+    def __bool__(self):     # a run of such a model is judged (unchecked contacts: its energy)
+        return bool(self.contacts or self.limits or self.unchecked)
 
 
 _LIMIT = re.compile(r"limit_(lo|hi)_(.+)\Z")
@@ -92,8 +95,9 @@ def find_switches(model):
     params = {n: i for i, n in enumerate(model.param_names)}
     states = {n: i for i, n in enumerate(model.state_names)}
     events = [d["name"] for d in model.metadata.get("events", ())]
-    contacts = tuple(Contact(e[len("contact_"):], e, contact_parameter(params, "r", e[len("contact_"):]))
-                     for e in events if e.startswith("contact_"))
+    n = len(CONTACT_EVENT_PREFIX)
+    contacts = tuple(Contact(e[n:], e, contact_parameter(params, "r", e[n:]))
+                     for e in events if e.startswith(CONTACT_EVENT_PREFIX))
     limits = []
     for name, i in params.items():
         m = _LIMIT.match(name)
@@ -101,12 +105,47 @@ def find_switches(model):
             joint = m.group(2)
             limits.append(Limit(joint, states[f"q_{joint}"], i, 1.0 if m.group(1) == "hi" else -1.0,
                                 params.get(f"limit_e_{joint}", -1), "upper" if m.group(1) == "hi" else "lower"))
-    found = Switches(contacts, tuple(limits))
+    found = Switches(contacts, tuple(limits), _unchecked(params, {c.name for c in contacts}))
     try:
         model._switches = found
     except AttributeError:
         pass
     return found
+
+
+_LAW_KEYS = ("k", "c", "mu", "vs")    # every contact law's parameters: <key>_<name> (compiler/contact/law.py)
+
+
+def _unchecked(params, gapped):
+    """Contacts known by their law's parameters (k_, c_, mu_, vs_<name>) that have no
+    penetration event: built by an eomc before every contact model got its gaps, or a
+    SymPy-mechanics model that did not add its contacts' ``events``."""
+    out = []
+    for name in params:
+        if not name.startswith("k_"):
+            continue
+        contact = name[2:]
+        if not all(f"{key}_{contact}" in params for key in _LAW_KEYS[1:]):
+            continue
+        if contact in gapped or any(g.startswith(contact + "_") and g[len(contact) + 1:].isdigit()
+                                    for g in gapped):
+            continue
+        out.append(contact)
+    return tuple(out)
+
+
+def warn_unchecked(model):
+    """A PhysicsWarning naming every contact without a penetration event: no method ends its
+    steps at its touch-down, and its penetration is not judged (a free-falling sphere's grown
+    Radau step went through the floor with status 0 in such a build, issue 29)."""
+    names = find_switches(model).unchecked
+    if names:
+        warnings.warn(PhysicsWarning(
+            f"{model.name}: contact{'s' if len(names) > 1 else ''} {', '.join(names)} "
+            f"{'have' if len(names) > 1 else 'has'} no penetration event (contact_<name>), so no "
+            f"step ends at touch-down and the run's penetration is not checked: rebuild the model "
+            f"with this eomc (it always compiles the contacts' events), or add the contact's "
+            f"events to the model file's events"), stacklevel=_user_level())
 
 
 def energy_tolerance(rtol, atol):

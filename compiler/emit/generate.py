@@ -6,6 +6,7 @@ from dataclasses import dataclass
 import jinja2
 
 from eomc.runtime.errors import ModelError
+from eomc.runtime.switching import CONTACT_EVENT_PREFIX
 from ..passes import finish_function, optimize_shared
 from ..ir import count_program, format_program, verify
 from .bodies import (BodyContext, dynamics_helper, helper_jacobian_body, jvp_body, matrix_body, needed_assignments, split_on, jacobian_body,
@@ -52,6 +53,26 @@ def _select(functions, ninput, noutput, ncon, nevent=0, has_poses=False, nparam=
               "constraints": ncon == 0, "constraints_jac": ncon == 0, "events": nevent == 0,
               "poses": not has_poses}
     return tuple(f for f in ALL_FUNCTIONS if f in wanted and not absent.get(f, False))
+
+
+def with_contact_gaps(functions, events):
+    """(functions, events) with ``NAME_events`` kept for the contacts' gaps whatever was asked.
+
+    Why: a contact's penetration (its ``contact_<name>`` event, zero at touch-down and
+    lift-off) is the switching function at which every adaptive method ends its step, the
+    measure of the run's penetration verdict and the key of the run-time checks of its law's
+    parameters (runtime/switching.py, runtime/law_parameters.py).  A build whose function
+    set left ``events`` out had none of them: Radau's grown free-fall step carried a sphere
+    through the floor and the run ended with status 0 (issue 29).  So a model with contacts
+    always gets ``NAME_events``; when ``events`` was not among the requested functions it
+    holds the contacts' gaps only (O(contacts), none of the model's own events).  A model
+    without contacts, or one whose build asked for ``events``, is unchanged."""
+    if functions is None or not events or "events" in functions:
+        return functions, events
+    gaps = {k: v for k, v in events.items() if str(k).startswith(CONTACT_EVENT_PREFIX)}
+    if not gaps:
+        return functions, events
+    return tuple(functions) + ("events",), gaps
 
 
 def _environment():
@@ -207,6 +228,7 @@ def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions
     uses = {s for e in list((outputs or {}).values()) + list((events or {}).values())
             for s in getattr(e, "free_symbols", ())}
     layout = make_layout(formed, parameters, inputs, fold_parameters, uses)
+    functions, events = with_contact_gaps(functions, events)
     ncon = len(formed.holonomic_constraints) + len(formed.velocity_constraints)
     nframe = 0 if frames is None else len(frames.names())   # frame outputs (compiler/tree/frames.py)
     fns = _select(functions, len(layout.r), len(outputs or {}) + nframe, ncon, len(events or {}),

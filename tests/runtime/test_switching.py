@@ -76,6 +76,48 @@ def test_a_contact_too_soft_for_the_load_warns_naming_it(ball):
     assert res.status == 0      # the law was followed; the warning says the contact is too soft
 
 
+@pytest.fixture(scope="module")
+def reduced(tmp_path_factory):
+    """The sphere built with a function set that leaves out ``events`` (as test_ground_drops
+    did), and once more without its contact's event at all (a SymPy model that forgot it)."""
+    from sphere_model import sphere_model
+    spec, _ = sphere_model(radius=0.1)
+    system = spec.pop("system")
+    cache = tmp_path_factory.mktemp("reduced")
+    with_gap = eomc.compile(system, name="reduced", functions=("rhs", "jac_x", "outputs"), cache_dir=cache,
+                            progress=False, **spec)
+    spec.pop("events")
+    without = eomc.compile(system, name="no_gap", functions=("rhs", "jac_x", "outputs"), cache_dir=cache,
+                           progress=False, **spec)
+    return with_gap, without
+
+
+def test_a_build_without_events_still_ends_radaus_steps_at_touch_down(reduced):
+    """Issue 29: built without ``events``, Radau's grown free-fall step carried the sphere
+    through the floor (z = -0.32 m at k = 1e7, c = 2) with status 0.  The compiler now keeps
+    the contact's gap event whatever functions are asked for."""
+    model = reduced[0]
+    assert "events" in model.functions
+    assert [e["name"] for e in model.metadata["events"]] == ["contact_ball"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", PhysicsWarning)
+        res = _drop(model, p=_p(model, k_ball=1e7, c_ball=2.0), method="radau")
+    assert res.status == 0, res.message
+    assert res["z"].min() > 0.095 and res.stats["nswitch"] >= 2
+    assert res["z"][-1] == pytest.approx(0.1, abs=1e-3)       # at rest on the floor
+
+
+def test_a_contact_without_its_event_is_named_and_its_energy_still_judged(reduced):
+    """A model whose contact has no penetration event (a SymPy model that did not add the
+    contact's events, or a build by an older eomc): a warning names the contact, and the
+    energy it creates fails the run as for any contact model."""
+    model = reduced[1]
+    assert "events" not in model.functions
+    with pytest.warns(PhysicsWarning, match="contact ball has no penetration event"):
+        res = _drop(model, p=_p(model, k_ball=1e5, c_ball=0.0), method="radau")
+    assert res.status == STATUS_ENERGY and "energy rose" in res.message
+
+
 GRID = list(itertools.product((1e3, 1e6, 1e9, 1e12), bg.DAMPING.values(), bg.FRICTION, bg.METHODS, bg.RTOLS))
 
 

@@ -227,6 +227,27 @@ def test_outputs_fold_and_parameter_order(tmp_path):
     assert u  # speeds exist
 
 
+def test_a_contacts_gap_events_are_generated_whatever_functions_were_asked():
+    """Issue 29: a contact's penetration event is its switching function and its verdict; a
+    build whose functions left out ``events`` had none, and Radau's grown step carried a
+    sphere through the floor with status 0.  The gaps (contact_<name>) are always emitted,
+    only they when ``events`` was not asked for; a model without contacts is unchanged."""
+    kane, spec = zoo.n_link_pendulum_on_cart(1, me)
+    formed = es.kane_formed(kane, spec)
+    q = formed.coordinates
+    gap, own = {"contact_cart": 0.1 - q[0]}, {"passing": q[1]}
+    events = lambda gm: [e["name"] for e in gm.metadata.get("events", ())]  # noqa: E731
+    reduced = generate_c(formed, "gaps", functions=("rhs",), events={**own, **gap})
+    assert reduced.metadata["functions"] == ["rhs", "events"]
+    assert events(reduced) == ["contact_cart"]          # the gaps only: O(contacts)
+    asked = generate_c(formed, "gaps", functions=("rhs", "events"), events={**own, **gap})
+    assert events(asked) == ["passing", "contact_cart"]
+    assert events(generate_c(formed, "gaps", events={**own, **gap})) == ["passing", "contact_cart"]
+    plain = generate_c(formed, "plain", functions=("rhs",), events=own)
+    assert plain.metadata["functions"] == ["rhs"] and "events" not in plain.metadata
+    assert "plain_events" not in plain.c_source
+
+
 def test_bad_requests_name_the_problem():
     kane, spec = zoo.n_link_pendulum_on_cart(1, me)
     formed = es.kane_formed(kane, spec)
