@@ -21,7 +21,7 @@ from eomc.runtime.errors import ModelError
 from .law import DEFAULTS
 from .system import contact_symbols, parameter_defaults, unit_normal
 
-__all__ = ["ContactSpec", "ContactLoad", "ContactValue", "COLLISION_SPHERES", "parse_contact",
+__all__ = ["ContactSpec", "ContactLoad", "ContactValue", "ENERGY", "passive_contacts", "COLLISION_SPHERES", "parse_contact",
            "collision_spheres", "link_frame", "with_contacts", "contact_outputs", "body_com",
            "LoweredLoad"]
 
@@ -329,11 +329,40 @@ def _with_located(built, specs, locate, fold, what, identifier):
     return new, outputs, events
 
 
-def merged_outputs(overrides, outputs, events):
+# The placeholder of the ``energy`` output of a passive tree with ground contacts (lowered
+# by eomc.compiler.tree.contacts.lower_contacts): kinetic + gravity + the contacts' elastic energy.
+ENERGY = ContactValue(-1, -1)
+
+
+def passive_contacts(read):
+    """True for a robot (a multibody Model read from a file) whose only loads are ground
+    contacts and whose joints have no springs: with its inputs (joint torques, actuators) at
+    zero nothing feeds energy in, so its total energy may only fall, and the runtime judges
+    such runs by it (runtime/switching.verdict, issue 29)."""
+    loads = getattr(getattr(read, "tree", None), "loads", ())
+    names = {str(s) for s in getattr(read, "parameters", ())}
+    # a spring the energy does not hold (a joint's stiffness with its rest q0_<joint>, a
+    # tendon's k_<tendon>): its start energy could come out as a gain, so no energy verdict
+    springs = any(n.startswith("q0_") or (n.startswith("k_") and "mu_" + n[2:] not in names) for n in names)
+    zero = {r: 0 for r in tuple(getattr(read, "inputs", ()) or ())}
+
+    def driven(load):     # a load that vanishes with the inputs (an actuator's torque)
+        return all(sm.sympify(x).xreplace(zero) == 0 for x in list(load.moment) + list(load.force))
+    contacts = [ld for ld in loads if isinstance(ld, ContactLoad)]
+    return (bool(contacts) and not springs
+            and all(isinstance(ld, ContactLoad) or (getattr(ld, "frame", None) != "contact" and driven(ld))
+                    for ld in loads))
+
+
+def merged_outputs(overrides, outputs, events, energy=False):
     """``overrides`` (the model_spec keyword arguments) with the contacts' outputs and
-    events added after the caller's own (whose names win)."""
+    events added after the caller's own (whose names win); ``energy``: with the ``energy``
+    output (:data:`ENERGY`) unless the caller names an output so."""
     result = dict(overrides)
-    result["outputs"] = {**outputs, **(overrides.get("outputs") or {})}
+    given = overrides.get("outputs") or {}
+    if energy and "energy" not in given and "energy" not in outputs:
+        outputs = {**outputs, "energy": ENERGY}
+    result["outputs"] = {**outputs, **given}
     given = overrides.get("events")
     if given is not False:
         result["events"] = {**events, **(given or {})}

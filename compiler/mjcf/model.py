@@ -398,10 +398,10 @@ def _com_symbol(name, value, parameters):
 def mjcf_formed(read, overrides):
     """(the Model, overrides with the model's parameter defaults, inputs, contact outputs and
     initial state) of an MJCF model's :func:`read_model`."""
-    from eomc.compiler.contact.tree import merged_outputs
+    from eomc.compiler.contact.tree import merged_outputs, passive_contacts
     from eomc.compiler.multibody.model import merged_defaults
     if read.outputs or read.events:
-        overrides = merged_outputs(overrides, dict(read.outputs), dict(read.events))
+        overrides = merged_outputs(overrides, dict(read.outputs), dict(read.events), passive_contacts(read))
     values = merged_defaults(overrides, read, read.defaults, read.joint_inputs)
     if values.get("initial_state") is None:
         values["initial_state"] = dict(read.initial_state)

@@ -10,8 +10,8 @@ this module is the recursion's side of it (called by :mod:`.lower`).
 """
 import sympy as sm
 
-from ..contact.law import ground_forces, ground_jacobians
-from ..contact.tree import ContactLoad, ContactValue, contact_outputs
+from ..contact.law import EXPONENT, ground_forces, ground_jacobians
+from ..contact.tree import ENERGY, ContactLoad, ContactValue, contact_outputs
 from .placement import Placement
 
 __all__ = ["lower_contacts"]
@@ -28,7 +28,7 @@ def world_placement(bodies, rec):
                      by_columns=True)
 
 
-def lower_contacts(tree, bodies, rec, v, rename, implicit=None):
+def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None):
     """Add every ContactLoad's force to its body's ``fext`` (LoweredBody, body components
     about the origin); return {ContactValue placeholder: temporary}.
 
@@ -39,7 +39,9 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None):
     ``implicit``: a dict to fill for the fixed-step integrator's NAME_implicit (None: not
     built, no temporaries added), holding "step" (the C-printable unit step function); filled
     with "poses" (the placement) and "contacts", per contact (depth, contact point, its
-    velocity, K, C of :func:`eomc.compiler.contact.law.ground_jacobians`), world."""
+    velocity, K, C of :func:`eomc.compiler.contact.law.ground_jacobians`), world.
+    ``energy``: (the gravity vector (world, slot symbols), the speeds' symbols) when the
+    ``energy`` output (:data:`~eomc.compiler.contact.tree.ENERGY`) is asked for, else None."""
     contacts = contact_outputs(tree)
     others = [ld for ld in tree.loads if not isinstance(ld, ContactLoad) and hasattr(ld, "lower")]
     if not contacts and not others:
@@ -49,7 +51,7 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None):
         implicit["poses"], implicit["contacts"] = poses, []
     for load in others:
         load.lower(bodies, rec, v, rename, poses)
-    values = {}
+    values, elastic = {}, []
     for index, load in enumerate(contacts):
         i = load.body
         what = f"contact {load.name} on body {tree.bodies[i].name}"
@@ -84,4 +86,30 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None):
         quantities = [forces.normal, *forces.friction, forces.depth]     # OUTPUT_KINDS' order
         for kind, value in enumerate(quantities):
             values[ContactValue(index, kind)] = value
+        if energy is not None:      # the law's elastic part k δ₊^(3/2) stores k δ₊^(5/2) / (5/2)
+            elastic.append(forces.parts["elastic"] * forces.parts["dpos"] / (EXPONENT + 1))
+    if energy is not None:
+        values[ENERGY] = rec.let(_energy(bodies, v, poses, *energy) + sum(elastic, sm.S.Zero))
     return values
+
+
+def _energy(bodies, v, poses, gravity, speeds):
+    """Kinetic energy (the bodies' translation of their mass centres -- a tree body's origin --
+    and rotation, plus the joints' armature) and the potential of gravity, -Σ m g·p.
+
+    Why generated: a passive robot's total energy may only fall; the runtime's verdict reads
+    it to fail a run that created energy (runtime/switching.py).  1/2 u'Mu from the mass
+    matrix would need a build with mass_matrix and still no potential."""
+    total = sm.S.Zero
+    for i, b in enumerate(bodies):
+        w, vo = v[i][:3], v[i][3:]
+        m = b.I[3][3]
+        Iw = [sum((b.I[r][c] * w[c] for c in range(3)), sm.S.Zero) for r in range(3)]
+        o = poses.origin(i)
+        total += (m * sum((x * x for x in vo), sm.S.Zero) + sum((w[r] * Iw[r] for r in range(3)), sm.S.Zero)) / 2
+        total -= m * sum((gravity[k] * o[k] for k in range(3)), sm.S.Zero)
+        axes = [b.speed] if b.S is not None else [k for k, _ in (b.multi or ())]
+        for a, k in zip(b.armature, axes):
+            if a != 0 and k is not None:
+                total += a * speeds[k] ** 2 / 2
+    return total

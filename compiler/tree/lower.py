@@ -171,7 +171,9 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         speeds = layout.x[nq:nq + nu]
         v, c = velocities(bodies, rec, speeds)
         implicit = {"step": step} if "implicit" in functions else None
-        contact_values = _contacts(tree, bodies, rec, v, layout, implicit)
+        wants_energy = "outputs" in functions and _asks_energy(outputs)
+        contact_values = _contacts(tree, bodies, rec, v, layout, implicit,
+                                   (gravity, speeds) if wants_energy else None)
         extra, keep = [], {}
         if loops is not None:
             J, gamma = lower_loops(loops, layout, rec)
@@ -270,7 +272,13 @@ def _analytic(tree, bodies, gravity, layout, functions):
     return analytic_plan(tree, bodies, gravity, layout, lambda e, what: _rename(layout, memo, what, absent)(e))
 
 
-def _contacts(tree, bodies, rec, v, layout, implicit=None):
+def _asks_energy(outputs):
+    """Does an output read the passive tree's ``energy`` placeholder (contact/tree.ENERGY)?"""
+    from ..contact.tree import ENERGY
+    return any(getattr(e, "has", None) and e.has(ENERGY) for e in (outputs or {}).values())
+
+
+def _contacts(tree, bodies, rec, v, layout, implicit=None, energy=None):
     """Ground contacts (eomc.compiler.contact.tree): their forces into the bodies' ``fext``
     from the world positions and velocities of their points, built recursively with ``rec``;
     returns {placeholder of a contact output or event: its temporary}."""
@@ -279,7 +287,7 @@ def _contacts(tree, bodies, rec, v, layout, implicit=None):
     from .contacts import lower_contacts
     memo = {}
     return lower_contacts(tree, bodies, rec, v, lambda e, what: _rename(layout, memo, what, None)(e),
-                          implicit)
+                          implicit, energy)
 
 
 def implicit_layout(nq, nu, ncontact):

@@ -200,9 +200,9 @@ def urdf_formed(read, formulation, overrides, formed_system):
     route (the caller's, :func:`eomc.compiler.model.spec.formed_system`: passed in so
     that the URDF package does not import the model layer that imports it)."""
     if formulation != "kane" and read.refusal is None:
-        from eomc.compiler.contact.tree import merged_outputs
+        from eomc.compiler.contact.tree import merged_outputs, passive_contacts
         if read.outputs or read.events:
-            overrides = merged_outputs(overrides, dict(read.outputs), dict(read.events))
+            overrides = merged_outputs(overrides, dict(read.outputs), dict(read.events), passive_contacts(read))
         return read, merged_initial_state(merged_defaults(overrides, read, read.defaults, read.joint_inputs),
                                           read), None
     if read.outputs or read.events:
