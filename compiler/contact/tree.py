@@ -332,6 +332,9 @@ def _with_located(built, specs, locate, fold, what, identifier):
 # The placeholder of the ``energy`` output of a passive tree with ground contacts (lowered
 # by eomc.compiler.tree.contacts.lower_contacts): kinetic + gravity + the contacts' elastic energy.
 ENERGY = ContactValue(-1, -1)
+# parameters of the joint laws that only take energy out (damping, friction) or store it past a
+# limit only (compiler/tree/joint_laws.NAMES; MJCF's damping d_<joint>)
+PASSIVE_LAWS = ("d_", "damping_", "friction_", "limit_")
 
 
 def passive_contacts(read):
@@ -346,11 +349,18 @@ def passive_contacts(read):
     springs = any(n.startswith("q0_") or (n.startswith("k_") and "mu_" + n[2:] not in names) for n in names)
     zero = {r: 0 for r in tuple(getattr(read, "inputs", ()) or ())}
 
-    def driven(load):     # a load that vanishes with the inputs (an actuator's torque)
-        return all(sm.sympify(x).xreplace(zero) == 0 for x in list(load.moment) + list(load.force))
+    def passive(load):
+        """With the inputs at zero (an actuator's torque vanishes), only the joint laws'
+        damping, friction and limits act (compiler/tree/joint_laws.py; MJCF's d_<joint>): no
+        spring, no position actuator's bias, nothing else this check does not know."""
+        for x in list(load.moment) + list(load.force):
+            e = sm.sympify(x).xreplace(zero)
+            if any(not s.name.startswith(PASSIVE_LAWS) for s in e.free_symbols if s.name != "t"):
+                return False
+        return True
     contacts = [ld for ld in loads if isinstance(ld, ContactLoad)]
     return (bool(contacts) and not springs
-            and all(isinstance(ld, ContactLoad) or (getattr(ld, "frame", None) != "contact" and driven(ld))
+            and all(isinstance(ld, ContactLoad) or (getattr(ld, "frame", None) != "contact" and passive(ld))
                     for ld in loads))
 
 
