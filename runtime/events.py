@@ -57,10 +57,14 @@ def _checked(ev, model):
     return Event(str(ev.name), int(terminal), int(direction))
 
 
-def model_events(model):
-    """The model's compiled events with the options its model file gave."""
+def model_events(model, recorded=False):
+    """The model's compiled events with the options its model file gave; ``recorded``: only
+    those a run records by default (not the contacts' clip_<name> switching functions,
+    runtime/switching.py: they end steps; a run records them only when asked by name)."""
+    from .switching import CLIP_EVENT_PREFIX
     return [Event(d["name"], int(d.get("terminal", 0)), int(d.get("direction", 0)))
-            for d in model.metadata.get("events", ())]
+            for d in model.metadata.get("events", ())
+            if not (recorded and d["name"].startswith(CLIP_EVENT_PREFIX))]
 
 
 def resolve_events(model, events):
@@ -72,7 +76,7 @@ def resolve_events(model, events):
     failing that, its outputs; one run draws them all from one of the two.
     """
     if events is None:
-        chosen = model_events(model)
+        chosen = model_events(model, recorded=True)
     elif events is False:
         chosen = []
     elif isinstance(events, (str, Event)):
@@ -184,6 +188,13 @@ class EventsBinding:
             else:
                 switching[slot] = 1
             self.contact_slots.append(slot)
+        for clip in (switches.clips if switches is not None and source == "events" else ()):
+            slot = next((i for i, e in enumerate(everything) if e.name == clip), None)
+            if slot is None and clip in names:
+                everything.append(Event(clip))
+                switching.append(2)         # switching only: the F_n >= 0 clip's kink
+            elif slot is not None:
+                switching[slot] = 1
         limits = switches.limits if switches is not None else ()
         n = len(everything)
         cap = int(max_events) if self.events else 1     # switching only: nothing is recorded

@@ -31,13 +31,15 @@ import numpy as np
 
 from .errors import EomcWarning
 
-__all__ = ["CONTACT_EVENT_PREFIX", "Switches", "find_switches", "PhysicsWarning", "verdict", "warn_outside_limits",
+__all__ = ["CONTACT_EVENT_PREFIX", "CLIP_EVENT_PREFIX", "GAP_EVENT_PREFIXES", "Switches", "find_switches", "PhysicsWarning", "verdict", "warn_outside_limits",
            "warn_unchecked",
            "PENETRATION_FRACTION",
            "POINT_PENETRATION", "LIMIT_OVERSHOOT_WIDTHS", "STATUS_ENERGY", "ENERGY_FAIL",
            "energy_tolerance"]
 
 CONTACT_EVENT_PREFIX = "contact_"  # a contact's penetration event: contact_<name> (the compiler emits it always)
+CLIP_EVENT_PREFIX = "clip_"        # where a damped contact's normal force reaches 0 in contact (F_n >= 0 clip)
+GAP_EVENT_PREFIXES = (CONTACT_EVENT_PREFIX, CLIP_EVENT_PREFIX)   # the compiler keeps these whatever is asked
 PENETRATION_FRACTION = 0.5      # of the contact radius
 POINT_PENETRATION = 0.01        # m, for a point contact (radius 0)
 LIMIT_OVERSHOOT_WIDTHS = 100    # limit widths past the limit (100 x 3e-4 rad = 0.03 rad by default)
@@ -71,6 +73,7 @@ class Switches:
     contacts: tuple
     limits: tuple
     unchecked: tuple = ()   # contacts (by their law's parameters) with no contact_<name> event
+    clips: tuple = ()       # clip_<name> events: switching only (no verdict, not recorded unless asked)
 
     def __bool__(self):     # a run of such a model is judged (unchecked contacts: its energy)
         return bool(self.contacts or self.limits or self.unchecked)
@@ -106,7 +109,8 @@ def find_switches(model):
             joint = m.group(2)
             limits.append(Limit(joint, states[f"q_{joint}"], i, 1.0 if m.group(1) == "hi" else -1.0,
                                 params.get(f"limit_e_{joint}", -1), "upper" if m.group(1) == "hi" else "lower"))
-    found = Switches(contacts, tuple(limits), _unchecked(params, {c.name for c in contacts}))
+    clips = tuple(e for e in events if e.startswith(CLIP_EVENT_PREFIX))
+    found = Switches(contacts, tuple(limits), _unchecked(params, {c.name for c in contacts}), clips)
     try:
         model._switches = found
     except AttributeError:
@@ -201,9 +205,14 @@ def verdict(model, a, result, gmax, sw):
                          f"too soft for the load")
     status, extra = 0, ""
     got = _energy_gain(result, a) if (sw and "energy" in result.outputs and _no_sources(model, a)) else None
-    # a start past a limit holds spring energy no energy output counts: a gain is then no proof
+    # a start past a limit holds spring energy no energy output counts, a start in contact its
+    # elastic energy, which a model's own energy output may leave out (the one generated for a
+    # robot counts it: metadata "energy"): a gain is then no proof
     sprung = any(lim.sign * (float(a["x0"][lim.state]) - float(p[lim.param]))
                  > (float(p[lim.width]) if lim.width >= 0 else 3e-4) for lim in sw.limits)
+    if not model.metadata.get("energy"):
+        sprung = sprung or any(len(result.outputs.get(f"depth_{c.name}", ())) and
+                               result.outputs[f"depth_{c.name}"][0] > 0 for c in sw.contacts)
     if got is not None:
         gain, scale = got
         tol = energy_tolerance(a["rtol"], a["atol"]) * scale

@@ -146,7 +146,7 @@ def with_shapes(built, shapes, com_of, fold=False):
     and event ``contact_<point>``: <point> is the shape's name, with ``_<i>`` when it has several."""
     import dataclasses
     from .law import check_value
-    from .tree import OUTPUT_KINDS, ContactLoad, ContactValue
+    from .tree import CLIP_KIND, OUTPUT_KINDS, ContactLoad, ContactValue
     tree = built.tree
     loads = list(tree.loads)
     first = sum(1 for ld in loads if isinstance(ld, ContactLoad))
@@ -202,6 +202,7 @@ def with_shapes(built, shapes, com_of, fold=False):
             for kind, what in enumerate(OUTPUT_KINDS):
                 outputs[f"{what}_{label}"] = ContactValue(j, kind)
             events[f"contact_{label}"] = ContactValue(j, OUTPUT_KINDS.index("depth"))
+            events[f"clip_{label}"] = ContactValue(j, CLIP_KIND)
     new = type(built).__new__(type(built))
     new.__dict__.update(built.__dict__)
     new.tree = dataclasses.replace(tree, loads=tuple(loads))

@@ -29,7 +29,7 @@ v_s·tanθ/μ).  The force acts at the contact point p = c - r·n.
 """
 import sympy as sm
 
-__all__ = ["DEFAULTS", "EXPONENT", "ContactForces", "ground_forces", "ground_jacobians",
+__all__ = ["DEFAULTS", "EXPONENT", "ContactForces", "ground_forces", "ground_jacobians", "clip_switch",
            "damping_from_restitution", "check_value"]
 
 # Default parameters per contact (SI units), and why:
@@ -130,8 +130,20 @@ def ground_forces(centre, velocity, omega, params, normal=(0, 0, 1), height=0, l
     ft = [let(scale * vt[i]) for i in range(3)]
     force = [let(fn * n[i] + ft[i]) for i in range(3)]
     parts = {"rate": rate, "dpos": dpos, "elastic": elastic, "slip": vp, "vt": vt, "scale": scale,
-             "normal": n, "k": k, "c": c, "vs": vs, "mu": mu}
+             "normal": n, "k": k, "c": c, "vs": vs, "mu": mu, "clip": clip_switch(depth, c, rate)}
     return ContactForces(depth, fn, ft, force, arm, parts)
+
+
+def clip_switch(depth, c, rate):
+    """The switching function of the F_n >= 0 clip: max(1 + (3/2) c δ̇, -δ/(1 m)).
+
+    Why: F_n = max(0, k δ₊^{3/2} (1 + (3/2) c δ̇)) has a kink where the damped law would pull
+    (1 + (3/2) c δ̇ = 0) while in contact -- the damped contact's real lift-off, before δ
+    reaches 0.  The runtime ends adaptive steps at this function's zeros as at touch-down
+    (runtime/switching.py), so no step straddles the kink.  Out of contact (δ < 0) it is
+    positive, so a fast rebound in flight ends no step; with c = 0 it never vanishes."""
+    a = 1 + sm.Rational(3, 2) * c * rate
+    return (a - depth + sm.Abs(a + depth)) / 2
 
 
 def ground_jacobians(forces, step, let=None):

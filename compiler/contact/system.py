@@ -31,7 +31,8 @@ class GroundContact:
         self.loads = loads              # [(Point, Vector), (ReferenceFrame, Vector)]
         self.parameters = parameters    # {Symbol: default}
         self.outputs = outputs          # {"Fn_<name>", "Ftx_<name>", ...: expression}
-        self.events = events            # {"contact_<name>": penetration}: zero at touch-down/lift-off
+        self.events = events            # {"contact_<name>": penetration}: zero at touch-down/lift-off;
+                                        # "clip_<name>": zero where the damped normal force reaches 0
         self.forces = forces            # the law's ContactForces (expressions)
 
     def __repr__(self):
@@ -135,6 +136,6 @@ def ground(point, body, world, *, name=None, radius=None, k=None, c=None, restit
     outputs = {f"Fn_{name}": forces.normal, f"Ftx_{name}": forces.friction[0],
                f"Fty_{name}": forces.friction[1], f"Ftz_{name}": forces.friction[2],
                f"depth_{name}": forces.depth}
-    events = {f"contact_{name}": forces.depth}
+    events = {f"contact_{name}": forces.depth, f"clip_{name}": forces.parts["clip"]}
     parameters = {syms[key]: values[key] for key in syms}
     return GroundContact(name, loads, parameters, outputs, events, forces)

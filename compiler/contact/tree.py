@@ -27,6 +27,7 @@ __all__ = ["ContactSpec", "ContactLoad", "ContactValue", "ENERGY", "passive_cont
 
 # what each contact adds to the outputs (placeholders' kind index) and its event
 OUTPUT_KINDS = ("Fn", "Ftx", "Fty", "Ftz", "depth")
+CLIP_KIND = len(OUTPUT_KINDS)      # the clip_<name> event's kind (contact/law.clip_switch), no output
 
 
 @dataclass(frozen=True)
@@ -322,6 +323,7 @@ def _with_located(built, specs, locate, fold, what, identifier):
         for kind, label in enumerate(OUTPUT_KINDS):
             outputs[f"{label}_{name}"] = ContactValue(j, kind)
         events[f"contact_{name}"] = ContactValue(j, OUTPUT_KINDS.index("depth"))
+        events[f"clip_{name}"] = ContactValue(j, CLIP_KIND)
     new_tree = dataclasses.replace(tree, loads=tuple(loads))
     new = type(built).__new__(type(built))
     new.__dict__.update(built.__dict__)

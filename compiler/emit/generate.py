@@ -6,7 +6,8 @@ from dataclasses import dataclass
 import jinja2
 
 from eomc.runtime.errors import ModelError
-from eomc.runtime.switching import CONTACT_EVENT_PREFIX
+from eomc.runtime.switching import GAP_EVENT_PREFIXES
+from ..contact.tree import ENERGY
 from ..passes import finish_function, optimize_shared
 from ..ir import count_program, format_program, verify
 from .bodies import (BodyContext, dynamics_helper, helper_jacobian_body, jvp_body, matrix_body, needed_assignments, split_on, jacobian_body,
@@ -65,11 +66,12 @@ def with_contact_gaps(functions, events):
     set left ``events`` out had none of them: Radau's grown free-fall step carried a sphere
     through the floor and the run ended with status 0 (issue 29).  So a model with contacts
     always gets ``NAME_events``; when ``events`` was not among the requested functions it
-    holds the contacts' gaps only (O(contacts), none of the model's own events).  A model
+    holds the contacts' gaps only (contact_<name> and the F_n >= 0 clip's clip_<name>:
+    O(contacts), none of the model's own events).  A model
     without contacts, or one whose build asked for ``events``, is unchanged."""
     if functions is None or not events or "events" in functions:
         return functions, events
-    gaps = {k: v for k, v in events.items() if str(k).startswith(CONTACT_EVENT_PREFIX)}
+    gaps = {k: v for k, v in events.items() if str(k).startswith(GAP_EVENT_PREFIXES)}
     if not gaps:
         return functions, events
     return tuple(functions) + ("events",), gaps
@@ -325,6 +327,9 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
         by_name = {o["name"]: o for o in (event_options or ())}
         meta["events"] = [by_name.get(n, {"name": n, "terminal": 0, "direction": 0})
                           for n in sym.event_names]
+    if outputs and any(getattr(e, "has", None) and e.has(ENERGY) for e in outputs.values()):
+        # the runtime's verdict may trust it from a start in contact (runtime/switching.py)
+        meta["energy"] = "kinetic, gravity and the ground contacts' elastic energy"
     meta["formulation"] = formulation.name
     meta.update(formulation.metadata(sym, fns))
     if low.poses is not None:

@@ -11,7 +11,7 @@ this module is the recursion's side of it (called by :mod:`.lower`).
 import sympy as sm
 
 from ..contact.law import EXPONENT, ground_forces, ground_jacobians
-from ..contact.tree import ENERGY, ContactLoad, ContactValue, contact_outputs
+from ..contact.tree import CLIP_KIND, ENERGY, ContactLoad, ContactValue, contact_outputs
 from .placement import Placement
 
 __all__ = ["lower_contacts"]
@@ -86,6 +86,7 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None):
         quantities = [forces.normal, *forces.friction, forces.depth]     # OUTPUT_KINDS' order
         for kind, value in enumerate(quantities):
             values[ContactValue(index, kind)] = value
+        values[ContactValue(index, CLIP_KIND)] = forces.parts["clip"]
         if energy is not None:      # the law's elastic part k δ₊^(3/2) stores k δ₊^(5/2) / (5/2)
             elastic.append(forces.parts["elastic"] * forces.parts["dpos"] / (EXPONENT + 1))
     if energy is not None:

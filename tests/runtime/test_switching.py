@@ -98,7 +98,7 @@ def test_a_build_without_events_still_ends_radaus_steps_at_touch_down(reduced):
     the contact's gap event whatever functions are asked for."""
     model = reduced[0]
     assert "events" in model.functions
-    assert [e["name"] for e in model.metadata["events"]] == ["contact_ball"]
+    assert [e["name"] for e in model.metadata["events"]] == ["contact_ball", "clip_ball"]
     with warnings.catch_warnings():
         warnings.simplefilter("error", PhysicsWarning)
         res = _drop(model, p=_p(model, k_ball=1e7, c_ball=2.0), method="radau")
@@ -116,6 +116,30 @@ def test_a_contact_without_its_event_is_named_and_its_energy_still_judged(reduce
     with pytest.warns(PhysicsWarning, match="contact ball has no penetration event"):
         res = _drop(model, p=_p(model, k_ball=1e5, c_ball=0.0), method="radau")
     assert res.status == STATUS_ENERGY and "energy rose" in res.message
+
+
+def test_the_damped_laws_clip_ends_a_step_where_the_normal_force_reaches_zero_in_contact(ball):
+    """F_n = max(0, k δ^1.5 (1 + 1.5 c δ')) has a kink where a contact is pulled apart faster
+    than its damping lets the force stay positive, before δ reaches 0.  The clip_<name>
+    switching function ends the step there: pulled up (gravity reversed, 200 m/s²) from rest
+    1 mm deep with c = 5, the force reaches 0 at δ' = -2/(3c) while δ > 0."""
+    p = _p(ball, c_ball=5.0, mu_ball=0.0, g=-200.0)
+    x0 = np.zeros(12)
+    x0[2] = 0.1 - 1e-3
+    for method in ("radau", "dopri5"):
+        res = ball.simulate(x0, (0, 0.01), p=p, method=method, rtol=1e-3, atol=1e-6,
+                            events=["contact_ball", "clip_ball"])
+        assert res.status == 0, res.message
+        (t_lift,) = res.t_events["contact_ball"]
+        t_clip = res.t_events["clip_ball"][0]   # (the clip's switching function also vanishes at lift-off)
+        assert t_clip < t_lift
+        x = res.x_events["clip_ball"][0]
+        out = ball.outputs(t_clip, x, p=p)
+        assert out["depth_ball"] > 9e-4 and abs(out["Fn_ball"]) < 1e-6 * 200
+        assert x[ball.state_names.index("vz")] == pytest.approx(2 / 15, rel=1e-6)
+        plain = ball.simulate(x0, (0, 0.01), p=p, method=method, rtol=1e-3, atol=1e-6)
+        assert plain.stats["nswitch"] == res.stats["nswitch"] >= 2     # not recorded, still ends steps
+        assert "clip_ball" not in plain.t_events
 
 
 GRID = list(itertools.product((1e3, 1e6, 1e9, 1e12), bg.DAMPING.values(), bg.FRICTION, bg.METHODS, bg.RTOLS))
