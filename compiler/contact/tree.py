@@ -349,7 +349,7 @@ def passive_contacts(read):
     # a spring the energy does not hold (a joint's stiffness with its rest q0_<joint>, a
     # tendon's k_<tendon>): its start energy could come out as a gain, so no energy verdict
     springs = any(n.startswith("q0_") or (n.startswith("k_") and "mu_" + n[2:] not in names) for n in names)
-    zero = {r: 0 for r in tuple(getattr(read, "inputs", ()) or ())}
+    zero = {r: sm.S.Zero for r in tuple(getattr(read, "inputs", ()) or ())}
 
     def passive(load):
         """With the inputs at zero (an actuator's torque vanishes), only the joint laws'
