@@ -205,7 +205,8 @@ typedef struct ctx {
     const int *quat;
     int n_err;               /* leading states the error tests see (n, or the state part of
                                 an augmented sensitivity model: eomc_stagger.h) */
-    eomc_stagger *sg;        /* Radau's staggered sensitivities, or NULL */
+    eomc_stagger *sg;        /* Radau's staggered sensitivities, the adjoint's checkpoints, or NULL */
+    int istop;               /* next of sg->tstop */
 } ctx;
 
 /* ---------------------------------------------------------------- Ctrl-C */
@@ -452,7 +453,7 @@ static int ctx_init(ctx *c, const eomc_model *m, const double *p, int nr,
     c->abort = 0; c->sigint0 = g_sigint;
     c->nsw = 0; c->nswe = 0; c->gnew_ok = 0; c->sw_cuts = 0;
     c->nquat = 0; c->quat = NULL;
-    c->n_err = m->nx; c->sg = NULL;
+    c->n_err = m->nx; c->sg = NULL; c->istop = 0;
     c->r = take(pos, (size_t)m->ninput + 1);
     c->mwork = take(pos, m->work_size + 1);
     if (m->ninput > 0) {
@@ -846,6 +847,11 @@ typedef struct erk {
 static const erk ERK_DP5 = {6, 5, &DP5_A[0][0], DP5_B, DP5_C, 4, 0, 3.25, 0.75};
 static const erk ERK_D853 = {12, 16, &D8_A[0][0], D8_B, D8_C, 7, 1, 6.1, 0.2};
 
+void eomc_dop853_tableau(const double **A, int *astride, const double **B, const double **C)
+{
+    *A = &D8_A[0][0]; *astride = 16; *B = D8_B; *C = D8_C;
+}
+
 /* acc[i] = sum_j coef[j] * K[j][i] over the nonzero coefficients, j ascending.
  * Skipping zeros leaves every finite sum bit-identical to the full one, and
  * the j-outer order runs over contiguous rows the compiler can vectorize:
@@ -988,6 +994,12 @@ static int run_erk(ctx *c, const erk *tb, const eomc_options *o, proj *pj,
             if (st->steps >= maxs) return EOMC_MAX_STEPS;
             tn = t + h;
             if (tn > t1 || t1 - tn < hmin) tn = t1;
+            if (c->sg && c->sg->ntstop) {          /* the adjoint's grid: end on each time */
+                const eomc_stagger *g = c->sg;
+                while (c->istop < g->ntstop && g->tstop[c->istop] <= t) c->istop++;
+                if (c->istop < g->ntstop && (tn > g->tstop[c->istop] || g->tstop[c->istop] - tn < hmin))
+                    tn = g->tstop[c->istop];
+            }
             h = tn - t;
             st->steps++;
             s = erk_trial(c, tb, t, h, x, K, ynew, ys, acc5);
@@ -1040,6 +1052,15 @@ static int run_erk(ctx *c, const erk *tb, const eomc_options *o, proj *pj,
             sw_keep(c);
         }
         st->accepted++;
+        if (c->sg && c->sg->rec_cap > 0) {         /* the adjoint's checkpoint of this step */
+            eomc_stagger *g = c->sg;
+            if (g->nrec < g->rec_cap) {
+                g->rec_t[g->nrec] = t;
+                g->rec_t[g->nrec + 1] = tn;
+                memcpy(g->rec_x + (size_t)g->nrec * n, x, (size_t)n * sizeof(double));
+            }
+            g->nrec++;
+        }
         if (c->ev && (s = events_cross(c, tn, ynew, &hits))) return s;
         rows = ow->i < ow->n && ow->t[ow->i] <= tn;
         /* one call site of the DOP853 interpolant's set-up, so it stays inlined with its
@@ -1559,7 +1580,7 @@ static int run_radau(ctx *c, const eomc_options *o, proj *pj, double t0, double 
     radau_consts_init(&k);
     radau_ws_init(&w, n, pos);
     radau_tolerances(o->rtol, o->atol, &rtol, &atol);
-    if (c->sg) radau_sg_init(&g, n, c->sg->k, pos);
+    if (c->sg && c->sg->k > 0) radau_sg_init(&g, n, c->sg->k, pos);
     if ((s = frhs(c, t0, x, f))) return s;
     if ((s = fjac(c, t0, x, w.J))) return s;
     if (o->h0 > 0) h = o->h0;
@@ -1602,7 +1623,7 @@ static int run_radau(ctx *c, const eomc_options *o, proj *pj, double t0, double 
             sw_keep(c);
         }
         c->st->accepted++;
-        if (c->sg && (s = radau_sens_step(c, &k, &w, &g, t, hused, x, rtol, atol,
+        if (c->sg && c->sg->k > 0 && (s = radau_sens_step(c, &k, &w, &g, t, hused, x, rtol, atol,
                                           fmax(RADAU_SG_FNEWT, fmin(RADAU_FNEWT, sqrt(rtol))))))
             { c->st->t = t; return s; }
         if ((s = frhs(c, tn, w.ynew, w.fnew))) { c->st->t = t; return s; }
@@ -1615,7 +1636,7 @@ static int run_radau(ctx *c, const eomc_options *o, proj *pj, double t0, double 
                 if (c->ev->terminated) return EOMC_OK;
             }
         }
-        if (c->sg) {        /* S's rows at the same times, from its own collocation polynomial */
+        if (c->sg && c->sg->k > 0) {   /* S's rows at the same times, from its own polynomial */
             int i0 = ow->i, nk = n * c->sg->k;
             EMIT_UNTIL(ow, tn, radau_dense(n, w.Q, w.yold, (tau - t) / hused, row));
             for (int i = i0; i < ow->i; i++)
@@ -2242,6 +2263,10 @@ static int check_stagger(const eomc_model *m, const eomc_options *o, const eomc_
 {
     if (!sg) return EOMC_OK;
     if (sg->n_err < 0 || sg->n_err > m->nx || sg->k < 0) return EOMC_BAD_ARGUMENT;
+    if ((sg->ntstop > 0 || sg->rec_cap > 0)
+        && (sg->k > 0 || (o->method != EOMC_DOPRI5 && o->method != EOMC_DOP853)
+            || (sg->ntstop > 0 && !sg->tstop) || (sg->rec_cap > 0 && (!sg->rec_t || !sg->rec_x))))
+        return EOMC_BAD_ARGUMENT;
     if (sg->k > 0 && (o->method != EOMC_RADAU5 || !sg->jvp || !sg->D || !sg->S
                       || sg->ndir < m->nx || (n_eval > 0 && !sg->S_out)))
         return EOMC_BAD_ARGUMENT;
@@ -2286,8 +2311,9 @@ static int integrate_core(const eomc_model *m, const eomc_options *opt,
     c.pj = &pj;
     if (sg) {
         sg->njvp = sg->niter = sg->nslow = 0;
+        sg->nrec = 0;
         if (sg->n_err > 0) c.n_err = sg->n_err;
-        if (sg->k > 0) c.sg = sg;
+        if (sg->k > 0 || sg->ntstop > 0 || sg->rec_cap > 0) c.sg = sg;
     }
     if (fb) { c.fb = fb; c.fbJ = take(&pos, (size_t)m->ninput * (size_t)m->nx); }
     if (opt->baumgarte > 0.0 && pj.k > 0 && m->constraints && m->constraints_jac)
@@ -2315,7 +2341,7 @@ static int integrate_core(const eomc_model *m, const eomc_options *opt,
         if (s == EOMC_OK && c.nsw && !c.abort) sw_start(&c, x);
     }
     EMIT_UNTIL(&ow, t0, memcpy(row, x, (size_t)m->nx * sizeof(double)));
-    if (c.sg)
+    if (c.sg && sg->k > 0)
         for (int i = 0; i < ow.i; i++)
             memcpy(sg->S_out + (size_t)i * (sg->ld_out > 0 ? (size_t)ow.ld : (size_t)m->nx * sg->k), sg->S, (size_t)m->nx * sg->k * sizeof(double));
     if (s == EOMC_OK) {

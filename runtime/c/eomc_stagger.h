@@ -35,7 +35,17 @@ typedef struct eomc_stagger {
     long niter;           /* out: sensitivity iterations (each 3 jvp calls) */
     long nslow;           /* out: steps whose sensitivity iteration had not converged
                              after EOMC_SG_MAXIT iterations (kept, counted) */
+    /* DOPRI5/DOP853 for the adjoint (eomc_adjoint.c): checkpoints of the accepted steps. */
+    int ntstop;           /* steps end exactly on these times (increasing, inside (t0, t1]) */
+    const double *tstop;
+    long rec_cap;         /* > 0: record up to rec_cap accepted steps */
+    double *rec_t;        /* rec_cap + 1: each accepted step's start time, then the end time */
+    double *rec_x;        /* rec_cap x nx: each accepted step's start state */
+    long nrec;            /* out: accepted steps (also past rec_cap: the caller retries larger) */
 } eomc_stagger;
+
+/* DOP853's tableau as the integrators use it (12 stages; A rows of 16, B, C). */
+void eomc_dop853_tableau(const double **A, int *astride, const double **B, const double **C);
 
 #define EOMC_SG_MAXIT 10
 
