@@ -315,6 +315,8 @@ def _functions(text):
     """The static functions of a C text (the dynamics helper and its parts), one string each."""
     out, cur = [], []
     for line in text.rstrip("\n").split("\n"):
+        if not cur and not line.strip():
+            continue
         cur.append(line)
         if line == "}":
             out.append("\n".join(cur))
@@ -459,7 +461,7 @@ static EOMC_VTARGET void {name}_rhs_block(double t, const double *X, size_t n, c
 {{
     eomc_vd x[{nx}], r[{nr1}], xdot[{nx}];
     int i, l;
-    for (i = 0; i < {nx}; i++) __builtin_memcpy(&x[i], X + (size_t)i * n, sizeof(eomc_vd));
+{"" if nr else "    (void)R;" + chr(10)}    for (i = 0; i < {nx}; i++) __builtin_memcpy(&x[i], X + (size_t)i * n, sizeof(eomc_vd));
 {block_inputs}    for (l = 0; l < EOMC_BATCH_LANES; l++) st[l] = EOMC_OK;
     {name}_rhs_lanes(t, x, p, r, xdot, st);
     for (i = 0; i < {nx}; i++) {{
@@ -495,7 +497,7 @@ static EOMC_VTARGET void {name}_rhs_block(double t, const double *X, size_t n, c
                    if nr else "        rs[0] = 0.0;\n")
     body = f"""    double xs[{nx}], rs[{nr1}], xd[{nx}];
     int k = 0, i, s, worst = EOMC_OK;
-    if (n < 0 || X == NULL || XDOT == NULL) return EOMC_BAD_ARGUMENT;
+{"" if nr else "    (void)R;" + chr(10)}    if (n < 0 || X == NULL || XDOT == NULL) return EOMC_BAD_ARGUMENT;
 {block_call}    for (; k < n; k++) {{
         for (i = 0; i < {nx}; i++) xs[i] = X[(size_t)i * (size_t)n + (size_t)k];
 {tail_inputs}        s = {name}_rhs(t, xs, p, rs, xd, work);
