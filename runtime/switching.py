@@ -72,7 +72,7 @@ class Limit:
 class Switches:
     contacts: tuple
     limits: tuple
-    unchecked: tuple = ()   # contacts (by their law's parameters) with no contact_<name> event
+    unchecked: tuple = ()   # ground contacts (by their law's parameters) with no contact_<name> event
     clips: tuple = ()       # clip_<name> events: switching only (no verdict, not recorded unless asked)
 
     def __bool__(self):     # a run of such a model is judged (unchecked contacts: its energy)
@@ -118,11 +118,13 @@ def find_switches(model):
     return found
 
 
-_LAW_KEYS = ("k", "c", "mu", "vs")    # every contact law's parameters: <key>_<name> (compiler/contact/law.py)
+# a ground contact's law parameters <key>_<name> (compiler/contact/law.py; a body-body pair has
+# no radius, and no switching function yet: not named here)
+_LAW_KEYS = ("k", "c", "mu", "vs", "r")
 
 
 def _unchecked(params, gapped):
-    """Contacts known by their law's parameters (k_, c_, mu_, vs_<name>) that have no
+    """Ground contacts known by their law's parameters (k_, c_, mu_, vs_, r_<name>) that have no
     penetration event: built by an eomc before every contact model got its gaps, or a
     SymPy-mechanics model that did not add its contacts' ``events``."""
     out = []

@@ -7,7 +7,6 @@ import jinja2
 
 from eomc.runtime.errors import ModelError
 from eomc.runtime.switching import GAP_EVENT_PREFIXES
-from ..contact.tree import ENERGY
 from ..passes import finish_function, optimize_shared
 from ..ir import count_program, format_program, verify
 from .bodies import (BodyContext, dynamics_helper, helper_jacobian_body, jvp_body, matrix_body, needed_assignments, split_on, jacobian_body,
@@ -338,9 +337,8 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
         by_name = {o["name"]: o for o in (event_options or ())}
         meta["events"] = [by_name.get(n, {"name": n, "terminal": 0, "direction": 0})
                           for n in sym.event_names]
-    if outputs and any(getattr(e, "has", None) and e.has(ENERGY) for e in outputs.values()):
-        # the runtime's verdict may trust it from a start in contact (runtime/switching.py)
-        meta["energy"] = "kinetic, gravity and the ground contacts' elastic energy"
+    if sym.energy:      # the runtime's verdict may trust it from a start in contact (runtime/switching.py)
+        meta["energy"] = sym.energy
     meta["formulation"] = formulation.name
     if "rhs_batch" in fns:
         meta["rhs_batch"] = meta_batch

@@ -81,6 +81,7 @@ class Symbolic:
     regressor_bodies: tuple = ()     # column blocks of the regressor (recursive formulation)
     regressor_reference: tuple = ()  # per block: "link frame" or "mass centre"
     analytic: object = None          # recursive formulation: compiler/tree/analytic.AnalyticPlan
+    energy: str = ""                 # what a generated ``energy`` output holds (NAME.json "energy"), or ""
 
 
 def _is_symmetric(A, seed=0):

@@ -248,6 +248,8 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
                          function_groups=TREE_FUNCTION_GROUPS, helper_users=TREE_HELPER_USERS)
     if contact_values:
         sym = _with_contact_values(sym, contact_values)
+    if wants_energy:
+        sym = replace(sym, energy="kinetic, gravity and the ground contacts' elastic energy")
     if regressor:
         sym = replace(sym, regressor_bodies=regressor[0], regressor_reference=regressor[1])
     if analytic is not None:
