@@ -41,7 +41,7 @@ from sympy.physics.vector import dynamicsymbols
 
 from eomc.compiler.tree.model import Load, Tree
 from eomc.compiler.tree.recognize import effective_inertias
-from eomc.compiler.urdf.tree import identifier
+from eomc.compiler.multibody.joints import identifier
 from eomc.compiler.multibody.joint_kinds import KINDS, JointSite
 from eomc.compiler.multibody.joints import Parameters, actuation, cross, snapped
 

@@ -6,11 +6,13 @@ parameter symbol per non-zero number -- and the readers must write them identica
 generated C of a URDF robot and of its MJCF twin agree).  Both readers
 (eomc.compiler.urdf.treeir, eomc.compiler.mjcf.treeir) take them from this module.
 """
+import re
+
 import numpy as np
 import sympy as sm
 
 __all__ = ["snap", "snapped", "Parameters", "lin", "rotation_terms", "cross", "times", "vec", "z_to",
-           "actuation"]
+           "actuation", "identifier"]
 
 _SNAP = 1e-12
 
@@ -30,6 +32,13 @@ def snapped(array):
     for exact in (0.0, 1.0, -1.0):
         out[np.abs(out - exact) < _SNAP] = exact
     return out
+
+
+def identifier(name):
+    """``name`` as a C identifier fragment: other characters become ``_`` (every reader names
+    its symbols q_<joint>, m_<body>, ... with it)."""
+    text = re.sub(r"[^A-Za-z0-9_]", "_", name)
+    return text if text and not text[0].isdigit() else f"_{text}"
 
 
 class Parameters:

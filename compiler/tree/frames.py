@@ -158,11 +158,11 @@ def resolve_frames(spec, names):
         return None
     where = str(spec.path) if spec.path is not None else f"model {spec.name}"
     formed = spec.formed
-    system_urdf = getattr(spec.system, "urdf", None)
-    if system_urdf is not None:   # a URDF robot's System passed in (from_urdf): its links, under
+    reading = getattr(spec.system, "reading", None)
+    if reading is not None:   # a robot reader's System passed in (from_urdf): its links, under
         # every formulation (not the bodies of the tree recognized from the System: a link's frame is
         # at its joint, a System body's at its mass centre, and welded links are no bodies)
-        tree, specs, defaults = _urdf_frames(system_urdf, wanted, where)
+        tree, specs, defaults = _reading_frames(reading, wanted, where)
     elif spec.model is not None:
         tree, specs = spec.model.tree, _model_frames(spec.model, wanted, where)
         defaults = (dict(spec.model.defaults) if spec.model.source.format != "system"
@@ -222,11 +222,11 @@ def _safe(name):
     return re.sub(r"[.,\s\[\]]", "_", name)
 
 
-def _urdf_frames(system_urdf, wanted, where):
-    """(Tree, FrameSpecs, defaults) of the links of a URDF robot's System (from_urdf), passed
-    in as an object: the Model of the reading from_urdf made (its ``model()``:
-    eomc.compiler.urdf.system.UrdfSystem), as a robot file's."""
-    model = system_urdf.model()
+def _reading_frames(reading, wanted, where):
+    """(Tree, FrameSpecs, defaults) of the links of a robot reader's System (from_urdf), passed
+    in as an object: the Model of the reading the reader made (its ``model()``), as a robot
+    file's."""
+    model = reading.model()
     return model.tree, _model_frames(model, wanted, where), dict(model.defaults)
 
 

@@ -31,7 +31,6 @@ the caller opts in (``allow_nonphysical_inertia``: kept as given, one warning pe
 Everything walks the tree with explicit stacks, so depth costs no recursion
 (a 1000-link chain reads in milliseconds).
 """
-import re
 import warnings
 from dataclasses import dataclass, field
 
@@ -40,6 +39,7 @@ import numpy as np
 from eomc.runtime.errors import EomcWarning, ModelFileError
 
 from ..multibody.joint_kinds import KINDS
+from ..multibody.joints import identifier
 
 __all__ = ["Body", "TreeJoint", "Tree", "build_tree", "identifier", "coordinate_suffixes", "check_mimics",
            "FLOATING_BASES", "floating_base_type", "URDF_KINDS"]
@@ -81,12 +81,6 @@ def coordinate_suffixes(kind):
     if kind not in URDF_KINDS:
         return ("",), ("",)
     return KINDS[URDF_KINDS[kind]].suffixes(kind == "floating_quaternion")
-
-
-def identifier(name):
-    """``name`` as a C identifier fragment: other characters become ``_``."""
-    text = re.sub(r"[^A-Za-z0-9_]", "_", name)
-    return text if text and not text[0].isdigit() else f"_{text}"
 
 
 @dataclass
