@@ -11,6 +11,8 @@ import re
 import numpy as np
 import sympy as sm
 
+from ..tree.spatial import cross
+
 __all__ = ["snap", "snapped", "Parameters", "lin", "rotation_terms", "cross", "times", "vec", "z_to",
            "actuation", "identifier"]
 
@@ -76,11 +78,6 @@ def rotation_terms(R0, axis):
     ax = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
     aa = np.outer(a, a)
     return (snapped(R0 @ (np.eye(3) - aa)), snapped(R0 @ ax), snapped(R0 @ aa))
-
-
-def cross(a, b):
-    """a x b of two 3-vectors (lists of expressions)."""
-    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 
 
 def times(M, v):

@@ -44,6 +44,7 @@ from eomc.runtime.errors import ModelError
 from .recorder import Recorder
 from .model import NotATree
 from .placement import IDENTITY, Placement
+from .spatial import cross
 
 __all__ = ["FrameSpec", "FrameSource", "resolve_frames", "with_frames", "frame_output_names",
            "frames_digest", "COM"]
@@ -249,10 +250,6 @@ def frames_digest(source):
     return out
 
 
-def _cross(a, b):
-    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-
-
 def _dot3(M, v):
     return [sum((M[i][k] * v[k] for k in range(3)), sm.S.Zero) for i in range(3)]
 
@@ -297,7 +294,7 @@ class _World:
         R, p = self.placement.rotation(i), self.placement.origin(i)
         Rr = self.placement.arm(i)
         axes = []
-        w, v = list(wp), [vp[k] + x for k, x in enumerate(_cross(wp, [let(x) for x in Rr]))]
+        w, v = list(wp), [vp[k] + x for k, x in enumerate(cross(wp, [let(x) for x in Rr]))]
         for k, S in b.dofs:
             S = [self.ren(s, what) for s in S]
             aw = [let(x) for x in _dot3(R, S[:3])]
@@ -344,13 +341,13 @@ def with_frames(sym, source, layout, nq):
         pf = [rec.let(p[k] + Ro[k]) for k in range(3)]
         Rf = [[rec.let(sum((R[a][k] * C[k][c] for k in range(3)), sm.S.Zero)) for c in range(3)]
               for a in range(3)]
-        vf = [rec.let(v[k] + x) for k, x in enumerate(_cross(w, Ro))]
+        vf = [rec.let(v[k] + x) for k, x in enumerate(cross(w, Ro))]
         J = [[sm.S.Zero] * source.nu for _ in range(6)]
         for j in world.path(f.body):
             pj = world(j)[1]
             arm = [rec.let(pf[k] - pj[k]) for k in range(3)]
             for col, aw, av in world(j)[4]:
-                lin = _cross(aw, arm)
+                lin = cross(aw, arm)
                 for k in range(3):
                     J[k][col] = rec.let(av[k] + lin[k])
                     J[3 + k][col] = aw[k]
