@@ -630,7 +630,8 @@ def simulate(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6
              t_eval=None, dt=None, max_steps=100000, first_step=None, max_step=None,
              project=False, stiff_check=True, n_points=None, baumgarte=0.0,
              pi_beta=PI_BETA, raise_on_failure=True, events=None, max_events=DEFAULT_MAX_EVENTS,
-             K=None, x_ref=None, consistent=None, sensitivities=False, switching=True):
+             K=None, x_ref=None, consistent=None, sensitivities=False, switching=True,
+             sensitivity_errors=False):
     """Integrate ``model`` from ``x0`` over ``t_span``; returns a SimulationResult.
 
     x0/p: arrays or {name: value} dicts (missing names -> the model's initial_state (0 without
@@ -674,6 +675,9 @@ def simulate(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6
     sensitivities: True, "x0", "p" or a list of state/parameter names integrates the
     variational equations too (runtime/sensitivity.py; needs jac_x, and jac_p for
     parameters): result.dx_dx0 (n_t, nx, states) and result.dx_dp (n_t, nx, parameters).
+    The sensitivities ride the plain run's steps (Radau with jvp: staggered, solved with
+    each step's own Newton matrix); sensitivity_errors=True lets the step control watch
+    them too (more steps, slower; the simultaneous approach).
 
     Contacts and joint limits (runtime/switching.py): every method ends its steps at
     touch-down, lift-off and limit entry and restarts there (switching=False turns that
@@ -688,7 +692,7 @@ def simulate(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6
                                        stiff_check=stiff_check, n_points=n_points, baumgarte=baumgarte,
                                        pi_beta=pi_beta, raise_on_failure=raise_on_failure,
                                        events=events, max_events=max_events, K=K, x_ref=x_ref,
-                                       consistent=consistent)
+                                       consistent=consistent, sensitivity_errors=sensitivity_errors)
     if consistent or (not project and not baumgarte and model.nhol + model.nvel):
         x0 = checked_start(model, x0, t_span, p, r, atol, consistent)
     a = prepare(model, x0, t_span, p=p, r=r, method=method, rtol=rtol, atol=atol, t_eval=t_eval,
@@ -709,7 +713,7 @@ def simulate(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6
 def _simulate_sensitivities(model, x0, t_span, sensitivities, p, r, method, rtol, atol, t_eval, dt,
                             max_steps, first_step, max_step, project, stiff_check, n_points,
                             baumgarte, pi_beta, raise_on_failure, events, max_events, K, x_ref,
-                            consistent):
+                            consistent, sensitivity_errors=False):
     """simulate with the variational equations (runtime/sensitivity.py)."""
     from . import sensitivity
     xs, ps = sensitivity.check_request(model, sensitivities, events, r, K, x_ref, project, baumgarte)
@@ -719,7 +723,8 @@ def _simulate_sensitivities(model, x0, t_span, sensitivities, p, r, method, rtol
                 dt=dt, max_steps=max_steps, first_step=first_step, max_step=max_step,
                 stiff_check=stiff_check, n_points=n_points, pi_beta=pi_beta, events=False,
                 max_events=max_events)
-    x_out, stats, x_last, S = sensitivity.run(model, a, xs, ps, _STAT_FIELDS)
+    x_out, stats, x_last, S = sensitivity.run(model, a, xs, ps, _STAT_FIELDS,
+                                              error_control=sensitivity_errors)
     return sensitivity.attach(model, finish(model, a, x_out, stats, x_last, raise_on_failure), S, xs, ps)
 
 

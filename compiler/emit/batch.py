@@ -16,17 +16,20 @@ pi/2 in three parts and its kernels, vectorized: within 1 ulp of glibc's ``sin``
 measured in tests/compiler/emit/test_batch.py), as a per-lane libm call would cost more than
 the rest of a small model.  Other calls (sqrt, fabs, pow, ...) are made lane by lane with the
 scalar libm function, so they are exact.  Branches become per-lane: the singular-mass-matrix
-guard and the finiteness check set a status per state.
+guard and the finiteness check set a status per state.  Kane's form computes A and b (its
+NAME_dynamics helper, rewritten the same way) in lanes, then factors and solves each state's
+A with the scalar LDLᵀ/LU code, one lane at a time: its pivoting and singularity test stay
+per state, and the solve is a small part of the rhs.
 
 Where a C compiler lacks GNU vectors (``__GNUC__`` undefined), or the CPU lacks the lanes'
 instruction set (``__builtin_cpu_supports``), or the body has a statement shape this
-rewrite does not know (Kane's numeric factorization, say), ``NAME_rhs_batch`` loops the
-scalar ``NAME_rhs`` over the states: the same results, no lanes; the metadata's
-``rhs_batch.vectorized`` says which.  States past the last full group of lanes (the tail)
-always take the scalar rhs.
+rewrite does not know, ``NAME_rhs_batch`` loops the scalar ``NAME_rhs`` over the states: the
+same results, no lanes; the metadata's ``rhs_batch.vectorized`` says which (and ``why``).
+States past the last full group of lanes (the tail) always take the scalar rhs.
 
-Layout: states are columns of structure-of-arrays ``X[i*n + k]`` (state component i of state
-k), the inputs likewise (``R[j*n + k]``, or NULL: zeros... no inputs), the parameters shared.
+Layout: states are columns, structure of arrays: ``X[i*n + k]`` is component i of state k,
+the inputs likewise (``R[j*n + k]``, or NULL for zero inputs), the parameters shared.  A
+state whose status is not EOMC_OK gets NaN rows (EOMC_NONFINITE: the rows as computed).
 """
 import re
 
@@ -51,6 +54,9 @@ MATH2 = ("pow", "atan2", "fmin", "fmax", "hypot", "fmod", "copysign")
 
 SIMD_PRELUDE = r"""#if defined(__GNUC__) && !defined(EOMC_NO_SIMD)
 #define EOMC_BATCH_SIMD 1
+#ifndef EOMC_NOINLINE
+#define EOMC_NOINLINE
+#endif
 #ifndef EOMC_BATCH_LANES
 #define EOMC_BATCH_LANES 4
 #endif
@@ -67,6 +73,8 @@ SIMD_PRELUDE = r"""#if defined(__GNUC__) && !defined(EOMC_NO_SIMD)
 #define EOMC_VTARGET
 #define EOMC_VCPU_OK() 1
 #endif
+/* sin and cos of one argument, inlined side by side, share their reduction and kernels */
+#define EOMC_VINLINE inline __attribute__((always_inline))
 typedef double eomc_vd __attribute__((vector_size(8 * EOMC_BATCH_LANES)));
 typedef unsigned long long eomc_vu __attribute__((vector_size(8 * EOMC_BATCH_LANES)));
 #else
@@ -79,7 +87,7 @@ typedef unsigned long long eomc_vu __attribute__((vector_size(8 * EOMC_BATCH_LAN
 # |y| <= pi/4 and the quadrant as a bit select.  |x| >= 2^19*pi/2, inf and NaN lanes take
 # libm's sin/cos (fdlibm's medium-size reduction holds below that).  -DEOMC_BATCH_LIBM_TRIG
 # makes every lane call libm: NAME_rhs_batch is then the scalar rhs bit for bit.
-VECTOR_TRIG = r"""static EOMC_VTARGET eomc_vd {p}_vtrig(eomc_vd x, unsigned long long shift)
+VECTOR_TRIG = r"""static EOMC_VTARGET EOMC_VINLINE eomc_vd {p}_vtrig(eomc_vd x, unsigned long long shift)
 {{
     const double toint = 6755399441055744.0;   /* 1.5 * 2^52: adding it rounds to an integer */
     eomc_vd k = x * 6.36619772367581382433e-01 + toint;
@@ -123,12 +131,12 @@ VECTOR_TRIG = r"""static EOMC_VTARGET eomc_vd {p}_vtrig(eomc_vd x, unsigned long
     return s;
 }}
 
-static EOMC_VTARGET eomc_vd {p}_vsin(eomc_vd x)
+static EOMC_VTARGET EOMC_VINLINE eomc_vd {p}_vsin(eomc_vd x)
 {{
     return {p}_vtrig(x, 0);
 }}
 
-static EOMC_VTARGET eomc_vd {p}_vcos(eomc_vd x)
+static EOMC_VTARGET EOMC_VINLINE eomc_vd {p}_vcos(eomc_vd x)
 {{
     return {p}_vtrig(x, 1);
 }}"""
@@ -278,6 +286,8 @@ def _statement(rw, line, parts_renamed):
                 f"{indent}}}")
     if _FINITE_RETURN.match(line):
         return None      # the block checks each lane's outputs
+    if "/* one state's A at a time */" in line:
+        return line      # _per_lane_solve's loop
     raise Unsupported(f"statement {line.strip()[:80]!r}")
 
 
@@ -293,7 +303,7 @@ def _param_list(params, rw):
         const, name = m.groups()
         if name == "p":
             out.append(param)
-        elif name in ("x", "r") or name.startswith("S"):
+        elif name in ("x", "r", "F", "w") or name.startswith("S"):
             rw.vec_arrays.add(name)
             out.append(f"{const or ''}eomc_vd *{name}")
         else:
@@ -301,9 +311,70 @@ def _param_list(params, rw):
     return ", ".join(out)
 
 
-def batch_rhs(name, lines, parts):
+def _functions(text):
+    """The static functions of a C text (the dynamics helper and its parts), one string each."""
+    out, cur = [], []
+    for line in text.rstrip("\n").split("\n"):
+        if not cur and not line.strip():
+            continue
+        cur.append(line)
+        if line == "}":
+            out.append("\n".join(cur))
+            cur = []
+    if any(line.strip() for line in cur):
+        raise Unsupported("dynamics helper text")
+    return out
+
+
+_FACTOR_LINE = re.compile(r"^(\s+)status = ([A-Za-z_]\w*\(F(?:, piv)?\));$")
+_SOLVE_LINE = re.compile(r"^(\s+)([A-Za-z_]\w*\(F, (?:piv, )?w\));$")
+
+
+def _per_lane_solve(lines, sizes):
+    """Kane's `status = factor(F); if (status != EOMC_OK) return status; solve(F, w);` as one
+    loop over lanes: each state's A (its lane of F) factored and solved by the scalar solver
+    (its pivoting and singularity test per state)."""
+    out, i = [], 0
+    while i < len(lines):
+        m = _FACTOR_LINE.match(lines[i])
+        if m and i + 2 < len(lines) and lines[i + 1].strip() == "if (status != EOMC_OK) return status;" \
+                and _SOLVE_LINE.match(lines[i + 2]):
+            ind, factor = m.groups()
+            solve = _SOLVE_LINE.match(lines[i + 2]).group(2)
+            nf, nw = sizes["F"], sizes["w"]
+            piv = f"{ind}        int piv[{sizes['piv']}];\n" if "piv" in factor else ""
+            out.append(
+                f"{ind}for (l_ = 0; l_ < EOMC_BATCH_LANES; l_++) {{   /* one state's A at a time */\n"
+                f"{ind}    double Fl_[{nf}], wl_[{nw}];\n"
+                f"{ind}    int k_;\n"
+                f"{ind}    if (st[l_] != EOMC_OK) continue;\n"
+                f"{ind}    for (k_ = 0; k_ < {nf}; k_++) Fl_[k_] = F[k_][l_];\n"
+                f"{ind}    for (k_ = 0; k_ < {nw}; k_++) wl_[k_] = w[k_][l_];\n"
+                f"{ind}    {{\n{piv}"
+                f"{ind}        const int s_ = {_lane_args(factor)};\n"
+                f"{ind}        if (s_ != EOMC_OK) {{\n"
+                f"{ind}            st[l_] = s_;\n"
+                f"{ind}            continue;\n"
+                f"{ind}        }}\n"
+                f"{ind}        {_lane_args(solve)};\n"
+                f"{ind}    }}\n"
+                f"{ind}    for (k_ = 0; k_ < {nw}; k_++) w[k_][l_] = wl_[k_];\n"
+                f"{ind}}}")
+            i += 3
+            continue
+        out.append(lines[i])
+        i += 1
+    return out
+
+
+def _lane_args(call):
+    return re.sub(r"\bF\b", "Fl_", re.sub(r"\bw\b", "wl_", call))
+
+
+def batch_rhs(name, lines, parts, dynamics=""):
     """(C code of the lane functions, helper names used) for the scalar rhs whose body is
-    ``lines`` and whose sub-functions are ``parts`` (split_body's output).
+    ``lines`` and whose sub-functions are ``parts`` (split_body's output); ``dynamics``: the
+    text of Kane's NAME_dynamics helper (and its parts), which the rhs calls.
 
     The code defines ``static EOMC_VTARGET void NAME_rhs_lanes(double t, const eomc_vd *x,
     const double *p, const eomc_vd *r, eomc_vd *xdot, int *st)``; raises :class:`Unsupported`
@@ -311,22 +382,41 @@ def batch_rhs(name, lines, parts):
     used = set()
     renamed = {}
     out_parts = []
+    if any(re.search(rf"\b{name}_dynamics\(", line) for line in lines):
+        for fn in _functions(dynamics):
+            head = fn.split("\n", 1)[0]
+            m = re.match(r"^static void ([A-Za-z_]\w*)\((.*)\)$", head)
+            if m:          # the helper itself: a part in all but its name
+                parts = list(parts) + [fn.replace(head, f"static EOMC_NOINLINE void {m.group(1)}({m.group(2)})", 1)]
+            else:
+                parts = list(parts) + [fn]
+        sizes = {}
+        for line in lines:
+            m = re.match(r"^\s+(?:double|int) (F|w|piv)\[(\d+)\];$", line)
+            if m:
+                sizes[m.group(1)] = int(m.group(2))
+        lines = [line for line in lines if line.strip() not in ("int status;",)
+                 and not re.match(r"^\s+int piv\[\d+\];$", line)]
+        lines = _per_lane_solve(lines, sizes)
     for part in parts:
         head, *body = part.rstrip("\n").split("\n")
         m = _PART_HEAD.match(head)
         if not m or body[0] != "{" or body[-1] != "}":
             raise Unsupported(f"sub-function {head[:60]!r}")
         old = m.group(1)
-        new = old.replace("_rhs_part", "_rhs_batch_part", 1)
+        new = (old.replace("_rhs_part", "_rhs_batch_part", 1) if "_rhs_part" in old else
+               old.replace("_dynamics", "_batch_dynamics", 1))
         renamed[old] = new
         rw = _Rewriter(name, (), ("p",), used)
         params = _param_list(m.group(2), rw)
-        stmts = [_statement(rw, line, {}) for line in body[1:-1]]
+        stmts = [_statement(rw, line, renamed) for line in body[1:-1]]
         out_parts.append("\n".join([f"static EOMC_NOINLINE EOMC_VTARGET void {new}({params})", "{"]
                                    + [s for s in stmts if s is not None] + ["}"]))
     rw = _Rewriter(name, ("x", "r", "xdot"), ("p",), used)
     stmts = [_statement(rw, line, renamed) for line in lines]
     guard = any("l_" in (s or "") for s in stmts)
+    if any("/* one state's A at a time */" in (s or "") for s in stmts):
+        rw.vec_arrays |= {"F", "w"}
     body = ["    int l_;"] if guard else []
     body += [s for s in stmts if s is not None]
     text = "\n".join(body)
@@ -356,7 +446,8 @@ def batch_function(name, nx, nr, lanes_code, helper_code):
     any), then the public function's body with its scalar tail and fallback."""
     nr1 = max(nr, 1)
     block_inputs = (f"""    for (i = 0; i < {nr}; i++) {{
-        for (l = 0; l < EOMC_BATCH_LANES; l++) r[i][l] = R != NULL ? R[(size_t)i * n + (size_t)l] : 0.0;
+        if (R != NULL) __builtin_memcpy(&r[i], R + (size_t)i * n, sizeof(eomc_vd));
+        else for (l = 0; l < EOMC_BATCH_LANES; l++) r[i][l] = 0.0;
     }}
 """ if nr else """    for (l = 0; l < EOMC_BATCH_LANES; l++) r[0][l] = 0.0;
 """)
@@ -370,9 +461,7 @@ static EOMC_VTARGET void {name}_rhs_block(double t, const double *X, size_t n, c
 {{
     eomc_vd x[{nx}], r[{nr1}], xdot[{nx}];
     int i, l;
-    for (i = 0; i < {nx}; i++) {{
-        for (l = 0; l < EOMC_BATCH_LANES; l++) x[i][l] = X[(size_t)i * n + (size_t)l];
-    }}
+{"" if nr else "    (void)R;" + chr(10)}    for (i = 0; i < {nx}; i++) __builtin_memcpy(&x[i], X + (size_t)i * n, sizeof(eomc_vd));
 {block_inputs}    for (l = 0; l < EOMC_BATCH_LANES; l++) st[l] = EOMC_OK;
     {name}_rhs_lanes(t, x, p, r, xdot, st);
     for (i = 0; i < {nx}; i++) {{
@@ -380,11 +469,12 @@ static EOMC_VTARGET void {name}_rhs_block(double t, const double *X, size_t n, c
             if (st[l] == EOMC_OK && !isfinite(xdot[i][l])) st[l] = EOMC_NONFINITE;
         }}
     }}
-    for (i = 0; i < {nx}; i++) {{   /* a lane the guard stopped gets NaN, as the scalar tail */
-        for (l = 0; l < EOMC_BATCH_LANES; l++) {{
-            XDOT[(size_t)i * n + (size_t)l] = st[l] == EOMC_OK || st[l] == EOMC_NONFINITE ? xdot[i][l] : NAN;
+    for (l = 0; l < EOMC_BATCH_LANES; l++) {{   /* a lane the guard stopped gets NaN, as the scalar tail */
+        if (st[l] != EOMC_OK && st[l] != EOMC_NONFINITE) {{
+            for (i = 0; i < {nx}; i++) xdot[i][l] = NAN;
         }}
     }}
+    for (i = 0; i < {nx}; i++) __builtin_memcpy(XDOT + (size_t)i * n, &xdot[i], sizeof(eomc_vd));
 }}
 #endif
 """
@@ -407,7 +497,7 @@ static EOMC_VTARGET void {name}_rhs_block(double t, const double *X, size_t n, c
                    if nr else "        rs[0] = 0.0;\n")
     body = f"""    double xs[{nx}], rs[{nr1}], xd[{nx}];
     int k = 0, i, s, worst = EOMC_OK;
-    if (n < 0 || X == NULL || XDOT == NULL) return EOMC_BAD_ARGUMENT;
+{"" if nr else "    (void)R;" + chr(10)}    if (n < 0 || X == NULL || XDOT == NULL) return EOMC_BAD_ARGUMENT;
 {block_call}    for (; k < n; k++) {{
         for (i = 0; i < {nx}; i++) xs[i] = X[(size_t)i * (size_t)n + (size_t)k];
 {tail_inputs}        s = {name}_rhs(t, xs, p, rs, xd, work);
@@ -419,14 +509,14 @@ static EOMC_VTARGET void {name}_rhs_block(double t, const double *X, size_t n, c
     return SIMD_PRELUDE + ("\n" + simd.rstrip("\n") if simd else ""), body
 
 
-def batch_code(name, nx, nr, printed):
+def batch_code(name, nx, nr, printed, dynamics=""):
     """(code before NAME_rhs_batch, its body, metadata) from the scalar rhs's (lines, parts).
 
     The metadata says whether the lanes are vectorized and, when they are not, why (the
     statement the rewrite does not know): the function then loops the scalar rhs."""
     lines, parts = printed
     try:
-        lanes, used = batch_rhs(name, lines, parts)
+        lanes, used = batch_rhs(name, lines, parts, dynamics)
     except Unsupported as exc:
         before, body = batch_function(name, nx, nr, None, "")
         return before, body, {"vectorized": False, "why": f"the scalar rhs {exc}", "layout": "nx x n"}

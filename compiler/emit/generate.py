@@ -280,11 +280,12 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
     ctx.nz = nx - nq - nu
     with _naming_nonfinite(name, "dynamics helper (the mass matrix and forcing)"):
         helper = dynamics_helper(ctx, low.helper) if low.helper is not None else ""
+    dynamics_text = helper
     helper = "\n".join(c for c in (helper, formulation.c_helpers(name, sym, fns, nq)) if c)
     rendered, op_counts = [], {}
     for fn in fns:
         if fn == "rhs_batch":   # the rhs's printed lines, rewritten into lanes (compiler/emit/batch.py)
-            before, body, meta_batch = batch_code(name, nx, len(layout.r), rhs_printed)
+            before, body, meta_batch = batch_code(name, nx, len(layout.r), rhs_printed, dynamics_text)
             rendered.append({"prototype": prototype(name, fn), "body": body, "parts": [before]})
             op_counts[fn] = dict(op_counts["rhs"])
             continue

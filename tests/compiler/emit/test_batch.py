@@ -80,12 +80,8 @@ def test_recursive_robot_vector_trig_within_bound(cache):
 def test_cart_with_inputs_per_state(cache, formulation):
     model = _cart(cache, formulation, f"{STRICT} -DEOMC_BATCH_LIBM_TRIG")
     assert model.metadata["formulation"] == formulation
-    meta = model.metadata["rhs_batch"]
-    # the recursive form's lines are vectorized; Kane's numeric LDLt is not rewritten (yet):
-    # its batch loops the scalar rhs, and says so
-    assert meta["vectorized"] == (formulation == "recursive"), meta
-    if not meta["vectorized"]:
-        assert "status" in meta["why"]
+    # Kane's: A and b in lanes, then each state's A factored and solved by the scalar LDLt
+    assert model.metadata["rhs_batch"]["vectorized"], model.metadata["rhs_batch"]
     X = _states(model, 37, 3)
     R = np.random.default_rng(4).uniform(-1, 1, (37, model.ninput))
     assert np.array_equal(model.rhs_batch(0.3, X, r=R), _scalar(model, X, R))
@@ -95,13 +91,32 @@ def test_cart_with_inputs_per_state(cache, formulation):
     assert np.array_equal(model.rhs_batch(0.3, np.asfortranarray(X), r=R), _scalar(model, X, R))
 
 
-def test_failure_names_the_state(cache):
-    model = _cart(cache, "recursive")
+@pytest.mark.parametrize("example", ["double_pendulum", "rolling_disc", "four_bar_system"])
+def test_kane_examples_bit_for_bit(cache, example):
+    """Kane's form with nonholonomic (rolling disc) and loop (four-bar) constraints: the
+    vectorized A, b and the per-lane solves give the scalar rhs's bits."""
+    path = CART.parent / f"{example}.py"
+    model = compile_model(str(path), f"bx_{example}", functions=FUNCTIONS, cache_dir=cache,
+                          cflags=f"{STRICT} -DEOMC_BATCH_LIBM_TRIG", progress=False)
+    assert model.metadata["formulation"] == "kane" and model.metadata["rhs_batch"]["vectorized"]
+    X = _states(model, 45, 6) * 0.5
+    assert np.array_equal(model.rhs_batch(0.3, X), _scalar(model, X))
+
+
+@pytest.mark.parametrize("formulation", ["recursive", "kane"])
+def test_failure_names_the_state(cache, formulation):
+    model = _cart(cache, formulation)
     X = _states(model, 21, 5)
-    X[6, 1] = np.nan
-    with pytest.raises(SimulationError, match=r"non-finite input \(row 6 of X\)"):
-        model.rhs_batch(0.0, X)
-    X[6, 1] = 0.0
+    for row in (6, 19):          # in a group of lanes, in the scalar tail
+        bad = X.copy()
+        bad[row, 1] = np.nan
+        with pytest.raises(SimulationError, match=rf"non-finite input \(row {row} of X\)"):
+            model.rhs_batch(0.0, bad)
+    # massless: the mass matrix is singular, and the error says so (not NaN with status 0)
+    heavy = model.param_defaults.copy()
+    heavy[[i for i, n in enumerate(model.param_names) if n.startswith("m")]] = 0.0
+    with pytest.raises(SimulationError, match=r"singular|mass matrix"):
+        model.rhs_batch(0.0, X, p=heavy)
     with pytest.raises(ValueError, match=r"X must have shape \(n, 4\)"):
         model.rhs_batch(0.0, X[:, :3])
     assert model.rhs_batch(0.0, X[:0]).shape == (0, model.nx)
