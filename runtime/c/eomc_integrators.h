@@ -59,7 +59,17 @@ typedef struct eomc_implicit {
     const int *parent;        /* nu: each speed's parent in the tree (-1: root), parent[s] < s;
                                  NULL: M is factored dense */
     size_t work_len;          /* doubles of work the path needs: eomc_fs_implicit_work_size */
+    double split;             /* > 0: a step whose linearisation misses the implicit Euler
+                                 equation by more than this (Newton's correction over the step's
+                                 velocity change) is split (eomc_fixedstep.c); 0: never split,
+                                 one model call per step, as MuJoCo's implicitfast */
+    const double *depth_limit;/* ncontact (may be NULL: none): a contact deeper than this after
+                                 a step ends the run with EOMC_PENETRATED (the state written) */
 } eomc_implicit;
+
+/* The run failed its physics: a contact went deeper than eomc_implicit.depth_limit (an
+ * integrator status beside eomc_status's; x_last holds the state that was too deep). */
+#define EOMC_PENETRATED 10
 
 /* Doubles of work the fast path needs (add to eomc_integrate_work_size). */
 size_t eomc_fs_implicit_work_size(int nq, int nu, int ncontact);
