@@ -317,7 +317,7 @@ def prepare(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6,
                          f"constraints_jac; this model has none")
     if model.c_model.rhs == model.ffi.NULL:
         raise model._missing("rhs")  # every method integrates rhs
-    if ((method == "radau" or (method == "implicitfast" and "implicit" not in getattr(model, "functions", ())))
+    if ((method in ("radau", "bdf") or (method == "implicitfast" and "implicit" not in getattr(model, "functions", ())))
             and model.c_model.jac_x == model.ffi.NULL):
         raise ValueError(f"{model.name}: method {method!r} needs the Jacobian jac_x, which this model "
                          f"was built without; rebuild with functions including 'jac_x'")
@@ -391,7 +391,7 @@ def _extras(model, x0, t0, r, events, max_events, K, x_ref, method):
         if x_ref is not None and not isinstance(x_ref, dict):
             x_ref = _real_array(x_ref, f"{model.name}: x_ref")
         FeedbackBinding(model, K, x_ref)                        # checks the shapes
-        if method in ("radau", "implicitfast") and model.c_model.jac_r == model.ffi.NULL:
+        if method in ("radau", "bdf", "implicitfast") and model.c_model.jac_r == model.ffi.NULL:
             raise ValueError(f"{model.name}: method {method!r} with feedback K needs jac_r")
         out["K"], out["x_ref"] = K, x_ref
     return out
@@ -722,8 +722,10 @@ def simulate(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6
     method: "auto" (the default: DOP853 while the problem is not stiff, Radau from the
     start for a model with ground contacts, and Radau from wherever DOP853 detects
     stiffness -- the run continues, LSODA-like), rk4 (needs dt), dopri5/rk45, dop853,
-    radau, implicitfast (needs dt and jac_x: fixed-step linearly implicit Euler for
-    stiff contact at real-time steps, first order; runtime/c/eomc_fixedstep.c).  Output at
+    radau, bdf (needs jac_x: variable-order BDF/NDF like ode15s, the cheaper implicit
+    method at loose and moderate tolerances; runtime/c/eomc_bdf.c), implicitfast (needs dt
+    and jac_x: fixed-step linearly implicit Euler for stiff contact at real-time steps,
+    first order; runtime/c/eomc_fixedstep.c).  Output at
     t_eval (dense output) or, by default, on n_points (1001) equally spaced times
     (rk4, implicitfast: their step grid).  project=True projects onto the model's constraints
     after each step; baumgarte=a > 0 instead adds -a G^+ g to the rhs, so
