@@ -23,7 +23,7 @@ __all__ = ["PIVOT_TOL", "Solver", "minus_terms", "forward_substitution", "ldlt_s
 
 # The singularity threshold of both formulations: 64·DBL_EPSILON (times the scale), the test
 # the C below makes at run time; the recursive formulation bakes it into its expressions
-# (eomc.compiler.tree.algorithms), which the float target retargets (emit/target.py).
+# (eomc.compiler.tree.aba), which the float target retargets (emit/target.py).
 PIVOT_TOL = sm.Float(2.0 ** -46, 17)       # 64 * DBL_EPSILON, exactly
 
 

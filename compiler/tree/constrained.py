@@ -56,7 +56,8 @@ from sympy.physics import mechanics as me
 
 from eomc.runtime.errors import ModelError
 
-from .algorithms import PIVOT_TOL, _LDL
+from ..emit.linsolve import PIVOT_TOL
+from .ldl import _LDL
 from .derivatives import articulated_solve
 from .model import NotATree
 

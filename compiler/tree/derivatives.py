@@ -21,7 +21,7 @@ jac_r is the same with the inputs' directions: inputs enter only as loads.
 """
 import sympy as sm
 
-from .algorithms import _dot, x_motion, xt_force
+from .spatial import _dot, x_motion, xt_force
 
 __all__ = ["solve_symbols", "articulated_solve"]
 

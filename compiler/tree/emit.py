@@ -19,7 +19,7 @@ def tree_rhs_body(ctx, program):
     """q' and u' straight from the ABA trace; an articulated inertia D not above 64·DBL_EPSILON
     times the sum of all of them (a body with nothing to resist turning about its axis, or a
     ball joint in gimbal lock) is EOMC_SINGULAR_MASS_MATRIX.  The "Dpiv" results are those
-    margins (D - tol·sum, see algorithms.PIVOT_TOL), so the test is "every margin > 0"."""
+    margins (D - tol·sum, see aba.PIVOT_TOL), so the test is "every margin > 0"."""
     pr = ctx.printer(program)
     lines = temps(program, pr)
     lines += singular_guard(program, pr)

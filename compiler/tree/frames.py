@@ -41,7 +41,7 @@ import sympy as sm
 
 from eomc.runtime.errors import ModelError
 
-from .algorithms import Recorder
+from .recorder import Recorder
 from .model import NotATree
 from .placement import IDENTITY, Placement
 

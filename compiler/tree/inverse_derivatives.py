@@ -25,7 +25,7 @@ import sympy as sm
 from ..emit.bodies import IND, store, temps, needed_assignments, split_on
 from ..emit.symbolic import TANGENT_MIN_STATES
 from ..ir.opcount import count_ops
-from .algorithms import rnea
+from .rnea import rnea
 from .emit import _hoist, name_loop_inputs
 
 __all__ = ["inverse_dynamics_results", "inverse_dynamics_derivatives", "jac_id_body", "jac_id_ops"]

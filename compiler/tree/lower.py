@@ -31,7 +31,12 @@ from eomc.runtime.errors import ModelError
 
 from ..emit.reverse import hess_id_requests, refuse_reverse, reverse_requests
 from ..emit.symbolic import TANGENT_MIN_STATES, build_symbolic
-from .algorithms import LoweredBody, Recorder, aba, crba, rnea, velocities
+from .aba import aba
+from .crba import crba
+from .lowered import LoweredBody
+from .recorder import Recorder
+from .rnea import rnea
+from .velocities import velocities
 from .joint_laws import ramp, step
 from .constrained import (accelerations, check_functions, kane_form, kkt_residual, kkt_solve,
                           lower_loops, multiplier_symbols, tree_loops)

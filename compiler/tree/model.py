@@ -28,7 +28,7 @@ every body's (speed, axis) pairs uniformly.
 Everything here is a SymPy expression in the mechanics objects (q(t), u(t),
 parameters, inputs); the lowering renames them to C slots.  A tree says nothing
 of *how* it was found (SymPy joints or hand-built frames, see
-:mod:`.recognize`); the algorithms in :mod:`.algorithms` read only this.
+:mod:`.recognize`); the recursions (:mod:`.aba`, :mod:`.rnea`, :mod:`.crba`) read only this.
 """
 from dataclasses import dataclass, field
 

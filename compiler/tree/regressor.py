@@ -21,7 +21,7 @@ other loads.
 """
 import sympy as sm
 
-from .algorithms import _cross, _dot, _root_acceleration, cross_force, x_motion, xt_force
+from .spatial import _cross, _dot, _root_acceleration, cross_force, x_motion, xt_force
 
 __all__ = ["PI_NAMES", "regressor_results", "reference_offsets"]
 

@@ -89,7 +89,7 @@ def test_pivot_tests_are_scaled_for_float(generated):
     """LDLᵀ: 64·FLT_EPSILON·max|diag|; the recursive ABA's 2^-46·sum(D) becomes 2^-17·sum(D)."""
     dp = generated["double_pendulum"][0].c_source
     assert "tol = 64.0f * FLT_EPSILON * scale;" in dp
-    from eomc.compiler.tree.algorithms import PIVOT_TOL
+    from eomc.compiler.tree.aba import PIVOT_TOL
     assert float(PIVOT_TOL) == 2.0 ** -46
     assert to_float_text("const double t9 = 1.4210854715202004e-14*S_[3] + t2;", "m.c") == \
         "const float t9 = 7.62939453125e-06f*S_[3] + t2;"

@@ -13,7 +13,7 @@ import random
 
 import sympy as sm
 
-from eomc.compiler.tree.algorithms import _add, _mul
+from eomc.compiler.tree.construct import _add, _mul
 
 SYMS = sm.symbols("_t0:6 a b", real=True)
 C = sm.Symbol("c")                     # no assumptions

@@ -1,0 +1,48 @@
+"""The recursions' registry of temporaries: every value a body produces gets one name.
+
+The recursions (:mod:`.aba`, :mod:`.rnea`, :mod:`.crba`, :mod:`.velocities`) walk the tree
+and return SymPy expressions; every vector component and matrix entry a body produces is
+handed to a :class:`Recorder`, which names it with a fresh temporary (value-numbered: the
+same expression gets the same name).  So the program stays a flat DAG whose size grows
+linearly with the number of bodies -- the trace a numeric ABA would execute, with
+structural zeros (planar joints, point masses) already dropped by SymPy.
+"""
+import sympy as sm
+
+__all__ = ["Recorder"]
+
+
+class Recorder:
+    """Names intermediate values ``_t<k>`` (the IR's registry) and keeps them in order."""
+
+    def __init__(self, start=0):
+        self.count = start
+        self.assignments = []
+        self._seen = {}
+
+    def let(self, expr):
+        """A name for ``expr`` (atoms and -atom stay as they are; a repeat gets the same name)."""
+        if not isinstance(expr, sm.Basic):
+            expr = sm.sympify(expr)
+        if expr.is_Atom or (expr.is_Mul and len(expr.args) == 2 and expr.args[0] == -1
+                            and expr.args[1].is_Atom):
+            return expr
+        hit = self._seen.get(expr)
+        if hit is not None:
+            return hit
+        sym = sm.Symbol(f"_t{self.count}", real=True)
+        self.count += 1
+        self.assignments.append((sym, expr))
+        self._seen[expr] = sym
+        return sym
+
+    def vec(self, items):
+        return [self.let(e) for e in items]
+
+    def sym6(self, M):
+        """A symmetric 6x6 (list of lists), lower triangle named, mirrored."""
+        out = [[None] * 6 for _ in range(6)]
+        for i in range(6):
+            for j in range(i + 1):
+                out[i][j] = out[j][i] = self.let(M[i][j])
+        return out
