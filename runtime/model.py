@@ -85,6 +85,10 @@ def _cffi_backend(ffi, lib, model_lib, c_model, name, functions):
             t, frombuf("double[]", x), p, r, prepare(lam), prepare(v), prepare(out), work)
     if "jac_p" in functions:     # exported, not in the eomc_model struct (ABI unchanged)
         kernels["jac_p"] = vector_kernel(getattr(model_lib, f"{name}_jac_p"))
+    if "rhs_batch" in functions:   # SoA states in SIMD lanes (compiler/emit/batch.py)
+        fp_batch = getattr(model_lib, f"{name}_rhs_batch")
+        kernels["rhs_batch"] = lambda n, t, X, p, R, XD, status, work: fp_batch(
+            n, t, frombuf("double[]", X), p, prepare(R), frombuf("double[]", XD), frombuf("int[]", status), work)
     if "rhs" in kernels:
         many = lib.eomc_rhs_many
 
@@ -344,11 +348,16 @@ class Model:
     _checked_rhs = rhs
 
     def rhs_many(self, t, X, p=None, r=None):
-        """rhs at every row of X (shape (n, nx)) in one C loop; t scalar or (n,), r (ninput,) or (n, ninput)."""
+        """rhs at every row of X (shape (n, nx)) in one C loop; t scalar or (n,), r (ninput,) or (n, ninput).
+
+        A model built with ``rhs_batch`` evaluates a scalar t through it (several states per
+        instruction, :meth:`rhs_batch`)."""
         X = np.asarray(X)
         if X.ndim != 2 or X.shape[1:] != (self.nx,):
             raise ValueError(f"{self.name}: X must have shape (n, {self.nx}) (one state per row); "
                              f"got shape {X.shape}")
+        if "rhs_batch" in self._kernels and np.ndim(t) == 0:
+            return self.rhs_batch(t, X, p, r)
         n = X.shape[0]
         p_given = p
         X = self._array(X, X.shape, "X (states)")
@@ -371,6 +380,61 @@ class Model:
             r_row = r[row] if self.ninput and r is not None and np.ndim(r) == 2 else r
             self._fail("rhs", status, times[row * t_stride], X[row], row, inputs=(p_given, r_row))
         return XD
+
+    def rhs_batch(self, t, X, p=None, r=None):
+        """rhs at every row of X (shape (n, nx)) by NAME_rhs_batch: several states per instruction
+        (SIMD lanes, ``metadata["rhs_batch"]``), the rows past the last full group of lanes by
+        the scalar rhs.  t scalar, p shared, r (ninput,) or (n, ninput).  Agrees with :meth:`rhs`
+        bit for bit except through sin and cos, which are within 1 ulp of libm's.
+
+        The C function reads and writes states as columns (structure of arrays), so the result
+        is column-major (a transposed view) and a column-major X (``X.T`` of an (nx, n) array)
+        is read without a copy; a row-major X costs one transpose.
+
+        Generated on request (``functions`` including "rhs_batch", ``eomc build --outputs
+        rhs,rhs_batch,...``)."""
+        kernel = self._kernels.get("rhs_batch")
+        if kernel is None:
+            if "rhs_batch" in self.functions:
+                raise ModelError(f"model {self.name!r}: rhs_batch is called through the cffi backend; "
+                                 f"load it with backend='cffi'")
+            raise self._missing("rhs_batch")
+        X = np.asarray(X)
+        if X.ndim != 2 or X.shape[1:] != (self.nx,):
+            raise ValueError(f"{self.name}: X must have shape (n, {self.nx}) (one state per row); "
+                             f"got shape {X.shape}")
+        n = X.shape[0]
+        if n >= 2**31:
+            raise ValueError(f"{self.name}: rhs_batch takes at most 2**31 - 1 states per call; got {n}")
+        t = self._time(t)
+        p_given = p
+        if X.dtype != _F64 or not X.T.flags.c_contiguous:   # a column-major X is read as it is
+            X = self._array(X, X.shape, "X (states)")
+        soa = np.ascontiguousarray(X.T)
+        p = self._params(p)
+        R = None
+        if self.ninput:
+            if r is not None and np.ndim(r) == 2 and not isinstance(r, dict):
+                R = np.ascontiguousarray(self._array(r, (n, self.ninput), "r (inputs per row)",
+                                                     self.input_names).T)
+            else:
+                one = self._zero_inputs if r is None else (
+                    self._named(r, self.input_names, self._zero_inputs, "input") if isinstance(r, dict)
+                    else self._array(r, (self.ninput,), "r (inputs)", self.input_names))
+                R = np.ascontiguousarray(np.broadcast_to(np.asarray(one)[:, None], (self.ninput, n)))
+        elif r is not None and np.size(r) != 0:
+            raise ValueError(f"{self.name}: this model has no inputs, but r was given")
+        XD = np.empty((self.nx, n))
+        if n == 0:
+            return XD.T
+        status = np.empty(n, dtype=np.intc)
+        worst = kernel(n, t, soa, p, R, XD, status, self._work()[1])
+        if worst:
+            row = int(np.flatnonzero(status)[0])
+            r_row = r[row] if self.ninput and r is not None and np.ndim(r) == 2 else r
+            self._fail("rhs_batch", int(status[row]), t, np.asarray(X[row], dtype=np.float64), row,
+                       inputs=(p_given, r_row))
+        return XD.T
 
     def jacobian(self, t, x, p=None, r=None):
         """d rhs / d x, shape (nx, nx); also ``jac_x``, its C name."""

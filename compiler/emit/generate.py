@@ -19,6 +19,7 @@ from .printer import NonFiniteLiteral
 from .reverse import REVERSE_FUNCTIONS, reverse_body, reverse_nsolve
 from .sparse_lu import sparse_lu_solver
 from .split import NOINLINE_MACRO, split_body
+from .batch import batch_code
 from .signatures import FUNCTION_ORDER, ON_REQUEST, STRUCT_FIELDS, cdef, prototype
 from .symbolic import HELPER_USERS
 
@@ -48,6 +49,8 @@ def _select(functions, ninput, noutput, ncon, nevent=0, has_poses=False, nparam=
                          f"choose from {', '.join(ALL_FUNCTIONS)}")
     if "linearize" in wanted:
         wanted |= {"jac_x", "jac_r"}
+    if "rhs_batch" in wanted:      # the lanes are the rhs's own code; its scalar tail calls it
+        wanted.add("rhs")
     absent = {"jac_r": ninput == 0, "jac_p": nparam == 0, "outputs": noutput == 0,
               "constraints": ncon == 0, "constraints_jac": ncon == 0, "events": nevent == 0,
               "poses": not has_poses}
@@ -217,7 +220,7 @@ def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions
     if refusal:
         raise ModelError(refusal)
     groups, helper_users = formulation.groups, formulation.helper_users
-    base = tuple(f for f in fns if f != "poses")   # poses: appended below
+    base = tuple(f for f in fns if f not in ("poses", "rhs_batch"))   # poses: appended below
     sym = formulation.symbolic(formed, layout, base, outputs, events)
     if nframe and "outputs" in fns:   # appended to the outputs, after the model's own
         sym = frames.lowered(sym, layout, formed.nq)
@@ -227,7 +230,7 @@ def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions
         sym, pose_meta = with_poses(sym, poses, layout)
         groups = {**groups, "poses": (POSE_GROUP,)}
     shared = verify(optimize_shared(sym.program, sym.derivatives))
-    programs = {fn: finish_function(shared, groups[fn]) if groups[fn] else None
+    programs = {fn: finish_function(shared, groups[fn]) if fn != "rhs_batch" and groups[fn] else None
                 for fn in fns}
     helper = (finish_function(shared, ("A", "b")) if set(fns) & set(helper_users) or sym.solve_in
               else None)
@@ -277,15 +280,23 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
     ctx.nz = nx - nq - nu
     with _naming_nonfinite(name, "dynamics helper (the mass matrix and forcing)"):
         helper = dynamics_helper(ctx, low.helper) if low.helper is not None else ""
+    dynamics_text = helper
     helper = "\n".join(c for c in (helper, formulation.c_helpers(name, sym, fns, nq)) if c)
     rendered, op_counts = [], {}
     for fn in fns:
+        if fn == "rhs_batch":   # the rhs's printed lines, rewritten into lanes (compiler/emit/batch.py)
+            before, body, meta_batch = batch_code(name, nx, len(layout.r), rhs_printed, dynamics_text)
+            rendered.append({"prototype": prototype(name, fn), "body": body, "parts": [before]})
+            op_counts[fn] = dict(op_counts["rhs"])
+            continue
         prog = low.programs[fn]
         with _naming_nonfinite(name, fn):
             body = (plain_body(ctx, prog, "pose", (low.poses["size"],), "out") if fn == "poses" else
                     _body(fn, ctx, prog, sym, layout, nx, fns, formulation))
         lines, parts = split_body(body, f"{name}_{fn}_part")
         ctx.split = ctx.split or bool(parts)
+        if fn == "rhs":
+            rhs_printed = (lines, parts)
         rendered.append({"prototype": prototype(name, fn), "body": void_unused(fn, lines),
                          "parts": parts})
         op_counts[fn] = _ops(fn, prog, solver, nx, len(layout.r), sym.seeds, low.helper, nu,
@@ -304,6 +315,8 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
         meta["events"] = [by_name.get(n, {"name": n, "terminal": 0, "direction": 0})
                           for n in sym.event_names]
     meta["formulation"] = formulation.name
+    if "rhs_batch" in fns:
+        meta["rhs_batch"] = meta_batch
     meta.update(formulation.metadata(sym, fns))
     if low.poses is not None:
         meta["poses"] = pose_metadata(low.poses)

@@ -41,14 +41,18 @@ SIGNATURES = {
     "poses": _RHS + (("double *", "out"), ("double *", "work")),
     # what one step of the fixed-step implicit integrator needs (compiler/tree/lower.implicit_layout)
     "implicit": _RHS + (("double *", "out"), ("double *", "work")),
+    # the rhs at n states in SIMD lanes (compiler/emit/batch.py): X and XDOT are nx x n, R ninput x n
+    # (structure of arrays: component i of state k at [i*n + k]), p shared; status (n, or NULL) per state
+    "rhs_batch": (("int", "n"), ("double", "t"), ("const double *", "X"), ("const double *", "p"),
+                  ("const double *", "R"), ("double *", "XDOT"), ("int *", "status"), ("double *", "work")),
 }
 
 FUNCTION_ORDER = ("rhs", "jac_x", "jac_r", "jac_p", "mass_matrix", "forcing", "inverse_dynamics",
                   "outputs", "constraints", "constraints_jac", "linearize", "events", "poses", "regressor",
-                  "jvp", "jac_id", "vjp", "hvp", "hess_id", "implicit")
+                  "jvp", "jac_id", "vjp", "hvp", "hess_id", "implicit", "rhs_batch")
 
 # Generated only on request (``functions`` naming them), not by default.
-ON_REQUEST = ("jac_p", "regressor", "jvp", "jac_id", "vjp", "hvp", "hess_id")
+ON_REQUEST = ("jac_p", "regressor", "jvp", "jac_id", "vjp", "hvp", "hess_id", "rhs_batch")
 
 # eomc_model fields holding function pointers (the rest are exported only).
 STRUCT_FIELDS = ("rhs", "jac_x", "jac_r", "mass_matrix", "forcing", "outputs",

@@ -16,7 +16,7 @@ def add_generate_options(parser):
     parser.add_argument("--name", help="model name (default: the file's `name` or its stem)")
     parser.add_argument("--outputs", metavar="LIST",
                         help="comma-separated functions to generate, e.g. rhs,jacobian,mass_matrix "
-                             "(default: all the model supports but jac_p, jvp, vjp, hvp, regressor, jac_id and hess_id, which are "
+                             "(default: all the model supports but jac_p, jvp, vjp, hvp, regressor, jac_id, hess_id and rhs_batch, which are "
                              "generated only when named)")
     parser.add_argument("--fold-parameters", action="store_true",
                         help="fold parameter defaults into literals instead of runtime arguments")

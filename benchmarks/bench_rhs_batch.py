@@ -1,0 +1,202 @@
+"""Issue 31 item 1: states per second of NAME_rhs_batch (SIMD lanes) against the scalar rhs.
+
+Per model, `eomc build MODEL --outputs rhs,rhs_batch` (child process, fresh cache, auto
+formulation, parameters at run time); one C harness per lane width (-DEOMC_BATCH_LANES=4: AVX2,
+=8: AVX-512F) links the model's C and times, in thread CPU time (CLOCK_THREAD_CPUTIME_ID),
+pinned to core 1 (taskset -c 1):
+
+* scalar: NAME_rhs over 1024 states stored one after another (array of structures, the best
+  case for the scalar call);
+* batch: one NAME_rhs_batch call over the same 1024 states stored as columns (nx x 1024).
+
+The two contestants alternate within a round, both executables alternate round by round, and
+the table gives medians over rounds (the scalar column is the median of both harnesses'
+scalar rounds: the same code).  Each harness first checks the batch against the scalar rhs on
+all 1024 states (max relative difference, and the share of bit-identical values: sin/cos differ
+within 1 ulp, the rest is the same arithmetic).
+
+Models: the cart auto sees (benchmarks/tree_models/cart_rel_joints.py, n = 4, 20, 40), UR10
+and Panda (fixed base), Go2 and G1 29-dof (--floating-base, --limits off).
+
+Usage: python benchmarks/bench_rhs_batch.py [--rounds 9] [--write] [names...]
+(--write: results/rhs_batch.md)
+"""
+import argparse
+import json
+import os
+import platform
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parent
+sys.path.insert(0, str(ROOT / "tests"))
+
+HARNESS = r"""
+#define _POSIX_C_SOURCE 199309L
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <time.h>
+#include "m.h"
+#define NS 1024
+static double tnow(void) { struct timespec ts; clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+    return ts.tv_sec * 1e9 + ts.tv_nsec; }
+static unsigned long long s = 0x9E3779B97F4A7C15ULL;
+static double rnd(void) { unsigned long long z = (s += 0x9E3779B97F4A7C15ULL);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL; z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+    z ^= z >> 31; return (z >> 11) * (1.0 / 9007199254740992.0); }
+int main(int argc, char **argv) {
+    const eomc_model *m = m_model();
+    int nx = m->nx, nq = m->nq, nr = m->ninput, i, k, c, round, rounds = atoi(argv[1]);
+    double *X = malloc(sizeof(double) * nx * NS), *S = malloc(sizeof(double) * nx * NS);
+    double *XD = malloc(sizeof(double) * nx * NS), *xd = malloc(sizeof(double) * nx * NS);
+    double *R = calloc((size_t)(nr + 1) * NS, sizeof(double)), *r = calloc(nr + 1, sizeof(double));
+    double worst = 0.0, same = 0.0, sum = 0.0, work[1];
+    int *st = malloc(sizeof(int) * NS);
+    (void)argc;
+    for (i = 0; i < NS; i++) for (k = 0; k < nx; k++) {
+        double v = k < nq ? 3.0 * (2 * rnd() - 1) : 2 * rnd() - 1;
+        X[i * nx + k] = v; S[k * NS + i] = v; }
+    if (m_rhs_batch(NS, 0.0, S, m->param_defaults, nr ? R : NULL, XD, st, work)) { printf("batch failed\n"); return 1; }
+    for (i = 0; i < NS; i++) {
+        m->rhs(0.0, X + i * nx, m->param_defaults, r, xd + i * nx, work);
+        for (k = 0; k < nx; k++) { double a = XD[k * NS + i], b = xd[i * nx + k];
+            double d = fabs(a - b) / (fabs(b) > 1 ? fabs(b) : 1);
+            if (d > worst) worst = d; same += a == b; }
+    }
+    printf("agree %.3g %.4f\n", worst, same / (nx * NS));
+    for (round = 0; round < rounds; round++)
+        for (c = 0; c < 2; c++) {
+            int cc = (c + round) % 2; long done = 0; double t0 = tnow(), t1;
+            do { if (cc == 0) { for (i = 0; i < NS; i++) m->rhs(0.0, X + i * nx, m->param_defaults, r, xd + i * nx, work); }
+                 else m_rhs_batch(NS, 0.0, S, m->param_defaults, nr ? R : NULL, XD, st, work);
+                 sum += cc ? XD[nq * NS] : xd[nq];
+                 done += NS; t1 = tnow(); } while (t1 - t0 < 2e7);
+            printf("time %d %.3f\n", cc, (t1 - t0) / done);
+        }
+    printf("checksum %g\n", sum);
+    return 0;
+}
+"""
+
+
+def models():
+    from helpers.robots import robot_path
+    out = [(f"cart n={n}", HERE / "tree_models" / "cart_rel_joints.py", {"EOMC_N_LINKS": str(n)}, [])
+           for n in (4, 20, 40)]
+    out.append(("UR10", robot_path("ur_description/urdf/ur10_robot.urdf"), {}, []))
+    out.append(("Panda", robot_path("panda"), {}, []))
+    out.append(("Go2", robot_path("go2_description/urdf/go2.urdf"), {}, ["--floating-base", "--limits", "off"]))
+    out.append(("G1", robot_path("g1_description/urdf/g1_29dof_rev_1_0.urdf"), {},
+                ["--floating-base", "--limits", "off"]))
+    return out
+
+
+def build(model, env, flags, outdir):
+    env = dict(os.environ, EOMC_CACHE_DIR=tempfile.mkdtemp(prefix="eomc_rb_"), **env)
+    start = time.perf_counter()
+    proc = subprocess.run([sys.executable, "-m", "eomc", "build", str(model), "-o", str(outdir), "--name", "m",
+                           "--outputs", "rhs,rhs_batch", "-q", *flags], env=env, capture_output=True, text=True)
+    if proc.returncode:
+        raise RuntimeError((proc.stderr.strip().splitlines() or ["?"])[-1])
+    return json.loads((outdir / "m.json").read_text()), time.perf_counter() - start
+
+
+def measure(label, model, env, flags, tmp, rounds):
+    d = tmp / label.replace(" ", "_").replace("=", "")
+    d.mkdir()
+    meta, build_s = build(model, env, flags, d)
+    (d / "h.c").write_text(HARNESS)
+    rt = ROOT / "runtime" / "c"
+    exes, compile_s = {}, {}
+    for lanes in (4, 8):
+        exe = d / f"h{lanes}"
+        start = time.perf_counter()
+        subprocess.run(["gcc", "-O2", "-std=c99", f"-DEOMC_BATCH_LANES={lanes}", f"-I{d}", f"-I{rt}",
+                        str(d / "h.c"), str(d / "m.c"), "-o", str(exe), "-lm"], check=True)
+        compile_s[lanes] = time.perf_counter() - start
+        exes[lanes] = exe
+    times = {("scalar", 4): [], ("scalar", 8): [], ("batch", 4): [], ("batch", 8): []}
+    agree = {}
+    for rnd in range(rounds):
+        for lanes in ((4, 8) if rnd % 2 == 0 else (8, 4)):
+            out = subprocess.run(["taskset", "-c", "1", str(exes[lanes]), "1"], capture_output=True,
+                                 text=True, check=True).stdout
+            for line in out.splitlines():
+                if line.startswith("time"):
+                    _, k, v = line.split()
+                    times[("batch" if k == "1" else "scalar", lanes)].append(float(v))
+                elif line.startswith("agree"):
+                    agree[lanes] = tuple(float(v) for v in line.split()[1:])
+    scalar = statistics.median(times[("scalar", 4)] + times[("scalar", 8)])
+    batch = {lanes: statistics.median(times[("batch", lanes)]) for lanes in (4, 8)}
+    return dict(label=label, nx=meta["nx"], formulation=meta["formulation"],
+                vectorized=meta["rhs_batch"]["vectorized"], ops=sum(meta["op_counts"]["rhs"].values()),
+                scalar=scalar, batch=batch, agree=agree, build_s=build_s, compile_s=compile_s)
+
+
+def table(rows):
+    head = ("| model | nx | form | rhs ops | scalar rhs ns/state | batch 4 lanes (AVX2) ns/state | "
+            "batch 8 lanes (AVX-512) ns/state | speed-up 4 lanes | speed-up 8 lanes | "
+            "batch vs rhs: max rel. diff, share of identical bits | harness compile s (8 lanes) |")
+    lines = [head, "|" + "|".join(["--"] * (head.count("|") - 1)) + "|"]
+    for r in rows:
+        if "error" in r:
+            lines.append(f"| {r['label']} | build failed: {r['error']} |")
+            continue
+        a = r["agree"].get(8) or r["agree"].get(4)
+        lines.append(
+            f"| {r['label']} | {r['nx']} | {r['formulation']}{'' if r['vectorized'] else ' (not vectorized)'} | "
+            f"{r['ops']} | {r['scalar']:.1f} | {r['batch'][4]:.1f} | {r['batch'][8]:.1f} | "
+            f"{r['scalar'] / r['batch'][4]:.2f} | {r['scalar'] / r['batch'][8]:.2f} | "
+            f"{a[0]:.2g}, {a[1]:.3f} | {r['compile_s'][8]:.1f} |")
+    return "\n".join(lines)
+
+
+def environment():
+    load = os.getloadavg()[0]
+    cpu = next((ln.split(":", 1)[1].strip() for ln in open("/proc/cpuinfo") if ln.startswith("model name")), "?")
+    flags = next((ln for ln in open("/proc/cpuinfo") if ln.startswith("flags")), "").split()
+    gcc = subprocess.run(["gcc", "--version"], capture_output=True, text=True).stdout.splitlines()[0]
+    simd = ", ".join(f for f in ("avx2", "fma", "avx512f") if f in flags)
+    return (f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; {cpu} ({simd}); {gcc}; "
+            f"Python {platform.python_version()}; load average {load:.1f} at the start (2 cores shared)")
+
+
+def main(argv):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--rounds", type=int, default=9)
+    parser.add_argument("--write", action="store_true")
+    parser.add_argument("names", nargs="*")
+    args = parser.parse_args(argv)
+    env_line = environment()
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for label, model, env, flags in models():
+            if args.names and not any(n.lower() in label.lower() for n in args.names):
+                continue
+            try:
+                row = measure(label, model, env, flags, Path(tmp), args.rounds)
+            except (RuntimeError, subprocess.CalledProcessError) as exc:
+                row = {"label": label, "error": str(exc)[:200]}
+            print(row, flush=True)
+            rows.append(row)
+    text = table(rows)
+    print(env_line)
+    print(text)
+    if args.write:
+        (HERE / "results" / "rhs_batch.md").write_text(
+            "# rhs_batch: states per second in SIMD lanes vs the scalar rhs (issue 31 item 1)\n\n"
+            f"{env_line}.  benchmarks/bench_rhs_batch.py --rounds {args.rounds}: 1024 states per call, "
+            "thread CPU time, taskset -c 1, contestants interleaved, medians.  ns/state: lower is better; "
+            "speed-up = scalar ns / batch ns.\n\n" + text + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

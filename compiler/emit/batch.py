@@ -1,0 +1,525 @@
+"""``NAME_rhs_batch``: the rhs at many states per call, several states per instruction (SIMD lanes).
+
+Why: users who need the most rhs evaluations (Monte Carlo, sampling MPC, RL, many shooting
+nodes) evaluate thousands of states at once, and one scalar call uses one of the 4 (AVX2) or
+8 (AVX-512) double lanes of the machine (issue 31, item 1).
+
+How: the lowering rewrites the printed, already split scalar rhs (its body lines and its
+``NAME_rhs_partK`` sub-functions) into the same statements over GNU C vector types
+(``eomc_vd``: ``EOMC_BATCH_LANES`` doubles, 4 unless the build defines it as 2 or 8).  A
+temporary is a vector when its expression reads a state, an input, the scratch array or a
+vector temporary; one made of parameters and literals stays a scalar double (computed once
+for all lanes).  The same expressions in the same order, with no FMA contraction (the
+target is ``avx2``/``avx512f`` without ``fma``), give the scalar rhs's bits lane by lane.
+The exceptions are sin and cos: they go through :data:`VECTOR_TRIG` (fdlibm's reduction by
+pi/2 in three parts and its kernels, vectorized: within 1 ulp of glibc's ``sin``/``cos``,
+measured in tests/compiler/emit/test_batch.py), as a per-lane libm call would cost more than
+the rest of a small model.  Other calls (sqrt, fabs, pow, ...) are made lane by lane with the
+scalar libm function, so they are exact.  Branches become per-lane: the singular-mass-matrix
+guard and the finiteness check set a status per state.  Kane's form computes A and b (its
+NAME_dynamics helper, rewritten the same way) in lanes, then factors and solves each state's
+A with the scalar LDLᵀ/LU code, one lane at a time: its pivoting and singularity test stay
+per state, and the solve is a small part of the rhs.
+
+Where a C compiler lacks GNU vectors (``__GNUC__`` undefined), or the CPU lacks the lanes'
+instruction set (``__builtin_cpu_supports``), or the body has a statement shape this
+rewrite does not know, ``NAME_rhs_batch`` loops the scalar ``NAME_rhs`` over the states: the
+same results, no lanes; the metadata's ``rhs_batch.vectorized`` says which (and ``why``).
+States past the last full group of lanes (the tail) always take the scalar rhs.
+
+Layout: states are columns, structure of arrays: ``X[i*n + k]`` is component i of state k,
+the inputs likewise (``R[j*n + k]``, or NULL for zero inputs), the parameters shared.  A
+state whose status is not EOMC_OK gets NaN rows (EOMC_NONFINITE: the rows as computed).
+"""
+import re
+
+__all__ = ["batch_code", "batch_rhs", "Unsupported", "SIMD_PRELUDE", "VECTOR_TRIG"]
+
+_TEMP_LINE = re.compile(r"^(\s+)const double (t\d+) = (.*);$")
+_STORE_LINE = re.compile(r"^(\s+)([A-Za-z_]\w*)\[(\d+)\] = (.*);$")
+_SCRATCH_DECL = re.compile(r"^(\s+)double ([A-Za-z_]\w*)\[(\d+)\];$")
+_CALL_LINE = re.compile(r"^(\s+)([A-Za-z_]\w*)\((.*)\);$")
+_GUARD_LINE = re.compile(r"^(\s+)if \((.*)\) return (EOMC_[A-Z_]+);$")
+_FINITE_RETURN = re.compile(r"^(\s+)return [A-Za-z_]\w*_finite\(xdot, \d+\);$")
+_PART_HEAD = re.compile(r"^static EOMC_NOINLINE void ([A-Za-z_]\w*)\((.*)\)$")
+_ARRAY_REF = re.compile(r"\b([A-Za-z_]\w*)\[")
+_TEMP = re.compile(r"\bt\d+\b")
+_CALL = re.compile(r"\b([A-Za-z_]\w*)\(")
+_IDENT = re.compile(r"\b([A-Za-z_]\w*)\b")
+
+# calls made lane by lane with libm's own function (exact); sin and cos have vector kernels
+MATH1 = ("sqrt", "fabs", "exp", "log", "tan", "tanh", "sinh", "cosh", "atan", "asin", "acos", "cbrt",
+         "expm1", "log1p", "floor", "ceil", "erf", "asinh", "acosh", "atanh", "log10", "log2", "exp2")
+MATH2 = ("pow", "atan2", "fmin", "fmax", "hypot", "fmod", "copysign")
+
+SIMD_PRELUDE = r"""#if defined(__GNUC__) && !defined(EOMC_NO_SIMD)
+#define EOMC_BATCH_SIMD 1
+#ifndef EOMC_NOINLINE
+#define EOMC_NOINLINE
+#endif
+#ifndef EOMC_BATCH_LANES
+#define EOMC_BATCH_LANES 4
+#endif
+#if EOMC_BATCH_LANES != 2 && EOMC_BATCH_LANES != 4 && EOMC_BATCH_LANES != 8
+#error "EOMC_BATCH_LANES must be 2, 4 or 8"
+#endif
+#if (defined(__x86_64__) || defined(__i386__)) && EOMC_BATCH_LANES == 8
+#define EOMC_VTARGET __attribute__((target("avx512f")))
+#define EOMC_VCPU_OK() __builtin_cpu_supports("avx512f")
+#elif (defined(__x86_64__) || defined(__i386__)) && EOMC_BATCH_LANES == 4
+#define EOMC_VTARGET __attribute__((target("avx2")))
+#define EOMC_VCPU_OK() __builtin_cpu_supports("avx2")
+#else
+#define EOMC_VTARGET
+#define EOMC_VCPU_OK() 1
+#endif
+/* sin and cos of one argument, inlined side by side, share their reduction and kernels */
+#define EOMC_VINLINE inline __attribute__((always_inline))
+typedef double eomc_vd __attribute__((vector_size(8 * EOMC_BATCH_LANES)));
+typedef unsigned long long eomc_vu __attribute__((vector_size(8 * EOMC_BATCH_LANES)));
+#else
+#define EOMC_BATCH_SIMD 0
+#endif"""
+
+# fdlibm (FreeBSD msun e_rem_pio2.c, k_sin.c, k_cos.c; Sun's permissive notice) in lanes:
+# x = n*pi/2 + y0 + y1 by three rounds of Cody-Waite (fdlibm does the 2nd and 3rd only
+# when needed; all three are always exact enough), then the degree-13/14 kernels on
+# |y| <= pi/4 and the quadrant as a bit select.  |x| >= 2^19*pi/2, inf and NaN lanes take
+# libm's sin/cos (fdlibm's medium-size reduction holds below that).  -DEOMC_BATCH_LIBM_TRIG
+# makes every lane call libm: NAME_rhs_batch is then the scalar rhs bit for bit.
+VECTOR_TRIG = r"""static EOMC_VTARGET EOMC_VINLINE eomc_vd {p}_vtrig(eomc_vd x, unsigned long long shift)
+{{
+    const double toint = 6755399441055744.0;   /* 1.5 * 2^52: adding it rounds to an integer */
+    eomc_vd k = x * 6.36619772367581382433e-01 + toint;
+    eomc_vu q = (eomc_vu)k + shift;
+    eomc_vd fn = k - toint;
+    eomc_vd r = x - fn * 1.57079632673412561417e+00;
+    eomc_vd t = r, w = fn * 6.07710050630396597660e-11;
+    eomc_vd y0, y1, z, v, rs, rc, s, c;
+    eomc_vu odd, bits;
+    int l;
+    r = t - w;
+    w = fn * 2.02226624879595063154e-21 - ((t - r) - w);
+    t = r;
+    w = fn * 2.02226624871116645580e-21;
+    r = t - w;
+    w = fn * 8.47842766036889956997e-32 - ((t - r) - w);
+    y0 = r - w;
+    y1 = (r - y0) - w;
+    z = y0 * y0;
+    w = z * z;
+    v = z * y0;
+    rs = 8.33333333332248946124e-03 + z * (-1.98412698298579493134e-04 + z * 2.75573137070700676789e-06)
+        + z * w * (-2.50507602534068634195e-08 + z * 1.58969099521155010221e-10);
+    s = y0 - ((z * (0.5 * y1 - v * rs) - y1) - v * -1.66666666666666324348e-01);
+    rc = z * (4.16666666666666019037e-02 + z * (-1.38888888888741095749e-03 + z * 2.48015872894767294178e-05))
+        + w * w * (-2.75573143513906633035e-07 + z * (2.08757232129817482790e-09 + z * -1.13596475577881948265e-11));
+    t = 0.5 * z;
+    v = 1.0 - t;
+    c = v + (((1.0 - v) - t) + (z * rc - y0 * y1));
+    odd = (eomc_vu)((q & 1) != 0);
+    bits = ((eomc_vu)c & odd) | ((eomc_vu)s & ~odd);
+    bits ^= (q & 2) << 62;
+    s = (eomc_vd)bits;
+    for (l = 0; l < EOMC_BATCH_LANES; l++) {{
+#ifdef EOMC_BATCH_LIBM_TRIG
+        s[l] = shift ? cos(x[l]) : sin(x[l]);   /* bit for bit the scalar rhs (tests, or by choice) */
+#else
+        if (!(fabs(x[l]) < 823549.6656250000)) s[l] = shift ? cos(x[l]) : sin(x[l]);
+#endif
+    }}
+    return s;
+}}
+
+static EOMC_VTARGET EOMC_VINLINE eomc_vd {p}_vsin(eomc_vd x)
+{{
+    return {p}_vtrig(x, 0);
+}}
+
+static EOMC_VTARGET EOMC_VINLINE eomc_vd {p}_vcos(eomc_vd x)
+{{
+    return {p}_vtrig(x, 1);
+}}"""
+
+_VSET = """static EOMC_VTARGET eomc_vd {p}_vset(double a)
+{{
+    eomc_vd v;
+    int l;
+    for (l = 0; l < EOMC_BATCH_LANES; l++) v[l] = a;
+    return v;
+}}"""
+
+_LANEWISE1 = """static EOMC_VTARGET eomc_vd {p}_v_{f}(eomc_vd a)
+{{
+    eomc_vd v;
+    int l;
+    for (l = 0; l < EOMC_BATCH_LANES; l++) v[l] = {f}(a[l]);
+    return v;
+}}"""
+
+_LANEWISE2 = """static EOMC_VTARGET eomc_vd {p}_v_{f}(eomc_vd a, eomc_vd b)
+{{
+    eomc_vd v;
+    int l;
+    for (l = 0; l < EOMC_BATCH_LANES; l++) v[l] = {f}(a[l], b[l]);
+    return v;
+}}"""
+
+
+class Unsupported(ValueError):
+    """A statement of the scalar rhs the lane rewrite does not know; NAME_rhs_batch then loops
+    the scalar rhs (correct, not vectorized).  The message names the statement."""
+
+
+class _Rewriter:
+    """Types (vector or scalar) of one function's temporaries and the rewrite of its lines."""
+
+    def __init__(self, prefix, vector_arrays, scalar_arrays, used):
+        self.prefix = prefix
+        self.vec_arrays = set(vector_arrays)
+        self.scalar_arrays = set(scalar_arrays)
+        self.vtemps = set()
+        self.used = used            # helper names the rewritten code calls
+
+    def is_vector(self, expr):
+        for name in _ARRAY_REF.findall(expr):
+            if name in self.vec_arrays:
+                return True
+            if name not in self.scalar_arrays:
+                raise Unsupported(f"reads array {name}[] (not a state, input, scratch or parameter)")
+        return any(t in self.vtemps for t in _TEMP.findall(expr))
+
+    def expression(self, expr):
+        """``expr`` with calls on vectors turned into the lane helpers; (text, is_vector)."""
+        return self._calls(expr), self.is_vector(expr)
+
+    def _calls(self, expr):
+        out, i = [], 0
+        while True:
+            m = _CALL.search(expr, i)
+            if m is None:
+                out.append(expr[i:])
+                return "".join(out)
+            out.append(expr[i:m.start()])
+            name, j, depth, start, args = m.group(1), m.end(), 1, m.end(), []
+            while depth:
+                if j >= len(expr):
+                    raise Unsupported(f"unbalanced parentheses in {expr!r}")
+                ch = expr[j]
+                if ch == "(":
+                    depth += 1
+                elif ch == ")":
+                    depth -= 1
+                    if depth == 0:
+                        args.append(expr[start:j])
+                elif ch == "," and depth == 1:
+                    args.append(expr[start:j])
+                    start = j + 1
+                j += 1
+            vec = [self.is_vector(a) for a in args]
+            new = [self._calls(a) for a in args]
+            if not any(vec):
+                out.append(f"{name}({','.join(new)})")
+            elif name in ("sin", "cos") and len(args) == 1:
+                self.used.add("trig")
+                out.append(f"{self.prefix}_v{name}({new[0]})")
+            elif (name in MATH1 and len(args) == 1) or (name in MATH2 and len(args) == 2):
+                self.used.add(name)
+                wrapped = [a if v else f"{self.prefix}_vset({a.strip()})" for a, v in zip(new, vec)]
+                if len(wrapped) > 1:
+                    self.used.add("vset")
+                out.append(f"{self.prefix}_v_{name}({','.join(wrapped)})")
+            else:
+                raise Unsupported(f"calls {name}() on a state-dependent value")
+            i = j
+
+    def temp(self, indent, name, expr):
+        text, vec = self.expression(expr)
+        if vec:
+            self.vtemps.add(name)
+            return f"{indent}const eomc_vd {name} = {text};"
+        return f"{indent}const double {name} = {text};"
+
+    def store(self, indent, array, index, expr):
+        if array not in self.vec_arrays:
+            raise Unsupported(f"stores into {array}[]")
+        text, vec = self.expression(expr)
+        if not vec:
+            self.used.add("vset")
+            text = f"{self.prefix}_vset({text})"
+        return f"{indent}{array}[{index}] = {text};"
+
+    def lanes(self, expr):
+        """``expr`` read at lane ``l_``: vector temporaries and vector arrays subscripted."""
+        expr = _TEMP.sub(lambda m: f"{m.group(0)}[l_]" if m.group(0) in self.vtemps else m.group(0), expr)
+        return re.sub(r"\b([A-Za-z_]\w*)\[(\d+)\]",
+                      lambda m: f"{m.group(0)}[l_]" if m.group(1) in self.vec_arrays else m.group(0), expr)
+
+
+def _statement(rw, line, parts_renamed):
+    """One line of a function body, rewritten; raises Unsupported on an unknown shape."""
+    if not line.strip():
+        return line
+    m = _TEMP_LINE.match(line)
+    if m:
+        return rw.temp(*m.groups())
+    m = _STORE_LINE.match(line)
+    if m:
+        return rw.store(*m.groups())
+    if line.strip() in ("(void)t;", "(void)work;"):
+        return line if line.strip() == "(void)t;" else None
+    m = _SCRATCH_DECL.match(line)
+    if m:
+        rw.vec_arrays.add(m.group(2))
+        return f"{m.group(1)}eomc_vd {m.group(2)}[{m.group(3)}];"
+    m = _CALL_LINE.match(line)
+    if m and m.group(2) in parts_renamed:
+        return f"{m.group(1)}{parts_renamed[m.group(2)]}({m.group(3)});"
+    m = _GUARD_LINE.match(line)
+    if m:
+        indent, cond, code = m.groups()
+        rw.is_vector(cond)   # refuses unknown arrays
+        if _CALL.search(cond):
+            raise Unsupported(f"a guard with a call: {line.strip()}")
+        return (f"{indent}for (l_ = 0; l_ < EOMC_BATCH_LANES; l_++) {{\n"
+                f"{indent}    if (st[l_] == EOMC_OK && ({rw.lanes(cond)})) st[l_] = {code};\n"
+                f"{indent}}}")
+    if _FINITE_RETURN.match(line):
+        return None      # the block checks each lane's outputs
+    if "/* one state's A at a time */" in line:
+        return line      # _per_lane_solve's loop
+    raise Unsupported(f"statement {line.strip()[:80]!r}")
+
+
+def _param_list(params, rw):
+    out = []
+    for param in params.split(", "):
+        if param in ("void", "double t"):
+            out.append(param)
+            continue
+        m = re.fullmatch(r"(const )?double \*([A-Za-z_]\w*)", param)
+        if not m:
+            raise Unsupported(f"parameter {param!r}")
+        const, name = m.groups()
+        if name == "p":
+            out.append(param)
+        elif name in ("x", "r", "F", "w") or name.startswith("S"):
+            rw.vec_arrays.add(name)
+            out.append(f"{const or ''}eomc_vd *{name}")
+        else:
+            raise Unsupported(f"parameter {param!r}")
+    return ", ".join(out)
+
+
+def _functions(text):
+    """The static functions of a C text (the dynamics helper and its parts), one string each."""
+    out, cur = [], []
+    for line in text.rstrip("\n").split("\n"):
+        if not cur and not line.strip():
+            continue
+        cur.append(line)
+        if line == "}":
+            out.append("\n".join(cur))
+            cur = []
+    if any(line.strip() for line in cur):
+        raise Unsupported("dynamics helper text")
+    return out
+
+
+_FACTOR_LINE = re.compile(r"^(\s+)status = ([A-Za-z_]\w*\(F(?:, piv)?\));$")
+_SOLVE_LINE = re.compile(r"^(\s+)([A-Za-z_]\w*\(F, (?:piv, )?w\));$")
+
+
+def _per_lane_solve(lines, sizes):
+    """Kane's `status = factor(F); if (status != EOMC_OK) return status; solve(F, w);` as one
+    loop over lanes: each state's A (its lane of F) factored and solved by the scalar solver
+    (its pivoting and singularity test per state)."""
+    out, i = [], 0
+    while i < len(lines):
+        m = _FACTOR_LINE.match(lines[i])
+        if m and i + 2 < len(lines) and lines[i + 1].strip() == "if (status != EOMC_OK) return status;" \
+                and _SOLVE_LINE.match(lines[i + 2]):
+            ind, factor = m.groups()
+            solve = _SOLVE_LINE.match(lines[i + 2]).group(2)
+            nf, nw = sizes["F"], sizes["w"]
+            piv = f"{ind}        int piv[{sizes['piv']}];\n" if "piv" in factor else ""
+            out.append(
+                f"{ind}for (l_ = 0; l_ < EOMC_BATCH_LANES; l_++) {{   /* one state's A at a time */\n"
+                f"{ind}    double Fl_[{nf}], wl_[{nw}];\n"
+                f"{ind}    int k_;\n"
+                f"{ind}    if (st[l_] != EOMC_OK) continue;\n"
+                f"{ind}    for (k_ = 0; k_ < {nf}; k_++) Fl_[k_] = F[k_][l_];\n"
+                f"{ind}    for (k_ = 0; k_ < {nw}; k_++) wl_[k_] = w[k_][l_];\n"
+                f"{ind}    {{\n{piv}"
+                f"{ind}        const int s_ = {_lane_args(factor)};\n"
+                f"{ind}        if (s_ != EOMC_OK) {{\n"
+                f"{ind}            st[l_] = s_;\n"
+                f"{ind}            continue;\n"
+                f"{ind}        }}\n"
+                f"{ind}        {_lane_args(solve)};\n"
+                f"{ind}    }}\n"
+                f"{ind}    for (k_ = 0; k_ < {nw}; k_++) w[k_][l_] = wl_[k_];\n"
+                f"{ind}}}")
+            i += 3
+            continue
+        out.append(lines[i])
+        i += 1
+    return out
+
+
+def _lane_args(call):
+    return re.sub(r"\bF\b", "Fl_", re.sub(r"\bw\b", "wl_", call))
+
+
+def batch_rhs(name, lines, parts, dynamics=""):
+    """(C code of the lane functions, helper names used) for the scalar rhs whose body is
+    ``lines`` and whose sub-functions are ``parts`` (split_body's output); ``dynamics``: the
+    text of Kane's NAME_dynamics helper (and its parts), which the rhs calls.
+
+    The code defines ``static EOMC_VTARGET void NAME_rhs_lanes(double t, const eomc_vd *x,
+    const double *p, const eomc_vd *r, eomc_vd *xdot, int *st)``; raises :class:`Unsupported`
+    when a line is of a shape the rewrite does not know."""
+    used = set()
+    renamed = {}
+    out_parts = []
+    if any(re.search(rf"\b{name}_dynamics\(", line) for line in lines):
+        for fn in _functions(dynamics):
+            head = fn.split("\n", 1)[0]
+            m = re.match(r"^static void ([A-Za-z_]\w*)\((.*)\)$", head)
+            if m:          # the helper itself: a part in all but its name
+                parts = list(parts) + [fn.replace(head, f"static EOMC_NOINLINE void {m.group(1)}({m.group(2)})", 1)]
+            else:
+                parts = list(parts) + [fn]
+        sizes = {}
+        for line in lines:
+            m = re.match(r"^\s+(?:double|int) (F|w|piv)\[(\d+)\];$", line)
+            if m:
+                sizes[m.group(1)] = int(m.group(2))
+        lines = [line for line in lines if line.strip() not in ("int status;",)
+                 and not re.match(r"^\s+int piv\[\d+\];$", line)]
+        lines = _per_lane_solve(lines, sizes)
+    for part in parts:
+        head, *body = part.rstrip("\n").split("\n")
+        m = _PART_HEAD.match(head)
+        if not m or body[0] != "{" or body[-1] != "}":
+            raise Unsupported(f"sub-function {head[:60]!r}")
+        old = m.group(1)
+        new = (old.replace("_rhs_part", "_rhs_batch_part", 1) if "_rhs_part" in old else
+               old.replace("_dynamics", "_batch_dynamics", 1))
+        renamed[old] = new
+        rw = _Rewriter(name, (), ("p",), used)
+        params = _param_list(m.group(2), rw)
+        stmts = [_statement(rw, line, renamed) for line in body[1:-1]]
+        out_parts.append("\n".join([f"static EOMC_NOINLINE EOMC_VTARGET void {new}({params})", "{"]
+                                   + [s for s in stmts if s is not None] + ["}"]))
+    rw = _Rewriter(name, ("x", "r", "xdot"), ("p",), used)
+    stmts = [_statement(rw, line, renamed) for line in lines]
+    guard = any("l_" in (s or "") for s in stmts)
+    if any("/* one state's A at a time */" in (s or "") for s in stmts):
+        rw.vec_arrays |= {"F", "w"}
+    body = ["    int l_;"] if guard else []
+    body += [s for s in stmts if s is not None]
+    text = "\n".join(body)
+    body = [f"    (void){a};" for a in ("t", "x", "p", "r", "st") if not re.search(rf"\b{a}\b", text)] + body
+    lanes = "\n".join([f"static EOMC_VTARGET void {name}_rhs_lanes(double t, const eomc_vd *x, const double *p, "
+                       f"const eomc_vd *r, eomc_vd *xdot, int *st)", "{"] + body + ["}"])
+    return "\n\n".join(out_parts + [lanes]), used
+
+
+def helpers(name, used):
+    """The static helper functions the lane code calls (vset, sin/cos, lane-wise libm)."""
+    code = []
+    if "vset" in used or any(f in MATH2 for f in used):
+        code.append(_VSET.format(p=name))
+    if "trig" in used:
+        code.append(VECTOR_TRIG.format(p=name))
+    for f in sorted(used):
+        if f in MATH1:
+            code.append(_LANEWISE1.format(p=name, f=f))
+        elif f in MATH2:
+            code.append(_LANEWISE2.format(p=name, f=f))
+    return "\n\n".join(code)
+
+
+def batch_function(name, nx, nr, lanes_code, helper_code):
+    """(code before NAME_rhs_batch, its body): the prelude and the lane code (when there is
+    any), then the public function's body with its scalar tail and fallback."""
+    nr1 = max(nr, 1)
+    block_inputs = (f"""    for (i = 0; i < {nr}; i++) {{
+        if (R != NULL) __builtin_memcpy(&r[i], R + (size_t)i * n, sizeof(eomc_vd));
+        else for (l = 0; l < EOMC_BATCH_LANES; l++) r[i][l] = 0.0;
+    }}
+""" if nr else """    for (l = 0; l < EOMC_BATCH_LANES; l++) r[0][l] = 0.0;
+""")
+    simd = ""
+    if lanes_code is not None:
+        simd = f"""#if EOMC_BATCH_SIMD
+{helper_code + chr(10) + chr(10) if helper_code else ""}{lanes_code}
+
+static EOMC_VTARGET void {name}_rhs_block(double t, const double *X, size_t n, const double *p, const double *R,
+                                   double *XDOT, int *st)
+{{
+    eomc_vd x[{nx}], r[{nr1}], xdot[{nx}];
+    int i, l;
+{"" if nr else "    (void)R;" + chr(10)}    for (i = 0; i < {nx}; i++) __builtin_memcpy(&x[i], X + (size_t)i * n, sizeof(eomc_vd));
+{block_inputs}    for (l = 0; l < EOMC_BATCH_LANES; l++) st[l] = EOMC_OK;
+    {name}_rhs_lanes(t, x, p, r, xdot, st);
+    for (i = 0; i < {nx}; i++) {{
+        for (l = 0; l < EOMC_BATCH_LANES; l++) {{
+            if (st[l] == EOMC_OK && !isfinite(xdot[i][l])) st[l] = EOMC_NONFINITE;
+        }}
+    }}
+    for (l = 0; l < EOMC_BATCH_LANES; l++) {{   /* a lane the guard stopped gets NaN, as the scalar tail */
+        if (st[l] != EOMC_OK && st[l] != EOMC_NONFINITE) {{
+            for (i = 0; i < {nx}; i++) xdot[i][l] = NAN;
+        }}
+    }}
+    for (i = 0; i < {nx}; i++) __builtin_memcpy(XDOT + (size_t)i * n, &xdot[i], sizeof(eomc_vd));
+}}
+#endif
+"""
+    block_call = ""
+    if lanes_code is not None:
+        block_call = f"""#if EOMC_BATCH_SIMD
+    if (EOMC_VCPU_OK()) {{
+        for (; k + EOMC_BATCH_LANES <= n; k += EOMC_BATCH_LANES) {{
+            int st[EOMC_BATCH_LANES], l;
+            {name}_rhs_block(t, X + k, (size_t)n, p, R != NULL ? R + k : NULL, XDOT + k, st);
+            for (l = 0; l < EOMC_BATCH_LANES; l++) {{
+                if (status != NULL) status[k + l] = st[l];
+                if (st[l] != EOMC_OK && worst == EOMC_OK) worst = st[l];
+            }}
+        }}
+    }}
+#endif
+"""
+    tail_inputs = (f"        for (i = 0; i < {nr}; i++) rs[i] = R != NULL ? R[(size_t)i * (size_t)n + (size_t)k] : 0.0;\n"
+                   if nr else "        rs[0] = 0.0;\n")
+    body = f"""    double xs[{nx}], rs[{nr1}], xd[{nx}];
+    int k = 0, i, s, worst = EOMC_OK;
+{"" if nr else "    (void)R;" + chr(10)}    if (n < 0 || X == NULL || XDOT == NULL) return EOMC_BAD_ARGUMENT;
+{block_call}    for (; k < n; k++) {{
+        for (i = 0; i < {nx}; i++) xs[i] = X[(size_t)i * (size_t)n + (size_t)k];
+{tail_inputs}        s = {name}_rhs(t, xs, p, rs, xd, work);
+        for (i = 0; i < {nx}; i++) XDOT[(size_t)i * (size_t)n + (size_t)k] = s == EOMC_OK || s == EOMC_NONFINITE ? xd[i] : NAN;
+        if (status != NULL) status[k] = s;
+        if (s != EOMC_OK && worst == EOMC_OK) worst = s;
+    }}
+    return worst;"""
+    return SIMD_PRELUDE + ("\n" + simd.rstrip("\n") if simd else ""), body
+
+
+def batch_code(name, nx, nr, printed, dynamics=""):
+    """(code before NAME_rhs_batch, its body, metadata) from the scalar rhs's (lines, parts).
+
+    The metadata says whether the lanes are vectorized and, when they are not, why (the
+    statement the rewrite does not know): the function then loops the scalar rhs."""
+    lines, parts = printed
+    try:
+        lanes, used = batch_rhs(name, lines, parts, dynamics)
+    except Unsupported as exc:
+        before, body = batch_function(name, nx, nr, None, "")
+        return before, body, {"vectorized": False, "why": f"the scalar rhs {exc}", "layout": "nx x n"}
+    before, body = batch_function(name, nx, nr, lanes, helpers(name, used))
+    return before, body, {"vectorized": True, "layout": "nx x n",
+                          "sin_cos": "vectorized fdlibm kernels, within 1 ulp of libm" if "trig" in used else None}
