@@ -84,8 +84,11 @@ def eomc_drop(path, T, cache, pairs=None, rest_qpos=None):
     from eomc.compiler.mjcf.compare import to_mujoco
     from eomc.compiler.mjcf.model import load_mjmodel
     from eomc.compiler.mjcf.treeir import tree_ir
+    # with the events function, as eomc.compile builds by default: the contacts' touch-downs are
+    # the switching functions that end radau's steps at the onset; without it a grown free-fall
+    # step carried half_cheetah's foot 80 mm into the floor (and the damping held it there)
     model = eomc.compile(MjcfModel(Path(path), pairs=pairs) if pairs else str(path),
-                         functions=("rhs", "outputs", "jac_x"), cache_dir=cache, progress=False)
+                         functions=("rhs", "outputs", "jac_x", "events"), cache_dir=cache, progress=False)
     t0, c0 = time.perf_counter(), time.process_time()
     res = model.simulate(model.initial_state, (0.0, T), method="radau", n_points=int(T * 2000) + 1)
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
