@@ -18,7 +18,7 @@ setup(
     ext_modules=[
         Extension(
             "eomc.runtime._eomc_integrators",
-            sources=["runtime/c/eomc_integrators.c", "runtime/c/eomc_fixedstep.c",
+            sources=["runtime/c/eomc_integrators.c", "runtime/c/eomc_fixedstep.c", "runtime/c/eomc_bdf.c",
                      "runtime/c/eomc_sensitivity.c", "runtime/c/eomc_rollout.c",
                      "runtime/c/eomc_adjoint.c"],
             include_dirs=["runtime/c"],

@@ -1,4 +1,4 @@
-"""Work-precision through contact, 1 s: eomc's default (method="auto") and Radau against scipy's
+"""Work-precision through contact, 1 s: eomc's default (method="auto"), Radau and BDF against scipy's
 LSODA and BDF on eomc's own compiled rhs and jac_x.
 
     python benchmarks/bench_contact_wp.py [--models solo12,hopper,ant] [--tols 1e-2,...,1e-8]
@@ -101,6 +101,7 @@ def main():
 
             contestants = {"eomc auto (default)": lambda: eomc_run("auto"),
                            "eomc radau": lambda: eomc_run("radau"),
+                           "eomc bdf": lambda: eomc_run("bdf"),
                            "scipy LSODA": lambda: scipy_run("LSODA"),
                            "scipy BDF": lambda: scipy_run("BDF")}
             times = {k: [] for k in contestants}

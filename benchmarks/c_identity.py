@@ -69,6 +69,15 @@ def _ground_robot(rel):
     return UrdfModel(robot_path(rel), floating_base=True, limits=False, ground=True)
 
 
+def _test_attribute(relative, name):
+    """A model text a test writes (tests/<relative>), taken from the test module itself."""
+    import importlib.util
+    spec = importlib.util.spec_from_file_location(f"_c_identity_{Path(relative).stem}", ROOT / "tests" / relative)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return getattr(module, name)
+
+
 def cases(directory):
     """name -> function returning (model, keyword arguments of eomc.compiler.driver.generate)."""
     import eomc.mechanics as me
@@ -134,6 +143,29 @@ def cases(directory):
     out["arm_tool0:ground"] = lambda: (_colliding_arm(directory), {"frames": ["tool0"]})
     out["robot:solo12:ground"] = lambda: (_ground_robot("solo12"), {"functions": ("rhs", "outputs", "events")})
 
+    # every row of the table of joint kinds (multibody/joint_kinds.py) from both readers: the
+    # tests' small models (MJCF slide, hinges with ref and anchor, ball, free, a weld; URDF planar,
+    # continuous, prismatic, revolute, fixed), body XYZ angles and quaternions
+    def small_mjcf(orientation):
+        def make():
+            from eomc.compiler.mjcf.model import MjcfModel
+            path = Path(directory) / "small.xml"
+            path.write_text(_test_attribute("compiler/mjcf/test_mjcf.py", "SMALL"))
+            return MjcfModel(path, orientation=orientation), {}
+        return make
+    out["joints:mjcf_small"] = small_mjcf("euler")
+    out["joints:mjcf_small:quaternion"] = small_mjcf("quaternion")
+
+    def urdf_zoo(**kw):
+        def make():
+            path = Path(directory) / "zoo.urdf"
+            path.write_text(_test_attribute("compiler/urdf/test_joint_types.py", "ROBOT"))
+            return str(path), kw
+        return make
+    out["joints:urdf_zoo"] = urdf_zoo()
+    out["joints:urdf_zoo:recursive"] = urdf_zoo(formulation="recursive")
+    out["robot:solo12:quaternion"] = robot("solo12", "quaternion")
+
     def gym(asset):
         def make():
             import gymnasium
@@ -164,7 +196,8 @@ def run_case(make, directory=""):
     metadata = json.dumps(generated.metadata, sort_keys=True, default=str)
     if directory:     # a message naming a file written to this run's temporary folder
         metadata = metadata.replace(str(directory), "<tmp>")
-    notes = sorted({str(w.message) for w in caught if issubclass(w.category, EomcWarning)})
+    notes = sorted({str(w.message).replace(str(directory), "<tmp>") if directory else str(w.message)
+                    for w in caught if issubclass(w.category, EomcWarning)})
     return {"c": digest(generated.c_source), "h": digest(generated.header), "cdef": digest(generated.cdef),
             "metadata": digest(metadata), "functions": sorted(generated.metadata.get("functions", [])),
             "warnings": [digest(n)[:16] for n in notes]}

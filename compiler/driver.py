@@ -164,7 +164,7 @@ def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, f
     check_formulation(formulation)
     target = check_target(target)
     if contacts:
-        from .model.contacts import with_contact_specs
+        from .model.spec import with_contact_specs
         system = with_contact_specs(system, contacts)
     try:
         functions = check_functions(functions)

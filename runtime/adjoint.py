@@ -11,7 +11,11 @@ sum of running costs, a least-squares fit to measurements -- given as
 
 Method: fixed-step classic RK4 (the discretization is part of the model being
 differentiated, so the gradient is exact for the simulated trajectory, what central
-differences of ``simulate(method="rk4", dt=...)`` approach).  The forward run stores
+differences of ``simulate(method="rk4", dt=...)`` approach), or ``method="dop853"``:
+the adaptive DOP853 run with its steps ending on every grid time, its accepted steps
+recorded (start time and state: the checkpoints) and the discrete adjoint taken over
+those steps with their sizes held fixed (exact for that step sequence; central
+differences of whole adaptive runs approach it as the tolerance tightens).  The forward run stores
 every grid state (the checkpoints) and, up to :data:`KEEP_STAGES_MAX` doubles, every step's
 stage states; the backward run (runtime/c/eomc_adjoint.c) takes them (or recomputes a
 step's stages from its checkpoint) and pulls the adjoint through them
@@ -66,25 +70,38 @@ def _steps(t_final, dt):
     return n
 
 
-def simulate_grid(model, x0, t_final, *, dt, p=None, r=None):
-    """(t, X): the RK4 trajectory :func:`gradient` differentiates (grid states only)."""
+def simulate_grid(model, x0, t_final, *, dt, p=None, r=None, method="rk4", rtol=1e-8, atol=1e-8):
+    """(t, X): the trajectory :func:`gradient` differentiates (grid states only)."""
     a = _prepare(model, x0, t_final, dt, p, r)
+    if _method(method) == "dop853":
+        return a["t"], _forward_adaptive(model, a, rtol, atol)[0]
     X, _ = _forward(model, a)
     return a["t"], X
 
 
-def gradient(model, x0, t_final, *, dt, cost, p=None, r=None):
+def _method(method):
+    if method not in ("rk4", "dop853"):
+        raise ValueError(f"eomc.gradient: method must be 'rk4' (fixed step dt) or 'dop853' "
+                         f"(adaptive, steps ending on the grid); got {method!r}")
+    return method
+
+
+def gradient(model, x0, t_final, *, dt, cost, p=None, r=None, method="rk4", rtol=1e-8, atol=1e-8):
     """The cost of an RK4 trajectory and its gradient w.r.t. x0 and all parameters.
 
     ``x0``: initial state (array or {state name: value}); ``t_final``: a whole number of
     steps ``dt`` from t = 0; ``cost(t, X)``: t the (N + 1,) grid times, X the (N + 1, nx)
     states; returns (J, dJ/dX) with dJ/dX shaped as X.  ``p``, ``r``: parameters and
-    constant inputs as for ``simulate``.  Returns a :class:`GradientResult`.
+    constant inputs as for ``simulate``.  ``method``: "rk4" (steps dt) or "dop853" (adaptive
+    at rtol/atol, every grid time a step end; dt is then the cost's grid only).  Returns a
+    :class:`GradientResult`.
     """
     if "vjp" not in model.functions:
         raise ModelError(f"{model.name}: eomc.gradient needs the model built with 'vjp' "
                          f"(functions=[..., 'vjp'] or eomc build --outputs ...,vjp)")
     a = _prepare(model, x0, t_final, dt, p, r)
+    if _method(method) == "dop853":
+        return _gradient_adaptive(model, a, cost, rtol, atol)
     X, (ffi, lib) = _forward(model, a, keep_stages=True)
     value, G = cost(a["t"], X.copy())
     G = np.ascontiguousarray(G, dtype=np.float64)
@@ -161,3 +178,70 @@ def _forward(model, a, keep_stages=False):
         raise SimulationError(f"{model.name}: the RK4 run failed at step {k} (t = {k * a['h']:g}): "
                               f"{STATUS_NAMES.get(status, status)}")
     return X, (ffi, lib)
+
+
+def _forward_adaptive(model, a, rtol, atol):
+    """(grid states, rec_t, rec_x, nrec, boundary index of each grid time): the DOP853 run
+    with its steps ending on the grid, every accepted step's start recorded."""
+    from .integrators_api import METHOD_IDS
+    from .simulate import PI_BETA
+    ffi, lib = a["ffi"], a["lib"]
+    if not (rtol > 0 and atol > 0):
+        raise ValueError(f"{model.name}: rtol and atol must be positive; got {rtol!r}, {atol!r}")
+    method = METHOD_IDS["dop853"]
+    buf = lambda arr: ffi.from_buffer("double[]", arr)  # noqa: E731
+    t = a["t"]
+    tstop = np.ascontiguousarray(t[1:])
+    opt = ffi.new("eomc_options *")
+    opt.method, opt.rtol, opt.atol, opt.max_steps = method, float(rtol), float(atol), 1_000_000
+    opt.stiff_check, opt.pi_beta = 1, PI_BETA
+    work = np.empty(int(model.integrators.eomc_integrate_work_size(model.c_model, method)))
+    x0 = np.ascontiguousarray(a["x0"], dtype=np.float64)
+    cap = 16 * a["n"] + 1024
+    while True:
+        rec_t, rec_x = np.empty(cap + 1), np.empty((cap, model.nx))
+        nrec, x_last = ffi.new("long *"), np.empty(model.nx)
+        stats = ffi.new("eomc_stats *")
+        status = lib.eomc_adjoint_erk_forward(model.c_model, opt, 0.0, float(t[-1]), buf(x0),
+                                              buf(a["p"]), a["rptr"], tstop.size, buf(tstop), cap,
+                                              buf(rec_t), buf(rec_x), nrec, buf(x_last), stats,
+                                              buf(work), work.size)
+        if status:
+            raise SimulationError(f"{model.name}: the DOP853 run failed at t = {stats.t:g}: "
+                                  f"{STATUS_NAMES.get(status, status)}")
+        if nrec[0] <= cap:
+            break
+        cap = int(nrec[0]) + 16
+    n = int(nrec[0])
+    rec_t = rec_t[:n + 1]
+    idx = np.searchsorted(rec_t, t)
+    if np.any(idx > n) or not np.array_equal(rec_t[idx], t):
+        raise SimulationError(f"{model.name}: the DOP853 run did not step onto every grid time")
+    X = np.vstack([rec_x[:n], x_last[None, :]])[idx]
+    return X, rec_t, rec_x[:n], n, idx
+
+
+def _gradient_adaptive(model, a, cost, rtol, atol):
+    ffi, lib = a["ffi"], a["lib"]
+    X, rec_t, rec_x, n, idx = _forward_adaptive(model, a, rtol, atol)
+    value, G = cost(a["t"], X.copy())
+    G = np.ascontiguousarray(G, dtype=np.float64)
+    if G.shape != X.shape:
+        raise ValueError(f"{model.name}: cost must return (J, dJ/dX) with dJ/dX shaped as X "
+                         f"{X.shape} (grid points x states); got shape {G.shape}")
+    if not np.all(np.isfinite(G)) or not np.isfinite(value):
+        raise ValueError(f"{model.name}: cost returned a non-finite value or gradient")
+    Gb = np.zeros((n + 1, model.nx))
+    Gb[idx] = G
+    buf = lambda arr: ffi.from_buffer("double[]", arr)  # noqa: E731
+    work = np.empty(int(lib.eomc_adjoint_erk_work_size(model.nx, model.nparam)) + max(model.work_size, 1))
+    lam0, gp = np.empty(model.nx), np.empty(max(model.nparam, 1))
+    rec_x = np.ascontiguousarray(rec_x)
+    vjp = getattr(model.model_lib, f"{model.name}_vjp")
+    status = lib.eomc_adjoint_erk_backward(model.c_model, vjp, n, buf(rec_t), buf(rec_x) if n else ffi.NULL,
+                                           buf(a["p"]), a["rptr"], buf(Gb), buf(lam0), buf(gp), buf(work))
+    if status:
+        raise SimulationError(f"{model.name}: the adjoint (backward) run failed: "
+                              f"{STATUS_NAMES.get(status, status)}")
+    return GradientResult(float(value), lam0, gp[:model.nparam].copy(), a["t"], X,
+                          tuple(model.param_names), tuple(model.state_names))

@@ -28,6 +28,7 @@ STATUS_NAMES = {
     7: "the problem looks stiff for an explicit method",
     8: "the function was not generated for this model",
     9: "the run was stopped: an input callable failed, or it was interrupted",
+    10: "a contact went deeper into the ground than its limit",
 }
 STATUS_SINGULAR_MASS_MATRIX = 1   # EOMC_SINGULAR_MASS_MATRIX
 STATUS_ABORTED = 9                # EOMC_ABORTED: a callback failed or Ctrl-C; the run stops at once

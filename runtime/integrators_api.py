@@ -13,10 +13,11 @@ __all__ = ["INTEGRATOR_CDEF", "METHOD_IDS", "METHOD_ALIASES", "FIXED_STEP", "STA
 INTEGRATOR_CDEF = header_cdef("eomc_integrators.h")
 
 # Canonical method name -> EOMC_* number in eomc_integrators.h.
-METHOD_IDS = {"rk4": 0, "dopri5": 1, "dop853": 2, "radau": 3, "implicitfast": 4}
+METHOD_IDS = {"rk4": 0, "dopri5": 1, "dop853": 2, "radau": 3, "implicitfast": 4, "bdf": 5}
 # Other accepted spellings.
 METHOD_ALIASES = {"rk45": "dopri5", "radau5": "radau", "radauiia": "radau",
-                  "implicit": "implicitfast", "implicitfixed": "implicitfast"}
+                  "implicit": "implicitfast", "implicitfixed": "implicitfast",
+                  "ndf": "bdf", "ode15s": "bdf"}
 # Fixed-step methods: they take dt= and write every step unless given t_eval.
 FIXED_STEP = ("rk4", "implicitfast")
 

@@ -5,9 +5,13 @@ optimal control) needs the derivative of the simulated states with respect
 to the initial state and the parameters.  Finite differences of whole
 simulations cost 2 runs per column and lose half the digits; the variational
 equations S' = jac_x S + jac_p (S = dx/dtheta) give them to the integrator's
-tolerance in one run.  The integration itself is eomc_sensitivity.c: an
-augmented model [x; S] handed to the unchanged C integrators (simultaneous
-approach; error control covers S too).
+tolerance in one run.  The integration itself is eomc_sensitivity.c.  By
+default S does not steer the steps (the run takes the plain run's steps):
+explicit methods carry the augmented state [x; S] through their stages with
+the error test on x; Radau (with jvp) is staggered direct -- after each
+accepted step S's collocation equations are solved with that step's Newton
+matrix and LU (CVODES's staggered method).  ``error_control=True`` makes the
+step control watch S as well (the simultaneous approach; more steps).
 
 ``simulate(..., sensitivities=...)`` (runtime/simulate.py) checks the request
 here (:func:`check_request`), prepares its arguments as always and makes the
@@ -126,11 +130,14 @@ def use_jvp(model, jvp=None):
 PREFER_JVP = True
 
 
-def run(model, a, xs, ps, stat_fields, jvp=None):
+def run(model, a, xs, ps, stat_fields, jvp=None, error_control=False):
     """One C call for prepared arguments ``a`` (runtime/simulate.prepare, events off).
 
     Returns (x rows, stats dict, x_last, S) with S (n_eval, nx, k): the columns for
-    ``xs`` then ``ps``.  ``jvp``: see :func:`use_jvp`.
+    ``xs`` then ``ps``.  ``jvp``: see :func:`use_jvp`.  ``error_control``: the step
+    control watches S too (else the steps are the plain run's).  The stats gain
+    ``njvp`` / ``sens_iterations`` / ``sens_slow`` (Radau's staggered iteration: jvp
+    calls, iterations, steps whose iteration had not converged; 0 elsewhere).
     """
     ffi, lib = _sens_ffi(model.ffi)
     nx, k = model.nx, len(xs) + len(ps)
@@ -148,6 +155,7 @@ def run(model, a, xs, ps, stat_fields, jvp=None):
                                 ffi.from_buffer("int[]", pcols), buf(scratch))
     if status:
         raise ModelError(f"{model.name}: could not set up the sensitivities (status {status})")
+    lib.eomc_sens_error_control(s, int(bool(error_control)))
     N = int(lib.eomc_sens_nstates(s))
     X0 = np.empty(N)
     lib.eomc_sens_start(s, buf(a["x0"]), buf(X0))
@@ -171,6 +179,9 @@ def run(model, a, xs, ps, stat_fields, jvp=None):
                             n_eval, buf(a["t_eval"]), buf(X_out), buf(X_last), stats, buf(work),
                             work.size)
     st = {f: getattr(stats, f) for f in stat_fields}
+    counts = np.zeros(3, dtype=np.int64)
+    lib.eomc_sens_counts(s, ffi.cast("long *", ffi.from_buffer(counts)))
+    st.update(njvp=int(counts[0]), sens_iterations=int(counts[1]), sens_slow=int(counts[2]))
     S = X_out[:, nx:].reshape(n_eval, k, nx).transpose(0, 2, 1)
     return np.ascontiguousarray(X_out[:, :nx]), st, X_last[:nx].copy(), S
 

@@ -317,7 +317,7 @@ def prepare(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6,
                          f"constraints_jac; this model has none")
     if model.c_model.rhs == model.ffi.NULL:
         raise model._missing("rhs")  # every method integrates rhs
-    if ((method == "radau" or (method == "implicitfast" and "implicit" not in getattr(model, "functions", ())))
+    if ((method in ("radau", "bdf") or (method == "implicitfast" and "implicit" not in getattr(model, "functions", ())))
             and model.c_model.jac_x == model.ffi.NULL):
         raise ValueError(f"{model.name}: method {method!r} needs the Jacobian jac_x, which this model "
                          f"was built without; rebuild with functions including 'jac_x'")
@@ -391,7 +391,7 @@ def _extras(model, x0, t0, r, events, max_events, K, x_ref, method):
         if x_ref is not None and not isinstance(x_ref, dict):
             x_ref = _real_array(x_ref, f"{model.name}: x_ref")
         FeedbackBinding(model, K, x_ref)                        # checks the shapes
-        if method in ("radau", "implicitfast") and model.c_model.jac_r == model.ffi.NULL:
+        if method in ("radau", "bdf", "implicitfast") and model.c_model.jac_r == model.ffi.NULL:
             raise ValueError(f"{model.name}: method {method!r} with feedback K needs jac_r")
         out["K"], out["x_ref"] = K, x_ref
     return out
@@ -444,6 +444,82 @@ def implicit_terms(model):
     return found[0]
 
 
+# implicitfast's fast path fails a run (EOMC_PENETRATED, status 10) whose contact goes deeper
+# than its radius (the sphere's centre reaches the ground: the contact geometry no longer holds,
+# whatever the law computes), or than POINT_DEPTH_FAIL for a point contact.  The warning at half
+# the radius (switching.PENETRATION_FRACTION) stays the verdict of every method.
+POINT_DEPTH_FAIL = 0.05     # m
+PENETRATED_STATUS = 10      # EOMC_PENETRATED
+# The fast path splits a step whose linearisation misses implicit Euler by more than this
+# (eomc_implicit.split; runtime/c/eomc_fixedstep.c says how it was chosen).  0 turns the test
+# off: one model call per step, MuJoCo's implicitfast (a["split"] = 0: what benchmarks
+# measure as "unchecked").
+IMPLICITFAST_SPLIT = 0.5
+
+
+def depth_limits(model, p):
+    """(ncontact,) the depth at which each contact of NAME_implicit fails the run, from the
+    run's parameters (its radius r_<contact>)."""
+    info = model.metadata["implicit"]
+    index = {n: i for i, n in enumerate(model.param_names)}
+    out = []
+    for c in info["contacts"]:
+        i = index.get(f"r_{c.get('name')}")
+        r = float(p[i]) if i is not None else 0.0
+        out.append(r if r > 0 else POINT_DEPTH_FAIL)
+    return np.array(out, dtype=np.float64)
+
+
+def implicit_for_run(model, p, split=IMPLICITFAST_SPLIT):
+    """``implicit_terms(model)`` with the depth limits of parameters ``p`` and the residual
+    test's ``split``: (struct, keep-alive), or (None, None) when the model has no fast path."""
+    base = implicit_terms(model)
+    if base is None:
+        return None, None
+    ffi = model.ffi
+    lim = ffi.new("double[]", depth_limits(model, p).tolist() or [0.0])
+    st = ffi.new("eomc_implicit *")
+    st.terms, st.ncontact, st.chain_start, st.chain = base.terms, base.ncontact, base.chain_start, base.chain
+    st.parent, st.work_len, st.depth_limit, st.split = base.parent, base.work_len, lim, float(split)
+    return st, (st, lim, base)     # the caller keeps the second alive while C runs
+
+
+def penetration_message(model, x_last, p):
+    """The contacts of a run that failed EOMC_PENETRATED, deepest first, with their limits."""
+    try:
+        deep = deepest_contacts(model, x_last, p)
+    except Exception:       # noqa: BLE001 -- the message must not hide the failure
+        return ""
+    if not deep:
+        return ""
+    return "; " + "; ".join(f"contact {n} went {d * 1e3:.2f} mm into the ground, deeper than its limit "
+                            f"{lim * 1e3:.2f} mm (its radius: the sphere's centre reached the ground)"
+                            for n, d, lim in deep[:4]) + (
+        f" -- the contact is far too soft for the load (raise k_{deep[0][0]}) or the step too long for it "
+        f"(lower dt)")
+
+
+def deepest_contacts(model, x, p):
+    """[(name, depth, limit)] of the contacts deeper than their limit at state x, deepest first."""
+    info = model.metadata["implicit"]
+    layout = info["layout"]
+    ffi = model.ffi
+    fp = ffi.addressof(model.model_lib, f"{model.name}_implicit")
+    out = np.zeros(layout["size"])
+    work = np.zeros(max(model.work_size, 1) + 1)
+    x = np.ascontiguousarray(x, dtype=np.float64)
+    pp = np.ascontiguousarray(np.append(np.asarray(p, dtype=np.float64), 0.0))
+    r = np.zeros(max(model.ninput, 1))
+    if fp(0.0, ffi.from_buffer("double[]", x), ffi.from_buffer("double[]", pp),
+          ffi.from_buffer("double[]", r) if model.ninput else ffi.NULL,
+          ffi.from_buffer("double[]", out), ffi.from_buffer("double[]", work)) != 0:
+        return []
+    lims = depth_limits(model, p)
+    found = [(c.get("name"), float(out[layout["contact"] + 25 * k]), float(lims[k]))
+             for k, c in enumerate(info["contacts"])]
+    return sorted([f for f in found if f[1] > f[2]], key=lambda f: -f[1])
+
+
 def bind_call(model, a, out=None):
     """(call, x_out, x_last, stats): ``call()`` makes the integrator's C call for prepared args ``a``.
 
@@ -456,7 +532,9 @@ def bind_call(model, a, out=None):
     x_out = np.full((n_eval, model.nx), np.nan) if out is None else out
     x_last = np.empty(model.nx)
     feedback = "r_fun" in a or "K" in a or "r_slopes" in a
-    implicit = implicit_terms(model) if a["method"] == "implicitfast" and a.get("fast", True) else None
+    implicit = None
+    if a["method"] == "implicitfast" and a.get("fast", True):
+        implicit, a["_implicit_keep"] = implicit_for_run(model, a["p"], a.get("split", IMPLICITFAST_SPLIT))
     work = np.empty(lib.eomc_integrate_work_size(model.c_model, METHOD_IDS[a["method"]])
                     + (model.ninput * model.nx if feedback else 0)
                     + (implicit.work_len if implicit is not None else 0))
@@ -465,7 +543,8 @@ def bind_call(model, a, out=None):
             buf(a["r_t"]), buf(a["r_v"]))
     tail = (n_eval, buf(a["t_eval"]), buf(x_out), buf(x_last), stats, buf(work), work.size)
     if not feedback and "events" not in a and "switches" not in a:
-        return (lambda: lib.eomc_integrate(*head, *tail)), x_out, x_last, stats
+        keep = a.get("_implicit_keep")      # the fast path's struct: alive as long as the call
+        return (lambda keep=keep: lib.eomc_integrate(*head, *tail)), x_out, x_last, stats
     fb = (FeedbackBinding(model, a.get("K"), a.get("x_ref"), a.get("r_fun"), a.get("r_slopes"))
           if feedback else None)
     source, chosen = a.get("events", (None, []))
@@ -475,7 +554,7 @@ def bind_call(model, a, out=None):
     a["_bindings"] = (fb, ev)       # finish() reads the events and any callable's exception
     extras = (fb.struct if fb else ffi.NULL, ev.struct if ev else ffi.NULL)
 
-    def call(bindings=(fb, ev)):      # the call keeps the buffers its structs point to alive
+    def call(bindings=(fb, ev, a.get("_implicit_keep"))):   # keeps what its structs point to alive
         return lib.eomc_integrate_ex(*head, *extras, *tail)
     return call, x_out, x_last, stats
 
@@ -623,6 +702,8 @@ def failure_message(model, method, stats, x_last, p=None):
     elif status == 5:
         msg += f" (h={stats['h']:.3g}); the solution may blow up or be discontinuous here"
     why = singular_direction(model, stats["t_fail"], x_last, p) if status == SINGULAR_STATUS else ""
+    if status == PENETRATED_STATUS and p is not None:
+        why = penetration_message(model, x_last, p)
     return f"{msg}; state {state}{why}"
 
 
@@ -630,7 +711,8 @@ def simulate(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6
              t_eval=None, dt=None, max_steps=100000, first_step=None, max_step=None,
              project=False, stiff_check=True, n_points=None, baumgarte=0.0,
              pi_beta=PI_BETA, raise_on_failure=True, events=None, max_events=DEFAULT_MAX_EVENTS,
-             K=None, x_ref=None, consistent=None, sensitivities=False, switching=True):
+             K=None, x_ref=None, consistent=None, sensitivities=False, switching=True,
+             sensitivity_errors=False):
     """Integrate ``model`` from ``x0`` over ``t_span``; returns a SimulationResult.
 
     x0/p: arrays or {name: value} dicts (missing names -> the model's initial_state (0 without
@@ -640,8 +722,10 @@ def simulate(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6
     method: "auto" (the default: DOP853 while the problem is not stiff, Radau from the
     start for a model with ground contacts, and Radau from wherever DOP853 detects
     stiffness -- the run continues, LSODA-like), rk4 (needs dt), dopri5/rk45, dop853,
-    radau, implicitfast (needs dt and jac_x: fixed-step linearly implicit Euler for
-    stiff contact at real-time steps, first order; runtime/c/eomc_fixedstep.c).  Output at
+    radau, bdf (needs jac_x: variable-order BDF/NDF like ode15s, the cheaper implicit
+    method at loose and moderate tolerances; runtime/c/eomc_bdf.c), implicitfast (needs dt
+    and jac_x: fixed-step linearly implicit Euler for stiff contact at real-time steps,
+    first order; runtime/c/eomc_fixedstep.c).  Output at
     t_eval (dense output) or, by default, on n_points (1001) equally spaced times
     (rk4, implicitfast: their step grid).  project=True projects onto the model's constraints
     after each step; baumgarte=a > 0 instead adds -a G^+ g to the rhs, so
@@ -672,6 +756,9 @@ def simulate(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6
     sensitivities: True, "x0", "p" or a list of state/parameter names integrates the
     variational equations too (runtime/sensitivity.py; needs jac_x, and jac_p for
     parameters): result.dx_dx0 (n_t, nx, states) and result.dx_dp (n_t, nx, parameters).
+    The sensitivities ride the plain run's steps (Radau with jvp: staggered, solved with
+    each step's own Newton matrix); sensitivity_errors=True lets the step control watch
+    them too (more steps, slower; the simultaneous approach).
 
     Contacts and joint limits (runtime/switching.py): every method ends its steps at
     touch-down, lift-off and limit entry and restarts there (switching=False turns that
@@ -686,7 +773,7 @@ def simulate(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6
                                        stiff_check=stiff_check, n_points=n_points, baumgarte=baumgarte,
                                        pi_beta=pi_beta, raise_on_failure=raise_on_failure,
                                        events=events, max_events=max_events, K=K, x_ref=x_ref,
-                                       consistent=consistent)
+                                       consistent=consistent, sensitivity_errors=sensitivity_errors)
     if consistent or (not project and not baumgarte and model.nhol + model.nvel):
         x0 = checked_start(model, x0, t_span, p, r, atol, consistent)
     a = prepare(model, x0, t_span, p=p, r=r, method=method, rtol=rtol, atol=atol, t_eval=t_eval,
@@ -707,7 +794,7 @@ def simulate(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6
 def _simulate_sensitivities(model, x0, t_span, sensitivities, p, r, method, rtol, atol, t_eval, dt,
                             max_steps, first_step, max_step, project, stiff_check, n_points,
                             baumgarte, pi_beta, raise_on_failure, events, max_events, K, x_ref,
-                            consistent):
+                            consistent, sensitivity_errors=False):
     """simulate with the variational equations (runtime/sensitivity.py)."""
     from . import sensitivity
     xs, ps = sensitivity.check_request(model, sensitivities, events, r, K, x_ref, project, baumgarte)
@@ -717,7 +804,8 @@ def _simulate_sensitivities(model, x0, t_span, sensitivities, p, r, method, rtol
                 dt=dt, max_steps=max_steps, first_step=first_step, max_step=max_step,
                 stiff_check=stiff_check, n_points=n_points, pi_beta=pi_beta, events=False,
                 max_events=max_events)
-    x_out, stats, x_last, S = sensitivity.run(model, a, xs, ps, _STAT_FIELDS)
+    x_out, stats, x_last, S = sensitivity.run(model, a, xs, ps, _STAT_FIELDS,
+                                              error_control=sensitivity_errors)
     return sensitivity.attach(model, finish(model, a, x_out, stats, x_last, raise_on_failure), S, xs, ps)
 
 

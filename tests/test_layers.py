@@ -246,3 +246,45 @@ def test_no_module_imports_another_packages_private_name():
                       if a.name.startswith("_") and not a.name.startswith("__")]
     assert sorted(set(found) - PRIVATE_IMPORTS) == []
     assert sorted(PRIVATE_IMPORTS - set(found)) == [], "fixed: remove them from PRIVATE_IMPORTS"
+
+
+# A robot format is named (in code: identifiers, imports, strings that are not docstrings) only by
+# its reader, the spec dispatch and the CLI; every other module works on the format-neutral Model.
+FORMAT_PLACES = ("compiler/urdf/", "compiler/mjcf/", "compiler/model/spec.py")
+FORMAT_NAME = ("urdf", "mjcf")
+
+
+def _format_names(path):
+    """[(line, what)] where the code of ``path`` names a robot format."""
+    import re
+    pattern = re.compile("|".join(FORMAT_NAME), re.I)
+    tree = ast.parse(path.read_text())
+    docstrings = {id(node.body[0].value) for node in ast.walk(tree)
+                  if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef))
+                  and node.body and isinstance(node.body[0], ast.Expr) and isinstance(node.body[0].value, ast.Constant)}
+    found = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Constant) and isinstance(node.value, str) and id(node) not in docstrings:
+            words = [node.value]
+        elif isinstance(node, (ast.Import, ast.ImportFrom)):
+            words = [getattr(node, "module", None) or ""] + [a.name for a in node.names]
+        else:
+            words = [getattr(node, field, None) for field in ("id", "attr", "name", "arg")]
+        found += [(node.lineno, w) for w in words if isinstance(w, str) and pattern.search(w)]
+    return found
+
+
+def test_a_format_is_named_only_by_its_reader_the_spec_dispatch_and_the_cli():
+    found = []
+    for path in sorted((ROOT / "compiler").rglob("*.py")):
+        rel = path.relative_to(ROOT).as_posix()
+        if not rel.startswith(FORMAT_PLACES):
+            found += [f"{rel}:{line}: {what}" for line, what in _format_names(path)]
+    assert found == [], "\n".join(found)
+
+
+def test_the_format_check_can_fail(tmp_path):
+    sample = tmp_path / "sample.py"
+    sample.write_text('"""Reads URDF files (a docstring may say so)."""\nfrom eomc.compiler.urdf import tree\n'
+                      'def place(urdf_tree):\n    return getattr(urdf_tree, "mjcf", None)\n')
+    assert sorted(line for line, _ in _format_names(sample)) == [2, 3, 4, 4]     # not line 1

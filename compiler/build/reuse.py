@@ -114,55 +114,16 @@ def recording():
         _READS.reset(token)
 
 
-def _mjcf_files(path, seen=None):
-    """The files an MJCF file names (includes, meshes, textures, ...), resolved as MuJoCo
-    resolves them, or None when one cannot be found (then nothing is reused)."""
-    import xml.etree.ElementTree as ET
-    seen = set() if seen is None else seen
-    path = Path(path).resolve()
-    if path in seen:
-        return []
-    seen.add(path)
-    try:
-        root = ET.parse(path).getroot()
-    except (OSError, ET.ParseError):
-        return None
-    base = path.parent
-    dirs = {"meshdir": None, "texturedir": None, "assetdir": None}
-    for compiler in root.iter("compiler"):
-        for k in dirs:
-            if compiler.get(k):
-                dirs[k] = compiler.get(k)
-    found = []
-    for element in root.iter():
-        name = element.get("file")
-        if not name:
-            continue
-        where = [dirs["meshdir"] if element.tag in ("mesh", "skin", "hfield") else
-                 dirs["texturedir"] if element.tag == "texture" else None, dirs["assetdir"], ""]
-        candidates = [base / d / name for d in where if d is not None] + [Path(name)]
-        hit = next((c for c in candidates if c.is_file()), None)
-        if hit is None:
-            return None
-        found.append(hit.resolve())
-        if element.tag == "include":
-            more = _mjcf_files(hit, seen)
-            if more is None:
-                return None
-            found += more
-    return found
-
-
 def _dependencies(root, path, reads):
     """{file: sha256} of what the build read besides ``path`` (see the module docstring), or
     None when it cannot be told."""
     outside = _outside_python(root)
     files = {Path(p) for p in reads}
-    if Path(path).suffix.lower() in (".xml", ".mjcf"):
-        named = _mjcf_files(path)
-        if named is None:
-            return None
-        files |= set(named)
+    from ..model.spec import named_files
+    named = named_files(path)
+    if named is None:
+        return None
+    files |= set(named)
     main = Path(path).resolve()
     deps = {}
     for f in sorted(files):

@@ -23,7 +23,7 @@ from .system import contact_symbols, parameter_defaults, unit_normal
 
 __all__ = ["ContactSpec", "ContactLoad", "ContactValue", "COLLISION_SPHERES", "parse_contact",
            "collision_spheres", "link_frame", "with_contacts", "contact_outputs", "body_com",
-           "LoweredLoad"]
+           "LoweredLoad", "nearest", "with_located"]
 
 # what each contact adds to the outputs (placeholders' kind index) and its event
 OUTPUT_KINDS = ("Fn", "Ftx", "Fty", "Ftz", "depth")
@@ -211,7 +211,7 @@ def with_contacts(built, contacts, collisions, placements, fold=False):
         link = spec.link
         found = link_frame(built.source, link, placements)
         if found is None:
-            raise ModelError(f"contact on link {link!r}: the robot has no such link{_nearest(link, known)} "
+            raise ModelError(f"contact on link {link!r}: the robot has no such link{nearest(link, known)} "
                              f"(links: {', '.join(known[:12])}{', ...' if len(known) > 12 else ''})")
         body_link, T = found
         if body_link == "world":
@@ -225,61 +225,18 @@ def with_contacts(built, contacts, collisions, placements, fold=False):
         source = bodies_by_key.get(body_link)
         com = getattr(source, "com", (0.0, 0.0, 0.0)) if source is not None else (0.0, 0.0, 0.0)
         return i, T[:3, :3] @ np.array(point) + T[:3, 3], com     # point in the body's first link frame
-    return _with_located(built, specs, locate, fold, "link", identifier)
+    return with_located(built, specs, locate, fold, "link", identifier)
 
 
-def _nearest(name, known):
+def nearest(name, known):
     """"; did you mean X?" for a misspelt link or body name (a contact is named before the build)."""
     import difflib
     near = difflib.get_close_matches(name, list(known), n=2, cutoff=0.6)
     return f"; did you mean {', '.join(near)}?" if near else ""
 
 
-def with_mjcf_contacts(built, m, contacts, fold=False):
-    """As :func:`with_contacts` for an MJCF model (``built``: its MjcfTree, ``m``: the compiled
-    MjModel): contacts on MuJoCo bodies, points in the body frame; ``@collision`` takes every
-    sphere geom on a body that is not the world."""
-    import mujoco
-    import numpy as np
-    from eomc.runtime.geometry import identifier
-    by_body = {b.name: i for i, b in enumerate(built.tree.bodies)}
-    names = {(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) or f"body{b}"): b for b in range(m.nbody)}
-    specs = []
-    for spec in (as_spec(c) for c in contacts):
-        if spec.link != COLLISION_SPHERES:
-            specs.append(spec)
-            continue
-        found = []
-        for g in range(m.ngeom):
-            b = int(m.geom_bodyid[g])
-            if int(m.geom_type[g]) != int(mujoco.mjtGeom.mjGEOM_SPHERE) or b == 0:
-                continue
-            body = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) or f"body{b}"
-            gname = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g)
-            found.append(ContactSpec(body, tuple(float(v) for v in m.geom_pos[g]), float(m.geom_size[g][0]),
-                                     name=identifier(gname) if gname else f"{identifier(body)}_geom{g}"))
-        if not found:
-            raise ModelError(f"contacts {COLLISION_SPHERES}: the model has no sphere geom on a moving body")
-        specs += found
-    known = sorted(n for n, b in names.items() if b != 0)
-
-    def locate(spec, point):
-        b = names.get(spec.link)
-        if b is None:
-            raise ModelError(f"contact on body {spec.link!r}: the model has no such body"
-                             f"{_nearest(spec.link, known)} (bodies: {', '.join(known[:12])}"
-                             f"{', ...' if len(known) > 12 else ''})")
-        if b == 0:
-            raise ModelError(f"contact on body {spec.link!r}: the world cannot touch the ground")
-        i = by_body.get(identifier(spec.link) if spec.link in names else spec.link)
-        if i is None:
-            raise ModelError(f"contact on body {spec.link!r}: it is not in the tree")
-        return i, np.array(point, dtype=float), tuple(float(v) for v in m.body_ipos[b])
-    return _with_located(built, specs, locate, fold, "body", identifier)
-
-
-def _with_located(built, specs, locate, fold, what, identifier):
-    """The common part: checks, parameters, ContactLoads, outputs and events.
+def with_located(built, specs, locate, fold, what, identifier):
+    """The common part of a reader's contacts: checks, parameters, ContactLoads, outputs and events.
     ``locate(spec, point)`` -> (tree body index, point in its frame (numpy), its mass centre)."""
     import dataclasses
     import numpy as np

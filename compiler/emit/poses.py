@@ -110,10 +110,10 @@ def pose_source(system, geometry=None, model=None):
     N, origin, bodies, pairs = parts
     if not bodies:
         return None
-    urdf = getattr(system, "urdf", None)
+    reading = getattr(system, "reading", None)    # a robot reader's System (from_urdf)
     link_origin = {}
-    if urdf is not None:   # a URDF link's frame sits at its joint's child point, not at its mass centre
-        for joint in urdf.joints.values():
+    if reading is not None:   # a link's frame sits at its joint's child point, not at its mass centre
+        for joint in reading.joints.values():
             link_origin[joint.child.name] = joint.child_point
     body_points = [b.masscenter for b in bodies] + [p for pair in pairs for p in pair]
     body_points += list(link_origin.values())
@@ -169,14 +169,10 @@ def pose_source(system, geometry=None, model=None):
         if q is not None and p in index and index[p] != index[q] and p._pos_dict[parent_of[p]] != 0:
             lines.append((index[q], index[p]))
     extra_frame_edges, extra_point_edges = [], []
-    if urdf is not None:   # every link frame: those welded to a body or to the ground too
-        if model is None:
-            from eomc.runtime.geometry import urdf_link_transforms, urdf_visuals
-            from eomc.runtime.urdf_scene import load_scene
-            loaded = load_scene(urdf.tree.path, getattr(urdf.tree.robot, "xml", None))   # from_urdf's reading
-            welds, shapes = urdf_link_transforms(urdf.tree, loaded), urdf_visuals(urdf.tree, loaded)
-        else:
-            welds, shapes = model.welds, model.shapes
+    if reading is not None:   # every link frame: those welded to a body or to the ground too
+        if model is None:     # the reader's Model of the document it parsed (not read again)
+            model = reading.model(poses=True)
+        welds, shapes = model.welds, model.shapes
         frames, extra_frame_edges, extra_point_edges = welded_links(welds, frames, N, start)
     needed = set(skeleton) | {pt for _, _, pt in frames if pt in parent_of} | {pt for _, pt in points}
     closure = set()
@@ -189,9 +185,9 @@ def pose_source(system, geometry=None, model=None):
     frame_edges = [(f, parent, parent.dcm(f) if parent is not None else None)
                    for f, parent in frames_order] + extra_frame_edges
     point_edges += extra_point_edges
-    defaults = dict(getattr(urdf, "parameters", None) or {})
+    defaults = dict(getattr(reading, "parameters", None) or {})
     geom = {}
-    if urdf is not None:
+    if reading is not None:
         geom = dict(shapes)
     if geometry:
         geom = {**geom, **_checked_geometry(geometry, [n for n, *_ in frames], [n for n, _ in points])}

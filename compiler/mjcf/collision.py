@@ -129,7 +129,7 @@ def _filtered(m, g1, g2, excluded, filterparent):
 
 def _geom_name(m, g):
     import mujoco
-    from eomc.compiler.urdf.tree import identifier
+    from eomc.compiler.multibody.joints import identifier
     name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g)
     if name:
         return identifier(name)

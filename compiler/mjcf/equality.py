@@ -150,7 +150,7 @@ def coupling_loops(m, params, found, coordinates, speeds, joints, joint_names, t
 def _param_name(m, e):
     """The equality's name as a C identifier part (``eq<k>`` when unnamed)."""
     import mujoco
-    from eomc.compiler.urdf.tree import identifier
+    from eomc.compiler.multibody.joints import identifier
     raw = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_EQUALITY, e)
     return identifier(raw) if raw else f"eq{e}"
 

@@ -15,7 +15,7 @@ from pathlib import Path
 
 from eomc.runtime.readable import check_regular_file
 
-__all__ = ["model_files", "check_files", "locate"]
+__all__ = ["model_files", "check_files", "locate", "named_files"]
 
 _ASSETS = {"mesh": "meshdir", "hfield": "meshdir", "skin": "meshdir", "texture": "texturedir"}
 
@@ -116,3 +116,43 @@ def locate(path, tag, name=None):
             if match:
                 return str(file), text.count("\n", 0, match.start()) + 1
     return str(path), None
+
+
+def named_files(path, seen=None):
+    """The files an MJCF file names (includes, meshes, textures, ...), resolved as MuJoCo
+    resolves them, or None when one cannot be found (then a build of it is not reused:
+    eomc.compiler.build.reuse hashes them with the model)."""
+    import xml.etree.ElementTree as ET
+    seen = set() if seen is None else seen
+    path = Path(path).resolve()
+    if path in seen:
+        return []
+    seen.add(path)
+    try:
+        root = ET.parse(path).getroot()
+    except (OSError, ET.ParseError):
+        return None
+    base = path.parent
+    dirs = {"meshdir": None, "texturedir": None, "assetdir": None}
+    for compiler in root.iter("compiler"):
+        for k in dirs:
+            if compiler.get(k):
+                dirs[k] = compiler.get(k)
+    found = []
+    for element in root.iter():
+        name = element.get("file")
+        if not name:
+            continue
+        where = [dirs["meshdir"] if element.tag in ("mesh", "skin", "hfield") else
+                 dirs["texturedir"] if element.tag == "texture" else None, dirs["assetdir"], ""]
+        candidates = [base / d / name for d in where if d is not None] + [Path(name)]
+        hit = next((c for c in candidates if c.is_file()), None)
+        if hit is None:
+            return None
+        found.append(hit.resolve())
+        if element.tag == "include":
+            more = named_files(hit, seen)
+            if more is None:
+                return None
+            found += more
+    return found

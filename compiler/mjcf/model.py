@@ -417,7 +417,8 @@ def _with_contacts(model, m, built):
     """(built, outputs, events) with the ground contacts: the ones ``model.contacts`` names (spheres
     on bodies), and the file's collision geoms against its ground planes (:mod:`.collision`) unless
     contacts are named without ``"@collision"`` (or ``"@none"``: no contacts), or ``geoms`` says."""
-    from eomc.compiler.contact.tree import COLLISION_SPHERES, as_spec, with_mjcf_contacts
+    from eomc.compiler.contact.tree import COLLISION_SPHERES, as_spec
+    from .contacts import with_mjcf_contacts
     specs = [as_spec(c) for c in model.contacts]
     named = [s for s in specs if s.link not in (COLLISION_SPHERES, "@none", "@ground")]
     geoms = model.geoms

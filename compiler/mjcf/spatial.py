@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import sympy as sm
 
 from ..contact.tree import LoweredLoad
+from ..tree.spatial import cross
 
 __all__ = ["is_site_tendon", "SiteTendonLoad", "with_site_tendons"]
 
@@ -65,7 +66,7 @@ class SiteTendonLoad(LoweredLoad):
             R, o = poses.world_to_body(b), poses.origin(b)
             points.append([rec.let(o[k] + sum((R[j][k] * off[j] for j in range(3)), sm.S.Zero)) for k in range(3)])
             w, vb = v[b][:3], v[b][3:]
-            vp = [vb[k] + c for k, c in enumerate(_cross(w, off))]
+            vp = [vb[k] + c for k, c in enumerate(cross(w, off))]
             velocities.append([rec.let(sum((R[j][k] * vp[j] for j in range(3)), sm.S.Zero)) for k in range(3)])
         units, L, V = [], sm.S.Zero, sm.S.Zero
         for i in range(len(points) - 1):
@@ -85,10 +86,6 @@ class SiteTendonLoad(LoweredLoad):
             _apply(self.sites[i], [-x for x in f], points[i], poses, bodies, rec)
 
 
-def _cross(a, b):
-    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-
-
 def _apply(site, f, p, poses, bodies, rec):
     b, _ = site
     if b < 0:
@@ -97,7 +94,7 @@ def _apply(site, f, p, poses, bodies, rec):
     f_b = [rec.let(sum((R[r][k] * f[k] for k in range(3)), sm.S.Zero)) for r in range(3)]
     lever = [sum((R[r][k] * (p[k] - o[k]) for k in range(3)), sm.S.Zero) for r in range(3)]
     old = bodies[b].fext or [0] * 6
-    bodies[b].fext = [old[k] + x for k, x in enumerate(_cross(lever, f_b) + f_b)]
+    bodies[b].fext = [old[k] + x for k, x in enumerate(cross(lever, f_b) + f_b)]
 
 
 def with_site_tendons(built, m, fold=False, limits=True, friction=True):

@@ -13,15 +13,12 @@ frame the body frame after the joints so far), the last carrying the mass.
 Per joint, with R0, p the body frame relative to its parent's (identity and
 zero for the 2nd.. joint of a body), a the axis and s the anchor (``jnt_pos``)
 in the body frame, c the mass centre (``body_ipos``) and c_p the parent's
-(both in their body frames):
-
-- hinge: R_PC = R0 Rot(a, q - ref); r = p - c_p + R0 s + R_PC (c - s); S = (a, a × (c - s))
-- slide: R_PC = R0; r = p - c_p + R0 (a (q - ref) + c); S = (0, a)
-- ball: R_PC = R0 Rx Ry Rz (body-XYZ angles; with ``quaternion=True`` R0 R(w, x, y, z),
-  MuJoCo's own quaternion); r as hinge; speeds the body-frame angular velocity (MuJoCo's ball dofs)
-- free (on a world child only): R_PC = Rx Ry Rz (or R(w, x, y, z)); r = (x, y, z) + R_PC c; speeds the
-  body origin's velocity and the angular velocity, both in body components (MuJoCo:
-  the linear velocity in world components -- map the states to compare)
+(both in their body frames), each joint is its kind's row in the table of joint
+kinds (:mod:`eomc.compiler.multibody.joint_kinds`, :data:`MJCF_KINDS`: hinge ->
+revolute, slide -> prismatic, ball, free) with ref = ``qpos0``; a free joint (on a
+world child only) is placed in the world: its speeds are the body origin's velocity
+and the angular velocity, both in body components (MuJoCo: the linear velocity in
+world components -- map the states to compare).
 
 Armature (``dof_armature``) is each speed's ``TreeBody.armature`` (parameters
 ``arm_<joint>``, ``arm_<joint>_<axis>`` for ball/free): M_ii += a, as MuJoCo adds
@@ -42,13 +39,11 @@ import numpy as np
 import sympy as sm
 from sympy.physics.vector import dynamicsymbols
 
-from eomc.compiler.tree.model import Load, Tree, TreeBody
+from eomc.compiler.tree.model import Load, Tree
 from eomc.compiler.tree.recognize import effective_inertias
-from eomc.compiler.urdf.tree import identifier
-from eomc.compiler.multibody.joints import (Parameters, actuation, cross, lin, rotation_terms, snap, snapped,
-                                           times, vec)
-from eomc.compiler.urdf.treeir import (floating_kinematics, floating_rotation, quaternion_kinematics,
-                                       quaternion_rotation)
+from eomc.compiler.multibody.joints import identifier
+from eomc.compiler.multibody.joint_kinds import KINDS, JointSite
+from eomc.compiler.multibody.joints import Parameters, actuation, cross, snapped
 
 __all__ = ["MjcfTree", "tree_ir", "quat_matrix"]
 
@@ -79,6 +74,8 @@ class MjcfTree:
 
 
 _HINGE, _SLIDE, _BALL, _FREE = 3, 2, 1, 0
+# each MuJoCo joint type's row in the table of joint kinds (eomc.compiler.multibody.joint_kinds)
+MJCF_KINDS = {_HINGE: "revolute", _SLIDE: "prismatic", _BALL: "ball", _FREE: "free"}
 
 
 def _names(m, kind, count, prefix):
@@ -150,10 +147,8 @@ def tree_ir(m, *, fold=False, actuators=None, limits=True, friction=True, quater
         R0_body = snapped(quat_matrix(m.body_quat[b]))
         if not jids:   # welded to its parent
             c = c_mass
-            position = sm.Matrix(times(R0_body, c)) + sm.Matrix([p_body[r] - cp[r] for r in range(3)])
-            bodies.append(TreeBody(name=s, joint=f"{raw} (welded)", kind="fixed", parent=parent, speed=None,
-                                   rotation=sm.Matrix(R0_body.T).applyfunc(snap), position=position,
-                                   motion=None, mass=mass, inertia=inertia))
+            weld = KINDS["fixed"].mobilize(JointSite(R0_body, None, [p_body[r] - cp[r] for r in range(3)], c), (), ())
+            bodies.append(weld.body(None, name=s, joint=f"{raw} (welded)", parent=parent, mass=mass, inertia=inertia))
             last[b], com[b] = len(bodies) - 1, c
             owners.append((b, tuple(c)))
             continue
@@ -177,74 +172,20 @@ def tree_ir(m, *, fold=False, actuators=None, limits=True, friction=True, quater
             joints.append((jid, kind, first_q, first))
             common = dict(name=name, joint=jraw, parent=parent, mass=bm, inertia=bI,
                           armature=_armature(m, params, jn, kind, dadr))
-            c_s = [c[r] - anchor[r] for r in range(3)]
-            if kind == _HINGE:
-                q, u = dynamicsymbols(f"q_{jn}"), dynamicsymbols(f"u_{jn}")
-                coordinates.append(q)
-                speeds.append(u)
-                ref = float(m.qpos0[qadr])
-                angle = q - snap(ref) if ref != 0 else q
-                A, B, C = rotation_terms(R0, a)
-                cq, sq = sm.cos(angle), sm.sin(angle)
-                R = sm.Matrix(3, 3, lambda r, k: lin((A[r, k], B[r, k], C[r, k]), (cq, sq, 1)))
-                R0s = times(R0, anchor)
-                Rc = [sum((R[r, k] * c_s[k] for k in range(3) if c_s[k] != 0), sm.S.Zero) for r in range(3)]
-                position = sm.Matrix([base[r] + R0s[r] + Rc[r] for r in range(3)])
-                av = vec(a)
-                bodies.append(TreeBody(kind="revolute", speed=first, rotation=R.T, position=position,
-                                       motion=tuple(av) + tuple(cross(av, c_s)), **common))
-                kinematics.append(u)
-            elif kind == _SLIDE:
-                q, u = dynamicsymbols(f"q_{jn}"), dynamicsymbols(f"u_{jn}")
-                coordinates.append(q)
-                speeds.append(u)
-                ref = float(m.qpos0[qadr])
-                shift = q - snap(ref) if ref != 0 else q
-                R0a = times(R0, [a[k] * shift for k in range(3)])
-                R0c = times(R0, c)
-                position = sm.Matrix([base[r] + R0c[r] + R0a[r] for r in range(3)])
-                bodies.append(TreeBody(kind="prismatic", speed=first, rotation=sm.Matrix(R0.T).applyfunc(snap),
-                                       position=position, motion=(0, 0, 0) + tuple(vec(a)), **common))
-                kinematics.append(u)
-            elif kind == _BALL:
-                qs = [dynamicsymbols(f"q_{jn}_{x}") for x in (("qw", "qx", "qy", "qz") if quaternion
-                                                               else ("rx", "ry", "rz"))]
-                us = [dynamicsymbols(f"u_{jn}_{x}") for x in ("wx", "wy", "wz")]
-                coordinates += qs
-                speeds += us
-                Rb = quaternion_rotation(*qs) if quaternion else floating_rotation(*qs)
-                R = sm.Matrix(3, 3, lambda r, k: sum((snap(R0[r, t]) * Rb[t, k] for t in range(3)
-                                                      if snap(R0[r, t]) != 0), sm.S.Zero))
-                R0s = times(R0, anchor)
-                Rc = [sum((R[r, k] * c_s[k] for k in range(3) if c_s[k] != 0), sm.S.Zero) for r in range(3)]
-                position = sm.Matrix([base[r] + R0s[r] + Rc[r] for r in range(3)])
-                unit = [(1, 0, 0), (0, 1, 0), (0, 0, 1)]
-                motions = tuple(tuple(e_) + tuple(cross(list(e_), c_s)) for e_ in unit)
-                bodies.append(TreeBody(kind="3-speed", speed=None, rotation=R.T, position=position, motion=None,
-                                       speeds=(first, first + 1, first + 2), motions=motions, **common))
-                kinematics += (quaternion_kinematics if quaternion else floating_kinematics)(
-                    [0, 0, 0] + qs, [0, 0, 0] + us)[3:]
-                if quaternion:
-                    quaternions.append(qs[0])
-            elif kind == _FREE:
-                qs = [dynamicsymbols(f"q_{jn}_{x}") for x in ("x", "y", "z") + (("qw", "qx", "qy", "qz") if quaternion
-                                                                                else ("rx", "ry", "rz"))]
-                us = [dynamicsymbols(f"u_{jn}_{x}") for x in ("vx", "vy", "vz", "wx", "wy", "wz")]
-                coordinates += qs
-                speeds += us
-                R = quaternion_rotation(*qs[3:]) if quaternion else floating_rotation(*qs[3:])
-                Rc = [sum((R[r, k] * c[k] for k in range(3) if c[k] != 0), sm.S.Zero) for r in range(3)]
-                position = sm.Matrix([qs[r] + Rc[r] for r in range(3)])
-                unit = [(1, 0, 0), (0, 1, 0), (0, 0, 1)]
-                motions = tuple((0, 0, 0) + e_ for e_ in unit) + tuple(
-                    tuple(e_) + tuple(cross(list(e_), c)) for e_ in unit)
-                bodies.append(TreeBody(kind="free", speed=None, rotation=R.T, position=position, motion=None,
-                                       speeds=tuple(range(first, first + 6)), motions=motions, **common))
-                kinematics += (quaternion_kinematics if quaternion else floating_kinematics)(qs, us)
-                if quaternion:
-                    quaternions.append(qs[3])
-                if common["armature"] and common["armature"][0] != 0:
-                    loads.append(_free_armature_load(len(bodies) - 1, common["armature"][0], us, c))
+            names_q, names_u = KINDS[MJCF_KINDS[kind]].suffixes(quaternion)
+            qs = [dynamicsymbols(f"q_{jn}" + (f"_{x}" if x else "")) for x in names_q]
+            us = [dynamicsymbols(f"u_{jn}" + (f"_{x}" if x else "")) for x in names_u]
+            coordinates += qs
+            speeds += us
+            site = JointSite(R0, a, base, c, anchor=anchor, ref=float(m.qpos0[qadr]), quaternion=quaternion,
+                             placed=kind != _FREE)
+            joint = KINDS[MJCF_KINDS[kind]].mobilize(site, qs, us)
+            bodies.append(joint.body(first, **common))
+            kinematics += joint.kinematics
+            if joint.w is not None:
+                quaternions.append(joint.w)
+            if kind == _FREE and common["armature"] and common["armature"][0] != 0:
+                loads.append(_free_armature_load(len(bodies) - 1, common["armature"][0], us, c))
             child = len(bodies) - 1
             owners.append((b, tuple(c_mass)) if final else None)
             if kind in (_HINGE, _SLIDE):

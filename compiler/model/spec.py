@@ -21,7 +21,8 @@ from .validate import (Invalid, check_equations, check_events, check_initial_sta
                        check_name, check_outputs, check_parameters, sanitize_name,
                        unset_parameters)
 
-__all__ = ["ModelSpec", "Reading", "model_spec", "read_model", "spec_of", "formed_system"]
+__all__ = ["ModelSpec", "Reading", "model_spec", "read_model", "spec_of", "formed_system", "named_files",
+           "with_contact_specs"]
 
 
 @dataclass(frozen=True)
@@ -229,6 +230,38 @@ def read_model(system, name=None, poses=False):
     if isinstance(system, (str, Path)):
         return _read_file(system, name)
     return Reading("object", None, name, {"system": system})
+
+
+def with_contact_specs(model, contacts):
+    """``model`` (a URDF or MJCF path or model) carrying ``contacts``: what ``contacts=`` of
+    eomc.compile does (a dispatch on the robot formats, as :func:`read_model`'s).  Other models
+    are refused with the way to give them contacts."""
+    import dataclasses
+    from pathlib import Path
+    from eomc.compiler.mjcf.model import MjcfModel, is_mjcf_path
+    from eomc.compiler.urdf.model import UrdfModel, is_urdf_path
+    from eomc.compiler.contact.tree import ContactSpec, as_spec
+    if isinstance(contacts, (str, ContactSpec, dict)):
+        contacts = [contacts]
+    specs = tuple(as_spec(c) for c in contacts)
+    if isinstance(model, (UrdfModel, MjcfModel)):
+        return dataclasses.replace(model, contacts=tuple(model.contacts) + specs)
+    if is_urdf_path(model):
+        return UrdfModel(Path(model), contacts=specs)
+    if is_mjcf_path(model):
+        return MjcfModel(Path(model), contacts=specs)
+    raise ModelError("contacts= applies to URDF and MJCF robots; a model written with SymPy mechanics adds "
+                     "eomc.contact.ground(point, body, world=system, ...) loads itself")
+
+
+def named_files(path):
+    """The files a model file names besides itself, which a build depends on (an MJCF file's
+    includes and assets), or None when one cannot be found: the format's own answer."""
+    from eomc.compiler.mjcf.model import is_mjcf_path
+    if is_mjcf_path(path):
+        from eomc.compiler.mjcf.files import named_files as mjcf_named_files
+        return mjcf_named_files(path)
+    return []
 
 
 def spec_of(read, *, parameters=None, inputs=None, initial_state=None, outputs=None, events=None,

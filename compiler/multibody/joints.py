@@ -6,11 +6,15 @@ parameter symbol per non-zero number -- and the readers must write them identica
 generated C of a URDF robot and of its MJCF twin agree).  Both readers
 (eomc.compiler.urdf.treeir, eomc.compiler.mjcf.treeir) take them from this module.
 """
+import re
+
 import numpy as np
 import sympy as sm
 
+from ..tree.spatial import cross
+
 __all__ = ["snap", "snapped", "Parameters", "lin", "rotation_terms", "cross", "times", "vec", "z_to",
-           "actuation"]
+           "actuation", "identifier"]
 
 _SNAP = 1e-12
 
@@ -30,6 +34,13 @@ def snapped(array):
     for exact in (0.0, 1.0, -1.0):
         out[np.abs(out - exact) < _SNAP] = exact
     return out
+
+
+def identifier(name):
+    """``name`` as a C identifier fragment: other characters become ``_`` (every reader names
+    its symbols q_<joint>, m_<body>, ... with it)."""
+    text = re.sub(r"[^A-Za-z0-9_]", "_", name)
+    return text if text and not text[0].isdigit() else f"_{text}"
 
 
 class Parameters:
@@ -67,11 +78,6 @@ def rotation_terms(R0, axis):
     ax = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
     aa = np.outer(a, a)
     return (snapped(R0 @ (np.eye(3) - aa)), snapped(R0 @ ax), snapped(R0 @ aa))
-
-
-def cross(a, b):
-    """a x b of two 3-vectors (lists of expressions)."""
-    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 
 
 def times(M, v):

@@ -13,12 +13,9 @@ import sympy as sm
 from ..contact.law import ground_forces, ground_jacobians
 from ..contact.tree import ContactLoad, ContactValue, contact_outputs
 from .placement import Placement
+from .spatial import cross
 
 __all__ = ["lower_contacts"]
-
-
-def _cross(a, b):
-    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 
 
 def world_placement(bodies, rec):
@@ -63,7 +60,7 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None):
             s = rec.let(sm.sqrt(sum((x * y for x, y in zip(n_b, An)), sm.S.Zero)))
             off = [rec.let(off[k] - An[k] / s) for k in range(3)]
         w_b, v_b = v[i][:3], v[i][3:]
-        vp_b = [v_b[k] + c for k, c in enumerate(_cross(w_b, off))]
+        vp_b = [v_b[k] + c for k, c in enumerate(cross(w_b, off))]
         centre = [rec.let(o[k] + x) for k, x in enumerate(poses.to_world(i, off))]
         velocity = rec.vec(poses.to_world(i, vp_b))
         omega = rec.vec(poses.to_world(i, w_b))
@@ -72,7 +69,7 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None):
         f_b = rec.vec(poses.to_body(i, forces.force))
         arm_b = poses.to_body(i, forces.point_offset)
         lever = [off[k] + arm_b[k] for k in range(3)]
-        n_b = _cross(lever, f_b)
+        n_b = cross(lever, f_b)
         old = bodies[i].fext or [0] * 6
         bodies[i].fext = [old[k] + x for k, x in enumerate(n_b + f_b)]
         if implicit is not None:

@@ -44,6 +44,7 @@ from eomc.runtime.errors import ModelError
 from .recorder import Recorder
 from .model import NotATree
 from .placement import IDENTITY, Placement
+from .spatial import cross
 
 __all__ = ["FrameSpec", "FrameSource", "resolve_frames", "with_frames", "frame_output_names",
            "frames_digest", "COM"]
@@ -158,11 +159,11 @@ def resolve_frames(spec, names):
         return None
     where = str(spec.path) if spec.path is not None else f"model {spec.name}"
     formed = spec.formed
-    system_urdf = getattr(spec.system, "urdf", None)
-    if system_urdf is not None:   # a URDF robot's System passed in (from_urdf): its links, under
+    reading = getattr(spec.system, "reading", None)
+    if reading is not None:   # a robot reader's System passed in (from_urdf): its links, under
         # every formulation (not the bodies of the tree recognized from the System: a link's frame is
         # at its joint, a System body's at its mass centre, and welded links are no bodies)
-        tree, specs, defaults = _urdf_frames(system_urdf, wanted, where)
+        tree, specs, defaults = _reading_frames(reading, wanted, where)
     elif spec.model is not None:
         tree, specs = spec.model.tree, _model_frames(spec.model, wanted, where)
         defaults = (dict(spec.model.defaults) if spec.model.source.format != "system"
@@ -222,11 +223,11 @@ def _safe(name):
     return re.sub(r"[.,\s\[\]]", "_", name)
 
 
-def _urdf_frames(system_urdf, wanted, where):
-    """(Tree, FrameSpecs, defaults) of the links of a URDF robot's System (from_urdf), passed
-    in as an object: the Model of the reading from_urdf made (its ``model()``:
-    eomc.compiler.urdf.system.UrdfSystem), as a robot file's."""
-    model = system_urdf.model()
+def _reading_frames(reading, wanted, where):
+    """(Tree, FrameSpecs, defaults) of the links of a robot reader's System (from_urdf), passed
+    in as an object: the Model of the reading the reader made (its ``model()``), as a robot
+    file's."""
+    model = reading.model()
     return model.tree, _model_frames(model, wanted, where), dict(model.defaults)
 
 
@@ -247,10 +248,6 @@ def frames_digest(source):
         out += [str(len(source.tree.bodies))] + [str(b.parent) for b in source.tree.bodies]
         out += [str(e) for e in tree_exprs(source.tree)]
     return out
-
-
-def _cross(a, b):
-    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 
 
 def _dot3(M, v):
@@ -297,7 +294,7 @@ class _World:
         R, p = self.placement.rotation(i), self.placement.origin(i)
         Rr = self.placement.arm(i)
         axes = []
-        w, v = list(wp), [vp[k] + x for k, x in enumerate(_cross(wp, [let(x) for x in Rr]))]
+        w, v = list(wp), [vp[k] + x for k, x in enumerate(cross(wp, [let(x) for x in Rr]))]
         for k, S in b.dofs:
             S = [self.ren(s, what) for s in S]
             aw = [let(x) for x in _dot3(R, S[:3])]
@@ -344,13 +341,13 @@ def with_frames(sym, source, layout, nq):
         pf = [rec.let(p[k] + Ro[k]) for k in range(3)]
         Rf = [[rec.let(sum((R[a][k] * C[k][c] for k in range(3)), sm.S.Zero)) for c in range(3)]
               for a in range(3)]
-        vf = [rec.let(v[k] + x) for k, x in enumerate(_cross(w, Ro))]
+        vf = [rec.let(v[k] + x) for k, x in enumerate(cross(w, Ro))]
         J = [[sm.S.Zero] * source.nu for _ in range(6)]
         for j in world.path(f.body):
             pj = world(j)[1]
             arm = [rec.let(pf[k] - pj[k]) for k in range(3)]
             for col, aw, av in world(j)[4]:
-                lin = _cross(aw, arm)
+                lin = cross(aw, arm)
                 for k in range(3):
                     J[k][col] = rec.let(av[k] + lin[k])
                     J[3 + k][col] = aw[k]

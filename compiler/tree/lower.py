@@ -42,6 +42,7 @@ from .constrained import (accelerations, check_functions, kane_form, kkt_residua
                           lower_loops, multiplier_symbols, tree_loops)
 from .derivatives import articulated_solve, solve_symbols
 from .model import NotATree
+from .spatial import cross
 
 __all__ = ["TREE_FUNCTION_GROUPS", "TREE_HELPER_USERS", "build_tree_symbolic"]
 
@@ -138,7 +139,7 @@ def _lowered_bodies(tree, layout, rec):
             n = [sum((R[r][k] * n[k] for k in range(3)), sm.S.Zero) for r in range(3)]
             f = [sum((R[r][k] * f[k] for k in range(3)), sm.S.Zero) for r in range(3)]
         off = [ren(x) for x in load.offset]
-        n = [n[k] + c for k, c in enumerate(_cross(off, f))]
+        n = [n[k] + c for k, c in enumerate(cross(off, f))]
         old = bodies[i].fext or [0] * 6
         bodies[i].fext = [old[k] + v for k, v in enumerate(n + f)]
     gravity = [_rename(layout, memo, "gravity", absent)(g) for g in tree.gravity]
@@ -157,10 +158,6 @@ def _shared_loads(rec, exprs):
     for s, e in repl:
         names[s] = rec.let(e.xreplace(names))
     return [sm.sympify(e).xreplace(names) for e in reduced]
-
-
-def _cross(a, b):
-    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 
 
 def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=None):
@@ -332,7 +329,7 @@ def _implicit_results(tree, bodies, formed, layout, A, b, implicit, nq, nu):
         for k, S in motions:
             w = poses.to_world(i, S[:3])
             vo = poses.to_world(i, S[3:])
-            wxo = _cross(w, o)
+            wxo = cross(w, o)
             base = at["screw"] + 6 * k
             for a in range(3):
                 out[base + a] = w[a]

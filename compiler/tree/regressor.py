@@ -77,14 +77,14 @@ def reference_offsets(tree, layout):
                 comps.append(-sm.Float(layout.folded[key]))
             else:
                 comps.append(None)
-        urdf_like = any(c is not None for c in comps) or _urdf_body(layout, b.name)
-        out.append(([c if c is not None else sm.S.Zero for c in comps] if urdf_like else [0, 0, 0],
-                     "link frame" if urdf_like else "mass centre"))
+        link_frame = any(c is not None for c in comps) or _link_frame_body(layout, b.name)
+        out.append(([c if c is not None else sm.S.Zero for c in comps] if link_frame else [0, 0, 0],
+                     "link frame" if link_frame else "mass centre"))
     return out
 
 
-def _urdf_body(layout, name):
-    """A URDF body whose centre of mass is at its link origin (cx_ ... all structural zeros)."""
+def _link_frame_body(layout, name):
+    """A robot reader's body whose centre of mass is at its link origin (cx_ ... all structural zeros)."""
     return f"m_{name}" in layout.param_names or f"m_{name}" in layout.folded
 
 

@@ -8,6 +8,13 @@ holds them.  Sums and products go through :mod:`.construct` (structural zeros dr
 from .construct import _add, _mul, _nz
 
 
+def cross(a, b):
+    """a x b of two 3-vectors (lists of expressions), by the plain operators: what placement,
+    loads, frame outputs and the readers' joint axes use (the recursions' :func:`_cross` drops
+    structural zeros first)."""
+    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+
+
 def _cross(a, b):
     return [_add((_mul(a[1], b[2]), -_mul(a[2], b[1]))), _add((_mul(a[2], b[0]), -_mul(a[0], b[2]))),
             _add((_mul(a[0], b[1]), -_mul(a[1], b[0])))]

@@ -36,5 +36,5 @@ def from_urdf(path, *, floating_base=False, fold_parameters=False, mimic=False, 
                         mimic=mimic, gravity=gravity, limits=limits,
                         allow_nonphysical_inertia=allow_nonphysical_inertia)
     system = built.system
-    system.urdf = built
+    system.urdf = system.reading = built     # reading: what format-neutral code asks a reader's System
     return system

@@ -125,7 +125,7 @@ def model_of_robot(robot, tree, model, poses=False):
         """The robot's SymPy System (Kane's formulation), from the tree read above."""
         made = system_from_tree(tree, fold=model.fold_parameters, mimic=model.mimic, gravity=model.gravity,
                                 laws=model.limits)
-        made.system.urdf = made
+        made.system.urdf = made.system.reading = made
         return made.system
 
     body_index = {j.child: k for k, j in enumerate(tree.joints)}

@@ -71,13 +71,14 @@ class UrdfSystem:
     bodies: dict                # body name -> RigidBody
     tree: object                # the tree.Tree it came from
 
-    def model(self):
+    def model(self, poses=False):
         """The multibody Model of the reading this System was built from (its links, welded
         ones included, as frames; its tree's symbols are this System's), read again from
-        nothing: what frame outputs of a from_urdf System passed in as an object name."""
+        nothing: what frame outputs of a from_urdf System passed in as an object name.
+        ``poses``: with the welded links' placements and the visuals (``welds``, ``shapes``)."""
         from .model import UrdfModel, model_of_robot
         return model_of_robot(self.tree.robot, self.tree,
-                              UrdfModel(self.tree.path, fold_parameters=not self.parameters))
+                              UrdfModel(self.tree.path, fold_parameters=not self.parameters), poses)
 
 
 class _Parameters:

@@ -31,7 +31,6 @@ the caller opts in (``allow_nonphysical_inertia``: kept as given, one warning pe
 Everything walks the tree with explicit stacks, so depth costs no recursion
 (a 1000-link chain reads in milliseconds).
 """
-import re
 import warnings
 from dataclasses import dataclass, field
 
@@ -39,16 +38,19 @@ import numpy as np
 
 from eomc.runtime.errors import EomcWarning, ModelFileError
 
+from ..multibody.joint_kinds import KINDS
+from ..multibody.joints import identifier
+
 __all__ = ["Body", "TreeJoint", "Tree", "build_tree", "identifier", "coordinate_suffixes", "check_mimics",
-           "FLOATING_BASES", "floating_base_type"]
+           "FLOATING_BASES", "floating_base_type", "URDF_KINDS"]
 
 MOVING = ("revolute", "continuous", "prismatic", "floating", "planar")
 ROUNDING = 1e-9          # relative to the largest principal moment
 
-COORDINATE_SUFFIXES = {"floating": (("x", "y", "z", "rx", "ry", "rz"), ("vx", "vy", "vz", "wx", "wy", "wz")),
-                       "floating_quaternion": (("x", "y", "z", "qw", "qx", "qy", "qz"),
-                                               ("vx", "vy", "vz", "wx", "wy", "wz")),
-                       "planar": (("x", "y", "th"), ("vx", "vy", "w"))}
+# each URDF joint type's row in the table of joint kinds (eomc.compiler.multibody.joint_kinds):
+# a floating base is a free joint (body XYZ angles, or a quaternion)
+URDF_KINDS = {"revolute": "revolute", "continuous": "revolute", "prismatic": "prismatic",
+              "floating": "free", "floating_quaternion": "free", "planar": "planar"}
 
 
 # --floating-base / floating_base=: how the added free joint turns.  "euler" (also True): body
@@ -74,14 +76,11 @@ def floating_base_type(floating_base):
 
 
 def coordinate_suffixes(kind):
-    """(coordinate suffixes, speed suffixes) of a joint kind; ((""), ("")) for a 1-dof joint."""
-    return COORDINATE_SUFFIXES.get(kind, (("",), ("",)))
-
-
-def identifier(name):
-    """``name`` as a C identifier fragment: other characters become ``_``."""
-    text = re.sub(r"[^A-Za-z0-9_]", "_", name)
-    return text if text and not text[0].isdigit() else f"_{text}"
+    """(coordinate suffixes, speed suffixes) of a URDF joint type (the table's row); ((""), (""))
+    for a 1-dof joint (and a fixed one, whose names are checked as if it moved)."""
+    if kind not in URDF_KINDS:
+        return ("",), ("",)
+    return KINDS[URDF_KINDS[kind]].suffixes(kind == "floating_quaternion")
 
 
 @dataclass

@@ -14,17 +14,12 @@ zeros; ``fold`` makes every value a literal), the same inputs, the same
 kinematics q' = f(q, u), and the same bodies: the link frame as each body's
 frame, its combined centre of mass as its origin.  Per joint, with R0 the
 joint origin's rotation, a its axis, p its position (all in the parent body
-frame), c the child's and c_p the parent's centre of mass:
+frame), c the child's and c_p the parent's centre of mass, the joint's
+E(q), r(q) (base = p - c_p), S and q' are its kind's in the table of joint kinds
+(:mod:`eomc.compiler.multibody.joint_kinds`: revolute and continuous are ``revolute``,
+floating and floating_quaternion ``free``).
 
-- revolute/continuous: R_PC = R0 Rot(a, q); r = p - c_p + R_PC c; S = (a, a × c)
-- prismatic: R_PC = R0; r = p - c_p + R0 (a q + c); S = (0, a)
-- floating: R_PC = R0 Rx Ry Rz; r = p - c_p + R0 (x, y, z) + R_PC c; speeds the
-  child point's velocity and the angular velocity in child components
-  (floating_quaternion: R_PC = R0 R(w, x, y, z), :func:`quaternion_rotation`; the same speeds)
-- planar: in the frame A = R0 Z (Z turns z onto a): R_PC = A Rz(th) Zᵀ,
-  r = p - c_p + A (x, y, 0) + R_PC c; speeds as Pinocchio's planar joint
-
-(E = R_PCᵀ.)  Joint torques act on the child about a and on the parent about
+Joint torques act on the child about a and on the parent about
 R0 a; a prismatic joint's force acts at the child's link origin and at the
 joint point of the parent.
 """
@@ -32,16 +27,15 @@ import numpy as np
 import sympy as sm
 from sympy.physics.vector import dynamicsymbols
 
-from eomc.compiler.tree.model import Tree, TreeBody
+from eomc.compiler.tree.model import Tree
 from eomc.compiler.tree.joint_laws import JointScale
 from eomc.compiler.tree.recognize import effective_inertias
 
-from ..multibody.joints import (Parameters, actuation, cross, lin, rotation_terms, snap, snapped, times, vec,
-                               z_to)
-from .tree import coordinate_suffixes, identifier
+from ..multibody.joint_kinds import KINDS, JointSite
+from ..multibody.joints import Parameters, actuation, snapped
+from .tree import URDF_KINDS, coordinate_suffixes, identifier
 
-__all__ = ["UrdfTree", "tree_ir", "floating_rotation", "floating_kinematics", "quaternion_rotation",
-           "quaternion_kinematics", "free_joint"]
+__all__ = ["UrdfTree", "tree_ir"]
 
 _T = dynamicsymbols._t
 
@@ -58,63 +52,6 @@ class UrdfTree:
         self.inputs = inputs              # tau(t) per actuated joint, joint order
         self.source = source              # the urdf.tree.Tree
         self.offsets = offsets            # per body: its link origin from its parent's, parent frame
-
-
-def floating_rotation(rx, ry, rz):
-    """R = Rx Ry Rz (child components -> parent components) of body-fixed XYZ angles,
-    entry for entry as SymPy's ``orient_body_fixed(..., 'xyz')`` gives ``parent.dcm(child)``."""
-    cx, sx, cy, sy, cz, sz = sm.cos(rx), sm.sin(rx), sm.cos(ry), sm.sin(ry), sm.cos(rz), sm.sin(rz)
-    Rx = sm.Matrix([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
-    Ry = sm.Matrix([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
-    Rz = sm.Matrix([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
-    return Rx * Ry * Rz
-
-
-def floating_kinematics(q, u):
-    """q' of a floating joint (as :class:`.joints.FloatingJoint`): position' = R v, and the
-    body-XYZ Euler rates of the body-frame angular velocity in closed form."""
-    R = floating_rotation(*q[3:])
-    velocity = R * sm.Matrix(u[:3])
-    wx, wy, wz = u[3:]
-    cy, sz, cz = sm.cos(q[4]), sm.sin(q[5]), sm.cos(q[5])
-    rate_x = (wx * cz - wy * sz) / cy
-    return [velocity[0], velocity[1], velocity[2], rate_x, wx * sz + wy * cz, wz - rate_x * sm.sin(q[4])]
-
-
-def quaternion_rotation(w, x, y, z):
-    """R (child components -> parent components) of the quaternion (w, x, y, z), a rotation for
-    any nonzero length: R = I + s [[-(y²+z²), xy-wz, xz+wy], ...] with s = 2/(w²+x²+y²+z²)
-    (the unit-quaternion formula with 2 replaced by 2/|q|²).  Why not assume |q| = 1: an
-    integrator's step leaves |q| off 1 by its error (until the step's end normalises it), a
-    Newton iterate or a caller's x0 by more; this way the rhs is the same at q and at any
-    multiple of it -- the dynamics never sees |q| -- for one division, no sin/cos."""
-    s = 2 / (w ** 2 + x ** 2 + y ** 2 + z ** 2)
-    xx, yy, zz, xy, xz, yz, wx, wy, wz = x * x, y * y, z * z, x * y, x * z, y * z, w * x, w * y, w * z
-    return sm.Matrix([[1 - s * (yy + zz), s * (xy - wz), s * (xz + wy)],
-                      [s * (xy + wz), 1 - s * (xx + zz), s * (yz - wx)],
-                      [s * (xz - wy), s * (yz + wx), 1 - s * (xx + yy)]])
-
-
-def quaternion_kinematics(q, u):
-    """q' of a quaternion free joint, q = (x, y, z, w, qx, qy, qz), u = (v, ω) in body
-    components: position' = R v, and quat' = ½ quat ⊗ (0, ω) (Hamilton product; linear in
-    the quaternion, so its length is constant along exact solutions)."""
-    R = quaternion_rotation(*q[3:])
-    velocity = R * sm.Matrix(u[:3])
-    w, x, y, z = q[3:]
-    a, b, c = u[3:]
-    half = sm.Rational(1, 2)
-    return [velocity[0], velocity[1], velocity[2],
-            -half * (x * a + y * b + z * c), half * (w * a + y * c - z * b),
-            half * (w * b + z * a - x * c), half * (w * c + x * b - y * a)]
-
-
-def free_joint(qs, us, quaternion):
-    """(R, q') of a free joint's coordinates ``qs`` (position, then 3 angles or a
-    quaternion) and body-frame speeds ``us``."""
-    if quaternion:
-        return quaternion_rotation(*qs[3:]), quaternion_kinematics(qs, us)
-    return floating_rotation(*qs[3:]), floating_kinematics(qs, us)
 
 
 def tree_ir(tree, *, fold=False, gravity=9.81, laws=True):
@@ -149,64 +86,15 @@ def tree_ir(tree, *, fold=False, gravity=9.81, laws=True):
         coordinates += qs
         speeds += us
         common = dict(name=s, joint=tj.name, parent=parent, mass=mass, inertia=inertia)
-        if tj.type in ("revolute", "continuous"):
-            A, B, C = rotation_terms(R0, a)
-            cq, sq = sm.cos(qs[0]), sm.sin(qs[0])
-            R = sm.Matrix(3, 3, lambda r, k: lin((A[r, k], B[r, k], C[r, k]), (cq, sq, 1)))
-            Rc = [sum((R[r, k] * c[k] for k in range(3) if c[k] != 0), sm.S.Zero) for r in range(3)]
-            position = sm.Matrix([base[r] + Rc[r] for r in range(3)])
-            av = vec(a)
-            motion = tuple(av) + tuple(cross(av, c))
-            bodies.append(TreeBody(kind="revolute", speed=first, rotation=R.T, position=position,
-                                   motion=motion, **common))
-            offsets.append(sm.Matrix(p))
-            kinematics.append(us[0])
-        elif tj.type == "prismatic":
-            R0a = times(R0, [a[k] * qs[0] for k in range(3)])
-            R0c = times(R0, c)
-            position = sm.Matrix([base[r] + R0c[r] + R0a[r] for r in range(3)])
-            motion = (0, 0, 0) + tuple(vec(a))
-            bodies.append(TreeBody(kind="prismatic", speed=first, rotation=sm.Matrix(R0.T).applyfunc(snap),
-                                   position=position, motion=motion, **common))
-            offsets.append(sm.Matrix([p[r] + R0a[r] for r in range(3)]))
-            kinematics.append(us[0])
-        elif tj.type in ("floating", "floating_quaternion"):
-            Rf, qdot = free_joint(qs, us, tj.type == "floating_quaternion")
-            R = sm.Matrix(3, 3, lambda r, k: sum((snap(R0[r, m]) * Rf[m, k] for m in range(3)
-                                                  if snap(R0[r, m]) != 0), sm.S.Zero))
-            xyz = times(R0, qs[:3])
-            Rc = [sum((R[r, k] * c[k] for k in range(3) if c[k] != 0), sm.S.Zero) for r in range(3)]
-            position = sm.Matrix([base[r] + xyz[r] + Rc[r] for r in range(3)])
-            unit = [(1, 0, 0), (0, 1, 0), (0, 0, 1)]
-            motions = tuple((0, 0, 0) + e_ for e_ in unit) + tuple(
-                tuple(e_) + tuple(cross(list(e_), c)) for e_ in unit)
-            bodies.append(TreeBody(kind="free", speed=None, rotation=R.T, position=position, motion=None,
-                                   speeds=tuple(range(first, first + 6)), motions=motions, **common))
-            offsets.append(sm.Matrix([p[r] + xyz[r] for r in range(3)]))
-            kinematics += qdot
-            if tj.type == "floating_quaternion":
-                quaternions.append(len(coordinates) - 4)
-        elif tj.type == "planar":
-            Z = snapped(z_to(tj.axis))
-            Aj = snapped(R0 @ Z)
-            cth, sth = sm.cos(qs[2]), sm.sin(qs[2])
-            # R_PC = Aj Rz(th) Zᵀ = P cos + Q sin + W
-            Pm = snapped(Aj @ np.diag([1.0, 1.0, 0.0]) @ Z.T)
-            Qm = snapped(Aj @ np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 0.0]]) @ Z.T)
-            Wm = snapped(Aj @ np.diag([0.0, 0.0, 1.0]) @ Z.T)
-            R = sm.Matrix(3, 3, lambda r, k: lin((Pm[r, k], Qm[r, k], Wm[r, k]), (cth, sth, 1)))
-            xy = times(Aj, [qs[0], qs[1], 0])
-            Rc = [sum((R[r, k] * c[k] for k in range(3) if c[k] != 0), sm.S.Zero) for r in range(3)]
-            position = sm.Matrix([base[r] + xy[r] + Rc[r] for r in range(3)])
-            n = vec(Z[:, 2])
-            motions = ((0, 0, 0) + tuple(vec(Z[:, 0])), (0, 0, 0) + tuple(vec(Z[:, 1])),
-                       tuple(n) + tuple(cross(n, c)))
-            bodies.append(TreeBody(kind="3-speed", speed=None, rotation=R.T, position=position, motion=None,
-                                   speeds=(first, first + 1, first + 2), motions=motions, **common))
-            offsets.append(sm.Matrix([p[r] + xy[r] for r in range(3)]))
-            kinematics += [us[0] * cth - us[1] * sth, us[0] * sth + us[1] * cth, us[2]]
-        else:
+        if tj.type not in URDF_KINDS:
             raise NotImplementedError(f"joint type {tj.type}")
+        site = JointSite(R0, tj.axis, base, c, quaternion=tj.type == "floating_quaternion")
+        joint = KINDS[URDF_KINDS[tj.type]].mobilize(site, qs, us)
+        bodies.append(joint.body(first, **common))
+        offsets.append(sm.Matrix(p) if joint.shift is None else sm.Matrix([p[r] + joint.shift[r] for r in range(3)]))
+        kinematics += joint.kinematics
+        if joint.w is not None:
+            quaternions.append(coordinates.index(joint.w))
         index[tj.child] = len(bodies) - 1
         coms[tj.child] = c
         if tj.type in ("revolute", "continuous", "prismatic"):

@@ -24,7 +24,7 @@ def configure(parser):
     parser.add_argument("--method", default="auto",
                         help="auto (dop853; radau from the start with contacts, or from where "
                              "dop853 finds the problem stiff), rk4 (needs --dt), dopri5 (rk45), dop853, "
-                             "radau, implicitfast (needs --dt)")
+                             "radau, bdf, implicitfast (needs --dt)")
     parser.add_argument("--rtol", type=float, default=1e-6, help="relative tolerance")
     parser.add_argument("--atol", type=float, default=1e-9, help="absolute tolerance")
     parser.add_argument("--dt", type=float, help="fixed step (rk4, implicitfast)")

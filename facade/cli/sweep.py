@@ -42,7 +42,7 @@ def configure(parser):
                         help="complete each case's dependent coordinates and speeds on the model's "
                              "constraints (keeping the independent ones) before it runs")
     parser.add_argument("--method", default="auto",
-                        help="auto (as eomc simulate), rk4 (needs --dt), dopri5 (rk45), dop853, radau, implicitfast (needs --dt)")
+                        help="auto (as eomc simulate), rk4 (needs --dt), dopri5 (rk45), dop853, radau, bdf, implicitfast (needs --dt)")
     parser.add_argument("--rtol", type=float, default=1e-6, help="relative tolerance")
     parser.add_argument("--atol", type=float, default=1e-9, help="absolute tolerance")
     parser.add_argument("--dt", type=float, help="fixed step (rk4)")

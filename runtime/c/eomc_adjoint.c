@@ -3,6 +3,7 @@
 #include <string.h>
 
 #include "eomc_adjoint.h"
+#include "eomc_stagger.h"
 
 size_t eomc_adjoint_work_size(int nx, int nparam)
 {
@@ -118,6 +119,101 @@ int eomc_adjoint_rk4_backward(const eomc_model *m, eomc_vjp_fn vjp, double t0, d
         if (status != EOMC_OK) return status;
         for (i = 0; i < nx; i++) {
             lam[i] = xb[i] + G[(size_t)k * nx + i];
+            if (!isfinite(lam[i])) return EOMC_NONFINITE;
+        }
+    }
+    memcpy(lam0, lam, (size_t)nx * sizeof(double));
+    return EOMC_OK;
+}
+
+/* ------------------------------------------------------- adaptive DOP853 */
+
+int eomc_adjoint_erk_forward(const eomc_model *m, const eomc_options *opt, double t0, double t1,
+                             const double *x0, const double *p, const double *r, int ntstop,
+                             const double *tstop, long rec_cap, double *rec_t, double *rec_x,
+                             long *nrec, double *x_last, eomc_stats *stats, double *work,
+                             size_t work_len)
+{
+    eomc_stagger sg;
+    int status;
+    if (!m || !opt || !rec_t || !rec_x || !nrec || rec_cap <= 0 || ntstop < 0
+        || (ntstop > 0 && !tstop))
+        return EOMC_BAD_ARGUMENT;
+    memset(&sg, 0, sizeof sg);
+    sg.ntstop = ntstop; sg.tstop = tstop;
+    sg.rec_cap = rec_cap; sg.rec_t = rec_t; sg.rec_x = rec_x;
+    status = eomc_integrate_sg(m, opt, t0, t1, x0, p, m->ninput > 0 ? 1 : 0, NULL, r, 0, NULL,
+                               NULL, x_last, stats, work, work_len, &sg);
+    *nrec = sg.nrec;
+    return status;
+}
+
+#define ERK_S 12
+
+size_t eomc_adjoint_erk_work_size(int nx, int nparam)
+{
+    return (size_t)(3 * ERK_S + 4) * (size_t)nx + (size_t)(nparam > 0 ? nparam : 0) + 8;
+}
+
+int eomc_adjoint_erk_backward(const eomc_model *m, eomc_vjp_fn vjp, long nrec,
+                              const double *rec_t, const double *rec_x, const double *p,
+                              const double *r, const double *G, double *lam0, double *gp,
+                              double *work)
+{
+    const double *A, *B, *C;
+    int nx, np, as, i, j, l, status;
+    double *K, *Y, *Yb, *lam, *kb, *gx, *gpt, *mwork;
+    if (!m || !vjp || nrec < 0 || !rec_t || (nrec > 0 && !rec_x) || !G || !lam0 || !work)
+        return EOMC_BAD_ARGUMENT;
+    eomc_dop853_tableau(&A, &as, &B, &C);
+    nx = m->nx;
+    np = m->nparam;
+    K = work; Y = K + ERK_S * nx; Yb = Y + ERK_S * nx; lam = Yb + ERK_S * nx; kb = lam + nx;
+    gx = kb + nx; gpt = gx + nx;
+    mwork = work + eomc_adjoint_erk_work_size(nx, np);
+    if (gp) for (i = 0; i < np; i++) gp[i] = 0.0;
+    memcpy(lam, G + (size_t)nrec * nx, (size_t)nx * sizeof(double));
+    for (long n = nrec - 1; n >= 0; n--) {
+        const double *x = rec_x + (size_t)n * nx;
+        double t = rec_t[n], h = rec_t[n + 1] - rec_t[n];
+        /* the stages as run_erk computed them: Y_s = x + h sum_{j<s} a_sj K_j (zeros skipped,
+         * j ascending), K_s = f(t + c_s h, Y_s) */
+        for (int st = 0; st < ERK_S; st++) {
+            double *y = Y + (size_t)st * nx;
+            for (i = 0; i < nx; i++) {
+                double acc = 0.0;
+                for (j = 0; j < st; j++) {
+                    double a = A[(size_t)st * as + j];
+                    if (a != 0.0) acc += a * K[(size_t)j * nx + i];
+                }
+                y[i] = st ? x[i] + h * acc : x[i];
+            }
+            status = m->rhs(t + C[st] * h, y, p, r, K + (size_t)st * nx, mwork);
+            if (status != EOMC_OK) return status;
+        }
+        /* x_new = x + h sum_s b_s K_s: K_s's adjoint kb_s = h b_s lam + h sum_{l>s} a_ls Yb_l,
+         * Y_s's adjoint Yb_s = J_s^T kb_s (vjp), and x's = lam + sum_s Yb_s */
+        for (int st = ERK_S - 1; st >= 0; st--) {
+            int any = 0;
+            for (i = 0; i < nx; i++) {
+                double acc = B[st] * lam[i];
+                for (l = st + 1; l < ERK_S; l++) {
+                    double a = A[(size_t)l * as + st];
+                    if (a != 0.0) acc += a * Yb[(size_t)l * nx + i];
+                }
+                kb[i] = h * acc;
+                any |= kb[i] != 0.0;
+            }
+            double *yb = Yb + (size_t)st * nx;
+            if (!any) { memset(yb, 0, (size_t)nx * sizeof(double)); continue; }
+            status = vjp(t + C[st] * h, Y + (size_t)st * nx, p, r, kb, NULL, yb, gp ? gpt : NULL, mwork);
+            if (status != EOMC_OK) return status;
+            if (gp) for (i = 0; i < np; i++) gp[i] += gpt[i];
+        }
+        for (i = 0; i < nx; i++) {
+            double acc = lam[i] + G[(size_t)n * nx + i];
+            for (int st = 0; st < ERK_S; st++) acc += Yb[(size_t)st * nx + i];
+            lam[i] = acc;
             if (!isfinite(lam[i])) return EOMC_NONFINITE;
         }
     }

@@ -68,6 +68,9 @@
 #define MAX_SPLIT 64          /* a step that Newton cannot solve is split into up to 64 */
 #define NEWTON_HALVINGS 6     /* damping of the Newton corrections per step */
 #define DEFAULT_MAX_STEPS 100000L
+#define HARD_FACTOR 20.0      /* fast path: a ratio above this * eomc_implicit.split is split
+                                 even where halving does not help (see fs_fast_advance) */
+#define RESID_ACCEL 1.0       /* fast path: the residual test's floor, h * this (m/s^2, rad/s^2) */
 
 size_t eomc_fs_work_size(int nx)
 {
@@ -390,8 +393,10 @@ static fs_layout fs_layout_of(int nq, int nu, int nc)
 size_t eomc_fs_implicit_work_size(int nq, int nu, int ncontact)
 {
     size_t u = (size_t)nu, x = (size_t)nq + u;
-    /* + the ancestor lists: nu + 1 + nu (nu - 1) / 2 ints, in nu * nu / 2 + nu + 1 doubles */
-    return fs_layout_of(nq, nu, ncontact).size + u * u + 6 * u + 3 * x + 8 + u * u / 2 + u + 2;
+    /* two sets of terms, matrices and right sides (the step's start and a trial end: the
+     * residual test below), scratch, and the ancestor lists: nu + 1 + nu (nu - 1) / 2 ints,
+     * in nu * nu / 2 + nu + 1 doubles */
+    return 2 * fs_layout_of(nq, nu, ncontact).size + 2 * u * u + 10 * u + 4 * x + 8 + u * u / 2 + u + 2;
 }
 
 /* A = U D L in place (D on the diagonal, unit U above it, unit L below it): A has nonzeros
@@ -448,23 +453,24 @@ static void fs_tree_solve(int n, const double *A, const int *start, const int *a
         for (int x = start[k]; x < start[k + 1]; x++) b[k] -= A[(size_t)k * n + anc[x]] * b[anc[x]];
 }
 
-/* One step (2) from (t, x) with the terms T = NAME_implicit(t, x): x1. */
-static int fs_fast_step(const eomc_fs_ops *ops, const fs_layout *L, double h, const double *x,
-                        const double *T, double *A, double *du, double *J, double *GJ,
-                        double *Kv, double *x1, const int *start, const int *anc)
+/* A = M + h C~ + h^2 K~ from the terms T (factored in place) and b = f - h K~ u: the
+ * matrix and right side of (2) for a step of size h from the state T was evaluated at. */
+static int fs_assemble(const eomc_fs_ops *ops, const fs_layout *L, double h, const double *u,
+                       const double *T, double *A, double *b, double *J, double *GJ, double *Kv,
+                       const int *start, const int *anc)
 {
     const eomc_implicit *imp = ops->imp;
-    int nq = ops->nq, nu = ops->nu;
-    const double *u = x + nq, *scr = T + L->screw, *jl = T + L->joint;
+    int nu = ops->nu;
+    const double *scr = T + L->screw, *jl = T + L->joint;
     memcpy(A, T + L->M, (size_t)nu * nu * sizeof(double));
-    memcpy(du, T + L->f, (size_t)nu * sizeof(double));
+    memcpy(b, T + L->f, (size_t)nu * sizeof(double));
     for (int s = 0; s < nu; s++) {                   /* joint laws: diagonal */
         /* their semidefinite part only (a limit's damping, as it fades in past the limit,
          * can have a negative slope in q) */
         double d = jl[2 * s] > 0.0 ? jl[2 * s] : 0.0, k = jl[2 * s + 1] > 0.0 ? jl[2 * s + 1] : 0.0;
         if (d != 0.0 || k != 0.0) {
             A[(size_t)s * nu + s] += h * d + h * h * k;
-            du[s] -= h * k * u[s];
+            b[s] -= h * k * u[s];
         }
     }
     for (int c = 0; c < imp->ncontact; c++) {
@@ -482,68 +488,227 @@ static int fs_fast_step(const eomc_fs_ops *ops, const fs_layout *L, double h, co
         if (!any) continue;
         for (int a = 0; a < 3; a++)
             Kv[a] = K[3 * a] * vp[0] + K[3 * a + 1] * vp[1] + K[3 * a + 2] * vp[2];
-        for (int b = 0; b < m; b++) {                 /* J[:, b] = w x p + v0 of speed cols[b] */
-            const double *w = scr + 6 * (size_t)cols[b], *v0 = w + 3;
-            double *j = J + 3 * b;
+        for (int k = 0; k < m; k++) {                 /* J[:, k] = w x p + v0 of speed cols[k] */
+            const double *w = scr + 6 * (size_t)cols[k], *v0 = w + 3;
+            double *j = J + 3 * k;
             j[0] = v0[0] + w[1] * p[2] - w[2] * p[1];
             j[1] = v0[1] + w[2] * p[0] - w[0] * p[2];
             j[2] = v0[2] + w[0] * p[1] - w[1] * p[0];
             for (int a = 0; a < 3; a++)
-                GJ[3 * b + a] = G[3 * a] * j[0] + G[3 * a + 1] * j[1] + G[3 * a + 2] * j[2];
-            du[cols[b]] -= h * (j[0] * Kv[0] + j[1] * Kv[1] + j[2] * Kv[2]);
+                GJ[3 * k + a] = G[3 * a] * j[0] + G[3 * a + 1] * j[1] + G[3 * a + 2] * j[2];
+            b[cols[k]] -= h * (j[0] * Kv[0] + j[1] * Kv[1] + j[2] * Kv[2]);
         }
         for (int a = 0; a < m; a++) {
             const double *ja = J + 3 * a;
             double *row = A + (size_t)cols[a] * nu;
-            for (int b = 0; b < m; b++) {
-                const double *g = GJ + 3 * b;
-                row[cols[b]] += ja[0] * g[0] + ja[1] * g[1] + ja[2] * g[2];
+            for (int k = 0; k < m; k++) {
+                const double *g = GJ + 3 * k;
+                row[cols[k]] += ja[0] * g[0] + ja[1] * g[1] + ja[2] * g[2];
             }
         }
     }
     if (fs_tree_lu(nu, A, start, anc)) return EOMC_SINGULAR_MASS_MATRIX;
-    for (int s = 0; s < nu; s++) du[s] *= h;
-    fs_tree_solve(nu, A, start, anc, du);
-    {
-        const double *qd = T + L->qd, *N = T + L->N;
-        for (int i = 0; i < nq; i++) {
-            const double *row = N + (size_t)i * nu;
-            double v = qd[i];
-            for (int s = 0; s < nu; s++) v += row[s] * du[s];
-            x1[i] = x[i] + h * v;
-        }
-        for (int s = 0; s < nu; s++) x1[nq + s] = u[s] + du[s];
-    }
-    for (int i = 0; i < nq + nu; i++)
-        if (!isfinite(x1[i])) return EOMC_NONFINITE;
     return EOMC_OK;
 }
 
-static int fs_run_fast(const eomc_fs_ops *ops, eomc_stats *st, double h, long maxs, double t0,
-                       double t1, double *x, double *work)
+/* The fast path's state for fs_loop.  T, A, b: the terms at the step's start x and (2)'s
+ * factored matrix and right side for a step of hA; T1, A1, b1 the same at a trial end
+ * (swapped in when the trial is kept: the next step's matrix is then ready). */
+typedef struct fs_fast {
+    const eomc_fs_ops *ops;
+    eomc_stats *st;
+    fs_layout L;
+    int n;
+    double *T, *A, *b, *T1, *A1, *b1;
+    double hA;                   /* the step A and b were made for (0: none, or T is stale) */
+    int have_T;                  /* T holds the terms at the x fs_loop hands in */
+    int deep;                    /* -1, or the first contact found deeper than its limit */
+    double *du, *dv, *J, *GJ, *Kv, *x1, *xs, *f1;
+    int *start, *anc;
+} fs_fast;
+
+static void fs_swap(double **a, double **b)
 {
-    int nq = ops->nq, nu = ops->nu, n = nq + nu, s;
-    fs_layout L = fs_layout_of(nq, nu, ops->imp->ncontact);
-    double *T = work, *A = T + L.size, *du = A + (size_t)nu * nu, *J = du + nu, *GJ = J + 3 * (size_t)nu;
-    double *Kv = GJ + 3 * (size_t)nu, *x1 = Kv + 4, *slope = x1 + n, *f1 = slope + n;
-    int *start = (int *)(f1 + n), *anc = start + nu + 1;
+    double *t = *a;
+    *a = *b;
+    *b = t;
+}
+
+/* One step (2) of size h from (t, x) with T, A, b made for it: x1, then the terms at x1 in
+ * T1 and A1, b1 made for another step of h, and *ratio: how far x1 is from solving the
+ * implicit Euler equation M(q1) (u1 - u) = h f(q1, u1) that (2) linearises.  The residual
+ * r = M1 du - h f1 costs nothing but a product (T1 is the next step's call) and A1^-1 r is
+ * Newton's correction to u1: *ratio = |A1^-1 r| / (|du| + h g) (2-norms over the speeds,
+ * g = 1 m/s^2 or rad/s^2 keeps a step at rest from counting its rounding).  In free
+ * flight and in a steady stance the linearisation is good to O(h^2) and the ratio is
+ * small; where the linearisation fails (a limit or contact engaging at speed, a light link
+ * whose contact geometry turns unstable inside the step: G1's ankles at 1 ms), it is
+ * large, and the step is split (fs_fast_advance). */
+static int fs_fast_try(fs_fast *q, double t, double h, const double *x, double *ratio)
+{
+    const eomc_fs_ops *ops = q->ops;
+    const fs_layout *L = &q->L;
+    int nq = ops->nq, nu = ops->nu, s;
+    const double *u = x + nq;
+    double rn = 0.0, dn = 0.0;
+    *ratio = INFINITY;
+    for (int i = 0; i < nu; i++) q->du[i] = h * q->b[i];
+    fs_tree_solve(nu, q->A, q->start, q->anc, q->du);
+    {
+        const double *qd = q->T + L->qd, *N = q->T + L->N;
+        for (int i = 0; i < nq; i++) {
+            const double *row = N + (size_t)i * nu;
+            double v = qd[i];
+            for (int k = 0; k < nu; k++) v += row[k] * q->du[k];
+            q->x1[i] = x[i] + h * v;
+        }
+        for (int k = 0; k < nu; k++) q->x1[nq + k] = u[k] + q->du[k];
+    }
+    for (int i = 0; i < nq + nu; i++)
+        if (!isfinite(q->x1[i])) return EOMC_NONFINITE;
+    if ((s = ops->terms(ops->ctx, t + h, q->x1, q->T1))) return s;
+    if ((s = fs_assemble(ops, L, h, q->x1 + nq, q->T1, q->A1, q->b1, q->J, q->GJ, q->Kv,
+                         q->start, q->anc)))
+        return s;
+    {
+        const double *M1 = q->T1 + L->M, *f1 = q->T1 + L->f;
+        for (int i = 0; i < nu; i++) {
+            const double *row = M1 + (size_t)i * nu;
+            double r = -h * f1[i];
+            for (int k = 0; k < nu; k++) r += row[k] * q->du[k];
+            q->dv[i] = r;
+        }
+    }
+    fs_tree_solve(nu, q->A1, q->start, q->anc, q->dv);
+    for (int i = 0; i < nu; i++) {
+        rn += q->dv[i] * q->dv[i];
+        dn += q->du[i] * q->du[i];
+    }
+    *ratio = sqrt(rn) / (sqrt(dn) + h * RESID_ACCEL);
+    if (!isfinite(*ratio)) *ratio = INFINITY;
+    return EOMC_OK;
+}
+
+/* fs_loop's step for the fast path: one step (2), or, with eomc_implicit.split > 0 and
+ * where the step's residual ratio (fs_fast_try) is above it, 2, 4 ... MAX_SPLIT equal
+ * sub-steps (as fs_advance does for the W-method).  A sub-step is split further only while
+ * that helps: a linearisation error shrinks with the step, so halving must at least halve
+ * the ratio, unless the ratio is above HARD_FACTOR * split (then it is split regardless).
+ * Measured (2 s of Go2 and G1 collapsing onto their feet at 1, 2, 5 ms, the gymnasium
+ * models at their own step): without the test G1 blows up at 1 and 5 ms and Go2 at 2 and
+ * 5 ms -- the knee hitting its limit at 10 rad/s drives G1's 5 mm heel spheres past their
+ * radius, where the light ankle links' contact geometry is unstable at a rate of ~1000/s,
+ * and the step that linearised it has a ratio of 100 to 1000; a ratio of 0.5 to 1 is
+ * common in a stance (the regularised friction switching between stick and slip within a
+ * step: halving does not help there, so such steps are taken whole).  With split = 0.5 all
+ * six runs end with status 0 and Go2's feet at most 11.5 mm deep (radius 22 mm).  A sub-step
+ * of the smallest size that still fails the test is taken anyway and counted in
+ * stats->rejected (simulate warns); a step with no finite sub-step at all fails.  After
+ * each kept step the contacts' depths are checked against eomc_implicit.depth_limit: the
+ * first contact found deeper is remembered and the run fails at the next step with
+ * EOMC_PENETRATED (the state is written first, so the failure shows where). */
+static int fs_fast_advance(void *self, double t, double h, const double *x, double **x1, double **f1)
+{
+    fs_fast *q = (fs_fast *)self;
+    const eomc_fs_ops *ops = q->ops;
+    const double *xs = x, *lim = ops->imp->depth_limit;
+    int s, pos = 0, size = MAX_SPLIT, n = q->n;
+    double split = ops->imp->split > 0.0 ? ops->imp->split : INFINITY;
+    if (q->deep >= 0) return EOMC_PENETRATED;
+    if (!q->have_T) {
+        if ((s = ops->terms(ops->ctx, t, x, q->T))) return s;
+        q->have_T = 1;
+        q->hA = 0.0;
+    }
+    double before = INFINITY;          /* the ratio of the twice longer try from here */
+    while (pos < MAX_SPLIT) {
+        double ts = t + h * pos / MAX_SPLIT, hs = size == MAX_SPLIT ? h : h * size / MAX_SPLIT, ratio;
+        if (q->hA != hs) {
+            if ((s = fs_assemble(ops, &q->L, hs, xs + ops->nq, q->T, q->A, q->b, q->J, q->GJ, q->Kv,
+                                 q->start, q->anc))) {
+                q->st->t_fail = ts;
+                return s;
+            }
+            q->hA = hs;
+            q->st->nlu++;
+        }
+        s = fs_fast_try(q, ts, hs, xs, &ratio);
+        if (s && s != EOMC_NONFINITE && s != EOMC_SINGULAR_MASS_MATRIX) return s;
+        /* split while the test fails and splitting helps: a linearisation error shrinks with
+         * the step (the ratio falls at least by half per halving); one that does not (a
+         * regularised friction law switching between stick and slip, where its slope jumps
+         * by mu F_n / v_s) is no instability, and splitting it further only costs calls */
+        if ((s || (ratio > split && (ratio > HARD_FACTOR * split || !(ratio > 0.5 * before)))) && size > 1) {
+            before = s ? INFINITY : ratio;
+            size /= 2;
+            continue;
+        }
+        if (s) {
+            q->st->t_fail = ts + hs;
+            return s;
+        }
+        if (size == 1 && ratio > split) q->st->rejected++;
+        before = INFINITY;
+        q->st->nlu++;
+        pos += size;
+        fs_swap(&q->T, &q->T1);
+        fs_swap(&q->A, &q->A1);
+        fs_swap(&q->b, &q->b1);
+        if (pos < MAX_SPLIT) {                  /* a sub-step ended inside the step */
+            memcpy(q->xs, q->x1, (size_t)n * sizeof(double));
+            xs = q->xs;
+            if (pos % (2 * size) == 0) size *= 2;
+        }
+    }
+    if (lim)
+        for (int c = 0; c < ops->imp->ncontact && q->deep < 0; c++)
+            if (q->T[q->L.contact + 25 * (size_t)c] > lim[c]) q->deep = c;
+    *x1 = q->x1;
+    *f1 = q->f1;          /* not used by the fast path; accept writes it only when projecting */
+    return EOMC_OK;
+}
+
+/* fs_loop's step for the W-method: fs_advance, from f = f(t, x) (evaluated on the first
+ * step, then the previous step's f1). */
+typedef struct fs_slow {
+    fs w;
+    int have_f;
+} fs_slow;
+
+static int fs_slow_advance(void *self, double t, double h, const double *x, double **x1, double **f1)
+{
+    fs_slow *q = (fs_slow *)self;
+    int s;
+    if (q->have_f)
+        memcpy(q->w.f, q->w.f1, (size_t)q->w.n * sizeof(double));
+    else if ((s = q->w.ops->rhs(q->w.ops->ctx, t, x, q->w.f)))
+        return s;
+    q->have_f = 1;
+    if ((s = fs_advance(&q->w, t, h, x))) return s;
+    *x1 = q->w.x1;
+    *f1 = q->w.f1;
+    return EOMC_OK;
+}
+
+/* The fixed grid both paths walk: steps of h from t0, the last one shortened to end on t1
+ * (every step but the last is exactly h, so a kept LU stays valid); each step's end goes
+ * through ops->accept (output rows, events, projection) before it becomes x. */
+static int fs_loop(const eomc_fs_ops *ops, eomc_stats *st, int n, double h, long maxs, double t0,
+                   double t1, double *x, double *slope,
+                   int (*advance)(void *, double, double, const double *, double **, double **),
+                   void *self)
+{
     long nsteps = (long)ceil((t1 - t0) / h * (1 - 1e-12));
+    int s;
     if (nsteps < 1) nsteps = 1;
-    memset(f1, 0, (size_t)n * sizeof(double));
-    fs_ancestors(nu, ops->imp->parent, start, anc);
     for (long k = 0; k < nsteps; k++) {
         double t = t0 + k * h, tn = (k == nsteps - 1) ? t1 : t0 + (k + 1) * h;
-        double hh = (k == nsteps - 1) ? t1 - t : h;
+        double hh = (k == nsteps - 1) ? t1 - t : h, *x1, *f1;
         int stop = 0;
         st->t = t; st->h = hh;
         if (st->steps >= maxs) return EOMC_MAX_STEPS;
         st->steps++;
-        if ((s = ops->terms(ops->ctx, t, x, T))) return s;
-        if ((s = fs_fast_step(ops, &L, hh, x, T, A, du, J, GJ, Kv, x1, start, anc))) {
-            st->t_fail = tn;
-            return s;
-        }
-        st->nlu++;
+        if ((s = advance(self, t, hh, x, &x1, &f1))) return s;
         st->accepted++;
         for (int i = 0; i < n; i++) slope[i] = (x1[i] - x[i]) / hh;
         if ((s = ops->accept(ops->ctx, t, tn, x, slope, x1, f1, &stop))) return s;
@@ -557,43 +722,55 @@ static int fs_run_fast(const eomc_fs_ops *ops, eomc_stats *st, double h, long ma
 int eomc_fs_run(const eomc_fs_ops *ops, eomc_stats *st, int nx, double h, long max_steps,
                 double t0, double t1, double *x, double *work)
 {
-    fs w;
-    int n = nx, s;
-    long nsteps, maxs = max_steps > 0 ? max_steps : DEFAULT_MAX_STEPS;
-    double *pos = work;
+    long maxs = max_steps > 0 ? max_steps : DEFAULT_MAX_STEPS;
+    int s;
     if (!(h > 0) || !isfinite(h)) return EOMC_BAD_ARGUMENT;
-    if (ops->terms) return fs_run_fast(ops, st, h, maxs, t0, t1, x, work);
-    w.ops = ops; w.st = st; w.n = n; w.h_lu = 0.0;
-    w.J = pos; pos += (size_t)n * n;
-    w.A = pos; pos += (size_t)n * n;
-    w.f = pos; pos += n;
-    w.dx = pos; pos += n;
-    w.x1 = pos; pos += n;
-    w.f1 = pos; pos += n;
-    w.r = pos; pos += n;
-    w.slope = pos; pos += n;
-    w.best = pos; pos += n;
-    w.xs = pos; pos += n;
-    w.piv = (int *)pos;
-    nsteps = (long)ceil((t1 - t0) / h * (1 - 1e-12));
-    if (nsteps < 1) nsteps = 1;
-    if ((s = ops->rhs(ops->ctx, t0, x, w.f))) return s;
-    for (long k = 0; k < nsteps; k++) {
-        /* every step but the last is exactly h, so the kept LU stays valid */
-        double t = t0 + k * h, tn = (k == nsteps - 1) ? t1 : t0 + (k + 1) * h;
-        double hh = (k == nsteps - 1) ? t1 - t : h;
-        int stop = 0;
-        st->t = t; st->h = hh;
-        if (st->steps >= maxs) return EOMC_MAX_STEPS;
-        st->steps++;
-        if ((s = fs_advance(&w, t, hh, x))) return s;
-        st->accepted++;
-        for (int i = 0; i < n; i++) w.slope[i] = (w.x1[i] - x[i]) / hh;
-        if ((s = ops->accept(ops->ctx, t, tn, x, w.slope, w.x1, w.f1, &stop))) return s;
-        if (stop) return EOMC_OK;
-        memcpy(x, w.x1, (size_t)n * sizeof(double));
-        memcpy(w.f, w.f1, (size_t)n * sizeof(double));
+    if (ops->terms) {
+        fs_fast q;
+        int nq = ops->nq, nu = ops->nu, n = nq + nu;
+        double *pos = work, *slope;
+        size_t uu = (size_t)nu * nu;
+        memset(&q, 0, sizeof q);
+        q.ops = ops; q.st = st; q.n = n; q.deep = -1;
+        q.L = fs_layout_of(nq, nu, ops->imp->ncontact);
+        q.T = pos; pos += q.L.size;
+        q.T1 = pos; pos += q.L.size;
+        q.A = pos; pos += uu;
+        q.A1 = pos; pos += uu;
+        q.b = pos; pos += nu;
+        q.b1 = pos; pos += nu;
+        q.du = pos; pos += nu;
+        q.dv = pos; pos += nu;
+        q.J = pos; pos += 3 * (size_t)nu;
+        q.GJ = pos; pos += 3 * (size_t)nu;
+        q.Kv = pos; pos += 4;
+        q.x1 = pos; pos += n;
+        q.xs = pos; pos += n;
+        slope = pos; pos += n;
+        q.f1 = pos; pos += n;           /* accept's f1: quaternions rescale it; not read back */
+        memset(q.f1, 0, (size_t)n * sizeof(double));
+        q.start = (int *)pos; q.anc = q.start + nu + 1;
+        fs_ancestors(nu, ops->imp->parent, q.start, q.anc);
+        s = fs_loop(ops, st, n, h, maxs, t0, t1, x, slope, fs_fast_advance, &q);
+        if (s == EOMC_OK && q.deep >= 0) s = EOMC_PENETRATED;
+        return s;
+    } else {
+        fs_slow q;
+        int n = nx;
+        double *pos = work;
+        q.have_f = 0;
+        q.w.ops = ops; q.w.st = st; q.w.n = n; q.w.h_lu = 0.0;
+        q.w.J = pos; pos += (size_t)n * n;
+        q.w.A = pos; pos += (size_t)n * n;
+        q.w.f = pos; pos += n;
+        q.w.dx = pos; pos += n;
+        q.w.x1 = pos; pos += n;
+        q.w.f1 = pos; pos += n;
+        q.w.r = pos; pos += n;
+        q.w.slope = pos; pos += n;
+        q.w.best = pos; pos += n;
+        q.w.xs = pos; pos += n;
+        q.w.piv = (int *)pos;
+        return fs_loop(ops, st, n, h, maxs, t0, t1, x, q.w.slope, fs_slow_advance, &q);
     }
-    st->t = t1;
-    return EOMC_OK;
 }

@@ -20,6 +20,11 @@
  *                and refreshed (with Newton) when not: for real-time and
  *                learning use on stiff contact (eomc_fixedstep.c).  First
  *                order; linear interpolation between steps.  rtol/atol unused.
+ *   EOMC_BDF     variable-order (1..5), variable-step BDF/NDF (implicit, stiff;
+ *                MATLAB's ode15s, scipy's BDF) with the model's jac_x, Jacobian
+ *                and LU kept across steps; the cheap implicit method at loose
+ *                tolerances (eomc_bdf.c).  Dense output: its interpolating
+ *                polynomial.
  *
  * Output is written at caller-given times t_eval (increasing, inside
  * [t0, t1]) by dense output, not by stepping to each time.
@@ -43,6 +48,7 @@ extern "C" {
 #define EOMC_DOP853 2
 #define EOMC_RADAU5 3
 #define EOMC_IMPLICITFAST 4
+#define EOMC_BDF 5
 
 /*
  * The fixed-step implicit integrator's fast path (EOMC_IMPLICITFAST, runtime/c/eomc_fixedstep.c):
@@ -59,13 +65,23 @@ typedef struct eomc_implicit {
     const int *parent;        /* nu: each speed's parent in the tree (-1: root), parent[s] < s;
                                  NULL: M is factored dense */
     size_t work_len;          /* doubles of work the path needs: eomc_fs_implicit_work_size */
+    double split;             /* > 0: a step whose linearisation misses the implicit Euler
+                                 equation by more than this (Newton's correction over the step's
+                                 velocity change) is split (eomc_fixedstep.c); 0: never split,
+                                 one model call per step, as MuJoCo's implicitfast */
+    const double *depth_limit;/* ncontact (may be NULL: none): a contact deeper than this after
+                                 a step ends the run with EOMC_PENETRATED (the state written) */
 } eomc_implicit;
+
+/* The run failed its physics: a contact went deeper than eomc_implicit.depth_limit (an
+ * integrator status beside eomc_status's; x_last holds the state that was too deep). */
+#define EOMC_PENETRATED 10
 
 /* Doubles of work the fast path needs (add to eomc_integrate_work_size). */
 size_t eomc_fs_implicit_work_size(int nq, int nu, int ncontact);
 
 typedef struct eomc_options {
-    int method;          /* EOMC_RK4 ... EOMC_IMPLICITFAST */
+    int method;          /* EOMC_RK4 ... EOMC_BDF */
     double rtol, atol;   /* > 0 (ignored by RK4) */
     double h0;           /* first step; 0 = automatic.  RK4, IMPLICITFAST: the fixed step (> 0) */
     double hmax;         /* largest step; 0 = t1 - t0 */

@@ -11,6 +11,7 @@
 #include <string.h>
 
 #include "eomc_sensitivity.h"
+#include "eomc_stagger.h"
 
 #define EOMC_SENS_MAXCOL 4096
 
@@ -25,6 +26,8 @@ struct eomc_sens {
     int pcols[EOMC_SENS_MAXCOL];
     double *J, *P;            /* nx x nx, nx x nparam scratch */
     double *D;                /* k x (nx + nparam): the directions handed to jvp */
+    int errcon;               /* 1: the step control sees S too (simultaneous, as before) */
+    long njvp, niter, nslow;  /* the last run's staggered counts */
     eomc_model aug;
 };
 
@@ -150,9 +153,29 @@ void eomc_sens_start(const eomc_sens *s, const double *x0, double *X0)
         X0[n + (size_t)j * n + s->xcols[j]] = 1.0;
 }
 
+void eomc_sens_error_control(eomc_sens *s, int on)
+{
+    s->errcon = on != 0;
+}
+
+/* Radau, S not steering the steps, jvp given: the staggered path on the plain model. */
+static int staggered(const eomc_sens *s, int method)
+{
+    return method == EOMC_RADAU5 && !s->errcon && s->jvp;
+}
+
 size_t eomc_sens_work_size(const eomc_sens *s, int method)
 {
+    int k = s->nxcol + s->npcol;
+    if (staggered(s, method))
+        return (size_t)s->nx * (size_t)k + eomc_integrate_work_size(s->m, method)
+               + eomc_stagger_work_size(s->nx, k);
     return eomc_integrate_work_size(&s->aug, method);
+}
+
+void eomc_sens_counts(const eomc_sens *s, long *out)
+{
+    out[0] = s->njvp; out[1] = s->niter; out[2] = s->nslow;
 }
 
 int eomc_sens_integrate(eomc_sens *s, const eomc_options *opt, double t0, double t1,
@@ -162,8 +185,30 @@ int eomc_sens_integrate(eomc_sens *s, const eomc_options *opt, double t0, double
                         double *work, size_t work_len)
 {
     eomc_options o = *opt;
+    eomc_stagger sg;
+    int n = s->nx, k = s->nxcol + s->npcol, st;
+    size_t nk = (size_t)n * (size_t)k;
     o.project = 0;
     o.baumgarte = 0.0;
-    return eomc_integrate(&s->aug, &o, t0, t1, X0, (const double *)(const void *)s, n_rgrid,
-                          r_tgrid, r_values, n_eval, t_eval, X_out, X_last, stats, work, work_len);
+    memset(&sg, 0, sizeof sg);
+    s->njvp = s->niter = s->nslow = 0;
+    if (!staggered(s, o.method)) {
+        /* explicit methods (and Radau with error control on S): the augmented model, whose
+         * sensitivities stay out of the error test unless errcon */
+        sg.n_err = s->errcon ? 0 : n;
+        return eomc_integrate_sg(&s->aug, &o, t0, t1, X0, (const double *)(const void *)s, n_rgrid,
+                                 r_tgrid, r_values, n_eval, t_eval, X_out, X_last, stats, work,
+                                 work_len, &sg);
+    }
+    if (!work || work_len < nk) return EOMC_BAD_ARGUMENT;
+    sg.k = k; sg.jvp = s->jvp; sg.ndir = n + s->np; sg.D = s->D;
+    sg.S = work;
+    sg.S_out = X_out ? X_out + n : NULL;
+    sg.ld_out = n * (1 + k);
+    memcpy(sg.S, X0 + n, nk * sizeof(double));
+    st = eomc_integrate_sg(s->m, &o, t0, t1, X0, s->p, n_rgrid, r_tgrid, r_values, n_eval, t_eval,
+                           X_out, X_last, stats, work + nk, work_len - nk, &sg);
+    if (X_last) memcpy(X_last + n, sg.S, nk * sizeof(double));
+    s->njvp = sg.njvp; s->niter = sg.niter; s->nslow = sg.nslow;
+    return st;
 }

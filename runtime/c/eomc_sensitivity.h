@@ -5,12 +5,17 @@
  * With S = dx/dtheta (nx x k; theta = chosen initial states and parameters):
  *     S' = jac_x(t, x) S + jac_p(t, x)[:, parameter columns],
  *     S(t0) = [e_i for the chosen initial states | 0 for the parameters].
- * The state and S form one augmented system of nx (1 + k) states, which the
- * unchanged integrators of eomc_integrators.c integrate (simultaneous
- * approach: error control covers S too, as CVODES with errconS).  Radau gets
- * the block-diagonal Jacobian diag(J, ..., J) of the augmented system (the
- * coupling dS'/dx is left out of the Newton matrix, so the Newton iteration
- * converges a little slower; the solution is the same).
+ * By default S does not steer the steps (CVODES's errconS = false): the run
+ * takes the plain run's steps.  Explicit methods integrate the augmented
+ * system [x; S] (nx (1 + k) states, rhs from jvp or jac_x) with the error
+ * test on x only, so S rides the same stages.  Radau with jvp is staggered
+ * direct: after each accepted step, S's collocation equations on that step
+ * (linear) are solved with the step's own Newton matrix and LU, residuals
+ * from jvp at the stage points (eomc_stagger.h).  eomc_sens_error_control(s,
+ * 1) makes the step control watch S too (simultaneous approach; Radau then
+ * integrates the augmented system with the block-diagonal Jacobian
+ * diag(J, ..., J), an LU of nx (1 + k) rows).  Radau without jvp always
+ * takes that simultaneous path.
  *
  * The context is opaque (eomc_sens_size() bytes, caller-allocated, aligned as
  * malloc aligns); no globals, no allocation: reentrant.
@@ -58,8 +63,16 @@ int eomc_sens_nstates(const eomc_sens *s);
 /* The augmented start X0 (nx (1 + k)) from x0 (nx). */
 void eomc_sens_start(const eomc_sens *s, const double *x0, double *X0);
 
-/* eomc_integrate_work_size for the augmented system. */
+/* on != 0: the step control watches the sensitivities too (more steps); 0 (after init):
+ * the steps are the plain run's. */
+void eomc_sens_error_control(eomc_sens *s, int on);
+
+/* Doubles of work eomc_sens_integrate needs for this method. */
 size_t eomc_sens_work_size(const eomc_sens *s, int method);
+
+/* The last run's staggered Radau counts: out[0] jvp calls, out[1] sensitivity iterations
+ * (three jvp calls each), out[2] steps whose iteration had not converged (all 0 elsewhere). */
+void eomc_sens_counts(const eomc_sens *s, long *out);
 
 /*
  * eomc_integrate over the augmented system: X_out rows are [x, S column by

@@ -26,15 +26,15 @@ __all__ = ["MODELS_DIR", "RUNTIME_C", "MODEL_NAMES", "StandInModel", "build_libr
 MODELS_DIR = Path(__file__).resolve().parents[1] / "runtime" / "models"  # the stand-in C models
 RUNTIME_C = Path(__file__).resolve().parents[2] / "runtime" / "c"  # eomc_model.h, eomc_integrators.c
 MODEL_NAMES = ("oscillator", "pendulum", "chain", "kepler", "ring", "blowup", "singular", "sphere",
-               "top")
+               "top", "robertson", "vdp", "decay_fail")
 SOURCES = ("oscillator.c", "pendulum.c", "chain.c", "kepler.c", "ring.c", "faulty.c", "sphere.c",
-           "top.c")
+           "top.c", "stiff.c")
 
 def compile_shared(out, sources, extra_flags=()):
     """gcc -shared the given C files with the integrators; raises with gcc's output."""
     cmd = ["gcc", "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-fPIC", "-shared",
            f"-I{RUNTIME_C}", *extra_flags, "-o", str(out), *map(str, sources),
-           str(RUNTIME_C / "eomc_integrators.c"), str(RUNTIME_C / "eomc_fixedstep.c"), "-lm"]
+           str(RUNTIME_C / "eomc_integrators.c"), str(RUNTIME_C / "eomc_fixedstep.c"), str(RUNTIME_C / "eomc_bdf.c"), "-lm"]
     proc = subprocess.run(cmd, capture_output=True, text=True)
     if proc.returncode:
         raise RuntimeError(f"gcc failed:\n{' '.join(cmd)}\n{proc.stderr}")

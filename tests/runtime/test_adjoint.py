@@ -86,3 +86,34 @@ def test_stored_and_recomputed_stages_agree(model, monkeypatch):
     b = eomc.gradient(model, x0, T, dt=DT, cost=cost)
     assert np.max(np.abs(a.dx0 - b.dx0)) <= 1e-13 * np.max(np.abs(a.dx0))
     assert np.max(np.abs(a.dp - b.dp)) <= 1e-13 * np.max(np.abs(a.dp))
+
+
+@pytest.mark.parametrize("tol", [1e-10])
+def test_dop853_gradient_matches_central_differences(model, tol):
+    """method='dop853': the discrete adjoint over the adaptive run's accepted steps (ending on
+    the grid) against central differences of whole adaptive runs, x0 and every parameter."""
+    rng = np.random.default_rng(5)
+    x0 = rng.uniform(-0.5, 0.5, model.nx)
+    p = np.asarray(model.param_defaults) * rng.uniform(0.8, 1.2, model.nparam)
+    r = rng.uniform(-1, 1, model.ninput)
+    kw = dict(dt=0.05, r=r, method="dop853", rtol=tol, atol=tol)
+    t, target = simulate_grid(model, x0 * 0.5, T, p=p * 1.1, **kw)
+    cost = _cost(target, rng.uniform(0.5, 2.0, target.shape))
+    g = eomc.gradient(model, x0, T, cost=cost, p=p, **kw)
+    assert np.isclose(g.value, cost(t, g.x)[0])
+    res = model.simulate(x0, (0.0, T), p=p, r=r, method="dop853", rtol=tol, atol=tol, t_eval=t)
+    assert np.max(np.abs(res.x - g.x)) < 1e-8      # the same trajectory as simulate's (to tol)
+
+    def J(x, pp):
+        return cost(*simulate_grid(model, x, T, p=pp, **kw))[0]
+    h = 1e-5
+    fx = np.array([(J(x0 + h * e, p) - J(x0 - h * e, p)) / (2 * h) for e in np.eye(model.nx)])
+    fp = np.array([(J(x0, p + h * p[i] * e) - J(x0, p - h * p[i] * e)) / (2 * h * p[i])
+                   for i, e in enumerate(np.eye(model.nparam))])
+    assert np.max(np.abs(g.dx0 - fx)) <= 1e-6 * np.max(np.abs(fx))
+    assert np.max(np.abs(g.dp - fp)) <= 1e-6 * np.max(np.abs(fp))
+
+
+def test_dop853_bad_method(model):
+    with pytest.raises(ValueError, match="'rk4'.*'dop853'"):
+        eomc.gradient(model, np.zeros(model.nx), T, dt=DT, cost=_cost(0.0, 1.0), method="radau")

@@ -72,6 +72,7 @@ def test_pendulum_period_to_1e12_from_compiled_event(models):
 
 @pytest.mark.parametrize("method,kw,tol", [("dopri5", dict(rtol=1e-11, atol=1e-12), 1e-9),
                                             ("radau", dict(rtol=1e-10, atol=1e-12), 1e-8),
+                                            ("bdf", dict(rtol=1e-10, atol=1e-12), 1e-7),
                                             ("rk4", dict(dt=1e-3), 1e-9)])
 def test_every_method_locates_events_on_its_dense_output(models, method, kw, tol):
     pend, _ = models

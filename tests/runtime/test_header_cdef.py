@@ -26,7 +26,7 @@ def test_python_constants_match_the_headers_defines():
     assert lib.EOMC_ABI_VERSION == ABI_VERSION
     assert METHOD_IDS == {"rk4": lib.EOMC_RK4, "dopri5": lib.EOMC_DOPRI5,
                           "dop853": lib.EOMC_DOP853, "radau": lib.EOMC_RADAU5,
-                          "implicitfast": lib.EOMC_IMPLICITFAST}
+                          "implicitfast": lib.EOMC_IMPLICITFAST, "bdf": lib.EOMC_BDF}
     assert lib.EOMC_SINGULAR_MASS_MATRIX == 1 and lib.EOMC_STIFF == 7
 
 

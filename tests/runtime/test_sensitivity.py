@@ -94,3 +94,57 @@ def test_bad_requests(cache):
     folded = eomc.compile(MODEL, functions=["rhs", "jac_x", "jac_p"], fold_parameters=True)
     with pytest.raises(ModelError, match="'m_pole' was folded"):
         folded.simulate(X0, (0, 1), sensitivities=["m_pole"])
+
+
+@pytest.fixture(scope="module")
+def jvp_model(cache):
+    return eomc.compile(MODEL, functions=["rhs", "jac_x", "jac_p", "outputs", "jvp"])
+
+
+def test_radau_staggered_takes_the_plain_runs_steps(jvp_model):
+    """Radau with jvp solves S's collocation equations after each accepted step with that
+    step's Newton matrix (staggered direct): the state and the steps are the plain run's bit
+    for bit, S agrees with the error-controlled (simultaneous) run and with central
+    differences of whole runs, also under a time-varying input table."""
+    m = jvp_model
+    r = (np.array([0.0, 0.7, 2.0]), np.array([[0.2, -0.1], [-0.4, 0.3], [0.1, 0.0]]))
+    kw = dict(r=r, method="radau", rtol=1e-10, atol=1e-10, t_eval=T)
+    plain = m.simulate(X0, (0, 2), **kw)
+    res = m.simulate(X0, (0, 2), sensitivities=["q_pole", "l", "g"], **kw)
+    assert np.array_equal(res.x, plain.x)
+    assert res.stats["steps"] == plain.stats["steps"] and res.stats["nfev"] == plain.stats["nfev"]
+    assert res.stats["njvp"] == 3 * res.stats["sens_iterations"] > 0
+    assert res.stats["sens_slow"] == 0
+    iq = m.state_names.index("q_pole")
+    assert np.array_equal(res.dx_dx0[0], np.eye(4)[:, [iq]]) and np.all(res.dx_dp[0] == 0.0)
+    old = m.simulate(X0, (0, 2), sensitivities=["q_pole", "l", "g"], sensitivity_errors=True, **kw)
+    assert old.stats["steps"] > plain.stats["steps"] and old.stats["njvp"] == 0
+    S, S_old = (np.concatenate([z.dx_dx0, z.dx_dp], axis=2) for z in (res, old))
+    assert np.max(np.abs(S - S_old)) < 1e-7 * np.max(np.abs(S_old))
+
+    def fd(which, j, h):
+        def run(sign):
+            x0, p = X0.copy(), m.param_defaults.copy()
+            (x0 if which == "x" else p)[j] += sign * h
+            # (DOP853's runs at 1e-12 differ smoothly in p; Radau's at 1e-12 carry ~3e-6 of
+            # step-selection noise into a difference over 2e-6)
+            return m.simulate(x0, (0, 2), p=p, **dict(kw, method="dop853", rtol=1e-12, atol=1e-12)).x
+        return (run(1) - run(-1)) / (2 * h)
+    ref = np.stack([fd("x", iq, 1e-6)] + [fd("p", m.param_names.index(n), 1e-6) for n in ("l", "g")], 2)
+    assert np.max(np.abs(S - ref)) < 1e-6 * np.max(np.abs(ref))
+
+
+@pytest.mark.parametrize("method", ["dop853", "dopri5"])
+def test_explicit_sensitivities_ride_the_plain_steps(jvp_model, method):
+    """Explicit methods carry [x; S] through the same stages (jvp) with the error test on x
+    alone: the plain run's steps; sensitivity_errors=True lets S steer them (more steps)."""
+    m = jvp_model
+    kw = dict(r=R, method=method, rtol=1e-9, atol=1e-9, t_eval=T)
+    plain = m.simulate(X0, (0, 2), **kw)
+    res = m.simulate(X0, (0, 2), sensitivities=["u_cart", "m_pole"], **kw)
+    old = m.simulate(X0, (0, 2), sensitivities=["u_cart", "m_pole"], sensitivity_errors=True, **kw)
+    assert abs(res.stats["steps"] - plain.stats["steps"]) <= 1
+    assert old.stats["steps"] > res.stats["steps"]
+    assert np.max(np.abs(res.x - plain.x)) < 1e-9
+    S, S_old = (np.concatenate([z.dx_dx0, z.dx_dp], axis=2) for z in (res, old))
+    assert np.max(np.abs(S - S_old)) < 1e-6 * np.max(np.abs(S_old))

@@ -56,6 +56,23 @@ def test_radau_keeps_the_energy_of_a_stiff_elastic_bounce(ball, k, rtol):
     assert res.stats["nswitch"] >= 4             # touch-down and lift-off, at least twice
 
 
+@pytest.mark.parametrize("k", [1e9, 1e12])
+def test_bdf_ends_its_steps_at_touch_down_and_lift_off_and_agrees_with_radau(ball, k):
+    """BDF restarts at order 1 at each switching point: energy kept, the bounce times Radau's."""
+    p = _p(ball, k_ball=k, c_ball=0.0, mu_ball=0.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", PhysicsWarning)
+        res = _drop(ball, p=p, method="bdf", rtol=1e-6, atol=1e-9)
+        ref = _drop(ball, p=p, method="radau", rtol=1e-10, atol=1e-13)
+    assert res.status == 0, res.message
+    E = res.outputs["energy"]
+    assert E.max() - E[0] < 100 * 1e-6 * E[0]
+    assert res.stats["nswitch"] >= 4
+    # each bounce as Radau times it: the drift after five is ~3e-5 s (energy kept to 3e-5)
+    np.testing.assert_allclose(res.t_events["contact_ball"], ref.t_events["contact_ball"], atol=1e-4)
+    assert np.abs(res["z"] - ref["z"]).max() < 1e-3
+
+
 def test_without_switching_radau_steps_over_the_impact_and_the_run_fails(ball):
     """switching=False shows the bare method: the energy it creates fails the run (never status 0)."""
     with warnings.catch_warnings():

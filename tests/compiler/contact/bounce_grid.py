@@ -28,7 +28,7 @@ T_FINAL = 1.2
 STIFFNESS = (1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12)
 DAMPING = {"none": 0.0, "small": 0.05, "large": 2.0}
 FRICTION = (0.0, 0.5)
-METHODS = ("dopri5", "dop853", "radau")
+METHODS = ("dopri5", "dop853", "radau", "bdf")
 RTOLS = (1e-3, 1e-6)
 
 

@@ -168,3 +168,15 @@ EOMC_VTARGET void many(int n, const double *x, double *s, double *c)
         ulps = np.abs(got.view(np.int64) - want.view(np.int64))
         assert ulps.max() <= 1, (fn.__name__, x[np.argmax(ulps)], ulps.max())
         assert np.mean(ulps == 0) > 0.9
+
+
+def test_without_simd_and_unknown_shapes_loop_the_scalar_rhs(cache):
+    """-DEOMC_NO_SIMD (what a compiler without GNU vectors gets) and an rhs line the rewrite
+    does not know both give the scalar loop: same results, and the metadata says why."""
+    from eomc.compiler.emit.batch import batch_code
+    model = _cart(cache, "recursive", f"{STRICT} -DEOMC_NO_SIMD")
+    X = _states(model, 11, 7)
+    assert np.array_equal(model.rhs_batch(0.3, X), _scalar(model, X))
+    before, body, meta = batch_code("m", 4, 0, (["    while (1) break;"], []))
+    assert meta["vectorized"] is False and "while (1) break;" in meta["why"]
+    assert "m_rhs_lanes" not in before and "m_rhs(t, xs, p, rs, xd, work)" in body

@@ -98,7 +98,7 @@ def test_cart_and_kernel_is_one_function():
     """The kernel is emitted once, and its text does not grow with the number of links:
     only its tables and the straight-line inputs do."""
     sizes = {}
-    for n in (6, 12):
+    for n in (12, 18):         # both deep enough for the articulated solve (analytic.choose_solver)
         system, _ = cart_joints(n, rigid=True)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
@@ -109,7 +109,7 @@ def test_cart_and_kernel_is_one_function():
         start = text.index(f"static void acart{n}_rnea_derivs(")
         sizes[n] = text[start:text.index("\n}\n", start)].count("\n")
         assert worst(model, seed=n) < 1e-7
-    assert sizes[6] == sizes[12]
+    assert sizes[12] == sizes[18]
 
 
 def test_state_dependent_loads_keep_the_tangent_path():
@@ -149,3 +149,40 @@ def test_jac_x_against_pinocchio_aba_derivatives(name):
         K = J[:nq, nq:nq + nu]
         assert relative_error(J[nq:nq + nu, nq:nq + nu], dv) < 1e-11
         assert relative_error(J[nq:nq + nu, :nq] @ K, dq) < 1e-11
+
+
+@pytest.mark.parametrize("solver", ["aba", "ltdl"])
+def test_both_solves_of_jac_x(solver, tmp_path, monkeypatch):
+    """jac_x's M⁻¹ runs articulated on deep trees, LᵀDL on shallow ones (analytic.choose_solver):
+    both forced on Panda (fixed links: hand, flange; two fingers on one body) against Pinocchio,
+    and on a cart with a free-jointed body (a 6-dof joint) against central differences."""
+    from eomc.compiler.tree import analytic as an
+    monkeypatch.setattr(an, "ABA_DEPTH", 0 if solver == "aba" else 10 ** 6)
+    path = robot_path("panda")
+    system = from_urdf(path, floating_base=False, limits=False)
+    model = eomc.compile(system, f"panda_{solver}", functions=FNS, formulation="recursive", progress=False,
+                         cache_dir=tmp_path / solver)
+    text = model.source_path.read_text()
+    assert ("_rd_bw(" in text) == (solver == "aba") and ("_rd_axpy(" in text) == (solver == "ltdl")
+    ref = PinRef(path, joints_of(system), floating=False)
+    nq, nu = model.nq, model.nu
+    rng = np.random.default_rng(32)
+    for _ in range(3):
+        q, v = rng.uniform(-np.pi, np.pi, nq), rng.normal(size=nu)
+        J = model.jac_x(0.0, np.concatenate([q, v]))
+        pin.computeABADerivatives(ref.model, ref.data, ref.q(q), ref.v(v), np.zeros(ref.model.nv))
+        iv = ref.iv
+        assert relative_error(J[nq:, nq:], ref.data.ddq_dv[np.ix_(iv, iv)]) < 1e-11
+        assert relative_error(J[nq:, :nq], ref.data.ddq_dq[np.ix_(iv, iv)]) < 1e-11
+    base = dict(rotation=("BODY", 123), axis=(0, 1, 1), parent_point=(1, 0, -1), child_point=(0, 1, 1),
+                products=True)
+    spec = [dict(base, kind="free", parent=-1, rigid=True, load=False),
+            dict(base, kind="pin", parent=0, rigid=True, load=True),
+            dict(base, kind="slider", parent=1, rigid=False, load=True, axis=(1, 0, 0)),
+            dict(base, kind="ball", parent=0, rigid=True, load=False),
+            dict(base, kind="pin", parent=3, rigid=False, load=True, axis=(0, 0, 1))]
+    system, inputs = random_trees.build(spec)
+    model = eomc.compile(system, f"tree_{solver}", inputs=inputs, functions=FNS, formulation="recursive",
+                         progress=False, cache_dir=tmp_path / solver)
+    assert analytic(model)
+    assert worst(model, seed=5) < 1e-6

@@ -21,7 +21,8 @@ from eomc.compiler.multibody import Model
 from eomc.compiler.multibody.formed import model_of_tree, tree_formed
 from eomc.compiler.urdf import build_tree, from_urdf, read_urdf, system_from_tree
 from eomc.compiler.urdf.joints import FloatingJoint
-from eomc.compiler.urdf.treeir import floating_rotation, tree_ir
+from eomc.compiler.multibody.joint_kinds import floating_rotation
+from eomc.compiler.urdf.treeir import tree_ir
 from eomc.errors import ModelFileError
 from helpers.robots import robot_path
 from helpers.urdf_arm import ARM

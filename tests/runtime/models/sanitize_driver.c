@@ -12,6 +12,9 @@ const eomc_model *chain_model(void);
 const eomc_model *ring_model(void);
 const eomc_model *blowup_model(void);
 const eomc_model *singular_model(void);
+const eomc_model *robertson_model(void);
+const eomc_model *vdp_model(void);
+const eomc_model *decay_fail_model(void);
 
 static int run(const eomc_model *m, int method, const double *x0, const double *p,
                int nr, const double *rt, const double *rv, int project, double t1, int expect)
@@ -68,6 +71,17 @@ int main(void)
     ok &= run(blowup_model(), EOMC_IMPLICITFAST, xb, NULL, 0, NULL, NULL, 0, 2.0, -1);  /* warned in Python */
     ok &= run(blowup_model(), EOMC_DOPRI5, xb, NULL, 0, NULL, NULL, 0, 2.0, -2);
     ok &= run(blowup_model(), EOMC_RADAU5, xb, NULL, 0, NULL, NULL, 0, 2.0, -2);
+    {   /* BDF: inputs, orders 1..5 over a long smooth run, stiff problems, failures */
+        double xro[3] = {1, 0, 0}, pro[3] = {0.04, 1e4, 3e7}, xv[2] = {2, 0}, pv[1] = {1000.0};
+        double pf[1] = {0.5};
+        ok &= run(oscillator_model(), EOMC_BDF, xp, po, 3, rt, rv, 0, 3.0, 0);
+        ok &= run(pendulum_model(), EOMC_BDF, xp, pp, 0, NULL, NULL, 0, 5.0, 0);
+        ok &= run(chain_model(), EOMC_BDF, xc, pc, 0, NULL, NULL, 0, 2.0, 0);
+        ok &= run(robertson_model(), EOMC_BDF, xro, pro, 0, NULL, NULL, 0, 4e5, 0);
+        ok &= run(vdp_model(), EOMC_BDF, xv, pv, 0, NULL, NULL, 0, 3000.0, 0);
+        ok &= run(blowup_model(), EOMC_BDF, xb, NULL, 0, NULL, NULL, 0, 2.0, -2);
+        ok &= run(decay_fail_model(), EOMC_BDF, xb, pf, 0, NULL, NULL, 0, 1.0, EOMC_SINGULAR_MASS_MATRIX);
+    }
     puts(ok ? "SANITIZE OK" : "SANITIZE MISMATCH");
     return ok ? 0 : 1;
 }

@@ -1,0 +1,387 @@
+/*
+ * eomc_bdf.c -- variable-order (1..5), variable-step BDF/NDF integrator (EOMC_BDF).
+ *
+ * Why a second implicit method: at the tolerances users of contact simulation pick
+ * (rtol 1e-2 .. 1e-6) a low-order multistep method needs far fewer model calls per unit
+ * time than Radau IIA(5): one step costs one or two rhs calls (Newton from a good
+ * predictor, with an LU and a Jacobian kept over many steps) against Radau's three stages
+ * per Newton iteration.  LSODA and MATLAB's ode15s win there for that reason
+ * (benchmarks/results/contact_wp.md).
+ *
+ * The method is Shampine & Reichelt's numerical differentiation formulas (NDF, "The
+ * MATLAB ODE suite", SIAM J. Sci. Comput. 18, 1997) in the quasi-constant step size form
+ * with the modified divided differences of the solution (Shampine, "Numerical solution of
+ * ordinary differential equations", 1994), as scipy.integrate.BDF also implements it:
+ * backward differences D[j] of the interpolating polynomial on an equally spaced grid,
+ * re-interpolated onto a new grid when the step changes (change_D); order and step change
+ * only after order + 1 steps of one size, unless a step fails.  Newton uses the model's
+ * analytic Jacobian: J is evaluated again only when Newton fails to converge with an older
+ * one, and the LU of I - c J is kept while c = h / alpha_k stays within 30 % of the c it
+ * was factored for (as CVODE does), the correction scaled by 2 / (1 + c / c_lu) meanwhile.
+ * Our own code; the constants are the published ones.
+ */
+#include "eomc_bdf.h"
+
+#include <float.h>
+#include <math.h>
+#include <string.h>
+
+#define NEWTON_MAXIT 4
+#define MIN_FACTOR 0.2
+#define MAX_FACTOR 10.0
+#define LU_BAND 0.3          /* refactor when |c / c_lu - 1| exceeds this (CVODE's dgmax) */
+#define KEEP_BAND 1.2        /* a suggested growth below this keeps h (and the LU) */
+#define DEFAULT_MAX_STEPS 100000L
+#define NROWS (EOMC_BDF_MAX_ORDER + 3)
+
+/* Shampine & Reichelt's NDF coefficients kappa_k (kappa = 0 gives the classical BDFs;
+ * order 5 keeps the BDF for stability); gamma_k = sum_{j<=k} 1/j, alpha_k = (1 - kappa_k)
+ * gamma_k, and the error constants kappa_k gamma_k + 1/(k + 1). */
+static const double KAPPA[EOMC_BDF_MAX_ORDER + 1] = {0, -0.1850, -1.0 / 9, -0.0823, -0.0415, 0};
+
+static double gamma_k(int k)
+{
+    double g = 0.0;
+    for (int j = 1; j <= k; j++) g += 1.0 / j;
+    return g;
+}
+
+static double alpha_k(int k) { return (1.0 - KAPPA[k]) * gamma_k(k); }
+
+static double error_const(int k) { return KAPPA[k] * gamma_k(k) + 1.0 / (k + 1); }
+
+size_t eomc_bdf_work_size(int n)
+{
+    size_t nn = (size_t)n * n;
+    return 2 * NROWS * (size_t)n + 2 * nn + 8 * (size_t)n + 16;
+}
+
+void eomc_bdf_init(eomc_bdf *b, const eomc_bdf_fns *fns, eomc_stats *st, int n, double rtol,
+                   double atol, double hmax, long max_steps, double *work)
+{
+    size_t nn = (size_t)n * n;
+    memset(b, 0, sizeof *b);
+    b->fns = fns; b->st = st; b->n = n;
+    b->rtol = rtol; b->atol = atol; b->hmax = hmax;
+    b->max_steps = max_steps > 0 ? max_steps : DEFAULT_MAX_STEPS;
+    /* scipy's BDF: Newton stops when its predicted remaining change is below this
+     * (scaled like the error test) */
+    b->newton_tol = fmax(10 * DBL_EPSILON / rtol, fmin(0.03, sqrt(rtol)));
+    b->D = work; work += NROWS * (size_t)n;
+    b->Dn = work; work += NROWS * (size_t)n;
+    b->J = work; work += nn;
+    b->LU = work; work += nn;
+    b->ypred = work; work += n;
+    b->psi = work; work += n;
+    b->ynew = work; work += n;
+    b->d = work; work += n;
+    b->f = work; work += n;
+    b->scale = work; work += n;
+    b->dy = work; work += n;
+    b->piv = (int *)work;     /* n ints fit in n doubles */
+}
+
+/* Smallest step that still advances t in floating point. */
+static double min_step(double t)
+{
+    return 10.0 * fabs(nextafter(t, INFINITY) - t);
+}
+
+static double rms_scaled(int n, const double *v, const double *scale)
+{
+    double s = 0.0;
+    for (int i = 0; i < n; i++) {
+        double e = v[i] / scale[i];
+        s += e * e;
+    }
+    return n > 0 ? sqrt(s / n) : 0.0;
+}
+
+/* In-place LU with partial pivoting of the n x n row-major A; 1 if singular. */
+static int lu_factor(int n, double *A, int *piv)
+{
+    for (int k = 0; k < n; k++) {
+        int pk = k;
+        double amax = fabs(A[k * n + k]);
+        for (int i = k + 1; i < n; i++)
+            if (fabs(A[i * n + k]) > amax) { amax = fabs(A[i * n + k]); pk = i; }
+        piv[k] = pk;
+        if (!(amax > 0.0) || !isfinite(amax)) return 1;
+        if (pk != k)
+            for (int j = 0; j < n; j++) {
+                double tmp = A[k * n + j];
+                A[k * n + j] = A[pk * n + j];
+                A[pk * n + j] = tmp;
+            }
+        for (int i = k + 1; i < n; i++) {
+            double l = A[i * n + k] / A[k * n + k];
+            A[i * n + k] = l;
+            if (l != 0.0)
+                for (int j = k + 1; j < n; j++) A[i * n + j] -= l * A[k * n + j];
+        }
+    }
+    return 0;
+}
+
+static void lu_solve(int n, const double *A, const int *piv, double *b)
+{
+    for (int k = 0; k < n; k++)          /* all row interchanges first: they moved whole rows */
+        if (piv[k] != k) { double tmp = b[k]; b[k] = b[piv[k]]; b[piv[k]] = tmp; }
+    for (int k = 0; k < n; k++)
+        for (int i = k + 1; i < n; i++) b[i] -= A[i * n + k] * b[k];
+    for (int i = n - 1; i >= 0; i--) {
+        double s = b[i];
+        for (int j = i + 1; j < n; j++) s -= A[i * n + j] * b[j];
+        b[i] = s / A[i * n + i];
+    }
+}
+
+/* The differences D[0..k] re-expressed on a grid of spacing factor * h (Shampine 1994):
+ * D <- (R U)^T D with R = R(k, factor), U = R(k, 1), R_ij = prod_{m<=i} (m - 1 - factor j) / m. */
+static void compute_R(int k, double factor, double R[NROWS][NROWS])
+{
+    for (int j = 0; j <= k; j++) R[0][j] = 1.0;
+    for (int i = 1; i <= k; i++) {
+        R[i][0] = 0.0;
+        for (int j = 1; j <= k; j++) R[i][j] = R[i - 1][j] * (i - 1 - factor * j) / i;
+    }
+}
+
+static void change_D(double *D, int n, int k, double factor)
+{
+    double R[NROWS][NROWS], U[NROWS][NROWS], RU[NROWS][NROWS], col[NROWS];
+    if (factor == 1.0) return;
+    compute_R(k, factor, R);
+    compute_R(k, 1.0, U);
+    for (int i = 0; i <= k; i++)
+        for (int j = 0; j <= k; j++) {
+            double s = 0.0;
+            for (int m = 0; m <= k; m++) s += R[i][m] * U[m][j];
+            RU[i][j] = s;
+        }
+    for (int x = 0; x < n; x++) {
+        for (int i = 0; i <= k; i++) col[i] = D[(size_t)i * n + x];
+        for (int i = 0; i <= k; i++) {
+            double s = 0.0;
+            for (int j = 0; j <= k; j++) s += RU[j][i] * col[j];
+            D[(size_t)i * n + x] = s;
+        }
+    }
+}
+
+/* A new step size h * factor for the current order: the differences follow. */
+static void rescale(eomc_bdf *b, double factor)
+{
+    change_D(b->D, b->n, b->order, factor);
+    b->h *= factor;
+    b->n_equal = 0;
+}
+
+int eomc_bdf_start(eomc_bdf *b, double t, const double *y, const double *f, double h)
+{
+    int n = b->n, s;
+    memset(b->D, 0, NROWS * (size_t)n * sizeof(double));
+    memcpy(b->D, y, (size_t)n * sizeof(double));
+    for (int i = 0; i < n; i++) b->D[n + i] = h * f[i];
+    b->t = t; b->h = h; b->order = 1; b->n_equal = 0; b->err_fails = 0;
+    b->c_lu = 0.0;
+    if ((s = b->fns->jac(b->fns->ctx, t, y, b->J))) return s;
+    b->cur_jac = 1;
+    return EOMC_OK;
+}
+
+static int factor_lu(eomc_bdf *b, double c)
+{
+    int n = b->n;
+    b->st->nlu++;
+    b->c_lu = 0.0;
+    for (int i = 0; i < n; i++)
+        for (int j = 0; j < n; j++)
+            b->LU[(size_t)i * n + j] = (i == j ? 1.0 : 0.0) - c * b->J[(size_t)i * n + j];
+    if (lu_factor(n, b->LU, b->piv)) return 1;
+    b->c_lu = c;
+    return 0;
+}
+
+/* Simplified Newton for y = ypred + d with d - c f(tn, y) + psi = 0 (scipy's
+ * solve_bdf_system): stops when the contraction rate predicts the remaining change is
+ * below newton_tol, fails when it diverges or would not get there in NEWTON_MAXIT
+ * iterations.  A model failure or non-finite value is a failure to converge (*bad: that
+ * status) unless the run was aborted. */
+static int newton(eomc_bdf *b, double tn, double c, int *conv, int *nit, int *bad)
+{
+    int n = b->n, s;
+    double dn_old = 0.0, rate = 0.0, tol = b->newton_tol;
+    double corr = c == b->c_lu ? 1.0 : 2.0 / (1.0 + c / b->c_lu);
+    *conv = 0; *nit = 0;
+    memcpy(b->ynew, b->ypred, (size_t)n * sizeof(double));
+    memset(b->d, 0, (size_t)n * sizeof(double));
+    for (int k = 0; k < NEWTON_MAXIT; k++) {
+        double dn;
+        s = b->fns->rhs(b->fns->ctx, tn, b->ynew, b->f);
+        ++*nit;
+        if (s) {
+            if (b->fns->aborted(b->fns->ctx)) return s;
+            *bad = s;
+            return EOMC_OK;
+        }
+        for (int i = 0; i < n; i++) b->dy[i] = c * b->f[i] - b->psi[i] - b->d[i];
+        lu_solve(n, b->LU, b->piv, b->dy);
+        if (corr != 1.0)
+            for (int i = 0; i < n; i++) b->dy[i] *= corr;
+        dn = rms_scaled(n, b->dy, b->scale);
+        if (!isfinite(dn)) return EOMC_OK;
+        if (k > 0) {
+            rate = dn / dn_old;
+            if (rate >= 1.0 || pow(rate, NEWTON_MAXIT - k) / (1.0 - rate) * dn > tol) return EOMC_OK;
+        }
+        for (int i = 0; i < n; i++) { b->ynew[i] += b->dy[i]; b->d[i] += b->dy[i]; }
+        if (dn == 0.0 || (k > 0 && rate / (1.0 - rate) * dn < tol)) {
+            *conv = 1;
+            return EOMC_OK;
+        }
+        dn_old = dn;
+    }
+    return EOMC_OK;
+}
+
+int eomc_bdf_trial(eomc_bdf *b, double t1)
+{
+    int n = b->n, s, first = 1;
+    double t = b->t;
+    eomc_stats *st = b->st;
+    if (b->h > b->hmax) rescale(b, b->hmax / b->h);
+    for (;;) {
+        int k = b->order, conv = 0, nit = 0;
+        double hmin = min_step(t), tn, c, a = alpha_k(k), err, safety;
+        st->t = t; st->h = b->h;
+        if (b->h < hmin) return b->bad ? b->bad : EOMC_STEP_TOO_SMALL;
+        if (st->steps >= b->max_steps) return EOMC_MAX_STEPS;
+        if ((s = b->fns->aborted(b->fns->ctx))) return s;
+        tn = t + b->h;
+        if (tn > t1 || t1 - tn < hmin) {
+            tn = t1;
+            rescale(b, (t1 - t) / b->h);
+        }
+        st->steps++;
+        for (int i = 0; i < n; i++) {
+            double yp = 0.0, ps = 0.0;
+            for (int j = k; j >= 0; j--) yp += b->D[(size_t)j * n + i];
+            for (int j = k; j >= 1; j--) ps += gamma_k(j) * b->D[(size_t)j * n + i];
+            b->ypred[i] = yp;
+            b->psi[i] = ps / a;
+            b->scale[i] = b->atol + b->rtol * fabs(yp);
+        }
+        c = b->h / a;
+        for (;;) {     /* Newton; once more with a fresh Jacobian if it was an older one */
+            if (!(b->c_lu > 0.0) || fabs(c / b->c_lu - 1.0) > LU_BAND) {
+                if (factor_lu(b, c)) { conv = 0; break; }
+            }
+            if ((s = newton(b, tn, c, &conv, &nit, &b->bad))) return s;
+            if (conv || b->cur_jac) break;
+            if ((s = b->fns->jac(b->fns->ctx, tn, b->ypred, b->J))) {
+                if (b->fns->aborted(b->fns->ctx)) return s;
+                b->bad = s;
+                break;
+            }
+            b->cur_jac = 1;
+            b->c_lu = 0.0;
+        }
+        if (!conv) {
+            st->rejected++;
+            first = 0;
+            rescale(b, 0.5);
+            continue;
+        }
+        if (first) b->bad = 0;    /* a step that passed at once: no failure being closed in on */
+        safety = 0.9 * (2 * NEWTON_MAXIT + 1) / (2 * NEWTON_MAXIT + nit);
+        for (int i = 0; i < n; i++) {
+            b->scale[i] = b->atol + b->rtol * fabs(b->ynew[i]);
+            b->dy[i] = error_const(k) * b->d[i];
+        }
+        err = rms_scaled(n, b->dy, b->scale);
+        if (!(err <= 1.0)) {
+            double factor = isfinite(err) ? fmax(MIN_FACTOR, safety * pow(err, -1.0 / (k + 1)))
+                                          : MIN_FACTOR;
+            st->rejected++;
+            first = 0;
+            if (++b->err_fails >= 3 && k > 1) {   /* the history misleads: back to order 1 */
+                b->order = 1;
+                factor = fmin(factor, 0.5);
+            }
+            rescale(b, factor);
+            continue;
+        }
+        {   /* the differences of the new interpolating polynomial (through ynew) */
+            double *D = b->D, *Dn = b->Dn;
+            for (int i = 0; i < n; i++) {
+                Dn[(size_t)(k + 2) * n + i] = b->d[i] - D[(size_t)(k + 1) * n + i];
+                Dn[(size_t)(k + 1) * n + i] = b->d[i];
+            }
+            for (int j = k; j >= 0; j--)
+                for (int i = 0; i < n; i++)
+                    Dn[(size_t)j * n + i] = D[(size_t)j * n + i] + Dn[(size_t)(j + 1) * n + i];
+            for (int j = k + 3; j < NROWS; j++)
+                memcpy(Dn + (size_t)j * n, D + (size_t)j * n, (size_t)n * sizeof(double));
+        }
+        b->tn = tn; b->ht = b->h; b->trial_order = k;
+        b->trial_err = err; b->trial_safety = safety;
+        return EOMC_OK;
+    }
+}
+
+void eomc_bdf_dense(const eomc_bdf *b, double tau, double *out)
+{
+    int n = b->n, k = b->trial_order;
+    double p = 1.0;
+    memcpy(out, b->Dn, (size_t)n * sizeof(double));
+    for (int j = 1; j <= k; j++) {
+        const double *Dj = b->Dn + (size_t)j * n;
+        p *= (tau - (b->tn - (j - 1) * b->ht)) / (j * b->ht);
+        for (int i = 0; i < n; i++) out[i] += p * Dj[i];
+    }
+}
+
+void eomc_bdf_cut(eomc_bdf *b, double t_cut)
+{
+    rescale(b, (t_cut - b->t) / b->h);
+    b->err_fails = 0;
+}
+
+void eomc_bdf_commit(eomc_bdf *b)
+{
+    int n = b->n, k = b->trial_order, best = 1;
+    double *tmp = b->D, fac[3], factor;
+    b->D = b->Dn; b->Dn = tmp;
+    b->t = b->tn;
+    b->cur_jac = 0;
+    b->err_fails = 0;
+    if (++b->n_equal < k + 1) return;
+    /* scipy's order selection: the step each neighbouring order would allow, from the
+     * error estimates of orders k - 1 and k + 1 (differences k and k + 2) */
+    for (int i = 0; i < n; i++) b->dy[i] = error_const(k - 1 > 0 ? k - 1 : 1) * b->D[(size_t)k * n + i];
+    fac[0] = k > 1 ? pow(rms_scaled(n, b->dy, b->scale), -1.0 / k) : 0.0;
+    fac[1] = pow(fmax(b->trial_err, 1e-300), -1.0 / (k + 1));
+    if (k < EOMC_BDF_MAX_ORDER) {
+        for (int i = 0; i < n; i++) b->dy[i] = error_const(k + 1) * b->D[(size_t)(k + 2) * n + i];
+        fac[2] = pow(rms_scaled(n, b->dy, b->scale), -1.0 / (k + 2));
+    } else {
+        fac[2] = 0.0;
+    }
+    for (int j = 0; j < 3; j++)        /* a zero estimate allows any step; NaN none */
+        if (!(fac[j] <= DBL_MAX)) fac[j] = isnan(fac[j]) ? 0.0 : DBL_MAX;
+    if (fac[0] > fac[best]) best = 0;
+    if (fac[2] > fac[best]) best = 2;
+    factor = fmin(MAX_FACTOR, b->trial_safety * fac[best]);
+    b->order = k + best - 1;
+    if (best == 1 && factor >= 1.0 && factor <= KEEP_BAND) {   /* not worth a new LU */
+        b->n_equal = 0;
+        return;
+    }
+    rescale(b, factor);
+}
+
+void eomc_bdf_set_state(eomc_bdf *b, const double *y)
+{
+    memcpy(b->D, y, (size_t)b->n * sizeof(double));
+}

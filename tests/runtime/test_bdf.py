@@ -1,0 +1,115 @@
+"""The variable-order BDF/NDF integrator (method="bdf", runtime/c/eomc_bdf.c) against closed
+forms and independent solvers.
+
+Oracles: the matrix exponential of the (linear) stiff chain, cos(2t) for the oscillator,
+scipy's LSODA at rtol 1e-12 for Robertson's kinetics and van der Pol at mu = 1000 (with
+scipy's own BDF at the same tolerance as the accuracy to match), Robertson's conserved
+sum, and the failing stand-ins' known failure times.  The contact drop against Radau is
+in test_switching.py, the events in test_events.py, the sanitizers in
+test_integrators_sanitize.py.
+"""
+import functools
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+from scipy.linalg import expm
+
+from helpers.stand_in import get_model
+
+from eomc.errors import SimulationError
+from eomc.runtime.simulate import simulate
+
+
+@pytest.mark.parametrize("kappa", [1e3, 1e6, 1e8])
+def test_stiff_linear_chain_matches_the_matrix_exponential(kappa):
+    m = get_model("chain")
+    p = np.array([1.0, kappa, 0.1, 2 * np.sqrt(kappa)])      # overdamped stiff link
+    A = m.jacobian(0.0, np.zeros(4), p)
+    x0 = np.array([1.0, 1.0, 0.0, 0.0])
+    t = np.linspace(0, 10, 11)
+    res = simulate(m, x0, (0, 10), p=p, method="bdf", rtol=1e-6, atol=1e-6, t_eval=t)
+    exact = np.array([expm(A * s) @ x0 for s in t])
+    assert np.max(np.abs(res.x - exact)) < 1e-5
+    # stiff: the step follows the slow mode, not the fast one (an explicit method needs ~kappa^0.5 * 10 steps)
+    assert res.stats["steps"] < 400
+    # the Jacobian is kept across steps (linear: J never changes), the LU mostly too
+    assert res.stats["njev"] <= 5 and res.stats["nlu"] < res.stats["accepted"] / 3
+
+
+def test_error_follows_the_tolerance_and_dense_output_is_as_accurate():
+    m = get_model("oscillator")                  # x'' = -4 x: cos(2t)
+    t = np.linspace(0, 10, 101)                  # output between steps: the dense polynomial
+    errors = []
+    for tol in (1e-4, 1e-6, 1e-8):
+        res = simulate(m, [1.0, 0.0], (0, 10), method="bdf", rtol=tol, atol=tol, t_eval=t)
+        errors.append(np.max(np.abs(res.x[:, 0] - np.cos(2 * t))))
+        assert errors[-1] < 30 * tol
+    assert errors[1] < errors[0] / 10 and errors[2] < errors[1] / 10
+
+
+def _robertson(t, y):
+    return [-0.04 * y[0] + 1e4 * y[1] * y[2], 0.04 * y[0] - 1e4 * y[1] * y[2] - 3e7 * y[1] ** 2,
+            3e7 * y[1] ** 2]
+
+
+@pytest.mark.parametrize("tol", [1e-4, 1e-7])
+def test_robertson_kinetics_to_the_tolerance_with_the_sum_conserved(tol):
+    m = get_model("robertson")
+    t = np.array([0, 0.4, 4, 40, 400, 4e3, 4e4, 4e5])
+    ref = solve_ivp(_robertson, (0, 4e5), [1, 0, 0], method="LSODA", rtol=1e-12, atol=1e-16, t_eval=t)
+    res = simulate(m, [1.0, 0.0, 0.0], (0, 4e5), method="bdf", rtol=tol, atol=tol * 1e-4, t_eval=t)
+    rel = np.abs(res.x - ref.y.T) / (tol * 1e-4 + np.abs(ref.y.T))
+    assert rel.max() < 10 * tol
+    # a linear invariant: every BDF step keeps it to Newton's rounding
+    assert np.max(np.abs(res.x.sum(axis=1) - 1.0)) < 1e-13
+    assert res.stats["steps"] < 1000             # y2's fast transient does not set the step
+
+
+def _vdp(t, y, mu=1000.0):
+    return [y[1], mu * (1 - y[0] ** 2) * y[1] - y[0]]
+
+
+def _vdp_jac(t, y, mu=1000.0):
+    return [[0.0, 1.0], [-2 * mu * y[0] * y[1] - 1.0, mu * (1 - y[0] ** 2)]]
+
+
+@functools.lru_cache(maxsize=None)
+def _vdp_reference(t):
+    """scipy's LSODA at 1e-12 (Fortran, so the reference costs well under a second)."""
+    return solve_ivp(_vdp, (0, 3000), [2, 0], method="LSODA", rtol=1e-12, atol=1e-12, jac=_vdp_jac,
+                     t_eval=np.array(t))
+
+
+@pytest.mark.parametrize("tol", [1e-4, 1e-6])
+def test_van_der_pol_mu_1000_at_least_as_accurate_as_scipys_bdf(tol):
+    t = np.linspace(0, 3000, 7)                  # across two relaxation jumps
+    ref = _vdp_reference(tuple(t))
+    peer = solve_ivp(_vdp, (0, 3000), [2, 0], method="BDF", rtol=tol, atol=tol, jac=_vdp_jac, t_eval=t)
+    res = simulate(get_model("vdp"), [2.0, 0.0], (0, 3000), method="bdf", rtol=tol, atol=tol, t_eval=t)
+    ours, theirs = np.abs(res.x[:, 0] - ref.y[0]).max(), np.abs(peer.y[0] - ref.y[0]).max()
+    assert ours <= 1.5 * theirs and ours < 1e3 * tol
+    assert res.stats["steps"] < 4000
+
+
+def test_a_model_failure_inside_newton_is_the_runs_status_at_its_time():
+    m = get_model("decay_fail")                  # x' = -x; singular mass matrix once t > 0.5
+    with pytest.raises(SimulationError, match="the mass matrix is singular"):
+        simulate(m, [1.0], (0, 1), method="bdf")
+    res = simulate(m, [1.0], (0, 1), method="bdf", raise_on_failure=False)
+    assert res.status == 1 and 0.5 - 1e-9 < res.t_final <= 0.5
+    assert res.x_final[0] == pytest.approx(np.exp(-res.t_final), rel=1e-4)
+    assert np.all(res.t <= res.t_final) and np.all(np.isfinite(res.x))
+
+
+def test_blowup_stops_near_the_singularity_with_a_failure_status():
+    res = simulate(get_model("blowup"), [1.0], (0, 2), method="bdf", raise_on_failure=False)
+    assert res.status in (3, 5) and 0.99 < res.t_final < 1.001   # x' = x^2: infinite at t = 1
+    assert np.all(np.isfinite(res.x))
+
+
+def test_max_steps_and_missing_jacobian_are_reported():
+    with pytest.raises(SimulationError, match="maximum number of steps"):
+        simulate(get_model("vdp"), [2.0, 0.0], (0, 3000), method="bdf", max_steps=50)
+    with pytest.raises(ValueError, match="needs the Jacobian jac_x"):
+        simulate(get_model("singular"), [0.0], (0, 1), method="bdf")

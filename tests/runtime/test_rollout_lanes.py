@@ -1,0 +1,65 @@
+"""eomc.rollout(lanes=True): RK4 over many rows with every stage one NAME_rhs_batch call.
+
+Oracle: the scalar C rollout (itself simulate bit for bit).  Built with -DEOMC_BATCH_LIBM_TRIG
+the lanes compute the scalar rhs's bits and the step is the C loop's arithmetic in the same
+order, so the rows must be equal, not close; built with the vector sin/cos they agree to
+rounding.  Also: rows that fail keep their last good state and status, and what lanes cannot
+take (other methods, per-row parameters, a model without rhs_batch) is refused by name.
+"""
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from eomc.compiler.driver import compile as compile_model
+from eomc.errors import SimulationError
+from eomc.runtime.rollout import rollout
+
+CART = Path(__file__).resolve().parents[2] / "examples" / "cart_pole_system.py"
+
+
+@pytest.fixture(scope="module")
+def cart(tmp_path_factory):
+    return compile_model(str(CART), "rl_cart", functions=("rhs", "rhs_batch"), formulation="recursive",
+                         cache_dir=tmp_path_factory.mktemp("rl"), progress=False,
+                         cflags="-O2 -std=c99 -fPIC -DEOMC_BATCH_LIBM_TRIG")
+
+
+def _starts(model, n, seed=0):
+    return np.random.default_rng(seed).uniform(-1.0, 1.0, (n, model.nx))
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_final_and_steps_equal_the_scalar_rollout(cart, threads):
+    X0 = _starts(cart, 203)                    # not a multiple of the lanes: a scalar tail too
+    want = rollout(cart, X0, dt=0.01, steps=40, threads=threads)
+    got = rollout(cart, X0, dt=0.01, steps=40, threads=threads, lanes=True)
+    assert got.ok.all() and np.array_equal(got.x, want.x) and np.array_equal(got.steps, want.steps)
+    assert np.abs(got.x - X0).min() > 1e-6     # the rows moved
+    want = rollout(cart, X0[:9], dt=0.01, t_final=0.255, record="steps", threads=threads)
+    got = rollout(cart, X0[:9], dt=0.01, t_final=0.255, record="steps", threads=threads, lanes=True)
+    assert got.x.shape == (9, 27, cart.nx) and np.array_equal(got.t, want.t)
+    assert np.array_equal(got.x, want.x)       # the shortened last step included
+
+
+def test_failed_rows_keep_their_last_good_state(cart):
+    X0 = _starts(cart, 10)
+    X0[3, 3] = 1e200                           # overflows within the first step
+    want = rollout(cart, X0, dt=0.01, steps=20, raise_on_failure=False)
+    got = rollout(cart, X0, dt=0.01, steps=20, raise_on_failure=False, lanes=True)
+    assert not got.ok[3] and got.ok[np.arange(10) != 3].all()
+    assert np.array_equal(got.status, want.status) and np.array_equal(got.steps, want.steps)
+    assert np.array_equal(got.x, want.x)
+    with pytest.raises(SimulationError, match="rollout row 3 of 10 failed"):
+        rollout(cart, X0, dt=0.01, steps=20, lanes=True)
+
+
+def test_refusals_name_the_reason(cart, tmp_path):
+    X0 = _starts(cart, 4)
+    with pytest.raises(ValueError, match=r"lanes=True\) does not take method 'implicitfast'"):
+        rollout(cart, X0, dt=0.01, steps=2, method="implicitfast", lanes=True)
+    with pytest.raises(ValueError, match="one parameter row per trajectory"):
+        rollout(cart, X0, dt=0.01, steps=2, p=np.tile(cart.param_defaults, (4, 1)), lanes=True)
+    plain = compile_model(str(CART), "rl_plain", functions=("rhs",), cache_dir=tmp_path, progress=False)
+    with pytest.raises(ValueError, match="built without rhs_batch"):
+        rollout(plain, X0, dt=0.01, steps=2, lanes=True)
