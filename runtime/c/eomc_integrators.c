@@ -1455,8 +1455,15 @@ static void radau_tolerances(double rtol, double atol, double *rt, double *at)
  * fixed iteration gave 7e-6. */
 #define RADAU_SG_FNEWT 0.03
 
+/* Up to this many columns the iterations after the first take J(Y_a) (ZS - ZS_jvp) by a
+ * forward difference of rhs (one rhs per column and stage) instead of another jvp round:
+ * the correction is a small fraction of ZS, so the difference's ~1e-8 relative error is
+ * far below the tolerance; the first iteration's residual is always jvp's. */
+#define RADAU_SG_DQ_MAXK 2
+
 typedef struct radau_sg {
     double *ZS, *WS, *FS, *dW, *QS, *Sold, *scale, *xdot, *tmp;
+    double *ZSe, *FSe, *F0, *f1;   /* ZS and FS at the last jvp round, f(Y_a), rhs scratch */
     eomc_cplx *bc;
     double faccon;          /* the sensitivities' theta / (1 - theta), as the state's */
     int have;               /* QS, Sold hold the last step's polynomial */
@@ -1466,7 +1473,7 @@ typedef struct radau_sg {
 size_t eomc_stagger_work_size(int nx, int k)
 {
     size_t nk = (size_t)nx * (size_t)(k > 0 ? k : 0);
-    return 18 * nk + 4 * (size_t)nx + 16;
+    return 24 * nk + 8 * (size_t)nx + 16;
 }
 
 static void radau_sg_init(radau_sg *g, int n, int k, double **pos)
@@ -1477,6 +1484,8 @@ static void radau_sg_init(radau_sg *g, int n, int k, double **pos)
     g->Sold = take(pos, nk); g->scale = take(pos, nk); g->tmp = take(pos, nk);
     g->xdot = take(pos, n);
     g->bc = (eomc_cplx *)take(pos, 2 * (size_t)n);
+    g->ZSe = take(pos, 3 * nk); g->FSe = take(pos, 3 * nk);
+    g->F0 = take(pos, 3 * (size_t)n); g->f1 = take(pos, n);
     g->faccon = 1.0; g->have = 0; g->hprev = 1.0; g->tprev = 0.0;
 }
 
@@ -1516,10 +1525,31 @@ static int radau_sens_step(ctx *c, const radau_consts *k, radau_ws *w, radau_sg 
             }
             if (aborted(c)) return c->abort;
             grid_inputs_at(c, ta);
+            if (it > 1 && kc <= RADAU_SG_DQ_MAXK) {   /* FS_a = FSe_a + J(Y_a) (ZS_a - ZSe_a) */
+                double ynorm = 0.0;
+                for (int i = 0; i < n; i++) ynorm = fmax(ynorm, fabs(w->tmp[i]));
+                for (int j = 0; j < kc; j++) {
+                    size_t o = a * nk + (size_t)j * n;
+                    double dn = 0.0, eps;
+                    for (int i = 0; i < n; i++) dn = fmax(dn, fabs(g->ZS[o + i] - g->ZSe[o + i]));
+                    memcpy(g->FS + o, g->FSe + o, (size_t)n * sizeof(double));
+                    if (dn == 0.0) continue;
+                    eps = sqrt(DBL_EPSILON) * (1.0 + ynorm) / dn;
+                    for (int i = 0; i < n; i++) g->xdot[i] = w->tmp[i] + eps * (g->ZS[o + i] - g->ZSe[o + i]);
+                    sg->ndq++;
+                    s = c->m->rhs(ta, g->xdot, c->p, c->r, g->f1, c->mwork);
+                    if (s == EOMC_OK && !all_finite(n, g->f1)) s = EOMC_NONFINITE;
+                    if (s) { c->st->t_fail = ta; return s; }
+                    for (int i = 0; i < n; i++) g->FS[o + i] += (g->f1[i] - g->F0[a * n + i]) / eps;
+                }
+                continue;
+            }
             sg->njvp++;
-            s = sg->jvp(ta, w->tmp, c->p, c->r, kc, sg->D, g->xdot, g->FS + (size_t)a * nk, c->mwork);
+            s = sg->jvp(ta, w->tmp, c->p, c->r, kc, sg->D, g->F0 + (size_t)a * n, g->FS + (size_t)a * nk, c->mwork);
             if (s == EOMC_OK && !all_finite((int)nk, g->FS + (size_t)a * nk)) s = EOMC_NONFINITE;
             if (s) { c->st->t_fail = ta; return s; }
+            memcpy(g->ZSe + a * nk, g->ZS + a * nk, nk * sizeof(double));
+            memcpy(g->FSe + a * nk, g->FS + a * nk, nk * sizeof(double));
         }
         sg->niter++;
         for (int j = 0; j < kc; j++) {
@@ -2403,7 +2433,7 @@ static int integrate_core(const eomc_model *m, const eomc_options *opt,
     proj_init(&pj, m, opt->project, &pos);
     c.pj = &pj;
     if (sg) {
-        sg->njvp = sg->niter = sg->nslow = 0;
+        sg->njvp = sg->niter = sg->nslow = sg->ndq = 0;
         sg->nrec = 0;
         if (sg->n_err > 0) c.n_err = sg->n_err;
         if (sg->k > 0 || sg->ntstop > 0 || sg->rec_cap > 0) c.sg = sg;

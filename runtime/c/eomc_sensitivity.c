@@ -27,7 +27,7 @@ struct eomc_sens {
     double *J, *P;            /* nx x nx, nx x nparam scratch */
     double *D;                /* k x (nx + nparam): the directions handed to jvp */
     int errcon;               /* 1: the step control sees S too (simultaneous, as before) */
-    long njvp, niter, nslow;  /* the last run's staggered counts */
+    long njvp, niter, nslow, ndq;  /* the last run's staggered counts */
     eomc_model aug;
 };
 
@@ -175,7 +175,7 @@ size_t eomc_sens_work_size(const eomc_sens *s, int method)
 
 void eomc_sens_counts(const eomc_sens *s, long *out)
 {
-    out[0] = s->njvp; out[1] = s->niter; out[2] = s->nslow;
+    out[0] = s->njvp; out[1] = s->niter; out[2] = s->nslow; out[3] = s->ndq;
 }
 
 int eomc_sens_integrate(eomc_sens *s, const eomc_options *opt, double t0, double t1,
@@ -191,7 +191,7 @@ int eomc_sens_integrate(eomc_sens *s, const eomc_options *opt, double t0, double
     o.project = 0;
     o.baumgarte = 0.0;
     memset(&sg, 0, sizeof sg);
-    s->njvp = s->niter = s->nslow = 0;
+    s->njvp = s->niter = s->nslow = s->ndq = 0;
     if (!staggered(s, o.method)) {
         /* explicit methods (and Radau with error control on S): the augmented model, whose
          * sensitivities stay out of the error test unless errcon */
@@ -209,6 +209,6 @@ int eomc_sens_integrate(eomc_sens *s, const eomc_options *opt, double t0, double
     st = eomc_integrate_sg(s->m, &o, t0, t1, X0, s->p, n_rgrid, r_tgrid, r_values, n_eval, t_eval,
                            X_out, X_last, stats, work + nk, work_len - nk, &sg);
     if (X_last) memcpy(X_last + n, sg.S, nk * sizeof(double));
-    s->njvp = sg.njvp; s->niter = sg.niter; s->nslow = sg.nslow;
+    s->njvp = sg.njvp; s->niter = sg.niter; s->nslow = sg.nslow; s->ndq = sg.ndq;
     return st;
 }

@@ -35,6 +35,8 @@ typedef struct eomc_stagger {
     long niter;           /* out: sensitivity iterations (each 3 jvp calls) */
     long nslow;           /* out: steps whose sensitivity iteration had not converged
                              after EOMC_SG_MAXIT iterations (kept, counted) */
+    long ndq;             /* out: rhs calls of the iterations after the first (few columns:
+                             J (ZS - ZS_jvp) by a forward difference) */
     /* DOPRI5/DOP853 for the adjoint (eomc_adjoint.c): checkpoints of the accepted steps. */
     int ntstop;           /* steps end exactly on these times (increasing, inside (t0, t1]) */
     const double *tstop;
