@@ -40,22 +40,31 @@ ROOT = Path(__file__).resolve().parent.parent
 # setup.py's flags (after Python's CFLAGS): at BASE, and now (aligned functions and loops)
 BASE_FLAGS = ["-fPIC", "-O2", "-std=c99"]
 NOW_FLAGS = BASE_FLAGS + ["-falign-functions=64", "-falign-loops=32"]
+INTEGRATOR_UNITS = ("eomc_integrators.c", "eomc_fixedstep.c", "eomc_bdf.c")
 
 
 def _library(tmp, rev, extra=BASE_FLAGS, label=None):
     """The integrators at git revision ``rev`` (None: the working tree), compiled as setup.py does."""
     src = Path(tmp) / (label or rev or "worktree")
     src.mkdir()
-    for name in ("eomc_integrators.c", "eomc_integrators.h", "eomc_model.h"):
+    if rev is None:
+        names = [p.name for p in (ROOT / "runtime" / "c").iterdir() if p.suffix in (".c", ".h")]
+    else:
+        names = [Path(n).name for n in subprocess.run(
+            ["git", "-C", str(ROOT), "ls-tree", "--name-only", rev, "runtime/c/"],
+            check=True, capture_output=True, text=True).stdout.split() if n.endswith((".c", ".h"))]
+    for name in names:
         if rev is None:
             text = (ROOT / "runtime" / "c" / name).read_text()
         else:
             text = subprocess.run(["git", "-C", str(ROOT), "show", f"{rev}:runtime/c/{name}"],
                                   check=True, capture_output=True, text=True).stdout
         (src / name).write_text(text)
+    # the integrators as they were split at that revision (fixed-step and BDF in files of their own)
+    units = [str(src / n) for n in INTEGRATOR_UNITS if n in names]
     lib = src / "libintegrators.so"
     flags = (sysconfig.get_config_var("CFLAGS") or "").split() + list(extra)
-    subprocess.run(["gcc", *flags, "-shared", "-I", str(src), str(src / "eomc_integrators.c"),
+    subprocess.run(["gcc", *flags, "-shared", "-I", str(src), *units,
                     "-o", str(lib), "-lm"], check=True)   # setup.py's: Python's CFLAGS, then its own
     return lib
 

@@ -91,16 +91,21 @@ def compared_q(model, m_mj, x=None, qpos=None):
     return np.array(out)
 
 
-def eomc_call(model, x0, dt, t1=1.0, fast=True):
+def eomc_call(model, x0, dt, t1=1.0, fast=True, split=None, p=None, t_eval=None):
     """(call, x_last, stats): the C call of one fixed-step run, events and switching off.
-    fast=False: the W-method on the whole jac_x (what implicitfast ran before NAME_implicit)."""
+    fast=False: the W-method on the whole jac_x (what implicitfast ran before NAME_implicit).
+    split: the fast path's residual test (None: simulate's default, 0: off, MuJoCo-like)."""
     from eomc.runtime.simulate import bind_call, prepare
-    a = prepare(model, x0, (0.0, t1), method="implicitfast", dt=dt, t_eval=[t1], events=False,
-                max_steps=10 ** 7)
+    a = prepare(model, x0, (0.0, t1), method="implicitfast", dt=dt, t_eval=[t1] if t_eval is None else t_eval,
+                events=False, max_steps=10 ** 7, p=p)
     a.pop("switches", None)          # the verdict's observers: not part of a control loop
     a.pop("switch_steps", None)
     a["fast"] = fast
-    call, _, x_last, stats = bind_call(model, a)
+    if split is not None:
+        a["split"] = split
+    call, x_out, x_last, stats = bind_call(model, a)
+    if t_eval is not None:
+        return call, x_out, x_last, stats
     return call, x_last, stats
 
 
@@ -154,6 +159,8 @@ def run_model(name, rounds, cache_dir, log):
     contestants = {}
     call, x_last, stats = eomc_call(model, x0, ts)
     contestants["eomc implicitfast"] = call
+    ucall, u_last, u_stats = eomc_call(model, x0, ts, split=0.0)
+    contestants["eomc implicitfast unchecked"] = ucall
     wcall, w_last, w_stats = eomc_call(model, x0, ts, fast=False)
     contestants["eomc W-method (jac_x)"] = wcall
     mj = {}
@@ -176,12 +183,13 @@ def run_model(name, rounds, cache_dir, log):
     fast = implicit_terms(model) is not None
     t_e = float(np.median(samples["eomc implicitfast"]))
     for label, c, xl, sts in (("eomc implicitfast", call, x_last, stats),
+                              ("eomc implicitfast unchecked", ucall, u_last, u_stats),
                               ("eomc W-method (jac_x)", wcall, w_last, w_stats)):
         c()
         st = {f: getattr(sts, f) for f in ("status", "steps", "nfev", "njev", "nlu", "rejected")}
         err_e = (np.abs(compared_q(model, base, x=xl) - q_ref).max() if q_ref is not None else float("nan"))
         t_c = float(np.median(samples[label]))
-        what = (f"{st['nfev']} NAME_implicit calls, 0 jac_x" if fast and label == "eomc implicitfast"
+        what = (f"{st['nfev']} NAME_implicit calls, 0 jac_x" if fast and label.startswith("eomc implicitfast")
                 else f"{st['nfev']} rhs, {st['njev']} jac_x, {st['rejected']} unconverged")
         rows.append(dict(model=name, dof=model.nu, contacts=npts, timestep=ts,
                          contestant=label, cpu_ms=t_c * 1e3, ratio=t_c / t_e, error=err_e,
@@ -200,9 +208,88 @@ def run_model(name, rounds, cache_dir, log):
     return rows
 
 
+ROBOTS = ("go2", "g1")
+
+
+def urdf_robot(which, cache_dir):
+    """(model, x0): Go2 / G1 from example-robot-data, --floating-base, the feet as contacts (as
+    benchmarks/contact_defaults.py), a bent-knee pose lifted until the deepest foot is 2 mm up."""
+    from importlib.metadata import distribution
+
+    import eomc
+    from eomc.compiler.urdf.model import UrdfModel
+    root = Path(distribution("example-robot-data").locate_file("cmeel.prefix/share/example-robot-data/robots"))
+    if which == "go2":
+        contacts = [dict(link=f"{leg}_foot", radius=0.022) for leg in ("FL", "FR", "RL", "RR")]
+        path, pose = root / "go2_description/urdf/go2.urdf", {"thigh_joint": 0.8, "calf_joint": -1.5}
+    else:
+        contacts = ["@collision"]
+        path = root / "g1_description/urdf/g1_29dof_rev_1_0.urdf"
+        pose = {"hip_pitch_joint": -0.1, "knee_joint": 0.3, "ankle_pitch_joint": -0.2}
+    m = eomc.compile(UrdfModel(path, floating_base=True), contacts=contacts, name=f"fs_{which}",
+                     cache_dir=cache_dir, functions=("rhs", "jac_x", "outputs", "implicit", "events"), progress=False)
+    x0 = np.zeros(m.nx)
+    for i, n in enumerate(m.state_names[:m.nq]):
+        for k, v in pose.items():
+            if n.endswith(k):
+                x0[i] = v
+    iz = [i for i, n in enumerate(m.state_names) if n.endswith("floating_z")][0]
+    d = m.outputs(0, x0)
+    x0[iz] = max(v for k, v in d.items() if k.startswith("depth_")) + 0.002
+    return m, x0
+
+
+def run_robot(which, rounds, cache_dir, log, T=1.0):
+    """Go2 / G1 collapsing onto their feet (no joint torques), T s at 5, 2 and 1 ms, the residual
+    test on (checked, simulate's default) and off (unchecked).  No MuJoCo row: no MJCF of these
+    robots with the same foot contacts is in this environment."""
+    import warnings
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        m, x0 = urdf_robot(which, cache_dir)
+    cases = [("default k", None)]
+    if which == "g1":      # its 5 mm ankle spheres sink past their radius at the default k
+        p = np.array(m.param_defaults, dtype=float)
+        for i, n in enumerate(m.param_names):
+            if n.startswith("k_"):
+                p[i] *= 4.0
+        cases.append(("contacts' k x 4", p))
+    rows = []
+    names = list(m.state_names)
+    keep = [i for i, n in enumerate(names[:m.nq]) if not n.endswith(("_rx", "_ry", "_rz"))]
+    for label, p in cases:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            ref = m.simulate(x0, (0, T), p=p, method="radau", rtol=1e-8, atol=1e-8, t_eval=[T], max_steps=10 ** 7,
+                             raise_on_failure=False)
+        for dt in (0.005, 0.002, 0.001):
+            for mode, split in (("checked", None), ("unchecked", 0.0)):
+                grid = np.arange(0.0, T + dt / 2, dt)
+                call, x_out, x_last, st = eomc_call(m, x0, dt, t1=T, split=split, p=p, t_eval=grid)
+                times = []
+                for _ in range(rounds):
+                    times.append(cpu_block(call))
+                call()
+                rows_ok = x_out[:st.n_out]
+                deep = max((max(v for k, v in m.outputs(0, x, p=p).items() if k.startswith("depth_"))
+                            for x in rows_ok[::max(1, len(rows_ok) // 200)] if np.all(np.isfinite(x))), default=np.nan)
+                err = (np.abs(x_last[keep] - ref.x[-1][keep]).max() if st.status == 0 and ref.status == 0
+                       else float("nan"))
+                rows.append(dict(model=which, dof=m.nu, contacts=len(m.metadata["implicit"]["contacts"]),
+                                 timestep=dt, contestant=f"eomc implicitfast {mode} ({label})",
+                                 cpu_ms=float(np.median(times)) * 1e3 / T, ratio=float("nan"), error=err,
+                                 ref=f"eomc Radau 1e-8 (status {ref.status})",
+                                 note=f"status {st.status} at t = {st.t:.3f}, {st.nfev} calls, deepest contact "
+                                      f"{deep * 1e3:.1f} mm (of {len(rows_ok)} rows)"))
+                log(f"  {which} {rows[-1]['contestant']} dt {dt}: {rows[-1]['cpu_ms']:.2f} ms err {err:.2e} "
+                    f"{rows[-1]['note']}")
+    return rows
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--models", default=",".join(MODELS))
+    parser.add_argument("--robots", default=",".join(ROBOTS))
     parser.add_argument("--rounds", type=int, default=7)
     parser.add_argument("--cache-dir", default=os.environ.get("EOMC_CACHE_DIR"))
     parser.add_argument("--no-write", action="store_true")
@@ -211,8 +298,10 @@ def main():
     lines = []
     log = lambda s: (print(s, flush=True), lines.append(s))  # noqa: E731
     rows = []
-    for name in args.models.split(","):
+    for name in [n for n in args.models.split(",") if n]:
         rows.extend(run_model(name, args.rounds, args.cache_dir, log))
+    for name in [r for r in args.robots.split(",") if r]:
+        rows.extend(run_robot(name, args.rounds, args.cache_dir, log))
     import mujoco
     head = environment_header(
         "Fixed step at the MJCF timestep: eomc implicitfast vs MuJoCo mj_step (rollout, C loop)", args,

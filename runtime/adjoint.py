@@ -103,13 +103,7 @@ def gradient(model, x0, t_final, *, dt, cost, p=None, r=None, method="rk4", rtol
     if _method(method) == "dop853":
         return _gradient_adaptive(model, a, cost, rtol, atol)
     X, (ffi, lib) = _forward(model, a, keep_stages=True)
-    value, G = cost(a["t"], X.copy())
-    G = np.ascontiguousarray(G, dtype=np.float64)
-    if G.shape != X.shape:
-        raise ValueError(f"{model.name}: cost must return (J, dJ/dX) with dJ/dX shaped as X "
-                         f"{X.shape} (grid points x states); got shape {G.shape}")
-    if not np.all(np.isfinite(G)) or not np.isfinite(value):
-        raise ValueError(f"{model.name}: cost returned a non-finite value or gradient")
+    value, G = _evaluate_cost(model, cost, a["t"], X)
     buf = lambda arr: ffi.from_buffer("double[]", arr)  # noqa: E731
     lam0, gp = np.empty(model.nx), np.empty(max(model.nparam, 1))
     vjp = getattr(model.model_lib, f"{model.name}_vjp")
@@ -221,16 +215,23 @@ def _forward_adaptive(model, a, rtol, atol):
     return X, rec_t, rec_x[:n], n, idx
 
 
-def _gradient_adaptive(model, a, cost, rtol, atol):
-    ffi, lib = a["ffi"], a["lib"]
-    X, rec_t, rec_x, n, idx = _forward_adaptive(model, a, rtol, atol)
-    value, G = cost(a["t"], X.copy())
+
+def _evaluate_cost(model, cost, t, X):
+    """The user's cost on the grid, checked once for both methods: (J, dJ/dX) shaped as X, finite."""
+    value, G = cost(t, X.copy())
     G = np.ascontiguousarray(G, dtype=np.float64)
     if G.shape != X.shape:
         raise ValueError(f"{model.name}: cost must return (J, dJ/dX) with dJ/dX shaped as X "
                          f"{X.shape} (grid points x states); got shape {G.shape}")
     if not np.all(np.isfinite(G)) or not np.isfinite(value):
         raise ValueError(f"{model.name}: cost returned a non-finite value or gradient")
+    return value, G
+
+
+def _gradient_adaptive(model, a, cost, rtol, atol):
+    ffi, lib = a["ffi"], a["lib"]
+    X, rec_t, rec_x, n, idx = _forward_adaptive(model, a, rtol, atol)
+    value, G = _evaluate_cost(model, cost, a["t"], X)
     Gb = np.zeros((n + 1, model.nx))
     Gb[idx] = G
     buf = lambda arr: ffi.from_buffer("double[]", arr)  # noqa: E731

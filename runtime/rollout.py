@@ -7,10 +7,11 @@ rows to POSIX threads, each row being exactly one ``eomc_integrate`` call with t
 options ``simulate`` would pass, so every row equals the scalar ``simulate`` result bit
 for bit.  The GIL is released for the whole call (cffi releases it on every C call).
 
-First piece of issue 31: fixed-step methods (rk4, implicitfast), no inputs (r = 0),
-no events (a model with a terminal event is refused; other events are not recorded), no
-contacts or joint limits (their switching needs the event machinery of ``simulate``; such a
-model is refused with a message saying so).
+Issue 31: fixed-step methods (rk4, implicitfast), no inputs (r = 0), no events (a model
+with a terminal event is refused; other events are not recorded).  Contacts and joint
+limits with implicitfast's fast path (NAME_implicit: they are forces in its matrix, no
+switching points needed); other methods refuse a model with contacts or limits, since their
+switching needs the event machinery of ``simulate``.
 """
 import numbers
 import os
@@ -23,7 +24,8 @@ from .header_cdef import header_cdef
 from .integrators_api import FIXED_STEP, METHOD_IDS, STATUS_NAMES
 from .law_parameters import check_law_parameters
 from .native import extension_library, integrator_library
-from .simulate import _options, check_quaternions, failure_message, prepare, resolve_method
+from .simulate import (IMPLICITFAST_SPLIT, _options, check_quaternions, depth_limits, failure_message,
+                       implicit_for_run, implicit_terms, prepare, resolve_method)
 
 __all__ = ["rollout", "RolloutResult"]
 
@@ -109,7 +111,7 @@ def _params(model, p, n):
 
 
 def rollout(model, x0s, *, dt, t_final=None, steps=None, method="rk4", p=None, threads=None,
-            record="final", raise_on_failure=True, lanes=False):
+            record="final", raise_on_failure=True, lanes=False, split=IMPLICITFAST_SPLIT):
     """Integrate every row of ``x0s`` ((n, nx)) from t = 0 with a fixed step ``dt``.
 
     Give the span as ``t_final`` or as ``steps`` (t_final = steps * dt); the last step is
@@ -120,6 +122,13 @@ def rollout(model, x0s, *, dt, t_final=None, steps=None, method="rk4", p=None, t
     consume, n * nx doubles whatever the span) or "steps" (x is (n, steps + 1, nx), the
     step grid of ``simulate``).  Row i equals ``simulate(model, x0s[i], (0, t_final),
     p=..., method=method, dt=dt)`` bit for bit (its ``x[-1]``, or all of ``x``).
+
+    Contacts and joint limits: with method="implicitfast" on a model that has NAME_implicit
+    (the recursive formulation with ground contacts: MJCF files, URDF robots with contacts),
+    each row runs the fast path as ``simulate`` does (its residual test with ``split``, 0 =
+    off: one model call per step, MuJoCo's implicitfast; see runtime/c/eomc_fixedstep.c), and a
+    row whose contact sinks past its radius fails with status 10 (with per-row parameters,
+    the smallest radius of each contact over the rows).  Other methods refuse such models.
 
     A failed trajectory (singular mass matrix, non-finite state) raises SimulationError
     naming the first failed row; with raise_on_failure=False, result.status says which
@@ -150,9 +159,15 @@ def rollout(model, x0s, *, dt, t_final=None, steps=None, method="rk4", p=None, t
           or t_final <= 0):
         raise ValueError(f"t_final must be a finite time > 0; got {t_final!r}")
     from .switching import find_switches
-    if find_switches(model):
+    fast = method == "implicitfast" and implicit_terms(model) is not None
+    if find_switches(model) and not fast:
+        # implicitfast's fast path needs no switching points: contacts and limits are in its
+        # matrix, and its depth limit fails a row whose contact sinks past its radius (in C)
         raise ValueError(f"{model.name}: this model has contacts or joint limits, whose switching points "
-                         f"rollout does not handle yet; use simulate_many")
+                         f"rollout handles only with method='implicitfast' on a model with NAME_implicit "
+                         f"(the recursive formulation's ground contacts; got method={method!r}"
+                         f"{'' if implicit_terms(model) is not None else ', and the model has no NAME_implicit'}); "
+                         f"use simulate_many")
     from .events import model_events
     stopping = [e.name for e in model_events(model) if e.terminal]
     if stopping:
@@ -189,7 +204,15 @@ def rollout(model, x0s, *, dt, t_final=None, steps=None, method="rk4", p=None, t
     buf = lambda arr: ffi.from_buffer("double[]", arr)  # noqa: E731
     integrator_library(model.ffi)._arm()      # Ctrl-C stops every thread at its next evaluation
     if n:
-        lib.eomc_rollout(model.c_model, _options(ffi, a), 0.0, float(t_final), n, buf(X0), buf(P), p_stride,
+        implicit, keep = (None, None)
+        if fast:
+            # the depth limits of the row with the smallest radii (each limit a contact's radius)
+            implicit, keep = implicit_for_run(model, P[0, :-1], split=split)
+            if p_stride:
+                lim = np.min([depth_limits(model, row[:-1]) for row in P], axis=0)
+                for k, v in enumerate(lim):
+                    keep[1][k] = v
+        lib.eomc_rollout(model.c_model, _options(ffi, a, implicit), 0.0, float(t_final), n, buf(X0), buf(P), p_stride,
                          n_eval, buf(t_eval), buf(X_out) if X_out is not None else ffi.NULL, buf(X_last),
                          ffi.from_buffer("int[]", status), ffi.from_buffer("long[]", nstep), nthreads)
     return _finish(model, method, X0, P, p_stride, dt, t_eval, record, X_out, X_last, status, nstep,

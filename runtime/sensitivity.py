@@ -180,8 +180,8 @@ def run(model, a, xs, ps, stat_fields, jvp=None, error_control=False):
                             n_eval, buf(a["t_eval"]), buf(X_out), buf(X_last), stats, buf(work),
                             work.size)
     st = {f: getattr(stats, f) for f in stat_fields}
-    counts = np.zeros(4, dtype=np.int64)
-    lib.eomc_sens_counts(s, ffi.cast("long *", ffi.from_buffer(counts)))
+    counts = ffi.new("long[4]")              # C long: 32 bits on Windows, so not an int64 buffer
+    lib.eomc_sens_counts(s, counts)
     st.update(njvp=int(counts[0]), sens_iterations=int(counts[1]), sens_slow=int(counts[2]),
               sens_rhs=int(counts[3]))
     S = X_out[:, nx:].reshape(n_eval, k, nx).transpose(0, 2, 1)

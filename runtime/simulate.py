@@ -261,12 +261,21 @@ def _t_eval(t_eval, t0, t1, method, dt, n_points, nx=1):
     return np.ascontiguousarray(t)
 
 
-def auto_method(model):
-    """(first method, may switch to radau) of method="auto" for this model."""
+# method="auto" on a model with contacts: BDF at rtol >= this, Radau below.  Measured on
+# Solo12 standing, gymnasium's hopper and ant dropped (benchmarks/results/contact_wp.md):
+# BDF takes 1/2 to 1/3 of Radau's time from rtol 1e-2 to 1e-8 (rhs calls: one to two per step
+# against Radau's three per Newton iteration), while Radau's order 5 pays off at the tightest
+# tolerances: at eomc check's 1e-8 on G1 falling (34 contact spheres) BDF ended 3.6e5x its
+# tolerance away from the reference, Radau 16x.
+BDF_FINEST = 1e-7
+
+
+def auto_method(model, rtol=1e-6):
+    """(first method, may switch to radau) of method="auto" for this model at this rtol."""
     from .switching import find_switches
     implicit = model.c_model.jac_x != model.ffi.NULL
     if implicit and find_switches(model).contacts:
-        return "radau", False
+        return ("bdf" if rtol >= BDF_FINEST else "radau"), False
     return "dop853", implicit
 
 
@@ -285,10 +294,11 @@ def prepare(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6,
         if dt is not None:
             raise ValueError(f"dt= is only for the fixed-step methods {', '.join(map(repr, FIXED_STEP))}; "
                              f"the default method 'auto' is adaptive (pass method= one of them with dt)")
-        method, may_switch = auto_method(model)
-        stiff_check = stiff_check or may_switch
     t0, t1 = _span(t_span)
     rtol, atol = _positive(rtol, "rtol"), _positive(atol, "atol")
+    if auto:
+        method, may_switch = auto_method(model, rtol)
+        stiff_check = stiff_check or may_switch
     if method in FIXED_STEP:
         if dt is None:
             raise ValueError(f"method={method!r} is fixed-step: give the step size (dt= in Python, "
@@ -719,9 +729,10 @@ def simulate(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6
     one) / the parameter defaults); x0=None starts at the model's initial_state.  r: constant
     array, (t_grid, values) interpolated linearly in C, (t_grid, values, "cubic") by a
     cubic spline (not-a-knot, scipy's CubicSpline) in C, or a callable (see below).
-    method: "auto" (the default: DOP853 while the problem is not stiff, Radau from the
-    start for a model with ground contacts, and Radau from wherever DOP853 detects
-    stiffness -- the run continues, LSODA-like), rk4 (needs dt), dopri5/rk45, dop853,
+    method: "auto" (the default: DOP853 while the problem is not stiff, an implicit method
+    from the start for a model with ground contacts -- BDF at rtol >= 1e-7, Radau tighter
+    (BDF_FINEST) -- and Radau from wherever DOP853 detects stiffness -- the run continues,
+    LSODA-like), rk4 (needs dt), dopri5/rk45, dop853,
     radau, bdf (needs jac_x: variable-order BDF/NDF like ode15s, the cheaper implicit
     method at loose and moderate tolerances; runtime/c/eomc_bdf.c), implicitfast (needs dt
     and jac_x: fixed-step linearly implicit Euler for stiff contact at real-time steps,

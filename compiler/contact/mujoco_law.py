@@ -9,7 +9,7 @@ since URDF has no contact parameters).
 """
 import math
 
-__all__ = ["law_parameters", "resting_depth", "limit_spring", "MUJOCO_DEFAULTS", "MINVAL"]
+__all__ = ["law_parameters", "resting_depth", "limit_spring", "HOLD_WIDTH", "MUJOCO_DEFAULTS", "MINVAL"]
 
 MINVAL = 1e-15                 # mjMINVAL
 # MuJoCo's default contact: solref, solimp, friction (sliding, torsional, rolling)
@@ -72,13 +72,39 @@ def law_parameters(solref, solimp, friction, condim, g, weight, timestep=None):
     return k, c, mu
 
 
-def limit_spring(inertia, solref, solimp):
-    """(k, c) of MuJoCo's soft limit (a joint's or a tendon's) as a spring-damper: its reference
-    acceleration -b v - k r with k = 1/(dmax² tc² z²), b = 2/(dmax tc) (``solref`` = (tc, z),
-    dmax = ``solimp[1]``), times the effective ``inertia``; a negative ``solref`` gives k, b
-    directly."""
+HOLD_WIDTH = 0.001     # rad (m): within about this of its limit a MuJoCo limit's spring holds (limit_spring)
+
+
+def limit_spring(inertia, solref, solimp, timestep=None):
+    """(K, C, hold) of MuJoCo's soft limit (a joint's or a tendon's) as eomc's spring-damper
+    (:class:`eomc.compiler.tree.joint_laws.JointLaw`): it meets an impact as MuJoCo's does and
+    gives under a steady load as MuJoCo's does.
+
+    MuJoCo's limit is a soft constraint with reference acceleration -b v - k r, k = 1/(dmax² tc²
+    z²), b = 2/(dmax tc) (``solref`` = (tc, z), tc at least 2 time steps unless refsafe is off;
+    a negative ``solref`` gives k = -tc/dmax², b = -z/dmax), impedance d (``solimp``; dmax past
+    its width); its force is -d·τ - d·m̃·(b v + k r), τ the load, m̃ the effective ``inertia``.
+    Far past the limit (an impact, a start outside the range) the reference acceleration
+    dominates: K = m̃·k, C = m̃·b.  Under a steady load the cancelled fraction d of τ does: it
+    rests where d·k·r = (1 - d)·τ/m̃, the give of a spring G·K, G = d/(1 - d) (19 at MuJoCo's
+    default dmax 0.95).  ``hold`` = (G, HOLD_WIDTH): the spring's stretch is
+    r + (G - 1)·w·tanh(r/w), slope G within about w = 1 mrad (mm) of the limit and 1 beyond,
+    where it pushes (G - 1)·w·K more than K·r.  Why both: gymnasium's hopper and walker rest
+    leaning on their limits (with K alone the hopper came to rest 27 mm below MuJoCo's after 15 s,
+    the walker's feet 0.036 rad further past their limits at MuJoCo's rest pose), while the ant
+    starts 0.52 rad outside its ankle ranges and its touch-down time follows the limits' throw
+    (G·K throughout: 40 % late).  w was chosen by measurement (benchmarks/bench_mjcf_drops.py,
+    15 s): 5 mrad: ant touch-down +10 %, hopper rest -3.6 mm; 2.5 mrad: +3.9 %, -3.7 mm; 1 mrad:
+    +1.6 %, -3.7 mm, walker +3.2 mm (as MuJoCo's default solimp width, where its impedance
+    reaches dmax, by coincidence).  No spring-damper is MuJoCo's limit: its force cancels a
+    fraction of whatever load there is, which a function of r and v alone cannot."""
     tc, z = (float(v) for v in solref[:2])
-    dmax = float(solimp[1])
+    dmax = min(max(float(solimp[1]), 1e-4), 0.9999)
     if tc > 0:
-        return inertia / (dmax * tc * z) ** 2, 2.0 * inertia / (dmax * tc)
-    return -tc * inertia / dmax ** 2, -z * inertia / dmax
+        if timestep:
+            tc = max(tc, 2.0 * timestep)
+        k = 1.0 / (dmax * tc * z) ** 2 if z > 0 else 1.0 / (dmax * tc) ** 2
+        b = 2.0 / (dmax * tc)
+    else:
+        k, b = -tc / dmax ** 2, -z / dmax
+    return inertia * k, inertia * b, (dmax / (1.0 - dmax), HOLD_WIDTH)

@@ -14,8 +14,11 @@ target is ``avx2``/``avx512f`` without ``fma``), give the scalar rhs's bits lane
 The exceptions are sin and cos: they go through :data:`VECTOR_TRIG` (fdlibm's reduction by
 pi/2 in three parts and its kernels, vectorized: within 1 ulp of glibc's ``sin``/``cos``,
 measured in tests/compiler/emit/test_batch.py), as a per-lane libm call would cost more than
-the rest of a small model.  Other calls (sqrt, fabs, pow, ...) are made lane by lane with the
-scalar libm function, so they are exact.  Branches become per-lane: the singular-mass-matrix
+the rest of a small model; a function that takes both sin and cos of one angle computes them
+together (NAME_vsincos: one reduction, one pair of kernels, the same bits).  fabs, fmax and
+fmin (joint limits) are vector bit operations and compares with libm's results bit for bit.
+Other calls (sqrt, pow, ...) are made lane by lane with the scalar libm function, so they are
+exact.  Branches become per-lane: the singular-mass-matrix
 guard and the finiteness check set a status per state.  Kane's form computes A and b (its
 NAME_dynamics helper, rewritten the same way) in lanes, then factors and solves each state's
 A with the scalar LDLᵀ/LU code, one lane at a time: its pivoting and singularity test stay
@@ -87,17 +90,15 @@ typedef unsigned long long eomc_vu __attribute__((vector_size(8 * EOMC_BATCH_LAN
 # |y| <= pi/4 and the quadrant as a bit select.  |x| >= 2^19*pi/2, inf and NaN lanes take
 # libm's sin/cos (fdlibm's medium-size reduction holds below that).  -DEOMC_BATCH_LIBM_TRIG
 # makes every lane call libm: NAME_rhs_batch is then the scalar rhs bit for bit.
-VECTOR_TRIG = r"""static EOMC_VTARGET EOMC_VINLINE eomc_vd {p}_vtrig(eomc_vd x, unsigned long long shift)
+VECTOR_TRIG = r"""static EOMC_VTARGET EOMC_VINLINE void {p}_vkernel(eomc_vd x, eomc_vu *q, eomc_vd *s, eomc_vd *c)
 {{
     const double toint = 6755399441055744.0;   /* 1.5 * 2^52: adding it rounds to an integer */
     eomc_vd k = x * 6.36619772367581382433e-01 + toint;
-    eomc_vu q = (eomc_vu)k + shift;
     eomc_vd fn = k - toint;
     eomc_vd r = x - fn * 1.57079632673412561417e+00;
     eomc_vd t = r, w = fn * 6.07710050630396597660e-11;
-    eomc_vd y0, y1, z, v, rs, rc, s, c;
-    eomc_vu odd, bits;
-    int l;
+    eomc_vd y0, y1, z, v, rs, rc;
+    *q = (eomc_vu)k;
     r = t - w;
     w = fn * 2.02226624879595063154e-21 - ((t - r) - w);
     t = r;
@@ -111,24 +112,55 @@ VECTOR_TRIG = r"""static EOMC_VTARGET EOMC_VINLINE eomc_vd {p}_vtrig(eomc_vd x, 
     v = z * y0;
     rs = 8.33333333332248946124e-03 + z * (-1.98412698298579493134e-04 + z * 2.75573137070700676789e-06)
         + z * w * (-2.50507602534068634195e-08 + z * 1.58969099521155010221e-10);
-    s = y0 - ((z * (0.5 * y1 - v * rs) - y1) - v * -1.66666666666666324348e-01);
+    *s = y0 - ((z * (0.5 * y1 - v * rs) - y1) - v * -1.66666666666666324348e-01);
     rc = z * (4.16666666666666019037e-02 + z * (-1.38888888888741095749e-03 + z * 2.48015872894767294178e-05))
         + w * w * (-2.75573143513906633035e-07 + z * (2.08757232129817482790e-09 + z * -1.13596475577881948265e-11));
     t = 0.5 * z;
     v = 1.0 - t;
-    c = v + (((1.0 - v) - t) + (z * rc - y0 * y1));
-    odd = (eomc_vu)((q & 1) != 0);
-    bits = ((eomc_vu)c & odd) | ((eomc_vu)s & ~odd);
+    *c = v + (((1.0 - v) - t) + (z * rc - y0 * y1));
+}}
+
+/* sin (shift 0) or cos (shift 1) from the kernels by the quadrant: a bit select and a sign */
+static EOMC_VTARGET EOMC_VINLINE eomc_vd {p}_vquadrant(eomc_vu q, eomc_vd s, eomc_vd c)
+{{
+    const eomc_vu odd = (eomc_vu)((q & 1) != 0);
+    eomc_vu bits = ((eomc_vu)c & odd) | ((eomc_vu)s & ~odd);
     bits ^= (q & 2) << 62;
-    s = (eomc_vd)bits;
-    for (l = 0; l < EOMC_BATCH_LANES; l++) {{
+    return (eomc_vd)bits;
+}}
+
+/* the lanes libm takes: |x| >= 2^19*pi/2, inf, NaN (one vector compare; *any says if one is) */
+static EOMC_VTARGET EOMC_VINLINE eomc_vu {p}_vbig(eomc_vd x, int *any)
+{{
+    const eomc_vu big = ~(eomc_vu)((eomc_vd)((eomc_vu)x & 0x7fffffffffffffffULL) < 823549.6656250000);
+    unsigned long long a = 0;
+    int l;
+    for (l = 0; l < EOMC_BATCH_LANES; l++) a |= big[l];
+    *any = a != 0;
+    return big;
+}}
+
+static EOMC_VTARGET EOMC_VINLINE eomc_vd {p}_vtrig(eomc_vd x, unsigned long long shift)
+{{
+    eomc_vu q;
+    eomc_vd s, c, y;
+    int l, any;
+    {p}_vkernel(x, &q, &s, &c);
+    y = {p}_vquadrant(q + shift, s, c);
 #ifdef EOMC_BATCH_LIBM_TRIG
-        s[l] = shift ? cos(x[l]) : sin(x[l]);   /* bit for bit the scalar rhs (tests, or by choice) */
+    (void)any;
+    for (l = 0; l < EOMC_BATCH_LANES; l++) y[l] = shift ? cos(x[l]) : sin(x[l]);   /* the scalar rhs's bits */
 #else
-        if (!(fabs(x[l]) < 823549.6656250000)) s[l] = shift ? cos(x[l]) : sin(x[l]);
-#endif
+    {{
+        const eomc_vu big = {p}_vbig(x, &any);
+        if (any) {{
+            for (l = 0; l < EOMC_BATCH_LANES; l++) {{
+                if (big[l]) y[l] = shift ? cos(x[l]) : sin(x[l]);
+            }}
+        }}
     }}
-    return s;
+#endif
+    return y;
 }}
 
 static EOMC_VTARGET EOMC_VINLINE eomc_vd {p}_vsin(eomc_vd x)
@@ -139,6 +171,37 @@ static EOMC_VTARGET EOMC_VINLINE eomc_vd {p}_vsin(eomc_vd x)
 static EOMC_VTARGET EOMC_VINLINE eomc_vd {p}_vcos(eomc_vd x)
 {{
     return {p}_vtrig(x, 1);
+}}
+
+/* sin and cos of one angle from one reduction and one pair of kernels: the same bits as
+   {p}_vsin and {p}_vcos (the rewrite pairs them when a function uses both of one angle) */
+static EOMC_VTARGET EOMC_VINLINE void {p}_vsincos(eomc_vd x, eomc_vd *so, eomc_vd *co)
+{{
+    eomc_vu q;
+    eomc_vd s, c;
+    int l, any;
+    {p}_vkernel(x, &q, &s, &c);
+    *so = {p}_vquadrant(q, s, c);
+    *co = {p}_vquadrant(q + 1, s, c);
+#ifdef EOMC_BATCH_LIBM_TRIG
+    (void)any;
+    for (l = 0; l < EOMC_BATCH_LANES; l++) {{
+        (*so)[l] = sin(x[l]);
+        (*co)[l] = cos(x[l]);
+    }}
+#else
+    {{
+        const eomc_vu big = {p}_vbig(x, &any);
+        if (any) {{
+            for (l = 0; l < EOMC_BATCH_LANES; l++) {{
+                if (big[l]) {{
+                    (*so)[l] = sin(x[l]);
+                    (*co)[l] = cos(x[l]);
+                }}
+            }}
+        }}
+    }}
+#endif
 }}"""
 
 _VSET = """static EOMC_VTARGET eomc_vd {p}_vset(double a)
@@ -148,6 +211,26 @@ _VSET = """static EOMC_VTARGET eomc_vd {p}_vset(double a)
     for (l = 0; l < EOMC_BATCH_LANES; l++) v[l] = a;
     return v;
 }}"""
+
+# fabs, fmax and fmin as vector bit operations and compares: bit for bit libm's (C99 F.9.9.2 as
+# glibc: fmax/fmin return a when a >= b (a <= b) or only b is NaN, else b), not a call per lane --
+# joint limits put two fmax per joint in a robot's rhs (UR10: 26 of them)
+_VECTOR_EXACT = {
+    "fabs": """static EOMC_VTARGET EOMC_VINLINE eomc_vd {p}_v_fabs(eomc_vd a)
+{{
+    return (eomc_vd)((eomc_vu)a & 0x7fffffffffffffffULL);
+}}""",
+    "fmax": """static EOMC_VTARGET EOMC_VINLINE eomc_vd {p}_v_fmax(eomc_vd a, eomc_vd b)
+{{
+    const eomc_vu take_a = (eomc_vu)((a >= b) | ((b != b) & (a == a)));
+    return (eomc_vd)(((eomc_vu)a & take_a) | ((eomc_vu)b & ~take_a));
+}}""",
+    "fmin": """static EOMC_VTARGET EOMC_VINLINE eomc_vd {p}_v_fmin(eomc_vd a, eomc_vd b)
+{{
+    const eomc_vu take_a = (eomc_vu)((a <= b) | ((b != b) & (a == a)));
+    return (eomc_vd)(((eomc_vu)a & take_a) | ((eomc_vu)b & ~take_a));
+}}""",
+}
 
 _LANEWISE1 = """static EOMC_VTARGET eomc_vd {p}_v_{f}(eomc_vd a)
 {{
@@ -180,6 +263,24 @@ class _Rewriter:
         self.scalar_arrays = set(scalar_arrays)
         self.vtemps = set()
         self.used = used            # helper names the rewritten code calls
+        self.paired = set()         # angles (x[i] or a temporary) whose sin and cos both occur
+        self.sincos = {}            # angle -> its k in sin_k, cos_k (computed by NAME_vsincos)
+        self.pre = []               # declarations the current statement needs first
+
+    def pair_scan(self, lines):
+        """Note the angles whose sin and cos this function both takes: at the first of the
+        two, one NAME_vsincos computes both (one reduction and one pair of kernels; a store
+        between the two calls would otherwise keep the compiler from sharing them)."""
+        seen = {"sin": set(), "cos": set()}
+        for line in lines:
+            for fn, arg in re.findall(r"\b(sin|cos)\((x\[\d+\]|t\d+)\)", line):
+                seen[fn].add(arg)
+        self.paired = seen["sin"] & seen["cos"]
+        self.sincos = {}
+
+    def take_pre(self, indent):
+        pre, self.pre = self.pre, []
+        return "".join(f"{indent}{line}\n" for line in pre)
 
     def is_vector(self, expr):
         for name in _ARRAY_REF.findall(expr):
@@ -220,6 +321,13 @@ class _Rewriter:
             new = [self._calls(a) for a in args]
             if not any(vec):
                 out.append(f"{name}({','.join(new)})")
+            elif name in ("sin", "cos") and len(args) == 1 and args[0].strip() in self.paired:
+                self.used.add("trig")
+                angle = args[0].strip()
+                if angle not in self.sincos:
+                    k = self.sincos[angle] = len(self.sincos)
+                    self.pre += [f"eomc_vd sin_{k}, cos_{k};", f"{self.prefix}_vsincos({angle}, &sin_{k}, &cos_{k});"]
+                out.append(f"{name}_{self.sincos[angle]}")
             elif name in ("sin", "cos") and len(args) == 1:
                 self.used.add("trig")
                 out.append(f"{self.prefix}_v{name}({new[0]})")
@@ -235,10 +343,11 @@ class _Rewriter:
 
     def temp(self, indent, name, expr):
         text, vec = self.expression(expr)
+        pre = self.take_pre(indent)
         if vec:
             self.vtemps.add(name)
-            return f"{indent}const eomc_vd {name} = {text};"
-        return f"{indent}const double {name} = {text};"
+            return f"{pre}{indent}const eomc_vd {name} = {text};"
+        return f"{pre}{indent}const double {name} = {text};"
 
     def store(self, indent, array, index, expr):
         if array not in self.vec_arrays:
@@ -247,7 +356,7 @@ class _Rewriter:
         if not vec:
             self.used.add("vset")
             text = f"{self.prefix}_vset({text})"
-        return f"{indent}{array}[{index}] = {text};"
+        return f"{self.take_pre(indent)}{indent}{array}[{index}] = {text};"
 
     def lanes(self, expr):
         """``expr`` read at lane ``l_``: vector temporaries and vector arrays subscripted."""
@@ -409,10 +518,12 @@ def batch_rhs(name, lines, parts, dynamics=""):
         renamed[old] = new
         rw = _Rewriter(name, (), ("p",), used)
         params = _param_list(m.group(2), rw)
+        rw.pair_scan(body)
         stmts = [_statement(rw, line, renamed) for line in body[1:-1]]
         out_parts.append("\n".join([f"static EOMC_NOINLINE EOMC_VTARGET void {new}({params})", "{"]
                                    + [s for s in stmts if s is not None] + ["}"]))
     rw = _Rewriter(name, ("x", "r", "xdot"), ("p",), used)
+    rw.pair_scan(lines)
     stmts = [_statement(rw, line, renamed) for line in lines]
     guard = any("l_" in (s or "") for s in stmts)
     if any("/* one state's A at a time */" in (s or "") for s in stmts):
@@ -434,7 +545,9 @@ def helpers(name, used):
     if "trig" in used:
         code.append(VECTOR_TRIG.format(p=name))
     for f in sorted(used):
-        if f in MATH1:
+        if f in _VECTOR_EXACT:
+            code.append(_VECTOR_EXACT[f].format(p=name))
+        elif f in MATH1:
             code.append(_LANEWISE1.format(p=name, f=f))
         elif f in MATH2:
             code.append(_LANEWISE2.format(p=name, f=f))

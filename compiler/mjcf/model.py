@@ -61,22 +61,23 @@ def is_mjcf_model(model):
     return isinstance(model, MjcfModel) or is_mjcf_path(model)
 
 
-def with_ignore(model, name=None, ignore=(), limits=True, orientation="euler"):
+def with_ignore(model, name=None, ignore=(), limits=True, orientation="euler", pairs=None):
     """(model, name) for the driver: an MJCF path with ``ignore`` (the CLI's ``--ignore
-    WHAT[,WHAT]``: a string or a sequence), ``limits=False`` (``--limits off``) or
-    ``orientation="quaternion"`` (``--orientation quaternion``) becomes an :class:`MjcfModel`;
-    without them the model goes through unchanged."""
+    WHAT[,WHAT]``: a string or a sequence), ``limits=False`` (``--limits off``),
+    ``orientation="quaternion"`` (``--orientation quaternion``) or ``pairs`` True/False
+    (``--pairs all|none``) becomes an :class:`MjcfModel`; without them the model goes through
+    unchanged."""
     if isinstance(ignore, str):
         ignore = [ignore]
     items = tuple(x.strip() for text in (ignore or ()) for x in text.split(",") if x.strip())
     if items and not is_mjcf_path(model):
         raise ModelError(f"--ignore applies to MuJoCo models (.xml), not to {model}")
     orientation = orientation or "euler"
-    if not items and ((limits and orientation == "euler") or not is_mjcf_path(model)):
+    if not items and ((limits and orientation == "euler" and pairs is None) or not is_mjcf_path(model)):
         return model, name
     _known(items)
     from eomc.compiler.emit.layout import sanitize_name
-    return (MjcfModel(Path(model), ignore=items, limits=limits, orientation=orientation),
+    return (MjcfModel(Path(model), ignore=items, limits=limits, orientation=orientation, pairs=pairs),
             name or sanitize_name(Path(model).stem))
 
 
@@ -458,15 +459,13 @@ def _with_pairs(model, m, built):
     if model.pairs is None:
         own = [p for p in found if p.same_tree and not p.explicit]
         if own:
-            warnings.warn(f"{model.path}: {len(own)} contact pair(s) between geoms of one kinematic tree (e.g. "
-                          f"{own[0].name}) left out: self-collisions cost as the square of the geoms (MjcfModel("
-                          f"path, pairs=True) adds them)", EomcWarning, stacklevel=4)
+            warnings.warn(f"{Path(model.path).name}: {len(own)} self-collision pair(s) left out (--pairs all or "
+                          f"MjcfModel(path, pairs=True) adds them)", EomcWarning, stacklevel=4)
             found = [p for p in found if not p.same_tree or p.explicit]
     if skipped:
         text = "; ".join(f"{n} {kinds} pair(s) (e.g. {example})" for kinds, (n, example) in sorted(skipped.items()))
-        warnings.warn(f"{model.path}: no contact between these geoms MuJoCo would collide: {text}: they pass "
-                      f"through each other (eomc models sphere, capsule and sphere-box pairs)", EomcWarning,
-                      stacklevel=4)
+        warnings.warn(f"{Path(model.path).name}: no contact for {text}: they pass through each other (eomc "
+                      f"has sphere, capsule and sphere-box pairs)", EomcWarning, stacklevel=4)
     if not found:
         return built
     tree_body = {owner[0]: i for i, owner in enumerate(built.owners) if owner is not None}

@@ -26,7 +26,7 @@ the time step is recorded in the built model's metadata (``model.timestep``).
 """
 from eomc.runtime.errors import ModelFileError
 
-__all__ = ["apply_flags", "EFFECTS"]
+__all__ = ["apply_flags", "EFFECTS", "refsafe_step"]
 
 EFFECTS = ("gravity", "spring", "damper", "actuation", "clampctrl", "limit", "frictionloss", "contact",
            "equality", "constraint", "filterparent", "refsafe")
@@ -84,3 +84,10 @@ def apply_flags(m, path, where_of=lambda path, tag: (str(path), None)):
     if constraint and not m.opt.disableflags & int(mujoco.mjtDisableBit.mjDSBL_CONTACT):
         m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONTACT)
     return "limit" not in off and not constraint, "frictionloss" not in off and not constraint, "actuation" not in off
+
+
+def refsafe_step(m):
+    """MuJoCo's time step where its refsafe rule (a constraint's time constant at least 2 steps)
+    applies, else None (``<flag refsafe="disable"/>``)."""
+    import mujoco
+    return None if m.opt.disableflags & int(mujoco.mjtDisableBit.mjDSBL_REFSAFE) else float(m.opt.timestep)

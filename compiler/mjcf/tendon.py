@@ -69,9 +69,10 @@ def tendon_force(m, t, raw, name, L, V, params, limits=True, friction=True):
     fl = float(m.tendon_frictionloss[t]) if friction else 0.0
     if lower is not None or fl:
         inertia = 1.0 / float(m.tendon_invweight0[t]) if m.tendon_invweight0[t] > 0 else 1.0
-        kl, cl = limit_spring(inertia, m.tendon_solref_lim[t], m.tendon_solimp_lim[t])
+        from .options import refsafe_step
+        kl, cl, hold = limit_spring(inertia, m.tendon_solref_lim[t], m.tendon_solimp_lim[t], refsafe_step(m))
         law = JointLaw(f"tendon {raw}", lower=lower, upper=upper, friction=fl, stiffness=kl, limit_damping=cl,
-                       unilateral=True)
+                       unilateral=True, hold=hold)
         f += joint_torque(L, V, law, params, name, inertia)
     return f
 

@@ -333,21 +333,22 @@ def _armature(m, params, jn, kind, dadr):
 def _law(m, jid, jraw, jn, q, u, params, limits, friction):
     """The range limit and frictionloss of a hinge or slide (:mod:`eomc.compiler.tree.joint_laws`).
 
-    The limit's stiffness and damping are MuJoCo's own for the joint's ``solref``
-    (timeconst tc, dampratio z) and ``solimp`` (dmax): its reference acceleration
-    -b v - k r with k = 1/(dmax² tc² z²), b = 2/(dmax tc), times the joint's effective
-    inertia 1/``dof_invweight0`` (MuJoCo's own scale); a negative ``solref`` gives k, b
-    directly.  MuJoCo's limit is a soft constraint solved with the other constraints
-    (impedance, ``margin``): here it is a spring-damper, so the motion past the limit
-    differs (the README says how much); inside the range both exert nothing."""
+    The limit's stiffness and damping follow the joint's ``solref`` and ``solimp`` by
+    :func:`eomc.compiler.contact.mujoco_law.limit_spring` (it gives under a steady load as
+    MuJoCo's limit does; damping ratio z), with the joint's effective inertia
+    1/``dof_invweight0`` (MuJoCo's own scale).  MuJoCo's limit is a soft constraint solved with
+    the other constraints (impedance, ``margin``): here it is a spring-damper, so the motion
+    past the limit differs (docs/contact.md says how); inside the range both exert nothing."""
     from eomc.compiler.contact.mujoco_law import limit_spring
     from eomc.compiler.tree.joint_laws import JointLaw, joint_torque
+    from .options import refsafe_step
     dadr = int(m.jnt_dofadr[jid])
     lower = upper = None
     if limits and m.jnt_limited[jid]:
         lower, upper = (float(v) for v in m.jnt_range[jid])
     fl = float(m.dof_frictionloss[dadr]) if friction else 0.0
     inertia = 1.0 / float(m.dof_invweight0[dadr]) if m.dof_invweight0[dadr] > 0 else 1.0
-    k, c = limit_spring(inertia, m.jnt_solref[jid], m.jnt_solimp[jid])
-    law = JointLaw(jraw, lower=lower, upper=upper, friction=fl, stiffness=k, limit_damping=c, unilateral=True)
+    k, c, hold = limit_spring(inertia, m.jnt_solref[jid], m.jnt_solimp[jid], refsafe_step(m))
+    law = JointLaw(jraw, lower=lower, upper=upper, friction=fl, stiffness=k, limit_damping=c, unilateral=True,
+                   hold=hold)
     return joint_torque(q, u, law, params, jn, inertia)     # JointLawError: the caller places it

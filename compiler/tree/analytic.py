@@ -359,7 +359,7 @@ def kernel_c(name, plan, nq, solve=False):
         "        }",
         "        for (i = 0; i < 6; i++) {",
         "            vb[i] = vl[i];",
-        "            ab[i] = al[i];",
+        "            ab[i] = " + ("0.0;   /* the bias acceleration c_b first (see below) */" if aba else "al[i];"),
         "        }",
         "        for (e = d0[b]; e < d0[b] + nd[b]; e++) {   /* the axes in the world, v */",
         f"            const double *S = an + {o['S']} + 6 * e;",
@@ -377,16 +377,21 @@ def kernel_c(name, plan, nq, solve=False):
         "            const double *s = Sw + 6 * e;",
         f"            {name}_rd_cross(vb, s, t);",
         "            for (i = 0; i < 6; i++) {",
-        "                ab[i] += s[i] * ud[e] + t[i] * u[e];",
+        "                ab[i] += " + ("t[i] * u[e];" if aba else "s[i] * ud[e] + t[i] * u[e];"),
         "                dAv[6 * e + i] = t[i];",
         "            }",
         f"            {name}_rd_cross(vl, s, dV + 6 * e);",
+    ] + ([
+        f"            {name}_rd_cross(vl, dV + 6 * e, dA + 6 * e);",
+        "            for (i = 0; i < 6; i++) dAv[6 * e + i] += dV[6 * e + i];",
+    ] if aba else [
         f"            {name}_rd_cross(al, s, dA + 6 * e);",
         f"            {name}_rd_cross(vl, dV + 6 * e, t);",
         "            for (i = 0; i < 6; i++) {",
         "                dA[6 * e + i] += t[i];",
         "                dAv[6 * e + i] += dV[6 * e + i];",
         "            }",
+    ]) + [
         "        }",
         "        /* the world inertia about the world origin: {m, c = m p, I_O = R I_c R^T + m (p.p 1 - p p^T)} */",
         "        m = In[0];",
@@ -418,9 +423,9 @@ def kernel_c(name, plan, nq, solve=False):
     ] if aba else []) + [
         "        /* momentum h, force f = Y a + v x* h - load */",
         f"        {name}_rd_ymul(Yb, vb, hm);",
-        f"        {name}_rd_ymul(Yb, ab, fb);",
+        f"        {name}_rd_ymul(Yb, ab, fb);" if not aba else "        /* (Y a: added once a is known, below) */",
         f"        {name}_rd_crossf(vb, hm, t);",
-        "        for (i = 0; i < 6; i++) fb[i] += t[i];",
+        "        for (i = 0; i < 6; i++) fb[i] " + ("= t[i];" if aba else "+= t[i];"),
     ]
     if plan.loads:
         lines += [
@@ -440,6 +445,8 @@ def kernel_c(name, plan, nq, solve=False):
             "        }",
         ]
     lines += [
+    ] + (["        if (msolve)",
+          "            for (i = 0; i < 6; i++) PA[6 * b + i] = fb[i];   /* the bias force, ABA's start */"] if aba else []) + [
         "        /* dY = v x* Y - Y (v x) + (. x* h) = [[T, 0], [-2 [h_f]x, 0]] (compiler/tree/analytic.py):",
         "           T = C + C^T - c v_l^T - v_l c^T + 2 (v_l . c) 1 - [h_n]x, C's columns w x I_O's */",
         "        for (j = 0; j < 3; j++) {",
@@ -456,6 +463,7 @@ def kernel_c(name, plan, nq, solve=False):
         "        dYb[1] += hm[2]; dYb[2] -= hm[1]; dYb[3] -= hm[2]; dYb[5] += hm[0]; dYb[6] += hm[1]; dYb[7] -= hm[0];",
         "        dYb[9] = hm[3]; dYb[10] = hm[4]; dYb[11] = hm[5];",
         "    }",
+    ] + (_aba_accelerations(name, plan) if aba else []) + [
         f"    for (b = {nb - 1}; b >= 0; b--) {{",
         "        const double *Yb = Y + 10 * b, *dYb = dY + 12 * b, *fb = F + 6 * b;",
         "        double t[6];",
@@ -506,23 +514,6 @@ def kernel_c(name, plan, nq, solve=False):
         "                }",
         "            }",
         "        }",
-    ] + ([
-        "        if (msolve) {   /* articulated inertia: U = IA S, D = S.U + armature, IA -= U U^T / D per dof */",
-        "            double *Ib = IA + 36 * b;",
-        "            for (e = d0[b] + nd[b] - 1; e >= d0[b]; e--) {",
-        "                const double *s = Sw + 6 * e;",
-        "                double *Ue = Ua + 6 * e;",
-        "                for (i = 0; i < 6; i++)",
-        "                    Ue[i] = Ib[6 * i] * s[0] + Ib[6 * i + 1] * s[1] + Ib[6 * i + 2] * s[2]"
-        " + Ib[6 * i + 3] * s[3] + Ib[6 * i + 4] * s[4] + Ib[6 * i + 5] * s[5];",
-        f"                Di[e] = 1.0 / ({name}_rd_dot(s, Ue) + an[{o['arm']} + e]);",
-        "                for (i = 0; i < 6; i++)",
-        "                    for (j = 0; j < 6; j++) Ib[6 * i + j] -= Ue[i] * Ue[j] * Di[e];",
-        "            }",
-        "            if (par[b] >= 0)",
-        "                for (i = 0; i < 36; i++) IA[36 * par[b] + i] += Ib[i];",
-        "        }",
-    ] if aba else []) + [
         "        l = par[b];",
         "        if (l >= 0) {   /* composite inertia, its variation and force */",
         "            for (i = 0; i < 10; i++) Y[10 * l + i] += Yb[i];",
@@ -614,11 +605,84 @@ def kernel_c(name, plan, nq, solve=False):
     return "\n".join(lines)
 
 
+def _aba_accelerations(name, plan):
+    """The kernel's accelerations when jac_x runs articulated: with ``msolve`` the kernel finds
+    u' itself (ABA in the world frame on the quantities it has placed: articulated inertias
+    IA, bias forces v x* h - load, bias accelerations c_b; U, D kept for the solve), then, as
+    for given u', each body's a = a_parent + c_b + S u', the axes' term a_parent x S, f += Y a.
+    A k-speed joint is a chain of k massless stages, its body's c_b on the last."""
+    o = plan.offsets
+    return [
+        "    if (msolve) {   /* u' = ABA: articulated inertias and bias forces to the root ... */",
+        f"        for (b = {plan.nb - 1}; b >= 0; b--) {{",
+        "            double *Ib = IA + 36 * b, *pA = PA + 6 * b, t[6];",
+        "            for (e = d0[b] + nd[b] - 1; e >= d0[b]; e--) {",
+        "                const double *s = Sw + 6 * e;",
+        "                double *Ue = Ua + 6 * e;",
+        "                for (i = 0; i < 6; i++)",
+        "                    Ue[i] = Ib[6 * i] * s[0] + Ib[6 * i + 1] * s[1] + Ib[6 * i + 2] * s[2]"
+        " + Ib[6 * i + 3] * s[3] + Ib[6 * i + 4] * s[4] + Ib[6 * i + 5] * s[5];",
+        f"                Di[e] = 1.0 / ({name}_rd_dot(s, Ue) + an[{o['arm']} + e]);",
+        f"                uw[e] = -{name}_rd_dot(s, pA);",
+        "                for (i = 0; i < 6; i++)",
+        "                    for (j = 0; j < 6; j++) Ib[6 * i + j] -= Ue[i] * Ue[j] * Di[e];",
+        "                if (e == d0[b] + nd[b] - 1) {   /* + IA c_b */",
+        "                    const double *cb = A + 6 * b;",
+        "                    for (i = 0; i < 6; i++)",
+        "                        t[i] = Ib[6 * i] * cb[0] + Ib[6 * i + 1] * cb[1] + Ib[6 * i + 2] * cb[2]"
+        " + Ib[6 * i + 3] * cb[3] + Ib[6 * i + 4] * cb[4] + Ib[6 * i + 5] * cb[5];",
+        "                    for (i = 0; i < 6; i++) pA[i] += t[i];",
+        "                }",
+        "                for (i = 0; i < 6; i++) pA[i] += Ue[i] * uw[e] * Di[e];",
+        "            }",
+        "            if (par[b] >= 0) {",
+        "                for (i = 0; i < 36; i++) IA[36 * par[b] + i] += Ib[i];",
+        "                for (i = 0; i < 6; i++) PA[6 * par[b] + i] += pA[i];",
+        "            }",
+        "        }",
+        f"        for (b = 0; b < {plan.nb}; b++) {{   /* ... and u' from the root */",
+        "            double *acc = Aa + 6 * b;",
+        "            l = par[b];",
+        "            for (i = 0; i < 6; i++)",
+        f"                acc[i] = l >= 0 ? Aa[6 * l + i] : (i < 3 ? 0.0 : -an[{o['g']} + i - 3]);",
+        "            for (e = d0[b]; e < d0[b] + nd[b]; e++) {",
+        "                const double *s = Sw + 6 * e;",
+        "                if (e == d0[b] + nd[b] - 1)",
+        "                    for (i = 0; i < 6; i++) acc[i] += A[6 * b + i];",
+        f"                uw[e] = (uw[e] - {name}_rd_dot(Ua + 6 * e, acc)) * Di[e];",
+        "                for (i = 0; i < 6; i++) acc[i] += s[i] * uw[e];",
+        "            }",
+        "        }",
+        "        ud = uw;",
+        "    }",
+        f"    for (b = 0; b < {plan.nb}; b++) {{   /* a = a_parent + c_b + S u', the axes' a_parent x S, f += Y a */",
+        "        double *ab = A + 6 * b, al[6], t[6];",
+        "        l = par[b];",
+        "        for (i = 0; i < 6; i++) {",
+        f"            al[i] = l >= 0 ? A[6 * l + i] : (i < 3 ? 0.0 : -an[{o['g']} + i - 3]);",
+        "            ab[i] += al[i];",
+        "        }",
+        "        for (e = d0[b]; e < d0[b] + nd[b]; e++) {",
+        "            const double *s = Sw + 6 * e;",
+        f"            {name}_rd_cross(al, s, t);",
+        "            for (i = 0; i < 6; i++) {",
+        "                ab[i] += s[i] * ud[e];",
+        "                dA[6 * e + i] += t[i];",
+        "            }",
+        "        }",
+        f"        {name}_rd_ymul(Y + 10 * b, ab, t);",
+        "        for (i = 0; i < 6; i++) F[6 * b + i] += t[i];",
+        "    }",
+    ]
+
+
 def _aba_decls(plan, ncol):
     bm, bi, bo, fm, fi, fo, npm, nam = solve_tables(plan.lam)
     return [_table("bm", bm), _table("bi", bi), _table("bo", bo), _table("fm", fm), _table("fi", fi),
             _table("fo", fo),
-            f"    double IA[{36 * plan.nb}], Ua[{6 * plan.nd}], Di[{plan.nd}], Pm[{6 * ncol * npm}], Am[{6 * ncol * nam}];"]
+            f"    double IA[{36 * plan.nb}], PA[{6 * plan.nb}], Aa[{6 * plan.nb}], Ua[{6 * plan.nd}], Di[{plan.nd}], "
+            f"uw[{plan.nd}];",
+            f"    double Pm[{6 * ncol * npm}], Am[{6 * ncol * nam}];"]
 
 
 def _loop(n, body):
@@ -686,6 +750,14 @@ def call_lines(name, plan, ind, x_name, ud_expr, row0, sign, stride, nq, msolve=
     """The C lines that fill u[], ud[] per dof and call NAME_rnea_derivs (inside a function
     whose ``an[]`` holds the plan's inputs)."""
     rows = ", ".join(str(s) for s in plan.row)
+    if ud_expr is None:     # the kernel finds u' itself (msolve, articulated): ud unread
+        return [f"{ind}{{",
+                f"{ind}    static const int sp[{plan.nd}] = {{{rows}}};",
+                f"{ind}    double u[{plan.nd}];",
+                f"{ind}    int e;",
+                f"{ind}    for (e = 0; e < {plan.nd}; e++) u[e] = {x_name}[{nq} + sp[e]];",
+                f"{ind}    {name}_rnea_derivs(an, u, u, out, {stride}, {row0}, {sign}, {msolve});",
+                f"{ind}}}"]
     return [f"{ind}{{",
             f"{ind}    static const int sp[{plan.nd}] = {{{rows}}};",
             f"{ind}    double u[{plan.nd}], ud[{plan.nd}];",

@@ -40,16 +40,23 @@ def analytic_jac_id_body(ctx, program, sym):
     return lines
 
 
-def _jac_x_plan(program, W, G, nq, nu, nx):
-    key = ("analytic_jac_x", tuple(W), tuple(G), nq, nu, nx)
+def _own_ud(sym, nq, nu, nx):
+    """jac_x's kernel finds u' itself (articulated solve, no extra states): no ABA code here."""
+    return sym.analytic.solver == "aba" and nx == nq + nu
+
+
+def _jac_x_plan(program, W, G, nq, nu, nx, own=False):
+    key = ("analytic_jac_x", tuple(W), tuple(G), nq, nu, nx, own)
     plans = program.__dict__.setdefault("_jacobian_plans", {})
     if key not in plans:
-        stores = [(f"w[{k[1]}]", e) for k, e in program.results if k[0] == "ud"]
+        stores = [] if own else [(f"w[{k[1]}]", e) for k, e in program.results if k[0] == "ud"]
         kin = program.result_exprs("dkin")
         rows = [(f"out[{i * nx + k}]", kin.get(("dkin", i, k), sm.S.Zero)) for i in range(nq) for k in range(nx)]
         rows += _extra_rows(program, "dzd", nq + nu, nx, nx)
         anx = list(program.result_exprs(ANX).values())
-        exprs = [e for _, e in stores + rows] + anx + list(program.result_exprs("Dpiv").values())
+        exprs = [e for _, e in stores + rows] + anx
+        if not own:
+            exprs += list(program.result_exprs("Dpiv").values())
         plans[key] = (needed_assignments(program.assignments, exprs), stores, rows)
     return plans[key]
 
@@ -57,9 +64,18 @@ def _jac_x_plan(program, W, G, nq, nu, nx):
 def analytic_jac_x_body(ctx, program, sym, W, G):
     plan = sym.analytic
     nq, nu, nx = ctx.nq, ctx.nu, ctx.nx
-    once, stores, rows = _jac_x_plan(program, W, G, nq, nu, nx)
-    before, after = split_on(program.with_(assignments=tuple(once)), W)
+    own = _own_ud(sym, nq, nu, nx)
+    once, stores, rows = _jac_x_plan(program, W, G, nq, nu, nx, own)
     pr = ctx.printer(program)
+    if own:
+        lines = [f"{IND}double an[{plan.size}];"]
+        lines += temps(program, pr, once)
+        lines += [store(lv, e, pr) for lv, e in rows]
+        lines += _inputs(program, pr)
+        lines += call_lines(ctx.name, plan, IND, "x", None, nq, "-1.0", nx, nq, 1)
+        lines.append(f"{IND}return {ctx.name}_finite(out, {nx * nx});")
+        return lines
+    before, after = split_on(program.with_(assignments=tuple(once)), W)
     decls = [f"double w[{nu}];", f"double an[{plan.size}];"]
     lines = [f"{IND}{d}" for d in decls]
     lines += temps(program, pr, before)
@@ -83,7 +99,7 @@ def analytic_body_ops(fn, program, sym, W, G, nq, nu, nx):
         for e in program.result_exprs(ANX).values():
             count_ops(e, c)
     else:
-        once, stores, rows = _jac_x_plan(program, W, G, nq, nu, nx)
+        once, stores, rows = _jac_x_plan(program, W, G, nq, nu, nx, _own_ud(sym, nq, nu, nx))
         for _, e in list(once) + stores + rows:
             count_ops(e, c)
     return {k: int(c.get(k, 0)) for k in ("adds", "muls", "divs", "calls")}

@@ -83,13 +83,14 @@ def _make_plan(program, W, G, seeds, fn, nq, nx, nr):
     nu = len(G)
     sol = {k[1]: e for k, e in program.results if k[0] == "sol"}
     stores = [(f"w[{j}]", e) for k, e in program.results if k[0] == "ud" for j in (k[1],)]
-    nud = len(stores)      # a closed tree's λ follow u' in w (constrained.kkt_residual)
+    nud = len(stores)      # the speeds; a closed tree's λ follow u' in w (constrained.kkt_residual), so
+    # G has nu + m rows there and the extra states' rows start at nq + nud, not nq + len(G)
     stores += [(f"w[{nud + k[1]}]", e) for k, e in program.results if k[0] == "lam"]
     if fn == "jac_x":
         kin, ncols = program.result_exprs("dkin"), nx
         stores += [(f"out[{i * ncols + k}]", kin.get(("dkin", i, k), sm.S.Zero))
                    for i in range(nq) for k in range(ncols)]
-        stores += _extra_rows(program, "dzd", nq + nu, nx, ncols)
+        stores += _extra_rows(program, "dzd", nq + nud, nx, ncols)     # after the speeds, not after λ
         tangents = [(g, start, end) for g, start, end in (("tq", 0, nq), ("tu", nq, nx))
                     if any(k[0] == g for k, _ in program.results)]
         unrolled = "dres" if not tangents else None
@@ -98,7 +99,7 @@ def _make_plan(program, W, G, seeds, fn, nq, nx, nr):
         kin, ncols = program.result_exprs(f"dkin_{tag}"), nr
         stores += [(f"out[{i * ncols + k}]", kin.get((f"dkin_{tag}", i, k), sm.S.Zero))
                    for i in range(nq) for k in range(ncols)]
-        stores += _extra_rows(program, f"dzd_{tag}", nq + nu, nx, ncols)
+        stores += _extra_rows(program, f"dzd_{tag}", nq + nud, nx, ncols)
         tangents, unrolled = [], f"dres_{tag}"
     if unrolled:
         vals = program.result_exprs(unrolled)

@@ -74,8 +74,12 @@ class JointLaw:
     """The declared numbers of one joint (``None``: not declared / no limit on that side)."""
 
     def __init__(self, joint, *, lower=None, upper=None, damping=0.0, friction=0.0, stiffness=None,
-                 limit_damping=None, width=WIDTH, friction_speed=FRICTION_SPEED, unilateral=False):
+                 limit_damping=None, width=WIDTH, friction_speed=FRICTION_SPEED, unilateral=False, hold=None):
         self.joint = joint
+        # hold: (G, w) or None -- the limit's spring is G times stiffer within about w of the limit:
+        # k·(r + (G - 1)·w·tanh(r/w)) instead of k·r (MuJoCo's soft limit holds a steady load with
+        # the give of G·k, and meets an impact with k: mujoco_law.limit_spring)
+        self.hold = hold
         # unilateral: the limit only pushes (its spring-damper force clipped at 0, smoothly over the
         # force one width deep: _push; MuJoCo's limit constraint force is >= 0); else its damping
         # may also pull the joint back toward the limit
@@ -200,6 +204,15 @@ def limit_spring(d, e):
 
 
 
+def _held(r, hold):
+    """The spring's stretch: r, or with ``hold`` = (G, w) r + (G - 1)·w·tanh(r/w) (slope G at the
+    limit, 1 far past it: JointLaw.hold)."""
+    if not hold:
+        return r
+    G, w = hold
+    return r + sm.Float(repr(float((G - 1.0) * w))) * sm.tanh(r / sm.Float(repr(float(w))))
+
+
 def _push(force, scale):
     """max(force, 0) made smooth over ``scale`` (a tenth of the limit's force one width e deep,
     k·e/10): (f + sqrt(f² + scale²))/2.  Why smooth: a kink where the damping would start to pull
@@ -232,12 +245,12 @@ def joint_torque(q, u, law, params, name, inertia):
         if law.upper is not None and math.isfinite(law.upper):
             r = ramp(q - params(f"{NAMES['upper']}_{name}", law.upper))
             g = r / (r + E)
-            side = K * r + C * u * g
+            side = K * _held(r, law.hold) + C * u * g
             tau += -g ** 2 * (_push(side, K * E / 10) if law.unilateral else side)
         if law.lower is not None and math.isfinite(law.lower):
             r = ramp(params(f"{NAMES['lower']}_{name}", law.lower) - q)
             g = r / (r + E)
-            side = K * r - C * u * g
+            side = K * _held(r, law.hold) - C * u * g
             tau += g ** 2 * (_push(side, K * E / 10) if law.unilateral else side)
     if law.damping:
         tau += -params(f"{NAMES['damping']}_{name}", law.damping) * u

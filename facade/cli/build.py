@@ -52,7 +52,7 @@ def run(args):
     source, name = with_options(args.model, args.name, floating_base=floating_base_of(args),
                                 allow_nonphysical_inertia=args.allow_nonphysical_inertia,
                                 limits=args.limits != "off", ignore=args.ignore,
-                                orientation=getattr(args, "orientation", None))
+                                orientation=getattr(args, "orientation", None), pairs=getattr(args, "pairs", None))
     model = compile(source, name, functions=args.outputs, fold_parameters=args.fold_parameters,
                     backend=args.backend, cflags=args.cflags, cache_dir=args.cache_dir,
                     output_dir=args.output, progress="quiet" if args.quiet else True, formulation=args.formulation,

@@ -40,6 +40,7 @@ def add_robot_arguments(parser):
     add_contact_argument(parser)
     add_ignore_argument(parser)
     add_limits_argument(parser)
+    add_pairs_argument(parser)
 
 
 CONTACT_HELP = ("URDF/MJCF: a ground contact sphere on LINK (an MJCF body), centred at x,y,z in its frame "
@@ -75,6 +76,18 @@ def add_limits_argument(parser):
     parser.add_argument("--limits", choices=("on", "off"), default="on",
                         help="URDF/MJCF: the file's joint limits (soft), damping and friction act "
                              "(on, default) or are ignored (off)")
+
+
+# --pairs: eomc.compiler.mjcf.model.MjcfModel(pairs=...) of each choice
+PAIRS = {"trees": None, "all": True, "none": False}
+
+
+def add_pairs_argument(parser):
+    """--pairs trees|all|none: an MJCF model's body–body contacts (MjcfModel(pairs=...))."""
+    parser.add_argument("--pairs", choices=tuple(PAIRS), default=None,
+                        help="MJCF: body-body contacts between the file's geoms: trees (default: between "
+                             "kinematic trees, with the world's geoms and the file's <pair>s), all (also "
+                             "self-collisions within one tree, as MuJoCo: slower rhs) or none")
 
 
 FORMULATION_HELP = ("dynamics formulation: auto (default: the cheaper rhs of the two; kane where the "
@@ -127,18 +140,23 @@ def model_options(args):
         options["ignore"] = args.ignore
     if getattr(args, "limits", "on") == "off":
         options["limits"] = False
+    if getattr(args, "pairs", None) is not None:
+        options["pairs"] = args.pairs
     return options
 
 
 def with_options(model, name=None, *, floating_base=False, allow_nonphysical_inertia=False, limits=True,
-                 ignore=(), orientation=None):
+                 ignore=(), orientation=None, pairs=None):
     """(model, name) for the driver with the command line's model options: an MJCF file's
     (``--ignore``, ``--limits off``: :func:`eomc.compiler.mjcf.model.with_ignore`) or a URDF's
     (:func:`eomc.compiler.urdf.model.with_options`, which refuses URDF flags on anything else)."""
     from eomc.compiler.mjcf.model import is_mjcf_path, with_ignore
     from eomc.compiler.urdf.model import with_options as urdf_options
+    if pairs is not None and not is_mjcf_path(model):
+        raise ValueError(f"--pairs applies to MuJoCo models (.xml), not to {model}")
     if is_mjcf_path(model) and not (floating_base or allow_nonphysical_inertia):
-        return with_ignore(model, name, ignore, limits=limits, orientation=orientation)
+        return with_ignore(model, name, ignore, limits=limits, orientation=orientation,
+                           pairs=PAIRS[pairs] if pairs else None)
     with_ignore(model, name, ignore)        # --ignore on anything but MJCF: says what it applies to
     return urdf_options(model, name, floating_base=floating_base,
                         allow_nonphysical_inertia=allow_nonphysical_inertia, limits=limits)
@@ -156,7 +174,7 @@ def add_frame_argument(parser):
 
 def load_model(path, quiet=False, floating_base=False, formulation="auto", frames=None, ignore=(),
                contacts=None, allow_nonphysical_inertia=False, limits=True, functions=None, check=None,
-               orientation=None):
+               orientation=None, pairs=None):
     """A runtime Model from a model file (.py, .urdf, MuJoCo's .xml; compiled) or a built
     directory / json (loaded).  ``ignore``: an MJCF model's ignorable elements (--ignore).
 
@@ -187,6 +205,8 @@ def load_model(path, quiet=False, floating_base=False, formulation="auto", frame
                        functions=None if functions is None else list(functions))
         if orientation:        # only when given: the reuse key of every other build stays as it was
             options["orientation"] = orientation
+        if pairs:              # likewise
+            options["pairs"] = pairs
         model, key = _reused(path, options, check)
         if model is not None:
             return model
@@ -241,7 +261,7 @@ def _compiled(path, options, key, quiet, check):
     source, name = with_options(str(path), name=None, floating_base=options["floating_base"],
                                 allow_nonphysical_inertia=options["allow_nonphysical_inertia"],
                                 limits=options["limits"], ignore=options["ignore"],
-                                orientation=options.get("orientation"))
+                                orientation=options.get("orientation"), pairs=options.get("pairs"))
     extra = {} if check is None else {"check": check}
     recorded = []
     try:

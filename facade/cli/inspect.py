@@ -43,7 +43,7 @@ def run(args):
     source, name = with_options(args.model, args.name, floating_base=floating_base_of(args),
                                 allow_nonphysical_inertia=args.allow_nonphysical_inertia,
                                 limits=args.limits != "off", ignore=args.ignore,
-                                orientation=getattr(args, "orientation", None))
+                                orientation=getattr(args, "orientation", None), pairs=getattr(args, "pairs", None))
     spec, generated = generate(source, name, functions=args.outputs,
                                fold_parameters=args.fold_parameters,
                                progress=False if args.quiet else None, formulation=args.formulation,

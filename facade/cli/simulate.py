@@ -22,7 +22,7 @@ def configure(parser):
     parser.add_argument("--plot-states", metavar="NAMES",
                         help="with --plot: only these states and outputs, comma-separated")
     parser.add_argument("--method", default="auto",
-                        help="auto (dop853; radau from the start with contacts, or from where "
+                        help="auto (dop853; bdf from the start with contacts (radau at --rtol < 1e-7), or radau from where "
                              "dop853 finds the problem stiff), rk4 (needs --dt), dopri5 (rk45), dop853, "
                              "radau, bdf, implicitfast (needs --dt)")
     parser.add_argument("--rtol", type=float, default=1e-6, help="relative tolerance")

@@ -602,7 +602,7 @@ static int fs_fast_try(fs_fast *q, double t, double h, const double *x, double *
  * common in a stance (the regularised friction switching between stick and slip within a
  * step: halving does not help there, so such steps are taken whole).  With split = 0.5 all
  * six runs end with status 0 and Go2's feet at most 11.5 mm deep (radius 22 mm).  A sub-step
- * of the smallest size that still fails the test is taken anyway and counted in
+ * of the smallest size whose ratio is still above HARD_FACTOR * split is taken anyway, counted in
  * stats->rejected (simulate warns); a step with no finite sub-step at all fails.  After
  * each kept step the contacts' depths are checked against eomc_implicit.depth_limit: the
  * first contact found deeper is remembered and the run fails at the next step with
@@ -647,7 +647,7 @@ static int fs_fast_advance(void *self, double t, double h, const double *x, doub
             q->st->t_fail = ts + hs;
             return s;
         }
-        if (size == 1 && ratio > split) q->st->rejected++;
+        if (size == 1 && ratio > HARD_FACTOR * split) q->st->rejected++;
         before = INFINITY;
         q->st->nlu++;
         pos += size;

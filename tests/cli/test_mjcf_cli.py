@@ -116,3 +116,53 @@ def test_show_says_an_mjcf_model_has_no_formed_equations(tmp_path, capsys):
     text = capsys.readouterr().out
     assert "coordinates q: q_j" in text and "arm_j=0.2" in text
     assert "mass matrix and forcing: not formed" in text and "mass matrix  (A" not in text
+
+
+CHAIN = """<mujoco model="chain">
+  <worldbody>
+    <body name="a" pos="0 0 1"><joint name="ja" type="hinge" axis="0 1 0"/>
+      <geom name="ga" type="sphere" size="0.05" mass="1"/>
+      <body name="b" pos="0.2 0 0"><joint name="jb" type="hinge" axis="0 1 0"/>
+        <geom name="gb" type="capsule" fromto="0 0 0 0.2 0 0" size="0.03" mass="1"/>
+        <body name="c" pos="0.2 0 0"><joint name="jc" type="hinge" axis="0 1 0"/>
+          <geom name="gc" type="sphere" size="0.05" mass="1"/></body></body></body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_pairs_flag_chooses_self_collisions(tmp_path, capsys):
+    """--pairs all adds the one self-collision pair MuJoCo has (ga–gc: grandparent and grandchild;
+    the parent–child pairs are filtered), --pairs none and the default leave it out, the default
+    with a one-line note naming the flag; --pairs on a URDF is refused."""
+    path = tmp_path / "chain.xml"
+    path.write_text(CHAIN)
+
+    def inspect(*flags):
+        with pytest.warns(EomcWarning) if not flags else _quiet():
+            assert main(["inspect", str(path), "-q", *flags]) == 0
+        text = capsys.readouterr()
+        return set(re.findall(r"\bk_(\w+)", text.out)), text.err
+    made, _ = inspect("--pairs", "all")
+    assert made == {"ga__gc"}
+    assert inspect("--pairs", "none")[0] == set()
+    with pytest.warns(EomcWarning, match=r"^chain\.xml: 1 self-collision pair\(s\) left out \(--pairs all or "
+                                         r"MjcfModel\(path, pairs=True\) adds them\)$"):
+        assert main(["inspect", str(path), "-q"]) == 0
+    assert "k_ga__gc" not in capsys.readouterr().out
+    urdf = tmp_path / "r.urdf"
+    urdf.write_text('<robot name="r"><link name="base"/></robot>')
+    assert main(["inspect", str(urdf), "--pairs", "all", "-q"]) != 0
+    assert "--pairs applies to MuJoCo models" in capsys.readouterr().err
+
+
+def _quiet():
+    import contextlib
+    import warnings
+
+    @contextlib.contextmanager
+    def ctx():
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", EomcWarning)      # no note when --pairs is given
+            yield
+    return ctx()

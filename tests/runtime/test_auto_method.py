@@ -1,6 +1,6 @@
 """method="auto", the default (runtime/simulate.py; issue 29): DOP853 while the problem is not
-stiff, Radau from the start on a model with ground contacts, Radau from where DOP853 finds
-the problem stiff -- the run goes on and agrees with Radau throughout."""
+stiff, BDF (Radau at rtol < 1e-7) from the start on a model with ground contacts, Radau from
+where DOP853 finds the problem stiff -- the run goes on and agrees with Radau throughout."""
 import sys
 import warnings
 from pathlib import Path
@@ -46,11 +46,15 @@ def ball(tmp_path_factory):
     return bg.build(tmp_path_factory.mktemp("cache"))
 
 
-def test_auto_takes_radau_from_the_start_with_contacts(ball):
+@pytest.mark.parametrize("rtol,method", [(1e-6, "bdf"), (1e-3, "bdf"), (1e-8, "radau")])
+def test_auto_takes_an_implicit_method_from_the_start_with_contacts(ball, rtol, method):
+    """BDF at rtol >= 1e-7 (the cheaper one there: benchmarks/results/contact_wp.md), Radau tighter."""
     p = np.array(ball.param_defaults)
     p[ball.param_names.index("k_ball")] = 1e9
     with warnings.catch_warnings():
         warnings.simplefilter("error", PhysicsWarning)
-        res = ball.simulate(np.r_[0, 0, 0.5, np.zeros(9)], (0, 3), p=p)
-    assert res.status == 0 and res.method == "radau"
-    assert res["z"].max() == pytest.approx(0.5, abs=1e-3)
+        res = ball.simulate(np.r_[0, 0, 0.5, np.zeros(9)], (0, 3), p=p, rtol=rtol, atol=rtol * 1e-3)
+    assert res.status == 0 and res.method == method
+    # the bounce height to the tolerance (BDF at rtol 1e-3: 0.5053, energy +1 %; the verdict's
+    # limit is 100 rtol)
+    assert res["z"].max() == pytest.approx(0.5, rel=max(2e-3, 20 * rtol))

@@ -115,3 +115,49 @@ def test_model_with_a_terminal_event_is_refused_not_run_past_it():
         rollout(m, np.zeros((2, 2)), steps=10, dt=0.01)
     m.metadata = {**m.metadata, "events": [{"name": "crossing", "terminal": 0}]}
     assert rollout(m, np.zeros((2, 2)), steps=10, dt=0.01).ok.all()
+
+
+BALL = """<mujoco model="ball">
+  <option timestep="0.002"/>
+  <worldbody>
+    <geom name="floor" type="plane" size="1 1 0.1"/>
+    <body name="ball" pos="0 0 0.2">
+      <freejoint name="root"/>
+      <geom name="ball" type="sphere" size="0.05" mass="1" friction="0.8"/>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_rollout_with_contacts_equals_simulate_bit_for_bit(tmp_path):
+    """Contacts in rollout (issue 31 item 2): a ball thrown onto the floor from 16 starts (it
+    lands, bounces, slides with friction, spins), implicitfast's fast path in C threads: each
+    row equals the scalar simulate bit for bit (same method, same code); a row whose
+    parameters make the contact 1e5 times too soft fails alone with status 10 (its contact
+    past its radius); rk4 refuses the contact model, naming the method that takes it."""
+    from eomc.compiler.mjcf.model import MjcfModel
+    from eomc.runtime.errors import SimulationError
+    path = tmp_path / "ball.xml"
+    path.write_text(BALL)
+    m = eomc.compile(MjcfModel(path), name="ro_ball", cache_dir=tmp_path, progress=False)
+    names = list(m.state_names)
+    rng = np.random.default_rng(3)
+    x0 = np.zeros((16, m.nx))
+    x0[:, names.index("q_root_z")] = 0.06 + 0.3 * rng.random(16)
+    x0[:, m.nq:] = rng.normal(size=(16, m.nu))
+    res = eomc.rollout(m, x0, dt=0.002, steps=300, method="implicitfast", threads=2)
+    assert np.all(res.ok)
+    for i in (0, 7, 15):
+        one = m.simulate(x0[i], (0.0, 0.6), method="implicitfast", dt=0.002)
+        assert np.array_equal(one.x[-1], res.x[i])
+    z = res.x[:, names.index("q_root_z")]
+    assert np.all(z > 0.04) and np.all(z < 0.5)                       # on the floor, not through it
+    P = np.tile(np.asarray(m.param_defaults, dtype=float), (16, 1))
+    P[4, m.param_names.index("k_ball")] *= 1e-5
+    bad = eomc.rollout(m, x0, dt=0.002, steps=300, method="implicitfast", p=P, threads=2, raise_on_failure=False)
+    assert bad.status[4] == 10 and np.sum(bad.status != 0) == 1
+    with pytest.raises(SimulationError, match="row 4 of 16 failed.*contact ball went"):
+        eomc.rollout(m, x0, dt=0.002, steps=300, method="implicitfast", p=P, threads=2)
+    with pytest.raises(ValueError, match="only with method='implicitfast'"):
+        eomc.rollout(m, x0, dt=0.002, steps=10, method="rk4")

@@ -33,9 +33,9 @@ def _cart(tmp, formulation, cflags=None):
                          formulation=formulation, cache_dir=tmp, cflags=cflags, progress=False)
 
 
-def _ur5(tmp, cflags=None):
+def _ur5(tmp, cflags=None, limits=False):
     from eomc.compiler.urdf.model import UrdfModel
-    return compile_model(UrdfModel(robot_path("ur5"), limits=False), functions=FUNCTIONS,
+    return compile_model(UrdfModel(robot_path("ur5"), limits=limits), functions=FUNCTIONS,
                          cache_dir=tmp, cflags=cflags, progress=False)
 
 
@@ -62,6 +62,19 @@ def test_recursive_robot_bit_for_bit_with_libm_trig(cache, lanes):
     X = _states(model, 4 * lanes + 3, 1)          # whole groups of lanes and a scalar tail
     got = model.rhs_batch(0.3, X)
     assert np.array_equal(got, _scalar(model, X))
+
+
+def test_joint_limits_fmax_in_lanes_bit_for_bit(cache):
+    """UR5 with its joint limits: two fmax per joint, computed as vector compares and bit
+    selects (not a libm call per lane); sin and cos of each angle paired into one
+    NAME_vsincos.  With libm trig the batch is still the scalar rhs bit for bit, also for
+    states past the limits (where the fmax terms are not zero)."""
+    model = _ur5(cache, f"{STRICT} -DEOMC_BATCH_LIBM_TRIG", limits=True)
+    c = "".join(f.read_text() for f in Path(model.directory).glob("*.c"))
+    assert model.metadata["rhs_batch"]["vectorized"], model.metadata["rhs_batch"]
+    X = _states(model, 4 * machine_lanes() + 3, 8) * 4.0        # many states outside the limits
+    assert np.array_equal(model.rhs_batch(0.3, X), _scalar(model, X))
+    assert "_vsincos(x[" in c and "_v_fmax(x[" in c and "fmax(a[l]" not in c
 
 
 def test_recursive_robot_vector_trig_within_bound(cache):
@@ -141,15 +154,18 @@ def test_vector_trig_ulp(tmp_path):
     lanes = machine_lanes()
     src = tmp_path / "trig.c"
     src.write_text("#include <math.h>\n" + SIMD_PRELUDE + "\n" + VECTOR_TRIG.format(p="t") + """
+int paired_differ = 0;   /* NaN never occurs here: sincos must give vsin's and vcos's bits */
 EOMC_VTARGET void many(int n, const double *x, double *s, double *c)
 {
     int k, l;
     for (k = 0; k + EOMC_BATCH_LANES <= n; k += EOMC_BATCH_LANES) {
-        eomc_vd v, a, b;
+        eomc_vd v, a, b, sv, cv;
         for (l = 0; l < EOMC_BATCH_LANES; l++) v[l] = x[k + l];
         a = t_vsin(v);
         b = t_vcos(v);
+        t_vsincos(v, &sv, &cv);
         for (l = 0; l < EOMC_BATCH_LANES; l++) { s[k + l] = a[l]; c[k + l] = b[l]; }
+        for (l = 0; l < EOMC_BATCH_LANES; l++) paired_differ += sv[l] != a[l] || cv[l] != b[l];
     }
 }
 """)
@@ -163,6 +179,7 @@ EOMC_VTARGET void many(int n, const double *x, double *s, double *c)
     s, c = np.empty_like(x), np.empty_like(x)
     ptr = ctypes.POINTER(ctypes.c_double)
     dll.many(ctypes.c_int(len(x)), x.ctypes.data_as(ptr), s.ctypes.data_as(ptr), c.ctypes.data_as(ptr))
+    assert ctypes.c_int.in_dll(dll, "paired_differ").value == 0
     for got, fn in ((s, math.sin), (c, math.cos)):
         want = np.array([fn(v) for v in x])
         ulps = np.abs(got.view(np.int64) - want.view(np.int64))
@@ -180,3 +197,44 @@ def test_without_simd_and_unknown_shapes_loop_the_scalar_rhs(cache):
     before, body, meta = batch_code("m", 4, 0, (["    while (1) break;"], []))
     assert meta["vectorized"] is False and "while (1) break;" in meta["why"]
     assert "m_rhs_lanes" not in before and "m_rhs(t, xs, p, rs, xd, work)" in body
+
+
+@pytest.mark.skipif(shutil.which("gcc") is None, reason="needs gcc")
+def test_vector_fabs_fmax_fmin_are_libm_bit_for_bit(tmp_path):
+    """fabs, fmax and fmin in lanes (bit operations and compares) against libm's, lane by
+    lane, on the cases where they could differ: signed zeros, NaN in either place, infinities,
+    equal values, subnormals."""
+    from eomc.compiler.emit.batch import helpers
+    lanes = machine_lanes()
+    src = tmp_path / "mm.c"
+    src.write_text("#include <math.h>\n" + SIMD_PRELUDE + "\n" + helpers("t", {"fabs", "fmax", "fmin"}) + """
+EOMC_VTARGET int check(int n, const double *a, const double *b)
+{
+    int k, l, bad = t_vset(1.0)[0] != 1.0;   /* (the rewrite's broadcast, emitted with fmax) */
+    for (k = 0; k + EOMC_BATCH_LANES <= n; k += EOMC_BATCH_LANES) {
+        eomc_vd va, vb, mx, mn, ab;
+        for (l = 0; l < EOMC_BATCH_LANES; l++) { va[l] = a[k + l]; vb[l] = b[k + l]; }
+        mx = t_v_fmax(va, vb);
+        mn = t_v_fmin(va, vb);
+        ab = t_v_fabs(va);
+        for (l = 0; l < EOMC_BATCH_LANES; l++) {
+            double m1 = fmax(a[k + l], b[k + l]), m2 = fmin(a[k + l], b[k + l]), m3 = fabs(a[k + l]);
+            bad += __builtin_memcmp(&mx[l], &m1, 8) != 0;
+            bad += __builtin_memcmp(&mn[l], &m2, 8) != 0;
+            bad += __builtin_memcmp(&ab[l], &m3, 8) != 0;
+        }
+    }
+    return bad;
+}
+""")
+    lib = tmp_path / "libmm.so"
+    subprocess.run(["gcc", "-O2", "-std=c99", "-fPIC", "-shared", "-Wall", "-Wextra", "-Werror",
+                    f"-DEOMC_BATCH_LANES={lanes}", str(src), "-o", str(lib), "-lm"], check=True)
+    special = [0.0, -0.0, 1.0, -1.0, math.inf, -math.inf, math.nan, -math.nan, 5e-324, -5e-324, 2.5, 1e308]
+    a = np.array([x for x in special for _ in special])
+    b = np.array([y for _ in special for y in special])
+    pad = (-len(a)) % lanes
+    a, b = np.concatenate([a, np.zeros(pad)]), np.concatenate([b, np.zeros(pad)])
+    ptr = ctypes.POINTER(ctypes.c_double)
+    bad = ctypes.CDLL(str(lib)).check(ctypes.c_int(len(a)), a.ctypes.data_as(ptr), b.ctypes.data_as(ptr))
+    assert bad == 0

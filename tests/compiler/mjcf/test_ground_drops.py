@@ -63,7 +63,7 @@ def _mujoco_drop(path, T):
         mujoco.mj_step(m, d)
         times.append(d.time)
         lowest.append(low())
-    return m, d, _touchdown(times, lowest)
+    return m, d, _touchdown(times, lowest), -min(lowest)
 
 
 def _eomc_drop(path, T, tmp_path):
@@ -87,15 +87,17 @@ def _root_height(m, model, x):
 
 
 def _check(path, T, tmp_path):
-    m, d, t_mj = _mujoco_drop(path, T)
+    m, d, t_mj, theirs_deepest = _mujoco_drop(path, T)
     model, res, t_eomc, deepest = _eomc_drop(path, T, tmp_path)
     assert t_eomc == pytest.approx(t_mj, rel=0.02)
     assert _root_height(m, model, res.x[-1]) == pytest.approx(float(d.xpos[1][2]), abs=0.005)
     # the stated penetration: MuJoCo's resting depth of the geom's contact (its law's k rests
-    # there under the whole robot); an impact may go some times deeper, never through
+    # there under the whole robot); an impact may go some times deeper, never through (and
+    # never deeper than MuJoCo's own contact in the same drop)
     stated = max(resting_depth(m.geom_solref[g.geom], m.geom_solimp[g.geom], 9.81, m.opt.timestep)[0]
                  + g.height for g in ground_geoms(m))
     assert deepest.max() < 5 * stated
+    assert deepest.max() < theirs_deepest
     return t_mj, t_eomc
 
 
@@ -107,6 +109,7 @@ def test_primitive_drop_matches_mujoco(shape, tmp_path):
 
 
 def test_hopper_drop_matches_mujoco(tmp_path):
-    """gymnasium's hopper: it lands on its foot, balances for a while, topples and lies still."""
+    """gymnasium's hopper: it lands on its foot, balances for a while, topples and lies still
+    (at rest after 15 s on both sides; at 3 s eomc's was still settling)."""
     pytest.importorskip("gymnasium")
-    _check(_gym("hopper.xml"), 3.0, tmp_path)
+    _check(_gym("hopper.xml"), 15.0, tmp_path)

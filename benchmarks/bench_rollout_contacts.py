@@ -1,0 +1,141 @@
+"""Issue 31 item 2 / issue 29 item 3: eomc.rollout with contacts vs mujoco.rollout.
+
+gymnasium's hopper, ant and humanoid as shipped (contacts, joint limits, damping and armature on
+both sides), zero controls, NROLL starts at the file's qpos0 with the hinge and slide speeds
+uniform in +-0.5 (free joints at rest), one simulated second at the XML's own timestep.  Each
+side with the contacts it reads from the file (MuJoCo: its geoms against the floor plane,
+soft constraints; eomc: the same geoms' ground contacts, compliant law: docs/contact.md) and
+its fixed-step implicit method: MuJoCo mjINT_IMPLICITFAST (and its default, Euler), eomc
+method="implicitfast" -- checked (the residual test splits steps whose linearisation fails,
+eomc_implicit.split = 0.5: what simulate and rollout run by default) and unchecked (split = 0:
+one model call per step, as MuJoCo's implicitfast).  Same thread count on both sides (1 and 2):
+mujoco.rollout gets one MjData per thread, eomc.rollout threads=k.
+
+Steps/s = NROLL * steps / median time; wall and process CPU (all threads), contestants
+interleaved repeat by repeat, medians of REPEAT, process pinned to cores 0,1.  The contact laws
+differ, so the two sides' end states differ by what the laws do, not by round-off:
+"vs MuJoCo" is the median and max over rows of max |q_eomc - q_mujoco| over the compared
+coordinates (hinges, slides, free joints' positions; bench_fixedstep.compared_q).  Row 0 of
+eomc.rollout is checked bit for bit against simulate (same method, same code).
+
+    taskset -c 0,1 nice python benchmarks/bench_rollout_contacts.py [--models hopper,ant,humanoid]
+"""
+import argparse
+import os
+import statistics
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from common import environment_header, format_table, write_results  # noqa: E402
+import bench_fixedstep as B  # noqa: E402
+
+MODELS = ("hopper", "ant", "humanoid")
+NROLL, REPEAT = 64, 5
+
+
+def _case(name, threads_list, cache_dir):
+    import mujoco
+    from mujoco import rollout as mj_rollout
+
+    import eomc
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")          # the files' self-collision pairs (said by a warning)
+        em = B.eomc_model(name, cache_dir)
+    mm = B.mujoco_model(name, "IMPLICITFAST")
+    me = B.mujoco_model(name, "EULER")
+    dt = float(mm.opt.timestep)
+    nstep = int(round(1.0 / dt))
+    rng = np.random.default_rng(0)
+    x0 = B.eomc_start(em, mm)
+    X0 = np.tile(x0, (NROLL, 1))
+    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    S0 = np.empty((NROLL, mujoco.mj_stateSize(mm, spec)))
+    d = mujoco.MjData(mm)
+    names = list(em.state_names)
+    for i in range(NROLL):
+        mujoco.mj_resetData(mm, d)
+        for j in range(mm.njnt):
+            if int(mm.jnt_type[j]) in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)):
+                v = rng.uniform(-0.5, 0.5)
+                d.qvel[int(mm.jnt_dofadr[j])] = v
+                X0[i, names.index(f"u_{mm.joint(j).name}")] = v
+        mujoco.mj_getState(mm, d, S0[i], spec)
+    ctrl = np.zeros((NROLL, nstep, mm.nu))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        one = em.simulate(X0[0], (0.0, nstep * dt), method="implicitfast", dt=dt, t_eval=[nstep * dt])
+    rows = []
+    for k in threads_list:
+        datas = [mujoco.MjData(mm) for _ in range(k)]
+        with mj_rollout.Rollout(nthread=k) as ro:
+            contestants = {
+                "eomc implicitfast (checked)": lambda: eomc.rollout(em, X0, steps=nstep, dt=dt, threads=k,
+                                                                    method="implicitfast", raise_on_failure=False),
+                "eomc implicitfast (unchecked)": lambda: eomc.rollout(em, X0, steps=nstep, dt=dt, threads=k,
+                                                                      method="implicitfast", split=0.0,
+                                                                      raise_on_failure=False),
+                "mujoco implicitfast": lambda: ro.rollout([mm] * NROLL, datas, S0, ctrl, nstep=nstep)[0],
+                "mujoco euler": lambda: ro.rollout([me] * NROLL, datas, S0, ctrl, nstep=nstep)[0],
+            }
+            times = {c: [] for c in contestants}
+            cpu = {c: [] for c in contestants}
+            out = {}
+            for _ in range(REPEAT):
+                for c, f in contestants.items():
+                    t0, c0 = time.perf_counter(), time.process_time()
+                    out[c] = f()
+                    times[c].append(time.perf_counter() - t0)
+                    cpu[c].append(time.process_time() - c0)
+        assert np.array_equal(out["eomc implicitfast (checked)"].x[0], one.x[-1]), name
+        mj_q = np.array([B.compared_q(em, mm, qpos=s[-1, 1:1 + mm.nq]) for s in out["mujoco implicitfast"]])
+        total = NROLL * nstep
+        sps = {c: total / statistics.median(v) for c, v in times.items()}
+        cps = {c: total / statistics.median(v) for c, v in cpu.items()}
+        for c in contestants:
+            if c.startswith("eomc"):
+                res = out[c]
+                q = np.array([B.compared_q(em, mm, x=x) for x in res.x])
+                dq = np.abs(q - mj_q).max(axis=1)
+                agree = f"{np.median(dq):.2g} / {dq.max():.2g}"
+                note = f"{int(np.sum(res.status == 0))}/{NROLL} ok, {int(np.median(res.steps))} steps"
+            else:
+                agree, note = "", ""
+            rows.append([name, f"{dt:g}", k, c, f"{sps[c]:.3g}", f"{sps[c] / sps['mujoco implicitfast']:.2f}",
+                         f"{cps[c]:.3g}", f"{cps[c] / cps['mujoco implicitfast']:.2f}", agree, note])
+        print(rows[-len(contestants):], flush=True)
+    return rows
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--models", default=",".join(MODELS))
+    parser.add_argument("--cache-dir", default=os.environ.get("EOMC_CACHE_DIR"))
+    parser.add_argument("--no-write", action="store_true")
+    args = parser.parse_args()
+    threads = [1, 2] if len(os.sched_getaffinity(0)) >= 2 else [1]
+    rows = []
+    for name in args.models.split(","):
+        rows += _case(name, threads, args.cache_dir)
+    import mujoco
+    table = format_table(["model", "timestep", "threads", "contestant", "steps/s (wall)", "vs mujoco implicitfast",
+                          "steps/CPU-s", "vs mujoco implicitfast (CPU)", "vs MuJoCo: max |dq| median / max",
+                          "rows"], rows)
+    text = environment_header(
+        "Rollouts with contacts: eomc.rollout vs mujoco.rollout (issues 29, 31)",
+        notes=[f"MuJoCo {mujoco.__version__}; {NROLL} starts x 1 simulated second per call at each file's "
+               f"timestep; contacts and limits on both sides; zero controls; wall and process-CPU medians of "
+               f"{REPEAT} interleaved repeats, process pinned to cores {sorted(os.sched_getaffinity(0))}; shared "
+               f"noisy machine; row 0 of eomc.rollout equals simulate bit for bit (asserted)."]
+    ) + "\n" + table + "\n"
+    print(table)
+    if not args.no_write:
+        write_results("rollout_contacts", text)
+
+
+if __name__ == "__main__":
+    main()
