@@ -774,11 +774,18 @@ def analytic_ops(plan, ncol=0):
     """Floating-point operations of one NAME_rnea_derivs call (counted from the C above,
     multiply-adds as one mul and one add): per body ~1,150 (placement, v, a, Y, Ẏ),
     per dof ~330 (axes, their terms, the backward products), per (dof, support dof) pair 48;
-    with the M⁻¹ solve on ``ncol`` columns (jac_x) 2·ncol more per pair and the factorization."""
+    with the M⁻¹ solve on ``ncol`` columns (jac_x) 2·ncol more per pair and the factorization
+    (LᵀDL) or about 56·ncol more per dof (articulated)."""
     pairs = sum(plan.dep)
     muls = 580 * plan.nb + 170 * plan.nd + 24 * pairs
     adds = 570 * plan.nb + 160 * plan.nd + 24 * pairs
-    if ncol:
+    if ncol and plan.solver == "aba":
+        # articulated: per dof and column the backward step (S.p, U u/D, the parent's message)
+        # and the forward one (U.a, S u'), at most 26 muls and 30 adds; per dof U, D, IA's
+        # reduction, ABA's u' and the accelerations (~160 / 120); per body IA's start and sum
+        muls += (26 * ncol + 160) * plan.nd + 20 * plan.nb
+        adds += (30 * ncol + 120) * plan.nd + 42 * plan.nb
+    elif ncol:
         muls += (6 + 2 * ncol) * pairs + ncol * plan.nd
         adds += (6 + 2 * ncol) * pairs
         muls += sum(d * (d + 1) // 2 for d in plan.dep)
@@ -786,4 +793,5 @@ def analytic_ops(plan, ncol=0):
     for _, k, _ in plan.multi:
         muls += 2 * k ** 3 + plan.nd * k * k
         adds += 2 * k ** 3 + plan.nd * k * k
-    return {"adds": adds, "muls": muls, "divs": sum(k for _, k, _ in plan.multi), "calls": 0}
+    divs = sum(k for _, k, _ in plan.multi) + (plan.nd if ncol and plan.solver == "aba" else 0)
+    return {"adds": adds, "muls": muls, "divs": divs, "calls": 0}

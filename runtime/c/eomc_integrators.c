@@ -1609,7 +1609,7 @@ static int run_radau(ctx *c, const eomc_options *o, proj *pj, double t0, double 
     radau_consts k;
     radau_ws w;
     radau_state rs = {1.0, RADAU_THET, -1.0, 1.0, 1, 0, 0};
-    radau_sg g;
+    radau_sg g = {0};   /* set by radau_sg_init when sensitivities ride along */
     radau_consts_init(&k);
     radau_ws_init(&w, n, pos);
     radau_tolerances(o->rtol, o->atol, &rtol, &atol);
