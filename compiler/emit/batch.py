@@ -85,8 +85,9 @@ typedef unsigned long long eomc_vu __attribute__((vector_size(8 * EOMC_BATCH_LAN
 #endif"""
 
 # fdlibm (FreeBSD msun e_rem_pio2.c, k_sin.c, k_cos.c; Sun's permissive notice) in lanes:
-# x = n*pi/2 + y0 + y1 by three rounds of Cody-Waite (fdlibm does the 2nd and 3rd only
-# when needed; all three are always exact enough), then the degree-13/14 kernels on
+# x = n*pi/2 + y0 + y1 by Cody-Waite: fdlibm's first round (pi/2 in 33 + 53 bits), its 2nd
+# round for all lanes when one lane needs it and its 3rd in the lanes that need it (fdlibm's
+# tests on the bits cancelled), then the degree-13/14 kernels on
 # |y| <= pi/4 and the quadrant as a bit select.  |x| >= 2^19*pi/2, inf and NaN lanes take
 # libm's sin/cos (fdlibm's medium-size reduction holds below that).  -DEOMC_BATCH_LIBM_TRIG
 # makes every lane call libm: NAME_rhs_batch is then the scalar rhs bit for bit.
@@ -96,16 +97,38 @@ VECTOR_TRIG = r"""static EOMC_VTARGET EOMC_VINLINE void {p}_vkernel(eomc_vd x, e
     eomc_vd k = x * 6.36619772367581382433e-01 + toint;
     eomc_vd fn = k - toint;
     eomc_vd r = x - fn * 1.57079632673412561417e+00;
-    eomc_vd t = r, w = fn * 6.07710050630396597660e-11;
-    eomc_vd y0, y1, z, v, rs, rc;
+    eomc_vd w = fn * 6.07710050650619224932e-11;
+    eomc_vd y0 = r - w, y1, t, z, v, rs, rc;
+    /* fdlibm's tests: more than 16 bits cancelled in a lane (x near a multiple of pi/2) needs
+       the 2nd round (done for all lanes: at least as exact as the 1st), more than 49 after
+       it the 3rd (taken only in those lanes: it drops the 2nd round's rounding error, which
+       only a lane with that much cancellation does not have) */
+    const eomc_vu ex = ((eomc_vu)x >> 52) & 0x7ff;
+    eomc_vu far = ex - (((eomc_vu)y0 >> 52) & 0x7ff) > 16;
+    unsigned long long any = 0;
+    int l;
+    for (l = 0; l < EOMC_BATCH_LANES; l++) any |= far[l];
     *q = (eomc_vu)k;
-    r = t - w;
-    w = fn * 2.02226624879595063154e-21 - ((t - r) - w);
-    t = r;
-    w = fn * 2.02226624871116645580e-21;
-    r = t - w;
-    w = fn * 8.47842766036889956997e-32 - ((t - r) - w);
-    y0 = r - w;
+    if (any) {{
+        t = r;
+        w = fn * 6.07710050630396597660e-11;
+        r = t - w;
+        w = fn * 2.02226624879595063154e-21 - ((t - r) - w);
+        y0 = r - w;
+        far = ex - (((eomc_vu)y0 >> 52) & 0x7ff) > 49;
+        any = 0;
+        for (l = 0; l < EOMC_BATCH_LANES; l++) any |= far[l];
+        if (any) {{
+            eomc_vd r3, w3;
+            t = r;
+            w3 = fn * 2.02226624871116645580e-21;
+            r3 = t - w3;
+            w3 = fn * 8.47842766036889956997e-32 - ((t - r3) - w3);
+            r = (eomc_vd)(((eomc_vu)r3 & far) | ((eomc_vu)r & ~far));
+            w = (eomc_vd)(((eomc_vu)w3 & far) | ((eomc_vu)w & ~far));
+            y0 = r - w;
+        }}
+    }}
     y1 = (r - y0) - w;
     z = y0 * y0;
     w = z * z;
