@@ -20,6 +20,7 @@
 #define _POSIX_C_SOURCE 200809L   /* sigaction under -std=c99 */
 #endif
 #include "eomc_integrators.h"
+#include "eomc_dense_lu.h"
 #include "eomc_fixedstep.h"
 #include "eomc_bdf.h"
 #include "eomc_stagger.h"
@@ -517,43 +518,7 @@ static double min_step(double t)
     return 10.0 * fabs(nextafter(t, INFINITY) - t);
 }
 
-/* ------------------------------------------------------- dense LU (real) */
-
-/* In-place LU with partial pivoting of the n x n row-major A. 1 if singular. */
-static int lu_factor(int n, double *A, int *piv)
-{
-    for (int k = 0; k < n; k++) {
-        int pk = k;
-        double amax = fabs(A[k * n + k]);
-        for (int i = k + 1; i < n; i++)
-            if (fabs(A[i * n + k]) > amax) { amax = fabs(A[i * n + k]); pk = i; }
-        piv[k] = pk;
-        if (amax == 0.0 || !isfinite(amax)) return 1;
-        if (pk != k)
-            for (int j = 0; j < n; j++) {
-                double tmp = A[k * n + j]; A[k * n + j] = A[pk * n + j]; A[pk * n + j] = tmp;
-            }
-        for (int i = k + 1; i < n; i++) {
-            double l = A[i * n + k] /= A[k * n + k];
-            if (l != 0.0)
-                for (int j = k + 1; j < n; j++) A[i * n + j] -= l * A[k * n + j];
-        }
-    }
-    return 0;
-}
-
-static void lu_solve(int n, const double *A, const int *piv, double *b)
-{
-    for (int k = 0; k < n; k++)          /* all row interchanges first (P b) */
-        if (piv[k] != k) { double tmp = b[k]; b[k] = b[piv[k]]; b[piv[k]] = tmp; }
-    for (int k = 0; k < n; k++)
-        for (int i = k + 1; i < n; i++) b[i] -= A[i * n + k] * b[k];
-    for (int i = n - 1; i >= 0; i--) {
-        double s = b[i];
-        for (int j = i + 1; j < n; j++) s -= A[i * n + j] * b[j];
-        b[i] = s / A[i * n + i];
-    }
-}
+/* ------------------------------------------------------- dense LU (real: eomc_dense_lu.h; complex here) */
 
 /* Complex products written out in real arithmetic: C99's '*' and '/' on complex values
  * call __muldc3/__divdc3 (NaN/overflow recovery) and made this LU 5x the real one. */
