@@ -25,6 +25,8 @@ HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 sys.path.insert(0, str(ROOT / "tests"))
 
+from common import C_CLOCK_AND_RNG  # noqa: E402
+
 HARNESS = r"""
 #define _POSIX_C_SOURCE 199309L
 #include <math.h>
@@ -36,13 +38,7 @@ HARNESS = r"""
 #define NQ @NQ@
 #define NR @NR@
 #define NS 256
-static double tnow(void) { struct timespec ts; clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-    return ts.tv_sec * 1e9 + ts.tv_nsec; }
-static unsigned long long s = 0x9E3779B97F4A7C15ULL;
-static double rnd(void) { unsigned long long z = (s += 0x9E3779B97F4A7C15ULL);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL; z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
-    z ^= z >> 31; return (z >> 11) * (1.0 / 9007199254740992.0); }
-int main(void) {
+""" + C_CLOCK_AND_RNG + r"""int main(void) {
     static double X[NS][NX], a[NX], b[NX], r[NR + 1];
     double worst = 0.0, sum = 0.0;
     int i, k, c, round;

@@ -36,6 +36,8 @@ HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 sys.path.insert(0, str(ROOT / "tests"))
 
+from common import C_CLOCK_AND_RNG  # noqa: E402
+
 HARNESS = r"""
 #define _POSIX_C_SOURCE 199309L
 #include <math.h>
@@ -44,13 +46,7 @@ HARNESS = r"""
 #include <time.h>
 #include "m.h"
 #define NS 1024
-static double tnow(void) { struct timespec ts; clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-    return ts.tv_sec * 1e9 + ts.tv_nsec; }
-static unsigned long long s = 0x9E3779B97F4A7C15ULL;
-static double rnd(void) { unsigned long long z = (s += 0x9E3779B97F4A7C15ULL);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL; z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
-    z ^= z >> 31; return (z >> 11) * (1.0 / 9007199254740992.0); }
-int main(int argc, char **argv) {
+""" + C_CLOCK_AND_RNG + r"""int main(int argc, char **argv) {
     const eomc_model *m = m_model();
     int nx = m->nx, nq = m->nq, nr = m->ninput, i, k, c, round, rounds = atoi(argv[1]);
     double *X = malloc(sizeof(double) * nx * NS), *S = malloc(sizeof(double) * nx * NS);

@@ -26,6 +26,8 @@ HERE = Path(__file__).resolve().parent
 MODELS = HERE / "tree_models"
 ROOT = HERE.parent
 
+from common import C_CLOCK_AND_RNG  # noqa: E402
+
 HARNESS = r"""
 #define _POSIX_C_SOURCE 199309L
 #include <math.h>
@@ -55,13 +57,7 @@ static void p_rhs(const double *x, const double *r, double *out, int nq) {
     pin_rhs(x, x + nq, pin_tau, out + nq);
 }
 #endif
-static double tnow(void) { struct timespec ts; clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-    return ts.tv_sec * 1e9 + ts.tv_nsec; }
-static unsigned long long s = 0x9E3779B97F4A7C15ULL;
-static double rnd(void) { unsigned long long z = (s += 0x9E3779B97F4A7C15ULL);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL; z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
-    z ^= z >> 31; return (z >> 11) * (1.0 / 9007199254740992.0); }
-#define NS 1024
+""" + C_CLOCK_AND_RNG + r"""#define NS 1024
 int main(int argc, char **argv) {
     const int nx = @NX@, nq = @NQ@, nc = @NC@;
     static double X[NS][@NX@], out[@NX@], ref[@NX@];

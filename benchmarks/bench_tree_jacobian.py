@@ -49,6 +49,8 @@ MODELS = HERE / "tree_models"
 ROOT = HERE.parent
 OLD_COMMIT = "2f1cd74"      # main before the O(n^2) jac_x
 
+from common import C_CLOCK_AND_RNG  # noqa: E402
+
 HARNESS = r"""
 #define _POSIX_C_SOURCE 199309L
 #include <math.h>
@@ -80,13 +82,7 @@ static void fd_jac(const double *x, const double *r, double *out) {
         for (i = 0; i < NX; i++) out[i * NX + j] = (fp[i] - fm[i]) / (2.0 * h);
     }
 }
-static double tnow(void) { struct timespec ts; clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-    return ts.tv_sec * 1e9 + ts.tv_nsec; }
-static unsigned long long s = 0x9E3779B97F4A7C15ULL;
-static double rnd(void) { unsigned long long z = (s += 0x9E3779B97F4A7C15ULL);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL; z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
-    z ^= z >> 31; return (z >> 11) * (1.0 / 9007199254740992.0); }
-#define NS 64
+""" + C_CLOCK_AND_RNG + r"""#define NS 64
 static double X[NS][NX], out[NX * NX], ref[NX * NX];
 int main(void) {
     const int nc = @NC@;

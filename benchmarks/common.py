@@ -19,10 +19,20 @@ from pathlib import Path
 __all__ = [
     "RESULTS_DIR", "Timing", "time_calls", "time_once", "median_iqr",
     "format_table", "environment_header", "write_results", "parse_args", "pin_to_one_core",
-    "fmt", "ratio",
+    "fmt", "ratio", "C_CLOCK_AND_RNG",
 ]
 
 RESULTS_DIR = Path(__file__).resolve().parent / "results"
+
+# The C harnesses' thread-CPU clock (ns) and a splitmix64 uniform in [0, 1): one copy, pasted
+# into each harness, so every benchmark draws its random states and reads its clock alike.
+C_CLOCK_AND_RNG = r"""static double tnow(void) { struct timespec ts; clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+    return ts.tv_sec * 1e9 + ts.tv_nsec; }
+static unsigned long long s = 0x9E3779B97F4A7C15ULL;
+static double rnd(void) { unsigned long long z = (s += 0x9E3779B97F4A7C15ULL);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL; z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+    z ^= z >> 31; return (z >> 11) * (1.0 / 9007199254740992.0); }
+"""
 
 _VERSIONED = ["numpy", "scipy", "sympy", "cffi", "Cython", "pydy", "symengine",
               "pin", "matplotlib", "eomc"]
