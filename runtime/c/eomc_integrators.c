@@ -2317,35 +2317,6 @@ static int check_extras(const eomc_model *m, const eomc_feedback *fb, const eomc
     return EOMC_OK;
 }
 
-static int integrate_core(const eomc_model *m, const eomc_options *opt,
-                          double t0, double t1, const double *x0, const double *p,
-                          int n_rgrid, const double *r_tgrid, const double *r_values,
-                          const eomc_feedback *fb, eomc_events *ev,
-                          int n_eval, const double *t_eval, double *x_out,
-                          double *x_last, eomc_stats *stats, double *work, size_t work_len,
-                          eomc_stagger *sg);
-
-int eomc_integrate_ex(const eomc_model *m, const eomc_options *opt,
-                      double t0, double t1, const double *x0, const double *p,
-                      int n_rgrid, const double *r_tgrid, const double *r_values,
-                      const eomc_feedback *fb, eomc_events *ev,
-                      int n_eval, const double *t_eval, double *x_out,
-                      double *x_last, eomc_stats *stats, double *work, size_t work_len)
-{
-    return integrate_core(m, opt, t0, t1, x0, p, n_rgrid, r_tgrid, r_values, fb, ev, n_eval,
-                          t_eval, x_out, x_last, stats, work, work_len, NULL);
-}
-
-int eomc_integrate_sg(const eomc_model *m, const eomc_options *opt, double t0, double t1,
-                      const double *x0, const double *p, int n_rgrid, const double *r_tgrid,
-                      const double *r_values, int n_eval, const double *t_eval, double *x_out,
-                      double *x_last, eomc_stats *stats, double *work, size_t work_len,
-                      eomc_stagger *sg)
-{
-    return integrate_core(m, opt, t0, t1, x0, p, n_rgrid, r_tgrid, r_values, NULL, NULL, n_eval,
-                          t_eval, x_out, x_last, stats, work, work_len, sg);
-}
-
 static int check_stagger(const eomc_model *m, const eomc_options *o, const eomc_stagger *sg,
                          int n_eval)
 {
@@ -2448,6 +2419,27 @@ static int integrate_core(const eomc_model *m, const eomc_options *opt,
         || isnan(stats->t_fail))
         stats->t_fail = stats->t;
     return stats->status = s;
+}
+
+int eomc_integrate_ex(const eomc_model *m, const eomc_options *opt,
+                      double t0, double t1, const double *x0, const double *p,
+                      int n_rgrid, const double *r_tgrid, const double *r_values,
+                      const eomc_feedback *fb, eomc_events *ev,
+                      int n_eval, const double *t_eval, double *x_out,
+                      double *x_last, eomc_stats *stats, double *work, size_t work_len)
+{
+    return integrate_core(m, opt, t0, t1, x0, p, n_rgrid, r_tgrid, r_values, fb, ev, n_eval,
+                          t_eval, x_out, x_last, stats, work, work_len, NULL);
+}
+
+int eomc_integrate_sg(const eomc_model *m, const eomc_options *opt, double t0, double t1,
+                      const double *x0, const double *p, int n_rgrid, const double *r_tgrid,
+                      const double *r_values, int n_eval, const double *t_eval, double *x_out,
+                      double *x_last, eomc_stats *stats, double *work, size_t work_len,
+                      eomc_stagger *sg)
+{
+    return integrate_core(m, opt, t0, t1, x0, p, n_rgrid, r_tgrid, r_values, NULL, NULL, n_eval,
+                          t_eval, x_out, x_last, stats, work, work_len, sg);
 }
 
 int eomc_eval_along(const eomc_model *m, int which, int n, const double *t,
