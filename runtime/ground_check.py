@@ -4,7 +4,8 @@ One job: read the points each body must keep above the ground (NAME.json ``groun
 written for a URDF robot with ground contacts: its collision geometry's points in the body's
 frame, or its origin when it has none; eomc.compiler.urdf.collision.ground_check), place
 them along the run with the generated ``NAME_poses``, and name every body one of whose
-points went deeper than :data:`BODY_PENETRATION` (a sphere: :data:`FRACTION` of its radius, if more).
+points went deeper than a point contact may (a sphere: that fraction of its radius, if more):
+the contacts' own verdict's numbers, which the caller (runtime/switching.verdict) passes.
 
 Why: the contacts' own verdict (runtime/switching.py) sees only the contacts.  A robot whose
 feet are its only contacts passed its trunk through the floor with status 0 and no warning
@@ -13,17 +14,15 @@ feet are its only contacts passed its trunk through the floor with status 0 and 
 """
 import numpy as np
 
-__all__ = ["BODY_PENETRATION", "below_ground"]
-
-from .switching import PENETRATION_FRACTION as FRACTION, POINT_PENETRATION as BODY_PENETRATION
-
-# how deep a body's point may go: a point contact's allowance (m) or FRACTION of a sphere's
-# radius, whichever is larger -- the contacts' own verdict's numbers
+__all__ = ["below_ground"]
 
 
-def below_ground(model, t, X, p=None):
-    """Notes naming each body that went under the ground by more than BODY_PENETRATION: how
-    deep and when; [] when the model has no ``ground_check`` or no ``poses``."""
+
+
+def below_ground(model, t, X, p, allowed, fraction):
+    """Notes naming each body that went under the ground by more than ``allowed`` (m; a point
+    with a radius: ``fraction`` of it, if more): how deep and when; [] when the model has no
+    ``ground_check`` or no ``poses``."""
     meta = model.metadata.get("ground_check")
     if not isinstance(meta, dict) or "poses" not in model.functions:
         return []
@@ -49,13 +48,13 @@ def below_ground(model, t, X, p=None):
         # world points (rows, points, 3): o + R p
         world = o[:, None, :] + np.einsum("tij,kj->tki", R, pts[:, :3])
         depth = h - world @ n + pts[None, :, 3]          # > 0: the point's sphere is under the ground
-        allowed = np.maximum(BODY_PENETRATION, FRACTION * pts[:, 3])
-        excess = depth - allowed[None, :]
+        limit = np.maximum(allowed, fraction * pts[:, 3])
+        excess = depth - limit[None, :]
         if np.max(excess) > 0:
             row, k = np.unravel_index(int(np.argmax(excess)), excess.shape)
             what = "its origin" if not np.any(pts) else "its collision geometry"
             notes.append(f"body {name} went {float(depth[row, k]):.3g} m under the ground ({what}, at t = "
-                         f"{float(t[row]):.4g}), more than {float(allowed[k]):.3g} m: the robot passed through "
+                         f"{float(t[row]):.4g}), more than {float(limit[k]):.3g} m: the robot passed through "
                          f"the floor there (--no-ground, or a link without <collision> geometry, leaves it no "
                          f"contact; a contact too soft for the load sinks)")
     return notes

@@ -206,7 +206,7 @@ def verdict(model, a, result, gmax, sw):
                          f"({LIMIT_OVERSHOOT_WIDTHS * e:.3g}): its limit stiffness limit_k_{lim.joint} is "
                          f"too soft for the load")
     from .ground_check import below_ground
-    notes += below_ground(model, result.t, result.x, p)
+    notes += below_ground(model, result.t, result.x, p, POINT_PENETRATION, PENETRATION_FRACTION)
     status, extra = 0, ""
     got = _energy_gain(result, a) if (sw and "energy" in result.outputs and _no_sources(model, a)) else None
     # a start past a limit holds spring energy an energy output may leave out (the one generated

@@ -23,7 +23,7 @@ from .system import contact_symbols, parameter_defaults, unit_normal
 
 __all__ = ["ContactSpec", "ContactLoad", "ContactValue", "ENERGY", "passive_contacts", "COLLISION_SPHERES", "parse_contact",
            "collision_spheres", "link_frame", "with_contacts", "contact_outputs", "body_com",
-           "LoweredLoad", "nearest", "with_located"]
+           "LoweredLoad", "nearest", "with_located", "expanded_specs", "built_weight"]
 
 # what each contact adds to the outputs (placeholders' kind index) and its event
 OUTPUT_KINDS = ("Fn", "Ftx", "Fty", "Ftz", "depth")
@@ -98,7 +98,7 @@ def collision_spheres(collisions, path):
     return out
 
 
-def _expanded(specs, collisions, path):
+def expanded_specs(specs, collisions, path):
     out = []
     for spec in specs:
         if spec.link == COLLISION_SPHERES:
@@ -203,7 +203,7 @@ def with_contacts(built, contacts, collisions, placements, fold=False):
     contact and link."""
     import numpy as np
     from eomc.runtime.geometry import identifier
-    specs = _expanded([as_spec(c) for c in contacts], collisions, built.source.path)
+    specs = expanded_specs([as_spec(c) for c in contacts], collisions, built.source.path)
     by_body = {b.name: i for i, b in enumerate(built.tree.bodies)}
     bodies_by_key = {identifier(b.name): b for b in built.source.bodies.values()}
     known = _all_links(built.source)

@@ -113,10 +113,10 @@ def model_of_robot(robot, tree, model, poses=False):
         from eomc.compiler.contact.tree import with_contacts
         built, outputs, events = with_contacts(built, named, collisions, welds(), fold=model.fold_parameters)
     if ground:
-        from eomc.compiler.contact.tree import _expanded
+        from eomc.compiler.contact.tree import expanded_specs
         built, more_outputs, more_events = _with_ground(
             built, model.fold_parameters, collisions, welds(), others=ground == "others",
-            named=_expanded(named, collisions, robot.path) if named else ())
+            named=expanded_specs(named, collisions, robot.path) if named else ())
         outputs, events = {**outputs, **more_outputs}, {**events, **more_events}
     extra = {}
     if named or ground:        # a robot that touches the ground: which of it must stay above it
