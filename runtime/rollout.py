@@ -7,8 +7,10 @@ rows to POSIX threads, each row being exactly one ``eomc_integrate`` call with t
 options ``simulate`` would pass, so every row equals the scalar ``simulate`` result bit
 for bit.  The GIL is released for the whole call (cffi releases it on every C call).
 
-Issue 31: fixed-step methods (rk4, implicitfast), no inputs (r = 0), no events (a model
-with a terminal event is refused; other events are not recorded).  Contacts and joint
+Issue 31: fixed-step methods (rk4, implicitfast) and adaptive ones (dopri5, dop853, radau,
+bdf; final states), no inputs (r = 0), no events (a model with a terminal event is refused;
+other events are not recorded).  ``simulate_many`` and ``eomc.sweep`` (each chunk, on any
+executor) run their plain cases through ``rollout_stats`` (runtime/batch.py).  Contacts and joint
 limits with implicitfast's fast path (NAME_implicit: they are forces in its matrix, no
 switching points needed); other methods refuse a model with contacts or limits, since their
 switching needs the event machinery of ``simulate``.
@@ -27,7 +29,7 @@ from .native import extension_library, integrator_library
 from .simulate import (IMPLICITFAST_SPLIT, _options, check_quaternions, depth_limits, failure_message,
                        implicit_for_run, implicit_terms, prepare, resolve_method)
 
-__all__ = ["rollout", "RolloutResult"]
+__all__ = ["rollout", "RolloutResult", "rollout_stats"]
 
 ROLLOUT_CDEF = header_cdef("eomc_rollout.h")
 
@@ -110,13 +112,19 @@ def _params(model, p, n):
     return P, (0 if len(rows) == 1 else P.shape[1])
 
 
-def rollout(model, x0s, *, dt, t_final=None, steps=None, method="rk4", p=None, threads=None,
-            record="final", raise_on_failure=True, lanes=False, split=IMPLICITFAST_SPLIT):
-    """Integrate every row of ``x0s`` ((n, nx)) from t = 0 with a fixed step ``dt``.
+def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method="rk4", p=None, threads=None,
+            record="final", raise_on_failure=True, lanes=False, split=IMPLICITFAST_SPLIT,
+            rtol=1e-6, atol=1e-9, max_steps=100000):
+    """Integrate every row of ``x0s`` ((n, nx)) from t = 0 with a fixed step ``dt``, or
+    with an adaptive method to ``rtol``/``atol``.
 
     Give the span as ``t_final`` or as ``steps`` (t_final = steps * dt); the last step is
     shortened to end on t_final, as ``simulate`` does.  method: "rk4" or "implicitfast"
-    (needs jac_x).  p: None (defaults), (nparam,) for all rows or (n, nparam), one
+    (needs jac_x), fixed-step with ``dt``; or "dopri5", "dop853", "radau", "bdf" (the last
+    two need jac_x), adaptive: ``t_final``, ``rtol``, ``atol``, ``max_steps`` as in
+    ``simulate``, record="final" only (row i equals ``simulate(model, x0s[i], (0, t_final),
+    method=method, rtol=rtol, atol=atol).x_final`` bit for bit: the steps do not depend on
+    the output times).  "auto" is refused: its switch to Radau happens in Python.  p: None (defaults), (nparam,) for all rows or (n, nparam), one
     parameter row per trajectory.  threads: C threads (None: every core this process
     may run on).  record: "final" (x is (n, nx): what Monte Carlo and RL episodes
     consume, n * nx doubles whatever the span) or "steps" (x is (n, steps + 1, nx), the
@@ -142,12 +150,24 @@ def rollout(model, x0s, *, dt, t_final=None, steps=None, method="rk4", p=None, t
     of libm's) make of it.
     """
     method = resolve_method(method)
-    if method not in FIXED_STEP:
-        raise ValueError(f"rollout takes a fixed-step method ({', '.join(FIXED_STEP)}) so far; got {method!r} "
-                         f"(adaptive methods: simulate_many)")
+    if method == "auto":
+        raise ValueError(f"rollout needs the method named (fixed-step: {', '.join(FIXED_STEP)} with dt=; "
+                         f"adaptive: {', '.join(m for m in METHOD_IDS if m not in FIXED_STEP)}); 'auto' "
+                         f"switches to radau mid-run in Python (simulate_many does that)")
     if record not in ("final", "steps"):
         raise ValueError(f"record must be 'final' or 'steps'; got {record!r}")
-    if isinstance(dt, bool) or not isinstance(dt, numbers.Real) or not np.isfinite(dt) or dt <= 0:
+    adaptive = method not in FIXED_STEP
+    if adaptive:
+        if dt is not None or steps is not None:
+            raise ValueError(f"method {method!r} is adaptive: give t_final= (and rtol=, atol=), not dt= or "
+                             f"steps= (those are for {', '.join(FIXED_STEP)})")
+        if record != "final":
+            raise ValueError(f"record='steps' is the fixed-step grid; an adaptive rollout ({method!r}) "
+                             f"returns the final states (record='final'); for states at chosen times "
+                             f"use simulate_many(..., t_eval=)")
+        if lanes:
+            raise ValueError(f"rollout(lanes=True) takes method 'rk4'; got {method!r}")
+    elif isinstance(dt, bool) or not isinstance(dt, numbers.Real) or not np.isfinite(dt) or dt <= 0:
         raise ValueError(f"dt must be a finite step > 0; got {dt!r}")
     if (t_final is None) == (steps is None):
         raise ValueError("give the span as exactly one of t_final= or steps=")
@@ -183,10 +203,16 @@ def rollout(model, x0s, *, dt, t_final=None, steps=None, method="rk4", p=None, t
     P, p_stride = _params(model, p, n)
     if lanes:
         _lanes_allowed(model, method, p_stride)
-    nsteps = int(np.ceil(t_final / dt * (1 - 1e-12)))
-    # The options and step grid simulate would use (and its checks: jac_x for implicitfast).
-    a = prepare(model, X0[0] if n else None, (0.0, float(t_final)), p=P[0, :-1], method=method, dt=float(dt),
-                max_steps=max(100000, nsteps + 10), events=False, switching=False)
+    # The options and step grid simulate would use (and its checks: jac_x for implicitfast,
+    # radau and bdf; tolerances).
+    if adaptive:
+        a = prepare(model, X0[0] if n else None, (0.0, float(t_final)), p=P[0, :-1], method=method,
+                    rtol=rtol, atol=atol, max_steps=max_steps, t_eval=[float(t_final)], events=False,
+                    switching=False)
+    else:
+        nsteps = int(np.ceil(t_final / dt * (1 - 1e-12)))
+        a = prepare(model, X0[0] if n else None, (0.0, float(t_final)), p=P[0, :-1], method=method,
+                    dt=float(dt), max_steps=max(100000, nsteps + 10), events=False, switching=False)
     check_quaternions(model, X0, "x0s")     # every row's (the first one's: prepare)
     if lanes:
         t_eval = a["t_eval"] if record == "steps" else np.array([float(t_final)])
@@ -219,6 +245,27 @@ def rollout(model, x0s, *, dt, t_final=None, steps=None, method="rk4", p=None, t
                    raise_on_failure)
 
 
+def rollout_stats(model, opt, t0, t1, X0, P, p_stride, t_eval, X_out, threads):
+    """One eomc_rollout_stats call over (t0, t1) (the batch path of simulate_many and eomc.sweep).
+
+    opt: the eomc_options of one prepared case (every row runs with it); t_eval: the output
+    times (X_out (n, len(t_eval), nx) is written in place), or None for the final state only.
+    Returns (X_last, status, stats) with stats the C array of each row's eomc_stats."""
+    ffi, lib = _rollout_ffi(model.ffi)
+    n = X0.shape[0]
+    X_last = np.empty((n, model.nx))
+    status = np.empty(n, dtype=np.intc)
+    stats = ffi.new("eomc_stats[]", max(n, 1))
+    buf = lambda arr: ffi.from_buffer("double[]", arr)  # noqa: E731
+    n_eval = 0 if t_eval is None else int(np.size(t_eval))
+    integrator_library(model.ffi)._arm()      # Ctrl-C stops every thread at its next evaluation
+    if n:
+        lib.eomc_rollout_stats(model.c_model, opt, float(t0), float(t1), n, buf(X0), buf(P), p_stride, n_eval,
+                               buf(t_eval) if n_eval else ffi.NULL, buf(X_out) if n_eval else ffi.NULL,
+                               buf(X_last), ffi.from_buffer("int[]", status), ffi.NULL, stats, threads)
+    return X_last, status, stats
+
+
 def _finish(model, method, X0, P, p_stride, dt, t_eval, record, X_out, X_last, status, nstep, raise_on_failure):
     n = X0.shape[0]
     failed = np.flatnonzero(status != 0)
@@ -227,7 +274,7 @@ def _finish(model, method, X0, P, p_stride, dt, t_eval, record, X_out, X_last, s
         if status[i] == 9:
             raise KeyboardInterrupt
         stats = {"status": int(status[i]), "t": float("nan"), "t_fail": float("nan"), "steps": int(nstep[i]),
-                 "h": float(dt), "stiff_hlambda": 0.0}
+                 "h": float(dt) if dt else float("nan"), "stiff_hlambda": 0.0}
         reason = STATUS_NAMES.get(int(status[i]), f"status {status[i]}")
         raise SimulationError(f"{model.name}: rollout row {i} of {n} failed ({reason}; {failed.size} row(s) "
                               f"failed in all) -- "

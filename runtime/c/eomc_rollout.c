@@ -18,6 +18,7 @@ typedef struct rollout_job {
     double *X_out, *X_last;
     int *status;
     long *steps;
+    eomc_stats *stats;   /* may be NULL: each row's whole stats */
     size_t work_len;
     pthread_mutex_t lock;
     int next;            /* next row to hand out, under lock */
@@ -46,6 +47,8 @@ static void run_rows(rollout_job *job, double *work)
                                         job->X_last + row * nx, &st, work, job->work_len);
         if (job->steps)
             job->steps[i] = st.steps;
+        if (job->stats)
+            job->stats[i] = st;
     }
 }
 
@@ -65,6 +68,15 @@ int eomc_rollout(const eomc_model *m, const eomc_options *opt, double t0, double
                  int n_eval, const double *t_eval, double *X_out, double *X_last,
                  int *status, long *steps, int nthreads)
 {
+    return eomc_rollout_stats(m, opt, t0, t1, n, X0, P, p_stride, n_eval, t_eval, X_out, X_last,
+                              status, steps, NULL, nthreads);
+}
+
+int eomc_rollout_stats(const eomc_model *m, const eomc_options *opt, double t0, double t1,
+                       int n, const double *X0, const double *P, size_t p_stride,
+                       int n_eval, const double *t_eval, double *X_out, double *X_last,
+                       int *status, long *steps, eomc_stats *stats, int nthreads)
+{
     rollout_job job;
     pthread_t threads[EOMC_ROLLOUT_MAX_THREADS];
     int started = 0, k, ran = 0;
@@ -80,7 +92,7 @@ int eomc_rollout(const eomc_model *m, const eomc_options *opt, double t0, double
     job.m = m; job.opt = opt; job.t0 = t0; job.t1 = t1; job.n = n;
     job.X0 = X0; job.P = P; job.p_stride = p_stride;
     job.n_eval = n_eval; job.t_eval = t_eval; job.X_out = n_eval > 0 ? X_out : NULL;
-    job.X_last = X_last; job.status = status; job.steps = steps;
+    job.X_last = X_last; job.status = status; job.steps = steps; job.stats = stats;
     job.work_len = eomc_integrate_work_size(m, opt->method)
                    + (opt->method == EOMC_IMPLICITFAST && opt->implicit ? opt->implicit->work_len : 0);
     job.next = 0;

@@ -31,6 +31,16 @@ int eomc_rollout(const eomc_model *m, const eomc_options *opt, double t0, double
                  int n_eval, const double *t_eval, double *X_out, double *X_last,
                  int *status, long *steps, int nthreads);
 
+/*
+ * eomc_rollout, and each row's whole eomc_stats (rejected steps, rhs calls, the time
+ * reached, ...) in stats (n, may be NULL): what simulate() reports per run, so a
+ * batch (simulate_many, eomc.sweep) can run its cases here and report each as simulate would.
+ */
+int eomc_rollout_stats(const eomc_model *m, const eomc_options *opt, double t0, double t1,
+                       int n, const double *X0, const double *P, size_t p_stride,
+                       int n_eval, const double *t_eval, double *X_out, double *X_last,
+                       int *status, long *steps, eomc_stats *stats, int nthreads);
+
 #ifdef __cplusplus
 }
 #endif
