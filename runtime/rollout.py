@@ -142,10 +142,11 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method="rk4", p=No
     naming the first failed row; with raise_on_failure=False, result.status says which
     rows failed and their final rows hold the last good state.
 
-    lanes=True (rk4, a model built with ``rhs_batch``, one parameter row, no constraints or
-    quaternions): the rows are integrated together, each RK4 stage one NAME_rhs_batch call
-    over a thread's share of the rows (several rows per instruction), with the C loop's
-    arithmetic in the same order.  Rows then equal the scalar rollout's bit for bit when the
+    lanes=True (rk4, a model built with ``rhs_batch``, no constraints or quaternions): each C
+    thread takes blocks of 64 rows and integrates them together, every RK4 stage one
+    NAME_rhs_batch_p call over the block (several rows per instruction; one parameter row per
+    trajectory or one for all), with the scalar loop's arithmetic in the same order
+    (runtime/c/eomc_rollout.c).  Rows then equal the scalar rollout's bit for bit when the
     model was built with -DEOMC_BATCH_LIBM_TRIG, else within what the lanes' sin/cos (1 ulp
     of libm's) make of it.
     """
@@ -202,7 +203,7 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method="rk4", p=No
     n = X0.shape[0]
     P, p_stride = _params(model, p, n)
     if lanes:
-        _lanes_allowed(model, method, p_stride)
+        _lanes_allowed(model, method)
     # The options and step grid simulate would use (and its checks: jac_x for implicitfast,
     # radau and bdf; tolerances).
     if adaptive:
@@ -216,7 +217,7 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method="rk4", p=No
     check_quaternions(model, X0, "x0s")     # every row's (the first one's: prepare)
     if lanes:
         t_eval = a["t_eval"] if record == "steps" else np.array([float(t_final)])
-        X_out, X_last, status, nstep = _rollout_lanes(model, X0, P[0, :-1], float(t_final), float(dt),
+        X_out, X_last, status, nstep = _rollout_lanes(model, X0, P, p_stride, float(t_final), float(dt),
                                                       record == "steps", nthreads)
         return _finish(model, method, X0, P, p_stride, dt, t_eval, record, X_out, X_last, status, nstep,
                        raise_on_failure)
@@ -285,14 +286,12 @@ def _finish(model, method, X0, P, p_stride, dt, t_eval, record, X_out, X_last, s
                          steps=nstep.astype(int), state_names=tuple(model.state_names))
 
 
-def _lanes_allowed(model, method, p_stride):
+def _lanes_allowed(model, method):
     why = []
     if method != "rk4":
         why.append(f"method {method!r} (lanes: rk4)")
     if "rhs_batch" not in model.functions or "rhs_batch" not in model._kernels:
         why.append("a model built without rhs_batch (functions=(..., 'rhs_batch'), --outputs ...,rhs_batch)")
-    if p_stride:
-        why.append("one parameter row per trajectory (lanes share one p)")
     if model.nhol or model.nvel:
         why.append("constraints (their projection runs in the scalar loop)")
     if model.quaternions:
@@ -302,84 +301,45 @@ def _lanes_allowed(model, method, p_stride):
                          + "; use lanes=False")
 
 
-def _rollout_lanes(model, X0, p, t1, h, steps_too, nthreads):
-    """RK4 over the columns of X0.T in lanes: the step grid and arithmetic of run_rk4
-    (runtime/c/eomc_integrators.c), every stage one rhs_batch call per thread's share."""
-    import threading
+LANES_BLOCK = 64    # rows per thread's block: 8 groups of 8 lanes; its columns stay in cache
+
+
+def _batch_p(model, ffi):
+    """NAME_rhs_batch_p of the model's library as the eomc_batch_fn ``ffi`` declares (the
+    model's own cdef lists only the functions of its ABI; this one is looked up here)."""
+    cached = model.__dict__.get("_batch_p_fn")
+    if cached is None:
+        import cffi
+        own = cffi.FFI()
+        own.cdef(f"int {model.name}_rhs_batch_p(int n, double t, const double *X, const double *P, "
+                 f"const double *R, double *XDOT, int *status, double *work);")
+        lib = own.dlopen(str(model.library_path))
+        try:
+            fn = getattr(lib, f"{model.name}_rhs_batch_p")
+        except AttributeError:
+            raise ValueError(f"{model.name}: its library has no {model.name}_rhs_batch_p (built by an older "
+                             f"eomc); rebuild it for rollout(lanes=True)") from None
+        cached = model.__dict__["_batch_p_fn"] = (own, lib, own.cast("uintptr_t", fn))
+    return ffi.cast("eomc_batch_fn", cached[2])
+
+
+def _rollout_lanes(model, X0, P, p_stride, t1, h, steps_too, nthreads):
+    """RK4 over the rows in SIMD lanes, in C threads (eomc_rollout_lanes): each thread's block of
+    rows stored as columns, every stage one NAME_rhs_batch_p call, run_rk4's step grid and
+    arithmetic; one parameter row per row (P, p_stride) or one for all."""
+    ffi, lib = _rollout_ffi(model.ffi)
     n, nx = X0.shape
     nsteps = max(int(np.ceil((t1 - 0.0) / h * (1 - 1e-12))), 1)
     X_out = np.empty((n, nsteps + 1, nx)) if steps_too else None
     X_last = np.empty((n, nx))
-    status = np.zeros(n, dtype=np.intc)
-    nstep = np.zeros(n, dtype=np.int64)
-    kernel = model._kernels["rhs_batch"]
-    pp = model._prepare(np.ascontiguousarray(p, dtype=np.float64))
-    chunks = [c for c in np.array_split(np.arange(n), min(nthreads, max(n // 64, 1))) if c.size]
-    errors = []
-
-    def run(cols):
-        try:
-            m = cols.size
-            x = np.ascontiguousarray(X0[cols].T)
-            good = x.copy()
-            k1, k2, k3, k4 = (np.empty((nx, m)) for _ in range(4))
-            tmp, x1 = np.empty((nx, m)), np.empty((nx, m))
-            st = np.zeros(m, dtype=np.intc)
-            dead = np.zeros(m, dtype=bool)
-            done = np.zeros(m, dtype=np.int64)
-            work = model._work()[1]
-
-            def f(t, xs, out):
-                kernel(m, t, xs, pp, None, out, st, work)
-                bad = (st != 0) & ~dead
-                if bad.any():
-                    status[cols[bad]] = st[bad]
-                    dead[bad] = True
-
-            if steps_too:
-                X_out[cols, 0] = X0[cols]
-            f(0.0, x, k1)
-            for k in range(nsteps):
-                t = 0.0 + k * h
-                tn = t1 if k == nsteps - 1 else 0.0 + (k + 1) * h
-                hh = tn - t
-                done[~dead] += 1
-                np.add(x, 0.5 * hh * k1, out=tmp)
-                f(t + 0.5 * hh, tmp, k2)
-                np.add(x, 0.5 * hh * k2, out=tmp)
-                f(t + 0.5 * hh, tmp, k3)
-                np.add(x, hh * k3, out=tmp)
-                f(tn, tmp, k4)
-                np.add(x, hh / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4), out=x1)
-                nonfinite = ~np.isfinite(x1).all(axis=0) & ~dead
-                if nonfinite.any():
-                    status[cols[nonfinite]] = 3       # EOMC_NONFINITE
-                    dead[nonfinite] = True
-                f(tn, x1, k2)
-                live = ~dead
-                good[:, live] = x1[:, live]
-                if steps_too:     # a row that failed has no state at this step: NaN
-                    X_out[cols, k + 1] = np.where(dead[None, :], np.nan, x1).T
-                x, x1 = x1, x
-                k1, k2 = k2, k1
-                if dead.all():
-                    if steps_too:
-                        X_out[cols, k + 2:] = np.nan
-                    break
-            X_last[cols] = good.T
-            nstep[cols] = done
-        except BaseException as exc:       # re-raised in the caller
-            errors.append(exc)
-
-    threads = [threading.Thread(target=run, args=(c,)) for c in chunks[1:]]
-    for th in threads:
-        th.start()
-    if chunks:
-        run(chunks[0])
-    for th in threads:
-        th.join()
-    if errors:
-        raise errors[0]
+    status = np.empty(n, dtype=np.intc)
+    nstep = np.empty(n, dtype=np.int_ if ffi.sizeof("long") == 8 else np.int32)
+    buf = lambda arr: ffi.from_buffer("double[]", arr)  # noqa: E731
+    if n:
+        lib.eomc_rollout_lanes(_batch_p(model, ffi), nx, model.nparam, max(model.work_size, 1), 0.0, t1, h, n,
+                               buf(X0), buf(P), p_stride, buf(X_out) if steps_too else ffi.NULL, buf(X_last),
+                               ffi.from_buffer("int[]", status), ffi.from_buffer("long[]", nstep), LANES_BLOCK,
+                               nthreads)
     return X_out, X_last, status, nstep
 
 
