@@ -149,10 +149,9 @@ def test_check_runs_both_implicit_methods_and_fails_a_method_that_stopped_or_mis
     checks = by_name(check_model(m, [1.0, 0.0], 5.0))
     assert checks["bdf accuracy"].passed and checks["radau accuracy"].passed
     # DOPRI5 needs ~190 steps here: with 100 it stops, and a run that stopped is no pass
-    stopped = by_name(check_model(m, [1.0, 0.0], 5.0, methods=("dopri5", "bdf"), max_steps=100))
+    stopped = by_name(check_model(m, [1.0, 0.0], 5.0, methods=("dopri5",), max_steps=100))
     assert not stopped["dopri5 accuracy"].passed
     assert "maximum number of steps" in stopped["dopri5 accuracy"].measured
-    assert stopped["bdf accuracy"].passed, stopped["bdf accuracy"].measured
     # rtol 0.1 with atol 1e-14 over 20 s: DOPRI5 ends 3.6e6 x its (pointwise) tolerance away
     missed = by_name(check_model(m, [1.0, 0.0], 20.0, rtol=1e-1, atol=1e-14, methods=("dopri5",)))
     assert not missed["dopri5 accuracy"].passed
