@@ -58,3 +58,16 @@ def test_auto_takes_an_implicit_method_from_the_start_with_contacts(ball, rtol, 
     # the bounce height to the tolerance (BDF at rtol 1e-3: 0.5053, energy +1 %; the verdict's
     # limit is 100 rtol)
     assert res["z"].max() == pytest.approx(0.5, rel=max(2e-3, 20 * rtol))
+
+
+def test_check_and_report_list_what_auto_picks_on_contacts(ball):
+    """`eomc check` on a contact model runs auto, bdf and radau (auto is one of the last two),
+    and `eomc report` lists bdf and radau by default; on the ball all meet the tolerance."""
+    from eomc.runtime.report import DEFAULT_METHODS
+    from eomc.runtime.stability import check_model, default_methods
+    assert default_methods(ball) == ("auto", "bdf", "radau")
+    assert {"bdf", "radau"} <= set(DEFAULT_METHODS)
+    checks = {c.name: c for c in check_model(ball, np.r_[0, 0, 0.5, np.zeros(9)], 1.0, rtol=1e-6,
+                                             atol=1e-9)}
+    for method in ("auto", "bdf", "radau"):
+        assert checks[f"{method} accuracy"].passed, checks[f"{method} accuracy"].measured
