@@ -480,6 +480,13 @@ def depth_limits(model, p):
     return np.array(out, dtype=np.float64)
 
 
+def unsolved_advice():
+    """What implicitfast's unsolved (sub-)steps (stats["rejected"]) mean and what to do: one text
+    for simulate's warning and rollout's."""
+    return ("was not solved to tolerance even split into 64 (a hard impact, or the solution "
+            "blows up); a smaller dt, or method='radau', checks the result")
+
+
 def implicit_for_run(model, p, split=IMPLICITFAST_SPLIT):
     """``implicit_terms(model)`` with the depth limits of parameters ``p`` and the residual
     test's ``split``: (struct, keep-alive), or (None, None) when the model has no fast path."""
@@ -943,9 +950,9 @@ def finish(model, a, x_out, stats, x_last, raise_on_failure=True):
         import warnings
         from .switching import PhysicsWarning
         warnings.warn(PhysicsWarning(
-            f"{model.name}: implicitfast: the implicit Euler equation of {stats['rejected']} "
-            f"(sub-)step(s) was not solved to tolerance even split into 64 (a hard impact, or "
-            f"the solution blows up); a smaller dt, or method='radau', checks the result"), stacklevel=3)
+            f"{model.name}: implicitfast: the implicit Euler equation of {stats['rejected']} (sub-)step(s) "
+            + unsolved_advice()),
+            stacklevel=3)
     if ev is not None and "switches" in a and status == 0:
         from .switching import verdict
         seen = ev.switch_maxima()
