@@ -215,12 +215,16 @@ def verdict(model, a, result, gmax, sw):
                          f"{float(p[lim.param]):g}, more than {LIMIT_OVERSHOOT_WIDTHS} widths "
                          f"({LIMIT_OVERSHOOT_WIDTHS * e[j]:.3g}): its limit stiffness limit_k_{lim.joint} is "
                          f"too soft for the load")
+    from .ground_check import below_ground
+    notes += below_ground(model, result.t, result.x, p, POINT_PENETRATION, PENETRATION_FRACTION)
     status, extra = 0, ""
     got = _energy_gain(result, a) if (sw and "energy" in result.outputs and _no_sources(model, a)) else None
-    # a start past a limit holds spring energy no energy output counts, a start in contact its
-    # elastic energy, which a model's own energy output may leave out (the one generated for a
+    # a start past a limit holds spring energy an energy output may leave out (the one generated
+    # for a URDF robot counts it: metadata "energy" names the joint limits), a start in contact
+    # its elastic energy, which a model's own energy output may leave out (the one generated for a
     # robot counts it: metadata "energy"): a gain is then no proof
-    sprung = bool(np.any(start > e))
+    counted = "joint limits" in str(model.metadata.get("energy") or "")
+    sprung = not counted and bool(np.any(start > e))
     if not model.metadata.get("energy"):
         sprung = sprung or any(len(result.outputs.get(f"depth_{c.name}", ())) and
                                result.outputs[f"depth_{c.name}"][0] > 0 for c in sw.contacts)
