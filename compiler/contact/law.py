@@ -183,3 +183,32 @@ def ground_jacobians(forces, step, let=None):
     C = [[cn * carry[i] * n[j] + gf * ((1 if i == j else 0) - n[i] * n[j]) - gs * vt[i] * vt[j]
           for j in range(3)] for i in range(3)]
     return K, C
+
+
+class step(sm.Function):
+    """1 for x > 0, else 0: the derivative of eomc.compiler.tree.joint_laws.ramp, and the choice
+    between a body-body pair's candidate nearest points (.pairs).  Its own derivative is taken as
+    0 (it multiplies ramp(x), which vanishes where step jumps, in every law here; a pair's choice
+    switches where the candidates' distances tie).  Here, below the tree, so both can use it."""
+    nargs = 1
+
+    @classmethod
+    def eval(cls, x):
+        if x.is_Number:
+            return sm.S.One if x > 0 else sm.S.Zero
+
+    def fdiff(self, argindex=1):
+        return sm.S.Zero
+
+    def _eval_evalf(self, prec):
+        x = self.args[0].evalf(prec)
+        return (sm.S.One if x > 0 else sm.S.Zero) if x.is_Number else None
+
+    def _ccode(self, printer):
+        return f"(({printer._print(self.args[0])}) > 0.0 ? 1.0 : 0.0)"
+
+    def _numpycode(self, printer):
+        return f"numpy.heaviside({printer._print(self.args[0])}, 0.0)"
+
+    def _pythoncode(self, printer):
+        return f"(1.0 if ({printer._print(self.args[0])}) > 0 else 0.0)"

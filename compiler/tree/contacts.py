@@ -46,9 +46,9 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None):
     poses = world_placement(bodies, rec)
     if implicit is not None:
         implicit["poses"], implicit["contacts"] = poses, []
-    for load in others:
-        load.lower(bodies, rec, v, rename, poses)
     values, elastic = {}, []
+    for load in others:     # a body-body pair returns its outputs' and events' values
+        values.update(load.lower(bodies, rec, v, rename, poses) or {})
     for index, load in enumerate(contacts):
         i = load.body
         what = f"contact {load.name} on body {tree.bodies[i].name}"

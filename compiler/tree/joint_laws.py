@@ -49,6 +49,8 @@ import math
 
 import sympy as sm
 
+from ..contact.law import step  # noqa: F401 -- ramp's derivative; defined there for the contact pairs' choices
+
 __all__ = ["ramp", "step", "JointLaw", "joint_torque", "check_law", "TIME_CONSTANT", "WIDTH", "FRICTION_SPEED", "NAMES",
            "limit_gains", "limit_spring", "JointLawError", "JointScale", "LOAD_GIVE"]
 
@@ -138,33 +140,6 @@ def limit_gains(inertia, time_constant=TIME_CONSTANT, load=0.0):
         k = load / LOAD_GIVE
         c = 2.0 * math.sqrt(k * inertia)
     return k, c
-
-
-class step(sm.Function):
-    """1 for x > 0, else 0: the derivative of :class:`ramp`.  Its own derivative is taken as 0
-    (it multiplies ramp(x), which vanishes where step jumps, in every law here)."""
-    nargs = 1
-
-    @classmethod
-    def eval(cls, x):
-        if x.is_Number:
-            return sm.S.One if x > 0 else sm.S.Zero
-
-    def fdiff(self, argindex=1):
-        return sm.S.Zero
-
-    def _eval_evalf(self, prec):
-        x = self.args[0].evalf(prec)
-        return (sm.S.One if x > 0 else sm.S.Zero) if x.is_Number else None
-
-    def _ccode(self, printer):
-        return f"(({printer._print(self.args[0])}) > 0.0 ? 1.0 : 0.0)"
-
-    def _numpycode(self, printer):
-        return f"numpy.heaviside({printer._print(self.args[0])}, 0.0)"
-
-    def _pythoncode(self, printer):
-        return f"(1.0 if ({printer._print(self.args[0])}) > 0 else 0.0)"
 
 
 class ramp(sm.Function):

@@ -34,6 +34,22 @@ def test_rk4_final_states_equal_simulate_bit_for_bit(threads):
     assert np.abs(res.x - X0).min() > 1e-3 and len(np.unique(res.x[:, 0])) == 13
 
 
+@pytest.mark.parametrize("method", ["dopri5", "dop853", "radau", "bdf"])
+def test_adaptive_final_states_equal_simulate_bit_for_bit(method):
+    """Adaptive rows (issue 31): one eomc_integrate per row with simulate's options, so the
+    same accepted and rejected steps; per-row parameters too."""
+    m = get_model("oscillator")
+    X0 = np.column_stack([np.linspace(-1.0, 1.0, 9), np.linspace(0.5, -0.5, 9)])
+    P = np.column_stack([np.linspace(1.0, 9.0, 9), np.full(9, 1.0), np.linspace(0.0, 0.4, 9)])
+    res = rollout(m, X0, t_final=3.0, method=method, p=P, rtol=1e-9, atol=1e-11, threads=2)
+    assert res.x.shape == (9, m.nx) and res.ok.all() and res.t.tolist() == [3.0]
+    for i in range(9):
+        single = simulate(m, X0[i], (0.0, 3.0), p=P[i], method=method, rtol=1e-9, atol=1e-11)
+        np.testing.assert_array_equal(res.x[i], single.x_final)
+        assert res.steps[i] == single.stats["steps"]
+    assert len(np.unique(res.steps)) > 1         # the rows took their own step sequences
+
+
 @pytest.mark.parametrize("threads", [1, 2])
 def test_rk4_every_step_recorded_equals_simulate(threads):
     m = get_model("pendulum")
@@ -92,8 +108,12 @@ def test_bad_input_says_what_is_wrong():
         rollout(m, bad, steps=10, dt=0.01)
     with pytest.raises(ValueError, match="unknown integration method 'rk5'"):
         rollout(m, good, steps=10, dt=0.01, method="rk5")
-    with pytest.raises(ValueError, match="fixed-step method.*'dop853'"):
+    with pytest.raises(ValueError, match="method 'dop853' is adaptive: give t_final="):
         rollout(m, good, steps=10, dt=0.01, method="dop853")
+    with pytest.raises(ValueError, match="record='steps' is the fixed-step grid"):
+        rollout(m, good, t_final=0.1, method="dop853", record="steps")
+    with pytest.raises(ValueError, match="needs the method named"):
+        rollout(m, good, t_final=0.1, method="auto")
     with pytest.raises(ValueError, match="exactly one of t_final= or steps="):
         rollout(m, good, dt=0.01)
     with pytest.raises(ValueError, match="dt must be a finite step > 0"):
