@@ -227,8 +227,8 @@ def run_cases(model, preps, threads=None, progress=False, out=None, extra=None):
     runs on the case's thread while its prepared arguments still exist; its value is
     yielded too: (i, result, extra value).
 
-    Cases that are each one plain eomc_integrate call (no events, switching points,
-    inputs or feedback; see ``_rollout_ready``) run in blocks through eomc_rollout's C
+    Cases that are each one plain eomc_integrate call (no events, switching points or
+    feedback, inputs on one time grid; see ``_rollout_ready``) run in blocks through eomc_rollout's C
     threads instead (issue 31): the same call per case, so the same bits; a case that
     fails there is run again the ordinary way, so its message, and method="auto"'s switch
     to Radau, are simulate's.
@@ -278,17 +278,19 @@ ROLLOUT_BLOCK = 512     # cases per eomc_rollout call: progress and results come
 
 
 def _rollout_ready(model, preps):
-    """True when every case is one eomc_integrate call with the same options but x0 and p:
-    no events or switching points (their buffers and verdicts live in Python), no inputs
-    (eomc_rollout passes none), no feedback or input callables, not implicitfast (its fast
-    path's per-run terms and its warning)."""
+    """True when every case is one eomc_integrate call with the same options but x0, p and
+    the input values: no events or switching points (their buffers and verdicts live in
+    Python), no feedback or input callables, inputs on one time grid (constant per case, or
+    tables sharing their times), not implicitfast (its fast path's per-run terms and its
+    warning)."""
     a = preps[0] if preps else None
     if a is None or any(k in a for k in ("events", "switches", "r_fun", "K", "r_slopes")):
         return False
     if a["method"] == "implicitfast" or model.c_model.rhs == model.ffi.NULL:
         return False
-    return all(b is not None and b["n_r"] == 0 and b["t0"] == a["t0"] and b["t1"] == a["t1"]
-               and b["t_eval"] is a["t_eval"] for b in preps)
+    return all(b is not None and b["t0"] == a["t0"] and b["t1"] == a["t1"] and b["t_eval"] is a["t_eval"]
+               and b["n_r"] == a["n_r"] and (b["n_r"] < 2 or np.array_equal(b["r_t"], a["r_t"]))
+               for b in preps)
 
 
 def _rollout_cases(model, preps, workers, out, extra, one, bar):
@@ -307,8 +309,12 @@ def _rollout_cases(model, preps, workers, out, extra, one, bar):
         P = np.ascontiguousarray([preps[i]["p"] for i in block], dtype=np.float64)
         X_out = (out[block.start:block.stop] if out is not None
                  else np.full((len(block), t_eval.size, model.nx), np.nan))
+        controls = (0, None, None, 0)
+        if a0["n_r"] and model.ninput:
+            R = np.ascontiguousarray([preps[i]["r_v"].ravel() for i in block], dtype=np.float64)
+            controls = (a0["n_r"], np.ascontiguousarray(a0["r_t"], dtype=np.float64), R, R.shape[1])
         X_last, status, stats = rollout_stats(model, opt, a0["t0"], a0["t1"], X0, P, P.shape[1], t_eval,
-                                              X_out, workers)
+                                              X_out, workers, controls)
         return X_out, X_last, status, stats
 
     with ThreadPoolExecutor(max_workers=1) as ahead:

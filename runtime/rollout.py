@@ -8,7 +8,7 @@ options ``simulate`` would pass, so every row equals the scalar ``simulate`` res
 for bit.  The GIL is released for the whole call (cffi releases it on every C call).
 
 Issue 31: fixed-step methods (rk4, implicitfast) and adaptive ones (dopri5, dop853, radau,
-bdf; final states), no inputs (r = 0), no events (a model with a terminal event is refused;
+bdf; final states), inputs per row (constant or a control sequence on a time grid), no events (a model with a terminal event is refused;
 other events are not recorded).  ``simulate_many`` and ``eomc.sweep`` (each chunk, on any
 executor) run their plain cases through ``rollout_stats`` (runtime/batch.py).  Contacts and joint
 limits with implicitfast's fast path (NAME_implicit: they are forces in its matrix, no
@@ -112,7 +112,44 @@ def _params(model, p, n):
     return P, (0 if len(rows) == 1 else P.shape[1])
 
 
-def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method="rk4", p=None, threads=None,
+def _controls(model, r, n):
+    """(n_rgrid, r_tgrid, R, r_stride) of eomc_rollout_stats from ``r`` (see ``rollout``)."""
+    if r is None:
+        return 0, None, None, 0
+    if model.ninput == 0:
+        raise ValueError(f"{model.name}: this model has no inputs, but r was given")
+    ni, names = model.ninput, ", ".join(model.input_names)
+    if isinstance(r, tuple):
+        if len(r) != 2:
+            raise ValueError(f"{model.name}: r as a tuple is a control sequence (t_grid, values); got a tuple "
+                             f"of {len(r)} items")
+        t_grid = np.ascontiguousarray(np.asarray(r[0], dtype=np.float64))
+        values = np.asarray(r[1], dtype=np.float64)
+        k = t_grid.size
+        if t_grid.ndim != 1 or k < 2:
+            raise ValueError(f"{model.name}: r=(t_grid, values): t_grid must be 1-d with at least 2 times; got "
+                             f"shape {t_grid.shape}")
+        if values.shape not in ((k, ni), (n, k, ni)):
+            raise ValueError(f"{model.name}: r=(t_grid, values): values must have shape ({k}, {ni}) (one sequence "
+                             f"for every row) or ({n}, {k}, {ni}) (one per row; inputs {names}); got "
+                             f"{values.shape}")
+        if not (np.all(np.isfinite(t_grid)) and np.all(np.isfinite(values))):
+            raise ValueError(f"{model.name}: r=(t_grid, values) holds non-finite values")
+        if np.any(np.diff(t_grid) <= 0):
+            raise ValueError(f"{model.name}: r=(t_grid, values): t_grid must be strictly increasing")
+        return k, t_grid, np.ascontiguousarray(values), (0 if values.ndim == 2 else k * ni)
+    values = np.asarray(r, dtype=np.float64)
+    if values.shape not in ((ni,), (n, ni)):
+        raise ValueError(f"{model.name}: r must have shape ({ni},) (the same inputs for every row), ({n}, {ni}) "
+                         f"(one row each; inputs {names}) or be a control sequence (t_grid, values); got "
+                         f"shape {values.shape}")
+    if not np.all(np.isfinite(values)):
+        i = int(np.flatnonzero(~np.isfinite(values.reshape(-1, ni)).any(axis=1))[0])
+        raise ValueError(f"{model.name}: r row {i} holds a non-finite input")
+    return 1, None, np.ascontiguousarray(values), (0 if values.ndim == 1 else ni)
+
+
+def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method="rk4", p=None, r=None, threads=None,
             record="final", raise_on_failure=True, lanes=False, split=IMPLICITFAST_SPLIT,
             rtol=1e-6, atol=1e-9, max_steps=100000):
     """Integrate every row of ``x0s`` ((n, nx)) from t = 0 with a fixed step ``dt``, or
@@ -137,6 +174,11 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method="rk4", p=No
     off: one model call per step, MuJoCo's implicitfast; see runtime/c/eomc_fixedstep.c), and a
     row whose contact sinks past its radius fails with status 10 (with per-row parameters,
     the smallest radius of each contact over the rows).  Other methods refuse such models.
+
+    r: the inputs, None (zeros), (ninput,) for every row, (n, ninput) one constant row per
+    trajectory, or a control sequence (t_grid, values) with values (k, ninput) for every row or
+    (n, k, ninput) one per trajectory, linearly interpolated between the grid times (held at
+    its ends) -- row i then equals ``simulate(..., r=(t_grid, values[i]))`` bit for bit.
 
     A failed trajectory (singular mass matrix, non-finite state) raises SimulationError
     naming the first failed row; with raise_on_failure=False, result.status says which
@@ -202,6 +244,7 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method="rk4", p=No
     X0 = _x0s(model, x0s)
     n = X0.shape[0]
     P, p_stride = _params(model, p, n)
+    controls = _controls(model, r, n)
     if lanes:
         _lanes_allowed(model, method)
     # The options and step grid simulate would use (and its checks: jac_x for implicitfast,
@@ -217,7 +260,7 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method="rk4", p=No
     check_quaternions(model, X0, "x0s")     # every row's (the first one's: prepare)
     if lanes:
         t_eval = a["t_eval"] if record == "steps" else np.array([float(t_final)])
-        X_out, X_last, status, nstep = _rollout_lanes(model, X0, P, p_stride, float(t_final), float(dt),
+        X_out, X_last, status, nstep = _rollout_lanes(model, X0, P, p_stride, controls, float(t_final), float(dt),
                                                       record == "steps", nthreads)
         return _finish(model, method, X0, P, p_stride, dt, t_eval, record, X_out, X_last, status, nstep,
                        raise_on_failure)
@@ -239,14 +282,18 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method="rk4", p=No
                 lim = np.min([depth_limits(model, row[:-1]) for row in P], axis=0)
                 for k, v in enumerate(lim):
                     keep[1][k] = v
-        lib.eomc_rollout(model.c_model, _options(ffi, a, implicit), 0.0, float(t_final), n, buf(X0), buf(P), p_stride,
-                         n_eval, buf(t_eval), buf(X_out) if X_out is not None else ffi.NULL, buf(X_last),
-                         ffi.from_buffer("int[]", status), ffi.from_buffer("long[]", nstep), nthreads)
+        n_rgrid, r_tgrid, R, r_stride = controls
+        lib.eomc_rollout_stats(model.c_model, _options(ffi, a, implicit), 0.0, float(t_final), n, buf(X0), buf(P),
+                               p_stride, n_rgrid, buf(r_tgrid) if r_tgrid is not None else ffi.NULL,
+                               buf(R) if R is not None else ffi.NULL, r_stride, n_eval, buf(t_eval),
+                               buf(X_out) if X_out is not None else ffi.NULL, buf(X_last),
+                               ffi.from_buffer("int[]", status), ffi.from_buffer("long[]", nstep), ffi.NULL,
+                               nthreads)
     return _finish(model, method, X0, P, p_stride, dt, t_eval, record, X_out, X_last, status, nstep,
                    raise_on_failure)
 
 
-def rollout_stats(model, opt, t0, t1, X0, P, p_stride, t_eval, X_out, threads):
+def rollout_stats(model, opt, t0, t1, X0, P, p_stride, t_eval, X_out, threads, controls=(0, None, None, 0)):
     """One eomc_rollout_stats call over (t0, t1) (the batch path of simulate_many and eomc.sweep).
 
     opt: the eomc_options of one prepared case (every row runs with it); t_eval: the output
@@ -261,7 +308,10 @@ def rollout_stats(model, opt, t0, t1, X0, P, p_stride, t_eval, X_out, threads):
     n_eval = 0 if t_eval is None else int(np.size(t_eval))
     integrator_library(model.ffi)._arm()      # Ctrl-C stops every thread at its next evaluation
     if n:
-        lib.eomc_rollout_stats(model.c_model, opt, float(t0), float(t1), n, buf(X0), buf(P), p_stride, n_eval,
+        n_rgrid, r_tgrid, R, r_stride = controls
+        lib.eomc_rollout_stats(model.c_model, opt, float(t0), float(t1), n, buf(X0), buf(P), p_stride, n_rgrid,
+                               buf(r_tgrid) if r_tgrid is not None else ffi.NULL,
+                               buf(R) if R is not None else ffi.NULL, r_stride, n_eval,
                                buf(t_eval) if n_eval else ffi.NULL, buf(X_out) if n_eval else ffi.NULL,
                                buf(X_last), ffi.from_buffer("int[]", status), ffi.NULL, stats, threads)
     return X_last, status, stats
@@ -323,7 +373,7 @@ def _batch_p(model, ffi):
     return ffi.cast("eomc_batch_fn", cached[2])
 
 
-def _rollout_lanes(model, X0, P, p_stride, t1, h, steps_too, nthreads):
+def _rollout_lanes(model, X0, P, p_stride, controls, t1, h, steps_too, nthreads):
     """RK4 over the rows in SIMD lanes, in C threads (eomc_rollout_lanes): each thread's block of
     rows stored as columns, every stage one NAME_rhs_batch_p call, run_rk4's step grid and
     arithmetic; one parameter row per row (P, p_stride) or one for all."""
@@ -336,8 +386,12 @@ def _rollout_lanes(model, X0, P, p_stride, t1, h, steps_too, nthreads):
     nstep = np.empty(n, dtype=np.int_ if ffi.sizeof("long") == 8 else np.int32)
     buf = lambda arr: ffi.from_buffer("double[]", arr)  # noqa: E731
     if n:
-        lib.eomc_rollout_lanes(_batch_p(model, ffi), nx, model.nparam, max(model.work_size, 1), 0.0, t1, h, n,
-                               buf(X0), buf(P), p_stride, buf(X_out) if steps_too else ffi.NULL, buf(X_last),
+        n_rgrid, r_tgrid, R, r_stride = controls
+        lib.eomc_rollout_lanes(_batch_p(model, ffi), nx, model.nparam, model.ninput, max(model.work_size, 1), 0.0,
+                               t1, h, n, buf(X0), buf(P), p_stride, n_rgrid,
+                               buf(r_tgrid) if r_tgrid is not None else ffi.NULL,
+                               buf(R) if R is not None else ffi.NULL, r_stride,
+                               buf(X_out) if steps_too else ffi.NULL, buf(X_last),
                                ffi.from_buffer("int[]", status), ffi.from_buffer("long[]", nstep), LANES_BLOCK,
                                nthreads)
     return X_out, X_last, status, nstep

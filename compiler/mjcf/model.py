@@ -420,7 +420,7 @@ def _with_contacts(model, m, built):
     from eomc.compiler.contact.tree import COLLISION_SPHERES, as_spec
     from .contacts import with_mjcf_contacts
     specs = [as_spec(c) for c in model.contacts]
-    named = [s for s in specs if s.link not in (COLLISION_SPHERES, "@none", "@ground")]
+    named = [s for s in specs if s.link not in (COLLISION_SPHERES, "@none", "@ground", "@no-ground")]
     geoms = model.geoms
     if geoms is None:
         geoms = not specs or any(s.link in (COLLISION_SPHERES, "@ground") for s in specs)

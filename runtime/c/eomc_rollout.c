@@ -15,6 +15,9 @@ typedef struct rollout_job {
     int n;
     const double *X0, *P;
     size_t p_stride;
+    int n_rgrid;         /* each row's input grid: r_tgrid (shared), R + row * r_stride */
+    const double *r_tgrid, *R;
+    size_t r_stride;
     int n_eval;
     const double *t_eval;
     double *X_out, *X_last;
@@ -44,7 +47,8 @@ static void run_rows(rollout_job *job, double *work)
         const size_t row = (size_t)i;
         double *x_out = job->X_out ? job->X_out + row * (size_t)job->n_eval * nx : NULL;
         job->status[i] = eomc_integrate(job->m, job->opt, job->t0, job->t1, job->X0 + row * nx,
-                                        job->P + row * job->p_stride, 0, NULL, NULL,
+                                        job->P + row * job->p_stride, job->n_rgrid, job->r_tgrid,
+                                        job->n_rgrid > 0 ? job->R + row * job->r_stride : NULL,
                                         job->n_eval, job->t_eval, x_out,
                                         job->X_last + row * nx, &st, work, job->work_len);
         if (job->steps)
@@ -70,12 +74,13 @@ int eomc_rollout(const eomc_model *m, const eomc_options *opt, double t0, double
                  int n_eval, const double *t_eval, double *X_out, double *X_last,
                  int *status, long *steps, int nthreads)
 {
-    return eomc_rollout_stats(m, opt, t0, t1, n, X0, P, p_stride, n_eval, t_eval, X_out, X_last,
-                              status, steps, NULL, nthreads);
+    return eomc_rollout_stats(m, opt, t0, t1, n, X0, P, p_stride, 0, NULL, NULL, 0, n_eval, t_eval, X_out,
+                              X_last, status, steps, NULL, nthreads);
 }
 
 int eomc_rollout_stats(const eomc_model *m, const eomc_options *opt, double t0, double t1,
                        int n, const double *X0, const double *P, size_t p_stride,
+                       int n_rgrid, const double *r_tgrid, const double *R, size_t r_stride,
                        int n_eval, const double *t_eval, double *X_out, double *X_last,
                        int *status, long *steps, eomc_stats *stats, int nthreads)
 {
@@ -83,7 +88,8 @@ int eomc_rollout_stats(const eomc_model *m, const eomc_options *opt, double t0, 
     pthread_t threads[EOMC_ROLLOUT_MAX_THREADS];
     int started = 0, k, ran = 0;
     if (m == NULL || opt == NULL || n < 0 || X0 == NULL || P == NULL || X_last == NULL
-        || status == NULL || (n_eval > 0 && (t_eval == NULL || X_out == NULL)))
+        || status == NULL || (n_eval > 0 && (t_eval == NULL || X_out == NULL))
+        || (n_rgrid > 0 && R == NULL) || (n_rgrid > 1 && r_tgrid == NULL))
         return EOMC_BAD_ARGUMENT;
     if (nthreads <= 0)
         nthreads = 1;
@@ -93,6 +99,7 @@ int eomc_rollout_stats(const eomc_model *m, const eomc_options *opt, double t0, 
         nthreads = n > 0 ? n : 1;
     job.m = m; job.opt = opt; job.t0 = t0; job.t1 = t1; job.n = n;
     job.X0 = X0; job.P = P; job.p_stride = p_stride;
+    job.n_rgrid = n_rgrid > 0 ? n_rgrid : 0; job.r_tgrid = r_tgrid; job.R = R; job.r_stride = r_stride;
     job.n_eval = n_eval; job.t_eval = t_eval; job.X_out = n_eval > 0 ? X_out : NULL;
     job.X_last = X_last; job.status = status; job.steps = steps; job.stats = stats;
     job.work_len = eomc_integrate_work_size(m, opt->method)
@@ -129,7 +136,10 @@ int eomc_rollout_stats(const eomc_model *m, const eomc_options *opt, double t0, 
 
 typedef struct lanes_job {
     eomc_batch_fn f;
-    int nx, nparam, block;
+    int nx, nparam, ninput, block;
+    int n_rgrid;         /* each row's input grid: r_tgrid (shared), R + row * r_stride */
+    const double *r_tgrid, *R;
+    size_t r_stride;
     size_t work_len;
     double t0, t1, h;
     long nsteps;
@@ -170,6 +180,38 @@ static int mark(int m, const int *st, char *dead, int *status)
     return live;
 }
 
+/* The inputs of rows first .. first + m - 1 at time t as columns (Rb[i*m + k]), by
+ * grid_inputs_at's rule and arithmetic (eomc_integrators.c): the grid's first row before
+ * it, its last row after it, linear between two rows; NULL when there are none (zeros). */
+static const double *lane_inputs(const lanes_job *job, int first, int m, double t, double *Rb)
+{
+    const int ni = job->ninput, nr = job->n_rgrid;
+    const double *rt = job->r_tgrid;
+    int lo = 0, hi = nr - 1, i, k, between = 0;
+    double w = 0.0;
+    if (ni <= 0 || nr <= 0)
+        return NULL;
+    if (nr == 1 || t <= rt[0]) {
+        lo = 0;
+    } else if (t >= rt[hi]) {
+        lo = hi;
+    } else {
+        while (hi - lo > 1) {
+            const int mid = (lo + hi) / 2;
+            if (rt[mid] <= t) lo = mid; else hi = mid;
+        }
+        w = (t - rt[lo]) / (rt[hi] - rt[lo]);
+        between = 1;
+    }
+    for (k = 0; k < m; ++k) {
+        const double *v = job->R + (size_t)(first + k) * job->r_stride;
+        const double *a = v + (size_t)lo * (size_t)ni, *b = v + (size_t)hi * (size_t)ni;
+        for (i = 0; i < ni; ++i)
+            Rb[(size_t)i * (size_t)m + (size_t)k] = between ? (1.0 - w) * a[i] + w * b[i] : a[i];
+    }
+    return Rb;
+}
+
 /* Rows first .. first + m - 1: run_rk4's step grid and arithmetic (eomc_integrators.c), with
  * the m states as columns (x[i*m + k]) and each stage one batch call over all of them. */
 static void lanes_block(lanes_job *job, int first, int m, double *buf, int *ibuf)
@@ -177,7 +219,8 @@ static void lanes_block(lanes_job *job, int first, int m, double *buf, int *ibuf
     const int nx = job->nx, np = job->nparam;
     const size_t cols = (size_t)m, nxm = (size_t)nx * cols;
     double *x = buf, *x1 = x + nxm, *k1 = x1 + nxm, *k2 = k1 + nxm, *k3 = k2 + nxm, *k4 = k3 + nxm;
-    double *tmp = k4 + nxm, *good = tmp + nxm, *Pb = good + nxm, *work = Pb + (size_t)(np > 0 ? np : 1) * cols;
+    double *tmp = k4 + nxm, *good = tmp + nxm, *Pb = good + nxm, *Rb = Pb + (size_t)(np > 0 ? np : 1) * cols;
+    double *work = Rb + (size_t)(job->ninput > 0 ? job->ninput : 1) * cols;
     int *st = ibuf, *status = st + m;
     char *dead = (char *)(status + m);
     long *done = job->steps ? job->steps + first : NULL;
@@ -197,7 +240,7 @@ static void lanes_block(lanes_job *job, int first, int m, double *buf, int *ibuf
                 job->X_out[((size_t)(first + k) * (size_t)(job->nsteps + 1)) * (size_t)nx + (size_t)i] = x0[i];
     }
     memcpy(good, x, nxm * sizeof(double));
-    job->f(m, job->t0, x, Pb, NULL, k1, st, work);
+    job->f(m, job->t0, x, Pb, lane_inputs(job, first, m, job->t0, Rb), k1, st, work);
     if (mark(m, st, dead, status)) {
         for (long s = 0; s < job->nsteps; ++s) {
             const double t = job->t0 + s * h;
@@ -207,13 +250,13 @@ static void lanes_block(lanes_job *job, int first, int m, double *buf, int *ibuf
             if (done)
                 for (k = 0; k < m; ++k) done[k] += !dead[k];
             for (j = 0; j < nxm; ++j) tmp[j] = x[j] + 0.5 * hh * k1[j];
-            job->f(m, t + 0.5 * hh, tmp, Pb, NULL, k2, st, work);
+            job->f(m, t + 0.5 * hh, tmp, Pb, lane_inputs(job, first, m, t + 0.5 * hh, Rb), k2, st, work);
             mark(m, st, dead, status);
             for (j = 0; j < nxm; ++j) tmp[j] = x[j] + 0.5 * hh * k2[j];
-            job->f(m, t + 0.5 * hh, tmp, Pb, NULL, k3, st, work);
+            job->f(m, t + 0.5 * hh, tmp, Pb, lane_inputs(job, first, m, t + 0.5 * hh, Rb), k3, st, work);
             mark(m, st, dead, status);
             for (j = 0; j < nxm; ++j) tmp[j] = x[j] + hh * k3[j];
-            job->f(m, tn, tmp, Pb, NULL, k4, st, work);
+            job->f(m, tn, tmp, Pb, lane_inputs(job, first, m, tn, Rb), k4, st, work);
             mark(m, st, dead, status);
             for (j = 0; j < nxm; ++j) x1[j] = x[j] + hh / 6.0 * (k1[j] + 2 * k2[j] + 2 * k3[j] + k4[j]);
             for (k = 0; k < m; ++k) {
@@ -226,7 +269,7 @@ static void lanes_block(lanes_job *job, int first, int m, double *buf, int *ibuf
                     }
                 }
             }
-            job->f(m, tn, x1, Pb, NULL, k2, st, work);       /* k2 := f(tn, x1) */
+            job->f(m, tn, x1, Pb, lane_inputs(job, first, m, tn, Rb), k2, st, work);   /* k2 := f(tn, x1) */
             live = mark(m, st, dead, status);
             for (k = 0; k < m; ++k) {
                 double *row = job->X_out ? job->X_out + ((size_t)(first + k) * (size_t)(job->nsteps + 1)
@@ -266,7 +309,8 @@ static void *lanes_worker(void *arg)
     lanes_job *job = (lanes_job *)arg;
     const size_t b = (size_t)job->block;
     double *buf = (double *)malloc((8 * (size_t)job->nx * b + (size_t)(job->nparam > 0 ? job->nparam : 1) * b
-                                    + job->work_len + 1) * sizeof(double));
+                                    + (size_t)(job->ninput > 0 ? job->ninput : 1) * b + job->work_len + 1)
+                                   * sizeof(double));
     int *ibuf = (int *)malloc(2 * b * sizeof(int) + b);
     int first, m;
     if (buf == NULL || ibuf == NULL) {
@@ -281,15 +325,17 @@ static void *lanes_worker(void *arg)
     return NULL;
 }
 
-int eomc_rollout_lanes(eomc_batch_fn f, int nx, int nparam, size_t work_len, double t0, double t1, double h,
-                       int n, const double *X0, const double *P, size_t p_stride, double *X_out,
+int eomc_rollout_lanes(eomc_batch_fn f, int nx, int nparam, int ninput, size_t work_len, double t0, double t1,
+                       double h, int n, const double *X0, const double *P, size_t p_stride,
+                       int n_rgrid, const double *r_tgrid, const double *R, size_t r_stride, double *X_out,
                        double *X_last, int *status, long *steps, int block, int nthreads)
 {
     lanes_job job;
     pthread_t threads[EOMC_ROLLOUT_MAX_THREADS];
     int started = 0, k, ran = 0, nblocks;
     if (f == NULL || nx <= 0 || nparam < 0 || n < 0 || X0 == NULL || (P == NULL && nparam > 0)
-        || X_last == NULL || status == NULL || !(h > 0) || !isfinite(h) || !(t1 > t0))
+        || X_last == NULL || status == NULL || !(h > 0) || !isfinite(h) || !(t1 > t0) || ninput < 0
+        || (ninput > 0 && n_rgrid > 0 && R == NULL) || (n_rgrid > 1 && r_tgrid == NULL))
         return EOMC_BAD_ARGUMENT;
     if (block <= 0)
         block = 64;
@@ -300,7 +346,8 @@ int eomc_rollout_lanes(eomc_batch_fn f, int nx, int nparam, size_t work_len, dou
     nblocks = (n + block - 1) / block;
     if (nthreads > nblocks)
         nthreads = nblocks > 0 ? nblocks : 1;
-    job.f = f; job.nx = nx; job.nparam = nparam; job.block = block; job.work_len = work_len;
+    job.f = f; job.nx = nx; job.nparam = nparam; job.ninput = ninput; job.block = block; job.work_len = work_len;
+    job.n_rgrid = n_rgrid > 0 ? n_rgrid : 0; job.r_tgrid = r_tgrid; job.R = R; job.r_stride = r_stride;
     job.t0 = t0; job.t1 = t1; job.h = h;
     job.nsteps = (long)ceil((t1 - t0) / h * (1 - 1e-12));
     if (job.nsteps < 1)

@@ -32,12 +32,16 @@ int eomc_rollout(const eomc_model *m, const eomc_options *opt, double t0, double
                  int *status, long *steps, int nthreads);
 
 /*
- * eomc_rollout, and each row's whole eomc_stats (rejected steps, rhs calls, the time
- * reached, ...) in stats (n, may be NULL): what simulate() reports per run, so a
- * batch (simulate_many, eomc.sweep) can run its cases here and report each as simulate would.
+ * eomc_rollout with inputs per row, and each row's whole eomc_stats (rejected steps, rhs
+ * calls, the time reached, ...) in stats (n, may be NULL): what simulate() reports per run,
+ * so a batch (simulate_many, eomc.sweep) can run its cases here and report each as simulate
+ * would.  Inputs: n_rgrid == 0, none (zeros); else row i's grid of eomc_integrate is
+ * (n_rgrid, r_tgrid, R + i * r_stride) -- one time grid shared, values per row (r_stride
+ * 0: the same for all): a control sequence per trajectory.
  */
 int eomc_rollout_stats(const eomc_model *m, const eomc_options *opt, double t0, double t1,
                        int n, const double *X0, const double *P, size_t p_stride,
+                       int n_rgrid, const double *r_tgrid, const double *R, size_t r_stride,
                        int n_eval, const double *t_eval, double *X_out, double *X_last,
                        int *status, long *steps, eomc_stats *stats, int nthreads);
 
@@ -56,11 +60,14 @@ typedef int (*eomc_batch_fn)(int n, double t, const double *X, const double *P, 
  * with parameters P + i * p_stride (0: one row for all).  X_out (NULL: not recorded): n x
  * (steps + 1) x nx, every step, NaN after a row failed.  X_last, status, steps (may be
  * NULL): as eomc_rollout (a failed row keeps its last good state; steps counts the step it
- * failed in).  work_len: doubles of the model's work buffer (f's scalar tail).  Returns
+ * failed in).  Inputs (ninput of them): (n_rgrid, r_tgrid, R + i * r_stride) as
+ * eomc_rollout_stats, interpolated at each stage as eomc_integrate does.  work_len: doubles
+ * of the model's work buffer (f's scalar tail).  Returns
  * EOMC_OK, EOMC_BAD_ARGUMENT, or the status of the first failed row.
  */
-int eomc_rollout_lanes(eomc_batch_fn f, int nx, int nparam, size_t work_len, double t0, double t1, double h,
-                       int n, const double *X0, const double *P, size_t p_stride, double *X_out,
+int eomc_rollout_lanes(eomc_batch_fn f, int nx, int nparam, int ninput, size_t work_len, double t0, double t1,
+                       double h, int n, const double *X0, const double *P, size_t p_stride,
+                       int n_rgrid, const double *r_tgrid, const double *R, size_t r_stride, double *X_out,
                        double *X_last, int *status, long *steps, int block, int nthreads);
 
 #ifdef __cplusplus

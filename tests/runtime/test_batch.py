@@ -146,3 +146,21 @@ def test_plain_cases_run_through_rollout_in_blocks_equal_to_single_runs(monkeypa
                                                                             np.nan)]))
         np.testing.assert_array_equal(res.x_final[i], single.x_final)
         assert res.stats[i] == single.stats and res.messages[i] == single.message
+
+
+def test_inputs_per_case_run_through_rollout(monkeypatch):
+    """Constant inputs per case (and a shared input table) are rows of eomc_rollout's input
+    grid: no case leaves the C threads, and each equals its own simulate() bit for bit."""
+    import eomc.runtime.batch as batch
+    m = get_model("oscillator")
+    R = np.linspace(-1.0, 1.0, 5)[:, None]
+    calls = []
+    real = batch.run_prepared
+    monkeypatch.setattr(batch, "run_prepared", lambda *a, **k: calls.append(1) or real(*a, **k))
+    res = simulate_many(m, [0.5, 0.0], (0, 2), r=R, progress=False, n_points=21)
+    table = (np.array([0.0, 1.0, 2.0]), np.array([[0.0], [1.0], [-1.0]]))
+    shared = simulate_many(m, np.array([[0.5, 0.0], [0.2, 0.1]]), (0, 2), r=table, progress=False, n_points=21)
+    assert not calls and res.success and shared.success
+    for i in range(5):
+        np.testing.assert_array_equal(res.x[i], simulate(m, [0.5, 0.0], (0, 2), r=R[i], n_points=21).x)
+    np.testing.assert_array_equal(shared.x[1], simulate(m, [0.2, 0.1], (0, 2), r=table, n_points=21).x)

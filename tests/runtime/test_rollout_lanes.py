@@ -56,6 +56,23 @@ def test_one_parameter_row_per_trajectory_equals_the_scalar_rollout(cart, thread
     assert np.abs(shared.x - got.x).max() > 1e-6       # the parameters mattered
 
 
+@pytest.mark.parametrize("threads", [1, 2])
+def test_control_sequences_per_trajectory_equal_the_scalar_rollout(cart, threads):
+    """r=(t_grid, values) per row: each stage's inputs interpolated in the C loop as the scalar
+    integrator does (grid ends inside the span: held), passed to NAME_rhs_batch_p in lanes."""
+    assert cart.ninput > 0
+    X0 = _starts(cart, 75, seed=6)
+    t_grid = np.array([0.0, 0.05, 0.12, 0.2])
+    values = np.random.default_rng(7).uniform(-3.0, 3.0, (75, t_grid.size, cart.ninput))
+    P = np.asarray(cart.param_defaults) * np.random.default_rng(8).uniform(0.8, 1.2, (75, cart.nparam))
+    want = rollout(cart, X0, dt=0.01, steps=30, p=P, r=(t_grid, values), threads=threads)
+    got = rollout(cart, X0, dt=0.01, steps=30, p=P, r=(t_grid, values), threads=threads, lanes=True)
+    assert got.ok.all() and np.array_equal(got.x, want.x) and np.array_equal(got.steps, want.steps)
+    const = rollout(cart, X0, dt=0.01, steps=30, r=values[:, 1], threads=threads, lanes=True)
+    assert np.array_equal(const.x, rollout(cart, X0, dt=0.01, steps=30, r=values[:, 1], threads=threads).x)
+    assert np.abs(const.x - got.x).max() > 1e-6
+
+
 def test_failed_rows_keep_their_last_good_state(cart):
     X0 = _starts(cart, 10)
     X0[3, 3] = 1e200                           # overflows within the first step

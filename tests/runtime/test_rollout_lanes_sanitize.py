@@ -1,8 +1,9 @@
 """eomc_rollout_lanes (runtime/c/eomc_rollout.c) under AddressSanitizer and UBSan, and under
 ThreadSanitizer: a C driver integrates 45 rows of the generated cart-pole (NAME_rhs_batch_p,
 built with libm's sin/cos in the lanes) on 2 threads in blocks of 16 -- so blocks end in a
-part-filled group of lanes and a scalar tail -- with one parameter row per trajectory, every
-step recorded and one row that overflows, and compares every row with the scalar C rollout
+part-filled group of lanes and a scalar tail -- with one parameter row and one input sequence
+(a 4-point table ending inside the span) per trajectory, every step recorded and one row that
+overflows, and compares every row with the scalar C rollout
 (eomc_rollout, RK4) byte for byte: final states, statuses, step counts and, for the rows
 that ran to the end, every recorded step.  A clean run is a correct run."""
 import os
@@ -41,7 +42,9 @@ static double uniform(void)      /* in [-1, 1), the same on every machine */
 int main(void)
 {
     const eomc_model *m = NAME_model();
-    const int n = 45, nx = m->nx, np = m->nparam, bad = 7;
+    const int n = 45, nx = m->nx, np = m->nparam, ni = m->ninput, bad = 7, nr = 4;
+    const double r_t[4] = {0.0, 0.05, 0.12, 0.2};
+    double *R = malloc((size_t)n * nr * (ni ? ni : 1) * sizeof(double));
     const double dt = 0.01, t1 = 0.255;           /* 26 steps, the last one shortened */
     const long nsteps = 26;
     const size_t rows = (size_t)(nsteps + 1);
@@ -57,6 +60,7 @@ int main(void)
     for (i = 0; i < n * nx; i++) X0[i] = uniform();
     for (k = 0; k < n; k++)
         for (i = 0; i < np; i++) P[(size_t)k * np + i] = m->param_defaults[i] * (1.0 + 0.3 * uniform());
+    for (i = 0; i < n * nr * ni; i++) R[i] = 3.0 * uniform();
     X0[(size_t)bad * nx + 3] = 1e200;             /* overflows within the first step */
     for (k = 0; k < nsteps; k++) t_eval[k] = k * dt;
     t_eval[nsteps] = t1;
@@ -64,9 +68,10 @@ int main(void)
     opt.method = EOMC_RK4;
     opt.h0 = dt;
     opt.max_steps = 1000;
-    eomc_rollout(m, &opt, 0.0, t1, n, X0, P, (size_t)np, (int)rows, t_eval, A_out, A_last, A_st, A_steps, 2);
-    eomc_rollout_lanes(NAME_rhs_batch_p, nx, np, m->work_size, 0.0, t1, dt, n, X0, P, (size_t)np, B_out,
-                       B_last, B_st, B_steps, 16, 2);
+    eomc_rollout_stats(m, &opt, 0.0, t1, n, X0, P, (size_t)np, nr, r_t, R, (size_t)(nr * ni), (int)rows, t_eval,
+                       A_out, A_last, A_st, A_steps, NULL, 2);
+    eomc_rollout_lanes(NAME_rhs_batch_p, nx, np, ni, m->work_size, 0.0, t1, dt, n, X0, P, (size_t)np, nr, r_t, R,
+                       (size_t)(nr * ni), B_out, B_last, B_st, B_steps, 16, 2);
     for (k = 0; k < n; k++) {
         if (A_st[k] != B_st[k] || A_steps[k] != B_steps[k]) wrong++;
         if (memcmp(A_last + (size_t)k * nx, B_last + (size_t)k * nx, (size_t)nx * sizeof(double))) wrong++;
@@ -76,7 +81,7 @@ int main(void)
     }
     printf("%s wrong=%d failed=%d\n", m->name, wrong, failed);
     free(X0); free(P); free(A_last); free(B_last); free(A_out); free(B_out); free(t_eval);
-    free(A_st); free(B_st); free(A_steps); free(B_steps);
+    free(A_st); free(B_st); free(A_steps); free(B_steps); free(R);
     return wrong != 0;
 }
 """
@@ -94,6 +99,7 @@ def cart_source(tmp_path_factory):
 @pytest.mark.parametrize("sanitizers", ["address,undefined", "thread"])
 def test_lanes_rollout_sanitizer_clean_and_equal_to_the_scalar_rollout(cart_source, tmp_path, sanitizers):
     gm, src = cart_source
+    assert gm.metadata["ninput"] > 0
     main = tmp_path / "main.c"
     main.write_text(DRIVER.replace("NAME", gm.name))
     exe = tmp_path / "driver"
