@@ -149,7 +149,10 @@ class CartRef:
         return np.asarray(v, dtype=float)
 
 
-def build_case(case, cache):
+FUNCTIONS = ["rhs", "jac_x", "inverse_dynamics", "jac_id"]
+
+
+def build_case(case, cache, functions=FUNCTIONS):
     """(eomc Model, Pinocchio reference, floating) of one case."""
     import eomc
     if case.startswith("cart"):
@@ -159,16 +162,15 @@ def build_case(case, cache):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             model = eomc.compile(mod["system"], f"cart{n}", parameters=mod["parameters"], inputs=mod["inputs"],
-                                 functions=["rhs", "jac_x", "inverse_dynamics", "jac_id"],
-                                 formulation="recursive", cache_dir=cache, progress=False)
+                                 functions=functions, formulation="recursive", cache_dir=cache, progress=False)
         return model, CartRef(n), False
     from eomc.compiler.urdf import from_urdf
     from helpers.robots import PinRef, joints_of, robot_path
     rel, floating = ROBOTS[case]
     path = robot_path(rel)
     system = from_urdf(path, floating_base=floating, limits=False)
-    model = eomc.compile(system, case, functions=["rhs", "jac_x", "inverse_dynamics", "jac_id"],
-                         formulation="recursive", cache_dir=cache, progress=False)
+    model = eomc.compile(system, case, functions=functions, formulation="recursive", cache_dir=cache,
+                         progress=False)
     ref = PinRef(path, joints_of(system), floating=floating)
     ref.gravity = ref.model.gravity.linear
     return model, ref, floating
