@@ -259,13 +259,17 @@ def main():
     ap.add_argument("--cart", default="4,8,20,40,80")
     ap.add_argument("--robots", default="ur10,panda,go2,g1,talos")
     ap.add_argument("--rounds", type=int, default=9)
+    ap.add_argument("--cache", default="", help="a build cache directory to keep between runs (keys hold "
+                    "eomc's compiler sources, so a changed compiler rebuilds)")
+    ap.add_argument("--pin-obj", default="", help="pin_derivatives.cpp already compiled (saves minutes)")
     ap.add_argument("--write", action="store_true")
     a = ap.parse_args()
     cases = [f"cart{n}" for n in a.cart.split(",") if n] + [r for r in a.robots.split(",") if r]
     from common import compile_pinocchio
     tmp = Path(tempfile.mkdtemp(prefix="eomc_bd_"))
-    cache = tmp / "cache"
-    pin_obj = compile_pinocchio(MODELS / "pin_derivatives.cpp", tmp / "pin_derivatives.o")
+    cache = Path(a.cache) if a.cache else tmp / "cache"
+    pin_obj = (Path(a.pin_obj) if a.pin_obj
+               else compile_pinocchio(MODELS / "pin_derivatives.cpp", tmp / "pin_derivatives.o"))
     if pin_obj is None:
         sys.exit("Pinocchio's headers (pin / cmeel wheels) are needed")
     rng = np.random.default_rng(30)

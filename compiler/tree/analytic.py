@@ -58,6 +58,7 @@ class AnalyticPlan:
     dep: tuple = ()         # the number of dofs before it on that path
     off: tuple = ()         # where its row of M (itself, then its support, nearest first) starts
     solver: str = "ltdl"    # jac_x's M⁻¹: "ltdl" (rows of M over the support) or "aba" (articulated, see solve_tables)
+    kblocks: tuple = ()     # per k-speed joint: its K's diagonal blocks ((coordinates), (speeds)), see _blocks
 
     def dofs(self, b):
         return range(self.first[b], self.first[b] + self.count[b])
@@ -80,7 +81,7 @@ def analytic_plan(tree, bodies, gravity, layout, rename):
         return None, []
     speeds = layout.x[nq:nq + nu]
     nb = len(bodies)
-    par, first, count, row, qcol, multi = [], [], [], [], [], []
+    par, first, count, row, qcol, multi, kblocks = [], [], [], [], [], [], []
     E, r, S, I, F, K, arm = [], [], [], [], [], [], []
     lam, dep, last = [], [], {}     # last: body -> its last dof, or its nearest ancestor's
     used = set()
@@ -111,8 +112,10 @@ def analytic_plan(tree, bodies, gravity, layout, rename):
                 return None, []
             used.update(rows)
             multi.append((len(row), len(dofs), len(K)))
-            for i in rows:
-                K += [sm.diff(kin[i], speeds[s]) for s, _ in dofs]
+            kj = [[sm.diff(kin[i], speeds[s]) for s, _ in dofs] for i in rows]
+            kblocks.append(_blocks(kj))
+            for line in kj:
+                K += line
             qcol += rows
         before = last.get(b.parent, -1)
         for (s, axis), a in zip(dofs, b.armature):
@@ -142,8 +145,35 @@ def analytic_plan(tree, bodies, gravity, layout, rename):
         off.append(off[-1] + d + 1)
     plan = AnalyticPlan(nb, len(row), tuple(par), tuple(first), tuple(count), tuple(row),
                         tuple(qcol), tuple(multi), loads, offsets, len(values), tuple(lam), tuple(dep),
-                        tuple(off), choose_solver(dep))
+                        tuple(off), choose_solver(dep), tuple(kblocks))
     return plan, [((ANX, i), sm.sympify(v)) for i, v in enumerate(values)]
+
+
+def _blocks(kj):
+    """The diagonal blocks of a k-speed joint's K (q' = K u; rows coordinates, columns speeds)
+    up to a permutation: the connected parts of its structural non-zeros, as ((coordinates),
+    (speeds)) pairs, or one block of all when a part is not square.  Why: a free joint's K is
+    a translation block and an angle block, and inverting two 3×3 blocks and applying them
+    costs a quarter and a half of the 6×6 (measured: K⁻¹ was 7 % of Go2's jac_x)."""
+    k = len(kj)
+    parent = list(range(2 * k))     # union-find over coordinates 0..k-1 and speeds k..2k-1
+
+    def find(i):
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+    for i in range(k):
+        for j in range(k):
+            if kj[i][j] != 0:
+                parent[find(i)] = find(k + j)
+    parts = {}
+    for n in range(2 * k):
+        parts.setdefault(find(n), []).append(n)
+    blocks = sorted((tuple(n for n in ns if n < k), tuple(n - k for n in ns if n >= k)) for ns in parts.values())
+    if any(len(r) != len(c) for r, c in blocks):
+        return ((tuple(range(k)), tuple(range(k))),)
+    return tuple(blocks)
 
 
 ABA_DEPTH = 5     # mean support depth above which jac_x's M⁻¹ runs articulated (measured, see choose_solver)
@@ -155,7 +185,8 @@ def choose_solver(dep):
     whatever the depth (6-vector messages instead of whole support rows).  Measured jac_x,
     articulated vs LᵀDL (2026-11-28, benchmarks/bench_derivatives.py): cart n = 40 31.8 vs
     63.2 µs, G1 (mean depth 8.7) 22.7 vs 25.5, Go2 (5.5) 7.9 vs 8.0; LᵀDL ahead on Panda
-    (3.4 vs 3.6) and the 8-link cart (3.0 vs 3.2), mean depth about 4.
+    (3.4 vs 3.6) and the 8-link cart (3.0 vs 3.2), mean depth about 4.  Re-measured with the
+    faster pair loop and K's blocks (2026-11-29): Go2 articulated 6.6 vs LᵀDL 7.0 µs.
     Deep trees (mean depth above ABA_DEPTH) go articulated."""
     return "aba" if len(dep) and sum(dep) > ABA_DEPTH * len(dep) else "ltdl"
 
@@ -521,48 +552,34 @@ def kernel_c(name, plan, nq, solve=False):
         "        }",
         "    }",
     ]
-    for e0, k, koff in plan.multi:
+    for (e0, k, koff), blocks in zip(plan.multi, plan.kblocks):
+        kb = [len(r) for r, _ in blocks]
         lines += [
-            f"    {{   /* a {k}-speed joint: d tau/dq = d tau/d xi K^-1, q' = K u (Gauss-Jordan, partial pivoting) */",
-            f"        double Km[{k * k}], Ki[{k * k}], x[{k}], piv, tmp;",
+            f"    {{   /* a {k}-speed joint: d tau/dq = d tau/d xi K^-1, q' = K u, K in {len(blocks)} diagonal block(s) */",
+            f"        double Km[{max(kb) ** 2}], x[{k}], piv, tmp;",
             "        int p;",
-            f"        for (i = 0; i < {k * k}; i++) {{",
-            f"            Km[i] = an[{o['K'] + koff} + i];",
-            f"            Ki[i] = i % {k + 1} == 0 ? 1.0 : 0.0;",
-            "        }",
-            f"        for (j = 0; j < {k}; j++) {{",
-            "            p = j;",
-            f"            for (i = j + 1; i < {k}; i++)",
-            f"                if (fabs(Km[{k} * i + j]) > fabs(Km[{k} * p + j])) p = i;",
-            f"            for (c = 0; c < {k}; c++) {{",
-            f"                tmp = Km[{k} * j + c]; Km[{k} * j + c] = Km[{k} * p + c]; Km[{k} * p + c] = tmp;",
-            f"                tmp = Ki[{k} * j + c]; Ki[{k} * j + c] = Ki[{k} * p + c]; Ki[{k} * p + c] = tmp;",
-            "            }",
-            f"            piv = 1.0 / Km[{k} * j + j];",
-            f"            for (c = 0; c < {k}; c++) {{",
-            f"                Km[{k} * j + c] *= piv;",
-            f"                Ki[{k} * j + c] *= piv;",
-            "            }",
-            f"            for (i = 0; i < {k}; i++) {{",
-            "                if (i == j) continue;",
-            f"                tmp = Km[{k} * i + j];",
-            f"                for (c = 0; c < {k}; c++) {{",
-            f"                    Km[{k} * i + c] -= tmp * Km[{k} * j + c];",
-            f"                    Ki[{k} * i + c] -= tmp * Ki[{k} * j + c];",
-            "                }",
-            "            }",
-            "        }",
+        ] + [f"        double Ki{n}[{kb[n] ** 2}];" for n in range(len(blocks))] + [
+            _table(f"kr{n}", r).replace("    ", "        ", 1) for n, (r, _) in enumerate(blocks)] + [
+            _table(f"kc{n}", c).replace("    ", "        ", 1) for n, (_, c) in enumerate(blocks)]
+        for n, b in enumerate(kb):
+            lines += [
+                f"        for (i = 0; i < {b}; i++)",
+                f"            for (j = 0; j < {b}; j++) Km[{b} * i + j] = an[{o['K'] + koff} + {k} * kr{n}[i] + kc{n}[j]];",
+            ] + _ginv_lines(b, f"Ki{n}")
+        lines += [
             f"        for (e = 0; e < {nd}; e++) {{",
             "            double *o = out + (row0 + row[e]) * stride;",
             f"            for (c = 0; c < {k}; c++) x[c] = o[qc[{e0} + c]];",
-            f"            for (c = 0; c < {k}; c++) {{",
-            "                tmp = 0.0;",
-            f"                for (i = 0; i < {k}; i++) tmp += x[i] * Ki[{k} * i + c];",
-            f"                o[qc[{e0} + c]] = tmp;",
-            "            }",
-            "        }",
-            "    }",
         ]
+        for n, b in enumerate(kb):
+            lines += [
+                f"            for (c = 0; c < {b}; c++) {{",
+                "                tmp = 0.0;",
+                f"                for (i = 0; i < {b}; i++) tmp += x[kc{n}[i]] * Ki{n}[{b} * i + c];",
+                f"                o[qc[{e0} + kr{n}[c]]] = tmp;",
+                "            }",
+            ]
+        lines += ["        }", "    }"]
     if aba:
         lines += [
             "    if (!msolve) return;",
@@ -602,6 +619,36 @@ def kernel_c(name, plan, nq, solve=False):
         ]
     lines.append("}")
     return "\n".join(lines)
+
+
+def _ginv_lines(k, ki):
+    """``ki`` = Km⁻¹ (k × k, Km overwritten) by Gauss-Jordan with partial pivoting, k a
+    constant (gcc unrolls it): the inverse of one diagonal block of a k-speed joint's K."""
+    return [
+        f"        for (i = 0; i < {k * k}; i++) {ki}[i] = i % {k + 1} == 0 ? 1.0 : 0.0;",
+        f"        for (j = 0; j < {k}; j++) {{",
+        "            p = j;",
+        f"            for (i = j + 1; i < {k}; i++)",
+        f"                if (fabs(Km[{k} * i + j]) > fabs(Km[{k} * p + j])) p = i;",
+        f"            for (c = 0; c < {k}; c++) {{",
+        f"                tmp = Km[{k} * j + c]; Km[{k} * j + c] = Km[{k} * p + c]; Km[{k} * p + c] = tmp;",
+        f"                tmp = {ki}[{k} * j + c]; {ki}[{k} * j + c] = {ki}[{k} * p + c]; {ki}[{k} * p + c] = tmp;",
+        "            }",
+        f"            piv = 1.0 / Km[{k} * j + j];",
+        f"            for (c = 0; c < {k}; c++) {{",
+        f"                Km[{k} * j + c] *= piv;",
+        f"                {ki}[{k} * j + c] *= piv;",
+        "            }",
+        f"            for (i = 0; i < {k}; i++) {{",
+        "                if (i == j) continue;",
+        f"                tmp = Km[{k} * i + j];",
+        f"                for (c = 0; c < {k}; c++) {{",
+        f"                    Km[{k} * i + c] -= tmp * Km[{k} * j + c];",
+        f"                    {ki}[{k} * i + c] -= tmp * {ki}[{k} * j + c];",
+        "                }",
+        "            }",
+        "        }",
+    ]
 
 
 def _aba_accelerations(name, plan):
@@ -789,8 +836,9 @@ def analytic_ops(plan, ncol=0):
         adds += (6 + 2 * ncol) * pairs
         muls += sum(d * (d + 1) // 2 for d in plan.dep)
         adds += sum(d * (d + 1) // 2 for d in plan.dep)
-    for _, k, _ in plan.multi:
-        muls += 2 * k ** 3 + plan.nd * k * k
-        adds += 2 * k ** 3 + plan.nd * k * k
+    for blocks in plan.kblocks:     # per diagonal block of K: Gauss-Jordan, then every row
+        for r, _ in blocks:
+            muls += 2 * len(r) ** 3 + plan.nd * len(r) ** 2
+            adds += 2 * len(r) ** 3 + plan.nd * len(r) ** 2
     divs = sum(k for _, k, _ in plan.multi) + (plan.nd if ncol and plan.solver == "aba" else 0)
     return {"adds": adds, "muls": muls, "divs": divs, "calls": 0}
