@@ -310,6 +310,11 @@ def kernel_c(name, plan, nq, solve=False):
         "    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] + a[4] * b[4] + a[5] * b[5];",
         "}",
         "",
+        f"static inline double {name}_rd_dot3(const double *a, const double *b)",
+        "{   /* the angular halves only: a = dY^T x, whose linear half is zero */",
+        "    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];",
+        "}",
+        "",
         f"static inline void {name}_rd_ymul(const double *y, const double *x, double *out)",
         "{   /* out = Y x, Y = {m, c (= m p), I_O (xx yy zz xy xz yz)}: [I_O x_w + c x x_l; m x_l - c x x_w] */",
         "    out[0] = y[4] * x[0] + y[7] * x[1] + y[8] * x[2] + y[2] * x[5] - y[3] * x[4];",
@@ -537,8 +542,8 @@ def kernel_c(name, plan, nq, solve=False):
         "                double *oa = out + (row0 + row[a]) * stride;",
         f"                oa[qcc] = sign * {name}_rd_dot(sa, fqc);",
         f"                oa[ucc] = sign * {name}_rd_dot(sa, fvc);",
-        f"                oc[qc[a]] = sign * ({name}_rd_dot(fac, dA + 6 * a) + {name}_rd_dot(ftc, dV + 6 * a));",
-        f"                oc[uc[a]] = sign * ({name}_rd_dot(fac, dAv + 6 * a) + {name}_rd_dot(ftc, sa));",
+        f"                oc[qc[a]] = sign * ({name}_rd_dot(fac, dA + 6 * a) + {name}_rd_dot3(ftc, dV + 6 * a));",
+        f"                oc[uc[a]] = sign * ({name}_rd_dot(fac, dAv + 6 * a) + {name}_rd_dot3(ftc, sa));",
     ] + ([
         f"                if (msolve) Mc[off[c] + dep[c] - dep[a]] = {name}_rd_dot(sa, fac);",
     ] if ltdl else []) + [
