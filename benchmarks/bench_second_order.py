@@ -16,7 +16,7 @@ Models: fixed bases only (the cart, UR10, Panda): on a floating base Pinocchio d
 along its Lie-group tangent, and at second order the change of variables from eomc's Euler
 angles brings K's own derivative (not compared here).
 
-Agreement, before timing: the C++ tensors ∂²τ/∂q², ∂²τ/∂u², ∂²τ/∂u∂q at 4 random states
+Agreement, before timing: the C++ tensors ∂²τ/∂q², ∂²τ/∂u², ∂²τ/∂q∂u at 4 random states
 against eomc's (Python ``model.hess_id``), largest difference relative to the largest entry.
 
 Usage: python benchmarks/bench_second_order.py [--cart 4,8,20] [--robots ur10,panda] [--rounds 7] [--write]
@@ -130,8 +130,10 @@ def run(model, ref, data, tmp, pin_obj, rounds):
         qq, vv, qv = (T[..., k][np.ix_(iv, iv, iv)] for k in range(3))
         H = model.hess_id(0.0, X[i], UD[i])
         scale = max(np.max(np.abs(qq)), np.max(np.abs(vv)), np.max(np.abs(qv)))
+        # Pinocchio's d2tau_dqdv(i, j, k) = d2 tau_i / dq_j dv_k (measured: q along the columns,
+        # whatever its header's comment says), eomc's [i, j, nq + k]
         diff = max(np.max(np.abs(H[:, :nq, :nq] - qq)), np.max(np.abs(H[:, nq:nq + nu, nq:nq + nu] - vv)),
-                   np.max(np.abs(H[:, nq:nq + nu, :nq] - qv)))
+                   np.max(np.abs(H[:, :nq, nq:nq + nu] - qv)))
         worst = max(worst, diff / scale)
     return {k: float(np.median(v)) for k, v in times.items()}, worst
 

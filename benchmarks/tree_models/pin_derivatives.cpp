@@ -96,8 +96,9 @@ extern "C" void pin_rnea_second_order(const double *q, const double *v, const do
 }
 
 // nv x nv x nv tensors, [i][j][k] = entry (i, j, k) at i * nv * nv + j * nv + k: d2 tau_i / dq_j dq_k,
-// d2 tau_i / dv_j dv_k, d2 tau_i / dv_j dq_k (Pinocchio's d2tau_dqdv: v along the columns, q the
-// pages) and dM_ij / dq_k (d2tau_dadq), all along Pinocchio's Lie tangent for q.
+// d2 tau_i / dv_j dv_k, d2 tau_i / dq_j dv_k (Pinocchio's d2tau_dqdv: q along the columns, v along
+// the pages, as measured against eomc's hess_id; its header's comment says the reverse) and
+// dM_ij / dq_k (d2tau_dadq), all along Pinocchio's Lie tangent for q.
 extern "C" void pin_copy_rnea_second_order(double *qq, double *vv, double *qv, double *aq) {
   const int nv = model->nv;
   for (int i = 0; i < nv; i++) for (int j = 0; j < nv; j++) for (int k = 0; k < nv; k++) {
