@@ -197,7 +197,7 @@ def header(rounds):
         f"median of {rounds} rounds, {bd.NS} states cycled.  eomc: `--formulation recursive`, functions rhs, "
         "inverse_dynamics, jac_id, hess_id.\n",
         "| model | nx | eomc hess_id ns | Pinocchio 2nd-order RNEA ns | **Pinocchio / hess_id** | "
-        "ops jac_id / hess_id | agreement (q,q), (u,u), (u,q) |",
+        "ops jac_id / hess_id | agreement (q,q), (u,u), (q,u) |",
         "|---|--:|--:|--:|--:|--|--|"]) + "\n"
 
 
