@@ -110,6 +110,7 @@ def run(name, cache):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("-k", action="append", default=[], help="only models whose name contains this")
+    parser.add_argument("--write-as", default=None, help="with -k: write the subset's table as results/NAME.md")
     args = parser.parse_args()
     names = [n for n in MODELS if not args.k or any(k in n for k in args.k)]
     rows = []
@@ -125,8 +126,8 @@ def main():
     header = environment_header("dm_control's suite with no flags: build, 5 s simulation, rhs vs mj_forward",
                                 notes=[f"dm_control {version('dm_control')}, mujoco {version('mujoco')}"])
     print(table)
-    if not args.k:
-        write_results("dm_suite", header + "\n" + table + "\n\n" + __doc__)
+    if not args.k or args.write_as:
+        write_results(args.write_as or "dm_suite", header + "\n" + table + "\n\n" + __doc__)
 
 
 if __name__ == "__main__":

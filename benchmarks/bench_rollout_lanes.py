@@ -1,4 +1,4 @@
-"""eomc.rollout with lanes=True (RK4 stages as NAME_rhs_batch calls) vs the scalar C rollout.
+"""eomc.rollout with lanes=True (RK4 stages as NAME_rhs_batch_p calls, in C) vs the scalar C rollout.
 
 Per model (built with rhs, rhs_batch; the build picks the machine's lanes), 4096 random starts,
 RK4, dt = 1e-3, 100 steps, record="final":
@@ -44,23 +44,26 @@ def main(argv):
         os.environ.update(env)
         m = compile_model(make(), f"rl{len(rows)}", functions=("rhs", "rhs_batch"), cache_dir=cache, progress=False)
         X0 = np.random.default_rng(0).uniform(-0.5, 0.5, (4096, m.nx))
-        times = {"scalar": [], "lanes": []}
+        P = np.asarray(m.param_defaults) * np.random.default_rng(1).uniform(0.9, 1.1, (4096, m.nparam))
+        times = {(lanes, rows_p): [] for lanes in (False, True) for rows_p in (False, True)}
+        out = {}
         for rnd in range(5):
-            for lanes in ((False, True) if rnd % 2 == 0 else (True, False)):
+            order = list(times) if rnd % 2 == 0 else list(times)[::-1]
+            for lanes, rows_p in order:
                 t0 = time.process_time()
-                res = rollout(m, X0, dt=1e-3, steps=100, threads=1, lanes=lanes)
-                times["lanes" if lanes else "scalar"].append(time.process_time() - t0)
-                if lanes:
-                    xl = res.x
-                else:
-                    xs = res.x
-        diff = float(np.abs(xl - xs).max() / max(np.abs(xs).max(), 1.0))
-        s, l_ = statistics.median(times["scalar"]), statistics.median(times["lanes"])
-        rows.append((label, m.nx, s, l_, diff))
+                res = rollout(m, X0, dt=1e-3, steps=100, threads=1, lanes=lanes, p=P if rows_p else None)
+                times[lanes, rows_p].append(time.process_time() - t0)
+                out[lanes, rows_p] = res.x
+        diff = max(float(np.abs(out[True, r] - out[False, r]).max() / max(np.abs(out[False, r]).max(), 1.0))
+                   for r in (False, True))
+        med = {k: statistics.median(v) for k, v in times.items()}
+        rows.append((label, m.nx, med[False, False], med[True, False], med[False, True], med[True, True], diff))
         print(rows[-1], flush=True)
-    head = ("| model | nx | scalar C rollout s | lanes rollout s | speed-up | max rel. difference of final states |\n"
-            "|--|--|--|--|--|--|")
-    text = head + "\n" + "\n".join(f"| {a} | {b} | {c:.3f} | {d:.3f} | {c / d:.2f} | {e:.1e} |" for a, b, c, d, e in rows)
+    head = ("| model | nx | scalar C rollout s | lanes rollout s | speed-up | scalar, one p per row s | "
+            "lanes, one p per row s | speed-up | max rel. difference of final states |\n"
+            "|--|--|--|--|--|--|--|--|--|")
+    text = head + "\n" + "\n".join(f"| {a} | {b} | {c:.3f} | {d:.3f} | {c / d:.2f} | {e:.3f} | {f:.3f} | "
+                                    f"{e / f:.2f} | {g:.1e} |" for a, b, c, d, e, f, g in rows)
     gcc = subprocess.run(["gcc", "--version"], capture_output=True, text=True).stdout.splitlines()[0]
     env = (f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; {machine_lanes()} lanes; {gcc}; "
            f"Python {platform.python_version()}; load average {os.getloadavg()[0]:.1f} (2 cores shared)")
@@ -70,7 +73,8 @@ def main(argv):
         (HERE / "results" / "rollout_lanes.md").write_text(
             "# rollout(lanes=True) vs the scalar C rollout (issue 31 items 1-2)\n\n"
             f"{env}.  benchmarks/bench_rollout_lanes.py: 4096 rows, RK4, dt 1e-3, 100 steps, one thread "
-            "(taskset -c 1), process CPU time, contestants alternating, median of 5.\n\n" + text + "\n")
+            "(taskset -c 1), process CPU time, contestants alternating, median of 5; the lanes loop in C "
+            "(eomc_rollout_lanes, blocks of 64 rows); one p per row: the parameters x U(0.9, 1.1).\n\n" + text + "\n")
     return 0
 
 

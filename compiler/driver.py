@@ -236,6 +236,8 @@ def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, fu
     extra = {"initial_state": spec.initial_state} if spec.initial_state is not None else None
     if getattr(spec, "timestep", None) is not None:      # the file's own step (MJCF <option timestep>)
         extra = {**(extra or {}), "timestep": spec.timestep}
+    if getattr(spec, "ground_check", None) is not None:   # runtime/ground_check.py: bodies under the ground
+        extra = {**(extra or {}), "ground_check": spec.ground_check}
     source = system if isinstance(system, (str, os.PathLike)) else None
     model = build_and_load(generated, backend=backend, cflags=cflags, cache_dir=cache_dir,
                            output_dir=output_dir, extra_metadata=extra, source=source, progress=progress)

@@ -226,6 +226,12 @@ def run_cases(model, preps, threads=None, progress=False, out=None, extra=None):
     write their rows into (simulate_many), else each case has its own.  extra(a, result)
     runs on the case's thread while its prepared arguments still exist; its value is
     yielded too: (i, result, extra value).
+
+    Cases that are each one plain eomc_integrate call (no events, switching points or
+    feedback, inputs on one time grid; see ``_rollout_ready``) run in blocks through eomc_rollout's C
+    threads instead (issue 31): the same call per case, so the same bits; a case that
+    fails there is run again the ordinary way, so its message, and method="auto"'s switch
+    to Radau, are simulate's.
     """
     n = len(preps)
     bar = _Progress(n, progress)
@@ -239,6 +245,14 @@ def run_cases(model, preps, threads=None, progress=False, out=None, extra=None):
         return i, res, more
 
     workers = max(1, min(int(threads or os.cpu_count() or 1), n))
+    if _rollout_ready(model, preps):
+        try:
+            for i, res, more in _rollout_cases(model, preps, workers, out, extra, one, bar):
+                preps[i] = None
+                yield (i, res) if extra is None else (i, res, more)
+        finally:
+            bar.close()
+        return
     try:
         with ThreadPoolExecutor(max_workers=workers) as pool:
             todo = iter(range(n))
@@ -258,6 +272,71 @@ def run_cases(model, preps, threads=None, progress=False, out=None, extra=None):
                     fut.cancel()
     finally:
         bar.close()
+
+
+ROLLOUT_BLOCK = 512     # cases per eomc_rollout call: progress and results come block by block
+
+
+def _rollout_ready(model, preps):
+    """True when every case is one eomc_integrate call with the same options but x0, p and
+    the input values: no events or switching points (their buffers and verdicts live in
+    Python), no feedback or input callables, inputs on one time grid (constant per case, or
+    tables sharing their times), not implicitfast (its fast path's per-run terms and its
+    warning)."""
+    a = preps[0] if preps else None
+    if a is None or any(k in a for k in ("events", "switches", "r_fun", "K", "r_slopes")):
+        return False
+    if a["method"] == "implicitfast" or model.c_model.rhs == model.ffi.NULL:
+        return False
+    return all(b is not None and b["t0"] == a["t0"] and b["t1"] == a["t1"] and b["t_eval"] is a["t_eval"]
+               and b["n_r"] == a["n_r"] and (b["n_r"] < 2 or np.array_equal(b["r_t"], a["r_t"]))
+               for b in preps)
+
+
+def _rollout_cases(model, preps, workers, out, extra, one, bar):
+    """Yield (i, result, extra value) for every case, eomc_rollout running one block ahead of
+    the Python that wraps the previous block's results (finish(): outputs, messages)."""
+    from .cdef import STATUS_ABORTED
+    from .rollout import _rollout_ffi, rollout_stats
+    from .simulate import _STAT_FIELDS, _options
+    n, a0 = len(preps), preps[0]
+    t_eval = a0["t_eval"]
+    opt = _options(_rollout_ffi(model.ffi)[0], a0)
+    blocks = [range(lo, min(n, lo + ROLLOUT_BLOCK)) for lo in range(0, n, ROLLOUT_BLOCK)]
+
+    def run(block):
+        X0 = np.ascontiguousarray([preps[i]["x0"] for i in block], dtype=np.float64)
+        P = np.ascontiguousarray([preps[i]["p"] for i in block], dtype=np.float64)
+        X_out = (out[block.start:block.stop] if out is not None
+                 else np.full((len(block), t_eval.size, model.nx), np.nan))
+        controls = (0, None, None, 0)
+        if a0["n_r"] and model.ninput:
+            R = np.ascontiguousarray([preps[i]["r_v"].ravel() for i in block], dtype=np.float64)
+            controls = (a0["n_r"], np.ascontiguousarray(a0["r_t"], dtype=np.float64), R, R.shape[1])
+        X_last, status, stats = rollout_stats(model, opt, a0["t0"], a0["t1"], X0, P, P.shape[1], t_eval,
+                                              X_out, workers, controls)
+        return X_out, X_last, status, stats
+
+    with ThreadPoolExecutor(max_workers=1) as ahead:
+        nxt = ahead.submit(run, blocks[0])
+        for b, block in enumerate(blocks):
+            X_out, X_last, status, stats = nxt.result()
+            if np.any(status == STATUS_ABORTED):
+                raise KeyboardInterrupt
+            if b + 1 < len(blocks):
+                nxt = ahead.submit(run, blocks[b + 1])
+            for k, i in enumerate(block):
+                if status[k] != 0:          # run again the ordinary way: simulate's message, auto's switch
+                    if out is not None:
+                        out[i] = np.nan
+                    yield one(i)
+                    continue
+                a = preps[i]
+                got = {f: getattr(stats[k], f) for f in _STAT_FIELDS}
+                res = finish(model, a, X_out[k], got, X_last[k].copy(), raise_on_failure=False)
+                more = extra(a, res) if extra is not None else None
+                bar.step()
+                yield i, res, more
 
 
 def simulate_many(model, x0, t_span, p=None, threads=None, progress=True,

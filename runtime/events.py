@@ -75,9 +75,16 @@ def resolve_events(model, events):
     ({"terminal": ..., "direction": ...}).  Names are the model's events or,
     failing that, its outputs; one run draws them all from one of the two.
     """
-    if events is None:
-        chosen = model_events(model, recorded=True)
-    elif events is False:
+    if events is None:      # the model's own: checked once, kept on the model (as find_switches)
+        cached = getattr(model, "_recorded_events", None)
+        if cached is None:
+            cached = (_resolve(model, model_events(model, recorded=True)),)
+            try:
+                model._recorded_events = cached
+            except AttributeError:
+                pass
+        return None if cached[0] is None else (cached[0][0], list(cached[0][1]))
+    if events is False:
         chosen = []
     elif isinstance(events, (str, Event)):
         chosen = [events]
@@ -89,6 +96,10 @@ def resolve_events(model, events):
         except TypeError:
             raise ValueError(f"{model.name}: events must be names, Event objects or a dict name -> "
                              f"options; got {type(events).__name__}") from None
+    return _resolve(model, chosen)
+
+
+def _resolve(model, chosen):
     if not chosen:
         return None
     declared = {e.name: e for e in model_events(model)}
@@ -174,31 +185,34 @@ class EventsBinding:
         check_max_events(max_events, model.nx)
         everything = list(self.events)
         switching = [0] * len(everything)
+        column_of = {nm: i for i, nm in enumerate(names)}          # dicts: a robot has ~50 of each
+        slot_of = {e.name: i for i, e in enumerate(everything)}
         self.contact_slots = []
         for c in (switches.contacts if switches is not None else ()):
             column = c.event if source == "events" else f"depth_{c.name}"
-            if column not in names:
+            if column not in column_of:
                 self.contact_slots.append(-1)
                 continue
-            slot = next((i for i, e in enumerate(everything) if e.name == column), None)
+            slot = slot_of.get(column)
             if slot is None:
                 everything.append(Event(column))
                 switching.append(2)         # switching only: not recorded, never terminal
-                slot = len(everything) - 1
+                slot = slot_of[column] = len(everything) - 1
             else:
                 switching[slot] = 1
             self.contact_slots.append(slot)
         for clip in (switches.clips if switches is not None and source == "events" else ()):
-            slot = next((i for i, e in enumerate(everything) if e.name == clip), None)
-            if slot is None and clip in names:
+            slot = slot_of.get(clip)
+            if slot is None and clip in column_of:
                 everything.append(Event(clip))
                 switching.append(2)         # switching only: the F_n >= 0 clip's kink
+                slot_of[clip] = len(everything) - 1
             elif slot is not None:
                 switching[slot] = 1
         limits = switches.limits if switches is not None else ()
         n = len(everything)
         cap = int(max_events) if self.events else 1     # switching only: nothing is recorded
-        self.col = np.array([names.index(e.name) for e in everything], dtype=np.intc)
+        self.col = np.array([column_of[e.name] for e in everything], dtype=np.intc)
         self.direction = np.array([e.direction for e in everything], dtype=np.intc)
         self.terminal = np.array([e.terminal if s != 2 else 0 for e, s in zip(everything, switching)],
                                  dtype=np.intc)
@@ -244,6 +258,11 @@ class EventsBinding:
         k = min(ev.n_rec, ev.capacity)
         ids = self.id_rec[:k]
         t_events, x_events = {}, {}
+        if ev.n_rec == 0 and not ev.terminated:     # nothing recorded: no masks to build
+            nx = self.x_rec.shape[1]
+            for e in self.events:
+                t_events[e.name], x_events[e.name] = np.empty(0), np.empty((0, nx))
+            return t_events, x_events, None, max(0, ev.n_rec - ev.capacity)
         for i, e in enumerate(self.events):
             mask = ids == i
             t_events[e.name] = self.t_rec[:k][mask].copy()

@@ -51,7 +51,7 @@ from .simulate import bind_call, finish, prepare, resolve_method, run_prepared
 __all__ = ["work_precision", "WorkPrecisionReport", "DEFAULT_METHODS", "DEFAULT_TOLERANCES",
            "DEFAULT_TARGET", "COLUMNS"]
 
-DEFAULT_METHODS = ("rk4", "dopri5", "dop853", "radau")
+DEFAULT_METHODS = ("rk4", "dopri5", "dop853", "bdf", "radau")   # auto takes one of the last four
 DEFAULT_TOLERANCES = tuple(10.0 ** -k for k in range(3, 11))
 TINY = 1e-300
 MIN_SAMPLE_S = 0.005     # one timing sample lasts at least this long ...

@@ -104,7 +104,7 @@ def plot_report(report, path, target_error=None):
     import matplotlib.pyplot as plt
     target = DEFAULT_TARGET if target_error is None else float(target_error)
     fig, ax = plt.subplots(figsize=(8.5, 6))
-    markers = dict(rk4="s", dopri5="o", dop853="^", radau="D")
+    markers = dict(rk4="s", dopri5="o", dop853="^", bdf="v", radau="D")
     for method in report.methods:
         rows = [r for r in report.ok_rows() if r["method"] == method]
         if not rows:

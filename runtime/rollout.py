@@ -7,8 +7,10 @@ rows to POSIX threads, each row being exactly one ``eomc_integrate`` call with t
 options ``simulate`` would pass, so every row equals the scalar ``simulate`` result bit
 for bit.  The GIL is released for the whole call (cffi releases it on every C call).
 
-Issue 31: fixed-step methods (rk4, implicitfast), no inputs (r = 0), no events (a model
-with a terminal event is refused; other events are not recorded).  Contacts and joint
+Issue 31: fixed-step methods (rk4, implicitfast) and adaptive ones (dopri5, dop853, radau,
+bdf; final states), inputs per row (constant or a control sequence on a time grid), no events (a model with a terminal event is refused;
+other events are not recorded).  ``simulate_many`` and ``eomc.sweep`` (each chunk, on any
+executor) run their plain cases through ``rollout_stats`` (runtime/batch.py).  Contacts and joint
 limits with implicitfast's fast path (NAME_implicit: they are forces in its matrix, no
 switching points needed); other methods refuse a model with contacts or limits, since their
 switching needs the event machinery of ``simulate``.
@@ -27,7 +29,7 @@ from .native import extension_library, integrator_library
 from .simulate import (IMPLICITFAST_SPLIT, _options, check_quaternions, depth_limits, failure_message,
                        implicit_for_run, implicit_terms, prepare, resolve_method)
 
-__all__ = ["rollout", "RolloutResult"]
+__all__ = ["rollout", "RolloutResult", "rollout_stats"]
 
 ROLLOUT_CDEF = header_cdef("eomc_rollout.h")
 
@@ -110,13 +112,56 @@ def _params(model, p, n):
     return P, (0 if len(rows) == 1 else P.shape[1])
 
 
-def rollout(model, x0s, *, dt, t_final=None, steps=None, method="rk4", p=None, threads=None,
-            record="final", raise_on_failure=True, lanes=False, split=IMPLICITFAST_SPLIT):
-    """Integrate every row of ``x0s`` ((n, nx)) from t = 0 with a fixed step ``dt``.
+def _controls(model, r, n):
+    """(n_rgrid, r_tgrid, R, r_stride) of eomc_rollout_stats from ``r`` (see ``rollout``)."""
+    if r is None:
+        return 0, None, None, 0
+    if model.ninput == 0:
+        raise ValueError(f"{model.name}: this model has no inputs, but r was given")
+    ni, names = model.ninput, ", ".join(model.input_names)
+    if isinstance(r, tuple):
+        if len(r) != 2:
+            raise ValueError(f"{model.name}: r as a tuple is a control sequence (t_grid, values); got a tuple "
+                             f"of {len(r)} items")
+        t_grid = np.ascontiguousarray(np.asarray(r[0], dtype=np.float64))
+        values = np.asarray(r[1], dtype=np.float64)
+        k = t_grid.size
+        if t_grid.ndim != 1 or k < 2:
+            raise ValueError(f"{model.name}: r=(t_grid, values): t_grid must be 1-d with at least 2 times; got "
+                             f"shape {t_grid.shape}")
+        if values.shape not in ((k, ni), (n, k, ni)):
+            raise ValueError(f"{model.name}: r=(t_grid, values): values must have shape ({k}, {ni}) (one sequence "
+                             f"for every row) or ({n}, {k}, {ni}) (one per row; inputs {names}); got "
+                             f"{values.shape}")
+        if not (np.all(np.isfinite(t_grid)) and np.all(np.isfinite(values))):
+            raise ValueError(f"{model.name}: r=(t_grid, values) holds non-finite values")
+        if np.any(np.diff(t_grid) <= 0):
+            raise ValueError(f"{model.name}: r=(t_grid, values): t_grid must be strictly increasing")
+        return k, t_grid, np.ascontiguousarray(values), (0 if values.ndim == 2 else k * ni)
+    values = np.asarray(r, dtype=np.float64)
+    if values.shape not in ((ni,), (n, ni)):
+        raise ValueError(f"{model.name}: r must have shape ({ni},) (the same inputs for every row), ({n}, {ni}) "
+                         f"(one row each; inputs {names}) or be a control sequence (t_grid, values); got "
+                         f"shape {values.shape}")
+    if not np.all(np.isfinite(values)):
+        i = int(np.flatnonzero(~np.isfinite(values.reshape(-1, ni)).any(axis=1))[0])
+        raise ValueError(f"{model.name}: r row {i} holds a non-finite input")
+    return 1, None, np.ascontiguousarray(values), (0 if values.ndim == 1 else ni)
+
+
+def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method="rk4", p=None, r=None, threads=None,
+            record="final", raise_on_failure=True, lanes=False, split=IMPLICITFAST_SPLIT,
+            rtol=1e-6, atol=1e-9, max_steps=100000):
+    """Integrate every row of ``x0s`` ((n, nx)) from t = 0 with a fixed step ``dt``, or
+    with an adaptive method to ``rtol``/``atol``.
 
     Give the span as ``t_final`` or as ``steps`` (t_final = steps * dt); the last step is
     shortened to end on t_final, as ``simulate`` does.  method: "rk4" or "implicitfast"
-    (needs jac_x).  p: None (defaults), (nparam,) for all rows or (n, nparam), one
+    (needs jac_x), fixed-step with ``dt``; or "dopri5", "dop853", "radau", "bdf" (the last
+    two need jac_x), adaptive: ``t_final``, ``rtol``, ``atol``, ``max_steps`` as in
+    ``simulate``, record="final" only (row i equals ``simulate(model, x0s[i], (0, t_final),
+    method=method, rtol=rtol, atol=atol).x_final`` bit for bit: the steps do not depend on
+    the output times).  "auto" is refused: its switch to Radau happens in Python.  p: None (defaults), (nparam,) for all rows or (n, nparam), one
     parameter row per trajectory.  threads: C threads (None: every core this process
     may run on).  record: "final" (x is (n, nx): what Monte Carlo and RL episodes
     consume, n * nx doubles whatever the span) or "steps" (x is (n, steps + 1, nx), the
@@ -130,24 +175,42 @@ def rollout(model, x0s, *, dt, t_final=None, steps=None, method="rk4", p=None, t
     row whose contact sinks past its radius fails with status 10 (with per-row parameters,
     the smallest radius of each contact over the rows).  Other methods refuse such models.
 
+    r: the inputs, None (zeros), (ninput,) for every row, (n, ninput) one constant row per
+    trajectory, or a control sequence (t_grid, values) with values (k, ninput) for every row or
+    (n, k, ninput) one per trajectory, linearly interpolated between the grid times (held at
+    its ends) -- row i then equals ``simulate(..., r=(t_grid, values[i]))`` bit for bit.
+
     A failed trajectory (singular mass matrix, non-finite state) raises SimulationError
     naming the first failed row; with raise_on_failure=False, result.status says which
     rows failed and their final rows hold the last good state.
 
-    lanes=True (rk4, a model built with ``rhs_batch``, one parameter row, no constraints or
-    quaternions): the rows are integrated together, each RK4 stage one NAME_rhs_batch call
-    over a thread's share of the rows (several rows per instruction), with the C loop's
-    arithmetic in the same order.  Rows then equal the scalar rollout's bit for bit when the
+    lanes=True (rk4, a model built with ``rhs_batch``, no constraints or quaternions): each C
+    thread takes blocks of 64 rows and integrates them together, every RK4 stage one
+    NAME_rhs_batch_p call over the block (several rows per instruction; one parameter row per
+    trajectory or one for all), with the scalar loop's arithmetic in the same order
+    (runtime/c/eomc_rollout.c).  Rows then equal the scalar rollout's bit for bit when the
     model was built with -DEOMC_BATCH_LIBM_TRIG, else within what the lanes' sin/cos (1 ulp
     of libm's) make of it.
     """
     method = resolve_method(method)
-    if method not in FIXED_STEP:
-        raise ValueError(f"rollout takes a fixed-step method ({', '.join(FIXED_STEP)}) so far; got {method!r} "
-                         f"(adaptive methods: simulate_many)")
+    if method == "auto":
+        raise ValueError(f"rollout needs the method named (fixed-step: {', '.join(FIXED_STEP)} with dt=; "
+                         f"adaptive: {', '.join(m for m in METHOD_IDS if m not in FIXED_STEP)}); 'auto' "
+                         f"switches to radau mid-run in Python (simulate_many does that)")
     if record not in ("final", "steps"):
         raise ValueError(f"record must be 'final' or 'steps'; got {record!r}")
-    if isinstance(dt, bool) or not isinstance(dt, numbers.Real) or not np.isfinite(dt) or dt <= 0:
+    adaptive = method not in FIXED_STEP
+    if adaptive:
+        if dt is not None or steps is not None:
+            raise ValueError(f"method {method!r} is adaptive: give t_final= (and rtol=, atol=), not dt= or "
+                             f"steps= (those are for {', '.join(FIXED_STEP)})")
+        if record != "final":
+            raise ValueError(f"record='steps' is the fixed-step grid; an adaptive rollout ({method!r}) "
+                             f"returns the final states (record='final'); for states at chosen times "
+                             f"use simulate_many(..., t_eval=)")
+        if lanes:
+            raise ValueError(f"rollout(lanes=True) takes method 'rk4'; got {method!r}")
+    elif isinstance(dt, bool) or not isinstance(dt, numbers.Real) or not np.isfinite(dt) or dt <= 0:
         raise ValueError(f"dt must be a finite step > 0; got {dt!r}")
     if (t_final is None) == (steps is None):
         raise ValueError("give the span as exactly one of t_final= or steps=")
@@ -181,16 +244,23 @@ def rollout(model, x0s, *, dt, t_final=None, steps=None, method="rk4", p=None, t
     X0 = _x0s(model, x0s)
     n = X0.shape[0]
     P, p_stride = _params(model, p, n)
+    controls = _controls(model, r, n)
     if lanes:
-        _lanes_allowed(model, method, p_stride)
-    nsteps = int(np.ceil(t_final / dt * (1 - 1e-12)))
-    # The options and step grid simulate would use (and its checks: jac_x for implicitfast).
-    a = prepare(model, X0[0] if n else None, (0.0, float(t_final)), p=P[0, :-1], method=method, dt=float(dt),
-                max_steps=max(100000, nsteps + 10), events=False, switching=False)
+        _lanes_allowed(model, method)
+    # The options and step grid simulate would use (and its checks: jac_x for implicitfast,
+    # radau and bdf; tolerances).
+    if adaptive:
+        a = prepare(model, X0[0] if n else None, (0.0, float(t_final)), p=P[0, :-1], method=method,
+                    rtol=rtol, atol=atol, max_steps=max_steps, t_eval=[float(t_final)], events=False,
+                    switching=False)
+    else:
+        nsteps = int(np.ceil(t_final / dt * (1 - 1e-12)))
+        a = prepare(model, X0[0] if n else None, (0.0, float(t_final)), p=P[0, :-1], method=method,
+                    dt=float(dt), max_steps=max(100000, nsteps + 10), events=False, switching=False)
     check_quaternions(model, X0, "x0s")     # every row's (the first one's: prepare)
     if lanes:
         t_eval = a["t_eval"] if record == "steps" else np.array([float(t_final)])
-        X_out, X_last, status, nstep = _rollout_lanes(model, X0, P[0, :-1], float(t_final), float(dt),
+        X_out, X_last, status, nstep = _rollout_lanes(model, X0, P, p_stride, controls, float(t_final), float(dt),
                                                       record == "steps", nthreads)
         return _finish(model, method, X0, P, p_stride, dt, t_eval, record, X_out, X_last, status, nstep,
                        raise_on_failure)
@@ -212,11 +282,39 @@ def rollout(model, x0s, *, dt, t_final=None, steps=None, method="rk4", p=None, t
                 lim = np.min([depth_limits(model, row[:-1]) for row in P], axis=0)
                 for k, v in enumerate(lim):
                     keep[1][k] = v
-        lib.eomc_rollout(model.c_model, _options(ffi, a, implicit), 0.0, float(t_final), n, buf(X0), buf(P), p_stride,
-                         n_eval, buf(t_eval), buf(X_out) if X_out is not None else ffi.NULL, buf(X_last),
-                         ffi.from_buffer("int[]", status), ffi.from_buffer("long[]", nstep), nthreads)
+        n_rgrid, r_tgrid, R, r_stride = controls
+        lib.eomc_rollout_stats(model.c_model, _options(ffi, a, implicit), 0.0, float(t_final), n, buf(X0), buf(P),
+                               p_stride, n_rgrid, buf(r_tgrid) if r_tgrid is not None else ffi.NULL,
+                               buf(R) if R is not None else ffi.NULL, r_stride, n_eval, buf(t_eval),
+                               buf(X_out) if X_out is not None else ffi.NULL, buf(X_last),
+                               ffi.from_buffer("int[]", status), ffi.from_buffer("long[]", nstep), ffi.NULL,
+                               nthreads)
     return _finish(model, method, X0, P, p_stride, dt, t_eval, record, X_out, X_last, status, nstep,
                    raise_on_failure)
+
+
+def rollout_stats(model, opt, t0, t1, X0, P, p_stride, t_eval, X_out, threads, controls=(0, None, None, 0)):
+    """One eomc_rollout_stats call over (t0, t1) (the batch path of simulate_many and eomc.sweep).
+
+    opt: the eomc_options of one prepared case (every row runs with it); t_eval: the output
+    times (X_out (n, len(t_eval), nx) is written in place), or None for the final state only.
+    Returns (X_last, status, stats) with stats the C array of each row's eomc_stats."""
+    ffi, lib = _rollout_ffi(model.ffi)
+    n = X0.shape[0]
+    X_last = np.empty((n, model.nx))
+    status = np.empty(n, dtype=np.intc)
+    stats = ffi.new("eomc_stats[]", max(n, 1))
+    buf = lambda arr: ffi.from_buffer("double[]", arr)  # noqa: E731
+    n_eval = 0 if t_eval is None else int(np.size(t_eval))
+    integrator_library(model.ffi)._arm()      # Ctrl-C stops every thread at its next evaluation
+    if n:
+        n_rgrid, r_tgrid, R, r_stride = controls
+        lib.eomc_rollout_stats(model.c_model, opt, float(t0), float(t1), n, buf(X0), buf(P), p_stride, n_rgrid,
+                               buf(r_tgrid) if r_tgrid is not None else ffi.NULL,
+                               buf(R) if R is not None else ffi.NULL, r_stride, n_eval,
+                               buf(t_eval) if n_eval else ffi.NULL, buf(X_out) if n_eval else ffi.NULL,
+                               buf(X_last), ffi.from_buffer("int[]", status), ffi.NULL, stats, threads)
+    return X_last, status, stats
 
 
 def _finish(model, method, X0, P, p_stride, dt, t_eval, record, X_out, X_last, status, nstep, raise_on_failure):
@@ -227,7 +325,7 @@ def _finish(model, method, X0, P, p_stride, dt, t_eval, record, X_out, X_last, s
         if status[i] == 9:
             raise KeyboardInterrupt
         stats = {"status": int(status[i]), "t": float("nan"), "t_fail": float("nan"), "steps": int(nstep[i]),
-                 "h": float(dt), "stiff_hlambda": 0.0}
+                 "h": float(dt) if dt else float("nan"), "stiff_hlambda": 0.0}
         reason = STATUS_NAMES.get(int(status[i]), f"status {status[i]}")
         raise SimulationError(f"{model.name}: rollout row {i} of {n} failed ({reason}; {failed.size} row(s) "
                               f"failed in all) -- "
@@ -238,14 +336,12 @@ def _finish(model, method, X0, P, p_stride, dt, t_eval, record, X_out, X_last, s
                          steps=nstep.astype(int), state_names=tuple(model.state_names))
 
 
-def _lanes_allowed(model, method, p_stride):
+def _lanes_allowed(model, method):
     why = []
     if method != "rk4":
         why.append(f"method {method!r} (lanes: rk4)")
     if "rhs_batch" not in model.functions or "rhs_batch" not in model._kernels:
         why.append("a model built without rhs_batch (functions=(..., 'rhs_batch'), --outputs ...,rhs_batch)")
-    if p_stride:
-        why.append("one parameter row per trajectory (lanes share one p)")
     if model.nhol or model.nvel:
         why.append("constraints (their projection runs in the scalar loop)")
     if model.quaternions:
@@ -255,84 +351,49 @@ def _lanes_allowed(model, method, p_stride):
                          + "; use lanes=False")
 
 
-def _rollout_lanes(model, X0, p, t1, h, steps_too, nthreads):
-    """RK4 over the columns of X0.T in lanes: the step grid and arithmetic of run_rk4
-    (runtime/c/eomc_integrators.c), every stage one rhs_batch call per thread's share."""
-    import threading
+LANES_BLOCK = 64    # rows per thread's block: 8 groups of 8 lanes; its columns stay in cache
+
+
+def _batch_p(model, ffi):
+    """NAME_rhs_batch_p of the model's library as the eomc_batch_fn ``ffi`` declares (the
+    model's own cdef lists only the functions of its ABI; this one is looked up here)."""
+    cached = model.__dict__.get("_batch_p_fn")
+    if cached is None:
+        import cffi
+        own = cffi.FFI()
+        own.cdef(f"int {model.name}_rhs_batch_p(int n, double t, const double *X, const double *P, "
+                 f"const double *R, double *XDOT, int *status, double *work);")
+        lib = own.dlopen(str(model.library_path))
+        try:
+            fn = getattr(lib, f"{model.name}_rhs_batch_p")
+        except AttributeError:
+            raise ValueError(f"{model.name}: its library has no {model.name}_rhs_batch_p (built by an older "
+                             f"eomc); rebuild it for rollout(lanes=True)") from None
+        cached = model.__dict__["_batch_p_fn"] = (own, lib, own.cast("uintptr_t", fn))
+    return ffi.cast("eomc_batch_fn", cached[2])
+
+
+def _rollout_lanes(model, X0, P, p_stride, controls, t1, h, steps_too, nthreads):
+    """RK4 over the rows in SIMD lanes, in C threads (eomc_rollout_lanes): each thread's block of
+    rows stored as columns, every stage one NAME_rhs_batch_p call, run_rk4's step grid and
+    arithmetic; one parameter row per row (P, p_stride) or one for all."""
+    ffi, lib = _rollout_ffi(model.ffi)
     n, nx = X0.shape
     nsteps = max(int(np.ceil((t1 - 0.0) / h * (1 - 1e-12))), 1)
     X_out = np.empty((n, nsteps + 1, nx)) if steps_too else None
     X_last = np.empty((n, nx))
-    status = np.zeros(n, dtype=np.intc)
-    nstep = np.zeros(n, dtype=np.int64)
-    kernel = model._kernels["rhs_batch"]
-    pp = model._prepare(np.ascontiguousarray(p, dtype=np.float64))
-    chunks = [c for c in np.array_split(np.arange(n), min(nthreads, max(n // 64, 1))) if c.size]
-    errors = []
-
-    def run(cols):
-        try:
-            m = cols.size
-            x = np.ascontiguousarray(X0[cols].T)
-            good = x.copy()
-            k1, k2, k3, k4 = (np.empty((nx, m)) for _ in range(4))
-            tmp, x1 = np.empty((nx, m)), np.empty((nx, m))
-            st = np.zeros(m, dtype=np.intc)
-            dead = np.zeros(m, dtype=bool)
-            done = np.zeros(m, dtype=np.int64)
-            work = model._work()[1]
-
-            def f(t, xs, out):
-                kernel(m, t, xs, pp, None, out, st, work)
-                bad = (st != 0) & ~dead
-                if bad.any():
-                    status[cols[bad]] = st[bad]
-                    dead[bad] = True
-
-            if steps_too:
-                X_out[cols, 0] = X0[cols]
-            f(0.0, x, k1)
-            for k in range(nsteps):
-                t = 0.0 + k * h
-                tn = t1 if k == nsteps - 1 else 0.0 + (k + 1) * h
-                hh = tn - t
-                done[~dead] += 1
-                np.add(x, 0.5 * hh * k1, out=tmp)
-                f(t + 0.5 * hh, tmp, k2)
-                np.add(x, 0.5 * hh * k2, out=tmp)
-                f(t + 0.5 * hh, tmp, k3)
-                np.add(x, hh * k3, out=tmp)
-                f(tn, tmp, k4)
-                np.add(x, hh / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4), out=x1)
-                nonfinite = ~np.isfinite(x1).all(axis=0) & ~dead
-                if nonfinite.any():
-                    status[cols[nonfinite]] = 3       # EOMC_NONFINITE
-                    dead[nonfinite] = True
-                f(tn, x1, k2)
-                live = ~dead
-                good[:, live] = x1[:, live]
-                if steps_too:     # a row that failed has no state at this step: NaN
-                    X_out[cols, k + 1] = np.where(dead[None, :], np.nan, x1).T
-                x, x1 = x1, x
-                k1, k2 = k2, k1
-                if dead.all():
-                    if steps_too:
-                        X_out[cols, k + 2:] = np.nan
-                    break
-            X_last[cols] = good.T
-            nstep[cols] = done
-        except BaseException as exc:       # re-raised in the caller
-            errors.append(exc)
-
-    threads = [threading.Thread(target=run, args=(c,)) for c in chunks[1:]]
-    for th in threads:
-        th.start()
-    if chunks:
-        run(chunks[0])
-    for th in threads:
-        th.join()
-    if errors:
-        raise errors[0]
+    status = np.empty(n, dtype=np.intc)
+    nstep = np.empty(n, dtype=np.int_ if ffi.sizeof("long") == 8 else np.int32)
+    buf = lambda arr: ffi.from_buffer("double[]", arr)  # noqa: E731
+    if n:
+        n_rgrid, r_tgrid, R, r_stride = controls
+        lib.eomc_rollout_lanes(_batch_p(model, ffi), nx, model.nparam, model.ninput, max(model.work_size, 1), 0.0,
+                               t1, h, n, buf(X0), buf(P), p_stride, n_rgrid,
+                               buf(r_tgrid) if r_tgrid is not None else ffi.NULL,
+                               buf(R) if R is not None else ffi.NULL, r_stride,
+                               buf(X_out) if steps_too else ffi.NULL, buf(X_last),
+                               ffi.from_buffer("int[]", status), ffi.from_buffer("long[]", nstep), LANES_BLOCK,
+                               nthreads)
     return X_out, X_last, status, nstep
 
 

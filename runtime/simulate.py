@@ -20,7 +20,7 @@ from eomc.runtime.errors import ModelError, SimulationError
 from .diagnose import SINGULAR_STATUS, singular_direction
 from .integrators_api import FIXED_STEP, METHOD_ALIASES, METHOD_IDS, STATUS_NAMES
 from .law_parameters import check_law_parameters
-from .events import DEFAULT_MAX_EVENTS, EventsBinding, resolve_events
+from .events import DEFAULT_MAX_EVENTS, EventsBinding, check_max_events, resolve_events
 from .feedback import FeedbackBinding, applied_inputs, check_callable, cubic_slopes
 from .names import index_of
 from .progress import follow_integration
@@ -387,7 +387,10 @@ def _extras(model, x0, t0, r, events, max_events, K, x_ref, method):
     if resolved is not None:
         out["events"] = resolved
         out["max_events"] = max_events
-        EventsBinding(model, *resolved, max_events=max_events)   # checks now, before any C runs
+        if events is None:      # the model's own events (checked when first resolved)
+            check_max_events(max_events, model.nx)
+        else:
+            EventsBinding(model, *resolved, max_events=max_events)   # checks now, before any C runs
     if callable(r):
         check_callable(model, r, t0, x0)
         out["r_fun"] = r
@@ -465,6 +468,7 @@ PENETRATED_STATUS = 10      # EOMC_PENETRATED
 # off: one model call per step, MuJoCo's implicitfast (a["split"] = 0: what benchmarks
 # measure as "unchecked").
 IMPLICITFAST_SPLIT = 0.5
+IMPLICITFAST_HARD_FACTOR = 20.0     # eomc_fixedstep.c HARD_FACTOR: split regardless above this x split
 
 
 def depth_limits(model, p):
@@ -942,10 +946,20 @@ def finish(model, a, x_out, stats, x_last, raise_on_failure=True):
     if a["method"] == "implicitfast" and status == 0 and stats["rejected"]:
         import warnings
         from .switching import PhysicsWarning
+        if a.get("_implicit_keep") is not None:
+            # the fast path (NAME_implicit): one linearised step, no Newton iterations; a step
+            # counts when its residual test still fails at 1/64 of dt (eomc_fixedstep.c)
+            split = a.get("split", IMPLICITFAST_SPLIT)
+            what = (f"{stats['rejected']} step(s) of 1/64 dt still missed implicit Euler: the linearised "
+                    f"step's Newton correction was more than {IMPLICITFAST_HARD_FACTOR * split:g} x the "
+                    f"step's own change of the speeds")
+        else:
+            # the W-method (jac_x only): simplified Newton, then Newton with a fresh jac_x
+            what = (f"Newton did not converge on {stats['rejected']} (sub-)step(s): their implicit "
+                    f"Euler equation was not solved to tolerance even split into 64")
         warnings.warn(PhysicsWarning(
-            f"{model.name}: implicitfast: the implicit Euler equation of {stats['rejected']} "
-            f"(sub-)step(s) was not solved to tolerance even split into 64 (a hard impact, or "
-            f"the solution blows up); a smaller dt, or method='radau', checks the result"), stacklevel=3)
+            f"{model.name}: implicitfast: {what} (a hard impact, or the solution blows up); a "
+            f"smaller dt, or an adaptive method (the default 'auto'), checks the result"), stacklevel=3)
     if ev is not None and "switches" in a and status == 0:
         from .switching import verdict
         seen = ev.switch_maxima()

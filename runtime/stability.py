@@ -171,12 +171,13 @@ def _constraints(model, x0, p, t_final, rtol, atol):
 def default_methods(model):
     """The methods ``eomc check`` runs when none are named: the default ("auto") and every
     method that applies -- explicit ones only for a model without ground contacts, where
-    they are the right tool (on contacts they stop as stiff, which is not news)."""
+    they are the right tool (on contacts they stop as stiff, which is not news); both
+    implicit ones (bdf, radau) where the model has jac_x, since auto picks either."""
     from .switching import find_switches
     implicit = model.c_model.jac_x != model.ffi.NULL
     if find_switches(model).contacts and implicit:
-        return ("auto", "radau")
-    return ("auto", "dopri5", "dop853") + (("radau",) if implicit else ())
+        return ("auto", "bdf", "radau")       # auto takes one of these (simulate.auto_method)
+    return ("auto", "dopri5", "dop853") + (("bdf", "radau") if implicit else ())
 
 
 def check_model(model, x0=None, t_final=10.0, p=None, rtol=1e-8, atol=1e-10,
@@ -192,7 +193,7 @@ def check_model(model, x0=None, t_final=10.0, p=None, rtol=1e-8, atol=1e-10,
     x0 = np.asarray([x0[n] for n in model.state_names] if isinstance(x0, dict) else x0, float)
     p = model.param_defaults if p is None else np.asarray(p, float)
     if model.c_model.jac_x == model.ffi.NULL:
-        methods = tuple(m for m in methods if m != "radau")
+        methods = tuple(m for m in methods if m not in ("radau", "bdf"))
     checks = [_finite_at_start(model, x0, p)]
     if not checks[0].passed:
         return checks

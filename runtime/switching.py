@@ -184,34 +184,47 @@ def verdict(model, a, result, gmax, sw):
     """Warnings (and a failed status for created energy) from what the run saw; returns
     (status, message addition) -- (0, "") when the physics looks right."""
     notes = []
-    p = a["p"]
-    ncontact = len(sw.contacts)
-    for j, c in enumerate(sw.contacts):
-        depth = gmax[j] if gmax is not None and j < len(gmax) else -np.inf
-        r = float(p[c.radius]) if c.radius >= 0 else 0.0
-        allowed = PENETRATION_FRACTION * r if r > 0 else POINT_PENETRATION
-        if np.isfinite(depth) and depth > allowed:
-            what = (f"{PENETRATION_FRACTION:g} of its radius {r:g} m" if r > 0
+    p = np.asarray(a["p"], dtype=float)
+    x0 = np.asarray(a["x0"], dtype=float)
+    ncontact, nlimit = len(sw.contacts), len(sw.limits)
+    seen = np.full(ncontact + nlimit, -np.inf)
+    if gmax is not None:
+        got_ = np.asarray(gmax, dtype=float)[:ncontact + nlimit]
+        seen[:got_.size] = got_
+    # vectorised over contacts and limits (a robot has dozens): a run's Python tail is part of
+    # the time a user waits at loose tolerances (benchmarks/results/contact_wp.md)
+    ix = _indices(sw)
+    with np.errstate(invalid="ignore"):
+        r = np.where(ix["radius"] >= 0, p[np.maximum(ix["radius"], 0)], 0.0)
+        allowed = np.where(r > 0, PENETRATION_FRACTION * r, POINT_PENETRATION)
+        depth = seen[:ncontact]
+        for j in np.flatnonzero(np.isfinite(depth) & (depth > allowed)):
+            c, rj = sw.contacts[j], float(r[j])
+            what = (f"{PENETRATION_FRACTION:g} of its radius {rj:g} m" if rj > 0
                     else f"{POINT_PENETRATION:g} m (a point contact)")
-            notes.append(f"contact {c.name} penetrated {depth:.3g} m, more than {what}: the contact is "
+            notes.append(f"contact {c.name} penetrated {depth[j]:.3g} m, more than {what}: the contact is "
                          f"too soft for the load (raise k_{c.name}) or the run went through the ground")
-    for j, lim in enumerate(sw.limits):
-        over = gmax[ncontact + j] if gmax is not None and ncontact + j < len(gmax) else -np.inf
-        e = float(p[lim.width]) if lim.width >= 0 else 3e-4
-        start = lim.sign * (float(a["x0"][lim.state]) - float(p[lim.param]))
-        if np.isfinite(over) and over > LIMIT_OVERSHOOT_WIDTHS * e and over > start + e:
-            # (a joint that started outside and only came back is warned about at the start)
-            notes.append(f"joint {lim.joint} went {over:.3g} past its {lim.side} limit "
+        e = np.where(ix["width"] >= 0, p[np.maximum(ix["width"], 0)], 3e-4)
+        start = ix["sign"] * (x0[ix["state"]] - p[ix["param"]])
+        over = seen[ncontact:]
+        # (a joint that started outside and only came back is warned about at the start)
+        for j in np.flatnonzero(np.isfinite(over) & (over > LIMIT_OVERSHOOT_WIDTHS * e)
+                                & (over > start + e)):
+            lim = sw.limits[j]
+            notes.append(f"joint {lim.joint} went {over[j]:.3g} past its {lim.side} limit "
                          f"{float(p[lim.param]):g}, more than {LIMIT_OVERSHOOT_WIDTHS} widths "
-                         f"({LIMIT_OVERSHOOT_WIDTHS * e:.3g}): its limit stiffness limit_k_{lim.joint} is "
+                         f"({LIMIT_OVERSHOOT_WIDTHS * e[j]:.3g}): its limit stiffness limit_k_{lim.joint} is "
                          f"too soft for the load")
+    from .ground_check import below_ground
+    notes += below_ground(model, result.t, result.x, p, POINT_PENETRATION, PENETRATION_FRACTION)
     status, extra = 0, ""
     got = _energy_gain(result, a) if (sw and "energy" in result.outputs and _no_sources(model, a)) else None
-    # a start past a limit holds spring energy no energy output counts, a start in contact its
-    # elastic energy, which a model's own energy output may leave out (the one generated for a
+    # a start past a limit holds spring energy an energy output may leave out (the one generated
+    # for a URDF robot counts it: metadata "energy" names the joint limits), a start in contact
+    # its elastic energy, which a model's own energy output may leave out (the one generated for a
     # robot counts it: metadata "energy"): a gain is then no proof
-    sprung = any(lim.sign * (float(a["x0"][lim.state]) - float(p[lim.param]))
-                 > (float(p[lim.width]) if lim.width >= 0 else 3e-4) for lim in sw.limits)
+    counted = "joint limits" in str(model.metadata.get("energy") or "")
+    sprung = not counted and bool(np.any(start > e))
     if not model.metadata.get("energy"):
         sprung = sprung or any(len(result.outputs.get(f"depth_{c.name}", ())) and
                                result.outputs[f"depth_{c.name}"][0] > 0 for c in sw.contacts)
@@ -230,6 +243,20 @@ def verdict(model, a, result, gmax, sw):
     if notes:       # one warning per run, naming every contact and joint
         warnings.warn(PhysicsWarning(f"{model.name}: " + "; ".join(notes)), stacklevel=_user_level())
     return status, extra
+
+
+def _indices(sw):
+    """The contacts' radius and the limits' state, parameter, width and sign indices as arrays
+    (kept on the Switches: a model's are fixed)."""
+    got = sw.__dict__.get("_indices")
+    if got is None:
+        got = dict(radius=np.array([c.radius for c in sw.contacts], dtype=int),
+                   state=np.array([lim.state for lim in sw.limits], dtype=int),
+                   param=np.array([lim.param for lim in sw.limits], dtype=int),
+                   width=np.array([lim.width for lim in sw.limits], dtype=int),
+                   sign=np.array([lim.sign for lim in sw.limits], dtype=float))
+        object.__setattr__(sw, "_indices", got)
+    return got
 
 
 def warn_outside_limits(model, x0, p):

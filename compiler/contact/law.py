@@ -29,7 +29,7 @@ v_s·tanθ/μ).  The force acts at the contact point p = c - r·n.
 """
 import sympy as sm
 
-__all__ = ["DEFAULTS", "EXPONENT", "ContactForces", "ground_forces", "ground_jacobians", "clip_switch",
+__all__ = ["DEFAULTS", "LOAD_SINK", "load_stiffness", "EXPONENT", "ContactForces", "ground_forces", "ground_jacobians", "clip_switch",
            "damping_from_restitution", "check_value"]
 
 # Default parameters per contact (SI units), and why:
@@ -45,10 +45,32 @@ __all__ = ["DEFAULTS", "EXPONENT", "ContactForces", "ground_forces", "ground_jac
 #                  closer to Coulomb (less creep) but stiffer (slope μ·F_n/v_s).
 # r   0 m          a point (a sphere of radius 0).
 DEFAULTS = {"k": 1.0e6, "c": 2.0, "mu": 1.0, "vs": 0.01, "r": 0.0}
+# A robot's named contacts (URDF links) that carry its weight: the default k is at least the
+# stiffness at which each, sharing the robot's weight W equally with the others, sinks
+# LOAD_SINK of its radius at rest (load_stiffness); the 1e6 above stays the floor.
+LOAD_SINK = 0.05
 EXPONENT = sm.Rational(3, 2)      # Hertz: a sphere on a plane
 
 _MEANING = {"k": "stiffness", "c": "damping", "mu": "friction coefficient",
             "vs": "friction regularisation speed", "r": "radius"}
+
+
+def load_stiffness(weight, count, radius, sink=LOAD_SINK):
+    """The default stiffness of a contact sphere of ``radius`` that is one of ``count`` contacts
+    sharing a robot's ``weight`` (N): Hertz's F = k δ^(3/2) at F = W/count and δ = sink·r, but
+    never below DEFAULTS["k"].
+
+    Why from the load (as the limits' default stiffness comes from the joint's load,
+    compiler/tree/joint_laws.limit_gains): a fixed k holds a light robot on large feet and lets
+    a heavy one on small feet sink through them.  G1 (35 kg) stands on eight 5 mm heel and toe
+    spheres; at k = 1e6 each sinks 1.2 mm (a quarter of its radius) at rest and its collapse
+    took them 7.5 mm deep, past their radius.  Go2 (15 kg, four 22 mm feet) keeps 1e6: its
+    rule's value is 1.0e6; Solo12 (2.5 kg) too (its rule: 2.6e5).  A point contact (r = 0) has
+    no radius to sink a fraction of: DEFAULTS["k"]."""
+    floor = DEFAULTS["k"]
+    if not (weight > 0 and count > 0 and radius and radius > 0):
+        return floor
+    return max(floor, (weight / count) / (sink * radius) ** 1.5)
 
 
 def check_value(name, key, value, where=None):
@@ -183,3 +205,32 @@ def ground_jacobians(forces, step, let=None):
     C = [[cn * carry[i] * n[j] + gf * ((1 if i == j else 0) - n[i] * n[j]) - gs * vt[i] * vt[j]
           for j in range(3)] for i in range(3)]
     return K, C
+
+
+class step(sm.Function):
+    """1 for x > 0, else 0: the derivative of eomc.compiler.tree.joint_laws.ramp, and the choice
+    between a body-body pair's candidate nearest points (.pairs).  Its own derivative is taken as
+    0 (it multiplies ramp(x), which vanishes where step jumps, in every law here; a pair's choice
+    switches where the candidates' distances tie).  Here, below the tree, so both can use it."""
+    nargs = 1
+
+    @classmethod
+    def eval(cls, x):
+        if x.is_Number:
+            return sm.S.One if x > 0 else sm.S.Zero
+
+    def fdiff(self, argindex=1):
+        return sm.S.Zero
+
+    def _eval_evalf(self, prec):
+        x = self.args[0].evalf(prec)
+        return (sm.S.One if x > 0 else sm.S.Zero) if x.is_Number else None
+
+    def _ccode(self, printer):
+        return f"(({printer._print(self.args[0])}) > 0.0 ? 1.0 : 0.0)"
+
+    def _numpycode(self, printer):
+        return f"numpy.heaviside({printer._print(self.args[0])}, 0.0)"
+
+    def _pythoncode(self, printer):
+        return f"(1.0 if ({printer._print(self.args[0])}) > 0 else 0.0)"

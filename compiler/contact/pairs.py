@@ -18,6 +18,9 @@ centre, a capsule's segment, a box's solid) with the radii around them --
                    in the box frame, radius 0 on the box's side); a centre inside the box has
                    no direction: such a pair (penetration beyond the sphere's radius) pushes
                    with a direction regularised by ``EPS`` instead
+- capsule–box      the segment's and the box's nearest points: the nearest of the two ends
+                   against the box and the segment against the box's 12 edges (exact for a
+                   segment outside the box; :func:`_segment_box`), one contact point
 
 then with d the vector between those points (A to B), |d| = sqrt(d·d + EPS²):
 
@@ -33,13 +36,14 @@ from dataclasses import dataclass
 import numpy as np
 import sympy as sm
 
-from .law import EXPONENT, _cross, _dot, _pos
+from .law import EXPONENT, _cross, _dot, _pos, clip_switch, step
 from .tree import LoweredLoad
 
-__all__ = ["PAIR_KINDS", "PairShape", "PairLoad", "pair_supported", "closest_points"]
+__all__ = ["PAIR_KINDS", "PairShape", "PairLoad", "PairValue", "pair_supported", "closest_points"]
 
 # the kinds whose pairs are modelled (either order)
-PAIR_KINDS = {("sphere", "sphere"), ("sphere", "capsule"), ("capsule", "capsule"), ("sphere", "box")}
+PAIR_KINDS = {("sphere", "sphere"), ("sphere", "capsule"), ("capsule", "capsule"), ("sphere", "box"),
+              ("capsule", "box")}
 EPS = 1e-12     # m: regularises |d| so that coincident centres give a finite (zero) force
 
 
@@ -60,6 +64,16 @@ class PairShape:
     where: str = ""
 
 
+class PairValue(sm.Function):
+    """Placeholder for a pair's computed quantity in outputs and events: PairValue(pair index,
+    kind index into :data:`.tree.OUTPUT_KINDS`, or :data:`.tree.CLIP_KIND`); :meth:`PairLoad.lower`
+    returns what replaces it (as :class:`.tree.ContactValue` for ground contacts)."""
+    nargs = 2
+
+    def _eval_derivative(self, s):       # never differentiated before it is replaced
+        return sm.S.Zero
+
+
 @dataclass(frozen=True)
 class PairLoad(LoweredLoad):
     """A contact between shapes ``a`` and ``b``: no force of its own until :meth:`lower`.
@@ -69,6 +83,7 @@ class PairLoad(LoweredLoad):
     b: PairShape
     params: dict               # "k", "c", "mu", "vs" -> Symbol (or literal when folded)
     margin: float = 0.0
+    index: int = 0             # its PairValue placeholders' first argument (outputs, events)
 
     @property
     def body(self):
@@ -85,7 +100,9 @@ class PairLoad(LoweredLoad):
         return out + [self.params[k] for k in ("k", "c", "mu", "vs")]
 
     def lower(self, bodies, rec, v, rename, poses):
-        """Add the pair's force to both bodies' fext (body components, about their origins)."""
+        """Add the pair's force to both bodies' fext (body components, about their origins);
+        return {PairValue placeholder: temporary}: F_n, the friction force on B (world), the
+        depth δ and the clip's switching function (:func:`.law.clip_switch`)."""
         what = f"the contact {self.name}"
         params = {k: rename(s, what) for k, s in self.params.items()}
         ren = lambda e: rename(e, what)      # noqa: E731 -- mass-centre parameters -> their slots
@@ -105,9 +122,12 @@ class PairLoad(LoweredLoad):
         vn = rec.let(_dot(n, vrel))
         vt = [rec.let(vrel[k] - vn * n[k]) for k in range(3)]
         scale = rec.let(-params["mu"] * fn / sm.sqrt(_dot(vt, vt) + params["vs"] ** 2))
+        ft = [scale * vt[k] for k in range(3)]        # outputs only: the rhs names f (as before)
         f = [rec.let(fn * n[k] + scale * vt[k]) for k in range(3)]      # on B, world components
         _apply(self.b, f, p, poses, bodies, rec)
         _apply(self.a, [-x for x in f], p, poses, bodies, rec)
+        quantities = [fn, *ft, depth, clip_switch(depth, params["c"], rate)]   # OUTPUT_KINDS, CLIP_KIND
+        return {PairValue(self.index, kind): value for kind, value in enumerate(quantities)}
 
 
 def _num(x):
@@ -156,24 +176,66 @@ def closest_points(a, b, let=lambda e: e):
         t = let(_clamp(_dot([ca[k] - cb[k] for k in range(3)], axis), -h, h))
         return ca, [let(cb[k] + t * axis[k]) for k in range(3)], a["size"][0], b["size"][0]
     if ka == "capsule" and kb == "capsule":
-        a1, a2, h1, h2 = a["axes"][2], b["axes"][2], a["size"][1], b["size"][1]
-        r = [let(ca[k] - cb[k]) for k in range(3)]
-        bb, c, f = let(_dot(a1, a2)), let(_dot(a1, r)), let(_dot(a2, r))
-        # den = 0 for parallel segments (then bf - c = 0 too): (bf - c)·den/(den² + 1e-24) is 0 there
-        # and finite with its derivatives (jac_x: (den² + ε)² must not underflow, so ε = 1e-24, not
-        # smaller); it is 1/den to 1e-8 relative once den > 1e-8
-        den = let(1 - bb * bb)
-        s0 = let(_clamp((bb * f - c) * den / (den ** 2 + sm.Float(1e-24)), -h1, h1))
-        t = let(_clamp(bb * s0 + f, -h2, h2))
-        s = let(_clamp(bb * t - c, -h1, h1))
-        return ([let(ca[k] + s * a1[k]) for k in range(3)], [let(cb[k] + t * a2[k]) for k in range(3)],
-                a["size"][0], b["size"][0])
+        xa, xb = _segments(ca, a["axes"][2], a["size"][1], cb, b["axes"][2], b["size"][1], let)
+        return xa, xb, a["size"][0], b["size"][0]
     if ka == "sphere" and kb == "box":
-        rel = [ca[k] - cb[k] for k in range(3)]
-        local = [let(_clamp(_dot(rel, b["axes"][j]), -b["size"][j], b["size"][j])) for j in range(3)]
-        q = [let(cb[k] + sum((local[j] * b["axes"][j][k] for j in range(3)), sm.S.Zero)) for k in range(3)]
-        return ca, q, a["size"][0], 0.0
+        return ca, _in_box(ca, b, let), a["size"][0], 0.0
+    if ka == "capsule" and kb == "box":
+        return (*_segment_box(ca, a["axes"][2], a["size"][1], b, let), a["size"][0], 0.0)
     raise ValueError(f"no contact between a {ka} and a {kb}")
+
+
+def _segments(ca, a1, h1, cb, a2, h2, let):
+    """Nearest points of the segments ca + s a1 (|s| <= h1) and cb + t a2 (|t| <= h2), unit a1, a2."""
+    r = [let(ca[k] - cb[k]) for k in range(3)]
+    bb, c, f = let(_dot(a1, a2)), let(_dot(a1, r)), let(_dot(a2, r))
+    # den = 0 for parallel segments (then bf - c = 0 too): (bf - c)·den/(den² + 1e-24) is 0 there
+    # and finite with its derivatives (jac_x: (den² + ε)² must not underflow, so ε = 1e-24, not
+    # smaller); it is 1/den to 1e-8 relative once den > 1e-8
+    den = let(1 - bb * bb)
+    s0 = let(_clamp((bb * f - c) * den / (den ** 2 + sm.Float(1e-24)), -h1, h1))
+    t = let(_clamp(bb * s0 + f, -h2, h2))
+    s = let(_clamp(bb * t - c, -h1, h1))
+    return [let(ca[k] + s * a1[k]) for k in range(3)], [let(cb[k] + t * a2[k]) for k in range(3)]
+
+
+def _in_box(x, box, let):
+    """The point of the solid box nearest to ``x`` (x clamped in the box frame)."""
+    cb = box["centre"]
+    rel = [x[k] - cb[k] for k in range(3)]
+    local = [let(_clamp(_dot(rel, box["axes"][j]), -box["size"][j], box["size"][j])) for j in range(3)]
+    return [let(cb[k] + sum((local[j] * box["axes"][j][k] for j in range(3)), sm.S.Zero)) for k in range(3)]
+
+
+def _segment_box(ca, axis, h, box, let):
+    """Nearest points of the segment ca + s·axis (|s| <= h) and a solid box, for a segment outside
+    the box: the nearest of 14 candidates -- each end against the box, the segment against each of
+    the box's 12 edges.  Why these suffice: if the nearest box point lies inside a face, the
+    segment's nearest point is an end or the segment runs parallel to the face, where its
+    distance is constant up to an end or the face's edge; else the box point is on an edge.
+    A segment that passes through the box (penetration deeper than the capsule's radius) has no
+    nearest points: the candidates then give a distance > 0 (the law weakens, as a sphere's
+    centre inside a box; the module docstring).  The choice is branch-free: candidate k replaces
+    the best so far when step(d²_best - d²_k) = 1 (a choice whose derivative is taken as 0,
+    right away from ties, where the distance is continuous)."""
+    ends = [[let(ca[k] + sign * h * axis[k]) for k in range(3)] for sign in (-1, 1)]
+    candidates = [(e, _in_box(e, box, let)) for e in ends]
+    cb, axes, size = box["centre"], box["axes"], box["size"]
+    for j in range(3):
+        u, w = [i for i in range(3) if i != j]
+        for su in (-1, 1):
+            for sw in (-1, 1):
+                centre = [let(cb[k] + su * size[u] * axes[u][k] + sw * size[w] * axes[w][k]) for k in range(3)]
+                candidates.append(_segments(ca, axis, h, centre, axes[j], size[j], let))
+    best_a, best_b = candidates[0]
+    best = let(sum(((best_b[k] - best_a[k]) ** 2 for k in range(3)), sm.S.Zero))
+    for xa, xb in candidates[1:]:
+        d2 = let(sum(((xb[k] - xa[k]) ** 2 for k in range(3)), sm.S.Zero))
+        take = let(step(best - d2))
+        best_a = [let(best_a[k] + take * (xa[k] - best_a[k])) for k in range(3)]
+        best_b = [let(best_b[k] + take * (xb[k] - best_b[k])) for k in range(3)]
+        best = let(best + take * (d2 - best))
+    return best_a, best_b
 
 
 def _point_velocity(shape, p, poses, v, rec):
@@ -216,14 +278,25 @@ class PairSpec:
 
 
 def with_pairs(built, specs, fold=False):
-    """``built`` (a reader's tree record: ``.tree``, ``.parameters``) with a :class:`PairLoad` per
-    :class:`PairSpec` in its tree's loads and the parameters ``k_``/``c_``/``mu_``/``vs_<name>``."""
+    """(``built`` (a reader's tree record: ``.tree``, ``.parameters``) with a :class:`PairLoad` per
+    :class:`PairSpec` in its tree's loads and the parameters ``k_``/``c_``/``mu_``/``vs_<name>``,
+    outputs, events).
+
+    Each pair has the ground contacts' outputs ``Fn_``/``Ftx_``/``Fty_``/``Ftz_``/``depth_<name>``
+    (normal force, friction force on the second geom B in world components, depth) and events
+    ``contact_<name>`` (touch-down: the runtime ends steps there and judges the depth,
+    runtime/switching.py) and ``clip_<name>`` (the damped law's lift-off in contact).  Why: a pair
+    without them let Radau step across its law's kinks (dm_control's manipulator stalled at
+    t = 0.2212 s with a 2e-16 step in its pommel–slot contact)."""
     import dataclasses
+    from .tree import CLIP_KIND, OUTPUT_KINDS
     from eomc.runtime.errors import ModelError
     from .geometry import _symbols, law_symbols
     from .law import check_value
     if not specs:
-        return built
+        return built, {}, {}
+    outputs, events = {}, {}
+    index = sum(1 for ld in built.tree.loads if isinstance(ld, PairLoad))
     loads = list(built.tree.loads)
     parameters = dict(built.parameters)
     taken = {str(s) for s in parameters}
@@ -237,9 +310,14 @@ def with_pairs(built, specs, fold=False):
         syms, base = _symbols(spec.name, False, taken)
         params = law_symbols(syms, values, fold, parameters, taken)
         a, b = (spec.a, spec.b) if spec.b.body >= 0 else (spec.b, spec.a)     # b moves: the load's body
-        loads.append(PairLoad(base, a, b, params, float(spec.margin)))
+        loads.append(PairLoad(base, a, b, params, float(spec.margin), index))
+        for kind, what in enumerate(OUTPUT_KINDS):
+            outputs[f"{what}_{base}"] = PairValue(index, kind)
+        events[f"contact_{base}"] = PairValue(index, OUTPUT_KINDS.index("depth"))
+        events[f"clip_{base}"] = PairValue(index, CLIP_KIND)
+        index += 1
     new = type(built).__new__(type(built))
     new.__dict__.update(built.__dict__)
     new.tree = dataclasses.replace(built.tree, loads=tuple(loads))
     new.parameters = parameters
-    return new
+    return new, outputs, events

@@ -18,12 +18,12 @@ import sympy as sm
 
 from eomc.runtime.errors import ModelError
 
-from .law import DEFAULTS
+from .law import DEFAULTS, load_stiffness
 from .system import contact_symbols, parameter_defaults, unit_normal
 
 __all__ = ["ContactSpec", "ContactLoad", "ContactValue", "ENERGY", "passive_contacts", "COLLISION_SPHERES", "parse_contact",
            "collision_spheres", "link_frame", "with_contacts", "contact_outputs", "body_com",
-           "LoweredLoad", "nearest", "with_located"]
+           "LoweredLoad", "nearest", "with_located", "expanded_specs", "built_weight"]
 
 # what each contact adds to the outputs (placeholders' kind index) and its event
 OUTPUT_KINDS = ("Fn", "Ftx", "Fty", "Ftz", "depth")
@@ -98,7 +98,7 @@ def collision_spheres(collisions, path):
     return out
 
 
-def _expanded(specs, collisions, path):
+def expanded_specs(specs, collisions, path):
     out = []
     for spec in specs:
         if spec.link == COLLISION_SPHERES:
@@ -203,7 +203,7 @@ def with_contacts(built, contacts, collisions, placements, fold=False):
     contact and link."""
     import numpy as np
     from eomc.runtime.geometry import identifier
-    specs = _expanded([as_spec(c) for c in contacts], collisions, built.source.path)
+    specs = expanded_specs([as_spec(c) for c in contacts], collisions, built.source.path)
     by_body = {b.name: i for i, b in enumerate(built.tree.bodies)}
     bodies_by_key = {identifier(b.name): b for b in built.source.bodies.values()}
     known = _all_links(built.source)
@@ -226,7 +226,20 @@ def with_contacts(built, contacts, collisions, placements, fold=False):
         source = bodies_by_key.get(body_link)
         com = getattr(source, "com", (0.0, 0.0, 0.0)) if source is not None else (0.0, 0.0, 0.0)
         return i, T[:3, :3] @ np.array(point) + T[:3, 3], com     # point in the body's first link frame
-    return with_located(built, specs, locate, fold, "link", identifier)
+    weight = built_weight(built)
+    return with_located(built, specs, locate, fold, "link", identifier, weight)
+
+
+def built_weight(built):
+    """The robot's weight m g (N) from its bodies' masses (URDF: the merged tree's) and its
+    gravity (the tree's gravity vector, 0 without gravity)."""
+    import math
+    try:
+        mass = sum(float(getattr(b, "mass", 0.0) or 0.0) for b in built.source.bodies.values())
+        g = math.sqrt(sum(float(x) ** 2 for x in built.tree.gravity.xreplace(built.parameters)))
+    except (AttributeError, TypeError, ValueError):
+        return 0.0
+    return mass * g
 
 
 def nearest(name, known):
@@ -236,9 +249,11 @@ def nearest(name, known):
     return f"; did you mean {', '.join(near)}?" if near else ""
 
 
-def with_located(built, specs, locate, fold, what, identifier):
+def with_located(built, specs, locate, fold, what, identifier, weight=0.0):
     """The common part of a reader's contacts: checks, parameters, ContactLoads, outputs and events.
-    ``locate(spec, point)`` -> (tree body index, point in its frame (numpy), its mass centre)."""
+    ``locate(spec, point)`` -> (tree body index, point in its frame (numpy), its mass centre);
+    ``weight``: the robot's weight (N) its contacts share, for the default stiffness
+    (law.load_stiffness; 0: the plain default)."""
     import dataclasses
     import numpy as np
     tree = built.tree
@@ -249,7 +264,10 @@ def with_located(built, specs, locate, fold, what, identifier):
         link = spec.link
         name = spec.name or identifier(link)
         try:
-            values = parameter_defaults(name, spec.k, spec.c, spec.mu, spec.vs, spec.radius,
+            k = spec.k
+            if k is None and weight > 0 and spec.radius:
+                k = load_stiffness(weight, len(specs), float(spec.radius))
+            values = parameter_defaults(name, k, spec.c, spec.mu, spec.vs, spec.radius,
                                         spec.restitution, spec.impact_speed, where=f"{what} {link}")
             n = unit_normal(spec.normal, name)
             point = [float(x) for x in spec.point]

@@ -433,9 +433,7 @@ def _param_list(params, rw):
         if not m:
             raise Unsupported(f"parameter {param!r}")
         const, name = m.groups()
-        if name == "p":
-            out.append(param)
-        elif name in ("x", "r", "F", "w") or name.startswith("S"):
+        if name in ("x", "r", "F", "w", "p") or name.startswith("S"):
             rw.vec_arrays.add(name)
             out.append(f"{const or ''}eomc_vd *{name}")
         else:
@@ -509,7 +507,8 @@ def batch_rhs(name, lines, parts, dynamics=""):
     text of Kane's NAME_dynamics helper (and its parts), which the rhs calls.
 
     The code defines ``static EOMC_VTARGET void NAME_rhs_lanes(double t, const eomc_vd *x,
-    const double *p, const eomc_vd *r, eomc_vd *xdot, int *st)``; raises :class:`Unsupported`
+    const eomc_vd *p, const eomc_vd *r, eomc_vd *xdot, int *st)`` (the parameters in lanes too:
+    one parameter row per state, or one row broadcast); raises :class:`Unsupported`
     when a line is of a shape the rewrite does not know."""
     used = set()
     renamed = {}
@@ -539,13 +538,13 @@ def batch_rhs(name, lines, parts, dynamics=""):
         new = (old.replace("_rhs_part", "_rhs_batch_part", 1) if "_rhs_part" in old else
                old.replace("_dynamics", "_batch_dynamics", 1))
         renamed[old] = new
-        rw = _Rewriter(name, (), ("p",), used)
+        rw = _Rewriter(name, (), (), used)
         params = _param_list(m.group(2), rw)
         rw.pair_scan(body)
         stmts = [_statement(rw, line, renamed) for line in body[1:-1]]
         out_parts.append("\n".join([f"static EOMC_NOINLINE EOMC_VTARGET void {new}({params})", "{"]
                                    + [s for s in stmts if s is not None] + ["}"]))
-    rw = _Rewriter(name, ("x", "r", "xdot"), ("p",), used)
+    rw = _Rewriter(name, ("x", "r", "xdot", "p"), (), used)
     rw.pair_scan(lines)
     stmts = [_statement(rw, line, renamed) for line in lines]
     guard = any("l_" in (s or "") for s in stmts)
@@ -555,7 +554,7 @@ def batch_rhs(name, lines, parts, dynamics=""):
     body += [s for s in stmts if s is not None]
     text = "\n".join(body)
     body = [f"    (void){a};" for a in ("t", "x", "p", "r", "st") if not re.search(rf"\b{a}\b", text)] + body
-    lanes = "\n".join([f"static EOMC_VTARGET void {name}_rhs_lanes(double t, const eomc_vd *x, const double *p, "
+    lanes = "\n".join([f"static EOMC_VTARGET void {name}_rhs_lanes(double t, const eomc_vd *x, const eomc_vd *p, "
                        f"const eomc_vd *r, eomc_vd *xdot, int *st)", "{"] + body + ["}"])
     return "\n\n".join(out_parts + [lanes]), used
 
@@ -577,29 +576,40 @@ def helpers(name, used):
     return "\n\n".join(code)
 
 
-def batch_function(name, nx, nr, lanes_code, helper_code):
+def batch_function(name, nx, nr, npar, lanes_code, helper_code):
     """(code before NAME_rhs_batch, its body): the prelude and the lane code (when there is
-    any), then the public function's body with its scalar tail and fallback."""
-    nr1 = max(nr, 1)
+    any), ``NAME_rhs_batch_p`` (one parameter row per state, ``P[j*n + k]``: what a rollout
+    of many parameter sets needs), then the public function's body with its scalar tail and
+    fallback.  Both run one static loop; shared parameters are broadcast into the lanes, so
+    the two give the same bits for the same parameters."""
+    nr1, np1 = max(nr, 1), max(npar, 1)
     block_inputs = (f"""    for (i = 0; i < {nr}; i++) {{
         if (R != NULL) __builtin_memcpy(&r[i], R + (size_t)i * n, sizeof(eomc_vd));
         else for (l = 0; l < EOMC_BATCH_LANES; l++) r[i][l] = 0.0;
     }}
 """ if nr else """    for (l = 0; l < EOMC_BATCH_LANES; l++) r[0][l] = 0.0;
 """)
+    block_params = (f"""    for (i = 0; i < {npar}; i++) {{
+        if (P != NULL) __builtin_memcpy(&pv[i], P + (size_t)i * n, sizeof(eomc_vd));
+        else for (l = 0; l < EOMC_BATCH_LANES; l++) pv[i][l] = p[i];
+    }}
+""" if npar else """    (void)p;
+    (void)P;
+    for (l = 0; l < EOMC_BATCH_LANES; l++) pv[0][l] = 0.0;
+""")
     simd = ""
     if lanes_code is not None:
         simd = f"""#if EOMC_BATCH_SIMD
 {helper_code + chr(10) + chr(10) if helper_code else ""}{lanes_code}
 
-static EOMC_VTARGET void {name}_rhs_block(double t, const double *X, size_t n, const double *p, const double *R,
-                                   double *XDOT, int *st)
+static EOMC_VTARGET void {name}_rhs_block(double t, const double *X, size_t n, const double *p, const double *P,
+                                   const double *R, double *XDOT, int *st)
 {{
-    eomc_vd x[{nx}], r[{nr1}], xdot[{nx}];
+    eomc_vd x[{nx}], pv[{np1}], r[{nr1}], xdot[{nx}];
     int i, l;
 {"" if nr else "    (void)R;" + chr(10)}    for (i = 0; i < {nx}; i++) __builtin_memcpy(&x[i], X + (size_t)i * n, sizeof(eomc_vd));
-{block_inputs}    for (l = 0; l < EOMC_BATCH_LANES; l++) st[l] = EOMC_OK;
-    {name}_rhs_lanes(t, x, p, r, xdot, st);
+{block_params}{block_inputs}    for (l = 0; l < EOMC_BATCH_LANES; l++) st[l] = EOMC_OK;
+    {name}_rhs_lanes(t, x, pv, r, xdot, st);
     for (i = 0; i < {nx}; i++) {{
         for (l = 0; l < EOMC_BATCH_LANES; l++) {{
             if (st[l] == EOMC_OK && !isfinite(xdot[i][l])) st[l] = EOMC_NONFINITE;
@@ -620,7 +630,8 @@ static EOMC_VTARGET void {name}_rhs_block(double t, const double *X, size_t n, c
     if (EOMC_VCPU_OK()) {{
         for (; k + EOMC_BATCH_LANES <= n; k += EOMC_BATCH_LANES) {{
             int st[EOMC_BATCH_LANES], l;
-            {name}_rhs_block(t, X + k, (size_t)n, p, R != NULL ? R + k : NULL, XDOT + k, st);
+            {name}_rhs_block(t, X + k, (size_t)n, p, P != NULL ? P + k : NULL, R != NULL ? R + k : NULL,
+                          XDOT + k, st);
             for (l = 0; l < EOMC_BATCH_LANES; l++) {{
                 if (status != NULL) status[k + l] = st[l];
                 if (st[l] != EOMC_OK && worst == EOMC_OK) worst = st[l];
@@ -631,21 +642,41 @@ static EOMC_VTARGET void {name}_rhs_block(double t, const double *X, size_t n, c
 """
     tail_inputs = (f"        for (i = 0; i < {nr}; i++) rs[i] = R != NULL ? R[(size_t)i * (size_t)n + (size_t)k] : 0.0;\n"
                    if nr else "        rs[0] = 0.0;\n")
-    body = f"""    double xs[{nx}], rs[{nr1}], xd[{nx}];
+    tail_params = (f"""        if (P != NULL) {{
+            for (i = 0; i < {npar}; i++) ps[i] = P[(size_t)i * (size_t)n + (size_t)k];
+        }}
+""" if npar else "")
+    loop = f"""static int {name}_rhs_batch_any(int n, double t, const double *X, const double *p, const double *P,
+                              const double *R, double *XDOT, int *status, double *work)
+{{
+    double xs[{nx}], ps[{np1}], rs[{nr1}], xd[{nx}];
     int k = 0, i, s, worst = EOMC_OK;
-{"" if nr else "    (void)R;" + chr(10)}    if (n < 0 || X == NULL || XDOT == NULL) return EOMC_BAD_ARGUMENT;
+{"" if nr else "    (void)R;" + chr(10)}{"" if npar else "    (void)P;" + chr(10)}    if (n < 0 || X == NULL || XDOT == NULL || (p == NULL && P == NULL)) return EOMC_BAD_ARGUMENT;
+    ps[0] = 0.0;
 {block_call}    for (; k < n; k++) {{
         for (i = 0; i < {nx}; i++) xs[i] = X[(size_t)i * (size_t)n + (size_t)k];
-{tail_inputs}        s = {name}_rhs(t, xs, p, rs, xd, work);
+{tail_inputs}{tail_params}        s = {name}_rhs(t, xs, P != NULL ? ps : p, rs, xd, work);
         for (i = 0; i < {nx}; i++) XDOT[(size_t)i * (size_t)n + (size_t)k] = s == EOMC_OK || s == EOMC_NONFINITE ? xd[i] : NAN;
         if (status != NULL) status[k] = s;
         if (s != EOMC_OK && worst == EOMC_OK) worst = s;
     }}
-    return worst;"""
-    return SIMD_PRELUDE + ("\n" + simd.rstrip("\n") if simd else ""), body
+    return worst;
+}}
+
+/* NAME_rhs_batch with one parameter row per state: P[j*n + k] is parameter j of state k. */
+int {name}_rhs_batch_p(int n, double t, const double *X, const double *P, const double *R, double *XDOT,
+                    int *status, double *work);
+int {name}_rhs_batch_p(int n, double t, const double *X, const double *P, const double *R, double *XDOT,
+                    int *status, double *work)
+{{
+    return {name}_rhs_batch_any(n, t, X, NULL, P, R, XDOT, status, work);
+}}
+"""
+    body = f"    return {name}_rhs_batch_any(n, t, X, p, NULL, R, XDOT, status, work);"
+    return SIMD_PRELUDE + ("\n" + simd.rstrip("\n") if simd else "") + "\n\n" + loop.rstrip("\n"), body
 
 
-def batch_code(name, nx, nr, printed, dynamics=""):
+def batch_code(name, nx, nr, printed, dynamics="", npar=0):
     """(code before NAME_rhs_batch, its body, metadata) from the scalar rhs's (lines, parts).
 
     The metadata says whether the lanes are vectorized and, when they are not, why (the
@@ -654,8 +685,8 @@ def batch_code(name, nx, nr, printed, dynamics=""):
     try:
         lanes, used = batch_rhs(name, lines, parts, dynamics)
     except Unsupported as exc:
-        before, body = batch_function(name, nx, nr, None, "")
+        before, body = batch_function(name, nx, nr, npar, None, "")
         return before, body, {"vectorized": False, "why": f"the scalar rhs {exc}", "layout": "nx x n"}
-    before, body = batch_function(name, nx, nr, lanes, helpers(name, used))
+    before, body = batch_function(name, nx, nr, npar, lanes, helpers(name, used))
     return before, body, {"vectorized": True, "layout": "nx x n",
                           "sin_cos": "vectorized fdlibm kernels, within 1 ulp of libm" if "trig" in used else None}

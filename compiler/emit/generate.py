@@ -308,7 +308,7 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
     rendered, op_counts = [], {}
     for fn in fns:
         if fn == "rhs_batch":   # the rhs's printed lines, rewritten into lanes (compiler/emit/batch.py)
-            before, body, meta_batch = batch_code(name, nx, len(layout.r), rhs_printed, dynamics_text)
+            before, body, meta_batch = batch_code(name, nx, len(layout.r), rhs_printed, dynamics_text, len(layout.p))
             rendered.append({"prototype": prototype(name, fn), "body": body, "parts": [before]})
             op_counts[fn] = dict(op_counts["rhs"])
             continue
@@ -420,7 +420,10 @@ def _render(name, meta, fns, rendered, solver, layout, sym, helper, split=False,
                                    "nvel", "work_size", "eomc_version")}
     header = env.get_template("model.h.j2").render(
         name=name, prototypes=[prototype(name, f) for f in fns]
-        + ([f"int {name}_pose_count(void)"] if "poses" in fns else []), vectors=_vector_docs(meta), **common)
+        + ([f"int {name}_pose_count(void)"] if "poses" in fns else [])
+        + ([f"int {name}_rhs_batch_p(int n, double t, const double *X, const double *P, const double *R, "
+            f"double *XDOT, int *status, double *work)"] if "rhs_batch" in fns else []),
+        vectors=_vector_docs(meta), **common)
     source = env.get_template("model.c.j2").render(
         name=name, functions=rendered,
         helper_code="\n".join(c for c in ((solver.code if uses_solver else ""), helper) if c),

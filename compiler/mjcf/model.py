@@ -420,7 +420,7 @@ def _with_contacts(model, m, built):
     from eomc.compiler.contact.tree import COLLISION_SPHERES, as_spec
     from .contacts import with_mjcf_contacts
     specs = [as_spec(c) for c in model.contacts]
-    named = [s for s in specs if s.link not in (COLLISION_SPHERES, "@none", "@ground")]
+    named = [s for s in specs if s.link not in (COLLISION_SPHERES, "@none", "@ground", "@no-ground")]
     geoms = model.geoms
     if geoms is None:
         geoms = not specs or any(s.link in (COLLISION_SPHERES, "@ground") for s in specs)
@@ -437,7 +437,8 @@ def _with_contacts(model, m, built):
                 built, built.tree.bodies[i].name, built.owners[i][1]), fold=model.fold_parameters)
             outputs, events = {**outputs, **more_outputs}, {**events, **more_events}
         if model.pairs is not False:
-            built = _with_pairs(model, m, built)
+            built, more_outputs, more_events = _with_pairs(model, m, built)
+            outputs, events = {**outputs, **more_outputs}, {**events, **more_events}
     return built, outputs, events
 
 
@@ -465,9 +466,9 @@ def _with_pairs(model, m, built):
     if skipped:
         text = "; ".join(f"{n} {kinds} pair(s) (e.g. {example})" for kinds, (n, example) in sorted(skipped.items()))
         warnings.warn(f"{Path(model.path).name}: no contact for {text}: they pass through each other (eomc "
-                      f"has sphere, capsule and sphere-box pairs)", EomcWarning, stacklevel=4)
+                      f"has sphere, capsule, sphere-box and capsule-box pairs)", EomcWarning, stacklevel=4)
     if not found:
-        return built
+        return built, {}, {}
     tree_body = {owner[0]: i for i, owner in enumerate(built.owners) if owner is not None}
     d = mujoco.MjData(m)
     mujoco.mj_kinematics(m, d)

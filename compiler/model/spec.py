@@ -46,6 +46,7 @@ class ModelSpec:
     # poses, shapes; on a robot's Kane route beside Kane's formed system
     model: Optional[Model] = field(default=None, repr=False)
     timestep: float = None              # the model file's own time step (MJCF <option timestep>), or None
+    ground_check: dict = field(default=None, compare=False)  # a robot's points that must stay above its ground (URDF), or None
 
 
 @dataclass(frozen=True)
@@ -167,7 +168,7 @@ def _checked(values, formed, name, where, origin=""):
             inputs=check_inputs(values.get("inputs"), formed),
             initial_state=check_initial_state(values.get("initial_state"), formed),
             outputs=outputs, system=values.get("system"), geometry=values.get("geometry"),
-            timestep=values.get("timestep"))
+            timestep=values.get("timestep"), ground_check=values.get("ground_check"))
     except Invalid as exc:
         raise where(exc) from None
 

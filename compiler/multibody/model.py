@@ -119,6 +119,9 @@ class Model(StateSizes):
     events: Mapping[str, sm.Expr] = field(default_factory=dict, compare=False)
     initial_state: Optional[Mapping[str, float]] = None
     timestep: Optional[float] = None     # the file's own time step (MJCF <option timestep>)
+    # the points of each body that must stay above the ground a robot's contacts touch, for the
+    # run's verdict (eomc.compiler.urdf.collision.ground_check; eomc.runtime.ground_check), or None
+    ground_check: Optional[dict] = field(default=None, compare=False)
     mechanics: Optional[Callable[[], sm.physics.mechanics.System]] = field(default=None, compare=False,
                                                                          repr=False)
     refusal: Optional[str] = None

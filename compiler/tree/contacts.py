@@ -46,9 +46,9 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None):
     poses = world_placement(bodies, rec)
     if implicit is not None:
         implicit["poses"], implicit["contacts"] = poses, []
-    for load in others:
-        load.lower(bodies, rec, v, rename, poses)
     values, elastic = {}, []
+    for load in others:     # a body-body pair returns its outputs' and events' values
+        values.update(load.lower(bodies, rec, v, rename, poses) or {})
     for index, load in enumerate(contacts):
         i = load.body
         what = f"contact {load.name} on body {tree.bodies[i].name}"
@@ -87,7 +87,9 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None):
         if energy is not None:      # the law's elastic part k δ₊^(3/2) stores k δ₊^(5/2) / (5/2)
             elastic.append(forces.parts["elastic"] * forces.parts["dpos"] / (EXPONENT + 1))
     if energy is not None:
-        values[ENERGY] = rec.let(_energy(bodies, v, poses, *energy) + sum(elastic, sm.S.Zero))
+        stored = getattr(tree, "joint_energy", None)       # the limits' springs (URDF)
+        limits = rename(stored, "the joint limits' elastic energy") if stored else sm.S.Zero
+        values[ENERGY] = rec.let(_energy(bodies, v, poses, *energy) + sum(elastic, sm.S.Zero) + limits)
     return values
 
 

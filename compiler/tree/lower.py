@@ -246,7 +246,8 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
     if contact_values:
         sym = _with_contact_values(sym, contact_values)
     if wants_energy:
-        sym = replace(sym, energy="kinetic, gravity and the ground contacts' elastic energy")
+        sym = replace(sym, energy="kinetic, gravity and the ground contacts' elastic energy"
+                      + (" and the joint limits' springs" if getattr(tree, "joint_energy", None) else ""))
     if regressor:
         sym = replace(sym, regressor_bodies=regressor[0], regressor_reference=regressor[1])
     if analytic is not None:

@@ -110,6 +110,10 @@ class Tree:
     # its axis, a function of its own coordinate and speed (damping, spring, limits, friction)
     # and inputs; read by the fixed-step integrator's NAME_implicit (compiler/tree/lower.py)
     joint_torques: tuple = field(default=(), compare=False)
+    # the elastic energy the joints' limit springs store (compiler/tree/joint_laws.limit_energy),
+    # a function of the coordinates and parameters, for the generated ``energy`` output; None
+    # where the laws have no such potential (MJCF's unilateral limits)
+    joint_energy: object = field(default=None, compare=False)
 
     @property
     def n(self):

@@ -17,7 +17,7 @@ from eomc.runtime.errors import EomcWarning, ModelError
 
 from ..contact.mujoco_law import MUJOCO_DEFAULTS, law_parameters
 
-__all__ = ["collision_shapes", "MUJOCO_DEFAULTS"]
+__all__ = ["collision_shapes", "ground_check", "MUJOCO_DEFAULTS"]
 
 
 def _mesh_vertices(filename, directory, scale, where):
@@ -46,11 +46,39 @@ def _mesh_vertices(filename, directory, scale, where):
     return v * np.asarray(scale if scale is not None else (1.0, 1.0, 1.0), dtype=float)
 
 
-def collision_shapes(built, collisions, placements, height=0.0):
+def _bounding_box(vertices):
+    """(centre, half sizes) of the vertices' axis-aligned box in their own frame."""
+    lo, hi = np.min(vertices, axis=0), np.max(vertices, axis=0)
+    return 0.5 * (lo + hi), 0.5 * (hi - lo)
+
+
+NEAR = 2.0      # a named sphere's radii within which a body's other geometry is left to it (boxes)
+
+
+def _boxed(points, near):
+    """(centre, half sizes) in the shape frame of the bounding box of ``points`` (shape frame,
+    with ``to_body(points)`` in the body frame) that lie farther than NEAR radii from every
+    named sphere ``near`` [(centre, radius)] of the body, or None when none do."""
+    pts, body = points
+    keep = np.ones(len(pts), dtype=bool)
+    for centre, radius in near:
+        keep &= np.linalg.norm(body - centre, axis=1) > NEAR * radius
+    return _bounding_box(pts[keep]) if keep.any() else None
+
+
+def collision_shapes(built, collisions, placements, height=0.0, skip=(), boxes=False, near=None):
     """[Shape] of the robot's collision geometry on its moving bodies, touching the plane z =
     ``height``: ``built``, the URDF's UrdfTree; ``collisions``, the reader's records
     (eomc.compiler.multibody.Collision, in file order); ``placements``: {link: (body key or
-    "world", 4x4 pose in that body's frame)} (:func:`eomc.compiler.contact.tree.link_frame`)."""
+    "world", 4x4 pose in that body's frame)} (:func:`eomc.compiler.contact.tree.link_frame`).
+    ``skip``: links left out.  ``boxes``: a mesh, box or cylinder becomes the 8 corners of its
+    bounding box in its own frame (the default ground of a robot with named contacts): never
+    inside the shape, so no part of the body goes deeper than its deepest corner, at a fixed 8
+    points per shape where a hull takes up to 32 (Go2's trunk, hips, thighs and calves: 88
+    points).  ``near``: {tree body index: [(centre (body link frame), radius)]} of the named
+    contact spheres: with ``boxes``, the shape's points within NEAR radii of one are left to
+    it before the box is taken (Go2's calf mesh reaches 8 mm past its foot sphere's centre; its
+    box would stand the robot on its shins)."""
     from eomc.compiler.contact.geometry import Shape
     from eomc.compiler.contact.tree import link_frame
     from .tree import identifier
@@ -70,6 +98,8 @@ def collision_shapes(built, collisions, placements, height=0.0):
         if found is None or found[0] == "world" or found[0] not in by_body:
             continue                       # welded to the ground, or not a moving body
         key, T = found
+        if link in skip:
+            continue
         T = np.asarray(T, dtype=float)
         for n, col in enumerate(cols):
             where = f"{path}:{col.line}: link {link!r} <collision>"
@@ -101,6 +131,16 @@ def collision_shapes(built, collisions, placements, height=0.0):
                     continue
             except (TypeError, ValueError, AttributeError):
                 raise ModelError(f"{where}: <{col.geometry}> with missing or bad sizes") from None
+            if boxes and kind in ("mesh", "box", "cylinder"):
+                from eomc.compiler.contact.geometry import shape_points
+                pts = np.asarray(vertices if kind == "mesh" else shape_points(kind, size)[0], dtype=float)
+                box = _boxed((pts, pts @ R.T + pos), (near or {}).get(by_body[key], ()))
+                if box is None:
+                    continue
+                centre, half = box
+                corners = np.unique(np.array([centre + half * (sx, sy, sz) for sx in (-1, 1) for sy in (-1, 1)
+                                              for sz in (-1, 1)]), axis=0)    # a flat box: 4 points
+                kind, size, vertices = "mesh", (), tuple(tuple(float(x) for x in c) for c in corners)
             name = identifier(link) + (f"_col{n}" if len(cols) > 1 else "_col")
             while name in names:
                 name += "_"
@@ -109,3 +149,32 @@ def collision_shapes(built, collisions, placements, height=0.0):
                                 rot=tuple(map(tuple, R)), normal=(0.0, 0.0, 1.0), height=float(height),
                                 k=k, c=c, mu=mu, vertices=vertices, where=where))
     return shapes
+
+
+def ground_check(built, collisions, placements, shapes=None):
+    """{"normal", "height", "bodies": {body frame: [[x, y, z, r], ...]}}: for the run's verdict
+    (eomc.runtime.ground_check), the points of each moving body that must stay above the
+    ground, in its link frame (the poses' body frame): its collision geometry's (a mesh's hull
+    vertices, thinned as the ground contacts thin them; a primitive's points of
+    eomc.compiler.contact.geometry.shape_points with their radius), or its origin when it has
+    none.  ``shapes``: collision_shapes' result when already made (without ``boxes``)."""
+    import warnings as _w
+    from eomc.compiler.contact.geometry import shape_points
+    if shapes is None:
+        with _w.catch_warnings():
+            _w.simplefilter("ignore")          # unreadable meshes were warned about by the ground
+            shapes = collision_shapes(built, collisions, placements)
+    names = [b.name for b in built.tree.bodies]
+    bodies = {name: [] for name in names}
+    for shape in shapes:
+        try:
+            points, radius, axes = shape_points(shape.kind, shape.size, shape.vertices)
+        except ValueError:
+            continue
+        R, pos = np.asarray(shape.rot, dtype=float), np.asarray(shape.pos, dtype=float)
+        r = radius if axes is None else float(max(axes))
+        bodies[names[shape.body]] += [[float(x) for x in pos + R @ np.asarray(pt, dtype=float)] + [float(r)]
+                                      for pt in points]
+    for name in names:
+        bodies[name] = bodies[name] or [[0.0, 0.0, 0.0, 0.0]]
+    return {"normal": [0.0, 0.0, 1.0], "height": 0.0, "bodies": bodies}

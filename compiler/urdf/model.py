@@ -39,8 +39,9 @@ class UrdfModel:
     limits: bool = True          # the file's joint limits, damping and friction act (False: ignored)
     contacts: tuple = ()        # ground contacts (eomc.compiler.contact.tree.ContactSpec or text)
     allow_nonphysical_inertia: bool = False
-    ground: bool = False        # the <collision> geometry touches the plane z = 0 (.collision); also
-                                # contacts=["@ground"] / --ground
+    ground: bool = None         # the <collision> geometry touches the plane z = 0 (.collision); also
+                                # contacts=["@ground"] / --ground.  None (the default): the other
+                                # bodies' geometry does when contacts are named (_ground); False: never
 
     def __post_init__(self):
         from .tree import floating_base_type
@@ -112,9 +113,15 @@ def model_of_robot(robot, tree, model, poses=False):
         from eomc.compiler.contact.tree import with_contacts
         built, outputs, events = with_contacts(built, named, collisions, welds(), fold=model.fold_parameters)
     if ground:
-        built, more_outputs, more_events = _with_ground(built, model.fold_parameters, collisions, welds())
+        from eomc.compiler.contact.tree import expanded_specs
+        built, more_outputs, more_events = _with_ground(
+            built, model.fold_parameters, collisions, welds(), others=ground == "others",
+            named=expanded_specs(named, collisions, robot.path) if named else ())
         outputs, events = {**outputs, **more_outputs}, {**events, **more_events}
     extra = {}
+    if named or ground:        # a robot that touches the ground: which of it must stay above it
+        from .collision import ground_check
+        extra["ground_check"] = ground_check(built, collisions, welds())
     if poses:
         from eomc.runtime.geometry import urdf_visuals
         extra["welds"] = welds()
@@ -203,8 +210,10 @@ def urdf_formed(read, formulation, overrides, formed_system):
         from eomc.compiler.contact.tree import merged_outputs, passive_contacts
         if read.outputs or read.events:
             overrides = merged_outputs(overrides, dict(read.outputs), dict(read.events), passive_contacts(read))
-        return read, merged_initial_state(merged_defaults(overrides, read, read.defaults, read.joint_inputs),
-                                          read), None
+        values = merged_initial_state(merged_defaults(overrides, read, read.defaults, read.joint_inputs), read)
+        if read.ground_check is not None:      # into the built model's metadata (runtime/ground_check.py)
+            values = {**values, "ground_check": read.ground_check}
+        return read, values, None
     if read.outputs or read.events:
         from eomc.runtime.errors import ModelError
         raise ModelError(f"{read.source.path}: ground contacts on a URDF robot are lowered by the recursive "
@@ -220,24 +229,65 @@ def urdf_formed(read, formulation, overrides, formed_system):
 
 
 GROUND = "@ground"      # contacts=[...] entry: the robot's <collision> geometry on the plane z = 0
+NO_GROUND = "@no-ground"    # contacts=[...] entry: only the named contacts touch it (--no-ground)
 
 
 def _ground(model):
-    """(the named contact specs, whether the collision geometry touches the ground)."""
+    """(the named contact specs, "all" | "others" | None: which bodies' collision geometry
+    touches the ground).
+
+    "all": asked for (``ground=True``, ``@ground``, --ground).  "others", the default when
+    contacts are named: the collision geometry of every body that carries no named contact
+    meets the same ground, so a robot whose feet are its contacts does not pass its trunk and
+    legs through the floor when it collapses (Go2 and Solo12 ended with their trunks 0.07 and
+    0.24 m under it: issue 29).  The bodies with named contacts keep only those (Go2's calf
+    mesh reaches within 8 mm of its foot's centre: it would stand on its shin).  None:
+    ``ground=False``, ``@no-ground`` or --no-ground, or no contacts named."""
     from eomc.compiler.contact.tree import as_spec
     specs = [as_spec(c) for c in model.contacts]
-    return [s for s in specs if s.link != GROUND], model.ground or any(s.link == GROUND for s in specs)
+    named = [s for s in specs if s.link not in (GROUND, NO_GROUND)]
+    if model.ground or any(s.link == GROUND for s in specs):
+        return named, "all"
+    if model.ground is False or any(s.link == NO_GROUND for s in specs) or not named:
+        return named, None
+    return named, "others"
 
 
-def _with_ground(built, fold, collisions, placements):
+def _named_spheres(built):
+    """{tree body index: [(centre in its link frame, radius)]} of the named contacts."""
+    import numpy as np
+    import sympy as sm
+    from eomc.compiler.contact.tree import ContactLoad, body_com
+    values = {**built.parameters}
+    out = {}
+    for ld in built.tree.loads:
+        if isinstance(ld, ContactLoad):
+            body = built.tree.bodies[ld.body]
+            source = {b.name: b for b in built.source.bodies.values()}.get(body.name)
+            com = body_com(built, body.name, getattr(source, "com", (0.0, 0.0, 0.0)))
+            centre = [float(sm.sympify(ld.offset[k] + com[k]).xreplace(values)) for k in range(3)]
+            radius = float(sm.sympify(ld.params["r"]).xreplace(values))
+            out.setdefault(ld.body, []).append((np.array(centre), radius))
+    return out
+
+
+def _with_ground(built, fold, collisions, placements, others=False, named=()):
     """(built, outputs, events) with the <collision> shapes on the ground (.collision):
-    ``collisions`` and ``placements`` as the reader found them."""
+    ``collisions`` and ``placements`` as the reader found them; ``others``: the default ground
+    beside the ``named`` contacts (ContactSpecs): their links' own geometry is theirs, the
+    rest as bounding boxes, near the named spheres left to them (collision.collision_shapes)."""
     from eomc.compiler.contact.geometry import with_shapes
     from eomc.compiler.contact.tree import body_com
     from eomc.runtime.errors import ModelError
     from .collision import collision_shapes
     from .tree import identifier
-    shapes = collision_shapes(built, collisions, placements)
+    if others:
+        shapes = collision_shapes(built, collisions, placements, skip={s.link for s in named}, boxes=True,
+                                  near=_named_spheres(built))
+        if not shapes:
+            return built, {}, {}
+    else:
+        shapes = collision_shapes(built, collisions, placements)
     if not shapes:
         raise ModelError(f"{built.source.path}: a ground was asked for (--ground, ground=True), but no moving "
                          f"link has <collision> geometry")

@@ -61,7 +61,7 @@ def tree_ir(tree, *, fold=False, gravity=9.81, laws=True):
     inertias = joint_inertias(tree) if laws else None
     bodies, coordinates, speeds, kinematics, inputs, loads, offsets = [], [], [], [], [], [], []
     index, coms, quaternions = {}, {}, []
-    torques = []
+    torques, potentials = [], []
     for tj in tree.joints:
         body = tree.bodies[tj.child]
         s = identifier(body.name)
@@ -102,6 +102,7 @@ def tree_ir(tree, *, fold=False, gravity=9.81, laws=True):
             inputs.append(tau)
             if laws:
                 tau = tau + law_torque(tree, tj, qs[0], us[0], params, inertias)
+                potentials.append(law_energy(tree, tj, qs[0], params, inertias))
             torques.append((qs[0], us[0], tau))
             loads += actuation(tj.type == "prismatic", tau, a, R0, c, p, cp, index[tj.child], parent)
     g = params("g", gravity) if gravity else sm.S.Zero
@@ -111,7 +112,7 @@ def tree_ir(tree, *, fold=False, gravity=9.81, laws=True):
     ir = Tree(bodies=tuple(bodies), coordinates=tuple(coordinates), speeds=tuple(speeds),
               kinematics=tuple(kinematics), gravity=sm.Matrix([0, 0, -g]), loads=tuple(loads),
               quaternions=tuple(quaternions),
-              joint_torques=tuple(torques))
+              joint_torques=tuple(torques), joint_energy=_total(potentials))
     return UrdfTree(ir, tuple(coordinates), tuple(speeds), tuple(kinematics), params.values, inputs, tree,
                     tuple(offsets))
 
@@ -154,6 +155,18 @@ def law_torque(tree, tj, q, u, params, inertias):  # inertias: joint -> JointSca
     if not law.active:
         return sm.S.Zero
     return joint_torque(q, u, law, params, identifier(tj.name), inertias[tj.name])
+
+
+def law_energy(tree, tj, q, params, inertias):
+    """The elastic energy of the joint's limit springs (joint_laws.limit_energy)."""
+    from eomc.compiler.tree.joint_laws import limit_energy
+    law = joint_law(tree, tj)
+    return limit_energy(q, law, params, identifier(tj.name), inertias[tj.name]) if law.limited else sm.S.Zero
+
+
+def _total(potentials):
+    """Their sum, or None when one of them is not a potential (the energy leaves the limits out)."""
+    return None if any(p is None for p in potentials) else sum(potentials, sm.S.Zero)
 
 
 def joint_inertias(tree):

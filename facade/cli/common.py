@@ -56,6 +56,9 @@ def add_contact_argument(parser):
                         help="URDF: the robot's <collision> geometry (boxes, cylinders, spheres, meshes) touches "
                              "the plane z = 0, with MuJoCo's default contact (same as --contact @ground; MJCF "
                              "models take their collision geoms without it)")
+    parser.add_argument("--no-ground", dest="contact", action="append_const", const="@no-ground",
+                        help="URDF: only the named --contact spheres touch the ground (by default the "
+                             "<collision> geometry of the robot's other bodies meets it too)")
 
 
 # eomc.compiler.mjcf.model.IGNORABLE, written out: the CLI must not import the compiler to

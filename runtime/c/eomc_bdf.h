@@ -26,6 +26,9 @@ typedef struct eomc_bdf_fns {
     int (*jac)(void *ctx, double t, const double *x, double *J);
     /* nonzero (the run's status) when the run must stop now: Ctrl-C, a failed callback */
     int (*aborted)(void *ctx);
+    /* NULL, or: *theta in (0, 1] = the fraction of the step [t, tn] to the first switching
+     * point the predicted state yp at tn lies past (1: none); an eomc_status */
+    int (*predict)(void *ctx, double tn, const double *yp, double *theta);
 } eomc_bdf_fns;
 
 typedef struct eomc_bdf {

@@ -209,6 +209,7 @@ typedef struct ctx {
                                 an augmented sensitivity model: eomc_stagger.h) */
     eomc_stagger *sg;        /* Radau's staggered sensitivities, the adjoint's checkpoints, or NULL */
     int istop;               /* next of sg->tstop */
+    const double *bdf_x;     /* BDF: the state at the current step's start (bdf_predict) */
 } ctx;
 
 /* ---------------------------------------------------------------- Ctrl-C */
@@ -1686,13 +1687,16 @@ static int bdf_rhs(void *u, double t, const double *x, double *f) { return frhs(
 static int bdf_jac(void *u, double t, const double *x, double *J) { return fjac((ctx *)u, t, x, J); }
 static int bdf_aborted(void *u) { return aborted((ctx *)u); }
 
+static int bdf_predict(void *u, double tn, const double *yp, double *theta);
+
 static int run_bdf(ctx *c, const eomc_options *o, proj *pj, double t0, double t1,
                    double *x, outw *ow, double **pos)
 {
     int n = c->n, s;
     double *f = take(pos, n), *xs = take(pos, 2 * (size_t)n), *tmp = take(pos, n);
     double *f1 = take(pos, n), hmax = o->hmax > 0 ? o->hmax : t1 - t0, h;
-    eomc_bdf_fns fns = {c, bdf_rhs, bdf_jac, bdf_aborted};
+    eomc_bdf_fns fns = {c, bdf_rhs, bdf_jac, bdf_aborted, bdf_predict};
+    c->bdf_x = x;
     eomc_bdf b;
     eomc_bdf_init(&b, &fns, c->st, n, BDF_TOL_SHARE * o->rtol, BDF_TOL_SHARE * o->atol, hmax,
                   o->max_steps, take(pos, eomc_bdf_work_size(n)));
@@ -1977,6 +1981,40 @@ static double sw_lin(const ctx *c, int j, const double *x)
     const eomc_events *ev = c->ev;
     int l = j - ev->n;
     return ev->lin_s[l] * (x[ev->lin_x[l]] - c->p[ev->lin_p[l]]);
+}
+
+/* BDF's predicted state at tn against the switching functions: *theta = the fraction of the
+ * step [t, tn] to the first one whose sign changes, by linear interpolation between its value
+ * at the step's start (gold, or the state for a limit) and at the prediction; 1 when none. */
+static int bdf_predict(void *u, double tn, const double *yp, double *theta)
+{
+    ctx *c = (ctx *)u;
+    eomc_events *ev = c->ev;
+    evparts e;
+    swparts w;
+    int m;
+    *theta = 1.0;
+    if (!c->nsw || !ev || c->ev->sw_observe) return EOMC_OK;
+    e = ev_parts(c);
+    w = sw_parts(c);
+    m = ev->n + ev->nlin;
+    if (c->nswe) {
+        double t_fail = c->st->t_fail;
+        if (events_eval(c, tn, yp, e.gtmp)) {   /* not finite there: Newton will see it */
+            c->st->t_fail = t_fail;
+            return EOMC_OK;
+        }
+    }
+    for (int j = 0; j < m; j++) {
+        double g0, g1, th;
+        if (!is_switch(ev, j)) continue;
+        if (j < ev->n) { g0 = e.gold[ev->col[j]]; g1 = e.gtmp[ev->col[j]]; }
+        else { g0 = sw_lin(c, j, c->bdf_x); g1 = sw_lin(c, j, yp); }
+        if ((g1 > 0.0) == (w.side[j] > 0.0) || (g0 > 0.0) != (w.side[j] > 0.0)) continue;
+        th = g0 / (g0 - g1);
+        if (th > 0.0 && th < *theta) *theta = th;
+    }
+    return EOMC_OK;
 }
 
 static void sw_seen(const ctx *c, int j, double g)

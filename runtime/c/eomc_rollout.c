@@ -1,7 +1,9 @@
 /* eomc_rollout.c -- see eomc_rollout.h. */
 #define _POSIX_C_SOURCE 200809L
+#include <math.h>
 #include <pthread.h>
 #include <stdlib.h>
+#include <string.h>
 #include "eomc_rollout.h"
 
 #define EOMC_ROLLOUT_MAX_THREADS 1024
@@ -13,11 +15,15 @@ typedef struct rollout_job {
     int n;
     const double *X0, *P;
     size_t p_stride;
+    int n_rgrid;         /* each row's input grid: r_tgrid (shared), R + row * r_stride */
+    const double *r_tgrid, *R;
+    size_t r_stride;
     int n_eval;
     const double *t_eval;
     double *X_out, *X_last;
     int *status;
     long *steps;
+    eomc_stats *stats;   /* may be NULL: each row's whole stats */
     size_t work_len;
     pthread_mutex_t lock;
     int next;            /* next row to hand out, under lock */
@@ -41,11 +47,14 @@ static void run_rows(rollout_job *job, double *work)
         const size_t row = (size_t)i;
         double *x_out = job->X_out ? job->X_out + row * (size_t)job->n_eval * nx : NULL;
         job->status[i] = eomc_integrate(job->m, job->opt, job->t0, job->t1, job->X0 + row * nx,
-                                        job->P + row * job->p_stride, 0, NULL, NULL,
+                                        job->P + row * job->p_stride, job->n_rgrid, job->r_tgrid,
+                                        job->n_rgrid > 0 ? job->R + row * job->r_stride : NULL,
                                         job->n_eval, job->t_eval, x_out,
                                         job->X_last + row * nx, &st, work, job->work_len);
         if (job->steps)
             job->steps[i] = st.steps;
+        if (job->stats)
+            job->stats[i] = st;
     }
 }
 
@@ -65,11 +74,22 @@ int eomc_rollout(const eomc_model *m, const eomc_options *opt, double t0, double
                  int n_eval, const double *t_eval, double *X_out, double *X_last,
                  int *status, long *steps, int nthreads)
 {
+    return eomc_rollout_stats(m, opt, t0, t1, n, X0, P, p_stride, 0, NULL, NULL, 0, n_eval, t_eval, X_out,
+                              X_last, status, steps, NULL, nthreads);
+}
+
+int eomc_rollout_stats(const eomc_model *m, const eomc_options *opt, double t0, double t1,
+                       int n, const double *X0, const double *P, size_t p_stride,
+                       int n_rgrid, const double *r_tgrid, const double *R, size_t r_stride,
+                       int n_eval, const double *t_eval, double *X_out, double *X_last,
+                       int *status, long *steps, eomc_stats *stats, int nthreads)
+{
     rollout_job job;
     pthread_t threads[EOMC_ROLLOUT_MAX_THREADS];
     int started = 0, k, ran = 0;
     if (m == NULL || opt == NULL || n < 0 || X0 == NULL || P == NULL || X_last == NULL
-        || status == NULL || (n_eval > 0 && (t_eval == NULL || X_out == NULL)))
+        || status == NULL || (n_eval > 0 && (t_eval == NULL || X_out == NULL))
+        || (n_rgrid > 0 && R == NULL) || (n_rgrid > 1 && r_tgrid == NULL))
         return EOMC_BAD_ARGUMENT;
     if (nthreads <= 0)
         nthreads = 1;
@@ -79,8 +99,9 @@ int eomc_rollout(const eomc_model *m, const eomc_options *opt, double t0, double
         nthreads = n > 0 ? n : 1;
     job.m = m; job.opt = opt; job.t0 = t0; job.t1 = t1; job.n = n;
     job.X0 = X0; job.P = P; job.p_stride = p_stride;
+    job.n_rgrid = n_rgrid > 0 ? n_rgrid : 0; job.r_tgrid = r_tgrid; job.R = R; job.r_stride = r_stride;
     job.n_eval = n_eval; job.t_eval = t_eval; job.X_out = n_eval > 0 ? X_out : NULL;
-    job.X_last = X_last; job.status = status; job.steps = steps;
+    job.X_last = X_last; job.status = status; job.steps = steps; job.stats = stats;
     job.work_len = eomc_integrate_work_size(m, opt->method)
                    + (opt->method == EOMC_IMPLICITFAST && opt->implicit ? opt->implicit->work_len : 0);
     job.next = 0;
@@ -105,6 +126,255 @@ int eomc_rollout(const eomc_model *m, const eomc_options *opt, double t0, double
     pthread_mutex_destroy(&job.lock);
     if (!ran)
         return EOMC_BAD_ARGUMENT;        /* no thread got a work buffer */
+    for (k = 0; k < n; ++k)
+        if (status[k] != EOMC_OK)
+            return status[k];
+    return EOMC_OK;
+}
+
+/* ------------------------------------------------------------ RK4 in lanes */
+
+typedef struct lanes_job {
+    eomc_batch_fn f;
+    int nx, nparam, ninput, block;
+    int n_rgrid;         /* each row's input grid: r_tgrid (shared), R + row * r_stride */
+    const double *r_tgrid, *R;
+    size_t r_stride;
+    size_t work_len;
+    double t0, t1, h;
+    long nsteps;
+    int n;
+    const double *X0, *P;
+    size_t p_stride;
+    double *X_out, *X_last;
+    int *status;
+    long *steps;
+    pthread_mutex_t lock;
+    int next;            /* first row of the next block, under lock */
+} lanes_job;
+
+static int take_block(lanes_job *job, int *m)
+{
+    int i;
+    pthread_mutex_lock(&job->lock);
+    i = job->next < job->n ? job->next : -1;
+    if (i >= 0) {
+        *m = job->n - i < job->block ? job->n - i : job->block;
+        job->next += *m;
+    }
+    pthread_mutex_unlock(&job->lock);
+    return i;
+}
+
+/* A stage's statuses: the first failure of a live row ends it (its status kept). */
+static int mark(int m, const int *st, char *dead, int *status)
+{
+    int k, live = 0;
+    for (k = 0; k < m; ++k) {
+        if (!dead[k] && st[k] != EOMC_OK) {
+            dead[k] = 1;
+            status[k] = st[k];
+        }
+        live += !dead[k];
+    }
+    return live;
+}
+
+/* The inputs of rows first .. first + m - 1 at time t as columns (Rb[i*m + k]), by
+ * grid_inputs_at's rule and arithmetic (eomc_integrators.c): the grid's first row before
+ * it, its last row after it, linear between two rows; NULL when there are none (zeros). */
+static const double *lane_inputs(const lanes_job *job, int first, int m, double t, double *Rb)
+{
+    const int ni = job->ninput, nr = job->n_rgrid;
+    const double *rt = job->r_tgrid;
+    int lo = 0, hi = nr - 1, i, k, between = 0;
+    double w = 0.0;
+    if (ni <= 0 || nr <= 0)
+        return NULL;
+    if (nr == 1 || t <= rt[0]) {
+        lo = 0;
+    } else if (t >= rt[hi]) {
+        lo = hi;
+    } else {
+        while (hi - lo > 1) {
+            const int mid = (lo + hi) / 2;
+            if (rt[mid] <= t) lo = mid; else hi = mid;
+        }
+        w = (t - rt[lo]) / (rt[hi] - rt[lo]);
+        between = 1;
+    }
+    for (k = 0; k < m; ++k) {
+        const double *v = job->R + (size_t)(first + k) * job->r_stride;
+        const double *a = v + (size_t)lo * (size_t)ni, *b = v + (size_t)hi * (size_t)ni;
+        for (i = 0; i < ni; ++i)
+            Rb[(size_t)i * (size_t)m + (size_t)k] = between ? (1.0 - w) * a[i] + w * b[i] : a[i];
+    }
+    return Rb;
+}
+
+/* Rows first .. first + m - 1: run_rk4's step grid and arithmetic (eomc_integrators.c), with
+ * the m states as columns (x[i*m + k]) and each stage one batch call over all of them. */
+static void lanes_block(lanes_job *job, int first, int m, double *buf, int *ibuf)
+{
+    const int nx = job->nx, np = job->nparam;
+    const size_t cols = (size_t)m, nxm = (size_t)nx * cols;
+    double *x = buf, *x1 = x + nxm, *k1 = x1 + nxm, *k2 = k1 + nxm, *k3 = k2 + nxm, *k4 = k3 + nxm;
+    double *tmp = k4 + nxm, *good = tmp + nxm, *Pb = good + nxm, *Rb = Pb + (size_t)(np > 0 ? np : 1) * cols;
+    double *work = Rb + (size_t)(job->ninput > 0 ? job->ninput : 1) * cols;
+    int *st = ibuf, *status = st + m;
+    char *dead = (char *)(status + m);
+    long *done = job->steps ? job->steps + first : NULL;
+    const double h = job->h;
+    int i, k;
+    size_t j;
+    for (k = 0; k < m; ++k) {
+        const double *x0 = job->X0 + (size_t)(first + k) * (size_t)nx;
+        const double *p = job->P + (size_t)(first + k) * job->p_stride;
+        for (i = 0; i < nx; ++i) x[(size_t)i * cols + (size_t)k] = x0[i];
+        for (i = 0; i < np; ++i) Pb[(size_t)i * cols + (size_t)k] = p[i];
+        dead[k] = 0;
+        status[k] = EOMC_OK;
+        if (done) done[k] = 0;
+        if (job->X_out)
+            for (i = 0; i < nx; ++i)
+                job->X_out[((size_t)(first + k) * (size_t)(job->nsteps + 1)) * (size_t)nx + (size_t)i] = x0[i];
+    }
+    memcpy(good, x, nxm * sizeof(double));
+    job->f(m, job->t0, x, Pb, lane_inputs(job, first, m, job->t0, Rb), k1, st, work);
+    if (mark(m, st, dead, status)) {
+        for (long s = 0; s < job->nsteps; ++s) {
+            const double t = job->t0 + s * h;
+            const double tn = (s == job->nsteps - 1) ? job->t1 : job->t0 + (s + 1) * h, hh = tn - t;
+            double *sw;
+            int live;
+            if (done)
+                for (k = 0; k < m; ++k) done[k] += !dead[k];
+            for (j = 0; j < nxm; ++j) tmp[j] = x[j] + 0.5 * hh * k1[j];
+            job->f(m, t + 0.5 * hh, tmp, Pb, lane_inputs(job, first, m, t + 0.5 * hh, Rb), k2, st, work);
+            mark(m, st, dead, status);
+            for (j = 0; j < nxm; ++j) tmp[j] = x[j] + 0.5 * hh * k2[j];
+            job->f(m, t + 0.5 * hh, tmp, Pb, lane_inputs(job, first, m, t + 0.5 * hh, Rb), k3, st, work);
+            mark(m, st, dead, status);
+            for (j = 0; j < nxm; ++j) tmp[j] = x[j] + hh * k3[j];
+            job->f(m, tn, tmp, Pb, lane_inputs(job, first, m, tn, Rb), k4, st, work);
+            mark(m, st, dead, status);
+            for (j = 0; j < nxm; ++j) x1[j] = x[j] + hh / 6.0 * (k1[j] + 2 * k2[j] + 2 * k3[j] + k4[j]);
+            for (k = 0; k < m; ++k) {
+                if (dead[k]) continue;
+                for (i = 0; i < nx; ++i) {
+                    if (!isfinite(x1[(size_t)i * cols + (size_t)k])) {
+                        dead[k] = 1;
+                        status[k] = EOMC_NONFINITE;
+                        break;
+                    }
+                }
+            }
+            job->f(m, tn, x1, Pb, lane_inputs(job, first, m, tn, Rb), k2, st, work);   /* k2 := f(tn, x1) */
+            live = mark(m, st, dead, status);
+            for (k = 0; k < m; ++k) {
+                double *row = job->X_out ? job->X_out + ((size_t)(first + k) * (size_t)(job->nsteps + 1)
+                                                         + (size_t)(s + 1)) * (size_t)nx : NULL;
+                for (i = 0; i < nx; ++i) {
+                    const double v = x1[(size_t)i * cols + (size_t)k];
+                    if (!dead[k]) good[(size_t)i * cols + (size_t)k] = v;
+                    if (row) row[i] = dead[k] ? NAN : v;
+                }
+            }
+            sw = x; x = x1; x1 = sw;
+            sw = k1; k1 = k2; k2 = sw;
+            if (!live) {          /* a row that failed has no state at the later steps: NaN */
+                for (k = 0; k < m && job->X_out; ++k) {
+                    double *rest = job->X_out + ((size_t)(first + k) * (size_t)(job->nsteps + 1)
+                                                 + (size_t)(s + 2)) * (size_t)nx;
+                    for (j = 0; j < (size_t)(job->nsteps - 1 - s) * (size_t)nx; ++j) rest[j] = NAN;
+                }
+                break;
+            }
+        }
+    } else if (job->X_out) {
+        for (k = 0; k < m; ++k) {
+            double *rest = job->X_out + ((size_t)(first + k) * (size_t)(job->nsteps + 1) + 1) * (size_t)nx;
+            for (j = 0; j < (size_t)job->nsteps * (size_t)nx; ++j) rest[j] = NAN;
+        }
+    }
+    for (k = 0; k < m; ++k) {
+        double *last = job->X_last + (size_t)(first + k) * (size_t)nx;
+        for (i = 0; i < nx; ++i) last[i] = good[(size_t)i * cols + (size_t)k];
+        job->status[first + k] = status[k];
+    }
+}
+
+static void *lanes_worker(void *arg)
+{
+    lanes_job *job = (lanes_job *)arg;
+    const size_t b = (size_t)job->block;
+    double *buf = (double *)malloc((8 * (size_t)job->nx * b + (size_t)(job->nparam > 0 ? job->nparam : 1) * b
+                                    + (size_t)(job->ninput > 0 ? job->ninput : 1) * b + job->work_len + 1)
+                                   * sizeof(double));
+    int *ibuf = (int *)malloc(2 * b * sizeof(int) + b);
+    int first, m;
+    if (buf == NULL || ibuf == NULL) {
+        free(buf);
+        free(ibuf);
+        return arg;
+    }
+    while ((first = take_block(job, &m)) >= 0)
+        lanes_block(job, first, m, buf, ibuf);
+    free(buf);
+    free(ibuf);
+    return NULL;
+}
+
+int eomc_rollout_lanes(eomc_batch_fn f, int nx, int nparam, int ninput, size_t work_len, double t0, double t1,
+                       double h, int n, const double *X0, const double *P, size_t p_stride,
+                       int n_rgrid, const double *r_tgrid, const double *R, size_t r_stride, double *X_out,
+                       double *X_last, int *status, long *steps, int block, int nthreads)
+{
+    lanes_job job;
+    pthread_t threads[EOMC_ROLLOUT_MAX_THREADS];
+    int started = 0, k, ran = 0, nblocks;
+    if (f == NULL || nx <= 0 || nparam < 0 || n < 0 || X0 == NULL || (P == NULL && nparam > 0)
+        || X_last == NULL || status == NULL || !(h > 0) || !isfinite(h) || !(t1 > t0) || ninput < 0
+        || (ninput > 0 && n_rgrid > 0 && R == NULL) || (n_rgrid > 1 && r_tgrid == NULL))
+        return EOMC_BAD_ARGUMENT;
+    if (block <= 0)
+        block = 64;
+    if (nthreads <= 0)
+        nthreads = 1;
+    if (nthreads > EOMC_ROLLOUT_MAX_THREADS)
+        nthreads = EOMC_ROLLOUT_MAX_THREADS;
+    nblocks = (n + block - 1) / block;
+    if (nthreads > nblocks)
+        nthreads = nblocks > 0 ? nblocks : 1;
+    job.f = f; job.nx = nx; job.nparam = nparam; job.ninput = ninput; job.block = block; job.work_len = work_len;
+    job.n_rgrid = n_rgrid > 0 ? n_rgrid : 0; job.r_tgrid = r_tgrid; job.R = R; job.r_stride = r_stride;
+    job.t0 = t0; job.t1 = t1; job.h = h;
+    job.nsteps = (long)ceil((t1 - t0) / h * (1 - 1e-12));
+    if (job.nsteps < 1)
+        job.nsteps = 1;
+    job.n = n; job.X0 = X0; job.P = P; job.p_stride = p_stride;
+    job.X_out = X_out; job.X_last = X_last; job.status = status; job.steps = steps;
+    job.next = 0;
+    for (k = 0; k < n; ++k)
+        status[k] = EOMC_ABORTED;        /* until its block says otherwise */
+    if (pthread_mutex_init(&job.lock, NULL) != 0)
+        return EOMC_BAD_ARGUMENT;
+    for (k = 1; k < nthreads; ++k) {
+        if (pthread_create(&threads[k], NULL, lanes_worker, &job) != 0)
+            break;
+        ++started;
+    }
+    if (lanes_worker(&job) == NULL)
+        ran = 1;
+    for (k = 1; k <= started; ++k) {
+        void *res = NULL;
+        pthread_join(threads[k], &res);
+        if (res == NULL)
+            ran = 1;
+    }
+    pthread_mutex_destroy(&job.lock);
+    if (!ran)
+        return EOMC_BAD_ARGUMENT;
     for (k = 0; k < n; ++k)
         if (status[k] != EOMC_OK)
             return status[k];

@@ -31,6 +31,45 @@ int eomc_rollout(const eomc_model *m, const eomc_options *opt, double t0, double
                  int n_eval, const double *t_eval, double *X_out, double *X_last,
                  int *status, long *steps, int nthreads);
 
+/*
+ * eomc_rollout with inputs per row, and each row's whole eomc_stats (rejected steps, rhs
+ * calls, the time reached, ...) in stats (n, may be NULL): what simulate() reports per run,
+ * so a batch (simulate_many, eomc.sweep) can run its cases here and report each as simulate
+ * would.  Inputs: n_rgrid == 0, none (zeros); else row i's grid of eomc_integrate is
+ * (n_rgrid, r_tgrid, R + i * r_stride) -- one time grid shared, values per row (r_stride
+ * 0: the same for all): a control sequence per trajectory.
+ */
+int eomc_rollout_stats(const eomc_model *m, const eomc_options *opt, double t0, double t1,
+                       int n, const double *X0, const double *P, size_t p_stride,
+                       int n_rgrid, const double *r_tgrid, const double *R, size_t r_stride,
+                       int n_eval, const double *t_eval, double *X_out, double *X_last,
+                       int *status, long *steps, eomc_stats *stats, int nthreads);
+
+/*
+ * A model's NAME_rhs_batch_p (compiler/emit/batch.py): xdot of n states stored as columns
+ * (X[i*n + k]) with one parameter row per state (P[j*n + k]), several per instruction.
+ */
+typedef int (*eomc_batch_fn)(int n, double t, const double *X, const double *P, const double *R,
+                             double *XDOT, int *status, double *work);
+
+/*
+ * RK4 over n rows in SIMD lanes: each thread takes blocks of `block` rows (<= 0: 64), stores
+ * them as columns and makes each RK4 stage one f call over the block, with the step grid and
+ * the order of arithmetic of eomc_integrate's RK4 -- so a row equals eomc_rollout's RK4 row
+ * bit for bit wherever f equals the scalar rhs bit for bit.  Row i starts at X0 + i * nx
+ * with parameters P + i * p_stride (0: one row for all).  X_out (NULL: not recorded): n x
+ * (steps + 1) x nx, every step, NaN after a row failed.  X_last, status, steps (may be
+ * NULL): as eomc_rollout (a failed row keeps its last good state; steps counts the step it
+ * failed in).  Inputs (ninput of them): (n_rgrid, r_tgrid, R + i * r_stride) as
+ * eomc_rollout_stats, interpolated at each stage as eomc_integrate does.  work_len: doubles
+ * of the model's work buffer (f's scalar tail).  Returns
+ * EOMC_OK, EOMC_BAD_ARGUMENT, or the status of the first failed row.
+ */
+int eomc_rollout_lanes(eomc_batch_fn f, int nx, int nparam, int ninput, size_t work_len, double t0, double t1,
+                       double h, int n, const double *X0, const double *P, size_t p_stride,
+                       int n_rgrid, const double *r_tgrid, const double *R, size_t r_stride, double *X_out,
+                       double *X_last, int *status, long *steps, int block, int nthreads);
+
 #ifdef __cplusplus
 }
 #endif

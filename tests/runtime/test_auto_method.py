@@ -58,3 +58,42 @@ def test_auto_takes_an_implicit_method_from_the_start_with_contacts(ball, rtol, 
     # the bounce height to the tolerance (BDF at rtol 1e-3: 0.5053, energy +1 %; the verdict's
     # limit is 100 rtol)
     assert res["z"].max() == pytest.approx(0.5, rel=max(2e-3, 20 * rtol))
+
+
+def test_check_and_report_list_what_auto_picks_on_contacts(ball):
+    """`eomc check` on a contact model runs auto, bdf and radau (auto is one of the last two),
+    and `eomc report` lists bdf and radau by default; on the ball all meet the tolerance."""
+    from eomc.runtime.report import DEFAULT_METHODS
+    from eomc.runtime.stability import check_model, default_methods
+    assert default_methods(ball) == ("auto", "bdf", "radau")
+    assert {"bdf", "radau"} <= set(DEFAULT_METHODS)
+    checks = {c.name: c for c in check_model(ball, np.r_[0, 0, 0.5, np.zeros(9)], 1.0, rtol=1e-6,
+                                             atol=1e-9)}
+    for method in ("auto", "bdf", "radau"):
+        assert checks[f"{method} accuracy"].passed, checks[f"{method} accuracy"].measured
+
+
+def test_bdf_cut_at_predicted_touch_down_is_bit_stable_and_agrees_with_tight_radau(ball):
+    """BDF shortens a step whose predicted end lies past touch-down (eomc_bdf.c PRED_OVER) so
+    that it ends just past it: the ball at k = 1e9, c = 0 (three bounces in 1.5 s) at rtol 1e-4
+    touches down when Radau at 1e-10 says (to 5 rtol of the elapsed time), keeps its bounce height, and two runs
+    (and the model's own events against the same events named) give the same bits."""
+    p = np.array(ball.param_defaults)
+    p[ball.param_names.index("k_ball")] = 1e9
+    x0 = np.r_[0, 0, 0.5, np.zeros(9)]
+    t = np.linspace(0, 1.5, 301)
+    run = lambda **kw: ball.simulate(x0, (0, 1.5), p=p, t_eval=t, **kw)  # noqa: E731
+    a, b = run(method="bdf", rtol=1e-4, atol=1e-7), run(method="bdf", rtol=1e-4, atol=1e-7)
+    named = run(method="bdf", rtol=1e-4, atol=1e-7, events=["contact_ball"])
+    ref = run(method="radau", rtol=1e-10, atol=1e-13)
+    assert a.status == 0 and np.array_equal(a.x, b.x) and np.array_equal(a.x, named.x)
+    assert np.array_equal(a.t_events["contact_ball"], named.t_events["contact_ball"])
+    assert np.array_equal(a.t_events["contact_ball"], b.t_events["contact_ball"])
+    ta, tr = a.t_events["contact_ball"], ref.t_events["contact_ball"]
+    assert ta.size == tr.size >= 5           # touch-down and lift-off, at least three bounces
+    # a global error of a few rtol per unit time: measured 1.9e-6, 6.8e-5, 2.1e-4 s at the
+    # touch-downs at 0.29, 0.86, 1.43 s (the restitution's small error shifts later bounces)
+    assert np.all(np.abs(ta - tr) <= 5 * 1e-4 * tr)
+    after = t > tr[1]                       # the first rebound's apex (c = 0: back to 0.5 m)
+    assert ref["z"][after].max() == pytest.approx(0.5, abs=1e-3)
+    assert a["z"][after].max() == pytest.approx(ref["z"][after].max(), rel=20 * 1e-4)

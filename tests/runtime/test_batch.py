@@ -121,3 +121,46 @@ def test_case_errors_name_the_case(cartpole):
     X0 = _starts(cartpole, [3.0, np.nan, 3.0])
     with pytest.raises(ValueError, match=r"case 1 of 3: cartpole: x0 \(initial state\) is not finite for th"):
         simulate_many(cartpole, X0, (0, 1), progress=False)
+
+
+def test_plain_cases_run_through_rollout_in_blocks_equal_to_single_runs(monkeypatch):
+    """Cases without events or inputs go through eomc_rollout's C threads (issue 31) block by
+    block: each case still equals its own simulate() bit for bit, stats included, and a
+    failed case is run again the ordinary way, so it carries simulate's message."""
+    import eomc.runtime.batch as batch
+    import eomc.runtime.simulate as sim
+    m = get_model("singular")
+    P = np.array([[2.0], [1.5], [0.5], [3.0], [2.5], [0.5], [4.0]])
+    monkeypatch.setattr(batch, "ROLLOUT_BLOCK", 3)          # three blocks, the last one short
+    calls = []
+    real = batch.run_prepared
+    monkeypatch.setattr(batch, "run_prepared", lambda *a, **k: calls.append(1) or real(*a, **k))
+    res = simulate_many(m, [0.3], (0, 1), p=P, threads=2, progress=False, raise_on_failure=False,
+                        n_points=11, rtol=1e-9, atol=1e-9)
+    assert len(calls) == 2          # only the two failing cases ran outside eomc_rollout
+    assert list(res.status) == [0, 0, 1, 0, 0, 1, 0]
+    for i in range(len(P)):
+        single = sim.simulate(m, [0.3], (0, 1), p=P[i], n_points=11, rtol=1e-9, atol=1e-9,
+                              raise_on_failure=False)
+        np.testing.assert_array_equal(res.x[i], np.vstack([single.x, np.full((11 - len(single.t), 1),
+                                                                            np.nan)]))
+        np.testing.assert_array_equal(res.x_final[i], single.x_final)
+        assert res.stats[i] == single.stats and res.messages[i] == single.message
+
+
+def test_inputs_per_case_run_through_rollout(monkeypatch):
+    """Constant inputs per case (and a shared input table) are rows of eomc_rollout's input
+    grid: no case leaves the C threads, and each equals its own simulate() bit for bit."""
+    import eomc.runtime.batch as batch
+    m = get_model("oscillator")
+    R = np.linspace(-1.0, 1.0, 5)[:, None]
+    calls = []
+    real = batch.run_prepared
+    monkeypatch.setattr(batch, "run_prepared", lambda *a, **k: calls.append(1) or real(*a, **k))
+    res = simulate_many(m, [0.5, 0.0], (0, 2), r=R, progress=False, n_points=21)
+    table = (np.array([0.0, 1.0, 2.0]), np.array([[0.0], [1.0], [-1.0]]))
+    shared = simulate_many(m, np.array([[0.5, 0.0], [0.2, 0.1]]), (0, 2), r=table, progress=False, n_points=21)
+    assert not calls and res.success and shared.success
+    for i in range(5):
+        np.testing.assert_array_equal(res.x[i], simulate(m, [0.5, 0.0], (0, 2), r=R[i], n_points=21).x)
+    np.testing.assert_array_equal(shared.x[1], simulate(m, [0.2, 0.1], (0, 2), r=table, n_points=21).x)

@@ -34,6 +34,52 @@ def test_rk4_final_states_equal_simulate_bit_for_bit(threads):
     assert np.abs(res.x - X0).min() > 1e-3 and len(np.unique(res.x[:, 0])) == 13
 
 
+@pytest.mark.parametrize("method", ["dopri5", "dop853", "radau", "bdf"])
+def test_adaptive_final_states_equal_simulate_bit_for_bit(method):
+    """Adaptive rows (issue 31): one eomc_integrate per row with simulate's options, so the
+    same accepted and rejected steps; per-row parameters too."""
+    m = get_model("oscillator")
+    X0 = np.column_stack([np.linspace(-1.0, 1.0, 9), np.linspace(0.5, -0.5, 9)])
+    P = np.column_stack([np.linspace(1.0, 9.0, 9), np.full(9, 1.0), np.linspace(0.0, 0.4, 9)])
+    res = rollout(m, X0, t_final=3.0, method=method, p=P, rtol=1e-9, atol=1e-11, threads=2)
+    assert res.x.shape == (9, m.nx) and res.ok.all() and res.t.tolist() == [3.0]
+    for i in range(9):
+        single = simulate(m, X0[i], (0.0, 3.0), p=P[i], method=method, rtol=1e-9, atol=1e-11)
+        np.testing.assert_array_equal(res.x[i], single.x_final)
+        assert res.steps[i] == single.stats["steps"]
+    assert len(np.unique(res.steps)) > 1         # the rows took their own step sequences
+
+
+@pytest.mark.parametrize("method", ["rk4", "dop853"])
+def test_control_sequences_per_row_equal_simulate_bit_for_bit(method):
+    """r=(t_grid, values): one control sequence per trajectory on a shared time grid, linearly
+    interpolated as simulate's input table (and held past its ends); constant rows too."""
+    m = get_model("oscillator")
+    n = 7
+    X0 = np.column_stack([np.linspace(-1.0, 1.0, n), np.zeros(n)])
+    t_grid = np.array([0.0, 0.3, 0.7, 1.2, 1.5])            # ends before t_final: held after 1.5
+    values = np.random.default_rng(5).uniform(-2.0, 2.0, (n, t_grid.size, 1))
+    kw = dict(dt=0.01, steps=200) if method == "rk4" else dict(t_final=2.0, rtol=1e-9, atol=1e-11)
+    sim = dict(dt=0.01) if method == "rk4" else dict(rtol=1e-9, atol=1e-11)
+    res = rollout(m, X0, method=method, r=(t_grid, values), threads=2, **kw)
+    const = rollout(m, X0, method=method, r=values[:, 2], threads=2, **kw)
+    assert res.ok.all() and const.ok.all()
+    for i in range(n):
+        single = simulate(m, X0[i], (0.0, 2.0), method=method, r=(t_grid, values[i]), **sim)
+        np.testing.assert_array_equal(res.x[i], single.x_final)
+        single = simulate(m, X0[i], (0.0, 2.0), method=method, r=values[i, 2], **sim)
+        np.testing.assert_array_equal(const.x[i], single.x_final)
+    shared = rollout(m, X0, method=method, r=(t_grid, values[0]), threads=2, **kw)
+    np.testing.assert_array_equal(shared.x[0], res.x[0])
+    assert np.abs(shared.x[1:] - res.x[1:]).max() > 1e-3     # the sequences mattered
+    with pytest.raises(ValueError, match=r"values must have shape \(5, 1\).*or \(7, 5, 1\)"):
+        rollout(m, X0, method=method, r=(t_grid, values[:, :3]), **kw)
+    with pytest.raises(ValueError, match=r"r must have shape \(1,\).*\(7, 1\)"):
+        rollout(m, X0, method=method, r=np.zeros((3, 1)), **kw)
+    with pytest.raises(ValueError, match="has no inputs, but r was given"):
+        rollout(get_model("pendulum"), X0, method=method, r=np.zeros(1), **kw)
+
+
 @pytest.mark.parametrize("threads", [1, 2])
 def test_rk4_every_step_recorded_equals_simulate(threads):
     m = get_model("pendulum")
@@ -92,8 +138,12 @@ def test_bad_input_says_what_is_wrong():
         rollout(m, bad, steps=10, dt=0.01)
     with pytest.raises(ValueError, match="unknown integration method 'rk5'"):
         rollout(m, good, steps=10, dt=0.01, method="rk5")
-    with pytest.raises(ValueError, match="fixed-step method.*'dop853'"):
+    with pytest.raises(ValueError, match="method 'dop853' is adaptive: give t_final="):
         rollout(m, good, steps=10, dt=0.01, method="dop853")
+    with pytest.raises(ValueError, match="record='steps' is the fixed-step grid"):
+        rollout(m, good, t_final=0.1, method="dop853", record="steps")
+    with pytest.raises(ValueError, match="needs the method named"):
+        rollout(m, good, t_final=0.1, method="auto")
     with pytest.raises(ValueError, match="exactly one of t_final= or steps="):
         rollout(m, good, dt=0.01)
     with pytest.raises(ValueError, match="dt must be a finite step > 0"):

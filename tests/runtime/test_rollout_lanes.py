@@ -4,7 +4,8 @@ Oracle: the scalar C rollout (itself simulate bit for bit).  Built with -DEOMC_B
 the lanes compute the scalar rhs's bits and the step is the C loop's arithmetic in the same
 order, so the rows must be equal, not close; built with the vector sin/cos they agree to
 rounding.  Also: rows that fail keep their last good state and status, and what lanes cannot
-take (other methods, per-row parameters, a model without rhs_batch) is refused by name.
+take (other methods, a model without rhs_batch) is refused by name.  The loop is C
+(eomc_rollout_lanes): blocks of rows per thread, one NAME_rhs_batch_p call per stage.
 """
 from pathlib import Path
 
@@ -42,6 +43,36 @@ def test_final_and_steps_equal_the_scalar_rollout(cart, threads):
     assert np.array_equal(got.x, want.x)       # the shortened last step included
 
 
+@pytest.mark.parametrize("threads", [1, 2])
+def test_one_parameter_row_per_trajectory_equals_the_scalar_rollout(cart, threads):
+    """Each row its own parameters (NAME_rhs_batch_p: the parameters in lanes too)."""
+    X0 = _starts(cart, 141, seed=3)
+    rng = np.random.default_rng(4)
+    P = np.asarray(cart.param_defaults) * rng.uniform(0.5, 1.5, (141, cart.nparam))
+    want = rollout(cart, X0, dt=0.01, steps=30, p=P, threads=threads)
+    got = rollout(cart, X0, dt=0.01, steps=30, p=P, threads=threads, lanes=True)
+    assert got.ok.all() and np.array_equal(got.x, want.x) and np.array_equal(got.steps, want.steps)
+    shared = rollout(cart, X0, dt=0.01, steps=30, threads=threads, lanes=True)
+    assert np.abs(shared.x - got.x).max() > 1e-6       # the parameters mattered
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_control_sequences_per_trajectory_equal_the_scalar_rollout(cart, threads):
+    """r=(t_grid, values) per row: each stage's inputs interpolated in the C loop as the scalar
+    integrator does (grid ends inside the span: held), passed to NAME_rhs_batch_p in lanes."""
+    assert cart.ninput > 0
+    X0 = _starts(cart, 75, seed=6)
+    t_grid = np.array([0.0, 0.05, 0.12, 0.2])
+    values = np.random.default_rng(7).uniform(-3.0, 3.0, (75, t_grid.size, cart.ninput))
+    P = np.asarray(cart.param_defaults) * np.random.default_rng(8).uniform(0.8, 1.2, (75, cart.nparam))
+    want = rollout(cart, X0, dt=0.01, steps=30, p=P, r=(t_grid, values), threads=threads)
+    got = rollout(cart, X0, dt=0.01, steps=30, p=P, r=(t_grid, values), threads=threads, lanes=True)
+    assert got.ok.all() and np.array_equal(got.x, want.x) and np.array_equal(got.steps, want.steps)
+    const = rollout(cart, X0, dt=0.01, steps=30, r=values[:, 1], threads=threads, lanes=True)
+    assert np.array_equal(const.x, rollout(cart, X0, dt=0.01, steps=30, r=values[:, 1], threads=threads).x)
+    assert np.abs(const.x - got.x).max() > 1e-6
+
+
 def test_failed_rows_keep_their_last_good_state(cart):
     X0 = _starts(cart, 10)
     X0[3, 3] = 1e200                           # overflows within the first step
@@ -58,8 +89,6 @@ def test_refusals_name_the_reason(cart, tmp_path):
     X0 = _starts(cart, 4)
     with pytest.raises(ValueError, match=r"lanes=True\) does not take method 'implicitfast'"):
         rollout(cart, X0, dt=0.01, steps=2, method="implicitfast", lanes=True)
-    with pytest.raises(ValueError, match="one parameter row per trajectory"):
-        rollout(cart, X0, dt=0.01, steps=2, p=np.tile(cart.param_defaults, (4, 1)), lanes=True)
     plain = compile_model(str(CART), "rl_plain", functions=("rhs",), cache_dir=tmp_path, progress=False)
     with pytest.raises(ValueError, match="built without rhs_batch"):
         rollout(plain, X0, dt=0.01, steps=2, lanes=True)

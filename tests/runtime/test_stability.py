@@ -15,7 +15,7 @@ import eomc.cli.common as cli_common
 from eomc.cli import main
 from eomc.errors import SimulationError
 from eomc.runtime.simulate import simulate
-from eomc.runtime.stability import check_model
+from eomc.runtime.stability import check_model, format_checks
 
 
 def by_name(checks):
@@ -138,3 +138,22 @@ def test_chaotic_motion_is_judged_by_convergence(tmp_path):
     amplified = float(acc.measured.split(" x tolerance")[0])
     assert amplified > 1000                      # the plain criterion alone would fail
     assert acc.passed and "converging" in acc.measured and "NOT" not in acc.measured
+
+
+def test_check_runs_both_implicit_methods_and_fails_a_method_that_stopped_or_missed():
+    """Issue 29 item 6: `eomc check` lists bdf beside radau (auto picks either), and calls a
+    method that stopped, or that missed its tolerance by orders of magnitude, a failed check."""
+    from eomc.runtime.stability import default_methods
+    m = get_model("pendulum")
+    assert default_methods(m) == ("auto", "dopri5", "dop853", "bdf", "radau")
+    checks = by_name(check_model(m, [1.0, 0.0], 5.0))
+    assert checks["bdf accuracy"].passed and checks["radau accuracy"].passed
+    # DOPRI5 needs ~190 steps here: with 100 it stops, and a run that stopped is no pass
+    stopped = by_name(check_model(m, [1.0, 0.0], 5.0, methods=("dopri5",), max_steps=100))
+    assert not stopped["dopri5 accuracy"].passed
+    assert "maximum number of steps" in stopped["dopri5 accuracy"].measured
+    # rtol 0.1 with atol 1e-14 over 20 s: DOPRI5 ends 3.6e6 x its (pointwise) tolerance away
+    missed = by_name(check_model(m, [1.0, 0.0], 20.0, rtol=1e-1, atol=1e-14, methods=("dopri5",)))
+    assert not missed["dopri5 accuracy"].passed
+    assert "missed by orders of magnitude" in missed["dopri5 accuracy"].measured
+    assert "FAIL" in format_checks(list(missed.values()))

@@ -68,8 +68,28 @@ def _random_pose(m, d, rng):
     mujoco.mj_kinematics(m, d)
 
 
+def _core_meets_box(a, b):
+    """Does the sphere's centre or the capsule's segment of one shape meet the other, a box
+    (slab test in the box frame)?"""
+    shape, box = (a, b) if b["kind"] == "box" else (b, a)
+    R, c, half = np.array(box["axes"]).T, np.array(box["centre"]), np.array(box["size"])
+    h = shape["size"][1] if shape["kind"] == "capsule" else 0.0
+    p0 = (np.array(shape["centre"]) - c) @ R
+    v = (np.array(shape["axes"][2]) @ R) * h
+    lo, hi = -1.0, 1.0                      # the segment p0 + s v, |s| <= 1
+    for k in range(3):
+        if abs(v[k]) < 1e-15:
+            if abs(p0[k]) > half[k]:
+                return False
+            continue
+        s1, s2 = sorted(((-half[k] - p0[k]) / v[k], (half[k] - p0[k]) / v[k]))
+        lo, hi = max(lo, s1), min(hi, s2)
+    return lo <= hi
+
+
 @pytest.mark.parametrize("g1, g2", [("ball", "rod"), ("post", "ball"), ("post", "rod"), ("ball", "cube"),
-                                    ("cube", "tag"), ("rod", "ball")])
+                                    ("cube", "tag"), ("rod", "ball"), ("rod", "cube"), ("cube", "rod"),
+                                    ("post", "cube")])
 def test_nearest_points_match_mj_geom_distance(g1, g2):
     """Signed distance and normal of eomc's nearest points vs mj_geomDistance at 40 random poses (1e-12)."""
     m = mujoco.MjModel.from_xml_string(XML.replace('"cube" type="box"', '"cube" type="box"'))
@@ -81,8 +101,8 @@ def test_nearest_points_match_mj_geom_distance(g1, g2):
         _random_pose(m, d, rng)
         fromto = np.zeros(6)
         dist = mujoco.mj_geomDistance(m, d, a, b, 10.0, fromto)
-        if ("box" in (m.geom_type[a], m.geom_type[b]) or "cube" in (g1, g2)) and dist < 0:
-            continue       # a sphere's centre inside the box has no nearest point (eomc's docstring)
+        if "cube" in (g1, g2) and _core_meets_box(_placed(m, d, a), _placed(m, d, b)):
+            continue       # a sphere's centre or a segment inside the box: no nearest points (eomc's docstring)
         xa, xb, ra, rb = closest_points(_placed(m, d, a), _placed(m, d, b))
         xa, xb = np.array(xa, dtype=float), np.array(xb, dtype=float)
         gap = np.linalg.norm(xb - xa) - ra - rb
@@ -177,3 +197,75 @@ def test_rhs_matches_mujoco_with_the_law_applied_by_hand(pairs):
         mine = qacc_of(m, built, q, u, xd[model.nq:])
         assert np.max(np.abs(mine - d.qacc)) < 1e-12 * max(1.0, np.max(np.abs(d.qacc)))
     assert touching >= 5
+
+
+def _event_values(model, x):
+    """The generated NAME_events at (0, x) (no Python wrapper: the integrators call it)."""
+    ffi = model.ffi
+    fn = ffi.cast("eomc_rhs_fn", getattr(model.model_lib, f"{model.name}_events"))
+    out = np.full(len(model.metadata["events"]), np.nan)
+    work = np.zeros(max(1, model.integrators.eomc_integrate_work_size(model.c_model, 0)))
+    x = np.ascontiguousarray(x, dtype=np.float64)
+    p = np.ascontiguousarray(model.param_defaults, dtype=np.float64)
+    r = np.zeros(1)
+    fn(0.0, *(ffi.from_buffer("double[]", a) for a in (x, p, r, out, work)))
+    return out
+
+
+def test_pair_outputs_and_events_are_the_law_at_mujocos_nearest_points(tmp_path):
+    """Each pair has the ground contacts' outputs Fn_/Ftx_/Fty_/Ftz_/depth_<pair> and events
+    contact_<pair> (its depth: the runtime's touch-down switch) and clip_<pair>: at random states
+    they are the law's force at MuJoCo's own nearest points (mj_geomDistance), to 1e-12; a pair
+    out of contact has no force and a negative depth."""
+    path = tmp_path / "pairs.xml"
+    path.write_text(XML)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", EomcWarning)
+        model = eomc.compile(path, functions=["rhs", "outputs", "events"], cache_dir=tmp_path / "c", progress=False)
+    events = {e["name"] for e in model.metadata["events"]}
+    for name in PAIRS:
+        assert {f"contact_{name}", f"clip_{name}"} <= events
+        assert all(f"{w}_{name}" in model.output_names for w in ("Fn", "Ftx", "Fty", "Ftz", "depth"))
+    m = prepared(load_mjmodel(path))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", EomcWarning)
+        built = tree_ir(m, actuators=check_model(m, path))
+    d = mujoco.MjData(m)
+    rng = np.random.default_rng(7)
+    pressed = apart = 0
+    names = [e["name"] for e in model.metadata["events"]]
+    for trial in range(30):
+        q = np.zeros(model.nq)
+        q[0:3] = [0.0, 0.0, 0.3]
+        q[6:9] = [0.0, 0.0, 0.3] + rng.uniform(-0.2, 0.2, 3)
+        q[9:12] = rng.uniform(-1, 1, 3)
+        q[12:15] = [0.4, 0.0, 0.3] + rng.uniform(-0.1, 0.1, 3)
+        q[15:18] = rng.uniform(-1, 1, 3)
+        u = np.zeros(model.nq)
+        for body in range(3):
+            u[6 * body:6 * body + 3] = rng.uniform(-0.5, 0.5, 3)   # linear speeds only (as above)
+        d.qpos[:], d.qvel[:] = to_mujoco(m, built, q, u)
+        mujoco.mj_forward(m, d)
+        x = np.concatenate([q, u])
+        out = model.outputs(0.0, x)
+        ev = dict(zip(names, _event_values(model, x)))
+        for name in sorted(PAIRS):
+            g1, g2 = (_geom(m, s) for s in name.split("__"))
+            margin = 0.01 if name == "ball__cube" else 0.0
+            fromto = np.zeros(6)
+            dist = mujoco.mj_geomDistance(m, d, g1, g2, 10.0, fromto)
+            if "cube" in name and dist < 0:
+                continue              # a centre inside the box: no nearest point (module docstring)
+            assert out[f"depth_{name}"] == pytest.approx(margin - dist, abs=1e-12)
+            assert ev[f"contact_{name}"] == out[f"depth_{name}"]
+            if margin - dist <= 0:
+                assert out[f"Fn_{name}"] == 0.0
+                apart += 1
+                continue
+            f, _ = _law_force(m, d, model, name, g1, g2, margin)
+            n = (fromto[3:] - fromto[:3]) / np.linalg.norm(fromto[3:] - fromto[:3]) * np.sign(dist)
+            mine = out[f"Fn_{name}"] * n + np.array([out[f"{w}_{name}"] for w in ("Ftx", "Fty", "Ftz")])
+            assert np.max(np.abs(mine - f)) < 1e-12 * max(1.0, np.max(np.abs(f)))
+            assert out[f"Fn_{name}"] == pytest.approx(f @ n, rel=1e-12, abs=1e-12)
+            pressed += 1
+    assert pressed >= 5 and apart >= 20

@@ -205,7 +205,9 @@ def test_without_simd_and_unknown_shapes_loop_the_scalar_rhs(cache):
     assert np.array_equal(model.rhs_batch(0.3, X), _scalar(model, X))
     before, body, meta = batch_code("m", 4, 0, (["    while (1) break;"], []))
     assert meta["vectorized"] is False and "while (1) break;" in meta["why"]
-    assert "m_rhs_lanes" not in before and "m_rhs(t, xs, p, rs, xd, work)" in body
+    # the scalar loop (shared by m_rhs_batch and m_rhs_batch_p) and no lanes
+    assert "m_rhs_lanes" not in before and "m_rhs(t, xs, P != NULL ? ps : p, rs, xd, work)" in before
+    assert "m_rhs_batch_any(n, t, X, p, NULL, R, XDOT, status, work)" in body
 
 
 @pytest.mark.skipif(shutil.which("gcc") is None, reason="needs gcc")

@@ -186,3 +186,22 @@ def test_suite_model_simulates_with_no_flags(name, tmp_path):
     assert np.isfinite(model.jacobian(0.0, model.initial_state)).all()
     res = model.simulate(model.initial_state, (0.0, 5.0))
     assert res.t[-1] == pytest.approx(5.0) and np.isfinite(res.x).all()
+
+
+@pytest.mark.slow
+def test_manipulator_runs_under_radau_past_its_peg_landing(tmp_path):
+    """dm_control's manipulator, default build (its body-body pairs on), under method="radau":
+    its peg lands on the slot at t ~ 0.18-0.22 s.  Before body-body pairs had switching functions
+    (contact_/clip_<pair> events) Radau stepped across the pair law's kinks and stopped at
+    t = 0.2212 s with a 2e-16 step (status != 0); it must run past 0.3 s with status 0, and the
+    pairs' outputs must be there (Fn_/depth_<pair>)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = eomc.compile(SUITE / "manipulator.xml", functions=["rhs", "jac_x", "events", "outputs"],
+                             cache_dir=tmp_path, progress=False)
+    events = [e["name"] for e in model.metadata["events"]]
+    assert "contact_pommel__slot_1" in events and "clip_pommel__slot_1" in events
+    assert {"Fn_pommel__slot_1", "depth_pommel__slot_1"} <= set(model.output_names)
+    result = model.simulate(model.initial_state, (0.0, 0.35), method="radau")
+    assert result.status == 0, result.message
+    assert result.t[-1] == pytest.approx(0.35)

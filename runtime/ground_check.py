@@ -1,0 +1,60 @@
+"""Which bodies of a robot went under its ground during a run: a part of the run's verdict.
+
+One job: read the points each body must keep above the ground (NAME.json ``ground_check``,
+written for a URDF robot with ground contacts: its collision geometry's points in the body's
+frame, or its origin when it has none; eomc.compiler.urdf.collision.ground_check), place
+them along the run with the generated ``NAME_poses``, and name every body one of whose
+points went deeper than a point contact may (a sphere: that fraction of its radius, if more):
+the contacts' own verdict's numbers, which the caller (runtime/switching.verdict) passes.
+
+Why: the contacts' own verdict (runtime/switching.py) sees only the contacts.  A robot whose
+feet are its only contacts passed its trunk through the floor with status 0 and no warning
+(Go2 ended 0.07 m, Solo12 0.24 m under it: issue 29); a body whose geometry is no contact
+(``--no-ground``), or a link with no geometry at all, is caught here.
+"""
+import numpy as np
+
+__all__ = ["below_ground"]
+
+
+
+
+def below_ground(model, t, X, p, allowed, fraction):
+    """Notes naming each body that went under the ground by more than ``allowed`` (m; a point
+    with a radius: ``fraction`` of it, if more): how deep and when; [] when the model has no
+    ``ground_check`` or no ``poses``."""
+    meta = model.metadata.get("ground_check")
+    if not isinstance(meta, dict) or "poses" not in model.functions:
+        return []
+    X = np.asarray(X, dtype=float)
+    t = np.asarray(t, dtype=float)
+    if X.ndim != 2 or len(X) == 0 or not np.all(np.isfinite(X)):
+        return []
+    from .poses import evaluate_poses, pose_layout
+    frames = pose_layout(model)[0]
+    bodies = {name: np.asarray(points, dtype=float).reshape(-1, 4)
+              for name, points in (meta.get("bodies") or {}).items() if name in frames}
+    if not bodies:
+        return []
+    n = np.asarray(meta.get("normal", (0.0, 0.0, 1.0)), dtype=float)
+    n = n / np.linalg.norm(n)
+    h = float(meta.get("height", 0.0))
+    p = None if p is None else np.asarray(p, dtype=float)[:model.nparam]     # the run's (a padded copy)
+    poses = evaluate_poses(model, t, X, p)
+    notes = []
+    for name, pts in bodies.items():
+        i = frames.index(name)
+        o, R = poses.positions[:, i, :], poses.rotations[:, i, :, :]
+        # world points (rows, points, 3): o + R p
+        world = o[:, None, :] + np.einsum("tij,kj->tki", R, pts[:, :3])
+        depth = h - world @ n + pts[None, :, 3]          # > 0: the point's sphere is under the ground
+        limit = np.maximum(allowed, fraction * pts[:, 3])
+        excess = depth - limit[None, :]
+        if np.max(excess) > 0:
+            row, k = np.unravel_index(int(np.argmax(excess)), excess.shape)
+            what = "its origin" if not np.any(pts) else "its collision geometry"
+            notes.append(f"body {name} went {float(depth[row, k]):.3g} m under the ground ({what}, at t = "
+                         f"{float(t[row]):.4g}), more than {float(limit[k]):.3g} m: the robot passed through "
+                         f"the floor there (--no-ground, or a link without <collision> geometry, leaves it no "
+                         f"contact; a contact too soft for the load sinks)")
+    return notes

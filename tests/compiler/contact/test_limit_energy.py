@@ -1,0 +1,71 @@
+"""The generated ``energy`` output of a URDF robot counts its joint limits' springs
+(compiler/tree/joint_laws.limit_energy), so a start past a limit is not an energy gain.
+
+Why: Go2's zero pose has its knees 0.84 rad past their limits; their springs held 14.8 kJ
+the energy output left out, and the default ``eomc simulate`` warned of a 367 J energy gain
+(benchmarks/results/contact_defaults.md) that the integrator never made (issue 29)."""
+import warnings
+
+import numpy as np
+import pytest
+from scipy.integrate import quad
+
+import eomc
+from eomc.compiler.urdf.model import UrdfModel
+from eomc.runtime.switching import PhysicsWarning
+
+URDF = """<robot name="arm">
+  <link name="base"/>
+  <link name="arm">
+    <inertial><origin xyz="0 0 -0.25"/><mass value="2"/>
+      <inertia ixx="0.05" iyy="0.05" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>
+  </link>
+  <joint name="hinge" type="revolute"><parent link="base"/><child link="arm"/>
+    <axis xyz="0 1 0"/><limit lower="-0.4" upper="0.3" effort="10" velocity="5"/></joint>
+</robot>
+"""
+
+
+@pytest.fixture(scope="module")
+def arm(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("limit_energy")
+    path = tmp / "arm.urdf"
+    path.write_text(URDF)
+    # a contact far below (height -10 m) gives the robot its generated energy output
+    contact = dict(link="arm", point=(0.0, 0.0, -0.5), radius=0.02, name="tip", height=-10.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return eomc.compile(UrdfModel(path, contacts=(contact,)), functions=("rhs", "jac_x", "outputs"),
+                            cache_dir=tmp / "c", progress=False)
+
+
+def _stored(K, e, r):
+    """K ∫₀^r d³/(d + e)² dd, the limit spring's energy, by quadrature."""
+    return K * quad(lambda d: d ** 3 / (d + e) ** 2, 0.0, r, epsabs=0, epsrel=1e-13)[0] if r > 0 else 0.0
+
+
+def test_energy_counts_the_limit_springs(arm):
+    p = dict(zip(arm.param_names, arm.param_defaults))
+    K, e = p["limit_k_hinge"], p["limit_e_hinge"]
+    g, m = 9.81, 2.0
+    for q, u in ((0.0, 0.3), (0.3 + 2e-4, 0.0), (0.7, -1.0), (-0.9, 2.0), (-0.4 - 5e-5, 0.1)):
+        out = arm.outputs(0.0, np.array([q, u]))
+        # kinetic about the hinge (I_y + m l²) u²/2, gravity -m g l cos q (l = 0.25 below)
+        plain = (0.05 + m * 0.25 ** 2) * u ** 2 / 2 - m * g * 0.25 * np.cos(q)
+        spring = _stored(K, e, q - 0.3) + _stored(K, e, -0.4 - q)
+        assert out["energy"] == pytest.approx(plain + spring, rel=1e-12, abs=1e-12)
+    assert "joint limits" in arm.metadata["energy"]
+
+
+def test_a_start_past_a_limit_is_no_energy_gain(arm):
+    # 0.5 rad past the upper limit at rest: the spring throws the arm back, the damping of the
+    # limit takes energy out; before the limits' energy was counted this warned of a gain
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        res = arm.simulate(np.array([0.8, 0.0]), (0.0, 2.0), method="radau", rtol=1e-8, atol=1e-10)
+    assert res.status == 0
+    E = np.asarray(res.outputs["energy"])
+    assert E[0] > 100.0          # the spring's energy is in it (K r²/2 ~ 1e3 J)
+    assert E.max() <= E[0] * (1 + 1e-6)
+    gains = [str(w.message) for w in caught if issubclass(w.category, PhysicsWarning) and "energy rose" in str(w.message)]
+    assert gains == []
