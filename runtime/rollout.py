@@ -46,18 +46,31 @@ class RolloutResult:
     x: (n, nx) final states (record="final"), or (n, n_t, nx) with the state at every
     step (record="steps"; row 0 is x0).  t: the times of x's rows ((1,) = t_final for
     "final").  status: (n,) eomc_status per trajectory (0 = ok); steps: (n,) steps taken.
-    A failed trajectory's final row holds its last good state.
+    A failed trajectory's final row holds its last good state.  unsolved: (n,) per
+    trajectory, implicitfast's (sub-)steps taken with their implicit Euler equation not solved
+    to tolerance even split into 64 (what ``simulate`` warns of; 0 for other methods): such a row ran to the end (status 0) but its result is worth checking with a
+    smaller dt or an adaptive method.
     """
     t: np.ndarray
     x: np.ndarray
     status: np.ndarray
     steps: np.ndarray
     state_names: tuple
+    unsolved: np.ndarray = None
+
+    def __post_init__(self):
+        if self.unsolved is None:
+            self.unsolved = np.zeros(len(self.status), dtype=int)
 
     @property
     def ok(self):
         """(n,) bool: which trajectories ran to the end."""
         return self.status == 0
+
+    @property
+    def clean(self):
+        """(n,) bool: ran to the end with every step solved (ok and no unsolved steps)."""
+        return (self.status == 0) & (self.unsolved == 0)
 
 
 def _threads(threads):
@@ -283,14 +296,19 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method="rk4", p=No
                 for k, v in enumerate(lim):
                     keep[1][k] = v
         n_rgrid, r_tgrid, R, r_stride = controls
+        # implicitfast: each row's stats, whose rejected count is the (sub-)steps left unsolved
+        # (what simulate warns of)
+        stats = ffi.new("eomc_stats[]", n) if method == "implicitfast" else ffi.NULL
         lib.eomc_rollout_stats(model.c_model, _options(ffi, a, implicit), 0.0, float(t_final), n, buf(X0), buf(P),
                                p_stride, n_rgrid, buf(r_tgrid) if r_tgrid is not None else ffi.NULL,
                                buf(R) if R is not None else ffi.NULL, r_stride, n_eval, buf(t_eval),
                                buf(X_out) if X_out is not None else ffi.NULL, buf(X_last),
-                               ffi.from_buffer("int[]", status), ffi.from_buffer("long[]", nstep), ffi.NULL,
+                               ffi.from_buffer("int[]", status), ffi.from_buffer("long[]", nstep), stats,
                                nthreads)
+        if method == "implicitfast":
+            unsolved = np.array([stats[i].rejected for i in range(n)], dtype=int)
     return _finish(model, method, X0, P, p_stride, dt, t_eval, record, X_out, X_last, status, nstep,
-                   raise_on_failure)
+                   raise_on_failure, unsolved=unsolved if n and method == "implicitfast" else None)
 
 
 def rollout_stats(model, opt, t0, t1, X0, P, p_stride, t_eval, X_out, threads, controls=(0, None, None, 0)):
@@ -317,7 +335,8 @@ def rollout_stats(model, opt, t0, t1, X0, P, p_stride, t_eval, X_out, threads, c
     return X_last, status, stats
 
 
-def _finish(model, method, X0, P, p_stride, dt, t_eval, record, X_out, X_last, status, nstep, raise_on_failure):
+def _finish(model, method, X0, P, p_stride, dt, t_eval, record, X_out, X_last, status, nstep, raise_on_failure,
+            unsolved=None):
     n = X0.shape[0]
     failed = np.flatnonzero(status != 0)
     if failed.size and raise_on_failure:
@@ -331,9 +350,20 @@ def _finish(model, method, X0, P, p_stride, dt, t_eval, record, X_out, X_last, s
                               f"failed in all) -- "
                               + failure_message(model, method, stats, X_last[i], P[0 if p_stride == 0 else i, :-1])
                               + "; pass raise_on_failure=False to keep the other rows")
+    if unsolved is not None and np.any((unsolved > 0) & (status == 0)):
+        import warnings
+        from .switching import PhysicsWarning
+        rows = np.flatnonzero((unsolved > 0) & (status == 0))
+        warnings.warn(PhysicsWarning(
+            f"{model.name}: rollout: {rows.size} of {n} row(s) ran to the end with implicitfast (sub-)steps "
+            f"left unsolved (rows {', '.join(map(str, rows[:8]))}{', ...' if rows.size > 8 else ''}; "
+            f"result.unsolved counts them, result.clean marks the others): in each, one or more steps of "
+            f"1/64 dt still missed implicit Euler (a hard impact, or the solution blows up); a smaller dt, "
+            f"or an adaptive method, checks those rows"), stacklevel=3)
     return RolloutResult(t=np.asarray(t_eval, dtype=np.float64).copy(),
                          x=X_out if record == "steps" else X_last, status=status.astype(int),
-                         steps=nstep.astype(int), state_names=tuple(model.state_names))
+                         steps=nstep.astype(int), state_names=tuple(model.state_names),
+                         unsolved=unsolved)
 
 
 def _lanes_allowed(model, method):

@@ -44,6 +44,7 @@ __all__ = ["PAIR_KINDS", "PairShape", "PairLoad", "PairValue", "pair_supported",
 # the kinds whose pairs are modelled (either order)
 PAIR_KINDS = {("sphere", "sphere"), ("sphere", "capsule"), ("capsule", "capsule"), ("sphere", "box"),
               ("capsule", "box")}
+POINT_KINDS = ("px", "py", "pz")   # a pair's contact point outputs (world), after the ground's kinds
 EPS = 1e-12     # m: regularises |d| so that coincident centres give a finite (zero) force
 
 
@@ -126,7 +127,8 @@ class PairLoad(LoweredLoad):
         f = [rec.let(fn * n[k] + scale * vt[k]) for k in range(3)]      # on B, world components
         _apply(self.b, f, p, poses, bodies, rec)
         _apply(self.a, [-x for x in f], p, poses, bodies, rec)
-        quantities = [fn, *ft, depth, clip_switch(depth, params["c"], rate)]   # OUTPUT_KINDS, CLIP_KIND
+        # OUTPUT_KINDS, CLIP_KIND, then POINT_KINDS (the contact point, world)
+        quantities = [fn, *ft, depth, clip_switch(depth, params["c"], rate), *p]
         return {PairValue(self.index, kind): value for kind, value in enumerate(quantities)}
 
 
@@ -283,7 +285,9 @@ def with_pairs(built, specs, fold=False):
     outputs, events).
 
     Each pair has the ground contacts' outputs ``Fn_``/``Ftx_``/``Fty_``/``Ftz_``/``depth_<name>``
-    (normal force, friction force on the second geom B in world components, depth) and events
+    (normal force, friction force on the second geom B in world components, depth), the point the
+    force acts at ``px_``/``py_``/``pz_<name>`` (world: midway between the two surfaces' nearest
+    points; where to draw the force), and events
     ``contact_<name>`` (touch-down: the runtime ends steps there and judges the depth,
     runtime/switching.py) and ``clip_<name>`` (the damped law's lift-off in contact).  Why: a pair
     without them let Radau step across its law's kinks (dm_control's manipulator stalled at
@@ -313,6 +317,8 @@ def with_pairs(built, specs, fold=False):
         loads.append(PairLoad(base, a, b, params, float(spec.margin), index))
         for kind, what in enumerate(OUTPUT_KINDS):
             outputs[f"{what}_{base}"] = PairValue(index, kind)
+        for k, what in enumerate(POINT_KINDS):
+            outputs[f"{what}_{base}"] = PairValue(index, CLIP_KIND + 1 + k)
         events[f"contact_{base}"] = PairValue(index, OUTPUT_KINDS.index("depth"))
         events[f"clip_{base}"] = PairValue(index, CLIP_KIND)
         index += 1

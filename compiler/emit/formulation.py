@@ -69,6 +69,11 @@ class Formulation:
         """Static C functions the formulation's bodies call (emitted once, before them)."""
         return ""
 
+    def shared_code(self, fn, ctx, prog, sym, functions):
+        """(name, body lines, signature) of a static function several bodies call, computed
+        from ``fn``'s program and emitted just before ``fn`` (its first caller), or None."""
+        return None
+
     def metadata(self, sym, functions):
         """What the formulation adds to NAME.json."""
         return {}

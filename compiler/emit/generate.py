@@ -313,6 +313,15 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
             op_counts[fn] = dict(op_counts["rhs"])
             continue
         prog = low.programs[fn]
+        shared = formulation.shared_code(fn, ctx, prog, sym, fns)
+        if shared is not None:      # a static function this and later bodies call
+            sname, sbody, ssig = shared
+            with _naming_nonfinite(name, sname):
+                slines, sparts = split_body(sbody, f"{name}_{sname}_part")
+            ctx.split = ctx.split or bool(sparts)
+            args = ", ".join(f"{c}{a}" if c.endswith("*") else f"{c} {a}" for c, a in ssig)
+            rendered.append({"prototype": f"static void {name}_{sname}({args})",
+                             "body": void_unused(fn, slines, ssig), "parts": sparts})
         with _naming_nonfinite(name, fn):
             body = (plain_body(ctx, prog, "pose", (low.poses["size"],), "out") if fn == "poses" else
                     _body(fn, ctx, prog, sym, layout, nx, fns, formulation))

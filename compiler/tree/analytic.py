@@ -26,8 +26,16 @@ perturbation ξ of the joint's placement, the direction its speeds move it, and
 
 Where it applies (:func:`analytic_plan`): an open tree whose loads are body-frame loads
 that do not depend on the state (inputs, parameters, time: motor torques, forces on a
-body); state-dependent loads (joint laws, contacts, world-frame forces) and trees closed
-by constraints keep the tangent path.
+body), or depend on it only through the laws of 1-dof joints (``Tree.joint_torques``: soft
+limits, damping, friction of URDF and MJCF joints, a function of the joint's own q and u,
+applied on the child about the axis with its reaction on the parent).  Such a pair is the
+generalized force e_k·τ_k on the joint's own speed and nothing else, so the kernel takes
+the law's value as a constant load (in F) and adds its own derivative, ∂τ_k/∂q_k and
+∂τ_k/∂u_k (block L of ``an[]``), to row k (why: without it every URDF robot built with its
+limits on -- the default -- differentiated the whole recursion per column, unrolled:
+G1's jac_x was 809 kB of C, 2.6x its rhs).  Other state-dependent loads (contacts,
+world-frame forces, a ball joint's damping) and trees closed by constraints keep the
+tangent path.
 
 Checked against central differences and Pinocchio's ``computeRNEADerivatives`` /
 ``computeABADerivatives`` (tests/compiler/tree/test_analytic_derivatives.py).
@@ -59,6 +67,7 @@ class AnalyticPlan:
     off: tuple = ()         # where its row of M (itself, then its support, nearest first) starts
     solver: str = "ltdl"    # jac_x's M⁻¹: "ltdl" (rows of M over the support) or "aba" (articulated, see solve_tables)
     kblocks: tuple = ()     # per k-speed joint: its K's diagonal blocks ((coordinates), (speeds)), see _blocks
+    laws: tuple = ()        # dofs with a joint law, in dof order (their ∂τ/∂q, ∂τ/∂u: anx block L)
 
     def dofs(self, b):
         return range(self.first[b], self.first[b] + self.count[b])
@@ -70,16 +79,20 @@ def analytic_plan(tree, bodies, gravity, layout, rename):
         return None, []
     nq, nu = len(tree.coordinates), len(tree.speeds)
     xs = set(layout.x)
+    speeds = layout.x[nq:nq + nu]
+    laws = _joint_laws(tree, layout, rename, xs, speeds)
+    if laws is None:
+        return None, []
+    lawful = {x for qs, _, _ in laws.values() for x in (qs,)} | {speeds[s] for s in laws}
     for load in tree.loads:
         if load.frame != "body":
             return None, []
         for e in list(load.moment) + list(load.force) + list(load.offset):
-            if rename(e, "a load").free_symbols & xs:
+            if rename(e, "a load").free_symbols & xs - lawful:
                 return None, []
     kin = [rename(k, "the kinematics") for k in tree.kinematics]
     if len(kin) != nq:
         return None, []
-    speeds = layout.x[nq:nq + nu]
     nb = len(bodies)
     par, first, count, row, qcol, multi, kblocks = [], [], [], [], [], [], []
     E, r, S, I, F, K, arm = [], [], [], [], [], [], []
@@ -134,8 +147,16 @@ def analytic_plan(tree, bodies, gravity, layout, rename):
     if len(used) != nq or len(row) != nu:
         return None, []
     loads = any(b.fext is not None for b in bodies)
+    lawdofs, L = [], []
+    for e, s in enumerate(row):
+        if s in laws:
+            qs, dq, du = laws[s]
+            if layout.x[qcol[e]] != qs:     # the law's coordinate is not this dof's column
+                return None, []
+            lawdofs.append(e)
+            L += [dq, du]
     blocks = [("E", E), ("r", r), ("S", S), ("I", I)] + ([("F", F)] if loads else []) + [
-        ("g", list(gravity)), ("K", K), ("arm", arm)]
+        ("g", list(gravity)), ("K", K), ("arm", arm)] + ([("L", L)] if L else [])
     offsets, values = {}, []
     for name, vals in blocks:
         offsets[name] = len(values)
@@ -145,7 +166,7 @@ def analytic_plan(tree, bodies, gravity, layout, rename):
         off.append(off[-1] + d + 1)
     plan = AnalyticPlan(nb, len(row), tuple(par), tuple(first), tuple(count), tuple(row),
                         tuple(qcol), tuple(multi), loads, offsets, len(values), tuple(lam), tuple(dep),
-                        tuple(off), choose_solver(dep), tuple(kblocks))
+                        tuple(off), choose_solver(dep), tuple(kblocks), tuple(lawdofs))
     return plan, [((ANX, i), sm.sympify(v)) for i, v in enumerate(values)]
 
 
@@ -174,6 +195,27 @@ def _blocks(kj):
     if any(len(r) != len(c) for r, c in blocks):
         return ((tuple(range(k)), tuple(range(k))),)
     return tuple(blocks)
+
+
+def _joint_laws(tree, layout, rename, xs, speeds):
+    """{speed index: (its coordinate's slot, ∂τ/∂q, ∂τ/∂u)} of the 1-dof joints' laws that
+    depend on the state (``Tree.joint_torques``), or None when a law reads another joint's
+    state (then its pair of loads is not e_k·τ_k alone in the kernel's terms)."""
+    from .joint_laws import ramp
+    out = {}
+    for q, u, tau in getattr(tree, "joint_torques", ()):
+        what = f"the law of the joint of speed {u}"
+        qs, us = rename(q, what), rename(u, what)
+        if qs not in xs or us not in speeds:
+            return None
+        # |a| as 2 ramp(a) - a before differentiating (SymPy's d|a| divides by |a|; see lower._implicit_results)
+        t = sm.sympify(rename(tau, what)).replace(sm.Abs, lambda a: 2 * ramp(a) - a)
+        if t.free_symbols & xs - {qs, us}:
+            return None
+        dq, du = sm.diff(t, qs), sm.diff(t, us)
+        if dq != 0 or du != 0:
+            out[speeds.index(us)] = (qs, dq, du)
+    return out
 
 
 ABA_DEPTH = 5     # mean support depth above which jac_x's M⁻¹ runs articulated (measured, see choose_solver)
@@ -585,6 +627,17 @@ def kernel_c(name, plan, nq, solve=False):
                 "            }",
             ]
         lines += ["        }", "    }"]
+    if plan.laws:
+        lines += [
+            "    {   /* the joint laws: their value is in F (a constant load above), their own derivative here */",
+            "    " + _table("jd", plan.laws),
+            f"        for (j = 0; j < {len(plan.laws)}; j++) {{",
+            "            double *o = out + (row0 + row[jd[j]]) * stride;",
+            f"            o[qc[jd[j]]] -= sign * an[{o['L']} + 2 * j];",
+            f"            o[uc[jd[j]]] -= sign * an[{o['L']} + 2 * j + 1];",
+            "        }",
+            "    }",
+        ]
     if aba:
         lines += [
             "    if (!msolve) return;",
@@ -845,5 +898,7 @@ def analytic_ops(plan, ncol=0):
         for r, _ in blocks:
             muls += 2 * len(r) ** 3 + plan.nd * len(r) ** 2
             adds += 2 * len(r) ** 3 + plan.nd * len(r) ** 2
+    muls += 2 * len(plan.laws)      # the sign times each law's two derivatives
+    adds += 2 * len(plan.laws)
     divs = sum(k for _, k, _ in plan.multi) + (plan.nd if ncol and plan.solver == "aba" else 0)
     return {"adds": adds, "muls": muls, "divs": divs, "calls": 0}

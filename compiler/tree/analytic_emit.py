@@ -15,7 +15,7 @@ import sympy as sm
 from ..emit.bodies import IND, singular_guard, store, temps, needed_assignments, split_on
 from ..ir.opcount import count_ops
 from .analytic import ANX, analytic_ops, call_lines
-from .emit import _extra_rows
+from .emit import _extra_rows, stores_zeroing_runs
 
 __all__ = ["has_analytic", "analytic_jac_id_body", "analytic_jac_x_body", "analytic_body_ops"]
 
@@ -67,22 +67,23 @@ def analytic_jac_x_body(ctx, program, sym, W, G):
     own = _own_ud(sym, nq, nu, nx)
     once, stores, rows = _jac_x_plan(program, W, G, nq, nu, nx, own)
     pr = ctx.printer(program)
+    body, used = stores_zeroing_runs(rows, pr, "k")     # the coordinate rows: mostly zeros
     if own:
-        lines = [f"{IND}double an[{plan.size}];"]
+        lines = [f"{IND}double an[{plan.size}];"] + ([f"{IND}int k;"] if used else [])
         lines += temps(program, pr, once)
-        lines += [store(lv, e, pr) for lv, e in rows]
+        lines += body
         lines += _inputs(program, pr)
         lines += call_lines(ctx.name, plan, IND, "x", None, nq, "-1.0", nx, nq, 1)
         lines.append(f"{IND}return {ctx.name}_finite(out, {nx * nx});")
         return lines
     before, after = split_on(program.with_(assignments=tuple(once)), W)
-    decls = [f"double w[{nu}];", f"double an[{plan.size}];"]
+    decls = [f"double w[{nu}];", f"double an[{plan.size}];"] + (["int k;"] if used else [])
     lines = [f"{IND}{d}" for d in decls]
     lines += temps(program, pr, before)
     lines += singular_guard(program, pr)
     lines += [store(lv, e, pr) for lv, e in stores]
     lines += temps(program, pr, after)
-    lines += [store(lv, e, pr) for lv, e in rows]
+    lines += body
     lines += _inputs(program, pr)
     lines += call_lines(ctx.name, plan, IND, "x", "w", nq, "-1.0", nx, nq, 1)
     lines.append(f"{IND}return {ctx.name}_finite(out, {nx * nx});")

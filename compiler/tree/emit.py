@@ -4,6 +4,7 @@ forcing, inverse_dynamics).
 The rest (linearize, outputs, constraints) is emitted by the Kane path's code
 from the same program (see :mod:`.lower`).
 """
+import re
 from collections import Counter
 
 import sympy as sm
@@ -12,7 +13,38 @@ from ..emit.bodies import IND, singular_guard, store, temps, extra_state_rows, n
 from ..ir import Names
 from ..ir.opcount import count_ops
 
-__all__ = ["tree_rhs_body", "tree_matrix_body", "tree_jacobian_body", "tree_jacobian_ops"]
+__all__ = ["tree_rhs_body", "tree_matrix_body", "tree_jacobian_body", "tree_jacobian_ops", "stores_zeroing_runs"]
+
+ZERO_RUN = 8      # consecutive entries of one array set to zero: from this many on, one loop
+
+_INDEXED = re.compile(r"^([A-Za-z_]\w*)\[(\d+)\]$")
+
+
+def stores_zeroing_runs(pairs, pr, var):
+    """The C lines of the stores ``pairs`` [(lvalue, expr)], where a run of at least ZERO_RUN
+    consecutive entries of one array set to zero is one ``for`` loop on ``var``.
+
+    Why: Jacobians are mostly structural zeros (jac_r's coordinate rows and residual columns,
+    jac_x's coordinate rows, a branching tree's mass matrix); one line per zero was O(n²)
+    lines: a 200-link chain's jac_r had 80,000 of them, each printed by SymPy, split into
+    sub-functions and compiled.  Returns (lines, whether ``var`` is used)."""
+    lines, used, i = [], False, 0
+    keys = [_INDEXED.match(lv) for lv, _ in pairs]
+    while i < len(pairs):
+        lv, e = pairs[i]
+        if keys[i] and e == 0:
+            name, start = keys[i].group(1), int(keys[i].group(2))
+            j = i + 1
+            while (j < len(pairs) and pairs[j][1] == 0 and keys[j] and keys[j].group(1) == name
+                   and int(keys[j].group(2)) == start + j - i):
+                j += 1
+            if j - i >= ZERO_RUN:
+                lines.append(f"{IND}for ({var} = {start}; {var} < {start + j - i}; {var}++) {name}[{var}] = 0.0;")
+                used, i = True, j
+                continue
+        lines.append(store(lv, e, pr))
+        i += 1
+    return lines, used
 
 
 def tree_rhs_body(ctx, program):
@@ -42,10 +74,10 @@ def tree_matrix_body(ctx, program, fn):
     if fn == "mass_matrix":
         # CRBA's M: the lower triangle; a tree closed by constraints: Kane's whole [NᵀM; J]
         full = any(k[0] == "A" and k[1] < k[2] for k in vals)
-        for i in range(nu):
-            for j in range(nu):
-                key = ("A", i, j) if full else ("A", max(i, j), min(i, j))
-                lines.append(store(f"out[{i * nu + j}]", vals.get(key, 0.0), pr))
+        pairs = [(f"out[{i * nu + j}]", vals.get(("A", i, j) if full else ("A", max(i, j), min(i, j)), 0.0))
+                 for i in range(nu) for j in range(nu)]
+        body, used = stores_zeroing_runs(pairs, pr, "k")
+        lines = ([f"{IND}int k;"] if used else []) + lines + body
         out, size = "out", nu * nu
     elif fn == "forcing":
         lines += [store(f"out[{i}]", vals.get(("b", i), 0.0), pr) for i in range(nu)]
@@ -237,7 +269,7 @@ def tree_jacobian_body(ctx, program, W, G, seeds, fn, nr):
     lines += singular_guard(program, pr)
     lines += [store(lv, e, pr) for lv, e in stores if lv.startswith("w[")]
     lines += temps(program, pr, after)
-    lines += [store(lv, e, pr) for lv, e in stores if not lv.startswith("w[")]
+    lines += stores_zeroing_runs([(lv, e) for lv, e in stores if not lv.startswith("w[")], pr, "k")[0]
     if any(inner for _, _, inner, _, _, _ in loops):
         lines.append(f"{IND}for (i = 0; i < {nx}; i++) dx[i] = 0.0;")
     for start, end, inner, gstores, solve, sol in loops:

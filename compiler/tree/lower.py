@@ -41,6 +41,7 @@ from .joint_laws import ramp, step
 from .constrained import (accelerations, check_functions, kane_form, kkt_residual, kkt_solve,
                           lower_loops, multiplier_symbols, tree_loops)
 from .derivatives import articulated_solve, solve_symbols
+from .dynamics_kernel import KERNEL_FUNCTIONS
 from .model import NotATree
 from .spatial import cross
 
@@ -51,9 +52,9 @@ TREE_FUNCTION_GROUPS = {
     "jac_x": ("ud", "lam", "Dpiv", "dkin", "tq", "tu", "dres", "sol", "dzd", "anx"),
     "jac_r": ("ud", "lam", "Dpiv", "dkin_r", "dres_r", "sol", "dzd_r"),
     "jac_p": ("ud", "lam", "Dpiv", "dkin_p", "dres_p", "sol", "dzd_p"),
-    "mass_matrix": ("A",),
-    "forcing": ("b",),
-    "inverse_dynamics": ("tau",),
+    "mass_matrix": ("A", "anx"),         # anx: the loop kernel's inputs (see .dynamics_kernel)
+    "forcing": ("b", "anx"),
+    "inverse_dynamics": ("tau", "anx"),
     "outputs": ("out",),
     "constraints": ("con",),
     "constraints_jac": ("dcon",),
@@ -69,6 +70,9 @@ TREE_FUNCTION_GROUPS = {
     "implicit": ("imp",),                # see implicit_layout
 }
 TREE_HELPER_USERS = ()
+# where the analytic plan exists, mass_matrix, forcing and inverse_dynamics read only the loop
+# kernel's inputs (A, b and tau are not computed for them: see .dynamics_kernel)
+_KERNEL_GROUPS = {**TREE_FUNCTION_GROUPS, **{f: ("anx",) for f in ("mass_matrix", "forcing", "inverse_dynamics")}}
 
 
 _NONFINITE = (sm.nan, sm.zoo, sm.oo, -sm.oo)
@@ -192,7 +196,7 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         UD = tuple(sm.Symbol(f"ud_{j}", real=True) for j in range(nu))
         jacobian, more = [], ()
         analytic = None
-        if loops is None and ("jac_id" in functions or "jac_x" in functions) and len(layout.x) > TANGENT_MIN_STATES:
+        if loops is None and set(functions) & {"jac_id", "jac_x", *KERNEL_FUNCTIONS} and len(layout.x) > TANGENT_MIN_STATES:
             analytic, anx = _analytic(tree, bodies, gravity, layout, functions)
         if jac and (analytic is None or jac != {"jac_x"}):    # the analytic jac_x needs no residual
             W = tuple(sm.Symbol(f"w_{j}", real=True) for j in range(nu))
@@ -209,7 +213,12 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
                         + [(("sol", k), sol[k]) for k in range(nu)])
         if analytic is not None:
             jacobian += anx
-        if ("inverse_dynamics" in functions or "hess_id" in functions) and loops is None:
+        direct = None
+        if "jac_r" in functions and loops is None and jac:
+            direct = _input_columns(tree, layout)
+            jacobian += direct or []
+        # inverse_dynamics from the loop kernel where the analytic plan exists (.dynamics_kernel)
+        if (("inverse_dynamics" in functions and analytic is None) or "hess_id" in functions) and loops is None:
             tau = rnea(bodies, rec, UD, gravity, v, c)
             extra += [(("tau", k), tau[k]) for k in range(nu)]
         if "jac_id" in functions and analytic is None:        # d tau / d x (compiler/tree/inverse_derivatives.py)
@@ -221,7 +230,8 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
             entries, *regressor = regressor_results(tree, bodies, rec, layout, UD, gravity, v, c)
             extra += entries
         # outputs and events that read u' solve A·u' = b (the Kane path's code)
-        if set(functions) & _NEED_AB or ("outputs" in functions and outputs) or (
+        need_ab = _NEED_AB if analytic is None else {"implicit"}    # else mass_matrix, forcing: the kernel
+        if set(functions) & need_ab or ("outputs" in functions and outputs) or (
                 "events" in functions and events) or (loops and "inverse_dynamics" in functions):
             H = crba(bodies, rec)
             f0 = rnea(bodies, rec, [0] * nu, gravity, v, c)
@@ -242,7 +252,8 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         raise ModelError(f"recursive formulation: {exc}") from None
     sym = build_symbolic(formed, layout, functions, outputs, events, dynamics=(A, b),
                          prelude=(rec.assignments, rec.count, sorted(extra, key=_order)),
-                         function_groups=TREE_FUNCTION_GROUPS, helper_users=TREE_HELPER_USERS)
+                         function_groups=TREE_FUNCTION_GROUPS if analytic is None else _KERNEL_GROUPS,
+                         helper_users=TREE_HELPER_USERS)
     if contact_values:
         sym = _with_contact_values(sym, contact_values)
     if wants_energy:
@@ -261,7 +272,53 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
                       derivatives=sym.derivatives + requests)
     if not jacobian:
         return sym
-    return _with_jacobians(sym, layout, functions, nq, jacobian, more, analytic is not None)
+    return _with_jacobians(sym, layout, functions, nq, jacobian, more, analytic is not None, direct is not None)
+
+
+def _input_columns(tree, layout):
+    """jac_r's residual columns d res/d r written directly, [(("dres_r", i, k), expr)], when
+    every input acts through the joints' own torques (``Tree.joint_torques``: a URDF's or
+    MJCF's actuated joints), else None (then the residual is differentiated, the tangent).
+
+    Why: a joint's torque acts on its child about the axis with its reaction on the parent,
+    the generalized force e_i·τ_i; but differentiating the recursion sees the pair in two
+    frames, and the ancestors' rows become expressions that are zero only numerically
+    (sin² + cos² - 1 and the like): O(n·depth) temporaries, 19,900 columns' entries on a
+    200-link chain, all computed, stored and solved.  Directly, column k holds ∂τ_i/∂r_k
+    on the rows i of the joints r_k drives (a motor: 1.0 on its own joint's row).
+
+    Checked: every load that reads an input is on a body one of that input's joints
+    connects (the child or its parent), so no other load carries it."""
+    torques = getattr(tree, "joint_torques", ())
+    rs = set(layout.r)
+    if not torques or not rs:
+        return None
+    absent = _absent(tree, layout)
+    memo = {}
+    speed_of = {u: k for k, u in enumerate(tree.speeds)}
+    owner = {s: i for i, b in enumerate(tree.bodies) for s, _ in b.dofs}
+    cols, allowed = {}, {}
+    for q, u, tau in torques:
+        if u not in speed_of or speed_of[u] not in owner:
+            return None
+        k = speed_of[u]
+        t = _rename(layout, memo, f"the torque of the joint of speed {layout.state_names[len(tree.coordinates) + k]}",
+                    absent)(tau)
+        child = owner[k]
+        for j, rj in enumerate(layout.r):
+            if rj in t.free_symbols:
+                d = sm.diff(t, rj)
+                if d.free_symbols & rs:     # not linear in the inputs: leave it to the tangent
+                    return None
+                cols[(k, j)] = cols.get((k, j), sm.S.Zero) + d
+                allowed.setdefault(rj, set()).update({child, tree.bodies[child].parent})
+    for load in tree.loads:
+        exprs = list(load.moment) + list(load.force) + list(load.offset) + list(getattr(load, "exprs", ()))
+        for e in exprs:
+            for rj in _rename(layout, memo, f"a load on body {tree.bodies[load.body].name}", absent)(e).free_symbols & rs:
+                if load.frame != "body" or load.body not in allowed.get(rj, ()):
+                    return None
+    return [(("dres_r", i, j), e) for (i, j), e in sorted(cols.items()) if e != 0]
 
 
 def _analytic(tree, bodies, gravity, layout, functions):
@@ -377,9 +434,10 @@ def _with_contact_values(sym, values):
     return replace(sym, program=sym.program.with_(results=results))
 
 
-def _with_jacobians(sym, layout, functions, nq, jacobian, more=(), analytic=False):
+def _with_jacobians(sym, layout, functions, nq, jacobian, more=(), analytic=False, direct_r=False):
     """Add the residual and the M⁻¹ solve to the program, and ask for their derivatives
-    (``analytic``: jac_x and jac_id take theirs from :mod:`.analytic` instead)."""
+    (``analytic``: jac_x and jac_id take theirs from :mod:`.analytic` instead; ``direct_r``:
+    jac_r's columns are among ``jacobian`` already, see :func:`_input_columns`)."""
     derivatives = []
     if "jac_id" in functions and not analytic:
         from .inverse_derivatives import inverse_dynamics_derivatives
@@ -390,7 +448,7 @@ def _with_jacobians(sym, layout, functions, nq, jacobian, more=(), analytic=Fals
                             ("tres", dict(zip(layout.x[nq:], sym.seeds[nq:])), "tu")]
         else:
             derivatives.append(("tres", layout.x, "dres"))
-    if "jac_r" in functions:
+    if "jac_r" in functions and not direct_r:
         derivatives.append(("tres", layout.r, "dres_r"))
     if "jac_p" in functions or "jvp" in functions:
         derivatives.append(("tres", layout.p, "dres_p"))

@@ -4,6 +4,8 @@ Oracle: the scalar ``simulate`` path with the same method, step and span -- roll
 eomc_integrate calls made from C threads, so anything but exact equality (a shared work
 buffer, a wrong row stride, a parameter row mixed up between threads) is a bug.
 """
+import warnings
+
 import numpy as np
 import pytest
 
@@ -13,6 +15,7 @@ import eomc
 from eomc.errors import SimulationError
 from eomc.runtime.rollout import rollout
 from eomc.runtime.simulate import simulate
+from eomc.runtime.switching import PhysicsWarning
 
 
 def _pendulum_starts(n, seed=0):
@@ -196,17 +199,31 @@ def test_rollout_with_contacts_equals_simulate_bit_for_bit(tmp_path):
     x0 = np.zeros((16, m.nx))
     x0[:, names.index("q_root_z")] = 0.06 + 0.3 * rng.random(16)
     x0[:, m.nq:] = rng.normal(size=(16, m.nu))
-    res = eomc.rollout(m, x0, dt=0.002, steps=300, method="implicitfast", threads=2)
+    with pytest.warns(PhysicsWarning, match=r"rollout: \d+ of 16 row\(s\) ran to the end with implicitfast "
+                      r"\(sub-\)steps left unsolved"):
+        res = eomc.rollout(m, x0, dt=0.002, steps=300, method="implicitfast", threads=2)
     assert np.all(res.ok)
-    for i in (0, 7, 15):
-        one = m.simulate(x0[i], (0.0, 0.6), method="implicitfast", dt=0.002)
+    # rows carry what simulate warns of: each row's unsolved (sub-)steps equal simulate's count;
+    # a hard landing leaves one unsolved (the row is ok but not clean), a gentle one none
+    assert 0 < np.sum(res.unsolved > 0) < 16
+    assert np.array_equal(res.clean, res.ok & (res.unsolved == 0))
+    for i in (0, 7, 15, int(np.flatnonzero(res.clean)[0])):
+        with warnings.catch_warnings(record=True) as seen:
+            warnings.simplefilter("always")
+            one = m.simulate(x0[i], (0.0, 0.6), method="implicitfast", dt=0.002)
         assert np.array_equal(one.x[-1], res.x[i])
+        assert one.stats["rejected"] == res.unsolved[i]
+        unsolved = [w for w in seen if "still missed implicit Euler" in str(w.message)]
+        assert len(unsolved) == (1 if res.unsolved[i] else 0)
     z = res.x[:, names.index("q_root_z")]
     assert np.all(z > 0.04) and np.all(z < 0.5)                       # on the floor, not through it
     P = np.tile(np.asarray(m.param_defaults, dtype=float), (16, 1))
     P[4, m.param_names.index("k_ball")] *= 1e-5
-    bad = eomc.rollout(m, x0, dt=0.002, steps=300, method="implicitfast", p=P, threads=2, raise_on_failure=False)
+    with pytest.warns(PhysicsWarning, match="left unsolved"):
+        bad = eomc.rollout(m, x0, dt=0.002, steps=300, method="implicitfast", p=P, threads=2,
+                           raise_on_failure=False)
     assert bad.status[4] == 10 and np.sum(bad.status != 0) == 1
+    assert not bad.clean[4]
     with pytest.raises(SimulationError, match="row 4 of 16 failed.*contact ball went"):
         eomc.rollout(m, x0, dt=0.002, steps=300, method="implicitfast", p=P, threads=2)
     with pytest.raises(ValueError, match="only with method='implicitfast'"):

@@ -225,7 +225,7 @@ def test_pair_outputs_and_events_are_the_law_at_mujocos_nearest_points(tmp_path)
     events = {e["name"] for e in model.metadata["events"]}
     for name in PAIRS:
         assert {f"contact_{name}", f"clip_{name}"} <= events
-        assert all(f"{w}_{name}" in model.output_names for w in ("Fn", "Ftx", "Fty", "Ftz", "depth"))
+        assert all(f"{w}_{name}" in model.output_names for w in ("Fn", "Ftx", "Fty", "Ftz", "depth", "px", "py", "pz"))
     m = prepared(load_mjmodel(path))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", EomcWarning)
@@ -267,5 +267,7 @@ def test_pair_outputs_and_events_are_the_law_at_mujocos_nearest_points(tmp_path)
             mine = out[f"Fn_{name}"] * n + np.array([out[f"{w}_{name}"] for w in ("Ftx", "Fty", "Ftz")])
             assert np.max(np.abs(mine - f)) < 1e-12 * max(1.0, np.max(np.abs(f)))
             assert out[f"Fn_{name}"] == pytest.approx(f @ n, rel=1e-12, abs=1e-12)
+            point = np.array([out[f"{w}_{name}"] for w in ("px", "py", "pz")])
+            assert np.max(np.abs(point - (fromto[:3] + fromto[3:]) / 2)) < 1e-12    # midway between the surfaces
             pressed += 1
     assert pressed >= 5 and apart >= 20

@@ -6,8 +6,9 @@ pins, sliders, balls and free joints (hypothesis), the tangent path of the same
 functions (the code the analytic path replaces, itself checked against central
 differences and Pinocchio), and Pinocchio's computeRNEADerivatives and
 computeABADerivatives on real robots (on a floating base Pinocchio differentiates
-along its Lie-group tangent: its d/dq is ours times K = dq'/du).  A tree whose loads
-depend on the state (a joint spring) keeps the tangent path, still right.
+along its Lie-group tangent: its d/dq is ours times K = dq'/du).  A SymPy tree whose loads
+depend on the state (a joint spring) keeps the tangent path, still right; a URDF's joint
+laws (soft limits) are the kernel's own terms.
 """
 import warnings
 
@@ -121,6 +122,33 @@ def test_state_dependent_loads_keep_the_tangent_path():
         model = eomc.compile(system, "aspring", functions=FNS, formulation="recursive", progress=False)
     assert not analytic(model)
     assert worst(model, seed=7) < 1e-7
+
+
+def test_joint_laws_take_the_analytic_path():
+    """A URDF read with its limits on (the default): every joint's soft limit (and Panda's
+    fingers' slides) is a joint law, a load in its own q and u; the kernel takes its value as
+    a constant load and adds its own derivative on its row (analytic._joint_laws).  Checked
+    against central differences at states far past the limits (|q| up to 3 rad; the fingers
+    open 0..0.04 m) and inside them, jac_x and jac_id, inputs nonzero."""
+    from eomc.compiler.urdf.model import with_options
+    source, _ = with_options(str(robot_path("panda")), None, floating_base=False)
+    model = eomc.compile(source, "panda_laws", functions=FNS, progress=False)
+    text = model.source_path.read_text()
+    assert analytic(model) and "the joint laws:" in text
+    rng = np.random.default_rng(41)
+    p = dict(zip(model.param_names, model.param_defaults))
+    joints = [n.removeprefix("q_") for n in model.state_names[:model.nq]]
+    lo = np.array([p.get(f"limit_lo_{j}", -np.inf) for j in joints])
+    hi = np.array([p.get(f"limit_hi_{j}", np.inf) for j in joints])
+    past = 0
+    for scale in (3.0, 0.5):
+        x, ud, r = rng.uniform(-scale, scale, model.nx), rng.normal(size=model.nu), rng.normal(size=model.ninput)
+        past += int(np.sum((x[:model.nq] < lo) | (x[:model.nq] > hi)))
+        for J, ref in ((model.jac_x(0.0, x, r=r), central(lambda y: model.rhs(0.0, y, r=r), x, model.nx)),
+                       (model.jac_id(0.0, x, ud, r=r),
+                        central(lambda y: model.inverse_dynamics(0.0, y, ud, r=r), x, model.nx))):
+            assert np.max(np.abs(J - ref)) / max(1.0, np.max(np.abs(ref))) < 1e-7
+    assert past >= 2        # joints past their limits, where the laws act
 
 
 ROBOTS = {"panda": False, "solo12": True}     # UR5 (12 states) keeps the unrolled columns

@@ -1,0 +1,258 @@
+"""mass_matrix, forcing and inverse_dynamics as one C loop kernel over the tree (CRBA and RNEA).
+
+Why: written straight-line, CRBA's mass matrix is one expression per pair of a joint and a
+joint of its support: O(n·depth) code, 11.6 MB of C on a 200-link chain (half of that
+model's default build, which took minutes and gigabytes), and on G1 the three functions
+together were 1.6 times the rhs's code.  As C loops over tree arrays their code does not
+grow with the model: only the straight-line inputs do, the same per-body inputs the analytic
+derivatives read (``an[]``, :mod:`.analytic`: each body's rotation E and position r from its
+parent, its joints' axes, mass and inertia, body-frame load -- joint laws' values included --,
+gravity, armature), computed from the program's own slot expressions so the optimizer shares
+their sines and cosines.
+
+``NAME_dyn(an, u, ud, tau, M)`` (:func:`dynamics_kernel_c`) places the bodies in the world
+(world-frame spatial algebra, as the analytic kernel: a joint's axis, once placed, serves
+every body it moves), then
+
+- with ``tau``: RNEA -- velocities v, accelerations a (gravity as the root's acceleration),
+  forces f = Y a + v ×* (Y v) - load summed towards the root, τ_i = S_iᵀ f + armature_i·u'_i;
+- with ``M``: CRBA -- composite inertias Yᶜ summed towards the root, M_ac = S_aᵀ Yᶜ_b S_c for a
+  dof c of body b and every dof a of b and its support (both triangles), armature on the
+  diagonal; entries of unrelated dofs are left as the caller zeroed them.
+
+forcing is -τ at u' = 0, inverse_dynamics τ at the given u', mass_matrix M.  Used where the
+analytic plan exists (an open tree whose loads the kernel can read, above
+TANGENT_MIN_STATES states); elsewhere the straight-line recursions stay.  Checked against
+the straight-line functions (tests/compiler/tree/test_dynamics_kernel.py).
+"""
+from .analytic import ANX
+
+__all__ = ["dynamics_kernel_c", "has_dynamics_kernel", "dynamics_body", "dynamics_inputs", "dynamics_ops",
+           "KERNEL_FUNCTIONS"]
+
+# NAME_dyn_inputs(t, x, p, r, an): the straight-line inputs, one copy for the three functions
+INPUTS_SIGNATURE = (("double", "t"), ("const double *", "x"), ("const double *", "p"), ("const double *", "r"),
+                    ("double *", "an"))
+
+KERNEL_FUNCTIONS = ("mass_matrix", "forcing", "inverse_dynamics")
+
+
+def has_dynamics_kernel(program, sym):
+    return getattr(sym, "analytic", None) is not None and any(k[0] == ANX for k, _ in program.results)
+
+
+def _table(name, vals):
+    return f"    static const int {name}[{len(vals)}] = {{{', '.join(str(v) for v in vals)}}};"
+
+
+def dynamics_kernel_c(name, plan):
+    """The C text of ``NAME_dyn`` and its two small helpers (see the module doc)."""
+    nb, nd, o = plan.nb, plan.nd, plan.offsets
+    fn = f"{name}_dyn"
+    lines = [
+        f"static void {name}_dyn_ymul(const double *y, const double *x, double *out)",
+        "{   /* out = Y x, Y = {m, c (= m p), I_O (xx yy zz xy xz yz)} */",
+        "    out[0] = y[4] * x[0] + y[7] * x[1] + y[8] * x[2] + y[2] * x[5] - y[3] * x[4];",
+        "    out[1] = y[7] * x[0] + y[5] * x[1] + y[9] * x[2] + y[3] * x[3] - y[1] * x[5];",
+        "    out[2] = y[8] * x[0] + y[9] * x[1] + y[6] * x[2] + y[1] * x[4] - y[2] * x[3];",
+        "    out[3] = y[0] * x[3] - y[2] * x[2] + y[3] * x[1];",
+        "    out[4] = y[0] * x[4] - y[3] * x[0] + y[1] * x[2];",
+        "    out[5] = y[0] * x[5] - y[1] * x[1] + y[2] * x[0];",
+        "}",
+        "",
+        f"static double {name}_dyn_dot(const double *a, const double *b)",
+        "{",
+        "    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] + a[4] * b[4] + a[5] * b[5];",
+        "}",
+        "",
+        f"/* RNEA (tau: tau_i at velocities u, accelerations ud, per dof) and CRBA (M, {plan.nd} x {plan.nd}",
+        "   row-major by speed) over the tree, world frame (compiler/tree/dynamics_kernel.py). */",
+        f"static void {fn}(const double *an, const double *u, const double *ud, double *tau, double *M)",
+        "{",
+        _table("par", plan.par),
+        _table("d0", plan.first),
+        _table("nd", plan.count),
+        _table("row", plan.row),
+        f"    double R[{9 * nb}], P[{3 * nb}], V[{6 * nb}], A[{6 * nb}], Y[{10 * nb}], F[{6 * nb}], Sw[{6 * nd}];",
+        "    int b, i, j, e, c, l, a;",
+        f"    for (b = 0; b < {nb}; b++) {{",
+        f"        const double *E = an + 9 * b, *r = an + {o['r']} + 3 * b, *In = an + {o['I']} + 10 * b;",
+        "        double *Rb = R + 9 * b, *pb = P + 3 * b, *vb = V + 6 * b, *ab = A + 6 * b, *Yb = Y + 10 * b;",
+        "        double IR[9], IO[9], t[6], hm[6], m, pp;",
+        "        l = par[b];",
+        "        if (l >= 0) {",
+        "            const double *Rl = R + 9 * l, *pl = P + 3 * l;",
+        "            for (i = 0; i < 3; i++) {",
+        "                for (j = 0; j < 3; j++)",
+        "                    Rb[3 * i + j] = Rl[3 * i] * E[3 * j] + Rl[3 * i + 1] * E[3 * j + 1] + Rl[3 * i + 2] * E[3 * j + 2];",
+        "                pb[i] = pl[i] + Rl[3 * i] * r[0] + Rl[3 * i + 1] * r[1] + Rl[3 * i + 2] * r[2];",
+        "            }",
+        "            for (i = 0; i < 6; i++) {",
+        "                vb[i] = V[6 * l + i];",
+        "                ab[i] = A[6 * l + i];",
+        "            }",
+        "        } else {",
+        "            for (i = 0; i < 3; i++) {",
+        "                for (j = 0; j < 3; j++) Rb[3 * i + j] = E[3 * j + i];",
+        "                pb[i] = r[i];",
+        "                vb[i] = vb[i + 3] = ab[i] = 0.0;",
+        f"                ab[i + 3] = -an[{o['g']} + i];",
+        "            }",
+        "        }",
+        "        for (e = d0[b]; e < d0[b] + nd[b]; e++) {   /* the axes in the world, v */",
+        f"            const double *S = an + {o['S']} + 6 * e;",
+        "            double *s = Sw + 6 * e;",
+        "            for (i = 0; i < 3; i++) {",
+        "                s[i] = Rb[3 * i] * S[0] + Rb[3 * i + 1] * S[1] + Rb[3 * i + 2] * S[2];",
+        "                s[i + 3] = Rb[3 * i] * S[3] + Rb[3 * i + 1] * S[4] + Rb[3 * i + 2] * S[5];",
+        "            }",
+        "            s[3] += pb[1] * s[2] - pb[2] * s[1];",
+        "            s[4] += pb[2] * s[0] - pb[0] * s[2];",
+        "            s[5] += pb[0] * s[1] - pb[1] * s[0];",
+        "            if (tau)",
+        "                for (i = 0; i < 6; i++) vb[i] += s[i] * u[e];",
+        "        }",
+        "        /* the world inertia about the world origin: {m, c = m p, I_O = R I_c R^T + m (p.p 1 - p p^T)} */",
+        "        m = In[0];",
+        "        for (i = 0; i < 3; i++)",
+        "            for (j = 0; j < 3; j++)",
+        "                IR[3 * i + j] = Rb[3 * i] * In[1 + j] + Rb[3 * i + 1] * In[4 + j] + Rb[3 * i + 2] * In[7 + j];",
+        "        pp = pb[0] * pb[0] + pb[1] * pb[1] + pb[2] * pb[2];",
+        "        for (i = 0; i < 3; i++)",
+        "            for (j = 0; j < 3; j++)",
+        "                IO[3 * i + j] = IR[3 * i] * Rb[3 * j] + IR[3 * i + 1] * Rb[3 * j + 1] + IR[3 * i + 2] * Rb[3 * j + 2]",
+        "                    + m * ((i == j ? pp : 0.0) - pb[i] * pb[j]);",
+        "        Yb[0] = m;",
+        "        Yb[1] = m * pb[0]; Yb[2] = m * pb[1]; Yb[3] = m * pb[2];",
+        "        Yb[4] = IO[0]; Yb[5] = IO[4]; Yb[6] = IO[8];",
+        "        Yb[7] = 0.5 * (IO[1] + IO[3]); Yb[8] = 0.5 * (IO[2] + IO[6]); Yb[9] = 0.5 * (IO[5] + IO[7]);",
+        "        if (!tau) continue;",
+        "        for (e = d0[b]; e < d0[b] + nd[b]; e++) {   /* a = a_parent + S u' + v x (S u) */",
+        "            const double *s = Sw + 6 * e;",
+        "            t[0] = vb[1] * s[2] - vb[2] * s[1];",
+        "            t[1] = vb[2] * s[0] - vb[0] * s[2];",
+        "            t[2] = vb[0] * s[1] - vb[1] * s[0];",
+        "            t[3] = vb[1] * s[5] - vb[2] * s[4] + vb[4] * s[2] - vb[5] * s[1];",
+        "            t[4] = vb[2] * s[3] - vb[0] * s[5] + vb[5] * s[0] - vb[3] * s[2];",
+        "            t[5] = vb[0] * s[4] - vb[1] * s[3] + vb[3] * s[1] - vb[4] * s[0];",
+        "            for (i = 0; i < 6; i++) ab[i] += s[i] * ud[e] + t[i] * u[e];",
+        "        }",
+        "        {   /* f = Y a + v x* (Y v) - load */",
+        "            double *fb = F + 6 * b;",
+        f"            {name}_dyn_ymul(Yb, vb, hm);",
+        f"            {name}_dyn_ymul(Yb, ab, fb);",
+        "            fb[0] += vb[1] * hm[2] - vb[2] * hm[1] + vb[4] * hm[5] - vb[5] * hm[4];",
+        "            fb[1] += vb[2] * hm[0] - vb[0] * hm[2] + vb[5] * hm[3] - vb[3] * hm[5];",
+        "            fb[2] += vb[0] * hm[1] - vb[1] * hm[0] + vb[3] * hm[4] - vb[4] * hm[3];",
+        "            fb[3] += vb[1] * hm[5] - vb[2] * hm[4];",
+        "            fb[4] += vb[2] * hm[3] - vb[0] * hm[5];",
+        "            fb[5] += vb[0] * hm[4] - vb[1] * hm[3];",
+    ]
+    if plan.loads:
+        lines += [
+            "            {   /* the body-frame load about the body origin, into the world */",
+            f"                const double *fe = an + {o['F']} + 6 * b;",
+            "                double n[3], f[3];",
+            "                for (i = 0; i < 3; i++) {",
+            "                    n[i] = Rb[3 * i] * fe[0] + Rb[3 * i + 1] * fe[1] + Rb[3 * i + 2] * fe[2];",
+            "                    f[i] = Rb[3 * i] * fe[3] + Rb[3 * i + 1] * fe[4] + Rb[3 * i + 2] * fe[5];",
+            "                }",
+            "                fb[0] -= n[0] + pb[1] * f[2] - pb[2] * f[1];",
+            "                fb[1] -= n[1] + pb[2] * f[0] - pb[0] * f[2];",
+            "                fb[2] -= n[2] + pb[0] * f[1] - pb[1] * f[0];",
+            "                fb[3] -= f[0];",
+            "                fb[4] -= f[1];",
+            "                fb[5] -= f[2];",
+            "            }",
+        ]
+    lines += [
+        "        }",
+        "    }",
+        f"    for (b = {nb - 1}; b >= 0; b--) {{",
+        "        const double *Yb = Y + 10 * b, *fb = F + 6 * b;",
+        "        double fa[6];",
+        "        if (tau)",
+        "            for (e = d0[b]; e < d0[b] + nd[b]; e++)",
+        f"                tau[row[e]] = {name}_dyn_dot(Sw + 6 * e, fb) + an[{o['arm']} + e] * ud[e];",
+        "        if (M)",
+        "            for (c = d0[b]; c < d0[b] + nd[b]; c++) {",
+        "                const int rc = row[c];",
+        f"                {name}_dyn_ymul(Yb, Sw + 6 * c, fa);",
+        "                for (e = d0[b]; e <= c; e++)   /* the joint's own block, both triangles alike */",
+        f"                    M[row[e] * {nd} + rc] = M[rc * {nd} + row[e]] = {name}_dyn_dot(Sw + 6 * e, fa)"
+        f" + (e == c ? an[{o['arm']} + c] : 0.0);",
+        "                for (l = par[b]; l >= 0; l = par[l])",
+        "                    for (a = d0[l]; a < d0[l] + nd[l]; a++)",
+        f"                        M[row[a] * {nd} + rc] = M[rc * {nd} + row[a]] = {name}_dyn_dot(Sw + 6 * a, fa);",
+        "            }",
+        "        l = par[b];",
+        "        if (l >= 0) {   /* composite inertia and force */",
+        "            for (i = 0; i < 10; i++) Y[10 * l + i] += Yb[i];",
+        "            if (tau)",
+        "                for (i = 0; i < 6; i++) F[6 * l + i] += fb[i];",
+        "        }",
+        "    }",
+        "}",
+    ]
+    return "\n".join(lines)
+
+
+def dynamics_inputs(ctx, program, sym):
+    """("dyn_inputs", lines, signature) of NAME_dyn_inputs: the kernel's inputs an[] from the
+    program's own expressions (straight-line; the three functions call it, so its code is
+    there once: on a 80-link cart it is a third of the rhs's)."""
+    from ..emit.bodies import store, temps
+    pr = ctx.printer(program)
+    vals = program.result_exprs(ANX)
+    lines = temps(program, pr)
+    lines += [store(f"an[{k[1]}]", e, pr) for k, e in sorted(vals.items(), key=lambda kv: kv[0][1])]
+    return "dyn_inputs", lines, INPUTS_SIGNATURE
+
+
+def dynamics_body(ctx, program, sym, fn):
+    """mass_matrix, forcing or inverse_dynamics: the kernel's inputs an[] (NAME_dyn_inputs),
+    then one NAME_dyn call."""
+    from ..emit.bodies import IND
+    plan = sym.analytic
+    nq, nu = ctx.nq, ctx.nu
+    lines = [f"{IND}double an[{plan.size}];"]
+    if fn == "mass_matrix":
+        lines.append(f"{IND}int k;")
+    else:
+        lines += [f"{IND}static const int sp[{plan.nd}] = {{{', '.join(str(s) for s in plan.row)}}};",
+                  f"{IND}double u[{plan.nd}], ud[{plan.nd}], tq[{nu}];", f"{IND}int e;"]
+    lines.append(f"{IND}{ctx.name}_dyn_inputs(t, x, p, r, an);")
+    if fn == "mass_matrix":
+        lines += [f"{IND}for (k = 0; k < {nu * nu}; k++) out[k] = 0.0;",
+                  f"{IND}{ctx.name}_dyn(an, NULL, NULL, NULL, out);",
+                  f"{IND}return {ctx.name}_finite(out, {nu * nu});"]
+        return lines
+    acc = "udot[sp[e]]" if fn == "inverse_dynamics" else "0.0"
+    lines += [f"{IND}for (e = 0; e < {plan.nd}; e++) {{",
+              f"{IND * 2}u[e] = x[{nq} + sp[e]];",
+              f"{IND * 2}ud[e] = {acc};",
+              f"{IND}}}",
+              f"{IND}{ctx.name}_dyn(an, u, ud, tq, NULL);"]
+    if fn == "inverse_dynamics":
+        lines += [f"{IND}for (e = 0; e < {nu}; e++) tau[e] = tq[e];",
+                  f"{IND}return {ctx.name}_finite(tau, {nu});"]
+    else:
+        lines += [f"{IND}for (e = 0; e < {nu}; e++) out[e] = -tq[e];",
+                  f"{IND}return {ctx.name}_finite(out, {nu});"]
+    return lines
+
+
+def dynamics_ops(plan, fn):
+    """Floating-point operations of one NAME_dyn call (counted from the C above, multiply-adds
+    as one mul and one add): per body ~110 (placement, world inertia), per dof ~25 (its axis);
+    RNEA ~120 per body and ~45 per dof more; CRBA ~36 per dof and 11 per (dof, support dof) pair."""
+    pairs = sum(plan.dep)
+    muls = 110 * plan.nb + 25 * plan.nd
+    adds = 100 * plan.nb + 22 * plan.nd
+    if fn == "mass_matrix":
+        muls += 36 * plan.nd + 6 * (pairs + plan.nd) + 10 * plan.nb
+        adds += 30 * plan.nd + 5 * (pairs + plan.nd) + 10 * plan.nb
+    else:
+        muls += 60 * plan.nb + 45 * plan.nd
+        adds += 60 * plan.nb + 40 * plan.nd
+    return {"adds": adds, "muls": muls, "divs": 0, "calls": 0}
