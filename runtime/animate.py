@@ -273,8 +273,113 @@ def _ghost_free(geometry, frame_names):
     return out
 
 
+# A force of the robot's weight m·g is drawn this many times the camera's scale (the robot's
+# own size): a standing robot's arrows are together half its size, one foot's share shorter.
+FORCE_SCALE = 0.5
+
+
+def _contact_values(res, name, times):
+    """The run's ``Fn_<name>``, ``Ftx/Fty/Ftz_<name>`` at ``times`` ((n, 4)), or None."""
+    keys = [f"{k}_{name}" for k in ("Fn", "Ftx", "Fty", "Ftz")]
+    outputs = getattr(res, "outputs", None) or {}
+    if any(k not in outputs for k in keys):
+        return None
+    t_run = np.asarray(res.t, float)
+    cols = [np.asarray(outputs[k], float) for k in keys]
+    if len(t_run) < 2:
+        return np.tile([c[0] for c in cols], (len(times), 1))
+    return np.column_stack([np.interp(times, t_run, c) for c in cols])
+
+
+def _radius(item, model, res):
+    """A contact sphere's radius in this run: its parameter ``r_<name>`` (the run's ``p`` when
+    given), else the build's number."""
+    name = item.get("radius_parameter")
+    names = list(getattr(model, "param_names", ()) or ())
+    if name and name in names:
+        p = getattr(res, "p", None)
+        k = names.index(name)
+        if p is not None and np.size(p) == len(names):
+            return float(np.ravel(p)[k])
+        defaults = getattr(model, "param_defaults", None)
+        if defaults is not None and len(defaults) == len(names):
+            return float(np.ravel(defaults)[k])
+    return float(item.get("radius") or 0.0)
+
+
+def _translation(point, rotation=None):
+    T = np.eye(4)
+    if rotation is not None:
+        T[:3, :3] = rotation
+    T[:3, 3] = point
+    return [float(v) for v in T.reshape(16)]
+
+
+def contact_drawing(res, model, poses, times, scale):
+    """(collision shapes {frame: [shape]}, arrows [{name, frame, values: base64 (n_t, 6)}],
+    metres per newton): what touches, and the contact forces as arrows.
+
+    The shapes are the contacts the model computes with (NAME.json ``poses.contacts``, written
+    by the compiler): a contact sphere of its radius (the run's ``r_<name>``), a point
+    contact (a box's corner, a hull's vertex: radius 0) as a ``point``, an ellipsoid as its
+    semi-axes; each with ``contact`` naming it.  That is the geometry whose forces the
+    outputs report, so a sphere drawn here is exactly what meets the ground.
+
+    Each arrow starts at the touching point (a sphere: centre − r·n; an ellipsoid: its support
+    point c − A·n/√(nᵀA·n)) and is the force on the body, F_n·n + F_t (the run's ``Fn_<name>``,
+    ``Ftx/Fty/Ftz_<name>``, interpolated as the states are), times the scale: the robot's
+    weight m·g is ``FORCE_SCALE`` times its size.  A frame where the contact is open (F_n = 0)
+    has a zero vector: the page hides it.  A contact whose run has no such outputs gets no
+    arrow."""
+    meta = model.metadata.get("poses", {})
+    items = meta.get("contacts") or []
+    if not items or not len(times):
+        return {}, [], 0.0
+    frames = list(poses.frame_names)
+    shapes, arrows, forces = {}, [], []
+    for item in items:
+        if item["frame"] not in frames:
+            continue
+        point = np.asarray(item["point"], float)
+        r = _radius(item, model, res)
+        n = np.asarray(item["normal"], float)
+        A = np.reshape(item["ellipsoid"], (3, 3)) if item.get("ellipsoid") else None
+        if A is not None:
+            w, V = np.linalg.eigh(A)
+            shape = {"kind": "ellipsoid", "size": [float(v) for v in np.sqrt(np.maximum(w, 0))],
+                     "origin": _translation(point, V)}
+        elif r > 0:
+            shape = {"kind": "sphere", "size": [r], "origin": _translation(point)}
+        else:
+            shape = {"kind": "point", "size": [], "origin": _translation(point)}
+        shape["contact"] = item["name"]
+        shapes.setdefault(item["frame"], []).append(shape)
+        F = _contact_values(res, item["name"], times)
+        if F is None:
+            continue
+        R = poses.rotation(item["frame"])                     # (n_t, 3, 3)
+        centre = poses[item["frame"]] + R @ point
+        if A is not None:
+            Aw = R @ A @ np.transpose(R, (0, 2, 1))
+            An = Aw @ n
+            start = centre - An / np.sqrt(np.maximum(An @ n, 1e-300))[:, None]
+        else:
+            start = centre - r * n
+        vector = F[:, :1] * n + F[:, 1:]
+        vector[F[:, 0] <= 0] = 0.0                            # open: no arrow
+        arrows.append({"name": item["name"], "frame": item["frame"], "start": start, "force": vector})
+        forces.append(np.linalg.norm(vector, axis=1))
+    weight = float(meta.get("weight") or 0.0)
+    if weight <= 0 and forces:
+        weight = float(np.max(forces)) or 1.0
+    per_newton = FORCE_SCALE * scale / weight if weight > 0 else 0.0
+    out = [{"name": a["name"], "frame": a["frame"],
+            "values": _b64(np.concatenate([a["start"], a["force"] * per_newton], axis=1))} for a in arrows]
+    return shapes, out, per_newton
+
+
 def page_data(res, model, *, fps=60, trace=None, colors=None, outputs=None, up=None, axes=None,
-              package_dirs=()):
+              package_dirs=(), collision=None, forces=None):
     """The JSON the viewer reads (see the module docstring)."""
     from .geometry import pack_shapes
     times, X = _resample(res, fps)
@@ -316,12 +421,19 @@ def page_data(res, model, *, fps=60, trace=None, colors=None, outputs=None, up=N
     lines = [list(p) for p in (_drawn_lines(poses) if geometry else poses.lines)]
     strips, left_off = _strips([s["name"] for s in series])
     robot = any(geometry.get(name) for name in poses.frame_names)
+    touching, arrows, per_newton = contact_drawing(res, model, poses, times, scale)
     return {"name": model.name, "t": _b64(times), "poses": _b64(flat), "frames": list(poses.frame_names),
             "points": list(poses.point_names), "lines": lines,
             "geometry": geometry, "meshes": meshes, "outputs": series, "strips": strips,
             "strips_left_off": left_off, "traces": traces,
             "colors": colors, "palette": _PALETTE, "camera": camera, "scale": scale,
-            "radius": 0.035 * scale, "fixed": fixed, "axes": (not robot) if axes is None else bool(axes)}, poses
+            "radius": 0.035 * scale, "fixed": fixed, "axes": (not robot) if axes is None else bool(axes),
+            "collision": touching, "arrows": arrows, "newtons_per_metre": (1 / per_newton) if per_newton else None,
+            "weight": float(model.metadata.get("poses", {}).get("weight") or 0.0),
+            # drawn by its own shapes, a robot hides what touches until asked; a model with no
+            # shapes of its own (spheres on a SymPy model, bare points) shows it
+            "show_collision": (not robot) if collision is None else bool(collision),
+            "show_forces": bool(arrows) if forces is None else bool(forces)}, poses
 
 
 _PAGE = """<!DOCTYPE html>
@@ -345,6 +457,8 @@ html, body {{ margin: 0; height: 100%; font: 13px sans-serif; background: #fff; 
 <label>speed <select id="eomc-speed"><option>0.25</option><option>0.5</option>
 <option selected>1</option><option>2</option><option>4</option></select></label>
 <label><input id="eomc-axes" type="checkbox"> axes</label>
+<label id="eomc-collision-label"{collision_hidden}><input id="eomc-collision" type="checkbox"> collision</label>
+<label id="eomc-forces-label"{forces_hidden}><input id="eomc-forces" type="checkbox"> forces<span id="eomc-force-scale"></span></label>
 <span>{title}</span></div>
 <div id="eomc-status" hidden></div>
 <script type="application/json" id="eomc-data">{data}</script>
@@ -359,7 +473,9 @@ def page_html(data, title):
     text = json.dumps(data, separators=(",", ":")).replace("</", "<\\/")
     return _PAGE.format(title=html.escape(title), data=text, three=_three_script(),
                         viewer=(_WEB / "viewer.js").read_text(encoding="utf-8"),
-                        plot_display="" if data.get("strips", data["outputs"]) else "display: none;")
+                        plot_display="" if data.get("strips", data["outputs"]) else "display: none;",
+                        collision_hidden="" if data.get("collision") else " hidden",
+                        forces_hidden="" if data.get("arrows") else " hidden")
 
 
 class Animation:
@@ -384,7 +500,7 @@ class Animation:
 
 
 def animate(res, path=None, *, model, fps=60, trace=None, colors=None, outputs=None, up=None,
-            title=None, axes=None, package_dirs=()):
+            title=None, axes=None, package_dirs=(), collision=None, forces=None):
     """A self-contained HTML animation of ``res`` (a SimulationResult of ``model``).
 
     ``fps``: frames per second of the run stored in the page; ``trace``: names of bodies or
@@ -400,12 +516,18 @@ def animate(res, path=None, *, model, fps=60, trace=None, colors=None, outputs=N
     ``package_dirs``: folders holding the ROS packages a URDF's ``package://`` meshes name
     (Pinocchio's argument; ROS_PACKAGE_PATH, AMENT_PREFIX_PATH and the example-robot-data
     layout are searched after them: eomc.runtime.packages).
+    ``collision``: draw what touches (the contact spheres and points the model computes
+    with, translucent; default: only for a model without shapes of its own -- a robot drawn
+    by its meshes would hide its feet's spheres inside them, and a user looking at a robot
+    first wants the robot; the bar's "collision" toggle shows them); ``forces``: draw each
+    contact's force as an arrow from its touching point (default: on whenever the run has
+    contact forces; the bar's "forces" toggle, whose label gives the scale in N per metre).
     Writes ``path`` when given.  Returns an :class:`Animation`.
     """
     if fps <= 0:
         raise ValueError(f"fps must be positive, not {fps}")
     data, poses = page_data(res, model, fps=fps, trace=trace, colors=colors, outputs=outputs, up=up,
-                            axes=axes, package_dirs=package_dirs)
+                            axes=axes, package_dirs=package_dirs, collision=collision, forces=forces)
     anim = Animation(page_html(data, title or f"{model.name} (eomc)"), None, poses)
     if path is not None:
         anim.save(path)

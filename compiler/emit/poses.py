@@ -402,7 +402,8 @@ def with_poses(sym, source, layout):
     lines = [[kept[i], kept[j]] for i, j in source.lines if i in kept and j in kept]
     meta = {"frames": frames, "points": points, "lines": lines, "size": len(values),
             "geometry": {k: v for k, v in source.geometry.items() if k in frames or k in points
-                         or k == "world"}}
+                         or k == "world"},
+            **(source.contact_metadata() if hasattr(source, "contact_metadata") else {})}
     return replace(sym, program=program), meta
 
 
@@ -410,4 +411,6 @@ def pose_metadata(meta):
     """The NAME.json entry (a copy: JSON-ready lists and dicts only)."""
     return {"frames": list(meta["frames"]), "points": list(meta["points"]),
             "lines": [list(x) for x in meta["lines"]], "size": int(meta["size"]),
-            "geometry": meta["geometry"]}
+            "geometry": meta["geometry"],
+            **({"contacts": meta["contacts"], "weight": float(meta["weight"])} if meta.get("contacts") else {})}
+

@@ -69,11 +69,12 @@ def aba(bodies, rec, speeds, gravity, v, c, keep=None):
             if keep is not None:
                 keep[i] = (U[i], Dinv[i])
             uu[i] = rec.let(-_dot(b.S, pi))
-            Ia = [[_add((Ii[r][s], -_mul(U[i][r], U[i][s], Dinv[i]))) if s <= r else None
+            W = rec.vec([_mul(x, Dinv[i]) for x in U[i]])          # U/D once: 33 products, not 54
+            Ia = [[_add((Ii[r][s], -_mul(W[r], U[i][s]))) if s <= r else None
                    for s in range(6)] for r in range(6)]      # sym6 reads the lower triangle
             Ia = rec.sym6(Ia)
             Iac = _times(Ia, c[i])
-            pa = [_add((pi[k], Iac[k], _mul(U[i][k], uu[i], Dinv[i]))) for k in range(6)]
+            pa = [_add((pi[k], Iac[k], _mul(W[k], uu[i]))) for k in range(6)]
         elif b.multi:
             U[i], ldl[i], uu[i] = _multi_articulate(b, rec, Ii, pi)
             D[i] = ldl[i].d

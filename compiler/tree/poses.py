@@ -14,6 +14,7 @@ the generated C is what the frame-graph lowering gave for the same robot.
 """
 from dataclasses import dataclass
 
+import numpy as np
 import sympy as sm
 
 from ..emit.poses import Shown
@@ -61,6 +62,10 @@ class TreePoseSource(Shown):
             return list(ZERO) if at is None else frame(at)[1]
         return frame, point
 
+    def contact_metadata(self):
+        """NAME.json ``poses.contacts`` and ``poses.weight`` (:func:`contact_metadata`)."""
+        return contact_metadata(self)
+
     def digest(self):
         """Everything that shapes the generated code, for the generation cache key."""
         out = ["tree poses", str([f[0] for f in self.frames]), str([p[0] for p in self.points]), str(self.lines),
@@ -93,3 +98,60 @@ def welded_frames(welds, frames):
         by_name[name] = index
     return out
 
+
+def _number(x, defaults):
+    """``x`` (a number or an expression in the model's parameters) as a float, or None."""
+    try:
+        return float(sm.sympify(x).xreplace(defaults))
+    except (TypeError, ValueError):
+        return None
+
+
+def contact_metadata(source):
+    """What the animation page needs of a robot's contacts (NAME.json ``poses.contacts``, read
+    by eomc.runtime.animate): per contact its name (the outputs ``Fn_<name>``, ``Ft*_<name>``),
+    the shown frame it is fixed in, the sphere's centre in that frame, its radius (the
+    parameter ``r_<name>`` the run may change, and its default), the plane's normal, and an
+    ellipsoid's A = R diag(a²) Rᵀ (frame components: the touching point is its support point);
+    and the robot's weight m·g, the arrows' scale.  Empty for a model with no joint tree (a
+    SymPy model's contacts are loads the poses cannot see) or without contacts.
+
+    The numbers are the build's (parameter defaults folded in): a contact whose centre depends
+    on a parameter the page cannot evaluate is left out of the drawing, not of the model."""
+    tree = source.tree
+    from ..contact.tree import ContactLoad
+    loads = [ld for ld in tree.loads if isinstance(ld, ContactLoad)]
+    if not loads:
+        return {}
+    defaults = {k if isinstance(k, sm.Basic) else sm.Symbol(str(k), real=True): v
+                for k, v in dict(getattr(source, "defaults", {}) or {}).items()}
+    shown = {}
+    for name, body, rotation, offset in source.frames:
+        shown.setdefault(body, (name, rotation, offset))
+    contacts = []
+    for load in loads:
+        if load.body not in shown:
+            continue
+        frame, D, o = shown[load.body]
+        centre = [_number(x, defaults) for x in load.offset]
+        o = [0.0] * 3 if o is None else [_number(x, defaults) for x in o]
+        D = np.eye(3) if D is None else np.array([[_number(x, defaults) for x in row] for row in D], dtype=float)
+        if None in centre or None in o or not np.all(np.isfinite(D)):
+            continue
+        # the point in the shown frame's axes: the frame is the body's turned by D, moved by o
+        point = D.T @ (np.array(centre) - np.array(o))
+        r = load.params.get("r", 0)
+        item = {"name": load.name, "frame": frame, "point": [float(v) for v in point],
+                "radius": _number(r, defaults) or 0.0,
+                "radius_parameter": str(r) if isinstance(r, sm.Symbol) else None,
+                "normal": [float(v) for v in load.normal]}
+        if load.shape is not None:
+            A = np.array([[_number(x, defaults) for x in row] for row in load.shape], dtype=float)
+            item["ellipsoid"] = [float(v) for v in (D.T @ A @ D).reshape(9)]
+        contacts.append(item)
+    try:
+        mass = sum(_number(b.mass, defaults) or 0.0 for b in tree.bodies)
+        g = float(np.linalg.norm([_number(x, defaults) for x in tree.gravity]))
+    except (TypeError, ValueError, AttributeError):
+        mass, g = 0.0, 0.0
+    return {"contacts": contacts, "weight": mass * g} if contacts else {}

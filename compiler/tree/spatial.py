@@ -5,6 +5,8 @@ force [n; f].  A body's transform from its parent is E (parent to body component
 (body origin from the parent origin, parent components), as a :class:`.lowered.LoweredBody`
 holds them.  Sums and products go through :mod:`.construct` (structural zeros dropped).
 """
+import sympy as sm
+
 from .construct import _add, _mul, _nz
 
 
@@ -70,18 +72,78 @@ def _rot_gen(E, B, rec):
     return [[rec.let(_add([_mul(E[k][i], BE[k][j]) for k in range(3)])) for j in range(3)] for i in range(3)]
 
 
+def _turn(b, rec):
+    """(k, i, j, c, s, cos 2q, sin 2q) of a body whose E turns about axis k (``b.axis``)."""
+    k, i, j = b.axis
+    c, s = b.E[i][i], b.E[i][j]
+    return k, i, j, c, s, rec.let(_add((_mul(c, c), -_mul(s, s)))), rec.let(2 * _mul(c, s))
+
+
+def _turn_vec(t, x, y):
+    """(x, y) components i, j of a vector along axis k's plane, turned: Gᵀ (x, y)."""
+    _, _, _, c, s, _, _ = t
+    return _add((_mul(c, x), -_mul(s, y))), _add((_mul(s, x), _mul(c, y)))
+
+
+def _turn_pair(t, rec, a, e, b):
+    """Gᵀ [[a, b], [b, e]] G (G = [[c, s], [-s, c]]) by the double angle: the mean of a and
+    e does not turn, their half difference and b turn by 2q (12 operations, not 21)."""
+    _, _, _, _, _, c2, s2 = t
+    half = sm.Rational(1, 2)
+    mean, h = rec.let(half * rec.let(_add((a, e)))), rec.let(half * rec.let(_add((a, -e))))
+    d = rec.let(_add((_mul(c2, h), -_mul(s2, b))))
+    return _add((mean, d)), _add((mean, -d)), _add((_mul(s2, h), _mul(c2, b)))
+
+
+def _turn_sym(t, A, rec):
+    """Eᵀ A E of a symmetric 3x3 when E turns about axis k (lower triangle named)."""
+    k, i, j = t[:3]
+    out = [[None] * 3 for _ in range(3)]
+    out[k][k] = A[k][k]
+    out[i][i], out[j][j], out[i][j] = _turn_pair(t, rec, A[i][i], A[j][j], A[i][j])
+    out[j][i] = out[i][j]
+    out[i][k], out[j][k] = _turn_vec(t, A[i][k], A[j][k])
+    out[k][i], out[k][j] = out[i][k], out[j][k]
+    return [[rec.let(x) for x in row] for row in out]
+
+
+def _turn_gen(t, B, rec):
+    """Eᵀ B E of a general 3x3 when E turns about axis k: its 2x2 block's antisymmetric part
+    does not turn (det G = 1), its symmetric part turns as :func:`_turn_pair`."""
+    k, i, j = t[:3]
+    half = sm.Rational(1, 2)
+    out = [[None] * 3 for _ in range(3)]
+    out[k][k] = B[k][k]
+    sym = rec.let(half * rec.let(_add((B[i][j], B[j][i]))))
+    w = rec.let(half * rec.let(_add((B[i][j], -B[j][i]))))
+    out[i][i], out[j][j], bs = _turn_pair(t, rec, B[i][i], B[j][j], sym)
+    bs = rec.let(bs)
+    out[i][j], out[j][i] = _add((bs, w)), _add((bs, -w))
+    out[i][k], out[j][k] = _turn_vec(t, B[i][k], B[j][k])
+    out[k][i], out[k][j] = _turn_vec(t, B[k][i], B[k][j])
+    return [[rec.let(x) for x in row] for row in out]
+
+
 def xt_inertia_x(b, rec, I):
     """Xᵀ I X: a body-frame 6x6 inertia as seen from the parent (symmetric, named).
 
     By 3x3 blocks (I = [[A, B], [Bᵀ, C]]): rotate A, B, C into the parent's axes,
     then shift by r: [[A' + r×B'ᵀ - (B' + r×C') r×, B' + r×C'], [.., C']] -- about
-    5% fewer operations in the generated rhs than multiplying by the 6x6 X twice."""
+    5% fewer operations in the generated rhs than multiplying by the 6x6 X twice.  When E
+    turns about one of the body's axes (``b.axis``, most revolute joints) the blocks turn
+    by the double angle (:func:`_turn_sym`, :func:`_turn_gen`): 18 + 30 + 18 operations
+    instead of 27 + 36 + 27, plus 5 for cos 2q and sin 2q."""
     E, r = b.E, b.r
     A = [[I[i][j] for j in range(3)] for i in range(3)]
     B = [[I[i][j + 3] for j in range(3)] for i in range(3)]
     C = [[I[i + 3][j + 3] for j in range(3)] for i in range(3)]
-    A, C = _rot_sym(E, A, rec), _rot_sym(E, C, rec)
-    B = _rot_gen(E, B, rec) if any(_nz(x) for row in B for x in row) else B
+    if getattr(b, "axis", None) is not None:          # a turn about one axis: the double angle
+        t = _turn(b, rec)
+        A, C = _turn_sym(t, A, rec), _turn_sym(t, C, rec)
+        B = _turn_gen(t, B, rec) if any(_nz(x) for row in B for x in row) else B
+    else:
+        A, C = _rot_sym(E, A, rec), _rot_sym(E, C, rec)
+        B = _rot_gen(E, B, rec) if any(_nz(x) for row in B for x in row) else B
     rx = [[0, -r[2], r[1]], [r[2], 0, -r[0]], [-r[1], r[0], 0]]
 
     def mul(P, Q, lower=False):

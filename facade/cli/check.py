@@ -18,8 +18,9 @@ def configure(parser):
     parser.add_argument("--atol", type=float, default=1e-10, help="absolute tolerance to check")
     parser.add_argument("--methods", default=None,
                         help="methods to check, comma-separated (default: auto and every method that "
-                             "applies: dopri5, dop853, bdf, radau; on a model with ground contacts auto, bdf "
-                             "and radau -- auto runs one of them)")
+                             "applies: dopri5, dop853, bdf, radau; on a model with ground contacts auto and "
+                             "the implicit method(s) auto takes at --rtol: bdf and radau at rtol >= 1e-7, "
+                             "radau below)")
 
 
 def run(args):

@@ -116,6 +116,56 @@
     geometry.world.forEach((s) => { const o = shapeObject(s, new T.Color(0.55, 0.55, 0.6)); if (o) group.add(o); });
     scene.add(group);
   }
+  // what touches (the contacts the model computes with): translucent, in the body's frame
+  const collisionObjects = [];
+  const touchMaterial = new T.MeshBasicMaterial({ color: 0xff8c00, transparent: true, opacity: 0.35, depthWrite: false });
+  const touchWire = new T.MeshBasicMaterial({ color: 0xd35400, wireframe: true, transparent: true, opacity: 0.6 });
+  Object.keys(D.collision || {}).forEach((name) => {
+    const k = D.frames.indexOf(name);
+    if (k < 0) return;
+    D.collision[name].forEach((s) => {
+      let g;
+      // 1 % larger than the shape: a visual sphere of the same size would hide it half
+      if (s.kind === "sphere") g = new T.SphereGeometry(s.size[0] * 1.01, 48, 32);
+      else if (s.kind === "ellipsoid") { g = new T.SphereGeometry(1.01, 48, 32); g.scale(s.size[0], s.size[1], s.size[2]); }
+      else g = new T.SphereGeometry(D.scale * 0.008, 8, 6);   // a point contact: a dot
+      const obj = new T.Group();
+      obj.add(new T.Mesh(g, touchMaterial));
+      if (s.kind !== "point") obj.add(new T.Mesh(g, touchWire));
+      obj.matrixAutoUpdate = false;
+      obj.matrix.copy(new T.Matrix4().fromArray(s.origin).transpose());
+      obj.visible = !!D.show_collision;
+      obj.userData.contact = s.contact;
+      frameObjects[k].add(obj);
+      collisionObjects.push(obj);
+    });
+  });
+  // contact forces: an arrow per contact from its touching point, hidden while it is open
+  const arrowData = (D.arrows || []).map((a) => new Float32Array(f32(a.values)));
+  const arrowObjects = (D.arrows || []).map(() => {
+    const h = new T.ArrowHelper(new T.Vector3(0, 0, 1), new T.Vector3(), 1, 0x00a000, D.scale * 0.04, D.scale * 0.02);
+    h.visible = false;
+    // drawn over everything: a force at a foot points into the leg, at a ball into the ball
+    [h.line, h.cone].forEach((o) => { o.material.depthTest = false; o.material.transparent = true; o.renderOrder = 10; });
+    scene.add(h);
+    return h;
+  });
+  let showForces = !!D.show_forces;
+  const arrowShown = arrowObjects.map(() => 0);
+  function placeArrows(i) {
+    arrowObjects.forEach((h, a) => {
+      const v = arrowData[a], o = 6 * i;
+      const d = new T.Vector3(v[o + 3], v[o + 4], v[o + 5]), len = d.length();
+      arrowShown[a] = len > 0 ? 1 : 0;
+      h.visible = showForces && len > 0;
+      if (len > 0) {
+        h.position.set(v[o], v[o + 1], v[o + 2]);
+        h.setDirection(d.divideScalar(len));
+        const head = Math.min(D.scale * 0.04, 0.4 * len);
+        h.setLength(len, head, head * 0.5);
+      }
+    });
+  }
   const pointObjects = [];
   D.points.forEach((name, j) => {
     const c = color(D.colors[name], nf + j);
@@ -173,6 +223,7 @@
       for (let e = 0; e < 2; e++) for (let c = 0; c < 3; c++) linePos[6 * n + 3 * e + c] = poses[pbase + 3 * pair[e] + c];
     });
     lineGeometry.attributes.position.needsUpdate = true;
+    placeArrows(i);
   }
 
   // ---- outputs plot -------------------------------------------------------------------
@@ -230,6 +281,31 @@
     status.setAttribute("data-axes", axesBox.checked ? "1" : "0");
     renderer.render(scene, camera);
   });
+  const collisionBox = document.getElementById("eomc-collision");
+  const forcesBox = document.getElementById("eomc-forces");
+  collisionBox.checked = !!D.show_collision;
+  forcesBox.checked = showForces;
+  if (D.newtons_per_metre) document.getElementById("eomc-force-scale").textContent =
+    ` (1 m = ${Number(D.newtons_per_metre).toPrecision(3)} N)`;
+  function flags() {
+    status.setAttribute("data-collision", collisionBox.checked ? String(collisionObjects.length) : "0");
+    status.setAttribute("data-forces", showForces ? String(arrowShown.reduce((a, b) => a + b, 0)) : "0");
+  }
+  collisionBox.addEventListener("change", () => {
+    collisionObjects.forEach((o) => { o.visible = collisionBox.checked; });
+    flags();
+    renderer.render(scene, camera);
+  });
+  forcesBox.addEventListener("change", () => {
+    showForces = forcesBox.checked;
+    placeArrows(current);
+    flags();
+    renderer.render(scene, camera);
+  });
+  // #collision=1/0, #forces=1/0 set the toggles (links and screenshots)
+  const hashFlag = (key) => { const r = new RegExp(`[#&]${key}=([01])`).exec(location.hash); return r ? r[1] === "1" : null; };
+  if (hashFlag("collision") !== null) { collisionBox.checked = hashFlag("collision"); collisionObjects.forEach((o) => { o.visible = collisionBox.checked; }); }
+  if (hashFlag("forces") !== null) { forcesBox.checked = showForces = hashFlag("forces"); }
   slider.max = String(nt - 1);
   let playing = true, current = 0, clock = times[0], last = null;
 
@@ -253,6 +329,7 @@
     const pv = new T.Matrix4().multiplyMatrices(camera.projectionMatrix, camera.matrixWorldInverse);
     const rect = renderer.domElement.getBoundingClientRect();
     status.setAttribute("data-frame", String(current));
+    flags();
     status.setAttribute("data-view", JSON.stringify({ pv: pv.elements, left: rect.left, top: rect.top, width: rect.width, height: rect.height }));
   }
   function resize() {

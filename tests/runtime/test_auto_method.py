@@ -61,11 +61,13 @@ def test_auto_takes_an_implicit_method_from_the_start_with_contacts(ball, rtol, 
 
 
 def test_check_and_report_list_what_auto_picks_on_contacts(ball):
-    """`eomc check` on a contact model runs auto, bdf and radau (auto is one of the last two),
-    and `eomc report` lists bdf and radau by default; on the ball all meet the tolerance."""
+    """`eomc check` on a contact model runs auto and what auto takes at the tolerance (bdf and
+    radau at rtol >= 1e-7, radau below), and `eomc report` lists bdf and radau by default; on
+    the ball all meet the tolerance."""
     from eomc.runtime.report import DEFAULT_METHODS
     from eomc.runtime.stability import check_model, default_methods
-    assert default_methods(ball) == ("auto", "bdf", "radau")
+    assert default_methods(ball) == default_methods(ball, 1e-6) == ("auto", "bdf", "radau")
+    assert default_methods(ball, 1e-8) == ("auto", "radau")      # auto is radau there
     assert {"bdf", "radau"} <= set(DEFAULT_METHODS)
     checks = {c.name: c for c in check_model(ball, np.r_[0, 0, 0.5, np.zeros(9)], 1.0, rtol=1e-6,
                                              atol=1e-9)}

@@ -1,0 +1,107 @@
+"""The animation page draws what touches (the contact spheres and points the model computes
+with) and each contact's force as an arrow: the page's numbers against the run's outputs, and
+the toggles in a real browser.
+
+One MJCF ball (radius 0.1 m, 2 kg, a free joint) dropped from 0.3 m onto the plane: it touches
+down at t ≈ 0.2 s and rests on its contact, whose normal force is then m·g.
+"""
+import json
+import re
+
+import numpy as np
+import pytest
+
+import eomc
+from eomc.compiler.mjcf.model import MjcfModel
+from eomc.runtime.animate import FORCE_SCALE
+
+from .test_animate import _open, _project
+
+BALL = """<mujoco><option gravity="0 0 -9.81"/><worldbody><geom type="plane" size="5 5 .1"/>
+<body name="ball" pos="0 0 0.3"><freejoint/><geom name="foot" type="sphere" size="0.1" mass="2"/></body>
+</worldbody></mujoco>"""
+MASS, RADIUS, G = 2.0, 0.1, 9.81
+
+
+@pytest.fixture(scope="module")
+def ball(tmp_path_factory):
+    where = tmp_path_factory.mktemp("ball")
+    (where / "ball.xml").write_text(BALL)
+    model = eomc.compile(MjcfModel(where / "ball.xml"), functions=["rhs", "jac_x", "outputs", "events", "poses"],
+                         cache_dir=where / "cache", progress=False)
+    res = model.simulate(None, (0, 1.0), method="radau")
+    assert res.status == 0
+    return model, res
+
+
+def _data(anim):
+    return json.loads(re.search(r'id="eomc-data">(.*?)</script>', anim.html, re.S).group(1))
+
+
+def _f32(b64, cols):
+    import base64
+    return np.frombuffer(base64.b64decode(b64), dtype="<f4").reshape(-1, cols).astype(float)
+
+
+def test_the_compiler_records_the_contacts_for_the_page(ball):
+    model, _ = ball
+    meta = model.metadata["poses"]
+    assert meta["contacts"] == [{"name": "foot", "frame": "ball", "point": [0.0, 0.0, 0.0], "radius": RADIUS,
+                                 "radius_parameter": "r_foot", "normal": [0.0, 0.0, 1.0]}]
+    assert meta["weight"] == pytest.approx(MASS * G, rel=1e-12)
+
+
+def test_arrows_are_the_runs_contact_forces(ball):
+    model, res = ball
+    anim = res.animate(fps=20)
+    data = _data(anim)
+    shape, = data["collision"]["ball"]
+    assert shape["kind"] == "sphere" and shape["size"] == [RADIUS] and shape["contact"] == "foot"
+    assert data["show_collision"] is False, "a model drawn by its own shapes hides them by default"
+    assert data["show_forces"] is True
+    arrow, = data["arrows"]
+    values = _f32(arrow["values"], 6)
+    times = _f32(data["t"], 1)[:, 0]
+    per_newton = FORCE_SCALE * data["scale"] / (MASS * G)
+    assert data["newtons_per_metre"] == pytest.approx(1 / per_newton, rel=1e-12)
+    centre = anim.poses["ball"]
+    for i in range(len(times)):
+        fn, ftx, fty, ftz = (np.interp(times[i], res.t, res.outputs[f"{k}_foot"]) for k in ("Fn", "Ftx", "Fty", "Ftz"))
+        force = np.array([ftx, fty, fn + ftz]) if fn > 0 else np.zeros(3)
+        np.testing.assert_allclose(values[i, 3:], force * per_newton, rtol=1e-5, atol=1e-6 * per_newton * MASS * G)
+        np.testing.assert_allclose(values[i, :3], centre[i] - [0, 0, RADIUS], atol=1e-6)
+    assert not values[times < 0.15, 3:].any(), "an arrow while the ball is still in the air"
+    rest = values[-1, 3:] / per_newton          # at rest the contact carries the weight, straight up
+    np.testing.assert_allclose(rest, [0, 0, MASS * G], rtol=1e-4, atol=1e-4)
+
+
+def _green(pixels, view):
+    """The arrows' green pixels in the scene's canvas (the plots beside it have green too)."""
+    r, g, b = pixels[..., 0], pixels[..., 1], pixels[..., 2]
+    mask = (g > 120) & (r < 80) & (b < 80)
+    inside = np.zeros_like(mask)
+    top, left = int(view["top"]), int(view["left"])
+    inside[top:top + int(view["height"]), left:left + int(view["width"])] = True
+    return mask & inside
+
+
+def test_collision_and_force_toggles_in_the_browser(ball, tmp_path):
+    """At rest (t = 0.9): with forces on, the arrow's green pixels run up from the ball's
+    bottom; with both toggles set by the link, the page reports them, and no JS errors."""
+    model, res = ball
+    page = tmp_path / "ball.html"
+    anim = res.animate(page, up="z")
+    i = int(round(0.9 * 60))
+    pixels, attrs = _open(page, "0.9&collision=1&forces=1", tmp_path)
+    assert attrs.get("ready") == "1" and "errors" not in attrs, attrs.get("errors")
+    assert attrs["collision"] == "1" and attrs["forces"] == "1"
+    view = json.loads(attrs["view"])
+    ys, xs = np.nonzero(_green(pixels, view))
+    assert len(xs) > 20, "no arrow on the screenshot"
+    top = anim.poses["ball"][i] + [0, 0, -RADIUS + FORCE_SCALE * _data(anim)["scale"]]
+    tip = _project(view, top)
+    assert np.min(np.hypot(xs - tip[0], ys - tip[1])) < 15, "the arrow does not reach m·g's length"
+    pixels, attrs = _open(page, "0.9&collision=0&forces=0", tmp_path / "off")
+    assert attrs.get("ready") == "1" and "errors" not in attrs, attrs.get("errors")
+    assert attrs["collision"] == "0" and attrs["forces"] == "0"
+    assert _green(pixels, json.loads(attrs["view"])).sum() < 5, "the arrow is drawn with forces off"
