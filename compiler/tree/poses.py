@@ -111,7 +111,8 @@ def contact_metadata(source):
     """What the animation page needs of a robot's contacts (NAME.json ``poses.contacts``, read
     by eomc.runtime.animate): per contact its name (the outputs ``Fn_<name>``, ``Ft*_<name>``),
     the shown frame it is fixed in, the sphere's centre in that frame, its radius (the
-    parameter ``r_<name>`` the run may change, and its default), the plane's normal, and an
+    parameter ``r_<name>`` the run may change, and its default), the plane's normal and height
+    (an MJCF pair's margin raises it), and an
     ellipsoid's A = R diag(a²) Rᵀ (frame components: the touching point is its support point);
     and the robot's weight m·g, the arrows' scale.  Empty for a model with no joint tree (a
     SymPy model's contacts are loads the poses cannot see) or without contacts.
@@ -144,7 +145,7 @@ def contact_metadata(source):
         item = {"name": load.name, "frame": frame, "point": [float(v) for v in point],
                 "radius": _number(r, defaults) or 0.0,
                 "radius_parameter": str(r) if isinstance(r, sm.Symbol) else None,
-                "normal": [float(v) for v in load.normal]}
+                "normal": [float(v) for v in load.normal], "height": _number(load.height, defaults)}
         if load.shape is not None:
             A = np.array([[_number(x, defaults) for x in row] for row in load.shape], dtype=float)
             item["ellipsoid"] = [float(v) for v in (D.T @ A @ D).reshape(9)]

@@ -47,7 +47,8 @@ def test_the_compiler_records_the_contacts_for_the_page(ball):
     model, _ = ball
     meta = model.metadata["poses"]
     assert meta["contacts"] == [{"name": "foot", "frame": "ball", "point": [0.0, 0.0, 0.0], "radius": RADIUS,
-                                 "radius_parameter": "r_foot", "normal": [0.0, 0.0, 1.0]}]
+                                 "radius_parameter": "r_foot", "normal": [0.0, 0.0, 1.0],
+                                 "height": 0.0}]
     assert meta["weight"] == pytest.approx(MASS * G, rel=1e-12)
 
 
@@ -105,3 +106,34 @@ def test_collision_and_force_toggles_in_the_browser(ball, tmp_path):
     assert attrs.get("ready") == "1" and "errors" not in attrs, attrs.get("errors")
     assert attrs["collision"] == "0" and attrs["forces"] == "0"
     assert _green(pixels, json.loads(attrs["view"])).sum() < 5, "the arrow is drawn with forces off"
+
+
+def test_hopper_arrows_start_on_the_ground(tmp_path):
+    """gymnasium's hopper (MJCF: each body's frame is its mass centre less an offset, a capsule's
+    contacts are its end spheres) after a passive drop: every closed contact's arrow starts on
+    the ground (z = the plane's height − depth), and the arrows together carry the weight the compiler recorded."""
+    gymnasium = pytest.importorskip("gymnasium")
+    from pathlib import Path
+    path = Path(gymnasium.__file__).parent / "envs" / "mujoco" / "assets" / "hopper.xml"
+    with pytest.warns(Warning, match="self-collision"):
+        model = eomc.compile(MjcfModel(path), functions=["rhs", "jac_x", "outputs", "events", "poses"],
+                             cache_dir=tmp_path / "cache", progress=False)
+    res = model.simulate(None, (0, 1.2), method="radau")
+    assert res.status == 0
+    anim = res.animate(fps=20)
+    data = _data(anim)
+    weight = model.metadata["poses"]["weight"]
+    per_newton = FORCE_SCALE * data["scale"] / weight
+    total = np.zeros(3)
+    closed = 0
+    height = {c["name"]: c["height"] for c in model.metadata["poses"]["contacts"]}
+    for arrow in data["arrows"]:
+        last = _f32(arrow["values"], 6)[-1]
+        depth = np.interp(_f32(data["t"], 1)[-1, 0], res.t, res.outputs[f"depth_{arrow['name']}"])
+        if last[3:].any():
+            closed += 1
+            # the plane is raised by the pair's margin (docs/contact.md)
+            assert last[2] == pytest.approx(height[arrow["name"]] - depth, abs=1e-5), arrow["name"]
+        total += last[3:] / per_newton
+    assert closed >= 2
+    np.testing.assert_allclose(total, [0, 0, weight], rtol=0, atol=1e-2 * weight)
