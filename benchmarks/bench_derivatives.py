@@ -149,7 +149,10 @@ class CartRef:
         return np.asarray(v, dtype=float)
 
 
-def build_case(case, cache):
+FUNCTIONS = ["rhs", "jac_x", "inverse_dynamics", "jac_id"]
+
+
+def build_case(case, cache, functions=FUNCTIONS):
     """(eomc Model, Pinocchio reference, floating) of one case."""
     import eomc
     if case.startswith("cart"):
@@ -159,16 +162,15 @@ def build_case(case, cache):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             model = eomc.compile(mod["system"], f"cart{n}", parameters=mod["parameters"], inputs=mod["inputs"],
-                                 functions=["rhs", "jac_x", "inverse_dynamics", "jac_id"],
-                                 formulation="recursive", cache_dir=cache, progress=False)
+                                 functions=functions, formulation="recursive", cache_dir=cache, progress=False)
         return model, CartRef(n), False
     from eomc.compiler.urdf import from_urdf
     from helpers.robots import PinRef, joints_of, robot_path
     rel, floating = ROBOTS[case]
     path = robot_path(rel)
     system = from_urdf(path, floating_base=floating, limits=False)
-    model = eomc.compile(system, case, functions=["rhs", "jac_x", "inverse_dynamics", "jac_id"],
-                         formulation="recursive", cache_dir=cache, progress=False)
+    model = eomc.compile(system, case, functions=functions, formulation="recursive", cache_dir=cache,
+                         progress=False)
     ref = PinRef(path, joints_of(system), floating=floating)
     ref.gravity = ref.model.gravity.linear
     return model, ref, floating
@@ -257,13 +259,17 @@ def main():
     ap.add_argument("--cart", default="4,8,20,40,80")
     ap.add_argument("--robots", default="ur10,panda,go2,g1,talos")
     ap.add_argument("--rounds", type=int, default=9)
+    ap.add_argument("--cache", default="", help="a build cache directory to keep between runs (keys hold "
+                    "eomc's compiler sources, so a changed compiler rebuilds)")
+    ap.add_argument("--pin-obj", default="", help="pin_derivatives.cpp already compiled (saves minutes)")
     ap.add_argument("--write", action="store_true")
     a = ap.parse_args()
     cases = [f"cart{n}" for n in a.cart.split(",") if n] + [r for r in a.robots.split(",") if r]
     from common import compile_pinocchio
     tmp = Path(tempfile.mkdtemp(prefix="eomc_bd_"))
-    cache = tmp / "cache"
-    pin_obj = compile_pinocchio(MODELS / "pin_derivatives.cpp", tmp / "pin_derivatives.o")
+    cache = Path(a.cache) if a.cache else tmp / "cache"
+    pin_obj = (Path(a.pin_obj) if a.pin_obj
+               else compile_pinocchio(MODELS / "pin_derivatives.cpp", tmp / "pin_derivatives.o"))
     if pin_obj is None:
         sys.exit("Pinocchio's headers (pin / cmeel wheels) are needed")
     rng = np.random.default_rng(30)

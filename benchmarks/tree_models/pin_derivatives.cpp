@@ -1,11 +1,15 @@
-// Pinocchio's analytic derivatives (Carpentier & Mansard 2018) of any model written as text by
-// bench_derivatives.py (pinocchio.Model -> one line per joint: name, parent, type, axis, placement,
-// inertia; first line: gravity), assembled at start-up with addJoint/appendBodyToJoint, header-only
-// from the pin / cmeel wheels.  Called from the C harness: the calls compute into Pinocchio's Data
-// (the harness times them), pin_copy_* lay the result out for the agreement check.
+// Pinocchio's analytic derivatives (Carpentier & Mansard 2018; second order: Singh, Russell &
+// Wensing 2022) of any model written as text by benchmarks/bench_derivatives.py's pin_text
+// (pinocchio.Model -> one line per joint: name, parent, type, axis, placement, inertia; first
+// line: gravity), assembled at start-up with addJoint/appendBodyToJoint, header-only from the
+// pin / cmeel wheels (whose Python bindings do not export the second-order RNEA derivatives).
+// Called from the C harnesses of bench_derivatives.py and bench_second_order.py: the calls compute
+// into Pinocchio's Data (the harness times them), pin_copy_* lay the results out for the agreement
+// checks.
 #include <pinocchio/multibody.hpp>
 #include <pinocchio/algorithm/aba-derivatives.hpp>
 #include <pinocchio/algorithm/rnea-derivatives.hpp>
+#include <pinocchio/algorithm/rnea-second-order-derivatives.hpp>
 #include <Eigen/Core>
 #include <cstdio>
 #include <cstdlib>
@@ -83,5 +87,25 @@ extern "C" void pin_copy_rnea(double *dq, double *dv) {
   for (int i = 0; i < nv; i++) for (int j = 0; j < nv; j++) {
     dq[i * nv + j] = data->dtau_dq(i, j);
     dv[i * nv + j] = data->dtau_dv(i, j);
+  }
+}
+
+extern "C" void pin_rnea_second_order(const double *q, const double *v, const double *a) {
+  Eigen::Map<const Eigen::VectorXd> Q(q, model->nq), V(v, model->nv), A(a, model->nv);
+  pinocchio::ComputeRNEASecondOrderDerivatives(*model, *data, Q, V, A);
+}
+
+// nv x nv x nv tensors, [i][j][k] = entry (i, j, k) at i * nv * nv + j * nv + k: d2 tau_i / dq_j dq_k,
+// d2 tau_i / dv_j dv_k, d2 tau_i / dq_j dv_k (Pinocchio's d2tau_dqdv: q along the columns, v along
+// the pages, as measured against eomc's hess_id; its header's comment says the reverse) and
+// dM_ij / dq_k (d2tau_dadq), all along Pinocchio's Lie tangent for q.
+extern "C" void pin_copy_rnea_second_order(double *qq, double *vv, double *qv, double *aq) {
+  const int nv = model->nv;
+  for (int i = 0; i < nv; i++) for (int j = 0; j < nv; j++) for (int k = 0; k < nv; k++) {
+    const int at = (i * nv + j) * nv + k;
+    qq[at] = data->d2tau_dqdq(i, j, k);
+    vv[at] = data->d2tau_dvdv(i, j, k);
+    qv[at] = data->d2tau_dqdv(i, j, k);
+    aq[at] = data->d2tau_dadq(i, j, k);
   }
 }

@@ -66,6 +66,7 @@ class AnalyticPlan:
     dep: tuple = ()         # the number of dofs before it on that path
     off: tuple = ()         # where its row of M (itself, then its support, nearest first) starts
     solver: str = "ltdl"    # jac_x's M⁻¹: "ltdl" (rows of M over the support) or "aba" (articulated, see solve_tables)
+    kblocks: tuple = ()     # per k-speed joint: its K's diagonal blocks ((coordinates), (speeds)), see _blocks
     laws: tuple = ()        # dofs with a joint law, in dof order (their ∂τ/∂q, ∂τ/∂u: anx block L)
 
     def dofs(self, b):
@@ -93,7 +94,7 @@ def analytic_plan(tree, bodies, gravity, layout, rename):
     if len(kin) != nq:
         return None, []
     nb = len(bodies)
-    par, first, count, row, qcol, multi = [], [], [], [], [], []
+    par, first, count, row, qcol, multi, kblocks = [], [], [], [], [], [], []
     E, r, S, I, F, K, arm = [], [], [], [], [], [], []
     lam, dep, last = [], [], {}     # last: body -> its last dof, or its nearest ancestor's
     used = set()
@@ -124,8 +125,10 @@ def analytic_plan(tree, bodies, gravity, layout, rename):
                 return None, []
             used.update(rows)
             multi.append((len(row), len(dofs), len(K)))
-            for i in rows:
-                K += [sm.diff(kin[i], speeds[s]) for s, _ in dofs]
+            kj = [[sm.diff(kin[i], speeds[s]) for s, _ in dofs] for i in rows]
+            kblocks.append(_blocks(kj))
+            for line in kj:
+                K += line
             qcol += rows
         before = last.get(b.parent, -1)
         for (s, axis), a in zip(dofs, b.armature):
@@ -163,8 +166,35 @@ def analytic_plan(tree, bodies, gravity, layout, rename):
         off.append(off[-1] + d + 1)
     plan = AnalyticPlan(nb, len(row), tuple(par), tuple(first), tuple(count), tuple(row),
                         tuple(qcol), tuple(multi), loads, offsets, len(values), tuple(lam), tuple(dep),
-                        tuple(off), choose_solver(dep), tuple(lawdofs))
+                        tuple(off), choose_solver(dep), tuple(kblocks), tuple(lawdofs))
     return plan, [((ANX, i), sm.sympify(v)) for i, v in enumerate(values)]
+
+
+def _blocks(kj):
+    """The diagonal blocks of a k-speed joint's K (q' = K u; rows coordinates, columns speeds)
+    up to a permutation: the connected parts of its structural non-zeros, as ((coordinates),
+    (speeds)) pairs, or one block of all when a part is not square.  Why: a free joint's K is
+    a translation block and an angle block, and inverting two 3×3 blocks and applying them
+    costs a quarter and a half of the 6×6 (measured: K⁻¹ was 7 % of Go2's jac_x)."""
+    k = len(kj)
+    parent = list(range(2 * k))     # union-find over coordinates 0..k-1 and speeds k..2k-1
+
+    def find(i):
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+    for i in range(k):
+        for j in range(k):
+            if kj[i][j] != 0:
+                parent[find(i)] = find(k + j)
+    parts = {}
+    for n in range(2 * k):
+        parts.setdefault(find(n), []).append(n)
+    blocks = sorted((tuple(n for n in ns if n < k), tuple(n - k for n in ns if n >= k)) for ns in parts.values())
+    if any(len(r) != len(c) for r, c in blocks):
+        return ((tuple(range(k)), tuple(range(k))),)
+    return tuple(blocks)
 
 
 def _joint_laws(tree, layout, rename, xs, speeds):
@@ -197,7 +227,8 @@ def choose_solver(dep):
     whatever the depth (6-vector messages instead of whole support rows).  Measured jac_x,
     articulated vs LᵀDL (2026-11-28, benchmarks/bench_derivatives.py): cart n = 40 31.8 vs
     63.2 µs, G1 (mean depth 8.7) 22.7 vs 25.5, Go2 (5.5) 7.9 vs 8.0; LᵀDL ahead on Panda
-    (3.4 vs 3.6) and the 8-link cart (3.0 vs 3.2), mean depth about 4.
+    (3.4 vs 3.6) and the 8-link cart (3.0 vs 3.2), mean depth about 4.  Re-measured with the
+    faster pair loop and K's blocks (2026-11-29): Go2 articulated 6.6 vs LᵀDL 7.0 µs.
     Deep trees (mean depth above ABA_DEPTH) go articulated."""
     return "aba" if len(dep) and sum(dep) > ABA_DEPTH * len(dep) else "ltdl"
 
@@ -296,7 +327,7 @@ def kernel_c(name, plan, nq, solve=False):
     nb, nd, o = plan.nb, plan.nd, plan.offsets
     fn = f"{name}_rnea_derivs"
     lines = [
-        f"static void {name}_rd_cross(const double *v, const double *m, double *out)",
+        f"static inline void {name}_rd_cross(const double *v, const double *m, double *out)",
         "{   /* out = v x m (motion cross product) */",
         "    out[0] = v[1] * m[2] - v[2] * m[1];",
         "    out[1] = v[2] * m[0] - v[0] * m[2];",
@@ -306,7 +337,7 @@ def kernel_c(name, plan, nq, solve=False):
         "    out[5] = v[0] * m[4] - v[1] * m[3] + v[3] * m[1] - v[4] * m[0];",
         "}",
         "",
-        f"static void {name}_rd_crossf(const double *v, const double *f, double *out)",
+        f"static inline void {name}_rd_crossf(const double *v, const double *f, double *out)",
         "{   /* out = v x* f (force cross product) */",
         "    out[0] = v[1] * f[2] - v[2] * f[1] + v[4] * f[5] - v[5] * f[4];",
         "    out[1] = v[2] * f[0] - v[0] * f[2] + v[5] * f[3] - v[3] * f[5];",
@@ -316,12 +347,17 @@ def kernel_c(name, plan, nq, solve=False):
         "    out[5] = v[0] * f[4] - v[1] * f[3];",
         "}",
         "",
-        f"static double {name}_rd_dot(const double *a, const double *b)",
+        f"static inline double {name}_rd_dot(const double *a, const double *b)",
         "{",
         "    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] + a[4] * b[4] + a[5] * b[5];",
         "}",
         "",
-        f"static void {name}_rd_ymul(const double *y, const double *x, double *out)",
+        f"static inline double {name}_rd_dot3(const double *a, const double *b)",
+        "{   /* the angular halves only: a = dY^T x, whose linear half is zero */",
+        "    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];",
+        "}",
+        "",
+        f"static inline void {name}_rd_ymul(const double *y, const double *x, double *out)",
         "{   /* out = Y x, Y = {m, c (= m p), I_O (xx yy zz xy xz yz)}: [I_O x_w + c x x_l; m x_l - c x x_w] */",
         "    out[0] = y[4] * x[0] + y[7] * x[1] + y[8] * x[2] + y[2] * x[5] - y[3] * x[4];",
         "    out[1] = y[7] * x[0] + y[5] * x[1] + y[9] * x[2] + y[3] * x[3] - y[1] * x[5];",
@@ -331,7 +367,7 @@ def kernel_c(name, plan, nq, solve=False):
         "    out[5] = y[0] * x[5] - y[1] * x[1] + y[2] * x[0];",
         "}",
         "",
-        f"static void {name}_rd_dmul(const double *d, const double *x, double *out)",
+        f"static inline void {name}_rd_dmul(const double *d, const double *x, double *out)",
         "{   /* out = dY x, dY = [[T, 0], [-2 [h]x, 0]], d = {T row-major, h} */",
         "    out[0] = d[0] * x[0] + d[1] * x[1] + d[2] * x[2];",
         "    out[1] = d[3] * x[0] + d[4] * x[1] + d[5] * x[2];",
@@ -341,7 +377,7 @@ def kernel_c(name, plan, nq, solve=False):
         "    out[5] = 2.0 * (d[10] * x[0] - d[9] * x[1]);",
         "}",
         "",
-        f"static void {name}_rd_dmult(const double *d, const double *x, double *out)",
+        f"static inline void {name}_rd_dmult(const double *d, const double *x, double *out)",
         "{   /* out = dY^T x = [T^T x_w + 2 h x x_l; 0] */",
         "    out[0] = d[0] * x[0] + d[3] * x[1] + d[6] * x[2] + 2.0 * (d[10] * x[5] - d[11] * x[4]);",
         "    out[1] = d[1] * x[0] + d[4] * x[1] + d[7] * x[2] + 2.0 * (d[11] * x[3] - d[9] * x[5]);",
@@ -366,8 +402,8 @@ def kernel_c(name, plan, nq, solve=False):
         f"    double Sw[{6 * nd}], dV[{6 * nd}], dA[{6 * nd}], dAv[{6 * nd}];",
         "    double fa[36], ft[36], fq[36], fv[36];",
         "    int b, i, j, k, e, c, l, a;",
+        _table("lam", plan.lam or (-1,)),
     ] + ([
-        _table("lam", plan.lam),
         _table("dep", plan.dep),
         _table("off", plan.off[:-1]),
         f"    double Mc[{msize}];",
@@ -539,21 +575,20 @@ def kernel_c(name, plan, nq, solve=False):
         f"            {name}_rd_crossf(Sw + 6 * c, fb, t);",
         "            for (i = 0; i < 6; i++) fq[m + i] += t[i];",
         "        }",
-        "        for (l = par[b]; l >= 0; l = par[l]) {   /* pairs with the joints of the support */",
-        "            for (a = d0[l]; a < d0[l] + nd[l]; a++) {",
+        "        for (c = d0[b]; c < d0[b] + nd[b]; c++) {   /* pairs with the joints a of the support */",
+        "            const int m = 6 * (c - d0[b]), qcc = qc[c], ucc = uc[c];",
+        "            const double *fqc = fq + m, *fvc = fv + m, *fac = fa + m, *ftc = ft + m;",
+        "            double *oc = out + (row0 + row[c]) * stride;",
+        "            for (a = lam[d0[b]]; a >= 0; a = lam[a]) {",
         "                const double *sa = Sw + 6 * a;",
         "                double *oa = out + (row0 + row[a]) * stride;",
-        "                for (c = d0[b]; c < d0[b] + nd[b]; c++) {",
-        "                    const int m = 6 * (c - d0[b]);",
-        "                    double *oc = out + (row0 + row[c]) * stride;",
-        f"                    oa[qc[c]] = sign * {name}_rd_dot(sa, fq + m);",
-        f"                    oa[uc[c]] = sign * {name}_rd_dot(sa, fv + m);",
-        f"                    oc[qc[a]] = sign * ({name}_rd_dot(fa + m, dA + 6 * a) + {name}_rd_dot(ft + m, dV + 6 * a));",
-        f"                    oc[uc[a]] = sign * ({name}_rd_dot(fa + m, dAv + 6 * a) + {name}_rd_dot(ft + m, sa));",
+        f"                oa[qcc] = sign * {name}_rd_dot(sa, fqc);",
+        f"                oa[ucc] = sign * {name}_rd_dot(sa, fvc);",
+        f"                oc[qc[a]] = sign * ({name}_rd_dot(fac, dA + 6 * a) + {name}_rd_dot3(ftc, dV + 6 * a));",
+        f"                oc[uc[a]] = sign * ({name}_rd_dot(fac, dAv + 6 * a) + {name}_rd_dot3(ftc, sa));",
     ] + ([
-        f"                    if (msolve) Mc[off[c] + dep[c] - dep[a]] = {name}_rd_dot(sa, fa + m);",
+        f"                if (msolve) Mc[off[c] + dep[c] - dep[a]] = {name}_rd_dot(sa, fac);",
     ] if ltdl else []) + [
-        "                }",
         "            }",
         "        }",
         "        l = par[b];",
@@ -564,48 +599,34 @@ def kernel_c(name, plan, nq, solve=False):
         "        }",
         "    }",
     ]
-    for e0, k, koff in plan.multi:
+    for (e0, k, koff), blocks in zip(plan.multi, plan.kblocks):
+        kb = [len(r) for r, _ in blocks]
         lines += [
-            f"    {{   /* a {k}-speed joint: d tau/dq = d tau/d xi K^-1, q' = K u (Gauss-Jordan, partial pivoting) */",
-            f"        double Km[{k * k}], Ki[{k * k}], x[{k}], piv, tmp;",
+            f"    {{   /* a {k}-speed joint: d tau/dq = d tau/d xi K^-1, q' = K u, K in {len(blocks)} diagonal block(s) */",
+            f"        double Km[{max(kb) ** 2}], x[{k}], piv, tmp;",
             "        int p;",
-            f"        for (i = 0; i < {k * k}; i++) {{",
-            f"            Km[i] = an[{o['K'] + koff} + i];",
-            f"            Ki[i] = i % {k + 1} == 0 ? 1.0 : 0.0;",
-            "        }",
-            f"        for (j = 0; j < {k}; j++) {{",
-            "            p = j;",
-            f"            for (i = j + 1; i < {k}; i++)",
-            f"                if (fabs(Km[{k} * i + j]) > fabs(Km[{k} * p + j])) p = i;",
-            f"            for (c = 0; c < {k}; c++) {{",
-            f"                tmp = Km[{k} * j + c]; Km[{k} * j + c] = Km[{k} * p + c]; Km[{k} * p + c] = tmp;",
-            f"                tmp = Ki[{k} * j + c]; Ki[{k} * j + c] = Ki[{k} * p + c]; Ki[{k} * p + c] = tmp;",
-            "            }",
-            f"            piv = 1.0 / Km[{k} * j + j];",
-            f"            for (c = 0; c < {k}; c++) {{",
-            f"                Km[{k} * j + c] *= piv;",
-            f"                Ki[{k} * j + c] *= piv;",
-            "            }",
-            f"            for (i = 0; i < {k}; i++) {{",
-            "                if (i == j) continue;",
-            f"                tmp = Km[{k} * i + j];",
-            f"                for (c = 0; c < {k}; c++) {{",
-            f"                    Km[{k} * i + c] -= tmp * Km[{k} * j + c];",
-            f"                    Ki[{k} * i + c] -= tmp * Ki[{k} * j + c];",
-            "                }",
-            "            }",
-            "        }",
+        ] + [f"        double Ki{n}[{kb[n] ** 2}];" for n in range(len(blocks))] + [
+            _table(f"kr{n}", r).replace("    ", "        ", 1) for n, (r, _) in enumerate(blocks)] + [
+            _table(f"kc{n}", c).replace("    ", "        ", 1) for n, (_, c) in enumerate(blocks)]
+        for n, b in enumerate(kb):
+            lines += [
+                f"        for (i = 0; i < {b}; i++)",
+                f"            for (j = 0; j < {b}; j++) Km[{b} * i + j] = an[{o['K'] + koff} + {k} * kr{n}[i] + kc{n}[j]];",
+            ] + _ginv_lines(b, f"Ki{n}")
+        lines += [
             f"        for (e = 0; e < {nd}; e++) {{",
             "            double *o = out + (row0 + row[e]) * stride;",
             f"            for (c = 0; c < {k}; c++) x[c] = o[qc[{e0} + c]];",
-            f"            for (c = 0; c < {k}; c++) {{",
-            "                tmp = 0.0;",
-            f"                for (i = 0; i < {k}; i++) tmp += x[i] * Ki[{k} * i + c];",
-            f"                o[qc[{e0} + c]] = tmp;",
-            "            }",
-            "        }",
-            "    }",
         ]
+        for n, b in enumerate(kb):
+            lines += [
+                f"            for (c = 0; c < {b}; c++) {{",
+                "                tmp = 0.0;",
+                f"                for (i = 0; i < {b}; i++) tmp += x[kc{n}[i]] * Ki{n}[{b} * i + c];",
+                f"                o[qc[{e0} + kr{n}[c]]] = tmp;",
+                "            }",
+            ]
+        lines += ["        }", "    }"]
     if plan.laws:
         lines += [
             "    {   /* the joint laws: their value is in F (a constant load above), their own derivative here */",
@@ -656,6 +677,36 @@ def kernel_c(name, plan, nq, solve=False):
         ]
     lines.append("}")
     return "\n".join(lines)
+
+
+def _ginv_lines(k, ki):
+    """``ki`` = Km⁻¹ (k × k, Km overwritten) by Gauss-Jordan with partial pivoting, k a
+    constant (gcc unrolls it): the inverse of one diagonal block of a k-speed joint's K."""
+    return [
+        f"        for (i = 0; i < {k * k}; i++) {ki}[i] = i % {k + 1} == 0 ? 1.0 : 0.0;",
+        f"        for (j = 0; j < {k}; j++) {{",
+        "            p = j;",
+        f"            for (i = j + 1; i < {k}; i++)",
+        f"                if (fabs(Km[{k} * i + j]) > fabs(Km[{k} * p + j])) p = i;",
+        f"            for (c = 0; c < {k}; c++) {{",
+        f"                tmp = Km[{k} * j + c]; Km[{k} * j + c] = Km[{k} * p + c]; Km[{k} * p + c] = tmp;",
+        f"                tmp = {ki}[{k} * j + c]; {ki}[{k} * j + c] = {ki}[{k} * p + c]; {ki}[{k} * p + c] = tmp;",
+        "            }",
+        f"            piv = 1.0 / Km[{k} * j + j];",
+        f"            for (c = 0; c < {k}; c++) {{",
+        f"                Km[{k} * j + c] *= piv;",
+        f"                {ki}[{k} * j + c] *= piv;",
+        "            }",
+        f"            for (i = 0; i < {k}; i++) {{",
+        "                if (i == j) continue;",
+        f"                tmp = Km[{k} * i + j];",
+        f"                for (c = 0; c < {k}; c++) {{",
+        f"                    Km[{k} * i + c] -= tmp * Km[{k} * j + c];",
+        f"                    {ki}[{k} * i + c] -= tmp * {ki}[{k} * j + c];",
+        "                }",
+        "            }",
+        "        }",
+    ]
 
 
 def _aba_accelerations(name, plan):
@@ -843,9 +894,10 @@ def analytic_ops(plan, ncol=0):
         adds += (6 + 2 * ncol) * pairs
         muls += sum(d * (d + 1) // 2 for d in plan.dep)
         adds += sum(d * (d + 1) // 2 for d in plan.dep)
-    for _, k, _ in plan.multi:
-        muls += 2 * k ** 3 + plan.nd * k * k
-        adds += 2 * k ** 3 + plan.nd * k * k
+    for blocks in plan.kblocks:     # per diagonal block of K: Gauss-Jordan, then every row
+        for r, _ in blocks:
+            muls += 2 * len(r) ** 3 + plan.nd * len(r) ** 2
+            adds += 2 * len(r) ** 3 + plan.nd * len(r) ** 2
     muls += 2 * len(plan.laws)      # the sign times each law's two derivatives
     adds += 2 * len(plan.laws)
     divs = sum(k for _, k, _ in plan.multi) + (plan.nd if ncol and plan.solver == "aba" else 0)

@@ -54,3 +54,38 @@ def test_kane_refuses(tmp_path):
     with pytest.raises(ModelError, match="hess_id .* recursive formulation only"):
         eomc.compile(system, functions=["rhs", "hess_id"], formulation="kane", cache_dir=tmp_path,
                      progress=False)
+
+
+def test_against_central_differences_of_pinocchio_first_order(tmp_path):
+    """UR5 (example-robot-data): hess_id against central differences of Pinocchio's own
+    computeRNEADerivatives (its Python bindings do not export the second-order RNEA
+    derivatives; benchmarks/bench_second_order.py compares with those in C++, to 1e-12)."""
+    import pinocchio as pin
+    from eomc.compiler.urdf import from_urdf
+    from helpers.robots import PinRef, joints_of, robot_path
+    path = robot_path("ur5")
+    system = from_urdf(path, limits=False)
+    model = _model(system, tmp_path)
+    ref = PinRef(path, joints_of(system))
+    nq, nu, iv = model.nq, model.nu, ref.iv
+    rng = np.random.default_rng(5)
+    h = 1e-6
+
+    def first(q, v, a):     # Pinocchio's (dtau/dq, dtau/dv) in eomc's order
+        pin.computeRNEADerivatives(ref.model, ref.data, ref.q(q), ref.v(v), ref.v(a))
+        return ref.data.dtau_dq[np.ix_(iv, iv)].copy(), ref.data.dtau_dv[np.ix_(iv, iv)].copy()
+
+    for _ in range(2):
+        q, v, a = rng.uniform(-np.pi, np.pi, nq), rng.normal(size=nu), rng.normal(size=nu)
+        H = model.hess_id(0.0, np.concatenate([q, v]), a)
+        fd = np.zeros((nu, nq + nu, nq + nu))     # [i, j, k] = d/dx_k of Pinocchio's d tau_i/dx_j
+        for k in range(nq + nu):
+            up, dn = [q.copy(), v.copy()], [q.copy(), v.copy()]
+            part, at = (0, k) if k < nq else (1, k - nq)
+            up[part][at] += h
+            dn[part][at] -= h
+            (qp, vp), (qm, vm) = first(*up, a), first(*dn, a)
+            fd[:, :nq, k] = (qp - qm) / (2 * h)
+            fd[:, nq:, k] = (vp - vm) / (2 * h)
+        assert np.max(np.abs(H)) > 1.0                      # not a vanishing tensor
+        assert np.max(np.abs(H - fd)) <= 1e-7 * np.max(np.abs(fd))

@@ -1,0 +1,212 @@
+"""Issue 30: eomc's second-order inverse dynamics (``hess_id``) against Pinocchio's
+``ComputeRNEASecondOrderDerivatives``, one C harness.
+
+Contestants (per model, pinned to core 1, thread CPU, interleaved with the order rotated every
+round, ~20 ms blocks, median of rounds; ns per call):
+  * eomc ``hess_id`` (∂²τ/∂x², nu x nx x nx, forward over reverse on RNEA) of a
+    ``--formulation recursive`` build with functions rhs, inverse_dynamics, jac_id, hess_id,
+    the generated C compiled into the harness with gcc -O2;
+  * Pinocchio ``ComputeRNEASecondOrderDerivatives`` (Singh, Russell & Wensing 2022; header-only
+    from the pin / cmeel wheels, g++ -O2 -std=c++17, benchmarks/tree_models/pin_derivatives.cpp,
+    whose Python bindings do not export it) on the same model, built as in
+    bench_derivatives.py.  Pinocchio also returns dM/dq (∂²τ/∂q∂u'), which ``hess_id`` does not
+    (it is ``jac_id``'s derivative in u', M itself); eomc returns both mixed blocks (∂²τ/∂q∂u
+    and ∂²τ/∂u∂q), Pinocchio one.
+Models: fixed bases only (the cart, UR10, Panda): on a floating base Pinocchio differentiates
+along its Lie-group tangent, and at second order the change of variables from eomc's Euler
+angles brings K's own derivative (not compared here).
+
+Agreement, before timing: the C++ tensors ∂²τ/∂q², ∂²τ/∂u², ∂²τ/∂q∂u at 4 random states
+against eomc's (Python ``model.hess_id``), largest difference relative to the largest entry.
+
+Usage: python benchmarks/bench_second_order.py [--cart 4,8,20] [--robots ur10,panda] [--rounds 7] [--write]
+"""
+import argparse
+import datetime
+import os
+import platform
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parent
+sys.path.insert(0, str(HERE))
+
+import bench_derivatives as bd  # noqa: E402  (model building, states, Pinocchio's text model)
+
+NAGREE = 4
+HARNESS = r"""
+#define _POSIX_C_SOURCE 199309L
+#include <stdio.h>
+#include <stdlib.h>
+#include <time.h>
+#include "@NAME@.h"
+int pin_setup(const char *path);
+void pin_rnea_second_order(const double *q, const double *v, const double *a);
+void pin_copy_rnea_second_order(double *qq, double *vv, double *qv, double *aq);
+#define NS @NS@
+#define NX @NX@
+#define NU @NU@
+#define PQ @PQ@
+static const double X[NS][NX] = {@X@};
+static const double UD[NS][NU] = {@UD@};
+static const double Q[NS][PQ] = {@Q@};
+static const double V[NS][NU] = {@V@};
+static const double A[NS][NU] = {@A@};
+static const double P[] = {@P@};   /* the model's parameter defaults */
+static const double R[] = {@R@};   /* zero inputs */
+static double out[NU * NX * NX], work[@WORK@], qq[NU * NU * NU], vv[NU * NU * NU], qv[NU * NU * NU], aq[NU * NU * NU];
+static double tnow(void) { struct timespec ts; clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+    return ts.tv_sec * 1e9 + ts.tv_nsec; }
+static double call(int c, int i) {
+    if (c == 0) { if (@NAME@_hess_id(0.0, X[i], UD[i], P, R, out, work)) exit(5); return out[NX]; }
+    pin_rnea_second_order(Q[i], V[i], A[i]);
+    return 0.0;
+}
+int main(int argc, char **argv) {
+    int i, k, c, round;
+    double sum = 0.0;
+    (void)argc;
+    pin_setup(argv[1]);
+    for (i = 0; i < @NAGREE@; i++) {
+        pin_rnea_second_order(Q[i], V[i], A[i]);
+        pin_copy_rnea_second_order(qq, vv, qv, aq);
+        for (k = 0; k < NU * NU * NU; k++) printf("pin %d %.17g %.17g %.17g\n", i, qq[k], vv[k], qv[k]);
+    }
+    for (round = 0; round < @ROUNDS@; round++) {
+        for (c = 0; c < 2; c++) {
+            int cc = (c + round) % 2; long calls = 0; double t0 = tnow(), t1;
+            do { for (i = 0; i < NS; i++) sum += call(cc, i); calls += NS; t1 = tnow(); }
+            while (t1 - t0 < 2e7);
+            printf("time %d %.1f\n", cc, (t1 - t0) / calls);
+        }
+    }
+    printf("checksum %g\n", sum);
+    return 0;
+}
+"""
+LABELS = ("eomc hess_id", "Pinocchio ComputeRNEASecondOrderDerivatives")
+
+
+def run(model, ref, data, tmp, pin_obj, rounds):
+    """(median ns per contestant, agreement): the harness compiled and run pinned to core 1."""
+    X, UD, Q, V, A = data
+    name, nu, nq = model.name, model.nu, model.nq
+    src = (HARNESS.replace("@NAME@", name).replace("@NS@", str(bd.NS)).replace("@NX@", str(model.nx))
+           .replace("@NU@", str(nu)).replace("@PQ@", str(ref.model.nq)).replace("@ROUNDS@", str(rounds))
+           .replace("@NAGREE@", str(NAGREE)).replace("@WORK@", str(max(model.work_size, 1)))
+           .replace("@X@", bd.c_array(X)).replace("@UD@", bd.c_array(UD)).replace("@Q@", bd.c_array(Q))
+           .replace("@V@", bd.c_array(V)).replace("@A@", bd.c_array(A))
+           .replace("@P@", ", ".join(repr(float(v)) for v in model.param_defaults) or "0.0")
+           .replace("@R@", ", ".join("0.0" for _ in range(max(model.ninput, 1)))))
+    c = tmp / f"h2_{name}.c"
+    c.write_text(src)
+    objs = []
+    for s, o in ((c, tmp / f"h2_{name}.o"), (model.source_path, tmp / f"m2_{name}.o")):
+        subprocess.run(["gcc", "-O2", "-std=c99", f"-I{model.directory}", f"-I{ROOT / 'runtime' / 'c'}", "-c",
+                        str(s), "-o", str(o)], check=True)
+        objs.append(str(o))
+    exe = tmp / f"h2_{name}"
+    subprocess.run(["g++", *objs, str(pin_obj), "-o", str(exe), "-lm"], check=True)
+    (tmp / f"pin2_{name}.txt").write_text(bd.pin_text(ref.model, ref.gravity))
+    out = subprocess.run(["taskset", "-c", "1", str(exe), str(tmp / f"pin2_{name}.txt")], capture_output=True,
+                         text=True, check=True).stdout
+    nv, iv = ref.model.nv, ref.iv
+    pin = {}
+    times = {}
+    for line in out.splitlines():
+        p = line.split()
+        if p[0] == "pin":
+            pin.setdefault(int(p[1]), []).append([float(v) for v in p[2:]])
+        elif p[0] == "time":
+            times.setdefault(LABELS[int(p[1])], []).append(float(p[2]))
+    worst = 0.0
+    for i in range(NAGREE):
+        T = np.array(pin[i]).reshape(nv, nv, nv, 3)
+        qq, vv, qv = (T[..., k][np.ix_(iv, iv, iv)] for k in range(3))
+        H = model.hess_id(0.0, X[i], UD[i])
+        scale = max(np.max(np.abs(qq)), np.max(np.abs(vv)), np.max(np.abs(qv)))
+        # Pinocchio's d2tau_dqdv(i, j, k) = d2 tau_i / dq_j dv_k (measured: q along the columns,
+        # whatever its header's comment says), eomc's [i, j, nq + k]
+        diff = max(np.max(np.abs(H[:, :nq, :nq] - qq)), np.max(np.abs(H[:, nq:nq + nu, nq:nq + nu] - vv)),
+                   np.max(np.abs(H[:, :nq, nq:nq + nu] - qv)))
+        worst = max(worst, diff / scale)
+    return {k: float(np.median(v)) for k, v in times.items()}, worst
+
+
+def build(case, cache):
+    """(eomc Model with hess_id, Pinocchio reference) of one fixed-base case."""
+    model, ref, floating = bd.build_case(case, cache, functions=["rhs", "inverse_dynamics", "jac_id", "hess_id"])
+    if floating:
+        sys.exit(f"{case}: floating bases are not compared (see the module doc)")
+    return model, ref
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--cart", default="4,8,20")
+    ap.add_argument("--robots", default="ur10,panda")
+    ap.add_argument("--rounds", type=int, default=7)
+    ap.add_argument("--pin-obj", default="", help="an already compiled pin_derivatives.o (saves minutes)")
+    ap.add_argument("--cache", default="", help="a build cache directory to keep between runs")
+    ap.add_argument("--write", action="store_true")
+    a = ap.parse_args()
+    cases = [f"cart{n}" for n in a.cart.split(",") if n] + [r for r in a.robots.split(",") if r]
+    tmp = Path(tempfile.mkdtemp(prefix="eomc_so_"))
+    if a.pin_obj:
+        pin_obj = Path(a.pin_obj)
+    else:
+        from common import compile_pinocchio
+        pin_obj = compile_pinocchio(bd.MODELS / "pin_derivatives.cpp", tmp / "pin_derivatives.o")
+        if pin_obj is None:
+            sys.exit("Pinocchio's headers (pin / cmeel wheels) are needed")
+    rng = np.random.default_rng(30)
+    rows = []
+    for case in cases:
+        model, ref = build(case, Path(a.cache) if a.cache else tmp / "cache")
+        data = bd.states(model, ref, False, rng)
+        times, agree = run(model, ref, data, tmp, pin_obj, a.rounds)
+        ops = model.metadata["op_counts"]
+        row = dict(case=case, nx=model.nx, times=times, agree=agree,
+                   ops={f: sum(ops[f].values()) for f in ("jac_id", "hess_id")})
+        rows.append(row)
+        if a.write:
+            with open(HERE / "results" / "second_order.md", "a") as f:
+                f.write((header(a.rounds) if len(rows) == 1 else "") + render_row(row) + "\n")
+        print(render_row(row), flush=True)
+
+
+def header(rounds):
+    import pinocchio
+    import eomc
+    commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"], capture_output=True,
+                            text=True).stdout.strip()
+    dirty = subprocess.run(["git", "-C", str(ROOT), "status", "--porcelain", "--untracked-files=no"],
+                           capture_output=True, text=True).stdout.strip()
+    cpu = next((line.split(":", 1)[1].strip() for line in open("/proc/cpuinfo") if line.startswith("model name")), "?")
+    return "\n".join([
+        f"\n## {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC, eomc {commit}"
+        f"{' (+ uncommitted changes)' if dirty else ''}\n",
+        f"`python benchmarks/bench_second_order.py` — {cpu}, load {os.getloadavg()[0]:.1f} at the start, "
+        f"Python {platform.python_version()}, Pinocchio {pinocchio.__version__} (header-only, g++ -O2), "
+        f"eomc {eomc.__version__}, gcc -O2; thread CPU, pinned to core 1, 2 contestants interleaved, "
+        f"median of {rounds} rounds, {bd.NS} states cycled.  eomc: `--formulation recursive`, functions rhs, "
+        "inverse_dynamics, jac_id, hess_id.\n",
+        "| model | nx | eomc hess_id ns | Pinocchio 2nd-order RNEA ns | **Pinocchio / hess_id** | "
+        "ops jac_id / hess_id | agreement (q,q), (u,u), (q,u) |",
+        "|---|--:|--:|--:|--:|--|--|"]) + "\n"
+
+
+def render_row(r):
+    t = r["times"]
+    return (f"| {r['case']} | {r['nx']} | {t[LABELS[0]]:.0f} | {t[LABELS[1]]:.0f} | "
+            f"**{t[LABELS[1]] / t[LABELS[0]]:.2f}** | {r['ops']['jac_id']} / {r['ops']['hess_id']} | "
+            f"{r['agree']:.1e} |")
+
+
+if __name__ == "__main__":
+    main()
