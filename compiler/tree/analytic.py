@@ -44,7 +44,8 @@ from dataclasses import dataclass
 
 import sympy as sm
 
-__all__ = ["AnalyticPlan", "analytic_plan", "kernel_c", "ANX", "analytic_ops"]
+__all__ = ["AnalyticPlan", "analytic_plan", "kernel_c", "ANX", "analytic_ops", "c_table", "world_axis_lines",
+           "WORLD_INERTIA_LINES"]
 
 ANX = "anx"      # the result group of the kernel's inputs
 
@@ -302,8 +303,46 @@ def solve_tables(lam):
     return bm, bi, bo, fm, fi, fo, max(pcount[0], 1), max(acount[0], 1)
 
 
-def _table(name, vals):
+def c_table(name, vals):
+    """C: a static table of ints (the kernels' tree arrays)."""
     return f"    static const int {name}[{len(vals)}] = {{{', '.join(str(v) for v in vals)}}};"
+
+
+def world_axis_lines(o):
+    """C, inside a loop over bodies b: each dof's motion axis placed in the world, s = (R S_ang,
+    R S_lin + p x R S_ang), from the body's world rotation Rb and origin pb (shared by the
+    derivative kernel and NAME_dyn, :mod:`.dynamics_kernel`)."""
+    return [
+        "        for (e = d0[b]; e < d0[b] + nd[b]; e++) {   /* the axes in the world, v */",
+        f"            const double *S = an + {o['S']} + 6 * e;",
+        "            double *s = Sw + 6 * e;",
+        "            for (i = 0; i < 3; i++) {",
+        "                s[i] = Rb[3 * i] * S[0] + Rb[3 * i + 1] * S[1] + Rb[3 * i + 2] * S[2];",
+        "                s[i + 3] = Rb[3 * i] * S[3] + Rb[3 * i + 1] * S[4] + Rb[3 * i + 2] * S[5];",
+        "            }",
+        "            s[3] += pb[1] * s[2] - pb[2] * s[1];",
+        "            s[4] += pb[2] * s[0] - pb[0] * s[2];",
+        "            s[5] += pb[0] * s[1] - pb[1] * s[0];",
+    ]
+
+
+# C, inside a loop over bodies b: the body's world inertia Yb = {m, m p, I_O} (shared as above)
+WORLD_INERTIA_LINES = [
+    "        /* the world inertia about the world origin: {m, c = m p, I_O = R I_c R^T + m (p.p 1 - p p^T)} */",
+    "        m = In[0];",
+    "        for (i = 0; i < 3; i++)",
+    "            for (j = 0; j < 3; j++)",
+    "                IR[3 * i + j] = Rb[3 * i] * In[1 + j] + Rb[3 * i + 1] * In[4 + j] + Rb[3 * i + 2] * In[7 + j];",
+    "        pp = pb[0] * pb[0] + pb[1] * pb[1] + pb[2] * pb[2];",
+    "        for (i = 0; i < 3; i++)",
+    "            for (j = 0; j < 3; j++)",
+    "                IO[3 * i + j] = IR[3 * i] * Rb[3 * j] + IR[3 * i + 1] * Rb[3 * j + 1] + IR[3 * i + 2] * Rb[3 * j + 2]",
+    "                    + m * ((i == j ? pp : 0.0) - pb[i] * pb[j]);",
+    "        Yb[0] = m;",
+    "        Yb[1] = m * pb[0]; Yb[2] = m * pb[1]; Yb[3] = m * pb[2];",
+    "        Yb[4] = IO[0]; Yb[5] = IO[4]; Yb[6] = IO[8];",
+    "        Yb[7] = 0.5 * (IO[1] + IO[3]); Yb[8] = 0.5 * (IO[2] + IO[6]); Yb[9] = 0.5 * (IO[5] + IO[7]);",
+]
 
 
 def kernel_c(name, plan, nq, solve=False):
@@ -392,20 +431,20 @@ def kernel_c(name, plan, nq, solve=False):
         f"static void {fn}(const double *an, const double *u, const double *ud, double *out, "
         "int stride, int row0, double sign, int msolve)",
         "{",
-        _table("par", plan.par),
-        _table("d0", plan.first),
-        _table("nd", plan.count),
-        _table("row", plan.row),
-        _table("qc", plan.qcol),
-        _table("uc", [nq + s for s in plan.row]),
+        c_table("par", plan.par),
+        c_table("d0", plan.first),
+        c_table("nd", plan.count),
+        c_table("row", plan.row),
+        c_table("qc", plan.qcol),
+        c_table("uc", [nq + s for s in plan.row]),
         f"    double R[{9 * nb}], P[{3 * nb}], V[{6 * nb}], A[{6 * nb}], Y[{10 * nb}], dY[{12 * nb}], F[{6 * nb}];",
         f"    double Sw[{6 * nd}], dV[{6 * nd}], dA[{6 * nd}], dAv[{6 * nd}];",
         "    double fa[36], ft[36], fq[36], fv[36];",
         "    int b, i, j, k, e, c, l, a;",
-        _table("lam", plan.lam or (-1,)),
+        c_table("lam", plan.lam or (-1,)),
     ] + ([
-        _table("dep", plan.dep),
-        _table("off", plan.off[:-1]),
+        c_table("dep", plan.dep),
+        c_table("off", plan.off[:-1]),
         f"    double Mc[{msize}];",
     ] if ltdl else []) + (_aba_decls(plan, ncol) if aba else []) + ([] if solve else ["    (void)msolve;"]) + [
         f"    for (e = 0; e < {nd}; e++)",
@@ -439,16 +478,7 @@ def kernel_c(name, plan, nq, solve=False):
         "            vb[i] = vl[i];",
         "            ab[i] = " + ("0.0;   /* the bias acceleration c_b first (see below) */" if aba else "al[i];"),
         "        }",
-        "        for (e = d0[b]; e < d0[b] + nd[b]; e++) {   /* the axes in the world, v */",
-        f"            const double *S = an + {o['S']} + 6 * e;",
-        "            double *s = Sw + 6 * e;",
-        "            for (i = 0; i < 3; i++) {",
-        "                s[i] = Rb[3 * i] * S[0] + Rb[3 * i + 1] * S[1] + Rb[3 * i + 2] * S[2];",
-        "                s[i + 3] = Rb[3 * i] * S[3] + Rb[3 * i + 1] * S[4] + Rb[3 * i + 2] * S[5];",
-        "            }",
-        "            s[3] += pb[1] * s[2] - pb[2] * s[1];",
-        "            s[4] += pb[2] * s[0] - pb[0] * s[2];",
-        "            s[5] += pb[0] * s[1] - pb[1] * s[0];",
+        *world_axis_lines(o),
         "            for (i = 0; i < 6; i++) vb[i] += s[i] * u[e];",
         "        }",
         "        for (e = d0[b]; e < d0[b] + nd[b]; e++) {   /* a, and the axes' derivative terms */",
@@ -471,20 +501,7 @@ def kernel_c(name, plan, nq, solve=False):
         "            }",
     ]) + [
         "        }",
-        "        /* the world inertia about the world origin: {m, c = m p, I_O = R I_c R^T + m (p.p 1 - p p^T)} */",
-        "        m = In[0];",
-        "        for (i = 0; i < 3; i++)",
-        "            for (j = 0; j < 3; j++)",
-        "                IR[3 * i + j] = Rb[3 * i] * In[1 + j] + Rb[3 * i + 1] * In[4 + j] + Rb[3 * i + 2] * In[7 + j];",
-        "        pp = pb[0] * pb[0] + pb[1] * pb[1] + pb[2] * pb[2];",
-        "        for (i = 0; i < 3; i++)",
-        "            for (j = 0; j < 3; j++)",
-        "                IO[3 * i + j] = IR[3 * i] * Rb[3 * j] + IR[3 * i + 1] * Rb[3 * j + 1] + IR[3 * i + 2] * Rb[3 * j + 2]",
-        "                    + m * ((i == j ? pp : 0.0) - pb[i] * pb[j]);",
-        "        Yb[0] = m;",
-        "        Yb[1] = m * pb[0]; Yb[2] = m * pb[1]; Yb[3] = m * pb[2];",
-        "        Yb[4] = IO[0]; Yb[5] = IO[4]; Yb[6] = IO[8];",
-        "        Yb[7] = 0.5 * (IO[1] + IO[3]); Yb[8] = 0.5 * (IO[2] + IO[6]); Yb[9] = 0.5 * (IO[5] + IO[7]);",
+        *WORLD_INERTIA_LINES,
         "        IO[1] = IO[3] = Yb[7]; IO[2] = IO[6] = Yb[8]; IO[5] = IO[7] = Yb[9];",
     ] + ([
         "        if (msolve) {   /* the body's own 6x6 inertia [[I_O, [c]x], [[c]x^T, m 1]], the articulated start */",
@@ -606,8 +623,8 @@ def kernel_c(name, plan, nq, solve=False):
             f"        double Km[{max(kb) ** 2}], x[{k}], piv, tmp;",
             "        int p;",
         ] + [f"        double Ki{n}[{kb[n] ** 2}];" for n in range(len(blocks))] + [
-            _table(f"kr{n}", r).replace("    ", "        ", 1) for n, (r, _) in enumerate(blocks)] + [
-            _table(f"kc{n}", c).replace("    ", "        ", 1) for n, (_, c) in enumerate(blocks)]
+            c_table(f"kr{n}", r).replace("    ", "        ", 1) for n, (r, _) in enumerate(blocks)] + [
+            c_table(f"kc{n}", c).replace("    ", "        ", 1) for n, (_, c) in enumerate(blocks)]
         for n, b in enumerate(kb):
             lines += [
                 f"        for (i = 0; i < {b}; i++)",
@@ -630,7 +647,7 @@ def kernel_c(name, plan, nq, solve=False):
     if plan.laws:
         lines += [
             "    {   /* the joint laws: their value is in F (a constant load above), their own derivative here */",
-            "    " + _table("jd", plan.laws),
+            "    " + c_table("jd", plan.laws),
             f"        for (j = 0; j < {len(plan.laws)}; j++) {{",
             "            double *o = out + (row0 + row[jd[j]]) * stride;",
             f"            o[qc[jd[j]]] -= sign * an[{o['L']} + 2 * j];",
@@ -782,8 +799,8 @@ def _aba_accelerations(name, plan):
 
 def _aba_decls(plan, ncol):
     bm, bi, bo, fm, fi, fo, npm, nam = solve_tables(plan.lam)
-    return [_table("bm", bm), _table("bi", bi), _table("bo", bo), _table("fm", fm), _table("fi", fi),
-            _table("fo", fo),
+    return [c_table("bm", bm), c_table("bi", bi), c_table("bo", bo), c_table("fm", fm), c_table("fi", fi),
+            c_table("fo", fo),
             f"    double IA[{36 * plan.nb}], PA[{6 * plan.nb}], Aa[{6 * plan.nb}], Ua[{6 * plan.nd}], Di[{plan.nd}], "
             f"uw[{plan.nd}];",
             f"    double Pm[{6 * ncol * npm}], Am[{6 * ncol * nam}];"]

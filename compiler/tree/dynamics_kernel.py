@@ -25,7 +25,7 @@ analytic plan exists (an open tree whose loads the kernel can read, above
 TANGENT_MIN_STATES states); elsewhere the straight-line recursions stay.  Checked against
 the straight-line functions (tests/compiler/tree/test_dynamics_kernel.py).
 """
-from .analytic import ANX
+from .analytic import ANX, WORLD_INERTIA_LINES, c_table, world_axis_lines
 
 __all__ = ["dynamics_kernel_c", "has_dynamics_kernel", "dynamics_body", "dynamics_inputs", "dynamics_ops",
            "KERNEL_FUNCTIONS"]
@@ -40,9 +40,6 @@ KERNEL_FUNCTIONS = ("mass_matrix", "forcing", "inverse_dynamics")
 def has_dynamics_kernel(program, sym):
     return getattr(sym, "analytic", None) is not None and any(k[0] == ANX for k, _ in program.results)
 
-
-def _table(name, vals):
-    return f"    static const int {name}[{len(vals)}] = {{{', '.join(str(v) for v in vals)}}};"
 
 
 def dynamics_kernel_c(name, plan):
@@ -69,10 +66,10 @@ def dynamics_kernel_c(name, plan):
         "   row-major by speed) over the tree, world frame (compiler/tree/dynamics_kernel.py). */",
         f"static void {fn}(const double *an, const double *u, const double *ud, double *tau, double *M)",
         "{",
-        _table("par", plan.par),
-        _table("d0", plan.first),
-        _table("nd", plan.count),
-        _table("row", plan.row),
+        c_table("par", plan.par),
+        c_table("d0", plan.first),
+        c_table("nd", plan.count),
+        c_table("row", plan.row),
         f"    double R[{9 * nb}], P[{3 * nb}], V[{6 * nb}], A[{6 * nb}], Y[{10 * nb}], F[{6 * nb}], Sw[{6 * nd}];",
         "    int b, i, j, e, c, l, a;",
         f"    for (b = 0; b < {nb}; b++) {{",
@@ -99,33 +96,11 @@ def dynamics_kernel_c(name, plan):
         f"                ab[i + 3] = -an[{o['g']} + i];",
         "            }",
         "        }",
-        "        for (e = d0[b]; e < d0[b] + nd[b]; e++) {   /* the axes in the world, v */",
-        f"            const double *S = an + {o['S']} + 6 * e;",
-        "            double *s = Sw + 6 * e;",
-        "            for (i = 0; i < 3; i++) {",
-        "                s[i] = Rb[3 * i] * S[0] + Rb[3 * i + 1] * S[1] + Rb[3 * i + 2] * S[2];",
-        "                s[i + 3] = Rb[3 * i] * S[3] + Rb[3 * i + 1] * S[4] + Rb[3 * i + 2] * S[5];",
-        "            }",
-        "            s[3] += pb[1] * s[2] - pb[2] * s[1];",
-        "            s[4] += pb[2] * s[0] - pb[0] * s[2];",
-        "            s[5] += pb[0] * s[1] - pb[1] * s[0];",
+        *world_axis_lines(o),
         "            if (tau)",
         "                for (i = 0; i < 6; i++) vb[i] += s[i] * u[e];",
         "        }",
-        "        /* the world inertia about the world origin: {m, c = m p, I_O = R I_c R^T + m (p.p 1 - p p^T)} */",
-        "        m = In[0];",
-        "        for (i = 0; i < 3; i++)",
-        "            for (j = 0; j < 3; j++)",
-        "                IR[3 * i + j] = Rb[3 * i] * In[1 + j] + Rb[3 * i + 1] * In[4 + j] + Rb[3 * i + 2] * In[7 + j];",
-        "        pp = pb[0] * pb[0] + pb[1] * pb[1] + pb[2] * pb[2];",
-        "        for (i = 0; i < 3; i++)",
-        "            for (j = 0; j < 3; j++)",
-        "                IO[3 * i + j] = IR[3 * i] * Rb[3 * j] + IR[3 * i + 1] * Rb[3 * j + 1] + IR[3 * i + 2] * Rb[3 * j + 2]",
-        "                    + m * ((i == j ? pp : 0.0) - pb[i] * pb[j]);",
-        "        Yb[0] = m;",
-        "        Yb[1] = m * pb[0]; Yb[2] = m * pb[1]; Yb[3] = m * pb[2];",
-        "        Yb[4] = IO[0]; Yb[5] = IO[4]; Yb[6] = IO[8];",
-        "        Yb[7] = 0.5 * (IO[1] + IO[3]); Yb[8] = 0.5 * (IO[2] + IO[6]); Yb[9] = 0.5 * (IO[5] + IO[7]);",
+        *WORLD_INERTIA_LINES,
         "        if (!tau) continue;",
         "        for (e = d0[b]; e < d0[b] + nd[b]; e++) {   /* a = a_parent + S u' + v x (S u) */",
         "            const double *s = Sw + 6 * e;",
