@@ -69,6 +69,28 @@ static void *worker(void *arg)
     return NULL;
 }
 
+/* Runs fn(job) on the calling thread and on nthreads - 1 started ones, and waits for them.
+   Returns 1 when at least one of them got its work buffer (fn returned NULL), else 0. */
+static int run_threads(void *(*fn)(void *), void *job, int nthreads)
+{
+    pthread_t threads[EOMC_ROLLOUT_MAX_THREADS];
+    int started = 0, k, ran = 0;
+    for (k = 1; k < nthreads; ++k) {
+        if (pthread_create(&threads[k], NULL, fn, job) != 0)
+            break;
+        ++started;
+    }
+    if (fn(job) == NULL)
+        ran = 1;
+    for (k = 1; k <= started; ++k) {
+        void *res = NULL;
+        pthread_join(threads[k], &res);
+        if (res == NULL)
+            ran = 1;
+    }
+    return ran;
+}
+
 int eomc_rollout(const eomc_model *m, const eomc_options *opt, double t0, double t1,
                  int n, const double *X0, const double *P, size_t p_stride,
                  int n_eval, const double *t_eval, double *X_out, double *X_last,
@@ -85,8 +107,7 @@ int eomc_rollout_stats(const eomc_model *m, const eomc_options *opt, double t0, 
                        int *status, long *steps, eomc_stats *stats, int nthreads)
 {
     rollout_job job;
-    pthread_t threads[EOMC_ROLLOUT_MAX_THREADS];
-    int started = 0, k, ran = 0;
+    int k, ran;
     if (m == NULL || opt == NULL || n < 0 || X0 == NULL || P == NULL || X_last == NULL
         || status == NULL || (n_eval > 0 && (t_eval == NULL || X_out == NULL))
         || (n_rgrid > 0 && R == NULL) || (n_rgrid > 1 && r_tgrid == NULL))
@@ -110,19 +131,7 @@ int eomc_rollout_stats(const eomc_model *m, const eomc_options *opt, double t0, 
     if (pthread_mutex_init(&job.lock, NULL) != 0)
         return EOMC_BAD_ARGUMENT;
     /* The calling thread is worker 0; nthreads - 1 more are started. */
-    for (k = 1; k < nthreads; ++k) {
-        if (pthread_create(&threads[k], NULL, worker, &job) != 0)
-            break;
-        ++started;
-    }
-    if (worker(&job) == NULL)
-        ran = 1;
-    for (k = 1; k <= started; ++k) {
-        void *res = NULL;
-        pthread_join(threads[k], &res);
-        if (res == NULL)
-            ran = 1;
-    }
+    ran = run_threads(worker, &job, nthreads);
     pthread_mutex_destroy(&job.lock);
     if (!ran)
         return EOMC_BAD_ARGUMENT;        /* no thread got a work buffer */
@@ -331,8 +340,7 @@ int eomc_rollout_lanes(eomc_batch_fn f, int nx, int nparam, int ninput, size_t w
                        double *X_last, int *status, long *steps, int block, int nthreads)
 {
     lanes_job job;
-    pthread_t threads[EOMC_ROLLOUT_MAX_THREADS];
-    int started = 0, k, ran = 0, nblocks;
+    int k, ran, nblocks;
     if (f == NULL || nx <= 0 || nparam < 0 || n < 0 || X0 == NULL || (P == NULL && nparam > 0)
         || X_last == NULL || status == NULL || !(h > 0) || !isfinite(h) || !(t1 > t0) || ninput < 0
         || (ninput > 0 && n_rgrid > 0 && R == NULL) || (n_rgrid > 1 && r_tgrid == NULL))
@@ -359,19 +367,7 @@ int eomc_rollout_lanes(eomc_batch_fn f, int nx, int nparam, int ninput, size_t w
         status[k] = EOMC_ABORTED;        /* until its block says otherwise */
     if (pthread_mutex_init(&job.lock, NULL) != 0)
         return EOMC_BAD_ARGUMENT;
-    for (k = 1; k < nthreads; ++k) {
-        if (pthread_create(&threads[k], NULL, lanes_worker, &job) != 0)
-            break;
-        ++started;
-    }
-    if (lanes_worker(&job) == NULL)
-        ran = 1;
-    for (k = 1; k <= started; ++k) {
-        void *res = NULL;
-        pthread_join(threads[k], &res);
-        if (res == NULL)
-            ran = 1;
-    }
+    ran = run_threads(lanes_worker, &job, nthreads);
     pthread_mutex_destroy(&job.lock);
     if (!ran)
         return EOMC_BAD_ARGUMENT;
