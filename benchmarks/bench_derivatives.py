@@ -294,14 +294,20 @@ def main():
     print(header(a.rounds) + "".join(render_row(r) + "\n" for r in rows))
 
 
-def header(rounds):
-    import pinocchio
-    import eomc
+def checkout_state():
+    """(short commit, uncommitted changes as text, CPU model) for a results header."""
     commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"], capture_output=True,
                             text=True).stdout.strip()
     dirty = subprocess.run(["git", "-C", str(ROOT), "status", "--porcelain", "--untracked-files=no"],
                            capture_output=True, text=True).stdout.strip()
     cpu = next((line.split(":", 1)[1].strip() for line in open("/proc/cpuinfo") if line.startswith("model name")), "?")
+    return commit, dirty, cpu
+
+
+def header(rounds):
+    import pinocchio
+    import eomc
+    commit, dirty, cpu = checkout_state()
     lines = [f"\n## {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC, eomc {commit}"
              f"{' (+ uncommitted changes)' if dirty else ''}\n",
              f"`python benchmarks/bench_derivatives.py` — {cpu}, load {os.getloadavg()[0]:.1f} at the end, "
