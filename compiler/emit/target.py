@@ -41,7 +41,7 @@ _MATH_F = {f: f + "f" for f in _MATH}
 _CONSTANTS = {"DBL_EPSILON": "FLT_EPSILON", "DBL_MAX": "FLT_MAX", "DBL_MIN": "FLT_MIN",
               "HUGE_VAL": "HUGE_VALF", "double": "float"}
 # identifiers the generated C may call besides its own NAME_* functions and the map above
-_KNOWN_CALLS = {"isfinite", "defined", "sizeof", "if", "for", "while", "return", "__attribute__",
+_KNOWN_CALLS = {"isfinite", "defined", "sizeof", "if", "for", "while", "switch", "return", "__attribute__",
                 "noinline", "optimize", "__noinline__"}
 
 _TOKEN = re.compile(r"""
