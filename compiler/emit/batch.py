@@ -44,6 +44,11 @@ _STORE_LINE = re.compile(r"^(\s+)([A-Za-z_]\w*)\[(\d+|\d+ \+ k|k)\] = (.*);$")
 # at column k of Gm, runs of zero stores as loops; k and G's offset are the same in every lane
 _LOOP_HEAD = re.compile(r"^(\s+)for \(k = (\d+); k < (\d+); k\+\+\) \{$")
 _ZERO_RUN = re.compile(r"^(\s+)for \(k = (\d+); k < (\d+); k\+\+\) ([A-Za-z_]\w*)\[k\] = (-?[0-9.e+-]+);$")
+_INT_DECL = re.compile(r"^\s+(?:int [a-z_]\w*;|static const int [A-Za-z_]\w*\[\d+\] = \{[-\d, ]*\};)$")
+_GATHER = re.compile(r"^(\s+)for \(e = 0; e < \d+; e\+\+\) ([A-Za-z_]\w*)\[e\] = ([A-Za-z_]\w*)\[\d+ \+ sp\[e\]\];$")
+_GATHER_HEAD = re.compile(r"^\s+for \(e = 0; e < \d+; e\+\+\) \{$")
+_GATHER_ITEM = re.compile(r"^(\s+)([A-Za-z_]\w*)\[e\] = ([A-Za-z_]\w*)\[(?:\d+ \+ )?sp\[e\]\];$")
+_SCRATCH_DECLS = re.compile(r"^(\s+)double ((?:[A-Za-z_]\w*\[\d+\], )+[A-Za-z_]\w*\[\d+\]);$")
 _POINTER_DECL = re.compile(r"^(\s+)const double \*([A-Za-z_]\w*);$")
 _POINTER_SET = re.compile(r"^(\s+)([A-Za-z_]\w*) = ([A-Za-z_]\w*) \+ k \* (\d+);$")
 _SCRATCH_DECL = re.compile(r"^(\s+)double ([A-Za-z_]\w*)\[(\d+)\];$")
@@ -483,8 +488,18 @@ def _statement(rw, line, parts_renamed):
     m = _POINTER_SET.match(line)
     if m and m.group(3) in rw.vec_arrays and m.group(2) in rw.vec_arrays:
         return line
-    if line.strip() == "int k;" or _LOOP_HEAD.match(line) or line.strip() in ("{", "}"):
+    if _INT_DECL.match(line) or _LOOP_HEAD.match(line) or line.strip() in ("{", "}"):
         return line
+    m = _GATHER.match(line) or _GATHER_ITEM.match(line)
+    if m and m.group(2) in rw.vec_arrays and m.group(3) in rw.vec_arrays:
+        return line       # u[e] = x[nq + sp[e]], ud[e] = w[sp[e]]: a whole vector per dof
+    if _GATHER_HEAD.match(line):
+        return line
+    m = _SCRATCH_DECLS.match(line)
+    if m:
+        names = re.findall(r"([A-Za-z_]\w*)\[\d+\]", m.group(2))
+        rw.vec_arrays.update(names)
+        return f"{m.group(1)}eomc_vd {m.group(2)};"
     m = _ZERO_RUN.match(line)
     if m:
         indent, a, b, array, value = m.groups()
@@ -515,7 +530,7 @@ def _param_list(params, rw):
         if not m:
             raise Unsupported(f"parameter {param!r}")
         const, name = m.groups()
-        if name in ("x", "r", "F", "w", "p", "P", "Gm") or name.startswith("S"):
+        if name in ("x", "r", "F", "w", "p", "P", "Gm", "an", "out") or name.startswith("S"):
             rw.vec_arrays.add(name)
             out.append(f"{const or ''}eomc_vd *{name}")
         else:
@@ -583,7 +598,47 @@ def _lane_args(call):
     return re.sub(r"\bF\b", "Fl_", re.sub(r"\bw\b", "wl_", call))
 
 
-def batch_rhs(name, lines, parts, dynamics="", fn="rhs", out="xdot"):
+_KERNEL_HEAD = re.compile(r"^static (inline )?(void|double) ([A-Za-z_]\w*)\(")
+_LITERAL = r"(-?\d+\.\d*(?:e[-+]?\d+)?)"
+
+
+def vector_kernels(name, helpers_text):
+    """(C text, {old name: new name}): jac_x's analytic kernel (compiler/tree/analytic.py:
+    ``NAME_rnea_derivs`` and its ``NAME_rd_*`` helpers, loops over the tree's int tables)
+    retyped into lanes: every double a vector, the loops and int tables as they are, so each
+    lane runs the scalar kernel's arithmetic in its order.  Scalar literals that stand for a
+    value (an assignment, a ternary's branch) become vectors (``EOMC_VLIT``); ``sign`` stays a
+    double (scalar times vector).  Refused (:class:`Unsupported`) when the kernel calls libm or
+    holds double tables: the retype is exact only for + - * / on lanes."""
+    funcs, cur, names = [], None, {}
+    for line in helpers_text.split("\n"):
+        if cur is None:
+            m = _KERNEL_HEAD.match(line)
+            if m and re.fullmatch(rf"{name}_(rd_\w+|rnea_derivs)", m.group(3)):
+                cur = [line]
+                names[m.group(3)] = m.group(3).replace(f"{name}_", f"{name}_v", 1)
+            continue
+        cur.append(line)
+        if line == "}":
+            funcs.append("\n".join(cur))
+            cur = None
+    if not funcs or f"{name}_rnea_derivs" not in names:
+        raise Unsupported("calls NAME_rnea_derivs, whose text was not found")
+    text = "\n\n".join(funcs)
+    if re.search(r"\b(sqrt|fabs|fmax|fmin|sin|cos|exp|log|pow|atan2)\(", text) or "static const double" in text:
+        raise Unsupported("has an analytic kernel with libm calls or double tables")
+    for old, new in names.items():
+        text = re.sub(rf"\b{old}\b", new, text)
+    text = re.sub(r"\bdouble\b", "eomc_vd", text).replace("eomc_vd sign", "double sign")
+    text = re.sub(rf"= {_LITERAL};", r"= EOMC_VLIT(\1);", text)
+    text = re.sub(rf"\? {_LITERAL} :", r"? EOMC_VLIT(\1) :", text)
+    text = re.sub(rf": {_LITERAL}([;)])", r": EOMC_VLIT(\1)\2", text)
+    text = re.sub(r"^static (inline )?", lambda m: f"static EOMC_VTARGET {m.group(1) or ''}", text, flags=re.M)
+    return "/* a vector plus a double: the double in every lane */\n" \
+           "#define EOMC_VLIT(c) ((eomc_vd){0} + (c))\n\n" + text, names
+
+
+def batch_rhs(name, lines, parts, dynamics="", fn="rhs", out="xdot", kernels=""):
     """(C code of the lane functions, helper names used) for the scalar rhs whose body is
     ``lines`` and whose sub-functions are ``parts`` (split_body's output); ``dynamics``: the
     text of Kane's NAME_dynamics helper (and its parts), which the rhs calls.
@@ -612,6 +667,10 @@ def batch_rhs(name, lines, parts, dynamics="", fn="rhs", out="xdot"):
         lines = [line for line in lines if line.strip() not in ("int status;",)
                  and not re.match(r"^\s+int piv\[\d+\];$", line)]
         lines = _per_lane_solve(lines, sizes)
+    if any(re.search(rf"\b{name}_rnea_derivs\(", line) for line in lines):
+        text, kernel_names = vector_kernels(name, kernels)
+        out_parts.append(text)
+        renamed.update(kernel_names)
     for part in parts:
         head, *body = part.rstrip("\n").split("\n")
         m = _PART_HEAD.match(head)
@@ -773,7 +832,7 @@ int {name}_rhs_batch_p(int n, double t, const double *X, const double *P, const 
     return head + ("\n" + simd.rstrip("\n") if simd else "") + "\n\n" + loop.rstrip("\n"), body
 
 
-def batch_code(name, nx, nr, printed, dynamics="", npar=0, fn="rhs", defined=None, prelude=True):
+def batch_code(name, nx, nr, printed, dynamics="", npar=0, fn="rhs", defined=None, prelude=True, kernels=""):
     """(code before NAME_rhs_batch, its body, metadata) from the scalar rhs's (lines, parts).
 
     The metadata says whether the lanes are vectorized and, when they are not, why (the
@@ -787,7 +846,7 @@ def batch_code(name, nx, nr, printed, dynamics="", npar=0, fn="rhs", defined=Non
     nout = nx if fn == "rhs" else nx * nx
     out = "xdot" if fn == "rhs" else "out"
     try:
-        lanes, used = batch_rhs(name, lines, parts, dynamics, fn=fn, out=out)
+        lanes, used = batch_rhs(name, lines, parts, dynamics, fn=fn, out=out, kernels=kernels)
     except Unsupported as exc:
         before, body = batch_function(name, nx, nr, npar, None, "", fn=fn, nout=nout, prelude=prelude)
         return before, body, {"vectorized": False, "why": f"the scalar {fn} {exc}", "layout": "nx x n"

@@ -313,7 +313,8 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
             scalar = fn[:-len("_batch")]
             before, body, meta_batch[fn] = batch_code(name, nx, len(layout.r), printed[scalar], dynamics_text,
                                                       len(layout.p), fn=scalar, defined=defined,
-                                                      prelude=fn == "rhs_batch" or "rhs_batch" not in fns)
+                                                      prelude=fn == "rhs_batch" or "rhs_batch" not in fns,
+                                                      kernels=helper)
             rendered.append({"prototype": prototype(name, fn), "body": body, "parts": [before]})
             op_counts[fn] = dict(op_counts[scalar])
             continue

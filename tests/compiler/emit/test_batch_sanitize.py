@@ -6,7 +6,8 @@ caller's arrays, with no undefined behaviour, at 4 and 8 lanes -- on a recursive
 at its exact size, so one element past a column's end is caught; it also checks each
 state's result and status against the scalar rhs, so a clean run is a correct run.  The same
 driver runs NAME_jac_x_batch (its tangent loop over vectors, nx*nx outputs per state) against
-the scalar jac_x on UR5 with its joint limits (the lanes' Heaviside helper)."""
+the scalar jac_x on UR5 with its joint limits (the lanes' Heaviside helper) and on a 6-link cart
+(the analytic kernel retyped into lanes)."""
 import os
 import shutil
 import subprocess
@@ -23,6 +24,7 @@ from helpers.robots import robot_path
 pytestmark = pytest.mark.skipif(shutil.which("gcc") is None, reason="needs gcc")
 
 CART = Path(__file__).resolve().parents[3] / "examples" / "cart_pole_system.py"
+CHAIN = Path(__file__).resolve().parents[3] / "benchmarks" / "tree_models" / "cart_rel_joints.py"
 
 DRIVER = r"""
 #include <math.h>
@@ -81,6 +83,13 @@ int main(void)
 
 
 def _gm(kind, cache):
+    if kind == "chain_jac_x":      # 6 links: jac_x through the analytic kernel, retyped into lanes
+        os.environ["EOMC_N_LINKS"] = "6"
+        try:
+            return generate(str(CHAIN), "sanchain", functions=("rhs", "jac_x", "jac_x_batch"), formulation="recursive",
+                            cache_dir=cache, progress=False)[1]
+        finally:
+            del os.environ["EOMC_N_LINKS"]
     if kind == "ur5_jac_x":
         from eomc.compiler.urdf.model import UrdfModel
         return generate(UrdfModel(robot_path("ur5")), "sanjur5", functions=("rhs", "jac_x", "jac_x_batch"),
@@ -99,14 +108,14 @@ def cache(tmp_path_factory):
 
 
 @pytest.mark.parametrize("lanes", [4, 8])
-@pytest.mark.parametrize("kind", ["ur5", "kane_cart", "ur5_jac_x"])
+@pytest.mark.parametrize("kind", ["ur5", "kane_cart", "ur5_jac_x", "chain_jac_x"])
 def test_rhs_batch_sanitizer_clean(cache, tmp_path, kind, lanes):
     if lanes > machine_lanes():
         pytest.skip(f"this machine has {machine_lanes()} double lanes: the lanes would not run")
-    if kind == "ur5_jac_x" and lanes != machine_lanes():
+    if kind.endswith("_jac_x") and lanes != machine_lanes():
         pytest.skip("jac_x_batch: the machine's own lane width only (CI time)")
     gm = _gm(kind, cache)
-    fn = "jac_x" if kind == "ur5_jac_x" else "rhs"
+    fn = "jac_x" if kind.endswith("_jac_x") else "rhs"
     assert gm.metadata[f"{fn}_batch"]["vectorized"], gm.metadata[f"{fn}_batch"]
     if kind == "kane_cart":
         assert gm.metadata["formulation"] == "kane" and gm.metadata["ninput"] > 0

@@ -20,6 +20,7 @@ from helpers.robots import robot_path
 STRICT = "-O2 -std=c99 -fPIC -Wall -Wextra -Werror"
 FUNCTIONS = ("rhs", "jac_x", "jac_x_batch")
 CART = Path(__file__).resolve().parents[3] / "examples" / "cart_pole_system.py"
+CHAIN = Path(__file__).resolve().parents[3] / "benchmarks" / "tree_models" / "cart_rel_joints.py"
 
 
 @pytest.fixture(scope="module")
@@ -96,6 +97,21 @@ def test_cart_with_inputs_per_state_and_failures(cache):
     with pytest.raises(ValueError, match=rf"X must have shape \(n, {model.nx}\)"):
         model.jac_x_batch(0.3, X[:, :3])
     assert model.jac_x_batch(0.3, X[:0]).shape == (0, model.nx, model.nx)
+
+
+def test_analytic_kernel_in_lanes_bit_for_bit(cache, monkeypatch):
+    """A cart with 6 links: its jac_x calls the analytic kernel NAME_rnea_derivs (loops over
+    the tree's int tables, compiler/tree/analytic.py), retyped into lanes (every double a
+    vector, the same loops): bit for bit with libm trig, inputs per state, a scalar tail."""
+    monkeypatch.setenv("EOMC_N_LINKS", "6")
+    model = compile_model(str(CHAIN), "jbchain", functions=FUNCTIONS, formulation="recursive", cache_dir=cache,
+                          cflags=f"{STRICT} -DEOMC_BATCH_LIBM_TRIG", progress=False)
+    assert model.metadata["jac_x_batch"]["vectorized"], model.metadata["jac_x_batch"]
+    c = "".join(f.read_text() for f in Path(model.directory).glob("*.c"))
+    assert "jbchain_vrnea_derivs(an, u, ud, out," in c
+    X = _states(model, 2 * machine_lanes() + 3, 6)
+    R = np.random.default_rng(7).uniform(-1, 1, (X.shape[0], model.ninput))
+    assert np.array_equal(model.jac_x_batch(0.3, X, r=R), _scalar(model, X, R))
 
 
 def test_scalar_and_rhs_batch_c_unchanged_and_on_request_only():
