@@ -34,58 +34,60 @@ __all__ = ["guarded_temps", "ARRAY"]
 ARRAY = "G_"      # the exports' local array (rhs has x, p, r, xdot, S_)
 
 
-def _reads(expr, defined):
-    return [s for s in expr.free_symbols if s in defined]
-
-
-def _closure(roots, defined, stop=frozenset()):
-    """Assignments (targets) read by ``roots`` (expressions), through each other, not
-    expanding past ``stop``."""
-    seen, stack = set(), [s for e in roots for s in _reads(e, defined)]
+def _closure(roots, reads, stop=frozenset()):
+    """Targets read by ``roots`` (symbols), through each other (``reads``: {target: the
+    targets its expression reads}), not expanding past ``stop``."""
+    seen, stack = set(), list(roots)
     while stack:
         s = stack.pop()
         if s in seen:
             continue
         seen.add(s)
         if s not in stop:
-            stack.extend(_reads(defined[s], defined))
+            stack.extend(reads[s])
     return seen
 
 
-def _blocks(assignments, roots, known, guards):
+def _blocks(assignments, roots, known, guards, reads):
     """[(guard index, block targets, position)] of the ``guards`` [(clearance, exports)] that can
-    be printed guarded among ``assignments``; ``roots``: the expressions read after them
-    (results; a block's exports one level up); ``known``: every symbol defined anywhere (the
-    program's inputs and assignments).  ``position`` is the index before which the block goes;
-    what ``assignments`` read from outside them is defined before all of them."""
-    defined = dict(assignments)
+    be printed guarded among ``assignments``; ``roots``: the targets read after them (by the
+    results; a block's exports one level up); ``known``: every symbol defined anywhere (the
+    program's inputs and assignments); ``reads``: {target: targets its expression reads}.
+    ``position`` is the index before which the block goes; what ``assignments`` read from
+    outside them is defined before all of them."""
     order = {t: i for i, (t, _) in enumerate(assignments)}
     usable = [(g, clearance, tuple(exports)) for g, (clearance, exports) in enumerate(guards)
-              if exports and all(e in defined for e in exports) and clearance.free_symbols <= known]
+              if exports and all(e in order for e in exports) and clearance.free_symbols <= known]
     if not usable:
         return []
+    local = {t: [s for s in reads[t] if s in order] for t in order}
     stop = frozenset(e for _, _, ex in usable for e in ex)
-    candidates = [_closure(ex, defined) | set(ex) for _, _, ex in usable]
+    cread = {g: [s for s in c.free_symbols if s in order] for g, c, _ in usable}
+    candidates = [_closure(ex, local) for _, _, ex in usable]
     count = {}
     for c in candidates:
         for t in c:
             count[t] = count.get(t, 0) + 1
     # read from outside every block: by the roots and clearances, by whatever is not a block's
     # own (a shared candidate, a non-candidate), and through them -- never through an export
-    outside = _closure(list(roots) + [c for _, c, _ in usable], defined, stop) - stop
+    starts = [s for s in roots if s in order] + [s for g in cread.values() for s in g]
+    outside = _closure(starts, local, stop) - stop
     while True:
         inner = {t for t in count if count[t] == 1 and t not in outside} | stop
-        more = _closure([e for t, e in assignments if t not in inner], defined, stop) - stop
+        more = _closure([s for t in order if t not in inner for s in local[t]], local, stop) - stop
         if more <= outside:
             break
         outside |= more
+    first = {}                       # export -> the first assignment outside its block reading it
+    for t, _ in assignments:
+        for s in local[t]:
+            if s in stop and t not in inner and s not in first:
+                first[s] = order[t]
     out = []
     for (g, clearance, exports), cand in zip(usable, candidates):
         block = {t for t in cand if t in inner}
-        first_reader = min((order[t] for t, e in assignments
-                            if t not in block and set(_reads(e, defined)) & set(exports)), default=len(assignments))
-        needs = {s for t in block for s in _reads(defined[t], defined) if s not in block}
-        needs |= set(_reads(clearance, defined))
+        first_reader = min((first.get(e, len(assignments)) for e in exports), default=len(assignments))
+        needs = {s for t in block for s in local[t] if s not in block} | set(cread[g])
         if any(order[s] >= first_reader for s in needs) or any(count[e] != 1 for e in exports):
             continue
         out.append((g, block, first_reader))
@@ -101,11 +103,12 @@ class _Printer:
         self.names = dict(printer._names)
         self.pr = CPrinter(self.names)          # sees the slots as they are given
         self.known = set(program.inputs) | {t for t, _ in program.assignments}
+        self.reads = {t: [s for s in e.free_symbols if s in self.known] for t, e in program.assignments}
         self.slots = 0
 
     def lines(self, assignments, roots, guards, indent):
         """``guards``: [(clearance, exports, inner guards)]."""
-        found = _blocks(assignments, roots, self.known, [(c, ex) for c, ex, _ in guards])
+        found = _blocks(assignments, roots, self.known, [(c, ex) for c, ex, _ in guards], self.reads)
         taken = {g for g, _, _ in found}
         # a guard that cannot be honoured here leaves its inner guards to this level
         promoted = [inner for g, (_, _, children) in enumerate(guards) if g not in taken for inner in children]
@@ -145,7 +148,8 @@ def guarded_temps(program, printer, guards):
     its body).  Without a usable guard: temps()'s lines unchanged."""
     from .bodies import temps
     p = _Printer(program, printer)
-    lines = p.lines(list(program.assignments), [e for _, e in program.results], list(guards), IND)
+    roots = sorted({s for _, e in program.results for s in e.free_symbols if s in p.reads}, key=str)
+    lines = p.lines(list(program.assignments), roots, list(guards), IND)
     if not p.slots:
         return temps(program, printer), printer
     return [f"{IND}double {ARRAY}[{p.slots}];"] + lines, p.pr
