@@ -102,7 +102,7 @@ def _body(fn, ctx, prog, sym, layout, nx, functions, formulation=KANE):
         return helper_jacobian_body(ctx, prog, sym.W, nr, "dkin_r", "Gr")
     if fn == "jvp":
         return jvp_body(ctx, prog, sym.W, sym.seeds, nx, len(layout.p),
-                        _tangent_blocks(ctx) if _tangent(prog) else ())
+                        (("Gtx", 0, nx),) if _tangent(prog) else ())
     if fn in REVERSE_FUNCTIONS:
         return reverse_body(fn, ctx, prog, sym, nx, len(layout.p))
     if fn == "jac_p":
@@ -127,7 +127,7 @@ def nu_of(sym):
 
 def _tangent(prog):
     """True when jac_x loops tangent programs over columns (many states)."""
-    return any(k[0] in ("Gtq", "Gtu") for k, _ in prog.results)
+    return any(k[0] in ("Gtq", "Gtu", "Gtx") for k, _ in prog.results)
 
 
 def _tangent_blocks(ctx, nq=None, nx=None):
