@@ -52,6 +52,8 @@ def _select(functions, ninput, noutput, ncon, nevent=0, has_poses=False, nparam=
         wanted |= {"jac_x", "jac_r"}
     if "rhs_batch" in wanted:      # the lanes are the rhs's own code; its scalar tail calls it
         wanted.add("rhs")
+    if "jac_x_batch" in wanted:    # likewise jac_x's
+        wanted.add("jac_x")
     absent = {"jac_r": ninput == 0, "jac_p": nparam == 0, "outputs": noutput == 0,
               "constraints": ncon == 0, "constraints_jac": ncon == 0, "events": nevent == 0,
               "poses": not has_poses}
@@ -243,7 +245,7 @@ def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions
     if refusal:
         raise ModelError(refusal)
     groups, helper_users = formulation.groups, formulation.helper_users
-    base = tuple(f for f in fns if f not in ("poses", "rhs_batch"))   # poses: appended below
+    base = tuple(f for f in fns if f not in ("poses", "rhs_batch", "jac_x_batch"))   # poses: appended below
     sym = formulation.symbolic(formed, layout, base, outputs, events)
     if nframe and "outputs" in fns:   # appended to the outputs, after the model's own
         sym = frames.lowered(sym, layout, formed.nq)
@@ -253,7 +255,7 @@ def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions
         sym, pose_meta = with_poses(sym, poses, layout)
         groups = {**groups, "poses": (POSE_GROUP,)}
     shared = verify(optimize_shared(sym.program, sym.derivatives))
-    programs = {fn: finish_function(shared, groups[fn]) if fn != "rhs_batch" and groups[fn] else None
+    programs = {fn: finish_function(shared, groups[fn]) if fn not in ("rhs_batch", "jac_x_batch") and groups[fn] else None
                 for fn in fns}
     helper = (finish_function(shared, ("A", "b")) if set(fns) & set(helper_users) or sym.solve_in
               else None)
@@ -305,12 +307,16 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
         helper = dynamics_helper(ctx, low.helper) if low.helper is not None else ""
     dynamics_text = helper
     helper = "\n".join(c for c in (helper, formulation.c_helpers(name, sym, fns, nq)) if c)
-    rendered, op_counts = [], {}
+    rendered, op_counts, meta_batch, printed, defined = [], {}, {}, {}, set()
     for fn in fns:
-        if fn == "rhs_batch":   # the rhs's printed lines, rewritten into lanes (compiler/emit/batch.py)
-            before, body, meta_batch = batch_code(name, nx, len(layout.r), rhs_printed, dynamics_text, len(layout.p))
+        if fn in ("rhs_batch", "jac_x_batch"):   # the printed lines, rewritten into lanes (compiler/emit/batch.py)
+            scalar = fn[:-len("_batch")]
+            before, body, meta_batch[fn] = batch_code(name, nx, len(layout.r), printed[scalar], dynamics_text,
+                                                      len(layout.p), fn=scalar, defined=defined,
+                                                      prelude=fn == "rhs_batch" or "rhs_batch" not in fns,
+                                                      kernels=helper)
             rendered.append({"prototype": prototype(name, fn), "body": body, "parts": [before]})
-            op_counts[fn] = dict(op_counts["rhs"])
+            op_counts[fn] = dict(op_counts[scalar])
             continue
         prog = low.programs[fn]
         shared = formulation.shared_code(fn, ctx, prog, sym, fns)
@@ -327,8 +333,8 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
                     _body(fn, ctx, prog, sym, layout, nx, fns, formulation))
         lines, parts = split_body(body, f"{name}_{fn}_part")
         ctx.split = ctx.split or bool(parts)
-        if fn == "rhs":
-            rhs_printed = (lines, parts)
+        if fn in ("rhs", "jac_x"):
+            printed[fn] = (lines, parts)
         rendered.append({"prototype": prototype(name, fn), "body": void_unused(fn, lines),
                          "parts": parts})
         op_counts[fn] = _ops(fn, prog, solver, nx, len(layout.r), sym.seeds, low.helper, nu,
@@ -349,8 +355,7 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
     if sym.energy:      # the runtime's verdict may trust it from a start in contact (runtime/switching.py)
         meta["energy"] = sym.energy
     meta["formulation"] = formulation.name
-    if "rhs_batch" in fns:
-        meta["rhs_batch"] = meta_batch
+    meta.update(meta_batch)
     meta.update(formulation.metadata(sym, fns))
     if low.poses is not None:
         meta["poses"] = pose_metadata(low.poses)
