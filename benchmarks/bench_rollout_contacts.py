@@ -196,7 +196,8 @@ def _case(name, threads_list, cache_dir):
                 q = np.array([B.compared_q(em, mm, x=x) for x in res.x])
                 dq = np.abs(q - mj_q).max(axis=1)
                 agree = f"{np.median(dq):.2g} / {dq.max():.2g}"
-                note = f"{int(np.sum(res.status == 0))}/{NROLL} ok, {int(np.median(res.steps))} steps"
+                note = (f"{int(np.sum(res.status == 0))}/{NROLL} ok ({int(np.sum(res.clean))} clean), "
+                        f"{int(np.median(res.steps))} steps")
             else:
                 agree, note = "", ""
             rows.append([name, f"{dt:g}", k, c, f"{sps[c]:.3g}", f"{sps[c] / sps['mujoco implicitfast']:.2f}",

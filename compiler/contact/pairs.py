@@ -22,6 +22,9 @@ centre, a capsule's segment, a box's solid) with the radii around them --
                    against the box and the segment against the box's 12 edges (exact for a
                    segment outside the box; :func:`_segment_box`), one contact point
 
+Box–box, cylinder (with a sphere, capsule or cylinder) and ellipsoid–sphere pairs go through the
+solid's signed distance instead (:func:`solid_contact`, :func:`signed_distance`, :func:`_box_box`:
+a box pair has 16 contact points, a cylinder pair 33; bounds in docs/contact.md).  For the others,
 then with d the vector between those points (A to B), |d| = sqrt(d·d + EPS²):
 
     n = d/|d|,   δ = r_A + r_B + margin - |d|,   p = x_A + (r_A - δ/2) n
@@ -266,7 +269,7 @@ def uses_solid(kind_a, kind_b):
 
 def pair_parts(kind_a, kind_b):
     """The parts (contact points) of a pair of these kinds: [-1] (one point) but for
-    box–box: 16 (parts 0-7: A's corners against the solid B; 8-15: B's corners against A) and
+    box–box: 16 (parts 0-7: A's corners against B; 8-15: B's corners against A: :func:`_box_box`) and
     cylinder–cylinder: 4·CYLINDER_RIM + 1 (A's rim points against B, B's against A, and the
     capsule inside A about its axis -- radius min(R, h) -- against B: side on side)."""
     from .geometry import CYLINDER_RIM
@@ -381,9 +384,7 @@ def solid_contact(a, b, part, margin=0.0, let=lambda e: e):
     A sphere of radius r at x against a solid S: δ = r + margin - sd_S(x), n = -(S's outward
     normal at x), p = x + (r - δ/2)·n, as the cores' nearest points give it for the other
     pairs.  A capsule is the deepest of its candidate spheres (:func:`_candidates`, chosen by
-    ``step`` on δ).  Box–box and cylinder–cylinder have several parts: each box's corners (radius 0)
-    against the other box -- exact for a corner's contact (a box on a face: its four corners share
-    the load), an edge crossing an edge is not seen until a corner meets a face --, each
+    ``step`` on δ).  Box–box (:func:`_box_box`) and cylinder–cylinder have several parts: each
     cylinder's rim points against the other and the capsule inside A about its axis against B
     (every candidate lies in its shape, so the depth is never overstated: a contact may start
     late, never early; measured against mj_geomDistance in the tests).  Capsule–cylinder adds
@@ -391,10 +392,8 @@ def solid_contact(a, b, part, margin=0.0, let=lambda e: e):
     from .geometry import CYLINDER_RIM
     swap = False
     if a["kind"] == b["kind"] == "box":
-        swap = part >= 8
-        point, solid = (b, a) if swap else (a, b)
-        cands = [(_corner(point, part % 8), 0.0)]
-    elif a["kind"] == b["kind"] == "cylinder":
+        return _box_box(a, b, part, margin, let)
+    if a["kind"] == b["kind"] == "cylinder":
         if part < 4 * CYLINDER_RIM:
             swap = part >= 2 * CYLINDER_RIM
             point, solid = (b, a) if swap else (a, b)
@@ -425,6 +424,51 @@ def solid_contact(a, b, part, margin=0.0, let=lambda e: e):
         n = [let(n[k] + take * (m[k] - n[k])) for k in range(3)]
         depth = let(depth + take * (dep - depth))
     return p, [let(-x) for x in n] if swap else n, depth
+
+
+BOX_GATE = 1e-9   # m: a corner whose projection is this far outside the other box's face still meets it
+
+
+def _box_box(a, b, part, margin, let):
+    """(p, n, δ) of corner ``part`` of a box pair (0-7: A's corners against B's faces, 8-15: B's
+    against A's), as the classic box–box test does it with the other box's face axes: of the other
+    box's 3 face normals, the one along which the two boxes overlap least (separating-axis test,
+    chosen by ``step``) gives the face, n its normal pointing from A to B; the corner's depth δ is
+    how far it is past that face's plane, provided its foot on the plane lies on the face (within
+    BOX_GATE: stacked boxes of equal size have corners exactly on the edges), else δ = -1 m (no
+    contact).  p is midway between the corner and its foot.  A box on a face: the corners of each
+    box over the other's face share the load (two equal boxes stacked, shifted: four).  Each
+    corner's face is one box's, so the normal does not jump between the two boxes' nearly parallel
+    faces (with both boxes' six axes in one test it did, and stalled every integrator on a stack).
+    Exact for a corner against a face (the distance when apart, the depth when pressed); the 9
+    edge–edge axes are left out, so two edges crossing meet only when a corner meets a face."""
+    mine, other, sense = (a, b, 1) if part < 8 else (b, a, -1)
+    d = [let(other["centre"][k] - mine["centre"][k]) for k in range(3)]     # mine -> other
+    hm, ho = [_num(x) for x in mine["size"]], [_num(x) for x in other["size"]]
+    overlaps, signs = [], []
+    for k in range(3):                      # the other box's face normals
+        axis = other["axes"][k]
+        proj = let(_dot(axis, d))
+        reach = sum((hm[j] * sm.Abs(_dot(mine["axes"][j], axis)) for j in range(3)), sm.S.Zero)
+        overlaps.append(let(reach + ho[k] - sm.Abs(proj)))
+        signs.append(_sign(proj))
+    picks, left = [], sm.S.One              # one-hot: the last of the smallest overlaps
+    for i in range(2):
+        pick = let(left * sm.Mul(*[step(overlaps[j] - overlaps[i]) for j in range(i + 1, 3)]))
+        picks.append(pick)
+        left = let(left - pick)
+    picks.append(left)
+    m = [let(sum((picks[i] * signs[i] * other["axes"][i][k] for i in range(3)), sm.S.Zero)) for k in range(3)]
+    half = sum((picks[i] * ho[i] for i in range(3)), sm.S.Zero)       # the chosen face's distance from the centre
+    v = [let(x) for x in _corner(mine, part % 8)]
+    past = let(half - _dot(m, [other["centre"][k] - v[k] for k in range(3)]))     # m points into the other
+    foot = [let(v[k] - past * m[k]) for k in range(3)]
+    rel = [foot[k] - other["centre"][k] for k in range(3)]
+    gate = let(sm.Mul(*[step(_num(other["size"][j] + BOX_GATE) - sm.Abs(_dot(rel, other["axes"][j])))
+                        for j in range(3)]))
+    depth = let(gate * (past + _num(margin)) - (1 - gate))
+    p = [let(v[k] - past / 2 * m[k]) for k in range(3)]
+    return p, [let(sense * x) for x in m], depth
 
 
 def _rim_points(cyl, count):

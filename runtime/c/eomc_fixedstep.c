@@ -74,8 +74,6 @@
                                  change is taken whole (see fs_switched) */
 #define SWITCH_FACTOR 2.0     /* fast path: a contact depth or joint-law slope changing by more
                                  than this factor within a step is a regime change */
-#define LEVEL_CAP 4.0         /* fast path: a sub-step taken at a friction level (see fs_fast_advance)
-                                 has a ratio of at most this * split */
 #define RESID_ACCEL 1.0       /* fast path: the residual test's floor, h * this (m/s^2, rad/s^2) */
 
 size_t eomc_fs_work_size(int nx)
@@ -675,18 +673,12 @@ static int fs_switched(const fs_fast *q)
  * ball.  Go2 collapsing at 5 and 2 ms is marginal with or without this: over 6 start heights
  * (+0 ... +2 mm) 7 of 12 runs end with status 10 (6 of 12 before).
  *
- * The same inside a split step (session 5): after an impact the stance's friction keeps the
- * ratio near 2 at every size (the humanoid at t = 0.144 s: 60 sub-steps of h/64 and h/32, each
- * size tried and halved in turn).  Once a sub-step with no regime change was taken because its
- * halving did not halve the ratio, its ratio is the step's friction level: a later sub-step
- * with no regime change whose ratio is within FRICTION_FACTOR of the level and at most
- * LEVEL_CAP * split is taken without trying its halves.  Measured (gymnasium models at their
- * own step, 1 s): humanoid 668 -> 585 model calls, ant 145 -> 135, hopper and walker2d
- * unchanged; the thrown ball of tests/runtime/test_rollout.py (16 starts, 0.6 s) needs 15 289 ->
- * 9 829 calls at 2 ms with no energy verdict (none before), and at 5 ms the same 3 of 16 starts
- * end with the verdict's status 20 as before.  With no cap (up to HARD_FACTOR) the humanoid
- * takes 532 calls but 5 of 16 balls gain energy at 5 ms; taking whole steps up to 4 or 5 *
- * split (instead of FRICTION_FACTOR) made 2 of 16 gain energy at 2 ms: both dropped.  A sub-step
+ * Tried and dropped (session 5): taking a sub-step inside a split step without trying its
+ * halves when its ratio was within FRICTION_FACTOR of an earlier sub-step's that halving had not
+ * mended (a "friction level").  The humanoid went 668 -> 585 model calls per simulated second and
+ * the ant 145 -> 135, but a G1 built from its URDF (bench_rollout_contacts: feet spheres, hinge
+ * springs, hinge speeds +-0.5) went 521-546 -> 1390-1499 calls and 8 -> 22 ms per simulated
+ * second, and the sub-steps left unsolved over 32 thrown-ball runs 115 -> 183.  A sub-step
  * of the smallest size whose ratio is still above HARD_FACTOR * split is taken anyway, counted in
  * stats->rejected (simulate warns); a step with no finite sub-step at all fails.  After
  * each kept step the contacts' depths are checked against eomc_implicit.depth_limit: the
@@ -706,7 +698,6 @@ static int fs_fast_advance(void *self, double t, double h, const double *x, doub
         q->hA = 0.0;
     }
     double before = INFINITY;          /* the ratio of the twice longer try from here */
-    double level = 0.0;                /* a ratio halving was shown not to mend here (see below) */
     while (pos < MAX_SPLIT) {
         double ts = t + h * pos / MAX_SPLIT, hs = size == MAX_SPLIT ? h : h * size / MAX_SPLIT, ratio;
         if (q->hA != hs) {
@@ -725,12 +716,6 @@ static int fs_fast_advance(void *self, double t, double h, const double *x, doub
          * halving does not mend (see fs_switched) */
         if (size == MAX_SPLIT && !s && ratio > split && ratio <= FRICTION_FACTOR * split && !fs_switched(q))
             goto take;
-        /* the same inside a split step: once a sub-step with no regime change was taken because
-         * its halving did not halve the ratio (level), a later sub-step with no regime change
-         * whose ratio is within FRICTION_FACTOR of that level is taken as well, at whatever size
-         * it has grown back to, instead of being split again to find the same ratio */
-        if (!s && level > 0.0 && ratio > split && ratio <= FRICTION_FACTOR * level && ratio <= LEVEL_CAP * split && !fs_switched(q))
-            goto take;
         /* split while the test fails and splitting helps: a linearisation error shrinks with
          * the step (the ratio falls at least by half per halving); one that does not (a
          * regularised friction law switching between stick and slip, where its slope jumps
@@ -745,7 +730,6 @@ static int fs_fast_advance(void *self, double t, double h, const double *x, doub
             return s;
         }
         if (size == 1 && ratio > HARD_FACTOR * split) q->st->rejected++;
-        else if (ratio > split && ratio > 0.5 * before && !fs_switched(q)) level = ratio;
     take:
         before = INFINITY;
         q->st->nlu++;

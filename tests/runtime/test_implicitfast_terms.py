@@ -188,15 +188,11 @@ def test_ant_stands_at_its_own_10ms_step(ant):
     assert ends[0][iz] == pytest.approx(0.556, abs=0.04)   # measured 0.587: MuJoCo's own 10 ms path
 
 
-def test_stance_friction_is_not_split_again_and_gains_no_energy(tmp_path):
+def test_a_thrown_ball_at_2ms_gains_no_energy(tmp_path):
     """A ball thrown onto the floor from 16 starts (it lands, slides with friction, spins; the
-    model of test_rollout), 0.6 s at 2 ms.  After a landing the friction switching between stick
-    and slip keeps the fast path's residual ratio above its split at every sub-step size; once a
-    sub-step showed that halving does not halve it, later sub-steps at that level are taken
-    without trying their halves (eomc_fixedstep.c, fs_fast_advance's friction level).  Measured:
-    15 289 model calls before, 9 829 with it; every run still ends with status 0, i.e.
-    simulate's energy verdict finds no gain (without a cap on the level, at 5 ms two more
-    starts gained energy: caught by the verdict, and the cap is why they no longer do)."""
+    model of test_rollout), 0.6 s at 2 ms: every run ends with status 0, i.e. simulate's energy
+    verdict finds no gain, through landings and the stance's stick-slip friction (the cases
+    that made looser step checks gain energy: eomc_fixedstep.c, fs_fast_advance)."""
     from eomc.compiler.mjcf.model import MjcfModel
 
     from .test_rollout import BALL as THROWN
@@ -208,15 +204,13 @@ def test_stance_friction_is_not_split_again_and_gains_no_energy(tmp_path):
     x0 = np.zeros((16, m.nx))
     x0[:, names.index("q_root_z")] = 0.06 + 0.3 * rng.random(16)
     x0[:, m.nq:] = rng.normal(size=(16, m.nu))
-    calls = 0
     for x in x0:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")       # hard landings leave a sub-step unsolved (warned)
             res = m.simulate(x, (0.0, 0.6), method="implicitfast", dt=0.002, raise_on_failure=False)
         assert res.status == 0, res.message
         assert "energy" in res.outputs and np.all(np.isfinite(res.outputs["energy"]))
-        calls += res.stats["nfev"]
-    assert 16 * 300 <= calls <= 11000, calls
+        assert res.stats["nfev"] >= 300                 # every 2 ms step took its model call
 
 
 BALL = """<mujoco model="ball">

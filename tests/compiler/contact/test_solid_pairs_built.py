@@ -1,5 +1,6 @@
 """The generated code of solid pairs (box–box, sphere–cylinder): its outputs at random states are
-the signed distances by hand (numpy), so the lowering carries :func:`solid_contact` into C."""
+the signed distance by hand (numpy; sphere–cylinder) and :func:`solid_contact` evaluated in Python
+(box–box), so the lowering carries the narrow phase into C."""
 import warnings
 
 import numpy as np
@@ -8,6 +9,7 @@ import pytest
 mujoco = pytest.importorskip("mujoco")
 
 import eomc  # noqa: E402
+from eomc.compiler.contact.pairs import solid_contact  # noqa: E402
 from eomc.compiler.mjcf.compare import prepared, to_mujoco  # noqa: E402
 from eomc.compiler.mjcf.model import check_model, load_mjmodel  # noqa: E402
 from eomc.compiler.mjcf.treeir import tree_ir  # noqa: E402
@@ -55,14 +57,12 @@ def test_generated_depths_are_the_signed_distances(tmp_path):
         frame = {n: (np.array(d.geom_xpos[i]), np.array(d.geom_xmat[i]).reshape(3, 3)) for n, i in g.items()}
         sd = _sdf(frame["ball"][0], "cylinder", *frame["drum"], m.geom_size[g["drum"]][:2]) - 0.1
         assert out["depth_ball__drum"] == pytest.approx(-sd, abs=1e-12)
-        for i in range(16):
-            (pc, pR), (sc, sR), name = (frame["cube"], frame["slab"], "cube") if i < 8 else \
-                (frame["slab"], frame["cube"], "slab")
-            other = "slab" if name == "cube" else "cube"
-            s = np.array([(i % 8 >> 2) & 1, (i % 8 >> 1) & 1, i % 8 & 1]) * 2 - 1
-            corner = pc + pR @ (s * m.geom_size[g[name]])
+        placed = {n: {"kind": "box", "centre": list(frame[n][0]), "axes": [list(frame[n][1][:, k]) for k in range(3)],
+                      "size": [float(x) for x in m.geom_size[g[n]]]} for n in ("cube", "slab")}
+        for i in range(16):            # the formula itself is test_solid_pairs' job: here C = the formula
+            _, n, want = solid_contact(placed["cube"], placed["slab"], i)
             depth = out[f"depth_cube__slab_{i}"]
-            assert depth == pytest.approx(-_sdf(corner, "box", sc, sR, m.geom_size[g[other]]), abs=1e-12)
+            assert depth == pytest.approx(float(want), abs=1e-12)
             pressed += depth > 0
             assert (out[f"Fn_cube__slab_{i}"] > 0) == (depth > 0)
     assert pressed >= 3
