@@ -83,6 +83,7 @@ class Symbolic:
     regressor_reference: tuple = ()  # per block: "link frame" or "mass centre"
     analytic: object = None          # recursive formulation: compiler/tree/analytic.AnalyticPlan
     energy: str = ""                 # what a generated ``energy`` output holds (NAME.json "energy"), or ""
+    guards: tuple = ()               # rhs broad phase: (clearance, exports) (compiler/emit/guards.py)
 
 
 def _is_symmetric(A, seed=0):

@@ -55,7 +55,7 @@ class Recursive(Formulation):
 
     def body(self, fn, ctx, prog, sym, layout, nx):
         if fn == "rhs":
-            return tree_rhs_body(ctx, prog)
+            return tree_rhs_body(ctx, prog, sym.guards)
         if fn in KERNEL_FUNCTIONS and has_dynamics_kernel(prog, sym):
             return dynamics_body(ctx, prog, sym, fn)
         if fn in ("mass_matrix", "forcing", "inverse_dynamics"):
