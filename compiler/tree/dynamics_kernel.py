@@ -29,7 +29,7 @@ from .analytic import (ANX, DOT6_LINE, PLACE_FROM_PARENT_LINES, WORLD_INERTIA_LI
                        tree_tables, world_axis_lines, world_load_lines)
 
 __all__ = ["dynamics_kernel_c", "has_dynamics_kernel", "dynamics_body", "dynamics_inputs", "dynamics_ops",
-           "KERNEL_FUNCTIONS"]
+           "KERNEL_FUNCTIONS", "forcing_by_inverse_dynamics"]
 
 # NAME_dyn_inputs(t, x, p, r, an): the straight-line inputs, one copy for the three functions
 INPUTS_SIGNATURE = (("double", "t"), ("const double *", "x"), ("const double *", "p"), ("const double *", "r"),
@@ -38,8 +38,10 @@ INPUTS_SIGNATURE = (("double", "t"), ("const double *", "x"), ("const double *",
 KERNEL_FUNCTIONS = ("mass_matrix", "forcing", "inverse_dynamics")
 
 
-def has_dynamics_kernel(program, sym):
-    return getattr(sym, "analytic", None) is not None and any(k[0] == ANX for k, _ in program.results)
+def has_dynamics_kernel(program, sym, fn):
+    """Is ``fn`` computed by NAME_dyn (the compiler's choice: lower.dynamics_kernel_functions)?"""
+    return (fn in getattr(sym, "dynamics_kernel", ()) and getattr(sym, "analytic", None) is not None
+            and any(k[0] == ANX for k, _ in program.results))
 
 
 
@@ -188,6 +190,20 @@ def dynamics_body(ctx, program, sym, fn):
         lines += [f"{IND}for (e = 0; e < {nu}; e++) out[e] = -tq[e];",
                   f"{IND}return {ctx.name}_finite(out, {nu});"]
     return lines
+
+
+def forcing_by_inverse_dynamics(ctx):
+    """forcing as -inverse_dynamics at u' = 0, one call (where both are straight-line RNEA: its
+    code once; the call costs ~3 % over forcing's own copy, G1 1414 vs 1375 ns, while the copy
+    was 150 kB of C and a second of G1's build, benchmarks/results/dynamics_kernel.md)."""
+    from ..emit.bodies import IND
+    nu = ctx.nu
+    return [f"{IND}double ud0[{nu}];",
+            f"{IND}int k, status;",
+            f"{IND}for (k = 0; k < {nu}; k++) ud0[k] = 0.0;",
+            f"{IND}status = {ctx.name}_inverse_dynamics(t, x, ud0, p, r, out, work);",
+            f"{IND}for (k = 0; k < {nu}; k++) out[k] = -out[k];",
+            f"{IND}return status;"]
 
 
 def dynamics_ops(plan, fn):
