@@ -16,7 +16,7 @@ off (UR10, Panda fixed; Go2 floating), recursive formulation.
 Agreement, before timing: vjp against λᵀ·[jac_x, jac_p] (relative, max over states) and hvp
 against central differences of vjp.
 
-Usage: python benchmarks/bench_reverse.py [--cart 4,8,20] [--robots ur10,panda,go2] [--rounds 9] [--write]
+Usage: python benchmarks/bench_reverse.py [--cart 4,8,20] [--robots ur10,panda,go2,g1] [--rounds 9] [--write] [--out NAME]
 """
 import argparse
 import datetime
@@ -41,6 +41,7 @@ ROBOTS = {
     "ur10": ("ur_description/urdf/ur10_robot.urdf", False),
     "panda": ("panda_description/urdf/panda.urdf", False),
     "go2": ("go2_description/urdf/go2.urdf", True),
+    "g1": ("g1_description/urdf/g1_29dof_rev_1_0.urdf", True),
 }
 NS = 16
 FUNCTIONS = ["rhs", "jac_x", "jac_p", "jvp", "vjp", "hvp"]
@@ -178,6 +179,10 @@ def main():
     ap.add_argument("--robots", default="ur10,panda,go2")
     ap.add_argument("--rounds", type=int, default=9)
     ap.add_argument("--write", action="store_true")
+    ap.add_argument("--out", default="reverse",
+                    help="results file name under benchmarks/results/ (a subset of the models "
+                         "goes to its own file, not over reverse.md's full table)")
+    ap.add_argument("--cache", default=None, help="build cache directory kept between runs")
     args = ap.parse_args()
     cases = [(f"cart{n}", "recursive") for n in args.cart.split(",") if n]
     cases += [(f"cart{n}", "kane") for n in args.kane.split(",") if n]
@@ -185,9 +190,10 @@ def main():
     rows = []
     with tempfile.TemporaryDirectory() as td:
         tmp = Path(td)
+        cache = Path(args.cache) if args.cache else tmp / "cache"
         for case, form in cases:
             t0 = time.process_time()
-            model = build_case(case, form, tmp / "cache")
+            model = build_case(case, form, cache)
             build = time.process_time() - t0
             rng = np.random.default_rng(1)
             X = rng.uniform(-1, 1, (NS, model.nx)) * 0.5
@@ -198,7 +204,7 @@ def main():
             print(render(rows[-1]), flush=True)
     text = header(args.rounds) + "\n".join(render(r) for r in rows) + "\n"
     if args.write:
-        path = HERE / "results" / "reverse.md"
+        path = HERE / "results" / f"{args.out}.md"
         path.write_text(text)
         print(f"wrote {path}")
 

@@ -18,8 +18,11 @@ within 1 ulp, the rest is the same arithmetic).
 Models: the cart auto sees (benchmarks/tree_models/cart_rel_joints.py, n = 4, 20, 40), UR10
 and Panda (fixed base), Go2 and G1 29-dof (--floating-base, --limits off).
 
-Usage: python benchmarks/bench_rhs_batch.py [--rounds 9] [--write] [names...]
+Usage: python benchmarks/bench_rhs_batch.py [--rounds 9] [--write] [--function jac_x] [names...]
 (--write: results/rhs_batch.md)
+
+--function jac_x: the same for NAME_jac_x_batch against the scalar jac_x (nx*nx outputs per
+state; `--outputs rhs,jac_x,jac_x_batch`), written to results/jac_x_batch.md.
 """
 import argparse
 import json
@@ -46,11 +49,19 @@ HARNESS = r"""
 #include <time.h>
 #include "m.h"
 #define NS 1024
+#if JACX
+#define BATCH m_jac_x_batch
+#define SCALAR jac_x
+#else
+#define BATCH m_rhs_batch
+#define SCALAR rhs
+#endif
 """ + C_CLOCK_AND_RNG + r"""int main(int argc, char **argv) {
     const eomc_model *m = m_model();
     int nx = m->nx, nq = m->nq, nr = m->ninput, i, k, c, round, rounds = atoi(argv[1]);
+    int no = JACX ? nx * nx : nx;
     double *X = malloc(sizeof(double) * nx * NS), *S = malloc(sizeof(double) * nx * NS);
-    double *XD = malloc(sizeof(double) * nx * NS), *xd = malloc(sizeof(double) * nx * NS);
+    double *XD = malloc(sizeof(double) * no * NS), *xd = malloc(sizeof(double) * no * NS);
     double *R = calloc((size_t)(nr + 1) * NS, sizeof(double)), *r = calloc(nr + 1, sizeof(double));
     double worst = 0.0, same = 0.0, sum = 0.0, work[1];
     int *st = malloc(sizeof(int) * NS);
@@ -58,19 +69,19 @@ HARNESS = r"""
     for (i = 0; i < NS; i++) for (k = 0; k < nx; k++) {
         double v = k < nq ? 3.0 * (2 * rnd() - 1) : 2 * rnd() - 1;
         X[i * nx + k] = v; S[k * NS + i] = v; }
-    if (m_rhs_batch(NS, 0.0, S, m->param_defaults, nr ? R : NULL, XD, st, work)) { printf("batch failed\n"); return 1; }
+    if (BATCH(NS, 0.0, S, m->param_defaults, nr ? R : NULL, XD, st, work)) { printf("batch failed\n"); return 1; }
     for (i = 0; i < NS; i++) {
-        m->rhs(0.0, X + i * nx, m->param_defaults, r, xd + i * nx, work);
-        for (k = 0; k < nx; k++) { double a = XD[k * NS + i], b = xd[i * nx + k];
+        m->SCALAR(0.0, X + i * nx, m->param_defaults, r, xd + i * no, work);
+        for (k = 0; k < no; k++) { double a = XD[k * NS + i], b = xd[i * no + k];
             double d = fabs(a - b) / (fabs(b) > 1 ? fabs(b) : 1);
             if (d > worst) worst = d; same += a == b; }
     }
-    printf("agree %.3g %.4f\n", worst, same / (nx * NS));
+    printf("agree %.3g %.4f\n", worst, same / ((double)no * NS));
     for (round = 0; round < rounds; round++)
         for (c = 0; c < 2; c++) {
             int cc = (c + round) % 2; long done = 0; double t0 = tnow(), t1;
-            do { if (cc == 0) { for (i = 0; i < NS; i++) m->rhs(0.0, X + i * nx, m->param_defaults, r, xd + i * nx, work); }
-                 else m_rhs_batch(NS, 0.0, S, m->param_defaults, nr ? R : NULL, XD, st, work);
+            do { if (cc == 0) { for (i = 0; i < NS; i++) m->SCALAR(0.0, X + i * nx, m->param_defaults, r, xd + i * no, work); }
+                 else BATCH(NS, 0.0, S, m->param_defaults, nr ? R : NULL, XD, st, work);
                  sum += cc ? XD[nq * NS] : xd[nq];
                  done += NS; t1 = tnow(); } while (t1 - t0 < 2e7);
             printf("time %d %.3f\n", cc, (t1 - t0) / done);
@@ -93,27 +104,28 @@ def models():
     return out
 
 
-def build(model, env, flags, outdir):
+def build(model, env, flags, outdir, fn="rhs"):
     env = dict(os.environ, EOMC_CACHE_DIR=tempfile.mkdtemp(prefix="eomc_rb_"), **env)
     start = time.perf_counter()
     proc = subprocess.run([sys.executable, "-m", "eomc", "build", str(model), "-o", str(outdir), "--name", "m",
-                           "--outputs", "rhs,rhs_batch", "-q", *flags], env=env, capture_output=True, text=True)
+                           "--outputs", "rhs,rhs_batch" if fn == "rhs" else "rhs,jac_x,jac_x_batch", "-q", *flags], env=env, capture_output=True, text=True)
     if proc.returncode:
         raise RuntimeError((proc.stderr.strip().splitlines() or ["?"])[-1])
     return json.loads((outdir / "m.json").read_text()), time.perf_counter() - start
 
 
-def measure(label, model, env, flags, tmp, rounds):
+def measure(label, model, env, flags, tmp, rounds, fn="rhs"):
     d = tmp / label.replace(" ", "_").replace("=", "")
     d.mkdir()
-    meta, build_s = build(model, env, flags, d)
+    meta, build_s = build(model, env, flags, d, fn)
     (d / "h.c").write_text(HARNESS)
     rt = ROOT / "runtime" / "c"
     exes, compile_s = {}, {}
     for lanes in (4, 8):
         exe = d / f"h{lanes}"
         start = time.perf_counter()
-        subprocess.run(["gcc", "-O2", "-std=c99", f"-DEOMC_BATCH_LANES={lanes}", f"-I{d}", f"-I{rt}",
+        subprocess.run(["gcc", "-O2", "-std=c99", f"-DEOMC_BATCH_LANES={lanes}", f"-DJACX={int(fn == 'jac_x')}",
+                        f"-I{d}", f"-I{rt}",
                         str(d / "h.c"), str(d / "m.c"), "-o", str(exe), "-lm"], check=True)
         compile_s[lanes] = time.perf_counter() - start
         exes[lanes] = exe
@@ -132,14 +144,14 @@ def measure(label, model, env, flags, tmp, rounds):
     scalar = statistics.median(times[("scalar", 4)] + times[("scalar", 8)])
     batch = {lanes: statistics.median(times[("batch", lanes)]) for lanes in (4, 8)}
     return dict(label=label, nx=meta["nx"], formulation=meta["formulation"],
-                vectorized=meta["rhs_batch"]["vectorized"], ops=sum(meta["op_counts"]["rhs"].values()),
+                vectorized=meta[f"{fn}_batch"]["vectorized"], ops=sum(meta["op_counts"][fn].values()),
                 scalar=scalar, batch=batch, agree=agree, build_s=build_s, compile_s=compile_s)
 
 
-def table(rows):
-    head = ("| model | nx | form | rhs ops | scalar rhs ns/state | batch 4 lanes (AVX2) ns/state | "
+def table(rows, fn="rhs"):
+    head = (f"| model | nx | form | {fn} ops | scalar {fn} ns/state | batch 4 lanes (AVX2) ns/state | "
             "batch 8 lanes (AVX-512) ns/state | speed-up 4 lanes | speed-up 8 lanes | "
-            "batch vs rhs: max rel. diff, share of identical bits | harness compile s (8 lanes) |")
+            f"batch vs {fn}: max rel. diff, share of identical bits | harness compile s (8 lanes) |")
     lines = [head, "|" + "|".join(["--"] * (head.count("|") - 1)) + "|"]
     for r in rows:
         if "error" in r:
@@ -168,6 +180,7 @@ def main(argv):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rounds", type=int, default=9)
     parser.add_argument("--write", action="store_true")
+    parser.add_argument("--function", choices=("rhs", "jac_x"), default="rhs")
     parser.add_argument("names", nargs="*")
     args = parser.parse_args(argv)
     env_line = environment()
@@ -177,15 +190,21 @@ def main(argv):
             if args.names and not any(n.lower() in label.lower() for n in args.names):
                 continue
             try:
-                row = measure(label, model, env, flags, Path(tmp), args.rounds)
+                row = measure(label, model, env, flags, Path(tmp), args.rounds, args.function)
             except (RuntimeError, subprocess.CalledProcessError) as exc:
                 row = {"label": label, "error": str(exc)[:200]}
             print(row, flush=True)
             rows.append(row)
-    text = table(rows)
+    text = table(rows, args.function)
     print(env_line)
     print(text)
-    if args.write:
+    if args.write and args.function == "jac_x":
+        (HERE / "results" / "jac_x_batch.md").write_text(
+            "# jac_x_batch: Jacobians per second in SIMD lanes vs the scalar jac_x (issue 31 item 1)\n\n"
+            f"{env_line}.  benchmarks/bench_rhs_batch.py --function jac_x --rounds {args.rounds}: 1024 states "
+            "per call, thread CPU time, taskset -c 1, contestants interleaved, medians.  ns/state: lower is "
+            "better; speed-up = scalar ns / batch ns.\n\n" + text + "\n")
+    elif args.write:
         (HERE / "results" / "rhs_batch.md").write_text(
             "# rhs_batch: states per second in SIMD lanes vs the scalar rhs (issue 31 item 1)\n\n"
             f"{env_line}.  benchmarks/bench_rhs_batch.py --rounds {args.rounds}: 1024 states per call, "

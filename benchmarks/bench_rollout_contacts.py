@@ -18,7 +18,19 @@ differ, so the two sides' end states differ by what the laws do, not by round-of
 coordinates (hinges, slides, free joints' positions; bench_fixedstep.compared_q).  Row 0 of
 eomc.rollout is checked bit for bit against simulate (same method, same code).
 
-    taskset -c 0,1 nice python benchmarks/bench_rollout_contacts.py [--models hopper,ant,humanoid]
+Go2 and G1: MuJoCo Menagerie is not installed here (its pip package downloads the files from
+GitHub, which this machine cannot reach), so both sides read one MJCF that MuJoCo's own compiler
+makes from example-robot-data's URDF (``urdf_mjcf``): the URDF's links, inertias, joint axes and
+ranges (limits on both sides), a free joint at the root, a ground plane and the foot spheres
+eomc's URDF runs name (Go2: a 22 mm sphere at each *_foot link, as contact_defaults.py; G1: the
+URDF's own eight 5 mm collision spheres under the ankles); the other collision meshes are left
+out on both sides (no default-ground corners: the same contacts on both sides), MuJoCo's default
+timestep 2 ms.  Neither file has motors, so every hinge gets a spring about the start pose and a
+damper (Go2 40 N m/rad, 1 N m s/rad; G1 150, 4), which both sides read from the file: the robots
+stand and sway instead of collapsing limp.  Start: Go2 crouched (thighs 0.9, calves -1.8 rad), G1 at its zero pose, the
+lowest sphere 1 mm above the plane, hinge speeds uniform in +-0.5 as for the gym models.
+
+    taskset -c 0,1 nice python benchmarks/bench_rollout_contacts.py [--models hopper,ant,humanoid,go2,g1]
 """
 import argparse
 import os
@@ -34,8 +46,86 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import environment_header, format_table, write_results  # noqa: E402
 import bench_fixedstep as B  # noqa: E402
 
-MODELS = ("hopper", "ant", "humanoid")
+MODELS = ("hopper", "ant", "humanoid", "go2", "g1")
 NROLL, REPEAT = 64, 5
+LEGS = ("FL", "FR", "RL", "RR")
+# URDF robots: (file under example-robot-data's robots/, foot spheres (link, offset, radius) or
+# None for the URDF's own collision spheres, start pose {joint: angle})
+# None for the URDF's own collision spheres, start pose {joint: angle}, every hinge's spring stiffness
+# (N m/rad) and damping (N m s/rad) about the start pose: a passive stand instead of motors)
+URDF = {"go2": ("go2_description/urdf/go2.urdf", [(f"{leg}_foot", (0.0, 0.0, 0.0), 0.022) for leg in LEGS],
+                {f"{leg}_{j}_joint": v for leg in LEGS for j, v in (("thigh", 0.9), ("calf", -1.8))}, 40.0, 1.0),
+        "g1": ("g1_description/urdf/g1_29dof_rev_1_0.urdf", None, {}, 150.0, 4.0)}
+
+
+def urdf_mjcf(name, out_dir):
+    """(path, start height, pose): the MJCF MuJoCo's compiler makes of a URDF robot (see the module
+    docstring), written to out_dir; both contestants read this one file."""
+    import re
+    import xml.etree.ElementTree as ET
+
+    from importlib.metadata import distribution
+
+    import mujoco
+    rel, feet, pose, stiffness, damping = URDF[name]
+    robots = Path(distribution("example-robot-data").locate_file("cmeel.prefix/share/example-robot-data/robots"))
+    root = ET.parse(robots / rel).getroot()
+    spheres = []
+    for link in root.iter("link"):
+        for c in link.findall("collision"):
+            s = c.find("geometry/sphere")
+            if s is not None:
+                o = c.find("origin")
+                xyz = tuple(float(v) for v in (o.get("xyz", "0 0 0") if o is not None else "0 0 0").split())
+                spheres.append((link.get("name"), xyz, float(s.get("radius"))))
+        for tag in ("visual", "collision"):
+            for e in link.findall(tag):
+                link.remove(e)
+    text = re.sub(r"(<robot[^>]*>)", r'\1<mujoco><compiler discardvisual="true" fusestatic="false" '
+                  r'balanceinertia="false"/></mujoco>', ET.tostring(root, encoding="unicode"), count=1)
+    spec = mujoco.MjSpec.from_string(text)
+    for joint in spec.joints:
+        joint.stiffness[0], joint.damping[0], joint.springref = stiffness, damping, pose.get(joint.name, 0.0)
+    spec.worldbody.first_body().add_freejoint(name="base")
+    spec.worldbody.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 1])
+    for k, (body, xyz, r) in enumerate(feet or spheres):
+        spec.body(body).add_geom(name=f"foot{k}", type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[r, 0, 0], pos=xyz)
+    m = spec.compile()
+    d = mujoco.MjData(m)
+    for j, v in pose.items():
+        d.qpos[m.jnt_qposadr[m.joint(j).id]] = v
+    mujoco.mj_kinematics(m, d)
+    low = min(d.geom_xpos[g][2] - m.geom_size[g][0] for g in range(m.ngeom)
+              if m.geom_type[g] == mujoco.mjtGeom.mjGEOM_SPHERE)
+    path = Path(out_dir) / f"{name}_from_urdf.xml"
+    path.write_text(spec.to_xml())
+    return path, 0.001 - low, pose
+
+
+def _models(name, cache_dir):
+    """(eomc model, MuJoCo implicitfast, MuJoCo Euler, start height, pose) of one case."""
+    import mujoco
+
+    import eomc
+    from eomc.compiler.mjcf.model import MjcfModel
+    if name not in URDF:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")          # the files' self-collision pairs (said by a warning)
+            em = B.eomc_model(name, cache_dir)
+        return em, B.mujoco_model(name, "IMPLICITFAST"), B.mujoco_model(name, "EULER"), None, {}
+    import tempfile
+    out = Path(cache_dir or tempfile.gettempdir()) / "bench_rollout_contacts"
+    out.mkdir(parents=True, exist_ok=True)
+    path, height, pose = urdf_mjcf(name, out)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        em = eomc.compile(MjcfModel(path), name=f"ro_{name}", cache_dir=cache_dir)
+    mjm = []
+    for integrator in ("IMPLICITFAST", "EULER"):
+        spec = mujoco.MjSpec.from_file(str(path))
+        spec.option.integrator = getattr(mujoco.mjtIntegrator, f"mjINT_{integrator}")
+        mjm.append(spec.compile())
+    return em, mjm[0], mjm[1], height, pose
 
 
 def _case(name, threads_list, cache_dir):
@@ -43,22 +133,26 @@ def _case(name, threads_list, cache_dir):
     from mujoco import rollout as mj_rollout
 
     import eomc
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")          # the files' self-collision pairs (said by a warning)
-        em = B.eomc_model(name, cache_dir)
-    mm = B.mujoco_model(name, "IMPLICITFAST")
-    me = B.mujoco_model(name, "EULER")
+    em, mm, me, height, pose = _models(name, cache_dir)
     dt = float(mm.opt.timestep)
     nstep = int(round(1.0 / dt))
     rng = np.random.default_rng(0)
     x0 = B.eomc_start(em, mm)
+    names = list(em.state_names)
+    for j, v in pose.items():
+        x0[names.index(f"q_{j}")] = v
+    if height is not None:
+        x0[names.index("q_base_z")] = height
     X0 = np.tile(x0, (NROLL, 1))
     spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
     S0 = np.empty((NROLL, mujoco.mj_stateSize(mm, spec)))
     d = mujoco.MjData(mm)
-    names = list(em.state_names)
     for i in range(NROLL):
         mujoco.mj_resetData(mm, d)
+        for j, v in pose.items():
+            d.qpos[int(mm.jnt_qposadr[mm.joint(j).id])] = v
+        if height is not None:
+            d.qpos[int(mm.jnt_qposadr[mm.joint("base").id]) + 2] = height
         for j in range(mm.njnt):
             if int(mm.jnt_type[j]) in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)):
                 v = rng.uniform(-0.5, 0.5)
@@ -102,7 +196,8 @@ def _case(name, threads_list, cache_dir):
                 q = np.array([B.compared_q(em, mm, x=x) for x in res.x])
                 dq = np.abs(q - mj_q).max(axis=1)
                 agree = f"{np.median(dq):.2g} / {dq.max():.2g}"
-                note = f"{int(np.sum(res.status == 0))}/{NROLL} ok, {int(np.median(res.steps))} steps"
+                note = (f"{int(np.sum(res.status == 0))}/{NROLL} ok ({int(np.sum(res.clean))} clean), "
+                        f"{int(np.median(res.steps))} steps")
             else:
                 agree, note = "", ""
             rows.append([name, f"{dt:g}", k, c, f"{sps[c]:.3g}", f"{sps[c] / sps['mujoco implicitfast']:.2f}",

@@ -238,6 +238,8 @@ def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, fu
         extra = {**(extra or {}), "timestep": spec.timestep}
     if getattr(spec, "ground_check", None) is not None:   # runtime/ground_check.py: bodies under the ground
         extra = {**(extra or {}), "ground_check": spec.ground_check}
+    if getattr(spec, "start_in_range", None):      # the joints the default start moved into range
+        extra = {**(extra or {}), "start_in_range": list(spec.start_in_range)}
     source = system if isinstance(system, (str, os.PathLike)) else None
     model = build_and_load(generated, backend=backend, cflags=cflags, cache_dir=cache_dir,
                            output_dir=output_dir, extra_metadata=extra, source=source, progress=progress)

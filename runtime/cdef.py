@@ -55,6 +55,7 @@ _SIGNATURES = {
     "poses": "int {n}_poses(double t, const double *x, const double *p, const double *r, double *out, double *work);",
     "implicit": "int {n}_implicit(double t, const double *x, const double *p, const double *r, double *out, double *work);",
     "rhs_batch": "int {n}_rhs_batch(int n, double t, const double *X, const double *p, const double *R, double *XDOT, int *status, double *work);",
+    "jac_x_batch": "int {n}_jac_x_batch(int n, double t, const double *X, const double *p, const double *R, double *OUT, int *status, double *work);",
 }
 
 

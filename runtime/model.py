@@ -85,10 +85,11 @@ def _cffi_backend(ffi, lib, model_lib, c_model, name, functions):
             t, frombuf("double[]", x), p, r, prepare(lam), prepare(v), prepare(out), work)
     if "jac_p" in functions:     # exported, not in the eomc_model struct (ABI unchanged)
         kernels["jac_p"] = vector_kernel(getattr(model_lib, f"{name}_jac_p"))
-    if "rhs_batch" in functions:   # SoA states in SIMD lanes (compiler/emit/batch.py)
-        fp_batch = getattr(model_lib, f"{name}_rhs_batch")
-        kernels["rhs_batch"] = lambda n, t, X, p, R, XD, status, work: fp_batch(
-            n, t, frombuf("double[]", X), p, prepare(R), frombuf("double[]", XD), frombuf("int[]", status), work)
+    for fn in ("rhs_batch", "jac_x_batch"):   # SoA states in SIMD lanes (compiler/emit/batch.py)
+        if fn in functions:
+            kernels[fn] = (lambda fp: lambda n, t, X, p, R, XD, status, work: fp(
+                n, t, frombuf("double[]", X), p, prepare(R), frombuf("double[]", XD), frombuf("int[]", status),
+                work))(getattr(model_lib, f"{name}_{fn}"))
     if "rhs" in kernels:
         many = lib.eomc_rhs_many
 
@@ -393,19 +394,35 @@ class Model:
 
         Generated on request (``functions`` including "rhs_batch", ``eomc build --outputs
         rhs,rhs_batch,...``)."""
-        kernel = self._kernels.get("rhs_batch")
+        return self._batch("rhs_batch", t, X, p, r, self.nx).T
+
+    def jac_x_batch(self, t, X, p=None, r=None):
+        """jac_x at every row of X (shape (n, nx)) by NAME_jac_x_batch: several states per
+        instruction (SIMD lanes, ``metadata["jac_x_batch"]``), the rows past the last full group
+        of lanes by the scalar jac_x; returns (n, nx, nx).  t scalar, p shared, r (ninput,) or
+        (n, ninput).  Agrees with :meth:`jacobian` bit for bit except through sin and cos (within
+        1 ulp of libm's; bit for bit when built with -DEOMC_BATCH_LIBM_TRIG).
+
+        Generated on request (``functions`` including "jac_x_batch")."""
+        out = self._batch("jac_x_batch", t, X, p, r, self.nx * self.nx)
+        return out.T.reshape(-1, self.nx, self.nx)
+
+    def _batch(self, fn, t, X, p, r, nout):
+        """(nout, n) from NAME_<fn> (rhs_batch, jac_x_batch) over the rows of X; errors name the
+        first failed row."""
+        kernel = self._kernels.get(fn)
         if kernel is None:
-            if "rhs_batch" in self.functions:
-                raise ModelError(f"model {self.name!r}: rhs_batch is called through the cffi backend; "
+            if fn in self.functions:
+                raise ModelError(f"model {self.name!r}: {fn} is called through the cffi backend; "
                                  f"load it with backend='cffi'")
-            raise self._missing("rhs_batch")
+            raise self._missing(fn)
         X = np.asarray(X)
         if X.ndim != 2 or X.shape[1:] != (self.nx,):
             raise ValueError(f"{self.name}: X must have shape (n, {self.nx}) (one state per row); "
                              f"got shape {X.shape}")
         n = X.shape[0]
         if n >= 2**31:
-            raise ValueError(f"{self.name}: rhs_batch takes at most 2**31 - 1 states per call; got {n}")
+            raise ValueError(f"{self.name}: {fn} takes at most 2**31 - 1 states per call; got {n}")
         t = self._time(t)
         p_given = p
         if X.dtype != _F64 or not X.T.flags.c_contiguous:   # a column-major X is read as it is
@@ -424,17 +441,17 @@ class Model:
                 R = np.ascontiguousarray(np.broadcast_to(np.asarray(one)[:, None], (self.ninput, n)))
         elif r is not None and np.size(r) != 0:
             raise ValueError(f"{self.name}: this model has no inputs, but r was given")
-        XD = np.empty((self.nx, n))
+        OUT = np.empty((nout, n))
         if n == 0:
-            return XD.T
+            return OUT
         status = np.empty(n, dtype=np.intc)
-        worst = kernel(n, t, soa, p, R, XD, status, self._work()[1])
+        worst = kernel(n, t, soa, p, R, OUT, status, self._work()[1])
         if worst:
             row = int(np.flatnonzero(status)[0])
             r_row = r[row] if self.ninput and r is not None and np.ndim(r) == 2 else r
-            self._fail("rhs_batch", int(status[row]), t, np.asarray(X[row], dtype=np.float64), row,
+            self._fail(fn, int(status[row]), t, np.asarray(X[row], dtype=np.float64), row,
                        inputs=(p_given, r_row))
-        return XD.T
+        return OUT
 
     def jacobian(self, t, x, p=None, r=None):
         """d rhs / d x, shape (nx, nx); also ``jac_x``, its C name."""

@@ -27,7 +27,7 @@ from .integrators_api import FIXED_STEP, METHOD_IDS, STATUS_NAMES
 from .law_parameters import check_law_parameters
 from .native import extension_library, integrator_library
 from .simulate import (IMPLICITFAST_SPLIT, _options, check_quaternions, depth_limits, failure_message,
-                       implicit_for_run, implicit_terms, prepare, resolve_method)
+                       implicit_for_run, implicit_terms, input_grid, prepare, resolve_method)
 
 __all__ = ["rollout", "RolloutResult", "rollout_stats"]
 
@@ -136,21 +136,8 @@ def _controls(model, r, n):
         if len(r) != 2:
             raise ValueError(f"{model.name}: r as a tuple is a control sequence (t_grid, values); got a tuple "
                              f"of {len(r)} items")
-        t_grid = np.ascontiguousarray(np.asarray(r[0], dtype=np.float64))
-        values = np.asarray(r[1], dtype=np.float64)
-        k = t_grid.size
-        if t_grid.ndim != 1 or k < 2:
-            raise ValueError(f"{model.name}: r=(t_grid, values): t_grid must be 1-d with at least 2 times; got "
-                             f"shape {t_grid.shape}")
-        if values.shape not in ((k, ni), (n, k, ni)):
-            raise ValueError(f"{model.name}: r=(t_grid, values): values must have shape ({k}, {ni}) (one sequence "
-                             f"for every row) or ({n}, {k}, {ni}) (one per row; inputs {names}); got "
-                             f"{values.shape}")
-        if not (np.all(np.isfinite(t_grid)) and np.all(np.isfinite(values))):
-            raise ValueError(f"{model.name}: r=(t_grid, values) holds non-finite values")
-        if np.any(np.diff(t_grid) <= 0):
-            raise ValueError(f"{model.name}: r=(t_grid, values): t_grid must be strictly increasing")
-        return k, t_grid, np.ascontiguousarray(values), (0 if values.ndim == 2 else k * ni)
+        k, t_grid, values = input_grid(model, r[0], r[1], rows=n)
+        return k, t_grid, values, (0 if values.ndim == 2 else k * ni)
     values = np.asarray(r, dtype=np.float64)
     if values.shape not in ((ni,), (n, ni)):
         raise ValueError(f"{model.name}: r must have shape ({ni},) (the same inputs for every row), ({n}, {ni}) "

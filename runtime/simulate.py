@@ -189,27 +189,49 @@ def _inputs(model, r, t0, t1):
         if len(r) not in (2, 3):
             raise ValueError(f"{model.name}: r as a tuple is an input table (t_grid, values) or "
                              f"(t_grid, values, kind); got a tuple of {len(r)} items")
-        return _grid(model, r[0], r[1])
+        return input_grid(model, r[0], r[1])
     if ni == 1 and isinstance(r, (numbers.Real, np.floating, np.integer)) and not isinstance(r, bool):
         r = [r]     # one input: a number is its value
     values = _vector(model, r, ni, model.input_names, np.zeros(ni), "r (inputs)")
     return 1, np.zeros(1), values
 
 
-def _grid(model, t_grid, values):
-    t_grid = np.ascontiguousarray(_real_array(t_grid, f"{model.name}: r=(t_grid, values): t_grid"))
-    values = _real_array(values, f"{model.name}: r=(t_grid, values): values")
-    if values.ndim == 1 and model.ninput == 1:
+def input_grid(model, t_grid, values, rows=None):
+    """(k, t_grid, values) of an input table r=(t_grid, values), checked once for every caller.
+
+    ``simulate`` takes values of shape (k, ninput) (or (k,) for one input); ``rollout``
+    passes ``rows`` = its number of trajectories and also takes (rows, k, ninput), one
+    sequence per trajectory.  Every refusal names the argument, the shapes expected (with
+    the input names) and what was given, so the two entry points speak alike."""
+    what = f"{model.name}: r=(t_grid, values)"
+    t_grid = np.ascontiguousarray(_real_array(t_grid, f"{what}: t_grid"))
+    values = _real_array(values, f"{what}: values")
+    ni = model.ninput
+    if t_grid.ndim != 1 or t_grid.size < 2:
+        raise ValueError(f"{what}: t_grid must be 1-d with at least 2 times; got shape {t_grid.shape}")
+    k = t_grid.size
+    if values.shape == (k,) and ni == 1:
         values = values[:, None]
-    if t_grid.ndim != 1 or t_grid.size < 2 or values.shape != (t_grid.size, model.ninput):
-        raise ValueError(f"{model.name}: r=(t_grid, values) needs t_grid of shape (n,), n >= 2, "
-                         f"and values of shape (n, {model.ninput}); got {t_grid.shape} and "
-                         f"{values.shape}")
-    if not (np.all(np.isfinite(t_grid)) and np.all(np.isfinite(values))):
-        raise ValueError(f"{model.name}: the input grid holds non-finite values")
-    if np.any(np.diff(t_grid) <= 0):
-        raise ValueError(f"{model.name}: the input time grid must be strictly increasing")
-    return t_grid.size, t_grid, np.ascontiguousarray(values)
+    shapes = [(k, ni)] + ([(rows, k, ni)] if rows is not None else [])
+    if values.shape not in shapes:
+        names = ", ".join(model.input_names)
+        if rows is None:
+            expected = f"({k}, {ni}) (one row per t_grid time; inputs {names})"
+        else:
+            expected = (f"({k}, {ni}) (one sequence for every row) or ({rows}, {k}, {ni}) (one per row; "
+                        f"inputs {names})")
+        raise ValueError(f"{what}: values must have shape {expected}; got {values.shape} "
+                         f"(t_grid has {k} times)")
+    for name, a in (("t_grid", t_grid), ("values", values)):
+        if not np.all(np.isfinite(a)):
+            at = tuple(int(i) for i in np.argwhere(~np.isfinite(a))[0])
+            raise ValueError(f"{what} holds non-finite values: {name}[{', '.join(map(str, at))}] = {a[at]}")
+    steps = np.diff(t_grid)
+    if np.any(steps <= 0):
+        i = int(np.flatnonzero(steps <= 0)[0])
+        raise ValueError(f"{what}: t_grid must be strictly increasing; t_grid[{i + 1}] = {t_grid[i + 1]:.17g} "
+                         f"follows t_grid[{i}] = {t_grid[i]:.17g}")
+    return k, t_grid, np.ascontiguousarray(values)
 
 
 def _rk4_steps(t0, t1, dt):

@@ -15,8 +15,8 @@ from eomc.runtime.errors import EomcError
 
 from .simulate import simulate
 
-__all__ = ["Check", "check_model", "format_checks", "default_methods", "COND_WARN", "GLOBAL_FACTOR",
-           "MISSED_FACTOR"]
+__all__ = ["Check", "check_model", "format_checks", "outcome", "default_methods", "COND_WARN", "GLOBAL_FACTOR",
+           "MISSED_FACTOR", "EXIT_INCONCLUSIVE"]
 
 COND_WARN = 1e8          # cond(M) above this: accelerations lose ~8 digits
 FD_TOL = 1e-5            # Jacobian vs central differences, relative
@@ -25,6 +25,19 @@ GLOBAL_FACTOR = 1000     # global error allowed, in units of the local tolerance
 # and tighter tolerances converge: the method did not deliver the asked accuracy by orders
 # of magnitude over this horizon (issue 29: DOPRI5 at 6.5e5 x tolerance had passed).
 MISSED_FACTOR = 100 * GLOBAL_FACTOR
+# The two references' (rtol, atol) divisors: the looser one 100x tighter in rtol, the
+# reference itself 1000x in rtol and 10x in atol -- tied to the checked tolerance, not a
+# fixed 1e-12.  Their difference measures how far the reference can be trusted (it must stay
+# within AGREE x tolerance: a tenth of what a method is allowed).  atol shrinks less than
+# rtol because an atol below the noise of a state at rest costs without telling anything:
+# Go2 resting on 124 contact points takes 70 000 Radau steps per simulated second at atol
+# 1e-12 (the old reference stopped at 2e6 steps at t = 6.5 s of 10), 2 500 at 1e-11.
+REF_TOLS = ((100, 1), (1000, 10))
+REF_FINEST = 1e-13
+# The references are trusted while they agree to this many tolerances (a tenth of what a
+# method is allowed); later output times measure the problem's conditioning, not a method.
+AGREE = GLOBAL_FACTOR / 10
+MIN_WINDOW = 5          # output times (of 201) the references must agree on to judge a method
 
 
 @dataclass
@@ -34,6 +47,9 @@ class Check:
     expected: str
     measured: str
     passed: bool
+    # neither passed nor failed: the check could not be made (a reference that cannot be
+    # computed; references that disagree from the start); `eomc check` exits INCONCLUSIVE
+    inconclusive: bool = False
 
 
 def _try(fn):
@@ -81,55 +97,117 @@ def _stiffness(model, x0, p, t_final):
                  f"max |Re lambda| = {fast:.3g}, times t_final = {fast * t_final:.3g}", True)
 
 
-def _accuracy(model, x0, p, t_final, rtol, atol, methods, max_steps):
-    """Each method at (rtol, atol) against a reference 1e-4 tighter; returns checks and runs."""
-    t_eval = np.linspace(0.0, t_final, 201)
-    tight = dict(rtol=max(rtol * 1e-4, 1e-13), atol=max(atol * 1e-4, 1e-15))
+def _run(model, x0, p, t_final, t_eval, method, rtol, atol, max_steps):
+    return simulate(model, x0, (0.0, t_final), p=p, method=method, rtol=rtol, atol=atol,
+                    t_eval=t_eval, max_steps=max_steps, raise_on_failure=False)
+
+
+def _reference_method(model, x0, p, t_final, t_eval, tol, max_steps):
+    """(method, run) of the tighter reference: dop853 (cheapest at tight tolerances), radau
+    if that proves stiff, and from the start on ground contacts (as method="auto"): on
+    gymnasium's ant DOP853 at 1e-12 ended 2.4e-3 away from Radau at 1e-10, 1e-11 and 1e-12
+    (which agree to 2e-9): across the contacts' friction and push-only limits an explicit
+    reference is not the tight one."""
     from .switching import find_switches
-    # dop853: cheapest at tight tolerances; radau if that proves stiff, and from the start on
-    # ground contacts (as method="auto"): on gymnasium's ant DOP853 at 1e-12 ended 2.4e-3 away
-    # from Radau at 1e-10, 1e-11 and 1e-12 (which agree to 2e-9): across the contacts'
-    # friction and push-only limits an explicit reference is not the tight one.
     implicit = model.c_model.jac_x != model.ffi.NULL
-    ref_method = "radau" if implicit and find_switches(model).contacts else "dop853"
-    ref = simulate(model, x0, (0.0, t_final), p=p, method=ref_method, t_eval=t_eval,
-                   max_steps=max_steps * 10, raise_on_failure=False, **tight)
-    if ref.status in (6, 7) and model.c_model.jac_x != model.ffi.NULL:
-        ref_method = "radau"
-        ref = simulate(model, x0, (0.0, t_final), p=p, method=ref_method, t_eval=t_eval,
-                       max_steps=max_steps * 10, raise_on_failure=False, **tight)
-    if ref.status:      # e.g. a singular configuration: say where, keep the partial run
-        return [Check("reference", f"{ref_method} at rtol={tight['rtol']:g} reaches t_final",
-                      ref.message, False)], {"reference": ref}
-    checks, runs = [], {}
+    method = "radau" if implicit and find_switches(model).contacts else "dop853"
+    ref = _run(model, x0, p, t_final, t_eval, method, *tol, max_steps)
+    if ref.status in (6, 7) and implicit and method != "radau":
+        method = "radau"
+        ref = _run(model, x0, p, t_final, t_eval, method, *tol, max_steps)
+    return method, ref
+
+
+def _unreachable(what, method, tol, ref, t_final, rtol):
+    """The inconclusive check of a reference that stopped: where, why, and what to do."""
+    reached = float(ref.t[-1]) if ref.t.size else 0.0
+    shorter = f"--t-final {reached:.3g} (it reached t = {reached:.6g})" if reached > 0 else "a shorter --t-final"
+    return Check("reference", f"{what} ({method} at rtol={tol[0]:g}, atol={tol[1]:g}) reaches "
+                 f"t_final={t_final:g}",
+                 f"{ref.message}: no reference to measure the methods against, so their accuracy is "
+                 f"not judged. Check {shorter}, or a looser --rtol (at {rtol * 10:g} the references "
+                 f"run at {tol[0] * 10:g}), or allow more steps (--max-steps; the references take "
+                 f"10x)", False, inconclusive=True)
+
+
+def _accuracy(model, x0, p, t_final, rtol, atol, methods, max_steps):
+    """Each method at (rtol, atol) against a reference (REF_TOLS[1] tighter), itself measured
+    against a second, looser one (REF_TOLS[0]); returns checks and runs.
+
+    Why two references: their difference says how far the reference can be trusted, and on
+    a motion that amplifies differences (a collapse onto many contacts, a chaotic pendulum)
+    from when on no tight run can tell a right method from a wrong one.  A method is judged
+    where the references agree to AGREE x tolerance (a tenth of what the method is allowed);
+    past that time its difference from them measures the problem's conditioning, and the
+    check says so instead of failing the method.  A reference that stops (too stiff or too
+    long at its tolerance: Go2 resting on 124 contact points at rtol 1e-12) leaves the
+    accuracy checks inconclusive, with what to change."""
+    t_eval = np.linspace(0.0, t_final, 201)
+    tols = [(max(rtol / fr, REF_FINEST), max(atol / fa, 1e-15)) for fr, fa in REF_TOLS]
+    ref_method, loose = _reference_method(model, x0, p, t_final, t_eval, tols[0], max_steps * 10)
+    if loose.status:      # e.g. a singular configuration or too many steps: say where and why
+        return [_unreachable("reference", ref_method, tols[0], loose, t_final, rtol)], {"reference": loose}
+    ref = _run(model, x0, p, t_final, t_eval, ref_method, *tols[1], max_steps * 10)
+    if ref.status:
+        return ([_unreachable("reference", ref_method, tols[1], ref, t_final, rtol)],
+                {"reference": loose})
     scale = atol + rtol * np.abs(ref.x)
+    apart = np.max(np.abs(loose.x - ref.x) / scale, axis=1)      # per output time, in tolerances
+    beyond = np.flatnonzero(apart > AGREE)
+    h = int(beyond[0]) if beyond.size else t_eval.size     # the references agree on [0, t_eval[h])
+    refs = (f"{ref_method} at rtol={tols[1][0]:g} (agreeing with rtol={tols[0][0]:g} to "
+            f"{np.max(apart[:h]) if h else 0.0:.3g} x tolerance{'' if h == t_eval.size else f' until t={t_eval[h]:.4g}'})")
+    checks = [Check("reference", f"two references ({ref_method} at rtol={tols[0][0]:g} and "
+                    f"{tols[1][0]:g}) agree to {AGREE:g} x tolerance over [0, t_final]",
+                    _horizon_text(apart, t_eval, h, tols), True)]
+    if h < MIN_WINDOW:
+        checks.append(Check("accuracy", f"the references agree long enough to judge a method "
+                            f"({MIN_WINDOW} output times)", _horizon_text(apart, t_eval, h, tols) +
+                            f": too early to judge the methods; check a shorter span (--t-final "
+                            f"{t_eval[max(h, 1)]:.3g}: the motion before it diverges)", False,
+                            inconclusive=True))
+        return checks, {"reference": ref}
+    runs = {}
     for method in methods:
-        res = simulate(model, x0, (0.0, t_final), p=p, method=method, rtol=rtol, atol=atol,
-                       t_eval=t_eval, max_steps=max_steps, raise_on_failure=False)
+        res = _run(model, x0, p, t_final, t_eval, method, rtol, atol, max_steps)
         runs[method] = res
         if res.status:      # a method that stopped did not do the job: a failed check
             checks.append(Check(f"{method} accuracy", "reaches t_final", res.message, False))
             continue
-        err_ratio = np.max(np.abs(res.x - ref.x) / scale)
+        errs = np.max(np.abs(res.x - ref.x) / scale, axis=1)
+        err_ratio = float(np.max(errs[:h]))
         passed, how = err_ratio <= GLOBAL_FACTOR, ""
         if not passed and err_ratio <= MISSED_FACTOR:
             # Chaotic or unstable motion amplifies any local error: then the honest test
             # is convergence -- 100x tighter tolerances must cut the error at least 10x.
-            finer = simulate(model, x0, (0.0, t_final), p=p, method=method, rtol=rtol / 100,
-                             atol=atol / 100, t_eval=t_eval, max_steps=max_steps * 10,
-                             raise_on_failure=False)
-            fine_ratio = np.max(np.abs(finer.x - ref.x) / scale) if finer.status == 0 else np.inf
+            finer = _run(model, x0, p, t_final, t_eval, method, rtol / 100, atol / 100, max_steps * 10)
+            fine_ratio = (float(np.max((np.abs(finer.x - ref.x) / scale)[:h])) if finer.status == 0
+                          else np.inf)
             passed = fine_ratio <= err_ratio / 10
             how = (f"; the motion amplifies errors, and at 100x tighter tolerances the error is "
                    f"{fine_ratio:.3g} x tolerance ({'converging' if passed else 'NOT converging'})")
         elif not passed:
             how = f"; more than {MISSED_FACTOR:g} x tolerance: the tolerance was missed by orders of magnitude"
+        if h < t_eval.size:
+            late, late_refs = float(np.max(errs[h:])), float(np.max(apart[h:]))
+            how += (f"; after t={t_eval[h]:.4g} {late:.3g} x tolerance, where the references "
+                    f"themselves differ by {late_refs:.3g} x: there the problem's conditioning, not the "
+                    f"method, limits the comparison (not judged)")
+        window = "" if h == t_eval.size else f" on [0, {t_eval[h]:.4g}] where the references agree"
         checks.append(Check(f"{method} accuracy", f"error <= {GLOBAL_FACTOR:g} x (atol + rtol |x|) "
-                            f"vs {ref_method} at rtol={tight['rtol']:g} (local tolerances add up), "
-                            f"or, where the motion amplifies errors (up to {MISSED_FACTOR:g} x), 10x "
-                            f"smaller at 100x tighter tolerances",
+                            f"vs {refs}{window} (local tolerances add up), or, where the motion "
+                            f"amplifies errors (up to {MISSED_FACTOR:g} x), 10x smaller at 100x "
+                            f"tighter tolerances",
                             f"{err_ratio:.3g} x tolerance, {res.stats['steps']} steps{how}", passed))
     return checks, {"reference": ref, **runs}
+
+
+def _horizon_text(apart, t_eval, h, tols):
+    if h == t_eval.size:
+        return f"they differ by at most {np.max(apart):.3g} x tolerance"
+    return (f"they agree to {np.max(apart[:h]) if h else 0.0:.3g} x tolerance until t={t_eval[h]:.4g}, then "
+            f"differ by up to {np.max(apart[h:]):.3g} x: the motion amplifies the references' own small "
+            f"differences beyond what a method is allowed (the problem's conditioning)")
 
 
 def _conditioning(model, res, p):
@@ -190,7 +268,10 @@ def check_model(model, x0=None, t_final=10.0, p=None, rtol=1e-8, atol=1e-10,
                 methods=None, max_steps=200000):
     """Run the checks from x0 (default: the model's initial_state) over [0, t_final].
 
-    A method that stops, or misses its tolerance by more than MISSED_FACTOR, fails its check."""
+    A method that stops, or misses its tolerance by more than MISSED_FACTOR, fails its check.
+    A check that cannot be made is ``inconclusive`` (see :func:`outcome`): the accuracy checks
+    when the reference cannot be computed (it says why and what to change) or when the two
+    references disagree from the start (the problem's conditioning, not the methods)."""
     if methods is None:
         methods = default_methods(model, rtol)
     x0 = getattr(model, "initial_state", None) if x0 is None else x0
@@ -212,12 +293,27 @@ def check_model(model, x0=None, t_final=10.0, p=None, rtol=1e-8, atol=1e-10,
     return checks
 
 
+def outcome(checks):
+    """"passed", "failed" (a check failed) or "inconclusive" (none failed, but one could not
+    be made: `eomc check` exits EXIT_INCONCLUSIVE, not 1, so a CI gate can tell a method
+    that is wrong from a reference that could not be computed)."""
+    if any(not c.passed and not c.inconclusive for c in checks):
+        return "failed"
+    return "inconclusive" if any(c.inconclusive for c in checks) else "passed"
+
+
+EXIT_INCONCLUSIVE = 3    # `eomc check`: 0 passed, 1 a check failed, 2 bad arguments, 3 inconclusive
+
+
 def format_checks(checks):
     """A plain-text table: status, name, expected, measured."""
     lines = []
     for c in checks:
-        lines.append(f"[{'ok' if c.passed else 'FAIL':>4}] {c.name}: {c.measured}")
+        tag = "INCONCLUSIVE" if c.inconclusive else "ok" if c.passed else "FAIL"
+        lines.append(f"[{tag:>4}] {c.name}: {c.measured}")
         lines.append(f"       expected: {c.expected}")
-    failed = sum(not c.passed for c in checks)
-    lines.append(f"{len(checks) - failed} of {len(checks)} checks passed")
+    passed = sum(c.passed for c in checks)
+    unsure = sum(c.inconclusive for c in checks)
+    lines.append(f"{passed} of {len(checks)} checks passed" + (
+        f", {unsure} inconclusive (could not be made; see why above)" if unsure else ""))
     return "\n".join(lines)

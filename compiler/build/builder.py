@@ -123,7 +123,7 @@ def build(generated, *, backend="cffi", cflags=None, cache_dir=None, force=False
     name = generated.name
     tc = find_compiler()
     flags = resolve_cflags(cflags)
-    if "rhs_batch" in generated.metadata.get("functions", ()) and not any(
+    if {"rhs_batch", "jac_x_batch"} & set(generated.metadata.get("functions", ())) and not any(
             f.startswith("-DEOMC_BATCH_LANES") for f in flags):
         flags.append(f"-DEOMC_BATCH_LANES={machine_lanes()}")   # the lanes of this machine
     embedded = generated.metadata.get("target", "c99-f64") != "c99-f64"

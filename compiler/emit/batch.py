@@ -39,11 +39,22 @@ import re
 __all__ = ["batch_code", "batch_rhs", "Unsupported", "SIMD_PRELUDE", "VECTOR_TRIG"]
 
 _TEMP_LINE = re.compile(r"^(\s+)const double (t\d+) = (.*);$")
-_STORE_LINE = re.compile(r"^(\s+)([A-Za-z_]\w*)\[(\d+)\] = (.*);$")
+_STORE_LINE = re.compile(r"^(\s+)([A-Za-z_]\w*)\[(\d+|\d+ \+ k|k)\] = (.*);$")
+# jac_x's tangent form (compiler/emit/generated.py): a loop over the tangent columns, G pointing
+# at column k of Gm, runs of zero stores as loops; k and G's offset are the same in every lane
+_LOOP_HEAD = re.compile(r"^(\s+)for \(k = (\d+); k < (\d+); k\+\+\) \{$")
+_ZERO_RUN = re.compile(r"^(\s+)for \(k = (\d+); k < (\d+); k\+\+\) ([A-Za-z_]\w*)\[k\] = (-?[0-9.e+-]+);$")
+_INT_DECL = re.compile(r"^\s+(?:int [a-z_]\w*;|static const int [A-Za-z_]\w*\[\d+\] = \{[-\d, ]*\};)$")
+_GATHER = re.compile(r"^(\s+)for \(e = 0; e < \d+; e\+\+\) ([A-Za-z_]\w*)\[e\] = ([A-Za-z_]\w*)\[\d+ \+ sp\[e\]\];$")
+_GATHER_HEAD = re.compile(r"^\s+for \(e = 0; e < \d+; e\+\+\) \{$")
+_GATHER_ITEM = re.compile(r"^(\s+)([A-Za-z_]\w*)\[e\] = ([A-Za-z_]\w*)\[(?:\d+ \+ )?sp\[e\]\];$")
+_SCRATCH_DECLS = re.compile(r"^(\s+)double ((?:[A-Za-z_]\w*\[\d+\], )+[A-Za-z_]\w*\[\d+\]);$")
+_POINTER_DECL = re.compile(r"^(\s+)const double \*([A-Za-z_]\w*);$")
+_POINTER_SET = re.compile(r"^(\s+)([A-Za-z_]\w*) = ([A-Za-z_]\w*) \+ k \* (\d+);$")
 _SCRATCH_DECL = re.compile(r"^(\s+)double ([A-Za-z_]\w*)\[(\d+)\];$")
 _CALL_LINE = re.compile(r"^(\s+)([A-Za-z_]\w*)\((.*)\);$")
 _GUARD_LINE = re.compile(r"^(\s+)if \((.*)\) return (EOMC_[A-Z_]+);$")
-_FINITE_RETURN = re.compile(r"^(\s+)return [A-Za-z_]\w*_finite\(xdot, \d+\);$")
+_FINITE_RETURN = re.compile(r"^(\s+)return [A-Za-z_]\w*_finite\((?:xdot|out), \d+\);$")
 _PART_HEAD = re.compile(r"^static EOMC_NOINLINE void ([A-Za-z_]\w*)\((.*)\)$")
 _ARRAY_REF = re.compile(r"\b([A-Za-z_]\w*)\[")
 _TEMP = re.compile(r"\bt\d+\b")
@@ -255,6 +266,55 @@ _VECTOR_EXACT = {
 }}""",
 }
 
+_VECTOR_EXACT["sign"] = """static EOMC_VTARGET eomc_vd {p}_v_sign(eomc_vd a)
+{{
+    eomc_vd v;
+    int l;
+    for (l = 0; l < EOMC_BATCH_LANES; l++) v[l] = (a[l] > 0) - (a[l] < 0);   /* SymPy's sign, as the scalar C */
+    return v;
+}}"""
+
+_VECTOR_EXACT["step"] = """static EOMC_VTARGET eomc_vd {p}_v_step(eomc_vd a)
+{{
+    eomc_vd v;
+    int l;
+    for (l = 0; l < EOMC_BATCH_LANES; l++) v[l] = a[l] > 0.0 ? 1.0 : 0.0;   /* Heaviside, as the scalar C */
+    return v;
+}}"""
+
+_COMPARE = re.compile(r"[<>?]|==|!=")
+# the printed forms of SymPy's sign(a) and Heaviside(a) (joint limits' jac_x): (head, tail after
+# the balanced operand a, the marker _calls turns into the lanes' helper or back into C)
+_PIECEWISE = (("(((", " > 0) - (({a}) < 0))", "EOMC_SIGN"), ("((", " > 0.0 ? 1.0 : 0.0)", "EOMC_STEP"))
+_SCALAR_FORM = {"EOMC_SIGN": "((({a}) > 0) - (({a}) < 0))", "EOMC_STEP": "(({a}) > 0.0 ? 1.0 : 0.0)"}
+
+
+def _signs(expr):
+    """``expr`` with every ``(((a) > 0) - ((a) < 0))`` written ``EOMC_SIGN(a)`` and every
+    ``((a) > 0.0 ? 1.0 : 0.0)`` written ``EOMC_STEP(a)``."""
+    for head, tail, marker in _PIECEWISE:
+        out, i = [], 0
+        while True:
+            j = expr.find(head, i)
+            if j < 0:
+                out.append(expr[i:])
+                break
+            k, depth = j + len(head), 1
+            while k < len(expr) and depth:
+                depth += {"(": 1, ")": -1}.get(expr[k], 0)
+                k += 1
+            a = expr[j + len(head):k - 1]
+            rest = tail.format(a=a)
+            if depth == 0 and expr.startswith(rest, k):
+                out.append(expr[i:j] + f"{marker}({a})")
+                i = k + len(rest)
+            else:
+                out.append(expr[i:j + 1])
+                i = j + 1
+        expr = "".join(out)
+    return expr
+
+
 _LANEWISE1 = """static EOMC_VTARGET eomc_vd {p}_v_{f}(eomc_vd a)
 {{
     eomc_vd v;
@@ -314,8 +374,16 @@ class _Rewriter:
         return any(t in self.vtemps for t in _TEMP.findall(expr))
 
     def expression(self, expr):
-        """``expr`` with calls on vectors turned into the lane helpers; (text, is_vector)."""
-        return self._calls(expr), self.is_vector(expr)
+        """``expr`` with calls on vectors turned into the lane helpers; (text, is_vector).
+
+        SymPy's sign(a), printed ``(((a) > 0) - ((a) < 0))`` (jac_x of |a|), becomes a call of
+        the lane-wise sign; any other comparison on a vector is refused: a vector compare
+        gives -1/0 masks, not C's 1/0, so it cannot be left as written."""
+        expr = _signs(expr)
+        vec = self.is_vector(expr)
+        if vec and _COMPARE.search(expr):
+            raise Unsupported(f"compares a state-dependent value in {expr[:80]!r}")
+        return self._calls(expr), vec
 
     def _calls(self, expr):
         out, i = [], 0
@@ -342,7 +410,13 @@ class _Rewriter:
                 j += 1
             vec = [self.is_vector(a) for a in args]
             new = [self._calls(a) for a in args]
-            if not any(vec):
+            if name in _SCALAR_FORM:      # _signs's markers: the lanes' helper, or the C as printed
+                if vec[0]:
+                    self.used.add(name[5:].lower())
+                    out.append(f"{self.prefix}_v_{name[5:].lower()}({new[0]})")
+                else:
+                    out.append(_SCALAR_FORM[name].format(a=new[0]))
+            elif not any(vec):
                 out.append(f"{name}({','.join(new)})")
             elif name in ("sin", "cos") and len(args) == 1 and args[0].strip() in self.paired:
                 self.used.add("trig")
@@ -407,6 +481,29 @@ def _statement(rw, line, parts_renamed):
     m = _CALL_LINE.match(line)
     if m and m.group(2) in parts_renamed:
         return f"{m.group(1)}{parts_renamed[m.group(2)]}({m.group(3)});"
+    m = _POINTER_DECL.match(line)
+    if m:
+        rw.vec_arrays.add(m.group(2))
+        return f"{m.group(1)}const eomc_vd *{m.group(2)};"
+    m = _POINTER_SET.match(line)
+    if m and m.group(3) in rw.vec_arrays and m.group(2) in rw.vec_arrays:
+        return line
+    if _INT_DECL.match(line) or _LOOP_HEAD.match(line) or line.strip() in ("{", "}"):
+        return line
+    m = _GATHER.match(line) or _GATHER_ITEM.match(line)
+    if m and m.group(2) in rw.vec_arrays and m.group(3) in rw.vec_arrays:
+        return line       # u[e] = x[nq + sp[e]], ud[e] = w[sp[e]]: a whole vector per dof
+    if _GATHER_HEAD.match(line):
+        return line
+    m = _SCRATCH_DECLS.match(line)
+    if m:
+        names = re.findall(r"([A-Za-z_]\w*)\[\d+\]", m.group(2))
+        rw.vec_arrays.update(names)
+        return f"{m.group(1)}eomc_vd {m.group(2)};"
+    m = _ZERO_RUN.match(line)
+    if m:
+        indent, a, b, array, value = m.groups()
+        return f"{indent}for (k = {a}; k < {b}; k++) {rw.store('', array, 'k', value)}"
     m = _GUARD_LINE.match(line)
     if m:
         indent, cond, code = m.groups()
@@ -433,7 +530,7 @@ def _param_list(params, rw):
         if not m:
             raise Unsupported(f"parameter {param!r}")
         const, name = m.groups()
-        if name in ("x", "r", "F", "w", "p") or name.startswith("S"):
+        if name in ("x", "r", "F", "w", "p", "P", "Gm", "an", "out") or name.startswith("S"):
             rw.vec_arrays.add(name)
             out.append(f"{const or ''}eomc_vd *{name}")
         else:
@@ -501,7 +598,47 @@ def _lane_args(call):
     return re.sub(r"\bF\b", "Fl_", re.sub(r"\bw\b", "wl_", call))
 
 
-def batch_rhs(name, lines, parts, dynamics=""):
+_KERNEL_HEAD = re.compile(r"^static (inline )?(void|double) ([A-Za-z_]\w*)\(")
+_LITERAL = r"(-?\d+\.\d*(?:e[-+]?\d+)?)"
+
+
+def vector_kernels(name, helpers_text):
+    """(C text, {old name: new name}): jac_x's analytic kernel (compiler/tree/analytic.py:
+    ``NAME_rnea_derivs`` and its ``NAME_rd_*`` helpers, loops over the tree's int tables)
+    retyped into lanes: every double a vector, the loops and int tables as they are, so each
+    lane runs the scalar kernel's arithmetic in its order.  Scalar literals that stand for a
+    value (an assignment, a ternary's branch) become vectors (``EOMC_VLIT``); ``sign`` stays a
+    double (scalar times vector).  Refused (:class:`Unsupported`) when the kernel calls libm or
+    holds double tables: the retype is exact only for + - * / on lanes."""
+    funcs, cur, names = [], None, {}
+    for line in helpers_text.split("\n"):
+        if cur is None:
+            m = _KERNEL_HEAD.match(line)
+            if m and re.fullmatch(rf"{name}_(rd_\w+|rnea_derivs)", m.group(3)):
+                cur = [line]
+                names[m.group(3)] = m.group(3).replace(f"{name}_", f"{name}_v", 1)
+            continue
+        cur.append(line)
+        if line == "}":
+            funcs.append("\n".join(cur))
+            cur = None
+    if not funcs or f"{name}_rnea_derivs" not in names:
+        raise Unsupported("calls NAME_rnea_derivs, whose text was not found")
+    text = "\n\n".join(funcs)
+    if re.search(r"\b(sqrt|fabs|fmax|fmin|sin|cos|exp|log|pow|atan2)\(", text) or "static const double" in text:
+        raise Unsupported("has an analytic kernel with libm calls or double tables")
+    for old, new in names.items():
+        text = re.sub(rf"\b{old}\b", new, text)
+    text = re.sub(r"\bdouble\b", "eomc_vd", text).replace("eomc_vd sign", "double sign")
+    text = re.sub(rf"= {_LITERAL};", r"= EOMC_VLIT(\1);", text)
+    text = re.sub(rf"\? {_LITERAL} :", r"? EOMC_VLIT(\1) :", text)
+    text = re.sub(rf": {_LITERAL}([;)])", r": EOMC_VLIT(\1)\2", text)
+    text = re.sub(r"^static (inline )?", lambda m: f"static EOMC_VTARGET {m.group(1) or ''}", text, flags=re.M)
+    return "/* a vector plus a double: the double in every lane */\n" \
+           "#define EOMC_VLIT(c) ((eomc_vd){0} + (c))\n\n" + text, names
+
+
+def batch_rhs(name, lines, parts, dynamics="", fn="rhs", out="xdot", kernels=""):
     """(C code of the lane functions, helper names used) for the scalar rhs whose body is
     ``lines`` and whose sub-functions are ``parts`` (split_body's output); ``dynamics``: the
     text of Kane's NAME_dynamics helper (and its parts), which the rhs calls.
@@ -509,18 +646,19 @@ def batch_rhs(name, lines, parts, dynamics=""):
     The code defines ``static EOMC_VTARGET void NAME_rhs_lanes(double t, const eomc_vd *x,
     const eomc_vd *p, const eomc_vd *r, eomc_vd *xdot, int *st)`` (the parameters in lanes too:
     one parameter row per state, or one row broadcast); raises :class:`Unsupported`
-    when a line is of a shape the rewrite does not know."""
+    when a line is of a shape the rewrite does not know.  fn="jac_x", out="out": the same for
+    the scalar jac_x's body and parts (``NAME_jac_x_lanes``, its tangent loop kept as a loop)."""
     used = set()
     renamed = {}
     out_parts = []
     if any(re.search(rf"\b{name}_dynamics\(", line) for line in lines):
-        for fn in _functions(dynamics):
-            head = fn.split("\n", 1)[0]
+        for text in _functions(dynamics):
+            head = text.split("\n", 1)[0]
             m = re.match(r"^static void ([A-Za-z_]\w*)\((.*)\)$", head)
             if m:          # the helper itself: a part in all but its name
-                parts = list(parts) + [fn.replace(head, f"static EOMC_NOINLINE void {m.group(1)}({m.group(2)})", 1)]
+                parts = list(parts) + [text.replace(head, f"static EOMC_NOINLINE void {m.group(1)}({m.group(2)})", 1)]
             else:
-                parts = list(parts) + [fn]
+                parts = list(parts) + [text]
         sizes = {}
         for line in lines:
             m = re.match(r"^\s+(?:double|int) (F|w|piv)\[(\d+)\];$", line)
@@ -529,13 +667,17 @@ def batch_rhs(name, lines, parts, dynamics=""):
         lines = [line for line in lines if line.strip() not in ("int status;",)
                  and not re.match(r"^\s+int piv\[\d+\];$", line)]
         lines = _per_lane_solve(lines, sizes)
+    if any(re.search(rf"\b{name}_rnea_derivs\(", line) for line in lines):
+        text, kernel_names = vector_kernels(name, kernels)
+        out_parts.append(text)
+        renamed.update(kernel_names)
     for part in parts:
         head, *body = part.rstrip("\n").split("\n")
         m = _PART_HEAD.match(head)
         if not m or body[0] != "{" or body[-1] != "}":
             raise Unsupported(f"sub-function {head[:60]!r}")
         old = m.group(1)
-        new = (old.replace("_rhs_part", "_rhs_batch_part", 1) if "_rhs_part" in old else
+        new = (old.replace(f"_{fn}_part", f"_{fn}_batch_part", 1) if f"_{fn}_part" in old else
                old.replace("_dynamics", "_batch_dynamics", 1))
         renamed[old] = new
         rw = _Rewriter(name, (), (), used)
@@ -544,7 +686,7 @@ def batch_rhs(name, lines, parts, dynamics=""):
         stmts = [_statement(rw, line, renamed) for line in body[1:-1]]
         out_parts.append("\n".join([f"static EOMC_NOINLINE EOMC_VTARGET void {new}({params})", "{"]
                                    + [s for s in stmts if s is not None] + ["}"]))
-    rw = _Rewriter(name, ("x", "r", "xdot", "p"), (), used)
+    rw = _Rewriter(name, ("x", "r", out, "p"), (), used)
     rw.pair_scan(lines)
     stmts = [_statement(rw, line, renamed) for line in lines]
     guard = any("l_" in (s or "") for s in stmts)
@@ -554,35 +696,47 @@ def batch_rhs(name, lines, parts, dynamics=""):
     body += [s for s in stmts if s is not None]
     text = "\n".join(body)
     body = [f"    (void){a};" for a in ("t", "x", "p", "r", "st") if not re.search(rf"\b{a}\b", text)] + body
-    lanes = "\n".join([f"static EOMC_VTARGET void {name}_rhs_lanes(double t, const eomc_vd *x, const eomc_vd *p, "
-                       f"const eomc_vd *r, eomc_vd *xdot, int *st)", "{"] + body + ["}"])
+    lanes = "\n".join([f"static EOMC_VTARGET void {name}_{fn}_lanes(double t, const eomc_vd *x, const eomc_vd *p, "
+                       f"const eomc_vd *r, eomc_vd *{out}, int *st)", "{"] + body + ["}"])
     return "\n\n".join(out_parts + [lanes]), used
 
 
-def helpers(name, used):
-    """The static helper functions the lane code calls (vset, sin/cos, lane-wise libm)."""
+def helper_blocks(name, used):
+    """[(key, C text)] of the static helpers the lane code calls (vset, sin/cos, lane-wise libm):
+    keyed so that a second batch function in the same file (jac_x_batch after rhs_batch)
+    defines only the ones the first did not."""
     code = []
     if "vset" in used or any(f in MATH2 for f in used):
-        code.append(_VSET.format(p=name))
+        code.append(("vset", _VSET.format(p=name)))
     if "trig" in used:
-        code.append(VECTOR_TRIG.format(p=name))
+        code.append(("trig", VECTOR_TRIG.format(p=name)))
     for f in sorted(used):
         if f in _VECTOR_EXACT:
-            code.append(_VECTOR_EXACT[f].format(p=name))
+            code.append((f, _VECTOR_EXACT[f].format(p=name)))
         elif f in MATH1:
-            code.append(_LANEWISE1.format(p=name, f=f))
+            code.append((f, _LANEWISE1.format(p=name, f=f)))
         elif f in MATH2:
-            code.append(_LANEWISE2.format(p=name, f=f))
-    return "\n\n".join(code)
+            code.append((f, _LANEWISE2.format(p=name, f=f)))
+    return code
 
 
-def batch_function(name, nx, nr, npar, lanes_code, helper_code):
+def helpers(name, used, defined=()):
+    """The static helper functions the lane code calls, less the keys in ``defined``."""
+    return "\n\n".join(text for key, text in helper_blocks(name, used) if key not in defined)
+
+
+def batch_function(name, nx, nr, npar, lanes_code, helper_code, fn="rhs", nout=None, prelude=True):
     """(code before NAME_rhs_batch, its body): the prelude and the lane code (when there is
     any), ``NAME_rhs_batch_p`` (one parameter row per state, ``P[j*n + k]``: what a rollout
     of many parameter sets needs), then the public function's body with its scalar tail and
     fallback.  Both run one static loop; shared parameters are broadcast into the lanes, so
-    the two give the same bits for the same parameters."""
+    the two give the same bits for the same parameters.
+
+    fn="jac_x", nout=nx*nx: ``NAME_jac_x_batch``'s code (OUT[e*n + k] is element e of state k's
+    row-major Jacobian), its scalar tail NAME_jac_x; no ``_p`` entry.  prelude=False when the
+    rhs's batch code (with the prelude) comes first in the same file."""
     nr1, np1 = max(nr, 1), max(npar, 1)
+    nout = nx if nout is None else nout
     block_inputs = (f"""    for (i = 0; i < {nr}; i++) {{
         if (R != NULL) __builtin_memcpy(&r[i], R + (size_t)i * n, sizeof(eomc_vd));
         else for (l = 0; l < EOMC_BATCH_LANES; l++) r[i][l] = 0.0;
@@ -602,25 +756,25 @@ def batch_function(name, nx, nr, npar, lanes_code, helper_code):
         simd = f"""#if EOMC_BATCH_SIMD
 {helper_code + chr(10) + chr(10) if helper_code else ""}{lanes_code}
 
-static EOMC_VTARGET void {name}_rhs_block(double t, const double *X, size_t n, const double *p, const double *P,
+static EOMC_VTARGET void {name}_{fn}_block(double t, const double *X, size_t n, const double *p, const double *P,
                                    const double *R, double *XDOT, int *st)
 {{
-    eomc_vd x[{nx}], pv[{np1}], r[{nr1}], xdot[{nx}];
+    eomc_vd x[{nx}], pv[{np1}], r[{nr1}], xdot[{nout}];
     int i, l;
 {"" if nr else "    (void)R;" + chr(10)}    for (i = 0; i < {nx}; i++) __builtin_memcpy(&x[i], X + (size_t)i * n, sizeof(eomc_vd));
 {block_params}{block_inputs}    for (l = 0; l < EOMC_BATCH_LANES; l++) st[l] = EOMC_OK;
-    {name}_rhs_lanes(t, x, pv, r, xdot, st);
-    for (i = 0; i < {nx}; i++) {{
+    {name}_{fn}_lanes(t, x, pv, r, xdot, st);
+    for (i = 0; i < {nout}; i++) {{
         for (l = 0; l < EOMC_BATCH_LANES; l++) {{
             if (st[l] == EOMC_OK && !isfinite(xdot[i][l])) st[l] = EOMC_NONFINITE;
         }}
     }}
     for (l = 0; l < EOMC_BATCH_LANES; l++) {{   /* a lane the guard stopped gets NaN, as the scalar tail */
         if (st[l] != EOMC_OK && st[l] != EOMC_NONFINITE) {{
-            for (i = 0; i < {nx}; i++) xdot[i][l] = NAN;
+            for (i = 0; i < {nout}; i++) xdot[i][l] = NAN;
         }}
     }}
-    for (i = 0; i < {nx}; i++) __builtin_memcpy(XDOT + (size_t)i * n, &xdot[i], sizeof(eomc_vd));
+    for (i = 0; i < {nout}; i++) __builtin_memcpy(XDOT + (size_t)i * n, &xdot[i], sizeof(eomc_vd));
 }}
 #endif
 """
@@ -630,7 +784,7 @@ static EOMC_VTARGET void {name}_rhs_block(double t, const double *X, size_t n, c
     if (EOMC_VCPU_OK()) {{
         for (; k + EOMC_BATCH_LANES <= n; k += EOMC_BATCH_LANES) {{
             int st[EOMC_BATCH_LANES], l;
-            {name}_rhs_block(t, X + k, (size_t)n, p, P != NULL ? P + k : NULL, R != NULL ? R + k : NULL,
+            {name}_{fn}_block(t, X + k, (size_t)n, p, P != NULL ? P + k : NULL, R != NULL ? R + k : NULL,
                           XDOT + k, st);
             for (l = 0; l < EOMC_BATCH_LANES; l++) {{
                 if (status != NULL) status[k + l] = st[l];
@@ -646,24 +800,7 @@ static EOMC_VTARGET void {name}_rhs_block(double t, const double *X, size_t n, c
             for (i = 0; i < {npar}; i++) ps[i] = P[(size_t)i * (size_t)n + (size_t)k];
         }}
 """ if npar else "")
-    loop = f"""static int {name}_rhs_batch_any(int n, double t, const double *X, const double *p, const double *P,
-                              const double *R, double *XDOT, int *status, double *work)
-{{
-    double xs[{nx}], ps[{np1}], rs[{nr1}], xd[{nx}];
-    int k = 0, i, s, worst = EOMC_OK;
-{"" if nr else "    (void)R;" + chr(10)}{"" if npar else "    (void)P;" + chr(10)}    if (n < 0 || X == NULL || XDOT == NULL || (p == NULL && P == NULL)) return EOMC_BAD_ARGUMENT;
-    ps[0] = 0.0;
-{block_call}    for (; k < n; k++) {{
-        for (i = 0; i < {nx}; i++) xs[i] = X[(size_t)i * (size_t)n + (size_t)k];
-{tail_inputs}{tail_params}        s = {name}_rhs(t, xs, P != NULL ? ps : p, rs, xd, work);
-        for (i = 0; i < {nx}; i++) XDOT[(size_t)i * (size_t)n + (size_t)k] = s == EOMC_OK || s == EOMC_NONFINITE ? xd[i] : NAN;
-        if (status != NULL) status[k] = s;
-        if (s != EOMC_OK && worst == EOMC_OK) worst = s;
-    }}
-    return worst;
-}}
-
-/* NAME_rhs_batch with one parameter row per state: P[j*n + k] is parameter j of state k. */
+    entry_p = "" if fn != "rhs" else f"""/* NAME_rhs_batch with one parameter row per state: P[j*n + k] is parameter j of state k. */
 int {name}_rhs_batch_p(int n, double t, const double *X, const double *P, const double *R, double *XDOT,
                     int *status, double *work);
 int {name}_rhs_batch_p(int n, double t, const double *X, const double *P, const double *R, double *XDOT,
@@ -672,21 +809,51 @@ int {name}_rhs_batch_p(int n, double t, const double *X, const double *P, const 
     return {name}_rhs_batch_any(n, t, X, NULL, P, R, XDOT, status, work);
 }}
 """
-    body = f"    return {name}_rhs_batch_any(n, t, X, p, NULL, R, XDOT, status, work);"
-    return SIMD_PRELUDE + ("\n" + simd.rstrip("\n") if simd else "") + "\n\n" + loop.rstrip("\n"), body
+    loop = f"""static int {name}_{fn}_batch_any(int n, double t, const double *X, const double *p, const double *P,
+                              const double *R, double *XDOT, int *status, double *work)
+{{
+    double xs[{nx}], ps[{np1}], rs[{nr1}], xd[{nout}];
+    int k = 0, i, s, worst = EOMC_OK;
+{"" if nr else "    (void)R;" + chr(10)}{"" if npar else "    (void)P;" + chr(10)}    if (n < 0 || X == NULL || XDOT == NULL || (p == NULL && P == NULL)) return EOMC_BAD_ARGUMENT;
+    ps[0] = 0.0;
+{block_call}    for (; k < n; k++) {{
+        for (i = 0; i < {nx}; i++) xs[i] = X[(size_t)i * (size_t)n + (size_t)k];
+{tail_inputs}{tail_params}        s = {name}_{fn}(t, xs, P != NULL ? ps : p, rs, xd, work);
+        for (i = 0; i < {nout}; i++) XDOT[(size_t)i * (size_t)n + (size_t)k] = s == EOMC_OK || s == EOMC_NONFINITE ? xd[i] : NAN;
+        if (status != NULL) status[k] = s;
+        if (s != EOMC_OK && worst == EOMC_OK) worst = s;
+    }}
+    return worst;
+}}
+
+{entry_p}"""
+    body = f"    return {name}_{fn}_batch_any(n, t, X, p, NULL, R, {'XDOT' if fn == 'rhs' else 'OUT'}, status, work);"
+    head = SIMD_PRELUDE if prelude else ""
+    return head + ("\n" + simd.rstrip("\n") if simd else "") + "\n\n" + loop.rstrip("\n"), body
 
 
-def batch_code(name, nx, nr, printed, dynamics="", npar=0):
+def batch_code(name, nx, nr, printed, dynamics="", npar=0, fn="rhs", defined=None, prelude=True, kernels=""):
     """(code before NAME_rhs_batch, its body, metadata) from the scalar rhs's (lines, parts).
 
     The metadata says whether the lanes are vectorized and, when they are not, why (the
-    statement the rewrite does not know): the function then loops the scalar rhs."""
+    statement the rewrite does not know): the function then loops the scalar rhs.
+
+    fn="jac_x": the same for ``NAME_jac_x_batch`` from the scalar jac_x's (lines, parts) (its
+    tangent loop in lanes; nx*nx outputs per state).  ``defined``: a set of the helper keys an
+    earlier batch function of the same file defined (not repeated; this call's keys are added
+    to it); prelude=False when that earlier function's code holds the prelude."""
     lines, parts = printed
+    nout = nx if fn == "rhs" else nx * nx
+    out = "xdot" if fn == "rhs" else "out"
     try:
-        lanes, used = batch_rhs(name, lines, parts, dynamics)
+        lanes, used = batch_rhs(name, lines, parts, dynamics, fn=fn, out=out, kernels=kernels)
     except Unsupported as exc:
-        before, body = batch_function(name, nx, nr, npar, None, "")
-        return before, body, {"vectorized": False, "why": f"the scalar rhs {exc}", "layout": "nx x n"}
-    before, body = batch_function(name, nx, nr, npar, lanes, helpers(name, used))
-    return before, body, {"vectorized": True, "layout": "nx x n",
+        before, body = batch_function(name, nx, nr, npar, None, "", fn=fn, nout=nout, prelude=prelude)
+        return before, body, {"vectorized": False, "why": f"the scalar {fn} {exc}", "layout": "nx x n"
+                              if fn == "rhs" else "nx*nx x n"}
+    before, body = batch_function(name, nx, nr, npar, lanes, helpers(name, used, defined or ()), fn=fn,
+                                  nout=nout, prelude=prelude)
+    if defined is not None:
+        defined.update(key for key, _ in helper_blocks(name, used))
+    return before, body, {"vectorized": True, "layout": "nx x n" if fn == "rhs" else "nx*nx x n",
                           "sin_cos": "vectorized fdlibm kernels, within 1 ulp of libm" if "trig" in used else None}

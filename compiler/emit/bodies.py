@@ -13,7 +13,7 @@ from .signatures import SIGNATURES
 __all__ = ["BodyContext", "extra_state_rows", "plain_body", "solved_plain_body", "rhs_body", "jacobian_body", "tangent_jacobian_body",
            "helper_jacobian_body", "needed_assignments",
            "linearize_body", "split_on", "dynamics_helper", "matrix_body",
-           "void_unused", "jvp_body", "IND", "temps", "store"]
+           "void_unused", "jvp_body", "parameter_directions", "IND", "temps", "store"]
 
 IND = "    "    # one level of indentation in a generated function body
 
@@ -329,37 +329,72 @@ def void_unused(function, lines, signature=None):
     return "\n".join([f"{IND}(void){a};" for a in unused] + lines)
 
 
+def parameter_directions(program, pr, gp, kp, nx, npar, out_row, groups):
+    """C lines, inside a jvp's loop over directions (``dx`` = the direction), adding the
+    direction's parameter part: for every nonzero dp[j], column j of the residual's and the
+    kinematic rows' parameter derivatives times dp[j] (G[i] += ..., out row += ...).
+
+    Column by column, in a switch: a sensitivity direction has one nonzero parameter entry
+    (d = [S_j; e_j]), so a direction costs one column, not every parameter's columns (the
+    n-link cart's 18 columns cost 2.6 rhs a call, one column about 0.15) nor a tangent
+    along dp (a whole tangent of A and b: 1.1 rhs).  ``gp``: {(group, row, j): expr} of the
+    residual rows (into G), ``kp``: {(group, row, j): expr} of the state rows written
+    directly (``out_row(row)`` is the C lvalue); the temporaries each column reads that
+    the rest of the function does not are computed inside its case.  ``groups``: the
+    result groups of these derivatives (the rest of the function is every other group).
+
+    Returns (lines, the assignments computed only inside the cases).
+    """
+    nz = {key: e for key, e in list(gp.items()) + list(kp.items()) if e != 0}
+    others = [e for key, e in program.results if key[0] not in groups]
+    own = ({t for t, _ in needed_assignments(program.assignments, nz.values())}
+           - {t for t, _ in needed_assignments(program.assignments, others)})
+    if not nz:
+        return [], own
+    assigned = [a for a in program.assignments if a[0] in own]
+    lines = [f"dp = dx + {nx};",
+             f"for (j = 0; j < {npar}; j++) {{",
+             f"{IND}if (dp[j] == 0.0) continue;",
+             f"{IND}switch (j) {{"]
+    for j in range(npar):
+        col = sorted(key for key in nz if key[2] == j)
+        if not col:
+            continue
+        lines.append(f"{IND}case {j}: {{")
+        lines += [IND + line for line in temps(program, pr, needed_assignments(assigned, [nz[k] for k in col]))]
+        lines += [f"{IND * 2}{'G[%d]' % key[1] if key in gp else out_row(key[1])} += "
+                  f"({pr.doprint(nz[key])}) * dp[{j}];" for key in col]
+        lines.append(f"{IND * 2}break;")
+        lines.append(f"{IND}}}")
+    lines += [f"{IND}default: break;", f"{IND}}}", "}"]
+    return lines, own
+
+
 def jvp_body(ctx, program, W, seeds, nx, npar, blocks):
     """xdot and k directional derivatives J·d (J = d xdot/d[x; p]) in one call, for forward
     sensitivities: A and b are evaluated and factored once, then per direction the
     residual's tangent along d's state part (the looped jac_x's tangent programs,
     ``blocks``, with the seed array pointing at the direction) or, for few states, the
-    unrolled columns G times it, plus the unrolled parameter columns times d's parameter
-    part, and one solve.  J itself is never formed.  The parameter columns are computed
-    only when some direction has a nonzero parameter part.
+    unrolled columns G times it, plus the parameter columns of d's nonzero parameter
+    entries (:func:`parameter_directions`), and one solve.  J itself is never formed.
 
     ``dirs``: k rows of nx + nparam (state part, then parameter part); ``out``: k rows of nx.
     """
     nw, nq, nu = ctx.nw, ctx.nq, ctx.nu
     nd = nx + npar
     pr = ctx.printer(program)
+    zfirst = ctx.nq + ctx.nu
     gp = program.result_exprs("Gp")
     kp = program.result_exprs("dkin_p")
-    zp = program.result_exprs("dzd_p")      # the extra first-order states' rows
-    zfirst = ctx.nq + ctx.nu
-    kp.update(((("dkin_p", zfirst + key[1], key[2]), e) for key, e in zp.items()))
-    pexprs = list(gp.values()) + list(kp.values())
-    others = [e for key, e in program.results if key[0] not in ("Gp", "dkin_p", "dzd_p")]
-    p_only = ({t for t, _ in needed_assignments(program.assignments, pexprs)}
-              - {t for t, _ in needed_assignments(program.assignments, others)})
+    kp.update(((("dkin_p", zfirst + key[1], key[2]), e) for key, e in program.result_exprs("dzd_p").items()))
+    pcols, p_only = parameter_directions(program, pr, gp, kp, nx, npar,
+                                         lambda i: f"out[(size_t)d * {nx} + {i}]", ("Gp", "dkin_p", "dzd_p"))
     main = program.with_(assignments=tuple(a for a in program.assignments if a[0] not in p_only))
     before, rest = split_on(main, W + seeds)
     stage2, stage3 = split_on(main.with_(assignments=tuple(rest)), seeds)
-    gp_nz = sorted(k for k, e in gp.items() if e != 0)
-    kp_nz = sorted(k for k, e in kp.items() if e != 0)
     extra = [f"double G[{nw}];", "const double *dx;", "int i, d;"]
-    if gp_nz or kp_nz:
-        extra += ["const double *dp;", f"double Gp[{max(1, len(gp_nz) + len(kp_nz))}] = {{0.0}};", "int anyp = 0;"]
+    if pcols:
+        extra += ["const double *dp;", "int j;"]
     lines = _solver_decls(ctx, extra)
     lines += temps(program, pr, before)
     lines += _load_dynamics(ctx, program, pr)
@@ -368,18 +403,13 @@ def jvp_body(ctx, program, W, seeds, nx, npar, blocks):
     lines += [store(f"xdot[{i}]", kin.get(("kin", i), 0.0), pr) for i in range(nq)]
     lines += [f"{IND}xdot[{nq + i}] = w[{i}];" for i in range(nu)]
     lines += extra_state_rows(ctx, program, pr, "zd", "xdot")
-    slot = {key: j for j, key in enumerate(gp_nz + kp_nz)}
-    if slot:
-        lines += [f"{IND}for (d = 0; d < k && !anyp; d++)",
-                  f"{IND * 2}for (i = 0; i < {npar}; i++) if (dirs[(size_t)d * {nd} + {nx} + i] != 0.0) anyp = 1;",
-                  f"{IND}if (anyp) {{"]
-        inner = [a for a in program.assignments if a[0] in p_only]
-        lines += [IND + line for line in temps(program, pr, inner)]
-        lines += [IND + store(f"Gp[{slot[key]}]", (gp if key[0] == "Gp" else kp)[key], pr) for key in slot]
-        lines.append(f"{IND}}}")
     kvals = program.result_exprs("dkin")
     kvals.update(((("dkin", zfirst + key[1], key[2]), e) for key, e in program.result_exprs("dzd").items()))
     body = []
+    for i in list(range(nq)) + list(range(zfirst, nx)):     # q rows, then the extra states' rows
+        terms = [f"({pr.doprint(kvals[('dkin', i, k)])}) * dx[{k}]" for k in range(nx)
+                 if kvals.get(("dkin", i, k), 0) != 0]
+        body.append(f"out[(size_t)d * {nx} + {i}] = {' + '.join(terms) or '0.0'};")
     if blocks:
         first = True
         for group, _, _ in blocks:
@@ -397,17 +427,8 @@ def jvp_body(ctx, program, W, seeds, nx, npar, blocks):
             terms = [f"({pr.doprint(gvals[('G', i, k)])}) * dx[{k}]" for k in range(nx)
                      if gvals.get(("G", i, k), 0) != 0]
             body.append(f"G[{i}] = {' + '.join(terms) or '0.0'};")
-    if slot:
-        body.append("if (anyp) {")
-        body.append(f"{IND}dp = dx + {nx};")
-        body += [f"{IND}G[{key[1]}] += Gp[{slot[key]}] * dp[{key[2]}];" for key in gp_nz]
-        body.append("}")
+    body += pcols
     body.append(f"{ctx.solver.solve_call('G')};")
-    for i in list(range(nq)) + list(range(zfirst, nx)):     # q rows, then the extra states' rows
-        terms = [f"({pr.doprint(kvals[('dkin', i, k)])}) * dx[{k}]" for k in range(nx)
-                 if kvals.get(("dkin", i, k), 0) != 0]
-        terms += [f"(anyp ? Gp[{slot[key]}] * dx[{nx + key[2]}] : 0.0)" for key in kp_nz if key[1] == i]
-        body.append(f"out[(size_t)d * {nx} + {i}] = {' + '.join(terms) or '0.0'};")
     body.append(f"for (i = 0; i < {nu}; i++) out[(size_t)d * {nx} + {nq} + i] = G[i];")
     lines.append(f"{IND}for (d = 0; d < k; d++) {{")
     lines.append(f"{IND * 2}dx = dirs + (size_t)d * {nd};")

@@ -52,6 +52,8 @@ def _select(functions, ninput, noutput, ncon, nevent=0, has_poses=False, nparam=
         wanted |= {"jac_x", "jac_r"}
     if "rhs_batch" in wanted:      # the lanes are the rhs's own code; its scalar tail calls it
         wanted.add("rhs")
+    if "jac_x_batch" in wanted:    # likewise jac_x's
+        wanted.add("jac_x")
     absent = {"jac_r": ninput == 0, "jac_p": nparam == 0, "outputs": noutput == 0,
               "constraints": ncon == 0, "constraints_jac": ncon == 0, "events": nevent == 0,
               "poses": not has_poses}
@@ -102,7 +104,7 @@ def _body(fn, ctx, prog, sym, layout, nx, functions, formulation=KANE):
         return helper_jacobian_body(ctx, prog, sym.W, nr, "dkin_r", "Gr")
     if fn == "jvp":
         return jvp_body(ctx, prog, sym.W, sym.seeds, nx, len(layout.p),
-                        _tangent_blocks(ctx) if _tangent(prog) else ())
+                        (("Gtx", 0, nx),) if _tangent(prog) else ())
     if fn in REVERSE_FUNCTIONS:
         return reverse_body(fn, ctx, prog, sym, nx, len(layout.p))
     if fn == "jac_p":
@@ -127,7 +129,7 @@ def nu_of(sym):
 
 def _tangent(prog):
     """True when jac_x loops tangent programs over columns (many states)."""
-    return any(k[0] in ("Gtq", "Gtu") for k, _ in prog.results)
+    return any(k[0] in ("Gtq", "Gtu", "Gtx") for k, _ in prog.results)
 
 
 def _tangent_blocks(ctx, nq=None, nx=None):
@@ -243,7 +245,7 @@ def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions
     if refusal:
         raise ModelError(refusal)
     groups, helper_users = formulation.groups, formulation.helper_users
-    base = tuple(f for f in fns if f not in ("poses", "rhs_batch"))   # poses: appended below
+    base = tuple(f for f in fns if f not in ("poses", "rhs_batch", "jac_x_batch"))   # poses: appended below
     sym = formulation.symbolic(formed, layout, base, outputs, events)
     if getattr(sym, "function_groups", None):   # this model's own choice (tree/lower.py: the loop kernel or not)
         groups = sym.function_groups
@@ -255,7 +257,7 @@ def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions
         sym, pose_meta = with_poses(sym, poses, layout)
         groups = {**groups, "poses": (POSE_GROUP,)}
     shared = verify(optimize_shared(sym.program, sym.derivatives))
-    programs = {fn: finish_function(shared, groups[fn]) if fn != "rhs_batch" and groups[fn] else None
+    programs = {fn: finish_function(shared, groups[fn]) if fn not in ("rhs_batch", "jac_x_batch") and groups[fn] else None
                 for fn in fns}
     helper = (finish_function(shared, ("A", "b")) if set(fns) & set(helper_users) or sym.solve_in
               else None)
@@ -307,12 +309,16 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
         helper = dynamics_helper(ctx, low.helper) if low.helper is not None else ""
     dynamics_text = helper
     helper = "\n".join(c for c in (helper, formulation.c_helpers(name, sym, fns, nq)) if c)
-    rendered, op_counts = [], {}
+    rendered, op_counts, meta_batch, printed, defined = [], {}, {}, {}, set()
     for fn in fns:
-        if fn == "rhs_batch":   # the rhs's printed lines, rewritten into lanes (compiler/emit/batch.py)
-            before, body, meta_batch = batch_code(name, nx, len(layout.r), rhs_printed, dynamics_text, len(layout.p))
+        if fn in ("rhs_batch", "jac_x_batch"):   # the printed lines, rewritten into lanes (compiler/emit/batch.py)
+            scalar = fn[:-len("_batch")]
+            before, body, meta_batch[fn] = batch_code(name, nx, len(layout.r), printed[scalar], dynamics_text,
+                                                      len(layout.p), fn=scalar, defined=defined,
+                                                      prelude=fn == "rhs_batch" or "rhs_batch" not in fns,
+                                                      kernels=helper)
             rendered.append({"prototype": prototype(name, fn), "body": body, "parts": [before]})
-            op_counts[fn] = dict(op_counts["rhs"])
+            op_counts[fn] = dict(op_counts[scalar])
             continue
         prog = low.programs[fn]
         shared = formulation.shared_code(fn, ctx, prog, sym, fns)
@@ -329,8 +335,8 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
                     _body(fn, ctx, prog, sym, layout, nx, fns, formulation))
         lines, parts = split_body(body, f"{name}_{fn}_part")
         ctx.split = ctx.split or bool(parts)
-        if fn == "rhs":
-            rhs_printed = (lines, parts)
+        if fn in ("rhs", "jac_x"):
+            printed[fn] = (lines, parts)
         rendered.append({"prototype": prototype(name, fn), "body": void_unused(fn, lines),
                          "parts": parts})
         op_counts[fn] = _ops(fn, prog, solver, nx, len(layout.r), sym.seeds, low.helper, nu,
@@ -353,8 +359,7 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
     if sym.energy:      # the runtime's verdict may trust it from a start in contact (runtime/switching.py)
         meta["energy"] = sym.energy
     meta["formulation"] = formulation.name
-    if "rhs_batch" in fns:
-        meta["rhs_batch"] = meta_batch
+    meta.update(meta_batch)
     meta.update(formulation.metadata(sym, fns))
     if low.poses is not None:
         meta["poses"] = pose_metadata(low.poses)

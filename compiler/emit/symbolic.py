@@ -54,7 +54,8 @@ FUNCTION_GROUPS = {
     "events": ("ev",),
     "regressor": (),        # recursive formulation only (compiler/tree/regressor.py)
     # xdot and J·d, d = [dx; dp] given (sensitivities): state tangents, parameter columns
-    "jvp": ("A", "b", "kin", "dkin", "G", "Gtq", "Gtu", "dkin_p", "Gp", "zd", "dzd", "dzd_p"),
+    # (one tangent along the whole state direction, Gtx, where jac_x loops Gtq and Gtu)
+    "jvp": ("A", "b", "kin", "dkin", "G", "Gtx", "dkin_p", "Gp", "zd", "dzd", "dzd_p"),
     # wᵀ J and (∂²(λᵀ xdot)/∂x²)·v by reverse mode (compiler/emit/reverse.py)
     "vjp": ("A", "b", "kin", "zd", "res", "vj"),
     "hvp": ("A", "b", "kin", "zd", "res", "hr", "ha", "hb"),
@@ -85,6 +86,7 @@ class Symbolic:
     forcing_calls: str = ""          # recursive: forcing is -inverse_dynamics at u' = 0, a call of it (tree/lower.py)
     function_groups: object = None   # per function, its result groups where they differ from the formulation's
     energy: str = ""                 # what a generated ``energy`` output holds (NAME.json "energy"), or ""
+    guards: tuple = ()               # rhs broad phase: (clearance, exports) (compiler/emit/guards.py)
 
 
 def _is_symmetric(A, seed=0):
@@ -245,8 +247,11 @@ def build_symbolic(formed, layout, functions, outputs=None, events=None, *, dyna
                 for i in range(nw)]
         if "G" in groups and len(layout.x) > TANGENT_MIN_STATES:
             nq = formed.nq
-            derivatives.append(("res", dict(zip(layout.x[:nq], seeds[:nq])), "Gtq"))
-            derivatives.append(("res", dict(zip(layout.x[nq:], seeds[nq:])), "Gtu"))
+            if groups & {"Gtq", "Gtu"}:
+                derivatives.append(("res", dict(zip(layout.x[:nq], seeds[:nq])), "Gtq"))
+                derivatives.append(("res", dict(zip(layout.x[nq:], seeds[nq:])), "Gtu"))
+            if "Gtx" in groups:
+                derivatives.append(("res", dict(zip(layout.x, seeds)), "Gtx"))
         elif "G" in groups:
             derivatives.append(("res", layout.x, "G"))
         if "Gr" in groups:

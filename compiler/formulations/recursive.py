@@ -55,7 +55,7 @@ class Recursive(Formulation):
 
     def body(self, fn, ctx, prog, sym, layout, nx):
         if fn == "rhs":
-            return tree_rhs_body(ctx, prog)
+            return tree_rhs_body(ctx, prog, sym.guards)
         if fn in KERNEL_FUNCTIONS and has_dynamics_kernel(prog, sym, fn):
             return dynamics_body(ctx, prog, sym, fn)
         if fn == "forcing" and sym.forcing_calls == "inverse_dynamics":

@@ -294,6 +294,8 @@ def body_pairs(m, path=None):
                 continue
             condim, friction, solref, solimp = _mix(m, g1, g2)
             found[(g1, g2)] = (condim, friction, solref, solimp, float(m.geom_margin[g1]) + float(m.geom_margin[g2]))
+    reach = _reach(m)
+    found = {pair: v for pair, v in found.items() if not _apart(m, reach, *pair, v[4])}
     _warn_condim(m, [(g1, g2, v[0]) for (g1, g2), v in found.items()], f"{path}: " if path else "")
     out, skipped = [], {}
     for (g1, g2), (condim, friction, solref, solimp, margin) in sorted(found.items()):
@@ -310,3 +312,50 @@ def body_pairs(m, path=None):
         out.append(BodyPair((g1, g2), name, (k1, k2), k, c, mu, margin, (g1, g2) in explicit,
                             len(roots) == 1 and moving(g1) and moving(g2)))
     return out, skipped
+
+
+def _reach(m):
+    """{geom: (centre, radius)}: a ball in the world that holds the geom in every pose, for geoms
+    whose bodies turn about points fixed in the world only (each moving body of the chain with hinge
+    or ball joints sharing one anchor): the first anchor, and the chain's anchor-to-anchor lengths
+    plus the geom's own bounding radius (``geom_rbound``; rotations keep each length).  Geoms on
+    slide or free joints, or bodies with joints at different anchors, are not bounded (absent)."""
+    import mujoco
+    d = mujoco.MjData(m)
+    mujoco.mj_kinematics(m, d)
+    out = {}
+    for g in range(m.ngeom):
+        body = int(m.geom_bodyid[g])
+        if int(m.body_weldid[body]) == 0:
+            continue
+        point, length, ok = np.array(d.geom_xpos[g]), float(m.geom_rbound[g]), True
+        while body != 0 and ok:
+            count, adr = int(m.body_jntnum[body]), int(m.body_jntadr[body])
+            if count:
+                kinds = {int(m.jnt_type[j]) for j in range(adr, adr + count)}
+                anchors = np.array([d.xanchor[j] for j in range(adr, adr + count)])
+                if kinds - {int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_BALL)} \
+                        or np.ptp(anchors, axis=0).max() > 0:
+                    ok = False
+                    break
+                length += float(np.linalg.norm(point - anchors[0]))
+                point = anchors[0]
+            body = int(m.body_parentid[body])
+        if ok:
+            out[g] = (point, length)
+    return out
+
+
+def _apart(m, reach, g1, g2, margin):
+    """True when the two geoms' reach balls (:func:`_reach`; a static geom's own bounding ball) never
+    meet: such a pair can never touch, so it is not emitted (dm_control's finger: its spinner's
+    and its finger's hinge-axis cylinders, 0.4 m apart)."""
+    balls = []
+    for g in (g1, g2):
+        if int(m.body_weldid[int(m.geom_bodyid[g])]) == 0:
+            return False                    # a static geom: left to the pair (cheap, usually near)
+        if g not in reach:
+            return False
+        balls.append(reach[g])
+    (c1, r1), (c2, r2) = balls
+    return float(np.linalg.norm(c1 - c2)) > r1 + r2 + max(margin, 0.0) + 1e-9

@@ -466,7 +466,9 @@ def _with_pairs(model, m, built):
     if skipped:
         text = "; ".join(f"{n} {kinds} pair(s) (e.g. {example})" for kinds, (n, example) in sorted(skipped.items()))
         warnings.warn(f"{Path(model.path).name}: no contact for {text}: they pass through each other (eomc "
-                      f"has sphere, capsule, sphere-box and capsule-box pairs)", EomcWarning, stacklevel=4)
+                      f"models pairs of spheres, capsules, boxes and cylinders but box-cylinder, and ellipsoid-sphere; "
+                      f"no meshes)",
+                      EomcWarning, stacklevel=4)
     if not found:
         return built, {}, {}
     tree_body = {owner[0]: i for i, owner in enumerate(built.owners) if owner is not None}
@@ -475,7 +477,7 @@ def _with_pairs(model, m, built):
 
     def shape(g):
         b = int(m.geom_bodyid[g])
-        kind = {2: "sphere", 3: "capsule", 6: "box"}[int(m.geom_type[g])]
+        kind = {2: "sphere", 3: "capsule", 4: "ellipsoid", 5: "cylinder", 6: "box"}[int(m.geom_type[g])]
         size = tuple(float(x) for x in m.geom_size[g])
         if int(m.body_weldid[b]) == 0:           # static: where it is in the world
             return PairShape(-1, kind, size, tuple(float(x) for x in d.geom_xpos[g]),

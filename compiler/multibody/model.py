@@ -122,6 +122,9 @@ class Model(StateSizes):
     # the points of each body that must stay above the ground a robot's contacts touch, for the
     # run's verdict (eomc.compiler.urdf.collision.ground_check; eomc.runtime.ground_check), or None
     ground_check: Optional[dict] = field(default=None, compare=False)
+    # the joints whose zero is outside their range and which the default start moved inside
+    # (eomc.compiler.urdf.model.start_in_range), for the note naming them; () if none
+    start_in_range: tuple = field(default=(), compare=False)
     mechanics: Optional[Callable[[], sm.physics.mechanics.System]] = field(default=None, compare=False,
                                                                          repr=False)
     refusal: Optional[str] = None

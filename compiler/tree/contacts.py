@@ -25,7 +25,7 @@ def world_placement(bodies, rec):
                      by_columns=True)
 
 
-def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None):
+def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, guards=None):
     """Add every ContactLoad's force to its body's ``fext`` (LoweredBody, body components
     about the origin); return {ContactValue placeholder: temporary}.
 
@@ -38,7 +38,8 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None):
     with "poses" (the placement) and "contacts", per contact (depth, contact point, its
     velocity, K, C of :func:`eomc.compiler.contact.law.ground_jacobians`), world.
     ``energy``: (the gravity vector (world, slot symbols), the speeds' symbols) when the
-    ``energy`` output (:data:`~eomc.compiler.contact.tree.ENERGY`) is asked for, else None."""
+    ``energy`` output (:data:`~eomc.compiler.contact.tree.ENERGY`) is asked for, else None.
+    ``guards``: a list to fill with the rhs's broad phase (:func:`body_guards`)."""
     contacts = contact_outputs(tree)
     others = [ld for ld in tree.loads if not isinstance(ld, ContactLoad) and hasattr(ld, "lower")]
     if not contacts and not others:
@@ -46,7 +47,7 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None):
     poses = world_placement(bodies, rec)
     if implicit is not None:
         implicit["poses"], implicit["contacts"] = poses, []
-    values, elastic = {}, []
+    values, elastic, reach = {}, [], {}
     for load in others:     # a body-body pair returns its outputs' and events' values
         values.update(load.lower(bodies, rec, v, rename, poses) or {})
     for index, load in enumerate(contacts):
@@ -69,6 +70,9 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None):
         forces = ground_forces(centre, velocity, omega, params, load.normal, rename(load.height, what),
                                let=rec.let)
         f_b = rec.vec(poses.to_body(i, forces.force))
+        reach.setdefault(i, []).append(None if load.shape is not None else
+                                       (load.normal, rename(load.height, what), params["r"], off, f_b,
+                                        forces.depth))
         arm_b = poses.to_body(i, forces.point_offset)
         lever = [off[k] + arm_b[k] for k in range(3)]
         n_b = cross(lever, f_b)
@@ -86,11 +90,64 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None):
         values[ContactValue(index, CLIP_KIND)] = forces.parts["clip"]
         if energy is not None:      # the law's elastic part k δ₊^(3/2) stores k δ₊^(5/2) / (5/2)
             elastic.append(forces.parts["elastic"] * forces.parts["dpos"] / (EXPONENT + 1))
+    if guards is not None:
+        guards.extend(body_guards(reach, poses))
     if energy is not None:
         stored = getattr(tree, "joint_energy", None)       # the limits' springs (URDF)
         limits = rename(stored, "the joint limits' elastic energy") if stored else sm.S.Zero
         values[ENERGY] = rec.let(_energy(bodies, v, poses, *energy) + sum(elastic, sm.S.Zero) + limits)
     return values
+
+
+def body_guards(reach, poses):
+    """[(clearance, exports, inner guards)] per body with ground contacts
+    (compiler/emit/guards.py): the body's force temporaries are exactly zero while the clearance
+    is positive; inside, each point's law is guarded by its own depth (-δ_j > 0: out of contact,
+    its force is ±0), so a body near the floor evaluates only the laws of its touching points.
+
+    Point j of a body (sphere centre at ``off_j`` from the body origin o, radius r_j, plane
+    n·x = h_j) has depth δ_j = r_j + h_j - n·(o + R off_j).  With the points' box in the body
+    frame (centre c, half sizes e, when the offsets are numbers) n·R off_j ≥ w·c - Σ|w_k| e_k
+    with w = Rᵀn, the box's lowest corner; otherwise (offsets that are parameters) ≥ -|n||off_j|,
+    the bounding sphere about the origin.  So with
+
+        clearance = min over the body's normals of  n·o + (lowest point's offset) - max_j(r_j + h_j)
+
+    every δ_j < 0 where the clearance is positive: δ₊ = 0 exactly, and the law's normal force,
+    friction and force are ±0 (a MuJoCo margin is in h; the law has no force at δ ≤ 0, no
+    onset beyond it).  The box costs a few operations on the body's rotation, and is tight for
+    a long body standing on its end (a calf: the sphere about its knee would reach the floor
+    at every step).  A body with an ellipsoid (its support point moves) gets no guard."""
+    out = []
+    for i, points in reach.items():
+        if any(p is None for p in points):
+            continue
+        o, R = poses.origin(i), poses.rotation(i)
+        by_normal = {}
+        for normal, height, r, off, _, _ in points:
+            by_normal.setdefault(tuple(sm.sympify(x) for x in normal), []).append((height + r, off))
+        terms = []
+        for n, group in by_normal.items():
+            above = sum((a * b for a, b in zip(n, o)), sm.S.Zero) - sm.Max(*[far for far, _ in group])
+            offs = [[sm.sympify(x) for x in off] for _, off in group]
+            if all(x.is_Number for off in offs for x in off):
+                lo = [min(float(off[k]) for off in offs) for k in range(3)]
+                hi = [max(float(off[k]) for off in offs) for k in range(3)]
+                w = [sum((n[a] * R[a][k] for a in range(3)), sm.S.Zero) for k in range(3)]
+                for k in range(3):
+                    c, e = (lo[k] + hi[k]) / 2, (hi[k] - lo[k]) / 2
+                    above += (w[k] * c if c else 0) - (sm.Abs(w[k]) * e if e else 0)
+            else:
+                size = sm.sqrt(sum((x * x for x in n), sm.S.Zero))
+                above -= sm.Max(*[size * sm.sqrt(sum((x * x for x in off), sm.S.Zero)) for off in offs])
+            terms.append(above)
+        inner = [(-depth, tuple(s for s in f_b if isinstance(s, sm.Symbol)), ())
+                 for _, _, _, _, f_b, depth in points]
+        inner = [g for g in inner if g[1]]
+        exports = tuple(s for _, ex, _ in inner for s in ex)
+        if exports:
+            out.append((sm.Min(*terms), exports, tuple(inner)))
+    return out
 
 
 def _energy(bodies, v, poses, gravity, speeds):

@@ -9,6 +9,7 @@ from collections import Counter
 
 import sympy as sm
 
+from ..emit.guards import guarded_temps
 from ..emit.bodies import IND, singular_guard, store, temps, extra_state_rows, needed_assignments, split_on
 from ..ir import Names
 from ..ir.opcount import count_ops
@@ -47,13 +48,18 @@ def stores_zeroing_runs(pairs, pr, var):
     return lines, used
 
 
-def tree_rhs_body(ctx, program):
+def tree_rhs_body(ctx, program, guards=()):
     """q' and u' straight from the ABA trace; an articulated inertia D not above 64·DBL_EPSILON
     times the sum of all of them (a body with nothing to resist turning about its axis, or a
     ball joint in gimbal lock) is EOMC_SINGULAR_MASS_MATRIX.  The "Dpiv" results are those
-    margins (D - tol·sum, see aba.PIVOT_TOL), so the test is "every margin > 0"."""
+    margins (D - tol·sum, see aba.PIVOT_TOL), so the test is "every margin > 0".
+    ``guards``: the contacts' broad phase (compiler/emit/guards.py), bodies far above the
+    ground skipped."""
     pr = ctx.printer(program)
-    lines = temps(program, pr)
+    if guards:
+        lines, pr = guarded_temps(program, pr, guards)
+    else:
+        lines = temps(program, pr)
     lines += singular_guard(program, pr)
     vals = dict(program.results)
     for i in range(ctx.nq):

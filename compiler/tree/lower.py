@@ -200,8 +200,9 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         v, c = velocities(bodies, rec, speeds)
         implicit = {"step": step} if "implicit" in functions else None
         wants_energy = "outputs" in functions and _asks_energy(outputs)
+        guards = []
         contact_values = _contacts(tree, bodies, rec, v, layout, implicit,
-                                   (gravity, speeds) if wants_energy else None)
+                                   (gravity, speeds) if wants_energy else None, guards)
         extra, keep = [], {}
         if loops is not None:
             J, gamma = lower_loops(loops, layout, rec)
@@ -293,6 +294,8 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
                          helper_users=TREE_HELPER_USERS)
     if contact_values:
         sym = _with_contact_values(sym, contact_values)
+    if guards:
+        sym = replace(sym, guards=tuple(guards))
     if wants_energy:
         sym = replace(sym, energy="kinetic, gravity and the ground contacts' elastic energy"
                       + (" and the joint limits' springs" if getattr(tree, "joint_energy", None) else ""))
@@ -382,7 +385,7 @@ def _asks_energy(outputs):
     return any(getattr(e, "has", None) and e.has(ENERGY) for e in (outputs or {}).values())
 
 
-def _contacts(tree, bodies, rec, v, layout, implicit=None, energy=None):
+def _contacts(tree, bodies, rec, v, layout, implicit=None, energy=None, guards=None):
     """Ground contacts (eomc.compiler.contact.tree): their forces into the bodies' ``fext``
     from the world positions and velocities of their points, built recursively with ``rec``;
     returns {placeholder of a contact output or event: its temporary}."""
@@ -391,7 +394,7 @@ def _contacts(tree, bodies, rec, v, layout, implicit=None, energy=None):
     from .contacts import lower_contacts
     memo = {}
     return lower_contacts(tree, bodies, rec, v, lambda e, what: _rename(layout, memo, what, None)(e),
-                          implicit, energy)
+                          implicit, energy, guards)
 
 
 def implicit_layout(nq, nu, ncontact):

@@ -25,7 +25,7 @@ from eomc.runtime.errors import EomcWarning
 from ..multibody.model import merged_defaults, merged_initial_state
 
 __all__ = ["is_urdf_path", "is_urdf_model", "UrdfModel", "urdf_overrides", "load_urdf_model",
-           "with_options", "read_model", "model_of_robot", "urdf_formed"]
+           "with_options", "read_model", "model_of_robot", "urdf_formed", "start_in_range"]
 
 
 @dataclass(frozen=True)
@@ -149,12 +149,51 @@ def model_of_robot(robot, tree, model, poses=False):
         frames.append(Frame(link, body_index[owner], rotation, offset, (identifier(link),)))
     # a quaternion floating base starts upright (w = 1), not at the zero quaternion
     quaternion = {f"q_{identifier(j.name)}_qw": 1.0 for j in tree.joints if j.type == "floating_quaternion"}
-    if quaternion:
-        extra["initial_state"] = quaternion
+    inside, moved = start_in_range(tree) if model.limits else ({}, [])
+    if quaternion or inside:
+        extra["initial_state"] = {**quaternion, **inside}
+    if moved:
+        extra["start_in_range"] = moved
     return model_of_tree(built.tree, Provenance("urdf", str(model.path), robot.line), frames=tuple(frames),
                          defaults=dict(built.parameters), joint_inputs=tuple(built.inputs), outputs=outputs,
                          events=events, mechanics=mechanics, refusal=refusal, frame_noun="link",
                          collisions=collisions, **extra)
+
+
+START_INSIDE = 0.01     # how far inside its nearest limit a joint whose zero is outside starts
+                        # (rad or m; at most this fraction of the range)
+
+
+def start_in_range(tree):
+    """({state: value}, [moved]): the zero pose projected into each joint's range, for the
+    default start.
+
+    Why: a URDF's zero pose need not be a pose the robot can take -- Go2's knees are 0.84 rad
+    outside their ranges at q = 0, and a run started there throws 14.8 kJ into the limit
+    springs at t = 0 (issue 29).  A joint whose range excludes 0 starts START_INSIDE inside
+    its nearest bound (not on it: the limit law's onset is a kink a Jacobian test would see);
+    the others stay at 0.  ``moved``: one dict per joint moved (joint, state, value, lower,
+    upper), for the note that names them.  Only the default start: a caller's initial_state
+    or x0 is never changed (merged_initial_state; it gets the runtime's outside-the-range
+    warning instead)."""
+    import math
+
+    from .tree import identifier
+    inside, moved = {}, []
+    for j in tree.joints:
+        if j.limit is None or j.type not in ("revolute", "prismatic"):
+            continue
+        lo, hi = (float(v) for v in j.limit)
+        lo = lo if math.isfinite(lo) else -math.inf
+        hi = hi if math.isfinite(hi) else math.inf
+        if lo > hi or lo <= 0.0 <= hi:
+            continue
+        margin = min(START_INSIDE, START_INSIDE * (hi - lo))
+        value = lo + margin if lo > 0.0 else hi - margin
+        state = f"q_{identifier(j.name)}"
+        inside[state] = value
+        moved.append(dict(joint=j.name, state=state, value=value, lower=lo, upper=hi))
+    return inside, moved
 
 
 def _com_symbol(name, value, parameters):
@@ -213,6 +252,10 @@ def urdf_formed(read, formulation, overrides, formed_system):
         values = merged_initial_state(merged_defaults(overrides, read, read.defaults, read.joint_inputs), read)
         if read.ground_check is not None:      # into the built model's metadata (runtime/ground_check.py)
             values = {**values, "ground_check": read.ground_check}
+        start = values.get("initial_state") or {}
+        moved = [m for m in read.start_in_range if start.get(m["state"]) == m["value"]]   # not the caller's
+        if moved:                              # the joints the default start moved (the CLI's note)
+            values = {**values, "start_in_range": moved}
         return read, values, None
     if read.outputs or read.events:
         from eomc.runtime.errors import ModelError

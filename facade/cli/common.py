@@ -311,7 +311,25 @@ def initial_state(model, overrides):
     if base is not None:
         x0.update(zip(model.state_names, (float(v) for v in base)))
     x0.update(overrides)
+    _start_note(model, overrides)
     return _onto_ground(model, x0, overrides)
+
+
+def _start_note(model, overrides):
+    """One line on stderr naming the joints whose zero is outside their range and which the
+    model's default start put inside (eomc.compiler.urdf.model.start_in_range), unless --x0
+    gives them."""
+    import sys
+    moved = [m for m in (getattr(model, "metadata", None) or {}).get("start_in_range") or ()
+             if m["state"] not in overrides]
+    if not moved:
+        return
+    what = "; ".join(f"{m['joint']} ({m['state']} = {m['value']:.6g}, range [{m['lower']:.6g}, "
+                     f"{m['upper']:.6g}])" for m in moved)
+    many = len(moved) > 1
+    print(f"eomc: note: {model.name}: the zero pose is outside the range of joint{'s' if many else ''} "
+          f"{what}: the default start puts {'them' if many else 'it'} just inside the nearest limit "
+          f"(give --x0 to choose)", file=sys.stderr)
 
 
 GROUND_CLEARANCE = 1e-3     # m between the lowest contact and the ground at a lifted start

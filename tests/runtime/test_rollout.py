@@ -83,6 +83,29 @@ def test_control_sequences_per_row_equal_simulate_bit_for_bit(method):
         rollout(get_model("pendulum"), X0, method=method, r=np.zeros(1), **kw)
 
 
+def test_input_tables_are_checked_alike_by_simulate_and_rollout():
+    """One validator (simulate.input_grid) for both entry points: the same table is refused with
+    the same message, and the shapes simulate takes ((k,) for one input) rollout takes too."""
+    m = get_model("oscillator")
+    X0 = np.array([[0.5, 0.0], [-0.5, 0.0]])
+    bad = [((np.array([0.0, 0.5, 0.5, 1.0]), np.zeros(4)), r"t_grid must be strictly increasing; t_grid\[2\]"),
+           ((np.array([0.0, 1.0]), np.array([0.0, np.nan])), r"non-finite values: values\[1, 0\]"),
+           ((np.array([[0.0, 1.0]]), np.zeros(2)), r"t_grid must be 1-d with at least 2 times"),
+           ((np.linspace(0, 1, 5), np.zeros((4, 1))), r"values must have shape \(5, 1\)")]
+    for r, match in bad:
+        with pytest.raises(ValueError, match=match) as from_simulate:
+            simulate(m, X0[0], (0.0, 1.0), method="rk4", dt=0.01, r=r)
+        with pytest.raises(ValueError, match=match) as from_rollout:
+            rollout(m, X0, dt=0.01, steps=100, r=r)
+        if "shape" not in match:     # rollout's shape message also offers (rows, k, ninput)
+            assert str(from_simulate.value) == str(from_rollout.value)
+    t_grid, u = np.array([0.0, 0.4, 1.0]), np.array([1.0, -2.0, 0.5])
+    flat = rollout(m, X0, dt=0.01, steps=100, r=(t_grid, u))
+    np.testing.assert_array_equal(flat.x, rollout(m, X0, dt=0.01, steps=100, r=(t_grid, u[:, None])).x)
+    np.testing.assert_array_equal(flat.x[0], simulate(m, X0[0], (0.0, 1.0), method="rk4", dt=0.01,
+                                                      r=(t_grid, u)).x_final)
+
+
 @pytest.mark.parametrize("threads", [1, 2])
 def test_rk4_every_step_recorded_equals_simulate(threads):
     m = get_model("pendulum")

@@ -15,7 +15,8 @@ import eomc.cli.common as cli_common
 from eomc.cli import main
 from eomc.errors import SimulationError
 from eomc.runtime.simulate import simulate
-from eomc.runtime.stability import check_model, format_checks
+from eomc.runtime import stability
+from eomc.runtime.stability import EXIT_INCONCLUSIVE, check_model, format_checks, outcome
 
 
 def by_name(checks):
@@ -127,12 +128,17 @@ def test_eomc_check_cli(monkeypatch, capsys):
     assert "FAIL" in capsys.readouterr().out
 
 
-def test_chaotic_motion_is_judged_by_convergence(tmp_path):
-    """The double pendulum amplifies local errors past 1000x the tolerance within 5 s; the
-    accuracy check then asks for convergence instead, and says so."""
+@pytest.fixture(scope="module")
+def double_pendulum(tmp_path_factory):
     import eomc
     example = Path(__file__).resolve().parents[2] / "examples" / "double_pendulum.py"
-    model = eomc.compile(str(example), cache_dir=tmp_path, progress=False)
+    return eomc.compile(str(example), cache_dir=tmp_path_factory.mktemp("dp"), progress=False)
+
+
+def test_chaotic_motion_is_judged_by_convergence(double_pendulum):
+    """The double pendulum amplifies local errors past 1000x the tolerance within 5 s; the
+    accuracy check then asks for convergence instead, and says so."""
+    model = double_pendulum
     checks = {c.name: c for c in check_model(model, t_final=5.0, methods=("dopri5",))}
     acc = checks["dopri5 accuracy"]
     amplified = float(acc.measured.split(" x tolerance")[0])
@@ -157,3 +163,63 @@ def test_check_runs_both_implicit_methods_and_fails_a_method_that_stopped_or_mis
     assert not missed["dopri5 accuracy"].passed
     assert "missed by orders of magnitude" in missed["dopri5 accuracy"].measured
     assert "FAIL" in format_checks(list(missed.values()))
+
+
+def test_a_reference_that_cannot_be_computed_makes_the_check_inconclusive(monkeypatch, capsys):
+    """Issue 29: a check whose reference stops (too stiff or too long at its tolerance: Go2
+    resting on 124 contact points stopped the old 1e-12 reference at 2e6 steps) is neither
+    passed nor failed: it says why and what to change, and `eomc check` exits 3 -- not 1,
+    which says a method is wrong."""
+    m = get_model("pendulum")
+    checks = by_name(check_model(m, [1.0, 0.0], 5.0, methods=("dopri5",), max_steps=2))
+    ref = checks["reference"]
+    assert ref.inconclusive and not ref.passed
+    assert "maximum number of steps" in ref.measured
+    assert "--t-final" in ref.measured and "--rtol" in ref.measured and "--max-steps" in ref.measured
+    assert "dopri5 accuracy" not in checks          # nothing is judged against no reference
+    assert outcome(list(checks.values())) == "inconclusive"
+    monkeypatch.setattr(cli_common, "load_model", lambda spec, quiet=True: m)
+    assert main(["check", "pend", "--x0", "q1=1.0", "--t-final", "5", "--max-steps", "2"]) == EXIT_INCONCLUSIVE == 3
+    out = capsys.readouterr().out
+    assert "[INCONCLUSIVE] reference" in out and "exit status 3" in out and "FAIL" not in out
+    # a method that stops is still a failure (exit 1), reference or not
+    assert main(["check", "pend", "--x0", "q1=1.0", "--t-final", "5", "--max-steps", "30",
+                 "--methods", "dopri5"]) == 1
+
+
+CHAOTIC = [2.5, 2.5, 0.0, 0.0]      # the double pendulum from here: chaotic
+
+
+def test_conditioning_is_told_apart_from_a_wrong_method(double_pendulum, monkeypatch):
+    """Issue 29 item 2: from (2.5, 2.5) rad the double pendulum is chaotic; the two references
+    (DOP853 at rtol 1e-10 and 1e-11) agree to < 100 x tolerance until t ~ 3.7 s and then
+    differ by ~6e6 x.  DOP853 at 1e-8 is judged where they agree (and passes); its ~8e7 x
+    later is reported as the problem's conditioning, not failed.  A method that is wrong by
+    1e-4 from t = 1 s on still fails; and references that part before a method can be judged
+    leave the check inconclusive, naming the span that can be checked."""
+    checks = by_name(check_model(double_pendulum, CHAOTIC, 10.0, methods=("dop853",)))
+    ref, acc = checks["reference"], checks["dop853 accuracy"]
+    assert ref.passed and "the problem's conditioning" in ref.measured
+    horizon = float(ref.measured.split("until t=")[1].split(",")[0])
+    assert 2.0 < horizon < 6.0
+    assert acc.passed and "conditioning, not the method" in acc.measured
+    late = float(acc.measured.split(f"after t={horizon:.4g} ")[1].split(" x")[0])
+    assert late > stability.MISSED_FACTOR               # judged over [0, 10] it would have failed
+    # a wrong method: its result off by 1e-4 in q1 from t = 1 s (inside the agreeing window)
+    real = stability.simulate
+
+    def wrong(model, x0, t_span, **kw):
+        res = real(model, x0, t_span, **kw)
+        if kw.get("method") == "dop853" and kw.get("rtol") == 1e-8:
+            res.x[res.t >= 1.0, 0] += 1e-4
+        return res
+    monkeypatch.setattr(stability, "simulate", wrong)
+    bad = by_name(check_model(double_pendulum, CHAOTIC, 10.0, methods=("dop853",)))["dop853 accuracy"]
+    assert not bad.passed and not bad.inconclusive and "missed by orders of magnitude" in bad.measured
+    assert outcome([bad]) == "failed"
+    monkeypatch.undo()
+    # 400 s: the references part at ~6 s, 3 output times in: nothing can be judged
+    early = check_model(double_pendulum, CHAOTIC, 400.0, methods=("dop853",))
+    assert outcome(early) == "inconclusive"
+    unsure = [c for c in early if c.inconclusive][0]
+    assert "--t-final" in unsure.measured and "dop853 accuracy" not in by_name(early)

@@ -4,7 +4,10 @@ tail, the per-lane Kane solve and the failing-state paths read and write only in
 caller's arrays, with no undefined behaviour, at 4 and 8 lanes -- on a recursive-form robot
 (UR5, split into parts) and a Kane-form cart with inputs.  The driver allocates every array
 at its exact size, so one element past a column's end is caught; it also checks each
-state's result and status against the scalar rhs, so a clean run is a correct run."""
+state's result and status against the scalar rhs, so a clean run is a correct run.  The same
+driver runs NAME_jac_x_batch (its tangent loop over vectors, nx*nx outputs per state) against
+the scalar jac_x on UR5 with its joint limits (the lanes' Heaviside helper) and on a 6-link cart
+(the analytic kernel retyped into lanes)."""
 import os
 import shutil
 import subprocess
@@ -21,6 +24,7 @@ from helpers.robots import robot_path
 pytestmark = pytest.mark.skipif(shutil.which("gcc") is None, reason="needs gcc")
 
 CART = Path(__file__).resolve().parents[3] / "examples" / "cart_pole_system.py"
+CHAIN = Path(__file__).resolve().parents[3] / "benchmarks" / "tree_models" / "cart_rel_joints.py"
 
 DRIVER = r"""
 #include <math.h>
@@ -38,14 +42,14 @@ static double uniform(void)      /* in [-2, 2), the same on every machine */
 int main(void)
 {
     const eomc_model *m = NAME_model();
-    const int n = NSTATES, nx = m->nx, nr = m->ninput;
+    const int n = NSTATES, nx = m->nx, nr = m->ninput, no = NOUT;
     const int bad_block = 1, bad_tail = NSTATES - 2;   /* in a group of lanes; in the tail */
     double *X = (double *)malloc((size_t)nx * n * sizeof(double));
-    double *XDOT = (double *)malloc((size_t)nx * n * sizeof(double));
+    double *XDOT = (double *)malloc((size_t)no * n * sizeof(double));
     double *R = nr ? (double *)malloc((size_t)nr * n * sizeof(double)) : NULL;
     double *work = (double *)malloc((m->work_size ? m->work_size : 1) * sizeof(double));
     double *xs = (double *)malloc((size_t)nx * sizeof(double));
-    double *xd = (double *)malloc((size_t)nx * sizeof(double));
+    double *xd = (double *)malloc((size_t)no * sizeof(double));
     double *rs = (double *)malloc((size_t)(nr ? nr : 1) * sizeof(double));
     int *status = (int *)malloc((size_t)n * sizeof(int));
     int i, k, pass, wrong = 0, failed = 0;
@@ -55,17 +59,17 @@ int main(void)
     X[(size_t)1 * n + bad_tail] = INFINITY;    /* q1: both models depend on it */
     for (pass = 0; pass < 2; pass++) {           /* inputs per state, then R = NULL */
         const double *Rp = pass == 0 ? R : NULL;
-        int worst = NAME_rhs_batch(n, 0.3, X, m->param_defaults, Rp, XDOT, status, work);
+        int worst = NAME_FN_batch(n, 0.3, X, m->param_defaults, Rp, XDOT, status, work);
         if (worst == EOMC_OK) wrong++;           /* two states are bad: the call says so */
         for (k = 0; k < n; k++) {
             int s;
             for (i = 0; i < nx; i++) xs[i] = X[(size_t)i * n + k];
             for (i = 0; i < nr; i++) rs[i] = Rp ? Rp[(size_t)i * n + k] : 0.0;
-            s = NAME_rhs(0.3, xs, m->param_defaults, rs, xd, work);
+            s = NAME_FN(0.3, xs, m->param_defaults, rs, xd, work);
             if (s != EOMC_OK) failed++;
             if ((s == EOMC_OK) != (status[k] == EOMC_OK)) wrong++;
             if (s != EOMC_OK) continue;
-            for (i = 0; i < nx; i++) {
+            for (i = 0; i < no; i++) {
                 double got = XDOT[(size_t)i * n + k], d = fabs(got - xd[i]);
                 if (!(d <= 1e-11 * (1.0 + fabs(xd[i])))) wrong++;
             }
@@ -79,6 +83,17 @@ int main(void)
 
 
 def _gm(kind, cache):
+    if kind == "chain_jac_x":      # 6 links: jac_x through the analytic kernel, retyped into lanes
+        os.environ["EOMC_N_LINKS"] = "6"
+        try:
+            return generate(str(CHAIN), "sanchain", functions=("rhs", "jac_x", "jac_x_batch"), formulation="recursive",
+                            cache_dir=cache, progress=False)[1]
+        finally:
+            del os.environ["EOMC_N_LINKS"]
+    if kind == "ur5_jac_x":
+        from eomc.compiler.urdf.model import UrdfModel
+        return generate(UrdfModel(robot_path("ur5")), "sanjur5", functions=("rhs", "jac_x", "jac_x_batch"),
+                        cache_dir=cache, progress=False)[1]
     if kind == "ur5":
         from eomc.compiler.urdf.model import UrdfModel
         return generate(UrdfModel(robot_path("ur5"), limits=False), "sanur5", functions=("rhs", "rhs_batch"),
@@ -93,18 +108,23 @@ def cache(tmp_path_factory):
 
 
 @pytest.mark.parametrize("lanes", [4, 8])
-@pytest.mark.parametrize("kind", ["ur5", "kane_cart"])
+@pytest.mark.parametrize("kind", ["ur5", "kane_cart", "ur5_jac_x", "chain_jac_x"])
 def test_rhs_batch_sanitizer_clean(cache, tmp_path, kind, lanes):
     if lanes > machine_lanes():
         pytest.skip(f"this machine has {machine_lanes()} double lanes: the lanes would not run")
+    if kind.endswith("_jac_x") and lanes != machine_lanes():
+        pytest.skip("jac_x_batch: the machine's own lane width only (CI time)")
     gm = _gm(kind, cache)
-    assert gm.metadata["rhs_batch"]["vectorized"], gm.metadata["rhs_batch"]
+    fn = "jac_x" if kind.endswith("_jac_x") else "rhs"
+    assert gm.metadata[f"{fn}_batch"]["vectorized"], gm.metadata[f"{fn}_batch"]
     if kind == "kane_cart":
         assert gm.metadata["formulation"] == "kane" and gm.metadata["ninput"] > 0
     src = es.write_sources(gm, str(tmp_path))
     nstates = 3 * lanes + 3                       # three groups of lanes and a 3-state tail
     main = tmp_path / "main.c"
-    main.write_text(DRIVER.replace("NAME", gm.name).replace("NSTATES", str(nstates)))
+    nout = gm.metadata["nx"] ** 2 if fn == "jac_x" else gm.metadata["nx"]
+    main.write_text(DRIVER.replace("NAME", gm.name).replace("NSTATES", str(nstates)).replace("FN", fn)
+                    .replace("NOUT", str(nout)))
     exe = tmp_path / "driver"
     cmd = ["gcc", *es.STRICT, "-O1", "-g", "-fsanitize=address,undefined", "-fno-sanitize-recover=all",
            "-fno-omit-frame-pointer", f"-DEOMC_BATCH_LANES={lanes}", src, str(main), "-I", str(tmp_path),

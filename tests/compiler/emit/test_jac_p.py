@@ -178,3 +178,48 @@ def test_jvp_is_jacobian_times_direction(cache, n):
     assert _scaled(out, ref) < 1e-12
     _, only_x = model.jvp(0.0, x, D[:, :model.nx], r=r)      # state directions alone
     assert _scaled(only_x, D[:, :model.nx] @ model.jacobian(0.0, x, r=r).T) < 1e-12
+    _check_sensitivity_directions(model, x, r, rng)
+    if n == 6:     # the looped tangent (Gtx) through whole runs: S against central differences
+        _check_whole_run_sensitivities(model, r)
+
+
+def _check_whole_run_sensitivities(model, r):
+    x0 = np.zeros(model.nx)
+    x0[1:model.nq] = 0.3
+    names = [model.state_names[2], model.param_names[0], model.param_names[-1]]
+    kw = dict(r=r, method="dop853", t_eval=[0.25, 0.5])
+    res = model.simulate(x0, (0, 0.5), rtol=1e-10, atol=1e-10, sensitivities=names, **kw)
+    S = np.concatenate([res.dx_dx0, res.dx_dp], axis=2)
+    p0 = np.asarray(model.param_defaults, dtype=float)
+    for k, name in enumerate(names):
+        if name in model.state_names:
+            j, h = model.state_names.index(name), 1e-6
+            runs = [model.simulate(x0 + s * h * np.eye(model.nx)[j], (0, 0.5), rtol=1e-12, atol=1e-12, **kw).x
+                    for s in (1, -1)]
+        else:
+            j = model.param_names.index(name)
+            h = 1e-6 * max(1.0, abs(p0[j]))
+            runs = [model.simulate(x0, (0, 0.5), p=p0 + s * h * np.eye(model.nparam)[j], rtol=1e-12,
+                                   atol=1e-12, **kw).x for s in (1, -1)]
+        fd = (runs[0] - runs[1]) / (2 * h)
+        assert np.max(np.abs(S[:, :, k] - fd)) < 1e-6 * np.max(np.abs(fd)), name
+
+
+def _check_sensitivity_directions(model, x, r, rng):
+    """The directions forward sensitivities pass, [S_j; e_j] (one nonzero parameter entry,
+    computed column by column in the C), every parameter, and a two-entry one: against
+    jac_x·S + jac_p and central differences of rhs along the direction."""
+    nx, npar = model.nx, model.nparam
+    p0 = np.asarray(model.param_defaults, dtype=float)
+    D = np.zeros((npar + 1, nx + npar))
+    D[:, :nx] = rng.normal(size=(npar + 1, nx))
+    D[np.arange(npar), nx + np.arange(npar)] = rng.uniform(0.5, 2.0, npar)
+    D[npar, nx + npar - 1] = D[npar, nx] = 0.7
+    _, out = model.jvp(0.0, x, D, r=r)
+    ref = D[:, :nx] @ model.jacobian(0.0, x, r=r).T + D[:, nx:] @ model.jac_p(0.0, x, r=r).T
+    assert _scaled(out, ref) < 1e-12
+    h = 1e-6
+    for d, row in zip(D[[0, npar - 1, npar]], out[[0, npar - 1, npar]]):
+        fd = (model.rhs(0.0, x + h * d[:nx], p=p0 + h * d[nx:], r=r)
+              - model.rhs(0.0, x - h * d[:nx], p=p0 - h * d[nx:], r=r)) / (2 * h)
+        assert _scaled(row, fd) < 1e-7

@@ -150,3 +150,32 @@ def test_torsional_and_rolling_friction_are_named(tmp_path):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         ground_geoms(m)
+
+
+def test_pairs_that_can_never_touch_are_not_emitted():
+    """dm_control's finger: the hinge-axis cylinders of the finger and the spinner sit 0.4 m apart and
+    the finger's first link cannot reach the spinner: those pairs are left out (their reach balls never
+    meet); the fingertip's pairs stay.  Sound: at 200 random joint angles every left-out pair is apart
+    in MuJoCo."""
+    dm_control = pytest.importorskip("dm_control")
+    from pathlib import Path
+    from eomc.compiler.mjcf.collision import _reach, body_pairs
+    path = Path(dm_control.__file__).parent / "suite" / "finger.xml"
+    m = mujoco.MjModel.from_xml_path(str(path))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        found, _ = body_pairs(m)
+    names = {p.name for p in found}
+    assert names == {"fingertip__cap1", "fingertip__cap2", "fingertip__spinner_decoration"}
+    reach = _reach(m)
+    ids = {mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g): g for g in range(m.ngeom)}
+    left = [("proximal_decoration", "spinner_decoration"), ("proximal_decoration", "cap1"), ("proximal", "cap2"),
+            ("proximal", "spinner_decoration")]
+    assert all(ids[a] in reach and ids[b] in reach for a, b in left)
+    d = mujoco.MjData(m)
+    rng = np.random.default_rng(1)
+    for _ in range(200):
+        d.qpos[:] = rng.uniform(-np.pi, np.pi, m.nq)
+        mujoco.mj_kinematics(m, d)
+        for a, b in left:
+            assert mujoco.mj_geomDistance(m, d, ids[a], ids[b], 10.0, None) > 0

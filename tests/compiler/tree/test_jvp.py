@@ -30,6 +30,23 @@ def test_jvp_matches_jacobians(model):
         ref = D[:, :model.nx] @ model.jacobian(0.0, x, p=p, r=r).T + D[:, model.nx:] @ model.jac_p(0.0, x, p=p, r=r).T
         assert np.max(np.abs(xdot - model.rhs(0.0, x, p=p, r=r))) < 1e-14 * max(1.0, np.max(np.abs(xdot)))
         assert np.max(np.abs(out - ref)) < 1e-12 * max(1.0, np.max(np.abs(ref)))
+    # the directions forward sensitivities pass: [S_j; e_j], one parameter entry each
+    # (the C computes only that parameter's column), and one with two entries
+    x, r = rng.uniform(-1, 1, model.nx), rng.uniform(-1, 1, model.ninput)
+    p0 = np.asarray(model.param_defaults, dtype=float)
+    nx, npar = model.nx, model.nparam
+    D = np.zeros((npar + 1, nx + npar))
+    D[:, :nx] = rng.normal(size=(npar + 1, nx))
+    D[np.arange(npar), nx + np.arange(npar)] = rng.uniform(0.5, 2.0, npar)
+    D[npar, nx] = D[npar, nx + npar - 1] = 0.7
+    _, out = model.jvp(0.0, x, D, r=r)
+    ref = D[:, :nx] @ model.jacobian(0.0, x, r=r).T + D[:, nx:] @ model.jac_p(0.0, x, r=r).T
+    assert np.max(np.abs(out - ref)) < 1e-12 * max(1.0, np.max(np.abs(ref)))
+    h = 1e-6
+    for d, row in zip(D, out):
+        fd = (model.rhs(0.0, x + h * d[:nx], p=p0 + h * d[nx:], r=r)
+              - model.rhs(0.0, x - h * d[:nx], p=p0 - h * d[nx:], r=r)) / (2 * h)
+        assert np.max(np.abs(row - fd)) < 1e-7 * max(1.0, np.max(np.abs(fd)))
 
 
 def test_tree_sensitivities_through_jvp_and_jacobian_agree(model):

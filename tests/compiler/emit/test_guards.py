@@ -1,0 +1,105 @@
+"""The rhs's broad phase (compiler/emit/guards.py, bounds from compiler/tree/contacts.body_guards):
+a body's contact block runs only when its bounding sphere can reach the ground, and the rhs is
+the straight-line rhs wherever that holds or not.
+
+Why (issues 29, 33): the default ground of a URDF robot has 108-232 contact points and the
+straight-line code evaluated every one at every call (rhs 2.5-2.8x the feet-only rhs)."""
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+import sympy as sm
+
+import eomc
+import eomc.compiler.formulations.recursive as recursive
+from eomc.compiler.emit.guards import guarded_temps
+from eomc.compiler.emit.printer import CPrinter
+from eomc.compiler.ir import Program
+from eomc.compiler.urdf.model import UrdfModel
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "urdf"))
+from test_default_ground import FOOT, ONE_LEG  # noqa: E402
+
+
+def _program():
+    x = sm.symbols("x0:3", real=True)
+    t = sm.symbols("_t0:7", real=True)
+    assignments = [(t[0], sm.cos(x[0])),            # shared: read by the block and by the result
+                   (t[5], x[2] + 1),                # a clearance's input
+                   (t[1], x[1] * t[0]),             # the block's own
+                   (t[2], sm.sqrt(t[1] ** 2 + 1)),   # the block's own
+                   (t[3], t[2] * t[1]),             # export
+                   (t[4], t[3] + t[0]),             # outside reader of the export
+                   (t[6], t[5] * 2)]                # read by nothing but the result
+    program = Program(inputs=x, assignments=tuple(assignments), results=((("ud", 0), t[4] + t[6]),))
+    names = {s: f"x[{i}]" for i, s in enumerate(x)}
+    names.update({s: f"t{i}" for i, s in enumerate(t)})
+    return program, t, CPrinter(names)
+
+
+def test_a_block_holds_only_what_its_exports_need_and_zeroes_them_when_skipped():
+    program, t, pr = _program()
+    lines, pr2 = guarded_temps(program, pr, [(t[5] - 3, (t[3],), ())])
+    text = "\n".join(lines)
+    assert lines[0].strip() == "double G_[1];"
+    start, other = text.index("if (!(-3.0 + t5 > 0.0)) {"), text.index("} else {")
+    block = text[start:other]
+    assert "t1 = " in block and "t2 = " in block and "G_[0] = " in block
+    assert "t0 = " not in block                 # also read outside: computed before the block
+    assert text.index("const double t0") < start and text.index("const double t5") < start
+    assert "G_[0] = 0.0;" in text[other:]
+    assert text.index("const double t4 = t0 + G_[0];") > other
+    assert pr2.doprint(t[3]) == "G_[0]"
+
+
+def test_a_guard_the_program_cannot_honour_is_printed_straight():
+    program, t, pr = _program()
+    gone = sm.Symbol("_t99", real=True)        # a clearance reading a dropped temporary
+    lines, _ = guarded_temps(program, pr, [(gone - 1, (t[3],), ())])
+    assert not any("if (" in line for line in lines)
+    lines, _ = guarded_temps(program, pr, [(t[6], (t[3],), ())])    # its clearance comes after the export's reader
+    assert not any("if (" in line for line in lines)
+
+
+def _build(tmp_path, tag):
+    path = tmp_path / "oneleg.urdf"
+    path.write_text(ONE_LEG)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return eomc.compile(UrdfModel(path, floating_base=True, contacts=(FOOT,)), functions=("rhs", "outputs"),
+                            cache_dir=tmp_path / tag, progress=False, name="oneleg")
+
+
+def _rhs_text(cache):
+    source = next(cache.rglob("oneleg.c")).read_text()
+    start = source.index("int oneleg_rhs(")
+    return source[start:source.index("\n}\n", start)]
+
+
+def test_the_guarded_rhs_is_the_straight_line_rhs_near_and_far_from_the_ground(tmp_path, monkeypatch):
+    guarded = _build(tmp_path, "guarded")
+    # one block per body (the trunk's 8 corners; the leg's foot and far end), one per point inside
+    points = sum(n.startswith("depth_") for n in guarded.output_names)
+    assert points == 13
+    assert _rhs_text(tmp_path / "guarded").count("} else {") == 2 + points
+    plain_rhs = recursive.tree_rhs_body
+    monkeypatch.setattr(recursive, "tree_rhs_body", lambda ctx, prog, guards=(): plain_rhs(ctx, prog))
+    straight = _build(tmp_path, "straight")
+    assert "} else {" not in _rhs_text(tmp_path / "straight")
+    rng = np.random.default_rng(33)
+    z = guarded.state_names.index("q_trunk_floating_z")
+    X = rng.normal(scale=1.0, size=(2000, guarded.nx))
+    X[:, z] = rng.uniform(-0.1, 0.8, size=len(X))
+    # and a sweep of the height through the bound: the trunk's sphere (|corner| = 0.229 m)
+    # and the leg's reach the plane at every height in between, on both sides of each bound
+    sweep = np.repeat(X[:4], 1500, axis=0)
+    sweep[:, z] = np.tile(np.linspace(-0.05, 0.75, 1500), 4)
+    for states in (X, sweep):
+        a, b = guarded.rhs_many(0.0, states), straight.rhs_many(0.0, states)
+        assert np.all(np.isfinite(b))
+        assert np.max(np.abs(a - b) / np.maximum(1.0, np.abs(b))) <= 1e-12
+    # the sweep did cross: airborne, the rhs does not depend on the height; on the ground it does
+    first = straight.rhs_many(0.0, sweep[:1500])
+    assert np.array_equal(first[-1], first[-2])
+    assert np.max(np.abs(first[0] - first[-1])) > 1.0

@@ -1,0 +1,134 @@
+"""NAME_jac_x_batch (compiler/emit/batch.py, fn="jac_x"): jac_x over many states in SIMD lanes,
+its tangent loop kept as a loop over vectors, agrees with the scalar jac_x -- bit for bit when
+sin/cos go through libm (-DEOMC_BATCH_LIBM_TRIG), within the vector sin/cos's ulp bound
+otherwise -- on a recursive-form robot (UR5, split into parts) and the recursive cart with
+inputs per state, with a tail that is not a whole group of lanes; failures are reported per
+state; asking for it leaves the scalar functions' C, and rhs_batch's, byte for byte as they were.
+
+Oracle: the scalar jac_x of the same library (the same generated expressions)."""
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from eomc.compiler.build.builder import machine_lanes
+from eomc.compiler.driver import compile as compile_model, generate
+from eomc.runtime.errors import SimulationError
+
+from helpers.robots import robot_path
+
+STRICT = "-O2 -std=c99 -fPIC -Wall -Wextra -Werror"
+FUNCTIONS = ("rhs", "jac_x", "jac_x_batch")
+CART = Path(__file__).resolve().parents[3] / "examples" / "cart_pole_system.py"
+CHAIN = Path(__file__).resolve().parents[3] / "benchmarks" / "tree_models" / "cart_rel_joints.py"
+
+
+@pytest.fixture(scope="module")
+def cache(tmp_path_factory):
+    return tmp_path_factory.mktemp("jac_batch_cache")
+
+
+def _ur5(cache, cflags, limits=False):
+    from eomc.compiler.urdf.model import UrdfModel
+    return compile_model(UrdfModel(robot_path("ur5"), limits=limits), "jbur5", functions=FUNCTIONS,
+                         cache_dir=cache, cflags=cflags, progress=False)
+
+
+def _states(model, n, seed):
+    return np.random.default_rng(seed).uniform(-2.0, 2.0, (n, model.nx))
+
+
+def _scalar(model, X, R=None):
+    return np.array([model.jacobian(0.3, x, r=None if R is None else R[k]) for k, x in enumerate(X)])
+
+
+@pytest.mark.parametrize("lanes", [4, 8])
+def test_robot_bit_for_bit_with_libm_trig(cache, lanes):
+    if lanes > machine_lanes():
+        pytest.skip(f"this machine has {machine_lanes()} double lanes")
+    model = _ur5(cache, f"{STRICT} -DEOMC_BATCH_LIBM_TRIG -DEOMC_BATCH_LANES={lanes}")
+    assert model.metadata["jac_x_batch"]["vectorized"], model.metadata["jac_x_batch"]
+    c = "".join(f.read_text() for f in Path(model.directory).glob("*.c"))
+    assert "jbur5_jac_x_lanes" in c and "const eomc_vd *G;" in c       # the tangent loop in lanes
+    X = _states(model, 3 * lanes + 3, 1)          # whole groups of lanes and a scalar tail
+    got = model.jac_x_batch(0.3, X)
+    assert got.shape == (X.shape[0], model.nx, model.nx)
+    assert np.array_equal(got, _scalar(model, X))
+
+
+def test_joint_limits_sign_and_step_in_lanes_bit_for_bit(cache):
+    """UR5 with its joint limits: jac_x holds SymPy's Heaviside of each limit's violation,
+    printed as a C comparison; in lanes it is a per-lane helper (a vector compare would give
+    -1/0 masks, not 1/0).  Bit for bit with libm trig, also at states past the limits."""
+    model = _ur5(cache, f"{STRICT} -DEOMC_BATCH_LIBM_TRIG", limits=True)
+    assert model.metadata["jac_x_batch"]["vectorized"], model.metadata["jac_x_batch"]
+    c = "".join(f.read_text() for f in Path(model.directory).glob("*.c"))
+    assert "jbur5_v_step(" in c
+    X = _states(model, 2 * machine_lanes() + 3, 8) * 4.0        # many states outside the limits
+    want = _scalar(model, X)
+    assert np.array_equal(model.jac_x_batch(0.3, X), want)
+    assert np.any(want[:, model.nq:, :model.nq] != _scalar(_ur5(cache, f"{STRICT} -DEOMC_BATCH_LIBM_TRIG"),
+                                                           X)[:, model.nq:, :model.nq])   # the limits act
+
+
+def test_robot_vector_trig_within_bound(cache):
+    model = _ur5(cache, STRICT)
+    X = _states(model, 4 * machine_lanes() + 1, 2)
+    got, want = model.jac_x_batch(0.3, X), _scalar(model, X)
+    # sin/cos within 1 ulp of libm's (test_batch.test_vector_trig_ulp), amplified by the
+    # Jacobian's conditioning: the measured worst on UR5 is ~1e-14 of each state's largest entry
+    scale = np.abs(want).max(axis=(1, 2))
+    assert (np.abs(got - want).max(axis=(1, 2)) / scale).max() < 1e-12
+    assert np.mean(got == want) > 0.5                  # most entries are the same bits
+
+
+def test_cart_with_inputs_per_state_and_failures(cache):
+    model = compile_model(str(CART), "jbcart", functions=FUNCTIONS, formulation="recursive", cache_dir=cache,
+                          cflags=f"{STRICT} -DEOMC_BATCH_LIBM_TRIG", progress=False)
+    assert model.metadata["jac_x_batch"]["vectorized"], model.metadata["jac_x_batch"]
+    X = _states(model, 2 * machine_lanes() + 5, 3)
+    R = np.random.default_rng(4).uniform(-1, 1, (X.shape[0], model.ninput))
+    assert np.array_equal(model.jac_x_batch(0.3, X, r=R), _scalar(model, X, R))
+    for row in (1, X.shape[0] - 2):          # in a group of lanes, in the scalar tail
+        bad = X.copy()
+        bad[row, 1] = np.nan
+        with pytest.raises(SimulationError, match=rf"jac_x_batch: non-finite input \(row {row} of X\)"):
+            model.jac_x_batch(0.3, bad, r=R)
+    with pytest.raises(ValueError, match=rf"X must have shape \(n, {model.nx}\)"):
+        model.jac_x_batch(0.3, X[:, :3])
+    assert model.jac_x_batch(0.3, X[:0]).shape == (0, model.nx, model.nx)
+
+
+def test_analytic_kernel_in_lanes_bit_for_bit(cache, monkeypatch):
+    """A cart with 6 links: its jac_x calls the analytic kernel NAME_rnea_derivs (loops over
+    the tree's int tables, compiler/tree/analytic.py), retyped into lanes (every double a
+    vector, the same loops): bit for bit with libm trig, inputs per state, a scalar tail."""
+    monkeypatch.setenv("EOMC_N_LINKS", "6")
+    model = compile_model(str(CHAIN), "jbchain", functions=FUNCTIONS, formulation="recursive", cache_dir=cache,
+                          cflags=f"{STRICT} -DEOMC_BATCH_LIBM_TRIG", progress=False)
+    assert model.metadata["jac_x_batch"]["vectorized"], model.metadata["jac_x_batch"]
+    c = "".join(f.read_text() for f in Path(model.directory).glob("*.c"))
+    assert "jbchain_vrnea_derivs(an, u, ud, out," in c
+    X = _states(model, 2 * machine_lanes() + 3, 6)
+    R = np.random.default_rng(7).uniform(-1, 1, (X.shape[0], model.ninput))
+    assert np.array_equal(model.jac_x_batch(0.3, X, r=R), _scalar(model, X, R))
+
+
+def test_scalar_and_rhs_batch_c_unchanged_and_on_request_only():
+    def gen(functions):
+        return generate(str(CART), "jsc", functions=functions, formulation="recursive", use_cache=False,
+                        progress=False)[1]
+    plain, rhs_b, both, default = (gen(("rhs", "jac_x")), gen(("rhs", "jac_x", "rhs_batch")),
+                                   gen(("rhs", "jac_x", "rhs_batch", "jac_x_batch")), gen(None))
+    assert "jac_x_batch" not in default.metadata["functions"]
+    for fn in ("rhs", "jac_x"):
+        start = plain.c_source.index(f"int jsc_{fn}(")
+        assert plain.c_source[start:plain.c_source.index("\n}\n", start)] in both.c_source
+    # rhs_batch's code (prelude, helpers, lanes) is the same text with jac_x_batch beside it,
+    # which defines no helper twice and no second prelude
+    start = rhs_b.c_source.index("#if defined(__GNUC__) && !defined(EOMC_NO_SIMD)")
+    end = rhs_b.c_source.index("int jsc_rhs_batch(")
+    assert rhs_b.c_source[start:end] in both.c_source
+    assert both.c_source.count("typedef double eomc_vd") == 1
+    assert both.c_source.count("static EOMC_VTARGET EOMC_VINLINE void jsc_vkernel(") == 1
+    assert gen(("rhs", "jac_x", "rhs_batch", "jac_x_batch")).c_source == both.c_source   # byte-identical

@@ -1,0 +1,68 @@
+"""Issue 29: a URDF robot's default start is a pose it can take.  A joint whose range
+excludes 0 (Go2's knees: [-2.72, -0.84]) starts just inside its nearest limit, named in a
+note; joints whose range holds 0 stay at 0; a start the caller gives (x0, --x0) is kept as
+given (and warned about); with the limits off nothing moves."""
+import warnings
+
+import numpy as np
+import pytest
+
+import eomc
+import eomc.cli.common as cli_common
+from eomc.compiler.urdf.model import START_INSIDE
+from eomc.runtime.switching import PhysicsWarning
+
+ARM = """<?xml version="1.0"?>
+<robot name="bent">
+  <link name="base"/>
+  <link name="upper"><inertial><origin xyz="0.3 0 0"/><mass value="1.0"/>
+    <inertia ixx="0.001" iyy="0.002" izz="0.001" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <link name="lower"><inertial><origin xyz="0.3 0 0"/><mass value="1.0"/>
+    <inertia ixx="0.001" iyy="0.002" izz="0.001" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <joint name="shoulder" type="revolute">
+    <parent link="base"/><child link="upper"/><axis xyz="0 1 0"/>
+    <limit lower="-1" upper="1" effort="1" velocity="1"/>
+  </joint>
+  <joint name="knee" type="revolute">
+    <parent link="upper"/><child link="lower"/><origin xyz="0.6 0 0"/><axis xyz="0 1 0"/>
+    <limit lower="-2.5" upper="-0.8" effort="1" velocity="1"/>
+  </joint>
+</robot>
+"""
+
+
+@pytest.fixture(scope="module")
+def arm(tmp_path_factory):
+    d = tmp_path_factory.mktemp("bent")
+    (d / "bent.urdf").write_text(ARM)
+    return d
+
+
+def test_the_default_start_puts_a_joint_whose_range_excludes_zero_just_inside(arm, capsys):
+    model = eomc.compile(arm / "bent.urdf", "bent", cache_dir=arm / "cache", progress=False)
+    x0 = dict(zip(model.state_names, model.initial_state))
+    assert x0["q_shoulder"] == 0.0                          # its range holds 0: untouched
+    assert x0["q_knee"] == pytest.approx(-0.8 - START_INSIDE)   # inside, not on the limit's onset
+    assert [m["joint"] for m in model.metadata["start_in_range"]] == ["knee"]
+    with warnings.catch_warnings():                     # the default start: no outside-the-range warning
+        warnings.simplefilter("error", PhysicsWarning)
+        res = model.simulate(None, (0, 0.05))
+    assert res.x[0][model.state_names.index("q_knee")] == pytest.approx(-0.8 - START_INSIDE)
+    # the command line's default start names the joint it moved
+    start = cli_common.initial_state(model, {})
+    assert start["q_knee"] == pytest.approx(-0.8 - START_INSIDE)
+    err = capsys.readouterr().err
+    assert "zero pose is outside the range of joint knee (q_knee = -0.81, range [-2.5, -0.8])" in err
+    # a start the user gives is never changed; it gets the warning, and no note
+    assert cli_common.initial_state(model, {"q_knee": 0.0})["q_knee"] == 0.0
+    assert "zero pose" not in capsys.readouterr().err
+    with pytest.warns(PhysicsWarning, match=r"outside the range of joint knee \(q_knee = 0, 0\.8 above"):
+        model.simulate({"q_knee": 0.0}, (0, 0.01))
+
+
+def test_with_the_limits_off_the_zero_pose_is_the_start(arm):
+    from eomc.compiler.urdf.model import UrdfModel
+    free = eomc.compile(UrdfModel(arm / "bent.urdf", limits=False), "bent_free", cache_dir=arm / "cache",
+                        progress=False)
+    assert free.initial_state is None or not np.any(free.initial_state)
+    assert not free.metadata.get("start_in_range")
