@@ -247,6 +247,8 @@ def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions
     groups, helper_users = formulation.groups, formulation.helper_users
     base = tuple(f for f in fns if f not in ("poses", "rhs_batch", "jac_x_batch"))   # poses: appended below
     sym = formulation.symbolic(formed, layout, base, outputs, events)
+    if getattr(sym, "function_groups", None):   # this model's own choice (tree/lower.py: the loop kernel or not)
+        groups = sym.function_groups
     if nframe and "outputs" in fns:   # appended to the outputs, after the model's own
         sym = frames.lowered(sym, layout, formed.nq)
     pose_meta = None
@@ -344,6 +346,8 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
         from .poses import pose_metadata
         rendered.append({"prototype": f"int {name}_pose_count(void)",
                          "body": f"    return {low.poses['size']};", "parts": []})
+    if getattr(sym, "forcing_calls", "") in op_counts and "forcing" in op_counts:   # forcing is a call of it
+        op_counts["forcing"] = dict(op_counts[sym.forcing_calls])
     if "linearize" in op_counts:
         op_counts["linearize"] = {k: sum(op_counts[f][k] for f in ("jac_x", "jac_r") if f in op_counts)
                                   for k in ("adds", "muls", "divs", "calls")}

@@ -82,6 +82,9 @@ class Symbolic:
     regressor_bodies: tuple = ()     # column blocks of the regressor (recursive formulation)
     regressor_reference: tuple = ()  # per block: "link frame" or "mass centre"
     analytic: object = None          # recursive formulation: compiler/tree/analytic.AnalyticPlan
+    dynamics_kernel: tuple = ()      # recursive: the functions NAME_dyn computes (compiler/tree/dynamics_kernel.py)
+    forcing_calls: str = ""          # recursive: forcing is -inverse_dynamics at u' = 0, a call of it (tree/lower.py)
+    function_groups: object = None   # per function, its result groups where they differ from the formulation's
     energy: str = ""                 # what a generated ``energy`` output holds (NAME.json "energy"), or ""
     guards: tuple = ()               # rhs broad phase: (clearance, exports) (compiler/emit/guards.py)
 

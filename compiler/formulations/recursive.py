@@ -17,7 +17,7 @@ from ..tree.constrained import jacobian_symbols
 from ..tree.inverse_derivatives import jac_id_body, jac_id_ops
 from ..tree.emit import tree_jacobian_body, tree_jacobian_ops, tree_matrix_body, tree_rhs_body
 from ..tree.dynamics_kernel import (KERNEL_FUNCTIONS, dynamics_body, dynamics_inputs, dynamics_kernel_c,
-                                    dynamics_ops, has_dynamics_kernel)
+                                    dynamics_ops, forcing_by_inverse_dynamics, has_dynamics_kernel)
 from ..tree.jvp import tree_jvp_body
 from ..tree.lower import TREE_FUNCTION_GROUPS, TREE_HELPER_USERS, build_tree_symbolic
 from ..tree.regressor import PI_NAMES
@@ -56,8 +56,10 @@ class Recursive(Formulation):
     def body(self, fn, ctx, prog, sym, layout, nx):
         if fn == "rhs":
             return tree_rhs_body(ctx, prog, sym.guards)
-        if fn in KERNEL_FUNCTIONS and has_dynamics_kernel(prog, sym):
+        if fn in KERNEL_FUNCTIONS and has_dynamics_kernel(prog, sym, fn):
             return dynamics_body(ctx, prog, sym, fn)
+        if fn == "forcing" and sym.forcing_calls == "inverse_dynamics":
+            return forcing_by_inverse_dynamics(ctx)
         if fn in ("mass_matrix", "forcing", "inverse_dynamics"):
             return tree_matrix_body(ctx, prog, fn)
         if fn == "jac_id" and has_analytic(prog, sym):
@@ -83,7 +85,7 @@ class Recursive(Formulation):
     def ops(self, fn, prog, sym, nx, nr, npar, nq, nu, solve_in):
         if fn == "hess_id":      # the sweep once per row, its tangent once per row and column
             return hess_id_ops(prog, sym, nx, nu)
-        if fn in KERNEL_FUNCTIONS and prog is not None and has_dynamics_kernel(prog, sym):
+        if fn in KERNEL_FUNCTIONS and prog is not None and has_dynamics_kernel(prog, sym, fn):
             c = count_program(prog) + Counter(dynamics_ops(sym.analytic, fn))
             return {k: int(c.get(k, 0)) for k in ("adds", "muls", "divs", "calls")}
         if fn in _OWN_COUNTS and fn not in solve_in:
@@ -102,8 +104,8 @@ class Recursive(Formulation):
     def shared_code(self, fn, ctx, prog, sym, functions):
         """NAME_dyn_inputs: the loop kernel's inputs an[], once for mass_matrix, forcing and
         inverse_dynamics (:mod:`.dynamics_kernel`), before the first of them."""
-        first = next((f for f in functions if f in KERNEL_FUNCTIONS), None)
-        if fn != first or prog is None or not has_dynamics_kernel(prog, sym):
+        first = next((f for f in functions if f in getattr(sym, "dynamics_kernel", ())), None)
+        if fn != first or prog is None or not has_dynamics_kernel(prog, sym, fn):
             return None
         return dynamics_inputs(ctx, prog, sym)
 
@@ -115,7 +117,7 @@ class Recursive(Formulation):
         out = []
         if {"jac_x", "jac_id"} & set(functions):
             out.append(kernel_c(name, sym.analytic, nq, solve="jac_x" in functions))
-        if set(KERNEL_FUNCTIONS) & set(functions):
+        if set(sym.dynamics_kernel) & set(functions):
             out.append(dynamics_kernel_c(name, sym.analytic))
         return "\n\n".join(out)
 

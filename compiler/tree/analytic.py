@@ -45,7 +45,7 @@ from dataclasses import dataclass
 import sympy as sm
 
 __all__ = ["AnalyticPlan", "analytic_plan", "kernel_c", "ANX", "analytic_ops", "c_table", "world_axis_lines",
-           "WORLD_INERTIA_LINES"]
+           "WORLD_INERTIA_LINES", "world_load_lines", "tree_tables", "PLACE_FROM_PARENT_LINES", "YMUL_LINES", "DOT6_LINE"]
 
 ANX = "anx"      # the result group of the kernel's inputs
 
@@ -303,9 +303,42 @@ def solve_tables(lam):
     return bm, bi, bo, fm, fi, fo, max(pcount[0], 1), max(acount[0], 1)
 
 
+# C shared by the derivative kernel and NAME_dyn (:mod:`.dynamics_kernel`), written once:
+# inside a loop over bodies b with parent l >= 0, the body's world rotation Rb and origin pb
+# from its parent's and its placement E, r in the parent
+PLACE_FROM_PARENT_LINES = [
+    "            const double *Rl = R + 9 * l, *pl = P + 3 * l;",
+    "            for (i = 0; i < 3; i++) {",
+    "                for (j = 0; j < 3; j++)",
+    "                    Rb[3 * i + j] = Rl[3 * i] * E[3 * j] + Rl[3 * i + 1] * E[3 * j + 1] + Rl[3 * i + 2] * E[3 * j + 2];",
+    "                pb[i] = pl[i] + Rl[3 * i] * r[0] + Rl[3 * i + 1] * r[1] + Rl[3 * i + 2] * r[2];",
+    "            }",
+]
+
+# the body of out = Y x for a world inertia Y = {m, c = m p, I_O (xx yy zz xy xz yz)}
+YMUL_LINES = [
+    "    out[0] = y[4] * x[0] + y[7] * x[1] + y[8] * x[2] + y[2] * x[5] - y[3] * x[4];",
+    "    out[1] = y[7] * x[0] + y[5] * x[1] + y[9] * x[2] + y[3] * x[3] - y[1] * x[5];",
+    "    out[2] = y[8] * x[0] + y[9] * x[1] + y[6] * x[2] + y[1] * x[4] - y[2] * x[3];",
+    "    out[3] = y[0] * x[3] - y[2] * x[2] + y[3] * x[1];",
+    "    out[4] = y[0] * x[4] - y[3] * x[0] + y[1] * x[2];",
+    "    out[5] = y[0] * x[5] - y[1] * x[1] + y[2] * x[0];",
+]
+
+# the body of a 6-vector dot product a . b
+DOT6_LINE = "    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] + a[4] * b[4] + a[5] * b[5];"
+
+
 def c_table(name, vals):
     """C: a static table of ints (the kernels' tree arrays)."""
     return f"    static const int {name}[{len(vals)}] = {{{', '.join(str(v) for v in vals)}}};"
+
+
+def tree_tables(plan):
+    """C: the tree arrays both kernels walk: parent body, first dof and dof count of each body,
+    speed index of each dof."""
+    return [c_table("par", plan.par), c_table("d0", plan.first), c_table("nd", plan.count),
+            c_table("row", plan.row)]
 
 
 def world_axis_lines(o):
@@ -343,6 +376,28 @@ WORLD_INERTIA_LINES = [
     "        Yb[4] = IO[0]; Yb[5] = IO[4]; Yb[6] = IO[8];",
     "        Yb[7] = 0.5 * (IO[1] + IO[3]); Yb[8] = 0.5 * (IO[2] + IO[6]); Yb[9] = 0.5 * (IO[5] + IO[7]);",
 ]
+
+
+def world_load_lines(o, pad=""):
+    """C, inside a loop over bodies b: subtract the body's body-frame load (an[] block F, about
+    the body origin) from its world force fb, placed by Rb and pb (shared as above; ``pad``
+    indents it one block deeper where the caller nests it)."""
+    return [pad + x for x in (
+        "        {   /* the body-frame load about the body origin, into the world */",
+        f"            const double *fe = an + {o['F']} + 6 * b;",
+        "            double n[3], f[3];",
+        "            for (i = 0; i < 3; i++) {",
+        "                n[i] = Rb[3 * i] * fe[0] + Rb[3 * i + 1] * fe[1] + Rb[3 * i + 2] * fe[2];",
+        "                f[i] = Rb[3 * i] * fe[3] + Rb[3 * i + 1] * fe[4] + Rb[3 * i + 2] * fe[5];",
+        "            }",
+        "            fb[0] -= n[0] + pb[1] * f[2] - pb[2] * f[1];",
+        "            fb[1] -= n[1] + pb[2] * f[0] - pb[0] * f[2];",
+        "            fb[2] -= n[2] + pb[0] * f[1] - pb[1] * f[0];",
+        "            fb[3] -= f[0];",
+        "            fb[4] -= f[1];",
+        "            fb[5] -= f[2];",
+        "        }",
+    )]
 
 
 def kernel_c(name, plan, nq, solve=False):
@@ -388,7 +443,7 @@ def kernel_c(name, plan, nq, solve=False):
         "",
         f"static inline double {name}_rd_dot(const double *a, const double *b)",
         "{",
-        "    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] + a[4] * b[4] + a[5] * b[5];",
+        DOT6_LINE,
         "}",
         "",
         f"static inline double {name}_rd_dot3(const double *a, const double *b)",
@@ -398,12 +453,7 @@ def kernel_c(name, plan, nq, solve=False):
         "",
         f"static inline void {name}_rd_ymul(const double *y, const double *x, double *out)",
         "{   /* out = Y x, Y = {m, c (= m p), I_O (xx yy zz xy xz yz)}: [I_O x_w + c x x_l; m x_l - c x x_w] */",
-        "    out[0] = y[4] * x[0] + y[7] * x[1] + y[8] * x[2] + y[2] * x[5] - y[3] * x[4];",
-        "    out[1] = y[7] * x[0] + y[5] * x[1] + y[9] * x[2] + y[3] * x[3] - y[1] * x[5];",
-        "    out[2] = y[8] * x[0] + y[9] * x[1] + y[6] * x[2] + y[1] * x[4] - y[2] * x[3];",
-        "    out[3] = y[0] * x[3] - y[2] * x[2] + y[3] * x[1];",
-        "    out[4] = y[0] * x[4] - y[3] * x[0] + y[1] * x[2];",
-        "    out[5] = y[0] * x[5] - y[1] * x[1] + y[2] * x[0];",
+        *YMUL_LINES,
         "}",
         "",
         f"static inline void {name}_rd_dmul(const double *d, const double *x, double *out)",
@@ -431,10 +481,7 @@ def kernel_c(name, plan, nq, solve=False):
         f"static void {fn}(const double *an, const double *u, const double *ud, double *out, "
         "int stride, int row0, double sign, int msolve)",
         "{",
-        c_table("par", plan.par),
-        c_table("d0", plan.first),
-        c_table("nd", plan.count),
-        c_table("row", plan.row),
+        *tree_tables(plan),
         c_table("qc", plan.qcol),
         c_table("uc", [nq + s for s in plan.row]),
         f"    double R[{9 * nb}], P[{3 * nb}], V[{6 * nb}], A[{6 * nb}], Y[{10 * nb}], dY[{12 * nb}], F[{6 * nb}];",
@@ -456,12 +503,7 @@ def kernel_c(name, plan, nq, solve=False):
         "        double vl[6], al[6], IR[9], IO[9], C[9], t[6], hm[6], m, pp, vc;",
         "        l = par[b];",
         "        if (l >= 0) {",
-        "            const double *Rl = R + 9 * l, *pl = P + 3 * l;",
-        "            for (i = 0; i < 3; i++) {",
-        "                for (j = 0; j < 3; j++)",
-        "                    Rb[3 * i + j] = Rl[3 * i] * E[3 * j] + Rl[3 * i + 1] * E[3 * j + 1] + Rl[3 * i + 2] * E[3 * j + 2];",
-        "                pb[i] = pl[i] + Rl[3 * i] * r[0] + Rl[3 * i + 1] * r[1] + Rl[3 * i + 2] * r[2];",
-        "            }",
+        *PLACE_FROM_PARENT_LINES,
         "            for (i = 0; i < 6; i++) {",
         "                vl[i] = V[6 * l + i];",
         "                al[i] = A[6 * l + i];",
@@ -523,22 +565,7 @@ def kernel_c(name, plan, nq, solve=False):
         "        for (i = 0; i < 6; i++) fb[i] " + ("= t[i];" if aba else "+= t[i];"),
     ]
     if plan.loads:
-        lines += [
-            f"        {{   /* the body-frame load about the body origin, into the world */",
-            f"            const double *fe = an + {o['F']} + 6 * b;",
-            "            double n[3], f[3];",
-            "            for (i = 0; i < 3; i++) {",
-            "                n[i] = Rb[3 * i] * fe[0] + Rb[3 * i + 1] * fe[1] + Rb[3 * i + 2] * fe[2];",
-            "                f[i] = Rb[3 * i] * fe[3] + Rb[3 * i + 1] * fe[4] + Rb[3 * i + 2] * fe[5];",
-            "            }",
-            "            fb[0] -= n[0] + pb[1] * f[2] - pb[2] * f[1];",
-            "            fb[1] -= n[1] + pb[2] * f[0] - pb[0] * f[2];",
-            "            fb[2] -= n[2] + pb[0] * f[1] - pb[1] * f[0];",
-            "            fb[3] -= f[0];",
-            "            fb[4] -= f[1];",
-            "            fb[5] -= f[2];",
-            "        }",
-        ]
+        lines += world_load_lines(o)
     lines += [
     ] + (["        if (msolve)",
           "            for (i = 0; i < 6; i++) PA[6 * b + i] = fb[i];   /* the bias force, ABA's start */"] if aba else []) + [

@@ -25,10 +25,11 @@ analytic plan exists (an open tree whose loads the kernel can read, above
 TANGENT_MIN_STATES states); elsewhere the straight-line recursions stay.  Checked against
 the straight-line functions (tests/compiler/tree/test_dynamics_kernel.py).
 """
-from .analytic import ANX, WORLD_INERTIA_LINES, c_table, world_axis_lines
+from .analytic import (ANX, DOT6_LINE, PLACE_FROM_PARENT_LINES, WORLD_INERTIA_LINES, YMUL_LINES,
+                       tree_tables, world_axis_lines, world_load_lines)
 
 __all__ = ["dynamics_kernel_c", "has_dynamics_kernel", "dynamics_body", "dynamics_inputs", "dynamics_ops",
-           "KERNEL_FUNCTIONS"]
+           "KERNEL_FUNCTIONS", "forcing_by_inverse_dynamics"]
 
 # NAME_dyn_inputs(t, x, p, r, an): the straight-line inputs, one copy for the three functions
 INPUTS_SIGNATURE = (("double", "t"), ("const double *", "x"), ("const double *", "p"), ("const double *", "r"),
@@ -37,8 +38,10 @@ INPUTS_SIGNATURE = (("double", "t"), ("const double *", "x"), ("const double *",
 KERNEL_FUNCTIONS = ("mass_matrix", "forcing", "inverse_dynamics")
 
 
-def has_dynamics_kernel(program, sym):
-    return getattr(sym, "analytic", None) is not None and any(k[0] == ANX for k, _ in program.results)
+def has_dynamics_kernel(program, sym, fn):
+    """Is ``fn`` computed by NAME_dyn (the compiler's choice: lower.dynamics_kernel_functions)?"""
+    return (fn in getattr(sym, "dynamics_kernel", ()) and getattr(sym, "analytic", None) is not None
+            and any(k[0] == ANX for k, _ in program.results))
 
 
 
@@ -49,27 +52,19 @@ def dynamics_kernel_c(name, plan):
     lines = [
         f"static void {name}_dyn_ymul(const double *y, const double *x, double *out)",
         "{   /* out = Y x, Y = {m, c (= m p), I_O (xx yy zz xy xz yz)} */",
-        "    out[0] = y[4] * x[0] + y[7] * x[1] + y[8] * x[2] + y[2] * x[5] - y[3] * x[4];",
-        "    out[1] = y[7] * x[0] + y[5] * x[1] + y[9] * x[2] + y[3] * x[3] - y[1] * x[5];",
-        "    out[2] = y[8] * x[0] + y[9] * x[1] + y[6] * x[2] + y[1] * x[4] - y[2] * x[3];",
-        "    out[3] = y[0] * x[3] - y[2] * x[2] + y[3] * x[1];",
-        "    out[4] = y[0] * x[4] - y[3] * x[0] + y[1] * x[2];",
-        "    out[5] = y[0] * x[5] - y[1] * x[1] + y[2] * x[0];",
+        *YMUL_LINES,
         "}",
         "",
         f"static double {name}_dyn_dot(const double *a, const double *b)",
         "{",
-        "    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] + a[4] * b[4] + a[5] * b[5];",
+        DOT6_LINE,
         "}",
         "",
         f"/* RNEA (tau: tau_i at velocities u, accelerations ud, per dof) and CRBA (M, {plan.nd} x {plan.nd}",
         "   row-major by speed) over the tree, world frame (compiler/tree/dynamics_kernel.py). */",
         f"static void {fn}(const double *an, const double *u, const double *ud, double *tau, double *M)",
         "{",
-        c_table("par", plan.par),
-        c_table("d0", plan.first),
-        c_table("nd", plan.count),
-        c_table("row", plan.row),
+        *tree_tables(plan),
         f"    double R[{9 * nb}], P[{3 * nb}], V[{6 * nb}], A[{6 * nb}], Y[{10 * nb}], F[{6 * nb}], Sw[{6 * nd}];",
         "    int b, i, j, e, c, l, a;",
         f"    for (b = 0; b < {nb}; b++) {{",
@@ -78,12 +73,7 @@ def dynamics_kernel_c(name, plan):
         "        double IR[9], IO[9], t[6], hm[6], m, pp;",
         "        l = par[b];",
         "        if (l >= 0) {",
-        "            const double *Rl = R + 9 * l, *pl = P + 3 * l;",
-        "            for (i = 0; i < 3; i++) {",
-        "                for (j = 0; j < 3; j++)",
-        "                    Rb[3 * i + j] = Rl[3 * i] * E[3 * j] + Rl[3 * i + 1] * E[3 * j + 1] + Rl[3 * i + 2] * E[3 * j + 2];",
-        "                pb[i] = pl[i] + Rl[3 * i] * r[0] + Rl[3 * i + 1] * r[1] + Rl[3 * i + 2] * r[2];",
-        "            }",
+        *PLACE_FROM_PARENT_LINES,
         "            for (i = 0; i < 6; i++) {",
         "                vb[i] = V[6 * l + i];",
         "                ab[i] = A[6 * l + i];",
@@ -124,22 +114,7 @@ def dynamics_kernel_c(name, plan):
         "            fb[5] += vb[0] * hm[4] - vb[1] * hm[3];",
     ]
     if plan.loads:
-        lines += [
-            "            {   /* the body-frame load about the body origin, into the world */",
-            f"                const double *fe = an + {o['F']} + 6 * b;",
-            "                double n[3], f[3];",
-            "                for (i = 0; i < 3; i++) {",
-            "                    n[i] = Rb[3 * i] * fe[0] + Rb[3 * i + 1] * fe[1] + Rb[3 * i + 2] * fe[2];",
-            "                    f[i] = Rb[3 * i] * fe[3] + Rb[3 * i + 1] * fe[4] + Rb[3 * i + 2] * fe[5];",
-            "                }",
-            "                fb[0] -= n[0] + pb[1] * f[2] - pb[2] * f[1];",
-            "                fb[1] -= n[1] + pb[2] * f[0] - pb[0] * f[2];",
-            "                fb[2] -= n[2] + pb[0] * f[1] - pb[1] * f[0];",
-            "                fb[3] -= f[0];",
-            "                fb[4] -= f[1];",
-            "                fb[5] -= f[2];",
-            "            }",
-        ]
+        lines += world_load_lines(o, pad="    ")
     lines += [
         "        }",
         "    }",
@@ -215,6 +190,20 @@ def dynamics_body(ctx, program, sym, fn):
         lines += [f"{IND}for (e = 0; e < {nu}; e++) out[e] = -tq[e];",
                   f"{IND}return {ctx.name}_finite(out, {nu});"]
     return lines
+
+
+def forcing_by_inverse_dynamics(ctx):
+    """forcing as -inverse_dynamics at u' = 0, one call (where both are straight-line RNEA: its
+    code once; the call costs ~3 % over forcing's own copy, G1 1414 vs 1375 ns, while the copy
+    was 150 kB of C and a second of G1's build, benchmarks/results/dynamics_kernel.md)."""
+    from ..emit.bodies import IND
+    nu = ctx.nu
+    return [f"{IND}double ud0[{nu}];",
+            f"{IND}int k, status;",
+            f"{IND}for (k = 0; k < {nu}; k++) ud0[k] = 0.0;",
+            f"{IND}status = {ctx.name}_inverse_dynamics(t, x, ud0, p, r, out, work);",
+            f"{IND}for (k = 0; k < {nu}; k++) out[k] = -out[k];",
+            f"{IND}return status;"]
 
 
 def dynamics_ops(plan, fn):

@@ -70,9 +70,31 @@ TREE_FUNCTION_GROUPS = {
     "implicit": ("imp",),                # see implicit_layout
 }
 TREE_HELPER_USERS = ()
-# where the analytic plan exists, mass_matrix, forcing and inverse_dynamics read only the loop
-# kernel's inputs (A, b and tau are not computed for them: see .dynamics_kernel)
-_KERNEL_GROUPS = {**TREE_FUNCTION_GROUPS, **{f: ("anx",) for f in ("mass_matrix", "forcing", "inverse_dynamics")}}
+# the straight-line mass_matrix, forcing and inverse_dynamics read A, b, tau; where the loop kernel
+# computes one of them it reads only the kernel's inputs anx (see .dynamics_kernel)
+_OWN_GROUPS = {"mass_matrix": ("A",), "forcing": ("b",), "inverse_dynamics": ("tau",)}
+
+# Which of mass_matrix, forcing and inverse_dynamics the loop kernel NAME_dyn computes: those
+# whose threshold the tree's size reaches, size = entries of M's triangle (pairs of a dof and a
+# dof of its support; n(n+1)/2 on a chain of n).  Measured (benchmarks/results/dynamics_kernel.md,
+# kernel / straight-line time per call): mass_matrix 1.8-2.1 at 44-231 pairs (Panda, Go2, cart
+# n = 20), 1.14 at 341 (G1), 1.18 at 3321 (cart n = 80); forcing and inverse_dynamics 2.2-4.7
+# everywhere.  But straight-line code grows: CRBA's as the pairs (G1 295 kB, cart n = 80 1.4 MB,
+# a 200-link chain 11.6 MB), RNEA's as the tree (G1 ~150 kB).  G1's default build was 10.8 s CPU
+# with all three straight-line and 9.8 s with only mass_matrix from the kernel, over its 9 s
+# target (issue 30); so from G1's size up all three come from the kernel, below it none.
+DYN_KERNEL_MIN_PAIRS = {"mass_matrix": 300, "forcing": 300, "inverse_dynamics": 300}
+
+
+def dynamics_kernel_functions(plan, functions):
+    """The functions of ``functions`` that NAME_dyn (.dynamics_kernel) computes for this tree.
+
+    Why by size: the kernel is slower at run time than the straight-line recursions (whose
+    constants -- axes, masses, inertias -- the optimizer folds, and which need no world
+    inertias) but its code does not grow with the model, while straight-line CRBA's is one
+    expression per pair, O(n·depth), and RNEA's O(n)."""
+    pairs = sum(plan.dep) + plan.nd
+    return tuple(f for f in KERNEL_FUNCTIONS if f in functions and pairs >= DYN_KERNEL_MIN_PAIRS[f])
 
 
 _NONFINITE = (sm.nan, sm.zoo, sm.oo, -sm.oo)
@@ -197,8 +219,17 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         UD = tuple(sm.Symbol(f"ud_{j}", real=True) for j in range(nu))
         jacobian, more = [], ()
         analytic = None
+        dyn, planned = (), False     # the functions the loop kernel computes (see dynamics_kernel_functions)
         if loops is None and set(functions) & {"jac_id", "jac_x", *KERNEL_FUNCTIONS} and len(layout.x) > TANGENT_MIN_STATES:
             analytic, anx = _analytic(tree, bodies, gravity, layout, functions)
+            dyn = dynamics_kernel_functions(analytic, functions) if analytic is not None else ()
+            planned = analytic is not None
+            if analytic is not None and not dyn and not set(functions) & {"jac_id", "jac_x"}:
+                analytic, anx = None, []
+        # forcing and inverse_dynamics both straight-line: forcing is -τ at u' = 0, a call of
+        # inverse_dynamics (RNEA's code once; only where the plan exists, small trees unchanged)
+        by_id = (planned and {"forcing", "inverse_dynamics"} <= set(functions)
+                 and not {"forcing", "inverse_dynamics"} & set(dyn))
         if jac and (analytic is None or jac != {"jac_x"}):    # the analytic jac_x needs no residual
             W = tuple(sm.Symbol(f"w_{j}", real=True) for j in range(nu))
             tau_w = rnea(bodies, rec, W, gravity, v, c)
@@ -219,7 +250,7 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
             direct = _input_columns(tree, layout)
             jacobian += direct or []
         # inverse_dynamics from the loop kernel where the analytic plan exists (.dynamics_kernel)
-        if (("inverse_dynamics" in functions and analytic is None) or "hess_id" in functions) and loops is None:
+        if (("inverse_dynamics" in functions and "inverse_dynamics" not in dyn) or "hess_id" in functions) and loops is None:
             tau = rnea(bodies, rec, UD, gravity, v, c)
             extra += [(("tau", k), tau[k]) for k in range(nu)]
         if "jac_id" in functions and analytic is None:        # d tau / d x (compiler/tree/inverse_derivatives.py)
@@ -231,12 +262,15 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
             entries, *regressor = regressor_results(tree, bodies, rec, layout, UD, gravity, v, c)
             extra += entries
         # outputs and events that read u' solve A·u' = b (the Kane path's code)
-        need_ab = _NEED_AB if analytic is None else {"implicit"}    # else mass_matrix, forcing: the kernel
+        need_ab = _NEED_AB - set(dyn) - ({"forcing"} if by_id else set())   # the kernel's, or a call: neither
         if set(functions) & need_ab or ("outputs" in functions and outputs) or (
                 "events" in functions and events) or (loops and "inverse_dynamics" in functions):
-            H = crba(bodies, rec)
+            if set(functions) & need_ab == {"forcing"} and not (outputs or events or loops):
+                A = _structure(tree)    # forcing alone: CRBA not computed (M from the kernel)
+            else:
+                H = crba(bodies, rec)
+                A = sm.Matrix(nu, nu, lambda i, j: H.get((i, j), 0))
             f0 = rnea(bodies, rec, [0] * nu, gravity, v, c)
-            A = sm.Matrix(nu, nu, lambda i, j: H.get((i, j), 0))
             b = [-f0[k] for k in range(nu)]
             if loops is not None:       # Kane's form [Nᵀ M; J], [Nᵀ b; -γ]
                 A, b = kane_form(J, gamma, H, b, nu, rec)
@@ -253,7 +287,10 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         raise ModelError(f"recursive formulation: {exc}") from None
     sym = build_symbolic(formed, layout, functions, outputs, events, dynamics=(A, b),
                          prelude=(rec.assignments, rec.count, sorted(extra, key=_order)),
-                         function_groups=TREE_FUNCTION_GROUPS if analytic is None else _KERNEL_GROUPS,
+                         function_groups={**TREE_FUNCTION_GROUPS,
+                                          **{f: ("anx",) if f in dyn else () if f == "forcing" and by_id else g
+                                             for f, g in _OWN_GROUPS.items()}}
+                         if planned else TREE_FUNCTION_GROUPS,
                          helper_users=TREE_HELPER_USERS)
     if contact_values:
         sym = _with_contact_values(sym, contact_values)
@@ -265,7 +302,12 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
     if regressor:
         sym = replace(sym, regressor_bodies=regressor[0], regressor_reference=regressor[1])
     if analytic is not None:
-        sym = replace(sym, analytic=analytic)
+        sym = replace(sym, analytic=analytic, dynamics_kernel=dyn)
+    if by_id:
+        sym = replace(sym, forcing_calls="inverse_dynamics")
+    if planned and set(KERNEL_FUNCTIONS) - set(dyn):     # straight-line ones print only their own temps
+        sym = replace(sym, function_groups={**TREE_FUNCTION_GROUPS,
+                                            **{f: g for f, g in _OWN_GROUPS.items() if f not in dyn}})
     if "hess_id" in functions:      # second-order inverse dynamics (compiler/emit/reverse.py)
         if loops is not None:
             raise ModelError("hess_id (second-order inverse dynamics) is not generated for a tree "

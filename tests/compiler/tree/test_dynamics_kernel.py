@@ -1,11 +1,15 @@
 """mass_matrix, forcing and inverse_dynamics from the loop kernel NAME_dyn
-(compiler/tree/dynamics_kernel.py), used where the analytic plan exists above
-TANGENT_MIN_STATES states.
+(compiler/tree/dynamics_kernel.py), which the compiler uses per function where the analytic plan
+exists above TANGENT_MIN_STATES states and M's straight-line code would be large
+(lower.dynamics_kernel_functions: benchmarks/results/dynamics_kernel.md).
 
 Checked, compiled, against Pinocchio's crba and rnea (an algorithm and code of its own) on
 Panda (fixed base, fixed links and two fingers on one body) and Solo12 (floating base: eomc's
-speeds are Pinocchio's v), and against eomc's own straight-line ABA (the rhs): M u' = forcing.
-Small models keep the straight-line recursions (their C unchanged).
+speeds are Pinocchio's v), and against eomc's own straight-line ABA (the rhs): M u' = forcing;
+with the kernel forced for all three functions, for mass_matrix alone (forcing and
+inverse_dynamics straight-line beside it, forcing a call of inverse_dynamics at u' = 0) and with
+the compiler's own choice (Panda is small: all three straight-line).  Small models keep the straight-line recursions
+(their C unchanged).
 """
 import warnings
 
@@ -15,24 +19,43 @@ import pytest
 
 import eomc
 from eomc.compiler.emit.symbolic import TANGENT_MIN_STATES
+from eomc.compiler.tree import lower
 from eomc.compiler.urdf import from_urdf
 from helpers.robots import PinRef, joints_of, relative_error, robot_path
 from helpers.trees import cart_joints
 
 FNS = ["rhs", "mass_matrix", "forcing", "inverse_dynamics"]
+KERNEL = ("mass_matrix", "forcing", "inverse_dynamics")
 
 
-def kernel(model):
-    return f"{model.name}_dyn(an, " in model.source_path.read_text()
+ALL, NONE = (0, 0, 0), (10 ** 9,) * 3
+CHOICES = {"all": ALL, "mass_matrix": (0, 10 ** 9, 10 ** 9), "compiler": None}
 
 
-@pytest.mark.parametrize("name,floating", [("panda", False), ("solo12", True)])
-def test_against_pinocchio(name, floating, tmp_path):
+def kernel(model, fn=None):
+    """Does the C call NAME_dyn (in function ``fn``, or anywhere)?"""
+    text = model.source_path.read_text()
+    if fn is not None:
+        start = text.index(f"int {model.name}_{fn}(")
+        text = text[start:text.index("\n}\n", start)]
+    return f"{model.name}_dyn(an, " in text
+
+
+@pytest.mark.parametrize("name,floating,choice", [("panda", False, "all"), ("solo12", True, "all"),
+                                                  ("panda", False, "mass_matrix"), ("panda", False, "compiler")])
+def test_against_pinocchio(name, floating, choice, tmp_path, monkeypatch):
+    if CHOICES[choice] is not None:
+        monkeypatch.setattr(lower, "DYN_KERNEL_MIN_PAIRS", dict(zip(KERNEL, CHOICES[choice])))
     path = robot_path(name)
     system = from_urdf(path, floating_base=floating, limits=False)
     model = eomc.compile(system, f"{name}_dyn", functions=FNS, formulation="recursive", progress=False,
                          cache_dir=tmp_path)
-    assert kernel(model)
+    expect = {"all": KERNEL, "mass_matrix": ("mass_matrix",), "compiler": ()}[choice]
+    assert [fn for fn in KERNEL if kernel(model, fn)] == list(expect)
+    text = model.source_path.read_text()
+    forcing = text[text.index(f"int {model.name}_forcing("):]
+    # both straight-line: forcing is a call of inverse_dynamics at u' = 0 (RNEA's code once)
+    assert (f"{model.name}_inverse_dynamics(t, x, " in forcing[:forcing.index("\n}\n")]) == (choice != "all")
     ref = PinRef(path, joints_of(system), floating=floating)
     nq, nu, iv = model.nq, model.nu, ref.iv
     rng = np.random.default_rng(17)

@@ -19,6 +19,7 @@ import numpy as np
 import pytest
 
 import eomc
+from eomc.compiler.tree import lower
 from eomc.compiler.urdf.model import with_options
 
 LINK = ('<link name="{n}"><inertial><origin xyz="0.01 0.02 0.05"/><mass value="{m}"/>'
@@ -60,7 +61,16 @@ def model(tmp_path_factory):
     path = d / "legs.urdf"
     path.write_text(robot_text())
     source, _ = with_options(str(path), None, floating_base=True)
-    return eomc.compile(source, "legs", progress=False, formulation="recursive", cache_dir=d / "cache")
+    # the loop kernel for all three (joint laws and inputs in its loads), though the compiler
+    # would keep a tree this small straight-line (lower.dynamics_kernel_functions)
+    saved = lower.DYN_KERNEL_MIN_PAIRS
+    lower.DYN_KERNEL_MIN_PAIRS = dict.fromkeys(saved, 0)
+    try:
+        model = eomc.compile(source, "legs", progress=False, formulation="recursive", cache_dir=d / "cache")
+    finally:
+        lower.DYN_KERNEL_MIN_PAIRS = saved
+    assert "legs_dyn(an, " in model.source_path.read_text()
+    return model
 
 
 def test_residual_columns_are_written_directly(model):
