@@ -193,17 +193,8 @@ def test_a_thrown_ball_at_2ms_gains_no_energy(tmp_path):
     model of test_rollout), 0.6 s at 2 ms: every run ends with status 0, i.e. simulate's energy
     verdict finds no gain, through landings and the stance's stick-slip friction (the cases
     that made looser step checks gain energy: eomc_fixedstep.c, fs_fast_advance)."""
-    from eomc.compiler.mjcf.model import MjcfModel
-
-    from .test_rollout import BALL as THROWN
-    path = tmp_path / "ball.xml"
-    path.write_text(THROWN)
-    m = eomc.compile(MjcfModel(path), name="ift_thrown", cache_dir=tmp_path, progress=False)
-    names = list(m.state_names)
-    rng = np.random.default_rng(3)
-    x0 = np.zeros((16, m.nx))
-    x0[:, names.index("q_root_z")] = 0.06 + 0.3 * rng.random(16)
-    x0[:, m.nq:] = rng.normal(size=(16, m.nu))
+    from .test_rollout import thrown_ball
+    m, x0 = thrown_ball(tmp_path, "ift_thrown")
     for x in x0:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")       # hard landings leave a sub-step unsolved (warned)

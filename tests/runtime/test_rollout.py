@@ -206,22 +206,28 @@ BALL = """<mujoco model="ball">
 """
 
 
+def thrown_ball(cache_dir, name):
+    """(model, 16 starts): the ball of BALL built into cache_dir, thrown from 16 random heights
+    (6-36 cm) with random speeds; it lands, bounces, slides with friction and spins."""
+    from eomc.compiler.mjcf.model import MjcfModel
+    path = cache_dir / "ball.xml"
+    path.write_text(BALL)
+    m = eomc.compile(MjcfModel(path), name=name, cache_dir=cache_dir, progress=False)
+    rng = np.random.default_rng(3)
+    x0 = np.zeros((16, m.nx))
+    x0[:, list(m.state_names).index("q_root_z")] = 0.06 + 0.3 * rng.random(16)
+    x0[:, m.nq:] = rng.normal(size=(16, m.nu))
+    return m, x0
+
 def test_rollout_with_contacts_equals_simulate_bit_for_bit(tmp_path):
     """Contacts in rollout (issue 31 item 2): a ball thrown onto the floor from 16 starts (it
     lands, bounces, slides with friction, spins), implicitfast's fast path in C threads: each
     row equals the scalar simulate bit for bit (same method, same code); a row whose
     parameters make the contact 1e5 times too soft fails alone with status 10 (its contact
     past its radius); rk4 refuses the contact model, naming the method that takes it."""
-    from eomc.compiler.mjcf.model import MjcfModel
     from eomc.runtime.errors import SimulationError
-    path = tmp_path / "ball.xml"
-    path.write_text(BALL)
-    m = eomc.compile(MjcfModel(path), name="ro_ball", cache_dir=tmp_path, progress=False)
+    m, x0 = thrown_ball(tmp_path, "ro_ball")
     names = list(m.state_names)
-    rng = np.random.default_rng(3)
-    x0 = np.zeros((16, m.nx))
-    x0[:, names.index("q_root_z")] = 0.06 + 0.3 * rng.random(16)
-    x0[:, m.nq:] = rng.normal(size=(16, m.nu))
     with pytest.warns(PhysicsWarning, match=r"rollout: \d+ of 16 row\(s\) ran to the end with implicitfast "
                       r"\(sub-\)steps left unsolved"):
         res = eomc.rollout(m, x0, dt=0.002, steps=300, method="implicitfast", threads=2)
