@@ -172,6 +172,7 @@ class EventsBinding:
         self.model, self.events = model, list(events)
         lay = _layout(model, source, self.events, switches)
         check_max_events(max_events, model.nx)
+        self._layout = lay
         self.contact_slots, self.limit_slots = lay.contact_slots, lay.limit_slots
         self.col, self.direction, self.terminal = lay.col, lay.direction, lay.terminal
         self.switching, self.lin_x, self.lin_p, self.lin_s = lay.switching, lay.lin_x, lay.lin_p, lay.lin_s
@@ -203,8 +204,8 @@ class EventsBinding:
     def switch_maxima(self):
         """The largest value each contact's penetration and each limit's overshoot reached
         (contacts first, then limits, in find_switches' order; -inf where not tracked)."""
-        return np.array([self.gmax[s] if s >= 0 else -np.inf for s in self.contact_slots]
-                        + [self.gmax[s] for s in self.limit_slots])
+        slots = self._layout.slots      # one gather (a robot has dozens of contacts)
+        return np.where(slots >= 0, self.gmax[np.maximum(slots, 0)], -np.inf)
 
     def results(self):
         """(t_events, x_events, stopped_by, dropped): dicts name -> times (k,) / states (k, nx),
@@ -314,6 +315,7 @@ def _build_layout(model, source, events, switches):
     for a in (lay.col, lay.direction, lay.terminal, lay.switching, lay.lin_x, lay.lin_p, lay.lin_s):
         a.flags.writeable = False       # shared by every run of this layout
     lay.limit_slots = list(range(n, n + len(limits)))
+    lay.slots = np.array(lay.contact_slots + lay.limit_slots, dtype=np.intp)
     lay.sw_scratch_len = model.integrators.eomc_switch_scratch_size(n, len(limits))
     lay.scratch_len = model.integrators.eomc_events_scratch_size(model.c_model, len(names), n)
     ints = lambda a: ffi.from_buffer("int[]", a)  # noqa: E731

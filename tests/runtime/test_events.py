@@ -113,6 +113,38 @@ def test_terminal_event_stops_run_at_the_crossing(models):
     assert res2.t_final == res2.t_events["up"][1]
 
 
+def test_event_sets_on_one_model_do_not_share_their_slot_tables(models):
+    """EventsBinding keeps each event set's slot tables on the model (_events_layouts): runs
+    alternating between sets, differing only in direction or terminal, give exactly the results
+    a model without any kept table gives."""
+    pend, _ = models
+    x0, span = [-np.pi / 2 + 0.5, 0.0], (0, 3.0)
+    sets = [{"speed": {}}, {"speed": {"direction": 1}}, {"up": {"terminal": 2, "direction": 1}},
+            ["up", "fallen"], None]
+
+    def run(ev):
+        r = pend.simulate(x0, span, rtol=1e-9, atol=1e-9, events=ev, n_points=5)
+        return r.x, r.t_final, r.event_stop, r.t_events, r.x_events
+
+    def fresh(ev):
+        pend.__dict__.pop("_events_layouts", None)
+        return run(ev)
+
+    expected = [fresh(ev) for ev in sets]
+    assert len(expected[0][3]["speed"]) == 2 * len(expected[1][3]["speed"]) > 0   # direction told apart
+    assert expected[2][2] == "up" and expected[3][2] is None    # terminal told apart
+    for _ in range(2):
+        for ev, want in zip(sets, expected):
+            got = run(ev)
+            assert got[0].tobytes() == want[0].tobytes() and got[1:3] == want[1:3]
+            assert got[3].keys() == want[3].keys()
+            for name in want[3]:
+                assert got[3][name].tobytes() == want[3][name].tobytes()
+                assert got[4][name].tobytes() == want[4][name].tobytes()
+    # ["up", "fallen"] takes the file's options, as None does: one table for the two
+    assert len(pend.__dict__["_events_layouts"]) == len(sets) - 1
+
+
 def test_bouncing_ball_terminal_event_and_restart(models):
     _, ball = models
     g, e, h0 = 9.81, 0.8, 1.0
