@@ -74,7 +74,7 @@ class Recursive(Formulation):
             return reverse_body(fn, ctx, prog, sym, nx, len(layout.p), jacobian_symbols(prog, sym.W, ctx.nu)[1])
         if fn == "implicit":
             size = implicit_layout(ctx.nq, ctx.nu, len(contact_outputs(self.tree)))["size"]
-            return plain_body(ctx, prog, "imp", (size,), "out")
+            return plain_body(ctx, prog, "imp", (size,), "out", sym.implicit_guards, wide=True)
         if fn == "jvp":
             return tree_jvp_body(ctx, prog, *jacobian_symbols(prog, sym.W, ctx.nu), sym.seeds, nx, len(layout.p))
         if fn in _JACOBIANS:
