@@ -51,17 +51,10 @@ def store(lvalue, expr, printer):
     return f"{IND}{lvalue} = {printer.doprint(expr)};"
 
 
-def plain_body(ctx, program, group, shape, out="out", guards=(), wide=False):
-    """Assign a vector (rows,) or a row-major matrix (rows, cols) result group to ``out``.
-    ``guards``: a broad phase (compiler/emit/guards.py; NAME_implicit's contact blocks);
-    ``wide``: check finiteness with NAME_finite_wide (templates/model.c.j2; NAME_implicit's
-    2000 outputs on the humanoid: 0.24 µs against the branchy loop's 0.55)."""
+def plain_body(ctx, program, group, shape, out="out"):
+    """Assign a vector (rows,) or a row-major matrix (rows, cols) result group to ``out``."""
     pr = ctx.printer(program)
-    if guards:
-        from .guards import guarded_temps
-        lines, pr = guarded_temps(program, pr, guards)
-    else:
-        lines = temps(program, pr)
+    lines = temps(program, pr)
     vals = program.result_exprs(group)
     if len(shape) == 1:
         for i in range(shape[0]):
@@ -73,7 +66,7 @@ def plain_body(ctx, program, group, shape, out="out", guards=(), wide=False):
             for k in range(cols):
                 lines.append(store(f"{out}[{i * cols + k}]", vals.get((group, i, k), 0.0), pr))
         size = rows * cols
-    lines.append(f"{IND}return {ctx.name}_finite{'_wide' if wide else ''}({out}, {size});")
+    lines.append(f"{IND}return {ctx.name}_finite({out}, {size});")
     return lines
 
 

@@ -133,9 +133,8 @@ def test_the_guarded_implicit_terms_are_the_straight_line_ones_near_and_far_from
     source = next((tmp_path / "guarded").rglob("oneleg.c")).read_text()
     start = source.index("int oneleg_implicit(")
     assert source[start:source.index("\n}\n", start)].count("} else {") == 2 + 13
-    plain = recursive.plain_body
-    monkeypatch.setattr(recursive, "plain_body", lambda ctx, prog, group, shape, out="out", guards=(), wide=False:
-                        plain(ctx, prog, group, shape, out))
+    monkeypatch.setattr(recursive, "tree_implicit_body", lambda ctx, prog, guards, size:
+                        recursive.plain_body(ctx, prog, "imp", (size,), "out"))
     straight = build("straight")
     rng = np.random.default_rng(29)
     z = guarded.state_names.index("q_trunk_floating_z")
