@@ -170,80 +170,35 @@ class EventsBinding:
                  observe_only=False):
         ffi = model.ffi
         self.model, self.events = model, list(events)
-        if source is None:      # no events asked for: the switching functions only
-            source = "events" if (switches is not None and switches.contacts) else None
-        if source == "events":
-            names = [d["name"] for d in model.metadata.get("events", ())]
-            fn = ffi.cast("eomc_rhs_fn", getattr(model.model_lib, f"{model.name}_events"))
-        elif source == "outputs":
-            names = list(model.output_names)
-            fn = model.c_model.outputs
-            if fn == ffi.NULL:
-                raise ValueError(f"{model.name}: was built without outputs, so outputs cannot be events")
-        else:
-            names, fn = [], ffi.NULL
+        lay = _layout(model, source, self.events, switches)
         check_max_events(max_events, model.nx)
-        everything = list(self.events)
-        switching = [0] * len(everything)
-        column_of = {nm: i for i, nm in enumerate(names)}          # dicts: a robot has ~50 of each
-        slot_of = {e.name: i for i, e in enumerate(everything)}
-        self.contact_slots = []
-        for c in (switches.contacts if switches is not None else ()):
-            column = c.event if source == "events" else f"depth_{c.name}"
-            if column not in column_of:
-                self.contact_slots.append(-1)
-                continue
-            slot = slot_of.get(column)
-            if slot is None:
-                everything.append(Event(column))
-                switching.append(2)         # switching only: not recorded, never terminal
-                slot = slot_of[column] = len(everything) - 1
-            else:
-                switching[slot] = 1
-            self.contact_slots.append(slot)
-        for clip in (switches.clips if switches is not None and source == "events" else ()):
-            slot = slot_of.get(clip)
-            if slot is None and clip in column_of:
-                everything.append(Event(clip))
-                switching.append(2)         # switching only: the F_n >= 0 clip's kink
-                slot_of[clip] = len(everything) - 1
-            elif slot is not None:
-                switching[slot] = 1
-        limits = switches.limits if switches is not None else ()
-        n = len(everything)
+        self.contact_slots, self.limit_slots = lay.contact_slots, lay.limit_slots
+        self.col, self.direction, self.terminal = lay.col, lay.direction, lay.terminal
+        self.switching, self.lin_x, self.lin_p, self.lin_s = lay.switching, lay.lin_x, lay.lin_p, lay.lin_s
+        n, nlim = lay.n, lay.nlim
         cap = int(max_events) if self.events else 1     # switching only: nothing is recorded
-        self.col = np.array([column_of[e.name] for e in everything], dtype=np.intc)
-        self.direction = np.array([e.direction for e in everything], dtype=np.intc)
-        self.terminal = np.array([e.terminal if s != 2 else 0 for e, s in zip(everything, switching)],
-                                 dtype=np.intc)
-        self.switching = np.array(switching + [0], dtype=np.intc)
-        self.lin_x = np.array([lim.state for lim in limits] + [0], dtype=np.intc)
-        self.lin_p = np.array([lim.param for lim in limits] + [0], dtype=np.intc)
-        self.lin_s = np.array([lim.sign for lim in limits] + [0.0])
-        self.gmax = np.full(n + len(limits) + 1, -np.inf)
-        self.sw_scratch = np.empty(model.integrators.eomc_switch_scratch_size(n, len(limits)))
-        self.limit_slots = list(range(n, n + len(limits)))
+        # what the C run writes: fresh per binding, so runs in parallel threads never share it
+        self.gmax = np.full(n + nlim + 1, -np.inf)
+        self.sw_scratch = np.empty(lay.sw_scratch_len)
         self.t_rec = np.empty(cap)
         self.id_rec = np.empty(cap, dtype=np.intc)
         self.x_rec = np.empty((cap, model.nx))
-        self.scratch = np.empty(model.integrators.eomc_events_scratch_size(model.c_model, len(names), n))
+        self.scratch = np.empty(lay.scratch_len)
         ev = self.struct = ffi.new("eomc_events *")
-        ints = lambda a: ffi.from_buffer("int[]", a)  # noqa: E731
         dbl = lambda a: ffi.from_buffer("double[]", a)  # noqa: E731
-        ev.n, ev.fn, ev.ncol = n, fn, len(names)
-        ev.col, ev.direction, ev.terminal = ints(self.col), ints(self.direction), ints(self.terminal)
+        ev.n, ev.fn, ev.ncol = n, lay.fn, lay.ncol
+        ev.col, ev.direction, ev.terminal = lay.c_col, lay.c_direction, lay.c_terminal
         ev.capacity = cap
-        ev.t_rec, ev.id_rec, ev.x_rec = dbl(self.t_rec), ints(self.id_rec), dbl(self.x_rec)
+        ev.t_rec, ev.id_rec, ev.x_rec = dbl(self.t_rec), ffi.from_buffer("int[]", self.id_rec), dbl(self.x_rec)
         ev.scratch = dbl(self.scratch)
-        ev.nlin = len(limits)
-        has_switch = any(switching) or limits
-        ev.switching = ints(self.switching) if has_switch else ffi.NULL
-        ev.lin_x, ev.lin_p, ev.lin_s = ints(self.lin_x), ints(self.lin_p), dbl(self.lin_s)
+        ev.nlin = nlim
+        ev.switching = lay.c_switching
+        ev.lin_x, ev.lin_p, ev.lin_s = lay.c_lin_x, lay.c_lin_p, lay.c_lin_s
         ev.gmax, ev.sw_scratch = dbl(self.gmax), dbl(self.sw_scratch)
         ev.sw_observe = int(bool(observe_only))
-        # cffi keeps a from_buffer pointer valid only while its cdata lives
-        self._keep = [ev.col, ev.direction, ev.terminal, ev.t_rec, ev.id_rec, ev.x_rec, ev.scratch,
-                      ev.switching, ev.lin_x, ev.lin_p, ev.lin_s, ev.gmax, ev.sw_scratch]
+        # cffi keeps a from_buffer pointer valid only while its cdata lives (the layout's
+        # pointers live on the layout, which this list keeps too)
+        self._keep = [lay, ev.t_rec, ev.id_rec, ev.x_rec, ev.scratch, ev.gmax, ev.sw_scratch]
 
     def switch_maxima(self):
         """The largest value each contact's penetration and each limit's overshoot reached
@@ -263,13 +218,108 @@ class EventsBinding:
             for e in self.events:
                 t_events[e.name], x_events[e.name] = np.empty(0), np.empty((0, nx))
             return t_events, x_events, None, max(0, ev.n_rec - ev.capacity)
+        # one stable sort instead of a mask per event (a robot has dozens): each event's
+        # occurrences stay in time order, each event's arrays its own copy
+        order = np.argsort(ids, kind="stable")
+        bounds = np.searchsorted(ids[order], np.arange(len(self.events) + 1))
+        t_sorted, x_sorted = self.t_rec[order], self.x_rec[order]
         for i, e in enumerate(self.events):
-            mask = ids == i
-            t_events[e.name] = self.t_rec[:k][mask].copy()
-            x_events[e.name] = self.x_rec[:k][mask].copy()
+            lo, hi = bounds[i], bounds[i + 1]
+            t_events[e.name] = t_sorted[lo:hi].copy()
+            x_events[e.name] = x_sorted[lo:hi].copy()
         stopped_by = None
         if ev.terminated and ev.n_rec <= ev.capacity:
             stopped_by = self.events[int(ids[k - 1])].name
         elif ev.terminated:
             stopped_by = "?"
         return t_events, x_events, stopped_by, max(0, ev.n_rec - ev.capacity)
+
+
+class _Layout:
+    """What an EventsBinding reads and never changes for one (model, source, events,
+    switches): the slot tables and their C pointers.  Built once and kept on the model
+    (``_events_layouts``), so a run's Python set-up is a handful of allocations: on a
+    small contact model at loose tolerances that set-up is a large part of the call
+    (benchmarks/results/contact_wp.md).  The C side only reads these (const in
+    eomc_events), so runs in parallel threads may share them."""
+
+
+def _layout(model, source, events, switches):
+    key = (source, tuple((e.name, e.terminal, e.direction) for e in events),
+           None if switches is None else id(switches))
+    cache = model.__dict__.setdefault("_events_layouts", {})
+    got = cache.get(key)
+    if got is not None and got.switches is switches:
+        return got
+    got = _build_layout(model, source, events, switches)
+    if len(cache) >= 32:        # many different event sets: keep the newest few
+        cache.pop(next(iter(cache), None), None)
+    cache[key] = got
+    return got
+
+
+def _build_layout(model, source, events, switches):
+    ffi = model.ffi
+    if source is None:      # no events asked for: the switching functions only
+        source = "events" if (switches is not None and switches.contacts) else None
+    if source == "events":
+        names = [d["name"] for d in model.metadata.get("events", ())]
+        fn = ffi.cast("eomc_rhs_fn", getattr(model.model_lib, f"{model.name}_events"))
+    elif source == "outputs":
+        names = list(model.output_names)
+        fn = model.c_model.outputs
+        if fn == ffi.NULL:
+            raise ValueError(f"{model.name}: was built without outputs, so outputs cannot be events")
+    else:
+        names, fn = [], ffi.NULL
+    everything = list(events)
+    switching = [0] * len(everything)
+    column_of = {nm: i for i, nm in enumerate(names)}          # dicts: a robot has ~50 of each
+    slot_of = {e.name: i for i, e in enumerate(everything)}
+    lay = _Layout()
+    lay.switches, lay.fn, lay.ncol = switches, fn, len(names)
+    lay.contact_slots = []
+    for c in (switches.contacts if switches is not None else ()):
+        column = c.event if source == "events" else f"depth_{c.name}"
+        if column not in column_of:
+            lay.contact_slots.append(-1)
+            continue
+        slot = slot_of.get(column)
+        if slot is None:
+            everything.append(Event(column))
+            switching.append(2)         # switching only: not recorded, never terminal
+            slot = slot_of[column] = len(everything) - 1
+        else:
+            switching[slot] = 1
+        lay.contact_slots.append(slot)
+    for clip in (switches.clips if switches is not None and source == "events" else ()):
+        slot = slot_of.get(clip)
+        if slot is None and clip in column_of:
+            everything.append(Event(clip))
+            switching.append(2)         # switching only: the F_n >= 0 clip's kink
+            slot_of[clip] = len(everything) - 1
+        elif slot is not None:
+            switching[slot] = 1
+    limits = switches.limits if switches is not None else ()
+    n = lay.n = len(everything)
+    lay.nlim = len(limits)
+    lay.col = np.array([column_of[e.name] for e in everything], dtype=np.intc)
+    lay.direction = np.array([e.direction for e in everything], dtype=np.intc)
+    lay.terminal = np.array([e.terminal if s != 2 else 0 for e, s in zip(everything, switching)],
+                            dtype=np.intc)
+    lay.switching = np.array(switching + [0], dtype=np.intc)
+    lay.lin_x = np.array([lim.state for lim in limits] + [0], dtype=np.intc)
+    lay.lin_p = np.array([lim.param for lim in limits] + [0], dtype=np.intc)
+    lay.lin_s = np.array([lim.sign for lim in limits] + [0.0])
+    for a in (lay.col, lay.direction, lay.terminal, lay.switching, lay.lin_x, lay.lin_p, lay.lin_s):
+        a.flags.writeable = False       # shared by every run of this layout
+    lay.limit_slots = list(range(n, n + len(limits)))
+    lay.sw_scratch_len = model.integrators.eomc_switch_scratch_size(n, len(limits))
+    lay.scratch_len = model.integrators.eomc_events_scratch_size(model.c_model, len(names), n)
+    ints = lambda a: ffi.from_buffer("int[]", a)  # noqa: E731
+    lay.c_col, lay.c_direction, lay.c_terminal = ints(lay.col), ints(lay.direction), ints(lay.terminal)
+    has_switch = any(switching) or limits
+    lay.c_switching = ints(lay.switching) if has_switch else ffi.NULL
+    lay.c_lin_x, lay.c_lin_p = ints(lay.lin_x), ints(lay.lin_p)
+    lay.c_lin_s = ffi.from_buffer("double[]", lay.lin_s)
+    return lay

@@ -193,10 +193,9 @@ def verdict(model, a, result, gmax, sw):
         seen[:got_.size] = got_
     # vectorised over contacts and limits (a robot has dozens): a run's Python tail is part of
     # the time a user waits at loose tolerances (benchmarks/results/contact_wp.md)
+    r, allowed, e, limit_at = _bounds(sw, p)
     ix = _indices(sw)
     with np.errstate(invalid="ignore"):
-        r = np.where(ix["radius"] >= 0, p[np.maximum(ix["radius"], 0)], 0.0)
-        allowed = np.where(r > 0, PENETRATION_FRACTION * r, POINT_PENETRATION)
         depth = seen[:ncontact]
         for j in np.flatnonzero(np.isfinite(depth) & (depth > allowed)):
             c, rj = sw.contacts[j], float(r[j])
@@ -204,8 +203,7 @@ def verdict(model, a, result, gmax, sw):
                     else f"{POINT_PENETRATION:g} m (a point contact)")
             notes.append(f"contact {c.name} penetrated {depth[j]:.3g} m, more than {what}: the contact is "
                          f"too soft for the load (raise k_{c.name}) or the run went through the ground")
-        e = np.where(ix["width"] >= 0, p[np.maximum(ix["width"], 0)], 3e-4)
-        start = ix["sign"] * (x0[ix["state"]] - p[ix["param"]])
+        start = ix["sign"] * (x0[ix["state"]] - limit_at)
         over = seen[ncontact:]
         # (a joint that started outside and only came back is warned about at the start)
         for j in np.flatnonzero(np.isfinite(over) & (over > LIMIT_OVERSHOOT_WIDTHS * e)
@@ -243,6 +241,28 @@ def verdict(model, a, result, gmax, sw):
     if notes:       # one warning per run, naming every contact and joint
         warnings.warn(PhysicsWarning(f"{model.name}: " + "; ".join(notes)), stacklevel=_user_level())
     return status, extra
+
+
+def _bounds(sw, p):
+    """(contact radii, allowed penetrations, limit widths, limit positions) for parameters p,
+    kept on the Switches for the last p seen: runs repeated with the same parameters (a
+    sweep over starts or tolerances) skip the gathers (a run's Python tail is part of the
+    time a user waits at loose tolerances, benchmarks/results/contact_wp.md)."""
+    key = p.tobytes()
+    got = sw.__dict__.get("_bounds")
+    if got is not None and got[0] == key:
+        return got[1]
+    ix = _indices(sw)
+    with np.errstate(invalid="ignore"):
+        r = np.where(ix["radius"] >= 0, p[np.maximum(ix["radius"], 0)], 0.0)
+        allowed = np.where(r > 0, PENETRATION_FRACTION * r, POINT_PENETRATION)
+        e = np.where(ix["width"] >= 0, p[np.maximum(ix["width"], 0)], 3e-4)
+        limit_at = p[ix["param"]]
+    for arr in (r, allowed, e, limit_at):
+        arr.flags.writeable = False
+    out = (r, allowed, e, limit_at)
+    object.__setattr__(sw, "_bounds", (key, out))     # one tuple: a thread reads key and values together
+    return out
 
 
 def _indices(sw):

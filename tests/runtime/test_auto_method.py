@@ -75,6 +75,24 @@ def test_check_and_report_list_what_auto_picks_on_contacts(ball):
         assert checks[f"{method} accuracy"].passed, checks[f"{method} accuracy"].measured
 
 
+
+def test_check_runs_auto_once_where_it_is_one_listed_method(ball, monkeypatch):
+    """On a contact model below rtol 1e-7 auto is radau with radau's settings: the two runs are
+    equal bit for bit, so `eomc check` runs it once and reports it under both names (G1's
+    no-flag check ran Radau twice over 10 s of 232 contact points)."""
+    from eomc.runtime import stability
+    x0, kw = np.r_[0, 0, 0.5, np.zeros(9)], dict(rtol=1e-8, atol=1e-10, t_eval=np.linspace(0, 0.5, 11))
+    auto, radau = ball.simulate(x0, (0, 0.5), **kw), ball.simulate(x0, (0, 0.5), method="radau", **kw)
+    assert auto.method == "radau"
+    np.testing.assert_array_equal(auto.x, radau.x)
+    ran = []
+    real = stability._run
+    monkeypatch.setattr(stability, "_run", lambda *a: ran.append(a[5]) or real(*a))
+    checks = {c.name: c for c in stability.check_model(ball, x0, 0.5, rtol=1e-8, atol=1e-10)}
+    assert checks["auto accuracy"].passed and checks["radau accuracy"].measured == checks["auto accuracy"].measured
+    assert ran == ["radau", "radau", "auto"]       # the two references, then one run for both names
+
+
 def test_bdf_cut_at_predicted_touch_down_is_bit_stable_and_agrees_with_tight_radau(ball):
     """BDF shortens a step whose predicted end lies past touch-down (eomc_bdf.c PRED_OVER) so
     that it ends just past it: the ball at k = 1e9, c = 0 (three bounces in 1.5 s) at rtol 1e-4
