@@ -446,6 +446,6 @@ def _render(name, meta, fns, rendered, solver, layout, sym, helper, split=False,
         name=name, functions=rendered,
         helper_code="\n".join(c for c in ((solver.code if uses_solver else ""), helper) if c),
         tables=tables, table_refs=table_refs, pointers=pointers,
-        noinline=NOINLINE_MACRO if split else "", **common)
+        noinline=NOINLINE_MACRO if split else "", wide_finite="implicit" in fns, **common)
     return GeneratedModel(name=name, c_source=source, header=header, cdef=cdef(name, fns),
                           metadata=meta)

@@ -87,6 +87,7 @@ class Symbolic:
     function_groups: object = None   # per function, its result groups where they differ from the formulation's
     energy: str = ""                 # what a generated ``energy`` output holds (NAME.json "energy"), or ""
     guards: tuple = ()               # rhs broad phase: (clearance, exports) (compiler/emit/guards.py)
+    implicit_guards: tuple = ()      # NAME_implicit's: the exports with each point's K and C slopes
 
 
 def _is_symmetric(A, seed=0):

@@ -15,7 +15,7 @@ from ..tree.analytic import kernel_c
 from ..tree.analytic_emit import analytic_body_ops, analytic_jac_id_body, analytic_jac_x_body, has_analytic
 from ..tree.constrained import jacobian_symbols
 from ..tree.inverse_derivatives import jac_id_body, jac_id_ops
-from ..tree.emit import tree_jacobian_body, tree_jacobian_ops, tree_matrix_body, tree_rhs_body
+from ..tree.emit import tree_jacobian_body, tree_jacobian_ops, tree_implicit_body, tree_matrix_body, tree_rhs_body
 from ..tree.dynamics_kernel import (KERNEL_FUNCTIONS, dynamics_body, dynamics_inputs, dynamics_kernel_c,
                                     dynamics_ops, forcing_by_inverse_dynamics, has_dynamics_kernel)
 from ..tree.jvp import tree_jvp_body
@@ -74,7 +74,7 @@ class Recursive(Formulation):
             return reverse_body(fn, ctx, prog, sym, nx, len(layout.p), jacobian_symbols(prog, sym.W, ctx.nu)[1])
         if fn == "implicit":
             size = implicit_layout(ctx.nq, ctx.nu, len(contact_outputs(self.tree)))["size"]
-            return plain_body(ctx, prog, "imp", (size,), "out")
+            return tree_implicit_body(ctx, prog, sym.implicit_guards, size)
         if fn == "jvp":
             return tree_jvp_body(ctx, prog, *jacobian_symbols(prog, sym.W, ctx.nu), sym.seeds, nx, len(layout.p))
         if fn in _JACOBIANS:

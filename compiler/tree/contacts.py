@@ -70,20 +70,24 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
         forces = ground_forces(centre, velocity, omega, params, load.normal, rename(load.height, what),
                                let=rec.let)
         f_b = rec.vec(poses.to_body(i, forces.force))
-        reach.setdefault(i, []).append(None if load.shape is not None else
-                                       (load.normal, rename(load.height, what), params["r"], off, f_b,
-                                        forces.depth))
         arm_b = poses.to_body(i, forces.point_offset)
         lever = [off[k] + arm_b[k] for k in range(3)]
         n_b = cross(lever, f_b)
         old = bodies[i].fext or [0] * 6
         bodies[i].fext = [old[k] + x for k, x in enumerate(n_b + f_b)]
+        slopes = ()
         if implicit is not None:
             arm_w = forces.point_offset
             point = [rec.let(centre[k] + arm_w[k]) for k in range(3)]
             K, C = ground_jacobians(forces, implicit["step"], rec.let)
+            # each slope named: NAME_implicit's broad phase skips them with the force (body_guards)
+            K, C = ([[rec.let(x) for x in row] for row in M] for M in (K, C))
+            slopes = tuple(x for M in (K, C) for row in M for x in row if isinstance(x, sm.Symbol))
             implicit["contacts"].append({"depth": forces.depth, "point": point,
                                          "velocity": list(forces.parts["slip"]), "K": K, "C": C})
+        reach.setdefault(i, []).append(None if load.shape is not None else
+                                       (load.normal, rename(load.height, what), params["r"], off, f_b,
+                                        forces.depth, slopes))
         quantities = [forces.normal, *forces.friction, forces.depth]     # OUTPUT_KINDS' order
         for kind, value in enumerate(quantities):
             values[ContactValue(index, kind)] = value
@@ -92,6 +96,8 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
             elastic.append(forces.parts["elastic"] * forces.parts["dpos"] / (EXPONENT + 1))
     if guards is not None:
         guards.extend(body_guards(reach, poses))
+    if implicit is not None:
+        implicit["guards"] = body_guards(reach, poses, slopes=True)
     if energy is not None:
         stored = getattr(tree, "joint_energy", None)       # the limits' springs (URDF)
         limits = rename(stored, "the joint limits' elastic energy") if stored else sm.S.Zero
@@ -99,7 +105,7 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
     return values
 
 
-def body_guards(reach, poses):
+def body_guards(reach, poses, slopes=False):
     """[(clearance, exports, inner guards)] per body with ground contacts
     (compiler/emit/guards.py): the body's force temporaries are exactly zero while the clearance
     is positive; inside, each point's law is guarded by its own depth (-δ_j > 0: out of contact,
@@ -117,14 +123,19 @@ def body_guards(reach, poses):
     friction and force are ±0 (a MuJoCo margin is in h; the law has no force at δ ≤ 0, no
     onset beyond it).  The box costs a few operations on the body's rotation, and is tight for
     a long body standing on its end (a calf: the sphere about its knee would reach the floor
-    at every step).  A body with an ellipsoid (its support point moves) gets no guard."""
+    at every step).  A body with an ellipsoid (its support point moves) gets no guard.
+
+    ``slopes``: NAME_implicit's guards, whose exports are also each point's K and C
+    (:func:`~eomc.compiler.contact.law.ground_jacobians`): exactly ±0 out of contact too, as
+    F_n,δ and F_n,δ̇ carry δ₊ and step(F_n), and the friction's slope μ F_n / s carries F_n.
+    The depth, point and velocity NAME_implicit writes stay outside every block."""
     out = []
     for i, points in reach.items():
         if any(p is None for p in points):
             continue
         o, R = poses.origin(i), poses.rotation(i)
         by_normal = {}
-        for normal, height, r, off, _, _ in points:
+        for normal, height, r, off, _, _, _ in points:
             by_normal.setdefault(tuple(sm.sympify(x) for x in normal), []).append((height + r, off))
         terms = []
         for n, group in by_normal.items():
@@ -141,8 +152,9 @@ def body_guards(reach, poses):
                 size = sm.sqrt(sum((x * x for x in n), sm.S.Zero))
                 above -= sm.Max(*[size * sm.sqrt(sum((x * x for x in off), sm.S.Zero)) for off in offs])
             terms.append(above)
-        inner = [(-depth, tuple(s for s in f_b if isinstance(s, sm.Symbol)), ())
-                 for _, _, _, _, f_b, depth in points]
+        inner = [(-depth, tuple(dict.fromkeys(s for s in (*f_b, *(kc if slopes else ()))
+                                              if isinstance(s, sm.Symbol))), ())
+                 for _, _, _, _, f_b, depth, kc in points]
         inner = [g for g in inner if g[1]]
         exports = tuple(s for _, ex, _ in inner for s in ex)
         if exports:

@@ -296,6 +296,8 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         sym = _with_contact_values(sym, contact_values)
     if guards:
         sym = replace(sym, guards=tuple(guards))
+    if implicit is not None and implicit.get("guards"):
+        sym = replace(sym, implicit_guards=tuple(implicit["guards"]))
     if wants_energy:
         sym = replace(sym, energy="kinetic, gravity and the ground contacts' elastic energy"
                       + (" and the joint limits' springs" if getattr(tree, "joint_energy", None) else ""))

@@ -103,3 +103,51 @@ def test_the_guarded_rhs_is_the_straight_line_rhs_near_and_far_from_the_ground(t
     first = straight.rhs_many(0.0, sweep[:1500])
     assert np.array_equal(first[-1], first[-2])
     assert np.max(np.abs(first[0] - first[-1])) > 1.0
+
+
+def _implicit(model, states):
+    """NAME_implicit's out[] at each state (status 0 asked: every state here is finite)."""
+    layout = model.metadata["implicit"]["layout"]
+    ffi, fp = model.ffi, model.ffi.addressof(model.model_lib, f"{model.name}_implicit")
+    out = np.zeros((len(states), layout["size"]))
+    r = model._default_r if model.ninput else ffi.NULL
+    for k, x in enumerate(np.ascontiguousarray(states)):
+        row = out[k]
+        assert fp(0.0, ffi.from_buffer("double[]", x), model._default_p, r,
+                  ffi.from_buffer("double[]", row), ffi.NULL) == 0
+    return out
+
+
+def test_the_guarded_implicit_terms_are_the_straight_line_ones_near_and_far_from_the_ground(tmp_path, monkeypatch):
+    """NAME_implicit (the implicitfast step's terms) skips a body's forces and its points' K and
+    C slopes with the same bounds; depth, point and velocity are written for every contact (the
+    runtime's depth limit and regime test read them)."""
+    def build(tag):
+        path = tmp_path / "oneleg.urdf"
+        path.write_text(ONE_LEG)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return eomc.compile(UrdfModel(path, floating_base=True, contacts=(FOOT,)), functions=("rhs", "implicit"),
+                                cache_dir=tmp_path / tag, progress=False, name="oneleg")
+    guarded = build("guarded")
+    source = next((tmp_path / "guarded").rglob("oneleg.c")).read_text()
+    start = source.index("int oneleg_implicit(")
+    assert source[start:source.index("\n}\n", start)].count("} else {") == 2 + 13
+    monkeypatch.setattr(recursive, "tree_implicit_body", lambda ctx, prog, guards, size:
+                        recursive.plain_body(ctx, prog, "imp", (size,), "out"))
+    straight = build("straight")
+    rng = np.random.default_rng(29)
+    z = guarded.state_names.index("q_trunk_floating_z")
+    X = rng.normal(scale=1.0, size=(300, guarded.nx))
+    X[:, z] = rng.uniform(-0.1, 0.8, size=len(X))
+    sweep = np.repeat(X[:2], 600, axis=0)
+    sweep[:, z] = np.tile(np.linspace(-0.05, 0.75, 600), 2)
+    for states in (X, sweep):
+        a, b = _implicit(guarded, states), _implicit(straight, states)
+        assert np.all(np.isfinite(b))
+        assert np.array_equal(np.abs(a), np.abs(b))      # equal but for the sign of a zero
+    # the sweep did cross: some contact's K was nonzero at the low end and every one at the high
+    at = guarded.metadata["implicit"]["layout"]["contact"]
+    K = np.array([b[at + 25 * c + 7:at + 25 * c + 16] for b in _implicit(straight, sweep[[0, 599]])
+                  for c in range(13)]).reshape(2, 13, 9)
+    assert np.any(K[0] != 0) and not np.any(K[1] != 0)
