@@ -324,8 +324,8 @@ def _start_note(model, overrides):
              if m["state"] not in overrides]
     if not moved:
         return
-    what = "; ".join(f"{m['joint']} ({m['state']} = {m['value']:.6g}, range [{m['lower']:.6g}, "
-                     f"{m['upper']:.6g}])" for m in moved)
+    what = "; ".join(f"{m['joint']} (range [{m['lower']:.6g}, {m['upper']:.6g}]; starts at "
+                     f"{m['state']} = {m['value']:.6g})" for m in moved)
     many = len(moved) > 1
     print(f"eomc: note: {model.name}: the zero pose is outside the range of joint{'s' if many else ''} "
           f"{what}: the default start puts {'them' if many else 'it'} just inside the nearest limit "

@@ -52,7 +52,7 @@ def test_the_default_start_puts_a_joint_whose_range_excludes_zero_just_inside(ar
     start = cli_common.initial_state(model, {})
     assert start["q_knee"] == pytest.approx(-0.8 - START_INSIDE)
     err = capsys.readouterr().err
-    assert "zero pose is outside the range of joint knee (q_knee = -0.81, range [-2.5, -0.8])" in err
+    assert "zero pose is outside the range of joint knee (range [-2.5, -0.8]; starts at q_knee = -0.81)" in err
     # a start the user gives is never changed; it gets the warning, and no note
     assert cli_common.initial_state(model, {"q_knee": 0.0})["q_knee"] == 0.0
     assert "zero pose" not in capsys.readouterr().err
