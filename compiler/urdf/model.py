@@ -183,7 +183,7 @@ def start_in_range(tree):
     for j in tree.joints:
         if j.limit is None or j.type not in ("revolute", "prismatic"):
             continue
-        lo, hi = (float(v) for v in j.limit)
+        lo, hi = (math.nan if v is None else float(v) for v in j.limit)   # a side may be absent
         lo = lo if math.isfinite(lo) else -math.inf
         hi = hi if math.isfinite(hi) else math.inf
         if lo > hi or lo <= 0.0 <= hi:
