@@ -5,7 +5,8 @@ contacts, Solo12, and gymnasium's hopper, ant and humanoid (contacts from the MJ
     python benchmarks/contact_defaults.py [--only go2,solo12] [--t-final 1] [--check-t-final 10] [--no-write]
 
 `simulate` runs --t-final (default 1 s); `animate` and `check` run with no flags at all (their
-own default span, 10 s) unless --check-t-final is given, as issue 29's "done when" asks.  Exit
+own default span, 10 s) unless --check-t-final is given, as issue 29's "done when" asks --
+animate with the one option it requires, where to write (`-o anim.html`).  Exit
 status of check: 0 passed, 1 a check failed, 3 inconclusive (docs/cli.md).  animate's HTML
 page is written in the robot's work folder (its size is recorded).
 
@@ -98,7 +99,9 @@ def main():
         work.mkdir(parents=True, exist_ok=True)
         sim = [eomc, "simulate", *spec, "--t-final", args.t_final, "-o", "traj.csv"]
         chk = [eomc, "check", *spec] + (["--t-final", args.check_t_final] if args.check_t_final else [])
-        ani = [eomc, "animate", *spec] + (["--t-final", args.check_t_final] if args.check_t_final else [])
+        # animate's one required option: where to write (a 3-D robot: an HTML page)
+        ani = [eomc, "animate", *spec, "-o", "anim.html"] + (["--t-final", args.check_t_final]
+                                                             if args.check_t_final else [])
         run(sim, work)                                    # build once (not timed)
         for label, cmd in (("simulate", sim), ("animate", ani), ("check", chk)):
             if label not in args.commands.split(","):

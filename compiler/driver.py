@@ -262,12 +262,12 @@ def _warn_moved_start(name, moved):
 
     from eomc.runtime.errors import DefaultStartWarning
     from eomc.runtime.switching import moved_start_text
-    from .model.spec import _caller_level
+    from .model.spec import caller_level
     many = len(moved) > 1
     warnings.warn(DefaultStartWarning(
         f"{moved_start_text(name, moved)}: the default start (initial_state) puts "
         f"{'them' if many else 'it'} just inside the nearest limit (give x0 to simulate from "
-        f"another start; the joints are in model.metadata['start_in_range'])"), stacklevel=_caller_level())
+        f"another start; the joints are in model.metadata['start_in_range'])"), stacklevel=caller_level())
 
 
 def build_and_load(generated, *, backend="cffi", cflags=None, cache_dir=None, output_dir=None,
