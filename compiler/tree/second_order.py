@@ -268,6 +268,8 @@ def second_order_c(name, plan, nq, nx, helpers):
         "                    for (c = 0; c < 6; c++) x[c] = PP[6 * j + c] - p[c];   /* phi'_j */",
         f"                    {name}_h2_mv(R1, x, t);",
         "                    for (c = 0; c < 6; c++) u7[c] += r1p[c] + t[c];",
+        "                } else {",
+        "                    for (c = 0; c < 6; c++) u1[c] = u7[c] = 0.0;   /* unread (j == i), set for the compiler */",
         "                }",
         "                for (k = j; k >= 0; k = lam[k]) {   /* the support of j */",
         "                    const double *sk = Sw + 6 * k, *pk = PS + 6 * k, *ppk = PS2 + 6 * k, *hk = PP + 6 * k;",
