@@ -201,8 +201,11 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         implicit = {"step": step} if "implicit" in functions else None
         wants_energy = "outputs" in functions and _asks_energy(outputs)
         guards = []
+        # the analytic jac_x's contact terms (compiler/tree/analytic.py), where it may be asked
+        ground = ({} if loops is None and set(functions) & {"jac_id", "jac_x"}
+                  and len(layout.x) > TANGENT_MIN_STATES else None)
         contact_values = _contacts(tree, bodies, rec, v, layout, implicit,
-                                   (gravity, speeds) if wants_energy else None, guards)
+                                   (gravity, speeds) if wants_energy else None, guards, ground)
         extra, keep = [], {}
         if loops is not None:
             J, gamma = lower_loops(loops, layout, rec)
@@ -221,9 +224,11 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         analytic = None
         dyn, planned = (), False     # the functions the loop kernel computes (see dynamics_kernel_functions)
         if loops is None and set(functions) & {"jac_id", "jac_x", *KERNEL_FUNCTIONS} and len(layout.x) > TANGENT_MIN_STATES:
-            analytic, anx = _analytic(tree, bodies, gravity, layout, functions)
-            dyn = dynamics_kernel_functions(analytic, functions) if analytic is not None else ()
-            planned = analytic is not None
+            analytic, anx = _analytic(tree, bodies, gravity, layout, functions, ground)
+            # a plan with ground contacts serves jac_x and jac_id only (NAME_dyn has no contact terms)
+            dyn = (dynamics_kernel_functions(analytic, functions)
+                   if analytic is not None and not analytic.contacts else ())
+            planned = analytic is not None and not analytic.contacts   # other functions: as without a plan
             if analytic is not None and not dyn and not set(functions) & {"jac_id", "jac_x"}:
                 analytic, anx = None, []
         # forcing and inverse_dynamics both straight-line: forcing is -τ at u' = 0, a call of
@@ -298,6 +303,8 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         sym = replace(sym, guards=tuple(guards))
     if implicit is not None and implicit.get("guards"):
         sym = replace(sym, implicit_guards=tuple(implicit["guards"]))
+    if analytic is not None and analytic.contacts and ground.get("guards"):
+        sym = replace(sym, jac_guards=tuple(ground["guards"]))
     if wants_energy:
         sym = replace(sym, energy="kinetic, gravity and the ground contacts' elastic energy"
                       + (" and the joint limits' springs" if getattr(tree, "joint_energy", None) else ""))
@@ -368,7 +375,7 @@ def _input_columns(tree, layout):
     return [(("dres_r", i, j), e) for (i, j), e in sorted(cols.items()) if e != 0]
 
 
-def _analytic(tree, bodies, gravity, layout, functions):
+def _analytic(tree, bodies, gravity, layout, functions, ground=None):
     """(plan, results) of the analytic RNEA derivatives (:mod:`.analytic`) for jac_x and jac_id,
     or (None, []) where the tree does not qualify (then both keep the tangent path).
 
@@ -378,7 +385,8 @@ def _analytic(tree, bodies, gravity, layout, functions):
     from .analytic import analytic_plan
     absent = _absent(tree, layout)
     memo = {}
-    return analytic_plan(tree, bodies, gravity, layout, lambda e, what: _rename(layout, memo, what, absent)(e))
+    return analytic_plan(tree, bodies, gravity, layout, lambda e, what: _rename(layout, memo, what, absent)(e),
+                         (ground or {}).get("contacts"))
 
 
 def _asks_energy(outputs):
@@ -387,7 +395,7 @@ def _asks_energy(outputs):
     return any(getattr(e, "has", None) and e.has(ENERGY) for e in (outputs or {}).values())
 
 
-def _contacts(tree, bodies, rec, v, layout, implicit=None, energy=None, guards=None):
+def _contacts(tree, bodies, rec, v, layout, implicit=None, energy=None, guards=None, ground=None):
     """Ground contacts (eomc.compiler.contact.tree): their forces into the bodies' ``fext``
     from the world positions and velocities of their points, built recursively with ``rec``;
     returns {placeholder of a contact output or event: its temporary}."""
@@ -396,7 +404,7 @@ def _contacts(tree, bodies, rec, v, layout, implicit=None, energy=None, guards=N
     from .contacts import lower_contacts
     memo = {}
     return lower_contacts(tree, bodies, rec, v, lambda e, what: _rename(layout, memo, what, None)(e),
-                          implicit, energy, guards)
+                          implicit, energy, guards, ground)
 
 
 def implicit_layout(nq, nu, ncontact):
