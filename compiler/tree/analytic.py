@@ -1009,7 +1009,8 @@ def analytic_ops(plan, ncol=0):
     multiply-adds as one mul and one add): per body ~1,150 (placement, v, a, Y, Ẏ),
     per dof ~330 (axes, their terms, the backward products), per (dof, support dof) pair 48;
     with the M⁻¹ solve on ``ncol`` columns (jac_x) 2·ncol more per pair and the factorization
-    (LᵀDL) or about 56·ncol more per dof (articulated)."""
+    (LᵀDL) or about 56·ncol more per dof (articulated); a ground contact's terms as if it
+    touched (:func:`_contact_lines`)."""
     pairs = sum(plan.dep)
     muls = 580 * plan.nb + 170 * plan.nd + 24 * pairs
     adds = 570 * plan.nb + 160 * plan.nd + 24 * pairs
@@ -1030,5 +1031,9 @@ def analytic_ops(plan, ncol=0):
             adds += 2 * len(r) ** 3 + plan.nd * len(r) ** 2
     muls += 2 * len(plan.laws)      # the sign times each law's two derivatives
     adds += 2 * len(plan.laws)
+    for _, e in plan.contacts:      # a touching contact (one compare when clear): per support dof
+        d = plan.dep[e] + 1         # its slopes' products (~70), per pair of them two dot products
+        muls += 70 * d + 10 * d * d
+        adds += 60 * d + 10 * d * d
     divs = sum(k for _, k, _ in plan.multi) + (plan.nd if ncol and plan.solver == "aba" else 0)
     return {"adds": adds, "muls": muls, "divs": divs, "calls": 0}

@@ -34,18 +34,18 @@ def _cache(tmp_path, monkeypatch):
     monkeypatch.setenv("EOMC_CACHE_DIR", str(tmp_path / "cache"))
 
 
-def both(source, name, monkeypatch, tmp_path, **kw):
+def both(source, name, monkeypatch, tmp_path, functions=FNS, **kw):
     """(analytic, tangent) builds of ``source``: the analytic path forced at any size, the
     tangent path by refusing the contacts to the plan."""
     with monkeypatch.context() as m:
         m.setattr(lower, "TANGENT_MIN_STATES", 0)
-        fast = eomc.compile(source, f"{name}_an", functions=FNS, formulation="recursive", progress=False,
-                            cache_dir=tmp_path / "an", **kw)
+        fast = eomc.compile(source, f"{name}_an", functions=functions, formulation="recursive",
+                            progress=False, cache_dir=tmp_path / "an", **kw)
     plan = an.analytic_plan
     with monkeypatch.context() as m:
         m.setattr(an, "analytic_plan", lambda *a: plan(*a[:5], None))
-        slow = eomc.compile(source, f"{name}_tg", functions=FNS, formulation="recursive", progress=False,
-                            cache_dir=tmp_path / "tg", **kw)
+        slow = eomc.compile(source, f"{name}_tg", functions=functions, formulation="recursive",
+                            progress=False, cache_dir=tmp_path / "tg", **kw)
     assert "ground contacts:" in fast.source_path.read_text()
     assert "_rnea_derivs(" not in slow.source_path.read_text()
     return fast, slow
@@ -103,7 +103,8 @@ def test_free_sphere_with_a_radius(monkeypatch, tmp_path):
     from eomc.compiler.mjcf.model import MjcfModel
     path = tmp_path / "ball.xml"
     path.write_text(BALL)
-    fast, slow = both(MjcfModel(path), "ball", monkeypatch, tmp_path)
+    fast, slow = both(MjcfModel(path), "ball", monkeypatch, tmp_path,
+                      functions=FNS + ["inverse_dynamics", "jac_id"])
     rng = np.random.default_rng(5)
     iz = fast.state_names.index("q_root_z")
     states = []
@@ -112,6 +113,10 @@ def test_free_sphere_with_a_radius(monkeypatch, tmp_path):
         x[iz], x[fast.nq + 2] = z, -0.01      # sinking slowly: the damped law does not pull (no clip)
         states.append(x)
     check(fast, slow, states)
+    for x in states:        # jac_id: the same kernel and contact terms at given accelerations
+        ud = rng.normal(size=fast.nu)
+        J, ref = fast.jac_id(0.0, x, ud), slow.jac_id(0.0, x, ud)
+        assert np.max(np.abs(J - ref)) / max(1.0, np.max(np.abs(ref))) < 1e-10
 
 
 def test_urdf_default_ground_on_a_welded_link(monkeypatch, tmp_path):
