@@ -33,9 +33,16 @@ generalized force e_k·τ_k on the joint's own speed and nothing else, so the ke
 the law's value as a constant load (in F) and adds its own derivative, ∂τ_k/∂q_k and
 ∂τ_k/∂u_k (block L of ``an[]``), to row k (why: without it every URDF robot built with its
 limits on -- the default -- differentiated the whole recursion per column, unrolled:
-G1's jac_x was 809 kB of C, 2.6x its rhs).  Other state-dependent loads (contacts,
-world-frame forces, a ball joint's damping) and trees closed by constraints keep the
-tangent path.
+G1's jac_x was 809 kB of C, 2.6x its rhs).  Ground contacts likewise: each contact's
+force enters F as a body-fixed load (as the rhs computes it), and the kernel adds what
+that misses, per touching contact and pairs of dofs in its body's support, from the law's
+slopes K = -∂f/∂p, C = -∂f/∂v_p (block G, :func:`_contact_lines`; why: every model with
+ground contacts differentiated the whole recursion per column -- the gymnasium ant's jac_x
+33 µs, 20 rhs calls, Solo12's 97 µs; benchmarks/results/contact_jac.md).  A contact clear
+of the ground costs a compare there, and jac_x's straight-line part skips its law with the
+rhs's broad phase (compiler/emit/guards.py).  Other state-dependent loads (world-frame
+forces, a ball joint's damping, an ellipsoid's moving support point, body-body pairs) and
+trees closed by constraints keep the tangent path.
 
 Checked against central differences and Pinocchio's ``computeRNEADerivatives`` /
 ``computeABADerivatives`` (tests/compiler/tree/test_analytic_derivatives.py).
