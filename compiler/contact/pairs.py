@@ -113,10 +113,11 @@ class PairLoad(LoweredLoad):
         out += [self.params[k] for k in ("k", "c", "mu", "vs")]
         return out + [sm.Integer(self.part)] if self.part >= 0 else out
 
-    def lower(self, bodies, rec, v, rename, poses):
+    def lower(self, bodies, rec, v, rename, poses, broad=None):
         """Add the pair's force to both bodies' fext (body components, about their origins);
         return {PairValue placeholder: temporary}: F_n, the friction force on B (world), the
-        depth δ and the clip's switching function (:func:`.law.clip_switch`)."""
+        depth δ and the clip's switching function (:func:`.law.clip_switch`).
+        ``broad``: a list to append the pair's broad phase to (:func:`pair_guard`)."""
         what = f"the contact {self.name}"
         params = {k: rename(s, what) for k, s in self.params.items()}
         ren = lambda e: rename(e, what)      # noqa: E731 -- mass-centre parameters -> their slots
@@ -141,8 +142,10 @@ class PairLoad(LoweredLoad):
         scale = rec.let(-params["mu"] * fn / sm.sqrt(_dot(vt, vt) + params["vs"] ** 2))
         ft = [scale * vt[k] for k in range(3)]        # outputs only: the rhs names f (as before)
         f = [rec.let(fn * n[k] + scale * vt[k]) for k in range(3)]      # on B, world components
-        _apply(self.b, f, p, poses, bodies, rec)
-        _apply(self.a, [-x for x in f], p, poses, bodies, rec)
+        wrench = _apply(self.b, f, p, poses, bodies, rec) + _apply(self.a, [-x for x in f], p, poses, bodies, rec)
+        if broad is not None:
+            broad.append(((self.a, self.b, self.margin), pair_clearance(self, a, b, poses),
+                          tuple(dict.fromkeys(s for s in wrench if isinstance(s, sm.Symbol))), depth))
         # OUTPUT_KINDS, CLIP_KIND, then POINT_KINDS (the contact point, world)
         quantities = [fn, *ft, depth, clip_switch(depth, params["c"], rate), *p]
         return {PairValue(self.index, kind): value for kind, value in enumerate(quantities)}
@@ -513,16 +516,81 @@ def _point_velocity(shape, p, poses, v, rec):
 
 
 def _apply(shape, f, p, poses, bodies, rec):
-    """Force ``f`` (world) at world point ``p`` on the shape's body: into its fext."""
+    """Force ``f`` (world) at world point ``p`` on the shape's body: into its fext; returns the
+    wrench added (moment and force, body components, each named: the broad phase's exports)."""
     if shape.body < 0:
-        return
+        return []
     i = shape.body
     R, o = poses.world_to_body(i), poses.origin(i)
     f_b = [rec.let(sum((R[r][k] * f[k] for k in range(3)), sm.S.Zero)) for r in range(3)]
     lever = [sum((R[r][k] * (p[k] - o[k]) for k in range(3)), sm.S.Zero) for r in range(3)]
-    moment = _cross(lever, f_b)
+    wrench = [rec.let(x) for x in _cross(lever, f_b)] + f_b
     old = bodies[i].fext or [0] * 6
-    bodies[i].fext = [old[k] + x for k, x in enumerate(moment + f_b)]
+    bodies[i].fext = [old[k] + x for k, x in enumerate(wrench)]
+    return wrench
+
+
+BROAD_PAD = 1e-6   # m: added to a pair's bounding radii (covers rounding and the ellipsoid's Newton steps)
+
+
+def bounding_radius(kind, size):
+    """The radius of the smallest ball about a shape's centre holding the whole shape."""
+    size = [float(x) for x in size]
+    if kind == "sphere":
+        return size[0]
+    if kind == "capsule":
+        return size[0] + size[1]
+    if kind == "box":
+        return math.sqrt(sum(x * x for x in size[:3]))
+    if kind == "cylinder":
+        return math.hypot(size[0], size[1])
+    if kind == "ellipsoid":
+        return max(size[:3])
+    raise ValueError(f"no bounding radius of a {kind}")
+
+
+def pair_clearance(load, a, b, poses):
+    """The pair's broad phase: an expression that is positive only when the two shapes are
+    further apart than the pair's margin, so that its depth δ < 0 and its force is ±0 (the law
+    has no force at δ ≤ 0: δ₊ = 0 exactly).  Each shape lies in a ball fixed at build: about its
+    body's origin (the position the recursion has placed already), radius |offset| + the shape's
+    bounding radius; about its own centre (``a``/``b``: :func:`_placed`) when the offset holds
+    parameters (a mass centre not folded) or the shape is in the world.  Then
+
+        clearance = |c_A - c_B|² - (ρ_A + ρ_B + max(margin, 0) + BROAD_PAD)²
+
+    Every depth this module computes is at most the true overlap of the shapes plus the margin
+    (its candidate points lie in the shapes; a solid's signed distance is exact outside it, the
+    ellipsoid's to far below BROAD_PAD), so a positive clearance means δ < 0 at every part."""
+    centres, reach = [], sm.Float(max(float(load.margin), 0.0) + BROAD_PAD, 17)
+    for shape, placed in ((load.a, a), (load.b, b)):
+        size = bounding_radius(shape.kind, shape.size)
+        off = [sm.sympify(x) for x in shape.offset]
+        if shape.body >= 0 and all(x.is_Number for x in off):
+            centres.append(poses.origin(shape.body))
+            size += math.sqrt(sum(float(x) ** 2 for x in off))
+        else:
+            centres.append(placed["centre"])
+        reach += sm.Float(size, 17)
+    d2 = sum(((centres[0][k] - centres[1][k]) ** 2 for k in range(3)), sm.S.Zero)
+    return d2 - reach ** 2
+
+
+def pair_guards(found):
+    """[(clearance, exports, inner guards)] (compiler/emit/guards.py) of the pairs' broad phase:
+    ``found`` [(pair key, clearance, exports, depth)] as :meth:`PairLoad.lower` appends them, one
+    per contact point; the points of one pair (box–box: 16) share its clearance, and inside, each
+    point's law is guarded by its own depth (-δ > 0: its force is ±0)."""
+    by_pair = {}
+    for key, clearance, exports, depth in found:
+        by_pair.setdefault(key, (clearance, []))[1].append((-depth, exports, ()))
+    out = []
+    for clearance, inner in by_pair.values():
+        inner = [g for g in inner if g[1]]
+        exports = tuple(s for _, ex, _ in inner for s in ex)
+        if exports:
+            out.append((clearance, exports, tuple(inner)))
+    return out
 
 
 @dataclass(frozen=True)

@@ -447,10 +447,12 @@ def _with_pairs(model, m, built):
     pairs of kinds eomc does not model are named in one warning.
 
     Why self-collisions are left out unless ``pairs=True``: their number grows as the square of a
-    tree's geoms (gymnasium's humanoid: 109, its rhs 3.1 -> 11.4 µs; dm_control's humanoid_CMU
-    ~1000), the generated code has no run-time broad phase to skip the far ones, and the
-    motions these models are made for rarely bring a tree's limbs together.  A warning says how
-    many were left out."""
+    tree's geoms (gymnasium's humanoid: 109; dm_control's humanoid_CMU ~1000).  The rhs skips the
+    far ones (a bounding-ball test per pair, compiler/contact/pairs.pair_clearance: the humanoid's
+    rhs with them ~1.8x its no-contact rhs, was 3.7x), but each is still generated code in rhs,
+    events and jac_x: the humanoid's rhs-only build 3 -> ~29 s CPU (benchmarks/results/mjcf_contact.md),
+    and the motions these models are made for rarely bring a tree's limbs together.  A warning says
+    how many were left out."""
     import mujoco
     from eomc.compiler.contact.pairs import PairShape, PairSpec, with_pairs
     from eomc.compiler.contact.tree import body_com

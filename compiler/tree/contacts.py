@@ -11,6 +11,7 @@ this module is the recursion's side of it (called by :mod:`.lower`).
 import sympy as sm
 
 from ..contact.law import EXPONENT, ground_forces, ground_jacobians, step
+from ..contact.pairs import PairLoad, pair_guards
 from ..contact.tree import CLIP_KIND, ENERGY, ContactLoad, ContactValue, contact_outputs
 from .placement import Placement
 from .spatial import cross
@@ -51,9 +52,12 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
     poses = world_placement(bodies, rec)
     if implicit is not None:
         implicit["poses"], implicit["contacts"] = poses, []
-    values, elastic, reach = {}, [], {}
+    values, elastic, reach, pairs = {}, [], {}, []
     for load in others:     # a body-body pair returns its outputs' and events' values
-        values.update(load.lower(bodies, rec, v, rename, poses) or {})
+        if isinstance(load, PairLoad):
+            values.update(load.lower(bodies, rec, v, rename, poses, broad=pairs))
+        else:
+            values.update(load.lower(bodies, rec, v, rename, poses) or {})
     for index, load in enumerate(contacts):
         i = load.body
         what = f"contact {load.name} on body {tree.bodies[i].name}"
@@ -105,9 +109,9 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
         if energy is not None:      # the law's elastic part k δ₊^(3/2) stores k δ₊^(5/2) / (5/2)
             elastic.append(forces.parts["elastic"] * forces.parts["dpos"] / (EXPONENT + 1))
     if guards is not None:
-        guards.extend(body_guards(reach, poses))
+        guards.extend(body_guards(reach, poses) + pair_guards(pairs))
     if implicit is not None:
-        implicit["guards"] = body_guards(reach, poses, slopes=True)
+        implicit["guards"] = body_guards(reach, poses, slopes=True)    # (no pairs: NAME_implicit refuses them)
     if analytic is not None:
         analytic["guards"] = body_guards(reach, poses, slopes=True, world=True)
     if energy is not None:

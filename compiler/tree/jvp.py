@@ -10,7 +10,7 @@ cost O(k n), where jac_x costs O(n²).  Forward sensitivities use it.
 """
 import sympy as sm
 
-from ..emit.bodies import IND, parameter_directions, store, temps, needed_assignments, split_on
+from ..emit.bodies import IND, lane_directions, parameter_directions, store, temps, needed_assignments, split_on
 
 __all__ = ["tree_jvp_body"]
 
@@ -59,23 +59,29 @@ def tree_jvp_body(ctx, program, W, G, seeds, nx, npar):
     lines += [store(f"xdot[{first + i}]", zd.get(("zd", i), sm.S.Zero), pr) for i in range(nx - first)]
     dkin = program.result_exprs("dkin")
     dkin.update({("dkin", first + k[1], k[2]): e for k, e in program.result_exprs("dzd").items()})
-    body = []
+    kin = []
     for i in list(range(nq)) + list(range(first, nx)):
         terms = [f"({pr.doprint(dkin[('dkin', i, c)])}) * dx[{c}]" for c in range(nx)
                  if dkin.get(("dkin", i, c), 0) != 0]
-        body.append(f"out[(size_t)d * {nx} + {i}] = {' + '.join(terms) or '0.0'};")
-    body += ["{"] + [x[len(IND):] for x in temps(program, pr, inner)]
-    body += [f"G[{i}] = {pr.doprint(tangent.get(('tjv', i), sm.S.Zero))};" for i in range(ng)]
-    body.append("}")
-    body += pcols
-    body.append("{")
-    body += [x[len(IND):] for x in temps(program, pr, solve)]
-    body += [f"out[(size_t)d * {nx} + {nq + i}] = {pr.doprint(sol.get(i, sm.S.Zero))};" for i in range(nu)]
-    body.append("}")
-    lines.append(f"{IND}for (d = 0; d < k; d++) {{")
-    lines.append(f"{IND * 2}dx = dirs + (size_t)d * {nd};")
-    lines += [IND * 2 + x for x in body]
-    lines.append(f"{IND}}}")
+        kin.append(f"out[(size_t)d * {nx} + {i}] = {' + '.join(terms) or '0.0'};")
+    scalar = ["{"] + [x[len(IND):] for x in temps(program, pr, inner)]
+    scalar += [f"G[{i}] = {pr.doprint(tangent.get(('tjv', i), sm.S.Zero))};" for i in range(ng)]
+    scalar.append("}")
+    tail = pcols + ["{"] + [x[len(IND):] for x in temps(program, pr, solve)]
+    tail += [f"out[(size_t)d * {nx} + {nq + i}] = {pr.doprint(sol.get(i, sm.S.Zero))};" for i in range(nu)]
+    tail.append("}")
+    if inner and all(not pr._names[t].endswith("]") for t, _ in inner):
+        # the tangent LANES directions at a time (emit.bodies.lane_directions)
+        more, loop = lane_directions(pr, seeds, nx, nd, [(inner, {i: tangent.get(("tjv", i), sm.S.Zero)
+                                                                   for i in range(ng)}, True)],
+                                     ng, kin, scalar, tail)
+        lines[len(decls):len(decls)] = [f"{IND}{x}" for x in more]
+        lines += loop
+    else:
+        lines.append(f"{IND}for (d = 0; d < k; d++) {{")
+        lines.append(f"{IND * 2}dx = dirs + (size_t)d * {nd};")
+        lines += [IND * 2 + x for x in kin + scalar + tail]
+        lines.append(f"{IND}}}")
     lines.append(f"{IND}i = {ctx.name}_finite(xdot, {nx});")
     lines.append(f"{IND}if (i != EOMC_OK || k <= 0) return i;")
     lines.append(f"{IND}return {ctx.name}_finite(out, k * {nx});")

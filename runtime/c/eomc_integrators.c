@@ -836,6 +836,18 @@ static void combine(int n, int nst, const double *coef, const double *restrict K
     }
 }
 
+/* combine's first rows only: acc[i] = sum_j coef[j] K[j ld + i] for i < rows. */
+static void combine_rows(int rows, int ld, int nst, const double *coef, const double *restrict K,
+                         double *restrict acc)
+{
+    for (int i = 0; i < rows; i++) acc[i] = 0.0;
+    for (int j = 0; j < nst; j++) {
+        const double a = coef[j], *restrict kj = K + (size_t)j * ld;
+        if (a == 0.0) continue;
+        for (int i = 0; i < rows; i++) acc[i] += a * kj[i];
+    }
+}
+
 /* One trial step: stages, y_new, K[s] = f(t+h, y_new), ys = last stage point. */
 static int erk_trial(ctx *c, const erk *tb, double t, double h, const double *x,
                      double *K, double *ynew, double *ys, double *acc)
@@ -859,8 +871,10 @@ static double erk_error(const erk *tb, int n, int ne, double h, const double *K,
                         const double *ynew, double rtol, double atol, double *acc5, double *acc3)
 {
     double e5 = 0.0, e3 = 0.0;
-    combine(n, tb->s + 1, tb->is853 ? D8_E5 : DP5_E, K, acc5);
-    if (tb->is853) combine(n, tb->s + 1, D8_E3, K, acc3);
+    /* only the rows the norm reads: an augmented sensitivity model's S rows (n - ne of them)
+     * would otherwise pay two (s + 1)-stage combinations a step for nothing */
+    combine_rows(ne, n, tb->s + 1, tb->is853 ? D8_E5 : DP5_E, K, acc5);
+    if (tb->is853) combine_rows(ne, n, tb->s + 1, D8_E3, K, acc3);
     n = ne;
     for (int i = 0; i < n; i++) {
         double sc = atol + rtol * fmax(fabs(x[i]), fabs(ynew[i]));

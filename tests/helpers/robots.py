@@ -22,6 +22,7 @@ ROBOTS = {
     "ur5": "ur_description/urdf/ur5_robot.urdf",
     "panda": "panda_description/urdf/panda.urdf",
     "solo12": "solo_description/robots/solo12.urdf",
+    "finger_edu": "finger_edu_description/robots/finger_edu.urdf",
 }
 
 

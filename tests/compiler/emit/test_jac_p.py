@@ -179,6 +179,7 @@ def test_jvp_is_jacobian_times_direction(cache, n):
     _, only_x = model.jvp(0.0, x, D[:, :model.nx], r=r)      # state directions alone
     assert _scaled(only_x, D[:, :model.nx] @ model.jacobian(0.0, x, r=r).T) < 1e-12
     _check_sensitivity_directions(model, x, r, rng)
+    _check_lanes(model, x, r, rng)
     if n == 6:     # the looped tangent (Gtx) through whole runs: S against central differences
         _check_whole_run_sensitivities(model, r)
 
@@ -203,6 +204,20 @@ def _check_whole_run_sensitivities(model, r):
                                    atol=1e-12, **kw).x for s in (1, -1)]
         fd = (runs[0] - runs[1]) / (2 * h)
         assert np.max(np.abs(S[:, :, k] - fd)) < 1e-6 * np.max(np.abs(fd)), name
+
+
+def _check_lanes(model, x, r, rng):
+    """k directions in one call (the looped tangent carries four at a time, a lone one
+    scalar; emit.bodies.lane_directions) against each direction alone, for every group
+    size and remainder up to k = 9, sensitivity-shaped and dense directions."""
+    nx, npar = model.nx, model.nparam
+    D = rng.normal(size=(9, nx + npar))
+    D[::2, nx:] = 0.0
+    D[np.arange(0, 9, 2), nx + np.arange(0, 9, 2) % npar] = 1.0
+    for k in range(1, 10):
+        _, out = model.jvp(0.0, x, D[:k], r=r)
+        alone = np.concatenate([model.jvp(0.0, x, D[i:i + 1], r=r)[1] for i in range(k)])
+        assert _scaled(out, alone) < 1e-14, k
 
 
 def _check_sensitivity_directions(model, x, r, rng):

@@ -49,6 +49,21 @@ def test_jvp_matches_jacobians(model):
         assert np.max(np.abs(row - fd)) < 1e-7 * max(1.0, np.max(np.abs(fd)))
 
 
+def test_jvp_directions_together_equal_each_alone(model):
+    """k directions in one call (the tangent four at a time, a lone one scalar:
+    emit.bodies.lane_directions) against each direction alone, k = 1 .. 9."""
+    rng = np.random.default_rng(7)
+    x, r = rng.uniform(-1, 1, model.nx), rng.uniform(-1, 1, model.ninput)
+    nx, npar = model.nx, model.nparam
+    D = rng.normal(size=(9, nx + npar))
+    D[::2, nx:] = 0.0
+    D[np.arange(0, 9, 2), nx + np.arange(0, 9, 2) % npar] = 1.0
+    for k in range(1, 10):
+        _, out = model.jvp(0.0, x, D[:k], r=r)
+        alone = np.concatenate([model.jvp(0.0, x, D[i:i + 1], r=r)[1] for i in range(k)])
+        assert np.max(np.abs(out - alone)) <= 1e-14 * max(1.0, np.max(np.abs(alone))), k
+
+
 def test_tree_sensitivities_through_jvp_and_jacobian_agree(model):
     from eomc.runtime import sensitivity
     x0 = np.zeros(model.nx)
