@@ -222,18 +222,19 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         UD = tuple(sm.Symbol(f"ud_{j}", real=True) for j in range(nu))
         jacobian, more = [], ()
         analytic = None
-        dyn, planned = (), False     # the functions the loop kernel computes (see dynamics_kernel_functions)
+        dyn, planned, grounded = (), False, False     # the functions the loop kernel computes (see dynamics_kernel_functions)
         if loops is None and set(functions) & {"jac_id", "jac_x", *KERNEL_FUNCTIONS} and len(layout.x) > TANGENT_MIN_STATES:
             analytic, anx = _analytic(tree, bodies, gravity, layout, functions, ground)
             # a plan with ground contacts serves jac_x and jac_id only (NAME_dyn has no contact terms)
             dyn = (dynamics_kernel_functions(analytic, functions)
                    if analytic is not None and not analytic.contacts else ())
             planned = analytic is not None
+            grounded = planned and bool(analytic.contacts)
             if analytic is not None and not dyn and not set(functions) & {"jac_id", "jac_x"}:
                 analytic, anx = None, []
         # forcing and inverse_dynamics both straight-line: forcing is -τ at u' = 0, a call of
         # inverse_dynamics (RNEA's code once; only where the plan exists, small trees unchanged)
-        by_id = (planned and not analytic.contacts and {"forcing", "inverse_dynamics"} <= set(functions)
+        by_id = (planned and not grounded and {"forcing", "inverse_dynamics"} <= set(functions)
                  and not {"forcing", "inverse_dynamics"} & set(dyn))
         if jac and (analytic is None or jac != {"jac_x"}):    # the analytic jac_x needs no residual
             W = tuple(sm.Symbol(f"w_{j}", real=True) for j in range(nu))
