@@ -11,6 +11,8 @@ from the two builds' operation counts, exactly as auto compares them.
 Models: the cart System auto sees (benchmarks/tree_models/cart_rel_joints.py, n = 1-4), and
 the UR10 and Kinova arms from example-robot-data.  Bounded build wall time: a model whose
 build fails is reported, not hidden.
+The harness compiles both forms' C with the flags of eomc's default build on this machine
+(LIB_FLAGS: -O2 plus -mavx2 -ffp-contract=off on AVX2), so the times are what auto's pick runs at.
 Usage: python benchmarks/bench_auto_choice.py [--rounds 9] [--write]  (--write: results/auto_choice.md)
 """
 import argparse
@@ -26,6 +28,12 @@ ROOT = HERE.parent
 sys.path.insert(0, str(ROOT / "tests"))
 
 from common import C_CLOCK_AND_RNG  # noqa: E402
+from eomc.compiler.build import DEFAULT_CFLAGS, find_compiler  # noqa: E402
+from eomc.compiler.build.toolchain import machine_flags  # noqa: E402
+
+# the harness compiles both rhs with the flags eomc's default build uses on this machine
+# (benchmarks/results/machine_flags.md): what auto's pick runs with
+LIB_FLAGS = [*DEFAULT_CFLAGS, *machine_flags(find_compiler())]
 
 HARNESS = r"""
 #define _POSIX_C_SOURCE 199309L
@@ -99,7 +107,7 @@ def measure(label, model, env, tmp, rounds):
            .replace("@NQ@", str(nq)).replace("@NR@", str(nr)).replace("@ROUNDS@", str(rounds)))
     (d / "h.c").write_text(src)
     rt = ROOT / "runtime" / "c"
-    subprocess.run(["gcc", "-O2", "-std=c99", f"-I{d}", f"-I{rt}", str(d / "h.c"), str(d / "m_kane.c"),
+    subprocess.run(["gcc", *LIB_FLAGS, f"-I{d}", f"-I{rt}", str(d / "h.c"), str(d / "m_kane.c"),
                     str(d / "m_recursive.c"), "-o", str(d / "h"), "-lm"], check=True)
     out = subprocess.run(["taskset", "-c", "1", str(d / "h")], capture_output=True, text=True,
                          check=True).stdout
@@ -163,7 +171,9 @@ def main(argv):
         from common import environment_header, write_results
         end = " ".join(f"{v:.2f}" for v in os.getloadavg())
         notes = [f"load average at start: {start}, at the end: {end} (a shared 2-core machine, "
-                 f"other engineers' builds and tests running beside this): times are thread CPU time"]
+                 f"other engineers' builds and tests running beside this): times are thread CPU time",
+                 f"both rhs compiled into the harness with eomc's default flags on this machine: "
+                 f"{' '.join(LIB_FLAGS)}"]
         print(write_results("auto_choice", environment_header(
             "auto's choice of formulation: both forms' rhs measured", notes=notes)
             + "\n" + (__doc__ or "") + "\n" + text + "\n"))

@@ -136,6 +136,7 @@ def main(names):
                          f"{ratio('euler', 'quaternion'):.2f}", f"{ratio('mujoco', 'quaternion'):.2f}",
                          f"{ratio('pin', 'quaternion'):.2f}", f"{ratio('mujoco', 'euler'):.2f}",
                          f"{ratio('pin', 'euler'):.2f}"])
+    lib_flags = " ".join(robots[0][1]["quaternion"].metadata["build"]["cflags"])
     headers = ["robot", "nu", "rhs ops euler (calls)", "rhs ops quaternion (calls)", "eomc euler [ns]",
                "eomc quaternion [ns]", "Pinocchio ABA [ns]", "MuJoCo mj_forward [ns]", "euler / quaternion",
                "MuJoCo / quaternion", "Pinocchio / quaternion", "MuJoCo / euler", "Pinocchio / euler"]
@@ -154,8 +155,9 @@ def main(names):
                "the per-repeat ratios",
                f"mujoco {mujoco.__version__}, pin {pin.__version__}; Pinocchio harness g++ -O3 -DNDEBUG from the "
                f"wheel's headers ({pin_build:.0f} s wall to compile, or a cached build); eomc libraries (default "
-               "formulation: recursive here) and harnesses gcc -O2; --limits off, runtime parameters at the URDF's "
-               "values",
+               f"formulation: recursive here) built with eomc's default flags for this machine ({lib_flags}; "
+               "the portable -O2 build's result bits, benchmarks/results/machine_flags.md), harnesses gcc -O2; "
+               "--limits off, runtime parameters at the URDF's values",
                "rhs ops: adds + multiplies + divides + calls of NAME_rhs as eomc counts them (calls: sin/cos/sqrt)",
                "mj_forward does more than ABA (positions, velocities, sensors); see benchmarks/bench_urdf.py",
                *checks])

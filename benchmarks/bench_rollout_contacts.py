@@ -16,7 +16,10 @@ interleaved repeat by repeat, medians of REPEAT, process pinned to cores 0,1.  T
 differ, so the two sides' end states differ by what the laws do, not by round-off:
 "vs MuJoCo" is the median and max over rows of max |q_eomc - q_mujoco| over the compared
 coordinates (hinges, slides, free joints' positions; bench_fixedstep.compared_q).  Row 0 of
-eomc.rollout is checked bit for bit against simulate (same method, same code).
+eomc.rollout is checked bit for bit against simulate (same method, same code).  Errors beside
+the times: over the first ERROR_ROWS starts, each side against its own reference (as
+bench_fixedstep): eomc against its Radau at rtol = atol = 1e-9, MuJoCo against its RK4 at
+timestep / 16; median / max over those rows of max |q - q_ref| at the end.
 
 Go2 and G1: MuJoCo Menagerie is not installed here (its pip package downloads the files from
 GitHub, which this machine cannot reach), so both sides read one MJCF that MuJoCo's own compiler
@@ -48,6 +51,7 @@ import bench_fixedstep as B  # noqa: E402
 
 MODELS = ("hopper", "ant", "humanoid", "go2", "g1")
 NROLL, REPEAT = 64, 5
+ERROR_ROWS = 4            # starts whose error against each side's own reference is measured
 LEGS = ("FL", "FR", "RL", "RR")
 # URDF robots: (file under example-robot-data's robots/, foot spheres (link, offset, radius) or
 # None for the URDF's own collision spheres, start pose {joint: angle})
@@ -112,7 +116,9 @@ def _models(name, cache_dir):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")          # the files' self-collision pairs (said by a warning)
             em = B.eomc_model(name, cache_dir)
-        return em, B.mujoco_model(name, "IMPLICITFAST"), B.mujoco_model(name, "EULER"), None, {}
+        mm = B.mujoco_model(name, "IMPLICITFAST")
+        fine = B.mujoco_model(name, "RK4", float(mm.opt.timestep) / 16)
+        return em, mm, B.mujoco_model(name, "EULER"), fine, None, {}
     import tempfile
     out = Path(cache_dir or tempfile.gettempdir()) / "bench_rollout_contacts"
     out.mkdir(parents=True, exist_ok=True)
@@ -121,11 +127,46 @@ def _models(name, cache_dir):
         warnings.simplefilter("ignore")
         em = eomc.compile(MjcfModel(path), name=f"ro_{name}", cache_dir=cache_dir)
     mjm = []
-    for integrator in ("IMPLICITFAST", "EULER"):
+    for integrator in ("IMPLICITFAST", "EULER", "RK4"):
         spec = mujoco.MjSpec.from_file(str(path))
         spec.option.integrator = getattr(mujoco.mjtIntegrator, f"mjINT_{integrator}")
+        if integrator == "RK4":                  # the reference: RK4 at timestep / 16
+            spec.option.timestep = spec.option.timestep / 16
         mjm.append(spec.compile())
-    return em, mjm[0], mjm[1], height, pose
+    return em, mjm[0], mjm[1], mjm[2], height, pose
+
+
+def _errors(em, mm, me, fine, X0, S0, nstep, dt, nrows=ERROR_ROWS):
+    """{contestant: "median / max"} of each side's error against its own reference over the first
+    nrows starts (max |q - q_ref| over the compared coordinates at the end, as bench_fixedstep):
+    eomc against its Radau at rtol = atol = 1e-9, MuJoCo against its RK4 at timestep / 16.  The
+    contact laws differ, so a side's error says how well its fixed step follows its own law; the
+    "vs MuJoCo" column says how far the two laws are apart."""
+    import mujoco
+    from mujoco import rollout as mj_rollout
+
+    import eomc
+    T = nstep * dt
+    err = {}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        refs = [em.simulate(X0[i], (0.0, T), method="radau", rtol=1e-9, atol=1e-9, t_eval=[T],
+                            max_steps=10 ** 7, raise_on_failure=False) for i in range(nrows)]
+        for c, split in (("eomc implicitfast (checked)", None), ("eomc implicitfast (unchecked)", 0.0)):
+            kw = {} if split is None else {"split": split}
+            res = eomc.rollout(em, X0[:nrows], steps=nstep, dt=dt, threads=1, method="implicitfast",
+                               raise_on_failure=False, **kw)
+            e = [np.abs(B.compared_q(em, mm, x=res.x[i]) - B.compared_q(em, mm, x=refs[i].x[-1])).max()
+                 if refs[i].status == 0 else np.nan for i in range(nrows)]
+            err[c] = f"{np.median(e):.2g} / {np.max(e):.2g}"
+    zero = np.zeros((nrows, nstep * 16, mm.nu))
+    ref = mj_rollout.rollout([fine] * nrows, [mujoco.MjData(fine)], S0[:nrows], zero, nstep=nstep * 16)[0]
+    q_ref = [B.compared_q(em, fine, qpos=ref[i, -1, 1:1 + fine.nq]) for i in range(nrows)]
+    for c, m in (("mujoco implicitfast", mm), ("mujoco euler", me)):
+        out = mj_rollout.rollout([m] * nrows, [mujoco.MjData(m)], S0[:nrows], zero[:, :nstep], nstep=nstep)[0]
+        e = [np.abs(B.compared_q(em, m, qpos=out[i, -1, 1:1 + m.nq]) - q_ref[i]).max() for i in range(nrows)]
+        err[c] = f"{np.median(e):.2g} / {np.max(e):.2g}"
+    return err
 
 
 def _case(name, threads_list, cache_dir):
@@ -133,7 +174,7 @@ def _case(name, threads_list, cache_dir):
     from mujoco import rollout as mj_rollout
 
     import eomc
-    em, mm, me, height, pose = _models(name, cache_dir)
+    em, mm, me, fine, height, pose = _models(name, cache_dir)
     dt = float(mm.opt.timestep)
     nstep = int(round(1.0 / dt))
     rng = np.random.default_rng(0)
@@ -163,6 +204,7 @@ def _case(name, threads_list, cache_dir):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         one = em.simulate(X0[0], (0.0, nstep * dt), method="implicitfast", dt=dt, t_eval=[nstep * dt])
+    errors = _errors(em, mm, me, fine, X0, S0, nstep, dt)
     rows = []
     for k in threads_list:
         datas = [mujoco.MjData(mm) for _ in range(k)]
@@ -201,7 +243,7 @@ def _case(name, threads_list, cache_dir):
             else:
                 agree, note = "", ""
             rows.append([name, f"{dt:g}", k, c, f"{sps[c]:.3g}", f"{sps[c] / sps['mujoco implicitfast']:.2f}",
-                         f"{cps[c]:.3g}", f"{cps[c] / cps['mujoco implicitfast']:.2f}", agree, note])
+                         f"{cps[c]:.3g}", f"{cps[c] / cps['mujoco implicitfast']:.2f}", errors[c], agree, note])
         print(rows[-len(contestants):], flush=True)
     return rows
 
@@ -218,7 +260,9 @@ def main():
         rows += _case(name, threads, args.cache_dir)
     import mujoco
     table = format_table(["model", "timestep", "threads", "contestant", "steps/s (wall)", "vs mujoco implicitfast",
-                          "steps/CPU-s", "vs mujoco implicitfast (CPU)", "vs MuJoCo: max |dq| median / max",
+                          "steps/CPU-s", "vs mujoco implicitfast (CPU)",
+                          f"error vs own reference, first {ERROR_ROWS} starts: median / max",
+                          "vs MuJoCo: max |dq| median / max",
                           "rows"], rows)
     text = environment_header(
         "Rollouts with contacts: eomc.rollout vs mujoco.rollout (issues 29, 31)",

@@ -28,6 +28,16 @@ ROOT = HERE.parent
 
 from common import C_CLOCK_AND_RNG  # noqa: E402
 
+# the harness #includes the generated C: compiled with eomc's default flags on this machine
+# (-O2, plus -mavx2 -ffp-contract=off on AVX2; benchmarks/results/machine_flags.md)
+def _lib_flags():
+    from eomc.compiler.build import DEFAULT_CFLAGS, find_compiler
+    from eomc.compiler.build.toolchain import machine_flags
+    return [*DEFAULT_CFLAGS, *machine_flags(find_compiler())]
+
+
+LIB_FLAGS = _lib_flags()
+
 HARNESS = r"""
 #define _POSIX_C_SOURCE 199309L
 #include <math.h>
@@ -158,7 +168,7 @@ def timing(builds, n, tmp, rounds):
     if pin:
         extra.append("-DWITH_PIN")
     obj = tmp / f"h{n}.o"
-    subprocess.run(["gcc", "-O2", "-std=c99", *inc, *extra, "-c", str(c), "-o", str(obj)], check=True)
+    subprocess.run(["gcc", *LIB_FLAGS, *inc, *extra, "-c", str(c), "-o", str(obj)], check=True)
     subprocess.run(["g++" if pin else "gcc", str(obj), *([str(pin)] if pin else []), *libs,
                     "-o", str(exe), "-lm"], check=True)
     out = subprocess.run(["taskset", "-c", "1", str(exe), *args], capture_output=True, text=True,
@@ -238,10 +248,28 @@ def write_up(rows, table, start_load):
         ops.append(f"| {n} | {cells['recursive']['ops']} | {sd or '-'} | "
                    f"{cells['recursive']['ops'] / sd:.2f} |" if sd else
                    f"| {n} | {cells['recursive']['ops']} | - | - |")
+    notes.append(f"generated C and harness compiled together with eomc's default flags on this machine: "
+                 f"{' '.join(LIB_FLAGS)}")
     text = (environment_header("Joint trees: recursive vs Kane formulation, relative-coordinate n-link "
                                "cart", notes=notes) + "\n" + (__doc__ or "") + "\n" + table + "\n"
-            + "\n".join(ops) + "\n")
+            + "\n".join(ops) + "\n" + growth(rows) + "\n")
     print(write_results("tree", text))
+
+
+def growth(rows):
+    """Issue 31 item 4: the exponent of a least-squares fit of log(recursive rhs time) against log n
+    (n >= 8, where the constant part no longer dominates), and the same for the operation count."""
+    import numpy as np
+    pts = [(n, c["recursive"]["ns"], c["recursive"]["ops"]) for n, c, _ in rows if n >= 8 and "ns" in c["recursive"]]
+    if len(pts) < 2:
+        return ""
+    n, ns, ops = (np.log([p[k] for p in pts]) for k in range(3))
+    t_exp, o_exp = float(np.polyfit(n, ns, 1)[0]), float(np.polyfit(n, ops, 1)[0])
+    line = (f"\nGrowth of the recursive rhs, n = {', '.join(str(p[0]) for p in pts)} (least-squares fit of "
+            f"log against log n): time ~ n^{t_exp:.3f}, operations ~ n^{o_exp:.3f} (issue 31's target: "
+            f"time no faster than n^1.05)")
+    print(line)
+    return line
 
 
 def _cell(cells, label, key, fmt="{:.0f}"):

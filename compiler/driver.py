@@ -215,7 +215,7 @@ def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, f
 def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, functions=None,
             fold_parameters=False, backend="cffi", cflags=None, cache_dir=None, output_dir=None,
             progress=None, events=None, formulation="auto", states=None, contacts=None, frames=None,
-            target=None, check=None):
+            target=None, check=None, portable=False):
     """Compile a model file (path) or a formed system into a loaded :class:`eomc.runtime.model.Model`.
 
     ``formulation``: "auto" (default), "kane" or "recursive" (see :func:`generate`).
@@ -224,6 +224,8 @@ def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, fu
     ``target``: "c99-f64" (default) or "c99-f32" (float C for firmware; the model loads as an
     :class:`eomc.runtime.float32.Float32Model`, which evaluates but does not simulate).
     ``check``: see :func:`generate`.
+    ``portable``: build the library for any CPU of this platform, not for this machine's
+    (see :func:`eomc.compiler.build.build`; the result bits are the same either way).
 
     Progress (stage timings on stderr) defaults to on when stderr is a terminal.
     """
@@ -242,7 +244,10 @@ def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, fu
         extra = {**(extra or {}), "start_in_range": list(spec.start_in_range)}
     source = system if isinstance(system, (str, os.PathLike)) else None
     model = build_and_load(generated, backend=backend, cflags=cflags, cache_dir=cache_dir,
-                           output_dir=output_dir, extra_metadata=extra, source=source, progress=progress)
+                           output_dir=output_dir, extra_metadata=extra, source=source, progress=progress,
+                           portable=portable)
+    if getattr(spec, "start_in_range", None):
+        _warn_moved_start(generated.name, spec.start_in_range)
     if generated.metadata.get("target", "c99-f64") != "c99-f64":   # what float cannot hold, said at build
         import warnings
         from eomc.runtime.errors import EomcWarning
@@ -252,8 +257,24 @@ def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, fu
     return model
 
 
+def _warn_moved_start(name, moved):
+    """A DefaultStartWarning naming the joints the default start put inside their ranges
+    (eomc.compiler.urdf.model.start_in_range), at the user's call: the Python API's channel
+    for what the command line prints as a note."""
+    import warnings
+
+    from eomc.runtime.errors import DefaultStartWarning
+    from eomc.runtime.switching import moved_start_text
+    from .model.spec import caller_level
+    many = len(moved) > 1
+    warnings.warn(DefaultStartWarning(
+        f"{moved_start_text(name, moved)}: the default start (initial_state) puts "
+        f"{'them' if many else 'it'} just inside the nearest limit (give x0 to simulate from "
+        f"another start; the joints are in model.metadata['start_in_range'])"), stacklevel=caller_level())
+
+
 def build_and_load(generated, *, backend="cffi", cflags=None, cache_dir=None, output_dir=None,
-                   extra_metadata=None, source=None, progress=None):
+                   extra_metadata=None, source=None, progress=None, portable=False):
     """compile -> (export) -> load of generated C: the second half of :func:`compile`.
 
     The cache entry is held (a shared lock) while it is copied and loaded, so a concurrent
@@ -263,7 +284,8 @@ def build_and_load(generated, *, backend="cffi", cflags=None, cache_dir=None, ou
     """
     from eomc.runtime.loader import LoadError, load
     progress = progress if isinstance(progress, Progress) else Progress(progress)
-    options = dict(backend=backend, cflags=cflags, cache_dir=cache_dir, extra_metadata=extra_metadata)
+    options = dict(backend=backend, cflags=cflags, cache_dir=cache_dir, extra_metadata=extra_metadata,
+                   portable=portable)
     for attempt in (1, 2):
         with contextlib.ExitStack() as held:
             with progress.stage("compile"):

@@ -46,6 +46,7 @@ from pathlib import Path
 
 import cffi
 
+from .cpu import ISA_FLAGS, missing_isa
 from .cdef import BATCH_CDEF, MODEL_CDEF, model_function_cdef
 from .integrators_api import INTEGRATOR_CDEF
 from .metadata import EXPORTED_FUNCTIONS, LoadError, check_json, from_library
@@ -331,6 +332,18 @@ def _open_extension(snap):
         return _import_extension(private / path.name)
 
 
+def _check_cpu(snap):
+    """Refuse a library built for an instruction set this CPU lacks (runtime/cpu.py): it would
+    die of SIGILL at its first call."""
+    flags = (snap.data.get("build") or {}).get("cflags") or []
+    missing = missing_isa(flags)
+    if missing:
+        raise LoadError(f"model {snap.name!r} in {snap.directory} was built for a CPU with "
+                        f"{', '.join(ISA_FLAGS[f].upper() for f in missing)} (C flags {' '.join(flags)}), "
+                        f"which this CPU lacks; rebuild it on this machine, or build it with "
+                        f"`eomc build --portable` (portable=True) to run it on other machines")
+
+
 def load(dir_or_path, name=None, backend=None):
     """Load the model built in ``dir_or_path``; ``backend`` is "cffi" or "cython" (default: as built).
 
@@ -340,6 +353,7 @@ def load(dir_or_path, name=None, backend=None):
     # shared: `eomc build -o` publishes a directory's files under the exclusive lock (N4)
     with store.directory_lock(json_path.parent, exclusive=False):
         snap = _Snapshot(json_path)
+        _check_cpu(snap)
         if snap.data.get("target", "c99-f64") == FLOAT32_TARGET:   # firmware C: no eomc_model struct
             if backend not in (None, "cffi"):
                 raise LoadError(f"model {snap.name!r} is built for {FLOAT32_TARGET}: it loads through cffi only")

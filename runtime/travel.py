@@ -14,6 +14,10 @@ headers, and the library's bytes with a platform tag.  Unpickling
     cc, gcc or clang) into an entry keyed by the shipped key, the platform,
     the compiler and its command line, then load.
 
+A library built for an instruction set the worker's CPU lacks (the default build adds
+-mavx2 on AVX2 machines; runtime/cpu.py) skips (a) and (b) and is compiled in (c)
+without those flags.
+
 A worker never re-derives a model: it needs numpy, cffi and (for (c)) a C
 compiler, not SymPy.  Each payload carries a sha256 over all of its content;
 a payload that does not match it is refused (``TravelError``).  That catches
@@ -39,6 +43,7 @@ from pathlib import Path
 from eomc.runtime.errors import CompileError, CompilerNotFoundError, EomcError, ModelError
 
 from . import store
+from .cpu import missing_isa
 
 __all__ = ["TravelError", "pack", "arrive", "platform_tag", "FORMAT", "RUNTIME_FILES"]
 
@@ -161,11 +166,23 @@ def _compiler():
     return argv, version
 
 
+def _shipped_flags(payload):
+    """The C flags the shipped library was built with (from its NAME.json)."""
+    try:
+        data = json.loads(payload["files"][f"{payload['name']}.json"])
+        return list((data.get("build") or {}).get("cflags") or [])
+    except (ValueError, TypeError, AttributeError):
+        return []
+
+
 def _compile_here(payload, root):
     """Case (c): the shipped C, compiled by this worker's compiler, as a cache entry."""
     name = payload["name"]
     data = json.loads(payload["files"][f"{name}.json"])
     flags = list((data.get("build") or {}).get("cflags") or ["-O2", "-fPIC", "-std=c99"])
+    # built for the sender's CPU (e.g. -mavx2): compile for this one, without what it lacks
+    dropped = missing_isa(flags)
+    flags = [f for f in flags if f not in dropped]
     sources = [f"{name}.c"] + [n for n in RUNTIME_FILES if n.endswith(".c") and n in payload["files"]]
     link = ["-Wl,-Bsymbolic"] if sys.platform.startswith("linux") else []
     argv, version = _compiler()
@@ -175,6 +192,9 @@ def _compile_here(payload, root):
 
     def write(tmp):
         _write_sources(payload)(tmp)
+        if dropped:     # NAME.json says what this library was built with (the loader reads it)
+            data["build"]["cflags"] = flags
+            (tmp / f"{name}.json").write_text(json.dumps(data, indent=1, sort_keys=True))
         proc = subprocess.run(command, cwd=tmp, capture_output=True, text=True)
         if proc.returncode:
             raise CompileError(f"compiling the pickled model {name!r} on this worker failed "
@@ -209,8 +229,11 @@ def arrive(payload, load):
         return model
     name, root, lib = payload["name"], store.cache_root(), payload["library_name"]
     failures = []
-    steps = [("cache", lambda: store.find(root, "models", payload["key"], verify=(lib,)))]
-    if payload["platform"] == platform_tag():
+    # a library built for an instruction set this CPU lacks (runtime/cpu.py) is neither looked
+    # up nor unpacked here: only compiled, for this CPU
+    runs_here = not missing_isa(_shipped_flags(payload))
+    steps = [("cache", lambda: store.find(root, "models", payload["key"], verify=(lib,)))] if runs_here else []
+    if payload["platform"] == platform_tag() and runs_here:
         steps.append(("library", lambda: _shipped_library(payload, root)))
     steps.append(("compiled", lambda: _compile_here(payload, root)))
     for arrival, step in steps:

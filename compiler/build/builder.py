@@ -22,7 +22,7 @@ from eomc.runtime.version import __version__
 from .cache import CACHE_SCHEMA, cache_root, get_or_build, hash_key, sha256_file
 from .cache_admin import auto_prune, max_size_from_env
 from .stack import CALLGRAPH_FLAG, measure_stack, stack_header_block, supports_callgraph
-from .toolchain import DEFAULT_CFLAGS, find_compiler, run_compiler
+from .toolchain import DEFAULT_CFLAGS, find_compiler, machine_flags, portable_from_env, run_compiler
 
 __all__ = ["BuildResult", "build", "shipped_c_dir", "SHIPPED_HEADERS", "resolve_cflags"]
 
@@ -77,14 +77,10 @@ def machine_lanes():
     scalar rhs and 4 lanes 3.0x (benchmarks/results/rhs_batch.md)."""
     if platform.machine().lower() not in ("x86_64", "amd64", "i386", "i686"):
         return 2
-    try:
-        with open("/proc/cpuinfo") as fh:
-            for line in fh:
-                if line.startswith("flags"):
-                    words = set(line.split())
-                    return 8 if "avx512f" in words else 4 if "avx2" in words else 2
-    except OSError:
-        pass
+    from eomc.runtime.cpu import cpu_features
+    words = cpu_features()
+    if words is not None:
+        return 8 if "avx512f" in words else 4 if "avx2" in words else 2
     return 4 if sys.platform == "darwin" else 2
 
 
@@ -111,8 +107,14 @@ def _model_json(generated, key, backend, tc, flags, extra, extension=None):
 
 
 def build(generated, *, backend="cffi", cflags=None, cache_dir=None, force=False, extra_metadata=None,
-          hold_in=None):
+          hold_in=None, portable=False):
     """Build (or fetch from the cache) the library of ``generated``; see the module docstring.
+
+    Without ``cflags``, a double (c99-f64) library is built for this machine's CPU: the
+    defaults plus toolchain.MACHINE_FLAGS where the CPU has AVX2 (the same result bits,
+    faster).  ``portable=True`` (or $EOMC_PORTABLE=1) keeps the plain defaults, for a library
+    that is to run on other CPUs of the platform; the float target always keeps them.
+    The loader refuses a library whose flags this CPU cannot run (runtime/cpu.py).
 
     ``extra_metadata`` (JSON-able) is merged into NAME.json, e.g. the model file's initial state.
     ``hold_in`` (a contextlib.ExitStack): keep the cache entry from being pruned until it closes.
@@ -123,10 +125,12 @@ def build(generated, *, backend="cffi", cflags=None, cache_dir=None, force=False
     name = generated.name
     tc = find_compiler()
     flags = resolve_cflags(cflags)
+    embedded = generated.metadata.get("target", "c99-f64") != "c99-f64"
+    if cflags is None and not embedded and not portable and not portable_from_env():
+        flags += machine_flags(tc)
     if {"rhs_batch", "jac_x_batch"} & set(generated.metadata.get("functions", ())) and not any(
             f.startswith("-DEOMC_BATCH_LANES") for f in flags):
         flags.append(f"-DEOMC_BATCH_LANES={machine_lanes()}")   # the lanes of this machine
-    embedded = generated.metadata.get("target", "c99-f64") != "c99-f64"
     if embedded and backend != "cffi":
         raise ValueError(f"model {name!r} is built for {generated.metadata['target']}: its Python "
                          f"module loads through cffi only (backend='cffi'); the Cython backend "

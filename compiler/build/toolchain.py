@@ -6,20 +6,35 @@ Search order: ``$CC`` (which may carry arguments, e.g. ``ccache gcc``), then
 serves a stale library.
 """
 import os
+import platform
+import re
 import shlex
 import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 from dataclasses import dataclass
 
 from eomc.runtime.errors import CompileError, CompilerNotFoundError
 
 from .cache import discard
 
-__all__ = ["Toolchain", "find_compiler", "install_hint", "run_compiler", "DEFAULT_CFLAGS"]
+__all__ = ["Toolchain", "find_compiler", "install_hint", "run_compiler", "DEFAULT_CFLAGS", "MACHINE_FLAGS",
+           "machine_flags"]
 
 DEFAULT_CFLAGS = ("-O2", "-fPIC", "-std=c99")
+# Added to the defaults for double (c99-f64) libraries built on x86-64 with AVX2, unless portable
+# (build(portable=True), `eomc build --portable`, EOMC_PORTABLE=1).  Why: the VEX encoding's
+# three-operand instructions drop the register copies of two-operand SSE2 and shrink the code
+# (G1's rhs + jac_x object 658 -> 542 kB), which is what large models' rhs time is made of.
+# Measured (benchmarks/results/machine_flags.md): rhs 1.05-1.38x faster (UR10 ... Solo12).
+# The result bits stay those of the portable -O2 build: AVX2 adds no fused multiply-add
+# (that is -mfma, never added), and -ffp-contract=off keeps a compiler from contracting a*b+c
+# (clang's default would).  Not -march=native: on an AVX-512 machine gcc 12's SLP vectorizer
+# forms vfmaddsub even under -ffp-contract=off, and Talos' rhs changed by 7e-13 (measured).
+MACHINE_FLAGS = ("-mavx2", "-ffp-contract=off")
+_MACHINE = {}  # (path, version) -> the machine flags this compiler accepts
 _CANDIDATES = ("cc", "gcc", "clang")
 _VERSIONS = {}  # (path, mtime) -> version text; a compiler is probed once per process
 
@@ -96,6 +111,40 @@ def find_compiler(env=None):
     raise CompilerNotFoundError(
         f"no C compiler found (looked for $CC, {', '.join(_CANDIDATES)} on PATH); "
         f"eomc compiles models to C, so {install_hint()}.")
+
+
+def portable_from_env(env=None):
+    """True when $EOMC_PORTABLE asks for libraries that run on any CPU of the platform."""
+    value = (os.environ if env is None else env).get("EOMC_PORTABLE", "").strip().lower()
+    return value not in ("", "0", "no", "false", "off")
+
+
+def machine_flags(tc):
+    """The flags (``MACHINE_FLAGS`` or none) that build libraries for this machine's CPU with ``tc``.
+
+    Only on x86-64 whose CPU reports AVX2 (measured there; elsewhere the portable defaults
+    stay), only with gcc or clang (by their --version line: another compiler's flags are not
+    known), and only when the compiler accepts them (one probe compile per compiler and process).
+    """
+    from eomc.runtime.cpu import cpu_features
+    if platform.machine().lower() not in ("x86_64", "amd64") or "avx2" not in (cpu_features() or ()):
+        return ()
+    if not (tc.is_clang or re.match(r"\S*(gcc|cc) \(", tc.version)):
+        return ()
+    probe = (tc.path, tc.version)
+    if probe not in _MACHINE:
+        with tempfile.TemporaryDirectory(prefix="eomc_probe_") as tmp:
+            src = os.path.join(tmp, "probe.c")
+            with open(src, "w") as fh:
+                fh.write("double probe(double a, double b, double c) { return a * b + c; }\n")
+            try:
+                proc = subprocess.run([*tc.argv, *DEFAULT_CFLAGS, *MACHINE_FLAGS, "-c", src, "-o",
+                                       os.path.join(tmp, "probe.o")], capture_output=True, timeout=60)
+                ok = proc.returncode == 0
+            except (OSError, subprocess.SubprocessError):
+                ok = False
+        _MACHINE[probe] = MACHINE_FLAGS if ok else ()
+    return _MACHINE[probe]
 
 
 def _end_group(proc, grace=2.0):

@@ -52,7 +52,7 @@ from dataclasses import dataclass
 import sympy as sm
 
 __all__ = ["AnalyticPlan", "analytic_plan", "kernel_c", "ANX", "analytic_ops", "c_table", "world_axis_lines",
-           "WORLD_INERTIA_LINES", "world_load_lines", "tree_tables", "PLACE_FROM_PARENT_LINES", "YMUL_LINES", "DOT6_LINE"]
+           "WORLD_INERTIA_LINES", "world_load_lines", "rd_helpers", "VARIATION_LINES", "tree_tables", "PLACE_FROM_PARENT_LINES", "YMUL_LINES", "DOT6_LINE"]
 
 ANX = "anx"      # the result group of the kernel's inputs
 
@@ -399,6 +399,28 @@ WORLD_INERTIA_LINES = [
 ]
 
 
+# C, inside a loop over bodies b: the body's inertia variation dY (12 numbers, see
+# :func:`kernel_c`) from its world inertia Yb, I_O (IO), velocity vb and momentum hm
+# (shared by the first- and second-order kernels, :mod:`.second_order`)
+VARIATION_LINES = [
+    "        /* dY = v x* Y - Y (v x) + (. x* h) = [[T, 0], [-2 [h_f]x, 0]] (compiler/tree/analytic.py):",
+    "           T = C + C^T - c v_l^T - v_l c^T + 2 (v_l . c) 1 - [h_n]x, C's columns w x I_O's */",
+    "        for (j = 0; j < 3; j++) {",
+    "            const double *aj = IO + 3 * j;   /* I_O symmetric: column j = row j */",
+    "            C[j] = vb[1] * aj[2] - vb[2] * aj[1];",
+    "            C[3 + j] = vb[2] * aj[0] - vb[0] * aj[2];",
+    "            C[6 + j] = vb[0] * aj[1] - vb[1] * aj[0];",
+    "        }",
+    "        vc = 2.0 * (vb[3] * Yb[1] + vb[4] * Yb[2] + vb[5] * Yb[3]);",
+    "        for (i = 0; i < 3; i++)",
+    "            for (j = 0; j < 3; j++)",
+    "                dYb[3 * i + j] = C[3 * i + j] + C[3 * j + i] - Yb[1 + i] * vb[3 + j] - vb[3 + i] * Yb[1 + j]"
+    " + (i == j ? vc : 0.0);",
+    "        dYb[1] += hm[2]; dYb[2] -= hm[1]; dYb[3] -= hm[2]; dYb[5] += hm[0]; dYb[6] += hm[1]; dYb[7] -= hm[0];",
+    "        dYb[9] = hm[3]; dYb[10] = hm[4]; dYb[11] = hm[5];",
+]
+
+
 def world_load_lines(o, pad=""):
     """C, inside a loop over bodies b: subtract the body's body-frame load (an[] block F, about
     the body origin) from its world force fb, placed by Rb and pb (shared as above; ``pad``
@@ -421,27 +443,11 @@ def world_load_lines(o, pad=""):
     )]
 
 
-def kernel_c(name, plan, nq, solve=False):
-    """The C text of ``NAME_rnea_derivs`` (see the module doc) and its small helpers.
-
-    ``NAME_rnea_derivs(an, u, ud, out, stride, row0, sign)`` writes, for every speed i
-    and state column k of the coordinates and speeds, ``out[(row0 + i) * stride + k] =
-    sign * ∂τ_i/∂x_k`` at the velocities ``u`` and accelerations ``ud`` (per dof, in the
-    plan's dof order), zeroing the rest of those rows.
-
-    ``solve`` (jac_x): with ``msolve`` set, those rows are then multiplied by M⁻¹: M from
-    the same composite inertias (M_ac = S_aᵀ Yᶜ S_c, the armature on its diagonal), stored
-    by rows of a dof and its support (nearest first), factored M = Lᵀ D L in place
-    (Featherstone's LTDL, O(n·d²)) and applied to the rows as whole-row updates (O(n·d) row
-    operations of nq + nu entries each)."""
-    ncol = nq + plan.nd
-    msize = plan.off[-1]
-    aba = solve and plan.solver == "aba"
-    ltdl = solve and not aba
-    axpy = _aba_lines(ncol) if aba else _axpy_lines(ncol)
-    nb, nd, o = plan.nb, plan.nd, plan.offsets
-    fn = f"{name}_rnea_derivs"
-    lines = [
+def rd_helpers(name):
+    """C: the small spatial-algebra helpers of the derivative kernels (motion and force cross
+    products, 6-dot, Y x, dY x, dY^T x), ``NAME_rd_*``; written once per model by whichever
+    kernel comes first (:func:`kernel_c`, :mod:`.second_order`)."""
+    return [
         f"static inline void {name}_rd_cross(const double *v, const double *m, double *out)",
         "{   /* out = v x m (motion cross product) */",
         "    out[0] = v[1] * m[2] - v[2] * m[1];",
@@ -495,7 +501,30 @@ def kernel_c(name, plan, nq, solve=False):
         "    out[3] = out[4] = out[5] = 0.0;",
         "}",
         "",
-    ] + ([x.replace("{name}", name) for x in axpy] if solve else []) + [
+    ]
+
+
+def kernel_c(name, plan, nq, solve=False):
+    """The C text of ``NAME_rnea_derivs`` (see the module doc) and its small helpers.
+
+    ``NAME_rnea_derivs(an, u, ud, out, stride, row0, sign)`` writes, for every speed i
+    and state column k of the coordinates and speeds, ``out[(row0 + i) * stride + k] =
+    sign * ∂τ_i/∂x_k`` at the velocities ``u`` and accelerations ``ud`` (per dof, in the
+    plan's dof order), zeroing the rest of those rows.
+
+    ``solve`` (jac_x): with ``msolve`` set, those rows are then multiplied by M⁻¹: M from
+    the same composite inertias (M_ac = S_aᵀ Yᶜ S_c, the armature on its diagonal), stored
+    by rows of a dof and its support (nearest first), factored M = Lᵀ D L in place
+    (Featherstone's LTDL, O(n·d²)) and applied to the rows as whole-row updates (O(n·d) row
+    operations of nq + nu entries each)."""
+    ncol = nq + plan.nd
+    msize = plan.off[-1]
+    aba = solve and plan.solver == "aba"
+    ltdl = solve and not aba
+    axpy = _aba_lines(ncol) if aba else _axpy_lines(ncol)
+    nb, nd, o = plan.nb, plan.nd, plan.offsets
+    fn = f"{name}_rnea_derivs"
+    lines = rd_helpers(name) + ([x.replace("{name}", name) for x in axpy] if solve else []) + [
         f"/* d tau / d(q, u) of RNEA by Carpentier and Mansard's algorithm (compiler/tree/analytic.py):",
         f"   out[(row0 + i) * stride + k] = sign * d tau_i / d x_k for the {nd} speeds i and the",
         "   coordinate and speed columns k, at velocities u and accelerations ud (per dof). */",
@@ -590,21 +619,7 @@ def kernel_c(name, plan, nq, solve=False):
     lines += [
     ] + (["        if (msolve)",
           "            for (i = 0; i < 6; i++) PA[6 * b + i] = fb[i];   /* the bias force, ABA's start */"] if aba else []) + [
-        "        /* dY = v x* Y - Y (v x) + (. x* h) = [[T, 0], [-2 [h_f]x, 0]] (compiler/tree/analytic.py):",
-        "           T = C + C^T - c v_l^T - v_l c^T + 2 (v_l . c) 1 - [h_n]x, C's columns w x I_O's */",
-        "        for (j = 0; j < 3; j++) {",
-        "            const double *aj = IO + 3 * j;   /* I_O symmetric: column j = row j */",
-        "            C[j] = vb[1] * aj[2] - vb[2] * aj[1];",
-        "            C[3 + j] = vb[2] * aj[0] - vb[0] * aj[2];",
-        "            C[6 + j] = vb[0] * aj[1] - vb[1] * aj[0];",
-        "        }",
-        "        vc = 2.0 * (vb[3] * Yb[1] + vb[4] * Yb[2] + vb[5] * Yb[3]);",
-        "        for (i = 0; i < 3; i++)",
-        "            for (j = 0; j < 3; j++)",
-        "                dYb[3 * i + j] = C[3 * i + j] + C[3 * j + i] - Yb[1 + i] * vb[3 + j] - vb[3 + i] * Yb[1 + j]"
-        " + (i == j ? vc : 0.0);",
-        "        dYb[1] += hm[2]; dYb[2] -= hm[1]; dYb[3] -= hm[2]; dYb[5] += hm[0]; dYb[6] += hm[1]; dYb[7] -= hm[0];",
-        "        dYb[9] = hm[3]; dYb[10] = hm[4]; dYb[11] = hm[5];",
+        *VARIATION_LINES,
         "    }",
     ] + (_aba_accelerations(name, plan) if aba else []) + [
         f"    for (b = {nb - 1}; b >= 0; b--) {{",

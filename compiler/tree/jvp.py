@@ -8,9 +8,11 @@ nonzero parameter entries (one column for a sensitivity's e_j), and M⁻¹ by th
 articulated-body recursion on ABA's factors.  J is never formed: k directions
 cost O(k n), where jac_x costs O(n²).  Forward sensitivities use it.
 """
+import re
+
 import sympy as sm
 
-from ..emit.bodies import IND, lane_directions, parameter_directions, store, temps, needed_assignments, split_on
+from ..emit.bodies import IND, LANES, parameter_directions, store, temps, needed_assignments, split_on
 
 __all__ = ["tree_jvp_body"]
 
@@ -70,11 +72,10 @@ def tree_jvp_body(ctx, program, W, G, seeds, nx, npar):
     tail = pcols + ["{"] + [x[len(IND):] for x in temps(program, pr, solve)]
     tail += [f"out[(size_t)d * {nx} + {nq + i}] = {pr.doprint(sol.get(i, sm.S.Zero))};" for i in range(nu)]
     tail.append("}")
-    if inner and all(not pr._names[t].endswith("]") for t, _ in inner):
-        # the tangent LANES directions at a time (emit.bodies.lane_directions)
-        more, loop = lane_directions(pr, seeds, nx, nd, [(inner, {i: tangent.get(("tjv", i), sm.S.Zero)
-                                                                   for i in range(ng)}, True)],
-                                     ng, kin, scalar, tail)
+    if inner and all(not pr._names[t].endswith("]") for t, _ in inner + solve):
+        # the tangent and the articulated-body solve LANES directions at a time
+        more, loop = _lanes(pr, seeds, G, nx, nd, nq, nu, ng, inner, tangent, solve, sol, kin, pcols,
+                            scalar + tail)
         lines[len(decls):len(decls)] = [f"{IND}{x}" for x in more]
         lines += loop
     else:
@@ -86,3 +87,48 @@ def tree_jvp_body(ctx, program, W, G, seeds, nx, npar):
     lines.append(f"{IND}if (i != EOMC_OK || k <= 0) return i;")
     lines.append(f"{IND}return {ctx.name}_finite(out, k * {nx});")
     return lines
+
+
+def _lanes(pr, seeds, G, nx, nd, nq, nu, ng, inner, tangent, solve, sol, kin, pcols, single):
+    """The loop over the directions with the tangent and the solve (M⁻¹ by the articulated-
+    body recursion on ABA's factors) carried LANES directions at a time, as
+    :func:`eomc.compiler.emit.bodies.lane_directions` does for Kane's tangent: one loop over
+    the lanes around each chain, which the C compiler vectorizes; the solve is most of a
+    recursive direction's cost.  Per direction first, the state rows and the parameter
+    columns (into PT, added to the tangent's rows), long before the lanes' vector loads read
+    them; a lone direction runs ``single`` (the scalar tangent, columns and solve).  Lanes
+    past k repeat the group's last direction and are dropped."""
+    names = dict(pr._names)
+    names.update({sd: f"XT[{j}][ln]" for j, sd in enumerate(seeds)})
+    names.update({g: f"GT[{j}][ln]" for j, g in enumerate(G)})
+    lp = type(pr)(names)
+    per = [f"dx = dirs + (size_t)d * {nd};"] + kin
+    per += [re.sub(r"\bG\[(\d+)\] \+=", r"PT[\1][ln] +=", x) for x in pcols]
+    group = [f"for (i = 0; i < {ng}; i++) for (ln = 0; ln < {LANES}; ln++) PT[i][ln] = 0.0;",
+             "for (ln = 0; ln < nl; ln++, d++) {"] + [IND + x for x in per] + ["}", "d -= nl;"]
+    group += ["{",
+              f"{IND}const double *D0 = dirs + (size_t)d * {nd}, *D1 = D0 + {nd};",
+              f"{IND}const double *D2 = nl > 2 ? D1 + {nd} : D1, *D3 = nl > 3 ? D2 + {nd} : D2;",
+              f"{IND}for (i = 0; i < {nx}; i++) {{",
+              f"{IND * 2}XT[i][0] = D0[i]; XT[i][1] = D1[i]; XT[i][2] = D2[i]; XT[i][3] = D3[i];",
+              f"{IND}}}", "}"]
+    group.append(f"for (ln = 0; ln < {LANES}; ln++) {{")
+    group += [f"{IND}const double {names[t]} = {lp.doprint(e)};" for t, e in inner]
+    group += [f"{IND}GT[{i}][ln] = PT[{i}][ln] + ({lp.doprint(tangent.get(('tjv', i), sm.S.Zero))});"
+              for i in range(ng)]
+    group.append("}")
+    group.append(f"for (ln = 0; ln < {LANES}; ln++) {{")
+    group += [f"{IND}const double {names[t]} = {lp.doprint(e)};" for t, e in solve]
+    group += [f"{IND}OT[{i}][ln] = {lp.doprint(sol.get(i, sm.S.Zero))};" for i in range(nu)]
+    group.append("}")
+    group += ["for (ln = 0; ln < nl; ln++, d++)",
+              f"{IND}for (i = 0; i < {nu}; i++) out[(size_t)d * {nx} + {nq} + i] = OT[i][ln];",
+              "continue;"]
+    lines = [f"{IND}for (d = 0; d < k; ) {{",
+             f"{IND * 2}nl = k - d < {LANES} ? k - d : {LANES};",
+             f"{IND * 2}if (nl > 1) {{"] + [IND * 3 + x for x in group] + [f"{IND * 2}}}"]
+    lines += [IND * 2 + x for x in [f"dx = dirs + (size_t)d * {nd};"] + kin + single]
+    lines += [f"{IND * 2}d++;", f"{IND}}}"]
+    decls = [f"double XT[{nx}][{LANES}];", f"double GT[{ng}][{LANES}];", f"double PT[{ng}][{LANES}];",
+             f"double OT[{max(nu, 1)}][{LANES}];", "int ln, nl;"]
+    return decls, lines

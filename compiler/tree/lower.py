@@ -221,7 +221,7 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
             extra += [(("Dpiv", nu + j), D) for j, D in enumerate(margins)]
         UD = tuple(sm.Symbol(f"ud_{j}", real=True) for j in range(nu))
         jacobian, more = [], ()
-        analytic = None
+        analytic, anx = None, []
         dyn, planned, grounded = (), False, False     # the functions the loop kernel computes (see dynamics_kernel_functions)
         if loops is None and set(functions) & {"jac_id", "jac_x", *KERNEL_FUNCTIONS} and len(layout.x) > TANGENT_MIN_STATES:
             analytic, anx = _analytic(tree, bodies, gravity, layout, functions, ground)
@@ -322,9 +322,18 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         if loops is not None:
             raise ModelError("hess_id (second-order inverse dynamics) is not generated for a tree "
                              "closed by constraints")
-        inputs, requests = hess_id_requests(layout, nu, sym.seeds)
-        sym = replace(sym, program=sym.program.with_(inputs=sym.program.inputs + inputs),
-                      derivatives=sym.derivatives + requests)
+        from .second_order import ANH, second_order_note, second_order_plan
+        hp, hvals = (analytic, anx) if analytic is not None else _analytic(tree, bodies, gravity, layout, functions)
+        hp, why = second_order_plan(hp)
+        if hp is not None:      # the analytic kernel (compiler/tree/second_order.py)
+            sym = replace(sym, program=sym.program.with_(
+                results=sym.program.results + tuple(((ANH, k[1]), e) for k, e in hvals)),
+                second_order=(hp, len(layout.x)), second_order_note=second_order_note(hp, why),
+                function_groups={**(sym.function_groups or TREE_FUNCTION_GROUPS), "hess_id": (ANH,)})
+        else:
+            inputs, requests = hess_id_requests(layout, nu, sym.seeds)
+            sym = replace(sym, program=sym.program.with_(inputs=sym.program.inputs + inputs),
+                          derivatives=sym.derivatives + requests, second_order_note=second_order_note(None, why))
     if not jacobian:
         return sym
     return _with_jacobians(sym, layout, functions, nq, jacobian, more, analytic is not None, direct is not None)

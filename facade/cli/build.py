@@ -35,9 +35,14 @@ def configure(parser):
     parser.add_argument("--backend", choices=("cffi", "cython"), default="cffi",
                         help="Python binding: cffi (ABI mode, no extension to compile; default) or cython")
     parser.add_argument("--cflags", help="C compiler flags replacing the default '-O2 -fPIC -std=c99' "
-                                         "(write --cflags='-O3 -march=native'); after -ffast-math, -Ofast "
+                                         "(plus '-mavx2 -ffp-contract=off' on an x86-64 CPU with AVX2; "
+                                         "write --cflags='-O3 -march=native'); after -ffast-math, -Ofast "
                                          "or -ffinite-math-only eomc adds -fno-finite-math-only, so NaN "
                                          "and inf are still reported as errors")
+    parser.add_argument("--portable", action="store_true",
+                        help="build the library for any CPU of this platform, not for this machine's "
+                             "(no -mavx2: for a directory copied to other machines; results are the "
+                             "same bits, the machine's build is faster)")
     parser.add_argument("--cache-dir", help="build cache root (default $EOMC_CACHE_DIR or ~/.cache/eomc)")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
     from .common import add_frame_argument
@@ -54,7 +59,7 @@ def run(args):
                                 limits=args.limits != "off", ignore=args.ignore,
                                 orientation=getattr(args, "orientation", None), pairs=getattr(args, "pairs", None))
     model = compile(source, name, functions=args.outputs, fold_parameters=args.fold_parameters,
-                    backend=args.backend, cflags=args.cflags, cache_dir=args.cache_dir,
+                    backend=args.backend, cflags=args.cflags, cache_dir=args.cache_dir, portable=args.portable,
                     output_dir=args.output, progress="quiet" if args.quiet else True, formulation=args.formulation,
                     contacts=args.contact, frames=args.frame, target=args.target)
     files = sorted(p.name for p in model.directory.iterdir() if p.is_file() and not p.name.startswith("."))

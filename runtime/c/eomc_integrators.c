@@ -592,6 +592,62 @@ static void lu_solve_c(int n, const eomc_cplx *A, const int *piv, eomc_cplx *b)
     }
 }
 
+/* lu_solve and lu_solve_c on k vectors (column j at B + j n), the rows of all of them
+ * interleaved: the same operations in the same order per vector (results bit for bit those
+ * of k single solves), but k independent chains the processor overlaps, where one solve after
+ * another waits on each substitution's chain (Radau's staggered sensitivities: a real and a
+ * complex solve per column and iteration). */
+static void lu_solve_cols(int n, const double *A, const int *piv, double *B, int k)
+{
+    for (int c = 0; c < k; c++) {
+        double *b = B + (size_t)c * n;
+        for (int r = 0; r < n; r++)
+            if (piv[r] != r) { double tmp = b[r]; b[r] = b[piv[r]]; b[piv[r]] = tmp; }
+    }
+    for (int r = 0; r < n; r++)
+        for (int i = r + 1; i < n; i++) {
+            const double a = A[i * n + r];
+            for (int c = 0; c < k; c++) B[(size_t)c * n + i] -= a * B[(size_t)c * n + r];
+        }
+    for (int i = n - 1; i >= 0; i--)
+        for (int c = 0; c < k; c++) {
+            double *b = B + (size_t)c * n, s = b[i];
+            for (int j = i + 1; j < n; j++) s -= A[i * n + j] * b[j];
+            b[i] = s / A[i * n + i];
+        }
+}
+
+static void lu_solve_c_cols(int n, const eomc_cplx *A, const int *piv, eomc_cplx *B, int k)
+{
+    for (int c = 0; c < k; c++) {
+        eomc_cplx *b = B + (size_t)c * n;
+        for (int r = 0; r < n; r++)
+            if (piv[r] != r) { eomc_cplx tmp = b[r]; b[r] = b[piv[r]]; b[piv[r]] = tmp; }
+    }
+    for (int r = 0; r < n; r++)
+        for (int c = 0; c < k; c++) {
+            eomc_cplx *b = B + (size_t)c * n;
+            double br = creal(b[r]), bi = cimag(b[r]);
+            for (int i = r + 1; i < n; i++) {
+                eomc_cplx a = A[i * n + r];
+                b[i] -= (creal(a) * br - cimag(a) * bi) + I * (creal(a) * bi + cimag(a) * br);
+            }
+        }
+    for (int i = n - 1; i >= 0; i--) {
+        eomc_cplx q = c_recip(A[i * n + i]);
+        for (int c = 0; c < k; c++) {
+            eomc_cplx *b = B + (size_t)c * n;
+            double sr = creal(b[i]), si = cimag(b[i]);
+            for (int j = i + 1; j < n; j++) {
+                eomc_cplx a = A[i * n + j];
+                sr -= CMUL_RE(a, b[j]);
+                si -= CMUL_IM(a, b[j]);
+            }
+            b[i] = (sr * creal(q) - si * cimag(q)) + I * (sr * cimag(q) + si * creal(q));
+        }
+    }
+}
+
 /* ---------------------------------------------------- unit quaternions */
 
 /* Each quaternion of x scaled to length 1 (a zero or non-finite one is left for the rhs
@@ -1423,7 +1479,11 @@ static void radau_tolerances(double rtol, double atol, double *rt, double *at)
  *     ZS_a = h sum_b A_ab (J(Y_b) (S + ZS_b) + P(Y_b)),
  * linear in ZS, solved by the state's simplified Newton in the eigenbasis of A with the
  * step's own LU (the real and the complex one), each iteration one jvp call per stage for
- * all k columns and one real and one complex solve per column.  Predictor: the last step's
+ * all k columns and one real and one complex solve per column (all columns' solves
+ * interleaved, lu_solve_cols).  The accounting of CVODES's staggered direct (BDF): per
+ * iteration the sensitivity residual for all columns and one solve per column with the
+ * state's Newton matrix, no Jacobian or factorization of its own -- the same here, with
+ * three stages.  Predictor: the last step's
  * collocation polynomial of S; the iteration stops by the state's test (its rate times the
  * scaled correction below fnewt), with its own rate estimate.  The error estimate and the
  * step control never see S: the steps are the plain run's. */
@@ -1453,7 +1513,7 @@ typedef struct radau_sg {
 size_t eomc_stagger_work_size(int nx, int k)
 {
     size_t nk = (size_t)nx * (size_t)(k > 0 ? k : 0);
-    return 24 * nk + 8 * (size_t)nx + 16;
+    return 26 * nk + 8 * (size_t)nx + 16;
 }
 
 static void radau_sg_init(radau_sg *g, int n, int k, double **pos)
@@ -1463,7 +1523,7 @@ static void radau_sg_init(radau_sg *g, int n, int k, double **pos)
     g->dW = take(pos, 3 * nk); g->QS = take(pos, 3 * nk);
     g->Sold = take(pos, nk); g->scale = take(pos, nk); g->tmp = take(pos, nk);
     g->xdot = take(pos, n);
-    g->bc = (eomc_cplx *)take(pos, 2 * (size_t)n);
+    g->bc = (eomc_cplx *)take(pos, 2 * nk);
     g->ZSe = take(pos, 3 * nk); g->FSe = take(pos, 3 * nk);
     g->F0 = take(pos, 3 * (size_t)n); g->f1 = take(pos, n);
     g->faccon = 1.0; g->have = 0; g->hprev = 1.0; g->tprev = 0.0;
@@ -1498,11 +1558,6 @@ static int radau_sens_step(ctx *c, const radau_consts *k, radau_ws *w, radau_sg 
         for (int a = 0; a < 3; a++) {                /* FS_a = J(Y_a) (S + ZS_a) + P(Y_a) */
             double ta = t + k->C[a] * h;
             for (int i = 0; i < n; i++) w->tmp[i] = y[i] + w->Z[a * n + i];
-            for (int j = 0; j < kc; j++) {
-                double *d = sg->D + (size_t)j * nd;
-                const double *Sj = S + (size_t)j * n, *Zj = g->ZS + a * nk + (size_t)j * n;
-                for (int i = 0; i < n; i++) d[i] = Sj[i] + Zj[i];
-            }
             if (aborted(c)) return c->abort;
             grid_inputs_at(c, ta);
             if (it > 1 && kc <= RADAU_SG_DQ_MAXK) {   /* FS_a = FSe_a + J(Y_a) (ZS_a - ZSe_a) */
@@ -1524,6 +1579,11 @@ static int radau_sens_step(ctx *c, const radau_consts *k, radau_ws *w, radau_sg 
                 }
                 continue;
             }
+            for (int j = 0; j < kc; j++) {          /* jvp's directions [S_j + ZS_aj; e_p] */
+                double *d = sg->D + (size_t)j * nd;
+                const double *Sj = S + (size_t)j * n, *Zj = g->ZS + a * nk + (size_t)j * n;
+                for (int i = 0; i < n; i++) d[i] = Sj[i] + Zj[i];
+            }
             sg->njvp++;
             s = sg->jvp(ta, w->tmp, c->p, c->r, kc, sg->D, g->F0 + (size_t)a * n, g->FS + (size_t)a * nk, c->mwork);
             if (s == EOMC_OK && !all_finite((int)nk, g->FS + (size_t)a * nk)) s = EOMC_NONFINITE;
@@ -1537,19 +1597,25 @@ static int radau_sens_step(ctx *c, const radau_consts *k, radau_ws *w, radau_sg 
             const double *f0 = g->FS + o, *f1 = g->FS + nk + o, *f2 = g->FS + 2 * nk + o;
             const double *W0 = g->WS + o, *W1 = g->WS + nk + o, *W2 = g->WS + 2 * nk + o;
             double *d0 = g->dW + o;
+            eomc_cplx *bc = g->bc + o;
             for (int i = 0; i < n; i++) {
                 d0[i] = k->TI[0][0] * f0[i] + k->TI[0][1] * f1[i] + k->TI[0][2] * f2[i] - mr * W0[i];
-                g->bc[i] = (k->TI[1][0] + I * k->TI[2][0]) * f0[i] + (k->TI[1][1] + I * k->TI[2][1]) * f1[i]
-                           + (k->TI[1][2] + I * k->TI[2][2]) * f2[i]
-                           - ((creal(mc) * W1[i] - cimag(mc) * W2[i]) + I * (creal(mc) * W2[i] + cimag(mc) * W1[i]));
+                bc[i] = (k->TI[1][0] + I * k->TI[2][0]) * f0[i] + (k->TI[1][1] + I * k->TI[2][1]) * f1[i]
+                        + (k->TI[1][2] + I * k->TI[2][2]) * f2[i]
+                        - ((creal(mc) * W1[i] - cimag(mc) * W2[i]) + I * (creal(mc) * W2[i] + cimag(mc) * W1[i]));
             }
-            lu_solve(n, w->LUr, w->pivr, d0);
-            lu_solve_c(n, w->LUc, w->pivc, g->bc);
+        }
+        lu_solve_cols(n, w->LUr, w->pivr, g->dW, kc);        /* all columns at once */
+        lu_solve_c_cols(n, w->LUc, w->pivc, g->bc, kc);
+        for (int j = 0; j < kc; j++) {
+            size_t o = (size_t)j * n;
+            const double *d0 = g->dW + o;
+            const eomc_cplx *bc = g->bc + o;
             for (int i = 0; i < n; i++) {
                 double a0 = d0[i] / g->scale[o + i], a1, a2;
-                g->dW[nk + o + i] = creal(g->bc[i]);
-                g->dW[2 * nk + o + i] = cimag(g->bc[i]);
-                a1 = creal(g->bc[i]) / g->scale[o + i]; a2 = cimag(g->bc[i]) / g->scale[o + i];
+                g->dW[nk + o + i] = creal(bc[i]);
+                g->dW[2 * nk + o + i] = cimag(bc[i]);
+                a1 = creal(bc[i]) / g->scale[o + i]; a2 = cimag(bc[i]) / g->scale[o + i];
                 dyno += a0 * a0 + a1 * a1 + a2 * a2;
             }
         }

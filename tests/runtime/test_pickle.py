@@ -10,9 +10,11 @@ import copy
 import json
 import os
 import pickle
+import platform
 import subprocess
 import sys
 import textwrap
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -50,6 +52,9 @@ CHILD = BLOCKER + textwrap.dedent("""
     import eomc.runtime.travel as travel
     if sys.argv[2] == "elsewhere":
         travel.platform_tag = lambda: "elsewhere-on-mars"
+    if sys.argv[2] == "no-avx2":      # a CPU of the same platform without AVX2
+        import eomc.runtime.cpu as cpu
+        cpu.cpu_features = lambda: frozenset({"sse2"})
     model = pickle.loads(open(sys.argv[1], "rb").read())
     try:
         import sympy
@@ -171,3 +176,17 @@ def test_a_cython_built_model_travels_as_its_cffi_library(built, tmp_path):
     model = restore(payload)
     assert model.arrival == "library" and model.backend == "cffi" and model.directory.name == payload["key"]
     np.testing.assert_array_equal(model.rhs(0.0, X), osc_model.oscillator_rhs(0.0, X))
+
+
+@pytest.mark.skipif(platform.machine().lower() not in ("x86_64", "amd64"), reason="-mavx2 is an x86 flag")
+def test_a_library_for_a_cpu_the_worker_lacks_is_compiled_there(tmp_path):
+    """Built with -mavx2 (the default on an AVX2 machine): a worker without AVX2 neither loads the
+    key from its (shared) cache nor unpacks the shipped library (SIGILL at the first call); it
+    compiles the C without the flag."""
+    mine = build(osc_model.oscillator(), cache_dir=tmp_path / "cache", cflags="-O2 -fPIC -std=c99 -mavx2")
+    blob = tmp_path / "osc.pickle"
+    blob.write_bytes(pickle.dumps(load(mine.directory)))
+    facts = _finish(_start(blob, tmp_path / "cache", "no-avx2"))      # the key is in this cache
+    assert facts["arrival"] == "compiled" and not facts["directory"].endswith(mine.key)
+    manifest = json.loads((Path(facts["directory"]) / "manifest.json").read_text())
+    assert "-mavx2" not in manifest["inputs"]["argv"] and "-O2" in manifest["inputs"]["argv"]

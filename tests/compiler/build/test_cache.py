@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from helpers import osc_model
-from eomc.compiler.build import build, cache_root
+from eomc.compiler.build import build, cache_root, find_compiler
+from eomc.compiler.build.toolchain import machine_flags
 from eomc.compiler.build.cache import CacheWarning
 from eomc.errors import CompileError, CompilerNotFoundError
 from eomc.runtime.loader import load
@@ -23,7 +24,8 @@ def test_miss_then_hit_same_entry(tmp_path):
     manifest = json.loads((first.directory / "manifest.json").read_text())
     assert manifest["key"] == first.key
     assert set(manifest["files"]) >= {"osc.c", "osc.h", "libosc.so", "osc.json", "eomc_model.h"}
-    assert manifest["inputs"]["cflags"] == ["-O2", "-fPIC", "-std=c99"]
+    # the defaults, plus -mavx2 -ffp-contract=off on an AVX2 machine (tests/compiler/build/test_machine_flags.py)
+    assert manifest["inputs"]["cflags"] == ["-O2", "-fPIC", "-std=c99", *machine_flags(find_compiler())]
     assert cache_root(tmp_path) == tmp_path.resolve() / "v1"
 
 

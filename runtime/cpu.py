@@ -1,0 +1,40 @@
+"""Which instruction sets this CPU has, and which a model library's build flags assume.
+
+Why: a model's library is built for the machine that builds it -- on x86-64 with AVX2 the
+default flags add ``-mavx2 -ffp-contract=off`` (compiler/build/toolchain.py: the same
+result bits, a faster rhs).  Such a library carried to a CPU without AVX2 (an exported
+directory, a pickled model, a build cache shared between machines) would die of SIGILL at
+its first call.  The loader asks :func:`missing_isa` first and refuses it with a message
+instead, and a travelling model is recompiled without the flags the worker lacks.
+
+Only the flags eomc itself adds are known here (a user's own ``--cflags='-march=native'``
+is the user's choice, as before).  Where the CPU's features cannot be read (not Linux),
+nothing is refused: eomc adds no such flag there either.
+"""
+import functools
+
+__all__ = ["ISA_FLAGS", "cpu_features", "missing_isa"]
+
+# compiler flag -> the /proc/cpuinfo feature the code it allows needs
+ISA_FLAGS = {"-mavx2": "avx2"}
+
+
+@functools.lru_cache(maxsize=None)
+def cpu_features():
+    """The feature words of this CPU (/proc/cpuinfo's first 'flags' line), or None when unknown."""
+    try:
+        with open("/proc/cpuinfo") as fh:
+            for line in fh:
+                if line.startswith("flags"):
+                    return frozenset(line.split(":", 1)[-1].split())
+    except OSError:
+        pass
+    return None
+
+
+def missing_isa(cflags):
+    """The flags in ``cflags`` that assume an instruction set this CPU does not have."""
+    features = cpu_features()
+    if features is None:
+        return []
+    return [f for f in cflags or () if f in ISA_FLAGS and ISA_FLAGS[f] not in features]

@@ -1,0 +1,69 @@
+"""Libraries built for this machine's CPU (compiler/build/toolchain.MACHINE_FLAGS, runtime/cpu.py).
+
+The default double build adds ``-mavx2 -ffp-contract=off`` on an x86-64 CPU with AVX2: the
+same result bits as the portable -O2 build (checked here byte for byte on a floating-base
+robot's rhs and jac_x; a build that may fuse multiply-adds differs, so the check can fail),
+``portable=True`` / $EOMC_PORTABLE keep the portable flags, and a library whose flags this
+CPU cannot run is refused by the loader with a message instead of dying of SIGILL.
+"""
+import platform
+
+import numpy as np
+import pytest
+
+from helpers import osc_model
+from helpers.robots import robot_path
+from eomc.compiler.build import DEFAULT_CFLAGS, build, find_compiler
+from eomc.compiler.build.toolchain import MACHINE_FLAGS, machine_flags
+from eomc.runtime.metadata import LoadError
+from eomc.runtime import cpu
+from eomc.runtime.loader import load
+
+X86 = platform.machine().lower() in ("x86_64", "amd64")
+AVX2 = X86 and "avx2" in (cpu.cpu_features() or ())
+
+
+def test_machine_flags_follow_the_cpu():
+    assert machine_flags(find_compiler()) == (MACHINE_FLAGS if AVX2 else ())
+    assert "-mfma" not in MACHINE_FLAGS and "-march=native" not in MACHINE_FLAGS
+
+
+def test_default_portable_and_env(tmp_path, monkeypatch):
+    gen = osc_model.oscillator()
+    own = build(gen, cache_dir=tmp_path)
+    portable = build(gen, cache_dir=tmp_path, portable=True)
+    assert load(own.directory).metadata["build"]["cflags"] == [*DEFAULT_CFLAGS, *machine_flags(find_compiler())]
+    assert load(portable.directory).metadata["build"]["cflags"] == list(DEFAULT_CFLAGS)
+    assert (own.key != portable.key) == AVX2          # a shared cache never serves one for the other
+    monkeypatch.setenv("EOMC_PORTABLE", "1")
+    assert build(gen, cache_dir=tmp_path).key == portable.key
+    assert build(gen, cache_dir=tmp_path, cflags="-O1 -std=c99").key != portable.key   # the user's flags rule
+
+
+@pytest.mark.skipif(not AVX2, reason="the machine flags are added on x86-64 CPUs with AVX2 only")
+def test_machine_build_gives_the_portable_bits(tmp_path):
+    from eomc.compiler.driver import generate
+    from eomc.compiler.urdf.model import UrdfModel
+    model = UrdfModel(robot_path("solo12"), floating_base="quaternion", limits=False)
+    _, gen = generate(model, "solo_bits", functions=["rhs", "jac_x"], cache_dir=tmp_path, progress=False)
+    builds = {"own": {}, "portable": dict(portable=True),
+              "fused": dict(cflags="-O2 -std=c99 -mavx2 -mfma -ffp-contract=fast")}
+    models = {k: load(build(gen, cache_dir=tmp_path, **kw).directory) for k, kw in builds.items()}
+    own = models["own"]
+    assert "-mavx2" in own.metadata["build"]["cflags"]
+    rng = np.random.default_rng(6)
+    X = rng.uniform(-1.0, 1.0, (60, own.nx)) * rng.choice([0.5, 1.0, 3.0], (60, own.nx))
+    out = {k: [np.concatenate([m.rhs(0.0, x), m.jac_x(0.0, x).ravel()]) for x in X]
+           for k, m in models.items()}
+    assert np.array_equal(np.array(out["own"]).view(np.uint64), np.array(out["portable"]).view(np.uint64))
+    assert not np.array_equal(np.array(out["own"]), np.array(out["fused"]))   # the check sees one rounding
+
+
+@pytest.mark.skipif(not X86, reason="-mavx2 is an x86 flag")
+def test_loader_refuses_a_library_this_cpu_cannot_run(tmp_path, monkeypatch):
+    built = build(osc_model.oscillator(), cache_dir=tmp_path, cflags="-O2 -std=c99 -mavx2")
+    monkeypatch.setattr(cpu, "cpu_features", lambda: frozenset({"sse2"}))
+    with pytest.raises(LoadError, match=r"built for a CPU with AVX2 .*--portable"):
+        load(built.directory)
+    monkeypatch.setattr(cpu, "cpu_features", lambda: None)    # features unknown: nothing refused
+    assert load(built.directory).rhs(0.0, [0.3, -0.2]) is not None
