@@ -162,7 +162,9 @@ def inputs_users(sym, functions):
     if getattr(sym, "analytic", None) is None:
         return ()
     dyn = getattr(sym, "dynamics_kernel", ())
-    derivs = ("jac_id",) if "jac_x_batch" in functions else ("jac_x", "jac_id")
+    # jac_x keeps its own copy beside the contacts' broad phase (its an[] reads guarded temporaries)
+    lanes_or_guards = "jac_x_batch" in functions or getattr(sym, "jac_guards", ())
+    derivs = ("jac_id",) if lanes_or_guards else ("jac_x", "jac_id")
     users = [f for f in functions if f in dyn or f in derivs]
     return tuple(users) if len(users) > 1 or set(users) & set(dyn) else ()
 
