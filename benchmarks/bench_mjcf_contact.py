@@ -35,7 +35,9 @@ from common import environment_header, format_table, write_results  # noqa: E402
 from bench_urdf import _mujoco_dir, _run, _timed, _write, eomc_harness  # noqa: E402
 import bench_mjcf  # noqa: E402
 
-MODELS = ["hopper", "walker2d", "ant", "humanoid"]
+# (file stem, row label, eomc's self-collision pairs: MjcfModel(pairs=True), as bench_mjcf_drops)
+MODELS = [(stem, stem, False) for stem in ("hopper", "walker2d", "ant", "humanoid")] + [
+    ("humanoid", "humanoid, pairs=True", True)]
 NSTATES, NCALLS, REPEAT = 100, 20000, 7
 CORE = 1
 
@@ -50,17 +52,18 @@ import eomc
 from pathlib import Path
 from eomc.compiler.mjcf.model import MjcfModel
 path, name, cache, out, geoms = sys.argv[1], sys.argv[2], sys.argv[3], sys.argv[4], sys.argv[5] == "1"
+pairs = len(sys.argv) > 6 and sys.argv[6] == "1"
 warnings.simplefilter("ignore")
-model = eomc.compile(MjcfModel(Path(path), geoms=geoms), name, functions=["rhs"], cache_dir=cache, output_dir=out,
+model = eomc.compile(MjcfModel(Path(path), geoms=geoms, pairs=True if pairs else None), name, functions=["rhs"], cache_dir=cache, output_dir=out,
                      progress=False)
 print("wall", time.perf_counter() - t0)
 """
 
 
-def cold_build(path, name, geoms, tmp):
+def cold_build(path, name, geoms, tmp, pairs=False):
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     proc = _run([sys.executable, "-c", COLD_BUILD, str(path), name, str(tmp / f"cache_{name}"),
-                 str(tmp / f"out_{name}"), "1" if geoms else "0"])
+                 str(tmp / f"out_{name}"), "1" if geoms else "0", "1" if pairs else "0"])
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     return float(proc.stdout.split()[-1]), (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
@@ -93,7 +96,7 @@ def main():
     folder = Path(gymnasium.__file__).parent / "envs" / "mujoco" / "assets"
     os.sched_setaffinity(0, {CORE})
     rng = np.random.default_rng(33)
-    rows, csv = [], []
+    rows, csv, free_build = [], [], {}
     with tempfile.TemporaryDirectory(prefix="bench_mjcf_contact_") as tmpname:
         tmp = Path(tmpname)
         here = os.getcwd()
@@ -102,10 +105,16 @@ def main():
         (tmp / "mj.c").write_text(MUJOCO_HARNESS)
         _run(["gcc", "-O2", "-std=c99", str(tmp / "mj.c"), f"-I{mjd / 'include'}", str(next(mjd.glob("libmujoco.so*"))),
               f"-Wl,-rpath,{mjd}", "-lm", "-o", str(tmp / "mj_forward")])
-        for stem in MODELS:
+        for stem, label, pairs in MODELS:
             path = folder / f"{stem}.xml"
-            wall, cpu = cold_build(path, stem, True, tmp)
-            wall0, cpu0 = cold_build(path, f"{stem}_free", False, tmp)
+            wall, cpu = cold_build(path, label.replace(", pairs=True", "_pairs"), True, tmp, pairs)
+            if pairs:
+                stem = label.replace(", pairs=True", "_pairs")
+                (tmp / f"out_{stem}_free").symlink_to(tmp / f"out_{label.split(',')[0]}_free")
+                wall0, cpu0 = free_build[label.split(",")[0]]
+            else:
+                wall0, cpu0 = cold_build(path, f"{stem}_free", False, tmp)
+                free_build[stem] = wall0, cpu0
             model = eomc.load(tmp / f"out_{stem}")
             free = eomc.load(tmp / f"out_{stem}_free")
             points = sum(1 for k in model.output_names if k.startswith("depth_"))
@@ -131,9 +140,9 @@ def main():
                     ns, _ = _timed(cmd)
                     times[who].append(ns)
             e, f0, j = (statistics.median(times[k]) for k in ("eomc", "free", "mujoco"))
-            rows.append([stem, str(model.nx - model.nq), str(points), f"{ncon:.1f}", f"{wall:.2f}", f"{cpu:.2f}",
+            rows.append([label, str(model.nx - model.nq), str(points), f"{ncon:.1f}", f"{wall:.2f}", f"{cpu:.2f}",
                          f"{cpu0:.2f}", f"{e:.0f}", f"{f0:.0f}", f"{e / f0:.2f}x", f"{j:.0f}", f"{j / e:.2f}x"])
-            csv.append([stem, model.nx - model.nq, points, ncon, wall, cpu, cpu0, e, f0, j])
+            csv.append([label, model.nx - model.nq, points, ncon, wall, cpu, cpu0, e, f0, j])
             print(" | ".join(rows[-1]), flush=True)
         os.chdir(here)
     headers = ["model", "dof", "eomc contact points", "MuJoCo contacts (mean)", "build wall s", "build CPU s",

@@ -3,9 +3,11 @@
 
 Contestants (per model, pinned to core 1, thread CPU, interleaved with the order rotated every
 round, ~20 ms blocks, median of rounds; ns per call):
-  * eomc ``hess_id`` (∂²τ/∂x², nu x nx x nx, forward over reverse on RNEA) of a
-    ``--formulation recursive`` build with functions rhs, inverse_dynamics, jac_id, hess_id,
-    the generated C compiled into the harness with gcc -O2;
+  * eomc ``hess_id`` (∂²τ/∂x², nu x nx x nx; since 2026-11-29 the analytic second-order
+    kernel, compiler/tree/second_order.py, for these one-speed-joint trees: the model's
+    metadata ``hess_id`` says which algorithm it got) of a ``--formulation recursive`` build
+    with functions rhs, inverse_dynamics, jac_id, hess_id, the generated C compiled into the
+    harness with gcc -O2;
   * Pinocchio ``ComputeRNEASecondOrderDerivatives`` (Singh, Russell & Wensing 2022; header-only
     from the pin / cmeel wheels, g++ -O2 -std=c++17, benchmarks/tree_models/pin_derivatives.cpp,
     whose Python bindings do not export it) on the same model, built as in

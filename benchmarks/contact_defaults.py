@@ -1,12 +1,14 @@
-"""`eomc simulate` and `eomc check` with no method or tolerance flags on the robots a new user
+"""`eomc simulate`, `eomc animate` and `eomc check` with no method or tolerance flags on the robots a new user
 tries first (issue 29's "done when"): Go2 and G1 with a floating base and their feet as
 contacts, Solo12, and gymnasium's hopper, ant and humanoid (contacts from the MJCF file).
 
     python benchmarks/contact_defaults.py [--only go2,solo12] [--t-final 1] [--check-t-final 10] [--no-write]
 
-`simulate` runs --t-final (default 1 s); `check` runs with no flags at all (its own default
-span, 10 s) unless --check-t-final is given, as issue 29's "done when" asks.  Exit status of
-check: 0 passed, 1 a check failed, 3 inconclusive (docs/cli.md).
+`simulate` runs --t-final (default 1 s); `animate` and `check` run with no flags at all (their
+own default span, 10 s) unless --check-t-final is given, as issue 29's "done when" asks --
+animate with the one option it requires, where to write (`-o anim.html`).  Exit
+status of check: 0 passed, 1 a check failed, 3 inconclusive (docs/cli.md).  animate's HTML
+page is written in the robot's work folder (its size is recorded).
 
 Each command runs as a user types it (a fresh process, the model cache warm from a first
 build that is not timed); recorded: exit status, wall and CPU time (children included), the
@@ -83,6 +85,7 @@ def main():
     ap.add_argument("--t-final", default="1")
     ap.add_argument("--check-t-final", default=None, help="check's span (default: none given, check's own)")
     ap.add_argument("--no-write", action="store_true")
+    ap.add_argument("--commands", default="simulate,animate,check", help="which commands to run")
     ap.add_argument("--cache-dir", default="/tmp/eomc-contact-defaults-cache")
     args = ap.parse_args()
     eomc = str(Path(sys.executable).parent / "eomc")
@@ -96,9 +99,20 @@ def main():
         work.mkdir(parents=True, exist_ok=True)
         sim = [eomc, "simulate", *spec, "--t-final", args.t_final, "-o", "traj.csv"]
         chk = [eomc, "check", *spec] + (["--t-final", args.check_t_final] if args.check_t_final else [])
+        # animate's one required option: where to write (a 3-D robot: an HTML page)
+        ani = [eomc, "animate", *spec, "-o", "anim.html"] + (["--t-final", args.check_t_final]
+                                                             if args.check_t_final else [])
         run(sim, work)                                    # build once (not timed)
-        for label, cmd in (("simulate", sim), ("check", chk)):
+        for label, cmd in (("simulate", sim), ("animate", ani), ("check", chk)):
+            if label not in args.commands.split(","):
+                continue
+            for old in work.glob("*.html"):
+                old.unlink()
             p, wall, cpu = run(cmd, work)
+            if label == "animate":
+                pages = list(work.glob("*.html"))
+                p.stdout += "".join(f"\nwrote {q.name} ({q.stat().st_size / 1e6:.2f} MB)" for q in pages) \
+                    if pages else "\nno HTML page written"
             h = base_height(work / "traj.csv") if label == "simulate" and p.returncode == 0 else None
             warn = warnings_of(p.stderr + p.stdout)
             tail = (p.stdout + p.stderr).strip().splitlines()[-1:] or [""]
@@ -113,7 +127,7 @@ def main():
         hh = f"{h[0]:.3f} → {h[1]:.3f} ({h[2]:.3f}) [{h[3]}]" if h else ""
         ww = "<br>".join(w.replace("|", "/")[:200] for w in warn) or "none"
         table.append(f"| {name} | {label} | {rc} | {wall:.1f} | {cpu:.1f} | {hh} | {ww} | {tail.replace('|', '/')[:160]} |")
-    text = environment_header("eomc simulate / check with no method flags on contact robots", args) \
+    text = environment_header("eomc simulate / animate / check with no method flags on contact robots", args) \
         + "\n" + __doc__.split("\n\n", 2)[2] + "\n\n" + "\n".join(table) + "\n"
     print("\n".join(table))
     if not args.no_write:

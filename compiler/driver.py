@@ -246,6 +246,8 @@ def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, fu
     model = build_and_load(generated, backend=backend, cflags=cflags, cache_dir=cache_dir,
                            output_dir=output_dir, extra_metadata=extra, source=source, progress=progress,
                            portable=portable)
+    if getattr(spec, "start_in_range", None):
+        _warn_moved_start(generated.name, spec.start_in_range)
     if generated.metadata.get("target", "c99-f64") != "c99-f64":   # what float cannot hold, said at build
         import warnings
         from eomc.runtime.errors import EomcWarning
@@ -253,6 +255,22 @@ def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, fu
             warnings.warn(f"{generated.name} ({generated.metadata['target']}): {concern}", EomcWarning,
                           stacklevel=2)
     return model
+
+
+def _warn_moved_start(name, moved):
+    """A DefaultStartWarning naming the joints the default start put inside their ranges
+    (eomc.compiler.urdf.model.start_in_range), at the user's call: the Python API's channel
+    for what the command line prints as a note."""
+    import warnings
+
+    from eomc.runtime.errors import DefaultStartWarning
+    from eomc.runtime.switching import moved_start_text
+    from .model.spec import caller_level
+    many = len(moved) > 1
+    warnings.warn(DefaultStartWarning(
+        f"{moved_start_text(name, moved)}: the default start (initial_state) puts "
+        f"{'them' if many else 'it'} just inside the nearest limit (give x0 to simulate from "
+        f"another start; the joints are in model.metadata['start_in_range'])"), stacklevel=caller_level())
 
 
 def build_and_load(generated, *, backend="cffi", cflags=None, cache_dir=None, output_dir=None,

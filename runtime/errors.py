@@ -14,6 +14,7 @@ __all__ = [
     "SimulationError",
     "MissingExtraError",
     "EomcWarning",
+    "DefaultStartWarning",
 ]
 
 
@@ -63,3 +64,16 @@ class EomcWarning(UserWarning):
 
     The ``eomc`` command prints these as one ``eomc CMD: warning: ...`` line.
     """
+
+
+class DefaultStartWarning(EomcWarning):
+    """The default start is not the file's zero pose: ``eomc.compile`` of a URDF whose joint
+    ranges exclude 0 starts those joints just inside their nearest limit (Go2's knees), and
+    says so naming each joint, its range and the value it starts at.
+
+    Why a warning category and not a log record: it is shown once by default (a log record
+    below WARNING is not shown at all unless logging is configured), and it can be silenced
+    alone, ``warnings.filterwarnings("ignore", category=eomc.errors.DefaultStartWarning)``,
+    or turned into an error in a test suite, as numpy's and scikit-learn's own categories are.
+    The joints are also in ``model.metadata["start_in_range"]``; the ``eomc`` command prints a
+    note instead (``eomc: note: ...``), leaving out the joints ``--x0`` gives."""

@@ -2,8 +2,9 @@
 
 Why this module exists: a work-precision report is only as trustworthy as
 the solution its errors are measured against.  The reference is integrated
-far tighter than any run in the grid (our C DOP853 at rtol = atol = 1e-13 by
-default; Radau IIA at 1e-12 when DOP853 finds the problem stiff) and then
+far tighter than any run in the grid (our C DOP853; Radau IIA, not below rtol 1e-12, when
+DOP853 finds the problem stiff; the report ties its rtol and atol to the grid's finest
+tolerance, :func:`tied_tolerances`) and then
 *checked* by a second integration: by default scipy's own DOP853 or Radau
 (``scipy.integrate.solve_ivp``) on the model's compiled rhs -- independent
 code -- run 10 times looser than the reference.
@@ -30,7 +31,7 @@ from eomc.runtime.errors import SimulationError
 from .simulate import finish, prepare, run_prepared, scipy_fun
 
 __all__ = ["Reference", "compute_reference", "scaled_error", "state_scale", "SCALE_FLOOR",
-           "CHECK_METHODS", "REFERENCE_METHODS"]
+           "CHECK_METHODS", "REFERENCE_METHODS", "tied_tolerances", "MIN_WINDOW"]
 
 SCALE_FLOOR = 1e-3      # states that stay below 1e-3 x the largest state are scaled by that
 CHECK_METHODS = ("auto", "scipy", "radau", "dop853-half", "none")
@@ -38,6 +39,22 @@ SCIPY_LOOSER = 10.0      # the scipy check runs 10x looser: see the module docst
 SCIPY_MAX_STEPS = 20000  # "auto" check: more reference steps make scipy's Python loop too slow
 REFERENCE_METHODS = ("auto", "dop853", "radau")
 RADAU_FINEST = 1e-12    # Radau IIA's reference tolerance is not pushed below this
+# The reference's (rtol, atol) tied to the finest tolerance measured, as `eomc check` ties its
+# references to the checked tolerance (runtime/stability.REF_TOLS): 1000x tighter (1e-13 at
+# the default grid's 1e-10, as before; 1e-9 for a contact model reported at 1e-2..1e-6, where
+# a fixed 1e-13 atol costs without telling anything: Go2 resting on 124 contact points takes
+# ~70 000 Radau steps per simulated second at atol 1e-12).  atol shrinks as much as rtol, not
+# 10x as check's: the report reads errors down to its finest tolerance and asks the two
+# computations to agree to a tenth of it (the pendulum reported down to 1e-8 with atol 10x
+# tighter: agreement 4.2e-9; 100x: 1.2e-9 -- both warned as not resolving the finest runs).
+TIED = (1000, 1000)
+REF_FINEST = 1e-13
+MIN_WINDOW = 5          # output times the two references must agree on for any error to be judged
+
+
+def tied_tolerances(finest):
+    """(rtol, atol) of the reference for a grid whose finest tolerance is ``finest``."""
+    return max(finest / TIED[0], REF_FINEST), max(finest / TIED[1], 1e-15)
 
 
 def state_scale(x_ref):
@@ -88,19 +105,40 @@ class Reference:
     check_method: str
     check_tol: float
     agreement: float          # scaled_error(check, reference); nan if unchecked
+    atol: float = None        # None: = tol
+    check_atol: float = None
+    agreement_t: np.ndarray = None   # the scaled error per output time (None if unchecked)
+
+    def __post_init__(self):
+        self.atol = self.tol if self.atol is None else self.atol
+        self.check_atol = self.check_tol if self.check_atol is None else self.check_atol
+
+    def horizon(self, level):
+        """Index of the first output time where the two computations differ by more than
+        ``level`` (scaled error): errors are measured before it.  The whole span if they
+        never do or the reference was not checked."""
+        if self.agreement_t is None:
+            return self.t.size
+        beyond = np.flatnonzero(~(self.agreement_t <= level))
+        return int(beyond[0]) if beyond.size else self.t.size
 
     def describe(self):
         """One sentence: how the reference was obtained and checked."""
-        text = (f"reference: {self.method} at rtol=atol={self.tol:.0e} "
+        text = (f"reference: {self.method} at {_tols(self.tol, self.atol)} "
                 f"({self.stats.get('accepted', '?')} steps, {self.wall_time:.3g} s)")
         if self.check_method == "none":
             return text + "; not checked"
-        return (text + f"; checked against {self.check_method} at rtol=atol={self.check_tol:.0e}: "
+        return (text + f"; checked against {self.check_method} at {_tols(self.check_tol, self.check_atol)}: "
                        f"agreement {self.agreement:.2e} (scaled error)")
 
 
-def _c_run(model, x0, t_span, p, r, t_eval, method, tol, project, stiff_check=False):
-    a = prepare(model, x0, t_span, p=p, r=r, method=method, rtol=tol, atol=tol, t_eval=t_eval,
+def _tols(rtol, atol):
+    return f"rtol=atol={rtol:.0e}" if rtol == atol else f"rtol={rtol:.0e}, atol={atol:.0e}"
+
+
+def _c_run(model, x0, t_span, p, r, t_eval, method, tol, project, stiff_check=False, atol=None):
+    atol = tol if atol is None else atol
+    a = prepare(model, x0, t_span, p=p, r=r, method=method, rtol=tol, atol=atol, t_eval=t_eval,
                 max_steps=10 ** 7, project=project, stiff_check=stiff_check)
     start = time.perf_counter()
     x_out, stats, x_last = run_prepared(model, a)
@@ -118,7 +156,7 @@ def _input_function(a, ninput):
     return lambda t: np.array([np.interp(t, r_t, r_v[:, k]) for k in range(ninput)])
 
 
-def _scipy_check(model, a, t_eval, method, tol):
+def _scipy_check(model, a, t_eval, method, tol, atol=None):
     """solve_ivp (DOP853, or Radau with the model's Jacobian) on model.rhs: an independent code."""
     from scipy.integrate import solve_ivp
     p, r_of_t = a["p"][:-1], _input_function(a, model.ninput)
@@ -140,24 +178,25 @@ def _scipy_check(model, a, t_eval, method, tol):
         def jac(t, x):
             return np.array(model.jacobian(t, x, p, r_of_t(t)), dtype=float, copy=True)
     kw = dict(method="DOP853") if method == "dop853" else dict(method="Radau", jac=jac)
-    sol = solve_ivp(fun, (a["t0"], a["t1"]), a["x0"], rtol=tol, atol=tol, t_eval=t_eval, **kw)
+    sol = solve_ivp(fun, (a["t0"], a["t1"]), a["x0"], rtol=tol, atol=tol if atol is None else atol,
+                    t_eval=t_eval, **kw)
     if not sol.success:
         raise SimulationError(f"{model.name}: scipy {kw['method']} reference check failed: "
                               f"{sol.message}")
     return sol.y.T
 
 
-def _primary(model, x0, t_span, p, r, t_eval, method, tol, project):
+def _primary(model, x0, t_span, p, r, t_eval, method, tol, project, atol):
     """The reference run: DOP853 at tol, or (method="auto") Radau when DOP853 says stiff."""
     if method not in REFERENCE_METHODS:
         raise ValueError(f"unknown reference method {method!r}; valid: {', '.join(REFERENCE_METHODS)}")
     if method in ("dop853", "auto"):
         res, elapsed, a = _c_run(model, x0, t_span, p, r, t_eval, "dop853", tol, project,
-                                 stiff_check=(method == "auto"))
+                                 stiff_check=(method == "auto"), atol=atol)
         if res.status == 0 or method == "dop853" or res.status not in (6, 7):
             return res, elapsed, a, tol
     tol = max(tol, RADAU_FINEST)
-    res, elapsed, a = _c_run(model, x0, t_span, p, r, t_eval, "radau", tol, project)
+    res, elapsed, a = _c_run(model, x0, t_span, p, r, t_eval, "radau", tol, project, atol=atol)
     return res, elapsed, a, tol
 
 
@@ -170,8 +209,9 @@ def _auto_check(model, res):
 
 
 def compute_reference(model, x0, t_span, t_eval, p=None, r=None, tol=1e-13, check="auto",
-                      project=False, method="auto"):
-    """Integrate the reference at ``tol`` and check it a second way.
+                      project=False, method="auto", atol=None):
+    """Integrate the reference at rtol ``tol`` (and ``atol``, default ``tol``; the report ties
+    both to its finest tolerance, :func:`tied_tolerances`) and check it a second way.
 
     method: "dop853"; "radau" (at max(tol, 1e-12)); or "auto" (default): DOP853,
     switching to Radau when DOP853 reports stiffness or runs out of steps.
@@ -185,25 +225,34 @@ def compute_reference(model, x0, t_span, t_eval, p=None, r=None, tol=1e-13, chec
     """
     if check not in CHECK_METHODS:
         raise ValueError(f"unknown reference check {check!r}; valid: {', '.join(CHECK_METHODS)}")
-    res, elapsed, a, tol = _primary(model, x0, t_span, p, r, t_eval, method, tol, project)
+    atol = tol if atol is None else atol
+    res, elapsed, a, tol = _primary(model, x0, t_span, p, r, t_eval, method, tol, project, atol)
     if res.status:
-        raise SimulationError(f"the reference solution failed: {res.message}")
+        reached = float(res.t[-1]) if res.t.size else float(t_span[0])
+        raise SimulationError(f"the reference solution failed ({res.method} at {_tols(tol, atol)}, "
+                              f"reached t = {reached:.6g} of {float(t_span[1]):g}): {res.message}")
     scale = state_scale(res.x)
     if check == "auto":
         check = _auto_check(model, res)
-    check_tol, agreement = float("nan"), float("nan")
+    check_tol, check_atol, agreement, other_x = float("nan"), None, float("nan"), None
     if check == "scipy":
-        check_tol = SCIPY_LOOSER * tol
-        other = _scipy_check(model, a, a["t_eval"], res.method, check_tol)
-        agreement = scaled_error(other, res.x, scale)
+        check_tol, check_atol = SCIPY_LOOSER * tol, SCIPY_LOOSER * atol
+        other_x = _scipy_check(model, a, a["t_eval"], res.method, check_tol, check_atol)
     elif check in ("radau", "dop853-half"):
         how, check_tol = ("radau", max(tol, RADAU_FINEST)) if check == "radau" else ("dop853", tol / 2)
-        other, _, _ = _c_run(model, x0, t_span, p, r, t_eval, how, check_tol, project)
+        check_atol = atol if check == "radau" else atol / 2
+        other, _, _ = _c_run(model, x0, t_span, p, r, t_eval, how, check_tol, project, atol=check_atol)
         if other.status:
             raise SimulationError(f"the reference check failed: {other.message}")
-        agreement = scaled_error(other.x, res.x, scale)
+        other_x = other.x
+    agreement_t = None
+    if other_x is not None:
+        agreement = scaled_error(other_x, res.x, scale)
+        with np.errstate(over="ignore", invalid="ignore"):
+            agreement_t = np.sqrt(np.mean(((np.asarray(other_x, float) - res.x) / scale) ** 2, axis=1))
     return Reference(t=res.t, x=res.x, scale=scale, method=res.method, tol=tol, wall_time=elapsed,
                      stats=res.stats, outputs=res.outputs,
                      constraint_residual=res.constraint_residual,
                      check_method=check if check != "scipy" else f"scipy {res.method}",
-                     check_tol=check_tol, agreement=agreement)
+                     check_tol=check_tol, agreement=agreement, atol=atol, check_atol=check_atol,
+                     agreement_t=agreement_t)

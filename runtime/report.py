@@ -42,7 +42,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .reference import Reference, compute_reference, scaled_error
+from .reference import MIN_WINDOW, Reference, compute_reference, scaled_error, tied_tolerances
 from .report_output import (COLUMNS, DEFAULT_TARGET, cost_key, plot_report, recommendation, summary_markdown,
                             table_text, write_csv)
 from .progress import bar, ticker
@@ -73,6 +73,11 @@ class WorkPrecisionReport:
     skipped: dict = field(default_factory=dict)   # method -> why it could not run on this model
     cost_weights: tuple = (1.0, 1.0)              # (w_jac, w_lu): see "cost" in the module docstring
     cost_from_op_counts: bool = False
+    # errors are measured on the output times [0, window) where the two computations of the
+    # reference agree to window_level (AGREE x the target); None: on all of them
+    window: int = None
+    window_level: float = None
+    inconclusive: str = None      # why no error could be judged (the references part at once)
 
     def ok_rows(self):
         return [r for r in self.rows if r["status"] == 0 and np.isfinite(r["error"])]
@@ -157,14 +162,15 @@ def _timed(model, a, repeats):
     return res, (float(np.median(samples)), float(np.min(samples))), float(np.median(cpu))
 
 
-def _row(method, tol, dt, a, res, wall, ref, cpu=float("nan")):
+def _row(method, tol, dt, a, res, wall, ref, cpu=float("nan"), window=None):
     wall, wall_min = wall
     s = res.stats
     ok = res.status == 0
     return dict(
         method=method, tolerance=tol, rtol=a["rtol"] if method != "rk4" else None,
         atol=a["atol"] if method != "rk4" else None, dt=dt, status=res.status,
-        error=scaled_error(res.x, ref.x, ref.scale) if ok else float("nan"),
+        error=(scaled_error(res.x[:window], ref.x[:window], ref.scale) if ok and window != 0
+               else float("nan")),
         wall_time_s=wall if ok else float("nan"),
         wall_time_min_s=wall_min if ok else float("nan"), cpu_time_s=cpu if ok else float("nan"),
         steps=s["steps"], accepted=s["accepted"],
@@ -190,7 +196,7 @@ def _rk4_dt(t_span, dopri5_result):
     return (t_span[1] - t_span[0]) / max(1, int(dopri5_result.stats["accepted"]))
 
 
-def _one(model, method, tol, dt, common, repeats, ref):
+def _one(model, method, tol, dt, common, repeats, ref, window=None):
     """Measure one (method, tolerance); failures become rows, not exceptions."""
     kw = dict(dt=dt) if method == "rk4" else dict(rtol=tol, atol=tol)
     try:
@@ -198,7 +204,7 @@ def _one(model, method, tol, dt, common, repeats, ref):
     except ValueError as exc:                 # e.g. radau without a Jacobian
         return _failed_row(method, tol, dt, f"not run: {exc}"), None
     res, wall, cpu = _timed(model, a, repeats)
-    return _row(method, tol, dt, a, res, wall, ref, cpu), res
+    return _row(method, tol, dt, a, res, wall, ref, cpu, window), res
 
 
 def _dopri5_for_rk4(model, tol, common, ref, cache):
@@ -230,14 +236,23 @@ def _setting_text(row):
 
 def work_precision(model, x0, t_span, p=None, r=None, methods=DEFAULT_METHODS,
                    tolerances=DEFAULT_TOLERANCES, repeats=3, reference=None, progress=True,
-                   n_points=201, reference_tol=1e-13, reference_check="auto", reference_method="auto",
-                   project=False):
+                   n_points=201, reference_tol=None, reference_check="auto", reference_method="auto",
+                   project=False, target=DEFAULT_TARGET):
     """Run every method at every tolerance and measure error, time, drift and residual.
 
     The module docstring defines error, tolerance (and RK4's dt), wall time and
     drift.  ``reference``: a precomputed :class:`Reference` on the same output
     times, or None to compute one (``reference_method`` at ``reference_tol``,
     checked by ``reference_check``; see eomc.runtime.reference.compute_reference).
+    ``reference_tol`` None (the default): tied to the finest tolerance of the grid
+    (eomc.runtime.reference.tied_tolerances: rtol 1000x, atol 10x tighter), as `eomc check`
+    ties its references; a number: rtol = atol = it.
+
+    Errors are measured where the reference's two computations agree to AGREE x ``target``
+    (a tenth of what the recommendation asks): on a motion that amplifies differences (a
+    chaotic pendulum, a robot collapsing onto many contacts) later times measure the problem's
+    conditioning, not a method -- ``report.window`` says until when.  If they part within
+    MIN_WINDOW output times nothing can be judged: ``report.inconclusive`` says why.
     Failed runs (stiffness detected, step limits) are kept as rows with their
     status and message.  Bad arguments raise ValueError before anything runs.
     """
@@ -252,11 +267,13 @@ def work_precision(model, x0, t_span, p=None, r=None, methods=DEFAULT_METHODS,
     t_eval = np.linspace(t0, t1, int(n_points))
     common = dict(x0=x0, t_span=(t0, t1), p=p, r=r, t_eval=t_eval, project=project)
     if reference is None:
+        rtol, atol = ((reference_tol, reference_tol) if reference_tol is not None
+                      else tied_tolerances(min(tolerances)))
         if progress:
-            print(f"eomc report: reference ({reference_method} at {reference_tol:.0e}, checked by "
-                  f"{reference_check}) ...", file=sys.stderr, flush=True)
+            print(f"eomc report: reference ({reference_method} at rtol {rtol:.0e}, atol {atol:.0e}, "
+                  f"checked by {reference_check}) ...", file=sys.stderr, flush=True)
         with ticker("eomc report: reference", sys.stderr, progress):
-            reference = compute_reference(model, x0, (t0, t1), t_eval, p=p, r=r, tol=reference_tol,
+            reference = compute_reference(model, x0, (t0, t1), t_eval, p=p, r=r, tol=rtol, atol=atol,
                                           check=reference_check, project=project,
                                           method=reference_method)
     if reference.x.shape != (t_eval.size, model.nx):
@@ -266,12 +283,29 @@ def work_precision(model, x0, t_span, p=None, r=None, methods=DEFAULT_METHODS,
                                  methods=methods, tolerances=tolerances, reference=reference,
                                  has_energy="energy" in model.output_names,
                                  has_constraints=(model.nhol + model.nvel) > 0)
+    report.window_level = AGREE * float(target)
+    report.window = reference.horizon(report.window_level)
+    if report.window < min(MIN_WINDOW, t_eval.size):
+        report.inconclusive = _parted(reference, report.window, report.window_level)
     report.skipped = _unrunnable(model, methods, common)
     report.cost_weights, report.cost_from_op_counts = cost_weights(model)
     _run_grid(report, model, common, repeats, progress)
     for row in report.rows:
         row["cost"] = run_cost(row, report.cost_weights)
     return report
+
+
+AGREE = 0.1     # the reference's two computations must agree to this fraction of the target
+
+
+def _parted(ref, h, level):
+    """Why no error can be judged: the reference's two computations part at once."""
+    t = ref.t[min(max(h, 1), ref.t.size - 1)]
+    return (f"the reference's two computations ({ref.method} and {ref.check_method}) differ by more "
+            f"than {level:.1e} (a tenth of the target) from t = {ref.t[h]:.4g}, within the first "
+            f"{MIN_WINDOW} output times: the motion amplifies their small differences (the "
+            f"problem's conditioning), so no run's error can be measured; report a shorter span "
+            f"(--t-final {t:.3g}) or a looser --target")
 
 
 def cost_weights(model):
@@ -319,7 +353,8 @@ def _grid_rows(report, model, common, repeats, progress, live, dopri5_runs):
                 row = _failed_row(method, tol, None, "not run: DOPRI5 failed at this tolerance, "
                                   "so there is no step count to match")
             else:
-                row, res = _one(model, method, tol, dt, common, repeats, report.reference)
+                row, res = _one(model, method, tol, dt, common, repeats, report.reference,
+                                0 if report.inconclusive else report.window)
                 if method == "dopri5":
                     dopri5_runs[tol] = res
             report.rows.append(row)

@@ -31,7 +31,7 @@ import numpy as np
 
 from .errors import EomcWarning
 
-__all__ = ["CONTACT_EVENT_PREFIX", "CLIP_EVENT_PREFIX", "GAP_EVENT_PREFIXES", "Switches", "find_switches", "PhysicsWarning", "verdict", "warn_outside_limits",
+__all__ = ["CONTACT_EVENT_PREFIX", "CLIP_EVENT_PREFIX", "GAP_EVENT_PREFIXES", "Switches", "find_switches", "PhysicsWarning", "verdict", "warn_outside_limits", "moved_start_text",
            "warn_unchecked",
            "PENETRATION_FRACTION",
            "POINT_PENETRATION", "LIMIT_OVERSHOOT_WIDTHS", "STATUS_ENERGY", "ENERGY_FAIL",
@@ -298,6 +298,15 @@ def warn_outside_limits(model, x0, p):
             f"{model.name}: the start is outside the range of joint{'s' if len(out) > 1 else ''} "
             f"{'; '.join(out)}: the limit springs push back at once (give x0 inside the ranges)"),
             stacklevel=_user_level())
+
+
+def moved_start_text(name, moved):
+    """What the default start moved, for the CLI's note and eomc.compile's DefaultStartWarning:
+    ``{name}: the zero pose is outside the range of joint knee (range [-2.5, -0.8]; starts at
+    q_knee = -0.81)`` for each joint of ``moved`` (metadata["start_in_range"] entries)."""
+    what = "; ".join(f"{m['joint']} (range [{m['lower']:.6g}, {m['upper']:.6g}]; starts at "
+                     f"{m['state']} = {m['value']:.6g})" for m in moved)
+    return f"{name}: the zero pose is outside the range of joint{'s' if len(moved) > 1 else ''} {what}"
 
 
 def _user_level():

@@ -49,7 +49,7 @@ __all__ = ["PAIR_KINDS", "PairShape", "PairLoad", "PairValue", "pair_supported",
 # the kinds whose pairs are modelled (either order)
 PAIR_KINDS = {("sphere", "sphere"), ("sphere", "capsule"), ("capsule", "capsule"), ("sphere", "box"),
               ("capsule", "box"), ("box", "box"), ("sphere", "cylinder"), ("capsule", "cylinder"),
-              ("cylinder", "cylinder"), ("sphere", "ellipsoid")}
+              ("cylinder", "cylinder"), ("sphere", "ellipsoid"), ("box", "cylinder")}
 # kinds met through the second shape's signed distance (:func:`signed_distance`) rather than two
 # cores' nearest points; the pair's contact points ("parts", :func:`pair_parts`) are points or
 # spheres of the first shape against the second's solid
@@ -274,12 +274,17 @@ def pair_parts(kind_a, kind_b):
     """The parts (contact points) of a pair of these kinds: [-1] (one point) but for
     box–box: 16 (parts 0-7: A's corners against B; 8-15: B's corners against A: :func:`_box_box`) and
     cylinder–cylinder: 4·CYLINDER_RIM + 1 (A's rim points against B, B's against A, and the
-    capsule inside A about its axis -- radius min(R, h) -- against B: side on side)."""
+    capsule inside A about its axis -- radius min(R, h) -- against B: side on side); box–cylinder:
+    8 + 2·CYLINDER_RIM + 1 (the box's corners against the cylinder, the cylinder's rim points
+    against the box, and the capsule inside the cylinder about its axis against the box: its side
+    on a face or an edge; whichever order the pair names them in)."""
     from .geometry import CYLINDER_RIM
     if kind_a == kind_b == "box":
         return list(range(16))
     if kind_a == kind_b == "cylinder":
         return list(range(4 * CYLINDER_RIM + 1))
+    if {kind_a, kind_b} == {"box", "cylinder"}:
+        return list(range(8 + 2 * CYLINDER_RIM + 1))
     return [-1]
 
 
@@ -390,13 +395,29 @@ def solid_contact(a, b, part, margin=0.0, let=lambda e: e):
     ``step`` on δ).  Box–box (:func:`_box_box`) and cylinder–cylinder have several parts: each
     cylinder's rim points against the other and the capsule inside A about its axis against B
     (every candidate lies in its shape, so the depth is never overstated: a contact may start
-    late, never early; measured against mj_geomDistance in the tests).  Capsule–cylinder adds
+    late, never early; measured against mj_geomDistance in the tests); box–cylinder likewise with
+    the box's corners and the cylinder's rim points (an edge across the curved side, or a rim
+    across a face's edge, meets late).  Capsule–cylinder adds
     the cylinder's ``RIM_POINTS`` rim points against the capsule (a capsule lying across the rim)."""
     from .geometry import CYLINDER_RIM
     swap = False
     if a["kind"] == b["kind"] == "box":
         return _box_box(a, b, part, margin, let)
-    if a["kind"] == b["kind"] == "cylinder":
+    if {a["kind"], b["kind"]} == {"box", "cylinder"}:      # the box's corners, the cylinder's rim points
+        box, cyl = (a, b) if a["kind"] == "box" else (b, a)
+        if part == 8 + 2 * CYLINDER_RIM:         # the capsule inside the cylinder: exact nearest points
+            rho = min(cyl["size"][0], cyl["size"][1])
+            xc, xb = _segment_box(cyl["centre"], cyl["axes"][2], cyl["size"][1] - rho, box, let)
+            d = [let(xb[k] - xc[k]) for k in range(3)]
+            dist = let(sm.sqrt(_dot(d, d) + SDF_EPS ** 2))
+            n = [let(x / dist) for x in d]            # cylinder -> box
+            depth = let(_num(rho) + _num(margin) - dist)
+            p = [let(xc[k] + (_num(rho) - depth / 2) * n[k]) for k in range(3)]
+            return p, [let(-x) for x in n] if cyl is b else n, depth
+        point, solid = (box, cyl) if part < 8 else (cyl, box)
+        swap = point is b
+        cands = [([let(x) for x in _corner(box, part)] if part < 8 else _rim(cyl, part - 8), 0.0)]
+    elif a["kind"] == b["kind"] == "cylinder":
         if part < 4 * CYLINDER_RIM:
             swap = part >= 2 * CYLINDER_RIM
             point, solid = (b, a) if swap else (a, b)

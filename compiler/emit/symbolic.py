@@ -85,9 +85,12 @@ class Symbolic:
     dynamics_kernel: tuple = ()      # recursive: the functions NAME_dyn computes (compiler/tree/dynamics_kernel.py)
     forcing_calls: str = ""          # recursive: forcing is -inverse_dynamics at u' = 0, a call of it (tree/lower.py)
     function_groups: object = None   # per function, its result groups where they differ from the formulation's
+    second_order: object = None      # recursive: (AnalyticPlan, nx) of hess_id's kernel (compiler/tree/second_order.py)
+    second_order_note: str = ""      # recursive: which algorithm hess_id got and why (NAME.json "hess_id")
     energy: str = ""                 # what a generated ``energy`` output holds (NAME.json "energy"), or ""
     guards: tuple = ()               # rhs broad phase: (clearance, exports) (compiler/emit/guards.py)
     implicit_guards: tuple = ()      # NAME_implicit's: the exports with each point's K and C slopes
+    jac_guards: tuple = ()           # the analytic jac_x's: the exports with each point's world force, K and C
 
 
 def _is_symmetric(A, seed=0):

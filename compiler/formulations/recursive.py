@@ -15,9 +15,11 @@ from ..tree.analytic import kernel_c
 from ..tree.analytic_emit import analytic_body_ops, analytic_jac_id_body, analytic_jac_x_body, has_analytic
 from ..tree.constrained import jacobian_symbols
 from ..tree.inverse_derivatives import jac_id_body, jac_id_ops
+from ..tree.second_order import second_order_body, second_order_c, second_order_ops
 from ..tree.emit import tree_jacobian_body, tree_jacobian_ops, tree_implicit_body, tree_matrix_body, tree_rhs_body
 from ..tree.dynamics_kernel import (KERNEL_FUNCTIONS, dynamics_body, dynamics_inputs, dynamics_kernel_c,
-                                    dynamics_ops, forcing_by_inverse_dynamics, has_dynamics_kernel)
+                                    dynamics_ops, forcing_by_inverse_dynamics, has_dynamics_kernel,
+                                    inputs_users)
 from ..tree.jvp import tree_jvp_body
 from ..tree.lower import TREE_FUNCTION_GROUPS, TREE_HELPER_USERS, build_tree_symbolic
 from ..tree.regressor import PI_NAMES
@@ -62,12 +64,15 @@ class Recursive(Formulation):
             return forcing_by_inverse_dynamics(ctx)
         if fn in ("mass_matrix", "forcing", "inverse_dynamics"):
             return tree_matrix_body(ctx, prog, fn)
+        shared = fn in inputs_users(sym, ctx.functions)
         if fn == "jac_id" and has_analytic(prog, sym):
-            return analytic_jac_id_body(ctx, prog, sym)
+            return analytic_jac_id_body(ctx, prog, sym, shared)
         if fn == "jac_x" and has_analytic(prog, sym):
-            return analytic_jac_x_body(ctx, prog, sym, *jacobian_symbols(prog, sym.W, ctx.nu))
+            return analytic_jac_x_body(ctx, prog, sym, *jacobian_symbols(prog, sym.W, ctx.nu), shared=shared)
         if fn == "jac_id":
             return jac_id_body(ctx, prog, sym.seeds)
+        if fn == "hess_id" and sym.second_order is not None:
+            return second_order_body(ctx, prog, sym)
         if fn == "hess_id":
             return hess_id_body(ctx, prog, sym, nx)
         if fn in REVERSE_FUNCTIONS:
@@ -83,6 +88,8 @@ class Recursive(Formulation):
         return None
 
     def ops(self, fn, prog, sym, nx, nr, npar, nq, nu, solve_in):
+        if fn == "hess_id" and sym.second_order is not None:
+            return second_order_ops(prog, sym.second_order[0])
         if fn == "hess_id":      # the sweep once per row, its tangent once per row and column
             return hess_id_ops(prog, sym, nx, nu)
         if fn in KERNEL_FUNCTIONS and prog is not None and has_dynamics_kernel(prog, sym, fn):
@@ -102,23 +109,25 @@ class Recursive(Formulation):
         return None
 
     def shared_code(self, fn, ctx, prog, sym, functions):
-        """NAME_dyn_inputs: the loop kernel's inputs an[], once for mass_matrix, forcing and
-        inverse_dynamics (:mod:`.dynamics_kernel`), before the first of them."""
-        first = next((f for f in functions if f in getattr(sym, "dynamics_kernel", ())), None)
-        if fn != first or prog is None or not has_dynamics_kernel(prog, sym, fn):
+        """NAME_dyn_inputs: the kernels' inputs an[], once for mass_matrix, forcing,
+        inverse_dynamics, jac_x and jac_id (:func:`~.dynamics_kernel.inputs_users`), before
+        the first of them."""
+        users = inputs_users(sym, functions)
+        if not users or fn != users[0] or prog is None or not has_analytic(prog, sym):
             return None
-        return dynamics_inputs(ctx, prog, sym)
+        return dynamics_inputs(ctx, prog, sym, own=fn in KERNEL_FUNCTIONS)
 
     def c_helpers(self, name, sym, functions, nq):
         """NAME_rnea_derivs (:mod:`.analytic`) when jac_x or jac_id use it, NAME_dyn
         (:mod:`.dynamics_kernel`) when mass_matrix, forcing or inverse_dynamics do."""
-        if sym.analytic is None:
-            return ""
         out = []
-        if {"jac_x", "jac_id"} & set(functions):
+        first = sym.analytic is not None and bool({"jac_x", "jac_id"} & set(functions))
+        if first:
             out.append(kernel_c(name, sym.analytic, nq, solve="jac_x" in functions))
-        if set(sym.dynamics_kernel) & set(functions):
+        if sym.analytic is not None and set(sym.dynamics_kernel) & set(functions):
             out.append(dynamics_kernel_c(name, sym.analytic))
+        if "hess_id" in functions and sym.second_order is not None:   # NAME_rnea_hess (.second_order)
+            out.append(second_order_c(name, *sym.second_order[:1], nq, sym.second_order[1], helpers=not first))
         return "\n\n".join(out)
 
     def metadata(self, sym, functions):
@@ -128,6 +137,8 @@ class Recursive(Formulation):
         if getattr(self.tree, "quaternions", ()):
             # x indices of each quaternion's w (x, y, z follow): the runtime keeps them unit
             out["quaternions"] = [int(k) for k in self.tree.quaternions]
+        if "hess_id" in functions and sym.second_order_note:
+            out["hess_id"] = sym.second_order_note
         if "regressor" not in functions:
             return out
         return {**out, "regressor_bodies": list(sym.regressor_bodies),

@@ -138,13 +138,13 @@ def _warn_unset_parameters(formed, parameters, where):
                    f"defaults to 1.0 ({names}); give `parameters = {{symbol: value, ...}}` to set them")
         if message not in _WARNED:  # once per model and process, however often it is compiled
             _WARNED.add(message)
-            warnings.warn(message, EomcWarning, stacklevel=_caller_level())
+            warnings.warn(message, EomcWarning, stacklevel=caller_level())
 
 
 _WARNED = set()
 
 
-def _caller_level():
+def caller_level():
     """warnings.warn's stacklevel for the first frame outside eomc (the user's call)."""
     frame, level = sys._getframe(2), 2
     while frame is not None and frame.f_globals.get("__name__", "").startswith("eomc"):

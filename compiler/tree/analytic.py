@@ -33,9 +33,16 @@ generalized force e_k·τ_k on the joint's own speed and nothing else, so the ke
 the law's value as a constant load (in F) and adds its own derivative, ∂τ_k/∂q_k and
 ∂τ_k/∂u_k (block L of ``an[]``), to row k (why: without it every URDF robot built with its
 limits on -- the default -- differentiated the whole recursion per column, unrolled:
-G1's jac_x was 809 kB of C, 2.6x its rhs).  Other state-dependent loads (contacts,
-world-frame forces, a ball joint's damping) and trees closed by constraints keep the
-tangent path.
+G1's jac_x was 809 kB of C, 2.6x its rhs).  Ground contacts likewise: each contact's
+force enters F as a body-fixed load (as the rhs computes it), and the kernel adds what
+that misses, per touching contact and pairs of dofs in its body's support, from the law's
+slopes K = -∂f/∂p, C = -∂f/∂v_p (block G, :func:`_contact_lines`; why: every model with
+ground contacts differentiated the whole recursion per column -- the gymnasium ant's jac_x
+33 µs, 20 rhs calls, Solo12's 97 µs; benchmarks/results/contact_jac.md).  A contact clear
+of the ground costs a compare there, and jac_x's straight-line part skips its law with the
+rhs's broad phase (compiler/emit/guards.py).  Other state-dependent loads (world-frame
+forces, a ball joint's damping, an ellipsoid's moving support point, body-body pairs) and
+trees closed by constraints keep the tangent path.
 
 Checked against central differences and Pinocchio's ``computeRNEADerivatives`` /
 ``computeABADerivatives`` (tests/compiler/tree/test_analytic_derivatives.py).
@@ -45,7 +52,7 @@ from dataclasses import dataclass
 import sympy as sm
 
 __all__ = ["AnalyticPlan", "analytic_plan", "kernel_c", "ANX", "analytic_ops", "c_table", "world_axis_lines",
-           "WORLD_INERTIA_LINES", "world_load_lines", "tree_tables", "PLACE_FROM_PARENT_LINES", "YMUL_LINES", "DOT6_LINE"]
+           "WORLD_INERTIA_LINES", "world_load_lines", "rd_helpers", "VARIATION_LINES", "tree_tables", "PLACE_FROM_PARENT_LINES", "YMUL_LINES", "DOT6_LINE"]
 
 ANX = "anx"      # the result group of the kernel's inputs
 
@@ -69,13 +76,19 @@ class AnalyticPlan:
     solver: str = "ltdl"    # jac_x's M⁻¹: "ltdl" (rows of M over the support) or "aba" (articulated, see solve_tables)
     kblocks: tuple = ()     # per k-speed joint: its K's diagonal blocks ((coordinates), (speeds)), see _blocks
     laws: tuple = ()        # dofs with a joint law, in dof order (their ∂τ/∂q, ∂τ/∂u: anx block L)
+    contacts: tuple = ()    # per ground contact (its body, the last dof on the body's path to the root): anx block G
 
     def dofs(self, b):
         return range(self.first[b], self.first[b] + self.count[b])
 
 
-def analytic_plan(tree, bodies, gravity, layout, rename):
-    """(plan, [(("anx", i), expr)]) when the tree qualifies (see the module doc), else (None, [])."""
+def analytic_plan(tree, bodies, gravity, layout, rename, contacts=None):
+    """(plan, [(("anx", i), expr)]) when the tree qualifies (see the module doc), else (None, []).
+
+    ``contacts``: the ground contacts as lowered (:func:`.contacts.lower_contacts`' "analytic"
+    list: body, depth, point, centre, world force, K, C per contact), or None when the tree's
+    contacts cannot be planned (then a tree with contacts keeps the tangent path)."""
+    from ..contact.tree import ContactLoad
     if tree.loops is not None:
         return None, []
     nq, nu = len(tree.coordinates), len(tree.speeds)
@@ -86,6 +99,8 @@ def analytic_plan(tree, bodies, gravity, layout, rename):
         return None, []
     lawful = {x for qs, _, _ in laws.values() for x in (qs,)} | {speeds[s] for s in laws}
     for load in tree.loads:
+        if isinstance(load, ContactLoad) and contacts is not None:
+            continue        # its force is in the body's fext; its slopes are block G
         if load.frame != "body":
             return None, []
         for e in list(load.moment) + list(load.force) + list(load.offset):
@@ -156,8 +171,14 @@ def analytic_plan(tree, bodies, gravity, layout, rename):
                 return None, []
             lawdofs.append(e)
             L += [dq, du]
+    G, ends = [], []
+    for body, depth, point, centre, force, Kc, Cc in contacts or ():
+        if last.get(body, -1) < 0:      # on a body no joint moves: no generalized force
+            continue
+        ends.append((body, last[body]))
+        G += [depth, *point, *centre, *force] + [x for M in (Kc, Cc) for row in M for x in row]
     blocks = [("E", E), ("r", r), ("S", S), ("I", I)] + ([("F", F)] if loads else []) + [
-        ("g", list(gravity)), ("K", K), ("arm", arm)] + ([("L", L)] if L else [])
+        ("g", list(gravity)), ("K", K), ("arm", arm)] + ([("L", L)] if L else []) + ([("G", G)] if G else [])
     offsets, values = {}, []
     for name, vals in blocks:
         offsets[name] = len(values)
@@ -167,7 +188,7 @@ def analytic_plan(tree, bodies, gravity, layout, rename):
         off.append(off[-1] + d + 1)
     plan = AnalyticPlan(nb, len(row), tuple(par), tuple(first), tuple(count), tuple(row),
                         tuple(qcol), tuple(multi), loads, offsets, len(values), tuple(lam), tuple(dep),
-                        tuple(off), choose_solver(dep), tuple(kblocks), tuple(lawdofs))
+                        tuple(off), choose_solver(dep), tuple(kblocks), tuple(lawdofs), tuple(ends))
     return plan, [((ANX, i), sm.sympify(v)) for i, v in enumerate(values)]
 
 
@@ -378,6 +399,28 @@ WORLD_INERTIA_LINES = [
 ]
 
 
+# C, inside a loop over bodies b: the body's inertia variation dY (12 numbers, see
+# :func:`kernel_c`) from its world inertia Yb, I_O (IO), velocity vb and momentum hm
+# (shared by the first- and second-order kernels, :mod:`.second_order`)
+VARIATION_LINES = [
+    "        /* dY = v x* Y - Y (v x) + (. x* h) = [[T, 0], [-2 [h_f]x, 0]] (compiler/tree/analytic.py):",
+    "           T = C + C^T - c v_l^T - v_l c^T + 2 (v_l . c) 1 - [h_n]x, C's columns w x I_O's */",
+    "        for (j = 0; j < 3; j++) {",
+    "            const double *aj = IO + 3 * j;   /* I_O symmetric: column j = row j */",
+    "            C[j] = vb[1] * aj[2] - vb[2] * aj[1];",
+    "            C[3 + j] = vb[2] * aj[0] - vb[0] * aj[2];",
+    "            C[6 + j] = vb[0] * aj[1] - vb[1] * aj[0];",
+    "        }",
+    "        vc = 2.0 * (vb[3] * Yb[1] + vb[4] * Yb[2] + vb[5] * Yb[3]);",
+    "        for (i = 0; i < 3; i++)",
+    "            for (j = 0; j < 3; j++)",
+    "                dYb[3 * i + j] = C[3 * i + j] + C[3 * j + i] - Yb[1 + i] * vb[3 + j] - vb[3 + i] * Yb[1 + j]"
+    " + (i == j ? vc : 0.0);",
+    "        dYb[1] += hm[2]; dYb[2] -= hm[1]; dYb[3] -= hm[2]; dYb[5] += hm[0]; dYb[6] += hm[1]; dYb[7] -= hm[0];",
+    "        dYb[9] = hm[3]; dYb[10] = hm[4]; dYb[11] = hm[5];",
+]
+
+
 def world_load_lines(o, pad=""):
     """C, inside a loop over bodies b: subtract the body's body-frame load (an[] block F, about
     the body origin) from its world force fb, placed by Rb and pb (shared as above; ``pad``
@@ -400,27 +443,11 @@ def world_load_lines(o, pad=""):
     )]
 
 
-def kernel_c(name, plan, nq, solve=False):
-    """The C text of ``NAME_rnea_derivs`` (see the module doc) and its small helpers.
-
-    ``NAME_rnea_derivs(an, u, ud, out, stride, row0, sign)`` writes, for every speed i
-    and state column k of the coordinates and speeds, ``out[(row0 + i) * stride + k] =
-    sign * ∂τ_i/∂x_k`` at the velocities ``u`` and accelerations ``ud`` (per dof, in the
-    plan's dof order), zeroing the rest of those rows.
-
-    ``solve`` (jac_x): with ``msolve`` set, those rows are then multiplied by M⁻¹: M from
-    the same composite inertias (M_ac = S_aᵀ Yᶜ S_c, the armature on its diagonal), stored
-    by rows of a dof and its support (nearest first), factored M = Lᵀ D L in place
-    (Featherstone's LTDL, O(n·d²)) and applied to the rows as whole-row updates (O(n·d) row
-    operations of nq + nu entries each)."""
-    ncol = nq + plan.nd
-    msize = plan.off[-1]
-    aba = solve and plan.solver == "aba"
-    ltdl = solve and not aba
-    axpy = _aba_lines(ncol) if aba else _axpy_lines(ncol)
-    nb, nd, o = plan.nb, plan.nd, plan.offsets
-    fn = f"{name}_rnea_derivs"
-    lines = [
+def rd_helpers(name):
+    """C: the small spatial-algebra helpers of the derivative kernels (motion and force cross
+    products, 6-dot, Y x, dY x, dY^T x), ``NAME_rd_*``; written once per model by whichever
+    kernel comes first (:func:`kernel_c`, :mod:`.second_order`)."""
+    return [
         f"static inline void {name}_rd_cross(const double *v, const double *m, double *out)",
         "{   /* out = v x m (motion cross product) */",
         "    out[0] = v[1] * m[2] - v[2] * m[1];",
@@ -474,7 +501,30 @@ def kernel_c(name, plan, nq, solve=False):
         "    out[3] = out[4] = out[5] = 0.0;",
         "}",
         "",
-    ] + ([x.replace("{name}", name) for x in axpy] if solve else []) + [
+    ]
+
+
+def kernel_c(name, plan, nq, solve=False):
+    """The C text of ``NAME_rnea_derivs`` (see the module doc) and its small helpers.
+
+    ``NAME_rnea_derivs(an, u, ud, out, stride, row0, sign)`` writes, for every speed i
+    and state column k of the coordinates and speeds, ``out[(row0 + i) * stride + k] =
+    sign * ∂τ_i/∂x_k`` at the velocities ``u`` and accelerations ``ud`` (per dof, in the
+    plan's dof order), zeroing the rest of those rows.
+
+    ``solve`` (jac_x): with ``msolve`` set, those rows are then multiplied by M⁻¹: M from
+    the same composite inertias (M_ac = S_aᵀ Yᶜ S_c, the armature on its diagonal), stored
+    by rows of a dof and its support (nearest first), factored M = Lᵀ D L in place
+    (Featherstone's LTDL, O(n·d²)) and applied to the rows as whole-row updates (O(n·d) row
+    operations of nq + nu entries each)."""
+    ncol = nq + plan.nd
+    msize = plan.off[-1]
+    aba = solve and plan.solver == "aba"
+    ltdl = solve and not aba
+    axpy = _aba_lines(ncol) if aba else _axpy_lines(ncol)
+    nb, nd, o = plan.nb, plan.nd, plan.offsets
+    fn = f"{name}_rnea_derivs"
+    lines = rd_helpers(name) + ([x.replace("{name}", name) for x in axpy] if solve else []) + [
         f"/* d tau / d(q, u) of RNEA by Carpentier and Mansard's algorithm (compiler/tree/analytic.py):",
         f"   out[(row0 + i) * stride + k] = sign * d tau_i / d x_k for the {nd} speeds i and the",
         "   coordinate and speed columns k, at velocities u and accelerations ud (per dof). */",
@@ -569,21 +619,7 @@ def kernel_c(name, plan, nq, solve=False):
     lines += [
     ] + (["        if (msolve)",
           "            for (i = 0; i < 6; i++) PA[6 * b + i] = fb[i];   /* the bias force, ABA's start */"] if aba else []) + [
-        "        /* dY = v x* Y - Y (v x) + (. x* h) = [[T, 0], [-2 [h_f]x, 0]] (compiler/tree/analytic.py):",
-        "           T = C + C^T - c v_l^T - v_l c^T + 2 (v_l . c) 1 - [h_n]x, C's columns w x I_O's */",
-        "        for (j = 0; j < 3; j++) {",
-        "            const double *aj = IO + 3 * j;   /* I_O symmetric: column j = row j */",
-        "            C[j] = vb[1] * aj[2] - vb[2] * aj[1];",
-        "            C[3 + j] = vb[2] * aj[0] - vb[0] * aj[2];",
-        "            C[6 + j] = vb[0] * aj[1] - vb[1] * aj[0];",
-        "        }",
-        "        vc = 2.0 * (vb[3] * Yb[1] + vb[4] * Yb[2] + vb[5] * Yb[3]);",
-        "        for (i = 0; i < 3; i++)",
-        "            for (j = 0; j < 3; j++)",
-        "                dYb[3 * i + j] = C[3 * i + j] + C[3 * j + i] - Yb[1 + i] * vb[3 + j] - vb[3 + i] * Yb[1 + j]"
-        " + (i == j ? vc : 0.0);",
-        "        dYb[1] += hm[2]; dYb[2] -= hm[1]; dYb[3] -= hm[2]; dYb[5] += hm[0]; dYb[6] += hm[1]; dYb[7] -= hm[0];",
-        "        dYb[9] = hm[3]; dYb[10] = hm[4]; dYb[11] = hm[5];",
+        *VARIATION_LINES,
         "    }",
     ] + (_aba_accelerations(name, plan) if aba else []) + [
         f"    for (b = {nb - 1}; b >= 0; b--) {{",
@@ -643,6 +679,8 @@ def kernel_c(name, plan, nq, solve=False):
         "        }",
         "    }",
     ]
+    if plan.contacts:
+        lines += _contact_lines(name, plan)
     for (e0, k, koff), blocks in zip(plan.multi, plan.kblocks):
         kb = [len(r) for r, _ in blocks]
         lines += [
@@ -721,6 +759,76 @@ def kernel_c(name, plan, nq, solve=False):
         ]
     lines.append("}")
     return "\n".join(lines)
+
+
+GSIZE = 28     # anx block G per contact: depth, point p (3), centre c (3), world force f (3), K (9), C (9)
+
+
+def _contact_lines(name, plan):
+    """C: the ground contacts' terms the kernel's constant load misses (see the module doc).
+
+    The kernel holds each contact's force as a body-fixed load: a fixed force in the body frame
+    at a fixed point of the body.  The law's force f(p, v_p) (world) reads the depth along the
+    plane's normal of the sphere's centre c (a point of the body) and the velocity v_p of the
+    body's material point at the contact point p = c - r n; K = -∂f/∂p, C = -∂f/∂v_p
+    (:func:`~eomc.compiler.contact.law.ground_jacobians`, exact).  Along a joint's perturbation
+    ξ_j (world axis s_j = (ω_j, v0_j)) the true change of f is -K δc - C δv_p, with δc = ω_j × c
+    + v0_j, δV_b = s_j × V_b + ∂V_b/∂ξ_j's kernel part (dV), δv_p = δω_b × p + δv0_b + ω_b × δc;
+    the kernel's body-fixed load turned with the body instead (ω_j × f) and its point moved as a
+    point of the body (ω_j × p + v0_j, not δc).  Along a speed u_j: δv_p = J_p,j = ω_j × p + v0_j.
+    The generalized force is Q_k = J_p,k · f, τ = ID - Q, so each row k of the body's support
+    gets -sign (J_p,k · Δf_j + ω_k · (Δp_j × f)), Δ the true change less the kernel's.
+    Out of contact (depth ≤ 0) f, K and C are ±0: the contact costs one compare."""
+    o = plan.offsets
+    return [
+        "    {   /* ground contacts: the law's slopes and the point's motion on its body (analytic.py) */",
+        "    " + c_table("cb", [b for b, _ in plan.contacts]),
+        "    " + c_table("ce", [e for _, e in plan.contacts]),
+        f"        double cj[{12 * plan.nd}], fw[{3 * plan.nd}];",
+        f"        for (j = 0; j < {len(plan.contacts)}; j++) {{",
+        f"            const double *g = an + {o['G']} + {GSIZE} * j;",
+        "            const double *p = g + 1, *cc = g + 4, *f = g + 7, *Kc = g + 10, *Cc = g + 19;",
+        "            const double *Vb;",
+        "            if (!(g[0] > 0.0) && g[0] == g[0]) continue;   /* clear of the ground: all ±0 */",
+        "            Vb = V + 6 * cb[j];",
+        "            for (a = ce[j]; a >= 0; a = lam[a]) {   /* per dof of the support: dq and du of f, dp */",
+        "                const double *s = Sw + 6 * a;",
+        "                double *w = cj + 12 * a, jc[3], jp[3], dv[6], dvp[3];",
+        "                for (i = 0; i < 3; i++) {",
+        "                    const int i1 = (i + 1) % 3, i2 = (i + 2) % 3;",
+        "                    jc[i] = s[i1] * cc[i2] - s[i2] * cc[i1] + s[3 + i];",
+        "                    jp[i] = s[i1] * p[i2] - s[i2] * p[i1] + s[3 + i];",
+        "                    w[9 + i] = s[i1] * (cc[i2] - p[i2]) - s[i2] * (cc[i1] - p[i1]);",
+        "                    fw[3 * a + i] = f[i1] * s[i2] - f[i2] * s[i1];   /* f x w_a */",
+        "                }",
+        f"                {name}_rd_cross(s, Vb, dv);",
+        "                for (i = 0; i < 6; i++) dv[i] += dV[6 * a + i];",
+        "                for (i = 0; i < 3; i++) {",
+        "                    const int i1 = (i + 1) % 3, i2 = (i + 2) % 3;",
+        "                    dvp[i] = dv[i1] * p[i2] - dv[i2] * p[i1] + dv[3 + i] + Vb[i1] * jc[i2] - Vb[i2] * jc[i1];",
+        "                }",
+        "                for (i = 0; i < 3; i++) {",
+        "                    const int i1 = (i + 1) % 3, i2 = (i + 2) % 3;",
+        "                    w[i] = -(Kc[3 * i] * jc[0] + Kc[3 * i + 1] * jc[1] + Kc[3 * i + 2] * jc[2])",
+        "                        - (Cc[3 * i] * dvp[0] + Cc[3 * i + 1] * dvp[1] + Cc[3 * i + 2] * dvp[2])",
+        "                        - (s[i1] * f[i2] - s[i2] * f[i1]);",
+        "                    w[3 + i] = -(Cc[3 * i] * jp[0] + Cc[3 * i + 1] * jp[1] + Cc[3 * i + 2] * jp[2]);",
+        "                    w[6 + i] = jp[i];",
+        "                }",
+        "            }",
+        "            for (k = ce[j]; k >= 0; k = lam[k]) {   /* rows: -sign (J_p,k . df_a + w_k . (dp_a x f)) */",
+        "                double *ok = out + (row0 + row[k]) * stride;",
+        "                const double *jk = cj + 12 * k + 6, *fk = fw + 3 * k;",
+        "                for (a = ce[j]; a >= 0; a = lam[a]) {",
+        "                    const double *w = cj + 12 * a;",
+        "                    ok[qc[a]] -= sign * (jk[0] * w[0] + jk[1] * w[1] + jk[2] * w[2]",
+        "                                         + fk[0] * w[9] + fk[1] * w[10] + fk[2] * w[11]);",
+        "                    ok[uc[a]] -= sign * (jk[0] * w[3] + jk[1] * w[4] + jk[2] * w[5]);",
+        "                }",
+        "            }",
+        "        }",
+        "    }",
+    ]
 
 
 def _ginv_lines(k, ki):
@@ -923,7 +1031,8 @@ def analytic_ops(plan, ncol=0):
     multiply-adds as one mul and one add): per body ~1,150 (placement, v, a, Y, Ẏ),
     per dof ~330 (axes, their terms, the backward products), per (dof, support dof) pair 48;
     with the M⁻¹ solve on ``ncol`` columns (jac_x) 2·ncol more per pair and the factorization
-    (LᵀDL) or about 56·ncol more per dof (articulated)."""
+    (LᵀDL) or about 56·ncol more per dof (articulated); a ground contact's terms as if it
+    touched (:func:`_contact_lines`)."""
     pairs = sum(plan.dep)
     muls = 580 * plan.nb + 170 * plan.nd + 24 * pairs
     adds = 570 * plan.nb + 160 * plan.nd + 24 * pairs
@@ -944,5 +1053,9 @@ def analytic_ops(plan, ncol=0):
             adds += 2 * len(r) ** 3 + plan.nd * len(r) ** 2
     muls += 2 * len(plan.laws)      # the sign times each law's two derivatives
     adds += 2 * len(plan.laws)
+    for _, e in plan.contacts:      # a touching contact (one compare when clear): per support dof
+        d = plan.dep[e] + 1         # its slopes' products (~70), per pair of them two dot products
+        muls += 70 * d + 10 * d * d
+        adds += 60 * d + 10 * d * d
     divs = sum(k for _, k, _ in plan.multi) + (plan.nd if ncol and plan.solver == "aba" else 0)
     return {"adds": adds, "muls": muls, "divs": divs, "calls": 0}

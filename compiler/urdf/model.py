@@ -249,13 +249,9 @@ def urdf_formed(read, formulation, overrides, formed_system):
         from eomc.compiler.contact.tree import merged_outputs, passive_contacts
         if read.outputs or read.events:
             overrides = merged_outputs(overrides, dict(read.outputs), dict(read.events), passive_contacts(read))
-        values = merged_initial_state(merged_defaults(overrides, read, read.defaults, read.joint_inputs), read)
+        values = _reader_start(merged_defaults(overrides, read, read.defaults, read.joint_inputs), read)
         if read.ground_check is not None:      # into the built model's metadata (runtime/ground_check.py)
             values = {**values, "ground_check": read.ground_check}
-        start = values.get("initial_state") or {}
-        moved = [m for m in read.start_in_range if start.get(m["state"]) == m["value"]]   # not the caller's
-        if moved:                              # the joints the default start moved (the CLI's note)
-            values = {**values, "start_in_range": moved}
         return read, values, None
     if read.outputs or read.events:
         from eomc.runtime.errors import ModelError
@@ -268,7 +264,20 @@ def urdf_formed(read, formulation, overrides, formed_system):
                       stacklevel=3)
     system = read.mechanics()
     formed = formed_system(system, formulation)
-    return formed, urdf_overrides(system, formed, overrides), system
+    return formed, _reader_start(urdf_overrides(system, formed, overrides), read), system
+
+
+def _reader_start(values, read):
+    """``values`` with the reader's default start under the caller's initial_state (a
+    quaternion's w = 1; each joint whose range excludes 0 just inside it, start_in_range) and
+    the joints that start moved and the caller did not give (``start_in_range``: the note and
+    the DefaultStartWarning name them).  Both routes take it: the Kane route (formulation
+    "kane", mimic=True robots) used to start Go2 at its zero pose, 0.84 rad outside its knees'
+    ranges, where the recursive one starts inside them."""
+    values = merged_initial_state(values, read)
+    start = values.get("initial_state") or {}
+    moved = [m for m in read.start_in_range if start.get(m["state"]) == m["value"]]   # not the caller's
+    return {**values, "start_in_range": moved} if moved else values
 
 
 GROUND = "@ground"      # contacts=[...] entry: the robot's <collision> geometry on the plane z = 0

@@ -261,6 +261,7 @@ def _compiled(path, options, key, quiet, check):
     from eomc.compiler.build import reuse
     from eomc.compiler.build.cache import cache_root
     from eomc.compiler.driver import compile as compile_model
+    from eomc.runtime.errors import DefaultStartWarning
     source, name = with_options(str(path), name=None, floating_base=options["floating_base"],
                                 allow_nonphysical_inertia=options["allow_nonphysical_inertia"],
                                 limits=options["limits"], ignore=options["ignore"],
@@ -274,6 +275,8 @@ def _compiled(path, options, key, quiet, check):
                                   frames=options["frames"] or None, contacts=options["contacts"] or None,
                                   **extra)
     finally:    # the build's warnings, as if nothing had listened
+        # but the default start's: the command's note says it, leaving out what --x0 gives
+        recorded = [w for w in recorded if not issubclass(w.category, DefaultStartWarning)]
         for w in recorded:
             reuse.warn_again(w.message, w.filename, w.lineno, w.source)
     if key is not None:
@@ -324,12 +327,10 @@ def _start_note(model, overrides):
              if m["state"] not in overrides]
     if not moved:
         return
-    what = "; ".join(f"{m['joint']} (range [{m['lower']:.6g}, {m['upper']:.6g}]; starts at "
-                     f"{m['state']} = {m['value']:.6g})" for m in moved)
-    many = len(moved) > 1
-    print(f"eomc: note: {model.name}: the zero pose is outside the range of joint{'s' if many else ''} "
-          f"{what}: the default start puts {'them' if many else 'it'} just inside the nearest limit "
-          f"(give --x0 to choose)", file=sys.stderr)
+    from eomc.runtime.switching import moved_start_text
+    print(f"eomc: note: {moved_start_text(model.name, moved)}: the default start puts "
+          f"{'them' if len(moved) > 1 else 'it'} just inside the nearest limit (give --x0 to choose)",
+          file=sys.stderr)
 
 
 GROUND_CLEARANCE = 1e-3     # m between the lowest contact and the ground at a lifted start

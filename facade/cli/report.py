@@ -5,6 +5,10 @@ a built model directory / ``NAME.json`` (``eomc.load``: no SymPy).  Writes
 OUTDIR/report.csv, report.png and report.md (see eomc.runtime.report for what
 each column means) and prints the table and the recommendation; progress goes
 to stderr.
+
+Exit status 0; 3 (inconclusive, as `eomc check`) when the reference cannot be computed (it
+says where, why and what to change) or its two computations part within the first output
+times (no error can be measured); 1 on other errors.
 """
 import sys
 from pathlib import Path
@@ -32,8 +36,9 @@ def configure(parser):
                         help="directory for report.csv/.png/.md (default: report_NAME)")
     parser.add_argument("--repeats", type=int, default=3, help="timing samples per run (median)")
     parser.add_argument("--points", type=int, default=201, help="output times the error is measured at")
-    parser.add_argument("--reference-tol", type=float, default=1e-13,
-                        help="tolerance of the DOP853 reference")
+    parser.add_argument("--reference-tol", type=float, default=None,
+                        help="rtol = atol of the reference (default: tied to the finest --tolerances, rtol "
+                             "1000x and atol 10x tighter, as eomc check's references)")
     parser.add_argument("--reference-check", default="auto",
                         choices=("auto", "scipy", "radau", "dop853-half", "none"),
                         help="second computation the reference is checked against")
@@ -66,12 +71,22 @@ def run(args):
     if all(v == 0.0 for v in x0.values()) and not args.quiet:
         print(f"eomc report: {model.name} has no initial_state and no --x0 was given: "
               f"starting from rest at x = 0", file=sys.stderr)
+    from eomc.errors import SimulationError
+    from eomc.runtime.stability import EXIT_INCONCLUSIVE
     try:
         report = work_precision(model, x0, (args.t0, args.t_final), p=p, methods=methods,
                                 tolerances=args.tolerances, repeats=args.repeats,
                                 progress=not args.quiet, n_points=args.points,
                                 reference_tol=args.reference_tol,
-                                reference_check=args.reference_check)
+                                reference_check=args.reference_check, target=args.target)
+    except SimulationError as exc:
+        if "the reference solution failed" not in str(exc):
+            raise
+        print(f"eomc report: inconclusive (exit status {EXIT_INCONCLUSIVE}): {model.name}: {exc}: no "
+              f"reference to measure the runs against. Report a shorter span (--t-final), or a "
+              f"looser grid (the reference is tied to the finest --tolerances), or give "
+              f"--reference-tol", file=sys.stderr)
+        return EXIT_INCONCLUSIVE
     except ValueError as exc:
         raise ModelError(f"{model.name}: {exc}") from None
     out = Path(args.output or f"report_{model.name}")
@@ -84,4 +99,7 @@ def run(args):
     print()
     print(report.recommendation_text(args.target))
     print(f"\nwrote {out / 'report.csv'}, {out / 'report.png'}, {out / 'report.md'}")
+    if report.inconclusive:
+        print(f"eomc report: inconclusive (exit status {EXIT_INCONCLUSIVE})", file=sys.stderr)
+        return EXIT_INCONCLUSIVE
     return 0

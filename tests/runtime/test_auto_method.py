@@ -93,6 +93,37 @@ def test_check_runs_auto_once_where_it_is_one_listed_method(ball, monkeypatch):
     assert ran == ["radau", "radau", "auto"]       # the two references, then one run for both names
 
 
+def test_check_takes_the_looser_reference_as_the_reference_methods_convergence_run(ball, monkeypatch):
+    """A run 1000-1e5 x its tolerance off is judged by convergence: the same method at 100x
+    tighter tolerances must be 10x closer.  For the reference's own method (radau on contacts)
+    the looser reference is that run (100x tighter rtol), so check integrates nothing more --
+    G1's no-flag check ran Radau at rtol 1e-10 twice more (23 s CPU each) for it."""
+    from eomc.runtime import stability
+    x0 = np.r_[0, 0, 0.5, np.zeros(9)]
+    ran, real = [], stability._run
+
+    def off(*a):                 # the checked runs (rtol 1e-8) ~2000 x their tolerance off at the end
+        ran.append((a[5], a[6], a[7]))
+        res = real(*a)
+        if a[6] == 1e-8:
+            res.x[-1, 2] += 2000 * (1e-10 + 1e-8 * abs(res.x[-1, 2]))
+        return res
+    monkeypatch.setattr(stability, "_run", off)
+    checks = {c.name: c for c in stability.check_model(ball, x0, 0.5, rtol=1e-8, atol=1e-10)}
+    for name in ("auto accuracy", "radau accuracy"):
+        assert checks[name].passed and "converging" in checks[name].measured, checks[name].measured
+        assert "100x tighter rtol (the looser reference, atol=1e-10)" in checks[name].measured
+        assert float(checks[name].measured.split(" x tolerance")[0]) > stability.GLOBAL_FACTOR
+    assert [m for m, *_ in ran] == ["radau", "radau", "auto"]       # the references, one checked run
+    assert np.array([t for _, *t in ran]) == pytest.approx(np.array([[1e-10, 1e-10], [1e-11, 1e-11],
+                                                                      [1e-8, 1e-10]]), rel=1e-12)
+    # a method that is not the reference's still gets its own run at 100x tighter tolerances
+    ran.clear()
+    bdf = {c.name: c for c in stability.check_model(ball, x0, 0.5, rtol=1e-8, atol=1e-10, methods=("bdf",))}
+    assert ran[-1][0] == "bdf" and ran[-1][1:] == pytest.approx((1e-10, 1e-12), rel=1e-12)
+    assert "100x tighter tolerances" in bdf["bdf accuracy"].measured
+
+
 def test_bdf_cut_at_predicted_touch_down_is_bit_stable_and_agrees_with_tight_radau(ball):
     """BDF shortens a step whose predicted end lies past touch-down (eomc_bdf.c PRED_OVER) so
     that it ends just past it: the ball at k = 1e9, c = 0 (three bounces in 1.5 s) at rtol 1e-4

@@ -7,6 +7,7 @@ recommendation (cheapest by counted work among the rows meeting the target).
 """
 import csv
 import math
+import re
 import sys
 from pathlib import Path
 
@@ -135,7 +136,7 @@ def test_png_is_written(osc_report, tmp_path):
 def test_summary_mentions_reference_energy_and_table(osc_report):
     text = osc_report.summary_markdown()
     assert text.startswith("# Work-precision report: oscillator")
-    assert "reference: dop853 at rtol=atol=1e-13" in text and "agreement" in text
+    assert "reference: dop853 at rtol=atol=1e-12" in text and "agreement" in text   # 1000x the finest, 1e-9
     assert "Energy: the reference conserves it" in text
     assert "Stiffness: no symptoms" in text
     assert text.count("\n| ") == 1 + len(METHODS) * len(TOLS)     # header + rows
@@ -188,7 +189,8 @@ def test_stiff_chain_symptoms_and_radau_recommended():
     p = np.array([1.0, kappa, 0.1, 2 * np.sqrt(kappa)])
     x0 = np.array([1.0, 1.0, 0.0, 0.0])
     rep = work_precision(m, x0, (0.0, 2.0), p=p, methods=("dopri5", "radau"),
-                         tolerances=(1e-4, 1e-7), repeats=1, progress=False, n_points=21)
+                         tolerances=(1e-4, 1e-7), repeats=1, progress=False, n_points=21,
+                         reference_tol=1e-12)   # tied to 1e-7 it is 1e-10: 5.4e-9 from expm
     exact = np.array([expm(m.jacobian(0, np.zeros(4), p) * s) @ x0 for s in rep.reference.t])
     assert scaled_error(rep.reference.x, exact) < 1e-9
     failed = [r for r in rep.rows if r["method"] == "dopri5" and r["status"] != 0]
@@ -283,6 +285,58 @@ def test_precomputed_reference_is_reused(osc, osc_report):
     with pytest.raises(ValueError, match="reference has shape"):
         work_precision(osc, [1.0, 0.0], (0.0, T), methods=("dop853",), tolerances=(1e-5,),
                        progress=False, n_points=11, reference=osc_report.reference)
+
+
+def test_the_reference_is_tied_to_the_finest_tolerance(osc):
+    """As `eomc check` ties its references to the checked tolerance (issue 29): 1000x tighter
+    than the finest tolerance of the grid (1e-13 at the default 1e-10, never below), not a fixed
+    1e-13 whatever the grid -- a contact model reported at 1e-2..1e-6 gets a 1e-9 reference, not
+    one whose atol stops at rest; it still resolves the finest run (agreement < 0.1 x its
+    tolerance, what the report asks of it)."""
+    rep = work_precision(osc, [1.0, 0.0], (0.0, T), methods=("dop853",), tolerances=(1e-4, 1e-7),
+                         repeats=1, progress=False, n_points=101)
+    ref = rep.reference
+    assert (ref.tol, ref.atol) == pytest.approx((1e-10, 1e-10), rel=1e-12)
+    assert (ref.check_tol, ref.check_atol) == pytest.approx((1e-9, 1e-9), rel=1e-12)
+    assert "dop853 at rtol=atol=1e-10" in ref.describe()
+    assert 0 < ref.agreement < 1e-8 and np.max(ref.agreement_t) == ref.agreement
+    assert np.max(np.abs(ref.x - osc_exact(ref.t))) < 1e-7
+    assert rep.window == 101 and "Errors are measured on" not in rep.summary_markdown()
+
+
+def test_errors_are_measured_where_the_references_agree(osc, osc_report):
+    """Where the reference's two computations part (a chaotic or collapsing motion), later
+    errors measure the problem's conditioning: the report measures errors before it and says
+    so; if they part within MIN_WINDOW output times nothing is judged, and `eomc report`
+    exits 3 (inconclusive), as `eomc check` does."""
+    import copy
+    ref = copy.copy(osc_report.reference)
+    ref.agreement_t = np.where(np.arange(101) < 40, 1e-12, 1e-3)     # they part at t = 4
+    kw = dict(methods=("dop853",), tolerances=(1e-5,), repeats=1, progress=False, n_points=101,
+              reference=ref)
+    rep = work_precision(osc, [1.0, 0.0], (0.0, T), **kw)
+    t = np.linspace(0, T, 101)
+    res = simulate(osc, [1.0, 0.0], (0, T), method="dop853", rtol=1e-5, atol=1e-5, t_eval=t)
+    assert rep.window == 40 and rep.inconclusive is None
+    assert rep.rows[0]["error"] == scaled_error(res.x[:40], ref.x[:40], ref.scale)
+    assert rep.rows[0]["error"] < scaled_error(res.x, ref.x, ref.scale)    # the error grows after t=4
+    assert "Errors are measured on t in [0, 4]" in rep.summary_markdown()
+    ref.agreement_t = np.where(np.arange(101) < 3, 1e-12, 1e-3)
+    early = work_precision(osc, [1.0, 0.0], (0.0, T), **kw)
+    assert early.inconclusive and "--t-final 0.3" in early.inconclusive
+    assert np.isnan(early.rows[0]["error"]) and early.recommend() is None
+    assert early.recommendation_text().startswith("**Inconclusive:**")
+
+
+def test_cli_report_whose_reference_fails_is_inconclusive(monkeypatch, capsys):
+    import eomc.cli.common as cli_common
+    from eomc.cli import main
+    monkeypatch.setattr(cli_common, "load_model", lambda *a, **k: get_model("blowup"))
+    assert main(["report", "blowup", "--x0", "x=1", "--t-final", "2", "--methods", "dop853",
+                 "--tolerances", "1e-6", "-q"]) == 3
+    err = capsys.readouterr().err
+    assert "inconclusive (exit status 3)" in err and "--t-final" in err
+    assert re.search(r"reached t = (0\.99\d*|1) of 2\).*stopped at t=", err)     # where, and why
 
 
 def test_a_failing_reference_is_a_simulation_error():

@@ -1,6 +1,7 @@
-"""hess_id (compiler/emit/reverse.py): ∂²τ/∂x² of inverse dynamics by forward over reverse,
-against central differences of the first-order jac_id, on the cart and a floating tree;
-Kane's formulation refuses it with a message."""
+"""hess_id: ∂²τ/∂x² of inverse dynamics, against central differences of the first-order jac_id,
+on the cart (the analytic kernel, compiler/tree/second_order.py) and a floating tree (forward
+over reverse, compiler/emit/reverse.py), and UR10 against Pinocchio; Kane's formulation
+refuses it with a message."""
 import warnings
 
 import numpy as np
@@ -34,6 +35,11 @@ def test_against_central_differences_of_jac_id(case, tmp_path):
     else:
         system, inputs = build(FLOATING)
         model = _model(system, tmp_path, inputs=inputs)
+    path = model.metadata["hess_id"]      # which algorithm, and why not the kernel
+    if case == "cart":
+        assert path.startswith("analytic second-order RNEA kernel")
+    else:
+        assert path.startswith("forward over reverse on RNEA")     # the reason follows
     ops = model.metadata["op_counts"]      # counted as the loops run: above first order's
     assert ops["hess_id"]["muls"] > ops["jac_id"]["muls"] > 0
     rng = np.random.default_rng(3)
@@ -57,15 +63,16 @@ def test_kane_refuses(tmp_path):
 
 
 def test_against_central_differences_of_pinocchio_first_order(tmp_path):
-    """UR5 (example-robot-data): hess_id against central differences of Pinocchio's own
+    """UR10 (example-robot-data; the analytic kernel): hess_id against central differences of Pinocchio's own
     computeRNEADerivatives (its Python bindings do not export the second-order RNEA
     derivatives; benchmarks/bench_second_order.py compares with those in C++, to 1e-12)."""
     import pinocchio as pin
     from eomc.compiler.urdf import from_urdf
     from helpers.robots import PinRef, joints_of, robot_path
-    path = robot_path("ur5")
+    path = robot_path("ur_description/urdf/ur10_robot.urdf")
     system = from_urdf(path, limits=False)
     model = _model(system, tmp_path)
+    assert model.metadata["hess_id"].startswith("analytic second-order RNEA kernel")
     ref = PinRef(path, joints_of(system))
     nq, nu, iv = model.nq, model.nu, ref.iv
     rng = np.random.default_rng(5)

@@ -1,7 +1,9 @@
 """Issue 29: a URDF robot's default start is a pose it can take.  A joint whose range
 excludes 0 (Go2's knees: [-2.72, -0.84]) starts just inside its nearest limit, named in a
 note; joints whose range holds 0 stay at 0; a start the caller gives (x0, --x0) is kept as
-given (and warned about); with the limits off nothing moves."""
+given (and warned about); with the limits off nothing moves.  The Python API says so with a
+DefaultStartWarning (the command line with its note), and the Kane route starts where the
+recursive one does."""
 import warnings
 
 import numpy as np
@@ -10,6 +12,7 @@ import pytest
 import eomc
 import eomc.cli.common as cli_common
 from eomc.compiler.urdf.model import START_INSIDE
+from eomc.errors import DefaultStartWarning
 from eomc.runtime.switching import PhysicsWarning
 
 ARM = """<?xml version="1.0"?>
@@ -66,3 +69,38 @@ def test_with_the_limits_off_the_zero_pose_is_the_start(arm):
                         progress=False)
     assert free.initial_state is None or not np.any(free.initial_state)
     assert not free.metadata.get("start_in_range")
+
+
+KNEE_MOVED = r"bent: the zero pose is outside the range of joint knee \(range \[-2\.5, -0\.8\]; starts at q_knee = -0\.81\)"
+
+
+def test_the_python_api_warns_naming_the_joint_its_range_and_start(arm):
+    with pytest.warns(DefaultStartWarning, match=KNEE_MOVED) as got:
+        eomc.compile(arm / "bent.urdf", "bent", cache_dir=arm / "cache", progress=False)
+    assert [w.filename for w in got if w.category is DefaultStartWarning] == [__file__]   # at the user's call
+    with warnings.catch_warnings():            # filterable alone: nothing else is silenced
+        warnings.simplefilter("error")
+        warnings.filterwarnings("ignore", category=DefaultStartWarning)
+        eomc.compile(arm / "bent.urdf", "bent", cache_dir=arm / "cache", progress=False)
+
+
+def test_the_command_line_says_it_once_as_a_note_not_a_warning(arm, tmp_path, monkeypatch, capsys):
+    from eomc.cli import main
+    monkeypatch.setenv("EOMC_CACHE_DIR", str(arm / "cache"))
+    with warnings.catch_warnings(record=True) as got:
+        warnings.simplefilter("always")
+        assert main(["simulate", str(arm / "bent.urdf"), "--t-final", "0.01", "-o", str(tmp_path / "x.csv")]) == 0
+    assert not [w for w in got if issubclass(w.category, DefaultStartWarning)]
+    err = capsys.readouterr().err
+    assert err.count("zero pose is outside the range of joint knee") == 1
+    assert "eomc: note: bent: the zero pose" in err
+
+
+def test_the_kane_route_starts_where_the_recursive_one_does(arm):
+    recursive = eomc.compile(arm / "bent.urdf", "bent", cache_dir=arm / "cache", progress=False)
+    with pytest.warns(DefaultStartWarning, match=KNEE_MOVED):
+        kane = eomc.compile(arm / "bent.urdf", "bent", formulation="kane", cache_dir=arm / "cache",
+                            progress=False)
+    assert kane.state_names == recursive.state_names
+    np.testing.assert_array_equal(kane.initial_state, recursive.initial_state)
+    assert kane.metadata["start_in_range"] == recursive.metadata["start_in_range"]

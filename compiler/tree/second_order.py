@@ -1,0 +1,363 @@
+"""Analytic second-order derivatives of RNEA (hess_id) as C loops over the tree's support sets.
+
+Why: hess_id by forward over reverse on RNEA's straight-line trace (compiler/emit/reverse.py)
+is a reverse sweep per row of τ and its tangent per state column: O(n³) work with a large
+constant (8 M operations on the 20-link cart), 4-17x slower than Pinocchio's second-order
+RNEA derivatives.  The spatial-algebra structure (Singh, Russell & Wensing, "Efficient
+Analytical Derivatives of Rigid-Body Dynamics using Spatial Vector Algebra", RA-L 2022, the
+algorithm of Pinocchio's ComputeRNEASecondOrderDerivatives) makes every entry of ∂²τ/∂x²
+a few 6-vector dot products per triple of joints i ⪰ j ⪰ k on one root-to-leaf path: O(n·d²)
+work with small constants, O(1) code, in the style of the first-order kernel (:mod:`.analytic`,
+whose plan, inputs ``an[]``, world placement, inertias and their variations it shares).
+
+The kernel (``NAME_rnea_hess``): a forward pass in the world frame per body -- axis S,
+ψ̇ = v_λ × S, ψ̈ = a_λ × S + v_λ × ψ̇, φ̇ = v × S, velocity, acceleration (gravity as the
+root's), world inertia Y, its variation B = v ×* Y - Y (v ×) + (· ×* Y v) and force
+f = Y a + v ×* Y v - load -- then a backward pass that, at each dof i with the composites
+Yᶜ, Bᶜ, Fᶜ of its subtree, forms two 6x6 operators (R1 = variation of Yᶜ along S_i, R3 =
+along ψ̇_i plus Bᶜ's commutator with S_i) and a few 6-vectors, per support dof j a dozen
+6-vectors, and per support dof k of j the entries of the three blocks ∂²τ/∂q², ∂²τ/∂u²,
+∂²τ/∂q∂u for the rows i, j, k.  The operators' symmetries (R1, R1's ψ̇ analogue symmetric,
+(x ↦ x ×* f) antisymmetric) replace Pinocchio's 6x6 products by vectors.
+
+Output: out[(i nx + j) nx + k] = ∂²τ_i/∂x_j∂x_k (the layout of the reverse path), zero
+outside the support paths and the extra states.
+
+Where it applies (:func:`second_order_plan`): an analytic plan (:func:`.analytic.analytic_plan`)
+whose joints all have one speed (revolute, prismatic; bodies welded by fixed joints
+included) and no state-dependent joint laws.  Other trees (free/floating bases, balls,
+planar joints, joint laws, contacts, loops) keep the reverse path; the model's metadata
+``hess_id`` says which one it got and why.
+
+Checked against central differences of jac_id, the reverse path and Pinocchio
+(tests/compiler/tree/test_second_order.py).
+"""
+from collections import Counter
+
+import sympy as sm
+
+from ..emit.bodies import IND, store, temps
+from ..ir.opcount import count_ops
+from .analytic import (PLACE_FROM_PARENT_LINES, VARIATION_LINES, WORLD_INERTIA_LINES, c_table, rd_helpers,
+                       tree_tables, world_axis_lines, world_load_lines)
+
+__all__ = ["ANH", "second_order_plan", "second_order_c", "second_order_body", "second_order_ops",
+           "second_order_note"]
+
+ANH = "anh"     # the result group of the kernel's inputs (the analytic plan's values)
+
+
+def second_order_plan(plan):
+    """(plan, None) when the kernel covers the tree, else (None, the reason in the user's terms)."""
+    if plan is None:
+        return None, ("the tree does not qualify for the analytic derivatives (closed loops, "
+                      "state-dependent loads or contacts)")
+    if plan.multi:
+        return None, "a joint has several speeds (free/floating base, ball, planar): not covered yet"
+    if plan.laws:
+        return None, "state-dependent joint laws (limits, damping, friction): not covered yet"
+    if plan.contacts:       # the first-order kernel's ground-contact terms (analytic.py, block G)
+        return None, "ground contacts: not covered yet"
+    return plan, None
+
+
+def second_order_note(plan, reason):
+    """The metadata line of hess_id: which algorithm the model got."""
+    if plan is not None:
+        return "analytic second-order RNEA kernel (compiler/tree/second_order.py)"
+    return f"forward over reverse on RNEA (compiler/emit/reverse.py): {reason}"
+
+
+def second_order_c(name, plan, nq, nx, helpers):
+    """The C text of ``NAME_rnea_hess(an, u, ud, out)`` (see the module doc); ``helpers``:
+    write the NAME_rd_* helpers (False when the first-order kernel wrote them)."""
+    nb, nd, o = plan.nb, plan.nd, plan.offsets
+    fn = f"{name}_rnea_hess"
+    rd = f"{name}_rd"
+    nn = nx * nx
+    lines = (rd_helpers(name) if helpers else []) + [
+        f"static int {name}_h2_finite(const double *v, int n)",
+        "{   /* v * 0 is 0 for a finite v, NaN otherwise; four sums side by side (the plain isfinite",
+        "      loop was 14 % of the 20-link cart's call) */",
+        "    double a0 = 0.0, a1 = 0.0, a2 = 0.0, a3 = 0.0;",
+        "    int i;",
+        "    for (i = 0; i + 4 <= n; i += 4) {",
+        "        a0 += v[i] * 0.0;",
+        "        a1 += v[i + 1] * 0.0;",
+        "        a2 += v[i + 2] * 0.0;",
+        "        a3 += v[i + 3] * 0.0;",
+        "    }",
+        "    for (; i < n; i++) a0 += v[i] * 0.0;",
+        "    return a0 + a1 + a2 + a3 == 0.0 ? EOMC_OK : EOMC_NONFINITE;",
+        "}",
+        "",
+        f"static inline void {name}_h2_mv(const double *m, const double *x, double *out)",
+        "{   /* out = M x, M 6x6 row-major, column by column (six sums side by side) */",
+        "    double o0 = 0.0, o1 = 0.0, o2 = 0.0, o3 = 0.0, o4 = 0.0, o5 = 0.0;",
+        "    int c;",
+        "    for (c = 0; c < 6; c++) {",
+        "        const double xc = x[c];",
+        "        o0 += m[c] * xc; o1 += m[6 + c] * xc; o2 += m[12 + c] * xc;",
+        "        o3 += m[18 + c] * xc; o4 += m[24 + c] * xc; o5 += m[30 + c] * xc;",
+        "    }",
+        "    out[0] = o0; out[1] = o1; out[2] = o2; out[3] = o3; out[4] = o4; out[5] = o5;",
+        "}",
+        "",
+        f"static inline void {name}_h2_mtv(const double *m, const double *x, double *out)",
+        "{   /* out = M^T x, row by row */",
+        "    double o0 = 0.0, o1 = 0.0, o2 = 0.0, o3 = 0.0, o4 = 0.0, o5 = 0.0;",
+        "    int r;",
+        "    for (r = 0; r < 6; r++) {",
+        "        const double xr = x[r], *mr = m + 6 * r;",
+        "        o0 += mr[0] * xr; o1 += mr[1] * xr; o2 += mr[2] * xr;",
+        "        o3 += mr[3] * xr; o4 += mr[4] * xr; o5 += mr[5] * xr;",
+        "    }",
+        "    out[0] = o0; out[1] = o1; out[2] = o2; out[3] = o3; out[4] = o4; out[5] = o5;",
+        "}",
+        "",
+        f"/* d2 tau / dx2 of RNEA by the spatial-algebra second-order algorithm (compiler/tree/second_order.py):",
+        f"   out[(i * {nx} + j) * {nx} + k] = d2 tau_i / dx_j dx_k at velocities u and accelerations ud (per dof). */",
+        f"static void {fn}(const double *an, const double *u, const double *ud, double *out)",
+        "{",
+        *tree_tables(plan),
+        c_table("qc", plan.qcol),
+        c_table("uc", [nq + s for s in plan.row]),
+        c_table("lam", plan.lam or (-1,)),
+        f"    double R[{9 * nb}], P[{3 * nb}], V[{6 * nb}], A[{6 * nb}], Y[{10 * nb}], dY[{12 * nb}], F[{6 * nb}];",
+        f"    double Sw[{6 * nd}], PS[{6 * nd}], PS2[{6 * nd}], PP[{6 * nd}];",
+        "    double Ym[36], Bm[36], Ma[36], Mb[36], Mc[36], R1[36], R3[36];",
+        "    int b, i, j, k, e, c, l;",
+        f"    for (k = 0; k < {nd * nn}; k++) out[k] = 0.0;",
+        f"    for (b = 0; b < {nb}; b++) {{   /* forward: placements, axes and their rates, v, a, Y, B, f */",
+        f"        const double *E = an + 9 * b, *r = an + {o['r']} + 3 * b, *In = an + {o['I']} + 10 * b;",
+        "        double *Rb = R + 9 * b, *pb = P + 3 * b, *vb = V + 6 * b, *ab = A + 6 * b;",
+        "        double *Yb = Y + 10 * b, *dYb = dY + 12 * b, *fb = F + 6 * b;",
+        "        double vl[6], al[6], IR[9], IO[9], C[9], t[6], hm[6], m, pp, vc;",
+        "        l = par[b];",
+        "        if (l >= 0) {",
+        *PLACE_FROM_PARENT_LINES,
+        "            for (i = 0; i < 6; i++) {",
+        "                vl[i] = V[6 * l + i];",
+        "                al[i] = A[6 * l + i];",
+        "            }",
+        "        } else {",
+        "            for (i = 0; i < 3; i++) {",
+        "                for (j = 0; j < 3; j++) Rb[3 * i + j] = E[3 * j + i];",
+        "                pb[i] = r[i];",
+        "                vl[i] = vl[i + 3] = al[i] = 0.0;",
+        f"                al[i + 3] = -an[{o['g']} + i];",
+        "            }",
+        "        }",
+        "        for (i = 0; i < 6; i++) {",
+        "            vb[i] = vl[i];",
+        "            ab[i] = al[i];",
+        "        }",
+        *world_axis_lines(o),
+        "            for (i = 0; i < 6; i++) vb[i] += s[i] * u[e];",
+        "        }",
+        "        for (e = d0[b]; e < d0[b] + nd[b]; e++) {   /* psi' = v_l x S, psi'' = a_l x S + v_l x psi', phi' = v x S */",
+        "            const double *s = Sw + 6 * e;",
+        "            double *ps = PS + 6 * e, *ps2 = PS2 + 6 * e;",
+        f"            {rd}_cross(vl, s, ps);",
+        f"            {rd}_cross(al, s, ps2);",
+        f"            {rd}_cross(vl, ps, t);",
+        "            for (i = 0; i < 6; i++) ps2[i] += t[i];",
+        f"            {rd}_cross(vb, s, t);",
+        "            for (i = 0; i < 6; i++) {",
+        "                ab[i] += s[i] * ud[e] + t[i] * u[e];",
+        "                PP[6 * e + i] = ps[i] + t[i];   /* psi' + phi' */",
+        "            }",
+        "        }",
+        *WORLD_INERTIA_LINES,
+        "        IO[1] = IO[3] = Yb[7]; IO[2] = IO[6] = Yb[8]; IO[5] = IO[7] = Yb[9];",
+        "        /* momentum h, force f = Y a + v x* h - load */",
+        f"        {rd}_ymul(Yb, vb, hm);",
+        f"        {rd}_ymul(Yb, ab, fb);",
+        f"        {rd}_crossf(vb, hm, t);",
+        "        for (i = 0; i < 6; i++) fb[i] += t[i];",
+    ] + (world_load_lines(o) if plan.loads else []) + [
+        *VARIATION_LINES,
+        "    }",
+        f"    for (b = {nb - 1}; b >= 0; b--) {{   /* backward: per dof i of the body, its subtree's composites */",
+        "        const double *Yb = Y + 10 * b, *dYb = dY + 12 * b, *fb = F + 6 * b;",
+        "        for (i = d0[b]; i < d0[b] + nd[b]; i++) {",
+        "            const double *S = Sw + 6 * i, *ps = PS + 6 * i;",
+        f"            double *Oi = out + (size_t)row[i] * {nn};",
+        "            const int qi = qc[i], ui = uc[i];",
+        "            double ys[6], yp[6], bs[6], g5[6], g7[6], t[6], x[6];",
+        "            /* the composite inertia Ym and variation Bm as 6x6 matrices (angular rows first) */",
+        "            Ym[0] = Yb[4]; Ym[7] = Yb[5]; Ym[14] = Yb[6];",
+        "            Ym[1] = Ym[6] = Yb[7]; Ym[2] = Ym[12] = Yb[8]; Ym[8] = Ym[13] = Yb[9];",
+        "            Ym[3] = Ym[18] = 0.0; Ym[4] = Ym[24] = -Yb[3]; Ym[5] = Ym[30] = Yb[2];",
+        "            Ym[9] = Ym[19] = Yb[3]; Ym[10] = Ym[25] = 0.0; Ym[11] = Ym[31] = -Yb[1];",
+        "            Ym[15] = Ym[20] = -Yb[2]; Ym[16] = Ym[26] = Yb[1]; Ym[17] = Ym[32] = 0.0;",
+        "            Ym[21] = Ym[28] = Ym[35] = Yb[0];",
+        "            Ym[22] = Ym[23] = Ym[27] = Ym[29] = Ym[33] = Ym[34] = 0.0;",
+        "            for (k = 0; k < 36; k++) Bm[k] = 0.0;   /* Bm = [[T, 0], [-2 [h]x, 0]] (the 12 numbers of dY) */",
+        "            for (k = 0; k < 3; k++)",
+        "                for (c = 0; c < 3; c++) Bm[6 * k + c] = dYb[3 * k + c];",
+        "            Bm[19] = 2.0 * dYb[11]; Bm[20] = -2.0 * dYb[10]; Bm[24] = -2.0 * dYb[11];",
+        "            Bm[26] = 2.0 * dYb[9]; Bm[30] = 2.0 * dYb[10]; Bm[31] = -2.0 * dYb[9];",
+        "            /* Ma = S x* Ym, Mb = psi' x* Ym, Mc = S x* Bm (columns), R3 += (S x* Bm^T)^T */",
+        "            for (k = 0; k < 6; k++) {",
+        "                double y[6], z[6];",
+        "                for (c = 0; c < 6; c++) y[c] = Ym[6 * c + k];",
+        f"                {rd}_crossf(S, y, z);",
+        "                for (c = 0; c < 6; c++) Ma[6 * c + k] = z[c];",
+        f"                {rd}_crossf(ps, y, z);",
+        "                for (c = 0; c < 6; c++) Mb[6 * c + k] = z[c];",
+        "                if (k < 3) {   /* Bm's last three columns are zero, and so are Mc's */",
+        "                    for (c = 0; c < 6; c++) y[c] = Bm[6 * c + k];",
+        f"                    {rd}_crossf(S, y, z);",
+        "                } else {",
+        "                    for (c = 0; c < 6; c++) z[c] = 0.0;",
+        "                }",
+        "                for (c = 0; c < 6; c++) Mc[6 * c + k] = z[c];",
+        "            }",
+        f"            {rd}_ymul(Yb, S, ys);",
+        f"            {rd}_ymul(Yb, ps, yp);",
+        f"            {rd}_dmult(dYb, S, bs);",
+        "            /* R1 = variation of Ym along S (symmetric), R3 = along psi' + (. x* Ym psi') + S x* Bm - Bm (S x) */",
+        "            for (k = 0; k < 6; k++) {",
+        "                double y[6], z[6];",
+        "                for (c = 0; c < 6; c++) y[c] = Bm[6 * k + c];   /* row k of Bm */",
+        f"                {rd}_crossf(S, y, z);   /* column k of S x* Bm^T: row k of -Bm (S x) */",
+        "                for (c = 0; c < 6; c++) {",
+        "                    R1[6 * k + c] = Ma[6 * k + c] + Ma[6 * c + k];",
+        "                    R3[6 * k + c] = Mb[6 * k + c] + Mb[6 * c + k] + Mc[6 * k + c] + z[c];",
+        "                }",
+        "            }",
+        "            for (k = 0; k < 6; k++) {   /* R3 += (. x* yp), column by column */",
+        "                for (c = 0; c < 6; c++) x[c] = c == k ? 1.0 : 0.0;",
+        f"                {rd}_crossf(x, yp, t);",
+        "                for (c = 0; c < 6; c++) R3[6 * c + k] += t[c];",
+        "            }",
+        "            /* g5 = Bm psi' + S x* F + Ym psi'', g7 = Bm S + Ym (psi' + phi') */",
+        f"            {rd}_dmul(dYb, ps, g5);",
+        f"            {rd}_crossf(S, fb, t);",
+        "            for (c = 0; c < 6; c++) g5[c] += t[c];",
+        f"            {rd}_ymul(Yb, PS2 + 6 * i, t);",
+        "            for (c = 0; c < 6; c++) g5[c] += t[c];",
+        f"            {rd}_dmul(dYb, S, g7);",
+        f"            {rd}_ymul(Yb, PP + 6 * i, t);",
+        "            for (c = 0; c < 6; c++) g7[c] += t[c];",
+        "            for (j = i; j >= 0; j = lam[j]) {   /* the support of i */",
+        "                const double *s = Sw + 6 * j, *p = PS + 6 * j;",
+        f"                double *Oj = out + (size_t)row[j] * {nn};",
+        "                const int qj = qc[j], uj = uc[j];",
+        "                double u1[6], u2[6], u3[6], u4[6], u6[6], u7[6], u9[6], u10[6], u11[6], w[6], r1p[6], r0p[6];",
+        f"                {name}_h2_mv(R1, s, u2);",
+        f"                {name}_h2_mv(R1, p, r1p);",
+        f"                {rd}_crossf(s, ys, u9);",
+        f"                {rd}_crossf(p, ys, r0p);",
+        f"                {rd}_crossf(s, bs, w);",
+        "                for (c = 0; c < 6; c++) {",
+        "                    u10[c] = u2[c] + u9[c];",
+        "                    u11[c] = u2[c] - u9[c];",
+        "                    w[c] += r0p[c] - r1p[c];",
+        "                    u4[c] = 2.0 * u9[c];",
+        "                }",
+        f"                {name}_h2_mv(R3, p, u3);",
+        f"                {name}_h2_mv(R1, PS2 + 6 * j, t);",
+        "                for (c = 0; c < 6; c++) u3[c] += t[c];",
+        f"                {rd}_crossf(s, g5, t);",
+        "                for (c = 0; c < 6; c++) u3[c] += t[c];",
+        f"                {rd}_crossf(s, g7, u6);",
+        "                for (c = 0; c < 6; c++) u6[c] += r1p[c] + r0p[c];",
+        "                if (j != i) {",
+        f"                    {name}_h2_mtv(R3, s, u1);",
+        f"                    {name}_h2_mv(R3, s, u7);",
+        "                    for (c = 0; c < 6; c++) x[c] = PP[6 * j + c] - p[c];   /* phi'_j */",
+        f"                    {name}_h2_mv(R1, x, t);",
+        "                    for (c = 0; c < 6; c++) u7[c] += r1p[c] + t[c];",
+        "                } else {",
+        "                    for (c = 0; c < 6; c++) u1[c] = u7[c] = 0.0;   /* unread (j == i), set for the compiler */",
+        "                }",
+        "                for (k = j; k >= 0; k = lam[k]) {   /* the support of j */",
+        "                    const double *sk = Sw + 6 * k, *pk = PS + 6 * k, *ppk = PS2 + 6 * k, *hk = PP + 6 * k;",
+        f"                    double *Ok = out + (size_t)row[k] * {nn};",
+        "                    const int qk = qc[k], uk = uc[k];",
+        f"                    const double p1 = {rd}_dot(u11, pk), p2 = {rd}_dot(u9, ppk) + {rd}_dot(w, pk);",
+        f"                    const double v = j != i || k != j ? {rd}_dot(u11, sk) : 0.0;",
+        f"                    Oi[qj * {nx} + qk] = p2;",
+        f"                    Oi[qk * {nx} + uj] = Oi[uj * {nx} + qk] = -p1;",
+        "                    if (j != i) {",
+        f"                        const double a = {rd}_dot(u1, pk) + {rd}_dot(u2, ppk);",
+        f"                        const double d = {rd}_dot(u1, sk) + {rd}_dot(u2, hk);",
+        f"                        Oj[qk * {nx} + qi] = Oj[qi * {nx} + qk] = a;",
+        f"                        Oj[qk * {nx} + ui] = Oj[ui * {nx} + qk] = p1;",
+        f"                        Oj[qi * {nx} + uk] = Oj[uk * {nx} + qi] = d;",
+        f"                        Oj[uk * {nx} + ui] = Oj[ui * {nx} + uk] = v;",
+        "                    }",
+        "                    if (k != j) {",
+        f"                        const double p3 = -v, e3 = {rd}_dot(sk, u3);",
+        f"                        const double f = {rd}_dot(w, sk) + {rd}_dot(u9, hk), g = {rd}_dot(sk, u6);",
+        f"                        Oi[qk * {nx} + qj] = p2;",
+        f"                        Ok[qi * {nx} + qj] = e3;",
+        f"                        Oi[uj * {nx} + uk] = Oi[uk * {nx} + uj] = p3;",
+        f"                        Oi[qj * {nx} + uk] = Oi[uk * {nx} + qj] = f;",
+        f"                        Ok[qj * {nx} + ui] = Ok[ui * {nx} + qj] = g;",
+        "                        if (j != i) {",
+        f"                            const double p6 = {rd}_dot(sk, u10), m = {rd}_dot(sk, u7);",
+        f"                            Ok[qj * {nx} + qi] = e3;",
+        f"                            Ok[ui * {nx} + uj] = Ok[uj * {nx} + ui] = p6;",
+        f"                            Ok[qi * {nx} + uj] = Ok[uj * {nx} + qi] = m;",
+        "                        } else {",
+        f"                            Ok[uj * {nx} + ui] = {rd}_dot(sk, u4);",
+        "                        }",
+        "                    } else {",
+        f"                        Oi[uj * {nx} + uk] = -{rd}_dot(u2, sk);",
+        "                    }",
+        "                }",
+        "            }",
+        "        }",
+        "        l = par[b];",
+        "        if (l >= 0) {   /* composite inertia, its variation and force */",
+        "            for (i = 0; i < 10; i++) Y[10 * l + i] += Yb[i];",
+        "            for (i = 0; i < 12; i++) dY[12 * l + i] += dYb[i];",
+        "            for (i = 0; i < 6; i++) F[6 * l + i] += fb[i];",
+        "        }",
+        "    }",
+        "}",
+    ]
+    return "\n".join(lines)
+
+
+def second_order_body(ctx, program, sym):
+    """C body of NAME_hess_id on the kernel: its inputs an[] (straight-line), u and u' per
+    dof, one call."""
+    plan = sym.second_order[0]
+    pr = ctx.printer(program)
+    vals = program.result_exprs(ANH)
+    rows = ", ".join(str(s) for s in plan.row)
+    lines = [f"{IND}double an[{plan.size}];"]
+    lines += temps(program, pr)
+    lines += [store(f"an[{k[1]}]", e, pr) for k, e in sorted(vals.items(), key=lambda kv: kv[0][1])]
+    lines += [f"{IND}{{",
+              f"{IND}    static const int sp[{plan.nd}] = {{{rows}}};",
+              f"{IND}    double u[{plan.nd}], ud[{plan.nd}];",
+              f"{IND}    int e;",
+              f"{IND}    for (e = 0; e < {plan.nd}; e++) {{",
+              f"{IND}        u[e] = x[{ctx.nq} + sp[e]];",
+              f"{IND}        ud[e] = udot[sp[e]];",
+              f"{IND}    }}",
+              f"{IND}    {ctx.name}_rnea_hess(an, u, ud, out);",
+              f"{IND}}}",
+              f"{IND}return {ctx.name}_h2_finite(out, {ctx.nu * ctx.nx * ctx.nx});"]
+    return lines
+
+
+def second_order_ops(program, plan):
+    """Floating-point operations of NAME_hess_id on the kernel (multiply-adds as one mul and
+    one add), counted from the C above: per body ~1,200 (placement, v, a, Y, B, f), per dof
+    ~2,300 (the 6x6 operators), per (dof, support dof) pair ~600, per triple ~90 muls."""
+    c = Counter()
+    for _, e in program.assignments:
+        count_ops(e, c)
+    for e in program.result_exprs(ANH).values():
+        count_ops(e, c)
+    pairs = sum(d + 1 for d in plan.dep)
+    triples = sum((d + 1) * (d + 2) // 2 for d in plan.dep)
+    c["muls"] += 620 * plan.nb + 1150 * plan.nd + 300 * pairs + 84 * triples
+    c["adds"] += 600 * plan.nb + 1150 * plan.nd + 300 * pairs + 84 * triples
+    return {k: int(c.get(k, 0)) for k in ("adds", "muls", "divs", "calls")}
