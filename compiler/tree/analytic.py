@@ -38,7 +38,7 @@ force enters F as a body-fixed load (as the rhs computes it), and the kernel add
 that misses, per touching contact and pairs of dofs in its body's support, from the law's
 slopes K = -∂f/∂p, C = -∂f/∂v_p (block G, :func:`_contact_lines`; why: every model with
 ground contacts differentiated the whole recursion per column -- the gymnasium ant's jac_x
-33 µs, 20 rhs calls, Solo12's 97 µs; benchmarks/results/contact_jac.md).  A contact clear
+33 µs, 20 rhs calls, Solo12's 106 µs; benchmarks/results/contact_jac.md).  A contact clear
 of the ground costs a compare there, and jac_x's straight-line part skips its law with the
 rhs's broad phase (compiler/emit/guards.py).  Other state-dependent loads (world-frame
 forces, a ball joint's damping, an ellipsoid's moving support point, body-body pairs) and
