@@ -5,8 +5,8 @@ contacts, Solo12, and gymnasium's hopper, ant and humanoid (contacts from the MJ
     python benchmarks/contact_defaults.py [--only go2,solo12] [--t-final 1] [--check-t-final 10] [--no-write]
 
 `simulate` runs --t-final (default 1 s); `animate` and `check` run with no flags at all (their
-own default span, 10 s) unless --check-t-final is given, as issue 29's "done when" asks --
-animate with the one option it requires, where to write (`-o anim.html`).  Exit
+own default span, 10 s) unless --check-t-final is given, as issue 29's "done when" asks (animate
+writes its page as the model's name + .html in the work folder).  Exit
 status of check: 0 passed, 1 a check failed, 3 inconclusive (docs/cli.md).  animate's HTML
 page is written in the robot's work folder (its size is recorded).
 
@@ -99,9 +99,8 @@ def main():
         work.mkdir(parents=True, exist_ok=True)
         sim = [eomc, "simulate", *spec, "--t-final", args.t_final, "-o", "traj.csv"]
         chk = [eomc, "check", *spec] + (["--t-final", args.check_t_final] if args.check_t_final else [])
-        # animate's one required option: where to write (a 3-D robot: an HTML page)
-        ani = [eomc, "animate", *spec, "-o", "anim.html"] + (["--t-final", args.check_t_final]
-                                                             if args.check_t_final else [])
+        # no flags: the page is the model's name + .html in the work folder
+        ani = [eomc, "animate", *spec] + (["--t-final", args.check_t_final] if args.check_t_final else [])
         run(sim, work)                                    # build once (not timed)
         for label, cmd in (("simulate", sim), ("animate", ani), ("check", chk)):
             if label not in args.commands.split(","):

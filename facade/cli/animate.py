@@ -1,10 +1,12 @@
-"""``eomc animate MODEL [--t-final T | --from traj.csv] -o anim.html [--gif anim.gif | --mp4 anim.mp4]``.
+"""``eomc animate MODEL [--t-final T | --from traj.csv] [-o anim.html] [--gif anim.gif | --mp4 anim.mp4]``.
 
 Simulates MODEL (a model file, a URDF robot or a built directory) from its
 initial state, or reads a trajectory CSV that ``eomc simulate -o`` wrote, and
 writes one self-contained HTML page that animates it in 3-D offline
 (eomc.runtime.animate); ``--gif``/``--mp4`` draw a planar motion in 2-D.  The
-model must have been built with ``poses`` (the default function set).
+model must have been built with ``poses`` (the default function set).  With no
+output named, the page is MODEL's name + .html in the current folder (a first
+run with no flags must work), never over a file eomc did not write.
 """
 
 import os
@@ -24,7 +26,9 @@ def configure(parser):
                         help="animate this trajectory (columns t and every state, as eomc simulate "
                              "-o writes) instead of simulating")
     parser.add_argument("--t0", type=float, default=0.0, help="start time")
-    parser.add_argument("-o", "--output", metavar="HTML", help="the HTML page to write")
+    parser.add_argument("-o", "--output", metavar="HTML",
+                        help="the HTML page to write (default, when no --gif/--mp4 either: MODEL's "
+                             "name + .html in the current folder)")
     parser.add_argument("--gif", metavar="GIF", help="also draw a planar motion to this GIF (2-D)")
     parser.add_argument("--mp4", metavar="MP4", help='... or to this MP4 (ffmpeg on PATH, or the video '
                                                       'extra: pip install ".[video]" in eomc\'s clone)')
@@ -83,10 +87,34 @@ def read_trajectory(model, path):
                             model_name=model.name, outputs=outputs, nq=model.nq, model=model)
 
 
+# every page eomc.runtime.animate writes carries this element: a page of that name that lacks
+# it is the user's file, and the default output does not write over it
+_PAGE_MARK = 'id="eomc-main"'
+
+
+def default_page(model_path):
+    """MODEL's name + .html in the current folder: ``eomc animate go2.urdf`` writes go2.html.
+
+    ValueError when a file of that name exists that eomc did not write (no eomc page mark)."""
+    from pathlib import Path
+    source = Path(model_path)
+    page = Path(f"{(source.name if source.is_dir() else source.stem) or 'animation'}.html")
+    if page.exists():
+        try:
+            with open(page, encoding="utf-8", errors="replace") as f:
+                ours = _PAGE_MARK in f.read(1 << 16)
+        except OSError:
+            ours = False
+        if not ours:
+            raise ValueError(f"{page} exists and eomc did not write it; say where to write: "
+                             f"-o anim.html, --gif anim.gif or --mp4 anim.mp4")
+    return str(page)
+
+
 def run(args):
     from eomc.runtime.animate import animate, animate_2d
     if not (args.output or args.gif or args.mp4):
-        raise ValueError("say where to write: -o anim.html, --gif anim.gif or --mp4 anim.mp4")
+        args.output = default_page(args.model)
     for value, what, suffix in ((args.output, "-o", ".html"), (args.gif, "--gif", ".gif"),
                                 (args.mp4, "--mp4", ".mp4")):
         cli_common.writable_file(value, what)

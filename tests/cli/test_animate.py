@@ -54,8 +54,25 @@ def test_animate_a_trajectory_csv_and_a_gif(built, tmp_path):
         assert im.n_frames == 6
 
 
+def test_no_output_named_writes_the_models_page_and_never_over_a_users_file(built, tmp_path, monkeypatch, capsys):
+    """No flags at all (issue 29's first run): the page is MODEL's name + .html in the current
+    folder; a second run rewrites its own page; a file of that name eomc did not write stays."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["animate", str(built), "--t-final", "0.5", "--fps", "10"]) == 0
+    assert "wrote dp.html" in capsys.readouterr().out
+    assert len(np.frombuffer(__import__("base64").b64decode(_data(tmp_path / "dp.html")["t"]), "<f4")) == 6
+    assert main(["animate", str(built), "--t-final", "1", "--fps", "10"]) == 0      # its own page: rewritten
+    assert len(np.frombuffer(__import__("base64").b64decode(_data(tmp_path / "dp.html")["t"]), "<f4")) == 11
+    capsys.readouterr()
+    mine = tmp_path / "dp.html"
+    mine.write_text("<html>my notes</html>")
+    assert main(["animate", str(built), "--t-final", "0.5"]) == 2
+    err = capsys.readouterr().err
+    assert "dp.html exists and eomc did not write it" in err and len(err.strip().splitlines()) == 1, err
+    assert mine.read_text() == "<html>my notes</html>"
+
+
 @pytest.mark.parametrize("argv,match", [
-    (["--t-final", "1"], "say where to write"),
     (["--t-final", "1", "-o", "x.png"], "expected a .html file"),
     (["--from", "{bad}", "-o", "x.html"], "no column q2, u2"),
     (["--t-final", "1", "-o", "x.html", "--trace", "Bob7"], "trace names 'Bob7'"),
