@@ -27,6 +27,7 @@ class BodyContext:
         self.symmetric, self.pattern = symmetric, pattern
         self.split = False      # some body was cut into sub-functions (emit.split)
         self.nz = 0             # extra first-order states, after q and u in x (set by the generator)
+        self.functions = ()     # the functions generated with this one (set by the generator)
 
     @property
     def nx(self):

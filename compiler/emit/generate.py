@@ -305,6 +305,7 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
     slots.update({s: f"dx[{j}]" for j, s in enumerate(sym.seeds)})
     ctx = BodyContext(name, nq, nu, nw, solver, slots, sym.symmetric, sym.pattern)
     ctx.nz = nx - nq - nu
+    ctx.functions = tuple(fns)      # a body may call code shared with the others (Formulation.shared_code)
     with _naming_nonfinite(name, "dynamics helper (the mass matrix and forcing)"):
         helper = dynamics_helper(ctx, low.helper) if low.helper is not None else ""
     dynamics_text = helper

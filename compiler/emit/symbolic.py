@@ -90,6 +90,7 @@ class Symbolic:
     energy: str = ""                 # what a generated ``energy`` output holds (NAME.json "energy"), or ""
     guards: tuple = ()               # rhs broad phase: (clearance, exports) (compiler/emit/guards.py)
     implicit_guards: tuple = ()      # NAME_implicit's: the exports with each point's K and C slopes
+    jac_guards: tuple = ()           # the analytic jac_x's: the exports with each point's world force, K and C
 
 
 def _is_symmetric(A, seed=0):

@@ -18,7 +18,8 @@ from ..tree.inverse_derivatives import jac_id_body, jac_id_ops
 from ..tree.second_order import second_order_body, second_order_c, second_order_ops
 from ..tree.emit import tree_jacobian_body, tree_jacobian_ops, tree_implicit_body, tree_matrix_body, tree_rhs_body
 from ..tree.dynamics_kernel import (KERNEL_FUNCTIONS, dynamics_body, dynamics_inputs, dynamics_kernel_c,
-                                    dynamics_ops, forcing_by_inverse_dynamics, has_dynamics_kernel)
+                                    dynamics_ops, forcing_by_inverse_dynamics, has_dynamics_kernel,
+                                    inputs_users)
 from ..tree.jvp import tree_jvp_body
 from ..tree.lower import TREE_FUNCTION_GROUPS, TREE_HELPER_USERS, build_tree_symbolic
 from ..tree.regressor import PI_NAMES
@@ -63,10 +64,11 @@ class Recursive(Formulation):
             return forcing_by_inverse_dynamics(ctx)
         if fn in ("mass_matrix", "forcing", "inverse_dynamics"):
             return tree_matrix_body(ctx, prog, fn)
+        shared = fn in inputs_users(sym, ctx.functions)
         if fn == "jac_id" and has_analytic(prog, sym):
-            return analytic_jac_id_body(ctx, prog, sym)
+            return analytic_jac_id_body(ctx, prog, sym, shared)
         if fn == "jac_x" and has_analytic(prog, sym):
-            return analytic_jac_x_body(ctx, prog, sym, *jacobian_symbols(prog, sym.W, ctx.nu))
+            return analytic_jac_x_body(ctx, prog, sym, *jacobian_symbols(prog, sym.W, ctx.nu), shared=shared)
         if fn == "jac_id":
             return jac_id_body(ctx, prog, sym.seeds)
         if fn == "hess_id" and sym.second_order is not None:
@@ -107,12 +109,13 @@ class Recursive(Formulation):
         return None
 
     def shared_code(self, fn, ctx, prog, sym, functions):
-        """NAME_dyn_inputs: the loop kernel's inputs an[], once for mass_matrix, forcing and
-        inverse_dynamics (:mod:`.dynamics_kernel`), before the first of them."""
-        first = next((f for f in functions if f in getattr(sym, "dynamics_kernel", ())), None)
-        if fn != first or prog is None or not has_dynamics_kernel(prog, sym, fn):
+        """NAME_dyn_inputs: the kernels' inputs an[], once for mass_matrix, forcing,
+        inverse_dynamics, jac_x and jac_id (:func:`~.dynamics_kernel.inputs_users`), before
+        the first of them."""
+        users = inputs_users(sym, functions)
+        if not users or fn != users[0] or prog is None or not has_analytic(prog, sym):
             return None
-        return dynamics_inputs(ctx, prog, sym)
+        return dynamics_inputs(ctx, prog, sym, own=fn in KERNEL_FUNCTIONS)
 
     def c_helpers(self, name, sym, functions, nq):
         """NAME_rnea_derivs (:mod:`.analytic`) when jac_x or jac_id use it, NAME_dyn

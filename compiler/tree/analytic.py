@@ -33,9 +33,16 @@ generalized force e_k·τ_k on the joint's own speed and nothing else, so the ke
 the law's value as a constant load (in F) and adds its own derivative, ∂τ_k/∂q_k and
 ∂τ_k/∂u_k (block L of ``an[]``), to row k (why: without it every URDF robot built with its
 limits on -- the default -- differentiated the whole recursion per column, unrolled:
-G1's jac_x was 809 kB of C, 2.6x its rhs).  Other state-dependent loads (contacts,
-world-frame forces, a ball joint's damping) and trees closed by constraints keep the
-tangent path.
+G1's jac_x was 809 kB of C, 2.6x its rhs).  Ground contacts likewise: each contact's
+force enters F as a body-fixed load (as the rhs computes it), and the kernel adds what
+that misses, per touching contact and pairs of dofs in its body's support, from the law's
+slopes K = -∂f/∂p, C = -∂f/∂v_p (block G, :func:`_contact_lines`; why: every model with
+ground contacts differentiated the whole recursion per column -- the gymnasium ant's jac_x
+33 µs, 20 rhs calls, Solo12's 106 µs; benchmarks/results/contact_jac.md).  A contact clear
+of the ground costs a compare there, and jac_x's straight-line part skips its law with the
+rhs's broad phase (compiler/emit/guards.py).  Other state-dependent loads (world-frame
+forces, a ball joint's damping, an ellipsoid's moving support point, body-body pairs) and
+trees closed by constraints keep the tangent path.
 
 Checked against central differences and Pinocchio's ``computeRNEADerivatives`` /
 ``computeABADerivatives`` (tests/compiler/tree/test_analytic_derivatives.py).
@@ -69,13 +76,19 @@ class AnalyticPlan:
     solver: str = "ltdl"    # jac_x's M⁻¹: "ltdl" (rows of M over the support) or "aba" (articulated, see solve_tables)
     kblocks: tuple = ()     # per k-speed joint: its K's diagonal blocks ((coordinates), (speeds)), see _blocks
     laws: tuple = ()        # dofs with a joint law, in dof order (their ∂τ/∂q, ∂τ/∂u: anx block L)
+    contacts: tuple = ()    # per ground contact (its body, the last dof on the body's path to the root): anx block G
 
     def dofs(self, b):
         return range(self.first[b], self.first[b] + self.count[b])
 
 
-def analytic_plan(tree, bodies, gravity, layout, rename):
-    """(plan, [(("anx", i), expr)]) when the tree qualifies (see the module doc), else (None, [])."""
+def analytic_plan(tree, bodies, gravity, layout, rename, contacts=None):
+    """(plan, [(("anx", i), expr)]) when the tree qualifies (see the module doc), else (None, []).
+
+    ``contacts``: the ground contacts as lowered (:func:`.contacts.lower_contacts`' "analytic"
+    list: body, depth, point, centre, world force, K, C per contact), or None when the tree's
+    contacts cannot be planned (then a tree with contacts keeps the tangent path)."""
+    from ..contact.tree import ContactLoad
     if tree.loops is not None:
         return None, []
     nq, nu = len(tree.coordinates), len(tree.speeds)
@@ -86,6 +99,8 @@ def analytic_plan(tree, bodies, gravity, layout, rename):
         return None, []
     lawful = {x for qs, _, _ in laws.values() for x in (qs,)} | {speeds[s] for s in laws}
     for load in tree.loads:
+        if isinstance(load, ContactLoad) and contacts is not None:
+            continue        # its force is in the body's fext; its slopes are block G
         if load.frame != "body":
             return None, []
         for e in list(load.moment) + list(load.force) + list(load.offset):
@@ -156,8 +171,14 @@ def analytic_plan(tree, bodies, gravity, layout, rename):
                 return None, []
             lawdofs.append(e)
             L += [dq, du]
+    G, ends = [], []
+    for body, depth, point, centre, force, Kc, Cc in contacts or ():
+        if last.get(body, -1) < 0:      # on a body no joint moves: no generalized force
+            continue
+        ends.append((body, last[body]))
+        G += [depth, *point, *centre, *force] + [x for M in (Kc, Cc) for row in M for x in row]
     blocks = [("E", E), ("r", r), ("S", S), ("I", I)] + ([("F", F)] if loads else []) + [
-        ("g", list(gravity)), ("K", K), ("arm", arm)] + ([("L", L)] if L else [])
+        ("g", list(gravity)), ("K", K), ("arm", arm)] + ([("L", L)] if L else []) + ([("G", G)] if G else [])
     offsets, values = {}, []
     for name, vals in blocks:
         offsets[name] = len(values)
@@ -167,7 +188,7 @@ def analytic_plan(tree, bodies, gravity, layout, rename):
         off.append(off[-1] + d + 1)
     plan = AnalyticPlan(nb, len(row), tuple(par), tuple(first), tuple(count), tuple(row),
                         tuple(qcol), tuple(multi), loads, offsets, len(values), tuple(lam), tuple(dep),
-                        tuple(off), choose_solver(dep), tuple(kblocks), tuple(lawdofs))
+                        tuple(off), choose_solver(dep), tuple(kblocks), tuple(lawdofs), tuple(ends))
     return plan, [((ANX, i), sm.sympify(v)) for i, v in enumerate(values)]
 
 
@@ -658,6 +679,8 @@ def kernel_c(name, plan, nq, solve=False):
         "        }",
         "    }",
     ]
+    if plan.contacts:
+        lines += _contact_lines(name, plan)
     for (e0, k, koff), blocks in zip(plan.multi, plan.kblocks):
         kb = [len(r) for r, _ in blocks]
         lines += [
@@ -736,6 +759,76 @@ def kernel_c(name, plan, nq, solve=False):
         ]
     lines.append("}")
     return "\n".join(lines)
+
+
+GSIZE = 28     # anx block G per contact: depth, point p (3), centre c (3), world force f (3), K (9), C (9)
+
+
+def _contact_lines(name, plan):
+    """C: the ground contacts' terms the kernel's constant load misses (see the module doc).
+
+    The kernel holds each contact's force as a body-fixed load: a fixed force in the body frame
+    at a fixed point of the body.  The law's force f(p, v_p) (world) reads the depth along the
+    plane's normal of the sphere's centre c (a point of the body) and the velocity v_p of the
+    body's material point at the contact point p = c - r n; K = -∂f/∂p, C = -∂f/∂v_p
+    (:func:`~eomc.compiler.contact.law.ground_jacobians`, exact).  Along a joint's perturbation
+    ξ_j (world axis s_j = (ω_j, v0_j)) the true change of f is -K δc - C δv_p, with δc = ω_j × c
+    + v0_j, δV_b = s_j × V_b + ∂V_b/∂ξ_j's kernel part (dV), δv_p = δω_b × p + δv0_b + ω_b × δc;
+    the kernel's body-fixed load turned with the body instead (ω_j × f) and its point moved as a
+    point of the body (ω_j × p + v0_j, not δc).  Along a speed u_j: δv_p = J_p,j = ω_j × p + v0_j.
+    The generalized force is Q_k = J_p,k · f, τ = ID - Q, so each row k of the body's support
+    gets -sign (J_p,k · Δf_j + ω_k · (Δp_j × f)), Δ the true change less the kernel's.
+    Out of contact (depth ≤ 0) f, K and C are ±0: the contact costs one compare."""
+    o = plan.offsets
+    return [
+        "    {   /* ground contacts: the law's slopes and the point's motion on its body (analytic.py) */",
+        "    " + c_table("cb", [b for b, _ in plan.contacts]),
+        "    " + c_table("ce", [e for _, e in plan.contacts]),
+        f"        double cj[{12 * plan.nd}], fw[{3 * plan.nd}];",
+        f"        for (j = 0; j < {len(plan.contacts)}; j++) {{",
+        f"            const double *g = an + {o['G']} + {GSIZE} * j;",
+        "            const double *p = g + 1, *cc = g + 4, *f = g + 7, *Kc = g + 10, *Cc = g + 19;",
+        "            const double *Vb;",
+        "            if (!(g[0] > 0.0) && g[0] == g[0]) continue;   /* clear of the ground: all ±0 */",
+        "            Vb = V + 6 * cb[j];",
+        "            for (a = ce[j]; a >= 0; a = lam[a]) {   /* per dof of the support: dq and du of f, dp */",
+        "                const double *s = Sw + 6 * a;",
+        "                double *w = cj + 12 * a, jc[3], jp[3], dv[6], dvp[3];",
+        "                for (i = 0; i < 3; i++) {",
+        "                    const int i1 = (i + 1) % 3, i2 = (i + 2) % 3;",
+        "                    jc[i] = s[i1] * cc[i2] - s[i2] * cc[i1] + s[3 + i];",
+        "                    jp[i] = s[i1] * p[i2] - s[i2] * p[i1] + s[3 + i];",
+        "                    w[9 + i] = s[i1] * (cc[i2] - p[i2]) - s[i2] * (cc[i1] - p[i1]);",
+        "                    fw[3 * a + i] = f[i1] * s[i2] - f[i2] * s[i1];   /* f x w_a */",
+        "                }",
+        f"                {name}_rd_cross(s, Vb, dv);",
+        "                for (i = 0; i < 6; i++) dv[i] += dV[6 * a + i];",
+        "                for (i = 0; i < 3; i++) {",
+        "                    const int i1 = (i + 1) % 3, i2 = (i + 2) % 3;",
+        "                    dvp[i] = dv[i1] * p[i2] - dv[i2] * p[i1] + dv[3 + i] + Vb[i1] * jc[i2] - Vb[i2] * jc[i1];",
+        "                }",
+        "                for (i = 0; i < 3; i++) {",
+        "                    const int i1 = (i + 1) % 3, i2 = (i + 2) % 3;",
+        "                    w[i] = -(Kc[3 * i] * jc[0] + Kc[3 * i + 1] * jc[1] + Kc[3 * i + 2] * jc[2])",
+        "                        - (Cc[3 * i] * dvp[0] + Cc[3 * i + 1] * dvp[1] + Cc[3 * i + 2] * dvp[2])",
+        "                        - (s[i1] * f[i2] - s[i2] * f[i1]);",
+        "                    w[3 + i] = -(Cc[3 * i] * jp[0] + Cc[3 * i + 1] * jp[1] + Cc[3 * i + 2] * jp[2]);",
+        "                    w[6 + i] = jp[i];",
+        "                }",
+        "            }",
+        "            for (k = ce[j]; k >= 0; k = lam[k]) {   /* rows: -sign (J_p,k . df_a + w_k . (dp_a x f)) */",
+        "                double *ok = out + (row0 + row[k]) * stride;",
+        "                const double *jk = cj + 12 * k + 6, *fk = fw + 3 * k;",
+        "                for (a = ce[j]; a >= 0; a = lam[a]) {",
+        "                    const double *w = cj + 12 * a;",
+        "                    ok[qc[a]] -= sign * (jk[0] * w[0] + jk[1] * w[1] + jk[2] * w[2]",
+        "                                         + fk[0] * w[9] + fk[1] * w[10] + fk[2] * w[11]);",
+        "                    ok[uc[a]] -= sign * (jk[0] * w[3] + jk[1] * w[4] + jk[2] * w[5]);",
+        "                }",
+        "            }",
+        "        }",
+        "    }",
+    ]
 
 
 def _ginv_lines(k, ki):
@@ -938,7 +1031,8 @@ def analytic_ops(plan, ncol=0):
     multiply-adds as one mul and one add): per body ~1,150 (placement, v, a, Y, Ẏ),
     per dof ~330 (axes, their terms, the backward products), per (dof, support dof) pair 48;
     with the M⁻¹ solve on ``ncol`` columns (jac_x) 2·ncol more per pair and the factorization
-    (LᵀDL) or about 56·ncol more per dof (articulated)."""
+    (LᵀDL) or about 56·ncol more per dof (articulated); a ground contact's terms as if it
+    touched (:func:`_contact_lines`)."""
     pairs = sum(plan.dep)
     muls = 580 * plan.nb + 170 * plan.nd + 24 * pairs
     adds = 570 * plan.nb + 160 * plan.nd + 24 * pairs
@@ -959,5 +1053,9 @@ def analytic_ops(plan, ncol=0):
             adds += 2 * len(r) ** 3 + plan.nd * len(r) ** 2
     muls += 2 * len(plan.laws)      # the sign times each law's two derivatives
     adds += 2 * len(plan.laws)
+    for _, e in plan.contacts:      # a touching contact (one compare when clear): per support dof
+        d = plan.dep[e] + 1         # its slopes' products (~70), per pair of them two dot products
+        muls += 70 * d + 10 * d * d
+        adds += 60 * d + 10 * d * d
     divs = sum(k for _, k, _ in plan.multi) + (plan.nd if ncol and plan.solver == "aba" else 0)
     return {"adds": adds, "muls": muls, "divs": divs, "calls": 0}

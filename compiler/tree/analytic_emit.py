@@ -13,6 +13,7 @@ from collections import Counter
 import sympy as sm
 
 from ..emit.bodies import IND, singular_guard, store, temps, needed_assignments, split_on
+from ..emit.guards import guarded_temps
 from ..ir.opcount import count_ops
 from .analytic import ANX, analytic_ops, call_lines
 from .emit import _extra_rows, stores_zeroing_runs
@@ -29,12 +30,22 @@ def _inputs(program, pr):
     return [store(f"an[{k[1]}]", e, pr) for k, e in sorted(vals.items(), key=lambda kv: kv[0][1])]
 
 
-def analytic_jac_id_body(ctx, program, sym):
+def _shared_inputs(ctx):
+    """an[] from NAME_dyn_inputs (.dynamics_kernel.inputs_users), computed once for all its users."""
+    from .dynamics_kernel import INPUTS_CALL
+    return [IND + INPUTS_CALL.format(name=ctx.name)]
+
+
+def analytic_jac_id_body(ctx, program, sym, shared=False):
+    """``shared``: an[] from NAME_dyn_inputs instead of this body's own copy."""
     plan = sym.analytic
     pr = ctx.printer(program)
     lines = [f"{IND}double an[{plan.size}];"]
-    lines += temps(program, pr)
-    lines += _inputs(program, pr)
+    if shared:
+        lines += _shared_inputs(ctx)
+    else:
+        lines += temps(program, pr)
+        lines += _inputs(program, pr)
     lines += call_lines(ctx.name, plan, IND, "x", "udot", 0, "1.0", ctx.nx, ctx.nq)
     lines.append(f"{IND}return {ctx.name}_finite(out, {ctx.nu * ctx.nx});")
     return lines
@@ -45,15 +56,17 @@ def _own_ud(sym, nq, nu, nx):
     return sym.analytic.solver == "aba" and nx == nq + nu
 
 
-def _jac_x_plan(program, W, G, nq, nu, nx, own=False):
-    key = ("analytic_jac_x", tuple(W), tuple(G), nq, nu, nx, own)
+def _jac_x_plan(program, W, G, nq, nu, nx, own=False, shared=False):
+    """(temporaries, stores of u' into w, the kinematic and extra rows); ``shared``: an[] is
+    NAME_dyn_inputs', so its temporaries are left out."""
+    key = ("analytic_jac_x", tuple(W), tuple(G), nq, nu, nx, own, shared)
     plans = program.__dict__.setdefault("_jacobian_plans", {})
     if key not in plans:
         stores = [] if own else [(f"w[{k[1]}]", e) for k, e in program.results if k[0] == "ud"]
         kin = program.result_exprs("dkin")
         rows = [(f"out[{i * nx + k}]", kin.get(("dkin", i, k), sm.S.Zero)) for i in range(nq) for k in range(nx)]
         rows += _extra_rows(program, "dzd", nq + nu, nx, nx)
-        anx = list(program.result_exprs(ANX).values())
+        anx = [] if shared else list(program.result_exprs(ANX).values())
         exprs = [e for _, e in stores + rows] + anx
         if not own:
             exprs += list(program.result_exprs("Dpiv").values())
@@ -61,30 +74,51 @@ def _jac_x_plan(program, W, G, nq, nu, nx, own=False):
     return plans[key]
 
 
-def analytic_jac_x_body(ctx, program, sym, W, G):
+def _guarded(program, pr, assignments, readers, guards):
+    """(C lines of ``assignments``, the printer for what follows): with the ground contacts'
+    broad phase (``guards``, compiler/tree/contacts.body_guards with the world forces) when
+    there is one -- a body clear of the ground skips its points' laws and slopes, which are
+    then ±0, as the kernel's compare of each depth expects -- else plain temporaries.
+    ``readers``: the expressions read after them."""
+    if not guards:
+        return temps(program, pr, assignments), pr
+    roots = tuple((("r", i), e) for i, e in enumerate(readers))
+    return guarded_temps(program.with_(assignments=tuple(assignments), results=roots), pr, guards)
+
+
+def analytic_jac_x_body(ctx, program, sym, W, G, shared=False):
+    """``shared``: an[] from NAME_dyn_inputs instead of this body's own copy (never with the
+    contacts' guards: dynamics_kernel.inputs_users)."""
     plan = sym.analytic
     nq, nu, nx = ctx.nq, ctx.nu, ctx.nx
     own = _own_ud(sym, nq, nu, nx)
-    once, stores, rows = _jac_x_plan(program, W, G, nq, nu, nx, own)
+    once, stores, rows = _jac_x_plan(program, W, G, nq, nu, nx, own, shared)
     pr = ctx.printer(program)
-    body, used = stores_zeroing_runs(rows, pr, "k")     # the coordinate rows: mostly zeros
+    guards = getattr(sym, "jac_guards", ())
+    anx = [] if shared else list(program.result_exprs(ANX).values())
     if own:
+        head, pr = _guarded(program, pr, once, [e for _, e in rows] + anx, guards)
+        body, used = stores_zeroing_runs(rows, pr, "k")     # the coordinate rows: mostly zeros
         lines = [f"{IND}double an[{plan.size}];"] + ([f"{IND}int k;"] if used else [])
-        lines += temps(program, pr, once)
+        lines += head
         lines += body
-        lines += _inputs(program, pr)
+        lines += _shared_inputs(ctx) if shared else _inputs(program, pr)
         lines += call_lines(ctx.name, plan, IND, "x", None, nq, "-1.0", nx, nq, 1)
         lines.append(f"{IND}return {ctx.name}_finite(out, {nx * nx});")
         return lines
     before, after = split_on(program.with_(assignments=tuple(once)), W)
+    readers = ([e for _, e in after + stores + rows] + anx
+               + [e for k, e in program.results if k[0] == "Dpiv"])
+    head, pr = _guarded(program, pr, before, readers, guards)
+    body, used = stores_zeroing_runs(rows, pr, "k")     # the coordinate rows: mostly zeros
     decls = [f"double w[{nu}];", f"double an[{plan.size}];"] + (["int k;"] if used else [])
     lines = [f"{IND}{d}" for d in decls]
-    lines += temps(program, pr, before)
+    lines += head
     lines += singular_guard(program, pr)
     lines += [store(lv, e, pr) for lv, e in stores]
     lines += temps(program, pr, after)
     lines += body
-    lines += _inputs(program, pr)
+    lines += _shared_inputs(ctx) if shared else _inputs(program, pr)
     lines += call_lines(ctx.name, plan, IND, "x", "w", nq, "-1.0", nx, nq, 1)
     lines.append(f"{IND}return {ctx.name}_finite(out, {nx * nx});")
     return lines

@@ -10,7 +10,7 @@ this module is the recursion's side of it (called by :mod:`.lower`).
 """
 import sympy as sm
 
-from ..contact.law import EXPONENT, ground_forces, ground_jacobians
+from ..contact.law import EXPONENT, ground_forces, ground_jacobians, step
 from ..contact.pairs import PairLoad, pair_guards
 from ..contact.tree import CLIP_KIND, ENERGY, ContactLoad, ContactValue, contact_outputs
 from .placement import Placement
@@ -26,7 +26,7 @@ def world_placement(bodies, rec):
                      by_columns=True)
 
 
-def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, guards=None):
+def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, guards=None, analytic=None):
     """Add every ContactLoad's force to its body's ``fext`` (LoweredBody, body components
     about the origin); return {ContactValue placeholder: temporary}.
 
@@ -40,7 +40,11 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
     velocity, K, C of :func:`eomc.compiler.contact.law.ground_jacobians`), world.
     ``energy``: (the gravity vector (world, slot symbols), the speeds' symbols) when the
     ``energy`` output (:data:`~eomc.compiler.contact.tree.ENERGY`) is asked for, else None.
-    ``guards``: a list to fill with the rhs's broad phase (:func:`body_guards`)."""
+    ``guards``: a list to fill with the rhs's broad phase (:func:`body_guards`).
+    ``analytic``: a dict to fill for the analytic jac_x (:mod:`.analytic`): "contacts", per
+    ground contact (body, depth, contact point, sphere centre, world force, K, C), or None
+    when a contact's point moves on its body (an ellipsoid's support point); "guards", jac_x's
+    broad phase (the world forces exported too: the kernel reads them)."""
     contacts = contact_outputs(tree)
     others = [ld for ld in tree.loads if not isinstance(ld, ContactLoad) and hasattr(ld, "lower")]
     if not contacts and not others:
@@ -80,18 +84,24 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
         old = bodies[i].fext or [0] * 6
         bodies[i].fext = [old[k] + x for k, x in enumerate(n_b + f_b)]
         slopes = ()
-        if implicit is not None:
+        if implicit is not None or analytic is not None:
             arm_w = forces.point_offset
             point = [rec.let(centre[k] + arm_w[k]) for k in range(3)]
-            K, C = ground_jacobians(forces, implicit["step"], rec.let)
+            K, C = ground_jacobians(forces, step, rec.let)
             # each slope named: NAME_implicit's broad phase skips them with the force (body_guards)
             K, C = ([[rec.let(x) for x in row] for row in M] for M in (K, C))
             slopes = tuple(x for M in (K, C) for row in M for x in row if isinstance(x, sm.Symbol))
+        if implicit is not None:
             implicit["contacts"].append({"depth": forces.depth, "point": point,
                                          "velocity": list(forces.parts["slip"]), "K": K, "C": C})
+        if analytic is not None:
+            analytic.setdefault("contacts", [])
+            if analytic["contacts"] is not None:
+                analytic["contacts"] = None if load.shape is not None else analytic["contacts"] + [
+                    (i, forces.depth, point, centre, list(forces.force), K, C)]
         reach.setdefault(i, []).append(None if load.shape is not None else
                                        (load.normal, rename(load.height, what), params["r"], off, f_b,
-                                        forces.depth, slopes))
+                                        forces.depth, slopes, tuple(forces.force)))
         quantities = [forces.normal, *forces.friction, forces.depth]     # OUTPUT_KINDS' order
         for kind, value in enumerate(quantities):
             values[ContactValue(index, kind)] = value
@@ -102,6 +112,8 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
         guards.extend(body_guards(reach, poses) + pair_guards(pairs))
     if implicit is not None:
         implicit["guards"] = body_guards(reach, poses, slopes=True)    # (no pairs: NAME_implicit refuses them)
+    if analytic is not None:
+        analytic["guards"] = body_guards(reach, poses, slopes=True, world=True)
     if energy is not None:
         stored = getattr(tree, "joint_energy", None)       # the limits' springs (URDF)
         limits = rename(stored, "the joint limits' elastic energy") if stored else sm.S.Zero
@@ -109,7 +121,7 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
     return values
 
 
-def body_guards(reach, poses, slopes=False):
+def body_guards(reach, poses, slopes=False, world=False):
     """[(clearance, exports, inner guards)] per body with ground contacts
     (compiler/emit/guards.py): the body's force temporaries are exactly zero while the clearance
     is positive; inside, each point's law is guarded by its own depth (-δ_j > 0: out of contact,
@@ -132,14 +144,16 @@ def body_guards(reach, poses, slopes=False):
     ``slopes``: NAME_implicit's guards, whose exports are also each point's K and C
     (:func:`~eomc.compiler.contact.law.ground_jacobians`): exactly ±0 out of contact too, as
     F_n,δ and F_n,δ̇ carry δ₊ and step(F_n), and the friction's slope μ F_n / s carries F_n.
-    The depth, point and velocity NAME_implicit writes stay outside every block."""
+    The depth, point and velocity NAME_implicit writes stay outside every block.
+    ``world``: the analytic jac_x's guards (:mod:`.analytic`), whose exports are also each
+    point's world force (its kernel reads it; ±0 out of contact as the body-frame one)."""
     out = []
     for i, points in reach.items():
         if any(p is None for p in points):
             continue
         o, R = poses.origin(i), poses.rotation(i)
         by_normal = {}
-        for normal, height, r, off, _, _, _ in points:
+        for normal, height, r, off, *_ in points:
             by_normal.setdefault(tuple(sm.sympify(x) for x in normal), []).append((height + r, off))
         terms = []
         for n, group in by_normal.items():
@@ -156,9 +170,9 @@ def body_guards(reach, poses, slopes=False):
                 size = sm.sqrt(sum((x * x for x in n), sm.S.Zero))
                 above -= sm.Max(*[size * sm.sqrt(sum((x * x for x in off), sm.S.Zero)) for off in offs])
             terms.append(above)
-        inner = [(-depth, tuple(dict.fromkeys(s for s in (*f_b, *(kc if slopes else ()))
+        inner = [(-depth, tuple(dict.fromkeys(s for s in (*f_b, *(kc if slopes else ()), *(f_w if world else ()))
                                               if isinstance(s, sm.Symbol))), ())
-                 for _, _, _, _, f_b, depth, kc in points]
+                 for _, _, _, _, f_b, depth, kc, f_w in points]
         inner = [g for g in inner if g[1]]
         exports = tuple(s for _, ex, _ in inner for s in ex)
         if exports:

@@ -29,13 +29,17 @@ from .analytic import (ANX, DOT6_LINE, PLACE_FROM_PARENT_LINES, WORLD_INERTIA_LI
                        tree_tables, world_axis_lines, world_load_lines)
 
 __all__ = ["dynamics_kernel_c", "has_dynamics_kernel", "dynamics_body", "dynamics_inputs", "dynamics_ops",
+           "inputs_users", "INPUTS_CALL",
            "KERNEL_FUNCTIONS", "forcing_by_inverse_dynamics"]
 
-# NAME_dyn_inputs(t, x, p, r, an): the straight-line inputs, one copy for the three functions
+# NAME_dyn_inputs(t, x, p, r, an): the straight-line inputs, one copy for all users (inputs_users)
 INPUTS_SIGNATURE = (("double", "t"), ("const double *", "x"), ("const double *", "p"), ("const double *", "r"),
                     ("double *", "an"))
 
 KERNEL_FUNCTIONS = ("mass_matrix", "forcing", "inverse_dynamics")
+
+# its call, as every user writes it (the users' t, x, p, r are the function's own arguments)
+INPUTS_CALL = "{name}_dyn_inputs(t, x, p, r, an);"
 
 
 def has_dynamics_kernel(program, sym, fn):
@@ -147,14 +151,33 @@ def dynamics_kernel_c(name, plan):
     return "\n".join(lines)
 
 
-def dynamics_inputs(ctx, program, sym):
+def inputs_users(sym, functions):
+    """The functions of ``functions`` that call NAME_dyn_inputs rather than computing the
+    kernels' inputs an[] themselves: the loop kernel's (always), and the analytic jac_x and
+    jac_id beside at least one other user (alone, each keeps its own copy: one function, one
+    copy, and its C as it was).  Why: the inputs are most of the analytic derivatives' code
+    (cart n = 80: ~84 of jac_x's 90 kB), so a default build carried them twice.  jac_x stays
+    on its own copy when jac_x_batch rewrites its lines into lanes (compiler/emit/batch.py
+    lanes the body it reads, not a static function it calls)."""
+    if getattr(sym, "analytic", None) is None:
+        return ()
+    dyn = getattr(sym, "dynamics_kernel", ())
+    # jac_x keeps its own copy beside the contacts' broad phase (its an[] reads guarded temporaries)
+    lanes_or_guards = "jac_x_batch" in functions or getattr(sym, "jac_guards", ())
+    derivs = ("jac_id",) if lanes_or_guards else ("jac_x", "jac_id")
+    users = [f for f in functions if f in dyn or f in derivs]
+    return tuple(users) if len(users) > 1 or set(users) & set(dyn) else ()
+
+
+def dynamics_inputs(ctx, program, sym, own=True):
     """("dyn_inputs", lines, signature) of NAME_dyn_inputs: the kernel's inputs an[] from the
-    program's own expressions (straight-line; the three functions call it, so its code is
-    there once: on a 80-link cart it is a third of the rhs's)."""
-    from ..emit.bodies import store, temps
+    program's own expressions (straight-line; every user calls it, so its code is there once:
+    on a 80-link cart it is a third of the rhs's).  ``own``: the program is a kernel function's,
+    all of whose temporaries feed an[]; else (jac_x's, jac_id's) only those an[] reads."""
+    from ..emit.bodies import needed_assignments, store, temps
     pr = ctx.printer(program)
     vals = program.result_exprs(ANX)
-    lines = temps(program, pr)
+    lines = temps(program, pr, None if own else needed_assignments(program.assignments, vals.values()))
     lines += [store(f"an[{k[1]}]", e, pr) for k, e in sorted(vals.items(), key=lambda kv: kv[0][1])]
     return "dyn_inputs", lines, INPUTS_SIGNATURE
 
@@ -171,7 +194,7 @@ def dynamics_body(ctx, program, sym, fn):
     else:
         lines += [f"{IND}static const int sp[{plan.nd}] = {{{', '.join(str(s) for s in plan.row)}}};",
                   f"{IND}double u[{plan.nd}], ud[{plan.nd}], tq[{nu}];", f"{IND}int e;"]
-    lines.append(f"{IND}{ctx.name}_dyn_inputs(t, x, p, r, an);")
+    lines.append(IND + INPUTS_CALL.format(name=ctx.name))
     if fn == "mass_matrix":
         lines += [f"{IND}for (k = 0; k < {nu * nu}; k++) out[k] = 0.0;",
                   f"{IND}{ctx.name}_dyn(an, NULL, NULL, NULL, out);",

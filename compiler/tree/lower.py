@@ -201,8 +201,11 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         implicit = {"step": step} if "implicit" in functions else None
         wants_energy = "outputs" in functions and _asks_energy(outputs)
         guards = []
+        # the analytic jac_x's contact terms (compiler/tree/analytic.py), where it may be asked
+        ground = ({} if loops is None and set(functions) & {"jac_id", "jac_x"}
+                  and len(layout.x) > TANGENT_MIN_STATES else None)
         contact_values = _contacts(tree, bodies, rec, v, layout, implicit,
-                                   (gravity, speeds) if wants_energy else None, guards)
+                                   (gravity, speeds) if wants_energy else None, guards, ground)
         extra, keep = [], {}
         if loops is not None:
             J, gamma = lower_loops(loops, layout, rec)
@@ -219,16 +222,19 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         UD = tuple(sm.Symbol(f"ud_{j}", real=True) for j in range(nu))
         jacobian, more = [], ()
         analytic, anx = None, []
-        dyn, planned = (), False     # the functions the loop kernel computes (see dynamics_kernel_functions)
+        dyn, planned, grounded = (), False, False     # the functions the loop kernel computes (see dynamics_kernel_functions)
         if loops is None and set(functions) & {"jac_id", "jac_x", *KERNEL_FUNCTIONS} and len(layout.x) > TANGENT_MIN_STATES:
-            analytic, anx = _analytic(tree, bodies, gravity, layout, functions)
-            dyn = dynamics_kernel_functions(analytic, functions) if analytic is not None else ()
+            analytic, anx = _analytic(tree, bodies, gravity, layout, functions, ground)
+            # a plan with ground contacts serves jac_x and jac_id only (NAME_dyn has no contact terms)
+            dyn = (dynamics_kernel_functions(analytic, functions)
+                   if analytic is not None and not analytic.contacts else ())
             planned = analytic is not None
+            grounded = planned and bool(analytic.contacts)
             if analytic is not None and not dyn and not set(functions) & {"jac_id", "jac_x"}:
                 analytic, anx = None, []
         # forcing and inverse_dynamics both straight-line: forcing is -τ at u' = 0, a call of
         # inverse_dynamics (RNEA's code once; only where the plan exists, small trees unchanged)
-        by_id = (planned and {"forcing", "inverse_dynamics"} <= set(functions)
+        by_id = (planned and not grounded and {"forcing", "inverse_dynamics"} <= set(functions)
                  and not {"forcing", "inverse_dynamics"} & set(dyn))
         if jac and (analytic is None or jac != {"jac_x"}):    # the analytic jac_x needs no residual
             W = tuple(sm.Symbol(f"w_{j}", real=True) for j in range(nu))
@@ -298,6 +304,8 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         sym = replace(sym, guards=tuple(guards))
     if implicit is not None and implicit.get("guards"):
         sym = replace(sym, implicit_guards=tuple(implicit["guards"]))
+    if analytic is not None and analytic.contacts and ground.get("guards"):
+        sym = replace(sym, jac_guards=tuple(ground["guards"]))
     if wants_energy:
         sym = replace(sym, energy="kinetic, gravity and the ground contacts' elastic energy"
                       + (" and the joint limits' springs" if getattr(tree, "joint_energy", None) else ""))
@@ -377,7 +385,7 @@ def _input_columns(tree, layout):
     return [(("dres_r", i, j), e) for (i, j), e in sorted(cols.items()) if e != 0]
 
 
-def _analytic(tree, bodies, gravity, layout, functions):
+def _analytic(tree, bodies, gravity, layout, functions, ground=None):
     """(plan, results) of the analytic RNEA derivatives (:mod:`.analytic`) for jac_x and jac_id,
     or (None, []) where the tree does not qualify (then both keep the tangent path).
 
@@ -387,7 +395,8 @@ def _analytic(tree, bodies, gravity, layout, functions):
     from .analytic import analytic_plan
     absent = _absent(tree, layout)
     memo = {}
-    return analytic_plan(tree, bodies, gravity, layout, lambda e, what: _rename(layout, memo, what, absent)(e))
+    return analytic_plan(tree, bodies, gravity, layout, lambda e, what: _rename(layout, memo, what, absent)(e),
+                         (ground or {}).get("contacts"))
 
 
 def _asks_energy(outputs):
@@ -396,7 +405,7 @@ def _asks_energy(outputs):
     return any(getattr(e, "has", None) and e.has(ENERGY) for e in (outputs or {}).values())
 
 
-def _contacts(tree, bodies, rec, v, layout, implicit=None, energy=None, guards=None):
+def _contacts(tree, bodies, rec, v, layout, implicit=None, energy=None, guards=None, ground=None):
     """Ground contacts (eomc.compiler.contact.tree): their forces into the bodies' ``fext``
     from the world positions and velocities of their points, built recursively with ``rec``;
     returns {placeholder of a contact output or event: its temporary}."""
@@ -405,7 +414,7 @@ def _contacts(tree, bodies, rec, v, layout, implicit=None, energy=None, guards=N
     from .contacts import lower_contacts
     memo = {}
     return lower_contacts(tree, bodies, rec, v, lambda e, what: _rename(layout, memo, what, None)(e),
-                          implicit, energy, guards)
+                          implicit, energy, guards, ground)
 
 
 def implicit_layout(nq, nu, ncontact):

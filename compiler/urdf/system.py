@@ -34,6 +34,7 @@ from sympy.physics import mechanics as sme
 
 from eomc.runtime.errors import ModelFileError
 
+from ..multibody.frames import TreeFrame
 from ..multibody.joints import z_to
 from .joints import FloatingJoint, PlanarJoint
 from .tree import check_mimics, identifier
@@ -108,7 +109,7 @@ def _vector(frame, components):
 
 def _body(body, params):
     s = identifier(body.name)
-    frame = sme.ReferenceFrame(f"F_{s}")
+    frame = TreeFrame(f"F_{s}")
     mass = params(f"m_{s}", body.mass)
     com = [params(f"{c}_{s}", v) for c, v in zip(("cx", "cy", "cz"), body.com)]
     I = body.inertia
@@ -130,7 +131,7 @@ def system_from_tree(tree, *, fold=False, mimic=False, gravity=9.81, laws=True):
         check_mimics(tree, tree.joints)
     params = _Parameters(fold)
     inertias = joint_inertias(tree) if laws else None
-    N = sme.ReferenceFrame("N")
+    N = TreeFrame("N")
     origin = sme.Point("O")
     origin.set_vel(N, 0)
     world = sme.RigidBody("world", origin, N, sm.Integer(0), (sme.inertia(N, 0, 0, 0), origin))
@@ -149,12 +150,12 @@ def system_from_tree(tree, *, fold=False, mimic=False, gravity=9.81, laws=True):
             parent_frame = parent.frame
             offset = [p - c for p, c in zip(position, coms[tj.parent])]
             parent_point = parent.masscenter.locatenew(f"P_{s}", _vector(parent_frame, offset))
-        interframe = sme.ReferenceFrame(f"J_{s}")
+        interframe = TreeFrame(f"J_{s}")
         child_interframe = None
         if tj.type == "planar":   # interframes whose z is the plane's normal
             align = z_to(tj.axis)
             interframe.orient_explicit(parent_frame, _number(tj.rotation @ align))
-            child_interframe = sme.ReferenceFrame(f"K_{s}")
+            child_interframe = TreeFrame(f"K_{s}")
             child_interframe.orient_explicit(child.frame, _number(align))
         else:
             interframe.orient_explicit(parent_frame, _number(tj.rotation))

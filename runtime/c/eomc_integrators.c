@@ -1586,6 +1586,9 @@ static int radau_sens_step(ctx *c, const radau_consts *k, radau_ws *w, radau_sg 
             }
             sg->njvp++;
             s = sg->jvp(ta, w->tmp, c->p, c->r, kc, sg->D, g->F0 + (size_t)a * n, g->FS + (size_t)a * nk, c->mwork);
+#if defined(__GNUC__) && defined(__x86_64__)
+            if (__builtin_cpu_supports("avx")) __asm__ volatile("vzeroupper");   /* see eomc_sensitivity.c */
+#endif
             if (s == EOMC_OK && !all_finite((int)nk, g->FS + (size_t)a * nk)) s = EOMC_NONFINITE;
             if (s) { c->st->t_fail = ta; return s; }
             memcpy(g->ZSe + a * nk, g->ZS + a * nk, nk * sizeof(double));

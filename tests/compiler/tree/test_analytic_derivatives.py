@@ -40,6 +40,17 @@ def analytic(model):
     return "_rnea_derivs(" in model.source_path.read_text()
 
 
+def inputs_callers(model):
+    """The functions whose body calls NAME_dyn_inputs, and how many bodies store an[0]
+    (the kernels' inputs written once: jac_x and jac_id beside each other share them)."""
+    text = model.source_path.read_text()
+    call = f"{model.name}_dyn_inputs(t, x, p, r, an);"
+    callers = [fn for fn in ("jac_x", "jac_id", "mass_matrix", "forcing", "inverse_dynamics")
+               if f"int {model.name}_{fn}(" in text
+               and call in text[text.index(f"int {model.name}_{fn}("):].split("\n}\n", 1)[0]]
+    return callers, text.count("an[0] = ")
+
+
 def central(f, x, nx):
     cols = []
     for k in range(nx):
@@ -161,6 +172,10 @@ def test_jac_x_against_pinocchio_aba_derivatives(name):
     system = from_urdf(path, floating_base=floating, limits=False)
     model = eomc.compile(system, f"{name}_ad", functions=FNS, formulation="recursive", progress=False)
     assert analytic(model)
+    assert inputs_callers(model) == (["jac_x", "jac_id"], 1)      # one copy of an[] for both
+    alone = eomc.compile(system, f"{name}_ad1", functions=["rhs", "jac_x"], formulation="recursive",
+                         progress=False)
+    assert inputs_callers(alone) == ([], 1)                       # alone: its own copy, as before
     ref = PinRef(path, joints_of(system), floating=floating)
     nq, nu = model.nq, model.nu
     rng = np.random.default_rng(31)
