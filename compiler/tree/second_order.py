@@ -25,14 +25,17 @@ outside the support paths and the extra states.
 
 Where it applies (:func:`second_order_plan`): an analytic plan (:func:`.analytic.analytic_plan`)
 whose joints all have one speed (revolute, prismatic; bodies welded by fixed joints
-included) and no state-dependent joint laws.  Other trees (free/floating bases, balls,
-planar joints, joint laws, contacts, loops) keep the reverse path; the model's metadata
-``hess_id`` says which one it got and why.
+included), joint laws (URDF/MJCF soft limits, damping, friction) included: their own
+curvature is added on their rows' (q, u) entries after the loops (:func:`with_law_hessians`;
+why: URDF robots are built with their limits on by default, and took the reverse path,
+10-20x slower).  Other trees (free/floating bases, balls, planar joints, contacts, loops)
+keep the reverse path; the model's metadata ``hess_id`` says which one it got and why.
 
 Checked against central differences of jac_id, the reverse path and Pinocchio
 (tests/compiler/tree/test_second_order.py).
 """
 from collections import Counter
+from dataclasses import replace
 
 import sympy as sm
 
@@ -41,8 +44,8 @@ from ..ir.opcount import count_ops
 from .analytic import (PLACE_FROM_PARENT_LINES, VARIATION_LINES, WORLD_INERTIA_LINES, c_table, rd_helpers,
                        tree_tables, world_axis_lines, world_load_lines)
 
-__all__ = ["ANH", "second_order_plan", "second_order_c", "second_order_body", "second_order_ops",
-           "second_order_note"]
+__all__ = ["ANH", "second_order_plan", "with_law_hessians", "second_order_c", "second_order_body",
+           "second_order_ops", "second_order_note"]
 
 ANH = "anh"     # the result group of the kernel's inputs (the analytic plan's values)
 
@@ -54,11 +57,35 @@ def second_order_plan(plan):
                       "state-dependent loads or contacts)")
     if plan.multi:
         return None, "a joint has several speeds (free/floating base, ball, planar): not covered yet"
-    if plan.laws:
-        return None, "state-dependent joint laws (limits, damping, friction): not covered yet"
     if plan.contacts:       # the first-order kernel's ground-contact terms (analytic.py, block G)
         return None, "ground contacts: not covered yet"
     return plan, None
+
+
+def with_law_hessians(plan, values, x, nq):
+    """(plan, values) with the joint laws' second derivatives appended to the kernel's inputs
+    (block L2: ∂²τ/∂q², ∂²τ/∂q∂u, ∂²τ/∂u² per law dof, in the order of ``plan.laws``).
+
+    Why this is all the laws need: a law is the generalized force e_k·τ_k(q_k, u_k) on its own
+    speed (the pair of loads about the joint axis, :mod:`.analytic`), which the kernel carries as
+    a constant load in F -- a pair whose generalized force does not move with any joint, so the
+    kernel's terms for it are exactly its value's, and the law's own curvature touches only
+    row k's (q_k, u_k) entries.  The second derivatives are taken here, from the first ones
+    already in block L (``values``: the analytic plan's [((group, i), expr)]; ``x`` the state
+    symbols, ``nq`` the number of coordinates), so the first-order kernel's inputs and C stay
+    as they were."""
+    if not plan.laws:
+        return plan, values
+    vals = {k[1]: e for k, e in values}
+    group = values[0][0][0]
+    L, extra = plan.offsets["L"], []
+    for j, e in enumerate(plan.laws):
+        qs, us = x[plan.qcol[e]], x[nq + plan.row[e]]
+        dq, du = sm.sympify(vals[L + 2 * j]), sm.sympify(vals[L + 2 * j + 1])
+        extra += [sm.diff(dq, qs), sm.diff(dq, us), sm.diff(du, us)]
+    n = plan.size
+    plan = replace(plan, offsets={**plan.offsets, "L2": n}, size=n + len(extra))
+    return plan, list(values) + [((group, n + i), v) for i, v in enumerate(extra)]
 
 
 def second_order_note(plan, reason):
@@ -318,9 +345,30 @@ def second_order_c(name, plan, nq, nx, helpers):
         "            for (i = 0; i < 6; i++) F[6 * l + i] += fb[i];",
         "        }",
         "    }",
+    ] + (_law_lines(plan, nx) if plan.laws else []) + [
         "}",
     ]
     return "\n".join(lines)
+
+
+def _law_lines(plan, nx):
+    """The joint laws' own curvature (block L2, :func:`with_law_hessians`): τ = RNEA - law, so
+    each law's second derivatives leave its row's (q_k, u_k) entries."""
+    o, nn = plan.offsets["L2"], nx * nx
+    return [
+        "    {   /* the joint laws: their value is in F (a constant load above), their own curvature here */",
+        "    " + c_table("jd", plan.laws),
+        f"        for (j = 0; j < {len(plan.laws)}; j++) {{",
+        f"            double *O = out + (size_t)row[jd[j]] * {nn};",
+        "            const int qj = qc[jd[j]], uj = uc[jd[j]];",
+        f"            const double *h = an + {o} + 3 * j;",
+        f"            O[qj * {nx} + qj] -= h[0];",
+        f"            O[qj * {nx} + uj] -= h[1];",
+        f"            O[uj * {nx} + qj] -= h[1];",
+        f"            O[uj * {nx} + uj] -= h[2];",
+        "        }",
+        "    }",
+    ]
 
 
 def second_order_body(ctx, program, sym):
@@ -358,6 +406,7 @@ def second_order_ops(program, plan):
         count_ops(e, c)
     pairs = sum(d + 1 for d in plan.dep)
     triples = sum((d + 1) * (d + 2) // 2 for d in plan.dep)
+    c["adds"] += 4 * len(plan.laws)     # the laws' curvature (_law_lines)
     c["muls"] += 620 * plan.nb + 1150 * plan.nd + 300 * pairs + 84 * triples
     c["adds"] += 600 * plan.nb + 1150 * plan.nd + 300 * pairs + 84 * triples
     return {k: int(c.get(k, 0)) for k in ("adds", "muls", "divs", "calls")}

@@ -78,3 +78,87 @@ def test_overflow_is_an_error_not_a_silent_inf(models):
     x[kernel.nq:] = 1e200
     with pytest.raises(SimulationError, match="hess_id"):
         kernel.hess_id(0.0, x, np.zeros(kernel.nu), r=np.zeros(kernel.ninput))
+
+
+# a URDF arm whose three joints all carry a law (soft limits, damping, Coulomb friction): the
+# kernel adds the laws' own curvature to their rows' (q, u) entries (with_law_hessians)
+ARM = """<?xml version="1.0"?>
+<robot name="lawarm">
+  <link name="base"/>
+  <link name="l1"><inertial><origin xyz="0 0 -0.25"/><mass value="1.2"/>
+    <inertia ixx="0.02" iyy="0.025" izz="0.008" ixy="0.001" ixz="0" iyz="0"/></inertial></link>
+  <link name="l2"><inertial><origin xyz="0.05 0 -0.2"/><mass value="0.8"/>
+    <inertia ixx="0.01" iyy="0.012" izz="0.003" ixy="0" ixz="0.0005" iyz="0"/></inertial></link>
+  <link name="l3"><inertial><origin xyz="0 0.02 0"/><mass value="0.3"/>
+    <inertia ixx="0.001" iyy="0.001" izz="0.001" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <joint name="j1" type="revolute">
+    <parent link="base"/><child link="l1"/><axis xyz="0 1 0"/>
+    <limit lower="-0.5" upper="0.8" effort="10" velocity="2"/>
+    <dynamics damping="0.3" friction="0.2"/>
+  </joint>
+  <joint name="j2" type="revolute">
+    <parent link="l1"/><child link="l2"/><origin xyz="0 0 -0.5" rpy="0.1 0 0"/><axis xyz="1 0 0"/>
+    <limit lower="-1" upper="1.2" effort="10" velocity="2"/>
+    <dynamics damping="0.1" friction="0.05"/>
+  </joint>
+  <joint name="j3" type="prismatic">
+    <parent link="l2"/><child link="l3"/><origin xyz="0 0 -0.4"/><axis xyz="0 0 1"/>
+    <limit lower="-0.1" upper="0.05" effort="10" velocity="1"/>
+    <dynamics damping="0.4" friction="0.5"/>
+  </joint>
+</robot>
+"""
+WIDTH = 3e-4    # joint_laws.WIDTH: the limit law's curvature lives within a few widths of a limit
+
+
+def _compile_urdf(path, cache, reverse=False):
+    orig = second_order.second_order_plan
+    if reverse:
+        second_order.second_order_plan = lambda plan: (None, "forced by the test")
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return eomc.compile(str(path), functions=["rhs", "inverse_dynamics", "jac_id", "hess_id"],
+                                cache_dir=cache, progress=False)
+    finally:
+        second_order.second_order_plan = orig
+
+
+@pytest.fixture(scope="module")
+def law_models(tmp_path_factory):
+    d = tmp_path_factory.mktemp("laws")
+    (d / "lawarm.urdf").write_text(ARM)
+    return _compile_urdf(d / "lawarm.urdf", d / "kernel"), _compile_urdf(d / "lawarm.urdf", d / "reverse", True)
+
+
+def test_joint_laws_take_the_kernel_and_match_reverse_path_and_differences(law_models):
+    """Limits on (the URDF default), damping and friction: the kernel path, equal to the reverse
+    path to rounding (1e-12 of the tensor's scale; measured <= 1.1e-15) and to central
+    differences of jac_id (1e-6; measured <= 8e-8 with steps of 1e-7, 5e-10 with 1e-5), at a
+    state inside the ranges and at states a fraction of a width to ten widths past the limits (where the law's curvature is
+    ~1e7 and changes over a width: steps of 1e-7 there)."""
+    kernel, reverse = law_models
+    assert kernel.metadata["hess_id"].startswith("analytic second-order RNEA kernel")
+    nq, nx = kernel.nq, kernel.nx
+    rng = np.random.default_rng(3)
+    law = np.zeros((kernel.nu, nx, nx), bool)     # entries d/dx of jac_id's law columns (q_i, u_i of row i)
+    for i in range(kernel.nu):
+        law[i, [i, nq + i], :] = True
+    zone = [None, (0.5, 1.0, 0.3), (2.0, 0.3, 1.0), (10.0, 5.0, 0.5)]   # widths past j1 upper, j2 lower, j3 upper
+    for past in zone:
+        x, ud = rng.uniform(-0.3, 0.3, nx), rng.uniform(-1, 1, kernel.nu)
+        if past is None:    # inside the three ranges
+            x[:3] = rng.uniform([-0.5, -1.0, -0.1], [0.8, 1.2, 0.05])
+        else:
+            x[:3] = 0.8 + past[0] * WIDTH, -1.0 - past[1] * WIDTH, 0.05 + past[2] * WIDTH
+        H, ref = kernel.hess_id(0.0, x, ud), reverse.hess_id(0.0, x, ud)
+        scale = np.max(np.abs(ref))
+        assert np.max(np.abs(H - ref)) <= 1e-12 * scale
+        for h, mask in ((1e-7, law), (1e-5, ~law)):
+            fd = np.stack([(kernel.jac_id(0.0, x + h * e, ud) - kernel.jac_id(0.0, x - h * e, ud)) / (2 * h)
+                           for e in np.eye(nx)], axis=2)
+            part = np.max(np.abs(H[mask]))
+            assert part > 0.1
+            assert np.max(np.abs(H - fd)[mask]) <= 1e-6 * part, (past, h)
+    # the laws' curvature is there: ten widths past j1's limit, its entry dwarfs the rigid-body ones
+    assert abs(H[0, 0, 0]) > 1e3 * np.max(np.abs(H[~law]))
