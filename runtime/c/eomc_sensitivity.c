@@ -67,7 +67,10 @@ static int aug_rhs(double t, const double *X, const double *pc, const double *r,
          * the path through a static callee), and this file's SSE code then ran up to 2.5x
          * slower (false dependencies on the upper halves; DOP853 k = 8 without lanes 31.7 ms
          * against 12.5 ms with this, k = 4 with lanes 17.9 against 7.5).  vzeroupper clears
-         * them; only on a CPU with AVX. */
+         * them; only on a CPU with AVX.  The default gcc build now adds -fno-ipa-ra, which
+         * cures the cause (toolchain.GCC_MACHINE_FLAGS, tests/compiler/build/test_upper_state.py;
+         * on the AMD EPYC the dirty state cost nothing measurable, benchmarks/results/
+         * upper_state.md); this stays for libraries built with the user's --cflags. */
         if (s->avx) __asm__ volatile("vzeroupper");
 #endif
         return st;
