@@ -21,7 +21,7 @@ angles brings K's own derivative (not compared here).
 Agreement, before timing: the C++ tensors ∂²τ/∂q², ∂²τ/∂u², ∂²τ/∂q∂u at 4 random states
 against eomc's (Python ``model.hess_id``), largest difference relative to the largest entry.
 
-``--limits``: the robots built as ``eomc.compile(urdf)`` builds them, with their joint limits
+``--limits``: the robots built as ``eomc.compile("robot.urdf")`` builds them, with their joint limits
 on (the default; their damping and friction as declared), and a third contestant, the same
 model's hess_id on the forward-over-reverse path it had before the kernel covered joint laws
 (forced, built under another name and linked into the same harness).  Pinocchio has no joint
@@ -178,7 +178,7 @@ def build_limited(case, cache):
     if floating:
         sys.exit(f"{case}: floating bases are not compared (see the module doc)")
     path = robot_path(rel)
-    system = from_urdf(path)
+    system = from_urdf(path)      # for Pinocchio's joint order; the models are built from the file (its laws)
     fns = ["rhs", "inverse_dynamics", "jac_id", "hess_id"]
     models = []
     for suffix, forced in (("_lim", False), ("_limold", True)):
@@ -188,7 +188,7 @@ def build_limited(case, cache):
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                models.append(eomc.compile(system, case + suffix, functions=fns, formulation="recursive",
+                models.append(eomc.compile(str(path), case + suffix, functions=fns, formulation="recursive",
                                            cache_dir=cache, progress=False))
         finally:
             so.second_order_plan = orig
