@@ -1,7 +1,7 @@
 """Which instruction sets this CPU has, and which a model library's build flags assume.
 
 Why: a model's library is built for the machine that builds it -- on x86-64 with AVX2 the
-default flags add ``-mavx2 -ffp-contract=off`` (compiler/build/toolchain.py: the same
+default flags add ``-mavx2 -ffp-contract=off`` (compiler/build/toolchain.py; and -fno-ipa-ra: the same
 result bits, a faster rhs).  Such a library carried to a CPU without AVX2 (an exported
 directory, a pickled model, a build cache shared between machines) would die of SIGILL at
 its first call.  The loader asks :func:`missing_isa` first and refuses it with a message

@@ -20,7 +20,7 @@ from eomc.runtime.errors import CompileError, CompilerNotFoundError
 
 from .cache import discard
 
-__all__ = ["Toolchain", "find_compiler", "install_hint", "run_compiler", "DEFAULT_CFLAGS", "MACHINE_FLAGS",
+__all__ = ["Toolchain", "find_compiler", "install_hint", "run_compiler", "DEFAULT_CFLAGS", "MACHINE_FLAGS", "GCC_MACHINE_FLAGS",
            "machine_flags"]
 
 DEFAULT_CFLAGS = ("-O2", "-fPIC", "-std=c99")
@@ -34,6 +34,15 @@ DEFAULT_CFLAGS = ("-O2", "-fPIC", "-std=c99")
 # (clang's default would).  Not -march=native: on an AVX-512 machine gcc 12's SLP vectorizer
 # forms vfmaddsub even under -ffp-contract=off, and Talos' rhs changed by 7e-13 (measured).
 MACHINE_FLAGS = ("-mavx2", "-ffp-contract=off")
+# Added to MACHINE_FLAGS for gcc (clang rejects the option).  Why: with interprocedural register
+# allocation gcc 12 left vzeroupper out of some functions that call a static one (the 3-link
+# cart's jvp on every call, its jac_x on the failure return, after ldlt_factor/ldlt_solve), so
+# they returned to the SSE-compiled runtime with the ymm upper halves dirty, which Intel CPUs
+# make SSE code pay for.  -fno-ipa-ra lets the vzeroupper pass see the call as it is; the
+# vectors stay 256-bit (-mprefer-vector-width=128 also cured it, but sensitivity runs, whose
+# jvp carries four directions in one ymm, were 7-8 % slower; benchmarks/results/upper_state.md).
+# tests/compiler/build/test_upper_state.py reads the state after every generated function.
+GCC_MACHINE_FLAGS = ("-fno-ipa-ra",)
 _MACHINE = {}  # (path, version) -> the machine flags this compiler accepts
 _CANDIDATES = ("cc", "gcc", "clang")
 _VERSIONS = {}  # (path, mtime) -> version text; a compiler is probed once per process
@@ -120,7 +129,8 @@ def portable_from_env(env=None):
 
 
 def machine_flags(tc):
-    """The flags (``MACHINE_FLAGS`` or none) that build libraries for this machine's CPU with ``tc``.
+    """The flags (``MACHINE_FLAGS``, plus ``GCC_MACHINE_FLAGS`` with gcc, or none) that build libraries
+    for this machine's CPU with ``tc``.
 
     Only on x86-64 whose CPU reports AVX2 (measured there; elsewhere the portable defaults
     stay), only with gcc or clang (by their --version line: another compiler's flags are not
@@ -131,6 +141,7 @@ def machine_flags(tc):
         return ()
     if not (tc.is_clang or re.match(r"\S*(gcc|cc) \(", tc.version)):
         return ()
+    flags = MACHINE_FLAGS if tc.is_clang else MACHINE_FLAGS + GCC_MACHINE_FLAGS
     probe = (tc.path, tc.version)
     if probe not in _MACHINE:
         with tempfile.TemporaryDirectory(prefix="eomc_probe_") as tmp:
@@ -138,12 +149,12 @@ def machine_flags(tc):
             with open(src, "w") as fh:
                 fh.write("double probe(double a, double b, double c) { return a * b + c; }\n")
             try:
-                proc = subprocess.run([*tc.argv, *DEFAULT_CFLAGS, *MACHINE_FLAGS, "-c", src, "-o",
+                proc = subprocess.run([*tc.argv, *DEFAULT_CFLAGS, *flags, "-c", src, "-o",
                                        os.path.join(tmp, "probe.o")], capture_output=True, timeout=60)
                 ok = proc.returncode == 0
             except (OSError, subprocess.SubprocessError):
                 ok = False
-        _MACHINE[probe] = MACHINE_FLAGS if ok else ()
+        _MACHINE[probe] = flags if ok else ()
     return _MACHINE[probe]
 
 
