@@ -21,7 +21,14 @@ angles brings K's own derivative (not compared here).
 Agreement, before timing: the C++ tensors ∂²τ/∂q², ∂²τ/∂u², ∂²τ/∂q∂u at 4 random states
 against eomc's (Python ``model.hess_id``), largest difference relative to the largest entry.
 
-Usage: python benchmarks/bench_second_order.py [--cart 4,8,20] [--robots ur10,panda] [--rounds 7] [--write]
+``--limits``: the robots built as ``eomc.compile("robot.urdf")`` builds them, with their joint limits
+on (the default; their damping and friction as declared), and a third contestant, the same
+model's hess_id on the forward-over-reverse path it had before the kernel covered joint laws
+(forced, built under another name and linked into the same harness).  Pinocchio has no joint
+laws: its agreement is taken with the laws' own entries (row i's (q_i, u_i) block) left out;
+the two eomc paths are compared on every entry.
+
+Usage: python benchmarks/bench_second_order.py [--cart 4,8,20] [--robots ur10,panda] [--limits] [--rounds 7] [--write]
 """
 import argparse
 import datetime
@@ -47,6 +54,7 @@ HARNESS = r"""
 #include <stdlib.h>
 #include <time.h>
 #include "@NAME@.h"
+@OLDINC@
 int pin_setup(const char *path);
 void pin_rnea_second_order(const double *q, const double *v, const double *a);
 void pin_copy_rnea_second_order(double *qq, double *vv, double *qv, double *aq);
@@ -66,6 +74,7 @@ static double tnow(void) { struct timespec ts; clock_gettime(CLOCK_THREAD_CPUTIM
     return ts.tv_sec * 1e9 + ts.tv_nsec; }
 static double call(int c, int i) {
     if (c == 0) { if (@NAME@_hess_id(0.0, X[i], UD[i], P, R, out, work)) exit(5); return out[NX]; }
+    @OLDCALL@
     pin_rnea_second_order(Q[i], V[i], A[i]);
     return 0.0;
 }
@@ -80,8 +89,8 @@ int main(int argc, char **argv) {
         for (k = 0; k < NU * NU * NU; k++) printf("pin %d %.17g %.17g %.17g\n", i, qq[k], vv[k], qv[k]);
     }
     for (round = 0; round < @ROUNDS@; round++) {
-        for (c = 0; c < 2; c++) {
-            int cc = (c + round) % 2; long calls = 0; double t0 = tnow(), t1;
+        for (c = 0; c < @NC@; c++) {
+            int cc = (c + round) % @NC@; long calls = 0; double t0 = tnow(), t1;
             do { for (i = 0; i < NS; i++) sum += call(cc, i); calls += NS; t1 = tnow(); }
             while (t1 - t0 < 2e7);
             printf("time %d %.1f\n", cc, (t1 - t0) / calls);
@@ -91,16 +100,22 @@ int main(int argc, char **argv) {
     return 0;
 }
 """
-LABELS = ("eomc hess_id", "Pinocchio ComputeRNEASecondOrderDerivatives")
+LABELS = ("eomc hess_id", "Pinocchio ComputeRNEASecondOrderDerivatives", "eomc hess_id, old path")
 
 
-def run(model, ref, data, tmp, pin_obj, rounds):
-    """(median ns per contestant, agreement): the harness compiled and run pinned to core 1."""
+def run(model, ref, data, tmp, pin_obj, rounds, old=None):
+    """(median ns per contestant, agreement[, old path's agreement]): the harness compiled and run
+    pinned to core 1; ``old``: the same model on the forced reverse path (``--limits``)."""
     X, UD, Q, V, A = data
     name, nu, nq = model.name, model.nu, model.nq
-    src = (HARNESS.replace("@NAME@", name).replace("@NS@", str(bd.NS)).replace("@NX@", str(model.nx))
+    if old is not None:
+        assert list(old.param_defaults) == list(model.param_defaults)
+    src = (HARNESS.replace("@NAME@", name).replace("@NC@", "3" if old is not None else "2")
+           .replace("@OLDINC@", f'#include "{old.name}.h"' if old is not None else "")
+           .replace("@OLDCALL@", "if (c == 2) { if (%s_hess_id(0.0, X[i], UD[i], P, R, out, work)) exit(6); "
+                    "return out[NX]; }" % old.name if old is not None else "").replace("@NS@", str(bd.NS)).replace("@NX@", str(model.nx))
            .replace("@NU@", str(nu)).replace("@PQ@", str(ref.model.nq)).replace("@ROUNDS@", str(rounds))
-           .replace("@NAGREE@", str(NAGREE)).replace("@WORK@", str(max(model.work_size, 1)))
+           .replace("@NAGREE@", str(NAGREE)).replace("@WORK@", str(max(model.work_size, old.work_size if old is not None else 0, 1)))
            .replace("@X@", bd.c_array(X)).replace("@UD@", bd.c_array(UD)).replace("@Q@", bd.c_array(Q))
            .replace("@V@", bd.c_array(V)).replace("@A@", bd.c_array(A))
            .replace("@P@", ", ".join(repr(float(v)) for v in model.param_defaults) or "0.0")
@@ -108,8 +123,13 @@ def run(model, ref, data, tmp, pin_obj, rounds):
     c = tmp / f"h2_{name}.c"
     c.write_text(src)
     objs = []
-    for s, o in ((c, tmp / f"h2_{name}.o"), (model.source_path, tmp / f"m2_{name}.o")):
-        subprocess.run(["gcc", "-O2", "-std=c99", f"-I{model.directory}", f"-I{ROOT / 'runtime' / 'c'}", "-c",
+    units = [(c, tmp / f"h2_{name}.o"), (model.source_path, tmp / f"m2_{name}.o")]
+    incs = [f"-I{model.directory}"]
+    if old is not None:
+        units.append((old.source_path, tmp / f"m2_{old.name}.o"))
+        incs.append(f"-I{old.directory}")
+    for s, o in units:
+        subprocess.run(["gcc", "-O2", "-std=c99", *incs, f"-I{ROOT / 'runtime' / 'c'}", "-c",
                         str(s), "-o", str(o)], check=True)
         objs.append(str(o))
     exe = tmp / f"h2_{name}"
@@ -126,18 +146,58 @@ def run(model, ref, data, tmp, pin_obj, rounds):
             pin.setdefault(int(p[1]), []).append([float(v) for v in p[2:]])
         elif p[0] == "time":
             times.setdefault(LABELS[int(p[1])], []).append(float(p[2]))
-    worst = 0.0
+    worst, worst_old = 0.0, 0.0
     for i in range(NAGREE):
         T = np.array(pin[i]).reshape(nv, nv, nv, 3)
         qq, vv, qv = (T[..., k][np.ix_(iv, iv, iv)] for k in range(3))
         H = model.hess_id(0.0, X[i], UD[i])
+        if old is not None:
+            Ho = old.hess_id(0.0, X[i], UD[i])
+            worst_old = max(worst_old, np.max(np.abs(H - Ho)) / np.max(np.abs(Ho)))
+            H = H.copy()        # the laws' own entries: Pinocchio's (it has no joint laws)
+            for r in range(nu):
+                H[r, r, r], H[r, nq + r, nq + r] = qq[r, r, r], vv[r, r, r]
+                H[r, r, nq + r] = H[r, nq + r, r] = qv[r, r, r]
         scale = max(np.max(np.abs(qq)), np.max(np.abs(vv)), np.max(np.abs(qv)))
         # Pinocchio's d2tau_dqdv(i, j, k) = d2 tau_i / dq_j dv_k (measured: q along the columns,
         # whatever its header's comment says), eomc's [i, j, nq + k]
         diff = max(np.max(np.abs(H[:, :nq, :nq] - qq)), np.max(np.abs(H[:, nq:nq + nu, nq:nq + nu] - vv)),
                    np.max(np.abs(H[:, :nq, nq:nq + nu] - qv)))
         worst = max(worst, diff / scale)
-    return {k: float(np.median(v)) for k, v in times.items()}, worst
+    return {k: float(np.median(v)) for k, v in times.items()}, worst, worst_old
+
+
+def build_limited(case, cache):
+    """(kernel Model, old-path Model, Pinocchio reference) of a robot with its joint limits on."""
+    import warnings
+    import eomc
+    import eomc.compiler.tree.second_order as so
+    from eomc.compiler.urdf import from_urdf
+    from helpers.robots import PinRef, joints_of, robot_path
+    rel, floating = bd.ROBOTS[case]
+    if floating:
+        sys.exit(f"{case}: floating bases are not compared (see the module doc)")
+    path = robot_path(rel)
+    system = from_urdf(path)      # for Pinocchio's joint order; the models are built from the file (its laws)
+    fns = ["rhs", "inverse_dynamics", "jac_id", "hess_id"]
+    models = []
+    for suffix, forced in (("_lim", False), ("_limold", True)):
+        orig = so.second_order_plan
+        if forced:
+            so.second_order_plan = lambda plan: (None, "forced by bench_second_order.py --limits")
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                models.append(eomc.compile(str(path), case + suffix, functions=fns, formulation="recursive",
+                                           cache_dir=cache, progress=False))
+        finally:
+            so.second_order_plan = orig
+    kernel, old = models
+    assert kernel.metadata["hess_id"].startswith("analytic"), kernel.metadata["hess_id"]
+    assert old.metadata["hess_id"].startswith("forward over reverse"), old.metadata["hess_id"]
+    ref = PinRef(path, joints_of(system), floating=False)
+    ref.gravity = ref.model.gravity.linear
+    return kernel, old, ref
 
 
 def build(case, cache):
@@ -155,6 +215,7 @@ def main():
     ap.add_argument("--rounds", type=int, default=7)
     ap.add_argument("--pin-obj", default="", help="an already compiled pin_derivatives.o (saves minutes)")
     ap.add_argument("--cache", default="", help="a build cache directory to keep between runs")
+    ap.add_argument("--limits", action="store_true", help="robots with their joint limits on, and the old path")
     ap.add_argument("--write", action="store_true")
     a = ap.parse_args()
     cases = [f"cart{n}" for n in a.cart.split(",") if n] + [r for r in a.robots.split(",") if r]
@@ -168,21 +229,28 @@ def main():
             sys.exit("Pinocchio's headers (pin / cmeel wheels) are needed")
     rng = np.random.default_rng(30)
     rows = []
+    if a.limits:
+        cases = [c for c in cases if not c.startswith("cart")]
     for case in cases:
-        model, ref = build(case, Path(a.cache) if a.cache else tmp / "cache")
+        cache = Path(a.cache) if a.cache else tmp / "cache"
+        if a.limits:
+            model, old, ref = build_limited(case, cache)
+        else:
+            (model, ref), old = build(case, cache), None
         data = bd.states(model, ref, False, rng)
-        times, agree = run(model, ref, data, tmp, pin_obj, a.rounds)
+        times, agree, agree_old = run(model, ref, data, tmp, pin_obj, a.rounds, old)
         ops = model.metadata["op_counts"]
-        row = dict(case=case, nx=model.nx, times=times, agree=agree,
+        row = dict(case=case, nx=model.nx, times=times, agree=agree, agree_old=agree_old,
                    ops={f: sum(ops[f].values()) for f in ("jac_id", "hess_id")})
         rows.append(row)
+        render = render_limited if a.limits else render_row
         if a.write:
             with open(HERE / "results" / "second_order.md", "a") as f:
-                f.write((header(a.rounds) if len(rows) == 1 else "") + render_row(row) + "\n")
-        print(render_row(row), flush=True)
+                f.write((header(a.rounds, a.limits) if len(rows) == 1 else "") + render(row) + "\n")
+        print(render(row), flush=True)
 
 
-def header(rounds):
+def header(rounds, limits=False):
     import pinocchio
     import eomc
     commit, dirty, cpu = bd.checkout_state()
@@ -191,12 +259,27 @@ def header(rounds):
         f"{' (+ uncommitted changes)' if dirty else ''}\n",
         f"`python benchmarks/bench_second_order.py` — {cpu}, load {os.getloadavg()[0]:.1f} at the start, "
         f"Python {platform.python_version()}, Pinocchio {pinocchio.__version__} (header-only, g++ -O2), "
-        f"eomc {eomc.__version__}, gcc -O2; thread CPU, pinned to core 1, 2 contestants interleaved, "
+        f"eomc {eomc.__version__}, gcc -O2; thread CPU, pinned to core 1, {3 if limits else 2} contestants interleaved, "
         f"median of {rounds} rounds, {bd.NS} states cycled.  eomc: `--formulation recursive`, functions rhs, "
         "inverse_dynamics, jac_id, hess_id.\n",
+    ] + ([
+        "`--limits`: the robots with their joint limits on (the default build); \"old path\": the same "
+        "model's hess_id forced onto forward over reverse (what these builds got before the kernel "
+        "covered joint laws), a third contestant in the same harness.  Pinocchio has no joint laws: its "
+        "agreement leaves out the laws' own entries.\n",
+        "| model (limits on) | nx | eomc hess_id ns, kernel | old path ns | **old / kernel** | "
+        "Pinocchio 2nd-order RNEA ns | **Pinocchio / kernel** | kernel vs old path | vs Pinocchio (laws' entries out) |",
+        "|---|--:|--:|--:|--:|--:|--:|--|--|"] if limits else [
         "| model | nx | eomc hess_id ns | Pinocchio 2nd-order RNEA ns | **Pinocchio / hess_id** | "
         "ops jac_id / hess_id | agreement (q,q), (u,u), (q,u) |",
-        "|---|--:|--:|--:|--:|--|--|"]) + "\n"
+        "|---|--:|--:|--:|--:|--|--|"])) + "\n"
+
+
+def render_limited(r):
+    t = r["times"]
+    k, o, p = t[LABELS[0]], t[LABELS[2]], t[LABELS[1]]
+    return (f"| {r['case']} | {r['nx']} | {k:.0f} | {o:.0f} | **{o / k:.1f}** | {p:.0f} | **{p / k:.2f}** | "
+            f"{r['agree_old']:.1e} | {r['agree']:.1e} |")
 
 
 def render_row(r):

@@ -82,10 +82,24 @@ def with_law_hessians(plan, values, x, nq):
     for j, e in enumerate(plan.laws):
         qs, us = x[plan.qcol[e]], x[nq + plan.row[e]]
         dq, du = sm.sympify(vals[L + 2 * j]), sm.sympify(vals[L + 2 * j + 1])
-        extra += [sm.diff(dq, qs), sm.diff(dq, us), sm.diff(du, us)]
+        extra += [_tidy(sm.diff(dq, qs)), _tidy(sm.diff(dq, us)), _tidy(sm.diff(du, us))]
     n = plan.size
     plan = replace(plan, offsets={**plan.offsets, "L2": n}, size=n + len(extra))
     return plan, list(values) + [((group, n + i), v) for i, v in enumerate(extra)]
+
+
+def _tidy(e):
+    """``e`` with the terms of each limit side (each set of ramp(·) it reads) over one
+    denominator and factored.  Why: the plain second derivative of the limit law
+    g²(k r + c u g), g = r/(r + e), is a sum of terms of size k·r/(r + e)² that cancel to
+    k·6e²r/(r + e)⁴ far past a limit: measured 5.7e-11 relative error 1700 widths past,
+    (the old forward-over-reverse path 3e-13), 5e-16 in this form.  (Not expanded first:
+    expand-then-factor gives the same form at 5x the build time, ~0.2 s a joint.)"""
+    from .joint_laws import ramp
+    groups = {}
+    for t in sm.Add.make_args(e):
+        groups.setdefault(frozenset(t.atoms(ramp)), []).append(t)
+    return sm.Add(*[sm.factor(sm.Add(*ts)) if key else sm.Add(*ts) for key, ts in groups.items()])
 
 
 def second_order_note(plan, reason):
