@@ -52,7 +52,7 @@ from dataclasses import dataclass
 import sympy as sm
 
 __all__ = ["AnalyticPlan", "analytic_plan", "kernel_c", "ANX", "analytic_ops", "c_table", "world_axis_lines",
-           "WORLD_INERTIA_LINES", "world_load_lines", "rd_helpers", "VARIATION_LINES", "tree_tables", "PLACE_FROM_PARENT_LINES", "YMUL_LINES", "DOT6_LINE"]
+           "WORLD_INERTIA_LINES", "world_load_lines", "rd_helpers", "VARIATION_LINES", "tree_tables", "PLACE_FROM_PARENT_LINES", "body_head_lines", "YMUL_LINES", "DOT6_LINE"]
 
 ANX = "anx"      # the result group of the kernel's inputs
 
@@ -380,6 +380,41 @@ def world_axis_lines(o):
     ]
 
 
+def body_head_lines(o, a_first):
+    """C, opening a loop over bodies b (the derivative kernel and the second-order kernel,
+    :mod:`.second_order`): the body's pointers and locals, its world placement from its
+    parent's (or the world's), v and a from the parent's (``ab[i] = a_first``), its dofs' axes
+    in the world and v += S u."""
+    return [
+        f"        const double *E = an + 9 * b, *r = an + {o['r']} + 3 * b, *In = an + {o['I']} + 10 * b;",
+        "        double *Rb = R + 9 * b, *pb = P + 3 * b, *vb = V + 6 * b, *ab = A + 6 * b;",
+        "        double *Yb = Y + 10 * b, *dYb = dY + 12 * b, *fb = F + 6 * b;",
+        "        double vl[6], al[6], IR[9], IO[9], C[9], t[6], hm[6], m, pp, vc;",
+        "        l = par[b];",
+        "        if (l >= 0) {",
+        *PLACE_FROM_PARENT_LINES,
+        "            for (i = 0; i < 6; i++) {",
+        "                vl[i] = V[6 * l + i];",
+        "                al[i] = A[6 * l + i];",
+        "            }",
+        "        } else {",
+        "            for (i = 0; i < 3; i++) {",
+        "                for (j = 0; j < 3; j++) Rb[3 * i + j] = E[3 * j + i];",
+        "                pb[i] = r[i];",
+        "                vl[i] = vl[i + 3] = al[i] = 0.0;",
+        f"                al[i + 3] = -an[{o['g']} + i];",
+        "            }",
+        "        }",
+        "        for (i = 0; i < 6; i++) {",
+        "            vb[i] = vl[i];",
+        "            ab[i] = " + a_first,
+        "        }",
+        *world_axis_lines(o),
+        "            for (i = 0; i < 6; i++) vb[i] += s[i] * u[e];",
+        "        }",
+    ]
+
+
 # C, inside a loop over bodies b: the body's world inertia Yb = {m, m p, I_O} (shared as above)
 WORLD_INERTIA_LINES = [
     "        /* the world inertia about the world origin: {m, c = m p, I_O = R I_c R^T + m (p.p 1 - p p^T)} */",
@@ -547,32 +582,7 @@ def kernel_c(name, plan, nq, solve=False):
         f"    for (e = 0; e < {nd}; e++)",
         "        for (k = 0; k < stride; k++) out[(row0 + row[e]) * stride + k] = 0.0;",
         f"    for (b = 0; b < {nb}; b++) {{",
-        f"        const double *E = an + 9 * b, *r = an + {o['r']} + 3 * b, *In = an + {o['I']} + 10 * b;",
-        "        double *Rb = R + 9 * b, *pb = P + 3 * b, *vb = V + 6 * b, *ab = A + 6 * b;",
-        "        double *Yb = Y + 10 * b, *dYb = dY + 12 * b, *fb = F + 6 * b;",
-        "        double vl[6], al[6], IR[9], IO[9], C[9], t[6], hm[6], m, pp, vc;",
-        "        l = par[b];",
-        "        if (l >= 0) {",
-        *PLACE_FROM_PARENT_LINES,
-        "            for (i = 0; i < 6; i++) {",
-        "                vl[i] = V[6 * l + i];",
-        "                al[i] = A[6 * l + i];",
-        "            }",
-        "        } else {",
-        "            for (i = 0; i < 3; i++) {",
-        "                for (j = 0; j < 3; j++) Rb[3 * i + j] = E[3 * j + i];",
-        "                pb[i] = r[i];",
-        "                vl[i] = vl[i + 3] = al[i] = 0.0;",
-        f"                al[i + 3] = -an[{o['g']} + i];",
-        "            }",
-        "        }",
-        "        for (i = 0; i < 6; i++) {",
-        "            vb[i] = vl[i];",
-        "            ab[i] = " + ("0.0;   /* the bias acceleration c_b first (see below) */" if aba else "al[i];"),
-        "        }",
-        *world_axis_lines(o),
-        "            for (i = 0; i < 6; i++) vb[i] += s[i] * u[e];",
-        "        }",
+        *body_head_lines(o, "0.0;   /* the bias acceleration c_b first (see below) */" if aba else "al[i];"),
         "        for (e = d0[b]; e < d0[b] + nd[b]; e++) {   /* a, and the axes' derivative terms */",
         "            const double *s = Sw + 6 * e;",
         f"            {name}_rd_cross(vb, s, t);",

@@ -41,8 +41,8 @@ import sympy as sm
 
 from ..emit.bodies import IND, store, temps
 from ..ir.opcount import count_ops
-from .analytic import (PLACE_FROM_PARENT_LINES, VARIATION_LINES, WORLD_INERTIA_LINES, c_table, rd_helpers,
-                       tree_tables, world_axis_lines, world_load_lines)
+from .analytic import (VARIATION_LINES, WORLD_INERTIA_LINES, body_head_lines, c_table, rd_helpers,
+                       tree_tables, world_load_lines)
 
 __all__ = ["ANH", "second_order_plan", "with_law_hessians", "second_order_c", "second_order_body",
            "second_order_ops", "second_order_note"]
@@ -170,32 +170,7 @@ def second_order_c(name, plan, nq, nx, helpers):
         "    int b, i, j, k, e, c, l;",
         f"    for (k = 0; k < {nd * nn}; k++) out[k] = 0.0;",
         f"    for (b = 0; b < {nb}; b++) {{   /* forward: placements, axes and their rates, v, a, Y, B, f */",
-        f"        const double *E = an + 9 * b, *r = an + {o['r']} + 3 * b, *In = an + {o['I']} + 10 * b;",
-        "        double *Rb = R + 9 * b, *pb = P + 3 * b, *vb = V + 6 * b, *ab = A + 6 * b;",
-        "        double *Yb = Y + 10 * b, *dYb = dY + 12 * b, *fb = F + 6 * b;",
-        "        double vl[6], al[6], IR[9], IO[9], C[9], t[6], hm[6], m, pp, vc;",
-        "        l = par[b];",
-        "        if (l >= 0) {",
-        *PLACE_FROM_PARENT_LINES,
-        "            for (i = 0; i < 6; i++) {",
-        "                vl[i] = V[6 * l + i];",
-        "                al[i] = A[6 * l + i];",
-        "            }",
-        "        } else {",
-        "            for (i = 0; i < 3; i++) {",
-        "                for (j = 0; j < 3; j++) Rb[3 * i + j] = E[3 * j + i];",
-        "                pb[i] = r[i];",
-        "                vl[i] = vl[i + 3] = al[i] = 0.0;",
-        f"                al[i + 3] = -an[{o['g']} + i];",
-        "            }",
-        "        }",
-        "        for (i = 0; i < 6; i++) {",
-        "            vb[i] = vl[i];",
-        "            ab[i] = al[i];",
-        "        }",
-        *world_axis_lines(o),
-        "            for (i = 0; i < 6; i++) vb[i] += s[i] * u[e];",
-        "        }",
+        *body_head_lines(o, "al[i];"),
         "        for (e = d0[b]; e < d0[b] + nd[b]; e++) {   /* psi' = v_l x S, psi'' = a_l x S + v_l x psi', phi' = v x S */",
         "            const double *s = Sw + 6 * e;",
         "            double *ps = PS + 6 * e, *ps2 = PS2 + 6 * e;",
