@@ -80,6 +80,9 @@ def test_a_callable_with_state_that_raises_stops_radau_too(osc):
 
 CHILD = textwrap.dedent("""
     import os, signal, sys, threading, time
+    # as in an interactive session: a child of a background job (`cmd &` in a script, as CI
+    # may be started) inherits SIGINT ignored, and then Ctrl-C reaches no one by design
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     from eomc.runtime.loader import load
     model = load(sys.argv[1])
     calls = {"n": 0}
