@@ -102,6 +102,25 @@ def _tidy(e):
     return sm.Add(*[sm.factor(sm.Add(*ts)) if key else sm.Add(*ts) for key, ts in groups.items()])
 
 
+# The finiteness check without a pass over the output (O(n^3) numbers; 5 of cart20's 48 us): every
+# stored number is a dot product of a pair vector (U's first 48 numbers, or u10 = u2 + u9,
+# u11 = u2 - u9, at most twice as large) with a column of K, the sum of two such, or one minus a
+# joint law's curvature h.  When every U and K number is within BOUND and every h within 1e300,
+# each output is within 6 * 2e150 * 1e150 * 2 + 1e300 < 1e302: finite.  Else (or a NaN anywhere,
+# which fails every <=) the output is checked entry by entry as before, so the result (an error
+# exactly when an output is not finite) is the same.
+BOUND = "1e150"
+
+
+def _covers_all(plan, nq, nx):
+    """True when the triple loop writes every entry of the output, so it need not be zeroed
+    first: the dofs form one path (each is on the support of, or supported by, every other:
+    every (row, column, column) triple of dofs is one the loop visits) and the state is (q, u)
+    of those dofs alone.  Checked with a NaN-filled output (tests/compiler/tree/test_second_order.py)."""
+    nd = len(plan.lam)
+    return nd > 0 and len(paths(plan)[0]) == 1 and nq == nd and nx == 2 * nd
+
+
 def second_order_note(plan, reason):
     """The metadata line of hess_id: which algorithm the model got."""
     if plan is not None:
@@ -159,8 +178,9 @@ def second_order_c(name, plan, nq, nx, helpers):
         "}",
         "",
         f"/* d2 tau / dx2 of RNEA by the spatial-algebra second-order algorithm (compiler/tree/second_order.py):",
-        f"   out[(i * {nx} + j) * {nx} + k] = d2 tau_i / dx_j dx_k at velocities u and accelerations ud (per dof). */",
-        f"static void {fn}(const double *an, const double *u, const double *ud, double *out)",
+        f"   out[(i * {nx} + j) * {nx} + k] = d2 tau_i / dx_j dx_k at velocities u and accelerations ud (per dof).",
+        f"   Returns 0 when every number the outputs are made of is within {BOUND} (the outputs are then finite), else 1. */",
+        f"static int {fn}(const double *an, const double *u, const double *ud, double *out)",
         "{",
         *tree_tables(plan),
         c_table("qc", plan.qcol),
@@ -171,8 +191,9 @@ def second_order_c(name, plan, nq, nx, helpers):
         *cfg[0],
         f"    double K[{cfg[1]}], D[{14 * cfg[2]}];   /* per path, component-major: S, psi', psi'', psi' + phi' of its dofs; the dots */",
         "    double Ym[36], Bm[36], Ma[36], Mb[36], Mc[36], R1[36], R3[36];",
-        "    int b, i, j, k, e, c, l;",
-        f"    for (k = 0; k < {nd * nn}; k++) out[k] = 0.0;",
+        "    int b, i, j, k, e, c, l, big = 0;",
+    ] + ([] if _covers_all(plan, nq, nx) else [
+        f"    for (k = 0; k < {nd * nn}; k++) out[k] = 0.0;"]) + [
         f"    for (b = 0; b < {nb}; b++) {{   /* forward: placements, axes and their rates, v, a, Y, B, f */",
         *body_head_lines(o, "al[i];"),
         "        for (e = d0[b]; e < d0[b] + nd[b]; e++) {   /* psi' = v_l x S, psi'' = a_l x S + v_l x psi', phi' = v x S */",
@@ -211,6 +232,7 @@ def second_order_c(name, plan, nq, nx, helpers):
         "            }",
         "        }",
         "    }",
+        f"    for (k = 0; k < {cfg[1]}; k++) big |= !(fabs(K[k]) <= {BOUND});",
         f"    for (b = {nb - 1}; b >= 0; b--) {{   /* backward: per dof i of the body, its subtree's composites */",
         "        const double *Yb = Y + 10 * b, *dYb = dY + 12 * b, *fb = F + 6 * b;",
         "        for (i = d0[b]; i < d0[b] + nd[b]; i++) {",
@@ -278,7 +300,9 @@ def second_order_c(name, plan, nq, nx, helpers):
         "                const double *s = Sw + 6 * j, *p = PS + 6 * j;",
         f"                double *Oj = out + (size_t)row[j] * {nn};",
         "                const int qj = qc[j], uj = uc[j];",
-        "                double u1[6], u2[6], u3[6], u4[6], u6[6], u7[6], u9[6], u10[6], u11[6], w[6], r1p[6], r0p[6];",
+        "                double U[60], r1p[6], r0p[6];   /* the pair's vectors; the first 48 bound the stores (BOUND) */",
+        "                double *u1 = U, *u2 = U + 6, *u3 = U + 12, *u6 = U + 18, *u7 = U + 24, *u9 = U + 30, *w = U + 36;",
+        "                double *u4 = U + 42, *u10 = U + 48, *u11 = U + 54;",
         f"                {name}_h2_mv(R1, s, u2);",
         f"                {name}_h2_mv(R1, p, r1p);",
         f"                {rd}_crossf(s, ys, u9);",
@@ -317,6 +341,7 @@ def second_order_c(name, plan, nq, nx, helpers):
         "        }",
         "    }",
     ] + (_law_lines(plan, nx) if plan.laws else []) + [
+        "    return big;",
         "}",
     ]
     return "\n".join(lines)
@@ -403,6 +428,7 @@ def _triple_lines(name, rd, nx, cfg):
     def d(m):
         return f"D[{m * maxl} + tk]" if m else "D[tk]"
     return [
+        f"                for (c = 0; c < 48; c++) big |= !(fabs(U[c]) <= {BOUND});",
         "                {   /* the dots of (i, j) with every k on j's path, H2_LANES k a step */",
         "                    const int pa = jp[j], L = pL[pa], T = jt[j] + 1;",
         "                    const double *G = K + pG[pa];",
@@ -462,6 +488,7 @@ def _law_lines(plan, nx):
         f"            double *O = out + (size_t)row[jd[j]] * {nn};",
         "            const int qj = qc[jd[j]], uj = uc[jd[j]];",
         f"            const double *h = an + {o} + 3 * j;",
+        "            big |= !(fabs(h[0]) <= 1e300) | !(fabs(h[1]) <= 1e300) | !(fabs(h[2]) <= 1e300);",
         f"            O[qj * {nx} + qj] -= h[0];",
         f"            O[qj * {nx} + uj] -= h[1];",
         f"            O[uj * {nx} + qj] -= h[1];",
@@ -489,7 +516,7 @@ def second_order_body(ctx, program, sym):
               f"{IND}        u[e] = x[{ctx.nq} + sp[e]];",
               f"{IND}        ud[e] = udot[sp[e]];",
               f"{IND}    }}",
-              f"{IND}    {ctx.name}_rnea_hess(an, u, ud, out);",
+              f"{IND}    if (!{ctx.name}_rnea_hess(an, u, ud, out)) return EOMC_OK;   /* finite by its bound (BOUND) */",
               f"{IND}}}",
               f"{IND}return {ctx.name}_h2_finite(out, {ctx.nu * ctx.nx * ctx.nx});"]
     return lines
