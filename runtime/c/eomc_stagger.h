@@ -23,6 +23,9 @@ typedef int (*eomc_dirs_fn)(double t, const double *x, const double *p, const do
 
 typedef struct eomc_stagger {
     int n_err;            /* > 0: states the error test sees (explicit methods) */
+    int n_fin;            /* > 0: derivatives the integrator checks for finiteness (explicit
+                             methods: the state part; the augmented rhs's jvp reports a
+                             non-finite S derivative itself, NAME_finite over its out) */
     int k;                /* Radau: sensitivity columns (0: none) */
     eomc_dirs_fn jvp;     /* Radau: the model's jvp */
     int ndir;             /* nx + nparam */
