@@ -1099,6 +1099,8 @@ static int run_erk(ctx *c, const erk *tb, const eomc_options *o, proj *pj,
                 g->rec_t[g->nrec] = t;
                 g->rec_t[g->nrec + 1] = tn;
                 memcpy(g->rec_x + (size_t)g->nrec * n, x, (size_t)n * sizeof(double));
+                if (g->rec_k)
+                    memcpy(g->rec_k + (size_t)g->nrec * tb->s * n, K, (size_t)tb->s * n * sizeof(double));
             }
             g->nrec++;
         }

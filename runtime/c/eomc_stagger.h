@@ -46,6 +46,7 @@ typedef struct eomc_stagger {
     long rec_cap;         /* > 0: record up to rec_cap accepted steps */
     double *rec_t;        /* rec_cap + 1: each accepted step's start time, then the end time */
     double *rec_x;        /* rec_cap x nx: each accepted step's start state */
+    double *rec_k;        /* NULL, or rec_cap x s x nx: each accepted step's s stage derivatives */
     long nrec;            /* out: accepted steps (also past rec_cap: the caller retries larger) */
 } eomc_stagger;
 
