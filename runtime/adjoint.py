@@ -17,7 +17,7 @@ recorded (start time and state: the checkpoints) and the discrete adjoint taken 
 those steps with their sizes held fixed (exact for that step sequence; central
 differences of whole adaptive runs approach it as the tolerance tightens).  The forward run stores
 every grid state (the checkpoints) and, up to :data:`KEEP_STAGES_MAX` doubles, every step's
-stage states; the backward run (runtime/c/eomc_adjoint.c) takes them (or recomputes a
+stage states (RK4) or stage derivatives (DOP853); the backward run (runtime/c/eomc_adjoint.c) takes them (or recomputes a
 step's stages from its checkpoint) and pulls the adjoint through them
 with the model's generated ``vjp`` (one reverse sweep of the rhs for all states and
 parameters at once).  Both runs are single C calls.  Inputs are constant over the run.
@@ -175,8 +175,10 @@ def _forward(model, a, keep_stages=False):
 
 
 def _forward_adaptive(model, a, rtol, atol):
-    """(grid states, rec_t, rec_x, nrec, boundary index of each grid time): the DOP853 run
-    with its steps ending on the grid, every accepted step's start recorded."""
+    """(grid states, rec_t, rec_x, rec_k, nrec, boundary index of each grid time): the DOP853
+    run with its steps ending on the grid, every accepted step's start recorded, and its 12
+    stage derivatives too while they fit in :data:`KEEP_STAGES_MAX` doubles (rec_k, else
+    None: the backward run then recomputes them, 12 rhs a step)."""
     from .integrators_api import METHOD_IDS
     from .simulate import PI_BETA
     ffi, lib = a["ffi"], a["lib"]
@@ -194,12 +196,14 @@ def _forward_adaptive(model, a, rtol, atol):
     cap = 16 * a["n"] + 1024
     while True:
         rec_t, rec_x = np.empty(cap + 1), np.empty((cap, model.nx))
+        rec_k = np.empty((cap, 12, model.nx)) if 12 * cap * model.nx <= KEEP_STAGES_MAX else None
         nrec, x_last = ffi.new("long *"), np.empty(model.nx)
         stats = ffi.new("eomc_stats *")
         status = lib.eomc_adjoint_erk_forward(model.c_model, opt, 0.0, float(t[-1]), buf(x0),
                                               buf(a["p"]), a["rptr"], tstop.size, buf(tstop), cap,
-                                              buf(rec_t), buf(rec_x), nrec, buf(x_last), stats,
-                                              buf(work), work.size)
+                                              buf(rec_t), buf(rec_x),
+                                              ffi.NULL if rec_k is None else buf(rec_k), nrec,
+                                              buf(x_last), stats, buf(work), work.size)
         if status:
             raise SimulationError(f"{model.name}: the DOP853 run failed at t = {stats.t:g}: "
                                   f"{STATUS_NAMES.get(status, status)}")
@@ -212,7 +216,7 @@ def _forward_adaptive(model, a, rtol, atol):
     if np.any(idx > n) or not np.array_equal(rec_t[idx], t):
         raise SimulationError(f"{model.name}: the DOP853 run did not step onto every grid time")
     X = np.vstack([rec_x[:n], x_last[None, :]])[idx]
-    return X, rec_t, rec_x[:n], n, idx
+    return X, rec_t, rec_x[:n], None if rec_k is None else rec_k[:n], n, idx
 
 
 
@@ -230,7 +234,7 @@ def _evaluate_cost(model, cost, t, X):
 
 def _gradient_adaptive(model, a, cost, rtol, atol):
     ffi, lib = a["ffi"], a["lib"]
-    X, rec_t, rec_x, n, idx = _forward_adaptive(model, a, rtol, atol)
+    X, rec_t, rec_x, rec_k, n, idx = _forward_adaptive(model, a, rtol, atol)
     value, G = _evaluate_cost(model, cost, a["t"], X)
     Gb = np.zeros((n + 1, model.nx))
     Gb[idx] = G
@@ -240,6 +244,7 @@ def _gradient_adaptive(model, a, cost, rtol, atol):
     rec_x = np.ascontiguousarray(rec_x)
     vjp = getattr(model.model_lib, f"{model.name}_vjp")
     status = lib.eomc_adjoint_erk_backward(model.c_model, vjp, n, buf(rec_t), buf(rec_x) if n else ffi.NULL,
+                                           buf(rec_k) if n and rec_k is not None else ffi.NULL,
                                            buf(a["p"]), a["rptr"], buf(Gb), buf(lam0), buf(gp), buf(work))
     if status:
         raise SimulationError(f"{model.name}: the adjoint (backward) run failed: "

@@ -131,8 +131,8 @@ int eomc_adjoint_rk4_backward(const eomc_model *m, eomc_vjp_fn vjp, double t0, d
 int eomc_adjoint_erk_forward(const eomc_model *m, const eomc_options *opt, double t0, double t1,
                              const double *x0, const double *p, const double *r, int ntstop,
                              const double *tstop, long rec_cap, double *rec_t, double *rec_x,
-                             long *nrec, double *x_last, eomc_stats *stats, double *work,
-                             size_t work_len)
+                             double *rec_k, long *nrec, double *x_last, eomc_stats *stats,
+                             double *work, size_t work_len)
 {
     eomc_stagger sg;
     int status;
@@ -141,7 +141,7 @@ int eomc_adjoint_erk_forward(const eomc_model *m, const eomc_options *opt, doubl
         return EOMC_BAD_ARGUMENT;
     memset(&sg, 0, sizeof sg);
     sg.ntstop = ntstop; sg.tstop = tstop;
-    sg.rec_cap = rec_cap; sg.rec_t = rec_t; sg.rec_x = rec_x;
+    sg.rec_cap = rec_cap; sg.rec_t = rec_t; sg.rec_x = rec_x; sg.rec_k = rec_k;
     status = eomc_integrate_sg(m, opt, t0, t1, x0, p, m->ninput > 0 ? 1 : 0, NULL, r, 0, NULL,
                                NULL, x_last, stats, work, work_len, &sg);
     *nrec = sg.nrec;
@@ -156,9 +156,9 @@ size_t eomc_adjoint_erk_work_size(int nx, int nparam)
 }
 
 int eomc_adjoint_erk_backward(const eomc_model *m, eomc_vjp_fn vjp, long nrec,
-                              const double *rec_t, const double *rec_x, const double *p,
-                              const double *r, const double *G, double *lam0, double *gp,
-                              double *work)
+                              const double *rec_t, const double *rec_x, const double *rec_k,
+                              const double *p, const double *r, const double *G, double *lam0,
+                              double *gp, double *work)
 {
     const double *A, *B, *C;
     int nx, np, as, i, j, l, status;
@@ -177,17 +177,21 @@ int eomc_adjoint_erk_backward(const eomc_model *m, eomc_vjp_fn vjp, long nrec,
         const double *x = rec_x + (size_t)n * nx;
         double t = rec_t[n], h = rec_t[n + 1] - rec_t[n];
         /* the stages as run_erk computed them: Y_s = x + h sum_{j<s} a_sj K_j (zeros skipped,
-         * j ascending), K_s = f(t + c_s h, Y_s) */
+         * j ascending), K_s = f(t + c_s h, Y_s) -- recorded by the forward run (the same
+         * numbers: no rhs call here; the vjp calls below are then the backward run's whole
+         * model cost), or recomputed */
+        const double *Ks = rec_k ? rec_k + (size_t)n * ERK_S * nx : K;
         for (int st = 0; st < ERK_S; st++) {
             double *y = Y + (size_t)st * nx;
             for (i = 0; i < nx; i++) {
                 double acc = 0.0;
                 for (j = 0; j < st; j++) {
                     double a = A[(size_t)st * as + j];
-                    if (a != 0.0) acc += a * K[(size_t)j * nx + i];
+                    if (a != 0.0) acc += a * Ks[(size_t)j * nx + i];
                 }
                 y[i] = st ? x[i] + h * acc : x[i];
             }
+            if (rec_k) continue;
             status = m->rhs(t + C[st] * h, y, p, r, K + (size_t)st * nx, mwork);
             if (status != EOMC_OK) return status;
         }
