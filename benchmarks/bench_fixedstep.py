@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from common import environment_header, kept_notes, pin_to_one_core, write_results  # noqa: E402
+from common import environment_header, pin_to_one_core, write_results  # noqa: E402
 
 MODELS = ("hopper", "walker2d", "ant", "humanoid")
 
@@ -316,8 +316,7 @@ def main():
     text = head + "\n" + (__doc__.split("\n\n", 2)[2]) + "\n\n" + "\n".join(table) + "\n"
     print("\n".join(table))
     if not args.no_write:
-        notes = kept_notes("fixedstep")
-        write_results("fixedstep", text + ("\n" + notes if notes else ""))
+        write_results("fixedstep", text, keep_notes=True)
 
 
 if __name__ == "__main__":

@@ -46,7 +46,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from common import environment_header, format_table, kept_notes, write_results  # noqa: E402
+from common import environment_header, format_table, write_results  # noqa: E402
 import bench_fixedstep as B  # noqa: E402
 
 MODELS = ("hopper", "ant", "humanoid", "go2", "g1")
@@ -273,8 +273,7 @@ def main():
     ) + "\n" + table + "\n"
     print(table)
     if not args.no_write:
-        notes = kept_notes("rollout_contacts")
-        write_results("rollout_contacts", text + ("\n" + notes if notes else ""))
+        write_results("rollout_contacts", text, keep_notes=True)
 
 
 if __name__ == "__main__":

@@ -342,18 +342,3 @@ def peer_versions(modules):
         except ImportError:
             out.append(f"{mod} not installed")
     return out
-
-
-def kept_notes(name, marker="## What the table says"):
-    """The hand-written notes of benchmarks/results/<name>.md: everything from the first line
-    starting with ``marker`` on ("" when there are none).  Why: the scripts rewrite their .md
-    whole, and the notes (what a run showed, by whom, when) are the results' history; a script
-    appends these after its new table so a re-run keeps them."""
-    md = RESULTS_DIR / f"{name}.md"
-    if not md.is_file():
-        return ""
-    lines = md.read_text().splitlines()
-    for k, line in enumerate(lines):
-        if line.startswith(marker):
-            return "\n".join(lines[k:]) + "\n"
-    return ""
