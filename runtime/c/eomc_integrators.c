@@ -1673,9 +1673,14 @@ static int run_radau(ctx *c, const eomc_options *o, proj *pj, double t0, double 
     else if ((s = initial_step(c, t0, t1, x, f, 3, o->rtol, o->atol, hmax, w.tmp, w.fnew, &h)))
         return s;
     while (t < t1) {
-        double tn = t, hused;
+        double tn = t, hused, tend = t1;
         if (h > hmax) { h = hmax; rs.h_acc = -1.0; }
-        if ((s = radau_step(c, &k, &w, &rs, o, rtol, atol, t, t1, x, f, &h, have_sol, hprev,
+        if (c->sg && c->sg->ntstop) {              /* the adjoint's grid: end on each time */
+            const eomc_stagger *g = c->sg;
+            while (c->istop < g->ntstop && g->tstop[c->istop] <= t) c->istop++;
+            if (c->istop < g->ntstop && g->tstop[c->istop] < t1) tend = g->tstop[c->istop];
+        }
+        if ((s = radau_step(c, &k, &w, &rs, o, rtol, atol, t, tend, x, f, &h, have_sol, hprev,
                             tprev, &lu_ok, &cur_jac, &tn)))
             return s;
         hused = tn - t;
@@ -1709,6 +1714,16 @@ static int run_radau(ctx *c, const eomc_options *o, proj *pj, double t0, double 
             sw_keep(c);
         }
         c->st->accepted++;
+        if (c->sg && c->sg->rec_cap > 0) {         /* the adjoint's checkpoint: start, Z */
+            eomc_stagger *g = c->sg;
+            if (g->nrec < g->rec_cap) {
+                g->rec_t[g->nrec] = t;
+                g->rec_t[g->nrec + 1] = tn;
+                memcpy(g->rec_x + (size_t)g->nrec * n, x, (size_t)n * sizeof(double));
+                if (g->rec_k) memcpy(g->rec_k + (size_t)g->nrec * 3 * n, w.Z, 3 * (size_t)n * sizeof(double));
+            }
+            g->nrec++;
+        }
         if (c->sg && c->sg->k > 0 && (s = radau_sens_step(c, &k, &w, &g, t, hused, x, rtol, atol,
                                           fmax(RADAU_SG_FNEWT, fmin(RADAU_FNEWT, sqrt(rtol))))))
             { c->st->t = t; return s; }
@@ -2449,8 +2464,10 @@ static int check_stagger(const eomc_model *m, const eomc_options *o, const eomc_
     if (sg->n_err < 0 || sg->n_err > m->nx || sg->n_fin < 0 || sg->n_fin > m->nx || sg->k < 0)
         return EOMC_BAD_ARGUMENT;
     if ((sg->ntstop > 0 || sg->rec_cap > 0)
-        && (sg->k > 0 || (o->method != EOMC_DOPRI5 && o->method != EOMC_DOP853)
-            || (sg->ntstop > 0 && !sg->tstop) || (sg->rec_cap > 0 && (!sg->rec_t || !sg->rec_x))))
+        && (sg->k > 0 || (o->method != EOMC_DOPRI5 && o->method != EOMC_DOP853
+                          && o->method != EOMC_RADAU5)
+            || (sg->ntstop > 0 && !sg->tstop) || (sg->rec_cap > 0 && (!sg->rec_t || !sg->rec_x))
+            || (o->method == EOMC_RADAU5 && sg->rec_cap > 0 && !sg->rec_k)))
         return EOMC_BAD_ARGUMENT;
     if (sg->k > 0 && (o->method != EOMC_RADAU5 || !sg->jvp || !sg->D || !sg->S
                       || sg->ndir < m->nx || (n_eval > 0 && !sg->S_out)))
