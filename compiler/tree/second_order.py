@@ -253,40 +253,33 @@ def second_order_c(name, plan, nq, nx, helpers):
         "                for (c = 0; c < 3; c++) Bm[6 * k + c] = dYb[3 * k + c];",
         "            Bm[19] = 2.0 * dYb[11]; Bm[20] = -2.0 * dYb[10]; Bm[24] = -2.0 * dYb[11];",
         "            Bm[26] = 2.0 * dYb[9]; Bm[30] = 2.0 * dYb[10]; Bm[31] = -2.0 * dYb[9];",
-        "            /* Ma = S x* Ym, Mb = psi' x* Ym, Mc = S x* Bm (columns), R3 += (S x* Bm^T)^T */",
+        "            /* Ma = S x* Ym, Mb = psi' x* Ym, Mc = S x* Bm, stored transposed (row k: column k; Ym is",
+        "               symmetric, so its column k is its row k) */",
         "            for (k = 0; k < 6; k++) {",
-        "                double y[6], z[6];",
-        "                for (c = 0; c < 6; c++) y[c] = Ym[6 * c + k];",
-        f"                {rd}_crossf(S, y, z);",
-        "                for (c = 0; c < 6; c++) Ma[6 * c + k] = z[c];",
-        f"                {rd}_crossf(ps, y, z);",
-        "                for (c = 0; c < 6; c++) Mb[6 * c + k] = z[c];",
+        f"                {rd}_crossf(S, Ym + 6 * k, Ma + 6 * k);",
+        f"                {rd}_crossf(ps, Ym + 6 * k, Mb + 6 * k);",
         "                if (k < 3) {   /* Bm's last three columns are zero, and so are Mc's */",
+        "                    double y[6];",
         "                    for (c = 0; c < 6; c++) y[c] = Bm[6 * c + k];",
-        f"                    {rd}_crossf(S, y, z);",
+        f"                    {rd}_crossf(S, y, Mc + 6 * k);",
         "                } else {",
-        "                    for (c = 0; c < 6; c++) z[c] = 0.0;",
+        "                    for (c = 0; c < 6; c++) Mc[6 * k + c] = 0.0;",
         "                }",
-        "                for (c = 0; c < 6; c++) Mc[6 * c + k] = z[c];",
         "            }",
         f"            {rd}_ymul(Yb, S, ys);",
         f"            {rd}_ymul(Yb, ps, yp);",
         f"            {rd}_dmult(dYb, S, bs);",
         "            /* R1 = variation of Ym along S (symmetric), R3 = along psi' + (. x* Ym psi') + S x* Bm - Bm (S x) */",
         "            for (k = 0; k < 6; k++) {",
-        "                double y[6], z[6];",
-        "                for (c = 0; c < 6; c++) y[c] = Bm[6 * k + c];   /* row k of Bm */",
-        f"                {rd}_crossf(S, y, z);   /* column k of S x* Bm^T: row k of -Bm (S x) */",
+        "                double z[6];",
+        f"                {rd}_crossf(S, Bm + 6 * k, z);   /* row k of Bm -> column k of S x* Bm^T: row k of -Bm (S x) */",
         "                for (c = 0; c < 6; c++) {",
-        "                    R1[6 * k + c] = Ma[6 * k + c] + Ma[6 * c + k];",
-        "                    R3[6 * k + c] = Mb[6 * k + c] + Mb[6 * c + k] + Mc[6 * k + c] + z[c];",
+        "                    R1[6 * k + c] = Ma[6 * c + k] + Ma[6 * k + c];",
+        "                    R3[6 * k + c] = Mb[6 * c + k] + Mb[6 * k + c] + Mc[6 * c + k] + z[c];",
         "                }",
         "            }",
-        "            for (k = 0; k < 6; k++) {   /* R3 += (. x* yp), column by column */",
-        "                for (c = 0; c < 6; c++) x[c] = c == k ? 1.0 : 0.0;",
-        f"                {rd}_crossf(x, yp, t);",
-        "                for (c = 0; c < 6; c++) R3[6 * c + k] += t[c];",
-        "            }",
+        "            /* R3 += (. x* yp): its 18 nonzero entries (column k is e_k x* yp) */",
+        *_yp_lines(),
         "            /* g5 = Bm psi' + S x* F + Ym psi'', g7 = Bm S + Ym (psi' + phi') */",
         f"            {rd}_dmul(dYb, ps, g5);",
         f"            {rd}_crossf(S, fb, t);",
@@ -397,6 +390,15 @@ def _lanes_cfg(plan):
               c_table("pG", base or (0,)), c_table("pn", [len(p) for p in ps] or (0,)),
               c_table("p0", starts or (0,)), c_table("pd", [e for p in ps for e in p] or (0,))]
     return tables, max(b, 1), max(lens or [LANES]), len(ps)
+
+
+def _yp_lines():
+    """C: R3 += the matrix of x -> x x* yp, entry by entry (rd_crossf(e_k, yp)'s nonzero terms:
+    the scalar loop over unit vectors spent its time on products by 0 and 1)."""
+    terms = [(0, 1, "+", 2), (0, 2, "-", 1), (0, 4, "+", 5), (0, 5, "-", 4), (1, 0, "-", 2), (1, 2, "+", 0),
+             (1, 3, "-", 5), (1, 5, "+", 3), (2, 0, "+", 1), (2, 1, "-", 0), (2, 3, "+", 4), (2, 4, "-", 3),
+             (3, 1, "+", 5), (3, 2, "-", 4), (4, 0, "-", 5), (4, 2, "+", 3), (5, 0, "+", 4), (5, 1, "-", 3)]
+    return [f"            R3[{6 * r + k}] {sg}= yp[{f}];" for r, k, sg, f in terms]
 
 
 def _lanes_macro(name):
