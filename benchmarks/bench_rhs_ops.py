@@ -20,7 +20,8 @@ off``, rhs only, the recursive formulation) two counts and one timing:
    the ABA rhs at 50 random states, and the time of both C libraries in one harness
    (bench_urdf's driver, thread CPU time, pinned to one core, interleaved, medians).
 
-3. **ABA with axis-point origins** (:class:`AxisOrigins`): each revolute body's origin moved
+3. **ABA with axis-point origins** (:class:`AxisOrigins`; ``axis+cb``: its bias forces v×*Iv
+   computed at the mass centre and shifted, ``com_bias=True``): each revolute body's origin moved
    from its mass centre (eomc's convention) to the nearest point of its joint axis, so S = [a; 0]
    (U a column of Iᴬ, D an entry, c sparser), paid for by a full rigid-body inertia about the new
    origin computed from the runtime mass-centre parameters: Featherstone's joint-frame
@@ -115,12 +116,24 @@ def crba_ltdl(bodies, rec, speeds, gravity, v, c, keep=None):
 def cross(a, b):
     return [a[1]*b[2]-a[2]*b[1], a[2]*b[0]-a[0]*b[2], a[0]*b[1]-a[1]*b[0]]
 
+
+class _Bias(list):
+    """I v of a body moved off its mass centre, with what its bias force needs (see AxisOrigins)."""
+
+
 class AxisOrigins:
     """ABA with each one-speed body whose axis is a unit rotation (a revolute joint) moved from its
     mass centre to the nearest point of its joint axis: S = [a; 0], r(q) = r - Eᵀd + d_parent,
     I about the new origin (Ic - m d×d×, m d×; -m d×, m 1), body loads' moments shifted by d × f.
     Featherstone's joint-frame convention, which his minimal ABA counts assume; the free joint's
-    root stays at its mass centre.  Patches the lowering for the length of a ``with``."""
+    root stays at its mass centre.  Patches the lowering for the length of a ``with``.
+
+    ``com_bias``: ABA's bias force v×*(I v) of a moved body computed at its mass centre and
+    shifted to the new origin (v_c = v + ω×d; [ω×Ic ω; m ω×v_c]; n += d×f), instead of with the
+    full rigid-body inertia about the new origin."""
+    def __init__(self, com_bias=False):
+        self.com_bias = com_bias
+
     def __enter__(self):
         import eomc.compiler.tree.lower as L
         self.L = L
@@ -151,8 +164,34 @@ class AxisOrigins:
                         b.I[i][j] = rec.let(sm.expand(inertia[i, j] - m * hh[i][j]))
                         b.I[i][j + 3] = rec.let(sm.expand(m * hx[i][j]))
                         b.I[j + 3][i] = b.I[i][j + 3]
+                self.bias[id(b.I)] = (d, m, [[inertia[i, j] for j in range(3)] for i in range(3)])
             return b
         L.LoweredBody = make
+        self.bias = {}
+        if self.com_bias:
+            import eomc.compiler.tree.aba as A
+            from eomc.compiler.tree.construct import _add, _mul
+            from eomc.compiler.tree.spatial import _cross
+            self.A, self.times, self.cross_force = A, A._times, A.cross_force
+            times, cross_force = A._times, A.cross_force
+
+            def times_(I, v):
+                out = times(I, v)
+                if id(I) in self.bias:
+                    out = _Bias(out)
+                    out.com = self.bias[id(I)]
+                return out
+
+            def cross_force_(v, f):
+                if not isinstance(f, _Bias):
+                    return cross_force(v, f)
+                d, m, Ic = f.com
+                w = v[:3]
+                vc = [_add((v[3 + k], x)) for k, x in enumerate(_cross(w, d))]
+                n = _cross(w, [_add([_mul(Ic[i][k], w[k]) for k in range(3)]) for i in range(3)])
+                fl = [_mul(m, x) for x in _cross(w, vc)]
+                return [_add((n[k], x)) for k, x in enumerate(_cross(d, fl))] + fl
+            A._times, A.cross_force = times_, cross_force_
         def lowered(tree, layout, rec):
             shift.clear()
             bodies, g = self.lb(tree, layout, rec)
@@ -166,6 +205,8 @@ class AxisOrigins:
         return self
     def __exit__(self, *e):
         self.L.LoweredBody, self.L._lowered_bodies = self.LB, self.lb
+        if self.com_bias:
+            self.A._times, self.A.cross_force = self.times, self.cross_force
 
 
 class Phases:
@@ -239,7 +280,7 @@ def build(name, kind, tmp):
     from eomc.compiler.urdf.model import UrdfModel
     from helpers.robots import robot_path
     with Phases("ltdl" if kind == "ltdl" else "aba") as ph, (
-            AxisOrigins() if kind == "axis" else contextlib.nullcontext()):
+            AxisOrigins(com_bias=kind == "axis2") if kind in ("axis", "axis2") else contextlib.nullcontext()):
         m = eomc.compile(UrdfModel(robot_path(ROBOTS[name]), floating_base="quaternion", limits=False),
                          f"{name}_{kind}", functions=["rhs"], cache_dir=tmp / f"cache_{kind}",
                          output_dir=tmp / f"out_{name}_{kind}", progress=False, formulation="recursive")
@@ -259,7 +300,7 @@ ABA_PHASES = ("pre", "velocities", "backward", "inertia to parent", "root 6x6", 
 LTDL_PHASES = ("pre", "velocities", "inertia to parent", "CRBA columns", "RNEA bias", "LTDL factor and solve")
 
 
-KINDS = ("aba", "ltdl", "axis")
+KINDS = ("aba", "ltdl", "axis", "axis2")
 
 
 def main(names):
@@ -284,7 +325,7 @@ def main(names):
         samples = {k: [] for k in cmds}
         for rep in range(REPEAT):
             for name in names:
-                for kind in KINDS[rep % 3:] + KINDS[:rep % 3]:
+                for kind in KINDS[rep % len(KINDS):] + KINDS[:rep % len(KINDS)]:
                     samples[name, kind].append(_timed(cmds[name, kind])[0])
             print(f"repeat {rep + 1}/{REPEAT}", flush=True)
     for name in names:
@@ -293,19 +334,21 @@ def main(names):
         ops = {k: sum(int(v) for v in built[k][0].metadata["op_counts"]["rhs"].values()) for k in KINDS}
         med = {k: float(np.median(samples[name, k])) for k in KINDS}
         ratio = {k: float(np.median(np.array(samples[name, k]) / np.array(samples[name, "aba"]))) for k in KINDS[1:]}
-        rows.append([name, ma.nu, ops["aba"], ops["ltdl"], ops["axis"], f"{ops['ltdl'] / ops['aba']:.3f}",
-                     f"{ops['axis'] / ops['aba']:.3f}", round(med["aba"]), round(med["ltdl"]), round(med["axis"]),
-                     f"{ratio['ltdl']:.3f}", f"{ratio['axis']:.3f}", f"{med['aba'] / ops['aba']:.3f}",
-                     f"{err['ltdl']:.1e} / {err['axis']:.1e}"])
+        rows.append([name, ma.nu, ops["aba"]] + [ops[k] for k in KINDS[1:]]
+                    + [f"{ops[k] / ops['aba']:.3f}" for k in KINDS[1:]] + [round(med[k]) for k in KINDS]
+                    + [f"{ratio[k]:.3f}" for k in KINDS[1:]] + [f"{med['aba'] / ops['aba']:.3f}",
+                                                               " / ".join(f"{err[k]:.1e}" for k in KINDS[1:])])
         nb = ma.nu - 5          # moving bodies: the free joint's root and one per one-speed joint
         for kind, label, phases in (("aba", "ABA", ABA_PHASES), ("ltdl", "CRBA+LTDL", LTDL_PHASES),
-                                    ("axis", "ABA, axis-point origins", ABA_PHASES)):
+                                    ("axis", "ABA, axis-point origins", ABA_PHASES),
+                                    ("axis2", "ABA, axis-point, bias at mass centre", ABA_PHASES)):
             c = built[kind][1]
             phase_rows.append([name, label] + [f"{c.get(p, 0)} ({c.get(p, 0) / nb:.0f})" for p in phases]
                               + [f"{sum(c.values())} ({sum(c.values()) / nb:.0f})"])
-    headers = ["robot", "nu", "rhs ops ABA", "ops CRBA+LTDL", "ops ABA axis-point", "ops LTDL / ABA",
-               "ops axis / ABA", "ABA [ns]", "CRBA+LTDL [ns]", "ABA axis-point [ns]", "time LTDL / ABA",
-               "time axis / ABA", "ABA ns per op", "max rel. diff of xdot from ABA (50 states): LTDL / axis"]
+    headers = ["robot", "nu", "rhs ops ABA", "ops LTDL", "ops axis", "ops axis+cb", "ops LTDL / ABA",
+               "ops axis / ABA", "ops axis+cb / ABA", "ABA [ns]", "LTDL [ns]", "axis [ns]", "axis+cb [ns]",
+               "time LTDL / ABA", "time axis / ABA", "time axis+cb / ABA", "ABA ns per op",
+               "max rel. diff of xdot from ABA (50 states): LTDL / axis / axis+cb"]
     table = format_table(headers, rows)
     pheads = ["robot", "form", "phase 1: pre", "2: velocities", "3: backward / inertia to parent",
               "4: inertia to parent / CRBA columns", "5: root 6x6 / RNEA bias", "6: forward / LTDL", "sum"]
@@ -325,7 +368,9 @@ def main(names):
                      "eomc's lowering (crba_ltdl and AxisOrigins in this script)",
                      "rhs ops: adds + multiplies + divides + calls of NAME_rhs as eomc counts them (final, after "
                      "the optimising passes)"])
-    doc = ("\nPhase counts: the recursion's named temporaries before the optimising passes (they sum a "
+    doc = ("\nLTDL: CRBA + RNEA + tree-sparse LTDL; axis: ABA with axis-point origins; axis+cb: the same "
+           "with each moved body's bias force computed at its mass centre and shifted (AxisOrigins(com_bias=True)).\n"
+           "\nPhase counts: the recursion's named temporaries before the optimising passes (they sum a "
            "little above the final count), by the phase that named them; in parentheses per moving body "
            "(nu - 5: the free joint's root and one body per one-speed joint).  Columns 3-6 name the ABA "
            "phase first, then the CRBA+LTDL one.  ABA: pre = E(q), r(q), sin/cos, quaternion rotation, "
