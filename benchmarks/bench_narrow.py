@@ -4,8 +4,8 @@ Per model with body–body pairs (gymnasium's humanoid with its self-collisions,
 dm_control's finger, manipulator, quadruped, stacker with no flags):
 
 - build: a fresh Python process runs ``eomc.compile`` with the default functions into an empty
-  cache, once with the schemes inlined (``pairs.INLINE_NARROW = True``: what the generated code
-  was) and once with the routines (compiler/contact/narrow.py, the default now); CPU seconds of
+  cache, once with the schemes inlined (``pairs.INLINE_NARROW = True``: the default) and once
+  with the routines (compiler/contact/narrow.py, ``INLINE_NARROW = False``); CPU seconds of
   the child and its compiler (user + sys), and the C file's size;
 - rhs and jac_x: ns per call over the same NSTATES states (the model's initial state with random
   speeds and small random coordinate offsets), thread CPU time of ``rhs_many`` (one call per
