@@ -10,8 +10,8 @@ against a reference run with other inertial parameters, on a 0.05 s grid.
 Contestants (thread CPU time, one core, interleaved, medians of --repeat):
 - one simulation: ``model.simulate(method="dop853", t_eval=grid)`` at the same tolerance;
 - the adjoint: ``eomc.gradient(..., method="dop853")`` -- the forward run (steps ending on the
-  grid, accepted steps recorded) and the backward run in C with vjp, for x0 and all
-  parameters at once;
+  grid, accepted steps and their stage derivatives recorded) and the backward run in C with
+  vjp (12 calls a step, no rhs), for x0 and all parameters at once;
 - central differences of whole adaptive runs, 2 runs per parameter, timed on --fd parameters
   and scaled to all of them (the column says so); their values check the adjoint's.
 Goal (issue 30): the gradient with respect to all inertial parameters of G1 <= 5x one simulation.

@@ -201,11 +201,32 @@ def environment_header(title, args=None, notes=()):
     return "\n".join(lines)
 
 
-def write_results(name, text, csv_rows=None, csv_headers=None):
-    """Write benchmarks/results/<name>.md (and .csv when rows are given); return the paths."""
+NOTES_HEADING = "## Hand-written notes (kept when the script rewrites this file)"
+
+
+def kept_notes(path):
+    """The hand-written part of a results file: from its NOTES_HEADING line to the end ("" when
+    it has none).  Why: a script that rewrites its .md whole erased the notes written under its
+    table by hand (analyses, before/after comparisons) on every re-run."""
+    if not path.is_file():
+        return ""
+    lines = path.read_text().splitlines(keepends=True)
+    for k, line in enumerate(lines):
+        if line.rstrip("\n") == NOTES_HEADING:
+            return "".join(lines[k:])
+    return ""
+
+
+def write_results(name, text, csv_rows=None, csv_headers=None, keep_notes=False):
+    """Write benchmarks/results/<name>.md (and .csv when rows are given); return the paths.
+
+    ``keep_notes``: the old file's hand-written section (:func:`kept_notes`) is appended to
+    the new text, so re-running the script keeps it."""
     RESULTS_DIR.mkdir(parents=True, exist_ok=True)
     md = RESULTS_DIR / f"{name}.md"
-    md.write_text(text if text.endswith("\n") else text + "\n")
+    text = text if text.endswith("\n") else text + "\n"
+    notes = kept_notes(md) if keep_notes else ""
+    md.write_text(text + ("\n" + notes if notes else ""))
     paths = [md]
     if csv_rows is not None:
         import csv
@@ -265,9 +286,10 @@ def work_precision_figure(panels, path, panel_width=6.5):
     plt.close(fig)
 
 
-def compile_pinocchio(source, obj, extra_includes=()):
+def compile_pinocchio(source, obj, extra_includes=(), flags=()):
     """Compile a C++ harness ``source`` against Pinocchio header-only (the `pin` and
-    `cmeel-eigen` wheels' headers) into ``obj``; returns ``obj``, or None (with the
+    `cmeel-eigen` wheels' headers) into ``obj``, with g++ -O2 and ``flags`` (e.g. -mavx2, to
+    match the eomc build it is timed against); returns ``obj``, or None (with the
     compiler's message printed) when the wheels are missing or it does not compile."""
     import subprocess
     try:
@@ -279,7 +301,7 @@ def compile_pinocchio(source, obj, extra_includes=()):
     defs = ["-DBOOST_MPL_LIMIT_LIST_SIZE=30", "-DBOOST_MPL_LIMIT_VECTOR_SIZE=30",
             "-DBOOST_MPL_CFG_NO_PREPROCESSED_HEADERS", "-DBOOST_FUSION_INVOKE_MAX_ARITY=12"]
     includes = [f"-I{d}" for d in extra_includes] + [f"-I{inc}", f"-I{inc / 'eigen3'}"]
-    proc = subprocess.run(["g++", "-O2", "-std=c++17", *defs, "-DNDEBUG", "-c", str(source),
+    proc = subprocess.run(["g++", "-O2", *flags, "-std=c++17", *defs, "-DNDEBUG", "-c", str(source),
                            "-o", str(obj), *includes], capture_output=True, text=True)
     if proc.returncode:
         print(f"Pinocchio harness {Path(source).name} did not compile:", proc.stderr[-500:])
