@@ -16,7 +16,8 @@
  * re-interpolated onto a new grid when the step changes (change_D); order and step change
  * only after order + 1 steps of one size, unless a step fails.  Newton uses the model's
  * analytic Jacobian: J is evaluated again only when Newton fails to converge with an older
- * one, and the LU of I - c J is kept while c = h / alpha_k stays within 30 % of the c it
+ * one (at the step's predicted state) or with a fresh one taken at the wrong place
+ * (RELINEARISE below), and the LU of I - c J is kept while c = h / alpha_k stays within 30 % of the c it
  * was factored for (as CVODE does), the correction scaled by 2 / (1 + c / c_lu) meanwhile.
  * Our own code; the constants are the published ones.
  */
