@@ -52,7 +52,7 @@ from dataclasses import dataclass
 import sympy as sm
 
 __all__ = ["AnalyticPlan", "analytic_plan", "kernel_c", "ANX", "analytic_ops", "c_table", "world_axis_lines",
-           "WORLD_INERTIA_LINES", "world_load_lines", "rd_helpers", "VARIATION_LINES", "tree_tables", "PLACE_FROM_PARENT_LINES", "body_head_lines", "YMUL_LINES", "DOT6_LINE"]
+           "WORLD_INERTIA_LINES", "world_load_lines", "rd_helpers", "VARIATION_LINES", "tree_tables", "PLACE_FROM_PARENT_LINES", "ARTICULATED_START_LINES", "body_head_lines", "YMUL_LINES", "DOT6_LINE"]
 
 ANX = "anx"      # the result group of the kernel's inputs
 
@@ -434,6 +434,23 @@ WORLD_INERTIA_LINES = [
 ]
 
 
+# C, inside a loop over bodies b (one block deeper): the body's own 6x6 inertia IA_b =
+# [[I_O, [c]x], [[c]x^T, m 1]] from its world inertia Yb and I_O (IO, both triangles), where the
+# articulated-body factorization starts (the derivative kernel's, and NAME_msolve's,
+# :mod:`.input_jacobian`)
+ARTICULATED_START_LINES = [
+    "            double *Ib = IA + 36 * b;",
+    "            for (i = 0; i < 3; i++)",
+    "                for (j = 0; j < 3; j++) {",
+    "                    Ib[6 * i + j] = IO[3 * i + j];",
+    "                    Ib[6 * (i + 3) + j + 3] = i == j ? m : 0.0;",
+    "                }",
+    "            Ib[3] = Ib[18] = 0.0; Ib[4] = Ib[24] = -Yb[3]; Ib[5] = Ib[30] = Yb[2];",
+    "            Ib[9] = Ib[19] = Yb[3]; Ib[10] = Ib[25] = 0.0; Ib[11] = Ib[31] = -Yb[1];",
+    "            Ib[15] = Ib[20] = -Yb[2]; Ib[16] = Ib[26] = Yb[1]; Ib[17] = Ib[32] = 0.0;",
+]
+
+
 # C, inside a loop over bodies b: the body's inertia variation dY (12 numbers, see
 # :func:`kernel_c`) from its world inertia Yb, I_O (IO), velocity vb and momentum hm
 # (shared by the first- and second-order kernels, :mod:`.second_order`)
@@ -607,15 +624,7 @@ def kernel_c(name, plan, nq, solve=False):
         "        IO[1] = IO[3] = Yb[7]; IO[2] = IO[6] = Yb[8]; IO[5] = IO[7] = Yb[9];",
     ] + ([
         "        if (msolve) {   /* the body's own 6x6 inertia [[I_O, [c]x], [[c]x^T, m 1]], the articulated start */",
-        "            double *Ib = IA + 36 * b;",
-        "            for (i = 0; i < 3; i++)",
-        "                for (j = 0; j < 3; j++) {",
-        "                    Ib[6 * i + j] = IO[3 * i + j];",
-        "                    Ib[6 * (i + 3) + j + 3] = i == j ? m : 0.0;",
-        "                }",
-        "            Ib[3] = Ib[18] = 0.0; Ib[4] = Ib[24] = -Yb[3]; Ib[5] = Ib[30] = Yb[2];",
-        "            Ib[9] = Ib[19] = Yb[3]; Ib[10] = Ib[25] = 0.0; Ib[11] = Ib[31] = -Yb[1];",
-        "            Ib[15] = Ib[20] = -Yb[2]; Ib[16] = Ib[26] = Yb[1]; Ib[17] = Ib[32] = 0.0;",
+        *ARTICULATED_START_LINES,
         "        }",
     ] if aba else []) + [
         "        /* momentum h, force f = Y a + v x* h - load */",
