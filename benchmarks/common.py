@@ -265,10 +265,11 @@ def work_precision_figure(panels, path, panel_width=6.5):
     plt.close(fig)
 
 
-def compile_pinocchio(source, obj, extra_includes=()):
+def compile_pinocchio(source, obj, extra_includes=(), flags=()):
     """Compile a C++ harness ``source`` against Pinocchio header-only (the `pin` and
     `cmeel-eigen` wheels' headers) into ``obj``; returns ``obj``, or None (with the
-    compiler's message printed) when the wheels are missing or it does not compile."""
+    compiler's message printed) when the wheels are missing or it does not compile.  ``flags``:
+    added after -O2 (a harness comparing machine builds gives both contestants the same)."""
     import subprocess
     try:
         import pinocchio  # noqa: F401
@@ -279,7 +280,7 @@ def compile_pinocchio(source, obj, extra_includes=()):
     defs = ["-DBOOST_MPL_LIMIT_LIST_SIZE=30", "-DBOOST_MPL_LIMIT_VECTOR_SIZE=30",
             "-DBOOST_MPL_CFG_NO_PREPROCESSED_HEADERS", "-DBOOST_FUSION_INVOKE_MAX_ARITY=12"]
     includes = [f"-I{d}" for d in extra_includes] + [f"-I{inc}", f"-I{inc / 'eigen3'}"]
-    proc = subprocess.run(["g++", "-O2", "-std=c++17", *defs, "-DNDEBUG", "-c", str(source),
+    proc = subprocess.run(["g++", "-O2", *flags, "-std=c++17", *defs, "-DNDEBUG", "-c", str(source),
                            "-o", str(obj), *includes], capture_output=True, text=True)
     if proc.returncode:
         print(f"Pinocchio harness {Path(source).name} did not compile:", proc.stderr[-500:])

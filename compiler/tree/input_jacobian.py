@@ -14,10 +14,12 @@ summed towards the root: no matrix stored, O(n) memory), then solves each column
 backward and one forward sweep (a loop over the columns calling the same code).
 
 So jac_r is a few lines: its coordinate rows and B's entries stored (zero runs as loops), the
-inputs, one call.  Used when the tree has the analytic plan (jac_x or jac_id or the loop
-kernel asked it), the inputs act through joint torques (direct columns), no ground contacts
-(their jac_x keeps its own guarded inputs) and no extra first-order states; elsewhere
-jac_r keeps the straight-line path (:mod:`.emit`).  Checked against that path to ~1e-12
+inputs, one call.  B's entries are the direct columns where the inputs act through joint
+torques, else the residual's derivative along each input (the derivative pass: a force on a
+body of a SymPy system, as the n-link cart's; there the residual is still built, but only B
+is printed).  Used when the tree has the analytic plan (jac_x or jac_id or the loop kernel
+asked it), no ground contacts (their jac_x keeps its own guarded inputs) and no extra
+first-order states; elsewhere jac_r keeps the straight-line path (:mod:`.emit`).  Checked against that path to ~1e-12
 (tests/compiler/tree/test_input_columns.py)."""
 import sympy as sm
 
@@ -30,10 +32,9 @@ __all__ = ["uses_input_solve", "msolve_c", "input_jacobian_body", "input_jacobia
 INPUT_SOLVE_GROUPS = ("dkin_r", "dres_r", "dzd_r", ANX)
 
 
-def uses_input_solve(plan, functions, direct, nx, nq, nu):
+def uses_input_solve(plan, functions, nx, nq, nu):
     """Does jac_r solve through NAME_msolve (see the module doc)?"""
-    return (plan is not None and "jac_r" in functions and direct is not None and not plan.contacts
-            and nx == nq + nu)
+    return plan is not None and "jac_r" in functions and not plan.contacts and nx == nq + nu
 
 
 def msolve_c(name, plan):

@@ -240,10 +240,10 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         direct = None
         if "jac_r" in functions and loops is None and jac:
             direct = _input_columns(tree, layout)
-        # jac_r's M⁻¹ through NAME_msolve (.input_jacobian): no residual for it either
-        input_solve = uses_input_solve(analytic, functions, direct, len(layout.x), nq, nu)
-        # the analytic jac_x needs no residual, nor jac_r solved by NAME_msolve
-        if jac - ({"jac_x"} if analytic is not None else set()) - ({"jac_r"} if input_solve else set()):
+        # jac_r's M⁻¹ through NAME_msolve (.input_jacobian)
+        input_solve = uses_input_solve(analytic, functions, len(layout.x), nq, nu)
+        # the analytic jac_x needs no residual, nor jac_r solved by NAME_msolve on direct columns
+        if jac - ({"jac_x"} if analytic is not None else set()) - ({"jac_r"} if input_solve and direct else set()):
             W = tuple(sm.Symbol(f"w_{j}", real=True) for j in range(nu))
             tau_w = rnea(bodies, rec, W, gravity, v, c)
             if loops is None:
