@@ -10,11 +10,14 @@ against a reference run with other inertial parameters, on a 0.05 s grid.
 Contestants (thread CPU time, one core, interleaved, medians of --repeat):
 - one simulation: ``model.simulate(method="dop853", t_eval=grid)`` at the same tolerance;
 - the adjoint: ``eomc.gradient(..., method="dop853")`` -- the forward run (steps ending on the
-  grid, accepted steps recorded) and the backward run in C with vjp, for x0 and all
-  parameters at once;
+  grid, accepted steps and their stage derivatives recorded) and the backward run in C with
+  vjp (12 calls a step, no rhs), for x0 and all parameters at once;
 - central differences of whole adaptive runs, 2 runs per parameter, timed on --fd parameters
   and scaled to all of them (the column says so); their values check the adjoint's.
 Goal (issue 30): the gradient with respect to all inertial parameters of G1 <= 5x one simulation.
+``--method radau``: the same with Radau IIA (the model then also built with jac_x; the backward
+run solves each step's transposed collocation system densely, 3nx unknowns), written to
+adjoint_adaptive_<robot>_radau.md.
 """
 import sys
 import time
@@ -35,7 +38,7 @@ INERTIAL = ("m_", "cx_", "cy_", "cz_", "Ixx_", "Iyy_", "Izz_", "Ixy_", "Ixz_", "
 T, DT = 1.0, 0.05
 
 
-def build(case, cache):
+def build(case, cache, method="dop853"):
     import eomc
     from eomc.compiler.urdf import from_urdf
     from helpers.robots import robot_path
@@ -43,7 +46,9 @@ def build(case, cache):
     system = from_urdf(robot_path(rel), floating_base=floating, limits=False)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        return eomc.compile(system, case, functions=["rhs", "vjp"], formulation="recursive",
+        functions = ["rhs", "jac_x", "vjp"] if method == "radau" else ["rhs", "vjp"]
+        return eomc.compile(system, case + ("_jx" if method == "radau" else ""), functions=functions,
+                            formulation="recursive",
                             cache_dir=cache, progress=False)
 
 
@@ -52,11 +57,13 @@ def main(argv=None):
                       extra=lambda p: (p.add_argument("--robot", default="g1"),
                                        p.add_argument("--tol", type=float, default=1e-8),
                                        p.add_argument("--fd", type=int, default=6),
-                                       p.add_argument("--cache", default=None)))
+                                       p.add_argument("--cache", default=None),
+                                       p.add_argument("--method", default="dop853",
+                                                      choices=["dop853", "radau"])))
     import eomc
     from eomc.runtime.adjoint import simulate_grid
     pin_to_one_core()
-    model = build(args.robot, args.cache)
+    model = build(args.robot, args.cache, args.method)
     rng = np.random.default_rng(0)
     nq, nu = model.nq, model.nu
     x0 = np.zeros(model.nx)
@@ -69,7 +76,7 @@ def main(argv=None):
     inertial = [i for i, n in enumerate(model.param_names) if n.startswith(INERTIAL)]
     p_ref = p.copy()
     p_ref[inertial] *= rng.uniform(0.9, 1.1, len(inertial))
-    kw = dict(dt=DT, r=r, method="dop853", rtol=args.tol, atol=args.tol)
+    kw = dict(dt=DT, r=r, method=args.method, rtol=args.tol, atol=args.tol)
     t, X_ref = simulate_grid(model, x0, T, p=p_ref, **kw)
     joints = slice(6 if ROBOTS[args.robot][1] else 0, nq)
 
@@ -82,7 +89,7 @@ def main(argv=None):
     fd_cols = [inertial[k] for k in np.linspace(0, len(inertial) - 1, args.fd).astype(int)]
 
     def plain():
-        return model.simulate(x0, (0.0, T), p=p, r=r, method="dop853", rtol=args.tol, atol=args.tol,
+        return model.simulate(x0, (0.0, T), p=p, r=r, method=args.method, rtol=args.tol, atol=args.tol,
                               t_eval=t)
 
     def adjoint():
@@ -113,7 +120,7 @@ def main(argv=None):
     g = val["adjoint"].dp[fd_cols]
     agree = float(np.max(np.abs(g - val["fd"])) / np.max(np.abs(val["fd"])))
     steps = val["plain"].stats["steps"]
-    rows = [["one simulation (dop853, t_eval = grid)", f"{base * 1e3:.2f}", "1.00", steps, ""],
+    rows = [[f"one simulation ({args.method}, t_eval = grid)", f"{base * 1e3:.2f}", "1.00", steps, ""],
             [f"adjoint gradient: x0 + all {model.nparam} parameters ({len(inertial)} inertial)",
              f"{adj * 1e3:.2f}", f"{adj / base:.2f}", "", f"{agree:.1e}"],
             [f"central differences, {len(inertial)} inertial parameters (timed on {len(fd_cols)}, scaled)",
@@ -123,14 +130,15 @@ def main(argv=None):
     table = format_table(headers, rows)
     print(table)
     if not args.no_write:
-        text = environment_header(f"Adjoint gradient of a DOP853 trajectory, {args.robot}, "
+        text = environment_header(f"Adjoint gradient of a {args.method} trajectory, {args.robot}, "
                                   f"T = {T} s, grid {DT} s, tol {args.tol:g}", args,
                                   notes=["one process pinned to one core; contestants interleaved; "
                                          "thread CPU time, medians",
                                          f"model: nx = {model.nx}, {model.nparam} parameters; "
                                          "goal (issue 30): <= 5x one simulation for all inertial "
                                          "parameters of G1"]) + "\n" + table + "\n"
-        write_results(f"adjoint_adaptive_{args.robot}", text,
+        suffix = "_radau" if args.method == "radau" else ""
+        write_results(f"adjoint_adaptive_{args.robot}{suffix}", text,
                       [[args.robot, args.tol, base, adj, fd, agree, steps]],
                       ["robot", "tol", "plain_s", "adjoint_s", "differences_s", "agreement", "steps"])
 

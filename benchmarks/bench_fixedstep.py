@@ -316,7 +316,7 @@ def main():
     text = head + "\n" + (__doc__.split("\n\n", 2)[2]) + "\n\n" + "\n".join(table) + "\n"
     print("\n".join(table))
     if not args.no_write:
-        write_results("fixedstep", text)
+        write_results("fixedstep", text, keep_notes=True)
 
 
 if __name__ == "__main__":

@@ -161,7 +161,7 @@ def main(names):
                "rhs ops: adds + multiplies + divides + calls of NAME_rhs as eomc counts them (calls: sin/cos/sqrt)",
                "mj_forward does more than ABA (positions, velocities, sensors); see benchmarks/bench_urdf.py",
                *checks])
-    write_results("free_joint", header + "\n" + table + "\n", csv_rows=rows, csv_headers=headers)
+    write_results("free_joint", header + "\n" + table + "\n", csv_rows=rows, csv_headers=headers, keep_notes=True)
     return 0
 
 

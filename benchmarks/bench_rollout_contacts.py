@@ -273,7 +273,7 @@ def main():
     ) + "\n" + table + "\n"
     print(table)
     if not args.no_write:
-        write_results("rollout_contacts", text)
+        write_results("rollout_contacts", text, keep_notes=True)
 
 
 if __name__ == "__main__":

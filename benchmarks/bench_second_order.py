@@ -7,9 +7,12 @@ round, ~20 ms blocks, median of rounds; ns per call):
     kernel, compiler/tree/second_order.py, for these one-speed-joint trees: the model's
     metadata ``hess_id`` says which algorithm it got) of a ``--formulation recursive`` build
     with functions rhs, inverse_dynamics, jac_id, hess_id, the generated C compiled into the
-    harness with gcc -O2;
+    harness with the flags eomc builds it with on this machine (gcc -O2, plus -mavx2
+    -ffp-contract=off -fno-ipa-ra on an AVX2 x86-64: the kernel's triple loop then runs 4 k a
+    step; ``--portable``: -O2 alone, 2 k a step);
   * Pinocchio ``ComputeRNEASecondOrderDerivatives`` (Singh, Russell & Wensing 2022; header-only
-    from the pin / cmeel wheels, g++ -O2 -std=c++17, benchmarks/tree_models/pin_derivatives.cpp,
+    from the pin / cmeel wheels, g++ -O2 -std=c++17 with the same instruction-set flag (-mavx2)
+    as eomc's C, benchmarks/tree_models/pin_derivatives.cpp,
     whose Python bindings do not export it) on the same model, built as in
     bench_derivatives.py.  Pinocchio also returns dM/dq (∂²τ/∂q∂u'), which ``hess_id`` does not
     (it is ``jac_id``'s derivative in u', M itself); eomc returns both mixed blocks (∂²τ/∂q∂u
@@ -28,7 +31,8 @@ model's hess_id on the forward-over-reverse path it had before the kernel covere
 laws: its agreement is taken with the laws' own entries (row i's (q_i, u_i) block) left out;
 the two eomc paths are compared on every entry.
 
-Usage: python benchmarks/bench_second_order.py [--cart 4,8,20] [--robots ur10,panda] [--limits] [--rounds 7] [--write]
+Usage: python benchmarks/bench_second_order.py [--cart 4,8,20] [--robots ur10,panda] [--limits] [--portable]
+       [--rounds 7] [--pin-obj FILE.o (compiled with the same flags)] [--write]
 """
 import argparse
 import datetime
@@ -103,7 +107,17 @@ int main(int argc, char **argv) {
 LABELS = ("eomc hess_id", "Pinocchio ComputeRNEASecondOrderDerivatives", "eomc hess_id, old path")
 
 
-def run(model, ref, data, tmp, pin_obj, rounds, old=None):
+def eomc_flags(portable):
+    """The flags eomc builds a model's C with on this machine: -O2, plus (unless ``portable``)
+    compiler/build/toolchain.py's machine flags (-mavx2 -ffp-contract=off -fno-ipa-ra on an
+    AVX2 x86-64 with gcc).  Why: the kernel's triple loop runs 4 k a step with AVX2, 2 without."""
+    if portable:
+        return ["-O2"]
+    from eomc.compiler.build.toolchain import find_compiler, machine_flags
+    return ["-O2", *machine_flags(find_compiler())]
+
+
+def run(model, ref, data, tmp, pin_obj, rounds, old=None, cflags=("-O2",)):
     """(median ns per contestant, agreement[, old path's agreement]): the harness compiled and run
     pinned to core 1; ``old``: the same model on the forced reverse path (``--limits``)."""
     X, UD, Q, V, A = data
@@ -129,7 +143,7 @@ def run(model, ref, data, tmp, pin_obj, rounds, old=None):
         units.append((old.source_path, tmp / f"m2_{old.name}.o"))
         incs.append(f"-I{old.directory}")
     for s, o in units:
-        subprocess.run(["gcc", "-O2", "-std=c99", *incs, f"-I{ROOT / 'runtime' / 'c'}", "-c",
+        subprocess.run(["gcc", *cflags, "-std=c99", *incs, f"-I{ROOT / 'runtime' / 'c'}", "-c",
                         str(s), "-o", str(o)], check=True)
         objs.append(str(o))
     exe = tmp / f"h2_{name}"
@@ -216,15 +230,19 @@ def main():
     ap.add_argument("--pin-obj", default="", help="an already compiled pin_derivatives.o (saves minutes)")
     ap.add_argument("--cache", default="", help="a build cache directory to keep between runs")
     ap.add_argument("--limits", action="store_true", help="robots with their joint limits on, and the old path")
+    ap.add_argument("--portable", action="store_true",
+                    help="eomc's C with -O2 only (eomc build --portable), Pinocchio with -O2")
     ap.add_argument("--write", action="store_true")
     a = ap.parse_args()
+    cflags = eomc_flags(a.portable)
+    isa = [f for f in cflags if f.startswith("-m")]     # Pinocchio gets the same instruction set
     cases = [f"cart{n}" for n in a.cart.split(",") if n] + [r for r in a.robots.split(",") if r]
     tmp = Path(tempfile.mkdtemp(prefix="eomc_so_"))
     if a.pin_obj:
         pin_obj = Path(a.pin_obj)
     else:
         from common import compile_pinocchio
-        pin_obj = compile_pinocchio(bd.MODELS / "pin_derivatives.cpp", tmp / "pin_derivatives.o")
+        pin_obj = compile_pinocchio(bd.MODELS / "pin_derivatives.cpp", tmp / "pin_derivatives.o", flags=isa)
         if pin_obj is None:
             sys.exit("Pinocchio's headers (pin / cmeel wheels) are needed")
     rng = np.random.default_rng(30)
@@ -238,7 +256,7 @@ def main():
         else:
             (model, ref), old = build(case, cache), None
         data = bd.states(model, ref, False, rng)
-        times, agree, agree_old = run(model, ref, data, tmp, pin_obj, a.rounds, old)
+        times, agree, agree_old = run(model, ref, data, tmp, pin_obj, a.rounds, old, cflags)
         ops = model.metadata["op_counts"]
         row = dict(case=case, nx=model.nx, times=times, agree=agree, agree_old=agree_old,
                    ops={f: sum(ops[f].values()) for f in ("jac_id", "hess_id")})
@@ -246,11 +264,11 @@ def main():
         render = render_limited if a.limits else render_row
         if a.write:
             with open(HERE / "results" / "second_order.md", "a") as f:
-                f.write((header(a.rounds, a.limits) if len(rows) == 1 else "") + render(row) + "\n")
+                f.write((header(a.rounds, a.limits, cflags, isa) if len(rows) == 1 else "") + render(row) + "\n")
         print(render(row), flush=True)
 
 
-def header(rounds, limits=False):
+def header(rounds, limits=False, cflags=("-O2",), isa=()):
     import pinocchio
     import eomc
     commit, dirty, cpu = bd.checkout_state()
@@ -258,8 +276,8 @@ def header(rounds, limits=False):
         f"\n## {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC, eomc {commit}"
         f"{' (+ uncommitted changes)' if dirty else ''}\n",
         f"`python benchmarks/bench_second_order.py` — {cpu}, load {os.getloadavg()[0]:.1f} at the start, "
-        f"Python {platform.python_version()}, Pinocchio {pinocchio.__version__} (header-only, g++ -O2), "
-        f"eomc {eomc.__version__}, gcc -O2; thread CPU, pinned to core 1, {3 if limits else 2} contestants interleaved, "
+        f"Python {platform.python_version()}, Pinocchio {pinocchio.__version__} (header-only, g++ {' '.join(['-O2', *isa])}), "
+        f"eomc {eomc.__version__}, gcc {' '.join(cflags)}; thread CPU, pinned to core 1, {3 if limits else 2} contestants interleaved, "
         f"median of {rounds} rounds, {bd.NS} states cycled.  eomc: `--formulation recursive`, functions rhs, "
         "inverse_dynamics, jac_id, hess_id.\n",
     ] + ([

@@ -253,7 +253,7 @@ def write_up(rows, table, start_load):
     text = (environment_header("Joint trees: recursive vs Kane formulation, relative-coordinate n-link "
                                "cart", notes=notes) + "\n" + (__doc__ or "") + "\n" + table + "\n"
             + "\n".join(ops) + "\n" + growth(rows) + "\n")
-    print(write_results("tree", text))
+    print(write_results("tree", text, keep_notes=True))
 
 
 def growth(rows):

@@ -201,11 +201,32 @@ def environment_header(title, args=None, notes=()):
     return "\n".join(lines)
 
 
-def write_results(name, text, csv_rows=None, csv_headers=None):
-    """Write benchmarks/results/<name>.md (and .csv when rows are given); return the paths."""
+NOTES_HEADING = "## Hand-written notes (kept when the script rewrites this file)"
+
+
+def kept_notes(path):
+    """The hand-written part of a results file: from its NOTES_HEADING line to the end ("" when
+    it has none).  Why: a script that rewrites its .md whole erased the notes written under its
+    table by hand (analyses, before/after comparisons) on every re-run."""
+    if not path.is_file():
+        return ""
+    lines = path.read_text().splitlines(keepends=True)
+    for k, line in enumerate(lines):
+        if line.rstrip("\n") == NOTES_HEADING:
+            return "".join(lines[k:])
+    return ""
+
+
+def write_results(name, text, csv_rows=None, csv_headers=None, keep_notes=False):
+    """Write benchmarks/results/<name>.md (and .csv when rows are given); return the paths.
+
+    ``keep_notes``: the old file's hand-written section (:func:`kept_notes`) is appended to
+    the new text, so re-running the script keeps it."""
     RESULTS_DIR.mkdir(parents=True, exist_ok=True)
     md = RESULTS_DIR / f"{name}.md"
-    md.write_text(text if text.endswith("\n") else text + "\n")
+    text = text if text.endswith("\n") else text + "\n"
+    notes = kept_notes(md) if keep_notes else ""
+    md.write_text(text + ("\n" + notes if notes else ""))
     paths = [md]
     if csv_rows is not None:
         import csv
@@ -267,9 +288,9 @@ def work_precision_figure(panels, path, panel_width=6.5):
 
 def compile_pinocchio(source, obj, extra_includes=(), flags=()):
     """Compile a C++ harness ``source`` against Pinocchio header-only (the `pin` and
-    `cmeel-eigen` wheels' headers) into ``obj``; returns ``obj``, or None (with the
-    compiler's message printed) when the wheels are missing or it does not compile.  ``flags``:
-    added after -O2 (a harness comparing machine builds gives both contestants the same)."""
+    `cmeel-eigen` wheels' headers) into ``obj``, with g++ -O2 and ``flags`` (e.g. -mavx2, to
+    match the eomc build it is timed against); returns ``obj``, or None (with the
+    compiler's message printed) when the wheels are missing or it does not compile."""
     import subprocess
     try:
         import pinocchio  # noqa: F401

@@ -17,7 +17,7 @@ recorded (start time and state: the checkpoints) and the discrete adjoint taken 
 those steps with their sizes held fixed (exact for that step sequence; central
 differences of whole adaptive runs approach it as the tolerance tightens).  The forward run stores
 every grid state (the checkpoints) and, up to :data:`KEEP_STAGES_MAX` doubles, every step's
-stage states; the backward run (runtime/c/eomc_adjoint.c) takes them (or recomputes a
+stage states (RK4) or stage derivatives (DOP853); the backward run (runtime/c/eomc_adjoint.c) takes them (or recomputes a
 step's stages from its checkpoint) and pulls the adjoint through them
 with the model's generated ``vjp`` (one reverse sweep of the rhs for all states and
 parameters at once).  Both runs are single C calls.  Inputs are constant over the run.
@@ -73,16 +73,16 @@ def _steps(t_final, dt):
 def simulate_grid(model, x0, t_final, *, dt, p=None, r=None, method="rk4", rtol=1e-8, atol=1e-8):
     """(t, X): the trajectory :func:`gradient` differentiates (grid states only)."""
     a = _prepare(model, x0, t_final, dt, p, r)
-    if _method(method) == "dop853":
-        return a["t"], _forward_adaptive(model, a, rtol, atol)[0]
+    if _method(method) != "rk4":
+        return a["t"], _forward_adaptive(model, a, rtol, atol, method)[0]
     X, _ = _forward(model, a)
     return a["t"], X
 
 
 def _method(method):
-    if method not in ("rk4", "dop853"):
-        raise ValueError(f"eomc.gradient: method must be 'rk4' (fixed step dt) or 'dop853' "
-                         f"(adaptive, steps ending on the grid); got {method!r}")
+    if method not in ("rk4", "dop853", "radau"):
+        raise ValueError(f"eomc.gradient: method must be 'rk4' (fixed step dt), 'dop853' or "
+                         f"'radau' (adaptive, steps ending on the grid); got {method!r}")
     return method
 
 
@@ -92,16 +92,19 @@ def gradient(model, x0, t_final, *, dt, cost, p=None, r=None, method="rk4", rtol
     ``x0``: initial state (array or {state name: value}); ``t_final``: a whole number of
     steps ``dt`` from t = 0; ``cost(t, X)``: t the (N + 1,) grid times, X the (N + 1, nx)
     states; returns (J, dJ/dX) with dJ/dX shaped as X.  ``p``, ``r``: parameters and
-    constant inputs as for ``simulate``.  ``method``: "rk4" (steps dt) or "dop853" (adaptive
-    at rtol/atol, every grid time a step end; dt is then the cost's grid only).  Returns a
-    :class:`GradientResult`.
+    constant inputs as for ``simulate``.  ``method``: "rk4" (steps dt), "dop853" or "radau"
+    (adaptive at rtol/atol, every grid time a step end; dt is then the cost's grid only;
+    "radau" also needs jac_x).  Returns a :class:`GradientResult`.
     """
     if "vjp" not in model.functions:
         raise ModelError(f"{model.name}: eomc.gradient needs the model built with 'vjp' "
                          f"(functions=[..., 'vjp'] or eomc build --outputs ...,vjp)")
+    if _method(method) == "radau" and "jac_x" not in model.functions:
+        raise ModelError(f"{model.name}: eomc.gradient(method='radau') needs the model built with "
+                         f"'jac_x' too (functions=[..., 'jac_x', 'vjp'])")
     a = _prepare(model, x0, t_final, dt, p, r)
-    if _method(method) == "dop853":
-        return _gradient_adaptive(model, a, cost, rtol, atol)
+    if method != "rk4":
+        return _gradient_adaptive(model, a, cost, rtol, atol, method)
     X, (ffi, lib) = _forward(model, a, keep_stages=True)
     value, G = _evaluate_cost(model, cost, a["t"], X)
     buf = lambda arr: ffi.from_buffer("double[]", arr)  # noqa: E731
@@ -174,15 +177,20 @@ def _forward(model, a, keep_stages=False):
     return X, (ffi, lib)
 
 
-def _forward_adaptive(model, a, rtol, atol):
-    """(grid states, rec_t, rec_x, nrec, boundary index of each grid time): the DOP853 run
-    with its steps ending on the grid, every accepted step's start recorded."""
+def _forward_adaptive(model, a, rtol, atol, method="dop853"):
+    """(grid states, rec_t, rec_x, rec_k, nrec, boundary index of each grid time): the DOP853
+    run with its steps ending on the grid, every accepted step's start recorded, and its 12
+    stage derivatives too while they fit in :data:`KEEP_STAGES_MAX` doubles (rec_k, else
+    None: the backward run then recomputes them, 12 rhs a step).  method="radau": the Radau
+    run, rec_k its converged stage increments Z (3 x nx a step, always kept: the backward run
+    needs them)."""
     from .integrators_api import METHOD_IDS
     from .simulate import PI_BETA
     ffi, lib = a["ffi"], a["lib"]
     if not (rtol > 0 and atol > 0):
         raise ValueError(f"{model.name}: rtol and atol must be positive; got {rtol!r}, {atol!r}")
-    method = METHOD_IDS["dop853"]
+    radau = method == "radau"
+    method = METHOD_IDS[method]
     buf = lambda arr: ffi.from_buffer("double[]", arr)  # noqa: E731
     t = a["t"]
     tstop = np.ascontiguousarray(t[1:])
@@ -194,14 +202,18 @@ def _forward_adaptive(model, a, rtol, atol):
     cap = 16 * a["n"] + 1024
     while True:
         rec_t, rec_x = np.empty(cap + 1), np.empty((cap, model.nx))
+        rec_k = (np.empty((cap, 3, model.nx)) if radau
+                 else np.empty((cap, 12, model.nx)) if 12 * cap * model.nx <= KEEP_STAGES_MAX else None)
         nrec, x_last = ffi.new("long *"), np.empty(model.nx)
         stats = ffi.new("eomc_stats *")
         status = lib.eomc_adjoint_erk_forward(model.c_model, opt, 0.0, float(t[-1]), buf(x0),
                                               buf(a["p"]), a["rptr"], tstop.size, buf(tstop), cap,
-                                              buf(rec_t), buf(rec_x), nrec, buf(x_last), stats,
-                                              buf(work), work.size)
+                                              buf(rec_t), buf(rec_x),
+                                              ffi.NULL if rec_k is None else buf(rec_k), nrec,
+                                              buf(x_last), stats, buf(work), work.size)
         if status:
-            raise SimulationError(f"{model.name}: the DOP853 run failed at t = {stats.t:g}: "
+            name = "Radau" if radau else "DOP853"
+            raise SimulationError(f"{model.name}: the {name} run failed at t = {stats.t:g}: "
                                   f"{STATUS_NAMES.get(status, status)}")
         if nrec[0] <= cap:
             break
@@ -210,9 +222,9 @@ def _forward_adaptive(model, a, rtol, atol):
     rec_t = rec_t[:n + 1]
     idx = np.searchsorted(rec_t, t)
     if np.any(idx > n) or not np.array_equal(rec_t[idx], t):
-        raise SimulationError(f"{model.name}: the DOP853 run did not step onto every grid time")
+        raise SimulationError(f"{model.name}: the adaptive run did not step onto every grid time")
     X = np.vstack([rec_x[:n], x_last[None, :]])[idx]
-    return X, rec_t, rec_x[:n], n, idx
+    return X, rec_t, rec_x[:n], None if rec_k is None else rec_k[:n], n, idx
 
 
 
@@ -228,18 +240,21 @@ def _evaluate_cost(model, cost, t, X):
     return value, G
 
 
-def _gradient_adaptive(model, a, cost, rtol, atol):
+def _gradient_adaptive(model, a, cost, rtol, atol, method="dop853"):
     ffi, lib = a["ffi"], a["lib"]
-    X, rec_t, rec_x, n, idx = _forward_adaptive(model, a, rtol, atol)
+    X, rec_t, rec_x, rec_k, n, idx = _forward_adaptive(model, a, rtol, atol, method)
     value, G = _evaluate_cost(model, cost, a["t"], X)
     Gb = np.zeros((n + 1, model.nx))
     Gb[idx] = G
     buf = lambda arr: ffi.from_buffer("double[]", arr)  # noqa: E731
-    work = np.empty(int(lib.eomc_adjoint_erk_work_size(model.nx, model.nparam)) + max(model.work_size, 1))
+    size = lib.eomc_adjoint_radau_work_size if method == "radau" else lib.eomc_adjoint_erk_work_size
+    work = np.empty(int(size(model.nx, model.nparam)) + max(model.work_size, 1))
     lam0, gp = np.empty(model.nx), np.empty(max(model.nparam, 1))
     rec_x = np.ascontiguousarray(rec_x)
     vjp = getattr(model.model_lib, f"{model.name}_vjp")
-    status = lib.eomc_adjoint_erk_backward(model.c_model, vjp, n, buf(rec_t), buf(rec_x) if n else ffi.NULL,
+    backward = lib.eomc_adjoint_radau_backward if method == "radau" else lib.eomc_adjoint_erk_backward
+    status = backward(model.c_model, vjp, n, buf(rec_t), buf(rec_x) if n else ffi.NULL,
+                                           buf(rec_k) if n and rec_k is not None else ffi.NULL,
                                            buf(a["p"]), a["rptr"], buf(Gb), buf(lam0), buf(gp), buf(work))
     if status:
         raise SimulationError(f"{model.name}: the adjoint (backward) run failed: "

@@ -1,7 +1,9 @@
 """Why the mass matrix is singular, in the user's terms: which speeds meet no inertia.
 
 A "singular mass matrix" status alone leaves the user to guess which body or joint
-lacks inertia.  When it happens (not on the hot path), the model's own
+lacks inertia.  A mass matrix that is singular to rounding (a URDF link whose inertia is
+1e-20, a head on two neck joints) is not refused by the LDLᵀ but makes the problem so
+stiff that the step size collapses: that failure gets the same diagnosis.  When it happens (not on the hot path), the model's own
 ``mass_matrix`` at the failing state is decomposed: the eigenvector of its smallest
 eigenvalue is the motion nothing resists, and its large components name the
 speeds (for URDF and joint models the speed names carry the joint names).
@@ -36,4 +38,5 @@ def singular_direction(model, t, x, p=None, r=None):
     speeds = model.state_names[model.nq:model.nq + model.nu]
     parts = [f"{speeds[k]} ({v[k]:.2g})" for k in np.argsort(-np.abs(v)) if abs(v[k]) > 0.05][:4]
     return f"; nothing resists motion along {', '.join(parts)} (M's smallest eigenvalue " \
-           f"{w[0]:.3g}, largest {w[-1]:.3g}): a body with no mass or inertia about that joint"
+           f"{w[0]:.3g}, largest {w[-1]:.3g}): a body with no (or next to no) mass or inertia about those " \
+           f"joints, or joint axes lined up (gimbal lock)"

@@ -63,11 +63,29 @@ def _rules(model):
     return found
 
 
+def _arrays(model, rules, pairs):
+    """The rules as index arrays (parameter, strict?, limit lower, limit upper), cached."""
+    cached = getattr(model, "_law_arrays", None)
+    if cached is not None and cached[0] is rules:
+        return cached[1]
+    got = (np.array([r[0] for r in rules], dtype=np.intp), np.array([r[3] for r in rules], dtype=bool),
+           np.array([q[1] for q in pairs], dtype=np.intp), np.array([q[2] for q in pairs], dtype=np.intp))
+    try:
+        model._law_arrays = (rules, got)
+    except AttributeError:
+        pass
+    return got
+
+
 def check_law_parameters(model, p, where=""):
     """ValueError naming the first contact or joint-law parameter in ``p`` that the build
     would refuse (negative, or 0 where the law divides by it; limit lower > upper)."""
     rules, pairs = _rules(model)
     p = np.asarray(p, dtype=np.float64)
+    idx, strict, lo, hi = _arrays(model, rules, pairs)
+    v = p[idx]
+    if not ((v < 0) | (strict & (v == 0))).any() and not (p[lo] > p[hi]).any():
+        return      # one gather per call (a robot has ~100 rules); the loop below names the culprit
     at = f" ({where})" if where else ""
     for i, name, what, strict in rules:
         v = float(p[i])

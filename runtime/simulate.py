@@ -718,6 +718,9 @@ def _events_inside_step(model, a, stats, x):
     return [], float("nan")
 
 
+NEAR_SINGULAR_SUSPECTS = (SINGULAR_STATUS, 3, 5, 6)    # singular, non-finite, step too small, max steps
+
+
 def failure_message(model, method, stats, x_last, p=None):
     """One line naming the reason, the time and the state of a failed integration."""
     status = stats["status"]
@@ -737,7 +740,9 @@ def failure_message(model, method, stats, x_last, p=None):
                f"{STIFF_ADVICE}"
     elif status == 5:
         msg += f" (h={stats['h']:.3g}); the solution may blow up or be discontinuous here"
-    why = singular_direction(model, stats["t_fail"], x_last, p) if status == SINGULAR_STATUS else ""
+    # a step size that collapsed, a run that never ends or a non-finite value: M singular to
+    # rounding is a common cause on real files (a link with inertia 1e-20), worth naming
+    why = singular_direction(model, stats["t_fail"], x_last, p) if status in NEAR_SINGULAR_SUSPECTS else ""
     if status == PENETRATED_STATUS and p is not None:
         why = penetration_message(model, x_last, p)
     return f"{msg}; state {state}{why}"

@@ -41,6 +41,7 @@ import math
 import numpy as np
 import sympy as sm
 
+from . import narrow as nw
 from .law import EXPONENT, _cross, _dot, _pos, clip_switch, step
 from .tree import LoweredLoad
 
@@ -56,6 +57,7 @@ PAIR_KINDS = {("sphere", "sphere"), ("sphere", "capsule"), ("capsule", "capsule"
 SOLIDS = ("box", "cylinder", "ellipsoid")
 KIND_INDEX = ("sphere", "capsule", "box", "cylinder", "ellipsoid")
 POINT_KINDS = ("px", "py", "pz")   # a pair's contact point outputs (world), after the ground's kinds
+INLINE_NARROW = False   # True: the schemes inlined as SymPy in the generated code (the routines' reference)
 EPS = 1e-12     # m: regularises |d| so that coincident centres give a finite (zero) force
 
 
@@ -113,6 +115,20 @@ class PairLoad(LoweredLoad):
         out += [self.params[k] for k in ("k", "c", "mu", "vs")]
         return out + [sm.Integer(self.part)] if self.part >= 0 else out
 
+    def narrow(self, a, b, let):
+        """(p, n, δ) of this contact point (world; n from A to B): a call of its kinds' routine
+        (:mod:`.narrow`), one per pair whatever its number of points (the call is value-numbered
+        by ``let``), or the scheme inlined when ``INLINE_NARROW`` is set (tests)."""
+        if INLINE_NARROW:
+            return scheme(a, b, self.part, self.margin, let)
+        rid = nw.routine_index(self.a.kind, self.b.kind)
+        uid = self.index - max(self.part, 0)       # the pair's first point: one array per pair
+        call = let(nw.NarrowCall(sm.Integer(rid), sm.Integer(uid),
+                                 *nw.narrow_inputs(a, b, self.a.size, self.b.size, self.margin)))
+        base = nw.PER_PART * max(self.part, 0)
+        out = [let(nw.NarrowOut(call, sm.Integer(uid), sm.Integer(base + k))) for k in range(nw.PER_PART)]
+        return out[0:3], out[3:6], out[6]
+
     def lower(self, bodies, rec, v, rename, poses, broad=None):
         """Add the pair's force to both bodies' fext (body components, about their origins);
         return {PairValue placeholder: temporary}: F_n, the friction force on B (world), the
@@ -122,15 +138,7 @@ class PairLoad(LoweredLoad):
         params = {k: rename(s, what) for k, s in self.params.items()}
         ren = lambda e: rename(e, what)      # noqa: E731 -- mass-centre parameters -> their slots
         a, b = _placed(self.a, poses, rec, ren), _placed(self.b, poses, rec, ren)
-        if uses_solid(self.a.kind, self.b.kind):
-            p, n, depth = solid_contact(a, b, self.part, self.margin, rec.let)
-        else:
-            xa, xb, ra, rb = closest_points(a, b, rec.let)
-            d = [rec.let(xb[k] - xa[k]) for k in range(3)]
-            dist = rec.let(sm.sqrt(_dot(d, d) + EPS ** 2))
-            n = [rec.let(x / dist) for x in d]
-            depth = rec.let(ra + rb + sm.Float(self.margin, 17) - dist) if self.margin else rec.let(ra + rb - dist)
-            p = [rec.let(xa[k] + (ra - depth / 2) * n[k]) for k in range(3)]
+        p, n, depth = self.narrow(a, b, rec.let)
         va, vb = _point_velocity(self.a, p, poses, v, rec), _point_velocity(self.b, p, poses, v, rec)
         vrel = [rec.let(vb[k] - va[k]) for k in range(3)]
         rate = rec.let(-_dot(n, vrel))
@@ -151,7 +159,35 @@ class PairLoad(LoweredLoad):
         return {PairValue(self.index, kind): value for kind, value in enumerate(quantities)}
 
 
+def scheme(a, b, part, margin, let):
+    """(p, n, δ) of contact point ``part`` (:func:`pair_parts`) of two placed shapes ({kind,
+    centre, axes, size}, world; sizes and margin numbers, or symbols in a routine, .narrow)."""
+    if uses_solid(a["kind"], b["kind"]):
+        return solid_contact(a, b, part, margin, let)
+    xa, xb, ra, rb = closest_points(a, b, let)
+    d = [let(xb[k] - xa[k]) for k in range(3)]
+    dist = let(sm.sqrt(_dot(d, d) + EPS ** 2))
+    n = [let(x / dist) for x in d]
+    if isinstance(margin, sm.Basic) and not margin.is_Number:
+        depth = let(ra + rb + margin - dist)
+    else:
+        depth = let(ra + rb + sm.Float(margin, 17) - dist) if margin else let(ra + rb - dist)
+    p = [let(xa[k] + (ra - depth / 2) * n[k]) for k in range(3)]
+    return p, n, depth
+
+
+def _scheme_outputs(a, b, margin, let):
+    """p, n, δ of every contact point of the pair, in :func:`pair_parts`' order (a routine's outputs)."""
+    out = []
+    for part in pair_parts(a["kind"], b["kind"]):
+        p, n, depth = scheme(a, b, part, margin, let)
+        out += list(p) + list(n) + [depth]
+    return out
+
+
 def _num(x):
+    if isinstance(x, sm.Basic) and not x.is_Number:
+        return x                # a size or margin as a symbol (the narrow phase's routines, .narrow)
     x = float(x)
     return sm.S.Zero if x == 0 else (sm.Integer(int(x)) if x == int(x) and abs(x) < 1e6 else sm.Float(x, 17))
 
@@ -288,6 +324,13 @@ def pair_parts(kind_a, kind_b):
     return [-1]
 
 
+def _smin(x, y):
+    """min of two sizes: numbers, or symbols (the routines' inputs)."""
+    if isinstance(x, sm.Basic) and not x.is_Number or isinstance(y, sm.Basic) and not y.is_Number:
+        return (x + y - sm.Abs(x - y)) / 2
+    return min(x, y)
+
+
 def _max(x, y):
     return (x + y + sm.Abs(x - y)) / 2
 
@@ -363,9 +406,14 @@ def _corner(box, i):
 
 def _rim(cyl, i):
     """Rim point i of a cylinder (world): CYLINDER_RIM points on each end's rim, as its ground contact."""
-    from .geometry import shape_points
-    x, y, z = shape_points("cylinder", cyl["size"])[0][i]
-    local = [_num(x), _num(y), _num(z)]
+    from .geometry import CYLINDER_RIM, shape_points
+    r, h = cyl["size"][0], cyl["size"][1]
+    if isinstance(r, sm.Basic) and not r.is_Number:     # a routine's input (.narrow): shape_points' layout
+        t = 2 * math.pi * (i % CYLINDER_RIM) / CYLINDER_RIM
+        local = [r * _num(_tidy(math.cos(t))), r * _num(_tidy(math.sin(t))), (1 if i >= CYLINDER_RIM else -1) * h]
+    else:
+        x, y, z = shape_points("cylinder", cyl["size"])[0][i]
+        local = [_num(x), _num(y), _num(z)]
     return [cyl["centre"][k] + sum((local[j] * cyl["axes"][j][k] for j in range(3) if local[j] != 0), sm.S.Zero)
             for k in range(3)]
 
@@ -406,7 +454,7 @@ def solid_contact(a, b, part, margin=0.0, let=lambda e: e):
     if {a["kind"], b["kind"]} == {"box", "cylinder"}:      # the box's corners, the cylinder's rim points
         box, cyl = (a, b) if a["kind"] == "box" else (b, a)
         if part == 8 + 2 * CYLINDER_RIM:         # the capsule inside the cylinder: exact nearest points
-            rho = min(cyl["size"][0], cyl["size"][1])
+            rho = _smin(cyl["size"][0], cyl["size"][1])
             xc, xb = _segment_box(cyl["centre"], cyl["axes"][2], cyl["size"][1] - rho, box, let)
             d = [let(xb[k] - xc[k]) for k in range(3)]
             dist = let(sm.sqrt(_dot(d, d) + SDF_EPS ** 2))
@@ -424,7 +472,7 @@ def solid_contact(a, b, part, margin=0.0, let=lambda e: e):
             cands = [(_rim(point, part % (2 * CYLINDER_RIM)), 0.0)]
         else:
             point, solid = a, b                   # the capsule inside A about its axis, against B
-            rho = min(a["size"][0], a["size"][1])
+            rho = _smin(a["size"][0], a["size"][1])
             point = {"kind": "capsule", "centre": a["centre"], "axes": a["axes"], "size": [rho, a["size"][1] - rho]}
             cands = _candidates(point, solid, let)
     else:
@@ -498,11 +546,14 @@ def _box_box(a, b, part, margin, let):
 def _rim_points(cyl, count):
     """``count`` points on each end's rim of a cylinder (world)."""
     out = []
+    r, h = cyl["size"][0], cyl["size"][1]
     for z in (-1, 1):
         for i in range(count):
             t = 2 * math.pi * i / count
-            local = [_num(_tidy(cyl["size"][0] * math.cos(t))), _num(_tidy(cyl["size"][0] * math.sin(t))),
-                     _num(z * cyl["size"][1])]
+            if isinstance(r, sm.Basic) and not r.is_Number:     # a routine's input (.narrow)
+                local = [r * _num(_tidy(math.cos(t))), r * _num(_tidy(math.sin(t))), z * h]
+            else:
+                local = [_num(_tidy(r * math.cos(t))), _num(_tidy(r * math.sin(t))), _num(z * h)]
             out.append([cyl["centre"][k] + sum((local[j] * cyl["axes"][j][k] for j in range(3) if local[j] != 0),
                                                sm.S.Zero) for k in range(3)])
     return out
@@ -677,3 +728,6 @@ def with_pairs(built, specs, fold=False):
     new.tree = dataclasses.replace(built.tree, loads=tuple(loads))
     new.parameters = parameters
     return new, outputs, events
+
+
+nw.use_schemes(_scheme_outputs)

@@ -43,8 +43,13 @@ def temps(program, printer, assignments=None):
     """C lines of ``assignments`` (default: all of ``program``'s), one temporary each."""
     assignments = program.assignments if assignments is None else assignments
     names = printer._names
-    return [f"{IND}{'' if names[s].endswith(']') else 'const double '}{names[s]} = "
-            f"{printer.doprint(e)};" for s, e in assignments]
+    out = []
+    for s, e in assignments:
+        declare = getattr(e, "c_declaration", None)   # a call writing its outputs into a local array
+        if declare is not None:
+            out.append(f"{IND}{declare()}")
+        out.append(f"{IND}{'' if names[s].endswith(']') else 'const double '}{names[s]} = {printer.doprint(e)};")
+    return out
 
 
 def store(lvalue, expr, printer):

@@ -310,6 +310,10 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
         helper = dynamics_helper(ctx, low.helper) if low.helper is not None else ""
     dynamics_text = helper
     helper = "\n".join(c for c in (helper, formulation.c_helpers(name, sym, fns, nq)) if c)
+    routines, routines_split = _called_routines([p for p in (*low.programs.values(), low.helper) if p is not None])
+    if routines:        # static functions the bodies call (a body-body pair's narrow phase)
+        helper = "\n".join(c for c in (routines, helper) if c)
+        ctx.split = ctx.split or routines_split
     rendered, op_counts, meta_batch, printed, defined = [], {}, {}, {}, set()
     for fn in fns:
         if fn in ("rhs_batch", "jac_x_batch"):   # the printed lines, rewritten into lanes (compiler/emit/batch.py)
@@ -365,6 +369,20 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
     if low.poses is not None:
         meta["poses"] = pose_metadata(low.poses)
     return _render(name, meta, fns, rendered, solver, layout, sym, helper, ctx.split, formulation)
+
+
+def _called_routines(programs):
+    """(C text of the static routines the programs' call nodes name -- an expression with a
+    ``c_routines()`` method, e.g. compiler/contact/narrow.py's -- each once in key order, whether
+    any was cut into sub-functions)."""
+    found = {}
+    for prog in programs:
+        for _, e in prog.assignments:
+            hook = getattr(e, "c_routines", None)
+            if hook is not None:
+                for key, text, split in hook():
+                    found[key] = (text, split)
+    return "\n".join(found[k][0] for k in sorted(found)), any(s for _, s in found.values())
 
 
 @contextmanager

@@ -56,6 +56,7 @@ NOINLINE_MACRO = """#if defined(__GNUC__) && !defined(__clang__) && defined(__OP
 _TEMP_LINE = re.compile(r"^(\s+)const double (t\d+) = (.*);$")
 _STORE_LINE = re.compile(r"^(\s+)([A-Za-z_]\w*)\[(\d+)\] = (.*);$")
 _TEMP = re.compile(r"\bt\d+\b")
+_OUT_ARG = re.compile(r"&([A-Za-z_]\w*)\[")
 _IDENT = re.compile(r"\b([A-Za-z_]\w*)\s*([\[(]?)")
 _IND = "    "
 
@@ -168,8 +169,10 @@ def _split_run(lines, start, end, base, scratch, slots):
             if name is None:
                 body.append(f"{_IND}{lvalue} = {expr};")
                 written.add(lvalue.split("[", 1)[0])
+                written.update(_OUT_ARG.findall(expr))
                 continue
             body.append(f"{_IND}const double {name} = {expr};")
+            written.update(_OUT_ARG.findall(expr))   # a call's output array: &A[0]
             local.add(name)
             if name in last or name in after:
                 slot_of[name] = slots.take()

@@ -64,11 +64,20 @@ class _Diff:
 
     def __init__(self, program, dirs):
         self.names = Names(program)
+        self.program_assignments = program.assignments
         self.dirs = dirs
         self.deps = {}      # temp -> frozenset of directions it depends on
         self.deriv = {}     # (temp, k) -> symbol or number
         self.out = []
         self.memo = {}
+        self.extra = {}     # a node's own derivative state (a called routine's tangent call per direction)
+        self._defs = None
+
+    def definition(self, sym):
+        """The expression assigned to temporary ``sym``."""
+        if self._defs is None:
+            self._defs = dict(self.program_assignments)
+        return self._defs[sym]
 
     def deps_of(self, expr):
         d = set()
@@ -92,7 +101,10 @@ class _Diff:
         key = (expr, k)
         if key in self.memo:
             return self.memo[key]
-        if expr.is_Add:
+        forward = getattr(expr, "forward", None)
+        if forward is not None:     # a call node with its own rule (a routine's tangent call)
+            res = forward(self, k)
+        elif expr.is_Add:
             res = _add([self.d(a, k) for a in expr.args])
         elif expr.is_Mul:
             terms = []

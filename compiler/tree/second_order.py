@@ -102,6 +102,25 @@ def _tidy(e):
     return sm.Add(*[sm.factor(sm.Add(*ts)) if key else sm.Add(*ts) for key, ts in groups.items()])
 
 
+# The finiteness check without a pass over the output (O(n^3) numbers; 5 of cart20's 48 us): every
+# stored number is a dot product of a pair vector (U's first 48 numbers, or u10 = u2 + u9,
+# u11 = u2 - u9, at most twice as large) with a column of K, the sum of two such, or one minus a
+# joint law's curvature h.  When every U and K number is within BOUND and every h within 1e300,
+# each output is within 6 * 2e150 * 1e150 * 2 + 1e300 < 1e302: finite.  Else (or a NaN anywhere,
+# which fails every <=) the output is checked entry by entry as before, so the result (an error
+# exactly when an output is not finite) is the same.
+BOUND = "1e150"
+
+
+def _covers_all(plan, nq, nx):
+    """True when the triple loop writes every entry of the output, so it need not be zeroed
+    first: the dofs form one path (each is on the support of, or supported by, every other:
+    every (row, column, column) triple of dofs is one the loop visits) and the state is (q, u)
+    of those dofs alone.  Checked with a NaN-filled output (tests/compiler/tree/test_second_order.py)."""
+    nd = len(plan.lam)
+    return nd > 0 and len(paths(plan)[0]) == 1 and nq == nd and nx == 2 * nd
+
+
 def second_order_note(plan, reason):
     """The metadata line of hess_id: which algorithm the model got."""
     if plan is not None:
@@ -116,7 +135,9 @@ def second_order_c(name, plan, nq, nx, helpers):
     fn = f"{name}_rnea_hess"
     rd = f"{name}_rd"
     nn = nx * nx
+    cfg = _lanes_cfg(plan)
     lines = (rd_helpers(name) if helpers else []) + [
+        *_lanes_macro(name),
         f"static int {name}_h2_finite(const double *v, int n)",
         "{   /* v * 0 is 0 for a finite v, NaN otherwise; four sums side by side (the plain isfinite",
         "      loop was 14 % of the 20-link cart's call) */",
@@ -157,8 +178,9 @@ def second_order_c(name, plan, nq, nx, helpers):
         "}",
         "",
         f"/* d2 tau / dx2 of RNEA by the spatial-algebra second-order algorithm (compiler/tree/second_order.py):",
-        f"   out[(i * {nx} + j) * {nx} + k] = d2 tau_i / dx_j dx_k at velocities u and accelerations ud (per dof). */",
-        f"static void {fn}(const double *an, const double *u, const double *ud, double *out)",
+        f"   out[(i * {nx} + j) * {nx} + k] = d2 tau_i / dx_j dx_k at velocities u and accelerations ud (per dof).",
+        f"   Returns 0 when every number the outputs are made of is within {BOUND} (the outputs are then finite), else 1. */",
+        f"static int {fn}(const double *an, const double *u, const double *ud, double *out)",
         "{",
         *tree_tables(plan),
         c_table("qc", plan.qcol),
@@ -166,9 +188,12 @@ def second_order_c(name, plan, nq, nx, helpers):
         c_table("lam", plan.lam or (-1,)),
         f"    double R[{9 * nb}], P[{3 * nb}], V[{6 * nb}], A[{6 * nb}], Y[{10 * nb}], dY[{12 * nb}], F[{6 * nb}];",
         f"    double Sw[{6 * nd}], PS[{6 * nd}], PS2[{6 * nd}], PP[{6 * nd}];",
+        *cfg[0],
+        f"    double K[{cfg[1]}], D[{14 * cfg[2]}];   /* per path, component-major: S, psi', psi'', psi' + phi' of its dofs; the dots */",
         "    double Ym[36], Bm[36], Ma[36], Mb[36], Mc[36], R1[36], R3[36];",
-        "    int b, i, j, k, e, c, l;",
-        f"    for (k = 0; k < {nd * nn}; k++) out[k] = 0.0;",
+        "    int b, i, j, k, e, c, l, big = 0;",
+    ] + ([] if _covers_all(plan, nq, nx) else [
+        f"    for (k = 0; k < {nd * nn}; k++) out[k] = 0.0;"]) + [
         f"    for (b = 0; b < {nb}; b++) {{   /* forward: placements, axes and their rates, v, a, Y, B, f */",
         *body_head_lines(o, "al[i];"),
         "        for (e = d0[b]; e < d0[b] + nd[b]; e++) {   /* psi' = v_l x S, psi'' = a_l x S + v_l x psi', phi' = v x S */",
@@ -194,6 +219,20 @@ def second_order_c(name, plan, nq, nx, helpers):
     ] + (world_load_lines(o) if plan.loads else []) + [
         *VARIATION_LINES,
         "    }",
+        f"    for (i = 0; i < {cfg[3]}; i++) {{   /* K: each path's dof vectors, component-major (zeros past its end) */",
+        "        double *G = K + pG[i];",
+        "        const int L = pL[i];",
+        "        for (j = 0; j < L; j++) {",
+        "            const int d = j < pn[i] ? pd[p0[i] + j] : -1;",
+        "            for (c = 0; c < 6; c++) {",
+        "                G[c * L + j] = d >= 0 ? Sw[6 * d + c] : 0.0;",
+        "                G[(6 + c) * L + j] = d >= 0 ? PS[6 * d + c] : 0.0;",
+        "                G[(12 + c) * L + j] = d >= 0 ? PS2[6 * d + c] : 0.0;",
+        "                G[(18 + c) * L + j] = d >= 0 ? PP[6 * d + c] : 0.0;",
+        "            }",
+        "        }",
+        "    }",
+        f"    for (k = 0; k < {cfg[1]}; k++) big |= !(fabs(K[k]) <= {BOUND});",
         f"    for (b = {nb - 1}; b >= 0; b--) {{   /* backward: per dof i of the body, its subtree's composites */",
         "        const double *Yb = Y + 10 * b, *dYb = dY + 12 * b, *fb = F + 6 * b;",
         "        for (i = d0[b]; i < d0[b] + nd[b]; i++) {",
@@ -214,40 +253,33 @@ def second_order_c(name, plan, nq, nx, helpers):
         "                for (c = 0; c < 3; c++) Bm[6 * k + c] = dYb[3 * k + c];",
         "            Bm[19] = 2.0 * dYb[11]; Bm[20] = -2.0 * dYb[10]; Bm[24] = -2.0 * dYb[11];",
         "            Bm[26] = 2.0 * dYb[9]; Bm[30] = 2.0 * dYb[10]; Bm[31] = -2.0 * dYb[9];",
-        "            /* Ma = S x* Ym, Mb = psi' x* Ym, Mc = S x* Bm (columns), R3 += (S x* Bm^T)^T */",
+        "            /* Ma = S x* Ym, Mb = psi' x* Ym, Mc = S x* Bm, stored transposed (row k: column k; Ym is",
+        "               symmetric, so its column k is its row k) */",
         "            for (k = 0; k < 6; k++) {",
-        "                double y[6], z[6];",
-        "                for (c = 0; c < 6; c++) y[c] = Ym[6 * c + k];",
-        f"                {rd}_crossf(S, y, z);",
-        "                for (c = 0; c < 6; c++) Ma[6 * c + k] = z[c];",
-        f"                {rd}_crossf(ps, y, z);",
-        "                for (c = 0; c < 6; c++) Mb[6 * c + k] = z[c];",
+        f"                {rd}_crossf(S, Ym + 6 * k, Ma + 6 * k);",
+        f"                {rd}_crossf(ps, Ym + 6 * k, Mb + 6 * k);",
         "                if (k < 3) {   /* Bm's last three columns are zero, and so are Mc's */",
+        "                    double y[6];",
         "                    for (c = 0; c < 6; c++) y[c] = Bm[6 * c + k];",
-        f"                    {rd}_crossf(S, y, z);",
+        f"                    {rd}_crossf(S, y, Mc + 6 * k);",
         "                } else {",
-        "                    for (c = 0; c < 6; c++) z[c] = 0.0;",
+        "                    for (c = 0; c < 6; c++) Mc[6 * k + c] = 0.0;",
         "                }",
-        "                for (c = 0; c < 6; c++) Mc[6 * c + k] = z[c];",
         "            }",
         f"            {rd}_ymul(Yb, S, ys);",
         f"            {rd}_ymul(Yb, ps, yp);",
         f"            {rd}_dmult(dYb, S, bs);",
         "            /* R1 = variation of Ym along S (symmetric), R3 = along psi' + (. x* Ym psi') + S x* Bm - Bm (S x) */",
         "            for (k = 0; k < 6; k++) {",
-        "                double y[6], z[6];",
-        "                for (c = 0; c < 6; c++) y[c] = Bm[6 * k + c];   /* row k of Bm */",
-        f"                {rd}_crossf(S, y, z);   /* column k of S x* Bm^T: row k of -Bm (S x) */",
+        "                double z[6];",
+        f"                {rd}_crossf(S, Bm + 6 * k, z);   /* row k of Bm -> column k of S x* Bm^T: row k of -Bm (S x) */",
         "                for (c = 0; c < 6; c++) {",
-        "                    R1[6 * k + c] = Ma[6 * k + c] + Ma[6 * c + k];",
-        "                    R3[6 * k + c] = Mb[6 * k + c] + Mb[6 * c + k] + Mc[6 * k + c] + z[c];",
+        "                    R1[6 * k + c] = Ma[6 * c + k] + Ma[6 * k + c];",
+        "                    R3[6 * k + c] = Mb[6 * c + k] + Mb[6 * k + c] + Mc[6 * c + k] + z[c];",
         "                }",
         "            }",
-        "            for (k = 0; k < 6; k++) {   /* R3 += (. x* yp), column by column */",
-        "                for (c = 0; c < 6; c++) x[c] = c == k ? 1.0 : 0.0;",
-        f"                {rd}_crossf(x, yp, t);",
-        "                for (c = 0; c < 6; c++) R3[6 * c + k] += t[c];",
-        "            }",
+        "            /* R3 += (. x* yp): its 18 nonzero entries (column k is e_k x* yp) */",
+        *_yp_lines(),
         "            /* g5 = Bm psi' + S x* F + Ym psi'', g7 = Bm S + Ym (psi' + phi') */",
         f"            {rd}_dmul(dYb, ps, g5);",
         f"            {rd}_crossf(S, fb, t);",
@@ -261,7 +293,9 @@ def second_order_c(name, plan, nq, nx, helpers):
         "                const double *s = Sw + 6 * j, *p = PS + 6 * j;",
         f"                double *Oj = out + (size_t)row[j] * {nn};",
         "                const int qj = qc[j], uj = uc[j];",
-        "                double u1[6], u2[6], u3[6], u4[6], u6[6], u7[6], u9[6], u10[6], u11[6], w[6], r1p[6], r0p[6];",
+        "                double U[60], r1p[6], r0p[6];   /* the pair's vectors; the first 48 bound the stores (BOUND) */",
+        "                double *u1 = U, *u2 = U + 6, *u3 = U + 12, *u6 = U + 18, *u7 = U + 24, *u9 = U + 30, *w = U + 36;",
+        "                double *u4 = U + 42, *u10 = U + 48, *u11 = U + 54;",
         f"                {name}_h2_mv(R1, s, u2);",
         f"                {name}_h2_mv(R1, p, r1p);",
         f"                {rd}_crossf(s, ys, u9);",
@@ -289,42 +323,7 @@ def second_order_c(name, plan, nq, nx, helpers):
         "                } else {",
         "                    for (c = 0; c < 6; c++) u1[c] = u7[c] = 0.0;   /* unread (j == i), set for the compiler */",
         "                }",
-        "                for (k = j; k >= 0; k = lam[k]) {   /* the support of j */",
-        "                    const double *sk = Sw + 6 * k, *pk = PS + 6 * k, *ppk = PS2 + 6 * k, *hk = PP + 6 * k;",
-        f"                    double *Ok = out + (size_t)row[k] * {nn};",
-        "                    const int qk = qc[k], uk = uc[k];",
-        f"                    const double p1 = {rd}_dot(u11, pk), p2 = {rd}_dot(u9, ppk) + {rd}_dot(w, pk);",
-        f"                    const double v = j != i || k != j ? {rd}_dot(u11, sk) : 0.0;",
-        f"                    Oi[qj * {nx} + qk] = p2;",
-        f"                    Oi[qk * {nx} + uj] = Oi[uj * {nx} + qk] = -p1;",
-        "                    if (j != i) {",
-        f"                        const double a = {rd}_dot(u1, pk) + {rd}_dot(u2, ppk);",
-        f"                        const double d = {rd}_dot(u1, sk) + {rd}_dot(u2, hk);",
-        f"                        Oj[qk * {nx} + qi] = Oj[qi * {nx} + qk] = a;",
-        f"                        Oj[qk * {nx} + ui] = Oj[ui * {nx} + qk] = p1;",
-        f"                        Oj[qi * {nx} + uk] = Oj[uk * {nx} + qi] = d;",
-        f"                        Oj[uk * {nx} + ui] = Oj[ui * {nx} + uk] = v;",
-        "                    }",
-        "                    if (k != j) {",
-        f"                        const double p3 = -v, e3 = {rd}_dot(sk, u3);",
-        f"                        const double f = {rd}_dot(w, sk) + {rd}_dot(u9, hk), g = {rd}_dot(sk, u6);",
-        f"                        Oi[qk * {nx} + qj] = p2;",
-        f"                        Ok[qi * {nx} + qj] = e3;",
-        f"                        Oi[uj * {nx} + uk] = Oi[uk * {nx} + uj] = p3;",
-        f"                        Oi[qj * {nx} + uk] = Oi[uk * {nx} + qj] = f;",
-        f"                        Ok[qj * {nx} + ui] = Ok[ui * {nx} + qj] = g;",
-        "                        if (j != i) {",
-        f"                            const double p6 = {rd}_dot(sk, u10), m = {rd}_dot(sk, u7);",
-        f"                            Ok[qj * {nx} + qi] = e3;",
-        f"                            Ok[ui * {nx} + uj] = Ok[uj * {nx} + ui] = p6;",
-        f"                            Ok[qi * {nx} + uj] = Ok[uj * {nx} + qi] = m;",
-        "                        } else {",
-        f"                            Ok[uj * {nx} + ui] = {rd}_dot(sk, u4);",
-        "                        }",
-        "                    } else {",
-        f"                        Oi[uj * {nx} + uk] = -{rd}_dot(u2, sk);",
-        "                    }",
-        "                }",
+    ] + _triple_lines(name, rd, nx, cfg) + [
         "            }",
         "        }",
         "        l = par[b];",
@@ -335,9 +334,149 @@ def second_order_c(name, plan, nq, nx, helpers):
         "        }",
         "    }",
     ] + (_law_lines(plan, nx) if plan.laws else []) + [
+        "    return big;",
         "}",
     ]
     return "\n".join(lines)
+
+
+LANES = 4      # K's paths are padded to a multiple of this: the most k a step of the triple loop's dots
+# The k per step in the C (NAME_H2_LANES): 4 doubles (one register) when built with AVX2, else 2
+# (one SSE2 register).  Why not 4 everywhere: with SSE2's 16 registers, 4 lanes spill (measured,
+# gcc 12 -O2: UR10 4.4 -> 4.7 us, Panda 8.8 -> 9.9 us).  The bits are the same either way.
+# The G rows each dot reads (0: S, 1: psi', 2: psi'', 3: psi' + phi'; see _triple_lines), j = i / j != i
+GROUPS_A = (1, 2, 1, 0, 0, 0, 3, 0, 0)
+GROUPS_B = (1, 2, 1, 0, 0, 0, 3, 0, 1, 2, 0, 3, 0, 0)
+
+
+def paths(plan):
+    """The tree's dofs packed into root-to-leaf paths: (paths as lists of dofs, path of each dof,
+    its position there).  Each dof's support (itself and the dofs before it) is the start of its
+    path, so the triple loop reads its k's data contiguously (a chain is one path)."""
+    nd = len(plan.lam)
+    kids = [0] * nd
+    for e in plan.lam:
+        if e >= 0:
+            kids[e] += 1
+    out, jp, jt = [], [-1] * nd, [0] * nd
+    for leaf in range(nd):
+        if kids[leaf]:
+            continue
+        path, e = [], leaf
+        while e >= 0:
+            path.append(e)
+            e = plan.lam[e]
+        path.reverse()
+        for t, e in enumerate(path):
+            if jp[e] < 0:
+                jp[e], jt[e] = len(out), t
+        out.append(path)
+    return out, jp, jt
+
+
+def _lanes_cfg(plan):
+    """C: the path tables (:func:`paths`) and their sizes: (table lines, K size, MAXL)."""
+    ps, jp, jt = paths(plan)
+    lens = [-(-len(p) // LANES) * LANES for p in ps]
+    base, b = [], 0
+    for n in lens:
+        base.append(b)
+        b += 24 * n
+    starts, s = [], 0
+    for p in ps:
+        starts.append(s)
+        s += len(p)
+    tables = [c_table("jp", jp or (0,)), c_table("jt", jt or (0,)), c_table("pL", lens or (0,)),
+              c_table("pG", base or (0,)), c_table("pn", [len(p) for p in ps] or (0,)),
+              c_table("p0", starts or (0,)), c_table("pd", [e for p in ps for e in p] or (0,))]
+    return tables, max(b, 1), max(lens or [LANES]), len(ps)
+
+
+def _yp_lines():
+    """C: R3 += the matrix of x -> x x* yp, entry by entry (rd_crossf(e_k, yp)'s nonzero terms:
+    the scalar loop over unit vectors spent its time on products by 0 and 1)."""
+    terms = [(0, 1, "+", 2), (0, 2, "-", 1), (0, 4, "+", 5), (0, 5, "-", 4), (1, 0, "-", 2), (1, 2, "+", 0),
+             (1, 3, "-", 5), (1, 5, "+", 3), (2, 0, "+", 1), (2, 1, "-", 0), (2, 3, "+", 4), (2, 4, "-", 3),
+             (3, 1, "+", 5), (3, 2, "-", 4), (4, 0, "-", 5), (4, 2, "+", 3), (5, 0, "+", 4), (5, 1, "-", 3)]
+    return [f"            R3[{6 * r + k}] {sg}= yp[{f}];" for r, k, sg, f in terms]
+
+
+def _lanes_macro(name):
+    """C (file scope): NAME_H2_LANES, the k per step of the triple loop's dots (see LANES)."""
+    return ["#ifdef __AVX2__", f"#define {name.upper()}_H2_LANES 4", "#else",
+            f"#define {name.upper()}_H2_LANES 2", "#endif", ""]
+
+
+def _dot_lanes(groups, vecs, maxl, lanes):
+    """C: the dots D[m] = vecs[m] . (row groups[m] of K) for LANES k a step, K's rows read once a
+    step; each dot summed in rd_dot's order."""
+    ind = "                                "
+    out = [f"                        for (tk = 0; tk < T; tk += {lanes})",
+           f"                            for (ln = 0; ln < {lanes}; ln++) {{",
+           "                                const int o = tk + ln;"]
+    for g in sorted(set(groups)):
+        out += [f"{ind}const double g{g}_{c} = G[{6 * g + c} * L + o];" for c in range(6)]
+    for m, (g, v) in enumerate(zip(groups, vecs)):
+        out.append(f"{ind}D[{m * maxl} + o] = " + " + ".join(f"{v}[{c}] * g{g}_{c}" for c in range(6)) + ";")
+    return out + ["                            }"]
+
+
+def _triple_lines(name, rd, nx, cfg):
+    """C: the triple loop for one (i, j): the dots of (i, j)'s vectors with every k on j's path,
+    LANES k a step from the component-major copy K (gcc's vectorizer pairs the lanes; each dot
+    is summed in rd_dot's order, so the bits are the scalar loop's), then the stores, k = j first
+    and up the support of j (the stores' order of the scalar loop)."""
+    nn, maxl, lanes = nx * nx, cfg[2], f"{name.upper()}_H2_LANES"
+    def d(m):
+        return f"D[{m * maxl} + tk]" if m else "D[tk]"
+    return [
+        f"                for (c = 0; c < 48; c++) big |= !(fabs(U[c]) <= {BOUND});",
+        "                {   /* the dots of (i, j) with every k on j's path, H2_LANES k a step */",
+        "                    const int pa = jp[j], L = pL[pa], T = jt[j] + 1;",
+        "                    const double *G = K + pG[pa];",
+        "                    int tk, ln;",
+        "                    if (j != i) {",
+        *_dot_lanes(GROUPS_B, ("u11", "u9", "w", "u11", "u3", "w", "u9", "u6", "u1", "u2", "u1", "u2", "u10", "u7"), maxl, lanes),
+        "                    } else {",
+        *_dot_lanes(GROUPS_A, ("u11", "u9", "w", "u11", "u3", "w", "u9", "u6", "u4"), maxl, lanes),
+        "                    }",
+        "                    for (tk = T - 1; tk >= 0; tk--) {   /* k = j, then up the support of j */",
+        "                        const int k = pd[p0[pa] + tk], qk = qc[k], uk = uc[k];",
+        f"                        double *Ok = out + (size_t)row[k] * {nn};",
+        f"                        const double p1 = {d(0)}, p2 = {d(1)} + {d(2)};",
+        f"                        const double v = j != i || k != j ? {d(3)} : 0.0;",
+        f"                        Oi[qj * {nx} + qk] = p2;",
+        f"                        Oi[qk * {nx} + uj] = Oi[uj * {nx} + qk] = -p1;",
+        "                        if (j != i) {",
+        f"                            const double a = {d(8)} + {d(9)};",
+        f"                            const double d = {d(10)} + {d(11)};",
+        f"                            Oj[qk * {nx} + qi] = Oj[qi * {nx} + qk] = a;",
+        f"                            Oj[qk * {nx} + ui] = Oj[ui * {nx} + qk] = p1;",
+        f"                            Oj[qi * {nx} + uk] = Oj[uk * {nx} + qi] = d;",
+        f"                            Oj[uk * {nx} + ui] = Oj[ui * {nx} + uk] = v;",
+        "                        }",
+        "                        if (k != j) {",
+        f"                            const double p3 = -v, e3 = {d(4)};",
+        f"                            const double f = {d(5)} + {d(6)}, g = {d(7)};",
+        f"                            Oi[qk * {nx} + qj] = p2;",
+        f"                            Ok[qi * {nx} + qj] = e3;",
+        f"                            Oi[uj * {nx} + uk] = Oi[uk * {nx} + uj] = p3;",
+        f"                            Oi[qj * {nx} + uk] = Oi[uk * {nx} + qj] = f;",
+        f"                            Ok[qj * {nx} + ui] = Ok[ui * {nx} + qj] = g;",
+        "                            if (j != i) {",
+        f"                                const double p6 = {d(12)}, mm = {d(13)};",
+        f"                                Ok[qj * {nx} + qi] = e3;",
+        f"                                Ok[ui * {nx} + uj] = Ok[uj * {nx} + ui] = p6;",
+        f"                                Ok[qi * {nx} + uj] = Ok[uj * {nx} + qi] = mm;",
+        "                            } else {",
+        f"                                Ok[uj * {nx} + ui] = {d(8)};",
+        "                            }",
+        "                        } else {",
+        f"                            Oi[uj * {nx} + uk] = -{rd}_dot(u2, Sw + 6 * k);",
+        "                        }",
+        "                    }",
+        "                }",
+    ]
 
 
 def _law_lines(plan, nx):
@@ -351,6 +490,7 @@ def _law_lines(plan, nx):
         f"            double *O = out + (size_t)row[jd[j]] * {nn};",
         "            const int qj = qc[jd[j]], uj = uc[jd[j]];",
         f"            const double *h = an + {o} + 3 * j;",
+        "            big |= !(fabs(h[0]) <= 1e300) | !(fabs(h[1]) <= 1e300) | !(fabs(h[2]) <= 1e300);",
         f"            O[qj * {nx} + qj] -= h[0];",
         f"            O[qj * {nx} + uj] -= h[1];",
         f"            O[uj * {nx} + qj] -= h[1];",
@@ -378,7 +518,7 @@ def second_order_body(ctx, program, sym):
               f"{IND}        u[e] = x[{ctx.nq} + sp[e]];",
               f"{IND}        ud[e] = udot[sp[e]];",
               f"{IND}    }}",
-              f"{IND}    {ctx.name}_rnea_hess(an, u, ud, out);",
+              f"{IND}    if (!{ctx.name}_rnea_hess(an, u, ud, out)) return EOMC_OK;   /* finite by its bound (BOUND) */",
               f"{IND}}}",
               f"{IND}return {ctx.name}_h2_finite(out, {ctx.nu * ctx.nx * ctx.nx});"]
     return lines

@@ -4,6 +4,7 @@
 
 #include "eomc_adjoint.h"
 #include "eomc_stagger.h"
+#include "eomc_dense_lu.h"
 
 size_t eomc_adjoint_work_size(int nx, int nparam)
 {
@@ -131,8 +132,8 @@ int eomc_adjoint_rk4_backward(const eomc_model *m, eomc_vjp_fn vjp, double t0, d
 int eomc_adjoint_erk_forward(const eomc_model *m, const eomc_options *opt, double t0, double t1,
                              const double *x0, const double *p, const double *r, int ntstop,
                              const double *tstop, long rec_cap, double *rec_t, double *rec_x,
-                             long *nrec, double *x_last, eomc_stats *stats, double *work,
-                             size_t work_len)
+                             double *rec_k, long *nrec, double *x_last, eomc_stats *stats,
+                             double *work, size_t work_len)
 {
     eomc_stagger sg;
     int status;
@@ -141,7 +142,7 @@ int eomc_adjoint_erk_forward(const eomc_model *m, const eomc_options *opt, doubl
         return EOMC_BAD_ARGUMENT;
     memset(&sg, 0, sizeof sg);
     sg.ntstop = ntstop; sg.tstop = tstop;
-    sg.rec_cap = rec_cap; sg.rec_t = rec_t; sg.rec_x = rec_x;
+    sg.rec_cap = rec_cap; sg.rec_t = rec_t; sg.rec_x = rec_x; sg.rec_k = rec_k;
     status = eomc_integrate_sg(m, opt, t0, t1, x0, p, m->ninput > 0 ? 1 : 0, NULL, r, 0, NULL,
                                NULL, x_last, stats, work, work_len, &sg);
     *nrec = sg.nrec;
@@ -156,9 +157,9 @@ size_t eomc_adjoint_erk_work_size(int nx, int nparam)
 }
 
 int eomc_adjoint_erk_backward(const eomc_model *m, eomc_vjp_fn vjp, long nrec,
-                              const double *rec_t, const double *rec_x, const double *p,
-                              const double *r, const double *G, double *lam0, double *gp,
-                              double *work)
+                              const double *rec_t, const double *rec_x, const double *rec_k,
+                              const double *p, const double *r, const double *G, double *lam0,
+                              double *gp, double *work)
 {
     const double *A, *B, *C;
     int nx, np, as, i, j, l, status;
@@ -177,17 +178,21 @@ int eomc_adjoint_erk_backward(const eomc_model *m, eomc_vjp_fn vjp, long nrec,
         const double *x = rec_x + (size_t)n * nx;
         double t = rec_t[n], h = rec_t[n + 1] - rec_t[n];
         /* the stages as run_erk computed them: Y_s = x + h sum_{j<s} a_sj K_j (zeros skipped,
-         * j ascending), K_s = f(t + c_s h, Y_s) */
+         * j ascending), K_s = f(t + c_s h, Y_s) -- recorded by the forward run (the same
+         * numbers: no rhs call here; the vjp calls below are then the backward run's whole
+         * model cost), or recomputed */
+        const double *Ks = rec_k ? rec_k + (size_t)n * ERK_S * nx : K;
         for (int st = 0; st < ERK_S; st++) {
             double *y = Y + (size_t)st * nx;
             for (i = 0; i < nx; i++) {
                 double acc = 0.0;
                 for (j = 0; j < st; j++) {
                     double a = A[(size_t)st * as + j];
-                    if (a != 0.0) acc += a * K[(size_t)j * nx + i];
+                    if (a != 0.0) acc += a * Ks[(size_t)j * nx + i];
                 }
                 y[i] = st ? x[i] + h * acc : x[i];
             }
+            if (rec_k) continue;
             status = m->rhs(t + C[st] * h, y, p, r, K + (size_t)st * nx, mwork);
             if (status != EOMC_OK) return status;
         }
@@ -216,6 +221,85 @@ int eomc_adjoint_erk_backward(const eomc_model *m, eomc_vjp_fn vjp, long nrec,
             lam[i] = acc;
             if (!isfinite(lam[i])) return EOMC_NONFINITE;
         }
+    }
+    memcpy(lam0, lam, (size_t)nx * sizeof(double));
+    return EOMC_OK;
+}
+
+/* ------------------------------------------------------- adaptive Radau IIA */
+
+size_t eomc_adjoint_radau_work_size(int nx, int nparam)
+{
+    size_t n = (size_t)nx;
+    return 9 * n * n + 3 * n * n + 3 * n + 3 * n + 3 * n + 3 * n + (size_t)(nparam > 0 ? nparam : 0) + 8;
+}
+
+int eomc_adjoint_radau_backward(const eomc_model *m, eomc_vjp_fn vjp, long nrec,
+                                const double *rec_t, const double *rec_x, const double *rec_z,
+                                const double *p, const double *r, const double *G, double *lam0,
+                                double *gp, double *work)
+{
+    const double s6 = sqrt(6.0);
+    /* Radau IIA (order 5): the collocation coefficients and nodes the integrator's
+     * eigenbasis form stands for */
+    const double A[3][3] = {{(88 - 7 * s6) / 360, (296 - 169 * s6) / 1800, (-2 + 3 * s6) / 225},
+                            {(296 + 169 * s6) / 1800, (88 + 7 * s6) / 360, (-2 - 3 * s6) / 225},
+                            {(16 - s6) / 36, (16 + s6) / 36, 1.0 / 9}};
+    const double C[3] = {(4 - s6) / 10, (4 + s6) / 10, 1.0};
+    int nx, np, N, i, j, a, b, status;
+    double *Kt, *J, *Y, *mu, *lam, *gx, *gpt, *mwork;
+    int *piv;
+    if (!m || !vjp || nrec < 0 || !rec_t || (nrec > 0 && (!rec_x || !rec_z)) || !G || !lam0 || !work)
+        return EOMC_BAD_ARGUMENT;
+    if (!m->jac_x) return EOMC_NOT_AVAILABLE;
+    nx = m->nx;
+    np = m->nparam;
+    N = 3 * nx;
+    Kt = work; J = Kt + (size_t)N * N; Y = J + (size_t)3 * nx * nx; mu = Y + N;
+    lam = mu + N; gx = lam + nx; gpt = gx + nx;
+    piv = (int *)(void *)(gpt + (np > 0 ? np : 0));     /* N ints in the N doubles that follow */
+    mwork = work + eomc_adjoint_radau_work_size(nx, np);
+    if (gp) for (i = 0; i < np; i++) gp[i] = 0.0;
+    memcpy(lam, G + (size_t)nrec * nx, (size_t)nx * sizeof(double));
+    for (long n = nrec - 1; n >= 0; n--) {
+        const double *x = rec_x + (size_t)n * nx, *Z = rec_z + (size_t)n * N;
+        double t = rec_t[n], h = rec_t[n + 1] - rec_t[n];
+        for (a = 0; a < 3; a++) {
+            double *ya = Y + (size_t)a * nx;
+            for (i = 0; i < nx; i++) ya[i] = x[i] + Z[(size_t)a * nx + i];
+            status = m->jac_x(t + C[a] * h, ya, p, r, J + (size_t)a * nx * nx, mwork);
+            if (status != EOMC_OK) return status;
+        }
+        /* K = I - h (A (x) I) blkdiag(J_b): block (a, b) = delta_ab I - h A_ab J_b; Kt its
+         * transpose, row (b, j), column (a, i) */
+        for (b = 0; b < 3; b++)
+            for (j = 0; j < nx; j++) {
+                double *row = Kt + ((size_t)b * nx + j) * N;
+                const double *Jb = J + (size_t)b * nx * nx;
+                for (a = 0; a < 3; a++)
+                    for (i = 0; i < nx; i++)
+                        row[(size_t)a * nx + i] = (a == b && i == j ? 1.0 : 0.0) - h * A[a][b] * Jb[(size_t)i * nx + j];
+            }
+        memset(mu, 0, (size_t)N * sizeof(double));
+        memcpy(mu + 2 * nx, lam, (size_t)nx * sizeof(double));     /* e_3 (x) lam */
+        if (lu_factor(N, Kt, piv)) return EOMC_SINGULAR_MASS_MATRIX;
+        lu_solve(N, Kt, piv, mu);
+        for (i = 0; i < nx; i++) lam[i] += G[(size_t)n * nx + i];
+        for (b = 0; b < 3; b++) {
+            double *nu = Kt;                                /* scratch: the factors are spent */
+            int any = 0;
+            for (i = 0; i < nx; i++) {
+                nu[i] = h * (A[0][b] * mu[i] + A[1][b] * mu[nx + i] + A[2][b] * mu[2 * nx + i]);
+                any |= nu[i] != 0.0;
+            }
+            if (!any) continue;
+            status = vjp(t + C[b] * h, Y + (size_t)b * nx, p, r, nu, NULL, gx, gp ? gpt : NULL, mwork);
+            if (status != EOMC_OK) return status;
+            for (i = 0; i < nx; i++) lam[i] += gx[i];
+            if (gp) for (i = 0; i < np; i++) gp[i] += gpt[i];
+        }
+        for (i = 0; i < nx; i++)
+            if (!isfinite(lam[i])) return EOMC_NONFINITE;
     }
     memcpy(lam0, lam, (size_t)nx * sizeof(double));
     return EOMC_OK;

@@ -50,14 +50,17 @@ int eomc_adjoint_rk4_backward(const eomc_model *m, eomc_vjp_fn vjp, double t0, d
  * (t0, t1], the last = t1) and each accepted step's start (rec_t, rec_x) recorded up to
  * rec_cap steps; *nrec counts them all (more than rec_cap: call again with more room).
  * rec_t: rec_cap + 1 doubles (the last step's end follows), rec_x: rec_cap x nx.  x_last:
- * the state at t1.  opt->method: EOMC_DOP853 (or EOMC_DOPRI5: refused by the backward run);
+ * the state at t1.  rec_k (may be NULL): rec_cap x 12 x nx, each recorded step's 12 stage
+ * derivatives as the integrator computed them, so the backward run need not recompute them.
+ * opt->method: EOMC_DOP853 (or EOMC_DOPRI5: refused by the backward run) or EOMC_RADAU5
+ * (rec_k then required: each step's 3 x nx stage increments Z);
  * work: eomc_integrate_work_size(m, method) doubles.  Constant inputs r.  An eomc_status.
  */
 int eomc_adjoint_erk_forward(const eomc_model *m, const eomc_options *opt, double t0, double t1,
                              const double *x0, const double *p, const double *r, int ntstop,
                              const double *tstop, long rec_cap, double *rec_t, double *rec_x,
-                             long *nrec, double *x_last, eomc_stats *stats, double *work,
-                             size_t work_len);
+                             double *rec_k, long *nrec, double *x_last, eomc_stats *stats,
+                             double *work, size_t work_len);
 
 /* Doubles of work eomc_adjoint_erk_backward needs (besides the model's work_size). */
 size_t eomc_adjoint_erk_work_size(int nx, int nparam);
@@ -65,13 +68,32 @@ size_t eomc_adjoint_erk_work_size(int nx, int nparam);
 /*
  * Backward over the nrec recorded DOP853 steps: G (nrec + 1) x nx = dJ/dx at each step
  * boundary (rows of zeros where the cost does not look), row nrec at t1.  Each step's 12
- * stages are recomputed from its checkpoint (12 rhs) and pulled back with 12 vjp calls (the
+ * stage points come from its checkpoint and its recorded stage derivatives rec_k (the
+ * forward run's; NULL: recomputed, 12 rhs a step) and are pulled back with 12 vjp calls (the
  * ones whose adjoint is zero skipped).  Writes lam0 = dJ/dx0 and gp = dJ/dp (may be NULL).
  */
 int eomc_adjoint_erk_backward(const eomc_model *m, eomc_vjp_fn vjp, long nrec,
-                              const double *rec_t, const double *rec_x, const double *p,
-                              const double *r, const double *G, double *lam0, double *gp,
-                              double *work);
+                              const double *rec_t, const double *rec_x, const double *rec_k,
+                              const double *p, const double *r, const double *G, double *lam0,
+                              double *gp, double *work);
+
+/* Doubles of work eomc_adjoint_radau_backward needs (besides the model's work_size). */
+size_t eomc_adjoint_radau_work_size(int nx, int nparam);
+
+/*
+ * Backward over the nrec recorded Radau IIA steps (eomc_adjoint_erk_forward with
+ * opt->method EOMC_RADAU5: rec_k then holds each step's converged stage increments Z, 3 x nx,
+ * and is required).  The step x_{n+1} = x_n + Z_3, Z = h (A (x) I) F(x_n + Z): its adjoint
+ * solves the transposed collocation system (I - h (A (x) I) blkdiag(J_a))^T mu = e_3 (x) lam
+ * with J_a = jac_x at the three stage points (one dense 3nx LU a step), nu_b = h sum_a
+ * A_ab mu_a, then lam_n = lam_{n+1} + sum_b J_b^T nu_b and gp += sum_b dF/dp_b^T nu_b by
+ * vjp.  Exact for the collocation equations on that step sequence (the run's Newton stops
+ * within its tolerance of them).  Needs m->jac_x.  G, lam0, gp as for the DOP853 backward.
+ */
+int eomc_adjoint_radau_backward(const eomc_model *m, eomc_vjp_fn vjp, long nrec,
+                                const double *rec_t, const double *rec_x, const double *rec_z,
+                                const double *p, const double *r, const double *G, double *lam0,
+                                double *gp, double *work);
 
 #ifdef __cplusplus
 }

@@ -207,6 +207,8 @@ typedef struct ctx {
     const int *quat;
     int n_err;               /* leading states the error tests see (n, or the state part of
                                 an augmented sensitivity model: eomc_stagger.h) */
+    int n_fin;               /* leading derivatives frhs checks for finiteness (n, or the state
+                                part of an augmented model whose jvp checks its S rows itself) */
     eomc_stagger *sg;        /* Radau's staggered sensitivities, the adjoint's checkpoints, or NULL */
     int istop;               /* next of sg->tstop */
     const double *bdf_x;     /* BDF: the state at the current step's start (bdf_predict) */
@@ -419,7 +421,7 @@ static int frhs(ctx *c, double t, const double *x, double *f)
     c->st->nfev++;
     s = c->m->rhs(t, x, c->p, c->r, f, c->mwork);
     if (s == EOMC_OK && c->stab > 0.0) s = stabilize_rhs(c, t, x, f);
-    if (s == EOMC_OK && !all_finite(c->n, f)) s = EOMC_NONFINITE;
+    if (s == EOMC_OK && !all_finite(c->n_fin, f)) s = EOMC_NONFINITE;
     if (s != EOMC_OK) c->st->t_fail = t;
     return s;
 }
@@ -458,7 +460,7 @@ static int ctx_init(ctx *c, const eomc_model *m, const double *p, int nr,
     c->abort = 0; c->sigint0 = g_sigint;
     c->nsw = 0; c->nswe = 0; c->gnew_ok = 0; c->sw_cuts = 0;
     c->nquat = 0; c->quat = NULL;
-    c->n_err = m->nx; c->sg = NULL; c->istop = 0;
+    c->n_err = m->nx; c->n_fin = m->nx; c->sg = NULL; c->istop = 0;
     c->r = take(pos, (size_t)m->ninput + 1);
     c->mwork = take(pos, m->work_size + 1);
     if (m->ninput > 0) {
@@ -904,6 +906,21 @@ static void combine_rows(int rows, int ld, int nst, const double *coef, const do
     }
 }
 
+/* The adjoint's checkpoint of an accepted step from t to tn (eomc_stagger.h): its start x
+ * and, when asked for, its s x n stage values K (DOP853's stage derivatives, Radau's Z).
+ * Out of line: inlined, the copies grew run_erk and a sensitivity run lost ~5 % (layout). */
+EOMC_NOINLINE void record_step(eomc_stagger *g, int n, double t, double tn, const double *x,
+                               const double *K, int s)
+{
+    if (g->nrec < g->rec_cap) {
+        g->rec_t[g->nrec] = t;
+        g->rec_t[g->nrec + 1] = tn;
+        memcpy(g->rec_x + (size_t)g->nrec * n, x, (size_t)n * sizeof(double));
+        if (g->rec_k) memcpy(g->rec_k + (size_t)g->nrec * s * n, K, (size_t)s * n * sizeof(double));
+    }
+    g->nrec++;
+}
+
 /* One trial step: stages, y_new, K[s] = f(t+h, y_new), ys = last stage point. */
 static int erk_trial(ctx *c, const erk *tb, double t, double h, const double *x,
                      double *K, double *ynew, double *ys, double *acc)
@@ -1091,15 +1108,8 @@ static int run_erk(ctx *c, const erk *tb, const eomc_options *o, proj *pj,
             sw_keep(c);
         }
         st->accepted++;
-        if (c->sg && c->sg->rec_cap > 0) {         /* the adjoint's checkpoint of this step */
-            eomc_stagger *g = c->sg;
-            if (g->nrec < g->rec_cap) {
-                g->rec_t[g->nrec] = t;
-                g->rec_t[g->nrec + 1] = tn;
-                memcpy(g->rec_x + (size_t)g->nrec * n, x, (size_t)n * sizeof(double));
-            }
-            g->nrec++;
-        }
+        if (c->sg && c->sg->rec_cap > 0)            /* the adjoint's checkpoint of this step */
+            record_step(c->sg, n, t, tn, x, K, tb->s);
         if (c->ev && (s = events_cross(c, tn, ynew, &hits))) return s;
         rows = ow->i < ow->n && ow->t[ow->i] <= tn;
         /* one call site of the DOP853 interpolant's set-up, so it stays inlined with its
@@ -1669,9 +1679,14 @@ static int run_radau(ctx *c, const eomc_options *o, proj *pj, double t0, double 
     else if ((s = initial_step(c, t0, t1, x, f, 3, o->rtol, o->atol, hmax, w.tmp, w.fnew, &h)))
         return s;
     while (t < t1) {
-        double tn = t, hused;
+        double tn = t, hused, tend = t1;
         if (h > hmax) { h = hmax; rs.h_acc = -1.0; }
-        if ((s = radau_step(c, &k, &w, &rs, o, rtol, atol, t, t1, x, f, &h, have_sol, hprev,
+        if (c->sg && c->sg->ntstop) {              /* the adjoint's grid: end on each time */
+            const eomc_stagger *g = c->sg;
+            while (c->istop < g->ntstop && g->tstop[c->istop] <= t) c->istop++;
+            if (c->istop < g->ntstop && g->tstop[c->istop] < t1) tend = g->tstop[c->istop];
+        }
+        if ((s = radau_step(c, &k, &w, &rs, o, rtol, atol, t, tend, x, f, &h, have_sol, hprev,
                             tprev, &lu_ok, &cur_jac, &tn)))
             return s;
         hused = tn - t;
@@ -1705,6 +1720,8 @@ static int run_radau(ctx *c, const eomc_options *o, proj *pj, double t0, double 
             sw_keep(c);
         }
         c->st->accepted++;
+        if (c->sg && c->sg->rec_cap > 0)            /* the adjoint's checkpoint: start, Z */
+            record_step(c->sg, n, t, tn, x, w.Z, 3);
         if (c->sg && c->sg->k > 0 && (s = radau_sens_step(c, &k, &w, &g, t, hused, x, rtol, atol,
                                           fmax(RADAU_SG_FNEWT, fmin(RADAU_FNEWT, sqrt(rtol))))))
             { c->st->t = t; return s; }
@@ -2442,10 +2459,13 @@ static int check_stagger(const eomc_model *m, const eomc_options *o, const eomc_
                          int n_eval)
 {
     if (!sg) return EOMC_OK;
-    if (sg->n_err < 0 || sg->n_err > m->nx || sg->k < 0) return EOMC_BAD_ARGUMENT;
+    if (sg->n_err < 0 || sg->n_err > m->nx || sg->n_fin < 0 || sg->n_fin > m->nx || sg->k < 0)
+        return EOMC_BAD_ARGUMENT;
     if ((sg->ntstop > 0 || sg->rec_cap > 0)
-        && (sg->k > 0 || (o->method != EOMC_DOPRI5 && o->method != EOMC_DOP853)
-            || (sg->ntstop > 0 && !sg->tstop) || (sg->rec_cap > 0 && (!sg->rec_t || !sg->rec_x))))
+        && (sg->k > 0 || (o->method != EOMC_DOPRI5 && o->method != EOMC_DOP853
+                          && o->method != EOMC_RADAU5)
+            || (sg->ntstop > 0 && !sg->tstop) || (sg->rec_cap > 0 && (!sg->rec_t || !sg->rec_x))
+            || (o->method == EOMC_RADAU5 && sg->rec_cap > 0 && !sg->rec_k)))
         return EOMC_BAD_ARGUMENT;
     if (sg->k > 0 && (o->method != EOMC_RADAU5 || !sg->jvp || !sg->D || !sg->S
                       || sg->ndir < m->nx || (n_eval > 0 && !sg->S_out)))
@@ -2493,6 +2513,7 @@ static int integrate_core(const eomc_model *m, const eomc_options *opt,
         sg->njvp = sg->niter = sg->nslow = sg->ndq = 0;
         sg->nrec = 0;
         if (sg->n_err > 0) c.n_err = sg->n_err;
+        if (sg->n_fin > 0) c.n_fin = sg->n_fin;
         if (sg->k > 0 || sg->ntstop > 0 || sg->rec_cap > 0) c.sg = sg;
     }
     if (fb) { c.fb = fb; c.fbJ = take(&pos, (size_t)m->ninput * (size_t)m->nx); }

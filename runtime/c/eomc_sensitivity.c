@@ -213,6 +213,7 @@ int eomc_sens_integrate(eomc_sens *s, const eomc_options *opt, double t0, double
         /* explicit methods (and Radau with error control on S): the augmented model, whose
          * sensitivities stay out of the error test unless errcon */
         sg.n_err = s->errcon ? 0 : n;
+        sg.n_fin = s->jvp ? n : 0;      /* jvp's own NAME_finite covers [xdot; out] */
         return eomc_integrate_sg(&s->aug, &o, t0, t1, X0, (const double *)(const void *)s, n_rgrid,
                                  r_tgrid, r_values, n_eval, t_eval, X_out, X_last, stats, work,
                                  work_len, &sg);

@@ -23,6 +23,9 @@ typedef int (*eomc_dirs_fn)(double t, const double *x, const double *p, const do
 
 typedef struct eomc_stagger {
     int n_err;            /* > 0: states the error test sees (explicit methods) */
+    int n_fin;            /* > 0: derivatives the integrator checks for finiteness (explicit
+                             methods: the state part; the augmented rhs's jvp reports a
+                             non-finite S derivative itself, NAME_finite over its out) */
     int k;                /* Radau: sensitivity columns (0: none) */
     eomc_dirs_fn jvp;     /* Radau: the model's jvp */
     int ndir;             /* nx + nparam */
@@ -37,12 +40,14 @@ typedef struct eomc_stagger {
                              after EOMC_SG_MAXIT iterations (kept, counted) */
     long ndq;             /* out: rhs calls of the iterations after the first (few columns:
                              J (ZS - ZS_jvp) by a forward difference) */
-    /* DOPRI5/DOP853 for the adjoint (eomc_adjoint.c): checkpoints of the accepted steps. */
+    /* DOPRI5/DOP853/Radau for the adjoint (eomc_adjoint.c): checkpoints of the accepted steps. */
     int ntstop;           /* steps end exactly on these times (increasing, inside (t0, t1]) */
     const double *tstop;
     long rec_cap;         /* > 0: record up to rec_cap accepted steps */
     double *rec_t;        /* rec_cap + 1: each accepted step's start time, then the end time */
     double *rec_x;        /* rec_cap x nx: each accepted step's start state */
+    double *rec_k;        /* NULL, or per accepted step s x nx: DOP853's 12 stage derivatives,
+                             Radau's 3 converged stage increments Z (x + Z_a at c_a h) */
     long nrec;            /* out: accepted steps (also past rec_cap: the caller retries larger) */
 } eomc_stagger;
 

@@ -115,3 +115,17 @@ def test_recursive_rhs_near_gimbal_lock_and_elsewhere_is_not_refused(mixed):
         ud = mixed.rhs(0.0, x)[mixed.nq:]
         M, f = mixed.mass_matrix(0.0, x), mixed.forcing(0.0, x)
         assert np.linalg.norm(M @ ud - f) <= 1e-10 * max(1.0, np.linalg.norm(f)) * np.linalg.norm(M), x
+
+
+@pytest.mark.parametrize("status, reason", [(5, "the step size became too small"),
+                                            (6, "the maximum number of steps was reached")])
+def test_a_collapsed_step_names_a_mass_matrix_singular_to_rounding(arm, status, reason):
+    """icub.urdf (example-robot-data) stopped with 'the step size became too small' and no why:
+    its head has next to no inertia about the two neck joints (M's smallest eigenvalue 4e-18).
+    A failure of that kind now carries the diagnosis; a regular M adds nothing."""
+    from eomc.runtime.simulate import failure_message
+    x = np.array([0.3, -0.4, 0.1, 0.2])
+    stats = {"status": status, "t": 0.25, "t_fail": 0.25, "h": 1e-18, "steps": 100000}
+    msg = failure_message(arm, "radau", stats, x, _p(arm, m2=1e-14))
+    assert reason in msg and "nothing resists motion along u2 (1)" in msg and "gimbal lock" in msg
+    assert "nothing resists" not in failure_message(arm, "radau", stats, x, _p(arm))

@@ -72,7 +72,7 @@ def test_against_reverse_path_and_differences_of_jac_id(models):
 
 
 def test_overflow_is_an_error_not_a_silent_inf(models):
-    """The kernel's own finiteness check (v * 0 sums): speeds of 1e200 overflow v x* (I v)."""
+    """The kernel's own finiteness check (a bound, then v * 0 sums): speeds of 1e200 overflow v x* (I v)."""
     kernel, _ = models
     x = np.zeros(kernel.nx)
     x[kernel.nq:] = 1e200
@@ -162,3 +162,42 @@ def test_joint_laws_take_the_kernel_and_match_reverse_path_and_differences(law_m
             assert np.max(np.abs(H - fd)[mask]) <= 1e-6 * part, (past, h)
     # the laws' curvature is there: ten widths past j1's limit, its entry dwarfs the rigid-body ones
     assert abs(H[0, 0, 0]) > 1e3 * np.max(np.abs(H[~law]))
+
+
+def _nan_filled_call(model, x, ud, r=None):
+    """hess_id's C into an output filled with NaN first: (status, output)."""
+    t, x, p, r = model._args(0.0, x, None, r)
+    out = np.full(model.nu * model.nx * model.nx, np.nan)
+    status = model._kernel("hess_id")(t, x, np.asarray(ud, float), p, r, out, model._work()[1])
+    return status, out.reshape(model.nu, model.nx, model.nx)
+
+
+def test_every_entry_is_written(models, law_models):
+    """The output is zeroed first unless the triple loop writes every entry itself (the dofs on
+    one path, _covers_all): the branching tree is zeroed, the 3-joint arm (a chain) is not, and
+    from an output filled with NaN both give every entry, equal to hess_id's."""
+    tree, arm = models[0], law_models[0]
+    c_tree = (tree.directory / f"{tree.name}.c").read_text()
+    c_arm = (arm.directory / f"{arm.name}.c").read_text()
+    assert f"out[k] = 0.0;" in c_tree.split("_rnea_hess(const double")[1].split("\n}\n")[0]
+    assert f"out[k] = 0.0;" not in c_arm.split("_rnea_hess(const double")[1].split("\n}\n")[0]
+    rng = np.random.default_rng(5)
+    for model, r in ((tree, rng.uniform(-1, 1, tree.ninput)), (arm, None)):
+        x, ud = rng.uniform(-1, 1, model.nx), rng.uniform(-1, 1, model.nu)
+        status, out = _nan_filled_call(model, x, ud, r)
+        assert status == 0 and np.all(np.isfinite(out))
+        assert np.array_equal(out, model.hess_id(0.0, x, ud, r=r))
+
+
+def test_large_finite_outputs_pass_the_bound_by_the_full_check(models):
+    """The kernel's finiteness test is a bound on the numbers its outputs are made of (1e150);
+    past it (speeds of 1e90: outputs ~1e180, finite) the output is checked entry by entry, and
+    a finite one is returned, equal to the reverse path's."""
+    kernel, reverse = models
+    x = np.zeros(kernel.nx)
+    x[kernel.nq:] = 1e90
+    ud, r = np.zeros(kernel.nu), np.zeros(kernel.ninput)
+    H, ref = kernel.hess_id(0.0, x, ud, r=r), reverse.hess_id(0.0, x, ud, r=r)
+    scale = np.max(np.abs(ref))
+    assert 1e170 < scale < 1e200 and np.all(np.isfinite(H))
+    assert np.max(np.abs(H - ref)) <= 1e-12 * scale

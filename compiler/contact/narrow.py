@@ -1,0 +1,238 @@
+"""Body–body pairs' narrow phase as C routines: one static function per pair of kinds, called.
+
+One job: the pair schemes of :mod:`.pairs` (closest points, a solid's signed distance, box–box's
+corners; per contact point p, n, δ) written once per pair of kinds as a static C function of
+the two shapes' placements and sizes, and its forward-mode derivative; the IR nodes that call
+them (:class:`NarrowCall`, :class:`NarrowOut`, :class:`NarrowDot`).
+
+Why: the schemes were inlined per pair as straight-line SymPy, so every pair was generated,
+differentiated (jac_x's tangent) and compiled on its own, in rhs, events and outputs.  gymnasium's
+humanoid with its self-collisions (109 pairs) took 28.9 s CPU to build its rhs alone (17 s gcc on
+1.5 MB of C), dm_control's stacker ~103 s (jac_x's tangent of 96 box–box parts: 2.27 M ops).  Now
+a pair is a call: ``NarrowCall(routine, uid, *inputs)`` writes the pair's outputs into a local
+array ``NP<uid>_`` (7 per contact point: p, n, δ) and each output is ``NarrowOut(call, uid, k)``.
+The routines are generated from the same scheme functions, with the sizes and margin as inputs
+(not literals), so one routine serves every pair of its kinds; agreement with the inlined schemes
+is to rounding (tests/compiler/contact/test_narrow.py).
+
+Derivatives: the tangent of an output along a direction is ``NarrowDot``'s: the routine's
+forward-mode derivative (the scheme's program differentiated once per pair of kinds by
+:func:`eomc.compiler.passes.diff.tangent`, not per pair) called with the placements' tangents,
+writing the outputs' tangents into ``ND<k>_``.  Placement inputs are the shapes' centres and axes
+(24); sizes and margin are numbers (their tangents are 0).  Second derivatives (hvp) and the
+reverse sweep (vjp) of a pair are refused with a message.
+"""
+import functools
+
+import sympy as sm
+
+from ..emit.bodies import IND, store, temps
+from ..emit.printer import CPrinter
+from ..emit.split import split_body
+from ..ir import Program, c_names
+from ..passes.dce import dce
+from ..passes.diff import tangent
+from ..passes.powers import expand_powers
+from eomc.runtime.errors import ModelError
+
+__all__ = ["NarrowCall", "NarrowOut", "NarrowDot", "ROUTINE_KINDS", "routine_index", "narrow_inputs",
+           "routine_outputs", "routine_code", "use_schemes", "NPOSE", "NINPUT", "PER_PART"]
+
+NPOSE = 24         # inputs with tangents: A's centre and 3 axes, B's centre and 3 axes (world)
+NINPUT = 31        # then A's 3 sizes, B's 3 sizes, the margin
+PER_PART = 7       # outputs per contact point: p (3), n (3, A to B), δ
+# the ordered pairs of kinds a PairLoad may hold (a, b as with_pairs orders them): each its routine
+ROUTINE_KINDS = tuple((a, b) for a in ("sphere", "capsule", "box", "cylinder", "ellipsoid")
+                      for b in ("sphere", "capsule", "box", "cylinder", "ellipsoid"))
+
+
+def routine_index(kind_a, kind_b):
+    return ROUTINE_KINDS.index((kind_a, kind_b))
+
+
+def _cname(rid, dot=False):
+    a, b = ROUTINE_KINDS[rid]
+    return f"eomc_narrow_{a}_{b}{'_dot' if dot else ''}"
+
+
+def narrow_inputs(a, b, size_a, size_b, margin):
+    """The routine's inputs: placed shapes' centres and axes ({centre, axes}, world), sizes, margin."""
+    out = list(a["centre"]) + [x for axis in a["axes"] for x in axis]
+    out += list(b["centre"]) + [x for axis in b["axes"] for x in axis]
+    for size in (size_a, size_b):
+        s = [float(x) for x in size] + [0.0] * (3 - len(size))
+        out += [_number(x) for x in s[:3]]
+    return out + [_number(float(margin))]
+
+
+def _number(x):
+    return sm.S.Zero if x == 0 else sm.Float(x, 17)
+
+
+class NarrowCall(sm.Function):
+    """NarrowCall(routine, uid, *inputs): the pair's narrow phase, run once; its outputs are
+    read by :class:`NarrowOut`.  Its own value is a token (0.0, the C function's return)."""
+    is_real = True
+
+    def _eval_derivative(self, s):
+        return sm.S.Zero        # a token: the values are its NarrowOut's (their tangents: forward)
+
+    def forward(self, dd, k):
+        return sm.S.Zero
+
+    def c_declaration(self):
+        return f"double NP{int(self.args[1])}_[{routine_outputs(int(self.args[0]))}];"
+
+    def c_routines(self):
+        """[(key, C text, split)] of the routines this node calls (generate_c prints each once)."""
+        rid = int(self.args[0])
+        return [((rid, 0), *routine_code(rid, False))]
+
+    def _ccode(self, printer):
+        args = ", ".join(printer._print(a) for a in self.args[2:])
+        return f"{_cname(int(self.args[0]))}({args}, &NP{int(self.args[1])}_[0])"
+
+
+class NarrowDot(sm.Function):
+    """NarrowDot(routine, uid, *inputs, *input tangents): the outputs' tangents, into ``ND<uid>_``."""
+    is_real = True
+
+    def _eval_derivative(self, s):
+        return sm.S.Zero
+
+    def forward(self, dd, k):
+        return sm.S.Zero
+
+    def c_declaration(self):
+        return f"double ND{int(self.args[1])}_[{routine_outputs(int(self.args[0]))}];"
+
+    def c_routines(self):
+        rid = int(self.args[0])
+        return [((rid, 1), *routine_code(rid, True))]
+
+    def _ccode(self, printer):
+        args = ", ".join(printer._print(a) for a in self.args[2:])
+        return f"{_cname(int(self.args[0]), True)}({args}, &ND{int(self.args[1])}_[0])"
+
+
+class NarrowOut(sm.Function):
+    """NarrowOut(call, tag, k): output k of a pair's call (tag ≥ 0: a NarrowCall's uid, its array
+    ``NP<tag>_``; tag < 0: a NarrowDot's, ``ND<-tag-1>_``).  Reads the call's temporary, so every
+    pass keeps it after the call."""
+    nargs = 3
+    is_real = True
+
+    def _eval_derivative(self, s):
+        raise ModelError(_REFUSAL)
+
+    def forward(self, dd, k):
+        """Its tangent along direction k of the diff pass ``dd`` (:class:`eomc.compiler.passes.diff._Diff`)."""
+        call, tag, index = self.args
+        if int(tag) < 0:
+            raise ModelError(_REFUSAL)
+        key = ("narrow", call, k)
+        hit = dd.extra.get(key)
+        if hit is None:
+            expr = dd.definition(call)
+            inputs = expr.args[2:]
+            dins = [dd.d(x, k) for x in inputs[:NPOSE]]
+            if all(x.is_Number and x == 0 for x in dins):
+                hit = sm.S.Zero
+            else:
+                sym = dd.names.fresh()
+                uid = int(sym.name[2:])
+                dd.out.append((sym, NarrowDot(expr.args[0], sm.Integer(uid), *inputs, *dins)))
+                hit = (sym, uid)
+            dd.extra[key] = hit
+        if hit is sm.S.Zero:
+            return sm.S.Zero
+        return NarrowOut(hit[0], sm.Integer(-hit[1] - 1), index)
+
+    def _ccode(self, printer):
+        tag, index = int(self.args[1]), int(self.args[2])
+        return f"NP{tag}_[{index}]" if tag >= 0 else f"ND{-tag - 1}_[{index}]"
+
+
+_REFUSAL = ("second derivatives and reverse sweeps (hvp, vjp) of a body–body contact pair's narrow phase are "
+            "not generated: build without them, or without the pairs (pairs=False / --pairs none)")
+
+
+def routine_outputs(rid):
+    return len(_program(rid)[0].results)
+
+
+_SCHEMES = []   # the pair schemes: .pairs sets them when imported (it imports this module)
+
+
+def use_schemes(outputs):
+    """``outputs(a, b, margin, let)``: the list p, n, δ of every contact point of two placed
+    shapes ({kind, centre, axes, size}) -- :mod:`.pairs`' schemes, the routines' bodies."""
+    _SCHEMES[:] = [outputs]
+
+
+class _Straight:
+    """A straight-line program's temporaries, value-numbered, named ``_t<k>`` (the recursions'
+    Recorder, eomc.compiler.tree.recorder, sits above this package)."""
+
+    def __init__(self):
+        self.count, self.assignments, self._seen = 0, [], {}
+
+    def let(self, expr):
+        expr = sm.sympify(expr)
+        if expr.is_Atom or (expr.is_Mul and len(expr.args) == 2 and expr.args[0] == -1 and expr.args[1].is_Atom):
+            return expr
+        hit = self._seen.get(expr)
+        if hit is None:
+            hit = self._seen[expr] = sm.Symbol(f"_t{self.count}", real=True)
+            self.count += 1
+            self.assignments.append((hit, expr))
+        return hit
+
+
+@functools.lru_cache(maxsize=None)
+def _program(rid):
+    """(Program with results ("o", i): the outputs of routine ``rid``, input symbols)."""
+    ka, kb = ROUTINE_KINDS[rid]
+    ins = sm.symbols(f"in0:{NINPUT}", real=True)
+    a = {"kind": ka, "centre": list(ins[0:3]), "axes": [list(ins[3:6]), list(ins[6:9]), list(ins[9:12])],
+         "size": list(ins[24:27])}
+    b = {"kind": kb, "centre": list(ins[12:15]), "axes": [list(ins[15:18]), list(ins[18:21]), list(ins[21:24])],
+         "size": list(ins[27:30])}
+    rec = _Straight()
+    results = _SCHEMES[0](a, b, ins[30], rec.let)
+    prog = Program(inputs=tuple(ins), assignments=tuple(rec.assignments),
+                   results=tuple((("o", i), sm.sympify(e)) for i, e in enumerate(results)), ntemp=rec.count)
+    return prog, ins
+
+
+@functools.lru_cache(maxsize=None)
+def routine_code(rid, dot):
+    """(C text of routine ``rid`` (its forward-mode derivative when ``dot``), whether it was split
+    into sub-functions (then the file needs EOMC_NOINLINE))."""
+    prog, ins = _program(rid)
+    name = _cname(rid, dot)
+    nout = routine_outputs(rid)
+    params = [f"double a{k}" for k in range(NINPUT)]
+    head = [f"{IND}const double in[{NINPUT}] = {{{', '.join(f'a{k}' for k in range(NINPUT))}}};"]
+    names = {s: f"in[{k}]" for k, s in enumerate(ins)}
+    group = "o"
+    if dot:
+        seeds = sm.symbols(f"din0:{NPOSE}", real=True)
+        prog = tangent(prog.with_(inputs=tuple(ins) + tuple(seeds)), "o", dict(zip(ins[:NPOSE], seeds)), "do")
+        params += [f"double b{k}" for k in range(NPOSE)]
+        head.append(f"{IND}const double din[{NPOSE}] = {{{', '.join(f'b{k}' for k in range(NPOSE))}}};")
+        names.update({s: f"din[{k}]" for k, s in enumerate(seeds)})
+        group = "do"
+    prog = expand_powers(dce(prog, (group,)))
+    names.update(c_names(prog))
+    pr = CPrinter(names)
+    values = prog.result_exprs(group)
+    body = temps(prog, pr) + [store(f"out[{i}]", values.get((group, i), sm.S.Zero), pr) for i in range(nout)]
+    lines, parts = split_body(body, f"{name}_part")
+    ka, kb = ROUTINE_KINDS[rid]
+    what = "the tangents of " if dot else ""
+    text = (f"/* body-body pair narrow phase: {what}p, n, depth of each contact point of a {ka} (A) against a "
+            f"{kb} (B), {nout // PER_PART} point(s) (compiler/contact/narrow.py) */\n"
+            f"static double {name}({', '.join(params)}, double *out)\n{{\n" + "\n".join(head + lines)
+            + f"\n{IND}return 0.0;\n}}\n")
+    return "\n".join(list(parts) + [text]), bool(parts)
