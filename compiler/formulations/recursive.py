@@ -133,7 +133,7 @@ class Recursive(Formulation):
         if sym.analytic is not None and set(sym.dynamics_kernel) & set(functions):
             out.append(dynamics_kernel_c(name, sym.analytic))
         if "jac_r" in functions and sym.input_solve:     # NAME_msolve (.input_jacobian)
-            out.append(msolve_c(name, sym.analytic))
+            out.append(msolve_c(name, sym.analytic, sym.input_solve))
         if "hess_id" in functions and sym.second_order is not None:   # NAME_rnea_hess (.second_order)
             out.append(second_order_c(name, *sym.second_order[:1], nq, sym.second_order[1], helpers=not first))
         return "\n\n".join(out)

@@ -30,10 +30,19 @@ from .analytic import (ANX, ARTICULATED_START_LINES, DOT6_LINE, PLACE_FROM_PAREN
 
 # columns solved together: the tree's data (s, U, D per dof) read once per block; measured on G1
 # (29 columns, 2026-11-29): 8 lanes 12.5 us a jac_r call, 4 lanes 14.5, one 26; the straight-line
-# solve it replaced 13.5
+# solve it replaced 13.5.  Fewer columns, fewer lanes (lanes_for): each lane is work.
 LANES = 8
 
-__all__ = ["uses_input_solve", "msolve_c", "input_jacobian_body", "input_jacobian_ops", "INPUT_SOLVE_GROUPS"]
+
+def lanes_for(ncol):
+    """The block width of NAME_msolve for ``ncol`` columns: the smallest power of two that
+    holds them, at most LANES."""
+    lanes = 1
+    while lanes < min(ncol, LANES):
+        lanes *= 2
+    return lanes
+
+__all__ = ["lanes_for", "uses_input_solve", "msolve_c", "input_jacobian_body", "input_jacobian_ops", "INPUT_SOLVE_GROUPS"]
 
 # jac_r's result groups on this path: the kinematic rows, B's entries, the kernels' inputs
 INPUT_SOLVE_GROUPS = ("dkin_r", "dres_r", "dzd_r", ANX)
@@ -44,11 +53,12 @@ def uses_input_solve(plan, functions, nx, nq, nu):
     return plan is not None and "jac_r" in functions and not plan.contacts and nx == nq + nu
 
 
-def msolve_c(name, plan):
+def msolve_c(name, plan, lanes=LANES):
     """The C text of ``NAME_msolve(an, out, stride, row0, ncol)``: the rows ``row0 + speed``
     of ``out`` (``stride`` doubles apart) hold ``ncol`` right-hand sides in their first ``ncol``
     entries, replaced by M⁻¹ of them.  Returns EOMC_SINGULAR_MASS_MATRIX when an articulated
-    inertia it divides by is not positive (as every function built on ABA), else 0."""
+    inertia it divides by is not positive (as every function built on ABA), else 0.  ``lanes``:
+    columns per block (:func:`lanes_for` of jac_r's inputs)."""
     nb, nd, o = plan.nb, plan.nd, plan.offsets
     return "\n".join([
         f"static double {name}_ms_dot(const double *a, const double *b)",
@@ -58,12 +68,12 @@ def msolve_c(name, plan):
         "",
         "/* out's speed rows <- M^-1 of them, on ncol columns (compiler/tree/input_jacobian.py):",
         "   M factored the articulated-body way from the kernels' inputs an[], then per block of",
-        f"   {LANES} columns one sweep to the root (bias messages) and one to the leaves (accelerations). */",
+        f"   {lanes} columns one sweep to the root (bias messages) and one to the leaves (accelerations). */",
         f"static int {name}_msolve(const double *an, double *out, int stride, int row0, int ncol)",
         "{",
         *tree_tables(plan),
         f"    double R[{9 * nb}], P[{3 * nb}], Y[{10 * nb}], Sw[{6 * nd}], IA[{36 * nb}], Ua[{6 * nd}], Di[{nd}];",
-        f"    double Pb[{6 * LANES * nb}], yb[{LANES * nd}];   /* Pb: the messages p, then the accelerations a */",
+        f"    double Pb[{6 * lanes * nb}], yb[{lanes * nd}];   /* Pb: the messages p, then the accelerations a */",
         "    int b, i, j, e, l, c, c0, nc;",
         f"    for (b = 0; b < {nb}; b++) {{   /* placement, axes and inertia in the world */",
         f"        const double *E = an + 9 * b, *r = an + {o['r']} + 3 * b, *In = an + {o['I']} + 10 * b;",
@@ -103,43 +113,43 @@ def msolve_c(name, plan):
         "        if (par[b] >= 0)",
         "            for (i = 0; i < 36; i++) IA[36 * par[b] + i] += Ib[i];",
         "    }",
-        f"    for (c0 = 0; c0 < ncol; c0 += {LANES}) {{   /* {LANES} columns at a time: one pass of the tree serves them */",
-        f"        nc = ncol - c0 < {LANES} ? ncol - c0 : {LANES};",
+        f"    for (c0 = 0; c0 < ncol; c0 += {lanes}) {{   /* {lanes} columns at a time: one pass of the tree serves them */",
+        f"        nc = ncol - c0 < {lanes} ? ncol - c0 : {lanes};",
         f"        for (e = 0; e < {nd}; e++)",
-        f"            for (c = 0; c < {LANES}; c++) yb[{LANES} * e + c] = c < nc ? out[(row0 + row[e]) * stride + c0 + c] : 0.0;",
-        f"        for (i = 0; i < {6 * LANES * nb}; i++) Pb[i] = 0.0;",
+        f"            for (c = 0; c < {lanes}; c++) yb[{lanes} * e + c] = c < nc ? out[(row0 + row[e]) * stride + c0 + c] : 0.0;",
+        f"        for (i = 0; i < {6 * lanes * nb}; i++) Pb[i] = 0.0;",
         f"        for (b = {nb - 1}; b >= 0; b--) {{   /* u = y - S.p, the parent's p += p + U u / D */",
-        f"            double *p = Pb + {6 * LANES} * b;",
+        f"            double *p = Pb + {6 * lanes} * b;",
         "            for (e = d0[b] + nd[b] - 1; e >= d0[b]; e--) {",
         "                const double *s = Sw + 6 * e, *U = Ua + 6 * e;",
-        f"                double *y = yb + {LANES} * e, w[{LANES}];",
-        f"                for (c = 0; c < {LANES}; c++) {{",
-        f"                    y[c] -= s[0] * p[c] + s[1] * p[{LANES} + c] + s[2] * p[{2 * LANES} + c]"
-        f" + s[3] * p[{3 * LANES} + c] + s[4] * p[{4 * LANES} + c] + s[5] * p[{5 * LANES} + c];",
+        f"                double *y = yb + {lanes} * e, w[{lanes}];",
+        f"                for (c = 0; c < {lanes}; c++) {{",
+        f"                    y[c] -= s[0] * p[c] + s[1] * p[{lanes} + c] + s[2] * p[{2 * lanes} + c]"
+        f" + s[3] * p[{3 * lanes} + c] + s[4] * p[{4 * lanes} + c] + s[5] * p[{5 * lanes} + c];",
         "                    w[c] = y[c] * Di[e];",
         "                }",
         "                for (i = 0; i < 6; i++)",
-        f"                    for (c = 0; c < {LANES}; c++) p[{LANES} * i + c] += U[i] * w[c];",
+        f"                    for (c = 0; c < {lanes}; c++) p[{lanes} * i + c] += U[i] * w[c];",
         "            }",
         "            if (par[b] >= 0)",
-        f"                for (i = 0; i < {6 * LANES}; i++) Pb[{6 * LANES} * par[b] + i] += p[i];",
+        f"                for (i = 0; i < {6 * lanes}; i++) Pb[{6 * lanes} * par[b] + i] += p[i];",
         "        }",
         f"        for (b = 0; b < {nb}; b++) {{   /* x = (u - U.a_parent) / D, a = a_parent + S x */",
-        f"            double *a = Pb + {6 * LANES} * b;",
+        f"            double *a = Pb + {6 * lanes} * b;",
         "            l = par[b];",
-        f"            for (i = 0; i < {6 * LANES}; i++) a[i] = l >= 0 ? Pb[{6 * LANES} * l + i] : 0.0;",
+        f"            for (i = 0; i < {6 * lanes}; i++) a[i] = l >= 0 ? Pb[{6 * lanes} * l + i] : 0.0;",
         "            for (e = d0[b]; e < d0[b] + nd[b]; e++) {",
         "                const double *s = Sw + 6 * e, *U = Ua + 6 * e;",
-        f"                double *y = yb + {LANES} * e;",
-        f"                for (c = 0; c < {LANES}; c++)",
-        f"                    y[c] = (y[c] - (U[0] * a[c] + U[1] * a[{LANES} + c] + U[2] * a[{2 * LANES} + c]"
-        f" + U[3] * a[{3 * LANES} + c] + U[4] * a[{4 * LANES} + c] + U[5] * a[{5 * LANES} + c])) * Di[e];",
+        f"                double *y = yb + {lanes} * e;",
+        f"                for (c = 0; c < {lanes}; c++)",
+        f"                    y[c] = (y[c] - (U[0] * a[c] + U[1] * a[{lanes} + c] + U[2] * a[{2 * lanes} + c]"
+        f" + U[3] * a[{3 * lanes} + c] + U[4] * a[{4 * lanes} + c] + U[5] * a[{5 * lanes} + c])) * Di[e];",
         "                for (i = 0; i < 6; i++)",
-        f"                    for (c = 0; c < {LANES}; c++) a[{LANES} * i + c] += s[i] * y[c];",
+        f"                    for (c = 0; c < {lanes}; c++) a[{lanes} * i + c] += s[i] * y[c];",
         "            }",
         "        }",
         f"        for (e = 0; e < {nd}; e++)",
-        f"            for (c = 0; c < nc; c++) out[(row0 + row[e]) * stride + c0 + c] = yb[{LANES} * e + c];",
+        f"            for (c = 0; c < nc; c++) out[(row0 + row[e]) * stride + c0 + c] = yb[{lanes} * e + c];",
         "    }",
         "    return 0;",
         "}",

@@ -42,7 +42,7 @@ from .constrained import (accelerations, check_functions, kane_form, kkt_residua
                           lower_loops, multiplier_symbols, tree_loops)
 from .derivatives import articulated_solve, solve_symbols
 from .dynamics_kernel import KERNEL_FUNCTIONS
-from .input_jacobian import INPUT_SOLVE_GROUPS, uses_input_solve
+from .input_jacobian import INPUT_SOLVE_GROUPS, lanes_for, uses_input_solve
 from .model import NotATree
 from .spatial import cross
 
@@ -324,7 +324,7 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         sym = replace(sym, function_groups={**TREE_FUNCTION_GROUPS,
                                             **{f: g for f, g in _OWN_GROUPS.items() if f not in dyn}})
     if input_solve:
-        sym = replace(sym, input_solve=True,
+        sym = replace(sym, input_solve=lanes_for(len(layout.r)),
                       function_groups={**(sym.function_groups or TREE_FUNCTION_GROUPS), "jac_r": INPUT_SOLVE_GROUPS})
     if "hess_id" in functions:      # second-order inverse dynamics (compiler/emit/reverse.py)
         if loops is not None:
