@@ -15,8 +15,10 @@ finds the switching functions by the names the contact and joint-law builders gi
   (:data:`POINT_PENETRATION` for a point contact, r = 0): a :class:`PhysicsWarning`
   naming the contact -- the law is followed, but the contact is too soft for the load
   (raise k) or the run jumped through the ground;
-- a joint past its limit by more than :data:`LIMIT_OVERSHOOT_WIDTHS` widths: a
-  :class:`PhysicsWarning` naming the joint;
+- a joint past its limit by more than :data:`LIMIT_OVERSHOOT_WIDTHS` widths (0.03 rad or m at
+  the default width; the stated overshoot of the default limit stiffness, docs/joint-laws.md):
+  a :class:`PhysicsWarning` naming the joint, its stiffness and whether it is the user's own
+  or the default;
 - a model with an ``energy`` output (a robot read from a file with only ground contacts
   as loads gets one generated: kinetic, gravity's and the contacts' elastic energy) whose
   inputs are absent or zero that *gains* energy while only passive laws act: beyond :func:`energy_tolerance` a :class:`PhysicsWarning`, beyond
@@ -210,9 +212,9 @@ def verdict(model, a, result, gmax, sw):
                                 & (over > start + e)):
             lim = sw.limits[j]
             notes.append(f"joint {lim.joint} went {over[j]:.3g} past its {lim.side} limit "
-                         f"{float(p[lim.param]):g}, more than {LIMIT_OVERSHOOT_WIDTHS} widths "
-                         f"({LIMIT_OVERSHOOT_WIDTHS * e[j]:.3g}): its limit stiffness limit_k_{lim.joint} is "
-                         f"too soft for the load")
+                         f"{float(p[lim.param]):g}, more than the {LIMIT_OVERSHOOT_WIDTHS} widths "
+                         f"({LIMIT_OVERSHOOT_WIDTHS * e[j]:.3g}) a limit may give: "
+                         f"{_stiffness_text(model, p, lim.joint)} is too soft for the load it met")
     from .ground_check import below_ground
     notes += below_ground(model, result.t, result.x, p, POINT_PENETRATION, PENETRATION_FRACTION)
     status, extra = 0, ""
@@ -241,6 +243,24 @@ def verdict(model, a, result, gmax, sw):
     if notes:       # one warning per run, naming every contact and joint
         warnings.warn(PhysicsWarning(f"{model.name}: " + "; ".join(notes)), stacklevel=_user_level())
     return status, extra
+
+
+def _stiffness_text(model, p, joint):
+    """Whose limit stiffness failed: the user's own (a p= / --param value), or eomc's default
+    (docs/joint-laws.md states the rule: from the load and inertia the joint carries; MJCF
+    from the joint's solref on that inertia)."""
+    name = f"limit_k_{joint}"
+    names = list(getattr(model, "param_names", ()))
+    if name not in names:
+        return f"its limit stiffness {name}"
+    i = names.index(name)
+    k = float(p[i])
+    default = float(np.asarray(model.param_defaults, dtype=float)[i])
+    if k != default:
+        return f"your limit stiffness {name} = {k:.4g} (the default is {default:.4g})"
+    return (f"its limit stiffness {name} = {k:.4g} (the default: from the load and inertia the joint "
+            f"carries, an MJCF joint's solref on that inertia, docs/joint-laws.md; raise it with "
+            f"--param {name}=...)")
 
 
 def _bounds(sw, p):

@@ -125,6 +125,8 @@ def tree_ir(m, *, fold=False, actuators=None, limits=True, friction=True, quater
         drive[j] = drive.get(j, sm.S.Zero) + force
     for j, tau in tendon_forces(m, params, joint_names, tendon_names, limits, friction).items():
         drive[j] = drive.get(j, sm.S.Zero) + tau         # fixed tendons' springs, dampers, limits, friction
+    from .carried import carried_inertias
+    carried = carried_inertias(m) if limits else {}    # joint id -> the inertia its limit carries
     bodies, coordinates, speeds, kinematics, loads, joints, owners = [], [], [], [], [], [], []
     quaternions = []        # each ball/free joint's w coordinate, with quaternion=True
     torques = []
@@ -198,7 +200,7 @@ def tree_ir(m, *, fold=False, actuators=None, limits=True, friction=True, quater
                     rest = params(f"q0_{jn}", m.qpos_spring[qadr])
                     tau = tau - stiffness * (coordinates[first_q] - rest)
                 tau = tau + _law(m, jid, jraw, jn, coordinates[first_q], speeds[first], params,
-                                 limits, friction)
+                                 limits, friction, carried.get(jid, 0.0))
                 torques.append((coordinates[first_q], speeds[first], tau))
                 if tau != 0:
                     loads += actuation(kind == _SLIDE, tau, a, R0, c, p, base_c, child, parent)
@@ -330,7 +332,7 @@ def _armature(m, params, jn, kind, dadr):
     return tuple(params(f"arm_{jn}_{x}", v) for x, v in zip(axes, values))
 
 
-def _law(m, jid, jraw, jn, q, u, params, limits, friction):
+def _law(m, jid, jraw, jn, q, u, params, limits, friction, carried=0.0):
     """The range limit and frictionloss of a hinge or slide (:mod:`eomc.compiler.tree.joint_laws`).
 
     The limit's stiffness and damping follow the joint's ``solref`` and ``solimp`` by
@@ -338,7 +340,10 @@ def _law(m, jid, jraw, jn, q, u, params, limits, friction):
     MuJoCo's limit does; damping ratio z), with the joint's effective inertia
     1/``dof_invweight0`` (MuJoCo's own scale).  MuJoCo's limit is a soft constraint solved with
     the other constraints (impedance, ``margin``): here it is a spring-damper, so the motion
-    past the limit differs (docs/contact.md says how); inside the range both exert nothing."""
+    past the limit differs (docs/contact.md says how); inside the range both exert nothing.
+    On a free-floating robot the scale is at least the inertia the joint ``carried`` when its
+    subtree holds the robot up (:mod:`.carried`): MuJoCo's limit stops what the joint moves
+    within its time constant, whatever that weighs."""
     from eomc.compiler.contact.mujoco_law import limit_spring
     from eomc.compiler.tree.joint_laws import JointLaw, joint_torque
     from .options import refsafe_step
@@ -348,7 +353,7 @@ def _law(m, jid, jraw, jn, q, u, params, limits, friction):
         lower, upper = (float(v) for v in m.jnt_range[jid])
     fl = float(m.dof_frictionloss[dadr]) if friction else 0.0
     inertia = 1.0 / float(m.dof_invweight0[dadr]) if m.dof_invweight0[dadr] > 0 else 1.0
-    k, c, hold = limit_spring(inertia, m.jnt_solref[jid], m.jnt_solimp[jid], refsafe_step(m))
+    k, c, hold = limit_spring(max(inertia, carried), m.jnt_solref[jid], m.jnt_solimp[jid], refsafe_step(m))
     law = JointLaw(jraw, lower=lower, upper=upper, friction=fl, stiffness=k, limit_damping=c, unilateral=True,
                    hold=hold)
     return joint_torque(q, u, law, params, jn, inertia)     # JointLawError: the caller places it

@@ -40,8 +40,11 @@ For coordinate q, speed u (s = the joint's C name):
   (:class:`JointScale`: its subtree's weight on its lever, and on a floating-base robot
   the rest of the robot's weight on the lever to its subtree's farthest body -- a knee
   holding up the body) gets at least the stiffness that holds that load within
-  :data:`LOAD_GIVE` past the limit, critically damped (c = 2 sqrt(k m)): the inertia rule
-  alone let a collapsing Go2's knees go 0.46 rad past (issue 29).  The damping may pull a joint
+  :data:`LOAD_GIVE` past the limit: the inertia rule alone let a collapsing Go2's knees go
+  0.46 rad past (issue 29).  On a floating-base robot m is at least the inertia the joint
+  carries when its subtree stands on the ground (the rest of the robot's about the joint's
+  axis), and c = 2 sqrt(k m) is critically damped about it: a spring stiff enough for the
+  load but damped for the shin alone rings with the body on it.  The damping may pull a joint
   that leaves its limit fast back towards it (as in Drake's penalty law; MuJoCo's
   constraint forces never pull).
 """
@@ -52,7 +55,7 @@ import sympy as sm
 from ..contact.law import step  # noqa: F401 -- ramp's derivative; defined there for the contact pairs' choices
 
 __all__ = ["ramp", "step", "JointLaw", "joint_torque", "check_law", "TIME_CONSTANT", "WIDTH", "FRICTION_SPEED", "NAMES",
-           "limit_gains", "limit_spring", "limit_energy", "JointLawError", "JointScale", "LOAD_GIVE"]
+           "limit_gains", "scale_gains", "limit_spring", "limit_energy", "JointLawError", "JointScale", "LOAD_GIVE"]
 
 TIME_CONSTANT = 0.01
 WIDTH = 3e-4
@@ -125,21 +128,33 @@ def check_law(law):
 
 
 class JointScale(tuple):
-    """(inertia, load): the effective inertia a joint moves and the static torque (force) it
-    may have to hold at a limit; the scales of its default limit stiffness and damping."""
+    """(inertia, load, carried): the effective inertia a joint moves, the static torque (force) it
+    may have to hold at a limit, and the inertia it carries when it holds that load (on a
+    floating-base robot the rest of the robot's inertia about the joint's axis; at least
+    ``inertia``); the scales of its default limit stiffness and damping."""
 
-    def __new__(cls, inertia, load=0.0):
-        return super().__new__(cls, (float(inertia), float(load)))
+    def __new__(cls, inertia, load=0.0, carried=None):
+        inertia = float(inertia)
+        return super().__new__(cls, (inertia, float(load), max(inertia, float(carried or 0.0))))
 
 
-def limit_gains(inertia, time_constant=TIME_CONSTANT, load=0.0):
-    """(k, c) of a critically damped spring-damper of time constant ``time_constant`` on ``inertia``,
-    stiffened where needed so that a static ``load`` gives at most :data:`LOAD_GIVE`."""
-    k, c = inertia / time_constant ** 2, 2.0 * inertia / time_constant
+def limit_gains(inertia, time_constant=TIME_CONSTANT, load=0.0, carried=None):
+    """(k, c) of a critically damped spring-damper of time constant ``time_constant`` on the
+    inertia the joint carries (``carried``, at least ``inertia``), stiffened where needed so that
+    a static ``load`` gives at most :data:`LOAD_GIVE`, and critically damped about that inertia."""
+    m = max(inertia, carried or 0.0)
+    k, c = m / time_constant ** 2, 2.0 * m / time_constant
     if load / LOAD_GIVE > k:
         k = load / LOAD_GIVE
-        c = 2.0 * math.sqrt(k * inertia)
+        c = 2.0 * math.sqrt(k * m)
     return k, c
+
+
+def scale_gains(inertia):
+    """:func:`limit_gains` of a :class:`JointScale` (or of a bare inertia)."""
+    if isinstance(inertia, JointScale):
+        return limit_gains(inertia[0], load=inertia[1], carried=inertia[2])
+    return limit_gains(inertia)
 
 
 class ramp(sm.Function):
@@ -199,8 +214,7 @@ def limit_energy(q, law, params, name, inertia):
         return sm.S.Zero
     if law.unilateral or law.hold:
         return None
-    k, _ = (limit_gains(inertia[0], load=inertia[1]) if isinstance(inertia, JointScale)
-            else limit_gains(inertia))
+    k, _ = scale_gains(inertia)
     K = params(f"{NAMES['stiffness']}_{name}", law.stiffness if law.stiffness is not None else k)
     E = params(f"{NAMES['width']}_{name}", law.width)
     out = sm.S.Zero
@@ -238,8 +252,7 @@ def joint_torque(q, u, law, params, name, inertia):
     check_law(law)
     tau = sm.S.Zero
     if law.limited:
-        k, c = (limit_gains(inertia[0], load=inertia[1]) if isinstance(inertia, JointScale)
-                else limit_gains(inertia))
+        k, c = scale_gains(inertia)
         k = law.stiffness if law.stiffness is not None else k
         c = law.limit_damping if law.limit_damping is not None else c
         K = params(f"{NAMES['stiffness']}_{name}", k)

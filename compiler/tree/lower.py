@@ -259,8 +259,13 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         if analytic is not None:
             jacobian += anx
         jacobian += direct or []
-        # inverse_dynamics from the loop kernel where the analytic plan exists (.dynamics_kernel)
-        if (("inverse_dynamics" in functions and "inverse_dynamics" not in dyn) or "hess_id" in functions) and loops is None:
+        # inverse_dynamics from the loop kernel where the analytic plan exists (.dynamics_kernel);
+        # hess_id's reverse path differentiates RNEA's trace, its analytic kernel does not (and
+        # then τ's temporaries, unread, would land in NAME_dyn_inputs, which prints every
+        # temporary of its program: a cart of 40 links did not compile, udot undeclared there)
+        from .second_order import second_order_plan
+        hess_trace = "hess_id" in functions and (analytic is None or second_order_plan(analytic)[0] is None)
+        if (("inverse_dynamics" in functions and "inverse_dynamics" not in dyn) or hess_trace) and loops is None:
             tau = rnea(bodies, rec, UD, gravity, v, c)
             extra += [(("tau", k), tau[k]) for k in range(nu)]
         if "jac_id" in functions and analytic is None:        # d tau / d x (compiler/tree/inverse_derivatives.py)

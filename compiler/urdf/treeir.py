@@ -23,6 +23,8 @@ Joint torques act on the child about a and on the parent about
 R0 a; a prismatic joint's force acts at the child's link origin and at the
 joint point of the parent.
 """
+import math
+
 import numpy as np
 import sympy as sm
 from sympy.physics.vector import dynamicsymbols
@@ -193,21 +195,30 @@ def joint_inertias(tree):
         X = np.zeros((6, 6))
         X[:3, :3], X[3:, 3:], X[3:, :3] = E, E, -E @ rx
         composite[index[joint.parent]] = composite[index[joint.parent]] + X.T @ composite[k] @ X
-    loads = joint_loads(tree)
     out = {}
     for k, joint in enumerate(tree.joints):
         if joint.type in ("revolute", "continuous", "prismatic"):
             S = _motion(joint)
-            out[joint.name] = JointScale(float((S.T @ composite[k] @ S)[0, 0]), loads[joint.name])
-    return out
+            out[joint.name] = float((S.T @ composite[k] @ S)[0, 0])
+    loads = joint_loads(tree, inertias=out)
+    return {name: JointScale(m, *loads[name]) for name, m in out.items()}
 
 
-def joint_loads(tree, gravity=9.81):
-    """joint name -> the static torque (force) its limit may have to hold, at q = 0: the
-    subtree's weight on its lever about the axis (all of it for a slide) and, on a
-    floating-base robot, the rest of the robot's weight on the lever of the subtree's
-    farthest body (a knee holding up the body through its foot)."""
-    R, P, world = {}, {}, {}
+def joint_loads(tree, gravity=9.81, inertias=None):
+    """joint name -> (load, carried): the static torque (force) its limit may have to hold, at
+    q = 0, and the inertia it then carries.  The load is the subtree's weight on its lever about
+    the axis (all of it for a slide) and, on a floating-base robot, the rest of the robot's
+    weight on the reach of the subtree (a knee holding up the body through its foot); the
+    carried inertia is the rest of the robot's inertia about the joint's axis (what the joint
+    turns when its subtree stands on the ground; 0 on a fixed base).  The reach is the farthest
+    of the subtree's bodies' origins and centres of mass from the axis, and at least sqrt(2)
+    times the subtree's radius of gyration about the axis
+    (``inertias``: joint -> its effective inertia): the ground pushes on the subtree's surface,
+    not its centre -- a solid cylinder's surface is sqrt(2) radii of gyration from its axis.
+    Without that floor a roll joint along a limb (G1's wrist, whose hand lies on its axis) got
+    the load of the hand's centre, 0.5 N·m, and went 0.087 rad past its limit when the hand
+    landed (issue 29)."""
+    R, P, world, spin = {}, {}, {}, {}
     for joint in tree.joints:      # parents come first
         Rp = R[joint.parent] if joint.parent is not None else np.eye(3)
         Pp = P[joint.parent] if joint.parent is not None else np.zeros(3)
@@ -215,6 +226,7 @@ def joint_loads(tree, gravity=9.81):
         P[joint.child] = Pp + Rp @ np.asarray(joint.position, dtype=float)
         body = tree.bodies[joint.child]
         world[joint.child] = (P[joint.child] + R[joint.child] @ np.asarray(body.com, dtype=float), body.mass)
+        spin[joint.child] = R[joint.child] @ np.asarray(body.inertia, dtype=float) @ R[joint.child].T
     floating = any(j.parent is None and j.type in ("floating", "floating_quaternion") for j in tree.joints)
     total = sum(m for _, m in world.values())
     children = {}
@@ -230,16 +242,22 @@ def joint_loads(tree, gravity=9.81):
             below.append(b)
             stack.extend(children.get(b, ()))
         mass = sum(world[b][1] for b in below)
+        rest = total - mass if floating else 0.0
         if joint.type == "prismatic":
-            out[joint.name] = gravity * (mass + (total - mass if floating else 0.0))
+            out[joint.name] = (gravity * (mass + rest), rest)
             continue
         a = R[joint.child] @ np.asarray(joint.axis, dtype=float)
         origin = P[joint.child]
         lever = lambda x: float(np.linalg.norm(np.cross(a, x - origin)))  # noqa: E731
         com = sum(world[b][0] * world[b][1] for b in below) / mass if mass > 0 else origin
-        load = gravity * mass * lever(com)
+        load, carried = gravity * mass * lever(com), 0.0
         if floating:
             reach = max([lever(world[b][0]) for b in below] + [lever(P[b]) for b in below])
-            load = max(load, gravity * (total - mass) * reach)
-        out[joint.name] = load
+            if inertias is not None and mass > 0:
+                reach = max(reach, math.sqrt(2.0 * inertias[joint.name] / mass))
+            load = max(load, gravity * rest * reach)
+            inside = set(below)
+            carried = sum(float(a @ spin[b] @ a) + world[b][1] * lever(world[b][0]) ** 2
+                          for b in world if b not in inside)
+        out[joint.name] = (load, carried)
     return out

@@ -16,7 +16,8 @@
  * re-interpolated onto a new grid when the step changes (change_D); order and step change
  * only after order + 1 steps of one size, unless a step fails.  Newton uses the model's
  * analytic Jacobian: J is evaluated again only when Newton fails to converge with an older
- * one, and the LU of I - c J is kept while c = h / alpha_k stays within 30 % of the c it
+ * one (at the step's predicted state) or with a fresh one taken at the wrong place
+ * (RELINEARISE below), and the LU of I - c J is kept while c = h / alpha_k stays within 30 % of the c it
  * was factored for (as CVODE does), the correction scaled by 2 / (1 + c / c_lu) meanwhile.
  * Our own code; the constants are the published ones.
  */
@@ -56,6 +57,16 @@
  * rhs calls 1150 -> 727 and 217 -> 155 at 1e-2.  Only a cut below PRED_CUT of the step. */
 #define PRED_OVER 1.2
 #define PRED_CUT 0.9
+/* RELINEARISE.  A Newton failure with a fresh Jacobian on a contact model is mostly a
+ * Jacobian taken at the wrong place: Solo12's stance puts the feet at depth ~1e-17 m, where
+ * the Hunt-Crossley slope (~ depth^0.5) is ~0, so J misses the contact stiffness; on the
+ * ant, J from before a touch-down or before the slip turns.  Halving the step does not help
+ * while J stays where it was (the ant at rtol 1e-2: runs of 4-5 halvings, 93 of 213 LUs;
+ * Solo12 at 1e-1: 476 failures in 886 trials).  So after such a failure the step is retried
+ * once with J re-evaluated at Newton's last iterate (where the contact has engaged), and
+ * if that fails too, the halved step starts from a J at its own predictor.  Measured
+ * (benchmarks/results/contact_wp.md, s7 notes): Solo12 at 1e-1 2228 -> 61 rhs calls; the
+ * ant at 1e-2 728 -> 507, 213 -> 99 LUs. */
 
 /* Shampine & Reichelt's NDF coefficients kappa_k (kappa = 0 gives the classical BDFs;
  * order 5 keeps the BDF for stability); gamma_k = sum_{j<=k} 1/j, alpha_k = (1 - kappa_k)
@@ -231,12 +242,12 @@ static int newton(eomc_bdf *b, double tn, double c, int *conv, int *nit, int *ba
 
 int eomc_bdf_trial(eomc_bdf *b, double t1)
 {
-    int n = b->n, s, first = 1, cut = 0;
+    int n = b->n, s, first = 1, cut = 0, refresh = 0, relin = 0;
     double t = b->t;
     eomc_stats *st = b->st;
     if (b->h > b->hmax) rescale(b, b->hmax / b->h);
     for (;;) {
-        int k = b->order, conv = 0, nit = 0;
+        int k = b->order, conv = 0, nit = 0, mbad = 0;
         double hmin = min_step(t), tn, c, a = alpha_k(k), err, safety;
         st->t = t; st->h = b->h;
         if (b->h < hmin) return b->bad ? b->bad : EOMC_STEP_TOO_SMALL;
@@ -267,13 +278,41 @@ int eomc_bdf_trial(eomc_bdf *b, double t1)
                 continue;
             }
         }
+        if (refresh) {    /* the last attempt failed with a fresh J: one at this predictor */
+            refresh = 0;
+            b->c_lu = 0.0;
+            if ((s = b->fns->jac(b->fns->ctx, tn, b->ypred, b->J))) {
+                if (b->fns->aborted(b->fns->ctx)) return s;
+                b->bad = s;
+                b->cur_jac = 0;     /* J is not one: Newton's failure evaluates it again */
+            }
+        }
         c = b->h / a;
         for (;;) {     /* Newton; once more with a fresh Jacobian if it was an older one */
             if (!(b->c_lu > 0.0) || fabs(c / b->c_lu - 1.0) > LU_BAND) {
                 if (factor_lu(b, c)) { conv = 0; break; }
             }
-            if ((s = newton(b, tn, c, &conv, &nit, &b->bad))) return s;
-            if (conv || b->cur_jac) break;
+            mbad = 0;
+            if ((s = newton(b, tn, c, &conv, &nit, &mbad))) return s;
+            if (mbad) b->bad = mbad;
+            if (conv) break;
+            if (b->cur_jac) {
+                /* Failed with a fresh J: re-linearise at Newton's last iterate and retry the
+                 * same step, once per step size since the last Newton failure (see
+                 * RELINEARISE above) */
+                int ok = !mbad && !relin;
+                for (int i = 0; ok && i < n; i++) ok = isfinite(b->ynew[i]);
+                if (!ok) break;
+                relin = 1;
+                if ((s = b->fns->jac(b->fns->ctx, tn, b->ynew, b->J))) {
+                    if (b->fns->aborted(b->fns->ctx)) return s;
+                    b->bad = s;
+                    b->cur_jac = 0;
+                    break;
+                }
+                b->c_lu = 0.0;
+                continue;
+            }
             if ((s = b->fns->jac(b->fns->ctx, tn, b->ypred, b->J))) {
                 if (b->fns->aborted(b->fns->ctx)) return s;
                 b->bad = s;
@@ -285,6 +324,8 @@ int eomc_bdf_trial(eomc_bdf *b, double t1)
         if (!conv) {
             st->rejected++;
             first = 0;
+            refresh = b->cur_jac;
+            relin = 0;
             rescale(b, 0.5);
             continue;
         }

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 from scipy.linalg import expm
 
+from helpers import shared_builds
 from helpers.stand_in import get_model
 
 import eomc
@@ -156,10 +157,9 @@ def test_bouncing_sphere_converges_to_the_tight_reference(sphere):
 
 
 @pytest.fixture(scope="module")
-def solo(tmp_path_factory):
-    sys.path.insert(0, str(ROOT / "examples"))
-    import quadruped_stand as qs
-    return qs, qs.build(cache_dir=tmp_path_factory.mktemp("solo"))
+def solo():
+    """The one Solo12 build of the test process (tests/compiler/contact/test_quadruped.py uses it too)."""
+    return shared_builds.quadruped_stand(), shared_builds.solo12_stand()
 
 
 def test_solo12_stands_at_real_time_steps(solo):

@@ -11,6 +11,8 @@ import eomc
 from eomc.compiler.urdf.model import UrdfModel
 from eomc.runtime.errors import ModelError
 
+from helpers import shared_builds
+
 sys.path.insert(0, str(Path(__file__).parents[3] / "examples"))
 import quadruped_stand as qs  # noqa: E402
 
@@ -18,8 +20,9 @@ pin = pytest.importorskip("pinocchio")
 
 
 @pytest.fixture(scope="module")
-def solo(tmp_path_factory):
-    return qs.build(cache_dir=tmp_path_factory.mktemp("cache"))
+def solo():
+    """The one Solo12 build of the test process (tests/runtime/test_implicitfast.py uses it too)."""
+    return shared_builds.solo12_stand()
 
 
 def _law(depth, rate, vt, k, c, mu, vs):

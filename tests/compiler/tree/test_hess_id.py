@@ -96,3 +96,17 @@ def test_against_central_differences_of_pinocchio_first_order(tmp_path):
             fd[:, nq:, k] = (vp - vm) / (2 * h)
         assert np.max(np.abs(H)) > 1.0                      # not a vanishing tensor
         assert np.max(np.abs(H - fd)) <= 1e-7 * np.max(np.abs(fd))
+
+
+def test_a_long_cart_builds_beside_the_shared_inputs(tmp_path):
+    """hess_id on the kernel beside inverse_dynamics and jac_id (which share NAME_dyn_inputs):
+    the 40-link cart builds (it did not: RNEA's trace, added for hess_id's reverse path only,
+    put udot into NAME_dyn_inputs) and its hess_id matches differences of jac_id along one column."""
+    system, _ = cart_joints(40, rigid=True)
+    model = _model(system, tmp_path)
+    assert model.metadata["hess_id"].startswith("analytic second-order RNEA kernel")
+    rng = np.random.default_rng(4)
+    x, ud = rng.uniform(-1, 1, model.nx), rng.uniform(-1, 1, model.nu)
+    H, h, e = model.hess_id(0.0, x, ud), 1e-5, np.eye(model.nx)[5]
+    fd = (model.jac_id(0.0, x + h * e, ud) - model.jac_id(0.0, x - h * e, ud)) / (2 * h)
+    assert np.max(np.abs(H[:, :, 5] - fd)) <= 1e-7 * max(1.0, np.max(np.abs(fd)))

@@ -1,0 +1,126 @@
+"""Limits that hold a robot (issue 29 item 5): the default limit stiffness from the load the joint
+carries (compiler/urdf/treeir.joint_loads, compiler/tree/joint_laws.limit_gains).
+
+A floating torso stands on one leg through a limited knee; the torso's centre of mass lies ahead
+of the knee, so it pivots onto the knee's limit and the limit holds it up.  With the default
+stiffness the knee stays within the stated overshoot (100 widths, 0.03 rad: the run verdict's
+bound); at a thousandth of it (the user's own soft limit) the run warns, naming the joint and
+saying the stiffness is the user's.  The rule's inputs are checked on their own: the carried
+inertia (the rest of the robot's about the joint's axis) and load of a floating robot, and the reach floor of a roll joint whose subtree's centre
+lies on its axis (G1's wrist went 0.087 rad past with its hand's 0.5 N·m load).
+"""
+import math
+import warnings
+
+import numpy as np
+import pytest
+
+import eomc
+from eomc.compiler.tree.joint_laws import LOAD_GIVE, TIME_CONSTANT, WIDTH, scale_gains
+from eomc.compiler.urdf import build_tree, read_urdf
+from eomc.compiler.urdf.model import UrdfModel
+from eomc.compiler.urdf.treeir import joint_inertias
+from eomc.runtime.switching import LIMIT_OVERSHOOT_WIDTHS, PhysicsWarning
+
+LOWER = -0.3
+TORSO, LEG = 8.0, 1.0
+
+SITTER = f"""<?xml version="1.0"?>
+<robot name="sitter">
+  <link name="torso"><inertial><origin xyz="0.15 0 0.05"/><mass value="{TORSO}"/>
+    <inertia ixx="0.02" iyy="0.03" izz="0.02" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <link name="leg"><inertial><origin xyz="0 0 -0.25"/><mass value="{LEG}"/>
+    <inertia ixx="0.02" iyy="0.02" izz="0.001" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <joint name="knee" type="revolute">
+    <parent link="torso"/><child link="leg"/><axis xyz="0 1 0"/>
+    <limit lower="{LOWER}" upper="0.3" effort="1" velocity="1"/>
+  </joint>
+</robot>
+"""
+
+FEET = tuple(dict(link="leg", point=(sx * 0.25, sy * 0.1, -0.5), radius=0.02, name=f"f{i}")
+             for i, (sx, sy) in enumerate(((1, 1), (1, -1), (-1, 1), (-1, -1))))
+
+
+@pytest.fixture(scope="module")
+def sitter(tmp_path_factory):
+    d = tmp_path_factory.mktemp("sitter")
+    (d / "sitter.urdf").write_text(SITTER)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = eomc.compile(UrdfModel(d / "sitter.urdf", floating_base=True, contacts=FEET),
+                             functions=("rhs", "outputs", "jac_x", "events"), cache_dir=d / "c", progress=False)
+    return model, d / "sitter.urdf"
+
+
+def _start(model):
+    x = np.zeros(model.nx)
+    x[model.state_names.index("q_torso_floating_z")] = 0.5 + 0.02 + 0.001   # feet 1 mm above the ground
+    return x
+
+
+def test_the_default_is_the_rule_of_the_load_and_the_carried_inertia(sitter):
+    model, path = sitter
+    scale = joint_inertias(build_tree(read_urdf(path), floating_base=True))["knee"]
+    own, load, carried = scale
+    # the load: the rest of the robot's weight (the torso's) on the reach of the subtree (the
+    # leg's origin-to-centre distance 0.25 m, at least sqrt(2) radii of gyration of the leg about
+    # the knee); the carried inertia: the torso's about the knee axis (what the knee turns when
+    # the leg stands on the ground)
+    reach = max(0.25, math.sqrt(2 * own / LEG))
+    assert own == pytest.approx(0.02 + LEG * 0.25 ** 2, rel=1e-12)
+    assert load == pytest.approx(TORSO * 9.81 * reach, rel=1e-12)
+    assert carried == pytest.approx(0.03 + TORSO * (0.15 ** 2 + 0.05 ** 2), rel=1e-12)
+    k = max(carried / TIME_CONSTANT ** 2, load / LOAD_GIVE)
+    c = 2 * math.sqrt(k * carried)          # critically damped about the carried inertia
+    assert scale_gains(scale) == pytest.approx((k, c), rel=1e-12)
+    p = dict(zip(model.param_names, model.param_defaults))
+    assert (p["limit_k_knee"], p["limit_c_knee"]) == pytest.approx((k, c), rel=1e-12)
+
+
+def test_a_torso_falling_onto_the_knee_limit_stays_within_the_stated_overshoot(sitter):
+    model, _ = sitter
+    bound = LIMIT_OVERSHOOT_WIDTHS * WIDTH
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", PhysicsWarning)
+        res = model.simulate(_start(model), (0.0, 0.6))
+    assert res.status == 0
+    q = res["q_knee"]
+    assert q.min() < LOWER                      # it did fall onto the limit
+    assert LOWER - q.min() < bound              # and the limit held it within the stated overshoot
+    p = dict(zip(model.param_names, model.param_defaults))
+    soft = dict(p, limit_k_knee=p["limit_k_knee"] * 1e-3, limit_c_knee=p["limit_c_knee"] * 1e-3)
+    with pytest.warns(PhysicsWarning, match=r"joint knee went .* past its lower limit -0\.3, more than the 100 "
+                                            r"widths \(0\.03\) a limit may give: your limit stiffness "
+                                            r"limit_k_knee = .* \(the default is .*\) is too soft"):
+        soft_run = model.simulate(_start(model), (0.0, 0.6), p=[soft[n] for n in model.param_names])
+    assert LOWER - soft_run["q_knee"].min() > bound
+
+
+ROLL = """<?xml version="1.0"?>
+<robot name="roll">
+  <link name="body"><inertial><mass value="30"/>
+    <inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <link name="hand"><inertial><origin xyz="0.3 0 0"/><mass value="0.5"/>
+    <inertia ixx="0.0005" iyy="0.001" izz="0.001" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <joint name="wrist_roll" type="revolute">
+    <parent link="body"/><child link="hand"/><origin xyz="0 0 0"/><axis xyz="1 0 0"/>
+    <limit lower="-1" upper="1" effort="1" velocity="1"/>
+  </joint>
+</robot>
+"""
+
+
+def test_a_roll_joint_whose_hand_lies_on_its_axis_carries_the_body_on_the_hands_girth(tmp_path):
+    """The hand's centre is on the roll axis (lever 0), but the ground pushes on its surface:
+    the reach is at least sqrt(2) radii of gyration of the hand about the axis."""
+    path = tmp_path / "roll.urdf"
+    path.write_text(ROLL)
+    own, load, carried = joint_inertias(build_tree(read_urdf(path), floating_base=True))["wrist_roll"]
+    assert own == pytest.approx(0.0005, rel=1e-12)
+    girth = math.sqrt(2 * 0.0005 / 0.5)
+    assert load == pytest.approx(30 * 9.81 * girth, rel=1e-12)
+    assert carried == pytest.approx(1.0, rel=1e-12)      # the body's inertia about the roll axis
+    # on a fixed base nothing is carried: the subtree's own weight on its lever (0 here)
+    fixed = joint_inertias(build_tree(read_urdf(path)))["wrist_roll"]
+    assert fixed[1] == pytest.approx(0.0, abs=1e-12) and fixed[2] == fixed[0]
