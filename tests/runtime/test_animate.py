@@ -46,7 +46,10 @@ def pendulum(cache):
 def ur5(cache):
     # Kane's form, as this fixture was written for (auto picks the recursive form for UR5 since
     # the cost-weighted choice; the browser test's motion under it is open on issue 31)
-    model = eomc.compile(robot_path("ur5"), cache_dir=cache, progress=False, formulation="kane")
+    # its users read the poses, their metadata and the formulation, never the dynamics: rhs and
+    # poses only, as the recursive build in test_ur5_link_frames_match_pinocchio (3.5 -> 1.6 s CPU)
+    model = eomc.compile(robot_path("ur5"), cache_dir=cache, progress=False, formulation="kane",
+                         functions=["rhs", "poses"])
     # a prescribed motion the camera sees well: shoulder pan and elbow sweep, the rest held
     t = np.linspace(0.0, 2.0, 121)
     x = np.zeros((len(t), model.nx))
