@@ -35,8 +35,9 @@ NSTATES, REPEAT, CORE = 50, 7, 1
 NOTES = """
 Notes (session 7, by hand):
 
-- 2026-11-29 11:17-11:41 UTC the run above; the machine's load was 12-17 and every process pinned
-  to core 1 shared it, so the other models' rows did not finish before the session's end.
+- 2026-11-29 11:17 UTC on, the run above; the machine's load was 12-17 and every process pinned to
+  core 1 shared it: the rows missing did not finish before the session's end (quadruped: its
+  rhs/jac_x with the routines are within noise of the inlined ones -- its pairs are few and small).
 - gymnasium's humanoid with pairs=True (109 pairs, capsules and spheres), rhs only, one cold build
   each (taskset core 1, load ~1-8, measured by a throw-away script like BUILD above with
   ``functions=["rhs"]``): inlined 26.8 s CPU (12.2 Python + 14.6 gcc, C 1.50 MB), routines 26.2 s
