@@ -218,7 +218,7 @@ def c_array(a):
     return ", ".join("{" + ", ".join(repr(float(v)) for v in row) + "}" for row in a)
 
 
-def harness(model, ref, data, tmp, pin_obj, rounds):
+def harness(model, ref, data, tmp, pin_obj, rounds, flags=()):
     X, UD, Q, V, A = data
     name = model.name
     src = (HARNESS.replace("@NAME@", name).replace("@NS@", str(NS)).replace("@NX@", str(model.nx))
@@ -232,7 +232,7 @@ def harness(model, ref, data, tmp, pin_obj, rounds):
     d = model.directory
     objs = []
     for s, o in ((c, tmp / f"h_{name}.o"), (model.source_path, tmp / f"m_{name}.o")):
-        subprocess.run(["gcc", "-O2", "-std=c99", f"-I{d}", f"-I{ROOT / 'runtime' / 'c'}", "-c", str(s),
+        subprocess.run(["gcc", "-O2", *flags, "-std=c99", f"-I{d}", f"-I{ROOT / 'runtime' / 'c'}", "-c", str(s),
                         "-o", str(o)], check=True)
         objs.append(str(o))
     exe = tmp / f"h_{name}"
@@ -263,13 +263,17 @@ def main():
                     "eomc's compiler sources, so a changed compiler rebuilds)")
     ap.add_argument("--pin-obj", default="", help="pin_derivatives.cpp already compiled (saves minutes)")
     ap.add_argument("--write", action="store_true")
+    ap.add_argument("--machine", action="store_true", help="compile eomc's C and Pinocchio alike with the "
+                    "machine flags eomc's own builds use on this machine (-mavx2 -ffp-contract=off), not -O2 alone")
     a = ap.parse_args()
+    from eomc.compiler.build.toolchain import MACHINE_FLAGS
+    flags = MACHINE_FLAGS if a.machine else ()
     cases = [f"cart{n}" for n in a.cart.split(",") if n] + [r for r in a.robots.split(",") if r]
     from common import compile_pinocchio
     tmp = Path(tempfile.mkdtemp(prefix="eomc_bd_"))
     cache = Path(a.cache) if a.cache else tmp / "cache"
     pin_obj = (Path(a.pin_obj) if a.pin_obj
-               else compile_pinocchio(MODELS / "pin_derivatives.cpp", tmp / "pin_derivatives.o"))
+               else compile_pinocchio(MODELS / "pin_derivatives.cpp", tmp / "pin_derivatives.o", flags=flags))
     if pin_obj is None:
         sys.exit("Pinocchio's headers (pin / cmeel wheels) are needed")
     rng = np.random.default_rng(30)
@@ -280,18 +284,18 @@ def main():
         built = time.time() - t0
         data = states(model, ref, floating, rng)
         agree = agreement(model, ref, data[0], data[1])
-        times, text_model = harness(model, ref, data, tmp, pin_obj, a.rounds)
+        times, text_model = harness(model, ref, data, tmp, pin_obj, a.rounds, flags)
         ops = model.metadata["op_counts"]
         row = dict(case=case, nx=model.nx, nu=model.nu, times=times, agree=agree, text=text_model,
                    ops={f: sum(ops[f].values()) for f in ("rhs", "jac_x", "jac_id")}, build=built)
         rows.append(row)
         if a.write:      # row by row: a long run interrupted keeps what it measured
             with open(HERE / "results" / "derivatives.md", "a") as f:
-                f.write((header(a.rounds) if len(rows) == 1 else "") + render_row(row) + "\n")
+                f.write((header(a.rounds, flags) if len(rows) == 1 else "") + render_row(row) + "\n")
         print(f"{case}: nx {model.nx}  " + "  ".join(f"{k} {v:.0f} ns" for k, v in times.items())
               + f"  ABA/jac_x {times[LABELS[2]] / times[LABELS[0]]:.2f}  RNEA/jac_id {times[LABELS[3]] / times[LABELS[1]]:.2f}"
               f"  agree {agree}  text model {text_model:.1e}  (built in {built:.1f} s wall)", flush=True)
-    print(header(a.rounds) + "".join(render_row(r) + "\n" for r in rows))
+    print(header(a.rounds, flags) + "".join(render_row(r) + "\n" for r in rows))
 
 
 def checkout_state():
@@ -304,15 +308,16 @@ def checkout_state():
     return commit, dirty, cpu
 
 
-def header(rounds):
+def header(rounds, flags=()):
     import pinocchio
     import eomc
     commit, dirty, cpu = checkout_state()
+    extra = "".join(" " + f for f in flags)
     lines = [f"\n## {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC, eomc {commit}"
              f"{' (+ uncommitted changes)' if dirty else ''}\n",
              f"`python benchmarks/bench_derivatives.py` — {cpu}, load {os.getloadavg()[0]:.1f} at the end, "
-             f"Python {platform.python_version()}, Pinocchio {pinocchio.__version__} (header-only, g++ -O2), "
-             f"eomc {eomc.__version__}, gcc -O2; thread CPU, pinned to core 1, 4 contestants interleaved, "
+             f"Python {platform.python_version()}, Pinocchio {pinocchio.__version__} (header-only, g++ -O2{extra}), "
+             f"eomc {eomc.__version__}, gcc -O2{extra}; thread CPU, pinned to core 1, 4 contestants interleaved, "
              f"median of {rounds} rounds, {NS} states cycled.  eomc: `--formulation recursive`, "
              "functions rhs, jac_x, inverse_dynamics, jac_id.\n",
              "| model | nx | eomc jac_x ns | Pinocchio ABA derivs ns | **ABA / jac_x** | eomc jac_id ns | "

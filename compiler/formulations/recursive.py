@@ -20,6 +20,7 @@ from ..tree.emit import tree_jacobian_body, tree_jacobian_ops, tree_implicit_bod
 from ..tree.dynamics_kernel import (KERNEL_FUNCTIONS, dynamics_body, dynamics_inputs, dynamics_kernel_c,
                                     dynamics_ops, forcing_by_inverse_dynamics, has_dynamics_kernel,
                                     inputs_users)
+from ..tree.input_jacobian import input_jacobian_body, input_jacobian_ops, msolve_c
 from ..tree.jvp import tree_jvp_body
 from ..tree.lower import TREE_FUNCTION_GROUPS, TREE_HELPER_USERS, build_tree_symbolic
 from ..tree.regressor import PI_NAMES
@@ -71,6 +72,8 @@ class Recursive(Formulation):
             return analytic_jac_x_body(ctx, prog, sym, *jacobian_symbols(prog, sym.W, ctx.nu), shared=shared)
         if fn == "jac_id":
             return jac_id_body(ctx, prog, sym.seeds)
+        if fn == "jac_r" and sym.input_solve:
+            return input_jacobian_body(ctx, prog, sym, len(layout.r), shared)
         if fn == "hess_id" and sym.second_order is not None:
             return second_order_body(ctx, prog, sym)
         if fn == "hess_id":
@@ -103,6 +106,8 @@ class Recursive(Formulation):
             return analytic_body_ops(fn, prog, sym, *jacobian_symbols(prog, sym.W, nu), nq_, nu, nx)
         if fn == "jac_id":
             return jac_id_ops(prog, sym.seeds, nx - nu if nq is None else nq, nu, nx)
+        if fn == "jac_r" and sym.input_solve:
+            return input_jacobian_ops(prog, sym, nx - nu if nq is None else nq, nu, nr)
         if fn in _JACOBIANS:
             return tree_jacobian_ops(prog, *jacobian_symbols(prog, sym.W, nu), sym.seeds, fn,
                                      nx - nu if nq is None else nq, nx, npar if fn == "jac_p" else nr)
@@ -119,13 +124,16 @@ class Recursive(Formulation):
 
     def c_helpers(self, name, sym, functions, nq):
         """NAME_rnea_derivs (:mod:`.analytic`) when jac_x or jac_id use it, NAME_dyn
-        (:mod:`.dynamics_kernel`) when mass_matrix, forcing or inverse_dynamics do."""
+        (:mod:`.dynamics_kernel`) when mass_matrix, forcing or inverse_dynamics do, NAME_msolve
+        (:mod:`.input_jacobian`) when jac_r does."""
         out = []
         first = sym.analytic is not None and bool({"jac_x", "jac_id"} & set(functions))
         if first:
             out.append(kernel_c(name, sym.analytic, nq, solve="jac_x" in functions))
         if sym.analytic is not None and set(sym.dynamics_kernel) & set(functions):
             out.append(dynamics_kernel_c(name, sym.analytic))
+        if "jac_r" in functions and sym.input_solve:     # NAME_msolve (.input_jacobian)
+            out.append(msolve_c(name, sym.analytic, sym.input_solve))
         if "hess_id" in functions and sym.second_order is not None:   # NAME_rnea_hess (.second_order)
             out.append(second_order_c(name, *sym.second_order[:1], nq, sym.second_order[1], helpers=not first))
         return "\n\n".join(out)

@@ -52,7 +52,7 @@ from dataclasses import dataclass
 import sympy as sm
 
 __all__ = ["AnalyticPlan", "analytic_plan", "kernel_c", "ANX", "analytic_ops", "c_table", "world_axis_lines",
-           "WORLD_INERTIA_LINES", "world_load_lines", "rd_helpers", "VARIATION_LINES", "tree_tables", "PLACE_FROM_PARENT_LINES", "body_head_lines", "YMUL_LINES", "DOT6_LINE"]
+           "WORLD_INERTIA_LINES", "world_load_lines", "rd_helpers", "VARIATION_LINES", "tree_tables", "PLACE_FROM_PARENT_LINES", "ARTICULATED_START_LINES", "body_head_lines", "YMUL_LINES", "DOT6_LINE"]
 
 ANX = "anx"      # the result group of the kernel's inputs
 
@@ -224,7 +224,7 @@ def _joint_laws(tree, layout, rename, xs, speeds):
     depend on the state (``Tree.joint_torques``), or None when a law reads another joint's
     state (then its pair of loads is not e_k·τ_k alone in the kernel's terms)."""
     from .joint_laws import ramp
-    out = {}
+    out, memo = {}, {}
     for q, u, tau in getattr(tree, "joint_torques", ()):
         what = f"the law of the joint of speed {u}"
         qs, us = rename(q, what), rename(u, what)
@@ -234,10 +234,30 @@ def _joint_laws(tree, layout, rename, xs, speeds):
         t = sm.sympify(rename(tau, what)).replace(sm.Abs, lambda a: 2 * ramp(a) - a)
         if t.free_symbols & xs - {qs, us}:
             return None
-        dq, du = sm.diff(t, qs), sm.diff(t, us)
+        dq, du = _law_slopes(t, qs, us, memo)
         if dq != 0 or du != 0:
             out[speeds.index(us)] = (qs, dq, du)
     return out
+
+
+def _law_slopes(t, qs, us, memo):
+    """(∂t/∂qs, ∂t/∂us), differentiated once per shape of law: the laws of a robot's joints
+    differ only in their symbols (each joint's own limits, gains, coordinate and speed), so
+    the derivative of the first law of a shape, its symbols renamed back, serves the others.
+    Why: SymPy's diff of a limit law (ramps, powers, ~60 operations) costs ~14 ms, and G1's
+    29 laws were 0.8 s of its 6-7 s default build.  The renamed-back derivative is the one
+    diff returns (the same SymPy expression, checked in tests/compiler/tree/test_analytic_derivatives.py)."""
+    syms = sorted(t.free_symbols, key=lambda x: (x != qs, x != us, sm.default_sort_key(x)))
+    canon = {x: sm.Symbol(f"_law{k}", **x.assumptions0) for k, x in enumerate(syms)}
+    shape = t.xreplace(canon)       # all its symbols renamed: a law of the same shape gives an equal one
+    key = (shape, qs in canon, us in canon)
+    hit = memo.get(key)
+    if hit is None:
+        cq, cu = canon[qs] if qs in canon else sm.Dummy(), canon[us] if us in canon else sm.Dummy()
+        hit = memo[key] = (tuple(canon.values()), sm.diff(shape, cq), sm.diff(shape, cu))
+    names, dq, du = hit
+    back = dict(zip(names, syms))
+    return dq.xreplace(back), du.xreplace(back)
 
 
 ABA_DEPTH = 5     # mean support depth above which jac_x's M⁻¹ runs articulated (measured, see choose_solver)
@@ -434,6 +454,23 @@ WORLD_INERTIA_LINES = [
 ]
 
 
+# C, inside a loop over bodies b (one block deeper): the body's own 6x6 inertia IA_b =
+# [[I_O, [c]x], [[c]x^T, m 1]] from its world inertia Yb and I_O (IO, both triangles), where the
+# articulated-body factorization starts (the derivative kernel's, and NAME_msolve's,
+# :mod:`.input_jacobian`)
+ARTICULATED_START_LINES = [
+    "            double *Ib = IA + 36 * b;",
+    "            for (i = 0; i < 3; i++)",
+    "                for (j = 0; j < 3; j++) {",
+    "                    Ib[6 * i + j] = IO[3 * i + j];",
+    "                    Ib[6 * (i + 3) + j + 3] = i == j ? m : 0.0;",
+    "                }",
+    "            Ib[3] = Ib[18] = 0.0; Ib[4] = Ib[24] = -Yb[3]; Ib[5] = Ib[30] = Yb[2];",
+    "            Ib[9] = Ib[19] = Yb[3]; Ib[10] = Ib[25] = 0.0; Ib[11] = Ib[31] = -Yb[1];",
+    "            Ib[15] = Ib[20] = -Yb[2]; Ib[16] = Ib[26] = Yb[1]; Ib[17] = Ib[32] = 0.0;",
+]
+
+
 # C, inside a loop over bodies b: the body's inertia variation dY (12 numbers, see
 # :func:`kernel_c`) from its world inertia Yb, I_O (IO), velocity vb and momentum hm
 # (shared by the first- and second-order kernels, :mod:`.second_order`)
@@ -607,15 +644,7 @@ def kernel_c(name, plan, nq, solve=False):
         "        IO[1] = IO[3] = Yb[7]; IO[2] = IO[6] = Yb[8]; IO[5] = IO[7] = Yb[9];",
     ] + ([
         "        if (msolve) {   /* the body's own 6x6 inertia [[I_O, [c]x], [[c]x^T, m 1]], the articulated start */",
-        "            double *Ib = IA + 36 * b;",
-        "            for (i = 0; i < 3; i++)",
-        "                for (j = 0; j < 3; j++) {",
-        "                    Ib[6 * i + j] = IO[3 * i + j];",
-        "                    Ib[6 * (i + 3) + j + 3] = i == j ? m : 0.0;",
-        "                }",
-        "            Ib[3] = Ib[18] = 0.0; Ib[4] = Ib[24] = -Yb[3]; Ib[5] = Ib[30] = Yb[2];",
-        "            Ib[9] = Ib[19] = Yb[3]; Ib[10] = Ib[25] = 0.0; Ib[11] = Ib[31] = -Yb[1];",
-        "            Ib[15] = Ib[20] = -Yb[2]; Ib[16] = Ib[26] = Yb[1]; Ib[17] = Ib[32] = 0.0;",
+        *ARTICULATED_START_LINES,
         "        }",
     ] if aba else []) + [
         "        /* momentum h, force f = Y a + v x* h - load */",

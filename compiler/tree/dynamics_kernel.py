@@ -154,7 +154,7 @@ def dynamics_kernel_c(name, plan):
 def inputs_users(sym, functions):
     """The functions of ``functions`` that call NAME_dyn_inputs rather than computing the
     kernels' inputs an[] themselves: the loop kernel's (always), and the analytic jac_x and
-    jac_id beside at least one other user (alone, each keeps its own copy: one function, one
+    jac_id (and jac_r solved by NAME_msolve) beside at least one other user (alone, each keeps its own copy: one function, one
     copy, and its C as it was).  Why: the inputs are most of the analytic derivatives' code
     (cart n = 80: ~84 of jac_x's 90 kB), so a default build carried them twice.  jac_x stays
     on its own copy when jac_x_batch rewrites its lines into lanes (compiler/emit/batch.py
@@ -165,6 +165,8 @@ def inputs_users(sym, functions):
     # jac_x keeps its own copy beside the contacts' broad phase (its an[] reads guarded temporaries)
     lanes_or_guards = "jac_x_batch" in functions or getattr(sym, "jac_guards", ())
     derivs = ("jac_id",) if lanes_or_guards else ("jac_x", "jac_id")
+    if getattr(sym, "input_solve", False):      # jac_r through NAME_msolve (.input_jacobian)
+        derivs += ("jac_r",)
     users = [f for f in functions if f in dyn or f in derivs]
     return tuple(users) if len(users) > 1 or set(users) & set(dyn) else ()
 

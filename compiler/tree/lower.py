@@ -42,6 +42,7 @@ from .constrained import (accelerations, check_functions, kane_form, kkt_residua
                           lower_loops, multiplier_symbols, tree_loops)
 from .derivatives import articulated_solve, solve_symbols
 from .dynamics_kernel import KERNEL_FUNCTIONS
+from .input_jacobian import INPUT_SOLVE_GROUPS, lanes_for, uses_input_solve
 from .model import NotATree
 from .spatial import cross
 
@@ -236,7 +237,13 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         # inverse_dynamics (RNEA's code once; only where the plan exists, small trees unchanged)
         by_id = (planned and not grounded and {"forcing", "inverse_dynamics"} <= set(functions)
                  and not {"forcing", "inverse_dynamics"} & set(dyn))
-        if jac and (analytic is None or jac != {"jac_x"}):    # the analytic jac_x needs no residual
+        direct = None
+        if "jac_r" in functions and loops is None and jac:
+            direct = _input_columns(tree, layout)
+        # jac_r's M⁻¹ through NAME_msolve (.input_jacobian)
+        input_solve = uses_input_solve(analytic, functions, len(layout.x), nq, nu)
+        # the analytic jac_x needs no residual, nor jac_r solved by NAME_msolve on direct columns
+        if jac - ({"jac_x"} if analytic is not None else set()) - ({"jac_r"} if input_solve and direct else set()):
             W = tuple(sm.Symbol(f"w_{j}", real=True) for j in range(nu))
             tau_w = rnea(bodies, rec, W, gravity, v, c)
             if loops is None:
@@ -251,10 +258,7 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
                         + [(("sol", k), sol[k]) for k in range(nu)])
         if analytic is not None:
             jacobian += anx
-        direct = None
-        if "jac_r" in functions and loops is None and jac:
-            direct = _input_columns(tree, layout)
-            jacobian += direct or []
+        jacobian += direct or []
         # inverse_dynamics from the loop kernel where the analytic plan exists (.dynamics_kernel);
         # hess_id's reverse path differentiates RNEA's trace, its analytic kernel does not (and
         # then τ's temporaries, unread, would land in NAME_dyn_inputs, which prints every
@@ -300,7 +304,8 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
                          prelude=(rec.assignments, rec.count, sorted(extra, key=_order)),
                          function_groups={**TREE_FUNCTION_GROUPS,
                                           **{f: ("anx",) if f in dyn else () if f == "forcing" and by_id else g
-                                             for f, g in _OWN_GROUPS.items()}}
+                                             for f, g in _OWN_GROUPS.items()},
+                                          **({"jac_r": INPUT_SOLVE_GROUPS} if input_solve else {})}
                          if planned else TREE_FUNCTION_GROUPS,
                          helper_users=TREE_HELPER_USERS)
     if contact_values:
@@ -323,6 +328,9 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
     if planned and set(KERNEL_FUNCTIONS) - set(dyn):     # straight-line ones print only their own temps
         sym = replace(sym, function_groups={**TREE_FUNCTION_GROUPS,
                                             **{f: g for f, g in _OWN_GROUPS.items() if f not in dyn}})
+    if input_solve:
+        sym = replace(sym, input_solve=lanes_for(len(layout.r)),
+                      function_groups={**(sym.function_groups or TREE_FUNCTION_GROUPS), "jac_r": INPUT_SOLVE_GROUPS})
     if "hess_id" in functions:      # second-order inverse dynamics (compiler/emit/reverse.py)
         if loops is not None:
             raise ModelError("hess_id (second-order inverse dynamics) is not generated for a tree "

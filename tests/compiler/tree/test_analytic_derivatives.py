@@ -162,6 +162,27 @@ def test_joint_laws_take_the_analytic_path():
     assert past >= 2        # joints past their limits, where the laws act
 
 
+def test_law_slopes_are_sympys_derivatives():
+    """analytic._law_slopes differentiates one law per shape and renames the symbols back:
+    for laws of every kind (two-sided, one-sided, unilateral with its smooth push, held,
+    damping and friction, each with its own joint's symbols) the result is the very
+    expression sm.diff gives, and laws of one shape share one differentiation."""
+    from eomc.compiler.tree.analytic import _law_slopes
+    from eomc.compiler.tree.joint_laws import JointLaw, joint_torque
+    kinds = [dict(lower=-1.0, upper=1.0), dict(lower=-1.0, upper=1.0), dict(upper=0.5, damping=0.2),
+             dict(lower=-0.3, upper=0.4, unilateral=True, friction=0.1), dict(lower=0.0, upper=2.0, hold=(3.0, 0.01)),
+             dict(damping=0.5, friction=0.3)]
+    memo = {}
+    for j, kw in enumerate(kinds):
+        q, u = sm.symbols(f"x_{j} x_{40 + j}", real=True)
+        tau = joint_torque(q, u, JointLaw(f"j{j}", **kw),
+                           lambda name, v: sm.Symbol(f"p_{name}", real=True), f"j{j}", 0.3)
+        dq, du = _law_slopes(tau, q, u, memo)
+        assert dq == sm.diff(tau, q) and du == sm.diff(tau, u)
+        assert (dq != 0) == ("lower" in kw or "upper" in kw)
+    assert len(memo) == len(kinds) - 1          # the first two laws have one shape
+
+
 ROBOTS = {"panda": False, "solo12": True}     # UR5 (12 states) keeps the unrolled columns
 
 

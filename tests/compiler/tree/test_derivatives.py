@@ -179,6 +179,22 @@ def test_singular_articulated_inertia_is_a_status_not_nan():
             call(0.0, x, p=p, r=r)
 
 
+def test_msolve_reports_a_singular_mass_matrix():
+    """jac_r by NAME_msolve (14 states: the analytic plan, compiler/tree/input_jacobian.py) on
+    the cart whose inputs are loads (its columns from the residual's derivative): masses zero
+    at run time give the singular-mass-matrix status, as rhs does, not inf or NaN."""
+    kane, inputs = cart_relative(6, em, torques=True)
+    rec = eomc.compile(kane, "sing6", inputs=inputs, functions=FUNCTIONS, progress=False,
+                       formulation="recursive")
+    assert "sing6_msolve(an, out, 7, 7, 7)" in rec.source_path.read_text()
+    names = rec.metadata["param_names"]
+    p = np.array([0.0 if k.startswith("m") else 1.0 for k in names])
+    x, r = np.full(rec.nx, 0.3), np.zeros(rec.ninput)
+    for call in (rec.rhs, rec.input_jacobian):
+        with pytest.raises(EomcError, match="(?i)singular|mass matrix"):
+            call(0.0, x, p=p, r=r)
+
+
 def test_outputs_reading_accelerations_without_jacobians():
     """An output that reads u', built with rhs and outputs only: the recursive form solves
     A·u' = b with the real A and b (it once had only a stand-in of A's structure then)."""
