@@ -35,9 +35,12 @@ NSTATES, REPEAT, CORE = 50, 7, 1
 NOTES = """
 Notes (session 7, by hand):
 
-- 2026-11-29 11:17 UTC on, the run above; the machine's load was 12-17 and every process pinned to
-  core 1 shared it: the rows missing did not finish before the session's end (quadruped: its
-  rhs/jac_x with the routines are within noise of the inlined ones -- its pairs are few and small).
+- 2026-11-29 11:17-12:00 UTC, the run above; the machine's load was 12-17 and every process pinned
+  to core 1 shared it: the humanoid's row did not finish before the session's end (stopped). The
+  routines cut the C by half where pairs are boxes (stacker, manipulator) but the build CPU only
+  where the symbolic work was the pairs' (stacker 1.50x, finger 1.34x; manipulator and quadruped
+  1.02-1.04x: their cost is elsewhere); they run slower wherever the pairs are many points (rhs
+  0.59-0.79x, jac_x 0.49-0.74x), within noise on the quadruped.
 - gymnasium's humanoid with pairs=True (109 pairs, capsules and spheres), rhs only, one cold build
   each (taskset core 1, load ~1-8, measured by a throw-away script like BUILD above with
   ``functions=["rhs"]``): inlined 26.8 s CPU (12.2 Python + 14.6 gcc, C 1.50 MB), routines 26.2 s
