@@ -4,8 +4,8 @@ Per model with body–body pairs (gymnasium's humanoid with its self-collisions,
 dm_control's finger, manipulator, quadruped, stacker with no flags):
 
 - build: a fresh Python process runs ``eomc.compile`` with the default functions into an empty
-  cache, once with the schemes inlined (``pairs.INLINE_NARROW = True``: what the generated code
-  was) and once with the routines (compiler/contact/narrow.py, the default now); CPU seconds of
+  cache, once with the schemes inlined (``pairs.INLINE_NARROW = True``: the default) and once
+  with the routines (compiler/contact/narrow.py, ``INLINE_NARROW = False``); CPU seconds of
   the child and its compiler (user + sys), and the C file's size;
 - rhs and jac_x: ns per call over the same NSTATES states (the model's initial state with random
   speeds and small random coordinate offsets), thread CPU time of ``rhs_many`` (one call per
@@ -31,6 +31,24 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import environment_header, format_table, write_results  # noqa: E402
 
 NSTATES, REPEAT, CORE = 50, 7, 1
+# kept in the written file (the script rewrites it whole)
+NOTES = """
+Notes (session 7, by hand):
+
+- 2026-11-29 11:17 UTC on, the run above; the machine's load was 12-17 and every process pinned to
+  core 1 shared it: the rows missing did not finish before the session's end (quadruped: its
+  rhs/jac_x with the routines are within noise of the inlined ones -- its pairs are few and small).
+- gymnasium's humanoid with pairs=True (109 pairs, capsules and spheres), rhs only, one cold build
+  each (taskset core 1, load ~1-8, measured by a throw-away script like BUILD above with
+  ``functions=["rhs"]``): inlined 26.8 s CPU (12.2 Python + 14.6 gcc, C 1.50 MB), routines 26.2 s
+  (10.1 + 16.1, 1.31 MB); rhs + jac_x with routines 88.0 s (25.7 + 62.3, 4.14 MB). A capsule
+  pair's scheme is small: the humanoid's per-pair cost is the law, its velocities and wrench, and
+  the events, which stay inline -- the routines do not bring its self-pairs to 10 s.
+- Why the routines run slower (so the inlined schemes stay the default): the routine computes p and
+  n of all 16 points of a box pair (inlined, a point's guard skips them out of contact), and the
+  ``_dot`` routine recomputes the primal in each of jac_x's columns. Next: one primal call per
+  jac_x call writing a tape (the temporaries the tangent reads), ``_dot`` reading it.
+"""
 BUILD = r"""
 import sys, warnings
 from pathlib import Path
@@ -128,7 +146,7 @@ def _write(rows, args):
     table = format_table(columns, rows)
     header = environment_header("Body–body pairs' narrow phase: called routines vs inlined schemes (build, rhs, jac_x)")
     if not args.k:
-        write_results("narrow", header + "\n" + table + "\n\n" + __doc__)
+        write_results("narrow", header + "\n" + table + "\n" + NOTES + "\n" + __doc__)
 
 
 if __name__ == "__main__":

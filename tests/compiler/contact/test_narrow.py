@@ -1,6 +1,6 @@
 """The body–body pairs' narrow phase as called C routines (compiler/contact/narrow.py): rhs, jac_x
 and the outputs equal the schemes inlined as SymPy (pairs.INLINE_NARROW, what the generated code
-was) to 1e-12 at random states -- near, apart and pressed -- for every kind of pair the routines
+is by default) to 1e-12 at random states -- near, apart and pressed -- for every kind of pair the routines
 serve here: sphere–sphere, sphere–capsule, sphere–box, capsule–box, box–box (16 points),
 box–cylinder (25), sphere–cylinder and sphere–ellipsoid; jac_x's tangent through the routines'
 forward-mode derivative.
@@ -48,6 +48,7 @@ def _states(model, n, rng):
 
 
 def test_called_routines_are_the_inlined_schemes(tmp_path, monkeypatch):
+    monkeypatch.setattr(pairs, "INLINE_NARROW", False)
     called = _build(tmp_path, "called")
     source = next((tmp_path / "called").rglob("nw.c")).read_text()
     for a, b in KINDS:          # every kind through its routine, with jac_x's derivative

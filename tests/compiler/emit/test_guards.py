@@ -9,6 +9,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+import pytest
 import sympy as sm
 
 import eomc
@@ -67,8 +68,26 @@ def _build(tmp_path, tag):
     path.write_text(ONE_LEG)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        return eomc.compile(UrdfModel(path, floating_base=True, contacts=(FOOT,)), functions=("rhs", "outputs"),
-                            cache_dir=tmp_path / tag, progress=False, name="oneleg")
+        return eomc.compile(UrdfModel(path, floating_base=True, contacts=(FOOT,)),
+                            functions=("rhs", "outputs", "implicit"), cache_dir=tmp_path / tag, progress=False,
+                            name="oneleg")
+
+
+@pytest.fixture(scope="module")
+def oneleg(tmp_path_factory):
+    """(guarded, straight, their cache dir): the one-leg robot built as the compiler builds it,
+    and with the rhs's and NAME_implicit's straight-line bodies (no broad phase).  One pair of
+    builds serves both tests below (each read only its own function: rhs, or implicit), where
+    each test built its own pair (4 builds -> 2)."""
+    tmp = tmp_path_factory.mktemp("guards")
+    guarded = _build(tmp, "guarded")
+    plain_rhs = recursive.tree_rhs_body
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(recursive, "tree_rhs_body", lambda ctx, prog, guards=(): plain_rhs(ctx, prog))
+        mp.setattr(recursive, "tree_implicit_body", lambda ctx, prog, guards, size:
+                   recursive.plain_body(ctx, prog, "imp", (size,), "out"))
+        straight = _build(tmp, "straight")
+    return guarded, straight, tmp
 
 
 def _rhs_text(cache):
@@ -77,15 +96,12 @@ def _rhs_text(cache):
     return source[start:source.index("\n}\n", start)]
 
 
-def test_the_guarded_rhs_is_the_straight_line_rhs_near_and_far_from_the_ground(tmp_path, monkeypatch):
-    guarded = _build(tmp_path, "guarded")
+def test_the_guarded_rhs_is_the_straight_line_rhs_near_and_far_from_the_ground(oneleg):
+    guarded, straight, tmp_path = oneleg
     # one block per body (the trunk's 8 corners; the leg's foot and far end), one per point inside
     points = sum(n.startswith("depth_") for n in guarded.output_names)
     assert points == 13
     assert _rhs_text(tmp_path / "guarded").count("} else {") == 2 + points
-    plain_rhs = recursive.tree_rhs_body
-    monkeypatch.setattr(recursive, "tree_rhs_body", lambda ctx, prog, guards=(): plain_rhs(ctx, prog))
-    straight = _build(tmp_path, "straight")
     assert "} else {" not in _rhs_text(tmp_path / "straight")
     rng = np.random.default_rng(33)
     z = guarded.state_names.index("q_trunk_floating_z")
@@ -118,24 +134,14 @@ def _implicit(model, states):
     return out
 
 
-def test_the_guarded_implicit_terms_are_the_straight_line_ones_near_and_far_from_the_ground(tmp_path, monkeypatch):
+def test_the_guarded_implicit_terms_are_the_straight_line_ones_near_and_far_from_the_ground(oneleg):
     """NAME_implicit (the implicitfast step's terms) skips a body's forces and its points' K and
     C slopes with the same bounds; depth, point and velocity are written for every contact (the
     runtime's depth limit and regime test read them)."""
-    def build(tag):
-        path = tmp_path / "oneleg.urdf"
-        path.write_text(ONE_LEG)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            return eomc.compile(UrdfModel(path, floating_base=True, contacts=(FOOT,)), functions=("rhs", "implicit"),
-                                cache_dir=tmp_path / tag, progress=False, name="oneleg")
-    guarded = build("guarded")
+    guarded, straight, tmp_path = oneleg
     source = next((tmp_path / "guarded").rglob("oneleg.c")).read_text()
     start = source.index("int oneleg_implicit(")
     assert source[start:source.index("\n}\n", start)].count("} else {") == 2 + 13
-    monkeypatch.setattr(recursive, "tree_implicit_body", lambda ctx, prog, guards, size:
-                        recursive.plain_body(ctx, prog, "imp", (size,), "out"))
-    straight = build("straight")
     rng = np.random.default_rng(29)
     z = guarded.state_names.index("q_trunk_floating_z")
     X = rng.normal(scale=1.0, size=(300, guarded.nx))
