@@ -55,19 +55,10 @@ NCALLS = 20000
 
 
 def speed_parents(bodies):
-    """Per speed, its parent speed (the previous speed of its joint, or the last speed of the
-    nearest moving ancestor; -1 at the root): the numbering eomc's implicit metadata uses."""
+    """Per speed, its parent speed (-1 at the root): the numbering eomc's implicit metadata uses."""
+    from eomc.compiler.formulations.recursive import speed_parents as shared
     own = [[b.speed] if b.S is not None else [s for s, _ in b.multi] if b.multi else [] for b in bodies]
-    parent = [-1] * sum(len(o) for o in own)
-    for i, b in enumerate(bodies):
-        j, last = b.parent, -1
-        while j >= 0 and not own[j]:
-            j = bodies[j].parent
-        if j >= 0:
-            last = own[j][-1]
-        for s in own[i]:
-            parent[s], last = last, s
-    return parent
+    return shared([b.parent for b in bodies], own)
 
 
 def crba_ltdl(bodies, rec, speeds, gravity, v, c, keep=None):

@@ -171,7 +171,7 @@ def main():
         "## Per file", "", format_table(header, rows), ""])
     print(text)
     if not args.no_write:
-        write_results("default_sweep", text)
+        write_results("default_sweep", text, keep_notes=True)
 
 
 if __name__ == "__main__":

@@ -88,20 +88,20 @@ def test_stored_and_recomputed_stages_agree(model, monkeypatch):
     assert np.max(np.abs(a.dp - b.dp)) <= 1e-13 * np.max(np.abs(a.dp))
 
 
-@pytest.mark.parametrize("tol", [1e-10])
-def test_dop853_gradient_matches_central_differences(model, tol):
-    """method='dop853': the discrete adjoint over the adaptive run's accepted steps (ending on
-    the grid) against central differences of whole adaptive runs, x0 and every parameter."""
+def _gradient_against_differences(model, method, tol):
+    """The adjoint gradient of a tracking cost from a random start, parameters and inputs,
+    checked against simulate's trajectory and central differences of whole runs (x0 and every
+    parameter, 1e-6 relative); returns (gradient, cost, x0, p, the runs' keywords)."""
     rng = np.random.default_rng(5)
     x0 = rng.uniform(-0.5, 0.5, model.nx)
     p = np.asarray(model.param_defaults) * rng.uniform(0.8, 1.2, model.nparam)
     r = rng.uniform(-1, 1, model.ninput)
-    kw = dict(dt=0.05, r=r, method="dop853", rtol=tol, atol=tol)
+    kw = dict(dt=0.05, r=r, method=method, rtol=tol, atol=tol)
     t, target = simulate_grid(model, x0 * 0.5, T, p=p * 1.1, **kw)
     cost = _cost(target, rng.uniform(0.5, 2.0, target.shape))
     g = eomc.gradient(model, x0, T, cost=cost, p=p, **kw)
     assert np.isclose(g.value, cost(t, g.x)[0])
-    res = model.simulate(x0, (0.0, T), p=p, r=r, method="dop853", rtol=tol, atol=tol, t_eval=t)
+    res = model.simulate(x0, (0.0, T), p=p, r=r, method=method, rtol=tol, atol=tol, t_eval=t)
     assert np.max(np.abs(res.x - g.x)) < 1e-8      # the same trajectory as simulate's (to tol)
 
     def J(x, pp):
@@ -112,6 +112,14 @@ def test_dop853_gradient_matches_central_differences(model, tol):
                    for i, e in enumerate(np.eye(model.nparam))])
     assert np.max(np.abs(g.dx0 - fx)) <= 1e-6 * np.max(np.abs(fx))
     assert np.max(np.abs(g.dp - fp)) <= 1e-6 * np.max(np.abs(fp))
+    return g, cost, x0, p, kw
+
+
+@pytest.mark.parametrize("tol", [1e-10])
+def test_dop853_gradient_matches_central_differences(model, tol):
+    """method='dop853': the discrete adjoint over the adaptive run's accepted steps (ending on
+    the grid) against central differences of whole adaptive runs, x0 and every parameter."""
+    _gradient_against_differences(model, "dop853", tol)
 
 
 def test_dop853_recorded_and_recomputed_stages_agree(model, monkeypatch):
@@ -134,26 +142,7 @@ def test_radau_gradient_matches_central_differences(model, tmp_path):
     system with jac_x at the stage points, vjp for the pull-back) against central differences
     of whole Radau runs (steps ending on the grid), x0 and every parameter; and against the
     DOP853 adjoint (both within tol of the exact gradient)."""
-    rng = np.random.default_rng(5)
-    x0 = rng.uniform(-0.5, 0.5, model.nx)
-    p = np.asarray(model.param_defaults) * rng.uniform(0.8, 1.2, model.nparam)
-    r = rng.uniform(-1, 1, model.ninput)
-    kw = dict(dt=0.05, r=r, method="radau", rtol=1e-10, atol=1e-10)
-    t, target = simulate_grid(model, x0 * 0.5, T, p=p * 1.1, **kw)
-    cost = _cost(target, rng.uniform(0.5, 2.0, target.shape))
-    g = eomc.gradient(model, x0, T, cost=cost, p=p, **kw)
-    assert np.isclose(g.value, cost(t, g.x)[0])
-    res = model.simulate(x0, (0.0, T), p=p, r=r, method="radau", rtol=1e-10, atol=1e-10, t_eval=t)
-    assert np.max(np.abs(res.x - g.x)) < 1e-8      # the same trajectory as simulate's (to tol)
-
-    def J(x, pp):
-        return cost(*simulate_grid(model, x, T, p=pp, **kw))[0]
-    h = 1e-5
-    fx = np.array([(J(x0 + h * e, p) - J(x0 - h * e, p)) / (2 * h) for e in np.eye(model.nx)])
-    fp = np.array([(J(x0, p + h * p[i] * e) - J(x0, p - h * p[i] * e)) / (2 * h * p[i])
-                   for i, e in enumerate(np.eye(model.nparam))])
-    assert np.max(np.abs(g.dx0 - fx)) <= 1e-6 * np.max(np.abs(fx))
-    assert np.max(np.abs(g.dp - fp)) <= 1e-6 * np.max(np.abs(fp))
+    g, cost, x0, p, kw = _gradient_against_differences(model, "radau", 1e-10)
     d = eomc.gradient(model, x0, T, cost=cost, p=p, **dict(kw, method="dop853"))
     assert np.max(np.abs(g.dp - d.dp)) <= 1e-8 * np.max(np.abs(d.dp))
     system, _ = cart_joints(1, rigid=True)

@@ -11,7 +11,7 @@ def test_integrators_clean_under_address_and_undefined_sanitizers(tmp_path):
     if shutil.which("gcc") is None:
         pytest.fail("gcc is required for the C integrator tests")
     exe = tmp_path / "sanitize_driver"
-    cmd = ["gcc", "-std=c99", "-g", "-O1", "-Wall", "-Wextra", "-Werror",
+    cmd = ["gcc", "-std=c99", "-g1", "-O1", "-Wall", "-Wextra", "-Werror",
            "-fsanitize=address,undefined", "-fno-sanitize-recover=all", "-fno-omit-frame-pointer",
            f"-I{RUNTIME_C}", "-o", str(exe), str(MODELS_DIR / "sanitize_driver.c"),
            *(str(MODELS_DIR / s) for s in SOURCES), str(RUNTIME_C / "eomc_integrators.c"),

@@ -103,7 +103,7 @@ def test_lanes_rollout_sanitizer_clean_and_equal_to_the_scalar_rollout(cart_sour
     main = tmp_path / "main.c"
     main.write_text(DRIVER.replace("NAME", gm.name))
     exe = tmp_path / "driver"
-    cmd = ["gcc", "-std=c99", "-O1", "-g", "-Wall", "-Wextra", "-Werror", "-pthread", f"-fsanitize={sanitizers}",
+    cmd = ["gcc", "-std=c99", "-O1", "-g1", "-Wall", "-Wextra", "-Werror", "-pthread", f"-fsanitize={sanitizers}",
            "-fno-sanitize-recover=all", "-fno-omit-frame-pointer", f"-DEOMC_BATCH_LANES={machine_lanes()}",
            "-DEOMC_BATCH_LIBM_TRIG", "-I", str(Path(src).parent), "-I", str(RUNTIME_C), src, str(main),
            *(str(RUNTIME_C / f) for f in ("eomc_integrators.c", "eomc_fixedstep.c", "eomc_bdf.c",

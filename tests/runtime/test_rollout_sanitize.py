@@ -13,7 +13,7 @@ def test_rollout_threads_clean_under_sanitizers(tmp_path, sanitizers):
     if shutil.which("gcc") is None:
         pytest.fail("gcc is required for the C rollout tests")
     exe = tmp_path / "rollout_driver"
-    cmd = ["gcc", "-std=c99", "-g", "-O1", "-Wall", "-Wextra", "-Werror", "-pthread",
+    cmd = ["gcc", "-std=c99", "-g1", "-O1", "-Wall", "-Wextra", "-Werror", "-pthread",
            f"-fsanitize={sanitizers}", "-fno-sanitize-recover=all", "-fno-omit-frame-pointer",
            f"-I{RUNTIME_C}", "-o", str(exe), str(MODELS_DIR / "rollout_driver.c"),
            *(str(MODELS_DIR / s) for s in SOURCES), str(RUNTIME_C / "eomc_integrators.c"),
