@@ -127,7 +127,7 @@ def main():
                                 notes=[f"dm_control {version('dm_control')}, mujoco {version('mujoco')}"])
     print(table)
     if not args.k or args.write_as:
-        write_results(args.write_as or "dm_suite", header + "\n" + table + "\n\n" + __doc__)
+        write_results(args.write_as or "dm_suite", header + "\n" + table + "\n\n" + __doc__, keep_notes=True)
 
 
 if __name__ == "__main__":
