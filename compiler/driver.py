@@ -248,6 +248,7 @@ def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, fu
                            portable=portable)
     if getattr(spec, "start_in_range", None):
         _warn_moved_start(generated.name, spec.start_in_range)
+    _warn_singular_start(model, spec.initial_state)
     if generated.metadata.get("target", "c99-f64") != "c99-f64":   # what float cannot hold, said at build
         import warnings
         from eomc.runtime.errors import EomcWarning
@@ -255,6 +256,29 @@ def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, fu
             warnings.warn(f"{generated.name} ({generated.metadata['target']}): {concern}", EomcWarning,
                           stacklevel=2)
     return model
+
+
+def _warn_singular_start(model, x0):
+    """A warning when the mass matrix is singular (to rounding) at the default start, naming the
+    speeds nothing resists: a run from there is so stiff that its step collapses (icub.urdf of
+    example-robot-data: a head with next to no inertia about its neck joints), and the user
+    should hear it at the build, not after a failed simulation.  One mass_matrix call."""
+    import warnings
+
+    import numpy as np
+
+    from eomc.runtime.diagnose import singular_direction
+    from eomc.runtime.errors import EomcWarning
+    from .model.spec import caller_level
+    try:
+        x = np.zeros(model.nx) if x0 is None else np.asarray(x0, dtype=float)
+        why = singular_direction(model, 0.0, x) if x.shape == (model.nx,) else ""
+    except Exception:                    # a warning must never break a build that worked
+        why = ""
+    if why:
+        warnings.warn(EomcWarning(
+            f"{model.name}: at the default start {why[2:]}; a simulation from there will be very stiff "
+            f"or stop (give those bodies inertia, or start elsewhere)"), stacklevel=caller_level())
 
 
 def _warn_moved_start(name, moved):

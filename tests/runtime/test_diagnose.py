@@ -129,3 +129,32 @@ def test_a_collapsed_step_names_a_mass_matrix_singular_to_rounding(arm, status, 
     msg = failure_message(arm, "radau", stats, x, _p(arm, m2=1e-14))
     assert reason in msg and "nothing resists motion along u2 (1)" in msg and "gimbal lock" in msg
     assert "nothing resists" not in failure_message(arm, "radau", stats, x, _p(arm))
+
+
+def test_a_build_whose_start_has_a_singular_mass_matrix_warns(tmp_path):
+    """eomc.compile says at the build when nothing resists some motion at the default start
+    (icub.urdf's head), naming the speed; a regular model builds without that warning."""
+    from eomc.errors import EomcWarning
+    q1, q2, u1, u2 = em.dynamicsymbols("q1 q2 u1 u2")
+    ground = em.RigidBody("ground")
+    upper = em.RigidBody("upper", mass=1.0)
+    upper.inertia = (em.inertia(upper.frame, 0, 0, 0), upper.masscenter)
+    tip = em.RigidBody("tip", mass=sm.Symbol("m2"))
+    tip.inertia = (em.inertia(tip.frame, 0, 0, 0), tip.masscenter)
+    system = em.System.from_newtonian(ground)
+    system.add_joints(
+        em.PinJoint("shoulder", ground, upper, q1, u1, child_point=0.7 * upper.frame.y,
+                    joint_axis=ground.frame.z),
+        em.PinJoint("elbow", upper, tip, q2, u2, parent_point=-0.7 * upper.frame.y,
+                    child_point=0.7 * tip.frame.y, joint_axis=upper.frame.z))
+    for m2, warned in ((1e-16, True), (0.5, False)):
+        with pytest.warns() as record:
+            import warnings
+            warnings.warn("marker", UserWarning)            # pytest.warns needs one warning at least
+            eomc.compile(system, f"tipmass{int(warned)}", functions=["rhs", "mass_matrix"], progress=False,
+                         parameters={"m2": m2}, cache_dir=str(tmp_path / "cache"))
+        hits = [str(w.message) for w in record if issubclass(w.category, EomcWarning)
+                and "at the default start" in str(w.message)]
+        assert bool(hits) == warned, hits
+        if warned:
+            assert "nothing resists motion along u2 (1)" in hits[0] and "very stiff" in hits[0]
