@@ -272,7 +272,7 @@ def _warn_singular_start(model, x0):
     from .model.spec import caller_level
     try:
         x = np.zeros(model.nx) if x0 is None else np.asarray(x0, dtype=float)
-        why = singular_direction(model, 0.0, x) if x.shape == (model.nx,) else ""
+        why = singular_direction(model, 0.0, x, semidefinite=True) if x.shape == (model.nx,) else ""
     except Exception:                    # a warning must never break a build that worked
         why = ""
     if why:

@@ -15,9 +15,14 @@ from .cdef import STATUS_SINGULAR_MASS_MATRIX as SINGULAR_STATUS
 __all__ = ["SINGULAR_STATUS", "singular_direction"]
 
 
-def singular_direction(model, t, x, p=None, r=None):
+def singular_direction(model, t, x, p=None, r=None, semidefinite=False):
     """'; nothing resists motion along u2 (1), u3 (-0.24) ...' (the null direction of M, its
-    largest components first) or '' when it cannot tell."""
+    largest components first) or '' when it cannot tell.
+
+    ``semidefinite``: say it only when M is positive semidefinite to rounding, i.e. when M
+    is a plain mass matrix that is singular.  For a guess at a cause that is not M's own
+    status (a collapsed step, the start of a build): a constrained system's mass_matrix is
+    not symmetric positive (four-bar: eigenvalue -1.36) and is not evidence there."""
     if "mass_matrix" not in getattr(model, "functions", ()):
         return ""
     if isinstance(p, np.ndarray) and p.ndim == 1:
@@ -31,7 +36,7 @@ def singular_direction(model, t, x, p=None, r=None):
         return ""
     if w[-1] <= 0:
         return "; M is zero there: no speed meets any mass or inertia"
-    if w[0] > 1e-10 * w[-1]:
+    if w[0] > 1e-10 * w[-1] or (semidefinite and w[0] < -1e-10 * w[-1]):
         return ""
     v = V[:, 0] / np.max(np.abs(V[:, 0]))
     v = v if v[np.argmax(np.abs(v))] > 0 else -v

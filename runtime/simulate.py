@@ -718,7 +718,7 @@ def _events_inside_step(model, a, stats, x):
     return [], float("nan")
 
 
-NEAR_SINGULAR_SUSPECTS = (SINGULAR_STATUS, 3, 5, 6)    # singular, non-finite, step too small, max steps
+NEAR_SINGULAR_SUSPECTS = (3, 5, 6)    # non-finite, step too small, max steps
 
 
 def failure_message(model, method, stats, x_last, p=None):
@@ -742,7 +742,11 @@ def failure_message(model, method, stats, x_last, p=None):
         msg += f" (h={stats['h']:.3g}); the solution may blow up or be discontinuous here"
     # a step size that collapsed, a run that never ends or a non-finite value: M singular to
     # rounding is a common cause on real files (a link with inertia 1e-20), worth naming
-    why = singular_direction(model, stats["t_fail"], x_last, p) if status in NEAR_SINGULAR_SUSPECTS else ""
+    why = ""
+    if status == SINGULAR_STATUS:
+        why = singular_direction(model, stats["t_fail"], x_last, p)
+    elif status in NEAR_SINGULAR_SUSPECTS:
+        why = singular_direction(model, stats["t_fail"], x_last, p, semidefinite=True)
     if status == PENETRATED_STATUS and p is not None:
         why = penetration_message(model, x_last, p)
     return f"{msg}; state {state}{why}"

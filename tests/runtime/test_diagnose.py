@@ -158,3 +158,17 @@ def test_a_build_whose_start_has_a_singular_mass_matrix_warns(tmp_path):
         assert bool(hits) == warned, hits
         if warned:
             assert "nothing resists motion along u2 (1)" in hits[0] and "very stiff" in hits[0]
+
+
+def test_a_constrained_system_builds_without_the_singular_start_warning(tmp_path):
+    """The four-bar's mass_matrix (a constrained system) is not a plain symmetric positive M
+    (smallest eigenvalue -1.36): no guess about missing inertia from it."""
+    import warnings
+    from pathlib import Path
+    from eomc.errors import EomcWarning
+    example = Path(__file__).resolve().parents[2] / "examples" / "four_bar_system.py"
+    with warnings.catch_warnings(record=True) as record:
+        warnings.simplefilter("always")
+        model = eomc.compile(str(example), progress=False, cache_dir=str(tmp_path / "cache"))
+    assert "mass_matrix" in model.functions
+    assert not [w for w in record if issubclass(w.category, EomcWarning) and "at the default start" in str(w.message)]
