@@ -11,6 +11,7 @@ import eomc
 import eomc.compiler.tree.second_order as second_order
 from eomc.runtime.errors import SimulationError
 from helpers.random_trees import build
+from helpers.urdf_arm import LAW_ARM
 
 # two branches from body 0 (a pin): a slider then a pin, and a point mass on a pin then a slider;
 # most joints carry an input (a load pair on child and parent)
@@ -82,32 +83,7 @@ def test_overflow_is_an_error_not_a_silent_inf(models):
 
 # a URDF arm whose three joints all carry a law (soft limits, damping, Coulomb friction): the
 # kernel adds the laws' own curvature to their rows' (q, u) entries (with_law_hessians)
-ARM = """<?xml version="1.0"?>
-<robot name="lawarm">
-  <link name="base"/>
-  <link name="l1"><inertial><origin xyz="0 0 -0.25"/><mass value="1.2"/>
-    <inertia ixx="0.02" iyy="0.025" izz="0.008" ixy="0.001" ixz="0" iyz="0"/></inertial></link>
-  <link name="l2"><inertial><origin xyz="0.05 0 -0.2"/><mass value="0.8"/>
-    <inertia ixx="0.01" iyy="0.012" izz="0.003" ixy="0" ixz="0.0005" iyz="0"/></inertial></link>
-  <link name="l3"><inertial><origin xyz="0 0.02 0"/><mass value="0.3"/>
-    <inertia ixx="0.001" iyy="0.001" izz="0.001" ixy="0" ixz="0" iyz="0"/></inertial></link>
-  <joint name="j1" type="revolute">
-    <parent link="base"/><child link="l1"/><axis xyz="0 1 0"/>
-    <limit lower="-0.5" upper="0.8" effort="10" velocity="2"/>
-    <dynamics damping="0.3" friction="0.2"/>
-  </joint>
-  <joint name="j2" type="revolute">
-    <parent link="l1"/><child link="l2"/><origin xyz="0 0 -0.5" rpy="0.1 0 0"/><axis xyz="1 0 0"/>
-    <limit lower="-1" upper="1.2" effort="10" velocity="2"/>
-    <dynamics damping="0.1" friction="0.05"/>
-  </joint>
-  <joint name="j3" type="prismatic">
-    <parent link="l2"/><child link="l3"/><origin xyz="0 0 -0.4"/><axis xyz="0 0 1"/>
-    <limit lower="-0.1" upper="0.05" effort="10" velocity="1"/>
-    <dynamics damping="0.4" friction="0.5"/>
-  </joint>
-</robot>
-"""
+ARM = LAW_ARM.replace('<robot name="arm">', '<robot name="lawarm">')
 WIDTH = 3e-4    # joint_laws.WIDTH: the limit law's curvature lives within a few widths of a limit
 
 
