@@ -881,37 +881,30 @@ void eomc_dop853_tableau(const double **A, int *astride, const double **B, const
 
 /* y[i] = x[i] + h * sum_j coef[j] * K[j][i] (x NULL: y[i] = the sum), the sum over the
  * nonzero coefficients, j ascending.  Skipping zeros leaves every finite sum bit-identical
- * to the full one (DOP853's tables are about a third zeros).  Four rows at a time with
- * their sums in registers: gcc 12 at -O2 (the runtime's flags) does not vectorize a loop
- * of unknown length, and the row-at-a-time form (acc[i] += a kj[i] per stage) was scalar
- * with a load and a store per term; blocked, the four sums are two SSE2 vectors and each
- * term one load.  Same operations per row in the same order: bit for bit as before.
- * DOP853 on the n = 8 cart (harness in benchmarks/results/sensitivity_dop853.md):
- * a plain run -3 %, with 4 sensitivity columns (90 states) -7 %. */
+ * to the full one (DOP853's tables are about a third zeros); the j-outer order runs over
+ * contiguous rows.  gcc 12 at -O2 (the runtime's flags) uses its "very cheap" vectorizer
+ * cost model, which leaves a loop of unknown length scalar (objdump: no packed
+ * instruction; one load and one store per term); the dynamic model for this function
+ * only vectorizes it (other compilers vectorize at -O2 or ignore the attribute).  Same
+ * operations per row in the same order: bit for bit as before.  C harness, n = 8 cart,
+ * DOP853 10 s at 1e-8 (benchmarks/results/sensitivity_dop853.md, notes): plain 2.92 ->
+ * 2.87 ms, 1 sensitivity column 4.72 -> 4.67, 4 columns (90 states) 8.0 -> 7.58.  A
+ * four-row block with the sums in registers (vectorized at -O2 by SLP) gained half as
+ * much at 4 columns (8.0); eight rows and a nonzero list lost (8.2). */
+#if defined(__GNUC__) && !defined(__clang__)
+__attribute__((optimize("vect-cost-model=dynamic")))
+#endif
 static void combine_into(int n, int nst, const double *coef, const double *restrict K,
                          const double *x, double h, double *restrict y)
 {
-    int i = 0;
-    for (; i + 4 <= n; i += 4) {
-        double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
-        for (int j = 0; j < nst; j++) {
-            const double a = coef[j], *restrict kj = K + (size_t)j * n + i;
-            if (a == 0.0) continue;
-            s0 += a * kj[0]; s1 += a * kj[1]; s2 += a * kj[2]; s3 += a * kj[3];
-        }
-        if (x) {
-            y[i] = x[i] + h * s0; y[i + 1] = x[i + 1] + h * s1;
-            y[i + 2] = x[i + 2] + h * s2; y[i + 3] = x[i + 3] + h * s3;
-        } else {
-            y[i] = s0; y[i + 1] = s1; y[i + 2] = s2; y[i + 3] = s3;
-        }
+    for (int i = 0; i < n; i++) y[i] = 0.0;
+    for (int j = 0; j < nst; j++) {
+        const double a = coef[j], *restrict kj = K + (size_t)j * n;
+        if (a == 0.0) continue;
+        for (int i = 0; i < n; i++) y[i] += a * kj[i];
     }
-    for (; i < n; i++) {
-        double s0 = 0.0;
-        for (int j = 0; j < nst; j++)
-            if (coef[j] != 0.0) s0 += coef[j] * K[(size_t)j * n + i];
-        y[i] = x ? x[i] + h * s0 : s0;
-    }
+    if (x)
+        for (int i = 0; i < n; i++) y[i] = x[i] + h * y[i];
 }
 
 static void combine(int n, int nst, const double *coef, const double *restrict K,
