@@ -32,6 +32,7 @@ import numpy as np
 import sympy as sm
 
 from eomc.runtime.errors import ModelError
+from eomc.compiler import fixed_order as fo
 
 __all__ = ["CYLINDER_RIM", "MESH_POINTS", "Shape", "shape_points", "with_shapes", "hull_shortfall", "law_symbols"]
 
@@ -114,7 +115,7 @@ def hull_shortfall(vertices, kept):
         eq = ConvexHull(k).equations
     except Exception:
         return float("nan")
-    return float(max(0.0, np.max(v @ eq[:, :3].T + eq[:, 3])))
+    return float(max(0.0, np.max(fo.matmul(v, eq[:, :3].T) + eq[:, 3])))
 
 
 def _symbols(name, with_radius, taken):
@@ -187,13 +188,13 @@ def with_shapes(built, shapes, com_of, fold=False):
         com = com_of(shape.body)
         shape_matrix = None
         if axes is not None:
-            A = R @ np.diag(np.square(axes)) @ R.T
+            A = fo.matmul(R, np.diag(np.square(axes)), R.T)
             shape_matrix = tuple(tuple(sm.Float(float(A[r, k]), 17) if abs(A[r, k]) > 1e-300 else sm.S.Zero
                                        for k in range(3)) for r in range(3))
         n = [sm.Integer(int(x)) if float(x) == int(x) else sm.Float(float(x), 17) for x in shape.normal]
         height = sm.Float(float(shape.height), 17) if shape.height else sm.S.Zero
         for i, p in enumerate(points):
-            point = origin + R @ np.asarray(p, dtype=float)
+            point = origin + fo.matmul(R, p)
             label = base if len(points) == 1 else f"{base}_{i}"
             offset = sm.Matrix([(sm.Float(float(point[r]), 17) if point[r] != 0 else sm.S.Zero) - com[r]
                                 for r in range(3)])

@@ -20,6 +20,7 @@ from eomc.runtime.errors import ModelError
 
 from .law import DEFAULTS, load_stiffness
 from .system import contact_symbols, parameter_defaults, unit_normal
+from eomc.compiler import fixed_order as fo
 
 __all__ = ["ContactSpec", "ContactLoad", "ContactValue", "ENERGY", "passive_contacts", "COLLISION_SPHERES", "parse_contact",
            "collision_spheres", "link_frame", "with_contacts", "contact_outputs", "body_com",
@@ -225,7 +226,7 @@ def with_contacts(built, contacts, collisions, placements, fold=False):
         T = np.asarray(T, dtype=float)
         source = bodies_by_key.get(body_link)
         com = getattr(source, "com", (0.0, 0.0, 0.0)) if source is not None else (0.0, 0.0, 0.0)
-        return i, T[:3, :3] @ np.array(point) + T[:3, 3], com     # point in the body's first link frame
+        return i, fo.matmul(T[:3, :3], point) + T[:3, 3], com     # point in the body's first link frame
     weight = built_weight(built)
     return with_located(built, specs, locate, fold, "link", identifier, weight)
 

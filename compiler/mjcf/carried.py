@@ -22,6 +22,7 @@ closer; within the verdict's 0.03 rad either way.  eomc's URDF rule carries the 
 planar slides) keep 1/``dof_invweight0``.
 """
 import numpy as np
+from eomc.compiler import fixed_order as fo
 
 __all__ = ["carried_inertias"]
 
@@ -61,8 +62,8 @@ def carried_inertias(m):
         a, o = np.asarray(d.xaxis[j]), np.asarray(d.xanchor[j])
         about = 0.0             # the rest of the robot's inertia about the joint's axis
         for k in rest:
-            ak = np.asarray(d.ximat[k]).reshape(3, 3).T @ a
-            lever = float(np.linalg.norm(np.cross(a, np.asarray(d.xipos[k]) - o)))
-            about += float(ak @ (np.asarray(m.body_inertia[k]) * ak)) + float(m.body_mass[k]) * lever ** 2
+            ak = fo.matmul(np.asarray(d.ximat[k]).reshape(3, 3).T, a)
+            lever = fo.norm(np.cross(a, np.asarray(d.xipos[k]) - o))
+            about += fo.dot(ak, np.asarray(m.body_inertia[k]) * ak) + float(m.body_mass[k]) * lever ** 2
         out[j] = about
     return out

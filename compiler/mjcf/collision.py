@@ -48,6 +48,7 @@ import numpy as np
 from eomc.runtime.errors import EomcWarning
 
 from ..contact.mujoco_law import MINVAL, law_parameters, resting_depth  # noqa: F401 -- this module's rule, public here
+from eomc.compiler import fixed_order as fo
 
 __all__ = ["GroundGeom", "ground_geoms", "law_parameters", "resting_depth", "GEOM_KINDS"]
 
@@ -185,7 +186,7 @@ def ground_geoms(m, path=None):
                              f"which geom {_geom_name(m, touching[0])} can touch: eomc has no contact with a height "
                              f"field's terrain (a flat one is a plane; contype=\"0\" conaffinity=\"0\" on it leaves it "
                              f"out)", *(locate(path, "geom", raw) if path else (None, None)))
-    g_mag = float(np.linalg.norm(m.opt.gravity)) or 9.81
+    g_mag = fo.norm(m.opt.gravity) or 9.81
     timestep = None if m.opt.disableflags & int(mujoco.mjtDisableBit.mjDSBL_REFSAFE) else float(m.opt.timestep)
     pairs = {}
     for q in range(m.npair):                # explicit pairs first: they replace dynamic ones
@@ -221,7 +222,7 @@ def ground_geoms(m, path=None):
             warnings.warn(f"{where}geom {_geom_name(m, g)}: contact gap {gap:g} is not modelled (the force "
                           f"starts at the margin)", EomcWarning, stacklevel=3)
         n = np.array(d.geom_xmat[plane]).reshape(3, 3)[:, 2]
-        height = float(n @ d.geom_xpos[plane]) + surface.get(plane, 0.0) + margin
+        height = fo.dot(n, d.geom_xpos[plane]) + surface.get(plane, 0.0) + margin
         weight = g_mag * float(m.body_subtreemass[int(m.body_rootid[b])])
         k, c, mu = law_parameters(solref, solimp, friction, condim, g_mag, weight, timestep)
         verts = ()
@@ -268,7 +269,7 @@ def body_pairs(m, path=None):
     weld = m.body_weldid
     excluded = _excluded(m)
     filterparent = not (m.opt.disableflags & int(mujoco.mjtDisableBit.mjDSBL_FILTERPARENT))
-    g_mag = float(np.linalg.norm(m.opt.gravity)) or 9.81
+    g_mag = fo.norm(m.opt.gravity) or 9.81
     timestep = None if m.opt.disableflags & int(mujoco.mjtDisableBit.mjDSBL_REFSAFE) else float(m.opt.timestep)
     flat = ("plane", "hfield")
 
@@ -338,7 +339,7 @@ def _reach(m):
                         or np.ptp(anchors, axis=0).max() > 0:
                     ok = False
                     break
-                length += float(np.linalg.norm(point - anchors[0]))
+                length += fo.norm(point - anchors[0])
                 point = anchors[0]
             body = int(m.body_parentid[body])
         if ok:
@@ -358,4 +359,4 @@ def _apart(m, reach, g1, g2, margin):
             return False
         balls.append(reach[g])
     (c1, r1), (c2, r2) = balls
-    return float(np.linalg.norm(c1 - c2)) > r1 + r2 + max(margin, 0.0) + 1e-9
+    return fo.norm(c1 - c2) > r1 + r2 + max(margin, 0.0) + 1e-9

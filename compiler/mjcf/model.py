@@ -21,6 +21,7 @@ import numpy as np
 import sympy as sm
 
 from eomc.runtime.errors import EomcWarning, ModelError, ModelFileError
+from eomc.compiler import fixed_order as fo
 
 __all__ = ["MjcfModel", "is_mjcf_path", "is_mjcf_model", "load_mjmodel", "check_model", "mjcf_formed",
            "IGNORABLE", "with_ignore"]
@@ -511,7 +512,7 @@ def _xyz_angles(R):
 def _unit(quat):
     """MuJoCo's quaternion (w, x, y, z) scaled to length 1, as floats."""
     q = np.asarray(quat, dtype=float)
-    return [float(v) for v in q / np.linalg.norm(q)]
+    return [float(v) for v in q / fo.norm(q)]
 
 
 def reference_state(m, built):

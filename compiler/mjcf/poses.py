@@ -20,6 +20,7 @@ import numpy as np
 import sympy as sm
 
 from .treeir import quat_matrix
+from eomc.compiler import fixed_order as fo
 
 __all__ = ["mjcf_pose_source", "mjcf_geometry"]
 
@@ -76,13 +77,13 @@ def mjcf_geometry(built, m):
             r, half = size[0], size[1]
             items.append(shape("cylinder", (r, 2 * half), origin=T, color=color))
             if kind == int(G.mjGEOM_CAPSULE):
-                items += [shape("sphere", (r,), origin=T @ _transform(np.eye(3), (0, 0, z)), color=color)
+                items += [shape("sphere", (r,), origin=fo.matmul(T, _transform(np.eye(3), (0, 0, z))), color=color)
                           for z in (-half, half)]
         else:   # ellipsoid, mesh, hfield, sdf: a box of the bounding size
             centre, half = m.geom_aabb[g][:3], m.geom_aabb[g][3:]
             if np.all(half > 0):
                 items.append(shape("box", [2 * float(x) for x in half],
-                                   origin=T @ _transform(np.eye(3), centre), color=color))
+                                   origin=fo.matmul(T, _transform(np.eye(3), centre)), color=color))
         if items:
             out.setdefault(names[b], []).extend(items)
     return out

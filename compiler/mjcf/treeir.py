@@ -44,13 +44,14 @@ from eomc.compiler.tree.recognize import effective_inertias
 from eomc.compiler.multibody.joints import identifier
 from eomc.compiler.multibody.joint_kinds import KINDS, JointSite
 from eomc.compiler.multibody.joints import Parameters, actuation, cross, snapped
+from eomc.compiler import fixed_order as fo
 
 __all__ = ["MjcfTree", "tree_ir", "quat_matrix"]
 
 
 def quat_matrix(q):
     """The rotation matrix of MuJoCo's unit quaternion (w, x, y, z)."""
-    w, x, y, z = np.asarray(q, dtype=float) / np.linalg.norm(q)
+    w, x, y, z = np.asarray(q, dtype=float) / fo.norm(q)
     return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
                      [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
                      [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
@@ -139,7 +140,7 @@ def tree_ir(m, *, fold=False, actuators=None, limits=True, friction=True, quater
         jids = list(range(int(m.body_jntadr[b]), int(m.body_jntadr[b]) + int(m.body_jntnum[b])))
         mass = params(f"m_{s}", m.body_mass[b])
         Ri = quat_matrix(m.body_iquat[b])
-        I = snapped(Ri @ np.diag(m.body_inertia[b]) @ Ri.T)
+        I = snapped(fo.matmul(Ri, np.diag(m.body_inertia[b]), Ri.T))
         e = {key: params(f"I{key}_{s}", I[i, j]) for key, (i, j) in
              (("xx", (0, 0)), ("yy", (1, 1)), ("zz", (2, 2)), ("xy", (0, 1)), ("xz", (0, 2)), ("yz", (1, 2)))}
         inertia = sm.Matrix([[e["xx"], e["xy"], e["xz"]], [e["xy"], e["yy"], e["yz"]],

@@ -32,6 +32,7 @@ import numpy as np
 import sympy as sm
 
 from .joints import cross, lin, rotation_terms, snap, snapped, times, vec, z_to
+from eomc.compiler import fixed_order as fo
 
 __all__ = ["KINDS", "JointKind", "JointSite", "Mobilizer", "floating_rotation", "floating_kinematics",
            "quaternion_rotation", "quaternion_kinematics", "free_joint"]
@@ -211,12 +212,12 @@ def free(site, qs, us):
 
 def planar(site, qs, us):
     Z = snapped(z_to(site.axis))
-    Aj = snapped(site.R0 @ Z)
+    Aj = snapped(fo.matmul(site.R0, Z))
     cth, sth = sm.cos(qs[2]), sm.sin(qs[2])
     # R_PC = Aj Rz(th) Zᵀ = P cos + Q sin + W
-    Pm = snapped(Aj @ np.diag([1.0, 1.0, 0.0]) @ Z.T)
-    Qm = snapped(Aj @ np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 0.0]]) @ Z.T)
-    Wm = snapped(Aj @ np.diag([0.0, 0.0, 1.0]) @ Z.T)
+    Pm = snapped(fo.matmul(Aj, np.diag([1.0, 1.0, 0.0]), Z.T))
+    Qm = snapped(fo.matmul(Aj, np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 0.0]]), Z.T))
+    Wm = snapped(fo.matmul(Aj, np.diag([0.0, 0.0, 1.0]), Z.T))
     R = sm.Matrix(3, 3, lambda r, k: lin((Pm[r, k], Qm[r, k], Wm[r, k]), (cth, sth, 1)))
     xy = times(Aj, [qs[0], qs[1], 0])
     Rc = _turned(R, site.com)

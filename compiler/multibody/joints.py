@@ -12,6 +12,7 @@ import numpy as np
 import sympy as sm
 
 from ..tree.spatial import cross
+from eomc.compiler import fixed_order as fo
 
 __all__ = ["snap", "snapped", "Parameters", "lin", "rotation_terms", "cross", "times", "vec", "z_to",
            "actuation", "identifier"]
@@ -77,7 +78,7 @@ def rotation_terms(R0, axis):
     a = np.asarray(axis, dtype=float)
     ax = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
     aa = np.outer(a, a)
-    return (snapped(R0 @ (np.eye(3) - aa)), snapped(R0 @ ax), snapped(R0 @ aa))
+    return (snapped(fo.matmul(R0, np.eye(3) - aa)), snapped(fo.matmul(R0, ax)), snapped(fo.matmul(R0, aa)))
 
 
 def times(M, v):
@@ -95,8 +96,8 @@ def z_to(axis):
     """A rotation matrix whose third column is the unit vector ``axis`` (exact for ±x, ±y, ±z)."""
     z = np.asarray(axis, dtype=float)
     helper = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    x = helper - (helper @ z) * z
-    x /= np.linalg.norm(x)
+    x = helper - fo.dot(helper, z) * z
+    x /= fo.norm(x)
     return np.column_stack([x, np.cross(z, x), z])
 
 
@@ -109,7 +110,7 @@ def actuation(sliding, tau, a, R0, c, p, cp, child, parent):
     from eomc.compiler.tree.model import Load
     zero = sm.zeros(3, 1)
     on_child = sm.Matrix([snap(v) * tau for v in a])
-    on_parent = sm.Matrix([-snap(v) * tau for v in snapped(R0 @ a)])
+    on_parent = sm.Matrix([-snap(v) * tau for v in snapped(fo.matmul(R0, a))])
     out = []
     if sliding:
         out.append(Load(body=child, frame="body", moment=zero, force=on_child,

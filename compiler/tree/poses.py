@@ -19,6 +19,7 @@ import sympy as sm
 
 from ..emit.poses import Shown
 from .placement import Placement, ZERO, to_world
+from eomc.compiler import fixed_order as fo
 
 __all__ = ["TreePoseSource", "welded_frames"]
 
@@ -140,7 +141,7 @@ def contact_metadata(source):
         if None in centre or None in o or not np.all(np.isfinite(D)):
             continue
         # the point in the shown frame's axes: the frame is the body's turned by D, moved by o
-        point = D.T @ (np.array(centre) - np.array(o))
+        point = fo.matmul(D.T, np.array(centre) - np.array(o))
         r = load.params.get("r", 0)
         item = {"name": load.name, "frame": frame, "point": [float(v) for v in point],
                 "radius": _number(r, defaults) or 0.0,
@@ -148,11 +149,11 @@ def contact_metadata(source):
                 "normal": [float(v) for v in load.normal], "height": _number(load.height, defaults)}
         if load.shape is not None:
             A = np.array([[_number(x, defaults) for x in row] for row in load.shape], dtype=float)
-            item["ellipsoid"] = [float(v) for v in (D.T @ A @ D).reshape(9)]
+            item["ellipsoid"] = [float(v) for v in fo.matmul(D.T, A, D).reshape(9)]
         contacts.append(item)
     try:
         mass = sum(_number(b.mass, defaults) or 0.0 for b in tree.bodies)
-        g = float(np.linalg.norm([_number(x, defaults) for x in tree.gravity]))
+        g = fo.norm([_number(x, defaults) for x in tree.gravity])
     except (TypeError, ValueError, AttributeError):
         mass, g = 0.0, 0.0
     return {"contacts": contacts, "weight": mass * g} if contacts else {}

@@ -16,6 +16,7 @@ import numpy as np
 from eomc.runtime.errors import EomcWarning, ModelError
 
 from ..contact.mujoco_law import MUJOCO_DEFAULTS, law_parameters
+from eomc.compiler import fixed_order as fo
 
 __all__ = ["collision_shapes", "ground_check", "MUJOCO_DEFAULTS"]
 
@@ -104,8 +105,8 @@ def collision_shapes(built, collisions, placements, height=0.0, skip=(), boxes=F
         for n, col in enumerate(cols):
             where = f"{path}:{col.line}: link {link!r} <collision>"
             origin = np.asarray(col.origin, dtype=float)
-            R = T[:3, :3] @ origin[:3, :3]
-            pos = T[:3, :3] @ origin[:3, 3] + T[:3, 3]
+            R = fo.matmul(T[:3, :3], origin[:3, :3])
+            pos = fo.matmul(T[:3, :3], origin[:3, 3]) + T[:3, 3]
             if col.geometry is None:
                 continue
             try:
@@ -134,7 +135,7 @@ def collision_shapes(built, collisions, placements, height=0.0, skip=(), boxes=F
             if boxes and kind in ("mesh", "box", "cylinder"):
                 from eomc.compiler.contact.geometry import shape_points
                 pts = np.asarray(vertices if kind == "mesh" else shape_points(kind, size)[0], dtype=float)
-                box = _boxed((pts, pts @ R.T + pos), (near or {}).get(by_body[key], ()))
+                box = _boxed((pts, fo.matmul(pts, R.T) + pos), (near or {}).get(by_body[key], ()))
                 if box is None:
                     continue
                 centre, half = box
@@ -173,7 +174,7 @@ def ground_check(built, collisions, placements, shapes=None):
             continue
         R, pos = np.asarray(shape.rot, dtype=float), np.asarray(shape.pos, dtype=float)
         r = radius if axes is None else float(max(axes))
-        bodies[names[shape.body]] += [[float(x) for x in pos + R @ np.asarray(pt, dtype=float)] + [float(r)]
+        bodies[names[shape.body]] += [[float(x) for x in pos + fo.matmul(R, pt)] + [float(r)]
                                       for pt in points]
     for name in names:
         bodies[name] = bodies[name] or [[0.0, 0.0, 0.0, 0.0]]

@@ -23,6 +23,7 @@ from pathlib import Path
 from eomc.runtime.errors import EomcWarning
 
 from ..multibody.model import merged_defaults, merged_initial_state
+from eomc.compiler import fixed_order as fo
 
 __all__ = ["is_urdf_path", "is_urdf_model", "UrdfModel", "urdf_overrides", "load_urdf_model",
            "with_options", "read_model", "model_of_robot", "urdf_formed", "start_in_range"]
@@ -233,7 +234,7 @@ def _link_placements(robot, source):
         else:
             continue
         for joint in reversed(chain):
-            T = T @ joint.origin
+            T = fo.matmul(T, joint.origin)
             out[joint.child] = (owner, T)
     return {link: out[link] for link in robot.links if link in out}
 

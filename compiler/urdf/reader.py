@@ -20,6 +20,7 @@ import numpy as np
 from eomc.runtime.errors import ModelFileError
 
 from ..multibody.model import Collision
+from eomc.compiler import fixed_order as fo
 
 __all__ = ["JOINT_TYPES", "UrdfLink", "UrdfJoint", "UrdfRobot", "read_urdf"]
 
@@ -194,7 +195,7 @@ def _link(link, line):
     rotation = origin[:3, :3]
     tensor = np.eye(3) if inertial.inertia is None else np.asarray(inertial.inertia, dtype=float)
     mass = float(inertial.mass or 0.0)
-    return UrdfLink(link.name, line, mass, origin[:3, 3].copy(), rotation @ tensor @ rotation.T,
+    return UrdfLink(link.name, line, mass, origin[:3, 3].copy(), fo.matmul(rotation, tensor, rotation.T),
                     True, meshes)
 
 
@@ -205,7 +206,7 @@ def _joint(path, joint, line):
         _fail(path, line, f"joint '{joint.name}' has a zero <axis>")
     if biggest >= 1e-300:     # scaled first: the norm of 1e200-sized entries would overflow
         axis = axis / biggest
-    norm = np.linalg.norm(axis)
+    norm = fo.norm(axis)
     origin = np.eye(4) if joint.origin is None else np.asarray(joint.origin, dtype=float)
     mimic = None
     if joint.mimic is not None:
@@ -299,7 +300,7 @@ def _link_element(element):
         tensor = np.array([[v["ixx"], v["ixy"], v["ixz"]], [v["ixy"], v["iyy"], v["iyz"]],
                            [v["ixz"], v["iyz"], v["izz"]]])
     return UrdfLink(element.get("name"), element.sourceline, mass, origin[:3, 3].copy(),
-                    rotation @ tensor @ rotation.T, True, meshes, _collisions(element))
+                    fo.matmul(rotation, tensor, rotation.T), True, meshes, _collisions(element))
 
 
 class _JointElement:

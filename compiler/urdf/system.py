@@ -38,6 +38,7 @@ from ..multibody.frames import TreeFrame
 from ..multibody.joints import z_to
 from .joints import FloatingJoint, PlanarJoint
 from .tree import check_mimics, identifier
+from eomc.compiler import fixed_order as fo
 
 __all__ = ["UrdfSystem", "system_from_tree", "make_system", "identifier"]
 
@@ -154,7 +155,7 @@ def system_from_tree(tree, *, fold=False, mimic=False, gravity=9.81, laws=True):
         child_interframe = None
         if tj.type == "planar":   # interframes whose z is the plane's normal
             align = z_to(tj.axis)
-            interframe.orient_explicit(parent_frame, _number(tj.rotation @ align))
+            interframe.orient_explicit(parent_frame, _number(fo.matmul(tj.rotation, align)))
             child_interframe = TreeFrame(f"K_{s}")
             child_interframe.orient_explicit(child.frame, _number(align))
         else:
@@ -263,7 +264,7 @@ def _body_actuation(tj, tau, parent_frame, child, parent_point, child_point):
     reader (:func:`eomc.compiler.tree.recognize._body_components`) decides a load is a
     body-frame one; here both frames are the bodies' own, as in :mod:`.treeir`."""
     a = [_snap(v) for v in tj.axis]
-    back = [_snap(v) for v in np.asarray(tj.rotation, dtype=float) @ np.asarray(tj.axis, dtype=float)]
+    back = [_snap(v) for v in fo.matmul(tj.rotation, tj.axis)]
     on_child, on_parent = _vector(child.frame, [tau * v for v in a]), _vector(parent_frame, [-tau * v for v in back])
     if tj.type == "prismatic":
         return [sme.Force(child_point, on_child), sme.Force(parent_point, on_parent)]

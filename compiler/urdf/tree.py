@@ -40,6 +40,7 @@ from eomc.runtime.errors import EomcWarning, ModelFileError
 
 from ..multibody.joint_kinds import KINDS
 from ..multibody.joints import identifier
+from eomc.compiler import fixed_order as fo
 
 __all__ = ["Body", "TreeJoint", "Tree", "build_tree", "identifier", "coordinate_suffixes", "check_mimics",
            "FLOATING_BASES", "floating_base_type", "URDF_KINDS"]
@@ -189,7 +190,7 @@ def _combine(body, items):
     inertia = np.zeros((3, 3))
     for m, c, tensor in items:
         d = c - com
-        inertia += tensor + m * (d @ d * np.eye(3) - np.outer(d, d))
+        inertia += tensor + m * (fo.dot(d, d) * np.eye(3) - np.outer(d, d))
     body.com, body.inertia = com, 0.5 * (inertia + inertia.T)
 
 
@@ -203,14 +204,17 @@ def _moments(tensor):
     Raises FloatingPointError when the tensor is too large for double precision."""
     with np.errstate(all="raise"):
         sym = 0.5 * (tensor + tensor.T)
-        eig, vec = np.linalg.eigh(sym)
+        eig, vec = fo.eigh(sym)
     if not np.all(np.isfinite(eig)):
         raise FloatingPointError
     return eig, vec, float(np.max(np.abs(eig))) if eig.size else 0.0
 
 
 def _describe(eig):
-    return ", ".join(f"{e:.6g}" for e in eig)
+    """Principal moments for a message; those at rounding level (1e-12 of the largest) read 0,
+    their sign and digits being noise."""
+    scale = float(np.max(np.abs(eig))) if len(eig) else 0.0
+    return ", ".join(f"{(e if abs(e) > 1e-12 * scale else 0.0):.6g}" for e in eig)
 
 
 def _link_inertia(robot, link, notes):
@@ -227,7 +231,7 @@ def _link_inertia(robot, link, notes):
         return "ok"
     # rounding is judged against the larger of the largest moment and the link's mass
     # moment about its own origin (a point mass off the origin: 1e-20 entries are noise)
-    tol = ROUNDING * max(scale, link.mass * float(link.com @ link.com))
+    tol = ROUNDING * max(scale, link.mass * fo.dot(link.com, link.com))
     miss = 2 * eig.max() - eig.sum()
     if eig.min() >= 0 and miss <= 0:
         return "ok"
@@ -237,7 +241,7 @@ def _link_inertia(robot, link, notes):
         if deficit > 0:                            # raise the two smaller moments to close it
             order = np.argsort(fixed)
             fixed[order[:2]] += deficit / 2
-        link.inertia = vec @ np.diag(fixed) @ vec.T
+        link.inertia = fo.matmul(vec, np.diag(fixed), vec.T)
         _warn(robot, link.line, f"link '{link.name}': principal moments {_describe(eig)} repaired "
                                 f"to {_describe(fixed)} (a rounding-level violation)", notes)
         return "ok"
@@ -386,11 +390,11 @@ def build_tree(robot, floating_base=False, allow_nonphysical_inertia=False):
                 bodies[body_name].links.append(link_name)
             if _has_inertia(link):
                 rotation, position = transform[:3, :3], transform[:3, 3]
-                items[body_name].append((link.mass, rotation @ link.com + position,
-                                         rotation @ link.inertia @ rotation.T))
+                items[body_name].append((link.mass, fo.matmul(rotation, link.com) + position,
+                                         fo.matmul(rotation, link.inertia, rotation.T)))
         pending = []
         for joint in children.get(link_name, ()):
-            origin = transform @ joint.origin
+            origin = fo.matmul(transform, joint.origin)
             if joint.type in MOVING and not carries[joint.child]:
                 _lock(robot, joint, children, body_name if body_name else link_name, locked, notes)
             if joint.type == "fixed" or not carries[joint.child]:
@@ -462,7 +466,7 @@ def _check_resisted(robot, tree):
         I6 = np.zeros((6, 6))
         c = body.com
         cx = np.array([[0, -c[2], c[1]], [c[2], 0, -c[0]], [-c[1], c[0], 0]])
-        I6[:3, :3] = body.inertia + body.mass * (cx @ cx.T)
+        I6[:3, :3] = body.inertia + body.mass * fo.matmul(cx, cx.T)
         I6[:3, 3:] = body.mass * cx
         I6[3:, :3] = body.mass * cx.T
         I6[3:, 3:] = body.mass * np.eye(3)
@@ -475,14 +479,14 @@ def _check_resisted(robot, tree):
         E, r = placement[k]
         rx = np.array([[0, -r[2], r[1]], [r[2], 0, -r[0]], [-r[1], r[0], 0]])
         X = np.zeros((6, 6))           # motion transform parent -> child (about the link origins)
-        X[:3, :3], X[3:, 3:], X[3:, :3] = E, E, -E @ rx
+        X[:3, :3], X[3:, 3:], X[3:, :3] = E, E, -fo.matmul(E, rx)
         p = index[joint.parent]
-        composite[p] = composite[p] + X.T @ composite[k] @ X
+        composite[p] = composite[p] + fo.matmul(X.T, composite[k], X)
     for k, joint in enumerate(tree.joints):
         S = _motion(joint)
-        D = S.T @ composite[k] @ S
+        D = fo.matmul(S.T, composite[k], S)
         scale = max(np.max(np.abs(composite[k])), 1e-300)
-        if np.linalg.eigvalsh(0.5 * (D + D.T)).min() <= 1e-12 * scale:
+        if fo.eigvalsh(0.5 * (D + D.T)).min() <= 1e-12 * scale:
             _fail(robot, joint.line, f"joint '{joint.name}' moves no inertia along its motion: link "
                                      f"'{joint.child}' and what it carries have no mass or inertia "
                                      f"that resists it (a mass on the axis it turns about?); its "
@@ -501,8 +505,8 @@ def _motion(joint):
     # planar: two slides in the plane normal to the axis, a turn about it
     z = a
     helper = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    x = helper - (helper @ z) * z
-    x /= np.linalg.norm(x)
+    x = helper - fo.dot(helper, z) * z
+    x /= fo.norm(x)
     y = np.cross(z, x)
     S = np.zeros((6, 3))
     S[3:, 0], S[3:, 1], S[:3, 2] = x, y, z

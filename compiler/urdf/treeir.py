@@ -36,6 +36,7 @@ from eomc.compiler.tree.recognize import effective_inertias
 from ..multibody.joint_kinds import KINDS, JointSite
 from ..multibody.joints import Parameters, actuation, snapped
 from .tree import URDF_KINDS, coordinate_suffixes, identifier
+from eomc.compiler import fixed_order as fo
 
 __all__ = ["UrdfTree", "tree_ir"]
 
@@ -183,7 +184,7 @@ def joint_inertias(tree):
         c = np.asarray(body.com, dtype=float)
         cx = np.array([[0, -c[2], c[1]], [c[2], 0, -c[0]], [-c[1], c[0], 0]])
         I6 = np.zeros((6, 6))
-        I6[:3, :3] = body.inertia + body.mass * (cx @ cx.T)
+        I6[:3, :3] = body.inertia + body.mass * fo.matmul(cx, cx.T)
         I6[:3, 3:], I6[3:, :3], I6[3:, 3:] = body.mass * cx, body.mass * cx.T, body.mass * np.eye(3)
         composite.append(I6)
     for k in range(len(tree.joints) - 1, -1, -1):
@@ -193,13 +194,13 @@ def joint_inertias(tree):
         E, r = joint.rotation.T, joint.position
         rx = np.array([[0, -r[2], r[1]], [r[2], 0, -r[0]], [-r[1], r[0], 0]])
         X = np.zeros((6, 6))
-        X[:3, :3], X[3:, 3:], X[3:, :3] = E, E, -E @ rx
-        composite[index[joint.parent]] = composite[index[joint.parent]] + X.T @ composite[k] @ X
+        X[:3, :3], X[3:, 3:], X[3:, :3] = E, E, -fo.matmul(E, rx)
+        composite[index[joint.parent]] = composite[index[joint.parent]] + fo.matmul(X.T, composite[k], X)
     out = {}
     for k, joint in enumerate(tree.joints):
         if joint.type in ("revolute", "continuous", "prismatic"):
             S = _motion(joint)
-            out[joint.name] = float((S.T @ composite[k] @ S)[0, 0])
+            out[joint.name] = float(fo.matmul(S.T, composite[k], S)[0, 0])
     loads = joint_loads(tree, inertias=out)
     return {name: JointScale(m, *loads[name]) for name, m in out.items()}
 
@@ -222,11 +223,11 @@ def joint_loads(tree, gravity=9.81, inertias=None):
     for joint in tree.joints:      # parents come first
         Rp = R[joint.parent] if joint.parent is not None else np.eye(3)
         Pp = P[joint.parent] if joint.parent is not None else np.zeros(3)
-        R[joint.child] = Rp @ np.asarray(joint.rotation, dtype=float)
-        P[joint.child] = Pp + Rp @ np.asarray(joint.position, dtype=float)
+        R[joint.child] = fo.matmul(Rp, joint.rotation)
+        P[joint.child] = Pp + fo.matmul(Rp, joint.position)
         body = tree.bodies[joint.child]
-        world[joint.child] = (P[joint.child] + R[joint.child] @ np.asarray(body.com, dtype=float), body.mass)
-        spin[joint.child] = R[joint.child] @ np.asarray(body.inertia, dtype=float) @ R[joint.child].T
+        world[joint.child] = (P[joint.child] + fo.matmul(R[joint.child], body.com), body.mass)
+        spin[joint.child] = fo.matmul(R[joint.child], body.inertia, R[joint.child].T)
     floating = any(j.parent is None and j.type in ("floating", "floating_quaternion") for j in tree.joints)
     total = sum(m for _, m in world.values())
     children = {}
@@ -246,9 +247,9 @@ def joint_loads(tree, gravity=9.81, inertias=None):
         if joint.type == "prismatic":
             out[joint.name] = (gravity * (mass + rest), rest)
             continue
-        a = R[joint.child] @ np.asarray(joint.axis, dtype=float)
+        a = fo.matmul(R[joint.child], joint.axis)
         origin = P[joint.child]
-        lever = lambda x: float(np.linalg.norm(np.cross(a, x - origin)))  # noqa: E731
+        lever = lambda x: fo.norm(np.cross(a, x - origin))  # noqa: E731
         com = sum(world[b][0] * world[b][1] for b in below) / mass if mass > 0 else origin
         load, carried = gravity * mass * lever(com), 0.0
         if floating:
@@ -257,7 +258,7 @@ def joint_loads(tree, gravity=9.81, inertias=None):
                 reach = max(reach, math.sqrt(2.0 * inertias[joint.name] / mass))
             load = max(load, gravity * rest * reach)
             inside = set(below)
-            carried = sum(float(a @ spin[b] @ a) + world[b][1] * lever(world[b][0]) ** 2
+            carried = sum(fo.matmul(a, spin[b], a) + world[b][1] * lever(world[b][0]) ** 2
                           for b in world if b not in inside)
         out[joint.name] = (load, carried)
     return out
