@@ -338,7 +338,7 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
         with _naming_nonfinite(name, fn):
             body = (plain_body(ctx, prog, "pose", (low.poses["size"],), "out") if fn == "poses" else
                     _body(fn, ctx, prog, sym, layout, nx, fns, formulation))
-        lines, parts = split_body(body, f"{name}_{fn}_part")
+        lines, parts = split_body(body, f"{name}_{fn}_part", restrict=formulation.restrict_scratch(fn))
         ctx.split = ctx.split or bool(parts)
         if fn in ("rhs", "jac_x"):
             printed[fn] = (lines, parts)
