@@ -295,11 +295,17 @@ def main():
         render = render_limited if a.limits else render_row
         if a.write:
             with open(HERE / "results" / "second_order.md", "a") as f:
-                f.write((header(a.rounds, a.limits, cflags, isa) if len(rows) == 1 else "") + render(row) + "\n")
+                f.write((header(a.rounds, a.limits, cflags, isa, floating(cases)) if len(rows) == 1 else "")
+                        + render(row) + "\n")
         print(render(row), flush=True)
 
 
-def header(rounds, limits=False, cflags=("-O2",), isa=()):
+def floating(cases):
+    """Whether some case is a floating base (its rows have a third contestant, the tangent build)."""
+    return any(bd.ROBOTS.get(c, (None, False))[1] for c in cases)
+
+
+def header(rounds, limits=False, cflags=("-O2",), isa=(), three=False):
     import pinocchio
     import eomc
     commit, dirty, cpu = bd.checkout_state()
@@ -308,7 +314,8 @@ def header(rounds, limits=False, cflags=("-O2",), isa=()):
         f"{' (+ uncommitted changes)' if dirty else ''}\n",
         f"`python benchmarks/bench_second_order.py` — {cpu}, load {os.getloadavg()[0]:.1f} at the start, "
         f"Python {platform.python_version()}, Pinocchio {pinocchio.__version__} (header-only, g++ {' '.join(['-O2', *isa])}), "
-        f"eomc {eomc.__version__}, gcc {' '.join(cflags)}; thread CPU, pinned to core 1, {3 if limits else 2} contestants interleaved, "
+        f"eomc {eomc.__version__}, gcc {' '.join(cflags)}; thread CPU, pinned to core 1, "
+        f"{'3' if limits else '2 (3 on a floating base)' if three else '2'} contestants interleaved, "
         f"median of {rounds} rounds, {bd.NS} states cycled.  eomc: `--formulation recursive`, functions rhs, "
         "inverse_dynamics, jac_id, hess_id.\n",
     ] + ([

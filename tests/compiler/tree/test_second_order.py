@@ -192,13 +192,18 @@ FLOATING_TREE = [dict(_BASE, kind="free", parent=-1, rigid=True, load=False),
                  dict(_BASE, kind="pin", parent=3, rigid=False, load=True, axis=(0, 0, 1))]
 
 
-def test_free_and_ball_joints_take_the_kernel(tmp_path):
+@pytest.fixture(scope="module")
+def floating_models(tmp_path_factory):
+    d = tmp_path_factory.mktemp("floating")
+    return _compile(d / "k", tree=FLOATING_TREE), _compile(d / "r", reverse=True, tree=FLOATING_TREE)
+
+
+def test_free_and_ball_joints_take_the_kernel(floating_models):
     """Joints of several speeds: the kernel runs along their tangent (Pinocchio's treatment:
     every dof of a joint is in the support of every other) and changes to their coordinates
     (K^-1 and dK/dq, _tangent_lines); equal to the reverse path to rounding (measured ~1e-15)
     and to central differences of jac_id (measured ~4e-11), symmetric in its two state indices."""
-    kernel = _compile(tmp_path / "k", tree=FLOATING_TREE)
-    reverse = _compile(tmp_path / "r", reverse=True, tree=FLOATING_TREE)
+    kernel, reverse = floating_models
     assert kernel.metadata["hess_id"].startswith("analytic second-order RNEA kernel")
     rng = np.random.default_rng(12)
     h = 1e-5
@@ -213,6 +218,16 @@ def test_free_and_ball_joints_take_the_kernel(tmp_path):
                        for e in np.eye(kernel.nx)], axis=2)
         assert np.max(np.abs(H - fd)) <= 1e-8 * scale
         assert np.max(np.abs(H - H.transpose(0, 2, 1))) <= 1e-12 * scale
+
+
+def test_floating_overflow_is_an_error(floating_models):
+    """Speeds of 1e200 overflow v x* (I v): an error naming hess_id, not a silent inf, through
+    the change to the coordinates too (its own v * 0 check)."""
+    kernel, _ = floating_models
+    x = np.zeros(kernel.nx)
+    x[kernel.nq:] = 1e200
+    with pytest.raises(SimulationError, match="hess_id"):
+        kernel.hess_id(0.0, x, np.zeros(kernel.nu), r=np.zeros(kernel.ninput))
 
 
 FLOATING_ROBOTS = {"go2": "go2_description/urdf/go2.urdf", "g1": "g1_description/urdf/g1_29dof_rev_1_0.urdf"}
