@@ -228,11 +228,11 @@ def main():
     if only:
         print(format_table(headers, rows))
         return
-    print(write_results("mjcf_drops", text, csv, ["model", "T", "points", "touchdown_mujoco", "touchdown_eomc",
-                                                  "touchdown_mujoco_fine",
-                                                  "root_z_mujoco", "qvel_max_mujoco", "root_z_eomc", "qvel_max_eomc",
-                                                  "root_z_eomc_from_mujoco_rest", "deepest_mujoco", "deepest_eomc",
-                                                  "wall_mujoco", "cpu_mujoco", "wall_eomc", "cpu_eomc"]))
+    headers_csv = ["model", "T", "points", "touchdown_mujoco", "touchdown_eomc", "touchdown_mujoco_fine",
+                   "root_z_mujoco", "qvel_max_mujoco", "root_z_eomc", "qvel_max_eomc",
+                   "root_z_eomc_from_mujoco_rest", "deepest_mujoco", "deepest_eomc",
+                   "wall_mujoco", "cpu_mujoco", "wall_eomc", "cpu_eomc"]
+    print(write_results("mjcf_drops", text, csv, headers_csv, keep_notes=True))
 
 
 if __name__ == "__main__":

@@ -341,6 +341,7 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
                     _body(fn, ctx, prog, sym, layout, nx, fns, formulation))
         lines, parts = split_body(body, f"{name}_{fn}_part", restrict=formulation.restrict_scratch(fn))
         ctx.split = ctx.split or bool(parts)
+        parts, ctx.parts = ctx.parts + parts, []     # functions the body asked for (bodies.BodyContext.parts)
         if fn in ("rhs", "jac_x"):
             printed[fn] = (lines, parts)
         rendered.append({"prototype": prototype(name, fn), "body": void_unused(fn, lines),
