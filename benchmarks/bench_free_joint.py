@@ -31,7 +31,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
 
-from bench_urdf import (CORE, NCALLS, NSTATES, _mujoco_xml, _run, _timed, _write,  # noqa: E402
+from bench_urdf import (NCALLS, NSTATES, _mujoco_xml, _run, _timed, _write,  # noqa: E402
                         build_harnesses, eomc_harness)
 from common import environment_header, format_table, median_iqr, write_results  # noqa: E402
 
@@ -39,6 +39,10 @@ ROBOTS = {"g1": "g1_description/urdf/g1_29dof_rev_1_0.urdf", "talos": "talos_dat
           "go2": "go2_description/urdf/go2.urdf", "solo12": "solo12"}
 KINDS = ("euler", "quaternion", "pin", "mujoco")
 REPEAT = 11
+CORE = 0          # session 8's helpers pin by task (bench_urdf's robots run on core 1)
+# issue 31's time-per-operation target compares G1 and Talos with this fixed-base arm, timed in
+# the same repeats and harness (its rhs alone: no peer row)
+REFERENCE = ("ur10", "ur_description/urdf/ur10_robot.urdf")
 
 
 def _states(euler, quat, ref, mj, rng):
@@ -107,9 +111,21 @@ def main(names):
             cmds["mujoco"] = [str(mj_exe), str(xml), str(files["mujoco"]), str(NSTATES), str(NCALLS)]
             robots.append((name, models, ref, mj, cmds))
             print(f"{name}: built", flush=True)
+        ref_name, ref_path = REFERENCE
+        ref_model = eomc.compile(UrdfModel(robot_path(ref_path), floating_base=False, limits=False), ref_name,
+                                 functions=["rhs"], cache_dir=tmp / "cache", output_dir=tmp / f"out_{ref_name}",
+                                 progress=False)
+        ref_states = []
+        for _ in range(NSTATES):
+            ref_states.append(np.concatenate([rng.uniform(-np.pi, np.pi, ref_model.nq), rng.normal(size=ref_model.nu)]))
+        ref_file = tmp / f"{ref_name}.bin"
+        _write(ref_file, ref_states, head=[float(v) for v in ref_model.param_defaults])
+        ref_cmd = [str(eomc_harness(ref_model, ref_model.directory, tmp)), str(ref_file), str(NSTATES), str(NCALLS)]
+        ref_ns = []
         samples = {(r[0], k): [] for r in robots for k in KINDS}
         firsts = {}
         for rep in range(REPEAT):          # interleaved, the order rotated every repeat
+            ref_ns.append(_timed(ref_cmd)[0])
             for name, models, ref, mj, cmds in robots:
                 order = KINDS[rep % len(KINDS):] + KINDS[:rep % len(KINDS)]
                 for key in order:
@@ -117,6 +133,8 @@ def main(names):
                     samples[name, key].append(ns)
                     firsts[name, key] = first
             print(f"repeat {rep + 1}/{REPEAT}", flush=True)
+        ref_ops = sum(int(v) for v in ref_model.metadata["op_counts"]["rhs"].values())
+        ref_per_op = float(np.median(ref_ns)) / ref_ops
         for name, models, ref, mj, cmds in robots:
             a_pin = firsts[name, "pin"][ref.iv]
             dof = [mj.jnt_dofadr[mujoco.mj_name2id(mj, mujoco.mjtObj.mjOBJ_JOINT, j[2:])]
@@ -135,12 +153,16 @@ def main(names):
                          round(med["quaternion"]), round(med["pin"]), round(med["mujoco"]),
                          f"{ratio('euler', 'quaternion'):.2f}", f"{ratio('mujoco', 'quaternion'):.2f}",
                          f"{ratio('pin', 'quaternion'):.2f}", f"{ratio('mujoco', 'euler'):.2f}",
-                         f"{ratio('pin', 'euler'):.2f}"])
+                         f"{ratio('pin', 'euler'):.2f}", f"{med['quaternion'] / ops['quaternion']:.3f}",
+                         f"{med['quaternion'] / ops['quaternion'] / ref_per_op:.2f}"])
     lib_flags = " ".join(robots[0][1]["quaternion"].metadata["build"]["cflags"])
     headers = ["robot", "nu", "rhs ops euler (calls)", "rhs ops quaternion (calls)", "eomc euler [ns]",
                "eomc quaternion [ns]", "Pinocchio ABA [ns]", "MuJoCo mj_forward [ns]", "euler / quaternion",
-               "MuJoCo / quaternion", "Pinocchio / quaternion", "MuJoCo / euler", "Pinocchio / euler"]
+               "MuJoCo / quaternion", "Pinocchio / quaternion", "MuJoCo / euler", "Pinocchio / euler",
+               "quaternion ns per op", f"per op / {ref_name}'s"]
     table = format_table(headers, rows)
+    checks.append(f"{ref_name} (fixed base, time-per-operation reference, same repeats): {ref_ops} rhs ops, "
+                  f"{np.median(ref_ns):.0f} ns, {ref_per_op:.3f} ns per op")
     print(table)
     print("\n".join(checks))
     uptime = _run(["uptime"]).stdout.strip()
@@ -160,6 +182,9 @@ def main(names):
                "--limits off, runtime parameters at the URDF's values",
                "rhs ops: adds + multiplies + divides + calls of NAME_rhs as eomc counts them (calls: sin/cos/sqrt)",
                "mj_forward does more than ABA (positions, velocities, sensors); see benchmarks/bench_urdf.py",
+               f"per op: the quaternion rhs's median ns over its operations, against {ref_name}'s (its rhs in the "
+               "same harness, states q uniform in [-pi, pi], u normal, once per repeat; issue 31's target: G1 and "
+               "Talos within 1.2x)",
                *checks])
     write_results("free_joint", header + "\n" + table + "\n", csv_rows=rows, csv_headers=headers, keep_notes=True)
     return 0

@@ -13,9 +13,18 @@ rtol = atol = 1e-8, thread CPU time, interleaved, medians of --repeat:
 
 Goals: issue 21, <= (1 + k/4) x one simulation; issue 30, one parameter <= 1.5x and
 four <= 2.5x with no more than 10 % extra steps.  Also reports the agreement of the
-sensitivities with the differences and with the error-controlled (simultaneous) path.
+sensitivities with the differences, with the error-controlled (simultaneous) path, and
+with a reference: central differences (step 1e-6) of fixed-step RK4 runs (h = 1.25e-4),
+smooth in the parameters (:func:`reference`), computed once (not timed), so the check
+does not rest on differences of adaptive 1e-8 runs.
+
+Per call (what a sensitivity step pays, issue 30): a C loop over the model's rhs, jvp
+with k = 0, 1, 4 directions (the benchmark's parameter columns, the state parts random)
+and jac_x at 64 states near the start, blocks interleaved, thread CPU, medians.
 """
+import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -23,7 +32,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from common import environment_header, format_table, parse_args, pin_to_one_core, write_results  # noqa: E402
+from common import (C_CLOCK_AND_RNG, environment_header, format_table, parse_args,  # noqa: E402
+                    pin_to_one_core, write_results)
 import models  # noqa: E402
 
 T_END = 10.0
@@ -43,6 +53,102 @@ def build(n):
                         functions=["rhs", "jac_x", "jac_p", "jvp"])
 
 
+PER_CALL = r"""
+#define _POSIX_C_SOURCE 199309L
+#include <stdio.h>
+#include <time.h>
+#include "@H@"
+#define NX @NX@
+#define NP @NP@
+#define NS 64
+""" + C_CLOCK_AND_RNG + r"""int main(void) {
+    static double X[NS][NX], D[4][NX + NP], xd[NX], out[4 * NX], J[NX * NX], work[@NW@];
+    const double x0[NX] = {@X0@};
+    double p[NP] = {@P@}, r[@NR@] = {0.0}, sum = 0.0;
+    const int ks[3] = {0, 1, 4};
+    int i, j, c, round;
+    for (i = 0; i < NS; i++) for (j = 0; j < NX; j++) X[i][j] = x0[j] + 0.1 * (2 * rnd() - 1);
+    for (i = 0; i < 4; i++) {
+        for (j = 0; j < NX; j++) D[i][j] = 2 * rnd() - 1;
+        for (j = 0; j < NP; j++) D[i][NX + j] = j == i ? 1.0 : 0.0;
+    }
+    for (round = 0; round < @ROUNDS@; round++)
+        for (c = 0; c < 5; c++) {
+            int cc = (c + round) % 5; long calls = 0; double t0 = tnow(), t1;
+            do { for (i = 0; i < NS; i++) {
+                    if (cc == 0) @N@_rhs(0.0, X[i], p, r, xd, work);
+                    else if (cc == 4) @N@_jac_x(0.0, X[i], p, r, J, work);
+                    else @N@_jvp(0.0, X[i], p, r, ks[cc - 1], &D[0][0], xd, out, work);
+                    sum += xd[NX - 1]; }
+                 calls += NS; t1 = tnow(); } while (t1 - t0 < 1e7);
+            printf("%d %.2f\n", cc, (t1 - t0) / calls);
+        }
+    fprintf(stderr, "checksum %g\n", sum);
+    return 0;
+}
+"""
+
+
+def per_call(model, x0, rounds=15):
+    """Median thread-CPU ns per call: {'rhs', 'jvp0', 'jvp1', 'jvp4', 'jac_x'} (PER_CALL)."""
+    from eomc.compiler.build import find_compiler
+    lib = Path(model.library_path)
+    src = (PER_CALL.replace("@H@", str(model.header_path)).replace("@N@", model.name)
+           .replace("@NX@", str(model.nx)).replace("@NP@", str(model.nparam))
+           .replace("@NR@", str(max(1, model.ninput))).replace("@NW@", str(max(1, model.work_size) + 64))
+           .replace("@ROUNDS@", str(rounds))
+           .replace("@X0@", ", ".join(repr(float(v)) for v in x0))
+           .replace("@P@", ", ".join(repr(float(v)) for v in model.param_defaults)))
+    with tempfile.TemporaryDirectory() as tmp:
+        c, exe = Path(tmp) / "per_call.c", Path(tmp) / "per_call"
+        c.write_text(src)
+        subprocess.run([*find_compiler().argv, "-O2", "-std=c99", str(c), str(lib), "-o", str(exe),
+                        f"-Wl,-rpath,{lib.parent}"], check=True)
+        text = subprocess.run([str(exe)], check=True, capture_output=True, text=True).stdout
+    samples = {}
+    for line in text.split("\n"):
+        if line.strip():
+            cc, ns = line.split()
+            samples.setdefault(int(cc), []).append(float(ns))
+    names = ["rhs", "jvp0", "jvp1", "jvp4", "jac_x"]
+    return {names[cc]: float(np.median(v)) for cc, v in samples.items()}
+
+
+def reference(model, x0, cols, T, step=1e-6, h=1.25e-4):
+    """dx/dtheta at T by central differences (steps ``step`` relative to max(1, |value|)) of
+    fixed-step RK4 runs (step h: 80 000 steps over 10 s; S from the 1e-12 DOP853 run and
+    the differences at h = 1e-3, 5e-4, 1.25e-4 differ by 1.1e-5, 7.7e-7, 8.8e-8 (relative;
+    RK4's h^4, then the rounding)).  Why fixed steps: an adaptive run's error is not smooth in theta (the step sequence changes
+    with it), and divided by the difference step it dominated: DOP853 at 1e-12 with a 1e-5
+    step left 9e-6 (relative) against S at 1e-12, which converges (S at 1e-10 and 1e-12
+    agree to 6e-9), and a Richardson step of 1e-3 met the motion's nonlinearity in the
+    lengths over 10 s (6e-3).  A fixed-step run is a smooth function of theta, so the
+    difference has only its truncation (step^2) and rounding (1e-16 / step) left.  The
+    check the sensitivities are held to, independent of the timed runs' tolerance and of
+    jvp; computed once, not timed."""
+    params = list(model.param_names)
+
+    def run(x=x0, p=None):
+        return model.simulate(x, (0, T_END), p=p, method="rk4", dt=h, t_eval=T).x
+
+    out = []
+    for c in cols:
+        if c in params:
+            j = params.index(c)
+            d = step * max(1.0, abs(model.param_defaults[j]))
+            p1, p2 = model.param_defaults.copy(), model.param_defaults.copy()
+            p1[j] += d
+            p2[j] -= d
+            out.append((run(p=p1) - run(p=p2)) / (2 * d))
+        else:
+            j = model.state_names.index(c)
+            x1, x2 = x0.copy(), x0.copy()
+            x1[j] += step
+            x2[j] -= step
+            out.append((run(x=x1) - run(x=x2)) / (2 * step))
+    return np.stack(out, axis=2)
+
+
 def cpu(fn):
     t0 = time.thread_time()
     out = fn()
@@ -55,7 +161,7 @@ def main(argv=None):
                                        p.add_argument("--max-k", type=int, default=None,
                                                       help="skip cases with more sensitivity columns")))
     pin_to_one_core()
-    rows, csv_rows = [], []
+    rows, csv_rows, call_rows = [], [], []
     for n in args.n:
         model = build(n)
         x0 = models.initial_state(n)
@@ -90,11 +196,16 @@ def main(argv=None):
                     out.append((plain(x=x1).x - plain(x=x2).x) / 2e-6)
             return np.stack(out, axis=2)
 
+        calls = per_call(model, x0)
+        call_rows.append([n, f"{calls['rhs']:.0f}"] + [f"{calls[f]:.0f} ({calls[f] / calls['rhs']:.2f})"
+                                                      for f in ("jvp0", "jvp1", "jvp4", "jac_x")])
+        refs = {label: reference(model, x0, list(model.state_names) + params if cols is True
+                                 else params if cols == "p" else cols, T) for label, cols in cases}
         samples = {"plain": []}
         for label, _ in cases:
             for tag in ("", " errcon", " fd"):
                 samples[label + tag] = []
-        agree, agree_old, steps, steps_old, njvp = {}, {}, {}, {}, {}
+        agree, agree_old, agree_ref, steps, steps_old, njvp = {}, {}, {}, {}, {}, {}
         for _ in range(args.repeat):
             s, res0 = cpu(plain)
             samples["plain"].append(s)
@@ -109,12 +220,15 @@ def main(argv=None):
                 S = np.concatenate([res.dx_dx0, res.dx_dp], axis=2)
                 S_old = np.concatenate([old.dx_dx0, old.dx_dp], axis=2)
                 agree[label] = float(np.max(np.abs(S - fd)) / np.max(np.abs(fd)))
+                ref = refs[label]
+                agree_ref[label] = (float(np.max(np.abs(S - ref)) / np.max(np.abs(ref))),
+                                    float(np.max(np.abs(fd - ref)) / np.max(np.abs(ref))))
                 agree_old[label] = float(np.max(np.abs(S - S_old)) / np.max(np.abs(S_old)))
                 steps[label], steps_old[label] = res.stats["steps"], old.stats["steps"]
                 njvp[label] = res.stats["njvp"] or res.stats["nfev"]
         base = float(np.median(samples["plain"]))
         rows.append([n, "plain simulation", 0, f"{base * 1e3:.2f}", "1.00", "", "", "",
-                     res0.stats["steps"], "", "", ""])
+                     res0.stats["steps"], "", "", "", "", ""])
         for label, cols in cases:
             k = (model.nx + len(params) if cols is True else len(params) if cols == "p" else len(cols))
             sens = float(np.median(samples[label]))
@@ -123,15 +237,20 @@ def main(argv=None):
             rows.append([n, label, k, f"{sens * 1e3:.2f}", f"{sens / base:.2f}", TARGETS.get(k, ""),
                          f"{old / base:.2f}", f"{fd / base:.1f}",
                          f"{steps[label]} / {steps_old[label]}", njvp[label],
-                         f"{agree[label]:.1e}", f"{agree_old[label]:.1e}"])
+                         f"{agree[label]:.1e}", f"{agree_old[label]:.1e}",
+                         f"{agree_ref[label][0]:.1e}", f"{agree_ref[label][1]:.1e}"])
             csv_rows.append([n, args.method, k, sens, old, base, fd, steps[label], steps_old[label],
-                             njvp[label], agree[label], agree_old[label]])
+                             njvp[label], agree[label], agree_old[label], *agree_ref[label]])
     headers = ["n", "columns", "k", "CPU ms", "x plain", "target", "x plain: error control on S",
                "x plain: central differences (2k runs)", "steps (default / error control on S)",
                "jvp calls", "max |S - differences| / max |differences|",
-               "max |S - S(error control)| / max |S|"]
+               "max |S - S(error control)| / max |S|", "max |S - reference| / max |reference|",
+               "max |differences - reference| / max |reference|"]
     table = format_table(headers, rows)
     print(table)
+    call_table = format_table(["n", "rhs ns", "jvp k = 0 ns (x rhs)", "jvp k = 1", "jvp k = 4", "jac_x"],
+                              call_rows)
+    print(call_table)
     if not args.no_write:
         text = environment_header(f"Forward sensitivities, n-link cart, {args.method}, 10 s at {TOL:g}", args,
                                   notes=["one process pinned to one core; contestants interleaved; "
@@ -145,10 +264,15 @@ def main(argv=None):
                                          "simultaneous approach (the step control watches S; "
                                          "radau then factors the augmented nx (1 + k) system)",
                                          "the plain run's steps equal the default run's when "
-                                         "the steps column shows the same count as the plain row"]) + "\n" + table + "\n"
+                                         "the steps column shows the same count as the plain row",
+                                         "reference: central differences (step 1e-6) of "
+                                         "fixed-step RK4 runs (h = 1.25e-4), not timed"])
+        text += "\n" + table + "\n\nPer call, C loop (PER_CALL), thread CPU ns, medians of 15 " \
+                "interleaved rounds:\n\n" + call_table + "\n"
         write_results(f"sensitivity_{args.method}", text, csv_rows,
                       ["n", "method", "k", "default_s", "errcon_s", "plain_s", "differences_s",
-                       "steps", "steps_errcon", "jvp_calls", "agreement_fd", "agreement_errcon"])
+                       "steps", "steps_errcon", "jvp_calls", "agreement_fd", "agreement_errcon",
+                       "agreement_reference", "differences_vs_reference"], keep_notes=True)
 
 
 if __name__ == "__main__":

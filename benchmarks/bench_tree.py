@@ -3,7 +3,7 @@
 For each n: a cold build (fresh cache; derive + generate + gcc, rhs only, literal
 parameters) in a child process, timed in CPU seconds (user+sys of the child) and
 wall; then one C harness per n linking both generated rhs functions, timed in
-thread CPU time, contestants interleaved, pinned to core 1, median of rounds.
+thread CPU time, contestants interleaved, pinned to core CORE (0), median of rounds.
   kane:      benchmarks/tree_models/cart_rel_kane.py (hand-built frames, sum-of-angles,
              the performance report's n_link_cart_rel.py), --formulation kane
   recursive: benchmarks/tree_models/cart_rel_joints.py (SymPy System of joints, no
@@ -25,6 +25,7 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 MODELS = HERE / "tree_models"
 ROOT = HERE.parent
+CORE = 0          # session 8: helpers pin by task (this one: core 0)
 
 from common import C_CLOCK_AND_RNG  # noqa: E402
 
@@ -171,7 +172,7 @@ def timing(builds, n, tmp, rounds):
     subprocess.run(["gcc", *LIB_FLAGS, *inc, *extra, "-c", str(c), "-o", str(obj)], check=True)
     subprocess.run(["g++" if pin else "gcc", str(obj), *([str(pin)] if pin else []), *libs,
                     "-o", str(exe), "-lm"], check=True)
-    out = subprocess.run(["taskset", "-c", "1", str(exe), *args], capture_output=True, text=True,
+    out = subprocess.run(["taskset", "-c", str(CORE), str(exe), *args], capture_output=True, text=True,
                          check=True).stdout
     agree = {int(line.split()[1]): float(line.split()[2]) for line in out.splitlines()
              if line.startswith("agree ")}

@@ -22,7 +22,7 @@ from eomc.runtime.version import __version__
 
 from ..mechanics.formed import FormedSystem
 from .cache import get_or_build, hash_key
-from .reuse import compiler_digest
+from .reuse import compiler_digest, generator_switches
 
 __all__ = ["generation_key", "cached_generate"]
 
@@ -77,7 +77,7 @@ def generation_key(spec, functions, fold_parameters, extra=None):
            {"events": [[k, d(v)] for k, v in spec.events.items()], "event_options": spec.event_options}),
         **({} if extra is None else {"extra": d(list(extra))}),
         "eomc": __version__, "sympy": sm.__version__, "python": sys.version_info[:2],
-        "source": compiler_digest()})
+        "source": compiler_digest(), "switches": generator_switches()})
 
 
 def cached_generate(spec, functions, fold_parameters, generate, cache_root_dir, extra=None):

@@ -31,7 +31,8 @@ from eomc.runtime.version import __version__
 
 from .cache import entry_path, get_or_build, hash_key, lookup, sha256_file
 
-__all__ = ["source_key", "recording", "find", "remember", "warn_again", "compiler_digest", "KIND"]
+__all__ = ["source_key", "recording", "find", "remember", "warn_again", "compiler_digest", "generator_switches",
+           "KIND"]
 
 KIND = "sources"
 _READS = contextvars.ContextVar("eomc_reads", default=None)
@@ -57,12 +58,22 @@ def compiler_digest():
     return _DIGEST[0]
 
 
+def generator_switches():
+    """The generator's module-level switches: the same sources give other C when one is flipped, so
+    every key that holds :func:`compiler_digest` holds these too (a flipped switch found the C of
+    the other setting in the cache before).  ``INLINE_NARROW``: the body-body pairs' narrow phase
+    inlined as SymPy or called (compiler/contact/pairs.py)."""
+    from ..contact import pairs
+    return {"inline_narrow": bool(pairs.INLINE_NARROW)}
+
+
 def source_key(path, options):
     """Key of a build of the model file ``path`` with ``options`` (JSON-able: the command
     line's model options, functions, formulation, ...)."""
     return hash_key({"file": sha256_file(path), "suffix": Path(path).suffix.lower(),
                      "name": Path(path).stem, "options": options, "eomc": __version__,
                      "python": list(sys.version_info[:2]), "compiler": compiler_digest(),
+                     "switches": generator_switches(),
                      "cc": os.environ.get("CC"), "cflags": os.environ.get("CFLAGS")})
 
 

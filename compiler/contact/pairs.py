@@ -62,8 +62,8 @@ POINT_KINDS = ("px", "py", "pz")   # a pair's contact point outputs (world), aft
 # narrow.md) the routines build 1.5x faster (102 -> 68 s CPU, C 10.6 -> 5.1 MB) but run slower --
 # rhs 0.79x (a box pair's 16 points' p and n are all computed; inlined, the per-point guards skip
 # those of the points out of contact) and jac_x 0.57x (the _dot routine recomputes the primal in
-# every column; next: a tape written once per jac_x call).  The flag is not in the generation
-# cache's key: who flips it uses its own cache directory (the tests and the benchmark do).
+# every column; next: a tape written once per jac_x call).  The flag is in the generation and
+# build caches' keys (compiler/build/reuse.generator_switches).
 INLINE_NARROW = True
 EPS = 1e-12     # m: regularises |d| so that coincident centres give a finite (zero) force
 

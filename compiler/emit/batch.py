@@ -526,13 +526,13 @@ def _param_list(params, rw):
         if param in ("void", "double t"):
             out.append(param)
             continue
-        m = re.fullmatch(r"(const )?double \*([A-Za-z_]\w*)", param)
+        m = re.fullmatch(r"(const )?double \*(restrict )?([A-Za-z_]\w*)", param)
         if not m:
             raise Unsupported(f"parameter {param!r}")
-        const, name = m.groups()
+        const, restrict, name = m.groups()
         if name in ("x", "r", "F", "w", "p", "P", "Gm", "an", "out") or name.startswith("S"):
             rw.vec_arrays.add(name)
-            out.append(f"{const or ''}eomc_vd *{name}")
+            out.append(f"{const or ''}eomc_vd *{restrict or ''}{name}")
         else:
             raise Unsupported(f"parameter {param!r}")
     return ", ".join(out)

@@ -74,6 +74,11 @@ class Formulation:
         from ``fn``'s program and emitted just before ``fn`` (its first caller), or None."""
         return None
 
+    def restrict_scratch(self, fn):
+        """True when ``fn``'s sub-functions take their scratch array ``restrict``
+        (:func:`.split.split_body`)."""
+        return False
+
     def metadata(self, sym, functions):
         """What the formulation adds to NAME.json."""
         return {}

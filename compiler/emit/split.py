@@ -131,7 +131,7 @@ class _Slots:
         self.free.append(slot)
 
 
-def _split_run(lines, start, end, base, scratch, slots):
+def _split_run(lines, start, end, base, scratch, slots, restrict=False):
     """Split ``lines[start:end]``: (sub-function texts, caller lines, {temp: slot} of the
     run's temporaries the rest reads, {earlier temp: slot} to store), or None."""
     stmts = [_statement(line) for line in lines[start:end]]
@@ -186,7 +186,7 @@ def _split_run(lines, start, end, base, scratch, slots):
         arrays = sorted(arrays - {scratch})
         params = (["double t"] if uses_t else []) + [
             f"{'double' if a in written else 'const double'} *{a}" for a in arrays]
-        params += [f"double *{scratch}"] if uses_scratch else []
+        params += [f"double *{'restrict ' if restrict else ''}{scratch}"] if uses_scratch else []
         args = (["t"] if uses_t else []) + arrays + ([scratch] if uses_scratch else [])
         fname = f"{base}{c}"
         parts.append(f"static EOMC_NOINLINE void {fname}({', '.join(params) or 'void'})\n"
@@ -197,18 +197,27 @@ def _split_run(lines, start, end, base, scratch, slots):
             {n: slot_of[n] for n in outside})
 
 
-def split_body(lines, base, scratch="S_"):
+def split_body(lines, base, scratch="S_", restrict=False):
     """(new body lines, sub-function texts) for one function body; ``base``: the C name
     prefix of its sub-functions (``NAME_fn_part``).  Unchanged when no run is long.
 
-    One scratch array serves the whole function, declared first in its body."""
+    One scratch array serves the whole function, declared first in its body.
+
+    ``restrict``: the sub-functions take it as ``double *restrict S_``.  Always true of it
+    (the caller's own stack array, which no other argument points into), and it tells the
+    compiler that a store to a scratch slot leaves ``x``, ``p``, ``r`` unchanged.  Without
+    it gcc reloads every input read after such a store and cannot pair ``sin(x[k])`` with
+    ``cos(x[k])`` into one ``sincos`` (a store sits between them): G1's rhs ran 10 % faster
+    with it, same bits (benchmarks/results/free_joint.md).  The formulation asks for it per
+    function (:meth:`eomc.compiler.emit.formulation.Formulation.restrict_scratch`), so the C
+    of the functions that do not stays as it was."""
     lines, helpers, slots, pos, nrun = list(lines), [], _Slots(), 0, 0
     while True:
         run = next(((s, e) for s, e in _runs(lines) if s >= pos and e - s > SPLIT_MIN), None)
         if run is None:
             break
         start, end = run
-        done = _split_run(lines, start, end, f"{base}{nrun}_", scratch, slots)
+        done = _split_run(lines, start, end, f"{base}{nrun}_", scratch, slots, restrict)
         if done is None:
             pos = end
             continue

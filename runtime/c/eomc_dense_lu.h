@@ -1,7 +1,9 @@
 /* Dense LU with partial pivoting, shared by the Radau/DOPRI file (eomc_integrators.c) and BDF
  * (eomc_bdf.c): one copy of the arithmetic, so both methods factor their Newton matrices bit for
- * bit alike. Static functions in a header: each translation unit keeps its own private copy and
- * nothing is exported from the runtime library. (The fixed-step runner keeps its own variant: it
+ * bit alike (BDF solves with them by rows, lu_solve_rows below: the same solution summed in
+ * another order). Static inline functions in a header: each translation unit keeps its own
+ * private copy, nothing is exported from the runtime library, and a unit that uses only some of
+ * them is not warned about the others. (The fixed-step runner keeps its own variant: it
  * multiplies by the pivot's reciprocal, and its results are recorded bit for bit in tests.) */
 #ifndef EOMC_DENSE_LU_H
 #define EOMC_DENSE_LU_H
@@ -9,7 +11,7 @@
 #include <math.h>
 
 /* In-place LU with partial pivoting of the n x n row-major A. 1 if singular (or not finite). */
-static int lu_factor(int n, double *A, int *piv)
+static inline int lu_factor(int n, double *A, int *piv)
 {
     for (int k = 0; k < n; k++) {
         int pk = k;
@@ -32,7 +34,7 @@ static int lu_factor(int n, double *A, int *piv)
 }
 
 /* Solve A x = b in place with the factors of lu_factor. */
-static void lu_solve(int n, const double *A, const int *piv, double *b)
+static inline void lu_solve(int n, const double *A, const int *piv, double *b)
 {
     for (int k = 0; k < n; k++)          /* all row interchanges first (P b): they moved whole rows */
         if (piv[k] != k) { double tmp = b[k]; b[k] = b[piv[k]]; b[piv[k]] = tmp; }
@@ -43,6 +45,37 @@ static void lu_solve(int n, const double *A, const int *piv, double *b)
         for (int j = i + 1; j < n; j++) s -= A[i * n + j] * b[j];
         b[i] = s / A[i * n + i];
     }
+}
+
+/* Row i of L or U (row-major, entries lo..hi-1) times b: the dot product with four
+ * independent partial sums, so the multiply-adds of one row overlap instead of waiting on
+ * one another.  A triangular solve is a chain of such rows (b[i] needs every earlier b), and
+ * with one running sum each row was a chain of dependent adds: the back-substitution alone
+ * was a quarter of eomc_bdf_trial's time on gymnasium's ant (perf; ant and Solo12 runs 3-4 %
+ * faster with this, benchmarks/results/contact_wp.md, s8 notes). */
+static inline double row_dot(const double *a, const double *b, int lo, int hi)
+{
+    double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
+    int j = lo;
+    for (; j + 3 < hi; j += 4) {
+        s0 += a[j] * b[j];
+        s1 += a[j + 1] * b[j + 1];
+        s2 += a[j + 2] * b[j + 2];
+        s3 += a[j + 3] * b[j + 3];
+    }
+    for (; j < hi; j++) s0 += a[j] * b[j];
+    return (s0 + s1) + (s2 + s3);
+}
+
+/* Solve A x = b in place with the factors of lu_factor, by rows: lu_solve's solution summed in
+ * another order.  BDF's Newton uses it (one solve per iteration); Radau keeps lu_solve. */
+static inline void lu_solve_rows(int n, const double *A, const int *piv, double *b)
+{
+    for (int k = 0; k < n; k++)
+        if (piv[k] != k) { double tmp = b[k]; b[k] = b[piv[k]]; b[piv[k]] = tmp; }
+    for (int i = 1; i < n; i++) b[i] -= row_dot(A + (size_t)i * n, b, 0, i);
+    for (int i = n - 1; i >= 0; i--)
+        b[i] = (b[i] - row_dot(A + (size_t)i * n, b, i + 1, n)) / A[(size_t)i * n + i];
 }
 
 #endif

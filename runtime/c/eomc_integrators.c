@@ -879,19 +879,38 @@ void eomc_dop853_tableau(const double **A, int *astride, const double **B, const
     *A = &D8_A[0][0]; *astride = 16; *B = D8_B; *C = D8_C;
 }
 
-/* acc[i] = sum_j coef[j] * K[j][i] over the nonzero coefficients, j ascending.
- * Skipping zeros leaves every finite sum bit-identical to the full one, and
- * the j-outer order runs over contiguous rows the compiler can vectorize:
- * DOP853's tables are about a third zeros. */
-static void combine(int n, int nst, const double *coef, const double *restrict K,
-                    double *restrict acc)
+/* y[i] = x[i] + h * sum_j coef[j] * K[j][i] (x NULL: y[i] = the sum), the sum over the
+ * nonzero coefficients, j ascending.  Skipping zeros leaves every finite sum bit-identical
+ * to the full one (DOP853's tables are about a third zeros); the j-outer order runs over
+ * contiguous rows.  gcc 12 at -O2 (the runtime's flags) uses its "very cheap" vectorizer
+ * cost model, which leaves a loop of unknown length scalar (objdump: no packed
+ * instruction; one load and one store per term); the dynamic model for this function
+ * only vectorizes it (other compilers vectorize at -O2 or ignore the attribute).  Same
+ * operations per row in the same order: bit for bit as before.  C harness, n = 8 cart,
+ * DOP853 10 s at 1e-8 (benchmarks/results/sensitivity_dop853.md, notes): plain 2.92 ->
+ * 2.87 ms, 1 sensitivity column 4.72 -> 4.67, 4 columns (90 states) 8.0 -> 7.58.  A
+ * four-row block with the sums in registers (vectorized at -O2 by SLP) gained half as
+ * much at 4 columns (8.0); eight rows and a nonzero list lost (8.2). */
+#if defined(__GNUC__) && !defined(__clang__)
+__attribute__((optimize("vect-cost-model=dynamic")))
+#endif
+static void combine_into(int n, int nst, const double *coef, const double *restrict K,
+                         const double *x, double h, double *restrict y)
 {
-    for (int i = 0; i < n; i++) acc[i] = 0.0;
+    for (int i = 0; i < n; i++) y[i] = 0.0;
     for (int j = 0; j < nst; j++) {
         const double a = coef[j], *restrict kj = K + (size_t)j * n;
         if (a == 0.0) continue;
-        for (int i = 0; i < n; i++) acc[i] += a * kj[i];
+        for (int i = 0; i < n; i++) y[i] += a * kj[i];
     }
+    if (x)
+        for (int i = 0; i < n; i++) y[i] = x[i] + h * y[i];
+}
+
+static void combine(int n, int nst, const double *coef, const double *restrict K,
+                    double *restrict acc)
+{
+    combine_into(n, nst, coef, K, NULL, 0.0, acc);
 }
 
 /* combine's first rows only: acc[i] = sum_j coef[j] K[j ld + i] for i < rows. */
@@ -923,17 +942,15 @@ EOMC_NOINLINE void record_step(eomc_stagger *g, int n, double t, double tn, cons
 
 /* One trial step: stages, y_new, K[s] = f(t+h, y_new), ys = last stage point. */
 static int erk_trial(ctx *c, const erk *tb, double t, double h, const double *x,
-                     double *K, double *ynew, double *ys, double *acc)
+                     double *K, double *ynew, double *ys)
 {
     int n = c->n, s;
     for (int st = 1; st < tb->s; st++) {
         double *y = (st == tb->s - 1) ? ys : ynew;
-        combine(n, st, tb->A + (size_t)st * tb->astride, K, acc);
-        for (int i = 0; i < n; i++) y[i] = x[i] + h * acc[i];
+        combine_into(n, st, tb->A + (size_t)st * tb->astride, K, x, h, y);
         if ((s = frhs(c, t + tb->C[st] * h, y, K + (size_t)st * n))) return s;
     }
-    combine(n, tb->s, tb->B, K, acc);
-    for (int i = 0; i < n; i++) ynew[i] = x[i] + h * acc[i];
+    combine_into(n, tb->s, tb->B, K, x, h, ynew);
     if (!all_finite(n, ynew)) return EOMC_NONFINITE;
     return frhs(c, t + h, ynew, K + (size_t)tb->s * n);
 }
@@ -962,12 +979,11 @@ static double erk_error(const erk *tb, int n, int ne, double h, const double *K,
 
 /* DOP853: the three extra stages and the 7 interpolation vectors F. */
 static int d853_dense_prepare(ctx *c, double t, double h, const double *x, const double *ynew,
-                              double *K, double *F, double *tmp, double *acc)
+                              double *K, double *F, double *tmp)
 {
     int n = c->n, s;
     for (int st = 13; st < 16; st++) {
-        combine(n, st, D8_A[st], K, acc);
-        for (int i = 0; i < n; i++) tmp[i] = x[i] + h * acc[i];
+        combine_into(n, st, D8_A[st], K, x, h, tmp);
         if ((s = frhs(c, t + D8_C[st] * h, tmp, K + (size_t)st * n))) return s;
     }
     for (int i = 0; i < n; i++) {
@@ -1058,7 +1074,7 @@ static int run_erk(ctx *c, const erk *tb, const eomc_options *o, proj *pj,
             }
             h = tn - t;
             st->steps++;
-            s = erk_trial(c, tb, t, h, x, K, ynew, ys, acc5);
+            s = erk_trial(c, tb, t, h, x, K, ynew, ys);
             if (s) {        /* non-finite or model failure: shrink up to where it starts */
                 if (c->abort) return c->abort;  /* ... but a failed callback or Ctrl-C stops now */
                 last_bad = s; st->rejected++; rejected_now = 1;
@@ -1089,7 +1105,7 @@ static int run_erk(ctx *c, const erk *tb, const eomc_options *o, proj *pj,
             if (ncross || near) {   /* a switching point inside the step: end the step there */
                 double tcut;
                 interp ip = {tb->is853 ? 2 : 1, n, t, tn - t, x, NULL, ynew, NULL, K, F, NULL, NULL};
-                if (tb->is853 && (s = d853_dense_prepare(c, t, tn - t, x, ynew, K, F, tmp, acc5)))
+                if (tb->is853 && (s = d853_dense_prepare(c, t, tn - t, x, ynew, K, F, tmp)))
                     return s;
                 if (near)           /* a limit nearly reached: the dense output decides */
                     sw_lin_extrema(c, t, tn - t, x, K, ynew, K + (size_t)tb->s * n, &ip, o->rtol,
@@ -1115,7 +1131,7 @@ static int run_erk(ctx *c, const erk *tb, const eomc_options *o, proj *pj,
         /* one call site of the DOP853 interpolant's set-up, so it stays inlined with its
            constant tables (an out-of-line copy cost 5% of a plain run under -fwrapv) */
         if (tb->is853 && (rows || hits) && !restart
-            && (s = d853_dense_prepare(c, t, tn - t, x, ynew, K, F, tmp, acc5)))
+            && (s = d853_dense_prepare(c, t, tn - t, x, ynew, K, F, tmp)))
             return s;
         if (hits) {
             interp ip = {tb->is853 ? 2 : 1, n, t, tn - t, x, NULL, ynew, NULL, K, F, NULL, NULL};

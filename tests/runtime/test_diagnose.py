@@ -8,11 +8,9 @@ import eomc.mechanics as em
 from eomc.errors import SimulationError
 
 
-@pytest.fixture(scope="module")
-def arm(tmp_path_factory):
-    """Two point masses on pins, shoulder then elbow; the tip mass m2 is a parameter."""
+def _arm_system(m1, m2, l, g=None):
+    """Two point masses on pins, shoulder then elbow (tip mass m2); gravity along -y when g is given."""
     q1, q2, u1, u2 = em.dynamicsymbols("q1 q2 u1 u2")
-    m1, m2, l, g = sm.symbols("m1 m2 l g", positive=True)
     ground = em.RigidBody("ground")
     upper = em.RigidBody("upper", mass=m1)
     upper.inertia = (em.inertia(upper.frame, 0, 0, 0), upper.masscenter)
@@ -24,8 +22,16 @@ def arm(tmp_path_factory):
                     joint_axis=ground.frame.z),
         em.PinJoint("elbow", upper, tip, q2, u2, parent_point=-l * upper.frame.y,
                     child_point=l * tip.frame.y, joint_axis=upper.frame.z))
-    system.apply_uniform_gravity(-g * ground.frame.y)
-    return eomc.compile(system, "arm", functions=["rhs", "mass_matrix"], progress=False,
+    if g is not None:
+        system.apply_uniform_gravity(-g * ground.frame.y)
+    return system
+
+
+@pytest.fixture(scope="module")
+def arm(tmp_path_factory):
+    """The arm with its tip mass m2 a parameter."""
+    m1, m2, l, g = sm.symbols("m1 m2 l g", positive=True)
+    return eomc.compile(_arm_system(m1, m2, l, g), "arm", functions=["rhs", "mass_matrix"], progress=False,
                         parameters={m1: 1.0, m2: 0.5, l: 0.7, g: 9.81},
                         cache_dir=str(tmp_path_factory.mktemp("cache")))
 
@@ -135,18 +141,7 @@ def test_a_build_whose_start_has_a_singular_mass_matrix_warns(tmp_path):
     """eomc.compile says at the build when nothing resists some motion at the default start
     (icub.urdf's head), naming the speed; a regular model builds without that warning."""
     from eomc.errors import EomcWarning
-    q1, q2, u1, u2 = em.dynamicsymbols("q1 q2 u1 u2")
-    ground = em.RigidBody("ground")
-    upper = em.RigidBody("upper", mass=1.0)
-    upper.inertia = (em.inertia(upper.frame, 0, 0, 0), upper.masscenter)
-    tip = em.RigidBody("tip", mass=sm.Symbol("m2"))
-    tip.inertia = (em.inertia(tip.frame, 0, 0, 0), tip.masscenter)
-    system = em.System.from_newtonian(ground)
-    system.add_joints(
-        em.PinJoint("shoulder", ground, upper, q1, u1, child_point=0.7 * upper.frame.y,
-                    joint_axis=ground.frame.z),
-        em.PinJoint("elbow", upper, tip, q2, u2, parent_point=-0.7 * upper.frame.y,
-                    child_point=0.7 * tip.frame.y, joint_axis=upper.frame.z))
+    system = _arm_system(1.0, sm.Symbol("m2"), 0.7)
     for m2, warned in ((1e-16, True), (0.5, False)):
         with pytest.warns() as record:
             import warnings

@@ -52,6 +52,21 @@ def test_key_follows_the_equations(tmp_path):
     assert len(keys) == 2
 
 
+def test_key_follows_the_generator_switches(tmp_path, monkeypatch):
+    # pairs.INLINE_NARROW changes the C of a model with body-body pairs for the same sources:
+    # the generation key and a model file's build key differ with it (they did not: a flip was
+    # served the other setting's C from the cache)
+    import eomc.compiler.contact.pairs as pairs
+    from eomc.compiler.build.reuse import source_key
+    path = model_files.write(tmp_path, model_files.PENDULUM, "p")
+    keys = []
+    for inline in (True, False, True):
+        monkeypatch.setattr(pairs, "INLINE_NARROW", inline)
+        keys.append((generation_key(model_spec(path), None, False), source_key(path, {})))
+    assert keys[0] == keys[2]
+    assert keys[0][0] != keys[1][0] and keys[0][1] != keys[1][1]
+
+
 def test_digest_distinguishes_structure_and_assumptions():
     x, y = sm.symbols("x y")
     xp = sm.Symbol("x", positive=True)

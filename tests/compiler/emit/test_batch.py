@@ -75,6 +75,8 @@ def test_joint_limits_fmax_in_lanes_bit_for_bit(cache):
     X = _states(model, 4 * machine_lanes() + 3, 8) * 4.0        # many states outside the limits
     assert np.array_equal(model.rhs_batch(0.3, X), _scalar(model, X))
     assert "_vsincos(x[" in c and "_v_fmax(x[" in c and "fmax(a[l]" not in c
+    # the scalar rhs's parts take their scratch restrict (split.split_body), and so do the lanes'
+    assert "double *restrict S_)" in c and "eomc_vd *restrict S_)" in c
 
 
 def test_recursive_robot_vector_trig_within_bound(cache):

@@ -57,6 +57,17 @@ def test_long_run_is_cut_into_chunks_with_a_scratch_array(tiny):
     assert "    out[0] = t22 + S_[0];" in parts[4]
 
 
+def test_restrict_scratch_is_asked_for(tiny):
+    """restrict=True: every sub-function takes the scratch array as ``double *restrict S_``
+    (nothing else changes); the default leaves the C as it was."""
+    plain, plain_parts = split.split_body(_chain_lines(23), "m_f_part")
+    lines, parts = split.split_body(_chain_lines(23), "m_f_part", restrict=True)
+    assert lines == plain
+    assert all("restrict" not in part for part in plain_parts)
+    assert [part.replace("double *restrict S_)", "double *S_)", 1) for part in parts] == plain_parts
+    assert all(part.split("\n", 1)[0].endswith("double *restrict S_)") for part in parts)
+
+
 def test_chunks_are_bounded_in_bytes_too(tiny, monkeypatch):
     monkeypatch.setattr(split, "CHUNK_BYTES", 60)        # two of these statements
     lines, parts = split.split_body(_chain_lines(12), "m_f_part")
@@ -154,6 +165,36 @@ def test_split_recursive_formulation_agrees(tmp_path, monkeypatch):
                      (ms.inverse_dynamics(0.0, x, ud, r=r), mw.inverse_dynamics(0.0, x, ud, r=r)),
                      (ms.jacobian(0.0, x, r=r), mw.jacobian(0.0, x, r=r))):
             np.testing.assert_allclose(a, b, rtol=1e-14, atol=0)
+
+
+def test_recursive_rhs_parts_restrict_their_scratch(tmp_path, monkeypatch):
+    """The recursive formulation's rhs sub-functions take S_ restrict (the compiler may keep
+    inputs in registers across scratch stores and pair sin/cos into sincos); its other
+    functions' parts do not.  The rhs gives what the rhs without restrict gives (rhs_batch
+    rewrites restrict parts too: tests/compiler/emit/test_batch.py, UR5)."""
+    from eomc.compiler.formulations.recursive import Recursive
+    kane, inputs = cart_relative(4, em)
+    monkeypatch.setattr(split, "SPLIT_MIN", 6)
+    monkeypatch.setattr(split, "CHUNK", 5)
+    fns = ["rhs", "jac_x"]
+    monkeypatch.setenv("EOMC_CACHE_DIR", str(tmp_path / "restrict"))
+    mr = eomc.compile(kane, "cart_rs", inputs=inputs, functions=fns, progress=False, formulation="recursive")
+    monkeypatch.setattr(Recursive, "restrict_scratch", lambda self, fn: False)
+    monkeypatch.setenv("EOMC_CACHE_DIR", str(tmp_path / "plain"))
+    mp = eomc.compile(kane, "cart_pl", inputs=inputs, functions=fns, progress=False, formulation="recursive")
+    src, plain = mr.source_path.read_text(), mp.source_path.read_text()
+    heads = re.findall(r"^static EOMC_NOINLINE void (cart_rs_\w+?)_part\w*\((.*)\)$", src, re.M)
+    rhs = [params for fn, params in heads if fn == "cart_rs_rhs"]
+    others = [params for fn, params in heads if fn == "cart_rs_jac_x"]
+    assert len(rhs) >= 2 and others
+    assert all(p.endswith("double *restrict S_") for p in rhs if "S_" in p)
+    assert not any("restrict" in p for p in others)
+    assert src.replace("double *restrict S_", "double *S_").replace("cart_rs", "cart_pl") == plain
+    rng = np.random.default_rng(5)
+    X = rng.uniform(-1, 1, (9, mr.nx))
+    R = rng.uniform(-1, 1, mr.ninput)
+    want = np.array([mp.rhs(0.0, x, r=R) for x in X])
+    np.testing.assert_allclose(np.array([mr.rhs(0.0, x, r=R) for x in X]), want, rtol=1e-14, atol=0)
 
 
 _SCRIPT = """
