@@ -152,8 +152,8 @@ class CartRef:
 FUNCTIONS = ["rhs", "jac_x", "inverse_dynamics", "jac_id"]
 
 
-def build_case(case, cache, functions=FUNCTIONS):
-    """(eomc Model, Pinocchio reference, floating) of one case."""
+def build_case(case, cache, functions=FUNCTIONS, name=None):
+    """(eomc Model, Pinocchio reference, floating) of one case (a robot's model named ``name``, default the case)."""
     import eomc
     if case.startswith("cart"):
         n = int(case[4:])
@@ -169,7 +169,7 @@ def build_case(case, cache, functions=FUNCTIONS):
     rel, floating = ROBOTS[case]
     path = robot_path(rel)
     system = from_urdf(path, floating_base=floating, limits=False)
-    model = eomc.compile(system, case, functions=functions, formulation="recursive", cache_dir=cache,
+    model = eomc.compile(system, name or case, functions=functions, formulation="recursive", cache_dir=cache,
                          progress=False)
     ref = PinRef(path, joints_of(system), floating=floating)
     ref.gravity = ref.model.gravity.linear
