@@ -98,7 +98,7 @@ def run(name, cache):
     row["simulated"] = f"{'yes' if np.isfinite(x).all() and res.t[-1] >= T - 1e-9 else 'NO'} " \
                        f"({time.perf_counter() - w0:.2f} s wall)"
     row["warnings"] = len(seen)
-    row["root z MuJoCo/eomc m"] = f"{mujoco_root_height(path):.3f}/{eomc_root_height(path, model, res.x[-1]):.3f}"
+    row["root z MuJoCo/eomc m"] = f"{mujoco_root_height(path):.4f}/{eomc_root_height(path, model, res.x[-1]):.4f}"
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         bare = eomc.compile(MjcfModel(path, limits=False, geoms=False),

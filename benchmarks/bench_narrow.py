@@ -1,7 +1,7 @@
 """Issue 33: the body–body pairs' narrow phase as called C routines vs inlined as SymPy.
 
 Per model with body–body pairs (gymnasium's humanoid with its self-collisions, ``pairs=True``;
-dm_control's finger, manipulator, quadruped, stacker with no flags):
+dm_control's finger, stacker, manipulator, quadruped with no flags):
 
 - build: a fresh Python process runs ``eomc.compile`` with the default functions into an empty
   cache, once with the schemes inlined (``pairs.INLINE_NARROW = True``: the default) and once
@@ -10,7 +10,9 @@ dm_control's finger, manipulator, quadruped, stacker with no flags):
 - rhs and jac_x: ns per call over the same NSTATES states (the model's initial state with random
   speeds and small random coordinate offsets), thread CPU time of ``rhs_many`` (one call per
   state) and of ``jac_x`` state by state, pinned to one core, the two builds interleaved repeat
-  by repeat, medians of REPEAT.
+  by repeat, medians of REPEAT;
+- mj_forward: MuJoCo's ns per call on the same file (its contacts and collisions) at NSTATES states
+  of its own (qpos0 moved by the same scales, random speeds), interleaved with the two builds.
 
     python benchmarks/bench_narrow.py [-k stacker]
 """
@@ -31,27 +33,6 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import environment_header, format_table, write_results  # noqa: E402
 
 NSTATES, REPEAT, CORE = 50, 7, 1
-# kept in the written file (the script rewrites it whole)
-NOTES = """
-Notes (session 7, by hand):
-
-- 2026-11-29 11:17-12:00 UTC, the run above; the machine's load was 12-17 and every process pinned
-  to core 1 shared it: the humanoid's row did not finish before the session's end (stopped). The
-  routines cut the C by half where pairs are boxes (stacker, manipulator) but the build CPU only
-  where the symbolic work was the pairs' (stacker 1.50x, finger 1.34x; manipulator and quadruped
-  1.02-1.04x: their cost is elsewhere); they run slower wherever the pairs are many points (rhs
-  0.59-0.79x, jac_x 0.49-0.74x), within noise on the quadruped.
-- gymnasium's humanoid with pairs=True (109 pairs, capsules and spheres), rhs only, one cold build
-  each (taskset core 1, load ~1-8, measured by a throw-away script like BUILD above with
-  ``functions=["rhs"]``): inlined 26.8 s CPU (12.2 Python + 14.6 gcc, C 1.50 MB), routines 26.2 s
-  (10.1 + 16.1, 1.31 MB); rhs + jac_x with routines 88.0 s (25.7 + 62.3, 4.14 MB). A capsule
-  pair's scheme is small: the humanoid's per-pair cost is the law, its velocities and wrench, and
-  the events, which stay inline -- the routines do not bring its self-pairs to 10 s.
-- Why the routines run slower (so the inlined schemes stay the default): the routine computes p and
-  n of all 16 points of a box pair (inlined, a point's guard skips them out of contact), and the
-  ``_dot`` routine recomputes the primal in each of jac_x's columns. Next: one primal call per
-  jac_x call writing a tape (the temporaries the tangent reads), ``_dot`` reading it.
-"""
 BUILD = r"""
 import sys, warnings
 from pathlib import Path
@@ -70,7 +51,7 @@ def models():
     import gymnasium
     gym = Path(gymnasium.__file__).parent / "envs" / "mujoco" / "assets"
     suite = Path(dm_control.__file__).parent / "suite"
-    return [(f"{n} (dm_control)", suite / f"{n}.xml", False) for n in ("stacker", "quadruped", "manipulator", "finger")] + [
+    return [(f"{n} (dm_control)", suite / f"{n}.xml", False) for n in ("finger", "stacker", "manipulator", "quadruped")] + [
         ("humanoid (gymnasium), pairs=True", gym / "humanoid.xml", True)]
 
 
@@ -94,6 +75,28 @@ def load(path, cache, inline, self_pairs):
         warnings.simplefilter("ignore")
         return eomc.compile(MjcfModel(path, pairs=True) if self_pairs else path, "m", cache_dir=cache,
                             progress=False)
+
+
+def mujoco_forward(path, n):
+    """A function running MuJoCo's mj_forward at ``n`` states (the file's qpos0 with random speeds and
+    small coordinate offsets, in MuJoCo's own coordinates; the file's contacts and collisions)."""
+    import mujoco
+    m = mujoco.MjModel.from_xml_path(str(path))
+    d = mujoco.MjData(m)
+    rng = np.random.default_rng(33)
+    states = []
+    for _ in range(n):
+        qpos = m.qpos0.copy()
+        dq = rng.normal(scale=0.02, size=m.nv)
+        mujoco.mj_integratePos(m, qpos, dq, 1.0)
+        states.append((qpos, rng.normal(scale=0.5, size=m.nv)))
+
+    def run():
+        for qpos, qvel in states:
+            d.qpos[:] = qpos
+            d.qvel[:] = qvel
+            mujoco.mj_forward(m, d)
+    return run
 
 
 def timed(fn):
@@ -124,18 +127,21 @@ def main():
             X[:, m.nq:m.nq + m.nu] = rng.normal(scale=0.5, size=(NSTATES, m.nu))
             agree = max(np.abs(loaded[True].rhs_many(0.0, X) - m.rhs_many(0.0, X)).max()
                         / (1 + np.abs(m.rhs_many(0.0, X)).max()), 0.0)
-            rhs, jac = {True: [], False: []}, {True: [], False: []}
+            forward = mujoco_forward(path, NSTATES)
+            rhs, jac, mj = {True: [], False: []}, {True: [], False: []}, []
             for _ in range(REPEAT):
                 for inline in (True, False):
                     mod = loaded[inline]
                     rhs[inline].append(timed(lambda: [mod.rhs_many(0.0, X) for _ in range(20)]) / (20 * NSTATES))
                     jac[inline].append(timed(lambda: [mod.jac_x(0.0, x) for x in X]) / NSTATES)
+                mj.append(timed(lambda: [forward() for _ in range(20)]) / (20 * NSTATES))
             r = {k: statistics.median(v) for k, v in rhs.items()}
             j = {k: statistics.median(v) for k, v in jac.items()}
+            f = statistics.median(mj)
             row = [label, f"{built[True][0]:.1f}", f"{built[False][0]:.1f}", f"{built[True][0] / built[False][0]:.2f}",
                    f"{built[True][1] / 1e6:.2f}", f"{built[False][1] / 1e6:.2f}", f"{r[True]:.0f}", f"{r[False]:.0f}",
-                   f"{r[True] / r[False]:.2f}", f"{j[True]:.0f}", f"{j[False]:.0f}", f"{j[True] / j[False]:.2f}",
-                   f"{agree:.1e}"]
+                   f"{r[True] / r[False]:.2f}", f"{f:.0f}", f"{f / r[True]:.2f}", f"{f / r[False]:.2f}",
+                   f"{j[True]:.0f}", f"{j[False]:.0f}", f"{j[True] / j[False]:.2f}", f"{agree:.1e}"]
             print(row, flush=True)
             rows.append(row)
             _write(rows, args)
@@ -144,12 +150,11 @@ def main():
 
 def _write(rows, args):
     columns = ["model", "build CPU s inlined", "build CPU s routines", "ratio", "C MB inlined", "C MB routines",
-               "rhs ns inlined", "rhs ns routines", "ratio", "jac_x ns inlined", "jac_x ns routines", "ratio",
-               "rhs rel. diff"]
+               "rhs ns inlined", "rhs ns routines", "ratio", "mj_forward ns", "mj_forward / rhs inlined",
+               "mj_forward / rhs routines", "jac_x ns inlined", "jac_x ns routines", "ratio", "rhs rel. diff"]
     table = format_table(columns, rows)
     header = environment_header("Body–body pairs' narrow phase: called routines vs inlined schemes (build, rhs, jac_x)")
-    if not args.k:
-        write_results("narrow", header + "\n" + table + "\n" + NOTES + "\n" + __doc__)
+    write_results("narrow", header + "\n" + table + "\n\n" + __doc__, keep_notes=True)
 
 
 if __name__ == "__main__":

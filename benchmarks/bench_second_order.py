@@ -17,9 +17,11 @@ round, ~20 ms blocks, median of rounds; ns per call):
     bench_derivatives.py.  Pinocchio also returns dM/dq (∂²τ/∂q∂u'), which ``hess_id`` does not
     (it is ``jac_id``'s derivative in u', M itself); eomc returns both mixed blocks (∂²τ/∂q∂u
     and ∂²τ/∂u∂q), Pinocchio one.
-Models: fixed bases only (the cart, UR10, Panda): on a floating base Pinocchio differentiates
-along its Lie-group tangent, and at second order the change of variables from eomc's Euler
-angles brings K's own derivative (not compared here).
+Models: the cart, UR10, Panda, and the floating bases Go2, G1, Talos (eomc's free joint: body XYZ
+Euler angles, body-frame speeds).  On a floating base Pinocchio differentiates along its
+Lie-group tangent and eomc's hess_id along its coordinates (the change brings K⁻¹ and K's own
+derivative): such a model is built twice, as eomc builds it and along the tangent
+(second_order.TANGENT, Pinocchio's quantities; a third contestant), see :func:`build`.
 
 Agreement, before timing: the C++ tensors ∂²τ/∂q², ∂²τ/∂u², ∂²τ/∂q∂u at 4 random states
 against eomc's (Python ``model.hess_id``), largest difference relative to the largest entry.
@@ -31,7 +33,7 @@ model's hess_id on the forward-over-reverse path it had before the kernel covere
 laws: its agreement is taken with the laws' own entries (row i's (q_i, u_i) block) left out;
 the two eomc paths are compared on every entry.
 
-Usage: python benchmarks/bench_second_order.py [--cart 4,8,20] [--robots ur10,panda] [--limits] [--portable]
+Usage: python benchmarks/bench_second_order.py [--cart 4,8,20] [--robots ur10,panda,go2] [--limits] [--portable]
        [--rounds 7] [--pin-obj FILE.o (compiled with the same flags)] [--write]
 """
 import argparse
@@ -105,6 +107,7 @@ int main(int argc, char **argv) {
 }
 """
 LABELS = ("eomc hess_id", "Pinocchio ComputeRNEASecondOrderDerivatives", "eomc hess_id, old path")
+TANGENT = "eomc hess_id along the tangent"     # the third contestant of a floating base (see build)
 
 
 def eomc_flags(portable):
@@ -117,9 +120,12 @@ def eomc_flags(portable):
     return ["-O2", *machine_flags(find_compiler())]
 
 
-def run(model, ref, data, tmp, pin_obj, rounds, old=None, cflags=("-O2",)):
+def run(model, ref, data, tmp, pin_obj, rounds, old=None, cflags=("-O2",), tangent=False):
     """(median ns per contestant, agreement[, old path's agreement]): the harness compiled and run
-    pinned to core 1; ``old``: the same model on the forced reverse path (``--limits``)."""
+    pinned to core 1; ``old``: the same model on the forced reverse path (``--limits``), or with
+    ``tangent`` its build along the free joint's tangent (a floating base, :func:`build`): the
+    agreement with Pinocchio is then the tangent build's, and the second figure is the
+    coordinate build's against central differences of its jac_id."""
     X, UD, Q, V, A = data
     name, nu, nq = model.name, model.nu, model.nq
     if old is not None:
@@ -154,18 +160,22 @@ def run(model, ref, data, tmp, pin_obj, rounds, old=None, cflags=("-O2",)):
     nv, iv = ref.model.nv, ref.iv
     pin = {}
     times = {}
+    labels = LABELS[:2] + ((TANGENT,) if tangent else LABELS[2:])
     for line in out.splitlines():
         p = line.split()
         if p[0] == "pin":
             pin.setdefault(int(p[1]), []).append([float(v) for v in p[2:]])
         elif p[0] == "time":
-            times.setdefault(LABELS[int(p[1])], []).append(float(p[2]))
+            times.setdefault(labels[int(p[1])], []).append(float(p[2]))
     worst, worst_old = 0.0, 0.0
     for i in range(NAGREE):
         T = np.array(pin[i]).reshape(nv, nv, nv, 3)
         qq, vv, qv = (T[..., k][np.ix_(iv, iv, iv)] for k in range(3))
         H = model.hess_id(0.0, X[i], UD[i])
-        if old is not None:
+        if tangent:
+            worst_old = max(worst_old, against_differences(model, X[i], UD[i], H))
+            H = old.hess_id(0.0, X[i], UD[i])
+        elif old is not None:
             Ho = old.hess_id(0.0, X[i], UD[i])
             worst_old = max(worst_old, np.max(np.abs(H - Ho)) / np.max(np.abs(Ho)))
             H = H.copy()        # the laws' own entries: Pinocchio's (it has no joint laws)
@@ -179,6 +189,13 @@ def run(model, ref, data, tmp, pin_obj, rounds, old=None, cflags=("-O2",)):
                    np.max(np.abs(H[:, :nq, nq:nq + nu] - qv)))
         worst = max(worst, diff / scale)
     return {k: float(np.median(v)) for k, v in times.items()}, worst, worst_old
+
+
+def against_differences(model, x, ud, H, h=1e-5):
+    """Largest difference of hess_id ``H`` from central differences of jac_id, relative to the largest entry."""
+    fd = np.stack([(model.jac_id(0.0, x + h * e, ud) - model.jac_id(0.0, x - h * e, ud)) / (2 * h)
+                   for e in np.eye(model.nx)], axis=2)
+    return float(np.max(np.abs(H - fd)) / np.max(np.abs(fd)))
 
 
 def build_limited(case, cache):
@@ -215,11 +232,24 @@ def build_limited(case, cache):
 
 
 def build(case, cache):
-    """(eomc Model with hess_id, Pinocchio reference) of one fixed-base case."""
-    model, ref, floating = bd.build_case(case, cache, functions=["rhs", "inverse_dynamics", "jac_id", "hess_id"])
-    if floating:
-        sys.exit(f"{case}: floating bases are not compared (see the module doc)")
-    return model, ref
+    """(eomc Model with hess_id, Pinocchio reference, the tangent build or None) of one case.
+
+    A floating base (Go2, G1, Talos: eomc's free joint, body XYZ Euler angles, body-frame speeds)
+    is built twice: as eomc builds it (hess_id along the coordinates, the Euler angles) and with
+    the kernel's entries left along the free joint's tangent (second_order.TANGENT: Pinocchio's
+    Lie-group tangent, the same quantities as its tensors; the change to the coordinates, per row
+    two 3x3 blocks over the row's columns plus K's derivative, is what it leaves out)."""
+    import eomc.compiler.tree.second_order as so
+    fns = ["rhs", "inverse_dynamics", "jac_id", "hess_id"]
+    model, ref, floating = bd.build_case(case, cache, functions=fns)
+    if not floating:
+        return model, ref, None
+    so.TANGENT = True
+    try:
+        xi = bd.build_case(case, cache / "tangent", functions=fns, name=case + "_xi")[0]
+    finally:
+        so.TANGENT = False
+    return model, ref, xi
 
 
 def main():
@@ -254,9 +284,10 @@ def main():
         if a.limits:
             model, old, ref = build_limited(case, cache)
         else:
-            (model, ref), old = build(case, cache), None
-        data = bd.states(model, ref, False, rng)
-        times, agree, agree_old = run(model, ref, data, tmp, pin_obj, a.rounds, old, cflags)
+            model, ref, old = build(case, cache)
+        data = bd.states(model, ref, old is not None and not a.limits, rng)
+        times, agree, agree_old = run(model, ref, data, tmp, pin_obj, a.rounds, old, cflags,
+                                      tangent=old is not None and not a.limits)
         ops = model.metadata["op_counts"]
         row = dict(case=case, nx=model.nx, times=times, agree=agree, agree_old=agree_old,
                    ops={f: sum(ops[f].values()) for f in ("jac_id", "hess_id")})
@@ -264,11 +295,17 @@ def main():
         render = render_limited if a.limits else render_row
         if a.write:
             with open(HERE / "results" / "second_order.md", "a") as f:
-                f.write((header(a.rounds, a.limits, cflags, isa) if len(rows) == 1 else "") + render(row) + "\n")
+                f.write((header(a.rounds, a.limits, cflags, isa, floating(cases)) if len(rows) == 1 else "")
+                        + render(row) + "\n")
         print(render(row), flush=True)
 
 
-def header(rounds, limits=False, cflags=("-O2",), isa=()):
+def floating(cases):
+    """Whether some case is a floating base (its rows have a third contestant, the tangent build)."""
+    return any(bd.ROBOTS.get(c, (None, False))[1] for c in cases)
+
+
+def header(rounds, limits=False, cflags=("-O2",), isa=(), three=False):
     import pinocchio
     import eomc
     commit, dirty, cpu = bd.checkout_state()
@@ -277,7 +314,8 @@ def header(rounds, limits=False, cflags=("-O2",), isa=()):
         f"{' (+ uncommitted changes)' if dirty else ''}\n",
         f"`python benchmarks/bench_second_order.py` — {cpu}, load {os.getloadavg()[0]:.1f} at the start, "
         f"Python {platform.python_version()}, Pinocchio {pinocchio.__version__} (header-only, g++ {' '.join(['-O2', *isa])}), "
-        f"eomc {eomc.__version__}, gcc {' '.join(cflags)}; thread CPU, pinned to core 1, {3 if limits else 2} contestants interleaved, "
+        f"eomc {eomc.__version__}, gcc {' '.join(cflags)}; thread CPU, pinned to core 1, "
+        f"{'3' if limits else '2 (3 on a floating base)' if three else '2'} contestants interleaved, "
         f"median of {rounds} rounds, {bd.NS} states cycled.  eomc: `--formulation recursive`, functions rhs, "
         "inverse_dynamics, jac_id, hess_id.\n",
     ] + ([
@@ -288,9 +326,15 @@ def header(rounds, limits=False, cflags=("-O2",), isa=()):
         "| model (limits on) | nx | eomc hess_id ns, kernel | old path ns | **old / kernel** | "
         "Pinocchio 2nd-order RNEA ns | **Pinocchio / kernel** | kernel vs old path | vs Pinocchio (laws' entries out) |",
         "|---|--:|--:|--:|--:|--:|--:|--|--|"] if limits else [
-        "| model | nx | eomc hess_id ns | Pinocchio 2nd-order RNEA ns | **Pinocchio / hess_id** | "
-        "ops jac_id / hess_id | agreement (q,q), (u,u), (q,u) |",
-        "|---|--:|--:|--:|--:|--|--|"])) + "\n"
+        "Floating bases (eomc's free joint: body XYZ Euler angles, body-frame speeds): \"hess_id\" is "
+        "along eomc's coordinates (what `model.hess_id` returns), \"tangent\" the same kernel with the free "
+        "joint's entries left along its tangent, Pinocchio's convention (what its tensors are); agreement "
+        "with Pinocchio is the tangent build's, and the coordinate build is checked against central "
+        "differences of its jac_id.\n",
+        "| model | nx | eomc hess_id ns | eomc tangent ns | Pinocchio 2nd-order RNEA ns | **Pinocchio / hess_id** | "
+        "**Pinocchio / tangent** | ops jac_id / hess_id | agreement with Pinocchio (q,q), (u,u), (q,u) | "
+        "hess_id vs differences of jac_id |",
+        "|---|--:|--:|--:|--:|--:|--:|--|--|--|"])) + "\n"
 
 
 def render_limited(r):
@@ -302,9 +346,10 @@ def render_limited(r):
 
 def render_row(r):
     t = r["times"]
-    return (f"| {r['case']} | {r['nx']} | {t[LABELS[0]]:.0f} | {t[LABELS[1]]:.0f} | "
-            f"**{t[LABELS[1]] / t[LABELS[0]]:.2f}** | {r['ops']['jac_id']} / {r['ops']['hess_id']} | "
-            f"{r['agree']:.1e} |")
+    e, p, x = t[LABELS[0]], t[LABELS[1]], t.get(TANGENT)
+    tang, ratio, fd = (f"{x:.0f}", f"**{p / x:.2f}**", f"{r['agree_old']:.1e}") if x else ("-", "-", "-")
+    return (f"| {r['case']} | {r['nx']} | {e:.0f} | {tang} | {p:.0f} | **{p / e:.2f}** | {ratio} | "
+            f"{r['ops']['jac_id']} / {r['ops']['hess_id']} | {r['agree']:.1e} | {fd} |")
 
 
 if __name__ == "__main__":

@@ -75,7 +75,7 @@ def law_parameters(solref, solimp, friction, condim, g, weight, timestep=None):
 HOLD_WIDTH = 0.001     # rad (m): within about this of its limit a MuJoCo limit's spring holds (limit_spring)
 
 
-def limit_spring(inertia, solref, solimp, timestep=None):
+def limit_spring(inertia, solref, solimp, timestep=None, carried=0.0):
     """(K, C, hold) of MuJoCo's soft limit (a joint's or a tendon's) as eomc's spring-damper
     (:class:`eomc.compiler.tree.joint_laws.JointLaw`): it meets an impact as MuJoCo's does and
     gives under a steady load as MuJoCo's does.
@@ -97,7 +97,19 @@ def limit_spring(inertia, solref, solimp, timestep=None):
     15 s): 5 mrad: ant touch-down +10 %, hopper rest -3.6 mm; 2.5 mrad: +3.9 %, -3.7 mm; 1 mrad:
     +1.6 %, -3.7 mm, walker +3.2 mm (as MuJoCo's default solimp width, where its impedance
     reaches dmax, by coincidence).  No spring-damper is MuJoCo's limit: its force cancels a
-    fraction of whatever load there is, which a function of r and v alone cannot."""
+    fraction of whatever load there is, which a function of r and v alone cannot.
+
+    ``carried``: the inertia m_c the joint moves when it stops more than itself (a knee catching
+    the body it stands under: :mod:`eomc.compiler.mjcf.carried`).  MuJoCo's solver sees the
+    limit's row with the effective inertia m_s = 1/(J M⁻¹ Jᵀ) the other constraints leave it
+    (a Schur complement), but regularises it with R = (1 - d)/d·A₀, A₀ = 1/``inertia``
+    (``dof_invweight0``, its diagonal approximation): the row's force on the reference
+    acceleration is aref/(1/m_s + R).  So the scale saturates: m̃ = m·m_c/(d·m + (1 - d)·m_c)
+    (m at m_c = m, at most m/(1 - d), 20 m at dmax 0.95, however much the joint carries; the
+    carried inertia itself as the scale held gymnasium's humanoid knees 20 times too tight).
+    At rest the same algebra gives MuJoCo's give d·k·r = (1 - d)·τ/(d·m): the carried inertia
+    drops out, so ``hold``'s G is divided by m̃/m (at least 1) and the spring still gives
+    under a steady load what the joint's own inertia makes it give."""
     tc, z = (float(v) for v in solref[:2])
     dmax = min(max(float(solimp[1]), 1e-4), 0.9999)
     if tc > 0:
@@ -107,4 +119,8 @@ def limit_spring(inertia, solref, solimp, timestep=None):
         b = 2.0 / (dmax * tc)
     else:
         k, b = -tc / dmax ** 2, -z / dmax
-    return inertia * k, inertia * b, (dmax / (1.0 - dmax), HOLD_WIDTH)
+    G = dmax / (1.0 - dmax)
+    scale = inertia
+    if carried > inertia:
+        scale = inertia * carried / (dmax * inertia + (1.0 - dmax) * carried)
+    return scale * k, scale * b, (max(1.0, G * inertia / scale), HOLD_WIDTH)

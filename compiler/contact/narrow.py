@@ -19,8 +19,13 @@ Derivatives: the tangent of an output along a direction is ``NarrowDot``'s: the 
 forward-mode derivative (the scheme's program differentiated once per pair of kinds by
 :func:`eomc.compiler.passes.diff.tangent`, not per pair) called with the placements' tangents,
 writing the outputs' tangents into ``ND<k>_``.  Placement inputs are the shapes' centres and axes
-(24); sizes and margin are numbers (their tangents are 0).  Second derivatives (hvp) and the
-reverse sweep (vjp) of a pair are refused with a message.
+(24); sizes and margin are numbers (their tangents are 0).  The ``_dot`` routine reads the primal
+values its tangent needs from a *tape* (:func:`tape_of`): in a function that differentiates a
+pair (jac_x, jvp) its call is the ``_tape`` variant (:class:`NarrowTapeCall`, chosen by
+:meth:`NarrowCall.taped` when the function is generated), which also stores those values after its
+outputs in ``NP<uid>_``; jac_x's columns then run only the tangent, not the narrow phase again
+(it recomputed the primal per column: stacker's jac_x 0.57x the inlined schemes').  Second
+derivatives (hvp) and the reverse sweep (vjp) of a pair are refused with a message.
 """
 import functools
 
@@ -35,12 +40,18 @@ from ..passes.diff import tangent
 from ..passes.powers import expand_powers
 from eomc.runtime.errors import ModelError
 
-__all__ = ["NarrowCall", "NarrowOut", "NarrowDot", "ROUTINE_KINDS", "routine_index", "narrow_inputs",
+__all__ = ["NarrowCall", "NarrowTapeCall", "NarrowOut", "NarrowDot", "ROUTINE_KINDS", "routine_index", "narrow_inputs",
            "routine_outputs", "routine_code", "use_schemes", "NPOSE", "NINPUT", "PER_PART"]
 
 NPOSE = 24         # inputs with tangents: A's centre and 3 axes, B's centre and 3 axes (world)
 NINPUT = 31        # then A's 3 sizes, B's 3 sizes, the margin
 PER_PART = 7       # outputs per contact point: p (3), n (3, A to B), δ
+# statements: a routine up to this long is one function compiled at the file's level; longer
+# (the cylinder pairs') cut into sub-functions (compiler/emit/split.py).  Why: a box pair's routine
+# (~400 statements) cut into -O1 parts with a scratch array ran the table-box-ball scene's rhs
+# 686 ns vs 607 ns whole (inlined schemes 483 ns; tests/compiler/contact/test_narrow.py's scene),
+# and gcc took 2.12 vs 2.24 s on that file.
+ROUTINE_SPLIT = 1200
 # the ordered pairs of kinds a PairLoad may hold (a, b as with_pairs orders them): each its routine
 ROUTINE_KINDS = tuple((a, b) for a in ("sphere", "capsule", "box", "cylinder", "ellipsoid")
                       for b in ("sphere", "capsule", "box", "cylinder", "ellipsoid"))
@@ -50,9 +61,9 @@ def routine_index(kind_a, kind_b):
     return ROUTINE_KINDS.index((kind_a, kind_b))
 
 
-def _cname(rid, dot=False):
+def _cname(rid, variant=None):
     a, b = ROUTINE_KINDS[rid]
-    return f"eomc_narrow_{a}_{b}{'_dot' if dot else ''}"
+    return f"eomc_narrow_{a}_{b}{'_' + variant if variant else ''}"
 
 
 def narrow_inputs(a, b, size_a, size_b, margin):
@@ -86,15 +97,40 @@ class NarrowCall(sm.Function):
     def c_routines(self):
         """[(key, C text, split)] of the routines this node calls (generate_c prints each once)."""
         rid = int(self.args[0])
-        return [((rid, 0), *routine_code(rid, False))]
+        return [((rid, 0), *routine_code(rid))]
 
     def _ccode(self, printer):
         args = ", ".join(printer._print(a) for a in self.args[2:])
         return f"{_cname(int(self.args[0]))}({args}, &NP{int(self.args[1])}_[0])"
 
+    def taped(self):
+        """The same call writing the tape its ``_dot`` reads (a function that differentiates it)."""
+        return NarrowTapeCall(*self.args)
+
+
+class NarrowTapeCall(NarrowCall):
+    """NarrowCall that also stores the tape (:func:`tape_of`) after its outputs in ``NP<uid>_``."""
+
+    def c_declaration(self):
+        rid = int(self.args[0])
+        return f"double NP{int(self.args[1])}_[{routine_outputs(rid) + len(tape_of(rid))}];"
+
+    def c_routines(self):
+        rid = int(self.args[0])
+        return [((rid, 2), *routine_code(rid, "tape"))]
+
+    def _ccode(self, printer):
+        args = ", ".join(printer._print(a) for a in self.args[2:])
+        return f"{_cname(int(self.args[0]), 'tape')}({args}, &NP{int(self.args[1])}_[0])"
+
+    def taped(self):
+        return self
+
 
 class NarrowDot(sm.Function):
-    """NarrowDot(routine, uid, *inputs, *input tangents): the outputs' tangents, into ``ND<uid>_``."""
+    """NarrowDot(routine, uid, call, call uid, *input tangents): the outputs' tangents, into
+    ``ND<uid>_``, from the tape the call (a temporary: it keeps the call before this one in every
+    pass) wrote after its outputs in ``NP<call uid>_``."""
     is_real = True
 
     def _eval_derivative(self, s):
@@ -103,16 +139,22 @@ class NarrowDot(sm.Function):
     def forward(self, dd, k):
         return sm.S.Zero
 
+    def tape_of(self):
+        """The temporaries whose call must write a tape (compiler/emit/generate.py: ``taped()``)."""
+        return (self.args[2],)
+
     def c_declaration(self):
         return f"double ND{int(self.args[1])}_[{routine_outputs(int(self.args[0]))}];"
 
     def c_routines(self):
         rid = int(self.args[0])
-        return [((rid, 1), *routine_code(rid, True))]
+        return [((rid, 1), *routine_code(rid, "dot"))]
 
     def _ccode(self, printer):
-        args = ", ".join(printer._print(a) for a in self.args[2:])
-        return f"{_cname(int(self.args[0]), True)}({args}, &ND{int(self.args[1])}_[0])"
+        rid = int(self.args[0])
+        args = ", ".join(printer._print(a) for a in self.args[4:])
+        return (f"{_cname(rid, 'dot')}(&NP{int(self.args[3])}_[{routine_outputs(rid)}], {args}, "
+                f"&ND{int(self.args[1])}_[0])")
 
 
 class NarrowOut(sm.Function):
@@ -141,7 +183,7 @@ class NarrowOut(sm.Function):
             else:
                 sym = dd.names.fresh()
                 uid = int(sym.name[2:])
-                dd.out.append((sym, NarrowDot(expr.args[0], sm.Integer(uid), *inputs, *dins)))
+                dd.out.append((sym, NarrowDot(expr.args[0], sm.Integer(uid), call, tag, *dins)))
                 hit = (sym, uid)
             dd.extra[key] = hit
         if hit is sm.S.Zero:
@@ -206,33 +248,64 @@ def _program(rid):
 
 
 @functools.lru_cache(maxsize=None)
-def routine_code(rid, dot):
-    """(C text of routine ``rid`` (its forward-mode derivative when ``dot``), whether it was split
-    into sub-functions (then the file needs EOMC_NOINLINE))."""
+def _dot_program(rid):
+    """(tape, seed symbols, tangent program): the routine's forward-mode derivative reading the
+    primal values it needs -- the tape: inputs and temporaries of :func:`_program` that its own
+    assignments or results read, in the primal's order -- as inputs, so it computes no primal."""
     prog, ins = _program(rid)
-    name = _cname(rid, dot)
+    seeds = sm.symbols(f"din0:{NPOSE}", real=True)
+    full = dce(tangent(prog.with_(inputs=tuple(ins) + tuple(seeds)), "o", dict(zip(ins[:NPOSE], seeds)), "do"),
+               ("do",))
+    primal = set(ins) | {t for t, _ in prog.assignments}
+    own = tuple((t, e) for t, e in full.assignments if t not in primal)
+    read = set()
+    for _, e in own + full.results:
+        read |= e.free_symbols
+    tape = tuple(s for s in list(ins) + [t for t, _ in prog.assignments] if s in read)
+    return tape, seeds, full.with_(inputs=tape + tuple(seeds), assignments=own)
+
+
+def tape_of(rid):
+    """The primal values routine ``rid``'s ``_dot`` reads (its ``_tape`` variant stores them)."""
+    return _dot_program(rid)[0]
+
+
+@functools.lru_cache(maxsize=None)
+def routine_code(rid, variant=None):
+    """(C text of routine ``rid`` -- ``variant`` "tape": also storing the tape after the outputs;
+    "dot": its forward-mode derivative from the tape --, whether it was split into sub-functions
+    (then the file needs EOMC_NOINLINE))."""
+    prog, ins = _program(rid)
+    name = _cname(rid, variant)
     nout = routine_outputs(rid)
-    params = [f"double a{k}" for k in range(NINPUT)]
-    head = [f"{IND}const double in[{NINPUT}] = {{{', '.join(f'a{k}' for k in range(NINPUT))}}};"]
     names = {s: f"in[{k}]" for k, s in enumerate(ins)}
-    group = "o"
-    if dot:
-        seeds = sm.symbols(f"din0:{NPOSE}", real=True)
-        prog = tangent(prog.with_(inputs=tuple(ins) + tuple(seeds)), "o", dict(zip(ins[:NPOSE], seeds)), "do")
-        params += [f"double b{k}" for k in range(NPOSE)]
-        head.append(f"{IND}const double din[{NPOSE}] = {{{', '.join(f'b{k}' for k in range(NPOSE))}}};")
+    if variant == "dot":
+        tape, seeds, prog = _dot_program(rid)
+        params = ["const double *tape"] + [f"double b{k}" for k in range(NPOSE)]
+        head = [f"{IND}const double din[{NPOSE}] = {{{', '.join(f'b{k}' for k in range(NPOSE))}}};"]
+        names = {s: f"tape[{k}]" for k, s in enumerate(tape)}
         names.update({s: f"din[{k}]" for k, s in enumerate(seeds)})
-        group = "do"
+        group, stored = "do", nout
+    else:
+        params = [f"double a{k}" for k in range(NINPUT)]
+        head = [f"{IND}const double in[{NINPUT}] = {{{', '.join(f'a{k}' for k in range(NINPUT))}}};"]
+        group, stored = "o", nout
+        if variant == "tape":
+            tape = tape_of(rid)
+            prog = prog.with_(results=prog.results + tuple((("o", nout + j), s) for j, s in enumerate(tape)))
+            stored += len(tape)
     prog = expand_powers(dce(prog, (group,)))
     names.update(c_names(prog))
     pr = CPrinter(names)
     values = prog.result_exprs(group)
-    body = temps(prog, pr) + [store(f"out[{i}]", values.get((group, i), sm.S.Zero), pr) for i in range(nout)]
-    lines, parts = split_body(body, f"{name}_part")
+    body = temps(prog, pr) + [store(f"out[{i}]", values.get((group, i), sm.S.Zero), pr) for i in range(stored)]
+    lines, parts = split_body(body, f"{name}_part") if len(body) > ROUTINE_SPLIT else (body, [])
     ka, kb = ROUTINE_KINDS[rid]
-    what = "the tangents of " if dot else ""
+    what = {None: "", "tape": "", "dot": "the tangents of "}[variant]
+    after = (f", then the {stored - nout} values its _dot reads (the tape)" if variant == "tape" else
+             ", from the tape its _tape variant wrote" if variant == "dot" else "")
     text = (f"/* body-body pair narrow phase: {what}p, n, depth of each contact point of a {ka} (A) against a "
-            f"{kb} (B), {nout // PER_PART} point(s) (compiler/contact/narrow.py) */\n"
+            f"{kb} (B), {nout // PER_PART} point(s){after} (compiler/contact/narrow.py) */\n"
             f"static double {name}({', '.join(params)}, double *out)\n{{\n" + "\n".join(head + lines)
             + f"\n{IND}return 0.0;\n}}\n")
     return "\n".join(list(parts) + [text]), bool(parts)

@@ -259,6 +259,7 @@ def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions
     shared = verify(optimize_shared(sym.program, sym.derivatives))
     programs = {fn: finish_function(shared, groups[fn]) if fn not in ("rhs_batch", "jac_x_batch") and groups[fn] else None
                 for fn in fns}
+    programs = {fn: _taped(p) for fn, p in programs.items()}
     helper = (finish_function(shared, ("A", "b")) if set(fns) & set(helper_users) or sym.solve_in
               else None)
     return Lowered(name, layout, sym, fns, programs, helper, formulation, pose_meta)
@@ -340,6 +341,7 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
                     _body(fn, ctx, prog, sym, layout, nx, fns, formulation))
         lines, parts = split_body(body, f"{name}_{fn}_part", restrict=formulation.restrict_scratch(fn))
         ctx.split = ctx.split or bool(parts)
+        parts, ctx.parts = ctx.parts + parts, []     # functions the body asked for (bodies.BodyContext.parts)
         if fn in ("rhs", "jac_x"):
             printed[fn] = (lines, parts)
         rendered.append({"prototype": prototype(name, fn), "body": void_unused(fn, lines),
@@ -369,6 +371,19 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
     if low.poses is not None:
         meta["poses"] = pose_metadata(low.poses)
     return _render(name, meta, fns, rendered, solver, layout, sym, helper, ctx.split, formulation)
+
+
+def _taped(prog):
+    """``prog`` with the calls whose derivative calls read their tape in the variant that writes it:
+    an expression with ``tape_of()`` (the temporaries it reads a tape from; compiler/contact/
+    narrow.py's NarrowDot) makes their definitions ``taped()``.  Per function, so that a function
+    without the derivative (rhs) calls the routine that writes no tape."""
+    if prog is None:
+        return None
+    want = {s for _, e in prog.assignments if hasattr(e, "tape_of") for s in e.tape_of()}
+    if not want:
+        return prog
+    return prog.with_(assignments=tuple((t, e.taped() if t in want else e) for t, e in prog.assignments))
 
 
 def _called_routines(programs):

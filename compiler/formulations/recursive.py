@@ -109,7 +109,7 @@ class Recursive(Formulation):
 
     def ops(self, fn, prog, sym, nx, nr, npar, nq, nu, solve_in):
         if fn == "hess_id" and sym.second_order is not None:
-            return second_order_ops(prog, sym.second_order[0])
+            return second_order_ops(prog, *sym.second_order)
         if fn == "hess_id":      # the sweep once per row, its tangent once per row and column
             return hess_id_ops(prog, sym, nx, nu)
         if fn in KERNEL_FUNCTIONS and prog is not None and has_dynamics_kernel(prog, sym, fn):

@@ -11,13 +11,17 @@ let gymnasium's humanoid, collapsing onto its knees, go 0.29 rad past them where
 contacts, no self-collisions) went 0.061 (benchmarks/results/limit_overshoot.md).  So on a
 robot with a free joint the scale is at least the inertia the joint carries when its subtree
 stands on the ground: the rest of the robot's inertia about the joint's axis (at qpos0), what
-the joint then turns.  Measured on a free torso pivoting onto its knee's limit
+the joint then turns.  That inertia is not the scale itself: MuJoCo's solver regularises
+the limit's row with its own inertia's diagonal approximation, so the scale saturates at
+1/(1 - dmax) times the joint's own (:func:`eomc.compiler.contact.mujoco_law.limit_spring`,
+``carried``).  Measured on a free torso pivoting onto its knee's limit
 (tests/compiler/mjcf/test_mjcf_limits.py): MuJoCo's knee went 0.0446 rad past, eomc's 0.216 with
-the leg's own inertia, 0.043 with the torso's about the knee, 0.005 with the torso's mass on the
-reach of the foot (too stiff).  On gymnasium's humanoid the rule holds the knees tighter than
-MuJoCo does (0.003 rad past vs MuJoCo's 0.06, same contacts): the rest of the robot counts as
-rigid about the knee, while its hip lets the torso turn -- an articulated inertia would be
-closer; within the verdict's 0.03 rad either way.  eomc's URDF rule carries the same inertia
+the leg's own inertia, 0.043 with the carried inertia as the scale, 0.057 with the saturating
+one (whose scale is MuJoCo's solver's at the deepest step within 5 %); gymnasium's humanoid's
+knees 0.003 rad past with the carried inertia as the scale (MuJoCo's 0.06, same contacts),
+0.041-0.044 with the saturating one (its scale 18.5 times the shin's, the solver's 9.8: the
+body above counts as rigid about the knee, while the hip lets the torso turn).
+eomc's URDF rule carries the same inertia
 (:func:`eomc.compiler.urdf.treeir.joint_loads`).  Models without a free joint (hopper, walker:
 planar slides) keep 1/``dof_invweight0``.
 """

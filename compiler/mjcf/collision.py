@@ -17,8 +17,8 @@ MuJoCo's filters (``mj_collision``), applied as MuJoCo applies them:
 
 The parameters of two geoms are mixed as ``mj_contactParam`` mixes them: the higher
 ``priority`` wins, else friction and ``condim`` are the larger, ``solref``/``solimp`` the
-``solmix``-weighted mean (a direct, negative ``solref``: the smaller); ``margin`` and
-``gap`` are the sums of the two geoms' (MuJoCo 3+: ``mjContact.includemargin``).
+``solmix``-weighted mean (a direct, negative ``solref``: the smaller); ``margin`` is the sum of
+the two geoms' (MuJoCo's ``mjContact.includemargin``).
 
 The mapping to eomc's law, per geom (the *documented rule*; the README quotes it):
 
@@ -34,9 +34,13 @@ The mapping to eomc's law, per geom (the *documented rule*; the README quotes it
   damping ratio z of ``solref`` (z = b/(2·sqrt(k)) for a direct ``solref``).
 - friction coefficient mu = the sliding friction (``friction[0]``); 0 when ``condim`` = 1.
   Torsional and rolling friction (condim 4, 6) are not modelled: a warning names such pairs.
-- ``margin``: MuJoCo's constraint pulls the surfaces to ``margin`` apart, so the plane is
-  raised by ``margin`` for that geom; ``gap`` (contacts inside the margin left out) is not
-  modelled.
+- ``margin``: MuJoCo's constraint acts at distance < ``margin`` with its reference there
+  (``aref = -b·v - k·imp·(dist - includemargin)``, ``includemargin`` = the margin), so the plane
+  is raised by ``margin`` for that geom.  ``gap``: MuJoCo (4.0, as installed) detects contacts
+  out to ``margin + gap`` but leaves those at distance >= ``margin`` out of the constraint
+  (``mjContact.exclude``: recorded for the user, no force); no force depends on it, so there is
+  nothing to map (test_collision.test_gap_changes_no_force holds MuJoCo to this: a MuJoCo
+  whose ``includemargin`` were ``margin - gap`` would fail it).
 - vs (the friction's regularisation speed): eomc's default, 0.01 m/s: MuJoCo's friction is
   a soft constraint with no such speed.
 """
@@ -195,18 +199,17 @@ def ground_geoms(m, path=None):
         if plane is None:
             continue
         pairs[(plane, other)] = (int(m.pair_dim[q]), np.array(m.pair_friction[q]), np.array(m.pair_solref[q]),
-                                 np.array(m.pair_solimp[q]), float(m.pair_margin[q]), float(m.pair_gap[q]))
+                                 np.array(m.pair_solimp[q]), float(m.pair_margin[q]))
     for plane in planes:
         for g in range(m.ngeom):
             if g == plane or (plane, g) in pairs or _filtered(m, plane, g, excluded, filterparent):
                 continue
             condim, friction, solref, solimp = _mix(m, plane, g)
             pairs[(plane, g)] = (condim, friction, solref, solimp,
-                                 float(m.geom_margin[plane]) + float(m.geom_margin[g]),
-                                 float(m.geom_gap[plane]) + float(m.geom_gap[g]))
+                                 float(m.geom_margin[plane]) + float(m.geom_margin[g]))
     _warn_condim(m, [(p, g, v[0]) for (p, g), v in pairs.items() if int(weld[int(m.geom_bodyid[g])]) != 0], where)
     out, skipped = [], set()
-    for (plane, g), (condim, friction, solref, solimp, margin, gap) in sorted(pairs.items(), key=lambda x: x[0][::-1]):
+    for (plane, g), (condim, friction, solref, solimp, margin) in sorted(pairs.items(), key=lambda x: x[0][::-1]):
         kind = GEOM_KINDS.get(int(m.geom_type[g]), str(int(m.geom_type[g])))
         b = int(m.geom_bodyid[g])
         if int(weld[b]) == 0:
@@ -218,9 +221,6 @@ def ground_geoms(m, path=None):
                               f"for a {kind} against a plane; it passes through the ground", EomcWarning,
                               stacklevel=3)
             continue
-        if gap:
-            warnings.warn(f"{where}geom {_geom_name(m, g)}: contact gap {gap:g} is not modelled (the force "
-                          f"starts at the margin)", EomcWarning, stacklevel=3)
         n = np.array(d.geom_xmat[plane]).reshape(3, 3)[:, 2]
         height = fo.dot(n, d.geom_xpos[plane]) + surface.get(plane, 0.0) + margin
         weight = g_mag * float(m.body_subtreemass[int(m.body_rootid[b])])

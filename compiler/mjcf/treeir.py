@@ -342,9 +342,10 @@ def _law(m, jid, jraw, jn, q, u, params, limits, friction, carried=0.0):
     1/``dof_invweight0`` (MuJoCo's own scale).  MuJoCo's limit is a soft constraint solved with
     the other constraints (impedance, ``margin``): here it is a spring-damper, so the motion
     past the limit differs (docs/contact.md says how); inside the range both exert nothing.
-    On a free-floating robot the scale is at least the inertia the joint ``carried`` when its
-    subtree holds the robot up (:mod:`.carried`): MuJoCo's limit stops what the joint moves
-    within its time constant, whatever that weighs."""
+    On a free-floating robot the scale grows with the inertia the joint ``carried`` when its
+    subtree holds the robot up (:mod:`.carried`), saturating as MuJoCo's regularised solver
+    does (``limit_spring``'s ``carried``): MuJoCo's limit stops what the joint moves within
+    its time constant, up to 1/(1 - dmax) times the joint's own inertia."""
     from eomc.compiler.contact.mujoco_law import limit_spring
     from eomc.compiler.tree.joint_laws import JointLaw, joint_torque
     from .options import refsafe_step
@@ -354,7 +355,7 @@ def _law(m, jid, jraw, jn, q, u, params, limits, friction, carried=0.0):
         lower, upper = (float(v) for v in m.jnt_range[jid])
     fl = float(m.dof_frictionloss[dadr]) if friction else 0.0
     inertia = 1.0 / float(m.dof_invweight0[dadr]) if m.dof_invweight0[dadr] > 0 else 1.0
-    k, c, hold = limit_spring(max(inertia, carried), m.jnt_solref[jid], m.jnt_solimp[jid], refsafe_step(m))
+    k, c, hold = limit_spring(inertia, m.jnt_solref[jid], m.jnt_solimp[jid], refsafe_step(m), carried)
     law = JointLaw(jraw, lower=lower, upper=upper, friction=fl, stiffness=k, limit_damping=c, unilateral=True,
                    hold=hold)
     return joint_torque(q, u, law, params, jn, inertia)     # JointLawError: the caller places it

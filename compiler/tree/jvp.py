@@ -8,7 +8,6 @@ nonzero parameter entries (one column for a sensitivity's e_j), and M⁻¹ by th
 articulated-body recursion on ABA's factors.  J is never formed: k directions
 cost O(k n), where jac_x costs O(n²).  Forward sensitivities use it.
 """
-import re
 
 import sympy as sm
 
@@ -30,8 +29,11 @@ def tree_jvp_body(ctx, program, W, G, seeds, nx, npar):
     gp = program.result_exprs("dres_p")
     kp = program.result_exprs("dkin_p")
     kp.update({("dkin_p", first + k[1], k[2]): e for k, e in program.result_exprs("dzd_p").items()})
-    pcols, p_only = parameter_directions(program, pr, gp, kp, nx, npar,
-                                         lambda i: f"out[(size_t)d * {nx} + {i}]", ("dres_p", "dkin_p", "dzd_p"))
+    pcols, p_only, psetup, function = parameter_directions(program, pr, gp, kp, nx, npar,
+                                                           f"{ctx.name}_jvp_pcols",
+                                                           ("dres_p", "dkin_p", "dzd_p"))
+    if function:
+        ctx.parts.append(function)
     main = program.with_(assignments=tuple(a for a in program.assignments if a[0] not in p_only))
     once, rest = split_on(main, tuple(seeds) + tuple(G))
     before, after = split_on(main.with_(assignments=tuple(once)), W)
@@ -41,8 +43,6 @@ def tree_jvp_body(ctx, program, W, G, seeds, nx, npar):
     solve = needed_assignments(rest, sol.values())
     solve = [a for a in solve if a not in inner] if inner else solve
     decls = [f"double w[{len(W)}];", f"double G[{ng}];", "const double *dx;", "int i, d;"]
-    if pcols:
-        decls += ["const double *dp;", "int j;"]
     lines = [f"{IND}{x}" for x in decls]
     lines += temps(program, pr, before)
     pivots = [pr.doprint(e) for k, e in program.results if k[0] == "Dpiv"]
@@ -61,6 +61,7 @@ def tree_jvp_body(ctx, program, W, G, seeds, nx, npar):
     lines += [store(f"xdot[{first + i}]", zd.get(("zd", i), sm.S.Zero), pr) for i in range(nx - first)]
     dkin = program.result_exprs("dkin")
     dkin.update({("dkin", first + k[1], k[2]): e for k, e in program.result_exprs("dzd").items()})
+    lines += [IND + x for x in psetup]
     kin = []
     for i in list(range(nq)) + list(range(first, nx)):
         terms = [f"({pr.doprint(dkin[('dkin', i, c)])}) * dx[{c}]" for c in range(nx)
@@ -103,7 +104,9 @@ def _lanes(pr, seeds, G, nx, nd, nq, nu, ng, inner, tangent, solve, sol, kin, pc
     names.update({g: f"GT[{j}][ln]" for j, g in enumerate(G)})
     lp = type(pr)(names)
     per = [f"dx = dirs + (size_t)d * {nd};"] + kin
-    per += [re.sub(r"\bG\[(\d+)\] \+=", r"PT[\1][ln] +=", x) for x in pcols]
+    if pcols:       # the columns' function adds into G: zeroed before, copied into PT after
+        per += [f"for (i = 0; i < {ng}; i++) G[i] = 0.0;"] + pcols
+        per.append(f"for (i = 0; i < {ng}; i++) PT[i][ln] = G[i];")
     group = [f"for (i = 0; i < {ng}; i++) for (ln = 0; ln < {LANES}; ln++) PT[i][ln] = 0.0;",
              "for (ln = 0; ln < nl; ln++, d++) {"] + [IND + x for x in per] + ["}", "d -= nl;"]
     group += ["{",

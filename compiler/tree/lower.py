@@ -335,11 +335,13 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         if loops is not None:
             raise ModelError("hess_id (second-order inverse dynamics) is not generated for a tree "
                              "closed by constraints")
-        from .second_order import ANH, second_order_note, second_order_plan, with_law_hessians
+        from .second_order import (ANH, second_order_note, second_order_plan, with_k_derivatives,
+                                   with_law_hessians)
         hp, hvals = (analytic, anx) if analytic is not None else _analytic(tree, bodies, gravity, layout, functions)
         hp, why = second_order_plan(hp)
         if hp is not None:      # the analytic kernel (compiler/tree/second_order.py)
             hp, hvals = with_law_hessians(hp, hvals, layout.x, nq)
+            hp, hvals = with_k_derivatives(hp, hvals, layout.x)
             sym = replace(sym, program=sym.program.with_(
                 results=sym.program.results + tuple(((ANH, k[1]), e) for k, e in hvals)),
                 second_order=(hp, len(layout.x)), second_order_note=second_order_note(hp, why),

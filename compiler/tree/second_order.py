@@ -23,13 +23,20 @@ along ψ̇_i plus Bᶜ's commutator with S_i) and a few 6-vectors, per support d
 Output: out[(i nx + j) nx + k] = ∂²τ_i/∂x_j∂x_k (the layout of the reverse path), zero
 outside the support paths and the extra states.
 
-Where it applies (:func:`second_order_plan`): an analytic plan (:func:`.analytic.analytic_plan`)
-whose joints all have one speed (revolute, prismatic; bodies welded by fixed joints
-included), joint laws (URDF/MJCF soft limits, damping, friction) included: their own
-curvature is added on their rows' (q, u) entries after the loops (:func:`with_law_hessians`;
-why: URDF robots are built with their limits on by default, and took the reverse path,
-10-20x slower).  Other trees (free/floating bases, balls, planar joints, contacts, loops)
-keep the reverse path; the model's metadata ``hess_id`` says which one it got and why.
+Where it applies (:func:`second_order_plan`): an analytic plan (:func:`.analytic.analytic_plan`):
+revolute and prismatic joints (bodies welded by fixed joints included), joint laws
+(URDF/MJCF soft limits, damping, friction): their own curvature is added on their rows'
+(q, u) entries after the loops (:func:`with_law_hessians`; why: URDF robots are built with
+their limits on by default, and took the reverse path, 10-20x slower); and joints of k
+speeds whose axes are fixed in the child (eomc's free joint -- body XYZ Euler angles,
+body-frame speeds, Pinocchio's free-flyer speeds --, balls, planar joints).  Those run as
+Pinocchio runs them: "j != i" and "k != j" are between joints, every dof of a joint in the
+support of every other, which gives the tensor along the joint's tangent ξ (Pinocchio's
+Lie-group tangent); hess_id is along the coordinates q (q' = K(q) u), so the kernel then
+changes those entries to q with K⁻¹, dK/dq and the first derivatives along ξ
+(:func:`_tangent_lines`; why: floating bases -- Go2, G1, Talos -- took the reverse path).
+Trees with ground contacts or loops keep the reverse path; the model's metadata ``hess_id``
+says which one it got and why.
 
 Checked against central differences of jac_id, the reverse path and Pinocchio
 (tests/compiler/tree/test_second_order.py).
@@ -44,7 +51,7 @@ from ..ir.opcount import count_ops
 from .analytic import (VARIATION_LINES, WORLD_INERTIA_LINES, body_head_lines, c_table, rd_helpers,
                        tree_tables, world_load_lines)
 
-__all__ = ["ANH", "second_order_plan", "with_law_hessians", "second_order_c", "second_order_body",
+__all__ = ["ANH", "second_order_plan", "with_law_hessians", "with_k_derivatives", "second_order_c", "second_order_body",
            "second_order_ops", "second_order_note"]
 
 ANH = "anh"     # the result group of the kernel's inputs (the analytic plan's values)
@@ -55,8 +62,6 @@ def second_order_plan(plan):
     if plan is None:
         return None, ("the tree does not qualify for the analytic derivatives (closed loops, "
                       "state-dependent loads or contacts)")
-    if plan.multi:
-        return None, "a joint has several speeds (free/floating base, ball, planar): not covered yet"
     if plan.contacts:       # the first-order kernel's ground-contact terms (analytic.py, block G)
         return None, "ground contacts: not covered yet"
     return plan, None
@@ -111,6 +116,12 @@ def _tidy(e):
 # exactly when an output is not finite) is the same.
 BOUND = "1e150"
 
+# True: the k-speed joints' entries stay along their tangent xi (Pinocchio's Lie-group tangent;
+# no change to their coordinates, :func:`_tangent_lines`) -- to compare with Pinocchio's tensors
+# and time the change (tests, benchmarks/bench_second_order.py).  Not part of the build cache's
+# key: a model built with it needs its own cache directory.
+TANGENT = False
+
 
 def _covers_all(plan, nq, nx):
     """True when the triple loop writes every entry of the output, so it need not be zeroed
@@ -118,7 +129,7 @@ def _covers_all(plan, nq, nx):
     every (row, column, column) triple of dofs is one the loop visits) and the state is (q, u)
     of those dofs alone.  Checked with a NaN-filled output (tests/compiler/tree/test_second_order.py)."""
     nd = len(plan.lam)
-    return nd > 0 and len(paths(plan)[0]) == 1 and nq == nd and nx == 2 * nd
+    return nd > 0 and not plan.multi and len(paths(plan)[0]) == 1 and nq == nd and nx == 2 * nd
 
 
 def second_order_note(plan, reason):
@@ -135,6 +146,8 @@ def second_order_c(name, plan, nq, nx, helpers):
     fn = f"{name}_rnea_hess"
     rd = f"{name}_rd"
     nn = nx * nx
+    nm = sum(k for _, k, _ in plan.multi)
+    oj = "oj" if nm else "j != i"     # j in another joint than i (one-speed joints: another dof)
     cfg = _lanes_cfg(plan)
     lines = (rd_helpers(name) if helpers else []) + [
         *_lanes_macro(name),
@@ -186,14 +199,18 @@ def second_order_c(name, plan, nq, nx, helpers):
         c_table("qc", plan.qcol),
         c_table("uc", [nq + s for s in plan.row]),
         c_table("lam", plan.lam or (-1,)),
+        *(_joint_tables(plan) if nm else []),
         f"    double R[{9 * nb}], P[{3 * nb}], V[{6 * nb}], A[{6 * nb}], Y[{10 * nb}], dY[{12 * nb}], F[{6 * nb}];",
         f"    double Sw[{6 * nd}], PS[{6 * nd}], PS2[{6 * nd}], PP[{6 * nd}];",
+        *([f"    double Tq[{nd * nm}];   /* d tau / d xi of the k-speed joints' dofs (their columns), per dof's row */"]
+          if nm and not TANGENT else []),
         *cfg[0],
         f"    double K[{cfg[1]}], D[{14 * cfg[2]}];   /* per path, component-major: S, psi', psi'', psi' + phi' of its dofs; the dots */",
         "    double Ym[36], Bm[36], Ma[36], Mb[36], Mc[36], R1[36], R3[36];",
         "    int b, i, j, k, e, c, l, big = 0;",
     ] + ([] if _covers_all(plan, nq, nx) else [
-        f"    for (k = 0; k < {nd * nn}; k++) out[k] = 0.0;"]) + [
+        f"    for (k = 0; k < {nd * nn}; k++) out[k] = 0.0;"]) + (
+        [f"    for (k = 0; k < {nd * nm}; k++) Tq[k] = 0.0;"] if nm and not TANGENT else []) + [
         f"    for (b = 0; b < {nb}; b++) {{   /* forward: placements, axes and their rates, v, a, Y, B, f */",
         *body_head_lines(o, "al[i];"),
         "        for (e = d0[b]; e < d0[b] + nd[b]; e++) {   /* psi' = v_l x S, psi'' = a_l x S + v_l x psi', phi' = v x S */",
@@ -289,8 +306,11 @@ def second_order_c(name, plan, nq, nx, helpers):
         f"            {rd}_dmul(dYb, S, g7);",
         f"            {rd}_ymul(Yb, PP + 6 * i, t);",
         "            for (c = 0; c < 6; c++) g7[c] += t[c];",
-        "            for (j = i; j >= 0; j = lam[j]) {   /* the support of i */",
-        "                const double *s = Sw + 6 * j, *p = PS + 6 * j;",
+        *(["            for (j = jl[i]; j >= 0; j = lam[j]) {   /* i's joint (every dof of it) and its support */",
+           "                const double *s = Sw + 6 * j, *p = PS + 6 * j;",
+           "                const int oj = db[j] != b;   /* j in another joint than i */"] if nm else [
+          "            for (j = i; j >= 0; j = lam[j]) {   /* the support of i */",
+          "                const double *s = Sw + 6 * j, *p = PS + 6 * j;"]),
         f"                double *Oj = out + (size_t)row[j] * {nn};",
         "                const int qj = qc[j], uj = uc[j];",
         "                double U[60], r1p[6], r0p[6];   /* the pair's vectors; the first 48 bound the stores (BOUND) */",
@@ -307,6 +327,12 @@ def second_order_c(name, plan, nq, nx, helpers):
         "                    w[c] += r0p[c] - r1p[c];",
         "                    u4[c] = 2.0 * u9[c];",
         "                }",
+        *([
+            "                if (!oj && j != i) {   /* two dofs of one joint: u4 = s_j x* (Y S_i) + S_i x* (Y s_j) */",
+            f"                    {rd}_ymul(Yb, s, t);",
+            f"                    {rd}_crossf(S, t, x);",
+            "                    for (c = 0; c < 6; c++) u4[c] = u9[c] + x[c];",
+            "                }"] if nm else []),
         f"                {name}_h2_mv(R3, p, u3);",
         f"                {name}_h2_mv(R1, PS2 + 6 * j, t);",
         "                for (c = 0; c < 6; c++) u3[c] += t[c];",
@@ -314,7 +340,7 @@ def second_order_c(name, plan, nq, nx, helpers):
         "                for (c = 0; c < 6; c++) u3[c] += t[c];",
         f"                {rd}_crossf(s, g7, u6);",
         "                for (c = 0; c < 6; c++) u6[c] += r1p[c] + r0p[c];",
-        "                if (j != i) {",
+        f"                if ({oj}) {{",
         f"                    {name}_h2_mtv(R3, s, u1);",
         f"                    {name}_h2_mv(R3, s, u7);",
         "                    for (c = 0; c < 6; c++) x[c] = PP[6 * j + c] - p[c];   /* phi'_j */",
@@ -323,7 +349,7 @@ def second_order_c(name, plan, nq, nx, helpers):
         "                } else {",
         "                    for (c = 0; c < 6; c++) u1[c] = u7[c] = 0.0;   /* unread (j == i), set for the compiler */",
         "                }",
-    ] + _triple_lines(name, rd, nx, cfg) + [
+    ] + (_first_order_lines(rd, nm) if nm and not TANGENT else []) + _triple_lines(name, rd, nx, cfg, nm) + [
         "            }",
         "        }",
         "        l = par[b];",
@@ -333,7 +359,7 @@ def second_order_c(name, plan, nq, nx, helpers):
         "            for (i = 0; i < 6; i++) F[6 * l + i] += fb[i];",
         "        }",
         "    }",
-    ] + (_law_lines(plan, nx) if plan.laws else []) + [
+    ] + (_law_lines(plan, nx) if plan.laws else []) + (_tangent_lines(plan, nx, nm) if nm and not TANGENT else []) + [
         "    return big;",
         "}",
     ]
@@ -421,33 +447,37 @@ def _dot_lanes(groups, vecs, maxl, lanes):
     return out + ["                            }"]
 
 
-def _triple_lines(name, rd, nx, cfg):
+def _triple_lines(name, rd, nx, cfg, nm=0):
     """C: the triple loop for one (i, j): the dots of (i, j)'s vectors with every k on j's path,
     LANES k a step from the component-major copy K (gcc's vectorizer pairs the lanes; each dot
     is summed in rd_dot's order, so the bits are the scalar loop's), then the stores, k = j first
     and up the support of j (the stores' order of the scalar loop)."""
     nn, maxl, lanes = nx * nx, cfg[2], f"{name.upper()}_H2_LANES"
+    # with k-speed joints, "j != i" and "k != j" are between joints (db: a dof's body), and the
+    # k run over every dof of j's joint (jl: its last dof); else the one-speed forms
+    oj, ok = ("oj", "ok") if nm else ("j != i", "k != j")
+    T, kd = ("jt[jl[j]] + 1, bj = db[j]", ", ok = db[k] != bj") if nm else ("jt[j] + 1", "")
     def d(m):
         return f"D[{m * maxl} + tk]" if m else "D[tk]"
     return [
         f"                for (c = 0; c < 48; c++) big |= !(fabs(U[c]) <= {BOUND});",
         "                {   /* the dots of (i, j) with every k on j's path, H2_LANES k a step */",
-        "                    const int pa = jp[j], L = pL[pa], T = jt[j] + 1;",
+        f"                    const int pa = jp[j], L = pL[pa], T = {T};",
         "                    const double *G = K + pG[pa];",
         "                    int tk, ln;",
-        "                    if (j != i) {",
+        f"                    if ({oj}) {{",
         *_dot_lanes(GROUPS_B, ("u11", "u9", "w", "u11", "u3", "w", "u9", "u6", "u1", "u2", "u1", "u2", "u10", "u7"), maxl, lanes),
         "                    } else {",
         *_dot_lanes(GROUPS_A, ("u11", "u9", "w", "u11", "u3", "w", "u9", "u6", "u4"), maxl, lanes),
         "                    }",
-        "                    for (tk = T - 1; tk >= 0; tk--) {   /* k = j, then up the support of j */",
-        "                        const int k = pd[p0[pa] + tk], qk = qc[k], uk = uc[k];",
+        "                    for (tk = T - 1; tk >= 0; tk--) {   /* k = j" + (" and j's joint" if nm else "") + ", then up the support of j */",
+        f"                        const int k = pd[p0[pa] + tk], qk = qc[k], uk = uc[k]{kd};",
         f"                        double *Ok = out + (size_t)row[k] * {nn};",
         f"                        const double p1 = {d(0)}, p2 = {d(1)} + {d(2)};",
-        f"                        const double v = j != i || k != j ? {d(3)} : 0.0;",
+        f"                        const double v = {oj} || {ok} ? {d(3)} : 0.0;",
         f"                        Oi[qj * {nx} + qk] = p2;",
         f"                        Oi[qk * {nx} + uj] = Oi[uj * {nx} + qk] = -p1;",
-        "                        if (j != i) {",
+        f"                        if ({oj}) {{",
         f"                            const double a = {d(8)} + {d(9)};",
         f"                            const double d = {d(10)} + {d(11)};",
         f"                            Oj[qk * {nx} + qi] = Oj[qi * {nx} + qk] = a;",
@@ -455,7 +485,7 @@ def _triple_lines(name, rd, nx, cfg):
         f"                            Oj[qi * {nx} + uk] = Oj[uk * {nx} + qi] = d;",
         f"                            Oj[uk * {nx} + ui] = Oj[ui * {nx} + uk] = v;",
         "                        }",
-        "                        if (k != j) {",
+        f"                        if ({ok}) {{",
         f"                            const double p3 = -v, e3 = {d(4)};",
         f"                            const double f = {d(5)} + {d(6)}, g = {d(7)};",
         f"                            Oi[qk * {nx} + qj] = p2;",
@@ -463,7 +493,7 @@ def _triple_lines(name, rd, nx, cfg):
         f"                            Oi[uj * {nx} + uk] = Oi[uk * {nx} + uj] = p3;",
         f"                            Oi[qj * {nx} + uk] = Oi[uk * {nx} + qj] = f;",
         f"                            Ok[qj * {nx} + ui] = Ok[ui * {nx} + qj] = g;",
-        "                            if (j != i) {",
+        f"                            if ({oj}) {{",
         f"                                const double p6 = {d(12)}, mm = {d(13)};",
         f"                                Ok[qj * {nx} + qi] = e3;",
         f"                                Ok[ui * {nx} + uj] = Ok[uj * {nx} + ui] = p6;",
@@ -477,6 +507,148 @@ def _triple_lines(name, rd, nx, cfg):
         "                    }",
         "                }",
     ]
+
+
+def _joint_tables(plan):
+    """C: per dof the body (= joint) it belongs to, the last dof of that joint, and (with
+    k-speed joints) its place among those joints' dofs (-1 for a one-speed joint's)."""
+    db = [b for b in range(plan.nb) for _ in plan.dofs(b)]
+    jl = [plan.first[b] + plan.count[b] - 1 for b in db]
+    out = [c_table("db", db or (0,)), c_table("jl", jl or (0,))]
+    if plan.multi:
+        mi, m = [-1] * plan.nd, 0
+        for e0, k, _ in plan.multi:
+            for c in range(k):
+                mi[e0 + c], m = m, m + 1
+        out.append(c_table("mi", mi))
+    return out
+
+
+def _first_order_lines(rd, nm):
+    """C, in the pair loop (i, j): the first derivatives d tau / d xi along the k-speed joints'
+    dofs, which the change to their coordinates needs (:func:`_tangent_lines`): row i along a
+    dof j of i's joint or support (Carpentier-Mansard: (Y S_i).psi''_j + (B^T S_i).psi'_j, i's
+    composites), row j along a dof i of a joint below j (S_j.g5_i, g5 = B psi'_i + S_i x* f + Y psi''_i)."""
+    return [
+        f"                if (mi[j] >= 0) Tq[i * {nm} + mi[j]] = {rd}_dot(ys, PS2 + 6 * j) + {rd}_dot3(bs, p);",
+        f"                if (mi[i] >= 0 && oj) Tq[j * {nm} + mi[i]] = {rd}_dot(s, g5);",
+    ]
+
+
+def with_k_derivatives(plan, values, x):
+    """(plan, values) with dK/dq of each k-speed joint appended (block K2: per joint, per
+    coordinate b of it, the k x k matrix dK/dq_b, K's layout), for :func:`_tangent_lines`.
+    ``values`` the analytic plan's [((group, i), expr)], ``x`` the state symbols."""
+    if not plan.multi or TANGENT:
+        return plan, values
+    vals = {k[1]: e for k, e in values}
+    group = values[0][0][0]
+    K0, extra = plan.offsets["K"], []
+    for e0, k, koff in plan.multi:
+        for b in range(k):
+            qb = x[plan.qcol[e0 + b]]
+            extra += [sm.diff(sm.sympify(vals[K0 + koff + i]), qb) for i in range(k * k)]
+    n = plan.size
+    plan = replace(plan, offsets={**plan.offsets, "K2": n}, size=n + len(extra))
+    return plan, list(values) + [((group, n + i), v) for i, v in enumerate(extra)]
+
+
+def _tangent_lines(plan, nx, nm):
+    """C: the kernel's tensor is along each k-speed joint's tangent xi (the body-frame
+    perturbation its speeds move it by, Pinocchio's Lie-group tangent: G[i, d, e] = d/dxi_e of
+    d tau_i / dxi_d); hess_id is along its coordinates q, q' = K(q) u, so dxi = K^-1 dq and
+
+        d2 tau_i / dq_a dq_b = sum_de K^-1[d, a] G[i, d, e] K^-1[e, b] + sum_d T_i[d] dK^-1[d, a]/dq_b,
+
+    dK^-1/dq_b = -K^-1 (dK/dq_b) K^-1 (block K2), T_i[d] = d tau_i / dxi_d (Tq).  Per row i:
+    the joint's rows q_a first, (K^-T G)[a, .] over every column (K^-1 by K's diagonal blocks
+    as the first-order kernel does, :func:`.analytic._blocks`: a free joint's translation and
+    angle blocks, half the work of the full 6x6; a loop over the columns gcc vectorizes); the
+    columns q_b of the other rows are then copies of those rows (the result is a Hessian,
+    symmetric, and ξ and a one-speed coordinate or a speed commute: the Lie bracket enters only
+    the (q_a, q_b) block), which is K^-T G K^-1 + T dK^-1/dq from the saved (q_a, ξ_e) entries.
+    Measured on Go2 (bench_second_order.py): the change cost 12 µs of 43 with the columns
+    transformed like the rows.  Each new number is summed into a v * 0 check (the kernel's
+    bound does not cover K^-1)."""
+    from .analytic import _ginv_lines
+    o, nn = plan.offsets, nx * nx
+    lines = ["    {   /* the k-speed joints: from their tangent xi to their coordinates q */",
+             "        double chk = 0.0, piv, tmp;",
+             "        int p;"]
+    m0 = 0
+    for (e0, k, koff), blocks in zip(plan.multi, plan.kblocks):
+        kb = [len(r) for r, _ in blocks]
+        kk = k * k
+        lines += [
+            "        {",
+            f"            double Km[{max(kb) ** 2}], Kf[{kk}], W[{k * kk}], Z[{kk}], Rw[{k * nx}];",
+            f"            static const int jq[{k}] = {{{', '.join(str(plan.qcol[e0 + c]) for c in range(k))}}};",
+        ] + [f"            double Ki{n}[{kb[n] ** 2}];" for n in range(len(blocks))] + [
+            c_table(f"kr{n}", r).replace("    ", "            ", 1) for n, (r, _) in enumerate(blocks)] + [
+            c_table(f"kc{n}", c).replace("    ", "            ", 1) for n, (_, c) in enumerate(blocks)] + [
+            f"            for (i = 0; i < {kk}; i++) Kf[i] = 0.0;   /* K^-1 whole: rows speeds, columns coordinates */"]
+        for n, b in enumerate(kb):
+            lines += [
+                f"            for (i = 0; i < {b}; i++)",
+                f"                for (j = 0; j < {b}; j++) Km[{b} * i + j] = an[{o['K'] + koff} + {k} * kr{n}[i] + kc{n}[j]];",
+            ] + ["    " + x for x in _ginv_lines(b, f"Ki{n}")] + [
+                f"            for (i = 0; i < {b}; i++)",
+                f"                for (j = 0; j < {b}; j++) Kf[{k} * kc{n}[i] + kr{n}[j]] = Ki{n}[{b} * i + j];",
+            ]
+        k2 = o["K2"] + sum(kk * kj for _, kj, _ in plan.multi[:plan.multi.index((e0, k, koff))])
+        lines += [
+            f"            for (b = 0; b < {k}; b++) {{   /* W_b = dK^-1/dq_b = -K^-1 dK/dq_b K^-1 */",
+            f"                const double *dK = an + {k2} + {kk} * b;",
+            f"                for (i = 0; i < {k}; i++)",
+            f"                    for (j = 0; j < {k}; j++) {{",
+            "                        tmp = 0.0;",
+            f"                        for (c = 0; c < {k}; c++) tmp += Kf[{k} * i + c] * dK[{k} * c + j];",
+            f"                        Z[{k} * i + j] = tmp;",
+            "                    }",
+            f"                for (i = 0; i < {k}; i++)",
+            f"                    for (j = 0; j < {k}; j++) {{",
+            "                        tmp = 0.0;",
+            f"                        for (c = 0; c < {k}; c++) tmp += Z[{k} * i + c] * Kf[{k} * c + j];",
+            f"                        W[{kk} * b + {k} * i + j] = -tmp;",
+            "                    }",
+            "            }",
+f"            for (e = 0; e < {plan.nd}; e++) {{",
+            f"                double *O = out + (size_t)row[e] * {nn};",
+            f"                const double *Te = Tq + e * {nm} + {m0};",
+            f"                for (i = 0; i < {k}; i++)   /* the joint's rows G[d, .] */",
+            f"                    for (c = 0; c < {nx}; c++) Rw[{nx} * i + c] = O[jq[i] * {nx} + c];",
+        ]
+        for n, b in enumerate(kb):
+            lines += [
+                f"                for (j = 0; j < {b}; j++) {{   /* rows q_a: sum_d K^-1[d, a] G[d, .], every column */",
+                f"                    double *o = O + jq[kr{n}[j]] * {nx};",
+                f"                    for (c = 0; c < {nx}; c++) {{",
+                f"                        tmp = Rw[{nx} * kc{n}[0] + c] * Ki{n}[j];",
+                f"                        for (i = 1; i < {b}; i++) tmp += Rw[{nx} * kc{n}[i] + c] * Ki{n}[{b} * i + j];",
+                "                        o[c] = tmp;",
+                "                        chk += tmp * 0.0;",
+                "                    }",
+                "                }",
+            ]
+        lines += [
+            f"                for (j = 0; j < {k}; j++)   /* their (q_a, xi_e) entries, before the copy below */",
+            f"                    for (i = 0; i < {k}; i++) Z[{k} * j + i] = O[jq[j] * {nx} + jq[i]];",
+            f"                for (j = 0; j < {k}; j++) {{   /* columns q_b of the other rows: the result is symmetric */",
+            f"                    const double *o = O + jq[j] * {nx};",
+            f"                    for (c = 0; c < {nx}; c++) O[c * {nx} + jq[j]] = o[c];",
+            "                }",
+            f"                for (j = 0; j < {k}; j++)   /* (q_a, q_b): sum_e (K^-T G)[a, e] K^-1[e, b] + sum_d T[d] dK^-1[d, a]/dq_b */",
+            f"                    for (b = 0; b < {k}; b++) {{",
+            "                        tmp = 0.0;",
+            f"                        for (i = 0; i < {k}; i++) tmp += Z[{k} * j + i] * Kf[{k} * i + b] + Te[i] * W[{kk} * b + {k} * i + j];",
+            f"                        O[jq[j] * {nx} + jq[b]] = tmp;",
+            "                        chk += tmp * 0.0;",
+            "                    }",
+            "            }",
+            "        }",
+        ]
+        m0 += k
+    return lines + ["        big |= !(chk == 0.0);", "    }"]
 
 
 def _law_lines(plan, nx):
@@ -524,7 +696,7 @@ def second_order_body(ctx, program, sym):
     return lines
 
 
-def second_order_ops(program, plan):
+def second_order_ops(program, plan, nx):
     """Floating-point operations of NAME_hess_id on the kernel (multiply-adds as one mul and
     one add), counted from the C above: per body ~1,200 (placement, v, a, Y, B, f), per dof
     ~2,300 (the 6x6 operators), per (dof, support dof) pair ~600, per triple ~90 muls."""
@@ -536,6 +708,11 @@ def second_order_ops(program, plan):
     pairs = sum(d + 1 for d in plan.dep)
     triples = sum((d + 1) * (d + 2) // 2 for d in plan.dep)
     c["adds"] += 4 * len(plan.laws)     # the laws' curvature (_law_lines)
+    if plan.multi and not TANGENT:      # the change to the k-speed joints' coordinates (_tangent_lines)
+        for (_, k, _), blocks in zip(plan.multi, plan.kblocks):
+            per_row = 2 * sum(len(r) ** 2 for r, _ in blocks) * nx + k ** 3
+            c["muls"] += plan.nd * per_row + 2 * k ** 4
+            c["adds"] += plan.nd * per_row + 2 * k ** 4
     c["muls"] += 620 * plan.nb + 1150 * plan.nd + 300 * pairs + 84 * triples
     c["adds"] += 600 * plan.nb + 1150 * plan.nd + 300 * pairs + 84 * triples
     return {k: int(c.get(k, 0)) for k in ("adds", "muls", "divs", "calls")}

@@ -11,7 +11,6 @@ events, with normal inputs and with inputs that take the failure returns (NaN st
 parameters: a singular mass matrix).  A self-check proves the harness sees a dirty return.
 """
 import platform
-import re
 import subprocess
 import warnings
 from pathlib import Path
@@ -74,16 +73,10 @@ def test_kane_cart_derivatives_and_batch_return_clean(tmp_path):
     fns = ["rhs", "jac_x", "jac_p", "jvp", "vjp", "hvp", "rhs_batch", "jac_x_batch"]
     model = eomc.compile(kane, inputs=specified, functions=fns, cache_dir=tmp_path / "c", progress=False)
     _assert_clean(model, tmp_path, {f"{model.name}_{f}" for f in fns})
-    # the flags before -fno-ipa-ra: gcc 12 left vzeroupper out of this jvp (the check sees it)
-    old = eomc.compile(kane, inputs=specified, functions=["rhs", "jvp"], cache_dir=tmp_path / "c",
-                       progress=False, cflags="-O2 -fPIC -std=c99 -mavx2 -ffp-contract=off")
-    if _gcc12():
-        assert dirty_functions(old, tmp_path, k=4)[f"{old.name}_jvp"] == (0, True)
-
-
-def _gcc12():
-    from eomc.compiler.build import find_compiler
-    return re.match(r"\S*(gcc|cc) \(.*\) 12\.", find_compiler().version) is not None
+    # (Until session 8 this also asserted that under the flags before -fno-ipa-ra gcc 12
+    # left vzeroupper out of this jvp; with the parameter columns in a function of their
+    # own it no longer does, so that compiler quirk is gone from this model.  The fake
+    # model above is the check's positive control.)
 
 
 def test_mjcf_contacts_implicit_outputs_events_return_clean(tmp_path):

@@ -47,6 +47,13 @@ def _states(model, n, rng):
     return X
 
 
+def _function(source, name):
+    """The C text of function ``name`` and its sub-functions (``name_part...``, compiler/emit/split.py)."""
+    found = [d for d in source.split("\n}\n") if f" {name}(" in d or f" {name}_part" in d]
+    assert found, name
+    return "\n".join(found)
+
+
 def test_called_routines_are_the_inlined_schemes(tmp_path, monkeypatch):
     monkeypatch.setattr(pairs, "INLINE_NARROW", False)
     called = _build(tmp_path, "called")
@@ -54,6 +61,11 @@ def test_called_routines_are_the_inlined_schemes(tmp_path, monkeypatch):
     for a, b in KINDS:          # every kind through its routine, with jac_x's derivative
         assert f"eomc_narrow_{a}_{b}(" in source or f"eomc_narrow_{b}_{a}(" in source, (a, b)
         assert f"eomc_narrow_{a}_{b}_dot(" in source or f"eomc_narrow_{b}_{a}_dot(" in source, (a, b)
+    # jac_x runs the narrow phase once, writing the tape its columns' _dot calls read; rhs writes none
+    rhs, jac = _function(source, "nw_rhs"), _function(source, "nw_jac_x")
+    assert "_tape(" not in rhs and "eomc_narrow_box_box(" in rhs
+    assert "eomc_narrow_box_box(" not in jac and jac.count("eomc_narrow_box_box_tape(") == 1
+    assert "eomc_narrow_box_box_dot(&NP" in jac
     monkeypatch.setattr(pairs, "INLINE_NARROW", True)
     inline = _build(tmp_path, "inline")
     assert "eomc_narrow_" not in next((tmp_path / "inline").rglob("nw.c")).read_text()

@@ -1,6 +1,7 @@
 """The narrow phase's routines (compiler/contact/narrow.py) against the pair schemes inlined as the
 generated code had them (pairs.scheme with sizes and margin as literals): p, n and δ of every
-contact point, and their forward-mode tangents (the routine's ``_dot``, what jac_x calls), to
+contact point, and their forward-mode tangents (the routine's ``_dot`` from the tape its ``_tape``
+variant writes, what jac_x calls), to
 1e-12 at random poses where the shapes are near, touching or pressed -- for every ordered pair of
 kinds a model may hold.  Both programs are evaluated in Python from their straight-line IR (no C
 compiler: the compiled routines are test_narrow.py's)."""
@@ -65,10 +66,15 @@ def _inline(ka, kb, margin):
 
 
 def _routine(ka, kb):
-    prog, ins = narrow._program(narrow.routine_index(ka, kb))
-    seeds = sm.symbols(f"s0:{narrow.NPOSE}", real=True)
-    full = tangent(prog.with_(inputs=tuple(ins) + seeds), "o", dict(zip(ins[:narrow.NPOSE], seeds)), "do")
-    return _function(full, tuple(ins) + seeds, "o"), _function(full, tuple(ins) + seeds, "do")
+    """(outputs then the tape, tangents from the tape, number of outputs): the routine as jac_x
+    calls it -- its ``_tape`` variant, then ``_dot`` reading only the tape and the seeds."""
+    rid = narrow.routine_index(ka, kb)
+    prog, ins = narrow._program(rid)
+    tape, seeds, dot = narrow._dot_program(rid)
+    nout = narrow.routine_outputs(rid)
+    taped = prog.with_(results=prog.results + tuple((("o", nout + j), s) for j, s in enumerate(tape)))
+    assert set(dot.inputs) == set(tape) | set(seeds)
+    return _function(taped, tuple(ins), "o"), _function(dot, tape + tuple(seeds), "do"), nout
 
 
 def _rotation(rng):
@@ -83,7 +89,7 @@ def _rotation(rng):
 def test_routine_is_the_inlined_scheme_with_its_tangent(ka, kb):
     margin = 0.004
     inline, inline_dot = _inline(ka, kb, margin)
-    routine, routine_dot = _routine(ka, kb)
+    routine, routine_dot, nout = _routine(ka, kb)
     rng = np.random.default_rng(zlib.crc32(f"{ka} {kb}".encode()))
     reach = bounding_radius(ka, SIZES[ka]) + bounding_radius(kb, SIZES[kb])
     # where a scheme is well posed: no point deeper than a third of the thinner shape (deeper, a
@@ -97,13 +103,14 @@ def test_routine_is_the_inlined_scheme_with_its_tangent(ka, kb):
         cb = u / np.linalg.norm(u) * reach * rng.uniform(0.3, 1.05)
         pose = [0.0, 0.0, 0.0] + list(Ra.T.ravel()) + list(cb) + list(Rb.T.ravel())   # axes: the columns
         pose, dpose = [float(x) for x in pose], [float(x) for x in rng.normal(size=24)]
-        want, got = inline(*pose, *dpose), routine(*pose, *sizes, *dpose)
+        want, taped = inline(*pose, *dpose), routine(*pose, *sizes)
+        got, tape = taped[:nout], taped[nout:]
         depths = want[6::7]
         if max(depths) > thin:
             continue
         compared += 1
         pressed += max(depths) > 0
         assert np.abs(np.subtract(got, want)).max() <= 1e-12 * (1 + np.abs(want).max())
-        dwant, dgot = inline_dot(*pose, *dpose), routine_dot(*pose, *sizes, *dpose)
+        dwant, dgot = inline_dot(*pose, *dpose), routine_dot(*tape, *dpose)
         assert np.abs(np.subtract(dgot, dwant)).max() <= 1e-12 * (1 + np.abs(dwant).max())
     assert compared >= 100 and pressed >= 10, (compared, pressed)

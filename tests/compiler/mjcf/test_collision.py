@@ -138,6 +138,32 @@ def test_margin_is_mujocos(tmp_path):
     assert d.ncon == 1 and found.height == pytest.approx(d.contact[0].includemargin, abs=1e-15)
 
 
+@pytest.mark.parametrize("where", ["geoms", "pair"])
+def test_gap_changes_no_force(tmp_path, where):
+    """MuJoCo's gap widens the detection only: contacts between margin and margin + gap are
+    recorded but left out of the constraint (exclude), and an included one's reference is the
+    margin (efc_margin).  So the plane raised by the margin alone is MuJoCo's force onset at
+    every height, and a gap is no cause for a warning."""
+    if where == "geoms":
+        extra = SPHERE.format(extra="", mass=1.0).replace('mass="1.0" ', 'mass="1.0" margin="0.02" gap="0.01" ')
+    else:
+        extra = SPHERE.format(extra="", mass=1.0).replace(
+            "</worldbody>", '</worldbody><contact><pair geom1="floor" geom2="ball" margin="0.02" gap="0.01"/></contact>')
+    for z, state in ((0.135, "none"), (0.125, "excluded"), (0.115, "active"), (0.095, "active")):
+        m = _model(tmp_path, extra.replace('pos="0 0 0.12"', f'pos="0 0 {z}"'))
+        d = mujoco.MjData(m)
+        mujoco.mj_forward(m, d)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            (found,) = ground_geoms(m, "f.xml")
+        assert found.height == pytest.approx(0.02, abs=1e-15)
+        dist = z - 0.1
+        assert (d.ncon, d.nefc > 0) == {"none": (0, False), "excluded": (1, False), "active": (1, True)}[state]
+        assert (dist < found.height) == (d.nefc > 0)            # eomc's law presses exactly where MuJoCo's does
+        if d.nefc:
+            assert d.contact[0].includemargin == d.efc_margin[0] == pytest.approx(found.height, abs=1e-15)
+
+
 def test_torsional_and_rolling_friction_are_named(tmp_path):
     """condim 4/6 asks for torsional/rolling friction, which the law lacks: one warning naming the pair."""
     xml = """<mujoco><worldbody><geom name="floor" type="plane" size="1 1 .1"/>

@@ -49,17 +49,21 @@ def _touchdown(times, lowest):
     return times[k - 1] + (times[k] - times[k - 1]) * lowest[k - 1] / (lowest[k - 1] - lowest[k])
 
 
-def _mujoco_drop(path, T):
+def _mujoco_drop(path, T, until_touch=False):
+    """MuJoCo's run: (m, d, touch-down time, deepest distance below the margins).  The distances
+    are read at each step's end state (a fresh mj_kinematics): after mj_step with the Euler
+    integrators d.geom_xpos are still the step's start, one step late."""
     m = load_mjmodel(path)
-    d = mujoco.MjData(m)
+    d, end = mujoco.MjData(m), mujoco.MjData(m)
     pairs = [(g.geom, g.height, mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, g.plane)) for g in ground_geoms(m)]
     times, lowest = [0.0], []
 
     def low():
-        return min(mujoco.mj_geomDistance(m, d, p, g, 10.0, None) - h for g, h, p in pairs)
-    mujoco.mj_forward(m, d)
+        end.qpos[:] = d.qpos
+        mujoco.mj_kinematics(m, end)
+        return min(mujoco.mj_geomDistance(m, end, p, g, 10.0, None) - h for g, h, p in pairs)
     lowest.append(low())
-    while d.time < T - 1e-9:
+    while d.time < T - 1e-9 and not (until_touch and lowest[-1] <= 0):
         mujoco.mj_step(m, d)
         times.append(d.time)
         lowest.append(low())
@@ -113,3 +117,42 @@ def test_hopper_drop_matches_mujoco(tmp_path):
     (at rest after 15 s on both sides; at 3 s eomc's was still settling)."""
     pytest.importorskip("gymnasium")
     _check(_gym("hopper.xml"), 15.0, tmp_path)
+
+
+CAPSULE = """<mujoco model="capsule_margin">
+  <option timestep="{h}" integrator="{integrator}"/>
+  <worldbody>
+    <geom name="floor" type="plane" size="5 5 0.1" margin="0.004"/>
+    <body name="thing" pos="0 0 0.4" euler="0.4 0.3 0">
+      <freejoint/>
+      <geom type="capsule" size="0.05 0.2" mass="1" margin="0.01"/>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+@pytest.mark.parametrize("h, integrator", [(0.01, "Euler"), (0.01, "RK4"), (0.001, "Euler")])
+def test_capsule_with_margin_touches_down_at_the_free_fall_time(h, integrator, tmp_path):
+    """A tilted capsule with margins (geom 10 mm + plane 4 mm) falls freely until its lower end
+    sphere is the summed margin above the plane.  eomc's touch-down is the exact fall's,
+    sqrt(2 D / g) with D MuJoCo's distance at the start minus the margin; MuJoCo's at its own
+    step is its integrator's: semi-implicit Euler lands h/2 early (t (t + h) = 2 D / g: 0.1199
+    instead of 0.1248 s for half_cheetah at 10 ms), RK4 exactly.  Both within 1 % of the exact
+    fall at 1 ms (and with RK4 at 10 ms)."""
+    path = tmp_path / "capsule.xml"
+    path.write_text(CAPSULE.format(h=h, integrator=integrator))
+    m, _, t_mj, _ = _mujoco_drop(path, 1.0, until_touch=True)
+    d = mujoco.MjData(m)
+    mujoco.mj_kinematics(m, d)
+    (geom,) = ground_geoms(m)
+    assert geom.height == pytest.approx(0.014, abs=1e-15)                 # the plane raised by both margins
+    D = mujoco.mj_geomDistance(m, d, 0, geom.geom, 10.0, None) - geom.height
+    g = 9.81
+    exact = np.sqrt(2 * D / g)
+    model, res, t_eomc, _ = _eomc_drop(path, 0.4, tmp_path / "c")
+    assert t_eomc == pytest.approx(exact, rel=1e-3)
+    euler = -h / 2 + np.sqrt(h * h / 4 + 2 * D / g)
+    assert t_mj == pytest.approx(euler if integrator == "Euler" else exact, rel=2e-3)
+    if integrator == "RK4" or h <= 0.001:
+        assert t_eomc == pytest.approx(t_mj, rel=0.01)

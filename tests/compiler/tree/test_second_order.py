@@ -1,7 +1,10 @@
 """hess_id's analytic second-order kernel (compiler/tree/second_order.py): on a branching
-tree of pins and sliders with joint inputs, against the forward-over-reverse path it
-replaces (exact to rounding) and central differences of jac_id; its finiteness check;
-which path a model gets, in its metadata.  (UR10 against Pinocchio: test_hess_id.py.)"""
+tree of pins and sliders with joint inputs and on a floating tree with a ball joint, against
+the forward-over-reverse path it replaces (exact to rounding) and central differences of
+jac_id; on Go2 and G1 (floating bases) along Pinocchio's tangent against differences of
+Pinocchio's first derivatives, and along eomc's coordinates against differences of jac_id;
+its finiteness check; which path a model gets, in its metadata.  (UR10 against Pinocchio:
+test_hess_id.py.)"""
 import warnings
 
 import numpy as np
@@ -29,8 +32,8 @@ TREE = [
 ]
 
 
-def _compile(cache, reverse=False):
-    system, inputs = build(TREE)
+def _compile(cache, reverse=False, tree=TREE):
+    system, inputs = build(tree)
     orig = second_order.second_order_plan
     if reverse:     # force the path the kernel replaces
         second_order.second_order_plan = lambda plan: (None, "forced by the test")
@@ -177,3 +180,117 @@ def test_large_finite_outputs_pass_the_bound_by_the_full_check(models):
     scale = np.max(np.abs(ref))
     assert 1e170 < scale < 1e200 and np.all(np.isfinite(H))
     assert np.max(np.abs(H - ref)) <= 1e-12 * scale
+
+
+# a free-jointed root (eomc's free joint: body XYZ Euler angles, body-frame speeds) carrying a pin,
+# a slider and a ball joint (a k-speed joint inside the tree: rows above it) with a pin below it
+_BASE = dict(rotation=("BODY", 123), axis=(0, 1, 1), parent_point=(1, 0, -1), child_point=(0, 1, 1), products=True)
+FLOATING_TREE = [dict(_BASE, kind="free", parent=-1, rigid=True, load=False),
+                 dict(_BASE, kind="pin", parent=0, rigid=True, load=True),
+                 dict(_BASE, kind="slider", parent=1, rigid=False, load=True, axis=(1, 0, 0)),
+                 dict(_BASE, kind="ball", parent=0, rigid=True, load=False),
+                 dict(_BASE, kind="pin", parent=3, rigid=False, load=True, axis=(0, 0, 1))]
+
+
+@pytest.fixture(scope="module")
+def floating_models(tmp_path_factory):
+    d = tmp_path_factory.mktemp("floating")
+    return _compile(d / "k", tree=FLOATING_TREE), _compile(d / "r", reverse=True, tree=FLOATING_TREE)
+
+
+def test_free_and_ball_joints_take_the_kernel(floating_models):
+    """Joints of several speeds: the kernel runs along their tangent (Pinocchio's treatment:
+    every dof of a joint is in the support of every other) and changes to their coordinates
+    (K^-1 and dK/dq, _tangent_lines); equal to the reverse path to rounding (measured ~1e-15)
+    and to central differences of jac_id (measured ~4e-11), symmetric in its two state indices."""
+    kernel, reverse = floating_models
+    assert kernel.metadata["hess_id"].startswith("analytic second-order RNEA kernel")
+    rng = np.random.default_rng(12)
+    h = 1e-5
+    for _ in range(2):
+        x, ud = rng.uniform(-1, 1, kernel.nx), rng.uniform(-1, 1, kernel.nu)
+        r = rng.uniform(-1, 1, kernel.ninput)
+        H, ref = kernel.hess_id(0.0, x, ud, r=r), reverse.hess_id(0.0, x, ud, r=r)
+        scale = np.max(np.abs(ref))
+        assert scale > 1.0
+        assert np.max(np.abs(H - ref)) <= 1e-12 * scale
+        fd = np.stack([(kernel.jac_id(0.0, x + h * e, ud, r=r) - kernel.jac_id(0.0, x - h * e, ud, r=r)) / (2 * h)
+                       for e in np.eye(kernel.nx)], axis=2)
+        assert np.max(np.abs(H - fd)) <= 1e-8 * scale
+        assert np.max(np.abs(H - H.transpose(0, 2, 1))) <= 1e-12 * scale
+
+
+def test_floating_overflow_is_an_error(floating_models):
+    """Speeds of 1e200 overflow v x* (I v): an error naming hess_id, not a silent inf, through
+    the change to the coordinates too (its own v * 0 check)."""
+    kernel, _ = floating_models
+    x = np.zeros(kernel.nx)
+    x[kernel.nq:] = 1e200
+    with pytest.raises(SimulationError, match="hess_id"):
+        kernel.hess_id(0.0, x, np.zeros(kernel.nu), r=np.zeros(kernel.ninput))
+
+
+FLOATING_ROBOTS = {"go2": "go2_description/urdf/go2.urdf", "g1": "g1_description/urdf/g1_29dof_rev_1_0.urdf"}
+
+
+@pytest.mark.parametrize("name", list(FLOATING_ROBOTS))
+def test_floating_robots_against_pinocchio_and_differences(name, tmp_path):
+    """Go2 and G1 with eomc's free joint: built along the free joint's tangent
+    (second_order.TANGENT), hess_id is Pinocchio's ComputeRNEASecondOrderDerivatives's
+    quantity, checked against central differences of Pinocchio's computeRNEADerivatives along
+    pin.integrate (its Python bindings lack the second order; the C++ comparison is
+    benchmarks/bench_second_order.py's, ~1e-15); built as eomc builds it, hess_id is along the
+    Euler angles, checked against central differences of its own jac_id."""
+    import pinocchio as pin
+    from eomc.compiler.urdf import from_urdf
+    from helpers.robots import PinRef, joints_of, robot_path
+    path = robot_path(FLOATING_ROBOTS[name])
+    system = from_urdf(path, floating_base=True, limits=False)
+    fns = ["rhs", "inverse_dynamics", "jac_id", "hess_id"]
+    models = {}
+    for tangent in (False, True):
+        second_order.TANGENT = tangent
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                models[tangent] = eomc.compile(system, name + ("_xi" if tangent else ""), functions=fns,
+                                               formulation="recursive", cache_dir=tmp_path / str(tangent),
+                                               progress=False)
+        finally:
+            second_order.TANGENT = False
+        assert models[tangent].metadata["hess_id"].startswith("analytic second-order RNEA kernel")
+    model, xi = models[False], models[True]
+    ref = PinRef(path, joints_of(system), floating=True)
+    nq, nu, nv = model.nq, model.nu, ref.model.nv
+    cols = list(ref.iv) + [nv + i for i in ref.iv]      # Pinocchio's (q, v) columns in eomc's order
+    rng = np.random.default_rng(8)
+    q = rng.uniform(-np.pi, np.pi, nq)
+    q[:3], q[3:6] = rng.normal(size=3), rng.uniform(-1.2, 1.2, 3)
+    v, a = rng.normal(size=nu), rng.normal(size=nu)
+    x = np.concatenate([q, v])
+    Q, V, A = ref.q(q), ref.v(v), ref.v(a)
+
+    def first(Qs, Vs):      # Pinocchio's [d tau/dq (tangent), d tau/dv]
+        pin.computeRNEADerivatives(ref.model, ref.data, Qs, Vs, A)
+        return np.hstack([ref.data.dtau_dq, ref.data.dtau_dv])
+
+    h = 1e-6
+    fd = np.zeros((nv, 2 * nv, 2 * nv))       # [i, j, k] = d/dxi_k of Pinocchio's d tau_i/dxi_j
+    for k in range(2 * nv):
+        d = np.zeros(nv)
+        d[k % nv] = h
+        if k < nv:
+            up, dn = first(pin.integrate(ref.model, Q, d), V), first(pin.integrate(ref.model, Q, -d), V)
+        else:
+            up, dn = first(Q, V + d), first(Q, V - d)
+        fd[:, :, k] = (up - dn) / (2 * h)
+    fd = fd[np.ix_(ref.iv, cols, cols)]
+    Hx = xi.hess_id(0.0, x, a)
+    assert np.max(np.abs(fd)) > 1.0
+    assert np.max(np.abs(Hx - fd)) <= 1e-7 * np.max(np.abs(fd))       # measured ~3e-10 (Go2)
+    H = model.hess_id(0.0, x, a)
+    h = 1e-5
+    fd = np.stack([(model.jac_id(0.0, x + h * e, a) - model.jac_id(0.0, x - h * e, a)) / (2 * h)
+                   for e in np.eye(model.nx)], axis=2)
+    assert np.max(np.abs(H - fd)) <= 1e-8 * np.max(np.abs(fd))        # measured ~2.5e-11 (Go2)
+    assert not np.allclose(H[:, 3:6, 3:6], Hx[:, 3:6, 3:6], rtol=1e-3)   # the two conventions differ there
