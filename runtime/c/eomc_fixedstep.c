@@ -399,11 +399,10 @@ size_t eomc_fs_implicit_work_size(int nq, int nu, int ncontact)
 {
     size_t u = (size_t)nu, x = (size_t)nq + u;
     /* two sets of terms, matrices and right sides (the step's start and a trial end: the
-     * residual test below), a third matrix and right side (the start's for the sub-step size
-     * before the last change: fs_fast_advance), scratch, the ancestor lists (nu + 1 + nu (nu - 1) / 2 ints, in
+     * residual test below), scratch, the ancestor lists (nu + 1 + nu (nu - 1) / 2 ints, in
      * nu * nu / 2 + nu + 1 doubles) and M's column lists (nu + 1 + nu * nu ints, in
      * nu * nu / 2 + nu / 2 + 1 doubles) */
-    return 2 * fs_layout_of(nq, nu, ncontact).size + 3 * u * u + 11 * u + 4 * x + 8 + u * u / 2 + u + 2
+    return 2 * fs_layout_of(nq, nu, ncontact).size + 2 * u * u + 10 * u + 4 * x + 8 + u * u / 2 + u + 2
            + u * u / 2 + u / 2 + 2;
 }
 
@@ -599,8 +598,7 @@ static int fs_assemble(const eomc_fs_ops *ops, const fs_layout *L, double h, con
 
 /* The fast path's state for fs_loop.  T, A, b: the terms at the step's start x and (2)'s
  * factored matrix and right side for a step of hA; T1, A1, b1 the same at a trial end
- * (swapped in when the trial is kept: the next step's matrix is then ready); A2, b2 the
- * start's matrix and right side for the size hA had before its last change (fs_reassemble). */
+ * (swapped in when the trial is kept: the next step's matrix is then ready). */
 typedef struct fs_fast {
     const eomc_fs_ops *ops;
     eomc_stats *st;
@@ -608,7 +606,6 @@ typedef struct fs_fast {
     int n;
     double *T, *A, *b, *T1, *A1, *b1;
     double hA;                   /* the step A and b were made for (0: none, or T is stale) */
-    double *A2, *b2, hA2;        /* T's matrix for the size before (0: none) */
     int have_T;                  /* T holds the terms at the x fs_loop hands in */
     int deep;                    /* -1, or the first contact found deeper than its limit */
     double *du, *dv, *J, *GJ, *Kv, *x1, *xs, *f1;
@@ -621,31 +618,6 @@ static void fs_swap(double **a, double **b)
     double *t = *a;
     *a = *b;
     *b = t;
-}
-
-/* A, b for a sub-step of hs from the terms T.  The matrix A held (size hA, from the same T)
- * is kept in A2 rather than overwritten: where a sub-step twice as long as the last one
- * fails after the walk back up the binary grid, the halving returns to hA2 and the matrix is
- * swapped back instead of rebuilt and refactored (the same numbers: assembled from the same
- * T for the same h).  The caller drops A2 (hA2 = 0) whenever T changes. */
-static int fs_reassemble(fs_fast *q, double hs, const double *u)
-{
-    int s;
-    fs_swap(&q->A, &q->A2);
-    fs_swap(&q->b, &q->b2);
-    {
-        double t = q->hA;
-        q->hA = q->hA2;
-        q->hA2 = t;
-    }
-    if (q->hA == hs) return EOMC_OK;
-    if ((s = fs_assemble(q->ops, &q->L, hs, u, q->T, q->A, q->b, q->J, q->GJ, q->Kv, q->start, q->anc))) {
-        q->hA = 0.0;
-        return s;
-    }
-    q->hA = hs;
-    q->st->nlu++;
-    return EOMC_OK;
 }
 
 /* One step (2) of size h from (t, x) with T, A, b made for it: x1, then the terms at x1 in
@@ -822,14 +794,18 @@ static int fs_fast_advance(void *self, double t, double h, const double *x, doub
         if ((s = ops->terms(ops->ctx, t, x, q->T))) return s;
         q->have_T = 1;
         q->hA = 0.0;
-        q->hA2 = 0.0;
     }
     double before = INFINITY;          /* the ratio of the twice longer try from here */
     while (pos < MAX_SPLIT) {
         double ts = t + h * pos / MAX_SPLIT, hs = size == MAX_SPLIT ? h : h * size / MAX_SPLIT, ratio;
-        if (q->hA != hs && (s = fs_reassemble(q, hs, xs + ops->nq))) {
-            q->st->t_fail = ts;
-            return s;
+        if (q->hA != hs) {
+            if ((s = fs_assemble(ops, &q->L, hs, xs + ops->nq, q->T, q->A, q->b, q->J, q->GJ, q->Kv,
+                                 q->start, q->anc))) {
+                q->st->t_fail = ts;
+                return s;
+            }
+            q->hA = hs;
+            q->st->nlu++;
         }
         s = fs_fast_try(q, ts, hs, xs, split < INFINITY, &ratio);
         if (s && s != EOMC_NONFINITE && s != EOMC_SINGULAR_MASS_MATRIX) return s;
@@ -859,7 +835,6 @@ static int fs_fast_advance(void *self, double t, double h, const double *x, doub
         fs_swap(&q->T, &q->T1);
         fs_swap(&q->A, &q->A1);
         fs_swap(&q->b, &q->b1);
-        q->hA2 = 0.0;                           /* T changed: its older matrix is gone */
         if (pos < MAX_SPLIT) {                  /* a sub-step ended inside the step */
             memcpy(q->xs, q->x1, (size_t)n * sizeof(double));
             xs = q->xs;
@@ -945,8 +920,6 @@ int eomc_fs_run(const eomc_fs_ops *ops, eomc_stats *st, int nx, double h, long m
         q.A1 = pos; pos += uu;
         q.b = pos; pos += nu;
         q.b1 = pos; pos += nu;
-        q.A2 = pos; pos += uu;
-        q.b2 = pos; pos += nu;
         q.du = pos; pos += nu;
         q.dv = pos; pos += nu;
         q.J = pos; pos += 3 * (size_t)nu;
