@@ -1,6 +1,6 @@
 """Issue 30: eomc's jac_x and jac_id against Pinocchio's analytic derivatives, one C harness.
 
-Contestants (per model, one harness, pinned to core 1, thread CPU, interleaved with the order
+Contestants (per model, one harness, pinned to one core (--core, default 0), thread CPU, interleaved with the order
 rotated every round, ~20 ms blocks, median of rounds; ns per call):
   * eomc ``jac_x`` (d xdot/dx, nx x nx) and ``jac_id`` (d tau/dx at given u', nu x nx) of a
     ``--formulation recursive`` build with functions rhs, jac_x, inverse_dynamics, jac_id
@@ -218,7 +218,7 @@ def c_array(a):
     return ", ".join("{" + ", ".join(repr(float(v)) for v in row) + "}" for row in a)
 
 
-def harness(model, ref, data, tmp, pin_obj, rounds, flags=()):
+def harness(model, ref, data, tmp, pin_obj, rounds, flags=(), core=0):
     X, UD, Q, V, A = data
     name = model.name
     src = (HARNESS.replace("@NAME@", name).replace("@NS@", str(NS)).replace("@NX@", str(model.nx))
@@ -238,7 +238,7 @@ def harness(model, ref, data, tmp, pin_obj, rounds, flags=()):
     exe = tmp / f"h_{name}"
     subprocess.run(["g++", *objs, str(pin_obj), "-o", str(exe), "-lm"], check=True)
     (tmp / f"pin_{name}.txt").write_text(pin_text(ref.model, ref.gravity))
-    out = subprocess.run(["taskset", "-c", "1", str(exe), str(tmp / f"pin_{name}.txt")], capture_output=True,
+    out = subprocess.run(["taskset", "-c", str(core), str(exe), str(tmp / f"pin_{name}.txt")], capture_output=True,
                          text=True, check=True).stdout
     nv = ref.model.nv
     r0 = np.array([[float(v) for v in line.split()[1:]] for line in out.splitlines() if line.startswith("rnea0")])
@@ -263,6 +263,7 @@ def main():
                     "eomc's compiler sources, so a changed compiler rebuilds)")
     ap.add_argument("--pin-obj", default="", help="pin_derivatives.cpp already compiled (saves minutes)")
     ap.add_argument("--write", action="store_true")
+    ap.add_argument("--core", type=int, default=0, help="the core the harness is pinned to")
     ap.add_argument("--machine", action="store_true", help="compile eomc's C and Pinocchio alike with the "
                     "machine flags eomc's own builds use on this machine (-mavx2 -ffp-contract=off), not -O2 alone")
     a = ap.parse_args()
@@ -284,18 +285,18 @@ def main():
         built = time.time() - t0
         data = states(model, ref, floating, rng)
         agree = agreement(model, ref, data[0], data[1])
-        times, text_model = harness(model, ref, data, tmp, pin_obj, a.rounds, flags)
+        times, text_model = harness(model, ref, data, tmp, pin_obj, a.rounds, flags, a.core)
         ops = model.metadata["op_counts"]
         row = dict(case=case, nx=model.nx, nu=model.nu, times=times, agree=agree, text=text_model,
                    ops={f: sum(ops[f].values()) for f in ("rhs", "jac_x", "jac_id")}, build=built)
         rows.append(row)
         if a.write:      # row by row: a long run interrupted keeps what it measured
             with open(HERE / "results" / "derivatives.md", "a") as f:
-                f.write((header(a.rounds, flags) if len(rows) == 1 else "") + render_row(row) + "\n")
+                f.write((header(a.rounds, flags, a.core) if len(rows) == 1 else "") + render_row(row) + "\n")
         print(f"{case}: nx {model.nx}  " + "  ".join(f"{k} {v:.0f} ns" for k, v in times.items())
               + f"  ABA/jac_x {times[LABELS[2]] / times[LABELS[0]]:.2f}  RNEA/jac_id {times[LABELS[3]] / times[LABELS[1]]:.2f}"
               f"  agree {agree}  text model {text_model:.1e}  (built in {built:.1f} s wall)", flush=True)
-    print(header(a.rounds, flags) + "".join(render_row(r) + "\n" for r in rows))
+    print(header(a.rounds, flags, a.core) + "".join(render_row(r) + "\n" for r in rows))
 
 
 def checkout_state():
@@ -308,7 +309,7 @@ def checkout_state():
     return commit, dirty, cpu
 
 
-def header(rounds, flags=()):
+def header(rounds, flags=(), core=0):
     import pinocchio
     import eomc
     commit, dirty, cpu = checkout_state()
@@ -317,7 +318,7 @@ def header(rounds, flags=()):
              f"{' (+ uncommitted changes)' if dirty else ''}\n",
              f"`python benchmarks/bench_derivatives.py` — {cpu}, load {os.getloadavg()[0]:.1f} at the end, "
              f"Python {platform.python_version()}, Pinocchio {pinocchio.__version__} (header-only, g++ -O2{extra}), "
-             f"eomc {eomc.__version__}, gcc -O2{extra}; thread CPU, pinned to core 1, 4 contestants interleaved, "
+             f"eomc {eomc.__version__}, gcc -O2{extra}; thread CPU, pinned to core {core}, 4 contestants interleaved, "
              f"median of {rounds} rounds, {NS} states cycled.  eomc: `--formulation recursive`, "
              "functions rhs, jac_x, inverse_dynamics, jac_id.\n",
              "| model | nx | eomc jac_x ns | Pinocchio ABA derivs ns | **ABA / jac_x** | eomc jac_id ns | "

@@ -47,7 +47,7 @@ def analytic_jac_id_body(ctx, program, sym, shared=False):
         lines += temps(program, pr)
         lines += _inputs(program, pr)
     lines += call_lines(ctx.name, plan, IND, "x", "udot", 0, "1.0", ctx.nx, ctx.nq)
-    lines.append(f"{IND}return {ctx.name}_finite(out, {ctx.nu * ctx.nx});")
+    lines.append(f"{IND}return {ctx.name}_rd_finite(out, {ctx.nu * ctx.nx});")
     return lines
 
 
@@ -104,7 +104,7 @@ def analytic_jac_x_body(ctx, program, sym, W, G, shared=False):
         lines += body
         lines += _shared_inputs(ctx) if shared else _inputs(program, pr)
         lines += call_lines(ctx.name, plan, IND, "x", None, nq, "-1.0", nx, nq, 1)
-        lines.append(f"{IND}return {ctx.name}_finite(out, {nx * nx});")
+        lines.append(f"{IND}return {ctx.name}_rd_finite(out, {nx * nx});")
         return lines
     before, after = split_on(program.with_(assignments=tuple(once)), W)
     readers = ([e for _, e in after + stores + rows] + anx
@@ -120,7 +120,7 @@ def analytic_jac_x_body(ctx, program, sym, W, G, shared=False):
     lines += body
     lines += _shared_inputs(ctx) if shared else _inputs(program, pr)
     lines += call_lines(ctx.name, plan, IND, "x", "w", nq, "-1.0", nx, nq, 1)
-    lines.append(f"{IND}return {ctx.name}_finite(out, {nx * nx});")
+    lines.append(f"{IND}return {ctx.name}_rd_finite(out, {nx * nx});")
     return lines
 
 

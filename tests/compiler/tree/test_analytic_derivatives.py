@@ -250,3 +250,38 @@ def test_both_solves_of_jac_x(solver, tmp_path, monkeypatch):
                          progress=False, cache_dir=tmp_path / solver)
     assert analytic(model)
     assert worst(model, seed=5) < 1e-6
+
+
+def test_finiteness_check_of_the_kernels_outputs():
+    """jac_x and jac_id on the kernel report EOMC_NONFINITE exactly when an output is not
+    finite (NAME_rd_finite, analytic.finite_lines: sums of v * 0, not an isfinite loop): the C
+    functions called directly, at finite inputs whose outputs overflow (u' = 1e308) and at
+    ordinary ones; a NaN among them is caught too (fails if the check always passed)."""
+    import ctypes
+    system, _ = cart_joints(12, rigid=True)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = eomc.compile(system, "fcart", functions=FNS, formulation="recursive", progress=False)
+    assert analytic(model) and "fcart_rd_finite(out, " in model.source_path.read_text()
+    lib = ctypes.CDLL(str(model.directory / "libfcart.so"))
+    dp = ctypes.POINTER(ctypes.c_double)
+    ptr = lambda a: a.ctypes.data_as(dp)
+    nx, nu = model.nx, model.nu
+    p = np.array(model.param_defaults, dtype=float)
+    r = np.zeros(max(model.ninput, 1))
+    x = np.random.default_rng(4).uniform(-1, 1, nx)
+
+    def call(fn, ud, x=x):
+        out = np.full(nx * nx, 7.0)
+        args = [ctypes.c_double(0.0), ptr(x)] + ([ptr(ud)] if fn == "jac_id" else []) + [ptr(p), ptr(r), ptr(out), None]
+        return getattr(lib, f"fcart_{fn}")(*args), out[:(nu if fn == "jac_id" else nx) * nx]
+    status, out = call("jac_id", np.full(nu, 1e308))
+    assert not np.all(np.isfinite(out)) and status == 3     # EOMC_NONFINITE
+    status, out = call("jac_id", np.ones(nu))
+    assert np.all(np.isfinite(out)) and status == 0
+    status, out = call("jac_x", None)
+    assert np.all(np.isfinite(out)) and status == 0
+    bad = x.copy()
+    bad[nx - 1] = np.nan
+    status, out = call("jac_x", None, bad)
+    assert np.isnan(out).any() and status == 3
