@@ -240,13 +240,7 @@ def test_a_knee_that_catches_a_free_torso_goes_as_far_past_as_mujocos(tmp_path):
     inertia as the scale 0.043, with the saturating scale 0.057, MuJoCo's 0.0446.  The largest excursion past the limit is MuJoCo's within a factor 1.5 (MuJoCo's
     is 0.045 rad here: an MJCF limit gives what the file's solref makes it give)."""
     from eomc.compiler.contact.mujoco_law import limit_spring
-    from eomc.compiler.mjcf.carried import carried_inertias
-    path = tmp_path / "sitter.xml"
-    path.write_text(SITTER)
-    m = load_mjmodel(path)
-    knee = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, "knee")
-    own = 1.0 / m.dof_invweight0[m.jnt_dofadr[knee]]
-    carried = carried_inertias(m)[knee]
+    path, m, knee, own, carried = _sitter_knee(tmp_path, SITTER)
     # the rest of the robot's inertia about the knee's axis: the torso box (8 kg, half sizes 0.1 and
     # 0.05 across the axis) with its centre 0.15 ahead of and 0.05 above the knee
     assert carried == pytest.approx(8.0 / 3 * (0.1 ** 2 + 0.05 ** 2) + 8.0 * (0.15 ** 2 + 0.05 ** 2), rel=1e-9)
@@ -310,15 +304,9 @@ def test_the_limits_scale_is_the_one_mujocos_solver_applies(tmp_path, leg, dmax)
     times the own inertia) put the rule 1.6 and 1.9 times above the solver (its feet's soft,
     lifting contacts leave the knee less than the rigid torso): not asserted; docs say so."""
     from eomc.compiler.contact.mujoco_law import limit_spring
-    from eomc.compiler.mjcf.carried import carried_inertias
     xml = SITTER.replace('mass="1"', f'mass="{leg}"').replace('mass="0.1"', f'mass="{leg / 10}"').replace(
         'range="-17 17"', f'range="-17 17" solimplimit="0.9 {dmax} 0.001"')
-    path = tmp_path / "sitter.xml"
-    path.write_text(xml)
-    m = load_mjmodel(path)
-    knee = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, "knee")
-    own = 1.0 / m.dof_invweight0[m.jnt_dofadr[knee]]
-    carried = carried_inertias(m)[knee]
+    path, m, knee, own, carried = _sitter_knee(tmp_path, xml)
     K, C, hold = limit_spring(own, m.jnt_solref[knee], m.jnt_solimp[knee], m.opt.timestep, carried)
     K_own, _, (G, _) = limit_spring(own, m.jnt_solref[knee], m.jnt_solimp[knee], m.opt.timestep)
     rule = K / K_own * own
@@ -339,3 +327,14 @@ def test_the_limits_scale_is_the_one_mujocos_solver_applies(tmp_path, leg, dmax)
     ours = float(np.max(np.radians(-17) - res["q_knee"]))
     print(f"knee past its limit: eomc {ours:.4g} rad, MuJoCo {theirs:.4g} rad")
     assert theirs / 1.5 < ours < 1.5 * theirs
+
+
+def _sitter_knee(tmp_path, xml):
+    """The sitter model written and loaded: (path, MjModel, knee id, the knee's own inertia
+    1/dof_invweight0, the inertia it carries)."""
+    from eomc.compiler.mjcf.carried import carried_inertias
+    path = tmp_path / "sitter.xml"
+    path.write_text(xml)
+    m = load_mjmodel(path)
+    knee = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, "knee")
+    return path, m, knee, 1.0 / m.dof_invweight0[m.jnt_dofadr[knee]], carried_inertias(m)[knee]

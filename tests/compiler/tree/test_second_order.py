@@ -60,11 +60,16 @@ def test_metadata_names_the_path(models):
 
 
 def test_against_reverse_path_and_differences_of_jac_id(models):
-    kernel, reverse = models
-    rng = np.random.default_rng(11)
+    assert len(list(_against_reverse_and_differences(*models, seed=11, states=3, spread=1.5))) == 3
+
+
+def _against_reverse_and_differences(kernel, reverse, seed, states, spread):
+    """hess_id at random states equal to the reverse path's to 1e-12 and to central differences
+    of jac_id to 1e-8 (of the largest entry); yields each (H, scale) for further checks."""
+    rng = np.random.default_rng(seed)
     h = 1e-5
-    for _ in range(3):
-        x, ud = rng.uniform(-1.5, 1.5, kernel.nx), rng.uniform(-1, 1, kernel.nu)
+    for _ in range(states):
+        x, ud = rng.uniform(-spread, spread, kernel.nx), rng.uniform(-1, 1, kernel.nu)
         r = rng.uniform(-1, 1, kernel.ninput)
         H, ref = kernel.hess_id(0.0, x, ud, r=r), reverse.hess_id(0.0, x, ud, r=r)
         scale = np.max(np.abs(ref))
@@ -73,6 +78,7 @@ def test_against_reverse_path_and_differences_of_jac_id(models):
         fd = np.stack([(kernel.jac_id(0.0, x + h * e, ud, r=r) - kernel.jac_id(0.0, x - h * e, ud, r=r)) / (2 * h)
                        for e in np.eye(kernel.nx)], axis=2)
         assert np.max(np.abs(H - fd)) <= 1e-8 * scale
+        yield H, scale
 
 
 def test_overflow_is_an_error_not_a_silent_inf(models):
@@ -205,18 +211,7 @@ def test_free_and_ball_joints_take_the_kernel(floating_models):
     and to central differences of jac_id (measured ~4e-11), symmetric in its two state indices."""
     kernel, reverse = floating_models
     assert kernel.metadata["hess_id"].startswith("analytic second-order RNEA kernel")
-    rng = np.random.default_rng(12)
-    h = 1e-5
-    for _ in range(2):
-        x, ud = rng.uniform(-1, 1, kernel.nx), rng.uniform(-1, 1, kernel.nu)
-        r = rng.uniform(-1, 1, kernel.ninput)
-        H, ref = kernel.hess_id(0.0, x, ud, r=r), reverse.hess_id(0.0, x, ud, r=r)
-        scale = np.max(np.abs(ref))
-        assert scale > 1.0
-        assert np.max(np.abs(H - ref)) <= 1e-12 * scale
-        fd = np.stack([(kernel.jac_id(0.0, x + h * e, ud, r=r) - kernel.jac_id(0.0, x - h * e, ud, r=r)) / (2 * h)
-                       for e in np.eye(kernel.nx)], axis=2)
-        assert np.max(np.abs(H - fd)) <= 1e-8 * scale
+    for H, scale in _against_reverse_and_differences(kernel, reverse, seed=12, states=2, spread=1.0):
         assert np.max(np.abs(H - H.transpose(0, 2, 1))) <= 1e-12 * scale
 
 
