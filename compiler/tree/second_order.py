@@ -118,8 +118,8 @@ BOUND = "1e150"
 
 # True: the k-speed joints' entries stay along their tangent xi (Pinocchio's Lie-group tangent;
 # no change to their coordinates, :func:`_tangent_lines`) -- to compare with Pinocchio's tensors
-# and time the change (tests, benchmarks/bench_second_order.py).  Not part of the build cache's
-# key: a model built with it needs its own cache directory.
+# and time the change (tests, benchmarks/bench_second_order.py).  Part of the build cache's key
+# when set (build/reuse.generator_switches).
 TANGENT = False
 
 

@@ -65,6 +65,14 @@ def test_key_follows_the_generator_switches(tmp_path, monkeypatch):
         keys.append((generation_key(model_spec(path), None, False), source_key(path, {})))
     assert keys[0] == keys[2]
     assert keys[0][0] != keys[1][0] and keys[0][1] != keys[1][1]
+    # second_order.TANGENT (hess_id along the joints' tangent, for the Pinocchio comparison) likewise
+    import eomc.compiler.tree.second_order as second_order
+    tangent = []
+    for flag in (False, True, False):
+        monkeypatch.setattr(second_order, "TANGENT", flag)
+        tangent.append((generation_key(model_spec(path), None, False), source_key(path, {})))
+    assert tangent[0] == tangent[2] == keys[0]
+    assert tangent[0][0] != tangent[1][0] and tangent[0][1] != tangent[1][1]
 
 
 def test_digest_distinguishes_structure_and_assumptions():
