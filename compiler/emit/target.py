@@ -113,6 +113,7 @@ def to_float_text(source, where, own_prefix=None):
 # eomc_status's constants (runtime/c/eomc_model.h): an enum, while the functions return int
 _STATUS = {"EOMC_OK", "EOMC_SINGULAR_MASS_MATRIX", "EOMC_SINGULAR_CONSTRAINTS", "EOMC_NONFINITE",
            "EOMC_BAD_ARGUMENT", "EOMC_NOT_AVAILABLE"}
+_RESTRICT = re.compile(r"\brestrict\b\s*")
 _SIGN = re.compile(r"\(\(\((?P<a>[\w\[\]]+)\) > 0\) - \(\((?P=a)\) < 0\)\)")
 _BARE_HEAD = re.compile(r"^([ \t]*)(?:if|for) \(")
 
@@ -125,8 +126,12 @@ def misra_fixes(source):
     * 10.3/10.4 again: SymPy's sign(a), ``(((a) > 0) - ((a) < 0))``, an int difference of
       comparisons assigned to a float, becomes ``((a > 0.0f) ? 1.0f : ((a < 0.0f) ? -1.0f : 0.0f))``.
     * 15.6 (compound bodies): ``if (c) stmt;`` on one line becomes ``if (c) { stmt; }``.
+    * 8.14 (no ``restrict``): the recursive rhs's sub-functions take their scratch array
+      ``restrict`` in the default target (a promise of no aliasing, which lets gcc keep the inputs
+      in registers); here the qualifier is dropped: the same operations, a plain pointer.
     The default target keeps its bytes; this runs on the c99-f32 text only.
     """
+    source = _RESTRICT.sub("", source)
     source = _SIGN.sub(lambda m: f"(({m['a']} > 0.0f) ? 1.0f : (({m['a']} < 0.0f) ? -1.0f : 0.0f))", source)
     out = []
     for kind, text in ((m.lastgroup, m.group()) for m in _TOKEN.finditer(source)):
