@@ -60,15 +60,6 @@ def norm(v):
     return math.sqrt(dot(v, v))
 
 
-def norms(rows):
-    """The Euclidean norm of each row of a 2-D array (elementwise squares summed in column order)."""
-    rows = np.asarray(rows, dtype=float)
-    total = rows[..., 0] * rows[..., 0]
-    for k in range(1, rows.shape[-1]):
-        total = total + rows[..., k] * rows[..., k]
-    return np.sqrt(total)
-
-
 def eigh(sym, sweeps=64):
     """Eigenvalues (ascending) and eigenvectors (columns) of a small symmetric matrix by cyclic
     Jacobi rotations in Python floats: LAPACK's result, like BLAS's, depends on the CPU's kernel
