@@ -28,7 +28,8 @@ Where a C compiler lacks GNU vectors (``__GNUC__`` undefined), or the CPU lacks 
 instruction set (``__builtin_cpu_supports``), or the body has a statement shape this
 rewrite does not know, ``NAME_rhs_batch`` loops the scalar ``NAME_rhs`` over the states: the
 same results, no lanes; the metadata's ``rhs_batch.vectorized`` says which (and ``why``).
-States past the last full group of lanes (the tail) always take the scalar rhs.
+States past the last full group of lanes (the tail) always take the scalar rhs, in tiles of up
+to 8 states (:func:`scalar_tile`), as does the whole loop when the rhs is not vectorized.
 
 Layout: states are columns, structure of arrays: ``X[i*n + k]`` is component i of state k,
 the inputs likewise (``R[j*n + k]``, or NULL for zero inputs), the parameters shared.  A
@@ -39,7 +40,7 @@ time, as rows a power of two apart share the L1 cache's sets (:data:`TILE_BYTES`
 """
 import re
 
-__all__ = ["batch_code", "batch_rhs", "Unsupported", "SIMD_PRELUDE", "VECTOR_TRIG", "TILE_BYTES"]
+__all__ = ["batch_code", "batch_rhs", "Unsupported", "SIMD_PRELUDE", "VECTOR_TRIG", "TILE_BYTES", "SCALAR_TILE_BYTES"]
 
 _TEMP_LINE = re.compile(r"^(\s+)const double (t\d+) = (.*);$")
 _STORE_LINE = re.compile(r"^(\s+)([A-Za-z_]\w*)\[(\d+|\d+ \+ k|k)\] = (.*);$")
@@ -733,6 +734,24 @@ def helpers(name, used, defined=()):
 TILE_BYTES = 32768
 
 
+# bytes of the scalar loop's tile (NAME_<fn>_batch_any): up to 8 states' inputs and outputs, so
+# that a row of the column-major outputs is written a whole cache line at a time (Go2's jac_x:
+# 8 states of 1296 outputs, 86 KB; cart n = 40's, 6724 outputs: 2 states)
+SCALAR_TILE_BYTES = 131072
+
+
+def scalar_tile(nx, nr, nout):
+    """(states per tile, doubles per tile row) of the scalar loop: the row (a state's outputs)
+    rounded up to an odd number of 64-byte lines (rows of a tile then fall in different L1
+    sets when the loop writes them out column by column), and the largest of 8, 4, 2 states
+    whose tile fits :data:`SCALAR_TILE_BYTES`, else 1."""
+    width = -(-nout // 8) * 8
+    if width % 16 == 0:
+        width += 8
+    ts = next((t for t in (8, 4, 2) if t * (nx + max(nr, 1) + width) * 8 <= SCALAR_TILE_BYTES), 1)
+    return ts, width
+
+
 def batch_function(name, nx, nr, npar, lanes_code, helper_code, fn="rhs", nout=None, prelude=True):
     """(code before NAME_rhs_batch, its body): the prelude and the lane code (when there is
     any), ``NAME_rhs_batch_p`` (one parameter row per state, ``P[j*n + k]``: what a rollout
@@ -806,11 +825,14 @@ static EOMC_VTARGET int {name}_{fn}_groups(int n, double t, const double *X, con
     if (EOMC_VCPU_OK()) k = {name}_{fn}_groups(n, t, X, p, P, R, XDOT, status, &worst);
 #endif
 """
-    tail_inputs = (f"        for (i = 0; i < {nr}; i++) rs[i] = R != NULL ? R[(size_t)i * (size_t)n + (size_t)k] : 0.0;\n"
-                   if nr else "        rs[0] = 0.0;\n")
-    tail_params = (f"""        if (P != NULL) {{
-            for (i = 0; i < {npar}; i++) ps[i] = P[(size_t)i * (size_t)n + (size_t)k];
-        }}
+    ts, width = scalar_tile(nx, nr, nout)
+    tail_inputs = (f"""            for (i = 0; i < {nr}; i++) {{
+                for (j = 0; j < m; j++) rt[j][i] = R != NULL ? R[(size_t)i * (size_t)n + (size_t)(k + j)] : 0.0;
+            }}
+""" if nr else "")
+    tail_params = (f"""            if (P != NULL) {{
+                for (i = 0; i < {npar}; i++) ps[i] = P[(size_t)i * (size_t)n + (size_t)(k + j)];
+            }}
 """ if npar else "")
     entry_p = "" if fn != "rhs" else f"""/* NAME_rhs_batch with one parameter row per state: P[j*n + k] is parameter j of state k. */
 int {name}_rhs_batch_p(int n, double t, const double *X, const double *P, const double *R, double *XDOT,
@@ -821,19 +843,46 @@ int {name}_rhs_batch_p(int n, double t, const double *X, const double *P, const 
     return {name}_rhs_batch_any(n, t, X, NULL, P, R, XDOT, status, work);
 }}
 """
-    loop = f"""static int {name}_{fn}_batch_any(int n, double t, const double *X, const double *p, const double *P,
+    loop = f"""/* The states the lanes do not take (all of them when the {fn} is not vectorized) through the
+   scalar {name}_{fn}, in tiles of up to T states: a tile's inputs are gathered row by row, each
+   state's outputs written one after another into its row of the tile, then the tile written
+   out row by row (T doubles a row: whole cache lines).  Why: the column-major OUT puts a
+   state's outputs n doubles apart, and one state at a time wrote a line per output and
+   fetched it again for each of the next states (Go2's jac_x, 1296 outputs, n = 1024: 0.52x
+   the scalar call).  W, a tile row's length, is an odd number of cache lines, so that the
+   tile's rows do not share L1 sets. */
+static int {name}_{fn}_batch_any(int n, double t, const double *X, const double *p, const double *P,
                               const double *R, double *XDOT, int *status, double *work)
 {{
-    double xs[{nx}], ps[{np1}], rs[{nr1}], xd[{nout}];
-    int k = 0, i, s, worst = EOMC_OK;
+    enum {{ T = {ts}, W = {width} }};
+    double xt[T][{nx}], ps[{np1}], rt[T][{nr1}], ot[T][W];
+    int k = 0, i, j, m, s, worst = EOMC_OK;
 {"" if nr else "    (void)R;" + chr(10)}{"" if npar else "    (void)P;" + chr(10)}    if (n < 0 || X == NULL || XDOT == NULL || (p == NULL && P == NULL)) return EOMC_BAD_ARGUMENT;
     ps[0] = 0.0;
-{block_call}    for (; k < n; k++) {{
-        for (i = 0; i < {nx}; i++) xs[i] = X[(size_t)i * (size_t)n + (size_t)k];
-{tail_inputs}{tail_params}        s = {name}_{fn}(t, xs, P != NULL ? ps : p, rs, xd, work);
-        for (i = 0; i < {nout}; i++) XDOT[(size_t)i * (size_t)n + (size_t)k] = s == EOMC_OK || s == EOMC_NONFINITE ? xd[i] : NAN;
-        if (status != NULL) status[k] = s;
-        if (s != EOMC_OK && worst == EOMC_OK) worst = s;
+    for (j = 0; j < T; j++) rt[j][0] = 0.0;
+{block_call}    for (; k < n; k += m) {{
+        m = n - k < T ? n - k : T;
+        for (i = 0; i < {nx}; i++) {{
+            for (j = 0; j < m; j++) xt[j][i] = X[(size_t)i * (size_t)n + (size_t)(k + j)];
+        }}
+{tail_inputs}        for (j = 0; j < m; j++) {{
+            const double *xs = xt[j], *rs = rt[j];
+            double *xd = ot[j];
+{tail_params}            s = {name}_{fn}(t, xs, P != NULL ? ps : p, rs, xd, work);
+            if (s != EOMC_OK && s != EOMC_NONFINITE) {{
+                for (i = 0; i < {nout}; i++) xd[i] = NAN;
+            }}
+            if (status != NULL) status[k + j] = s;
+            if (s != EOMC_OK && worst == EOMC_OK) worst = s;
+        }}
+        for (i = 0; i < {nout}; i++) {{
+            double *o = XDOT + (size_t)i * (size_t)n + (size_t)k;
+            if (m == T) {{
+                for (j = 0; j < T; j++) o[j] = ot[j][i];   /* a whole tile: a fixed count the compiler unrolls */
+            }} else {{
+                for (j = 0; j < m; j++) o[j] = ot[j][i];
+            }}
+        }}
     }}
     return worst;
 }}

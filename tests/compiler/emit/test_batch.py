@@ -79,17 +79,20 @@ def test_joint_limits_fmax_in_lanes_bit_for_bit(cache):
     assert "double *restrict S_)" in c and "eomc_vd *restrict S_)" in c
 
 
-@pytest.mark.parametrize("lanes", [4, 8])
+@pytest.mark.parametrize("lanes", [4, 8, 0])
 def test_tiles_whole_and_partial_inputs_and_parameter_rows(cache, lanes):
     """The lanes run in tiles of up to 32 states (NAME_rhs_groups: each row's part of a tile
     copied in and out whole): n = 1024 (rows a power of two apart, the case the tiles are
     for), and a whole tile, a partial one and a scalar tail, with inputs per state, give the
     scalar rhs's bits; a failure in the partial tile's 2nd group names its row; and
     NAME_rhs_batch_p (one parameter row per state, read per group) equals the scalar rhs at
-    each state's parameters."""
+    each state's parameters.  lanes=0: -DEOMC_NO_SIMD, every state through the scalar loop's
+    tiles of 8 (the same sizes as 8 lanes: whole tiles and a partial one)."""
     if lanes > machine_lanes():
         pytest.skip(f"this machine has {machine_lanes()} double lanes")
-    model = _ur5(cache, f"{STRICT} -DEOMC_BATCH_LIBM_TRIG -DEOMC_BATCH_LANES={lanes}", limits=True)
+    flags = f"-DEOMC_BATCH_LANES={lanes}" if lanes else "-DEOMC_NO_SIMD"
+    model = _ur5(cache, f"{STRICT} -DEOMC_BATCH_LIBM_TRIG {flags}", limits=True)
+    lanes = lanes or 8
     assert "_rhs_groups(" in "".join(f.read_text() for f in Path(model.directory).glob("*.c"))
     for n in (1024, 32 + 3 * lanes + 3):
         X = _states(model, n, n) * 2.0

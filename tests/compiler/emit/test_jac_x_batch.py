@@ -99,6 +99,39 @@ def test_cart_with_inputs_per_state_and_failures(cache):
     assert model.jac_x_batch(0.3, X[:0]).shape == (0, model.nx, model.nx)
 
 
+def test_scalar_tile_sizes():
+    """Where jac_x is not vectorized (Go2: pivoting on values) the batch loops the scalar
+    jac_x in tiles (compiler/emit/batch.scalar_tile): 8 states of Go2's 1296 outputs, 2 of
+    cart n = 40's 6724 (the tile within SCALAR_TILE_BYTES), a tile row an odd number of cache
+    lines."""
+    from eomc.compiler.emit.batch import SCALAR_TILE_BYTES, scalar_tile
+    assert scalar_tile(36, 0, 1296) == (8, 1304) and scalar_tile(82, 1, 82 * 82) == (2, 6728)
+    assert scalar_tile(4, 1, 4) == (8, 8) and scalar_tile(10, 0, 16) == (8, 24)
+    for nx in (4, 10, 36, 82, 200):
+        ts, width = scalar_tile(nx, 1, nx * nx)
+        assert width >= nx * nx and width % 16 == 8 and ts * (nx + 1 + width) * 8 <= max(SCALAR_TILE_BYTES, (
+            nx + 1 + width) * 8)
+
+
+def test_cart_without_simd_scalar_tiles(cache):
+    """-DEOMC_NO_SIMD: every state through the scalar jac_x, in tiles of 8: n = 1024 (output
+    rows a power of two apart) and 2 whole tiles plus a partial one, inputs per state, give
+    the scalar jac_x's bits; a failure in a whole tile and one in the partial tile name their
+    rows."""
+    model = compile_model(str(CART), "jbcart", functions=FUNCTIONS, formulation="recursive", cache_dir=cache,
+                          cflags=f"{STRICT} -DEOMC_NO_SIMD", progress=False)
+    assert "enum { T = 8, W = " in "".join(f.read_text() for f in Path(model.directory).glob("*.c"))
+    for n in (1024, 21):
+        X = _states(model, n, n)
+        R = np.random.default_rng(n + 1).uniform(-1, 1, (n, model.ninput))
+        assert np.array_equal(model.jac_x_batch(0.3, X, r=R), _scalar(model, X, R))
+    for row in (9, 19):
+        bad = X.copy()
+        bad[row, 0] = np.inf
+        with pytest.raises(SimulationError, match=rf"jac_x_batch: non-finite input \(row {row} of X\)"):
+            model.jac_x_batch(0.3, bad, r=R)
+
+
 def test_analytic_kernel_in_lanes_bit_for_bit(cache, monkeypatch):
     """A cart with 6 links: its jac_x calls the analytic kernel NAME_rnea_derivs (loops over
     the tree's int tables, compiler/tree/analytic.py), retyped into lanes (every double a
