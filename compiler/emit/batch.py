@@ -826,9 +826,9 @@ static EOMC_VTARGET int {name}_{fn}_groups(int n, double t, const double *X, con
 #endif
 """
     ts, width = scalar_tile(nx, nr, nout)
-    tail_inputs = (f"""            for (i = 0; i < {nr}; i++) {{
-                for (j = 0; j < m; j++) rt[j][i] = R != NULL ? R[(size_t)i * (size_t)n + (size_t)(k + j)] : 0.0;
-            }}
+    tail_inputs = (f"""        for (i = 0; i < {nr}; i++) {{
+            for (j = 0; j < m; j++) rt[j][i] = R != NULL ? R[(size_t)i * (size_t)n + (size_t)(k + j)] : 0.0;
+        }}
 """ if nr else "")
     tail_params = (f"""            if (P != NULL) {{
                 for (i = 0; i < {npar}; i++) ps[i] = P[(size_t)i * (size_t)n + (size_t)(k + j)];
