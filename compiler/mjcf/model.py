@@ -100,9 +100,10 @@ def load_mjmodel(path):
     try:
         model = mujoco.MjModel.from_xml_path(str(path))
     except ValueError as exc:
-        line = re.search(r"\bline (\d+)", str(exc))
-        raise ModelFileError(f"MuJoCo could not compile the model: {exc}", str(path),
-                             int(line.group(1)) if line else None) from None
+        from .files import locate_mujoco_error
+        file, line = locate_mujoco_error(path, str(exc))
+        text = str(exc).strip() if line is None else re.sub(r", line 0\b", "", str(exc).strip())
+        raise ModelFileError(f"MuJoCo could not compile the model: {text}", file, line) from None
     finally:
         mujoco.set_mju_user_warning(previous)
     for message in messages:
