@@ -414,8 +414,9 @@ def test_planar_robots_limits_hold_as_mujocos(tmp_path, which, stem, joints, fac
     the joints that go past their limits in both runs go as far as in MuJoCo's mj_step run
     within ``factor``.  Measured eomc / MuJoCo: walker2d feet 0.037 / 0.028 (1.3), dm hopper knee
     0.054 / 0.060 and ankle 0.021 / 0.026, dm walker ankles 0.052 / 0.022 (2.3: not within 1.5;
-    its knees and hips take another fall than MuJoCo's, eomc's knees never reach their limit).
-    With 1/dof_invweight0 (before session 9): 0.229, 0.149 / 0.052, 0.533 rad past."""
+    not asserted: its knees 0.062 / 0.073, hips 0.011 / 0.042, walker2d's legs 0.041 / 0.091,
+    benchmarks/results/limit_overshoot.md).  With 1/dof_invweight0 (before session 9): 0.229,
+    0.149 / 0.052, 0.533 rad past."""
     path = _suite_file(which, stem)
     m = load_mjmodel(path)
     with warnings.catch_warnings():
