@@ -178,7 +178,7 @@ def _unguarded_calls(text):
 def test_dm_control_pairs_run_their_narrow_phase_only_inside_their_guards(name, monkeypatch):
     """Generated, not compiled: with the narrow phase as called routines, each of dm_control's
     stacker's and manipulator's pair calls in the rhs sits inside its pair's broad-phase guard
-    (before: stacker 0 of 62, manipulator 0 of 184)."""
+    (before: stacker 0 of 62, manipulator 0 of 185)."""
     dm_control = pytest.importorskip("dm_control")
     from pathlib import Path
     from eomc.compiler.driver import generate
