@@ -494,10 +494,10 @@ def _kinv_lines(plan):
     return lines + ["    }"]
 
 
-# The dots whose k enters along its coordinate (stored at a column q_k): D0 -> p1, D1 + D2 -> p2,
-# D8 + D9 -> a (the j != i group only); see _triple_lines' stores
-QDOTS_A = (0, 1, 2)
-QDOTS_B = (0, 1, 2, 8, 9)
+# The dots whose k enters along its coordinate (stored at a column q_k), as the sums the stores
+# read: D0 -> p1, D1 + D2 -> p2, D8 + D9 -> a (the j != i group only); see _triple_lines' stores
+QDOTS_A = ((0,), (1, 2))
+QDOTS_B = ((0,), (1, 2), (8, 9))
 
 
 def _fold_lines(plan, maxl, qdots):
@@ -505,19 +505,23 @@ def _fold_lines(plan, maxl, qdots):
     coordinates, D~[a] = sum_d D[d] K^-1[d, a] (its dofs d, coordinates a; by K's diagonal
     blocks), so the stores of the k loop write those columns along q, not along the tangent xi:
     every entry is linear in S_k (psi' = v x S_k and the rest are too), so this is the kernel
-    run with S_k K^-1 in place of S_k.  The joint is at the start of every path it is on."""
+    run with S_k K^-1 in place of S_k.  The joint is at the start of every path it is on.
+    A pair of dots the stores only read as a sum is combined as the sum (into the first; the
+    second set to 0): 54 multiply-adds a pair for a free joint instead of 90."""
     out = []
     for n in _folded(plan):
         e0, k, _ = plan.multi[n]
         out.append(f"                    if (pd[p0[pa]] == {e0}) {{   /* joint {n}'s columns q (its K^-1) */")
-        for m in qdots:
+        for ms in qdots:
+            m = ms[0]
             for bl, (r, c) in enumerate(plan.kblocks[n]):
                 b = len(r)
-                xs = [f"D[{m * maxl + c[i]}]" for i in range(b)]
+                xs = [" + ".join(f"D[{mm * maxl + c[i]}]" for mm in ms) for i in range(b)]
                 out.append("                        { const double " + ", ".join(f"x{i} = {x}" for i, x in enumerate(xs)) + ";")
                 for jj in range(b):
                     out.append(f"                          D[{m * maxl + r[jj]}] = " + " + ".join(
                         f"x{i} * Kv{n}_{bl}[{b * i + jj}]" for i in range(b)) + ";")
+                    out += [f"                          D[{mm * maxl + r[jj]}] = 0.0;" for mm in ms[1:]]
                 out.append("                        }")
         out.append("                    }")
     return out
@@ -837,7 +841,13 @@ def second_order_ops(program, plan, nx):
     triples = sum((d + 1) * (d + 2) // 2 for d in plan.dep)
     c["adds"] += 4 * len(plan.laws)     # the laws' curvature (_law_lines)
     if plan.multi and not TANGENT:      # the change to the k-speed joints' coordinates (_tangent_lines)
-        for (_, k, _), blocks in zip(plan.multi, plan.kblocks):
+        fold = _folded(plan)
+        for n, ((_, k, _), blocks) in enumerate(zip(plan.multi, plan.kblocks)):
+            if n in fold:       # per pair the dots' sums by K^-1's blocks (_fold_lines), per row the (q, q) block
+                per_pair = len(QDOTS_B) * sum(len(r) ** 2 for r, _ in blocks)
+                c["muls"] += pairs * per_pair + plan.nd * 2 * k ** 3 + 2 * k ** 4
+                c["adds"] += pairs * per_pair + plan.nd * 2 * k ** 3 + 2 * k ** 4
+                continue
             per_row = 2 * sum(len(r) ** 2 for r, _ in blocks) * nx + k ** 3
             c["muls"] += plan.nd * per_row + 2 * k ** 4
             c["adds"] += plan.nd * per_row + 2 * k ** 4
