@@ -48,7 +48,7 @@ import sympy as sm
 
 from ..emit.bodies import IND, store, temps
 from ..ir.opcount import count_ops
-from .analytic import (VARIATION_LINES, WORLD_INERTIA_LINES, body_head_lines, c_table, rd_helpers,
+from .analytic import (VARIATION_LINES, WORLD_INERTIA_LINES, body_head_lines, c_table, finite_lines, rd_helpers,
                        tree_tables, world_load_lines)
 
 __all__ = ["ANH", "second_order_plan", "with_law_hessians", "with_k_derivatives", "second_order_c", "second_order_body",
@@ -143,7 +143,8 @@ def second_order_note(plan, reason):
 
 def second_order_c(name, plan, nq, nx, helpers):
     """The C text of ``NAME_rnea_hess(an, u, ud, out)`` (see the module doc); ``helpers``:
-    write the NAME_rd_* helpers (False when the first-order kernel wrote them)."""
+    write the NAME_rd_* helpers and NAME_rd_finite (False when the first-order kernel wrote them:
+    one finiteness check for both kernels, :func:`.analytic.finite_lines`)."""
     nb, nd, o = plan.nb, plan.nd, plan.offsets
     fn = f"{name}_rnea_hess"
     rd = f"{name}_rd"
@@ -151,23 +152,8 @@ def second_order_c(name, plan, nq, nx, helpers):
     nm = sum(k for _, k, _ in plan.multi)
     oj = "oj" if nm else "j != i"     # j in another joint than i (one-speed joints: another dof)
     cfg = _lanes_cfg(plan)
-    lines = (rd_helpers(name) if helpers else []) + [
+    lines = (rd_helpers(name) + finite_lines(name) if helpers else []) + [
         *_lanes_macro(name),
-        f"static int {name}_h2_finite(const double *v, int n)",
-        "{   /* v * 0 is 0 for a finite v, NaN otherwise; four sums side by side (the plain isfinite",
-        "      loop was 14 % of the 20-link cart's call) */",
-        "    double a0 = 0.0, a1 = 0.0, a2 = 0.0, a3 = 0.0;",
-        "    int i;",
-        "    for (i = 0; i + 4 <= n; i += 4) {",
-        "        a0 += v[i] * 0.0;",
-        "        a1 += v[i + 1] * 0.0;",
-        "        a2 += v[i + 2] * 0.0;",
-        "        a3 += v[i + 3] * 0.0;",
-        "    }",
-        "    for (; i < n; i++) a0 += v[i] * 0.0;",
-        "    return a0 + a1 + a2 + a3 == 0.0 ? EOMC_OK : EOMC_NONFINITE;",
-        "}",
-        "",
         f"static inline void {name}_h2_mv(const double *m, const double *x, double *out)",
         "{   /* out = M x, M 6x6 row-major, column by column (six sums side by side) */",
         "    double o0 = 0.0, o1 = 0.0, o2 = 0.0, o3 = 0.0, o4 = 0.0, o5 = 0.0;",
@@ -824,7 +810,7 @@ def second_order_body(ctx, program, sym):
               f"{IND}    }}",
               f"{IND}    if (!{ctx.name}_rnea_hess(an, u, ud, out)) return EOMC_OK;   /* finite by its bound (BOUND) */",
               f"{IND}}}",
-              f"{IND}return {ctx.name}_h2_finite(out, {ctx.nu * ctx.nx * ctx.nx});"]
+              f"{IND}return {ctx.name}_rd_finite(out, {ctx.nu * ctx.nx * ctx.nx});   /* analytic.finite_lines */"]
     return lines
 
 
