@@ -15,7 +15,7 @@ arms (benchmarks/results/auto_choice.md).
   (a minute at 40 bodies, not finishing for a 35-dof humanoid), and on no model measured
   beyond 6 speeds does Kane's rhs win: timed on this machine (benchmarks/results/
   auto_choice.md, 2026-11-29 18:16) it is faster only on the cart at n <= 2 (22 against
-  26 ns at n = 1, even at n = 2) and 1.2x-9.6x slower from n = 3 (cart n = 8 924 against
+  26 ns at n = 1, even at n = 2) and 1.06x-9.6x slower from n = 3 (cart n = 8 924 against
   327 ns, n = 20 8690 against 907; UR10 and UR5 1.46x, Kinova 1.89x, Panda 2.4x, Solo12
   2.5x), so the cap loses nothing measured.  A model file that forms Kane's
   equations itself therefore does not have them forced when auto takes the tree.
