@@ -319,7 +319,7 @@ static void prec_apply(const radau_prec *P, const radau_tab *k, const double *r,
         v0[i] = creal(s0) * (k->l0[0] * r0 + k->l0[1] * r1 + k->l0[2] * r2);
         P->vc[i] = s1 * (k->l1[0] * r0 + k->l1[1] * r1 + k->l1[2] * r2);
     }
-    lu_solve(nx, P->Er, P->pr, v0);
+    lu_solve_rows(nx, P->Er, P->pr, v0);
     lu_solve_c(nx, P->Ec, P->pc, P->vc);
     for (i = 0; i < nx; i++) {
         double v = v0[i];
@@ -417,6 +417,7 @@ int eomc_adjoint_radau_backward(const eomc_model *m, eomc_vjp_fn vjp, long nrec,
     radau_tab k;
     radau_prec P;
     int nx, np, N, i, a, status, have_J = 0, factored = 0;
+    double rate = 0.1;                  /* the iteration's last contraction (update over update) */
     double *Kt, *J, *Y, *mu, *lam, *gx, *gpt, *res, *del, *g, *gs, *mwork;
     int *piv;
     long cnt[5] = {0, 0, 0, 0, 0};      /* jac_x calls, factorizations, iterations, dense steps, vjp calls */
@@ -458,7 +459,7 @@ int eomc_adjoint_radau_backward(const eomc_model *m, eomc_vjp_fn vjp, long nrec,
          * iteration's are the step's), the preconditioner one Jacobian's K (prec_apply),
          * reused over steps while the iteration converges fast */
         while (!dense && !solved) {
-            double dprev = INFINITY;
+            double dprev = INFINITY, dlast;
             if (!have_J) {
                 double *Jm = J;                     /* scratch: one nx x nx Jacobian */
                 status = m->jac_x(t + k.C[1] * h, Y + nx, p, r, Jm, mwork);
@@ -477,9 +478,13 @@ int eomc_adjoint_radau_backward(const eomc_model *m, eomc_vjp_fn vjp, long nrec,
             memset(res, 0, (size_t)N * sizeof(double));
             memcpy(res + 2 * nx, lam, (size_t)nx * sizeof(double));
             prec_apply(&P, &k, res, mu);
+            dlast = sup_norm(mu, N);
             for (it = 1; it <= PREC_MAXIT; it++) {
-                double dn;
-                status = radau_pull(vjp, &k, t, h, Y, p, r, mu, gx, g, gp ? gs : NULL, gpt, nx, np, mwork);
+                double dn, tol = PREC_RTOL * fmax(sup_norm(mu, N), sup_norm(lam, nx));
+                /* the parameter part only where this iteration is expected to be the last
+                 * (the last update times the last contraction within tol) */
+                int with_gp = gp && dlast * rate <= tol;
+                status = radau_pull(vjp, &k, t, h, Y, p, r, mu, gx, g, with_gp ? gs : NULL, gpt, nx, np, mwork);
                 if (status != EOMC_OK) return status;
                 cnt[2]++;
                 cnt[4] += 3;
@@ -487,10 +492,19 @@ int eomc_adjoint_radau_backward(const eomc_model *m, eomc_vjp_fn vjp, long nrec,
                 for (i = 0; i < nx; i++) res[2 * nx + i] += lam[i];
                 prec_apply(&P, &k, res, del);
                 dn = sup_norm(del, N);
-                if (dn <= PREC_RTOL * fmax(sup_norm(mu, N), sup_norm(lam, nx))) { solved = 1; break; }
+                if (dlast > 0.0) rate = fmin(dn / dlast, 1.0);
+                if (dn <= tol) {
+                    solved = 1;
+                    if (gp && !with_gp) {       /* mispredicted: the same products with it */
+                        status = radau_pull(vjp, &k, t, h, Y, p, r, mu, gx, g, gs, gpt, nx, np, mwork);
+                        if (status != EOMC_OK) return status;
+                        cnt[4] += 3;
+                    }
+                    break;
+                }
                 if (!isfinite(dn) || (it >= PREC_SLOW && dn > 0.1 * dprev)) break;
                 for (i = 0; i < N; i++) mu[i] += del[i];
-                dprev = dn;
+                dprev = dlast = dn;
             }
             if (solved) { if (it > PREC_REFRESH) have_J = 0; break; }
             if (fresh) break;                   /* a fresh Jacobian did not do: the dense path */
