@@ -3,7 +3,7 @@
 Per model, `eomc build MODEL --outputs rhs,rhs_batch` (child process, fresh cache, auto
 formulation, parameters at run time); one C harness per lane width (-DEOMC_BATCH_LANES=4: AVX2,
 =8: AVX-512F) links the model's C and times, in thread CPU time (CLOCK_THREAD_CPUTIME_ID),
-pinned to core 1 (taskset -c 1):
+pinned to one core (taskset -c CORE, --core, 0 unless told):
 
 * scalar: NAME_rhs over 1024 states stored one after another (array of structures, the best
   case for the scalar call);
@@ -18,8 +18,8 @@ within 1 ulp, the rest is the same arithmetic).
 Models: the cart auto sees (benchmarks/tree_models/cart_rel_joints.py, n = 4, 20, 40), UR10
 and Panda (fixed base), Go2 and G1 29-dof (--floating-base, --limits off).
 
-Usage: python benchmarks/bench_rhs_batch.py [--rounds 9] [--write] [--function jac_x] [names...]
-(--write: results/rhs_batch.md)
+Usage: python benchmarks/bench_rhs_batch.py [--rounds 9] [--core 0] [--write] [--function jac_x] [names...]
+(--write: results/rhs_batch.md, keeping its hand-written notes)
 
 --function jac_x: the same for NAME_jac_x_batch against the scalar jac_x (nx*nx outputs per
 state; `--outputs rhs,jac_x,jac_x_batch`), written to results/jac_x_batch.md.
@@ -39,7 +39,7 @@ HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 sys.path.insert(0, str(ROOT / "tests"))
 
-from common import C_CLOCK_AND_RNG  # noqa: E402
+from common import C_CLOCK_AND_RNG, write_results  # noqa: E402
 
 HARNESS = r"""
 #define _POSIX_C_SOURCE 199309L
@@ -114,7 +114,7 @@ def build(model, env, flags, outdir, fn="rhs"):
     return json.loads((outdir / "m.json").read_text()), time.perf_counter() - start
 
 
-def measure(label, model, env, flags, tmp, rounds, fn="rhs"):
+def measure(label, model, env, flags, tmp, rounds, fn="rhs", core=0):
     d = tmp / label.replace(" ", "_").replace("=", "")
     d.mkdir()
     meta, build_s = build(model, env, flags, d, fn)
@@ -133,7 +133,7 @@ def measure(label, model, env, flags, tmp, rounds, fn="rhs"):
     agree = {}
     for rnd in range(rounds):
         for lanes in ((4, 8) if rnd % 2 == 0 else (8, 4)):
-            out = subprocess.run(["taskset", "-c", "1", str(exes[lanes]), "1"], capture_output=True,
+            out = subprocess.run(["taskset", "-c", str(core), str(exes[lanes]), "1"], capture_output=True,
                                  text=True, check=True).stdout
             for line in out.splitlines():
                 if line.startswith("time"):
@@ -180,6 +180,7 @@ def main(argv):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rounds", type=int, default=9)
     parser.add_argument("--write", action="store_true")
+    parser.add_argument("--core", type=int, default=0, help="the core the harnesses are pinned to")
     parser.add_argument("--function", choices=("rhs", "jac_x"), default="rhs")
     parser.add_argument("names", nargs="*")
     args = parser.parse_args(argv)
@@ -190,7 +191,7 @@ def main(argv):
             if args.names and not any(n.lower() in label.lower() for n in args.names):
                 continue
             try:
-                row = measure(label, model, env, flags, Path(tmp), args.rounds, args.function)
+                row = measure(label, model, env, flags, Path(tmp), args.rounds, args.function, args.core)
             except (RuntimeError, subprocess.CalledProcessError) as exc:
                 row = {"label": label, "error": str(exc)[:200]}
             print(row, flush=True)
@@ -198,18 +199,14 @@ def main(argv):
     text = table(rows, args.function)
     print(env_line)
     print(text)
-    if args.write and args.function == "jac_x":
-        (HERE / "results" / "jac_x_batch.md").write_text(
-            "# jac_x_batch: Jacobians per second in SIMD lanes vs the scalar jac_x (issue 31 item 1)\n\n"
-            f"{env_line}.  benchmarks/bench_rhs_batch.py --function jac_x --rounds {args.rounds}: 1024 states "
-            "per call, thread CPU time, taskset -c 1, contestants interleaved, medians.  ns/state: lower is "
-            "better; speed-up = scalar ns / batch ns.\n\n" + text + "\n")
-    elif args.write:
-        (HERE / "results" / "rhs_batch.md").write_text(
-            "# rhs_batch: states per second in SIMD lanes vs the scalar rhs (issue 31 item 1)\n\n"
-            f"{env_line}.  benchmarks/bench_rhs_batch.py --rounds {args.rounds}: 1024 states per call, "
-            "thread CPU time, taskset -c 1, contestants interleaved, medians.  ns/state: lower is better; "
-            "speed-up = scalar ns / batch ns.\n\n" + text + "\n")
+    if args.write:
+        what = ("jac_x_batch: Jacobians per second in SIMD lanes vs the scalar jac_x" if args.function == "jac_x"
+                else "rhs_batch: states per second in SIMD lanes vs the scalar rhs")
+        how = "--function jac_x " if args.function == "jac_x" else ""
+        write_results(f"{args.function}_batch", f"# {what} (issue 31 item 1)\n\n"
+                      f"{env_line}.  benchmarks/bench_rhs_batch.py {how}--rounds {args.rounds}: 1024 states per call, "
+                      f"thread CPU time, taskset -c {args.core}, contestants interleaved, medians.  ns/state: lower is "
+                      "better; speed-up = scalar ns / batch ns.\n\n" + text + "\n", keep_notes=True)
     return 0
 
 

@@ -136,9 +136,8 @@ def run(model, a, xs, ps, stat_fields, jvp=None, error_control=False):
     Returns (x rows, stats dict, x_last, S) with S (n_eval, nx, k): the columns for
     ``xs`` then ``ps``.  ``jvp``: see :func:`use_jvp`.  ``error_control``: the step
     control watches S too (else the steps are the plain run's).  The stats gain
-    ``njvp`` / ``sens_iterations`` / ``sens_slow`` / ``sens_rhs`` (Radau's staggered
-    iteration: jvp calls, iterations, steps whose iteration had not converged, rhs calls
-    of the later iterations' differences; 0 elsewhere).
+    ``njvp`` / ``sens_iterations`` / ``sens_slow`` (Radau's staggered iteration: jvp
+    calls, iterations, steps whose iteration had not converged; 0 elsewhere).
     """
     ffi, lib = _sens_ffi(model.ffi)
     nx, k = model.nx, len(xs) + len(ps)
@@ -180,10 +179,9 @@ def run(model, a, xs, ps, stat_fields, jvp=None, error_control=False):
                             n_eval, buf(a["t_eval"]), buf(X_out), buf(X_last), stats, buf(work),
                             work.size)
     st = {f: getattr(stats, f) for f in stat_fields}
-    counts = ffi.new("long[4]")              # C long: 32 bits on Windows, so not an int64 buffer
+    counts = ffi.new("long[3]")              # C long: 32 bits on Windows, so not an int64 buffer
     lib.eomc_sens_counts(s, counts)
-    st.update(njvp=int(counts[0]), sens_iterations=int(counts[1]), sens_slow=int(counts[2]),
-              sens_rhs=int(counts[3]))
+    st.update(njvp=int(counts[0]), sens_iterations=int(counts[1]), sens_slow=int(counts[2]))
     S = X_out[:, nx:].reshape(n_eval, k, nx).transpose(0, 2, 1)
     return np.ascontiguousarray(X_out[:, :nx]), st, X_last[:nx].copy(), S
 

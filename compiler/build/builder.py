@@ -73,8 +73,8 @@ def machine_lanes():
     """Doubles per SIMD register on this machine for NAME_rhs_batch: 8 with AVX-512F, 4 with
     AVX2, else 2 (SSE2, NEON).  The generated C is the same for all; the build picks the width
     by -DEOMC_BATCH_LANES, which a user's CFLAGS may set instead (and the C checks the CPU at
-    run time, falling back to the scalar rhs).  On UR5 here (AMD EPYC), 8 lanes ran 5.1x the
-    scalar rhs and 4 lanes 3.0x (benchmarks/results/rhs_batch.md)."""
+    run time, falling back to the scalar rhs).  On UR10 here (AMD EPYC), 8 lanes ran 4.75x the
+    scalar rhs and 4 lanes 3.91x (benchmarks/results/rhs_batch.md)."""
     if platform.machine().lower() not in ("x86_64", "amd64", "i386", "i686"):
         return 2
     from eomc.runtime.cpu import cpu_features

@@ -118,6 +118,35 @@ def locate(path, tag, name=None):
     return str(path), None
 
 
+def locate_mujoco_error(path, message):
+    """(file, line) of the element a MuJoCo compiler error ``message`` is about, or (path, None).
+
+    MuJoCo reads ``<include>``d files into the main document and then reports their elements at
+    "line 0" against the main file: the element it names (``Element 'joint'``) is found here, in
+    the main file or an included one, by the attribute or value the message quotes (``'bogus'``
+    of "unrecognized attribute: 'bogus'"); a real line number is MuJoCo's own."""
+    line = re.search(r"\bline (\d+)", message)
+    if line and int(line.group(1)) > 0:
+        return str(path), int(line.group(1))
+    element = re.search(r"Element '([\w-]+)'", message)
+    quoted = re.findall(r"'([^'\n]+)'", message.split("\n")[0])
+    if not element or not quoted:
+        return str(path), None
+    tag = re.escape(element.group(1))
+    for file, _ in model_files(path):
+        try:
+            text = Path(file).read_text(errors="replace")
+        except OSError:
+            continue
+        for q in quoted:
+            q = re.escape(q)
+            match = (re.search(rf"<{tag}\b[^>]*\s{q}\s*=", text)
+                     or re.search(rf"<{tag}\b[^>]*=\s*[\"']{q}[\"']", text))
+            if match:
+                return str(file), text.count("\n", 0, match.start()) + 1
+    return str(path), None
+
+
 def named_files(path, seen=None):
     """The files an MJCF file names (includes, meshes, textures, ...), resolved as MuJoCo
     resolves them, or None when one cannot be found (then a build of it is not reused:

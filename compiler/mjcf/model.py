@@ -100,9 +100,10 @@ def load_mjmodel(path):
     try:
         model = mujoco.MjModel.from_xml_path(str(path))
     except ValueError as exc:
-        line = re.search(r"\bline (\d+)", str(exc))
-        raise ModelFileError(f"MuJoCo could not compile the model: {exc}", str(path),
-                             int(line.group(1)) if line else None) from None
+        from .files import locate_mujoco_error
+        file, line = locate_mujoco_error(path, str(exc))
+        text = str(exc).strip() if line is None else re.sub(r", line 0\b", "", str(exc).strip())
+        raise ModelFileError(f"MuJoCo could not compile the model: {text}", file, line) from None
     finally:
         mujoco.set_mju_user_warning(previous)
     for message in messages:
@@ -355,9 +356,10 @@ def read_model(model, poses=False):
         # the tree body carrying the MuJoCo body's mass sits at its mass centre body_ipos
         c = [_com_symbol(f"c{a}_{s}", v, built.parameters) for a, v in zip("xyz", m.body_ipos[b])]
         frames.append(Frame(raw, index[s], _IDENTITY, tuple(-x for x in c), (s,)))
+    frames += _site_frames(m, frames)
     read = model_of_tree(built.tree, Provenance("mjcf", str(model.path)), frames=tuple(frames),
                          defaults=dict(built.parameters), joint_inputs=tuple(built.inputs),
-                         outputs=outputs, events=events, initial_state=reference_state(m, built),
+                         frame_noun="body or site", outputs=outputs, events=events, initial_state=reference_state(m, built),
                          timestep=float(m.opt.timestep),
                          kane_refusal="an MJCF model has the recursive formulation only: MuJoCo's model is "
                                       "read straight into the joint tree, with no SymPy System to form "
@@ -388,6 +390,34 @@ def _with_activations(read, activations):
 
 
 _IDENTITY = ((1, 0, 0), (0, 1, 0), (0, 0, 1))
+
+
+def _site_frames(m, body_frames):
+    """A Frame per named ``<site>`` (MuJoCo's ``site_xpos``/``site_xmat``): the site's body's
+    frame (``body_frames``, in MuJoCo's body order) moved by ``site_pos`` and turned by
+    ``site_quat``.  Sites are where models mark tools, sensors and feet; MuJoCo keeps their names
+    apart from the bodies', so a site named like a body is left to the body (``--frame NAME`` is the
+    body's frame, as it was before sites were frames: no build changes its outputs' meaning)."""
+    import mujoco
+    from eomc.compiler.multibody.joints import identifier, snap
+    from eomc.compiler.multibody.model import Frame
+    from .treeir import quat_matrix
+    taken = {f.name for f in body_frames} | {a for f in body_frames for a in f.aliases}
+    out = []
+    for i in range(m.nsite):
+        raw = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_SITE, i)
+        if not raw:
+            continue                 # an unnamed site cannot be asked for
+        if raw in taken:
+            continue
+        body = body_frames[int(m.site_bodyid[i])]
+        assert body.rotation == _IDENTITY        # a body's frame has the MuJoCo body's axes
+        rotation = tuple(tuple(snap(float(v)) for v in row) for row in quat_matrix(m.site_quat[i]))
+        offset = tuple(o + snap(float(v)) for o, v in zip(body.offset, m.site_pos[i]))
+        alias = identifier(raw)
+        out.append(Frame(raw, body.body, rotation, offset, () if alias == raw or alias in taken else (alias,)))
+        taken |= {raw, alias}
+    return out
 
 
 def _com_symbol(name, value, parameters):

@@ -30,7 +30,8 @@ Where the names come from (:func:`resolve_frames`):
 
 - URDF robots: every link, links welded by fixed joints (tool0, ee_link) included, at its
   own frame -- their fixed offset from the body they were merged into is kept;
-- MuJoCo models: every body, at its body frame (MuJoCo's ``xpos``/``xmat``);
+- MuJoCo models: every body, at its body frame (MuJoCo's ``xpos``/``xmat``), and every named
+  ``<site>`` at its site frame (``site_xpos``/``site_xmat``);
 - Systems and KanesMethods: every body of the joint tree, at its mass centre with its frame.
 """
 import difflib
@@ -130,10 +131,13 @@ def _requested(names):
     return out, com
 
 
+_PLURAL = {"body": "bodies", "body or site": "bodies and sites"}
+
+
 def _unknown(name, known, where, what):
     close = difflib.get_close_matches(name, known, n=5, cutoff=0.4)
     hint = (f"nearest: {', '.join(close)}" if close else
-            f"{'bodies' if what == 'body' else what + 's'}: {', '.join(known[:12])}{', ...' if len(known) > 12 else ''}")
+            f"{_PLURAL.get(what, what + 's')}: {', '.join(known[:12])}{', ...' if len(known) > 12 else ''}")
     return ModelError(f"{where}: no {what} named {name!r} to output as a frame ({hint}; "
                       f"'{COM}' is the centre of mass)")
 

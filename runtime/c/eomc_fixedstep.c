@@ -776,7 +776,11 @@ static int fs_switched(const fs_fast *q)
  * this file's.  And the errors against the models' own Radau grew (bench_rollout_contacts, median
  * of 4 starts): humanoid 0.073 -> 0.22, ant 0.49 -> 0.66 -- Newton takes an impact in a longer
  * sub-step than the bisection did, and the first-order error goes with that step.  Also dropped: FRICTION_FACTOR 3 (the ball at 5 ms passes, at 4 it gains energy;
- * the humanoid only 560 -> 546).  A sub-step
+ * the humanoid only 560 -> 546).  Session 9 (benchmarks/results/fixedstep.md's notes): Newton across
+ * a regime change retried in eight variants (whole steps, sub-steps, contacts or limits only, to a
+ * tighter ratio): at best 1-5 % fewer calls over 8 random humanoid starts, the ant's rising up to 40 %,
+ * errors mostly larger; aiming the split at a touch-down's interpolated onset: calls unchanged within 2 %
+ * (the calls go to the onset cell, whose ratio stays 37-390 down to h/64, and the walk back up).  A sub-step
  * of the smallest size whose ratio is still above HARD_FACTOR * split is taken anyway, counted in
  * stats->rejected (simulate warns); a step with no finite sub-step at all fails.  After
  * each kept step the contacts' depths are checked against eomc_implicit.depth_limit: the

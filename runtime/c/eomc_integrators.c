@@ -30,6 +30,9 @@
 #include <float.h>
 #include <math.h>
 #include <string.h>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 typedef double _Complex eomc_cplx;
 
@@ -594,58 +597,97 @@ static void lu_solve_c(int n, const eomc_cplx *A, const int *piv, eomc_cplx *b)
     }
 }
 
-/* lu_solve and lu_solve_c on k vectors (column j at B + j n), the rows of all of them
- * interleaved: the same operations in the same order per vector (results bit for bit those
- * of k single solves), but k independent chains the processor overlaps, where one solve after
- * another waits on each substitution's chain (Radau's staggered sensitivities: a real and a
- * complex solve per column and iteration). */
-static void lu_solve_cols(int n, const double *A, const int *piv, double *B, int k)
+/* Radau's staggered sensitivities: a real and a complex solve per column and iteration with
+ * the step's LU, k columns (column j at B + j n).  Each row's sum runs from the oldest
+ * unknown to the one just solved for (forward sweep: j ascending; back sweep: descending),
+ * so the sum of the earlier terms does not wait on the newest value and the processor
+ * overlaps the rows; the back sweep multiplies by the diagonal's reciprocal (computed off
+ * the chain) instead of dividing.  The state's Newton keeps lu_solve/lu_solve_c, whose
+ * dependent chain per row (the newest term first, then a division) made these solves
+ * latency-bound: at n = 18 (the 8-link cart) a real solve 400 -> 190 ns, a complex one
+ * 490 -> 350 ns (with the SSE2 complex products below), C loop, core 0.  The sums run in
+ * another order than lu_solve's: the same solution to rounding. */
+static void sg_solve_r(int n, const double *A, const int *piv, double *B, int k)
 {
     for (int c = 0; c < k; c++) {
         double *b = B + (size_t)c * n;
         for (int r = 0; r < n; r++)
             if (piv[r] != r) { double tmp = b[r]; b[r] = b[piv[r]]; b[piv[r]] = tmp; }
     }
-    for (int r = 0; r < n; r++)
-        for (int i = r + 1; i < n; i++) {
-            const double a = A[i * n + r];
-            for (int c = 0; c < k; c++) B[(size_t)c * n + i] -= a * B[(size_t)c * n + r];
-        }
-    for (int i = n - 1; i >= 0; i--)
+    for (int i = 1; i < n; i++) {
+        const double *a = A + (size_t)i * n;
         for (int c = 0; c < k; c++) {
-            double *b = B + (size_t)c * n, s = b[i];
-            for (int j = i + 1; j < n; j++) s -= A[i * n + j] * b[j];
-            b[i] = s / A[i * n + i];
+            double *b = B + (size_t)c * n, s = 0.0;
+            for (int j = 0; j < i; j++) s += a[j] * b[j];
+            b[i] -= s;
         }
+    }
+    for (int i = n - 1; i >= 0; i--) {
+        const double *a = A + (size_t)i * n, r = 1.0 / a[i];
+        for (int c = 0; c < k; c++) {
+            double *b = B + (size_t)c * n, s = 0.0;
+            for (int j = n - 1; j > i; j--) s += a[j] * b[j];
+            b[i] = (b[i] - s) * r;
+        }
+    }
 }
 
-static void lu_solve_c_cols(int n, const eomc_cplx *A, const int *piv, eomc_cplx *B, int k)
+/* sum_j a_j b_j over the complex entries j = lo, lo + step, ..., up to (not including) hi,
+ * in that order: re and im of the sum.  With SSE2 (every x86-64) one pair register holds
+ * [ar br, ai bi] and another [ar bi, ai br]. */
+static inline void sg_cdot(const double *a, const double *b, int lo, int hi, int step,
+                           double *re, double *im)
+{
+#if defined(__SSE2__)
+    __m128d P = _mm_setzero_pd(), Q = _mm_setzero_pd();
+    double p[2], q[2];
+    for (int j = lo; j != hi; j += step) {
+        __m128d av = _mm_loadu_pd(a + 2 * j), bv = _mm_loadu_pd(b + 2 * j);
+        P = _mm_add_pd(P, _mm_mul_pd(av, bv));
+        Q = _mm_add_pd(Q, _mm_mul_pd(av, _mm_shuffle_pd(bv, bv, 1)));
+    }
+    _mm_storeu_pd(p, P);
+    _mm_storeu_pd(q, Q);
+    *re = p[0] - p[1];
+    *im = q[0] + q[1];
+#else
+    double sr = 0.0, si = 0.0;
+    for (int j = lo; j != hi; j += step) {
+        sr += a[2 * j] * b[2 * j] - a[2 * j + 1] * b[2 * j + 1];
+        si += a[2 * j] * b[2 * j + 1] + a[2 * j + 1] * b[2 * j];
+    }
+    *re = sr;
+    *im = si;
+#endif
+}
+
+static void sg_solve_c(int n, const eomc_cplx *A, const int *piv, eomc_cplx *B, int k)
 {
     for (int c = 0; c < k; c++) {
         eomc_cplx *b = B + (size_t)c * n;
         for (int r = 0; r < n; r++)
             if (piv[r] != r) { eomc_cplx tmp = b[r]; b[r] = b[piv[r]]; b[piv[r]] = tmp; }
     }
-    for (int r = 0; r < n; r++)
+    for (int i = 1; i < n; i++) {
+        const double *a = (const double *)(A + (size_t)i * n);
         for (int c = 0; c < k; c++) {
-            eomc_cplx *b = B + (size_t)c * n;
-            double br = creal(b[r]), bi = cimag(b[r]);
-            for (int i = r + 1; i < n; i++) {
-                eomc_cplx a = A[i * n + r];
-                b[i] -= (creal(a) * br - cimag(a) * bi) + I * (creal(a) * bi + cimag(a) * br);
-            }
+            double *b = (double *)(B + (size_t)c * n), sr, si;
+            sg_cdot(a, b, 0, i, 1, &sr, &si);
+            b[2 * i] -= sr;
+            b[2 * i + 1] -= si;
         }
+    }
     for (int i = n - 1; i >= 0; i--) {
-        eomc_cplx q = c_recip(A[i * n + i]);
+        const double *a = (const double *)(A + (size_t)i * n);
+        eomc_cplx q = c_recip(A[(size_t)i * n + i]);
+        double qr = creal(q), qi = cimag(q);
         for (int c = 0; c < k; c++) {
-            eomc_cplx *b = B + (size_t)c * n;
-            double sr = creal(b[i]), si = cimag(b[i]);
-            for (int j = i + 1; j < n; j++) {
-                eomc_cplx a = A[i * n + j];
-                sr -= CMUL_RE(a, b[j]);
-                si -= CMUL_IM(a, b[j]);
-            }
-            b[i] = (sr * creal(q) - si * cimag(q)) + I * (sr * cimag(q) + si * creal(q));
+            double *b = (double *)(B + (size_t)c * n), sr, si;
+            sg_cdot(a, b, n - 1, i, -1, &sr, &si);
+            sr = b[2 * i] - sr;
+            si = b[2 * i + 1] - si;
+            b[2 * i] = sr * qr - si * qi;
+            b[2 * i + 1] = sr * qi + si * qr;
         }
     }
 }
@@ -1504,9 +1546,9 @@ static void radau_tolerances(double rtol, double atol, double *rt, double *at)
  * collocation equations of S' = J S + P (J, P at the stage points; eomc_stagger.h):
  *     ZS_a = h sum_b A_ab (J(Y_b) (S + ZS_b) + P(Y_b)),
  * linear in ZS, solved by the state's simplified Newton in the eigenbasis of A with the
- * step's own LU (the real and the complex one), each iteration one jvp call per stage for
- * all k columns and one real and one complex solve per column (all columns' solves
- * interleaved, lu_solve_cols).  The accounting of CVODES's staggered direct (BDF): per
+ * step's own LU (the real and the complex one): the first iteration one jvp call per stage
+ * for all k columns, the later ones one call at the middle stage (RADAU_SG_CORR_STAGE);
+ * each one real and one complex solve per column (sg_solve_r/sg_solve_c).  The accounting of CVODES's staggered direct (BDF): per
  * iteration the sensitivity residual for all columns and one solve per column with the
  * state's Newton matrix, no Jacobian or factorization of its own -- the same here, with
  * three stages.  Predictor: the last step's
@@ -1521,38 +1563,64 @@ static void radau_tolerances(double rtol, double atol, double *rt, double *at)
  * fixed iteration gave 7e-6. */
 #define RADAU_SG_FNEWT 0.03
 
-/* Up to this many columns the iterations after the first take J(Y_a) (ZS - ZS_jvp) by a
- * forward difference of rhs (one rhs per column and stage) instead of another jvp round:
- * the correction is a small fraction of ZS, so the difference's ~1e-8 relative error is
- * far below the tolerance; the first iteration's residual is always jvp's. */
-#define RADAU_SG_DQ_MAXK 2
+/* The iterations after the first need only J (ZS - ZSe): the residual is linear in ZS and
+ * exact at ZSe, the first iteration's point (jvp at the three stages).  They take J at the
+ * middle stage Y_1 for all three stages, one jvp call with 3 k directions instead of 3 calls
+ * with k (lanes of four: 8-link cart, k = 4, 1.4 us against 1.9).  That changes the point
+ * the iteration converges to by h A (J(Y_a) - J(Y_1)) (ZS - ZSe), O(h^2 J') times the
+ * predictor's error (S against the RK4 reference the same: 1.8e-8 at k = 1, 7.5e-8 at k = 4,
+ * benchmarks/results/sensitivity_radau.md).  Until s9 they took three more jvp calls, or for
+ * k <= 2 a forward difference of rhs per column and stage. */
+#define RADAU_SG_CORR_STAGE 1
 
 typedef struct radau_sg {
-    double *ZS, *WS, *FS, *dW, *QS, *Sold, *scale, *xdot, *tmp;
-    double *ZSe, *FSe, *F0, *f1;   /* ZS and FS at the last jvp round, f(Y_a), rhs scratch */
+    double *ZS, *WS, *FS, *dW, *QS, *Sold, *scale, *tmp;   /* scale: 1 / (atol + |S| rtol) */
+    double *ZSe, *FSe, *F0, *f1;   /* ZS and FS at the first iteration; f(Y_a), f(Y_1) */
+    double *Dc;                    /* 3 k directions [ZS_aj - ZSe_aj; 0] (the corrections) */
     eomc_cplx *bc;
     double faccon;          /* the sensitivities' theta / (1 - theta), as the state's */
     int have;               /* QS, Sold hold the last step's polynomial */
     double hprev, tprev;
 } radau_sg;
 
-size_t eomc_stagger_work_size(int nx, int k)
+size_t eomc_stagger_work_size(int nx, int k, int ndir)
 {
-    size_t nk = (size_t)nx * (size_t)(k > 0 ? k : 0);
-    return 26 * nk + 8 * (size_t)nx + 16;
+    size_t kk = (size_t)(k > 0 ? k : 0), nk = (size_t)nx * kk;
+    return 26 * nk + 3 * kk * (size_t)ndir + 8 * (size_t)nx + 16;
 }
 
-static void radau_sg_init(radau_sg *g, int n, int k, double **pos)
+static void radau_sg_init(radau_sg *g, int n, int k, int ndir, double **pos)
 {
     size_t nk = (size_t)n * k;
+    g->Dc = take(pos, 3 * (size_t)k * ndir);   /* the corrections' directions: parameter parts 0 */
+    memset(g->Dc, 0, 3 * (size_t)k * ndir * sizeof(double));
     g->ZS = take(pos, 3 * nk); g->WS = take(pos, 3 * nk); g->FS = take(pos, 3 * nk);
     g->dW = take(pos, 3 * nk); g->QS = take(pos, 3 * nk);
     g->Sold = take(pos, nk); g->scale = take(pos, nk); g->tmp = take(pos, nk);
-    g->xdot = take(pos, n);
     g->bc = (eomc_cplx *)take(pos, 2 * nk);
     g->ZSe = take(pos, 3 * nk); g->FSe = take(pos, 3 * nk);
-    g->F0 = take(pos, 3 * (size_t)n); g->f1 = take(pos, n);
+    g->F0 = take(pos, 3 * (size_t)n); g->f1 = take(pos, n);   /* jvp's xdot outputs */
     g->faccon = 1.0; g->have = 0; g->hprev = 1.0; g->tprev = 0.0;
+}
+
+/* out_a = sum_b M_ab in_b for a = 0, 1, 2 (M^T with transpose), rows of len doubles at
+ * in + b len and out + a len: the staggered step's changes of basis (Z <-> W by T and
+ * TI, the dense output by P).  Written a-outer with the coefficients in locals: as three
+ * strided stores per i, reloading M (it might alias), this was ~15 % of the step's own
+ * time at four columns (perf).  Same products summed in the same order as before. */
+#if defined(__GNUC__) && !defined(__clang__)
+__attribute__((optimize("vect-cost-model=dynamic")))
+#endif
+static void sg_mix3(const double M[3][3], int transpose, const double *restrict in,
+                    double *restrict out, size_t len)
+{
+    const double *i0 = in, *i1 = in + len, *i2 = in + 2 * len;
+    for (int a = 0; a < 3; a++) {
+        const double m0 = transpose ? M[0][a] : M[a][0], m1 = transpose ? M[1][a] : M[a][1],
+                     m2 = transpose ? M[2][a] : M[a][2];
+        double *restrict o = out + (size_t)a * len;
+        for (size_t i = 0; i < len; i++) o[i] = m0 * i0[i] + m1 * i1[i] + m2 * i2[i];
+    }
 }
 
 static int radau_sens_step(ctx *c, const radau_consts *k, radau_ws *w, radau_sg *g, double t,
@@ -1573,11 +1641,8 @@ static int radau_sens_step(ctx *c, const radau_consts *k, radau_ws *w, radau_sg 
             memset(Za, 0, nk * sizeof(double));
         }
     }
-    for (size_t i = 0; i < nk; i++) g->scale[i] = atol + fabs(S[i]) * rtol;
-    for (size_t i = 0; i < nk; i++)
-        for (int a = 0; a < 3; a++)
-            g->WS[a * nk + i] = k->TI[a][0] * g->ZS[i] + k->TI[a][1] * g->ZS[nk + i]
-                                + k->TI[a][2] * g->ZS[2 * nk + i];
+    for (size_t i = 0; i < nk; i++) g->scale[i] = 1.0 / (atol + fabs(S[i]) * rtol);   /* reciprocal */
+    sg_mix3(k->TI, 0, g->ZS, g->WS, nk);
     g->faccon = pow(fmax(g->faccon, DBL_EPSILON), 0.8);
     for (int it = 1; it <= EOMC_SG_MAXIT; it++) {
         double dyno = 0.0;
@@ -1586,23 +1651,22 @@ static int radau_sens_step(ctx *c, const radau_consts *k, radau_ws *w, radau_sg 
             for (int i = 0; i < n; i++) w->tmp[i] = y[i] + w->Z[a * n + i];
             if (aborted(c)) return c->abort;
             grid_inputs_at(c, ta);
-            if (it > 1 && kc <= RADAU_SG_DQ_MAXK) {   /* FS_a = FSe_a + J(Y_a) (ZS_a - ZSe_a) */
-                double ynorm = 0.0;
-                for (int i = 0; i < n; i++) ynorm = fmax(ynorm, fabs(w->tmp[i]));
-                for (int j = 0; j < kc; j++) {
-                    size_t o = a * nk + (size_t)j * n;
-                    double dn = 0.0, eps;
-                    for (int i = 0; i < n; i++) dn = fmax(dn, fabs(g->ZS[o + i] - g->ZSe[o + i]));
-                    memcpy(g->FS + o, g->FSe + o, (size_t)n * sizeof(double));
-                    if (dn == 0.0) continue;
-                    eps = sqrt(DBL_EPSILON) * (1.0 + ynorm) / dn;
-                    for (int i = 0; i < n; i++) g->xdot[i] = w->tmp[i] + eps * (g->ZS[o + i] - g->ZSe[o + i]);
-                    sg->ndq++;
-                    s = c->m->rhs(ta, g->xdot, c->p, c->r, g->f1, c->mwork);
-                    if (s == EOMC_OK && !all_finite(n, g->f1)) s = EOMC_NONFINITE;
-                    if (s) { c->st->t_fail = ta; return s; }
-                    for (int i = 0; i < n; i++) g->FS[o + i] += (g->f1[i] - g->F0[a * n + i]) / eps;
-                }
+            if (it > 1) {               /* FS_a = FSe_a + J(Y_1) (ZS_a - ZSe_a), one call */
+                if (a != RADAU_SG_CORR_STAGE) continue;
+                for (int b = 0; b < 3; b++)
+                    for (int j = 0; j < kc; j++) {
+                        double *d = g->Dc + ((size_t)b * kc + j) * nd;
+                        const double *Zj = g->ZS + b * nk + (size_t)j * n, *Ze = g->ZSe + b * nk + (size_t)j * n;
+                        for (int i = 0; i < n; i++) d[i] = Zj[i] - Ze[i];
+                    }
+                sg->njvp++;
+                s = sg->jvp(ta, w->tmp, c->p, c->r, 3 * kc, g->Dc, g->f1, g->FS, c->mwork);
+#if defined(__GNUC__) && defined(__x86_64__)
+                if (__builtin_cpu_supports("avx")) __asm__ volatile("vzeroupper");   /* see eomc_sensitivity.c */
+#endif
+                if (s == EOMC_OK && !all_finite((int)(3 * nk), g->FS)) s = EOMC_NONFINITE;
+                if (s) { c->st->t_fail = ta; return s; }
+                for (size_t i = 0; i < 3 * nk; i++) g->FS[i] += g->FSe[i];
                 continue;
             }
             for (int j = 0; j < kc; j++) {          /* jvp's directions [S_j + ZS_aj; e_p] */
@@ -1621,30 +1685,31 @@ static int radau_sens_step(ctx *c, const radau_consts *k, radau_ws *w, radau_sg 
             memcpy(g->FSe + a * nk, g->FS + a * nk, nk * sizeof(double));
         }
         sg->niter++;
-        for (int j = 0; j < kc; j++) {
-            size_t o = (size_t)j * n;
-            const double *f0 = g->FS + o, *f1 = g->FS + nk + o, *f2 = g->FS + 2 * nk + o;
-            const double *W0 = g->WS + o, *W1 = g->WS + nk + o, *W2 = g->WS + 2 * nk + o;
-            double *d0 = g->dW + o;
-            eomc_cplx *bc = g->bc + o;
-            for (int i = 0; i < n; i++) {
-                d0[i] = k->TI[0][0] * f0[i] + k->TI[0][1] * f1[i] + k->TI[0][2] * f2[i] - mr * W0[i];
-                bc[i] = (k->TI[1][0] + I * k->TI[2][0]) * f0[i] + (k->TI[1][1] + I * k->TI[2][1]) * f1[i]
-                        + (k->TI[1][2] + I * k->TI[2][2]) * f2[i]
-                        - ((creal(mc) * W1[i] - cimag(mc) * W2[i]) + I * (creal(mc) * W2[i] + cimag(mc) * W1[i]));
+        {   /* the residual in the eigenbasis: real part dW, complex part bc (re, im pairs) */
+            const double *f0 = g->FS, *f1 = f0 + nk, *f2 = f1 + nk;
+            const double *W0 = g->WS, *W1 = W0 + nk, *W2 = W1 + nk;
+            const double t00 = k->TI[0][0], t01 = k->TI[0][1], t02 = k->TI[0][2];
+            const double t10 = k->TI[1][0], t11 = k->TI[1][1], t12 = k->TI[1][2];
+            const double t20 = k->TI[2][0], t21 = k->TI[2][1], t22 = k->TI[2][2];
+            const double mcr = creal(mc), mci = cimag(mc);
+            double *bc = (double *)g->bc;
+            for (size_t i = 0; i < nk; i++) {
+                g->dW[i] = t00 * f0[i] + t01 * f1[i] + t02 * f2[i] - mr * W0[i];
+                bc[2 * i] = t10 * f0[i] + t11 * f1[i] + t12 * f2[i] - (mcr * W1[i] - mci * W2[i]);
+                bc[2 * i + 1] = t20 * f0[i] + t21 * f1[i] + t22 * f2[i] - (mcr * W2[i] + mci * W1[i]);
             }
         }
-        lu_solve_cols(n, w->LUr, w->pivr, g->dW, kc);        /* all columns at once */
-        lu_solve_c_cols(n, w->LUc, w->pivc, g->bc, kc);
+        sg_solve_r(n, w->LUr, w->pivr, g->dW, kc);        /* all columns at once */
+        sg_solve_c(n, w->LUc, w->pivc, g->bc, kc);
         for (int j = 0; j < kc; j++) {
             size_t o = (size_t)j * n;
             const double *d0 = g->dW + o;
             const eomc_cplx *bc = g->bc + o;
             for (int i = 0; i < n; i++) {
-                double a0 = d0[i] / g->scale[o + i], a1, a2;
+                double a0 = d0[i] * g->scale[o + i], a1, a2;
                 g->dW[nk + o + i] = creal(bc[i]);
                 g->dW[2 * nk + o + i] = cimag(bc[i]);
-                a1 = creal(bc[i]) / g->scale[o + i]; a2 = cimag(bc[i]) / g->scale[o + i];
+                a1 = creal(bc[i]) * g->scale[o + i]; a2 = cimag(bc[i]) * g->scale[o + i];
                 dyno += a0 * a0 + a1 * a1 + a2 * a2;
             }
         }
@@ -1658,17 +1723,11 @@ static int radau_sens_step(ctx *c, const radau_consts *k, radau_ws *w, radau_sg 
         }
         dynold = fmax(dyno, DBL_EPSILON);
         for (size_t i = 0; i < 3 * nk; i++) g->WS[i] += g->dW[i];
-        for (size_t i = 0; i < nk; i++)
-            for (int a = 0; a < 3; a++)
-                g->ZS[a * nk + i] = k->T[a][0] * g->WS[i] + k->T[a][1] * g->WS[nk + i]
-                                    + k->T[a][2] * g->WS[2 * nk + i];
+        sg_mix3(k->T, 0, g->WS, g->ZS, nk);
         if (g->faccon * dyno <= fnewt) { conv = 1; break; }
     }
     if (!conv) sg->nslow++;
-    for (size_t i = 0; i < nk; i++)                  /* QS = ZS^T P: S's dense output */
-        for (int a = 0; a < 3; a++)
-            g->QS[a * nk + i] = g->ZS[i] * k->P[0][a] + g->ZS[nk + i] * k->P[1][a]
-                                + g->ZS[2 * nk + i] * k->P[2][a];
+    sg_mix3(k->P, 1, g->ZS, g->QS, nk);               /* QS = ZS^T P: S's dense output */
     memcpy(g->Sold, S, nk * sizeof(double));
     for (size_t i = 0; i < nk; i++) S[i] += g->ZS[2 * nk + i];
     g->have = 1; g->hprev = h; g->tprev = t;
@@ -1688,7 +1747,7 @@ static int run_radau(ctx *c, const eomc_options *o, proj *pj, double t0, double 
     radau_consts_init(&k);
     radau_ws_init(&w, n, pos);
     radau_tolerances(o->rtol, o->atol, &rtol, &atol);
-    if (c->sg && c->sg->k > 0) radau_sg_init(&g, n, c->sg->k, pos);
+    if (c->sg && c->sg->k > 0) radau_sg_init(&g, n, c->sg->k, c->sg->ndir, pos);
     if ((s = frhs(c, t0, x, f))) return s;
     if ((s = fjac(c, t0, x, w.J))) return s;
     if (o->h0 > 0) h = o->h0;
@@ -2512,7 +2571,7 @@ static int integrate_core(const eomc_model *m, const eomc_options *opt,
     if (s == EOMC_OK) s = check_stagger(m, opt, sg, n_eval);
     if (s == EOMC_OK && (!work || work_len < eomc_integrate_work_size(m, opt->method)
                          + (fb ? (size_t)m->ninput * (size_t)m->nx : 0)
-                         + (sg && sg->k > 0 ? eomc_stagger_work_size(m->nx, sg->k) : 0)
+                         + (sg && sg->k > 0 ? eomc_stagger_work_size(m->nx, sg->k, sg->ndir) : 0)
                          + (opt->method == EOMC_IMPLICITFAST && opt->implicit
                             ? opt->implicit->work_len : 0)))
         s = EOMC_BAD_ARGUMENT;
@@ -2526,7 +2585,7 @@ static int integrate_core(const eomc_model *m, const eomc_options *opt,
     proj_init(&pj, m, opt->project, &pos);
     c.pj = &pj;
     if (sg) {
-        sg->njvp = sg->niter = sg->nslow = sg->ndq = 0;
+        sg->njvp = sg->niter = sg->nslow = 0;
         sg->nrec = 0;
         if (sg->n_err > 0) c.n_err = sg->n_err;
         if (sg->n_fin > 0) c.n_fin = sg->n_fin;

@@ -28,7 +28,7 @@ struct eomc_sens {
     double *D;                /* k x (nx + nparam): the directions handed to jvp */
     int errcon;               /* 1: the step control sees S too (simultaneous, as before) */
     int avx;                  /* the CPU has AVX (vzeroupper after the model's calls) */
-    long njvp, niter, nslow, ndq;  /* the last run's staggered counts */
+    long njvp, niter, nslow;  /* the last run's staggered counts */
     eomc_model aug;
 };
 
@@ -186,13 +186,13 @@ size_t eomc_sens_work_size(const eomc_sens *s, int method)
     int k = s->nxcol + s->npcol;
     if (staggered(s, method))
         return (size_t)s->nx * (size_t)k + eomc_integrate_work_size(s->m, method)
-               + eomc_stagger_work_size(s->nx, k);
+               + eomc_stagger_work_size(s->nx, k, s->nx + s->np);
     return eomc_integrate_work_size(&s->aug, method);
 }
 
 void eomc_sens_counts(const eomc_sens *s, long *out)
 {
-    out[0] = s->njvp; out[1] = s->niter; out[2] = s->nslow; out[3] = s->ndq;
+    out[0] = s->njvp; out[1] = s->niter; out[2] = s->nslow;
 }
 
 int eomc_sens_integrate(eomc_sens *s, const eomc_options *opt, double t0, double t1,
@@ -208,7 +208,7 @@ int eomc_sens_integrate(eomc_sens *s, const eomc_options *opt, double t0, double
     o.project = 0;
     o.baumgarte = 0.0;
     memset(&sg, 0, sizeof sg);
-    s->njvp = s->niter = s->nslow = s->ndq = 0;
+    s->njvp = s->niter = s->nslow = 0;
     if (!staggered(s, o.method)) {
         /* explicit methods (and Radau with error control on S): the augmented model, whose
          * sensitivities stay out of the error test unless errcon */
@@ -227,6 +227,6 @@ int eomc_sens_integrate(eomc_sens *s, const eomc_options *opt, double t0, double
     st = eomc_integrate_sg(s->m, &o, t0, t1, X0, s->p, n_rgrid, r_tgrid, r_values, n_eval, t_eval,
                            X_out, X_last, stats, work + nk, work_len - nk, &sg);
     if (X_last) memcpy(X_last + n, sg.S, nk * sizeof(double));
-    s->njvp = sg.njvp; s->niter = sg.niter; s->nslow = sg.nslow; s->ndq = sg.ndq;
+    s->njvp = sg.njvp; s->niter = sg.niter; s->nslow = sg.nslow;
     return st;
 }

@@ -71,8 +71,7 @@ void eomc_sens_error_control(eomc_sens *s, int on);
 size_t eomc_sens_work_size(const eomc_sens *s, int method);
 
 /* The last run's staggered Radau counts: out[0] jvp calls, out[1] sensitivity iterations,
- * out[2] steps whose iteration had not converged, out[3] rhs calls of the later iterations'
- * differences (all 0 elsewhere). */
+ * out[2] steps whose iteration had not converged (all 0 elsewhere). */
 void eomc_sens_counts(const eomc_sens *s, long *out);
 
 /*

@@ -10,7 +10,8 @@
  *   - Radau integrates the plain model and, after each accepted step, solves the linear
  *     collocation equations of S on that step with the step's own Newton matrix and LU
  *     (staggered direct, as CVODES does for BDF): residuals from jvp at the three stage
- *     points, one real and one complex solve per column per iteration.
+ *     points (later iterations: the correction from one jvp call at the middle stage),
+ *     one real and one complex solve per column per iteration.
  */
 #ifndef EOMC_STAGGER_H
 #define EOMC_STAGGER_H
@@ -35,11 +36,10 @@ typedef struct eomc_stagger {
     int ld_out;           /* > 0: row stride of x_out and S_out (rows [x, S] of one table:
                              S_out = x_out + nx, ld_out = nx (1 + k)); 0: nx and nx k */
     long njvp;            /* out: jvp calls */
-    long niter;           /* out: sensitivity iterations (each 3 jvp calls) */
+    long niter;           /* out: sensitivity iterations (a step's first: 3 jvp calls, each
+                             later one: 1, with 3 k directions) */
     long nslow;           /* out: steps whose sensitivity iteration had not converged
                              after EOMC_SG_MAXIT iterations (kept, counted) */
-    long ndq;             /* out: rhs calls of the iterations after the first (few columns:
-                             J (ZS - ZS_jvp) by a forward difference) */
     /* DOPRI5/DOP853/Radau for the adjoint (eomc_adjoint.c): checkpoints of the accepted steps. */
     int ntstop;           /* steps end exactly on these times (increasing, inside (t0, t1]) */
     const double *tstop;
@@ -57,7 +57,7 @@ void eomc_dop853_tableau(const double **A, int *astride, const double **B, const
 #define EOMC_SG_MAXIT 10
 
 /* Doubles of work the Radau hook adds to eomc_integrate_work_size. */
-size_t eomc_stagger_work_size(int nx, int k);
+size_t eomc_stagger_work_size(int nx, int k, int ndir);
 
 /* eomc_integrate with the hook (sg may be NULL: eomc_integrate). */
 int eomc_integrate_sg(const eomc_model *m, const eomc_options *opt, double t0, double t1,

@@ -79,6 +79,40 @@ def test_joint_limits_fmax_in_lanes_bit_for_bit(cache):
     assert "double *restrict S_)" in c and "eomc_vd *restrict S_)" in c
 
 
+@pytest.mark.parametrize("lanes", [4, 8])
+def test_tiles_whole_and_partial_inputs_and_parameter_rows(cache, lanes):
+    """The lanes run in tiles of up to 32 states (NAME_rhs_groups: each row's part of a tile
+    copied in and out whole): n = 1024 (rows a power of two apart, the case the tiles are
+    for), and a whole tile, a partial one and a scalar tail, with inputs per state, give the
+    scalar rhs's bits; a failure in the partial tile's 2nd group names its row; and
+    NAME_rhs_batch_p (one parameter row per state, read per group) equals the scalar rhs at
+    each state's parameters."""
+    if lanes > machine_lanes():
+        pytest.skip(f"this machine has {machine_lanes()} double lanes")
+    model = _ur5(cache, f"{STRICT} -DEOMC_BATCH_LIBM_TRIG -DEOMC_BATCH_LANES={lanes}", limits=True)
+    assert "_rhs_groups(" in "".join(f.read_text() for f in Path(model.directory).glob("*.c"))
+    for n in (1024, 32 + 3 * lanes + 3):
+        X = _states(model, n, n) * 2.0
+        R = np.random.default_rng(n + 1).uniform(-5, 5, (n, model.ninput))
+        assert np.array_equal(model.rhs_batch(0.3, X, r=R), _scalar(model, X, R))
+    bad = X.copy()
+    bad[32 + lanes + 1, 0] = np.inf
+    with pytest.raises(SimulationError, match=rf"row {32 + lanes + 1} of X"):
+        model.rhs_batch(0.3, bad)
+    n = X.shape[0]
+    P = model.param_defaults * (1.0 + 0.01 * np.arange(n))[:, None]
+    Xc, Pc, Rc = (np.ascontiguousarray(a.T) for a in (X, P, R))
+    out, status, work = np.zeros((model.nx, n)), np.zeros(n, dtype=np.intc), np.zeros(1 << 16)
+    lib = next(Path(model.directory).glob("*.so"))
+    dll, ptr = ctypes.CDLL(str(lib)), ctypes.POINTER(ctypes.c_double)
+    fn = getattr(dll, f"{model.name}_rhs_batch_p")
+    fn.argtypes = [ctypes.c_int, ctypes.c_double] + [ptr] * 4 + [ctypes.POINTER(ctypes.c_int), ptr]
+    assert fn(n, 0.3, *(a.ctypes.data_as(ptr) for a in (Xc, Pc, Rc, out)),
+              status.ctypes.data_as(ctypes.POINTER(ctypes.c_int)), work.ctypes.data_as(ptr)) == 0
+    want = np.array([model.rhs(0.3, X[k], p=P[k], r=R[k]) for k in range(n)])
+    assert np.array_equal(out.T, want) and not status.any()
+
+
 def test_recursive_robot_vector_trig_within_bound(cache):
     model = _ur5(cache, STRICT)
     X = _states(model, 203, 2)

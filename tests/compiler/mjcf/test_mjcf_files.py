@@ -73,3 +73,17 @@ def test_error_in_included_file_names_that_file(tmp_path):
     exc = _compile(main, tmp_path)
     assert isinstance(exc, ModelFileError)
     assert str(exc).startswith(f"{tmp_path / 'part.xml'}:4: <joint>: joint h1: frictionloss")
+
+
+def test_mujocos_own_error_in_included_file_names_that_file(tmp_path):
+    """MuJoCo reports an element of an included file at "line 0" of the main file: eomc finds it."""
+    (tmp_path / "part.xml").write_text(PART.replace('frictionloss="-2"', 'bogus="3"'))
+    main = tmp_path / "main.xml"
+    main.write_text(MAIN.format(include="part.xml"))
+    exc = _compile(main, tmp_path)
+    assert isinstance(exc, ModelFileError)
+    assert str(exc).startswith(f"{tmp_path / 'part.xml'}:4: MuJoCo could not compile the model")
+    assert "'bogus'" in str(exc) and "line 0" not in str(exc)
+    main.write_text(MAIN.format(include="part.xml").replace('type="hinge"/>', 'type="hinge" bogus="1"/>'))
+    exc = _compile(main, tmp_path)            # in the main file MuJoCo's own line stands
+    assert str(exc).startswith(f"{main}:4: MuJoCo could not compile the model")

@@ -332,3 +332,59 @@ def test_a_system_the_tree_reader_refuses_says_why(cache):
                                          r"body Bob2 .*depends on more than its own coordinate"):
         eomc.compile(str(path), "dp_frames", functions=["outputs"], cache_dir=cache, progress=False,
                      frames=["Bob2"])
+
+
+def test_mjcf_sites_agree_with_mujoco(tmp_path, cache):
+    """A named <site> is a frame: on a moving body (turned by its own quat), on a welded body and on
+    the world, against MuJoCo's site_xpos/site_xmat and mj_jacSite; a site named like a body leaves
+    the name to the body, and an unknown name lists the sites among the candidates."""
+    mujoco = pytest.importorskip("mujoco")
+    from eomc.compiler.mjcf.compare import _xyz_matrix, prepared, to_mujoco
+    source = (Path(__file__).resolve().parents[1] / "mjcf" / "test_mjcf.py").read_text()
+    text = re.search(r'SMALL = """(.*?)"""', source, re.S).group(1)
+    text = text.replace('<body name="link2" pos="0.1 0.05 -0.4">',
+                        '<site name="knee_site" pos="0.02 -0.03 0.05" quat="0.7 0.1 -0.3 0.2"/>\n'
+                        '        <body name="link2" pos="0.1 0.05 -0.4">')
+    text = text.replace('<geom type="sphere" size="0.04" pos="0.01 0 0"/>',
+                        '<geom type="sphere" size="0.04" pos="0.01 0 0"/><site name="weld-site" pos="0.1 0 0"/>'
+                        '<site name="tip" pos="0 0 0.3"/>')
+    text = text.replace('<body name="floater" pos="1 0 1">',
+                        '<site name="marker" pos="0.5 -0.2 0.1" euler="0 90 0"/>\n    <body name="floater" pos="1 0 1">')
+    path = tmp_path / "sites.xml"
+    path.write_text(text)
+    sites = ["knee_site", "weld-site", "marker"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")        # its joint range is not modelled: said, not tested here
+        model = eomc.compile(path, "small_mjcf_sites", functions=["outputs"], cache_dir=cache, progress=False,
+                             frames=sites + ["tip"])
+        m = prepared(mujoco.MjModel.from_xml_path(str(path)))
+    built = __import__("eomc.compiler.mjcf.treeir", fromlist=["tree_ir"]).tree_ir(m)
+    d = mujoco.MjData(m)
+    rng = np.random.default_rng(12)
+    worst = 0.0
+    for _ in range(2):
+        q, u = rng.uniform(-1, 1, model.nq), rng.normal(size=model.nu)
+        d.qpos[:], d.qvel[:] = to_mujoco(m, built, q, u)
+        mujoco.mj_forward(m, d)
+        P = np.zeros((m.nv, model.nu))          # qvel = P u
+        for j, kind, iq, iu in built.joints:
+            a, n = int(m.jnt_dofadr[j]), {0: 6, 1: 3, 2: 1, 3: 1}[kind]
+            P[a:a + n, iu:iu + n] = np.eye(n)
+            if kind == 0:
+                P[a:a + 3, iu:iu + 3] = _xyz_matrix(*q[iq + 3:iq + 6])
+        x = np.concatenate([q, u])
+        for name in sites:
+            i = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, name)
+            jacp, jacr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
+            mujoco.mj_jacSite(m, d, jacp, jacr, i)
+            f = model.frame(name, 0.0, x, r=np.zeros(model.ninput))
+            pairs = ((f.p, d.site_xpos[i]), (f.R, d.site_xmat[i].reshape(3, 3)), (f.J, np.vstack([jacp, jacr]) @ P),
+                     (f.v, jacp @ d.qvel), (f.w, jacr @ d.qvel))
+            worst = max(worst, *(float(np.max(np.abs(a - b))) for a, b in pairs))
+        tip = model.frame("tip", 0.0, x, r=np.zeros(model.ninput))       # the body, not the site
+        b = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "tip")
+        worst = max(worst, float(np.max(np.abs(tip.p - d.xpos[b]))))
+    assert worst < TOL
+    with pytest.raises(ModelError, match=r"no body or site named 'knee_sit' .*nearest: knee_site"):
+        eomc.compile(path, "small_mjcf_sites_bad", functions=["outputs"], cache_dir=cache, progress=False,
+                     frames=["knee_sit"])
