@@ -16,8 +16,10 @@ Contestants (thread CPU time, one core, interleaved, medians of --repeat):
   and scaled to all of them (the column says so); their values check the adjoint's.
 Goal (issue 30): the gradient with respect to all inertial parameters of G1 <= 5x one simulation.
 ``--method radau``: the same with Radau IIA (the model then also built with jac_x; the backward
-run solves each step's transposed collocation system densely, 3nx unknowns), written to
-adjoint_adaptive_<robot>_radau.md.
+run solves each step's transposed collocation system by iteration preconditioned with one
+Jacobian in the method's eigenbasis, its residuals the step's vjp calls; one more contestant:
+the same gradient with each step's system solved densely, 3nx unknowns, RADAU_DENSE), written
+to adjoint_adaptive_<robot>_radau.md.
 """
 import sys
 import time
@@ -106,7 +108,17 @@ def main(argv=None):
                         - cost(*simulate_grid(model, x0, T, p=pm, **kw))[0]) / (2 * h))
         return np.array(out)
 
+    def dense():
+        from eomc.runtime import adjoint as adjoint_module
+        adjoint_module.RADAU_DENSE = True
+        try:
+            return eomc.gradient(model, x0, T, cost=cost, p=p, **kw)
+        finally:
+            adjoint_module.RADAU_DENSE = False
+
     contestants = {"plain": plain, "adjoint": adjoint, "fd": central}
+    if args.method == "radau":
+        contestants["dense"] = dense
     cpu = {k: [] for k in contestants}
     val = {}
     for _ in range(args.repeat):
@@ -123,6 +135,10 @@ def main(argv=None):
     rows = [[f"one simulation ({args.method}, t_eval = grid)", f"{base * 1e3:.2f}", "1.00", steps, ""],
             [f"adjoint gradient: x0 + all {model.nparam} parameters ({len(inertial)} inertial)",
              f"{adj * 1e3:.2f}", f"{adj / base:.2f}", "", f"{agree:.1e}"],
+            *([[f"adjoint gradient, each step's system by dense 3nx LU (RADAU_DENSE)",
+                f"{np.median(cpu['dense']) * 1e3:.2f}", f"{np.median(cpu['dense']) / base:.2f}", "",
+                f"{np.max(np.abs(val['dense'].dp[fd_cols] - val['fd'])) / np.max(np.abs(val['fd'])):.1e}"]]
+              if "dense" in cpu else []),
             [f"central differences, {len(inertial)} inertial parameters (timed on {len(fd_cols)}, scaled)",
              f"{fd * 1e3:.1f}", f"{fd / base:.1f}", "", "(reference)"]]
     headers = ["contestant", "CPU ms (median)", "x one simulation", "steps",
@@ -140,7 +156,8 @@ def main(argv=None):
         suffix = "_radau" if args.method == "radau" else ""
         write_results(f"adjoint_adaptive_{args.robot}{suffix}", text,
                       [[args.robot, args.tol, base, adj, fd, agree, steps]],
-                      ["robot", "tol", "plain_s", "adjoint_s", "differences_s", "agreement", "steps"])
+                      ["robot", "tol", "plain_s", "adjoint_s", "differences_s", "agreement", "steps"],
+                      keep_notes=True)
 
 
 if __name__ == "__main__":

@@ -8,19 +8,26 @@ both rhs, checks they agree on 64 random states, and times them in thread CPU ti
 operations), the new one what it does now (eomc.compiler.formulations.select.rhs_cost): both computed
 from the two builds' operation counts, exactly as auto compares them.
 
-Models: the cart System auto sees (benchmarks/tree_models/cart_rel_joints.py, n = 1-4), and
-the UR10 and Kinova arms from example-robot-data.  Bounded build wall time: a model whose
-build fails is reported, not hidden.
+Models: the cart System auto sees (benchmarks/tree_models/cart_rel_joints.py, n = 1-4, 8, 20,
+40), the UR10 and Kinova arms, and every robot of benchmarks/results/urdf.md (UR5, Panda, Solo12
+on a floating base) from example-robot-data.  Auto's pick is what `--formulation auto` built
+(a third build; its json's formulation): above 6 speeds on a URDF Model, or where the LDLT of
+Kane's mass matrix alone costs as much as the recursive rhs, auto does not build Kane's form,
+so Kane's rhs is built explicitly here to time it, within --kane-timeout seconds of wall time
+(a build that does not finish is reported as such, with its CPU seconds, not hidden).
+Builds run concurrently (--jobs), the timing harnesses one after another on core 1.
 The harness compiles both forms' C with the flags of eomc's default build on this machine
 (LIB_FLAGS: -O2 plus -mavx2 -ffp-contract=off on AVX2), so the times are what auto's pick runs at.
-Usage: python benchmarks/bench_auto_choice.py [--rounds 9] [--write]  (--write: results/auto_choice.md)
+Usage: python benchmarks/bench_auto_choice.py [--rounds 9] [--jobs 2] [--kane-timeout 1200] [--write]  (--write: results/auto_choice.md)
 """
 import argparse
+import concurrent.futures
 import json
 import os
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
@@ -40,33 +47,33 @@ HARNESS = r"""
 #include <math.h>
 #include <stdio.h>
 #include <time.h>
-#include "@K@.h"
-#include "@R@.h"
+@INCLUDES@
 #define NX @NX@
 #define NQ @NQ@
 #define NR @NR@
+#define NC @NC@
 #define NS 256
-""" + C_CLOCK_AND_RNG + r"""int main(void) {
+""" + C_CLOCK_AND_RNG + r"""static void call(int c, const double *x, const double *r, double *a) {
+    switch (c) { @CASES@ }
+}
+int main(void) {
     static double X[NS][NX], a[NX], b[NX], r[NR + 1];
     double worst = 0.0, sum = 0.0;
     int i, k, c, round;
     for (k = 0; k <= NR; k++) r[k] = 0.5 * (2 * rnd() - 1);
     for (i = 0; i < NS; i++) for (k = 0; k < NX; k++)
         X[i][k] = k < NQ ? 3.0 * (2 * rnd() - 1) : 2 * rnd() - 1;
-    for (i = 0; i < 64; i++) {
-        @K@_rhs(0.0, X[i], NULL, r, a, NULL);
-        @R@_rhs(0.0, X[i], NULL, r, b, NULL);
+    for (c = 1; c < NC; c++) for (i = 0; i < 64; i++) {
+        call(0, X[i], r, a);
+        call(c, X[i], r, b);
         for (k = 0; k < NX; k++) { double d = fabs(a[k] - b[k]) / (fabs(b[k]) > 1 ? fabs(b[k]) : 1);
             if (d > worst) worst = d; }
     }
     printf("agree %.3g\n", worst);
     for (round = 0; round < @ROUNDS@; round++)
-        for (c = 0; c < 2; c++) {
-            int cc = (c + round) % 2; long calls = 0; double t0 = tnow(), t1;
-            do { for (i = 0; i < NS; i++) {
-                    if (cc == 0) @K@_rhs(0.0, X[i], NULL, r, a, NULL);
-                    else @R@_rhs(0.0, X[i], NULL, r, a, NULL);
-                    sum += a[NQ]; }
+        for (c = 0; c < NC; c++) {
+            int cc = (c + round) % NC; long calls = 0; double t0 = tnow(), t1;
+            do { for (i = 0; i < NS; i++) { call(cc, X[i], r, a); sum += a[NQ]; }
                  calls += NS; t1 = tnow(); } while (t1 - t0 < 2e7);
             printf("time %d %.2f\n", cc, (t1 - t0) / calls);
         }
@@ -75,43 +82,67 @@ HARNESS = r"""
 }
 """
 
+CART = HERE / "tree_models" / "cart_rel_joints.py"
+
 
 def models():
+    """(label, model file, environment, extra build flags)."""
     from helpers.robots import robot_path
-    out = [(f"cart n={n}", HERE / "tree_models" / "cart_rel_joints.py", {"EOMC_N_LINKS": str(n)})
-           for n in (1, 2, 3, 4)]
-    out.append(("UR10", robot_path("ur_description/urdf/ur10_robot.urdf"), {}))
-    out.append(("Kinova", robot_path("kinova_description/robots/kinova.urdf"), {}))
+    out = [(f"cart n={n}", CART, {"EOMC_N_LINKS": str(n)}, []) for n in (1, 2, 3, 4, 8, 20, 40)]
+    out.append(("UR10", robot_path("ur_description/urdf/ur10_robot.urdf"), {}, []))
+    out.append(("Kinova", robot_path("kinova_description/robots/kinova.urdf"), {}, []))
+    out.append(("UR5", robot_path("ur5"), {}, []))
+    out.append(("Panda", robot_path("panda"), {}, []))
+    out.append(("Solo12 (floating)", robot_path("solo12"), {}, ["--floating-base"]))
     return out
 
 
-def build(model, env, form, outdir):
+def build(model, env, flags, form, outdir, timeout=None):
+    """Build one form's rhs in a child process with a fresh cache: its json metadata, or why not."""
     env = dict(os.environ, EOMC_CACHE_DIR=tempfile.mkdtemp(prefix="eomc_ac_"), **env)
     name = f"m_{form}"
-    proc = subprocess.run([sys.executable, "-m", "eomc", "build", str(model), "-o", str(outdir),
-                           "--name", name, "--fold-parameters", "--outputs", "rhs",
-                           "--formulation", form, "-q"], env=env, capture_output=True, text=True)
+    cmd = [sys.executable, "-m", "eomc", "build", str(model), *flags, "-o", str(outdir), "--name", name,
+           "--fold-parameters", "--outputs", "rhs", "--formulation", form, "-q"]
+    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        _, err = proc.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.communicate()
+        err = None
+    if err is None:
+        return f"not built in {timeout:.0f} s wall"
     if proc.returncode:
-        raise RuntimeError(proc.stderr.strip().splitlines()[-1])
+        return (err.strip().splitlines() or ["failed"])[-1][:120]
     return json.loads((outdir / f"{name}.json").read_text())
 
 
-def measure(label, model, env, tmp, rounds):
-    from eomc.compiler.formulations.select import rhs_cost
-    d = tmp / label.replace(" ", "_").replace("=", "")
+def build_all(label, model, env, flags, tmp, kane_timeout):
+    d = tmp / label.replace(" ", "_").replace("=", "").replace("(", "").replace(")", "")
     d.mkdir()
-    metas = {f: build(model, env, f, d) for f in ("kane", "recursive")}
-    mk = metas["kane"]
-    nx, nq, nr = mk["nx"], mk["nq"], mk["ninput"]
-    src = (HARNESS.replace("@K@", "m_kane").replace("@R@", "m_recursive").replace("@NX@", str(nx))
-           .replace("@NQ@", str(nq)).replace("@NR@", str(nr)).replace("@ROUNDS@", str(rounds)))
+    out = {}
+    for form in ("auto", "recursive", "kane"):
+        t0 = time.time()
+        meta = build(model, env, flags, form, d, kane_timeout if form == "kane" else None)
+        out[form] = (meta, time.time() - t0)
+    return d, out
+
+
+def time_forms(d, forms, metas, rounds):
+    """Link every built form's rhs into one harness, check agreement, time them interleaved."""
+    m0 = metas[forms[0]]
+    incl = "\n".join(f'#include "m_{f}.h"' for f in forms)
+    cases = " ".join(f"case {i}: m_{f}_rhs(0.0, x, NULL, r, a, NULL); break;" for i, f in enumerate(forms))
+    src = (HARNESS.replace("@INCLUDES@", incl).replace("@CASES@", cases)
+           .replace("@NX@", str(m0["nx"])).replace("@NQ@", str(m0["nq"])).replace("@NR@", str(m0["ninput"]))
+           .replace("@NC@", str(len(forms))).replace("@ROUNDS@", str(rounds)))
     (d / "h.c").write_text(src)
     rt = ROOT / "runtime" / "c"
-    subprocess.run(["gcc", *LIB_FLAGS, f"-I{d}", f"-I{rt}", str(d / "h.c"), str(d / "m_kane.c"),
-                    str(d / "m_recursive.c"), "-o", str(d / "h"), "-lm"], check=True)
+    subprocess.run(["gcc", *LIB_FLAGS, f"-I{d}", f"-I{rt}", str(d / "h.c"),
+                    *[str(d / f"m_{f}.c") for f in forms], "-o", str(d / "h"), "-lm"], check=True)
     out = subprocess.run(["taskset", "-c", "1", str(d / "h")], capture_output=True, text=True,
                          check=True).stdout
-    times = {0: [], 1: []}
+    times = {i: [] for i in range(len(forms))}
     agree = None
     for line in out.splitlines():
         if line.startswith("time"):
@@ -119,32 +150,52 @@ def measure(label, model, env, tmp, rounds):
             times[int(k)].append(float(v))
         elif line.startswith("agree"):
             agree = float(line.split()[1])
-    ns = {f: sorted(times[k])[len(times[k]) // 2] for k, f in ((0, "kane"), (1, "recursive"))}
-    counts = {f: metas[f]["op_counts"]["rhs"] for f in metas}
+    return {f: sorted(times[i])[len(times[i]) // 2] for i, f in enumerate(forms)}, agree
+
+
+def measure(label, d, built, rounds):
+    from eomc.compiler.formulations.select import rhs_cost
+    metas = {f: m for f, (m, _) in built.items() if isinstance(m, dict)}
+    if "recursive" not in metas:
+        return {"label": label, "error": f"recursive: {built['recursive'][0]}"}
+    forms = [f for f in ("kane", "recursive") if f in metas]
+    ns, agree = time_forms(d, forms, metas, rounds)
+    counts = {f: metas[f]["op_counts"]["rhs"] for f in forms}
     ops = {f: sum(c.values()) for f, c in counts.items()}
     cost = {f: rhs_cost(c, f) for f, c in counts.items()}
-    old = "recursive" if ops["recursive"] < ops["kane"] else "kane"
-    new = "recursive" if cost["recursive"] < cost["kane"] else "kane"
-    return dict(label=label, ns=ns, counts=counts, ops=ops, cost=cost, old=old, new=new, agree=agree)
+    old = min(ops, key=ops.get) if len(ops) == 2 else None
+    auto = metas.get("auto", {})
+    return dict(label=label, nu=metas["recursive"]["nu"], ns=ns, counts=counts, ops=ops, cost=cost, old=old,
+                auto=auto.get("formulation", f"failed: {built['auto'][0]}"),
+                auto_costs=auto.get("formulation_costs"), agree=agree,
+                kane_build=(built["kane"][1], None if "kane" in metas else built["kane"][0]))
 
 
 def table(rows):
-    head = ("| model | kane rhs ns | recursive rhs ns | faster | kane ops (calls, divs) | "
+    head = ("| model | speeds | kane rhs ns | recursive rhs ns | faster | kane ops (calls, divs) | "
             "recursive ops (calls, divs) | kane cost | recursive cost | old pick (ops) | "
-            "new pick (cost) | new pick / best time | agreement |")
+            "auto's pick (its costs) | auto / best time | agreement | kane build wall s |")
     lines = [head, "|" + "--:|" * (head.count("|") - 1)]
     for r in rows:
         if "error" in r:
-            lines.append(f"| {r['label']} | build failed: {r['error']} |" + " |" * 10)
+            lines.append(f"| {r['label']} | build failed: {r['error']} |" + " |" * 12)
             continue
-        ns, c = r["ns"], r["counts"]
+        ns, c, ops = r["ns"], r["counts"], r["ops"]
+        both = len(ns) == 2
         fast = min(ns, key=ns.get)
+        k_wall, k_err = r["kane_build"]
+        kane_ns = f"{ns['kane']:.0f}" if "kane" in ns else "-"
+        kane_ops = f"{ops['kane']} ({c['kane']['calls']}, {c['kane']['divs']})" if "kane" in c else "-"
+        costs = r["auto_costs"] or {}
+        auto_cell = r["auto"] + (" (" + ", ".join(f"{k} {v}" for k, v in costs.items()) + ")" if costs else "")
+        ratio = f"{ns[r['auto']] / ns[fast]:.2f}" if both and r["auto"] in ns else "-"
+        kane_build = f"{k_wall:.0f}" + ("" if k_err is None else f" ({k_err})")
+        agree = f"{r['agree']:.1e}" if both else "-"      # one form: nothing to compare
         lines.append(
-            f"| {r['label']} | {ns['kane']:.0f} | {ns['recursive']:.0f} | {fast} | "
-            f"{r['ops']['kane']} ({c['kane']['calls']}, {c['kane']['divs']}) | "
-            f"{r['ops']['recursive']} ({c['recursive']['calls']}, {c['recursive']['divs']}) | "
-            f"{r['cost']['kane']} | {r['cost']['recursive']} | {r['old']} | {r['new']} | "
-            f"{ns[r['new']] / ns[fast]:.2f} | {r['agree']:.1e} |")
+            f"| {r['label']} | {r['nu']} | {kane_ns} | {ns['recursive']:.0f} | {fast if both else '-'} | "
+            f"{kane_ops} | {ops['recursive']} ({c['recursive']['calls']}, {c['recursive']['divs']}) | "
+            f"{r['cost'].get('kane', '-')} | {r['cost']['recursive']} | {r['old'] or '-'} | {auto_cell} | "
+            f"{ratio} | {agree} | {kane_build} |")
     return "\n".join(lines)
 
 
@@ -152,19 +203,22 @@ def main(argv):
     ap = argparse.ArgumentParser()
     ap.add_argument("--rounds", type=int, default=9)
     ap.add_argument("--write", action="store_true")
+    ap.add_argument("--jobs", type=int, default=2, help="builds run at once (timing is one at a time)")
+    ap.add_argument("--kane-timeout", type=float, default=1200.0, help="wall seconds for Kane's build")
     ap.add_argument("-k", action="append", default=[], help="only models whose label contains this")
     args = ap.parse_args(argv)
     start = " ".join(f"{v:.2f}" for v in os.getloadavg())
     tmp = Path(tempfile.mkdtemp(prefix="bench_auto_"))
-    rows = []
-    for label, model, env in models():
-        if args.k and not any(k in label for k in args.k):
-            continue
-        try:
-            rows.append(measure(label, model, env, tmp, args.rounds))
-        except (RuntimeError, subprocess.CalledProcessError) as exc:
-            rows.append({"label": label, "error": str(exc)[:120]})
-        print(rows[-1], flush=True)
+    chosen = [m for m in models() if not args.k or any(k in m[0] for k in args.k)]
+    with concurrent.futures.ThreadPoolExecutor(args.jobs) as pool:
+        builds = [pool.submit(build_all, *m, tmp, args.kane_timeout) for m in chosen]
+        rows = []
+        for (label, *_), fut in zip(chosen, builds):
+            try:
+                rows.append(measure(label, *fut.result(), args.rounds))
+            except (RuntimeError, subprocess.CalledProcessError) as exc:
+                rows.append({"label": label, "error": str(exc)[:120]})
+            print(rows[-1], flush=True)
     text = table(rows)
     print(text)
     if args.write:
@@ -172,11 +226,12 @@ def main(argv):
         end = " ".join(f"{v:.2f}" for v in os.getloadavg())
         notes = [f"load average at start: {start}, at the end: {end} (a shared 2-core machine, "
                  f"other engineers' builds and tests running beside this): times are thread CPU time",
+                 f"--kane-timeout {args.kane_timeout:.0f} s, --rounds {args.rounds}",
                  f"both rhs compiled into the harness with eomc's default flags on this machine: "
                  f"{' '.join(LIB_FLAGS)}"]
         print(write_results("auto_choice", environment_header(
             "auto's choice of formulation: both forms' rhs measured", notes=notes)
-            + "\n" + (__doc__ or "") + "\n" + text + "\n"))
+            + "\n" + (__doc__ or "") + "\n" + text + "\n", keep_notes=True))
     return 0
 
 

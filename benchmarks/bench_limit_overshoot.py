@@ -2,6 +2,10 @@
 
     python benchmarks/bench_limit_overshoot.py [--t-final 1] [--no-write] [--cache-dir DIR]
 
+Planar-rooted MJCF (gymnasium's walker2d, hopper, half_cheetah; dm_control's walker, hopper,
+cheetah; ``--planar-t-final``, 5 s): as the ant, MuJoCo both as filed and with eomc's contact
+set (self-collisions off).
+
 MJCF (gymnasium's ant and humanoid): both start at the file's qpos0, no control, T seconds.
 eomc: ``eomc.compile(path)`` with no flags and ``model.simulate(None, (0, T))`` (the default
 method); MuJoCo: ``mj_step`` at the file's time step and integrator, in the same run.  The
@@ -82,10 +86,13 @@ def eomc_run(path, T, cache, pairs=False):
                              progress=False)
         res = model.simulate(None, (0.0, T), n_points=int(T * 2000) + 1)
     P = dict(zip(model.param_names, model.param_defaults))
-    names = [n[len("limit_hi_"):] for n in model.param_names if n.startswith("limit_hi_")]
+    # a limit at exactly 0 has no limit_lo_/limit_hi_ parameter (the C holds the 0): the limited
+    # joints are those with a stiffness
+    names = [n[len("limit_k_"):] for n in model.param_names if n.startswith("limit_k_")]
+    names = [n for n in names if f"q_{n}" in model.state_names]
     cols = [list(model.state_names).index(f"q_{n}") for n in names]
-    lo = np.array([P[f"limit_lo_{n}"] for n in names])
-    hi = np.array([P[f"limit_hi_{n}"] for n in names])
+    lo = np.array([P.get(f"limit_lo_{n}", 0.0) for n in names])
+    hi = np.array([P.get(f"limit_hi_{n}", 0.0) for n in names])
     got = _new_excursions(names, res.x[:, cols], lo, hi)
     return got, {n: P[f"limit_k_{n}"] for n in names}, res.status
 
@@ -115,6 +122,37 @@ def mjcf_table(T, cache):
             rows.append([label, "(none past a limit by 1 mrad)", "", "", "", "", "", "", ""])
         if status:
             rows.append([label, "(eomc status)", "", str(status), "", "", "", "", ""])
+    return rows
+
+
+PLANAR = (("gymnasium", "walker2d"), ("gymnasium", "hopper"), ("gymnasium", "half_cheetah"),
+          ("dm_control", "walker"), ("dm_control", "hopper"), ("dm_control", "cheetah"))
+
+
+def planar_table(T, cache):
+    """The planar-rooted robots (root slide, slide, hinge; compiler/mjcf/carried.py's held
+    inertia): eomc no flags vs MuJoCo as filed and with eomc's contact set (no self-collisions)."""
+    import dm_control
+    import gymnasium
+    folders = {"gymnasium": Path(gymnasium.__file__).parent / "envs" / "mujoco" / "assets",
+               "dm_control": Path(dm_control.__file__).parent / "suite"}
+    rows = []
+    for suite, stem in PLANAR:
+        path = folders[suite] / f"{stem}.xml"
+        got, ks, status = eomc_run(path, T, cache)
+        filed, same = mujoco_run(path, T, True), mujoco_run(path, T, False)
+        label = f"{suite} {stem}"
+        n = len(rows)
+        for key in sorted(set(got) | set(same) | set(filed)):
+            e, s, f = (r.get(key, (0.0,))[0] for r in (got, same, filed))
+            if max(e, s, f) < 1e-3:
+                continue
+            rows.append([label, key[0], key[1], f"{e:.4f}", f"{s:.4f}", f"{e / s:.2f}" if s > 1e-4 else "-",
+                         f"{f:.4f}", f"{e / f:.2f}" if f > 1e-4 else "-", f"{ks[key[0]]:.4g}"])
+        if len(rows) == n:
+            rows.append([label, "(none past a limit by 1 mrad)"] + [""] * 7)
+        if status:
+            rows.append([label, "(eomc status)", "", str(status)] + [""] * 5)
     return rows
 
 
@@ -174,16 +212,24 @@ def main():
     ap.add_argument("--t-final", type=float, default=1.0)
     ap.add_argument("--no-write", action="store_true")
     ap.add_argument("--cache-dir", default=None)
-    ap.add_argument("--only", default="mjcf,urdf")
+    ap.add_argument("--planar-t-final", type=float, default=5.0)
+    ap.add_argument("--only", default="mjcf,planar,urdf")
     args = ap.parse_args()
     cache = Path(args.cache_dir or tempfile.mkdtemp(prefix="bench_limits_"))
     parts = [environment_header("Joint limits: excursion past the range in no-flag runs, eomc vs MuJoCo",
-                                f"python3 benchmarks/bench_limit_overshoot.py --t-final {args.t_final:g}"), ""]
+                                f"python3 benchmarks/bench_limit_overshoot.py --t-final {args.t_final:g} "
+                                f"--planar-t-final {args.planar_t_final:g} --only {args.only}"), ""]
     if "mjcf" in args.only:
         rows = mjcf_table(args.t_final, cache)
         parts += [f"## MJCF, {args.t_final:g} s from qpos0: largest excursion past the limit (rad)", "",
                   table(["model", "joint", "side", "eomc", "MuJoCo, same contacts", "eomc ÷ MuJoCo",
                          "MuJoCo as filed", "eomc limit_k", "past 0.03 rad"], rows), ""]
+    if "planar" in args.only:
+        rows = planar_table(args.planar_t_final, cache)
+        parts += [f"## Planar-rooted MJCF robots, {args.planar_t_final:g} s from qpos0: largest excursion past "
+                  f"the limit (rad)", "",
+                  table(["model", "joint", "side", "eomc", "MuJoCo, same contacts", "eomc ÷ same",
+                         "MuJoCo as filed", "eomc ÷ filed", "eomc limit_k"], rows), ""]
     if "urdf" in args.only:
         rows = urdf_table(args.t_final, cache)
         parts += [f"## URDF robots, `eomc simulate` with no method flags, {args.t_final:g} s: the three joints "

@@ -1,7 +1,9 @@
 """Issue 33: the body–body pairs' narrow phase as called C routines vs inlined as SymPy.
 
 Per model with body–body pairs (gymnasium's humanoid with its self-collisions, ``pairs=True``;
-dm_control's finger, stacker, manipulator, quadruped with no flags):
+dm_control's finger, stacker, manipulator, quadruped with no flags), and gymnasium's hopper and ant
+(ground contacts only: the two builds' C differ only by the generator switch, a check that the
+broad phase's changes cost nothing there):
 
 - build: a fresh Python process runs ``eomc.compile`` with the default functions into an empty
   cache, once with the schemes inlined (``pairs.INLINE_NARROW = True``: the default) and once
@@ -52,7 +54,8 @@ def models():
     gym = Path(gymnasium.__file__).parent / "envs" / "mujoco" / "assets"
     suite = Path(dm_control.__file__).parent / "suite"
     return [(f"{n} (dm_control)", suite / f"{n}.xml", False) for n in ("finger", "stacker", "manipulator", "quadruped")] + [
-        ("humanoid (gymnasium), pairs=True", gym / "humanoid.xml", True)]
+        ("humanoid (gymnasium), pairs=True", gym / "humanoid.xml", True)] + [
+        (f"{n} (gymnasium)", gym / f"{n}.xml", False) for n in ("hopper", "ant")]
 
 
 def build(path, cache, inline, self_pairs):

@@ -1,7 +1,7 @@
 """Issue 30: eomc's second-order inverse dynamics (``hess_id``) against Pinocchio's
 ``ComputeRNEASecondOrderDerivatives``, one C harness.
 
-Contestants (per model, pinned to core 1, thread CPU, interleaved with the order rotated every
+Contestants (per model, pinned to one core (``--core``, 1 unless told), thread CPU, interleaved with the order rotated every
 round, ~20 ms blocks, median of rounds; ns per call):
   * eomc ``hess_id`` (∂²τ/∂x², nu x nx x nx; since 2026-11-29 the analytic second-order
     kernel, compiler/tree/second_order.py, for these one-speed-joint trees: the model's
@@ -33,7 +33,7 @@ model's hess_id on the forward-over-reverse path it had before the kernel covere
 laws: its agreement is taken with the laws' own entries (row i's (q_i, u_i) block) left out;
 the two eomc paths are compared on every entry.
 
-Usage: python benchmarks/bench_second_order.py [--cart 4,8,20] [--robots ur10,panda,go2] [--limits] [--portable]
+Usage: python benchmarks/bench_second_order.py [--cart 4,8,20] [--robots ur10,panda,go2] [--limits] [--portable] [--core 0]
        [--rounds 7] [--pin-obj FILE.o (compiled with the same flags)] [--write]
 """
 import argparse
@@ -120,9 +120,9 @@ def eomc_flags(portable):
     return ["-O2", *machine_flags(find_compiler())]
 
 
-def run(model, ref, data, tmp, pin_obj, rounds, old=None, cflags=("-O2",), tangent=False):
+def run(model, ref, data, tmp, pin_obj, rounds, old=None, cflags=("-O2",), tangent=False, core=1):
     """(median ns per contestant, agreement[, old path's agreement]): the harness compiled and run
-    pinned to core 1; ``old``: the same model on the forced reverse path (``--limits``), or with
+    pinned to ``core``; ``old``: the same model on the forced reverse path (``--limits``), or with
     ``tangent`` its build along the free joint's tangent (a floating base, :func:`build`): the
     agreement with Pinocchio is then the tangent build's, and the second figure is the
     coordinate build's against central differences of its jac_id."""
@@ -155,7 +155,7 @@ def run(model, ref, data, tmp, pin_obj, rounds, old=None, cflags=("-O2",), tange
     exe = tmp / f"h2_{name}"
     subprocess.run(["g++", *objs, str(pin_obj), "-o", str(exe), "-lm"], check=True)
     (tmp / f"pin2_{name}.txt").write_text(bd.pin_text(ref.model, ref.gravity))
-    out = subprocess.run(["taskset", "-c", "1", str(exe), str(tmp / f"pin2_{name}.txt")], capture_output=True,
+    out = subprocess.run(["taskset", "-c", str(core), str(exe), str(tmp / f"pin2_{name}.txt")], capture_output=True,
                          text=True, check=True).stdout
     nv, iv = ref.model.nv, ref.iv
     pin = {}
@@ -262,6 +262,7 @@ def main():
     ap.add_argument("--limits", action="store_true", help="robots with their joint limits on, and the old path")
     ap.add_argument("--portable", action="store_true",
                     help="eomc's C with -O2 only (eomc build --portable), Pinocchio with -O2")
+    ap.add_argument("--core", type=int, default=1, help="the core the harness is pinned to")
     ap.add_argument("--write", action="store_true")
     a = ap.parse_args()
     cflags = eomc_flags(a.portable)
@@ -287,7 +288,7 @@ def main():
             model, ref, old = build(case, cache)
         data = bd.states(model, ref, old is not None and not a.limits, rng)
         times, agree, agree_old = run(model, ref, data, tmp, pin_obj, a.rounds, old, cflags,
-                                      tangent=old is not None and not a.limits)
+                                      tangent=old is not None and not a.limits, core=a.core)
         ops = model.metadata["op_counts"]
         row = dict(case=case, nx=model.nx, times=times, agree=agree, agree_old=agree_old,
                    ops={f: sum(ops[f].values()) for f in ("jac_id", "hess_id")})
@@ -295,7 +296,7 @@ def main():
         render = render_limited if a.limits else render_row
         if a.write:
             with open(HERE / "results" / "second_order.md", "a") as f:
-                f.write((header(a.rounds, a.limits, cflags, isa, floating(cases)) if len(rows) == 1 else "")
+                f.write((header(a.rounds, a.limits, cflags, isa, floating(cases), a.core) if len(rows) == 1 else "")
                         + render(row) + "\n")
         print(render(row), flush=True)
 
@@ -305,7 +306,7 @@ def floating(cases):
     return any(bd.ROBOTS.get(c, (None, False))[1] for c in cases)
 
 
-def header(rounds, limits=False, cflags=("-O2",), isa=(), three=False):
+def header(rounds, limits=False, cflags=("-O2",), isa=(), three=False, core=1):
     import pinocchio
     import eomc
     commit, dirty, cpu = bd.checkout_state()
@@ -314,7 +315,7 @@ def header(rounds, limits=False, cflags=("-O2",), isa=(), three=False):
         f"{' (+ uncommitted changes)' if dirty else ''}\n",
         f"`python benchmarks/bench_second_order.py` — {cpu}, load {os.getloadavg()[0]:.1f} at the start, "
         f"Python {platform.python_version()}, Pinocchio {pinocchio.__version__} (header-only, g++ {' '.join(['-O2', *isa])}), "
-        f"eomc {eomc.__version__}, gcc {' '.join(cflags)}; thread CPU, pinned to core 1, "
+        f"eomc {eomc.__version__}, gcc {' '.join(cflags)}; thread CPU, pinned to core {core}, "
         f"{'3' if limits else '2 (3 on a floating base)' if three else '2'} contestants interleaved, "
         f"median of {rounds} rounds, {bd.NS} states cycled.  eomc: `--formulation recursive`, functions rhs, "
         "inverse_dynamics, jac_id, hess_id.\n",

@@ -42,7 +42,9 @@ class GradientResult:
     """What :func:`gradient` returns.
 
     value: J; dx0: dJ/dx0 (nx,); dp: dJ/dp (nparam,), in ``param_names`` order;
-    t: (N + 1,) grid times; x: (N + 1, nx) the simulated states at them.
+    t: (N + 1,) grid times; x: (N + 1, nx) the simulated states at them; stats: the
+    backward run's counts (method="radau": jac_x calls, factorizations, iterations, steps
+    solved densely, vjp calls; else None).
     """
     value: float
     dx0: np.ndarray
@@ -51,6 +53,7 @@ class GradientResult:
     x: np.ndarray
     param_names: tuple
     state_names: tuple
+    stats: dict = None
 
     def dp_named(self):
         """{parameter name: dJ/dp}."""
@@ -154,6 +157,11 @@ def _prepare(model, x0, t_final, dt, p, r):
             "r": r, "rptr": rptr, "work": work, "ffi": ffi, "lib": lib}
 
 
+# method="radau": solve each step's transposed collocation system densely (3nx LU with the
+# three stage Jacobians) instead of by the preconditioned iteration -- the reference the
+# iteration is tested against, and 2-3x slower on G1 (benchmarks/results/adjoint_adaptive_g1_radau.md)
+RADAU_DENSE = False
+
 # stage states kept for the backward run up to this many doubles (80 MB); beyond, recomputed
 KEEP_STAGES_MAX = 10_000_000
 
@@ -252,12 +260,18 @@ def _gradient_adaptive(model, a, cost, rtol, atol, method="dop853"):
     lam0, gp = np.empty(model.nx), np.empty(max(model.nparam, 1))
     rec_x = np.ascontiguousarray(rec_x)
     vjp = getattr(model.model_lib, f"{model.name}_vjp")
-    backward = lib.eomc_adjoint_radau_backward if method == "radau" else lib.eomc_adjoint_erk_backward
-    status = backward(model.c_model, vjp, n, buf(rec_t), buf(rec_x) if n else ffi.NULL,
-                                           buf(rec_k) if n and rec_k is not None else ffi.NULL,
-                                           buf(a["p"]), a["rptr"], buf(Gb), buf(lam0), buf(gp), buf(work))
+    args = (model.c_model, vjp, n, buf(rec_t), buf(rec_x) if n else ffi.NULL,
+            buf(rec_k) if n and rec_k is not None else ffi.NULL, buf(a["p"]), a["rptr"], buf(Gb),
+            buf(lam0), buf(gp), buf(work))
+    stats = None
+    if method == "radau":
+        counts = ffi.new("long[5]")
+        status = lib.eomc_adjoint_radau_backward(*args, int(RADAU_DENSE), counts)
+        stats = dict(zip(("jac_x", "factorizations", "iterations", "dense_steps", "vjp"), list(counts)))
+    else:
+        status = lib.eomc_adjoint_erk_backward(*args)
     if status:
         raise SimulationError(f"{model.name}: the adjoint (backward) run failed: "
                               f"{STATUS_NAMES.get(status, status)}")
     return GradientResult(float(value), lam0, gp[:model.nparam].copy(), a["t"], X,
-                          tuple(model.param_names), tuple(model.state_names))
+                          tuple(model.param_names), tuple(model.state_names), stats)

@@ -59,11 +59,10 @@ KIND_INDEX = ("sphere", "capsule", "box", "cylinder", "ellipsoid")
 POINT_KINDS = ("px", "py", "pz")   # a pair's contact point outputs (world), after the ground's kinds
 # True (the default): each pair's narrow phase inlined as SymPy in the generated code; False: called
 # routines (.narrow).  Why inlined still: measured on dm_control's stacker (benchmarks/results/
-# narrow.md) the routines build 1.5x faster (102 -> 68 s CPU, C 10.6 -> 5.1 MB) but run slower --
-# rhs 0.79x (a box pair's 16 points' p and n are all computed; inlined, the per-point guards skip
-# those of the points out of contact) and jac_x 0.57x (the _dot routine recomputes the primal in
-# every column; next: a tape written once per jac_x call).  The flag is in the generation and
-# build caches' keys (compiler/build/reuse.generator_switches).
+# narrow.md, session 9) the routines build 1.55x faster (125 -> 81 s CPU, C 10.7 -> 5.2 MB) and
+# their rhs is as fast (1.05x, each call inside its pair's broad-phase guard), but jac_x runs
+# 0.73x (it has no broad phase: every pair's tape and tangent run at every call).  The flag is in
+# the generation and build caches' keys (compiler/build/reuse.generator_switches).
 INLINE_NARROW = True
 EPS = 1e-12     # m: regularises |d| so that coincident centres give a finite (zero) force
 

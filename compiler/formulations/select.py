@@ -12,11 +12,12 @@ arms (benchmarks/results/auto_choice.md).
 
 * Kane's equations are formed for the comparison only for a small tree
   (:data:`AUTO_KANE_MAX_SPEEDS` speeds): forming them is the costly part of a build
-  (a minute at 40 bodies, not finishing for a 35-dof humanoid), and on every model
-  measured Kane's rhs wins only up to 6 speeds (the n-link cart at n <= 4, 307 against
-  502 operations at n = 4, recursive from n = 8 on, 1178 against 1349; the UR10 and
-  Kinova arms by 1-5 %, the 7-dof xArm by neither: 6401 against 4257;
-  benchmarks/results/tree.md, ../performance reports).  A model file that forms Kane's
+  (a minute at 40 bodies, not finishing for a 35-dof humanoid), and on no model measured
+  beyond 6 speeds does Kane's rhs win: timed on this machine (benchmarks/results/
+  auto_choice.md, 2026-11-29 18:16) it is faster only on the cart at n <= 2 (22 against
+  26 ns at n = 1, even at n = 2) and 1.06x-9.6x slower from n = 3 (cart n = 8 924 against
+  327 ns, n = 20 8690 against 907; UR10 and UR5 1.46x, Kinova 1.89x, Panda 2.4x, Solo12
+  2.5x), so the cap loses nothing measured.  A model file that forms Kane's
   equations itself therefore does not have them forced when auto takes the tree.
 * Lowering Kane's form is skipped when the LDLᵀ of its mass matrix alone (counted
   exactly as the emitter would write it, from the formed matrix's nonzeros) already

@@ -84,16 +84,23 @@ size_t eomc_adjoint_radau_work_size(int nx, int nparam);
  * Backward over the nrec recorded Radau IIA steps (eomc_adjoint_erk_forward with
  * opt->method EOMC_RADAU5: rec_k then holds each step's converged stage increments Z, 3 x nx,
  * and is required).  The step x_{n+1} = x_n + Z_3, Z = h (A (x) I) F(x_n + Z): its adjoint
- * solves the transposed collocation system (I - h (A (x) I) blkdiag(J_a))^T mu = e_3 (x) lam
- * with J_a = jac_x at the three stage points (one dense 3nx LU a step), nu_b = h sum_a
- * A_ab mu_a, then lam_n = lam_{n+1} + sum_b J_b^T nu_b and gp += sum_b dF/dp_b^T nu_b by
- * vjp.  Exact for the collocation equations on that step sequence (the run's Newton stops
- * within its tolerance of them).  Needs m->jac_x.  G, lam0, gp as for the DOP853 backward.
+ * solves the transposed collocation system K^T mu = e_3 (x) lam, K = I - h (A (x) I)
+ * blkdiag(J_a) with J_a = jac_x at the three stage points, nu_b = h sum_a A_ab mu_a, then
+ * lam_n = lam_{n+1} + sum_b J_b^T nu_b and gp += sum_b dF/dp_b^T nu_b by vjp.  Exact for the
+ * collocation equations on that step sequence (the run's Newton stops within its tolerance of
+ * them).  dense = 0: K^T mu = e_3 (x) lam by preconditioned iteration, each iteration's
+ * residual by three vjp calls (the last iteration's are the step's), the preconditioner
+ * K(J, h)^T with one Jacobian J for all stages in A's eigenbasis (one real and one complex nx
+ * LU), J and the factors kept over steps while the iteration converges fast; a step where it
+ * does not even with a fresh J is solved as with dense = 1: the 3nx system with the three
+ * stage Jacobians by dense LU.  counts (may be NULL, 5 longs): jac_x calls, factorizations
+ * (real + complex pairs), iterations, dense steps, vjp calls.  Needs m->jac_x.  G, lam0, gp as
+ * for the DOP853 backward.
  */
 int eomc_adjoint_radau_backward(const eomc_model *m, eomc_vjp_fn vjp, long nrec,
                                 const double *rec_t, const double *rec_x, const double *rec_z,
                                 const double *p, const double *r, const double *G, double *lam0,
-                                double *gp, double *work);
+                                double *gp, double *work, int dense, long *counts);
 
 #ifdef __cplusplus
 }

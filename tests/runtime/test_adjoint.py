@@ -154,6 +154,34 @@ def test_radau_gradient_matches_central_differences(model, tmp_path):
                       method="radau")
 
 
+@pytest.mark.parametrize("tol", [1e-10, 1e-4])
+def test_radau_iterative_solve_agrees_with_the_dense_one(model, monkeypatch, tol):
+    """method='radau': each step's transposed collocation system solved by the preconditioned
+    iteration (one Jacobian for all stages, kept over steps; its residuals are the step's vjp
+    calls) and by the dense 3nx LU with the three stage Jacobians (RADAU_DENSE): the same
+    gradient to 1e-9, the first with a Jacobian only now and then and three vjp calls an
+    iteration (and at most one more round a step: the parameter part is computed only in the
+    iteration expected to be the last).  tol 1e-4 takes long steps, where the kept Jacobian is furthest off."""
+    from eomc.runtime import adjoint
+    rng = np.random.default_rng(11)
+    x0 = rng.uniform(-0.5, 0.5, model.nx)
+    r = rng.uniform(-1, 1, model.ninput)
+    kw = dict(dt=0.05, r=r, method="radau", rtol=tol, atol=tol)
+    t, target = simulate_grid(model, x0 * 0.5, T, **kw)
+    cost = _cost(target, rng.uniform(0.5, 2.0, target.shape))
+    it = eomc.gradient(model, x0, T, cost=cost, **kw)
+    monkeypatch.setattr(adjoint, "RADAU_DENSE", True)
+    de = eomc.gradient(model, x0, T, cost=cost, **kw)
+    steps = de.stats["dense_steps"]
+    assert steps >= len(t) - 1 and de.stats["jac_x"] == 3 * steps and de.stats["iterations"] == 0
+    s = it.stats
+    assert s["dense_steps"] == 0 and s["iterations"] >= steps
+    assert 3 * s["iterations"] <= s["vjp"] <= 3 * (s["iterations"] + steps)   # + a mispredicted last round
+    assert 0 < s["jac_x"] < steps
+    assert np.max(np.abs(it.dp - de.dp)) <= 1e-9 * np.max(np.abs(de.dp))
+    assert np.max(np.abs(it.dx0 - de.dx0)) <= 1e-9 * np.max(np.abs(de.dx0))
+
+
 def test_dop853_bad_method(model):
     with pytest.raises(ValueError, match="'rk4'.*'dop853'"):
         eomc.gradient(model, np.zeros(model.nx), T, dt=DT, cost=_cost(0.0, 1.0), method="bdf")

@@ -259,3 +259,50 @@ def test_a_limit_grazed_inside_one_step_ends_the_step_there(swing, method):
     assert res.status == 0
     assert res["q_elbow"].max() > 2.1707            # it did pass the limit
     assert res.stats["nswitch"] >= 2                # entry and exit each ended a step
+
+
+SPRUNG = """<mujoco model="sprung">
+  <option gravity="0 0 -9.81" timestep="0.002"/>
+  <worldbody>
+    <geom name="floor" type="plane" size="2 2 0.1"/>
+    <body name="arm" pos="0 0 1">
+      <joint name="hinge" type="hinge" axis="0 1 0" range="-60 20"/>
+      <geom type="sphere" size="0.02" pos="0.5 0 0" mass="1"/>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_a_gain_from_a_start_outside_a_range_says_where_it_came_from(tmp_path):
+    """An MJCF arm above a floor (the floor contact gives the model its energy output) started
+    0.5 rad past its upper limit (20 degrees): the limit spring's start energy, which the
+    MJCF energy output leaves out, shows as an energy gain.  The verdict says so, naming the joint
+    and the spring's start energy, and does not advise tightening rtol (which changes nothing: the
+    gain is physics).  Before: "more than the tolerance explains; tighten rtol" (gymnasium's ant:
+    "energy rose by 218")."""
+    (tmp_path / "sprung.xml").write_text(SPRUNG)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = eomc.compile(tmp_path / "sprung.xml", cache_dir=tmp_path / "cache", progress=False)
+    p = dict(zip(model.param_names, model.param_defaults))
+    held = 0.5 * p["limit_k_hinge"] * 0.5 ** 2
+    gains = []
+    for rtol in (1e-6, 1e-9):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            res = model.simulate({"q_hinge": np.radians(20) + 0.5}, (0, 1.0), rtol=rtol, atol=rtol * 1e-2)
+        text = " ".join(str(w.message) for w in caught if issubclass(w.category, PhysicsWarning))
+        assert res.status == 0
+        assert "tighten rtol" not in text
+        m = __import__("re").search(r"the energy rose by ([0-9.e+-]+) \(from [^)]*\): the start outside the range "
+                                    r"of joint hinge \(0\.5 past its upper limit\) held about ([0-9.e+-]+) J", text)
+        assert m, text
+        assert float(m.group(2)) == pytest.approx(held, rel=1e-3)
+        gains.append(float(m.group(1)))
+        energy = np.asarray(res.outputs["energy"])
+        assert gains[-1] == pytest.approx(float(np.max(energy) - energy[0]), rel=0.05)
+    # the gain is the spring's less what its damping took (12.8 of 86.6 J here, the limit critically
+    # damped), and the same at rtol 1e-6 and 1e-9: not the tolerance's
+    assert 0.05 * held < gains[0] <= 1.05 * held
+    assert gains[1] == pytest.approx(gains[0], rel=0.02)

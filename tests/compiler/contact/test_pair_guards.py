@@ -13,6 +13,7 @@ import pytest
 pytest.importorskip("mujoco")
 
 import eomc  # noqa: E402
+import eomc.compiler.contact.pairs as pairs  # noqa: E402
 import eomc.compiler.formulations.recursive as recursive  # noqa: E402
 from eomc.compiler.contact.pairs import bounding_radius  # noqa: E402
 
@@ -37,9 +38,9 @@ def _build(tmp_path, tag):
                             progress=False, name="pg")
 
 
-def _body(tmp_path, tag, function):
-    source = next((tmp_path / tag).rglob("pg.c")).read_text()
-    start = source.index(f"int pg_{function}(")
+def _body(tmp_path, tag, function, name="pg"):
+    source = next((tmp_path / tag).rglob(f"{name}.c")).read_text()
+    start = source.index(f"int {name}_{function}(")
     return source[start:source.index("\n}\n", start)]
 
 
@@ -99,3 +100,96 @@ def test_guarded_pairs_are_the_straight_line_pairs_near_far_and_pressed(tmp_path
     assert all(p > 0 for name, p in zip(depths, pressed) if name not in far)
     ball_rod = [guarded.outputs(0.0, x)["depth_ball__rod"] for x in sweep[:400]]
     assert ball_rod[0] < -0.05 and ball_rod[-1] > 0
+
+
+# a planar scene (slide x, slide z, hinge y): the pairs' out-of-plane wrench components are read by
+# nothing, so dead-code elimination drops them; table–ball (box–sphere), table–cube (box–box, 16
+# corners), ball–cube (sphere–box)
+PLANAR = """<mujoco model="pl"><worldbody>
+<geom name="table" type="box" pos="0 0 -0.05" size="0.4 0.4 0.05"/>
+<body name="A" pos="0 0 0.1"><joint name="ax" type="slide" axis="1 0 0"/><joint name="az" type="slide" axis="0 0 1"/>
+  <joint name="ay" type="hinge" axis="0 1 0"/><geom name="ball" type="sphere" size="0.05"/></body>
+<body name="B" pos="0.15 0 0.1"><joint name="bx" type="slide" axis="1 0 0"/><joint name="bz" type="slide" axis="0 0 1"/>
+  <joint name="by" type="hinge" axis="0 1 0"/><geom name="cube" type="box" size="0.06 0.05 0.04"/></body>
+</worldbody></mujoco>"""
+
+
+def _build_planar(tmp_path, tag):
+    path = tmp_path / "pl.xml"
+    path.write_text(PLANAR)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return eomc.compile(path, functions=("rhs", "outputs"), cache_dir=tmp_path / tag, progress=False, name="pl")
+
+
+def test_a_planar_models_pairs_keep_their_guards(tmp_path, monkeypatch):
+    """Before, a pair whose wrench lost a component to dead-code elimination (every pair of a
+    planar model: dm_control's stacker, manipulator) was printed straight, its narrow phase run at
+    every call (compiler/emit/guards._present).  Inlined and as called routines, each pair and
+    each of its points is guarded, and the rhs is the straight-line one."""
+    pairs_, points = 3, 1 + 16 + 1
+    guarded = _build_planar(tmp_path, "guarded")
+    assert _body(tmp_path, "guarded", "rhs", "pl").count("} else {") == pairs_ + points
+    monkeypatch.setattr(pairs, "INLINE_NARROW", False)
+    called = _build_planar(tmp_path, "called")
+    rhs = _body(tmp_path, "called", "rhs", "pl")
+    assert rhs.count("} else {") == pairs_ + points
+    assert rhs.count("eomc_narrow_") == pairs_ and _unguarded_calls(rhs) == 0
+    monkeypatch.setattr(pairs, "INLINE_NARROW", True)
+    plain_rhs = recursive.tree_rhs_body
+    monkeypatch.setattr(recursive, "tree_rhs_body", lambda ctx, prog, guards=(): plain_rhs(ctx, prog))
+    straight = _build_planar(tmp_path, "straight")
+    assert "} else {" not in _body(tmp_path, "straight", "rhs", "pl")
+    rng = np.random.default_rng(5)
+    n = 1500
+    X = np.zeros((n, guarded.nx))
+    X[:, [0, 1]] = [0.0, 0.06] + rng.uniform(-0.15, 0.15, (n, 2)) * rng.uniform(0.2, 1.5, (n, 1))
+    X[:, [3, 4]] = [0.1, 0.06] + rng.uniform(-0.15, 0.15, (n, 2)) * rng.uniform(0.2, 1.5, (n, 1))
+    X[:, [2, 5]] = rng.uniform(-np.pi, np.pi, (n, 2))
+    X[:, guarded.nq:] = rng.normal(size=(n, guarded.nx - guarded.nq))
+    depths = [k for k in guarded.output_names if k.startswith("depth_")]
+    out = np.array([[guarded.outputs(0.0, x)[k] for k in depths] for x in X])
+    X = X[out.max(axis=1) < 0.01]          # no point deeper (a centre inside a box has no direction)
+    assert len(X) > 300
+    a, b, c = guarded.rhs_many(0.0, X), straight.rhs_many(0.0, X), called.rhs_many(0.0, X)
+    assert np.all(np.isfinite(b))
+    assert np.array_equal(a, b)
+    assert np.abs(c - b).max() <= 1e-12 * (1 + np.abs(b).max())
+    # the states did cover each case: each pair pressed somewhere, apart elsewhere
+    out = np.array([[guarded.outputs(0.0, x)[k] for k in depths] for x in X])
+    for pair in ("table__ball", "table__cube", "ball__cube"):
+        cols = [i for i, k in enumerate(depths) if k.startswith(f"depth_{pair}")]
+        assert (out[:, cols].max(axis=1) > 0).any() and (out[:, cols].max(axis=1) < -0.05).any(), pair
+
+
+def _unguarded_calls(text):
+    """How many narrow-phase calls (compiler/contact/narrow.py) sit outside every ``if`` block of a
+    function (its text from its head on)."""
+    depth, count = 0, 0
+    for line in text[text.index("\n{\n") + 3:].split("\n"):
+        if depth == 0:
+            count += line.count("eomc_narrow_")
+        depth += line.count("{") - line.count("}")
+    return count
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["stacker", "manipulator"])
+def test_dm_control_pairs_run_their_narrow_phase_only_inside_their_guards(name, monkeypatch):
+    """Generated, not compiled: with the narrow phase as called routines, each of dm_control's
+    stacker's and manipulator's pair calls in the rhs sits inside its pair's broad-phase guard
+    (before: stacker 0 of 62, manipulator 0 of 185)."""
+    dm_control = pytest.importorskip("dm_control")
+    from pathlib import Path
+    from eomc.compiler.driver import generate
+    monkeypatch.setattr(pairs, "INLINE_NARROW", False)
+    path = Path(dm_control.__file__).parent / "suite" / f"{name}.xml"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        _, generated = generate(path, "m", functions=("rhs",), use_cache=False, progress=False)
+    # the rhs and its sub-functions (compiler/emit/split.py), each on its own
+    rhs = [d for d in generated.c_source.split("\n}\n") if " m_rhs(" in d or " m_rhs_part" in d]
+    calls = sum(d.count("eomc_narrow_") for d in rhs)
+    assert calls > 50
+    assert sum(_unguarded_calls(d) for d in rhs) == 0
+    assert sum(d.count("} else {") for d in rhs) >= calls

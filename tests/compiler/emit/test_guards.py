@@ -63,6 +63,21 @@ def test_a_guard_the_program_cannot_honour_is_printed_straight():
     assert not any("if (" in line for line in lines)
 
 
+def test_an_export_the_passes_dropped_leaves_the_guard_to_the_others():
+    """An export no assignment defines (dead-code elimination removed it: nothing read it) is
+    left out; the guard holds with the exports that remain, and a guard left with none is
+    printed straight.  Before, one missing export printed the whole block straight (every pair
+    of a planar model)."""
+    program, t, pr = _program()
+    gone = sm.Symbol("_t99", real=True)
+    lines, _ = guarded_temps(program, pr, [(t[5] - 3, (gone, t[3]), ((-t[2], (gone, t[3]), ()),))])
+    text = "\n".join(lines)
+    assert lines[0].strip() == "double G_[1];"
+    assert text.count("} else {") == 2 and "G_[0] = 0.0;" in text
+    lines, _ = guarded_temps(program, pr, [(t[5] - 3, (gone,), ())])
+    assert not any("if (" in line for line in lines)
+
+
 def _build(tmp_path, tag):
     path = tmp_path / "oneleg.urdf"
     path.write_text(ONE_LEG)
