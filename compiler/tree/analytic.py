@@ -640,8 +640,9 @@ def kernel_c(name, plan, nq, solve=False):
         c_table("off", plan.off[:-1]),
         f"    double Mc[{msize}];",
     ] if ltdl else []) + (_aba_decls(plan, ncol) if aba else []) + ([] if solve else ["    (void)msolve;"]) + [
-        f"    for (e = 0; e < {nd}; e++)",
-        "        for (k = 0; k < stride; k++) out[(row0 + row[e]) * stride + k] = 0.0;",
+        # the rows row0 + row[e] are row0 .. row0 + nd - 1 (row: a permutation of the speeds), one
+        # block: one flat loop (was a loop per row through row[]: 3 % of Go2's jac_x, perf)
+        f"    for (k = 0; k < {nd} * stride; k++) out[row0 * stride + k] = 0.0;",
         f"    for (b = 0; b < {nb}; b++) {{",
         *body_head_lines(o, "0.0;   /* the bias acceleration c_b first (see below) */" if aba else "al[i];"),
         "        for (e = d0[b]; e < d0[b] + nd[b]; e++) {   /* a, and the axes' derivative terms */",
@@ -748,16 +749,15 @@ def kernel_c(name, plan, nq, solve=False):
         kb = [len(r) for r, _ in blocks]
         lines += [
             f"    {{   /* a {k}-speed joint: d tau/dq = d tau/d xi K^-1, q' = K u, K in {len(blocks)} diagonal block(s) */",
-            f"        double Km[{max(kb) ** 2}], x[{k}], piv, tmp;",
-            "        int p;",
-        ] + [f"        double Ki{n}[{kb[n] ** 2}];" for n in range(len(blocks))] + [
+            f"        double Km[{max(kb) ** 2}], x[{k}], " + ("piv, tmp;" if max(kb) > 3 else "tmp;"),
+        ] + (["        int p;"] if max(kb) > 3 else []) + [f"        double Ki{n}[{kb[n] ** 2}];" for n in range(len(blocks))] + [
             c_table(f"kr{n}", r).replace("    ", "        ", 1) for n, (r, _) in enumerate(blocks)] + [
             c_table(f"kc{n}", c).replace("    ", "        ", 1) for n, (_, c) in enumerate(blocks)]
         for n, b in enumerate(kb):
             lines += [
                 f"        for (i = 0; i < {b}; i++)",
                 f"            for (j = 0; j < {b}; j++) Km[{b} * i + j] = an[{o['K'] + koff} + {k} * kr{n}[i] + kc{n}[j]];",
-            ] + _ginv_lines(b, f"Ki{n}")
+            ] + (_small_inverse_lines(b, f"Ki{n}") if b <= 3 else _ginv_lines(b, f"Ki{n}"))
         lines += [
             f"        for (e = 0; e < {nd}; e++) {{",
             "            double *o = out + (row0 + row[e]) * stride;",
@@ -924,6 +924,27 @@ def _ginv_lines(k, ki):
     ]
 
 
+def _small_inverse_lines(k, ki):
+    """``ki`` = Km⁻¹ for k ≤ 3 in closed form (the adjugate over the determinant), the blocks
+    of a free or ball joint's K.  Why not Gauss-Jordan (:func:`_ginv_lines`): unrolled with its
+    pivot search and row swaps it was a fifth of gcc's time on the derivative kernel (G1: 0.10
+    of 0.46 s), for a 3×3 whose adjugate is 30 multiplies and no branch.  A singular block
+    gives an infinite determinant's reciprocal, as a zero pivot did: the output's finiteness
+    check reports it."""
+    if k == 1:
+        return [f"        {ki}[0] = 1.0 / Km[0];"]
+    if k == 2:
+        return ["        tmp = 1.0 / (Km[0] * Km[3] - Km[1] * Km[2]);",
+                f"        {ki}[0] = Km[3] * tmp; {ki}[1] = -Km[1] * tmp; {ki}[2] = -Km[2] * tmp; {ki}[3] = Km[0] * tmp;"]
+    cof = {(i, j): f"(Km[{3 * ((j + 1) % 3) + (i + 1) % 3}] * Km[{3 * ((j + 2) % 3) + (i + 2) % 3}]"
+                   f" - Km[{3 * ((j + 1) % 3) + (i + 2) % 3}] * Km[{3 * ((j + 2) % 3) + (i + 1) % 3}])"
+           for i in range(3) for j in range(3)}      # (i, j) of the adjugate: the cofactor of Km[j][i]
+    return ([f"        {ki}[{3 * i}] = {cof[(i, 0)]};" for i in range(3)]
+            + [f"        tmp = 1.0 / (Km[0] * {ki}[0] + Km[1] * {ki}[3] + Km[2] * {ki}[6]);"]
+            + [f"        {ki}[{3 * i + j}] = {cof[(i, j)]} * tmp;" for i in range(3) for j in (1, 2)]
+            + [f"        {ki}[{3 * i}] *= tmp;" for i in range(3)])
+
+
 def _aba_accelerations(name, plan):
     """The kernel's accelerations when jac_x runs articulated: with ``msolve`` the kernel finds
     u' itself (ABA in the world frame on the quantities it has placed: articulated inertias
@@ -943,6 +964,7 @@ def _aba_accelerations(name, plan):
         " + Ib[6 * i + 3] * s[3] + Ib[6 * i + 4] * s[4] + Ib[6 * i + 5] * s[5];",
         f"                Di[e] = 1.0 / ({name}_rd_dot(s, Ue) + an[{o['arm']} + e]);",
         f"                uw[e] = -{name}_rd_dot(s, pA);",
+        "                if (e == d0[b] && par[b] < 0) continue;   /* a root's first dof: its IA, pA are not read again */",
         "                for (i = 0; i < 6; i++)",
         "                    for (j = 0; j < 6; j++) Ib[6 * i + j] -= Ue[i] * Ue[j] * Di[e];",
         "                if (e == d0[b] + nd[b] - 1) {   /* + IA c_b */",
