@@ -255,23 +255,29 @@ def test_system_bodies_agree_with_sympy(formulation, cache):
 MJCF_BODIES = ["base", "link1", "link2", "welded", "floater", "tip", "world"]
 
 
-def test_mjcf_bodies_agree_with_mujoco(tmp_path, cache):
-    """Every joint type (slide, two hinges on one body, ball, a welded body, free) against
-    MuJoCo's body frames, mj_jacBody (columns mapped: a free joint's linear speeds are
-    world components there) and the whole model's subtree_com / subtree_linvel."""
-    mujoco = pytest.importorskip("mujoco")
-    from eomc.compiler.mjcf.compare import _xyz_matrix, prepared, to_mujoco
+def _small_mjcf(tmp_path, edit=lambda text: text):
+    """tests/compiler/mjcf/test_mjcf.py's SMALL model (``edit`` applied) written to tmp_path."""
     source = (Path(__file__).resolve().parents[1] / "mjcf" / "test_mjcf.py").read_text()
     path = tmp_path / "small.xml"
-    path.write_text(re.search(r'SMALL = """(.*?)"""', source, re.S).group(1))
+    path.write_text(edit(re.search(r'SMALL = """(.*?)"""', source, re.S).group(1)))
+    return path
+
+
+def _worst_against_mujoco(path, tag, cache, frames, seed):
+    """The largest difference, at two random states, between the compiled frames ``frames``
+    ((name, MuJoCo object kind) pairs: "body" or "site") plus ``com`` and MuJoCo's own
+    (xpos/xmat and mj_jacBody, site_xpos/site_xmat and mj_jacSite, subtree_com/subtree_linvel;
+    Jacobian columns mapped: a free joint's linear speeds are world components in MuJoCo)."""
+    mujoco = pytest.importorskip("mujoco")
+    from eomc.compiler.mjcf.compare import _xyz_matrix, prepared, to_mujoco
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")        # its joint range is not modelled: said, not tested here
-        model = eomc.compile(path, "small_mjcf_frames", functions=["outputs"], cache_dir=cache, progress=False,
-                             frames=MJCF_BODIES + ["com"])
+        model = eomc.compile(path, tag, functions=["outputs"], cache_dir=cache, progress=False,
+                             frames=[name for name, _ in frames] + ["com"])
         m = prepared(mujoco.MjModel.from_xml_path(str(path)))
     built = __import__("eomc.compiler.mjcf.treeir", fromlist=["tree_ir"]).tree_ir(m)
     d = mujoco.MjData(m)
-    rng = np.random.default_rng(11)
+    rng = np.random.default_rng(seed)
     worst = 0.0
     for _ in range(2):
         q, u = rng.uniform(-1, 1, model.nq), rng.normal(size=model.nu)
@@ -285,18 +291,56 @@ def test_mjcf_bodies_agree_with_mujoco(tmp_path, cache):
             if kind == 0:
                 P[a:a + 3, iu:iu + 3] = _xyz_matrix(*q[iq + 3:iq + 6])
         x = np.concatenate([q, u])
-        for name in MJCF_BODIES:
-            b = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, name)
+        for name, kind in frames:
             jacp, jacr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
-            mujoco.mj_jacBody(m, d, jacp, jacr, b)
+            if kind == "site":
+                i = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, name)
+                mujoco.mj_jacSite(m, d, jacp, jacr, i)
+                p, R = d.site_xpos[i], d.site_xmat[i]
+            else:
+                i = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, name)
+                mujoco.mj_jacBody(m, d, jacp, jacr, i)
+                p, R = d.xpos[i], d.xmat[i]
             f = model.frame(name, 0.0, x, r=np.zeros(model.ninput))
-            pairs = ((f.p, d.xpos[b]), (f.R, d.xmat[b].reshape(3, 3)), (f.J, np.vstack([jacp, jacr]) @ P),
+            pairs = ((f.p, p), (f.R, R.reshape(3, 3)), (f.J, np.vstack([jacp, jacr]) @ P),
                      (f.v, jacp @ d.qvel), (f.w, jacr @ d.qvel))
             worst = max(worst, *(float(np.max(np.abs(a - b))) for a, b in pairs))
         c = model.frame("com", 0.0, x, r=np.zeros(model.ninput))
         worst = max(worst, float(np.max(np.abs(c.p - d.subtree_com[0]))),
                     float(np.max(np.abs(c.v - d.subtree_linvel[0]))))
-    assert worst < TOL
+    return worst
+
+
+def test_mjcf_bodies_agree_with_mujoco(tmp_path, cache):
+    """Every joint type (slide, two hinges on one body, ball, a welded body, free) against
+    MuJoCo's body frames, mj_jacBody and the whole model's subtree_com / subtree_linvel."""
+    path = _small_mjcf(tmp_path)
+    assert _worst_against_mujoco(path, "small_mjcf_frames", cache, [(b, "body") for b in MJCF_BODIES], 11) < TOL
+
+
+def _with_sites(text):
+    """SMALL with a site on a moving body (turned by its own quat), two on a welded body (one named
+    like the body "tip") and one on the world."""
+    text = text.replace('<body name="link2" pos="0.1 0.05 -0.4">',
+                        '<site name="knee_site" pos="0.02 -0.03 0.05" quat="0.7 0.1 -0.3 0.2"/>\n'
+                        '        <body name="link2" pos="0.1 0.05 -0.4">')
+    text = text.replace('<geom type="sphere" size="0.04" pos="0.01 0 0"/>',
+                        '<geom type="sphere" size="0.04" pos="0.01 0 0"/><site name="weld-site" pos="0.1 0 0"/>'
+                        '<site name="tip" pos="0 0 0.3"/>')
+    return text.replace('<body name="floater" pos="1 0 1">',
+                        '<site name="marker" pos="0.5 -0.2 0.1" euler="0 90 0"/>\n    <body name="floater" pos="1 0 1">')
+
+
+def test_mjcf_sites_agree_with_mujoco(tmp_path, cache):
+    """A named <site> is a frame: on a moving body, on a welded body and on the world, against
+    MuJoCo's site_xpos/site_xmat and mj_jacSite; a site named like a body ("tip") leaves the name
+    to the body, and an unknown name lists the sites among the candidates."""
+    path = _small_mjcf(tmp_path, _with_sites)
+    frames = [("knee_site", "site"), ("weld-site", "site"), ("marker", "site"), ("tip", "body")]
+    assert _worst_against_mujoco(path, "small_mjcf_sites", cache, frames, 12) < TOL
+    with pytest.raises(ModelError, match=r"no body or site named 'knee_sit' .*nearest: knee_site"):
+        eomc.compile(path, "small_mjcf_sites_bad", functions=["outputs"], cache_dir=cache, progress=False,
+                     frames=["knee_sit"])
 
 
 def _chain(n):
@@ -333,58 +377,3 @@ def test_a_system_the_tree_reader_refuses_says_why(cache):
         eomc.compile(str(path), "dp_frames", functions=["outputs"], cache_dir=cache, progress=False,
                      frames=["Bob2"])
 
-
-def test_mjcf_sites_agree_with_mujoco(tmp_path, cache):
-    """A named <site> is a frame: on a moving body (turned by its own quat), on a welded body and on
-    the world, against MuJoCo's site_xpos/site_xmat and mj_jacSite; a site named like a body leaves
-    the name to the body, and an unknown name lists the sites among the candidates."""
-    mujoco = pytest.importorskip("mujoco")
-    from eomc.compiler.mjcf.compare import _xyz_matrix, prepared, to_mujoco
-    source = (Path(__file__).resolve().parents[1] / "mjcf" / "test_mjcf.py").read_text()
-    text = re.search(r'SMALL = """(.*?)"""', source, re.S).group(1)
-    text = text.replace('<body name="link2" pos="0.1 0.05 -0.4">',
-                        '<site name="knee_site" pos="0.02 -0.03 0.05" quat="0.7 0.1 -0.3 0.2"/>\n'
-                        '        <body name="link2" pos="0.1 0.05 -0.4">')
-    text = text.replace('<geom type="sphere" size="0.04" pos="0.01 0 0"/>',
-                        '<geom type="sphere" size="0.04" pos="0.01 0 0"/><site name="weld-site" pos="0.1 0 0"/>'
-                        '<site name="tip" pos="0 0 0.3"/>')
-    text = text.replace('<body name="floater" pos="1 0 1">',
-                        '<site name="marker" pos="0.5 -0.2 0.1" euler="0 90 0"/>\n    <body name="floater" pos="1 0 1">')
-    path = tmp_path / "sites.xml"
-    path.write_text(text)
-    sites = ["knee_site", "weld-site", "marker"]
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")        # its joint range is not modelled: said, not tested here
-        model = eomc.compile(path, "small_mjcf_sites", functions=["outputs"], cache_dir=cache, progress=False,
-                             frames=sites + ["tip"])
-        m = prepared(mujoco.MjModel.from_xml_path(str(path)))
-    built = __import__("eomc.compiler.mjcf.treeir", fromlist=["tree_ir"]).tree_ir(m)
-    d = mujoco.MjData(m)
-    rng = np.random.default_rng(12)
-    worst = 0.0
-    for _ in range(2):
-        q, u = rng.uniform(-1, 1, model.nq), rng.normal(size=model.nu)
-        d.qpos[:], d.qvel[:] = to_mujoco(m, built, q, u)
-        mujoco.mj_forward(m, d)
-        P = np.zeros((m.nv, model.nu))          # qvel = P u
-        for j, kind, iq, iu in built.joints:
-            a, n = int(m.jnt_dofadr[j]), {0: 6, 1: 3, 2: 1, 3: 1}[kind]
-            P[a:a + n, iu:iu + n] = np.eye(n)
-            if kind == 0:
-                P[a:a + 3, iu:iu + 3] = _xyz_matrix(*q[iq + 3:iq + 6])
-        x = np.concatenate([q, u])
-        for name in sites:
-            i = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, name)
-            jacp, jacr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
-            mujoco.mj_jacSite(m, d, jacp, jacr, i)
-            f = model.frame(name, 0.0, x, r=np.zeros(model.ninput))
-            pairs = ((f.p, d.site_xpos[i]), (f.R, d.site_xmat[i].reshape(3, 3)), (f.J, np.vstack([jacp, jacr]) @ P),
-                     (f.v, jacp @ d.qvel), (f.w, jacr @ d.qvel))
-            worst = max(worst, *(float(np.max(np.abs(a - b))) for a, b in pairs))
-        tip = model.frame("tip", 0.0, x, r=np.zeros(model.ninput))       # the body, not the site
-        b = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "tip")
-        worst = max(worst, float(np.max(np.abs(tip.p - d.xpos[b]))))
-    assert worst < TOL
-    with pytest.raises(ModelError, match=r"no body or site named 'knee_sit' .*nearest: knee_site"):
-        eomc.compile(path, "small_mjcf_sites_bad", functions=["outputs"], cache_dir=cache, progress=False,
-                     frames=["knee_sit"])
