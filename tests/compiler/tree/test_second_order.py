@@ -3,6 +3,7 @@ tree of pins and sliders with joint inputs and on a floating tree with a ball jo
 the forward-over-reverse path it replaces (exact to rounding) and central differences of
 jac_id; on Go2 and G1 (floating bases) along Pinocchio's tangent against differences of
 Pinocchio's first derivatives, and along eomc's coordinates against differences of jac_id;
+an MJCF free root with a ball joint below it against differences of jac_id;
 its finiteness check; which path a model gets, in its metadata.  (UR10 against Pinocchio:
 test_hess_id.py.)"""
 import warnings
@@ -299,3 +300,45 @@ def test_floating_robots_against_pinocchio_and_differences(name, tmp_path):
                    for e in np.eye(model.nx)], axis=2)
     assert np.max(np.abs(H - fd)) <= 1e-8 * np.max(np.abs(fd))        # measured ~2.5e-11 (Go2)
     assert not np.allclose(H[:, 3:6, 3:6], Hx[:, 3:6, 3:6], rtol=1e-3)   # the two conventions differ there
+
+
+FREE_AND_BALL_MJCF = """<mujoco model="free_and_ball">
+  <worldbody>
+    <body name="base" pos="0 0 1">
+      <freejoint name="root"/>
+      <geom type="box" size="0.2 0.1 0.05" mass="3"/>
+      <body name="upper" pos="0.2 0 0" euler="10 20 30">
+        <joint name="shoulder" type="ball"/>
+        <geom type="capsule" fromto="0 0 0 0.1 0.05 -0.3" size="0.03" mass="1"/>
+        <body name="lower" pos="0.1 0.05 -0.3">
+          <joint name="elbow" type="hinge" axis="0 1 0.2"/>
+          <geom type="box" size="0.04 0.05 0.1" pos="0 0 -0.1" mass="0.5"/>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_a_ball_joint_below_a_free_root_against_differences(tmp_path):
+    """Two joints of several speeds and different sizes (MuJoCo's free root, 6, and a ball joint
+    below it, 3: one joint each in the tree, unlike the helper's ball): the root takes the folded
+    change of coordinates, the ball the pass over its rows, whose dK/dq offsets depend on both
+    sizes (session 8's offsets were wrong here: 5-9 % off the differences).  hess_id against
+    central differences of jac_id to 1e-8."""
+    pytest.importorskip("mujoco")
+    path = tmp_path / "free_and_ball.xml"
+    path.write_text(FREE_AND_BALL_MJCF)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = eomc.compile(path, functions=["rhs", "jac_id", "hess_id"], cache_dir=tmp_path / "c", progress=False)
+    c = (model.directory / f"{model.name}.c").read_text()
+    assert "joint 0's columns q (its K^-1)" in c and "rows q_a: sum_d K^-1[d, a] G[d, .]" in c
+    rng, h = np.random.default_rng(3), 1e-5
+    for _ in range(2):
+        x, ud, r = rng.uniform(-1, 1, model.nx), rng.uniform(-1, 1, model.nu), np.zeros(model.ninput)
+        H = model.hess_id(0.0, x, ud, r=r)
+        fd = np.stack([(model.jac_id(0.0, x + h * e, ud, r=r) - model.jac_id(0.0, x - h * e, ud, r=r)) / (2 * h)
+                       for e in np.eye(model.nx)], axis=2)
+        assert np.max(np.abs(H - fd)) <= 1e-8 * np.max(np.abs(fd))
