@@ -780,7 +780,11 @@ static int fs_switched(const fs_fast *q)
  * a regime change retried in eight variants (whole steps, sub-steps, contacts or limits only, to a
  * tighter ratio): at best 1-5 % fewer calls over 8 random humanoid starts, the ant's rising up to 40 %,
  * errors mostly larger; aiming the split at a touch-down's interpolated onset: calls unchanged within 2 %
- * (the calls go to the onset cell, whose ratio stays 37-390 down to h/64, and the walk back up).  A sub-step
+ * (the calls go to the onset cell, whose ratio stays 37-390 down to h/64, and the walk back up).
+ * Session 10 (21 starts per model, fixedstep.md's notes): aiming the split at the touch-down with
+ * sub-steps of any size (humanoid calls -1 %, ant, hopper, Go2 unchanged, G1 at 5 ms +3 %), trying
+ * the rest of the step at once after a sub-step (humanoid error 0.105 -> 0.33) and doubling without
+ * the grid's alignment: dropped.  A sub-step
  * of the smallest size whose ratio is still above HARD_FACTOR * split is taken anyway, counted in
  * stats->rejected (simulate warns); a step with no finite sub-step at all fails.  After
  * each kept step the contacts' depths are checked against eomc_implicit.depth_limit: the
