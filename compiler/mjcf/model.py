@@ -182,11 +182,6 @@ def check_model(m, path, ignore=()):
     if np.any(m.body_gravcomp):
         b = int(np.flatnonzero(m.body_gravcomp)[0])
         problems.append(("", "body", f"body {_name(m, mujoco.mjtObj.mjOBJ_BODY, b, 'body')}: gravcomp"))
-    ellipsoid = [g for g in range(m.ngeom) if m.geom_fluid[g][0] != 0]      # fluidshape="ellipsoid"
-    if (m.opt.density or m.opt.viscosity) and ellipsoid:
-        problems.append(("fluid", "geom", f"geom {_name(m, mujoco.mjtObj.mjOBJ_GEOM, ellipsoid[0], 'geom')}: "
-                         f"fluidshape=\"ellipsoid\" (MuJoCo's ellipsoid fluid model; the inertia-box model is "
-                         f"modelled)", _name(m, mujoco.mjtObj.mjOBJ_GEOM, ellipsoid[0], 'geom')))
     for j in range(m.njnt):
         jn = _name(m, J, j, "joint")
         kind, d = int(m.jnt_type[j]), int(m.jnt_dofadr[j])
@@ -334,6 +329,7 @@ def read_model(model, poses=False):
     except JointLawError as exc:     # the numbers of a joint's limit or friction: its line
         raise ModelFileError(f"<joint>: {exc}", *_where(model.path, "joint", exc.joint)) \
             from None
+    limit_laws = built.limit_laws
     if "fluid" not in model.ignore:
         from .fluid import with_fluid
         built = with_fluid(built, m, fold=model.fold_parameters)     # <option density viscosity wind>
@@ -360,7 +356,7 @@ def read_model(model, poses=False):
     read = model_of_tree(built.tree, Provenance("mjcf", str(model.path)), frames=tuple(frames),
                          defaults=dict(built.parameters), joint_inputs=tuple(built.inputs),
                          frame_noun="body or site", outputs=outputs, events=events, initial_state=reference_state(m, built),
-                         timestep=float(m.opt.timestep),
+                         timestep=float(m.opt.timestep), limit_laws=limit_laws or None,
                          kane_refusal="an MJCF model has the recursive formulation only: MuJoCo's model is "
                                       "read straight into the joint tree, with no SymPy System to form "
                                       "Kane's equations of", **extra)
@@ -441,6 +437,8 @@ def mjcf_formed(read, overrides):
         from eomc.compiler.multibody.model import merged_initial_state
         values = merged_initial_state(values, read)     # the quaternions' start under the caller's
     values["timestep"] = read.timestep       # into the built model's metadata (model.timestep)
+    if read.limit_laws:                      # ... and the limits' shapes (runtime/limit_energy.py)
+        values["limit_laws"] = read.limit_laws
     return read, values
 
 
