@@ -547,8 +547,8 @@ def main(argv=None):
     pi, consistent, moved, seconds, sol = identify(fit, method)
     label = ("L-BFGS-B on the adjoint gradient" if method == "adjoint"
              else "Levenberg-Marquardt on forward sensitivities")
-    print(f"{label}: {seconds:.2f} s CPU, {getattr(sol, 'nit', sol.nfev)} iterations, "
-          f"{fit.simulations} window simulations; {sol.message}")
+    steps = f"{sol.nit} iterations" if method == "adjoint" else f"{sol.nfev} residual evaluations, {sol.njev} Jacobians"
+    print(f"{label}: {seconds:.2f} s CPU, {steps}, {fit.simulations} window simulations; {sol.message}")
     print(f"physical consistency: the unidentifiable part moved by {moved:.3g} (scaled) to make every link "
           "consistent" if moved else "physical consistency: every link consistent as fitted")
     print_report(arm, ident, fit, pi_true, [("start", outcome(fit, pi_prior, pi_true)),
