@@ -176,7 +176,7 @@ def test_every_entry_is_written(models, law_models):
 
 
 def test_large_finite_outputs_pass_the_bound_by_the_full_check(models):
-    """The kernel's finiteness test is a bound on the numbers its outputs are made of (1e150);
+    """The kernel's finiteness test is a bound on the numbers its outputs are made of (BOUND);
     past it (speeds of 1e90: outputs ~1e180, finite) the output is checked entry by entry, and
     a finite one is returned, equal to the reverse path's."""
     kernel, reverse = models
