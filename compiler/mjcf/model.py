@@ -182,11 +182,6 @@ def check_model(m, path, ignore=()):
     if np.any(m.body_gravcomp):
         b = int(np.flatnonzero(m.body_gravcomp)[0])
         problems.append(("", "body", f"body {_name(m, mujoco.mjtObj.mjOBJ_BODY, b, 'body')}: gravcomp"))
-    ellipsoid = [g for g in range(m.ngeom) if m.geom_fluid[g][0] != 0]      # fluidshape="ellipsoid"
-    if (m.opt.density or m.opt.viscosity) and ellipsoid:
-        problems.append(("fluid", "geom", f"geom {_name(m, mujoco.mjtObj.mjOBJ_GEOM, ellipsoid[0], 'geom')}: "
-                         f"fluidshape=\"ellipsoid\" (MuJoCo's ellipsoid fluid model; the inertia-box model is "
-                         f"modelled)", _name(m, mujoco.mjtObj.mjOBJ_GEOM, ellipsoid[0], 'geom')))
     for j in range(m.njnt):
         jn = _name(m, J, j, "joint")
         kind, d = int(m.jnt_type[j]), int(m.jnt_dofadr[j])
@@ -334,6 +329,7 @@ def read_model(model, poses=False):
     except JointLawError as exc:     # the numbers of a joint's limit or friction: its line
         raise ModelFileError(f"<joint>: {exc}", *_where(model.path, "joint", exc.joint)) \
             from None
+    limit_laws = built.limit_laws
     if "fluid" not in model.ignore:
         from .fluid import with_fluid
         built = with_fluid(built, m, fold=model.fold_parameters)     # <option density viscosity wind>
@@ -360,7 +356,7 @@ def read_model(model, poses=False):
     read = model_of_tree(built.tree, Provenance("mjcf", str(model.path)), frames=tuple(frames),
                          defaults=dict(built.parameters), joint_inputs=tuple(built.inputs),
                          frame_noun="body or site", outputs=outputs, events=events, initial_state=reference_state(m, built),
-                         timestep=float(m.opt.timestep),
+                         timestep=float(m.opt.timestep), limit_laws=limit_laws or None,
                          kane_refusal="an MJCF model has the recursive formulation only: MuJoCo's model is "
                                       "read straight into the joint tree, with no SymPy System to form "
                                       "Kane's equations of", **extra)
@@ -441,6 +437,8 @@ def mjcf_formed(read, overrides):
         from eomc.compiler.multibody.model import merged_initial_state
         values = merged_initial_state(values, read)     # the quaternions' start under the caller's
     values["timestep"] = read.timestep       # into the built model's metadata (model.timestep)
+    if read.limit_laws:                      # ... and the limits' shapes (runtime/limit_energy.py)
+        values["limit_laws"] = read.limit_laws
     return read, values
 
 
@@ -480,8 +478,9 @@ def _with_pairs(model, m, built):
     Why self-collisions are left out unless ``pairs=True``: their number grows as the square of a
     tree's geoms (gymnasium's humanoid: 109; dm_control's humanoid_CMU ~1000).  The rhs skips the
     far ones (a bounding-ball test per pair, compiler/contact/pairs.pair_clearance: the humanoid's
-    rhs with them ~1.8x its no-contact rhs, was 3.7x), but each is still generated code in rhs,
-    events and jac_x: the humanoid's rhs-only build 3 -> ~29 s CPU (benchmarks/results/mjcf_contact.md),
+    rhs with them 2.0x its no-contact rhs, was 3.7x), but each is still generated code in rhs,
+    events and jac_x: the humanoid's rhs-only build 8.7 -> 34.4 s CPU (benchmarks/results/mjcf_contact.md,
+    2026-11-29 20:12; law routines, compiler/contact/pairs.LAW_ROUTINES: 21.3 s, rhs 2.8x),
     and the motions these models are made for rarely bring a tree's limbs together.  A warning says
     how many were left out."""
     import mujoco
