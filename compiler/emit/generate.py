@@ -373,7 +373,8 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
     meta.update(formulation.metadata(sym, fns))
     if low.poses is not None:
         meta["poses"] = pose_metadata(low.poses)
-    return _render(name, meta, fns, rendered, solver, layout, sym, helper, ctx.split, formulation)
+    return _render(name, meta, fns, rendered, solver, layout, sym, helper, ctx.split, formulation,
+                   ctx.solver_parts)
 
 
 def _taped(prog):
@@ -465,7 +466,8 @@ def _pose_docs(meta):
                       f"columns are the body's axes)", rows)]
 
 
-def _render(name, meta, fns, rendered, solver, layout, sym, helper, split=False, formulation=KANE):
+def _render(name, meta, fns, rendered, solver, layout, sym, helper, split=False, formulation=KANE,
+            solver_parts=()):
     tables, table_refs = _tables(name, layout, sym.output_names)
     pointers = [f"{name}_{f}" if f in fns else "NULL" for f in STRUCT_FIELDS]
     # the recursive formulation's rhs, jac_x and jac_r solve by ABA (no factorization)
@@ -481,7 +483,7 @@ def _render(name, meta, fns, rendered, solver, layout, sym, helper, split=False,
         vectors=_vector_docs(meta), **common)
     source = env.get_template("model.c.j2").render(
         name=name, functions=rendered,
-        helper_code="\n".join(c for c in ((solver.code if uses_solver else ""), helper) if c),
+        helper_code="\n".join(c for c in ((solver.code if uses_solver else ""), *solver_parts, helper) if c),
         tables=tables, table_refs=table_refs, pointers=pointers,
         noinline=NOINLINE_MACRO if split else "", wide_finite="implicit" in fns, **common)
     return GeneratedModel(name=name, c_source=source, header=header, cdef=cdef(name, fns),
