@@ -240,6 +240,8 @@ def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, fu
         extra = {**(extra or {}), "timestep": spec.timestep}
     if getattr(spec, "ground_check", None) is not None:   # runtime/ground_check.py: bodies under the ground
         extra = {**(extra or {}), "ground_check": spec.ground_check}
+    if getattr(spec, "limit_laws", None):      # runtime/limit_energy.py: a start past a limit
+        extra = {**(extra or {}), "limit_laws": spec.limit_laws}
     if getattr(spec, "start_in_range", None):      # the joints the default start moved into range
         extra = {**(extra or {}), "start_in_range": list(spec.start_in_range)}
     source = system if isinstance(system, (str, os.PathLike)) else None

@@ -17,7 +17,7 @@ import numpy as np
 
 from .cdef import STATUS_ABORTED
 
-__all__ = ["FeedbackBinding", "callable_arity", "applied_inputs", "cubic_slopes"]
+__all__ = ["FeedbackBinding", "callable_arity", "applied_inputs", "cubic_slopes", "gain_schedule"]
 
 
 def callable_arity(model, r):
@@ -57,7 +57,7 @@ def applied_inputs(model, a):
     ni = model.ninput
     fun = a.get("r_fun")
     two = fun is not None and callable_arity(model, fun) == 2
-    K, ref = _gain(model, a["K"], a.get("x_ref")) if a.get("K") is not None else (None, None)
+    g = gain_schedule(model, a["K"], a.get("x_ref")) if a.get("K") is not None else None
     if a.get("r_slopes") is not None:
         from scipy.interpolate import CubicHermiteSpline
         spline = CubicHermiteSpline(a["r_t"], a["r_v"], a["r_slopes"], axis=0)
@@ -73,36 +73,119 @@ def applied_inputs(model, a):
             base = np.array(a["r_v"][:ni], dtype=float)
         else:
             base = np.zeros(ni)
-        return base if K is None else base + K @ (ref - np.asarray(x))
+        if g is None:
+            return base
+        K, ref = g.at(t)
+        return base + K @ ((ref if ref is not None else 0.0) - np.asarray(x))
     return r
 
 
-def _gain(model, K, x_ref):
+class GainSchedule:
+    """Checked feedback gains and references: constant, or on a time grid (t_grid not None).
+
+    K: (ninput, nx), or with ``rows`` per trajectory (rows, ninput, nx); on a grid
+    (k, ninput, nx) or (rows, k, ninput, nx).  ref: None, (nx,) or (rows, nx) constant, or on
+    the grid (k, nx) or (rows, k, nx) (ref_on_grid).  K_stride / ref_stride: doubles from one
+    trajectory's block to the next (0: one for all)."""
+
+    def __init__(self, t_grid, K, ref, ref_on_grid, K_stride, ref_stride):
+        self.t_grid, self.K, self.ref, self.ref_on_grid = t_grid, K, ref, ref_on_grid
+        self.K_stride, self.ref_stride = K_stride, ref_stride
+
+    @property
+    def n_grid(self):
+        return 0 if self.t_grid is None else self.t_grid.size
+
+    def at(self, t, row=0):
+        """(K, x_ref) at time t for trajectory ``row``, by the C code's rule and arithmetic
+        (eomc_integrators.c grid_rows_at): held at the grid's ends, linear between."""
+        K = self.K[row] if self.K_stride else self.K
+        ref = None if self.ref is None else (self.ref[row] if self.ref_stride else self.ref)
+        if self.t_grid is None:
+            return K, ref
+        tg, hi = self.t_grid, self.t_grid.size - 1
+
+        def pick(V):
+            if t <= tg[0]:
+                return V[0]
+            if t >= tg[hi]:
+                return V[hi]
+            lo = int(np.searchsorted(tg, t, side="right")) - 1
+            w = (t - tg[lo]) / (tg[lo + 1] - tg[lo])
+            return (1.0 - w) * V[lo] + w * V[lo + 1]
+        return pick(K), (None if ref is None else pick(ref) if self.ref_on_grid else ref)
+
+
+def _reals(value, what):
+    a = np.asarray(value)
+    if a.dtype.kind not in "fiub":
+        raise ValueError(f"{what} must hold real numbers; got dtype {a.dtype}")
+    return np.asarray(a, dtype=np.float64)
+
+
+def gain_schedule(model, K, x_ref, rows=None):
+    """The feedback K (x_ref - x) of ``simulate(K=, x_ref=)`` (rows None) or ``rollout`` (rows =
+    its number of trajectories), checked: a GainSchedule.
+
+    K: (ninput, nx) constant, or (t_grid, values) with values (k, ninput, nx) -- the gains at
+    the grid times, linear between them and held at the ends (what an iLQR/DDP solver hands
+    over: K_k along its nominal trajectory) -- and with rows also (rows, ninput, nx) or
+    (rows, k, ninput, nx), one per trajectory.  x_ref: None (zeros), a dict of state names
+    (simulate), (nx,), with rows (rows, nx); with gains on a grid also (k, nx) or, with rows,
+    (rows, k, nx): the references at the grid times."""
     ni, nx = model.ninput, model.nx
-    K = np.asarray(K, dtype=np.float64)
-    if K.shape == (nx,) and ni == 1:
-        K = K[None, :]
-    if K.shape != (ni, nx):
-        raise ValueError(f"{model.name}: the feedback gain K must have shape (ninput, nx) = "
-                         f"({ni}, {nx}) [rows: {', '.join(model.input_names)}; columns: "
-                         f"{', '.join(model.state_names)}]; got shape {K.shape}")
-    if not np.all(np.isfinite(K)):
-        raise ValueError(f"{model.name}: the feedback gain K holds non-finite values")
+    where = f"{model.name}: the feedback gain K"
+    cols = f"rows: {', '.join(model.input_names)}; columns: {', '.join(model.state_names)}"
+    if isinstance(K, tuple):
+        if len(K) != 2:
+            raise ValueError(f"{where} as a tuple is a gain schedule (t_grid, values); got {len(K)} items")
+        t_grid = np.ascontiguousarray(_reals(K[0], f"{where}: t_grid"))
+        V = _reals(K[1], f"{where}: values")
+        if t_grid.ndim != 1 or t_grid.size < 2:
+            raise ValueError(f"{where}: t_grid must be 1-d with at least 2 times; got shape {t_grid.shape}")
+        if not np.all(np.isfinite(t_grid)) or np.any(np.diff(t_grid) <= 0):
+            raise ValueError(f"{where}: t_grid must be finite and strictly increasing")
+        k = t_grid.size
+        shapes = [(k, ni, nx)] + ([(rows, k, ni, nx)] if rows is not None else [])
+        said = f"(k, ninput, nx) = {shapes[0]}" + (f" or {shapes[1]} (one schedule per row)" if rows else "")
+    else:
+        t_grid, k = None, 0
+        V = np.asarray(K, dtype=np.float64)
+        if V.shape == (nx,) and ni == 1:
+            V = V[None, :]
+        shapes = [(ni, nx)] + ([(rows, ni, nx)] if rows is not None else [])
+        said = f"(ninput, nx) = {shapes[0]}" + (f" or {shapes[1]} (one per row)" if rows else "")
+    if V.shape not in shapes:
+        raise ValueError(f"{where} must have shape {said} [{cols}]"
+                         f"{f' (t_grid has {k} times)' if k else ''}; got shape {V.shape}")
+    if not np.all(np.isfinite(V)):
+        raise ValueError(f"{where} holds non-finite values")
+    V = np.ascontiguousarray(V, dtype=np.float64)
+    K_stride = V[0].size if V.ndim == (4 if k else 3) else 0
+    ref_on_grid, ref_stride = False, 0
     if x_ref is None:
-        ref = np.zeros(nx)
+        ref = None
     elif isinstance(x_ref, dict):
+        if rows is not None:
+            raise ValueError(f"{model.name}: x_ref must be an array here (a dict names one state)")
         from .names import index_of
         ref = np.zeros(nx)
         for key, v in x_ref.items():
             ref[index_of(key, model.state_names, "x_ref name", model.name)] = float(v)
     else:
         ref = np.asarray(x_ref, dtype=np.float64)
-        if ref.shape != (nx,):
-            raise ValueError(f"{model.name}: x_ref must have shape ({nx},) "
+        shapes = [(nx,)] + ([(rows, nx)] if rows is not None and not k else [])
+        if k:
+            shapes += [(k, nx)] + ([(rows, k, nx)] if rows is not None else [])
+        if ref.shape not in shapes:
+            raise ValueError(f"{model.name}: x_ref must have shape {' or '.join(map(str, shapes))} "
                              f"[{', '.join(model.state_names)}]; got shape {ref.shape}")
-    if not np.all(np.isfinite(ref)):
+        ref_on_grid = ref.ndim >= 2 and bool(k)
+        ref_stride = ref[0].size if ref.ndim == (3 if ref_on_grid else 2) else 0
+    if ref is not None and not np.all(np.isfinite(ref)):
         raise ValueError(f"{model.name}: x_ref holds non-finite values")
-    return np.ascontiguousarray(K), np.ascontiguousarray(ref)
+    return GainSchedule(t_grid, V, None if ref is None else np.ascontiguousarray(ref), ref_on_grid,
+                        K_stride, ref_stride)
 
 
 def input_value(model, fun, arity, t, x):
@@ -149,10 +232,18 @@ class FeedbackBinding:
             fb.r_slopes = ffi.from_buffer("double[]", self.slopes)
             self._keep.append(fb.r_slopes)
         if K is not None:
-            self.K, self.x_ref = _gain(model, K, x_ref)
+            g = gain_schedule(model, K, x_ref)
+            self.K, self.x_ref = g.K, g.ref
             fb.K = ffi.from_buffer("double[]", self.K)
-            fb.x_ref = ffi.from_buffer("double[]", self.x_ref)
-            self._keep += [fb.K, fb.x_ref]
+            self._keep.append(fb.K)
+            if self.x_ref is not None:
+                fb.x_ref = ffi.from_buffer("double[]", self.x_ref)
+                self._keep.append(fb.x_ref)
+            if g.t_grid is not None:
+                self.k_tgrid = g.t_grid
+                fb.n_kgrid, fb.ref_on_grid = g.n_grid, int(g.ref_on_grid)
+                fb.k_tgrid = ffi.from_buffer("double[]", self.k_tgrid)
+                self._keep.append(fb.k_tgrid)
         elif x_ref is not None:
             raise ValueError(f"{model.name}: x_ref= is the reference of the feedback K (x_ref - x); "
                              f"pass K= too")

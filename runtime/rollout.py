@@ -8,69 +8,29 @@ options ``simulate`` would pass, so every row equals the scalar ``simulate`` res
 for bit.  The GIL is released for the whole call (cffi releases it on every C call).
 
 Issue 31: fixed-step methods (rk4, implicitfast) and adaptive ones (dopri5, dop853, radau,
-bdf; final states), inputs per row (constant or a control sequence on a time grid), no events (a model with a terminal event is refused;
-other events are not recorded).  ``simulate_many`` and ``eomc.sweep`` (each chunk, on any
-executor) run their plain cases through ``rollout_stats`` (runtime/batch.py).  Contacts and joint
-limits with implicitfast's fast path (NAME_implicit: they are forces in its matrix, no
-switching points needed); other methods refuse a model with contacts or limits, since their
-switching needs the event machinery of ``simulate``.
+bdf, auto; final states), inputs per row (constant or a control sequence on a time grid).
+``simulate_many`` and ``eomc.sweep`` (each chunk, on any executor) run their plain cases through
+``rollout_stats`` (runtime/batch.py).  Contacts and joint limits with implicitfast's fast path
+(NAME_implicit: they are forces in its matrix, no switching points needed).  Feedback gains per
+row (constant or scheduled in time), events, and contacts or limits under the other methods
+(switching points per row, in C) run through runtime/rollout_extras.py.
 """
 import numbers
 import os
-from dataclasses import dataclass
 
 import numpy as np
 
 from .errors import SimulationError
-from .header_cdef import header_cdef
 from .integrators_api import FIXED_STEP, METHOD_IDS, STATUS_NAMES
 from .law_parameters import check_law_parameters
-from .native import extension_library, integrator_library
-from .simulate import (IMPLICITFAST_SPLIT, _options, check_quaternions, depth_limits, failure_message,
-                       implicit_for_run, implicit_terms, input_grid, prepare, resolve_method)
+from .rollout_result import RolloutResult, _rollout_ffi
+from .native import integrator_library
+from .events import DEFAULT_MAX_EVENTS
+from .feedback import gain_schedule
+from .simulate import (IMPLICITFAST_SPLIT, _options, _positive, auto_method, check_quaternions, depth_limits,
+                       failure_message, implicit_for_run, implicit_terms, input_grid, prepare, resolve_method)
 
 __all__ = ["rollout", "RolloutResult", "rollout_stats"]
-
-ROLLOUT_CDEF = header_cdef("eomc_rollout.h")
-
-
-def _rollout_ffi(base):
-    """(ffi, lib): eomc_rollout in an FFI that includes the model's base FFI (shared types)."""
-    return extension_library(base, ROLLOUT_CDEF)
-
-
-@dataclass
-class RolloutResult:
-    """What ``rollout`` returns.
-
-    x: (n, nx) final states (record="final"), or (n, n_t, nx) with the state at every
-    step (record="steps"; row 0 is x0).  t: the times of x's rows ((1,) = t_final for
-    "final").  status: (n,) eomc_status per trajectory (0 = ok); steps: (n,) steps taken.
-    A failed trajectory's final row holds its last good state.  unsolved: (n,) per
-    trajectory, implicitfast's (sub-)steps taken with their implicit Euler equation not solved
-    to tolerance even split into 64 (what ``simulate`` warns of; 0 for other methods): such a row ran to the end (status 0) but its result is worth checking with a
-    smaller dt or an adaptive method.
-    """
-    t: np.ndarray
-    x: np.ndarray
-    status: np.ndarray
-    steps: np.ndarray
-    state_names: tuple
-    unsolved: np.ndarray = None
-
-    def __post_init__(self):
-        if self.unsolved is None:
-            self.unsolved = np.zeros(len(self.status), dtype=int)
-
-    @property
-    def ok(self):
-        """(n,) bool: which trajectories ran to the end."""
-        return self.status == 0
-
-    @property
-    def clean(self):
-        """(n,) bool: ran to the end with every step solved (ok and no unsolved steps)."""
-        return (self.status == 0) & (self.unsolved == 0)
 
 
 def _threads(threads):
@@ -129,6 +89,11 @@ def _controls(model, r, n):
     """(n_rgrid, r_tgrid, R, r_stride) of eomc_rollout_stats from ``r`` (see ``rollout``)."""
     if r is None:
         return 0, None, None, 0
+    if callable(r):
+        raise ValueError(f"{model.name}: rollout runs its rows in C threads without Python, so r cannot be a "
+                         f"callable; state feedback r = r0(t) + K(t) (x_ref(t) - x) is K=, x_ref= (gains, or a "
+                         f"schedule (t_grid, gains)) with r=(t_grid, r0); a Python controller runs through "
+                         f"simulate_many")
     if model.ninput == 0:
         raise ValueError(f"{model.name}: this model has no inputs, but r was given")
     ni, names = model.ninput, ", ".join(model.input_names)
@@ -151,7 +116,8 @@ def _controls(model, r, n):
 
 def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method="rk4", p=None, r=None, threads=None,
             record="final", raise_on_failure=True, lanes=False, split=IMPLICITFAST_SPLIT,
-            rtol=1e-6, atol=1e-9, max_steps=100000):
+            rtol=1e-6, atol=1e-9, max_steps=100000, K=None, x_ref=None, events=None,
+            max_events=DEFAULT_MAX_EVENTS):
     """Integrate every row of ``x0s`` ((n, nx)) from t = 0 with a fixed step ``dt``, or
     with an adaptive method to ``rtol``/``atol``.
 
@@ -161,7 +127,8 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method="rk4", p=No
     two need jac_x), adaptive: ``t_final``, ``rtol``, ``atol``, ``max_steps`` as in
     ``simulate``, record="final" only (row i equals ``simulate(model, x0s[i], (0, t_final),
     method=method, rtol=rtol, atol=atol).x_final`` bit for bit: the steps do not depend on
-    the output times).  "auto" is refused: its switch to Radau happens in Python.  p: None (defaults), (nparam,) for all rows or (n, nparam), one
+    the output times).  "auto" picks as simulate does; a row DOP853 finds stiff is run again
+    through simulate (its switch to Radau is made in Python).  p: None (defaults), (nparam,) for all rows or (n, nparam), one
     parameter row per trajectory.  threads: C threads (None: every core this process
     may run on).  record: "final" (x is (n, nx): what Monte Carlo and RL episodes
     consume, n * nx doubles whatever the span) or "steps" (x is (n, steps + 1, nx), the
@@ -173,7 +140,20 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method="rk4", p=No
     each row runs the fast path as ``simulate`` does (its residual test with ``split``, 0 =
     off: one model call per step, MuJoCo's implicitfast; see runtime/c/eomc_fixedstep.c), and a
     row whose contact sinks past its radius fails with status 10 (with per-row parameters,
-    the smallest radius of each contact over the rows).  Other methods refuse such models.
+    the smallest radius of each contact over the rows).  Every other method ends each row's
+    steps at touch-down, lift-off and limit entry as ``simulate`` does, and each row is judged
+    by simulate's verdict (result.status, result.messages; runtime/rollout_extras.py).
+
+    K, x_ref: state feedback r + K (x_ref - x) in C (no Python, no GIL): K (ninput, nx) or
+    (n, ninput, nx), or a schedule (t_grid, Ks) with Ks (k, ninput, nx) or (n, k, ninput, nx),
+    linear between the grid times and held at its ends; x_ref (nx,), (n, nx), or with a
+    schedule (k, nx) / (n, k, nx) on its grid (feedback.gain_schedule).  Row i equals
+    ``simulate(..., K=Ks[i], x_ref=...)`` bit for bit.  A callable r is refused (a Python
+    controller would hold every thread on the GIL; simulate_many runs it).
+
+    events: None -- the model's compiled events when one of them is terminal (a row ends there,
+    as simulate ends it: result.event_stop, result.t_events), else none; False: none; else
+    what simulate's events= takes.  max_events: records kept per row.
 
     r: the inputs, None (zeros), (ninput,) for every row, (n, ninput) one constant row per
     trajectory, or a control sequence (t_grid, values) with values (k, ninput) for every row or
@@ -192,17 +172,16 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method="rk4", p=No
     model was built with -DEOMC_BATCH_LIBM_TRIG, else within what the lanes' sin/cos (1 ulp
     of libm's) make of it.
     """
-    method = resolve_method(method)
-    if method == "auto":
-        raise ValueError(f"rollout needs the method named (fixed-step: {', '.join(FIXED_STEP)} with dt=; "
-                         f"adaptive: {', '.join(m for m in METHOD_IDS if m not in FIXED_STEP)}); 'auto' "
-                         f"switches to radau mid-run in Python (simulate_many does that)")
+    method = named = resolve_method(method)
+    auto = method == "auto"
+    if auto:
+        method, may_switch = auto_method(model, _positive(rtol, "rtol"))
     if record not in ("final", "steps"):
         raise ValueError(f"record must be 'final' or 'steps'; got {record!r}")
     adaptive = method not in FIXED_STEP
     if adaptive:
         if dt is not None or steps is not None:
-            raise ValueError(f"method {method!r} is adaptive: give t_final= (and rtol=, atol=), not dt= or "
+            raise ValueError(f"method {named!r} is adaptive: give t_final= (and rtol=, atol=), not dt= or "
                              f"steps= (those are for {', '.join(FIXED_STEP)})")
         if record != "final":
             raise ValueError(f"record='steps' is the fixed-step grid; an adaptive rollout ({method!r}) "
@@ -223,21 +202,16 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method="rk4", p=No
         raise ValueError(f"t_final must be a finite time > 0; got {t_final!r}")
     from .switching import find_switches
     fast = method == "implicitfast" and implicit_terms(model) is not None
-    if find_switches(model) and not fast:
-        # implicitfast's fast path needs no switching points: contacts and limits are in its
-        # matrix, and its depth limit fails a row whose contact sinks past its radius (in C)
-        raise ValueError(f"{model.name}: this model has contacts or joint limits, whose switching points "
-                         f"rollout handles only with method='implicitfast' on a model with NAME_implicit "
-                         f"(the recursive formulation's ground contacts; got method={method!r}"
-                         f"{'' if implicit_terms(model) is not None else ', and the model has no NAME_implicit'}); "
-                         f"use simulate_many")
-    from .events import model_events
-    stopping = [e.name for e in model_events(model) if e.terminal]
-    if stopping:
-        # rollout runs every row to t_final: a run that simulate would end at a terminal event
-        # must not silently go on past it
-        raise ValueError(f"{model.name}: its terminal event(s) {', '.join(stopping)} would end a run "
-                         f"early, and rollout does not handle events yet; use simulate_many")
+    # implicitfast's fast path needs no switching points: contacts and limits are in its matrix,
+    # and its depth limit fails a row whose contact sinks past its radius (in C); every other
+    # method ends its steps at them as simulate does (the events machinery, per row in C)
+    switching = bool(find_switches(model)) and not fast
+    if events is None:
+        from .events import model_events
+        # the model's events when one of them ends a run (simulate ends it there too, and
+        # records them all); a model with recorded events only runs without them (pass
+        # events= as simulate takes it to record them)
+        events = None if any(e.terminal for e in model_events(model)) else False
     if model.c_model.rhs == model.ffi.NULL:
         raise model._missing("rhs")
     nthreads = _threads(threads)
@@ -245,19 +219,37 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method="rk4", p=No
     n = X0.shape[0]
     P, p_stride = _params(model, p, n)
     controls = _controls(model, r, n)
+    gains = _gains(model, K, x_ref, n) if (K is not None or x_ref is not None) else None
     if lanes:
         _lanes_allowed(model, method)
+        if gains is not None or events is not False or switching:
+            raise ValueError(f"{model.name}: rollout(lanes=True) takes no feedback, events, contacts or "
+                             f"limits (they run in the scalar loop); use lanes=False")
+    row0 = dict(events=events, max_events=max_events, switching=switching,
+                K=None if gains is None else gains.row_argument(0)[0],
+                x_ref=None if gains is None else gains.row_argument(0)[1])
     # The options and step grid simulate would use (and its checks: jac_x for implicitfast,
     # radau and bdf; tolerances).
     if adaptive:
-        a = prepare(model, X0[0] if n else None, (0.0, float(t_final)), p=P[0, :-1], method=method,
-                    rtol=rtol, atol=atol, max_steps=max_steps, t_eval=[float(t_final)], events=False,
-                    switching=False)
+        a = prepare(model, X0[0] if n else None, (0.0, float(t_final)), p=P[0, :-1],
+                    method="auto" if auto else method, rtol=rtol, atol=atol, max_steps=max_steps,
+                    t_eval=[float(t_final)], **row0)
     else:
         nsteps = int(np.ceil(t_final / dt * (1 - 1e-12)))
         a = prepare(model, X0[0] if n else None, (0.0, float(t_final)), p=P[0, :-1], method=method,
-                    dt=float(dt), max_steps=max(100000, nsteps + 10), events=False, switching=False)
+                    dt=float(dt), max_steps=max(100000, nsteps + 10), **row0)
+    if not switching:
+        a.pop("switches", None)
     check_quaternions(model, X0, "x0s")     # every row's (the first one's: prepare)
+    if "switches" in a or "events" in a or gains is not None or a.get("auto_switch"):
+        # feedback, events, contacts or limits (or "auto", whose stiff rows go on with Radau):
+        # eomc_rollout_ex, and simulate's verdict per row
+        from .rollout_extras import rollout_extras
+        scalar = dict(method="auto" if auto else method, rtol=rtol, atol=atol, max_steps=max_steps,
+                      events=events, max_events=max_events, split=split,
+                      **({"dt": float(dt)} if not adaptive else {}))
+        return rollout_extras(model, a, X0, P, p_stride, controls, r, gains, float(t_final), record,
+                              nthreads, raise_on_failure, scalar)
     if lanes:
         t_eval = a["t_eval"] if record == "steps" else np.array([float(t_final)])
         X_out, X_last, status, nstep = _rollout_lanes(model, X0, P, p_stride, controls, float(t_final), float(dt),
@@ -296,6 +288,32 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method="rk4", p=No
             unsolved = np.array([stats[i].rejected for i in range(n)], dtype=int)
     return _finish(model, method, X0, P, p_stride, dt, t_eval, record, X_out, X_last, status, nstep,
                    raise_on_failure, unsolved=unsolved if n and method == "implicitfast" else None)
+
+
+def _gains(model, K, x_ref, n):
+    """rollout's K= and x_ref= checked (feedback.gain_schedule with one row per trajectory)."""
+    if model.ninput == 0:
+        raise ValueError(f"{model.name}: this model has no inputs, so it takes no feedback K")
+    if K is None:
+        raise ValueError(f"{model.name}: x_ref= is the reference of the feedback K (x_ref - x); pass K= too")
+    if callable(K) or callable(x_ref):
+        raise ValueError(f"{model.name}: rollout evaluates feedback in C without Python: give K as gains "
+                         f"(ninput, nx), or a schedule (t_grid, (k, ninput, nx)), with x_ref; a Python "
+                         f"controller runs through simulate_many (r=callable, one Python call per stage)")
+    return _RowGains(gain_schedule(model, K, x_ref, rows=n))
+
+
+class _RowGains:
+    """A GainSchedule over rollout's rows, and each row's K=/x_ref= as simulate takes them."""
+
+    def __init__(self, g):
+        self.g = g
+
+    def row_argument(self, i):
+        g = self.g
+        K = g.K[i] if g.K_stride else g.K
+        ref = None if g.ref is None else (g.ref[i] if g.ref_stride else g.ref)
+        return ((g.t_grid, K) if g.t_grid is not None else K), ref
 
 
 def rollout_stats(model, opt, t0, t1, X0, P, p_stride, t_eval, X_out, threads, controls=(0, None, None, 0)):

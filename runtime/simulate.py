@@ -422,7 +422,8 @@ def _extras(model, x0, t0, r, events, max_events, K, x_ref, method):
     if K is not None or x_ref is not None:
         if model.ninput == 0:
             raise ValueError(f"{model.name}: this model has no inputs, so it takes no feedback K")
-        K = _real_array(K, f"{model.name}: the feedback gain K") if K is not None else None
+        if K is not None and not isinstance(K, tuple):
+            K = _real_array(K, f"{model.name}: the feedback gain K")
         if x_ref is not None and not isinstance(x_ref, dict):
             x_ref = _real_array(x_ref, f"{model.name}: x_ref")
         FeedbackBinding(model, K, x_ref)                        # checks the shapes
@@ -572,7 +573,8 @@ def bind_call(model, a, out=None):
     if a["method"] == "implicitfast" and a.get("fast", True):
         implicit, a["_implicit_keep"] = implicit_for_run(model, a["p"], a.get("split", IMPLICITFAST_SPLIT))
     work = np.empty(lib.eomc_integrate_work_size(model.c_model, METHOD_IDS[a["method"]])
-                    + (model.ninput * model.nx if feedback else 0)
+                    + (model.ninput * model.nx * (2 if isinstance(a.get("K"), tuple) else 1)
+                       + (model.nx if isinstance(a.get("K"), tuple) else 0) if feedback else 0)
                     + (implicit.work_len if implicit is not None else 0))
     stats = ffi.new("eomc_stats *")
     head = (model.c_model, _options(ffi, a, implicit), a["t0"], a["t1"], buf(a["x0"]), buf(a["p"]), a["n_r"],
@@ -782,7 +784,11 @@ def simulate(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6
 
     Inputs and feedback: a callable r(t) or r(t, x) is called from C at every
     stage (exact, but a Python call per stage: ~µs each); K (ninput x nx) and
-    x_ref add linear state feedback K (x_ref - x) to r, evaluated in C.
+    x_ref add linear state feedback K (x_ref - x) to r, evaluated in C.  K=(t_grid, Ks)
+    with Ks (k, ninput, nx) schedules the gains in time (an iLQR/DDP solver's K_k along its
+    nominal trajectory; its u = u_k + K_k (x - x_k) is r=(t_grid, u), K=(t_grid, -K_k),
+    x_ref=x_k), x_ref then (nx,) or (k, nx) on the same grid: linear between the grid
+    times, held at its ends, in C (feedback.gain_schedule).
     Events (runtime/events.py): ``events=None`` uses the model's compiled
     events; else names of events or outputs, Event objects, or a dict name ->
     {"terminal": ..., "direction": ...}; False for none.  Crossings are located

@@ -224,28 +224,55 @@ def verdict(model, a, result, gmax, sw):
     # its elastic energy, which a model's own energy output may leave out (the one generated for a
     # robot counts it: metadata "energy"): a gain is then no proof
     counted = "joint limits" in str(model.metadata.get("energy") or "")
-    sprung = not counted and bool(np.any(start > e))
+    # a start past a limit whose spring the energy output leaves out (MJCF's): the spring energy
+    # it held is known (runtime/limit_energy.py), and a gain beyond it is still the integrator's
+    held = None if counted else _held_at_start(model, p, sw, start)
+    sprung = not counted and held is None and bool(np.any(start > e))
+    held = held or 0.0
     if not model.metadata.get("energy"):
         sprung = sprung or any(len(result.outputs.get(f"depth_{c.name}", ())) and
                                result.outputs[f"depth_{c.name}"][0] > 0 for c in sw.contacts)
     if got is not None:
         gain, scale = got
         tol = energy_tolerance(a["rtol"], a["atol"]) * scale
-        if gain > max(tol, min(ENERGY_FAIL * tol, 0.05 * scale)) and not sprung:
+        if gain - held > max(tol, min(ENERGY_FAIL * tol, 0.05 * scale)) and not sprung:
             status = STATUS_ENERGY
-            extra = (f"the energy rose by {gain:.3g} (from {result.outputs['energy'][0]:.6g}) in a model "
-                     f"whose contacts and limits can only take energy out: the integration is wrong "
-                     f"here (method {a['method']}, rtol {a['rtol']:g})")
+            extra = (f"the energy rose by {gain:.3g} (from {result.outputs['energy'][0]:.6g})"
+                     + (f", {gain - held:.3g} more than the {held:.3g} the start's limit springs held,"
+                        if held else "")
+                     + f" in a model whose contacts and limits can only take energy out: the integration "
+                       f"is wrong here (method {a['method']}, rtol {a['rtol']:g})")
         elif gain > tol and sprung:
             notes.append(f"the energy rose by {gain:.3g} (from {result.outputs['energy'][0]:.6g}): "
                          + _released(model, p, sw, start, e, result))
-        elif gain > tol:
+        elif gain - held > tol:
             notes.append(f"the energy rose by {gain:.3g} (from {result.outputs['energy'][0]:.6g}, "
                          f"{gain / scale:.2g} of its scale) with only passive contacts and limits acting: "
                          f"more than the tolerance explains; tighten rtol")
     if notes:       # one warning per run, naming every contact and joint
         warnings.warn(PhysicsWarning(f"{model.name}: " + "; ".join(notes)), stacklevel=_user_level())
     return status, extra
+
+
+def _held_at_start(model, p, sw, start):
+    """The energy the limit springs held at the start (J), for a model whose limits'
+    shapes are in its metadata (``limit_laws``: MJCF's, whose springs the energy output leaves
+    out); 0.0 when no limit starts past its bound; None when one does and its shape is unknown."""
+    past = np.flatnonzero(start > 0)
+    if not past.size:
+        return 0.0
+    laws = model.metadata.get("limit_laws") or {}
+    names = list(getattr(model, "param_names", ()))
+    from .limit_energy import stored
+    total = 0.0
+    for j in past:
+        joint = sw.limits[j].joint
+        shape = laws.get(joint)
+        if shape is None or f"limit_k_{joint}" not in names or f"limit_e_{joint}" not in names:
+            return None
+        total += stored(start[j], p[names.index(f"limit_k_{joint}")], p[names.index(f"limit_e_{joint}")],
+                        shape.get("push", 0.0), shape.get("hold"))
+    return total
 
 
 def _released(model, p, sw, start, e, result):

@@ -334,6 +334,7 @@ def read_model(model, poses=False):
     except JointLawError as exc:     # the numbers of a joint's limit or friction: its line
         raise ModelFileError(f"<joint>: {exc}", *_where(model.path, "joint", exc.joint)) \
             from None
+    limit_laws = built.limit_laws
     if "fluid" not in model.ignore:
         from .fluid import with_fluid
         built = with_fluid(built, m, fold=model.fold_parameters)     # <option density viscosity wind>
@@ -360,7 +361,7 @@ def read_model(model, poses=False):
     read = model_of_tree(built.tree, Provenance("mjcf", str(model.path)), frames=tuple(frames),
                          defaults=dict(built.parameters), joint_inputs=tuple(built.inputs),
                          frame_noun="body or site", outputs=outputs, events=events, initial_state=reference_state(m, built),
-                         timestep=float(m.opt.timestep),
+                         timestep=float(m.opt.timestep), limit_laws=limit_laws or None,
                          kane_refusal="an MJCF model has the recursive formulation only: MuJoCo's model is "
                                       "read straight into the joint tree, with no SymPy System to form "
                                       "Kane's equations of", **extra)
@@ -441,6 +442,8 @@ def mjcf_formed(read, overrides):
         from eomc.compiler.multibody.model import merged_initial_state
         values = merged_initial_state(values, read)     # the quaternions' start under the caller's
     values["timestep"] = read.timestep       # into the built model's metadata (model.timestep)
+    if read.limit_laws:                      # ... and the limits' shapes (runtime/limit_energy.py)
+        values["limit_laws"] = read.limit_laws
     return read, values
 
 

@@ -131,6 +131,7 @@ def tree_ir(m, *, fold=False, actuators=None, limits=True, friction=True, quater
     bodies, coordinates, speeds, kinematics, loads, joints, owners = [], [], [], [], [], [], []
     quaternions = []        # each ball/free joint's w coordinate, with quaternion=True
     torques = []
+    limit_laws = {}       # joint C name -> its limit law's shape, for the runtime's energy verdict
     last = {0: -1}          # MuJoCo body -> index of its mass-carrying tree body (-1: world)
     com = {0: [0, 0, 0]}
     for b in range(1, m.nbody):
@@ -201,7 +202,7 @@ def tree_ir(m, *, fold=False, actuators=None, limits=True, friction=True, quater
                     rest = params(f"q0_{jn}", m.qpos_spring[qadr])
                     tau = tau - stiffness * (coordinates[first_q] - rest)
                 tau = tau + _law(m, jid, jraw, jn, coordinates[first_q], speeds[first], params,
-                                 limits, friction, carried.get(jid, 0.0))
+                                 limits, friction, carried.get(jid, 0.0), limit_laws)
                 torques.append((coordinates[first_q], speeds[first], tau))
                 if tau != 0:
                     loads += actuation(kind == _SLIDE, tau, a, R0, c, p, base_c, child, parent)
@@ -235,6 +236,7 @@ def tree_ir(m, *, fold=False, actuators=None, limits=True, friction=True, quater
     out = MjcfTree(ir, tuple(coordinates), tuple(speeds), tuple(kinematics), params.values, inputs,
                    tuple(joints), tuple(owners))
     out.activations = tuple(activations)
+    out.limit_laws = limit_laws
     return out
 
 
@@ -333,7 +335,7 @@ def _armature(m, params, jn, kind, dadr):
     return tuple(params(f"arm_{jn}_{x}", v) for x, v in zip(axes, values))
 
 
-def _law(m, jid, jraw, jn, q, u, params, limits, friction, carried=0.0):
+def _law(m, jid, jraw, jn, q, u, params, limits, friction, carried=0.0, record=None):
     """The range limit and frictionloss of a hinge or slide (:mod:`eomc.compiler.tree.joint_laws`).
 
     The limit's stiffness and damping follow the joint's ``solref`` and ``solimp`` by
@@ -347,7 +349,7 @@ def _law(m, jid, jraw, jn, q, u, params, limits, friction, carried=0.0):
     does (``limit_spring``'s ``carried``): MuJoCo's limit stops what the joint moves within
     its time constant, up to 1/(1 - dmax) times the joint's own inertia."""
     from eomc.compiler.contact.mujoco_law import limit_spring
-    from eomc.compiler.tree.joint_laws import JointLaw, joint_torque
+    from eomc.compiler.tree.joint_laws import JointLaw, joint_torque, law_shape
     from .options import refsafe_step
     dadr = int(m.jnt_dofadr[jid])
     lower = upper = None
@@ -358,4 +360,7 @@ def _law(m, jid, jraw, jn, q, u, params, limits, friction, carried=0.0):
     k, c, hold = limit_spring(inertia, m.jnt_solref[jid], m.jnt_solimp[jid], refsafe_step(m), carried)
     law = JointLaw(jraw, lower=lower, upper=upper, friction=fl, stiffness=k, limit_damping=c, unilateral=True,
                    hold=hold)
-    return joint_torque(q, u, law, params, jn, inertia)     # JointLawError: the caller places it
+    tau = joint_torque(q, u, law, params, jn, inertia)      # JointLawError: the caller places it
+    if record is not None and law.limited:
+        record[jn] = law_shape(law)
+    return tau

@@ -122,6 +122,9 @@ class Model(StateSizes):
     # the points of each body that must stay above the ground a robot's contacts touch, for the
     # run's verdict (eomc.compiler.urdf.collision.ground_check; eomc.runtime.ground_check), or None
     ground_check: Optional[dict] = field(default=None, compare=False)
+    # per joint with a limit whose spring has no closed-form potential (MJCF's): its shape, for
+    # the energy verdict of a run that starts past it (joint_laws.law_shape; runtime/limit_energy.py)
+    limit_laws: Optional[dict] = field(default=None, compare=False)
     # the joints whose zero is outside their range and which the default start moved inside
     # (eomc.compiler.urdf.model.start_in_range), for the note naming them; () if none
     start_in_range: tuple = field(default=(), compare=False)

@@ -55,7 +55,7 @@ import sympy as sm
 from ..contact.law import step  # noqa: F401 -- ramp's derivative; defined there for the contact pairs' choices
 
 __all__ = ["ramp", "step", "JointLaw", "joint_torque", "check_law", "TIME_CONSTANT", "WIDTH", "FRICTION_SPEED", "NAMES",
-           "limit_gains", "scale_gains", "limit_spring", "limit_energy", "JointLawError", "JointScale", "LOAD_GIVE"]
+           "limit_gains", "scale_gains", "limit_spring", "limit_energy", "law_shape", "PUSH_DIVISOR", "JointLawError", "JointScale", "LOAD_GIVE"]
 
 TIME_CONSTANT = 0.01
 WIDTH = 3e-4
@@ -219,9 +219,9 @@ def limit_energy(q, law, params, name, inertia):
     E = params(f"{NAMES['width']}_{name}", law.width)
     out = sm.S.Zero
     if law.upper is not None and math.isfinite(law.upper):
-        out += _stored(ramp(q - params(f"{NAMES['upper']}_{name}", law.upper)), E)
+        out += _stored(ramp(q - params(f"{NAMES['upper']}_{name}", law.upper, keep=True)), E)
     if law.lower is not None and math.isfinite(law.lower):
-        out += _stored(ramp(params(f"{NAMES['lower']}_{name}", law.lower) - q), E)
+        out += _stored(ramp(params(f"{NAMES['lower']}_{name}", law.lower, keep=True) - q), E)
     return K * out
 
 
@@ -232,6 +232,25 @@ def _held(r, hold):
         return r
     G, w = hold
     return r + sm.Float(repr(float((G - 1.0) * w))) * sm.tanh(r / sm.Float(repr(float(w))))
+
+
+PUSH_DIVISOR = 10     # a unilateral limit's smoothing scale is its force one width deep over this (_push)
+
+
+def law_shape(law):
+    """What the runtime needs, beside the parameters limit_k_/limit_e_, to integrate a limit's
+    spring at rest (u = 0) from its limit to a depth r: the smoothing of a unilateral limit
+    (``push``: 1/:data:`PUSH_DIVISOR`, or 0) and ``hold`` (G, w) or None
+    (eomc.runtime.limit_energy; NAME.json ``limit_laws``).
+
+    Why: MJCF's limits are unilateral and held, so their spring has no closed-form potential
+    and the generated ``energy`` output leaves it out; a run that starts outside a joint's range
+    (gymnasium's ant, dm_control's hopper) releases that spring's energy, which the energy
+    verdict must tell from a gain the integrator made.  The law at rest is a potential's slope,
+    and the damping only ever takes energy out (its smoothed clip included), so kinetic +
+    gravity + this potential can only fall: the verdict adds the potential at the start."""
+    return {"push": 1.0 / PUSH_DIVISOR if law.unilateral else 0.0,
+            "hold": [float(law.hold[0]), float(law.hold[1])] if law.hold else None}
 
 
 def _push(force, scale):
@@ -263,15 +282,15 @@ def joint_torque(q, u, law, params, name, inertia):
         # per side, with r = ramp(d) and g = r/(r + e): k s + c u w = g² (k r + c u g)
         # (one division per side; the same numbers as the docstring's form)
         if law.upper is not None and math.isfinite(law.upper):
-            r = ramp(q - params(f"{NAMES['upper']}_{name}", law.upper))
+            r = ramp(q - params(f"{NAMES['upper']}_{name}", law.upper, keep=True))
             g = r / (r + E)
             side = K * _held(r, law.hold) + C * u * g
-            tau += -g ** 2 * (_push(side, K * E / 10) if law.unilateral else side)
+            tau += -g ** 2 * (_push(side, K * E / PUSH_DIVISOR) if law.unilateral else side)
         if law.lower is not None and math.isfinite(law.lower):
-            r = ramp(params(f"{NAMES['lower']}_{name}", law.lower) - q)
+            r = ramp(params(f"{NAMES['lower']}_{name}", law.lower, keep=True) - q)
             g = r / (r + E)
             side = K * _held(r, law.hold) - C * u * g
-            tau += g ** 2 * (_push(side, K * E / 10) if law.unilateral else side)
+            tau += g ** 2 * (_push(side, K * E / PUSH_DIVISOR) if law.unilateral else side)
     if law.damping:
         tau += -params(f"{NAMES['damping']}_{name}", law.damping) * u
     if law.friction:

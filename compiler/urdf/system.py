@@ -89,9 +89,11 @@ class _Parameters:
     def __init__(self, fold):
         self.fold, self.values, self.taken = fold, {}, set()
 
-    def __call__(self, name, value):
+    def __call__(self, name, value, keep=False):
+        """``keep``: a symbol even at 0 (a joint limit's position: a knee's range starts at 0,
+        and the runtime finds a limit by its parameter, runtime/switching.find_switches)."""
         value = float(value)
-        if value == 0.0:
+        if value == 0.0 and not (keep and not self.fold):
             return sm.Integer(0)
         if self.fold:
             return _snap(value)

@@ -197,6 +197,8 @@ typedef struct ctx {
     double stab;             /* Baumgarte-style stabilization rate; 0 = off */
     const eomc_feedback *fb; /* state feedback / input callback, or NULL */
     double *fbJ;             /* nx x ninput scratch: jac_r for Radau with feedback */
+    double *fbK;             /* ninput x nx + nx scratch: K(t), x_ref(t) on a gain grid */
+    const double *Kt;        /* the gain inputs_at applied last (fb->K, or fbK) */
     eomc_events *ev;         /* event detection, or NULL */
     double ev_t;             /* time of the terminal event that stopped the run */
     double *ev_x;            /* its state (in the events' scratch) */
@@ -385,12 +387,42 @@ static int all_finite(int n, const double *v)
     return 1;
 }
 
-/* r(t, x): the grid (or the caller's callback) plus K (x_ref - x).  Returns
- * a status: the callback's failure or a non-finite input. */
+/* Row w-vectors V (n x w) on the increasing times tg at t, by grid_inputs_at's rule and
+ * arithmetic: the first row before the grid, the last after it (both returned as they are),
+ * linear between two rows (written to out). */
+static const double *grid_rows_at(const double *tg, int n, const double *V, size_t w, double t,
+                                  double *out)
+{
+    int lo = 0, hi = n - 1;
+    if (t <= tg[0]) return V;
+    if (t >= tg[hi]) return V + (size_t)hi * w;
+    while (hi - lo > 1) {
+        int mid = (lo + hi) / 2;
+        if (tg[mid] <= t) lo = mid; else hi = mid;
+    }
+    {
+        double w_ = (t - tg[lo]) / (tg[hi] - tg[lo]);
+        const double *a = V + (size_t)lo * w, *b = V + (size_t)hi * w;
+        for (size_t i = 0; i < w; i++)
+            out[i] = (1.0 - w_) * a[i] + w_ * b[i];
+    }
+    return out;
+}
+
+size_t eomc_feedback_work_size(const eomc_model *m, const eomc_feedback *fb)
+{
+    size_t ni = m && m->ninput > 0 ? (size_t)m->ninput : 0, nx = m ? (size_t)m->nx : 0;
+    if (!fb) return 0;
+    return ni * nx + (fb->n_kgrid >= 2 ? ni * nx + nx : 0);
+}
+
+/* r(t, x): the grid (or the caller's callback) plus K (x_ref - x), K and x_ref at t on a
+ * gain grid.  Returns a status: the callback's failure or a non-finite input. */
 static int inputs_at(ctx *c, double t, const double *x)
 {
     const eomc_feedback *fb = c->fb;
     int ni = c->m->ninput, nx = c->n;
+    const double *K, *ref;
     if (!fb || ni <= 0) {
         grid_inputs_at(c, t);
         return EOMC_OK;
@@ -403,12 +435,21 @@ static int inputs_at(ctx *c, double t, const double *x)
         else if (c->nr == 1) memcpy(c->r, c->rv, (size_t)ni * sizeof(double));
         else grid_inputs_at(c, t);
     }
-    if (fb->K)
+    K = fb->K;
+    ref = fb->x_ref;
+    if (K && fb->n_kgrid >= 2) {
+        K = grid_rows_at(fb->k_tgrid, fb->n_kgrid, fb->K, (size_t)ni * (size_t)nx, t, c->fbK);
+        if (ref && fb->ref_on_grid)
+            ref = grid_rows_at(fb->k_tgrid, fb->n_kgrid, fb->x_ref, (size_t)nx, t,
+                               c->fbK + (size_t)ni * (size_t)nx);
+    }
+    c->Kt = K;
+    if (K)
         for (int i = 0; i < ni; i++) {
             double acc = 0.0;
-            const double *Ki = fb->K + (size_t)i * nx;
+            const double *Ki = K + (size_t)i * nx;
             for (int j = 0; j < nx; j++)
-                acc += Ki[j] * ((fb->x_ref ? fb->x_ref[j] : 0.0) - x[j]);
+                acc += Ki[j] * ((ref ? ref[j] : 0.0) - x[j]);
             c->r[i] += acc;
         }
     return all_finite(ni, c->r) ? EOMC_OK : EOMC_NONFINITE;
@@ -447,7 +488,7 @@ static int fjac(ctx *c, double t, const double *x, double *J)
                 for (int k = 0; k < ni; k++) {
                     double b = c->fbJ[(size_t)i * ni + k];
                     if (b != 0.0)
-                        for (int j = 0; j < n; j++) J[(size_t)i * n + j] -= b * c->fb->K[(size_t)k * n + j];
+                        for (int j = 0; j < n; j++) J[(size_t)i * n + j] -= b * c->Kt[(size_t)k * n + j];
                 }
     }
     if (s == EOMC_OK && !all_finite(c->n * c->n, J)) s = EOMC_NONFINITE;
@@ -459,7 +500,7 @@ static int ctx_init(ctx *c, const eomc_model *m, const double *p, int nr,
                     const double *rt, const double *rv, eomc_stats *st, double **pos)
 {
     c->m = m; c->p = p; c->nr = nr; c->rt = rt; c->rv = rv; c->st = st; c->n = m->nx;
-    c->pj = NULL; c->stab = 0.0; c->fb = NULL; c->fbJ = NULL; c->ev = NULL; c->ev_t = 0.0; c->ev_x = NULL;
+    c->pj = NULL; c->stab = 0.0; c->fb = NULL; c->fbJ = NULL; c->fbK = NULL; c->Kt = NULL; c->ev = NULL; c->ev_t = 0.0; c->ev_x = NULL;
     c->abort = 0; c->sigint0 = g_sigint;
     c->nsw = 0; c->nswe = 0; c->gnew_ok = 0; c->sw_cuts = 0;
     c->nquat = 0; c->quat = NULL;
@@ -2441,6 +2482,12 @@ int eomc_integrate(const eomc_model *m, const eomc_options *opt,
 static int check_extras(const eomc_model *m, const eomc_feedback *fb, const eomc_events *ev)
 {
     if (fb && m->ninput <= 0) return EOMC_BAD_ARGUMENT;
+    if (fb && fb->n_kgrid >= 2) {
+        if (!fb->K || !fb->k_tgrid) return EOMC_BAD_ARGUMENT;
+        for (int i = 0; i < fb->n_kgrid; i++)
+            if (!isfinite(fb->k_tgrid[i]) || (i > 0 && !(fb->k_tgrid[i] > fb->k_tgrid[i - 1])))
+                return EOMC_BAD_ARGUMENT;
+    }
     if (ev && ev->n > 0) {
         if (!ev->fn || ev->ncol <= 0 || !ev->col || !ev->scratch || ev->capacity < 0)
             return EOMC_BAD_ARGUMENT;
@@ -2499,7 +2546,7 @@ static int integrate_core(const eomc_model *m, const eomc_options *opt,
     if (s == EOMC_OK) s = check_extras(m, fb, ev);
     if (s == EOMC_OK) s = check_stagger(m, opt, sg, n_eval);
     if (s == EOMC_OK && (!work || work_len < eomc_integrate_work_size(m, opt->method)
-                         + (fb ? (size_t)m->ninput * (size_t)m->nx : 0)
+                         + eomc_feedback_work_size(m, fb)
                          + (sg && sg->k > 0 ? eomc_stagger_work_size(m->nx, sg->k, sg->ndir) : 0)
                          + (opt->method == EOMC_IMPLICITFAST && opt->implicit
                             ? opt->implicit->work_len : 0)))
@@ -2520,7 +2567,11 @@ static int integrate_core(const eomc_model *m, const eomc_options *opt,
         if (sg->n_fin > 0) c.n_fin = sg->n_fin;
         if (sg->k > 0 || sg->ntstop > 0 || sg->rec_cap > 0) c.sg = sg;
     }
-    if (fb) { c.fb = fb; c.fbJ = take(&pos, (size_t)m->ninput * (size_t)m->nx); }
+    if (fb) {
+        c.fb = fb;
+        c.fbJ = take(&pos, (size_t)m->ninput * (size_t)m->nx);
+        if (fb->n_kgrid >= 2) c.fbK = take(&pos, (size_t)m->ninput * (size_t)m->nx + (size_t)m->nx);
+    }
     if (opt->baumgarte > 0.0 && pj.k > 0 && m->constraints && m->constraints_jac)
         c.stab = opt->baumgarte;
     x = take(&pos, m->nx);

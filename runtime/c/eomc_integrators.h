@@ -148,6 +148,12 @@ int eomc_integrate(const eomc_model *m, const eomc_options *opt,
  * r_slopes (n_rgrid x ninput, or NULL): dr/dt at the grid times, making the
  * grid a piecewise cubic Hermite interpolant (a cubic spline when the slopes
  * are a spline's) instead of a linear one; still held constant outside.
+ *
+ * Time-varying gains (a trajectory optimiser's K_k along its nominal x_k): n_kgrid >= 2
+ * makes K the n_kgrid x ninput x nx gains at the increasing times k_tgrid, and, when
+ * ref_on_grid is 1, x_ref the n_kgrid x nx references there; both linear between two grid
+ * times (the input grid's arithmetic) and held at the grid's ends.  n_kgrid 0 or 1: K and
+ * x_ref are constant (k_tgrid and ref_on_grid unused).  Work: eomc_feedback_work_size.
  */
 typedef int (*eomc_input_fn)(void *user, double t, const double *x, double *r);
 
@@ -157,7 +163,13 @@ typedef struct eomc_feedback {
     eomc_input_fn fn;
     void *user;
     const double *r_slopes;
+    int n_kgrid;
+    const double *k_tgrid;
+    int ref_on_grid;
 } eomc_feedback;
+
+/* Doubles of work the feedback fb (may be NULL: 0) adds to eomc_integrate_work_size. */
+size_t eomc_feedback_work_size(const eomc_model *m, const eomc_feedback *fb);
 
 /*
  * Events: zero crossings of g_k = fn(t, x, p, r)[col[k]] (k < n), found after
@@ -214,8 +226,8 @@ size_t eomc_events_scratch_size(const eomc_model *m, int ncol, int n);
 size_t eomc_switch_scratch_size(int n, int nlin);
 
 /* eomc_integrate with state feedback and/or events (see above); work needs
- * eomc_integrate_work_size(m, method) + m->ninput * m->nx doubles when
- * feedback is given. */
+ * eomc_integrate_work_size(m, method) + eomc_feedback_work_size(m, fb) doubles
+ * (m->ninput * m->nx for constant gains). */
 int eomc_integrate_ex(const eomc_model *m, const eomc_options *opt,
                       double t0, double t1, const double *x0, const double *p,
                       int n_rgrid, const double *r_tgrid, const double *r_values,

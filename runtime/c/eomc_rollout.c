@@ -24,7 +24,9 @@ typedef struct rollout_job {
     int *status;
     long *steps;
     eomc_stats *stats;   /* may be NULL: each row's whole stats */
-    size_t work_len;
+    const eomc_rollout_extras *ex;   /* may be NULL: no feedback, no events */
+    size_t work_len;     /* doubles per thread: integrator work, feedback, events scratch */
+    size_t ev_scratch, sw_scratch;   /* of which the events' two scratch buffers (at the end) */
     pthread_mutex_t lock;
     int next;            /* next row to hand out, under lock */
 } rollout_job;
@@ -38,19 +40,56 @@ static int take_row(rollout_job *job)
     return i;
 }
 
+/* Row i's copies of the extras' feedback and events, pointing at its slices. */
+static void row_extras(const rollout_job *job, size_t row, double *work, eomc_feedback *fb,
+                       eomc_events *ev)
+{
+    const eomc_rollout_extras *ex = job->ex;
+    const size_t nx = (size_t)job->m->nx;
+    if (ex->fb) {
+        *fb = *ex->fb;
+        fb->K = ex->fb->K ? ex->fb->K + row * ex->K_stride : NULL;
+        fb->x_ref = ex->fb->x_ref ? ex->fb->x_ref + row * ex->ref_stride : NULL;
+    }
+    if (ex->ev) {
+        const size_t cap = ex->ev->capacity > 0 ? (size_t)ex->ev->capacity : 0;
+        *ev = *ex->ev;
+        ev->t_rec = ex->t_rec + row * cap;
+        ev->id_rec = ex->id_rec + row * cap;
+        ev->x_rec = ex->x_rec + row * cap * nx;
+        ev->gmax = ex->gmax ? ex->gmax + row * ex->gmax_len : NULL;
+        ev->scratch = work + job->work_len - job->ev_scratch - job->sw_scratch;
+        ev->sw_scratch = job->sw_scratch ? work + job->work_len - job->sw_scratch : NULL;
+    }
+}
+
 static void run_rows(rollout_job *job, double *work)
 {
     const size_t nx = (size_t)job->m->nx;
+    const size_t run_len = job->work_len - job->ev_scratch - job->sw_scratch;
     int i;
     while ((i = take_row(job)) >= 0) {
         eomc_stats st;
+        eomc_feedback fb;
+        eomc_events ev;
         const size_t row = (size_t)i;
         double *x_out = job->X_out ? job->X_out + row * (size_t)job->n_eval * nx : NULL;
-        job->status[i] = eomc_integrate(job->m, job->opt, job->t0, job->t1, job->X0 + row * nx,
-                                        job->P + row * job->p_stride, job->n_rgrid, job->r_tgrid,
-                                        job->n_rgrid > 0 ? job->R + row * job->r_stride : NULL,
-                                        job->n_eval, job->t_eval, x_out,
-                                        job->X_last + row * nx, &st, work, job->work_len);
+        const eomc_feedback *fbp = NULL;
+        eomc_events *evp = NULL;
+        if (job->ex) {
+            row_extras(job, row, work, &fb, &ev);
+            fbp = job->ex->fb ? &fb : NULL;
+            evp = job->ex->ev ? &ev : NULL;
+        }
+        job->status[i] = eomc_integrate_ex(job->m, job->opt, job->t0, job->t1, job->X0 + row * nx,
+                                           job->P + row * job->p_stride, job->n_rgrid, job->r_tgrid,
+                                           job->n_rgrid > 0 ? job->R + row * job->r_stride : NULL,
+                                           fbp, evp, job->n_eval, job->t_eval, x_out,
+                                           job->X_last + row * nx, &st, work, run_len);
+        if (evp) {
+            job->ex->n_rec[i] = ev.n_rec;
+            job->ex->terminated[i] = ev.terminated;
+        }
         if (job->steps)
             job->steps[i] = st.steps;
         if (job->stats)
@@ -106,11 +145,36 @@ int eomc_rollout_stats(const eomc_model *m, const eomc_options *opt, double t0, 
                        int n_eval, const double *t_eval, double *X_out, double *X_last,
                        int *status, long *steps, eomc_stats *stats, int nthreads)
 {
+    return eomc_rollout_ex(m, opt, t0, t1, n, X0, P, p_stride, n_rgrid, r_tgrid, R, r_stride, NULL,
+                           n_eval, t_eval, X_out, X_last, status, steps, stats, nthreads);
+}
+
+/* The extras' buffers are there (the per-row checks are eomc_integrate_ex's). */
+static int extras_ok(const eomc_rollout_extras *ex)
+{
+    if (ex == NULL)
+        return 1;
+    if (ex->fb && (ex->fb->fn != NULL || (ex->fb->K == NULL && (ex->K_stride || ex->ref_stride))))
+        return 0;
+    if (ex->ev && (ex->t_rec == NULL || ex->id_rec == NULL || ex->x_rec == NULL || ex->n_rec == NULL
+                   || ex->terminated == NULL || ex->ev->capacity < 0 || ex->ev->n < 0 || ex->ev->nlin < 0
+                   || (ex->gmax && ex->gmax_len < (size_t)ex->ev->n + (size_t)ex->ev->nlin)))
+        return 0;
+    return 1;
+}
+
+int eomc_rollout_ex(const eomc_model *m, const eomc_options *opt, double t0, double t1,
+                    int n, const double *X0, const double *P, size_t p_stride,
+                    int n_rgrid, const double *r_tgrid, const double *R, size_t r_stride,
+                    const eomc_rollout_extras *ex,
+                    int n_eval, const double *t_eval, double *X_out, double *X_last,
+                    int *status, long *steps, eomc_stats *stats, int nthreads)
+{
     rollout_job job;
     int k, ran;
     if (m == NULL || opt == NULL || n < 0 || X0 == NULL || P == NULL || X_last == NULL
         || status == NULL || (n_eval > 0 && (t_eval == NULL || X_out == NULL))
-        || (n_rgrid > 0 && R == NULL) || (n_rgrid > 1 && r_tgrid == NULL))
+        || (n_rgrid > 0 && R == NULL) || (n_rgrid > 1 && r_tgrid == NULL) || !extras_ok(ex))
         return EOMC_BAD_ARGUMENT;
     if (nthreads <= 0)
         nthreads = 1;
@@ -123,8 +187,13 @@ int eomc_rollout_stats(const eomc_model *m, const eomc_options *opt, double t0, 
     job.n_rgrid = n_rgrid > 0 ? n_rgrid : 0; job.r_tgrid = r_tgrid; job.R = R; job.r_stride = r_stride;
     job.n_eval = n_eval; job.t_eval = t_eval; job.X_out = n_eval > 0 ? X_out : NULL;
     job.X_last = X_last; job.status = status; job.steps = steps; job.stats = stats;
+    job.ex = ex;
+    job.ev_scratch = ex && ex->ev ? eomc_events_scratch_size(m, ex->ev->ncol, ex->ev->n) : 0;
+    job.sw_scratch = ex && ex->ev && (ex->ev->nlin > 0 || ex->ev->switching)
+                     ? eomc_switch_scratch_size(ex->ev->n, ex->ev->nlin) : 0;
     job.work_len = eomc_integrate_work_size(m, opt->method)
-                   + (opt->method == EOMC_IMPLICITFAST && opt->implicit ? opt->implicit->work_len : 0);
+                   + (opt->method == EOMC_IMPLICITFAST && opt->implicit ? opt->implicit->work_len : 0)
+                   + (ex ? eomc_feedback_work_size(m, ex->fb) : 0) + job.ev_scratch + job.sw_scratch;
     job.next = 0;
     for (k = 0; k < n; ++k)
         status[k] = EOMC_ABORTED;        /* until its run says otherwise */

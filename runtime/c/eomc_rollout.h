@@ -46,6 +46,46 @@ int eomc_rollout_stats(const eomc_model *m, const eomc_options *opt, double t0, 
                        int *status, long *steps, eomc_stats *stats, int nthreads);
 
 /*
+ * Per-row feedback and events for eomc_rollout_ex (either may be absent: NULL).
+ *
+ * fb: the feedback of eomc_integrate_ex; row i runs with a copy whose K is fb->K + i * K_stride
+ * and x_ref fb->x_ref + i * ref_stride (0: one for every row) -- constant gains, or a gain
+ * schedule (fb->n_kgrid) per row.  A callback (fb->fn) is refused: it would serialize the
+ * threads on the caller's lock.
+ *
+ * ev: the events and switching functions of eomc_integrate_ex, read-only (n, fn, ncol, col,
+ * direction, terminal, capacity, switching, nlin, lin_*, sw_observe); its record, scratch
+ * and gmax pointers are not used.  Row i records into t_rec + i * capacity, id_rec + i *
+ * capacity, x_rec + i * capacity * nx; n_rec[i] counts its occurrences (also past
+ * capacity), terminated[i] says a terminal event ended it; gmax (may be NULL) + i *
+ * gmax_len receives its switching maxima (gmax_len >= ev->n + ev->nlin).  Each thread
+ * allocates its own events scratch.
+ */
+typedef struct eomc_rollout_extras {
+    const eomc_feedback *fb;
+    size_t K_stride, ref_stride;
+    const eomc_events *ev;
+    double *t_rec;
+    int *id_rec;
+    double *x_rec;
+    int *n_rec, *terminated;
+    double *gmax;
+    size_t gmax_len;
+} eomc_rollout_extras;
+
+/*
+ * eomc_rollout_stats with per-row feedback and events (ex may be NULL: eomc_rollout_stats).
+ * Row i is exactly one eomc_integrate_ex call, so it equals a scalar run with the same
+ * feedback and events bit for bit.
+ */
+int eomc_rollout_ex(const eomc_model *m, const eomc_options *opt, double t0, double t1,
+                    int n, const double *X0, const double *P, size_t p_stride,
+                    int n_rgrid, const double *r_tgrid, const double *R, size_t r_stride,
+                    const eomc_rollout_extras *ex,
+                    int n_eval, const double *t_eval, double *X_out, double *X_last,
+                    int *status, long *steps, eomc_stats *stats, int nthreads);
+
+/*
  * A model's NAME_rhs_batch_p (compiler/emit/batch.py): xdot of n states stored as columns
  * (X[i*n + k]) with one parameter row per state (P[j*n + k]), several per instruction.
  */

@@ -168,8 +168,8 @@ def test_bad_input_says_what_is_wrong():
         rollout(m, good, steps=10, dt=0.01, method="dop853")
     with pytest.raises(ValueError, match="record='steps' is the fixed-step grid"):
         rollout(m, good, t_final=0.1, method="dop853", record="steps")
-    with pytest.raises(ValueError, match="needs the method named"):
-        rollout(m, good, t_final=0.1, method="auto")
+    with pytest.raises(ValueError, match="method 'auto' is adaptive: give t_final="):
+        rollout(m, good, steps=10, dt=0.01, method="auto")
     with pytest.raises(ValueError, match="exactly one of t_final= or steps="):
         rollout(m, good, dt=0.01)
     with pytest.raises(ValueError, match="dt must be a finite step > 0"):
@@ -182,13 +182,12 @@ def test_bad_input_says_what_is_wrong():
         rollout(m, good, steps=10, dt=0.01, record="all")
 
 
-def test_model_with_a_terminal_event_is_refused_not_run_past_it():
-    """simulate ends such a run at the event; rollout would run every row to t_final, so it
-    refuses the model (naming the event) instead of returning states simulate never reaches."""
+def test_model_with_a_terminal_event_runs_past_it_only_when_told():
+    """simulate ends such a run at the event, and so does rollout (test_rollout_extras.py, on a
+    compiled model); events=False runs every row to t_final, as simulate(events=False)."""
     m = get_model("pendulum")
     m.metadata = {**m.metadata, "events": [{"name": "fallen", "terminal": 1, "direction": 1}]}
-    with pytest.raises(ValueError, match="terminal event.*fallen.*simulate_many"):
-        rollout(m, np.zeros((2, 2)), steps=10, dt=0.01)
+    assert rollout(m, np.zeros((2, 2)), steps=10, dt=0.01, events=False).ok.all()
     m.metadata = {**m.metadata, "events": [{"name": "crossing", "terminal": 0}]}
     assert rollout(m, np.zeros((2, 2)), steps=10, dt=0.01).ok.all()
 
@@ -255,5 +254,9 @@ def test_rollout_with_contacts_equals_simulate_bit_for_bit(tmp_path):
     assert not bad.clean[4]
     with pytest.raises(SimulationError, match="row 4 of 16 failed.*contact ball went"):
         eomc.rollout(m, x0, dt=0.002, steps=300, method="implicitfast", p=P, threads=2)
-    with pytest.raises(ValueError, match="only with method='implicitfast'"):
-        eomc.rollout(m, x0, dt=0.002, steps=10, method="rk4")
+    # other methods end their steps at touch-down and lift-off, as simulate's (tests/runtime/
+    # test_rollout_extras.py: the adaptive ones)
+    rk4 = eomc.rollout(m, x0[:3], dt=0.002, steps=10, method="rk4", raise_on_failure=False)
+    for i in range(3):
+        one = m.simulate(x0[i], (0.0, 0.02), method="rk4", dt=0.002, raise_on_failure=False)
+        assert np.array_equal(one.x[-1], rk4.x[i]) and one.status == rk4.status[i]

@@ -197,6 +197,21 @@ def test_limits_off_and_bad_numbers(tmp_path):
                      progress=False)
 
 
+def test_a_range_that_starts_at_zero_keeps_its_bound_as_a_parameter(tmp_path):
+    """range="0 90": the bound at 0 is a parameter (limit_lo_<joint>) like the other, so the
+    runtime watches it (before, the exact zero became a literal in the C and the runtime, which
+    finds limits by their parameters, never saw that side) and the MJCF's limit shape is in the
+    model's metadata for the energy verdict (runtime/limit_energy.py)."""
+    path = tmp_path / "zero.xml"
+    path.write_text(ARM.replace('range="-30 80"', 'range="0 80"', 1))
+    assert 'range="0 80"' in path.read_text()
+    names = {str(s): v for s, v in tree_ir(load_mjmodel(path)).parameters.items()}
+    assert names["limit_lo_elbow"] == 0.0
+    model = eomc.compile(MjcfModel(path), functions=["rhs"], cache_dir=tmp_path / "c", progress=False)
+    assert model.param_defaults[list(model.param_names).index("limit_lo_elbow")] == 0.0
+    assert set(model.metadata["limit_laws"]) == {"slide", "shoulder", "elbow"}
+
+
 def test_negative_frictionloss_names_the_joint(tmp_path):
     """MuJoCo accepts it (its constraint would clamp it); as a law it would feed energy in."""
     path = tmp_path / "neg.xml"

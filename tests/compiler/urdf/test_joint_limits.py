@@ -293,3 +293,31 @@ def test_the_cli_flag(tmp_path):
     assert common.with_options(str(tmp_path / "m.xml"), limits=False)[0] == MjcfModel(tmp_path / "m.xml",
                                                                                       limits=False)
     assert common.with_options(str(path), limits=False)[0] == UrdfModel(path, limits=False)
+
+
+KNEE = """<robot name="knee">
+  <link name="base"/>
+  <link name="shin"><inertial><mass value="1"/><origin xyz="0 0 -0.25"/>
+    <inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <joint name="knee" type="revolute"><parent link="base"/><child link="shin"/><axis xyz="0 1 0"/>
+    <limit lower="0" upper="2" effort="10" velocity="10"/></joint>
+</robot>
+"""
+
+
+def test_a_limit_at_zero_is_a_parameter_the_runtime_watches(tmp_path, cache):
+    """A range that starts at 0 (a knee's) has its bound as a parameter like any other: before,
+    the exact zero was folded into the C as a literal, so the runtime (which finds a limit by its
+    limit_lo_/limit_hi_ parameter) neither ended steps at its entry nor warned about a start
+    past it nor judged its overshoot, and --param could not move it."""
+    model = eomc.compile(_write(tmp_path, KNEE, "knee.urdf"), cache_dir=cache, progress=False)
+    names = list(model.param_names)
+    assert "limit_lo_knee" in names and model.param_defaults[names.index("limit_lo_knee")] == 0.0
+    with pytest.warns(PhysicsWarning, match=r"outside the range of joint knee \(q_knee = -0\.3, 0\.3 below its "
+                                            r"lower limit 0\)"):
+        model.simulate({"q_knee": -0.3}, (0, 0.05))
+    x = _state(model, q_knee=-0.01)
+    p = np.array(model.param_defaults, dtype=float)
+    pushed = model.rhs(0.0, x, p)[-1]
+    p[names.index("limit_lo_knee")] = -0.02       # the limit moved below the state: no push
+    assert model.rhs(0.0, x, p)[-1] < pushed - 1.0
