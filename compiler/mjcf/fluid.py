@@ -1,4 +1,4 @@
-"""MuJoCo's fluid forces, inertia-box model (``<option density viscosity wind>``), on the tree.
+"""MuJoCo's fluid forces (``<option density viscosity wind>``) on the tree: the inertia-box model.
 
 One job: each MuJoCo body with mass gets the force and torque of MuJoCo's
 ``mj_inertiaBoxFluidModel``, written with the recursion's own velocities.  The body is
@@ -12,8 +12,9 @@ minus the wind, both in the principal (inertial) frame:
 
 applied at the mass centre.  ``fluid_density`` and ``fluid_viscosity`` are parameters
 (defaults from the file), the wind and box sides constants (the sides follow the file's
-inertia, not the inertia parameters).  A geom that asks for MuJoCo's ellipsoid model
-(``fluidshape="ellipsoid"``) is refused by :func:`eomc.compiler.mjcf.model.check_model`.
+inertia, not the inertia parameters).  A body with a geom that asks for MuJoCo's ellipsoid
+model (``fluidshape="ellipsoid"``) gets that model instead, on those geoms only
+(:mod:`.fluid_ellipsoid`), as MuJoCo's ``mj_fluid`` chooses.
 """
 from dataclasses import dataclass
 
@@ -21,6 +22,7 @@ import numpy as np
 import sympy as sm
 
 from ..contact.tree import LoweredLoad
+from .fluid_frame import add_body_load, relative_velocity
 
 __all__ = ["FluidLoad", "with_fluid", "box_sides"]
 
@@ -57,19 +59,9 @@ class FluidLoad(LoweredLoad):
         what = f"the fluid force on body {self.name}"
         rho, mu = rename(self.density, what), rename(self.viscosity, what)
         A = [[sm.Float(x, 17) if abs(x) > 1e-300 else sm.S.Zero for x in row] for row in self.axes]
-
-        def to_local(vec):          # body -> inertial components: Aᵀ vec
-            return [rec.let(sum((A[k][r] * vec[k] for k in range(3)), sm.S.Zero)) for r in range(3)]
-        w_b, v_b = v[i][:3], list(v[i][3:])
-        if any(self.wind):
-            R = poses.world_to_body(i)     # world -> body components (eomc.compiler.tree.placement)
-            wind_b = [sum((R[r][k] * sm.Float(self.wind[k], 17) for k in range(3) if self.wind[k]), sm.S.Zero)
-                      for r in range(3)]
-            v_b = [v_b[r] - wind_b[r] for r in range(3)]
-        w, u = to_local(w_b), to_local(v_b)
+        w, u = relative_velocity(v[i], None, A, self.wind, poses, i, rec)
         b = self.box
         diam = sum(b) / 3.0
-        torque, force = [sm.S.Zero] * 3, [sm.S.Zero] * 3
         torque = [-sm.Float(np.pi * diam ** 3, 17) * mu * w[k] for k in range(3)]
         force = [-sm.Float(3.0 * np.pi * diam, 17) * mu * u[k] for k in range(3)]
         for k in range(3):
@@ -80,14 +72,17 @@ class FluidLoad(LoweredLoad):
         force = [rec.let(x) for x in force]
         n_b = [sum((A[r][k] * torque[k] for k in range(3)), sm.S.Zero) for r in range(3)]
         f_b = [sum((A[r][k] * force[k] for k in range(3)), sm.S.Zero) for r in range(3)]
-        old = bodies[i].fext or [0] * 6
-        bodies[i].fext = [old[k] + x for k, x in enumerate(n_b + f_b)]
+        add_body_load(bodies, i, n_b + f_b)
 
 
 def with_fluid(built, m, fold=False):
-    """``built`` (an MjcfTree) with a :class:`FluidLoad` on every body with mass when the file's
-    ``<option>`` has a density or viscosity; the parameters ``fluid_density``/``fluid_viscosity``."""
+    """``built`` (an MjcfTree) with a fluid load on every body with mass when the file's
+    ``<option>`` has a density or viscosity: :class:`.fluid_ellipsoid.EllipsoidFluidLoad` when
+    one of its geoms has ``fluidshape="ellipsoid"`` (as MuJoCo's mj_fluid chooses), else a
+    :class:`FluidLoad`; the parameters ``fluid_density``/``fluid_viscosity``."""
     import dataclasses
+    from eomc.compiler.contact.tree import body_com
+    from .fluid_ellipsoid import EllipsoidFluidLoad, semi_axes, uses_ellipsoid
     from .treeir import quat_matrix
     density, viscosity = float(m.opt.density), float(m.opt.viscosity)
     if not (density > 0 or viscosity > 0):
@@ -99,15 +94,25 @@ def with_fluid(built, m, fold=False):
         rho, mu = sm.Symbol("fluid_density", real=True), sm.Symbol("fluid_viscosity", real=True)
         params[rho], params[mu] = density, viscosity
     loads = list(built.tree.loads)
+    wind = tuple(float(x) for x in m.opt.wind)
     for i, owner in enumerate(built.owners):
         if owner is None:
             continue
         b = owner[0]
         if m.body_mass[b] < MINVAL or int(m.body_weldid[b]) == 0:
             continue
+        name = built.tree.bodies[i].name
+        geoms = uses_ellipsoid(m, b)
+        if geoms:
+            shapes = tuple((tuple(float(x) for x in m.geom_pos[g]),
+                            tuple(tuple(float(x) for x in row) for row in quat_matrix(m.geom_quat[g])),
+                            semi_axes(m.geom_size[g], int(m.geom_type[g])),
+                            tuple(float(x) for x in m.geom_fluid[g])) for g in geoms)
+            loads.append(EllipsoidFluidLoad(i, name, tuple(body_com(built, name, owner[1])), shapes,
+                                            rho, mu, wind))
+            continue
         axes = tuple(tuple(float(x) for x in row) for row in quat_matrix(m.body_iquat[b]))
-        loads.append(FluidLoad(i, built.tree.bodies[i].name, box_sides(m.body_inertia[b], m.body_mass[b]), axes,
-                               rho, mu, tuple(float(x) for x in m.opt.wind)))
+        loads.append(FluidLoad(i, name, box_sides(m.body_inertia[b], m.body_mass[b]), axes, rho, mu, wind))
     new = type(built).__new__(type(built))
     new.__dict__.update(built.__dict__)
     new.tree = dataclasses.replace(built.tree, loads=tuple(loads))

@@ -182,11 +182,6 @@ def check_model(m, path, ignore=()):
     if np.any(m.body_gravcomp):
         b = int(np.flatnonzero(m.body_gravcomp)[0])
         problems.append(("", "body", f"body {_name(m, mujoco.mjtObj.mjOBJ_BODY, b, 'body')}: gravcomp"))
-    ellipsoid = [g for g in range(m.ngeom) if m.geom_fluid[g][0] != 0]      # fluidshape="ellipsoid"
-    if (m.opt.density or m.opt.viscosity) and ellipsoid:
-        problems.append(("fluid", "geom", f"geom {_name(m, mujoco.mjtObj.mjOBJ_GEOM, ellipsoid[0], 'geom')}: "
-                         f"fluidshape=\"ellipsoid\" (MuJoCo's ellipsoid fluid model; the inertia-box model is "
-                         f"modelled)", _name(m, mujoco.mjtObj.mjOBJ_GEOM, ellipsoid[0], 'geom')))
     for j in range(m.njnt):
         jn = _name(m, J, j, "joint")
         kind, d = int(m.jnt_type[j]), int(m.jnt_dofadr[j])

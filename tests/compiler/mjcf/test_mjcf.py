@@ -244,8 +244,6 @@ def _refused(tmp_path, body, match, *, actuator="", extra="", ignore=()):
      r"<actuator>: actuator mus: its activation is limited", 8),
     (dict(body="", actuator='<actuator><general name="filt" joint="j" dyntype="muscle"/></actuator>'),
      r"actuator filt: it has muscle or user-defined activation dynamics", 8),
-    (dict(body="", extra='<option density="1.2"/><default><geom fluidshape="ellipsoid"/></default>'),
-     r'<geom>: geom geom #0: fluidshape="ellipsoid"', 2),
 ])
 def test_refused_with_element_and_line(tmp_path, kw, match, line):
     error = _refused(tmp_path, match=match, **kw)
