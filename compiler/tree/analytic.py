@@ -168,14 +168,12 @@ def analytic_plan(tree, bodies, gravity, layout, rename, contacts=None, let=None
     if len(used) != nq or len(row) != nu:
         return None, []
     loads = any(b.fext is not None for b in bodies)
-    lawdofs, L = [], []
-    for e, s in enumerate(row):
-        if s in laws:
-            qs, dq, du = laws[s]
-            if layout.x[qcol[e]] != qs:     # the law's coordinate is not this dof's column
-                return None, []
-            lawdofs.append(e)
-            L += [dq, du]
+    lawdofs, L = [e for e, s in enumerate(row) if s in laws], []
+    if any(layout.x[qcol[e]] != laws[row[e]][0] for e in lawdofs):
+        return None, []     # a law's coordinate is not its dof's column
+    for e in lawdofs:       # the plan is sure from here: named slopes are named now
+        _, dq, du = laws[row[e]]
+        L += list(dq()) if du is None else [dq, du]
     G, ends = [], []
     for body, depth, point, centre, force, Kc, Cc in contacts or ():
         if last.get(body, -1) < 0:      # on a body no joint moves: no generalized force
@@ -240,7 +238,12 @@ def _joint_laws(tree, layout, rename, xs, speeds, let=None):
         t = sm.sympify(rename(tau, what)).replace(sm.Abs, lambda a: 2 * ramp(a) - a)
         if t.free_symbols & xs - {qs, us}:
             return None
-        dq, du = _law_slopes(t, qs, us, memo, let)
+        slopes = _law_slopes(t, qs, us, memo, let)
+        if isinstance(slopes, _NamedSlopes):     # (its names are recorded only if the plan is made)
+            if not slopes.zero:
+                out[speeds.index(us)] = (qs, slopes, None)
+            continue
+        dq, du = slopes
         if dq != 0 or du != 0:
             out[speeds.index(us)] = (qs, dq, du)
     return out
@@ -255,8 +258,8 @@ def _law_slopes(t, qs, us, memo, let=None):
     diff returns (the same SymPy expression, checked in tests/compiler/tree/test_analytic_derivatives.py).
 
     With ``let`` (a recorder's: expr -> its temporary), the pair's common subexpressions are
-    found once per shape too (``sympy.cse`` of the shape's pair) and each law's are named
-    through ``let``; the slopes returned are names too.  Why: the program's CSE over G1's
+    found once per shape too (``sympy.cse`` of the shape's pair), and a :class:`_NamedSlopes`
+    is returned: called, it names the law's through ``let`` and returns the slopes' names.  Why: the program's CSE over G1's
     58 slopes of ~170 operations each was 0.2 s of its default build, the same search 29 times."""
     syms = sorted(t.free_symbols, key=lambda x: (x != qs, x != us, sm.default_sort_key(x)))
     canon = {x: sm.Symbol(f"_law{k}", **x.assumptions0) for k, x in enumerate(syms)}
@@ -274,10 +277,23 @@ def _law_slopes(t, qs, us, memo, let=None):
     if named is None:
         temps = (sm.Symbol(f"_lawt{k}", real=True) for k in itertools.count())
         named = memo[(key, "cse")] = sm.cse([dq, du], symbols=temps, order="none", list=True)
-    lets, (dq, du) = named
-    for s, e in lets:       # in sympy.cse's order: each reads only the ones before it
-        back[s] = let(e.xreplace(back))
-    return let(dq.xreplace(back)), let(du.xreplace(back))
+    return _NamedSlopes(named, back, let, dq == 0 and du == 0)
+
+
+class _NamedSlopes:
+    """One law's slopes, named through ``let`` when called (:func:`_law_slopes`): only once
+    its analytic plan is sure, since a name recorded and then not used would still shift the
+    numbers of the recorder's later temporaries, and with them SymPy's order of operands."""
+
+    def __init__(self, named, back, let, zero):
+        self.named, self.back, self.let, self.zero = named, back, let, zero
+
+    def __call__(self):
+        lets, (dq, du) = self.named
+        back = dict(self.back)
+        for s, e in lets:       # in sympy.cse's order: each reads only the ones before it
+            back[s] = self.let(e.xreplace(back))
+        return self.let(dq.xreplace(back)), self.let(du.xreplace(back))
 
 
 ABA_DEPTH = 5     # mean support depth above which jac_x's M⁻¹ runs articulated (measured, see choose_solver)

@@ -176,7 +176,7 @@ def test_law_slopes_are_sympys_derivatives():
     for j, kw in enumerate(kinds):
         q, u = sm.symbols(f"x_{j} x_{40 + j}", real=True)
         tau = joint_torque(q, u, JointLaw(f"j{j}", **kw),
-                           lambda name, v: sm.Symbol(f"p_{name}", real=True), f"j{j}", 0.3)
+                           lambda name, v, keep=False: sm.Symbol(f"p_{name}", real=True), f"j{j}", 0.3)
         dq, du = _law_slopes(tau, q, u, memo)
         assert dq == sm.diff(tau, q) and du == sm.diff(tau, u)
         assert (dq != 0) == ("lower" in kw or "upper" in kw)
@@ -185,9 +185,10 @@ def test_law_slopes_are_sympys_derivatives():
 
 def test_named_law_slopes_expand_to_sympys_derivatives():
     """With a recorder's ``let`` (how the default build asks, analytic.analytic_plan), each
-    law's slopes come back as names; their recorded definitions, substituted back, are the
-    very expressions sm.diff gives, and the common subexpressions are searched once per shape
-    (one sympy.cse for the two laws of one shape), each law's own names from the recorder."""
+    law's slopes come back, once asked for (the plan being sure), as names; their recorded
+    definitions, substituted back, are the very expressions sm.diff gives, and the common
+    subexpressions are searched once per shape (one sympy.cse for the two laws of one shape),
+    each law's own names from the recorder."""
     from eomc.compiler.tree.analytic import _law_slopes
     from eomc.compiler.tree.joint_laws import JointLaw, joint_torque
     from eomc.compiler.tree.recorder import Recorder
@@ -197,9 +198,11 @@ def test_named_law_slopes_expand_to_sympys_derivatives():
     for j, kw in enumerate(kinds):
         q, u = sm.symbols(f"x_{j} x_{40 + j}", real=True)
         tau = joint_torque(q, u, JointLaw(f"j{j}", **kw),
-                           lambda name, v: sm.Symbol(f"p_{name}", real=True), f"j{j}", 0.3)
+                           lambda name, v, keep=False: sm.Symbol(f"p_{name}", real=True), f"j{j}", 0.3)
         before = len(rec.assignments)
-        dq, du = _law_slopes(tau, q, u, memo, rec.let)
+        named = _law_slopes(tau, q, u, memo, rec.let)
+        assert len(rec.assignments) == before           # nothing recorded until the plan asks
+        dq, du = named()
         mine = rec.assignments[before:]
         assert {dq, du} <= {t for t, _ in mine}         # names, defined by this law
         back = {}
