@@ -35,9 +35,11 @@ from common import environment_header, format_table, write_results  # noqa: E402
 from bench_urdf import _mujoco_dir, _run, _timed, _write, eomc_harness  # noqa: E402
 import bench_mjcf  # noqa: E402
 
-# (file stem, row label, eomc's self-collision pairs: MjcfModel(pairs=True), as bench_mjcf_drops)
-MODELS = [(stem, stem, False) for stem in ("hopper", "walker2d", "ant", "humanoid")] + [
-    ("humanoid", "humanoid, pairs=True", True)]
+# (file stem, row label, eomc's self-collision pairs: MjcfModel(pairs=True), as bench_mjcf_drops;
+# the pairs as law routines: compiler/contact/pairs.LAW_ROUTINES)
+MODELS = [(stem, stem, False, False) for stem in ("hopper", "walker2d", "ant", "humanoid")] + [
+    ("humanoid", "humanoid, pairs=True", True, False),
+    ("humanoid", "humanoid, pairs=True, law routines", True, True)]
 NSTATES, NCALLS, REPEAT = 100, 20000, 7
 CORE = 1
 
@@ -53,6 +55,9 @@ from pathlib import Path
 from eomc.compiler.mjcf.model import MjcfModel
 path, name, cache, out, geoms = sys.argv[1], sys.argv[2], sys.argv[3], sys.argv[4], sys.argv[5] == "1"
 pairs = len(sys.argv) > 6 and sys.argv[6] == "1"
+if len(sys.argv) > 7 and sys.argv[7] == "1":
+    from eomc.compiler.contact import pairs as pair_code
+    pair_code.LAW_ROUTINES = True
 warnings.simplefilter("ignore")
 model = eomc.compile(MjcfModel(Path(path), geoms=geoms, pairs=True if pairs else None), name, functions=["rhs"], cache_dir=cache, output_dir=out,
                      progress=False)
@@ -60,10 +65,10 @@ print("wall", time.perf_counter() - t0)
 """
 
 
-def cold_build(path, name, geoms, tmp, pairs=False):
+def cold_build(path, name, geoms, tmp, pairs=False, law=False):
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     proc = _run([sys.executable, "-c", COLD_BUILD, str(path), name, str(tmp / f"cache_{name}"),
-                 str(tmp / f"out_{name}"), "1" if geoms else "0", "1" if pairs else "0"])
+                 str(tmp / f"out_{name}"), "1" if geoms else "0", "1" if pairs else "0", "1" if law else "0"])
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     return float(proc.stdout.split()[-1]), (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
@@ -105,13 +110,14 @@ def main():
         (tmp / "mj.c").write_text(MUJOCO_HARNESS)
         _run(["gcc", "-O2", "-std=c99", str(tmp / "mj.c"), f"-I{mjd / 'include'}", str(next(mjd.glob("libmujoco.so*"))),
               f"-Wl,-rpath,{mjd}", "-lm", "-o", str(tmp / "mj_forward")])
-        for stem, label, pairs in MODELS:
+        for stem, label, pairs, law in MODELS:
             path = folder / f"{stem}.xml"
-            wall, cpu = cold_build(path, label.replace(", pairs=True", "_pairs"), True, tmp, pairs)
+            tag = stem + ("_pairs" if pairs else "") + ("_law" if law else "")
+            wall, cpu = cold_build(path, tag, True, tmp, pairs, law)
             if pairs:
-                stem = label.replace(", pairs=True", "_pairs")
-                (tmp / f"out_{stem}_free").symlink_to(tmp / f"out_{label.split(',')[0]}_free")
-                wall0, cpu0 = free_build[label.split(",")[0]]
+                (tmp / f"out_{tag}_free").symlink_to(tmp / f"out_{stem}_free")
+                wall0, cpu0 = free_build[stem]
+                stem = tag
             else:
                 wall0, cpu0 = cold_build(path, f"{stem}_free", False, tmp)
                 free_build[stem] = wall0, cpu0

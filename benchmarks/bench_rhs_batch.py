@@ -23,6 +23,11 @@ Usage: python benchmarks/bench_rhs_batch.py [--rounds 9] [--core 0] [--write] [-
 
 --function jac_x: the same for NAME_jac_x_batch against the scalar jac_x (nx*nx outputs per
 state; `--outputs rhs,jac_x,jac_x_batch`), written to results/jac_x_batch.md.
+
+--function outputs: NAME_outputs_batch against the scalar outputs (`--outputs
+rhs,outputs,outputs_batch`) on the example models that have outputs (double pendulum: energy and
+tip, Kane; cart-pole: tip, Kane; the n-link cart, n = 10: energy; the Whipple bicycle), written to
+results/outputs_batch.md.
 """
 import argparse
 import json
@@ -52,6 +57,9 @@ HARNESS = r"""
 #if JACX
 #define BATCH m_jac_x_batch
 #define SCALAR jac_x
+#elif OUTS
+#define BATCH m_outputs_batch
+#define SCALAR outputs
 #else
 #define BATCH m_rhs_batch
 #define SCALAR rhs
@@ -59,7 +67,7 @@ HARNESS = r"""
 """ + C_CLOCK_AND_RNG + r"""int main(int argc, char **argv) {
     const eomc_model *m = m_model();
     int nx = m->nx, nq = m->nq, nr = m->ninput, i, k, c, round, rounds = atoi(argv[1]);
-    int no = JACX ? nx * nx : nx;
+    int no = JACX ? nx * nx : OUTS ? m->noutput : nx;
     double *X = malloc(sizeof(double) * nx * NS), *S = malloc(sizeof(double) * nx * NS);
     double *XD = malloc(sizeof(double) * no * NS), *xd = malloc(sizeof(double) * no * NS);
     double *R = calloc((size_t)(nr + 1) * NS, sizeof(double)), *r = calloc(nr + 1, sizeof(double));
@@ -82,7 +90,7 @@ HARNESS = r"""
             int cc = (c + round) % 2; long done = 0; double t0 = tnow(), t1;
             do { if (cc == 0) { for (i = 0; i < NS; i++) m->SCALAR(0.0, X + i * nx, m->param_defaults, r, xd + i * no, work); }
                  else BATCH(NS, 0.0, S, m->param_defaults, nr ? R : NULL, XD, st, work);
-                 sum += cc ? XD[nq * NS] : xd[nq];
+                 sum += cc ? XD[0] : xd[0];
                  done += NS; t1 = tnow(); } while (t1 - t0 < 2e7);
             printf("time %d %.3f\n", cc, (t1 - t0) / done);
         }
@@ -104,11 +112,21 @@ def models():
     return out
 
 
+def output_models():
+    ex = ROOT / "examples"
+    return [("double pendulum", ex / "double_pendulum.py", {}, []), ("cart-pole", ex / "cart_pole_system.py", {}, []),
+            ("n-link cart n=10", ex / "n_link_cart.py", {"EOMC_N_LINKS": "10"}, []),
+            ("Whipple bicycle", ex / "whipple_bicycle.py", {}, [])]
+
+
+OUTPUTS = {"rhs": "rhs,rhs_batch", "jac_x": "rhs,jac_x,jac_x_batch", "outputs": "rhs,outputs,outputs_batch"}
+
+
 def build(model, env, flags, outdir, fn="rhs"):
     env = dict(os.environ, EOMC_CACHE_DIR=tempfile.mkdtemp(prefix="eomc_rb_"), **env)
     start = time.perf_counter()
     proc = subprocess.run([sys.executable, "-m", "eomc", "build", str(model), "-o", str(outdir), "--name", "m",
-                           "--outputs", "rhs,rhs_batch" if fn == "rhs" else "rhs,jac_x,jac_x_batch", "-q", *flags], env=env, capture_output=True, text=True)
+                           "--outputs", OUTPUTS[fn], "-q", *flags], env=env, capture_output=True, text=True)
     if proc.returncode:
         raise RuntimeError((proc.stderr.strip().splitlines() or ["?"])[-1])
     return json.loads((outdir / "m.json").read_text()), time.perf_counter() - start
@@ -124,7 +142,7 @@ def measure(label, model, env, flags, tmp, rounds, fn="rhs", core=0):
     for lanes in (4, 8):
         exe = d / f"h{lanes}"
         start = time.perf_counter()
-        subprocess.run(["gcc", "-O2", "-std=c99", f"-DEOMC_BATCH_LANES={lanes}", f"-DJACX={int(fn == 'jac_x')}",
+        subprocess.run(["gcc", "-O2", "-std=c99", f"-DEOMC_BATCH_LANES={lanes}", f"-DJACX={int(fn == 'jac_x')}", f"-DOUTS={int(fn == 'outputs')}",
                         f"-I{d}", f"-I{rt}",
                         str(d / "h.c"), str(d / "m.c"), "-o", str(exe), "-lm"], check=True)
         compile_s[lanes] = time.perf_counter() - start
@@ -181,13 +199,13 @@ def main(argv):
     parser.add_argument("--rounds", type=int, default=9)
     parser.add_argument("--write", action="store_true")
     parser.add_argument("--core", type=int, default=0, help="the core the harnesses are pinned to")
-    parser.add_argument("--function", choices=("rhs", "jac_x"), default="rhs")
+    parser.add_argument("--function", choices=("rhs", "jac_x", "outputs"), default="rhs")
     parser.add_argument("names", nargs="*")
     args = parser.parse_args(argv)
     env_line = environment()
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
-        for label, model, env, flags in models():
+        for label, model, env, flags in (output_models() if args.function == "outputs" else models()):
             if args.names and not any(n.lower() in label.lower() for n in args.names):
                 continue
             try:
@@ -200,9 +218,10 @@ def main(argv):
     print(env_line)
     print(text)
     if args.write:
-        what = ("jac_x_batch: Jacobians per second in SIMD lanes vs the scalar jac_x" if args.function == "jac_x"
-                else "rhs_batch: states per second in SIMD lanes vs the scalar rhs")
-        how = "--function jac_x " if args.function == "jac_x" else ""
+        what = {"jac_x": "jac_x_batch: Jacobians per second in SIMD lanes vs the scalar jac_x",
+                "outputs": "outputs_batch: states' outputs per second in SIMD lanes vs the scalar outputs",
+                "rhs": "rhs_batch: states per second in SIMD lanes vs the scalar rhs"}[args.function]
+        how = "" if args.function == "rhs" else f"--function {args.function} "
         write_results(f"{args.function}_batch", f"# {what} (issue 31 item 1)\n\n"
                       f"{env_line}.  benchmarks/bench_rhs_batch.py {how}--rounds {args.rounds}: 1024 states per call, "
                       f"thread CPU time, taskset -c {args.core}, contestants interleaved, medians.  ns/state: lower is "

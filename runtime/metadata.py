@@ -31,7 +31,8 @@ SIZES = ("abi_version", "nq", "nu", "nx", "nparam", "ninput", "noutput", "nhol",
 STRUCT_FUNCTIONS = ("rhs", "jac_x", "jac_r", "mass_matrix", "forcing", "outputs", "constraints",
                     "constraints_jac")
 EXPORTED_FUNCTIONS = ("inverse_dynamics", "linearize", "events", "poses", "jac_p", "regressor", "jvp", "jac_id",
-                      "vjp", "hvp", "hess_id", "implicit", "rhs_batch", "jac_x_batch")
+                      "vjp", "hvp", "hess_id", "implicit", "rhs_batch", "jac_x_batch",
+                      "outputs_batch")
 FUNCTIONS = STRUCT_FUNCTIONS + EXPORTED_FUNCTIONS
 _IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
 

@@ -85,7 +85,7 @@ def _cffi_backend(ffi, lib, model_lib, c_model, name, functions):
             t, frombuf("double[]", x), p, r, prepare(lam), prepare(v), prepare(out), work)
     if "jac_p" in functions:     # exported, not in the eomc_model struct (ABI unchanged)
         kernels["jac_p"] = vector_kernel(getattr(model_lib, f"{name}_jac_p"))
-    for fn in ("rhs_batch", "jac_x_batch"):   # SoA states in SIMD lanes (compiler/emit/batch.py)
+    for fn in ("rhs_batch", "jac_x_batch", "outputs_batch"):   # SoA states in SIMD lanes (compiler/emit/batch.py)
         if fn in functions:
             kernels[fn] = (lambda fp: lambda n, t, X, p, R, XD, status, work: fp(
                 n, t, frombuf("double[]", X), p, prepare(R), frombuf("double[]", XD), frombuf("int[]", status),
@@ -406,6 +406,15 @@ class Model:
         Generated on request (``functions`` including "jac_x_batch")."""
         out = self._batch("jac_x_batch", t, X, p, r, self.nx * self.nx)
         return out.T.reshape(-1, self.nx, self.nx)
+
+    def outputs_batch(self, t, X, p=None, r=None):
+        """The outputs at every row of X (shape (n, nx)) by NAME_outputs_batch: several states per
+        instruction (SIMD lanes, ``metadata["outputs_batch"]``), the rows past the last full group
+        of lanes by the scalar outputs; (n, noutput), each row equal to ``outputs(t, X[i], p, r)``
+        bit for bit with -DEOMC_BATCH_LIBM_TRIG, else within the lanes' sin/cos (1 ulp).  p, r as
+        rhs_batch (r (n, ninput): one input row per state).  Generated on request (``functions``
+        including "outputs_batch")."""
+        return self._batch("outputs_batch", t, X, p, r, self.noutput).T
 
     def _batch(self, fn, t, X, p, r, nout):
         """(nout, n) from NAME_<fn> (rhs_batch, jac_x_batch) over the rows of X; errors name the

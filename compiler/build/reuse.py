@@ -62,12 +62,15 @@ def generator_switches():
     """The generator's module-level switches: the same sources give other C when one is flipped, so
     every key that holds :func:`compiler_digest` holds these too (a flipped switch found the C of
     the other setting in the cache before).  ``INLINE_NARROW``: the body-body pairs' narrow phase
-    inlined as SymPy or called (compiler/contact/pairs.py).  ``TANGENT``: hess_id left along the
+    inlined as SymPy or called (compiler/contact/pairs.py); ``LAW_ROUTINES``: each pair one call of its
+    kinds' law routine (held only when set).  ``TANGENT``: hess_id left along the
     k-speed joints' tangent for the comparison with Pinocchio (compiler/tree/second_order.py); held
     only when set, so the keys of ordinary builds stay what they were."""
     from ..contact import pairs
     from ..tree import second_order
     switches = {"inline_narrow": bool(pairs.INLINE_NARROW)}
+    if pairs.LAW_ROUTINES:
+        switches["law_routines"] = True
     if second_order.TANGENT:
         switches["hess_tangent"] = True
     return switches

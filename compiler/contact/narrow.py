@@ -15,6 +15,13 @@ The routines are generated from the same scheme functions, with the sizes and ma
 (not literals), so one routine serves every pair of its kinds; agreement with the inlined schemes
 is to rounding (tests/compiler/contact/test_narrow.py).
 
+A *law routine* (``pairs.LAW_ROUTINES``) goes further: the narrow phase, the contact law and the
+wrenches on both bodies in one routine per pair of kinds, called with the two bodies' origins,
+rotations and velocities and the law's parameters (LAW_NPOSE), so that the generated function only
+adds the wrenches it returns to the bodies' loads: SymPy lowers a kind's law once, not per pair.
+gymnasium's humanoid with its 109 self-pairs, rhs only: 25.7 s CPU with the narrow routines, 17.7 s
+with law routines (no self-pairs: 7.0 s; one run each, load 8-14).
+
 Derivatives: the tangent of an output along a direction is ``NarrowDot``'s: the routine's
 forward-mode derivative (the scheme's program differentiated once per pair of kinds by
 :func:`eomc.compiler.passes.diff.tangent`, not per pair) called with the placements' tangents,
@@ -55,21 +62,46 @@ ROUTINE_SPLIT = 1200
 # the ordered pairs of kinds a PairLoad may hold (a, b as with_pairs orders them): each its routine
 ROUTINE_KINDS = tuple((a, b) for a in ("sphere", "capsule", "box", "cylinder", "ellipsoid")
                       for b in ("sphere", "capsule", "box", "cylinder", "ellipsoid"))
+# A *law routine* (routine index len(ROUTINE_KINDS) + the kinds' index): the narrow phase and the
+# contact law with the forces on both bodies, one per pair of kinds (compiler/contact/pairs.py,
+# ``LAW_ROUTINES``).  Inputs: the narrow phase's 24 placements, then per body (A, B) its origin (3),
+# world -> body rotation (9, rows), angular and origin velocity (6, body components), then the law's
+# k, c, mu, vs -- all with tangents (LAW_NPOSE) --, then the 7 sizes and margin.  Outputs per contact
+# point (LAW_PER_PART): B's wrench (moment about its origin, force; body components), A's, then the
+# pair's outputs F_n, friction (3, world), δ, the clip's switching function, p (3, world).
+BODY_INPUTS = 18
+LAW_NPOSE = NPOSE + 2 * BODY_INPUTS + 4
+LAW_NINPUT = LAW_NPOSE + 7
+LAW_PER_PART = 21
 
 
-def routine_index(kind_a, kind_b):
-    return ROUTINE_KINDS.index((kind_a, kind_b))
+def routine_index(kind_a, kind_b, law=False):
+    return ROUTINE_KINDS.index((kind_a, kind_b)) + (len(ROUTINE_KINDS) if law else 0)
+
+
+def is_law(rid):
+    return rid >= len(ROUTINE_KINDS)
+
+
+def kinds_of(rid):
+    return ROUTINE_KINDS[rid % len(ROUTINE_KINDS)]
+
+
+def npose(rid):
+    """How many of routine ``rid``'s inputs have tangents (the rest: sizes and margin, numbers)."""
+    return LAW_NPOSE if is_law(rid) else NPOSE
 
 
 def _cname(rid, variant=None):
-    a, b = ROUTINE_KINDS[rid]
-    return f"eomc_narrow_{a}_{b}{'_' + variant if variant else ''}"
+    a, b = kinds_of(rid)
+    return f"eomc_{'pair' if is_law(rid) else 'narrow'}_{a}_{b}{'_' + variant if variant else ''}"
 
 
-def narrow_inputs(a, b, size_a, size_b, margin):
-    """The routine's inputs: placed shapes' centres and axes ({centre, axes}, world), sizes, margin."""
+def narrow_inputs(a, b, size_a, size_b, margin, law=()):
+    """The routine's inputs: placed shapes' centres and axes ({centre, axes}, world), ``law``'s
+    (a law routine's bodies and parameters, see LAW_NPOSE), sizes, margin."""
     out = list(a["centre"]) + [x for axis in a["axes"] for x in axis]
-    out += list(b["centre"]) + [x for axis in b["axes"] for x in axis]
+    out += list(b["centre"]) + [x for axis in b["axes"] for x in axis] + list(law)
     for size in (size_a, size_b):
         s = [float(x) for x in size] + [0.0] * (3 - len(size))
         out += [_number(x) for x in s[:3]]
@@ -177,7 +209,7 @@ class NarrowOut(sm.Function):
         if hit is None:
             expr = dd.definition(call)
             inputs = expr.args[2:]
-            dins = [dd.d(x, k) for x in inputs[:NPOSE]]
+            dins = [dd.d(x, k) for x in inputs[:npose(int(expr.args[0]))]]
             if all(x.is_Number and x == 0 for x in dins):
                 hit = sm.S.Zero
             else:
@@ -206,10 +238,12 @@ def routine_outputs(rid):
 _SCHEMES = []   # the pair schemes: .pairs sets them when imported (it imports this module)
 
 
-def use_schemes(outputs):
+def use_schemes(outputs, law):
     """``outputs(a, b, margin, let)``: the list p, n, δ of every contact point of two placed
-    shapes ({kind, centre, axes, size}) -- :mod:`.pairs`' schemes, the routines' bodies."""
-    _SCHEMES[:] = [outputs]
+    shapes ({kind, centre, axes, size}) -- :mod:`.pairs`' schemes, the routines' bodies;
+    ``law(a, b, body_a, body_b, params, margin, let)``: a law routine's outputs (LAW_PER_PART per
+    point; body_*: (origin, rotation rows, ω, v), params {k, c, mu, vs})."""
+    _SCHEMES[:] = [outputs, law]
 
 
 class _Straight:
@@ -234,14 +268,23 @@ class _Straight:
 @functools.lru_cache(maxsize=None)
 def _program(rid):
     """(Program with results ("o", i): the outputs of routine ``rid``, input symbols)."""
-    ka, kb = ROUTINE_KINDS[rid]
-    ins = sm.symbols(f"in0:{NINPUT}", real=True)
+    ka, kb = kinds_of(rid)
+    n0 = npose(rid)
+    ins = sm.symbols(f"in0:{n0 + 7}", real=True)
     a = {"kind": ka, "centre": list(ins[0:3]), "axes": [list(ins[3:6]), list(ins[6:9]), list(ins[9:12])],
-         "size": list(ins[24:27])}
+         "size": list(ins[n0:n0 + 3])}
     b = {"kind": kb, "centre": list(ins[12:15]), "axes": [list(ins[15:18]), list(ins[18:21]), list(ins[21:24])],
-         "size": list(ins[27:30])}
+         "size": list(ins[n0 + 3:n0 + 6])}
     rec = _Straight()
-    results = _SCHEMES[0](a, b, ins[30], rec.let)
+    if is_law(rid):
+        bodies = []
+        for j in (NPOSE, NPOSE + BODY_INPUTS):
+            R = [list(ins[j + 3 + 3 * r:j + 6 + 3 * r]) for r in range(3)]
+            bodies.append((list(ins[j:j + 3]), R, list(ins[j + 12:j + 15]), list(ins[j + 15:j + 18])))
+        params = dict(zip(("k", "c", "mu", "vs"), ins[n0 - 4:n0]))
+        results = _SCHEMES[1](a, b, bodies[0], bodies[1], params, ins[n0 + 6], rec.let)
+    else:
+        results = _SCHEMES[0](a, b, ins[n0 + 6], rec.let)
     prog = Program(inputs=tuple(ins), assignments=tuple(rec.assignments),
                    results=tuple((("o", i), sm.sympify(e)) for i, e in enumerate(results)), ntemp=rec.count)
     return prog, ins
@@ -253,8 +296,8 @@ def _dot_program(rid):
     primal values it needs -- the tape: inputs and temporaries of :func:`_program` that its own
     assignments or results read, in the primal's order -- as inputs, so it computes no primal."""
     prog, ins = _program(rid)
-    seeds = sm.symbols(f"din0:{NPOSE}", real=True)
-    full = dce(tangent(prog.with_(inputs=tuple(ins) + tuple(seeds)), "o", dict(zip(ins[:NPOSE], seeds)), "do"),
+    seeds = sm.symbols(f"din0:{npose(rid)}", real=True)
+    full = dce(tangent(prog.with_(inputs=tuple(ins) + tuple(seeds)), "o", dict(zip(ins[:npose(rid)], seeds)), "do"),
                ("do",))
     primal = set(ins) | {t for t, _ in prog.assignments}
     own = tuple((t, e) for t, e in full.assignments if t not in primal)
@@ -279,16 +322,17 @@ def routine_code(rid, variant=None):
     name = _cname(rid, variant)
     nout = routine_outputs(rid)
     names = {s: f"in[{k}]" for k, s in enumerate(ins)}
+    n0 = npose(rid)
     if variant == "dot":
         tape, seeds, prog = _dot_program(rid)
-        params = ["const double *tape"] + [f"double b{k}" for k in range(NPOSE)]
-        head = [f"{IND}const double din[{NPOSE}] = {{{', '.join(f'b{k}' for k in range(NPOSE))}}};"]
+        params = ["const double *tape"] + [f"double b{k}" for k in range(n0)]
+        head = [f"{IND}const double din[{n0}] = {{{', '.join(f'b{k}' for k in range(n0))}}};"]
         names = {s: f"tape[{k}]" for k, s in enumerate(tape)}
         names.update({s: f"din[{k}]" for k, s in enumerate(seeds)})
         group, stored = "do", nout
     else:
-        params = [f"double a{k}" for k in range(NINPUT)]
-        head = [f"{IND}const double in[{NINPUT}] = {{{', '.join(f'a{k}' for k in range(NINPUT))}}};"]
+        params = [f"double a{k}" for k in range(n0 + 7)]
+        head = [f"{IND}const double in[{n0 + 7}] = {{{', '.join(f'a{k}' for k in range(n0 + 7))}}};"]
         group, stored = "o", nout
         if variant == "tape":
             tape = tape_of(rid)
@@ -300,12 +344,18 @@ def routine_code(rid, variant=None):
     values = prog.result_exprs(group)
     body = temps(prog, pr) + [store(f"out[{i}]", values.get((group, i), sm.S.Zero), pr) for i in range(stored)]
     lines, parts = split_body(body, f"{name}_part") if len(body) > ROUTINE_SPLIT else (body, [])
-    ka, kb = ROUTINE_KINDS[rid]
+    ka, kb = kinds_of(rid)
     what = {None: "", "tape": "", "dot": "the tangents of "}[variant]
     after = (f", then the {stored - nout} values its _dot reads (the tape)" if variant == "tape" else
              ", from the tape its _tape variant wrote" if variant == "dot" else "")
-    text = (f"/* body-body pair narrow phase: {what}p, n, depth of each contact point of a {ka} (A) against a "
-            f"{kb} (B), {nout // PER_PART} point(s){after} (compiler/contact/narrow.py) */\n"
+    if is_law(rid):
+        head_text = (f"/* body-body pair narrow phase and contact law: {what}the wrenches on B and A, F_n, friction, "
+                     f"depth, clip, p of each contact point of a {ka} (A) against a {kb} (B), "
+                     f"{nout // LAW_PER_PART} point(s){after} (compiler/contact/narrow.py) */\n")
+    else:
+        head_text = (f"/* body-body pair narrow phase: {what}p, n, depth of each contact point of a {ka} (A) against a "
+                     f"{kb} (B), {nout // PER_PART} point(s){after} (compiler/contact/narrow.py) */\n")
+    text = (head_text +
             f"static double {name}({', '.join(params)}, double *out)\n{{\n" + "\n".join(head + lines)
             + f"\n{IND}return 0.0;\n}}\n")
     return "\n".join(list(parts) + [text]), bool(parts)

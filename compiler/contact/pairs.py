@@ -64,6 +64,11 @@ POINT_KINDS = ("px", "py", "pz")   # a pair's contact point outputs (world), aft
 # 0.73x (it has no broad phase: every pair's tape and tangent run at every call).  The flag is in
 # the generation and build caches' keys (compiler/build/reuse.generator_switches).
 INLINE_NARROW = True
+# True: each pair is one call of its kinds' *law routine* (.narrow): narrow phase, law and both
+# bodies' wrenches in C written once per pair of kinds, so SymPy lowers and gcc compiles each kind
+# once, not each pair (takes precedence over INLINE_NARROW).  In the generation and build caches'
+# keys as INLINE_NARROW.
+LAW_ROUTINES = False
 EPS = 1e-12     # m: regularises |d| so that coincident centres give a finite (zero) force
 
 
@@ -144,18 +149,12 @@ class PairLoad(LoweredLoad):
         params = {k: rename(s, what) for k, s in self.params.items()}
         ren = lambda e: rename(e, what)      # noqa: E731 -- mass-centre parameters -> their slots
         a, b = _placed(self.a, poses, rec, ren), _placed(self.b, poses, rec, ren)
+        if LAW_ROUTINES:
+            return self._lower_called(a, b, bodies, rec, v, params, poses, broad)
         p, n, depth = self.narrow(a, b, rec.let)
-        va, vb = _point_velocity(self.a, p, poses, v, rec), _point_velocity(self.b, p, poses, v, rec)
-        vrel = [rec.let(vb[k] - va[k]) for k in range(3)]
-        rate = rec.let(-_dot(n, vrel))
-        dpos = rec.let((depth + sm.Abs(depth)) / 2)
-        elastic = params["k"] * sm.Abs(dpos) ** EXPONENT
-        fn = rec.let(_pos(rec.let(elastic * (1 + sm.Rational(3, 2) * params["c"] * rate))))
-        vn = rec.let(_dot(n, vrel))
-        vt = [rec.let(vrel[k] - vn * n[k]) for k in range(3)]
-        scale = rec.let(-params["mu"] * fn / sm.sqrt(_dot(vt, vt) + params["vs"] ** 2))
-        ft = [scale * vt[k] for k in range(3)]        # outputs only: the rhs names f (as before)
-        f = [rec.let(fn * n[k] + scale * vt[k]) for k in range(3)]      # on B, world components
+        va = _velocity_at(_moving(self.a, poses, v), p, rec.let)
+        vb = _velocity_at(_moving(self.b, poses, v), p, rec.let)
+        fn, ft, f, rate = _law(n, depth, va, vb, params, rec.let)
         wrench = _apply(self.b, f, p, poses, bodies, rec) + _apply(self.a, [-x for x in f], p, poses, bodies, rec)
         if broad is not None:
             broad.append(((self.a, self.b, self.margin), pair_clearance(self, a, b, poses),
@@ -163,6 +162,75 @@ class PairLoad(LoweredLoad):
         # OUTPUT_KINDS, CLIP_KIND, then POINT_KINDS (the contact point, world)
         quantities = [fn, *ft, depth, clip_switch(depth, params["c"], rate), *p]
         return {PairValue(self.index, kind): value for kind, value in enumerate(quantities)}
+
+    def _lower_called(self, a, b, bodies, rec, v, params, poses, broad):
+        """:meth:`lower` as one call of the pair's law routine (``LAW_ROUTINES``, .narrow): the
+        narrow phase, the law and both wrenches in C written once per pair of kinds; here only
+        the placements, the call and the wrenches added to the bodies' fext."""
+        law = []
+        for shape in (self.a, self.b):
+            body = _moving(shape, poses, v)
+            if body is None:                    # the world: no motion, no wrench (rotation 0)
+                law += [sm.S.Zero] * nw.BODY_INPUTS
+            else:
+                o, R, w, u = body
+                law += list(o) + [x for row in R for x in row] + list(w) + list(u)
+        law += [params[k] for k in ("k", "c", "mu", "vs")]
+        rid = nw.routine_index(self.a.kind, self.b.kind, law=True)
+        uid = self.index - max(self.part, 0)       # the pair's first point: one array per pair
+        call = rec.let(nw.NarrowCall(sm.Integer(rid), sm.Integer(uid),
+                                     *nw.narrow_inputs(a, b, self.a.size, self.b.size, self.margin, law)))
+        base = nw.LAW_PER_PART * max(self.part, 0)
+        out = [rec.let(nw.NarrowOut(call, sm.Integer(uid), sm.Integer(base + k))) for k in range(nw.LAW_PER_PART)]
+        wrench = []
+        for shape, part in ((self.b, out[0:6]), (self.a, out[6:12])):
+            if shape.body >= 0:
+                old = bodies[shape.body].fext or [0] * 6
+                bodies[shape.body].fext = [old[k] + x for k, x in enumerate(part)]
+                wrench += part
+        depth = out[16]
+        if broad is not None:
+            broad.append(((self.a, self.b, self.margin), pair_clearance(self, a, b, poses),
+                          tuple(dict.fromkeys(s for s in wrench if isinstance(s, sm.Symbol))), depth))
+        return {PairValue(self.index, kind): value for kind, value in enumerate(out[12:])}
+
+
+def _moving(shape, poses, v):
+    """(origin, world -> body rotation rows, ω, origin velocity (body components)) of the
+    shape's body, or None for the world."""
+    if shape.body < 0:
+        return None
+    i = shape.body
+    R = poses.world_to_body(i)         # before the origin: the order the placement names them in
+    return poses.origin(i), R, v[i][:3], v[i][3:]
+
+
+def _law(n, depth, va, vb, params, let):
+    """(F_n, friction force on B (world), force on B (world), δ̇) of the smooth law at a contact
+    point: normal ``n`` (A to B), depth δ, the bodies' velocities there (module docstring)."""
+    vrel = [let(vb[k] - va[k]) for k in range(3)]
+    rate = let(-_dot(n, vrel))
+    dpos = let((depth + sm.Abs(depth)) / 2)
+    elastic = params["k"] * sm.Abs(dpos) ** EXPONENT
+    fn = let(_pos(let(elastic * (1 + sm.Rational(3, 2) * params["c"] * rate))))
+    vn = let(_dot(n, vrel))
+    vt = [let(vrel[k] - vn * n[k]) for k in range(3)]
+    scale = let(-params["mu"] * fn / sm.sqrt(_dot(vt, vt) + params["vs"] ** 2))
+    ft = [scale * vt[k] for k in range(3)]        # outputs only: the rhs names f (as before)
+    f = [let(fn * n[k] + scale * vt[k]) for k in range(3)]      # on B, world components
+    return fn, ft, f, rate
+
+
+def _law_outputs(a, b, body_a, body_b, params, margin, let):
+    """A law routine's outputs (.narrow, LAW_PER_PART per contact point): B's and A's wrenches
+    (body components, about the origins), F_n, friction (world), δ, clip, p (world)."""
+    out = []
+    for part in pair_parts(a["kind"], b["kind"]):
+        p, n, depth = scheme(a, b, part, margin, let)
+        fn, ft, f, rate = _law(n, depth, _velocity_at(body_a, p, let), _velocity_at(body_b, p, let), params, let)
+        out += _wrench(body_b, f, p, let) + _wrench(body_a, [-x for x in f], p, let)
+        out += [fn, *ft, depth, clip_switch(depth, params["c"], rate), *p]
+    return out
 
 
 def scheme(a, b, part, margin, let):
@@ -580,17 +648,25 @@ def _rim_capsule(y, capsule, margin, let):
     return [let(ca[k] + t * axis[k] + (r - depth / 2) * n[k]) for k in range(3)], n, depth
 
 
-def _point_velocity(shape, p, poses, v, rec):
-    """World velocity of body ``shape.body``'s material point at world position ``p``."""
-    if shape.body < 0:
+def _velocity_at(body, p, let):
+    """World velocity of the material point at world position ``p`` of ``body`` ((origin,
+    world -> body rotation rows, ω, origin velocity), body components; None: the world)."""
+    if body is None:
         return [sm.S.Zero] * 3
-    i = shape.body
-    R, o = poses.world_to_body(i), poses.origin(i)
+    o, R, w_b, v_b = body
     rel = [p[k] - o[k] for k in range(3)]
-    rel_b = [rec.let(sum((R[r][k] * rel[k] for k in range(3)), sm.S.Zero)) for r in range(3)]
-    w_b, v_b = v[i][:3], v[i][3:]
+    rel_b = [let(sum((R[r][k] * rel[k] for k in range(3)), sm.S.Zero)) for r in range(3)]
     vp_b = [v_b[k] + x for k, x in enumerate(_cross(w_b, rel_b))]
-    return [rec.let(sum((R[r][k] * vp_b[r] for r in range(3)), sm.S.Zero)) for k in range(3)]
+    return [let(sum((R[r][k] * vp_b[r] for r in range(3)), sm.S.Zero)) for k in range(3)]
+
+
+def _wrench(body, f, p, let):
+    """The wrench (moment about the origin, force; body components, each named) of force ``f``
+    (world) at world point ``p`` on ``body`` (as :func:`_velocity_at`'s)."""
+    o, R = body[0], body[1]
+    f_b = [let(sum((R[r][k] * f[k] for k in range(3)), sm.S.Zero)) for r in range(3)]
+    lever = [sum((R[r][k] * (p[k] - o[k]) for k in range(3)), sm.S.Zero) for r in range(3)]
+    return [let(x) for x in _cross(lever, f_b)] + f_b
 
 
 def _apply(shape, f, p, poses, bodies, rec):
@@ -599,10 +675,8 @@ def _apply(shape, f, p, poses, bodies, rec):
     if shape.body < 0:
         return []
     i = shape.body
-    R, o = poses.world_to_body(i), poses.origin(i)
-    f_b = [rec.let(sum((R[r][k] * f[k] for k in range(3)), sm.S.Zero)) for r in range(3)]
-    lever = [sum((R[r][k] * (p[k] - o[k]) for k in range(3)), sm.S.Zero) for r in range(3)]
-    wrench = [rec.let(x) for x in _cross(lever, f_b)] + f_b
+    R = poses.world_to_body(i)
+    wrench = _wrench((poses.origin(i), R), f, p, rec.let)
     old = bodies[i].fext or [0] * 6
     bodies[i].fext = [old[k] + x for k, x in enumerate(wrench)]
     return wrench
@@ -736,4 +810,4 @@ def with_pairs(built, specs, fold=False):
     return new, outputs, events
 
 
-nw.use_schemes(_scheme_outputs)
+nw.use_schemes(_scheme_outputs, _law_outputs)

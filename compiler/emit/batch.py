@@ -893,28 +893,30 @@ static int {name}_{fn}_batch_any(int n, double t, const double *X, const double 
     return head + ("\n" + simd.rstrip("\n") if simd else "") + "\n\n" + loop.rstrip("\n"), body
 
 
-def batch_code(name, nx, nr, printed, dynamics="", npar=0, fn="rhs", defined=None, prelude=True, kernels=""):
+def batch_code(name, nx, nr, printed, dynamics="", npar=0, fn="rhs", defined=None, prelude=True, kernels="",
+               nout=None):
     """(code before NAME_rhs_batch, its body, metadata) from the scalar rhs's (lines, parts).
 
     The metadata says whether the lanes are vectorized and, when they are not, why (the
     statement the rewrite does not know): the function then loops the scalar rhs.
 
     fn="jac_x": the same for ``NAME_jac_x_batch`` from the scalar jac_x's (lines, parts) (its
-    tangent loop in lanes; nx*nx outputs per state).  ``defined``: a set of the helper keys an
+    tangent loop in lanes; nx*nx outputs per state); fn="outputs", nout=noutput: for
+    ``NAME_outputs_batch`` from the scalar outputs'.  ``defined``: a set of the helper keys an
     earlier batch function of the same file defined (not repeated; this call's keys are added
     to it); prelude=False when that earlier function's code holds the prelude."""
     lines, parts = printed
-    nout = nx if fn == "rhs" else nx * nx
+    nout = nout if nout is not None else nx if fn == "rhs" else nx * nx
     out = "xdot" if fn == "rhs" else "out"
+    layout = {"rhs": "nx x n", "jac_x": "nx*nx x n", "outputs": "noutput x n"}[fn]
     try:
         lanes, used = batch_rhs(name, lines, parts, dynamics, fn=fn, out=out, kernels=kernels)
     except Unsupported as exc:
         before, body = batch_function(name, nx, nr, npar, None, "", fn=fn, nout=nout, prelude=prelude)
-        return before, body, {"vectorized": False, "why": f"the scalar {fn} {exc}", "layout": "nx x n"
-                              if fn == "rhs" else "nx*nx x n"}
+        return before, body, {"vectorized": False, "why": f"the scalar {fn} {exc}", "layout": layout}
     before, body = batch_function(name, nx, nr, npar, lanes, helpers(name, used, defined or ()), fn=fn,
                                   nout=nout, prelude=prelude)
     if defined is not None:
         defined.update(key for key, _ in helper_blocks(name, used))
-    return before, body, {"vectorized": True, "layout": "nx x n" if fn == "rhs" else "nx*nx x n",
+    return before, body, {"vectorized": True, "layout": layout,
                           "sin_cos": "vectorized fdlibm kernels, within 1 ulp of libm" if "trig" in used else None}

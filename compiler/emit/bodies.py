@@ -29,6 +29,7 @@ class BodyContext:
         self.nz = 0             # extra first-order states, after q and u in x (set by the generator)
         self.functions = ()     # the functions generated with this one (set by the generator)
         self.parts = []         # static functions the body being generated calls (emitted before it)
+        self.solver_parts = []  # static functions emitted right after the solver's (see jvp_body)
 
     @property
     def nx(self):
@@ -414,19 +415,23 @@ def parameter_directions(program, pr, gp, kp, nx, npar, fname, groups):
 LANES = 4   # directions a jvp's tangent carries at once (see lane_directions)
 
 
-def lane_directions(pr, seeds, nx, nd, tangents, ng, kin, scalar, tail):
+def lane_directions(pr, seeds, nx, nd, tangents, ng, kin, scalar, tail, lane_solve=None):
     """The loop over a jvp's k directions, the tangent carried LANES directions at a time.
 
     Why: one direction's tangent is a long chain of scalar products of the primal's
     temporaries with the direction; LANES directions in one loop ``for (ln = 0; ln < LANES;
     ln++)`` around the same chain read each primal temporary once for all of them, and the C
     compiler turns the loop into vector instructions (2 doubles wide under plain -O2 on
-    x86-64).  The lanes' results land in GT[row][lane]; the parameter columns, the solve
-    and the stores stay per direction (``tail``): a four-lane LDLᵀ substitution was
-    measured slower than four scalar ones (8-link cart, four directions 600 -> 753 ns a
-    call; the scalar chains already overlap).  A lone direction (k = 1, or the last of an odd group) runs the scalar
-    tangent as before, so one direction costs what it did.  Lanes past k repeat the group's
-    last direction (no reads past ``dirs``) and are dropped.
+    x86-64).  The lanes' results land in GT[row][lane]; the parameter columns and the
+    stores stay per direction (``tail``), and so does the solve unless ``lane_solve`` is
+    given: (the parameter-column lines, the call solving GT's lanes in place, the first out
+    row the solution fills).  Then each direction's parameter columns go into its lane and
+    one vectorized solve serves them all (linsolve.Solver.lanes_code; 8-link cart, four
+    directions 609 -> 551 ns a call); a four-lane LDLᵀ substitution in scalar code had
+    measured slower than four scalar ones (600 -> 753 ns; their latency chains overlap).
+    A lone direction (k = 1, or the last of an odd group) runs the scalar tangent and solve
+    as before, so one direction costs what it did.  Lanes past k repeat the group's last
+    direction (no reads past ``dirs``) and are dropped.
 
     ``tangents``: [(assignments, {row: expr}, first)] per tangent program (first: '=' into
     the rows, else '+='); ``seeds``: the direction's state symbols (seed j = state j);
@@ -448,14 +453,30 @@ def lane_directions(pr, seeds, nx, nd, tangents, ng, kin, scalar, tail):
              f"{IND}}}"]
     group += [IND + x for x in lane]
     per = [f"dx = dirs + (size_t)d * {nd};"] + kin
-    per += ["if (nl > 1) {", f"{IND}for (i = 0; i < {ng}; i++) G[i] = GT[i][ln];", "} else {"]
-    per += [IND + x for x in scalar] + ["}"] + tail
+    after = []
+    if lane_solve is None:
+        per += ["if (nl > 1) {", f"{IND}for (i = 0; i < {ng}; i++) G[i] = GT[i][ln];", "} else {"]
+        per += [IND + x for x in scalar] + ["}"] + tail
+    else:               # the parameter columns add into G: each lane out of GT and back in
+        pcols, call, row = lane_solve
+        solve = tail[len(pcols):]
+        if pcols:
+            per += ["if (nl > 1) {", f"{IND}for (i = 0; i < {ng}; i++) G[i] = GT[i][ln];", "} else {"]
+            per += [IND + x for x in scalar] + ["}"] + pcols
+            per += ["if (nl > 1) {", f"{IND}for (i = 0; i < {ng}; i++) GT[i][ln] = G[i];", "} else {"]
+        else:
+            per += ["if (nl == 1) {"] + [IND + x for x in scalar]
+        per += [IND + x for x in solve] + ["}"]
+        after = ["if (nl > 1) {", f"{IND}{call}",
+                 f"{IND}for (ln = 0; ln < nl; ln++) {{",
+                 f"{IND * 2}for (i = 0; i < {ng}; i++) out[(size_t)(d - nl + ln) * {nx} + {row} + i] = GT[i][ln];",
+                 f"{IND}}}", "}"]
     lines = [f"{IND}for (d = 0; d < k; ) {{",
              f"{IND * 2}nl = k - d < {LANES} ? k - d : {LANES};",
              f"{IND * 2}if (nl > 1) {{"] + [IND * 2 + x for x in group] + [f"{IND * 2}}}"]
     lines.append(f"{IND * 2}for (ln = 0; ln < nl; ln++, d++) {{")
     lines += [IND * 3 + x for x in per]
-    lines += [f"{IND * 2}}}", f"{IND}}}"]
+    lines += [f"{IND * 2}}}"] + [IND * 2 + x for x in after] + [f"{IND}}}"]
     decls = [f"double XT[{nx}][{LANES}];", f"double GT[{ng}][{LANES}];", "int ln, nl;"]
     return decls, lines
 
@@ -523,7 +544,11 @@ def jvp_body(ctx, program, W, seeds, nx, npar, blocks):
     tail = pcols + [f"{ctx.solver.solve_call('G')};",
                     f"for (i = 0; i < {nu}; i++) out[(size_t)d * {nx} + {nq} + i] = G[i];"]
     if tangents:        # the tangent programs LANES directions at a time
-        decls, loop = lane_directions(pr, seeds, nx, nd, tangents, nw, kin, body, tail)
+        lanes = ctx.solver.lanes_code(LANES) if nw == nu else None
+        if lanes:       # next to the scalar solve: among the jvp's parts, the same code measured
+            ctx.solver_parts.append(lanes[1])   # 576-595 ns a call at k = 4, not 551 (placement)
+        decls, loop = lane_directions(pr, seeds, nx, nd, tangents, nw, kin, body, tail,
+                                      lane_solve=lanes and (pcols, f"{lanes[0]}(F, GT);", nq))
         lines[len(_solver_decls(ctx, extra)):len(_solver_decls(ctx, extra))] = [IND + x for x in decls]
         lines += loop
     else:

@@ -21,7 +21,7 @@ from .reverse import REVERSE_FUNCTIONS, reverse_body, reverse_nsolve
 from .sparse_lu import sparse_lu_solver
 from .split import NOINLINE_MACRO, split_body
 from .batch import batch_code
-from .signatures import FUNCTION_ORDER, ON_REQUEST, STRUCT_FIELDS, cdef, prototype
+from .signatures import BATCH_FUNCTIONS, FUNCTION_ORDER, ON_REQUEST, STRUCT_FIELDS, cdef, prototype
 from .symbolic import HELPER_USERS
 
 __all__ = ["generate_c", "lower", "ir_listing", "Lowered", "ALL_FUNCTIONS"]
@@ -54,7 +54,9 @@ def _select(functions, ninput, noutput, ncon, nevent=0, has_poses=False, nparam=
         wanted.add("rhs")
     if "jac_x_batch" in wanted:    # likewise jac_x's
         wanted.add("jac_x")
-    absent = {"jac_r": ninput == 0, "jac_p": nparam == 0, "outputs": noutput == 0,
+    if "outputs_batch" in wanted:  # and the outputs'
+        wanted.add("outputs")
+    absent = {"jac_r": ninput == 0, "jac_p": nparam == 0, "outputs": noutput == 0, "outputs_batch": noutput == 0,
               "constraints": ncon == 0, "constraints_jac": ncon == 0, "events": nevent == 0,
               "poses": not has_poses}
     return tuple(f for f in ALL_FUNCTIONS if f in wanted and not absent.get(f, False))
@@ -245,7 +247,7 @@ def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions
     if refusal:
         raise ModelError(refusal)
     groups, helper_users = formulation.groups, formulation.helper_users
-    base = tuple(f for f in fns if f not in ("poses", "rhs_batch", "jac_x_batch"))   # poses: appended below
+    base = tuple(f for f in fns if f != "poses" and f not in BATCH_FUNCTIONS)   # poses: appended below
     sym = formulation.symbolic(formed, layout, base, outputs, events)
     if getattr(sym, "function_groups", None):   # this model's own choice (tree/lower.py: the loop kernel or not)
         groups = sym.function_groups
@@ -257,7 +259,7 @@ def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions
         sym, pose_meta = with_poses(sym, poses, layout)
         groups = {**groups, "poses": (POSE_GROUP,)}
     shared = verify(optimize_shared(sym.program, sym.derivatives))
-    programs = {fn: finish_function(shared, groups[fn]) if fn not in ("rhs_batch", "jac_x_batch") and groups[fn] else None
+    programs = {fn: finish_function(shared, groups[fn]) if fn not in BATCH_FUNCTIONS and groups[fn] else None
                 for fn in fns}
     programs = {fn: _taped(p) for fn, p in programs.items()}
     helper = (finish_function(shared, ("A", "b")) if set(fns) & set(helper_users) or sym.solve_in
@@ -317,12 +319,13 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
         ctx.split = ctx.split or routines_split
     rendered, op_counts, meta_batch, printed, defined = [], {}, {}, {}, set()
     for fn in fns:
-        if fn in ("rhs_batch", "jac_x_batch"):   # the printed lines, rewritten into lanes (compiler/emit/batch.py)
-            scalar = fn[:-len("_batch")]
+        if fn in BATCH_FUNCTIONS:   # the printed lines, rewritten into lanes (compiler/emit/batch.py)
+            scalar = BATCH_FUNCTIONS[fn]
+            first = next(f for f in fns if f in BATCH_FUNCTIONS)     # its code holds the prelude
             before, body, meta_batch[fn] = batch_code(name, nx, len(layout.r), printed[scalar], dynamics_text,
                                                       len(layout.p), fn=scalar, defined=defined,
-                                                      prelude=fn == "rhs_batch" or "rhs_batch" not in fns,
-                                                      kernels=helper)
+                                                      prelude=fn == first, kernels=helper,
+                                                      nout=len(sym.output_names) if scalar == "outputs" else None)
             rendered.append({"prototype": prototype(name, fn), "body": body, "parts": [before]})
             op_counts[fn] = dict(op_counts[scalar])
             continue
@@ -342,7 +345,7 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
         lines, parts = split_body(body, f"{name}_{fn}_part", restrict=formulation.restrict_scratch(fn))
         ctx.split = ctx.split or bool(parts)
         parts, ctx.parts = ctx.parts + parts, []     # functions the body asked for (bodies.BodyContext.parts)
-        if fn in ("rhs", "jac_x"):
+        if fn in BATCH_FUNCTIONS.values():
             printed[fn] = (lines, parts)
         rendered.append({"prototype": prototype(name, fn), "body": void_unused(fn, lines),
                          "parts": parts})
@@ -370,7 +373,8 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
     meta.update(formulation.metadata(sym, fns))
     if low.poses is not None:
         meta["poses"] = pose_metadata(low.poses)
-    return _render(name, meta, fns, rendered, solver, layout, sym, helper, ctx.split, formulation)
+    return _render(name, meta, fns, rendered, solver, layout, sym, helper, ctx.split, formulation,
+                   ctx.solver_parts)
 
 
 def _taped(prog):
@@ -462,7 +466,8 @@ def _pose_docs(meta):
                       f"columns are the body's axes)", rows)]
 
 
-def _render(name, meta, fns, rendered, solver, layout, sym, helper, split=False, formulation=KANE):
+def _render(name, meta, fns, rendered, solver, layout, sym, helper, split=False, formulation=KANE,
+            solver_parts=()):
     tables, table_refs = _tables(name, layout, sym.output_names)
     pointers = [f"{name}_{f}" if f in fns else "NULL" for f in STRUCT_FIELDS]
     # the recursive formulation's rhs, jac_x and jac_r solve by ABA (no factorization)
@@ -478,7 +483,7 @@ def _render(name, meta, fns, rendered, solver, layout, sym, helper, split=False,
         vectors=_vector_docs(meta), **common)
     source = env.get_template("model.c.j2").render(
         name=name, functions=rendered,
-        helper_code="\n".join(c for c in ((solver.code if uses_solver else ""), helper) if c),
+        helper_code="\n".join(c for c in ((solver.code if uses_solver else ""), *solver_parts, helper) if c),
         tables=tables, table_refs=table_refs, pointers=pointers,
         noinline=NOINLINE_MACRO if split else "", wide_finite="implicit" in fns, **common)
     return GeneratedModel(name=name, c_source=source, header=header, cdef=cdef(name, fns),

@@ -28,12 +28,12 @@ KINDS = {("box", "box"), ("sphere", "box")}
 SHALLOW = 0.01      # m: states compared have no point deeper (deeper, a centre inside a box has no direction)
 
 
-def _build(tmp_path, tag):
+def _build(tmp_path, tag, functions=("rhs", "jac_x", "outputs")):
     path = tmp_path / "nw.xml"
     path.write_text(XML)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        return eomc.compile(path, functions=("rhs", "jac_x", "outputs"), cache_dir=tmp_path / tag,
+        return eomc.compile(path, functions=functions, cache_dir=tmp_path / tag,
                             progress=False, name="nw")
 
 
@@ -69,6 +69,35 @@ def test_called_routines_are_the_inlined_schemes(tmp_path, monkeypatch):
     monkeypatch.setattr(pairs, "INLINE_NARROW", True)
     inline = _build(tmp_path, "inline")
     assert "eomc_narrow_" not in next((tmp_path / "inline").rglob("nw.c")).read_text()
+    _agree(called, inline)
+
+
+def test_law_routines_are_the_inlined_schemes(tmp_path, monkeypatch):
+    """pairs.LAW_ROUTINES: narrow phase, law and both bodies' wrenches in one routine per pair of
+    kinds (the table is a world geom: its body inputs are 0, its wrench is dropped); rhs, jac_x
+    (through the routine's tangent), jac_p (the law's parameters are its inputs) and outputs equal
+    the inlined schemes'."""
+    monkeypatch.setattr(pairs, "LAW_ROUTINES", True)
+    called = _build(tmp_path, "law", ("rhs", "jac_x", "jac_p", "outputs"))
+    source = next((tmp_path / "law").rglob("nw.c")).read_text()
+    assert "eomc_narrow_" not in source
+    rhs, jac = _function(source, "nw_rhs"), _function(source, "nw_jac_x")
+    for a, b in KINDS:
+        assert f"eomc_pair_{a}_{b}(" in rhs or f"eomc_pair_{b}_{a}(" in rhs, (a, b)
+        assert f"eomc_pair_{a}_{b}_dot(" in jac or f"eomc_pair_{b}_{a}_dot(" in jac, (a, b)
+    assert "_tape(" not in rhs and jac.count("eomc_pair_box_box_tape(") == 1
+    monkeypatch.setattr(pairs, "LAW_ROUTINES", False)
+    inline = _build(tmp_path, "inline", ("rhs", "jac_x", "jac_p", "outputs"))
+    X = _agree(called, inline)
+    for x in X[:50]:
+        ja, jb = called.jac_p(0.0, x), inline.jac_p(0.0, x)
+        assert np.all(np.isfinite(jb)) and np.abs(jb).max() > 0
+        assert np.abs(ja - jb).max() <= 1e-12 * (1 + np.abs(jb).max())
+
+
+def _agree(called, inline):
+    """Assert ``called``'s rhs, outputs and jac_x equal ``inline``'s at random states, near, apart
+    and pressed (every point pressed somewhere); return the states."""
     names = list(inline.output_names)
     assert names == list(called.output_names)
     depths = [names.index(k) for k in names if k.startswith("depth_")]
@@ -91,3 +120,4 @@ def test_called_routines_are_the_inlined_schemes(tmp_path, monkeypatch):
         ja, jb = called.jac_x(0.0, x), inline.jac_x(0.0, x)
         assert np.all(np.isfinite(jb))
         assert np.abs(ja - jb).max() <= 1e-12 * (1 + np.abs(jb).max())
+    return X

@@ -7,7 +7,8 @@ at its exact size, so one element past a column's end is caught; it also checks 
 state's result and status against the scalar rhs, so a clean run is a correct run.  The same
 driver runs NAME_jac_x_batch (its tangent loop over vectors, nx*nx outputs per state) against
 the scalar jac_x on UR5 with its joint limits (the lanes' Heaviside helper) and on a 6-link cart
-(the analytic kernel retyped into lanes)."""
+(the analytic kernel retyped into lanes), and NAME_outputs_batch against the scalar outputs on
+the Kane-form double pendulum (energy and tip position: sin/cos in lanes)."""
 import os
 import shutil
 import subprocess
@@ -25,6 +26,7 @@ pytestmark = pytest.mark.skipif(shutil.which("gcc") is None, reason="needs gcc")
 
 CART = Path(__file__).resolve().parents[3] / "examples" / "cart_pole_system.py"
 CHAIN = Path(__file__).resolve().parents[3] / "benchmarks" / "tree_models" / "cart_rel_joints.py"
+PENDULUM = Path(__file__).resolve().parents[3] / "examples" / "double_pendulum.py"
 
 DRIVER = r"""
 #include <math.h>
@@ -90,6 +92,9 @@ def _gm(kind, cache):
                             cache_dir=cache, progress=False)[1]
         finally:
             del os.environ["EOMC_N_LINKS"]
+    if kind == "pendulum_outputs":
+        return generate(str(PENDULUM), "sanpend", functions=("rhs", "outputs", "outputs_batch"),
+                        cache_dir=cache, progress=False)[1]
     if kind == "ur5_jac_x":
         from eomc.compiler.urdf.model import UrdfModel
         return generate(UrdfModel(robot_path("ur5")), "sanjur5", functions=("rhs", "jac_x", "jac_x_batch"),
@@ -108,21 +113,21 @@ def cache(tmp_path_factory):
 
 
 @pytest.mark.parametrize("lanes", [4, 8])
-@pytest.mark.parametrize("kind", ["ur5", "kane_cart", "ur5_jac_x", "chain_jac_x"])
+@pytest.mark.parametrize("kind", ["ur5", "kane_cart", "ur5_jac_x", "chain_jac_x", "pendulum_outputs"])
 def test_rhs_batch_sanitizer_clean(cache, tmp_path, kind, lanes):
     if lanes > machine_lanes():
         pytest.skip(f"this machine has {machine_lanes()} double lanes: the lanes would not run")
-    if kind.endswith("_jac_x") and lanes != machine_lanes():
-        pytest.skip("jac_x_batch: the machine's own lane width only (CI time)")
+    if kind.endswith(("_jac_x", "_outputs")) and lanes != machine_lanes():
+        pytest.skip(f"{kind}: the machine's own lane width only (CI time)")
     gm = _gm(kind, cache)
-    fn = "jac_x" if kind.endswith("_jac_x") else "rhs"
+    fn = "jac_x" if kind.endswith("_jac_x") else "outputs" if kind.endswith("_outputs") else "rhs"
     assert gm.metadata[f"{fn}_batch"]["vectorized"], gm.metadata[f"{fn}_batch"]
     if kind == "kane_cart":
         assert gm.metadata["formulation"] == "kane" and gm.metadata["ninput"] > 0
     src = es.write_sources(gm, str(tmp_path))
     nstates = 3 * lanes + 3                       # three groups of lanes and a 3-state tail
     main = tmp_path / "main.c"
-    nout = gm.metadata["nx"] ** 2 if fn == "jac_x" else gm.metadata["nx"]
+    nout = {"jac_x": gm.metadata["nx"] ** 2, "outputs": gm.metadata["noutput"]}.get(fn, gm.metadata["nx"])
     main.write_text(DRIVER.replace("NAME", gm.name).replace("NSTATES", str(nstates)).replace("FN", fn)
                     .replace("NOUT", str(nout)))
     exe = tmp_path / "driver"
