@@ -169,14 +169,10 @@ def _errors(em, mm, me, fine, X0, S0, nstep, dt, nrows=ERROR_ROWS):
     return err
 
 
-def _case(name, threads_list, cache_dir):
+def starts(em, mm, height, pose):
+    """(X0, S0): the NROLL starts of one case as eomc states and MuJoCo full-physics states (the
+    pose, the start height of a URDF robot, hinge and slide speeds uniform in +-0.5, seed 0)."""
     import mujoco
-    from mujoco import rollout as mj_rollout
-
-    import eomc
-    em, mm, me, fine, height, pose = _models(name, cache_dir)
-    dt = float(mm.opt.timestep)
-    nstep = int(round(1.0 / dt))
     rng = np.random.default_rng(0)
     x0 = B.eomc_start(em, mm)
     names = list(em.state_names)
@@ -200,6 +196,18 @@ def _case(name, threads_list, cache_dir):
                 d.qvel[int(mm.jnt_dofadr[j])] = v
                 X0[i, names.index(f"u_{mm.joint(j).name}")] = v
         mujoco.mj_getState(mm, d, S0[i], spec)
+    return X0, S0
+
+
+def _case(name, threads_list, cache_dir):
+    import mujoco
+    from mujoco import rollout as mj_rollout
+
+    import eomc
+    em, mm, me, fine, height, pose = _models(name, cache_dir)
+    dt = float(mm.opt.timestep)
+    nstep = int(round(1.0 / dt))
+    X0, S0 = starts(em, mm, height, pose)
     ctrl = np.zeros((NROLL, nstep, mm.nu))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

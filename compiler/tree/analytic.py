@@ -77,6 +77,7 @@ class AnalyticPlan:
     kblocks: tuple = ()     # per k-speed joint: its K's diagonal blocks ((coordinates), (speeds)), see _blocks
     laws: tuple = ()        # dofs with a joint law, in dof order (their ∂τ/∂q, ∂τ/∂u: anx block L)
     contacts: tuple = ()    # per ground contact (its body, the last dof on the body's path to the root): anx block G
+    k2nz: tuple = ()        # per k-speed joint: its coordinates b with a dK/dq_b not identically 0 (hess_id's block K2)
 
     def dofs(self, b):
         return range(self.first[b], self.first[b] + self.count[b])

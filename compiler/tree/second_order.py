@@ -107,16 +107,20 @@ def _tidy(e):
     return sm.Add(*[sm.factor(sm.Add(*ts)) if key else sm.Add(*ts) for key, ts in groups.items()])
 
 
-# The finiteness check without a pass over the output (O(n^3) numbers; 5 of cart20's 48 us): every
-# stored number is a dot product of a pair vector (U's first 48 numbers, or u10 = u2 + u9,
-# u11 = u2 - u9, at most twice as large) with a column of K, or a root k-speed joint's
-# combination of up to 6 such by its K^-1 (_fold_lines: entries within 1, else big is set), the
-# sum of two such, or one minus a joint law's curvature h.  When every U and K number is within
-# BOUND and every h within 1e300, each output is within 6 * 6 * 2e150 * 1e150 * 2 + 1e300 < 1e303:
-# finite (the k-speed joints' own (q, q) blocks, _tangent_lines, are checked number by number).  Else (or a NaN anywhere,
-# which fails every <=) the output is checked entry by entry as before, so the result (an error
-# exactly when an output is not finite) is the same.
-BOUND = "1e150"
+# The finiteness check without a pass over the output (O(n^3) numbers; 5 of cart20's 48 us), from
+# the numbers per dof, not per pair: every stored number is built from the per-dof-i numbers (the
+# operators R1, R3, the vectors Y S_i, B^T S_i, g5, g7 and the composite inertia Y, B's entries
+# folded in) and the per-dof columns of K (S, psi', psi'', psi' + phi'), each within BOUND = B:
+# a pair vector is a 6x6 product or a force cross product of those, at most 25 B^3 (u4's
+# S_i x* (Y s_j) is the cubic one, 20 B^3; the rest within 24 B^2), a dot with a K column at most
+# 150 B^4, a store the sum of two (300 B^4) or a root k-speed joint's combination of up to three
+# such by its K^-1 (_fold_lines: entries within 1, else big is set; 900 B^4), or such minus a
+# joint law's curvature h within 1e300: with B = 1e70, every output is within 1e300 + 1e284: finite
+# (the k-speed joints' own (q, q) blocks, _tangent_lines, are checked number by number).  Else (or
+# a NaN anywhere, which fails every <=) the output is checked entry by entry as before, so the
+# result (an error exactly when an output is not finite) is the same.  Why per dof: the check of
+# the pair's 48 numbers was 7 % of Go2's hess_id (knock-out, 2.5 of 34.7 us; 132 pairs, 18 dofs).
+BOUND = "1e70"
 
 # True: the k-speed joints' entries stay along their tangent xi (Pinocchio's Lie-group tangent;
 # no change to their coordinates, :func:`_tangent_lines`) -- to compare with Pinocchio's tensors
@@ -190,6 +194,9 @@ def second_order_c(name, plan, nq, nx, helpers):
         *(_joint_tables(plan) if nm else []),
         f"    double R[{9 * nb}], P[{3 * nb}], V[{6 * nb}], A[{6 * nb}], Y[{10 * nb}], dY[{12 * nb}], F[{6 * nb}];",
         f"    double Sw[{6 * nd}], PS[{6 * nd}], PS2[{6 * nd}], PP[{6 * nd}];",
+        f"#if {name.upper()}_H2_LANES == 4",
+        f"    double XA[{24 * nd}], XB[{24 * nd}], M3[144], FF[24];   /* the pair products' lanes (_pair_vector_lines) */",
+        "#endif",
         *([f"    double Tq[{nd * nm}];   /* d tau / d xi of the k-speed joints' dofs (their columns), per dof's row */"]
           if nm and not TANGENT else []),
         *cfg[0],
@@ -214,6 +221,9 @@ def second_order_c(name, plan, nq, nx, helpers):
         "                ab[i] += s[i] * ud[e] + t[i] * u[e];",
         "                PP[6 * e + i] = ps[i] + t[i];   /* psi' + phi' */",
         "            }",
+        f"#if {name.upper()}_H2_LANES == 4",
+        *_lane_fill_lines(),
+        "#endif",
         "        }",
         *WORLD_INERTIA_LINES,
         "        IO[1] = IO[3] = Yb[7]; IO[2] = IO[6] = Yb[8]; IO[5] = IO[7] = Yb[9];",
@@ -245,7 +255,7 @@ def second_order_c(name, plan, nq, nx, helpers):
         "            const double *S = Sw + 6 * i, *ps = PS + 6 * i;",
         f"            double *Oi = out + (size_t)row[i] * {nn};",
         "            const int qi = qc[i], ui = uc[i];",
-        "            double ys[6], yp[6], bs[6], g5[6], g7[6], t[6], x[6];",
+        "            double ys[6], yp[6], bs[6], g5[6], g7[6], t[6]" + (", x[6];" if nm else ";"),
         "            /* the composite inertia Ym and variation Bm as 6x6 matrices (angular rows first) */",
         "            Ym[0] = Yb[4]; Ym[7] = Yb[5]; Ym[14] = Yb[6];",
         "            Ym[1] = Ym[6] = Yb[7]; Ym[2] = Ym[12] = Yb[8]; Ym[8] = Ym[13] = Yb[9];",
@@ -286,6 +296,14 @@ def second_order_c(name, plan, nq, nx, helpers):
         "            }",
         "            /* R3 += (. x* yp): its 18 nonzero entries (column k is e_k x* yp) */",
         *_yp_lines(),
+        f"#if {name.upper()}_H2_LANES == 4",
+        "            for (k = 0; k < 6; k++)   /* M3: R3 on lanes 0, 1, R3^T on lane 2 (_pair_product_lines) */",
+        "                for (c = 0; c < 6; c++) {",
+        "                    M3[24 * k + 4 * c] = M3[24 * k + 4 * c + 1] = R3[6 * k + c];",
+        "                    M3[24 * k + 4 * c + 2] = R3[6 * c + k];",
+        "                    M3[24 * k + 4 * c + 3] = 0.0;",
+        "                }",
+        "#endif",
         "            /* g5 = Bm psi' + S x* F + Ym psi'', g7 = Bm S + Ym (psi' + phi') */",
         f"            {rd}_dmul(dYb, ps, g5);",
         f"            {rd}_crossf(S, fb, t);",
@@ -295,6 +313,15 @@ def second_order_c(name, plan, nq, nx, helpers):
         f"            {rd}_dmul(dYb, S, g7);",
         f"            {rd}_ymul(Yb, PP + 6 * i, t);",
         "            for (c = 0; c < 6; c++) g7[c] += t[c];",
+        f"            for (c = 0; c < 36; c++) big |= !(fabs(R1[c]) <= {BOUND}) | !(fabs(R3[c]) <= {BOUND});   /* BOUND */",
+        "            for (c = 0; c < 6; c++)",
+        f"                big |= !(fabs(ys[c]) <= {BOUND}) | !(fabs(bs[c]) <= {BOUND}) | !(fabs(g5[c]) <= {BOUND}) | !(fabs(g7[c]) <= {BOUND});",
+        f"            for (c = 0; c < 10; c++) big |= !(fabs(Yb[c]) <= {BOUND});",
+        f"#if {name.upper()}_H2_LANES == 4",
+        "            for (c = 0; c < 6; c++) {   /* FF: the cross products' lanes (_pair_cross_lines) */",
+        "                FF[4 * c] = ys[c]; FF[4 * c + 1] = bs[c]; FF[4 * c + 2] = g5[c]; FF[4 * c + 3] = g7[c];",
+        "            }",
+        "#endif",
         *(["            for (j = jl[i]; j >= 0; j = lam[j]) {   /* i's joint (every dof of it) and its support */",
            "                const double *s = Sw + 6 * j, *p = PS + 6 * j;",
            "                const int oj = db[j] != b;   /* j in another joint than i */"] if nm else [
@@ -302,42 +329,10 @@ def second_order_c(name, plan, nq, nx, helpers):
           "                const double *s = Sw + 6 * j, *p = PS + 6 * j;"]),
         f"                double *Oj = out + (size_t)row[j] * {nn};",
         "                const int qj = qc[j], uj = uc[j];",
-        "                double U[60], r1p[6], r0p[6];   /* the pair's vectors; the first 48 bound the stores (BOUND) */",
+        "                double U[60], r1p[6], r0p[6];   /* the pair's vectors */",
         "                double *u1 = U, *u2 = U + 6, *u3 = U + 12, *u6 = U + 18, *u7 = U + 24, *u9 = U + 30, *w = U + 36;",
         "                double *u4 = U + 42, *u10 = U + 48, *u11 = U + 54;",
-        f"                {name}_h2_mv(R1, s, u2);",
-        f"                {name}_h2_mv(R1, p, r1p);",
-        f"                {rd}_crossf(s, ys, u9);",
-        f"                {rd}_crossf(p, ys, r0p);",
-        f"                {rd}_crossf(s, bs, w);",
-        "                for (c = 0; c < 6; c++) {",
-        "                    u10[c] = u2[c] + u9[c];",
-        "                    u11[c] = u2[c] - u9[c];",
-        "                    w[c] += r0p[c] - r1p[c];",
-        "                    u4[c] = 2.0 * u9[c];",
-        "                }",
-        *([
-            "                if (!oj && j != i) {   /* two dofs of one joint: u4 = s_j x* (Y S_i) + S_i x* (Y s_j) */",
-            f"                    {rd}_ymul(Yb, s, t);",
-            f"                    {rd}_crossf(S, t, x);",
-            "                    for (c = 0; c < 6; c++) u4[c] = u9[c] + x[c];",
-            "                }"] if nm else []),
-        f"                {name}_h2_mv(R3, p, u3);",
-        f"                {name}_h2_mv(R1, PS2 + 6 * j, t);",
-        "                for (c = 0; c < 6; c++) u3[c] += t[c];",
-        f"                {rd}_crossf(s, g5, t);",
-        "                for (c = 0; c < 6; c++) u3[c] += t[c];",
-        f"                {rd}_crossf(s, g7, u6);",
-        "                for (c = 0; c < 6; c++) u6[c] += r1p[c] + r0p[c];",
-        f"                if ({oj}) {{",
-        f"                    {name}_h2_mtv(R3, s, u1);",
-        f"                    {name}_h2_mv(R3, s, u7);",
-        "                    for (c = 0; c < 6; c++) x[c] = PP[6 * j + c] - p[c];   /* phi'_j */",
-        f"                    {name}_h2_mv(R1, x, t);",
-        "                    for (c = 0; c < 6; c++) u7[c] += r1p[c] + t[c];",
-        "                } else {",
-        "                    for (c = 0; c < 6; c++) u1[c] = u7[c] = 0.0;   /* unread (j == i), set for the compiler */",
-        "                }",
+        *_pair_vector_lines(name, rd, nm, oj),
     ] + (_first_order_lines(rd, nm) if nm and not TANGENT else []) + _triple_lines(name, rd, nx, cfg, nm, plan) + [
         "            }",
         "        }",
@@ -405,6 +400,122 @@ def _lanes_cfg(plan):
               c_table("pG", base or (0,)), c_table("pn", [len(p) for p in ps] or (0,)),
               c_table("p0", starts or (0,)), c_table("pd", [e for p in ps for e in p] or (0,))]
     return tables, max(b, 1), max(lens or [LANES]), len(ps)
+
+
+def _pair_vector_lines(name, rd, nm, oj):
+    """C, per pair (i, j): the pair's vectors u1 .. u11, w.  With AVX2 (NAME_H2_LANES 4) the
+    seven 6x6 matrix-vector products and four force cross products run on four lanes
+    (:func:`_pair_product_lines`, :func:`_pair_cross_lines`); without, one by one (with SSE2's
+    two lanes the lane form was slower: cart4 4.05 -> 4.45 us, UR10 5.5 -> 5.7, portable -O2).
+    Both sum every term in the same order: the same bits."""
+    lanes = f"{name.upper()}_H2_LANES"
+    return [
+        f"#if {lanes} == 4",
+        "                {",
+        "                    double oa[24], ob[24], oc[24];",
+        *_pair_product_lines(),
+        *_pair_cross_lines(),
+        "                    for (c = 0; c < 6; c++) {",
+        "                        u2[c] = oa[4 * c];",
+        "                        r1p[c] = oa[4 * c + 1];",
+        "                        u9[c] = oc[4 * c];",
+        "                        w[c] = oc[4 * c + 1];",
+        "                        u6[c] = oc[4 * c + 3];",
+        "                        u3[c] = ob[4 * c + 1] + oa[4 * c + 2];   /* R3 psi' + R1 psi'' + S_j x* g5 */",
+        "                        u3[c] += oc[4 * c + 2];",
+        "                        u1[c] = ob[4 * c + 2];   /* R3^T S_j, R3 S_j + R1 psi'_j + R1 phi'_j (read when j, i in two joints) */",
+        "                        u7[c] = ob[4 * c] + (r1p[c] + oa[4 * c + 3]);",
+        "                    }",
+        "                }",
+        "#else",
+        f"                {name}_h2_mv(R1, s, u2);",
+        f"                {name}_h2_mv(R1, p, r1p);",
+        f"                {rd}_crossf(s, ys, u9);",
+        f"                {rd}_crossf(s, bs, w);",
+        f"                {name}_h2_mv(R3, p, u3);",
+        f"                {name}_h2_mv(R1, PS2 + 6 * j, t);",
+        "                for (c = 0; c < 6; c++) u3[c] += t[c];",
+        f"                {rd}_crossf(s, g5, t);",
+        "                for (c = 0; c < 6; c++) u3[c] += t[c];",
+        f"                {rd}_crossf(s, g7, u6);",
+        f"                if ({oj}) {{",
+        "                    double ph[6];",
+        f"                    {name}_h2_mtv(R3, s, u1);",
+        f"                    {name}_h2_mv(R3, s, u7);",
+        "                    for (c = 0; c < 6; c++) ph[c] = PP[6 * j + c] - p[c];   /* phi'_j */",
+        f"                    {name}_h2_mv(R1, ph, t);",
+        "                    for (c = 0; c < 6; c++) u7[c] += r1p[c] + t[c];",
+        "                }",
+        "#endif",
+        f"                {rd}_crossf(p, ys, r0p);",
+        "                for (c = 0; c < 6; c++) {",
+        "                    u10[c] = u2[c] + u9[c];",
+        "                    u11[c] = u2[c] - u9[c];",
+        "                    w[c] += r0p[c] - r1p[c];",
+        "                    u4[c] = 2.0 * u9[c];",
+        "                    u6[c] += r1p[c] + r0p[c];",
+        "                }",
+        *([
+            "                if (!oj && j != i) {   /* two dofs of one joint: u4 = s_j x* (Y S_i) + S_i x* (Y s_j) */",
+            f"                    {rd}_ymul(Yb, s, t);",
+            f"                    {rd}_crossf(S, t, x);",
+            "                    for (c = 0; c < 6; c++) u4[c] = u9[c] + x[c];",
+            "                }"] if nm else []),
+        f"                if (!({oj}))",
+        "                    for (c = 0; c < 6; c++) u1[c] = u7[c] = 0.0;   /* unread (j == i), set for the compiler */",
+    ]
+
+
+def _lane_fill_lines():
+    """C, in the forward pass per dof e: its vectors as the lanes of the pair products
+    (:func:`_pair_product_lines`), component-major: XA = (S, psi', psi'', phi'), XB = (S, psi', S, 0)."""
+    return [
+        "            for (i = 0; i < 6; i++) {   /* the pair products' lanes */",
+        "                double *xa = XA + 24 * e + 4 * i, *xb = XB + 24 * e + 4 * i;",
+        "                xa[0] = xb[0] = xb[2] = s[i];",
+        "                xa[1] = xb[1] = ps[i];",
+        "                xa[2] = ps2[i];",
+        "                xa[3] = PP[6 * e + i] - ps[i];",
+        "                xb[3] = 0.0;",
+        "            }",
+    ]
+
+
+def _pair_product_lines():
+    """C, per pair (i, j): the seven 6x6 matrix-vector products of the pair's vectors as two
+    products of a 6x6 by four lanes, oa = R1 (S_j, psi'_j, psi''_j, phi'_j) and ob = (R3 S_j,
+    R3 psi'_j, R3^T S_j, 0) (M3: R3 on lanes 0, 1 and R3^T on lane 2, set per dof i), a lane
+    loop gcc vectorizes (4 lanes a step with AVX2, 2 with SSE2).  Each sum runs over the
+    columns in order from 0.0, as the scalar products did, so the bits are theirs.  Why:
+    these products were ~a third of hess_id on Go2 (perf), one scalar multiply-add each."""
+    def row(m, x, r):
+        return "0.0 + " + " + ".join(f"{m(r, c)} * {x}[{4 * c} + l]" for c in range(6))
+    return [
+        "                {",
+        "                    const double *xa = XA + 24 * j, *xb = XB + 24 * j;",
+        "                    int l;",
+        *[f"                    for (l = 0; l < 4; l++) oa[{4 * r} + l] = " + row(lambda r, c: f"R1[{6 * r + c}]", "xa", r) + ";"
+          for r in range(6)],
+        *[f"                    for (l = 0; l < 4; l++) ob[{4 * r} + l] = " + row(lambda r, c: f"M3[{24 * r + 4 * c} + l]", "xb", r) + ";"
+          for r in range(6)],
+        "                }",
+    ]
+
+
+def _pair_cross_lines():
+    """C, per pair (i, j): S_j x* f for the four force vectors of dof i, FF's lanes (Y S_i,
+    B^T S_i, g5, g7) -> oc (u9, w's first term, u3's last, u6's first), the force cross
+    product's terms in rd_crossf's order (the bits are its) over a lane loop gcc vectorizes."""
+    terms = ["+1 2 -2 1 +4 5 -5 4", "+2 0 -0 2 +5 3 -3 5", "+0 1 -1 0 +3 4 -4 3", "+1 5 -2 4", "+2 3 -0 5", "+0 4 -1 3"]
+    out = ["                {", "                    int l;"]
+    for r, t in enumerate(terms):
+        ts = t.split()
+        e = ""
+        for n in range(0, len(ts), 2):
+            sg, a, b = ts[n][0], ts[n][1:], ts[n + 1]
+            e += ("" if n == 0 else f" {sg} ") + f"s[{a}] * FF[{4 * int(b)} + l]"
+        out.append(f"                    for (l = 0; l < 4; l++) oc[{4 * r} + l] = {e};")
+    return out + ["                }"]
 
 
 def _yp_lines():
@@ -526,7 +637,6 @@ def _triple_lines(name, rd, nx, cfg, nm=0, plan=None):
     def d(m):
         return f"D[{m * maxl} + tk]" if m else "D[tk]"
     return [
-        f"                for (c = 0; c < 48; c++) big |= !(fabs(U[c]) <= {BOUND});",
         "                {   /* the dots of (i, j) with every k on j's path, H2_LANES k a step */",
         f"                    const int pa = jp[j], L = pL[pa], T = {T};",
         "                    const double *G = K + pG[pa];",
@@ -611,13 +721,18 @@ def with_k_derivatives(plan, values, x):
         return plan, values
     vals = {k[1]: e for k, e in values}
     group = values[0][0][0]
-    K0, extra = plan.offsets["K"], []
+    K0, extra, nz = plan.offsets["K"], [], []
     for e0, k, koff in plan.multi:
+        nzj = []
         for b in range(k):
             qb = x[plan.qcol[e0 + b]]
-            extra += [sm.diff(sm.sympify(vals[K0 + koff + i]), qb) for i in range(k * k)]
+            d = [sm.diff(sm.sympify(vals[K0 + koff + i]), qb) for i in range(k * k)]
+            extra += d
+            if any(e != 0 for e in d):
+                nzj.append(b)
+        nz.append(tuple(nzj))
     n = plan.size
-    plan = replace(plan, offsets={**plan.offsets, "K2": n}, size=n + len(extra))
+    plan = replace(plan, offsets={**plan.offsets, "K2": n}, size=n + len(extra), k2nz=tuple(nz))
     return plan, list(values) + [((group, n + i), v) for i, v in enumerate(extra)]
 
 
@@ -708,12 +823,18 @@ def _tangent_lines(plan, nx, nm):
     return lines + ["        big |= !(chk == 0.0);", "    }"]
 
 
-def _w_lines(k, k2):
-    """C: W_b = dK^-1/dq_b = -K^-1 (dK/dq_b) K^-1 for each coordinate b of a k-speed joint
-    (K^-1 whole in Kf, rows speeds; dK/dq_b from an[k2 + k*k*b])."""
+def _w_lines(k, k2, bs=None):
+    """C: W_b = dK^-1/dq_b = -K^-1 (dK/dq_b) K^-1 for each coordinate b of a k-speed joint, or
+    for the b in ``bs`` alone (those with a dK/dq_b not identically 0; the other W_b are 0 and
+    not read) (K^-1 whole in Kf, rows speeds; dK/dq_b from an[k2 + k*k*b])."""
     kk = k * k
+    loop = (f"for (b = 0; b < {k}; b++) {{" if bs is None else
+            "for (l = 0; l < " + str(len(bs)) + "; l++) {\n                static const int bz[" + str(max(len(bs), 1))
+            + "] = {" + ", ".join(map(str, bs or (0,))) + "};\n                b = bz[l];")
+    if bs is not None and not bs:
+        return []
     return [
-        f"            for (b = 0; b < {k}; b++) {{   /* W_b = dK^-1/dq_b = -K^-1 dK/dq_b K^-1 */",
+        f"            {loop}   /* W_b = dK^-1/dq_b = -K^-1 dK/dq_b K^-1 */",
         f"                const double *dK = an + {k2} + {kk} * b;",
         f"                for (i = 0; i < {k}; i++)",
         f"                    for (j = 0; j < {k}; j++) {{",
@@ -735,33 +856,45 @@ def _folded_block_lines(plan, nx, nm, jn, m0):
     """C: a folded joint's (:func:`_folded`) own (q, q) block in every row i, the only entries the
     triple loop leaves along its tangent on the "j" side: the loop wrote Z = G K^-1 (columns
     along q), so the block is K^-T Z + sum_d T_i[d] dK^-1[d, .]/dq_b (the k-speed joint's
-    Hessian along its coordinates, see :func:`_tangent_lines`); 2 k^3 multiply-adds per row
-    instead of the pass over the joint's rows and columns (19-26 % of hess_id on Go2, G1, Talos)."""
+    Hessian along its coordinates, see :func:`_tangent_lines`); per row instead of the pass over
+    the joint's rows and columns (19-26 % of hess_id on Go2, G1, Talos).  Unrolled over K^-1's
+    diagonal blocks (entry (a, b) sums over the speeds of a's block only) and over the b whose
+    dK/dq_b is not identically 0 (``plan.k2nz``: a free joint's angles, not its position):
+    a third of the full 6x6 x 6 terms; the terms kept are summed in the full loop's order, so
+    the bits are its.  Why: the full loops were 8 % of Go2's hess_id (knock-out, 2.7 of 34.7 us)."""
     e0, k, _ = plan.multi[jn]
     kk, nn = k * k, nx * nx
     k2 = plan.offsets["K2"] + sum(kj * kj * kj for _, kj, _ in plan.multi[:jn])
+    nz = plan.k2nz[jn] if plan.k2nz else tuple(range(k))
     lines = [
         "        {",
         f"            double Kf[{kk}], W[{k * kk}], Z[{kk}], ck[{k}] = {{0.0}};",
         f"            static const int jq[{k}] = {{{', '.join(str(plan.qcol[e0 + c]) for c in range(k))}}};",
+        "            int l;",
         f"            for (i = 0; i < {kk}; i++) Kf[i] = 0.0;   /* K^-1 whole from its blocks: rows speeds, columns coordinates */",
     ]
+    speeds = {}     # coordinate a -> the speeds of its block (ascending: the full loop's order)
     for bl, (r, c) in enumerate(plan.kblocks[jn]):
         b = len(r)
         lines += [f"            Kf[{k * c[i] + r[jj]}] = Kv{jn}_{bl}[{b * i + jj}];" for i in range(b) for jj in range(b)]
-    lines += _w_lines(k, k2) + [
+        for a in r:
+            speeds[a] = sorted(c)
+    lines += _w_lines(k, k2, nz) + [
         f"            for (e = 0; e < {plan.nd}; e++) {{",
         f"                double *O = out + (size_t)row[e] * {nn};",
         f"                const double *Te = Tq + e * {nm} + {m0};",
         f"                for (j = 0; j < {k}; j++)   /* Z[d, b]: the loop's (xi_d, q_b) entries */",
-        f"                    for (b = 0; b < {k}; b++) Z[{k} * j + b] = O[jq[j] * {nx} + jq[b]];",
-        f"                for (j = 0; j < {k}; j++)   /* (q_a, q_b): sum_d K^-1[d, a] Z[d, b] + T[d] dK^-1[d, a]/dq_b */",
-        f"                    for (b = 0; b < {k}; b++) {{",
-        "                        tmp = 0.0;",
-        f"                        for (i = 0; i < {k}; i++) tmp += Kf[{k} * i + j] * Z[{k} * i + b] + Te[i] * W[{kk} * b + {k} * i + j];",
-        f"                        O[jq[j] * {nx} + jq[b]] = tmp;",
-        "                        ck[b] += tmp * 0.0;   /* k sums side by side (one chained sum was ~1 us of Go2's 35) */",
-        "                    }",
+        f"                    for (l = 0; l < {k}; l++) Z[{k} * j + l] = O[jq[j] * {nx} + jq[l]];",
+        "                /* (q_a, q_b): sum_d K^-1[d, a] Z[d, b] + T[d] dK^-1[d, a]/dq_b, d over a's block */",
+    ]
+    for a in range(k):
+        for bb in range(k):
+            terms = [f"Kf[{k * i + a}] * Z[{k * i + bb}]" + (f" + Te[{i}] * W[{kk * bb + k * i + a}]" if bb in nz else "")
+                     for i in speeds[a]]
+            lines.append(f"                tmp = 0.0 + " + " + ".join(f"({t})" for t in terms) + ";")
+            lines.append(f"                O[jq[{a}] * {nx} + jq[{bb}]] = tmp;")
+            lines.append(f"                ck[{bb}] += tmp * 0.0;")
+    lines += [
         "            }",
         f"            for (b = 0; b < {k}; b++) chk += ck[b];",
         "        }",

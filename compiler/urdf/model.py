@@ -40,6 +40,8 @@ class UrdfModel:
     limits: bool = True          # the file's joint limits, damping and friction act (False: ignored)
     contacts: tuple = ()        # ground contacts (eomc.compiler.contact.tree.ContactSpec or text)
     allow_nonphysical_inertia: bool = False
+    all_inertial_parameters: bool = False   # every body's 10 inertial entries are parameters, the file's
+                                            # zeros included (identification; examples/identify_arm.py)
     ground: bool = None         # the <collision> geometry touches the plane z = 0 (.collision); also
                                 # contacts=["@ground"] / --ground.  None (the default): the other
                                 # bodies' geometry does when contacts are named (_ground); False: never
@@ -51,7 +53,8 @@ class UrdfModel:
     def options(self):
         return dict(floating_base=self.floating_base, fold_parameters=self.fold_parameters,
                     mimic=self.mimic, gravity=self.gravity, limits=self.limits,
-                    allow_nonphysical_inertia=self.allow_nonphysical_inertia)
+                    allow_nonphysical_inertia=self.allow_nonphysical_inertia,
+                    all_inertial_parameters=self.all_inertial_parameters)
 
 
 def is_urdf_path(model):
@@ -96,7 +99,8 @@ def model_of_robot(robot, tree, model, poses=False):
     mimics = [j.name for j in tree.joints if j.mimic is not None]
     refusal = (f"mimic joints ({', '.join(mimics[:5])}{', ...' if len(mimics) > 5 else ''}) are "
                f"constraints, which the URDF reader's tree does not carry") if model.mimic and mimics else None
-    built = tree_ir(tree, fold=model.fold_parameters, gravity=model.gravity, laws=model.limits)
+    built = tree_ir(tree, fold=model.fold_parameters, gravity=model.gravity, laws=model.limits,
+                    all_inertial=model.all_inertial_parameters)
     collisions = tuple(c for link in robot.links.values() for c in link.collisions)
     outputs, events = {}, {}
     named, ground = _ground(model)
@@ -132,7 +136,7 @@ def model_of_robot(robot, tree, model, poses=False):
     def mechanics():
         """The robot's SymPy System (Kane's formulation), from the tree read above."""
         made = system_from_tree(tree, fold=model.fold_parameters, mimic=model.mimic, gravity=model.gravity,
-                                laws=model.limits)
+                                laws=model.limits, all_inertial=model.all_inertial_parameters)
         made.system.urdf = made.system.reading = made
         return made.system
 

@@ -110,13 +110,13 @@ def _vector(frame, components):
     return sum((c * axis for c, axis in zip(components, (frame.x, frame.y, frame.z))), sme.Vector(0))
 
 
-def _body(body, params):
+def _body(body, params, keep_zero=False):
     s = identifier(body.name)
     frame = TreeFrame(f"F_{s}")
-    mass = params(f"m_{s}", body.mass)
-    com = [params(f"{c}_{s}", v) for c, v in zip(("cx", "cy", "cz"), body.com)]
+    mass = params(f"m_{s}", body.mass, keep_zero)
+    com = [params(f"{c}_{s}", v, keep_zero) for c, v in zip(("cx", "cy", "cz"), body.com)]
     I = body.inertia
-    entries = {key: params(f"I{key}_{s}", I[i, j]) for key, (i, j) in
+    entries = {key: params(f"I{key}_{s}", I[i, j], keep_zero) for key, (i, j) in
                (("xx", (0, 0)), ("yy", (1, 1)), ("zz", (2, 2)),
                 ("xy", (0, 1)), ("xz", (0, 2)), ("yz", (1, 2)))}
     masscenter = sme.Point(f"G_{s}")
@@ -126,9 +126,10 @@ def _body(body, params):
     return rigid, com
 
 
-def system_from_tree(tree, *, fold=False, mimic=False, gravity=9.81, laws=True):
+def system_from_tree(tree, *, fold=False, mimic=False, gravity=9.81, laws=True, all_inertial=False):
     """Build the :class:`UrdfSystem` of a :class:`tree.Tree` (see the module docstring); ``laws``:
-    the joints' limits, damping and friction act (as in :func:`.treeir.law_torque`)."""
+    the joints' limits, damping and friction act (as in :func:`.treeir.law_torque`);
+    ``all_inertial``: every body's 10 inertial entries are parameters, zeros included."""
     from .treeir import joint_inertias, law_torque
     if mimic:
         check_mimics(tree, tree.joints)
@@ -141,7 +142,7 @@ def system_from_tree(tree, *, fold=False, mimic=False, gravity=9.81, laws=True):
     system = make_system(world)
     bodies, coms, joints, inputs, loads = {}, {}, {}, [], []
     for tj in tree.joints:
-        child, com = _body(tree.bodies[tj.child], params)
+        child, com = _body(tree.bodies[tj.child], params, all_inertial)
         bodies[tj.child], coms[tj.child] = child, com
         s = identifier(tj.name)
         position = [params(f"{axis}_{s}", v) for axis, v in zip("xyz", tj.position)]

@@ -57,9 +57,11 @@ class UrdfTree:
         self.offsets = offsets            # per body: its link origin from its parent's, parent frame
 
 
-def tree_ir(tree, *, fold=False, gravity=9.81, laws=True):
+def tree_ir(tree, *, fold=False, gravity=9.81, laws=True, all_inertial=False):
     """The :class:`UrdfTree` of a :class:`.tree.Tree` (see the module docstring); ``laws``: the
-    joints' declared limits, damping and friction (:func:`law_torque`) act, else they are ignored."""
+    joints' declared limits, damping and friction (:func:`law_torque`) act, else they are ignored;
+    ``all_inertial``: every body's mass, centre of mass and inertia entries are parameters,
+    zeros included (what identification fits; the motion may still not reach some of them)."""
     params = Parameters(fold)
     inertias = joint_inertias(tree) if laws else None
     bodies, coordinates, speeds, kinematics, inputs, loads, offsets = [], [], [], [], [], [], []
@@ -68,10 +70,10 @@ def tree_ir(tree, *, fold=False, gravity=9.81, laws=True):
     for tj in tree.joints:
         body = tree.bodies[tj.child]
         s = identifier(body.name)
-        mass = params(f"m_{s}", body.mass)
-        c = [params(f"{k}_{s}", v) for k, v in zip(("cx", "cy", "cz"), body.com)]
+        mass = params(f"m_{s}", body.mass, all_inertial)
+        c = [params(f"{k}_{s}", v, all_inertial) for k, v in zip(("cx", "cy", "cz"), body.com)]
         I = body.inertia
-        e = {key: params(f"I{key}_{s}", I[i, j]) for key, (i, j) in
+        e = {key: params(f"I{key}_{s}", I[i, j], all_inertial) for key, (i, j) in
              (("xx", (0, 0)), ("yy", (1, 1)), ("zz", (2, 2)), ("xy", (0, 1)), ("xz", (0, 2)), ("yz", (1, 2)))}
         inertia = sm.Matrix([[e["xx"], e["xy"], e["xz"]], [e["xy"], e["yy"], e["yz"]],
                              [e["xz"], e["yz"], e["zz"]]])

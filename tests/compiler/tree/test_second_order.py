@@ -176,7 +176,7 @@ def test_every_entry_is_written(models, law_models):
 
 
 def test_large_finite_outputs_pass_the_bound_by_the_full_check(models):
-    """The kernel's finiteness test is a bound on the numbers its outputs are made of (1e150);
+    """The kernel's finiteness test is a bound on the numbers its outputs are made of (BOUND);
     past it (speeds of 1e90: outputs ~1e180, finite) the output is checked entry by entry, and
     a finite one is returned, equal to the reverse path's."""
     kernel, reverse = models
@@ -224,6 +224,27 @@ def test_root_free_joint_changes_coordinates_inside_the_loop(floating_models):
     c = (kernel.directory / f"{kernel.name}.c").read_text()
     assert "joint 0's columns q (its K^-1)" in c
     assert "rows q_a: sum_d K^-1[d, a] G[d, .]" not in c
+
+
+def test_lane_and_scalar_pair_vectors_give_the_same_bits(floating_models, tmp_path):
+    """The pair vectors run on four lanes when the C is built with AVX2 (NAME_H2_LANES 4: the
+    machine build on an AVX2 x86-64) and one by one otherwise (portable); both sum every term in
+    the same order, so a portable build of the same tree returns the same bits (on a machine
+    without AVX2 both builds take the scalar form, and the test holds trivially).  The root free
+    joint's (q, q) block reads T dK^-1/dq_b only for its angles (dK/dq_b of its position is 0)."""
+    kernel, _ = floating_models
+    system, inputs = build(FLOATING_TREE)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        portable = eomc.compile(system, functions=["rhs", "inverse_dynamics", "jac_id", "hess_id"], inputs=inputs,
+                                formulation="recursive", cache_dir=tmp_path, progress=False, portable=True)
+    c = (kernel.directory / f"{kernel.name}.c").read_text()
+    assert f"#if {kernel.name.upper()}_H2_LANES == 4" in c and "static const int bz[3] = {3, 4, 5};" in c
+    rng = np.random.default_rng(21)
+    for _ in range(3):
+        x, ud, r = rng.uniform(-1, 1, kernel.nx), rng.uniform(-1, 1, kernel.nu), rng.uniform(-1, 1, kernel.ninput)
+        H = kernel.hess_id(0.0, x, ud, r=r)
+        assert np.all(np.isfinite(H)) and np.array_equal(H, portable.hess_id(0.0, x, ud, r=r))
 
 
 def test_floating_overflow_is_an_error(floating_models):
