@@ -5,7 +5,7 @@ the templates only glue the pieces together.
 """
 import re
 
-from ..ir import c_names
+from ..ir import c_names, symbols_of
 from .printer import CPrinter
 from .split import split_body
 from .signatures import SIGNATURES
@@ -173,7 +173,7 @@ def split_on(program, symbols):
     dep = set(symbols)
     before, after = [], []
     for target, e in program.assignments:
-        if e.free_symbols & dep:
+        if symbols_of(e) & dep:
             dep.add(target)
             after.append((target, e))
         else:
@@ -184,12 +184,12 @@ def split_on(program, symbols):
 def needed_assignments(assignments, exprs):
     """The assignments (order kept) that ``exprs`` read, directly or through each other."""
     defined = {t: e for t, e in assignments}
-    need, stack = set(), [s for e in exprs for s in e.free_symbols]
+    need, stack = set(), [s for e in exprs for s in symbols_of(e)]
     while stack:
         s = stack.pop()
         if s in defined and s not in need:
             need.add(s)
-            stack.extend(defined[s].free_symbols)
+            stack.extend(symbols_of(defined[s]))
     return [(t, e) for t, e in assignments if t in need]
 
 

@@ -1,5 +1,5 @@
 """Checks a program obeys the single-assignment rules; passes call it in tests and in debug runs."""
-from .program import IRError
+from .program import IRError, symbols_of
 
 __all__ = ["verify"]
 
@@ -15,7 +15,7 @@ def verify(program):
             raise IRError(f"assignment target {target!r} is not a symbol")
         if target in defined:
             raise IRError(f"{target} is assigned twice or shadows an input")
-        missing = expr.free_symbols - defined
+        missing = symbols_of(expr) - defined
         if missing:
             raise IRError(f"{target} reads undefined {sorted(map(str, missing))}")
         defined.add(target)
@@ -24,7 +24,7 @@ def verify(program):
         if key in keys:
             raise IRError(f"result {key} is computed twice")
         keys.add(key)
-        missing = expr.free_symbols - defined
+        missing = symbols_of(expr) - defined
         if missing:
             raise IRError(f"result {key} reads undefined {sorted(map(str, missing))}")
     return program

@@ -1,4 +1,5 @@
 """Dead-code elimination: keep only the assignments some result needs."""
+from ..ir.program import symbols_of
 from .timing import compiler_pass
 
 __all__ = ["dce"]
@@ -11,10 +12,10 @@ def dce(program, groups=None):
         program = program.select(groups)
     needed = set()
     for _, expr in program.results:
-        needed |= expr.free_symbols
+        needed |= symbols_of(expr)
     kept = []
     for target, expr in reversed(program.assignments):
         if target in needed:
             kept.append((target, expr))
-            needed |= expr.free_symbols
+            needed |= symbols_of(expr)
     return program.with_(assignments=tuple(reversed(kept)))

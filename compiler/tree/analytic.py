@@ -47,6 +47,7 @@ trees closed by constraints keep the tangent path.
 Checked against central differences and Pinocchio's ``computeRNEADerivatives`` /
 ``computeABADerivatives`` (tests/compiler/tree/test_analytic_derivatives.py).
 """
+import itertools
 from dataclasses import dataclass
 
 import sympy as sm
@@ -83,19 +84,23 @@ class AnalyticPlan:
         return range(self.first[b], self.first[b] + self.count[b])
 
 
-def analytic_plan(tree, bodies, gravity, layout, rename, contacts=None):
+def analytic_plan(tree, bodies, gravity, layout, rename, contacts=None, let=None):
     """(plan, [(("anx", i), expr)]) when the tree qualifies (see the module doc), else (None, []).
 
     ``contacts``: the ground contacts as lowered (:func:`.contacts.lower_contacts`' "analytic"
     list: body, depth, point, centre, world force, K, C per contact), or None when the tree's
-    contacts cannot be planned (then a tree with contacts keeps the tangent path)."""
+    contacts cannot be planned (then a tree with contacts keeps the tangent path).
+    ``let``: a recorder's ``let`` (:class:`.recorder.Recorder`): the joint laws' slopes (block L)
+    then come as small expressions of named temporaries, common subexpressions taken once per
+    shape of law (:func:`_law_slopes`); without it, as whole expressions (what the law
+    Hessians of :mod:`.second_order` differentiate)."""
     from ..contact.tree import ContactLoad
     if tree.loops is not None:
         return None, []
     nq, nu = len(tree.coordinates), len(tree.speeds)
     xs = set(layout.x)
     speeds = layout.x[nq:nq + nu]
-    laws = _joint_laws(tree, layout, rename, xs, speeds)
+    laws = _joint_laws(tree, layout, rename, xs, speeds, let)
     if laws is None:
         return None, []
     lawful = {x for qs, _, _ in laws.values() for x in (qs,)} | {speeds[s] for s in laws}
@@ -164,14 +169,12 @@ def analytic_plan(tree, bodies, gravity, layout, rename, contacts=None):
     if len(used) != nq or len(row) != nu:
         return None, []
     loads = any(b.fext is not None for b in bodies)
-    lawdofs, L = [], []
-    for e, s in enumerate(row):
-        if s in laws:
-            qs, dq, du = laws[s]
-            if layout.x[qcol[e]] != qs:     # the law's coordinate is not this dof's column
-                return None, []
-            lawdofs.append(e)
-            L += [dq, du]
+    lawdofs, L = [e for e, s in enumerate(row) if s in laws], []
+    if any(layout.x[qcol[e]] != laws[row[e]][0] for e in lawdofs):
+        return None, []     # a law's coordinate is not its dof's column
+    for e in lawdofs:       # the plan is sure from here: named slopes are named now
+        _, dq, du = laws[row[e]]
+        L += list(dq()) if du is None else [dq, du]
     G, ends = [], []
     for body, depth, point, centre, force, Kc, Cc in contacts or ():
         if last.get(body, -1) < 0:      # on a body no joint moves: no generalized force
@@ -220,10 +223,11 @@ def _blocks(kj):
     return tuple(blocks)
 
 
-def _joint_laws(tree, layout, rename, xs, speeds):
+def _joint_laws(tree, layout, rename, xs, speeds, let=None):
     """{speed index: (its coordinate's slot, ∂τ/∂q, ∂τ/∂u)} of the 1-dof joints' laws that
     depend on the state (``Tree.joint_torques``), or None when a law reads another joint's
-    state (then its pair of loads is not e_k·τ_k alone in the kernel's terms)."""
+    state (then its pair of loads is not e_k·τ_k alone in the kernel's terms).  ``let``: see
+    :func:`analytic_plan`."""
     from .joint_laws import ramp
     out, memo = {}, {}
     for q, u, tau in getattr(tree, "joint_torques", ()):
@@ -235,19 +239,29 @@ def _joint_laws(tree, layout, rename, xs, speeds):
         t = sm.sympify(rename(tau, what)).replace(sm.Abs, lambda a: 2 * ramp(a) - a)
         if t.free_symbols & xs - {qs, us}:
             return None
-        dq, du = _law_slopes(t, qs, us, memo)
+        slopes = _law_slopes(t, qs, us, memo, let)
+        if isinstance(slopes, _NamedSlopes):     # (its names are recorded only if the plan is made)
+            if not slopes.zero:
+                out[speeds.index(us)] = (qs, slopes, None)
+            continue
+        dq, du = slopes
         if dq != 0 or du != 0:
             out[speeds.index(us)] = (qs, dq, du)
     return out
 
 
-def _law_slopes(t, qs, us, memo):
+def _law_slopes(t, qs, us, memo, let=None):
     """(∂t/∂qs, ∂t/∂us), differentiated once per shape of law: the laws of a robot's joints
     differ only in their symbols (each joint's own limits, gains, coordinate and speed), so
     the derivative of the first law of a shape, its symbols renamed back, serves the others.
     Why: SymPy's diff of a limit law (ramps, powers, ~60 operations) costs ~14 ms, and G1's
     29 laws were 0.8 s of its 6-7 s default build.  The renamed-back derivative is the one
-    diff returns (the same SymPy expression, checked in tests/compiler/tree/test_analytic_derivatives.py)."""
+    diff returns (the same SymPy expression, checked in tests/compiler/tree/test_analytic_derivatives.py).
+
+    With ``let`` (a recorder's: expr -> its temporary), the pair's common subexpressions are
+    found once per shape too (``sympy.cse`` of the shape's pair), and a :class:`_NamedSlopes`
+    is returned: called, it names the law's through ``let`` and returns the slopes' names.  Why: the program's CSE over G1's
+    58 slopes of ~170 operations each was 0.2 s of its default build, the same search 29 times."""
     syms = sorted(t.free_symbols, key=lambda x: (x != qs, x != us, sm.default_sort_key(x)))
     canon = {x: sm.Symbol(f"_law{k}", **x.assumptions0) for k, x in enumerate(syms)}
     shape = t.xreplace(canon)       # all its symbols renamed: a law of the same shape gives an equal one
@@ -258,7 +272,29 @@ def _law_slopes(t, qs, us, memo):
         hit = memo[key] = (tuple(canon.values()), sm.diff(shape, cq), sm.diff(shape, cu))
     names, dq, du = hit
     back = dict(zip(names, syms))
-    return dq.xreplace(back), du.xreplace(back)
+    if let is None:
+        return dq.xreplace(back), du.xreplace(back)
+    named = memo.get((key, "cse"))
+    if named is None:
+        temps = (sm.Symbol(f"_lawt{k}", real=True) for k in itertools.count())
+        named = memo[(key, "cse")] = sm.cse([dq, du], symbols=temps, order="none", list=True)
+    return _NamedSlopes(named, back, let, dq == 0 and du == 0)
+
+
+class _NamedSlopes:
+    """One law's slopes, named through ``let`` when called (:func:`_law_slopes`): only once
+    its analytic plan is sure, since a name recorded and then not used would still shift the
+    numbers of the recorder's later temporaries, and with them SymPy's order of operands."""
+
+    def __init__(self, named, back, let, zero):
+        self.named, self.back, self.let, self.zero = named, back, let, zero
+
+    def __call__(self):
+        lets, (dq, du) = self.named
+        back = dict(self.back)
+        for s, e in lets:       # in sympy.cse's order: each reads only the ones before it
+            back[s] = self.let(e.xreplace(back))
+        return self.let(dq.xreplace(back)), self.let(du.xreplace(back))
 
 
 ABA_DEPTH = 5     # mean support depth above which jac_x's M⁻¹ runs articulated (measured, see choose_solver)

@@ -225,7 +225,10 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         analytic, anx = None, []
         dyn, planned, grounded = (), False, False     # the functions the loop kernel computes (see dynamics_kernel_functions)
         if loops is None and set(functions) & {"jac_id", "jac_x", *KERNEL_FUNCTIONS} and len(layout.x) > TANGENT_MIN_STATES:
-            analytic, anx = _analytic(tree, bodies, gravity, layout, functions, ground)
+            # the laws' slopes named in rec (their CSE once per shape), but for hess_id, whose
+            # law Hessians differentiate them (second_order.with_law_hessians)
+            analytic, anx = _analytic(tree, bodies, gravity, layout, functions, ground,
+                                      None if "hess_id" in functions else rec.let)
             # a plan with ground contacts serves jac_x and jac_id only (NAME_dyn has no contact terms)
             dyn = (dynamics_kernel_functions(analytic, functions)
                    if analytic is not None and not analytic.contacts else ())
@@ -384,9 +387,9 @@ def _input_columns(tree, layout):
         k = speed_of[u]
         t = _rename(layout, memo, f"the torque of the joint of speed {layout.state_names[len(tree.coordinates) + k]}",
                     absent)(tau)
-        child = owner[k]
+        child, free = owner[k], t.free_symbols      # (once: SymPy walks the tree on every call)
         for j, rj in enumerate(layout.r):
-            if rj in t.free_symbols:
+            if rj in free:
                 d = sm.diff(t, rj)
                 if d.free_symbols & rs:     # not linear in the inputs: leave it to the tangent
                     return None
@@ -401,7 +404,7 @@ def _input_columns(tree, layout):
     return [(("dres_r", i, j), e) for (i, j), e in sorted(cols.items()) if e != 0]
 
 
-def _analytic(tree, bodies, gravity, layout, functions, ground=None):
+def _analytic(tree, bodies, gravity, layout, functions, ground=None, let=None):
     """(plan, results) of the analytic RNEA derivatives (:mod:`.analytic`) for jac_x and jac_id,
     or (None, []) where the tree does not qualify (then both keep the tangent path).
 
@@ -412,7 +415,7 @@ def _analytic(tree, bodies, gravity, layout, functions, ground=None):
     absent = _absent(tree, layout)
     memo = {}
     return analytic_plan(tree, bodies, gravity, layout, lambda e, what: _rename(layout, memo, what, absent)(e),
-                         (ground or {}).get("contacts"))
+                         (ground or {}).get("contacts"), let)
 
 
 def _asks_energy(outputs):

@@ -176,11 +176,41 @@ def test_law_slopes_are_sympys_derivatives():
     for j, kw in enumerate(kinds):
         q, u = sm.symbols(f"x_{j} x_{40 + j}", real=True)
         tau = joint_torque(q, u, JointLaw(f"j{j}", **kw),
-                           lambda name, v: sm.Symbol(f"p_{name}", real=True), f"j{j}", 0.3)
+                           lambda name, v, keep=False: sm.Symbol(f"p_{name}", real=True), f"j{j}", 0.3)
         dq, du = _law_slopes(tau, q, u, memo)
         assert dq == sm.diff(tau, q) and du == sm.diff(tau, u)
         assert (dq != 0) == ("lower" in kw or "upper" in kw)
     assert len(memo) == len(kinds) - 1          # the first two laws have one shape
+
+
+def test_named_law_slopes_expand_to_sympys_derivatives():
+    """With a recorder's ``let`` (how the default build asks, analytic.analytic_plan), each
+    law's slopes come back, once asked for (the plan being sure), as names; their recorded
+    definitions, substituted back, are the very expressions sm.diff gives, and the common
+    subexpressions are searched once per shape (one sympy.cse for the two laws of one shape),
+    each law's own names from the recorder."""
+    from eomc.compiler.tree.analytic import _law_slopes
+    from eomc.compiler.tree.joint_laws import JointLaw, joint_torque
+    from eomc.compiler.tree.recorder import Recorder
+    kinds = [dict(lower=-1.0, upper=1.0), dict(lower=-2.0, upper=0.5), dict(upper=0.5, damping=0.2),
+             dict(lower=-0.3, upper=0.4, unilateral=True, friction=0.1), dict(lower=0.0, upper=2.0, hold=(3.0, 0.01))]
+    memo, rec = {}, Recorder()
+    for j, kw in enumerate(kinds):
+        q, u = sm.symbols(f"x_{j} x_{40 + j}", real=True)
+        tau = joint_torque(q, u, JointLaw(f"j{j}", **kw),
+                           lambda name, v, keep=False: sm.Symbol(f"p_{name}", real=True), f"j{j}", 0.3)
+        before = len(rec.assignments)
+        named = _law_slopes(tau, q, u, memo, rec.let)
+        assert len(rec.assignments) == before           # nothing recorded until the plan asks
+        dq, du = named()
+        mine = rec.assignments[before:]
+        assert {dq, du} <= {t for t, _ in mine}         # names, defined by this law
+        back = {}
+        for t, e in mine:       # each reads the law's symbols and the names before it
+            assert e.free_symbols <= tau.free_symbols | set(back)
+            back[t] = e.xreplace(back)
+        assert back[dq] == sm.diff(tau, q) and back[du] == sm.diff(tau, u)
+    assert sum(1 for k in memo if k[-1] == "cse") == len(kinds) - 1     # the first two laws have one shape
 
 
 ROBOTS = {"panda": False, "solo12": True}     # UR5 (12 states) keeps the unrolled columns
