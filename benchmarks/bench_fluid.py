@@ -17,10 +17,8 @@ mote); each also without its fluid (density = viscosity = 0 in the file) for wha
 Usage: python benchmarks/bench_fluid.py
 """
 import os
-import statistics
 import sys
 import tempfile
-import warnings
 from pathlib import Path
 
 import numpy as np
@@ -29,10 +27,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "compiler" / "mjcf"))
 
 from common import environment_header, format_table, write_results  # noqa: E402
-from bench_mjcf import MUJOCO_HARNESS, cold_build, max_error, prepared_pair  # noqa: E402
-from bench_urdf import _mujoco_dir, _run, _timed, _write, eomc_harness  # noqa: E402
+from bench_mjcf import NCALLS, NSTATES, REPEAT, build_mj_forward, measure  # noqa: E402
 
-NSTATES, NCALLS, REPEAT = 200, 20000, 7
 CORE = 0
 
 
@@ -62,10 +58,8 @@ def _no_fluid(text):
 
 
 def main():
-    import eomc
     import gymnasium
     import mujoco
-    from eomc.compiler.mjcf.compare import qacc_of, to_mujoco
     os.sched_setaffinity(0, {CORE})
     rng = np.random.default_rng(33)
     rows, csv, times_of = [], [], {}
@@ -73,43 +67,14 @@ def main():
         tmp = Path(tmpname)
         here = os.getcwd()
         os.chdir(tmp)
-        mjd = _mujoco_dir()
-        (tmp / "mj.c").write_text(MUJOCO_HARNESS)
-        _run(["gcc", "-O2", "-std=c99", str(tmp / "mj.c"), f"-I{mjd / 'include'}",
-              str(next(mjd.glob("libmujoco.so*"))), f"-Wl,-rpath,{mjd}", "-lm", "-o", str(tmp / "mj_forward")])
+        build_mj_forward(tmp)
         for name, kind, path in model_files(tmp):
-            wall, cpu = cold_build(path, name, (), tmp)
-            model = eomc.load(tmp / f"out_{name}")
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                m, built, motors = prepared_pair(path, ())
-            err = max_error(model, m, built, motors, rng)
-            nq, nv = model.nq, model.nx - model.nq
-            X, QV = [], []
-            for _ in range(NSTATES):
-                q, u = rng.uniform(-1, 1, nq), rng.uniform(-1, 1, nv)
-                X.append(np.concatenate([q, u]))
-                QV.extend(to_mujoco(m, built, q, u))
-            _write(tmp / f"{name}.eomc", X, head=model.param_defaults)
-            _write(tmp / f"{name}.mj", QV)
-            exe = eomc_harness(model, tmp / f"out_{name}", tmp)
-            times = {"eomc": [], "mujoco": []}
-            firsts = {}
-            for _ in range(REPEAT):
-                for who, cmd in (("eomc", [str(exe), str(tmp / f"{name}.eomc"), str(NSTATES), str(NCALLS)]),
-                                 ("mujoco", [str(tmp / "mj_forward"), str(path), str(tmp / f"{name}.mj"),
-                                             str(NSTATES), str(NCALLS)])):
-                    ns, first = _timed(cmd)
-                    times[who].append(ns)
-                    firsts[who] = first
-            q0, u0 = X[0][:nq], X[0][nq:]
-            c_err = np.max(np.abs(qacc_of(m, built, q0, u0, firsts["eomc"]) - firsts["mujoco"])) / \
-                max(1, np.max(np.abs(firsts["mujoco"])))
-            e, j = statistics.median(times["eomc"]), statistics.median(times["mujoco"])
+            r = measure(path, name, (), tmp, rng)
+            nv, wall, cpu, err, e, j = r["nv"], r["wall"], r["cpu"], r["err"], r["eomc"], r["mujoco"]
             times_of[name] = (e, j)
-            rows.append([name, kind, str(nv), f"{wall:.2f}", f"{cpu:.2f}", f"{max(err, c_err):.1e}", f"{e:.0f}",
+            rows.append([name, kind, str(nv), f"{wall:.2f}", f"{cpu:.2f}", f"{err:.1e}", f"{e:.0f}",
                          f"{j:.0f}", f"{j / e:.2f}x"])
-            csv.append([name, kind, nv, wall, cpu, max(err, c_err), e, j])
+            csv.append([name, kind, nv, wall, cpu, err, e, j])
             print(" | ".join(rows[-1]), flush=True)
         os.chdir(here)
     for row in rows:        # what the fluid adds to each, from the dry build's times in this run

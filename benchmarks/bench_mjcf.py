@@ -129,11 +129,56 @@ def max_error(model, m, built, motors, rng, trials=20):
     return worst
 
 
-def main():
+def build_mj_forward(tmp):
+    """tmp/mj_forward: the C harness that times MuJoCo's mj_forward (MUJOCO_HARNESS)."""
+    mjd = _mujoco_dir()
+    (tmp / "mj.c").write_text(MUJOCO_HARNESS)
+    _run(["gcc", "-O2", "-std=c99", str(tmp / "mj.c"), f"-I{mjd / 'include'}", str(next(mjd.glob("libmujoco.so*"))),
+          f"-Wl,-rpath,{mjd}", "-lm", "-o", str(tmp / "mj_forward")])
+
+
+def measure(path, name, ignore, tmp, rng):
+    """One model's figures (dict: nv, build wall and CPU s, max relative error, eomc and MuJoCo
+    ns per call): a cold build, the error against mj_forward at random states and in the timed
+    harnesses' first call, and the median of REPEAT interleaved runs of each harness over the
+    same NSTATES states.  Needs tmp/mj_forward (:func:`build_mj_forward`).  Shared with
+    bench_fluid.py."""
     import eomc
+    from eomc.compiler.mjcf.compare import qacc_of, to_mujoco
+    wall, cpu = cold_build(path, name, ignore, tmp)
+    model = eomc.load(tmp / f"out_{name}")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        m, built, motors = prepared_pair(path, ignore)
+    err = max_error(model, m, built, motors, rng)
+    nq, nv = model.nq, model.nx - model.nq
+    X, QV = [], []
+    for _ in range(NSTATES):
+        q, u = rng.uniform(-1, 1, nq), rng.uniform(-1, 1, nv)
+        X.append(np.concatenate([q, u]))
+        QV.extend(to_mujoco(m, built, q, u))
+    _write(tmp / f"{name}.eomc", X, head=model.param_defaults)
+    _write(tmp / f"{name}.mj", QV)
+    exe = eomc_harness(model, tmp / f"out_{name}", tmp)
+    times = {"eomc": [], "mujoco": []}
+    firsts = {}
+    for _ in range(REPEAT):
+        for who, cmd in (("eomc", [str(exe), str(tmp / f"{name}.eomc"), str(NSTATES), str(NCALLS)]),
+                         ("mujoco", [str(tmp / "mj_forward"), str(path), str(tmp / f"{name}.mj"),
+                                     str(NSTATES), str(NCALLS)])):
+            ns, first = _timed(cmd)
+            times[who].append(ns)
+            firsts[who] = first
+    q0, u0 = X[0][:nq], X[0][nq:]
+    c_err = np.max(np.abs(qacc_of(m, built, q0, u0, firsts["eomc"]) - firsts["mujoco"])) / \
+        max(1, np.max(np.abs(firsts["mujoco"])))
+    return dict(nv=nv, wall=wall, cpu=cpu, err=max(err, c_err), eomc=statistics.median(times["eomc"]),
+                mujoco=statistics.median(times["mujoco"]))
+
+
+def main():
     import gymnasium
     import mujoco
-    from eomc.compiler.mjcf.compare import qacc_of, to_mujoco
     import argparse
     parser = argparse.ArgumentParser()
     parser.add_argument("--dm-suite", help="dm_control/suite folder (default: the installed dm_control's)")
@@ -154,43 +199,16 @@ def main():
         tmp = Path(tmpname)
         here = os.getcwd()
         os.chdir(tmp)     # libmujoco's warnings (half_cheetah's settotalmass) go to ./MUJOCO_LOG.TXT
-        mjd = _mujoco_dir()
-        (tmp / "mj.c").write_text(MUJOCO_HARNESS)
-        _run(["gcc", "-O2", "-std=c99", str(tmp / "mj.c"), f"-I{mjd / 'include'}", str(next(mjd.glob("libmujoco.so*"))),
-              f"-Wl,-rpath,{mjd}", "-lm", "-o", str(tmp / "mj_forward")])
+        build_mj_forward(tmp)
         for source, stem, ignore in MODELS:
             if source not in folders:
                 continue
             path, name = folders[source] / f"{stem}.xml", f"{source}_{stem}"
-            wall, cpu = cold_build(path, name, ignore, tmp)
-            model = eomc.load(tmp / f"out_{name}")
-            m, built, motors = prepared_pair(path, ignore)
-            err = max_error(model, m, built, motors, rng)
-            nq, nv = model.nq, model.nx - model.nq
-            X, QV = [], []
-            for _ in range(NSTATES):
-                q, u = rng.uniform(-1, 1, nq), rng.uniform(-1, 1, nv)
-                X.append(np.concatenate([q, u]))
-                QV.extend(to_mujoco(m, built, q, u))
-            _write(tmp / f"{name}.eomc", X, head=model.param_defaults)
-            _write(tmp / f"{name}.mj", QV)
-            exe = eomc_harness(model, tmp / f"out_{name}", tmp)
-            times = {"eomc": [], "mujoco": []}
-            firsts = {}
-            for _ in range(REPEAT):
-                for who, cmd in (("eomc", [str(exe), str(tmp / f"{name}.eomc"), str(NSTATES), str(NCALLS)]),
-                                 ("mujoco", [str(tmp / "mj_forward"), str(path), str(tmp / f"{name}.mj"),
-                                             str(NSTATES), str(NCALLS)])):
-                    ns, first = _timed(cmd)
-                    times[who].append(ns)
-                    firsts[who] = first
-            q0, u0 = X[0][:nq], X[0][nq:]
-            c_err = np.max(np.abs(qacc_of(m, built, q0, u0, firsts["eomc"]) - firsts["mujoco"])) / \
-                max(1, np.max(np.abs(firsts["mujoco"])))
-            e, j = statistics.median(times["eomc"]), statistics.median(times["mujoco"])
-            rows.append([name, str(nv), f"{wall:.2f}", f"{cpu:.2f}", f"{max(err, c_err):.1e}", f"{e:.0f}", f"{j:.0f}",
+            r = measure(path, name, ignore, tmp, rng)
+            nv, wall, cpu, err, e, j = r["nv"], r["wall"], r["cpu"], r["err"], r["eomc"], r["mujoco"]
+            rows.append([name, str(nv), f"{wall:.2f}", f"{cpu:.2f}", f"{err:.1e}", f"{e:.0f}", f"{j:.0f}",
                          f"{j / e:.2f}x", ",".join(ignore) or "-"])
-            csv.append([name, nv, wall, cpu, max(err, c_err), e, j])
+            csv.append([name, nv, wall, cpu, err, e, j])
             print(" | ".join(rows[-1]), flush=True)
         os.chdir(here)
     headers = ["model", "dof", "build wall s", "build CPU s", "max rel err", "eomc rhs ns", "mj_forward ns",
