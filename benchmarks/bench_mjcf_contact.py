@@ -41,7 +41,7 @@ MODELS = [(stem, stem, False, False) for stem in ("hopper", "walker2d", "ant", "
     ("humanoid", "humanoid, pairs=True", True, False),
     ("humanoid", "humanoid, pairs=True, law routines", True, True)]
 NSTATES, NCALLS, REPEAT = 100, 20000, 7
-CORE = 1
+CORE = int(sys.argv[sys.argv.index("--core") + 1]) if "--core" in sys.argv else 1
 
 # bench_mjcf.py's mj_forward timing harness with MuJoCo's contacts, constraints and limits left on
 MUJOCO_HARNESS = bench_mjcf.MUJOCO_HARNESS.replace(bench_mjcf.CONTACTS_OFF, "")

@@ -62,29 +62,33 @@ ROUTINE_SPLIT = 1200
 # the ordered pairs of kinds a PairLoad may hold (a, b as with_pairs orders them): each its routine
 ROUTINE_KINDS = tuple((a, b) for a in ("sphere", "capsule", "box", "cylinder", "ellipsoid")
                       for b in ("sphere", "capsule", "box", "cylinder", "ellipsoid"))
-# A *law routine* (routine index len(ROUTINE_KINDS) + the kinds' index): the narrow phase and the
-# contact law with the forces on both bodies, one per pair of kinds (compiler/contact/pairs.py,
-# ``LAW_ROUTINES``).  Inputs: the narrow phase's 24 placements, then per body (A, B) its origin (3),
-# world -> body rotation (9, rows), angular and origin velocity (6, body components), then the law's
-# k, c, mu, vs -- all with tangents (LAW_NPOSE) --, then the 7 sizes and margin.  Outputs per contact
-# point (LAW_PER_PART): B's wrench (moment about its origin, force; body components), A's, then the
-# pair's outputs F_n, friction (3, world), δ, the clip's switching function, p (3, world).
+# The *law routine* (routine index LAW_RID, ``pairs.LAW_ROUTINES``): the contact law at one contact
+# point and the wrenches on both bodies, one routine for every pair of kinds (the law does not depend
+# on the shapes).  A pair's narrow phase is its kinds' narrow routine; each of its points then calls
+# the law routine inside the point's depth guard (compiler/emit/guards.py), so a point out of contact
+# skips its law as the inlined law does.  Inputs, all with tangents (LAW_NPOSE): the point's p (3,
+# world), n (3, A to B) and δ, per body (A, B) its origin (3), world -> body rotation (9, rows),
+# angular and origin velocity (6, body components), then the law's k, c, mu, vs.  Outputs
+# (LAW_OUTPUTS): B's wrench (moment about its origin, force; body components), A's, then F_n,
+# friction (3, world) and the clip's switching function.
 BODY_INPUTS = 18
-LAW_NPOSE = NPOSE + 2 * BODY_INPUTS + 4
-LAW_NINPUT = LAW_NPOSE + 7
-LAW_PER_PART = 21
+LAW_NPOSE = PER_PART + 2 * BODY_INPUTS + 4
+LAW_OUTPUTS = 17
+LAW_RID = len(ROUTINE_KINDS)
+# a law call's output array is NP<LAW_UID + the point's index>_ (a narrow call's: NP<the pair's first point>_)
+LAW_UID = 1000000
 
 
-def routine_index(kind_a, kind_b, law=False):
-    return ROUTINE_KINDS.index((kind_a, kind_b)) + (len(ROUTINE_KINDS) if law else 0)
+def routine_index(kind_a, kind_b):
+    return ROUTINE_KINDS.index((kind_a, kind_b))
 
 
 def is_law(rid):
-    return rid >= len(ROUTINE_KINDS)
+    return rid == LAW_RID
 
 
 def kinds_of(rid):
-    return ROUTINE_KINDS[rid % len(ROUTINE_KINDS)]
+    return ROUTINE_KINDS[rid]
 
 
 def npose(rid):
@@ -92,16 +96,19 @@ def npose(rid):
     return LAW_NPOSE if is_law(rid) else NPOSE
 
 
+def ninput(rid):
+    return LAW_NPOSE if is_law(rid) else NINPUT
+
+
 def _cname(rid, variant=None):
-    a, b = kinds_of(rid)
-    return f"eomc_{'pair' if is_law(rid) else 'narrow'}_{a}_{b}{'_' + variant if variant else ''}"
+    base = "eomc_pair_law" if is_law(rid) else "eomc_narrow_%s_%s" % kinds_of(rid)
+    return base + ("_" + variant if variant else "")
 
 
-def narrow_inputs(a, b, size_a, size_b, margin, law=()):
-    """The routine's inputs: placed shapes' centres and axes ({centre, axes}, world), ``law``'s
-    (a law routine's bodies and parameters, see LAW_NPOSE), sizes, margin."""
+def narrow_inputs(a, b, size_a, size_b, margin):
+    """The routine's inputs: placed shapes' centres and axes ({centre, axes}, world), sizes, margin."""
     out = list(a["centre"]) + [x for axis in a["axes"] for x in axis]
-    out += list(b["centre"]) + [x for axis in b["axes"] for x in axis] + list(law)
+    out += list(b["centre"]) + [x for axis in b["axes"] for x in axis]
     for size in (size_a, size_b):
         s = [float(x) for x in size] + [0.0] * (3 - len(size))
         out += [_number(x) for x in s[:3]]
@@ -241,8 +248,8 @@ _SCHEMES = []   # the pair schemes: .pairs sets them when imported (it imports t
 def use_schemes(outputs, law):
     """``outputs(a, b, margin, let)``: the list p, n, δ of every contact point of two placed
     shapes ({kind, centre, axes, size}) -- :mod:`.pairs`' schemes, the routines' bodies;
-    ``law(a, b, body_a, body_b, params, margin, let)``: a law routine's outputs (LAW_PER_PART per
-    point; body_*: (origin, rotation rows, ω, v), params {k, c, mu, vs})."""
+    ``law(p, n, depth, body_a, body_b, params, let)``: the law routine's outputs (LAW_OUTPUTS;
+    body_*: (origin, rotation rows, ω, v), params {k, c, mu, vs})."""
     _SCHEMES[:] = [outputs, law]
 
 
@@ -268,23 +275,23 @@ class _Straight:
 @functools.lru_cache(maxsize=None)
 def _program(rid):
     """(Program with results ("o", i): the outputs of routine ``rid``, input symbols)."""
-    ka, kb = kinds_of(rid)
-    n0 = npose(rid)
-    ins = sm.symbols(f"in0:{n0 + 7}", real=True)
-    a = {"kind": ka, "centre": list(ins[0:3]), "axes": [list(ins[3:6]), list(ins[6:9]), list(ins[9:12])],
-         "size": list(ins[n0:n0 + 3])}
-    b = {"kind": kb, "centre": list(ins[12:15]), "axes": [list(ins[15:18]), list(ins[18:21]), list(ins[21:24])],
-         "size": list(ins[n0 + 3:n0 + 6])}
     rec = _Straight()
     if is_law(rid):
+        ins = sm.symbols(f"in0:{LAW_NPOSE}", real=True)
         bodies = []
-        for j in (NPOSE, NPOSE + BODY_INPUTS):
+        for j in (PER_PART, PER_PART + BODY_INPUTS):
             R = [list(ins[j + 3 + 3 * r:j + 6 + 3 * r]) for r in range(3)]
             bodies.append((list(ins[j:j + 3]), R, list(ins[j + 12:j + 15]), list(ins[j + 15:j + 18])))
-        params = dict(zip(("k", "c", "mu", "vs"), ins[n0 - 4:n0]))
-        results = _SCHEMES[1](a, b, bodies[0], bodies[1], params, ins[n0 + 6], rec.let)
+        params = dict(zip(("k", "c", "mu", "vs"), ins[LAW_NPOSE - 4:LAW_NPOSE]))
+        results = _SCHEMES[1](list(ins[0:3]), list(ins[3:6]), ins[6], bodies[0], bodies[1], params, rec.let)
     else:
-        results = _SCHEMES[0](a, b, ins[n0 + 6], rec.let)
+        ka, kb = kinds_of(rid)
+        ins = sm.symbols(f"in0:{NINPUT}", real=True)
+        a = {"kind": ka, "centre": list(ins[0:3]), "axes": [list(ins[3:6]), list(ins[6:9]), list(ins[9:12])],
+             "size": list(ins[NPOSE:NPOSE + 3])}
+        b = {"kind": kb, "centre": list(ins[12:15]), "axes": [list(ins[15:18]), list(ins[18:21]), list(ins[21:24])],
+             "size": list(ins[NPOSE + 3:NPOSE + 6])}
+        results = _SCHEMES[0](a, b, ins[NPOSE + 6], rec.let)
     prog = Program(inputs=tuple(ins), assignments=tuple(rec.assignments),
                    results=tuple((("o", i), sm.sympify(e)) for i, e in enumerate(results)), ntemp=rec.count)
     return prog, ins
@@ -331,8 +338,9 @@ def routine_code(rid, variant=None):
         names.update({s: f"din[{k}]" for k, s in enumerate(seeds)})
         group, stored = "do", nout
     else:
-        params = [f"double a{k}" for k in range(n0 + 7)]
-        head = [f"{IND}const double in[{n0 + 7}] = {{{', '.join(f'a{k}' for k in range(n0 + 7))}}};"]
+        m = ninput(rid)
+        params = [f"double a{k}" for k in range(m)]
+        head = [f"{IND}const double in[{m}] = {{{', '.join(f'a{k}' for k in range(m))}}};"]
         group, stored = "o", nout
         if variant == "tape":
             tape = tape_of(rid)
@@ -344,15 +352,14 @@ def routine_code(rid, variant=None):
     values = prog.result_exprs(group)
     body = temps(prog, pr) + [store(f"out[{i}]", values.get((group, i), sm.S.Zero), pr) for i in range(stored)]
     lines, parts = split_body(body, f"{name}_part") if len(body) > ROUTINE_SPLIT else (body, [])
-    ka, kb = kinds_of(rid)
     what = {None: "", "tape": "", "dot": "the tangents of "}[variant]
     after = (f", then the {stored - nout} values its _dot reads (the tape)" if variant == "tape" else
              ", from the tape its _tape variant wrote" if variant == "dot" else "")
     if is_law(rid):
-        head_text = (f"/* body-body pair narrow phase and contact law: {what}the wrenches on B and A, F_n, friction, "
-                     f"depth, clip, p of each contact point of a {ka} (A) against a {kb} (B), "
-                     f"{nout // LAW_PER_PART} point(s){after} (compiler/contact/narrow.py) */\n")
+        head_text = (f"/* body-body pair contact law at one contact point: {what}the wrenches on B and A, F_n, "
+                     f"friction, clip{after} (compiler/contact/narrow.py) */\n")
     else:
+        ka, kb = kinds_of(rid)
         head_text = (f"/* body-body pair narrow phase: {what}p, n, depth of each contact point of a {ka} (A) against a "
                      f"{kb} (B), {nout // PER_PART} point(s){after} (compiler/contact/narrow.py) */\n")
     text = (head_text +

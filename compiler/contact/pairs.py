@@ -64,10 +64,10 @@ POINT_KINDS = ("px", "py", "pz")   # a pair's contact point outputs (world), aft
 # 0.73x (it has no broad phase: every pair's tape and tangent run at every call).  The flag is in
 # the generation and build caches' keys (compiler/build/reuse.generator_switches).
 INLINE_NARROW = True
-# True: each pair is one call of its kinds' *law routine* (.narrow): narrow phase, law and both
-# bodies' wrenches in C written once per pair of kinds, so SymPy lowers and gcc compiles each kind
-# once, not each pair (takes precedence over INLINE_NARROW).  In the generation and build caches'
-# keys as INLINE_NARROW.
+# True: each pair is one call of its kinds' narrow routine and each of its points one call of the
+# *law routine* (.narrow: the law and both bodies' wrenches, one C function for every kind), inside
+# the point's depth guard; so SymPy lowers and gcc compiles the law once, not each pair (takes
+# precedence over INLINE_NARROW).  In the generation and build caches' keys as INLINE_NARROW.
 LAW_ROUTINES = False
 EPS = 1e-12     # m: regularises |d| so that coincident centres give a finite (zero) force
 
@@ -126,11 +126,11 @@ class PairLoad(LoweredLoad):
         out += [self.params[k] for k in ("k", "c", "mu", "vs")]
         return out + [sm.Integer(self.part)] if self.part >= 0 else out
 
-    def narrow(self, a, b, let):
+    def narrow(self, a, b, let, called=False):
         """(p, n, δ) of this contact point (world; n from A to B): a call of its kinds' routine
         (:mod:`.narrow`), one per pair whatever its number of points (the call is value-numbered
-        by ``let``), or the scheme inlined when ``INLINE_NARROW`` is set (tests)."""
-        if INLINE_NARROW:
+        by ``let``), or the scheme inlined when ``INLINE_NARROW`` is set and not ``called``."""
+        if INLINE_NARROW and not called:
             return scheme(a, b, self.part, self.margin, let)
         rid = nw.routine_index(self.a.kind, self.b.kind)
         uid = self.index - max(self.part, 0)       # the pair's first point: one array per pair
@@ -164,10 +164,12 @@ class PairLoad(LoweredLoad):
         return {PairValue(self.index, kind): value for kind, value in enumerate(quantities)}
 
     def _lower_called(self, a, b, bodies, rec, v, params, poses, broad):
-        """:meth:`lower` as one call of the pair's law routine (``LAW_ROUTINES``, .narrow): the
-        narrow phase, the law and both wrenches in C written once per pair of kinds; here only
-        the placements, the call and the wrenches added to the bodies' fext."""
-        law = []
+        """:meth:`lower` with routines (``LAW_ROUTINES``, .narrow): the pair's narrow routine
+        (one call per pair), then this point's call of the law routine, whose wrenches are added
+        to the bodies' fext; the broad phase's inner guard (the point's depth) holds the law call,
+        as it holds the inlined law."""
+        p, n, depth = self.narrow(a, b, rec.let, called=True)
+        law = [*p, *n, depth]
         for shape in (self.a, self.b):
             body = _moving(shape, poses, v)
             if body is None:                    # the world: no motion, no wrench (rotation 0)
@@ -176,23 +178,21 @@ class PairLoad(LoweredLoad):
                 o, R, w, u = body
                 law += list(o) + [x for row in R for x in row] + list(w) + list(u)
         law += [params[k] for k in ("k", "c", "mu", "vs")]
-        rid = nw.routine_index(self.a.kind, self.b.kind, law=True)
-        uid = self.index - max(self.part, 0)       # the pair's first point: one array per pair
-        call = rec.let(nw.NarrowCall(sm.Integer(rid), sm.Integer(uid),
-                                     *nw.narrow_inputs(a, b, self.a.size, self.b.size, self.margin, law)))
-        base = nw.LAW_PER_PART * max(self.part, 0)
-        out = [rec.let(nw.NarrowOut(call, sm.Integer(uid), sm.Integer(base + k))) for k in range(nw.LAW_PER_PART)]
+        uid = sm.Integer(nw.LAW_UID + self.index)
+        call = rec.let(nw.NarrowCall(sm.Integer(nw.LAW_RID), uid, *law))
+        out = [rec.let(nw.NarrowOut(call, uid, sm.Integer(k))) for k in range(nw.LAW_OUTPUTS)]
         wrench = []
         for shape, part in ((self.b, out[0:6]), (self.a, out[6:12])):
             if shape.body >= 0:
                 old = bodies[shape.body].fext or [0] * 6
                 bodies[shape.body].fext = [old[k] + x for k, x in enumerate(part)]
                 wrench += part
-        depth = out[16]
         if broad is not None:
             broad.append(((self.a, self.b, self.margin), pair_clearance(self, a, b, poses),
                           tuple(dict.fromkeys(s for s in wrench if isinstance(s, sm.Symbol))), depth))
-        return {PairValue(self.index, kind): value for kind, value in enumerate(out[12:])}
+        # OUTPUT_KINDS, CLIP_KIND, then POINT_KINDS (as :meth:`lower`)
+        quantities = [out[12], *out[13:16], depth, out[16], *p]
+        return {PairValue(self.index, kind): value for kind, value in enumerate(quantities)}
 
 
 def _moving(shape, poses, v):
@@ -221,16 +221,12 @@ def _law(n, depth, va, vb, params, let):
     return fn, ft, f, rate
 
 
-def _law_outputs(a, b, body_a, body_b, params, margin, let):
-    """A law routine's outputs (.narrow, LAW_PER_PART per contact point): B's and A's wrenches
-    (body components, about the origins), F_n, friction (world), δ, clip, p (world)."""
-    out = []
-    for part in pair_parts(a["kind"], b["kind"]):
-        p, n, depth = scheme(a, b, part, margin, let)
-        fn, ft, f, rate = _law(n, depth, _velocity_at(body_a, p, let), _velocity_at(body_b, p, let), params, let)
-        out += _wrench(body_b, f, p, let) + _wrench(body_a, [-x for x in f], p, let)
-        out += [fn, *ft, depth, clip_switch(depth, params["c"], rate), *p]
-    return out
+def _law_outputs(p, n, depth, body_a, body_b, params, let):
+    """The law routine's outputs at one contact point (.narrow, LAW_OUTPUTS): B's and A's
+    wrenches (body components, about the origins), F_n, friction (world), the clip's function."""
+    fn, ft, f, rate = _law(n, depth, _velocity_at(body_a, p, let), _velocity_at(body_b, p, let), params, let)
+    return (_wrench(body_b, f, p, let) + _wrench(body_a, [-x for x in f], p, let)
+            + [fn, *ft, clip_switch(depth, params["c"], rate)])
 
 
 def scheme(a, b, part, margin, let):

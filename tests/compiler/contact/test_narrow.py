@@ -73,19 +73,23 @@ def test_called_routines_are_the_inlined_schemes(tmp_path, monkeypatch):
 
 
 def test_law_routines_are_the_inlined_schemes(tmp_path, monkeypatch):
-    """pairs.LAW_ROUTINES: narrow phase, law and both bodies' wrenches in one routine per pair of
-    kinds (the table is a world geom: its body inputs are 0, its wrench is dropped); rhs, jac_x
-    (through the routine's tangent), jac_p (the law's parameters are its inputs) and outputs equal
-    the inlined schemes'."""
+    """pairs.LAW_ROUTINES: each pair's narrow routine, then per contact point the law routine
+    (the law and both bodies' wrenches; the table is a world geom: its body inputs are 0, its
+    wrench is dropped) inside the point's depth guard; rhs, jac_x (through the routines'
+    tangents), jac_p (the law's parameters are its inputs) and outputs equal the inlined schemes'."""
     monkeypatch.setattr(pairs, "LAW_ROUTINES", True)
     called = _build(tmp_path, "law", ("rhs", "jac_x", "jac_p", "outputs"))
     source = next((tmp_path / "law").rglob("nw.c")).read_text()
-    assert "eomc_narrow_" not in source
     rhs, jac = _function(source, "nw_rhs"), _function(source, "nw_jac_x")
     for a, b in KINDS:
-        assert f"eomc_pair_{a}_{b}(" in rhs or f"eomc_pair_{b}_{a}(" in rhs, (a, b)
-        assert f"eomc_pair_{a}_{b}_dot(" in jac or f"eomc_pair_{b}_{a}_dot(" in jac, (a, b)
-    assert "_tape(" not in rhs and jac.count("eomc_pair_box_box_tape(") == 1
+        assert f"eomc_narrow_{a}_{b}(" in rhs or f"eomc_narrow_{b}_{a}(" in rhs, (a, b)
+        assert f"eomc_narrow_{a}_{b}_dot(" in jac or f"eomc_narrow_{b}_{a}_dot(" in jac, (a, b)
+    points = len([k for k in called.output_names if k.startswith("depth_")])
+    assert rhs.count("eomc_pair_law(") == points and "eomc_pair_law_dot(" in jac
+    # each law call sits in its point's depth guard: the nearest enclosing test is on -depth
+    for piece in rhs.split("eomc_pair_law(")[:-1]:
+        assert piece[piece.rindex("if ("):].startswith("if (!(-t"), piece[piece.rindex("if ("):][:80]
+    assert "_tape(" not in rhs and jac.count("eomc_narrow_box_box_tape(") == 1
     monkeypatch.setattr(pairs, "LAW_ROUTINES", False)
     inline = _build(tmp_path, "inline", ("rhs", "jac_x", "jac_p", "outputs"))
     X = _agree(called, inline)
