@@ -15,12 +15,16 @@ The routines are generated from the same scheme functions, with the sizes and ma
 (not literals), so one routine serves every pair of its kinds; agreement with the inlined schemes
 is to rounding (tests/compiler/contact/test_narrow.py).
 
-A *law routine* (``pairs.LAW_ROUTINES``) goes further: the narrow phase, the contact law and the
-wrenches on both bodies in one routine per pair of kinds, called with the two bodies' origins,
-rotations and velocities and the law's parameters (LAW_NPOSE), so that the generated function only
-adds the wrenches it returns to the bodies' loads: SymPy lowers a kind's law once, not per pair.
-gymnasium's humanoid with its 109 self-pairs, rhs only: 25.7 s CPU with the narrow routines, 17.7 s
-with law routines (no self-pairs: 7.0 s; one run each, load 8-14).
+With ``pairs.LAW_ROUTINES`` the contact law goes out of line too: after the pair's narrow
+routine, each contact point calls the *law routine* (one for every kind: the law and the
+wrenches on both bodies, from the point's p, n, δ, the two bodies' origins, rotations and
+velocities and the law's parameters, LAW_NPOSE), inside the point's depth guard, so that the
+generated function only adds the wrenches it returns to the bodies' loads: SymPy lowers the law
+once, not per pair, and a point out of contact skips it.  gymnasium's humanoid with its 109
+self-pairs, rhs only (benchmarks/results/mjcf_contact.md, 2026-11-29 20:39, one run): 28.7 s CPU
+inlined, 15.2 s with law routines (no self-pairs 7.6 s); rhs 2.00x vs 2.13x the no-contact rhs.
+(The first law routine, narrow phase and law in one call per pair, built in 21.3 s but its rhs
+ran 2.83x: it ran the law for every pair inside its bounding balls.)
 
 Derivatives: the tangent of an output along a direction is ``NarrowDot``'s: the routine's
 forward-mode derivative (the scheme's program differentiated once per pair of kinds by
