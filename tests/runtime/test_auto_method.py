@@ -48,7 +48,8 @@ def ball(tmp_path_factory):
 
 @pytest.mark.parametrize("rtol,method", [(1e-6, "bdf"), (1e-3, "bdf"), (1e-8, "radau")])
 def test_auto_takes_an_implicit_method_from_the_start_with_contacts(ball, rtol, method):
-    """BDF at rtol >= 1e-7 (the cheaper one there: benchmarks/results/contact_wp.md), Radau tighter."""
+    """BDF at rtol >= 1e-7, Radau tighter (runtime/simulate.BDF_FINEST; how they compare per
+    tolerance: benchmarks/results/contact_wp.md)."""
     p = np.array(ball.param_defaults)
     p[ball.param_names.index("k_ball")] = 1e9
     with warnings.catch_warnings():
