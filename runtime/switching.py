@@ -313,8 +313,9 @@ def _stiffness_text(model, p, joint):
     default = float(np.asarray(model.param_defaults, dtype=float)[i])
     if k != default:
         return f"your limit stiffness {name} = {k:.4g} (the default is {default:.4g})"
-    return (f"its limit stiffness {name} = {k:.4g} (the default: from the load and inertia the joint "
-            f"carries, an MJCF joint's solref on that inertia, docs/joint-laws.md; raise it with "
+    rule = ("from the joint's MuJoCo solref on the inertia it carries" if joint in
+            (model.metadata.get("limit_laws") or {}) else "from the load and inertia the joint carries")
+    return (f"its limit stiffness {name} = {k:.4g} (the default: {rule}, docs/joint-laws.md; raise it with "
             f"--param {name}=...)")
 
 

@@ -303,6 +303,8 @@ def test_a_start_outside_a_range_keeps_the_energy_verdict_strict(tmp_path):
         text = " ".join(str(w.message) for w in caught if issubclass(w.category, PhysicsWarning))
         assert res.status == 0
         assert "outside the range of joint hinge" in text and "energy rose" not in text, text
+        # the overshoot warning names the rule that made the stiffness (the file's solref, not a URDF's)
+        assert "limit_k_hinge = 693 (the default: from the joint's MuJoCo solref on the inertia it carries" in text
         energy = np.asarray(res.outputs["energy"])
         gains.append(float(np.max(energy) - energy[0]))
     # the gain is the spring's less what its damping took (12.8 of 92.6 J here, the limit critically
