@@ -57,6 +57,8 @@ def _select(functions, ninput, noutput, ncon, nevent=0, has_poses=False, nparam=
         wanted.add("jac_x")
     if "outputs_batch" in wanted:  # and the outputs'
         wanted.add("outputs")
+    if "implicit_batch" in wanted:  # and NAME_implicit's (the fixed-step rollout's lanes)
+        wanted.add("implicit")
     absent = {"jac_r": ninput == 0, "jac_p": nparam == 0, "outputs": noutput == 0, "outputs_batch": noutput == 0,
               "constraints": ncon == 0, "constraints_jac": ncon == 0, "events": nevent == 0,
               "poses": not has_poses}
@@ -242,8 +244,9 @@ def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions
     nframe = 0 if frames is None else len(frames.names())   # frame outputs (compiler/tree/frames.py)
     fns = _select(functions, len(layout.r), len(outputs or {}) + nframe, ncon, len(events or {}),
                   poses is not None, len(layout.p))
-    if "implicit" in fns and not formulation.builds_implicit(functions is not None and "implicit" in functions):
-        fns = tuple(f for f in fns if f != "implicit")
+    if "implicit" in fns and not formulation.builds_implicit(
+            functions is not None and ("implicit" in functions or "implicit_batch" in functions)):
+        fns = tuple(f for f in fns if f not in ("implicit", "implicit_batch"))
     refusal = formulation.refusal(fns)
     if refusal:
         raise ModelError(refusal)
@@ -326,7 +329,7 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
             before, body, meta_batch[fn] = batch_code(name, nx, len(layout.r), printed[scalar], dynamics_text,
                                                       len(layout.p), fn=scalar, defined=defined,
                                                       prelude=fn == first, kernels=helper,
-                                                      nout=len(sym.output_names) if scalar == "outputs" else None)
+                                                      nout=_batch_outputs(scalar, sym, fns, formulation))
             rendered.append({"prototype": prototype(name, fn), "body": body, "parts": [before]})
             op_counts[fn] = dict(op_counts[scalar])
             continue
@@ -376,6 +379,15 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
         meta["poses"] = pose_metadata(low.poses)
     return _render(name, meta, fns, rendered, solver, layout, sym, helper, ctx.split, formulation,
                    ctx.solver_parts)
+
+
+def _batch_outputs(scalar, sym, fns, formulation):
+    """Doubles per state of the batch function of ``scalar`` (None: batch_code's own count)."""
+    if scalar == "outputs":
+        return len(sym.output_names)
+    if scalar == "implicit":
+        return formulation.metadata(sym, fns)["implicit"]["layout"]["size"]
+    return None
 
 
 def _taped(prog):
