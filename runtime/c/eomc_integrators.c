@@ -600,8 +600,9 @@ static inline void sg_cdot(const double *a, const double *b, int lo, int hi, int
  * the step's LU, k columns (column j at B + j n).  Each row's sum runs from the oldest
  * unknown to the one just solved for (forward sweep: j ascending; back sweep: descending),
  * so the sum of the earlier terms does not wait on the newest value and the processor
- * overlaps the rows; the back sweep multiplies by the diagonal's reciprocal (computed off
- * the chain) instead of dividing.  The state's Newton keeps lu_solve/lu_solve_c, whose
+ * overlaps the rows; the back sweep multiplies by the diagonal's reciprocal instead of
+ * dividing (rr, and rq as re, im pairs: since s11 the caller's, computed once per
+ * factorization instead of per row and iteration -- 54 divisions an iteration at n = 18).  The state's Newton keeps lu_solve/lu_solve_c, whose
  * dependent chain per row (the newest term first, then a division) made these solves
  * latency-bound: at n = 18 (the 8-link cart) a real solve 400 -> 190 ns, a complex one
  * 490 -> 350 ns (with the SSE2 complex products below), C loop, core 0.  The sums run in
@@ -612,7 +613,7 @@ static inline void sg_cdot(const double *a, const double *b, int lo, int hi, int
  * of the separate solves of s9 in their order (bit for bit as before).  Whole runs, n = 8
  * cart, Radau 1e-8, one column: see benchmarks/results/sensitivity_radau.md's notes. */
 static void sg_solve_rc(int n, const double *A, const int *piv, double *B, const eomc_cplx *Ac,
-                        const int *pivc, eomc_cplx *Bc, int k)
+                        const int *pivc, eomc_cplx *Bc, int k, const double *rr, const double *rq)
 {
     for (int c = 0; c < k; c++) {
         double *b = B + (size_t)c * n;
@@ -634,9 +635,8 @@ static void sg_solve_rc(int n, const double *A, const int *piv, double *B, const
         }
     }
     for (int i = n - 1; i >= 0; i--) {
-        const double *a = A + (size_t)i * n, r = 1.0 / a[i], *ac = (const double *)(Ac + (size_t)i * n);
-        eomc_cplx q = c_recip(Ac[(size_t)i * n + i]);
-        double qr = creal(q), qi = cimag(q);
+        const double *a = A + (size_t)i * n, r = rr[i], *ac = (const double *)(Ac + (size_t)i * n);
+        double qr = rq[2 * i], qi = rq[2 * i + 1];
         for (int c = 0; c < k; c++) {
             double *b = B + (size_t)c * n, *bc = (double *)(Bc + (size_t)c * n), s = 0.0, sr, si;
             for (int j = n - 1; j > i; j--) s += a[j] * b[j];
@@ -1564,6 +1564,8 @@ typedef struct radau_sg {
     double *ZSe, *FSe, *F0, *f1;   /* ZS and FS at the first iteration; f(Y_a), f(Y_1) */
     double *Dc;                    /* 3 k directions [ZS_aj - ZSe_aj; 0] (the corrections) */
     eomc_cplx *bc;
+    double *rr, *rq;        /* the LU diagonals' reciprocals (real; complex as re, im pairs) */
+    long lu_seen;           /* ... of the factorization with this nlu count */
     double t_end;           /* the last stage's time this step: F0 + 2 n holds f(y + Z_2) there */
     int fuse;               /* f(ynew) from that jvp call: 0 not yet checked, 1 yes, -1 no */
     double faccon;          /* the sensitivities' theta / (1 - theta), as the state's */
@@ -1574,7 +1576,7 @@ typedef struct radau_sg {
 size_t eomc_stagger_work_size(int nx, int k, int ndir)
 {
     size_t kk = (size_t)(k > 0 ? k : 0), nk = (size_t)nx * kk;
-    return 26 * nk + 3 * kk * (size_t)ndir + 8 * (size_t)nx + 16;
+    return 26 * nk + 3 * kk * (size_t)ndir + 11 * (size_t)nx + 16;
 }
 
 static void radau_sg_init(radau_sg *g, int n, int k, int ndir, double **pos)
@@ -1588,6 +1590,7 @@ static void radau_sg_init(radau_sg *g, int n, int k, int ndir, double **pos)
     g->bc = (eomc_cplx *)take(pos, 2 * nk);
     g->ZSe = take(pos, 3 * nk); g->FSe = take(pos, 3 * nk);
     g->F0 = take(pos, 3 * (size_t)n); g->f1 = take(pos, n);   /* jvp's xdot outputs */
+    g->rr = take(pos, n); g->rq = take(pos, 2 * (size_t)n); g->lu_seen = -1;
     g->faccon = 1.0; g->have = 0; g->hprev = 1.0; g->tprev = 0.0;
     g->t_end = NAN; g->fuse = 0;
 }
@@ -1621,6 +1624,14 @@ static int radau_sens_step(ctx *c, const radau_consts *k, radau_ws *w, radau_sg 
     double *S = sg->S, mr = k->mu_real / h, dynold = 1.0, thqold = 1.0, theta;
     eomc_cplx mc = k->mu_complex / h;
     if (w->h_lu != h && radau_factor(c, k, w, h)) return EOMC_SINGULAR_MASS_MATRIX;
+    if (g->lu_seen != c->st->nlu) {   /* the back sweeps' reciprocals, once per factorization */
+        for (int i = 0; i < n; i++) {
+            eomc_cplx q = c_recip(w->LUc[(size_t)i * n + i]);
+            g->rr[i] = 1.0 / w->LUr[(size_t)i * n + i];
+            g->rq[2 * i] = creal(q); g->rq[2 * i + 1] = cimag(q);
+        }
+        g->lu_seen = c->st->nlu;
+    }
     for (int a = 0; a < 3; a++) {                    /* predictor */
         double *Za = g->ZS + (size_t)a * nk;
         if (g->have) {
@@ -1689,7 +1700,7 @@ static int radau_sens_step(ctx *c, const radau_consts *k, radau_ws *w, radau_sg 
                 bc[2 * i + 1] = t20 * f0[i] + t21 * f1[i] + t22 * f2[i] - (mcr * W2[i] + mci * W1[i]);
             }
         }
-        sg_solve_rc(n, w->LUr, w->pivr, g->dW, w->LUc, w->pivc, g->bc, kc);   /* all columns */
+        sg_solve_rc(n, w->LUr, w->pivr, g->dW, w->LUc, w->pivc, g->bc, kc, g->rr, g->rq);
         for (int j = 0; j < kc; j++) {
             size_t o = (size_t)j * n;
             const double *d0 = g->dW + o;
