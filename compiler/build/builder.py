@@ -128,7 +128,7 @@ def build(generated, *, backend="cffi", cflags=None, cache_dir=None, force=False
     embedded = generated.metadata.get("target", "c99-f64") != "c99-f64"
     if cflags is None and not embedded and not portable and not portable_from_env():
         flags += machine_flags(tc)
-    if {"rhs_batch", "jac_x_batch", "outputs_batch"} & set(generated.metadata.get("functions", ())) and not any(
+    if {"rhs_batch", "jac_x_batch", "outputs_batch", "implicit_batch"} & set(generated.metadata.get("functions", ())) and not any(
             f.startswith("-DEOMC_BATCH_LANES") for f in flags):
         flags.append(f"-DEOMC_BATCH_LANES={machine_lanes()}")   # the lanes of this machine
     if embedded and backend != "cffi":
