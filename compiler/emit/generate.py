@@ -4,6 +4,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 
 import jinja2
+import sympy as sm
 
 from eomc.runtime.errors import ModelError
 from eomc.runtime.switching import GAP_EVENT_PREFIXES
@@ -396,10 +397,26 @@ def _taped(prog):
     without the derivative (rhs) calls the routine that writes no tape."""
     if prog is None:
         return None
+    prog = _variants(prog)
     want = {s for _, e in prog.assignments if hasattr(e, "tape_of") for s in e.tape_of()}
     if not want:
         return prog
     return prog.with_(assignments=tuple((t, e.taped() if t in want else e) for t, e in prog.assignments))
+
+
+def _variants(prog):
+    """``prog`` with each call that has a ``for_program(reads)`` method (compiler/contact/table.py's
+    pairs loop and its tangent) in the variant its function needs: ``reads``, the output indices
+    that the program's nodes with a ``read_index()`` method read (the pairs' loop evaluates every
+    pair only where a contact point's quantities are read: outputs, events)."""
+    if not any(hasattr(e, "for_program") for _, e in prog.assignments):
+        return prog
+    reads = set()
+    for e in [e for _, e in prog.assignments] + [e for _, e in prog.results]:
+        if isinstance(e, sm.Basic):
+            reads.update(node.read_index() for node in sm.preorder_traversal(e) if hasattr(node, "read_index"))
+    return prog.with_(assignments=tuple((t, e.for_program(reads) if hasattr(e, "for_program") else e)
+                                        for t, e in prog.assignments))
 
 
 def _called_routines(programs):
