@@ -171,7 +171,7 @@ def rhs_code_bytes(obj, name):
     total = 0
     for line in out.splitlines():
         parts = line.split()
-        if len(parts) == 4 and parts[2] in "tT" and re.fullmatch(rf"{name}_rhs(_part\d+_\d+)?", parts[3]):
+        if len(parts) == 4 and parts[2] in "tT" and re.fullmatch(rf"{name}_rhs(_part\d+_\d+|_rep\d+)?", parts[3]):
             total += int(parts[1], 16)
     return total
 
@@ -241,7 +241,7 @@ def run_timing(exe, args, labels):
     return agree, {k: sorted(v)[len(v) // 2] for k, v in times.items()}, times
 
 
-def cache_sim(exe, args, labels, builds, calls=2000):
+def cache_sim(exe, args, labels, builds, calls=1000):
     """{(label, n): (instructions, I1 misses, D1 misses, data refs) per call} of the eomc rhs
     (sin and cos included) under valgrind's cache simulation (callgrind, collecting inside
     NAME_rhs only) (first-level caches 32 kB 8-way 64 B lines, as this CPU's)."""
