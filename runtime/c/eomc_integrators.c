@@ -1991,6 +1991,7 @@ static int run_bdf(ctx *c, const eomc_options *o, proj *pj, double t0, double t1
     eomc_bdf b;
     eomc_bdf_init(&b, &fns, c->st, n, BDF_TOL_SHARE * o->rtol, BDF_TOL_SHARE * o->atol, hmax,
                   o->max_steps, take(pos, eomc_bdf_work_size(n)));
+    if (2 * c->m->nq <= n) b.nsplit = c->m->nq;    /* x = (q, v, ...): factor_lu's split */
     if ((s = frhs(c, t0, x, f))) return s;
     if (o->h0 > 0) h = fmin(o->h0, hmax);
     else if ((s = initial_step(c, t0, t1, x, f, 1, b.rtol, b.atol, hmax, tmp, f1, &h)))
