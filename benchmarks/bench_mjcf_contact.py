@@ -36,12 +36,16 @@ from bench_urdf import _mujoco_dir, _run, _timed, _write, eomc_harness  # noqa: 
 import bench_mjcf  # noqa: E402
 
 # (file stem, row label, eomc's self-collision pairs: MjcfModel(pairs=True), as bench_mjcf_drops;
-# the pairs as law routines: compiler/contact/pairs.LAW_ROUTINES)
-MODELS = [(stem, stem, False, False) for stem in ("hopper", "walker2d", "ant", "humanoid")] + [
-    ("humanoid", "humanoid, pairs=True", True, False),
-    ("humanoid", "humanoid, pairs=True, law routines", True, True)]
+# how the pairs are generated: "" inlined, "law" law routines (compiler/contact/pairs.LAW_ROUTINES),
+# "table" one table-driven loop (pairs.PAIR_TABLE, compiler/contact/table.py))
+MODELS = [(stem, stem, False, "") for stem in ("hopper", "walker2d", "ant", "humanoid")] + [
+    ("humanoid", "humanoid, pairs=True", True, ""),
+    ("humanoid", "humanoid, pairs=True, law routines", True, "law"),
+    ("humanoid", "humanoid, pairs=True, table", True, "table")]
 NSTATES, NCALLS, REPEAT = 100, 20000, 7
 CORE = int(sys.argv[sys.argv.index("--core") + 1]) if "--core" in sys.argv else 1
+# --only STEM: that model's rows only, printed, no results file written (a quick check)
+ONLY = sys.argv[sys.argv.index("--only") + 1] if "--only" in sys.argv else None
 
 # bench_mjcf.py's mj_forward timing harness with MuJoCo's contacts, constraints and limits left on
 MUJOCO_HARNESS = bench_mjcf.MUJOCO_HARNESS.replace(bench_mjcf.CONTACTS_OFF, "")
@@ -55,9 +59,9 @@ from pathlib import Path
 from eomc.compiler.mjcf.model import MjcfModel
 path, name, cache, out, geoms = sys.argv[1], sys.argv[2], sys.argv[3], sys.argv[4], sys.argv[5] == "1"
 pairs = len(sys.argv) > 6 and sys.argv[6] == "1"
-if len(sys.argv) > 7 and sys.argv[7] == "1":
+if len(sys.argv) > 7 and sys.argv[7]:
     from eomc.compiler.contact import pairs as pair_code
-    pair_code.LAW_ROUTINES = True
+    setattr(pair_code, {"law": "LAW_ROUTINES", "table": "PAIR_TABLE"}[sys.argv[7]], True)
 warnings.simplefilter("ignore")
 model = eomc.compile(MjcfModel(Path(path), geoms=geoms, pairs=True if pairs else None), name, functions=["rhs"], cache_dir=cache, output_dir=out,
                      progress=False)
@@ -65,10 +69,10 @@ print("wall", time.perf_counter() - t0)
 """
 
 
-def cold_build(path, name, geoms, tmp, pairs=False, law=False):
+def cold_build(path, name, geoms, tmp, pairs=False, mode=""):
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     proc = _run([sys.executable, "-c", COLD_BUILD, str(path), name, str(tmp / f"cache_{name}"),
-                 str(tmp / f"out_{name}"), "1" if geoms else "0", "1" if pairs else "0", "1" if law else "0"])
+                 str(tmp / f"out_{name}"), "1" if geoms else "0", "1" if pairs else "0", mode])
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     return float(proc.stdout.split()[-1]), (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
@@ -110,10 +114,12 @@ def main():
         (tmp / "mj.c").write_text(MUJOCO_HARNESS)
         _run(["gcc", "-O2", "-std=c99", str(tmp / "mj.c"), f"-I{mjd / 'include'}", str(next(mjd.glob("libmujoco.so*"))),
               f"-Wl,-rpath,{mjd}", "-lm", "-o", str(tmp / "mj_forward")])
-        for stem, label, pairs, law in MODELS:
+        for stem, label, pairs, mode in MODELS:
+            if ONLY and stem != ONLY:
+                continue
             path = folder / f"{stem}.xml"
-            tag = stem + ("_pairs" if pairs else "") + ("_law" if law else "")
-            wall, cpu = cold_build(path, tag, True, tmp, pairs, law)
+            tag = stem + ("_pairs" if pairs else "") + (f"_{mode}" if mode else "")
+            wall, cpu = cold_build(path, tag, True, tmp, pairs, mode)
             if pairs:
                 (tmp / f"out_{tag}_free").symlink_to(tmp / f"out_{stem}_free")
                 wall0, cpu0 = free_build[stem]
@@ -162,6 +168,8 @@ def main():
                                      f"models from gymnasium {gymnasium.__version__}'s wheel; mujoco {mujoco.__version__}",
                                      f"{NSTATES} states from MuJoCo's passive run (0.5-3 s), {NCALLS} calls per run, "
                                      f"{REPEAT} interleaved repeats, medians"))
+    if ONLY:
+        return
     text += "\n" + format_table(headers, rows) + "\n\n" + (__doc__ or "")
     print(write_results("mjcf_contact", text, csv, ["model", "dof", "points", "mujoco_ncon", "build_wall_s",
                                                     "build_cpu_s", "build_cpu_s_free", "eomc_ns", "eomc_free_ns",

@@ -56,6 +56,7 @@ _SIGNATURES = {
     "implicit": "int {n}_implicit(double t, const double *x, const double *p, const double *r, double *out, double *work);",
     "rhs_batch": "int {n}_rhs_batch(int n, double t, const double *X, const double *p, const double *R, double *XDOT, int *status, double *work);",
     "jac_x_batch": "int {n}_jac_x_batch(int n, double t, const double *X, const double *p, const double *R, double *OUT, int *status, double *work);",
+    "implicit_batch": "int {n}_implicit_batch(int n, double t, const double *X, const double *p, const double *R, double *OUT, int *status, double *work);",
     "outputs_batch": "int {n}_outputs_batch(int n, double t, const double *X, const double *p, const double *R, double *OUT, int *status, double *work);",
 }
 

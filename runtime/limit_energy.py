@@ -9,6 +9,8 @@ beyond it is still the integrator's (kinetic + gravity + the springs' potential 
 in a passive model: the damping, clip included, only takes energy out).  Numbers only: no
 SymPy here (a built model loads without it)."""
 
+from functools import lru_cache
+
 import numpy as np
 
 __all__ = ["stored"]
@@ -24,11 +26,19 @@ def stored(r, K, E, push=0.0, hold=None):
 
     Gauss-Legendre on panels graded geometrically from a hundredth of the law's smallest width
     (where g and tanh turn over) to r: 8 nodes on 40 panels, each at most (100 r/E)^(1/40) times
-    the last, integrate these smooth functions to about 1e-12 relative."""
+    the last, integrate these smooth functions to about 1e-12 relative.  Kept per argument
+    values (the verdict of every run from one start asks again: gymnasium's ant, four ankles
+    outside their ranges: a run's Python side 0.84 -> 0.33 ms, of 5-6 ms at rtol 1e-2)."""
     r, K, E = float(r), float(K), float(E)
     if not r > 0 or not K > 0 or not E > 0:
         return 0.0
-    G, w = (float(hold[0]), float(hold[1])) if hold else (1.0, E)
+    return _stored(r, K, E, float(push), (float(hold[0]), float(hold[1])) if hold else None)
+
+
+@lru_cache(maxsize=256)
+def _stored(r, K, E, push, hold):
+    """stored() for floats and hold = (G, w) or None (hashable: cached)."""
+    G, w = hold if hold else (1.0, E)
     start = min(E, w) / 100.0
     edges = np.concatenate(([0.0], np.geomspace(start, r, _PANELS))) if r > start else np.array([0.0, r])
     a, b = edges[:-1, None], edges[1:, None]

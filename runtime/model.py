@@ -85,7 +85,7 @@ def _cffi_backend(ffi, lib, model_lib, c_model, name, functions):
             t, frombuf("double[]", x), p, r, prepare(lam), prepare(v), prepare(out), work)
     if "jac_p" in functions:     # exported, not in the eomc_model struct (ABI unchanged)
         kernels["jac_p"] = vector_kernel(getattr(model_lib, f"{name}_jac_p"))
-    for fn in ("rhs_batch", "jac_x_batch", "outputs_batch"):   # SoA states in SIMD lanes (compiler/emit/batch.py)
+    for fn in ("rhs_batch", "jac_x_batch", "outputs_batch", "implicit_batch"):   # SoA states in SIMD lanes (compiler/emit/batch.py)
         if fn in functions:
             kernels[fn] = (lambda fp: lambda n, t, X, p, R, XD, status, work: fp(
                 n, t, frombuf("double[]", X), p, prepare(R), frombuf("double[]", XD), frombuf("int[]", status),
@@ -415,6 +415,15 @@ class Model:
         rhs_batch (r (n, ninput): one input row per state).  Generated on request (``functions``
         including "outputs_batch")."""
         return self._batch("outputs_batch", t, X, p, r, self.noutput).T
+
+    def implicit_batch(self, t, X, p=None, r=None):
+        """NAME_implicit (the fixed-step implicit step's terms, laid out as
+        ``metadata["implicit"]["layout"]``) at every row of X by NAME_implicit_batch: several
+        states per instruction (SIMD lanes; a contact's depth branch is a mask per lane), the
+        rows past the last full group of lanes by the scalar NAME_implicit; (n, size).  Equal
+        to NAME_implicit bit for bit with -DEOMC_BATCH_LIBM_TRIG, else within the lanes'
+        sin/cos.  Generated on request (``functions`` including "implicit_batch")."""
+        return self._batch("implicit_batch", t, X, p, r, self.metadata["implicit"]["layout"]["size"]).T
 
     def _batch(self, fn, t, X, p, r, nout):
         """(nout, n) from NAME_<fn> (rhs_batch, jac_x_batch) over the rows of X; errors name the

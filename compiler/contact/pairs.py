@@ -69,6 +69,12 @@ INLINE_NARROW = True
 # the point's depth guard; so SymPy lowers and gcc compiles the law once, not each pair (takes
 # precedence over INLINE_NARROW).  In the generation and build caches' keys as INLINE_NARROW.
 LAW_ROUTINES = False
+# True: every pair of a tree in one call of a table-driven C loop (.table: code O(kinds), not
+# O(pairs)); takes precedence over LAW_ROUTINES and INLINE_NARROW.  In the caches' keys as those.
+# Not the default yet: gymnasium's humanoid with its self-pairs builds its rhs in 10.4 s CPU (inlined
+# 32.5 s), rhs 1.98x its no-contact rhs (inlined 2.00x), but the default function set still takes
+# jac_x's tangent path (44 s; docs/contact.md).
+PAIR_TABLE = False
 EPS = 1e-12     # m: regularises |d| so that coincident centres give a finite (zero) force
 
 

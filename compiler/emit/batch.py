@@ -16,10 +16,17 @@ pi/2 in three parts and its kernels, vectorized: within 1 ulp of glibc's ``sin``
 measured in tests/compiler/emit/test_batch.py), as a per-lane libm call would cost more than
 the rest of a small model; a function that takes both sin and cos of one angle computes them
 together (NAME_vsincos: one reduction, one pair of kernels, the same bits).  fabs, fmax and
-fmin (joint limits) are vector bit operations and compares with libm's results bit for bit.
-Other calls (sqrt, pow, ...) are made lane by lane with the scalar libm function, so they are
+fmin (joint limits) are vector bit operations and compares with libm's results bit for bit,
+sqrt the vector instruction (correctly rounded, as libm's).
+Other calls (pow, tanh, ...) are made lane by lane with the scalar libm function, so they are
 exact.  Branches become per-lane: the singular-mass-matrix
-guard and the finiteness check set a status per state.  Kane's form computes A and b (its
+guard and the finiteness check set a status per state; a block under a state-dependent test
+(a contact's depth, a contact pair's broad phase: ``if (!(a > 0.0)) { ... } else { ... }``)
+becomes a mask per lane (:meth:`_Rewriter.branch`): the block runs when one lane takes it, its
+temporaries in every lane, its stores blended so the other lanes keep their values -- each
+lane gets the scalar code's bits, and a contact out of reach in every lane skips its law.
+``NAME_implicit_batch`` (the fixed-step implicit step's terms) takes the parameters shared: what
+depends on them alone is one double for all lanes.  Kane's form computes A and b (its
 NAME_dynamics helper, rewritten the same way) in lanes, then factors and solves each state's
 A with the scalar LDLᵀ/LU code, one lane at a time: its pivoting and singularity test stay
 per state, and the solve is a small part of the rhs.
@@ -58,7 +65,11 @@ _POINTER_SET = re.compile(r"^(\s+)([A-Za-z_]\w*) = ([A-Za-z_]\w*) \+ k \* (\d+);
 _SCRATCH_DECL = re.compile(r"^(\s+)double ([A-Za-z_]\w*)\[(\d+)\];$")
 _CALL_LINE = re.compile(r"^(\s+)([A-Za-z_]\w*)\((.*)\);$")
 _GUARD_LINE = re.compile(r"^(\s+)if \((.*)\) return (EOMC_[A-Z_]+);$")
-_FINITE_RETURN = re.compile(r"^(\s+)return [A-Za-z_]\w*_finite\((?:xdot|out), \d+\);$")
+_FINITE_RETURN = re.compile(r"^(\s+)return [A-Za-z_]\w*_finite(?:_wide)?\((?:xdot|out), \d+\);$")
+# a branch of the scalar code (a contact's depth test, a pair's broad phase): in lanes, a mask
+_IF_LINE = re.compile(r"^(\s+)if \((.*)\) \{$")
+_ELSE_LINE = re.compile(r"^(\s+)\} else \{$")
+_RELATION = re.compile(r" (>=|<=|>|<) ")
 _PART_HEAD = re.compile(r"^static EOMC_NOINLINE void ([A-Za-z_]\w*)\((.*)\)$")
 _ARRAY_REF = re.compile(r"\b([A-Za-z_]\w*)\[")
 _TEMP = re.compile(r"\bt\d+\b")
@@ -270,6 +281,24 @@ _VECTOR_EXACT = {
 }}""",
 }
 
+# sqrt is correctly rounded (IEEE 754), so the vector instruction gives libm's bits in every lane
+# (a NaN's sign or payload aside); a call per lane cost Go2's implicit_batch 15 % of its time
+_VECTOR_EXACT["sqrt"] = """static EOMC_VTARGET EOMC_VINLINE eomc_vd {p}_v_sqrt(eomc_vd a)
+{{
+#if (defined(__x86_64__) || defined(__i386__)) && EOMC_BATCH_LANES == 8
+    return (eomc_vd)__builtin_ia32_sqrtpd512_mask(a, a, (unsigned char)0xff, 4);   /* _MM_FROUND_CUR_DIRECTION */
+#elif (defined(__x86_64__) || defined(__i386__)) && EOMC_BATCH_LANES == 4
+    return (eomc_vd)__builtin_ia32_sqrtpd256(a);
+#elif defined(__x86_64__) && EOMC_BATCH_LANES == 2
+    return (eomc_vd)__builtin_ia32_sqrtpd(a);
+#else
+    eomc_vd v = {{0}};
+    int l;
+    for (l = 0; l < EOMC_BATCH_LANES; l++) v[l] = sqrt(a[l]);
+    return v;
+#endif
+}}"""
+
 _VECTOR_EXACT["sign"] = """static EOMC_VTARGET eomc_vd {p}_v_sign(eomc_vd a)
 {{
     eomc_vd v = {{0}};   /* every lane set below; the zero keeps gcc's -Wmaybe-uninitialized quiet */
@@ -284,6 +313,15 @@ _VECTOR_EXACT["step"] = """static EOMC_VTARGET eomc_vd {p}_v_step(eomc_vd a)
     int l;
     for (l = 0; l < EOMC_BATCH_LANES; l++) v[l] = a[l] > 0.0 ? 1.0 : 0.0;   /* Heaviside, as the scalar C */
     return v;
+}}"""
+
+# a branch's block runs when one lane of its mask is set (compiler/emit/batch.py _Rewriter.branch)
+_VANY = """static EOMC_VTARGET EOMC_VINLINE int {p}_vany(eomc_vu m)
+{{
+    unsigned long long a = 0;
+    int l;
+    for (l = 0; l < EOMC_BATCH_LANES; l++) a |= m[l];
+    return a != 0;
 }}"""
 
 _COMPARE = re.compile(r"[<>?]|==|!=")
@@ -336,6 +374,11 @@ _LANEWISE2 = """static EOMC_VTARGET eomc_vd {p}_v_{f}(eomc_vd a, eomc_vd b)
 }}"""
 
 
+# batch functions whose parameters are one row for all states (a double array, not lanes)
+SHARED_PARAMETERS = ("implicit",)
+SHARED_PARAMETERS_ARRAY = "p"
+
+
 class Unsupported(ValueError):
     """A statement of the scalar rhs the lane rewrite does not know; NAME_rhs_batch then loops
     the scalar rhs (correct, not vectorized).  The message names the statement."""
@@ -353,6 +396,57 @@ class _Rewriter:
         self.paired = set()         # angles (x[i] or a temporary) whose sin and cos both occur
         self.sincos = {}            # angle -> its k in sin_k, cos_k (computed by NAME_vsincos)
         self.pre = []               # declarations the current statement needs first
+        self.blocks = []            # open blocks: None (a loop, a scalar branch) or a branch's masks
+        self.nbranch = 0            # branches so far (their masks' names)
+        self.masked = set()         # arrays stored under a mask (the other lanes' old values read)
+
+    @property
+    def mask(self):
+        """The lanes the current statement applies to: the innermost vector branch's mask
+        (a name), None outside every vector branch (all lanes)."""
+        return next((b["mask"] for b in reversed(self.blocks) if b is not None), None)
+
+    def branch(self, indent, cond):
+        """``if (cond) {`` on a state-dependent cond: the condition's lanes as a mask; the
+        block runs when one of its lanes is set (a contact out of reach in every lane skips
+        its law, as the scalar code does) and its stores keep the other lanes' values.
+        None when cond is not state-dependent (a plain C branch)."""
+        negated = cond.startswith("!(") and cond.endswith(")") and _balanced(cond[2:-1])
+        inner = cond[2:-1] if negated else cond
+        parts = _top_level_relation(inner)
+        if parts is None:
+            if self.is_vector(inner):
+                raise Unsupported(f"a branch on {cond[:80]!r}")
+            return None
+        a, op, b = parts
+        (ta, va), (tb, vb) = self.expression(a), self.expression(b)
+        if not (va or vb):
+            return None
+        pre = self.take_pre(indent)
+        k = self.nbranch
+        self.nbranch += 1
+        self.used.add("mask")
+        parent = self.mask
+        test = f"(eomc_vu)(({ta}) {op} ({tb}))"
+        mask = f"~c{k}_" if negated else f"c{k}_"
+        other = f"c{k}_" if negated else f"~c{k}_"
+        if parent is not None:
+            mask, other = f"{parent} & {mask}", f"{parent} & {other}"
+        self.blocks.append({"mask": f"m{k}_", "else": (f"e{k}_", other)})
+        return (f"{pre}{indent}const eomc_vu c{k}_ = {test};\n"
+                f"{indent}const eomc_vu m{k}_ = {mask};\n"
+                f"{indent}if ({self.prefix}_vany(m{k}_)) {{")
+
+    def branch_else(self, indent):
+        """``} else {`` of a vector branch: the other lanes of the enclosing mask."""
+        block = self.blocks[-1] if self.blocks else None
+        if block is None:
+            return f"{indent}}} else {{"
+        name, expr = block["else"]
+        block["mask"] = name
+        return (f"{indent}}}\n"
+                f"{indent}const eomc_vu {name} = {expr};\n"
+                f"{indent}if ({self.prefix}_vany({name})) {{")
 
     def pair_scan(self, lines):
         """Note the angles whose sin and cos this function both takes: at the first of the
@@ -422,7 +516,8 @@ class _Rewriter:
                     out.append(_SCALAR_FORM[name].format(a=new[0]))
             elif not any(vec):
                 out.append(f"{name}({','.join(new)})")
-            elif name in ("sin", "cos") and len(args) == 1 and args[0].strip() in self.paired:
+            elif name in ("sin", "cos") and len(args) == 1 and args[0].strip() in self.paired and (
+                    args[0].strip() in self.sincos or not self.blocks):   # a branch's block would hide sin_k
                 self.used.add("trig")
                 angle = args[0].strip()
                 if angle not in self.sincos:
@@ -454,10 +549,17 @@ class _Rewriter:
         if array not in self.vec_arrays:
             raise Unsupported(f"stores into {array}[]")
         text, vec = self.expression(expr)
+        target, mask = f"{array}[{index}]", self.mask
+        if mask is not None:
+            self.masked.add(array)
+        if mask is not None and not vec and re.fullmatch(r"0\.0|0", text.strip()):   # +0.0 is all zero bits
+            return f"{self.take_pre(indent)}{indent}{target} = (eomc_vd)((eomc_vu){target} & ~{mask});"
         if not vec:
             self.used.add("vset")
             text = f"{self.prefix}_vset({text})"
-        return f"{self.take_pre(indent)}{indent}{array}[{index}] = {text};"
+        if mask is not None:     # the branch's lanes take the value, the others keep theirs
+            text = f"(eomc_vd)(((eomc_vu)({text}) & {mask}) | ((eomc_vu){target} & ~{mask}))"
+        return f"{self.take_pre(indent)}{indent}{target} = {text};"
 
     def lanes(self, expr):
         """``expr`` read at lane ``l_``: vector temporaries and vector arrays subscripted."""
@@ -492,12 +594,31 @@ def _statement(rw, line, parts_renamed):
     m = _POINTER_SET.match(line)
     if m and m.group(3) in rw.vec_arrays and m.group(2) in rw.vec_arrays:
         return line
-    if _INT_DECL.match(line) or _LOOP_HEAD.match(line) or line.strip() in ("{", "}"):
+    m = _IF_LINE.match(line)
+    if m:
+        text = rw.branch(*m.groups())
+        if text is None:       # a branch on parameters only: the same in every lane
+            rw.blocks.append(None)
+            return line
+        return text
+    m = _ELSE_LINE.match(line)
+    if m:
+        return rw.branch_else(m.group(1))
+    if line.strip() == "}":
+        if not rw.blocks:
+            raise Unsupported("an unbalanced '}'")
+        rw.blocks.pop()
+        return line
+    if _LOOP_HEAD.match(line) or line.strip() == "{":
+        rw.blocks.append(None)
+        return line
+    if _INT_DECL.match(line):
         return line
     m = _GATHER.match(line) or _GATHER_ITEM.match(line)
     if m and m.group(2) in rw.vec_arrays and m.group(3) in rw.vec_arrays:
         return line       # u[e] = x[nq + sp[e]], ud[e] = w[sp[e]]: a whole vector per dof
     if _GATHER_HEAD.match(line):
+        rw.blocks.append(None)
         return line
     m = _SCRATCH_DECLS.match(line)
     if m:
@@ -514,14 +635,49 @@ def _statement(rw, line, parts_renamed):
         rw.is_vector(cond)   # refuses unknown arrays
         if _CALL.search(cond):
             raise Unsupported(f"a guard with a call: {line.strip()}")
+        lane = "" if rw.mask is None else f"{rw.mask}[l_] && "
         return (f"{indent}for (l_ = 0; l_ < EOMC_BATCH_LANES; l_++) {{\n"
-                f"{indent}    if (st[l_] == EOMC_OK && ({rw.lanes(cond)})) st[l_] = {code};\n"
+                f"{indent}    if (st[l_] == EOMC_OK && {lane}({rw.lanes(cond)})) st[l_] = {code};\n"
                 f"{indent}}}")
     if _FINITE_RETURN.match(line):
         return None      # the block checks each lane's outputs
     if "/* one state's A at a time */" in line:
         return line      # _per_lane_solve's loop
     raise Unsupported(f"statement {line.strip()[:80]!r}")
+
+
+def _zero_masked(stmts, rw):
+    """stmts with each local array that a masked store reads (the lanes outside the branch
+    keep their old value) zeroed where it is declared: every lane then holds a defined value
+    (a lane no branch wrote reads 0 where the scalar code wrote nothing), and gcc sees no
+    read of an uninitialized array."""
+    out = []
+    for s in stmts:
+        out.append(s)
+        m = re.match(r"^(\s+)eomc_vd ([A-Za-z_]\w*)\[\d+\];$", s or "")
+        if m and m.group(2) in rw.masked:
+            out.append(f"{m.group(1)}__builtin_memset({m.group(2)}, 0, sizeof {m.group(2)});")
+    return out
+
+
+def _balanced(text):
+    """True when text's parentheses balance and never close more than they opened."""
+    depth = 0
+    for ch in text:
+        depth += {"(": 1, ")": -1}.get(ch, 0)
+        if depth < 0:
+            return False
+    return depth == 0
+
+
+def _top_level_relation(cond):
+    """(a, op, b) of ``a op b`` with op one of > < >= <= outside every parenthesis, or None."""
+    found = [m for m in _RELATION.finditer(cond) if _balanced(cond[:m.start()])]
+    if len(found) != 1:
+        return None
+    m = found[0]
+    a, b = cond[:m.start()], cond[m.end():]
+    return (a, m.group(1), b) if _balanced(a) and _balanced(b) else None
 
 
 def _param_list(params, rw):
@@ -534,7 +690,9 @@ def _param_list(params, rw):
         if not m:
             raise Unsupported(f"parameter {param!r}")
         const, restrict, name = m.groups()
-        if name in ("x", "r", "F", "w", "p", "P", "Gm", "an", "out") or name.startswith("S"):
+        if name in rw.scalar_arrays:     # shared parameters: one double for every lane
+            out.append(param)
+        elif name in ("x", "r", "F", "w", "p", "P", "Gm", "an", "out", "G_") or name.startswith("S"):
             rw.vec_arrays.add(name)
             out.append(f"{const or ''}eomc_vd *{restrict or ''}{name}")
         else:
@@ -651,7 +809,12 @@ def batch_rhs(name, lines, parts, dynamics="", fn="rhs", out="xdot", kernels="")
     const eomc_vd *p, const eomc_vd *r, eomc_vd *xdot, int *st)`` (the parameters in lanes too:
     one parameter row per state, or one row broadcast); raises :class:`Unsupported`
     when a line is of a shape the rewrite does not know.  fn="jac_x", out="out": the same for
-    the scalar jac_x's body and parts (``NAME_jac_x_lanes``, its tangent loop kept as a loop)."""
+    the scalar jac_x's body and parts (``NAME_jac_x_lanes``, its tangent loop kept as a loop).
+
+    fn="implicit": the parameters are shared (``const double *p``: NAME_implicit_batch has no
+    parameter row per state), so what depends on them alone (a pair's broad-phase radius, a
+    contact's law constants) is one double computed once for all lanes."""
+    shared = (SHARED_PARAMETERS_ARRAY,) if fn in SHARED_PARAMETERS else ()
     used = set()
     renamed = {}
     out_parts = []
@@ -684,15 +847,18 @@ def batch_rhs(name, lines, parts, dynamics="", fn="rhs", out="xdot", kernels="")
         new = (old.replace(f"_{fn}_part", f"_{fn}_batch_part", 1) if f"_{fn}_part" in old else
                old.replace("_dynamics", "_batch_dynamics", 1))
         renamed[old] = new
-        rw = _Rewriter(name, (), (), used)
+        rw = _Rewriter(name, (), shared, used)
         params = _param_list(m.group(2), rw)
         rw.pair_scan(body)
-        stmts = [_statement(rw, line, renamed) for line in body[1:-1]]
+        stmts = _zero_masked([_statement(rw, line, renamed) for line in body[1:-1]], rw)
         out_parts.append("\n".join([f"static EOMC_NOINLINE EOMC_VTARGET void {new}({params})", "{"]
                                    + [s for s in stmts if s is not None] + ["}"]))
-    rw = _Rewriter(name, ("x", "r", out, "p"), (), used)
+    rw = _Rewriter(name, ("x", "r", out) + (() if shared else ("p",)), shared, used)
     rw.pair_scan(lines)
     stmts = [_statement(rw, line, renamed) for line in lines]
+    if rw.blocks:
+        raise Unsupported("a block not closed")
+    stmts = _zero_masked(stmts, rw)
     guard = any("l_" in (s or "") for s in stmts)
     if any("/* one state's A at a time */" in (s or "") for s in stmts):
         rw.vec_arrays |= {"F", "w"}
@@ -700,7 +866,8 @@ def batch_rhs(name, lines, parts, dynamics="", fn="rhs", out="xdot", kernels="")
     body += [s for s in stmts if s is not None]
     text = "\n".join(body)
     body = [f"    (void){a};" for a in ("t", "x", "p", "r", "st") if not re.search(rf"\b{a}\b", text)] + body
-    lanes = "\n".join([f"static EOMC_VTARGET void {name}_{fn}_lanes(double t, const eomc_vd *x, const eomc_vd *p, "
+    lanes = "\n".join([f"static EOMC_VTARGET void {name}_{fn}_lanes(double t, const eomc_vd *x, "
+                       f"const {'double' if shared else 'eomc_vd'} *p, "
                        f"const eomc_vd *r, eomc_vd *{out}, int *st)", "{"] + body + ["}"])
     return "\n\n".join(out_parts + [lanes]), used
 
@@ -714,6 +881,8 @@ def helper_blocks(name, used):
         code.append(("vset", _VSET.format(p=name)))
     if "trig" in used:
         code.append(("trig", VECTOR_TRIG.format(p=name)))
+    if "mask" in used:
+        code.append(("mask", _VANY.format(p=name)))
     for f in sorted(used):
         if f in _VECTOR_EXACT:
             code.append((f, _VECTOR_EXACT[f].format(p=name)))
@@ -773,6 +942,13 @@ def batch_function(name, nx, nr, npar, lanes_code, helper_code, fn="rhs", nout=N
     inputs = (f"""                for (i = 0; i < {nr}; i++) __builtin_memcpy(&r[g][i], R + (size_t)i * n + k + g * L, sizeof(eomc_vd));
 """ if nr else "")
     simd = ""
+    shared = fn in SHARED_PARAMETERS      # the lanes read p itself (batch_rhs)
+    if shared:
+        params = "    (void)P;\n"
+    else:
+        params = ("" if npar else "    (void)p;\n    (void)P;\n") + (
+            f"    for (i = 0; i < {np1}; i++) for (l = 0; l < L; l++) pv[i][l] = "
+            f"{'P == NULL ? p[i] : 0.0' if npar else '0.0'};\n")
     if lanes_code is not None:
         simd = f"""#if EOMC_BATCH_SIMD
 {helper_code + chr(10) + chr(10) if helper_code else ""}{lanes_code}
@@ -787,10 +963,9 @@ static EOMC_VTARGET int {name}_{fn}_groups(int n, double t, const double *X, con
                                    const double *R, double *XDOT, int *status, int *worst)
 {{
     enum {{ L = EOMC_BATCH_LANES, NG = {groups} }};
-    eomc_vd x[NG][{nx}], pv[{np1}], r[NG][{nr1}], xdot[NG][{nout}];
+    eomc_vd x[NG][{nx}], {"" if shared else f"pv[{np1}], "}r[NG][{nr1}], xdot[NG][{nout}];
     int k, i, g, l, gs;
-{"" if nr else "    (void)R;" + chr(10)}{"" if npar else "    (void)p;" + chr(10) + "    (void)P;" + chr(10)}    for (i = 0; i < {np1}; i++) for (l = 0; l < L; l++) pv[i][l] = {"P == NULL ? p[i] : 0.0" if npar else "0.0"};
-    for (g = 0; g < NG; g++) for (i = 0; i < {nr1}; i++) for (l = 0; l < L; l++) r[g][i][l] = 0.0;
+{"" if nr else "    (void)R;" + chr(10)}{params}    for (g = 0; g < NG; g++) for (i = 0; i < {nr1}; i++) for (l = 0; l < L; l++) r[g][i][l] = 0.0;
     for (k = 0; k + L <= n; k += gs * L) {{
         gs = (n - k) / L < NG ? (n - k) / L : NG;
         for (i = 0; i < {nx}; i++) {{
@@ -799,8 +974,8 @@ static EOMC_VTARGET int {name}_{fn}_groups(int n, double t, const double *X, con
 {"        if (R != NULL) {" + chr(10) + "            for (g = 0; g < gs; g++) {" + chr(10) + inputs + "            }" + chr(10) + "        }" + chr(10) if nr else ""}        for (g = 0; g < gs; g++) {{
             int st[L];
             eomc_vu bad = {{0}};
-{f"            if (P != NULL) for (i = 0; i < {npar}; i++) __builtin_memcpy(&pv[i], P + (size_t)i * n + k + g * L, sizeof(eomc_vd));" + chr(10) if npar else ""}            for (l = 0; l < L; l++) st[l] = EOMC_OK;
-            {name}_{fn}_lanes(t, x[g], pv, r[g], xdot[g], st);
+{f"            if (P != NULL) for (i = 0; i < {npar}; i++) __builtin_memcpy(&pv[i], P + (size_t)i * n + k + g * L, sizeof(eomc_vd));" + chr(10) if npar and not shared else ""}            for (l = 0; l < L; l++) st[l] = EOMC_OK;
+            {name}_{fn}_lanes(t, x[g], {"p" if shared else "pv"}, r[g], xdot[g], st);
             for (i = 0; i < {nout}; i++) bad |= (eomc_vu)(xdot[g][i] - xdot[g][i] != 0.0);   /* inf or NaN */
             for (l = 0; l < L; l++) {{
                 if (st[l] == EOMC_OK && bad[l]) st[l] = EOMC_NONFINITE;
@@ -908,7 +1083,7 @@ def batch_code(name, nx, nr, printed, dynamics="", npar=0, fn="rhs", defined=Non
     lines, parts = printed
     nout = nout if nout is not None else nx if fn == "rhs" else nx * nx
     out = "xdot" if fn == "rhs" else "out"
-    layout = {"rhs": "nx x n", "jac_x": "nx*nx x n", "outputs": "noutput x n"}[fn]
+    layout = {"rhs": "nx x n", "jac_x": "nx*nx x n", "outputs": "noutput x n", "implicit": "size x n"}[fn]
     try:
         lanes, used = batch_rhs(name, lines, parts, dynamics, fn=fn, out=out, kernels=kernels)
     except Unsupported as exc:

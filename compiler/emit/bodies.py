@@ -51,6 +51,8 @@ def temps(program, printer, assignments=None):
         if declare is not None:
             out.append(f"{IND}{declare()}")
         out.append(f"{IND}{'' if names[s].endswith(']') else 'const double '}{names[s]} = {printer.doprint(e)};")
+        if getattr(e, "c_token", False) and not names[s].endswith("]"):     # a call's token no one reads
+            out.append(f"{IND}(void){names[s]};")
     return out
 
 

@@ -4,6 +4,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 
 import jinja2
+import sympy as sm
 
 from eomc.runtime.errors import ModelError
 from eomc.runtime.switching import GAP_EVENT_PREFIXES
@@ -56,6 +57,8 @@ def _select(functions, ninput, noutput, ncon, nevent=0, has_poses=False, nparam=
         wanted.add("jac_x")
     if "outputs_batch" in wanted:  # and the outputs'
         wanted.add("outputs")
+    if "implicit_batch" in wanted:  # and NAME_implicit's (the fixed-step rollout's lanes)
+        wanted.add("implicit")
     absent = {"jac_r": ninput == 0, "jac_p": nparam == 0, "outputs": noutput == 0, "outputs_batch": noutput == 0,
               "constraints": ncon == 0, "constraints_jac": ncon == 0, "events": nevent == 0,
               "poses": not has_poses}
@@ -241,8 +244,9 @@ def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions
     nframe = 0 if frames is None else len(frames.names())   # frame outputs (compiler/tree/frames.py)
     fns = _select(functions, len(layout.r), len(outputs or {}) + nframe, ncon, len(events or {}),
                   poses is not None, len(layout.p))
-    if "implicit" in fns and not formulation.builds_implicit(functions is not None and "implicit" in functions):
-        fns = tuple(f for f in fns if f != "implicit")
+    if "implicit" in fns and not formulation.builds_implicit(
+            functions is not None and ("implicit" in functions or "implicit_batch" in functions)):
+        fns = tuple(f for f in fns if f not in ("implicit", "implicit_batch"))
     refusal = formulation.refusal(fns)
     if refusal:
         raise ModelError(refusal)
@@ -325,7 +329,7 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
             before, body, meta_batch[fn] = batch_code(name, nx, len(layout.r), printed[scalar], dynamics_text,
                                                       len(layout.p), fn=scalar, defined=defined,
                                                       prelude=fn == first, kernels=helper,
-                                                      nout=len(sym.output_names) if scalar == "outputs" else None)
+                                                      nout=_batch_outputs(scalar, sym, fns, formulation))
             rendered.append({"prototype": prototype(name, fn), "body": body, "parts": [before]})
             op_counts[fn] = dict(op_counts[scalar])
             continue
@@ -377,6 +381,15 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
                    ctx.solver_parts)
 
 
+def _batch_outputs(scalar, sym, fns, formulation):
+    """Doubles per state of the batch function of ``scalar`` (None: batch_code's own count)."""
+    if scalar == "outputs":
+        return len(sym.output_names)
+    if scalar == "implicit":
+        return formulation.metadata(sym, fns)["implicit"]["layout"]["size"]
+    return None
+
+
 def _taped(prog):
     """``prog`` with the calls whose derivative calls read their tape in the variant that writes it:
     an expression with ``tape_of()`` (the temporaries it reads a tape from; compiler/contact/
@@ -384,10 +397,26 @@ def _taped(prog):
     without the derivative (rhs) calls the routine that writes no tape."""
     if prog is None:
         return None
+    prog = _variants(prog)
     want = {s for _, e in prog.assignments if hasattr(e, "tape_of") for s in e.tape_of()}
     if not want:
         return prog
     return prog.with_(assignments=tuple((t, e.taped() if t in want else e) for t, e in prog.assignments))
+
+
+def _variants(prog):
+    """``prog`` with each call that has a ``for_program(reads)`` method (compiler/contact/table.py's
+    pairs loop and its tangent) in the variant its function needs: ``reads``, the output indices
+    that the program's nodes with a ``read_index()`` method read (the pairs' loop evaluates every
+    pair only where a contact point's quantities are read: outputs, events)."""
+    if not any(hasattr(e, "for_program") for _, e in prog.assignments):
+        return prog
+    reads = set()
+    for e in [e for _, e in prog.assignments] + [e for _, e in prog.results]:
+        if isinstance(e, sm.Basic):
+            reads.update(node.read_index() for node in sm.preorder_traversal(e) if hasattr(node, "read_index"))
+    return prog.with_(assignments=tuple((t, e.for_program(reads) if hasattr(e, "for_program") else e)
+                                        for t, e in prog.assignments))
 
 
 def _called_routines(programs):

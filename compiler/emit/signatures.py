@@ -51,19 +51,23 @@ SIGNATURES = {
     # the outputs at n states in SIMD lanes: OUT is noutput x n, output i of state k at [i*n + k]
     "outputs_batch": (("int", "n"), ("double", "t"), ("const double *", "X"), ("const double *", "p"),
                       ("const double *", "R"), ("double *", "OUT"), ("int *", "status"), ("double *", "work")),
+    # NAME_implicit at n states in SIMD lanes: OUT is size x n (implicit_layout), entry i of state k at [i*n + k]
+    "implicit_batch": (("int", "n"), ("double", "t"), ("const double *", "X"), ("const double *", "p"),
+                       ("const double *", "R"), ("double *", "OUT"), ("int *", "status"), ("double *", "work")),
 }
 
 # Each batch function and the scalar function whose printed lines it rewrites into lanes.
-BATCH_FUNCTIONS = {"rhs_batch": "rhs", "jac_x_batch": "jac_x", "outputs_batch": "outputs"}
+BATCH_FUNCTIONS = {"rhs_batch": "rhs", "jac_x_batch": "jac_x", "outputs_batch": "outputs",
+                   "implicit_batch": "implicit"}
 
 FUNCTION_ORDER = ("rhs", "jac_x", "jac_r", "jac_p", "mass_matrix", "forcing", "inverse_dynamics",
                   "outputs", "constraints", "constraints_jac", "linearize", "events", "poses", "regressor",
                   "jvp", "jac_id", "vjp", "hvp", "hess_id", "implicit", "rhs_batch", "jac_x_batch",
-                  "outputs_batch")
+                  "outputs_batch", "implicit_batch")
 
 # Generated only on request (``functions`` naming them), not by default.
 ON_REQUEST = ("jac_p", "regressor", "jvp", "jac_id", "vjp", "hvp", "hess_id", "rhs_batch", "jac_x_batch",
-              "outputs_batch")
+              "outputs_batch", "implicit_batch")
 
 # eomc_model fields holding function pointers (the rest are exported only).
 STRUCT_FIELDS = ("rhs", "jac_x", "jac_r", "mass_matrix", "forcing", "outputs",

@@ -122,28 +122,53 @@ def locate_mujoco_error(path, message):
     """(file, line) of the element a MuJoCo compiler error ``message`` is about, or (path, None).
 
     MuJoCo reads ``<include>``d files into the main document and then reports their elements at
-    "line 0" against the main file: the element it names (``Element 'joint'``) is found here, in
-    the main file or an included one, by the attribute or value the message quotes (``'bogus'``
-    of "unrecognized attribute: 'bogus'"); a real line number is MuJoCo's own."""
+    "line 0" against the main file (a real line is MuJoCo's own, in the main file).  Found here
+    in the included files, then the main one:
+
+    - an element the message names by tag and quotes an attribute or value of (``Element
+      'joint'`` and ``'bogus'`` of "unrecognized attribute: 'bogus'");
+    - an element it names by tag alone (``Element 'badtag'``: "unrecognized element"), where
+      only one element has that tag (else no line: a guess would point at the wrong one);
+    - an element of the compiled model it names by name (``Element name 'j', id 0``: "axis too
+      small in joint"), by :func:`locate` with the tag the message's first line ends with;
+    - a file MuJoCo could not parse (``Include error: ... Line number=2``, reported at the main
+      file's ``<include>``): the included file that does not parse, at MuJoCo's line in it."""
+    files = model_files(path)
+    include = re.search(r"Include error:.*?Line number=(\d+)", message, re.S)
+    broken = [file for file, root in files[1:] if root is None]
+    if include and broken:
+        return str(broken[0]), int(include.group(1))
     line = re.search(r"\bline (\d+)", message)
     if line and int(line.group(1)) > 0:
         return str(path), int(line.group(1))
+    first = message.strip().split("\n")[0]
+    named = re.search(r"Element name '([^'\n]+)'", message)
+    if named:
+        tag = re.search(r"(\w+)\s*$", first)
+        return locate(path, tag.group(1) if tag else r"\w+", named.group(1))
     element = re.search(r"Element '([\w-]+)'", message)
-    quoted = re.findall(r"'([^'\n]+)'", message.split("\n")[0])
-    if not element or not quoted:
+    if not element:
         return str(path), None
-    tag = re.escape(element.group(1))
-    for file, _ in model_files(path):
+    texts = []
+    for file, _ in files[1:] + files[:1]:        # included files first: "line 0" is theirs
         try:
-            text = Path(file).read_text(errors="replace")
+            texts.append((file, Path(file).read_text(errors="replace")))
         except OSError:
             continue
+    tag = re.escape(element.group(1))
+    quoted = re.findall(r"'([^'\n]+)'", first)
+    for file, text in texts:
         for q in quoted:
             q = re.escape(q)
             match = (re.search(rf"<{tag}\b[^>]*\s{q}\s*=", text)
                      or re.search(rf"<{tag}\b[^>]*=\s*[\"']{q}[\"']", text))
             if match:
                 return str(file), text.count("\n", 0, match.start()) + 1
+    if not quoted:
+        hits = [(file, text, m) for file, text in texts for m in re.finditer(rf"<{tag}\b", text)]
+        if len(hits) == 1:
+            file, text, match = hits[0]
+            return str(file), text.count("\n", 0, match.start()) + 1
     return str(path), None
 
 

@@ -479,8 +479,10 @@ def _with_pairs(model, m, built):
     tree's geoms (gymnasium's humanoid: 109; dm_control's humanoid_CMU ~1000).  The rhs skips the
     far ones (a bounding-ball test per pair, compiler/contact/pairs.pair_clearance: the humanoid's
     rhs with them 2.0x its no-contact rhs, was 3.7x), but each is still generated code in rhs,
-    events and jac_x: the humanoid's rhs-only build 7.6 -> 28.7 s CPU (benchmarks/results/mjcf_contact.md,
-    2026-11-29 20:39; law routines, compiler/contact/pairs.LAW_ROUTINES: 15.2 s, rhs 2.1x),
+    events and jac_x: the humanoid's rhs-only build 8.6 -> 32.5 s CPU (benchmarks/results/mjcf_contact.md,
+    2026-11-29 22:11; law routines, compiler/contact/pairs.LAW_ROUTINES: 16.4 s, rhs 2.1x; every pair
+    in one table-driven loop, pairs.PAIR_TABLE: 10.4 s, rhs 1.98x, but its default function set
+    takes 44 s CPU against 23 s without the pairs: jac_x leaves the analytic kernel),
     and the motions these models are made for rarely bring a tree's limbs together.  A warning says
     how many were left out."""
     import mujoco

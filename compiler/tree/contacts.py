@@ -11,7 +11,9 @@ this module is the recursion's side of it (called by :mod:`.lower`).
 import sympy as sm
 
 from ..contact.law import EXPONENT, ground_forces, ground_jacobians, step
+from ..contact import pairs as _pairs
 from ..contact.pairs import PairLoad, pair_guards
+from ..contact.table import lower_table
 from ..contact.tree import CLIP_KIND, ENERGY, ContactLoad, ContactValue, contact_outputs
 from .placement import Placement
 from .spatial import cross
@@ -53,7 +55,12 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
     if implicit is not None:
         implicit["poses"], implicit["contacts"] = poses, []
     values, elastic, reach, pairs = {}, [], {}, []
+    table = _pairs.PAIR_TABLE and [ld for ld in others if isinstance(ld, PairLoad)]
+    if table:               # every pair in one table-driven call (compiler/contact/table.py)
+        values.update(lower_table(table, bodies, rec, v, rename, poses))
     for load in others:     # a body-body pair returns its outputs' and events' values
+        if table and isinstance(load, PairLoad):
+            continue
         if isinstance(load, PairLoad):
             values.update(load.lower(bodies, rec, v, rename, poses, broad=pairs))
         else:

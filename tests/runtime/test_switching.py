@@ -222,6 +222,36 @@ def test_a_start_outside_a_joints_range_warns_naming_the_joint(stop):
         stop.simulate({"q_elbow": 0.5}, (0, 0.01))        # on the limit: inside
 
 
+def _on_the_ground(model, vz, t1, method, rtol=1e-6, atol=1e-9, **kw):
+    """The ball on the ground (depth R - z = 0, its sign rounding) with vertical speed vz."""
+    x0 = np.zeros(12)
+    x0[2] = bg.R
+    x0[model.state_names.index("vz")] = vz
+    return model.simulate(x0, (0, t1), method=method, rtol=rtol, atol=atol, raise_on_failure=False, **kw)
+
+
+@pytest.mark.parametrize("method", ["bdf", "radau"])
+def test_a_start_on_the_ground_is_no_crossing_and_the_motion_decides_the_side(ball, method):
+    """A switching function within rounding of zero at the start is on neither side until
+    the motion leaves the band: no crossing located and restarted from at t = 0 (Solo12's
+    feet at depth ~1e-17 flipped sign with rounding: 84-251 steps before t = 1e-9 s).  The
+    crossings after it are still found: pressed in, the ball lifts off at the time every
+    method agrees on (DOP853 at a tight tolerance); thrown up at 1 m/s, it lands after
+    2 vz / g of free flight."""
+    p = _p(ball, c_ball=0.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", PhysicsWarning)
+        first = _on_the_ground(ball, -0.01, 1e-6, method, p=p)
+        pressed = _on_the_ground(ball, -0.01, 0.05, method, p=p)
+        ref = _on_the_ground(ball, -0.01, 0.05, "dop853", p=p, rtol=1e-11, atol=1e-13)
+        thrown = _on_the_ground(ball, 1.0, 0.3, method, p=p)
+    assert first.status == 0 and first.stats["nswitch"] == 0 and first.stats["steps"] <= 3
+    assert pressed.status == 0 and len(pressed.t_events["contact_ball"]) >= 1
+    np.testing.assert_allclose(pressed.t_events["contact_ball"][0], ref.t_events["contact_ball"][0], atol=1e-5)
+    assert thrown.status == 0 and thrown.stats["nswitch"] >= 1
+    np.testing.assert_allclose(thrown.t_events["contact_ball"][0], 2 * 1.0 / bg.G, atol=1e-6)
+
+
 @pytest.mark.parametrize("method", ["rk4", "implicitfast"])
 def test_fixed_step_methods_keep_their_grid_but_get_the_verdict_too(ball, method):
     """Fixed-step methods do not end a step at a crossing (their grid is the output), but

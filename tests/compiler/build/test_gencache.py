@@ -73,13 +73,15 @@ def test_key_follows_the_generator_switches(tmp_path, monkeypatch):
         tangent.append((generation_key(model_spec(path), None, False), source_key(path, {})))
     assert tangent[0] == tangent[2] == keys[0]
     assert tangent[0][0] != tangent[1][0] and tangent[0][1] != tangent[1][1]
-    # pairs.LAW_ROUTINES (each pair one call of its kinds' law routine) likewise
-    law = []
-    for flag in (False, True, False):
-        monkeypatch.setattr(pairs, "LAW_ROUTINES", flag)
-        law.append((generation_key(model_spec(path), None, False), source_key(path, {})))
-    assert law[0] == law[2] == keys[0]
-    assert law[0][0] != law[1][0] and law[0][1] != law[1][1]
+    # pairs.LAW_ROUTINES (each pair one call of its kinds' law routine) and pairs.PAIR_TABLE (every
+    # pair in one table-driven loop, compiler/contact/table.py) likewise
+    for switch in ("LAW_ROUTINES", "PAIR_TABLE"):
+        law = []
+        for flag in (False, True, False):
+            monkeypatch.setattr(pairs, switch, flag)
+            law.append((generation_key(model_spec(path), None, False), source_key(path, {})))
+        assert law[0] == law[2] == keys[0], switch
+        assert law[0][0] != law[1][0] and law[0][1] != law[1][1], switch
 
 
 def test_digest_distinguishes_structure_and_assumptions():

@@ -125,3 +125,72 @@ def _agree(called, inline):
         assert np.all(np.isfinite(jb))
         assert np.abs(ja - jb).max() <= 1e-12 * (1 + np.abs(jb).max())
     return X
+
+
+def test_pair_table_is_the_inlined_schemes(tmp_path, monkeypatch):
+    """pairs.PAIR_TABLE: every pair in one call of the table-driven loop (compiler/contact/table.py:
+    the kinds' narrow routines and the law routine called from a loop over static tables); rhs,
+    outputs (the loop's full variant: every point's depth and clip), jac_x and jac_p (the loop's
+    tangent twin) equal the inlined schemes'."""
+    monkeypatch.setattr(pairs, "PAIR_TABLE", True)
+    called = _build(tmp_path, "table", ("rhs", "jac_x", "jac_p", "outputs"))
+    source = next((tmp_path / "table").rglob("nw.c")).read_text()
+    rhs, jac = _function(source, "nw_rhs"), _function(source, "nw_jac_x")
+    assert rhs.count("eomc_pairs(") == 1 and "eomc_narrow_box_box(" not in rhs and "eomc_pair_law(" not in rhs
+    assert ", 0, &PT_[0])" in rhs                         # the rhs skips far pairs and points
+    assert "eomc_pairs_tape(" in jac and "eomc_pairs_dot(" in jac
+    assert ", 1, &PT_[0])" in _function(source, "nw_outputs")     # outputs: every point
+    monkeypatch.setattr(pairs, "PAIR_TABLE", False)
+    inline = _build(tmp_path, "inline", ("rhs", "jac_x", "jac_p", "outputs"))
+    X = _agree(called, inline)
+    for x in X[:50]:
+        ja, jb = called.jac_p(0.0, x), inline.jac_p(0.0, x)
+        assert np.all(np.isfinite(jb)) and np.abs(jb).max() > 0
+        assert np.abs(ja - jb).max() <= 1e-12 * (1 + np.abs(jb).max())
+
+
+# a chain's limbs (one tree: self-pairs, pairs=True) and a free ball: capsule–capsule, sphere–capsule,
+# capsule–sphere and sphere–sphere pairs, as gymnasium's humanoid has them, several per kind
+LIMBS = """<mujoco model="limbs"><worldbody>
+<body name="base" pos="0 0 0.3"><freejoint/><geom name="trunk" type="capsule" fromto="-0.1 0 0 0.1 0 0" size="0.04"/>
+ <geom name="head" type="sphere" pos="0.15 0 0" size="0.04"/>
+ <body name="l1" pos="0.1 0 0"><joint name="j1" type="ball"/><geom name="arm1" type="capsule" fromto="0 0 0 0.1 0.1 0" size="0.03"/>
+  <body name="l2" pos="0.1 0.1 0"><joint name="j2" type="hinge" axis="0 0 1"/><geom name="arm2" type="capsule" fromto="0 0 0 -0.15 0 0" size="0.03"/>
+   <geom name="hand" type="sphere" pos="-0.15 0 0" size="0.035"/></body></body></body>
+<body name="ball" pos="0 0.1 0.3"><freejoint/><geom name="ball" type="sphere" size="0.05"/></body>
+</worldbody></mujoco>"""
+
+
+def test_pair_table_on_limbs(tmp_path, monkeypatch):
+    """The table-driven loop on a tree's self-pairs (capsules and spheres, several pairs per kind,
+    the humanoid's kinds): rhs, outputs and jac_x equal the inlined pairs' at random poses, some
+    pressed, some apart."""
+    from eomc.compiler.mjcf.model import MjcfModel
+    path = tmp_path / "limbs.xml"
+    path.write_text(LIMBS)
+    built = {}
+    for table in (True, False):
+        monkeypatch.setattr(pairs, "PAIR_TABLE", table)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            built[table] = eomc.compile(MjcfModel(path, pairs=True), "limbs", functions=("rhs", "jac_x", "outputs"),
+                                        cache_dir=tmp_path / str(table), progress=False)
+    called, inline = built[True], built[False]
+    names = list(inline.output_names)
+    assert names == list(called.output_names)
+    self_pairs = [i for i, k in enumerate(names) if k.startswith("Fn_") and "__" in k]
+    assert len(self_pairs) >= 6
+    rng = np.random.default_rng(5)
+    X = rng.normal(scale=0.6, size=(400, called.nx))
+    X[:, 2] += 0.3
+    a, b = called.rhs_many(0.0, X), inline.rhs_many(0.0, X)
+    assert np.all(np.isfinite(b))
+    assert np.abs(a - b).max() <= 1e-12 * (1 + np.abs(b).max())
+    pressed = 0
+    for x in X[:150]:
+        oa, ob = (np.array(list(m.outputs(0.0, x).values())) for m in (called, inline))
+        assert np.abs(oa - ob).max() <= 1e-12 * (1 + np.abs(ob).max())
+        pressed += np.count_nonzero(ob[self_pairs] > 0)
+        ja, jb = called.jac_x(0.0, x), inline.jac_x(0.0, x)
+        assert np.abs(ja - jb).max() <= 1e-12 * (1 + np.abs(jb).max())
+    assert 20 <= pressed < 150 * len(self_pairs) / 2, pressed      # pressed and apart both met

@@ -253,25 +253,28 @@ def test_without_simd_and_unknown_shapes_loop_the_scalar_rhs(cache):
 def test_vector_fabs_fmax_fmin_are_libm_bit_for_bit(tmp_path):
     """fabs, fmax and fmin in lanes (bit operations and compares) against libm's, lane by
     lane, on the cases where they could differ: signed zeros, NaN in either place, infinities,
-    equal values, subnormals."""
+    equal values, subnormals.  sqrt too (the vector instruction: IEEE's correctly rounded
+    sqrt, libm's bits; a NaN result only has to be a NaN)."""
     from eomc.compiler.emit.batch import helpers
     lanes = machine_lanes()
     src = tmp_path / "mm.c"
-    src.write_text("#include <math.h>\n" + SIMD_PRELUDE + "\n" + helpers("t", {"fabs", "fmax", "fmin"}) + """
+    src.write_text("#include <math.h>\n" + SIMD_PRELUDE + "\n" + helpers("t", {"fabs", "fmax", "fmin", "sqrt"}) + """
 EOMC_VTARGET int check(int n, const double *a, const double *b)
 {
     int k, l, bad = t_vset(1.0)[0] != 1.0;   /* (the rewrite's broadcast, emitted with fmax) */
     for (k = 0; k + EOMC_BATCH_LANES <= n; k += EOMC_BATCH_LANES) {
-        eomc_vd va, vb, mx, mn, ab;
+        eomc_vd va, vb, mx, mn, ab, sq;
         for (l = 0; l < EOMC_BATCH_LANES; l++) { va[l] = a[k + l]; vb[l] = b[k + l]; }
         mx = t_v_fmax(va, vb);
         mn = t_v_fmin(va, vb);
         ab = t_v_fabs(va);
+        sq = t_v_sqrt(va);
         for (l = 0; l < EOMC_BATCH_LANES; l++) {
             double m1 = fmax(a[k + l], b[k + l]), m2 = fmin(a[k + l], b[k + l]), m3 = fabs(a[k + l]);
             bad += __builtin_memcmp(&mx[l], &m1, 8) != 0;
             bad += __builtin_memcmp(&mn[l], &m2, 8) != 0;
             bad += __builtin_memcmp(&ab[l], &m3, 8) != 0;
+            bad += isnan(sqrt(a[k + l])) ? !isnan(sq[l]) : __builtin_memcmp(&sq[l], &(double){sqrt(a[k + l])}, 8) != 0;
         }
     }
     return bad;
@@ -280,7 +283,7 @@ EOMC_VTARGET int check(int n, const double *a, const double *b)
     lib = tmp_path / "libmm.so"
     subprocess.run(["gcc", "-O2", "-std=c99", "-fPIC", "-shared", "-Wall", "-Wextra", "-Werror",
                     f"-DEOMC_BATCH_LANES={lanes}", str(src), "-o", str(lib), "-lm"], check=True)
-    special = [0.0, -0.0, 1.0, -1.0, math.inf, -math.inf, math.nan, -math.nan, 5e-324, -5e-324, 2.5, 1e308]
+    special = [0.0, -0.0, 1.0, -1.0, math.inf, -math.inf, math.nan, -math.nan, 5e-324, -5e-324, 2.5, 1e308, 2.0, 0.1]
     a = np.array([x for x in special for _ in special])
     b = np.array([y for _ in special for y in special])
     pad = (-len(a)) % lanes

@@ -8,7 +8,9 @@ state's result and status against the scalar rhs, so a clean run is a correct ru
 driver runs NAME_jac_x_batch (its tangent loop over vectors, nx*nx outputs per state) against
 the scalar jac_x on UR5 with its joint limits (the lanes' Heaviside helper) and on a 6-link cart
 (the analytic kernel retyped into lanes), and NAME_outputs_batch against the scalar outputs on
-the Kane-form double pendulum (energy and tip position: sin/cos in lanes)."""
+the Kane-form double pendulum (energy and tip position: sin/cos in lanes), and
+NAME_implicit_batch against the scalar NAME_implicit on the gym hopper (its contacts' branches
+as masks: at the driver's states some lanes of a group touch the ground and some do not)."""
 import os
 import shutil
 import subprocess
@@ -92,6 +94,15 @@ def _gm(kind, cache):
                             cache_dir=cache, progress=False)[1]
         finally:
             del os.environ["EOMC_N_LINKS"]
+    if kind == "hopper_implicit":
+        import warnings
+        gymnasium = pytest.importorskip("gymnasium")
+        from eomc.compiler.mjcf.model import MjcfModel
+        with warnings.catch_warnings():      # the file's self-collision pairs left out (said by a warning)
+            warnings.simplefilter("ignore")
+            return generate(MjcfModel(Path(gymnasium.__file__).parent / "envs" / "mujoco" / "assets" / "hopper.xml"),
+                            "sanhop", functions=("rhs", "implicit", "implicit_batch"), cache_dir=cache,
+                            progress=False)[1]
     if kind == "pendulum_outputs":
         return generate(str(PENDULUM), "sanpend", functions=("rhs", "outputs", "outputs_batch"),
                         cache_dir=cache, progress=False)[1]
@@ -113,21 +124,23 @@ def cache(tmp_path_factory):
 
 
 @pytest.mark.parametrize("lanes", [4, 8])
-@pytest.mark.parametrize("kind", ["ur5", "kane_cart", "ur5_jac_x", "chain_jac_x", "pendulum_outputs"])
+@pytest.mark.parametrize("kind", ["ur5", "kane_cart", "ur5_jac_x", "chain_jac_x", "pendulum_outputs",
+                                  "hopper_implicit"])
 def test_rhs_batch_sanitizer_clean(cache, tmp_path, kind, lanes):
     if lanes > machine_lanes():
         pytest.skip(f"this machine has {machine_lanes()} double lanes: the lanes would not run")
-    if kind.endswith(("_jac_x", "_outputs")) and lanes != machine_lanes():
+    if kind.endswith(("_jac_x", "_outputs", "_implicit")) and lanes != machine_lanes():
         pytest.skip(f"{kind}: the machine's own lane width only (CI time)")
     gm = _gm(kind, cache)
-    fn = "jac_x" if kind.endswith("_jac_x") else "outputs" if kind.endswith("_outputs") else "rhs"
+    fn = next((f for f in ("jac_x", "outputs", "implicit") if kind.endswith(f"_{f}")), "rhs")
     assert gm.metadata[f"{fn}_batch"]["vectorized"], gm.metadata[f"{fn}_batch"]
     if kind == "kane_cart":
         assert gm.metadata["formulation"] == "kane" and gm.metadata["ninput"] > 0
     src = es.write_sources(gm, str(tmp_path))
     nstates = 3 * lanes + 3                       # three groups of lanes and a 3-state tail
     main = tmp_path / "main.c"
-    nout = {"jac_x": gm.metadata["nx"] ** 2, "outputs": gm.metadata["noutput"]}.get(fn, gm.metadata["nx"])
+    nout = {"jac_x": gm.metadata["nx"] ** 2, "outputs": gm.metadata["noutput"],
+            "implicit": gm.metadata.get("implicit", {}).get("layout", {}).get("size")}.get(fn, gm.metadata["nx"])
     main.write_text(DRIVER.replace("NAME", gm.name).replace("NSTATES", str(nstates)).replace("FN", fn)
                     .replace("NOUT", str(nout)))
     exe = tmp_path / "driver"

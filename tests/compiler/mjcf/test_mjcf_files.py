@@ -84,6 +84,28 @@ def test_mujocos_own_error_in_included_file_names_that_file(tmp_path):
     assert isinstance(exc, ModelFileError)
     assert str(exc).startswith(f"{tmp_path / 'part.xml'}:4: MuJoCo could not compile the model")
     assert "'bogus'" in str(exc) and "line 0" not in str(exc)
+    # in the main file MuJoCo's own line stands (the included file mended first: MuJoCo reports an
+    # included file's error before the main file's, at "line 0", and that one would be found)
+    (tmp_path / "part.xml").write_text(PART.replace('frictionloss="-2"', ""))
     main.write_text(MAIN.format(include="part.xml").replace('type="hinge"/>', 'type="hinge" bogus="1"/>'))
-    exc = _compile(main, tmp_path)            # in the main file MuJoCo's own line stands
+    exc = _compile(main, tmp_path)
     assert str(exc).startswith(f"{main}:4: MuJoCo could not compile the model")
+
+
+@pytest.mark.parametrize("change, line", [
+    (('<geom type="sphere" size="0.1" mass="1"/>', '<geom type="sphere" size="0.1" mass="1"/><unknown/>'), 5),
+    (('frictionloss="-2"', 'axis="0 0 0"'), 4),                        # compiler's "Element name 'h1', id 1"
+    (('<body name="b" pos="0.2 0 0">', '<body name="b" pos="0.2 0 0" pos="1 0 0">'), 2),   # does not parse
+])
+def test_mujocos_other_errors_in_included_file_name_that_file(tmp_path, change, line):
+    """An unrecognized element (MuJoCo names its tag only), an error of the compiled model (its
+    name only) and a file that does not parse (MuJoCo names the main file's <include>) are found
+    at the included file's line, also one include deeper."""
+    (tmp_path / "part.xml").write_text(PART.replace(*change).replace('frictionloss="-2"', ""))
+    (tmp_path / "middle.xml").write_text('<mujoco>\n  <include file="part.xml"/>\n</mujoco>\n')
+    main = tmp_path / "main.xml"
+    main.write_text(MAIN.format(include="middle.xml"))
+    exc = _compile(main, tmp_path)
+    assert isinstance(exc, ModelFileError)
+    assert str(exc).startswith(f"{tmp_path / 'part.xml'}:{line}: MuJoCo could not compile the model"), str(exc)
+    assert "line 0" not in str(exc)

@@ -1,0 +1,443 @@
+"""Body–body pairs as one table-driven C loop (``pairs.PAIR_TABLE``): code O(kinds), not O(pairs).
+
+One job: every :class:`.pairs.PairLoad` of a tree lowered into *one* call,
+:class:`PairTableCall`, of a generated static C function that loops over a static table of the
+pairs, the way MuJoCo does it.  The inlined pairs (and the law routines, ``pairs.LAW_ROUTINES``)
+are generated code per pair: gymnasium's humanoid with its 109 self-pairs built its rhs in
+28.7 s CPU inlined, 15.2 s with law routines (no self-pairs 7.6 s; benchmarks/results/
+mjcf_contact.md, session 10), and jac_x's tangent differentiated every pair.  In one loop: 10.4 s
+against 32.5 s inlined and 8.6 s without the self-pairs, rhs 1.98x the no-contact rhs against 2.00x
+inlined (mjcf_contact.md, 2026-11-29 22:11, one run).  jac_x still takes the tangent path (the
+analytic kernel, compiler/tree/analytic.py, does not hold pairs): the humanoid's default function
+set builds in 44 s CPU (no self-pairs 23 s, inlined 90 s).
+
+The call's inputs (one array) are what varies per call: per moving body that holds a pair's shape
+its origin, world -> body rotation (rows), ω and origin velocity (body components: the law
+routine's body layout, .narrow.BODY_INPUTS), per shape its offset from its body's origin (body
+frame; a world shape's centre), per pair the law's k, c, μ, v_s.  What is fixed at build is in
+static tables: per shape its body, rotation and size, per pair its two shapes, margin and the
+square of its broad-phase reach.  The function
+
+1. places every shape's centre (its axes only when one of its pairs needs them);
+2. per kind of pair, loops over that kind's pairs: a pair whose centres are further apart than
+   the reach is skipped (the inlined path's bounding-ball guard, :func:`.pairs.pair_clearance`,
+   with balls about the shapes' own centres); else its kinds' narrow routine (.narrow) gives
+   p, n, δ per contact point, and a point in contact (not -δ > 0) calls the law routine, whose
+   wrenches are added to the two bodies' accumulated wrenches;
+3. writes per body its wrench (moment about the origin, force; body components), then per
+   contact point F_n, friction (3, world), δ, the clip's function and p (3): a pair's
+   :class:`.pairs.PairValue` kinds, in order.
+
+The skips are exact (the force is ±0 where they apply), so the rhs equals the inlined path to
+rounding.  Outputs and events need every pair's δ and clip, also far ones: a program that reads a
+point's quantities calls the function with ``full`` set (no skips; :meth:`PairTableCall.for_program`).
+
+Derivatives: the tangent (jac_x, jvp, jac_p) is one call of the function's forward-mode twin per
+direction, ``eomc_pairs_dot``, with the inputs' tangents; it re-runs the primal of each pair it
+does not skip (the narrow and law routines' ``_tape`` variants) and their ``_dot``.  The primal
+inputs it reads are stored by the primal call after its outputs (the ``taped()`` variant, as
+.narrow's tapes).  Second derivatives and reverse sweeps are refused as the routines' are.
+"""
+import re
+
+import sympy as sm
+
+from . import narrow as nw
+from eomc.runtime.errors import ModelError
+
+__all__ = ["PairTableCall", "PairTableOut", "lower_table", "table_of"]
+
+POINT_OUTPUTS = 9        # F_n, friction (3), δ, clip, p (3): PairValue kinds 0..8
+_TABLES = {}             # table id -> Table (this process's lowering; the C is what the caches keep)
+
+
+class Table:
+    """What the C function is generated from: the shapes, the pairs, the gathered bodies."""
+
+    def __init__(self, bodies, shapes, pairs):
+        self.bodies = bodies     # tree body indices, in input order
+        self.shapes = shapes     # [(gathered body index or -1, kind, rot 9, size 3)]
+        self.pairs = pairs       # [(rid, shape a, shape b, margin, reach², first point)]
+        self.npoints = sum(len(_parts(rid)) for rid, *_ in pairs)
+        self.nstate = 18 * len(bodies) + 3 * len(shapes)
+        self.ninput = self.nstate + 4 * len(pairs)
+        self.nwrench = 6 * len(bodies)
+        self.noutput = self.nwrench + POINT_OUTPUTS * self.npoints
+
+    def key(self):
+        return (tuple(self.bodies), tuple(self.shapes), tuple(self.pairs))
+
+
+def _parts(rid):
+    from .pairs import pair_parts
+    return pair_parts(*nw.kinds_of(rid))
+
+
+def table_of(tid):
+    return _TABLES[int(tid)]
+
+
+def lower_table(loads, bodies, rec, v, rename, poses):
+    """Lower the PairLoads ``loads`` (one per contact point, as :func:`.pairs.with_pairs` makes
+    them) as one :class:`PairTableCall`: add the wrenches to the bodies' fext; return
+    {PairValue placeholder: temporary}."""
+    from .pairs import BROAD_PAD, PairValue, bounding_radius, _num
+    first = {}
+    for ld in loads:                        # a pair's points share its index base and shapes
+        first.setdefault(ld.index - max(ld.part, 0), ld)
+    gathered, shape_ids, shapes, offsets, pairs, params = [], {}, [], [], [], []
+
+    def shape_index(s, what):
+        key = (s.body, s.kind, tuple(float(x) for x in s.size), tuple(sm.sympify(x) for x in s.offset),
+               tuple(float(x) for row in s.rot for x in row))
+        if key not in shape_ids:
+            if s.body >= 0 and s.body not in gathered:
+                gathered.append(s.body)
+            shape_ids[key] = len(shapes)
+            shapes.append((gathered.index(s.body) if s.body >= 0 else -1, s.kind,
+                           tuple(float(x) for row in s.rot for x in row),
+                           tuple(float(x) for x in s.size) + (0.0,) * (3 - len(s.size))))
+            offsets.append([rename(x, what) if isinstance(x, sm.Basic) else _num(x) for x in s.offset])
+        return shape_ids[key]
+    point = 0
+    bases = {}
+    for base, ld in sorted(first.items()):
+        what = f"the contact {ld.name}"
+        ia, ib = shape_index(ld.a, what), shape_index(ld.b, what)
+        rid = nw.routine_index(ld.a.kind, ld.b.kind)
+        reach = (max(float(ld.margin), 0.0) + BROAD_PAD + bounding_radius(ld.a.kind, ld.a.size)
+                 + bounding_radius(ld.b.kind, ld.b.size))
+        pairs.append((rid, ia, ib, float(ld.margin), reach * reach, point))
+        bases[base] = point
+        point += len(_parts(rid))
+        params += [rename(ld.params[k], what) for k in ("k", "c", "mu", "vs")]
+    inputs = []
+    for i in gathered:
+        R = poses.world_to_body(i)
+        o = poses.origin(i)
+        inputs += list(o) + [x for row in R for x in row] + list(v[i][:3]) + list(v[i][3:])
+    for off in offsets:
+        inputs += off
+    inputs += params
+    table = Table(tuple(gathered), tuple(shapes), tuple(pairs))
+    tid = next((k for k, t in _TABLES.items() if t.key() == table.key()), len(_TABLES))
+    _TABLES.setdefault(tid, table)
+    call = rec.let(PairTableCall(sm.Integer(tid), sm.S.Zero, *[rec.let(x) for x in inputs]))
+    for j, i in enumerate(gathered):
+        w = [rec.let(PairTableOut(call, sm.Integer(0), sm.Integer(6 * j + k))) for k in range(6)]
+        old = bodies[i].fext or [0] * 6
+        bodies[i].fext = [old[k] + x for k, x in enumerate(w)]
+    values = {}
+    for ld in loads:
+        at = table.nwrench + POINT_OUTPUTS * (bases[ld.index - max(ld.part, 0)] + max(ld.part, 0))
+        for kind in range(POINT_OUTPUTS):
+            values[PairValue(ld.index, kind)] = PairTableOut(call, sm.Integer(0), sm.Integer(at + kind))
+    return values
+
+
+class PairTableCall(sm.Function):
+    """PairTableCall(table id, full, *inputs): the pairs' loop, run once; its outputs are read by
+    :class:`PairTableOut`.  Its own value is a token (the C function's return, 0.0)."""
+    is_real = True
+    c_token = True
+
+    def _eval_derivative(self, s):
+        return sm.S.Zero
+
+    def forward(self, dd, k):
+        return sm.S.Zero
+
+    @property
+    def table(self):
+        return table_of(self.args[0])
+
+    def _tape(self):
+        return False
+
+    def c_declaration(self):
+        n = self.table.noutput + (self.table.ninput if self._tape() else 0)
+        return f"double PT_[{n}];"
+
+    def c_routines(self):
+        return _routines(self.table, self._tape(), False)
+
+    def _ccode(self, printer):
+        t = self.table
+        state = ", ".join(printer._print(a) for a in self.args[2:2 + t.nstate])
+        tape = "_tape" if self._tape() else ""
+        return (f"eomc_pairs{tape}((const double[{t.nstate}]){{{state}}}, {_array(self.args[2 + t.nstate:], printer)}, "
+                f"{int(self.args[1])}, &PT_[0])")
+
+    def taped(self):
+        return PairTableTapeCall(*self.args)
+
+    def for_program(self, reads):
+        """The call with ``full`` set when the program reads a contact point's quantities
+        (``reads``: the output indices its PairTableOut read)."""
+        full = any(k >= self.table.nwrench for k in reads)
+        return self.func(self.args[0], sm.Integer(int(full)), *self.args[2:])
+
+
+class PairTableTapeCall(PairTableCall):
+    """PairTableCall that also stores its inputs after its outputs (its tangent call reads them)."""
+
+    def _tape(self):
+        return True
+
+    def taped(self):
+        return self
+
+
+class PairTableDot(sm.Function):
+    """PairTableDot(table id, uid, call, full, *input tangents): the outputs' tangents, into
+    ``PD<uid>_``, from the primal inputs the call stored after its outputs."""
+    is_real = True
+    c_token = True
+
+    def _eval_derivative(self, s):
+        return sm.S.Zero
+
+    def forward(self, dd, k):
+        return sm.S.Zero
+
+    def tape_of(self):
+        return (self.args[2],)
+
+    @property
+    def table(self):
+        return table_of(self.args[0])
+
+    def c_declaration(self):
+        return f"double PD{int(self.args[1])}_[{self.table.noutput}];"
+
+    def c_routines(self):
+        return _routines(self.table, True, True)
+
+    def for_program(self, reads):
+        full = any(k >= self.table.nwrench for k in reads)
+        return self.func(self.args[0], self.args[1], self.args[2], sm.Integer(int(full)), *self.args[4:])
+
+    def _ccode(self, printer):
+        t = self.table
+        dins = self.args[4:]
+        state = ", ".join(printer._print(a) for a in dins[:t.nstate])
+        par = dins[t.nstate:]
+        if all(x.is_Number and x == 0 for x in par):
+            ptext = "0"
+        else:
+            ptext = f"(const double[{len(par)}]){{{', '.join(printer._print(a) for a in par)}}}"
+        return (f"eomc_pairs_dot(&PT_[{t.noutput}], (const double[{t.nstate}]){{{state}}}, {ptext}, "
+                f"{int(self.args[3])}, &PD{int(self.args[1])}_[0])")
+
+
+class PairTableOut(sm.Function):
+    """PairTableOut(call, tag, k): output k of the pairs' call (tag 0: ``PT_``; tag > 0: a
+    PairTableDot's ``PD<tag - 1>_``)."""
+    nargs = 3
+    is_real = True
+
+    def _eval_derivative(self, s):
+        raise ModelError(nw._REFUSAL)
+
+    def forward(self, dd, k):
+        call, tag, index = self.args
+        if int(tag) != 0:
+            raise ModelError(nw._REFUSAL)
+        key = ("pairtable", call, k)
+        hit = dd.extra.get(key)
+        if hit is None:
+            expr = dd.definition(call)
+            dins = [dd.d(x, k) for x in expr.args[2:]]
+            if all(x.is_Number and x == 0 for x in dins):
+                hit = sm.S.Zero
+            else:
+                sym = dd.names.fresh()
+                uid = int(sym.name[2:])
+                dd.out.append((sym, PairTableDot(expr.args[0], sm.Integer(uid), call, expr.args[1], *dins)))
+                hit = (sym, uid)
+            dd.extra[key] = hit
+        if hit is sm.S.Zero:
+            return sm.S.Zero
+        return PairTableOut(hit[0], sm.Integer(hit[1] + 1), index)
+
+    def read_index(self):
+        """The output it reads (compiler/emit/generate.py picks the loop's variant from these)."""
+        return int(self.args[2])
+
+    def _ccode(self, printer):
+        tag, index = int(self.args[1]), int(self.args[2])
+        return f"PT_[{index}]" if tag == 0 else f"PD{tag - 1}_[{index}]"
+
+
+def _array(values, printer):
+    """C of a read-only array of ``values``: ``&p[i]`` when they are the consecutive slots p[i], p[i+1], ...
+    of the parameters (the law's k, c, μ, v_s of each pair are), else a compound literal."""
+    text = [printer._print(a) for a in values]
+    m = re.fullmatch(r"p\[(\d+)\]", text[0]) if text else None
+    if m and text == [f"p[{int(m.group(1)) + k}]" for k in range(len(text))]:
+        return f"&p[{m.group(1)}]"
+    return f"(const double[{len(text)}]){{{', '.join(text)}}}" if text else "0"
+
+
+# --- the C text --------------------------------------------------------------------------------
+
+def _fmt(x):
+    return repr(float(x))
+
+
+def _routines(table, tape, dot):
+    """[(key, C text, split)]: the narrow and law routines the loop calls, then the loop."""
+    rids = sorted({p[0] for p in table.pairs})
+    out = []
+    for rid in rids + [nw.LAW_RID]:
+        for var in ([None, "tape", "dot"] if dot else [None]):
+            text, split = nw.routine_code(rid, var)
+            out.append(((rid, {None: 0, "dot": 1, "tape": 2}[var]), text, split))
+    out.append(((1000, 0), _tables(table), False))
+    out.append(((1000, 1), _loop(table, False), False))
+    if tape:
+        out.append(((1000, 2), _tape_wrapper(table), False))
+    if dot:
+        out.append(((1000, 3), _loop(table, True), False))
+    return out
+
+
+def _tables(t):
+    rows = []
+    rows.append("/* body-body pairs' tables (compiler/contact/table.py): per shape its body (-1: the world), "
+                "rotation rows (shape -> body), size; per kind its pairs */")
+    rows.append(f"static const int eomc_pairs_sbody[{len(t.shapes)}] = {{{', '.join(str(s[0]) for s in t.shapes)}}};")
+    rows.append(f"static const double eomc_pairs_srot[{len(t.shapes)}][9] = {{"
+                + ", ".join("{" + ", ".join(_fmt(x) for x in s[2]) + "}" for s in t.shapes) + "};")
+    rows.append(f"static const double eomc_pairs_ssize[{len(t.shapes)}][3] = {{"
+                + ", ".join("{" + ", ".join(_fmt(x) for x in s[3]) + "}" for s in t.shapes) + "};")
+    for rid in sorted({p[0] for p in t.pairs}):
+        mine = [(q, p) for q, p in enumerate(t.pairs) if p[0] == rid]
+        name = "%s_%s" % nw.kinds_of(rid)
+        rows.append(f"static const int eomc_pairs_{name}_i[{len(mine)}][4] = {{"
+                    + ", ".join(f"{{{p[1]}, {p[2]}, {q}, {p[5]}}}" for q, p in mine) + "};")
+        rows.append(f"static const double eomc_pairs_{name}_d[{len(mine)}][2] = {{"
+                    + ", ".join(f"{{{_fmt(p[3])}, {_fmt(p[4])}}}" for q, p in mine) + "};")
+    return "\n".join(rows) + "\n"
+
+
+def _loop(t, dot):
+    """The loop (``dot``: its forward-mode twin)."""
+    ns, nb = len(t.shapes), len(t.bodies)
+    off = 18 * nb
+    L = []
+    if dot:
+        L.append("/* tangents of the body-body pairs' loop (compiler/contact/table.py): in the primal inputs, "
+                 "din the bodies' and offsets' tangents, dpar the law parameters' (0: none) */")
+        L.append("static double eomc_pairs_dot(const double *in, const double *din, const double *dpar, int full, "
+                 "double *out)\n{")
+    else:
+        L.append("/* body-body pairs' loop (compiler/contact/table.py): wrenches per body, then per contact point "
+                 "F_n, friction, depth, clip, p; full = 0 skips what the rhs does not read */")
+        L.append("static double eomc_pairs(const double *in, const double *pars, int full, double *out)\n{")
+    L.append(f"    static const double zero[18] = {{0}};")
+    L.append(f"    double cen[{3 * ns}], ax[{9 * ns}];")
+    if dot:
+        L.append(f"    double dcen[{3 * ns}], dax[{9 * ns}];")
+    L.append(f"    int have[{ns}] = {{0}};")
+    L.append("    int s, q, m, k, w, j;")
+    L.append(f"    for (k = 0; k < (full ? {t.noutput} : {t.nwrench}); ++k) out[k] = 0.0;")
+    if dot:
+        L.append(f"    const double *pars = in + {t.nstate};")
+    L.append(f"    for (s = 0; s < {ns}; ++s) {{")
+    L.append("        const int b = eomc_pairs_sbody[s];")
+    L.append(f"        const double *o = in + {off} + 3 * s;")
+    L.append("        if (b < 0) { for (k = 0; k < 3; ++k) cen[3 * s + k] = o[k]; }")
+    L.append("        else for (k = 0; k < 3; ++k)")
+    L.append("            cen[3 * s + k] = in[18 * b + k] + in[18 * b + 3 + k] * o[0] + in[18 * b + 6 + k] * o[1]"
+             " + in[18 * b + 9 + k] * o[2];")
+    if dot:
+        L.append(f"        const double *d = din + {off} + 3 * s;")
+        L.append("        if (b < 0) { for (k = 0; k < 3; ++k) dcen[3 * s + k] = d[k]; }")
+        L.append("        else for (k = 0; k < 3; ++k)")
+        L.append("            dcen[3 * s + k] = din[18 * b + k] + din[18 * b + 3 + k] * o[0] + din[18 * b + 6 + k] * o[1]"
+                 " + din[18 * b + 9 + k] * o[2] + in[18 * b + 3 + k] * d[0] + in[18 * b + 6 + k] * d[1]"
+                 " + in[18 * b + 9 + k] * d[2];")
+    L.append("    }")
+    for rid in sorted({p[0] for p in t.pairs}):
+        name = "%s_%s" % nw.kinds_of(rid)
+        count = sum(1 for p in t.pairs if p[0] == rid)
+        npts = len(_parts(rid))
+        nout = nw.routine_outputs(rid)
+        ntape = len(nw.tape_of(rid)) if dot else 0
+        L.append(f"    for (q = 0; q < {count}; ++q) {{  /* {name} pairs */")
+        L.append(f"        const int *P = eomc_pairs_{name}_i[q];")
+        L.append(f"        const double *D = eomc_pairs_{name}_d[q];")
+        L.append(f"        double np[{nout + ntape}];")
+        if dot:
+            L.append(f"        double nd[{nout}];")
+        L.append("        const double *ca = cen + 3 * P[0], *cb = cen + 3 * P[1];")
+        L.append("        const double e0 = cb[0] - ca[0], e1 = cb[1] - ca[1], e2 = cb[2] - ca[2];")
+        L.append("        if (!full && e0 * e0 + e1 * e1 + e2 * e2 > D[1]) continue;")
+        L.append("        for (j = 0; j < 2; ++j) {")
+        L.append("            const int sh = P[j], b = eomc_pairs_sbody[sh];")
+        L.append("            const double *r = eomc_pairs_srot[sh];")
+        L.append("            if (have[sh]) continue;")
+        L.append("            have[sh] = 1;")
+        L.append("            for (k = 0; k < 3; ++k) for (w = 0; w < 3; ++w)")
+        L.append("                ax[9 * sh + 3 * k + w] = b < 0 ? r[3 * w + k] : in[18 * b + 3 + w] * r[k]"
+                 " + in[18 * b + 6 + w] * r[3 + k] + in[18 * b + 9 + w] * r[6 + k];")
+        if dot:
+            L.append("            for (k = 0; k < 3; ++k) for (w = 0; w < 3; ++w)")
+            L.append("                dax[9 * sh + 3 * k + w] = b < 0 ? 0.0 : din[18 * b + 3 + w] * r[k]"
+                     " + din[18 * b + 6 + w] * r[3 + k] + din[18 * b + 9 + w] * r[6 + k];")
+        L.append("        }")
+        args = ", ".join([f"ca[{k}]" for k in range(3)] + [f"ax[9 * P[0] + {k}]" for k in range(9)]
+                         + [f"cb[{k}]" for k in range(3)] + [f"ax[9 * P[1] + {k}]" for k in range(9)]
+                         + [f"eomc_pairs_ssize[P[0]][{k}]" for k in range(3)]
+                         + [f"eomc_pairs_ssize[P[1]][{k}]" for k in range(3)] + ["D[0]"])
+        L.append(f"        eomc_narrow_{name}{'_tape' if dot else ''}({args}, np);")
+        if dot:
+            dargs = ", ".join([f"dcen[3 * P[0] + {k}]" for k in range(3)] + [f"dax[9 * P[0] + {k}]" for k in range(9)]
+                              + [f"dcen[3 * P[1] + {k}]" for k in range(3)] + [f"dax[9 * P[1] + {k}]" for k in range(9)])
+            L.append(f"        eomc_narrow_{name}_dot(&np[{nout}], {dargs}, nd);")
+        L.append(f"        for (m = 0; m < {npts}; ++m) {{")
+        L.append("            const double *pp = np + 7 * m;")
+        L.append("            const int ba = eomc_pairs_sbody[P[0]], bb = eomc_pairs_sbody[P[1]];")
+        L.append(f"            const double *A = ba < 0 ? zero : in + 18 * ba, *B = bb < 0 ? zero : in + 18 * bb;")
+        L.append("            const double *par = pars + 4 * P[2];")
+        L.append(f"            double *po = out + {t.nwrench} + {POINT_OUTPUTS} * (P[3] + m);")
+        if dot:
+            L.append("            const double *pd = nd + 7 * m;")
+            L.append(f"            const double *dA = ba < 0 ? zero : din + 18 * ba, *dB = bb < 0 ? zero : din + 18 * bb;")
+            L.append("            const double *dp = dpar ? dpar + 4 * P[2] : zero;")
+            L.append(f"            double lt[{nw.routine_outputs(nw.LAW_RID) + len(nw.tape_of(nw.LAW_RID))}], "
+                     f"lo[{nw.routine_outputs(nw.LAW_RID)}];")
+            src, tgt = "pd", "lo"
+        else:
+            L.append(f"            double lo[{nw.routine_outputs(nw.LAW_RID)}];")
+            src, tgt = "pp", "lo"
+        L.append(f"            po[4] = {src}[6];")
+        L.append(f"            for (k = 0; k < 3; ++k) po[6 + k] = {src}[k];")
+        L.append("            if (!full && -pp[6] > 0) continue;")
+        largs = ", ".join([f"pp[{k}]" for k in range(7)] + [f"A[{k}]" for k in range(18)]
+                          + [f"B[{k}]" for k in range(18)] + [f"par[{k}]" for k in range(4)])
+        if dot:
+            L.append(f"            eomc_pair_law_tape({largs}, lt);")
+            dl = ", ".join([f"pd[{k}]" for k in range(7)] + [f"dA[{k}]" for k in range(18)]
+                           + [f"dB[{k}]" for k in range(18)] + [f"dp[{k}]" for k in range(4)])
+            L.append(f"            eomc_pair_law_dot(&lt[{nw.routine_outputs(nw.LAW_RID)}], {dl}, lo);")
+        else:
+            L.append(f"            eomc_pair_law({largs}, lo);")
+        L.append(f"            if (bb >= 0) for (k = 0; k < 6; ++k) out[6 * bb + k] += {tgt}[k];")
+        L.append(f"            if (ba >= 0) for (k = 0; k < 6; ++k) out[6 * ba + k] += {tgt}[6 + k];")
+        L.append(f"            for (k = 0; k < 4; ++k) po[k] = {tgt}[12 + k];")
+        L.append(f"            po[5] = {tgt}[16];")
+        L.append("        }")
+        L.append("    }")
+    L.append("    return 0.0;\n}\n")
+    return "\n".join(L)
+
+
+def _tape_wrapper(t):
+    return ("/* the pairs' loop, then its inputs after its outputs (its tangent reads them) */\n"
+            "static double eomc_pairs_tape(const double *in, const double *pars, int full, double *out)\n{\n"
+            f"    int k;\n    eomc_pairs(in, pars, full, out);\n"
+            f"    for (k = 0; k < {t.nstate}; ++k) out[{t.noutput} + k] = in[k];\n"
+            f"    for (k = 0; k < {t.ninput - t.nstate}; ++k) out[{t.noutput + t.nstate} + k] = pars[k];\n"
+            "    return 0.0;\n}\n")

@@ -1,0 +1,138 @@
+"""NAME_implicit_batch (compiler/emit/batch.py, fn="implicit"): the fixed-step implicit step's
+terms (NAME_implicit) over many states in SIMD lanes, on a model with ground contacts -- the
+gym hopper: eight contact points on four geoms, each pair behind a broad-phase branch and each
+point's law behind its depth branch, which the lanes take as masks.  At states where some lanes
+of a group touch the ground and others do not, the batch equals the scalar NAME_implicit bit for
+bit when sin/cos go through libm (-DEOMC_BATCH_LIBM_TRIG) and within the vector sin/cos's bound
+otherwise; the same holds for the hopper's rhs_batch, whose contact branches were refused (the
+scalar loop) before masks.  Also the rewrite itself on small bodies: a state-dependent branch
+becomes masks and masked stores, a branch on parameters stays a C branch.
+
+Oracle: the scalar NAME_implicit and NAME_rhs of the same library (the same expressions)."""
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from eomc.compiler.build.builder import machine_lanes
+from eomc.compiler.emit.batch import Unsupported, batch_rhs
+
+STRICT = "-O2 -std=c99 -fPIC -Wall -Wextra -Werror"
+FUNCTIONS = ("rhs", "implicit", "implicit_batch", "rhs_batch")
+
+
+def _hopper(cache, cflags):
+    gymnasium = pytest.importorskip("gymnasium")
+    import eomc
+    from eomc.compiler.mjcf.model import MjcfModel
+    path = Path(gymnasium.__file__).parent / "envs" / "mujoco" / "assets" / "hopper.xml"
+    with warnings.catch_warnings():      # the file's self-collision pairs left out (said by a warning)
+        warnings.simplefilter("ignore")
+        return eomc.compile(MjcfModel(path), name="ibh", functions=FUNCTIONS, cache_dir=cache, cflags=cflags,
+                            progress=False)
+
+
+@pytest.fixture(scope="module")
+def cache(tmp_path_factory):
+    return tmp_path_factory.mktemp("implicit_batch_cache")
+
+
+def _scalar(model, X):
+    """NAME_implicit at each row of X (the scalar call through cffi)."""
+    ffi = model.ffi
+    fp = getattr(model.model_lib, f"{model.name}_implicit")
+    out = np.zeros((len(X), model.metadata["implicit"]["layout"]["size"]))
+    work = np.zeros(model.work_size + 1)
+    r = np.zeros(max(model.ninput, 1))
+    for k, x in enumerate(X):
+        assert fp(0.0, ffi.from_buffer("double[]", np.ascontiguousarray(x)), model._default_p,
+                  ffi.from_buffer("double[]", r), ffi.from_buffer("double[]", out[k]),
+                  ffi.from_buffer("double[]", work)) == 0
+    return out
+
+
+def _states(model, n, seed):
+    """Near the file's start, the torso lowered by up to 0.3 m or raised by 0.1 m (the foot
+    starts 0.1 m up): some states with feet, legs or thighs on the ground, some in the air."""
+    rng = np.random.default_rng(seed)
+    X = np.tile(np.array(model.initial_state, dtype=float), (n, 1))
+    X[:, :model.nq] += 0.02 * rng.normal(size=(n, model.nq))
+    X[:, model.nq:] = 0.5 * rng.normal(size=(n, model.nu))
+    X[:, list(model.state_names).index("q_rootz")] += rng.uniform(-0.3, 0.1, n)
+    return X
+
+
+def _touching(model, out):
+    """(n, ncontact) bool: the contact's stiffness block K is nonzero (in touch)."""
+    at = model.metadata["implicit"]["layout"]
+    nc = len(model.metadata["implicit"]["contacts"])
+    return (out[:, at["contact"]:at["contact"] + 25 * nc].reshape(len(out), nc, 25)[:, :, 7:16] != 0).any(axis=2)
+
+
+@pytest.mark.parametrize("trig", ["libm", "vector"])
+def test_hopper_implicit_and_rhs_in_lanes_with_contacts_on_and_off(cache, trig):
+    flags = f"{STRICT} -DEOMC_BATCH_LIBM_TRIG" if trig == "libm" else STRICT
+    model = _hopper(cache, flags)
+    for fn in ("implicit_batch", "rhs_batch"):
+        assert model.metadata[fn]["vectorized"], model.metadata[fn]
+    lanes = machine_lanes()
+    X = _states(model, 4 * lanes + 3, 0)         # whole groups of lanes and a scalar tail
+    want, got = _scalar(model, X), model.implicit_batch(0.0, X)
+    touch = _touching(model, want)
+    groups = touch[:4 * lanes].reshape(4, lanes, -1).any(axis=2)    # a state with any contact on
+    assert touch.any(axis=1).any() and not touch.any(axis=1).all()
+    assert (groups.any(axis=1) & ~groups.all(axis=1)).any(), groups   # a group mixes both
+    assert got.shape == want.shape
+    rhs_want = np.array([model.rhs(0.0, x) for x in X])
+    rhs_got = model.rhs_batch(0.0, X)
+    if trig == "libm":
+        assert np.array_equal(got, want)
+        assert np.array_equal(rhs_got, rhs_want)
+    else:   # sin/cos within 1 ulp of libm's; a contact law's slopes near touch-down magnify it
+        assert np.array_equal(_touching(model, got), touch)
+        assert (np.abs(got - want) / np.maximum(np.abs(want), 1.0)).max() < 1e-9
+        assert (np.abs(rhs_got - rhs_want) / np.maximum(np.abs(rhs_want), 1.0)).max() < 1e-9
+        assert np.mean(got == want) > 0.9
+
+
+def _lanes(lines, fn="implicit"):
+    code, used = batch_rhs("m", lines, [], fn=fn, out="out")
+    return code, used
+
+
+def test_a_state_branch_becomes_masks_and_masked_stores():
+    lines = ["    const double t0 = x[0] - p[0];",
+             "    if (!(-t0 > 0.0)) {",
+             "        const double t1 = sqrt(t0);",
+             "        out[0] = t1*p[1];",
+             "        if (!(x[1] > 0.0)) {",
+             "            out[1] = t1;",
+             "        } else {",
+             "            out[1] = 0.0;",
+             "        }",
+             "    } else {",
+             "        out[0] = 0.0;",
+             "        out[1] = 0.0;",
+             "    }",
+             "    return m_finite_wide(out, 2);"]
+    code, used = _lanes(lines)
+    assert "mask" in used and "sqrt" in used
+    assert "const eomc_vu c0_ = (eomc_vu)((-t0) > (0.0));" in code
+    assert "const eomc_vu m0_ = ~c0_;" in code and "if (m_vany(m0_)) {" in code
+    assert "const eomc_vu m1_ = m0_ & ~c1_;" in code            # nested: within the outer mask
+    assert "const eomc_vu e1_ = m0_ & c1_;" in code and "const eomc_vu e0_ = c0_;" in code
+    assert "out[0] = (eomc_vd)(((eomc_vu)(m_v_sqrt(t0)" not in code    # t1 is a temporary
+    assert "out[1] = (eomc_vd)(((eomc_vu)(t1) & m1_) | ((eomc_vu)out[1] & ~m1_));" in code
+    assert "out[1] = (eomc_vd)((eomc_vu)out[1] & ~e1_);" in code      # a zero: the lanes' bits cleared
+    # shared parameters (implicit): one double for all lanes
+    assert "const double *p," in code
+    with pytest.raises(Unsupported, match="not closed"):
+        _lanes(lines[:-2])
+
+
+def test_a_parameter_branch_stays_a_c_branch_and_other_tests_are_refused():
+    code, used = _lanes(["    if (p[0] > 0.0) {", "        out[0] = x[0];", "    }"])
+    assert "if (p[0] > 0.0) {" in code and "mask" not in used
+    with pytest.raises(Unsupported, match="a branch on"):
+        _lanes(["    if (isfinite(x[0])) {", "        out[0] = x[0];", "    }"])
