@@ -38,11 +38,11 @@ def gym_xml(name):
     return Path(gymnasium.__file__).parent / "envs" / "mujoco" / "assets" / f"{name}.xml"
 
 
-def eomc_model(name, cache_dir):
-    """The XML as shipped: its ground contacts come from the file."""
+def eomc_model(name, cache_dir, functions=None):
+    """The XML as shipped: its ground contacts come from the file (functions: eomc.compile's)."""
     import eomc
     from eomc.compiler.mjcf.model import MjcfModel
-    return eomc.compile(MjcfModel(gym_xml(name)), name=f"fs_{name}", cache_dir=cache_dir)
+    return eomc.compile(MjcfModel(gym_xml(name)), name=f"fs_{name}", cache_dir=cache_dir, functions=functions)
 
 
 def mujoco_model(name, integrator=None, timestep=None):

@@ -18,7 +18,11 @@ state, a fresh ``mj_kinematics``: after ``mj_step`` with the Euler integrators t
 geom poses are the step's start, and read from them, as this table did until 2026-11-29
 14:50, half_cheetah's touch-down was one 10 ms step late, 0.1299 s; "-": none in the run),
 MuJoCo's touch-down again with its time step divided by 10 (same integrator: where its
-discrete fall converges), the root body's height at T and MuJoCo's largest |qvel| there (at rest or not), the
+discrete fall converges), eomc's touch-down in its fixed-step run at the file's time step h
+(implicitfast through bench_fixedstep's C call: no events, simulate's default residual check;
+depths sampled at each step's end) with its difference from mj_step at h (the file's integrator),
+and MuJoCo's touch-down with implicitfast at h (the same scheme as eomc's) and the difference from
+it, the root body's height at T and MuJoCo's largest |qvel| there (at rest or not), the
 deepest contact penetration over the run (eomc: beyond the law's surface, i.e. below the
 margin; MuJoCo: -min dist + margin over its contacts), wall and CPU time of each simulation
 (MuJoCo's Python loop of mj_step: its cost is mostly the loop's).
@@ -30,6 +34,14 @@ that topples from an unstable stance (walker2d on its straight legs) can come to
 another pose than MuJoCo's, while MuJoCo's rest is also eomc's.
 
 Findings (2026-11-29, helper drops; scripts' figures quoted here, the table's from this run):
+
+- At the same time step (the issue's "compared with MuJoCo's mj_step at the same time step"),
+  eomc's fixed-step run lands within 1.1 % of mj_step on every drop model, half_cheetah included
+  (0.1199 s in both: implicitfast's implicit Euler update falls exactly as MuJoCo's semi-implicit
+  Euler, x_n = x_0 - g t_n (t_n + h)/2), and within 0.0-1.7 % of MuJoCo's implicitfast at h.
+  Against the file's RK4 (hopper, walker2d, ant, humanoid) the first-order fixed step lands up to
+  about h/2 early (hopper -1.1 % at 2 ms).  The adaptive (radau) column lands at the exact fall,
+  so it matches MuJoCo where MuJoCo's step converges (h/10, or RK4 at h).
 
 - half_cheetah's touch-down is a free fall of its back foot (bfoot, the lower end sphere of
   its capsule: 0.076406 m above the plane at the start in both, eomc's depth output and
@@ -129,14 +141,17 @@ def mujoco_drop(path, T):
             d.qpos.copy())
 
 
-def mujoco_touchdown_fine(path, until, divide=FINE):
-    """MuJoCo's first touch-down with its time step divided by ``divide`` (same integrator): where
-    its discrete fall converges to (the semi-implicit Euler of a 10 ms step lands h/2 early in a
-    free fall: t(t + h) = 2D/g).  Runs until the touch-down or ``until``."""
+def mujoco_touchdown_fine(path, until, divide=FINE, integrator=None):
+    """MuJoCo's first touch-down with its time step divided by ``divide`` (same integrator, or the
+    mjtIntegrator named, e.g. "IMPLICITFAST"): where its discrete fall converges to (the
+    semi-implicit Euler of a 10 ms step lands h/2 early in a free fall: t(t + h) = 2D/g).  Runs
+    until the touch-down or ``until``."""
     import mujoco
     from eomc.compiler.mjcf.model import load_mjmodel
     m = load_mjmodel(path)
     m.opt.timestep /= divide
+    if integrator is not None:
+        m.opt.integrator = getattr(mujoco.mjtIntegrator, f"mjINT_{integrator}")
     d = mujoco.MjData(m)
     lowest_at = _mujoco_lowest(m)
     times, lowest = [0.0], [lowest_at(d)]
@@ -147,7 +162,22 @@ def mujoco_touchdown_fine(path, until, divide=FINE):
     return _touchdown(times, lowest)
 
 
-def eomc_drop(path, T, cache, pairs=None, rest_qpos=None):
+def eomc_touchdown_fixed(model, dt, until):
+    """eomc's first touch-down in its fixed-step run at ``dt`` (the file's time step): implicitfast
+    through bench_fixedstep's C call (what a control loop runs: no events, simulate's default
+    residual check), the depth outputs sampled at every step's end and interpolated as MuJoCo's.
+    Its update is implicit Euler, which in a free fall is MuJoCo's semi-implicit Euler: both land
+    at t(t + h) = 2D/g."""
+    from bench_fixedstep import eomc_call
+    n = int(np.ceil(until / dt))
+    grid = dt * np.arange(n + 1)
+    call, x_out, _, stats = eomc_call(model, model.initial_state, dt, t1=grid[-1], t_eval=grid)
+    call()
+    deep = [max(v for k, v in model.outputs(t, x).items() if k.startswith("depth_")) for t, x in zip(grid, x_out)]
+    return _touchdown(grid, -np.asarray(deep))
+
+
+def eomc_drop(path, T, cache, pairs=None, rest_qpos=None, fixed_until=None):
     import eomc
     from eomc.compiler.mjcf import MjcfModel
     import mujoco
@@ -157,14 +187,18 @@ def eomc_drop(path, T, cache, pairs=None, rest_qpos=None):
     # with the events function, as eomc.compile builds by default: the contacts' touch-downs are
     # the switching functions that end radau's steps at the onset; without it a grown free-fall
     # step carried half_cheetah's foot 80 mm into the floor (and the damping held it there)
+    # and, for a model that touches down, NAME_implicit: the fixed-step touch-down's implicitfast
+    # path (bench_fixedstep's; generated for models with ground contacts only)
     model = eomc.compile(MjcfModel(Path(path), pairs=pairs) if pairs else str(path),
-                         functions=("rhs", "outputs", "jac_x", "events"), cache_dir=cache, progress=False)
+                         functions=("rhs", "outputs", "jac_x", "events") + (("implicit",) if fixed_until else ()),
+                         cache_dir=cache, progress=False)
+    m = load_mjmodel(path)
+    td_fixed = float("nan") if fixed_until is None else eomc_touchdown_fixed(model, m.opt.timestep, fixed_until)
     t0, c0 = time.perf_counter(), time.process_time()
     res = model.simulate(model.initial_state, (0.0, T), method="radau", n_points=int(T * 2000) + 1)
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     depths = [k for k in model.output_names if k.startswith("depth_")]
     deep = np.max([res.outputs[k] for k in depths], axis=0) if depths else np.full(len(res.t), -1.0)
-    m = load_mjmodel(path)
     built = tree_ir(m)
     d = mujoco.MjData(m)
 
@@ -182,7 +216,7 @@ def eomc_drop(path, T, cache, pairs=None, rest_qpos=None):
         again = model.simulate(x0, (0.0, STATICS), method="radau", n_points=11)
         statics = root_z(again.x[-1])
     return (_touchdown(res.t, -deep) if depths else float("nan"), z, float(max(deep.max(), 0.0)) if depths else 0.0,
-            wall, cpu, len(depths), statics, v)
+            wall, cpu, len(depths), statics, v, td_fixed)
 
 
 def main():
@@ -200,22 +234,25 @@ def main():
             path = folder / f"{stem}.xml"
             td_m, z_m, deep_m, wall_m, cpu_m, v_m, rest = mujoco_drop(path, T)
             td_f = float("nan") if np.isnan(td_m) else mujoco_touchdown_fine(path, 2 * td_m)
-            td_e, z_e, deep_e, wall_e, cpu_e, points, z_s, v_e = eomc_drop(path, T, Path(tmp), pairs, rest)
+            td_i = float("nan") if np.isnan(td_m) else mujoco_touchdown_fine(path, 2 * td_m, 1, "IMPLICITFAST")
+            td_e, z_e, deep_e, wall_e, cpu_e, points, z_s, v_e, td_x = eomc_drop(
+                path, T, Path(tmp), pairs, rest, None if np.isnan(td_m) else 2 * td_m)
 
             def when(t):
                 return "-" if np.isnan(t) else f"{t:.4f}"
             def rel(a, b):
                 return "-" if np.isnan(a) or np.isnan(b) else f"{100 * (a / b - 1):+.1f} %"
             rows.append([label, f"{T:g}", str(points), when(td_m), when(td_e), rel(td_e, td_m), when(td_f),
-                         rel(td_e, td_f),
+                         rel(td_e, td_f), when(td_x), rel(td_x, td_m), when(td_i), rel(td_x, td_i),
                          f"{z_m:.4f}", f"{v_m:.0e}", f"{z_e:.4f}", f"{v_e:.0e}", f"{1e3 * (z_e - z_m):+.1f}",
                          f"{1e3 * (z_s - z_m):+.1f}", f"{1e3 * deep_m:.2f}",
                          f"{1e3 * deep_e:.2f}", f"{wall_m:.2f}/{cpu_m:.2f}", f"{wall_e:.2f}/{cpu_e:.2f}"])
-            csv.append([label, T, points, td_m, td_e, td_f, z_m, v_m, z_e, v_e, z_s, deep_m, deep_e, wall_m, cpu_m, wall_e,
+            csv.append([label, T, points, td_m, td_e, td_f, td_x, td_i, z_m, v_m, z_e, v_e, z_s, deep_m, deep_e, wall_m, cpu_m, wall_e,
                         cpu_e])
             print(" | ".join(rows[-1]), flush=True)
     headers = ["model", "T s", "eomc points", "touch-down MuJoCo s", "touch-down eomc s", "diff",
-               f"touch-down MuJoCo h/{FINE} s", f"diff vs h/{FINE}", "root z MuJoCo m",
+               f"touch-down MuJoCo h/{FINE} s", f"diff vs h/{FINE}", "touch-down eomc implicitfast h s",
+               "diff vs mj_step h", "touch-down mj_step implicitfast h s", "diff vs it", "root z MuJoCo m",
                "MuJoCo max abs qvel", "root z eomc m",
                "eomc max abs qvel", "diff mm", "statics diff mm", "deepest MuJoCo mm",
                "deepest eomc mm", "MuJoCo wall/CPU s", "eomc radau wall/CPU s"]
@@ -229,6 +266,7 @@ def main():
         print(format_table(headers, rows))
         return
     headers_csv = ["model", "T", "points", "touchdown_mujoco", "touchdown_eomc", "touchdown_mujoco_fine",
+                   "touchdown_eomc_implicitfast_h", "touchdown_mujoco_implicitfast_h",
                    "root_z_mujoco", "qvel_max_mujoco", "root_z_eomc", "qvel_max_eomc",
                    "root_z_eomc_from_mujoco_rest", "deepest_mujoco", "deepest_eomc",
                    "wall_mujoco", "cpu_mujoco", "wall_eomc", "cpu_eomc"]

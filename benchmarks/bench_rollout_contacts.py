@@ -8,7 +8,10 @@ soft constraints; eomc: the same geoms' ground contacts, compliant law: docs/con
 its fixed-step implicit method: MuJoCo mjINT_IMPLICITFAST (and its default, Euler), eomc
 method="implicitfast" -- checked (the residual test splits steps whose linearisation fails,
 eomc_implicit.split = 0.5: what simulate and rollout run by default) and unchecked (split = 0:
-one model call per step, as MuJoCo's implicitfast).  Same thread count on both sides (1 and 2):
+one model call per step, as MuJoCo's implicitfast) and checked with lanes=True (each thread's
+rows 8 -- the machine's double lanes -- at a time as fibers, their model calls one
+NAME_implicit_batch call: the models are built with implicit_batch besides the default functions,
+whose C it leaves as it was).  Same thread count on both sides (1 and 2):
 mujoco.rollout gets one MjData per thread, eomc.rollout threads=k.
 
 Steps/s = NROLL * steps / median time; wall and process CPU (all threads), contestants
@@ -50,6 +53,13 @@ from common import environment_header, format_table, write_results  # noqa: E402
 import bench_fixedstep as B  # noqa: E402
 
 MODELS = ("hopper", "ant", "humanoid", "go2", "g1")
+
+
+def _functions():
+    """The default functions and NAME_implicit_batch (the lanes contestant's; the scalar
+    functions' C is the same with or without it)."""
+    from eomc.compiler.emit.signatures import FUNCTION_ORDER, ON_REQUEST
+    return tuple(f for f in FUNCTION_ORDER if f not in ON_REQUEST) + ("implicit_batch",)
 NROLL, REPEAT = 64, 5
 ERROR_ROWS = 4            # starts whose error against each side's own reference is measured
 LEGS = ("FL", "FR", "RL", "RR")
@@ -115,7 +125,7 @@ def _models(name, cache_dir):
     if name not in URDF:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")          # the files' self-collision pairs (said by a warning)
-            em = B.eomc_model(name, cache_dir)
+            em = B.eomc_model(name, cache_dir, functions=_functions())
         mm = B.mujoco_model(name, "IMPLICITFAST")
         fine = B.mujoco_model(name, "RK4", float(mm.opt.timestep) / 16)
         return em, mm, B.mujoco_model(name, "EULER"), fine, None, {}
@@ -125,7 +135,7 @@ def _models(name, cache_dir):
     path, height, pose = urdf_mjcf(name, out)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        em = eomc.compile(MjcfModel(path), name=f"ro_{name}", cache_dir=cache_dir)
+        em = eomc.compile(MjcfModel(path), name=f"ro_{name}", cache_dir=cache_dir, functions=_functions())
     mjm = []
     for integrator in ("IMPLICITFAST", "EULER", "RK4"):
         spec = mujoco.MjSpec.from_file(str(path))
@@ -213,6 +223,7 @@ def _case(name, threads_list, cache_dir):
         warnings.simplefilter("ignore")
         one = em.simulate(X0[0], (0.0, nstep * dt), method="implicitfast", dt=dt, t_eval=[nstep * dt])
     errors = _errors(em, mm, me, fine, X0, S0, nstep, dt)
+    errors["eomc implicitfast (checked, lanes)"] = "as checked"    # its rows, the lanes' sin/cos aside
     rows = []
     for k in threads_list:
         datas = [mujoco.MjData(mm) for _ in range(k)]
@@ -223,6 +234,9 @@ def _case(name, threads_list, cache_dir):
                 "eomc implicitfast (unchecked)": lambda: eomc.rollout(em, X0, steps=nstep, dt=dt, threads=k,
                                                                       method="implicitfast", split=0.0,
                                                                       raise_on_failure=False),
+                "eomc implicitfast (checked, lanes)": lambda: eomc.rollout(em, X0, steps=nstep, dt=dt, threads=k,
+                                                                           method="implicitfast", lanes=True,
+                                                                           raise_on_failure=False),
                 "mujoco implicitfast": lambda: ro.rollout([mm] * NROLL, datas, S0, ctrl, nstep=nstep)[0],
                 "mujoco euler": lambda: ro.rollout([me] * NROLL, datas, S0, ctrl, nstep=nstep)[0],
             }

@@ -12,8 +12,10 @@ is the user's choice, as before).  Where the CPU's features cannot be read (not 
 nothing is refused: eomc adds no such flag there either.
 """
 import functools
+import platform
+import sys
 
-__all__ = ["ISA_FLAGS", "cpu_features", "missing_isa"]
+__all__ = ["ISA_FLAGS", "cpu_features", "machine_lanes", "missing_isa"]
 
 # compiler flag -> the /proc/cpuinfo feature the code it allows needs
 ISA_FLAGS = {"-mavx2": "avx2"}
@@ -30,6 +32,19 @@ def cpu_features():
     except OSError:
         pass
     return None
+
+
+def machine_lanes():
+    """Doubles per SIMD register on this machine: 8 with AVX-512F, 4 with AVX2, else 2 (SSE2,
+    NEON) -- the EOMC_BATCH_LANES a model's batch functions are built with here
+    (compiler/build/builder.machine_lanes), and the rows an implicitfast rollout in lanes runs at
+    once (runtime/rollout.py)."""
+    if platform.machine().lower() not in ("x86_64", "amd64", "i386", "i686"):
+        return 2
+    words = cpu_features()
+    if words is not None:
+        return 8 if "avx512f" in words else 4 if "avx2" in words else 2
+    return 4 if sys.platform == "darwin" else 2
 
 
 def missing_isa(cflags):

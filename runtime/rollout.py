@@ -171,6 +171,12 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method="rk4", p=No
     (runtime/c/eomc_rollout.c).  Rows then equal the scalar rollout's bit for bit when the
     model was built with -DEOMC_BATCH_LIBM_TRIG, else within what the lanes' sin/cos (1 ulp
     of libm's) make of it.
+
+    lanes=True with method="implicitfast" (a model built with ``implicit_batch``; its fast path,
+    no feedback or events): each C thread runs as many rows at once as the machine has double
+    lanes, each row the scalar row's code in a fiber, and their NAME_implicit calls are made
+    together, one NAME_implicit_batch call per round (eomc_rollout_implicit_lanes): every row
+    is the scalar rollout's row step for step (bit for bit with -DEOMC_BATCH_LIBM_TRIG).
     """
     method = named = resolve_method(method)
     auto = method == "auto"
@@ -220,7 +226,10 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method="rk4", p=No
     P, p_stride = _params(model, p, n)
     controls = _controls(model, r, n)
     gains = _gains(model, K, x_ref, n) if (K is not None or x_ref is not None) else None
-    if lanes:
+    implicit_lanes = lanes and method == "implicitfast"
+    if implicit_lanes:
+        _implicit_lanes_allowed(model, fast)
+    elif lanes:
         _lanes_allowed(model, method)
         if gains is not None or events is not False or switching:
             raise ValueError(f"{model.name}: rollout(lanes=True) takes no feedback, events, contacts or "
@@ -244,13 +253,16 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method="rk4", p=No
     if "switches" in a or "events" in a or gains is not None or a.get("auto_switch"):
         # feedback, events, contacts or limits (or "auto", whose stiff rows go on with Radau):
         # eomc_rollout_ex, and simulate's verdict per row
+        if implicit_lanes:
+            raise ValueError(f"{model.name}: rollout(lanes=True, method='implicitfast') takes no feedback, "
+                             f"events or switching points (they run in the scalar loop); use lanes=False")
         from .rollout_extras import rollout_extras
         scalar = dict(method="auto" if auto else method, rtol=rtol, atol=atol, max_steps=max_steps,
                       events=events, max_events=max_events, split=split,
                       **({"dt": float(dt)} if not adaptive else {}))
         return rollout_extras(model, a, X0, P, p_stride, controls, r, gains, float(t_final), record,
                               nthreads, raise_on_failure, scalar)
-    if lanes:
+    if lanes and not implicit_lanes:
         t_eval = a["t_eval"] if record == "steps" else np.array([float(t_final)])
         X_out, X_last, status, nstep = _rollout_lanes(model, X0, P, p_stride, controls, float(t_final), float(dt),
                                                       record == "steps", nthreads)
@@ -278,12 +290,16 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method="rk4", p=No
         # implicitfast: each row's stats, whose rejected count is the (sub-)steps left unsolved
         # (what simulate warns of)
         stats = ffi.new("eomc_stats[]", n) if method == "implicitfast" else ffi.NULL
-        lib.eomc_rollout_stats(model.c_model, _options(ffi, a, implicit), 0.0, float(t_final), n, buf(X0), buf(P),
-                               p_stride, n_rgrid, buf(r_tgrid) if r_tgrid is not None else ffi.NULL,
-                               buf(R) if R is not None else ffi.NULL, r_stride, n_eval, buf(t_eval),
-                               buf(X_out) if X_out is not None else ffi.NULL, buf(X_last),
-                               ffi.from_buffer("int[]", status), ffi.from_buffer("long[]", nstep), stats,
-                               nthreads)
+        args = (0.0, float(t_final), n, buf(X0), buf(P), p_stride, n_rgrid,
+                buf(r_tgrid) if r_tgrid is not None else ffi.NULL, buf(R) if R is not None else ffi.NULL, r_stride,
+                n_eval, buf(t_eval), buf(X_out) if X_out is not None else ffi.NULL, buf(X_last),
+                ffi.from_buffer("int[]", status), ffi.from_buffer("long[]", nstep), stats, nthreads)
+        if implicit_lanes:      # each thread's rows in fibers, their NAME_implicit calls in lanes
+            from .cpu import machine_lanes
+            lib.eomc_rollout_implicit_lanes(model.c_model, _options(ffi, a, implicit), _implicit_batch(model, ffi),
+                                            machine_lanes(), model.metadata["implicit"]["layout"]["size"], *args)
+        else:
+            lib.eomc_rollout_stats(model.c_model, _options(ffi, a, implicit), *args)
         if method == "implicitfast":
             unsolved = np.array([stats[i].rejected for i in range(n)], dtype=int)
     return _finish(model, method, X0, P, p_stride, dt, t_eval, record, X_out, X_last, status, nstep,
@@ -384,6 +400,24 @@ def _lanes_allowed(model, method):
     if why:
         raise ValueError(f"{model.name}: rollout(lanes=True) does not take " + "; ".join(why)
                          + "; use lanes=False")
+
+
+def _implicit_lanes_allowed(model, fast):
+    """lanes=True with implicitfast: the model's NAME_implicit_batch, and its fast path."""
+    why = None
+    if "implicit_batch" not in model.functions:
+        why = "a model built without implicit_batch (functions=(..., 'implicit_batch'))"
+    elif not fast:
+        why = "a model whose implicitfast does not take its fast path (NAME_implicit, cffi backend)"
+    if why:
+        raise ValueError(f"{model.name}: rollout(lanes=True) does not take method 'implicitfast' on {why}; "
+                         f"use lanes=False")
+
+
+def _implicit_batch(model, ffi):
+    """NAME_implicit_batch of the model's library as the eomc_batch_fn ``ffi`` declares."""
+    fp = model.ffi.addressof(model.model_lib, f"{model.name}_implicit_batch")
+    return ffi.cast("eomc_batch_fn", int(model.ffi.cast("uintptr_t", fp)))
 
 
 LANES_BLOCK = 64    # rows per thread's block: 8 groups of 8 lanes; its columns stay in cache

@@ -75,13 +75,8 @@ def machine_lanes():
     by -DEOMC_BATCH_LANES, which a user's CFLAGS may set instead (and the C checks the CPU at
     run time, falling back to the scalar rhs).  On UR10 here (AMD EPYC), 8 lanes ran 4.75x the
     scalar rhs and 4 lanes 3.91x (benchmarks/results/rhs_batch.md)."""
-    if platform.machine().lower() not in ("x86_64", "amd64", "i386", "i686"):
-        return 2
-    from eomc.runtime.cpu import cpu_features
-    words = cpu_features()
-    if words is not None:
-        return 8 if "avx512f" in words else 4 if "avx2" in words else 2
-    return 4 if sys.platform == "darwin" else 2
+    from eomc.runtime.cpu import machine_lanes as lanes
+    return lanes()
 
 
 def _link_flags():

@@ -1,9 +1,10 @@
 /* eomc_rollout.c -- see eomc_rollout.h. */
-#define _POSIX_C_SOURCE 200809L
+#define _GNU_SOURCE          /* ucontext (the lanes' fibers) beside POSIX 2008 */
 #include <math.h>
 #include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
+#include <ucontext.h>
 #include "eomc_rollout.h"
 
 #define EOMC_ROLLOUT_MAX_THREADS 1024
@@ -29,6 +30,9 @@ typedef struct rollout_job {
     size_t ev_scratch, sw_scratch;   /* of which the events' two scratch buffers (at the end) */
     pthread_mutex_t lock;
     int next;            /* next row to hand out, under lock */
+    eomc_batch_fn batch; /* NULL, or NAME_implicit_batch: implicitfast's model calls in lanes */
+    int lanes;           /* rows each thread runs at once (fibers) with batch */
+    size_t out_len;      /* doubles of NAME_implicit's output */
 } rollout_job;
 
 static int take_row(rollout_job *job)
@@ -63,7 +67,7 @@ static void row_extras(const rollout_job *job, size_t row, double *work, eomc_fe
     }
 }
 
-static void run_rows(rollout_job *job, double *work)
+static void run_rows(rollout_job *job, double *work, const eomc_options *opt)
 {
     const size_t nx = (size_t)job->m->nx;
     const size_t run_len = job->work_len - job->ev_scratch - job->sw_scratch;
@@ -81,7 +85,7 @@ static void run_rows(rollout_job *job, double *work)
             fbp = job->ex->fb ? &fb : NULL;
             evp = job->ex->ev ? &ev : NULL;
         }
-        job->status[i] = eomc_integrate_ex(job->m, job->opt, job->t0, job->t1, job->X0 + row * nx,
+        job->status[i] = eomc_integrate_ex(job->m, opt, job->t0, job->t1, job->X0 + row * nx,
                                            job->P + row * job->p_stride, job->n_rgrid, job->r_tgrid,
                                            job->n_rgrid > 0 ? job->R + row * job->r_stride : NULL,
                                            fbp, evp, job->n_eval, job->t_eval, x_out,
@@ -97,13 +101,203 @@ static void run_rows(rollout_job *job, double *work)
     }
 }
 
+/* ------------------------------------------------- implicitfast's model calls in lanes
+ *
+ * Each thread runs job->lanes rows at once, each row in a fiber (its own stack) running the scalar
+ * code of run_rows -- eomc_integrate_ex, the same step rule, splits and checks -- with its
+ * options' NAME_implicit replaced by lanes_terms: a row's model call hands its state to the
+ * thread's scheduler and waits.  When no fiber can go on, the scheduler evaluates the waiting
+ * states that share the time and parameters in one job->batch (NAME_implicit_batch) call and
+ * resumes them.  Each lane of the batch is the scalar call's bits (with
+ * -DEOMC_BATCH_LIBM_TRIG; within the vector sin/cos otherwise), so every row is the scalar
+ * rollout's row.  A row whose step is split calls again at sub-step times; those calls are
+ * batched with whatever rows wait at the same time (alone: the batch's scalar tail). */
+
+enum { FIBER_RUNNING, FIBER_WAITING, FIBER_DONE };
+#define FIBER_STACK ((size_t)1 << 20)   /* the integrator's frames (the model call runs outside) */
+
+#if defined(__x86_64__) && defined(__GNUC__) && defined(__linux__) && !defined(EOMC_FIBER_UCONTEXT)
+/* A switch between fibers without swapcontext's two system calls (it saves and restores the
+ * signal mask): the callee-saved registers pushed on this stack, the stacks swapped, the
+ * other's popped.  Measured (Go2, 64 rows): swapcontext's switches cost more than the lanes
+ * won. */
+__asm__(".text\n.p2align 4\n.globl eomc_rollout_fiber_switch\n.hidden eomc_rollout_fiber_switch\n"
+        ".type eomc_rollout_fiber_switch, @function\n"
+        "eomc_rollout_fiber_switch:\n"
+        "\tpushq %rbp\n\tpushq %rbx\n\tpushq %r12\n\tpushq %r13\n\tpushq %r14\n\tpushq %r15\n"
+        "\tmovq %rsp, (%rdi)\n\tmovq %rsi, %rsp\n"
+        "\tpopq %r15\n\tpopq %r14\n\tpopq %r13\n\tpopq %r12\n\tpopq %rbx\n\tpopq %rbp\n\tret\n"
+        ".size eomc_rollout_fiber_switch, .-eomc_rollout_fiber_switch\n");
+void eomc_rollout_fiber_switch(void **from, void *to) __attribute__((visibility("hidden")));
+typedef void *fiber_ctx;           /* the fiber's saved stack pointer */
+#define fiber_switch(from, to) eomc_rollout_fiber_switch((from), *(to))
+#else
+typedef ucontext_t fiber_ctx;
+#define fiber_switch(from, to) swapcontext((from), (to))
+#endif
+
+typedef struct fiber {
+    fiber_ctx ctx;
+    double *work;
+    char *stack;
+    int state, result;
+    double t;
+    const double *x, *p, *r;
+    double *out;
+} fiber;
+
+typedef struct lanes_sched {
+    rollout_job *job;
+    fiber_ctx main;
+    fiber *f;
+    int cur;
+    eomc_options opt;      /* the job's, its implicit below */
+    eomc_implicit imp;     /* the job's, its terms lanes_terms */
+} lanes_sched;
+
+static __thread lanes_sched *cur_sched;
+
+static int lanes_terms(double t, const double *x, const double *p, const double *r, double *out, double *work)
+{
+    lanes_sched *s = cur_sched;
+    fiber *f = &s->f[s->cur];
+    (void)work;
+    f->t = t; f->x = x; f->p = p; f->r = r; f->out = out;
+    f->state = FIBER_WAITING;
+    fiber_switch(&f->ctx, &s->main);
+    return f->result;
+}
+
+static void fiber_main(void)
+{
+    lanes_sched *s = cur_sched;
+    fiber *f = &s->f[s->cur];
+    run_rows(s->job, f->work, &s->opt);
+    f->state = FIBER_DONE;
+    fiber_switch(&f->ctx, &s->main);     /* not resumed */
+}
+
+static void resume(lanes_sched *s, int i)
+{
+    s->cur = i;
+    s->f[i].state = FIBER_RUNNING;
+    fiber_switch(&s->main, &s->f[i].ctx);
+}
+
+/* Fiber i waits for a call with fiber first's time and parameters (the batch's one t and p). */
+static int same_call(const lanes_sched *s, int first, int i)
+{
+    const fiber *a = &s->f[first], *b = &s->f[i];
+    return b->state == FIBER_WAITING && a->t == b->t
+           && (a->p == b->p || s->job->p_stride == 0
+               || memcmp(a->p, b->p, (size_t)s->job->m->nparam * sizeof(double)) == 0);
+}
+
+/* Fiber f's context: its stack, fiber_main to run.  0, or 1 when it could not be made. */
+static int make_fiber(fiber *f)
+{
+#if defined(__x86_64__) && defined(__GNUC__) && defined(__linux__) && !defined(EOMC_FIBER_UCONTEXT)
+    /* what eomc_rollout_fiber_switch pops: six registers, then fiber_main as the return
+     * address, entered with the stack as a call leaves it (16-byte aligned + 8) */
+    void **sp = (void **)(((size_t)(f->stack + FIBER_STACK)) & ~(size_t)15);
+    *--sp = NULL;                            /* fiber_main's return address: it never returns */
+    *--sp = (void *)(size_t)fiber_main;
+    for (int k = 0; k < 6; k++) *--sp = NULL;
+    f->ctx = (void *)sp;
+    return 0;
+#else
+    /* getcontext returns twice: kept out of lanes_rows, whose locals it would clobber */
+    if (getcontext(&f->ctx) != 0) return 1;
+    f->ctx.uc_stack.ss_sp = f->stack;
+    f->ctx.uc_stack.ss_size = FIBER_STACK;
+    f->ctx.uc_link = NULL;
+    makecontext(&f->ctx, fiber_main, 0);
+    return 0;
+#endif
+}
+
+/* One thread's rows, job->lanes at a time.  buf: the batch's columns (nx + ninput + out_len
+ * rows of lanes doubles), ibuf, idx: lanes ints each, mwork: the model's work.  0, or 1 when a
+ * fiber's context could not be made (nothing run). */
+static int lanes_rows(rollout_job *job, fiber *f, double *buf, int *ibuf, int *idx, double *mwork)
+{
+    lanes_sched s;
+    const int L = job->lanes, nx = job->m->nx, nr = job->m->ninput;
+    double *X = buf, *R = X + (size_t)nx * L, *OUT = R + (size_t)nr * L, *outs[64];
+    memset(&s, 0, sizeof s);
+    s.job = job; s.f = f;
+    s.opt = *job->opt;
+    s.imp = *job->opt->implicit;
+    s.imp.terms = lanes_terms;
+    s.opt.implicit = &s.imp;
+    for (int i = 0; i < L; i++)
+        if (make_fiber(&f[i])) return 1;
+    cur_sched = &s;
+    for (int i = 0; i < L; i++) resume(&s, i);       /* each to its first model call, or done */
+    for (;;) {
+        int first = -1, k = 0;
+        /* the earliest call first: rows ahead in time wait for the others (a split step's
+           sub-steps catch up), so the rows stay in step and the calls fill the lanes */
+        for (int i = 0; i < L; i++)
+            if (f[i].state == FIBER_WAITING && (first < 0 || f[i].t < f[first].t)) first = i;
+        if (first < 0) break;                         /* every fiber done */
+        for (int i = first; i < L; i++)
+            if (same_call(&s, first, i)) idx[k++] = i;
+        for (int c = 0; c < k; c++) {
+            const fiber *q = &f[idx[c]];
+            for (int j = 0; j < nx; j++) X[(size_t)j * k + c] = q->x[j];
+            for (int j = 0; j < nr; j++) R[(size_t)j * k + c] = q->r[j];
+        }
+        job->batch(k, f[first].t, X, f[first].p, nr ? R : NULL, OUT, ibuf, mwork);
+        for (int c = 0; c < k; c++) {
+            outs[c] = f[idx[c]].out;
+            f[idx[c]].result = ibuf[c];
+        }
+        for (size_t e = 0; e < job->out_len; e++) {  /* OUT read in order, k rows written */
+            const double *o = OUT + e * (size_t)k;
+            for (int c = 0; c < k; c++) outs[c][e] = o[c];
+        }
+        for (int c = 0; c < k; c++) resume(&s, idx[c]);
+    }
+    cur_sched = NULL;
+    return 0;
+}
+
+/* A thread of the lanes path: its fibers' stacks and work buffers, then lanes_rows. */
+static void *lanes_fiber_worker(rollout_job *job)
+{
+    const int L = job->lanes;
+    const size_t cols = (size_t)job->m->nx + (size_t)job->m->ninput + job->out_len;
+    fiber *f = (fiber *)calloc((size_t)L, sizeof(fiber));
+    double *buf = (double *)malloc(cols * (size_t)L * sizeof(double));
+    double *mwork = (double *)malloc(((size_t)job->m->work_size + 1) * sizeof(double));
+    int *ibuf = (int *)malloc(2 * (size_t)L * sizeof(int));
+    int ok = f && buf && mwork && ibuf, failed = 1;
+    for (int i = 0; ok && i < L; i++) {
+        f[i].stack = (char *)malloc(FIBER_STACK);
+        f[i].work = (double *)malloc(job->work_len * sizeof(double));
+        ok = f[i].stack && f[i].work;
+    }
+    if (ok)
+        failed = lanes_rows(job, f, buf, ibuf, ibuf + L, mwork);
+    for (int i = 0; f && i < L; i++) {
+        free(f[i].stack);
+        free(f[i].work);
+    }
+    free(f); free(buf); free(mwork); free(ibuf);
+    return failed ? (void *)job : NULL;  /* not NULL: this thread could not run; the others take its rows */
+}
+
 static void *worker(void *arg)
 {
     rollout_job *job = (rollout_job *)arg;
-    double *work = (double *)malloc(job->work_len * sizeof(double));
+    double *work;
+    if (job->batch)
+        return lanes_fiber_worker(job);
+    work = (double *)malloc(job->work_len * sizeof(double));
     if (work == NULL)
         return arg;      /* not NULL: this thread could not run; the others take its rows */
-    run_rows(job, work);
+    run_rows(job, work, job->opt);
     free(work);
     return NULL;
 }
@@ -163,12 +357,13 @@ static int extras_ok(const eomc_rollout_extras *ex)
     return 1;
 }
 
-int eomc_rollout_ex(const eomc_model *m, const eomc_options *opt, double t0, double t1,
-                    int n, const double *X0, const double *P, size_t p_stride,
-                    int n_rgrid, const double *r_tgrid, const double *R, size_t r_stride,
-                    const eomc_rollout_extras *ex,
-                    int n_eval, const double *t_eval, double *X_out, double *X_last,
-                    int *status, long *steps, eomc_stats *stats, int nthreads)
+static int rollout_rows(const eomc_model *m, const eomc_options *opt, double t0, double t1,
+                        int n, const double *X0, const double *P, size_t p_stride,
+                        int n_rgrid, const double *r_tgrid, const double *R, size_t r_stride,
+                        const eomc_rollout_extras *ex,
+                        int n_eval, const double *t_eval, double *X_out, double *X_last,
+                        int *status, long *steps, eomc_stats *stats, int nthreads,
+                        eomc_batch_fn batch, int lanes, size_t out_len)
 {
     rollout_job job;
     int k, ran;
@@ -188,6 +383,7 @@ int eomc_rollout_ex(const eomc_model *m, const eomc_options *opt, double t0, dou
     job.n_eval = n_eval; job.t_eval = t_eval; job.X_out = n_eval > 0 ? X_out : NULL;
     job.X_last = X_last; job.status = status; job.steps = steps; job.stats = stats;
     job.ex = ex;
+    job.batch = batch; job.lanes = lanes; job.out_len = out_len;
     job.ev_scratch = ex && ex->ev ? eomc_events_scratch_size(m, ex->ev->ncol, ex->ev->n) : 0;
     job.sw_scratch = ex && ex->ev && (ex->ev->nlin > 0 || ex->ev->switching)
                      ? eomc_switch_scratch_size(ex->ev->n, ex->ev->nlin) : 0;
@@ -208,6 +404,30 @@ int eomc_rollout_ex(const eomc_model *m, const eomc_options *opt, double t0, dou
         if (status[k] != EOMC_OK)
             return status[k];
     return EOMC_OK;
+}
+
+int eomc_rollout_ex(const eomc_model *m, const eomc_options *opt, double t0, double t1,
+                    int n, const double *X0, const double *P, size_t p_stride,
+                    int n_rgrid, const double *r_tgrid, const double *R, size_t r_stride,
+                    const eomc_rollout_extras *ex,
+                    int n_eval, const double *t_eval, double *X_out, double *X_last,
+                    int *status, long *steps, eomc_stats *stats, int nthreads)
+{
+    return rollout_rows(m, opt, t0, t1, n, X0, P, p_stride, n_rgrid, r_tgrid, R, r_stride, ex, n_eval, t_eval,
+                        X_out, X_last, status, steps, stats, nthreads, NULL, 0, 0);
+}
+
+int eomc_rollout_implicit_lanes(const eomc_model *m, const eomc_options *opt, eomc_batch_fn batch, int lanes,
+                                size_t out_len, double t0, double t1, int n, const double *X0, const double *P,
+                                size_t p_stride, int n_rgrid, const double *r_tgrid, const double *R,
+                                size_t r_stride, int n_eval, const double *t_eval, double *X_out,
+                                double *X_last, int *status, long *steps, eomc_stats *stats, int nthreads)
+{
+    if (batch == NULL || lanes < 1 || lanes > 64 || opt == NULL || opt->method != EOMC_IMPLICITFAST
+        || opt->implicit == NULL || opt->implicit->terms == NULL || out_len == 0)
+        return EOMC_BAD_ARGUMENT;
+    return rollout_rows(m, opt, t0, t1, n, X0, P, p_stride, n_rgrid, r_tgrid, R, r_stride, NULL, n_eval, t_eval,
+                        X_out, X_last, status, steps, stats, nthreads, batch, lanes, out_len);
 }
 
 /* ------------------------------------------------------------ RK4 in lanes */

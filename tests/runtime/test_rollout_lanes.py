@@ -6,6 +6,10 @@ order, so the rows must be equal, not close; built with the vector sin/cos they 
 rounding.  Also: rows that fail keep their last good state and status, and what lanes cannot
 take (other methods, a model without rhs_batch) is refused by name.  The loop is C
 (eomc_rollout_lanes): blocks of rows per thread, one NAME_rhs_batch_p call per stage.
+method="implicitfast" with lanes=True (eomc_rollout_implicit_lanes) on the gym hopper with its
+contacts: rows in fibers, their NAME_implicit calls one NAME_implicit_batch call per round --
+equal to the scalar rollout bit for bit with libm's sin/cos, split steps and per-row parameters
+included.
 """
 from pathlib import Path
 
@@ -15,6 +19,7 @@ import pytest
 from eomc.compiler.driver import compile as compile_model
 from eomc.errors import SimulationError
 from eomc.runtime.rollout import rollout
+from eomc.runtime.simulate import simulate
 
 CART = Path(__file__).resolve().parents[2] / "examples" / "cart_pole_system.py"
 
@@ -92,3 +97,72 @@ def test_refusals_name_the_reason(cart, tmp_path):
     plain = compile_model(str(CART), "rl_plain", functions=("rhs",), cache_dir=tmp_path, progress=False)
     with pytest.raises(ValueError, match="built without rhs_batch"):
         rollout(plain, X0, dt=0.01, steps=2, lanes=True)
+
+
+# ---------------------------------------------------------------- implicitfast with contacts
+# eomc_rollout_implicit_lanes: each thread's rows in fibers running the scalar row's code, their
+# NAME_implicit calls made together by NAME_implicit_batch (the contacts' branches as masks)
+
+
+@pytest.fixture(scope="module")
+def hopper(tmp_path_factory):
+    import warnings
+    gymnasium = pytest.importorskip("gymnasium")
+    from eomc.compiler.mjcf.model import MjcfModel
+    path = Path(gymnasium.__file__).parent / "envs" / "mujoco" / "assets" / "hopper.xml"
+    with warnings.catch_warnings():      # the file's self-collision pairs left out (said by a warning)
+        warnings.simplefilter("ignore")
+        return compile_model(MjcfModel(path), "rl_hopper", functions=("rhs", "implicit", "implicit_batch"),
+                             cache_dir=tmp_path_factory.mktemp("rlh"), progress=False,
+                             cflags="-O2 -std=c99 -fPIC -DEOMC_BATCH_LIBM_TRIG")
+
+
+def _hopper_starts(model, n, seed=0):
+    """The file's start, hinge and slide speeds uniform in +-0.5 (bench_rollout_contacts' starts):
+    the hopper falls onto its foot, the rows' steps split at different times."""
+    X0 = np.tile(np.array(model.initial_state, dtype=float), (n, 1))
+    X0[:, model.nq:] = np.random.default_rng(seed).uniform(-0.5, 0.5, (n, model.nu))
+    return X0
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_implicitfast_rows_in_lanes_equal_the_scalar_rollout(hopper, threads):
+    X0 = _hopper_starts(hopper, 21)           # not a multiple of the lanes
+    kw = dict(dt=0.008, steps=60, method="implicitfast", threads=threads)
+    want = rollout(hopper, X0, **kw)
+    got = rollout(hopper, X0, lanes=True, **kw)
+    assert got.ok.all() and np.array_equal(got.x, want.x) and np.array_equal(got.steps, want.steps)
+    assert np.array_equal(got.unsolved, want.unsolved)
+    z = list(hopper.state_names).index("q_rootz")
+    assert (want.x[:, z] < X0[:, z] - 0.03).all()          # every row fell onto its foot (0.1 m below)
+    want = rollout(hopper, X0[:5], record="steps", **kw)
+    got = rollout(hopper, X0[:5], record="steps", lanes=True, **kw)
+    assert np.array_equal(got.x, want.x)
+    # the split steps: the rows' calls beyond one a step (each step's split tries, in lanes too)
+    assert simulate(hopper, X0[0], (0.0, 0.48), method="implicitfast", dt=0.008).stats["nfev"] > 61
+
+
+def test_implicitfast_lanes_with_a_parameter_row_per_trajectory(hopper):
+    """Rows with their own parameters share a batch call only with equal rows: each is its own."""
+    X0 = _hopper_starts(hopper, 6, seed=1)
+    masses = [k for k, name in enumerate(hopper.param_names) if name.startswith("m_")]
+    P = np.tile(np.asarray(hopper.param_defaults, dtype=float), (6, 1))
+    P[:, masses] *= np.random.default_rng(2).uniform(0.8, 1.2, (6, len(masses)))   # the links' masses per row
+    kw = dict(dt=0.008, steps=30, method="implicitfast", p=P)
+    want = rollout(hopper, X0, **kw)
+    got = rollout(hopper, X0, lanes=True, **kw)
+    assert np.array_equal(got.x, want.x) and np.array_equal(got.status, want.status)
+    assert np.abs(rollout(hopper, X0, dt=0.008, steps=30, method="implicitfast", lanes=True).x - got.x).max() > 1e-6
+
+
+def test_implicitfast_lanes_refused_without_implicit_batch(tmp_path):
+    import warnings
+    gymnasium = pytest.importorskip("gymnasium")
+    from eomc.compiler.mjcf.model import MjcfModel
+    path = Path(gymnasium.__file__).parent / "envs" / "mujoco" / "assets" / "hopper.xml"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        plain = compile_model(MjcfModel(path), "rl_hplain", functions=("rhs", "implicit"), cache_dir=tmp_path,
+                              progress=False)
+    with pytest.raises(ValueError, match="built without implicit_batch"):
+        rollout(plain, _hopper_starts(plain, 2), dt=0.008, steps=2, method="implicitfast", lanes=True)
