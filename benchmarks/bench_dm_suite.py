@@ -40,19 +40,20 @@ def _cpu():
     return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
 
 
-def mujoco_root_height(path):
-    """The root body's height after T s of passive mj_step (MuJoCo's own contacts and constraints)."""
+def mujoco_root_height(path, t_final=T):
+    """The root body's height after t_final s of passive mj_step (MuJoCo's own contacts and constraints)."""
     import mujoco
     from eomc.compiler.mjcf.model import load_mjmodel
     m = load_mjmodel(path)
     d = mujoco.MjData(m)
-    for _ in range(int(round(T / m.opt.timestep))):
+    for _ in range(int(round(t_final / m.opt.timestep))):
         mujoco.mj_step(m, d)
     return float(d.xpos[1][2]) if m.nbody > 1 else float("nan")
 
 
 def eomc_root_height(path, model, x):
-    """The root body's height at eomc's state ``x``: the state mapped to MuJoCo's and its kinematics."""
+    """The root body's height at eomc's state ``x`` (coordinates, then speeds: the state's or a CSV row's
+    order; ``model`` is not read): the state mapped to MuJoCo's and its kinematics."""
     import mujoco
     from eomc.compiler.mjcf.compare import to_mujoco
     from eomc.compiler.mjcf.model import check_model, load_mjmodel

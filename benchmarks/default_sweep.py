@@ -111,6 +111,22 @@ def outcome(code, err):
     return "ok", ""
 
 
+def root_z(path, csv, t_final):
+    """'MuJoCo/eomc (diff mm)': the root body's height at t_final after MuJoCo's passive mj_step and
+    in the last row of eomc's CSV (bench_dm_suite's mapping of a state to MuJoCo's); '-' for
+    a URDF or a run without output."""
+    if path.suffix != ".xml" or not csv.is_file():
+        return "-"
+    import numpy as np
+    from bench_dm_suite import eomc_root_height, mujoco_root_height
+    last = np.loadtxt(csv, delimiter=",", skiprows=1, ndmin=2)[-1]
+    try:
+        z_m, z_e = mujoco_root_height(path, t_final), eomc_root_height(path, None, last[1:])
+    except Exception as exc:  # noqa: BLE001 -- the cell says why
+        return f"n/a ({type(exc).__name__})"
+    return "-" if np.isnan(z_m) else f"{z_m:.4f}/{z_e:.4f} ({1e3 * (z_e - z_m):+.1f})"
+
+
 def short(text, root_dirs, n=110):
     for d in root_dirs:
         text = text.replace(str(d) + "/", "")
@@ -123,7 +139,12 @@ def main():
     parser.add_argument("--dm-control", help="dm_control's suite folder (default: the importable package's)")
     parser.add_argument("--timeout", type=float, default=900.0, help="seconds per step")
     parser.add_argument("--no-write", action="store_true")
+    parser.add_argument("--t-final", type=float, default=1.0, help="simulated seconds (default 1)")
+    parser.add_argument("--root-z", action="store_true",
+                        help="MJCF files: the root body's height at --t-final next to MuJoCo's passive mj_step")
+    parser.add_argument("--write-as", default="default_sweep", help="results file name (default default_sweep)")
     args = parser.parse_args()
+    span = f"{args.t_final:g} s"
     files = [f for f in model_files(args.dm_control) if not args.k or any(k in f[1] for k in args.k)]
     started = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
     rows, loads = [], []
@@ -138,30 +159,32 @@ def main():
         row = [group, label, b_out, f"{cpu:.1f}", f"{wall:.1f}", f"{rss:.0f}" if rss else "-",
                f"{c_kb:.0f}" if c_kb else "-"]
         if code == 0:
-            s_code, s_cpu, _, _, s_err = run(["simulate", str(path), "--t-final", "1", "-o", "out.csv"],
-                                             env, work, args.timeout)
+            s_code, s_cpu, _, _, s_err = run(["simulate", str(path), "--t-final", f"{args.t_final:g}", "-o",
+                                              "out.csv"], env, work, args.timeout)
             s_out, s_line = outcome(s_code, s_err)
-            row += [s_out, f"{s_cpu:.1f}", short(s_line or b_line, [path.parent, work])]
+            row += [s_out, f"{s_cpu:.1f}"] + ([root_z(path, work / "out.csv", args.t_final)] if args.root_z else []) \
+                + [short(s_line or b_line, [path.parent, work])]
         else:
             s_out = "-"
-            row += ["-", "-", short(b_line, [path.parent, work])]
+            row += ["-", "-"] + (["-"] if args.root_z else []) + [short(b_line, [path.parent, work])]
         counts.setdefault(group, []).append((b_out, s_out))
         rows.append(row)
         print(f"[{i}/{len(files)}] {group} {label}: build {b_out} ({cpu:.1f} s CPU), simulate {s_out}",
               flush=True)
         subprocess.run(["rm", "-rf", str(work)])
     header = ["set", "file", "build", "build CPU s", "build wall s", "RSS MB", "C kB",
-              "simulate 1 s", "simulate CPU s", "first warning / error"]
+              f"simulate {span}", "simulate CPU s"] + (["root z MuJoCo/eomc m (diff mm)"] if args.root_z else []) \
+        + ["first warning / error"]
     summary = []
     for group, outs in counts.items():
         built = sum(b.startswith("ok") for b, _ in outs)
         ran = sum(s.startswith("ok") for _, s in outs)
         tb = sum("TRACEBACK" in (b + s) or "TIMEOUT" in (b + s) for b, s in outs)
-        summary.append(f"- {group}: {len(outs)} files; built with no flags {built}; simulated 1 s with no flags "
+        summary.append(f"- {group}: {len(outs)} files; built with no flags {built}; simulated {span} with no flags "
                        f"{ran}; tracebacks or timeouts {tb}")
     text = "\n".join([
         environment_header("Every real model file, no flags: `eomc build FILE` and "
-                           "`eomc simulate FILE --t-final 1`", args=True),
+                           f"`eomc simulate FILE --t-final {args.t_final:g}`", args=True),
         f"- started {started}; 1-min load while it ran: min {min(loads):.1f}, median "
         f"{sorted(loads)[len(loads) // 2]:.1f}, max {max(loads):.1f} (2 shared cores: CPU, not wall, is the figure)",
         "- each file in a fresh cache; simulate reuses its build; a step's outcome: ok / ok with warnings "
@@ -171,7 +194,7 @@ def main():
         "## Per file", "", format_table(header, rows), ""])
     print(text)
     if not args.no_write:
-        write_results("default_sweep", text, keep_notes=True)
+        write_results(args.write_as, text, keep_notes=True)
 
 
 if __name__ == "__main__":

@@ -65,7 +65,9 @@ def generator_switches():
     inlined as SymPy or called (compiler/contact/pairs.py); ``LAW_ROUTINES``: each pair one call of its
     kinds' law routine; ``PAIR_TABLE``: every pair in one table-driven loop (each held only when
     set).  ``TANGENT``: hess_id left along the k-speed joints' tangent for the comparison with
-    Pinocchio (compiler/tree/second_order.py); held only when set, so the keys of ordinary builds stay what they were."""
+    Pinocchio (compiler/tree/second_order.py); held only when set, so the keys of ordinary builds
+    stay what they were; ``HALF_FROM``: the output size from which hess_id is written by halves
+    (same module), held only when not its default."""
     from ..contact import pairs
     from ..tree import second_order
     switches = {"inline_narrow": bool(pairs.INLINE_NARROW)}
@@ -75,6 +77,8 @@ def generator_switches():
         switches["pair_table"] = True
     if second_order.TANGENT:
         switches["hess_tangent"] = True
+    if second_order.HALF_FROM != second_order.HALF_FROM_DEFAULT:
+        switches["hess_half_from"] = second_order.HALF_FROM
     return switches
 
 

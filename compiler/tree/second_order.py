@@ -128,6 +128,22 @@ BOUND = "1e70"
 # when set (build/reuse.generator_switches).
 TANGENT = False
 
+# Outputs of at least this many numbers (8 bytes each; nu nx nx) are written by halves: the
+# triple loop stores the entries whose row's dof is the deeper one, and each row's mirror images
+# are copied once the row is complete (:func:`_pair_store`, :func:`_mirror_lines`).  Same-core
+# A/B, machine build, bits unchanged: cart80 (2.1 M numbers) 5.40 -> 4.70 ms, cart40 (276 k)
+# 406 -> 344 us; smaller outputs, in cache anyway, lose 1-3 % to the copy (cart20 (37 k)
+# 51.3 -> 52.3 us, UR10 4.38 -> 4.46, Panda 8.75 -> 9.00).  0: every output (tests); part of the
+# build cache's key when not the default (build/reuse.generator_switches).
+HALF_FROM_DEFAULT = 1 << 17
+HALF_FROM = HALF_FROM_DEFAULT
+
+
+def _half(plan, nx):
+    """Whether the kernel writes its output by halves (HALF_FROM): one-speed joints only (the
+    k-speed joints' change of coordinates reads both halves of the loop's entries)."""
+    return not plan.multi and len(plan.row) * nx * nx >= HALF_FROM
+
 
 def _covers_all(plan, nq, nx):
     """True when the triple loop writes every entry of the output, so it need not be zeroed
@@ -156,6 +172,7 @@ def second_order_c(name, plan, nq, nx, helpers):
     nm = sum(k for _, k, _ in plan.multi)
     oj = "oj" if nm else "j != i"     # j in another joint than i (one-speed joints: another dof)
     cfg = _lanes_cfg(plan)
+    half = _half(plan, nx)
     lines = (rd_helpers(name) + finite_lines(name) if helpers else []) + [
         *_lanes_macro(name),
         f"static inline void {name}_h2_mv(const double *m, const double *x, double *out)",
@@ -333,8 +350,9 @@ def second_order_c(name, plan, nq, nx, helpers):
         "                double *u1 = U, *u2 = U + 6, *u3 = U + 12, *u6 = U + 18, *u7 = U + 24, *u9 = U + 30, *w = U + 36;",
         "                double *u4 = U + 42, *u10 = U + 48, *u11 = U + 54;",
         *_pair_vector_lines(name, rd, nm, oj),
-    ] + (_first_order_lines(rd, nm) if nm and not TANGENT else []) + _triple_lines(name, rd, nx, cfg, nm, plan) + [
+    ] + (_first_order_lines(rd, nm) if nm and not TANGENT else []) + _triple_lines(name, rd, nx, cfg, nm, plan, half) + [
         "            }",
+        *(_mirror_lines(plan, nx) if half else []),
         "        }",
         "        l = par[b];",
         "        if (l >= 0) {   /* composite inertia, its variation and force */",
@@ -624,7 +642,19 @@ def _fold_lines(plan, maxl, qdots):
     return out
 
 
-def _triple_lines(name, rd, nx, cfg, nm=0, plan=None):
+def _pair_store(half, first, second, val, low, keep_up="", indent=0):
+    """C: ``first = second = val;`` -- an entry and its mirror image -- or with ``half`` the one
+    whose row's dof is the deeper (``low``: 0 first, 1 second) alone, plus the other when
+    ``keep_up`` holds (then both are one dof's: its (q, u) and (u, q) entries, which
+    :func:`_mirror_lines` does not copy)."""
+    ind = " " * (24 + indent)
+    if not half:
+        return [f"{ind}{first} = {second} = {val};"]
+    lo, up = (first, second) if low == 0 else (second, first)
+    return [f"{ind}{lo} = {val};"] + ([f"{ind}if ({keep_up}) {up} = {val};"] if keep_up else [])
+
+
+def _triple_lines(name, rd, nx, cfg, nm=0, plan=None, half=False):
     """C: the triple loop for one (i, j): the dots of (i, j)'s vectors with every k on j's path,
     LANES k a step from the component-major copy K (gcc's vectorizer pairs the lanes; each dot
     is summed in rd_dot's order, so the bits are the scalar loop's), then the stores, k = j first
@@ -636,7 +666,7 @@ def _triple_lines(name, rd, nx, cfg, nm=0, plan=None):
     T, kd = ("jt[jl[j]] + 1, bj = db[j]", ", ok = db[k] != bj") if nm else ("jt[j] + 1", "")
     def d(m):
         return f"D[{m * maxl} + tk]" if m else "D[tk]"
-    return [
+    lines = [
         "                {   /* the dots of (i, j) with every k on j's path, H2_LANES k a step */",
         f"                    const int pa = jp[j], L = pL[pa], T = {T};",
         "                    const double *G = K + pG[pa];",
@@ -654,28 +684,28 @@ def _triple_lines(name, rd, nx, cfg, nm=0, plan=None):
         f"                        const double p1 = {d(0)}, p2 = {d(1)} + {d(2)};",
         f"                        const double v = {oj} || {ok} ? {d(3)} : 0.0;",
         f"                        Oi[qj * {nx} + qk] = p2;",
-        f"                        Oi[qk * {nx} + uj] = Oi[uj * {nx} + qk] = -p1;",
+        *_pair_store(half, f"Oi[qk * {nx} + uj]", f"Oi[uj * {nx} + qk]", "-p1", 1, f"!({ok})"),
         f"                        if ({oj}) {{",
         f"                            const double a = {d(8)} + {d(9)};",
         f"                            const double d = {d(10)} + {d(11)};",
-        f"                            Oj[qk * {nx} + qi] = Oj[qi * {nx} + qk] = a;",
-        f"                            Oj[qk * {nx} + ui] = Oj[ui * {nx} + qk] = p1;",
-        f"                            Oj[qi * {nx} + uk] = Oj[uk * {nx} + qi] = d;",
-        f"                            Oj[uk * {nx} + ui] = Oj[ui * {nx} + uk] = v;",
+        *_pair_store(half, f"Oj[qk * {nx} + qi]", f"Oj[qi * {nx} + qk]", "a", 1, indent=4),
+        *_pair_store(half, f"Oj[qk * {nx} + ui]", f"Oj[ui * {nx} + qk]", "p1", 1, indent=4),
+        *_pair_store(half, f"Oj[qi * {nx} + uk]", f"Oj[uk * {nx} + qi]", "d", 0, indent=4),
+        *_pair_store(half, f"Oj[uk * {nx} + ui]", f"Oj[ui * {nx} + uk]", "v", 1, indent=4),
         "                        }",
         f"                        if ({ok}) {{",
         f"                            const double p3 = -v, e3 = {d(4)};",
         f"                            const double f = {d(5)} + {d(6)}, g = {d(7)};",
-        f"                            Oi[qk * {nx} + qj] = p2;",
+        *([] if half else [f"                            Oi[qk * {nx} + qj] = p2;"]),
         f"                            Ok[qi * {nx} + qj] = e3;",
-        f"                            Oi[uj * {nx} + uk] = Oi[uk * {nx} + uj] = p3;",
-        f"                            Oi[qj * {nx} + uk] = Oi[uk * {nx} + qj] = f;",
-        f"                            Ok[qj * {nx} + ui] = Ok[ui * {nx} + qj] = g;",
+        *_pair_store(half, f"Oi[uj * {nx} + uk]", f"Oi[uk * {nx} + uj]", "p3", 0, indent=4),
+        *_pair_store(half, f"Oi[qj * {nx} + uk]", f"Oi[uk * {nx} + qj]", "f", 0, indent=4),
+        *_pair_store(half, f"Ok[qj * {nx} + ui]", f"Ok[ui * {nx} + qj]", "g", 1, f"!({oj})", indent=4),
         f"                            if ({oj}) {{",
         f"                                const double p6 = {d(12)}, mm = {d(13)};",
-        f"                                Ok[qj * {nx} + qi] = e3;",
-        f"                                Ok[ui * {nx} + uj] = Ok[uj * {nx} + ui] = p6;",
-        f"                                Ok[qi * {nx} + uj] = Ok[uj * {nx} + qi] = mm;",
+        *([] if half else [f"                                Ok[qj * {nx} + qi] = e3;"]),
+        *_pair_store(half, f"Ok[ui * {nx} + uj]", f"Ok[uj * {nx} + ui]", "p6", 0, indent=8),
+        *_pair_store(half, f"Ok[qi * {nx} + uj]", f"Ok[uj * {nx} + qi]", "mm", 0, indent=8),
         "                            } else {",
         f"                                Ok[uj * {nx} + ui] = {d(8)};",
         "                            }",
@@ -683,8 +713,20 @@ def _triple_lines(name, rd, nx, cfg, nm=0, plan=None):
         f"                            Oi[uj * {nx} + uk] = -{rd}_dot(u2, Sw + 6 * k);",
         "                        }",
         "                    }",
-        "                }",
     ]
+    k0 = next(n for n, x in enumerate(lines) if "for (tk = T - 1;" in x)
+    return lines[:k0] + _unswitched(lines[k0:], oj) + ["                }"]
+
+
+def _unswitched(loop, oj):
+    """C: ``loop`` (the stores of one (i, j)) twice, under ``if (oj)`` with oj read as 1 and
+    under its ``else`` as 0 (``oj``: the C of "j in another joint than i", constant over the
+    loop), so no store tests it per k.  The stores and their order are the same: the same bits.
+    Why: gcc -O2 does not unswitch it; measured, same core, Go2 30.7 -> 30.1 us, cart20 50.8 -> 49.4."""
+    import re
+    pat = re.compile(r"\boj\b" if oj == "oj" else re.escape(oj))
+    return ([f"                    if ({oj}) {{"] + ["    " + pat.sub("1", x) for x in loop]
+            + ["                    } else {"] + ["    " + pat.sub("0", x) for x in loop] + ["                    }"])
 
 
 def _joint_tables(plan):
@@ -900,6 +942,29 @@ def _folded_block_lines(plan, nx, nm, jn, m0):
         "        }",
     ]
     return lines
+
+
+def _mirror_lines(plan, nx):
+    """C, at the end of row i's pair loop (with ``half``, :func:`_pair_store`): row i's entries
+    whose row dof m is on the support of the column dof a, (x_m, x_a) = (x_a, x_m), the four of
+    each pair of dofs (the result is a Hessian, symmetric).  Row i is complete then: the rows
+    after it (dofs nearer the root) write no entry of it, and its written half is still in
+    cache.  Why: the triple loop's mirror stores (along a column: one cache line per k, and in
+    row j's and row k's blocks) were most of cart80's time (perf)."""
+    return [
+        "            {   /* row i's mirror images, left out by the triple loop (_mirror_lines) */",
+        "                int a, t;",
+        f"                for (a = 0; a < {plan.nd}; a++) {{   /* m over a's support: the start of its path (paths) */",
+        f"                    const double *rq = Oi + qc[a] * {nx}, *ru = Oi + uc[a] * {nx};",
+        "                    const int qa = qc[a], ua = uc[a], *sa = pd + p0[jp[a]], ta = jt[a];",
+        "                    for (t = 0; t < ta; t++) {",
+        "                        const int qm = qc[sa[t]], um = uc[sa[t]];",
+        f"                        Oi[qm * {nx} + qa] = rq[qm]; Oi[qm * {nx} + ua] = ru[qm];",
+        f"                        Oi[um * {nx} + qa] = rq[um]; Oi[um * {nx} + ua] = ru[um];",
+        "                    }",
+        "                }",
+        "            }",
+    ]
 
 
 def _law_lines(plan, nx):

@@ -47,6 +47,9 @@ typedef struct eomc_bdf {
     double *J, *LU;
     int *piv;
     double c_lu;             /* the c = h / alpha of the factored I - c J; 0: none */
+    int nsplit;              /* the state is (q, v, ...) with nsplit q's and v's; 0: not known */
+    int nkeep, *keep, *elim; /* the rows the LU holds (factor_lu); nkeep = n: all */
+    double *rk;              /* n: the kept rows' right-hand side (solve_lu) */
     int cur_jac;             /* J was evaluated at the current step's start or later */
     int err_fails;           /* consecutive error-test failures at this step */
     int bad;                 /* the last model failure while the step kept shrinking: the

@@ -363,3 +363,31 @@ def test_a_ball_joint_below_a_free_root_against_differences(tmp_path):
         fd = np.stack([(model.jac_id(0.0, x + h * e, ud, r=r) - model.jac_id(0.0, x - h * e, ud, r=r)) / (2 * h)
                        for e in np.eye(model.nx)], axis=2)
         assert np.max(np.abs(H - fd)) <= 1e-8 * np.max(np.abs(fd))
+
+
+def test_output_written_by_halves_gives_the_same_bits(models, law_models, tmp_path):
+    """Large outputs (second_order.HALF_FROM numbers, cart40 and longer) are written by halves:
+    the triple loop stores the entries whose row's dof is the deeper one, and each row's mirror
+    images are copied once the row is complete.  Forced on for the branching tree (several
+    paths, output zeroed first) and the 3-joint arm with its joint laws (one path, not zeroed):
+    the C has the copy, every entry of an output filled with NaN is written, and the bits equal
+    the default build's (which writes both halves in the loop)."""
+    orig = second_order.HALF_FROM
+    second_order.HALF_FROM = 0
+    try:
+        tree = _compile(tmp_path / "tree")
+        (tmp_path / "lawarm.urdf").write_text(ARM)
+        arm = _compile_urdf(tmp_path / "lawarm.urdf", tmp_path / "arm")
+    finally:
+        second_order.HALF_FROM = orig
+    rng = np.random.default_rng(8)
+    for half, full in ((tree, models[0]), (arm, law_models[0])):
+        c = (half.directory / f"{half.name}.c").read_text()
+        assert "row i's mirror images" in c
+        assert "row i's mirror images" not in (full.directory / f"{full.name}.c").read_text()
+        for _ in range(3):
+            x, ud = rng.uniform(-1.5, 1.5, half.nx), rng.uniform(-1, 1, half.nu)
+            r = rng.uniform(-1, 1, half.ninput) if half.ninput else None
+            status, out = _nan_filled_call(half, x, ud, r)
+            assert status == 0 and np.all(np.isfinite(out))
+            assert np.array_equal(out, full.hess_id(0.0, x, ud, r=r))
