@@ -108,7 +108,8 @@ static void run_rows(rollout_job *job, double *work, const eomc_options *opt)
  * options' NAME_implicit replaced by lanes_terms: a row's model call hands its state to the
  * thread's scheduler and waits.  When no fiber can go on, the scheduler evaluates the waiting
  * states that share the time and parameters in one job->batch (NAME_implicit_batch) call and
- * resumes them.  Each lane of the batch is the scalar call's bits (with
+ * resumes them (fewer than a group of lanes: each by the scalar call, as the batch's scalar tail
+ * would, without the copies).  Each lane of the batch is the scalar call's bits (with
  * -DEOMC_BATCH_LIBM_TRIG; within the vector sin/cos otherwise), so every row is the scalar
  * rollout's row.  A row whose step is split calls again at sub-step times; those calls are
  * batched with whatever rows wait at the same time (alone: the batch's scalar tail). */
@@ -243,6 +244,14 @@ static int lanes_rows(rollout_job *job, fiber *f, double *buf, int *ibuf, int *i
         if (first < 0) break;                         /* every fiber done */
         for (int i = first; i < L; i++)
             if (same_call(&s, first, i)) idx[k++] = i;
+        if (k < L) {   /* the batch would take them by its scalar tail: the scalar call, on the rows' buffers */
+            for (int c = 0; c < k; c++) {
+                fiber *q = &f[idx[c]];
+                q->result = job->opt->implicit->terms(q->t, q->x, q->p, q->r, q->out, mwork);
+            }
+            for (int c = 0; c < k; c++) resume(&s, idx[c]);
+            continue;
+        }
         for (int c = 0; c < k; c++) {
             const fiber *q = &f[idx[c]];
             for (int j = 0; j < nx; j++) X[(size_t)j * k + c] = q->x[j];
