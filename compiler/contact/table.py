@@ -7,9 +7,10 @@ are generated code per pair: gymnasium's humanoid with its 109 self-pairs built 
 28.7 s CPU inlined, 15.2 s with law routines (no self-pairs 7.6 s; benchmarks/results/
 mjcf_contact.md, session 10), and jac_x's tangent differentiated every pair.  In one loop: 10.4 s
 against 32.5 s inlined and 8.6 s without the self-pairs, rhs 1.98x the no-contact rhs against 2.00x
-inlined (mjcf_contact.md, 2026-11-29 22:11, one run).  jac_x still takes the tangent path (the
-analytic kernel, compiler/tree/analytic.py, does not hold pairs): the humanoid's default function
-set builds in 44 s CPU (no self-pairs 23 s, inlined 90 s).
+inlined (mjcf_contact.md, 2026-11-29 22:11, one run).  jac_x and jac_id keep the analytic
+kernel (compiler/tree/analytic.py, block W): the table's wrenches are constant loads there, and
+their tangents along each state column come from the forward-mode twin below; the tangent path
+made the humanoid's default function set 44 s CPU against 23 s without self-pairs.
 
 The call's inputs (one array) are what varies per call: per moving body that holds a pair's shape
 its origin, world -> body rotation (rows), ω and origin velocity (body components: the law
@@ -32,8 +33,8 @@ The skips are exact (the force is ±0 where they apply), so the rhs equals the i
 rounding.  Outputs and events need every pair's δ and clip, also far ones: a program that reads a
 point's quantities calls the function with ``full`` set (no skips; :meth:`PairTableCall.for_program`).
 
-Derivatives: the tangent (jac_x, jvp, jac_p) is one call of the function's forward-mode twin per
-direction, ``eomc_pairs_dot``, with the inputs' tangents; it re-runs the primal of each pair it
+Derivatives: the tangent (jvp, jac_p; jac_x and jac_id per state column, into the analytic
+kernel's block W) is one call of the function's forward-mode twin per direction, ``eomc_pairs_dot``, with the inputs' tangents; it re-runs the primal of each pair it
 does not skip (the narrow and law routines' ``_tape`` variants) and their ``_dot``.  The primal
 inputs it reads are stored by the primal call after its outputs (the ``taped()`` variant, as
 .narrow's tapes).  Second derivatives and reverse sweeps are refused as the routines' are.
@@ -77,10 +78,12 @@ def table_of(tid):
     return _TABLES[int(tid)]
 
 
-def lower_table(loads, bodies, rec, v, rename, poses):
+def lower_table(loads, bodies, rec, v, rename, poses, wrenches=None):
     """Lower the PairLoads ``loads`` (one per contact point, as :func:`.pairs.with_pairs` makes
     them) as one :class:`PairTableCall`: add the wrenches to the bodies' fext; return
-    {PairValue placeholder: temporary}."""
+    {PairValue placeholder: temporary}.  ``wrenches``: a list to fill with (tree body, its six
+    wrench temporaries), per gathered body in input order (the analytic jac_x reads their
+    tangents, compiler/tree/analytic.py)."""
     from .pairs import BROAD_PAD, PairValue, bounding_radius, _num
     first = {}
     for ld in loads:                        # a pair's points share its index base and shapes
@@ -125,6 +128,8 @@ def lower_table(loads, bodies, rec, v, rename, poses):
     call = rec.let(PairTableCall(sm.Integer(tid), sm.S.Zero, *[rec.let(x) for x in inputs]))
     for j, i in enumerate(gathered):
         w = [rec.let(PairTableOut(call, sm.Integer(0), sm.Integer(6 * j + k))) for k in range(6)]
+        if wrenches is not None:
+            wrenches.append((i, w))
         old = bodies[i].fext or [0] * 6
         bodies[i].fext = [old[k] + x for k, x in enumerate(w)]
     values = {}

@@ -40,9 +40,15 @@ slopes K = -∂f/∂p, C = -∂f/∂v_p (block G, :func:`_contact_lines`; why: e
 ground contacts differentiated the whole recursion per column -- the gymnasium ant's jac_x
 33 µs, 20 rhs calls, Solo12's 106 µs; benchmarks/results/contact_jac.md).  A contact clear
 of the ground costs a compare there, and jac_x's straight-line part skips its law with the
-rhs's broad phase (compiler/emit/guards.py).  Other state-dependent loads (world-frame
-forces, a ball joint's damping, an ellipsoid's moving support point, body-body pairs) and
-trees closed by constraints keep the tangent path.
+rhs's broad phase (compiler/emit/guards.py).  Body-body pairs lowered as one table call
+(``pairs.PAIR_TABLE``, compiler/contact/table.py): each table body's wrench enters F the same
+way, and the kernel adds its components' change along each state column, which the caller
+computes per column by the table's forward-mode twin into block W (:func:`_pair_lines`; why:
+the tangent path differentiated the whole recursion per column, and the gymnasium humanoid's
+default function set with its self-pairs built in 44 s CPU against 23 s without them, its jac_x
+723 kB of C against 265 kB).  Other state-dependent loads (world-frame forces, a ball joint's
+damping, an ellipsoid's moving support point, inlined body-body pairs) and trees closed by
+constraints keep the tangent path.
 
 Checked against central differences and Pinocchio's ``computeRNEADerivatives`` /
 ``computeABADerivatives`` (tests/compiler/tree/test_analytic_derivatives.py).
@@ -79,12 +85,14 @@ class AnalyticPlan:
     laws: tuple = ()        # dofs with a joint law, in dof order (their ∂τ/∂q, ∂τ/∂u: anx block L)
     contacts: tuple = ()    # per ground contact (its body, the last dof on the body's path to the root): anx block G
     k2nz: tuple = ()        # per k-speed joint: its coordinates b with a dK/dq_b not identically 0 (hess_id's block K2)
+    pairs: tuple = ()       # per body of the pairs' table with a dof on its path: (its index in the table, body, that last dof)
+    npair: int = 0          # bodies of the pairs' table (anx block W: their wrench tangents, 6 each, per state column)
 
     def dofs(self, b):
         return range(self.first[b], self.first[b] + self.count[b])
 
 
-def analytic_plan(tree, bodies, gravity, layout, rename, contacts=None, let=None):
+def analytic_plan(tree, bodies, gravity, layout, rename, contacts=None, let=None, pairs=None):
     """(plan, [(("anx", i), expr)]) when the tree qualifies (see the module doc), else (None, []).
 
     ``contacts``: the ground contacts as lowered (:func:`.contacts.lower_contacts`' "analytic"
@@ -93,7 +101,11 @@ def analytic_plan(tree, bodies, gravity, layout, rename, contacts=None, let=None
     ``let``: a recorder's ``let`` (:class:`.recorder.Recorder`): the joint laws' slopes (block L)
     then come as small expressions of named temporaries, common subexpressions taken once per
     shape of law (:func:`_law_slopes`); without it, as whole expressions (what the law
-    Hessians of :mod:`.second_order` differentiate)."""
+    Hessians of :mod:`.second_order` differentiate).
+    ``pairs``: the body-body pairs' table bodies [(body, wrench)] when the pairs are one table
+    call (compiler/contact/table.py; their wrenches in F, their tangents block W, filled per
+    column by the caller), else None (then a tree with pairs keeps the tangent path)."""
+    from ..contact.pairs import PairLoad
     from ..contact.tree import ContactLoad
     if tree.loops is not None:
         return None, []
@@ -107,6 +119,8 @@ def analytic_plan(tree, bodies, gravity, layout, rename, contacts=None, let=None
     for load in tree.loads:
         if isinstance(load, ContactLoad) and contacts is not None:
             continue        # its force is in the body's fext; its slopes are block G
+        if isinstance(load, PairLoad) and pairs is not None:
+            continue        # in the table's wrenches (fext); their tangents: block W
         if load.frame != "body":
             return None, []
         for e in list(load.moment) + list(load.force) + list(load.offset):
@@ -166,8 +180,8 @@ def analytic_plan(tree, bodies, gravity, layout, rename, contacts=None, let=None
         m = b.I[3][3]
         I += [m] + [b.I[i][j] for i in range(3) for j in range(3)]
         F += list(b.fext) if b.fext is not None else [0] * 6
-    if len(used) != nq or len(row) != nu:
-        return None, []
+    if len(used) != nq or len(row) != nu or (pairs and len(layout.x) != nq + nu):
+        return None, []     # (block W's columns are the state's: no extra first-order states)
     loads = any(b.fext is not None for b in bodies)
     lawdofs, L = [e for e, s in enumerate(row) if s in laws], []
     if any(layout.x[qcol[e]] != laws[row[e]][0] for e in lawdofs):
@@ -190,9 +204,15 @@ def analytic_plan(tree, bodies, gravity, layout, rename, contacts=None, let=None
     off = [0]
     for d in dep:
         off.append(off[-1] + d + 1)
+    pair_ends = tuple((j, b, last[b]) for j, (b, _) in enumerate(pairs or ()) if last.get(b, -1) >= 0)
+    size = len(values)
+    if pairs:
+        offsets["W"] = size
+        size += 6 * len(pairs) * len(layout.x)
     plan = AnalyticPlan(nb, len(row), tuple(par), tuple(first), tuple(count), tuple(row),
-                        tuple(qcol), tuple(multi), loads, offsets, len(values), tuple(lam), tuple(dep),
-                        tuple(off), choose_solver(dep), tuple(kblocks), tuple(lawdofs), tuple(ends))
+                        tuple(qcol), tuple(multi), loads, offsets, size, tuple(lam), tuple(dep),
+                        tuple(off), choose_solver(dep), tuple(kblocks), tuple(lawdofs), tuple(ends),
+                        pairs=pair_ends, npair=len(pairs or ()))
     return plan, [((ANX, i), sm.sympify(v)) for i, v in enumerate(values)]
 
 
@@ -809,6 +829,8 @@ def kernel_c(name, plan, nq, solve=False):
                 "            }",
             ]
         lines += ["        }", "    }"]
+    if plan.pairs:
+        lines += _pair_lines(plan, ncol)
     if plan.laws:
         lines += [
             "    {   /* the joint laws: their value is in F (a constant load above), their own derivative here */",
@@ -924,6 +946,45 @@ def _contact_lines(name, plan):
         "                    ok[qc[a]] -= sign * (jk[0] * w[0] + jk[1] * w[1] + jk[2] * w[2]",
         "                                         + fk[0] * w[9] + fk[1] * w[10] + fk[2] * w[11]);",
         "                    ok[uc[a]] -= sign * (jk[0] * w[3] + jk[1] * w[4] + jk[2] * w[5]);",
+        "                }",
+        "            }",
+        "        }",
+        "    }",
+    ]
+
+
+def _pair_lines(plan, ncol):
+    """C: the body-body pairs' terms the kernel's constant load misses.
+
+    The kernel holds each table body's pair wrench w (moment about its origin, force; body
+    components) as a body-fixed load, so along a state column k it has the change of the
+    wrench's placement but not that of its components: Δw_k = ∂w/∂x_k, which the caller
+    stores per column in an[] block W (the table's forward-mode twin, compiler/contact/table.py).
+    Placed in the world (moment about the world origin), the generalized force of dof a in the
+    body's support is Q_a = S_a · Δw, τ = ID - Q: row a, column k gets -sign S_a · Δw_k.  The
+    columns are the state's (after a k-speed joint's K⁻¹ above: the tangent is along q)."""
+    o, n = plan.offsets, plan.npair
+    return [
+        "    {   /* body-body pairs: their wrench's change along each column (an[] block W, analytic.py) */",
+        "    " + c_table("pj", [j for j, _, _ in plan.pairs]),
+        "    " + c_table("pbd", [b for _, b, _ in plan.pairs]),
+        "    " + c_table("pe", [e for _, _, e in plan.pairs]),
+        f"        for (j = 0; j < {len(plan.pairs)}; j++) {{",
+        "            const double *Rb = R + 9 * pbd[j], *ob = P + 3 * pbd[j];",
+        f"            for (k = 0; k < {ncol}; k++) {{",
+        f"                const double *wb = an + {o['W']} + {6 * n} * k + 6 * pj[j];",
+        "                double n[3], f[3], m;",
+        "                for (i = 0; i < 3; i++) {",
+        "                    n[i] = Rb[3 * i] * wb[0] + Rb[3 * i + 1] * wb[1] + Rb[3 * i + 2] * wb[2];",
+        "                    f[i] = Rb[3 * i] * wb[3] + Rb[3 * i + 1] * wb[4] + Rb[3 * i + 2] * wb[5];",
+        "                }",
+        "                n[0] += ob[1] * f[2] - ob[2] * f[1];",
+        "                n[1] += ob[2] * f[0] - ob[0] * f[2];",
+        "                n[2] += ob[0] * f[1] - ob[1] * f[0];",
+        "                for (a = pe[j]; a >= 0; a = lam[a]) {",
+        "                    const double *s = Sw + 6 * a;",
+        "                    m = s[0] * n[0] + s[1] * n[1] + s[2] * n[2] + s[3] * f[0] + s[4] * f[1] + s[5] * f[2];",
+        "                    out[(row0 + row[a]) * stride + k] -= sign * m;",
         "                }",
         "            }",
         "        }",
@@ -1154,7 +1215,8 @@ def analytic_ops(plan, ncol=0):
     per dof ~330 (axes, their terms, the backward products), per (dof, support dof) pair 48;
     with the M⁻¹ solve on ``ncol`` columns (jac_x) 2·ncol more per pair and the factorization
     (LᵀDL) or about 56·ncol more per dof (articulated); a ground contact's terms as if it
-    touched (:func:`_contact_lines`)."""
+    touched (:func:`_contact_lines`); a pairs' table body's per column (:func:`_pair_lines`;
+    the tangents that fill block W are the caller's, counted once there)."""
     pairs = sum(plan.dep)
     muls = 580 * plan.nb + 170 * plan.nd + 24 * pairs
     adds = 570 * plan.nb + 160 * plan.nd + 24 * pairs
@@ -1179,5 +1241,14 @@ def analytic_ops(plan, ncol=0):
         d = plan.dep[e] + 1         # its slopes' products (~70), per pair of them two dot products
         muls += 70 * d + 10 * d * d
         adds += 60 * d + 10 * d * d
+    for _, _, e in plan.pairs:      # per table body and state column: its wrench placed, per support dof a dot product
+        d = plan.dep[e] + 1
+        muls += (_state_cols(plan, ncol)) * (24 + 7 * d)
+        adds += (_state_cols(plan, ncol)) * (18 + 6 * d)
     divs = sum(k for _, k, _ in plan.multi) + (plan.nd if ncol and plan.solver == "aba" else 0)
     return {"adds": adds, "muls": muls, "divs": divs, "calls": 0}
+
+
+def _state_cols(plan, ncol):
+    """The state columns of block W (the kernel's own columns; ``ncol`` when given)."""
+    return ncol or len(plan.qcol) + plan.nd

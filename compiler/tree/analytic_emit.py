@@ -36,6 +36,39 @@ def _shared_inputs(ctx):
     return [IND + INPUTS_CALL.format(name=ctx.name)]
 
 
+TPW = "tpw"     # the pairs' wrench tangents along one state column (lower.py), into an[] block W
+
+
+def _pair_split(program, sym):
+    """(assignments run once, those run per column): the latter depend on the seeds dx, the
+    tangent of the pairs' wrenches (block W of the kernel's inputs, :func:`.analytic._pair_lines`)."""
+    if not sym.analytic.npair:
+        return list(program.assignments), []
+    return split_on(program, sym.seeds)
+
+
+def _pair_columns(ctx, program, sym, pr, inner):
+    """C: per state column k, the pairs' wrench tangents (seed dx = e_k: the table's forward-mode
+    twin, compiler/contact/table.py) into an[] block W, before the kernel reads them."""
+    plan = sym.analytic
+    if not plan.npair:
+        return []
+    nx, n6 = ctx.nx, 6 * plan.npair
+    vals = program.result_exprs(TPW)
+    body = temps(program, pr, needed_assignments(inner, vals.values()))
+    body += [store(f"an[{plan.offsets['W']} + {n6} * kp + {i}]", vals.get((TPW, i), sm.S.Zero), pr)
+             for i in range(n6)]
+    return ([f"{IND}{{   /* the body-body pairs' wrench tangents, per state column (analytic.py, block W) */",
+             f"{IND * 2}double dx[{nx}];",
+             f"{IND * 2}int kp;",
+             f"{IND * 2}for (kp = 0; kp < {nx}; kp++) dx[kp] = 0.0;",
+             f"{IND * 2}for (kp = 0; kp < {nx}; kp++) {{",
+             f"{IND * 3}dx[kp] = 1.0;",
+             f"{IND * 3}{{"]
+            + [IND * 3 + line for line in body]
+            + [f"{IND * 3}}}", f"{IND * 3}dx[kp] = 0.0;", f"{IND * 2}}}", f"{IND}}}"])
+
+
 def analytic_jac_id_body(ctx, program, sym, shared=False):
     """``shared``: an[] from NAME_dyn_inputs instead of this body's own copy."""
     plan = sym.analytic
@@ -44,8 +77,10 @@ def analytic_jac_id_body(ctx, program, sym, shared=False):
     if shared:
         lines += _shared_inputs(ctx)
     else:
-        lines += temps(program, pr)
+        once, inner = _pair_split(program, sym)
+        lines += temps(program, pr, once)
         lines += _inputs(program, pr)
+        lines += _pair_columns(ctx, program, sym, pr, inner)
     lines += call_lines(ctx.name, plan, IND, "x", "udot", 0, "1.0", ctx.nx, ctx.nq)
     lines.append(f"{IND}return {ctx.name}_rd_finite(out, {ctx.nu * ctx.nx});")
     return lines
@@ -67,6 +102,7 @@ def _jac_x_plan(program, W, G, nq, nu, nx, own=False, shared=False):
         rows = [(f"out[{i * nx + k}]", kin.get(("dkin", i, k), sm.S.Zero)) for i in range(nq) for k in range(nx)]
         rows += _extra_rows(program, "dzd", nq + nu, nx, nx)
         anx = [] if shared else list(program.result_exprs(ANX).values())
+        anx += list(program.result_exprs(TPW).values())      # the pairs' (block W): split off below
         exprs = [e for _, e in stores + rows] + anx
         if not own:
             exprs += list(program.result_exprs("Dpiv").values())
@@ -93,21 +129,23 @@ def analytic_jac_x_body(ctx, program, sym, W, G, shared=False):
     nq, nu, nx = ctx.nq, ctx.nu, ctx.nx
     own = _own_ud(sym, nq, nu, nx)
     once, stores, rows = _jac_x_plan(program, W, G, nq, nu, nx, own, shared)
+    once, inner = _pair_split(program.with_(assignments=tuple(once)), sym)
     pr = ctx.printer(program)
     guards = getattr(sym, "jac_guards", ())
     anx = [] if shared else list(program.result_exprs(ANX).values())
     if own:
-        head, pr = _guarded(program, pr, once, [e for _, e in rows] + anx, guards)
+        head, pr = _guarded(program, pr, once, [e for _, e in rows + inner] + anx, guards)
         body, used = stores_zeroing_runs(rows, pr, "k")     # the coordinate rows: mostly zeros
         lines = [f"{IND}double an[{plan.size}];"] + ([f"{IND}int k;"] if used else [])
         lines += head
         lines += body
         lines += _shared_inputs(ctx) if shared else _inputs(program, pr)
+        lines += _pair_columns(ctx, program, sym, pr, inner)
         lines += call_lines(ctx.name, plan, IND, "x", None, nq, "-1.0", nx, nq, 1)
         lines.append(f"{IND}return {ctx.name}_rd_finite(out, {nx * nx});")
         return lines
     before, after = split_on(program.with_(assignments=tuple(once)), W)
-    readers = ([e for _, e in after + stores + rows] + anx
+    readers = ([e for _, e in after + stores + rows + inner] + anx
                + [e for k, e in program.results if k[0] == "Dpiv"])
     head, pr = _guarded(program, pr, before, readers, guards)
     body, used = stores_zeroing_runs(rows, pr, "k")     # the coordinate rows: mostly zeros
@@ -119,6 +157,7 @@ def analytic_jac_x_body(ctx, program, sym, W, G, shared=False):
     lines += temps(program, pr, after)
     lines += body
     lines += _shared_inputs(ctx) if shared else _inputs(program, pr)
+    lines += _pair_columns(ctx, program, sym, pr, inner)
     lines += call_lines(ctx.name, plan, IND, "x", "w", nq, "-1.0", nx, nq, 1)
     lines.append(f"{IND}return {ctx.name}_rd_finite(out, {nx * nx});")
     return lines

@@ -46,7 +46,8 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
     ``analytic``: a dict to fill for the analytic jac_x (:mod:`.analytic`): "contacts", per
     ground contact (body, depth, contact point, sphere centre, world force, K, C), or None
     when a contact's point moves on its body (an ellipsoid's support point); "guards", jac_x's
-    broad phase (the world forces exported too: the kernel reads them)."""
+    broad phase (the world forces exported too: the kernel reads them); "pairs", the body-body
+    pairs' table bodies and wrench temporaries when they are one table call (.analytic block W)."""
     contacts = contact_outputs(tree)
     others = [ld for ld in tree.loads if not isinstance(ld, ContactLoad) and hasattr(ld, "lower")]
     if not contacts and not others:
@@ -57,7 +58,10 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
     values, elastic, reach, pairs = {}, [], {}, []
     table = _pairs.PAIR_TABLE and [ld for ld in others if isinstance(ld, PairLoad)]
     if table:               # every pair in one table-driven call (compiler/contact/table.py)
-        values.update(lower_table(table, bodies, rec, v, rename, poses))
+        wrenches = [] if analytic is not None else None
+        values.update(lower_table(table, bodies, rec, v, rename, poses, wrenches))
+        if analytic is not None:        # the analytic jac_x takes their tangents (tree/analytic.py)
+            analytic["pairs"] = wrenches
     for load in others:     # a body-body pair returns its outputs' and events' values
         if table and isinstance(load, PairLoad):
             continue

@@ -161,6 +161,8 @@ def inputs_users(sym, functions):
     lanes the body it reads, not a static function it calls)."""
     if getattr(sym, "analytic", None) is None:
         return ()
+    if sym.analytic.npair:      # block W is filled per column from the pairs' taped call, in each body
+        return ()
     dyn = getattr(sym, "dynamics_kernel", ())
     # jac_x keeps its own copy beside the contacts' broad phase (its an[] reads guarded temporaries)
     lanes_or_guards = "jac_x_batch" in functions or getattr(sym, "jac_guards", ())

@@ -50,7 +50,7 @@ __all__ = ["TREE_FUNCTION_GROUPS", "TREE_HELPER_USERS", "build_tree_symbolic"]
 
 TREE_FUNCTION_GROUPS = {
     "rhs": ("kin", "ud", "Dpiv", "zd"),
-    "jac_x": ("ud", "lam", "Dpiv", "dkin", "tq", "tu", "dres", "sol", "dzd", "anx"),
+    "jac_x": ("ud", "lam", "Dpiv", "dkin", "tq", "tu", "dres", "sol", "dzd", "anx", "tpw"),
     "jac_r": ("ud", "lam", "Dpiv", "dkin_r", "dres_r", "sol", "dzd_r"),
     "jac_p": ("ud", "lam", "Dpiv", "dkin_p", "dres_p", "sol", "dzd_p"),
     "mass_matrix": ("A", "anx"),         # anx: the loop kernel's inputs (see .dynamics_kernel)
@@ -63,7 +63,7 @@ TREE_FUNCTION_GROUPS = {
     "regressor": ("Y",),
     "jvp": ("ud", "lam", "Dpiv", "kin", "dkin", "dkin_p", "tjv", "dres_p", "sol", "zd", "dzd", "dzd_p"),   # see .jvp
     "events": ("ev",),
-    "jac_id": ("did", "idq", "idu", "anx"),     # see .inverse_derivatives, .analytic
+    "jac_id": ("did", "idq", "idu", "anx", "tpw"),     # see .inverse_derivatives, .analytic (tpw: the pairs' wrench tangents)
     # reverse mode (compiler/emit/reverse.py)
     "vjp": ("ud", "Dpiv", "kin", "zd", "sol", "vj"),
     "hvp": ("ud", "Dpiv", "kin", "zd", "sol", "hr", "ha", "hb"),
@@ -229,11 +229,12 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
             # law Hessians differentiate them (second_order.with_law_hessians)
             analytic, anx = _analytic(tree, bodies, gravity, layout, functions, ground,
                                       None if "hess_id" in functions else rec.let)
-            # a plan with ground contacts serves jac_x and jac_id only (NAME_dyn has no contact terms)
+            # a plan with ground contacts or pairs serves jac_x and jac_id only (NAME_dyn has no contact terms)
+            contacted = analytic is not None and bool(analytic.contacts or analytic.npair)
             dyn = (dynamics_kernel_functions(analytic, functions)
-                   if analytic is not None and not analytic.contacts else ())
+                   if analytic is not None and not contacted else ())
             planned = analytic is not None
-            grounded = planned and bool(analytic.contacts)
+            grounded = planned and contacted
             if analytic is not None and not dyn and not set(functions) & {"jac_id", "jac_x"}:
                 analytic, anx = None, []
         # forcing and inverse_dynamics both straight-line: forcing is -τ at u' = 0, a call of
@@ -261,6 +262,9 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
                         + [(("sol", k), sol[k]) for k in range(nu)])
         if analytic is not None:
             jacobian += anx
+            if analytic.npair:      # the pairs' wrenches, whose tangents (tpw) fill the kernel's block W
+                jacobian += [(("pw", 6 * j + k), x) for j, (_, w) in enumerate(ground["pairs"])
+                             for k, x in enumerate(w)]
         jacobian += direct or []
         # inverse_dynamics from the loop kernel where the analytic plan exists (.dynamics_kernel);
         # hess_id's reverse path differentiates RNEA's trace, its analytic kernel does not (and
@@ -415,7 +419,7 @@ def _analytic(tree, bodies, gravity, layout, functions, ground=None, let=None):
     absent = _absent(tree, layout)
     memo = {}
     return analytic_plan(tree, bodies, gravity, layout, lambda e, what: _rename(layout, memo, what, absent)(e),
-                         (ground or {}).get("contacts"), let)
+                         (ground or {}).get("contacts"), let, (ground or {}).get("pairs"))
 
 
 def _asks_energy(outputs):
@@ -526,6 +530,10 @@ def _with_jacobians(sym, layout, functions, nq, jacobian, more=(), analytic=Fals
     if "jac_id" in functions and not analytic:
         from .inverse_derivatives import inverse_dynamics_derivatives
         derivatives += inverse_dynamics_derivatives(layout, sym.seeds, nq)
+    plan = getattr(sym, "analytic", None)
+    if analytic and plan is not None and plan.npair and set(functions) & {"jac_x", "jac_id"}:
+        # the pairs' wrench along one state column (seeds dx = e_k), per column: block W (.analytic)
+        derivatives.append(("pw", dict(zip(layout.x, sym.seeds)), "tpw"))
     if "jac_x" in functions and not analytic:
         if len(layout.x) > TANGENT_MIN_STATES:
             derivatives += [("tres", dict(zip(layout.x[:nq], sym.seeds[:nq])), "tq"),

@@ -64,6 +64,8 @@ def second_order_plan(plan):
                       "state-dependent loads or contacts)")
     if plan.contacts:       # the first-order kernel's ground-contact terms (analytic.py, block G)
         return None, "ground contacts: not covered yet"
+    if plan.npair:          # the body-body pairs' wrench tangents (analytic.py, block W)
+        return None, "body-body pairs: not covered yet"
     return plan, None
 
 

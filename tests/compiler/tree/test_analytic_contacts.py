@@ -138,3 +138,50 @@ def test_urdf_default_ground_on_a_welded_link(monkeypatch, tmp_path):
     on = [x for x in states if touching(fast, x)][:3]
     off = [x for x in states if not touching(fast, x)][:2]
     check(fast, slow, on + off)
+
+
+def test_body_body_pairs_through_the_table(monkeypatch, tmp_path):
+    """Self-pairs as one table call (pairs.PAIR_TABLE): the kernel holds their wrenches as
+    body-fixed loads and adds their components' tangents per column (block W), beside the ground
+    contacts' block G.  Against the tangent jac_x of the same table rhs (the plan refused the pairs)
+    and central differences, with self-pairs pressed and apart; jac_id likewise."""
+    import warnings
+    import eomc.compiler.contact.pairs as pairs
+    from eomc.compiler.mjcf.model import MjcfModel
+    sys.path.insert(0, str(HERE / "compiler" / "contact"))
+    from test_narrow import LIMBS
+    path = tmp_path / "limbs.xml"
+    path.write_text(LIMBS.replace("<worldbody>", '<worldbody><geom name="floor" type="plane" size="5 5 0.1"/>'))
+    monkeypatch.setattr(pairs, "PAIR_TABLE", True)
+    fns = FNS + ["outputs", "jac_id"]
+    plan = an.analytic_plan
+    built = {}
+    for tag in ("an", "tg"):
+        with monkeypatch.context() as m, warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            if tag == "tg":
+                m.setattr(an, "analytic_plan", lambda *a: plan(*a[:7], None))
+            built[tag] = eomc.compile(MjcfModel(path, pairs=True), f"limbs_{tag}", functions=fns,
+                                      progress=False, cache_dir=tmp_path / tag)
+    fast, slow = built["an"], built["tg"]
+    assert "block W" in fast.source_path.read_text()
+    assert "_rnea_derivs(" not in slow.source_path.read_text()
+    names = list(fast.output_names)
+    self_pairs = [i for i, k in enumerate(names) if k.startswith("Fn_") and "__" in k]
+    rng = np.random.default_rng(5)
+    X = rng.normal(scale=0.6, size=(60, fast.nx))
+    X[:, 2] += 0.3
+    pressed = apart = 0
+    for x in X:
+        J, ref = fast.jac_x(0.0, x), slow.jac_x(0.0, x)
+        scale = max(1.0, np.max(np.abs(ref)))
+        assert np.max(np.abs(J - ref)) / scale < 1e-10
+        assert np.max(np.abs(J - central(fast, x))) / scale < 1e-6
+        ud = rng.normal(size=fast.nu)
+        J, ref = fast.jac_id(0.0, x, ud), slow.jac_id(0.0, x, ud)
+        assert np.max(np.abs(J - ref)) / max(1.0, np.max(np.abs(ref))) < 1e-10
+        if np.any(np.array(list(fast.outputs(0.0, x).values()))[self_pairs] > 0):
+            pressed += 1
+        else:
+            apart += 1
+    assert pressed >= 5 and apart >= 5, (pressed, apart)
