@@ -131,14 +131,26 @@ __asm__(".text\n.p2align 4\n.globl eomc_rollout_fiber_switch\n.hidden eomc_rollo
         ".size eomc_rollout_fiber_switch, .-eomc_rollout_fiber_switch\n");
 void eomc_rollout_fiber_switch(void **from, void *to) __attribute__((visibility("hidden")));
 typedef void *fiber_ctx;           /* the fiber's saved stack pointer */
-#define fiber_switch(from, to) eomc_rollout_fiber_switch((from), *(to))
+#define fiber_jump(from, to) eomc_rollout_fiber_switch((from), *(to))
 #else
 typedef ucontext_t fiber_ctx;
-#define fiber_switch(from, to) swapcontext((from), (to))
+#define fiber_jump(from, to) swapcontext((from), (to))
+#endif
+
+/* Under AddressSanitizer (-fsanitize=address) every switch is announced to it
+ * (__sanitizer_start_switch_fiber before, __sanitizer_finish_switch_fiber after), so it knows
+ * which stack runs -- the hand-written switch is invisible to it otherwise.  Without ASan these
+ * are nothing and the build is the same. */
+#ifdef __SANITIZE_ADDRESS__
+#include <sanitizer/common_interface_defs.h>
+#define EOMC_ASAN_FIBERS 1
 #endif
 
 typedef struct fiber {
     fiber_ctx ctx;
+#ifdef EOMC_ASAN_FIBERS
+    void *fake;            /* ASan's fake stack of the fiber while it is switched out */
+#endif
     double *work;
     char *stack;
     int state, result;
@@ -152,11 +164,43 @@ typedef struct lanes_sched {
     fiber_ctx main;
     fiber *f;
     int cur;
+#ifdef EOMC_ASAN_FIBERS
+    void *main_fake;               /* ASan: the thread's fake stack while a fiber runs */
+    const void *main_bottom;       /* ASan: the thread's own stack, told to it when a fiber */
+    size_t main_size;              /* switches back */
+#endif
     eomc_options opt;      /* the job's, its implicit below */
     eomc_implicit imp;     /* the job's, its terms lanes_terms */
 } lanes_sched;
 
 static __thread lanes_sched *cur_sched;
+
+/* Fiber f to the thread's scheduler; returns when the scheduler resumes it.  last: f is done
+ * and never resumed (ASan drops its fake stack). */
+static void to_main(lanes_sched *s, fiber *f, int last)
+{
+#ifdef EOMC_ASAN_FIBERS
+    __sanitizer_start_switch_fiber(last ? NULL : &f->fake, s->main_bottom, s->main_size);
+#else
+    (void)last;
+#endif
+    fiber_jump(&f->ctx, &s->main);
+#ifdef EOMC_ASAN_FIBERS
+    __sanitizer_finish_switch_fiber(f->fake, &s->main_bottom, &s->main_size);
+#endif
+}
+
+/* The scheduler to fiber f; returns when f switches back. */
+static void to_fiber(lanes_sched *s, fiber *f)
+{
+#ifdef EOMC_ASAN_FIBERS
+    __sanitizer_start_switch_fiber(&s->main_fake, f->stack, FIBER_STACK);
+#endif
+    fiber_jump(&s->main, &f->ctx);
+#ifdef EOMC_ASAN_FIBERS
+    __sanitizer_finish_switch_fiber(s->main_fake, NULL, NULL);
+#endif
+}
 
 static int lanes_terms(double t, const double *x, const double *p, const double *r, double *out, double *work)
 {
@@ -165,7 +209,7 @@ static int lanes_terms(double t, const double *x, const double *p, const double 
     (void)work;
     f->t = t; f->x = x; f->p = p; f->r = r; f->out = out;
     f->state = FIBER_WAITING;
-    fiber_switch(&f->ctx, &s->main);
+    to_main(s, f, 0);
     return f->result;
 }
 
@@ -173,16 +217,19 @@ static void fiber_main(void)
 {
     lanes_sched *s = cur_sched;
     fiber *f = &s->f[s->cur];
+#ifdef EOMC_ASAN_FIBERS
+    __sanitizer_finish_switch_fiber(NULL, &s->main_bottom, &s->main_size);   /* its first entry */
+#endif
     run_rows(s->job, f->work, &s->opt);
     f->state = FIBER_DONE;
-    fiber_switch(&f->ctx, &s->main);     /* not resumed */
+    to_main(s, f, 1);                    /* not resumed */
 }
 
 static void resume(lanes_sched *s, int i)
 {
     s->cur = i;
     s->f[i].state = FIBER_RUNNING;
-    fiber_switch(&s->main, &s->f[i].ctx);
+    to_fiber(s, &s->f[i]);
 }
 
 /* Fiber i waits for a call with fiber first's time and parameters (the batch's one t and p). */
