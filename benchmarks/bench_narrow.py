@@ -43,8 +43,9 @@ import eomc.compiler.contact.pairs as pairs
 from eomc.compiler.mjcf.model import MjcfModel
 path, cache, inline, self_pairs = Path(sys.argv[1]), sys.argv[2], sys.argv[3] == "1", sys.argv[4] == "1"
 pairs.INLINE_NARROW = inline
+pairs.PAIR_TABLE = False       # the table is the default since session 11; this compares the other two
 warnings.simplefilter("ignore")
-eomc.compile(MjcfModel(path, pairs=True) if self_pairs else path, "m", cache_dir=cache, progress=False)
+eomc.compile(MjcfModel(path, pairs=True if self_pairs else "trees"), "m", cache_dir=cache, progress=False)
 """
 
 
@@ -74,9 +75,10 @@ def load(path, cache, inline, self_pairs):
     import eomc.compiler.contact.pairs as pairs
     from eomc.compiler.mjcf.model import MjcfModel
     pairs.INLINE_NARROW = inline
+    pairs.PAIR_TABLE = False
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        return eomc.compile(MjcfModel(path, pairs=True) if self_pairs else path, "m", cache_dir=cache,
+        return eomc.compile(MjcfModel(path, pairs=True if self_pairs else "trees"), "m", cache_dir=cache,
                             progress=False)
 
 

@@ -29,7 +29,7 @@ def child(mode, out):
     from eomc.compiler.contact import pairs
     from eomc.compiler.mjcf.model import MjcfModel
     path = os.path.join(os.path.dirname(gymnasium.__file__), "envs/mujoco/assets/humanoid.xml")
-    kw = {}
+    kw = dict(pairs="trees")            # no self-pairs: the default before session 11
     if mode == "table":
         pairs.PAIR_TABLE = True
         kw = dict(pairs=True)

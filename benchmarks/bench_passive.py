@@ -4,7 +4,8 @@ swimmer's passive stroke decay against MuJoCo.
 Passive runs (gymnasium hopper, walker2d, ant, humanoid; the wheel's files, no flags):
 
 - eomc: ``eomc.compile(path)`` (no flags: the file's contacts, limits, frictionloss as eomc models
-  them; self-collision pairs left out, eomc's default), then ``model.simulate(model.initial_state,
+  them; self-collision pairs in, eomc's default since session 11: results/passive.md of
+  2026-11-29 18:16 was measured before, without them), then ``model.simulate(model.initial_state,
   (0, 10))`` with every option at its default (method "auto": an implicit method from the start
   on a model with contacts; rtol 1e-6; 1001 output points), from the file's initial state;
 - MuJoCo: ``mujoco.rollout.rollout`` (its C loop of ``mj_step``, one thread, one MjData) for

@@ -64,7 +64,7 @@ def generator_switches():
     the other setting in the cache before).  ``INLINE_NARROW``: the body-body pairs' narrow phase
     inlined as SymPy or called (compiler/contact/pairs.py); ``LAW_ROUTINES``: each pair one call of its
     kinds' law routine; ``PAIR_TABLE``: every pair in one table-driven loop (each held only when
-    set).  ``TANGENT``: hess_id left along the k-speed joints' tangent for the comparison with
+    set; ``TABLE_FROM``, the fewest pairs that take it, only when not its default).  ``TANGENT``: hess_id left along the k-speed joints' tangent for the comparison with
     Pinocchio (compiler/tree/second_order.py); held only when set, so the keys of ordinary builds
     stay what they were; ``HALF_FROM``: the output size from which hess_id is written by halves
     (same module), held only when not its default."""
@@ -75,6 +75,8 @@ def generator_switches():
         switches["law_routines"] = True
     if pairs.PAIR_TABLE:
         switches["pair_table"] = True
+        if pairs.TABLE_FROM != pairs.TABLE_FROM_DEFAULT:
+            switches["pair_table_from"] = pairs.TABLE_FROM
     if second_order.TANGENT:
         switches["hess_tangent"] = True
     if second_order.HALF_FROM != second_order.HALF_FROM_DEFAULT:

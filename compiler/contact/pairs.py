@@ -71,10 +71,18 @@ INLINE_NARROW = True
 LAW_ROUTINES = False
 # True: every pair of a tree in one call of a table-driven C loop (.table: code O(kinds), not
 # O(pairs)); takes precedence over LAW_ROUTINES and INLINE_NARROW.  In the caches' keys as those.
-# Not the default yet: gymnasium's humanoid with its self-pairs builds its rhs in 10.4 s CPU (inlined
-# 32.5 s), rhs 1.98x its no-contact rhs (inlined 2.00x), but the default function set still takes
-# jac_x's tangent path (44 s; docs/contact.md).
-PAIR_TABLE = False
+# The default, with MJCF self-pairs on: gymnasium's humanoid (109 self-pairs) builds its rhs in
+# 8.1 s CPU (6.4 s without them; inlined 32.5 s), rhs 1.98x its no-contact rhs, default function set
+# 24.5 vs 19.4 s (jac_x/jac_id on the analytic kernel; benchmarks/results/pair_default_build.md).
+PAIR_TABLE = True
+# With PAIR_TABLE: the fewest pairs a tree's loads hold for them to go through the table; fewer are
+# inlined (INLINE_NARROW / LAW_ROUTINES as set).  Why: the table's call reads one double[] input
+# array, which the batch vectoriser does not take (compiler/emit/batch.py), so gymnasium's hopper
+# with its 3 self-pairs as a table lost its vectorized implicit_batch (the rollout lanes' kernel);
+# inlined, it keeps it, and the few pairs cost little code.  The humanoid's 109 go through the table.
+# In the caches' keys when not its default (compiler/build/reuse.generator_switches).
+TABLE_FROM_DEFAULT = 8
+TABLE_FROM = TABLE_FROM_DEFAULT
 EPS = 1e-12     # m: regularises |d| so that coincident centres give a finite (zero) force
 
 

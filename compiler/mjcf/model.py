@@ -41,14 +41,18 @@ class MjcfModel:
     # None = yes unless ``contacts`` names contacts without "@collision"; True/False = yes/no
     geoms: bool = None
     # body–body contacts between the file's geoms (mjcf/collision.body_pairs), when its geoms are
-    # contacts: None = between different kinematic trees (and the world's geoms) and the file's
-    # <pair>s; True = also within one tree (self-collisions); False = none
-    pairs: bool = None
+    # contacts: None (the default) or True = every pair MuJoCo's filters let through (contype/conaffinity,
+    # parent-child), self-collisions within one tree included; "trees" = only between different
+    # kinematic trees (and the world's geoms) and the file's <pair>s; False = none
+    pairs: object = None
     # how ball and free joints turn: "euler" (body-XYZ angles, singular at pitch +-90 deg) or
     # "quaternion" (MuJoCo's own (w, x, y, z); the integrators keep it unit)
     orientation: str = "euler"
 
     def __post_init__(self):
+        if self.pairs not in (None, True, False, "trees"):
+            raise ModelError(f"{self.path}: pairs={self.pairs!r}: choose None/True (every pair MuJoCo "
+                             f"collides), 'trees' (none within one tree) or False (none)")
         if self.orientation not in ("euler", "quaternion"):
             raise ModelError(f"{self.path}: orientation={self.orientation!r}: choose 'euler' (body XYZ "
                              f"angles) or 'quaternion'")
@@ -65,8 +69,8 @@ def is_mjcf_model(model):
 def with_ignore(model, name=None, ignore=(), limits=True, orientation="euler", pairs=None):
     """(model, name) for the driver: an MJCF path with ``ignore`` (the CLI's ``--ignore
     WHAT[,WHAT]``: a string or a sequence), ``limits=False`` (``--limits off``),
-    ``orientation="quaternion"`` (``--orientation quaternion``) or ``pairs`` True/False
-    (``--pairs all|none``) becomes an :class:`MjcfModel`; without them the model goes through
+    ``orientation="quaternion"`` (``--orientation quaternion``) or ``pairs`` "trees"/False
+    (``--pairs trees|none``) becomes an :class:`MjcfModel`; without them the model goes through
     unchanged."""
     if isinstance(ignore, str):
         ignore = [ignore]
@@ -475,28 +479,21 @@ def _with_pairs(model, m, built):
     """``built`` with the body–body contacts MuJoCo's filters let through (:func:`.collision.body_pairs`);
     pairs of kinds eomc does not model are named in one warning.
 
-    Why self-collisions are left out unless ``pairs=True``: their number grows as the square of a
-    tree's geoms (gymnasium's humanoid: 109; dm_control's humanoid_CMU ~1000).  The rhs skips the
-    far ones (a bounding-ball test per pair, compiler/contact/pairs.pair_clearance: the humanoid's
-    rhs with them 2.0x its no-contact rhs, was 3.7x), but each is still generated code in rhs,
-    events and jac_x: the humanoid's rhs-only build 8.6 -> 32.5 s CPU (benchmarks/results/mjcf_contact.md,
-    2026-11-29 22:11; law routines, compiler/contact/pairs.LAW_ROUTINES: 16.4 s, rhs 2.1x; every pair
-    in one table-driven loop, pairs.PAIR_TABLE: 10.4 s, rhs 1.98x, but its default function set
-    takes 44 s CPU against 23 s without the pairs: jac_x leaves the analytic kernel),
-    and the motions these models are made for rarely bring a tree's limbs together.  A warning says
-    how many were left out."""
+    Self-collisions within one tree are in by default, as MuJoCo collides them (a model behaves like
+    itself without flags; gymnasium's humanoid rests at MuJoCo's height with them, 22 mm higher
+    without).  Their number grows as the square of a tree's geoms (the humanoid: 109), so they go
+    through one table-driven C loop (compiler/contact/pairs.PAIR_TABLE, the default): the humanoid's
+    rhs 1.98x its no-contact rhs, rhs-only build 8.1 s CPU against 6.4 s without them, default
+    function set 24.5 against 19.4 s (benchmarks/results/pair_default_build.md).  ``pairs="trees"``
+    (``--pairs trees``) leaves them out; ``pairs=False`` (``--pairs none``) every body–body pair."""
     import mujoco
     from eomc.compiler.contact.pairs import PairShape, PairSpec, with_pairs
     from eomc.compiler.contact.tree import body_com
     from .collision import body_pairs
     from .treeir import quat_matrix
     found, skipped = body_pairs(m, model.path)
-    if model.pairs is None:
-        own = [p for p in found if p.same_tree and not p.explicit]
-        if own:
-            warnings.warn(f"{Path(model.path).name}: {len(own)} self-collision pair(s) left out (--pairs all or "
-                          f"MjcfModel(path, pairs=True) adds them)", EomcWarning, stacklevel=4)
-            found = [p for p in found if not p.same_tree or p.explicit]
+    if model.pairs == "trees":        # asked for: no self-collisions, so no warning
+        found = [p for p in found if not p.same_tree or p.explicit]
     if skipped:
         text = "; ".join(f"{n} {kinds} pair(s) (e.g. {example})" for kinds, (n, example) in sorted(skipped.items()))
         warnings.warn(f"{Path(model.path).name}: no contact for {text}: they pass through each other (eomc "

@@ -56,7 +56,9 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
     if implicit is not None:
         implicit["poses"], implicit["contacts"] = poses, []
     values, elastic, reach, pairs = {}, [], {}, []
-    table = _pairs.PAIR_TABLE and [ld for ld in others if isinstance(ld, PairLoad)]
+    table = [ld for ld in others if isinstance(ld, PairLoad)] if _pairs.PAIR_TABLE else []
+    if len(table) < _pairs.TABLE_FROM:      # a few pairs stay inlined (pairs.TABLE_FROM: why)
+        table = []
     if table:               # every pair in one table-driven call (compiler/contact/table.py)
         wrenches = [] if analytic is not None else None
         values.update(lower_table(table, bodies, rec, v, rename, poses, wrenches))

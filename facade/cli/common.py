@@ -82,15 +82,16 @@ def add_limits_argument(parser):
 
 
 # --pairs: eomc.compiler.mjcf.model.MjcfModel(pairs=...) of each choice
-PAIRS = {"trees": None, "all": True, "none": False}
+PAIRS = {"trees": "trees", "all": None, "none": False}
 
 
 def add_pairs_argument(parser):
     """--pairs trees|all|none: an MJCF model's body–body contacts (MjcfModel(pairs=...))."""
     parser.add_argument("--pairs", choices=tuple(PAIRS), default=None,
-                        help="MJCF: body-body contacts between the file's geoms: trees (default: between "
-                             "kinematic trees, with the world's geoms and the file's <pair>s), all (also "
-                             "self-collisions within one tree, as MuJoCo: slower rhs) or none")
+                        help="MJCF: body-body contacts between the file's geoms: all (default: every pair "
+                             "MuJoCo collides, self-collisions within one tree included), trees (only "
+                             "between kinematic trees, with the world's geoms and the file's <pair>s: "
+                             "faster build) or none")
 
 
 FORMULATION_HELP = ("dynamics formulation: auto (default: the cheaper rhs of the two; kane where the "

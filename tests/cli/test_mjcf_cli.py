@@ -132,24 +132,21 @@ CHAIN = """<mujoco model="chain">
 
 
 def test_pairs_flag_chooses_self_collisions(tmp_path, capsys):
-    """--pairs all adds the one self-collision pair MuJoCo has (ga–gc: grandparent and grandchild;
-    the parent–child pairs are filtered), --pairs none and the default leave it out, the default
-    with a one-line note naming the flag; --pairs on a URDF is refused."""
+    """The default and --pairs all add the one self-collision pair MuJoCo has (ga–gc: grandparent
+    and grandchild; the parent–child pairs are filtered), without a note (nothing is left out);
+    --pairs trees and --pairs none leave it out, silently (asked for); --pairs on a URDF is refused."""
     path = tmp_path / "chain.xml"
     path.write_text(CHAIN)
 
     def inspect(*flags):
-        with pytest.warns(EomcWarning) if not flags else _quiet():
+        with _quiet():
             assert main(["inspect", str(path), "-q", *flags]) == 0
         text = capsys.readouterr()
         return set(re.findall(r"\bk_(\w+)", text.out)), text.err
-    made, _ = inspect("--pairs", "all")
-    assert made == {"ga__gc"}
+    assert inspect()[0] == {"ga__gc"}
+    assert inspect("--pairs", "all")[0] == {"ga__gc"}
+    assert inspect("--pairs", "trees")[0] == set()
     assert inspect("--pairs", "none")[0] == set()
-    with pytest.warns(EomcWarning, match=r"^chain\.xml: 1 self-collision pair\(s\) left out \(--pairs all or "
-                                         r"MjcfModel\(path, pairs=True\) adds them\)$"):
-        assert main(["inspect", str(path), "-q"]) == 0
-    assert "k_ga__gc" not in capsys.readouterr().out
     urdf = tmp_path / "r.urdf"
     urdf.write_text('<robot name="r"><link name="base"/></robot>')
     assert main(["inspect", str(urdf), "--pairs", "all", "-q"]) != 0
@@ -163,6 +160,6 @@ def _quiet():
     @contextlib.contextmanager
     def ctx():
         with warnings.catch_warnings():
-            warnings.simplefilter("error", EomcWarning)      # no note when --pairs is given
+            warnings.simplefilter("error", EomcWarning)      # no note: nothing left out unasked
             yield
     return ctx()

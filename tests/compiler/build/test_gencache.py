@@ -76,12 +76,19 @@ def test_key_follows_the_generator_switches(tmp_path, monkeypatch):
     # pairs.LAW_ROUTINES (each pair one call of its kinds' law routine) and pairs.PAIR_TABLE (every
     # pair in one table-driven loop, compiler/contact/table.py) likewise
     for switch in ("LAW_ROUTINES", "PAIR_TABLE"):
-        law = []
-        for flag in (False, True, False):
+        law, default = [], getattr(pairs, switch)          # PAIR_TABLE: on by default
+        for flag in (default, not default, default):
             monkeypatch.setattr(pairs, switch, flag)
             law.append((generation_key(model_spec(path), None, False), source_key(path, {})))
         assert law[0] == law[2] == keys[0], switch
         assert law[0][0] != law[1][0] and law[0][1] != law[1][1], switch
+    # pairs.TABLE_FROM (the fewest pairs of a tree that take the table) likewise
+    sizes = []
+    for n in (pairs.TABLE_FROM_DEFAULT, 1, pairs.TABLE_FROM_DEFAULT):
+        monkeypatch.setattr(pairs, "TABLE_FROM", n)
+        sizes.append((generation_key(model_spec(path), None, False), source_key(path, {})))
+    assert sizes[0] == sizes[2] == keys[0]
+    assert sizes[0][0] != sizes[1][0] and sizes[0][1] != sizes[1][1]
 
 
 def test_digest_distinguishes_structure_and_assumptions():

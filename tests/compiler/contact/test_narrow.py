@@ -17,6 +17,15 @@ pytest.importorskip("mujoco")
 import eomc  # noqa: E402
 import eomc.compiler.contact.pairs as pairs  # noqa: E402
 
+
+@pytest.fixture(autouse=True)
+def _not_the_table(monkeypatch):
+    """This module checks the inlined and called narrow phases (and compares the table against
+    them): each test starts without pairs.PAIR_TABLE (the default since session 11), and the ones
+    about the table set it themselves, for any number of pairs: TABLE_FROM 1)."""
+    monkeypatch.setattr(pairs, "PAIR_TABLE", False)
+    monkeypatch.setattr(pairs, "TABLE_FROM", 1)
+
 # a static box (the table), a turned box, a ball: box–box (16 points) and sphere–box (the kinds
 # with a cylinder are compiled and checked against the signed distances in test_solid_pairs_built)
 XML = """<mujoco model="nw"><worldbody>

@@ -17,6 +17,14 @@ import eomc.compiler.contact.pairs as pairs  # noqa: E402
 import eomc.compiler.formulations.recursive as recursive  # noqa: E402
 from eomc.compiler.contact.pairs import bounding_radius  # noqa: E402
 
+
+@pytest.fixture(autouse=True)
+def _not_the_table(monkeypatch):
+    """This module checks the inlined and called narrow phases (and compares the table against
+    them): each test starts without pairs.PAIR_TABLE (the default since session 11), and the ones
+    about the table set it themselves."""
+    monkeypatch.setattr(pairs, "PAIR_TABLE", False)
+
 # a static box (the table), a sphere, a body with a capsule and a sphere off its mass centre, a
 # turned box: sphere–sphere, sphere–capsule, sphere–box, capsule–box and box–box (16 corners)
 XML = """<mujoco model="pg"><worldbody>

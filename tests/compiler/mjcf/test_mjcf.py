@@ -431,8 +431,11 @@ def test_servos_and_clamping_match_mj_forward(tmp_path):
     and jac_x, jac_r, jac_p against central differences (the clamps' slopes included)."""
     path = tmp_path / "servo.xml"
     path.write_text(SERVO)
-    model = eomc.compile(str(path), functions=["rhs", "jac_x", "jac_r", "jac_p"], cache_dir=tmp_path / "c",
-                         progress=False)
+    # without the a-c self-pair (in by default since session 11): at these random states it is
+    # pressed deep (rhs ~1e6), and the central differences' rounding, eps |rhs| / h ~ 4e-4, is
+    # above the bar; this test is about the servos (the pair's own checks: tests/compiler/contact)
+    model = eomc.compile(MjcfModel(path, pairs="trees"), "servo", functions=["rhs", "jac_x", "jac_r", "jac_p"],
+                         cache_dir=tmp_path / "c", progress=False)
     assert model.input_names == ("ctrl_p1", "ctrl_v2", "ctrl_m2", "ctrl_p3", "ctrl_g3")
     assert {"arm_j1", "gain_p1", "bias1_p1", "bias2_p1", "bias2_v2", "gain2_g3", "bias0_g3"} <= set(model.param_names)
     assert _worst(model, path, trials=8) < 1e-10

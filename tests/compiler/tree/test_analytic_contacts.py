@@ -153,6 +153,7 @@ def test_body_body_pairs_through_the_table(monkeypatch, tmp_path):
     path = tmp_path / "limbs.xml"
     path.write_text(LIMBS.replace("<worldbody>", '<worldbody><geom name="floor" type="plane" size="5 5 0.1"/>'))
     monkeypatch.setattr(pairs, "PAIR_TABLE", True)
+    monkeypatch.setattr(pairs, "TABLE_FROM", 1)         # the table for any number of pairs
     fns = FNS + ["outputs", "jac_id"]
     plan = an.analytic_plan
     built = {}
