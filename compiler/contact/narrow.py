@@ -123,16 +123,22 @@ def _number(x):
     return sm.S.Zero if x == 0 else sm.Float(x, 17)
 
 
-class NarrowCall(sm.Function):
-    """NarrowCall(routine, uid, *inputs): the pair's narrow phase, run once; its outputs are
-    read by :class:`NarrowOut`.  Its own value is a token (0.0, the C function's return)."""
+class Token(sm.Function):
+    """A routine's call in the expression graph: its own value is a token (0.0, the C function's
+    return), its outputs are read by other nodes (NarrowOut, table.PairTableOut), so it has no
+    derivative of its own (the outputs' tangents come from their ``forward``)."""
     is_real = True
 
     def _eval_derivative(self, s):
-        return sm.S.Zero        # a token: the values are its NarrowOut's (their tangents: forward)
+        return sm.S.Zero
 
     def forward(self, dd, k):
         return sm.S.Zero
+
+
+class NarrowCall(Token):
+    """NarrowCall(routine, uid, *inputs): the pair's narrow phase, run once; its outputs are
+    read by :class:`NarrowOut`."""
 
     def c_declaration(self):
         return f"double NP{int(self.args[1])}_[{routine_outputs(int(self.args[0]))}];"
@@ -170,17 +176,10 @@ class NarrowTapeCall(NarrowCall):
         return self
 
 
-class NarrowDot(sm.Function):
+class NarrowDot(Token):
     """NarrowDot(routine, uid, call, call uid, *input tangents): the outputs' tangents, into
     ``ND<uid>_``, from the tape the call (a temporary: it keeps the call before this one in every
     pass) wrote after its outputs in ``NP<call uid>_``."""
-    is_real = True
-
-    def _eval_derivative(self, s):
-        return sm.S.Zero
-
-    def forward(self, dd, k):
-        return sm.S.Zero
 
     def tape_of(self):
         """The temporaries whose call must write a tape (compiler/emit/generate.py: ``taped()``)."""

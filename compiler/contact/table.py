@@ -140,17 +140,10 @@ def lower_table(loads, bodies, rec, v, rename, poses, wrenches=None):
     return values
 
 
-class PairTableCall(sm.Function):
+class PairTableCall(nw.Token):
     """PairTableCall(table id, full, *inputs): the pairs' loop, run once; its outputs are read by
     :class:`PairTableOut`.  Its own value is a token (the C function's return, 0.0)."""
-    is_real = True
     c_token = True
-
-    def _eval_derivative(self, s):
-        return sm.S.Zero
-
-    def forward(self, dd, k):
-        return sm.S.Zero
 
     @property
     def table(self):
@@ -193,17 +186,10 @@ class PairTableTapeCall(PairTableCall):
         return self
 
 
-class PairTableDot(sm.Function):
+class PairTableDot(nw.Token):
     """PairTableDot(table id, uid, call, full, *input tangents): the outputs' tangents, into
     ``PD<uid>_``, from the primal inputs the call stored after its outputs."""
-    is_real = True
     c_token = True
-
-    def _eval_derivative(self, s):
-        return sm.S.Zero
-
-    def forward(self, dd, k):
-        return sm.S.Zero
 
     def tape_of(self):
         return (self.args[2],)

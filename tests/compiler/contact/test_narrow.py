@@ -101,7 +101,11 @@ def test_law_routines_are_the_inlined_schemes(tmp_path, monkeypatch):
     assert "_tape(" not in rhs and jac.count("eomc_narrow_box_box_tape(") == 1
     monkeypatch.setattr(pairs, "LAW_ROUTINES", False)
     inline = _build(tmp_path, "inline", ("rhs", "jac_x", "jac_p", "outputs"))
-    X = _agree(called, inline)
+    _agree_jac_p(called, inline, _agree(called, inline))
+
+
+def _agree_jac_p(called, inline, X):
+    """Assert ``called``'s jac_p equals ``inline``'s (not all zero) at the first 50 of states X."""
     for x in X[:50]:
         ja, jb = called.jac_p(0.0, x), inline.jac_p(0.0, x)
         assert np.all(np.isfinite(jb)) and np.abs(jb).max() > 0
@@ -151,11 +155,7 @@ def test_pair_table_is_the_inlined_schemes(tmp_path, monkeypatch):
     assert ", 1, &PT_[0])" in _function(source, "nw_outputs")     # outputs: every point
     monkeypatch.setattr(pairs, "PAIR_TABLE", False)
     inline = _build(tmp_path, "inline", ("rhs", "jac_x", "jac_p", "outputs"))
-    X = _agree(called, inline)
-    for x in X[:50]:
-        ja, jb = called.jac_p(0.0, x), inline.jac_p(0.0, x)
-        assert np.all(np.isfinite(jb)) and np.abs(jb).max() > 0
-        assert np.abs(ja - jb).max() <= 1e-12 * (1 + np.abs(jb).max())
+    _agree_jac_p(called, inline, _agree(called, inline))
 
 
 # a chain's limbs (one tree: self-pairs, pairs=True) and a free ball: capsule–capsule, sphere–capsule,
