@@ -238,7 +238,8 @@ class NarrowOut(sm.Function):
 
 
 _REFUSAL = ("second derivatives and reverse sweeps (hvp, vjp) of a body–body contact pair's narrow phase are "
-            "not generated: build without them, or without the pairs (pairs=False / --pairs none)")
+            "not generated: build without them, or without the pairs (the self-collisions: "
+            "pairs=\"trees\" / --pairs trees; every body–body pair: pairs=False / --pairs none)")
 
 
 def routine_outputs(rid):
