@@ -23,7 +23,7 @@ import sympy as sm
 
 from eomc.runtime.errors import ModelError
 from ..ir import Names
-from .diff import _FLAT, _add, _mul, _pow, _zero
+from .diff import _FLAT, _add, _mul, _slope, _zero
 from .timing import compiler_pass
 
 __all__ = ["adjoint"]
@@ -54,7 +54,7 @@ def _partial(expr, s):
         db = _partial(expr.base, s)
         if _zero(db):
             return sm.S.Zero
-        return _mul((expr.exp, _pow(expr.base, expr.exp - 1), db))
+        return _mul(_slope(expr.base, expr.exp) + (db,))
     if isinstance(expr, _FLAT):
         return sm.S.Zero
     if isinstance(expr, sm.Function) and len(expr.args) == 1:

@@ -64,6 +64,59 @@ def _pow(base, exp):
     return sm.Pow(base, exp, evaluate=False)
 
 
+class cusp_pow(sm.Function):
+    """|u|^e with e < 0 (``cusp_pow(|u|, e)``), taken as 0 where |u| = 0: the slope factor of
+    |u|^(e + 1) with 0 < e + 1 < 1, guarded.
+
+    Why: the contact law's k δ₊^{3/2} (compiler/contact/law.py) is written |δ₊|^{3/2}; its first
+    derivative (3/2)|δ₊|^{1/2}·sign(δ₊)·dδ₊ is finite everywhere, but the second (hvp, hess_id)
+    holds (3/4)|δ₊|^{-1/2}·sign(δ₊)·dδ₊, which is ∞·0 = NaN wherever the point is out of contact
+    (δ₊ = 0 exactly).  The factor that multiplies it there is sign(0) = 0: out of contact the law
+    is identically 0 near the state, so every derivative is 0, and the guarded factor gives 0·0.
+    At δ = 0 exactly the one-sided second derivative is +∞; the convention is the law's own
+    branch, δ ≤ 0 out of contact: 0 (docs/derivatives.md).  In C a conditional expression, which
+    evaluates only the branch it takes, so no ∞ is ever formed."""
+    nargs = 2
+
+    def fdiff(self, argindex=1):
+        if argindex != 1:
+            raise sm.ArgumentIndexError(self, argindex)
+        base, exp = self.args
+        return exp * cusp_pow(base, exp - 1)
+
+    def _eval_evalf(self, prec):
+        base = self.args[0].evalf(prec)
+        if not base.is_Number:
+            return None
+        return sm.S.Zero if base == 0 else sm.Pow(base, self.args[1]).evalf(prec)
+
+    def _guarded(self, printer, zero):
+        base, exp = self.args
+        return (f"(({printer._print(base)}) != {zero} ? "
+                f"{printer._print(sm.Pow(base, exp, evaluate=False))} : {zero})")
+
+    def _ccode(self, printer):
+        return self._guarded(printer, "0.0")
+
+    def _numpycode(self, printer):
+        base = printer._print(self.args[0])
+        return f"numpy.where(({base}) != 0, {base}, 1.0) ** ({printer._print(self.args[1])}) * (({base}) != 0)"
+
+    def _pythoncode(self, printer):
+        return self._guarded(printer, "0")
+
+
+def _slope(base, exp):
+    """The factors (exp, base^(exp - 1)) of d(base^exp)/d(base), with the cusp of |u|^exp (0 < exp < 1, where the
+    factor |u|^(exp - 1) is ∞ at u = 0) guarded by :class:`cusp_pow`.  Only an |.| base with a
+    fractional exponent below 1 is guarded: that is a derivative of the contact law's |δ₊|^{3/2}
+    taken a second time; every first derivative the generated C held before is unchanged."""
+    low = exp - 1
+    if isinstance(base, sm.Abs) and low.is_Number and low < 0 and not low.is_Integer:
+        return exp, cusp_pow(base, low)
+    return exp, _pow(base, low)
+
+
 class _Diff:
     """Chain rule over a program.  ``dirs`` maps an input symbol to (direction k, its
     derivative along k): (k, 1) for a Jacobian column, (0, seed symbol) for a tangent."""
@@ -122,8 +175,7 @@ class _Diff:
             res = _add(terms)
         elif expr.is_Pow and k not in self.deps_of(expr.exp):
             db = self.d(expr.base, k)
-            res = (_mul((expr.exp, _pow(expr.base, expr.exp - 1), db)) if not _zero(db)
-                   else sm.S.Zero)
+            res = _mul(_slope(expr.base, expr.exp) + (db,)) if not _zero(db) else sm.S.Zero
         elif isinstance(expr, _FLAT):       # |x|'s derivative: flat but at 0
             res = sm.S.Zero
         elif isinstance(expr, sm.Function) and len(expr.args) == 1:

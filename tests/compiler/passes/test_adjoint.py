@@ -81,3 +81,25 @@ def test_equal_symbols_that_are_different_objects():
     assert twin == x and twin is not x
     e = sm.Mul(X[1], sm.Add(sm.Mul(-1, X[2], twin), X[3]))
     assert sm.expand(_partial(e, x) - sm.diff(e, x)) == 0 and _partial(e, x) != 0
+
+
+def test_the_contact_laws_cusp_is_guarded_in_second_derivatives():
+    """k·|δ₊|^{3/2} (compiler/contact/law.py), δ₊ = (δ + |δ|)/2: forward over reverse (hvp) and
+    forward over forward (hess_id) give 0 out of contact (they gave (3/4)k|δ₊|^{-1/2}·0 = ∞·0 = NaN),
+    the closed form (3/4)k δ^{-1/2} in contact, and 0 at δ = 0 exactly (the law's branch δ ≤ 0:
+    docs/derivatives.md); first derivatives hold no guard."""
+    from eomc.compiler.passes import differentiate
+    from eomc.compiler.passes.diff import _slope, cusp_pow
+    d, k = X[0], P[0]
+    law = k * sm.Abs((d + sm.Abs(d)) / 2) ** sm.Rational(3, 2)
+    prog = cse(_program([law]))
+    rev = verify(tangent(verify(adjoint(prog, {("out", 0): L[0]}, (d,), "g")), "g", {d: V[0]}, "h"))
+    fwd = verify(differentiate(verify(differentiate(prog, "out", (d,), "j")), "j", (d,), "jj"))
+    for at, want in ((-0.3, 0.0), (0.0, 0.0), (0.25, 0.75 * 2.0 * 0.25 ** -0.5)):
+        env = {**{s: 0.5 for s in X + P + L + V}, d: at, k: 2.0, L[0]: 1.0, V[0]: 1.0}
+        h, jj = evaluate(rev, env)[("h", 0)], evaluate(fwd, env)[("jj", 0, 0, 0)]
+        assert h == want and jj == want if want == 0 else abs(h - want) + abs(jj - want) <= 1e-12 * want
+    assert isinstance(_slope(sm.Abs(d), sm.Rational(1, 2))[1], cusp_pow)
+    assert _slope(sm.Abs(d), sm.Rational(3, 2))[1] == sm.Pow(sm.Abs(d), sm.Rational(1, 2))   # first order
+    assert _slope(d, sm.Rational(1, 2))[1] == sm.Pow(d, -sm.Rational(1, 2))               # not an |.| base
+    assert sm.ccode(cusp_pow(sm.Abs(d), -sm.Rational(1, 2))).endswith(" : 0.0)")
