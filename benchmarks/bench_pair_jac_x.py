@@ -59,6 +59,10 @@ def main(argv):
         run = table.simulate(table.initial_state, (0.0, TIMES[-1]), t_eval=np.array(TIMES))
     view = Mapped(path, table)
     m, d = view.m, view.d
+    from eomc.compiler.mjcf.model import load_mjmodel
+    mfd = load_mjmodel(path)     # mjd_transitionFD takes Euler or implicit steps, not the file's RK4
+    mfd.opt.integrator = mujoco.mjtIntegrator.mjINT_EULER
+    dfd = mujoco.MjData(mfd)
     names = list(table.output_names)
     fn = [i for i, k in enumerate(names) if k.startswith("Fn_") and "__" in k]
     nv = m.nv
@@ -68,9 +72,10 @@ def main(argv):
     for t, x in zip(TIMES, run.x):
         pressed = int(np.count_nonzero(np.array(list(table.outputs(0.0, x).values()))[fn] > 0))
         d.qpos[:], d.qvel[:] = to_mujoco(m, view.built, x[:table.nq], x[table.nq:table.nq + table.nu])
+        dfd.qpos[:], dfd.qvel[:] = d.qpos, d.qvel
         contestants = {k: (lambda mm=mm: mm.jac_x(0.0, x)) for k, mm in models.items()}
         contestants["mj_forward"] = lambda: mujoco.mj_forward(m, d)
-        contestants["mjd_transitionFD"] = lambda: mujoco.mjd_transitionFD(m, d, 1e-6, 0, A, B, None, None)
+        contestants["mjd_transitionFD"] = lambda: mujoco.mjd_transitionFD(mfd, dfd, 1e-6, 0, A, B, None, None)
         samples = {k: [] for k in contestants}
         for _ in range(rounds):
             for k, call in contestants.items():
@@ -87,7 +92,7 @@ def main(argv):
         "20), at the states of the humanoid's passive fall from its initial state (eomc, default build); "
         "jac_x: eomc's (46 x 46, the rhs's state Jacobian); MuJoCo at the same qpos and qvel: mj_forward, "
         "and mjd_transitionFD (forward differences, eps 1e-6, the (2 nv) x (2 nv) transition matrix of one "
-        "step: 2 nv + 1 steps)."])
+        "step: 2 nv + 1 steps; the file's RK4 set to Euler, which it requires)."])
     print(text)
     if "--no-write" not in argv:
         write_results("pair_jac_x", text, keep_notes=True)
