@@ -2710,16 +2710,37 @@ typedef struct fs_glue {
     const eomc_implicit *imp;
 } fs_glue;
 
-/* NAME_implicit with the run's inputs at t (as frhs: grid or callback; counted in nfev). */
-static int fs_terms(void *g, double t, const double *x, double *out)
+/* The run's inputs at t before a model call (as frhs: grid or callback); an eomc_status. */
+static int fs_inputs(ctx *c, double t, const double *x)
 {
-    ctx *c = ((fs_glue *)g)->c;
     int s;
     if (aborted(c)) { c->st->t_fail = t; return c->abort; }
     if (!c->fb) grid_inputs_at(c, t);
     else if ((s = inputs_at(c, t, x))) { c->st->t_fail = t; return s; }
     c->st->nfev++;
+    return EOMC_OK;
+}
+
+/* NAME_implicit with the run's inputs at t (counted in nfev). */
+static int fs_terms(void *g, double t, const double *x, double *out)
+{
+    ctx *c = ((fs_glue *)g)->c;
+    int s;
+    if ((s = fs_inputs(c, t, x))) return s;
     s = ((fs_glue *)g)->imp->terms(t, x, c->p, c->r, out, c->mwork);
+    if (s != EOMC_OK) c->st->t_fail = t;
+    return s;
+}
+
+/* fs_terms through the implicit's terms_lu (the lanes rollout's; eomc_fixedstep.h). */
+static int fs_terms_lu(void *g, double t, const double *x, double *out, double h, double *A, double *b,
+                       int *done)
+{
+    ctx *c = ((fs_glue *)g)->c;
+    int s;
+    *done = 0;
+    if ((s = fs_inputs(c, t, x))) return s;
+    s = ((fs_glue *)g)->imp->terms_lu(t, x, c->p, c->r, out, h, A, b, done, c->mwork);
     if (s != EOMC_OK) c->st->t_fail = t;
     return s;
 }
@@ -2781,10 +2802,11 @@ static int run_implicitfast(ctx *c, const eomc_options *o, proj *pj, double t0, 
                             double *x, outw *ow, double **pos)
 {
     fs_glue g = {c, pj, ow, o->implicit};
-    eomc_fs_ops ops = {&g, fs_rhs, fs_jac, fs_accept, NULL, NULL, 0, 0};
+    eomc_fs_ops ops = {&g, fs_rhs, fs_jac, fs_accept, NULL, NULL, 0, 0, NULL};
     int fast = fs_fast_ok(c, o, pj), s;
     if (fast) {
         ops.terms = fs_terms;
+        if (o->implicit->terms_lu) ops.terms_lu = fs_terms_lu;
         ops.imp = o->implicit;
         ops.nq = c->m->nq;
         ops.nu = c->m->nu;
