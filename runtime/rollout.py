@@ -175,8 +175,11 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method="rk4", p=No
     lanes=True with method="implicitfast" (a model built with ``implicit_batch``; its fast path,
     no feedback or events): each C thread runs as many rows at once as the machine has double
     lanes, each row the scalar row's code in a fiber, and their NAME_implicit calls are made
-    together, one NAME_implicit_batch call per round (eomc_rollout_implicit_lanes): every row
-    is the scalar rollout's row step for step (bit for bit with -DEOMC_BATCH_LIBM_TRIG).
+    together, one NAME_implicit_batch call per round (eomc_rollout_implicit_lanes), and with
+    them each row's step matrix is assembled and factored for the whole group in vector code
+    (eomc_fs_assemble_lanes, runtime/c/eomc_fixedstep.c; AVX2, 4 rows per vector):
+    every row is the scalar rollout's row step for step (bit for bit with
+    -DEOMC_BATCH_LIBM_TRIG; the assembly in lanes is bit for bit in any case).
     """
     method = named = resolve_method(method)
     auto = method == "auto"

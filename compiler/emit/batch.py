@@ -64,6 +64,11 @@ _POINTER_DECL = re.compile(r"^(\s+)const double \*([A-Za-z_]\w*);$")
 _POINTER_SET = re.compile(r"^(\s+)([A-Za-z_]\w*) = ([A-Za-z_]\w*) \+ k \* (\d+);$")
 _SCRATCH_DECL = re.compile(r"^(\s+)double ([A-Za-z_]\w*)\[(\d+)\];$")
 _CALL_LINE = re.compile(r"^(\s+)([A-Za-z_]\w*)\((.*)\);$")
+# the body-body pairs' table loop (compiler/contact/table.py): one call on a compound literal of
+# its inputs, the law parameters, full, and the output array
+_PAIRS_LINE = re.compile(r"^(\s+)const double (t\d+) = (eomc_pairs)\(\(const double\[(\d+)\]\)\{(.*)\}, "
+                         r"&([A-Za-z_]\w*)\[(\d+)\], (0|1), &([A-Za-z_]\w*)\[(\d+)\]\);$")
+_VOID_TEMP = re.compile(r"^\s+\(void\)t\d+;$")
 _GUARD_LINE = re.compile(r"^(\s+)if \((.*)\) return (EOMC_[A-Z_]+);$")
 _FINITE_RETURN = re.compile(r"^(\s+)return [A-Za-z_]\w*_finite(?:_wide)?\((?:xdot|out), \d+\);$")
 # a branch of the scalar code (a contact's depth test, a pair's broad phase): in lanes, a mask
@@ -399,6 +404,7 @@ class _Rewriter:
         self.blocks = []            # open blocks: None (a loop, a scalar branch) or a branch's masks
         self.nbranch = 0            # branches so far (their masks' names)
         self.masked = set()         # arrays stored under a mask (the other lanes' old values read)
+        self.sizes = {}             # local arrays' declared sizes
 
     @property
     def mask(self):
@@ -561,6 +567,39 @@ class _Rewriter:
             text = f"(eomc_vd)(((eomc_vu)({text}) & {mask}) | ((eomc_vu){target} & ~{mask}))"
         return f"{self.take_pre(indent)}{indent}{target} = {text};"
 
+    def pairs_call(self, indent, name, fn, nin, items, pars, offset, full, array, first):
+        """The pairs' table loop (eomc_pairs: a static C function of loops over the pairs, with a
+        broad phase that skips far pairs) lane by lane: each lane's inputs gathered, the scalar
+        function called, its outputs put in the lane (its bits, whatever its branches do).  The
+        law parameters must be shared (NAME_implicit_batch's p), the call outside every branch."""
+        if pars not in self.scalar_arrays:
+            raise Unsupported(f"calls {fn}() with parameters in lanes")
+        if self.mask is not None or array not in self.vec_arrays or array not in self.sizes:
+            raise Unsupported(f"calls {fn}() under a branch or into {array}[]")
+        elems, depth, start = [], 0, 0
+        for j, ch in enumerate(items + ","):
+            depth += {"(": 1, ")": -1}.get(ch, 0)
+            if ch == "," and depth == 0:
+                elems.append(items[start:j].strip())
+                start = j + 1
+        if len(elems) != int(nin):
+            raise Unsupported(f"calls {fn}() with {len(elems)} inputs for {nin}")
+        for e in elems:
+            self.is_vector(e)          # refuses unknown arrays
+            if _CALL.search(e):
+                raise Unsupported(f"calls {fn}() on a call")
+        nout = self.sizes[array] - int(first)
+        inputs = ", ".join(self.lanes(e) for e in elems)
+        return (f"{indent}double {name} = 0.0;\n"
+                f"{indent}for (l_ = 0; l_ < EOMC_BATCH_LANES; l_++) {{   /* the pairs' loop, lane by lane */\n"
+                f"{indent}    const double in_[{nin}] = {{{inputs}}};\n"
+                f"{indent}    double out_[{nout}];\n"
+                f"{indent}    int k_;\n"
+                f"{indent}    __builtin_memset(out_, 0, sizeof out_);   /* what a far pair leaves unwritten */\n"
+                f"{indent}    {name} = {fn}(in_, &{pars}[{offset}], {full}, out_);\n"
+                f"{indent}    for (k_ = 0; k_ < {nout}; k_++) {array}[{first} + k_][l_] = out_[k_];\n"
+                f"{indent}}}")
+
     def lanes(self, expr):
         """``expr`` read at lane ``l_``: vector temporaries and vector arrays subscripted."""
         expr = _TEMP.sub(lambda m: f"{m.group(0)}[l_]" if m.group(0) in self.vtemps else m.group(0), expr)
@@ -571,6 +610,11 @@ class _Rewriter:
 def _statement(rw, line, parts_renamed):
     """One line of a function body, rewritten; raises Unsupported on an unknown shape."""
     if not line.strip():
+        return line
+    m = _PAIRS_LINE.match(line)
+    if m:
+        return rw.pairs_call(*m.groups())
+    if _VOID_TEMP.match(line):
         return line
     m = _TEMP_LINE.match(line)
     if m:
@@ -583,6 +627,7 @@ def _statement(rw, line, parts_renamed):
     m = _SCRATCH_DECL.match(line)
     if m:
         rw.vec_arrays.add(m.group(2))
+        rw.sizes[m.group(2)] = int(m.group(3))
         return f"{m.group(1)}eomc_vd {m.group(2)}[{m.group(3)}];"
     m = _CALL_LINE.match(line)
     if m and m.group(2) in parts_renamed:
@@ -692,7 +737,7 @@ def _param_list(params, rw):
         const, restrict, name = m.groups()
         if name in rw.scalar_arrays:     # shared parameters: one double for every lane
             out.append(param)
-        elif name in ("x", "r", "F", "w", "p", "P", "Gm", "an", "out", "G_") or name.startswith("S"):
+        elif name in ("x", "r", "F", "w", "p", "P", "Gm", "an", "out", "G_", "PT_") or name.startswith("S"):
             rw.vec_arrays.add(name)
             out.append(f"{const or ''}eomc_vd *{restrict or ''}{name}")
         else:

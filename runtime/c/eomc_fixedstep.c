@@ -57,6 +57,7 @@
 
 #include <float.h>
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 #define RESID_FRACTION 0.2    /* |r| <= this * |dx - h f| (+ a floor): W is good enough */
@@ -596,6 +597,141 @@ static int fs_assemble(const eomc_fs_ops *ops, const fs_layout *L, double h, con
     return EOMC_OK;
 }
 
+/* ------------------------------------------------ the assembly in lanes (eomc_fixedstep.h)
+ *
+ * Why: in an implicitfast rollout in lanes (eomc_rollout.c) the model call is one batch call for
+ * a group of rows, but each row's fs_assemble stayed scalar: on G1 (35 speeds, eight foot spheres)
+ * perf put it at about 40 % of the integrator's time, most of it fs_tree_lu's indirect updates
+ * (about 3200 of them per step).  Here the same updates run on vectors of one entry of every lane's
+ * matrix, the slots of M's tree pattern (fs_columns) listed once in the elimination's order. */
+
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(EOMC_NO_FS_LANES)
+#define EOMC_FS_LANES 1
+#endif
+
+struct eomc_fs_lanes {
+    fs_layout L;
+    int nq, nu, lanes, width, nslot;   /* width: the kernel's lanes (lanes: a multiple of it) */
+    const eomc_implicit *imp;
+    void (*kernel)(eomc_fs_lanes *, const double *, const double *, size_t, const double *, double *const *,
+                   double *const *, int *);
+    int *slot_ij;        /* nslot: i * nu + j of each slot (M's pattern, row by row) */
+    int *diag;           /* nu: the slot of (i, i) */
+    int *start, *anc;    /* fs_ancestors */
+    int *upd;            /* per k from nu - 1 down: the na slots (k, a[y]); per x, (a[x], k) and
+                            the na slots (a[x], a[y]) */
+    int *cslot_start, *cslot;  /* per contact, the m x m slots (chain[a], chain[k]) */
+    double *A, *b, *J, *GJ;    /* 64-byte aligned: nslot, nu, 3 nu, 3 nu vectors of lanes */
+    double *sink;              /* nu * nu: where the lanes not written out go */
+    void *mem;
+};
+
+/* One kernel, 4 lanes (AVX2), run over a batch of 8 lanes (AVX-512) in two groups: measured on G1
+ * (35 speeds, 647 slots; 8 states standing on their 8 foot spheres, core 0) the 8-wide kernel
+ * (avx512f) took 3.3 us a row against 2.6 for two 4-wide groups (the scalar fs_assemble: 4.9), and
+ * the 64-row rollout 363 against 342 ms: eight interleaved matrices are 41 KB, past the 32 KB L1,
+ * four are 21 KB.  Same bits either way (each lane is the scalar code). */
+#ifdef EOMC_FS_LANES
+#define FSL_W 4
+#define FSL_TARGET "avx2"
+#include "eomc_fs_lanes_body.h"
+#undef FSL_W
+#undef FSL_TARGET
+#endif
+
+void eomc_fs_lanes_free(eomc_fs_lanes *w)
+{
+    if (w == NULL) return;
+    free(w->mem);
+    free(w->slot_ij);
+    free(w);
+}
+
+eomc_fs_lanes *eomc_fs_lanes_new(int nq, int nu, const eomc_implicit *imp, int lanes)
+{
+    eomc_fs_lanes *w;
+    int *slot = NULL, *cstart, *cols, nc = imp ? imp->ncontact : 0, ncs = 0, nupd = 0, pos;
+    size_t n = (size_t)nu, ints;
+    void (*kernel)(eomc_fs_lanes *, const double *, const double *, size_t, const double *, double *const *,
+                   double *const *, int *) = NULL;
+    int width = 0;
+#ifdef EOMC_FS_LANES
+    __builtin_cpu_init();
+    if ((lanes == 4 || lanes == 8) && __builtin_cpu_supports("avx2")) { kernel = fs_lanes_kernel4; width = 4; }
+#endif
+    if (kernel == NULL || imp == NULL || nu <= 0 || nc < 0 || (nc > 0 && (!imp->chain_start || !imp->chain)))
+        return NULL;
+    if ((w = (eomc_fs_lanes *)calloc(1, sizeof *w)) == NULL) return NULL;
+    w->L = fs_layout_of(nq, nu, nc);
+    w->nq = nq; w->nu = nu; w->lanes = lanes; w->width = width; w->imp = imp; w->kernel = kernel;
+    for (int c = 0; c < nc; c++) {
+        size_t m = (size_t)(imp->chain_start[c + 1] - imp->chain_start[c]);
+        ncs += (int)(m * m);
+    }
+    /* ints: slot map (nu^2), start (nu+1), anc (nu^2), cstart (nu+1), cols (nu^2), diag (nu),
+     * slot_ij (nu^2), upd (at most nu^2 (nu + 1)), cslot_start (nc + 1), cslot */
+    ints = 4 * n * n + 3 * n + 2 + n * n * (n + 1) + (size_t)nc + 1 + (size_t)ncs;
+    if ((w->slot_ij = (int *)malloc(ints * sizeof(int))) == NULL) { free(w); return NULL; }
+    slot = w->slot_ij + n * n;
+    w->start = slot + n * n;
+    w->anc = w->start + n + 1;
+    cstart = w->anc + n * n;
+    cols = cstart + n + 1;
+    w->diag = cols + n * n;
+    w->upd = w->diag + n;
+    fs_ancestors(nu, imp->parent, w->start, w->anc);
+    fs_columns(nu, w->start, w->anc, cstart, cols);
+    for (size_t i = 0; i < n * n; i++) slot[i] = -1;
+    w->nslot = cstart[nu];
+    for (int i = 0; i < nu; i++)
+        for (int x = cstart[i]; x < cstart[i + 1]; x++) {
+            w->slot_ij[x] = i * nu + cols[x];
+            slot[(size_t)i * n + cols[x]] = x;
+        }
+    for (int i = 0; i < nu; i++) w->diag[i] = slot[(size_t)i * n + i];
+    for (int k = nu - 1; k >= 0; k--) {
+        const int *a = w->anc + w->start[k];
+        int na = w->start[k + 1] - w->start[k];
+        for (int y = 0; y < na; y++) w->upd[nupd++] = slot[(size_t)k * n + a[y]];
+        for (int x = 0; x < na; x++) {
+            w->upd[nupd++] = slot[(size_t)a[x] * n + k];
+            for (int y = 0; y < na; y++) w->upd[nupd++] = slot[(size_t)a[x] * n + a[y]];
+        }
+    }
+    w->cslot_start = w->upd + nupd;
+    w->cslot = w->cslot_start + nc + 1;
+    pos = 0;
+    for (int c = 0; c < nc; c++) {
+        const int *ch = imp->chain + imp->chain_start[c];
+        int m = imp->chain_start[c + 1] - imp->chain_start[c];
+        w->cslot_start[c] = pos;
+        for (int a = 0; a < m; a++)
+            for (int k = 0; k < m; k++) w->cslot[pos++] = slot[(size_t)ch[a] * n + ch[k]];
+    }
+    w->cslot_start[nc] = pos;
+    for (int i = 0; i < nupd; i++)
+        if (w->upd[i] < 0) { eomc_fs_lanes_free(w); return NULL; }   /* not a tree pattern */
+    for (int i = 0; i < pos; i++)
+        if (w->cslot[i] < 0) { eomc_fs_lanes_free(w); return NULL; }  /* a chain not on one path */
+    {
+        size_t doubles = ((size_t)w->nslot + 7 * n) * (size_t)width + n * n;
+        if ((w->mem = malloc(doubles * sizeof(double) + 64)) == NULL) { eomc_fs_lanes_free(w); return NULL; }
+        w->A = (double *)(((size_t)w->mem + 63) & ~(size_t)63);
+        w->b = w->A + (size_t)w->nslot * width;
+        w->J = w->b + n * width;
+        w->GJ = w->J + 3 * n * width;
+        w->sink = w->GJ + 3 * n * width;
+    }
+    return w;
+}
+
+void eomc_fs_assemble_lanes(eomc_fs_lanes *w, const double *OUT, const double *U, const double *h,
+                            double *const *A, double *const *b, int *ok)
+{
+    for (int g = 0; g < w->lanes; g += w->width)
+        w->kernel(w, OUT + g, U + g, (size_t)w->lanes, h + g, A + g, b + g, ok + g);
+}
+
 /* The fast path's state for fs_loop.  T, A, b: the terms at the step's start x and (2)'s
  * factored matrix and right side for a step of hA; T1, A1, b1 the same at a trial end
  * (swapped in when the trial is kept: the next step's matrix is then ready). */
@@ -634,7 +770,7 @@ static int fs_fast_try(fs_fast *q, double t, double h, const double *x, int chec
 {
     const eomc_fs_ops *ops = q->ops;
     const fs_layout *L = &q->L;
-    int nq = ops->nq, nu = ops->nu, s;
+    int nq = ops->nq, nu = ops->nu, s, done = 0;
     const double *u = x + nq;
     double rn = 0.0, dn = 0.0;
     *ratio = INFINITY;
@@ -652,9 +788,13 @@ static int fs_fast_try(fs_fast *q, double t, double h, const double *x, int chec
     }
     for (int i = 0; i < nq + nu; i++)
         if (!isfinite(q->x1[i])) return EOMC_NONFINITE;
-    if ((s = ops->terms(ops->ctx, t + h, q->x1, q->T1))) return s;
-    if ((s = fs_assemble(ops, L, h, q->x1 + nq, q->T1, q->A1, q->b1, q->J, q->GJ, q->Kv,
-                         q->start, q->anc)))
+    if (ops->terms_lu) {                /* the lanes rollout: maybe assembled with other rows */
+        if ((s = ops->terms_lu(ops->ctx, t + h, q->x1, q->T1, h, q->A1, q->b1, &done))) return s;
+    } else if ((s = ops->terms(ops->ctx, t + h, q->x1, q->T1))) {
+        return s;
+    }
+    if (!done && (s = fs_assemble(ops, L, h, q->x1 + nq, q->T1, q->A1, q->b1, q->J, q->GJ, q->Kv,
+                                  q->start, q->anc)))
         return s;
     if (!check) {                       /* the residual test is off: nothing reads the ratio */
         *ratio = 0.0;

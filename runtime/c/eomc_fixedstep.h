@@ -31,6 +31,12 @@ typedef struct eomc_fs_ops {
     int (*terms)(void *ctx, double t, const double *x, double *out);
     const eomc_implicit *imp;
     int nq, nu;
+    /* Optional (NULL: terms, then the assembly here): terms, and the step's matrix and right
+     * side for a step of h from x assembled and factored into A, b as eomc_fixedstep.c's
+     * fs_assemble does, when the callee can (*done = 1; 0: only out was written, the caller
+     * assembles).  The lanes rollout's (eomc_rollout.c: several rows' assemblies at once). */
+    int (*terms_lu)(void *ctx, double t, const double *x, double *out, double h, double *A, double *b,
+                    int *done);
 } eomc_fs_ops;
 
 /* Doubles of work eomc_fs_run needs for nx states. */
@@ -42,5 +48,26 @@ size_t eomc_fs_work_size(int nx);
  * rejected = steps whose implicit equation was left unconverged). */
 int eomc_fs_run(const eomc_fs_ops *ops, eomc_stats *st, int nx, double h, long max_steps,
                 double t0, double t1, double *x, double *work);
+
+/* ------------------------------------------------ the fast path's assembly in lanes
+ *
+ * fs_assemble (the matrix and right side of the fast path's step, factored) for `lanes` states
+ * at once, the terms and speeds stored as columns (OUT[e * lanes + c], U[j * lanes + c]: what
+ * NAME_implicit_batch writes and reads) and the matrices interleaved (one per lane, entry by
+ * entry), so the elimination is vector code: every lane gets the scalar function's operations in
+ * its order, so its bits.  Internal to the runtime (the lanes rollout's). */
+typedef struct eomc_fs_lanes eomc_fs_lanes;
+
+/* The plan and scratch for nq, nu and imp's structure; NULL when this machine has no vector
+ * kernel for `lanes` (4 or 8 with AVX2: groups of 4) or out of memory. */
+eomc_fs_lanes *eomc_fs_lanes_new(int nq, int nu, const eomc_implicit *imp, int lanes);
+void eomc_fs_lanes_free(eomc_fs_lanes *w);
+
+/* For each lane c with A[c] != NULL: A[c], b[c] := fs_assemble of the terms OUT (32-byte
+ * aligned) for a step of h[c] at the speeds U (M's tree pattern of A[c] written; the rest of
+ * A[c] is not read by the fast path).  ok[c] = 1 when written; 0 when the lane's pivot test
+ * failed (nothing written: the caller runs the scalar assembly, which fails the same way). */
+void eomc_fs_assemble_lanes(eomc_fs_lanes *w, const double *OUT, const double *U, const double *h,
+                            double *const *A, double *const *b, int *ok);
 
 #endif /* EOMC_FIXEDSTEP_H */

@@ -1657,6 +1657,11 @@ typedef struct radau_sg {
     eomc_cplx *bc;
     double *rr, *rq;        /* the LU diagonals' reciprocals (real; complex as re, im pairs) */
     long lu_seen;           /* ... of the factorization with this nlu count */
+    int half;               /* q' = u (J's top rows [0 I]): the solves' order, else 0 (sg_half) */
+    double *Kr, *kr, *kq, *yr; /* sg_half's Schur complements: real K, reciprocals, rhs */
+    double *Bt, *acc;       /* J's bottom-right block transposed; the products B q (3 h) */
+    eomc_cplx *Kc, *yc;
+    int *pk, *pkc;
     double t_end;           /* the last stage's time this step: F0 + 2 n holds f(y + Z_2) there */
     int fuse;               /* f(ynew) from that jvp call: 0 not yet checked, 1 yes, -1 no */
     double faccon;          /* the sensitivities' theta / (1 - theta), as the state's */
@@ -1667,7 +1672,8 @@ typedef struct radau_sg {
 size_t eomc_stagger_work_size(int nx, int k, int ndir)
 {
     size_t kk = (size_t)(k > 0 ? k : 0), nk = (size_t)nx * kk;
-    return 26 * nk + 3 * kk * (size_t)ndir + 11 * (size_t)nx + 16;
+    return 26 * nk + 3 * kk * (size_t)ndir + 11 * (size_t)nx + 16
+           + 2 * (size_t)nx * (size_t)nx + 2 * nk + 6 * (size_t)nx;    /* sg_half's */
 }
 
 static void radau_sg_init(radau_sg *g, int n, int k, int ndir, double **pos)
@@ -1682,6 +1688,15 @@ static void radau_sg_init(radau_sg *g, int n, int k, int ndir, double **pos)
     g->ZSe = take(pos, 3 * nk); g->FSe = take(pos, 3 * nk);
     g->F0 = take(pos, 3 * (size_t)n); g->f1 = take(pos, n);   /* jvp's xdot outputs */
     g->rr = take(pos, n); g->rq = take(pos, 2 * (size_t)n); g->lu_seen = -1;
+    {
+        size_t h = (size_t)n / 2;
+        g->Kr = take(pos, h * h); g->Kc = (eomc_cplx *)take(pos, 2 * h * h);
+        g->kr = take(pos, h); g->kq = take(pos, 2 * h);
+        g->yr = take(pos, h * k); g->yc = (eomc_cplx *)take(pos, 2 * h * k);
+        g->pk = (int *)take(pos, h); g->pkc = (int *)take(pos, h);
+        g->Bt = take(pos, h * h); g->acc = take(pos, 3 * h);
+        g->half = 0;
+    }
     g->faccon = 1.0; g->have = 0; g->hprev = 1.0; g->tprev = 0.0;
     g->t_end = NAN; g->fuse = 0;
 }
@@ -1706,6 +1721,123 @@ static void sg_mix3(const double M[3][3], int transpose, const double *restrict 
     }
 }
 
+/* The S solves at half the order when the state is x = [q; u] with q' = u (J's top half
+ * rows [0 I] exactly, as a generated jac_x gives for a plain multibody model):
+ *     (mu I - J) [a; b] = [ra; rb]  <=>  (mu^2 I - mu B - A) a = rb + mu ra - B ra,
+ *                                         b = mu a - ra,
+ * A, B = J's bottom-left and bottom-right blocks, mu = the real or the complex eigenvalue
+ * over h.  Why: the staggered step's solves were ~590 ns a real + complex pair at n = 18
+ * (two pairs a step, perf, s11), latency-bound substitutions of length n; this is one
+ * matrix-vector product (independent rows) and substitutions of length n / 2, with the
+ * Schur complements factored once per factorization of the state's (sg_half_factor).  The
+ * state's Newton keeps its own LU (the plain run bit for bit); S comes out the same
+ * solution to rounding (n = 8 cart: 5e-15 relative; tests/runtime/test_sensitivity.py).
+ * Only from two columns on: the complements' factorizations (every ~3 steps on the cart)
+ * cost about what one column's solves save (A/B of runtime builds, 8-link cart, Radau
+ * 1e-8, core 0: one column 1.517 -> 1.519 x plain, four 2.168 -> 2.103).  Any other J
+ * (extra states, quaternions, a singular complement) keeps the full-order solve. */
+static int sg_half_factor(const radau_ws *w, radau_sg *g, int n, double mr, eomc_cplx mc)
+{
+    int h = n / 2;
+    if (n % 2 || h < 1) return 0;
+    for (int i = 0; i < h; i++)
+        for (int j = 0; j < n; j++)
+            if (w->J[(size_t)i * n + j] != (j == h + i ? 1.0 : 0.0)) return 0;
+    for (int i = 0; i < h; i++) {
+        const double *A = w->J + (size_t)(h + i) * n, *B = A + h;
+        for (int j = 0; j < h; j++) {
+            double d = i == j, re = d * CMUL_RE(mc, mc) - creal(mc) * B[j] - A[j],
+                   im = d * CMUL_IM(mc, mc) - cimag(mc) * B[j];
+            g->Kr[(size_t)i * h + j] = d * (mr * mr) - mr * B[j] - A[j];
+            g->Bt[(size_t)j * h + i] = B[j];
+            g->Kc[(size_t)i * h + j] = re + I * im;
+        }
+    }
+    if (lu_factor(h, g->Kr, g->pk) || lu_factor_c(h, g->Kc, g->pkc)) return 0;
+    for (int i = 0; i < h; i++) {
+        eomc_cplx q = c_recip(g->Kc[(size_t)i * h + i]);
+        g->kr[i] = 1.0 / g->Kr[(size_t)i * h + i];
+        g->kq[2 * i] = creal(q); g->kq[2 * i + 1] = cimag(q);
+    }
+    return 1;
+}
+
+/* acc = [B ra; B Re qa; B Im qa] (qa: complex as re, im pairs), B given transposed: each
+ * row's sum over j in order, the rows side by side (vectors across rows on CPUs with AVX2;
+ * the same sums either way, no FMA). */
+static inline __attribute__((always_inline))
+void sg_half_products_body(int h, const double *restrict Bt, const double *restrict ra,
+                           const double *restrict qa, double *restrict acc)
+{
+    double *restrict s = acc, *restrict sr = acc + h, *restrict si = acc + 2 * h;
+    for (int i = 0; i < 3 * h; i++) acc[i] = 0.0;
+    for (int j = 0; j < h; j++) {
+        const double a = ra[j], qr = qa[2 * j], qi = qa[2 * j + 1], *restrict b = Bt + (size_t)j * h;
+        for (int i = 0; i < h; i++) {
+            s[i] += b[i] * a;
+            sr[i] += b[i] * qr;
+            si[i] += b[i] * qi;
+        }
+    }
+}
+
+#ifdef EOMC_SG_AVX2
+__attribute__((target("avx2"), optimize("vect-cost-model=dynamic")))
+static void sg_half_products_avx2(int h, const double *Bt, const double *ra, const double *qa, double *acc)
+{
+    sg_half_products_body(h, Bt, ra, qa, acc);
+}
+#endif
+
+#if defined(__GNUC__) && !defined(__clang__)
+__attribute__((optimize("vect-cost-model=dynamic")))
+#endif
+static void sg_half_products(int h, const double *Bt, const double *ra, const double *qa, double *acc)
+{
+#ifdef EOMC_SG_AVX2
+    if (__builtin_cpu_supports("avx2")) {
+        sg_half_products_avx2(h, Bt, ra, qa, acc);
+        return;
+    }
+#endif
+    sg_half_products_body(h, Bt, ra, qa, acc);
+}
+
+/* B[:, c] (real) and Bc[:, c] (complex), c < k, solved in place with the state's Newton
+ * matrices (mr I - J, mc I - J) through sg_half_factor's complements. */
+static void sg_half_solve(radau_sg *g, int n, int k, double mr, eomc_cplx mc,
+                          double *B, eomc_cplx *Bc)
+{
+    int h = n / 2;
+    const double cr = creal(mc), ci = cimag(mc);
+    for (int c = 0; c < k; c++) {       /* complex vectors as (re, im) pairs of doubles */
+        const double *ra = B + (size_t)c * n, *rb = ra + h;
+        const double *qa = (const double *)(Bc + (size_t)c * n), *qb = qa + 2 * h;
+        double *y = g->yr + (size_t)c * h, *yc = (double *)(g->yc + (size_t)c * h);
+        const double *s = g->acc, *sr = s + h, *si = sr + h;
+        sg_half_products(h, g->Bt, ra, qa, g->acc);
+        for (int i = 0; i < h; i++) {
+            y[i] = (rb[i] + mr * ra[i]) - s[i];
+            yc[2 * i] = (qb[2 * i] + (cr * qa[2 * i] - ci * qa[2 * i + 1])) - sr[i];
+            yc[2 * i + 1] = (qb[2 * i + 1] + (cr * qa[2 * i + 1] + ci * qa[2 * i])) - si[i];
+        }
+    }
+    sg_solve_rc(h, g->Kr, g->pk, g->yr, g->Kc, g->pkc, g->yc, k, g->kr, g->kq);
+    for (int c = 0; c < k; c++) {
+        double *ra = B + (size_t)c * n, *rb = ra + h;
+        double *qa = (double *)(Bc + (size_t)c * n), *qb = qa + 2 * h;
+        const double *y = g->yr + (size_t)c * h, *yc = (const double *)(g->yc + (size_t)c * h);
+        for (int i = 0; i < h; i++) {
+            rb[i] = mr * y[i] - ra[i];
+            ra[i] = y[i];
+            qb[2 * i] = (cr * yc[2 * i] - ci * yc[2 * i + 1]) - qa[2 * i];
+            qb[2 * i + 1] = (cr * yc[2 * i + 1] + ci * yc[2 * i]) - qa[2 * i + 1];
+            qa[2 * i] = yc[2 * i];
+            qa[2 * i + 1] = yc[2 * i + 1];
+        }
+    }
+}
+
 static int radau_sens_step(ctx *c, const radau_consts *k, radau_ws *w, radau_sg *g, double t,
                            double h, const double *y, double rtol, double atol, double fnewt)
 {
@@ -1721,6 +1853,7 @@ static int radau_sens_step(ctx *c, const radau_consts *k, radau_ws *w, radau_sg 
             g->rr[i] = 1.0 / w->LUr[(size_t)i * n + i];
             g->rq[2 * i] = creal(q); g->rq[2 * i + 1] = cimag(q);
         }
+        g->half = kc >= 2 && sg_half_factor(w, g, n, mr, mc);
         g->lu_seen = c->st->nlu;
     }
     for (int a = 0; a < 3; a++) {                    /* predictor */
@@ -1791,7 +1924,8 @@ static int radau_sens_step(ctx *c, const radau_consts *k, radau_ws *w, radau_sg 
                 bc[2 * i + 1] = t20 * f0[i] + t21 * f1[i] + t22 * f2[i] - (mcr * W2[i] + mci * W1[i]);
             }
         }
-        sg_solve_rc(n, w->LUr, w->pivr, g->dW, w->LUc, w->pivc, g->bc, kc, g->rr, g->rq);
+        if (g->half) sg_half_solve(g, n, kc, mr, mc, g->dW, g->bc);
+        else sg_solve_rc(n, w->LUr, w->pivr, g->dW, w->LUc, w->pivc, g->bc, kc, g->rr, g->rq);
         for (int j = 0; j < kc; j++) {
             size_t o = (size_t)j * n;
             const double *d0 = g->dW + o;
@@ -2536,16 +2670,37 @@ typedef struct fs_glue {
     const eomc_implicit *imp;
 } fs_glue;
 
-/* NAME_implicit with the run's inputs at t (as frhs: grid or callback; counted in nfev). */
-static int fs_terms(void *g, double t, const double *x, double *out)
+/* The run's inputs at t before a model call (as frhs: grid or callback); an eomc_status. */
+static int fs_inputs(ctx *c, double t, const double *x)
 {
-    ctx *c = ((fs_glue *)g)->c;
     int s;
     if (aborted(c)) { c->st->t_fail = t; return c->abort; }
     if (!c->fb) grid_inputs_at(c, t);
     else if ((s = inputs_at(c, t, x))) { c->st->t_fail = t; return s; }
     c->st->nfev++;
+    return EOMC_OK;
+}
+
+/* NAME_implicit with the run's inputs at t (counted in nfev). */
+static int fs_terms(void *g, double t, const double *x, double *out)
+{
+    ctx *c = ((fs_glue *)g)->c;
+    int s;
+    if ((s = fs_inputs(c, t, x))) return s;
     s = ((fs_glue *)g)->imp->terms(t, x, c->p, c->r, out, c->mwork);
+    if (s != EOMC_OK) c->st->t_fail = t;
+    return s;
+}
+
+/* fs_terms through the implicit's terms_lu (the lanes rollout's; eomc_fixedstep.h). */
+static int fs_terms_lu(void *g, double t, const double *x, double *out, double h, double *A, double *b,
+                       int *done)
+{
+    ctx *c = ((fs_glue *)g)->c;
+    int s;
+    *done = 0;
+    if ((s = fs_inputs(c, t, x))) return s;
+    s = ((fs_glue *)g)->imp->terms_lu(t, x, c->p, c->r, out, h, A, b, done, c->mwork);
     if (s != EOMC_OK) c->st->t_fail = t;
     return s;
 }
@@ -2607,10 +2762,11 @@ static int run_implicitfast(ctx *c, const eomc_options *o, proj *pj, double t0, 
                             double *x, outw *ow, double **pos)
 {
     fs_glue g = {c, pj, ow, o->implicit};
-    eomc_fs_ops ops = {&g, fs_rhs, fs_jac, fs_accept, NULL, NULL, 0, 0};
+    eomc_fs_ops ops = {&g, fs_rhs, fs_jac, fs_accept, NULL, NULL, 0, 0, NULL};
     int fast = fs_fast_ok(c, o, pj), s;
     if (fast) {
         ops.terms = fs_terms;
+        if (o->implicit->terms_lu) ops.terms_lu = fs_terms_lu;
         ops.imp = o->implicit;
         ops.nq = c->m->nq;
         ops.nu = c->m->nu;

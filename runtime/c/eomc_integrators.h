@@ -71,6 +71,10 @@ typedef struct eomc_implicit {
                                  one model call per step, as MuJoCo's implicitfast */
     const double *depth_limit;/* ncontact (may be NULL: none): a contact deeper than this after
                                  a step ends the run with EOMC_PENETRATED (the state written) */
+    /* NULL (what callers set), or the lanes rollout's (eomc_rollout.c): terms, and the step's
+       factored matrix A and right side b for a step of h at x when it can (*done = 1) */
+    int (*terms_lu)(double t, const double *x, const double *p, const double *r, double *out,
+                    double h, double *A, double *b, int *done, double *work);
 } eomc_implicit;
 
 /* The run failed its physics: a contact went deeper than eomc_implicit.depth_limit (an

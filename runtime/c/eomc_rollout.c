@@ -6,6 +6,7 @@
 #include <string.h>
 #include <ucontext.h>
 #include "eomc_rollout.h"
+#include "eomc_fixedstep.h"
 
 #define EOMC_ROLLOUT_MAX_THREADS 1024
 
@@ -157,6 +158,8 @@ typedef struct fiber {
     double t;
     const double *x, *p, *r;
     double *out;
+    double h, *A, *b;      /* lanes_terms_lu: the step's matrix and right side asked for */
+    int want, done;        /* want: A, b asked for; done: written by the scheduler */
 } fiber;
 
 typedef struct lanes_sched {
@@ -170,7 +173,8 @@ typedef struct lanes_sched {
     size_t main_size;              /* switches back */
 #endif
     eomc_options opt;      /* the job's, its implicit below */
-    eomc_implicit imp;     /* the job's, its terms lanes_terms */
+    eomc_implicit imp;     /* the job's, its terms lanes_terms (and terms_lu lanes_terms_lu) */
+    eomc_fs_lanes *lw;     /* NULL, or the step's assembly in lanes (eomc_fixedstep.h) */
 } lanes_sched;
 
 static __thread lanes_sched *cur_sched;
@@ -208,8 +212,27 @@ static int lanes_terms(double t, const double *x, const double *p, const double 
     fiber *f = &s->f[s->cur];
     (void)work;
     f->t = t; f->x = x; f->p = p; f->r = r; f->out = out;
+    f->want = 0;
     f->state = FIBER_WAITING;
     to_main(s, f, 0);
+    return f->result;
+}
+
+/* lanes_terms, and the step's matrix and right side for a step of h (eomc_implicit.terms_lu):
+ * made with the other rows of the batch when it holds a whole group of lanes (*done = 1). */
+static int lanes_terms_lu(double t, const double *x, const double *p, const double *r, double *out,
+                          double h, double *A, double *b, int *done, double *work)
+{
+    lanes_sched *s = cur_sched;
+    fiber *f = &s->f[s->cur];
+    (void)work;
+    f->t = t; f->x = x; f->p = p; f->r = r; f->out = out;
+    f->h = h; f->A = A; f->b = b;
+    f->want = 1;
+    f->done = 0;
+    f->state = FIBER_WAITING;
+    to_main(s, f, 0);
+    *done = f->done;
     return f->result;
 }
 
@@ -264,19 +287,43 @@ static int make_fiber(fiber *f)
 #endif
 }
 
+/* The batch's rows that asked for the step's matrix (lanes_terms_lu) and whose model call
+ * succeeded get it from one eomc_fs_assemble_lanes over the batch's columns; a row whose pivot
+ * test fails there is left to assemble itself (the scalar code, the same failure). */
+static void lanes_assemble(lanes_sched *s, const int *idx, const int *ibuf, const double *X, const double *OUT)
+{
+    const int L = s->job->lanes;
+    double h[64], *A[64], *b[64];
+    int ok[64], any = 0;
+    for (int c = 0; c < L; c++) {
+        fiber *q = &s->f[idx[c]];
+        int want = q->want && ibuf[c] == EOMC_OK;
+        h[c] = want ? q->h : 0.0;
+        A[c] = want ? q->A : NULL;
+        b[c] = want ? q->b : NULL;
+        any |= want;
+    }
+    if (!any) return;
+    eomc_fs_assemble_lanes(s->lw, OUT, X + (size_t)s->job->m->nq * L, h, A, b, ok);
+    for (int c = 0; c < L; c++) s->f[idx[c]].done = A[c] != NULL && ok[c];
+}
+
 /* One thread's rows, job->lanes at a time.  buf: the batch's columns (nx + ninput + out_len
- * rows of lanes doubles), ibuf, idx: lanes ints each, mwork: the model's work.  0, or 1 when a
- * fiber's context could not be made (nothing run). */
-static int lanes_rows(rollout_job *job, fiber *f, double *buf, int *ibuf, int *idx, double *mwork)
+ * rows of lanes doubles, 64-byte aligned), ibuf, idx: lanes ints each, mwork: the model's work,
+ * lw: NULL or the assembly in lanes.  0, or 1 when a fiber's context could not be made (nothing
+ * run). */
+static int lanes_rows(rollout_job *job, fiber *f, double *buf, int *ibuf, int *idx, double *mwork,
+                      eomc_fs_lanes *lw)
 {
     lanes_sched s;
     const int L = job->lanes, nx = job->m->nx, nr = job->m->ninput;
     double *X = buf, *R = X + (size_t)nx * L, *OUT = R + (size_t)nr * L, *outs[64];
     memset(&s, 0, sizeof s);
-    s.job = job; s.f = f;
+    s.job = job; s.f = f; s.lw = lw;
     s.opt = *job->opt;
     s.imp = *job->opt->implicit;
     s.imp.terms = lanes_terms;
+    s.imp.terms_lu = lw ? lanes_terms_lu : NULL;
     s.opt.implicit = &s.imp;
     for (int i = 0; i < L; i++)
         if (make_fiber(&f[i])) return 1;
@@ -305,6 +352,7 @@ static int lanes_rows(rollout_job *job, fiber *f, double *buf, int *ibuf, int *i
             for (int j = 0; j < nr; j++) R[(size_t)j * k + c] = q->r[j];
         }
         job->batch(k, f[first].t, X, f[first].p, nr ? R : NULL, OUT, ibuf, mwork);
+        if (lw) lanes_assemble(&s, idx, ibuf, X, OUT);
         for (int c = 0; c < k; c++) {
             outs[c] = f[idx[c]].out;
             f[idx[c]].result = ibuf[c];
@@ -325,9 +373,14 @@ static void *lanes_fiber_worker(rollout_job *job)
     const int L = job->lanes;
     const size_t cols = (size_t)job->m->nx + (size_t)job->m->ninput + job->out_len;
     fiber *f = (fiber *)calloc((size_t)L, sizeof(fiber));
-    double *buf = (double *)malloc(cols * (size_t)L * sizeof(double));
+    double *mem = (double *)malloc(cols * (size_t)L * sizeof(double) + 64);
+    double *buf = mem ? (double *)(((size_t)mem + 63) & ~(size_t)63) : NULL;   /* the columns: aligned */
     double *mwork = (double *)malloc(((size_t)job->m->work_size + 1) * sizeof(double));
     int *ibuf = (int *)malloc(2 * (size_t)L * sizeof(int));
+    /* NULL (no vector kernel for L here, or a model without the fast path's structure): each row
+     * assembles its own step, as before */
+    eomc_fs_lanes *lw = job->opt->implicit->terms_lu == NULL
+                        ? eomc_fs_lanes_new(job->m->nq, job->m->nu, job->opt->implicit, L) : NULL;
     int ok = f && buf && mwork && ibuf, failed = 1;
     for (int i = 0; ok && i < L; i++) {
         f[i].stack = (char *)malloc(FIBER_STACK);
@@ -335,12 +388,13 @@ static void *lanes_fiber_worker(rollout_job *job)
         ok = f[i].stack && f[i].work;
     }
     if (ok)
-        failed = lanes_rows(job, f, buf, ibuf, ibuf + L, mwork);
+        failed = lanes_rows(job, f, buf, ibuf, ibuf + L, mwork, lw);
     for (int i = 0; f && i < L; i++) {
         free(f[i].stack);
         free(f[i].work);
     }
-    free(f); free(buf); free(mwork); free(ibuf);
+    free(f); free(mem); free(mwork); free(ibuf);
+    eomc_fs_lanes_free(lw);
     return failed ? (void *)job : NULL;  /* not NULL: this thread could not run; the others take its rows */
 }
 

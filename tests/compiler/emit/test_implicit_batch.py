@@ -96,6 +96,66 @@ def test_hopper_implicit_and_rhs_in_lanes_with_contacts_on_and_off(cache, trig):
         assert np.mean(got == want) > 0.9
 
 
+# Two legs hanging from a torso on a planar root, a sphere foot each: the feet are one self-pair
+# (siblings), and each touches the floor.  With pairs.TABLE_FROM = 1 the pair goes through the
+# table's C loop (eomc_pairs), as G1's 16 foot-sphere pairs do by default.
+TWO_LEGS = """<mujoco model="twolegs">
+  <worldbody>
+    <geom name="floor" type="plane" size="0 0 1"/>
+    <body name="torso" pos="0 0 0.5">
+      <joint name="rootx" type="slide" axis="1 0 0"/>
+      <joint name="rootz" type="slide" axis="0 0 1"/>
+      <joint name="rooty" type="hinge" axis="0 1 0"/>
+      <geom name="torso" type="box" size="0.1 0.1 0.05" mass="5" contype="0" conaffinity="0"/>
+      <body name="left" pos="0 0.06 0">
+        <joint name="hip_l" type="hinge" axis="1 0 0" damping="0.5"/>
+        <geom name="thigh_l" type="box" size="0.02 0.02 0.2" pos="0 0 -0.2" mass="1" contype="0" conaffinity="0"/>
+        <geom name="foot_l" type="sphere" size="0.04" pos="0 0 -0.4" mass="0.2"/>
+      </body>
+      <body name="right" pos="0 -0.06 0">
+        <joint name="hip_r" type="hinge" axis="1 0 0" damping="0.5"/>
+        <geom name="thigh_r" type="box" size="0.02 0.02 0.2" pos="0 0 -0.2" mass="1" contype="0" conaffinity="0"/>
+        <geom name="foot_r" type="sphere" size="0.04" pos="0 0 -0.4" mass="0.2"/>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_a_pair_table_call_runs_lane_by_lane_in_the_batch(tmp_path, monkeypatch):
+    """The pairs' table loop (eomc_pairs) in NAME_implicit_batch: each lane's inputs gathered and
+    the scalar loop called, so the batch stays vectorized around it and equals the scalar
+    NAME_implicit bit for bit (libm sin/cos) in groups whose lanes have the feet pressed together,
+    apart (the pair skipped by its broad phase) and on the floor or not."""
+    import eomc
+    from eomc.compiler.contact import pairs
+    from eomc.compiler.mjcf.model import MjcfModel
+    monkeypatch.setattr(pairs, "TABLE_FROM", 1)
+    path = tmp_path / "twolegs.xml"
+    path.write_text(TWO_LEGS)
+    model = eomc.compile(MjcfModel(path), name="ibpt", functions=("rhs", "implicit", "implicit_batch", "outputs"),
+                         cache_dir=tmp_path / "cache", cflags=f"{STRICT} -DEOMC_BATCH_LIBM_TRIG", progress=False)
+    source = next((tmp_path / "cache").rglob("ibpt.c")).read_text()
+    assert "eomc_pairs(" in source and "the pairs' loop, lane by lane" in source
+    assert model.metadata["implicit_batch"]["vectorized"], model.metadata["implicit_batch"]
+    lanes = machine_lanes()
+    rng = np.random.default_rng(5)
+    n = 4 * lanes + 3
+    X = np.zeros((n, model.nx))
+    names = list(model.state_names)
+    X[:, names.index("q_rootz")] = rng.uniform(-0.08, 0.05, n)     # the feet 1-4 cm into the floor or above
+    X[:, names.index("q_hip_l")] = rng.uniform(-0.25, 0.05, n)     # swung towards each other, or apart
+    X[:, names.index("q_hip_r")] = rng.uniform(-0.05, 0.25, n)
+    X[:, model.nq:] = rng.normal(size=(n, model.nu))
+    want, got = _scalar(model, X), model.implicit_batch(0.0, X)
+    pressed = np.array([model.outputs(0.0, x)["depth_foot_l__foot_r"] > 0 for x in X])
+    groups = pressed[:4 * lanes].reshape(4, lanes)
+    assert (groups.any(axis=1) & ~groups.all(axis=1)).any(), groups     # a group mixes both
+    assert _touching(model, want).any() and not _touching(model, want).all()
+    assert np.array_equal(got, want)
+
+
 def _lanes(lines, fn="implicit"):
     code, used = batch_rhs("m", lines, [], fn=fn, out="out")
     return code, used
