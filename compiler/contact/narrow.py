@@ -35,8 +35,14 @@ values its tangent needs from a *tape* (:func:`tape_of`): in a function that dif
 pair (jac_x, jvp) its call is the ``_tape`` variant (:class:`NarrowTapeCall`, chosen by
 :meth:`NarrowCall.taped` when the function is generated), which also stores those values after its
 outputs in ``NP<uid>_``; jac_x's columns then run only the tangent, not the narrow phase again
-(it recomputed the primal per column: stacker's jac_x 0.57x the inlined schemes').  Second
-derivatives (hvp) and the reverse sweep (vjp) of a pair are refused with a message.
+(it recomputed the primal per column: stacker's jac_x 0.57x the inlined schemes').
+
+Reverse sweeps (vjp, and through them hvp and hess_id): a call's ``reverse`` (the adjoint pass,
+compiler/passes/adjoint.py, gathers the bars of its outputs) is a :class:`NarrowBar`, a call of the
+routine's ``_bar`` variant -- the adjoint of the routine's program, generated once per routine --
+whose outputs' (:class:`BarOut`) tangent is the ``_bar_dot`` variant's call (:class:`NarrowBarDot`:
+forward over reverse, what hvp and hess_id differentiate).  A tangent of a tangent (forward over
+forward) and third derivatives are refused with a message.
 """
 import functools
 
@@ -46,6 +52,7 @@ from ..emit.bodies import IND, store, temps
 from ..emit.printer import CPrinter
 from ..emit.split import split_body
 from ..ir import Program, c_names
+from ..passes.adjoint import adjoint
 from ..passes.dce import dce
 from ..passes.diff import tangent
 from ..passes.powers import expand_powers
@@ -156,6 +163,16 @@ class NarrowCall(Token):
         """The same call writing the tape its ``_dot`` reads (a function that differentiates it)."""
         return NarrowTapeCall(*self.args)
 
+    def reverse(self, fresh, bars):
+        """The reverse sweep through the call (compiler/passes/adjoint.py): ([(temporary, NarrowBar)],
+        [(input, its bar)]) from ``bars``, {output index: its bar}."""
+        rid = int(self.args[0])
+        ins = self.args[2:]
+        sym = fresh()
+        uid = sm.Integer(int(sym.name[2:]))
+        node = NarrowBar(self.args[0], uid, *ins, *[bars.get(i, sm.S.Zero) for i in range(routine_outputs(rid))])
+        return [(sym, node)], reverse_pairs(ins[:npose(rid)], sym, 0, uid)
+
 
 class NarrowTapeCall(NarrowCall):
     """NarrowCall that also stores the tape (:func:`tape_of`) after its outputs in ``NP<uid>_``."""
@@ -209,6 +226,10 @@ class NarrowOut(sm.Function):
     def _eval_derivative(self, s):
         raise ModelError(_REFUSAL)
 
+    def reverse_read(self):
+        """(the call it reads, which output): the reverse sweep gathers each output's bar."""
+        return self.args[0], int(self.args[2])
+
     def forward(self, dd, k):
         """Its tangent along direction k of the diff pass ``dd`` (:class:`eomc.compiler.passes.diff._Diff`)."""
         call, tag, index = self.args
@@ -237,9 +258,10 @@ class NarrowOut(sm.Function):
         return f"NP{tag}_[{index}]" if tag >= 0 else f"ND{-tag - 1}_[{index}]"
 
 
-_REFUSAL = ("second derivatives and reverse sweeps (hvp, vjp) of a body–body contact pair's narrow phase are "
-            "not generated: build without them, or without the pairs (the self-collisions: "
-            "pairs=\"trees\" / --pairs trees; every body–body pair: pairs=False / --pairs none)")
+_REFUSAL = ("a second forward derivative (a tangent of a tangent) of a body–body contact pair's narrow phase is "
+            "not generated (vjp, hvp and hess_id go through its reverse sweep): build without it, or without "
+            "the pairs (the self-collisions: pairs=\"trees\" / --pairs trees; every body–body pair: pairs=False / "
+            "--pairs none)")
 
 
 def routine_outputs(rid):
@@ -327,8 +349,11 @@ def tape_of(rid):
 @functools.lru_cache(maxsize=None)
 def routine_code(rid, variant=None):
     """(C text of routine ``rid`` -- ``variant`` "tape": also storing the tape after the outputs;
-    "dot": its forward-mode derivative from the tape --, whether it was split into sub-functions
+    "dot": its forward-mode derivative from the tape; "bar", "bar_dot": its reverse sweep and that
+    sweep's tangent, :func:`_reverse_code` --, whether it was split into sub-functions
     (then the file needs EOMC_NOINLINE))."""
+    if variant in ("bar", "bar_dot"):
+        return _reverse_code(rid, variant)
     prog, ins = _program(rid)
     name = _cname(rid, variant)
     nout = routine_outputs(rid)
@@ -355,7 +380,6 @@ def routine_code(rid, variant=None):
     pr = CPrinter(names)
     values = prog.result_exprs(group)
     body = temps(prog, pr) + [store(f"out[{i}]", values.get((group, i), sm.S.Zero), pr) for i in range(stored)]
-    lines, parts = split_body(body, f"{name}_part") if len(body) > ROUTINE_SPLIT else (body, [])
     what = {None: "", "tape": "", "dot": "the tangents of "}[variant]
     after = (f", then the {stored - nout} values its _dot reads (the tape)" if variant == "tape" else
              ", from the tape its _tape variant wrote" if variant == "dot" else "")
@@ -366,7 +390,177 @@ def routine_code(rid, variant=None):
         ka, kb = kinds_of(rid)
         head_text = (f"/* body-body pair narrow phase: {what}p, n, depth of each contact point of a {ka} (A) against a "
                      f"{kb} (B), {nout // PER_PART} point(s){after} (compiler/contact/narrow.py) */\n")
+    return _function_text(head_text, name, params, head, body)
+
+
+def _function_text(head_text, name, params, head, body):
+    """(C text of a routine from its statements, cut into sub-functions when long; whether cut)."""
+    lines, parts = split_body(body, f"{name}_part") if len(body) > ROUTINE_SPLIT else (body, [])
     text = (head_text +
             f"static double {name}({', '.join(params)}, double *out)\n{{\n" + "\n".join(head + lines)
             + f"\n{IND}return 0.0;\n}}\n")
     return "\n".join(list(parts) + [text]), bool(parts)
+
+
+# --- reverse sweeps and their tangents (vjp, hvp, hess_id) ---------------------------------------
+# A routine's reverse variant ``_bar`` takes its inputs and the weights (bars) of its outputs and
+# returns the bars of its first npose inputs: the adjoint of its program (compiler/passes/adjoint.py),
+# generated once per routine as its tangent is, recomputing the primal (no tape: a reverse call runs
+# once per vjp, not per column).  ``_bar_dot`` is that program's tangent along the inputs' and the
+# bars' tangents (forward over reverse: hvp's and hess_id's second derivatives), returning the bars
+# then their tangents.  Both read arrays: ``in`` (ninput), ``g`` (the output bars), ``din`` (npose),
+# ``dg``.
+
+@functools.lru_cache(maxsize=None)
+def _bar_program(rid):
+    """(program with results ("ib", j): the bars of the pose inputs, inputs, bars g, din, dg)."""
+    prog, ins = _program(rid)
+    nout, n0 = routine_outputs(rid), npose(rid)
+    g = sm.symbols(f"g0:{nout}", real=True)
+    prog = prog.with_(inputs=tuple(ins) + g)
+    bar = dce(adjoint(prog, {("o", i): g[i] for i in range(nout)}, ins[:n0], "ib"), ("ib",))
+    din = sm.symbols(f"din0:{n0}", real=True)
+    dg = sm.symbols(f"dg0:{nout}", real=True)
+    return bar, ins, g, din, dg
+
+
+@functools.lru_cache(maxsize=None)
+def _bar_dot_program(rid):
+    """The reverse program's tangent: results ("ib", j) and ("dib", j)."""
+    bar, ins, g, din, dg = _bar_program(rid)
+    seeds = {**dict(zip(ins[:npose(rid)], din)), **dict(zip(g, dg))}
+    return dce(tangent(bar.with_(inputs=bar.inputs + din + dg), "ib", seeds, "dib"), ("ib", "dib"))
+
+
+def _reverse_code(rid, variant):
+    bar, ins, g, din, dg = _bar_program(rid)
+    n0 = npose(rid)
+    params = ["const double *in", "const double *g"]
+    names = {s: f"in[{k}]" for k, s in enumerate(ins)}
+    names.update({s: f"g[{k}]" for k, s in enumerate(g)})
+    groups = [("ib", 0)]
+    if variant == "bar_dot":
+        bar = _bar_dot_program(rid)
+        params += ["const double *din", "const double *dg"]
+        names.update({s: f"din[{k}]" for k, s in enumerate(din)})
+        names.update({s: f"dg[{k}]" for k, s in enumerate(dg)})
+        groups.append(("dib", n0))
+    prog = expand_powers(bar)
+    names.update(c_names(prog))
+    pr = CPrinter(names)
+    body = temps(prog, pr)
+    for group, at in groups:
+        values = prog.result_exprs(group)
+        body += [store(f"out[{at + j}]", values.get((group, j), sm.S.Zero), pr) for j in range(n0)]
+    what = "bars" if variant == "bar" else "bars and their tangents"
+    of = "the contact law's inputs" if is_law(rid) else "the narrow phase's placements (%s, %s)" % kinds_of(rid)
+    head = f"/* reverse sweep of a body-body pair routine: the {what} of {of} (compiler/contact/narrow.py) */\n"
+    return _function_text(head, _cname(rid, variant), params, [], body)
+
+
+def _literal(values, printer):
+    """C of a read-only array of ``values`` (a compound literal)."""
+    return f"(const double[{len(values)}]){{{', '.join(printer._print(a) for a in values)}}}"
+
+
+class BarOut(sm.Function):
+    """BarOut(call, array, uid, k): element k of a reverse call's output array ``<array><uid>_``
+    (array 0: a routine's bars NB, 1: with their tangents NE, 2: the pairs' table's bars PB, 3: with
+    their tangents PE).  Its tangent is the reverse call's ``_bar_dot`` (:meth:`forward`); a third
+    derivative is refused."""
+    nargs = 4
+    is_real = True
+    PREFIX = ("NB", "NE", "PB", "PE")
+
+    def _eval_derivative(self, s):
+        raise ModelError(_THIRD)
+
+    def reverse_read(self):
+        """(the reverse call, which output): a reverse sweep through it is refused (adjoint.py)."""
+        return self.args[0], int(self.args[3])
+
+    def forward(self, dd, k):
+        call, array, uid, index = self.args
+        if int(array) % 2:
+            raise ModelError(_THIRD)
+        key = ("bar", call, k)
+        hit = dd.extra.get(key)
+        if hit is None:
+            sym = dd.names.fresh()
+            node = dd.definition(call).tangent_call(dd, k, sm.Integer(int(sym.name[2:])))
+            if node is None:
+                hit = sm.S.Zero
+            else:
+                dd.out.append((sym, node))
+                hit = (sym, int(sym.name[2:]), node.nbar)
+            dd.extra[key] = hit
+        if hit is sm.S.Zero:
+            return sm.S.Zero
+        return BarOut(hit[0], sm.Integer(int(array) + 1), sm.Integer(hit[1]), sm.Integer(hit[2] + int(index)))
+
+    def _ccode(self, printer):
+        return f"{self.PREFIX[int(self.args[1])]}{int(self.args[2])}_[{int(self.args[3])}]"
+
+
+_THIRD = "third derivatives of a body–body contact pair's routines are not generated"
+
+
+def reverse_pairs(inputs, sym, array, uid):
+    """[(input, its bar)]: the bars a reverse call ``sym`` wrote, for the inputs that are not numbers."""
+    return [(x, BarOut(sym, sm.Integer(array), uid, sm.Integer(j))) for j, x in enumerate(inputs)
+            if not x.is_Number]
+
+
+class NarrowBar(Token):
+    """NarrowBar(routine, uid, *inputs, *output bars): the bars of the routine's pose inputs, into
+    ``NB<uid>_``."""
+    c_token = True
+
+    def _split(self):
+        rid = int(self.args[0])
+        m = ninput(rid)
+        return rid, self.args[2:2 + m], self.args[2 + m:]
+
+    def c_declaration(self):
+        return f"double NB{int(self.args[1])}_[{npose(int(self.args[0]))}];"
+
+    def c_routines(self):
+        rid = int(self.args[0])
+        return [((rid, 3), *routine_code(rid, "bar"))]
+
+    def _ccode(self, printer):
+        rid, ins, g = self._split()
+        return f"{_cname(rid, 'bar')}({_literal(ins, printer)}, {_literal(g, printer)}, &NB{int(self.args[1])}_[0])"
+
+    def tangent_call(self, dd, k, uid):
+        rid, ins, g = self._split()
+        dins = [dd.d(x, k) for x in ins[:npose(rid)]]
+        dg = [dd.d(x, k) for x in g]
+        if all(x.is_Number and x == 0 for x in dins + dg):
+            return None
+        return NarrowBarDot(self.args[0], uid, *ins, *g, *dins, *dg)
+
+
+class NarrowBarDot(Token):
+    """NarrowBarDot(routine, uid, *inputs, *output bars, *input tangents, *bar tangents): the bars
+    and their tangents, into ``NE<uid>_`` (the tangents from index :attr:`nbar`)."""
+    c_token = True
+
+    @property
+    def nbar(self):
+        return npose(int(self.args[0]))
+
+    def c_declaration(self):
+        return f"double NE{int(self.args[1])}_[{2 * self.nbar}];"
+
+    def c_routines(self):
+        rid = int(self.args[0])
+        return [((rid, 4), *routine_code(rid, "bar_dot"))]
+
+    def _ccode(self, printer):
+        rid = int(self.args[0])
+        m, n0, nout = ninput(rid), npose(rid), routine_outputs(rid)
+        a = self.args[2:]
+        parts = (a[:m], a[m:m + nout], a[m + nout:m + nout + n0], a[m + nout + n0:])
+        return (f"{_cname(rid, 'bar_dot')}({', '.join(_literal(x, printer) for x in parts)}, "
+                f"&NE{int(self.args[1])}_[0])")

@@ -77,9 +77,11 @@ LAW_ROUTINES = False
 PAIR_TABLE = True
 # With PAIR_TABLE: the fewest pairs a tree's loads hold for them to go through the table; fewer are
 # inlined (INLINE_NARROW / LAW_ROUTINES as set).  Why: the table's call reads one double[] input
-# array, which the batch vectoriser does not take (compiler/emit/batch.py), so gymnasium's hopper
-# with its 3 self-pairs as a table lost its vectorized implicit_batch (the rollout lanes' kernel);
-# inlined, it keeps it, and the few pairs cost little code.  The humanoid's 109 go through the table.
+# array, which the batch vectoriser took at first for no function (compiler/emit/batch.py), so
+# gymnasium's hopper with its 3 self-pairs as a table lost its vectorized implicit_batch (the rollout
+# lanes' kernel); inlined, it keeps it, and the few pairs cost little code.  The humanoid's 109 go
+# through the table.  Since session 12 NAME_implicit_batch makes the table's call lane by lane (its
+# parameters are shared; rhs_batch's per-row parameters still refuse it): G1's 16 foot pairs.
 # In the caches' keys when not its default (compiler/build/reuse.generator_switches).
 TABLE_FROM_DEFAULT = 8
 TABLE_FROM = TABLE_FROM_DEFAULT

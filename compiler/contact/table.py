@@ -42,16 +42,20 @@ a skipped pair's contact event is below -BROAD_PAD and every bounded clip event 
 max(1 + 3/2 c δ̇, -δ) ≥ -δ): each on the side its exact value is on and outside the runtime's
 noise band, so every sign change the exact functions have is still seen (a crossing needs
 δ ≥ 0, where nothing is bounded).  Outputs read no clip: theirs are exact but a skipped pair's
-depth and point.  Why: gymnasium's humanoid (109 pairs)
-evaluated its events in 11.5 µs against 1.0 µs without self-pairs, four times a BDF step, and its
-outputs in 63 µs against 11 µs.  ``full`` = 1 (no skips, the narrow phase everywhere) is left to
-the tangent loop, whose programs read no point quantities.
+depth and point.  Why: gymnasium's humanoid (109 pairs) evaluated its events in 11.5 µs
+against 1.0 µs without self-pairs, up to four times a BDF step (3.1 µs now at its rest pose;
+benchmarks/results/passive.md, 2026-11-30).  ``full`` = 1 (no skips, the narrow phase
+everywhere) is left to the tangent and reverse loops' own variants (PairTableDot, PairTableBar).
 
 Derivatives: the tangent (jvp, jac_p; jac_x and jac_id per state column, into the analytic
 kernel's block W) is one call of the function's forward-mode twin per direction, ``eomc_pairs_dot``, with the inputs' tangents; it re-runs the primal of each pair it
 does not skip (the narrow and law routines' ``_tape`` variants) and their ``_dot``.  The primal
 inputs it reads are stored by the primal call after its outputs (the ``taped()`` variant, as
-.narrow's tapes).  Second derivatives and reverse sweeps are refused as the routines' are.
+.narrow's tapes).  The reverse sweep (vjp; hvp and hess_id differentiate it forward) is one call of
+its reverse twin, ``eomc_pairs_bar`` (:class:`PairTableBar`), with the bars of the outputs the
+function reads; its tangent, ``eomc_pairs_bar_dot`` (:class:`PairTableBarDot`).  They run the
+pairs the primal runs (the same skips: exact, the force is ±0 there), the routines' ``_bar`` and
+``_bar_dot`` variants (.narrow), and take the placements' bars back to the bodies' inputs.
 """
 import re
 
@@ -183,6 +187,19 @@ class PairTableCall(nw.Token):
     def taped(self):
         return PairTableTapeCall(*self.args)
 
+    def reverse(self, fresh, bars):
+        """The reverse sweep through the loop (compiler/passes/adjoint.py): ([(temporary,
+        PairTableBar)], [(input, its bar)]) from ``bars``, {output index: its bar}.  It evaluates
+        every pair (``full``) only when a contact point's output has a bar."""
+        t = self.table
+        ins = self.args[2:]
+        g = [bars.get(k, sm.S.Zero) for k in range(t.noutput)]
+        full = any(k >= t.nwrench for k in bars)
+        sym = fresh()
+        uid = sm.Integer(int(sym.name[2:]))
+        node = PairTableBar(self.args[0], uid, sm.Integer(int(full)), *ins, *g)
+        return [(sym, node)], nw.reverse_pairs(ins, sym, 2, uid)
+
     def for_program(self, reads):
         """The call with ``full`` = 2 (far pairs' bounds, see the module docstring) when the program
         reads a contact point's quantities (``reads``: the output indices its PairTableOut read), else 0."""
@@ -243,6 +260,10 @@ class PairTableOut(sm.Function):
 
     def _eval_derivative(self, s):
         raise ModelError(nw._REFUSAL)
+
+    def reverse_read(self):
+        """(the call it reads, which output): the reverse sweep gathers each output's bar."""
+        return self.args[0], int(self.args[2])
 
     def forward(self, dd, k):
         call, tag, index = self.args
@@ -351,21 +372,7 @@ def _loop(t, dot):
     L.append(f"    for (k = 0; k < (full ? {t.noutput} : {t.nwrench}); ++k) out[k] = 0.0;")
     if dot:
         L.append(f"    const double *pars = in + {t.nstate};")
-    L.append(f"    for (s = 0; s < {ns}; ++s) {{")
-    L.append("        const int b = eomc_pairs_sbody[s];")
-    L.append(f"        const double *o = in + {off} + 3 * s;")
-    L.append("        if (b < 0) { for (k = 0; k < 3; ++k) cen[3 * s + k] = o[k]; }")
-    L.append("        else for (k = 0; k < 3; ++k)")
-    L.append("            cen[3 * s + k] = in[18 * b + k] + in[18 * b + 3 + k] * o[0] + in[18 * b + 6 + k] * o[1]"
-             " + in[18 * b + 9 + k] * o[2];")
-    if dot:
-        L.append(f"        const double *d = din + {off} + 3 * s;")
-        L.append("        if (b < 0) { for (k = 0; k < 3; ++k) dcen[3 * s + k] = d[k]; }")
-        L.append("        else for (k = 0; k < 3; ++k)")
-        L.append("            dcen[3 * s + k] = din[18 * b + k] + din[18 * b + 3 + k] * o[0] + din[18 * b + 6 + k] * o[1]"
-                 " + din[18 * b + 9 + k] * o[2] + in[18 * b + 3 + k] * d[0] + in[18 * b + 6 + k] * d[1]"
-                 " + in[18 * b + 9 + k] * d[2];")
-    L.append("    }")
+    L += _centres(ns, off, dot)
     for rid in sorted({p[0] for p in t.pairs}):
         name = "%s_%s" % nw.kinds_of(rid)
         count = sum(1 for p in t.pairs if p[0] == rid)
@@ -384,27 +391,11 @@ def _loop(t, dot):
             L.append("        if (!full && e0 * e0 + e1 * e1 + e2 * e2 > D[1]) continue;")
         else:
             L.extend(_far_bounds(t, npts))
-        L.append("        for (j = 0; j < 2; ++j) {")
-        L.append("            const int sh = P[j], b = eomc_pairs_sbody[sh];")
-        L.append("            const double *r = eomc_pairs_srot[sh];")
-        L.append("            if (have[sh]) continue;")
-        L.append("            have[sh] = 1;")
-        L.append("            for (k = 0; k < 3; ++k) for (w = 0; w < 3; ++w)")
-        L.append("                ax[9 * sh + 3 * k + w] = b < 0 ? r[3 * w + k] : in[18 * b + 3 + w] * r[k]"
-                 " + in[18 * b + 6 + w] * r[3 + k] + in[18 * b + 9 + w] * r[6 + k];")
-        if dot:
-            L.append("            for (k = 0; k < 3; ++k) for (w = 0; w < 3; ++w)")
-            L.append("                dax[9 * sh + 3 * k + w] = b < 0 ? 0.0 : din[18 * b + 3 + w] * r[k]"
-                     " + din[18 * b + 6 + w] * r[3 + k] + din[18 * b + 9 + w] * r[6 + k];")
-        L.append("        }")
-        args = ", ".join([f"ca[{k}]" for k in range(3)] + [f"ax[9 * P[0] + {k}]" for k in range(9)]
-                         + [f"cb[{k}]" for k in range(3)] + [f"ax[9 * P[1] + {k}]" for k in range(9)]
-                         + [f"eomc_pairs_ssize[P[0]][{k}]" for k in range(3)]
-                         + [f"eomc_pairs_ssize[P[1]][{k}]" for k in range(3)] + ["D[0]"])
+        L += _axes(dot)
+        args = ", ".join(_narrow_args())
         L.append(f"        eomc_narrow_{name}{'_tape' if dot else ''}({args}, np);")
         if dot:
-            dargs = ", ".join([f"dcen[3 * P[0] + {k}]" for k in range(3)] + [f"dax[9 * P[0] + {k}]" for k in range(9)]
-                              + [f"dcen[3 * P[1] + {k}]" for k in range(3)] + [f"dax[9 * P[1] + {k}]" for k in range(9)])
+            dargs = ", ".join(_narrow_dargs())
             L.append(f"        eomc_narrow_{name}_dot(&np[{nout}], {dargs}, nd);")
         L.append(f"        for (m = 0; m < {npts}; ++m) {{")
         L.append("            const double *pp = np + 7 * m;")
@@ -427,12 +418,10 @@ def _loop(t, dot):
         L.append("            if (!full && -pp[6] > 0) continue;")
         if not dot:     # full = 2, a point apart by more than the pad: F_n, friction 0; clip >= -δ
             L.append(f"            if (full == 2 && -pp[6] > {_fmt(BROAD_PAD)}) {{ po[5] = -pp[6]; continue; }}")
-        largs = ", ".join([f"pp[{k}]" for k in range(7)] + [f"A[{k}]" for k in range(18)]
-                          + [f"B[{k}]" for k in range(18)] + [f"par[{k}]" for k in range(4)])
+        largs = ", ".join(_law_args("pp", "A", "B", "par"))
         if dot:
             L.append(f"            eomc_pair_law_tape({largs}, lt);")
-            dl = ", ".join([f"pd[{k}]" for k in range(7)] + [f"dA[{k}]" for k in range(18)]
-                           + [f"dB[{k}]" for k in range(18)] + [f"dp[{k}]" for k in range(4)])
+            dl = ", ".join(_law_args("pd", "dA", "dB", "dp"))
             L.append(f"            eomc_pair_law_dot(&lt[{nw.routine_outputs(nw.LAW_RID)}], {dl}, lo);")
         else:
             L.append(f"            eomc_pair_law({largs}, lo);")
@@ -466,6 +455,60 @@ def _far_bounds(t, npts):
             "        }"]
 
 
+def _centres(ns, off, dot):
+    """C lines placing every shape's centre (``dot``: and its tangent)."""
+    L = [f"    for (s = 0; s < {ns}; ++s) {{",
+         "        const int b = eomc_pairs_sbody[s];",
+         f"        const double *o = in + {off} + 3 * s;",
+         "        if (b < 0) { for (k = 0; k < 3; ++k) cen[3 * s + k] = o[k]; }",
+         "        else for (k = 0; k < 3; ++k)",
+         "            cen[3 * s + k] = in[18 * b + k] + in[18 * b + 3 + k] * o[0] + in[18 * b + 6 + k] * o[1]"
+         " + in[18 * b + 9 + k] * o[2];"]
+    if dot:
+        L += [f"        const double *d = din + {off} + 3 * s;",
+              "        if (b < 0) { for (k = 0; k < 3; ++k) dcen[3 * s + k] = d[k]; }",
+              "        else for (k = 0; k < 3; ++k)",
+              "            dcen[3 * s + k] = din[18 * b + k] + din[18 * b + 3 + k] * o[0] + din[18 * b + 6 + k] * o[1]"
+              " + din[18 * b + 9 + k] * o[2] + in[18 * b + 3 + k] * d[0] + in[18 * b + 6 + k] * d[1]"
+              " + in[18 * b + 9 + k] * d[2];"]
+    return L + ["    }"]
+
+
+def _axes(dot):
+    """C lines placing a pair's two shapes' axes once (``dot``: and their tangents)."""
+    L = ["        for (j = 0; j < 2; ++j) {",
+         "            const int sh = P[j], b = eomc_pairs_sbody[sh];",
+         "            const double *r = eomc_pairs_srot[sh];",
+         "            if (have[sh]) continue;",
+         "            have[sh] = 1;",
+         "            for (k = 0; k < 3; ++k) for (w = 0; w < 3; ++w)",
+         "                ax[9 * sh + 3 * k + w] = b < 0 ? r[3 * w + k] : in[18 * b + 3 + w] * r[k]"
+         " + in[18 * b + 6 + w] * r[3 + k] + in[18 * b + 9 + w] * r[6 + k];"]
+    if dot:
+        L += ["            for (k = 0; k < 3; ++k) for (w = 0; w < 3; ++w)",
+              "                dax[9 * sh + 3 * k + w] = b < 0 ? 0.0 : din[18 * b + 3 + w] * r[k]"
+              " + din[18 * b + 6 + w] * r[3 + k] + din[18 * b + 9 + w] * r[6 + k];"]
+    return L + ["        }"]
+
+
+def _narrow_args():
+    """The C arguments of a pair's narrow routine in the loop: placements, sizes, margin."""
+    return ([f"ca[{k}]" for k in range(3)] + [f"ax[9 * P[0] + {k}]" for k in range(9)]
+            + [f"cb[{k}]" for k in range(3)] + [f"ax[9 * P[1] + {k}]" for k in range(9)]
+            + [f"eomc_pairs_ssize[P[0]][{k}]" for k in range(3)]
+            + [f"eomc_pairs_ssize[P[1]][{k}]" for k in range(3)] + ["D[0]"])
+
+
+def _narrow_dargs():
+    return ([f"dcen[3 * P[0] + {k}]" for k in range(3)] + [f"dax[9 * P[0] + {k}]" for k in range(9)]
+            + [f"dcen[3 * P[1] + {k}]" for k in range(3)] + [f"dax[9 * P[1] + {k}]" for k in range(9)])
+
+
+def _law_args(p, a, b, par):
+    return ([f"{p}[{k}]" for k in range(7)] + [f"{a}[{k}]" for k in range(18)]
+            + [f"{b}[{k}]" for k in range(18)] + [f"{par}[{k}]" for k in range(4)])
+
+
 def _tape_wrapper(t):
     return ("/* the pairs' loop, then its inputs after its outputs (its tangent reads them) */\n"
             "static double eomc_pairs_tape(const double *in, const double *pars, int full, double *out)\n{\n"
@@ -473,3 +516,221 @@ def _tape_wrapper(t):
             f"    for (k = 0; k < {t.nstate}; ++k) out[{t.noutput} + k] = in[k];\n"
             f"    for (k = 0; k < {t.ninput - t.nstate}; ++k) out[{t.noutput + t.nstate} + k] = pars[k];\n"
             "    return 0.0;\n}\n")
+
+
+# --- the reverse sweep (vjp, hvp, hess_id) -------------------------------------------------------
+
+class PairTableBar(nw.Token):
+    """PairTableBar(table id, uid, full, *inputs, *output bars): the bars of the loop's inputs (the
+    bodies' and offsets', then the law parameters'), into ``PB<uid>_``, by the loop's reverse twin
+    ``eomc_pairs_bar``: per pair it skips, it re-runs the pair's narrow and law routines, then their
+    ``_bar`` variants (.narrow), and takes the placements' bars back to the bodies."""
+    c_token = True
+    ARRAY, ROUTINE = "PB", "bar"
+
+    @property
+    def table(self):
+        return table_of(self.args[0])
+
+    @property
+    def nbar(self):
+        return self.table.ninput
+
+    def _parts(self):
+        t = self.table
+        a = self.args[3:]
+        n = t.ninput + t.noutput
+        return [a[:t.nstate], a[t.nstate:t.ninput], a[t.ninput:t.ninput + t.nwrench], a[t.ninput + t.nwrench:n]], a[n:]
+
+    def c_declaration(self):
+        return f"double {self.ARRAY}{int(self.args[1])}_[{self.nbar * (2 if self.ROUTINE == 'bar_dot' else 1)}];"
+
+    def c_routines(self):
+        return _bar_routines(self.table, self.ROUTINE == "bar_dot")
+
+    def _ccode(self, printer):
+        (state, par, gw, gp), rest = self._parts()
+        args = [nw._literal(state, printer), _array(par, printer), str(int(self.args[2])), _optional(gw, printer),
+                _optional(gp, printer)]
+        if rest:
+            t = self.table
+            dstate, dpar, dgw, dgp = (rest[:t.nstate], rest[t.nstate:t.ninput], rest[t.ninput:t.ninput + t.nwrench],
+                                      rest[t.ninput + t.nwrench:])
+            args += [nw._literal(dstate, printer)] + [_optional(x, printer) for x in (dpar, dgw, dgp)]
+        return f"eomc_pairs_{self.ROUTINE}({', '.join(args)}, &{self.ARRAY}{int(self.args[1])}_[0])"
+
+    def tangent_call(self, dd, k, uid):
+        """The reverse twin's tangent along direction k of ``dd`` (None: zero), its node."""
+        primal = self.args[3:]
+        d = [dd.d(x, k) for x in primal]
+        if all(x.is_Number and x == 0 for x in d):
+            return None
+        return PairTableBarDot(self.args[0], uid, self.args[2], *primal, *d)
+
+
+class PairTableBarDot(PairTableBar):
+    """PairTableBarDot(table id, uid, full, *inputs, *output bars, *their tangents): the bars and
+    their tangents (from index :attr:`nbar`), into ``PE<uid>_``: ``eomc_pairs_bar_dot``."""
+    ARRAY, ROUTINE = "PE", "bar_dot"
+
+
+def _optional(values, printer):
+    """C of a read-only array, or 0 when every value is 0 (the loop reads none)."""
+    if all(x.is_Number and x == 0 for x in values):
+        return "0"
+    return nw._literal(values, printer)
+
+
+def _bar_routines(table, dot):
+    """[(key, C text, split)]: the routines the reverse loop (``dot``: its tangent) calls, then it."""
+    out = []
+    for rid in sorted({p[0] for p in table.pairs}) + [nw.LAW_RID]:
+        variants = (["tape", "dot", "bar_dot"] if rid != nw.LAW_RID else [None, "bar_dot"]) if dot else [None, "bar"]
+        for var in variants:
+            text, split = nw.routine_code(rid, var)
+            out.append(((rid, {None: 0, "dot": 1, "tape": 2, "bar": 3, "bar_dot": 4}[var]), text, split))
+    out.append(((1000, 0), _tables(table), False))
+    out.append(((1000, 5 if dot else 4), _bar_loop(table, dot), False))
+    return out
+
+
+def _bar_loop(t, dot):
+    """The loop's reverse twin (``dot``: its tangent, forward over reverse)."""
+    ns, nb = len(t.shapes), len(t.bodies)
+    off = 18 * nb
+    nlaw, nlo = nw.LAW_NPOSE, nw.routine_outputs(nw.LAW_RID)
+    L = []
+    if dot:
+        L.append("/* tangent of the body-body pairs' reverse sweep (compiler/contact/table.py): out = the bars of in "
+                 "and pars, then their tangents along din, dpar and the bars' tangents dgw, dgp (0: none) */")
+        L.append("static double eomc_pairs_bar_dot(const double *in, const double *pars, int full, const double *gw, "
+                 "const double *gp, const double *din, const double *dpar, const double *dgw, const double *dgp, "
+                 "double *out)\n{")
+    else:
+        L.append("/* reverse sweep of the body-body pairs' loop (compiler/contact/table.py): out = the bars of in and "
+                 "pars from the bars gw of the wrenches and gp of the contact points' outputs (0: none) */")
+        L.append("static double eomc_pairs_bar(const double *in, const double *pars, int full, const double *gw, "
+                 "const double *gp, double *out)\n{")
+    L.append("    static const double zero[18] = {0};")
+    L.append(f"    double cen[{3 * ns}], ax[{9 * ns}], gcen[{3 * ns}], gax[{9 * ns}];")
+    if dot:
+        L.append(f"    double dcen[{3 * ns}], dax[{9 * ns}], dgcen[{3 * ns}], dgax[{9 * ns}];")
+        L.append(f"    double *dout = out + {t.ninput};")
+    L.append(f"    int have[{ns}] = {{0}};")
+    L.append("    int s, q, m, k, w, j;")
+    L.append(f"    for (k = 0; k < {t.ninput * (2 if dot else 1)}; ++k) out[k] = 0.0;")
+    for g in (["gcen", "gax", "dgcen", "dgax"] if dot else ["gcen", "gax"]):
+        L.append(f"    for (k = 0; k < {(3 if 'cen' in g else 9) * ns}; ++k) {g}[k] = 0.0;")
+    L += _centres(ns, off, dot)
+    for rid in sorted({p[0] for p in t.pairs}):
+        name = "%s_%s" % nw.kinds_of(rid)
+        count = sum(1 for p in t.pairs if p[0] == rid)
+        npts = len(_parts(rid))
+        nout = nw.routine_outputs(rid)
+        ntape = len(nw.tape_of(rid)) if dot else 0
+        L.append(f"    for (q = 0; q < {count}; ++q) {{  /* {name} pairs */")
+        L.append(f"        const int *P = eomc_pairs_{name}_i[q];")
+        L.append(f"        const double *D = eomc_pairs_{name}_d[q];")
+        L.append(f"        double np[{nout + ntape}], gn[{nout}], nb[{nw.NPOSE * (2 if dot else 1)}];")
+        if dot:
+            L.append(f"        double nd[{nout}], dgn[{nout}];")
+        L.append("        const double *ca = cen + 3 * P[0], *cb = cen + 3 * P[1];")
+        L.append("        const double e0 = cb[0] - ca[0], e1 = cb[1] - ca[1], e2 = cb[2] - ca[2];")
+        L.append("        if (!full && e0 * e0 + e1 * e1 + e2 * e2 > D[1]) continue;")
+        L += _axes(dot)
+        args = _narrow_args()
+        L.append(f"        const double ni[{nw.NINPUT}] = {{{', '.join(args)}}};")
+        if dot:
+            dargs = _narrow_dargs()
+            L.append(f"        const double dni[{nw.NPOSE}] = {{{', '.join(dargs)}}};")
+            L.append(f"        eomc_narrow_{name}_tape({', '.join(args)}, np);")
+            L.append(f"        eomc_narrow_{name}_dot(&np[{nout}], {', '.join(dargs)}, nd);")
+        else:
+            L.append(f"        eomc_narrow_{name}({', '.join(args)}, np);")
+        L.append(f"        for (k = 0; k < {nout}; ++k) gn[k] = 0.0;")
+        if dot:
+            L.append(f"        for (k = 0; k < {nout}; ++k) dgn[k] = 0.0;")
+        L.append(f"        for (m = 0; m < {npts}; ++m) {{")
+        L.append("            const double *pp = np + 7 * m;")
+        L.append("            const int ba = eomc_pairs_sbody[P[0]], bb = eomc_pairs_sbody[P[1]];")
+        L.append("            const double *A = ba < 0 ? zero : in + 18 * ba, *B = bb < 0 ? zero : in + 18 * bb;")
+        L.append("            const double *par = pars + 4 * P[2];")
+        L.append(f"            double lg[{nlo}], lb[{nlaw * (2 if dot else 1)}];")
+        seeds = [("", "gn", "gw", "gp", "out", 0)] + ([("d", "dgn", "dgw", "dgp", "dout", nlaw)] if dot else [])
+        for d, gn, gw, gp, o, at in seeds:     # the bars, then (dot) their tangents
+            L.append(f"            const double *{d}go = {gp} ? {gp} + {POINT_OUTPUTS} * (P[3] + m) : zero;")
+            L.append(f"            {gn}[7 * m + 6] += {d}go[4];")
+            L.append(f"            for (k = 0; k < 3; ++k) {gn}[7 * m + k] += {d}go[6 + k];")
+        L.append("            if (!full && -pp[6] > 0) continue;")
+        L.append(f"            const double li[{nlaw}] = {{{', '.join(_law_args('pp', 'A', 'B', 'par'))}}};")
+        if dot:
+            L.append("            const double *pd = nd + 7 * m;")
+            L.append("            const double *dA = ba < 0 ? zero : din + 18 * ba, *dB = bb < 0 ? zero : din + 18 * bb;")
+            L.append("            const double *dp = dpar ? dpar + 4 * P[2] : zero;")
+            L.append(f"            const double dli[{nlaw}] = {{{', '.join(_law_args('pd', 'dA', 'dB', 'dp'))}}};")
+            L.append(f"            double dlg[{nlo}];")
+        for d, gn, gw, gp, o, at in seeds:
+            L.append("            for (k = 0; k < 6; ++k) {")
+            L.append(f"                {d}lg[k] = {gw} && bb >= 0 ? {gw}[6 * bb + k] : 0.0;")
+            L.append(f"                {d}lg[6 + k] = {gw} && ba >= 0 ? {gw}[6 * ba + k] : 0.0;")
+            L.append("            }")
+            L.append(f"            for (k = 0; k < 4; ++k) {d}lg[12 + k] = {d}go[k];")
+            L.append(f"            {d}lg[16] = {d}go[5];")
+        if dot:
+            L.append("            eomc_pair_law_bar_dot(li, lg, dli, dlg, lb);")
+        else:
+            L.append("            eomc_pair_law_bar(li, lg, lb);")
+        for d, gn, gw, gp, o, at in seeds:
+            L.append(f"            for (k = 0; k < 7; ++k) {gn}[7 * m + k] += lb[{at} + k];")
+            L.append(f"            if (ba >= 0) for (k = 0; k < 18; ++k) {o}[18 * ba + k] += lb[{at + 7} + k];")
+            L.append(f"            if (bb >= 0) for (k = 0; k < 18; ++k) {o}[18 * bb + k] += lb[{at + 25} + k];")
+            L.append(f"            for (k = 0; k < 4; ++k) {o}[{t.nstate} + 4 * P[2] + k] += lb[{at + 43} + k];")
+        L.append("        }")
+        if dot:
+            L.append(f"        eomc_narrow_{name}_bar_dot(ni, gn, dni, dgn, nb);")
+        else:
+            L.append(f"        eomc_narrow_{name}_bar(ni, gn, nb);")
+        for d, at in [("", 0)] + ([("d", nw.NPOSE)] if dot else []):
+            L.append("        for (k = 0; k < 3; ++k) {")
+            L.append(f"            {d}gcen[3 * P[0] + k] += nb[{at} + k];")
+            L.append(f"            {d}gcen[3 * P[1] + k] += nb[{at + 12} + k];")
+            L.append("        }")
+            L.append("        for (k = 0; k < 9; ++k) {")
+            L.append(f"            {d}gax[9 * P[0] + k] += nb[{at + 3} + k];")
+            L.append(f"            {d}gax[9 * P[1] + k] += nb[{at + 15} + k];")
+            L.append("        }")
+        L.append("    }")
+    # the placements' bars back to the bodies (cen = o + Rᵀ offset, ax = Rᵀ r, R's rows in in[18 b + 3..11])
+    L.append(f"    for (s = 0; s < {ns}; ++s) {{")
+    L.append("        const int b = eomc_pairs_sbody[s];")
+    L.append(f"        const double *o = in + {off} + 3 * s, *r = eomc_pairs_srot[s];")
+    L.append("        const double *gc = gcen + 3 * s, *ga = gax + 9 * s;")
+    if dot:
+        L.append(f"        const double *d = din + {off} + 3 * s, *dgc = dgcen + 3 * s, *dga = dgax + 9 * s;")
+    L.append("        if (b < 0) {")
+    L.append(f"            for (k = 0; k < 3; ++k) out[{off} + 3 * s + k] += gc[k];")
+    if dot:
+        L.append(f"            for (k = 0; k < 3; ++k) dout[{off} + 3 * s + k] += dgc[k];")
+    L.append("            continue;")
+    L.append("        }")
+    L.append("        for (k = 0; k < 3; ++k) {")
+    L.append("            out[18 * b + k] += gc[k];")
+    if dot:
+        L.append("            dout[18 * b + k] += dgc[k];")
+    L.append("            for (j = 0; j < 3; ++j) {")
+    L.append("                out[18 * b + 3 + 3 * j + k] += gc[k] * o[j];")
+    L.append(f"                out[{off} + 3 * s + j] += in[18 * b + 3 + 3 * j + k] * gc[k];")
+    if dot:
+        L.append("                dout[18 * b + 3 + 3 * j + k] += dgc[k] * o[j] + gc[k] * d[j];")
+        L.append(f"                dout[{off} + 3 * s + j] += din[18 * b + 3 + 3 * j + k] * gc[k]"
+                 " + in[18 * b + 3 + 3 * j + k] * dgc[k];")
+    L.append("                for (w = 0; w < 3; ++w) {")
+    L.append("                    out[18 * b + 3 + 3 * j + w] += ga[3 * k + w] * r[3 * j + k];")
+    if dot:
+        L.append("                    dout[18 * b + 3 + 3 * j + w] += dga[3 * k + w] * r[3 * j + k];")
+    L.append("                }")
+    L.append("            }")
+    L.append("        }")
+    L.append("    }")
+    L.append("    return 0.0;\n}\n")
+    return "\n".join(L)

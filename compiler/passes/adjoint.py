@@ -21,8 +21,9 @@ deterministic.
 """
 import sympy as sm
 
+from eomc.runtime.errors import ModelError
 from ..ir import Names
-from .diff import _add, _mul, _pow, _zero
+from .diff import _FLAT, _add, _mul, _pow, _zero
 from .timing import compiler_pass
 
 __all__ = ["adjoint"]
@@ -54,10 +55,19 @@ def _partial(expr, s):
         if _zero(db):
             return sm.S.Zero
         return _mul((expr.exp, _pow(expr.base, expr.exp - 1), db))
+    if isinstance(expr, _FLAT):
+        return sm.S.Zero
     if isinstance(expr, sm.Function) and len(expr.args) == 1:
         da = _partial(expr.args[0], s)
         return sm.S.Zero if _zero(da) else _mul((expr.fdiff(1), da))
     return expr.diff(s)
+
+
+def _calls(program, active):
+    """The active temporaries holding a call that writes its outputs into an array (``c_declaration``:
+    compiler/contact/narrow.py's tokens), whose outputs nodes read; those with a ``reverse`` have a
+    reverse sweep, through the others (tangent calls) a reverse sweep is refused."""
+    return {t for t, e in program.assignments if t in active and hasattr(e, "c_declaration")}
 
 
 @compiler_pass
@@ -90,17 +100,61 @@ def adjoint(program, weights, wrt, target):
     terms = {}      # symbol -> [terms of its adjoint], in visiting order
     names = Names(program)
     out = []
+    # called routines (compiler/contact/narrow.py, table.py): a temporary holding a call token
+    # whose outputs other nodes read (``reverse_read()``); the bars of its outputs are gathered
+    # per output, and its own ``reverse`` emits the reverse call and gives its inputs' bars
+    calls = _calls(program, active)
+    outs = {}       # call temporary -> {output index: [terms of its bar]}
 
     def push(expr, bar):
         syms = sorted((s for s in expr.free_symbols if s in active), key=rank.__getitem__)
         for s in syms:
+            if s in calls:
+                continue
             d = _partial(expr, s)
             if not _zero(d):
                 terms.setdefault(s, []).append(d if bar is sm.S.One else _mul((bar, d)))
+        if calls.isdisjoint(syms):
+            return
+        reads = sorted({n for n in sm.preorder_traversal(expr) if hasattr(n, "reverse_read")
+                        and n.reverse_read()[0] in active}, key=lambda n: (rank[n.reverse_read()[0]], n.reverse_read()[1]))
+        for node in reads:
+            call, index = node.reverse_read()
+            if not hasattr(program_defs()[call], "reverse"):
+                raise ModelError(f"no reverse sweep is generated through {type(program_defs()[call]).__name__} "
+                                 f"(a second derivative's reverse sweep)")
+            dummy = sm.Dummy(real=True)
+            d = _partial(expr.xreplace({node: dummy}), dummy)
+            if not _zero(d):
+                d = d.xreplace({dummy: node})
+                outs.setdefault(call, {}).setdefault(index, []).append(d if bar is sm.S.One else _mul((bar, d)))
+
+    defs = {}
+
+    def program_defs():
+        if not defs:
+            defs.update(program.assignments)
+        return defs
 
     for _, e, w in weighted:
         push(e, w)
     for t, e in reversed(program.assignments):
+        if t in calls:      # every reader is after it: its outputs' bars are complete
+            got = outs.pop(t, None)
+            if got:
+                bars = {}
+                for index in sorted(got):
+                    bar = _add(got[index])
+                    if not bar.is_Atom:
+                        sym = names.fresh()
+                        out.append((sym, bar))
+                        bar = sym
+                    bars[index] = bar
+                new, pairs = e.reverse(names.fresh, bars)
+                out.extend(new)
+                for x, bar in pairs:
+                    push(x, bar)
+            continue
         ts = terms.pop(t, None)
         if not ts:
             continue

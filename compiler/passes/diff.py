@@ -52,6 +52,12 @@ def _mul(factors):
     return rest[0] if len(rest) == 1 else sm.Mul._from_args(tuple(rest), True)
 
 
+# sign(x), the derivative of |x| (the pair schemes' clamps: min and max as (a + b ± |a - b|)/2), has
+# the derivative 0 but at 0, where it has none: the passes take 0 (SymPy's is an unprintable
+# Derivative, or a DiracDelta), so that a second derivative through |x| (hvp, hess_id) is generated.
+_FLAT = (sm.sign,)
+
+
 def _pow(base, exp):
     if exp == 1:
         return base
@@ -118,6 +124,8 @@ class _Diff:
             db = self.d(expr.base, k)
             res = (_mul((expr.exp, _pow(expr.base, expr.exp - 1), db)) if not _zero(db)
                    else sm.S.Zero)
+        elif isinstance(expr, _FLAT):       # |x|'s derivative: flat but at 0
+            res = sm.S.Zero
         elif isinstance(expr, sm.Function) and len(expr.args) == 1:
             da = self.d(expr.args[0], k)
             res = _mul((expr.fdiff(1), da)) if not _zero(da) else sm.S.Zero

@@ -28,7 +28,8 @@ def world_placement(bodies, rec):
                      by_columns=True)
 
 
-def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, guards=None, analytic=None):
+def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, guards=None, analytic=None,
+                   second=False):
     """Add every ContactLoad's force to its body's ``fext`` (LoweredBody, body components
     about the origin); return {ContactValue placeholder: temporary}.
 
@@ -47,7 +48,10 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
     ground contact (body, depth, contact point, sphere centre, world force, K, C), or None
     when a contact's point moves on its body (an ellipsoid's support point); "guards", jac_x's
     broad phase (the world forces exported too: the kernel reads them); "pairs", the body-body
-    pairs' table bodies and wrench temporaries when they are one table call (.analytic block W)."""
+    pairs' table bodies and wrench temporaries when they are one table call (.analytic block W).
+    ``second``: a function differentiates the pairs twice (hvp, hess_id): every pair goes through the
+    table whatever their number, whose loop skips the law out of contact -- inlined, the law's
+    δ₊^{3/2} has the second derivative ∞·0 = NaN at every point out of contact."""
     contacts = contact_outputs(tree)
     others = [ld for ld in tree.loads if not isinstance(ld, ContactLoad) and hasattr(ld, "lower")]
     if not contacts and not others:
@@ -57,7 +61,7 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
         implicit["poses"], implicit["contacts"] = poses, []
     values, elastic, reach, pairs = {}, [], {}, []
     table = [ld for ld in others if isinstance(ld, PairLoad)] if _pairs.PAIR_TABLE else []
-    if len(table) < _pairs.TABLE_FROM:      # a few pairs stay inlined (pairs.TABLE_FROM: why)
+    if len(table) < _pairs.TABLE_FROM and not second:   # a few pairs stay inlined (pairs.TABLE_FROM: why)
         table = []
     if table:               # every pair in one table-driven call (compiler/contact/table.py)
         wrenches = [] if analytic is not None else None

@@ -206,7 +206,8 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         ground = ({} if loops is None and set(functions) & {"jac_id", "jac_x"}
                   and len(layout.x) > TANGENT_MIN_STATES else None)
         contact_values = _contacts(tree, bodies, rec, v, layout, implicit,
-                                   (gravity, speeds) if wants_energy else None, guards, ground)
+                                   (gravity, speeds) if wants_energy else None, guards, ground,
+                                   bool(set(functions) & {"hvp", "hess_id"}))
         extra, keep = [], {}
         if loops is not None:
             J, gamma = lower_loops(loops, layout, rec)
@@ -428,7 +429,7 @@ def _asks_energy(outputs):
     return any(getattr(e, "has", None) and e.has(ENERGY) for e in (outputs or {}).values())
 
 
-def _contacts(tree, bodies, rec, v, layout, implicit=None, energy=None, guards=None, ground=None):
+def _contacts(tree, bodies, rec, v, layout, implicit=None, energy=None, guards=None, ground=None, second=False):
     """Ground contacts (eomc.compiler.contact.tree): their forces into the bodies' ``fext``
     from the world positions and velocities of their points, built recursively with ``rec``;
     returns {placeholder of a contact output or event: its temporary}."""
@@ -437,7 +438,7 @@ def _contacts(tree, bodies, rec, v, layout, implicit=None, energy=None, guards=N
     from .contacts import lower_contacts
     memo = {}
     return lower_contacts(tree, bodies, rec, v, lambda e, what: _rename(layout, memo, what, None)(e),
-                          implicit, energy, guards, ground)
+                          implicit, energy, guards, ground, second)
 
 
 def implicit_layout(nq, nu, ncontact):

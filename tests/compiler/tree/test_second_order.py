@@ -354,8 +354,10 @@ def test_a_ball_joint_below_a_free_root_against_differences(tmp_path):
     path.write_text(FREE_AND_BALL_MJCF)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        # its two bodies' self-pair (in by default since session 11) has no second derivatives:
-        # this test is about the joints, so build it without (the refusal: tests/compiler/contact)
+        # this test is about the joints' analytic second-order kernel (compiler/tree/second_order.py),
+        # which holds no body–body pair: with its grandparent–grandchild self-pair (in by default
+        # since session 11) hess_id differentiates RNEA's trace through the pair table's reverse
+        # twin instead (tests/compiler/contact/test_pair_reverse.py), so build it without
         model = eomc.compile(MjcfModel(path, pairs="trees"), "free_and_ball", functions=["rhs", "jac_id", "hess_id"],
                              cache_dir=tmp_path / "c", progress=False)
     c = (model.directory / f"{model.name}.c").read_text()
