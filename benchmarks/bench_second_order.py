@@ -21,7 +21,11 @@ Models: the cart, UR10, Panda, and the floating bases Go2, G1, Talos (eomc's fre
 Euler angles, body-frame speeds).  On a floating base Pinocchio differentiates along its
 Lie-group tangent and eomc's hess_id along its coordinates (the change brings K⁻¹ and K's own
 derivative): such a model is built twice, as eomc builds it and along the tangent
-(second_order.TANGENT, Pinocchio's quantities; a third contestant), see :func:`build`.
+(second_order.TANGENT, Pinocchio's quantities; a third contestant), see :func:`build`; and a third
+time with second_order.ZERO off (a fourth contestant): Pinocchio writes only the entries of its
+tensors on the tree's support paths (zeroed once, when its Data is made), eomc's hess_id zeroes its
+whole output first (most of it, on a branched tree: Talos 500 k numbers, 4 MB a call); with ZERO off
+it writes what Pinocchio writes, into an output the harness zeroed once (same bits, checked).
 
 Agreement, before timing: the C++ tensors ∂²τ/∂q², ∂²τ/∂u², ∂²τ/∂q∂u at 4 random states
 against eomc's (Python ``model.hess_id``), largest difference relative to the largest entry.
@@ -61,6 +65,7 @@ HARNESS = r"""
 #include <time.h>
 #include "@NAME@.h"
 @OLDINC@
+@NZINC@
 int pin_setup(const char *path);
 void pin_rnea_second_order(const double *q, const double *v, const double *a);
 void pin_copy_rnea_second_order(double *qq, double *vv, double *qv, double *aq);
@@ -75,12 +80,13 @@ static const double V[NS][NU] = {@V@};
 static const double A[NS][NU] = {@A@};
 static const double P[] = {@P@};   /* the model's parameter defaults */
 static const double R[] = {@R@};   /* zero inputs */
-static double out[NU * NX * NX], work[@WORK@], qq[NU * NU * NU], vv[NU * NU * NU], qv[NU * NU * NU], aq[NU * NU * NU];
+static double out[NU * NX * NX], out3[NU * NX * NX], work[@WORK@], qq[NU * NU * NU], vv[NU * NU * NU], qv[NU * NU * NU], aq[NU * NU * NU];
 static double tnow(void) { struct timespec ts; clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
     return ts.tv_sec * 1e9 + ts.tv_nsec; }
 static double call(int c, int i) {
     if (c == 0) { if (@NAME@_hess_id(0.0, X[i], UD[i], P, R, out, work)) exit(5); return out[NX]; }
     @OLDCALL@
+    @NZCALL@
     pin_rnea_second_order(Q[i], V[i], A[i]);
     return 0.0;
 }
@@ -108,6 +114,11 @@ int main(int argc, char **argv) {
 """
 LABELS = ("eomc hess_id", "Pinocchio ComputeRNEASecondOrderDerivatives", "eomc hess_id, old path")
 TANGENT = "eomc hess_id along the tangent"     # the third contestant of a floating base (see build)
+# the fourth of a floating base: hess_id built with second_order.ZERO off, the entries off the support
+# paths left as the caller zeroed them once (Pinocchio's contract: its tensors are zeroed when its
+# Data is made, and its second-order RNEA writes only the entries on the paths); its own output
+# buffer, static (zero) and never cleared (see build)
+LEFT = "eomc hess_id, zeros left to the caller"
 
 
 def eomc_flags(portable):
@@ -120,21 +131,27 @@ def eomc_flags(portable):
     return ["-O2", *machine_flags(find_compiler())]
 
 
-def run(model, ref, data, tmp, pin_obj, rounds, old=None, cflags=("-O2",), tangent=False, core=1):
+def run(model, ref, data, tmp, pin_obj, rounds, old=None, cflags=("-O2",), tangent=False, core=1, left=None):
     """(median ns per contestant, agreement[, old path's agreement]): the harness compiled and run
     pinned to ``core``; ``old``: the same model on the forced reverse path (``--limits``), or with
     ``tangent`` its build along the free joint's tangent (a floating base, :func:`build`): the
     agreement with Pinocchio is then the tangent build's, and the second figure is the
-    coordinate build's against central differences of its jac_id."""
+    coordinate build's against central differences of its jac_id; ``left``: the same model with
+    second_order.ZERO off (a fourth contestant, index 3), whose bits from an output zeroed once
+    must equal hess_id's (checked here at the agreement states)."""
     X, UD, Q, V, A = data
     name, nu, nq = model.name, model.nu, model.nq
     if old is not None:
         assert list(old.param_defaults) == list(model.param_defaults)
-    src = (HARNESS.replace("@NAME@", name).replace("@NC@", "3" if old is not None else "2")
+    assert left is None or old is not None, "the fourth contestant is a floating base's (index 3)"
+    src = (HARNESS.replace("@NAME@", name).replace("@NC@", str(2 + (old is not None) + (left is not None)))
            .replace("@OLDINC@", f'#include "{old.name}.h"' if old is not None else "")
            .replace("@OLDCALL@", "if (c == 2) { if (%s_hess_id(0.0, X[i], UD[i], P, R, out, work)) exit(6); "
                     "return out[NX]; }" % old.name if old is not None else "").replace("@NS@", str(bd.NS)).replace("@NX@", str(model.nx))
            .replace("@NU@", str(nu)).replace("@PQ@", str(ref.model.nq)).replace("@ROUNDS@", str(rounds))
+           .replace("@NZINC@", f'#include "{left.name}.h"' if left is not None else "")
+           .replace("@NZCALL@", "if (c == 3) { if (%s_hess_id(0.0, X[i], UD[i], P, R, out3, work)) exit(7); "
+                    "return out3[NX]; }" % left.name if left is not None else "")
            .replace("@NAGREE@", str(NAGREE)).replace("@WORK@", str(max(model.work_size, old.work_size if old is not None else 0, 1)))
            .replace("@X@", bd.c_array(X)).replace("@UD@", bd.c_array(UD)).replace("@Q@", bd.c_array(Q))
            .replace("@V@", bd.c_array(V)).replace("@A@", bd.c_array(A))
@@ -145,9 +162,10 @@ def run(model, ref, data, tmp, pin_obj, rounds, old=None, cflags=("-O2",), tange
     objs = []
     units = [(c, tmp / f"h2_{name}.o"), (model.source_path, tmp / f"m2_{name}.o")]
     incs = [f"-I{model.directory}"]
-    if old is not None:
-        units.append((old.source_path, tmp / f"m2_{old.name}.o"))
-        incs.append(f"-I{old.directory}")
+    for m in (old, left):
+        if m is not None:
+            units.append((m.source_path, tmp / f"m2_{m.name}.o"))
+            incs.append(f"-I{m.directory}")
     for s, o in units:
         subprocess.run(["gcc", *cflags, "-std=c99", *incs, f"-I{ROOT / 'runtime' / 'c'}", "-c",
                         str(s), "-o", str(o)], check=True)
@@ -160,7 +178,7 @@ def run(model, ref, data, tmp, pin_obj, rounds, old=None, cflags=("-O2",), tange
     nv, iv = ref.model.nv, ref.iv
     pin = {}
     times = {}
-    labels = LABELS[:2] + ((TANGENT,) if tangent else LABELS[2:])
+    labels = LABELS[:2] + ((TANGENT,) if tangent else LABELS[2:]) + (LEFT,)
     for line in out.splitlines():
         p = line.split()
         if p[0] == "pin":
@@ -172,6 +190,11 @@ def run(model, ref, data, tmp, pin_obj, rounds, old=None, cflags=("-O2",), tange
         T = np.array(pin[i]).reshape(nv, nv, nv, 3)
         qq, vv, qv = (T[..., k][np.ix_(iv, iv, iv)] for k in range(3))
         H = model.hess_id(0.0, X[i], UD[i])
+        if left is not None:    # the same bits from an output zeroed once (before the first state)
+            once = np.zeros(H.size) if i == 0 else once
+            t, xc, p, rc = left._args(0.0, X[i], None, None)
+            assert left._kernel("hess_id")(t, xc, UD[i], p, rc, once, left._work()[1]) == 0
+            assert np.array_equal(once.reshape(H.shape), H), f"{left.name}: not hess_id's bits"
         if tangent:
             worst_old = max(worst_old, against_differences(model, X[i], UD[i], H))
             H = old.hess_id(0.0, X[i], UD[i])
@@ -232,24 +255,32 @@ def build_limited(case, cache):
 
 
 def build(case, cache):
-    """(eomc Model with hess_id, Pinocchio reference, the tangent build or None) of one case.
+    """(eomc Model with hess_id, Pinocchio reference, the tangent build or None, the build with
+    the zeros left to the caller or None) of one case.
 
     A floating base (Go2, G1, Talos: eomc's free joint, body XYZ Euler angles, body-frame speeds)
     is built twice: as eomc builds it (hess_id along the coordinates, the Euler angles) and with
     the kernel's entries left along the free joint's tangent (second_order.TANGENT: Pinocchio's
     Lie-group tangent, the same quantities as its tensors; the change to the coordinates, per row
-    two 3x3 blocks over the row's columns plus K's derivative, is what it leaves out)."""
+    two 3x3 blocks over the row's columns plus K's derivative, is what it leaves out), and a third
+    time along the coordinates with second_order.ZERO off (the entries off the support paths, most
+    of a branched tree's output, left as the caller zeroed them once: Pinocchio's contract)."""
     import eomc.compiler.tree.second_order as so
     fns = ["rhs", "inverse_dynamics", "jac_id", "hess_id"]
     model, ref, floating = bd.build_case(case, cache, functions=fns)
     if not floating:
-        return model, ref, None
+        return model, ref, None, None
     so.TANGENT = True
     try:
         xi = bd.build_case(case, cache / "tangent", functions=fns, name=case + "_xi")[0]
     finally:
         so.TANGENT = False
-    return model, ref, xi
+    so.ZERO = False
+    try:
+        left = bd.build_case(case, cache / "left", functions=fns, name=case + "_nz")[0]
+    finally:
+        so.ZERO = True
+    return model, ref, xi, left
 
 
 def main():
@@ -284,11 +315,12 @@ def main():
         cache = Path(a.cache) if a.cache else tmp / "cache"
         if a.limits:
             model, old, ref = build_limited(case, cache)
+            left = None
         else:
-            model, ref, old = build(case, cache)
+            model, ref, old, left = build(case, cache)
         data = bd.states(model, ref, old is not None and not a.limits, rng)
         times, agree, agree_old = run(model, ref, data, tmp, pin_obj, a.rounds, old, cflags,
-                                      tangent=old is not None and not a.limits, core=a.core)
+                                      tangent=old is not None and not a.limits, core=a.core, left=left)
         ops = model.metadata["op_counts"]
         row = dict(case=case, nx=model.nx, times=times, agree=agree, agree_old=agree_old,
                    ops={f: sum(ops[f].values()) for f in ("jac_id", "hess_id")})
@@ -316,7 +348,7 @@ def header(rounds, limits=False, cflags=("-O2",), isa=(), three=False, core=1):
         f"`python benchmarks/bench_second_order.py` — {cpu}, load {os.getloadavg()[0]:.1f} at the start, "
         f"Python {platform.python_version()}, Pinocchio {pinocchio.__version__} (header-only, g++ {' '.join(['-O2', *isa])}), "
         f"eomc {eomc.__version__}, gcc {' '.join(cflags)}; thread CPU, pinned to core {core}, "
-        f"{'3' if limits else '2 (3 on a floating base)' if three else '2'} contestants interleaved, "
+        f"{'3' if limits else '2 (4 on a floating base)' if three else '2'} contestants interleaved, "
         f"median of {rounds} rounds, {bd.NS} states cycled.  eomc: `--formulation recursive`, functions rhs, "
         "inverse_dynamics, jac_id, hess_id.\n",
     ] + ([
@@ -331,11 +363,14 @@ def header(rounds, limits=False, cflags=("-O2",), isa=(), three=False, core=1):
         "along eomc's coordinates (what `model.hess_id` returns), \"tangent\" the same kernel with the free "
         "joint's entries left along its tangent, Pinocchio's convention (what its tensors are); agreement "
         "with Pinocchio is the tangent build's, and the coordinate build is checked against central "
-        "differences of its jac_id.\n",
-        "| model | nx | eomc hess_id ns | eomc tangent ns | Pinocchio 2nd-order RNEA ns | **Pinocchio / hess_id** | "
-        "**Pinocchio / tangent** | ops jac_id / hess_id | agreement with Pinocchio (q,q), (u,u), (q,u) | "
-        "hess_id vs differences of jac_id |",
-        "|---|--:|--:|--:|--:|--:|--:|--|--|--|"])) + "\n"
+        "differences of its jac_id.  \"zeros left\": hess_id along the coordinates built with "
+        "second_order.ZERO off, which writes only the entries on the support paths and leaves the rest as "
+        "the caller zeroed them once (Pinocchio's contract: its Data's tensors are zeroed when made, its "
+        "second-order RNEA writes only those entries); its bits equal hess_id's (checked at 4 states).\n",
+        "| model | nx | eomc hess_id ns | eomc tangent ns | eomc zeros left ns | Pinocchio 2nd-order RNEA ns | "
+        "**Pinocchio / hess_id** | **Pinocchio / tangent** | **Pinocchio / zeros left** | ops jac_id / hess_id | "
+        "agreement with Pinocchio (q,q), (u,u), (q,u) | hess_id vs differences of jac_id |",
+        "|---|--:|--:|--:|--:|--:|--:|--:|--:|--|--|--|"])) + "\n"
 
 
 def render_limited(r):
@@ -347,9 +382,10 @@ def render_limited(r):
 
 def render_row(r):
     t = r["times"]
-    e, p, x = t[LABELS[0]], t[LABELS[1]], t.get(TANGENT)
+    e, p, x, z = t[LABELS[0]], t[LABELS[1]], t.get(TANGENT), t.get(LEFT)
     tang, ratio, fd = (f"{x:.0f}", f"**{p / x:.2f}**", f"{r['agree_old']:.1e}") if x else ("-", "-", "-")
-    return (f"| {r['case']} | {r['nx']} | {e:.0f} | {tang} | {p:.0f} | **{p / e:.2f}** | {ratio} | "
+    zl, zr = (f"{z:.0f}", f"**{p / z:.2f}**") if z else ("-", "-")
+    return (f"| {r['case']} | {r['nx']} | {e:.0f} | {tang} | {zl} | {p:.0f} | **{p / e:.2f}** | {ratio} | {zr} | "
             f"{r['ops']['jac_id']} / {r['ops']['hess_id']} | {r['agree']:.1e} | {fd} |")
 
 

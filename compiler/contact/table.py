@@ -34,14 +34,24 @@ rounding.  Outputs and events need every pair's δ and clip, also far ones: a pr
 point's quantities calls the function with ``full`` set (no skips; :meth:`PairTableCall.for_program`).
 
 Derivatives: the tangent (jvp, jac_p; jac_x and jac_id per state column, into the analytic
-kernel's block W) is one call of the function's forward-mode twin per direction, ``eomc_pairs_dot``, with the inputs' tangents; it re-runs the primal of each pair it
-does not skip (the narrow and law routines' ``_tape`` variants) and their ``_dot``.  The primal
-inputs it reads are stored by the primal call after its outputs (the ``taped()`` variant, as
-.narrow's tapes).  The reverse sweep (vjp; hvp and hess_id differentiate it forward) is one call of
-its reverse twin, ``eomc_pairs_bar`` (:class:`PairTableBar`), with the bars of the outputs the
-function reads; its tangent, ``eomc_pairs_bar_dot`` (:class:`PairTableBarDot`).  They run the
-pairs the primal runs (the same skips: exact, the force is ±0 there), the routines' ``_bar`` and
-``_bar_dot`` variants (.narrow), and take the placements' bars back to the bodies' inputs.
+kernel's block W) is one call of the function's forward-mode twin per direction, ``eomc_pairs_dot``,
+with the inputs' tangents.  It reads what the taped primal call, ``eomc_pairs_tape``, stored
+after its outputs: its inputs, per pair a flag (0: no point in contact at this state, else where
+its routine tapes are, -1: no room), and the narrow and law routines' tapes of the pairs in
+contact (up to TAPE_ROOM doubles; a pair past it re-runs its routines' ``_tape`` variants).  So
+the twin (full = 0) runs only the ``_dot`` routines of the pairs in contact at the state -- the
+decision is the state's, the same for every direction -- and skips a pair none of whose inputs
+moves along the direction (exactly zero tangents).  jac_x and jac_id run the columns only when
+some pair is in contact, and only the columns that move one of its bodies
+(compiler/tree/analytic_emit.py).  Why: jac_x of gymnasium's humanoid ran the twin's primal and
+tangent of every pair within its bounding balls per column: at rest (5 self-pair points in
+contact) 178 µs, now 87, with none in contact 86 µs, now 17, against 17 and 14 without the
+self-pairs (benchmarks/results/pair_jac_x.md, one run).  The reverse sweep (vjp; hvp and hess_id
+differentiate it forward) is one call of its reverse twin, ``eomc_pairs_bar`` (:class:`PairTableBar`),
+with the bars of the outputs the function reads; its tangent, ``eomc_pairs_bar_dot``
+(:class:`PairTableBarDot`).  They run the pairs the primal runs (the same skips: exact, the force is
+±0 there), the routines' ``_bar`` and ``_bar_dot`` variants (.narrow), and take the placements' bars
+back to the bodies' inputs.
 """
 import re
 
@@ -52,6 +62,7 @@ from eomc.runtime.errors import ModelError
 
 __all__ = ["PairTableCall", "PairTableOut", "lower_table", "table_of"]
 
+TAPE_ROOM = 4096         # doubles of the pairs' routine tapes a taped call keeps (pairs in contact; see _loop)
 POINT_OUTPUTS = 9        # F_n, friction (3), δ, clip, p (3): PairValue kinds 0..8
 _TABLES = {}             # table id -> Table (this process's lowering; the C is what the caches keep)
 
@@ -68,9 +79,12 @@ class Table:
         self.ninput = self.nstate + 4 * len(pairs)
         self.nwrench = 6 * len(bodies)
         self.noutput = self.nwrench + POINT_OUTPUTS * self.npoints
+        law = nw.routine_outputs(nw.LAW_RID) + len(nw.tape_of(nw.LAW_RID))
+        need = sum(nw.routine_outputs(rid) + len(nw.tape_of(rid)) + len(_parts(rid)) * law for rid, *_ in pairs)
+        self.room = min(need, TAPE_ROOM)     # the taped call's room for them
 
     def key(self):
-        return (tuple(self.bodies), tuple(self.shapes), tuple(self.pairs))
+        return (tuple(self.bodies), tuple(self.shapes), tuple(self.pairs), self.room)
 
 
 def _parts(rid):
@@ -157,7 +171,8 @@ class PairTableCall(nw.Token):
         return False
 
     def c_declaration(self):
-        n = self.table.noutput + (self.table.ninput if self._tape() else 0)
+        t = self.table
+        n = t.noutput + (t.ninput + len(t.pairs) + t.room if self._tape() else 0)
         return f"double PT_[{n}];"
 
     def c_routines(self):
@@ -302,15 +317,15 @@ def _routines(table, tape, dot):
     rids = sorted({p[0] for p in table.pairs})
     out = []
     for rid in rids + [nw.LAW_RID]:
-        for var in ([None, "tape", "dot"] if dot else [None]):
+        for var in ([None, "tape", "dot"] if dot else [None, "tape"] if tape else [None]):
             text, split = nw.routine_code(rid, var)
             out.append(((rid, {None: 0, "dot": 1, "tape": 2}[var]), text, split))
     out.append(((1000, 0), _tables(table), False))
-    out.append(((1000, 1), _loop(table, False), False))
+    out.append(((1000, 1), _loop(table, "primal"), False))
     if tape:
-        out.append(((1000, 2), _tape_wrapper(table), False))
+        out.append(((1000, 2), _loop(table, "tape"), False))
     if dot:
-        out.append(((1000, 3), _loop(table, True), False))
+        out.append(((1000, 3), _loop(table, "dot"), False))
     return out
 
 
@@ -333,16 +348,24 @@ def _tables(t):
     return "\n".join(rows) + "\n"
 
 
-def _loop(t, dot):
-    """The loop (``dot``: its forward-mode twin)."""
+def _loop(t, mode):
+    """The loop: ``mode`` "primal" (eomc_pairs), "tape" (eomc_pairs_tape: also stores its inputs,
+    per pair a flag, and the narrow and law routines' tapes of the pairs in contact) or "dot"
+    (eomc_pairs_dot, its forward-mode twin, reading what the tape stored)."""
+    dot, tape = mode == "dot", mode == "tape"
     ns, nb = len(t.shapes), len(t.bodies)
     off = 18 * nb
+    nlaw, nlt = nw.routine_outputs(nw.LAW_RID), len(nw.tape_of(nw.LAW_RID))
     L = []
     if dot:
-        L.append("/* tangents of the body-body pairs' loop (compiler/contact/table.py): in the primal inputs, "
+        L.append("/* tangents of the body-body pairs' loop (compiler/contact/table.py): in the tape (eomc_pairs_tape's), "
                  "din the bodies' and offsets' tangents, dpar the law parameters' (0: none) */")
         L.append("static double eomc_pairs_dot(const double *in, const double *din, const double *dpar, int full, "
                  "double *out)\n{")
+    elif tape:
+        L.append("/* the body-body pairs' loop storing after its outputs its inputs, per pair its tape's place "
+                 "(0: no point in contact, -1: in contact, no room), then the pairs' routine tapes (the twin's) */")
+        L.append("static double eomc_pairs_tape(const double *in, const double *pars, int full, double *out)\n{")
     else:
         L.append("/* body-body pairs' loop (compiler/contact/table.py): wrenches per body, then per contact point "
                  "F_n, friction, depth, clip, p; full = 0 skips what the rhs does not read */")
@@ -352,32 +375,52 @@ def _loop(t, dot):
     if dot:
         L.append(f"    double dcen[{3 * ns}], dax[{9 * ns}];")
     L.append(f"    int have[{ns}] = {{0}};")
-    L.append("    int s, q, m, k, w, j;")
+    L.append("    int q, m, k, w, j;" if dot else "    int s, q, m, k, w, j;")
     L.append(f"    for (k = 0; k < (full ? {t.noutput} : {t.nwrench}); ++k) out[k] = 0.0;")
     if dot:
-        L.append(f"    const double *pars = in + {t.nstate};")
-    L += _centres(ns, off, dot)
+        L.append(f"    const double *pars = in + {t.nstate}, *act = in + {t.ninput}, *area = act + {len(t.pairs)};")
+    if tape:
+        L.append(f"    double *act = out + {t.noutput + t.ninput}, *area = act + {len(t.pairs)};")
+        L.append("    int used = 0;")
+        L.append(f"    for (k = 0; k < {t.nstate}; ++k) out[{t.noutput} + k] = in[k];")
+        L.append(f"    for (k = 0; k < {t.ninput - t.nstate}; ++k) out[{t.noutput + t.nstate} + k] = pars[k];")
+        L.append(f"    for (k = 0; k < {len(t.pairs)}; ++k) act[k] = 0.0;")
+    if not dot:     # (the twin places a shape when a pair in contact first reads it)
+        L += _centres(ns, off, False)
     for rid in sorted({p[0] for p in t.pairs}):
         name = "%s_%s" % nw.kinds_of(rid)
         count = sum(1 for p in t.pairs if p[0] == rid)
         npts = len(_parts(rid))
         nout = nw.routine_outputs(rid)
-        ntape = len(nw.tape_of(rid)) if dot else 0
+        ntape = len(nw.tape_of(rid)) if dot or tape else 0
+        need = nout + ntape + npts * (nlaw + nlt)      # a pair's routine tapes
         L.append(f"    for (q = 0; q < {count}; ++q) {{  /* {name} pairs */")
         L.append(f"        const int *P = eomc_pairs_{name}_i[q];")
         L.append(f"        const double *D = eomc_pairs_{name}_d[q];")
-        L.append(f"        double np[{nout + ntape}];")
         if dot:
-            L.append(f"        double nd[{nout}];")
-        L.append("        const double *ca = cen + 3 * P[0], *cb = cen + 3 * P[1];")
-        L.append("        const double e0 = cb[0] - ca[0], e1 = cb[1] - ca[1], e2 = cb[2] - ca[2];")
-        L.append("        if (!full && e0 * e0 + e1 * e1 + e2 * e2 > D[1]) continue;")
-        L += _axes(dot)
+            L.append(f"        double nl[{nout + ntape}], nd[{nout}];")
+            L.append("        const double *np = nl;")
+            L.append("        if (!full && act[P[2]] == 0.0) continue;   /* exact at the state: no point in contact */")
+        elif tape:
+            L.append(f"        double *np = used + {need} <= {t.room} ? area + used : 0, nl[{nout + ntape}];")
+            L.append("        int on = 0;")
+            L.append("        if (!np) np = nl;")
+            L += _ball_lines()
+        else:
+            L.append(f"        double np[{nout}];")
+            L += _ball_lines()
+        L += _axes(dot, ["    " + x for x in _centre_lines("sh", off, True)] if dot else ())
+        if dot:
+            L += _ball_lines()
+            L += _still_lines(off)
         args = ", ".join(_narrow_args())
-        L.append(f"        eomc_narrow_{name}{'_tape' if dot else ''}({args}, np);")
-        if dot:
+        if dot:     # the tape's routine tapes when it had room for them, else the primal again
+            L.append(f"        if (!full && act[P[2]] > 0.0) np = area + (int)act[P[2]] - 1;")
+            L.append(f"        else eomc_narrow_{name}_tape({args}, nl);")
             dargs = ", ".join(_narrow_dargs())
             L.append(f"        eomc_narrow_{name}_dot(&np[{nout}], {dargs}, nd);")
+        else:
+            L.append(f"        eomc_narrow_{name}{'_tape' if tape else ''}({args}, np);")
         L.append(f"        for (m = 0; m < {npts}; ++m) {{")
         L.append("            const double *pp = np + 7 * m;")
         L.append("            const int ba = eomc_pairs_sbody[P[0]], bb = eomc_pairs_sbody[P[1]];")
@@ -388,20 +431,26 @@ def _loop(t, dot):
             L.append("            const double *pd = nd + 7 * m;")
             L.append(f"            const double *dA = ba < 0 ? zero : din + 18 * ba, *dB = bb < 0 ? zero : din + 18 * bb;")
             L.append("            const double *dp = dpar ? dpar + 4 * P[2] : zero;")
-            L.append(f"            double lt[{nw.routine_outputs(nw.LAW_RID) + len(nw.tape_of(nw.LAW_RID))}], "
-                     f"lo[{nw.routine_outputs(nw.LAW_RID)}];")
+            L.append(f"            double ll[{nlaw + nlt}], lo[{nlaw}];")
+            L.append(f"            const double *lt = np != nl ? np + {nout + ntape} + {nlaw + nlt} * m : ll;")
             src, tgt = "pd", "lo"
+        elif tape:
+            L.append(f"            double ll[{nlaw + nlt}], *lo = np != nl ? np + {nout + ntape} + {nlaw + nlt} * m : ll;")
+            src, tgt = "pp", "lo"
         else:
-            L.append(f"            double lo[{nw.routine_outputs(nw.LAW_RID)}];")
+            L.append(f"            double lo[{nlaw}];")
             src, tgt = "pp", "lo"
         L.append(f"            po[4] = {src}[6];")
         L.append(f"            for (k = 0; k < 3; ++k) po[6 + k] = {src}[k];")
         L.append("            if (!full && -pp[6] > 0) continue;")
         largs = ", ".join(_law_args("pp", "A", "B", "par"))
         if dot:
-            L.append(f"            eomc_pair_law_tape({largs}, lt);")
+            L.append(f"            if (lt == ll) eomc_pair_law_tape({largs}, ll);")
             dl = ", ".join(_law_args("pd", "dA", "dB", "dp"))
-            L.append(f"            eomc_pair_law_dot(&lt[{nw.routine_outputs(nw.LAW_RID)}], {dl}, lo);")
+            L.append(f"            eomc_pair_law_dot(&lt[{nlaw}], {dl}, lo);")
+        elif tape:
+            L.append("            on = 1;")
+            L.append(f"            eomc_pair_law_tape({largs}, lo);")
         else:
             L.append(f"            eomc_pair_law({largs}, lo);")
         L.append(f"            if (bb >= 0) for (k = 0; k < 6; ++k) out[6 * bb + k] += {tgt}[k];")
@@ -409,37 +458,73 @@ def _loop(t, dot):
         L.append(f"            for (k = 0; k < 4; ++k) po[k] = {tgt}[12 + k];")
         L.append(f"            po[5] = {tgt}[16];")
         L.append("        }")
+        if tape:    # a pair in contact keeps its tapes (its place + 1; -1: no room, the twin re-runs it)
+            L.append("        if (on && np != nl) {")
+            L.append("            act[P[2]] = 1.0 + used;")
+            L.append(f"            used += {need};")
+            L.append("        } else if (on) act[P[2]] = -1.0;")
         L.append("    }")
     L.append("    return 0.0;\n}\n")
     return "\n".join(L)
 
 
-def _centres(ns, off, dot):
-    """C lines placing every shape's centre (``dot``: and its tangent)."""
-    L = [f"    for (s = 0; s < {ns}; ++s) {{",
-         "        const int b = eomc_pairs_sbody[s];",
-         f"        const double *o = in + {off} + 3 * s;",
-         "        if (b < 0) { for (k = 0; k < 3; ++k) cen[3 * s + k] = o[k]; }",
+def _ball_lines():
+    """C: the pair's bounding-ball test (its shapes' centres placed)."""
+    return ["        const double *ca = cen + 3 * P[0], *cb = cen + 3 * P[1];",
+            "        const double e0 = cb[0] - ca[0], e1 = cb[1] - ca[1], e2 = cb[2] - ca[2];",
+            "        if (!full && e0 * e0 + e1 * e1 + e2 * e2 > D[1]) continue;"]
+
+
+def _centre_lines(s, off, dot):
+    """C: shape ``s``'s centre (of body b; ``dot``: and its tangent) in the world."""
+    L = [f"        const double *o = in + {off} + 3 * {s};",
+         f"        if (b < 0) {{ for (k = 0; k < 3; ++k) cen[3 * {s} + k] = o[k]; }}",
          "        else for (k = 0; k < 3; ++k)",
-         "            cen[3 * s + k] = in[18 * b + k] + in[18 * b + 3 + k] * o[0] + in[18 * b + 6 + k] * o[1]"
+         f"            cen[3 * {s} + k] = in[18 * b + k] + in[18 * b + 3 + k] * o[0] + in[18 * b + 6 + k] * o[1]"
          " + in[18 * b + 9 + k] * o[2];"]
     if dot:
-        L += [f"        const double *d = din + {off} + 3 * s;",
-              "        if (b < 0) { for (k = 0; k < 3; ++k) dcen[3 * s + k] = d[k]; }",
+        L += [f"        const double *d = din + {off} + 3 * {s};",
+              f"        if (b < 0) {{ for (k = 0; k < 3; ++k) dcen[3 * {s} + k] = d[k]; }}",
               "        else for (k = 0; k < 3; ++k)",
-              "            dcen[3 * s + k] = din[18 * b + k] + din[18 * b + 3 + k] * o[0] + din[18 * b + 6 + k] * o[1]"
+              f"            dcen[3 * {s} + k] = din[18 * b + k] + din[18 * b + 3 + k] * o[0] + din[18 * b + 6 + k] * o[1]"
               " + din[18 * b + 9 + k] * o[2] + in[18 * b + 3 + k] * d[0] + in[18 * b + 6 + k] * d[1]"
               " + in[18 * b + 9 + k] * d[2];"]
-    return L + ["    }"]
+    return L
 
 
-def _axes(dot):
-    """C lines placing a pair's two shapes' axes once (``dot``: and their tangents)."""
+def _still_lines(off):
+    """C, in the tangent loop over a kind's pairs: skip the pair when nothing it reads moves along
+    this direction (its bodies' inputs, its shapes' offsets and its law's parameters have zero
+    tangents, exactly: a body away from the column's joint); its outputs' tangents are then zero
+    (the twin is linear in the tangents).  Why: jac_x's columns of a joint move only the bodies
+    it carries (gymnasium's humanoid: a pressed pair reads about half of the 46 columns)."""
+    return [
+        "        if (!full) {   /* nothing of the pair moves along this direction: zero tangents */",
+        "            const int ba = eomc_pairs_sbody[P[0]], bb = eomc_pairs_sbody[P[1]];",
+        "            int moves = dpar != 0;",
+        f"            for (k = 0; k < 3 && !moves; ++k) moves = din[{off} + 3 * P[0] + k] != 0.0 || din[{off} + 3 * P[1] + k] != 0.0;",
+        "            for (k = 0; k < 18 && !moves; ++k)",
+        "                moves = (ba >= 0 && din[18 * ba + k] != 0.0) || (bb >= 0 && din[18 * bb + k] != 0.0);",
+        "            if (!moves) continue;",
+        "        }",
+    ]
+
+
+def _centres(ns, off, dot):
+    """C lines placing every shape's centre (``dot``: and its tangent)."""
+    return ([f"    for (s = 0; s < {ns}; ++s) {{", "        const int b = eomc_pairs_sbody[s];"]
+            + _centre_lines("s", off, dot) + ["    }"])
+
+
+def _axes(dot, centres=()):
+    """C lines placing a pair's two shapes' axes once (``dot``: and their tangents), after the
+    lines ``centres`` (the twin places their centres there too)."""
     L = ["        for (j = 0; j < 2; ++j) {",
          "            const int sh = P[j], b = eomc_pairs_sbody[sh];",
          "            const double *r = eomc_pairs_srot[sh];",
          "            if (have[sh]) continue;",
          "            have[sh] = 1;",
+         *centres,
          "            for (k = 0; k < 3; ++k) for (w = 0; w < 3; ++w)",
          "                ax[9 * sh + 3 * k + w] = b < 0 ? r[3 * w + k] : in[18 * b + 3 + w] * r[k]"
          " + in[18 * b + 6 + w] * r[3 + k] + in[18 * b + 9 + w] * r[6 + k];"]
@@ -466,15 +551,6 @@ def _narrow_dargs():
 def _law_args(p, a, b, par):
     return ([f"{p}[{k}]" for k in range(7)] + [f"{a}[{k}]" for k in range(18)]
             + [f"{b}[{k}]" for k in range(18)] + [f"{par}[{k}]" for k in range(4)])
-
-
-def _tape_wrapper(t):
-    return ("/* the pairs' loop, then its inputs after its outputs (its tangent reads them) */\n"
-            "static double eomc_pairs_tape(const double *in, const double *pars, int full, double *out)\n{\n"
-            f"    int k;\n    eomc_pairs(in, pars, full, out);\n"
-            f"    for (k = 0; k < {t.nstate}; ++k) out[{t.noutput} + k] = in[k];\n"
-            f"    for (k = 0; k < {t.ninput - t.nstate}; ++k) out[{t.noutput + t.nstate} + k] = pars[k];\n"
-            "    return 0.0;\n}\n")
 
 
 # --- the reverse sweep (vjp, hvp, hess_id) -------------------------------------------------------

@@ -974,6 +974,8 @@ def _pair_lines(plan, ncol):
         f"            for (k = 0; k < {ncol}; k++) {{",
         f"                const double *wb = an + {o['W']} + {6 * n} * k + 6 * pj[j];",
         "                double n[3], f[3], m;",
+        "                if (wb[0] == 0.0 && wb[1] == 0.0 && wb[2] == 0.0 && wb[3] == 0.0 && wb[4] == 0.0 && wb[5] == 0.0)",
+        "                    continue;   /* no pair of the body pressed, or none moved along this column */",
         "                for (i = 0; i < 3; i++) {",
         "                    n[i] = Rb[3 * i] * wb[0] + Rb[3 * i + 1] * wb[1] + Rb[3 * i + 2] * wb[2];",
         "                    f[i] = Rb[3 * i] * wb[3] + Rb[3 * i + 1] * wb[4] + Rb[3 * i + 2] * wb[5];",

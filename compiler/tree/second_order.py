@@ -21,7 +21,8 @@ along ψ̇_i plus Bᶜ's commutator with S_i) and a few 6-vectors, per support d
 (x ↦ x ×* f) antisymmetric) replace Pinocchio's 6x6 products by vectors.
 
 Output: out[(i nx + j) nx + k] = ∂²τ_i/∂x_j∂x_k (the layout of the reverse path), zero
-outside the support paths and the extra states.
+outside the support paths and the extra states (zeroed by the kernel, or with ``ZERO`` off
+left as the caller zeroed them once, Pinocchio's contract).
 
 Where it applies (:func:`second_order_plan`): an analytic plan (:func:`.analytic.analytic_plan`):
 revolute and prismatic joints (bodies welded by fixed joints included), joint laws
@@ -140,6 +141,16 @@ TANGENT = False
 HALF_FROM_DEFAULT = 1 << 17
 HALF_FROM = HALF_FROM_DEFAULT
 
+# False: the kernel leaves the entries off the support paths (a row dof and two column dofs not
+# on one root-to-leaf path: zero for every state) as the caller left them, instead of zeroing the
+# whole output first -- Pinocchio's contract (ComputeRNEASecondOrderDerivatives writes only those
+# entries of its four nv^3 tensors, zeroed once when its Data is made): zero ``out`` once and pass
+# it again.  Why: on a branched tree most entries are off the paths, and the zeroing writes the
+# whole output (Talos: 500 k numbers, 4 MB) every call; same-core A/B, machine build, bits of the
+# written entries unchanged: Talos 198 -> 150 us, G1 99 -> 83, Go2 29.3 -> 27.8.  Chains (every
+# entry written, _covers_all) are not zeroed either way.  Part of the build cache's key when set.
+ZERO = True
+
 
 def _half(plan, nx):
     """Whether the kernel writes its output by halves (HALF_FROM): one-speed joints only (the
@@ -203,6 +214,8 @@ def second_order_c(name, plan, nq, nx, helpers):
         "",
         f"/* d2 tau / dx2 of RNEA by the spatial-algebra second-order algorithm (compiler/tree/second_order.py):",
         f"   out[(i * {nx} + j) * {nx} + k] = d2 tau_i / dx_j dx_k at velocities u and accelerations ud (per dof).",
+        *([] if ZERO or _covers_all(plan, nq, nx) else [
+            "   Entries off the support paths are not written (second_order.ZERO off): the caller zeroes out once."]),
         f"   Returns 0 when every number the outputs are made of is within {BOUND} (the outputs are then finite), else 1. */",
         f"static int {fn}(const double *an, const double *u, const double *ud, double *out)",
         "{",
@@ -223,7 +236,7 @@ def second_order_c(name, plan, nq, nx, helpers):
         "    double Ym[36], Bm[36], Ma[36], Mb[36], Mc[36], R1[36], R3[36];",
         "    int b, i, j, k, e, c, l, big = 0;",
         *_kinv_lines(plan),
-    ] + ([] if _covers_all(plan, nq, nx) else [
+    ] + ([] if _covers_all(plan, nq, nx) or not ZERO else [
         f"    for (k = 0; k < {nd * nn}; k++) out[k] = 0.0;"]) + (
         [f"    for (k = 0; k < {nd * nm}; k++) Tq[k] = 0.0;"] if nm and not TANGENT else []) + [
         f"    for (b = 0; b < {nb}; b++) {{   /* forward: placements, axes and their rates, v, a, Y, B, f */",

@@ -217,6 +217,9 @@ typedef struct ctx {
     eomc_stagger *sg;        /* Radau's staggered sensitivities, the adjoint's checkpoints, or NULL */
     int istop;               /* next of sg->tstop */
     const double *bdf_x;     /* BDF: the state at the current step's start (bdf_predict) */
+    double sw_head;          /* BDF: a first crossing within this share of a trial step restarts
+                                at the step's start (sw_locate; 0: Radau, never) */
+    double sw_head_t;        /* where the last such restart was (one per point) */
     double sw_noise;         /* a switching function within this of zero keeps its side (sw_left) */
 } ctx;
 
@@ -504,6 +507,7 @@ static int ctx_init(ctx *c, const eomc_model *m, const double *p, int nr,
     c->pj = NULL; c->stab = 0.0; c->fb = NULL; c->fbJ = NULL; c->fbK = NULL; c->Kt = NULL; c->ev = NULL; c->ev_t = 0.0; c->ev_x = NULL;
     c->abort = 0; c->sigint0 = g_sigint;
     c->nsw = 0; c->nswe = 0; c->gnew_ok = 0; c->sw_cuts = 0;
+    c->bdf_x = NULL; c->sw_head = 0.0; c->sw_head_t = -INFINITY;
     c->nquat = 0; c->quat = NULL;
     c->n_err = m->nx; c->n_fin = m->nx; c->sg = NULL; c->istop = 0;
     c->r = take(pos, (size_t)m->ninput + 1);
@@ -2188,6 +2192,20 @@ static int run_radau(ctx *c, const eomc_options *o, proj *pj, double t0, double 
  * changes side is redone to end just past the crossing, and the method restarts there at
  * order 1 with a fresh Jacobian), events, output rows, unit quaternions, projection. */
 
+/* SW_HEAD.  A trial step whose first switching point lies within its first SW_HEAD is not
+ * cut there: the method restarts at the step's start, the functions crossing within that
+ * head already on their new side (sw_locate), and the restarted step, as long as the trial,
+ * passes over the point close to its start -- as a step whose crossing lies within its last
+ * SW_FRAC ends near it.  Why: a crossing located early in a trial step was cut to a step
+ * ending just past it, and the redone step, on a new polynomial, often ended just short of it;
+ * the next trial, as short, found the crossing again within its first 5 %, and so on:
+ * gymnasium's ant dropped at rtol 1e-1 closed in on a foot's lift-off through steps of
+ * 1.3e-4, 7.1e-6, 3.7e-7 and 2.2e-9 s, then restarted at order 1 from the last and grew back
+ * tenfold every two steps (12 steps to 1e-4 s).  Only BDF (a restart costs it a Jacobian at
+ * most); Radau cuts as before.  0.05 gained less than 0.1 on the ant (interleaved A/B); measured
+ * in benchmarks/results/contact_wp.md (s12 notes). */
+#define SW_HEAD 0.1
+
 /* The tolerances BDF's error test uses: a tenth of those asked for.  A multistep method's
  * global error runs well above the local tolerance it holds each step to (variable steps,
  * order-1 restarts at every contact switch): the bouncing ball at rtol 1e-6 gained 300 rtol
@@ -2209,6 +2227,7 @@ static int run_bdf(ctx *c, const eomc_options *o, proj *pj, double t0, double t1
     double *f1 = take(pos, n), hmax = o->hmax > 0 ? o->hmax : t1 - t0, h;
     eomc_bdf_fns fns = {c, bdf_rhs, bdf_jac, bdf_aborted, bdf_predict};
     c->bdf_x = x;
+    c->sw_head = SW_HEAD;
     eomc_bdf b;
     eomc_bdf_init(&b, &fns, c->st, n, BDF_TOL_SHARE * o->rtol, BDF_TOL_SHARE * o->atol, hmax,
                   o->max_steps, take(pos, eomc_bdf_work_size(n)));
@@ -2236,6 +2255,13 @@ static int run_bdf(ctx *c, const eomc_options *o, proj *pj, double t0, double t1
             if (ncross) {
                 double tcut;
                 if ((s = sw_locate(c, &ip, &tcut))) return s;
+                if (tcut == -INFINITY) {     /* SW_HEAD: restart at the step's start */
+                    c->st->rejected++;
+                    c->gnew_ok = 0;
+                    if ((s = frhs(c, t, x, f))) return s;
+                    if ((s = eomc_bdf_start(&b, t, x, f, tn - t))) return s;
+                    continue;
+                }
                 if (tcut > t) {       /* redo up to just past the crossing */
                     c->st->rejected++;
                     eomc_bdf_cut(&b, tcut);
@@ -2690,7 +2716,10 @@ static void sw_lin_extrema(ctx *c, double t, double h, const double *x, const do
 
 /* The first crossing on the step's dense output: *t_cut = the end of a step to redo that
  * stops just past it, or *t_cut = the step's start when the step is accepted as it is
- * (the crossing lies at its end): the sides flip and the caller restarts the method. */
+ * (the crossing lies at its end): the sides flip and the caller restarts the method; or
+ * *t_cut = -INFINITY (BDF's SW_HEAD, once per point): the crossing lies within the step's
+ * head, the sides of the functions crossing there flip and the caller restarts the method
+ * at the step's start.  (w.tb holds each crossing function's root afterwards.) */
 static int sw_locate(ctx *c, const interp *ip, double *t_cut)
 {
     eomc_events *ev = c->ev;
@@ -2703,7 +2732,18 @@ static int sw_locate(ctx *c, const interp *ip, double *t_cut)
         if ((w.ga[j] > 0.0) != (w.gb[j] > 0.0)
             && (s = event_root(c, ip, j, t, w.tb[j], w.ga[j], w.gb[j], &root)))
             return s;
+        w.tb[j] = root;
         tr = fmin(tr, root);
+    }
+    if (tr - t < c->sw_head * ip->h && t != c->sw_head_t && !ev->sw_observe) {
+        /* BDF's SW_HEAD: restart at t on the new side of what crosses within the head */
+        for (int j = 0; j < m; j++)
+            if (w.cross[j] != 0.0 && w.tb[j] - t < c->sw_head * ip->h) w.side[j] = !(w.side[j] > 0.0);
+        c->sw_head_t = t;
+        c->sw_cuts = 0;
+        c->st->nswitch++;
+        *t_cut = -INFINITY;
+        return EOMC_OK;
     }
     cut = t + (tr - t) * (1.0 + 0.25 * SW_FRAC);
     if (tn - tr > SW_FRAC * ip->h && c->sw_cuts < SW_MAX_CUTS && cut - t >= min_step(t) && cut < tn

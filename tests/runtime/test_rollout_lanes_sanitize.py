@@ -31,6 +31,23 @@ ROOT = Path(__file__).resolve().parents[2]
 CART = ROOT / "examples" / "cart_pole_system.py"
 RUNTIME_C = ROOT / "runtime" / "c"
 
+# The two drivers' shared C: the buffers of two rollouts (A: the scalar one, B: the lanes one)
+# of n rows of `rows` samples of nx states, declared once n, nx, np and rows are, and freed.
+BUFFERS = """    double *X0 = malloc((size_t)n * nx * sizeof(double)), *P = malloc((size_t)n * np * sizeof(double));
+    double *A_last = malloc((size_t)n * nx * sizeof(double)), *B_last = malloc((size_t)n * nx * sizeof(double));
+    double *A_out = malloc((size_t)n * rows * nx * sizeof(double));
+    double *B_out = malloc((size_t)n * rows * nx * sizeof(double));
+    double *t_eval = malloc(rows * sizeof(double));
+    int *A_st = malloc((size_t)n * sizeof(int)), *B_st = malloc((size_t)n * sizeof(int));
+    long *A_steps = malloc((size_t)n * sizeof(long)), *B_steps = malloc((size_t)n * sizeof(long));"""
+FREE_BUFFERS = """free(X0); free(P); free(A_last); free(B_last); free(A_out); free(B_out); free(t_eval);
+    free(A_st); free(B_st); free(A_steps); free(B_steps);"""
+
+
+def _with_buffers(driver):
+    return driver.replace("@BUFFERS@", BUFFERS).replace("@FREE_BUFFERS@", FREE_BUFFERS)
+
+
 DRIVER = r"""
 #include <math.h>
 #include <stdio.h>
@@ -55,13 +72,7 @@ int main(void)
     const double dt = 0.01, t1 = 0.255;           /* 26 steps, the last one shortened */
     const long nsteps = 26;
     const size_t rows = (size_t)(nsteps + 1);
-    double *X0 = malloc((size_t)n * nx * sizeof(double)), *P = malloc((size_t)n * np * sizeof(double));
-    double *A_last = malloc((size_t)n * nx * sizeof(double)), *B_last = malloc((size_t)n * nx * sizeof(double));
-    double *A_out = malloc((size_t)n * rows * nx * sizeof(double));
-    double *B_out = malloc((size_t)n * rows * nx * sizeof(double));
-    double *t_eval = malloc(rows * sizeof(double));
-    int *A_st = malloc((size_t)n * sizeof(int)), *B_st = malloc((size_t)n * sizeof(int));
-    long *A_steps = malloc((size_t)n * sizeof(long)), *B_steps = malloc((size_t)n * sizeof(long));
+@BUFFERS@
     eomc_options opt;
     int i, k, wrong = 0, failed = 0;
     for (i = 0; i < n * nx; i++) X0[i] = uniform();
@@ -87,11 +98,11 @@ int main(void)
             wrong++;
     }
     printf("%s wrong=%d failed=%d\n", m->name, wrong, failed);
-    free(X0); free(P); free(A_last); free(B_last); free(A_out); free(B_out); free(t_eval);
-    free(A_st); free(B_st); free(A_steps); free(B_steps); free(R);
+    @FREE_BUFFERS@ free(R);
     return wrong != 0;
 }
 """
+DRIVER = _with_buffers(DRIVER)
 
 
 @pytest.fixture(scope="module")
@@ -160,13 +171,7 @@ int main(void)
     const double dt = 0.008, t1 = 0.2;
     const long nsteps = 25;
     const size_t rows = (size_t)(nsteps + 1);
-    double *X0 = malloc((size_t)n * nx * sizeof(double)), *P = malloc((size_t)n * np * sizeof(double));
-    double *A_last = malloc((size_t)n * nx * sizeof(double)), *B_last = malloc((size_t)n * nx * sizeof(double));
-    double *A_out = malloc((size_t)n * rows * nx * sizeof(double));
-    double *B_out = malloc((size_t)n * rows * nx * sizeof(double));
-    double *t_eval = malloc(rows * sizeof(double));
-    int *A_st = malloc((size_t)n * sizeof(int)), *B_st = malloc((size_t)n * sizeof(int));
-    long *A_steps = malloc((size_t)n * sizeof(long)), *B_steps = malloc((size_t)n * sizeof(long));
+@BUFFERS@
     eomc_stats *A_stats = calloc((size_t)n, sizeof(eomc_stats)), *B_stats = calloc((size_t)n, sizeof(eomc_stats));
     eomc_implicit imp;
     eomc_options opt;
@@ -212,11 +217,11 @@ int main(void)
         steps += A_steps[k];
     }
     printf("%s wrong=%d failed=%d split=%d\n", m->name, wrong, failed, calls > steps + n);
-    free(X0); free(P); free(A_last); free(B_last); free(A_out); free(B_out); free(t_eval);
-    free(A_st); free(B_st); free(A_steps); free(B_steps); free(A_stats); free(B_stats);
+    @FREE_BUFFERS@ free(A_stats); free(B_stats);
     return wrong != 0;
 }
 """
+HOPPER_DRIVER = _with_buffers(HOPPER_DRIVER)
 
 
 @pytest.fixture(scope="module")

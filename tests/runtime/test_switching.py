@@ -73,6 +73,24 @@ def test_bdf_ends_its_steps_at_touch_down_and_lift_off_and_agrees_with_radau(bal
     assert np.abs(res["z"] - ref["z"]).max() < 1e-3
 
 
+def test_bdf_restarting_at_a_steps_start_keeps_a_stiff_damped_ball_on_the_ground(ball):
+    """BDF restarts at a trial step's start when its first crossing lies within the step's
+    first tenth (SW_HEAD in eomc_integrators.c; this run, k = 1e9 with damping at rtol 1e-4,
+    takes that path): the ball still lands when free fall says, never gains energy, does not
+    sink, and comes to rest on the ground."""
+    p = _p(ball, k_ball=1e9, c_ball=1.0, mu_ball=0.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", PhysicsWarning)
+        res = _drop(ball, p=p, method="bdf", rtol=1e-4, atol=1e-7)
+    assert res.status == 0, res.message
+    E = res.outputs["energy"]
+    assert E.max() - E[0] < 1e-6 * E[0]
+    assert res.t_events["contact_ball"][0] == pytest.approx(np.sqrt(2 * (bg.Z0 - bg.R) / bg.G), abs=1e-5)
+    assert res["z"].min() > bg.R - 1e-3
+    assert res["z"][-1] == pytest.approx(bg.R, abs=1e-3)
+    assert res.stats["nswitch"] >= 10
+
+
 def test_without_switching_radau_steps_over_the_impact_and_the_run_fails(ball):
     """switching=False shows the bare method: the energy it creates fails the run (never status 0)."""
     with warnings.catch_warnings():

@@ -170,10 +170,8 @@ LIMBS = """<mujoco model="limbs"><worldbody>
 </worldbody></mujoco>"""
 
 
-def test_pair_table_on_limbs(tmp_path, monkeypatch):
-    """The table-driven loop on a tree's self-pairs (capsules and spheres, several pairs per kind,
-    the humanoid's kinds): rhs, outputs and jac_x equal the inlined pairs' at random poses, some
-    pressed, some apart."""
+def _limbs(tmp_path, monkeypatch, functions):
+    """The limbs model built with the pairs' table and with the pairs inlined."""
     from eomc.compiler.mjcf.model import MjcfModel
     path = tmp_path / "limbs.xml"
     path.write_text(LIMBS)
@@ -182,9 +180,16 @@ def test_pair_table_on_limbs(tmp_path, monkeypatch):
         monkeypatch.setattr(pairs, "PAIR_TABLE", table)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            built[table] = eomc.compile(MjcfModel(path, pairs=True), "limbs", functions=("rhs", "jac_x", "outputs"),
+            built[table] = eomc.compile(MjcfModel(path, pairs=True), "limbs", functions=functions,
                                         cache_dir=tmp_path / str(table), progress=False)
-    called, inline = built[True], built[False]
+    return built[True], built[False]
+
+
+def test_pair_table_on_limbs(tmp_path, monkeypatch):
+    """The table-driven loop on a tree's self-pairs (capsules and spheres, several pairs per kind,
+    the humanoid's kinds): rhs, outputs and jac_x equal the inlined pairs' at random poses, some
+    pressed, some apart."""
+    called, inline = _limbs(tmp_path, monkeypatch, ("rhs", "jac_x", "outputs"))
     names = list(inline.output_names)
     assert names == list(called.output_names)
     self_pairs = [i for i, k in enumerate(names) if k.startswith("Fn_") and "__" in k]
@@ -203,3 +208,28 @@ def test_pair_table_on_limbs(tmp_path, monkeypatch):
         ja, jb = called.jac_x(0.0, x), inline.jac_x(0.0, x)
         assert np.abs(ja - jb).max() <= 1e-12 * (1 + np.abs(jb).max())
     assert 20 <= pressed < 150 * len(self_pairs) / 2, pressed      # pressed and apart both met
+
+
+def test_pair_table_tapes_past_their_room(tmp_path, monkeypatch):
+    """jac_x's taped call keeps the narrow and law tapes of the pairs in contact while
+    table.TAPE_ROOM has room and flags the others, whose tangents re-run their routines: with
+    room for one pair's tapes, at states with several pairs pressed, jac_x still equals the
+    inlined pairs' (and the kernel's zero columns: at states with none pressed too)."""
+    from eomc.compiler.contact import table
+    monkeypatch.setattr(table, "TAPE_ROOM", 130)        # one pair: 125 (capsules) .. 107 (spheres) each
+    called, inline = _limbs(tmp_path, monkeypatch, ("jac_x", "outputs"))
+    source = next((tmp_path / "True").rglob("limbs.c")).read_text()
+    assert "used + 125 <= 130" in source
+    names = list(inline.output_names)
+    self_pairs = [i for i, k in enumerate(names) if k.startswith("Fn_") and "__" in k]
+    rng = np.random.default_rng(11)
+    X = rng.normal(scale=0.6, size=(300, called.nx))
+    X[:, 2] += 0.3
+    seen = {0: 0, 1: 0, 2: 0}
+    for x in X:
+        n = np.count_nonzero(np.array(list(inline.outputs(0.0, x).values()))[self_pairs] > 0)
+        seen[min(n, 2)] += 1
+        ja, jb = called.jac_x(0.0, x), inline.jac_x(0.0, x)
+        assert np.all(np.isfinite(jb))
+        assert np.abs(ja - jb).max() <= 1e-12 * (1 + np.abs(jb).max())
+    assert min(seen.values()) >= 10, seen

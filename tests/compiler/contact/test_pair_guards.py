@@ -110,6 +110,54 @@ def test_guarded_pairs_are_the_straight_line_pairs_near_far_and_pressed(tmp_path
     assert ball_rod[0] < -0.05 and ball_rod[-1] > 0
 
 
+
+def test_the_implicit_terms_keep_the_pairs_broad_phase(tmp_path, monkeypatch):
+    """NAME_implicit (implicitfast's terms) holds the pairs' forces in its forcing f.  Its broad
+    phase had the ground contacts' guards only, so every inlined pair's narrow phase ran at every
+    call (gymnasium's hopper and its 3 self-pairs: 17 % of the call).  Now it has the rhs's pair
+    guards too, and its terms are the straight-line ones near, far and pressed."""
+    path = tmp_path / "pf.xml"        # the scene above over a floor: NAME_implicit needs ground contacts
+    path.write_text(XML.replace("<worldbody>", '<worldbody><geom name="floor" type="plane" size="2 2 0.1" '
+                                               'pos="0 0 -0.6"/>'))
+
+    def build(tag):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return eomc.compile(path, functions=("rhs", "outputs", "implicit"), cache_dir=tmp_path / tag,
+                                progress=False, name="pf")
+
+    guarded = build("guarded")
+    body = _body(tmp_path, "guarded", "implicit", "pf")
+    assert body.count("} else {") == _body(tmp_path, "guarded", "rhs", "pf").count("} else {") > PAIRS + POINTS
+    plain = recursive.tree_implicit_body
+    monkeypatch.setattr(recursive, "tree_implicit_body", lambda ctx, prog, guards, size: plain(ctx, prog, (), size))
+    straight = build("straight")
+    assert "} else {" not in _body(tmp_path, "straight", "implicit", "pf")
+    rng = np.random.default_rng(34)
+    n = 400
+    X = np.zeros((n, guarded.nx))
+    centres = np.array([[0, 0, 0.12], [0.15, 0, 0.12], [0, 0.15, 0.12]])
+    for b in range(3):       # apart, near and pressed, as above
+        X[:, 6 * b:6 * b + 3] = centres[b] + rng.uniform(-0.12, 0.12, (n, 3)) * rng.uniform(0.2, 1.5, (n, 1))
+        X[:, 6 * b + 3:6 * b + 6] = rng.uniform(-np.pi, np.pi, (n, 3))
+    X[:, guarded.nq:] = rng.normal(size=(n, guarded.nx - guarded.nq))
+
+    def terms(model, x):
+        out = np.zeros(model.metadata["implicit"]["layout"]["size"])
+        ffi = model.ffi
+        fp = ffi.addressof(model.model_lib, "pf_implicit")
+        assert fp(0.0, ffi.from_buffer("double[]", x), model._default_p, ffi.NULL,
+                  ffi.from_buffer("double[]", out), ffi.NULL) == 0
+        return out
+
+    a = np.array([terms(guarded, x) for x in X])
+    b = np.array([terms(straight, x) for x in X])
+    assert np.all(np.isfinite(b)) and np.array_equal(a, b)      # 0.0 == -0.0
+    pressed = np.array([[guarded.outputs(0.0, x)[k] > 0 for k in guarded.output_names
+                         if k.startswith("depth_") and "__" in k] for x in X[:200]])
+    assert pressed.any(axis=0).sum() >= 6 and (~pressed).any(axis=0).all()      # pairs pressed and apart
+
+
 # a planar scene (slide x, slide z, hinge y): the pairs' out-of-plane wrench components are read by
 # nothing, so dead-code elimination drops them; table–ball (box–sphere), table–cube (box–box, 16
 # corners), ball–cube (sphere–box)

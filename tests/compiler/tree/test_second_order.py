@@ -176,6 +176,52 @@ def test_every_entry_is_written(models, law_models):
         assert np.array_equal(out, model.hess_id(0.0, x, ud, r=r))
 
 
+def test_output_left_to_the_caller_gives_the_same_bits(models, floating_models, tmp_path):
+    """second_order.ZERO off (Pinocchio's contract: the caller zeroes the output once): the
+    kernel writes only the entries on the support paths.  On the branching tree and the floating
+    tree (free root, ball joint below it: the change to the coordinates reads and writes whole
+    rows and columns) the C has no zeroing, from an output zeroed once the bits equal the default
+    build's at every state, and from an output filled with NaN the NaN left are entries the
+    default build returns as 0 (most of the output: the two branches' cross terms), every other
+    entry its bits."""
+    orig = second_order.ZERO
+    second_order.ZERO = False
+    try:
+        tree = _compile(tmp_path / "tree")
+        floating = _compile(tmp_path / "floating", tree=FLOATING_TREE)
+    finally:
+        second_order.ZERO = orig
+    rng = np.random.default_rng(9)
+    for left, full, spec in ((tree, models[0], TREE), (floating, floating_models[0], FLOATING_TREE)):
+        c = (left.directory / f"{left.name}.c").read_text()
+        assert "the caller zeroes out once" in c
+        assert "out[k] = 0.0;" not in c.split("_rnea_hess(const double")[1].split("\n}\n")[0]
+        once = np.zeros(left.nu * left.nx * left.nx)
+        for _ in range(3):
+            x, ud, r = rng.uniform(-1, 1, left.nx), rng.uniform(-1, 1, left.nu), rng.uniform(-1, 1, left.ninput)
+            H = full.hess_id(0.0, x, ud, r=r)
+            t, xc, p, rc = left._args(0.0, x, None, r)
+            status = left._kernel("hess_id")(t, xc, ud, p, rc, once, left._work()[1])
+            assert status == 0 and np.array_equal(once.reshape(H.shape), H)
+            status, out = _nan_filled_call(left, x, ud, r)
+            nan = np.isnan(out)
+            assert status == 0 and np.all(H[nan] == 0.0) and np.array_equal(out[~nan], H[~nan])
+            assert nan.sum() == _off_path_entries(spec)
+
+
+def _off_path_entries(tree):
+    """The number of entries (row dof, column state, column state) of hess_id whose three dofs
+    are not on one root-to-leaf path (each column a dof's q or u: 4 per triple of dofs), from
+    the tree's parents alone (a free joint 6 dofs, a ball 3, the rest 1)."""
+    parent = [b["parent"] for b in tree]
+    def up(b):
+        return {b} | (up(parent[b]) if parent[b] >= 0 else set())
+    dof = [b for b, spec in enumerate(tree) for _ in range({"free": 6, "ball": 3}.get(spec["kind"], 1))]
+    def related(a, b):
+        return a in up(b) or b in up(a)
+    return 4 * sum(not (related(i, a) and related(i, b) and related(a, b)) for i in dof for a in dof for b in dof)
+
+
 def test_large_finite_outputs_pass_the_bound_by_the_full_check(models):
     """The kernel's finiteness test is a bound on the numbers its outputs are made of (BOUND);
     past it (speeds of 1e90: outputs ~1e180, finite) the output is checked entry by entry, and
