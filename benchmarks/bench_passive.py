@@ -13,7 +13,7 @@ Passive runs (gymnasium hopper, walker2d, ant, humanoid; the wheel's files, no f
   (qpos0, zero speeds), zero controls, writing the full physics state at every step.
 
 Wall (perf_counter) and CPU (thread_time: both run in the calling thread) per 10 s run, medians
-of --repeat runs after one untimed run of each, the two interleaved, pinned to core 1 (taskset -c 1 / sched_setaffinity).
+of --repeat runs after one untimed run of each, the two interleaved, pinned to one core (--core, 1 by default; sched_setaffinity).
 Build time is not in the figures.  The root body's height at 10 s on both (eomc's state mapped to
 MuJoCo's qpos, ``mj_kinematics``), the deepest contact penetration eomc's depth outputs saw
 (below the law's surface) and eomc's verdict on the run (its PhysicsWarnings about contacts:
@@ -27,7 +27,7 @@ this non-stiff model); MuJoCo ``mj_step`` with the RK4 integrator at 1e-4 s (the
 RK4, 10 ms).  Compared every 10 ms: the three joint angles and the root's slides (x, y), the
 largest difference over the run, beside the largest value each takes (how far the stroke
 carries it); again with eomc at its default tolerances.
-Usage: python benchmarks/bench_passive.py [--repeat 5] [--write] [--only hopper,swimmer]
+Usage: python benchmarks/bench_passive.py [--repeat 5] [--write] [--core 1] [--only hopper,swimmer]
 """
 import argparse
 import os
@@ -208,10 +208,11 @@ def main(argv):
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--write", action="store_true")
     ap.add_argument("--only", default="", help="comma-separated model names (not written)")
+    ap.add_argument("--core", type=int, default=CORE, help=f"the core to pin to (default {CORE})")
     args = ap.parse_args(argv)
     only = [s for s in args.only.split(",") if s]
     try:
-        os.sched_setaffinity(0, {CORE})
+        os.sched_setaffinity(0, {args.core})
     except (AttributeError, OSError):
         pass
     start = " ".join(f"{v:.2f}" for v in os.getloadavg())
@@ -242,7 +243,7 @@ def main(argv):
         head = environment_header(
             "10 s passive runs with the default method beside MuJoCo's C loop; swimmer's stroke decay",
             notes=[f"load average at start: {start}, at the end: {end} (a shared 2-core machine, other "
-                   f"engineers' builds and tests beside this); pinned to core {CORE}; medians of "
+                   f"engineers' builds and tests beside this); pinned to core {args.core}; medians of "
                    f"{args.repeat} interleaved runs",
                    f"models from gymnasium {gymnasium.__version__}'s wheel; mujoco {mujoco.__version__}",
                    *notes, *swim_notes])

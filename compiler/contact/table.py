@@ -30,8 +30,22 @@ square of its broad-phase reach.  The function
    :class:`.pairs.PairValue` kinds, in order.
 
 The skips are exact (the force is ±0 where they apply), so the rhs equals the inlined path to
-rounding.  Outputs and events need every pair's δ and clip, also far ones: a program that reads a
-point's quantities calls the function with ``full`` set (no skips; :meth:`PairTableCall.for_program`).
+rounding.  Outputs and events read every point's δ and clip, also far ones: a program that reads a
+point's quantities calls the function with ``full`` = 2 (:meth:`PairTableCall.for_program`), where a
+skipped pair costs its bounding-ball test too and its points get the balls' bounds instead of the
+narrow phase: F_n and friction 0 (exact: the law has no force apart), δ = -gap and clip = gap with
+gap = max(|c_A - c_B| - ρ, BROAD_PAD) (ρ = the pair's reach less the pad: its bounding radii and
+margin; every δ the narrow phase computes is at most ρ - |c_A - c_B|, .pairs.pair_clearance), and p
+midway between the centres; a point of a pair that is not skipped but apart by more than
+BROAD_PAD (δ < -BROAD_PAD) skips the law: its F_n and friction are 0 (exact) and its clip -δ.  So
+a skipped pair's contact event is below -BROAD_PAD and every bounded clip event above it (clip =
+max(1 + 3/2 c δ̇, -δ) ≥ -δ): each on the side its exact value is on and outside the runtime's
+noise band, so every sign change the exact functions have is still seen (a crossing needs
+δ ≥ 0, where nothing is bounded).  Outputs read no clip: theirs are exact but a skipped pair's
+depth and point.  Why: gymnasium's humanoid (109 pairs) evaluated its events in 11.5 µs
+against 1.0 µs without self-pairs, up to four times a BDF step (3.1 µs now at its rest pose;
+benchmarks/results/passive.md, 2026-11-30).  ``full`` = 1 (no skips, the narrow phase
+everywhere) is left to the tangent and reverse loops' own variants (PairTableDot, PairTableBar).
 
 Derivatives: the tangent (jvp, jac_p; jac_x and jac_id per state column, into the analytic
 kernel's block W) is one call of the function's forward-mode twin per direction, ``eomc_pairs_dot``,
@@ -202,10 +216,10 @@ class PairTableCall(nw.Token):
         return [(sym, node)], nw.reverse_pairs(ins, sym, 2, uid)
 
     def for_program(self, reads):
-        """The call with ``full`` set when the program reads a contact point's quantities
-        (``reads``: the output indices its PairTableOut read)."""
-        full = any(k >= self.table.nwrench for k in reads)
-        return self.func(self.args[0], sm.Integer(int(full)), *self.args[2:])
+        """The call with ``full`` = 2 (far pairs' bounds, see the module docstring) when the program
+        reads a contact point's quantities (``reads``: the output indices its PairTableOut read), else 0."""
+        full = 2 if any(k >= self.table.nwrench for k in reads) else 0
+        return self.func(self.args[0], sm.Integer(full), *self.args[2:])
 
 
 class PairTableTapeCall(PairTableCall):
@@ -352,6 +366,7 @@ def _loop(t, mode):
     """The loop: ``mode`` "primal" (eomc_pairs), "tape" (eomc_pairs_tape: also stores its inputs,
     per pair a flag, and the narrow and law routines' tapes of the pairs in contact) or "dot"
     (eomc_pairs_dot, its forward-mode twin, reading what the tape stored)."""
+    from .pairs import BROAD_PAD
     dot, tape = mode == "dot", mode == "tape"
     ns, nb = len(t.shapes), len(t.bodies)
     off = 18 * nb
@@ -369,6 +384,7 @@ def _loop(t, mode):
     else:
         L.append("/* body-body pairs' loop (compiler/contact/table.py): wrenches per body, then per contact point "
                  "F_n, friction, depth, clip, p; full = 0 skips what the rhs does not read */")
+        L.append("/* full = 2: a skipped pair's points get its bounding balls' bounds (outputs, events); 1: no skips */")
         L.append("static double eomc_pairs(const double *in, const double *pars, int full, double *out)\n{")
     L.append(f"    static const double zero[18] = {{0}};")
     L.append(f"    double cen[{3 * ns}], ax[{9 * ns}];")
@@ -408,7 +424,7 @@ def _loop(t, mode):
             L += _ball_lines()
         else:
             L.append(f"        double np[{nout}];")
-            L += _ball_lines()
+            L += _ball_lines()[:2] + _far_bounds(t, npts)
         L += _axes(dot, ["    " + x for x in _centre_lines("sh", off, True)] if dot else ())
         if dot:
             L += _ball_lines()
@@ -443,6 +459,8 @@ def _loop(t, mode):
         L.append(f"            po[4] = {src}[6];")
         L.append(f"            for (k = 0; k < 3; ++k) po[6 + k] = {src}[k];")
         L.append("            if (!full && -pp[6] > 0) continue;")
+        if not dot and not tape:   # full = 2, a point apart by more than the pad: F_n, friction 0; clip >= -δ
+            L.append(f"            if (full == 2 && -pp[6] > {_fmt(BROAD_PAD)}) {{ po[5] = -pp[6]; continue; }}")
         largs = ", ".join(_law_args("pp", "A", "B", "par"))
         if dot:
             L.append(f"            if (lt == ll) eomc_pair_law_tape({largs}, ll);")
@@ -473,6 +491,27 @@ def _ball_lines():
     return ["        const double *ca = cen + 3 * P[0], *cb = cen + 3 * P[1];",
             "        const double e0 = cb[0] - ca[0], e1 = cb[1] - ca[1], e2 = cb[2] - ca[2];",
             "        if (!full && e0 * e0 + e1 * e1 + e2 * e2 > D[1]) continue;"]
+
+
+def _far_bounds(t, npts):
+    """The primal loop's broad phase (after :func:`_ball_lines`' first two): a pair whose centres
+    are further apart than its reach is skipped; with full = 2 its points get the bounds of the
+    module docstring."""
+    from .pairs import BROAD_PAD
+    pad = _fmt(BROAD_PAD)
+    return ["        const double dd = e0 * e0 + e1 * e1 + e2 * e2;",
+            "        if (full != 1 && dd > D[1]) {",
+            "            if (full == 2) {",
+            f"                const double gap = fmax(sqrt(dd) - sqrt(D[1]) + {pad}, {pad});",
+            f"                for (m = 0; m < {npts}; ++m) {{",
+            f"                    double *po = out + {t.nwrench} + {POINT_OUTPUTS} * (P[3] + m);",
+            "                    po[4] = -gap;",
+            "                    po[5] = gap;",
+            "                    for (k = 0; k < 3; ++k) po[6 + k] = 0.5 * (ca[k] + cb[k]);",
+            "                }",
+            "            }",
+            "            continue;",
+            "        }"]
 
 
 def _centre_lines(s, off, dot):

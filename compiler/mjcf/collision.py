@@ -261,7 +261,9 @@ def body_pairs(m, path=None):
 
     The filters and parameter mixing are :func:`ground_geoms`' (MuJoCo's); k, c, mu by the same
     rule with the weight of the lighter of the two geoms' kinematic trees (what one rests on the
-    other with); a static geom's tree weighs nothing, so there the moving one's."""
+    other with); a static geom's tree weighs nothing, so there the moving one's; two geoms of one
+    tree (a self-collision): the lighter of the two branches below their common ancestor
+    (:func:`branch_masses`)."""
     import mujoco
     from eomc.compiler.contact.pairs import pair_supported
     if m.opt.disableflags & int(mujoco.mjtDisableBit.mjDSBL_CONTACT):
@@ -307,12 +309,45 @@ def body_pairs(m, path=None):
             count, example = skipped.get(key, (0, name))
             skipped[key] = (count + 1, example)
             continue
-        masses = [float(m.body_subtreemass[int(m.body_rootid[int(m.geom_bodyid[g])])]) for g in (g1, g2) if moving(g)]
-        k, c, mu = law_parameters(solref, solimp, friction, condim, g_mag, g_mag * min(masses), timestep)
         roots = {int(m.body_rootid[int(m.geom_bodyid[g])]) for g in (g1, g2)}
+        if len(roots) == 1 and moving(g1) and moving(g2):
+            masses = branch_masses(m, int(m.geom_bodyid[g1]), int(m.geom_bodyid[g2]))
+        else:
+            masses = [float(m.body_subtreemass[int(m.body_rootid[int(m.geom_bodyid[g])])]) for g in (g1, g2) if moving(g)]
+        k, c, mu = law_parameters(solref, solimp, friction, condim, g_mag, g_mag * min(masses), timestep)
         out.append(BodyPair((g1, g2), name, (k1, k2), k, c, mu, margin, (g1, g2) in explicit,
                             len(roots) == 1 and moving(g1) and moving(g2)))
     return out, skipped
+
+
+def branch_masses(m, b1, b2):
+    """(m1, m2): the masses on either side of a self-collision between bodies ``b1`` and ``b2`` of
+    one kinematic tree -- each body's branch below the two bodies' lowest common ancestor (the
+    subtree of that ancestor's child on the body's path); a body that is the ancestor itself has
+    the rest of the tree on its side.  What one side can rest on the other with: a hand on a thigh
+    carries its arm, not the robot.
+
+    Why (the stiffness rule k = W/δ_ref^1.5 rests the pair at MuJoCo's depth under the weight W,
+    docs/contact.md): with W the whole tree's weight, gymnasium's humanoid's 109 self-pairs were
+    as stiff as if each carried the robot (k 5.9e7 N/m^1.5 between a 1.2 kg forearm and a thigh);
+    its resting self-contacts sat 4-10x shallower than MuJoCo's (4-8e-5 m against 1.3-5.5e-4 m)
+    and the light limbs between them made a stiff creeping system on which BDF held 2-6e-4 s
+    steps for the whole rest (24167 steps for the 10 s fall, 14126 with this rule;
+    benchmarks/results/passive.md, 2026-11-30)."""
+    def path(b):
+        out = [b]
+        while b != 0:
+            b = int(m.body_parentid[b])
+            out.append(b)
+        return out[::-1]
+    p1, p2 = path(int(b1)), path(int(b2))
+    k = 0
+    while k < min(len(p1), len(p2)) and p1[k] == p2[k]:
+        k += 1
+    tree = float(m.body_subtreemass[int(m.body_rootid[int(b1)])])
+    m1 = float(m.body_subtreemass[p1[k]]) if k < len(p1) else None
+    m2 = float(m.body_subtreemass[p2[k]]) if k < len(p2) else None
+    return (tree - m2 if m1 is None else m1), (tree - m1 if m2 is None else m2)
 
 
 def _reach(m):

@@ -112,9 +112,10 @@ def _agree_jac_p(called, inline, X):
         assert np.abs(ja - jb).max() <= 1e-12 * (1 + np.abs(jb).max())
 
 
-def _agree(called, inline):
+def _agree(called, inline, bounded=False):
     """Assert ``called``'s rhs, outputs and jac_x equal ``inline``'s at random states, near, apart
-    and pressed (every point pressed somewhere); return the states."""
+    and pressed (every point pressed somewhere); return the states.  ``bounded``: ``called`` is the
+    pair table, whose outputs give a pair its broad phase skips the bounds :func:`_outputs_agree` checks."""
     names = list(inline.output_names)
     assert names == list(called.output_names)
     depths = [names.index(k) for k in names if k.startswith("depth_")]
@@ -131,19 +132,48 @@ def _agree(called, inline):
     a, b = called.rhs_many(0.0, X), inline.rhs_many(0.0, X)
     assert np.all(np.isfinite(b))
     assert np.abs(a - b).max() <= 1e-12 * (1 + np.abs(b).max())
+    skipped = 0
     for x, ob in zip(X[:100], out):
         oa = np.array(list(called.outputs(0.0, x).values()))
-        assert np.abs(oa - ob).max() <= 1e-12 * (1 + np.abs(ob).max())
+        skipped += _outputs_agree(oa, ob, names, bounded)
         ja, jb = called.jac_x(0.0, x), inline.jac_x(0.0, x)
         assert np.all(np.isfinite(jb))
         assert np.abs(ja - jb).max() <= 1e-12 * (1 + np.abs(jb).max())
+    assert skipped > 0 if bounded else skipped == 0
     return X
+
+
+POINT_OUTPUTS = ("Fn_", "Ftx_", "Fty_", "Ftz_", "depth_", "px_", "py_", "pz_")
+
+
+def _outputs_agree(oa, ob, names, bounded):
+    """Assert the outputs ``oa`` equal ``ob`` (the inlined pairs', exact) to 1e-12 but, when
+    ``bounded``, a pair point's outputs where the table skipped its pair (compiler/contact/table.py:
+    full = 2): its forces still equal (0: apart), its depth the bounding balls' bound, at most
+    -BROAD_PAD and at least the exact depth, its point finite; return how many points were skipped."""
+    tol = 1e-12 * (1 + np.abs(ob).max())
+    close = np.abs(oa - ob) <= tol
+    if not bounded:
+        assert close.all(), [names[i] for i in np.flatnonzero(~close)]
+        return 0
+    label = {i: next((n[len(k):] for k in POINT_OUTPUTS if n.startswith(k)), None) for i, n in enumerate(names)}
+    assert all(close[i] for i in range(len(names)) if label[i] is None or "__" not in label[i])
+    skipped = 0
+    for point in {v for v in label.values() if v and "__" in v}:
+        col = {k: names.index(k + point) for k in POINT_OUTPUTS}
+        if all(close[i] for i in col.values()):
+            continue
+        skipped += 1
+        assert all(close[col[k]] and oa[col[k]] == 0 for k in ("Fn_", "Ftx_", "Fty_", "Ftz_")), point
+        assert ob[col["depth_"]] - tol <= oa[col["depth_"]] <= -pairs.BROAD_PAD, point
+        assert all(np.isfinite(oa[col[k]]) for k in ("px_", "py_", "pz_")), point
+    return skipped
 
 
 def test_pair_table_is_the_inlined_schemes(tmp_path, monkeypatch):
     """pairs.PAIR_TABLE: every pair in one call of the table-driven loop (compiler/contact/table.py:
     the kinds' narrow routines and the law routine called from a loop over static tables); rhs,
-    outputs (the loop's full variant: every point's depth and clip), jac_x and jac_p (the loop's
+    outputs (the loop's full = 2 variant: every point, far pairs' bounded), jac_x and jac_p (the loop's
     tangent twin) equal the inlined schemes'."""
     monkeypatch.setattr(pairs, "PAIR_TABLE", True)
     called = _build(tmp_path, "table", ("rhs", "jac_x", "jac_p", "outputs"))
@@ -152,10 +182,10 @@ def test_pair_table_is_the_inlined_schemes(tmp_path, monkeypatch):
     assert rhs.count("eomc_pairs(") == 1 and "eomc_narrow_box_box(" not in rhs and "eomc_pair_law(" not in rhs
     assert ", 0, &PT_[0])" in rhs                         # the rhs skips far pairs and points
     assert "eomc_pairs_tape(" in jac and "eomc_pairs_dot(" in jac
-    assert ", 1, &PT_[0])" in _function(source, "nw_outputs")     # outputs: every point
+    assert ", 2, &PT_[0])" in _function(source, "nw_outputs")     # outputs: every point, far ones bounded
     monkeypatch.setattr(pairs, "PAIR_TABLE", False)
     inline = _build(tmp_path, "inline", ("rhs", "jac_x", "jac_p", "outputs"))
-    _agree_jac_p(called, inline, _agree(called, inline))
+    _agree_jac_p(called, inline, _agree(called, inline, bounded=True))
 
 
 # a chain's limbs (one tree: self-pairs, pairs=True) and a free ball: capsule–capsule, sphere–capsule,
@@ -187,9 +217,12 @@ def _limbs(tmp_path, monkeypatch, functions):
 
 def test_pair_table_on_limbs(tmp_path, monkeypatch):
     """The table-driven loop on a tree's self-pairs (capsules and spheres, several pairs per kind,
-    the humanoid's kinds): rhs, outputs and jac_x equal the inlined pairs' at random poses, some
-    pressed, some apart."""
-    called, inline = _limbs(tmp_path, monkeypatch, ("rhs", "jac_x", "outputs"))
+    the humanoid's kinds): rhs and jac_x equal the inlined pairs' at random poses, some pressed,
+    some apart; outputs and events too, but for the pairs the broad phase skips (full = 2), whose
+    depth and contact event are bounded (-BROAD_PAD or below, at least the exact depth) and
+    whose clip event is at least BROAD_PAD and at most the exact one: each on its exact value's
+    side, outside the runtime's noise band."""
+    called, inline = _limbs(tmp_path, monkeypatch, ("rhs", "jac_x", "outputs", "events"))
     names = list(inline.output_names)
     assert names == list(called.output_names)
     self_pairs = [i for i, k in enumerate(names) if k.startswith("Fn_") and "__" in k]
@@ -200,14 +233,42 @@ def test_pair_table_on_limbs(tmp_path, monkeypatch):
     a, b = called.rhs_many(0.0, X), inline.rhs_many(0.0, X)
     assert np.all(np.isfinite(b))
     assert np.abs(a - b).max() <= 1e-12 * (1 + np.abs(b).max())
-    pressed = 0
+    events = [d["name"] for d in called.metadata["events"]]
+    assert events == [d["name"] for d in inline.metadata["events"]]
+    pressed = skipped = exact = 0
     for x in X[:150]:
         oa, ob = (np.array(list(m.outputs(0.0, x).values())) for m in (called, inline))
-        assert np.abs(oa - ob).max() <= 1e-12 * (1 + np.abs(ob).max())
+        skipped += _outputs_agree(oa, ob, names, True)
         pressed += np.count_nonzero(ob[self_pairs] > 0)
         ja, jb = called.jac_x(0.0, x), inline.jac_x(0.0, x)
         assert np.abs(ja - jb).max() <= 1e-12 * (1 + np.abs(jb).max())
+        ea, eb = _events(called, x), _events(inline, x)
+        tol = 1e-12 * (1 + np.abs(eb).max())
+        for i, name in enumerate(events):
+            if abs(ea[i] - eb[i]) <= tol:
+                exact += "__" in name
+                continue
+            assert "__" in name, name          # ground contacts and limits: never bounded
+            if name.startswith("contact_"):
+                assert eb[i] - tol <= ea[i] <= -pairs.BROAD_PAD, (name, ea[i], eb[i])
+            else:
+                assert name.startswith("clip_") and pairs.BROAD_PAD <= ea[i] <= eb[i] + tol, (name, ea[i], eb[i])
     assert 20 <= pressed < 150 * len(self_pairs) / 2, pressed      # pressed and apart both met
+    assert skipped > 100 and exact > 100, (skipped, exact)          # both branches of the table met
+
+
+def _events(model, x):
+    """The model's compiled event functions at state ``x`` (its C ``NAME_events``)."""
+    ffi = model.ffi
+    n = len(model.metadata["events"])
+    out = np.empty(n)
+    work = np.empty(int(model.c_model.work_size) + 1)
+    fn = getattr(model.model_lib, f"{model.name}_events")
+    status = fn(0.0, ffi.from_buffer("double[]", np.ascontiguousarray(x, dtype=float)),
+                ffi.from_buffer("double[]", np.asarray(model.param_defaults, dtype=float)),
+                ffi.new("double[1]"), ffi.from_buffer("double[]", out), ffi.from_buffer("double[]", work))
+    assert status == 0
+    return out
 
 
 def test_pair_table_tapes_past_their_room(tmp_path, monkeypatch):
