@@ -50,7 +50,7 @@ def build(n):
     values = models.parameter_values(n)
     params = {s: values[str(s)] for s in syms}
     return eomc.compile(kane, parameters=params, inputs=specified,
-                        functions=["rhs", "jac_x", "jac_p", "jvp"])
+                        functions=["rhs", "jac_x", "jac_p", "jvp", "jvp_more"])
 
 
 PER_CALL = r"""

@@ -47,6 +47,7 @@ _SIGNATURES = {
     "regressor": "int {n}_regressor(double t, const double *x, const double *udot, const double *p, const double *r, double *out, double *work);",
     "jac_id": "int {n}_jac_id(double t, const double *x, const double *udot, const double *p, const double *r, double *out, double *work);",
     "jvp": "int {n}_jvp(double t, const double *x, const double *p, const double *r, int k, const double *dirs, double *xdot, double *out, double *work);",
+    "jvp_more": "int {n}_jvp_more(double t, const double *x, const double *p, const double *r, int k, const double *dirs, double *xdot, double *out, double *work, eomc_more_fn more, void *mctx);",
     "vjp": "int {n}_vjp(double t, const double *x, const double *p, const double *r, const double *lam, double *xdot, double *gx, double *gp, double *work);",
     "hvp": "int {n}_hvp(double t, const double *x, const double *p, const double *r, const double *lam, const double *v, double *out, double *work);",
     "hess_id": "int {n}_hess_id(double t, const double *x, const double *udot, const double *p, const double *r, double *out, double *work);",

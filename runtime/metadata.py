@@ -30,8 +30,8 @@ __all__ = ["LoadError", "check_json", "from_library", "SIZES", "FUNCTIONS"]
 SIZES = ("abi_version", "nq", "nu", "nx", "nparam", "ninput", "noutput", "nhol", "nvel", "work_size")
 STRUCT_FUNCTIONS = ("rhs", "jac_x", "jac_r", "mass_matrix", "forcing", "outputs", "constraints",
                     "constraints_jac")
-EXPORTED_FUNCTIONS = ("inverse_dynamics", "linearize", "events", "poses", "jac_p", "regressor", "jvp", "jac_id",
-                      "vjp", "hvp", "hess_id", "implicit", "rhs_batch", "jac_x_batch",
+EXPORTED_FUNCTIONS = ("inverse_dynamics", "linearize", "events", "poses", "jac_p", "regressor", "jvp", "jvp_more",
+                      "jac_id", "vjp", "hvp", "hess_id", "implicit", "rhs_batch", "jac_x_batch",
                       "outputs_batch", "implicit_batch")
 FUNCTIONS = STRUCT_FUNCTIONS + EXPORTED_FUNCTIONS
 _IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")

@@ -129,6 +129,11 @@ def use_jvp(model, jvp=None):
 
 PREFER_JVP = True
 
+# The model's jvp_more (built on request with jvp) carries Radau's second staggered iteration
+# in the first iteration's middle-stage call (eomc_sens_jvp_more): same results, one primal
+# fewer a step.  Off only to measure the difference (benchmarks/bench_sensitivity.py).
+USE_JVP_MORE = True
+
 
 def run(model, a, xs, ps, stat_fields, jvp=None, error_control=False):
     """One C call for prepared arguments ``a`` (runtime/simulate.prepare, events off).
@@ -156,6 +161,8 @@ def run(model, a, xs, ps, stat_fields, jvp=None, error_control=False):
     if status:
         raise ModelError(f"{model.name}: could not set up the sensitivities (status {status})")
     lib.eomc_sens_error_control(s, int(bool(error_control)))
+    if jvp_fn != ffi.NULL and USE_JVP_MORE and "jvp_more" in model.functions:   # else the old path
+        lib.eomc_sens_jvp_more(s, getattr(model.model_lib, f"{model.name}_jvp_more"))
     N = int(lib.eomc_sens_nstates(s))
     X0 = np.empty(N)
     lib.eomc_sens_start(s, buf(a["x0"]), buf(X0))

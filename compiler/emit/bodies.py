@@ -483,7 +483,7 @@ def lane_directions(pr, seeds, nx, nd, tangents, ng, kin, scalar, tail, lane_sol
     return decls, lines
 
 
-def jvp_body(ctx, program, W, seeds, nx, npar, blocks):
+def jvp_body(ctx, program, W, seeds, nx, npar, blocks, more=False):
     """xdot and k directional derivatives J·d (J = d xdot/d[x; p]) in one call, for forward
     sensitivities: A and b are evaluated and factored once, then per direction the
     residual's tangent along d's state part (the looped jac_x's tangent programs,
@@ -492,6 +492,12 @@ def jvp_body(ctx, program, W, seeds, nx, npar, blocks):
     entries (:func:`parameter_directions`), and one solve.  J itself is never formed.
 
     ``dirs``: k rows of nx + nparam (state part, then parameter part); ``out``: k rows of nx.
+
+    ``more`` (NAME_jvp_more): the same code with the direction loop wrapped so that, once the
+    k directions are out, the callback ``more`` may hand back further directions (and where
+    their rows go), run once with the primal already computed: Radau's staggered sensitivities
+    carry their second iteration in the first iteration's call (runtime/c/eomc_integrators.c).
+    The static helpers jvp's body added (the parameter columns, the lanes solve) are jvp's.
     """
     nw, nq, nu = ctx.nw, ctx.nq, ctx.nu
     nd = nx + npar
@@ -502,7 +508,7 @@ def jvp_body(ctx, program, W, seeds, nx, npar, blocks):
     kp.update(((("dkin_p", zfirst + key[1], key[2]), e) for key, e in program.result_exprs("dzd_p").items()))
     pcols, p_only, psetup, function = parameter_directions(program, pr, gp, kp, nx, npar, f"{ctx.name}_jvp_pcols",
                                                              ("Gp", "dkin_p", "dzd_p"))
-    if function:
+    if function and not more:
         ctx.parts.append(function)
     main = program.with_(assignments=tuple(a for a in program.assignments if a[0] not in p_only))
     before, rest = split_on(main, W + seeds)
@@ -547,17 +553,20 @@ def jvp_body(ctx, program, W, seeds, nx, npar, blocks):
                     f"for (i = 0; i < {nu}; i++) out[(size_t)d * {nx} + {nq} + i] = G[i];"]
     if tangents:        # the tangent programs LANES directions at a time
         lanes = ctx.solver.lanes_code(LANES) if nw == nu else None
-        if lanes:       # next to the scalar solve: among the jvp's parts, the same code measured
+        if lanes and not more:   # next to the scalar solve: among the jvp's parts, the same code measured
             ctx.solver_parts.append(lanes[1])   # 576-595 ns a call at k = 4, not 551 (placement)
         decls, loop = lane_directions(pr, seeds, nx, nd, tangents, nw, kin, body, tail,
                                       lane_solve=lanes and (pcols, f"{lanes[0]}(F, GT);", nq))
         lines[len(_solver_decls(ctx, extra)):len(_solver_decls(ctx, extra))] = [IND + x for x in decls]
-        lines += loop
     else:
-        lines.append(f"{IND}for (d = 0; d < k; d++) {{")
-        lines.append(f"{IND * 2}dx = dirs + (size_t)d * {nd};")
-        lines += [IND * 2 + line for line in kin + body + tail]
-        lines.append(f"{IND}}}")
+        loop = [f"{IND}for (d = 0; d < k; d++) {{", f"{IND * 2}dx = dirs + (size_t)d * {nd};"]
+        loop += [IND * 2 + line for line in kin + body + tail]
+        loop.append(f"{IND}}}")
+    if more:
+        loop = ([f"{IND}for (;;) {{"] + [IND + line for line in loop]
+                + [f"{IND * 2}if (!more) break;", f"{IND * 2}k = more(mctx, &dirs, &out);",
+                   f"{IND * 2}if (k <= 0) break;", f"{IND * 2}more = 0;", f"{IND}}}"])
+    lines += loop
     lines.append(f"{IND}status = {ctx.name}_finite(xdot, {nx});")
     lines.append(f"{IND}if (status != EOMC_OK || k <= 0) return status;")
     lines.append(f"{IND}return {ctx.name}_finite(out, k * {nx});")

@@ -29,6 +29,9 @@ __all__ = ["generate_c", "lower", "ir_listing", "Lowered", "ALL_FUNCTIONS"]
 
 ALL_FUNCTIONS = FUNCTION_ORDER
 _ALIASES = {"jacobian": "jac_x"}
+# Functions printed from another's program (lower: no program or groups of their own).
+GENERATED_LIKE = {"jvp_more": "jvp"}
+
 _SOLVING = ("rhs", "jac_x", "jac_r", "jac_p", "jvp", "vjp", "hvp")
 
 
@@ -57,6 +60,8 @@ def _select(functions, ninput, noutput, ncon, nevent=0, has_poses=False, nparam=
         wanted.add("jac_x")
     if "outputs_batch" in wanted:  # and the outputs'
         wanted.add("outputs")
+    if "jvp_more" in wanted:       # jvp's program and code, its loop wrapped (GENERATED_LIKE)
+        wanted.add("jvp")
     if "implicit_batch" in wanted:  # and NAME_implicit's (the fixed-step rollout's lanes)
         wanted.add("implicit")
     absent = {"jac_r": ninput == 0, "jac_p": nparam == 0, "outputs": noutput == 0, "outputs_batch": noutput == 0,
@@ -107,9 +112,9 @@ def _body(fn, ctx, prog, sym, layout, nx, functions, formulation=KANE):
         return jacobian_body(ctx, prog, sym.W, nx, "dkin", "G")
     if fn == "jac_r":
         return helper_jacobian_body(ctx, prog, sym.W, nr, "dkin_r", "Gr")
-    if fn == "jvp":
+    if fn in ("jvp", "jvp_more"):
         return jvp_body(ctx, prog, sym.W, sym.seeds, nx, len(layout.p),
-                        (("Gtx", 0, nx),) if _tangent(prog) else ())
+                        (("Gtx", 0, nx),) if _tangent(prog) else (), more=fn == "jvp_more")
     if fn in REVERSE_FUNCTIONS:
         return reverse_body(fn, ctx, prog, sym, nx, len(layout.p))
     if fn == "jac_p":
@@ -251,7 +256,8 @@ def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions
     if refusal:
         raise ModelError(refusal)
     groups, helper_users = formulation.groups, formulation.helper_users
-    base = tuple(f for f in fns if f != "poses" and f not in BATCH_FUNCTIONS)   # poses: appended below
+    base = tuple(f for f in fns if f != "poses" and f not in BATCH_FUNCTIONS   # poses: appended below
+                 and f not in GENERATED_LIKE)
     sym = formulation.symbolic(formed, layout, base, outputs, events)
     if getattr(sym, "function_groups", None):   # this model's own choice (tree/lower.py: the loop kernel or not)
         groups = sym.function_groups
@@ -264,8 +270,9 @@ def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions
         groups = {**groups, "poses": (POSE_GROUP,)}
     shared = verify(optimize_shared(sym.program, sym.derivatives))
     programs = {fn: finish_function(shared, groups[fn]) if fn not in BATCH_FUNCTIONS and groups[fn] else None
-                for fn in fns}
+                for fn in fns if fn not in GENERATED_LIKE}
     programs = {fn: _taped(p) for fn, p in programs.items()}
+    programs.update((fn, programs[GENERATED_LIKE[fn]]) for fn in fns if fn in GENERATED_LIKE)
     helper = (finish_function(shared, ("A", "b")) if set(fns) & set(helper_users) or sym.solve_in
               else None)
     return Lowered(name, layout, sym, fns, programs, helper, formulation, pose_meta)
@@ -353,9 +360,10 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
             printed[fn] = (lines, parts)
         rendered.append({"prototype": prototype(name, fn), "body": void_unused(fn, lines),
                          "parts": parts})
-        op_counts[fn] = _ops(fn, prog, solver, nx, len(layout.r), sym.seeds, low.helper, nu,
-                             sum(1 for i, j in sym.pattern if i < nu and j < nu), sym.solve_in,
-                             formulation, sym, len(layout.p), nq)
+        op_counts[fn] = (dict(op_counts[GENERATED_LIKE[fn]]) if fn in GENERATED_LIKE else
+                         _ops(fn, prog, solver, nx, len(layout.r), sym.seeds, low.helper, nu,
+                              sum(1 for i, j in sym.pattern if i < nu and j < nu), sym.solve_in,
+                              formulation, sym, len(layout.p), nq))
     if "poses" in fns:   # the number of doubles NAME_poses writes (the loader checks NAME.json by it)
         from .poses import pose_metadata
         rendered.append({"prototype": f"int {name}_pose_count(void)",

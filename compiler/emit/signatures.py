@@ -27,6 +27,10 @@ SIGNATURES = {
                ("double *", "out"), ("double *", "work")),
     "jvp": _RHS + (("int", "k"), ("const double *", "dirs"), ("double *", "xdot"), ("double *", "out"),
                    ("double *", "work")),
+    # jvp, then (once) more directions at the same point from the callback: Radau's staggered
+    # sensitivities (runtime/c/eomc_integrators.c, sg_more) carry their second iteration in it
+    "jvp_more": _RHS + (("int", "k"), ("const double *", "dirs"), ("double *", "xdot"), ("double *", "out"),
+                        ("double *", "work"), ("eomc_more_fn", "more"), ("void *", "mctx")),
     # wᵀ·∂rhs/∂x and wᵀ·∂rhs/∂p by one reverse sweep (compiler/emit/reverse.py); xdot, gp may be NULL
     "vjp": _RHS + (("const double *", "lam"), ("double *", "xdot"), ("double *", "gx"), ("double *", "gp"),
                    ("double *", "work")),
@@ -62,11 +66,11 @@ BATCH_FUNCTIONS = {"rhs_batch": "rhs", "jac_x_batch": "jac_x", "outputs_batch": 
 
 FUNCTION_ORDER = ("rhs", "jac_x", "jac_r", "jac_p", "mass_matrix", "forcing", "inverse_dynamics",
                   "outputs", "constraints", "constraints_jac", "linearize", "events", "poses", "regressor",
-                  "jvp", "jac_id", "vjp", "hvp", "hess_id", "implicit", "rhs_batch", "jac_x_batch",
-                  "outputs_batch", "implicit_batch")
+                  "jvp", "jvp_more", "jac_id", "vjp", "hvp", "hess_id", "implicit", "rhs_batch",
+                  "jac_x_batch", "outputs_batch", "implicit_batch")
 
 # Generated only on request (``functions`` naming them), not by default.
-ON_REQUEST = ("jac_p", "regressor", "jvp", "jac_id", "vjp", "hvp", "hess_id", "rhs_batch", "jac_x_batch",
+ON_REQUEST = ("jac_p", "regressor", "jvp", "jvp_more", "jac_id", "vjp", "hvp", "hess_id", "rhs_batch", "jac_x_batch",
               "outputs_batch", "implicit_batch")
 
 # eomc_model fields holding function pointers (the rest are exported only).

@@ -323,7 +323,7 @@ def check_name(name):
 
 
 FUNCTIONS = ("rhs", "jac_x", "jac_r", "jac_p", "mass_matrix", "forcing", "inverse_dynamics", "outputs",
-             "constraints", "constraints_jac", "linearize", "events", "poses", "regressor", "jvp", "jac_id",
+             "constraints", "constraints_jac", "linearize", "events", "poses", "regressor", "jvp", "jvp_more", "jac_id",
              "vjp", "hvp", "hess_id", "implicit", "rhs_batch", "jac_x_batch", "outputs_batch",
              "implicit_batch")
 ALIASES = {"jacobian": ("jac_x",), "input_jacobian": ("jac_r",), "parameter_jacobian": ("jac_p",), "constraints_jacobian": ("constraints_jac",)}

@@ -1842,14 +1842,117 @@ static void sg_half_solve(radau_sg *g, int n, int k, double mr, eomc_cplx mc,
     }
 }
 
+/* The later iterations' directions ZS_a - ZSe_a (a = 0, 1, 2; k each) into Dc. */
+static void sg_corr_dirs(radau_sg *g, int n, int kc, int nd)
+{
+    size_t nk = (size_t)n * kc;
+    for (int b = 0; b < 3; b++)
+        for (int j = 0; j < kc; j++) {
+            double *d = g->Dc + ((size_t)b * kc + j) * nd;
+            const double *Zj = g->ZS + b * nk + (size_t)j * n, *Ze = g->ZSe + b * nk + (size_t)j * n;
+            for (int i = 0; i < n; i++) d[i] = Zj[i] - Ze[i];
+        }
+}
+
+/* The staggered iteration's state between its iterations (radau_sens_step, sg_more). */
+typedef struct sg_iter {
+    int it;                      /* this iteration's number, from 1 */
+    double dynold, thqold;
+} sg_iter;
+
+/* One iteration's update from the residuals FS (all three stages in): WS, ZS and faccon;
+ * returns the scaled norm of the correction (not finite: the caller stops). */
+static double sg_update(const radau_consts *k, radau_ws *w, radau_sg *g, int n, int kc, double mr,
+                        eomc_cplx mc, sg_iter *it)
+{
+    size_t nk = (size_t)n * kc;
+    double dyno = 0.0, theta;
+    {   /* the residual in the eigenbasis: real part dW, complex part bc (re, im pairs) */
+        const double *f0 = g->FS, *f1 = f0 + nk, *f2 = f1 + nk;
+        const double *W0 = g->WS, *W1 = W0 + nk, *W2 = W1 + nk;
+        const double t00 = k->TI[0][0], t01 = k->TI[0][1], t02 = k->TI[0][2];
+        const double t10 = k->TI[1][0], t11 = k->TI[1][1], t12 = k->TI[1][2];
+        const double t20 = k->TI[2][0], t21 = k->TI[2][1], t22 = k->TI[2][2];
+        const double mcr = creal(mc), mci = cimag(mc);
+        double *bc = (double *)g->bc;
+        for (size_t i = 0; i < nk; i++) {
+            g->dW[i] = t00 * f0[i] + t01 * f1[i] + t02 * f2[i] - mr * W0[i];
+            bc[2 * i] = t10 * f0[i] + t11 * f1[i] + t12 * f2[i] - (mcr * W1[i] - mci * W2[i]);
+            bc[2 * i + 1] = t20 * f0[i] + t21 * f1[i] + t22 * f2[i] - (mcr * W2[i] + mci * W1[i]);
+        }
+    }
+    if (g->half) sg_half_solve(g, n, kc, mr, mc, g->dW, g->bc);
+    else sg_solve_rc(n, w->LUr, w->pivr, g->dW, w->LUc, w->pivc, g->bc, kc, g->rr, g->rq);
+    for (int j = 0; j < kc; j++) {
+        size_t o = (size_t)j * n;
+        const double *d0 = g->dW + o;
+        const eomc_cplx *bc = g->bc + o;
+        for (int i = 0; i < n; i++) {
+            double a0 = d0[i] * g->scale[o + i], a1, a2;
+            g->dW[nk + o + i] = creal(bc[i]);
+            g->dW[2 * nk + o + i] = cimag(bc[i]);
+            a1 = creal(bc[i]) * g->scale[o + i]; a2 = cimag(bc[i]) * g->scale[o + i];
+            dyno += a0 * a0 + a1 * a1 + a2 * a2;
+        }
+    }
+    dyno = sqrt(dyno / (3.0 * (double)nk));
+    if (!isfinite(dyno)) return dyno;
+    if (it->it > 1) {
+        double thq = dyno / it->dynold;
+        theta = it->it == 2 ? thq : sqrt(thq * it->thqold);
+        it->thqold = thq;
+        g->faccon = theta < 0.99 ? theta / (1.0 - theta) : 1.0;
+    }
+    it->dynold = fmax(dyno, DBL_EPSILON);
+    for (size_t i = 0; i < 3 * nk; i++) g->WS[i] += g->dW[i];
+    sg_mix3(k->T, 0, g->WS, g->ZS, nk);
+    return dyno;
+}
+
+/* The first iteration's middle-stage call with the model's jvp_more: inside it, once that
+ * stage's FS is out, the callback finishes the first iteration (its update and convergence
+ * test) and, unless it converged, hands back the second iteration's 3 k directions, which the
+ * same call carries with the primal it has already computed (no second primal at Y_1).  The
+ * same operations as the separate calls: S, x and the counts are the same, bit for bit. */
+typedef struct sg_more_ctx {
+    ctx *c; const radau_consts *k; radau_ws *w; radau_sg *g; sg_iter *it;
+    double mr, fnewt; eomc_cplx mc;
+    int status, conv, corr;
+} sg_more_ctx;
+
+static int sg_more(void *u, const double **dirs, double **out)
+{
+    sg_more_ctx *m = (sg_more_ctx *)u;
+    radau_sg *g = m->g;
+    eomc_stagger *sg = m->c->sg;
+    int n = m->c->n, kc = sg->k, nd = sg->ndir, a = RADAU_SG_CORR_STAGE;
+    size_t nk = (size_t)n * kc;
+    double dyno;
+    if (!all_finite((int)nk, g->FS + (size_t)a * nk)) return 0;    /* the caller's test says so */
+    memcpy(g->ZSe + a * nk, g->ZS + a * nk, nk * sizeof(double));
+    memcpy(g->FSe + a * nk, g->FS + a * nk, nk * sizeof(double));
+    sg->niter++;
+    dyno = sg_update(m->k, m->w, g, n, kc, m->mr, m->mc, m->it);
+    if (!isfinite(dyno)) { m->status = EOMC_NONFINITE; return 0; }
+    if (g->faccon * dyno <= m->fnewt) { m->conv = 1; return 0; }
+    sg_corr_dirs(g, n, kc, nd);
+    sg->njvp++;
+    m->corr = 1;
+    *dirs = g->Dc; *out = g->FS;
+    return 3 * kc;
+}
+
 static int radau_sens_step(ctx *c, const radau_consts *k, radau_ws *w, radau_sg *g, double t,
                            double h, const double *y, double rtol, double atol, double fnewt)
 {
     eomc_stagger *sg = c->sg;
     int n = c->n, kc = sg->k, nd = sg->ndir, s, conv = 0;
     size_t nk = (size_t)n * kc;
-    double *S = sg->S, mr = k->mu_real / h, dynold = 1.0, thqold = 1.0, theta;
+    double *S = sg->S, mr = k->mu_real / h;
     eomc_cplx mc = k->mu_complex / h;
+    sg_iter si = {1, 1.0, 1.0};
+    int have_corr = 0;
+    static const int MORE_ORDER[3] = {0, 2, 1};
     if (w->h_lu != h && radau_factor(c, k, w, h)) return EOMC_SINGULAR_MASS_MATRIX;
     if (g->lu_seen != c->st->nlu) {   /* the back sweeps' reciprocals, once per factorization */
         for (int i = 0; i < n; i++) {
@@ -1872,87 +1975,71 @@ static int radau_sens_step(ctx *c, const radau_consts *k, radau_ws *w, radau_sg 
     for (size_t i = 0; i < nk; i++) g->scale[i] = 1.0 / (atol + fabs(S[i]) * rtol);   /* reciprocal */
     sg_mix3(k->TI, 0, g->ZS, g->WS, nk);
     g->faccon = pow(fmax(g->faccon, DBL_EPSILON), 0.8);
-    for (int it = 1; it <= EOMC_SG_MAXIT; it++) {
-        double dyno = 0.0;
-        for (int a = 0; a < 3; a++) {                /* FS_a = J(Y_a) (S + ZS_a) + P(Y_a) */
-            double ta = t + k->C[a] * h;
-            for (int i = 0; i < n; i++) w->tmp[i] = y[i] + w->Z[a * n + i];
-            if (aborted(c)) return c->abort;
-            grid_inputs_at(c, ta);
-            if (it > 1) {               /* FS_a = FSe_a + J(Y_1) (ZS_a - ZSe_a), one call */
-                if (a != RADAU_SG_CORR_STAGE) continue;
-                for (int b = 0; b < 3; b++)
-                    for (int j = 0; j < kc; j++) {
-                        double *d = g->Dc + ((size_t)b * kc + j) * nd;
-                        const double *Zj = g->ZS + b * nk + (size_t)j * n, *Ze = g->ZSe + b * nk + (size_t)j * n;
-                        for (int i = 0; i < n; i++) d[i] = Zj[i] - Ze[i];
-                    }
+    for (si.it = 1; si.it <= EOMC_SG_MAXIT; si.it++) {
+        double dyno;
+        int more = si.it == 1 && sg->jvp_more != NULL;   /* the middle stage last, then sg_more */
+        if (si.it > 1 && have_corr) {
+            have_corr = 0;              /* the correction came with the first iteration's call */
+        } else {
+            for (int ai = 0; ai < 3; ai++) {         /* FS_a = J(Y_a) (S + ZS_a) + P(Y_a) */
+                int a = more ? MORE_ORDER[ai] : ai;
+                double ta = t + k->C[a] * h;
+                for (int i = 0; i < n; i++) w->tmp[i] = y[i] + w->Z[a * n + i];
+                if (aborted(c)) return c->abort;
+                grid_inputs_at(c, ta);
+                if (si.it > 1) {        /* FS_a = FSe_a + J(Y_1) (ZS_a - ZSe_a), one call */
+                    if (a != RADAU_SG_CORR_STAGE) continue;
+                    sg_corr_dirs(g, n, kc, nd);
+                    sg->njvp++;
+                    s = sg->jvp(ta, w->tmp, c->p, c->r, 3 * kc, g->Dc, g->f1, g->FS, c->mwork);
+#if defined(__GNUC__) && defined(__x86_64__)
+                    if (__builtin_cpu_supports("avx")) __asm__ volatile("vzeroupper");   /* see eomc_sensitivity.c */
+#endif
+                    if (s == EOMC_OK && !all_finite((int)(3 * nk), g->FS)) s = EOMC_NONFINITE;
+                    if (s) { c->st->t_fail = ta; return s; }
+                    for (size_t i = 0; i < 3 * nk; i++) g->FS[i] += g->FSe[i];
+                    continue;
+                }
+                for (int j = 0; j < kc; j++) {          /* jvp's directions [S_j + ZS_aj; e_p] */
+                    double *d = sg->D + (size_t)j * nd;
+                    const double *Sj = S + (size_t)j * n, *Zj = g->ZS + a * nk + (size_t)j * n;
+                    for (int i = 0; i < n; i++) d[i] = Sj[i] + Zj[i];
+                }
                 sg->njvp++;
-                s = sg->jvp(ta, w->tmp, c->p, c->r, 3 * kc, g->Dc, g->f1, g->FS, c->mwork);
+                if (more && a == RADAU_SG_CORR_STAGE) {
+                    sg_more_ctx mo = {c, k, w, g, &si, mr, fnewt, mc, 0, 0, 0};
+                    s = sg->jvp_more(ta, w->tmp, c->p, c->r, kc, sg->D, g->F0 + (size_t)a * n,
+                                     g->FS + (size_t)a * nk, c->mwork, sg_more, &mo);
+#if defined(__GNUC__) && defined(__x86_64__)
+                    if (__builtin_cpu_supports("avx")) __asm__ volatile("vzeroupper");   /* see eomc_sensitivity.c */
+#endif
+                    if (mo.status) { c->st->t_fail = t; return mo.status; }
+                    if (s == EOMC_OK && (mo.corr ? !all_finite((int)(3 * nk), g->FS)
+                                                 : !all_finite((int)nk, g->FS + (size_t)a * nk)))
+                        s = EOMC_NONFINITE;
+                    if (s) { c->st->t_fail = ta; return s; }
+                    grid_inputs_at(c, t + k->C[2] * h);   /* where the separate calls leave them */
+                    if (mo.conv) conv = 1;
+                    else for (size_t i = 0; i < 3 * nk; i++) g->FS[i] += g->FSe[i];
+                    have_corr = !mo.conv;
+                    break;
+                }
+                s = sg->jvp(ta, w->tmp, c->p, c->r, kc, sg->D, g->F0 + (size_t)a * n, g->FS + (size_t)a * nk, c->mwork);
 #if defined(__GNUC__) && defined(__x86_64__)
                 if (__builtin_cpu_supports("avx")) __asm__ volatile("vzeroupper");   /* see eomc_sensitivity.c */
 #endif
-                if (s == EOMC_OK && !all_finite((int)(3 * nk), g->FS)) s = EOMC_NONFINITE;
+                if (s == EOMC_OK && !all_finite((int)nk, g->FS + (size_t)a * nk)) s = EOMC_NONFINITE;
                 if (s) { c->st->t_fail = ta; return s; }
-                for (size_t i = 0; i < 3 * nk; i++) g->FS[i] += g->FSe[i];
-                continue;
+                memcpy(g->ZSe + a * nk, g->ZS + a * nk, nk * sizeof(double));
+                memcpy(g->FSe + a * nk, g->FS + a * nk, nk * sizeof(double));
+                if (a == 2) g->t_end = ta;
             }
-            for (int j = 0; j < kc; j++) {          /* jvp's directions [S_j + ZS_aj; e_p] */
-                double *d = sg->D + (size_t)j * nd;
-                const double *Sj = S + (size_t)j * n, *Zj = g->ZS + a * nk + (size_t)j * n;
-                for (int i = 0; i < n; i++) d[i] = Sj[i] + Zj[i];
-            }
-            sg->njvp++;
-            s = sg->jvp(ta, w->tmp, c->p, c->r, kc, sg->D, g->F0 + (size_t)a * n, g->FS + (size_t)a * nk, c->mwork);
-#if defined(__GNUC__) && defined(__x86_64__)
-            if (__builtin_cpu_supports("avx")) __asm__ volatile("vzeroupper");   /* see eomc_sensitivity.c */
-#endif
-            if (s == EOMC_OK && !all_finite((int)nk, g->FS + (size_t)a * nk)) s = EOMC_NONFINITE;
-            if (s) { c->st->t_fail = ta; return s; }
-            memcpy(g->ZSe + a * nk, g->ZS + a * nk, nk * sizeof(double));
-            memcpy(g->FSe + a * nk, g->FS + a * nk, nk * sizeof(double));
-            if (a == 2) g->t_end = ta;
+            if (conv) break;
+            if (have_corr) continue;    /* sg_more did the first iteration's update */
         }
         sg->niter++;
-        {   /* the residual in the eigenbasis: real part dW, complex part bc (re, im pairs) */
-            const double *f0 = g->FS, *f1 = f0 + nk, *f2 = f1 + nk;
-            const double *W0 = g->WS, *W1 = W0 + nk, *W2 = W1 + nk;
-            const double t00 = k->TI[0][0], t01 = k->TI[0][1], t02 = k->TI[0][2];
-            const double t10 = k->TI[1][0], t11 = k->TI[1][1], t12 = k->TI[1][2];
-            const double t20 = k->TI[2][0], t21 = k->TI[2][1], t22 = k->TI[2][2];
-            const double mcr = creal(mc), mci = cimag(mc);
-            double *bc = (double *)g->bc;
-            for (size_t i = 0; i < nk; i++) {
-                g->dW[i] = t00 * f0[i] + t01 * f1[i] + t02 * f2[i] - mr * W0[i];
-                bc[2 * i] = t10 * f0[i] + t11 * f1[i] + t12 * f2[i] - (mcr * W1[i] - mci * W2[i]);
-                bc[2 * i + 1] = t20 * f0[i] + t21 * f1[i] + t22 * f2[i] - (mcr * W2[i] + mci * W1[i]);
-            }
-        }
-        if (g->half) sg_half_solve(g, n, kc, mr, mc, g->dW, g->bc);
-        else sg_solve_rc(n, w->LUr, w->pivr, g->dW, w->LUc, w->pivc, g->bc, kc, g->rr, g->rq);
-        for (int j = 0; j < kc; j++) {
-            size_t o = (size_t)j * n;
-            const double *d0 = g->dW + o;
-            const eomc_cplx *bc = g->bc + o;
-            for (int i = 0; i < n; i++) {
-                double a0 = d0[i] * g->scale[o + i], a1, a2;
-                g->dW[nk + o + i] = creal(bc[i]);
-                g->dW[2 * nk + o + i] = cimag(bc[i]);
-                a1 = creal(bc[i]) * g->scale[o + i]; a2 = cimag(bc[i]) * g->scale[o + i];
-                dyno += a0 * a0 + a1 * a1 + a2 * a2;
-            }
-        }
-        dyno = sqrt(dyno / (3.0 * (double)nk));
+        dyno = sg_update(k, w, g, n, kc, mr, mc, &si);
         if (!isfinite(dyno)) { c->st->t_fail = t; return EOMC_NONFINITE; }
-        if (it > 1) {
-            double thq = dyno / dynold;
-            theta = it == 2 ? thq : sqrt(thq * thqold);
-            thqold = thq;
-            g->faccon = theta < 0.99 ? theta / (1.0 - theta) : 1.0;
-        }
-        dynold = fmax(dyno, DBL_EPSILON);
-        for (size_t i = 0; i < 3 * nk; i++) g->WS[i] += g->dW[i];
-        sg_mix3(k->T, 0, g->WS, g->ZS, nk);
         if (g->faccon * dyno <= fnewt) { conv = 1; break; }
     }
     if (!conv) sg->nslow++;

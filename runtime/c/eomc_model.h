@@ -50,6 +50,16 @@ typedef int (*eomc_rhs_fn)(double t, const double *x, const double *p,
 typedef int (*eomc_mat_fn)(double t, const double *x, const double *p,
                            const double *r, double *out, double *work);
 
+/* NAME_jvp_more's callback: called once NAME_jvp's k directions are in out, at the same
+ * point; returns how many more directions to carry with the primal already computed, pointing
+ * *dirs and *out at them (0 or less: none). */
+typedef int (*eomc_more_fn)(void *mctx, const double **dirs, double **out);
+/* NAME_jvp_more (generated on request, with NAME_jvp): NAME_jvp, then once the directions
+ * more hands back (runtime/c/eomc_integrators.c: Radau's staggered sensitivities). */
+typedef int (*eomc_jvp_more_fn)(double t, const double *x, const double *p, const double *r, int k,
+                                const double *dirs, double *xdot, double *out, double *work,
+                                eomc_more_fn more, void *mctx);
+
 typedef struct eomc_model {
     int abi_version;          /* EOMC_ABI_VERSION */
     const char *name;

@@ -20,6 +20,7 @@ struct eomc_sens {
     const eomc_model *m;
     eomc_mat_fn jac_p;
     eomc_jvp_fn jvp;
+    eomc_jvp_more_fn jvp_more;   /* or NULL (eomc_sens_jvp_more) */
     const double *p;
     int nx, np, nxcol, npcol;
     int xcols[EOMC_SENS_MAXCOL];
@@ -175,6 +176,11 @@ void eomc_sens_error_control(eomc_sens *s, int on)
     s->errcon = on != 0;
 }
 
+void eomc_sens_jvp_more(eomc_sens *s, eomc_jvp_more_fn jvp_more)
+{
+    s->jvp_more = jvp_more;
+}
+
 /* Radau, S not steering the steps, jvp given: the staggered path on the plain model. */
 static int staggered(const eomc_sens *s, int method)
 {
@@ -219,7 +225,7 @@ int eomc_sens_integrate(eomc_sens *s, const eomc_options *opt, double t0, double
                                  work_len, &sg);
     }
     if (!work || work_len < nk) return EOMC_BAD_ARGUMENT;
-    sg.k = k; sg.jvp = s->jvp; sg.ndir = n + s->np; sg.D = s->D;
+    sg.k = k; sg.jvp = s->jvp; sg.jvp_more = s->jvp_more; sg.ndir = n + s->np; sg.D = s->D;
     sg.S = work;
     sg.S_out = X_out ? X_out + n : NULL;
     sg.ld_out = n * (1 + k);

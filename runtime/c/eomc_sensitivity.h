@@ -57,6 +57,13 @@ size_t eomc_sens_scratch_size(const eomc_model *m, int k);
 int eomc_sens_init(eomc_sens *s, const eomc_model *m, eomc_mat_fn jac_p, eomc_jvp_fn jvp, const double *p,
                    int nxcol, const int *xcols, int npcol, const int *pcols, double *scratch);
 
+/* jvp_more (after init; NULL: none): the model's NAME_jvp_more (generated on request with
+ * jvp).  Radau's staggered iteration then carries its second iteration's directions in the
+ * first iteration's middle-stage call, reusing that call's primal: the same operations, so S,
+ * x and the counts are the same as without it, bit for bit; only faster.  It must be the same
+ * model's as the jvp given to init. */
+void eomc_sens_jvp_more(eomc_sens *s, eomc_jvp_more_fn jvp_more);
+
 /* States of the augmented system: nx * (1 + k). */
 int eomc_sens_nstates(const eomc_sens *s);
 

@@ -29,6 +29,8 @@ typedef struct eomc_stagger {
                              non-finite S derivative itself, NAME_finite over its out) */
     int k;                /* Radau: sensitivity columns (0: none) */
     eomc_dirs_fn jvp;     /* Radau: the model's jvp */
+    eomc_jvp_more_fn jvp_more;  /* Radau: the model's jvp_more, or NULL (eomc_integrators.c,
+                                   sg_more: the second iteration in the first one's call) */
     int ndir;             /* nx + nparam */
     double *D;            /* k x ndir directions: parameter parts preset by the caller */
     double *S;            /* nx * k: S(t0) in, S at the time reached out; column j at j nx */

@@ -150,3 +150,34 @@ def test_explicit_sensitivities_ride_the_plain_steps(jvp_model, method):
     assert np.max(np.abs(res.x - plain.x)) < 1e-9
     S, S_old = (np.concatenate([z.dx_dx0, z.dx_dp], axis=2) for z in (res, old))
     assert np.max(np.abs(S - S_old)) < 1e-6 * np.max(np.abs(S_old))
+
+
+@pytest.mark.parametrize("cols", [["l"], ["q_pole", "l", "g"]])
+def test_radau_jvp_more_changes_nothing_but_the_calls_primal(jvp_model, cols):
+    """A build with jvp_more carries Radau's second staggered iteration in the first one's
+    middle-stage call (one primal fewer a step): the same operations, so x, S, the steps and
+    the jvp call and iteration counts are the build with jvp alone's, bit for bit (with a
+    time-varying input table); with the switch off the new build takes the old path."""
+    from eomc.runtime import sensitivity
+    more = eomc.compile(MODEL, functions=["rhs", "jac_x", "jac_p", "outputs", "jvp_more"])
+    assert "jvp" in more.functions and "jvp_more" in more.functions
+    assert "jvp_more" not in jvp_model.functions
+    r = (np.array([0.0, 0.7, 2.0]), np.array([[0.2, -0.1], [-0.4, 0.3], [0.1, 0.0]]))
+    kw = dict(r=r, method="radau", rtol=1e-10, atol=1e-10, t_eval=T, sensitivities=cols)
+    a, b = jvp_model.simulate(X0, (0, 2), **kw), more.simulate(X0, (0, 2), **kw)
+    sensitivity.USE_JVP_MORE = False
+    try:
+        c = more.simulate(X0, (0, 2), **kw)
+    finally:
+        sensitivity.USE_JVP_MORE = True
+    for z in (b, c):
+        assert np.array_equal(z.x, a.x)
+        assert np.array_equal(z.dx_dp, a.dx_dp) and np.array_equal(z.dx_dx0, a.dx_dx0)
+        for key in ("steps", "accepted", "nfev", "njvp", "sens_iterations", "sens_slow"):
+            assert z.stats[key] == a.stats[key], key
+    assert a.stats["sens_iterations"] > a.stats["accepted"] > 0   # the second iterations ran
+
+
+def test_jvp_more_refused_by_the_recursive_formulation(cache):
+    with pytest.raises(ModelError, match="jvp_more"):
+        eomc.compile(MODEL, functions=["rhs", "jac_x", "jvp_more"], formulation="recursive")
