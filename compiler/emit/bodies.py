@@ -399,7 +399,10 @@ def parameter_directions(program, pr, gp, kp, nx, npar, fname, groups):
         body.append(f"{IND}}}")
     body += [f"{IND}default: break;", f"{IND}}}", "}"]
     text = "\n".join(body)
-    used = set(re.findall(r"\b([A-Za-z_]\w*)\[", text)) - {"G", "o", "dp"}
+    # the arrays the cases read from the jvp's scope: not the ones a case declares itself (a pair
+    # table's tangent outputs, ``double PD..._[n];``) nor a compound literal's type (``(const double[n])``)
+    local = set(re.findall(r"\bdouble\s+([A-Za-z_]\w*)\[", text))
+    used = set(re.findall(r"\b([A-Za-z_]\w*)\[", text)) - {"G", "o", "dp", "double"} - local
     reads = [a for a in PCOLS_ARGS if a in used] + sorted(used - set(PCOLS_ARGS))
     scalar_t = re.search(r"\bt\b", text) is not None
     writes = [(a, arg) for a, arg in (("G", "G"), ("o", f"out + (size_t)d * {nx}"))

@@ -9,6 +9,8 @@ articulated-body recursion on ABA's factors.  J is never formed: k directions
 cost O(k n), where jac_x costs O(n²).  Forward sensitivities use it.
 """
 
+import re
+
 import sympy as sm
 
 from ..emit.bodies import IND, LANES, parameter_directions, store, temps, needed_assignments, split_on
@@ -73,7 +75,10 @@ def tree_jvp_body(ctx, program, W, G, seeds, nx, npar):
     tail = pcols + ["{"] + [x[len(IND):] for x in temps(program, pr, solve)]
     tail += [f"out[(size_t)d * {nx} + {nq + i}] = {pr.doprint(sol.get(i, sm.S.Zero))};" for i in range(nu)]
     tail.append("}")
-    if inner and all(not pr._names[t].endswith("]") for t, _ in inner + solve):
+    if (inner and all(not pr._names[t].endswith("]") for t, _ in inner + solve)
+            and not any(_ROUTINE_OUTPUTS.match(x) for x in temps(program, pr, inner + solve))):
+        # (not when a routine's outputs are arrays the temporaries declare -- the pair table's
+        # tangent call: the lanes write each temporary as a scalar and would lose the declaration)
         # the tangent and the articulated-body solve LANES directions at a time
         more, loop = _lanes(pr, seeds, G, nx, nd, nq, nu, ng, inner, tangent, solve, sol, kin, pcols,
                             scalar + tail)
@@ -88,6 +93,9 @@ def tree_jvp_body(ctx, program, W, G, seeds, nx, npar):
     lines.append(f"{IND}if (i != EOMC_OK || k <= 0) return i;")
     lines.append(f"{IND}return {ctx.name}_finite(out, k * {nx});")
     return lines
+
+
+_ROUTINE_OUTPUTS = re.compile(r"\s*double \w+\[\d+\];")
 
 
 def _lanes(pr, seeds, G, nx, nd, nq, nu, ng, inner, tangent, solve, sol, kin, pcols, single):

@@ -186,3 +186,34 @@ def test_adjoint_gradient_through_contacts_is_the_sensitivities(tmp_path, monkey
     res = model.simulate(x0, (0.0, T), method="rk4", dt=dt, sensitivities="x0", t_eval=[0.0, T], events=False)
     want = res.dx_dx0[-1].T @ w
     assert np.abs(g.dx0 - want).max() <= 1e-10 * np.abs(want).max()
+
+
+@pytest.mark.parametrize("table", [True, False])
+def test_jvp_through_pairs_builds_and_is_the_jacobians_product(tmp_path, monkeypatch, table):
+    """jvp (forward sensitivities' call) on a tree with self-pairs, through the table and inlined:
+    its C compiled (it did not before: the lanes over directions dropped the table tangent's output
+    array, the parameter columns' function took that array and a compound literal's type for
+    arguments), and J·d + Jp·dp at pressed and apart states, 1, 3 and 5 directions (the lanes'
+    groups and a lone direction)."""
+    if not table:
+        monkeypatch.setattr(pairs, "TABLE_FROM", 10 ** 6)
+    path = tmp_path / "limbs.xml"
+    path.write_text(LIMBS)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        if table:
+            monkeypatch.setattr(pairs, "TABLE_FROM", 1)
+        model = eomc.compile(MjcfModel(path, pairs=True), "limbs", functions=("rhs", "jac_x", "jac_p", "jvp", "outputs"),
+                             cache_dir=tmp_path / "c", progress=False)
+    source = next((tmp_path / "c").rglob("limbs.c")).read_text()
+    assert ("eomc_pairs_dot(" in source) == table
+    rng = np.random.default_rng(3)
+    for x in _states(model, 3):
+        J, Jp = model.jac_x(0.0, x), model.jac_p(0.0, x)
+        for k in (1, 3, 5):
+            D = rng.standard_normal((k, model.nx + model.nparam))
+            D[:, model.nx:] *= rng.random((k, model.nparam)) < 0.2          # a few parameters per direction
+            xdot, out = model.jvp(0.0, x, D)
+            ref = D[:, :model.nx] @ J.T + D[:, model.nx:] @ Jp.T
+            assert np.abs(xdot - model.rhs(0.0, x)).max() <= 1e-12 * (1 + np.abs(xdot).max())
+            assert np.abs(out - ref).max() <= 1e-11 * np.abs(ref).max()
