@@ -30,6 +30,8 @@ HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 sys.path.insert(0, str(HERE))
 
+from bench_reverse import HARNESS_HEAD, build_harness  # noqa: E402
+
 NS = 8
 FUNCTIONS = ["rhs", "jac_x", "vjp", "hvp", "outputs"]
 LABELS = ("rhs", "jac_x", "vjp", "hvp")
@@ -37,22 +39,7 @@ LABELS = ("rhs", "jac_x", "vjp", "hvp")
 MODES = {"self-pairs (default)": (True, False), "--pairs trees": ("trees", False),
          "stock file: floor + self-pairs": (True, True)}
 
-HARNESS = r"""
-#define _POSIX_C_SOURCE 199309L
-#include <stdio.h>
-#include <time.h>
-#include "@NAME@.h"
-#define NS @NS@
-#define NX @NX@
-#define NP @NP@
-static const double X[NS][NX] = {@X@};
-static const double L[NS][NX] = {@L@};
-static const double V[NS][NX] = {@V@};
-static const double P[] = {@P@};
-static const double R[] = {@R@};
-static double xdot[NX], gx[NX], gp[NP + 1], J[NX * NX], out[NX];
-static double tnow(void) { struct timespec ts; clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-    return ts.tv_sec * 1e9 + ts.tv_nsec; }
+HARNESS = HARNESS_HEAD + r"""static double xdot[NX], gx[NX], gp[NP + 1], J[NX * NX], out[NX];
 static void call(int c, int i) {
     switch (c) {
     case 0: @NAME@_rhs(0.0, X[i], P, R, xdot, NULL); break;
@@ -73,11 +60,7 @@ int main(int argc, char **argv) {
     printf("checksum %g\n", sum);
     return 0;
 }
-""".replace("#include <stdio.h>", "#include <stdio.h>\n#include <stdlib.h>")
-
-
-def c_array(a):
-    return ", ".join("{" + ", ".join(repr(float(v)) for v in row) + "}" for row in a)
+"""
 
 
 def humanoid_file():
@@ -134,22 +117,7 @@ def richardson(f, x, v, h=1e-4):
 
 
 def compile_harness(model, X, L, V, tmp):
-    name = model.name
-    src = (HARNESS.replace("@NAME@", name).replace("@NS@", str(NS)).replace("@NX@", str(model.nx))
-           .replace("@NP@", str(model.nparam)).replace("@X@", c_array(X)).replace("@L@", c_array(L))
-           .replace("@V@", c_array(V))
-           .replace("@P@", ", ".join(repr(float(v)) for v in model.param_defaults) or "0.0")
-           .replace("@R@", ", ".join("0.0" for _ in range(max(model.ninput, 1)))))
-    c = tmp / f"h_{name}.c"
-    c.write_text(src)
-    objs = []
-    for s, o in ((c, tmp / f"h_{name}.o"), (model.source_path, tmp / f"m_{name}.o")):
-        subprocess.run(["gcc", "-O2", "-std=c99", f"-I{model.directory}", f"-I{ROOT / 'runtime' / 'c'}",
-                        "-c", str(s), "-o", str(o)], check=True)
-        objs.append(str(o))
-    exe = tmp / f"h_{name}"
-    subprocess.run(["gcc", *objs, "-o", str(exe), "-lm"], check=True)
-    return exe
+    return build_harness(HARNESS, model, X, L, V, tmp, NS)
 
 
 def main():

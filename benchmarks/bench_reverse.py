@@ -48,7 +48,9 @@ FUNCTIONS = ["rhs", "jac_x", "jac_p", "jvp", "vjp", "hvp"]
 LABELS = ("rhs", "jac_x", "jvp (1 direction)", "vjp (x and p)", "vjp (x only)",
           "jac_x + jac_p, then λᵀ·[J, Jp]", "hvp", "central differences of vjp (2 vjp)")
 
-HARNESS = r"""
+# The harnesses' common head (this file's and bench_pair_reverse.py's): the model's states X,
+# weights L and directions V at NS points, its parameters P and inputs R, a thread-CPU clock.
+HARNESS_HEAD = r"""
 #define _POSIX_C_SOURCE 199309L
 #include <stdio.h>
 #include <stdlib.h>
@@ -62,9 +64,10 @@ static const double L[NS][NX] = {@L@};
 static const double V[NS][NX] = {@V@};
 static const double P[] = {@P@};
 static const double R[] = {@R@};
-static double xdot[NX], gx[NX], gp[NP + 1], J[NX * NX], Jp[NX * (NP + 1)], out[NX], dirs[NX + NP], xs[NX];
 static double tnow(void) { struct timespec ts; clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
     return ts.tv_sec * 1e9 + ts.tv_nsec; }
+"""
+HARNESS = HARNESS_HEAD + r"""static double xdot[NX], gx[NX], gp[NP + 1], J[NX * NX], Jp[NX * (NP + 1)], out[NX], dirs[NX + NP], xs[NX];
 static void call(int c, int i) {
     int a, b;
     switch (c) {
@@ -132,6 +135,27 @@ def c_array(a):
     return ", ".join("{" + ", ".join(repr(float(v)) for v in row) + "}" for row in a)
 
 
+def build_harness(template, model, X, L, V, tmp, ns):
+    """The harness ``template`` (HARNESS_HEAD + its calls) filled for ``model`` at its ``ns`` states X,
+    weights L, directions V, compiled with the model's C at -O2: the executable's path."""
+    name = model.name
+    src = (template.replace("@NAME@", name).replace("@NS@", str(ns)).replace("@NX@", str(model.nx))
+           .replace("@NP@", str(model.nparam))
+           .replace("@X@", c_array(X)).replace("@L@", c_array(L)).replace("@V@", c_array(V))
+           .replace("@P@", ", ".join(repr(float(v)) for v in model.param_defaults) or "0.0")
+           .replace("@R@", ", ".join("0.0" for _ in range(max(model.ninput, 1)))))
+    c = tmp / f"h_{name}.c"
+    c.write_text(src)
+    objs = []
+    for s, o in ((c, tmp / f"h_{name}.o"), (model.source_path, tmp / f"m_{name}.o")):
+        subprocess.run(["gcc", "-O2", "-std=c99", f"-I{model.directory}", f"-I{ROOT / 'runtime' / 'c'}",
+                        "-c", str(s), "-o", str(o)], check=True)
+        objs.append(str(o))
+    exe = tmp / f"h_{name}"
+    subprocess.run(["gcc", *objs, "-o", str(exe), "-lm"], check=True)
+    return exe
+
+
 def agreement(model, X, L, V):
     p = np.asarray(model.param_defaults, dtype=float)
     r = np.zeros(model.ninput)
@@ -149,20 +173,7 @@ def agreement(model, X, L, V):
 
 def harness(model, X, L, V, tmp, rounds):
     name = model.name
-    src = (HARNESS.replace("@NAME@", name).replace("@NS@", str(NS)).replace("@NX@", str(model.nx))
-           .replace("@NP@", str(model.nparam)).replace("@ROUNDS@", str(rounds))
-           .replace("@X@", c_array(X)).replace("@L@", c_array(L)).replace("@V@", c_array(V))
-           .replace("@P@", ", ".join(repr(float(v)) for v in model.param_defaults) or "0.0")
-           .replace("@R@", ", ".join("0.0" for _ in range(max(model.ninput, 1)))))
-    c = tmp / f"h_{name}.c"
-    c.write_text(src)
-    objs = []
-    for s, o in ((c, tmp / f"h_{name}.o"), (model.source_path, tmp / f"m_{name}.o")):
-        subprocess.run(["gcc", "-O2", "-std=c99", f"-I{model.directory}", f"-I{ROOT / 'runtime' / 'c'}",
-                        "-c", str(s), "-o", str(o)], check=True)
-        objs.append(str(o))
-    exe = tmp / f"h_{name}"
-    subprocess.run(["gcc", *objs, "-o", str(exe), "-lm"], check=True)
+    exe = build_harness(HARNESS.replace("@ROUNDS@", str(rounds)), model, X, L, V, tmp, NS)
     out = subprocess.run(["taskset", "-c", "1", str(exe)], capture_output=True, text=True, check=True).stdout
     times = {}
     for line in out.splitlines():

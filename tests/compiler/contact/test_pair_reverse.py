@@ -18,16 +18,10 @@ import eomc  # noqa: E402
 import eomc.compiler.contact.pairs as pairs  # noqa: E402
 from eomc.compiler.mjcf.model import MjcfModel  # noqa: E402
 
-# a chain's limbs (one tree: self-pairs) and a free ball (test_narrow.py's LIMBS): capsule–capsule,
-# sphere–capsule, capsule–sphere and sphere–sphere pairs
-LIMBS = """<mujoco model="limbs"><worldbody>
-<body name="base" pos="0 0 0.3"><freejoint/><geom name="trunk" type="capsule" fromto="-0.1 0 0 0.1 0 0" size="0.04"/>
- <geom name="head" type="sphere" pos="0.15 0 0" size="0.04"/>
- <body name="l1" pos="0.1 0 0"><joint name="j1" type="ball"/><geom name="arm1" type="capsule" fromto="0 0 0 0.1 0.1 0" size="0.03"/>
-  <body name="l2" pos="0.1 0.1 0"><joint name="j2" type="hinge" axis="0 0 1"/><geom name="arm2" type="capsule" fromto="0 0 0 -0.15 0 0" size="0.03"/>
-   <geom name="hand" type="sphere" pos="-0.15 0 0" size="0.035"/></body></body></body>
-<body name="ball" pos="0 0.1 0.3"><freejoint/><geom name="ball" type="sphere" size="0.05"/></body>
-</worldbody></mujoco>"""
+# a chain's limbs (one tree: self-pairs) and a free ball: capsule–capsule, sphere–capsule,
+# capsule–sphere and sphere–sphere pairs
+from .test_narrow import LIMBS  # noqa: E402
+
 SECOND = ("rhs", "jac_x", "jac_p", "vjp", "hvp", "jac_id", "hess_id", "outputs")
 
 
