@@ -30,8 +30,8 @@ square of its broad-phase reach.  The function
    :class:`.pairs.PairValue` kinds, in order.
 
 The skips are exact (the force is ±0 where they apply), so the rhs equals the inlined path to
-rounding.  Outputs and events read every point's δ and clip, also far ones: a program that reads a
-point's quantities calls the function with ``full`` = 2 (:meth:`PairTableCall.for_program`), where a
+rounding.  Events read every point's δ and clip, also far ones: the events function calls the loop
+with ``full`` = 2 (:meth:`PairTableCall.for_program`), where a
 skipped pair costs its bounding-ball test too and its points get the balls' bounds instead of the
 narrow phase: F_n and friction 0 (exact: the law has no force apart), δ = -gap and clip = gap with
 gap = max(|c_A - c_B| - ρ, BROAD_PAD) (ρ = the pair's reach less the pad: its bounding radii and
@@ -41,11 +41,12 @@ BROAD_PAD (δ < -BROAD_PAD) skips the law: its F_n and friction are 0 (exact) an
 a skipped pair's contact event is below -BROAD_PAD and every bounded clip event above it (clip =
 max(1 + 3/2 c δ̇, -δ) ≥ -δ): each on the side its exact value is on and outside the runtime's
 noise band, so every sign change the exact functions have is still seen (a crossing needs
-δ ≥ 0, where nothing is bounded).  Outputs read no clip: theirs are exact but a skipped pair's
-depth and point.  Why: gymnasium's humanoid (109 pairs) evaluated its events in 11.5 µs
+δ ≥ 0, where nothing is bounded).  The outputs function calls it with ``full`` = 1, no skips: users
+read every point's depth and position exact (tests/compiler/contact/test_solid_pairs_built.py), and
+outputs are not on the integrators' path.  Why: gymnasium's humanoid (109 pairs) evaluated its events in 11.5 µs
 against 1.0 µs without self-pairs, up to four times a BDF step (3.1 µs now at its rest pose;
 benchmarks/results/passive.md, 2026-11-30).  ``full`` = 1 (no skips, the narrow phase
-everywhere) is left to the tangent and reverse loops' own variants (PairTableDot, PairTableBar).
+everywhere) is also the tangent and reverse loops' own variant (PairTableDot, PairTableBar).
 
 Derivatives: the tangent (jvp, jac_p; jac_x and jac_id per state column, into the analytic
 kernel's block W) is one call of the function's forward-mode twin per direction, ``eomc_pairs_dot``,
@@ -215,10 +216,11 @@ class PairTableCall(nw.Token):
         node = PairTableBar(self.args[0], uid, sm.Integer(int(full)), *ins, *g)
         return [(sym, node)], nw.reverse_pairs(ins, sym, 2, uid)
 
-    def for_program(self, reads):
+    def for_program(self, reads, exact=False):
         """The call with ``full`` = 2 (far pairs' bounds, see the module docstring) when the program
-        reads a contact point's quantities (``reads``: the output indices its PairTableOut read), else 0."""
-        full = 2 if any(k >= self.table.nwrench for k in reads) else 0
+        reads a contact point's quantities (``reads``: the output indices its PairTableOut read), else 0;
+        ``exact`` (the outputs function: users read every point's depth and position) 1, no skips."""
+        full = (1 if exact else 2) if any(k >= self.table.nwrench for k in reads) else 0
         return self.func(self.args[0], sm.Integer(full), *self.args[2:])
 
 
@@ -250,7 +252,7 @@ class PairTableDot(nw.Token):
     def c_routines(self):
         return _routines(self.table, True, True)
 
-    def for_program(self, reads):
+    def for_program(self, reads, exact=False):
         full = any(k >= self.table.nwrench for k in reads)
         return self.func(self.args[0], self.args[1], self.args[2], sm.Integer(int(full)), *self.args[4:])
 

@@ -271,7 +271,7 @@ def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions
     shared = verify(optimize_shared(sym.program, sym.derivatives))
     programs = {fn: finish_function(shared, groups[fn]) if fn not in BATCH_FUNCTIONS and groups[fn] else None
                 for fn in fns if fn not in GENERATED_LIKE}
-    programs = {fn: _taped(p) for fn, p in programs.items()}
+    programs = {fn: _taped(p, exact=fn.startswith("outputs")) for fn, p in programs.items()}
     programs.update((fn, programs[GENERATED_LIKE[fn]]) for fn in fns if fn in GENERATED_LIKE)
     helper = (finish_function(shared, ("A", "b")) if set(fns) & set(helper_users) or sym.solve_in
               else None)
@@ -398,21 +398,21 @@ def _batch_outputs(scalar, sym, fns, formulation):
     return None
 
 
-def _taped(prog):
+def _taped(prog, exact=False):
     """``prog`` with the calls whose derivative calls read their tape in the variant that writes it:
     an expression with ``tape_of()`` (the temporaries it reads a tape from; compiler/contact/
     narrow.py's NarrowDot) makes their definitions ``taped()``.  Per function, so that a function
     without the derivative (rhs) calls the routine that writes no tape."""
     if prog is None:
         return None
-    prog = _variants(prog)
+    prog = _variants(prog, exact)
     want = {s for _, e in prog.assignments if hasattr(e, "tape_of") for s in e.tape_of()}
     if not want:
         return prog
     return prog.with_(assignments=tuple((t, e.taped() if t in want else e) for t, e in prog.assignments))
 
 
-def _variants(prog):
+def _variants(prog, exact=False):
     """``prog`` with each call that has a ``for_program(reads)`` method (compiler/contact/table.py's
     pairs loop and its tangent) in the variant its function needs: ``reads``, the output indices
     that the program's nodes with a ``read_index()`` method read (the pairs' loop evaluates every
@@ -423,7 +423,7 @@ def _variants(prog):
     for e in [e for _, e in prog.assignments] + [e for _, e in prog.results]:
         if isinstance(e, sm.Basic):
             reads.update(node.read_index() for node in sm.preorder_traversal(e) if hasattr(node, "read_index"))
-    return prog.with_(assignments=tuple((t, e.for_program(reads) if hasattr(e, "for_program") else e)
+    return prog.with_(assignments=tuple((t, e.for_program(reads, exact) if hasattr(e, "for_program") else e)
                                         for t, e in prog.assignments))
 
 

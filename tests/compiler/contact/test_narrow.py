@@ -173,7 +173,7 @@ def _outputs_agree(oa, ob, names, bounded):
 def test_pair_table_is_the_inlined_schemes(tmp_path, monkeypatch):
     """pairs.PAIR_TABLE: every pair in one call of the table-driven loop (compiler/contact/table.py:
     the kinds' narrow routines and the law routine called from a loop over static tables); rhs,
-    outputs (the loop's full = 2 variant: every point, far pairs' bounded), jac_x and jac_p (the loop's
+    outputs (the loop's full = 1 variant: every point, exact), jac_x and jac_p (the loop's
     tangent twin) equal the inlined schemes'."""
     monkeypatch.setattr(pairs, "PAIR_TABLE", True)
     called = _build(tmp_path, "table", ("rhs", "jac_x", "jac_p", "outputs"))
@@ -182,10 +182,10 @@ def test_pair_table_is_the_inlined_schemes(tmp_path, monkeypatch):
     assert rhs.count("eomc_pairs(") == 1 and "eomc_narrow_box_box(" not in rhs and "eomc_pair_law(" not in rhs
     assert ", 0, &PT_[0])" in rhs                         # the rhs skips far pairs and points
     assert "eomc_pairs_tape(" in jac and "eomc_pairs_dot(" in jac
-    assert ", 2, &PT_[0])" in _function(source, "nw_outputs")     # outputs: every point, far ones bounded
+    assert ", 1, &PT_[0])" in _function(source, "nw_outputs")     # outputs: every point, exact
     monkeypatch.setattr(pairs, "PAIR_TABLE", False)
     inline = _build(tmp_path, "inline", ("rhs", "jac_x", "jac_p", "outputs"))
-    _agree_jac_p(called, inline, _agree(called, inline, bounded=True))
+    _agree_jac_p(called, inline, _agree(called, inline))
 
 
 # a chain's limbs (one tree: self-pairs, pairs=True) and a free ball: capsule–capsule, sphere–capsule,
@@ -218,8 +218,8 @@ def _limbs(tmp_path, monkeypatch, functions):
 def test_pair_table_on_limbs(tmp_path, monkeypatch):
     """The table-driven loop on a tree's self-pairs (capsules and spheres, several pairs per kind,
     the humanoid's kinds): rhs and jac_x equal the inlined pairs' at random poses, some pressed,
-    some apart; outputs and events too, but for the pairs the broad phase skips (full = 2), whose
-    depth and contact event are bounded (-BROAD_PAD or below, at least the exact depth) and
+    some apart; outputs exactly; events too, but for the pairs the broad phase skips (full = 2), whose
+    contact event is bounded (-BROAD_PAD or below, at least the exact depth) and
     whose clip event is at least BROAD_PAD and at most the exact one: each on its exact value's
     side, outside the runtime's noise band."""
     called, inline = _limbs(tmp_path, monkeypatch, ("rhs", "jac_x", "outputs", "events"))
@@ -238,7 +238,7 @@ def test_pair_table_on_limbs(tmp_path, monkeypatch):
     pressed = skipped = exact = 0
     for x in X[:150]:
         oa, ob = (np.array(list(m.outputs(0.0, x).values())) for m in (called, inline))
-        skipped += _outputs_agree(oa, ob, names, True)
+        _outputs_agree(oa, ob, names, False)      # outputs: exact (the table without skips, full = 1)
         pressed += np.count_nonzero(ob[self_pairs] > 0)
         ja, jb = called.jac_x(0.0, x), inline.jac_x(0.0, x)
         assert np.abs(ja - jb).max() <= 1e-12 * (1 + np.abs(jb).max())
@@ -249,12 +249,13 @@ def test_pair_table_on_limbs(tmp_path, monkeypatch):
                 exact += "__" in name
                 continue
             assert "__" in name, name          # ground contacts and limits: never bounded
+            skipped += 1
             if name.startswith("contact_"):
                 assert eb[i] - tol <= ea[i] <= -pairs.BROAD_PAD, (name, ea[i], eb[i])
             else:
                 assert name.startswith("clip_") and pairs.BROAD_PAD <= ea[i] <= eb[i] + tol, (name, ea[i], eb[i])
     assert 20 <= pressed < 150 * len(self_pairs) / 2, pressed      # pressed and apart both met
-    assert skipped > 100 and exact > 100, (skipped, exact)          # both branches of the table met
+    assert skipped > 100 and exact > 100, (skipped, exact)          # both branches of the events met
 
 
 def _events(model, x):
