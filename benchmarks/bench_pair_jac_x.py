@@ -1,5 +1,5 @@
 """jac_x per call of gymnasium's humanoid with its 109 self-collision pairs (the pairs' table,
-compiler/contact/table.py, through the analytic kernel's block W) against the same model built
+compiler/contact/table.py, through the analytic kernel, which calls the table's tangent loop) against the same model built
 without self-pairs (``pairs="trees"``), with MuJoCo's ``mj_forward`` and its finite-difference
 transition Jacobian (``mjd_transitionFD``, forward differences) beside them for scale (issue 33:
 jac_x with the table at most ~2x the trees-only figure).
@@ -8,9 +8,11 @@ States: the file's initial state (no self-pair in contact), t = 2.5 s of its 10 
 and t = 10 s (at rest, limbs pressed together); per state the self-pairs' points in contact.
 Thread CPU time per call, the contestants interleaved per round, medians of the rounds.
 ``--before DIR``: also a table build made by an earlier checkout (a directory ``eomc.load``
-reads), the same states.
+reads), the same states.  ``table blockW``: the table's jac_x as before session 13 (the table
+inputs' tangents from generated code per state column into the kernel's block W; forced by
+refusing lower._kernel_table), left out with ``--no-blockw``.
 
-    taskset -c 1 python benchmarks/bench_pair_jac_x.py [--rounds 7] [--before DIR] [--no-write]
+    taskset -c 1 python benchmarks/bench_pair_jac_x.py [--rounds 7] [--before DIR] [--no-blockw] [--no-write]
 """
 import os
 import statistics
@@ -53,6 +55,14 @@ def main(argv):
         models["table"] = eomc.compile(MjcfModel(str(path)), "hum", cache_dir=cache / "table", progress=False)
         models["trees"] = eomc.compile(MjcfModel(str(path), pairs="trees"), "hum", cache_dir=cache / "trees",
                                        progress=False)
+        if "--no-blockw" not in argv:   # the path before session 13, forced (bench_pair_default_build's blockw)
+            from eomc.compiler.tree import lower
+            kernel_table, lower._kernel_table = lower._kernel_table, lambda *a: None
+            try:
+                models["table blockW"] = eomc.compile(MjcfModel(str(path)), "hum", cache_dir=cache / "blockw",
+                                                      progress=False)
+            finally:
+                lower._kernel_table = kernel_table
         if "--before" in argv:
             models["table before"] = eomc.load(argv[argv.index("--before") + 1])
         table = models["table"]
@@ -81,10 +91,14 @@ def main(argv):
             for k, call in contestants.items():
                 samples[k].append(per_call(call, CALLS if "FD" not in k else 20))
         med = {k: statistics.median(v) for k, v in samples.items()}
+        J = table.jac_x(0.0, x)
+        agree = ([float(np.abs(J - models["table blockW"].jac_x(0.0, x)).max() / max(1.0, np.abs(J).max()))]
+                 if "table blockW" in models else [])
         rows.append([f"{t:g}", pressed] + [med[k] * 1e6 for k in contestants]
-                    + [med[k] / med["trees"] for k in models if k != "trees"])
+                    + [med[k] / med["trees"] for k in models if k != "trees"] + agree)
         print(rows[-1], flush=True)
-    heads = ["t (s)", "self-pair points in contact"] + [f"{k} µs" for k in contestants] + [f"{k} / trees" for k in models if k != "trees"]
+    heads = ["t (s)", "self-pair points in contact"] + [f"{k} µs" for k in contestants] + [f"{k} / trees" for k in models if k != "trees"] + (
+        ["|table - blockW| / max(1, |J|)"] if "table blockW" in models else [])
     text = "\n".join([
         environment_header("Humanoid jac_x with its self-pairs (the pairs' table)"), "",
         format_table(heads, rows), "",

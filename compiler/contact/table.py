@@ -57,8 +57,10 @@ contact (up to TAPE_ROOM doubles; a pair past it re-runs its routines' ``_tape``
 the twin (full = 0) runs only the ``_dot`` routines of the pairs in contact at the state -- the
 decision is the state's, the same for every direction -- and skips a pair none of whose inputs
 moves along the direction (exactly zero tangents).  jac_x and jac_id run the columns only when
-some pair is in contact, and only the columns that move one of its bodies
-(compiler/tree/analytic_emit.py).  Why: jac_x of gymnasium's humanoid ran the twin's primal and
+some pair is in contact, and only the columns that move one of its bodies: the analytic kernel
+forms the inputs' tangents itself and calls the twin (:class:`PairTableKernelTape`,
+compiler/tree/analytic.py ``_kernel_pair_lines``; generated tangent code per state column,
+compiler/tree/analytic_emit.py, only where a shape's offset or a law's parameter reads the state).  Why: jac_x of gymnasium's humanoid ran the twin's primal and
 tangent of every pair within its bounding balls per column: at rest (5 self-pair points in
 contact) 178 µs, now 87, with none in contact 86 µs, now 17, against 17 and 14 without the
 self-pairs (benchmarks/results/pair_jac_x.md, one run).  The reverse sweep (vjp; hvp and hess_id
@@ -75,7 +77,7 @@ import sympy as sm
 from . import narrow as nw
 from eomc.runtime.errors import ModelError
 
-__all__ = ["PairTableCall", "PairTableOut", "lower_table", "table_of"]
+__all__ = ["PairTableCall", "PairTableOut", "PairTableKernelTape", "lower_table", "table_of"]
 
 TAPE_ROOM = 4096         # doubles of the pairs' routine tapes a taped call keeps (pairs in contact; see _loop)
 POINT_OUTPUTS = 9        # F_n, friction (3), δ, clip, p (3): PairValue kinds 0..8
@@ -111,12 +113,15 @@ def table_of(tid):
     return _TABLES[int(tid)]
 
 
-def lower_table(loads, bodies, rec, v, rename, poses, wrenches=None):
+def lower_table(loads, bodies, rec, v, rename, poses, wrenches=None, call_info=None):
     """Lower the PairLoads ``loads`` (one per contact point, as :func:`.pairs.with_pairs` makes
     them) as one :class:`PairTableCall`: add the wrenches to the bodies' fext; return
     {PairValue placeholder: temporary}.  ``wrenches``: a list to fill with (tree body, its six
     wrench temporaries), per gathered body in input order (the analytic jac_x reads their
-    tangents, compiler/tree/analytic.py)."""
+    tangents, compiler/tree/analytic.py).  ``call_info``: a dict to fill with the call's
+    temporary ("call"), its table id ("table") and the shapes' offsets and the laws' parameters
+    as expressions ("fixed": where none reads the state, the analytic kernel forms the tangents
+    of the call's inputs itself, :class:`PairTableKernelTape`)."""
     from .pairs import BROAD_PAD, PairValue, bounding_radius, _num
     first = {}
     for ld in loads:                        # a pair's points share its index base and shapes
@@ -159,6 +164,8 @@ def lower_table(loads, bodies, rec, v, rename, poses, wrenches=None):
     tid = next((k for k, t in _TABLES.items() if t.key() == table.key()), len(_TABLES))
     _TABLES.setdefault(tid, table)
     call = rec.let(PairTableCall(sm.Integer(tid), sm.S.Zero, *[rec.let(x) for x in inputs]))
+    if call_info is not None:
+        call_info.update(call=call, table=tid, fixed=[x for off in offsets for x in off] + params)
     for j, i in enumerate(gathered):
         w = [rec.let(PairTableOut(call, sm.Integer(0), sm.Integer(6 * j + k))) for k in range(6)]
         if wrenches is not None:
@@ -267,6 +274,28 @@ class PairTableDot(nw.Token):
             ptext = f"(const double[{len(par)}]){{{', '.join(printer._print(a) for a in par)}}}"
         return (f"eomc_pairs_dot(&PT_[{t.noutput}], (const double[{t.nstate}]){{{state}}}, {ptext}, "
                 f"{int(self.args[3])}, &PD{int(self.args[1])}_[0])")
+
+
+class PairTableKernelTape(nw.Token):
+    """PairTableKernelTape(table id, call): a result of jac_x and jac_id (group ``tpw``) where the
+    analytic kernel forms the table inputs' tangents itself (compiler/tree/analytic.py,
+    :func:`~eomc.compiler.tree.analytic.kernel_c`) and calls ``eomc_pairs_dot`` per column: it
+    makes the function's ``call`` the taped variant (``tape_of``) and brings the twin's routines
+    (``c_routines``).  It is not printed (the kernel reads ``PT_`` through its ``pt`` argument)."""
+    c_token = True
+
+    def tape_of(self):
+        return (self.args[1],)
+
+    @property
+    def table(self):
+        return table_of(self.args[0])
+
+    def c_routines(self):
+        return _routines(self.table, True, True)
+
+    def _ccode(self, printer):
+        return "0.0"
 
 
 class PairTableOut(sm.Function):

@@ -401,12 +401,13 @@ def _batch_outputs(scalar, sym, fns, formulation):
 def _taped(prog, exact=False):
     """``prog`` with the calls whose derivative calls read their tape in the variant that writes it:
     an expression with ``tape_of()`` (the temporaries it reads a tape from; compiler/contact/
-    narrow.py's NarrowDot) makes their definitions ``taped()``.  Per function, so that a function
+    narrow.py's NarrowDot; a result too, compiler/contact/table.py's PairTableKernelTape) makes
+    their definitions ``taped()``.  Per function, so that a function
     without the derivative (rhs) calls the routine that writes no tape."""
     if prog is None:
         return None
     prog = _variants(prog, exact)
-    want = {s for _, e in prog.assignments if hasattr(e, "tape_of") for s in e.tape_of()}
+    want = {s for _, e in (*prog.assignments, *prog.results) if hasattr(e, "tape_of") for s in e.tape_of()}
     if not want:
         return prog
     return prog.with_(assignments=tuple((t, e.taped() if t in want else e) for t, e in prog.assignments))
@@ -433,7 +434,7 @@ def _called_routines(programs):
     any was cut into sub-functions)."""
     found = {}
     for prog in programs:
-        for _, e in prog.assignments:
+        for _, e in (*prog.assignments, *prog.results):     # (a result: table.PairTableKernelTape)
             hook = getattr(e, "c_routines", None)
             if hook is not None:
                 for key, text, split in hook():

@@ -42,8 +42,11 @@ ground contacts differentiated the whole recursion per column -- the gymnasium a
 of the ground costs a compare there, and jac_x's straight-line part skips its law with the
 rhs's broad phase (compiler/emit/guards.py).  Body-body pairs lowered as one table call
 (``pairs.PAIR_TABLE``, compiler/contact/table.py): each table body's wrench enters F the same
-way, and the kernel adds its components' change along each state column, which the caller
-computes per column by the table's forward-mode twin into block W (:func:`_pair_lines`; why:
+way, and the kernel adds its components' change along each column: it forms the tangents of the
+table's inputs itself and calls the table's forward-mode twin per column of a dof that moves a
+body of a pair in contact (:func:`_kernel_pair_lines`), or -- where a shape's offset or a law's
+parameter reads the state -- the caller computes them per state column into block W
+(:func:`_pair_lines`; why:
 the tangent path differentiated the whole recursion per column, and the gymnasium humanoid's
 default function set with its self-pairs built in 44 s CPU against 23 s without them, its jac_x
 723 kB of C against 265 kB).  Other state-dependent loads (world-frame forces, a ball joint's
@@ -87,12 +90,13 @@ class AnalyticPlan:
     k2nz: tuple = ()        # per k-speed joint: its coordinates b with a dK/dq_b not identically 0 (hess_id's block K2)
     pairs: tuple = ()       # per body of the pairs' table with a dof on its path: (its index in the table, body, that last dof)
     npair: int = 0          # bodies of the pairs' table (anx block W: their wrench tangents, 6 each, per state column)
+    table: int = -1         # the pairs' table id when the kernel forms its inputs' tangents itself (no block W; _kernel_pair_lines)
 
     def dofs(self, b):
         return range(self.first[b], self.first[b] + self.count[b])
 
 
-def analytic_plan(tree, bodies, gravity, layout, rename, contacts=None, let=None, pairs=None):
+def analytic_plan(tree, bodies, gravity, layout, rename, contacts=None, let=None, pairs=None, table=None):
     """(plan, [(("anx", i), expr)]) when the tree qualifies (see the module doc), else (None, []).
 
     ``contacts``: the ground contacts as lowered (:func:`.contacts.lower_contacts`' "analytic"
@@ -104,7 +108,9 @@ def analytic_plan(tree, bodies, gravity, layout, rename, contacts=None, let=None
     Hessians of :mod:`.second_order` differentiate).
     ``pairs``: the body-body pairs' table bodies [(body, wrench)] when the pairs are one table
     call (compiler/contact/table.py; their wrenches in F, their tangents block W, filled per
-    column by the caller), else None (then a tree with pairs keeps the tangent path)."""
+    column by the caller), else None (then a tree with pairs keeps the tangent path).
+    ``table``: that call's table id when the kernel forms the tangents of its inputs itself and
+    calls the table's tangent loop per column (:func:`_kernel_pair_lines`; no block W)."""
     from ..contact.pairs import PairLoad
     from ..contact.tree import ContactLoad
     if tree.loops is not None:
@@ -206,13 +212,14 @@ def analytic_plan(tree, bodies, gravity, layout, rename, contacts=None, let=None
         off.append(off[-1] + d + 1)
     pair_ends = tuple((j, b, last[b]) for j, (b, _) in enumerate(pairs or ()) if last.get(b, -1) >= 0)
     size = len(values)
-    if pairs:
+    if pairs and table is None:
         offsets["W"] = size
         size += 6 * len(pairs) * len(layout.x)
     plan = AnalyticPlan(nb, len(row), tuple(par), tuple(first), tuple(count), tuple(row),
                         tuple(qcol), tuple(multi), loads, offsets, size, tuple(lam), tuple(dep),
                         tuple(off), choose_solver(dep), tuple(kblocks), tuple(lawdofs), tuple(ends),
-                        pairs=pair_ends, npair=len(pairs or ()))
+                        pairs=pair_ends, npair=len(pairs or ()),
+                        table=-1 if table is None or not pairs else int(table))
     return plan, [((ANX, i), sm.sympify(v)) for i, v in enumerate(values)]
 
 
@@ -682,7 +689,7 @@ def kernel_c(name, plan, nq, solve=False):
         f"   out[(row0 + i) * stride + k] = sign * d tau_i / d x_k for the {nd} speeds i and the",
         "   coordinate and speed columns k, at velocities u and accelerations ud (per dof). */",
         f"static void {fn}(const double *an, const double *u, const double *ud, double *out, "
-        "int stride, int row0, double sign, int msolve)",
+        "int stride, int row0, double sign, int msolve" + (", const double *pt)" if plan.table >= 0 else ")"),
         "{",
         *tree_tables(plan),
         c_table("qc", plan.qcol),
@@ -802,6 +809,8 @@ def kernel_c(name, plan, nq, solve=False):
     ]
     if plan.contacts:
         lines += _contact_lines(name, plan)
+    if plan.table >= 0:     # along ξ: before a k-speed joint's K⁻¹ below
+        lines += _kernel_pair_lines(name, plan)
     for (e0, k, koff), blocks in zip(plan.multi, plan.kblocks):
         kb = [len(r) for r, _ in blocks]
         lines += [
@@ -829,7 +838,7 @@ def kernel_c(name, plan, nq, solve=False):
                 "            }",
             ]
         lines += ["        }", "    }"]
-    if plan.pairs:
+    if plan.pairs and plan.table < 0:
         lines += _pair_lines(plan, ncol)
     if plan.laws:
         lines += [
@@ -966,27 +975,116 @@ def _pair_lines(plan, ncol):
     o, n = plan.offsets, plan.npair
     return [
         "    {   /* body-body pairs: their wrench's change along each column (an[] block W, analytic.py) */",
-        "    " + c_table("pj", [j for j, _, _ in plan.pairs]),
-        "    " + c_table("pbd", [b for _, b, _ in plan.pairs]),
-        "    " + c_table("pe", [e for _, _, e in plan.pairs]),
+        *_pair_end_tables(plan),
         f"        for (j = 0; j < {len(plan.pairs)}; j++) {{",
         "            const double *Rb = R + 9 * pbd[j], *ob = P + 3 * pbd[j];",
         f"            for (k = 0; k < {ncol}; k++) {{",
         f"                const double *wb = an + {o['W']} + {6 * n} * k + 6 * pj[j];",
-        "                double n[3], f[3], m;",
-        "                if (wb[0] == 0.0 && wb[1] == 0.0 && wb[2] == 0.0 && wb[3] == 0.0 && wb[4] == 0.0 && wb[5] == 0.0)",
-        "                    continue;   /* no pair of the body pressed, or none moved along this column */",
-        "                for (i = 0; i < 3; i++) {",
-        "                    n[i] = Rb[3 * i] * wb[0] + Rb[3 * i + 1] * wb[1] + Rb[3 * i + 2] * wb[2];",
-        "                    f[i] = Rb[3 * i] * wb[3] + Rb[3 * i + 1] * wb[4] + Rb[3 * i + 2] * wb[5];",
+        *_wrench_rows("                ", "k"),
+        "            }",
+        "        }",
+        "    }",
+    ]
+
+
+def _pair_end_tables(plan):
+    """C: per table body with a dof on its path, its index in the table, its body, its last dof."""
+    return ["    " + c_table("pj", [j for j, _, _ in plan.pairs]),
+            "    " + c_table("pbd", [b for _, b, _ in plan.pairs]),
+            "    " + c_table("pe", [e for _, _, e in plan.pairs])]
+
+
+def _wrench_rows(pad, col):
+    """C (indented by ``pad``, inside a loop over the table bodies j with Rb, ob their rotation and
+    origin): the body's wrench change ``wb`` (body components) placed in the world and taken by
+    every dof a of its support into row a, column ``col``: -sign S_a · Δw."""
+    return [pad + x for x in (
+        "double n[3], f[3], m;",
+        "if (wb[0] == 0.0 && wb[1] == 0.0 && wb[2] == 0.0 && wb[3] == 0.0 && wb[4] == 0.0 && wb[5] == 0.0)",
+        "    continue;   /* no pair of the body pressed, or none moved along this column */",
+        "for (i = 0; i < 3; i++) {",
+        "    n[i] = Rb[3 * i] * wb[0] + Rb[3 * i + 1] * wb[1] + Rb[3 * i + 2] * wb[2];",
+        "    f[i] = Rb[3 * i] * wb[3] + Rb[3 * i + 1] * wb[4] + Rb[3 * i + 2] * wb[5];",
+        "}",
+        "n[0] += ob[1] * f[2] - ob[2] * f[1];",
+        "n[1] += ob[2] * f[0] - ob[0] * f[2];",
+        "n[2] += ob[0] * f[1] - ob[1] * f[0];",
+        "for (a = pe[j]; a >= 0; a = lam[a]) {",
+        "    const double *s = Sw + 6 * a;",
+        "    m = s[0] * n[0] + s[1] * n[1] + s[2] * n[2] + s[3] * f[0] + s[4] * f[1] + s[5] * f[2];",
+        f"    out[(row0 + row[a]) * stride + {col}] -= sign * m;",
+        "}",
+    )]
+
+
+def _kernel_pair_lines(name, plan):
+    """C: the body-body pairs' terms the kernel's constant load misses, their tangents formed here.
+
+    As :func:`_pair_lines`, but the kernel forms the tangents of the table's inputs itself from
+    its own placements, velocities and ∂V/∂ξ and calls the table's tangent loop,
+    ``eomc_pairs_dot`` (compiler/contact/table.py), with them -- once per column of a dof a on
+    the path of a body of a pair in contact at this state (the taped call's flags, read through
+    ``pt``; the other columns' tangents are exactly zero, as are the shapes' offsets' and the
+    laws' parameters', lower._kernel_table).  Along ξ_a (the world twist s_a = (w, v0)) a body
+    below a moves rigidly: its origin o by w × o + v0, each of its axes (a row of the world ->
+    body rotation) by w × it, and its world velocity V (at the world origin) by s_a × V + dV_a
+    (:func:`kernel_c`'s forward pass), so its body-frame velocity (ω, origin velocity) by R^T
+    (t_ω, t_v + t_ω × o) with t = dV_a; along u_a by the same with t = s_a, o and R fixed.
+    The columns are the kernel's (ξ), before a k-speed joint's K⁻¹.  Why: block W's per-column
+    tangent code was SymPy's per state column, generated for each table body -- most of the
+    C and gcc's time of jac_x on dm_control's humanoid_CMU (1002 self-pairs), a quarter of
+    jac_x's time on gymnasium's humanoid at rest (session 12, pairjx)."""
+    from ..contact.table import table_of
+    t = table_of(plan.table)
+    nt, nd = len(t.bodies), plan.nd
+    last = {j: e for j, _, e in plan.pairs}
+    pb = [[t.shapes[sa][0], t.shapes[sb][0]] for _, sa, sb, *_ in t.pairs]
+    return [
+        "    {   /* body-body pairs: their wrench's change along each column, from the table's tangent loop */",
+        *_pair_end_tables(plan),
+        "    " + c_table("tbb", t.bodies),
+        "    " + c_table("tbe", [last.get(j, -1) for j in range(nt)]),
+        f"        static const int pb[{len(pb)}][2] = {{" + ", ".join(f"{{{x}, {y}}}" for x, y in pb) + "};",
+        f"        const double *act = pt + {t.ninput};   /* per pair: 0 no point in contact */",
+        f"        double din[{t.nstate}], dw[{t.noutput}];",
+        f"        unsigned char on[{nd}];",
+        "        int kind, g;   /* g: the dof along whose column (a: the support's dofs, _wrench_rows) */",
+        f"        for (g = 0; g < {nd}; g++) on[g] = 0;",
+        f"        for (j = 0; j < {len(pb)}; j++)   /* the dofs on the paths of the pressed pairs' bodies */",
+        "            if (act[j] != 0.0)",
+        "                for (k = 0; k < 2; k++)",
+        "                    for (g = pb[j][k] < 0 ? -1 : tbe[pb[j][k]]; g >= 0 && !on[g]; g = lam[g]) on[g] = 1;",
+        f"        for (k = 0; k < {t.nstate}; k++) din[k] = 0.0;",
+        f"        for (g = 0; g < {nd}; g++) {{",
+        "            if (!on[g]) continue;",
+        "            for (kind = 0; kind < 2; kind++) {   /* along xi_g, then u_g */",
+        "                const double *s = Sw + 6 * g, *tv = kind ? s : dV + 6 * g;",
+        "                const int col = kind ? uc[g] : qc[g];",
+        f"                for (j = 0; j < {nt}; j++) {{   /* the table bodies' inputs' tangents */",
+        "                    const double *Rb = R + 9 * tbb[j], *ob = P + 3 * tbb[j];",
+        "                    double *d = din + 18 * j, tl[3];",
+        "                    for (e = tbe[j]; e >= 0 && e != g; e = lam[e]) {}",
+        "                    if (e < 0) {   /* g does not move it */",
+        "                        for (i = 0; i < 18; i++) d[i] = 0.0;",
+        "                        continue;",
+        "                    }",
+        "                    for (i = 0; i < 3; i++) {",
+        "                        const int i1 = (i + 1) % 3, i2 = (i + 2) % 3;",
+        "                        d[i] = kind ? 0.0 : s[i1] * ob[i2] - s[i2] * ob[i1] + s[3 + i];",
+        "                        tl[i] = tv[3 + i] + tv[i1] * ob[i2] - tv[i2] * ob[i1];",
+        "                        for (c = 0; c < 3; c++)   /* row i of world -> body: the body's axis i, Rb's column i */",
+        "                            d[3 + 3 * i + c] = kind ? 0.0"
+        " : s[(c + 1) % 3] * Rb[3 * ((c + 2) % 3) + i] - s[(c + 2) % 3] * Rb[3 * ((c + 1) % 3) + i];",
+        "                    }",
+        "                    for (i = 0; i < 3; i++) {",
+        "                        d[12 + i] = Rb[i] * tv[0] + Rb[3 + i] * tv[1] + Rb[6 + i] * tv[2];",
+        "                        d[15 + i] = Rb[i] * tl[0] + Rb[3 + i] * tl[1] + Rb[6 + i] * tl[2];",
+        "                    }",
         "                }",
-        "                n[0] += ob[1] * f[2] - ob[2] * f[1];",
-        "                n[1] += ob[2] * f[0] - ob[0] * f[2];",
-        "                n[2] += ob[0] * f[1] - ob[1] * f[0];",
-        "                for (a = pe[j]; a >= 0; a = lam[a]) {",
-        "                    const double *s = Sw + 6 * a;",
-        "                    m = s[0] * n[0] + s[1] * n[1] + s[2] * n[2] + s[3] * f[0] + s[4] * f[1] + s[5] * f[2];",
-        "                    out[(row0 + row[a]) * stride + k] -= sign * m;",
+        "                eomc_pairs_dot(pt, din, 0, 0, dw);",
+        f"                for (j = 0; j < {len(plan.pairs)}; j++) {{",
+        "                    const double *Rb = R + 9 * pbd[j], *ob = P + 3 * pbd[j], *wb = dw + 6 * pj[j];",
+        *_wrench_rows("                    ", "col"),
         "                }",
         "            }",
         "        }",
@@ -1191,6 +1289,9 @@ def call_lines(name, plan, ind, x_name, ud_expr, row0, sign, stride, nq, msolve=
     """The C lines that fill u[], ud[] per dof and call NAME_rnea_derivs (inside a function
     whose ``an[]`` holds the plan's inputs)."""
     rows = ", ".join(str(s) for s in plan.row)
+    if plan.table >= 0:     # the pairs' taped call's inputs and flags, after its outputs (compiler/contact/table.py)
+        from ..contact.table import table_of
+        msolve = f"{msolve}, &PT_[{table_of(plan.table).noutput}]"
     if ud_expr is None:     # the kernel finds u' itself (msolve, articulated): ud unread
         return [f"{ind}{{",
                 f"{ind}    static const int sp[{plan.nd}] = {{{rows}}};",

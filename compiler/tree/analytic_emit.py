@@ -42,7 +42,7 @@ TPW = "tpw"     # the pairs' wrench tangents along one state column (lower.py), 
 def _pair_split(program, sym):
     """(assignments run once, those run per column): the latter depend on the seeds dx, the
     tangent of the pairs' wrenches (block W of the kernel's inputs, :func:`.analytic._pair_lines`)."""
-    if not sym.analytic.npair:
+    if not sym.analytic.npair or sym.analytic.table >= 0:     # (the kernel forms them itself)
         return list(program.assignments), []
     return split_on(program, sym.seeds)
 
@@ -53,7 +53,7 @@ def _pair_columns(ctx, program, sym, pr, inner):
     columns that move a body of a pair in contact at this state (:func:`_column_gate`), the
     others' block W zero."""
     plan = sym.analytic
-    if not plan.npair:
+    if not plan.npair or plan.table >= 0:   # (the kernel calls the twin itself: analytic._kernel_pair_lines)
         return []
     nx, n6, w0 = ctx.nx, 6 * plan.npair, plan.offsets["W"]
     vals = program.result_exprs(TPW)

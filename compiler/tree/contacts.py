@@ -48,7 +48,8 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
     ground contact (body, depth, contact point, sphere centre, world force, K, C), or None
     when a contact's point moves on its body (an ellipsoid's support point); "guards", jac_x's
     broad phase (the world forces exported too: the kernel reads them); "pairs", the body-body
-    pairs' table bodies and wrench temporaries when they are one table call (.analytic block W).
+    pairs' table bodies and wrench temporaries when they are one table call, "pair_call" that
+    call's temporary, table id and fixed inputs (table.lower_table's ``call_info``; .analytic).
     ``second``: a function differentiates the pairs twice (hvp, hess_id): every pair goes through the
     table whatever their number, whose loop skips the law out of contact -- inlined, the law's
     δ₊^{3/2} has the second derivative ∞·0 = NaN at every point out of contact."""
@@ -65,9 +66,11 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
         table = []
     if table:               # every pair in one table-driven call (compiler/contact/table.py)
         wrenches = [] if analytic is not None else None
-        values.update(lower_table(table, bodies, rec, v, rename, poses, wrenches))
+        info = {} if analytic is not None else None
+        values.update(lower_table(table, bodies, rec, v, rename, poses, wrenches, info))
         if analytic is not None:        # the analytic jac_x takes their tangents (tree/analytic.py)
             analytic["pairs"] = wrenches
+            analytic["pair_call"] = info
     for load in others:     # a body-body pair returns its outputs' and events' values
         if table and isinstance(load, PairLoad):
             continue

@@ -263,7 +263,11 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
                         + [(("sol", k), sol[k]) for k in range(nu)])
         if analytic is not None:
             jacobian += anx
-            if analytic.npair:      # the pairs' wrenches, whose tangents (tpw) fill the kernel's block W
+            if analytic.npair and analytic.table >= 0:     # the kernel calls the table's tangent itself
+                from ..contact.table import PairTableKernelTape
+                info = ground["pair_call"]
+                jacobian.append((("tpw", 0), PairTableKernelTape(sm.Integer(info["table"]), info["call"])))
+            elif analytic.npair:      # the pairs' wrenches, whose tangents (tpw) fill the kernel's block W
                 jacobian += [(("pw", 6 * j + k), x) for j, (_, w) in enumerate(ground["pairs"])
                              for k, x in enumerate(w)]
         jacobian += direct or []
@@ -420,7 +424,22 @@ def _analytic(tree, bodies, gravity, layout, functions, ground=None, let=None):
     absent = _absent(tree, layout)
     memo = {}
     return analytic_plan(tree, bodies, gravity, layout, lambda e, what: _rename(layout, memo, what, absent)(e),
-                         (ground or {}).get("contacts"), let, (ground or {}).get("pairs"))
+                         (ground or {}).get("contacts"), let, (ground or {}).get("pairs"),
+                         _kernel_table(ground, layout))
+
+
+def _kernel_table(ground, layout):
+    """The pairs' table id when the analytic kernel forms its inputs' tangents itself (the
+    shapes' offsets and the laws' parameters do not read the state: the bodies' placements and
+    velocities are all that move along a state column; compiler/tree/analytic.py), else None
+    (then block W, filled per column from the table's tangent code)."""
+    info = (ground or {}).get("pair_call")
+    if not info:
+        return None
+    xs = set(layout.x)
+    if any(getattr(e, "free_symbols", set()) & xs for e in info["fixed"]):
+        return None
+    return info["table"]
 
 
 def _asks_energy(outputs):
@@ -532,7 +551,7 @@ def _with_jacobians(sym, layout, functions, nq, jacobian, more=(), analytic=Fals
         from .inverse_derivatives import inverse_dynamics_derivatives
         derivatives += inverse_dynamics_derivatives(layout, sym.seeds, nq)
     plan = getattr(sym, "analytic", None)
-    if analytic and plan is not None and plan.npair and set(functions) & {"jac_x", "jac_id"}:
+    if analytic and plan is not None and plan.npair and plan.table < 0 and set(functions) & {"jac_x", "jac_id"}:
         # the pairs' wrench along one state column (seeds dx = e_k), per column: block W (.analytic)
         derivatives.append(("pw", dict(zip(layout.x, sym.seeds)), "tpw"))
     if "jac_x" in functions and not analytic:

@@ -142,9 +142,12 @@ def test_urdf_default_ground_on_a_welded_link(monkeypatch, tmp_path):
 
 def test_body_body_pairs_through_the_table(monkeypatch, tmp_path):
     """Self-pairs as one table call (pairs.PAIR_TABLE): the kernel holds their wrenches as
-    body-fixed loads and adds their components' tangents per column (block W), beside the ground
-    contacts' block G.  Against the tangent jac_x of the same table rhs (the plan refused the pairs)
-    and central differences, with self-pairs pressed and apart; jac_id likewise."""
+    body-fixed loads and adds their components' tangents per column, beside the ground contacts'
+    block G: the tangents from the table's tangent loop called by the kernel itself with the
+    inputs' tangents it forms (analytic._kernel_pair_lines, the default), or filled per state
+    column from generated tangent code (block W: where a shape's offset or a law's parameter
+    reads the state; forced here).  Both against the tangent jac_x of the same table rhs (the plan
+    refused the pairs) and central differences, with self-pairs pressed and apart; jac_id likewise."""
     import warnings
     import eomc.compiler.contact.pairs as pairs
     from eomc.compiler.mjcf.model import MjcfModel
@@ -157,16 +160,27 @@ def test_body_body_pairs_through_the_table(monkeypatch, tmp_path):
     fns = FNS + ["outputs", "jac_id"]
     plan = an.analytic_plan
     built = {}
-    for tag in ("an", "tg"):
+    for tag in ("an", "w", "tg"):
         with monkeypatch.context() as m, warnings.catch_warnings():
             warnings.simplefilter("ignore")
             if tag == "tg":
                 m.setattr(an, "analytic_plan", lambda *a: plan(*a[:7], None))
+            if tag == "w":
+                m.setattr(lower, "_kernel_table", lambda *a: None)
             built[tag] = eomc.compile(MjcfModel(path, pairs=True), f"limbs_{tag}", functions=fns,
                                       progress=False, cache_dir=tmp_path / tag)
-    fast, slow = built["an"], built["tg"]
-    assert "block W" in fast.source_path.read_text()
+    slow = built["tg"]
+    assert "from the table's tangent loop" in built["an"].source_path.read_text()
+    assert "block W" not in built["an"].source_path.read_text()
+    assert "block W" in built["w"].source_path.read_text()
     assert "_rnea_derivs(" not in slow.source_path.read_text()
+    for fast in (built["an"], built["w"]):
+        _pairs_agree(fast, slow)
+
+
+def _pairs_agree(fast, slow):
+    """``fast``'s jac_x and jac_id equal ``slow``'s (1e-10) and jac_x central differences (1e-6)
+    at 60 random states, at least 5 with a self-pair pressed and 5 with all apart."""
     names = list(fast.output_names)
     self_pairs = [i for i, k in enumerate(names) if k.startswith("Fn_") and "__" in k]
     rng = np.random.default_rng(5)
