@@ -17,6 +17,9 @@
 #include "eomc_integrators.h"
 
 #define EOMC_BDF_MAX_ORDER 5
+/* At most this many coordinates whose rates other rates depend on (a free joint's three angles)
+ * are eliminated from Newton's LU with the rest (factor_lu in eomc_bdf.c); more stay in it. */
+#define EOMC_BDF_MAX_DEP 8
 
 typedef struct eomc_bdf_fns {
     void *ctx;
@@ -48,7 +51,13 @@ typedef struct eomc_bdf {
     int *piv;
     double c_lu;             /* the c = h / alpha of the factored I - c J; 0: none */
     int nsplit;              /* the state is (q, v, ...) with nsplit q's and v's; 0: not known */
-    int nkeep, *keep, *elim; /* the rows the LU holds (factor_lu); nkeep = n: all */
+    int nkeep, *keep;        /* the rows the LU holds (factor_lu); nkeep = n: all */
+    int nelim, *elim;        /* the q rows eliminated before the LU (factor_lu), in order */
+    int ndep, *dep;          /* of those, the ones q rates depend on (indices into elim) */
+    int *znz, *zcnt;         /* Z's nonzero columns per eliminated row, and their count */
+    double *Z;               /* nelim x nkeep: (I - c J_ee)^-1 J_ek (factor_lu) */
+    double LUd[EOMC_BDF_MAX_DEP * EOMC_BDF_MAX_DEP];  /* I - c J_dd factored (ndep > 0) */
+    int pivd[EOMC_BDF_MAX_DEP];
     double *rk;              /* n: the kept rows' right-hand side (solve_lu) */
     int cur_jac;             /* J was evaluated at the current step's start or later */
     int err_fails;           /* consecutive error-test failures at this step */
@@ -86,5 +95,10 @@ void eomc_bdf_commit(eomc_bdf *b);
 
 /* The accepted state was changed after the step (unit quaternions, projection). */
 void eomc_bdf_set_state(eomc_bdf *b, const double *y);
+
+/* Newton's linear solve as the steps do it (factor_lu, solve_lu): r <- (I - c J)^-1 r with the
+ * J the caller put in b->J (and b->nsplit set).  The rows the dense LU held, or -1 if the
+ * matrix is singular.  For tests: the row elimination must give the dense solve's x. */
+int eomc_bdf_linear_solve(eomc_bdf *b, double c, double *r);
 
 #endif /* EOMC_BDF_H */
