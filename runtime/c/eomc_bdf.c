@@ -59,15 +59,6 @@
 #define KEEP_BAND 1.2        /* a suggested growth below this keeps h (and the LU) */
 #define DEFAULT_MAX_STEPS 100000L
 #define NROWS (EOMC_BDF_MAX_ORDER + 3)
-/* A predicted state past a switching point (a foot touching down, a limit engaging): the
- * step is shortened to end PRED_OVER times the linear estimate of the crossing -- just past
- * it, where the driver then locates it on the step's own polynomial and restarts -- instead
- * of letting Newton fail on the kink and halving the step 5 to 8 times (gymnasium's ant at
- * rtol 1e-2: 216 Newton failures over 450 steps, each first correction 100 to 1e5 times the
- * tolerance).  Measured on the ant and hopper dropped (benchmarks/results/contact_wp.md):
- * rhs calls 1150 -> 727 and 217 -> 155 at 1e-2.  Only a cut below PRED_CUT of the step. */
-#define PRED_OVER 1.2
-#define PRED_CUT 0.9
 /* RELINEARISE.  A Newton failure with a fresh Jacobian on a contact model is mostly a
  * Jacobian taken at the wrong place: Solo12's stance puts the feet at depth ~1e-17 m, where
  * the Hunt-Crossley slope (~ depth^0.5) is ~0, so J misses the contact stiffness; on the
@@ -413,7 +404,7 @@ static int newton(eomc_bdf *b, double tn, double c, int *conv, int *nit, int *ba
 
 int eomc_bdf_trial(eomc_bdf *b, double t1)
 {
-    int n = b->n, s, first = 1, cut = 0, refresh = 0, relin = 0;
+    int n = b->n, s, first = 1, refresh = 0, relin = 0;
     double t = b->t;
     eomc_stats *st = b->st;
     if (b->h > b->hmax) rescale(b, b->hmax / b->h);
@@ -438,17 +429,6 @@ int eomc_bdf_trial(eomc_bdf *b, double t1)
             b->ypred[i] = yp;
             b->psi[i] = ps / a;
             b->scale[i] = b->atol + b->rtol * fabs(yp);
-        }
-        if (b->fns->predict && !cut) {      /* once per trial: the cut step's prediction differs */
-            double theta = 1.0, frac;
-            if ((s = b->fns->predict(b->fns->ctx, tn, b->ypred, &theta))) return s;
-            frac = fmin(1.0, PRED_OVER * theta);
-            cut = 1;
-            if (frac < PRED_CUT && frac * b->h > 4.0 * hmin) {
-                st->steps--;
-                rescale(b, frac);
-                continue;
-            }
         }
         if (refresh) {    /* the last attempt failed with a fresh J: one at this predictor */
             refresh = 0;
@@ -550,12 +530,6 @@ void eomc_bdf_dense(const eomc_bdf *b, double tau, double *out)
         p *= (tau - (b->tn - (j - 1) * b->ht)) / (j * b->ht);
         for (int i = 0; i < n; i++) out[i] += p * Dj[i];
     }
-}
-
-void eomc_bdf_cut(eomc_bdf *b, double t_cut)
-{
-    rescale(b, (t_cut - b->t) / b->h);
-    b->err_fails = 0;
 }
 
 void eomc_bdf_commit(eomc_bdf *b)

@@ -7,9 +7,9 @@
  * output) lives in eomc_bdf.c; what every method shares (input interpolation,
  * non-finite checks, Ctrl-C, events, switching points, output rows, projection) stays in
  * eomc_integrators.c, which drives the steps through the calls below: a trial step is
- * computed without committing it, so the driver can cut it at a switching point (the
- * contact law changes form there) and have it redone to end there, exactly as it does
- * with Radau's steps.
+ * computed without committing it, so the driver can look at it (events located on its dense
+ * output, switching functions watched for the verdict: BDF passes over switching points,
+ * run_bdf) before it commits it.
  */
 #ifndef EOMC_BDF_H
 #define EOMC_BDF_H
@@ -29,9 +29,6 @@ typedef struct eomc_bdf_fns {
     int (*jac)(void *ctx, double t, const double *x, double *J);
     /* nonzero (the run's status) when the run must stop now: Ctrl-C, a failed callback */
     int (*aborted)(void *ctx);
-    /* NULL, or: *theta in (0, 1] = the fraction of the step [t, tn] to the first switching
-     * point the predicted state yp at tn lies past (1: none); an eomc_status */
-    int (*predict)(void *ctx, double tn, const double *yp, double *theta);
 } eomc_bdf_fns;
 
 typedef struct eomc_bdf {
@@ -79,16 +76,13 @@ void eomc_bdf_init(eomc_bdf *b, const eomc_bdf_fns *fns, eomc_stats *st, int n, 
 int eomc_bdf_start(eomc_bdf *b, double t, const double *y, const double *f, double h);
 
 /* Try steps from b->t (shrinking on Newton or error-test failure) until one passes; it
- * ends at b->tn <= t1 with the state b->ynew and is NOT committed: the driver either
- * commits it or cuts it (eomc_bdf_cut).  An eomc_status: EOMC_STEP_TOO_SMALL,
+ * ends at b->tn <= t1 with the state b->ynew and is NOT committed: the driver looks at
+ * it (events, switching functions, output rows) and commits it.  An eomc_status: EOMC_STEP_TOO_SMALL,
  * EOMC_MAX_STEPS, or the model's failure when a model evaluation kept failing. */
 int eomc_bdf_trial(eomc_bdf *b, double t1);
 
 /* The trial step's dense output at tau in [b->t, b->tn] (its interpolating polynomial). */
 void eomc_bdf_dense(const eomc_bdf *b, double tau, double *out);
-
-/* Discard the trial step; the next trial ends at t_cut (b->t < t_cut < b->tn). */
-void eomc_bdf_cut(eomc_bdf *b, double t_cut);
 
 /* Accept the trial step: b->t = b->tn; chooses the next order and step. */
 void eomc_bdf_commit(eomc_bdf *b);

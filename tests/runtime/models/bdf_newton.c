@@ -29,7 +29,7 @@ int bdf_newton_solve(int n, int nsplit, const double *J, double c, double *r)
 {
     eomc_stats st;
     eomc_bdf b;
-    eomc_bdf_fns fns = {NULL, no_rhs, no_jac, not_aborted, NULL};
+    eomc_bdf_fns fns = {NULL, no_rhs, no_jac, not_aborted};
     double *work = malloc(eomc_bdf_work_size(n) * sizeof(double));
     int k;
     if (!work) return -2;
