@@ -181,7 +181,9 @@ def test_pair_table_is_the_inlined_schemes(tmp_path, monkeypatch):
     rhs, jac = _function(source, "nw_rhs"), _function(source, "nw_jac_x")
     assert rhs.count("eomc_pairs(") == 1 and "eomc_narrow_box_box(" not in rhs and "eomc_pair_law(" not in rhs
     assert ", 0, &PT_[0])" in rhs                         # the rhs skips far pairs and points
-    assert "eomc_pairs_tape(" in jac and "eomc_pairs_dot(" in jac
+    # jac_x tapes the call; its analytic kernel, handed the tape, calls the twin per column
+    assert "eomc_pairs_tape(" in jac and "_rnea_derivs(an, u, ud, out, 24, 12, -1.0, 1, &PT_[" in jac
+    assert "eomc_pairs_dot(pt, din, 0, 0, dw);" in source
     assert ", 1, &PT_[0])" in _function(source, "nw_outputs")     # outputs: every point, exact
     monkeypatch.setattr(pairs, "PAIR_TABLE", False)
     inline = _build(tmp_path, "inline", ("rhs", "jac_x", "jac_p", "outputs"))
