@@ -8,7 +8,8 @@ is emit's default, the same code as Kane's.
 """
 from collections import Counter
 
-from ..emit.formulation import Formulation
+from eomc.runtime.errors import ModelError
+from ..emit.formulation import GROUND_HINT, Formulation, implicit_refusal
 from ..emit.reverse import REVERSE_FUNCTIONS, hess_id_body, hess_id_ops, reverse_body
 from ..ir import count_program
 from ..tree.analytic import kernel_c
@@ -68,10 +69,18 @@ class Recursive(Formulation):
         return None
 
     def builds_implicit(self, requested):
-        from ..contact.tree import contact_outputs
-        if contact_outputs(self.tree) and self.tree.loops is None:
+        from ..contact.pairs import PairLoad
+        grounded = bool(contact_outputs(self.tree))
+        if grounded and self.tree.loops is None:
             return True
-        return super().builds_implicit(requested)
+        if not requested:
+            return False
+        if grounded:
+            raise ModelError(implicit_refusal("this tree is closed by constraints (a loop)",
+                                              "open the loop"))
+        touching = any(isinstance(ld, PairLoad) for ld in self.tree.loads)
+        raise ModelError(implicit_refusal(
+            "this model's bodies touch " + ("each other but no ground" if touching else "no ground"), GROUND_HINT))
 
     def symbolic(self, formed, layout, functions, outputs=None, events=None):
         return build_tree_symbolic(self.tree, formed, layout, functions, outputs, events)
