@@ -420,7 +420,7 @@ def test_a_ball_joint_below_a_free_root_against_differences(tmp_path):
         model = eomc.compile(MjcfModel(path, pairs="trees"), "free_and_ball", functions=["rhs", "jac_id", "hess_id"],
                              cache_dir=tmp_path / "c", progress=False)
     c = (model.directory / f"{model.name}.c").read_text()
-    assert "joint 0's columns q (its K^-1)" in c and "rows q_a: sum_d K^-1[d, a] G[d, .]" in c
+    assert "joint 0: S K^-1 by K^-1's diagonal blocks" in c and "rows q_a: sum_d K^-1[d, a] G[d, .]" in c
     rng, h = np.random.default_rng(3), 1e-5
     for _ in range(2):
         x, ud, r = rng.uniform(-1, 1, model.nx), rng.uniform(-1, 1, model.nu), np.zeros(model.ninput)
