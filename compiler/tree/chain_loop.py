@@ -52,10 +52,11 @@ __all__ = ["ChainLoop", "chain_loop_plan", "chain_loop_rhs_body", "chain_loop_op
 
 # The repeated run's length from which the rhs is looped; None: never (the default).  Why off:
 # measured on the cart (benchmarks/results/cart_scaling.md, session 13, one run, core 1) the loops
-# were 3-10 % slower than the straight-line rhs at every n up to 160 (n = 40: 2089 vs 1947 ns,
-# n = 160: 9115 vs 8877), though 40 times smaller (4.4 vs 186.5 kB at n = 160) and growing as
-# n^1.057 against n^1.098 over n = 8-160.  A switch (the generation cache's key holds it):
-# set it to a link count to loop chains at least that long.
+# were slower than the straight-line rhs at every n (n = 40: 2138 vs 2013 ns, n = 160: 9435 vs
+# 9032; 4.5-20 %: 10.8 % more instructions at n = 160, the per-link loads, stores and spills),
+# though 1.8-4.4 kB of code at every n (186.5 kB straight-line at n = 160) and growing as n^1.058
+# against n^1.102 over n = 8-160.  A switch (the generation cache's key holds it): set it to a
+# link count to loop chains at least that long.
 CHAIN_LOOP_MIN_LINKS_DEFAULT = None
 CHAIN_LOOP_MIN_LINKS = CHAIN_LOOP_MIN_LINKS_DEFAULT
 
