@@ -67,10 +67,13 @@ def generator_switches():
     set; ``TABLE_FROM``, the fewest pairs that take it, only when not its default).  ``TANGENT``: hess_id left along the k-speed joints' tangent for the comparison with
     Pinocchio (compiler/tree/second_order.py); held only when set, so the keys of ordinary builds
     stay what they were; ``HALF_FROM``: the output size from which hess_id is written by halves
-    (same module), held only when not its default; ``ZERO`` off: hess_id leaves the entries off the
-    support paths to the caller (same module), held only when off."""
+    (same module), held only when not its default; ``ZERO`` on: hess_id zeroes its whole output
+    every call instead of leaving the entries off the support paths to the caller (same module,
+    off by default since session 13), held only when on.  ``CHAIN_LOOP_MIN_LINKS``: the repeated
+    chain's length from which the rhs is looped (compiler/tree/chain_loop.py), held only when not
+    its default."""
     from ..contact import pairs
-    from ..tree import second_order
+    from ..tree import chain_loop, second_order
     switches = {"inline_narrow": bool(pairs.INLINE_NARROW)}
     if pairs.LAW_ROUTINES:
         switches["law_routines"] = True
@@ -82,8 +85,10 @@ def generator_switches():
         switches["hess_tangent"] = True
     if second_order.HALF_FROM != second_order.HALF_FROM_DEFAULT:
         switches["hess_half_from"] = second_order.HALF_FROM
-    if not second_order.ZERO:
-        switches["hess_no_zero"] = True
+    if second_order.ZERO:
+        switches["hess_zero"] = True
+    if chain_loop.CHAIN_LOOP_MIN_LINKS != chain_loop.CHAIN_LOOP_MIN_LINKS_DEFAULT:
+        switches["chain_loop_min_links"] = chain_loop.CHAIN_LOOP_MIN_LINKS
     return switches
 
 
