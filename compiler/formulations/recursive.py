@@ -24,6 +24,7 @@ from ..tree.input_jacobian import input_jacobian_body, input_jacobian_ops, msolv
 from ..tree.jvp import tree_jvp_body
 from ..tree.lower import TREE_FUNCTION_GROUPS, TREE_HELPER_USERS, build_tree_symbolic
 from ..tree.regressor import PI_NAMES
+from ..contact.pairs import PairLoad
 from ..contact.tree import contact_outputs
 from ..emit.bodies import plain_body
 from ..tree.lower import implicit_layout
@@ -69,7 +70,8 @@ class Recursive(Formulation):
 
     def builds_implicit(self, requested):
         from ..contact.tree import contact_outputs
-        if contact_outputs(self.tree) and self.tree.loops is None:
+        pairs = any(isinstance(ld, PairLoad) for ld in self.tree.loads)
+        if (contact_outputs(self.tree) or pairs) and self.tree.loops is None:
             return True
         return super().builds_implicit(requested)
 
@@ -101,7 +103,7 @@ class Recursive(Formulation):
         if fn in REVERSE_FUNCTIONS:
             return reverse_body(fn, ctx, prog, sym, nx, len(layout.p), jacobian_symbols(prog, sym.W, ctx.nu)[1])
         if fn == "implicit":
-            size = implicit_layout(ctx.nq, ctx.nu, len(contact_outputs(self.tree)))["size"]
+            size = self.implicit_metadata()["layout"]["size"]
             return tree_implicit_body(ctx, prog, sym.implicit_guards, size)
         if fn == "jvp":
             return tree_jvp_body(ctx, prog, *jacobian_symbols(prog, sym.W, ctx.nu), sym.seeds, nx, len(layout.p))
@@ -183,7 +185,10 @@ class Recursive(Formulation):
         """What runtime/c/eomc_fixedstep.c needs besides NAME_implicit's numbers: per contact
         the speeds that move its body (its chain to the root), and per speed its parent in
         the tree (the previous speed of its joint or of the nearest moving ancestor; -1 at
-        the root), for M's tree-sparse LDLᵀ."""
+        the root), for M's tree-sparse LDLᵀ.  A body-body pair's point (after the ground's
+        contacts, "pair": true) moves with its second body relative to its first: its speeds are
+        those that move one body and not the other, the first body's as ~s = -1 - s (a minus in
+        the runtime's J; the speeds that move both move the point alike on both and cancel)."""
         bodies = self.tree.bodies
         own = [[s for s, _ in b.dofs] for b in bodies]
 
@@ -196,5 +201,10 @@ class Recursive(Formulation):
         parent = speed_parents([b.parent for b in bodies], own)
         nq, nu = len(self.tree.coordinates), len(self.tree.speeds)
         contacts = contact_outputs(self.tree)
-        return {"contacts": [{"name": c.name, "speeds": chain(c.body)} for c in contacts],
-                "parents": parent, "layout": implicit_layout(nq, nu, len(contacts))}
+        entries = [{"name": c.name, "speeds": chain(c.body)} for c in contacts]
+        for ld in self.tree.loads:
+            if isinstance(ld, PairLoad):
+                a, b = chain(ld.a.body), chain(ld.b.body)
+                entries.append({"name": ld.name if ld.part < 0 else f"{ld.name}:{ld.part}", "pair": True,
+                                "speeds": [s for s in b if s not in a] + [~s for s in a if s not in b]})
+        return {"contacts": entries, "parents": parent, "layout": implicit_layout(nq, nu, len(entries))}

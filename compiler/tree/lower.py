@@ -452,7 +452,10 @@ def implicit_layout(nq, nu, ncontact):
                        of a body it moves is ω x p + v0 per unit speed
         joint  2*nu    per speed, -d(joint law)/du and -d(joint law)/dq (0: none)
         contact 25 per contact: depth, point (3), its velocity (3), K (9), C (9), world
-                       (compiler/contact/law.ground_jacobians)"""
+                       (compiler/contact/law.ground_jacobians); the ground contacts, then the
+                       body-body pairs' points (their second body's motion relative to the first:
+                       compiler/contact/pairs.law_slopes; depth and point 0 where the pair's
+                       broad phase skips it)"""
     out, pos = {}, 0
     for key, size in (("M", nu * nu), ("f", nu), ("qd", nq), ("N", nq * nu), ("screw", 6 * nu),
                       ("joint", 2 * nu), ("contact", 25 * ncontact)):
@@ -464,7 +467,7 @@ def implicit_layout(nq, nu, ncontact):
 
 def _implicit_results(tree, bodies, formed, layout, A, b, implicit, nq, nu):
     """The ("imp", k) results of NAME_implicit, laid out as :func:`implicit_layout`."""
-    contacts = implicit.get("contacts", [])
+    contacts = implicit.get("contacts", []) + implicit.get("pairs", [])    # as implicit_metadata lists them
     poses = implicit["poses"]
     at = implicit_layout(nq, nu, len(contacts))
     out = {}

@@ -410,20 +410,52 @@ size_t eomc_fs_implicit_work_size(int nq, int nu, int ncontact)
 /* A = U D L in place (D on the diagonal, unit U above it, unit L below it): A has nonzeros
  * only between a speed and its ancestors (parent[k] < k; NULL: every earlier speed, i.e.
  * dense), so eliminating from the leaves up (Featherstone's LTDL, RBDA table 6.3, here
- * without symmetry: A is M plus the contacts' slopes, not symmetric) makes no fill-in.
+ * without symmetry: A is M plus the contacts' slopes, not symmetric) makes no fill-in
+ * (but where a body-body pair couples two branches: fs_ancestors' lists hold that fill).
  * 1 when a pivot is zero to rounding (64 eps of the largest diagonal entry) or not finite;
  * a negative pivot is no failure (A is not symmetric: a sliding contact's friction carried
  * by its normal force makes it indefinite, and measured on the falling humanoid a foot's
  * pivot goes negative while the step is fine). */
+/* A contact's chain entry: its speed s, or ~s = -1 - s for a body-body pair's first body (the
+ * point's velocity is the second body's less the first's: a minus in J). */
+static int fs_speed(int e)
+{
+    return e >= 0 ? e : ~e;
+}
+
 /* anc[start[k] .. start[k + 1]) = speed k's ancestors, nearest first (parent[] NULL: every
  * earlier speed); the elimination below walks these lists, not the parent chain (a chain of
- * dependent loads: measured on the humanoid, the walk was 40% of the step outside the model). */
-static void fs_ancestors(int n, const int *parent, int *start, int *anc)
+ * dependent loads: measured on the humanoid, the walk was 40% of the step outside the model).
+ * These lists, with the couplings the contacts add: a ground contact's speeds lie on one path to
+ * the root (they are ancestors of each other: nothing new), but a body-body pair's point joins its
+ * two bodies' branches below their common ancestor (gymnasium's humanoid: a hand against a thigh),
+ * and eliminating from the leaves up then fills in between them.  So the lists are the symbolic
+ * elimination of M's pattern plus every contact's couplings: per k the speeds i < k that row or
+ * column k meets when k is eliminated, largest first -- for a tree, and a model whose pairs each
+ * lie on one path, exactly the ancestors, nearest first (the same lists and bits as before).
+ * mark: n * n bytes of scratch. */
+static void fs_ancestors(int n, const int *parent, const eomc_implicit *imp, unsigned char *mark, int *start,
+                         int *anc)
 {
     int pos = 0;
+    memset(mark, 0, (size_t)n * n);
+    for (int k = 0; k < n; k++)
+        for (int i = parent ? parent[k] : k - 1; i >= 0; i = parent ? parent[i] : i - 1) mark[(size_t)k * n + i] = 1;
+    for (int c = 0; imp && imp->chain && c < imp->ncontact; c++)
+        for (int x = imp->chain_start[c]; x < imp->chain_start[c + 1]; x++)
+            for (int y = imp->chain_start[c]; y < imp->chain_start[c + 1]; y++) {
+                int i = fs_speed(imp->chain[x]), j = fs_speed(imp->chain[y]);
+                if (i > j) mark[(size_t)i * n + j] = 1;
+            }
+    for (int k = n - 1; k >= 0; k--)                 /* eliminating k couples what k meets */
+        for (int i = k - 1; i >= 0; i--)
+            if (mark[(size_t)k * n + i])
+                for (int j = i - 1; j >= 0; j--)
+                    if (mark[(size_t)k * n + j]) mark[(size_t)i * n + j] = 1;
     for (int k = 0; k < n; k++) {
         start[k] = pos;
-        for (int i = parent ? parent[k] : k - 1; i >= 0; i = parent ? parent[i] : i - 1) anc[pos++] = i;
+        for (int i = k - 1; i >= 0; i--)
+            if (mark[(size_t)k * n + i]) anc[pos++] = i;
     }
     start[n] = pos;
 }
@@ -574,22 +606,28 @@ static int fs_assemble(const eomc_fs_ops *ops, const fs_layout *L, double h, con
         if (!any) continue;
         for (int a = 0; a < 3; a++)
             Kv[a] = K[3 * a] * vp[0] + K[3 * a + 1] * vp[1] + K[3 * a + 2] * vp[2];
-        for (int k = 0; k < m; k++) {                 /* J[:, k] = w x p + v0 of speed cols[k] */
-            const double *w = scr + 6 * (size_t)cols[k], *v0 = w + 3;
+        for (int k = 0; k < m; k++) {                 /* J[:, k] = ±(w x p + v0) of speed cols[k] */
+            const int s = fs_speed(cols[k]);
+            const double *w = scr + 6 * (size_t)s, *v0 = w + 3;
             double *j = J + 3 * k;
             j[0] = v0[0] + w[1] * p[2] - w[2] * p[1];
             j[1] = v0[1] + w[2] * p[0] - w[0] * p[2];
             j[2] = v0[2] + w[0] * p[1] - w[1] * p[0];
+            if (cols[k] < 0) {                        /* a pair's first body: v_rel = v_B - v_A */
+                j[0] = -j[0];
+                j[1] = -j[1];
+                j[2] = -j[2];
+            }
             for (int a = 0; a < 3; a++)
                 GJ[3 * k + a] = G[3 * a] * j[0] + G[3 * a + 1] * j[1] + G[3 * a + 2] * j[2];
-            b[cols[k]] -= h * (j[0] * Kv[0] + j[1] * Kv[1] + j[2] * Kv[2]);
+            b[s] -= h * (j[0] * Kv[0] + j[1] * Kv[1] + j[2] * Kv[2]);
         }
         for (int a = 0; a < m; a++) {
             const double *ja = J + 3 * a;
-            double *row = A + (size_t)cols[a] * nu;
+            double *row = A + (size_t)fs_speed(cols[a]) * nu;
             for (int k = 0; k < m; k++) {
                 const double *g = GJ + 3 * k;
-                row[cols[k]] += ja[0] * g[0] + ja[1] * g[1] + ja[2] * g[2];
+                row[fs_speed(cols[k])] += ja[0] * g[0] + ja[1] * g[1] + ja[2] * g[2];
             }
         }
     }
@@ -679,7 +717,12 @@ eomc_fs_lanes *eomc_fs_lanes_new(int nq, int nu, const eomc_implicit *imp, int l
     cols = cstart + n + 1;
     w->diag = cols + n * n;
     w->upd = w->diag + n;
-    fs_ancestors(nu, imp->parent, w->start, w->anc);
+    {
+        unsigned char *mark = (unsigned char *)malloc(n * n + 1);
+        if (mark == NULL) { eomc_fs_lanes_free(w); return NULL; }
+        fs_ancestors(nu, imp->parent, imp, mark, w->start, w->anc);
+        free(mark);
+    }
     fs_columns(nu, w->start, w->anc, cstart, cols);
     for (size_t i = 0; i < n * n; i++) slot[i] = -1;
     w->nslot = cstart[nu];
@@ -706,7 +749,7 @@ eomc_fs_lanes *eomc_fs_lanes_new(int nq, int nu, const eomc_implicit *imp, int l
         int m = imp->chain_start[c + 1] - imp->chain_start[c];
         w->cslot_start[c] = pos;
         for (int a = 0; a < m; a++)
-            for (int k = 0; k < m; k++) w->cslot[pos++] = slot[(size_t)ch[a] * n + ch[k]];
+            for (int k = 0; k < m; k++) w->cslot[pos++] = slot[(size_t)fs_speed(ch[a]) * n + fs_speed(ch[k])];
     }
     w->cslot_start[nc] = pos;
     for (int i = 0; i < nupd; i++)
@@ -1079,7 +1122,7 @@ int eomc_fs_run(const eomc_fs_ops *ops, eomc_stats *st, int nx, double h, long m
         q.f1 = pos; pos += n;           /* accept's f1: quaternions rescale it; not read back */
         memset(q.f1, 0, (size_t)n * sizeof(double));
         q.start = (int *)pos; q.anc = q.start + nu + 1;
-        fs_ancestors(nu, ops->imp->parent, q.start, q.anc);
+        fs_ancestors(nu, ops->imp->parent, ops->imp, (unsigned char *)q.A1, q.start, q.anc);  /* A1: scratch */
         q.cstart = q.anc + q.start[nu];
         q.cols = q.cstart + nu + 1;
         fs_columns(nu, q.start, q.anc, q.cstart, q.cols);
