@@ -404,7 +404,8 @@ size_t eomc_fs_implicit_work_size(int nq, int nu, int ncontact)
      * nu * nu / 2 + nu + 1 doubles) and M's column lists (nu + 1 + nu * nu ints, in
      * nu * nu / 2 + nu / 2 + 1 doubles) */
     return 2 * fs_layout_of(nq, nu, ncontact).size + 2 * u * u + 10 * u + 4 * x + 8 + u * u / 2 + u + 2
-           + u * u / 2 + u / 2 + 2;
+           + u * u / 2 + u / 2 + 2
+           + 2 * u + (size_t)ncontact + 2 * (u * u / 2 + u + 2);   /* fs_pattern's bits and two own lists */
 }
 
 /* A = U D L in place (D on the diagonal, unit U above it, unit L below it): A has nonzeros
@@ -569,14 +570,57 @@ static void fs_secant_friction(const double *K, const double *C, double *Cs)
         }
 }
 
+/* The elimination's lists of one matrix of (2), per step: M's tree pattern, or, where a pressed
+ * body-body pair joins two branches, that pattern with the pair's fill.  Why per step: the fill of
+ * every pair the model has (fs_ancestors with them all) made gymnasium's humanoid's 109 self-pairs
+ * couple nearly all its limbs' speeds -- 3795 updates a factorisation against M's 1394 -- at every
+ * step, while a step has at most a few pairs pressed.  With bits (n <= 64), the fill of the pressed
+ * pairs costs a few hundred operations and only on the steps that have one; the lists it gives are
+ * fs_ancestors' for those pairs (the same order: the same bits where the pattern is the same, and
+ * the same nonzero bits where a bigger pattern only adds exact zeros). */
+typedef struct fs_pattern {
+    int n;
+    const int *start, *anc;              /* M's (n > 64 or NULL tree: with every pair's fill) */
+    const unsigned long long *tree;      /* n: speed k's ancestors as bits; NULL: no per-step fill */
+    const unsigned long long *cross;     /* per contact: its speeds' bits where it joins two branches, else 0 */
+    unsigned long long *bits;            /* n: scratch */
+} fs_pattern;
+
+/* bits = the pattern's with contact c's couplings (bits holds the tree's already). */
+static void fs_couple(const fs_pattern *pat, const eomc_implicit *imp, int c)
+{
+    unsigned long long m = pat->cross[c];
+    for (int x = imp->chain_start[c]; x < imp->chain_start[c + 1]; x++) {
+        int s = fs_speed(imp->chain[x]);
+        pat->bits[s] |= m & ((1ULL << s) - 1);
+    }
+}
+
+/* own = the lists of bits' pattern after elimination (as fs_ancestors builds them). */
+static void fs_fill(const fs_pattern *pat, int *own)
+{
+    int n = pat->n, pos = 0, *start = own, *anc = own + n + 1;
+    unsigned long long *m = pat->bits;
+    for (int k = n - 1; k >= 0; k--)
+        for (int i = k - 1; i >= 0; i--)
+            if (m[k] >> i & 1) m[i] |= m[k] & ((1ULL << i) - 1);
+    for (int k = 0; k < n; k++) {
+        start[k] = pos;
+        for (int i = k - 1; i >= 0; i--)
+            if (m[k] >> i & 1) anc[pos++] = i;
+    }
+    start[n] = pos;
+}
+
 /* A = M + h C~ + h^2 K~ from the terms T (factored in place) and b = f - h K~ u: the
- * matrix and right side of (2) for a step of size h from the state T was evaluated at. */
+ * matrix and right side of (2) for a step of size h from the state T was evaluated at; *start,
+ * *anc its elimination's lists (the pattern's, or in own: fs_pattern). */
 static int fs_assemble(const eomc_fs_ops *ops, const fs_layout *L, double h, const double *u,
                        const double *T, double *A, double *b, double *J, double *GJ, double *Kv,
-                       const int *start, const int *anc)
+                       const fs_pattern *pat, int *own, const int **start, const int **anc)
 {
     const eomc_implicit *imp = ops->imp;
-    int nu = ops->nu;
+    int nu = ops->nu, grown = 0;
     const double *scr = T + L->screw, *jl = T + L->joint;
     memcpy(A, T + L->M, (size_t)nu * nu * sizeof(double));
     memcpy(b, T + L->f, (size_t)nu * sizeof(double));
@@ -604,6 +648,11 @@ static int fs_assemble(const eomc_fs_ops *ops, const fs_layout *L, double h, con
             any |= G[a] != 0.0;
         }
         if (!any) continue;
+        if (pat->tree && pat->cross[c]) {             /* a pressed pair across two branches */
+            if (!grown) memcpy(pat->bits, pat->tree, (size_t)nu * sizeof *pat->bits);
+            grown = 1;
+            fs_couple(pat, imp, c);
+        }
         for (int a = 0; a < 3; a++)
             Kv[a] = K[3 * a] * vp[0] + K[3 * a + 1] * vp[1] + K[3 * a + 2] * vp[2];
         for (int k = 0; k < m; k++) {                 /* J[:, k] = ±(w x p + v0) of speed cols[k] */
@@ -631,7 +680,14 @@ static int fs_assemble(const eomc_fs_ops *ops, const fs_layout *L, double h, con
             }
         }
     }
-    if (fs_tree_lu(nu, A, start, anc)) return EOMC_SINGULAR_MASS_MATRIX;
+    *start = pat->start;
+    *anc = pat->anc;
+    if (grown) {
+        fs_fill(pat, own);
+        *start = own;
+        *anc = own + nu + 1;
+    }
+    if (fs_tree_lu(nu, A, *start, *anc)) return EOMC_SINGULAR_MASS_MATRIX;
     return EOMC_OK;
 }
 
@@ -788,7 +844,9 @@ typedef struct fs_fast {
     int have_T;                  /* T holds the terms at the x fs_loop hands in */
     int deep;                    /* -1, or the first contact found deeper than its limit */
     double *du, *dv, *J, *GJ, *Kv, *x1, *xs, *f1;
-    int *start, *anc;
+    fs_pattern pat;
+    const int *start, *anc, *start1, *anc1;   /* A's and A1's elimination lists (fs_assemble) */
+    int *own, *own1;                          /* where they are made when a pair adds fill */
     int *cstart, *cols;          /* per speed, the columns of M's row that can be nonzero */
 } fs_fast;
 
@@ -797,6 +855,15 @@ static void fs_swap(double **a, double **b)
     double *t = *a;
     *a = *b;
     *b = t;
+}
+
+/* A and A1 swapped with their lists. */
+static void fs_swap_lists(fs_fast *q)
+{
+    const int *s = q->start, *a = q->anc;
+    int *o = q->own;
+    q->start = q->start1; q->anc = q->anc1; q->own = q->own1;
+    q->start1 = s; q->anc1 = a; q->own1 = o;
 }
 
 /* One step (2) of size h from (t, x) with T, A, b made for it: x1, then the terms at x1 in
@@ -836,9 +903,13 @@ static int fs_fast_try(fs_fast *q, double t, double h, const double *x, int chec
     } else if ((s = ops->terms(ops->ctx, t + h, q->x1, q->T1))) {
         return s;
     }
-    if (!done && (s = fs_assemble(ops, L, h, q->x1 + nq, q->T1, q->A1, q->b1, q->J, q->GJ, q->Kv,
-                                  q->start, q->anc)))
+    if (done) {                         /* the lanes' pattern: every pair's fill (fs_ancestors) */
+        q->start1 = q->pat.start;
+        q->anc1 = q->pat.anc;
+    } else if ((s = fs_assemble(ops, L, h, q->x1 + nq, q->T1, q->A1, q->b1, q->J, q->GJ, q->Kv, &q->pat,
+                                q->own1, &q->start1, &q->anc1))) {
         return s;
+    }
     if (!check) {                       /* the residual test is off: nothing reads the ratio */
         *ratio = 0.0;
         return EOMC_OK;
@@ -854,7 +925,7 @@ static int fs_fast_try(fs_fast *q, double t, double h, const double *x, int chec
             q->dv[i] = r;
         }
     }
-    fs_tree_solve(nu, q->A1, q->start, q->anc, q->dv);
+    fs_tree_solve(nu, q->A1, q->start1, q->anc1, q->dv);
     for (int i = 0; i < nu; i++) {
         rn += q->dv[i] * q->dv[i];
         dn += q->du[i] * q->du[i];
@@ -990,8 +1061,8 @@ static int fs_fast_advance(void *self, double t, double h, const double *x, doub
     while (pos < MAX_SPLIT) {
         double ts = t + h * pos / MAX_SPLIT, hs = size == MAX_SPLIT ? h : h * size / MAX_SPLIT, ratio;
         if (q->hA != hs) {
-            if ((s = fs_assemble(ops, &q->L, hs, xs + ops->nq, q->T, q->A, q->b, q->J, q->GJ, q->Kv,
-                                 q->start, q->anc))) {
+            if ((s = fs_assemble(ops, &q->L, hs, xs + ops->nq, q->T, q->A, q->b, q->J, q->GJ, q->Kv, &q->pat,
+                                 q->own, &q->start, &q->anc))) {
                 q->st->t_fail = ts;
                 return s;
             }
@@ -1025,6 +1096,7 @@ static int fs_fast_advance(void *self, double t, double h, const double *x, doub
         pos += size;
         fs_swap(&q->T, &q->T1);
         fs_swap(&q->A, &q->A1);
+        fs_swap_lists(q);
         fs_swap(&q->b, &q->b1);
         if (pos < MAX_SPLIT) {                  /* a sub-step ended inside the step */
             memcpy(q->xs, q->x1, (size_t)n * sizeof(double));
@@ -1121,11 +1193,44 @@ int eomc_fs_run(const eomc_fs_ops *ops, eomc_stats *st, int nx, double h, long m
         slope = pos; pos += n;
         q.f1 = pos; pos += n;           /* accept's f1: quaternions rescale it; not read back */
         memset(q.f1, 0, (size_t)n * sizeof(double));
-        q.start = (int *)pos; q.anc = q.start + nu + 1;
-        fs_ancestors(nu, ops->imp->parent, ops->imp, (unsigned char *)q.A1, q.start, q.anc);  /* A1: scratch */
-        q.cstart = q.anc + q.start[nu];
-        q.cols = q.cstart + nu + 1;
-        fs_columns(nu, q.start, q.anc, q.cstart, q.cols);
+        {
+            /* per-step fill (fs_pattern) with M's tree given, at most 64 speeds, and not in the lanes
+             * rollout (whose A1 comes with every pair's fill); else every pair's fill at every step */
+            const eomc_implicit *imp = ops->imp;
+            int nc = imp->ncontact, dyn = imp->parent != NULL && nu <= 64 && ops->terms_lu == NULL;
+            unsigned long long *tree = (unsigned long long *)pos, *cross = tree + nu;
+            int *lists;
+            q.pat.bits = cross + nc;
+            pos += 2 * (size_t)nu + (size_t)nc;
+            q.own = (int *)pos; pos += uu / 2 + nu + 2;
+            q.own1 = (int *)pos; pos += uu / 2 + nu + 2;
+            lists = (int *)pos;
+            fs_ancestors(nu, imp->parent, dyn ? NULL : imp, (unsigned char *)q.A1, lists, lists + nu + 1);
+            q.pat.n = nu;
+            q.pat.start = lists;
+            q.pat.anc = lists + nu + 1;
+            q.pat.tree = dyn ? tree : NULL;
+            q.pat.cross = cross;
+            for (int k = 0; k < nu; k++) {
+                tree[k] = 0;
+                for (int x = lists[k]; dyn && x < lists[k + 1]; x++) tree[k] |= 1ULL << lists[nu + 1 + x];
+            }
+            for (int c = 0; c < nc; c++) {     /* a chain that is not on one path joins two branches */
+                unsigned long long m = 0;
+                int path = 1;
+                for (int x = imp->chain_start[c]; dyn && x < imp->chain_start[c + 1]; x++) m |= 1ULL << fs_speed(imp->chain[x]);
+                for (int x = imp->chain_start[c]; dyn && x < imp->chain_start[c + 1]; x++) {
+                    int sp = fs_speed(imp->chain[x]);
+                    if (m & ((1ULL << sp) - 1) & ~tree[sp]) path = 0;
+                }
+                cross[c] = path ? 0 : m;
+            }
+            q.start = q.start1 = q.pat.start;
+            q.anc = q.anc1 = q.pat.anc;
+            q.cstart = lists + nu + 1 + lists[nu];
+            q.cols = q.cstart + nu + 1;
+            fs_columns(nu, q.pat.start, q.pat.anc, q.cstart, q.cols);
+        }
         s = fs_loop(ops, st, n, h, maxs, t0, t1, x, slope, fs_fast_advance, &q);
         if (s == EOMC_OK && q.deep >= 0) s = EOMC_PENETRATED;
         return s;
