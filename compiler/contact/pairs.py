@@ -191,7 +191,12 @@ class PairLoad(LoweredLoad):
         if slopes is None:
             return (), ()
         vrel, K, C = law_slopes(n, depth, va, vb, params, rec.let)
-        point = [rec.let(x) for x in p]
+        # δ, p and v_rel exported as copies (1.0 x: the same bits), read by NAME_implicit's results
+        # only: exported themselves, the law and the wrenches that read them made their first
+        # reader outside the block, and the guard was dropped (gymnasium's hopper: the 3 pairs'
+        # narrow phases ran at every call, +26 % a call)
+        one = sm.Float(1.0)
+        depth, point, vrel = rec.let(one * depth), [rec.let(one * x) for x in p], [rec.let(one * x) for x in vrel]
         slopes.append({"depth": depth, "point": point, "velocity": vrel, "K": K, "C": C})
         inner = tuple(dict.fromkeys(s for s in (*vrel, *(x for M in (K, C) for row in M for x in row))
                                     if isinstance(s, sm.Symbol)))

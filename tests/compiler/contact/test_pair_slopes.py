@@ -43,7 +43,8 @@ def _terms(model, x):
     out = np.zeros(layout["size"])
     ffi = model.ffi
     fp = ffi.addressof(model.model_lib, f"{model.name}_implicit")
-    assert fp(0.0, ffi.from_buffer("double[]", x), model._default_p, ffi.NULL, ffi.from_buffer("double[]", out),
+    r = model._default_r if model.ninput else ffi.NULL
+    assert fp(0.0, ffi.from_buffer("double[]", x), model._default_p, r, ffi.from_buffer("double[]", out),
               ffi.NULL) == 0
     return out, layout
 
@@ -176,3 +177,71 @@ def test_slopes_are_the_central_differences_of_the_pair_force(limbs):
         if checked >= 6:
             break
     assert checked >= 6
+
+
+@pytest.fixture(scope="module")
+def humanoid(tmp_path_factory):
+    gymnasium = pytest.importorskip("gymnasium")
+    from pathlib import Path
+    from eomc.compiler.mjcf.model import MjcfModel
+    path = Path(gymnasium.__file__).parent / "envs" / "mujoco" / "assets" / "humanoid.xml"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return eomc.compile(MjcfModel(path), "ps_humanoid", functions=("rhs", "outputs", "implicit"),
+                            cache_dir=tmp_path_factory.mktemp("humanoid"), progress=False)
+
+
+def test_humanoid_pressed_self_pairs(humanoid):
+    """gymnasium's humanoid (109 self-pairs, the table) at the pressed states of its fall from qpos0
+    (implicitfast, 1 s): each pressed pair point's depth and point are the rhs's, J u its v_rel,
+    and dF/du = -C J (n from K's rows, its sign from the depth's rate: δ̇ = -n·v_rel)."""
+    m = humanoid
+    info = m.metadata["implicit"]
+    items = [(c, item) for c, item in enumerate(info["contacts"]) if item.get("pair")]
+    assert len(items) == 109
+    nq, nu = m.nq, m.nu
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        run = m.simulate(np.array(m.initial_state, float), (0.0, 1.0), method="implicitfast", dt=0.003,
+                         n_points=101)
+    checked, pairs_seen = 0, set()
+    for x in run.x[::2]:
+        out, at = _terms(m, x)
+        o = dict(m.outputs(0.0, x))
+        for c, item in items:
+            name = item["name"]
+            if not (o[f"Fn_{name}"] > 1.0):
+                continue
+            e = out[at["contact"] + 25 * c:at["contact"] + 25 * (c + 1)]
+            assert e[0] == o[f"depth_{name}"] > 0
+            assert np.array_equal(e[1:4], [o[f"px_{name}"], o[f"py_{name}"], o[f"pz_{name}"]])
+            J = jacobian(out, at, {**item, "index": c}, nu)
+            vp = e[4:7]
+            assert np.allclose(J @ x[nq:], vp, rtol=0, atol=1e-12 * (1 + np.abs(vp).max()))
+            K, C = e[7:16].reshape(3, 3), e[16:25].reshape(3, 3)
+            row = K[np.argmax(np.abs(K).sum(axis=1))]
+            n = row / np.linalg.norm(row)
+            h = 1e-7
+            qd = m.rhs(0.0, x)[:nq]
+            xp, xm = x.copy(), x.copy()
+            xp[:nq] += h * qd
+            xm[:nq] -= h * qd
+            rate = (dict(m.outputs(0.0, xp))[f"depth_{name}"] - dict(m.outputs(0.0, xm))[f"depth_{name}"]) / (2 * h)
+            if abs(rate) < 1e-3 * (1 + np.abs(vp).max()):
+                continue                       # n's sign unknown at a standstill along n
+            n *= -np.sign(rate) * np.sign(n @ vp)
+            assert abs(n @ vp + rate) <= 1e-5 * (1 + np.abs(vp).max())
+
+            def total(xx):
+                f, ft = _force(m, xx, name)
+                return f * n + ft
+            dFdu = np.zeros((3, nu))
+            for k in range(nu):
+                xp, xm = x.copy(), x.copy()
+                xp[nq + k] += h
+                xm[nq + k] -= h
+                dFdu[:, k] = (total(xp) - total(xm)) / (2 * h)
+            assert np.allclose(dFdu, -C @ J, rtol=0, atol=1e-5 * np.abs(C @ J).max()), name
+            checked += 1
+            pairs_seen.add(name)
+    assert checked >= 5 and len(pairs_seen) >= 2, (checked, pairs_seen)
