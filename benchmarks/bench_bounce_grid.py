@@ -3,7 +3,7 @@
     python benchmarks/bench_bounce_grid.py [--bare]
 
 A 1 kg sphere (tests/compiler/contact/sphere_model.py) dropped from 0.5 m with 1 m/s sideways,
-1.2 s, for k = 1e3 ... 1e12, c = 0 / 0.05 / 2, mu = 0 / 0.5, DOPRI5 / DOP853 / Radau / auto
+1.2 s, for k = 1e3 ... 1e12, c = 0 / 0.05 / 2, mu = 0 / 0.5, DOPRI5 / DOP853 / Radau / BDF / auto
 at rtol 1e-3, 1e-4, 1e-6, 1e-8 (atol = rtol/1000).  Each case is judged by
 tests/compiler/contact/bounce_grid.py: "right" (energy never above its start by more than
 the stated tolerance; first bounce height equal to a 1-D reference of the same normal law,
@@ -25,7 +25,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import bounce_grid as bg  # noqa: E402
 from common import environment_header, format_table, write_results  # noqa: E402
 
-METHODS = ("dopri5", "dop853", "radau", "auto")
+METHODS = ("dopri5", "dop853", "radau", "bdf", "auto")   # every adaptive method simulate has
 RTOLS = (1e-3, 1e-4, 1e-6, 1e-8)
 
 
@@ -79,7 +79,7 @@ def main():
                    else "penetration warning" if "penetrated" in r[7] else r[7][:60])
             loud_why[key] = loud_why.get(key, 0) + 1
     out.append("Why the loud runs (with switching): " + "; ".join(f"{k}: {v}" for k, v in sorted(loud_why.items())))
-    paths = write_results("bounce_grid", "\n".join(out),
+    paths = write_results("bounce_grid", "\n".join(out), keep_notes=True,
                           csv_rows=[(int(r[0]), r[1], r[2], r[3], r[4], r[5], r[6], r[7]) for r in rows],
                           csv_headers=["switching", "k", "c", "mu", "method", "rtol", "verdict", "detail"])
     print("\n".join(str(p) for p in paths))

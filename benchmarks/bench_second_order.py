@@ -22,10 +22,11 @@ Euler angles, body-frame speeds).  On a floating base Pinocchio differentiates a
 Lie-group tangent and eomc's hess_id along its coordinates (the change brings K⁻¹ and K's own
 derivative): such a model is built twice, as eomc builds it and along the tangent
 (second_order.TANGENT, Pinocchio's quantities; a third contestant), see :func:`build`; and a third
-time with second_order.ZERO off (a fourth contestant): Pinocchio writes only the entries of its
-tensors on the tree's support paths (zeroed once, when its Data is made), eomc's hess_id zeroes its
-whole output first (most of it, on a branched tree: Talos 500 k numbers, 4 MB a call); with ZERO off
-it writes what Pinocchio writes, into an output the harness zeroed once (same bits, checked).
+time with second_order.ZERO set (a fourth contestant): Pinocchio writes only the entries of its
+tensors on the tree's support paths (zeroed once, when its Data is made), and so does eomc's hess_id
+by default (since session 13; before, it zeroed its whole output first: most of it, on a branched
+tree, Talos 500 k numbers, 4 MB a call), into an output the harness zeroed once; the ZERO build
+zeroes every call (same bits, checked).
 
 Agreement, before timing: the C++ tensors ∂²τ/∂q², ∂²τ/∂u², ∂²τ/∂q∂u at 4 random states
 against eomc's (Python ``model.hess_id``), largest difference relative to the largest entry.
@@ -114,11 +115,12 @@ int main(int argc, char **argv) {
 """
 LABELS = ("eomc hess_id", "Pinocchio ComputeRNEASecondOrderDerivatives", "eomc hess_id, old path")
 TANGENT = "eomc hess_id along the tangent"     # the third contestant of a floating base (see build)
-# the fourth of a floating base: hess_id built with second_order.ZERO off, the entries off the support
-# paths left as the caller zeroed them once (Pinocchio's contract: its tensors are zeroed when its
-# Data is made, and its second-order RNEA writes only the entries on the paths); its own output
-# buffer, static (zero) and never cleared (see build)
-LEFT = "eomc hess_id, zeros left to the caller"
+# the fourth of a floating base: hess_id built with second_order.ZERO set, its whole output zeroed every
+# call (the default before session 13); the default leaves the entries off the support paths as the
+# caller zeroed them once (Pinocchio's contract: its tensors are zeroed when its Data is made, and its
+# second-order RNEA writes only the entries on the paths): the harness's buffers are static (zero)
+# and never cleared (see build)
+ZEROED = "eomc hess_id, zeroed every call"
 
 
 def eomc_flags(portable):
@@ -131,27 +133,27 @@ def eomc_flags(portable):
     return ["-O2", *machine_flags(find_compiler())]
 
 
-def run(model, ref, data, tmp, pin_obj, rounds, old=None, cflags=("-O2",), tangent=False, core=1, left=None):
+def run(model, ref, data, tmp, pin_obj, rounds, old=None, cflags=("-O2",), tangent=False, core=1, zeroed=None):
     """(median ns per contestant, agreement[, old path's agreement]): the harness compiled and run
     pinned to ``core``; ``old``: the same model on the forced reverse path (``--limits``), or with
     ``tangent`` its build along the free joint's tangent (a floating base, :func:`build`): the
     agreement with Pinocchio is then the tangent build's, and the second figure is the
-    coordinate build's against central differences of its jac_id; ``left``: the same model with
-    second_order.ZERO off (a fourth contestant, index 3), whose bits from an output zeroed once
-    must equal hess_id's (checked here at the agreement states)."""
+    coordinate build's against central differences of its jac_id; ``zeroed``: the same model with
+    second_order.ZERO set (a fourth contestant, index 3), whose bits from an output filled with
+    NaN must equal hess_id's (``model.hess_id``: a new zeroed array; checked at the agreement states)."""
     X, UD, Q, V, A = data
     name, nu, nq = model.name, model.nu, model.nq
     if old is not None:
         assert list(old.param_defaults) == list(model.param_defaults)
-    assert left is None or old is not None, "the fourth contestant is a floating base's (index 3)"
-    src = (HARNESS.replace("@NAME@", name).replace("@NC@", str(2 + (old is not None) + (left is not None)))
+    assert zeroed is None or old is not None, "the fourth contestant is a floating base's (index 3)"
+    src = (HARNESS.replace("@NAME@", name).replace("@NC@", str(2 + (old is not None) + (zeroed is not None)))
            .replace("@OLDINC@", f'#include "{old.name}.h"' if old is not None else "")
            .replace("@OLDCALL@", "if (c == 2) { if (%s_hess_id(0.0, X[i], UD[i], P, R, out, work)) exit(6); "
                     "return out[NX]; }" % old.name if old is not None else "").replace("@NS@", str(bd.NS)).replace("@NX@", str(model.nx))
            .replace("@NU@", str(nu)).replace("@PQ@", str(ref.model.nq)).replace("@ROUNDS@", str(rounds))
-           .replace("@NZINC@", f'#include "{left.name}.h"' if left is not None else "")
+           .replace("@NZINC@", f'#include "{zeroed.name}.h"' if zeroed is not None else "")
            .replace("@NZCALL@", "if (c == 3) { if (%s_hess_id(0.0, X[i], UD[i], P, R, out3, work)) exit(7); "
-                    "return out3[NX]; }" % left.name if left is not None else "")
+                    "return out3[NX]; }" % zeroed.name if zeroed is not None else "")
            .replace("@NAGREE@", str(NAGREE)).replace("@WORK@", str(max(model.work_size, old.work_size if old is not None else 0, 1)))
            .replace("@X@", bd.c_array(X)).replace("@UD@", bd.c_array(UD)).replace("@Q@", bd.c_array(Q))
            .replace("@V@", bd.c_array(V)).replace("@A@", bd.c_array(A))
@@ -162,7 +164,7 @@ def run(model, ref, data, tmp, pin_obj, rounds, old=None, cflags=("-O2",), tange
     objs = []
     units = [(c, tmp / f"h2_{name}.o"), (model.source_path, tmp / f"m2_{name}.o")]
     incs = [f"-I{model.directory}"]
-    for m in (old, left):
+    for m in (old, zeroed):
         if m is not None:
             units.append((m.source_path, tmp / f"m2_{m.name}.o"))
             incs.append(f"-I{m.directory}")
@@ -178,7 +180,7 @@ def run(model, ref, data, tmp, pin_obj, rounds, old=None, cflags=("-O2",), tange
     nv, iv = ref.model.nv, ref.iv
     pin = {}
     times = {}
-    labels = LABELS[:2] + ((TANGENT,) if tangent else LABELS[2:]) + (LEFT,)
+    labels = LABELS[:2] + ((TANGENT,) if tangent else LABELS[2:]) + (ZEROED,)
     for line in out.splitlines():
         p = line.split()
         if p[0] == "pin":
@@ -190,11 +192,11 @@ def run(model, ref, data, tmp, pin_obj, rounds, old=None, cflags=("-O2",), tange
         T = np.array(pin[i]).reshape(nv, nv, nv, 3)
         qq, vv, qv = (T[..., k][np.ix_(iv, iv, iv)] for k in range(3))
         H = model.hess_id(0.0, X[i], UD[i])
-        if left is not None:    # the same bits from an output zeroed once (before the first state)
-            once = np.zeros(H.size) if i == 0 else once
-            t, xc, p, rc = left._args(0.0, X[i], None, None)
-            assert left._kernel("hess_id")(t, xc, UD[i], p, rc, once, left._work()[1]) == 0
-            assert np.array_equal(once.reshape(H.shape), H), f"{left.name}: not hess_id's bits"
+        if zeroed is not None:    # the same bits, every entry written by the build that zeroes
+            full = np.full(H.size, np.nan)
+            t, xc, p, rc = zeroed._args(0.0, X[i], None, None)
+            assert zeroed._kernel("hess_id")(t, xc, UD[i], p, rc, full, zeroed._work()[1]) == 0
+            assert np.array_equal(full.reshape(H.shape), H), f"{zeroed.name}: not hess_id's bits"
         if tangent:
             worst_old = max(worst_old, against_differences(model, X[i], UD[i], H))
             H = old.hess_id(0.0, X[i], UD[i])
@@ -255,16 +257,17 @@ def build_limited(case, cache):
 
 
 def build(case, cache):
-    """(eomc Model with hess_id, Pinocchio reference, the tangent build or None, the build with
-    the zeros left to the caller or None) of one case.
+    """(eomc Model with hess_id, Pinocchio reference, the tangent build or None, the build that
+    zeroes its output every call or None) of one case.
 
     A floating base (Go2, G1, Talos: eomc's free joint, body XYZ Euler angles, body-frame speeds)
     is built twice: as eomc builds it (hess_id along the coordinates, the Euler angles) and with
     the kernel's entries left along the free joint's tangent (second_order.TANGENT: Pinocchio's
     Lie-group tangent, the same quantities as its tensors; the change to the coordinates, per row
     two 3x3 blocks over the row's columns plus K's derivative, is what it leaves out), and a third
-    time along the coordinates with second_order.ZERO off (the entries off the support paths, most
-    of a branched tree's output, left as the caller zeroed them once: Pinocchio's contract)."""
+    time along the coordinates with second_order.ZERO set (the whole output zeroed every call; by
+    default the entries off the support paths, most of a branched tree's output, are left as the
+    caller zeroed them once: Pinocchio's contract)."""
     import eomc.compiler.tree.second_order as so
     fns = ["rhs", "inverse_dynamics", "jac_id", "hess_id"]
     model, ref, floating = bd.build_case(case, cache, functions=fns)
@@ -275,12 +278,12 @@ def build(case, cache):
         xi = bd.build_case(case, cache / "tangent", functions=fns, name=case + "_xi")[0]
     finally:
         so.TANGENT = False
-    so.ZERO = False
+    so.ZERO = True
     try:
-        left = bd.build_case(case, cache / "left", functions=fns, name=case + "_nz")[0]
+        zeroed = bd.build_case(case, cache / "zeroed", functions=fns, name=case + "_z")[0]
     finally:
-        so.ZERO = True
-    return model, ref, xi, left
+        so.ZERO = False
+    return model, ref, xi, zeroed
 
 
 def main():
@@ -315,12 +318,12 @@ def main():
         cache = Path(a.cache) if a.cache else tmp / "cache"
         if a.limits:
             model, old, ref = build_limited(case, cache)
-            left = None
+            zeroed = None
         else:
-            model, ref, old, left = build(case, cache)
+            model, ref, old, zeroed = build(case, cache)
         data = bd.states(model, ref, old is not None and not a.limits, rng)
         times, agree, agree_old = run(model, ref, data, tmp, pin_obj, a.rounds, old, cflags,
-                                      tangent=old is not None and not a.limits, core=a.core, left=left)
+                                      tangent=old is not None and not a.limits, core=a.core, zeroed=zeroed)
         ops = model.metadata["op_counts"]
         row = dict(case=case, nx=model.nx, times=times, agree=agree, agree_old=agree_old,
                    ops={f: sum(ops[f].values()) for f in ("jac_id", "hess_id")})
@@ -363,12 +366,13 @@ def header(rounds, limits=False, cflags=("-O2",), isa=(), three=False, core=1):
         "along eomc's coordinates (what `model.hess_id` returns), \"tangent\" the same kernel with the free "
         "joint's entries left along its tangent, Pinocchio's convention (what its tensors are); agreement "
         "with Pinocchio is the tangent build's, and the coordinate build is checked against central "
-        "differences of its jac_id.  \"zeros left\": hess_id along the coordinates built with "
-        "second_order.ZERO off, which writes only the entries on the support paths and leaves the rest as "
-        "the caller zeroed them once (Pinocchio's contract: its Data's tensors are zeroed when made, its "
-        "second-order RNEA writes only those entries); its bits equal hess_id's (checked at 4 states).\n",
-        "| model | nx | eomc hess_id ns | eomc tangent ns | eomc zeros left ns | Pinocchio 2nd-order RNEA ns | "
-        "**Pinocchio / hess_id** | **Pinocchio / tangent** | **Pinocchio / zeros left** | ops jac_id / hess_id | "
+        "differences of its jac_id.  Both write only the entries on the support paths and leave the rest as "
+        "the caller zeroed them once (the default since session 13; Pinocchio's contract: its Data's tensors "
+        "are zeroed when made, its second-order RNEA writes only those entries; the harness's outputs are "
+        "zeroed once).  \"zeroed\": hess_id along the coordinates built with second_order.ZERO set, which "
+        "zeroes its whole output every call (the default before); its bits equal hess_id's (checked at 4 states).\n",
+        "| model | nx | eomc hess_id ns | eomc tangent ns | eomc zeroed ns | Pinocchio 2nd-order RNEA ns | "
+        "**Pinocchio / hess_id** | **Pinocchio / tangent** | **Pinocchio / zeroed** | ops jac_id / hess_id | "
         "agreement with Pinocchio (q,q), (u,u), (q,u) | hess_id vs differences of jac_id |",
         "|---|--:|--:|--:|--:|--:|--:|--:|--:|--|--|--|"])) + "\n"
 
@@ -382,7 +386,7 @@ def render_limited(r):
 
 def render_row(r):
     t = r["times"]
-    e, p, x, z = t[LABELS[0]], t[LABELS[1]], t.get(TANGENT), t.get(LEFT)
+    e, p, x, z = t[LABELS[0]], t[LABELS[1]], t.get(TANGENT), t.get(ZEROED)
     tang, ratio, fd = (f"{x:.0f}", f"**{p / x:.2f}**", f"{r['agree_old']:.1e}") if x else ("-", "-", "-")
     zl, zr = (f"{z:.0f}", f"**{p / z:.2f}**") if z else ("-", "-")
     return (f"| {r['case']} | {r['nx']} | {e:.0f} | {tang} | {zl} | {p:.0f} | **{p / e:.2f}** | {ratio} | {zr} | "

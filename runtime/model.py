@@ -615,13 +615,16 @@ class Model:
     def hess_id(self, t, x, udot, p=None, r=None):
         """∂²τ/∂x² of inverse dynamics at given udot, shape (nu, nx, nx): [i, j, k] =
         ∂²τ_i/∂x_j∂x_k (blocks [:, :nq, :nq] = ∂²τ/∂q², [:, :nq, nq:] = ∂²τ/∂q∂u, ...), by
-        forward over reverse on RNEA.  Recursive formulation, on request ("hess_id")."""
+        forward over reverse on RNEA.  Recursive formulation, on request ("hess_id").
+        The C leaves the entries off the tree's support paths (zero for every state) as the
+        caller zeroed them, Pinocchio's contract (compiler/tree/second_order.py, ``ZERO``): the
+        output is a new zeroed array."""
         given = (p, r)
         t, x, p, r = self._args(t, x, p, r)
         udot = self._array(udot, (self.nu,), "udot (speed derivatives)",
                            self.state_names[self.nq:self.nq + self.nu])
         kernel = self._kernel("hess_id")
-        out = np.empty((self.nu, self.nx, self.nx))
+        out = np.zeros((self.nu, self.nx, self.nx))
         status = kernel(t, x, udot, p, r, out.reshape(-1), self._work()[1])
         if status:
             self._fail("hess_id", status, t, x, inputs=given)

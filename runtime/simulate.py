@@ -775,7 +775,7 @@ def simulate(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6
     (BDF_FINEST) -- and Radau from wherever DOP853 detects stiffness -- the run continues,
     LSODA-like), rk4 (needs dt), dopri5/rk45, dop853,
     radau, bdf (needs jac_x: variable-order BDF/NDF like ode15s; at rtol 1e-2..1e-7 it takes
-    0.41-0.83 of Radau's time on the ant, 0.53-0.88 on Solo12, docs/contact.md;
+    0.33-0.67 of Radau's time on the ant, 0.48-0.76 on Solo12, docs/contact.md;
     runtime/c/eomc_bdf.c), implicitfast (needs dt
     and jac_x: fixed-step linearly implicit Euler for stiff contact at real-time steps,
     first order; runtime/c/eomc_fixedstep.c).  Output at
@@ -817,9 +817,10 @@ def simulate(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6
     each step's own Newton matrix); sensitivity_errors=True lets the step control watch
     them too (more steps, slower; the simultaneous approach).
 
-    Contacts and joint limits (runtime/switching.py): every method ends its steps at
-    touch-down, lift-off and limit entry and restarts there (switching=False turns that
-    off, to measure the bare method); a run that penetrates a contact or overshoots a
+    Contacts and joint limits (runtime/switching.py): Radau and the explicit methods end
+    their steps at touch-down, lift-off and limit entry and restart there (switching=False
+    turns that off, to measure the bare method); BDF passes over them, its error test
+    sizing the steps (the laws are continuous there); a run that penetrates a contact or overshoots a
     limit beyond the stated bounds warns (PhysicsWarning, naming the contact or joint),
     and one that creates energy in a passive model with an ``energy`` output fails.
     """

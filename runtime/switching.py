@@ -4,8 +4,9 @@ Why this module: a ground contact's force starts at touch-down and stops at lift
 a joint limit's spring engages when the coordinate passes the limit.  The right-hand
 side is only piecewise smooth there, and an integrator that steps across such a point
 can accept a step its error estimate does not see (Radau gained 3.6 MJ on a 4.9 J
-bouncing ball, issue 29).  The C integrators end a step at every crossing of a
-*switching function* and restart there (runtime/c/eomc_integrators.c); this module
+bouncing ball, issue 29).  Radau and the explicit integrators end a step at every
+crossing of a *switching function* and restart there (runtime/c/eomc_integrators.c; BDF
+passes over them, its error test sizing the steps); this module
 finds the switching functions by the names the contact and joint-law builders give
 (``contact_<name>`` events with the radius ``r_<name>``; ``limit_lo_<joint>`` /
 ``limit_hi_<joint>`` with the width ``limit_e_<joint>`` on the coordinate

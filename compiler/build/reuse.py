@@ -67,8 +67,9 @@ def generator_switches():
     set; ``TABLE_FROM``, the fewest pairs that take it, only when not its default).  ``TANGENT``: hess_id left along the k-speed joints' tangent for the comparison with
     Pinocchio (compiler/tree/second_order.py); held only when set, so the keys of ordinary builds
     stay what they were; ``HALF_FROM``: the output size from which hess_id is written by halves
-    (same module), held only when not its default; ``ZERO`` off: hess_id leaves the entries off the
-    support paths to the caller (same module), held only when off."""
+    (same module), held only when not its default; ``ZERO`` on: hess_id zeroes its whole output
+    every call instead of leaving the entries off the support paths to the caller (same module,
+    off by default since session 13), held only when on."""
     from ..contact import pairs
     from ..tree import second_order
     switches = {"inline_narrow": bool(pairs.INLINE_NARROW)}
@@ -82,8 +83,8 @@ def generator_switches():
         switches["hess_tangent"] = True
     if second_order.HALF_FROM != second_order.HALF_FROM_DEFAULT:
         switches["hess_half_from"] = second_order.HALF_FROM
-    if not second_order.ZERO:
-        switches["hess_no_zero"] = True
+    if second_order.ZERO:
+        switches["hess_zero"] = True
     return switches
 
 

@@ -21,8 +21,8 @@ along ψ̇_i plus Bᶜ's commutator with S_i) and a few 6-vectors, per support d
 (x ↦ x ×* f) antisymmetric) replace Pinocchio's 6x6 products by vectors.
 
 Output: out[(i nx + j) nx + k] = ∂²τ_i/∂x_j∂x_k (the layout of the reverse path), zero
-outside the support paths and the extra states (zeroed by the kernel, or with ``ZERO`` off
-left as the caller zeroed them once, Pinocchio's contract).
+outside the support paths and the extra states: those entries are left as the caller zeroed
+them once (Pinocchio's contract; ``ZERO``), or with ``ZERO`` set zeroed by the kernel.
 
 Where it applies (:func:`second_order_plan`): an analytic plan (:func:`.analytic.analytic_plan`):
 revolute and prismatic joints (bodies welded by fixed joints included), joint laws
@@ -113,12 +113,12 @@ def _tidy(e):
 # The finiteness check without a pass over the output (O(n^3) numbers; 5 of cart20's 48 us), from
 # the numbers per dof, not per pair: every stored number is built from the per-dof-i numbers (the
 # operators R1, R3, the vectors Y S_i, B^T S_i, g5, g7 and the composite inertia Y, B's entries
-# folded in) and the per-dof columns of K (S, psi', psi'', psi' + phi'), each within BOUND = B:
+# folded in) and the per-dof columns of K (S, psi', psi'', psi' + phi', and with a root k-speed
+# joint psi', psi'' along its coordinates, _k_folded_lines), each within BOUND = B:
 # a pair vector is a 6x6 product or a force cross product of those, at most 25 B^3 (u4's
 # S_i x* (Y s_j) is the cubic one, 20 B^3; the rest within 24 B^2), a dot with a K column at most
-# 150 B^4, a store the sum of two (300 B^4) or a root k-speed joint's combination of up to three
-# such by its K^-1 (_fold_lines: entries within 1, else big is set; 900 B^4), or such minus a
-# joint law's curvature h within 1e300: with B = 1e70, every output is within 1e300 + 1e284: finite
+# 150 B^4, a store the sum of two (300 B^4), or such minus a joint law's curvature h within
+# 1e300: with B = 1e70, every output is within 1e300 + 1e283: finite
 # (the k-speed joints' own (q, q) blocks, _tangent_lines, are checked number by number).  Else (or
 # a NaN anywhere, which fails every <=) the output is checked entry by entry as before, so the
 # result (an error exactly when an output is not finite) is the same.  Why per dof: the check of
@@ -141,15 +141,17 @@ TANGENT = False
 HALF_FROM_DEFAULT = 1 << 17
 HALF_FROM = HALF_FROM_DEFAULT
 
-# False: the kernel leaves the entries off the support paths (a row dof and two column dofs not
-# on one root-to-leaf path: zero for every state) as the caller left them, instead of zeroing the
-# whole output first -- Pinocchio's contract (ComputeRNEASecondOrderDerivatives writes only those
-# entries of its four nv^3 tensors, zeroed once when its Data is made): zero ``out`` once and pass
-# it again.  Why: on a branched tree most entries are off the paths, and the zeroing writes the
-# whole output (Talos: 500 k numbers, 4 MB) every call; same-core A/B, machine build, bits of the
-# written entries unchanged: Talos 198 -> 150 us, G1 99 -> 83, Go2 29.3 -> 27.8.  Chains (every
-# entry written, _covers_all) are not zeroed either way.  Part of the build cache's key when set.
-ZERO = True
+# False (the default since session 13): the kernel leaves the entries off the support paths (a row
+# dof and two column dofs not on one root-to-leaf path: zero for every state) as the caller left
+# them, instead of zeroing the whole output first -- Pinocchio's contract (ComputeRNEASecondOrderDerivatives
+# writes only those entries of its four nv^3 tensors, zeroed once when its Data is made): a C caller
+# zeroes ``out`` once and may pass it again (``model.hess_id`` returns a new zeroed array).  Why: on a
+# branched tree most entries are off the paths, and the zeroing wrote the whole output (Talos: 500 k
+# numbers, 4 MB) every call; same-core A/B, machine build, bits of the written entries unchanged:
+# Talos 198 -> 150 us, G1 99 -> 83, Go2 29.3 -> 27.8.  Chains (every entry written, _covers_all) are
+# not zeroed either way.  True: zeroed every call (tests, benchmarks/bench_second_order.py); part
+# of the build cache's key when set (build/reuse.generator_switches).
+ZERO = False
 
 
 def _half(plan, nx):
@@ -280,6 +282,7 @@ def second_order_c(name, plan, nq, nx, helpers):
         "            }",
         "        }",
         "    }",
+        *_k_folded_lines(plan, cfg[3]),
         f"    for (k = 0; k < {cfg[1]}; k++) big |= !(fabs(K[k]) <= {BOUND});",
         f"    for (b = {nb - 1}; b >= 0; b--) {{   /* backward: per dof i of the body, its subtree's composites */",
         "        const double *Yb = Y + 10 * b, *dYb = dY + 12 * b, *fb = F + 6 * b;",
@@ -418,13 +421,14 @@ def paths(plan):
 
 
 def _lanes_cfg(plan):
-    """C: the path tables (:func:`paths`) and their sizes: (table lines, K size, MAXL)."""
+    """C: the path tables (:func:`paths`) and their sizes: (table lines, K size, MAXL, paths);
+    K holds 6 numbers per row group of :func:`_k_rows` per path position."""
     ps, jp, jt = paths(plan)
     lens = [-(-len(p) // LANES) * LANES for p in ps]
     base, b = [], 0
     for n in lens:
         base.append(b)
-        b += 24 * n
+        b += 6 * _k_rows(plan) * n
     starts, s = [], 0
     for p in ps:
         starts.append(s)
@@ -433,6 +437,44 @@ def _lanes_cfg(plan):
               c_table("pG", base or (0,)), c_table("pn", [len(p) for p in ps] or (0,)),
               c_table("p0", starts or (0,)), c_table("pd", [e for p in ps for e in p] or (0,))]
     return tables, max(b, 1), max(lens or [LANES]), len(ps)
+
+
+def _k_rows(plan):
+    """K's row groups: 4 (S, psi', psi'', psi' + phi'), plus 2 with a folded joint
+    (:func:`_folded`): psi' and psi'' with that joint's columns along its coordinates (4: psi' K^-1,
+    5: psi'' K^-1; the other dofs' columns as in 1 and 2), which the dots the stores read along
+    q_k take (:data:`QDOTS_B`)."""
+    return 6 if _folded(plan) else 4
+
+
+def _k_folded_lines(plan, npaths):
+    """C (after K is filled): K's row groups 4 and 5 (:func:`_k_rows`): psi', psi'' with each
+    folded joint's columns (at the start of the paths it is on) combined by its K^-1's
+    diagonal blocks, psi'_a K^-1 = sum_d psi'_d K^-1[d, a] -- every entry the dots make of
+    those columns is linear in them (psi' = v x S_k, psi'' too), so a dot with such a column is
+    the entry along the coordinate q_a.  Why: the same combination of the dots per pair (i, j),
+    the fold, was 11 % of Go2's hess_id (perf); here it is once per path."""
+    fold = _folded(plan)
+    if not fold:
+        return []
+    out = [f"    for (i = 0; i < {npaths}; i++) {{   /* K's groups 4, 5: psi', psi'' along the folded joints' coordinates */",
+           "        double *G = K + pG[i];",
+           "        const int L = pL[i];",
+           "        for (k = 0; k < 12 * L; k++) G[24 * L + k] = G[6 * L + k];"]
+    for n in fold:
+        e0 = plan.multi[n][0]
+        out.append(f"        if (pd[p0[i]] == {e0}) {{   /* joint {n}: S K^-1 by K^-1's diagonal blocks */")
+        for bl, (r, c) in enumerate(plan.kblocks[n]):
+            b = len(r)
+            out += [f"            for (k = 0; k < 12; k++) {{",
+                    "                const double *g = G + (6 + k) * L;",
+                    "                double *h = G + (24 + k) * L;"]
+            for jj in range(b):
+                out.append(f"                h[{r[jj]}] = " + " + ".join(
+                    f"g[{c[i]}] * Kv{n}_{bl}[{b * i + jj}]" for i in range(b)) + ";")
+            out.append("            }")
+        out.append("        }")
+    return out + ["    }"]
 
 
 def _pair_vector_lines(name, rd, nm, oj):
@@ -568,7 +610,8 @@ def _lanes_macro(name):
 
 def _dot_lanes(groups, vecs, maxl, lanes):
     """C: the dots D[m] = vecs[m] . (row groups[m] of K) for LANES k a step, K's rows read once a
-    step; each dot summed in rd_dot's order."""
+    step; each dot summed in rd_dot's order.  (A last step of 2 k when at most 2 are left, 6
+    lanes for T = 6 instead of 8: same bits, Go2 10 % slower, same-core A/B, session 13.)"""
     ind = "                                "
     out = [f"                        for (tk = 0; tk < T; tk += {lanes})",
            f"                            for (ln = 0; ln < {lanes}; ln++) {{",
@@ -624,37 +667,22 @@ def _kinv_lines(plan):
     return lines + ["    }"]
 
 
-# The dots whose k enters along its coordinate (stored at a column q_k), as the sums the stores
-# read: D0 -> p1, D1 + D2 -> p2, D8 + D9 -> a (the j != i group only); see _triple_lines' stores
+# The dots whose k enters along its coordinate (stored at a column q_k), grouped as the sums the
+# stores read: D0 -> p1, D1 + D2 -> p2, D8 + D9 -> a (the j != i group only); see _triple_lines'
+# stores.  With a root k-speed joint they read K's columns along its coordinates (_qgroups).
 QDOTS_A = ((0,), (1, 2))
 QDOTS_B = ((0,), (1, 2), (8, 9))
 
 
-def _fold_lines(plan, maxl, qdots):
-    """C, after the dots of one (i, j): each folded joint's (:func:`_folded`) dots along its
-    coordinates, D~[a] = sum_d D[d] K^-1[d, a] (its dofs d, coordinates a; by K's diagonal
-    blocks), so the stores of the k loop write those columns along q, not along the tangent xi:
-    every entry is linear in S_k (psi' = v x S_k and the rest are too), so this is the kernel
-    run with S_k K^-1 in place of S_k.  The joint is at the start of every path it is on.
-    A pair of dots the stores only read as a sum is combined as the sum (into the first; the
-    second set to 0): 54 multiply-adds a pair for a free joint instead of 90."""
-    out = []
-    for n in _folded(plan):
-        e0, k, _ = plan.multi[n]
-        out.append(f"                    if (pd[p0[pa]] == {e0}) {{   /* joint {n}'s columns q (its K^-1) */")
-        for ms in qdots:
-            m = ms[0]
-            for bl, (r, c) in enumerate(plan.kblocks[n]):
-                b = len(r)
-                xs = [" + ".join(f"D[{mm * maxl + c[i]}]" for mm in ms) for i in range(b)]
-                out.append("                        { const double " + ", ".join(f"x{i} = {x}" for i, x in enumerate(xs)) + ";")
-                for jj in range(b):
-                    out.append(f"                          D[{m * maxl + r[jj]}] = " + " + ".join(
-                        f"x{i} * Kv{n}_{bl}[{b * i + jj}]" for i in range(b)) + ";")
-                    out += [f"                          D[{mm * maxl + r[jj]}] = 0.0;" for mm in ms[1:]]
-                out.append("                        }")
-        out.append("                    }")
-    return out
+def _qgroups(plan, groups, qdots):
+    """The K row groups the dots read: with a folded joint (:func:`_folded`) the dots the stores
+    read along q_k (``qdots``) take psi', psi'' along the coordinates (groups 4, 5,
+    :func:`_k_folded_lines`) instead of 1, 2."""
+    if not _folded(plan):
+        return groups
+    q = {m for ms in qdots for m in ms}
+    assert all(groups[m] in (1, 2) for m in q), "a q-dot reads a group K does not have along q"
+    return tuple(g + 3 if m in q else g for m, g in enumerate(groups))
 
 
 def _pair_store(half, first, second, val, low, keep_up="", indent=0):
@@ -687,11 +715,9 @@ def _triple_lines(name, rd, nx, cfg, nm=0, plan=None, half=False):
         "                    const double *G = K + pG[pa];",
         "                    int tk, ln;",
         f"                    if ({oj}) {{",
-        *_dot_lanes(GROUPS_B, ("u11", "u9", "w", "u11", "u3", "w", "u9", "u6", "u1", "u2", "u1", "u2", "u10", "u7"), maxl, lanes),
-        *(_fold_lines(plan, maxl, QDOTS_B) if nm else []),
+        *_dot_lanes(_qgroups(plan, GROUPS_B, QDOTS_B), ("u11", "u9", "w", "u11", "u3", "w", "u9", "u6", "u1", "u2", "u1", "u2", "u10", "u7"), maxl, lanes),
         "                    } else {",
-        *_dot_lanes(GROUPS_A, ("u11", "u9", "w", "u11", "u3", "w", "u9", "u6", "u4"), maxl, lanes),
-        *(_fold_lines(plan, maxl, QDOTS_A) if nm else []),
+        *_dot_lanes(_qgroups(plan, GROUPS_A, QDOTS_A), ("u11", "u9", "w", "u11", "u3", "w", "u9", "u6", "u4"), maxl, lanes),
         "                    }",
         "                    for (tk = T - 1; tk >= 0; tk--) {   /* k = j" + (" and j's joint" if nm else "") + ", then up the support of j */",
         f"                        const int k = pd[p0[pa] + tk], qk = qc[k], uk = uc[k]{kd};",
@@ -1021,6 +1047,8 @@ def second_order_body(ctx, program, sym):
               f"{IND}        u[e] = x[{ctx.nq} + sp[e]];",
               f"{IND}        ud[e] = udot[sp[e]];",
               f"{IND}    }}",
+              *([f"{IND}    /* the entries off the tree's support paths are left as the caller zeroed them (NAME_rnea_hess) */"]
+                if not ZERO and not _covers_all(plan, ctx.nq, ctx.nx) else []),
               f"{IND}    if (!{ctx.name}_rnea_hess(an, u, ud, out)) return EOMC_OK;   /* finite by its bound (BOUND) */",
               f"{IND}}}",
               f"{IND}return {ctx.name}_rd_finite(out, {ctx.nu * ctx.nx * ctx.nx});   /* analytic.finite_lines */"]
@@ -1042,10 +1070,11 @@ def second_order_ops(program, plan, nx):
     if plan.multi and not TANGENT:      # the change to the k-speed joints' coordinates (_tangent_lines)
         fold = _folded(plan)
         for n, ((_, k, _), blocks) in enumerate(zip(plan.multi, plan.kblocks)):
-            if n in fold:       # per pair the dots' sums by K^-1's blocks (_fold_lines), per row the (q, q) block
-                per_pair = len(QDOTS_B) * sum(len(r) ** 2 for r, _ in blocks)
-                c["muls"] += pairs * per_pair + plan.nd * 2 * k ** 3 + 2 * k ** 4
-                c["adds"] += pairs * per_pair + plan.nd * 2 * k ** 3 + 2 * k ** 4
+            if n in fold:       # per path K's columns along q (_k_folded_lines), per row the (q, q) block
+                per_path = 12 * sum(len(r) ** 2 for r, _ in blocks)
+                npaths = len(paths(plan)[0])
+                c["muls"] += npaths * per_path + plan.nd * 2 * k ** 3 + 2 * k ** 4
+                c["adds"] += npaths * per_path + plan.nd * 2 * k ** 3 + 2 * k ** 4
                 continue
             per_row = 2 * sum(len(r) ** 2 for r, _ in blocks) * nx + k ** 3
             c["muls"] += plan.nd * per_row + 2 * k ** 4

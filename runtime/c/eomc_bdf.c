@@ -59,15 +59,6 @@
 #define KEEP_BAND 1.2        /* a suggested growth below this keeps h (and the LU) */
 #define DEFAULT_MAX_STEPS 100000L
 #define NROWS (EOMC_BDF_MAX_ORDER + 3)
-/* A predicted state past a switching point (a foot touching down, a limit engaging): the
- * step is shortened to end PRED_OVER times the linear estimate of the crossing -- just past
- * it, where the driver then locates it on the step's own polynomial and restarts -- instead
- * of letting Newton fail on the kink and halving the step 5 to 8 times (gymnasium's ant at
- * rtol 1e-2: 216 Newton failures over 450 steps, each first correction 100 to 1e5 times the
- * tolerance).  Measured on the ant and hopper dropped (benchmarks/results/contact_wp.md):
- * rhs calls 1150 -> 727 and 217 -> 155 at 1e-2.  Only a cut below PRED_CUT of the step. */
-#define PRED_OVER 1.2
-#define PRED_CUT 0.9
 /* RELINEARISE.  A Newton failure with a fresh Jacobian on a contact model is mostly a
  * Jacobian taken at the wrong place: Solo12's stance puts the feet at depth ~1e-17 m, where
  * the Hunt-Crossley slope (~ depth^0.5) is ~0, so J misses the contact stiffness; on the
@@ -98,7 +89,7 @@ static double error_const(int k) { return KAPPA[k] * gamma_k(k) + 1.0 / (k + 1);
 size_t eomc_bdf_work_size(int n)
 {
     size_t nn = (size_t)n * n;
-    return 2 * NROWS * (size_t)n + 2 * nn + 11 * (size_t)n + 16;
+    return 2 * NROWS * (size_t)n + 4 * nn + 13 * (size_t)n + 16;
 }
 
 void eomc_bdf_init(eomc_bdf *b, const eomc_bdf_fns *fns, eomc_stats *st, int n, double rtol,
@@ -127,7 +118,11 @@ void eomc_bdf_init(eomc_bdf *b, const eomc_bdf_fns *fns, eomc_stats *st, int n, 
     b->piv = (int *)work;     /* n ints fit in n doubles */
     work += n;
     b->keep = (int *)work; work += n;
-    b->elim = (int *)work;
+    b->elim = (int *)work; work += n;
+    b->dep = (int *)work; work += n;
+    b->zcnt = (int *)work; work += n;
+    b->Z = work; work += nn;
+    b->znz = (int *)work;     /* nn ints */
 }
 
 /* Smallest step that still advances t in floating point. */
@@ -200,46 +195,119 @@ int eomc_bdf_start(eomc_bdf *b, double t, const double *y, const double *f, doub
     return EOMC_OK;
 }
 
-/* The rows of J that are dq_i/dt = v_i exactly (J row i = e_(m+i), m = nsplit: a hinge's or a
- * slide's coordinate; a free joint's are not, its rates turn with the body) are eliminated
- * from Newton's system: dq_i = r_i + c dv_i.  b->keep gets the nkeep other indices (in
- * order), b->elim[i] = 1 for an eliminated row i < m. */
-static int split_rows(eomc_bdf *b)
+/* Newton's linear system (I - c J) x = r with the rows of the coordinates q (x = (q, v, ...),
+ * nsplit q's) eliminated first.  A q's rate is a function of the speeds and of a few q's only:
+ * a hinge's or slide's dq_i/dt = v_i, a free joint's position rates turn with the body's
+ * angles, its angle rates depend on the angles.  Call D the q's some q rate depends on (the
+ * ant's and Solo12's three base angles; none on a planar hopper).  With e the eliminated rows
+ * and k the kept ones (the speeds and anything after them),
+ *     x_e = w + c Z x_k,   w = (I - c J_ee)^-1 r_e,   Z = (I - c J_ee)^-1 J_ek,
+ *     (I - c J_kk - c^2 J_ke Z) x_k = r_k + c J_ke w,
+ * and I - c J_ee is cheap to invert: its only off-diagonal columns are D's, so D's rows are a
+ * |D| x |D| system (LUd) and every other eliminated row follows from them.  The same linear
+ * system; only the kept rows' Schur complement goes through the dense LU.  Gymnasium's ant
+ * (n = 28): 14 rows kept (20 when only the q_i' = v_i rows went, 28 before that); Solo12 18 of
+ * 36 (24); the hopper 6 of 12 (unchanged, bit for bit).  With more than EOMC_BDF_MAX_DEP such
+ * q's, or I - c J_dd singular, D's rows stay in the LU (then J_ee = 0 and Z = J_ek). */
+
+/* The split for the current J: b->elim / b->keep (in order), b->dep (D, as indices into elim),
+ * b->znz's pattern comes with Z (factor_lu).  with_dep = 0 keeps D's rows in the LU. */
+static int split_rows(eomc_bdf *b, int with_dep)
 {
-    int n = b->n, m = b->nsplit, nkeep = 0;
-    for (int i = 0; i < n; i++) {
-        int e = 0;
-        if (i < m) {
-            const double *Ji = b->J + (size_t)i * n;
-            e = 1;
-            for (int j = 0; e && j < n; j++) e = Ji[j] == (j == m + i ? 1.0 : 0.0);
-        }
-        if (i < m) b->elim[i] = e;
-        if (!e) b->keep[nkeep++] = i;
+    int n = b->n, m = b->nsplit, nk = 0, ne = 0, nd = 0, *isdep = b->zcnt;
+    for (int j = 0; j < m; j++) isdep[j] = 0;
+    for (int i = 0; i < m; i++) {
+        const double *Ji = b->J + (size_t)i * n;
+        for (int j = 0; j < m; j++)
+            if (Ji[j] != 0.0) isdep[j] = 1;
     }
-    return nkeep;
+    if (with_dep) {
+        for (int j = 0; j < m; j++) nd += isdep[j];
+        if (nd > EOMC_BDF_MAX_DEP) with_dep = 0;
+    }
+    nd = 0;
+    for (int i = 0; i < n; i++) {
+        if (i < m && (with_dep || !isdep[i])) {
+            if (isdep[i]) b->dep[nd++] = ne;
+            b->elim[ne++] = i;
+        } else {
+            b->keep[nk++] = i;
+        }
+    }
+    b->nelim = ne; b->ndep = nd;
+    return nk;
 }
 
-/* The LU for Newton's matrix I - c J.  The rows dq_i/dt = v_i (split_rows) are eliminated
- * first, dq_i = r_i + c dv_i, so only the kept rows' Schur complement is factored,
- * I - c J_kk - c^2 (J's columns of eliminated q_i, added to v_i's): the same linear system
- * with (nkeep/n)^3 of the factorisation's work and about half of each solve's.  Gymnasium's
- * ant (n = 28, 8 hinges, 20 kept) spent a quarter of its run in LU factor and solves (perf). */
+/* Z = (I - c J_ee)^-1 J_ek with its nonzero pattern per row; 1 if I - c J_dd is singular. */
+static int eliminate(eomc_bdf *b, double c)
+{
+    int n = b->n, nk = b->nkeep, ne = b->nelim, nd = b->ndep;
+    const double *J = b->J;
+    for (int a = 0; a < ne; a++) {
+        const double *Ja = J + (size_t)b->elim[a] * n;
+        for (int l = 0; l < nk; l++) b->Z[(size_t)a * nk + l] = Ja[b->keep[l]];
+    }
+    if (nd > 0) {
+        double t[EOMC_BDF_MAX_DEP];
+        for (int e = 0; e < nd; e++) {
+            const double *Je = J + (size_t)b->elim[b->dep[e]] * n;
+            for (int f = 0; f < nd; f++)
+                b->LUd[e * nd + f] = (e == f ? 1.0 : 0.0) - c * Je[b->elim[b->dep[f]]];
+        }
+        if (lu_factor(nd, b->LUd, b->pivd)) return 1;
+        for (int l = 0; l < nk; l++) {      /* D's rows: (I - c J_dd)^-1 J_dk */
+            for (int e = 0; e < nd; e++) t[e] = b->Z[(size_t)b->dep[e] * nk + l];
+            lu_solve_rows(nd, b->LUd, b->pivd, t);
+            for (int e = 0; e < nd; e++) b->Z[(size_t)b->dep[e] * nk + l] = t[e];
+        }
+        for (int a = 0, e = 0; a < ne; a++) {   /* the others: J_ak + c J_ad Z_d */
+            const double *Ja = J + (size_t)b->elim[a] * n;
+            if (e < nd && b->dep[e] == a) { e++; continue; }
+            for (int f = 0; f < nd; f++) {
+                double s = c * Ja[b->elim[b->dep[f]]];
+                const double *Zd = b->Z + (size_t)b->dep[f] * nk;
+                if (s != 0.0)
+                    for (int l = 0; l < nk; l++) b->Z[(size_t)a * nk + l] += s * Zd[l];
+            }
+        }
+    }
+    for (int a = 0; a < ne; a++) {
+        const double *Za = b->Z + (size_t)a * nk;
+        int *nz = b->znz + (size_t)a * nk, cnt = 0;
+        for (int l = 0; l < nk; l++)
+            if (Za[l] != 0.0) nz[cnt++] = l;
+        b->zcnt[a] = cnt;
+    }
+    return 0;
+}
+
+/* The LU for Newton's matrix I - c J: of the kept rows' Schur complement
+ * I - c J_kk - c^2 J_ke Z when the state splits (above), else of the whole. */
 static int factor_lu(eomc_bdf *b, double c)
 {
-    int n = b->n, m = b->nsplit, nk;
+    int n = b->n, nk;
     b->st->nlu++;
     b->c_lu = 0.0;
-    nk = b->nkeep = m > 0 ? split_rows(b) : n;
+    nk = b->nkeep = n;
+    b->nelim = 0;
+    if (b->nsplit > 0) {
+        nk = b->nkeep = split_rows(b, 1);
+        if (b->nelim > 0 && eliminate(b, c)) {
+            nk = b->nkeep = split_rows(b, 0);
+            if (eliminate(b, c)) return 1;      /* not reached: no D rows left */
+        }
+    }
     if (nk < n) {
         for (int a = 0; a < nk; a++) {
             const double *Jk = b->J + (size_t)b->keep[a] * n;
             double *Ma = b->LU + (size_t)a * nk;
-            for (int e = 0; e < nk; e++) {
-                int l = b->keep[e];
-                double v = (a == e ? 1.0 : 0.0) - c * Jk[l];
-                if (l >= m && l < 2 * m && b->elim[l - m]) v -= c * c * Jk[l - m];
-                Ma[e] = v;
+            for (int e = 0; e < nk; e++) Ma[e] = (a == e ? 1.0 : 0.0) - c * Jk[b->keep[e]];
+            for (int i = 0; i < b->nelim; i++) {
+                double s = c * c * Jk[b->elim[i]];
+                const double *Zi = b->Z + (size_t)i * nk;
+                const int *nz = b->znz + (size_t)i * nk;
+                if (s != 0.0)
+                    for (int q = 0; q < b->zcnt[i]; q++) Ma[nz[q]] -= s * Zi[nz[q]];
             }
         }
     } else {
@@ -255,23 +323,41 @@ static int factor_lu(eomc_bdf *b, double c)
 /* Solve (I - c_lu J) x = r in place with factor_lu's factors. */
 static void solve_lu(eomc_bdf *b, double *r)
 {
-    int n = b->n, m = b->nsplit, nk = b->nkeep;
-    double c = b->c_lu, *y = b->rk;
+    int n = b->n, nk = b->nkeep, ne = b->nelim, nd = b->ndep;
+    double c = b->c_lu, *y = b->rk, *w = b->rk + nk;
     if (nk == n) {
         lu_solve_rows(n, b->LU, b->piv, r);
         return;
     }
-    for (int a = 0; a < nk; a++) {    /* r_k + c sum over eliminated i of J_ki r_i */
+    for (int a = 0; a < ne; a++) w[a] = r[b->elim[a]];
+    if (nd > 0) {      /* w = (I - c J_ee)^-1 r_e: D's rows, then the others from them */
+        double t[EOMC_BDF_MAX_DEP];
+        for (int e = 0; e < nd; e++) t[e] = w[b->dep[e]];
+        lu_solve_rows(nd, b->LUd, b->pivd, t);
+        for (int e = 0; e < nd; e++) w[b->dep[e]] = t[e];
+        for (int a = 0, e = 0; a < ne; a++) {
+            const double *Ja = b->J + (size_t)b->elim[a] * n;
+            double s = 0.0;
+            if (e < nd && b->dep[e] == a) { e++; continue; }
+            for (int f = 0; f < nd; f++) s += Ja[b->elim[b->dep[f]]] * t[f];
+            w[a] += c * s;
+        }
+    }
+    for (int a = 0; a < nk; a++) {    /* r_k + c J_ke w */
         const double *Jk = b->J + (size_t)b->keep[a] * n;
         double s = 0.0;
-        for (int i = 0; i < m; i++)
-            if (b->elim[i]) s += Jk[i] * r[i];
+        for (int i = 0; i < ne; i++) s += Jk[b->elim[i]] * w[i];
         y[a] = r[b->keep[a]] + c * s;
     }
     lu_solve_rows(nk, b->LU, b->piv, y);
     for (int a = 0; a < nk; a++) r[b->keep[a]] = y[a];
-    for (int i = 0; i < m; i++)
-        if (b->elim[i]) r[i] += c * r[m + i];
+    for (int i = 0; i < ne; i++) {    /* x_e = w + c Z x_k */
+        const double *Zi = b->Z + (size_t)i * nk;
+        const int *nz = b->znz + (size_t)i * nk;
+        double s = 0.0;
+        for (int q = 0; q < b->zcnt[i]; q++) s += Zi[nz[q]] * y[nz[q]];
+        r[b->elim[i]] = w[i] + c * s;
+    }
 }
 
 /* Simplified Newton for y = ypred + d with d - c f(tn, y) + psi = 0 (scipy's
@@ -318,7 +404,7 @@ static int newton(eomc_bdf *b, double tn, double c, int *conv, int *nit, int *ba
 
 int eomc_bdf_trial(eomc_bdf *b, double t1)
 {
-    int n = b->n, s, first = 1, cut = 0, refresh = 0, relin = 0;
+    int n = b->n, s, first = 1, refresh = 0, relin = 0;
     double t = b->t;
     eomc_stats *st = b->st;
     if (b->h > b->hmax) rescale(b, b->hmax / b->h);
@@ -343,17 +429,6 @@ int eomc_bdf_trial(eomc_bdf *b, double t1)
             b->ypred[i] = yp;
             b->psi[i] = ps / a;
             b->scale[i] = b->atol + b->rtol * fabs(yp);
-        }
-        if (b->fns->predict && !cut) {      /* once per trial: the cut step's prediction differs */
-            double theta = 1.0, frac;
-            if ((s = b->fns->predict(b->fns->ctx, tn, b->ypred, &theta))) return s;
-            frac = fmin(1.0, PRED_OVER * theta);
-            cut = 1;
-            if (frac < PRED_CUT && frac * b->h > 4.0 * hmin) {
-                st->steps--;
-                rescale(b, frac);
-                continue;
-            }
         }
         if (refresh) {    /* the last attempt failed with a fresh J: one at this predictor */
             refresh = 0;
@@ -457,12 +532,6 @@ void eomc_bdf_dense(const eomc_bdf *b, double tau, double *out)
     }
 }
 
-void eomc_bdf_cut(eomc_bdf *b, double t_cut)
-{
-    rescale(b, (t_cut - b->t) / b->h);
-    b->err_fails = 0;
-}
-
 void eomc_bdf_commit(eomc_bdf *b)
 {
     int n = b->n, k = b->trial_order, best = 1;
@@ -499,4 +568,11 @@ void eomc_bdf_commit(eomc_bdf *b)
 void eomc_bdf_set_state(eomc_bdf *b, const double *y)
 {
     memcpy(b->D, y, (size_t)b->n * sizeof(double));
+}
+
+int eomc_bdf_linear_solve(eomc_bdf *b, double c, double *r)
+{
+    if (factor_lu(b, c)) return -1;
+    solve_lu(b, r);
+    return b->nkeep;
 }

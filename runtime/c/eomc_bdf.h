@@ -7,9 +7,9 @@
  * output) lives in eomc_bdf.c; what every method shares (input interpolation,
  * non-finite checks, Ctrl-C, events, switching points, output rows, projection) stays in
  * eomc_integrators.c, which drives the steps through the calls below: a trial step is
- * computed without committing it, so the driver can cut it at a switching point (the
- * contact law changes form there) and have it redone to end there, exactly as it does
- * with Radau's steps.
+ * computed without committing it, so the driver can look at it (events located on its dense
+ * output, switching functions watched for the verdict: BDF passes over switching points,
+ * run_bdf) before it commits it.
  */
 #ifndef EOMC_BDF_H
 #define EOMC_BDF_H
@@ -17,6 +17,9 @@
 #include "eomc_integrators.h"
 
 #define EOMC_BDF_MAX_ORDER 5
+/* At most this many coordinates whose rates other rates depend on (a free joint's three angles)
+ * are eliminated from Newton's LU with the rest (factor_lu in eomc_bdf.c); more stay in it. */
+#define EOMC_BDF_MAX_DEP 8
 
 typedef struct eomc_bdf_fns {
     void *ctx;
@@ -26,9 +29,6 @@ typedef struct eomc_bdf_fns {
     int (*jac)(void *ctx, double t, const double *x, double *J);
     /* nonzero (the run's status) when the run must stop now: Ctrl-C, a failed callback */
     int (*aborted)(void *ctx);
-    /* NULL, or: *theta in (0, 1] = the fraction of the step [t, tn] to the first switching
-     * point the predicted state yp at tn lies past (1: none); an eomc_status */
-    int (*predict)(void *ctx, double tn, const double *yp, double *theta);
 } eomc_bdf_fns;
 
 typedef struct eomc_bdf {
@@ -48,7 +48,13 @@ typedef struct eomc_bdf {
     int *piv;
     double c_lu;             /* the c = h / alpha of the factored I - c J; 0: none */
     int nsplit;              /* the state is (q, v, ...) with nsplit q's and v's; 0: not known */
-    int nkeep, *keep, *elim; /* the rows the LU holds (factor_lu); nkeep = n: all */
+    int nkeep, *keep;        /* the rows the LU holds (factor_lu); nkeep = n: all */
+    int nelim, *elim;        /* the q rows eliminated before the LU (factor_lu), in order */
+    int ndep, *dep;          /* of those, the ones q rates depend on (indices into elim) */
+    int *znz, *zcnt;         /* Z's nonzero columns per eliminated row, and their count */
+    double *Z;               /* nelim x nkeep: (I - c J_ee)^-1 J_ek (factor_lu) */
+    double LUd[EOMC_BDF_MAX_DEP * EOMC_BDF_MAX_DEP];  /* I - c J_dd factored (ndep > 0) */
+    int pivd[EOMC_BDF_MAX_DEP];
     double *rk;              /* n: the kept rows' right-hand side (solve_lu) */
     int cur_jac;             /* J was evaluated at the current step's start or later */
     int err_fails;           /* consecutive error-test failures at this step */
@@ -70,21 +76,23 @@ void eomc_bdf_init(eomc_bdf *b, const eomc_bdf_fns *fns, eomc_stats *st, int n, 
 int eomc_bdf_start(eomc_bdf *b, double t, const double *y, const double *f, double h);
 
 /* Try steps from b->t (shrinking on Newton or error-test failure) until one passes; it
- * ends at b->tn <= t1 with the state b->ynew and is NOT committed: the driver either
- * commits it or cuts it (eomc_bdf_cut).  An eomc_status: EOMC_STEP_TOO_SMALL,
+ * ends at b->tn <= t1 with the state b->ynew and is NOT committed: the driver looks at
+ * it (events, switching functions, output rows) and commits it.  An eomc_status: EOMC_STEP_TOO_SMALL,
  * EOMC_MAX_STEPS, or the model's failure when a model evaluation kept failing. */
 int eomc_bdf_trial(eomc_bdf *b, double t1);
 
 /* The trial step's dense output at tau in [b->t, b->tn] (its interpolating polynomial). */
 void eomc_bdf_dense(const eomc_bdf *b, double tau, double *out);
 
-/* Discard the trial step; the next trial ends at t_cut (b->t < t_cut < b->tn). */
-void eomc_bdf_cut(eomc_bdf *b, double t_cut);
-
 /* Accept the trial step: b->t = b->tn; chooses the next order and step. */
 void eomc_bdf_commit(eomc_bdf *b);
 
 /* The accepted state was changed after the step (unit quaternions, projection). */
 void eomc_bdf_set_state(eomc_bdf *b, const double *y);
+
+/* Newton's linear solve as the steps do it (factor_lu, solve_lu): r <- (I - c J)^-1 r with the
+ * J the caller put in b->J (and b->nsplit set).  The rows the dense LU held, or -1 if the
+ * matrix is singular.  For tests: the row elimination must give the dense solve's x. */
+int eomc_bdf_linear_solve(eomc_bdf *b, double c, double *r);
 
 #endif /* EOMC_BDF_H */

@@ -216,10 +216,6 @@ typedef struct ctx {
                                 part of an augmented model whose jvp checks its S rows itself) */
     eomc_stagger *sg;        /* Radau's staggered sensitivities, the adjoint's checkpoints, or NULL */
     int istop;               /* next of sg->tstop */
-    const double *bdf_x;     /* BDF: the state at the current step's start (bdf_predict) */
-    double sw_head;          /* BDF: a first crossing within this share of a trial step restarts
-                                at the step's start (sw_locate; 0: Radau, never) */
-    double sw_head_t;        /* where the last such restart was (one per point) */
     double sw_noise;         /* a switching function within this of zero keeps its side (sw_left) */
 } ctx;
 
@@ -300,6 +296,7 @@ static int sw_detect(ctx *c, double t, const double *x, double tn, const double 
 static int sw_locate(ctx *c, const interp *ip, double *t_cut);
 static int sw_watch(ctx *c, double t, const double *x, double tn, const double *xn);
 static void sw_keep(ctx *c);
+static void sw_flip(ctx *c);
 static void sw_lin_extrema(ctx *c, double t, double h, const double *x, const double *f0,
                            const double *xn, const double *f1, const interp *ip, double rtol,
                            double atol, int *ncross, int *near);
@@ -507,7 +504,6 @@ static int ctx_init(ctx *c, const eomc_model *m, const double *p, int nr,
     c->pj = NULL; c->stab = 0.0; c->fb = NULL; c->fbJ = NULL; c->fbK = NULL; c->Kt = NULL; c->ev = NULL; c->ev_t = 0.0; c->ev_x = NULL;
     c->abort = 0; c->sigint0 = g_sigint;
     c->nsw = 0; c->nswe = 0; c->gnew_ok = 0; c->sw_cuts = 0;
-    c->bdf_x = NULL; c->sw_head = 0.0; c->sw_head_t = -INFINITY;
     c->nquat = 0; c->quat = NULL;
     c->n_err = m->nx; c->n_fin = m->nx; c->sg = NULL; c->istop = 0;
     c->r = take(pos, (size_t)m->ninput + 1);
@@ -2192,23 +2188,25 @@ static int run_radau(ctx *c, const eomc_options *o, proj *pj, double t0, double 
  * changes side is redone to end just past the crossing, and the method restarts there at
  * order 1 with a fresh Jacobian), events, output rows, unit quaternions, projection. */
 
-/* SW_HEAD.  A trial step whose first switching point lies within its first SW_HEAD is not
- * cut there: the method restarts at the step's start, the functions crossing within that
- * head already on their new side (sw_locate), and the restarted step, as long as the trial,
- * passes over the point close to its start -- as a step whose crossing lies within its last
- * SW_FRAC ends near it.  Why: a crossing located early in a trial step was cut to a step
- * ending just past it, and the redone step, on a new polynomial, often ended just short of it;
- * the next trial, as short, found the crossing again within its first 5 %, and so on:
- * gymnasium's ant dropped at rtol 1e-1 closed in on a foot's lift-off through steps of
- * 1.3e-4, 7.1e-6, 3.7e-7 and 2.2e-9 s, then restarted at order 1 from the last and grew back
- * tenfold every two steps (12 steps to 1e-4 s).  Only BDF (a restart costs it a Jacobian at
- * most); Radau cuts as before.  0.05 gained less than 0.1 on the ant (interleaved A/B); measured
- * in benchmarks/results/contact_wp.md (s12 notes). */
-#define SW_HEAD 0.1
+/* BDF passes over switching points: a trial step over which a contact or limit changes side is
+ * kept when its error test passes, the sides flip at its end (sw_flip) and the method goes on
+ * with its order, history and Jacobian -- no crossing located, no step cut to end at it, no
+ * restart at order 1.  Radau and the explicit methods still end their steps there.  Why: the
+ * laws here are continuous through their switching points (Hunt-Crossley's force grows from
+ * zero as depth^1.5, a limit's spring from zero), so the solution is smooth enough there for
+ * BDF's own error test to size the steps (it rejects and shrinks a step that a kink spoils),
+ * and the locate-cut-restart sequence was most of the ant's cost through its touch-downs:
+ * chains of cuts down to 1e-9 s, 20 order-1 restarts a run, each with a fresh Jacobian and
+ * LU and a dozen steps to grow back (LSODA, which restarts nowhere, took 123 steps to eomc's
+ * 178 at equal error).  Measured (benchmarks/results/contact_wp.md, s13 notes): at equal error
+ * the ant 1.07-1.19x faster, Solo12 1.10-1.11x, the hopper within its noise; the bouncing
+ * sphere's property grid (bench_bounce_grid.py, BDF at rtol 1e-3 .. 1e-8) stays right or
+ * loud.  The functions are still evaluated at the step's end and two interior points, for
+ * the verdict (deepest penetration, limit excursion) and the flips. */
 
 /* The tolerances BDF's error test uses: a tenth of those asked for.  A multistep method's
- * global error runs well above the local tolerance it holds each step to (variable steps,
- * order-1 restarts at every contact switch): the bouncing ball at rtol 1e-6 gained 300 rtol
+ * global error runs well above the local tolerance it holds each step to (variable steps and
+ * orders; it restarted at order 1 at every contact switch then): the bouncing ball at rtol 1e-6 gained 300 rtol
  * of its energy with the plain rule -- past the verdict's 100 rtol -- and 30 rtol with
  * this one; Radau (order 5) stays below 1 rtol. */
 #define BDF_TOL_SHARE 0.1
@@ -2217,17 +2215,13 @@ static int bdf_rhs(void *u, double t, const double *x, double *f) { return frhs(
 static int bdf_jac(void *u, double t, const double *x, double *J) { return fjac((ctx *)u, t, x, J); }
 static int bdf_aborted(void *u) { return aborted((ctx *)u); }
 
-static int bdf_predict(void *u, double tn, const double *yp, double *theta);
-
 static int run_bdf(ctx *c, const eomc_options *o, proj *pj, double t0, double t1,
                    double *x, outw *ow, double **pos)
 {
     int n = c->n, s;
     double *f = take(pos, n), *xs = take(pos, 2 * (size_t)n), *tmp = take(pos, n);
     double *f1 = take(pos, n), hmax = o->hmax > 0 ? o->hmax : t1 - t0, h;
-    eomc_bdf_fns fns = {c, bdf_rhs, bdf_jac, bdf_aborted, bdf_predict};
-    c->bdf_x = x;
-    c->sw_head = SW_HEAD;
+    eomc_bdf_fns fns = {c, bdf_rhs, bdf_jac, bdf_aborted};
     eomc_bdf b;
     eomc_bdf_init(&b, &fns, c->st, n, BDF_TOL_SHARE * o->rtol, BDF_TOL_SHARE * o->atol, hmax,
                   o->max_steps, take(pos, eomc_bdf_work_size(n)));
@@ -2239,7 +2233,6 @@ static int run_bdf(ctx *c, const eomc_options *o, proj *pj, double t0, double t1
     if ((s = eomc_bdf_start(&b, t0, x, f, h))) return s;
     while (b.t < t1) {
         double t = b.t, tn;
-        int restart = 0;
         interp ip = {4, n, t, 0.0, x, NULL, NULL, NULL, NULL, NULL, NULL, &b};
         if ((s = eomc_bdf_trial(&b, t1))) return s;
         tn = b.tn;
@@ -2252,25 +2245,11 @@ static int run_bdf(ctx *c, const eomc_options *o, proj *pj, double t0, double t1
                 eomc_bdf_dense(&b, tst[a], xs + (size_t)a * n);
             }
             if ((s = sw_detect(c, t, x, tn, b.ynew, 2, tst, xs, &ncross))) return s;
-            if (ncross) {
-                double tcut;
-                if ((s = sw_locate(c, &ip, &tcut))) return s;
-                if (tcut == -INFINITY) {     /* SW_HEAD: restart at the step's start */
-                    c->st->rejected++;
-                    c->gnew_ok = 0;
-                    if ((s = frhs(c, t, x, f))) return s;
-                    if ((s = eomc_bdf_start(&b, t, x, f, tn - t))) return s;
-                    continue;
-                }
-                if (tcut > t) {       /* redo up to just past the crossing */
-                    c->st->rejected++;
-                    eomc_bdf_cut(&b, tcut);
-                    c->gnew_ok = 0;
-                    continue;
-                }
-                restart = !c->ev->sw_observe;
-            }
             sw_keep(c);
+            if (ncross) {         /* passed over (see above): the sides flip here */
+                sw_flip(c);
+                c->st->nswitch++;
+            }
         }
         c->st->accepted++;
         if (c->ev) {
@@ -2291,10 +2270,6 @@ static int run_bdf(ctx *c, const eomc_options *o, proj *pj, double t0, double t1
         }
         if (c->nquat || pj->on) eomc_bdf_set_state(&b, x);
         if (c->ev && (s = events_commit(c, tn, x, pj->on))) return s;
-        if (restart) {        /* the law changed form: order 1, fresh Jacobian, no history */
-            if ((s = frhs(c, tn, x, f))) return s;
-            if ((s = eomc_bdf_start(&b, tn, x, f, fmin(b.h, tn - t)))) return s;
-        }
     }
     c->st->t = t1;
     return EOMC_OK;
@@ -2542,40 +2517,6 @@ static int sw_left(const ctx *c, double side, double g)
     return side > 0.0 ? g < -c->sw_noise : g > c->sw_noise;
 }
 
-/* BDF's predicted state at tn against the switching functions: *theta = the fraction of the
- * step [t, tn] to the first one whose sign changes, by linear interpolation between its value
- * at the step's start (gold, or the state for a limit) and at the prediction; 1 when none. */
-static int bdf_predict(void *u, double tn, const double *yp, double *theta)
-{
-    ctx *c = (ctx *)u;
-    eomc_events *ev = c->ev;
-    evparts e;
-    swparts w;
-    int m;
-    *theta = 1.0;
-    if (!c->nsw || !ev || c->ev->sw_observe) return EOMC_OK;
-    e = ev_parts(c);
-    w = sw_parts(c);
-    m = ev->n + ev->nlin;
-    if (c->nswe) {
-        double t_fail = c->st->t_fail;
-        if (events_eval(c, tn, yp, e.gtmp)) {   /* not finite there: Newton will see it */
-            c->st->t_fail = t_fail;
-            return EOMC_OK;
-        }
-    }
-    for (int j = 0; j < m; j++) {
-        double g0, g1, th;
-        if (!is_switch(ev, j)) continue;
-        if (j < ev->n) { g0 = e.gold[ev->col[j]]; g1 = e.gtmp[ev->col[j]]; }
-        else { g0 = sw_lin(c, j, c->bdf_x); g1 = sw_lin(c, j, yp); }
-        if (!sw_left(c, w.side[j], g1) || (g0 > 0.0) != (w.side[j] > 0.0)) continue;
-        th = g0 / (g0 - g1);
-        if (th > 0.0 && th < *theta) *theta = th;
-    }
-    return EOMC_OK;
-}
-
 static void sw_seen(const ctx *c, int j, double g)
 {
     if (c->ev->gmax && g > c->ev->gmax[j]) c->ev->gmax[j] = g;
@@ -2660,6 +2601,15 @@ static void sw_keep(ctx *c)
     }
 }
 
+/* A step kept over crossings (fixed-step methods, BDF): the functions that crossed take the
+ * side of their value at its end. */
+static void sw_flip(ctx *c)
+{
+    swparts w = sw_parts(c);
+    for (int j = 0; j < c->ev->n + c->ev->nlin; j++)
+        if (w.cross[j] != 0.0) w.side[j] = w.ge[j] > 0.0;
+}
+
 /* A linear switching function (a joint limit) between the sampled points: its coordinate
  * along the step's cubic Hermite interpolant has at most two extrema, found in closed form,
  * so a joint that passes its limit and comes back inside one step is seen however short the
@@ -2716,10 +2666,9 @@ static void sw_lin_extrema(ctx *c, double t, double h, const double *x, const do
 
 /* The first crossing on the step's dense output: *t_cut = the end of a step to redo that
  * stops just past it, or *t_cut = the step's start when the step is accepted as it is
- * (the crossing lies at its end): the sides flip and the caller restarts the method; or
- * *t_cut = -INFINITY (BDF's SW_HEAD, once per point): the crossing lies within the step's
- * head, the sides of the functions crossing there flip and the caller restarts the method
- * at the step's start.  (w.tb holds each crossing function's root afterwards.) */
+ * (the crossing lies at its end): the sides flip and the caller restarts the method.  (w.tb
+ * holds each crossing function's root afterwards.)  Radau and the explicit methods; BDF passes
+ * over switching points (run_bdf). */
 static int sw_locate(ctx *c, const interp *ip, double *t_cut)
 {
     eomc_events *ev = c->ev;
@@ -2734,16 +2683,6 @@ static int sw_locate(ctx *c, const interp *ip, double *t_cut)
             return s;
         w.tb[j] = root;
         tr = fmin(tr, root);
-    }
-    if (tr - t < c->sw_head * ip->h && t != c->sw_head_t && !ev->sw_observe) {
-        /* BDF's SW_HEAD: restart at t on the new side of what crosses within the head */
-        for (int j = 0; j < m; j++)
-            if (w.cross[j] != 0.0 && w.tb[j] - t < c->sw_head * ip->h) w.side[j] = !(w.side[j] > 0.0);
-        c->sw_head_t = t;
-        c->sw_cuts = 0;
-        c->st->nswitch++;
-        *t_cut = -INFINITY;
-        return EOMC_OK;
     }
     cut = t + (tr - t) * (1.0 + 0.25 * SW_FRAC);
     if (tn - tr > SW_FRAC * ip->h && c->sw_cuts < SW_MAX_CUTS && cut - t >= min_step(t) && cut < tn
@@ -2768,11 +2707,7 @@ static int sw_watch(ctx *c, double t, const double *x, double tn, const double *
     if (!c->nsw) return EOMC_OK;
     if ((s = sw_detect(c, t, x, tn, xn, 0, NULL, NULL, &ncross))) return s;
     sw_keep(c);
-    if (ncross) {
-        swparts w = sw_parts(c);
-        for (int j = 0; j < c->ev->n + c->ev->nlin; j++)
-            if (w.cross[j] != 0.0) w.side[j] = w.ge[j] > 0.0;
-    }
+    if (ncross) sw_flip(c);
     return EOMC_OK;
 }
 

@@ -120,7 +120,8 @@ typedef struct eomc_stats {
     double h;            /* last step size tried */
     double stiff_hlambda;/* last h*|lambda| estimate of the stiffness test */
     double max_residual; /* max-norm constraint residual after projection (0 if none) */
-    long nswitch;        /* steps ended at a switching point (touch-down, lift-off, limit entry) */
+    long nswitch;        /* steps ended at a switching point (touch-down, lift-off, limit entry);
+                            BDF: steps passed over one (it does not end steps there) */
 } eomc_stats;
 
 /* Doubles of work buffer eomc_integrate needs for this model and method. */

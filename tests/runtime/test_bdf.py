@@ -116,3 +116,64 @@ def test_max_steps_and_missing_jacobian_are_reported():
         simulate(get_model("vdp"), [2.0, 0.0], (0, 3000), method="bdf", max_steps=50)
     with pytest.raises(ValueError, match="needs the Jacobian jac_x"):
         simulate(get_model("singular"), [0.0], (0, 1), method="bdf")
+
+
+@functools.lru_cache(maxsize=None)
+def _newton_harness():
+    import tempfile
+    from pathlib import Path
+
+    import cffi
+
+    from helpers.stand_in import MODELS_DIR, compile_shared
+    so = compile_shared(Path(tempfile.mkdtemp(prefix="eomc_bdfnewton_")) / "libbdfnewton.so",
+                        [MODELS_DIR / "bdf_newton.c"])
+    ffi = cffi.FFI()
+    ffi.cdef("int bdf_newton_solve(int n, int nsplit, const double *J, double c, double *r);")
+    return ffi, ffi.dlopen(str(so))
+
+
+def _multibody_jacobian(rng, nfree, nhinge, extra=0, ndep=3):
+    """J of x = (q, v, extra) with nq = nfree + nhinge: a floating base's rates (positions
+    turn with its ndep angles, the angles' rates depend on themselves) as the ant's and
+    Solo12's generated jac_x have them, hinges' q_i' = v_i, dense speed and extra rows."""
+    m = nfree + nhinge
+    n = 2 * m + extra
+    J = np.zeros((n, n))
+    dep = list(range(nfree - ndep, nfree))
+    for i in range(nfree):               # base rows: its angles and its speeds only
+        J[i, dep] = rng.normal(size=ndep)
+        J[i, m + np.arange(nfree)] = rng.normal(size=nfree) * (rng.random(nfree) < 0.6)
+    for i in range(nfree, m):
+        J[i, m + i] = 1.0
+    J[m:, :] = rng.normal(size=(n - m, n))
+    J[m:, :nfree - ndep] *= rng.random((n - m, nfree - ndep)) < 0.3   # positions: ground only
+    return J
+
+
+@pytest.mark.parametrize("nfree, nhinge, extra, ndep, kept", [
+    (6, 8, 0, 3, 14),      # gymnasium's ant: 14 of 28 rows kept (20 with the hinges' alone)
+    (6, 12, 0, 3, 18),     # Solo12: 18 of 36 (24)
+    (0, 6, 0, 0, 6),       # a planar hopper: the speeds only
+    (6, 4, 3, 3, 13),      # actuator states after the speeds stay in the LU
+    (12, 2, 0, 10, 24),    # more than EOMC_BDF_MAX_DEP such coordinates: those stay in the LU
+])
+def test_newton_solve_eliminating_the_coordinates_rows_is_the_dense_solve(nfree, nhinge, extra,
+                                                                          ndep, kept):
+    """BDF's Newton LU eliminates every coordinate's row whose rate depends on the speeds and on
+    at most EOMC_BDF_MAX_DEP coordinates (factor_lu); its x must be numpy's dense solve of
+    (I - c J) x = r, for small and stiff c, and the LU must hold only the kept rows."""
+    ffi, lib = _newton_harness()
+    rng = np.random.default_rng(7 + nfree + nhinge)
+    for trial in range(6):
+        J = _multibody_jacobian(rng, nfree, nhinge, extra, ndep)
+        n, m = J.shape[0], nfree + nhinge
+        for c in (1e-4, 0.05, 0.7):
+            A = np.eye(n) - c * J
+            r = rng.normal(size=n)
+            x = r.copy()
+            k = lib.bdf_newton_solve(n, m, ffi.cast("double *", ffi.from_buffer(J)), c,
+                                     ffi.cast("double *", ffi.from_buffer(x)))
+            assert k == kept
+            want = np.linalg.solve(A, r)
+            assert np.max(np.abs(x - want)) <= 1e-11 * np.linalg.cond(A) * np.max(np.abs(want))

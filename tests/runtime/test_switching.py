@@ -57,8 +57,9 @@ def test_radau_keeps_the_energy_of_a_stiff_elastic_bounce(ball, k, rtol):
 
 
 @pytest.mark.parametrize("k", [1e9, 1e12])
-def test_bdf_ends_its_steps_at_touch_down_and_lift_off_and_agrees_with_radau(ball, k):
-    """BDF restarts at order 1 at each switching point: energy kept, the bounce times Radau's."""
+def test_bdf_passes_over_touch_down_and_lift_off_and_agrees_with_radau(ball, k):
+    """BDF passes over each switching point (its error test sizes the steps there; no cut, no
+    restart): energy kept, the bounce times Radau's."""
     p = _p(ball, k_ball=k, c_ball=0.0, mu_ball=0.0)
     with warnings.catch_warnings():
         warnings.simplefilter("error", PhysicsWarning)
@@ -73,11 +74,11 @@ def test_bdf_ends_its_steps_at_touch_down_and_lift_off_and_agrees_with_radau(bal
     assert np.abs(res["z"] - ref["z"]).max() < 1e-3
 
 
-def test_bdf_restarting_at_a_steps_start_keeps_a_stiff_damped_ball_on_the_ground(ball):
-    """BDF restarts at a trial step's start when its first crossing lies within the step's
-    first tenth (SW_HEAD in eomc_integrators.c; this run, k = 1e9 with damping at rtol 1e-4,
-    takes that path): the ball still lands when free fall says, never gains energy, does not
-    sink, and comes to rest on the ground."""
+def test_bdf_keeps_a_stiff_damped_ball_on_the_ground(ball):
+    """BDF passing over the switching points of a stiff damped ball (k = 1e9 with damping at
+    rtol 1e-4; it restarted at a trial step's start there before session 13): the ball still
+    lands when free fall says, never gains energy, does not sink, and comes to rest on the
+    ground."""
     p = _p(ball, k_ball=1e9, c_ball=1.0, mu_ball=0.0)
     with warnings.catch_warnings():
         warnings.simplefilter("error", PhysicsWarning)
@@ -89,6 +90,22 @@ def test_bdf_restarting_at_a_steps_start_keeps_a_stiff_damped_ball_on_the_ground
     assert res["z"].min() > bg.R - 1e-3
     assert res["z"][-1] == pytest.approx(bg.R, abs=1e-3)
     assert res.stats["nswitch"] >= 10
+
+
+def test_bdf_passes_over_switching_points_as_with_switching_off(ball):
+    """BDF does not end its steps at switching points nor restart there (run_bdf in
+    eomc_integrators.c): its run is the one with switching=False (which only watches them for
+    the verdict) bit for bit -- before session 13 it cut its steps at each crossing and
+    restarted at order 1 -- it still sees every crossing, and the bounce is right."""
+    p = _p(ball, k_ball=1e9, c_ball=0.0, mu_ball=0.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", PhysicsWarning)
+        on = _drop(ball, p=p, method="bdf", rtol=1e-6, atol=1e-9)
+        off = _drop(ball, p=p, method="bdf", rtol=1e-6, atol=1e-9, switching=False)
+    assert on.status == 0 and off.status == 0, (on.message, off.message)
+    np.testing.assert_array_equal(on.x, off.x)
+    assert on.stats["nswitch"] >= 8          # touch-down and lift-off of each bounce, passed over
+    assert bg.run_case(ball, 1e9, 0.0, 0.0, "bdf", 1e-6)[0] == "right"
 
 
 def test_without_switching_radau_steps_over_the_impact_and_the_run_fails(ball):

@@ -159,15 +159,33 @@ def _nan_filled_call(model, x, ud, r=None):
     return status, out.reshape(model.nu, model.nx, model.nx)
 
 
-def test_every_entry_is_written(models, law_models):
-    """The output is zeroed first unless the triple loop writes every entry itself (the dofs on
-    one path, _covers_all): the branching tree is zeroed, the 3-joint arm (a chain) is not, and
-    from an output filled with NaN both give every entry, equal to hess_id's."""
-    tree, arm = models[0], law_models[0]
+def _zeroed(cache, tree=TREE):
+    """``tree`` built with second_order.ZERO set: its hess_id zeroes the whole output every call
+    (by default the entries off the support paths are left as the caller zeroed them)."""
+    orig = second_order.ZERO
+    second_order.ZERO = True
+    try:
+        return _compile(cache, tree=tree)
+    finally:
+        second_order.ZERO = orig
+
+
+@pytest.fixture(scope="module")
+def zeroed_models(tmp_path_factory):
+    return _zeroed(tmp_path_factory.mktemp("zeroed")), _zeroed(tmp_path_factory.mktemp("zeroed_floating"), FLOATING_TREE)
+
+
+def test_every_entry_is_written(zeroed_models, law_models):
+    """With second_order.ZERO set the output is zeroed first unless the triple loop writes every
+    entry itself (the dofs on one path, _covers_all): the branching tree is zeroed, the 3-joint
+    arm (a chain, default build) is not, and from an output filled with NaN both give every
+    entry, equal to hess_id's."""
+    tree, arm = zeroed_models[0], law_models[0]
     c_tree = (tree.directory / f"{tree.name}.c").read_text()
     c_arm = (arm.directory / f"{arm.name}.c").read_text()
     assert f"out[k] = 0.0;" in c_tree.split("_rnea_hess(const double")[1].split("\n}\n")[0]
     assert f"out[k] = 0.0;" not in c_arm.split("_rnea_hess(const double")[1].split("\n}\n")[0]
+    assert "the caller zeroes out once" not in c_arm
     rng = np.random.default_rng(5)
     for model, r in ((tree, rng.uniform(-1, 1, tree.ninput)), (arm, None)):
         x, ud = rng.uniform(-1, 1, model.nx), rng.uniform(-1, 1, model.nu)
@@ -176,23 +194,16 @@ def test_every_entry_is_written(models, law_models):
         assert np.array_equal(out, model.hess_id(0.0, x, ud, r=r))
 
 
-def test_output_left_to_the_caller_gives_the_same_bits(models, floating_models, tmp_path):
-    """second_order.ZERO off (Pinocchio's contract: the caller zeroes the output once): the
-    kernel writes only the entries on the support paths.  On the branching tree and the floating
+def test_output_left_to_the_caller_gives_the_same_bits(models, floating_models, zeroed_models):
+    """By default (second_order.ZERO off, Pinocchio's contract: the caller zeroes the output once)
+    the kernel writes only the entries on the support paths.  On the branching tree and the floating
     tree (free root, ball joint below it: the change to the coordinates reads and writes whole
-    rows and columns) the C has no zeroing, from an output zeroed once the bits equal the default
-    build's at every state, and from an output filled with NaN the NaN left are entries the
-    default build returns as 0 (most of the output: the two branches' cross terms), every other
-    entry its bits."""
-    orig = second_order.ZERO
-    second_order.ZERO = False
-    try:
-        tree = _compile(tmp_path / "tree")
-        floating = _compile(tmp_path / "floating", tree=FLOATING_TREE)
-    finally:
-        second_order.ZERO = orig
+    rows and columns) the C has no zeroing, from an output zeroed once the bits equal the zeroing
+    build's (ZERO set) at every state, and so does ``model.hess_id`` (a new zeroed array each
+    call); from an output filled with NaN the NaN left are entries the zeroing build returns as 0
+    (most of the output: the two branches' cross terms), every other entry its bits."""
     rng = np.random.default_rng(9)
-    for left, full, spec in ((tree, models[0], TREE), (floating, floating_models[0], FLOATING_TREE)):
+    for left, full, spec in ((models[0], zeroed_models[0], TREE), (floating_models[0], zeroed_models[1], FLOATING_TREE)):
         c = (left.directory / f"{left.name}.c").read_text()
         assert "the caller zeroes out once" in c
         assert "out[k] = 0.0;" not in c.split("_rnea_hess(const double")[1].split("\n}\n")[0]
@@ -203,6 +214,7 @@ def test_output_left_to_the_caller_gives_the_same_bits(models, floating_models, 
             t, xc, p, rc = left._args(0.0, x, None, r)
             status = left._kernel("hess_id")(t, xc, ud, p, rc, once, left._work()[1])
             assert status == 0 and np.array_equal(once.reshape(H.shape), H)
+            assert np.array_equal(left.hess_id(0.0, x, ud, r=r), H)
             status, out = _nan_filled_call(left, x, ud, r)
             nan = np.isnan(out)
             assert status == 0 and np.all(H[nan] == 0.0) and np.array_equal(out[~nan], H[~nan])
@@ -264,12 +276,13 @@ def test_free_and_ball_joints_take_the_kernel(floating_models):
 
 
 def test_root_free_joint_changes_coordinates_inside_the_loop(floating_models):
-    """The free joint at the root takes the folded change to its coordinates (its dots combined
-    by K^-1 in the triple loop, then its own (q, q) block per row), not the pass over its rows
-    and columns (19-26 % of hess_id on Go2, G1, Talos); the values are the test above's."""
+    """The free joint at the root takes the folded change to its coordinates (the triple loop's
+    dots along q_k read its columns of K combined by K^-1 once per path, then its own (q, q)
+    block per row), not the pass over its rows and columns (19-26 % of hess_id on Go2, G1,
+    Talos); the values are the test above's."""
     kernel, _ = floating_models
     c = (kernel.directory / f"{kernel.name}.c").read_text()
-    assert "joint 0's columns q (its K^-1)" in c
+    assert "joint 0: S K^-1 by K^-1's diagonal blocks" in c
     assert "rows q_a: sum_d K^-1[d, a] G[d, .]" not in c
 
 
@@ -407,7 +420,7 @@ def test_a_ball_joint_below_a_free_root_against_differences(tmp_path):
         model = eomc.compile(MjcfModel(path, pairs="trees"), "free_and_ball", functions=["rhs", "jac_id", "hess_id"],
                              cache_dir=tmp_path / "c", progress=False)
     c = (model.directory / f"{model.name}.c").read_text()
-    assert "joint 0's columns q (its K^-1)" in c and "rows q_a: sum_d K^-1[d, a] G[d, .]" in c
+    assert "joint 0: S K^-1 by K^-1's diagonal blocks" in c and "rows q_a: sum_d K^-1[d, a] G[d, .]" in c
     rng, h = np.random.default_rng(3), 1e-5
     for _ in range(2):
         x, ud, r = rng.uniform(-1, 1, model.nx), rng.uniform(-1, 1, model.nu), np.zeros(model.ninput)
@@ -417,23 +430,23 @@ def test_a_ball_joint_below_a_free_root_against_differences(tmp_path):
         assert np.max(np.abs(H - fd)) <= 1e-8 * np.max(np.abs(fd))
 
 
-def test_output_written_by_halves_gives_the_same_bits(models, law_models, tmp_path):
+def test_output_written_by_halves_gives_the_same_bits(zeroed_models, law_models, tmp_path):
     """Large outputs (second_order.HALF_FROM numbers, cart40 and longer) are written by halves:
     the triple loop stores the entries whose row's dof is the deeper one, and each row's mirror
     images are copied once the row is complete.  Forced on for the branching tree (several
-    paths, output zeroed first) and the 3-joint arm with its joint laws (one path, not zeroed):
+    paths, output zeroed first: second_order.ZERO set) and the 3-joint arm with its joint laws (one path, not zeroed):
     the C has the copy, every entry of an output filled with NaN is written, and the bits equal
     the default build's (which writes both halves in the loop)."""
     orig = second_order.HALF_FROM
     second_order.HALF_FROM = 0
     try:
-        tree = _compile(tmp_path / "tree")
+        tree = _zeroed(tmp_path / "tree")
         (tmp_path / "lawarm.urdf").write_text(ARM)
         arm = _compile_urdf(tmp_path / "lawarm.urdf", tmp_path / "arm")
     finally:
         second_order.HALF_FROM = orig
     rng = np.random.default_rng(8)
-    for half, full in ((tree, models[0]), (arm, law_models[0])):
+    for half, full in ((tree, zeroed_models[0]), (arm, law_models[0])):
         c = (half.directory / f"{half.name}.c").read_text()
         assert "row i's mirror images" in c
         assert "row i's mirror images" not in (full.directory / f"{full.name}.c").read_text()
