@@ -85,6 +85,14 @@ PAIR_TABLE = True
 # In the caches' keys when not its default (compiler/build/reuse.generator_switches).
 TABLE_FROM_DEFAULT = 8
 TABLE_FROM = TABLE_FROM_DEFAULT
+# True: the inlined pairs' (fewer than TABLE_FROM) slopes are in NAME_implicit as the table's are
+# (compiler/tree/contacts.py); False (the default): only the table's, the inlined pairs' forces are
+# in its f and the fixed step takes them explicitly.  Why: measured on gymnasium's hopper (3
+# self-pairs on one leg, never pressed in bench_fixedstep's run) NAME_implicit took 1.24 us a call
+# with them against 1.09 without, the checked step 0.731 against 0.591 ms per simulated second
+# (4.37x -> 3.55x mj_step); the humanoid's 109 table pairs are where the slopes pay
+# (benchmarks/results/fixedstep.md).  In the caches' keys when set.
+INLINE_SLOPES = False
 EPS = 1e-12     # m: regularises |d| so that coincident centres give a finite (zero) force
 
 

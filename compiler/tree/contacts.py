@@ -71,11 +71,15 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
         values.update(lower_table(table, bodies, rec, v, rename, poses, wrenches, pair_slopes))
         if analytic is not None:        # the analytic jac_x takes their tangents (tree/analytic.py)
             analytic["pairs"] = wrenches
+    if implicit is not None:    # the pair points NAME_implicit holds (implicit_metadata lists them)
+        implicit["pair_loads"] = [ld for ld in others if isinstance(ld, PairLoad)
+                                  and (bool(table) or _pairs.INLINE_SLOPES)]
+    inline_slopes = pair_slopes if _pairs.INLINE_SLOPES else None
     for load in others:     # a body-body pair returns its outputs' and events' values
         if table and isinstance(load, PairLoad):
             continue
         if isinstance(load, PairLoad):
-            values.update(load.lower(bodies, rec, v, rename, poses, broad=pairs, slopes=pair_slopes))
+            values.update(load.lower(bodies, rec, v, rename, poses, broad=pairs, slopes=inline_slopes))
         else:
             values.update(load.lower(bodies, rec, v, rename, poses) or {})
     for index, load in enumerate(contacts):

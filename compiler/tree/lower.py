@@ -322,6 +322,9 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         sym = replace(sym, guards=tuple(guards))
     if implicit is not None and implicit.get("guards"):
         sym = replace(sym, implicit_guards=tuple(implicit["guards"]))
+    if implicit is not None and implicit.get("pair_loads"):
+        sym = replace(sym, implicit_pairs=tuple((ld.name if ld.part < 0 else f"{ld.name}:{ld.part}", ld.a.body, ld.b.body)
+                                                for ld in implicit["pair_loads"]))
     if analytic is not None and analytic.contacts and ground.get("guards"):
         sym = replace(sym, jac_guards=tuple(ground["guards"]))
     if wants_energy:

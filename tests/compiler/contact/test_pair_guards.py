@@ -118,6 +118,7 @@ def test_the_implicit_terms_keep_the_pairs_broad_phase(tmp_path, monkeypatch):
     guards too, and its terms are the straight-line ones near, far and pressed, but for a pair
     point's entries where it is not pressed (its slopes and velocity 0; its depth and point 0 where
     the broad phase skipped the pair)."""
+    monkeypatch.setattr(pairs, "INLINE_SLOPES", True)       # the inlined pairs' slopes exported too
     path = tmp_path / "pf.xml"        # the scene above over a floor: NAME_implicit needs ground contacts
     path.write_text(XML.replace("<worldbody>", '<worldbody><geom name="floor" type="plane" size="2 2 0.1" '
                                                'pos="0 0 -0.6"/>'))

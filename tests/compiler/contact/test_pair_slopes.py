@@ -27,15 +27,16 @@ def limbs(request, tmp_path_factory):
     from eomc.compiler.mjcf.model import MjcfModel
     path = tmp_path_factory.mktemp("limbs") / "limbs.xml"
     path.write_text(LIMBS)
-    saved = pairs.PAIR_TABLE, pairs.TABLE_FROM
-    pairs.PAIR_TABLE, pairs.TABLE_FROM = True, (1 if request.param == "table" else 100)
+    saved = pairs.PAIR_TABLE, pairs.TABLE_FROM, pairs.INLINE_SLOPES
+    # inlined: their slopes asked for (pairs.INLINE_SLOPES: off by default, see there)
+    pairs.PAIR_TABLE, pairs.TABLE_FROM, pairs.INLINE_SLOPES = True, (1 if request.param == "table" else 100), True
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             return eomc.compile(MjcfModel(path, pairs=True), "limbs", functions=("rhs", "outputs", "implicit"),
                                 cache_dir=path.parent / "cache", progress=False)
     finally:
-        pairs.PAIR_TABLE, pairs.TABLE_FROM = saved
+        pairs.PAIR_TABLE, pairs.TABLE_FROM, pairs.INLINE_SLOPES = saved
 
 
 def _terms(model, x):
