@@ -18,8 +18,12 @@ counters, so `perf stat` has nothing to count).  The exponents: between consecut
 
 --variant LABEL=DIR: the builds in DIR/n<N>/ (the same models built from another checkout, say)
 are timed beside the default ones in the same executable, for an A/B of code generation.
-Usage: python benchmarks/bench_cart_scaling.py [n ...] [--rounds R] [--valgrind]
-       [--builds DIR] [--variant LABEL=DIR] [--write]   (--write: results/cart_scaling.md)
+--chain LABEL=K: a variant built with the looped rhs's threshold (compiler/tree/chain_loop.py,
+CHAIN_LOOP_MIN_LINKS) set to K: 1000000 is the straight-line rhs at every n, 2 the loops at
+every n (built in DIR/LABEL/n<N>/ beside --builds DIR, or in a temporary directory).
+--core K: the core to pin to (default 0).
+Usage: python benchmarks/bench_cart_scaling.py [n ...] [--rounds R] [--valgrind] [--core K]
+       [--builds DIR] [--variant LABEL=DIR] [--chain LABEL=K] [--write]   (--write: results/cart_scaling.md)
 """
 import math
 import os
@@ -33,7 +37,7 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 MODELS = HERE / "tree_models"
 ROOT = HERE.parent
-CORE = 0
+CORE = [0]          # the core to pin to (--core)
 NS = 256
 
 sys.path.insert(0, str(HERE))
@@ -176,14 +180,17 @@ def rhs_code_bytes(obj, name):
     return total
 
 
-def build_all(ns, builds_dir):
-    """{n: (dir, meta)}: cold builds, or the ones already in ``builds_dir``/n<N>/."""
+def build_all(ns, builds_dir, chain_min=None):
+    """{n: (dir, meta)}: cold builds, or the ones already in ``builds_dir``/n<N>/
+    (``chain_min``: built with CHAIN_LOOP_MIN_LINKS set to it)."""
     import json
     out = {}
+    prelude = (None if chain_min is None else
+              f"from eomc.compiler.tree import chain_loop\nchain_loop.CHAIN_LOOP_MIN_LINKS = {int(chain_min)}")
     for n in ns:
         d = builds_dir / f"n{n}"
         if not (d / f"cartjoints{n}.c").is_file():
-            cpu, wall, meta, _ = cold_build(MODELS / "cart_rel_joints.py", n, "recursive", d, "rhs")
+            cpu, wall, meta, _ = cold_build(MODELS / "cart_rel_joints.py", n, "recursive", d, "rhs", prelude=prelude)
             print(f"n={n}: built in {cpu:.1f} s CPU ({wall:.1f} s wall)", flush=True)
         meta = json.loads((d / f"cartjoints{n}.json").read_text())
         out[n] = (d, meta)
@@ -229,7 +236,7 @@ def harness(ns, builds, tmp, rounds):
 
 
 def run_timing(exe, args, labels):
-    out = subprocess.run(["taskset", "-c", str(CORE), str(exe), "time", "0", "0", *args], capture_output=True,
+    out = subprocess.run(["taskset", "-c", str(CORE[0]), str(exe), "time", "0", "0", *args], capture_output=True,
                          text=True, check=True).stdout
     agree = {labels[int(line.split()[1])]: float(line.split()[2]) for line in out.splitlines()
              if line.startswith("agree ")}
@@ -324,7 +331,7 @@ def main(argv):
     write = "--write" in argv
     use_cg = "--valgrind" in argv
     argv = [a for a in argv if a not in ("--write", "--valgrind")]
-    rounds, builds_dir, variants = 11, None, []
+    rounds, builds_dir, variants, chains = 11, None, [], []
     while any(a.startswith("--") for a in argv):
         i = next(k for k, a in enumerate(argv) if a.startswith("--"))
         key, val = argv[i], argv[i + 1]
@@ -336,6 +343,11 @@ def main(argv):
         elif key == "--variant":
             label, d = val.split("=", 1)
             variants.append((label, Path(d)))
+        elif key == "--chain":
+            label, k = val.split("=", 1)
+            chains.append((label, int(k)))
+        elif key == "--core":
+            CORE[0] = int(val)
         else:
             raise SystemExit(f"unknown option {key}")
     ns = [int(a) for a in argv] or [4, 8, 20, 40, 80, 160]
@@ -344,6 +356,10 @@ def main(argv):
     built = build_all(ns, builds_dir or tmp / "builds")
     meta = {n: m for n, (_, m) in built.items()}
     builds = [("eomc", n, d, f"cartjoints{n}") for n, (d, _) in built.items()]
+    for label, k in chains:
+        vdir = (builds_dir or tmp / "builds") / label
+        build_all(ns, vdir, chain_min=k)
+        variants.append((label, vdir))
     for label, vdir in variants:
         for n in ns:
             d, name = renamed_copy(vdir / f"n{n}", f"cartjoints{n}", label, tmp / label / f"n{n}")
@@ -369,7 +385,7 @@ def write_up(table, start_load):
              "peers: " + ", ".join(peer_versions(("mujoco", "pinocchio"))) + " (MuJoCo prebuilt library through "
              "its C API; Pinocchio header-only, g++ -O2 -std=c++17)",
              f"generated C and harness compiled together with eomc's default flags on this machine: "
-             f"{' '.join(LIB_FLAGS)}; pinned to core {CORE}; thread CPU time"]
+             f"{' '.join(LIB_FLAGS)}; pinned to core {CORE[0]}; thread CPU time"]
     text = (environment_header("Cart rhs scaling: time, operations and code size against n, one run",
                                notes=notes) + "\n" + (__doc__ or "") + "\n" + table + "\n")
     print(write_results("cart_scaling", text, keep_notes=True))

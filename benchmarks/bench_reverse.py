@@ -8,7 +8,8 @@ build (functions rhs, jac_x, jac_p, jvp, vjp, hvp; gcc -O2):
   * vjp with the parameter part (gp) and without it (gp = NULL);
   * "jac_x + jac_p, then λᵀ·[J, Jp]": what a vjp costs without reverse mode;
   * hvp; "central differences of vjp" (2 vjp calls: what a Hessian-vector product costs
-    without forward-over-reverse, at half the digits).
+    without forward-over-reverse, at half the digits);
+  * jac_p and jac_r alone (what each derivative function costs, in rhs calls: issue 30).
 Models: SD/FAST's n-link cart (tree_models/cart_rel_joints.py; runtime parameters), both
 formulations where the build is quick, and URDF robots from example-robot-data with limits
 off (UR10, Panda fixed; Go2 floating), recursive formulation.
@@ -44,9 +45,9 @@ ROBOTS = {
     "g1": ("g1_description/urdf/g1_29dof_rev_1_0.urdf", True),
 }
 NS = 16
-FUNCTIONS = ["rhs", "jac_x", "jac_p", "jvp", "vjp", "hvp"]
+FUNCTIONS = ["rhs", "jac_x", "jac_p", "jac_r", "jvp", "vjp", "hvp"]
 LABELS = ("rhs", "jac_x", "jvp (1 direction)", "vjp (x and p)", "vjp (x only)",
-          "jac_x + jac_p, then λᵀ·[J, Jp]", "hvp", "central differences of vjp (2 vjp)")
+          "jac_x + jac_p, then λᵀ·[J, Jp]", "hvp", "central differences of vjp (2 vjp)", "jac_p", "jac_r")
 
 # The harnesses' common head (this file's and bench_pair_reverse.py's): the model's states X,
 # weights L and directions V at NS points, its parameters P and inputs R, a thread-CPU clock.
@@ -67,7 +68,7 @@ static const double R[] = {@R@};
 static double tnow(void) { struct timespec ts; clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
     return ts.tv_sec * 1e9 + ts.tv_nsec; }
 """
-HARNESS = HARNESS_HEAD + r"""static double xdot[NX], gx[NX], gp[NP + 1], J[NX * NX], Jp[NX * (NP + 1)], out[NX], dirs[NX + NP], xs[NX];
+HARNESS = HARNESS_HEAD + r"""static double xdot[NX], gx[NX], gp[NP + 1], J[NX * NX], Jp[NX * (NP + 1)], Jr[NX * @NR@], out[NX], dirs[NX + NP], xs[NX];
 static void call(int c, int i) {
     int a, b;
     switch (c) {
@@ -93,14 +94,17 @@ static void call(int c, int i) {
             @NAME@_vjp(0.0, xs, P, R, L[i], NULL, gx, NULL, NULL);
             for (a = 0; a < NX; a++) out[a] = (out[a] - gx[a]) / 2e-6;
             break;
+    case 8: @NAME@_jac_p(0.0, X[i], P, R, Jp, NULL); out[0] = Jp[0]; break;
+    case 9: @NAME@_jac_r(0.0, X[i], P, R, Jr, NULL); out[0] = Jr[0]; break;
     }
 }
+#define NCALLS 10
 int main(void) {
     int i, c, round;
     double sum = 0.0;
     for (round = 0; round < @ROUNDS@; round++) {
-        for (c = 0; c < 8; c++) {
-            int cc = (c + round) % 8; long calls = 0; double t0 = tnow(), t1;
+        for (c = 0; c < NCALLS; c++) {
+            int cc = (c + round) % NCALLS; long calls = 0; double t0 = tnow(), t1;
             do { for (i = 0; i < NS; i++) { call(cc, i); sum += out[0] + gx[0]; } calls += NS; t1 = tnow(); }
             while (t1 - t0 < 2e7);
             printf("time %d %.1f\n", cc, (t1 - t0) / calls);
@@ -140,7 +144,7 @@ def build_harness(template, model, X, L, V, tmp, ns):
     weights L, directions V, compiled with the model's C at -O2: the executable's path."""
     name = model.name
     src = (template.replace("@NAME@", name).replace("@NS@", str(ns)).replace("@NX@", str(model.nx))
-           .replace("@NP@", str(model.nparam))
+           .replace("@NP@", str(model.nparam)).replace("@NR@", str(max(model.ninput, 1)))
            .replace("@X@", c_array(X)).replace("@L@", c_array(L)).replace("@V@", c_array(V))
            .replace("@P@", ", ".join(repr(float(v)) for v in model.param_defaults) or "0.0")
            .replace("@R@", ", ".join("0.0" for _ in range(max(model.ninput, 1)))))
@@ -228,17 +232,20 @@ def header(rounds):
             f"load {load[0]:.1f}/{load[1]:.1f}, eomc {eomc.__version__}, gcc -O2, pinned to core 1, thread CPU, "
             f"{rounds} interleaved rounds (median), {NS} random states; ns per call.  "
             f"vjp err: max relative difference to λᵀ·[jac_x, jac_p]; hvp err: to central differences "
-            f"of vjp (h = 1e-5).  Build: CPU s of the whole build (all six functions).\n\n"
+            f"of vjp (h = 1e-5).  Build: CPU s of the whole build (all seven functions).\n\n"
             "| model | formulation | nx | nparam | build s | rhs | jac_x | jvp | vjp (x, p) | vjp (x) | "
-            "jac_x + jac_p + λᵀJ | hvp | CD of vjp | vjp/rhs | hvp/jac_x | vjp err | hvp err |\n"
-            "|---|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|\n")
+            "jac_x + jac_p + λᵀJ | hvp | CD of vjp | jac_p | jac_r | vjp/rhs | hvp/jac_x | "
+            "jac_x/rhs | jac_p/rhs | jac_r/rhs | jvp/rhs | vjp err | hvp err |\n"
+            "|---|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|\n")
 
 
 def render(r):
     case, form, nx, npar, build, t, ev, eh = r
     cells = [t[k] for k in LABELS]
     return (f"| {case} | {form} | {nx} | {npar} | {build:.1f} | " + " | ".join(f"{c:.0f}" for c in cells)
-            + f" | {t['vjp (x and p)'] / t['rhs']:.2f} | {t['hvp'] / t['jac_x']:.2f} | {ev:.1e} | {eh:.1e} |")
+            + f" | {t['vjp (x and p)'] / t['rhs']:.2f} | {t['hvp'] / t['jac_x']:.2f} | "
+            + " | ".join(f"{t[k] / t['rhs']:.2f}" for k in ("jac_x", "jac_p", "jac_r", "jvp (1 direction)"))
+            + f" | {ev:.1e} | {eh:.1e} |")
 
 
 if __name__ == "__main__":

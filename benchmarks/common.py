@@ -309,9 +309,11 @@ def compile_pinocchio(source, obj, extra_includes=(), flags=()):
     return obj
 
 
-def cold_build(model, n, formulation, outdir, outputs, pythonpath=None):
+def cold_build(model, n, formulation, outdir, outputs, pythonpath=None, prelude=None):
     """`eomc build` of an EOMC_N_LINKS model file in a fresh child process and a fresh cache:
-    (CPU s of the child, wall s, the built NAME.json, peak RSS MB of children so far)."""
+    (CPU s of the child, wall s, the built NAME.json, peak RSS MB of children so far).
+    ``prelude``: Python statements the child runs before the command line (a compiler
+    setting changed for an A/B, say)."""
     import json
     import resource
     import subprocess
@@ -321,7 +323,9 @@ def cold_build(model, n, formulation, outdir, outputs, pythonpath=None):
         env["PYTHONPATH"] = str(pythonpath)
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
-    proc = subprocess.run([sys.executable, "-m", "eomc", "build", str(model), "-o", str(outdir),
+    launch = ([sys.executable, "-m", "eomc"] if prelude is None else
+              [sys.executable, "-c", prelude + "\nimport sys\nfrom eomc.cli import main\nsys.exit(main(sys.argv[1:]))"])
+    proc = subprocess.run([*launch, "build", str(model), "-o", str(outdir),
                            "--fold-parameters", "--outputs", outputs, "--formulation", formulation,
                            "-q"], env=env, capture_output=True, text=True)
     wall = time.perf_counter() - t0

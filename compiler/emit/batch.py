@@ -809,6 +809,26 @@ _KERNEL_HEAD = re.compile(r"^static (inline )?(void|double) ([A-Za-z_]\w*)\(")
 _LITERAL = r"(-?\d+\.\d*(?:e[-+]?\d+)?)"
 
 
+_GROUND_SKIP = "            if (!(g[0] > 0.0) && g[0] == g[0]) continue;   /* clear of the ground: all \u00b10 */"
+_GROUND_ROWS = re.compile(r"(ok\[[qu]c\[a\]\] -= )(sign \* \([^;]*\));")
+
+
+def _ground_contact_lanes(name, text):
+    """The kernel's ground-contact block (compiler/tree/analytic.py _contact_lines) in lanes: a
+    contact is skipped when every lane is clear of the ground (depth <= 0, not NaN: the scalar
+    test), and its terms are added under that mask, so a clear lane's rows get +0 subtracted
+    (unchanged, bit for bit, -0 and NaN included) whatever the block computed in it.  The scalar
+    skip, ``if (!(g[0] > 0.0) && ...) continue;`` on a vector, was a compile error."""
+    if _GROUND_SKIP not in text:
+        return text
+    text, rows = _GROUND_ROWS.subn(r"\1(double)((eomc_vu)(\2) & in_);", text)
+    if rows != 2:
+        raise Unsupported("has a ground-contact block of an unknown shape")
+    return text.replace(_GROUND_SKIP,
+                        "            const eomc_vu in_ = (eomc_vu)(g[0] > 0.0) | (eomc_vu)(g[0] != g[0]);\n"
+                        f"            if (!{name}_vany(in_)) continue;   /* every lane clear of the ground */")
+
+
 def vector_kernels(name, helpers_text):
     """(C text, {old name: new name}): jac_x's analytic kernel (compiler/tree/analytic.py:
     ``NAME_rnea_derivs`` and its ``NAME_rd_*`` helpers, loops over the tree's int tables)
@@ -836,6 +856,7 @@ def vector_kernels(name, helpers_text):
         raise Unsupported("has an analytic kernel with libm calls or double tables")
     for old, new in names.items():
         text = re.sub(rf"\b{old}\b", new, text)
+    text = _ground_contact_lanes(name, text)
     text = re.sub(r"\bdouble\b", "eomc_vd", text).replace("eomc_vd sign", "double sign")
     text = re.sub(rf"= {_LITERAL};", r"= EOMC_VLIT(\1);", text)
     text = re.sub(rf"\? {_LITERAL} :", r"? EOMC_VLIT(\1) :", text)
@@ -881,6 +902,8 @@ def batch_rhs(name, lines, parts, dynamics="", fn="rhs", out="xdot", kernels="")
         lines = _per_lane_solve(lines, sizes)
     if any(re.search(rf"\b{name}_rnea_derivs\(", line) for line in lines):
         text, kernel_names = vector_kernels(name, kernels)
+        if f"{name}_vany(" in text:
+            used.add("mask")
         out_parts.append(text)
         renamed.update(kernel_names)
     for part in parts:

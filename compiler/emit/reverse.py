@@ -27,6 +27,7 @@ Kane's models with constraints and closed trees are refused with a message.
 import sympy as sm
 
 from eomc.runtime.errors import ModelError
+from ..passes.dce import dce
 from .bodies import (IND, _load_dynamics, _solver_decls, extra_state_rows, needed_assignments,
                      singular_guard, store, temps)
 
@@ -34,6 +35,9 @@ __all__ = ["hess_id_requests", "hess_id_body", "hess_id_ops", "REVERSE_FUNCTIONS
            "refuse_reverse", "reverse_nsolve"]
 
 REVERSE_FUNCTIONS = ("vjp", "hvp")
+
+# result groups of xdot's kinematic and extra-state rows (vjp writes xdot; hvp does not)
+_XDOT_ROWS = ("kin", "zd")
 
 # solves beyond the rhs's one (Kane's operation counts)
 reverse_nsolve = {"vjp": 1, "hvp": 3}
@@ -161,6 +165,8 @@ def reverse_body(fn, ctx, program, sym, nx, npar, tree_g=None):
     """The C body of NAME_vjp or NAME_hvp; ``tree_g``: the recursive formulation's solve
     symbols (None: Kane's, solved with the factorization)."""
     solves = _KaneSolves(ctx) if tree_g is None else _TreeSolves(ctx, tree_g)
+    if fn == "hvp":     # xdot's own rows are vjp's output, not hvp's: their temporaries would be unused C
+        program = dce(program, {k[0] for k, _ in program.results} - set(_XDOT_ROWS))
     nq, nu, nw = ctx.nq, ctx.nu, len(sym.W)
     lam, mu, wd, nv = reverse_symbols(nx, nw)
     pr = ctx.printer(program)
@@ -246,6 +252,7 @@ def hess_id_body(ctx, program, sym, nx):
     calls of O(n) code, the code written once."""
     nu = ctx.nu
     lam = reverse_symbols(nx, 0)[0][:nu]
+    program = dce(program, ("hg",))     # τ itself (its sweep's start) is not an output: unused C
     pr = ctx.printer(program)
     for j, s in enumerate(lam):
         pr._names[s] = f"lam[{j}]"
@@ -272,6 +279,7 @@ def hess_id_ops(program, sym, nx, nu):
     the column tangent and stores nu·nx times."""
     from ..ir import count_program
     lam = reverse_symbols(nx, 0)[0][:nu]
+    program = dce(program, ("hg",))
     st = _stages(program.assignments, [lam, tuple(sym.seeds)], set())
     c = count_program(program.with_(assignments=tuple(st[0]), results=()))
     row = count_program(program.with_(assignments=tuple(st[1]), results=()))

@@ -8,11 +8,13 @@ is emit's default, the same code as Kane's.
 """
 from collections import Counter
 
-from ..emit.formulation import Formulation
+from eomc.runtime.errors import ModelError
+from ..emit.formulation import GROUND_HINT, Formulation, implicit_refusal
 from ..emit.reverse import REVERSE_FUNCTIONS, hess_id_body, hess_id_ops, reverse_body
 from ..ir import count_program
 from ..tree.analytic import kernel_c
 from ..tree.analytic_emit import analytic_body_ops, analytic_jac_id_body, analytic_jac_x_body, has_analytic
+from ..tree.chain_loop import chain_loop_ops, chain_loop_rhs_body
 from ..tree.constrained import jacobian_symbols
 from ..tree.inverse_derivatives import jac_id_body, jac_id_ops
 from ..tree.second_order import second_order_body, second_order_c, second_order_ops
@@ -69,18 +71,28 @@ class Recursive(Formulation):
         return None
 
     def builds_implicit(self, requested):
-        from ..contact.tree import contact_outputs
         from ..contact import pairs as _pairs
-        count = sum(1 for ld in self.tree.loads if isinstance(ld, PairLoad))    # pairs with slopes:
-        sloped = count and ((_pairs.PAIR_TABLE and count >= _pairs.TABLE_FROM) or _pairs.INLINE_SLOPES)
-        if (contact_outputs(self.tree) or sloped) and self.tree.loops is None:
+        count = sum(1 for ld in self.tree.loads if isinstance(ld, PairLoad))
+        # body-body pairs whose slopes NAME_implicit holds (the table's; the inlined ones with INLINE_SLOPES)
+        sloped = bool(count) and ((_pairs.PAIR_TABLE and count >= _pairs.TABLE_FROM) or _pairs.INLINE_SLOPES)
+        grounded = bool(contact_outputs(self.tree)) or sloped
+        if grounded and self.tree.loops is None:
             return True
-        return super().builds_implicit(requested)
+        if not requested:
+            return False
+        if grounded:
+            raise ModelError(implicit_refusal("this tree is closed by constraints (a loop)",
+                                              "open the loop"))
+        touching = any(isinstance(ld, PairLoad) for ld in self.tree.loads)
+        raise ModelError(implicit_refusal(
+            "this model's bodies touch " + ("each other but no ground" if touching else "no ground"), GROUND_HINT))
 
     def symbolic(self, formed, layout, functions, outputs=None, events=None):
         return build_tree_symbolic(self.tree, formed, layout, functions, outputs, events)
 
     def body(self, fn, ctx, prog, sym, layout, nx):
+        if fn == "rhs" and sym.chain_loop is not None:
+            return chain_loop_rhs_body(ctx, prog, sym.chain_loop)
         if fn == "rhs":
             return tree_rhs_body(ctx, prog, sym.guards)
         if fn in KERNEL_FUNCTIONS and has_dynamics_kernel(prog, sym, fn):
@@ -115,6 +127,8 @@ class Recursive(Formulation):
         return None
 
     def ops(self, fn, prog, sym, nx, nr, npar, nq, nu, solve_in):
+        if fn == "rhs" and sym.chain_loop is not None and prog is not None:
+            return chain_loop_ops(prog, sym.chain_loop)
         if fn == "hess_id" and sym.second_order is not None:
             return second_order_ops(prog, *sym.second_order)
         if fn == "hess_id":      # the sweep once per row, its tangent once per row and column

@@ -45,6 +45,7 @@ from sympy.physics import mechanics as me
 
 from eomc.runtime.errors import EomcError, ModelError
 
+from ..emit.formulation import KANE_IMPLICIT
 from ..mechanics.formed import FormedSystem
 from ..multibody.formed import model_of_tree
 from ..multibody.model import Model
@@ -333,11 +334,17 @@ def _generate_auto(spec, functions, fold_parameters, kane_spec):
         recursive = _generate_recursive(spec, functions, fold_parameters)
     except Exception as exc:          # noqa: BLE001 -- auto must not fail where Kane works
         why = _reason(exc)
+        if isinstance(exc, EomcError) and isinstance(spec.formed, Model) and spec.formed.kane_refusal:
+            # no Kane form to fall back to (an MJCF file): the recursive form's reason is the
+            # whole answer, not an aside after "has the recursive formulation only"
+            raise ModelError(str(exc)) from None
         try:
             generated = _generate_kane(_kane_side(spec, kane_spec), functions, fold_parameters)
         except Exception as kane_exc:
             if isinstance(exc, NotATree) or not isinstance(kane_exc, EomcError):
                 raise
+            if str(kane_exc) == KANE_IMPLICIT and isinstance(exc, EomcError):
+                raise ModelError(str(exc)) from None     # Kane never builds implicit: the tree's reason is the answer
             raise ModelError(f"{kane_exc} (auto tried the recursive form first: {why})") from None
         generated.metadata["formulation_note"] = f"kane, the fallback ({why})"
         return generated

@@ -32,6 +32,7 @@ from eomc.runtime.errors import ModelError
 from ..emit.reverse import hess_id_requests, refuse_reverse, reverse_requests
 from ..emit.symbolic import TANGENT_MIN_STATES, build_symbolic
 from .aba import aba
+from .chain_loop import chain_loop_plan
 from .crba import crba
 from .lowered import LoweredBody
 from .recorder import Recorder
@@ -150,7 +151,9 @@ def _lowered_bodies(tree, layout, rec):
         S = None if b.motion is None else [ren(s) for s in b.motion]
         multi = [(k, [ren(s) for s in m]) for k, m in zip(b.speeds, b.motions)] or None
         arm = [ren(a) for a in b.armatures] if b.armature else None
-        bodies.append(LoweredBody(b, rec, E, r, S, ren(b.mass), b.inertia.applyfunc(ren), None, multi, arm))
+        mass, inertia = ren(b.mass), b.inertia.applyfunc(ren)
+        bodies.append(LoweredBody(b, rec, E, r, S, mass, inertia, None, multi, arm))
+        bodies[-1].source = (E, r, S, mass, inertia, arm)      # in slot symbols: .chain_loop's pattern
     loads = [load for load in tree.loads if load.frame != "contact"]   # contacts: lowered with the velocities (_contacts)
     renamed = []
     for load in loads:
@@ -208,7 +211,7 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         contact_values = _contacts(tree, bodies, rec, v, layout, implicit,
                                    (gravity, speeds) if wants_energy else None, guards, ground,
                                    bool(set(functions) & {"hvp", "hess_id"}))
-        extra, keep = [], {}
+        extra, keep, chain = [], {}, None
         if loops is not None:
             J, gamma = lower_loops(loops, layout, rec)
         jac = set(functions) & {"jac_x", "jac_r", "jac_p", "jvp", "vjp", "hvp"}
@@ -217,6 +220,9 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
             if loops is not None:      # u' = a0 + M⁻¹Jᵀλ; the m pivots of J M⁻¹ Jᵀ join ABA's
                 out, margins, kkt = accelerations(J, gamma, bodies, rec, keep, out)
                 extra += [(("lam", j), lam) for j, lam in enumerate(kkt[2])]
+            if loops is None and not guards:
+                chain = chain_loop_plan(tree, bodies, [b.source for b in bodies], dict(rec.assignments),
+                                        gravity, layout, functions)
             for k, udd, D in out:
                 extra.append((("ud", k), udd))
                 extra.append((("Dpiv", k), D))
@@ -316,6 +322,8 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
                                           **({"jac_r": INPUT_SOLVE_GROUPS} if input_solve else {})}
                          if planned else TREE_FUNCTION_GROUPS,
                          helper_users=TREE_HELPER_USERS)
+    if chain is not None:
+        sym = replace(sym, chain_loop=chain)
     if contact_values:
         sym = _with_contact_values(sym, contact_values)
     if guards:

@@ -718,6 +718,8 @@ struct eomc_fs_lanes {
     double *A, *b, *J, *GJ;    /* 64-byte aligned: nslot, nu, 3 nu, 3 nu vectors of lanes */
     double *sink;              /* nu * nu: where the lanes not written out go */
     void *mem;
+    unsigned test_fail;        /* test hook: kernel lanes (bit l: lane l of every group) marked
+                                  failed, as a failed pivot is ($EOMC_TEST_FS_LANES_FAIL, read once) */
 };
 
 /* One kernel, 4 lanes (AVX2), run over a batch of 8 lanes (AVX-512) in two groups: measured on G1
@@ -758,6 +760,11 @@ eomc_fs_lanes *eomc_fs_lanes_new(int nq, int nu, const eomc_implicit *imp, int l
     if ((w = (eomc_fs_lanes *)calloc(1, sizeof *w)) == NULL) return NULL;
     w->L = fs_layout_of(nq, nu, nc);
     w->nq = nq; w->nu = nu; w->lanes = lanes; w->width = width; w->imp = imp; w->kernel = kernel;
+    {   /* the pivot-fail fallback's test (tests/runtime/test_rollout_lanes.py): no data makes a
+         * lane fail where its row's own assembly passes, as the two are the same arithmetic */
+        const char *fail = getenv("EOMC_TEST_FS_LANES_FAIL");
+        w->test_fail = fail ? (unsigned)strtoul(fail, NULL, 0) : 0u;
+    }
     for (int c = 0; c < nc; c++) {
         size_t m = (size_t)(imp->chain_start[c + 1] - imp->chain_start[c]);
         ncs += (int)(m * m);

@@ -152,7 +152,7 @@ __attribute__((target(FSL_TARGET))) static void FSL_KERNEL(eomc_fs_lanes *w, con
     {
         double *Ao[FSL_W], *bo[FSL_W];               /* the lanes written out (others: scratch) */
         for (int l = 0; l < FSL_W; l++) {
-            ok[l] = !fail[l];
+            ok[l] = !fail[l] && !((w->test_fail >> l) & 1u);
             Ao[l] = ok[l] && Aout[l] ? Aout[l] : w->sink;
             bo[l] = ok[l] && Aout[l] ? bout[l] : w->sink;
         }

@@ -205,9 +205,10 @@ typedef struct eomc_events {
      * at touch-down and lift-off, a joint's distance past its limit).  The law is only
      * piecewise smooth there, so no step may straddle such a point: a step over which
      * a switching function changes sign (at its ends, or, for Radau, at an interior
-     * collocation point, for BDF at 1/3 and 2/3 of the step on its polynomial) is redone
-     * to end just past the crossing, and the method restarts there (fresh step-size
-     * history; Radau: new Jacobian, no extrapolated guess; BDF: order 1, new Jacobian).
+     * collocation point) is redone to end just past the crossing, and the method restarts
+     * there (fresh step-size history; Radau: new Jacobian, no extrapolated guess).  BDF
+     * passes over crossings (the sides flip at the step's end); it looks at 1/3 and 2/3 of
+     * a step on its polynomial when a function could cross and come back within it.
      * switching[k] != 0 marks event k (NULL: none).  nlin more switching functions need
      * no model call: g_j = lin_s[j] * (x[lin_x[j]] - p[lin_p[j]])
      * (a joint limit: q - hi, or -(q - lo)).  "On" means g > 0.  gmax (n + nlin, may be

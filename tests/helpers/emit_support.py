@@ -77,6 +77,26 @@ def write_sources(gm, directory):
     return os.path.join(directory, f"{gm.name}.c")
 
 
+def sanitized_run(gm, directory, driver, flags=(), defines=()):
+    """``driver`` (C text, NAME for the model's name) built with the model's C under strict
+    warnings and ASan/UBSan, and run: (the compiler's result, the run's result)."""
+    import subprocess
+    directory = str(directory)
+    src = write_sources(gm, directory)
+    main = os.path.join(directory, "main.c")
+    with open(main, "w") as fh:
+        fh.write(driver.replace("NAME", gm.name))
+    exe = os.path.join(directory, "driver")
+    cmd = ["gcc", *STRICT, *flags, "-O1", "-g", "-fsanitize=address,undefined",
+           "-fno-sanitize-recover=all", "-fno-omit-frame-pointer", *defines, src, main,
+           "-I", directory, "-o", exe, "-lm"]
+    built = subprocess.run(cmd, capture_output=True, text=True)
+    if built.returncode:
+        return built, None
+    return built, subprocess.run([exe], capture_output=True, text=True,
+                                 env=dict(os.environ, ASAN_OPTIONS="detect_leaks=1"))
+
+
 def compile_shared(gm, directory, cc="gcc", flags=("-O2",)):
     """lib<name>.so built with strict warnings; raises with the compiler's message."""
     src = write_sources(gm, str(directory))

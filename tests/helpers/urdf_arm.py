@@ -1,6 +1,6 @@
 """A two-link arm in URDF, written for the tests (no third-party file)."""
 
-__all__ = ["ARM", "LAW_ARM"]
+__all__ = ["ARM", "LAW_ARM", "FLOATING_FEET"]
 
 ARM = """<?xml version="1.0"?>
 <robot name="arm">
@@ -60,5 +60,24 @@ LAW_ARM = """<?xml version="1.0"?>
     <limit lower="-0.1" upper="0.05" effort="10" velocity="1"/>
     <dynamics damping="0.4" friction="0.5"/>
   </joint>
+</robot>
+"""
+
+
+# a two-body robot for a floating base whose two collision spheres touch the ground
+# (contacts="@collision"): a trunk and a leg on a hinge with limits
+FLOATING_FEET = """<?xml version="1.0"?>
+<robot name="hop">
+  <link name="trunk">
+    <inertial><mass value="2"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>
+    <collision><origin xyz="0.1 0 0"/><geometry><sphere radius="0.03"/></geometry></collision>
+  </link>
+  <link name="leg">
+    <inertial><origin xyz="0 0 -0.1"/><mass value="0.5"/>
+      <inertia ixx="0.001" iyy="0.001" izz="0.0001" ixy="0" ixz="0" iyz="0"/></inertial>
+    <collision><origin xyz="0 0 -0.2"/><geometry><sphere radius="0.02"/></geometry></collision>
+  </link>
+  <joint name="hip" type="revolute"><parent link="trunk"/><child link="leg"/><axis xyz="0 1 0"/>
+    <limit lower="-1" upper="1" effort="5" velocity="5"/></joint>
 </robot>
 """

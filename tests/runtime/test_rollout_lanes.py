@@ -155,6 +155,47 @@ def test_implicitfast_lanes_with_a_parameter_row_per_trajectory(hopper):
     assert np.abs(rollout(hopper, X0, dt=0.008, steps=30, method="implicitfast", lanes=True).x - got.x).max() > 1e-6
 
 
+def test_a_lane_whose_pivot_fails_is_assembled_by_the_scalar_code(hopper, monkeypatch):
+    """The step's matrix in lanes (eomc_fs_assemble_lanes, eomc_fs_lanes_body.h): a lane whose pivot
+    test fails is marked and not written out, the group's other lanes go on, and its row assembles
+    its own step (the scalar fs_assemble).  No data can show it: a lane fails exactly where its
+    row's own assembly fails (the same arithmetic), and that failure is found again at the next
+    step's start.  So the test hook $EOMC_TEST_FS_LANES_FAIL marks lanes 1 and 2 of every group
+    failed: their rows take the fallback at every step, and must equal the scalar rollout bit for
+    bit (rows that took the unwritten matrix instead would step with a stale one)."""
+    X0 = _hopper_starts(hopper, 11, seed=3)
+    kw = dict(dt=0.008, steps=40, method="implicitfast", threads=1)
+    want = rollout(hopper, X0, **kw)
+    monkeypatch.setenv("EOMC_TEST_FS_LANES_FAIL", "6")
+    got = rollout(hopper, X0, lanes=True, **kw)
+    assert got.ok.all() and np.array_equal(got.x, want.x) and np.array_equal(got.steps, want.steps)
+    assert np.array_equal(got.unsolved, want.unsolved)
+
+
+def test_lanes_that_pass_beside_lanes_whose_pivot_fails(hopper):
+    """Real zero pivots beside real passes in one batch call: a foot with no mass, inertia,
+    armature or damping has a zero pivot in the air and a contact's slopes on it when pressed,
+    and one parameter vector for all rows puts both kinds in the same groups.  Each row equals
+    the scalar rollout's bit for bit, its status included (the singular rows' and the ones
+    penetrating the ground at such a soft foot)."""
+    names = list(hopper.param_names)
+    p = np.asarray(hopper.param_defaults, dtype=float).copy()
+    for name in ("m_foot", "Iyy_foot", "arm_foot_joint", "d_foot_joint"):
+        p[names.index(name)] = 0.0
+    X0 = _hopper_starts(hopper, 16, seed=2)
+    z = list(hopper.state_names).index("q_rootz")
+    X0[:, z] -= np.linspace(0.0, 0.2, 16)         # in the air ... pressed
+    X0[:, hopper.nq + z] = 0.0
+    kw = dict(dt=0.008, steps=60, method="implicitfast", p=p, raise_on_failure=False)
+    want = rollout(hopper, X0, **kw)
+    got = rollout(hopper, X0, lanes=True, **kw)
+    assert np.array_equal(got.x, want.x) and np.array_equal(got.status, want.status)
+    assert np.array_equal(got.steps, want.steps) and np.array_equal(got.unsolved, want.unsolved)
+    singular = want.status == 1           # EOMC_SINGULAR_MASS_MATRIX: the zero pivot, at the first step
+    assert singular.sum() >= 3 and (want.steps[singular] == 1).all()
+    assert ((want.status == 0) & (want.steps == 60)).sum() >= 2      # pressed rows in the same calls ran on
+
+
 def test_implicitfast_lanes_refused_without_implicit_batch(tmp_path):
     import warnings
     gymnasium = pytest.importorskip("gymnasium")

@@ -326,6 +326,19 @@ def test_a_limit_grazed_inside_one_step_ends_the_step_there(swing, method):
     assert res.stats["nswitch"] >= 2                # entry and exit each ended a step
 
 
+@pytest.mark.parametrize("rtol", [1e-3, 1e-4, 1e-6])
+def test_bdf_still_sees_a_limit_grazed_inside_one_step(swing, rtol):
+    """BDF looks at its steps' interior only where a switching function could cross and come
+    back within the step (sw_reach in eomc_integrators.c).  With atol 1e-3 its step over the
+    arm's apex (2.7e-4 .. 6e-4 rad past the limit) has both ends inside the range: the
+    excursion is seen only at the interior points, and counted as a step passed over a
+    crossing (with the interior points skipped on every step: nswitch 0 in all three)."""
+    res = swing.simulate({"q_elbow": np.pi / 2 - 0.6}, (0, 1.0), method="bdf", rtol=rtol, atol=1e-3)
+    assert res.status == 0
+    assert res["q_elbow"].max() > 2.1707            # it did pass the limit
+    assert res.stats["nswitch"] >= 1
+
+
 SPRUNG = """<mujoco model="sprung">
   <option gravity="0 0 -9.81" timestep="0.002"/>
   <worldbody>

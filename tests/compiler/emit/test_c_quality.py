@@ -105,17 +105,8 @@ def test_strict_warnings_clean(models, cc, tmp_path):
 
 
 def _sanitized_run(gm, d, defines=()):
-    src = es.write_sources(gm, str(d))
-    main = d / "main.c"
-    main.write_text(DRIVER.replace("NAME", gm.name))
-    exe = d / "driver"
-    cmd = ["gcc", *es.STRICT, "-O1", "-g", "-fsanitize=address,undefined",
-           "-fno-sanitize-recover=all", "-fno-omit-frame-pointer", *defines, src, str(main),
-           "-I", str(d), "-o", str(exe), "-lm"]
-    proc = subprocess.run(cmd, capture_output=True, text=True)
+    proc, run = es.sanitized_run(gm, d, DRIVER, defines=defines)
     assert proc.returncode == 0, proc.stderr
-    run = subprocess.run([str(exe)], capture_output=True, text=True,
-                         env=dict(os.environ, ASAN_OPTIONS="detect_leaks=1"))
     assert run.returncode == 0, run.stdout + run.stderr
     assert run.stdout.startswith(f"{gm.name} 0 ") and "runtime error" not in run.stderr
 

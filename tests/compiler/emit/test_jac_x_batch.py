@@ -165,3 +165,27 @@ def test_scalar_and_rhs_batch_c_unchanged_and_on_request_only():
     assert both.c_source.count("typedef double eomc_vd") == 1
     assert both.c_source.count("static EOMC_VTARGET EOMC_VINLINE void jsc_vkernel(") == 1
     assert gen(("rhs", "jac_x", "rhs_batch", "jac_x_batch")).c_source == both.c_source   # byte-identical
+
+
+def test_floating_robot_with_ground_contacts_bit_for_bit(cache):
+    """jac_x's analytic kernel with ground contacts in lanes (batch._ground_contact_lanes): the
+    scalar kernel skips a contact clear of the ground with an ``if`` on its depth, which on a
+    vector was a compile error (every URDF robot with contacts and jac_x_batch).  A contact is
+    now skipped when every lane is clear, and its rows are added under the lanes' mask, so a
+    group holding pressed and clear states gives each the scalar jac_x's bits."""
+    from eomc.compiler.urdf.model import UrdfModel
+    from helpers.urdf_arm import FLOATING_FEET
+    path = cache / "feet.urdf"
+    path.write_text(FLOATING_FEET)
+    lanes = machine_lanes()
+    model = compile_model(UrdfModel(path, floating_base=True), "jbfeet", contacts="@collision",
+                          functions=FUNCTIONS + ("outputs",), cache_dir=cache, progress=False,
+                          cflags=f"{STRICT} -DEOMC_BATCH_LIBM_TRIG -DEOMC_BATCH_LANES={lanes}")
+    assert model.metadata["jac_x_batch"]["vectorized"], model.metadata["jac_x_batch"]
+    rng = np.random.default_rng(3)
+    X = rng.normal(scale=0.3, size=(4 * lanes + 3, model.nx))
+    X[:, list(model.state_names).index("q_trunk_floating_z")] = rng.uniform(-0.15, 0.35, len(X))
+    pressed = [any(v > 0 for k, v in model.outputs(0.0, x).items() if k.startswith("Fn_")) for x in X]
+    assert 3 <= sum(pressed) <= len(X) - 3          # groups of lanes mixing pressed and clear states
+    got, want = model.jac_x_batch(0.0, X), np.array([model.jacobian(0.0, x) for x in X])
+    assert np.array_equal(got.view(np.uint64), want.view(np.uint64))     # the bits, -0.0 included

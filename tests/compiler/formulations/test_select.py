@@ -292,3 +292,42 @@ def test_spring_and_damper_on_a_pathway_never_writes_nan():
         assert "carriage" in str(exc)
     else:
         assert "NAN" not in rec.c_source
+
+
+IMPLICIT_LIMBS = """<mujoco model="limbs"><worldbody>
+<body name="a" pos="0 0 0.3"><freejoint/><geom name="ga" type="sphere" size="0.05"/></body>
+<body name="b" pos="0.08 0 0.3"><freejoint/><geom name="gb" type="sphere" size="0.05"/></body>
+</worldbody></mujoco>"""
+
+
+def _implicit_refusal(model, formulation, **kw):
+    with pytest.raises(ModelError) as info:
+        _gen(model, formulation, ["rhs", "implicit"], **kw)
+    return str(info.value)
+
+
+def test_implicit_refused_for_its_real_reason_first(tmp_path):
+    """functions=["implicit"] where it cannot be built: the message opens with what implicit is and
+    needs, then this model's reason in the user's words (bodies, ground contacts, the options that
+    give them), not formulation internals.  An MJCF file without a floor said "an MJCF model has
+    the recursive formulation only ..." first and the real reason (no ground contacts) last, in
+    parentheses."""
+    pytest.importorskip("mujoco")
+    from eomc.compiler.mjcf.model import MjcfModel
+    opening = "implicit (the terms of method='implicitfast' on contacts) needs a tree of bodies with ground contacts"
+    path = tmp_path / "limbs.xml"          # two balls that touch each other, no floor
+    path.write_text(IMPLICIT_LIMBS)
+    for formulation in ("auto", "recursive"):
+        text = _implicit_refusal(MjcfModel(path, pairs=True), formulation)
+        assert text.startswith(opening), text
+        assert "this model's bodies touch each other but no ground" in text
+        assert "a plane geom in the file's worldbody" in text and "--contact" in text
+        assert "build without 'implicit'" in text and "recursive formulation only" not in text
+    arm = tmp_path / "arm.urdf"
+    from helpers.urdf_arm import ARM
+    arm.write_text(ARM)
+    text = _implicit_refusal(arm, "auto")
+    assert text.startswith(opening) and "this model's bodies touch no ground" in text, text
+    text = _implicit_refusal(arm, "kane")
+    assert text.startswith(opening) and "this build is Kane's formulation" in text, text
+    assert "formulation='recursive'" in text

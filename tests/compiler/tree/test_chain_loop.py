@@ -1,0 +1,189 @@
+"""The rhs of a repeated chain as loops over per-link arrays (compiler/tree/chain_loop.py).
+
+The looped rhs against the straight-line one (the same model built with the loop off) at
+random states to 1e-13, against an independent algorithm (eomc's CRBA mass matrix and RNEA
+forcing, M u' = f) and against SymPy's Kane (KanesMethod of the hand-built cart, compiled
+by the Kane formulation); trees without a repeated run keep the straight-line rhs; the
+looped C is clean under -Wall -Wextra -Wshadow -Wconversion and under ASan/UBSan.
+"""
+import numpy as np
+import pytest
+
+import eomc
+import eomc.mechanics as em
+from eomc.compiler.driver import generate
+from eomc.compiler.tree import chain_loop
+from helpers import emit_support as es
+from helpers.robots import relative_error
+from helpers.trees import cart_joints, cart_relative
+
+PARAMETERS = {"m0": 2.0, "m": 0.5, "l": 0.75, "g": 9.81}
+
+
+def _looped(model):
+    """Does NAME_rhs run loops over the chain?"""
+    text = model.source_path.read_text()
+    start = text.index(f"int {model.name}_rhs(")
+    return "for (k = 0; k < " in text[start:text.index("\n}\n", start)]
+
+
+def _build(system, name, min_links, tmp_path, functions=("rhs",), **kw):
+    """``system`` compiled by the recursive formulation with CHAIN_LOOP_MIN_LINKS = min_links."""
+    mp = pytest.MonkeyPatch()
+    mp.setattr(chain_loop, "CHAIN_LOOP_MIN_LINKS", min_links)
+    try:
+        return eomc.compile(system, name, functions=list(functions), formulation="recursive", progress=False,
+                            cache_dir=tmp_path / "cache", **kw)
+    finally:
+        mp.undo()
+
+
+def _states(model, rng, count=5):
+    for _ in range(count):
+        x = np.concatenate([rng.uniform(-np.pi, np.pi, model.nq), rng.normal(size=model.nu)])
+        yield x
+
+
+def _cart(n):
+    import sympy as sm
+    system, inputs = cart_joints(n)
+    names = {s.name: s for s in sm.symbols("m0 m l g", positive=True)}
+    return system, inputs, {names[k]: v for k, v in PARAMETERS.items()}
+
+
+@pytest.mark.parametrize("n", [3, 10, 40])
+def test_loop_equals_straight_line_and_crba(n, tmp_path):
+    """The looped rhs equals the straight-line one to 1e-13 and solves M u' = f (CRBA, RNEA).
+    (At n = 3 the repeated run is links 2 and 3: link 1 hangs from the cart's centre.)"""
+    system, inputs, params = _cart(n)
+    loop = _build(system, f"cl_loop{n}", 2, tmp_path, ("rhs", "mass_matrix", "forcing"), inputs=inputs,
+                  parameters=params)
+    line = _build(cart_joints(n)[0], f"cl_line{n}", None, tmp_path, inputs=inputs, parameters=params)
+    assert _looped(loop) and not _looped(line)
+    ops = [sum(m.metadata["op_counts"]["rhs"].values()) for m in (loop, line)]
+    if n >= 10:     # a looped link does what a straight-line one does: dead carried values are
+        assert ops[0] <= 1.01 * ops[1], ops     # pruned (without: 1.18 times as many on n = 40)
+    rng = np.random.default_rng(n)
+    for x in _states(loop, rng):
+        r = rng.normal(size=1)
+        a, b = loop.rhs(0.0, x, r=r), line.rhs(0.0, x, r=r)
+        assert relative_error(a, b) < 1e-13
+        ud = a[loop.nq:]
+        assert relative_error(loop.mass_matrix(0.0, x, r=r) @ ud, loop.forcing(0.0, x, r=r)) < 1e-10
+
+
+@pytest.mark.parametrize("n", [3, 10])
+def test_loop_against_kane(n, tmp_path):
+    """SymPy's KanesMethod of the hand-built relative cart (compiled by the Kane formulation)
+    against the looped rhs of the same KanesMethod read as a tree (its links repeat too)."""
+    kane, inputs = cart_relative(n, em)
+    mk = eomc.compile(kane, f"clk{n}", inputs=inputs, functions=["rhs"], progress=False, formulation="kane",
+                      cache_dir=tmp_path / "cache")
+    mr = _build(kane, f"clr{n}", 2, tmp_path, inputs=inputs)
+    assert _looped(mr)
+    rng = np.random.default_rng(100 + n)
+    p = np.array(mk.param_defaults) * rng.uniform(0.5, 1.5, len(mk.param_defaults))
+    for x in _states(mr, rng):
+        r = rng.normal(size=1)
+        assert relative_error(mr.rhs(0.0, x, p, r), mk.rhs(0.0, x, p, r)) < 1e-11
+
+
+def test_non_repeating_trees_keep_straight_line(tmp_path):
+    """Links with their own inertia symbols do not repeat: no loop even at CHAIN_LOOP_MIN_LINKS
+    = 2, and the C of that build is the same as with the switch off; a cart shorter than the
+    switch's count keeps the straight-line rhs."""
+    system, _ = cart_joints(4, rigid=True)
+    rigid = _build(system, "cl_rigid", 2, tmp_path)
+    assert not _looped(rigid)
+    short = _build(cart_joints(3)[0], "cl_short", 4, tmp_path)
+    assert not _looped(short)
+    off = _build(cart_joints(4, rigid=True)[0], "cl_rigid", None, tmp_path / "off")
+    assert off.source_path.read_text() == rigid.source_path.read_text()
+
+
+def _cart_with_tip(n):
+    """The cart with n equal links and a tip link of its own mass and length (the repeated run
+    is in the middle: bodies after it are straight-line blocks)."""
+    import sympy as sm
+    from sympy.physics import mechanics as sme
+    q, u = sme.dynamicsymbols(f"q:{n + 2}"), sme.dynamicsymbols(f"u:{n + 2}")
+    m0, m, l, g, mt, lt = sm.symbols("m0 m l g mt lt", positive=True)
+    F = sme.dynamicsymbols("F")
+    ground, cart = sme.RigidBody("ground"), sme.RigidBody("cart", mass=m0)
+    cart.inertia = (sme.inertia(cart.frame, 0, 0, 0), cart.masscenter)
+    joints = [sme.PrismaticJoint("slider", ground, cart, q[0], u[0], joint_axis=ground.frame.x)]
+    parent = cart
+    for i in range(1, n + 2):
+        tip = i == n + 1
+        link = sme.RigidBody(f"link{i}", mass=mt if tip else m)
+        link.inertia = (sme.inertia(link.frame, 0, 0, 0), link.masscenter)
+        joints.append(sme.PinJoint(f"pin{i}", parent, link, q[i], u[i],
+                                   parent_point=parent.masscenter if i == 1 else -l * parent.frame.y,
+                                   child_point=(lt if tip else l) * link.frame.y, joint_axis=parent.frame.z))
+        parent = link
+    system = sme.System.from_newtonian(ground)
+    system.add_joints(*joints)
+    system.apply_uniform_gravity(-g * ground.frame.y)
+    system.add_loads(sme.Force(cart.masscenter, F * ground.frame.x))
+    return system, [F]
+
+
+def test_run_in_the_middle(tmp_path):
+    """A different tip after the repeated links: cart, link 1, the loop, the tip (a block)."""
+    n = 6
+    system, inputs = _cart_with_tip(n)
+    loop = _build(system, "cl_tip", 3, tmp_path, inputs=inputs)
+    line = _build(_cart_with_tip(n)[0], "cl_tip", None, tmp_path / "off", inputs=inputs)
+    assert f"for (k = 0; k < {n - 1}; k++)" in loop.source_path.read_text() and not _looped(line)
+    rng = np.random.default_rng(5)
+    p = rng.uniform(0.5, 1.5, loop.nparam)
+    for x in _states(loop, rng):
+        r = rng.normal(size=1)
+        assert relative_error(loop.rhs(0.0, x, p, r), line.rhs(0.0, x, p, r)) < 1e-13
+
+
+def test_off_by_default(tmp_path):
+    """The switch is off by default (the loops measured slower than the straight-line rhs up to
+    n = 160: benchmarks/results/cart_scaling.md): a long cart keeps the straight-line rhs."""
+    assert chain_loop.CHAIN_LOOP_MIN_LINKS is None
+    model = eomc.compile(cart_joints(30)[0], "cl_default", functions=["rhs"], formulation="recursive",
+                         progress=False, cache_dir=tmp_path / "cache", fold_parameters=True,
+                         parameters=_cart(30)[2])
+    assert not _looped(model)
+
+
+DRIVER = r"""
+#include <stdio.h>
+#include <stdlib.h>
+#include "NAME.h"
+
+int main(void)
+{
+    const eomc_model *m = NAME_model();
+    size_t nx = (size_t)m->nx, i;
+    double *x = malloc(nx * sizeof(double)), *xd = malloc(nx * sizeof(double));
+    double *work = malloc((m->work_size + 1) * sizeof(double)), r[1] = {0.3}, sum = 0.0;
+    int k, bad = 0;
+    for (k = 0; k < 20; k++) {
+        for (i = 0; i < nx; i++) x[i] = 0.37 * (double)((i * 7 + (size_t)k * 3) % 11) - 1.8;
+        if (m->rhs(0.1, x, m->param_defaults, r, xd, work) != EOMC_OK) bad++;
+        for (i = 0; i < nx; i++) sum += xd[i];
+    }
+    printf("%s %d %g\n", m->name, bad, sum);
+    free(x); free(xd); free(work);
+    return bad;
+}
+"""
+
+
+def test_looped_c_strict_and_sanitizer_clean(tmp_path, monkeypatch):
+    """-Wall -Wextra -Wshadow -Wconversion -pedantic -Werror, then ASan and UBSan on 20 calls."""
+    monkeypatch.setattr(chain_loop, "CHAIN_LOOP_MIN_LINKS", 2)
+    system, inputs, params = _cart(6)
+    gm = generate(system, "clsan", functions=("rhs",), formulation="recursive", inputs=inputs,
+                  parameters=params, cache_dir=tmp_path / "cache", progress=False)[1]
+    assert "for (k = 0; k < 5; k++)" in gm.c_source
+    proc, run = es.sanitized_run(gm, tmp_path, DRIVER, flags=("-Wshadow", "-Wconversion"))
+    assert proc.returncode == 0, proc.stderr
+    assert run.returncode == 0, run.stdout + run.stderr
+    assert run.stdout.startswith("clsan 0 ") and "runtime error" not in run.stderr
