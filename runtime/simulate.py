@@ -496,11 +496,15 @@ IMPLICITFAST_HARD_FACTOR = 20.0     # eomc_fixedstep.c HARD_FACTOR: split regard
 
 def depth_limits(model, p):
     """(ncontact,) the depth at which each contact of NAME_implicit fails the run, from the
-    run's parameters (its radius r_<contact>)."""
+    run's parameters (its radius r_<contact>); a body-body pair's point: none (inf: a pair has
+    no radius to reach, and its depth is the rhs's verdict's, runtime/switching.py)."""
     info = model.metadata["implicit"]
     index = {n: i for i, n in enumerate(model.param_names)}
     out = []
     for c in info["contacts"]:
+        if c.get("pair"):
+            out.append(np.inf)
+            continue
         i = index.get(f"r_{c.get('name')}")
         r = float(p[i]) if i is not None else 0.0
         out.append(r if r > 0 else POINT_DEPTH_FAIL)

@@ -77,6 +77,8 @@ def generator_switches():
     switches = {"inline_narrow": bool(pairs.INLINE_NARROW)}
     if pairs.LAW_ROUTINES:
         switches["law_routines"] = True
+    if pairs.INLINE_SLOPES:
+        switches["inline_slopes"] = True
     if pairs.PAIR_TABLE:
         switches["pair_table"] = True
         if pairs.TABLE_FROM != pairs.TABLE_FROM_DEFAULT:

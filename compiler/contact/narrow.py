@@ -86,6 +86,10 @@ BODY_INPUTS = 18
 LAW_NPOSE = PER_PART + 2 * BODY_INPUTS + 4
 LAW_OUTPUTS = 17
 LAW_RID = len(ROUTINE_KINDS)
+# The *slopes routine* (SLOPES_RID, the pairs' table loop in NAME_implicit: compiler/contact/table.py's
+# "slopes" loop): the law's inputs, and as outputs the relative velocity v_B(p) - v_A(p) (3, world) and
+# the law's K = -dF/dp, C = -dF/dv on that relative motion (9 + 9, rows; .law.ground_jacobians)
+SLOPES_RID = LAW_RID + 1
 # a law call's output array is NP<LAW_UID + the point's index>_ (a narrow call's: NP<the pair's first point>_)
 LAW_UID = 1000000
 
@@ -95,7 +99,8 @@ def routine_index(kind_a, kind_b):
 
 
 def is_law(rid):
-    return rid == LAW_RID
+    """A routine of the law's inputs (the law routine, the slopes routine), not a narrow phase."""
+    return rid in (LAW_RID, SLOPES_RID)
 
 
 def kinds_of(rid):
@@ -112,7 +117,7 @@ def ninput(rid):
 
 
 def _cname(rid, variant=None):
-    base = "eomc_pair_law" if is_law(rid) else "eomc_narrow_%s_%s" % kinds_of(rid)
+    base = "eomc_pair_slopes" if rid == SLOPES_RID else "eomc_pair_law" if is_law(rid) else "eomc_narrow_%s_%s" % kinds_of(rid)
     return base + ("_" + variant if variant else "")
 
 
@@ -271,12 +276,13 @@ def routine_outputs(rid):
 _SCHEMES = []   # the pair schemes: .pairs sets them when imported (it imports this module)
 
 
-def use_schemes(outputs, law):
+def use_schemes(outputs, law, slopes):
     """``outputs(a, b, margin, let)``: the list p, n, δ of every contact point of two placed
     shapes ({kind, centre, axes, size}) -- :mod:`.pairs`' schemes, the routines' bodies;
     ``law(p, n, depth, body_a, body_b, params, let)``: the law routine's outputs (LAW_OUTPUTS;
-    body_*: (origin, rotation rows, ω, v), params {k, c, mu, vs})."""
-    _SCHEMES[:] = [outputs, law]
+    body_*: (origin, rotation rows, ω, v), params {k, c, mu, vs}); ``slopes``, with the same
+    arguments: the slopes routine's (SLOPES_RID)."""
+    _SCHEMES[:] = [outputs, law, slopes]
 
 
 class _Straight:
@@ -309,7 +315,8 @@ def _program(rid):
             R = [list(ins[j + 3 + 3 * r:j + 6 + 3 * r]) for r in range(3)]
             bodies.append((list(ins[j:j + 3]), R, list(ins[j + 12:j + 15]), list(ins[j + 15:j + 18])))
         params = dict(zip(("k", "c", "mu", "vs"), ins[LAW_NPOSE - 4:LAW_NPOSE]))
-        results = _SCHEMES[1](list(ins[0:3]), list(ins[3:6]), ins[6], bodies[0], bodies[1], params, rec.let)
+        results = _SCHEMES[1 if rid == LAW_RID else 2](list(ins[0:3]), list(ins[3:6]), ins[6], bodies[0], bodies[1],
+                                                       params, rec.let)
     else:
         ka, kb = kinds_of(rid)
         ins = sm.symbols(f"in0:{NINPUT}", real=True)
@@ -383,7 +390,10 @@ def routine_code(rid, variant=None):
     what = {None: "", "tape": "", "dot": "the tangents of "}[variant]
     after = (f", then the {stored - nout} values its _dot reads (the tape)" if variant == "tape" else
              ", from the tape its _tape variant wrote" if variant == "dot" else "")
-    if is_law(rid):
+    if rid == SLOPES_RID:
+        head_text = ("/* body-body pair contact law's slopes at one contact point: v_B - v_A, K = -dF/dp, "
+                     "C = -dF/dv (compiler/contact/narrow.py) */\n")
+    elif is_law(rid):
         head_text = (f"/* body-body pair contact law at one contact point: {what}the wrenches on B and A, F_n, "
                      f"friction, clip{after} (compiler/contact/narrow.py) */\n")
     else:

@@ -42,7 +42,7 @@ import numpy as np
 import sympy as sm
 
 from . import narrow as nw
-from .law import EXPONENT, _cross, _dot, _pos, clip_switch, step
+from .law import EXPONENT, ContactForces, _cross, _dot, _pos, clip_switch, ground_jacobians, step
 from .tree import LoweredLoad
 
 __all__ = ["PAIR_KINDS", "PairShape", "PairLoad", "PairValue", "pair_supported", "closest_points"]
@@ -85,6 +85,14 @@ PAIR_TABLE = True
 # In the caches' keys when not its default (compiler/build/reuse.generator_switches).
 TABLE_FROM_DEFAULT = 8
 TABLE_FROM = TABLE_FROM_DEFAULT
+# True: the inlined pairs' (fewer than TABLE_FROM) slopes are in NAME_implicit as the table's are
+# (compiler/tree/contacts.py); False (the default): only the table's, the inlined pairs' forces are
+# in its f and the fixed step takes them explicitly.  Why: measured on gymnasium's hopper (3
+# self-pairs on one leg, never pressed in bench_fixedstep's run) NAME_implicit took 1.24 us a call
+# with them against 1.09 without, the checked step 0.731 against 0.591 ms per simulated second
+# (4.37x -> 3.55x mj_step); the humanoid's 109 table pairs are where the slopes pay
+# (benchmarks/results/fixedstep.md).  In the caches' keys when set.
+INLINE_SLOPES = False
 EPS = 1e-12     # m: regularises |d| so that coincident centres give a finite (zero) force
 
 
@@ -156,30 +164,53 @@ class PairLoad(LoweredLoad):
         out = [let(nw.NarrowOut(call, sm.Integer(uid), sm.Integer(base + k))) for k in range(nw.PER_PART)]
         return out[0:3], out[3:6], out[6]
 
-    def lower(self, bodies, rec, v, rename, poses, broad=None):
+    def lower(self, bodies, rec, v, rename, poses, broad=None, slopes=None):
         """Add the pair's force to both bodies' fext (body components, about their origins);
         return {PairValue placeholder: temporary}: F_n, the friction force on B (world), the
         depth δ and the clip's switching function (:func:`.law.clip_switch`).
-        ``broad``: a list to append the pair's broad phase to (:func:`pair_guard`)."""
+        ``broad``: a list to append the pair's broad phase to (:func:`pair_guard`).
+        ``slopes``: a list to append NAME_implicit's entry of the point to ({depth, point,
+        velocity, K, C}: :func:`law_slopes`; compiler/tree/contacts.py)."""
         what = f"the contact {self.name}"
         params = {k: rename(s, what) for k, s in self.params.items()}
         ren = lambda e: rename(e, what)      # noqa: E731 -- mass-centre parameters -> their slots
         a, b = _placed(self.a, poses, rec, ren), _placed(self.b, poses, rec, ren)
         if LAW_ROUTINES:
-            return self._lower_called(a, b, bodies, rec, v, params, poses, broad)
+            return self._lower_called(a, b, bodies, rec, v, params, poses, broad, slopes)
         p, n, depth = self.narrow(a, b, rec.let)
         va = _velocity_at(_moving(self.a, poses, v), p, rec.let)
         vb = _velocity_at(_moving(self.b, poses, v), p, rec.let)
-        fn, ft, f, rate = _law(n, depth, va, vb, params, rec.let)
+        fn, ft, f, rate, _ = _law(n, depth, va, vb, params, rec.let)
         wrench = _apply(self.b, f, p, poses, bodies, rec) + _apply(self.a, [-x for x in f], p, poses, bodies, rec)
         if broad is not None:
             broad.append(((self.a, self.b, self.margin), pair_clearance(self, a, b, poses),
-                          tuple(dict.fromkeys(s for s in wrench if isinstance(s, sm.Symbol))), depth))
+                          tuple(dict.fromkeys(s for s in wrench if isinstance(s, sm.Symbol))), depth,
+                          self._slopes(n, p, depth, va, vb, params, rec, slopes)))
         # OUTPUT_KINDS, CLIP_KIND, then POINT_KINDS (the contact point, world)
         quantities = [fn, *ft, depth, clip_switch(depth, params["c"], rate), *p]
         return {PairValue(self.index, kind): value for kind, value in enumerate(quantities)}
 
-    def _lower_called(self, a, b, bodies, rec, v, params, poses, broad):
+    @staticmethod
+    def _slopes(n, p, depth, va, vb, params, rec, slopes):
+        """Append the point's NAME_implicit entry to ``slopes`` (None: nothing, returns ((), ()));
+        return the broad phase's exports for it: (v_rel, K, C -- ±0 out of contact: the point's
+        inner guard --, δ and p, which read 0 where the pair's broad phase skips it: NAME_implicit's
+        "not in contact")."""
+        if slopes is None:
+            return (), ()
+        vrel, K, C = law_slopes(n, depth, va, vb, params, rec.let)
+        # δ, p and v_rel exported as copies (1.0 x: the same bits), read by NAME_implicit's results
+        # only: exported themselves, the law and the wrenches that read them made their first
+        # reader outside the block, and the guard was dropped (gymnasium's hopper: the 3 pairs'
+        # narrow phases ran at every call, +26 % a call)
+        one = sm.Float(1.0)
+        depth, point, vrel = rec.let(one * depth), [rec.let(one * x) for x in p], [rec.let(one * x) for x in vrel]
+        slopes.append({"depth": depth, "point": point, "velocity": vrel, "K": K, "C": C})
+        inner = tuple(dict.fromkeys(s for s in (*vrel, *(x for M in (K, C) for row in M for x in row))
+                                    if isinstance(s, sm.Symbol)))
+        return inner, tuple(s for s in (depth, *point) if isinstance(s, sm.Symbol))
+
+    def _lower_called(self, a, b, bodies, rec, v, params, poses, broad, slopes=None):
         """:meth:`lower` with routines (``LAW_ROUTINES``, .narrow): the pair's narrow routine
         (one call per pair), then this point's call of the law routine, whose wrenches are added
         to the bodies' fext; the broad phase's inner guard (the point's depth) holds the law call,
@@ -203,9 +234,14 @@ class PairLoad(LoweredLoad):
                 old = bodies[shape.body].fext or [0] * 6
                 bodies[shape.body].fext = [old[k] + x for k, x in enumerate(part)]
                 wrench += part
+        kc = ((), ())
+        if slopes is not None:      # the slopes inlined (the law routine has none)
+            va = _velocity_at(_moving(self.a, poses, v), p, rec.let)
+            vb = _velocity_at(_moving(self.b, poses, v), p, rec.let)
+            kc = self._slopes(n, p, depth, va, vb, params, rec, slopes)
         if broad is not None:
             broad.append(((self.a, self.b, self.margin), pair_clearance(self, a, b, poses),
-                          tuple(dict.fromkeys(s for s in wrench if isinstance(s, sm.Symbol))), depth))
+                          tuple(dict.fromkeys(s for s in wrench if isinstance(s, sm.Symbol))), depth, kc))
         # OUTPUT_KINDS, CLIP_KIND, then POINT_KINDS (as :meth:`lower`)
         quantities = [out[12], *out[13:16], depth, out[16], *p]
         return {PairValue(self.index, kind): value for kind, value in enumerate(quantities)}
@@ -222,8 +258,9 @@ def _moving(shape, poses, v):
 
 
 def _law(n, depth, va, vb, params, let):
-    """(F_n, friction force on B (world), force on B (world), δ̇) of the smooth law at a contact
-    point: normal ``n`` (A to B), depth δ, the bodies' velocities there (module docstring)."""
+    """(F_n, friction force on B (world), force on B (world), δ̇, the law's parts for
+    :func:`.law.ground_jacobians`) of the smooth law at a contact point: normal ``n`` (A to B),
+    depth δ, the bodies' velocities there (module docstring)."""
     vrel = [let(vb[k] - va[k]) for k in range(3)]
     rate = let(-_dot(n, vrel))
     dpos = let((depth + sm.Abs(depth)) / 2)
@@ -234,13 +271,28 @@ def _law(n, depth, va, vb, params, let):
     scale = let(-params["mu"] * fn / sm.sqrt(_dot(vt, vt) + params["vs"] ** 2))
     ft = [scale * vt[k] for k in range(3)]        # outputs only: the rhs names f (as before)
     f = [let(fn * n[k] + scale * vt[k]) for k in range(3)]      # on B, world components
-    return fn, ft, f, rate
+    parts = {"rate": rate, "dpos": dpos, "slip": vrel, "vt": vt, "scale": scale, "normal": n,
+             "k": params["k"], "c": params["c"], "vs": params["vs"], "mu": params["mu"]}
+    return fn, ft, f, rate, parts
+
+
+def law_slopes(n, depth, va, vb, params, let):
+    """(v_rel = v_B - v_A (world), K, C: 3x3 of named temporaries) at a contact point: the law's
+    force on B as a function of B's point relative to A, K = -dF/dp and C = -dF/dv_rel
+    (:func:`.law.ground_jacobians`: this law is the ground's with the plane's normal n and the
+    body's velocity v_rel -- δ̇ = -n·v_rel, friction on v_rel's tangential part -- so its slopes
+    are too; the normal's turning with p, F_n/|d| across n, is left out as the ground's fixed
+    plane has none).  What NAME_implicit exports per pair point (compiler/tree/contacts.py): the
+    fixed step puts Jᵀ K J, Jᵀ C J in its matrix with J = J_B - J_A (runtime/c/eomc_fixedstep.c)."""
+    fn, ft, f, rate, parts = _law(n, depth, va, vb, params, let)
+    K, C = ground_jacobians(ContactForces(depth, fn, ft, f, None, parts), step, let)
+    return parts["slip"], [[let(x) for x in row] for row in K], [[let(x) for x in row] for row in C]
 
 
 def _law_outputs(p, n, depth, body_a, body_b, params, let):
     """The law routine's outputs at one contact point (.narrow, LAW_OUTPUTS): B's and A's
     wrenches (body components, about the origins), F_n, friction (world), the clip's function."""
-    fn, ft, f, rate = _law(n, depth, _velocity_at(body_a, p, let), _velocity_at(body_b, p, let), params, let)
+    fn, ft, f, rate, _ = _law(n, depth, _velocity_at(body_a, p, let), _velocity_at(body_b, p, let), params, let)
     return (_wrench(body_b, f, p, let) + _wrench(body_a, [-x for x in f], p, let)
             + [fn, *ft, clip_switch(depth, params["c"], rate)])
 
@@ -740,18 +792,22 @@ def pair_clearance(load, a, b, poses):
     return d2 - reach ** 2
 
 
-def pair_guards(found):
+def pair_guards(found, slopes=False):
     """[(clearance, exports, inner guards)] (compiler/emit/guards.py) of the pairs' broad phase:
-    ``found`` [(pair key, clearance, exports, depth)] as :meth:`PairLoad.lower` appends them, one
-    per contact point; the points of one pair (box–box: 16) share its clearance, and inside, each
-    point's law is guarded by its own depth (-δ > 0: its force is ±0)."""
+    ``found`` [(pair key, clearance, exports, depth, (slope exports, outer exports))] as
+    :meth:`PairLoad.lower` appends them, one per contact point; the points of one pair (box–box:
+    16) share its clearance, and inside, each point's law is guarded by its own depth (-δ > 0: its
+    force is ±0).  ``slopes`` (NAME_implicit's guards): the points' slopes are exported with their
+    forces, and their δ and p by the pair's guard (they read 0 where it skips the pair)."""
     by_pair = {}
-    for key, clearance, exports, depth in found:
-        by_pair.setdefault(key, (clearance, []))[1].append((-depth, exports, ()))
+    for key, clearance, exports, depth, (kc, outer) in found:
+        entry = by_pair.setdefault(key, (clearance, [], []))
+        entry[1].append((-depth, exports + (kc if slopes else ()), ()))
+        entry[2].extend(outer if slopes else ())
     out = []
-    for clearance, inner in by_pair.values():
+    for clearance, inner, outer in by_pair.values():
         inner = [g for g in inner if g[1]]
-        exports = tuple(s for _, ex, _ in inner for s in ex)
+        exports = tuple(s for _, ex, _ in inner for s in ex) + tuple(outer)
         if exports:
             out.append((clearance, exports, tuple(inner)))
     return out
@@ -822,4 +878,10 @@ def with_pairs(built, specs, fold=False):
     return new, outputs, events
 
 
-nw.use_schemes(_scheme_outputs, _law_outputs)
+def _slope_outputs(p, n, depth, body_a, body_b, params, let):
+    """The slopes routine's outputs at one contact point (.narrow, SLOPES_RID): v_rel, K, C (rows)."""
+    vrel, K, C = law_slopes(n, depth, _velocity_at(body_a, p, let), _velocity_at(body_b, p, let), params, let)
+    return list(vrel) + [x for row in K for x in row] + [x for row in C for x in row]
+
+
+nw.use_schemes(_scheme_outputs, _law_outputs, _slope_outputs)

@@ -81,6 +81,11 @@ __all__ = ["PairTableCall", "PairTableOut", "PairTableKernelTape", "lower_table"
 
 TAPE_ROOM = 4096         # doubles of the pairs' routine tapes a taped call keeps (pairs in contact; see _loop)
 POINT_OUTPUTS = 9        # F_n, friction (3), δ, clip, p (3): PairValue kinds 0..8
+# the "slopes" variant's outputs per contact point, after the others: NAME_implicit's contact entry
+# (compiler/tree/lower.implicit_layout): δ (0 where the broad phase skips the pair), p (3; 0 there),
+# v_B - v_A at p (3), K (9), C (9) (.pairs.law_slopes; 0 out of contact)
+SLOPE_OUTPUTS = 25
+SLOPES = 3               # ``full`` of a call in its "slopes" variant (its C passes 0: the rhs's skips)
 _TABLES = {}             # table id -> Table (this process's lowering; the C is what the caches keep)
 
 
@@ -113,15 +118,18 @@ def table_of(tid):
     return _TABLES[int(tid)]
 
 
-def lower_table(loads, bodies, rec, v, rename, poses, wrenches=None, call_info=None):
+def lower_table(loads, bodies, rec, v, rename, poses, wrenches=None, slopes=None, call_info=None):
     """Lower the PairLoads ``loads`` (one per contact point, as :func:`.pairs.with_pairs` makes
     them) as one :class:`PairTableCall`: add the wrenches to the bodies' fext; return
     {PairValue placeholder: temporary}.  ``wrenches``: a list to fill with (tree body, its six
     wrench temporaries), per gathered body in input order (the analytic jac_x reads their
-    tangents, compiler/tree/analytic.py).  ``call_info``: a dict to fill with the call's
-    temporary ("call"), its table id ("table") and the shapes' offsets and the laws' parameters
-    as expressions ("fixed": where none reads the state, the analytic kernel forms the tangents
-    of the call's inputs itself, :class:`PairTableKernelTape`)."""
+    tangents, compiler/tree/analytic.py).  ``slopes``: a list to fill, per load in order, with
+    NAME_implicit's entries of its point (depth, point, v_rel, K, C: :data:`SLOPE_OUTPUTS` outputs
+    of the loop's "slopes" variant, which a function reading them calls: :meth:`PairTableCall.for_program`).
+    ``call_info``: a dict to fill with the call's temporary ("call"), its table id ("table") and
+    the shapes' offsets and the laws' parameters as expressions ("fixed": where none reads the
+    state, the analytic kernel forms the tangents of the call's inputs itself,
+    :class:`PairTableKernelTape`)."""
     from .pairs import BROAD_PAD, PairValue, bounding_radius, _num
     first = {}
     for ld in loads:                        # a pair's points share its index base and shapes
@@ -174,9 +182,16 @@ def lower_table(loads, bodies, rec, v, rename, poses, wrenches=None, call_info=N
         bodies[i].fext = [old[k] + x for k, x in enumerate(w)]
     values = {}
     for ld in loads:
-        at = table.nwrench + POINT_OUTPUTS * (bases[ld.index - max(ld.part, 0)] + max(ld.part, 0))
+        point = bases[ld.index - max(ld.part, 0)] + max(ld.part, 0)
+        at = table.nwrench + POINT_OUTPUTS * point
         for kind in range(POINT_OUTPUTS):
             values[PairValue(ld.index, kind)] = PairTableOut(call, sm.Integer(0), sm.Integer(at + kind))
+        if slopes is not None:
+            e = [PairTableOut(call, sm.Integer(0), sm.Integer(table.noutput + SLOPE_OUTPUTS * point + k))
+                 for k in range(SLOPE_OUTPUTS)]
+            slopes.append({"depth": e[0], "point": e[1:4], "velocity": e[4:7],
+                           "K": [e[7 + 3 * r:10 + 3 * r] for r in range(3)],
+                           "C": [e[16 + 3 * r:19 + 3 * r] for r in range(3)]})
     return values
 
 
@@ -192,20 +207,25 @@ class PairTableCall(nw.Token):
     def _tape(self):
         return False
 
+    def _slopes(self):
+        return int(self.args[1]) == SLOPES
+
     def c_declaration(self):
         t = self.table
         n = t.noutput + (t.ninput + len(t.pairs) + t.room if self._tape() else 0)
+        n += SLOPE_OUTPUTS * t.npoints if self._slopes() else 0
         return f"double PT_[{n}];"
 
     def c_routines(self):
-        return _routines(self.table, self._tape(), False)
+        return _routines(self.table, self._tape(), False, self._slopes())
 
     def _ccode(self, printer):
         t = self.table
         state = ", ".join(printer._print(a) for a in self.args[2:2 + t.nstate])
-        tape = "_tape" if self._tape() else ""
+        tape = "_tape" if self._tape() else "_slopes" if self._slopes() else ""
+        full = 0 if self._slopes() else int(self.args[1])
         return (f"eomc_pairs{tape}((const double[{t.nstate}]){{{state}}}, {_array(self.args[2 + t.nstate:], printer)}, "
-                f"{int(self.args[1])}, &PT_[0])")
+                f"{full}, &PT_[0])")
 
     def taped(self):
         return PairTableTapeCall(*self.args)
@@ -227,7 +247,13 @@ class PairTableCall(nw.Token):
         """The call with ``full`` = 2 (far pairs' bounds, see the module docstring) when the program
         reads a contact point's quantities (``reads``: the output indices its PairTableOut read), else 0;
         ``exact`` (the outputs function: users read every point's depth and position) 1, no skips."""
-        full = (1 if exact else 2) if any(k >= self.table.nwrench for k in reads) else 0
+        t = self.table
+        if any(k >= t.noutput for k in reads):      # NAME_implicit: the pairs' slopes
+            if any(t.nwrench <= k < t.noutput for k in reads):
+                raise ModelError("a function reads both the body-body pairs' slopes and their outputs")
+            full = SLOPES
+        else:
+            full = (1 if exact else 2) if any(k >= t.nwrench for k in reads) else 0
         return self.func(self.args[0], sm.Integer(full), *self.args[2:])
 
 
@@ -357,16 +383,17 @@ def _fmt(x):
     return repr(float(x))
 
 
-def _routines(table, tape, dot):
-    """[(key, C text, split)]: the narrow and law routines the loop calls, then the loop."""
+def _routines(table, tape, dot, slopes=False):
+    """[(key, C text, split)]: the narrow and law routines the loop calls, then the loop
+    (``slopes``: its "slopes" variant and the slopes routine instead of the primal)."""
     rids = sorted({p[0] for p in table.pairs})
     out = []
-    for rid in rids + [nw.LAW_RID]:
+    for rid in rids + [nw.LAW_RID] + ([nw.SLOPES_RID] if slopes else []):
         for var in ([None, "tape", "dot"] if dot else [None, "tape"] if tape else [None]):
             text, split = nw.routine_code(rid, var)
             out.append(((rid, {None: 0, "dot": 1, "tape": 2}[var]), text, split))
     out.append(((1000, 0), _tables(table), False))
-    out.append(((1000, 1), _loop(table, "primal"), False))
+    out.append(((1000, 6), _loop(table, "slopes"), False) if slopes else ((1000, 1), _loop(table, "primal"), False))
     if tape:
         out.append(((1000, 2), _loop(table, "tape"), False))
     if dot:
@@ -395,10 +422,12 @@ def _tables(t):
 
 def _loop(t, mode):
     """The loop: ``mode`` "primal" (eomc_pairs), "tape" (eomc_pairs_tape: also stores its inputs,
-    per pair a flag, and the narrow and law routines' tapes of the pairs in contact) or "dot"
-    (eomc_pairs_dot, its forward-mode twin, reading what the tape stored)."""
+    per pair a flag, and the narrow and law routines' tapes of the pairs in contact), "dot"
+    (eomc_pairs_dot, its forward-mode twin, reading what the tape stored) or "slopes"
+    (eomc_pairs_slopes, NAME_implicit's: the primal with full = 0, also writing per contact point
+    its :data:`SLOPE_OUTPUTS` after the other outputs)."""
     from .pairs import BROAD_PAD
-    dot, tape = mode == "dot", mode == "tape"
+    dot, tape, slopes = mode == "dot", mode == "tape", mode == "slopes"
     ns, nb = len(t.shapes), len(t.bodies)
     off = 18 * nb
     nlaw, nlt = nw.routine_outputs(nw.LAW_RID), len(nw.tape_of(nw.LAW_RID))
@@ -412,6 +441,10 @@ def _loop(t, mode):
         L.append("/* the body-body pairs' loop storing after its outputs its inputs, per pair its tape's place "
                  "(0: no point in contact, -1: in contact, no room), then the pairs' routine tapes (the twin's) */")
         L.append("static double eomc_pairs_tape(const double *in, const double *pars, int full, double *out)\n{")
+    elif slopes:
+        L.append("/* body-body pairs' loop for NAME_implicit (compiler/contact/table.py): eomc_pairs' outputs with "
+                 "full = 0, then per contact point depth, p, v_B - v_A, K, C (0 where a pair is skipped) */")
+        L.append("static double eomc_pairs_slopes(const double *in, const double *pars, int full, double *out)\n{")
     else:
         L.append("/* body-body pairs' loop (compiler/contact/table.py): wrenches per body, then per contact point "
                  "F_n, friction, depth, clip, p; full = 0 skips what the rhs does not read */")
@@ -424,6 +457,8 @@ def _loop(t, mode):
     L.append(f"    int have[{ns}] = {{0}};")
     L.append("    int q, m, k, w, j;" if dot else "    int s, q, m, k, w, j;")
     L.append(f"    for (k = 0; k < (full ? {t.noutput} : {t.nwrench}); ++k) out[k] = 0.0;")
+    if slopes:
+        L.append(f"    for (k = {t.noutput}; k < {t.noutput + SLOPE_OUTPUTS * t.npoints}; ++k) out[k] = 0.0;")
     if dot:
         L.append(f"    const double *pars = in + {t.nstate}, *act = in + {t.ninput}, *area = act + {len(t.pairs)};")
     if tape:
@@ -489,6 +524,10 @@ def _loop(t, mode):
             src, tgt = "pp", "lo"
         L.append(f"            po[4] = {src}[6];")
         L.append(f"            for (k = 0; k < 3; ++k) po[6 + k] = {src}[k];")
+        if slopes:
+            L.append(f"            double *sl = out + {t.noutput} + {SLOPE_OUTPUTS} * (P[3] + m);")
+            L.append("            sl[0] = pp[6];")
+            L.append("            for (k = 0; k < 3; ++k) sl[1 + k] = pp[k];")
         L.append("            if (!full && -pp[6] > 0) continue;")
         if not dot and not tape:   # full = 2, a point apart by more than the pad: F_n, friction 0; clip >= -δ
             L.append(f"            if (full == 2 && -pp[6] > {_fmt(BROAD_PAD)}) {{ po[5] = -pp[6]; continue; }}")
@@ -502,6 +541,8 @@ def _loop(t, mode):
             L.append(f"            eomc_pair_law_tape({largs}, lo);")
         else:
             L.append(f"            eomc_pair_law({largs}, lo);")
+            if slopes:
+                L.append(f"            eomc_pair_slopes({largs}, &sl[4]);")
         L.append(f"            if (bb >= 0) for (k = 0; k < 6; ++k) out[6 * bb + k] += {tgt}[k];")
         L.append(f"            if (ba >= 0) for (k = 0; k < 6; ++k) out[6 * ba + k] += {tgt}[6 + k];")
         L.append(f"            for (k = 0; k < 4; ++k) po[k] = {tgt}[12 + k];")

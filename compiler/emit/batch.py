@@ -64,9 +64,9 @@ _POINTER_DECL = re.compile(r"^(\s+)const double \*([A-Za-z_]\w*);$")
 _POINTER_SET = re.compile(r"^(\s+)([A-Za-z_]\w*) = ([A-Za-z_]\w*) \+ k \* (\d+);$")
 _SCRATCH_DECL = re.compile(r"^(\s+)double ([A-Za-z_]\w*)\[(\d+)\];$")
 _CALL_LINE = re.compile(r"^(\s+)([A-Za-z_]\w*)\((.*)\);$")
-# the body-body pairs' table loop (compiler/contact/table.py): one call on a compound literal of
-# its inputs, the law parameters, full, and the output array
-_PAIRS_LINE = re.compile(r"^(\s+)const double (t\d+) = (eomc_pairs)\(\(const double\[(\d+)\]\)\{(.*)\}, "
+# the body-body pairs' table loop (compiler/contact/table.py; NAME_implicit's: its slopes variant):
+# one call on a compound literal of its inputs, the law parameters, full, and the output array
+_PAIRS_LINE = re.compile(r"^(\s+)const double (t\d+) = (eomc_pairs|eomc_pairs_slopes)\(\(const double\[(\d+)\]\)\{(.*)\}, "
                          r"&([A-Za-z_]\w*)\[(\d+)\], (0|1), &([A-Za-z_]\w*)\[(\d+)\]\);$")
 _VOID_TEMP = re.compile(r"^\s+\(void\)t\d+;$")
 _GUARD_LINE = re.compile(r"^(\s+)if \((.*)\) return (EOMC_[A-Z_]+);$")

@@ -64,7 +64,7 @@ class Formulation:
 
     def builds_implicit(self, requested):
         """True when NAME_implicit (the fixed-step implicit integrator's terms) is generated:
-        the recursive formulation of a tree with ground contacts.  ``requested``: the caller
+        the recursive formulation of a tree with ground contacts or body-body pairs.  ``requested``: the caller
         named it (then a model it does not apply to is refused, not silently skipped)."""
         if requested:
             raise ModelError(KANE_IMPLICIT)

@@ -90,6 +90,7 @@ class Symbolic:
     energy: str = ""                 # what a generated ``energy`` output holds (NAME.json "energy"), or ""
     guards: tuple = ()               # rhs broad phase: (clearance, exports) (compiler/emit/guards.py)
     implicit_guards: tuple = ()      # NAME_implicit's: the exports with each point's K and C slopes
+    implicit_pairs: tuple = ()       # NAME_implicit's body-body pair points after the ground's: (name, body a, body b)
     jac_guards: tuple = ()           # the analytic jac_x's: the exports with each point's world force, K and C
     chain_loop: object = None        # recursive: the rhs as loops over a repeated chain (compiler/tree/chain_loop.py)
     input_solve: int = 0             # recursive: jac_r solves M by NAME_msolve, this many columns a block (compiler/tree/input_jacobian.py)

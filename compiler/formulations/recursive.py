@@ -26,6 +26,7 @@ from ..tree.input_jacobian import input_jacobian_body, input_jacobian_ops, msolv
 from ..tree.jvp import tree_jvp_body
 from ..tree.lower import TREE_FUNCTION_GROUPS, TREE_HELPER_USERS, build_tree_symbolic
 from ..tree.regressor import PI_NAMES
+from ..contact.pairs import PairLoad
 from ..contact.tree import contact_outputs
 from ..emit.bodies import plain_body
 from ..tree.lower import implicit_layout
@@ -70,8 +71,11 @@ class Recursive(Formulation):
         return None
 
     def builds_implicit(self, requested):
-        from ..contact.pairs import PairLoad
-        grounded = bool(contact_outputs(self.tree))
+        from ..contact import pairs as _pairs
+        count = sum(1 for ld in self.tree.loads if isinstance(ld, PairLoad))
+        # body-body pairs whose slopes NAME_implicit holds (the table's; the inlined ones with INLINE_SLOPES)
+        sloped = bool(count) and ((_pairs.PAIR_TABLE and count >= _pairs.TABLE_FROM) or _pairs.INLINE_SLOPES)
+        grounded = bool(contact_outputs(self.tree)) or sloped
         if grounded and self.tree.loops is None:
             return True
         if not requested:
@@ -113,7 +117,7 @@ class Recursive(Formulation):
         if fn in REVERSE_FUNCTIONS:
             return reverse_body(fn, ctx, prog, sym, nx, len(layout.p), jacobian_symbols(prog, sym.W, ctx.nu)[1])
         if fn == "implicit":
-            size = implicit_layout(ctx.nq, ctx.nu, len(contact_outputs(self.tree)))["size"]
+            size = self.implicit_metadata(sym)["layout"]["size"]
             return tree_implicit_body(ctx, prog, sym.implicit_guards, size)
         if fn == "jvp":
             return tree_jvp_body(ctx, prog, *jacobian_symbols(prog, sym.W, ctx.nu), sym.seeds, nx, len(layout.p))
@@ -181,7 +185,7 @@ class Recursive(Formulation):
     def metadata(self, sym, functions):
         out = {}
         if "implicit" in functions:
-            out["implicit"] = self.implicit_metadata()
+            out["implicit"] = self.implicit_metadata(sym)
         if getattr(self.tree, "quaternions", ()):
             # x indices of each quaternion's w (x, y, z follow): the runtime keeps them unit
             out["quaternions"] = [int(k) for k in self.tree.quaternions]
@@ -193,11 +197,16 @@ class Recursive(Formulation):
                 "regressor_reference": list(sym.regressor_reference),
                 "regressor_parameters": list(PI_NAMES)}
 
-    def implicit_metadata(self):
+    def implicit_metadata(self, sym):
         """What runtime/c/eomc_fixedstep.c needs besides NAME_implicit's numbers: per contact
         the speeds that move its body (its chain to the root), and per speed its parent in
         the tree (the previous speed of its joint or of the nearest moving ancestor; -1 at
-        the root), for M's tree-sparse LDLᵀ."""
+        the root), for M's tree-sparse LDLᵀ.  A body-body pair's point (after the ground's
+        contacts, "pair": true) moves with its second body relative to its first: its speeds are
+        those that move one body and not the other, the first body's as ~s = -1 - s (a minus in
+        the runtime's J; the speeds that move both move the point alike on both and cancel): the
+        points the lowering gave slopes (``sym.implicit_pairs``: the pair table's, and the inlined
+        pairs' with pairs.INLINE_SLOPES)."""
         bodies = self.tree.bodies
         own = [[s for s, _ in b.dofs] for b in bodies]
 
@@ -210,5 +219,9 @@ class Recursive(Formulation):
         parent = speed_parents([b.parent for b in bodies], own)
         nq, nu = len(self.tree.coordinates), len(self.tree.speeds)
         contacts = contact_outputs(self.tree)
-        return {"contacts": [{"name": c.name, "speeds": chain(c.body)} for c in contacts],
-                "parents": parent, "layout": implicit_layout(nq, nu, len(contacts))}
+        entries = [{"name": c.name, "speeds": chain(c.body)} for c in contacts]
+        for name, body_a, body_b in sym.implicit_pairs:
+            a, b = chain(body_a), chain(body_b)
+            entries.append({"name": name, "pair": True,
+                            "speeds": [s for s in b if s not in a] + [~s for s in a if s not in b]})
+        return {"contacts": entries, "parents": parent, "layout": implicit_layout(nq, nu, len(entries))}

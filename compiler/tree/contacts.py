@@ -40,7 +40,9 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
     ``implicit``: a dict to fill for the fixed-step integrator's NAME_implicit (None: not
     built, no temporaries added), holding "step" (the C-printable unit step function); filled
     with "poses" (the placement) and "contacts", per contact (depth, contact point, its
-    velocity, K, C of :func:`eomc.compiler.contact.law.ground_jacobians`), world.
+    velocity, K, C of :func:`eomc.compiler.contact.law.ground_jacobians`), world, and "pairs", the
+    same per body-body pair point on the relative motion of its second body
+    (:func:`eomc.compiler.contact.pairs.law_slopes`), in the tree's loads' order.
     ``energy``: (the gravity vector (world, slot symbols), the speeds' symbols) when the
     ``energy`` output (:data:`~eomc.compiler.contact.tree.ENERGY`) is asked for, else None.
     ``guards``: a list to fill with the rhs's broad phase (:func:`body_guards`).
@@ -58,8 +60,9 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
     if not contacts and not others:
         return {}
     poses = world_placement(bodies, rec)
-    if implicit is not None:
-        implicit["poses"], implicit["contacts"] = poses, []
+    if implicit is not None:    # "pairs": the body-body pairs' points, after the ground's contacts
+        implicit["poses"], implicit["contacts"], implicit["pairs"] = poses, [], []
+    pair_slopes = implicit["pairs"] if implicit is not None else None
     values, elastic, reach, pairs = {}, [], {}, []
     table = [ld for ld in others if isinstance(ld, PairLoad)] if _pairs.PAIR_TABLE else []
     if len(table) < _pairs.TABLE_FROM and not second:   # a few pairs stay inlined (pairs.TABLE_FROM: why)
@@ -67,15 +70,19 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
     if table:               # every pair in one table-driven call (compiler/contact/table.py)
         wrenches = [] if analytic is not None else None
         info = {} if analytic is not None else None
-        values.update(lower_table(table, bodies, rec, v, rename, poses, wrenches, info))
+        values.update(lower_table(table, bodies, rec, v, rename, poses, wrenches, pair_slopes, info))
         if analytic is not None:        # the analytic jac_x takes their tangents (tree/analytic.py)
             analytic["pairs"] = wrenches
             analytic["pair_call"] = info
+    if implicit is not None:    # the pair points NAME_implicit holds (implicit_metadata lists them)
+        implicit["pair_loads"] = [ld for ld in others if isinstance(ld, PairLoad)
+                                  and (bool(table) or _pairs.INLINE_SLOPES)]
+    inline_slopes = pair_slopes if _pairs.INLINE_SLOPES else None
     for load in others:     # a body-body pair returns its outputs' and events' values
         if table and isinstance(load, PairLoad):
             continue
         if isinstance(load, PairLoad):
-            values.update(load.lower(bodies, rec, v, rename, poses, broad=pairs))
+            values.update(load.lower(bodies, rec, v, rename, poses, broad=pairs, slopes=inline_slopes))
         else:
             values.update(load.lower(bodies, rec, v, rename, poses) or {})
     for index, load in enumerate(contacts):
@@ -131,10 +138,10 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
     if guards is not None:
         guards.extend(body_guards(reach, poses) + pair_guards(pairs))
     if implicit is not None:
-        # the inlined pairs' broad phase too, as the rhs's: their forces are in NAME_implicit's f
-        # (their slopes are not: the fixed step takes a pair explicitly); without it every pair's
-        # narrow phase ran at every call (gymnasium hopper's 3 self-pairs: +17 % per call)
-        implicit["guards"] = body_guards(reach, poses, slopes=True) + pair_guards(pairs)
+        # the inlined pairs' broad phase too, as the rhs's, exporting their slopes with their forces;
+        # without it every pair's narrow phase ran at every call (gymnasium hopper's 3 self-pairs:
+        # +17 % per call)
+        implicit["guards"] = body_guards(reach, poses, slopes=True) + pair_guards(pairs, slopes=True)
     if analytic is not None:
         analytic["guards"] = body_guards(reach, poses, slopes=True, world=True)
     if energy is not None:

@@ -334,6 +334,9 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         sym = replace(sym, guards=tuple(guards))
     if implicit is not None and implicit.get("guards"):
         sym = replace(sym, implicit_guards=tuple(implicit["guards"]))
+    if implicit is not None and implicit.get("pair_loads"):
+        sym = replace(sym, implicit_pairs=tuple((ld.name if ld.part < 0 else f"{ld.name}:{ld.part}", ld.a.body, ld.b.body)
+                                                for ld in implicit["pair_loads"]))
     if analytic is not None and analytic.contacts and ground.get("guards"):
         sym = replace(sym, jac_guards=tuple(ground["guards"]))
     if wants_energy:
@@ -479,7 +482,10 @@ def implicit_layout(nq, nu, ncontact):
                        of a body it moves is ω x p + v0 per unit speed
         joint  2*nu    per speed, -d(joint law)/du and -d(joint law)/dq (0: none)
         contact 25 per contact: depth, point (3), its velocity (3), K (9), C (9), world
-                       (compiler/contact/law.ground_jacobians)"""
+                       (compiler/contact/law.ground_jacobians); the ground contacts, then the
+                       body-body pairs' points (their second body's motion relative to the first:
+                       compiler/contact/pairs.law_slopes; depth and point 0 where the pair's
+                       broad phase skips it)"""
     out, pos = {}, 0
     for key, size in (("M", nu * nu), ("f", nu), ("qd", nq), ("N", nq * nu), ("screw", 6 * nu),
                       ("joint", 2 * nu), ("contact", 25 * ncontact)):
@@ -491,7 +497,7 @@ def implicit_layout(nq, nu, ncontact):
 
 def _implicit_results(tree, bodies, formed, layout, A, b, implicit, nq, nu):
     """The ("imp", k) results of NAME_implicit, laid out as :func:`implicit_layout`."""
-    contacts = implicit.get("contacts", [])
+    contacts = implicit.get("contacts", []) + implicit.get("pairs", [])    # as implicit_metadata lists them
     poses = implicit["poses"]
     at = implicit_layout(nq, nu, len(contacts))
     out = {}

@@ -404,26 +404,59 @@ size_t eomc_fs_implicit_work_size(int nq, int nu, int ncontact)
      * nu * nu / 2 + nu + 1 doubles) and M's column lists (nu + 1 + nu * nu ints, in
      * nu * nu / 2 + nu / 2 + 1 doubles) */
     return 2 * fs_layout_of(nq, nu, ncontact).size + 2 * u * u + 10 * u + 4 * x + 8 + u * u / 2 + u + 2
-           + u * u / 2 + u / 2 + 2;
+           + u * u / 2 + u / 2 + 2
+           + 2 * u + (size_t)ncontact + 2 * (u * u / 2 + u + 2);   /* fs_pattern's bits and two own lists */
 }
 
 /* A = U D L in place (D on the diagonal, unit U above it, unit L below it): A has nonzeros
  * only between a speed and its ancestors (parent[k] < k; NULL: every earlier speed, i.e.
  * dense), so eliminating from the leaves up (Featherstone's LTDL, RBDA table 6.3, here
- * without symmetry: A is M plus the contacts' slopes, not symmetric) makes no fill-in.
+ * without symmetry: A is M plus the contacts' slopes, not symmetric) makes no fill-in
+ * (but where a body-body pair couples two branches: fs_ancestors' lists hold that fill).
  * 1 when a pivot is zero to rounding (64 eps of the largest diagonal entry) or not finite;
  * a negative pivot is no failure (A is not symmetric: a sliding contact's friction carried
  * by its normal force makes it indefinite, and measured on the falling humanoid a foot's
  * pivot goes negative while the step is fine). */
+/* A contact's chain entry: its speed s, or ~s = -1 - s for a body-body pair's first body (the
+ * point's velocity is the second body's less the first's: a minus in J). */
+static int fs_speed(int e)
+{
+    return e >= 0 ? e : ~e;
+}
+
 /* anc[start[k] .. start[k + 1]) = speed k's ancestors, nearest first (parent[] NULL: every
  * earlier speed); the elimination below walks these lists, not the parent chain (a chain of
- * dependent loads: measured on the humanoid, the walk was 40% of the step outside the model). */
-static void fs_ancestors(int n, const int *parent, int *start, int *anc)
+ * dependent loads: measured on the humanoid, the walk was 40% of the step outside the model).
+ * These lists, with the couplings the contacts add: a ground contact's speeds lie on one path to
+ * the root (they are ancestors of each other: nothing new), but a body-body pair's point joins its
+ * two bodies' branches below their common ancestor (gymnasium's humanoid: a hand against a thigh),
+ * and eliminating from the leaves up then fills in between them.  So the lists are the symbolic
+ * elimination of M's pattern plus every contact's couplings: per k the speeds i < k that row or
+ * column k meets when k is eliminated, largest first -- for a tree, and a model whose pairs each
+ * lie on one path, exactly the ancestors, nearest first (the same lists and bits as before).
+ * mark: n * n bytes of scratch. */
+static void fs_ancestors(int n, const int *parent, const eomc_implicit *imp, unsigned char *mark, int *start,
+                         int *anc)
 {
     int pos = 0;
+    memset(mark, 0, (size_t)n * n);
+    for (int k = 0; k < n; k++)
+        for (int i = parent ? parent[k] : k - 1; i >= 0; i = parent ? parent[i] : i - 1) mark[(size_t)k * n + i] = 1;
+    for (int c = 0; imp && imp->chain && c < imp->ncontact; c++)
+        for (int x = imp->chain_start[c]; x < imp->chain_start[c + 1]; x++)
+            for (int y = imp->chain_start[c]; y < imp->chain_start[c + 1]; y++) {
+                int i = fs_speed(imp->chain[x]), j = fs_speed(imp->chain[y]);
+                if (i > j) mark[(size_t)i * n + j] = 1;
+            }
+    for (int k = n - 1; k >= 0; k--)                 /* eliminating k couples what k meets */
+        for (int i = k - 1; i >= 0; i--)
+            if (mark[(size_t)k * n + i])
+                for (int j = i - 1; j >= 0; j--)
+                    if (mark[(size_t)k * n + j]) mark[(size_t)i * n + j] = 1;
     for (int k = 0; k < n; k++) {
         start[k] = pos;
-        for (int i = parent ? parent[k] : k - 1; i >= 0; i = parent ? parent[i] : i - 1) anc[pos++] = i;
+        for (int i = k - 1; i >= 0; i--)
+            if (mark[(size_t)k * n + i]) anc[pos++] = i;
     }
     start[n] = pos;
 }
@@ -537,14 +570,57 @@ static void fs_secant_friction(const double *K, const double *C, double *Cs)
         }
 }
 
+/* The elimination's lists of one matrix of (2), per step: M's tree pattern, or, where a pressed
+ * body-body pair joins two branches, that pattern with the pair's fill.  Why per step: the fill of
+ * every pair the model has (fs_ancestors with them all) made gymnasium's humanoid's 109 self-pairs
+ * couple nearly all its limbs' speeds -- 3795 updates a factorisation against M's 1394 -- at every
+ * step, while a step has at most a few pairs pressed.  With bits (n <= 64), the fill of the pressed
+ * pairs costs a few hundred operations and only on the steps that have one; the lists it gives are
+ * fs_ancestors' for those pairs (the same order: the same bits where the pattern is the same, and
+ * the same nonzero bits where a bigger pattern only adds exact zeros). */
+typedef struct fs_pattern {
+    int n;
+    const int *start, *anc;              /* M's (n > 64 or NULL tree: with every pair's fill) */
+    const unsigned long long *tree;      /* n: speed k's ancestors as bits; NULL: no per-step fill */
+    const unsigned long long *cross;     /* per contact: its speeds' bits where it joins two branches, else 0 */
+    unsigned long long *bits;            /* n: scratch */
+} fs_pattern;
+
+/* bits = the pattern's with contact c's couplings (bits holds the tree's already). */
+static void fs_couple(const fs_pattern *pat, const eomc_implicit *imp, int c)
+{
+    unsigned long long m = pat->cross[c];
+    for (int x = imp->chain_start[c]; x < imp->chain_start[c + 1]; x++) {
+        int s = fs_speed(imp->chain[x]);
+        pat->bits[s] |= m & ((1ULL << s) - 1);
+    }
+}
+
+/* own = the lists of bits' pattern after elimination (as fs_ancestors builds them). */
+static void fs_fill(const fs_pattern *pat, int *own)
+{
+    int n = pat->n, pos = 0, *start = own, *anc = own + n + 1;
+    unsigned long long *m = pat->bits;
+    for (int k = n - 1; k >= 0; k--)
+        for (int i = k - 1; i >= 0; i--)
+            if (m[k] >> i & 1) m[i] |= m[k] & ((1ULL << i) - 1);
+    for (int k = 0; k < n; k++) {
+        start[k] = pos;
+        for (int i = k - 1; i >= 0; i--)
+            if (m[k] >> i & 1) anc[pos++] = i;
+    }
+    start[n] = pos;
+}
+
 /* A = M + h C~ + h^2 K~ from the terms T (factored in place) and b = f - h K~ u: the
- * matrix and right side of (2) for a step of size h from the state T was evaluated at. */
+ * matrix and right side of (2) for a step of size h from the state T was evaluated at; *start,
+ * *anc its elimination's lists (the pattern's, or in own: fs_pattern). */
 static int fs_assemble(const eomc_fs_ops *ops, const fs_layout *L, double h, const double *u,
                        const double *T, double *A, double *b, double *J, double *GJ, double *Kv,
-                       const int *start, const int *anc)
+                       const fs_pattern *pat, int *own, const int **start, const int **anc)
 {
     const eomc_implicit *imp = ops->imp;
-    int nu = ops->nu;
+    int nu = ops->nu, grown = 0;
     const double *scr = T + L->screw, *jl = T + L->joint;
     memcpy(A, T + L->M, (size_t)nu * nu * sizeof(double));
     memcpy(b, T + L->f, (size_t)nu * sizeof(double));
@@ -572,28 +648,46 @@ static int fs_assemble(const eomc_fs_ops *ops, const fs_layout *L, double h, con
             any |= G[a] != 0.0;
         }
         if (!any) continue;
+        if (pat->tree && pat->cross[c]) {             /* a pressed pair across two branches */
+            if (!grown) memcpy(pat->bits, pat->tree, (size_t)nu * sizeof *pat->bits);
+            grown = 1;
+            fs_couple(pat, imp, c);
+        }
         for (int a = 0; a < 3; a++)
             Kv[a] = K[3 * a] * vp[0] + K[3 * a + 1] * vp[1] + K[3 * a + 2] * vp[2];
-        for (int k = 0; k < m; k++) {                 /* J[:, k] = w x p + v0 of speed cols[k] */
-            const double *w = scr + 6 * (size_t)cols[k], *v0 = w + 3;
+        for (int k = 0; k < m; k++) {                 /* J[:, k] = ±(w x p + v0) of speed cols[k] */
+            const int s = fs_speed(cols[k]);
+            const double *w = scr + 6 * (size_t)s, *v0 = w + 3;
             double *j = J + 3 * k;
             j[0] = v0[0] + w[1] * p[2] - w[2] * p[1];
             j[1] = v0[1] + w[2] * p[0] - w[0] * p[2];
             j[2] = v0[2] + w[0] * p[1] - w[1] * p[0];
+            if (cols[k] < 0) {                        /* a pair's first body: v_rel = v_B - v_A */
+                j[0] = -j[0];
+                j[1] = -j[1];
+                j[2] = -j[2];
+            }
             for (int a = 0; a < 3; a++)
                 GJ[3 * k + a] = G[3 * a] * j[0] + G[3 * a + 1] * j[1] + G[3 * a + 2] * j[2];
-            b[cols[k]] -= h * (j[0] * Kv[0] + j[1] * Kv[1] + j[2] * Kv[2]);
+            b[s] -= h * (j[0] * Kv[0] + j[1] * Kv[1] + j[2] * Kv[2]);
         }
         for (int a = 0; a < m; a++) {
             const double *ja = J + 3 * a;
-            double *row = A + (size_t)cols[a] * nu;
+            double *row = A + (size_t)fs_speed(cols[a]) * nu;
             for (int k = 0; k < m; k++) {
                 const double *g = GJ + 3 * k;
-                row[cols[k]] += ja[0] * g[0] + ja[1] * g[1] + ja[2] * g[2];
+                row[fs_speed(cols[k])] += ja[0] * g[0] + ja[1] * g[1] + ja[2] * g[2];
             }
         }
     }
-    if (fs_tree_lu(nu, A, start, anc)) return EOMC_SINGULAR_MASS_MATRIX;
+    *start = pat->start;
+    *anc = pat->anc;
+    if (grown) {
+        fs_fill(pat, own);
+        *start = own;
+        *anc = own + nu + 1;
+    }
+    if (fs_tree_lu(nu, A, *start, *anc)) return EOMC_SINGULAR_MASS_MATRIX;
     return EOMC_OK;
 }
 
@@ -686,7 +780,12 @@ eomc_fs_lanes *eomc_fs_lanes_new(int nq, int nu, const eomc_implicit *imp, int l
     cols = cstart + n + 1;
     w->diag = cols + n * n;
     w->upd = w->diag + n;
-    fs_ancestors(nu, imp->parent, w->start, w->anc);
+    {
+        unsigned char *mark = (unsigned char *)malloc(n * n + 1);
+        if (mark == NULL) { eomc_fs_lanes_free(w); return NULL; }
+        fs_ancestors(nu, imp->parent, imp, mark, w->start, w->anc);
+        free(mark);
+    }
     fs_columns(nu, w->start, w->anc, cstart, cols);
     for (size_t i = 0; i < n * n; i++) slot[i] = -1;
     w->nslot = cstart[nu];
@@ -713,7 +812,7 @@ eomc_fs_lanes *eomc_fs_lanes_new(int nq, int nu, const eomc_implicit *imp, int l
         int m = imp->chain_start[c + 1] - imp->chain_start[c];
         w->cslot_start[c] = pos;
         for (int a = 0; a < m; a++)
-            for (int k = 0; k < m; k++) w->cslot[pos++] = slot[(size_t)ch[a] * n + ch[k]];
+            for (int k = 0; k < m; k++) w->cslot[pos++] = slot[(size_t)fs_speed(ch[a]) * n + fs_speed(ch[k])];
     }
     w->cslot_start[nc] = pos;
     for (int i = 0; i < nupd; i++)
@@ -752,7 +851,9 @@ typedef struct fs_fast {
     int have_T;                  /* T holds the terms at the x fs_loop hands in */
     int deep;                    /* -1, or the first contact found deeper than its limit */
     double *du, *dv, *J, *GJ, *Kv, *x1, *xs, *f1;
-    int *start, *anc;
+    fs_pattern pat;
+    const int *start, *anc, *start1, *anc1;   /* A's and A1's elimination lists (fs_assemble) */
+    int *own, *own1;                          /* where they are made when a pair adds fill */
     int *cstart, *cols;          /* per speed, the columns of M's row that can be nonzero */
 } fs_fast;
 
@@ -761,6 +862,15 @@ static void fs_swap(double **a, double **b)
     double *t = *a;
     *a = *b;
     *b = t;
+}
+
+/* A and A1 swapped with their lists. */
+static void fs_swap_lists(fs_fast *q)
+{
+    const int *s = q->start, *a = q->anc;
+    int *o = q->own;
+    q->start = q->start1; q->anc = q->anc1; q->own = q->own1;
+    q->start1 = s; q->anc1 = a; q->own1 = o;
 }
 
 /* One step (2) of size h from (t, x) with T, A, b made for it: x1, then the terms at x1 in
@@ -800,9 +910,13 @@ static int fs_fast_try(fs_fast *q, double t, double h, const double *x, int chec
     } else if ((s = ops->terms(ops->ctx, t + h, q->x1, q->T1))) {
         return s;
     }
-    if (!done && (s = fs_assemble(ops, L, h, q->x1 + nq, q->T1, q->A1, q->b1, q->J, q->GJ, q->Kv,
-                                  q->start, q->anc)))
+    if (done) {                         /* the lanes' pattern: every pair's fill (fs_ancestors) */
+        q->start1 = q->pat.start;
+        q->anc1 = q->pat.anc;
+    } else if ((s = fs_assemble(ops, L, h, q->x1 + nq, q->T1, q->A1, q->b1, q->J, q->GJ, q->Kv, &q->pat,
+                                q->own1, &q->start1, &q->anc1))) {
         return s;
+    }
     if (!check) {                       /* the residual test is off: nothing reads the ratio */
         *ratio = 0.0;
         return EOMC_OK;
@@ -818,7 +932,7 @@ static int fs_fast_try(fs_fast *q, double t, double h, const double *x, int chec
             q->dv[i] = r;
         }
     }
-    fs_tree_solve(nu, q->A1, q->start, q->anc, q->dv);
+    fs_tree_solve(nu, q->A1, q->start1, q->anc1, q->dv);
     for (int i = 0; i < nu; i++) {
         rn += q->dv[i] * q->dv[i];
         dn += q->du[i] * q->du[i];
@@ -962,8 +1076,8 @@ static int fs_fast_advance(void *self, double t, double h, const double *x, doub
     while (pos < MAX_SPLIT) {
         double ts = t + h * pos / MAX_SPLIT, hs = size == MAX_SPLIT ? h : h * size / MAX_SPLIT, ratio;
         if (q->hA != hs) {
-            if ((s = fs_assemble(ops, &q->L, hs, xs + ops->nq, q->T, q->A, q->b, q->J, q->GJ, q->Kv,
-                                 q->start, q->anc))) {
+            if ((s = fs_assemble(ops, &q->L, hs, xs + ops->nq, q->T, q->A, q->b, q->J, q->GJ, q->Kv, &q->pat,
+                                 q->own, &q->start, &q->anc))) {
                 q->st->t_fail = ts;
                 return s;
             }
@@ -997,6 +1111,7 @@ static int fs_fast_advance(void *self, double t, double h, const double *x, doub
         pos += size;
         fs_swap(&q->T, &q->T1);
         fs_swap(&q->A, &q->A1);
+        fs_swap_lists(q);
         fs_swap(&q->b, &q->b1);
         if (pos < MAX_SPLIT) {                  /* a sub-step ended inside the step */
             memcpy(q->xs, q->x1, (size_t)n * sizeof(double));
@@ -1093,11 +1208,44 @@ int eomc_fs_run(const eomc_fs_ops *ops, eomc_stats *st, int nx, double h, long m
         slope = pos; pos += n;
         q.f1 = pos; pos += n;           /* accept's f1: quaternions rescale it; not read back */
         memset(q.f1, 0, (size_t)n * sizeof(double));
-        q.start = (int *)pos; q.anc = q.start + nu + 1;
-        fs_ancestors(nu, ops->imp->parent, q.start, q.anc);
-        q.cstart = q.anc + q.start[nu];
-        q.cols = q.cstart + nu + 1;
-        fs_columns(nu, q.start, q.anc, q.cstart, q.cols);
+        {
+            /* per-step fill (fs_pattern) with M's tree given, at most 64 speeds, and not in the lanes
+             * rollout (whose A1 comes with every pair's fill); else every pair's fill at every step */
+            const eomc_implicit *imp = ops->imp;
+            int nc = imp->ncontact, dyn = imp->parent != NULL && nu <= 64 && ops->terms_lu == NULL;
+            unsigned long long *tree = (unsigned long long *)pos, *cross = tree + nu;
+            int *lists;
+            q.pat.bits = cross + nc;
+            pos += 2 * (size_t)nu + (size_t)nc;
+            q.own = (int *)pos; pos += uu / 2 + nu + 2;
+            q.own1 = (int *)pos; pos += uu / 2 + nu + 2;
+            lists = (int *)pos;
+            fs_ancestors(nu, imp->parent, dyn ? NULL : imp, (unsigned char *)q.A1, lists, lists + nu + 1);
+            q.pat.n = nu;
+            q.pat.start = lists;
+            q.pat.anc = lists + nu + 1;
+            q.pat.tree = dyn ? tree : NULL;
+            q.pat.cross = cross;
+            for (int k = 0; k < nu; k++) {
+                tree[k] = 0;
+                for (int x = lists[k]; dyn && x < lists[k + 1]; x++) tree[k] |= 1ULL << lists[nu + 1 + x];
+            }
+            for (int c = 0; c < nc; c++) {     /* a chain that is not on one path joins two branches */
+                unsigned long long m = 0;
+                int path = 1;
+                for (int x = imp->chain_start[c]; dyn && x < imp->chain_start[c + 1]; x++) m |= 1ULL << fs_speed(imp->chain[x]);
+                for (int x = imp->chain_start[c]; dyn && x < imp->chain_start[c + 1]; x++) {
+                    int sp = fs_speed(imp->chain[x]);
+                    if (m & ((1ULL << sp) - 1) & ~tree[sp]) path = 0;
+                }
+                cross[c] = path ? 0 : m;
+            }
+            q.start = q.start1 = q.pat.start;
+            q.anc = q.anc1 = q.pat.anc;
+            q.cstart = lists + nu + 1 + lists[nu];
+            q.cols = q.cstart + nu + 1;
+            fs_columns(nu, q.pat.start, q.pat.anc, q.cstart, q.cols);
+        }
         s = fs_loop(ops, st, n, h, maxs, t0, t1, x, slope, fs_fast_advance, &q);
         if (s == EOMC_OK && q.deep >= 0) s = EOMC_PENETRATED;
         return s;

@@ -91,14 +91,19 @@ __attribute__((target(FSL_TARGET))) static void FSL_KERNEL(eomc_fs_lanes *w, con
         if (!FSL_ANY(&on)) continue;
         for (int a = 0; a < 3; a++)
             Kv[a] = K[3 * a] * vp[0] + K[3 * a + 1] * vp[1] + K[3 * a + 2] * vp[2];
-        for (int k = 0; k < m; k++) {                 /* J[:, k] = w x p + v0 of speed cols[k] */
-            const size_t sw = L->screw + 6 * (size_t)cols[k];
+        for (int k = 0; k < m; k++) {                 /* J[:, k] = ±(w x p + v0) of speed cols[k] */
+            const size_t sw = L->screw + 6 * (size_t)fs_speed(cols[k]);
             const FSL_V wv[3] = {FSL_T(sw), FSL_T(sw + 1), FSL_T(sw + 2)};
             const FSL_V v0[3] = {FSL_T(sw + 3), FSL_T(sw + 4), FSL_T(sw + 5)};
-            FSL_V *j = J + 3 * k, *bk = b + cols[k];
+            FSL_V *j = J + 3 * k, *bk = b + fs_speed(cols[k]);
             j[0] = v0[0] + wv[1] * p[2] - wv[2] * p[1];
             j[1] = v0[1] + wv[2] * p[0] - wv[0] * p[2];
             j[2] = v0[2] + wv[0] * p[1] - wv[1] * p[0];
+            if (cols[k] < 0) {                        /* a pair's first body: v_rel = v_B - v_A */
+                j[0] = -j[0];
+                j[1] = -j[1];
+                j[2] = -j[2];
+            }
             for (int a = 0; a < 3; a++)
                 GJ[3 * k + a] = G[3 * a] * j[0] + G[3 * a + 1] * j[1] + G[3 * a + 2] * j[2];
             *bk = FSL_SEL(on, *bk - h * (j[0] * Kv[0] + j[1] * Kv[1] + j[2] * Kv[2]), *bk);

@@ -147,6 +147,7 @@ def test_lanes_rollout_sanitizer_clean_and_equal_to_the_scalar_rollout(cart_sour
 # ---------------------------------------------------------------- implicitfast rows in fibers
 
 HOPPER_DRIVER = r"""
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -243,7 +244,8 @@ def _hopper_driver(spec, gm):
     """HOPPER_DRIVER with the model's start, contact structure (NAME.json's "implicit", as
     simulate.implicit_terms reads it) and depth limits written in."""
     md, info = gm.metadata, gm.metadata["implicit"]
-    c_list = lambda values: ", ".join(repr(v) for v in values)   # noqa: E731
+    # (a body-body pair's point has no depth limit: inf, C's INFINITY)
+    c_list = lambda values: ", ".join("INFINITY" if v == float("inf") else repr(v) for v in values)   # noqa: E731
     starts = [0]
     for c in info["contacts"]:
         starts.append(starts[-1] + len(c["speeds"]))

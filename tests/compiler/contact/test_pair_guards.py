@@ -115,7 +115,10 @@ def test_the_implicit_terms_keep_the_pairs_broad_phase(tmp_path, monkeypatch):
     """NAME_implicit (implicitfast's terms) holds the pairs' forces in its forcing f.  Its broad
     phase had the ground contacts' guards only, so every inlined pair's narrow phase ran at every
     call (gymnasium's hopper and its 3 self-pairs: 17 % of the call).  Now it has the rhs's pair
-    guards too, and its terms are the straight-line ones near, far and pressed."""
+    guards too, and its terms are the straight-line ones near, far and pressed, but for a pair
+    point's entries where it is not pressed (its slopes and velocity 0; its depth and point 0 where
+    the broad phase skipped the pair)."""
+    monkeypatch.setattr(pairs, "INLINE_SLOPES", True)       # the inlined pairs' slopes exported too
     path = tmp_path / "pf.xml"        # the scene above over a floor: NAME_implicit needs ground contacts
     path.write_text(XML.replace("<worldbody>", '<worldbody><geom name="floor" type="plane" size="2 2 0.1" '
                                                'pos="0 0 -0.6"/>'))
@@ -152,7 +155,27 @@ def test_the_implicit_terms_keep_the_pairs_broad_phase(tmp_path, monkeypatch):
 
     a = np.array([terms(guarded, x) for x in X])
     b = np.array([terms(straight, x) for x in X])
-    assert np.all(np.isfinite(b)) and np.array_equal(a, b)      # 0.0 == -0.0
+    assert np.all(np.isfinite(b))
+    # the pairs' points (after the floor's contacts): where a point is not pressed its slopes and
+    # relative velocity are 0 (its depth's guard), and its depth and point are 0 where the pair's
+    # broad phase skipped it (NAME_implicit's "not in contact"), else the same
+    info = guarded.metadata["implicit"]
+    at = info["layout"]["contact"]
+    apart = 0
+    for c, item in enumerate(info["contacts"]):
+        if not item.get("pair"):
+            continue
+        e = slice(at + 25 * c, at + 25 * (c + 1))
+        ea, eb = a[:, e].copy(), b[:, e].copy()
+        off = ~(eb[:, 0] > 0)
+        assert not ea[off, 4:].any()
+        skipped = off & ~ea[:, :4].any(axis=1)
+        apart += skipped.sum()
+        ea[off, 4:] = eb[off, 4:]
+        ea[skipped, :4] = eb[skipped, :4]
+        a[:, e], b[:, e] = ea, eb
+    assert apart > 0
+    assert np.array_equal(a, b)      # 0.0 == -0.0
     pressed = np.array([[guarded.outputs(0.0, x)[k] > 0 for k in guarded.output_names
                          if k.startswith("depth_") and "__" in k] for x in X[:200]])
     assert pressed.any(axis=0).sum() >= 6 and (~pressed).any(axis=0).all()      # pairs pressed and apart
