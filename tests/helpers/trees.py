@@ -55,23 +55,27 @@ def add_joint_spring(system, index, k, c):
     return system
 
 
-def cart_joints(n, rigid=False):
+def cart_joints(n, rigid=False, tip=False):
     """SymPy System: cart on a PrismaticJoint, n links on PinJoints (relative angles).
 
     ``rigid``: the links get a full inertia (symbols) instead of point masses.
+    ``tip``: one more link after the n equal ones, of its own mass mt and length lt.
     Equations are not formed (System.form_eoms() is the caller's choice).
     """
-    q = sme.dynamicsymbols(f"q:{n + 1}")
-    u = sme.dynamicsymbols(f"u:{n + 1}")
+    links = n + 1 if tip else n
+    q = sme.dynamicsymbols(f"q:{links + 1}")
+    u = sme.dynamicsymbols(f"u:{links + 1}")
     m0, m, l, g = sm.symbols("m0 m l g", positive=True)
+    mt, lt = sm.symbols("mt lt", positive=True) if tip else (m, l)
     F = sme.dynamicsymbols("F")
     ground = sme.RigidBody("ground")
     cart = sme.RigidBody("cart", mass=m0)
     cart.inertia = (sme.inertia(cart.frame, 0, 0, 0), cart.masscenter)
     joints = [sme.PrismaticJoint("slider", ground, cart, q[0], u[0], joint_axis=ground.frame.x)]
     parent = cart
-    for i in range(1, n + 1):
-        link = sme.RigidBody(f"link{i}", mass=m)
+    for i in range(1, links + 1):
+        last = tip and i == links
+        link = sme.RigidBody(f"link{i}", mass=mt if last else m)
         if rigid:
             ixx, iyy, izz, ixy = sm.symbols(f"ixx{i} iyy{i} izz{i} ixy{i}")
             link.inertia = (sme.inertia(link.frame, ixx, iyy, izz, ixy), link.masscenter)
@@ -79,7 +83,7 @@ def cart_joints(n, rigid=False):
             link.inertia = (sme.inertia(link.frame, 0, 0, 0), link.masscenter)
         ppoint = parent.masscenter if i == 1 else -l * parent.frame.y
         joints.append(sme.PinJoint(f"pin{i}", parent, link, q[i], u[i], parent_point=ppoint,
-                                   child_point=l * link.frame.y, joint_axis=parent.frame.z))
+                                   child_point=(lt if last else l) * link.frame.y, joint_axis=parent.frame.z))
         parent = link
     system = sme.System.from_newtonian(ground)
     system.add_joints(*joints)

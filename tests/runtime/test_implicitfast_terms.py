@@ -15,6 +15,7 @@ import pytest
 
 import eomc
 from eomc.runtime.simulate import bind_call, implicit_terms, prepare
+from helpers.implicit_call import implicit_terms_at
 
 
 def _gym(name):
@@ -40,17 +41,6 @@ def ant(tmp_path_factory):
     return _build("ant", tmp_path_factory, ("rhs", "outputs", "implicit"))
 
 
-def _terms(model, x):
-    layout = model.metadata["implicit"]["layout"]
-    out = np.zeros(layout["size"])
-    ffi = model.ffi
-    fp = ffi.addressof(model.model_lib, f"{model.name}_implicit")
-    r = model._default_r if model.ninput else ffi.NULL
-    status = fp(0.0, ffi.from_buffer("double[]", x), model._default_p, r, ffi.from_buffer("double[]", out), ffi.NULL)
-    assert status == 0
-    return out, layout
-
-
 def _state(model, seed, sink=0.0):
     """Near the file's start (its qpos0: q_rootz is the torso's height, 1.25 m), the foot
     ``sink`` below where it starts (0.1 m up)."""
@@ -66,7 +56,7 @@ def _state(model, seed, sink=0.0):
 def test_terms_are_the_models_own_numbers(hopper, seed):
     m = hopper
     x = _state(m, seed, sink=0.05 + 0.01 * seed)     # the foot's two ends in touch
-    out, at = _terms(m, x)
+    out, at = implicit_terms_at(m, x)
     nq, nu = m.nq, m.nu
     assert np.array_equal(out[at["M"]:at["M"] + nu * nu].reshape(nu, nu), m.mass_matrix(0.0, x))
     assert np.array_equal(out[at["f"]:at["f"] + nu], m.forcing(0.0, x))
@@ -101,7 +91,7 @@ def test_contact_slopes_are_the_laws_derivatives(hopper):
     m = hopper
     x = _state(m, 5, sink=0.12)
     iz = list(m.state_names).index("q_rootz")
-    out, at = _terms(m, x)
+    out, at = implicit_terms_at(m, x)
     contacts = m.metadata["implicit"]["contacts"]
     outs = dict(m.outputs(0.0, x))
     eps = 1e-7

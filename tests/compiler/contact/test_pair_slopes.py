@@ -18,6 +18,7 @@ pytest.importorskip("mujoco")
 
 import eomc  # noqa: E402
 import eomc.compiler.contact.pairs as pairs  # noqa: E402
+from helpers.implicit_call import implicit_terms_at  # noqa: E402
 
 from .test_narrow import LIMBS  # noqa: E402
 
@@ -39,15 +40,15 @@ def limbs(request, tmp_path_factory):
         pairs.PAIR_TABLE, pairs.TABLE_FROM, pairs.INLINE_SLOPES = saved
 
 
-def _terms(model, x):
-    layout = model.metadata["implicit"]["layout"]
-    out = np.zeros(layout["size"])
-    ffi = model.ffi
-    fp = ffi.addressof(model.model_lib, f"{model.name}_implicit")
-    r = model._default_r if model.ninput else ffi.NULL
-    assert fp(0.0, ffi.from_buffer("double[]", x), model._default_p, r, ffi.from_buffer("double[]", out),
-              ffi.NULL) == 0
-    return out, layout
+def _d_by_speeds(total, x, nq, nu, h):
+    """Central differences (step h) of the 3-vector total(x) with respect to each speed."""
+    dFdu = np.zeros((3, nu))
+    for k in range(nu):
+        xp, xm = x.copy(), x.copy()
+        xp[nq + k] += h
+        xm[nq + k] -= h
+        dFdu[:, k] = (total(xp) - total(xm)) / (2 * h)
+    return dFdu
 
 
 def jacobian(out, layout, item, nu):
@@ -99,7 +100,7 @@ def test_pressed_points_are_the_rhs_points_and_move_with_j_u(limbs):
     nq, nu = m.nq, m.nu
     pressed = set()
     for x in _states(m, 200):
-        out, at = _terms(m, x)
+        out, at = implicit_terms_at(m, x)
         o = dict(m.outputs(0.0, x))
         for c, item in enumerate(info["contacts"]):
             e = out[at["contact"] + 25 * c:at["contact"] + 25 * (c + 1)]
@@ -131,7 +132,7 @@ def test_slopes_are_the_central_differences_of_the_pair_force(limbs):
     ball = [names.index(f"q_joint3_{a}") for a in "xyz"]
     checked = 0
     for x in _states(m, 400):
-        out, at = _terms(m, x)
+        out, at = implicit_terms_at(m, x)
         for c, item in enumerate(info["contacts"]):
             name = item["name"]
             fn, _ = _force(m, x, name)
@@ -154,12 +155,7 @@ def test_slopes_are_the_central_differences_of_the_pair_force(limbs):
             def total(xx):
                 f, ft = _force(m, xx, name)
                 return f * n + ft          # n does not move with u, nor with B moved along n
-            dFdu = np.zeros((3, nu))
-            for k in range(nu):
-                xp, xm = x.copy(), x.copy()
-                xp[nq + k] += h
-                xm[nq + k] -= h
-                dFdu[:, k] = (total(xp) - total(xm)) / (2 * h)
+            dFdu = _d_by_speeds(total, x, nq, nu, h)
             scale = np.abs(C @ J).max()
             assert np.allclose(dFdu, -C @ J, rtol=0, atol=1e-5 * scale), (name, dFdu, -C @ J)
             # K at fixed v_rel: with the bodies not turning (only the free joints' linear speeds
@@ -168,7 +164,7 @@ def test_slopes_are_the_central_differences_of_the_pair_force(limbs):
             still = x.copy()
             still[nq + 3:nq + 10] = 0.0
             still[nq + 13:] = 0.0
-            K = _terms(m, still)[0][at["contact"] + 25 * c + 7:at["contact"] + 25 * c + 16].reshape(3, 3)
+            K = implicit_terms_at(m, still)[0][at["contact"] + 25 * c + 7:at["contact"] + 25 * c + 16].reshape(3, 3)
             xp, xm = still.copy(), still.copy()
             xp[ball] += h * n
             xm[ball] -= h * n
@@ -207,7 +203,7 @@ def test_humanoid_pressed_self_pairs(humanoid):
                          n_points=101)
     checked, pairs_seen = 0, set()
     for x in run.x[::2]:
-        out, at = _terms(m, x)
+        out, at = implicit_terms_at(m, x)
         o = dict(m.outputs(0.0, x))
         for c, item in items:
             name = item["name"]
@@ -236,12 +232,7 @@ def test_humanoid_pressed_self_pairs(humanoid):
             def total(xx):
                 f, ft = _force(m, xx, name)
                 return f * n + ft
-            dFdu = np.zeros((3, nu))
-            for k in range(nu):
-                xp, xm = x.copy(), x.copy()
-                xp[nq + k] += h
-                xm[nq + k] -= h
-                dFdu[:, k] = (total(xp) - total(xm)) / (2 * h)
+            dFdu = _d_by_speeds(total, x, nq, nu, h)
             assert np.allclose(dFdu, -C @ J, rtol=0, atol=1e-5 * np.abs(C @ J).max()), name
             checked += 1
             pairs_seen.add(name)

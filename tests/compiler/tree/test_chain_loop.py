@@ -101,39 +101,12 @@ def test_non_repeating_trees_keep_straight_line(tmp_path):
     assert off.source_path.read_text() == rigid.source_path.read_text()
 
 
-def _cart_with_tip(n):
-    """The cart with n equal links and a tip link of its own mass and length (the repeated run
-    is in the middle: bodies after it are straight-line blocks)."""
-    import sympy as sm
-    from sympy.physics import mechanics as sme
-    q, u = sme.dynamicsymbols(f"q:{n + 2}"), sme.dynamicsymbols(f"u:{n + 2}")
-    m0, m, l, g, mt, lt = sm.symbols("m0 m l g mt lt", positive=True)
-    F = sme.dynamicsymbols("F")
-    ground, cart = sme.RigidBody("ground"), sme.RigidBody("cart", mass=m0)
-    cart.inertia = (sme.inertia(cart.frame, 0, 0, 0), cart.masscenter)
-    joints = [sme.PrismaticJoint("slider", ground, cart, q[0], u[0], joint_axis=ground.frame.x)]
-    parent = cart
-    for i in range(1, n + 2):
-        tip = i == n + 1
-        link = sme.RigidBody(f"link{i}", mass=mt if tip else m)
-        link.inertia = (sme.inertia(link.frame, 0, 0, 0), link.masscenter)
-        joints.append(sme.PinJoint(f"pin{i}", parent, link, q[i], u[i],
-                                   parent_point=parent.masscenter if i == 1 else -l * parent.frame.y,
-                                   child_point=(lt if tip else l) * link.frame.y, joint_axis=parent.frame.z))
-        parent = link
-    system = sme.System.from_newtonian(ground)
-    system.add_joints(*joints)
-    system.apply_uniform_gravity(-g * ground.frame.y)
-    system.add_loads(sme.Force(cart.masscenter, F * ground.frame.x))
-    return system, [F]
-
-
 def test_run_in_the_middle(tmp_path):
     """A different tip after the repeated links: cart, link 1, the loop, the tip (a block)."""
     n = 6
-    system, inputs = _cart_with_tip(n)
+    system, inputs = cart_joints(n, tip=True)
     loop = _build(system, "cl_tip", 3, tmp_path, inputs=inputs)
-    line = _build(_cart_with_tip(n)[0], "cl_tip", None, tmp_path / "off", inputs=inputs)
+    line = _build(cart_joints(n, tip=True)[0], "cl_tip", None, tmp_path / "off", inputs=inputs)
     assert f"for (k = 0; k < {n - 1}; k++)" in loop.source_path.read_text() and not _looped(line)
     rng = np.random.default_rng(5)
     p = rng.uniform(0.5, 1.5, loop.nparam)
