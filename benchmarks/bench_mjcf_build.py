@@ -41,9 +41,14 @@ def _cpu():
 
 
 def _sizes(text, name):
-    """C bytes per generated function (its _part routines included), the rest as "other"."""
-    starts = [(m.start(), m.group(1)) for m in re.finditer(
-        rf"^(?:static |int |void |const )[^\n(]*?\b{name}_(\w+?)(?:_part\d+_\d+)?\(", text, re.M)]
+    """C bytes per generated function (its _part routines included), the static routines that
+    no function's name prefixes (the pairs' table and narrow phase: "routines") and the
+    name/default tables with the model struct ("tables")."""
+    starts = []
+    for m in re.finditer(r"^(?:static |int |void |const |double )[^\n;=]*\(|^(?:static )?const [^\n(]*=", text, re.M):
+        own = re.match(rf"[^(]*?\b{name}_(\w+?)(?:_part\d+_\d+)?\(", m.group(0))
+        starts.append((m.start(), own.group(1) if own and "(" in m.group(0) else
+                       "tables" if m.group(0).endswith("=") else "routines"))
     sizes = {}
     for (at, fn), (end, _) in zip(starts, starts[1:] + [(len(text), "")]):
         sizes[fn] = sizes.get(fn, 0) + end - at
@@ -137,7 +142,8 @@ def main():
         f"max {max(loads):.1f}; CPU = the child's user + sys and its C compiler's (medians over rounds)",
         "- before: `lower.CONTACT_KERNELS = False` (mass_matrix, jac_r, forcing, inverse_dynamics straight-line, "
         "the C of main before session 14); after: the default", "",
-        *rows, "", "C kB per function (its _part routines included; first round; functions >= 20 kB in some build):", "",
+        *rows, "", "C kB per function (its _part routines included; routines: the static ones no function's name prefixes, "
+        "the pairs' table and narrow phase; tables: names, defaults, the model struct; first round; >= 20 kB in some build):", "",
         *table2])
     print(text)
     if "--no-write" not in sys.argv:
