@@ -221,6 +221,8 @@ def test_ellipsoid_support_point_moving_on_its_body(monkeypatch, tmp_path):
     differences, touching and clear, on a free ellipsoid with its geom turned and off the body's
     origin; jac_id likewise."""
     from eomc.compiler.mjcf.model import MjcfModel
+    from eomc.compiler.tree import contacts
+    monkeypatch.setattr(contacts, "PLAN_SHAPES", True)
     path = tmp_path / "egg.xml"
     path.write_text(ELLIPSOID)
     fast, slow = both(MjcfModel(path), "egg", monkeypatch, tmp_path,
