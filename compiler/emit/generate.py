@@ -17,7 +17,7 @@ from .formulation import KANE, Formulation
 from .generated import GeneratedModel
 from .layout import check_identifier, make_layout
 from .linsolve import choose_ldlt
-from .printer import NonFiniteLiteral
+from .printer import NonFiniteLiteral, print_memo
 from .reverse import REVERSE_FUNCTIONS, reverse_body, reverse_nsolve
 from .sparse_lu import sparse_lu_solver
 from .split import NOINLINE_MACRO, split_body
@@ -269,7 +269,8 @@ def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions
         sym, pose_meta = with_poses(sym, poses, layout)
         groups = {**groups, "poses": (POSE_GROUP,)}
     shared = verify(optimize_shared(sym.program, sym.derivatives))
-    programs = {fn: finish_function(shared, groups[fn]) if fn not in BATCH_FUNCTIONS and groups[fn] else None
+    programs = {fn: finish_function(_mass_inputs_only(shared, sym, fn), groups[fn])
+                if fn not in BATCH_FUNCTIONS and groups[fn] else None
                 for fn in fns if fn not in GENERATED_LIKE}
     programs = {fn: _taped(p, exact=fn.startswith("outputs")) for fn, p in programs.items()}
     programs.update((fn, programs[GENERATED_LIKE[fn]]) for fn in fns if fn in GENERATED_LIKE)
@@ -304,8 +305,17 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
     ``event_options``: their default terminal/direction, kept in the metadata.
     ``poses``: a :class:`~.poses.PoseSource` (NAME_poses: body frames and points in the world).
     ``frames``: a :class:`~eomc.compiler.tree.frames.FrameSource` (frame outputs).
-    Deterministic: identical input gives byte-identical output.
+    Deterministic: identical input gives byte-identical output.  The printer's templates
+    (:func:`~.printer.print_memo`) live while it runs.
     """
+    with print_memo():
+        return _generate_c(formed, name, parameters=parameters, inputs=inputs, outputs=outputs,
+                           functions=functions, fold_parameters=fold_parameters, events=events,
+                           event_options=event_options, formulation=formulation, poses=poses, frames=frames)
+
+
+def _generate_c(formed, name, *, parameters, inputs, outputs, functions, fold_parameters, events,
+                event_options, formulation, poses, frames):
     low = lower(formed, name, parameters=parameters, inputs=inputs, outputs=outputs,
                 functions=functions, fold_parameters=fold_parameters, events=events,
                 formulation=formulation, poses=poses, frames=frames)
@@ -368,6 +378,8 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
         from .poses import pose_metadata
         rendered.append({"prototype": f"int {name}_pose_count(void)",
                          "body": f"    return {low.poses['size']};", "parts": []})
+    if getattr(sym, "inverse_dynamics_calls", "") in op_counts and "inverse_dynamics" in op_counts:   # a call of it
+        op_counts["inverse_dynamics"] = dict(op_counts[sym.inverse_dynamics_calls])
     if getattr(sym, "forcing_calls", "") in op_counts and "forcing" in op_counts:   # forcing is a call of it
         op_counts["forcing"] = dict(op_counts[sym.forcing_calls])
     if "linearize" in op_counts:
@@ -396,6 +408,18 @@ def _batch_outputs(scalar, sym, fns, formulation):
     if scalar == "implicit":
         return formulation.metadata(sym, fns)["implicit"]["layout"]["size"]
     return None
+
+
+def _mass_inputs_only(program, sym, fn):
+    """``program`` without the kernels' inputs (``anx``) that mass_matrix and jac_r do not read
+    where the plan has contacts (``sym.mass_inputs``, compiler/tree/lower.contact_mass_inputs):
+    their loop kernels read M's inputs only, and the contact terms are jac_x's."""
+    keep = set(getattr(sym, "mass_inputs", ()))
+    if not keep or fn not in ("mass_matrix", "jac_r"):
+        return program
+    alone = fn == "mass_matrix"     # NAME_dyn's M reads an[] alone (not CRBA's A, which NAME_implicit prints)
+    return program.with_(results=tuple(r for r in program.results
+                                       if (r[0][1] in keep if r[0][0] == "anx" else not alone)))
 
 
 def _taped(prog, exact=False):

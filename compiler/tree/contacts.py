@@ -18,7 +18,12 @@ from ..contact.tree import CLIP_KIND, ENERGY, ContactLoad, ContactValue, contact
 from .placement import Placement
 from .spatial import cross
 
-__all__ = ["lower_contacts"]
+__all__ = ["lower_contacts", "support_motion"]
+
+# An ellipsoid's ground contact planned in the analytic kernel's block G with its support point's
+# motion (support_motion).  False: such a tree keeps the tangent path (as before session 14;
+# benchmarks/bench_ellipsoid_kernel.py's "tangent" contestant).
+PLAN_SHAPES = True
 
 
 def world_placement(bodies, rec):
@@ -47,8 +52,9 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
     ``energy`` output (:data:`~eomc.compiler.contact.tree.ENERGY`) is asked for, else None.
     ``guards``: a list to fill with the rhs's broad phase (:func:`body_guards`).
     ``analytic``: a dict to fill for the analytic jac_x (:mod:`.analytic`): "contacts", per
-    ground contact (body, depth, contact point, sphere centre, world force, K, C), or None
-    when a contact's point moves on its body (an ellipsoid's support point); "guards", jac_x's
+    ground contact (body, depth, contact point, sphere centre, world force, K, C, and M of
+    :func:`support_motion` for an ellipsoid's moving support point, else None), or None when
+    such a contact is not planned (``PLAN_SHAPES`` off); "guards", jac_x's
     broad phase (the world forces exported too: the kernel reads them); "pairs", the body-body
     pairs' table bodies and wrench temporaries when they are one table call, "pair_call" that
     call's temporary, table id and fixed inputs (table.lower_table's ``call_info``; .analytic).
@@ -92,11 +98,14 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
         params = {k: rename(s, what) for k, s in load.params.items()}
         poses.rotation(i)
         o = poses.origin(i)
+        moving = None
         if load.shape is not None:      # an ellipsoid: its support point c - A n / sqrt(n A n)
             n_b = poses.to_body(i, load.normal)
             An = [sum((a * x for a, x in zip(row, n_b)), sm.S.Zero) for row in load.shape]
             s = rec.let(sm.sqrt(sum((x * y for x, y in zip(n_b, An)), sm.S.Zero)))
             off = [rec.let(off[k] - An[k] / s) for k in range(3)]
+            if analytic is not None and PLAN_SHAPES:
+                moving = support_motion(poses.rotation(i), load.shape, n_b, An, s, rec.let)
         w_b, v_b = v[i][:3], v[i][3:]
         vp_b = [v_b[k] + c for k, c in enumerate(cross(w_b, off))]
         centre = [rec.let(o[k] + x) for k, x in enumerate(poses.to_world(i, off))]
@@ -124,8 +133,8 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
         if analytic is not None:
             analytic.setdefault("contacts", [])
             if analytic["contacts"] is not None:
-                analytic["contacts"] = None if load.shape is not None else analytic["contacts"] + [
-                    (i, forces.depth, point, centre, list(forces.force), K, C)]
+                analytic["contacts"] = None if load.shape is not None and moving is None else analytic["contacts"] + [
+                    (i, forces.depth, point, centre, list(forces.force), K, C, moving)]
         reach.setdefault(i, []).append(None if load.shape is not None else
                                        (load.normal, rename(load.height, what), params["r"], off, f_b,
                                         forces.depth, slopes, tuple(forces.force)))
@@ -135,15 +144,17 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
         values[ContactValue(index, CLIP_KIND)] = forces.parts["clip"]
         if energy is not None:      # the law's elastic part k δ₊^(3/2) stores k δ₊^(5/2) / (5/2)
             elastic.append(forces.parts["elastic"] * forces.parts["dpos"] / (EXPONENT + 1))
+    clearances = {}
     if guards is not None:
-        guards.extend(body_guards(reach, poses) + pair_guards(pairs))
+        guards.extend(body_guards(reach, poses, clearances=clearances) + pair_guards(pairs))
     if implicit is not None:
         # the inlined pairs' broad phase too, as the rhs's, exporting their slopes with their forces;
         # without it every pair's narrow phase ran at every call (gymnasium hopper's 3 self-pairs:
         # +17 % per call)
-        implicit["guards"] = body_guards(reach, poses, slopes=True) + pair_guards(pairs, slopes=True)
+        implicit["guards"] = (body_guards(reach, poses, slopes=True, clearances=clearances)
+                              + pair_guards(pairs, slopes=True))
     if analytic is not None:
-        analytic["guards"] = body_guards(reach, poses, slopes=True, world=True)
+        analytic["guards"] = body_guards(reach, poses, slopes=True, world=True, clearances=clearances)
     if energy is not None:
         stored = getattr(tree, "joint_energy", None)       # the limits' springs (URDF)
         limits = rename(stored, "the joint limits' elastic energy") if stored else sm.S.Zero
@@ -151,7 +162,27 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
     return values
 
 
-def body_guards(reach, poses, slopes=False, world=False):
+def support_motion(R, A, m, Am, s, let):
+    """M (3x3 rows, world, named): an ellipsoid's support point's own motion on its body, δc = M ω
+    along a perturbation that turns the body by ω (world) -- what the analytic kernel adds to the
+    motion of the body's material point there (block G, compiler/tree/analytic.py).
+
+    The support point in body components is x(m) = c - A m / s, m = Rᵀ n the plane's normal in the
+    body, s = sqrt(mᵀ A m); turning the body by ω turns m by δm = Rᵀ(n × ω) = m × Rᵀω, and
+    ∂x/∂m = D = -(A/s - (A m)(A m)ᵀ/s³), so δc = R D [m]× Rᵀ ω.  nᵀ R D = 0 (the support point
+    is the deepest: the depth moves as for a point fixed on the body), so only the contact
+    point's tangential place (the friction's slip velocity and the force's arm) moves.
+    Why: without it a model with a ground-touching ellipsoid (dm_control's humanoid_CMU: its
+    hands) was refused the kernel, and its jac_x differentiated the whole recursion per column."""
+    D = [[let(-(A[a][b] / s - Am[a] * Am[b] / s ** 3)) if b >= a else None for b in range(3)] for a in range(3)]
+    D = [[D[a][b] if b >= a else D[b][a] for b in range(3)] for a in range(3)]
+    mx = [[0, -m[2], m[1]], [m[2], 0, -m[0]], [-m[1], m[0], 0]]       # [m]×
+    N = [[let(sum((D[a][k] * mx[k][b] for k in range(3)), sm.S.Zero)) for b in range(3)] for a in range(3)]
+    NRt = [[let(sum((N[a][k] * R[b][k] for k in range(3)), sm.S.Zero)) for b in range(3)] for a in range(3)]
+    return [[let(sum((R[a][k] * NRt[k][b] for k in range(3)), sm.S.Zero)) for b in range(3)] for a in range(3)]
+
+
+def body_guards(reach, poses, slopes=False, world=False, clearances=None):
     """[(clearance, exports, inner guards)] per body with ground contacts
     (compiler/emit/guards.py): the body's force temporaries are exactly zero while the clearance
     is positive; inside, each point's law is guarded by its own depth (-δ_j > 0: out of contact,
@@ -176,38 +207,49 @@ def body_guards(reach, poses, slopes=False, world=False):
     F_n,δ and F_n,δ̇ carry δ₊ and step(F_n), and the friction's slope μ F_n / s carries F_n.
     The depth, point and velocity NAME_implicit writes stay outside every block.
     ``world``: the analytic jac_x's guards (:mod:`.analytic`), whose exports are also each
-    point's world force (its kernel reads it; ±0 out of contact as the body-frame one)."""
-    out = []
+    point's world force (its kernel reads it; ±0 out of contact as the body-frame one).
+    ``clearances``: {body: its clearance}, filled and read so that the rhs's, NAME_implicit's
+    and jac_x's guards build each once (SymPy's Min and Max compare their arguments pairwise:
+    three times over was 7 % of gymnasium humanoid's generate phase)."""
+    out, clearances = [], {} if clearances is None else clearances
     for i, points in reach.items():
         if any(p is None for p in points):
             continue
-        o, R = poses.origin(i), poses.rotation(i)
-        by_normal = {}
-        for normal, height, r, off, *_ in points:
-            by_normal.setdefault(tuple(sm.sympify(x) for x in normal), []).append((height + r, off))
-        terms = []
-        for n, group in by_normal.items():
-            above = sum((a * b for a, b in zip(n, o)), sm.S.Zero) - sm.Max(*[far for far, _ in group])
-            offs = [[sm.sympify(x) for x in off] for _, off in group]
-            if all(x.is_Number for off in offs for x in off):
-                lo = [min(float(off[k]) for off in offs) for k in range(3)]
-                hi = [max(float(off[k]) for off in offs) for k in range(3)]
-                w = [sum((n[a] * R[a][k] for a in range(3)), sm.S.Zero) for k in range(3)]
-                for k in range(3):
-                    c, e = (lo[k] + hi[k]) / 2, (hi[k] - lo[k]) / 2
-                    above += (w[k] * c if c else 0) - (sm.Abs(w[k]) * e if e else 0)
-            else:
-                size = sm.sqrt(sum((x * x for x in n), sm.S.Zero))
-                above -= sm.Max(*[size * sm.sqrt(sum((x * x for x in off), sm.S.Zero)) for off in offs])
-            terms.append(above)
+        if i not in clearances:
+            clearances[i] = _clearance(poses, i, points)
         inner = [(-depth, tuple(dict.fromkeys(s for s in (*f_b, *(kc if slopes else ()), *(f_w if world else ()))
                                               if isinstance(s, sm.Symbol))), ())
                  for _, _, _, _, f_b, depth, kc, f_w in points]
         inner = [g for g in inner if g[1]]
         exports = tuple(s for _, ex, _ in inner for s in ex)
         if exports:
-            out.append((sm.Min(*terms), exports, tuple(inner)))
+            out.append((clearances[i], exports, tuple(inner)))
     return out
+
+
+def _clearance(poses, i, points):
+    """Body i's clearance (:func:`body_guards`): min over its points' normals of the lowest
+    point's height above the highest plane."""
+    o, R = poses.origin(i), poses.rotation(i)
+    by_normal = {}
+    for normal, height, r, off, *_ in points:
+        by_normal.setdefault(tuple(sm.sympify(x) for x in normal), []).append((height + r, off))
+    terms = []
+    for n, group in by_normal.items():
+        above = sum((a * b for a, b in zip(n, o)), sm.S.Zero) - sm.Max(*[far for far, _ in group])
+        offs = [[sm.sympify(x) for x in off] for _, off in group]
+        if all(x.is_Number for off in offs for x in off):
+            lo = [min(float(off[k]) for off in offs) for k in range(3)]
+            hi = [max(float(off[k]) for off in offs) for k in range(3)]
+            w = [sum((n[a] * R[a][k] for a in range(3)), sm.S.Zero) for k in range(3)]
+            for k in range(3):
+                c, e = (lo[k] + hi[k]) / 2, (hi[k] - lo[k]) / 2
+                above += (w[k] * c if c else 0) - (sm.Abs(w[k]) * e if e else 0)
+        else:
+            size = sm.sqrt(sum((x * x for x in n), sm.S.Zero))
+            above -= sm.Max(*[size * sm.sqrt(sum((x * x for x in off), sm.S.Zero)) for off in offs])
+        terms.append(above)
+    return sm.Min(*terms)
 
 
 def _energy(bodies, v, poses, gravity, speeds):

@@ -99,6 +99,32 @@ def dynamics_kernel_functions(plan, functions):
     return tuple(f for f in KERNEL_FUNCTIONS if f in functions and pairs >= DYN_KERNEL_MIN_PAIRS[f])
 
 
+# A tree with ground contacts or body-body pairs (and the analytic plan): mass_matrix from NAME_dyn
+# and jac_r from NAME_msolve on M's inputs alone (contact_mass_inputs), inverse_dynamics as
+# M u' - f from NAME_implicit's (dynamics_kernel.inverse_dynamics_by_implicit), forcing a call of
+# it.  False: their straight-line copies, each with the contacts' and pairs' forces again (the
+# C before session 14; benchmarks/bench_mjcf_build.py compares the two).
+CONTACT_KERNELS = True
+
+
+def contact_mass_inputs(plan):
+    """The indices of an[] that NAME_dyn's mass matrix and NAME_msolve read (each body's
+    placement E, r, its axes S, inertia I, gravity g, the armature), for a plan with ground
+    contacts or body-body pairs.
+
+    Why: there the loads' block F, the laws' slopes L and the contacts' block G are guarded
+    contact terms that only the analytic jac_x reads (with its own copy of an[]); M has no
+    contact term, so mass_matrix and jac_r take the loop kernels (a few kB of C) on these
+    inputs rather than straight-line CRBA and ABA solves of their own (gymnasium humanoid:
+    131 and 151 kB of C, issue 33's build time)."""
+    o = plan.offsets
+    ends = sorted(o.values()) + [plan.size]
+
+    def block(name):
+        return range(o[name], min(e for e in ends if e > o[name]))
+    return tuple(i for name in ("E", "r", "S", "I", "g", "arm") for i in block(name))
+
+
 _NONFINITE = (sm.nan, sm.zoo, sm.oo, -sm.oo)
 
 
@@ -124,8 +150,10 @@ def _absent(tree, layout):
     return {s: 0 for s in free if s not in layout.subs and s != dynamicsymbols._t}
 
 
-def _lowered_bodies(tree, layout, rec):
-    memo = {}
+def _lowered_bodies(tree, layout, rec, memo=None):
+    """The tree's bodies in slot symbols with their loads; ``memo``: the rename's (Layout.apply),
+    shared with the build's later renames of the same expressions (the joint laws, _analytic)."""
+    memo = {} if memo is None else memo
     world_rot = {}
 
     def rotation0(i):
@@ -198,13 +226,17 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         check_functions(functions)
         refuse_reverse(functions, "is a tree closed by constraints")
     try:
-        bodies, gravity = _lowered_bodies(tree, layout, rec)
+        renamed = {}        # Layout.apply's memo for the renames with _absent (the loads' laws: once)
+        bodies, gravity = _lowered_bodies(tree, layout, rec, renamed)
         nq, nu = len(tree.coordinates), len(tree.speeds)
         speeds = layout.x[nq:nq + nu]
         v, c = velocities(bodies, rec, speeds)
         implicit = {"step": step} if "implicit" in functions else None
         wants_energy = "outputs" in functions and _asks_energy(outputs)
         guards = []
+        # the joint laws' derivatives, one differentiation per shape of law for the analytic
+        # jac_x and NAME_implicit together (analytic._law_slopes)
+        law_memo = {}
         # the analytic jac_x's contact terms (compiler/tree/analytic.py), where it may be asked
         ground = ({} if loops is None and set(functions) & {"jac_id", "jac_x"}
                   and len(layout.x) > TANGENT_MIN_STATES else None)
@@ -235,24 +267,30 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
             # the laws' slopes named in rec (their CSE once per shape), but for hess_id, whose
             # law Hessians differentiate them (second_order.with_law_hessians)
             analytic, anx = _analytic(tree, bodies, gravity, layout, functions, ground,
-                                      None if "hess_id" in functions else rec.let)
-            # a plan with ground contacts or pairs serves jac_x and jac_id only (NAME_dyn has no contact terms)
+                                      None if "hess_id" in functions else rec.let, law_memo, renamed)
+            # a plan with ground contacts or pairs serves jac_x and jac_id, and NAME_dyn only its
+            # mass matrix (NAME_dyn has no contact terms; M has none): see contact_mass_inputs
             contacted = analytic is not None and bool(analytic.contacts or analytic.npair)
-            dyn = (dynamics_kernel_functions(analytic, functions)
-                   if analytic is not None and not contacted else ())
+            dyn = (dynamics_kernel_functions(analytic, functions) if analytic is not None and not contacted
+                   else ("mass_matrix",) if contacted and CONTACT_KERNELS and "mass_matrix" in functions else ())
             planned = analytic is not None
             grounded = planned and contacted
             if analytic is not None and not dyn and not set(functions) & {"jac_id", "jac_x"}:
                 analytic, anx = None, []
         # forcing and inverse_dynamics both straight-line: forcing is -τ at u' = 0, a call of
         # inverse_dynamics (RNEA's code once; only where the plan exists, small trees unchanged)
-        by_id = (planned and not grounded and {"forcing", "inverse_dynamics"} <= set(functions)
+        by_id = (planned and (CONTACT_KERNELS or not grounded) and {"forcing", "inverse_dynamics"} <= set(functions)
                  and not {"forcing", "inverse_dynamics"} & set(dyn))
+        # with contacts, inverse_dynamics is M u' - f from NAME_implicit's (RNEA's straight-line
+        # τ would carry every contact force again: dynamics_kernel.inverse_dynamics_by_implicit)
+        id_by_implicit = (CONTACT_KERNELS and grounded and {"implicit", "inverse_dynamics"} <= set(functions)
+                          and "hess_id" not in functions)
         direct = None
         if "jac_r" in functions and loops is None and jac:
             direct = _input_columns(tree, layout)
         # jac_r's M⁻¹ through NAME_msolve (.input_jacobian)
-        input_solve = uses_input_solve(analytic, functions, len(layout.x), nq, nu)
+        input_solve = (uses_input_solve(analytic, functions, len(layout.x), nq, nu)
+                       and (CONTACT_KERNELS or not analytic.contacts))
         # the analytic jac_x needs no residual, nor jac_r solved by NAME_msolve on direct columns
         if jac - ({"jac_x"} if analytic is not None else set()) - ({"jac_r"} if input_solve and direct else set()):
             W = tuple(sm.Symbol(f"w_{j}", real=True) for j in range(nu))
@@ -283,7 +321,8 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         # temporary of its program: a cart of 40 links did not compile, udot undeclared there)
         from .second_order import second_order_plan
         hess_trace = "hess_id" in functions and (analytic is None or second_order_plan(analytic)[0] is None)
-        if (("inverse_dynamics" in functions and "inverse_dynamics" not in dyn) or hess_trace) and loops is None:
+        if (("inverse_dynamics" in functions and "inverse_dynamics" not in dyn and not id_by_implicit)
+                or hess_trace) and loops is None:
             tau = rnea(bodies, rec, UD, gravity, v, c)
             extra += [(("tau", k), tau[k]) for k in range(nu)]
         if "jac_id" in functions and analytic is None:        # d tau / d x (compiler/tree/inverse_derivatives.py)
@@ -315,13 +354,14 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         else:   # not computed: a stand-in with M's structure (for the metadata)
             A, b = _structure(tree), [0] * nu
         if implicit is not None:
-            extra += _implicit_results(tree, bodies, formed, layout, A, b, implicit, nq, nu)
+            extra += _implicit_results(tree, bodies, formed, layout, A, b, implicit, nq, nu, law_memo)
     except NotATree as exc:
         raise ModelError(f"recursive formulation: {exc}") from None
     sym = build_symbolic(formed, layout, functions, outputs, events, dynamics=(A, b),
                          prelude=(rec.assignments, rec.count, sorted(extra, key=_order)),
                          function_groups={**TREE_FUNCTION_GROUPS,
-                                          **{f: ("anx",) if f in dyn else () if f == "forcing" and by_id else g
+                                          **{f: ("anx",) if f in dyn else () if f == "forcing" and by_id
+                                             or f == "inverse_dynamics" and id_by_implicit else g
                                              for f, g in _OWN_GROUPS.items()},
                                           **({"jac_r": INPUT_SOLVE_GROUPS} if input_solve else {})}
                          if planned else TREE_FUNCTION_GROUPS,
@@ -348,9 +388,13 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         sym = replace(sym, analytic=analytic, dynamics_kernel=dyn)
     if by_id:
         sym = replace(sym, forcing_calls="inverse_dynamics")
+    if id_by_implicit:
+        sym = replace(sym, inverse_dynamics_calls="implicit")
     if planned and set(KERNEL_FUNCTIONS) - set(dyn):     # straight-line ones print only their own temps
         sym = replace(sym, function_groups={**TREE_FUNCTION_GROUPS,
                                             **{f: g for f, g in _OWN_GROUPS.items() if f not in dyn}})
+    if grounded and analytic is not None and CONTACT_KERNELS:    # mass_matrix (NAME_dyn), jac_r (NAME_msolve): M's inputs
+        sym = replace(sym, mass_inputs=contact_mass_inputs(analytic))
     if input_solve:
         sym = replace(sym, input_solve=lanes_for(len(layout.r)),
                       function_groups={**(sym.function_groups or TREE_FUNCTION_GROUPS), "jac_r": INPUT_SOLVE_GROUPS})
@@ -424,19 +468,20 @@ def _input_columns(tree, layout):
     return [(("dres_r", i, j), e) for (i, j), e in sorted(cols.items()) if e != 0]
 
 
-def _analytic(tree, bodies, gravity, layout, functions, ground=None, let=None):
+def _analytic(tree, bodies, gravity, layout, functions, ground=None, let=None, law_memo=None, renamed=None):
     """(plan, results) of the analytic RNEA derivatives (:mod:`.analytic`) for jac_x and jac_id,
     or (None, []) where the tree does not qualify (then both keep the tangent path).
 
     Asked only above TANGENT_MIN_STATES states: below, the unrolled columns are faster
     (measured, benchmarks/results/derivatives.md: cart n = 4 jac_x 0.55 vs 1.4 µs, UR10
-    1.6 vs 2.0 µs), and their C stays as it was."""
+    1.6 vs 2.0 µs), and their C stays as it was.  ``law_memo``: analytic._law_slopes'; ``renamed``:
+    the rename's memo of :func:`_lowered_bodies` (the laws it renamed in the loads)."""
     from .analytic import analytic_plan
     absent = _absent(tree, layout)
-    memo = {}
+    memo = {} if renamed is None else renamed
     return analytic_plan(tree, bodies, gravity, layout, lambda e, what: _rename(layout, memo, what, absent)(e),
                          (ground or {}).get("contacts"), let, (ground or {}).get("pairs"),
-                         _kernel_table(ground, layout))
+                         _kernel_table(ground, layout), law_memo)
 
 
 def _kernel_table(ground, layout):
@@ -495,8 +540,14 @@ def implicit_layout(nq, nu, ncontact):
     return out
 
 
-def _implicit_results(tree, bodies, formed, layout, A, b, implicit, nq, nu):
-    """The ("imp", k) results of NAME_implicit, laid out as :func:`implicit_layout`."""
+def _implicit_results(tree, bodies, formed, layout, A, b, implicit, nq, nu, law_memo=None):
+    """The ("imp", k) results of NAME_implicit, laid out as :func:`implicit_layout`.
+
+    ``law_memo``: :func:`.analytic._law_slopes`' memo: the joint laws' slopes are SymPy's
+    derivatives taken once per shape of law (the analytic jac_x's, when it was planned); each
+    law's own diff was a quarter of gymnasium ant's generate phase."""
+    from .analytic import _law_slopes
+    law_memo = {} if law_memo is None else law_memo
     contacts = implicit.get("contacts", []) + implicit.get("pairs", [])    # as implicit_metadata lists them
     poses = implicit["poses"]
     at = implicit_layout(nq, nu, len(contacts))
@@ -536,9 +587,10 @@ def _implicit_results(tree, bodies, formed, layout, A, b, implicit, nq, nu):
         # unilateral limit is not engaged); ramp's derivative is the step function
         t = layout.apply(tau, what, memo).replace(sm.Abs, lambda a: 2 * ramp(a) - a)
         qs, us = layout.x[qi], layout.x[nq + k]
-        out[at["joint"] + 2 * k] = -sm.diff(t, us)
+        dq, du = _law_slopes(t, qs, us, law_memo)
+        out[at["joint"] + 2 * k] = -du
         if sm.simplify(kin[qi] - us) == 0:        # q' = u: dq/du of the step is h
-            out[at["joint"] + 2 * k + 1] = -sm.diff(t, qs)
+            out[at["joint"] + 2 * k + 1] = -dq
     for c, item in enumerate(contacts):
         base = at["contact"] + 25 * c
         vals = ([item["depth"]] + list(item["point"]) + list(item["velocity"])
@@ -550,9 +602,14 @@ def _implicit_results(tree, bodies, formed, layout, A, b, implicit, nq, nu):
 
 def _with_contact_values(sym, values):
     """Outputs and events that name a contact's force or depth: the placeholder replaced by
-    the temporary the recursion computed (the same value the rhs uses)."""
-    results = tuple((key, e.xreplace(values) if getattr(e, "has", None) and e.has(*values) else e)
-                    for key, e in sym.program.results)
+    the temporary the recursion computed (the same value the rhs uses).  Which results hold a
+    placeholder: one walk each for the placeholders' types (``e.has(*values)`` walked each
+    result once per placeholder: 5 % of gymnasium humanoid's generate phase)."""
+    kinds = tuple({type(k) for k in values})
+
+    def holds(e):
+        return hasattr(e, "atoms") and not values.keys().isdisjoint(e.atoms(*kinds))
+    results = tuple((key, e.xreplace(values) if holds(e) else e) for key, e in sym.program.results)
     return replace(sym, program=sym.program.with_(results=results))
 
 
