@@ -14,11 +14,20 @@ C of `NAME_F` and its `NAME_F_part*` helpers in the default build's NAME.c (shar
 the analytic kernel are listed on their own row).
 
 Models: the n-link cart as a SymPy System (tree_models/cart_rel_joints.py), a URDF chain of n
-revolute links (alternating axes, bench_urdf_build.chain_text) and example-robot-data robots
-(G1 29-dof, Go2, Talos full body; floating base, the file's joint limits on as by default).
+revolute links (alternating axes, bench_urdf_build.chain_text), example-robot-data robots
+(G1 29-dof, Go2, Talos full body; floating base, the file's joint limits on as by default) and
+gymnasium's MuJoCo models (--gym ant,humanoid).
 
-    python benchmarks/bench_derivative_build.py [--cart 80] [--chain 200] [--robots g1]
+``--phases``: instead, the default build's Python phases against ``--before``'s, interleaved:
+per model, a fresh child process per contestant derives and generates without the generation
+cache (what a cold `eomc build` does before the C compiler) and reports the CPU seconds of
+each stage (the driver's stage timer read as process CPU time), sha256 of the C and its peak
+RSS; with
+``--with-build``, also the CPU of one whole cold `eomc build` each (C compiler included).
+
+    python benchmarks/bench_derivative_build.py [--cart 80] [--chain 200] [--robots g1] [--gym ant]
         [--repeat 1] [--per-function g1,cart80] [--cpu-cap 600] [--before "python-of-another-checkout"]
+    python benchmarks/bench_derivative_build.py --phases --before PYTHON [--with-build] [--cart 80] ...
 """
 import argparse
 import json
@@ -51,6 +60,35 @@ r = resource.getrusage(resource.RUSAGE_CHILDREN)
 err = None if p.returncode == 0 else ((p.stderr.strip().splitlines() or ["?"])[-1][:120] or str(p.returncode))
 print(json.dumps([r.ru_utime + r.ru_stime, r.ru_maxrss / 1024, err]))
 """
+
+
+# The phases' child: derive and generate one model (argv: model, flags) with no generation cache;
+# prints {stage: CPU s}, the passes' CPU s, sha256 of the C and the peak RSS (MB) as JSON.
+_PHASES = r"""
+import hashlib, json, sys, time
+time.perf_counter = time.process_time      # the driver's stage timer, read as CPU time
+from eomc.compiler.driver import Progress, generate
+model = sys.argv[1]
+if model.endswith(".py"):
+    name = None
+else:
+    from eomc.cli.common import with_options
+    model, name = with_options(model, None, floating_base="--floating-base" in sys.argv)
+p, passes = Progress(False), {}
+p.pass_done = lambda n, s: passes.__setitem__(n, passes.get(n, 0.0) + s)
+spec, g = generate(model, name, progress=p, use_cache=False)
+import resource
+print(json.dumps({**p.timings, "passes": passes, "sha": hashlib.sha256(g.c_source.encode()).hexdigest(),
+                  "rss": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}))
+"""
+
+
+def phases(args, env, python=None):
+    """{derive, generate (CPU s), passes, sha, rss} of one cold derive + generate."""
+    proc = subprocess.run([python or sys.executable, "-c", _PHASES, *args], env=env, capture_output=True, text=True)
+    if proc.returncode:
+        return {"err": (proc.stderr.strip().splitlines() or ["?"])[-1][:120]}
+    return {**json.loads(proc.stdout.strip().splitlines()[-1]), "err": None}
 
 
 def build(args, env, cap, python=None):
@@ -99,6 +137,10 @@ def cases_of(a, work):
         from helpers.robots import robot_path
         rel, fb = ROBOTS[r]
         cases.append((r, r, [str(robot_path(rel))] + (["--floating-base"] if fb else []), {}))
+    for m in filter(None, a.gym.split(",")):
+        import gymnasium
+        cases.append((m, f"gymnasium {m}", [str(Path(gymnasium.__file__).parent / "envs" / "mujoco" / "assets"
+                                                / f"{m}.xml")], {}))
     return cases
 
 
@@ -117,7 +159,12 @@ def main():
     ap.add_argument("--cpu-cap", type=int, default=600)
     ap.add_argument("--before", default="", help="an interpreter command whose `-m eomc` is another checkout "
                     "(e.g. main before a change): its default build joins the interleaved runs as 'before'")
+    ap.add_argument("--gym", default="", help="gymnasium MuJoCo models, e.g. ant,humanoid")
+    ap.add_argument("--phases", action="store_true", help="the Python phases against --before's (see the doc)")
+    ap.add_argument("--with-build", action="store_true", help="with --phases: one whole cold build each too")
     a = ap.parse_args()
+    if a.phases:
+        return phase_table(a)
     work = Path(tempfile.mkdtemp(prefix="eomc_dbb_"))
     split = set(filter(None, a.per_function.split(",")))
     print(f"load at start {os.getloadavg()[0]:.2f}", flush=True)
@@ -181,6 +228,47 @@ def main():
           " before: C kB |")
     print("|---|---|--:|--:|--:|--:|--:|")
     print("\n".join(detail))
+
+
+def phase_table(a):
+    """--phases: derive and generate CPU, this checkout against --before's, interleaved per model."""
+    work = Path(tempfile.mkdtemp(prefix="eomc_dbb_"))
+    print(f"load at start {os.getloadavg()[0]:.2f}", flush=True)
+    rows = []
+    for key, label, args, extra in cases_of(a, work):
+        runs = {"before": [], "after": []}
+        whole = {"before": [], "after": []}
+        for _ in range(a.repeat):
+            for kind in ("before", "after") if a.before else ("after",):
+                python = a.before if kind == "before" else None
+                env = dict(os.environ, EOMC_CACHE_DIR=tempfile.mkdtemp(prefix="eomc_dbbc_"), **extra)
+                runs[kind].append(phases(args, env, python))
+                if a.with_build:
+                    out = tempfile.mkdtemp(prefix="eomc_dbbo_")
+                    whole[kind].append(build(args + ["-o", out], env, a.cpu_cap, python))
+        cells = []
+        for kind in ("before", "after") if a.before else ("after",):
+            ok = [r for r in runs[kind] if r["err"] is None]
+            if not ok:
+                cells.append(f"({runs[kind][0]['err']})")
+                continue
+            d, g = (statistics.median(r[s] for r in ok) for s in ("derive", "generate"))
+            cse = statistics.median(r["passes"].get("cse", 0.0) for r in ok)
+            rss = max(r["rss"] for r in ok)
+            w = f" / {med(whole[kind], 'cpu'):.1f}" if a.with_build else ""
+            cells.append(f"{d:.2f} / {g:.2f} (CSE {cse:.2f}){w}, {rss:.0f} MB")
+        same = len({r.get("sha") for k in runs for r in runs[k]}) == 1
+        ratio = ""
+        if a.before and all(r["err"] is None for k in runs for r in runs[k]):
+            after, before = (statistics.median(r["generate"] for r in runs[k]) for k in ("after", "before"))
+            ratio = f"**{after / before:.2f}**"
+        rows.append(f"| {label} | {' | '.join(cells)} | {ratio} | {'yes' if same else 'NO'} |")
+        print(rows[-1], flush=True)
+    what = "derive / generate (CSE) CPU s" + (" / whole build CPU s" if a.with_build else "") + ", peak RSS"
+    print()
+    print(f"| model | {'before: ' + what + ' | ' if a.before else ''}after: {what} | generate after/before | same C |")
+    print("|---|" + ("--:|" if a.before else "") + "--:|--:|:-:|")
+    print("\n".join(rows))
 
 
 if __name__ == "__main__":

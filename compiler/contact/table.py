@@ -369,7 +369,9 @@ class PairTableOut(sm.Function):
 
 def _array(values, printer):
     """C of a read-only array of ``values``: ``&p[i]`` when they are the consecutive slots p[i], p[i+1], ...
-    of the parameters (the law's k, c, μ, v_s of each pair are), else a compound literal."""
+    of the parameters (the law's k, c, μ, v_s of each pair are), else a compound literal.
+    It reads the printed names: the printer is told (emit/printer.CPrinter.reads_names)."""
+    printer.reads_names()
     text = [printer._print(a) for a in values]
     m = re.fullmatch(r"p\[(\d+)\]", text[0]) if text else None
     if m and text == [f"p[{int(m.group(1)) + k}]" for k in range(len(text))]:

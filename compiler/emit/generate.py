@@ -17,7 +17,7 @@ from .formulation import KANE, Formulation
 from .generated import GeneratedModel
 from .layout import check_identifier, make_layout
 from .linsolve import choose_ldlt
-from .printer import NonFiniteLiteral
+from .printer import NonFiniteLiteral, print_memo
 from .reverse import REVERSE_FUNCTIONS, reverse_body, reverse_nsolve
 from .sparse_lu import sparse_lu_solver
 from .split import NOINLINE_MACRO, split_body
@@ -304,8 +304,17 @@ def generate_c(formed, name, *, parameters=None, inputs=None, outputs=None, func
     ``event_options``: their default terminal/direction, kept in the metadata.
     ``poses``: a :class:`~.poses.PoseSource` (NAME_poses: body frames and points in the world).
     ``frames``: a :class:`~eomc.compiler.tree.frames.FrameSource` (frame outputs).
-    Deterministic: identical input gives byte-identical output.
+    Deterministic: identical input gives byte-identical output.  The printer's templates
+    (:func:`~.printer.print_memo`) live while it runs.
     """
+    with print_memo():
+        return _generate_c(formed, name, parameters=parameters, inputs=inputs, outputs=outputs,
+                           functions=functions, fold_parameters=fold_parameters, events=events,
+                           event_options=event_options, formulation=formulation, poses=poses, frames=frames)
+
+
+def _generate_c(formed, name, *, parameters, inputs, outputs, functions, fold_parameters, events,
+                event_options, formulation, poses, frames):
     low = lower(formed, name, parameters=parameters, inputs=inputs, outputs=outputs,
                 functions=functions, fold_parameters=fold_parameters, events=events,
                 formulation=formulation, poses=poses, frames=frames)

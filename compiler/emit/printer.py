@@ -7,12 +7,39 @@ SymPy's C99CodePrinter does the precedence work; this subclass only
   ``1.0/3.0`` (SymPy's rule), and named constants (pi, E) as literals rather than the
   non-C99 ``M_PI`` macros,
 * prints :class:`~eomc.compiler.ir.IMul` products as ``(a*b*c)``.
+
+While a :func:`print_memo` is open (generate_c's), each expression is printed by SymPy once,
+as a template with a hole per symbol, and filled with the C names of the printer asking:
+the functions of a model print many of the same expressions (the rhs's temporaries again
+in NAME_implicit, jac_x, the mass matrix ...), under names that differ between functions
+(a temporary is t12 in one, P[3] in another).  Sound because the printer never looks at a
+symbol's printed text -- except a ``_ccode`` method that does (a table call's parameter
+array, compiler/contact/table.py), which says so by calling :meth:`CPrinter.reads_names`:
+that expression is then printed as before, uncached.
 """
+import contextlib
+import itertools
+
 import sympy as sm
 from sympy.printing.c import C99CodePrinter
 from sympy.printing.precedence import PRECEDENCE
 
-__all__ = ["CPrinter", "NonFiniteLiteral"]
+__all__ = ["CPrinter", "NonFiniteLiteral", "print_memo"]
+
+_MEMO = None    # {expr: (texts, symbols) or None (uncacheable)} while a print_memo is open
+_HOLE = "\x00"  # around a symbol's slot number in a template (no C text holds it)
+
+
+@contextlib.contextmanager
+def print_memo():
+    """Print templates kept for the duration (nested: the outer one's); dropped after."""
+    global _MEMO
+    outer = _MEMO
+    _MEMO = {} if outer is None else outer
+    try:
+        yield
+    finally:
+        _MEMO = outer
 
 
 class NonFiniteLiteral(ValueError):
@@ -27,6 +54,28 @@ class CPrinter(C99CodePrinter):
         # sorting every sum again, the most expensive part of printing
         super().__init__({"math_macros": {}, "order": "none"})
         self._names = names
+
+    def reads_names(self):
+        """Called by a ``_ccode`` method whose text depends on its arguments' printed names
+        (not only on their positions): its expression is not printed from a template."""
+
+    def doprint(self, expr, assign_to=None):
+        memo = _MEMO
+        if memo is None or assign_to is not None or not isinstance(expr, sm.Basic):
+            return super().doprint(expr, assign_to)
+        hit = memo.get(expr, False)
+        if hit is False:
+            hit = memo[expr] = _template(expr)
+        if hit is None:
+            return super().doprint(expr)
+        texts, symbols = hit
+        names = self._names
+        try:
+            filled = [names[s] for s in symbols]
+        except KeyError:
+            missing = next(s for s in symbols if s not in names)
+            raise KeyError(f"symbol {missing} has no C name (compiler bug)") from None
+        return "".join(itertools.chain.from_iterable(zip(texts, filled))) + texts[-1]
 
     def _print_Symbol(self, expr):
         name = self._names.get(expr)
@@ -61,3 +110,35 @@ class CPrinter(C99CodePrinter):
         # always parenthesized: SymPy's Mul printer may put it after "/" at Add precedence
         prec = PRECEDENCE["Mul"]
         return "(" + "*".join(self.parenthesize(a, prec) for a in expr.args) + ")"
+
+
+class _TemplatePrinter(CPrinter):
+    """Prints symbol k (in first-seen order) as a hole ``\\x00k\\x00``; ``impure`` once a
+    ``_ccode`` method reads its arguments' names (:meth:`CPrinter.reads_names`)."""
+
+    def __init__(self):
+        super().__init__({})
+        self.slots, self.impure = {}, False
+
+    def reads_names(self):
+        self.impure = True
+
+    def _print_Symbol(self, expr):
+        k = self.slots.setdefault(expr, len(self.slots))
+        return f"{_HOLE}{k}{_HOLE}"
+
+
+_TP = None
+
+
+def _template(expr):
+    """(texts, symbols): the C of ``expr`` is texts[0] + name(symbols[0]) + texts[1] + ... +
+    texts[-1]; None when it cannot be printed from a template."""
+    global _TP
+    tp = _TP = _TP or _TemplatePrinter()     # one: a SymPy printer costs ~0.3 ms to make
+    tp.slots, tp.impure = {}, False
+    parts = super(CPrinter, tp).doprint(expr).split(_HOLE)
+    if tp.impure:
+        return None
+    order = list(tp.slots)
+    return parts[0::2], tuple(order[int(k)] for k in parts[1::2])

@@ -96,7 +96,8 @@ class AnalyticPlan:
         return range(self.first[b], self.first[b] + self.count[b])
 
 
-def analytic_plan(tree, bodies, gravity, layout, rename, contacts=None, let=None, pairs=None, table=None):
+def analytic_plan(tree, bodies, gravity, layout, rename, contacts=None, let=None, pairs=None, table=None,
+                  law_memo=None):
     """(plan, [(("anx", i), expr)]) when the tree qualifies (see the module doc), else (None, []).
 
     ``contacts``: the ground contacts as lowered (:func:`.contacts.lower_contacts`' "analytic"
@@ -110,7 +111,9 @@ def analytic_plan(tree, bodies, gravity, layout, rename, contacts=None, let=None
     call (compiler/contact/table.py; their wrenches in F, their tangents block W, filled per
     column by the caller), else None (then a tree with pairs keeps the tangent path).
     ``table``: that call's table id when the kernel forms the tangents of its inputs itself and
-    calls the table's tangent loop per column (:func:`_kernel_pair_lines`; no block W)."""
+    calls the table's tangent loop per column (:func:`_kernel_pair_lines`; no block W).
+    ``law_memo``: :func:`_law_slopes`' memo, shared with the build's other differentiations
+    of the same laws (NAME_implicit's, lower._implicit_results)."""
     from ..contact.pairs import PairLoad
     from ..contact.tree import ContactLoad
     if tree.loops is not None:
@@ -118,7 +121,7 @@ def analytic_plan(tree, bodies, gravity, layout, rename, contacts=None, let=None
     nq, nu = len(tree.coordinates), len(tree.speeds)
     xs = set(layout.x)
     speeds = layout.x[nq:nq + nu]
-    laws = _joint_laws(tree, layout, rename, xs, speeds, let)
+    laws = _joint_laws(tree, layout, rename, xs, speeds, let, law_memo)
     if laws is None:
         return None, []
     lawful = {x for qs, _, _ in laws.values() for x in (qs,)} | {speeds[s] for s in laws}
@@ -250,13 +253,13 @@ def _blocks(kj):
     return tuple(blocks)
 
 
-def _joint_laws(tree, layout, rename, xs, speeds, let=None):
+def _joint_laws(tree, layout, rename, xs, speeds, let=None, memo=None):
     """{speed index: (its coordinate's slot, ∂τ/∂q, ∂τ/∂u)} of the 1-dof joints' laws that
     depend on the state (``Tree.joint_torques``), or None when a law reads another joint's
     state (then its pair of loads is not e_k·τ_k alone in the kernel's terms).  ``let``: see
-    :func:`analytic_plan`."""
+    :func:`analytic_plan`; ``memo``: :func:`_law_slopes`' (a fresh one when None)."""
     from .joint_laws import ramp
-    out, memo = {}, {}
+    out, memo = {}, {} if memo is None else memo
     for q, u, tau in getattr(tree, "joint_torques", ()):
         what = f"the law of the joint of speed {u}"
         qs, us = rename(q, what), rename(u, what)

@@ -135,15 +135,17 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
         values[ContactValue(index, CLIP_KIND)] = forces.parts["clip"]
         if energy is not None:      # the law's elastic part k δ₊^(3/2) stores k δ₊^(5/2) / (5/2)
             elastic.append(forces.parts["elastic"] * forces.parts["dpos"] / (EXPONENT + 1))
+    clearances = {}
     if guards is not None:
-        guards.extend(body_guards(reach, poses) + pair_guards(pairs))
+        guards.extend(body_guards(reach, poses, clearances=clearances) + pair_guards(pairs))
     if implicit is not None:
         # the inlined pairs' broad phase too, as the rhs's, exporting their slopes with their forces;
         # without it every pair's narrow phase ran at every call (gymnasium hopper's 3 self-pairs:
         # +17 % per call)
-        implicit["guards"] = body_guards(reach, poses, slopes=True) + pair_guards(pairs, slopes=True)
+        implicit["guards"] = (body_guards(reach, poses, slopes=True, clearances=clearances)
+                              + pair_guards(pairs, slopes=True))
     if analytic is not None:
-        analytic["guards"] = body_guards(reach, poses, slopes=True, world=True)
+        analytic["guards"] = body_guards(reach, poses, slopes=True, world=True, clearances=clearances)
     if energy is not None:
         stored = getattr(tree, "joint_energy", None)       # the limits' springs (URDF)
         limits = rename(stored, "the joint limits' elastic energy") if stored else sm.S.Zero
@@ -151,7 +153,7 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
     return values
 
 
-def body_guards(reach, poses, slopes=False, world=False):
+def body_guards(reach, poses, slopes=False, world=False, clearances=None):
     """[(clearance, exports, inner guards)] per body with ground contacts
     (compiler/emit/guards.py): the body's force temporaries are exactly zero while the clearance
     is positive; inside, each point's law is guarded by its own depth (-δ_j > 0: out of contact,
@@ -176,38 +178,49 @@ def body_guards(reach, poses, slopes=False, world=False):
     F_n,δ and F_n,δ̇ carry δ₊ and step(F_n), and the friction's slope μ F_n / s carries F_n.
     The depth, point and velocity NAME_implicit writes stay outside every block.
     ``world``: the analytic jac_x's guards (:mod:`.analytic`), whose exports are also each
-    point's world force (its kernel reads it; ±0 out of contact as the body-frame one)."""
-    out = []
+    point's world force (its kernel reads it; ±0 out of contact as the body-frame one).
+    ``clearances``: {body: its clearance}, filled and read so that the rhs's, NAME_implicit's
+    and jac_x's guards build each once (SymPy's Min and Max compare their arguments pairwise:
+    three times over was 7 % of gymnasium humanoid's generate phase)."""
+    out, clearances = [], {} if clearances is None else clearances
     for i, points in reach.items():
         if any(p is None for p in points):
             continue
-        o, R = poses.origin(i), poses.rotation(i)
-        by_normal = {}
-        for normal, height, r, off, *_ in points:
-            by_normal.setdefault(tuple(sm.sympify(x) for x in normal), []).append((height + r, off))
-        terms = []
-        for n, group in by_normal.items():
-            above = sum((a * b for a, b in zip(n, o)), sm.S.Zero) - sm.Max(*[far for far, _ in group])
-            offs = [[sm.sympify(x) for x in off] for _, off in group]
-            if all(x.is_Number for off in offs for x in off):
-                lo = [min(float(off[k]) for off in offs) for k in range(3)]
-                hi = [max(float(off[k]) for off in offs) for k in range(3)]
-                w = [sum((n[a] * R[a][k] for a in range(3)), sm.S.Zero) for k in range(3)]
-                for k in range(3):
-                    c, e = (lo[k] + hi[k]) / 2, (hi[k] - lo[k]) / 2
-                    above += (w[k] * c if c else 0) - (sm.Abs(w[k]) * e if e else 0)
-            else:
-                size = sm.sqrt(sum((x * x for x in n), sm.S.Zero))
-                above -= sm.Max(*[size * sm.sqrt(sum((x * x for x in off), sm.S.Zero)) for off in offs])
-            terms.append(above)
+        if i not in clearances:
+            clearances[i] = _clearance(poses, i, points)
         inner = [(-depth, tuple(dict.fromkeys(s for s in (*f_b, *(kc if slopes else ()), *(f_w if world else ()))
                                               if isinstance(s, sm.Symbol))), ())
                  for _, _, _, _, f_b, depth, kc, f_w in points]
         inner = [g for g in inner if g[1]]
         exports = tuple(s for _, ex, _ in inner for s in ex)
         if exports:
-            out.append((sm.Min(*terms), exports, tuple(inner)))
+            out.append((clearances[i], exports, tuple(inner)))
     return out
+
+
+def _clearance(poses, i, points):
+    """Body i's clearance (:func:`body_guards`): min over its points' normals of the lowest
+    point's height above the highest plane."""
+    o, R = poses.origin(i), poses.rotation(i)
+    by_normal = {}
+    for normal, height, r, off, *_ in points:
+        by_normal.setdefault(tuple(sm.sympify(x) for x in normal), []).append((height + r, off))
+    terms = []
+    for n, group in by_normal.items():
+        above = sum((a * b for a, b in zip(n, o)), sm.S.Zero) - sm.Max(*[far for far, _ in group])
+        offs = [[sm.sympify(x) for x in off] for _, off in group]
+        if all(x.is_Number for off in offs for x in off):
+            lo = [min(float(off[k]) for off in offs) for k in range(3)]
+            hi = [max(float(off[k]) for off in offs) for k in range(3)]
+            w = [sum((n[a] * R[a][k] for a in range(3)), sm.S.Zero) for k in range(3)]
+            for k in range(3):
+                c, e = (lo[k] + hi[k]) / 2, (hi[k] - lo[k]) / 2
+                above += (w[k] * c if c else 0) - (sm.Abs(w[k]) * e if e else 0)
+        else:
+            size = sm.sqrt(sum((x * x for x in n), sm.S.Zero))
+            above -= sm.Max(*[size * sm.sqrt(sum((x * x for x in off), sm.S.Zero)) for off in offs])
+        terms.append(above)
+    return sm.Min(*terms)
 
 
 def _energy(bodies, v, poses, gravity, speeds):

@@ -124,8 +124,10 @@ def _absent(tree, layout):
     return {s: 0 for s in free if s not in layout.subs and s != dynamicsymbols._t}
 
 
-def _lowered_bodies(tree, layout, rec):
-    memo = {}
+def _lowered_bodies(tree, layout, rec, memo=None):
+    """The tree's bodies in slot symbols with their loads; ``memo``: the rename's (Layout.apply),
+    shared with the build's later renames of the same expressions (the joint laws, _analytic)."""
+    memo = {} if memo is None else memo
     world_rot = {}
 
     def rotation0(i):
@@ -198,13 +200,17 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         check_functions(functions)
         refuse_reverse(functions, "is a tree closed by constraints")
     try:
-        bodies, gravity = _lowered_bodies(tree, layout, rec)
+        renamed = {}        # Layout.apply's memo for the renames with _absent (the loads' laws: once)
+        bodies, gravity = _lowered_bodies(tree, layout, rec, renamed)
         nq, nu = len(tree.coordinates), len(tree.speeds)
         speeds = layout.x[nq:nq + nu]
         v, c = velocities(bodies, rec, speeds)
         implicit = {"step": step} if "implicit" in functions else None
         wants_energy = "outputs" in functions and _asks_energy(outputs)
         guards = []
+        # the joint laws' derivatives, one differentiation per shape of law for the analytic
+        # jac_x and NAME_implicit together (analytic._law_slopes)
+        law_memo = {}
         # the analytic jac_x's contact terms (compiler/tree/analytic.py), where it may be asked
         ground = ({} if loops is None and set(functions) & {"jac_id", "jac_x"}
                   and len(layout.x) > TANGENT_MIN_STATES else None)
@@ -235,7 +241,7 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
             # the laws' slopes named in rec (their CSE once per shape), but for hess_id, whose
             # law Hessians differentiate them (second_order.with_law_hessians)
             analytic, anx = _analytic(tree, bodies, gravity, layout, functions, ground,
-                                      None if "hess_id" in functions else rec.let)
+                                      None if "hess_id" in functions else rec.let, law_memo, renamed)
             # a plan with ground contacts or pairs serves jac_x and jac_id only (NAME_dyn has no contact terms)
             contacted = analytic is not None and bool(analytic.contacts or analytic.npair)
             dyn = (dynamics_kernel_functions(analytic, functions)
@@ -315,7 +321,7 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         else:   # not computed: a stand-in with M's structure (for the metadata)
             A, b = _structure(tree), [0] * nu
         if implicit is not None:
-            extra += _implicit_results(tree, bodies, formed, layout, A, b, implicit, nq, nu)
+            extra += _implicit_results(tree, bodies, formed, layout, A, b, implicit, nq, nu, law_memo)
     except NotATree as exc:
         raise ModelError(f"recursive formulation: {exc}") from None
     sym = build_symbolic(formed, layout, functions, outputs, events, dynamics=(A, b),
@@ -424,19 +430,20 @@ def _input_columns(tree, layout):
     return [(("dres_r", i, j), e) for (i, j), e in sorted(cols.items()) if e != 0]
 
 
-def _analytic(tree, bodies, gravity, layout, functions, ground=None, let=None):
+def _analytic(tree, bodies, gravity, layout, functions, ground=None, let=None, law_memo=None, renamed=None):
     """(plan, results) of the analytic RNEA derivatives (:mod:`.analytic`) for jac_x and jac_id,
     or (None, []) where the tree does not qualify (then both keep the tangent path).
 
     Asked only above TANGENT_MIN_STATES states: below, the unrolled columns are faster
     (measured, benchmarks/results/derivatives.md: cart n = 4 jac_x 0.55 vs 1.4 µs, UR10
-    1.6 vs 2.0 µs), and their C stays as it was."""
+    1.6 vs 2.0 µs), and their C stays as it was.  ``law_memo``: analytic._law_slopes'; ``renamed``:
+    the rename's memo of :func:`_lowered_bodies` (the laws it renamed in the loads)."""
     from .analytic import analytic_plan
     absent = _absent(tree, layout)
-    memo = {}
+    memo = {} if renamed is None else renamed
     return analytic_plan(tree, bodies, gravity, layout, lambda e, what: _rename(layout, memo, what, absent)(e),
                          (ground or {}).get("contacts"), let, (ground or {}).get("pairs"),
-                         _kernel_table(ground, layout))
+                         _kernel_table(ground, layout), law_memo)
 
 
 def _kernel_table(ground, layout):
@@ -495,8 +502,14 @@ def implicit_layout(nq, nu, ncontact):
     return out
 
 
-def _implicit_results(tree, bodies, formed, layout, A, b, implicit, nq, nu):
-    """The ("imp", k) results of NAME_implicit, laid out as :func:`implicit_layout`."""
+def _implicit_results(tree, bodies, formed, layout, A, b, implicit, nq, nu, law_memo=None):
+    """The ("imp", k) results of NAME_implicit, laid out as :func:`implicit_layout`.
+
+    ``law_memo``: :func:`.analytic._law_slopes`' memo: the joint laws' slopes are SymPy's
+    derivatives taken once per shape of law (the analytic jac_x's, when it was planned); each
+    law's own diff was a quarter of gymnasium ant's generate phase."""
+    from .analytic import _law_slopes
+    law_memo = {} if law_memo is None else law_memo
     contacts = implicit.get("contacts", []) + implicit.get("pairs", [])    # as implicit_metadata lists them
     poses = implicit["poses"]
     at = implicit_layout(nq, nu, len(contacts))
@@ -536,9 +549,10 @@ def _implicit_results(tree, bodies, formed, layout, A, b, implicit, nq, nu):
         # unilateral limit is not engaged); ramp's derivative is the step function
         t = layout.apply(tau, what, memo).replace(sm.Abs, lambda a: 2 * ramp(a) - a)
         qs, us = layout.x[qi], layout.x[nq + k]
-        out[at["joint"] + 2 * k] = -sm.diff(t, us)
+        dq, du = _law_slopes(t, qs, us, law_memo)
+        out[at["joint"] + 2 * k] = -du
         if sm.simplify(kin[qi] - us) == 0:        # q' = u: dq/du of the step is h
-            out[at["joint"] + 2 * k + 1] = -sm.diff(t, qs)
+            out[at["joint"] + 2 * k + 1] = -dq
     for c, item in enumerate(contacts):
         base = at["contact"] + 25 * c
         vals = ([item["depth"]] + list(item["point"]) + list(item["velocity"])
@@ -550,9 +564,14 @@ def _implicit_results(tree, bodies, formed, layout, A, b, implicit, nq, nu):
 
 def _with_contact_values(sym, values):
     """Outputs and events that name a contact's force or depth: the placeholder replaced by
-    the temporary the recursion computed (the same value the rhs uses)."""
-    results = tuple((key, e.xreplace(values) if getattr(e, "has", None) and e.has(*values) else e)
-                    for key, e in sym.program.results)
+    the temporary the recursion computed (the same value the rhs uses).  Which results hold a
+    placeholder: one walk each for the placeholders' types (``e.has(*values)`` walked each
+    result once per placeholder: 5 % of gymnasium humanoid's generate phase)."""
+    kinds = tuple({type(k) for k in values})
+
+    def holds(e):
+        return hasattr(e, "atoms") and not values.keys().isdisjoint(e.atoms(*kinds))
+    results = tuple((key, e.xreplace(values) if holds(e) else e) for key, e in sym.program.results)
     return replace(sym, program=sym.program.with_(results=results))
 
 

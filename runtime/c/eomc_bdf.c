@@ -16,7 +16,7 @@
  * re-interpolated onto a new grid when the step changes (change_D); order and step change
  * only after order + 1 steps of one size, unless a step fails.  Newton uses the model's
  * analytic Jacobian: J is evaluated again only when Newton fails to converge with an older
- * one (at the step's predicted state) or with a fresh one taken at the wrong place
+ * one or with a fresh one taken at the wrong place, at the iterate Newton stopped at
  * (RELINEARISE below), and the LU of I - c J is kept while c = h / alpha_k stays within 30 % of the c it
  * was factored for (as CVODE does), the correction scaled by 2 / (1 + c / c_lu) meanwhile.
  * Our own code; the constants are the published ones.
@@ -68,7 +68,15 @@
  * once with J re-evaluated at Newton's last iterate (where the contact has engaged), and
  * if that fails too, the halved step starts from a J at its own predictor.  Measured
  * (benchmarks/results/contact_wp.md, s7 notes): Solo12 at 1e-1 2228 -> 61 rhs calls; the
- * ant at 1e-2 728 -> 507, 213 -> 99 LUs. */
+ * ant at 1e-2 728 -> 507, 213 -> 99 LUs.
+ * The same holds after a failure with an older J (session 14): J is taken at Newton's last
+ * iterate, not at the predictor, and a failure with that J halves the step at once.  The ant
+ * at rtol 1e-1 in the sliding phase failed with the old J, then with a J at the predictor,
+ * and converged only with the J re-linearised at the iterate: three Jacobians a step.  And
+ * Newton goes on from the iterate it stopped at, instead of from the predictor again: the
+ * corrections it made stay made (ynew = ypred + d, the same equation).  Measured
+ * (benchmarks/results/contact_wp.md, s14 notes): the ant's Jacobians at rtol 1e-1 / 3e-2 /
+ * 1e-2 100 / 72 / 72 -> 75 / 62 / 54, rhs calls 590 / 590 / 678 -> 492 / 480 / 637. */
 
 /* Shampine & Reichelt's NDF coefficients kappa_k (kappa = 0 gives the classical BDFs;
  * order 5 keeps the BDF for stability); gamma_k = sum_{j<=k} 1/j, alpha_k = (1 - kappa_k)
@@ -361,18 +369,21 @@ static void solve_lu(eomc_bdf *b, double *r)
 }
 
 /* Simplified Newton for y = ypred + d with d - c f(tn, y) + psi = 0 (scipy's
- * solve_bdf_system): stops when the contraction rate predicts the remaining change is
+ * solve_bdf_system), from the predictor (d = 0) or, from_last, from the last attempt's
+ * iterate: stops when the contraction rate predicts the remaining change is
  * below newton_tol, fails when it diverges or would not get there in NEWTON_MAXIT
  * iterations.  A model failure or non-finite value is a failure to converge (*bad: that
  * status) unless the run was aborted. */
-static int newton(eomc_bdf *b, double tn, double c, int *conv, int *nit, int *bad)
+static int newton(eomc_bdf *b, double tn, double c, int from_last, int *conv, int *nit, int *bad)
 {
     int n = b->n, s;
     double dn_old = 0.0, rate = 0.0, tol = b->newton_tol;
     double corr = c == b->c_lu ? 1.0 : 2.0 / (1.0 + c / b->c_lu);
     *conv = 0; *nit = 0;
-    memcpy(b->ynew, b->ypred, (size_t)n * sizeof(double));
-    memset(b->d, 0, (size_t)n * sizeof(double));
+    if (!from_last) {     /* else on from the last attempt's iterate, ynew = ypred + d */
+        memcpy(b->ynew, b->ypred, (size_t)n * sizeof(double));
+        memset(b->d, 0, (size_t)n * sizeof(double));
+    }
     for (int k = 0; k < NEWTON_MAXIT; k++) {
         double dn;
         s = b->fns->rhs(b->fns->ctx, tn, b->ynew, b->f);
@@ -409,7 +420,7 @@ int eomc_bdf_trial(eomc_bdf *b, double t1)
     eomc_stats *st = b->st;
     if (b->h > b->hmax) rescale(b, b->hmax / b->h);
     for (;;) {
-        int k = b->order, conv = 0, nit = 0, mbad = 0;
+        int k = b->order, conv = 0, nit = 0, mbad = 0, from_last = 0;
         double hmin = min_step(t), tn, c, a = alpha_k(k), err, safety, g[EOMC_BDF_MAX_ORDER + 1];
         st->t = t; st->h = b->h;
         if (b->h < hmin) return b->bad ? b->bad : EOMC_STEP_TOO_SMALL;
@@ -440,40 +451,31 @@ int eomc_bdf_trial(eomc_bdf *b, double t1)
             }
         }
         c = b->h / a;
-        for (;;) {     /* Newton; once more with a fresh Jacobian if it was an older one */
+        for (;;) {     /* Newton; again with J from where it stopped (RELINEARISE above) */
+            int ok;
             if (!(b->c_lu > 0.0) || fabs(c / b->c_lu - 1.0) > LU_BAND) {
                 if (factor_lu(b, c)) { conv = 0; break; }
             }
             mbad = 0;
-            if ((s = newton(b, tn, c, &conv, &nit, &mbad))) return s;
+            if ((s = newton(b, tn, c, from_last, &conv, &nit, &mbad))) return s;
+            from_last = 0;
             if (mbad) b->bad = mbad;
             if (conv) break;
-            if (b->cur_jac) {
-                /* Failed with a fresh J: re-linearise at Newton's last iterate and retry the
-                 * same step, once per step size since the last Newton failure (see
-                 * RELINEARISE above) */
-                int ok = !mbad && !relin;
-                for (int i = 0; ok && i < n; i++) ok = isfinite(b->ynew[i]);
-                if (!ok) break;
-                relin = 1;
-                b->c_lu = 0.0;      /* J changes: so does the split LU's A (solve_lu) */
-                if ((s = b->fns->jac(b->fns->ctx, tn, b->ynew, b->J))) {
-                    if (b->fns->aborted(b->fns->ctx)) return s;
-                    b->bad = s;
-                    b->cur_jac = 0;
-                    break;
-                }
-                b->c_lu = 0.0;
-                continue;
-            }
-            b->c_lu = 0.0;
-            if ((s = b->fns->jac(b->fns->ctx, tn, b->ypred, b->J))) {
+            /* a J from Newton's iterate failed too: the step halves (once per step size
+             * since the last Newton failure) */
+            if (b->cur_jac && relin) break;
+            ok = !mbad;
+            for (int i = 0; ok && i < n; i++) ok = isfinite(b->ynew[i]);
+            if (b->cur_jac && !ok) break;
+            b->c_lu = 0.0;      /* J changes: so does the split LU's A (solve_lu) */
+            if ((s = b->fns->jac(b->fns->ctx, tn, ok ? b->ynew : b->ypred, b->J))) {
                 if (b->fns->aborted(b->fns->ctx)) return s;
                 b->bad = s;
+                b->cur_jac = 0;     /* J is not one: Newton's next failure evaluates it again */
                 break;
             }
             b->cur_jac = 1;
-            b->c_lu = 0.0;
+            relin = from_last = ok;
         }
         if (!conv) {
             st->rejected++;

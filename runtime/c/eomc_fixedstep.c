@@ -728,6 +728,7 @@ struct eomc_fs_lanes {
  * the 64-row rollout 363 against 342 ms: eight interleaved matrices are 41 KB, past the 32 KB L1,
  * four are 21 KB.  Same bits either way (each lane is the scalar code). */
 #ifdef EOMC_FS_LANES
+#include <immintrin.h>
 #define FSL_W 4
 #define FSL_TARGET "avx2"
 #include "eomc_fs_lanes_body.h"

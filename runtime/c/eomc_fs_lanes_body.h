@@ -13,6 +13,8 @@
 #define FSL_ANY FSL_CAT(fsl_any, FSL_W)
 #define FSL_ALL FSL_CAT(fsl_all, FSL_W)
 #define FSL_KERNEL FSL_CAT(fs_lanes_kernel, FSL_W)
+#define FSL_SECANT FSL_CAT(fsl_secant, FSL_W)
+#define FSL_SQRT FSL_CAT(fsl_sqrt, FSL_W)
 
 typedef double FSL_V __attribute__((vector_size(8 * FSL_W)));
 typedef long long FSL_VI __attribute__((vector_size(8 * FSL_W)));
@@ -22,18 +24,95 @@ typedef long long FSL_VI __attribute__((vector_size(8 * FSL_W)));
 #define FSL_FABS(x) ((FSL_V)((FSL_VI)(x) & ((FSL_VI){0} + 0x7fffffffffffffffLL)))
 #define FSL_FINITE(x) ((x) - (x) == (FSL_V){0})
 
-__attribute__((target(FSL_TARGET))) static int FSL_ANY(const FSL_VI *m)
+/* (a mask's lanes are all ones or all zeros: its sign bits say it; at 4 lanes one movemask) */
+__attribute__((target(FSL_TARGET))) static inline int FSL_ANY(const FSL_VI *m)
 {
+#if FSL_W == 4
+    return _mm256_movemask_pd((__m256d)*m) != 0;
+#else
     long long r = 0;
     for (int c = 0; c < FSL_W; c++) r |= (*m)[c];
     return r != 0;
+#endif
 }
 
-__attribute__((target(FSL_TARGET))) static int FSL_ALL(const FSL_VI *m)
+__attribute__((target(FSL_TARGET))) static inline int FSL_ALL(const FSL_VI *m)
 {
+#if FSL_W == 4
+    return _mm256_movemask_pd((__m256d)*m) == 0xF;
+#else
     long long r = -1;
     for (int c = 0; c < FSL_W; c++) r &= (*m)[c];
     return r != 0;
+#endif
+}
+
+/* sqrt in every lane (IEEE: the scalar sqrt's bits) */
+__attribute__((target(FSL_TARGET))) static inline FSL_V FSL_SQRT(FSL_V x)
+{
+#if FSL_W == 4
+    return (FSL_V)_mm256_sqrt_pd((__m256d)x);
+#else
+    for (int c = 0; c < FSL_W; c++) x[c] = __builtin_sqrt(x[c]);
+    return x;
+#endif
+}
+
+/* fs_secant_friction in every lane: its operations in its order (the same bits), its branches as
+ * selects -- the normal's row r and the plane's first axis m picked by masks, a lane with no normal
+ * force (r < 0 or not finite) or no finite gf keeping Cs = C.  Measured on G1 (perf, lanes run):
+ * the secant lane by lane, with its gathers and scatters, was the kernel's largest scalar part. */
+__attribute__((target(FSL_TARGET))) static void FSL_SECANT(const FSL_V *K, const FSL_V *C, FSL_V *Cs)
+{
+    const FSL_V zero = {0}, one = zero + 1.0, half_ = zero + 0.5;
+    FSL_V big = zero, n[3], e[2][3], B[2][2], l, gf, nm, kr[3] = {zero, zero, zero};
+    FSL_VI found = {0}, keep, m0, m1, m2;
+    for (int a = 0; a < 3; a++) {
+        FSL_V s2 = K[3 * a] * K[3 * a] + K[3 * a + 1] * K[3 * a + 1] + K[3 * a + 2] * K[3 * a + 2];
+        FSL_VI gt = s2 > big;
+        big = FSL_SEL(gt, s2, big);
+        for (int c = 0; c < 3; c++) kr[c] = FSL_SEL(gt, K[3 * a + c], kr[c]);
+        found |= gt;
+    }
+    keep = ~found | ~FSL_FINITE(big);
+    l = one / FSL_SQRT(big);
+    for (int a = 0; a < 3; a++) n[a] = kr[a] * l;
+    {
+        FSL_V a0 = FSL_FABS(n[0]), a1 = FSL_FABS(n[1]), a2 = FSL_FABS(n[2]);
+        FSL_VI le01 = a0 <= a1;
+        m0 = le01 & (a0 <= a2);
+        m1 = ~le01 & (a1 <= a2);
+        m2 = ~m0 & ~m1;
+        nm = FSL_SEL(m0, n[0], FSL_SEL(m1, n[1], n[2]));
+    }
+    e[0][0] = FSL_SEL(m0, one, zero) - nm * n[0];
+    e[0][1] = FSL_SEL(m1, one, zero) - nm * n[1];
+    e[0][2] = FSL_SEL(m2, one, zero) - nm * n[2];
+    l = one / FSL_SQRT(e[0][0] * e[0][0] + e[0][1] * e[0][1] + e[0][2] * e[0][2]);
+    for (int a = 0; a < 3; a++) e[0][a] *= l;
+    e[1][0] = n[1] * e[0][2] - n[2] * e[0][1];
+    e[1][1] = n[2] * e[0][0] - n[0] * e[0][2];
+    e[1][2] = n[0] * e[0][1] - n[1] * e[0][0];
+    for (int i = 0; i < 2; i++)
+        for (int j = 0; j < 2; j++) {
+            FSL_V t = zero;
+            for (int a = 0; a < 3; a++)
+                t += e[i][a] * (C[3 * a] * e[j][0] + C[3 * a + 1] * e[j][1] + C[3 * a + 2] * e[j][2]);
+            B[i][j] = t;
+        }
+    {
+        FSL_V mean = half_ * (B[0][0] + B[1][1]), hf = half_ * (B[0][0] - B[1][1]), off = half_ * (B[0][1] + B[1][0]);
+        gf = mean + FSL_SQRT(hf * hf + off * off);
+    }
+    keep |= ~FSL_FINITE(gf);
+    for (int a = 0; a < 9; a++) Cs[a] = C[a];
+    for (int i = 0; i < 2; i++)
+        for (int j = 0; j < 2; j++) {
+            FSL_V d = (i == j ? gf : zero) - B[i][j];
+            for (int a = 0; a < 3; a++)
+                for (int b = 0; b < 3; b++) Cs[3 * a + b] += e[i][a] * d * e[j][b];
+        }
+    for (int a = 0; a < 9; a++) Cs[a] = FSL_SEL(keep, C[a], Cs[a]);
 }
 
 /* OUT, Uv: this group's first lane of the batch's columns (stride doubles per row; OUT aligned
@@ -77,12 +156,7 @@ __attribute__((target(FSL_TARGET))) static void FSL_KERNEL(eomc_fs_lanes *w, con
         FSL_VI on = FSL_T(ce) > zero, any = {0};
         if (!FSL_ANY(&on)) continue;                 /* not touching: no force, no slope */
         for (int a = 0; a < 25; a++) e[a] = FSL_T(ce + (size_t)a);
-        for (int l = 0; l < FSL_W; l++) {             /* the secant, lane by lane (scalar code) */
-            double k9[9], c9[9], s9[9];
-            for (int a = 0; a < 9; a++) { k9[a] = K[a][l]; c9[a] = C[a][l]; s9[a] = 0.0; }
-            if (on[l]) fs_secant_friction(k9, c9, s9);
-            for (int a = 0; a < 9; a++) Cs[a][l] = s9[a];
-        }
+        FSL_SECANT(K, C, Cs);                         /* the lanes off: read by no store */
         for (int a = 0; a < 9; a++) {
             G[a] = h * Cs[a] + hh * K[a];
             any |= G[a] != zero;
@@ -156,19 +230,25 @@ __attribute__((target(FSL_TARGET))) static void FSL_KERNEL(eomc_fs_lanes *w, con
             Ao[l] = ok[l] && Aout[l] ? Aout[l] : w->sink;
             bo[l] = ok[l] && Aout[l] ? bout[l] : w->sink;
         }
-        for (int s = 0; s < w->nslot; s++) {       /* slot by slot: one pass over the vectors */
+        /* slot by slot: one pass over the vectors; the lanes' loop unrolled (measured on G1: left
+           a loop, with each lane's pointer loaded again, it was a sixth of this kernel) */
+        for (int s = 0; s < w->nslot; s++) {
             const FSL_V a = A[s];
             const int at = w->slot_ij[s];
+#pragma GCC unroll 8
             for (int l = 0; l < FSL_W; l++) Ao[l][at] = a[l];
         }
         for (int i = 0; i < nu; i++) {
             const FSL_V v = b[i];
+#pragma GCC unroll 8
             for (int l = 0; l < FSL_W; l++) bo[l][i] = v[l];
         }
     }
 }
 
 #undef FSL_KERNEL
+#undef FSL_SECANT
+#undef FSL_SQRT
 #undef FSL_ANY
 #undef FSL_ALL
 #undef FSL_VI

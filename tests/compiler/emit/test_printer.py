@@ -50,3 +50,37 @@ def test_unknown_symbol_is_a_compiler_bug():
 def test_floats_round_trip():
     v = 0.1 + 0.2
     assert float(P.doprint(sm.Float(v))) == v
+
+
+MEMO_CASES = [(x * (y + z), "x[0]*(p[0] + x[1])"), (-(x + y), "-x[0] - x[1]"), (IMul(x + y, x), "((x[0] + x[1])*x[0])"),
+              (sm.sin(x + y) / sm.sqrt(z), "sin(x[0] + x[1])/sqrt(p[0])")]
+
+
+@pytest.mark.parametrize("expr,text", MEMO_CASES)
+def test_print_memo_fills_each_printers_names(expr, text):
+    """Inside print_memo an expression is printed from its template: the same text as without
+    it, the second time too, and with another printer's names where they differ."""
+    from eomc.compiler.emit.printer import print_memo
+    other = CPrinter({x: "t3", y: "P[1]", z: "p[7]"})
+    with print_memo():
+        assert P.doprint(expr) == text
+        assert P.doprint(expr) == text
+        assert other.doprint(expr) == other.doprint(expr) == text.replace("x[0]", "t3").replace(
+            "x[1]", "P[1]").replace("p[0]", "p[7]")
+        with pytest.raises(KeyError, match="no C name"):
+            CPrinter({x: "x[0]"}).doprint(expr)
+
+
+def test_print_memo_leaves_name_reading_code_uncached():
+    """A _ccode method that reads its arguments' printed names (CPrinter.reads_names, as the pair
+    table's parameter array does) is printed as without the memo, under each printer's names."""
+    from eomc.compiler.emit.printer import print_memo
+
+    class Reads(sm.Function):
+        def _ccode(self, printer):
+            printer.reads_names()
+            text = printer._print(self.args[0])
+            return "SLOT" if text == "x[0]" else f"f({text})"
+    with print_memo():
+        assert P.doprint(Reads(x) + y) == "x[1] + SLOT"
+        assert CPrinter({x: "t1", y: "x[1]"}).doprint(Reads(x) + y) == "x[1] + f(t1)"
