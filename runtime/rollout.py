@@ -300,7 +300,8 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method="rk4", p=No
         if implicit_lanes:      # each thread's rows in fibers, their NAME_implicit calls in lanes
             from .cpu import machine_lanes
             lib.eomc_rollout_implicit_lanes(model.c_model, _options(ffi, a, implicit), _implicit_batch(model, ffi),
-                                            machine_lanes(), model.metadata["implicit"]["layout"]["size"], *args)
+                                            machine_lanes(), model.metadata["implicit"]["layout"]["size"],
+                                            _implicit_reads_t(model), *args)
         else:
             lib.eomc_rollout_stats(model.c_model, _options(ffi, a, implicit), *args)
         if method == "implicitfast":
@@ -415,6 +416,13 @@ def _implicit_lanes_allowed(model, fast):
     if why:
         raise ValueError(f"{model.name}: rollout(lanes=True) does not take method 'implicitfast' on {why}; "
                          f"use lanes=False")
+
+
+def _implicit_reads_t(model):
+    """1 when the model's NAME_implicit reads t (the compiler's implicit_batch.reads_t; a
+    library built before it recorded that: 1), else 0: the lanes rollout then batches rows whose
+    call times differ (a split step's sub-steps end an ulp off the other rows')."""
+    return int(bool(model.metadata.get("implicit_batch", {}).get("reads_t", True)))
 
 
 def _implicit_batch(model, ffi):

@@ -1152,14 +1152,27 @@ def batch_code(name, nx, nr, printed, dynamics="", npar=0, fn="rhs", defined=Non
     nout = nout if nout is not None else nx if fn == "rhs" else nx * nx
     out = "xdot" if fn == "rhs" else "out"
     layout = {"rhs": "nx x n", "jac_x": "nx*nx x n", "outputs": "noutput x n", "implicit": "size x n"}[fn]
+    # implicit: does NAME_implicit read t?  The lanes rollout batches rows an ulp apart in time
+    # only when it does not (runtime/c/eomc_rollout.c, same_call: the batch takes one t).
+    extra = {"reads_t": reads_t(lines)} if fn == "implicit" else {}
     try:
         lanes, used = batch_rhs(name, lines, parts, dynamics, fn=fn, out=out, kernels=kernels)
     except Unsupported as exc:
         before, body = batch_function(name, nx, nr, npar, None, "", fn=fn, nout=nout, prelude=prelude)
-        return before, body, {"vectorized": False, "why": f"the scalar {fn} {exc}", "layout": layout}
+        return before, body, {"vectorized": False, "why": f"the scalar {fn} {exc}", "layout": layout, **extra}
     before, body = batch_function(name, nx, nr, npar, lanes, helpers(name, used, defined or ()), fn=fn,
                                   nout=nout, prelude=prelude)
     if defined is not None:
         defined.update(key for key, _ in helper_blocks(name, used))
     return before, body, {"vectorized": True, "layout": layout,
-                          "sin_cos": "vectorized fdlibm kernels, within 1 ulp of libm" if "trig" in used else None}
+                          "sin_cos": "vectorized fdlibm kernels, within 1 ulp of libm" if "trig" in used else None,
+                          **extra}
+
+
+def reads_t(lines):
+    """Whether a scalar function's printed body reads its argument t.  Why the C text and not
+    the expressions' free symbols: it is what the function reads, its calls included (a split
+    part or helper gets t only as an argument, so the call names it; bodies.void_unused's test,
+    which writes ``(void)t;`` otherwise).  A false True (t in a comment) only keeps the exact
+    test."""
+    return any(re.search(r"\bt\b", line) for line in lines)

@@ -269,7 +269,8 @@ def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions
         sym, pose_meta = with_poses(sym, poses, layout)
         groups = {**groups, "poses": (POSE_GROUP,)}
     shared = verify(optimize_shared(sym.program, sym.derivatives))
-    programs = {fn: finish_function(shared, groups[fn]) if fn not in BATCH_FUNCTIONS and groups[fn] else None
+    programs = {fn: finish_function(_mass_inputs_only(shared, sym, fn), groups[fn])
+                if fn not in BATCH_FUNCTIONS and groups[fn] else None
                 for fn in fns if fn not in GENERATED_LIKE}
     programs = {fn: _taped(p, exact=fn.startswith("outputs")) for fn, p in programs.items()}
     programs.update((fn, programs[GENERATED_LIKE[fn]]) for fn in fns if fn in GENERATED_LIKE)
@@ -377,6 +378,8 @@ def _generate_c(formed, name, *, parameters, inputs, outputs, functions, fold_pa
         from .poses import pose_metadata
         rendered.append({"prototype": f"int {name}_pose_count(void)",
                          "body": f"    return {low.poses['size']};", "parts": []})
+    if getattr(sym, "inverse_dynamics_calls", "") in op_counts and "inverse_dynamics" in op_counts:   # a call of it
+        op_counts["inverse_dynamics"] = dict(op_counts[sym.inverse_dynamics_calls])
     if getattr(sym, "forcing_calls", "") in op_counts and "forcing" in op_counts:   # forcing is a call of it
         op_counts["forcing"] = dict(op_counts[sym.forcing_calls])
     if "linearize" in op_counts:
@@ -405,6 +408,18 @@ def _batch_outputs(scalar, sym, fns, formulation):
     if scalar == "implicit":
         return formulation.metadata(sym, fns)["implicit"]["layout"]["size"]
     return None
+
+
+def _mass_inputs_only(program, sym, fn):
+    """``program`` without the kernels' inputs (``anx``) that mass_matrix and jac_r do not read
+    where the plan has contacts (``sym.mass_inputs``, compiler/tree/lower.contact_mass_inputs):
+    their loop kernels read M's inputs only, and the contact terms are jac_x's."""
+    keep = set(getattr(sym, "mass_inputs", ()))
+    if not keep or fn not in ("mass_matrix", "jac_r"):
+        return program
+    alone = fn == "mass_matrix"     # NAME_dyn's M reads an[] alone (not CRBA's A, which NAME_implicit prints)
+    return program.with_(results=tuple(r for r in program.results
+                                       if (r[0][1] in keep if r[0][0] == "anx" else not alone)))
 
 
 def _taped(prog, exact=False):

@@ -19,6 +19,7 @@ that expression is then printed as before, uncached.
 """
 import contextlib
 import itertools
+import threading
 
 import sympy as sm
 from sympy.printing.c import C99CodePrinter
@@ -26,20 +27,21 @@ from sympy.printing.precedence import PRECEDENCE
 
 __all__ = ["CPrinter", "NonFiniteLiteral", "print_memo"]
 
-_MEMO = None    # {expr: (texts, symbols) or None (uncacheable)} while a print_memo is open
+# Per thread (two models may be generated at once in threads): .memo = {expr: (texts, symbols)
+# or None (uncacheable)} while a print_memo is open; .tp = the thread's template printer.
+_LOCAL = threading.local()
 _HOLE = "\x00"  # around a symbol's slot number in a template (no C text holds it)
 
 
 @contextlib.contextmanager
 def print_memo():
     """Print templates kept for the duration (nested: the outer one's); dropped after."""
-    global _MEMO
-    outer = _MEMO
-    _MEMO = {} if outer is None else outer
+    outer = getattr(_LOCAL, "memo", None)
+    _LOCAL.memo = {} if outer is None else outer
     try:
         yield
     finally:
-        _MEMO = outer
+        _LOCAL.memo = outer
 
 
 class NonFiniteLiteral(ValueError):
@@ -60,7 +62,7 @@ class CPrinter(C99CodePrinter):
         (not only on their positions): its expression is not printed from a template."""
 
     def doprint(self, expr, assign_to=None):
-        memo = _MEMO
+        memo = getattr(_LOCAL, "memo", None)
         if memo is None or assign_to is not None or not isinstance(expr, sm.Basic):
             return super().doprint(expr, assign_to)
         hit = memo.get(expr, False)
@@ -128,14 +130,12 @@ class _TemplatePrinter(CPrinter):
         return f"{_HOLE}{k}{_HOLE}"
 
 
-_TP = None
-
-
 def _template(expr):
     """(texts, symbols): the C of ``expr`` is texts[0] + name(symbols[0]) + texts[1] + ... +
     texts[-1]; None when it cannot be printed from a template."""
-    global _TP
-    tp = _TP = _TP or _TemplatePrinter()     # one: a SymPy printer costs ~0.3 ms to make
+    tp = getattr(_LOCAL, "tp", None)
+    if tp is None:                           # one per thread: a SymPy printer costs ~0.3 ms to make
+        tp = _LOCAL.tp = _TemplatePrinter()
     tp.slots, tp.impure = {}, False
     parts = super(CPrinter, tp).doprint(expr).split(_HOLE)
     if tp.impure:

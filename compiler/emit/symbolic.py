@@ -83,6 +83,7 @@ class Symbolic:
     regressor_reference: tuple = ()  # per block: "link frame" or "mass centre"
     analytic: object = None          # recursive formulation: compiler/tree/analytic.AnalyticPlan
     dynamics_kernel: tuple = ()      # recursive: the functions NAME_dyn computes (compiler/tree/dynamics_kernel.py)
+    inverse_dynamics_calls: str = ""  # recursive with contacts: τ = M u' - f from NAME_implicit's (tree/lower.py)
     forcing_calls: str = ""          # recursive: forcing is -inverse_dynamics at u' = 0, a call of it (tree/lower.py)
     function_groups: object = None   # per function, its result groups where they differ from the formulation's
     second_order: object = None      # recursive: (AnalyticPlan, nx) of hess_id's kernel (compiler/tree/second_order.py)
@@ -93,6 +94,7 @@ class Symbolic:
     implicit_pairs: tuple = ()       # NAME_implicit's body-body pair points after the ground's: (name, body a, body b)
     jac_guards: tuple = ()           # the analytic jac_x's: the exports with each point's world force, K and C
     chain_loop: object = None        # recursive: the rhs as loops over a repeated chain (compiler/tree/chain_loop.py)
+    mass_inputs: tuple = ()          # recursive, a plan with contacts: the an[] entries mass_matrix and jac_r read (tree/lower.contact_mass_inputs)
     input_solve: int = 0             # recursive: jac_r solves M by NAME_msolve, this many columns a block (compiler/tree/input_jacobian.py)
 
 

@@ -21,6 +21,7 @@ from ..tree.second_order import second_order_body, second_order_c, second_order_
 from ..tree.emit import tree_jacobian_body, tree_jacobian_ops, tree_implicit_body, tree_matrix_body, tree_rhs_body
 from ..tree.dynamics_kernel import (KERNEL_FUNCTIONS, dynamics_body, dynamics_inputs, dynamics_kernel_c,
                                     dynamics_ops, forcing_by_inverse_dynamics, has_dynamics_kernel,
+                                    inverse_dynamics_by_implicit,
                                     inputs_users)
 from ..tree.input_jacobian import input_jacobian_body, input_jacobian_ops, msolve_c
 from ..tree.jvp import tree_jvp_body
@@ -97,6 +98,8 @@ class Recursive(Formulation):
             return tree_rhs_body(ctx, prog, sym.guards)
         if fn in KERNEL_FUNCTIONS and has_dynamics_kernel(prog, sym, fn):
             return dynamics_body(ctx, prog, sym, fn)
+        if fn == "inverse_dynamics" and sym.inverse_dynamics_calls == "implicit":
+            return inverse_dynamics_by_implicit(ctx, self.implicit_metadata(sym)["layout"])
         if fn == "forcing" and sym.forcing_calls == "inverse_dynamics":
             return forcing_by_inverse_dynamics(ctx)
         if fn in ("mass_matrix", "forcing", "inverse_dynamics"):

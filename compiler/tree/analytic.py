@@ -49,9 +49,12 @@ parameter reads the state -- the caller computes them per state column into bloc
 (:func:`_pair_lines`; why:
 the tangent path differentiated the whole recursion per column, and the gymnasium humanoid's
 default function set with its self-pairs built in 44 s CPU against 23 s without them, its jac_x
-723 kB of C against 265 kB).  Other state-dependent loads (world-frame forces, a ball joint's
-damping, an ellipsoid's moving support point, inlined body-body pairs) and trees closed by
-constraints keep the tangent path.
+723 kB of C against 265 kB).  An ellipsoid's contact point, its support point, moves on its
+body as the body turns: block GM holds that motion per such contact (δc = M ω along a turn ω,
+:func:`.contacts.support_motion`) and :func:`_moving_lines` adds what it changes (why: dm_control's
+humanoid_CMU, whose hands are ellipsoids, kept the tangent path, a 732 kB jac_x and a ~400 s CPU
+default build).  Other state-dependent loads (world-frame forces, a ball joint's damping, inlined
+body-body pairs) and trees closed by constraints keep the tangent path.
 
 Checked against central differences and Pinocchio's ``computeRNEADerivatives`` /
 ``computeABADerivatives`` (tests/compiler/tree/test_analytic_derivatives.py).
@@ -90,6 +93,7 @@ class AnalyticPlan:
     k2nz: tuple = ()        # per k-speed joint: its coordinates b with a dK/dq_b not identically 0 (hess_id's block K2)
     pairs: tuple = ()       # per body of the pairs' table with a dof on its path: (its index in the table, body, that last dof)
     npair: int = 0          # bodies of the pairs' table (anx block W: their wrench tangents, 6 each, per state column)
+    moving: tuple = ()      # per ground contact: where in anx its support point's motion M is (block GM), -1 for none; () when no contact's point moves
     table: int = -1         # the pairs' table id when the kernel forms its inputs' tangents itself (no block W; _kernel_pair_lines)
 
     def dofs(self, b):
@@ -101,7 +105,8 @@ def analytic_plan(tree, bodies, gravity, layout, rename, contacts=None, let=None
     """(plan, [(("anx", i), expr)]) when the tree qualifies (see the module doc), else (None, []).
 
     ``contacts``: the ground contacts as lowered (:func:`.contacts.lower_contacts`' "analytic"
-    list: body, depth, point, centre, world force, K, C per contact), or None when the tree's
+    list: body, depth, point, centre, world force, K, C per contact, and an ellipsoid's support
+    point's motion M or None: block GM), or None when the tree's
     contacts cannot be planned (then a tree with contacts keeps the tangent path).
     ``let``: a recorder's ``let`` (:class:`.recorder.Recorder`): the joint laws' slopes (block L)
     then come as small expressions of named temporaries, common subexpressions taken once per
@@ -198,18 +203,22 @@ def analytic_plan(tree, bodies, gravity, layout, rename, contacts=None, let=None
     for e in lawdofs:       # the plan is sure from here: named slopes are named now
         _, dq, du = laws[row[e]]
         L += list(dq()) if du is None else [dq, du]
-    G, ends = [], []
-    for body, depth, point, centre, force, Kc, Cc in contacts or ():
+    G, ends, GM, moving = [], [], [], []
+    for body, depth, point, centre, force, Kc, Cc, *shape in contacts or ():
         if last.get(body, -1) < 0:      # on a body no joint moves: no generalized force
             continue
         ends.append((body, last[body]))
         G += [depth, *point, *centre, *force] + [x for M in (Kc, Cc) for row in M for x in row]
+        moving.append(-1 if not shape or shape[0] is None else len(GM))
+        GM += [x for row in shape[0] for x in row] if shape and shape[0] is not None else []
     blocks = [("E", E), ("r", r), ("S", S), ("I", I)] + ([("F", F)] if loads else []) + [
-        ("g", list(gravity)), ("K", K), ("arm", arm)] + ([("L", L)] if L else []) + ([("G", G)] if G else [])
+        ("g", list(gravity)), ("K", K), ("arm", arm)] + ([("L", L)] if L else []) + ([("G", G)] if G else []) + (
+        [("GM", GM)] if GM else [])
     offsets, values = {}, []
     for name, vals in blocks:
         offsets[name] = len(values)
         values += vals
+    moving = tuple(offsets["GM"] + m if m >= 0 else -1 for m in moving) if GM else ()
     off = [0]
     for d in dep:
         off.append(off[-1] + d + 1)
@@ -221,7 +230,7 @@ def analytic_plan(tree, bodies, gravity, layout, rename, contacts=None, let=None
     plan = AnalyticPlan(nb, len(row), tuple(par), tuple(first), tuple(count), tuple(row),
                         tuple(qcol), tuple(multi), loads, offsets, size, tuple(lam), tuple(dep),
                         tuple(off), choose_solver(dep), tuple(kblocks), tuple(lawdofs), tuple(ends),
-                        pairs=pair_ends, npair=len(pairs or ()),
+                        pairs=pair_ends, npair=len(pairs or ()), moving=moving,
                         table=-1 if table is None or not pairs else int(table))
     return plan, [((ANX, i), sm.sympify(v)) for i, v in enumerate(values)]
 
@@ -918,6 +927,7 @@ def _contact_lines(name, plan):
         "    {   /* ground contacts: the law's slopes and the point's motion on its body (analytic.py) */",
         "    " + c_table("cb", [b for b, _ in plan.contacts]),
         "    " + c_table("ce", [e for _, e in plan.contacts]),
+    ] + (["    " + c_table("cm", plan.moving)] if plan.moving else []) + [
         f"        double cj[{12 * plan.nd}], fw[{3 * plan.nd}];",
         f"        for (j = 0; j < {len(plan.contacts)}; j++) {{",
         f"            const double *g = an + {o['G']} + {GSIZE} * j;",
@@ -949,6 +959,7 @@ def _contact_lines(name, plan):
         "                    w[3 + i] = -(Cc[3 * i] * jp[0] + Cc[3 * i + 1] * jp[1] + Cc[3 * i + 2] * jp[2]);",
         "                    w[6 + i] = jp[i];",
         "                }",
+    ] + _moving_lines(plan) + [
         "            }",
         "            for (k = ce[j]; k >= 0; k = lam[k]) {   /* rows: -sign (J_p,k . df_a + w_k . (dp_a x f)) */",
         "                double *ok = out + (row0 + row[k]) * stride;",
@@ -962,6 +973,30 @@ def _contact_lines(name, plan):
         "            }",
         "        }",
         "    }",
+    ]
+
+
+def _moving_lines(plan):
+    """C: an ellipsoid's support point's own motion on its body (contacts.support_motion),
+    δc = M ω_a, added after w (the change along ξ_a) was formed for a material point: w's law
+    part gets -K δc - C (ω_b × δc) (the law's slopes at the point's new place and its slip
+    velocity) and the arm w[9..11] gets δc.  Only ξ's columns: the point does not move with u.
+    A separate term, emitted only where some contact's point moves, so that every other model's
+    C stays as it was."""
+    if not plan.moving:
+        return []
+    return [
+        "                if (cm[j] >= 0) {   /* an ellipsoid's support point moves on its body: dc += M w_a */",
+        "                    const double *m = an + cm[j];",
+        "                    double dc[3];",
+        "                    for (i = 0; i < 3; i++) dc[i] = m[3 * i] * s[0] + m[3 * i + 1] * s[1] + m[3 * i + 2] * s[2];",
+        "                    for (i = 0; i < 3; i++) {",
+        "                        w[i] -= Kc[3 * i] * dc[0] + Kc[3 * i + 1] * dc[1] + Kc[3 * i + 2] * dc[2]",
+        "                            + Cc[3 * i] * (Vb[1] * dc[2] - Vb[2] * dc[1]) + Cc[3 * i + 1] * (Vb[2] * dc[0] - Vb[0] * dc[2])",
+        "                            + Cc[3 * i + 2] * (Vb[0] * dc[1] - Vb[1] * dc[0]);",
+        "                        w[9 + i] += dc[i];",
+        "                    }",
+        "                }",
     ]
 
 

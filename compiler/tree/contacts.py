@@ -18,7 +18,12 @@ from ..contact.tree import CLIP_KIND, ENERGY, ContactLoad, ContactValue, contact
 from .placement import Placement
 from .spatial import cross
 
-__all__ = ["lower_contacts"]
+__all__ = ["lower_contacts", "support_motion"]
+
+# An ellipsoid's ground contact planned in the analytic kernel's block G with its support point's
+# motion (support_motion).  False: such a tree keeps the tangent path (as before session 14;
+# benchmarks/bench_ellipsoid_kernel.py's "tangent" contestant).
+PLAN_SHAPES = True
 
 
 def world_placement(bodies, rec):
@@ -47,8 +52,9 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
     ``energy`` output (:data:`~eomc.compiler.contact.tree.ENERGY`) is asked for, else None.
     ``guards``: a list to fill with the rhs's broad phase (:func:`body_guards`).
     ``analytic``: a dict to fill for the analytic jac_x (:mod:`.analytic`): "contacts", per
-    ground contact (body, depth, contact point, sphere centre, world force, K, C), or None
-    when a contact's point moves on its body (an ellipsoid's support point); "guards", jac_x's
+    ground contact (body, depth, contact point, sphere centre, world force, K, C, and M of
+    :func:`support_motion` for an ellipsoid's moving support point, else None), or None when
+    such a contact is not planned (``PLAN_SHAPES`` off); "guards", jac_x's
     broad phase (the world forces exported too: the kernel reads them); "pairs", the body-body
     pairs' table bodies and wrench temporaries when they are one table call, "pair_call" that
     call's temporary, table id and fixed inputs (table.lower_table's ``call_info``; .analytic).
@@ -92,11 +98,14 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
         params = {k: rename(s, what) for k, s in load.params.items()}
         poses.rotation(i)
         o = poses.origin(i)
+        moving = None
         if load.shape is not None:      # an ellipsoid: its support point c - A n / sqrt(n A n)
             n_b = poses.to_body(i, load.normal)
             An = [sum((a * x for a, x in zip(row, n_b)), sm.S.Zero) for row in load.shape]
             s = rec.let(sm.sqrt(sum((x * y for x, y in zip(n_b, An)), sm.S.Zero)))
             off = [rec.let(off[k] - An[k] / s) for k in range(3)]
+            if analytic is not None and PLAN_SHAPES:
+                moving = support_motion(poses.rotation(i), load.shape, n_b, An, s, rec.let)
         w_b, v_b = v[i][:3], v[i][3:]
         vp_b = [v_b[k] + c for k, c in enumerate(cross(w_b, off))]
         centre = [rec.let(o[k] + x) for k, x in enumerate(poses.to_world(i, off))]
@@ -124,8 +133,8 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
         if analytic is not None:
             analytic.setdefault("contacts", [])
             if analytic["contacts"] is not None:
-                analytic["contacts"] = None if load.shape is not None else analytic["contacts"] + [
-                    (i, forces.depth, point, centre, list(forces.force), K, C)]
+                analytic["contacts"] = None if load.shape is not None and moving is None else analytic["contacts"] + [
+                    (i, forces.depth, point, centre, list(forces.force), K, C, moving)]
         reach.setdefault(i, []).append(None if load.shape is not None else
                                        (load.normal, rename(load.height, what), params["r"], off, f_b,
                                         forces.depth, slopes, tuple(forces.force)))
@@ -151,6 +160,26 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
         limits = rename(stored, "the joint limits' elastic energy") if stored else sm.S.Zero
         values[ENERGY] = rec.let(_energy(bodies, v, poses, *energy) + sum(elastic, sm.S.Zero) + limits)
     return values
+
+
+def support_motion(R, A, m, Am, s, let):
+    """M (3x3 rows, world, named): an ellipsoid's support point's own motion on its body, δc = M ω
+    along a perturbation that turns the body by ω (world) -- what the analytic kernel adds to the
+    motion of the body's material point there (block G, compiler/tree/analytic.py).
+
+    The support point in body components is x(m) = c - A m / s, m = Rᵀ n the plane's normal in the
+    body, s = sqrt(mᵀ A m); turning the body by ω turns m by δm = Rᵀ(n × ω) = m × Rᵀω, and
+    ∂x/∂m = D = -(A/s - (A m)(A m)ᵀ/s³), so δc = R D [m]× Rᵀ ω.  nᵀ R D = 0 (the support point
+    is the deepest: the depth moves as for a point fixed on the body), so only the contact
+    point's tangential place (the friction's slip velocity and the force's arm) moves.
+    Why: without it a model with a ground-touching ellipsoid (dm_control's humanoid_CMU: its
+    hands) was refused the kernel, and its jac_x differentiated the whole recursion per column."""
+    D = [[let(-(A[a][b] / s - Am[a] * Am[b] / s ** 3)) if b >= a else None for b in range(3)] for a in range(3)]
+    D = [[D[a][b] if b >= a else D[b][a] for b in range(3)] for a in range(3)]
+    mx = [[0, -m[2], m[1]], [m[2], 0, -m[0]], [-m[1], m[0], 0]]       # [m]×
+    N = [[let(sum((D[a][k] * mx[k][b] for k in range(3)), sm.S.Zero)) for b in range(3)] for a in range(3)]
+    NRt = [[let(sum((N[a][k] * R[b][k] for k in range(3)), sm.S.Zero)) for b in range(3)] for a in range(3)]
+    return [[let(sum((R[a][k] * NRt[k][b] for k in range(3)), sm.S.Zero)) for b in range(3)] for a in range(3)]
 
 
 def body_guards(reach, poses, slopes=False, world=False, clearances=None):

@@ -30,7 +30,7 @@ from .analytic import (ANX, DOT6_LINE, PLACE_FROM_PARENT_LINES, WORLD_INERTIA_LI
 
 __all__ = ["dynamics_kernel_c", "has_dynamics_kernel", "dynamics_body", "dynamics_inputs", "dynamics_ops",
            "inputs_users", "INPUTS_CALL",
-           "KERNEL_FUNCTIONS", "forcing_by_inverse_dynamics"]
+           "KERNEL_FUNCTIONS", "forcing_by_inverse_dynamics", "inverse_dynamics_by_implicit"]
 
 # NAME_dyn_inputs(t, x, p, r, an): the straight-line inputs, one copy for all users (inputs_users)
 INPUTS_SIGNATURE = (("double", "t"), ("const double *", "x"), ("const double *", "p"), ("const double *", "r"),
@@ -161,9 +161,11 @@ def inputs_users(sym, functions):
     lanes the body it reads, not a static function it calls)."""
     if getattr(sym, "analytic", None) is None:
         return ()
+    dyn = getattr(sym, "dynamics_kernel", ())
+    if getattr(sym, "mass_inputs", ()):     # contacts: M's inputs only, for NAME_dyn's M and NAME_msolve
+        return tuple(f for f in functions if f in dyn or (f == "jac_r" and getattr(sym, "input_solve", False)))
     if sym.analytic.npair:      # block W is filled per column from the pairs' taped call, in each body
         return ()
-    dyn = getattr(sym, "dynamics_kernel", ())
     # jac_x keeps its own copy beside the contacts' broad phase (its an[] reads guarded temporaries)
     lanes_or_guards = "jac_x_batch" in functions or getattr(sym, "jac_guards", ())
     derivs = ("jac_id",) if lanes_or_guards else ("jac_x", "jac_id")
@@ -231,6 +233,29 @@ def forcing_by_inverse_dynamics(ctx):
             f"{IND}status = {ctx.name}_inverse_dynamics(t, x, ud0, p, r, out, work);",
             f"{IND}for (k = 0; k < {nu}; k++) out[k] = -out[k];",
             f"{IND}return status;"]
+
+
+def inverse_dynamics_by_implicit(ctx, layout):
+    """inverse_dynamics as τ = M u' - f from NAME_implicit's M and f (``layout``: its out[]
+    offsets, compiler/tree/lower.implicit_layout), one call, where the tree has contacts.
+
+    Why: there RNEA's straight-line τ carried the contacts' and pairs' forces again (gymnasium
+    humanoid 163 kB of C, ant 102 kB: a second of gcc and of generation each, issue 33's
+    build bar), while NAME_implicit computes M and f with them for the fixed-step methods.
+    The call costs NAME_implicit's time (its slopes too), not RNEA's: inverse_dynamics is not
+    on an integrator's path.  Equal to RNEA to rounding (tests/compiler/tree/test_dynamics_kernel.py)."""
+    from ..emit.bodies import IND
+    nu, m, f = ctx.nu, layout["M"], layout["f"]
+    return [f"{IND}double im[{layout['size']}];",
+            f"{IND}int i, j, status;",
+            f"{IND}status = {ctx.name}_implicit(t, x, p, r, im, work);",
+            f"{IND}if (status) return status;",
+            f"{IND}for (i = 0; i < {nu}; i++) {{",
+            f"{IND * 2}double s = -im[{f} + i];",
+            f"{IND * 2}for (j = 0; j < {nu}; j++) s += im[{m} + {nu} * i + j] * udot[j];",
+            f"{IND * 2}tau[i] = s;",
+            f"{IND}}}",
+            f"{IND}return {ctx.name}_finite(tau, {nu});"]
 
 
 def dynamics_ops(plan, fn):

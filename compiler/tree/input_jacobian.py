@@ -20,8 +20,10 @@ inputs, one call.  B's entries are the direct columns where the inputs act throu
 torques, else the residual's derivative along each input (the derivative pass: a force on a
 body of a SymPy system, as the n-link cart's; there the residual is still built, but only B
 is printed).  Used when the tree has the analytic plan (jac_x or jac_id or the loop kernel
-asked it), no ground contacts (their jac_x keeps its own guarded inputs) and no extra
-first-order states; elsewhere jac_r keeps the straight-line path (:mod:`.emit`).  Checked against that path to ~1e-12
+asked it) and no extra first-order states; elsewhere jac_r keeps the straight-line path
+(:mod:`.emit`).  With ground contacts or body-body pairs jac_r reads M's inputs alone (the
+contact terms of an[] are the analytic jac_x's, on its own guarded copy;
+:func:`.lower.contact_mass_inputs`), shared with the mass matrix's NAME_dyn.  Checked against that path to ~1e-12
 (tests/compiler/tree/test_input_columns.py)."""
 import sympy as sm
 
@@ -50,7 +52,7 @@ INPUT_SOLVE_GROUPS = ("dkin_r", "dres_r", "dzd_r", ANX)
 
 def uses_input_solve(plan, functions, nx, nq, nu):
     """Does jac_r solve through NAME_msolve (see the module doc)?"""
-    return plan is not None and "jac_r" in functions and not plan.contacts and nx == nq + nu
+    return plan is not None and "jac_r" in functions and nx == nq + nu
 
 
 def msolve_c(name, plan, lanes=LANES):

@@ -99,6 +99,32 @@ def dynamics_kernel_functions(plan, functions):
     return tuple(f for f in KERNEL_FUNCTIONS if f in functions and pairs >= DYN_KERNEL_MIN_PAIRS[f])
 
 
+# A tree with ground contacts or body-body pairs (and the analytic plan): mass_matrix from NAME_dyn
+# and jac_r from NAME_msolve on M's inputs alone (contact_mass_inputs), inverse_dynamics as
+# M u' - f from NAME_implicit's (dynamics_kernel.inverse_dynamics_by_implicit), forcing a call of
+# it.  False: their straight-line copies, each with the contacts' and pairs' forces again (the
+# C before session 14; benchmarks/bench_mjcf_build.py compares the two).
+CONTACT_KERNELS = True
+
+
+def contact_mass_inputs(plan):
+    """The indices of an[] that NAME_dyn's mass matrix and NAME_msolve read (each body's
+    placement E, r, its axes S, inertia I, gravity g, the armature), for a plan with ground
+    contacts or body-body pairs.
+
+    Why: there the loads' block F, the laws' slopes L and the contacts' block G are guarded
+    contact terms that only the analytic jac_x reads (with its own copy of an[]); M has no
+    contact term, so mass_matrix and jac_r take the loop kernels (a few kB of C) on these
+    inputs rather than straight-line CRBA and ABA solves of their own (gymnasium humanoid:
+    131 and 151 kB of C, issue 33's build time)."""
+    o = plan.offsets
+    ends = sorted(o.values()) + [plan.size]
+
+    def block(name):
+        return range(o[name], min(e for e in ends if e > o[name]))
+    return tuple(i for name in ("E", "r", "S", "I", "g", "arm") for i in block(name))
+
+
 _NONFINITE = (sm.nan, sm.zoo, sm.oo, -sm.oo)
 
 
@@ -242,23 +268,29 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
             # law Hessians differentiate them (second_order.with_law_hessians)
             analytic, anx = _analytic(tree, bodies, gravity, layout, functions, ground,
                                       None if "hess_id" in functions else rec.let, law_memo, renamed)
-            # a plan with ground contacts or pairs serves jac_x and jac_id only (NAME_dyn has no contact terms)
+            # a plan with ground contacts or pairs serves jac_x and jac_id, and NAME_dyn only its
+            # mass matrix (NAME_dyn has no contact terms; M has none): see contact_mass_inputs
             contacted = analytic is not None and bool(analytic.contacts or analytic.npair)
-            dyn = (dynamics_kernel_functions(analytic, functions)
-                   if analytic is not None and not contacted else ())
+            dyn = (dynamics_kernel_functions(analytic, functions) if analytic is not None and not contacted
+                   else ("mass_matrix",) if contacted and CONTACT_KERNELS and "mass_matrix" in functions else ())
             planned = analytic is not None
             grounded = planned and contacted
             if analytic is not None and not dyn and not set(functions) & {"jac_id", "jac_x"}:
                 analytic, anx = None, []
         # forcing and inverse_dynamics both straight-line: forcing is -τ at u' = 0, a call of
         # inverse_dynamics (RNEA's code once; only where the plan exists, small trees unchanged)
-        by_id = (planned and not grounded and {"forcing", "inverse_dynamics"} <= set(functions)
+        by_id = (planned and (CONTACT_KERNELS or not grounded) and {"forcing", "inverse_dynamics"} <= set(functions)
                  and not {"forcing", "inverse_dynamics"} & set(dyn))
+        # with contacts, inverse_dynamics is M u' - f from NAME_implicit's (RNEA's straight-line
+        # τ would carry every contact force again: dynamics_kernel.inverse_dynamics_by_implicit)
+        id_by_implicit = (CONTACT_KERNELS and grounded and {"implicit", "inverse_dynamics"} <= set(functions)
+                          and "hess_id" not in functions)
         direct = None
         if "jac_r" in functions and loops is None and jac:
             direct = _input_columns(tree, layout)
         # jac_r's M⁻¹ through NAME_msolve (.input_jacobian)
-        input_solve = uses_input_solve(analytic, functions, len(layout.x), nq, nu)
+        input_solve = (uses_input_solve(analytic, functions, len(layout.x), nq, nu)
+                       and (CONTACT_KERNELS or not analytic.contacts))
         # the analytic jac_x needs no residual, nor jac_r solved by NAME_msolve on direct columns
         if jac - ({"jac_x"} if analytic is not None else set()) - ({"jac_r"} if input_solve and direct else set()):
             W = tuple(sm.Symbol(f"w_{j}", real=True) for j in range(nu))
@@ -289,7 +321,8 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         # temporary of its program: a cart of 40 links did not compile, udot undeclared there)
         from .second_order import second_order_plan
         hess_trace = "hess_id" in functions and (analytic is None or second_order_plan(analytic)[0] is None)
-        if (("inverse_dynamics" in functions and "inverse_dynamics" not in dyn) or hess_trace) and loops is None:
+        if (("inverse_dynamics" in functions and "inverse_dynamics" not in dyn and not id_by_implicit)
+                or hess_trace) and loops is None:
             tau = rnea(bodies, rec, UD, gravity, v, c)
             extra += [(("tau", k), tau[k]) for k in range(nu)]
         if "jac_id" in functions and analytic is None:        # d tau / d x (compiler/tree/inverse_derivatives.py)
@@ -327,7 +360,8 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
     sym = build_symbolic(formed, layout, functions, outputs, events, dynamics=(A, b),
                          prelude=(rec.assignments, rec.count, sorted(extra, key=_order)),
                          function_groups={**TREE_FUNCTION_GROUPS,
-                                          **{f: ("anx",) if f in dyn else () if f == "forcing" and by_id else g
+                                          **{f: ("anx",) if f in dyn else () if f == "forcing" and by_id
+                                             or f == "inverse_dynamics" and id_by_implicit else g
                                              for f, g in _OWN_GROUPS.items()},
                                           **({"jac_r": INPUT_SOLVE_GROUPS} if input_solve else {})}
                          if planned else TREE_FUNCTION_GROUPS,
@@ -354,9 +388,13 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         sym = replace(sym, analytic=analytic, dynamics_kernel=dyn)
     if by_id:
         sym = replace(sym, forcing_calls="inverse_dynamics")
+    if id_by_implicit:
+        sym = replace(sym, inverse_dynamics_calls="implicit")
     if planned and set(KERNEL_FUNCTIONS) - set(dyn):     # straight-line ones print only their own temps
         sym = replace(sym, function_groups={**TREE_FUNCTION_GROUPS,
                                             **{f: g for f, g in _OWN_GROUPS.items() if f not in dyn}})
+    if grounded and analytic is not None and CONTACT_KERNELS:    # mass_matrix (NAME_dyn), jac_r (NAME_msolve): M's inputs
+        sym = replace(sym, mass_inputs=contact_mass_inputs(analytic))
     if input_solve:
         sym = replace(sym, input_solve=lanes_for(len(layout.r)),
                       function_groups={**(sym.function_groups or TREE_FUNCTION_GROUPS), "jac_r": INPUT_SOLVE_GROUPS})

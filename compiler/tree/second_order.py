@@ -119,7 +119,9 @@ def _tidy(e):
 # S_i x* (Y s_j) is the cubic one, 20 B^3; the rest within 24 B^2), a dot with a K column at most
 # 150 B^4, a store the sum of two (300 B^4), or such minus a joint law's curvature h within
 # 1e300: with B = 1e70, every output is within 1e300 + 1e283: finite
-# (the k-speed joints' own (q, q) blocks, _tangent_lines, are checked number by number).  Else (or
+# (the k-speed joints' own (q, q) blocks, _tangent_lines, are checked number by number, except a
+# folded joint's: with K^-1 within 1, Tq within 9 B^2 and dK^-1/dq checked within B, _folded_block_lines,
+# each entry is within 6 (300 B^4 + 9 B^3)).  Else (or
 # a NaN anywhere, which fails every <=) the output is checked entry by entry as before, so the
 # result (an error exactly when an output is not finite) is the same.  Why per dof: the check of
 # the pair's 48 numbers was 7 % of Go2's hess_id (knock-out, 2.5 of 34.7 us; 132 pairs, 18 dofs).
@@ -357,6 +359,7 @@ def second_order_c(name, plan, nq, nx, helpers):
         "                FF[4 * c] = ys[c]; FF[4 * c + 1] = bs[c]; FF[4 * c + 2] = g5[c]; FF[4 * c + 3] = g7[c];",
         "            }",
         "#endif",
+        *(_tq_folded_lines(plan, nm) if nm and not TANGENT else []),
         *(["            for (j = jl[i]; j >= 0; j = lam[j]) {   /* i's joint (every dof of it) and its support */",
            "                const double *s = Sw + 6 * j, *p = PS + 6 * j;",
            "                const int oj = db[j] != b;   /* j in another joint than i */"] if nm else [
@@ -368,7 +371,7 @@ def second_order_c(name, plan, nq, nx, helpers):
         "                double *u1 = U, *u2 = U + 6, *u3 = U + 12, *u6 = U + 18, *u7 = U + 24, *u9 = U + 30, *w = U + 36;",
         "                double *u4 = U + 42, *u10 = U + 48, *u11 = U + 54;",
         *_pair_vector_lines(name, rd, nm, oj),
-    ] + (_first_order_lines(rd, nm) if nm and not TANGENT else []) + _triple_lines(name, rd, nx, cfg, nm, plan, half) + [
+    ] + (_first_order_lines(rd, nm, plan) if nm and not TANGENT else []) + _triple_lines(name, rd, nx, cfg, nm, plan, half) + [
         "            }",
         *(_mirror_lines(plan, nx) if half else []),
         "        }",
@@ -782,18 +785,49 @@ def _joint_tables(plan):
             for c in range(k):
                 mi[e0 + c], m = m, m + 1
         out.append(c_table("mi", mi))
+        fold = _folded(plan)
+        if fold and len(fold) < len(plan.multi):    # mi without the folded joints' dofs (_first_order_lines)
+            for n in fold:
+                e0, k, _ = plan.multi[n]
+                mi[e0:e0 + k] = [-1] * k
+            out.append(c_table("mp", mi))
     return out
 
 
-def _first_order_lines(rd, nm):
+def _first_order_lines(rd, nm, plan):
     """C, in the pair loop (i, j): the first derivatives d tau / d xi along the k-speed joints'
     dofs, which the change to their coordinates needs (:func:`_tangent_lines`): row i along a
     dof j of i's joint or support (Carpentier-Mansard: (Y S_i).psi''_j + (B^T S_i).psi'_j, i's
-    composites), row j along a dof i of a joint below j (S_j.g5_i, g5 = B psi'_i + S_i x* f + Y psi''_i)."""
-    return [
-        f"                if (mi[j] >= 0) Tq[i * {nm} + mi[j]] = {rd}_dot(ys, PS2 + 6 * j) + {rd}_dot3(bs, p);",
-        f"                if (mi[i] >= 0 && oj) Tq[j * {nm} + mi[i]] = {rd}_dot(s, g5);",
-    ]
+    composites), row j along a dof i of a joint below j (S_j.g5_i, g5 = B psi'_i + S_i x* f + Y psi''_i).
+    The folded joints' columns of row i are not taken here but per dof i (:func:`_tq_folded_lines`):
+    ``mp`` is ``mi`` without their dofs, and the first line is left out when every k-speed joint
+    is folded."""
+    fold = _folded(plan)
+    first = [] if len(fold) == len(plan.multi) else [
+        f"                if ({'mp' if fold else 'mi'}[j] >= 0) Tq[i * {nm} + mi[j]] = {rd}_dot(ys, PS2 + 6 * j) + {rd}_dot3(bs, p);"]
+    return first + [f"                if (mi[i] >= 0 && oj) Tq[j * {nm} + mi[i]] = {rd}_dot(s, g5);"]
+
+
+def _tq_folded_lines(plan, nm):
+    """C, per dof i before its pair loop: row i's first derivatives along each folded joint's
+    dofs d (:func:`_folded`; every dof below such a root joint has all of them in its support),
+    Tq[i, d] = (Y S_i).psi''_d + (B^T S_i).psi'_d (:func:`_first_order_lines`), for the joint's k
+    dofs side by side from K's row groups 2 and 1 (they sit at the start of i's path, component-
+    major): a loop gcc vectorizes instead of k branches and 9-term dots in the pair loop.  Each
+    sum in rd_dot's then rd_dot3's order: the bits of the pair loop's form.  Why: that form was
+    1.5 % of Go2's hess_id (knock-out, 0.4 of 27.1 us)."""
+    out = []
+    for n in _folded(plan):
+        e0, k, _ = plan.multi[n]
+        m0 = sum(kj for _, kj, _ in plan.multi[:n])
+        ys = " + ".join(f"ys[{c}] * G[{12 + c} * L + l]" for c in range(6))
+        bs = " + ".join(f"bs[{c}] * G[{6 + c} * L + l]" for c in range(3))
+        out += [f"            if (pd[p0[jp[i]]] == {e0}) {{   /* Tq along joint {n}'s dofs: the start of i's path (_tq_folded_lines) */",
+                "                const double *G = K + pG[jp[i]];",
+                "                const int L = pL[jp[i]];",
+                f"                for (l = 0; l < {k}; l++) Tq[i * {nm} + {m0} + l] = ({ys}) + ({bs});",
+                "            }"]
+    return out
 
 
 def with_k_derivatives(plan, values, x):
@@ -840,7 +874,7 @@ def _tangent_lines(plan, nx, nm):
     o, nn = plan.offsets, nx * nx
     whole = len(_folded(plan)) < len(plan.multi)     # some joint takes the pass over its rows and columns
     lines = ["    {   /* the k-speed joints: from their tangent xi to their coordinates q */",
-             "        double chk = 0.0, tmp" + (", piv;" if whole else ";")] + (["        int p;"] if whole else [])
+             "        double chk = 0.0" + (", tmp, piv;" if whole else ";")] + (["        int p;"] if whole else [])
     m0, fold = 0, _folded(plan)
     for jn, ((e0, k, koff), blocks) in enumerate(zip(plan.multi, plan.kblocks)):
         kb = [len(r) for r, _ in blocks]
@@ -906,16 +940,11 @@ def _tangent_lines(plan, nx, nm):
     return lines + ["        big |= !(chk == 0.0);", "    }"]
 
 
-def _w_lines(k, k2, bs=None):
-    """C: W_b = dK^-1/dq_b = -K^-1 (dK/dq_b) K^-1 for each coordinate b of a k-speed joint, or
-    for the b in ``bs`` alone (those with a dK/dq_b not identically 0; the other W_b are 0 and
-    not read) (K^-1 whole in Kf, rows speeds; dK/dq_b from an[k2 + k*k*b])."""
+def _w_lines(k, k2):
+    """C: W_b = dK^-1/dq_b = -K^-1 (dK/dq_b) K^-1 for each coordinate b of a k-speed joint
+    (K^-1 whole in Kf, rows speeds; dK/dq_b from an[k2 + k*k*b])."""
     kk = k * k
-    loop = (f"for (b = 0; b < {k}; b++) {{" if bs is None else
-            "for (l = 0; l < " + str(len(bs)) + "; l++) {\n                static const int bz[" + str(max(len(bs), 1))
-            + "] = {" + ", ".join(map(str, bs or (0,))) + "};\n                b = bz[l];")
-    if bs is not None and not bs:
-        return []
+    loop = f"for (b = 0; b < {k}; b++) {{"
     return [
         f"            {loop}   /* W_b = dK^-1/dq_b = -K^-1 dK/dq_b K^-1 */",
         f"                const double *dK = an + {k2} + {kk} * b;",
@@ -940,19 +969,23 @@ def _folded_block_lines(plan, nx, nm, jn, m0):
     triple loop leaves along its tangent on the "j" side: the loop wrote Z = G K^-1 (columns
     along q), so the block is K^-T Z + sum_d T_i[d] dK^-1[d, .]/dq_b (the k-speed joint's
     Hessian along its coordinates, see :func:`_tangent_lines`); per row instead of the pass over
-    the joint's rows and columns (19-26 % of hess_id on Go2, G1, Talos).  Unrolled over K^-1's
-    diagonal blocks (entry (a, b) sums over the speeds of a's block only) and over the b whose
-    dK/dq_b is not identically 0 (``plan.k2nz``: a free joint's angles, not its position):
-    a third of the full 6x6 x 6 terms; the terms kept are summed in the full loop's order, so
-    the bits are its.  Why: the full loops were 8 % of Go2's hess_id (knock-out, 2.7 of 34.7 us)."""
+    the joint's rows and columns (19-26 % of hess_id on Go2, G1, Talos).
+
+    How: row a of the block is sum_d K^-1[d, a] Z[d, .] + T_i[d] Wt[a, d, .] over the speeds d of
+    a's diagonal block of K^-1, with Wt[a, d, b] = dK^-1[d, a]/dq_b (:func:`_wt_lines`, once per
+    call; 0 for the b whose dK/dq_b is identically 0, ``plan.k2nz``): a loop over the row's k
+    columns that gcc vectorizes (the entry-by-entry form, unrolled, was 5 % of Go2's hess_id).
+    Each entry sums its terms in the entry-by-entry form's order, and a term T_i[d] * 0.0 added
+    to a finite sum leaves its bits (x + 0 = x; the sum starts at +0.0, which -0.0 leaves +0.0),
+    so the bits are that form's.  The entries stay finite by the kernel's bound (BOUND) with
+    Wt's entries checked against it (K^-1 within 1, T_i within 9 B^2): no per-entry check."""
     e0, k, _ = plan.multi[jn]
     kk, nn = k * k, nx * nx
-    k2 = plan.offsets["K2"] + sum(kj * kj * kj for _, kj, _ in plan.multi[:jn])
-    nz = plan.k2nz[jn] if plan.k2nz else tuple(range(k))
+    jq = [plan.qcol[e0 + c] for c in range(k)]
     lines = [
         "        {",
-        f"            double Kf[{kk}], W[{k * kk}], Z[{kk}], ck[{k}] = {{0.0}};",
-        f"            static const int jq[{k}] = {{{', '.join(str(plan.qcol[e0 + c]) for c in range(k))}}};",
+        f"            double Kf[{kk}], Wt[{k * kk}], Z[{kk}];",
+        f"            static const int jq[{k}] = {{{', '.join(map(str, jq))}}};",
         "            int l;",
         f"            for (i = 0; i < {kk}; i++) Kf[i] = 0.0;   /* K^-1 whole from its blocks: rows speeds, columns coordinates */",
     ]
@@ -962,27 +995,52 @@ def _folded_block_lines(plan, nx, nm, jn, m0):
         lines += [f"            Kf[{k * c[i] + r[jj]}] = Kv{jn}_{bl}[{b * i + jj}];" for i in range(b) for jj in range(b)]
         for a in r:
             speeds[a] = sorted(c)
-    lines += _w_lines(k, k2, nz) + [
+    # the row's columns: contiguous (a root joint's coordinates are) -> a loop gcc vectorizes
+    col = (f"{jq[0]} + l" if jq == list(range(jq[0], jq[0] + k)) else "jq[l]")
+    lines += _wt_lines(plan, jn) + [
+        f"            for (i = 0; i < {k * kk}; i++) big |= !(fabs(Wt[i]) <= {BOUND});",
         f"            for (e = 0; e < {plan.nd}; e++) {{",
         f"                double *O = out + (size_t)row[e] * {nn};",
         f"                const double *Te = Tq + e * {nm} + {m0};",
         f"                for (j = 0; j < {k}; j++)   /* Z[d, b]: the loop's (xi_d, q_b) entries */",
-        f"                    for (l = 0; l < {k}; l++) Z[{k} * j + l] = O[jq[j] * {nx} + jq[l]];",
+        f"                    for (l = 0; l < {k}; l++) Z[{k} * j + l] = O[jq[j] * {nx} + {col}];",
         "                /* (q_a, q_b): sum_d K^-1[d, a] Z[d, b] + T[d] dK^-1[d, a]/dq_b, d over a's block */",
     ]
     for a in range(k):
-        for bb in range(k):
-            terms = [f"Kf[{k * i + a}] * Z[{k * i + bb}]" + (f" + Te[{i}] * W[{kk * bb + k * i + a}]" if bb in nz else "")
-                     for i in speeds[a]]
-            lines.append(f"                tmp = 0.0 + " + " + ".join(f"({t})" for t in terms) + ";")
-            lines.append(f"                O[jq[{a}] * {nx} + jq[{bb}]] = tmp;")
-            lines.append(f"                ck[{bb}] += tmp * 0.0;")
-    lines += [
-        "            }",
-        f"            for (b = 0; b < {k}; b++) chk += ck[b];",
-        "        }",
-    ]
-    return lines
+        terms = [f"(Kf[{k * d + a}] * Z[{k * d} + l] + Te[{d}] * Wt[{(a * k + d) * k} + l])" for d in speeds[a]]
+        lines.append(f"                for (l = 0; l < {k}; l++) O[{jq[a] * nx} + {col}] = 0.0 + " + " + ".join(terms) + ";")
+    return lines + ["            }", "        }"]
+
+
+def _wt_lines(plan, jn):
+    """C: Wt[(a k + d) k + b] = dK^-1[d, a]/dq_b = -(K^-1 (dK/dq_b) K^-1)[d, a] of folded joint
+    ``jn`` (K^-1 whole in Kf: rows speeds, columns coordinates; dK/dq_b from the block K2), for
+    the b in ``plan.k2nz`` (the others stay 0), d and a in one diagonal block of K (the others
+    are 0: K^-1 and dK/dq_b have K's blocks).  The sums run over that block alone, in the full
+    product's order (the terms left out are products by Kf's exact zeros)."""
+    e0, k, _ = plan.multi[jn]
+    kk = k * k
+    k2 = plan.offsets["K2"] + sum(kj * kj * kj for _, kj, _ in plan.multi[:jn])
+    nz = plan.k2nz[jn] if plan.k2nz else tuple(range(k))
+    if not nz:
+        return [f"            for (i = 0; i < {k * kk}; i++) Wt[i] = 0.0;"]
+    lines = [f"            for (i = 0; i < {k * kk}; i++) Wt[i] = 0.0;",
+             f"            for (l = 0; l < {len(nz)}; l++) {{   /* W_b = dK^-1/dq_b = -K^-1 dK/dq_b K^-1, block by block */",
+             f"                static const int bz[{len(nz)}] = {{{', '.join(map(str, nz))}}};",
+             "                const double *dK;",
+             "                double Y[" + str(kk) + "];",
+             "                b = bz[l];",
+             f"                dK = an + {k2} + {kk} * b;"]
+    for r, c in plan.kblocks[jn]:
+        rs, cs = sorted(r), sorted(c)
+        for i in cs:            # Y = K^-1 dK/dq_b: rows speeds, columns speeds
+            for j in cs:
+                lines.append(f"                Y[{k * i + j}] = 0.0 + " + " + ".join(f"Kf[{k * i + m}] * dK[{k * m + j}]" for m in rs) + ";")
+        for i in cs:            # W = -Y K^-1: rows speeds d, columns coordinates a
+            for j in rs:
+                lines.append(f"                Wt[({j * k + i}) * {k} + b] = -(0.0 + " + " + ".join(
+                    f"Y[{k * i + m}] * Kf[{k * m + j}]" for m in cs) + ");")
+    return lines + ["            }"]
 
 
 def _mirror_lines(plan, nx):
@@ -1071,10 +1129,12 @@ def second_order_ops(program, plan, nx):
         fold = _folded(plan)
         for n, ((_, k, _), blocks) in enumerate(zip(plan.multi, plan.kblocks)):
             if n in fold:       # per path K's columns along q (_k_folded_lines), per row the (q, q) block
-                per_path = 12 * sum(len(r) ** 2 for r, _ in blocks)
+                per_path = 12 * sum(len(r) ** 2 for r, _ in blocks)     # (_folded_block_lines), W (_wt_lines)
                 npaths = len(paths(plan)[0])
-                c["muls"] += npaths * per_path + plan.nd * 2 * k ** 3 + 2 * k ** 4
-                c["adds"] += npaths * per_path + plan.nd * 2 * k ** 3 + 2 * k ** 4
+                per_row = 2 * k * sum(len(r) ** 2 for r, _ in blocks)
+                w = 2 * len(plan.k2nz[n] if plan.k2nz else range(k)) * sum(len(r) ** 3 for r, _ in blocks)
+                c["muls"] += npaths * per_path + plan.nd * per_row + w
+                c["adds"] += npaths * per_path + plan.nd * per_row + w
                 continue
             per_row = 2 * sum(len(r) ** 2 for r, _ in blocks) * nx + k ** 3
             c["muls"] += plan.nd * per_row + 2 * k ** 4

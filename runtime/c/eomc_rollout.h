@@ -115,12 +115,15 @@ int eomc_rollout_lanes(eomc_batch_fn f, int nx, int nparam, int ninput, size_t w
  * NAME_implicit) made in SIMD lanes: each thread runs `lanes` rows at once, each in a fiber
  * running the scalar row's code, and evaluates the rows' waiting model calls together, one
  * batch (NAME_implicit_batch: X nx x k, OUT out_len x k, parameters shared) call per time and
- * parameter row.  A row is the scalar row's step for step, so it equals eomc_rollout_stats's
- * row bit for bit wherever batch equals NAME_implicit bit for bit (-DEOMC_BATCH_LIBM_TRIG).
+ * parameter row.  reads_t: 0 when NAME_implicit does not read t (the model's metadata
+ * implicit_batch.reads_t, compiler/emit/batch.py): its waiting calls are then batched whatever
+ * their times (a split step's sub-steps end an ulp off the other rows' times).  A row is the
+ * scalar row's step for step, so it equals eomc_rollout_stats's row bit for bit wherever batch
+ * equals NAME_implicit bit for bit (-DEOMC_BATCH_LIBM_TRIG).
  * EOMC_BAD_ARGUMENT also when opt is not implicitfast with terms, or lanes is not 1..64.
  */
 int eomc_rollout_implicit_lanes(const eomc_model *m, const eomc_options *opt, eomc_batch_fn batch, int lanes,
-                                size_t out_len, double t0, double t1, int n, const double *X0, const double *P,
+                                size_t out_len, int reads_t, double t0, double t1, int n, const double *X0, const double *P,
                                 size_t p_stride, int n_rgrid, const double *r_tgrid, const double *R,
                                 size_t r_stride, int n_eval, const double *t_eval, double *X_out,
                                 double *X_last, int *status, long *steps, eomc_stats *stats, int nthreads);

@@ -142,6 +142,22 @@ def test_implicitfast_rows_in_lanes_equal_the_scalar_rollout(hopper, threads):
     assert simulate(hopper, X0[0], (0.0, 0.48), method="implicitfast", dt=0.008).stats["nfev"] > 61
 
 
+def test_rows_at_times_an_ulp_apart_share_a_batch_only_when_the_model_ignores_t(hopper, monkeypatch):
+    """The hopper's NAME_implicit does not read t (the compiler's implicit_batch.reads_t), so the
+    scheduler batches waiting rows whatever their times -- a split step's sub-steps end an ulp off
+    the other rows' (the tests above run that path).  A model that reads t keeps the exact test
+    (the batch takes one t): forced here on the hopper, its rows too equal the scalar rollout."""
+    assert hopper.metadata["implicit_batch"]["reads_t"] is False
+    import eomc.runtime.rollout as ro
+    X0 = _hopper_starts(hopper, 13, seed=4)
+    kw = dict(dt=0.008, steps=50, method="implicitfast", threads=1)
+    want = rollout(hopper, X0, **kw)
+    monkeypatch.setattr(ro, "_implicit_reads_t", lambda model: 1)
+    got = rollout(hopper, X0, lanes=True, **kw)
+    assert got.ok.all() and np.array_equal(got.x, want.x) and np.array_equal(got.steps, want.steps)
+    assert np.array_equal(got.unsolved, want.unsolved)
+
+
 def test_implicitfast_lanes_with_a_parameter_row_per_trajectory(hopper):
     """Rows with their own parameters share a batch call only with equal rows: each is its own."""
     X0 = _hopper_starts(hopper, 6, seed=1)

@@ -205,7 +205,7 @@ int main(void)
     opt.implicit = &imp;
     eomc_rollout_stats(m, &opt, 0.0, t1, n, X0, P, (size_t)np, 0, NULL, NULL, 0, (int)rows, t_eval,
                        A_out, A_last, A_st, A_steps, A_stats, 2);
-    eomc_rollout_implicit_lanes(m, &opt, NAME_implicit_batch, lanes, OUT_LEN, 0.0, t1, n, X0, P, (size_t)np, 0,
+    eomc_rollout_implicit_lanes(m, &opt, NAME_implicit_batch, lanes, OUT_LEN, READS_T, 0.0, t1, n, X0, P, (size_t)np, 0,
                                 NULL, NULL, 0, (int)rows, t_eval, B_out, B_last, B_st, B_steps, B_stats, 2);
     for (k = 0; k < n; k++) {
         if (A_st[k] != B_st[k] || A_steps[k] != B_steps[k]) wrong++;
@@ -258,7 +258,7 @@ def _hopper_driver(spec, gm):
             "DEPTH_LIMIT": c_list(float(v) for v in depth_limits(shape, md["param_defaults"])),
             "NCONTACT": str(len(info["contacts"])), "NQ": str(md["nq"]), "LANES": str(lanes),
             "NROWS": str(2 * lanes + 3), "SPLIT": repr(float(IMPLICITFAST_SPLIT)),
-            "OUT_LEN": str(info["layout"]["size"])}
+            "OUT_LEN": str(info["layout"]["size"]), "READS_T": str(int(md["implicit_batch"]["reads_t"]))}
     driver = HOPPER_DRIVER
     for key, value in fill.items():
         driver = driver.replace(key, value)

@@ -196,3 +196,18 @@ def test_a_parameter_branch_stays_a_c_branch_and_other_tests_are_refused():
     assert "if (p[0] > 0.0) {" in code and "mask" not in used
     with pytest.raises(Unsupported, match="a branch on"):
         _lanes(["    if (isfinite(x[0])) {", "        out[0] = x[0];", "    }"])
+
+
+def test_reads_t_is_what_the_body_reads():
+    """implicit_batch.reads_t (the lanes rollout batches rows at different times only when it is
+    False): a body that names t, itself or in a call of a split part, reads it; temporaries t0,
+    t1 and (void)-free bodies do not."""
+    from eomc.compiler.emit.batch import batch_code, reads_t
+    autonomous = ["    const double t0 = x[0] - p[0];", "    out[0] = t0*x[1];", "    return m_finite_wide(out, 1);"]
+    assert not reads_t(autonomous)
+    assert reads_t(["    const double t0 = sin(20.0*t);"] + autonomous[1:])
+    assert reads_t(["    m_implicit_part0(t, x, out);"] + autonomous[2:])
+    for lines, want in ((autonomous, False), (["    out[0] = t*x[0];", "    return m_finite_wide(out, 1);"], True)):
+        meta = batch_code("m", 2, 0, (lines, []), npar=1, fn="implicit", nout=1)[2]
+        assert meta["reads_t"] is want
+    assert "reads_t" not in batch_code("m", 1, 0, (["    xdot[0] = t;"], []), fn="rhs")[2]

@@ -84,3 +84,40 @@ def test_print_memo_leaves_name_reading_code_uncached():
     with print_memo():
         assert P.doprint(Reads(x) + y) == "x[1] + SLOT"
         assert CPrinter({x: "t1", y: "x[1]"}).doprint(Reads(x) + y) == "x[1] + f(t1)"
+
+
+def test_print_memo_per_thread():
+    """Models generated at once in threads: each thread's memo and template printer are its
+    own, so a template is never filled with another thread's slots (the texts equal the
+    uncached printer's under a tiny switch interval, which interleaves the threads' prints)."""
+    import sys
+    import threading
+
+    from eomc.compiler.emit.printer import print_memo
+
+    syms = sm.symbols("a_0:12", real=True)
+    exprs = [sm.sin(syms[i]) * syms[(i + 1) % 12] + syms[(i + 5) % 12] ** 2 / (1 + syms[(i + 7) % 12])
+             for i in range(12)]
+    failures = []
+
+    def work(tag):
+        names = {s: f"{tag}[{k}]" for k, s in enumerate(syms)}
+        want = [CPrinter(names).doprint(e) for e in exprs]
+        for _ in range(30):
+            with print_memo():
+                got = [CPrinter(names).doprint(e) for e in exprs]
+            if got != want:
+                failures.append((tag, got, want))
+                return
+
+    old = sys.getswitchinterval()
+    sys.setswitchinterval(1e-6)
+    try:
+        threads = [threading.Thread(target=work, args=(f"w{i}",)) for i in range(4)]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+    finally:
+        sys.setswitchinterval(old)
+    assert not failures, failures[0]

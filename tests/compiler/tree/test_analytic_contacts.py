@@ -200,3 +200,45 @@ def _pairs_agree(fast, slow):
         else:
             apart += 1
     assert pressed >= 5 and apart >= 5, (pressed, apart)
+
+
+ELLIPSOID = """<mujoco model="egg">
+  <worldbody>
+    <geom name="floor" type="plane" size="5 5 0.1"/>
+    <body name="egg" pos="0 0 0.3">
+      <freejoint name="root"/>
+      <geom name="egg" type="ellipsoid" size="0.12 0.07 0.04" pos="0.03 -0.02 0.01" euler="20 35 -10" mass="1"/>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_ellipsoid_support_point_moving_on_its_body(monkeypatch, tmp_path):
+    """A ground-touching ellipsoid (dm_control's humanoid_CMU: its hands): its contact point is
+    its support point, which moves on the body as the body turns (contacts.support_motion, anx
+    block GM).  The kernel against the tangent jac_x (the plan refused the contacts) and central
+    differences, touching and clear, on a free ellipsoid with its geom turned and off the body's
+    origin; jac_id likewise."""
+    from eomc.compiler.mjcf.model import MjcfModel
+    from eomc.compiler.tree import contacts
+    monkeypatch.setattr(contacts, "PLAN_SHAPES", True)
+    path = tmp_path / "egg.xml"
+    path.write_text(ELLIPSOID)
+    fast, slow = both(MjcfModel(path), "egg", monkeypatch, tmp_path,
+                      functions=FNS + ["inverse_dynamics", "jac_id"])
+    assert "support point moves on its body" in fast.source_path.read_text()
+    rng = np.random.default_rng(11)
+    iz = fast.state_names.index("q_root_z")
+    states = []
+    for _ in range(200):
+        x = np.concatenate([rng.uniform(-np.pi, np.pi, fast.nq), 0.3 * rng.normal(size=fast.nu)])
+        x[iz] = rng.uniform(0.0, 0.15)
+        states.append(x)
+    on = [x for x in states if touching(fast, x)][:4]
+    off = [x for x in states if not touching(fast, x)][:2]
+    check(fast, slow, on + off)
+    for x in on + off:
+        ud = rng.normal(size=fast.nu)
+        J, ref = fast.jac_id(0.0, x, ud), slow.jac_id(0.0, x, ud)
+        assert np.max(np.abs(J - ref)) / max(1.0, np.max(np.abs(ref))) < 1e-10

@@ -87,3 +87,72 @@ def test_small_models_keep_the_straight_line_recursions(tmp_path):
         model = eomc.compile(system, "dcart4", functions=FNS, formulation="recursive", progress=False,
                              cache_dir=tmp_path)
     assert model.nx <= TANGENT_MIN_STATES and not kernel(model)
+
+
+KICK = """<mujoco model="kick">
+  <worldbody>
+    <geom name="floor" type="plane" size="5 5 0.1"/>
+    <body name="torso" pos="0 0 0.3">
+      <freejoint name="root"/>
+      <geom name="torso" type="sphere" size="0.1" mass="1"/>
+      <body name="leg" pos="0 0 -0.05">
+        <joint name="hip" type="hinge" axis="0 1 0"/>
+        <geom name="leg" type="capsule" fromto="0 0 0 0.2 0 -0.12" size="0.03" mass="0.3"/>
+      </body>
+    </body>
+  </worldbody>
+  <actuator><motor joint="hip" gear="2"/></actuator>
+</mujoco>
+"""
+
+
+def test_with_ground_contacts(tmp_path, monkeypatch):
+    """A tree with ground contacts, default function set (issue 33's build time): mass_matrix from
+    NAME_dyn and jac_r from NAME_msolve on M's inputs alone (lower.contact_mass_inputs),
+    inverse_dynamics as M u' - f from NAME_implicit, forcing a call of it.  Checked against the
+    rhs's own ABA (M u' = forcing, τ(u') = 0 at the rhs's u'), mass_matrix (the kernel) against
+    τ(a) - τ(0) (NAME_implicit's straight-line CRBA), jac_r against M⁻¹ ∂forcing/∂r, at states
+    with the contacts pressed and clear."""
+    from eomc.compiler.mjcf.model import MjcfModel
+    path = tmp_path / "kick.xml"
+    path.write_text(KICK)
+    monkeypatch.setenv("EOMC_CACHE_DIR", str(tmp_path / "cache"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = eomc.compile(MjcfModel(path), "kick", progress=False, cache_dir=tmp_path)
+    assert model.nx > TANGENT_MIN_STATES and {"implicit", "jac_r"} <= set(model.functions)
+    text = model.source_path.read_text()
+
+    def body(fn):
+        start = text.index(f"int {model.name}_{fn}(")
+        return text[start:text.index("\n}\n", start)]
+    assert kernel(model, "mass_matrix") and "_msolve(an, out, " in body("jac_r")
+    assert "_implicit(t, x, p, r, im, work)" in body("inverse_dynamics")
+    assert "_inverse_dynamics(t, x, " in body("forcing")
+    rng = np.random.default_rng(3)
+    iz, nq, nu = model.state_names.index("q_root_z"), model.nq, model.nu
+    pressed = clear = 0
+    for k in range(8):
+        x = np.asarray(model.initial_state, dtype=float) + np.concatenate(
+            [0.3 * rng.normal(size=nq), 0.3 * rng.normal(size=nu)])
+        x[3:7] /= np.linalg.norm(x[3:7])
+        x[iz] = 0.5 if k % 3 == 0 else 0.06 + 0.04 * rng.random()
+        r = rng.normal(size=model.ninput)
+        M, f = model.mass_matrix(0.0, x, r=r), model.forcing(0.0, x, r=r)
+        ud = model.rhs(0.0, x, r=r)[nq:]
+        assert np.array_equal(M, M.T)
+        assert relative_error(M @ ud, f) < 1e-10
+        assert np.max(np.abs(model.inverse_dynamics(0.0, x, ud, r=r))) < 1e-10 * max(1.0, np.max(np.abs(f)))
+        a, tau0 = rng.normal(size=nu), model.inverse_dynamics(0.0, x, np.zeros(nu), r=r)
+        assert np.array_equal(tau0, -f)
+        err = model.inverse_dynamics(0.0, x, a, r=r) - tau0 - M @ a    # (τ is ~1e6 where a contact is deep)
+        assert np.max(np.abs(err)) < 1e-12 * max(1.0, np.max(np.abs(tau0)), np.max(np.abs(M @ a)))
+        # jac_r = [0; M⁻¹ B], B = ∂f/∂r: the motor's f is linear in r (a unit step is exact but for rounding)
+        B = np.array([model.forcing(0.0, x, r=r + e) - f for e in np.eye(model.ninput)]).T
+        Jr = model.jac_r(0.0, x, r=r)
+        assert np.array_equal(Jr[:nq], np.zeros((nq, model.ninput)))
+        assert relative_error(Jr[nq:], np.linalg.solve(M, B)) < 1e-9
+        gap = min(v for n, v in model.outputs(0.0, x, r=r).items() if n.startswith("Fn_"))
+        force = max(v for n, v in model.outputs(0.0, x, r=r).items() if n.startswith("Fn_"))
+        pressed, clear = pressed + (force > 0), clear + (force == 0 and gap == 0)
+    assert pressed >= 2 and clear >= 2

@@ -1,0 +1,158 @@
+"""`eomc build MODEL.xml -o DIR` with no flags (cold cache, the default function set) on
+gymnasium's hopper, walker2d, ant and humanoid: CPU per phase (derive, generate, compile: the
+C compiler's CPU), the whole build's CPU and the C's size, per function too (issue 33: build
+<= 10 s CPU each).
+
+Contestants, in the same run, interleaved per round, each build in a fresh child with a fresh
+cache: ``before`` (``lower.CONTACT_KERNELS = False``: mass_matrix, jac_r, forcing and
+inverse_dynamics as straight-line copies of their own, the C of main before session 14) and
+``after`` (the default: mass_matrix from NAME_dyn and jac_r from NAME_msolve on M's inputs,
+inverse_dynamics from NAME_implicit's M and f, forcing a call of it; compiler/tree/lower.py).
+
+Phases are CPU seconds: the driver's stage clock is replaced in the child by the process's
+CPU time plus its finished children's (the C compiler runs as a child), so "compile" is gcc's
+CPU.  The build is the CLI's own (eomc.cli.main), as a user runs it.
+
+    python benchmarks/bench_mjcf_build.py [--models hopper,walker2d,ant,humanoid] [--modes before,after]
+        [--rounds 1] [--no-write]      (pin it: taskset -c 1)
+    python benchmarks/bench_mjcf_build.py --child MODEL MODE OUT   (one build; prints JSON)
+"""
+import json
+import os
+import re
+import resource
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+MODELS = ("hopper", "walker2d", "ant", "humanoid")
+MODES = ("before", "after")
+
+
+def _cpu():
+    own = time.process_time()
+    ch = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own + ch.ru_utime + ch.ru_stime
+
+
+def _sizes(text, name):
+    """C bytes per generated function (its _part routines included), the static routines that
+    no function's name prefixes (the pairs' table and narrow phase: "routines") and the
+    name/default tables with the model struct ("tables")."""
+    starts = []
+    for m in re.finditer(r"^(?:static |int |void |const |double )[^\n;=]*\(|^(?:static )?const [^\n(]*=", text, re.M):
+        own = re.match(rf"[^(]*?\b{name}_(\w+?)(?:_part\d+_\d+)?\(", m.group(0))
+        starts.append((m.start(), own.group(1) if own and "(" in m.group(0) else
+                       "tables" if m.group(0).endswith("=") else "routines"))
+    sizes = {}
+    for (at, fn), (end, _) in zip(starts, starts[1:] + [(len(text), "")]):
+        sizes[fn] = sizes.get(fn, 0) + end - at
+    return sizes
+
+
+def child(model, mode, out):
+    import types
+    import warnings
+    import gymnasium
+    import eomc.cli
+    from eomc.compiler import driver
+    from eomc.compiler.tree import lower
+    if mode == "before":
+        lower.CONTACT_KERNELS = False
+    driver.time = types.SimpleNamespace(perf_counter=_cpu)       # stage clock: CPU, gcc's included
+    seen = {}
+    stage = driver.Progress.stage
+
+    def recording(self, label):
+        self.timings = seen
+        return stage(self, label)
+    driver.Progress.stage = recording
+    path = os.path.join(os.path.dirname(gymnasium.__file__), "envs", "mujoco", "assets", f"{model}.xml")
+    t0 = _cpu()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        status = eomc.cli.main(["build", path, "-o", out, "-q"])
+    total = _cpu() - t0
+    text = (Path(out) / f"{model}.c").read_text()
+    print(json.dumps({"status": status, "cpu": total, "phases": seen, "c_bytes": len(text),
+                      "functions": _sizes(text, model),
+                      "rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+                      "gcc_rss_mb": resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024}))
+
+
+def main():
+    from common import environment_header, write_results
+
+    def arg(flag, default):
+        return sys.argv[sys.argv.index(flag) + 1] if flag in sys.argv else default
+    models = tuple(arg("--models", ",".join(MODELS)).split(","))
+    modes = tuple(arg("--modes", ",".join(MODES)).split(","))
+    rounds = int(arg("--rounds", "1"))
+    runs = {(m, k): [] for m in models for k in modes}
+    loads = []
+    for r in range(rounds):
+        for model in models:
+            for mode in modes:
+                loads.append(os.getloadavg()[0])
+                out = tempfile.mkdtemp(prefix="eomc_mb_")
+                env = dict(os.environ, EOMC_CACHE_DIR=tempfile.mkdtemp(prefix="eomc_mbc_"))
+                proc = subprocess.run([sys.executable, __file__, "--child", model, mode, out], env=env,
+                                      capture_output=True, text=True, cwd=tempfile.gettempdir())
+                if proc.returncode:
+                    raise RuntimeError(f"{model} {mode}: {proc.stderr[-2000:]}")
+                res = json.loads(proc.stdout.strip().splitlines()[-1])
+                runs[model, mode].append(res)
+                ph = res["phases"]
+                print(f"round {r + 1} {model:9s} {mode:6s} CPU {res['cpu']:6.1f} s  derive {ph.get('derive', 0):5.1f}"
+                      f"  generate {ph.get('generate', 0):5.1f}  compile {ph.get('compile', 0):5.1f}"
+                      f"  C {res['c_bytes'] / 1e3:6.0f} kB  load {loads[-1]:.1f}", flush=True)
+
+    def med(model, mode, get):
+        return statistics.median(get(x) for x in runs[model, mode])
+    rows = ["| model | build | CPU s | derive s | generate s | compile (gcc) s | C kB | vs before (CPU) | vs before (C) |",
+            "|---|---|---|---|---|---|---|---|---|"]
+    for model in models:
+        for mode in modes:
+            cpu = med(model, mode, lambda x: x["cpu"])
+            size = med(model, mode, lambda x: x["c_bytes"])
+            ph = {k: med(model, mode, lambda x, k=k: x["phases"].get(k, 0.0)) for k in ("derive", "generate", "compile")}
+            ratio = ratio_c = "-"
+            if mode != "before" and "before" in modes:
+                ratio = f"{cpu / med(model, 'before', lambda x: x['cpu']):.2f}x"
+                ratio_c = f"{size / med(model, 'before', lambda x: x['c_bytes']):.2f}x"
+            rows.append(f"| {model} | {mode} | {cpu:.1f} | {ph['derive']:.2f} | {ph['generate']:.2f} | "
+                        f"{ph['compile']:.2f} | {size / 1e3:.0f} | {ratio} | {ratio_c} |")
+    fns = sorted({f for v in runs.values() for x in v for f in x["functions"]},
+                 key=lambda f: -max(x["functions"].get(f, 0) for v in runs.values() for x in v))
+    big = [f for f in fns if max(x["functions"].get(f, 0) for v in runs.values() for x in v) >= 20000]
+    table2 = ["| model | build | " + " | ".join(big) + " |", "|---|---|" + "---|" * len(big)]
+    for model in models:
+        for mode in modes:
+            x = runs[model, mode][0]
+            table2.append(f"| {model} | {mode} | " + " | ".join(
+                f"{x['functions'].get(f, 0) / 1e3:.0f}" for f in big) + " |")
+    text = "\n".join([
+        environment_header("`eomc build` of gymnasium MJCF models with no flags: CPU per phase and C size"), "",
+        f"- rounds: {rounds}; 1-min load at the builds: min {min(loads):.1f}, median {statistics.median(loads):.1f}, "
+        f"max {max(loads):.1f}; CPU = the child's user + sys and its C compiler's (medians over rounds)",
+        "- before: `lower.CONTACT_KERNELS = False` (mass_matrix, jac_r, forcing, inverse_dynamics straight-line, "
+        "the C of main before session 14); after: the default", "",
+        *rows, "", "C kB per function (its _part routines included; routines: the static ones no function's name prefixes, "
+        "the pairs' table and narrow phase; tables: names, defaults, the model struct; first round; >= 20 kB in some build):", "",
+        *table2])
+    print(text)
+    if "--no-write" not in sys.argv:
+        write_results("mjcf_build", text, keep_notes=True)
+
+
+if __name__ == "__main__":
+    if "--child" in sys.argv:
+        i = sys.argv.index("--child")
+        child(sys.argv[i + 1], sys.argv[i + 2], sys.argv[i + 3])
+    else:
+        main()
