@@ -27,7 +27,6 @@ import statistics
 import subprocess
 import sys
 import tempfile
-import time
 import warnings
 from pathlib import Path
 
@@ -83,11 +82,8 @@ def child(mode, out):
 
 
 def per_call(call, n=CALLS):
-    call()
-    t0 = time.thread_time()
-    for _ in range(n):
-        call()
-    return (time.thread_time() - t0) / n
+    from common import thread_cpu_per_call
+    return thread_cpu_per_call(call, n)
 
 
 def relative(J, ref):

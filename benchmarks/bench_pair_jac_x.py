@@ -18,7 +18,6 @@ import os
 import statistics
 import sys
 import tempfile
-import time
 import warnings
 from pathlib import Path
 
@@ -31,12 +30,8 @@ CALLS = 200
 
 
 def per_call(call, n=CALLS):
-    """Thread CPU seconds per call of ``call()`` over n calls (one warm-up call first)."""
-    call()
-    t0 = time.thread_time()
-    for _ in range(n):
-        call()
-    return (time.thread_time() - t0) / n
+    from common import thread_cpu_per_call
+    return thread_cpu_per_call(call, n)
 
 
 def main(argv):

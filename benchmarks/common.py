@@ -87,6 +87,16 @@ def time_calls(func, number, repeat):
     return Timing(samples)
 
 
+def thread_cpu_per_call(call, n):
+    """Thread CPU seconds per call of ``call()`` over n calls, after one warm-up call: what the
+    interleaved-rounds benchmarks sample (thread time, so other processes on the core do not count)."""
+    call()
+    t0 = time.thread_time()
+    for _ in range(n):
+        call()
+    return (time.thread_time() - t0) / n
+
+
 def pin_to_one_core():
     """Run this process on one core (the last one) so contestants share a core and its caches;
     returns the core's number, or None where affinity cannot be set."""
