@@ -4,10 +4,12 @@ C compiler's CPU), the whole build's CPU and the C's size, per function too (iss
 <= 10 s CPU each).
 
 Contestants, in the same run, interleaved per round, each build in a fresh child with a fresh
-cache: ``before`` (``lower.CONTACT_KERNELS = False``: mass_matrix, jac_r, forcing and
-inverse_dynamics as straight-line copies of their own, the C of main before session 14) and
-``after`` (the default: mass_matrix from NAME_dyn and jac_r from NAME_msolve on M's inputs,
-inverse_dynamics from NAME_implicit's M and f, forcing a call of it; compiler/tree/lower.py).
+cache: ``before`` (``split.LEAN_MIN`` out of reach: every function's body at the command line's
+-O2, the C of main before session 15), ``after`` (the default: the long rhs, jac_x and
+NAME_implicit bodies under EOMC_LEAN, compiler/emit/split.py) and, on request, ``kernels_off``
+(also ``lower.CONTACT_KERNELS = False``: mass_matrix, jac_r, forcing and inverse_dynamics as
+straight-line copies of their own, the C of main before session 14).  The first mode given is
+the one the ratios compare with.
 
 Phases are CPU seconds: the driver's stage clock is replaced in the child by the process's
 CPU time plus its finished children's (the C compiler runs as a child), so "compile" is gcc's
@@ -31,7 +33,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 MODELS = ("hopper", "walker2d", "ant", "humanoid")
-MODES = ("before", "after")
+MODES = ("before", "after")   # also: kernels_off
 
 
 def _cpu():
@@ -62,7 +64,10 @@ def child(model, mode, out):
     import eomc.cli
     from eomc.compiler import driver
     from eomc.compiler.tree import lower
-    if mode == "before":
+    from eomc.compiler.emit import split
+    if mode in ("before", "kernels_off"):
+        split.LEAN_MIN = float("inf")
+    if mode == "kernels_off":
         lower.CONTACT_KERNELS = False
     driver.time = types.SimpleNamespace(perf_counter=_cpu)       # stage clock: CPU, gcc's included
     seen = {}
@@ -114,7 +119,7 @@ def main():
 
     def med(model, mode, get):
         return statistics.median(get(x) for x in runs[model, mode])
-    rows = ["| model | build | CPU s | derive s | generate s | compile (gcc) s | C kB | vs before (CPU) | vs before (C) |",
+    rows = [f"| model | build | CPU s | derive s | generate s | compile (gcc) s | C kB | vs {modes[0]} (CPU) | vs {modes[0]} (C) |",
             "|---|---|---|---|---|---|---|---|---|"]
     for model in models:
         for mode in modes:
@@ -122,9 +127,9 @@ def main():
             size = med(model, mode, lambda x: x["c_bytes"])
             ph = {k: med(model, mode, lambda x, k=k: x["phases"].get(k, 0.0)) for k in ("derive", "generate", "compile")}
             ratio = ratio_c = "-"
-            if mode != "before" and "before" in modes:
-                ratio = f"{cpu / med(model, 'before', lambda x: x['cpu']):.2f}x"
-                ratio_c = f"{size / med(model, 'before', lambda x: x['c_bytes']):.2f}x"
+            if mode != modes[0]:
+                ratio = f"{cpu / med(model, modes[0], lambda x: x['cpu']):.2f}x"
+                ratio_c = f"{size / med(model, modes[0], lambda x: x['c_bytes']):.2f}x"
             rows.append(f"| {model} | {mode} | {cpu:.1f} | {ph['derive']:.2f} | {ph['generate']:.2f} | "
                         f"{ph['compile']:.2f} | {size / 1e3:.0f} | {ratio} | {ratio_c} |")
     fns = sorted({f for v in runs.values() for x in v for f in x["functions"]},
@@ -140,8 +145,9 @@ def main():
         environment_header("`eomc build` of gymnasium MJCF models with no flags: CPU per phase and C size"), "",
         f"- rounds: {rounds}; 1-min load at the builds: min {min(loads):.1f}, median {statistics.median(loads):.1f}, "
         f"max {max(loads):.1f}; CPU = the child's user + sys and its C compiler's (medians over rounds)",
-        "- before: `lower.CONTACT_KERNELS = False` (mass_matrix, jac_r, forcing, inverse_dynamics straight-line, "
-        "the C of main before session 14); after: the default", "",
+        "- before: `split.LEAN_MIN` out of reach (every body at -O2, the C of main before session 15); after: the "
+        "default (long rhs, jac_x, NAME_implicit bodies under EOMC_LEAN); kernels_off: also "
+        "`lower.CONTACT_KERNELS = False` (the C of main before session 14)", "",
         *rows, "", "C kB per function (its _part routines included; routines: the static ones no function's name prefixes, "
         "the pairs' table and narrow phase; tables: names, defaults, the model struct; first round; >= 20 kB in some build):", "",
         *table2])

@@ -20,7 +20,7 @@ from .linsolve import choose_ldlt
 from .printer import NonFiniteLiteral, print_memo
 from .reverse import REVERSE_FUNCTIONS, reverse_body, reverse_nsolve
 from .sparse_lu import sparse_lu_solver
-from .split import NOINLINE_MACRO, split_body
+from .split import LEAN_MACRO, NOINLINE_MACRO, lean_attribute, split_body
 from .batch import batch_code
 from .signatures import BATCH_FUNCTIONS, FUNCTION_ORDER, ON_REQUEST, STRUCT_FIELDS, cdef, prototype
 from .symbolic import HELPER_USERS
@@ -368,8 +368,9 @@ def _generate_c(formed, name, *, parameters, inputs, outputs, functions, fold_pa
         parts, ctx.parts = ctx.parts + parts, []     # functions the body asked for (bodies.BodyContext.parts)
         if fn in BATCH_FUNCTIONS.values():
             printed[fn] = (lines, parts)
-        rendered.append({"prototype": prototype(name, fn), "body": void_unused(fn, lines),
-                         "parts": parts})
+        lean = lean_attribute(fn, lines)
+        rendered.append({"prototype": f"{lean} {prototype(name, fn)}" if lean else prototype(name, fn),
+                         "body": void_unused(fn, lines), "parts": parts, "lean": bool(lean)})
         op_counts[fn] = (dict(op_counts[GENERATED_LIKE[fn]]) if fn in GENERATED_LIKE else
                          _ops(fn, prog, solver, nx, len(layout.r), sym.seeds, low.helper, nu,
                               sum(1 for i, j in sym.pattern if i < nu and j < nu), sym.solve_in,
@@ -547,6 +548,7 @@ def _render(name, meta, fns, rendered, solver, layout, sym, helper, split=False,
         name=name, functions=rendered,
         helper_code="\n".join(c for c in ((solver.code if uses_solver else ""), *solver_parts, helper) if c),
         tables=tables, table_refs=table_refs, pointers=pointers,
-        noinline=NOINLINE_MACRO if split else "", wide_finite="implicit" in fns, **common)
+        noinline=NOINLINE_MACRO if split else "", wide_finite="implicit" in fns,
+        lean=LEAN_MACRO if any(f.get("lean") for f in rendered) else "", **common)
     return GeneratedModel(name=name, c_source=source, header=header, cdef=cdef(name, fns),
                           metadata=meta)

@@ -32,7 +32,8 @@ left as it is.  Output depends only on the input lines: byte-identical C.
 """
 import re
 
-__all__ = ["split_body", "NOINLINE_MACRO", "SPLIT_MIN", "CHUNK", "CHUNK_BYTES"]
+__all__ = ["split_body", "NOINLINE_MACRO", "SPLIT_MIN", "CHUNK", "CHUNK_BYTES", "LEAN_MACRO", "LEAN_FUNCTIONS",
+           "LEAN_MIN", "lean_attribute"]
 
 SPLIT_MIN = 300      # statements: shorter runs stay as they are
 CHUNK = 100          # statements per sub-function, at most
@@ -52,6 +53,39 @@ NOINLINE_MACRO = """#if defined(__GNUC__) && !defined(__clang__) && defined(__OP
 #else
 #define EOMC_NOINLINE
 #endif"""
+
+# What the split leaves in a function is not always small: a contact model's guard blocks cut
+# its straight-line code into runs shorter than SPLIT_MIN, so the bodies of gymnasium ant's rhs,
+# jac_x and NAME_implicit stay 1,800, 2,700 and 1,500 lines with branches, compiled at the
+# command line's level.  They were most of ant's gcc time (jac_x 2.7 of 6.7 s, 1.5 s of it its
+# own body).  A body of more than LEAN_MIN lines of one of LEAN_FUNCTIONS is compiled at -O1
+# plus the -O2 passes that paid for themselves there (SLP vectorization, peephole2, the
+# expensive optimizations, caller-saves, rematerialization, store merging; for rhs also PRE
+# and GCSE, without which its call was 2 % slower).  What that leaves out (the second
+# scheduling, code hoisting, VRP, the regional allocator; PRE and GCSE for jac_x and
+# NAME_implicit) is what gcc spent most on in them; the calls run as fast (per-call A/B on
+# ant and the humanoid, benchmarks/results/mjcf_build.md).  Same guard and
+# -DEOMC_PARTS_FULL_OPT opt-out as the sub-functions.  The bits are the same: no option here
+# reassociates or contracts.
+LEAN_FUNCTIONS = {"rhs": "EOMC_LEAN_PRE", "jac_x": "EOMC_LEAN", "implicit": "EOMC_LEAN"}
+LEAN_MIN = 600       # lines of the body the split left
+LEAN_MACRO = """#if defined(__GNUC__) && !defined(__clang__) && defined(__OPTIMIZE__) \\
+    && !defined(__OPTIMIZE_SIZE__) && !defined(__NO_INLINE__) && !defined(EOMC_PARTS_FULL_OPT)
+#define EOMC_LEAN __attribute__((optimize("O1", "tree-slp-vectorize", "peephole2", \\
+    "expensive-optimizations", "caller-saves", "lra-remat", "store-merging")))
+#define EOMC_LEAN_PRE __attribute__((optimize("O1", "tree-slp-vectorize", "peephole2", \\
+    "expensive-optimizations", "caller-saves", "lra-remat", "store-merging", "tree-pre", "gcse")))
+#else
+#define EOMC_LEAN
+#define EOMC_LEAN_PRE
+#endif"""
+
+
+def lean_attribute(fn, lines):
+    """The macro (``EOMC_LEAN`` or ``EOMC_LEAN_PRE``) to put before function ``fn``'s
+    definition, whose body is ``lines`` (what split_body left), or "" for none."""
+    return LEAN_FUNCTIONS.get(fn, "") if len(lines) > LEAN_MIN else ""
+
 
 _TEMP_LINE = re.compile(r"^(\s+)const double (t\d+) = (.*);$")
 _STORE_LINE = re.compile(r"^(\s+)([A-Za-z_]\w*)\[(\d+)\] = (.*);$")

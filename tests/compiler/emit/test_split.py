@@ -197,6 +197,34 @@ def test_recursive_rhs_parts_restrict_their_scratch(tmp_path, monkeypatch):
     np.testing.assert_allclose(np.array([mr.rhs(0.0, x, r=R) for x in X]), want, rtol=1e-14, atol=0)
 
 
+def test_long_bodies_are_compiled_lean(tmp_path, monkeypatch):
+    """A body the split leaves longer than LEAN_MIN lines gets EOMC_LEAN (jac_x) or
+    EOMC_LEAN_PRE (rhs) before its definition, and the macros once; nothing else in the C
+    changes, it is clean under -Wall -Wextra, and it computes the same bits."""
+    import subprocess
+    kane, inputs = cart_relative(4, em)
+    fns = ["rhs", "jac_x", "mass_matrix"]
+    monkeypatch.setenv("EOMC_CACHE_DIR", str(tmp_path / "plain"))
+    mp = eomc.compile(kane, "cart_pl", inputs=inputs, functions=fns, progress=False, formulation="recursive")
+    monkeypatch.setattr(split, "LEAN_MIN", 0)
+    monkeypatch.setenv("EOMC_CACHE_DIR", str(tmp_path / "lean"))
+    ml = eomc.compile(kane, "cart_ln", inputs=inputs, functions=fns, progress=False, formulation="recursive")
+    src, plain = ml.source_path.read_text(), mp.source_path.read_text()
+    assert "EOMC_LEAN" not in plain
+    assert src.count(split.LEAN_MACRO) == 1
+    assert re.findall(r"^(EOMC_LEAN\w*) int cart_ln_(\w+)\(", src, re.M) == [
+        ("EOMC_LEAN_PRE", "rhs"), ("EOMC_LEAN", "jac_x")]                  # not mass_matrix
+    unlean = src.replace("\n\n" + split.LEAN_MACRO + "\n", "\n").replace("EOMC_LEAN_PRE int ", "int ")
+    assert unlean.replace("EOMC_LEAN int ", "int ").replace("cart_ln", "cart_pl") == plain
+    subprocess.run(["cc", "-O2", "-std=c99", "-Wall", "-Wextra", "-Werror", "-c", str(ml.source_path),
+                    "-o", str(tmp_path / "lean.o")], check=True, cwd=ml.source_path.parent)
+    rng = np.random.default_rng(11)
+    for x in rng.uniform(-1, 1, (6, ml.nx)):
+        r = rng.uniform(-1, 1, ml.ninput)
+        np.testing.assert_array_equal(ml.rhs(0.0, x, r=r), mp.rhs(0.0, x, r=r))
+        np.testing.assert_array_equal(ml.jacobian(0.0, x, r=r), mp.jacobian(0.0, x, r=r))
+
+
 _SCRIPT = """
 import sys
 sys.path[:0] = {paths!r}
