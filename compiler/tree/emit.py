@@ -77,13 +77,15 @@ def tree_implicit_body(ctx, program, guards, size):
     ground; compiler/tree/contacts.body_guards) and the finiteness check NAME_finite_wide
     (templates/model.c.j2: its 2000 outputs on the humanoid took 0.55 us with a branch per
     entry, 0.24 in four chains)."""
+    from ..contact.table import slopes_into
+    program, written = slopes_into(program, "imp")     # the pairs' loop writes its slopes into out[]
     pr = ctx.printer(program)
     if guards:
         lines, pr = guarded_temps(program, pr, guards)
     else:
         lines = temps(program, pr)
     vals = program.result_exprs("imp")
-    lines += [store(f"out[{i}]", vals.get(("imp", i), 0.0), pr) for i in range(size)]
+    lines += [store(f"out[{i}]", vals.get(("imp", i), 0.0), pr) for i in range(size) if ("imp", i) not in written]
     lines.append(f"{IND}return {ctx.name}_finite_wide(out, {size});")
     return lines
 
