@@ -86,10 +86,6 @@ POINT_OUTPUTS = 9        # F_n, friction (3), δ, clip, p (3): PairValue kinds 0
 # v_B - v_A at p (3), K (9), C (9) (.pairs.law_slopes; 0 out of contact)
 SLOPE_OUTPUTS = 25
 SLOPES = 3               # ``full`` of a call in its "slopes" variant (its C passes 0: the rhs's skips)
-# NAME_implicit's slopes written by the loop straight into out[] (PairTableSlopesInto) instead of a
-# block of PT_ that the loop zeroes and NAME_implicit copies (2725 doubles each on the humanoid);
-# an experiment (session 14, fsmodel): off by default, not in the caches' keys
-SLOPES_INTO_OUT = False
 _TABLES = {}             # table id -> Table (this process's lowering; the C is what the caches keep)
 
 
@@ -273,8 +269,12 @@ class PairTableTapeCall(PairTableCall):
 
 class PairTableSlopesInto(PairTableCall):
     """PairTableSlopesInto(table id, offset, *inputs): the "slopes" variant writing its slope
-    block into NAME_implicit's ``out`` from ``offset`` on (compiler/tree/emit.tree_implicit_body
-    makes it when :data:`SLOPES_INTO_OUT` is set and out[offset ...] are exactly the block)."""
+    block into NAME_implicit's ``out`` from ``offset`` on (:func:`slopes_into` makes it when
+    out[offset ...] are exactly the block).  Why: the "slopes" variant's block lived in PT_, which
+    the loop zeroed and NAME_implicit then copied into out[] entry by entry (2725 doubles each on
+    gymnasium's humanoid); written in place, NAME_implicit at qpos0 took 6.16 instead of 7.59 us
+    together with NAME_finite_wide's 16 sums (session 14, fsmodel: this cut alone 1.00-1.12x in
+    two runs, the 16 sums alone 1.08x)."""
 
     def _slopes(self):
         return True
@@ -291,20 +291,22 @@ class PairTableSlopesInto(PairTableCall):
     def _ccode(self, printer):
         t = self.table
         state = ", ".join(printer._print(a) for a in self.args[2:2 + t.nstate])
+        # the block's length too: NAME_implicit_batch's lanes (compiler/emit/batch.py) gather it
         return (f"eomc_pairs_slopes((const double[{t.nstate}]){{{state}}}, {_array(self.args[2 + t.nstate:], printer)}, "
-                f"0, &PT_[0], &out[{int(self.args[1])}])")
+                f"0, &PT_[0], &out[{int(self.args[1])}], {SLOPE_OUTPUTS * t.npoints})")
 
 
 def slopes_into(program, group):
     """``program`` with its pairs' slopes call made :class:`PairTableSlopesInto` when the results
     (group, i) for i from some offset on are exactly the call's slope block, and the set of those
-    result keys (the caller stores no value for them), else (program, empty set)."""
+    result keys (the caller stores no value for them), else (program, empty set): the "slopes"
+    variant into PT_, copied, as before (several tables, or a block read by another result)."""
     into = [(s, e) for s, e in program.assignments if isinstance(e, PairTableSlopesInto)]
     if into:        # (made already: the keys it writes)
         call = into[0][1]
         return program, {(group, int(call.args[1]) + j) for j in range(SLOPE_OUTPUTS * call.table.npoints)}
     calls = [(s, e) for s, e in program.assignments if type(e) is PairTableCall and e._slopes()]
-    if not SLOPES_INTO_OUT or len(calls) != 1:
+    if len(calls) != 1:
         return program, set()
     sym, call = calls[0]
     t = call.table
@@ -510,9 +512,10 @@ def _loop(t, mode):
         L.append("static double eomc_pairs_tape(const double *in, const double *pars, int full, double *out)\n{")
     elif into:
         L.append("/* body-body pairs' loop for NAME_implicit (compiler/contact/table.py): eomc_pairs' outputs with "
-                 "full = 0, and per contact point depth, p, v_B - v_A, K, C into slo (0 where a pair is skipped) */")
+                 "full = 0, and per contact point depth, p, v_B - v_A, K, C into slo[0 .. nslo) (0 where a pair is "
+                 "skipped) */")
         L.append("static double eomc_pairs_slopes(const double *in, const double *pars, int full, double *out, "
-                 "double *slo)\n{")
+                 "double *slo, int nslo)\n{")
     elif slopes:
         L.append("/* body-body pairs' loop for NAME_implicit (compiler/contact/table.py): eomc_pairs' outputs with "
                  "full = 0, then per contact point depth, p, v_B - v_A, K, C (0 where a pair is skipped) */")
@@ -530,7 +533,7 @@ def _loop(t, mode):
     L.append("    int q, m, k, w, j;" if dot else "    int s, q, m, k, w, j;")
     L.append(f"    for (k = 0; k < (full ? {t.noutput} : {t.nwrench}); ++k) out[k] = 0.0;")
     if into:
-        L.append(f"    for (k = 0; k < {SLOPE_OUTPUTS * t.npoints}; ++k) slo[k] = 0.0;")
+        L.append("    for (k = 0; k < nslo; ++k) slo[k] = 0.0;")
     elif slopes:
         L.append(f"    for (k = {t.noutput}; k < {t.noutput + SLOPE_OUTPUTS * t.npoints}; ++k) out[k] = 0.0;")
     if dot:

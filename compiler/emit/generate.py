@@ -31,11 +31,6 @@ ALL_FUNCTIONS = FUNCTION_ORDER
 _ALIASES = {"jacobian": "jac_x"}
 # Functions printed from another's program (lower: no program or groups of their own).
 GENERATED_LIKE = {"jvp_more": "jvp"}
-# NAME_finite_wide's independent sums (templates/model.c.j2): 4 (the default) or 16.  gcc packs the
-# four into one ymm, so the loop waits on one add's latency per four entries; 16 take four
-# registers (4736 humanoid entries: 0.95 -> 0.33 us, -mavx2).  An experiment (session 14,
-# fsmodel): not in the caches' keys
-WIDE_FINITE_CHAINS = 4
 
 _SOLVING = ("rhs", "jac_x", "jac_r", "jac_p", "jvp", "vjp", "hvp")
 
@@ -278,7 +273,7 @@ def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions
                 if fn not in BATCH_FUNCTIONS and groups[fn] else None
                 for fn in fns if fn not in GENERATED_LIKE}
     programs = {fn: _taped(p, exact=fn.startswith("outputs")) for fn, p in programs.items()}
-    if hasattr(formulation, "finish_programs"):     # (recursive: contact/table.SLOPES_INTO_OUT)
+    if hasattr(formulation, "finish_programs"):     # (recursive: contact/table.slopes_into)
         programs = formulation.finish_programs(programs)
     programs.update((fn, programs[GENERATED_LIKE[fn]]) for fn in fns if fn in GENERATED_LIKE)
     helper = (finish_function(shared, ("A", "b")) if set(fns) & set(helper_users) or sym.solve_in
@@ -554,7 +549,6 @@ def _render(name, meta, fns, rendered, solver, layout, sym, helper, split=False,
         name=name, functions=rendered,
         helper_code="\n".join(c for c in ((solver.code if uses_solver else ""), *solver_parts, helper) if c),
         tables=tables, table_refs=table_refs, pointers=pointers,
-        noinline=NOINLINE_MACRO if split else "", wide_finite="implicit" in fns,
-        wide_chains=WIDE_FINITE_CHAINS, **common)
+        noinline=NOINLINE_MACRO if split else "", wide_finite="implicit" in fns, **common)
     return GeneratedModel(name=name, c_source=source, header=header, cdef=cdef(name, fns),
                           metadata=meta)

@@ -90,8 +90,8 @@ class Recursive(Formulation):
 
     def finish_programs(self, programs):
         """The functions' programs as the C is printed from them: NAME_implicit's pairs' loop
-        writing its slopes straight into out[] when contact/table.SLOPES_INTO_OUT is set (the
-        routines printed once per file come from these programs, so it is done here, before)."""
+        writing its slopes straight into out[] (contact/table.slopes_into; the routines printed
+        once per file come from these programs, so it is done here, before they are collected)."""
         from ..contact.table import slopes_into
         if programs.get("implicit") is None:
             return programs
