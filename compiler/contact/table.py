@@ -267,6 +267,70 @@ class PairTableTapeCall(PairTableCall):
         return self
 
 
+class PairTableSlopesInto(PairTableCall):
+    """PairTableSlopesInto(table id, offset, *inputs): the "slopes" variant writing its slope
+    block into NAME_implicit's ``out`` from ``offset`` on (:func:`slopes_into` makes it when
+    out[offset ...] are exactly the block).  Why: the "slopes" variant's block lived in PT_, which
+    the loop zeroed and NAME_implicit then copied into out[] entry by entry (2725 doubles each on
+    gymnasium's humanoid); written in place, NAME_implicit at qpos0 took 6.16 instead of 7.59 us
+    together with NAME_finite_wide's 16 sums (session 14, fsmodel: this cut alone 1.00-1.12x in
+    two runs, the 16 sums alone 1.08x)."""
+
+    def _slopes(self):
+        return True
+
+    def c_declaration(self):
+        return f"double PT_[{self.table.noutput}];"
+
+    def c_routines(self):
+        return _routines(self.table, False, False, "into")
+
+    def for_program(self, reads, exact=False):
+        return self
+
+    def _ccode(self, printer):
+        t = self.table
+        state = ", ".join(printer._print(a) for a in self.args[2:2 + t.nstate])
+        # the block's length too: NAME_implicit_batch's lanes (compiler/emit/batch.py) gather it
+        return (f"eomc_pairs_slopes((const double[{t.nstate}]){{{state}}}, {_array(self.args[2 + t.nstate:], printer)}, "
+                f"0, &PT_[0], &out[{int(self.args[1])}], {SLOPE_OUTPUTS * t.npoints})")
+
+
+def slopes_into(program, group):
+    """``program`` with its pairs' slopes call made :class:`PairTableSlopesInto` when the results
+    (group, i) for i from some offset on are exactly the call's slope block, and the set of those
+    result keys (the caller stores no value for them), else (program, empty set): the "slopes"
+    variant into PT_, copied, as before (several tables, or a block read by another result)."""
+    into = [(s, e) for s, e in program.assignments if isinstance(e, PairTableSlopesInto)]
+    if into:        # (made already: the keys it writes)
+        call = into[0][1]
+        return program, {(group, int(call.args[1]) + j) for j in range(SLOPE_OUTPUTS * call.table.npoints)}
+    calls = [(s, e) for s, e in program.assignments if type(e) is PairTableCall and e._slopes()]
+    if len(calls) != 1:
+        return program, set()
+    sym, call = calls[0]
+    t = call.table
+    n = SLOPE_OUTPUTS * t.npoints
+    res = dict(program.results)
+    first = [k for k, e in res.items() if k[0] == group and isinstance(e, PairTableOut)
+             and e.args[0] == sym and int(e.args[1]) == 0 and int(e.args[2]) == t.noutput]
+    if len(first) != 1:
+        return program, set()
+    off = first[0][1]
+    keys = {(group, off + j) for j in range(n)}
+    for j in range(n):
+        e = res.get((group, off + j))
+        if not (isinstance(e, PairTableOut) and e.args[0] == sym and int(e.args[1]) == 0
+                and int(e.args[2]) == t.noutput + j):
+            return program, set()
+    others = [e for k, e in res.items() if k not in keys] + [e for _, e in program.assignments]
+    if any(isinstance(x, PairTableOut) and x.args[0] == sym and int(x.args[2]) >= t.noutput
+           for e in others if isinstance(e, sm.Basic) for x in sm.preorder_traversal(e)):
+        return program, set()
+    into = PairTableSlopesInto(call.args[0], sm.Integer(off), *call.args[2:])
+    return program.with_(assignments=tuple((s, into if s == sym else e) for s, e in program.assignments)), keys
+
+
 class PairTableDot(nw.Token):
     """PairTableDot(table id, uid, call, full, *input tangents): the outputs' tangents, into
     ``PD<uid>_``, from the primal inputs the call stored after its outputs."""
@@ -395,7 +459,10 @@ def _routines(table, tape, dot, slopes=False):
             text, split = nw.routine_code(rid, var)
             out.append(((rid, {None: 0, "dot": 1, "tape": 2}[var]), text, split))
     out.append(((1000, 0), _tables(table), False))
-    out.append(((1000, 6), _loop(table, "slopes"), False) if slopes else ((1000, 1), _loop(table, "primal"), False))
+    if slopes:
+        out.append(((1000, 6), _loop(table, "into" if slopes == "into" else "slopes"), False))
+    else:
+        out.append(((1000, 1), _loop(table, "primal"), False))
     if tape:
         out.append(((1000, 2), _loop(table, "tape"), False))
     if dot:
@@ -429,7 +496,7 @@ def _loop(t, mode):
     (eomc_pairs_slopes, NAME_implicit's: the primal with full = 0, also writing per contact point
     its :data:`SLOPE_OUTPUTS` after the other outputs)."""
     from .pairs import BROAD_PAD
-    dot, tape, slopes = mode == "dot", mode == "tape", mode == "slopes"
+    dot, tape, slopes, into = mode == "dot", mode == "tape", mode in ("slopes", "into"), mode == "into"
     ns, nb = len(t.shapes), len(t.bodies)
     off = 18 * nb
     nlaw, nlt = nw.routine_outputs(nw.LAW_RID), len(nw.tape_of(nw.LAW_RID))
@@ -443,6 +510,12 @@ def _loop(t, mode):
         L.append("/* the body-body pairs' loop storing after its outputs its inputs, per pair its tape's place "
                  "(0: no point in contact, -1: in contact, no room), then the pairs' routine tapes (the twin's) */")
         L.append("static double eomc_pairs_tape(const double *in, const double *pars, int full, double *out)\n{")
+    elif into:
+        L.append("/* body-body pairs' loop for NAME_implicit (compiler/contact/table.py): eomc_pairs' outputs with "
+                 "full = 0, and per contact point depth, p, v_B - v_A, K, C into slo[0 .. nslo) (0 where a pair is "
+                 "skipped) */")
+        L.append("static double eomc_pairs_slopes(const double *in, const double *pars, int full, double *out, "
+                 "double *slo, int nslo)\n{")
     elif slopes:
         L.append("/* body-body pairs' loop for NAME_implicit (compiler/contact/table.py): eomc_pairs' outputs with "
                  "full = 0, then per contact point depth, p, v_B - v_A, K, C (0 where a pair is skipped) */")
@@ -459,7 +532,9 @@ def _loop(t, mode):
     L.append(f"    int have[{ns}] = {{0}};")
     L.append("    int q, m, k, w, j;" if dot else "    int s, q, m, k, w, j;")
     L.append(f"    for (k = 0; k < (full ? {t.noutput} : {t.nwrench}); ++k) out[k] = 0.0;")
-    if slopes:
+    if into:
+        L.append("    for (k = 0; k < nslo; ++k) slo[k] = 0.0;")
+    elif slopes:
         L.append(f"    for (k = {t.noutput}; k < {t.noutput + SLOPE_OUTPUTS * t.npoints}; ++k) out[k] = 0.0;")
     if dot:
         L.append(f"    const double *pars = in + {t.nstate}, *act = in + {t.ninput}, *area = act + {len(t.pairs)};")
@@ -527,7 +602,7 @@ def _loop(t, mode):
         L.append(f"            po[4] = {src}[6];")
         L.append(f"            for (k = 0; k < 3; ++k) po[6 + k] = {src}[k];")
         if slopes:
-            L.append(f"            double *sl = out + {t.noutput} + {SLOPE_OUTPUTS} * (P[3] + m);")
+            L.append(f"            double *sl = {'slo' if into else 'out + ' + str(t.noutput)} + {SLOPE_OUTPUTS} * (P[3] + m);")
             L.append("            sl[0] = pp[6];")
             L.append("            for (k = 0; k < 3; ++k) sl[1 + k] = pp[k];")
         L.append("            if (!full && -pp[6] > 0) continue;")

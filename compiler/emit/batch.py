@@ -65,9 +65,11 @@ _POINTER_SET = re.compile(r"^(\s+)([A-Za-z_]\w*) = ([A-Za-z_]\w*) \+ k \* (\d+);
 _SCRATCH_DECL = re.compile(r"^(\s+)double ([A-Za-z_]\w*)\[(\d+)\];$")
 _CALL_LINE = re.compile(r"^(\s+)([A-Za-z_]\w*)\((.*)\);$")
 # the body-body pairs' table loop (compiler/contact/table.py; NAME_implicit's: its slopes variant):
-# one call on a compound literal of its inputs, the law parameters, full, and the output array
+# one call on a compound literal of its inputs, the law parameters, full, and the output array;
+# NAME_implicit's then the slope block's place in out[] and its length (table.PairTableSlopesInto)
 _PAIRS_LINE = re.compile(r"^(\s+)const double (t\d+) = (eomc_pairs|eomc_pairs_slopes)\(\(const double\[(\d+)\]\)\{(.*)\}, "
-                         r"&([A-Za-z_]\w*)\[(\d+)\], (0|1), &([A-Za-z_]\w*)\[(\d+)\]\);$")
+                         r"&([A-Za-z_]\w*)\[(\d+)\], (0|1), &([A-Za-z_]\w*)\[(\d+)\]"
+                         r"(?:, &([A-Za-z_]\w*)\[(\d+)\], (\d+))?\);$")
 _VOID_TEMP = re.compile(r"^\s+\(void\)t\d+;$")
 _GUARD_LINE = re.compile(r"^(\s+)if \((.*)\) return (EOMC_[A-Z_]+);$")
 _FINITE_RETURN = re.compile(r"^(\s+)return [A-Za-z_]\w*_finite(?:_wide)?\((?:xdot|out), \d+\);$")
@@ -567,15 +569,21 @@ class _Rewriter:
             text = f"(eomc_vd)(((eomc_vu)({text}) & {mask}) | ((eomc_vu){target} & ~{mask}))"
         return f"{self.take_pre(indent)}{indent}{target} = {text};"
 
-    def pairs_call(self, indent, name, fn, nin, items, pars, offset, full, array, first):
+    def pairs_call(self, indent, name, fn, nin, items, pars, offset, full, array, first,
+                   slopes=None, slopes_first=None, nslopes=None):
         """The pairs' table loop (eomc_pairs: a static C function of loops over the pairs, with a
         broad phase that skips far pairs) lane by lane: each lane's inputs gathered, the scalar
         function called, its outputs put in the lane (its bits, whatever its branches do).  The
-        law parameters must be shared (NAME_implicit_batch's p), the call outside every branch."""
+        law parameters must be shared (NAME_implicit_batch's p), the call outside every branch.
+        ``slopes``: the array (out) where NAME_implicit's call writes its slope block, from
+        ``slopes_first`` on, ``nslopes`` long: each lane's block written by the loop into a
+        buffer of its own and put in its lane of that array the same way."""
         if pars not in self.scalar_arrays:
             raise Unsupported(f"calls {fn}() with parameters in lanes")
         if self.mask is not None or array not in self.vec_arrays or array not in self.sizes:
             raise Unsupported(f"calls {fn}() under a branch or into {array}[]")
+        if slopes is not None and slopes not in self.vec_arrays:
+            raise Unsupported(f"calls {fn}() writing its slopes into {slopes}[]")
         elems, depth, start = [], 0, 0
         for j, ch in enumerate(items + ","):
             depth += {"(": 1, ")": -1}.get(ch, 0)
@@ -590,14 +598,20 @@ class _Rewriter:
                 raise Unsupported(f"calls {fn}() on a call")
         nout = self.sizes[array] - int(first)
         inputs = ", ".join(self.lanes(e) for e in elems)
+        into = (f"{indent}    double slo_[{nslopes}];   /* the loop zeroes it first */\n" if slopes else "",
+                f", slo_, {nslopes}" if slopes else "",
+                f"{indent}    for (k_ = 0; k_ < {nslopes}; k_++) {slopes}[{slopes_first} + k_][l_] = slo_[k_];\n"
+                if slopes else "")
         return (f"{indent}double {name} = 0.0;\n"
                 f"{indent}for (l_ = 0; l_ < EOMC_BATCH_LANES; l_++) {{   /* the pairs' loop, lane by lane */\n"
                 f"{indent}    const double in_[{nin}] = {{{inputs}}};\n"
                 f"{indent}    double out_[{nout}];\n"
+                f"{into[0]}"
                 f"{indent}    int k_;\n"
                 f"{indent}    __builtin_memset(out_, 0, sizeof out_);   /* what a far pair leaves unwritten */\n"
-                f"{indent}    {name} = {fn}(in_, &{pars}[{offset}], {full}, out_);\n"
+                f"{indent}    {name} = {fn}(in_, &{pars}[{offset}], {full}, out_{into[1]});\n"
                 f"{indent}    for (k_ = 0; k_ < {nout}; k_++) {array}[{first} + k_][l_] = out_[k_];\n"
+                f"{into[2]}"
                 f"{indent}}}")
 
     def lanes(self, expr):

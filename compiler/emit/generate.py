@@ -273,6 +273,8 @@ def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions
                 if fn not in BATCH_FUNCTIONS and groups[fn] else None
                 for fn in fns if fn not in GENERATED_LIKE}
     programs = {fn: _taped(p, exact=fn.startswith("outputs")) for fn, p in programs.items()}
+    if hasattr(formulation, "finish_programs"):     # (recursive: contact/table.slopes_into)
+        programs = formulation.finish_programs(programs)
     programs.update((fn, programs[GENERATED_LIKE[fn]]) for fn in fns if fn in GENERATED_LIKE)
     helper = (finish_function(shared, ("A", "b")) if set(fns) & set(helper_users) or sym.solve_in
               else None)

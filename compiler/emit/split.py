@@ -211,6 +211,7 @@ def _split_run(lines, start, end, base, scratch, slots, restrict=False):
             if name in last or name in after:
                 slot_of[name] = slots.take()
                 body.append(f"{_IND}{scratch}[{slot_of[name]}] = {name};")
+        _pair_sincos(body, scratch)
         arrays, uses_t = set(written), False
         for line in body:
             a, ut, _ = _reads(line.split(" = ", 1)[1])
@@ -229,6 +230,26 @@ def _split_run(lines, start, end, base, scratch, slots, restrict=False):
     helpers, calls = parts[0::2], parts[1::2]
     return (helpers, calls, {n: slot_of[n] for n in after},
             {n: slot_of[n] for n in outside})
+
+
+_TRIG_LINE = re.compile(r"^\s+const double (t\d+) = (sin|cos)\((.*)\);$")
+
+
+def _pair_sincos(body, scratch):
+    """Move a sin (cos) temporary's scratch store below the cos (sin) of the same argument
+    that follows it, in place, so the two calls are adjacent and gcc makes them one
+    ``sincos`` call.  With the store between them, gcc (12, at -O1 and -O2, with or without
+    ``restrict`` on the scratch) reloads the argument and keeps two libm calls: on
+    gymnasium's ant 7 of the 11 angles' pairs in NAME_implicit's kinematics were such, and
+    pairing them made NAME_implicit 2.7 % faster.  Only a store moves, past a statement
+    that does not read it: the values are the same, and glibc's sincos returns sin's and
+    cos's bits (checked on 2e7 arguments, 1e-300 to 1e300)."""
+    for i in range(len(body) - 2):
+        first = _TRIG_LINE.match(body[i])
+        second = _TRIG_LINE.match(body[i + 2])
+        if (first and second and first.group(2) != second.group(2) and first.group(3) == second.group(3)
+                and re.fullmatch(rf"\s+{re.escape(scratch)}\[\d+\] = {first.group(1)};", body[i + 1])):
+            body[i + 1], body[i + 2] = body[i + 2], body[i + 1]
 
 
 def split_body(lines, base, scratch="S_", restrict=False):

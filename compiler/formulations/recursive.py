@@ -88,6 +88,15 @@ class Recursive(Formulation):
         raise ModelError(implicit_refusal(
             "this model's bodies touch " + ("each other but no ground" if touching else "no ground"), GROUND_HINT))
 
+    def finish_programs(self, programs):
+        """The functions' programs as the C is printed from them: NAME_implicit's pairs' loop
+        writing its slopes straight into out[] (contact/table.slopes_into; the routines printed
+        once per file come from these programs, so it is done here, before they are collected)."""
+        from ..contact.table import slopes_into
+        if programs.get("implicit") is None:
+            return programs
+        return {**programs, "implicit": slopes_into(programs["implicit"], "imp")[0]}
+
     def symbolic(self, formed, layout, functions, outputs=None, events=None):
         return build_tree_symbolic(self.tree, formed, layout, functions, outputs, events)
 

@@ -76,14 +76,17 @@ def tree_implicit_body(ctx, program, guards, size):
     phase (``guards``: each body's forces and its points' K, C slopes skipped far from the
     ground; compiler/tree/contacts.body_guards) and the finiteness check NAME_finite_wide
     (templates/model.c.j2: its 2000 outputs on the humanoid took 0.55 us with a branch per
-    entry, 0.24 in four chains)."""
+    entry, 0.24 in four chains; 16 chains since session 15) and the pairs' slope block written
+    into out[] by their loop (contact/table.slopes_into: no stores here for those entries)."""
+    from ..contact.table import slopes_into
+    program, written = slopes_into(program, "imp")     # the pairs' loop writes its slopes into out[]
     pr = ctx.printer(program)
     if guards:
         lines, pr = guarded_temps(program, pr, guards)
     else:
         lines = temps(program, pr)
     vals = program.result_exprs("imp")
-    lines += [store(f"out[{i}]", vals.get(("imp", i), 0.0), pr) for i in range(size)]
+    lines += [store(f"out[{i}]", vals.get(("imp", i), 0.0), pr) for i in range(size) if ("imp", i) not in written]
     lines.append(f"{IND}return {ctx.name}_finite_wide(out, {size});")
     return lines
 

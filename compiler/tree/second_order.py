@@ -216,6 +216,7 @@ def second_order_c(name, plan, nq, nx, helpers):
         "    out[0] = o0; out[1] = o1; out[2] = o2; out[3] = o3; out[4] = o4; out[5] = o5;",
         "}",
         "",
+        *(_transpose_helper(name, plan, nq, nx) if half else []),
         f"/* d2 tau / dx2 of RNEA by the spatial-algebra second-order algorithm (compiler/tree/second_order.py):",
         f"   out[(i * {nx} + j) * {nx} + k] = d2 tau_i / dx_j dx_k at velocities u and accelerations ud (per dof).",
         *([] if ZERO or _covers_all(plan, nq, nx) else [
@@ -373,7 +374,7 @@ def second_order_c(name, plan, nq, nx, helpers):
         *_pair_vector_lines(name, rd, nm, oj),
     ] + (_first_order_lines(rd, nm, plan) if nm and not TANGENT else []) + _triple_lines(name, rd, nx, cfg, nm, plan, half) + [
         "            }",
-        *(_mirror_lines(plan, nx) if half else []),
+        *(_mirror_lines(name, plan, nq, nx) if half else []),
         "        }",
         "        l = par[b];",
         "        if (l >= 0) {   /* composite inertia, its variation and force */",
@@ -1043,13 +1044,89 @@ def _wt_lines(plan, jn):
     return lines + ["            }"]
 
 
-def _mirror_lines(plan, nx):
+def _chain_columns(plan, nq):
+    """(q0, u0) when the dofs form one path in their own order (dof a's parent dof is a - 1) with
+    their coordinates and speeds contiguous (x[q0 + a], x[u0 + a]), as on a cart or an arm: then
+    row i's mirror images are four strictly triangular transposes (:func:`_transpose_helper`);
+    else None."""
+    nd = len(plan.lam)
+    if plan.multi or list(plan.lam) != list(range(-1, nd - 1)):
+        return None
+    q0, u0 = plan.qcol[0], nq + plan.row[0]
+    if list(plan.qcol) != list(range(q0, q0 + nd)) or [nq + s for s in plan.row] != list(range(u0, u0 + nd)):
+        return None
+    return q0, u0
+
+
+def _transpose_helper(name, plan, nq, nx):
+    """C (file scope, with :func:`_chain_columns`): ``NAME_h2_trt(s, d)``, d[m nx + a] = s[a nx + m]
+    for 0 <= m < a < nd: a strictly lower triangle copied to the upper one, in 4 x 4 tiles (with
+    AVX2 and GCC's vector extensions, or clang's, a tile is four loads, eight shuffles and four
+    stores; else sixteen scalar copies), the diagonal tiles and the last rows entry by entry.
+    Copies only: the bits are the entry-by-entry loop's.  Why: that loop (four copies per pair of
+    dofs, one a column: 27 instructions per four copies) was 28 % of cart40's hess_id (knock-out,
+    91 of 324 us); same-core A/B, machine build: cart40 331 -> 270 us (scalar tiles 291)."""
+    if _chain_columns(plan, nq) is None:
+        return []
+    nd, X, up = len(plan.lam), nx, name.upper()
+    vec = [
+        f"        const {name}_h2_v4 r0 = *(const {name}_h2_v4 *)t, r1 = *(const {name}_h2_v4 *)(t + {X});",
+        f"        const {name}_h2_v4 r2 = *(const {name}_h2_v4 *)(t + {2 * X}), r3 = *(const {name}_h2_v4 *)(t + {3 * X});",
+        f"        const {name}_h2_v4 t0 = {up}_H2_SHUF(r0, r1, 0, 4, 2, 6), t1 = {up}_H2_SHUF(r0, r1, 1, 5, 3, 7);",
+        f"        const {name}_h2_v4 t2 = {up}_H2_SHUF(r2, r3, 0, 4, 2, 6), t3 = {up}_H2_SHUF(r2, r3, 1, 5, 3, 7);",
+        f"        *({name}_h2_v4 *)o = {up}_H2_SHUF(t0, t2, 0, 1, 4, 5);",
+        f"        *({name}_h2_v4 *)(o + {X}) = {up}_H2_SHUF(t1, t3, 0, 1, 4, 5);",
+        f"        *({name}_h2_v4 *)(o + {2 * X}) = {up}_H2_SHUF(t0, t2, 2, 3, 6, 7);",
+        f"        *({name}_h2_v4 *)(o + {3 * X}) = {up}_H2_SHUF(t1, t3, 2, 3, 6, 7);",
+    ]
+    scalar = [f"        o[{r * X + c}] = t[{c * X + r}];" for r in range(4) for c in range(4)]
+    return [
+        f"#if {up}_H2_LANES == 4 && defined(__GNUC__)   /* a 4 x 4 tile's transpose on vector registers */",
+        f"#define {up}_H2_VT 1",
+        f"typedef double {name}_h2_v4 __attribute__((vector_size(32), aligned(8)));",
+        "#ifdef __clang__",
+        f"#define {up}_H2_SHUF(a, b, i, j, k, l) __builtin_shufflevector(a, b, i, j, k, l)",
+        "#else",
+        f"typedef long long {name}_h2_m4 __attribute__((vector_size(32)));",
+        f"#define {up}_H2_SHUF(a, b, i, j, k, l) __builtin_shuffle(a, b, ({name}_h2_m4){{i, j, k, l}})",
+        "#endif",
+        "#endif",
+        f"static void {name}_h2_trt(const double *s, double *d)",
+        f"{{   /* d[m * {X} + a] = s[a * {X} + m] for 0 <= m < a < {nd}, in 4 x 4 tiles (_transpose_helper) */",
+        "    int a, m, a0, m0;",
+        f"    for (a0 = 0; a0 + 4 <= {nd}; a0 += 4) {{",
+        "        for (m0 = 0; m0 < a0; m0 += 4) {",
+        f"            const double *t = s + a0 * {X} + m0;",
+        f"            double *o = d + m0 * {X} + a0;",
+        f"#ifdef {up}_H2_VT",
+        *["    " + x for x in vec],
+        "#else",
+        *["    " + x for x in scalar],
+        "#endif",
+        "        }",
+        "        for (a = a0 + 1; a < a0 + 4; a++)",
+        f"            for (m = a0; m < a; m++) d[m * {X} + a] = s[a * {X} + m];",
+        "    }",
+        f"    for (a = a0; a < {nd}; a++)",
+        f"        for (m = 0; m < a; m++) d[m * {X} + a] = s[a * {X} + m];",
+        "}",
+        "",
+    ]
+
+
+def _mirror_lines(name, plan, nq, nx):
     """C, at the end of row i's pair loop (with ``half``, :func:`_pair_store`): row i's entries
     whose row dof m is on the support of the column dof a, (x_m, x_a) = (x_a, x_m), the four of
     each pair of dofs (the result is a Hessian, symmetric).  Row i is complete then: the rows
     after it (dofs nearer the root) write no entry of it, and its written half is still in
     cache.  Why: the triple loop's mirror stores (along a column: one cache line per k, and in
-    row j's and row k's blocks) were most of cart80's time (perf)."""
+    row j's and row k's blocks) were most of cart80's time (perf).  A chain in order
+    (:func:`_chain_columns`) takes four triangular transposes in tiles (:func:`_transpose_helper`)."""
+    chain = _chain_columns(plan, nq)
+    if chain is not None:
+        q0, u0 = chain
+        return ["            /* row i's mirror images, left out by the triple loop: (q, q), (q, u), (u, q), (u, u) (_mirror_lines) */"] + [
+            f"            {name}_h2_trt(Oi + {r * nx + c}, Oi + {c * nx + r});" for r, c in ((q0, q0), (u0, q0), (q0, u0), (u0, u0))]
     return [
         "            {   /* row i's mirror images, left out by the triple loop (_mirror_lines) */",
         "                int a, t;",

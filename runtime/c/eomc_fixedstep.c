@@ -707,16 +707,18 @@ struct eomc_fs_lanes {
     fs_layout L;
     int nq, nu, lanes, width, nslot;   /* width: the kernel's lanes (lanes: a multiple of it) */
     const eomc_implicit *imp;
-    void (*kernel)(eomc_fs_lanes *, const double *, const double *, size_t, const double *, double *const *,
-                   double *const *, int *);
+    void (*kernel)(eomc_fs_lanes *, const double *, const double *, size_t, eomc_fs_request *const *,
+                   double *const *);
     int *slot_ij;        /* nslot: i * nu + j of each slot (M's pattern, row by row) */
     int *diag;           /* nu: the slot of (i, i) */
     int *start, *anc;    /* fs_ancestors */
+    int *cstart;         /* nu + 1: row i's slots are cstart[i] .. cstart[i + 1] (fs_columns) */
+    int *lo, *up;        /* per entry x of anc (speed k's list): the slots (anc[x], k), (k, anc[x]) */
     int *upd;            /* per k from nu - 1 down: the na slots (k, a[y]); per x, (a[x], k) and
                             the na slots (a[x], a[y]) */
     int *cslot_start, *cslot;  /* per contact, the m x m slots (chain[a], chain[k]) */
     double *A, *b, *J, *GJ;    /* 64-byte aligned: nslot, nu, 3 nu, 3 nu vectors of lanes */
-    double *sink;              /* nu * nu: where the lanes not written out go */
+    double *D, *R, *V;         /* nu, nu, nq vectors: fs_fast_try's du and dv, the rate */
     void *mem;
     unsigned test_fail;        /* test hook: kernel lanes (bit l: lane l of every group) marked
                                   failed, as a failed pivot is ($EOMC_TEST_FS_LANES_FAIL, read once) */
@@ -749,8 +751,8 @@ eomc_fs_lanes *eomc_fs_lanes_new(int nq, int nu, const eomc_implicit *imp, int l
     eomc_fs_lanes *w;
     int *slot = NULL, *cstart, *cols, nc = imp ? imp->ncontact : 0, ncs = 0, nupd = 0, pos;
     size_t n = (size_t)nu, ints;
-    void (*kernel)(eomc_fs_lanes *, const double *, const double *, size_t, const double *, double *const *,
-                   double *const *, int *) = NULL;
+    void (*kernel)(eomc_fs_lanes *, const double *, const double *, size_t, eomc_fs_request *const *,
+                   double *const *) = NULL;
     int width = 0;
 #ifdef EOMC_FS_LANES
     __builtin_cpu_init();
@@ -771,8 +773,8 @@ eomc_fs_lanes *eomc_fs_lanes_new(int nq, int nu, const eomc_implicit *imp, int l
         ncs += (int)(m * m);
     }
     /* ints: slot map (nu^2), start (nu+1), anc (nu^2), cstart (nu+1), cols (nu^2), diag (nu),
-     * slot_ij (nu^2), upd (at most nu^2 (nu + 1)), cslot_start (nc + 1), cslot */
-    ints = 4 * n * n + 3 * n + 2 + n * n * (n + 1) + (size_t)nc + 1 + (size_t)ncs;
+     * slot_ij (nu^2), upd (at most nu^2 (nu + 1)), cslot_start (nc + 1), cslot, lo and up (nu^2 each) */
+    ints = 6 * n * n + 3 * n + 2 + n * n * (n + 1) + (size_t)nc + 1 + (size_t)ncs;
     if ((w->slot_ij = (int *)malloc(ints * sizeof(int))) == NULL) { free(w); return NULL; }
     slot = w->slot_ij + n * n;
     w->start = slot + n * n;
@@ -788,6 +790,7 @@ eomc_fs_lanes *eomc_fs_lanes_new(int nq, int nu, const eomc_implicit *imp, int l
         free(mark);
     }
     fs_columns(nu, w->start, w->anc, cstart, cols);
+    w->cstart = cstart;
     for (size_t i = 0; i < n * n; i++) slot[i] = -1;
     w->nslot = cstart[nu];
     for (int i = 0; i < nu; i++)
@@ -816,27 +819,38 @@ eomc_fs_lanes *eomc_fs_lanes_new(int nq, int nu, const eomc_implicit *imp, int l
             for (int k = 0; k < m; k++) w->cslot[pos++] = slot[(size_t)fs_speed(ch[a]) * n + fs_speed(ch[k])];
     }
     w->cslot_start[nc] = pos;
+    w->lo = w->cslot + pos;
+    w->up = w->lo + n * n;
+    for (int k = 0; k < nu; k++)
+        for (int x = w->start[k]; x < w->start[k + 1]; x++) {
+            w->lo[x] = slot[(size_t)w->anc[x] * n + k];
+            w->up[x] = slot[(size_t)k * n + w->anc[x]];
+        }
     for (int i = 0; i < nupd; i++)
         if (w->upd[i] < 0) { eomc_fs_lanes_free(w); return NULL; }   /* not a tree pattern */
+    for (int x = 0; x < w->start[nu]; x++)
+        if (w->lo[x] < 0 || w->up[x] < 0) { eomc_fs_lanes_free(w); return NULL; }
     for (int i = 0; i < pos; i++)
         if (w->cslot[i] < 0) { eomc_fs_lanes_free(w); return NULL; }  /* a chain not on one path */
     {
-        size_t doubles = ((size_t)w->nslot + 7 * n) * (size_t)width + n * n;
+        size_t doubles = ((size_t)w->nslot + 9 * n + (size_t)nq) * (size_t)width;
         if ((w->mem = malloc(doubles * sizeof(double) + 64)) == NULL) { eomc_fs_lanes_free(w); return NULL; }
         w->A = (double *)(((size_t)w->mem + 63) & ~(size_t)63);
         w->b = w->A + (size_t)w->nslot * width;
         w->J = w->b + n * width;
         w->GJ = w->J + 3 * n * width;
-        w->sink = w->GJ + 3 * n * width;
+        w->D = w->GJ + 3 * n * width;
+        w->R = w->D + n * width;
+        w->V = w->R + n * width;
     }
     return w;
 }
 
-void eomc_fs_assemble_lanes(eomc_fs_lanes *w, const double *OUT, const double *U, const double *h,
-                            double *const *A, double *const *b, int *ok)
+void eomc_fs_assemble_lanes(eomc_fs_lanes *w, const double *OUT, const double *U, eomc_fs_request *const *req,
+                            double *const *ahead)
 {
     for (int g = 0; g < w->lanes; g += w->width)
-        w->kernel(w, OUT + g, U + g, (size_t)w->lanes, h + g, A + g, b + g, ok + g);
+        w->kernel(w, OUT + g, U + g, (size_t)w->lanes, req + g, ahead + g);
 }
 
 /* The fast path's state for fs_loop.  T, A, b: the terms at the step's start x and (2)'s
@@ -852,6 +866,9 @@ typedef struct fs_fast {
     int have_T;                  /* T holds the terms at the x fs_loop hands in */
     int deep;                    /* -1, or the first contact found deeper than its limit */
     double *du, *dv, *J, *GJ, *Kv, *x1, *xs, *f1;
+    eomc_fs_request req;         /* the lanes rollout's (ops->terms_lu): its last answer */
+    const double *bare;          /* A1's (after a swap A's) buffer when the lanes answered without
+                                    writing the matrix (req.ahead), else NULL */
     fs_pattern pat;
     const int *start, *anc, *start1, *anc1;   /* A's and A1's elimination lists (fs_assemble) */
     int *own, *own1;                          /* where they are made when a pair adds fill */
@@ -884,30 +901,47 @@ static void fs_swap_lists(fs_fast *q)
  * small; where the linearisation fails (a limit or contact engaging at speed, a light link
  * whose contact geometry turns unstable inside the step: G1's ankles at 1 ms), it is
  * large, and the step is split (fs_fast_advance). */
+/* The lanes' last answer gives this try's du and rate: it was made for the matrix A holds (or
+ * would hold: q->bare) and a step of h. */
+static int fs_ahead(const fs_fast *q, double h)
+{
+    return q->req.ahead && q->req.A == q->A && q->req.h == h;
+}
+
 static int fs_fast_try(fs_fast *q, double t, double h, const double *x, int check, double *ratio)
 {
     const eomc_fs_ops *ops = q->ops;
     const fs_layout *L = &q->L;
     int nq = ops->nq, nu = ops->nu, s, done = 0;
-    const double *u = x + nq;
+    const double *u = x + nq, *v1 = NULL;
     double rn = 0.0, dn = 0.0;
+    eomc_fs_request *rq = &q->req;
     *ratio = INFINITY;
-    for (int i = 0; i < nu; i++) q->du[i] = h * q->b[i];
-    fs_tree_solve(nu, q->A, q->start, q->anc, q->du);
+    if (fs_ahead(q, h)) {               /* the lanes made du and the rate (below) */
+        memcpy(q->du, rq->du1, (size_t)nu * sizeof(double));
+        v1 = rq->v1;
+    } else {
+        for (int i = 0; i < nu; i++) q->du[i] = h * q->b[i];
+        fs_tree_solve(nu, q->A, q->start, q->anc, q->du);
+    }
+    rq->ahead = 0;
     {
         const double *qd = q->T + L->qd, *N = q->T + L->N;
         for (int i = 0; i < nq; i++) {
             const double *row = N + (size_t)i * nu;
-            double v = qd[i];
-            for (int k = 0; k < nu; k++) v += row[k] * q->du[k];
+            double v = v1 ? v1[i] : qd[i];
+            for (int k = 0; !v1 && k < nu; k++) v += row[k] * q->du[k];
             q->x1[i] = x[i] + h * v;
         }
         for (int k = 0; k < nu; k++) q->x1[nq + k] = u[k] + q->du[k];
     }
     for (int i = 0; i < nq + nu; i++)
         if (!isfinite(q->x1[i])) return EOMC_NONFINITE;
-    if (ops->terms_lu) {                /* the lanes rollout: maybe assembled with other rows */
-        if ((s = ops->terms_lu(ops->ctx, t + h, q->x1, q->T1, h, q->A1, q->b1, &done))) return s;
+    if (ops->terms_lu) {                /* the lanes rollout: maybe made with other rows */
+        rq->h = h; rq->A = q->A1; rq->b = q->b1; rq->du = check ? q->du : NULL;
+        if ((s = ops->terms_lu(ops->ctx, t + h, q->x1, q->T1, rq))) return s;
+        done = rq->done;
+        q->bare = rq->ahead ? q->A1 : NULL;
     } else if ((s = ops->terms(ops->ctx, t + h, q->x1, q->T1))) {
         return s;
     }
@@ -920,6 +954,10 @@ static int fs_fast_try(fs_fast *q, double t, double h, const double *x, int chec
     }
     if (!check) {                       /* the residual test is off: nothing reads the ratio */
         *ratio = 0.0;
+        return EOMC_OK;
+    }
+    if (done) {                         /* the lanes: the lines below, in vector code */
+        *ratio = rq->ratio;
         return EOMC_OK;
     }
     {
@@ -1076,7 +1114,8 @@ static int fs_fast_advance(void *self, double t, double h, const double *x, doub
     double before = INFINITY;          /* the ratio of the twice longer try from here */
     while (pos < MAX_SPLIT) {
         double ts = t + h * pos / MAX_SPLIT, hs = size == MAX_SPLIT ? h : h * size / MAX_SPLIT, ratio;
-        if (q->hA != hs) {
+        if (q->hA != hs || (q->A == q->bare && !fs_ahead(q, hs))) {
+            q->bare = NULL;
             if ((s = fs_assemble(ops, &q->L, hs, xs + ops->nq, q->T, q->A, q->b, q->J, q->GJ, q->Kv, &q->pat,
                                  q->own, &q->start, &q->anc))) {
                 q->st->t_fail = ts;

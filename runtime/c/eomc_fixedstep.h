@@ -31,12 +31,12 @@ typedef struct eomc_fs_ops {
     int (*terms)(void *ctx, double t, const double *x, double *out);
     const eomc_implicit *imp;
     int nq, nu;
-    /* Optional (NULL: terms, then the assembly here): terms, and the step's matrix and right
-     * side for a step of h from x assembled and factored into A, b as eomc_fixedstep.c's
-     * fs_assemble does, when the callee can (*done = 1; 0: only out was written, the caller
-     * assembles).  The lanes rollout's (eomc_rollout.c: several rows' assemblies at once). */
-    int (*terms_lu)(void *ctx, double t, const double *x, double *out, double h, double *A, double *b,
-                    int *done);
+    /* Optional (NULL: terms, then the assembly here): terms, and what req asks for (the step's
+     * matrix and right side for a step of req->h from x assembled and factored as eomc_fixedstep.c's
+     * fs_assemble does, the try's ratio, the next try's du and rate: eomc_fs_request) when the callee
+     * can (req->done, req->ahead; 0: only out was written, the caller does the rest).  The lanes
+     * rollout's (eomc_rollout.c: several rows' steps at once). */
+    int (*terms_lu)(void *ctx, double t, const double *x, double *out, eomc_fs_request *req);
 } eomc_fs_ops;
 
 /* Doubles of work eomc_fs_run needs for nx states. */
@@ -63,11 +63,12 @@ typedef struct eomc_fs_lanes eomc_fs_lanes;
 eomc_fs_lanes *eomc_fs_lanes_new(int nq, int nu, const eomc_implicit *imp, int lanes);
 void eomc_fs_lanes_free(eomc_fs_lanes *w);
 
-/* For each lane c with A[c] != NULL: A[c], b[c] := fs_assemble of the terms OUT (32-byte
- * aligned) for a step of h[c] at the speeds U (M's tree pattern of A[c] written; the rest of
- * A[c] is not read by the fast path).  ok[c] = 1 when written; 0 when the lane's pivot test
- * failed (nothing written: the caller runs the scalar assembly, which fails the same way). */
-void eomc_fs_assemble_lanes(eomc_fs_lanes *w, const double *OUT, const double *U, const double *h,
-                            double *const *A, double *const *b, int *ok);
+/* For each lane c with req[c] != NULL: fs_assemble of the terms OUT (32-byte aligned) for a step
+ * of req[c]->h at the speeds U, then with that matrix req[c]->du's residual ratio (fs_fast_try's)
+ * and the next try's du1 and v1 (eomc_fs_request) in ahead[c] (nu + nq doubles, kept by the
+ * caller): req[c]->done = req[c]->ahead = 1, req[c]->A and b not written.  0 when the lane's pivot
+ * test failed (nothing written: the caller runs the scalar code, which fails the same way). */
+void eomc_fs_assemble_lanes(eomc_fs_lanes *w, const double *OUT, const double *U, eomc_fs_request *const *req,
+                            double *const *ahead);
 
 #endif /* EOMC_FIXEDSTEP_H */

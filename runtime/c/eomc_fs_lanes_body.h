@@ -15,6 +15,8 @@
 #define FSL_KERNEL FSL_CAT(fs_lanes_kernel, FSL_W)
 #define FSL_SECANT FSL_CAT(fsl_secant, FSL_W)
 #define FSL_SQRT FSL_CAT(fsl_sqrt, FSL_W)
+#define FSL_SOLVE FSL_CAT(fsl_solve, FSL_W)
+#define FSL_STEP FSL_CAT(fsl_step, FSL_W)
 
 typedef double FSL_V __attribute__((vector_size(8 * FSL_W)));
 typedef long long FSL_VI __attribute__((vector_size(8 * FSL_W)));
@@ -115,11 +117,92 @@ __attribute__((target(FSL_TARGET))) static void FSL_SECANT(const FSL_V *K, const
     for (int a = 0; a < 9; a++) Cs[a] = FSL_SEL(keep, C[a], Cs[a]);
 }
 
+/* fs_tree_solve in every lane: B := A^-1 B with the kernel's factored A (its slots) */
+__attribute__((target(FSL_TARGET))) static void FSL_SOLVE(const eomc_fs_lanes *w, const FSL_V *A, FSL_V *B)
+{
+    const int n = w->nu, *start = w->start, *anc = w->anc;
+    for (int k = n - 1; k >= 0; k--) {
+        const FSL_V bk = B[k];
+        for (int x = start[k]; x < start[k + 1]; x++) B[anc[x]] -= A[w->lo[x]] * bk;
+    }
+    for (int k = 0; k < n; k++) B[k] /= A[w->diag[k]];
+    for (int k = 0; k < n; k++) {
+        FSL_V s = B[k];
+        for (int x = start[k]; x < start[k + 1]; x++) s -= A[w->up[x]] * B[anc[x]];
+        B[k] = s;
+    }
+}
+
+/* fs_fast_try's lines after its model call, in every lane, with the group's A (factored) and b:
+ * the residual ratio of the try whose velocity change is du[l] (NULL: none asked), and the next
+ * try's du1 = A^-1 (h b) and rate v1 = qd + N du1 (from the same terms: a step of h from here), in
+ * the order of the scalar lines, so each lane's bits.  Why here: per row and scalar, the two tree
+ * solves and the products with M and N (1260 terms on G1) were a quarter of the lanes rollout's C
+ * time (perf). */
+__attribute__((target(FSL_TARGET))) static void FSL_STEP(eomc_fs_lanes *w, const double *OUT, size_t stride,
+                                                        FSL_V h, const FSL_V *A, const FSL_V *b,
+                                                        const double *const *du, FSL_V *ratio)
+{
+    const fs_layout *L = &w->L;
+    const int nu = w->nu, nq = w->nq;
+    const FSL_V zero = {0};
+    FSL_V *D = (FSL_V *)w->D, *R = (FSL_V *)w->R, *V = (FSL_V *)w->V;
+    int any = 0;
+#define FSL_T(e) (*(const FSL_V *)(OUT + (size_t)(e) * stride))
+    for (int l = 0; l < FSL_W; l++) any |= du[l] != NULL;
+    if (any) {                                       /* r = M1 du - h f1 over M's slots, A^-1 r */
+        FSL_V rn = zero, dn = zero;
+        for (int k = 0; k < nu; k++) {
+            FSL_V d;
+            for (int l = 0; l < FSL_W; l++) d[l] = du[l] ? du[l][k] : 0.0;
+            D[k] = d;
+        }
+        for (int i = 0; i < nu; i++) {
+            FSL_V r = -h * FSL_T(L->f + (size_t)i);
+            for (int x = w->cstart[i]; x < w->cstart[i + 1]; x++) {
+                const int ij = w->slot_ij[x];
+                r += FSL_T(L->M + (size_t)ij) * D[ij - i * nu];
+            }
+            R[i] = r;
+        }
+        FSL_SOLVE(w, A, R);
+        for (int i = 0; i < nu; i++) {
+            rn += R[i] * R[i];
+            dn += D[i] * D[i];
+        }
+        *ratio = FSL_SQRT(rn) / (FSL_SQRT(dn) + h * RESID_ACCEL);
+    }
+    for (int i = 0; i < nu; i++) D[i] = h * b[i];
+    FSL_SOLVE(w, A, D);
+    {   /* v = qd + N du row by row, four rows at a time (each row's sum in the order of k) */
+        int i = 0;
+        for (; i + 4 <= nq; i += 4) {
+            FSL_V v0 = FSL_T(L->qd + (size_t)i), v1 = FSL_T(L->qd + (size_t)i + 1);
+            FSL_V v2 = FSL_T(L->qd + (size_t)i + 2), v3 = FSL_T(L->qd + (size_t)i + 3);
+            const size_t n0 = L->N + (size_t)i * nu;
+            for (int k = 0; k < nu; k++) {
+                const FSL_V d = D[k];
+                v0 += FSL_T(n0 + (size_t)k) * d;
+                v1 += FSL_T(n0 + (size_t)nu + (size_t)k) * d;
+                v2 += FSL_T(n0 + 2 * (size_t)nu + (size_t)k) * d;
+                v3 += FSL_T(n0 + 3 * (size_t)nu + (size_t)k) * d;
+            }
+            V[i] = v0; V[i + 1] = v1; V[i + 2] = v2; V[i + 3] = v3;
+        }
+        for (; i < nq; i++) {
+            FSL_V v = FSL_T(L->qd + (size_t)i);
+            for (int k = 0; k < nu; k++) v += FSL_T(L->N + (size_t)i * nu + (size_t)k) * D[k];
+            V[i] = v;
+        }
+    }
+#undef FSL_T
+}
+
 /* OUT, Uv: this group's first lane of the batch's columns (stride doubles per row; OUT aligned
- * to the vector), hv, Aout, bout, ok: the group's FSL_W lanes. */
+ * to the vector), req, ahead: the group's FSL_W lanes (eomc_fs_assemble_lanes). */
 __attribute__((target(FSL_TARGET))) static void FSL_KERNEL(eomc_fs_lanes *w, const double *OUT,
-                                                          const double *Uv, size_t stride, const double *hv,
-                                                          double *const *Aout, double *const *bout, int *ok)
+                                                          const double *Uv, size_t stride,
+                                                          eomc_fs_request *const *req, double *const *ahead)
 {
     const eomc_implicit *imp = w->imp;
     const fs_layout *L = &w->L;
@@ -129,7 +212,12 @@ __attribute__((target(FSL_TARGET))) static void FSL_KERNEL(eomc_fs_lanes *w, con
     FSL_V h, hh, scale = zero, lim;
     FSL_VI fail = {0};
     const int *up = w->upd;
-    memcpy(&h, hv, sizeof h);
+    const double *du[FSL_W];
+    h = zero;
+    for (int l = 0; l < FSL_W; l++) {
+        h[l] = req[l] ? req[l]->h : 0.0;
+        du[l] = req[l] ? req[l]->du : NULL;
+    }
     hh = h * h;
 #define FSL_T(e) (*(const FSL_V *)(OUT + (size_t)(e) * stride))    /* term e in the group's lanes */
     for (int s = 0; s < w->nslot; s++) A[s] = FSL_T(L->M + (size_t)w->slot_ij[s]);
@@ -182,6 +270,16 @@ __attribute__((target(FSL_TARGET))) static void FSL_KERNEL(eomc_fs_lanes *w, con
                 GJ[3 * k + a] = G[3 * a] * j[0] + G[3 * a + 1] * j[1] + G[3 * a + 2] * j[2];
             *bk = FSL_SEL(on, *bk - h * (j[0] * Kv[0] + j[1] * Kv[1] + j[2] * Kv[2]), *bk);
         }
+        if (FSL_ALL(&on)) {                          /* every lane's contact pressed: no select */
+            for (int a = 0; a < m; a++) {
+                const FSL_V *ja = J + 3 * a;
+                for (int k = 0; k < m; k++) {
+                    const FSL_V *g = GJ + 3 * k;
+                    A[cs[a * m + k]] += ja[0] * g[0] + ja[1] * g[1] + ja[2] * g[2];
+                }
+            }
+            continue;
+        }
         for (int a = 0; a < m; a++) {
             const FSL_V *ja = J + 3 * a;
             for (int k = 0; k < m; k++) {
@@ -223,30 +321,29 @@ __attribute__((target(FSL_TARGET))) static void FSL_KERNEL(eomc_fs_lanes *w, con
         }
         for (int y = 0; y < na; y++) A[rk[y]] *= inv;
     }
-    {
-        double *Ao[FSL_W], *bo[FSL_W];               /* the lanes written out (others: scratch) */
+    {   /* the lanes' answers; A and b stay here (the row's next try at h takes du1 and v1, a try at
+           another h assembles its own: measured on G1, writing them out was a tenth of this kernel) */
+        const FSL_V *D = (const FSL_V *)w->D, *V = (const FSL_V *)w->V;
+        FSL_V ratio = zero;
+        FSL_STEP(w, OUT, stride, h, A, b, du, &ratio);
         for (int l = 0; l < FSL_W; l++) {
-            ok[l] = !fail[l] && !((w->test_fail >> l) & 1u);
-            Ao[l] = ok[l] && Aout[l] ? Aout[l] : w->sink;
-            bo[l] = ok[l] && Aout[l] ? bout[l] : w->sink;
-        }
-        /* slot by slot: one pass over the vectors; the lanes' loop unrolled (measured on G1: left
-           a loop, with each lane's pointer loaded again, it was a sixth of this kernel) */
-        for (int s = 0; s < w->nslot; s++) {
-            const FSL_V a = A[s];
-            const int at = w->slot_ij[s];
-#pragma GCC unroll 8
-            for (int l = 0; l < FSL_W; l++) Ao[l][at] = a[l];
-        }
-        for (int i = 0; i < nu; i++) {
-            const FSL_V v = b[i];
-#pragma GCC unroll 8
-            for (int l = 0; l < FSL_W; l++) bo[l][i] = v[l];
+            eomc_fs_request *q = req[l];
+            int ok = !fail[l] && !((w->test_fail >> l) & 1u);
+            if (q == NULL) continue;
+            q->done = q->ahead = ok;
+            if (!ok) continue;
+            q->ratio = isfinite(ratio[l]) ? ratio[l] : INFINITY;
+            for (int i = 0; i < nu; i++) ahead[l][i] = D[i][l];
+            for (int i = 0; i < w->nq; i++) ahead[l][nu + i] = V[i][l];
+            q->du1 = ahead[l];
+            q->v1 = ahead[l] + nu;
         }
     }
 }
 
 #undef FSL_KERNEL
+#undef FSL_STEP
+#undef FSL_SOLVE
 #undef FSL_SECANT
 #undef FSL_SQRT
 #undef FSL_ANY

@@ -2819,14 +2819,13 @@ static int fs_terms(void *g, double t, const double *x, double *out)
 }
 
 /* fs_terms through the implicit's terms_lu (the lanes rollout's; eomc_fixedstep.h). */
-static int fs_terms_lu(void *g, double t, const double *x, double *out, double h, double *A, double *b,
-                       int *done)
+static int fs_terms_lu(void *g, double t, const double *x, double *out, eomc_fs_request *req)
 {
     ctx *c = ((fs_glue *)g)->c;
     int s;
-    *done = 0;
+    req->done = req->ahead = 0;
     if ((s = fs_inputs(c, t, x))) return s;
-    s = ((fs_glue *)g)->imp->terms_lu(t, x, c->p, c->r, out, h, A, b, done, c->mwork);
+    s = ((fs_glue *)g)->imp->terms_lu(t, x, c->p, c->r, out, req, c->mwork);
     if (s != EOMC_OK) c->st->t_fail = t;
     return s;
 }

@@ -57,6 +57,23 @@ extern "C" {
  * "implicit" entry gives.  Set in eomc_options.implicit; NULL there: the linearly implicit
  * Euler on the full jac_x.
  */
+/* The lanes rollout's request for a step of its fast path (eomc_implicit.terms_lu, eomc_rollout.c):
+ * with the terms at a trial end x, (2)'s factored matrix A and right side b for a step of h from x,
+ * and when du is given the try's residual ratio of eomc_fixedstep.c's fs_fast_try for that velocity
+ * change, and the next try's velocity change du1 = A^-1 h b and rate v1 = q'(x) + N(x) du1, made for
+ * the group's rows at once: each the scalar code's bits.  Answered either way: A and b written
+ * (done = 1, ahead = 0), or the ratio, du1 and v1 given instead, A and b left unwritten (done =
+ * ahead = 1: the caller's next try at h takes du1 and v1; one at another h assembles its own). */
+typedef struct eomc_fs_request {
+    double h;                 /* in: the step */
+    double *A, *b;            /* in: where A and b go */
+    const double *du;         /* in: the try's velocity change (the residual's); NULL: no ratio */
+    int done;                 /* out: answered (ratio given when du was) */
+    int ahead;                /* out: du1 and v1 given, A and b not written */
+    double ratio;             /* out: the residual ratio (fs_fast_try's) */
+    const double *du1, *v1;   /* out: nu and nq values the callee keeps until its next call */
+} eomc_fs_request;
+
 typedef struct eomc_implicit {
     eomc_mat_fn terms;        /* NAME_implicit */
     int ncontact;
@@ -71,10 +88,10 @@ typedef struct eomc_implicit {
                                  one model call per step, as MuJoCo's implicitfast */
     const double *depth_limit;/* ncontact (may be NULL: none): a contact deeper than this after
                                  a step ends the run with EOMC_PENETRATED (the state written) */
-    /* NULL (what callers set), or the lanes rollout's (eomc_rollout.c): terms, and the step's
-       factored matrix A and right side b for a step of h at x when it can (*done = 1) */
+    /* NULL (what callers set), or the lanes rollout's (eomc_rollout.c): terms, and what req asks
+       for when it can (req->done, req->ahead) */
     int (*terms_lu)(double t, const double *x, const double *p, const double *r, double *out,
-                    double h, double *A, double *b, int *done, double *work);
+                    eomc_fs_request *req, double *work);
 } eomc_implicit;
 
 /* The run failed its physics: a contact went deeper than eomc_implicit.depth_limit (an

@@ -160,8 +160,8 @@ typedef struct fiber {
     double t;
     const double *x, *p, *r;
     double *out;
-    double h, *A, *b;      /* lanes_terms_lu: the step's matrix and right side asked for */
-    int want, done;        /* want: A, b asked for; done: written by the scheduler */
+    eomc_fs_request *req;  /* lanes_terms_lu: what the row's step asks for (want), NULL: nothing */
+    double *ahead;         /* nu + nq: the next try's du and rate (eomc_fs_assemble_lanes) */
 } fiber;
 
 typedef struct lanes_sched {
@@ -214,27 +214,25 @@ static int lanes_terms(double t, const double *x, const double *p, const double 
     fiber *f = &s->f[s->cur];
     (void)work;
     f->t = t; f->x = x; f->p = p; f->r = r; f->out = out;
-    f->want = 0;
+    f->req = NULL;
     f->state = FIBER_WAITING;
     to_main(s, f, 0);
     return f->result;
 }
 
-/* lanes_terms, and the step's matrix and right side for a step of h (eomc_implicit.terms_lu):
- * made with the other rows of the batch when it holds a whole group of lanes (*done = 1). */
+/* lanes_terms, and what req asks for (eomc_implicit.terms_lu): made with the other rows of the
+ * batch when it holds a whole group of lanes (req->done, req->ahead; else 0). */
 static int lanes_terms_lu(double t, const double *x, const double *p, const double *r, double *out,
-                          double h, double *A, double *b, int *done, double *work)
+                          eomc_fs_request *req, double *work)
 {
     lanes_sched *s = cur_sched;
     fiber *f = &s->f[s->cur];
     (void)work;
     f->t = t; f->x = x; f->p = p; f->r = r; f->out = out;
-    f->h = h; f->A = A; f->b = b;
-    f->want = 1;
-    f->done = 0;
+    f->req = req;
+    req->done = req->ahead = 0;
     f->state = FIBER_WAITING;
     to_main(s, f, 0);
-    *done = f->done;
     return f->result;
 }
 
@@ -334,25 +332,23 @@ static void copy_out(double *const *outs, const double *OUT, size_t n, int k)
     }
 }
 
-/* The batch's rows that asked for the step's matrix (lanes_terms_lu) and whose model call
- * succeeded get it from one eomc_fs_assemble_lanes over the batch's columns; a row whose pivot
- * test fails there is left to assemble itself (the scalar code, the same failure). */
+/* The batch's rows that asked for their step (lanes_terms_lu) and whose model call succeeded get
+ * it from one eomc_fs_assemble_lanes over the batch's columns; a row whose pivot test fails there
+ * is left to do it itself (the scalar code, the same failure). */
 static void lanes_assemble(lanes_sched *s, const int *idx, const int *ibuf, const double *X, const double *OUT)
 {
     const int L = s->job->lanes;
-    double h[64], *A[64], *b[64];
-    int ok[64], any = 0;
+    eomc_fs_request *req[64];
+    double *ahead[64];
+    int any = 0;
     for (int c = 0; c < L; c++) {
         fiber *q = &s->f[idx[c]];
-        int want = q->want && ibuf[c] == EOMC_OK;
-        h[c] = want ? q->h : 0.0;
-        A[c] = want ? q->A : NULL;
-        b[c] = want ? q->b : NULL;
-        any |= want;
+        req[c] = ibuf[c] == EOMC_OK ? q->req : NULL;
+        ahead[c] = q->ahead;
+        any |= req[c] != NULL;
     }
     if (!any) return;
-    eomc_fs_assemble_lanes(s->lw, OUT, X + (size_t)s->job->m->nq * L, h, A, b, ok);
-    for (int c = 0; c < L; c++) s->f[idx[c]].done = A[c] != NULL && ok[c];
+    eomc_fs_assemble_lanes(s->lw, OUT, X + (size_t)s->job->m->nq * L, req, ahead);
 }
 
 /* One thread's rows, job->lanes at a time.  buf: the batch's columns (nx + ninput + out_len
@@ -429,13 +425,15 @@ static void *lanes_fiber_worker(rollout_job *job)
     for (int i = 0; ok && i < L; i++) {
         f[i].stack = (char *)malloc(FIBER_STACK);
         f[i].work = (double *)malloc(job->work_len * sizeof(double));
-        ok = f[i].stack && f[i].work;
+        f[i].ahead = (double *)malloc((size_t)job->m->nx * sizeof(double));
+        ok = f[i].stack && f[i].work && f[i].ahead;
     }
     if (ok)
         failed = lanes_rows(job, f, buf, ibuf, ibuf + L, mwork, lw);
     for (int i = 0; f && i < L; i++) {
         free(f[i].stack);
         free(f[i].work);
+        free(f[i].ahead);
     }
     free(f); free(mem); free(mwork); free(ibuf);
     eomc_fs_lanes_free(lw);

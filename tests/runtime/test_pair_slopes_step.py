@@ -91,6 +91,9 @@ def test_lanes_rollout_is_the_scalar_rollout_bit_for_bit(limbs):
     """The lanes assemble with every pair's fill, the scalar rows with the pressed pairs' only: the
     same bits (the bigger pattern adds exact zeros)."""
     m = limbs
+    # the lanes' kernel is vectorized (the pairs' loop lane by lane, its slopes into out[]), not the
+    # scalar loop it falls back to on a call it does not know
+    assert m.metadata["implicit_batch"]["vectorized"], m.metadata["implicit_batch"]
     X0 = np.array([_thrown(m, s) for s in np.linspace(0.3, 2.0, 9)])
     X0[:, m.nq + 6:m.nq + 10] = np.random.default_rng(3).uniform(-2, 2, (9, 4))    # the arm swinging
     kw = dict(dt=0.002, steps=60, method="implicitfast")

@@ -142,6 +142,18 @@ def test_implicitfast_rows_in_lanes_equal_the_scalar_rollout(hopper, threads):
     assert simulate(hopper, X0[0], (0.0, 0.48), method="implicitfast", dt=0.008).stats["nfev"] > 61
 
 
+def test_implicitfast_lanes_without_the_residual_test_equal_the_scalar_rollout(hopper):
+    """split=0 (one model call a step, no residual test): the lanes kernel is asked for no ratio,
+    only the step's matrix and the next try's du and rate (eomc_fs_request.du NULL), and each row
+    still equals the scalar rollout's bit for bit -- a run that differs from the checked one."""
+    X0 = _hopper_starts(hopper, 9, seed=5)
+    kw = dict(dt=0.008, steps=40, method="implicitfast", threads=1)
+    want = rollout(hopper, X0, split=0, **kw)
+    got = rollout(hopper, X0, split=0, lanes=True, **kw)
+    assert got.ok.all() and np.array_equal(got.x, want.x) and np.array_equal(got.steps, want.steps)
+    assert not np.array_equal(want.x, rollout(hopper, X0, **kw).x)      # the checked rows split steps
+
+
 def test_rows_at_times_an_ulp_apart_share_a_batch_only_when_the_model_ignores_t(hopper, monkeypatch):
     """The hopper's NAME_implicit does not read t (the compiler's implicit_batch.reads_t), so the
     scheduler batches waiting rows whatever their times -- a split step's sub-steps end an ulp off

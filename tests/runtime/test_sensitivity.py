@@ -181,3 +181,43 @@ def test_radau_jvp_more_changes_nothing_but_the_calls_primal(jvp_model, cols):
 def test_jvp_more_refused_by_the_recursive_formulation(cache):
     with pytest.raises(ModelError, match="jvp_more"):
         eomc.compile(MODEL, functions=["rhs", "jac_x", "jvp_more"], formulation="recursive")
+
+
+# ---- issue 30 S3c: the benchmark's oracle (benchmarks/bench_sensitivity.oracle) -----------------------
+def _bench_sensitivity():
+    import importlib.util
+    from pathlib import Path
+    spec = importlib.util.spec_from_file_location(
+        "bench_sensitivity", Path(__file__).resolve().parents[2] / "benchmarks" / "bench_sensitivity.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_bench_sensitivity_oracle_is_accurate_differences(jvp_model):
+    """bench_sensitivity holds S to D, five-point central differences of fixed-step RK4 runs.
+    The five-point formula is exact (to rounding) on a quartic in theta where the two-point
+    one is off by d^2 f'''/6; on the cart-pole over 2 s, D (h = 1.25e-4, step 1e-5) is within
+    1e-9 of S from a 1e-12 DOP853 run, state and parameter columns (2.6e-10; two-point
+    differences of the same runs with step 1e-6: 1.8e-9)."""
+    from types import SimpleNamespace
+    bench = _bench_sensitivity()
+    fake = SimpleNamespace(param_names=("a",), param_defaults=np.array([2.0]), state_names=("y",))
+
+    def quartic(x, p):          # x0 y and parameter a: f = a^4 + y^3 (both smooth, known slopes)
+        a = 2.0 if p is None else p[0]
+        return np.array([[a ** 4 + x[0] ** 3]])
+    d = 1e-2
+    four = bench.central_differences(fake, np.array([1.5]), ["a", "y"], quartic, d, order=4)
+    two = bench.central_differences(fake, np.array([1.5]), ["a", "y"], quartic, d, order=2)
+    exact = np.array([4 * 2.0 ** 3, 3 * 1.5 ** 2])
+    assert np.allclose(four[0, 0], exact, rtol=1e-12, atol=0)
+    assert abs(two[0, 0, 0] - exact[0]) > 1e-4 * exact[0]         # 4 a (2 d)^2 = 3.2e-3 off
+
+    m = jvp_model
+    cols = ["q_pole", "u_cart", "l", "g"]
+    S = m.simulate(X0, (0, 2), method="dop853", rtol=1e-12, atol=1e-12, t_eval=T, sensitivities=cols)
+    S = np.concatenate([S.dx_dx0, S.dx_dp], axis=2)
+    D = bench.oracle(m, X0, cols, T)
+    assert D.shape == S.shape
+    assert np.max(np.abs(S - D)) < 1e-9 * np.max(np.abs(D))

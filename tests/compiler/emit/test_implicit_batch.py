@@ -138,6 +138,9 @@ def test_a_pair_table_call_runs_lane_by_lane_in_the_batch(tmp_path, monkeypatch)
                          cache_dir=tmp_path / "cache", cflags=f"{STRICT} -DEOMC_BATCH_LIBM_TRIG", progress=False)
     source = next((tmp_path / "cache").rglob("ibpt.c")).read_text()
     assert "eomc_pairs(" in source and "the pairs' loop, lane by lane" in source
+    # NAME_implicit's call writes its slopes into out[] (contact/table.slopes_into), and the lanes take
+    # that call too: no fall back to the scalar loop
+    assert "double *slo, int nslo" in source and "slo_[" in source
     assert model.metadata["implicit_batch"]["vectorized"], model.metadata["implicit_batch"]
     lanes = machine_lanes()
     rng = np.random.default_rng(5)

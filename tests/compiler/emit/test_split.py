@@ -90,6 +90,30 @@ def test_earlier_temporaries_are_stored_for_the_chunks(tiny):
     assert "t100" not in "".join(parts) and "S_[0]" in parts[0]
 
 
+def test_sin_and_cos_of_one_argument_stay_adjacent(tiny):
+    """A sin temporary's scratch store goes below the cos of the same argument that follows it
+    (and a cos's below a sin), so gcc can make the pair one sincos call; a pair of two
+    arguments, or one with another statement between, is left as it was."""
+    lines = ["    const double t0 = sin(x[1]);", "    const double t1 = cos(x[1]);",
+             "    const double t2 = cos(x[2]);", "    const double t3 = sin(x[2]);",
+             "    const double t4 = sin(x[0]);", "    const double t5 = cos(x[1]);",
+             "    const double t6 = sin(x[0]);", "    const double t7 = x[0]*p[0];",
+             "    const double t8 = cos(x[0]);"]
+    lines += [f"    const double t{i} = t{i - 1}*x[{i % 3}] + p[0];" for i in range(9, 21)]
+    lines += ["    out[0] = t0 + t1 + t2 + t3 + t4 + t5 + t6 + t7 + t8 + t20;", "    return 0;"]
+    out, parts = split.split_body(lines, "m_f_part")
+    first = parts[0].split("\n")
+    assert first[2:10] == ["    const double t0 = sin(x[1]);", "    const double t1 = cos(x[1]);",
+                           "    S_[0] = t0;", "    S_[1] = t1;",
+                           "    const double t2 = cos(x[2]);", "    const double t3 = sin(x[2]);",
+                           "    S_[2] = t2;", "    S_[3] = t3;"]
+    second = parts[1].split("\n")            # sin(x[0]) then cos(x[1]): stores stay where they were
+    assert second[2:6] == ["    const double t5 = cos(x[1]);", "    S_[5] = t5;",
+                           "    const double t6 = sin(x[0]);", "    S_[6] = t6;"]
+    # only stores moved: every temporary is still defined once, in the original order
+    assert re.findall(r"const double (t\d+) =", "".join(parts)) == [f"t{i}" for i in range(21)]
+
+
 def _models():
     kane, spec = zoo.n_link_pendulum_on_cart(2, me)
     formed = es.kane_formed(kane, spec)

@@ -419,30 +419,76 @@ def _suite_file(which, stem):
     return Path(dm_control.__file__).parent / "suite" / f"{stem}.xml"
 
 
+@pytest.fixture(scope="module")
+def suite_drop(tmp_path_factory):
+    """(which, stem) -> {joint: (eomc's largest excursion past a limit, MuJoCo's)} over the 5 s
+    no-flag passive drop from the file's qpos0 (eomc: eomc.compile(path), the default method;
+    MuJoCo: mj_step at the file's step), every limited hinge and slide; each model built and run
+    once per module."""
+    runs = {}
+
+    def drop(which, stem):
+        if (which, stem) not in runs:
+            path = _suite_file(which, stem)
+            m = load_mjmodel(path)
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", (EomcWarning, PhysicsWarning))
+                model = eomc.compile(str(path), cache_dir=tmp_path_factory.mktemp(stem), progress=False)
+                res = model.simulate(None, (0.0, 5.0))
+            p = dict(zip(model.param_names, model.param_defaults))
+            joints = [n[len("limit_k_"):] for n in model.param_names if n.startswith("limit_k_")]
+            theirs = _mujoco_excursions(m, joints, 5.0)
+            runs[(which, stem)] = {j: (_excursion(np.asarray(res[f"q_{j}"]), p.get(f"limit_lo_{j}", 0.0),
+                                                  p.get(f"limit_hi_{j}", 0.0)), theirs[j]) for j in joints}
+        return runs[(which, stem)]
+    return drop
+
+
 @pytest.mark.parametrize("which, stem, joints, factor", [
     ("gym", "walker2d", ("foot_joint", "foot_left_joint"), 1.5),
     ("dm", "hopper", ("knee", "ankle"), 1.5),
     ("dm", "walker", ("right_ankle", "left_ankle"), 2.5),
 ])
-def test_planar_robots_limits_hold_as_mujocos(tmp_path, which, stem, joints, factor):
+def test_planar_robots_limits_hold_as_mujocos(suite_drop, which, stem, joints, factor):
     """No-flag 5 s falls of the planar-rooted robots (compiler/mjcf/carried.py's held inertia):
     the joints that go past their limits in both runs go as far as in MuJoCo's mj_step run
     within ``factor``.  Measured eomc / MuJoCo: walker2d feet 0.037 / 0.028 (1.3), dm hopper knee
     0.054 / 0.060 and ankle 0.021 / 0.026, dm walker ankles 0.052 / 0.022 (2.3: not within 1.5;
-    not asserted: its knees 0.062 / 0.073, hips 0.011 / 0.042, walker2d's legs 0.041 / 0.091,
-    benchmarks/results/limit_overshoot.md).  With 1/dof_invweight0 (before session 9): 0.229,
-    0.149 / 0.052, 0.533 rad past."""
-    path = _suite_file(which, stem)
-    m = load_mjmodel(path)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", (EomcWarning, PhysicsWarning))
-        model = eomc.compile(str(path), cache_dir=tmp_path / "c", progress=False)
-        res = model.simulate(None, (0.0, 5.0))
-    p = dict(zip(model.param_names, model.param_defaults))
-    theirs = _mujoco_excursions(m, list(joints), 5.0)
+    MuJoCo's limit holds the load of the walker's crash onto its folded knees, which no spring
+    does: docs/joint-laws.md; its knees 0.062 / 0.073, hips 0.011 / 0.042, walker2d's legs
+    0.041 / 0.091, benchmarks/results/limit_overshoot.md).  With 1/dof_invweight0 (before
+    session 9): 0.229, 0.149 / 0.052, 0.533 rad past."""
+    got = suite_drop(which, stem)
     for joint in joints:
-        q = np.asarray(res[f"q_{joint}"])
-        ours = _excursion(q, p[f"limit_lo_{joint}"], p[f"limit_hi_{joint}"])
-        print(f"\n{stem} {joint} past its limit: eomc {ours:.4g} rad, MuJoCo {theirs[joint]:.4g}")
-        assert theirs[joint] > 0.005
-        assert theirs[joint] / factor < ours < factor * theirs[joint]
+        ours, theirs = got[joint]
+        print(f"\n{stem} {joint} past its limit: eomc {ours:.4g} rad, MuJoCo {theirs:.4g}")
+        assert theirs > 0.005
+        assert theirs / factor < ours < factor * theirs
+
+
+# The stated overshoot (docs/joint-laws.md, benchmarks/bench_limit_overshoot.BOUND_FACTOR/_SLACK)
+BOUND_FACTOR, BOUND_SLACK = 1.35, 0.005
+
+
+@pytest.mark.parametrize("which, stem, held", [
+    ("gym", "walker2d", ()),
+    ("dm", "hopper", ()),
+    ("dm", "walker", ("right_ankle", "left_ankle")),
+])
+def test_planar_robots_stay_within_the_stated_overshoot(suite_drop, which, stem, held):
+    """Every limited joint of the no-flag 5 s drop goes at most 1.35 times as far past its limits
+    as MuJoCo's does (mj_step at the file's step) plus 5 mrad: the stated overshoot of an MJCF
+    limit.  ``held``: the joints MuJoCo's limit holds by cancelling the load (the dm walker's
+    ankles, dmax 0.99, under the crash onto the folded knees: MuJoCo's own ankles go 0.060 rad
+    past with dmax 0.95), bounded by 2.5 times MuJoCo's instead (measured 2.32; the spring's
+    hold factor G there is 5.3, the ratio a steady load would reach).  Measured
+    (limit_overshoot.md): walker2d feet 1.34x, dm hopper waist 0.0223 vs 0.0135 (1.65x, within
+    the slack; 1.10x MuJoCo's at a tenth of its step), everything else at most MuJoCo's."""
+    got = suite_drop(which, stem)
+    assert any(theirs > 0.005 for _, theirs in got.values())        # the drop reaches the limits
+    for joint, (ours, theirs) in got.items():
+        print(f"\n{stem} {joint}: eomc {ours:.4g} rad, MuJoCo {theirs:.4g}")
+        if joint in held:
+            assert ours < 2.5 * theirs, joint
+        else:
+            assert ours <= BOUND_FACTOR * theirs + BOUND_SLACK, joint

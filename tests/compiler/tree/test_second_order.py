@@ -456,3 +456,40 @@ def test_output_written_by_halves_gives_the_same_bits(zeroed_models, law_models,
             status, out = _nan_filled_call(half, x, ud, r)
             assert status == 0 and np.all(np.isfinite(out))
             assert np.array_equal(out, full.hess_id(0.0, x, ud, r=r))
+
+
+# a chain of 9 joints in order (dof a's parent is a - 1): its mirror images are triangular transposes
+CHAIN = [{'parent': i - 1, 'kind': ('pin', 'slider', 'pin')[i % 3], 'rotation': (('BODY', 123), ('SPACE', 231))[i % 2],
+          'axis': ((0, 1, 1), (1, 0, -1), (0, 0, 1))[i % 3], 'parent_point': (1, -1, i % 2), 'child_point': (0, 1, 1),
+          'rigid': i % 2 == 0, 'products': i % 3 == 0, 'load': i % 4 == 0} for i in range(9)]
+
+
+def test_chain_mirrors_by_tiled_transposes_give_the_same_bits(tmp_path):
+    """A chain in order written by halves (second_order.HALF_FROM forced to 0) copies row i's
+    mirror images as four triangular transposes in 4 x 4 tiles (NAME_h2_trt; 9 dofs: full tiles,
+    diagonal tiles and a last row), on vector registers in the machine build with AVX2 and
+    entry by entry in the portable one: from an output filled with NaN every entry is written,
+    and both give the bits of the default build (both halves written in the loop)."""
+    orig = second_order.HALF_FROM
+    second_order.HALF_FROM = 0
+    try:
+        half = _compile(tmp_path / "half", tree=CHAIN)
+        system, inputs = build(CHAIN)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            portable = eomc.compile(system, functions=["rhs", "inverse_dynamics", "jac_id", "hess_id"], inputs=inputs,
+                                    formulation="recursive", cache_dir=tmp_path / "portable", progress=False, portable=True)
+    finally:
+        second_order.HALF_FROM = orig
+    full = _compile(tmp_path / "full", tree=CHAIN)
+    c = (half.directory / f"{half.name}.c").read_text()
+    assert "row i's mirror images" in c and f"{half.name}_h2_trt(Oi + " in c and f"{half.name.upper()}_H2_SHUF(" in c
+    assert "_h2_trt" not in (full.directory / f"{full.name}.c").read_text()
+    rng = np.random.default_rng(9)
+    for _ in range(3):
+        x, ud, r = rng.uniform(-1.5, 1.5, half.nx), rng.uniform(-1, 1, half.nu), rng.uniform(-1, 1, half.ninput)
+        ref = full.hess_id(0.0, x, ud, r=r)
+        for model in (half, portable):
+            status, out = _nan_filled_call(model, x, ud, r)
+            assert status == 0 and np.all(np.isfinite(out))
+            assert np.array_equal(out, ref)

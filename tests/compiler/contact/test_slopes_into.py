@@ -1,0 +1,90 @@
+"""NAME_implicit's pairs' loop writes its slope block straight into out[] (contact/table.slopes_into:
+PairTableSlopesInto; since session 15 the default): every entry of the block is written at every
+call, whatever out[] held, and holds what the rhs's outputs say.
+
+Why: the block used to live in the loop's scratch PT_ (zeroed by the loop, copied into out[] entry by
+entry: 2725 doubles a call on gymnasium's humanoid); written in place, a far pair's entries are 0
+only because the loop zeroes out[]'s block, and a caller's out[] holds the previous state's values
+(the fixed step reuses it).  Oracles: the outputs function (depth, point, F_n per pair; no force, no
+slope) and out[] prefilled with NaN (an entry left unwritten fails NAME_finite_wide) or with another
+state's block.  The slopes' values against central differences: test_pair_slopes.py."""
+import warnings
+
+import numpy as np
+import pytest
+
+import eomc
+
+from .test_narrow import LIMBS
+
+
+@pytest.fixture(scope="module")
+def limbs(tmp_path_factory):
+    from eomc.compiler.mjcf.model import MjcfModel
+    tmp = tmp_path_factory.mktemp("into")
+    path = tmp / "limbs.xml"
+    path.write_text(LIMBS)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = eomc.compile(MjcfModel(path, pairs=True), "linto", functions=("rhs", "outputs", "implicit"),
+                             cache_dir=tmp / "cache", progress=False)
+    (source,) = tmp.glob("cache/**/linto.c")
+    return model, source.read_text()
+
+
+def _implicit(m, x, fill):
+    """(status, out) of NAME_implicit at x with out[] holding ``fill`` before the call."""
+    out = np.array(fill, dtype=float)
+    ffi = m.ffi
+    fp = ffi.addressof(m.model_lib, f"{m.name}_implicit")
+    status = fp(0.0, ffi.from_buffer("double[]", np.ascontiguousarray(x, dtype=float)), m._default_p,
+                ffi.NULL, ffi.from_buffer("double[]", out), ffi.NULL)
+    return status, out
+
+
+def test_the_loop_writes_the_block_into_out(limbs):
+    _, source = limbs
+    call = [line for line in source.splitlines() if "= eomc_pairs_slopes(" in line]
+    assert len(call) == 1 and "&PT_[0], &out[" in call[0], call
+    assert "double *slo, int nslo" in source
+
+
+def test_the_block_is_written_whole_and_is_the_outputs(limbs):
+    m, _ = limbs
+    info = m.metadata["implicit"]
+    at, size = info["layout"]["contact"], info["layout"]["size"]
+    rng = np.random.default_rng(3)
+    names = list(m.state_names)
+    previous = np.zeros(size)
+    pressed = skipped = 0
+    for _ in range(60):
+        x = np.zeros(m.nx)
+        x[names.index("q_joint0_z")] = 0.3
+        x[names.index("q_joint3_z")] = 0.3
+        x[names.index("q_joint3_y")] = rng.uniform(-0.12, -0.06)
+        x += rng.normal(0, 0.01, m.nx)
+        status, out = _implicit(m, x, np.full(size, np.nan))
+        assert status == 0                           # no entry left as the NaN it held
+        assert np.array_equal(_implicit(m, x, previous)[1], out)    # nor as another state's value
+        previous = out
+        o = dict(m.outputs(0.0, x))
+        for c, item in enumerate(info["contacts"]):
+            e = out[at + 25 * c:at + 25 * (c + 1)]
+            name = item["name"]
+            if o[f"Fn_{name}"] > 0:
+                pressed += 1
+                assert e[0] == o[f"depth_{name}"] > 0
+                assert np.array_equal(e[1:4], [o[f"px_{name}"], o[f"py_{name}"], o[f"pz_{name}"]])
+                assert e[7:].any()
+            else:
+                assert not e[7:].any()               # no force, no slope
+                skipped += e[0] == 0                 # the broad phase skipped it: all 0
+                assert e[0] == 0 or e[0] == o[f"depth_{name}"]
+    assert pressed > 0 and skipped > 0
+
+
+def test_a_nan_state_is_still_refused(limbs):
+    m, _ = limbs
+    x = np.zeros(m.nx)
+    x[0] = np.nan
+    assert _implicit(m, x, np.zeros(m.metadata["implicit"]["layout"]["size"]))[0] != 0
