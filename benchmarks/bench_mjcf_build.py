@@ -47,7 +47,7 @@ def _sizes(text, name):
     no function's name prefixes (the pairs' table and narrow phase: "routines") and the
     name/default tables with the model struct ("tables")."""
     starts = []
-    for m in re.finditer(r"^(?:static |int |void |const |double )[^\n;=]*\(|^(?:static )?const [^\n(]*=", text, re.M):
+    for m in re.finditer(r"^(?:EOMC_LEAN\w* )?(?:static |int |void |const |double )[^\n;=]*\(|^(?:static )?const [^\n(]*=", text, re.M):
         own = re.match(rf"[^(]*?\b{name}_(\w+?)(?:_part\d+_\d+)?\(", m.group(0))
         starts.append((m.start(), own.group(1) if own and "(" in m.group(0) else
                        "tables" if m.group(0).endswith("=") else "routines"))

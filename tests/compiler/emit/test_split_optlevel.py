@@ -1,4 +1,5 @@
-"""The split sub-functions' optimization level (compiler/emit/split.py, NOINLINE_MACRO).
+"""The split sub-functions' optimization level (compiler/emit/split.py, NOINLINE_MACRO), and
+the long bodies' (LEAN_MACRO: EOMC_LEAN, EOMC_LEAN_PRE), which follow the same guard.
 
 gcc compiles them at -O1 when the library is built at -O2/-O3 (a third of gcc's time on
 large models, no slower code); not at -O0 or -Os, not under clang, and not when CFLAGS
@@ -10,15 +11,15 @@ import subprocess
 
 import pytest
 
-from eomc.compiler.emit.split import NOINLINE_MACRO
+from eomc.compiler.emit.split import LEAN_MACRO, NOINLINE_MACRO
 
 CC = shutil.which("gcc")
 pytestmark = pytest.mark.skipif(CC is None, reason="needs gcc")
 
 
-def _expand(tmp_path, *flags):
+def _expand(tmp_path, *flags, text=NOINLINE_MACRO + "\nEOMC_NOINLINE\n"):
     src = tmp_path / "m.c"
-    src.write_text(NOINLINE_MACRO + "\nEOMC_NOINLINE\n")
+    src.write_text(text)
     out = subprocess.run([CC, "-E", "-P", *flags, str(src)], capture_output=True, text=True, check=True)
     return out.stdout.strip()
 
@@ -39,3 +40,22 @@ def test_macro_compiles_clean(tmp_path):
     for level in ("-O0", "-O2", "-Os"):
         subprocess.run([CC, level, "-std=c99", "-Wall", "-Wextra", "-Werror", "-c", str(src),
                         "-o", str(tmp_path / "f.o")], check=True)
+
+
+def test_lean_bodies_follow_the_parts_guard(tmp_path):
+    """EOMC_LEAN (-O1 plus chosen -O2 passes) and EOMC_LEAN_PRE (also PRE and GCSE) expand
+    where the parts' -O1 does, and to nothing elsewhere; clean under -Wall -Wextra -Werror."""
+    text = LEAN_MACRO + "\nA EOMC_LEAN\nB EOMC_LEAN_PRE\n"
+    for flags in (("-O2",), ("-O3",)):
+        a, b = _expand(tmp_path, *flags, text=text).splitlines()[-2:]
+        assert a.startswith('A __attribute__((optimize("O1", "tree-slp-vectorize"') and "tree-pre" not in a
+        assert b.startswith('B __attribute__((optimize("O1", "tree-slp-vectorize"') and '"tree-pre", "gcse"' in b
+    for flags in (("-O0",), ("-Os",), ("-O2", "-DEOMC_PARTS_FULL_OPT")):
+        assert _expand(tmp_path, *flags, text=text).splitlines()[-2:] == ["A", "B"], flags
+    src = tmp_path / "g.c"
+    src.write_text(LEAN_MACRO + "\nEOMC_LEAN int g(const double *x, double *y);\n"
+                   "EOMC_LEAN int g(const double *x, double *y)\n{\n    y[0] = x[0] * x[1];\n    return 0;\n}\n"
+                   "EOMC_LEAN_PRE int h(const double *x, double *y)\n{\n    y[0] = x[0] + x[1];\n    return 0;\n}\n")
+    for level in ("-O0", "-O2", "-Os"):
+        subprocess.run([CC, level, "-std=c99", "-Wall", "-Wextra", "-Werror", "-c", str(src),
+                        "-o", str(tmp_path / "g.o")], check=True)
