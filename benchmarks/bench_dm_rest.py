@@ -7,10 +7,11 @@ and integrator, eomc ``eomc.compile(path)`` with no flags and simulate's default
 root's height and the largest |qvel| are read at each time T of a long run, beside MuJoCo's.
 
 quadruped.xml also holds the fetch task's 14.1 kg ball (a free body dropped from 3 m straight
-above the torso, condim 6 with rolling friction 0.005, which eomc does not model: a warning says
-so).  The ball lands on the quadruped's back and stays there at MuJoCo's exactly symmetric start;
-on a convex back that is an unstable equilibrium without rolling friction, so in eomc it rolls
-off after some seconds.  The row "quadruped, ball 5 m aside" is the same file with the ball's body
+above the torso, condim 6 with torsional and rolling friction 0.005, modelled since session 15:
+docs/contact.md).  The ball lands on the quadruped's back and stays there at MuJoCo's exactly
+symmetric start; on a convex back that is an unstable equilibrium, which eomc's regularised
+rolling friction (viscous below ω_s = v_s/ρ, no true sticking) slows but does not hold: the ball
+rolls off later.  The row "quadruped, ball 5 m aside" is the same file with the ball's body
 moved to x = 5 m (it falls on the floor): the quadruped alone.
 
 "statics" (last column): eomc started at MuJoCo's state at the last T with zero speeds and run

@@ -21,7 +21,8 @@ __all__ = ["check_law_parameters"]
 # parameter prefix -> (what it is, strictly positive?)
 _CONTACT = {"k": ("contact stiffness", False), "c": ("contact damping", False),
             "mu": ("friction coefficient", False), "vs": ("friction regularisation speed", True),
-            "r": ("contact radius", False)}
+            "r": ("contact radius", False), "mut": ("torsional friction", False),
+            "mur": ("rolling friction", False)}
 _JOINT = {"limit_k": ("limit stiffness", False), "limit_c": ("limit damping", False),
           "limit_e": ("limit width", True), "damping": ("damping", False),
           "friction": ("friction", False), "friction_v": ("friction speed", True)}

@@ -56,6 +56,11 @@ class Shape:
     mu: float
     vs: float = 0.01
     vertices: tuple = ()       # a mesh's vertices, shape frame
+    # torsional (MJCF condim 4, 6) and rolling (condim 6) friction, lengths in m, and the length
+    # that turns v_s into their angular regularisation speed (.law.spin_moment); None: none
+    mut: float = None
+    mur: float = None
+    rho: float = None
     where: str = ""            # for messages: "geom foot_geom", "link base collision 2"
 
 
@@ -118,10 +123,11 @@ def hull_shortfall(vertices, kept):
     return float(max(0.0, np.max(fo.matmul(v, eq[:, :3].T) + eq[:, 3])))
 
 
-def _symbols(name, with_radius, taken):
-    """The shape's parameters k_, c_, mu_, vs_ (and r_) <name>; '_geom' appended when a name is
-    already a parameter of the model (a joint's stiffness k_<joint> of the same name)."""
-    keys = ("k", "c", "mu", "vs") + (("r",) if with_radius else ())
+def _symbols(name, with_radius, taken, spin=()):
+    """The shape's parameters k_, c_, mu_, vs_ (and r_, and ``spin``'s mut_/mur_) <name>; '_geom'
+    appended when a name is already a parameter of the model (a joint's stiffness k_<joint> of the
+    same name)."""
+    keys = ("k", "c", "mu", "vs") + (("r",) if with_radius else ()) + tuple(spin)
     base = name
     while any(f"{key}_{base}" in taken for key in keys):
         base += "_geom"
@@ -170,12 +176,17 @@ def with_shapes(built, shapes, com_of, fold=False):
                               f"contact points (a contact may start up to {short * 1e3:.2g} mm late)", EomcWarning,
                               stacklevel=3)
         values = {"k": shape.k, "c": shape.c, "mu": shape.mu, "vs": shape.vs}
+        spin = {key: value for key, value in (("mut", shape.mut), ("mur", shape.mur)) if value is not None}
+        values.update(spin)
+        if spin and not (shape.rho and shape.rho > 0):
+            raise ModelError(f"{shape.where or shape.name}: torsional or rolling friction needs a size rho > 0, "
+                             f"not {shape.rho!r}")
         for key, value in values.items():
             try:
                 check_value(shape.name, key, value, shape.where or None)
             except ValueError as exc:
                 raise ModelError(str(exc)) from None
-        syms, base = _symbols(shape.name, radius > 0, taken)
+        syms, base = _symbols(shape.name, radius > 0, taken, spin)
         if base in seen:
             raise ModelError(f"{shape.where or shape.name}: contact name {base!r} is used twice")
         seen.add(base)
@@ -183,6 +194,8 @@ def with_shapes(built, shapes, com_of, fold=False):
         params = law_symbols(syms, values, fold, parameters, taken)
         if "r" not in params:
             params["r"] = sm.S.Zero
+        if spin:
+            params["rho"] = sm.Float(float(shape.rho), 17)
         R = np.asarray(shape.rot, dtype=float).reshape(3, 3)
         origin = np.asarray(shape.pos, dtype=float)
         com = com_of(shape.body)

@@ -30,7 +30,7 @@ v_s·tanθ/μ).  The force acts at the contact point p = c - r·n.
 import sympy as sm
 
 __all__ = ["DEFAULTS", "LOAD_SINK", "load_stiffness", "EXPONENT", "ContactForces", "ground_forces", "ground_jacobians", "clip_switch",
-           "damping_from_restitution", "check_value"]
+           "damping_from_restitution", "check_value", "SPIN_KEYS", "spin_moment"]
 
 # Default parameters per contact (SI units), and why:
 # k   1e6 N/m^1.5  Hertz for a sphere of radius R = 2 cm of rubber-like stiffness on a rigid
@@ -52,7 +52,13 @@ LOAD_SINK = 0.05
 EXPONENT = sm.Rational(3, 2)      # Hertz: a sphere on a plane
 
 _MEANING = {"k": "stiffness", "c": "damping", "mu": "friction coefficient",
-            "vs": "friction regularisation speed", "r": "radius"}
+            "vs": "friction regularisation speed", "r": "radius",
+            "mut": "torsional friction coefficient", "mur": "rolling friction coefficient"}
+# A contact's optional torsional and rolling friction (MJCF condim 4 and 6: spin_moment): the
+# parameters mut_<name> (condim 4, 6) and mur_<name> (condim 6), lengths in m as MuJoCo's, and
+# the length rho (a build-time number, not a parameter) that turns v_s into the angular
+# regularisation speed ω_s = v_s/rho.  A contact without them has no moment and no code for one.
+SPIN_KEYS = ("mut", "mur")
 
 
 def load_stiffness(weight, count, radius, sink=LOAD_SINK):
@@ -154,6 +160,45 @@ def ground_forces(centre, velocity, omega, params, normal=(0, 0, 1), height=0, l
     parts = {"rate": rate, "dpos": dpos, "elastic": elastic, "slip": vp, "vt": vt, "scale": scale,
              "normal": n, "k": k, "c": c, "vs": vs, "mu": mu, "clip": clip_switch(depth, c, rate)}
     return ContactForces(depth, fn, ft, force, arm, parts)
+
+
+def spin_moment(omega, normal, fn, params, let=None):
+    """The torsional and rolling friction moment (3 world components) on the body whose angular
+    velocity relative to the other surface is ``omega`` (world), at a contact of normal force
+    ``fn`` (:func:`ground_forces`' F_n) and unit ``normal``:
+
+        M = -μ_t·F_n·ω_n/sqrt(ω_n² + ω_s²)·n  -  μ_r·F_n·ω_t/sqrt(|ω_t|² + ω_s²)
+        ω_n = n·ω (spin about the normal), ω_t = ω - ω_n·n (rolling), ω_s = v_s/ρ
+
+    MuJoCo's definition (engine_core_constraint.c, mj_instantiateContact): a condim-4 contact's
+    fourth row is the relative angular velocity about the normal, condims 5 and 6 the two about the
+    tangents (contact frame times the bodies' rotational Jacobian difference), and its cone bounds
+    each row's force by its coefficient times the normal force (pyramid edges n ± μ_k e_k), so the
+    moment's bound is μ_t·F_n and μ_r·F_n with μ_t, μ_r lengths (``friction``'s 2nd and 3rd
+    numbers; not μ·r_eff).  Regularised as the sliding law is (Coulomb's bound opposing the
+    motion, viscous below the regularisation speed), with ω_s = v_s/ρ: a geom of size ρ
+    (``params["rho"]``, MuJoCo's bounding radius of the geom) spinning or rolling at ω_s moves its
+    surface at v_s, where the sliding friction turns viscous too.  Both parts vanish with F_n, so
+    out of contact the moment is ±0 as the force is.
+
+    ``params``: "mut" and/or "mur" (symbols or numbers; a missing key: no such part), "vs", "rho".
+    None when neither is there."""
+    let = let or (lambda e: e)
+    mut, mur = params.get("mut"), params.get("mur")
+    if mut is None and mur is None:
+        return None
+    n = [sm.sympify(x) for x in normal]
+    ws2 = let((params["vs"] / params["rho"]) ** 2)
+    wn = let(_dot(n, omega))
+    out = [sm.S.Zero] * 3
+    if mut is not None:
+        st = let(-mut * fn * wn / sm.sqrt(wn ** 2 + ws2))
+        out = [out[i] + st * n[i] for i in range(3)]
+    if mur is not None:
+        wt = [let(omega[i] - wn * n[i]) for i in range(3)]
+        sr = let(-mur * fn / sm.sqrt(_dot(wt, wt) + ws2))
+        out = [out[i] + sr * wt[i] for i in range(3)]
+    return [let(x) for x in out]
 
 
 def clip_switch(depth, c, rate):

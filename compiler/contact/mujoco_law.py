@@ -9,7 +9,7 @@ since URDF has no contact parameters).
 """
 import math
 
-__all__ = ["law_parameters", "resting_depth", "limit_spring", "HOLD_WIDTH", "MUJOCO_DEFAULTS", "MINVAL"]
+__all__ = ["law_parameters", "resting_depth", "limit_spring", "HOLD_WIDTH", "MUJOCO_DEFAULTS", "MINVAL", "MINMU", "spin_parameters"]
 
 MINVAL = 1e-15                 # mjMINVAL
 # MuJoCo's default contact: solref, solimp, friction (sliding, torsional, rolling)
@@ -70,6 +70,22 @@ def law_parameters(solref, solimp, friction, condim, g, weight, timestep=None):
     c = 2.0 * ratio * omega / (1.5 * g)
     mu = 0.0 if condim == 1 else float(friction[0])
     return k, c, mu
+
+
+MINMU = 1e-5       # MuJoCo's mjMINMU: mj_assignFriction raises every friction coefficient to at least this
+
+
+def spin_parameters(friction, condim):
+    """(mut, mur): the torsional and rolling friction of a contact of MuJoCo's ``condim`` with
+    ``friction`` = (sliding, torsional, rolling) -- a geom's three numbers, or a mixed pair's
+    (:func:`eomc.compiler.mjcf.collision._mix`: the larger of each) -- None where the condim has
+    no such rows: torsional from condim 4, rolling from 6 (MuJoCo's rows 4 and 5-6,
+    engine_core_constraint.c).  Lengths (m), the bound of the moment per newton of normal force,
+    as MuJoCo uses them, raised to MINMU as mj_assignFriction raises them
+    (eomc.compiler.contact.law.spin_moment)."""
+    mut = max(MINMU, float(friction[1])) if condim >= 4 else None
+    mur = max(MINMU, float(friction[2])) if condim >= 6 else None
+    return mut, mur
 
 
 HOLD_WIDTH = 0.001     # rad (m): within about this of its limit a MuJoCo limit's spring holds (limit_spring)

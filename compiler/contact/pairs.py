@@ -42,7 +42,7 @@ import numpy as np
 import sympy as sm
 
 from . import narrow as nw
-from .law import EXPONENT, ContactForces, _cross, _dot, _pos, clip_switch, ground_jacobians, step
+from .law import EXPONENT, SPIN_KEYS, ContactForces, _cross, _dot, _pos, clip_switch, ground_jacobians, spin_moment, step
 from .tree import LoweredLoad
 
 __all__ = ["PAIR_KINDS", "PairShape", "PairLoad", "PairValue", "pair_supported", "closest_points"]
@@ -130,7 +130,9 @@ class PairLoad(LoweredLoad):
     name: str
     a: PairShape
     b: PairShape
-    params: dict               # "k", "c", "mu", "vs" -> Symbol (or literal when folded)
+    params: dict               # "k", "c", "mu", "vs" -> Symbol (or literal when folded); with torsional
+    #                            and rolling friction (MJCF condim 4, 6) also "mut"/"mur" and "rho"
+    #                            (.law.spin_moment): such a pair is inlined, never in the table
     margin: float = 0.0
     index: int = 0             # its PairValue placeholders' first argument (outputs, events)
     part: int = -1             # which of the pair's contact points (:func:`pair_parts`); -1: the only one
@@ -148,7 +150,15 @@ class PairLoad(LoweredLoad):
             out += [sm.Float(float(x), 17) for row in s.rot for x in row]
             out += [sm.Integer(KIND_INDEX.index(s.kind))]
         out += [self.params[k] for k in ("k", "c", "mu", "vs")]
+        out += [x for j, k in enumerate(SPIN_KEYS + ("rho",)) if k in self.params
+                for x in (sm.Integer(-1 - j), self.params[k])]
         return out + [sm.Integer(self.part)] if self.part >= 0 else out
+
+    @property
+    def spins(self):
+        """Has torsional or rolling friction (.law.spin_moment): lowered inline (the table's and
+        the law routine's law have none)."""
+        return any(k in self.params for k in SPIN_KEYS)
 
     def narrow(self, a, b, let, called=False):
         """(p, n, δ) of this contact point (world; n from A to B): a call of its kinds' routine
@@ -175,13 +185,18 @@ class PairLoad(LoweredLoad):
         params = {k: rename(s, what) for k, s in self.params.items()}
         ren = lambda e: rename(e, what)      # noqa: E731 -- mass-centre parameters -> their slots
         a, b = _placed(self.a, poses, rec, ren), _placed(self.b, poses, rec, ren)
-        if LAW_ROUTINES:
+        if LAW_ROUTINES and not self.spins:
             return self._lower_called(a, b, bodies, rec, v, params, poses, broad, slopes)
         p, n, depth = self.narrow(a, b, rec.let)
         va = _velocity_at(_moving(self.a, poses, v), p, rec.let)
         vb = _velocity_at(_moving(self.b, poses, v), p, rec.let)
         fn, ft, f, rate, _ = _law(n, depth, va, vb, params, rec.let)
         wrench = _apply(self.b, f, p, poses, bodies, rec) + _apply(self.a, [-x for x in f], p, poses, bodies, rec)
+        if self.spins:      # torsional/rolling friction: B turns relative to A; a pure moment on each
+            w = [_omega(shape, poses, v, rec.let) for shape in (self.a, self.b)]
+            moment = spin_moment([w[1][k] - w[0][k] for k in range(3)], n, fn, params, rec.let)
+            wrench += _apply_moment(self.b, moment, poses, bodies, rec)
+            wrench += _apply_moment(self.a, [-x for x in moment], poses, bodies, rec)
         if broad is not None:
             broad.append(((self.a, self.b, self.margin), pair_clearance(self, a, b, poses),
                           tuple(dict.fromkeys(s for s in wrench if isinstance(s, sm.Symbol))), depth,
@@ -255,6 +270,26 @@ def _moving(shape, poses, v):
     i = shape.body
     R = poses.world_to_body(i)         # before the origin: the order the placement names them in
     return poses.origin(i), R, v[i][:3], v[i][3:]
+
+
+def _omega(shape, poses, v, let):
+    """The world angular velocity of the shape's body (zero for the world)."""
+    if shape.body < 0:
+        return [sm.S.Zero] * 3
+    R, w_b = poses.world_to_body(shape.body), v[shape.body][:3]
+    return [let(sum((R[r][k] * w_b[r] for r in range(3)), sm.S.Zero)) for k in range(3)]
+
+
+def _apply_moment(shape, moment, poses, bodies, rec):
+    """A pure moment (world) on the shape's body: into its fext; returns its body components (named)."""
+    if shape.body < 0:
+        return []
+    i = shape.body
+    R = poses.world_to_body(i)
+    m_b = [rec.let(sum((R[r][k] * moment[k] for k in range(3)), sm.S.Zero)) for r in range(3)]
+    old = bodies[i].fext or [0] * 6
+    bodies[i].fext = [old[k] + (m_b[k] if k < 3 else 0) for k in range(6)]
+    return m_b
 
 
 def _law(n, depth, va, vb, params, let):
@@ -824,6 +859,9 @@ class PairSpec:
     mu: float
     vs: float = 0.01
     margin: float = 0.0
+    mut: float = None          # torsional friction (MJCF condim 4, 6), m; None: none (.law.spin_moment)
+    mur: float = None          # rolling friction (condim 6), m
+    rho: float = None          # their regularisation length (m): ω_s = v_s/rho
 
 
 def with_pairs(built, specs, fold=False):
@@ -853,13 +891,20 @@ def with_pairs(built, specs, fold=False):
     taken = {str(s) for s in parameters}
     for spec in specs:
         values = {"k": spec.k, "c": spec.c, "mu": spec.mu, "vs": spec.vs}
+        spin = {key: value for key, value in (("mut", spec.mut), ("mur", spec.mur)) if value is not None}
+        values.update(spin)
+        if spin and not (spec.rho and spec.rho > 0):
+            raise ModelError(f"contact {spec.name!r}: torsional or rolling friction needs a size rho > 0, "
+                             f"not {spec.rho!r}")
         for key, value in values.items():
             try:
                 check_value(spec.name, key, value)
             except ValueError as exc:
                 raise ModelError(str(exc)) from None
-        syms, base = _symbols(spec.name, False, taken)
+        syms, base = _symbols(spec.name, False, taken, spin)
         params = law_symbols(syms, values, fold, parameters, taken)
+        if spin:
+            params["rho"] = sm.Float(float(spec.rho), 17)
         a, b = (spec.a, spec.b) if spec.b.body >= 0 else (spec.b, spec.a)     # b moves: the load's body
         for part in pair_parts(a.kind, b.kind):        # several contact points: <name>_<part>, one law
             label = base if part < 0 else f"{base}_{part}"

@@ -18,7 +18,7 @@ import sympy as sm
 
 from eomc.runtime.errors import ModelError
 
-from .law import DEFAULTS, load_stiffness
+from .law import DEFAULTS, SPIN_KEYS, load_stiffness
 from .system import contact_symbols, parameter_defaults, unit_normal
 from eomc.compiler import fixed_order as fo
 
@@ -157,7 +157,9 @@ class ContactLoad:
     body: int
     name: str
     offset: sm.Matrix                  # sphere centre from the body origin, body frame
-    params: dict                       # "k", "c", "mu", "vs", "r" -> Symbol (or literal if folded)
+    params: dict                       # "k", "c", "mu", "vs", "r" -> Symbol (or literal if folded);
+    #                                    with torsional/rolling friction also "mut" and/or "mur", and
+    #                                    "rho" (a number): .law.spin_moment
     normal: tuple                      # unit, world
     height: object
     frame: str = "contact"
@@ -171,8 +173,11 @@ class ContactLoad:
     def exprs(self):
         """Everything that defines it, for the generation cache's key (tree_exprs)."""
         more = [x for row in self.shape for x in row] if self.shape is not None else []
+        # a torsional/rolling friction's parameters (law.spin_moment), only where it has them
+        keys = SPIN_KEYS + ("rho",)
+        spin = [x for j, k in enumerate(keys) if k in self.params for x in (sm.Integer(-1 - j), self.params[k])]
         return ([sm.Integer(self.body)] + list(self.offset)
-                + [self.params[k] for k in DEFAULTS] + list(self.normal) + [self.height] + more)
+                + [self.params[k] for k in DEFAULTS] + list(self.normal) + [self.height] + more + spin)
 
 
 def link_frame(source, link, placements):

@@ -33,7 +33,11 @@ The mapping to eomc's law, per geom (the *documented rule*; the README quotes it
 - damping c = 2·z·ω/(1.5·g), ω = sqrt(1.5·g/δ_ref): the linearised law at rest has the
   damping ratio z of ``solref`` (z = b/(2·sqrt(k)) for a direct ``solref``).
 - friction coefficient mu = the sliding friction (``friction[0]``); 0 when ``condim`` = 1.
-  Torsional and rolling friction (condim 4, 6) are not modelled: a warning names such pairs.
+- condim 4 and 6 against a plane: torsional (``friction[1]``) and, for 6, rolling
+  (``friction[2]``) friction, moments bounded by coefficient x normal force as MuJoCo bounds them
+  (:func:`~eomc.compiler.contact.mujoco_law.spin_parameters`, law.spin_moment), regularised at
+  ω_s = v_s/ρ, ρ the geom's bounding radius (``geom_rbound``; a body-body pair's: the smaller of
+  the two geoms').
 - ``margin``: MuJoCo's constraint acts at distance < ``margin`` with its reference there
   (``aref = -b·v - k·imp·(dist - includemargin)``, ``includemargin`` = the margin), so the plane
   is raised by ``margin`` for that geom.  ``gap``: MuJoCo (4.0, as installed) detects contacts
@@ -51,7 +55,7 @@ import numpy as np
 
 from eomc.runtime.errors import EomcWarning
 
-from ..contact.mujoco_law import MINVAL, law_parameters, resting_depth  # noqa: F401 -- this module's rule, public here
+from ..contact.mujoco_law import MINVAL, law_parameters, resting_depth, spin_parameters  # noqa: F401 -- this module's rule, public here
 from eomc.compiler import fixed_order as fo
 
 __all__ = ["GroundGeom", "ground_geoms", "law_parameters", "resting_depth", "GEOM_KINDS"]
@@ -78,6 +82,9 @@ class GroundGeom:
     c: float
     mu: float
     plane: str                 # the plane geom's name
+    mut: float = None          # torsional friction (condim 4, 6), m; None: none
+    mur: float = None          # rolling friction (condim 6), m; None: none
+    rho: float = None          # their regularisation length (the geom's bounding radius), m
 
 
 def _mix(m, g1, g2):
@@ -99,17 +106,6 @@ def _mix(m, g1, g2):
     solimp = mix * np.array(m.geom_solimp[g1]) + (1 - mix) * np.array(m.geom_solimp[g2])
     friction = np.maximum(m.geom_friction[g1], m.geom_friction[g2])
     return max(int(m.geom_condim[g1]), int(m.geom_condim[g2])), friction, solref, solimp
-
-
-def _warn_condim(m, pairs, where):
-    """One warning naming the pairs whose condim (4: torsional, 6: and rolling friction) asks for
-    more than the sliding friction eomc's law has (dm_control's quadruped's ball: condim 6)."""
-    more = sorted((a, b, c) for a, b, c in pairs if c > 3)
-    if more:
-        a, b, c = more[0]
-        warnings.warn(f"{where}{len(more)} contact pair(s) with condim {c} (e.g. geoms {_geom_name(m, a)} and "
-                      f"{_geom_name(m, b)}): torsional{' and rolling' if c == 6 else ''} friction are not "
-                      f"modelled, only the sliding friction", EomcWarning, stacklevel=4)
 
 
 def _excluded(m):
@@ -198,7 +194,8 @@ def ground_geoms(m, path=None):
         plane, other = (g1, g2) if g1 in planes else (g2, g1) if g2 in planes else (None, None)
         if plane is None:
             continue
-        pairs[(plane, other)] = (int(m.pair_dim[q]), np.array(m.pair_friction[q]), np.array(m.pair_solref[q]),
+        five = np.array(m.pair_friction[q])        # slide, slide, torsion, roll, roll -> slide, torsion, roll
+        pairs[(plane, other)] = (int(m.pair_dim[q]), five[[0, 2, 3]], np.array(m.pair_solref[q]),
                                  np.array(m.pair_solimp[q]), float(m.pair_margin[q]))
     for plane in planes:
         for g in range(m.ngeom):
@@ -207,7 +204,6 @@ def ground_geoms(m, path=None):
             condim, friction, solref, solimp = _mix(m, plane, g)
             pairs[(plane, g)] = (condim, friction, solref, solimp,
                                  float(m.geom_margin[plane]) + float(m.geom_margin[g]))
-    _warn_condim(m, [(p, g, v[0]) for (p, g), v in pairs.items() if int(weld[int(m.geom_bodyid[g])]) != 0], where)
     out, skipped = [], set()
     for (plane, g), (condim, friction, solref, solimp, margin) in sorted(pairs.items(), key=lambda x: x[0][::-1]):
         kind = GEOM_KINDS.get(int(m.geom_type[g]), str(int(m.geom_type[g])))
@@ -225,6 +221,7 @@ def ground_geoms(m, path=None):
         height = fo.dot(n, d.geom_xpos[plane]) + surface.get(plane, 0.0) + margin
         weight = g_mag * float(m.body_subtreemass[int(m.body_rootid[b])])
         k, c, mu = law_parameters(solref, solimp, friction, condim, g_mag, weight, timestep)
+        mut, mur = spin_parameters(friction, condim)
         verts = ()
         if kind == "mesh":
             mesh = int(m.geom_dataid[g])
@@ -236,7 +233,8 @@ def ground_geoms(m, path=None):
         out.append(GroundGeom(geom=g, body=b, name=name, kind=kind, size=tuple(float(x) for x in m.geom_size[g]),
                               pos=tuple(float(x) for x in m.geom_pos[g]), rot=_rows(quat_matrix(m.geom_quat[g])),
                               vertices=verts, normal=tuple(float(x) for x in n), height=height, k=k, c=c, mu=mu,
-                              plane=_geom_name(m, plane)))
+                              plane=_geom_name(m, plane), mut=mut, mur=mur,
+                              rho=float(m.geom_rbound[g]) if mut is not None else None))
     return out
 
 
@@ -252,6 +250,9 @@ class BodyPair:
     margin: float
     explicit: bool = False     # a <contact><pair> of the file
     same_tree: bool = False    # both geoms in one kinematic tree (a self-collision)
+    mut: float = None          # torsional friction (condim 4, 6), m; None: none (GroundGeom's)
+    mur: float = None          # rolling friction (condim 6), m
+    rho: float = None          # their regularisation length: the smaller geom's bounding radius
 
 
 def body_pairs(m, path=None):
@@ -285,7 +286,8 @@ def body_pairs(m, path=None):
         g1, g2 = sorted((int(m.pair_geom1[q]), int(m.pair_geom2[q])))
         if kind(g1) in flat or kind(g2) in flat or not (moving(g1) or moving(g2)):
             continue
-        found[(g1, g2)] = (int(m.pair_dim[q]), np.array(m.pair_friction[q]), np.array(m.pair_solref[q]),
+        five = np.array(m.pair_friction[q])        # slide, slide, torsion, roll, roll -> slide, torsion, roll
+        found[(g1, g2)] = (int(m.pair_dim[q]), five[[0, 2, 3]], np.array(m.pair_solref[q]),
                            np.array(m.pair_solimp[q]), float(m.pair_margin[q]))
     explicit = set(found)
     for g1 in range(m.ngeom):
@@ -299,7 +301,6 @@ def body_pairs(m, path=None):
             found[(g1, g2)] = (condim, friction, solref, solimp, float(m.geom_margin[g1]) + float(m.geom_margin[g2]))
     reach = _reach(m)
     found = {pair: v for pair, v in found.items() if not _apart(m, reach, *pair, v[4])}
-    _warn_condim(m, [(g1, g2, v[0]) for (g1, g2), v in found.items()], f"{path}: " if path else "")
     out, skipped = [], {}
     for (g1, g2), (condim, friction, solref, solimp, margin) in sorted(found.items()):
         k1, k2 = kind(g1), kind(g2)
@@ -315,8 +316,10 @@ def body_pairs(m, path=None):
         else:
             masses = [float(m.body_subtreemass[int(m.body_rootid[int(m.geom_bodyid[g])])]) for g in (g1, g2) if moving(g)]
         k, c, mu = law_parameters(solref, solimp, friction, condim, g_mag, g_mag * min(masses), timestep)
+        mut, mur = spin_parameters(friction, condim)
+        rho = min(float(m.geom_rbound[g1]), float(m.geom_rbound[g2])) if mut is not None else None
         out.append(BodyPair((g1, g2), name, (k1, k2), k, c, mu, margin, (g1, g2) in explicit,
-                            len(roots) == 1 and moving(g1) and moving(g2)))
+                            len(roots) == 1 and moving(g1) and moving(g2), mut, mur, rho))
     return out, skipped
 
 

@@ -518,7 +518,8 @@ def _with_pairs(model, m, built):
         offset = tuple((sm.Float(float(p), 17) if p else sm.S.Zero) - c for p, c in zip(m.geom_pos[g], com))
         rot = tuple(tuple(float(x) for x in row) for row in quat_matrix(m.geom_quat[g]))
         return PairShape(i, kind, size, offset, rot)
-    specs = [PairSpec(p.name, shape(p.geoms[0]), shape(p.geoms[1]), p.k, p.c, p.mu, margin=p.margin) for p in found]
+    specs = [PairSpec(p.name, shape(p.geoms[0]), shape(p.geoms[1]), p.k, p.c, p.mu, margin=p.margin, mut=p.mut,
+                      mur=p.mur, rho=p.rho) for p in found]
     return with_pairs(built, specs, fold=model.fold_parameters)
 
 
@@ -528,7 +529,7 @@ def _shapes(built, found):
     tree_body = {owner[0]: i for i, owner in enumerate(built.owners) if owner is not None}
     return [Shape(name=g.name, body=tree_body[g.body], kind=g.kind, size=g.size, pos=g.pos, rot=g.rot,
                   normal=g.normal, height=g.height, k=g.k, c=g.c, mu=g.mu, vertices=g.vertices,
-                  where=f"geom {g.name}") for g in found]
+                  where=f"geom {g.name}", mut=g.mut, mur=g.mur, rho=g.rho) for g in found]
 
 
 def _xyz_angles(R):

@@ -10,13 +10,14 @@ this module is the recursion's side of it (called by :mod:`.lower`).
 """
 import sympy as sm
 
-from ..contact.law import EXPONENT, ground_forces, ground_jacobians, step
+from ..contact.law import EXPONENT, ground_forces, ground_jacobians, spin_moment, step
 from ..contact import pairs as _pairs
 from ..contact.pairs import PairLoad, pair_guards
 from ..contact.table import lower_table
 from ..contact.tree import CLIP_KIND, ENERGY, ContactLoad, ContactValue, contact_outputs
 from .placement import Placement
 from .spatial import cross
+from eomc.runtime.errors import ModelError
 
 __all__ = ["lower_contacts", "support_motion"]
 
@@ -70,22 +71,29 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
         implicit["poses"], implicit["contacts"], implicit["pairs"] = poses, [], []
     pair_slopes = implicit["pairs"] if implicit is not None else None
     values, elastic, reach, pairs = {}, [], {}, []
-    table = [ld for ld in others if isinstance(ld, PairLoad)] if _pairs.PAIR_TABLE else []
+    # a pair with torsional/rolling friction (law.spin_moment) is inlined: the table's law has no moment
+    spinning = [ld for ld in others if isinstance(ld, PairLoad) and ld.spins]
+    if spinning and second:
+        raise ModelError(f"the contact {spinning[0].name}: torsional and rolling friction between two bodies "
+                         f"have no second-order derivatives (hvp, hess_id) yet")
+    table = [ld for ld in others if isinstance(ld, PairLoad) and not ld.spins] if _pairs.PAIR_TABLE else []
     if len(table) < _pairs.TABLE_FROM and not second:   # a few pairs stay inlined (pairs.TABLE_FROM: why)
         table = []
     if table:               # every pair in one table-driven call (compiler/contact/table.py)
         wrenches = [] if analytic is not None else None
         info = {} if analytic is not None else None
         values.update(lower_table(table, bodies, rec, v, rename, poses, wrenches, pair_slopes, info))
-        if analytic is not None:        # the analytic jac_x takes their tangents (tree/analytic.py)
-            analytic["pairs"] = wrenches
+        if analytic is not None and not spinning:   # the analytic jac_x takes their tangents (tree/analytic.py);
+            analytic["pairs"] = wrenches            # with inlined pairs beside the table: the tangent path
             analytic["pair_call"] = info
-    if implicit is not None:    # the pair points NAME_implicit holds (implicit_metadata lists them)
-        implicit["pair_loads"] = [ld for ld in others if isinstance(ld, PairLoad)
-                                  and (bool(table) or _pairs.INLINE_SLOPES)]
+    in_table = set(map(id, table))
+    inlined = [ld for ld in others if isinstance(ld, PairLoad) and id(ld) not in in_table]
+    if implicit is not None:    # the pair points NAME_implicit holds (implicit_metadata lists them), in
+        # the order their slopes are appended: the table's, then the inlined ones' (INLINE_SLOPES)
+        implicit["pair_loads"] = table + (inlined if _pairs.INLINE_SLOPES else [])
     inline_slopes = pair_slopes if _pairs.INLINE_SLOPES else None
     for load in others:     # a body-body pair returns its outputs' and events' values
-        if table and isinstance(load, PairLoad):
+        if id(load) in in_table:
             continue
         if isinstance(load, PairLoad):
             values.update(load.lower(bodies, rec, v, rename, poses, broad=pairs, slopes=inline_slopes))
@@ -117,6 +125,10 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
         arm_b = poses.to_body(i, forces.point_offset)
         lever = [off[k] + arm_b[k] for k in range(3)]
         n_b = cross(lever, f_b)
+        spin = spin_moment(omega, load.normal, forces.normal, params, rec.let)
+        if spin is not None:        # torsional/rolling friction (law.spin_moment): a pure moment
+            m_b = rec.vec(poses.to_body(i, spin))
+            n_b = [n_b[k] + m_b[k] for k in range(3)]
         old = bodies[i].fext or [0] * 6
         bodies[i].fext = [old[k] + x for k, x in enumerate(n_b + f_b)]
         slopes = ()
@@ -133,10 +145,14 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
         if analytic is not None:
             analytic.setdefault("contacts", [])
             if analytic["contacts"] is not None:
-                analytic["contacts"] = None if load.shape is not None and moving is None else analytic["contacts"] + [
+                # a moment of torsional/rolling friction is not in the kernel's block G (a force at a
+                # point): such a tree's jac_x keeps the tangent path
+                analytic["contacts"] = None if (load.shape is not None and moving is None) or spin is not None \
+                    else analytic["contacts"] + [
                     (i, forces.depth, point, centre, list(forces.force), K, C, moving)]
         reach.setdefault(i, []).append(None if load.shape is not None else
-                                       (load.normal, rename(load.height, what), params["r"], off, f_b,
+                                       (load.normal, rename(load.height, what), params["r"], off,
+                                        f_b if spin is None else list(f_b) + list(m_b),
                                         forces.depth, slopes, tuple(forces.force)))
         quantities = [forces.normal, *forces.friction, forces.depth]     # OUTPUT_KINDS' order
         for kind, value in enumerate(quantities):

@@ -164,18 +164,36 @@ def test_gap_changes_no_force(tmp_path, where):
             assert d.contact[0].includemargin == d.efc_margin[0] == pytest.approx(found.height, abs=1e-15)
 
 
-def test_torsional_and_rolling_friction_are_named(tmp_path):
-    """condim 4/6 asks for torsional/rolling friction, which the law lacks: one warning naming the pair."""
-    xml = """<mujoco><worldbody><geom name="floor" type="plane" size="1 1 .1"/>
-      <body pos="0 0 .2"><freejoint/><geom name="ball" type="sphere" size=".1" condim="{c}"/></body></worldbody></mujoco>"""
-    for condim, words in ((6, "torsional and rolling friction"), (4, "torsional friction")):
-        m = _model(tmp_path, xml.format(c=condim))
-        with pytest.warns(EomcWarning, match=f"condim {condim} \\(e.g. geoms floor and ball\\): {words} are not"):
-            assert len(ground_geoms(m, "f.xml")) == 1
-    m = _model(tmp_path, xml.format(c=3))
+def test_torsional_and_rolling_friction_against_a_plane(tmp_path):
+    """condim 4/6 against a plane: torsional (friction[1]) and rolling (friction[2]) friction are
+    modelled (law.spin_moment), with no warning; an explicit <pair>'s five numbers give its own
+    (slide, slide, torsion, roll, roll); MuJoCo's mixing (the larger condim and friction) and its
+    floor of 1e-5 (mjMINMU).  Between two bodies too (the smaller geom's bounding radius as rho)."""
+    from eomc.compiler.mjcf.collision import body_pairs
+    xml = """<mujoco><worldbody><geom name="floor" type="plane" size="1 1 .1" friction="1 0.004 0"/>
+      <body pos="0 0 .2"><freejoint/><geom name="ball" type="sphere" size=".1" condim="{c}" friction="0.8 {t} 0.002"/>
+      </body><body pos="0 0 .5"><freejoint/><geom name="top" type="box" size=".1 .1 .1" condim="{c}"/></body>
+      </worldbody>{pair}</mujoco>"""
+    for condim, t, want in ((6, 0.003, (0.004, 0.002)), (4, 0.003, (0.004, None)), (6, 0.0, (0.004, 0.002))):
+        m = _model(tmp_path, xml.format(c=condim, t=t, pair=""))
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            found = {g.name: g for g in ground_geoms(m, "f.xml")}
+            (pair,), _ = body_pairs(m, "f.xml")
+        assert (found["ball"].mut, found["ball"].mur) == want
+        assert found["ball"].rho == pytest.approx(0.1)
+        assert found["ball"].mu == 1.0
+        assert (pair.name, pair.mut, pair.mur) == ("ball__top", 0.005,
+                                                   (0.002 if condim == 6 else None))
+        assert pair.rho == pytest.approx(0.1)
+    pair = '<contact><pair geom1="floor" geom2="ball" condim="6" friction="0.5 0.5 0.007 0.0 0.0"/></contact>'
+    m = _model(tmp_path, xml.format(c=1, t=0.003, pair=pair))
+    (g,) = [g for g in ground_geoms(m, "f.xml") if g.name == "ball"]
+    assert (g.mu, g.mut, g.mur) == (0.5, 0.007, 1e-5)
+    m = _model(tmp_path, xml.format(c=3, t=0.003, pair=""))
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        ground_geoms(m)
+        assert all(g.mut is None and g.mur is None and g.rho is None for g in ground_geoms(m))
 
 
 def test_pairs_that_can_never_touch_are_not_emitted():
