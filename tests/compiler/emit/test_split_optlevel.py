@@ -32,14 +32,19 @@ def test_parts_at_O1_only_when_optimizing_for_speed(tmp_path):
         assert "noinline" in text and "optimize" not in text, flags
 
 
-def test_macro_compiles_clean(tmp_path):
-    src = tmp_path / "f.c"
-    src.write_text(NOINLINE_MACRO + "\nstatic EOMC_NOINLINE void part(const double *x, double *y)\n"
-                   "{\n    y[0] = x[0] * x[1] + x[2];\n}\n"
-                   "void f(const double *x, double *y) { part(x, y); }\n")
+def _compiles_clean(tmp_path, text):
+    """``text`` compiles with no warning at -O0, -O2 and -Os (-std=c99 -Wall -Wextra -Werror)."""
+    src = tmp_path / "clean.c"
+    src.write_text(text)
     for level in ("-O0", "-O2", "-Os"):
         subprocess.run([CC, level, "-std=c99", "-Wall", "-Wextra", "-Werror", "-c", str(src),
-                        "-o", str(tmp_path / "f.o")], check=True)
+                        "-o", str(tmp_path / "clean.o")], check=True)
+
+
+def test_macro_compiles_clean(tmp_path):
+    _compiles_clean(tmp_path, NOINLINE_MACRO + "\nstatic EOMC_NOINLINE void part(const double *x, double *y)\n"
+                    "{\n    y[0] = x[0] * x[1] + x[2];\n}\n"
+                    "void f(const double *x, double *y) { part(x, y); }\n")
 
 
 def test_lean_bodies_follow_the_parts_guard(tmp_path):
@@ -52,10 +57,6 @@ def test_lean_bodies_follow_the_parts_guard(tmp_path):
         assert b.startswith('B __attribute__((optimize("O1", "tree-slp-vectorize"') and '"tree-pre", "gcse"' in b
     for flags in (("-O0",), ("-Os",), ("-O2", "-DEOMC_PARTS_FULL_OPT")):
         assert _expand(tmp_path, *flags, text=text).splitlines()[-2:] == ["A", "B"], flags
-    src = tmp_path / "g.c"
-    src.write_text(LEAN_MACRO + "\nEOMC_LEAN int g(const double *x, double *y);\n"
-                   "EOMC_LEAN int g(const double *x, double *y)\n{\n    y[0] = x[0] * x[1];\n    return 0;\n}\n"
-                   "EOMC_LEAN_PRE int h(const double *x, double *y)\n{\n    y[0] = x[0] + x[1];\n    return 0;\n}\n")
-    for level in ("-O0", "-O2", "-Os"):
-        subprocess.run([CC, level, "-std=c99", "-Wall", "-Wextra", "-Werror", "-c", str(src),
-                        "-o", str(tmp_path / "g.o")], check=True)
+    _compiles_clean(tmp_path, LEAN_MACRO + "\nEOMC_LEAN int g(const double *x, double *y);\n"
+                    "EOMC_LEAN int g(const double *x, double *y)\n{\n    y[0] = x[0] * x[1];\n    return 0;\n}\n"
+                    "EOMC_LEAN_PRE int h(const double *x, double *y)\n{\n    y[0] = x[0] + x[1];\n    return 0;\n}\n")
