@@ -446,6 +446,27 @@ def _options(ffi, a, implicit=None):
     return opt
 
 
+FREE_SPEEDS = ("vx", "vy", "vz", "wx", "wy", "wz")   # an eomc free joint's speeds (joint_kinds.KINDS)
+
+
+def free_roots(model, parents):
+    """The first speed of each free joint at the root of the tree (eomc_implicit.free): six speeds
+    ``u_<joint>_vx`` ... ``u_<joint>_wz`` in a chain from a speed with no parent.  eomc's readers
+    (MJCF, URDF, the multibody joints) give a free joint these speeds, body-frame, so their rows
+    of the equations are the subtree's momentum balance p' + w x p = F that the fast path's
+    fs_transport treats half implicitly; a model whose speeds are named otherwise keeps the
+    explicit turning."""
+    names = list(model.state_names)[model.nq:]
+    out = []
+    for s in range(len(names) - 5):
+        stem = names[s][:-2]
+        if (parents[s] == -1 and stem.startswith("u_") and stem.endswith("_")
+                and all(names[s + j] == stem + c and (j == 0 or parents[s + j] == s + j - 1)
+                        for j, c in enumerate(FREE_SPEEDS))):
+            out.append(s)
+    return out
+
+
 def implicit_terms(model):
     """The C ``eomc_implicit`` of ``model`` (its NAME_implicit and the structure NAME.json's
     "implicit" gives), or None when the model has none: then method="implicitfast" runs the
@@ -468,12 +489,14 @@ def implicit_terms(model):
             chain = [int(s) for c in contacts for s in c["speeds"]]
             parents = [int(x) for x in info["parents"]]
             tree = len(parents) == model.nu and all(-1 <= q < s for s, q in enumerate(parents))
+            free = free_roots(model, parents)
             keep = (ffi.new("int[]", starts), ffi.new("int[]", chain or [0]),
-                    ffi.new("int[]", parents) if tree else ffi.NULL)
+                    ffi.new("int[]", parents) if tree else ffi.NULL, ffi.new("int[]", free or [0]))
             st = ffi.new("eomc_implicit *")
             st.terms = ffi.cast("eomc_mat_fn", fp)
             st.ncontact = len(contacts)
-            st.chain_start, st.chain, st.parent = keep
+            st.chain_start, st.chain, st.parent = keep[:3]
+            st.nfree, st.free = len(free), keep[3]
             st.work_len = model.integrators.eomc_fs_implicit_work_size(model.nq, model.nu, len(contacts))
             found = (st, keep, fp)
     model._implicit_struct = found
@@ -522,6 +545,7 @@ def implicit_for_run(model, p, split=IMPLICITFAST_SPLIT):
     st = ffi.new("eomc_implicit *")
     st.terms, st.ncontact, st.chain_start, st.chain = base.terms, base.ncontact, base.chain_start, base.chain
     st.parent, st.work_len, st.depth_limit, st.split = base.parent, base.work_len, lim, float(split)
+    st.nfree, st.free = base.nfree, base.free
     return st, (st, lim, base)     # the caller keeps the second alive while C runs
 
 

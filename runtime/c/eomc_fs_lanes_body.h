@@ -222,6 +222,23 @@ __attribute__((target(FSL_TARGET))) static void FSL_KERNEL(eomc_fs_lanes *w, con
 #define FSL_T(e) (*(const FSL_V *)(OUT + (size_t)(e) * stride))    /* term e in the group's lanes */
     for (int s = 0; s < w->nslot; s++) A[s] = FSL_T(L->M + (size_t)w->slot_ij[s]);
     for (int i = 0; i < nu; i++) b[i] = FSL_T(L->f + (size_t)i);
+    for (int r = 0; r < imp->nfree; r++) {           /* fs_transport, on row s's slots */
+        const int s = imp->free[r];
+        const FSL_V g = 0.5 * h;
+        FSL_V wv[3];
+        for (int a = 0; a < 3; a++) memcpy(&wv[a], Uv + (size_t)(s + 3 + a) * stride, sizeof wv[a]);
+        for (int x = w->cstart[s]; x < w->cstart[s + 1]; x++) {
+            const int k = w->slot_ij[x] - s * nu;
+            const FSL_V p0 = FSL_T(L->M + (size_t)s * nu + k), p1 = FSL_T(L->M + (size_t)(s + 1) * nu + k),
+                        p2 = FSL_T(L->M + (size_t)(s + 2) * nu + k);
+            const FSL_VI on = (p0 != zero) | (p1 != zero) | (p2 != zero);
+            FSL_V *a0 = A + w->slot[s * nu + k], *a1 = A + w->slot[(s + 1) * nu + k],
+                  *a2 = A + w->slot[(s + 2) * nu + k];
+            *a0 = FSL_SEL(on, *a0 + g * (wv[1] * p2 - wv[2] * p1), *a0);
+            *a1 = FSL_SEL(on, *a1 + g * (wv[2] * p0 - wv[0] * p2), *a1);
+            *a2 = FSL_SEL(on, *a2 + g * (wv[0] * p1 - wv[1] * p0), *a2);
+        }
+    }
     for (int s = 0; s < nu; s++) {                   /* joint laws: diagonal */
         FSL_V d = FSL_T(L->joint + 2 * (size_t)s), k = FSL_T(L->joint + 2 * (size_t)s + 1), u;
         FSL_VI m;

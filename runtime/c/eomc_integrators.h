@@ -92,6 +92,12 @@ typedef struct eomc_implicit {
        for when it can (req->done, req->ahead) */
     int (*terms_lu)(double t, const double *x, const double *p, const double *r, double *out,
                     eomc_fs_request *req, double *work);
+    /* the root free joints (eomc's: speeds vx, vy, vz, wx, wy, wz, body-frame, their rows the
+       body's whole subtree's momentum balance): the first speed of each; 0, NULL: none.  Their
+       momentum's turning with the body (w x p, an explicit Euler rotation that grows |p| by
+       sqrt(1 + h^2 w^2) a step) is taken half implicitly (eomc_fixedstep.c, fs_transport) */
+    int nfree;
+    const int *free;
 } eomc_implicit;
 
 /* The run failed its physics: a contact went deeper than eomc_implicit.depth_limit (an

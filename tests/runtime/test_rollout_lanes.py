@@ -235,3 +235,43 @@ def test_implicitfast_lanes_refused_without_implicit_batch(tmp_path):
                               progress=False)
     with pytest.raises(ValueError, match="built without implicit_batch"):
         rollout(plain, _hopper_starts(plain, 2), dt=0.008, steps=2, method="implicitfast", lanes=True)
+
+
+def test_implicitfast_lanes_turn_a_free_joints_momentum_as_the_scalar_path(tmp_path):
+    """A free ball (tests/runtime/test_implicitfast_terms.py's rolling ball) thrown spinning and
+    rolling: the lanes kernel's fs_transport (the root free joint's momentum turning, half
+    implicit) gives the scalar rollout's rows bit for bit, and without it (eomc_implicit.nfree
+    0 on both paths) the rows differ -- so the term ran in both.  (Measured: without it row 9,
+    thrown at 11 m/s turning at 10 rad/s, blew up on landing -- status 10, speeds of thousands of m/s --
+    on both paths alike; with it every row ends fine.)"""
+    import warnings
+    from eomc.compiler.mjcf.model import MjcfModel
+    from eomc.runtime.simulate import implicit_terms
+    from .test_implicitfast_terms import ROLLING
+    path = tmp_path / "rolling.xml"
+    path.write_text(ROLLING)
+    ball = compile_model(MjcfModel(path), "rl_rolling", functions=("rhs", "outputs", "implicit", "implicit_batch"),
+                         cache_dir=tmp_path, progress=False, cflags="-O2 -std=c99 -fPIC -DEOMC_BATCH_LIBM_TRIG")
+    rng = np.random.default_rng(3)
+    X0 = np.zeros((11, ball.nx))
+    X0[:, 2] = rng.uniform(0.0995, 0.3, 11)               # some in touch, some landing
+    X0[:, ball.nq:] = rng.uniform(-10.0, 10.0, (11, ball.nu))
+    kw = dict(dt=0.002, steps=100, method="implicitfast", threads=1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")                  # landings leave sub-steps unsolved (warned)
+        want = rollout(ball, X0, **kw)
+        got = rollout(ball, X0, lanes=True, **kw)
+    assert got.ok.all() and np.array_equal(got.x, want.x) and np.array_equal(got.steps, want.steps)
+    assert np.array_equal(got.unsolved, want.unsolved)
+    imp = implicit_terms(ball)
+    assert imp.nfree == 1
+    imp.nfree = 0
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            off = rollout(ball, X0, raise_on_failure=False, **kw)
+            off_lanes = rollout(ball, X0, lanes=True, raise_on_failure=False, **kw)
+        assert np.array_equal(off_lanes.x, off.x) and np.array_equal(off_lanes.ok, off.ok)
+    finally:
+        imp.nfree = 1
+    assert not np.array_equal(off.x, want.x)
