@@ -140,7 +140,13 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method="rk4", p=No
     each row runs the fast path as ``simulate`` does (its residual test with ``split``, 0 =
     off: one model call per step, MuJoCo's implicitfast; see runtime/c/eomc_fixedstep.c), and a
     row whose contact sinks past its radius fails with status 10 (with per-row parameters,
-    the smallest radius of each contact over the rows).  Every other method ends each row's
+    the smallest radius of each contact over the rows), and a row that ran to the end is judged
+    by simulate's energy verdict (switching.energy_verdict: a model with an ``energy`` output and
+    no inputs, or zero ones): one that created energy fails with status 20 and simulate's words
+    (result.messages), a lesser gain warns.  record="steps" reads the energy at every step, as
+    simulate does (the row's status is simulate's); record="final" compares only the start and
+    the end (one outputs call), so a gain dissipated again before the end is only seen with
+    record="steps".  Every other method ends each row's
     steps at touch-down, lift-off and limit entry as ``simulate`` does, and each row is judged
     by simulate's verdict (result.status, result.messages; runtime/rollout_extras.py).
 
@@ -306,8 +312,70 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method="rk4", p=No
             lib.eomc_rollout_stats(model.c_model, _options(ffi, a, implicit), *args)
         if method == "implicitfast":
             unsolved = np.array([stats[i].rejected for i in range(n)], dtype=int)
+    messages = _energy_verdicts(model, a, X0, P, p_stride, controls, t_eval, X_out, X_last, status) if fast else {}
     return _finish(model, method, X0, P, p_stride, dt, t_eval, record, X_out, X_last, status, nstep,
-                   raise_on_failure, unsolved=unsolved if n and method == "implicitfast" else None)
+                   raise_on_failure, unsolved=unsolved if n and method == "implicitfast" else None,
+                   messages=messages)
+
+
+def _energy_verdicts(model, a, X0, P, p_stride, controls, t_eval, X_out, X_last, status):
+    """simulate's energy verdict on each implicitfast fast-path row that ran to the end
+    (switching.energy_verdict: the same conditions and tolerance): a row that created energy
+    gets status 20 (STATUS_ENERGY, in place) and simulate's message, returned as {row: message};
+    the rows' lesser gains make one PhysicsWarning, as simulate's would.  The energy is read
+    along the recorded trajectory (record="steps", as simulate reads it), or at the start and
+    the end (record="final").  One outputs call for all rows when they share parameters and
+    constant inputs, else one per row; only rows whose energy rose past energy_tolerance (below
+    it the verdict says nothing) go through the verdict's Python."""
+    from .switching import PhysicsWarning, energy_tolerance, energy_verdict, find_switches
+    from .rollout_extras import _row_inputs
+    from .simulate import _along
+    sw = find_switches(model)
+    rows = np.flatnonzero(status == 0)
+    if not sw or "energy" not in model.output_names or not rows.size:
+        return {}
+    t = t_eval if X_out is not None else np.array([0.0, float(t_eval[-1])])
+    X = X_out[rows] if X_out is not None else np.stack([X0[rows], X_last[rows]], axis=1)    # (rows, k, nx)
+
+    def row_args(i):
+        b = dict(a, x0=X0[i], p=P[i if p_stride else 0])
+        b["n_r"], b["r_t"], b["r_v"] = _row_inputs(controls, i, model.ninput)
+        return b
+
+    out = None
+    if not p_stride and controls[0] <= 1:      # one call: the rows' points one after another
+        try:
+            out = _along(model, row_args(rows[0]), 0, np.tile(t, rows.size),
+                         X.reshape(-1, model.nx)).reshape(rows.size, t.size, -1)
+        except SimulationError:     # an output not finite somewhere: row by row below
+            out = None
+    if out is None:
+        out = np.full((rows.size, t.size, model.noutput), np.nan)
+        for k, i in enumerate(rows):
+            try:
+                out[k] = _along(model, row_args(i), 0, t, X[k])
+            except SimulationError:     # not finite along this row: no energy to judge (as _energy_gain)
+                pass
+    E = out[:, :, model.output_names.index("energy")]
+    with np.errstate(invalid="ignore"):
+        scale = np.maximum(np.maximum(np.abs(E[:, 0]), np.max(np.abs(E - E[:, :1]), axis=1)), 1e-300)
+        rose = np.max(E, axis=1) - E[:, 0] > energy_tolerance(a["rtol"], a["atol"]) * scale
+    messages, notes = {}, []
+    for k in np.flatnonzero(rose):
+        i = int(rows[k])
+        bad, why, said = energy_verdict(model, row_args(i), dict(zip(model.output_names, out[k].T)), sw)
+        if bad:
+            status[i] = bad
+            messages[i] = f"{model.name}: {a['method']}: {why}"
+        notes += [(i, w) for w in said]
+    if notes:       # one warning for the rows, the first row's words (as rollout_extras)
+        import warnings
+        i, w = notes[0]
+        seen = sorted({j for j, _ in notes})
+        warnings.warn(PhysicsWarning(f"{model.name}: rollout: {len(seen)} of {len(X0)} row(s) warned (rows "
+                                     f"{', '.join(map(str, seen[:8]))}{', ...' if len(seen) > 8 else ''}); "
+                                     f"row {i}: {w}"), stacklevel=3)
+    return messages
 
 
 def _gains(model, K, x_ref, n):
@@ -361,13 +429,17 @@ def rollout_stats(model, opt, t0, t1, X0, P, p_stride, t_eval, X_out, threads, c
 
 
 def _finish(model, method, X0, P, p_stride, dt, t_eval, record, X_out, X_last, status, nstep, raise_on_failure,
-            unsolved=None):
+            unsolved=None, messages=None):
     n = X0.shape[0]
+    messages = messages or {}
     failed = np.flatnonzero(status != 0)
     if failed.size and raise_on_failure:
         i = int(failed[0])
         if status[i] == 9:
             raise KeyboardInterrupt
+        if i in messages:       # a row judged by simulate's verdict (created energy)
+            raise SimulationError(f"{model.name}: rollout row {i} of {n} failed ({failed.size} row(s) failed in "
+                                  f"all) -- {messages[i]}; pass raise_on_failure=False to keep the other rows")
         stats = {"status": int(status[i]), "t": float("nan"), "t_fail": float("nan"), "steps": int(nstep[i]),
                  "h": float(dt) if dt else float("nan"), "stiff_hlambda": 0.0}
         reason = STATUS_NAMES.get(int(status[i]), f"status {status[i]}")
@@ -388,7 +460,7 @@ def _finish(model, method, X0, P, p_stride, dt, t_eval, record, X_out, X_last, s
     return RolloutResult(t=np.asarray(t_eval, dtype=np.float64).copy(),
                          x=X_out if record == "steps" else X_last, status=status.astype(int),
                          steps=nstep.astype(int), state_names=tuple(model.state_names),
-                         unsolved=unsolved)
+                         unsolved=unsolved, messages=messages)
 
 
 def _lanes_allowed(model, method):

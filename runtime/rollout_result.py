@@ -32,7 +32,8 @@ class RolloutResult:
     smaller dt or an adaptive method.  event_stop: (n,) the terminal event that ended each row
     (None: ran to t_final); t_events: per row, {event name: times} as simulate's result.t_events
     (None when no events were recorded); messages: {row: why} for the rows that failed,
-    simulate's words (a row judged by simulate's verdict: penetration, created energy).
+    simulate's words (a row judged by simulate's verdict: penetration, created energy -- on
+    implicitfast's fast path the energy verdict only: status 20).
     """
     t: np.ndarray
     x: np.ndarray

@@ -38,7 +38,7 @@ __all__ = ["CONTACT_EVENT_PREFIX", "CLIP_EVENT_PREFIX", "GAP_EVENT_PREFIXES", "S
            "warn_unchecked",
            "PENETRATION_FRACTION",
            "POINT_PENETRATION", "LIMIT_OVERSHOOT_WIDTHS", "STATUS_ENERGY", "ENERGY_FAIL",
-           "energy_tolerance"]
+           "energy_tolerance", "energy_verdict"]
 
 CONTACT_EVENT_PREFIX = "contact_"  # a contact's penetration event: contact_<name> (the compiler emits it always)
 CLIP_EVENT_PREFIX = "clip_"        # where a damped contact's normal force reaches 0 in contact (F_n >= 0 clip)
@@ -165,8 +165,8 @@ def energy_tolerance(rtol, atol):
     return max(100.0 * rtol, 1e-6)
 
 
-def _energy_gain(result, a):
-    E = result.outputs.get("energy")
+def _energy_gain(outputs):
+    E = outputs.get("energy")
     if E is None or len(E) < 2 or not np.all(np.isfinite(E)):
         return None
     E0 = float(E[0])
@@ -218,8 +218,30 @@ def verdict(model, a, result, gmax, sw):
                          f"{_stiffness_text(model, p, lim.joint)} is too soft for the load it met")
     from .ground_check import below_ground
     notes += below_ground(model, result.t, result.x, p, POINT_PENETRATION, PENETRATION_FRACTION)
-    status, extra = 0, ""
-    got = _energy_gain(result, a) if (sw and "energy" in result.outputs and _no_sources(model, a)) else None
+    status, extra, said = energy_verdict(model, a, result.outputs, sw)
+    notes += said
+    if notes:       # one warning per run, naming every contact and joint
+        warnings.warn(PhysicsWarning(f"{model.name}: " + "; ".join(notes)), stacklevel=_user_level())
+    return status, extra
+
+
+def energy_verdict(model, a, outputs, sw):
+    """simulate's energy verdict, shared by ``verdict`` and rollout's implicitfast rows: (status,
+    message addition, warning notes) -- (STATUS_ENERGY, why, ...) for a passive run (``sw``
+    judged, an ``energy`` output, no sources: ``_no_sources(model, a)``) whose energy rose
+    beyond ENERGY_FAIL x energy_tolerance(a["rtol"], a["atol"]) of its scale, (0, "", [])
+    when not judged.  outputs: {output: values} along the run, the first row at its start
+    (a["x0"], parameters a["p"]): the whole trajectory, or only its start and end (rollout's
+    record="final": a gain dissipated again before the end is not seen there)."""
+    if not (sw and "energy" in outputs and _no_sources(model, a)):
+        return 0, "", []
+    got = _energy_gain(outputs)
+    status, extra, notes = 0, "", []
+    p = np.asarray(a["p"], dtype=float)
+    x0 = np.asarray(a["x0"], dtype=float)
+    _, _, e, limit_at = _bounds(sw, p)
+    ix = _indices(sw)
+    start = ix["sign"] * (x0[ix["state"]] - limit_at)
     # a start past a limit holds spring energy an energy output may leave out (the one generated
     # for a URDF robot counts it: metadata "energy" names the joint limits), a start in contact
     # its elastic energy, which a model's own energy output may leave out (the one generated for a
@@ -231,28 +253,26 @@ def verdict(model, a, result, gmax, sw):
     sprung = not counted and held is None and bool(np.any(start > e))
     held = held or 0.0
     if not model.metadata.get("energy"):
-        sprung = sprung or any(len(result.outputs.get(f"depth_{c.name}", ())) and
-                               result.outputs[f"depth_{c.name}"][0] > 0 for c in sw.contacts)
+        sprung = sprung or any(len(outputs.get(f"depth_{c.name}", ())) and
+                               outputs[f"depth_{c.name}"][0] > 0 for c in sw.contacts)
     if got is not None:
         gain, scale = got
         tol = energy_tolerance(a["rtol"], a["atol"]) * scale
         if gain - held > max(tol, min(ENERGY_FAIL * tol, 0.05 * scale)) and not sprung:
             status = STATUS_ENERGY
-            extra = (f"the energy rose by {gain:.3g} (from {result.outputs['energy'][0]:.6g})"
+            extra = (f"the energy rose by {gain:.3g} (from {outputs['energy'][0]:.6g})"
                      + (f", {gain - held:.3g} more than the {held:.3g} the start's limit springs held,"
                         if held else "")
                      + f" in a model whose contacts and limits can only take energy out: the integration "
                        f"is wrong here (method {a['method']}, rtol {a['rtol']:g})")
         elif gain > tol and sprung:
-            notes.append(f"the energy rose by {gain:.3g} (from {result.outputs['energy'][0]:.6g}): "
-                         + _released(model, p, sw, start, e, result))
+            notes.append(f"the energy rose by {gain:.3g} (from {outputs['energy'][0]:.6g}): "
+                         + _released(model, p, sw, start, e, outputs))
         elif gain - held > tol:
-            notes.append(f"the energy rose by {gain:.3g} (from {result.outputs['energy'][0]:.6g}, "
+            notes.append(f"the energy rose by {gain:.3g} (from {outputs['energy'][0]:.6g}, "
                          f"{gain / scale:.2g} of its scale) with only passive contacts and limits acting: "
                          f"more than the tolerance explains; tighten rtol")
-    if notes:       # one warning per run, naming every contact and joint
-        warnings.warn(PhysicsWarning(f"{model.name}: " + "; ".join(notes)), stacklevel=_user_level())
-    return status, extra
+    return status, extra, notes
 
 
 def _held_at_start(model, p, sw, start):
@@ -276,7 +296,7 @@ def _held_at_start(model, p, sw, start):
     return total
 
 
-def _released(model, p, sw, start, e, result):
+def _released(model, p, sw, start, e, outputs):
     """Why the energy rose on a start outside a joint's range (or inside a contact): the energy
     output leaves the limit springs (contacts) out, so the spring energy the start held shows
     as a gain (gymnasium's ant, its ankles 0.52 rad outside: 218 J).  Not the integrator's
@@ -295,8 +315,8 @@ def _released(model, p, sw, start, e, result):
         return (f"the start outside the range of {', '.join(parts)} held about {total:.3g} J in the limit "
                 f"spring{'s' if len(parts) > 1 else ''}, which the energy output does not count: released, it "
                 f"shows as a gain (start inside the range to keep the energy check strict)")
-    inside = [c.name for c in sw.contacts if len(result.outputs.get(f"depth_{c.name}", ()))
-              and result.outputs[f"depth_{c.name}"][0] > 0]
+    inside = [c.name for c in sw.contacts if len(outputs.get(f"depth_{c.name}", ()))
+              and outputs[f"depth_{c.name}"][0] > 0]
     return (f"the start inside contact {', '.join(inside)} released its elastic energy, which the energy "
             f"output does not count (start out of contact to keep the energy check strict)")
 

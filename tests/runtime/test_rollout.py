@@ -205,13 +205,15 @@ BALL = """<mujoco model="ball">
 """
 
 
-def thrown_ball(cache_dir, name):
-    """(model, 16 starts): the ball of BALL built into cache_dir, thrown from 16 random heights
-    (6-36 cm) with random speeds; it lands, bounces, slides with friction and spins."""
+def thrown_ball(cache_dir, name, functions=None):
+    """(model, 16 starts): the ball of BALL built into cache_dir (functions: eomc.compile's),
+    thrown from 16 random heights (6-36 cm) with random speeds; it lands, bounces, slides with
+    friction and spins."""
     from eomc.compiler.mjcf.model import MjcfModel
     path = cache_dir / "ball.xml"
     path.write_text(BALL)
-    m = eomc.compile(MjcfModel(path), name=name, cache_dir=cache_dir, progress=False)
+    m = eomc.compile(MjcfModel(path), name=name, cache_dir=cache_dir, progress=False,
+                     **({"functions": functions} if functions else {}))
     rng = np.random.default_rng(3)
     x0 = np.zeros((16, m.nx))
     x0[:, list(m.state_names).index("q_root_z")] = 0.06 + 0.3 * rng.random(16)
@@ -260,3 +262,43 @@ def test_rollout_with_contacts_equals_simulate_bit_for_bit(tmp_path):
     for i in range(3):
         one = m.simulate(x0[i], (0.0, 0.02), method="rk4", dt=0.002, raise_on_failure=False)
         assert np.array_equal(one.x[-1], rk4.x[i]) and one.status == rk4.status[i]
+
+
+def test_implicitfast_rows_get_simulates_energy_verdict(tmp_path):
+    """Issue 29 item 1 / issue 31: a rollout row on implicitfast's fast path is judged by
+    simulate's energy verdict (switching.energy_verdict), not only by status 10 and its unsolved
+    count.  The thrown ball with a contact 1e4 times stiffer at 5 ms: several rows spin up in
+    contact and create energy (simulate: status 20), then slide to rest.  record="steps" reads the
+    energy at every step: each row's status and message are simulate's, the passive rows stay 0;
+    record="final" compares start and end only: its status is simulate's over those two points
+    (t_eval=[0, T]), a transient gain is not seen; lanes=True judges as the scalar path; a failed
+    row raises naming it.  (Before: every row status 0.)"""
+    from eomc.compiler.emit.signatures import FUNCTION_ORDER, ON_REQUEST
+    m, x0 = thrown_ball(tmp_path, "rv_ball",
+                        functions=tuple(f for f in FUNCTION_ORDER if f not in ON_REQUEST) + ("implicit_batch",))
+    P = np.tile(np.asarray(m.param_defaults, dtype=float), (16, 1))
+    P[:, m.param_names.index("k_ball")] *= 1e4
+    T, kw = 1.125, dict(dt=0.005, steps=225, method="implicitfast", p=P, threads=2, raise_on_failure=False)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", PhysicsWarning)      # landings leave sub-steps unsolved
+        steps = eomc.rollout(m, x0, record="steps", **kw)
+        final = eomc.rollout(m, x0, **kw)
+        lanes = eomc.rollout(m, x0, record="steps", lanes=True, **kw)
+        one, ends = [], []
+        for i in range(16):
+            one.append(m.simulate(x0[i], (0.0, T), method="implicitfast", dt=0.005, p=P[i], raise_on_failure=False))
+            ends.append(m.simulate(x0[i], (0.0, T), method="implicitfast", dt=0.005, p=P[i], t_eval=[0.0, T],
+                                   raise_on_failure=False))
+    want = np.array([r.status for r in one])
+    assert set(want) == {0, 20}                             # rows that create energy, and passive ones
+    assert np.array_equal(steps.status, want) and np.array_equal(lanes.status, want)
+    for i in range(16):
+        assert np.array_equal(one[i].x, steps.x[i])         # the same trajectory, bit for bit
+        assert steps.messages.get(i) == (one[i].message if want[i] else None)
+    want_final = np.array([r.status for r in ends])
+    assert np.array_equal(final.status, want_final) and 0 < np.sum(want_final == 20) < np.sum(want == 20)
+    i = int(np.flatnonzero(want == 20)[0])
+    with pytest.raises(SimulationError, match=f"row {i} of 16 failed.*the energy rose by"), \
+            warnings.catch_warnings():
+        warnings.simplefilter("ignore", PhysicsWarning)
+        eomc.rollout(m, x0, record="steps", **{**kw, "raise_on_failure": True})
