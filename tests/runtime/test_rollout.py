@@ -268,11 +268,12 @@ def test_implicitfast_rows_get_simulates_energy_verdict(tmp_path):
     """Issue 29 item 1 / issue 31: a rollout row on implicitfast's fast path is judged by
     simulate's energy verdict (switching.energy_verdict), not only by status 10 and its unsolved
     count.  The thrown ball with a contact 1e4 times stiffer at 5 ms: several rows spin up in
-    contact and create energy (simulate: status 20), then slide to rest.  record="steps" reads the
-    energy at every step: each row's status and message are simulate's, the passive rows stay 0;
-    record="final" compares start and end only: its status is simulate's over those two points
-    (t_eval=[0, T]), a transient gain is not seen; lanes=True judges as the scalar path; a failed
-    row raises naming it.  (Before: every row status 0.)"""
+    contact and create energy (simulate: status 20), then slide to rest.  The energy's range over
+    every step is kept in C (eomc_options.watch_output), so record="steps" and record="final"
+    (scalar and lanes) both give each row simulate's status and message, also for a gain
+    dissipated again before the end (session 15's record="final" compared only the start and the
+    end: simulate over those two points fails fewer rows, checked below); the passive rows stay 0;
+    a failed row raises naming it.  (Before session 15: every row status 0.)"""
     from eomc.compiler.emit.signatures import FUNCTION_ORDER, ON_REQUEST
     m, x0 = thrown_ball(tmp_path, "rv_ball",
                         functions=tuple(f for f in FUNCTION_ORDER if f not in ON_REQUEST) + ("implicit_batch",))
@@ -283,7 +284,7 @@ def test_implicitfast_rows_get_simulates_energy_verdict(tmp_path):
         warnings.simplefilter("ignore", PhysicsWarning)      # landings leave sub-steps unsolved
         steps = eomc.rollout(m, x0, record="steps", **kw)
         final = eomc.rollout(m, x0, **kw)
-        lanes = eomc.rollout(m, x0, record="steps", lanes=True, **kw)
+        lanes = eomc.rollout(m, x0, lanes=True, **kw)
         one, ends = [], []
         for i in range(16):
             one.append(m.simulate(x0[i], (0.0, T), method="implicitfast", dt=0.005, p=P[i], raise_on_failure=False))
@@ -291,14 +292,18 @@ def test_implicitfast_rows_get_simulates_energy_verdict(tmp_path):
                                    raise_on_failure=False))
     want = np.array([r.status for r in one])
     assert set(want) == {0, 20}                             # rows that create energy, and passive ones
-    assert np.array_equal(steps.status, want) and np.array_equal(lanes.status, want)
+    assert np.array_equal(lanes.status, want)       # its sin/cos in vector code: the gains' last digits vary
+    for r in (steps, final):
+        assert np.array_equal(r.status, want)
+        for i in range(16):
+            assert r.messages.get(i) == (one[i].message if want[i] else None)
     for i in range(16):
         assert np.array_equal(one[i].x, steps.x[i])         # the same trajectory, bit for bit
-        assert steps.messages.get(i) == (one[i].message if want[i] else None)
-    want_final = np.array([r.status for r in ends])
-    assert np.array_equal(final.status, want_final) and 0 < np.sum(want_final == 20) < np.sum(want == 20)
+        assert np.array_equal(one[i].x[-1], final.x[i])
+    ends_failed = np.sum([r.status == 20 for r in ends])
+    assert ends_failed < np.sum(want == 20)                 # start vs end alone misses some gains
     i = int(np.flatnonzero(want == 20)[0])
     with pytest.raises(SimulationError, match=f"row {i} of 16 failed.*the energy rose by"), \
             warnings.catch_warnings():
         warnings.simplefilter("ignore", PhysicsWarning)
-        eomc.rollout(m, x0, record="steps", **{**kw, "raise_on_failure": True})
+        eomc.rollout(m, x0, **{**kw, "raise_on_failure": True})
