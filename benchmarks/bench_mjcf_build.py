@@ -8,15 +8,18 @@ cache: ``before`` (``split.LEAN_MIN`` out of reach: every function's body at the
 -O2, the C of main before session 15), ``after`` (the default: the long rhs, jac_x and
 NAME_implicit bodies under EOMC_LEAN, compiler/emit/split.py) and, on request, ``kernels_off``
 (also ``lower.CONTACT_KERNELS = False``: mass_matrix, jac_r, forcing and inverse_dynamics as
-straight-line copies of their own, the C of main before session 14).  The first mode given is
-the one the ratios compare with.
+straight-line copies of their own, the C of main before session 14) and ``base`` (the default
+build of another checkout: ``--base DIR``, a folder whose ``eomc`` package is that checkout laid
+out as installed -- facade/ as eomc/, with compiler/, runtime/ (its built .so files) and
+templates/ inside -- put first on the child's PYTHONPATH; e.g. main before a change).  The first
+mode given is the one the ratios compare with.
 
 Phases are CPU seconds: the driver's stage clock is replaced in the child by the process's
 CPU time plus its finished children's (the C compiler runs as a child), so "compile" is gcc's
 CPU.  The build is the CLI's own (eomc.cli.main), as a user runs it.
 
     python benchmarks/bench_mjcf_build.py [--models hopper,walker2d,ant,humanoid] [--modes before,after]
-        [--rounds 1] [--no-write]      (pin it: taskset -c 1)
+        [--rounds 1] [--base DIR] [--no-write]      (pin it: taskset -c 1)
     python benchmarks/bench_mjcf_build.py --child MODEL MODE OUT   (one build; prints JSON)
 """
 import json
@@ -106,6 +109,8 @@ def main():
                 loads.append(os.getloadavg()[0])
                 out = tempfile.mkdtemp(prefix="eomc_mb_")
                 env = dict(os.environ, EOMC_CACHE_DIR=tempfile.mkdtemp(prefix="eomc_mbc_"))
+                if mode == "base":
+                    env["PYTHONPATH"] = os.pathsep.join([arg("--base", None)] + env.get("PYTHONPATH", "").split(os.pathsep)).rstrip(os.pathsep)
                 proc = subprocess.run([sys.executable, __file__, "--child", model, mode, out], env=env,
                                       capture_output=True, text=True, cwd=tempfile.gettempdir())
                 if proc.returncode:
@@ -147,7 +152,8 @@ def main():
         f"max {max(loads):.1f}; CPU = the child's user + sys and its C compiler's (medians over rounds)",
         "- before: `split.LEAN_MIN` out of reach (every body at -O2, the C of main before session 15); after: the "
         "default (long rhs, jac_x, NAME_implicit bodies under EOMC_LEAN); kernels_off: also "
-        "`lower.CONTACT_KERNELS = False` (the C of main before session 14)", "",
+        "`lower.CONTACT_KERNELS = False` (the C of main before session 14)"
+        + (f"; base: the default build of the checkout in {arg('--base', '')}" if "base" in modes else ""), "",
         *rows, "", "C kB per function (its _part routines included; routines: the static ones no function's name prefixes, "
         "the pairs' table and narrow phase; tables: names, defaults, the model struct; first round; >= 20 kB in some build):", "",
         *table2])

@@ -143,10 +143,9 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method="rk4", p=No
     the smallest radius of each contact over the rows), and a row that ran to the end is judged
     by simulate's energy verdict (switching.energy_verdict: a model with an ``energy`` output and
     no inputs, or zero ones): one that created energy fails with status 20 and simulate's words
-    (result.messages), a lesser gain warns.  record="steps" reads the energy at every step, as
-    simulate does (the row's status is simulate's); record="final" compares only the start and
-    the end (one outputs call), so a gain dissipated again before the end is only seen with
-    record="steps".  Every other method ends each row's
+    (result.messages), a lesser gain warns.  The energy is read at every step as simulate
+    reads it, with either record (the C loop keeps each row's lowest and highest energy:
+    eomc_options.watch_output), so each row's status is simulate's.  Every other method ends each row's
     steps at touch-down, lift-off and limit entry as ``simulate`` does, and each row is judged
     by simulate's verdict (result.status, result.messages; runtime/rollout_extras.py).
 
@@ -286,6 +285,10 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method="rk4", p=No
     nstep = np.empty(n, dtype=np.int_ if ffi.sizeof("long") == 8 else np.int32)
     buf = lambda arr: ffi.from_buffer("double[]", arr)  # noqa: E731
     integrator_library(model.ffi)._arm()      # Ctrl-C stops every thread at its next evaluation
+    # implicitfast's fast path: the energy's range over every step, kept in C (eomc_options.
+    # watch_output), for simulate's energy verdict on each row (_energy_verdicts)
+    watch = _energy_watch(model) if fast else 0
+    ranges = None
     if n:
         implicit, keep = (None, None)
         if fast:
@@ -303,39 +306,59 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method="rk4", p=No
                 buf(r_tgrid) if r_tgrid is not None else ffi.NULL, buf(R) if R is not None else ffi.NULL, r_stride,
                 n_eval, buf(t_eval), buf(X_out) if X_out is not None else ffi.NULL, buf(X_last),
                 ffi.from_buffer("int[]", status), ffi.from_buffer("long[]", nstep), stats, nthreads)
+        opt = _options(ffi, a, implicit)
+        opt.watch_output = watch
         if implicit_lanes:      # each thread's rows in fibers, their NAME_implicit calls in lanes
             from .cpu import machine_lanes
-            lib.eomc_rollout_implicit_lanes(model.c_model, _options(ffi, a, implicit), _implicit_batch(model, ffi),
+            lib.eomc_rollout_implicit_lanes(model.c_model, opt, _implicit_batch(model, ffi),
                                             machine_lanes(), model.metadata["implicit"]["layout"]["size"],
                                             _implicit_reads_t(model), *args)
         else:
-            lib.eomc_rollout_stats(model.c_model, _options(ffi, a, implicit), *args)
+            lib.eomc_rollout_stats(model.c_model, opt, *args)
         if method == "implicitfast":
             unsolved = np.array([stats[i].rejected for i in range(n)], dtype=int)
-    messages = _energy_verdicts(model, a, X0, P, p_stride, controls, t_eval, X_out, X_last, status) if fast else {}
+            if watch:
+                ranges = np.array([(stats[i].watch_lo, stats[i].watch_hi) for i in range(n)])
+    messages = (_energy_verdicts(model, a, X0, P, p_stride, controls, t_eval, X_out, X_last, status, ranges)
+                if fast else {})
     return _finish(model, method, X0, P, p_stride, dt, t_eval, record, X_out, X_last, status, nstep,
                    raise_on_failure, unsolved=unsolved if n and method == "implicitfast" else None,
                    messages=messages)
 
 
-def _energy_verdicts(model, a, X0, P, p_stride, controls, t_eval, X_out, X_last, status):
+def _energy_watch(model):
+    """eomc_options.watch_output for a fast-path rollout: the energy output's index + 1 when
+    simulate's energy verdict can judge the model (switching points and an ``energy`` output),
+    else 0 (nothing kept)."""
+    from .switching import find_switches
+    names = list(model.output_names)
+    if "energy" not in names or not find_switches(model) or model.c_model.outputs == model.ffi.NULL:
+        return 0
+    return names.index("energy") + 1
+
+
+def _energy_verdicts(model, a, X0, P, p_stride, controls, t_eval, X_out, X_last, status, ranges=None):
     """simulate's energy verdict on each implicitfast fast-path row that ran to the end
     (switching.energy_verdict: the same conditions and tolerance): a row that created energy
     gets status 20 (STATUS_ENERGY, in place) and simulate's message, returned as {row: message};
-    the rows' lesser gains make one PhysicsWarning, as simulate's would.  The energy is read
-    along the recorded trajectory (record="steps", as simulate reads it), or at the start and
-    the end (record="final").  One outputs call for all rows when they share parameters and
-    constant inputs, else one per row; only rows whose energy rose past energy_tolerance (below
-    it the verdict says nothing) go through the verdict's Python."""
-    from .switching import PhysicsWarning, energy_tolerance, energy_verdict, find_switches
+    the rows' lesser gains make one PhysicsWarning, as simulate's would.  The energy's lowest and
+    highest values over every step (ranges: (rows, 2), kept in C by eomc_options.watch_output,
+    NaN where not finite) stand beside its values at the start and the end, so the verdict sees
+    the whole run as simulate reads it (its gain max(E) - E0 and scale max(|E0|, |E - E0|) are
+    the same numbers) with either record; without ranges it reads the recorded trajectory
+    (record="steps") or the start and the end only.  One outputs call for all rows when they
+    share parameters and constant inputs, else one per row; only rows whose energy rose past
+    energy_tolerance (below it the verdict says nothing) go through the verdict's Python."""
+    from .switching import PhysicsWarning, energy_allowance, energy_tolerance, energy_verdict, find_switches
     from .rollout_extras import _row_inputs
     from .simulate import _along
     sw = find_switches(model)
     rows = np.flatnonzero(status == 0)
     if not sw or "energy" not in model.output_names or not rows.size:
         return {}
-    t = t_eval if X_out is not None else np.array([0.0, float(t_eval[-1])])
-    X = X_out[rows] if X_out is not None else np.stack([X0[rows], X_last[rows]], axis=1)    # (rows, k, nx)
+    along = X_out is not None and ranges is None
+    t = t_eval if along else np.array([0.0, float(t_eval[-1])])
+    X = X_out[rows] if along else np.stack([X0[rows], X_last[rows]], axis=1)    # (rows, k, nx)
 
     def row_args(i):
         b = dict(a, x0=X0[i], p=P[i if p_stride else 0])
@@ -357,13 +380,25 @@ def _energy_verdicts(model, a, X0, P, p_stride, controls, t_eval, X_out, X_last,
             except SimulationError:     # not finite along this row: no energy to judge (as _energy_gain)
                 pass
     E = out[:, :, model.output_names.index("energy")]
+    if ranges is not None:      # [start, lowest, highest, end]: the whole run's verdict
+        E = np.concatenate([E[:, :1], ranges[rows], E[:, 1:]], axis=1)
     with np.errstate(invalid="ignore"):
         scale = np.maximum(np.maximum(np.abs(E[:, 0]), np.max(np.abs(E - E[:, :1]), axis=1)), 1e-300)
-        rose = np.max(E, axis=1) - E[:, 0] > energy_tolerance(a["rtol"], a["atol"]) * scale
+        gain, tol = np.max(E, axis=1) - E[:, 0], energy_tolerance(a["rtol"], a["atol"]) * scale
+        rose = gain > tol
+    depth = [model.output_names.index(f"depth_{c.name}") for c in sw.contacts
+             if f"depth_{c.name}" in model.output_names]
     messages, notes = {}, []
     for k in np.flatnonzero(rose):
         i = int(rows[k])
-        bad, why, said = energy_verdict(model, row_args(i), dict(zip(model.output_names, out[k].T)), sw)
+        # the verdict is silent on a gain within what the start's limit springs held (gymnasium's
+        # ant: every row, its ankles start outside their range): its allowance alone decides that
+        held, sprung, _, _ = energy_allowance(model, np.asarray(P[i if p_stride else 0], dtype=float), X0[i],
+                                              bool(np.any(out[k, 0, depth] > 0)), sw)
+        if gain[k] - held <= tol[k] and not sprung:
+            continue
+        outputs = dict(zip(model.output_names, out[k].T), energy=E[k])
+        bad, why, said = energy_verdict(model, row_args(i), outputs, sw)
         if bad:
             status[i] = bad
             messages[i] = f"{model.name}: {a['method']}: {why}"

@@ -38,7 +38,7 @@ __all__ = ["CONTACT_EVENT_PREFIX", "CLIP_EVENT_PREFIX", "GAP_EVENT_PREFIXES", "S
            "warn_unchecked",
            "PENETRATION_FRACTION",
            "POINT_PENETRATION", "LIMIT_OVERSHOOT_WIDTHS", "STATUS_ENERGY", "ENERGY_FAIL",
-           "energy_tolerance", "energy_verdict"]
+           "energy_tolerance", "energy_verdict", "energy_allowance"]
 
 CONTACT_EVENT_PREFIX = "contact_"  # a contact's penetration event: contact_<name> (the compiler emits it always)
 CLIP_EVENT_PREFIX = "clip_"        # where a damped contact's normal force reaches 0 in contact (F_n >= 0 clip)
@@ -231,30 +231,17 @@ def energy_verdict(model, a, outputs, sw):
     judged, an ``energy`` output, no sources: ``_no_sources(model, a)``) whose energy rose
     beyond ENERGY_FAIL x energy_tolerance(a["rtol"], a["atol"]) of its scale, (0, "", [])
     when not judged.  outputs: {output: values} along the run, the first row at its start
-    (a["x0"], parameters a["p"]): the whole trajectory, or only its start and end (rollout's
-    record="final": a gain dissipated again before the end is not seen there)."""
+    (a["x0"], parameters a["p"]): the whole trajectory, or (rollout's record="final") the start,
+    the energy's lowest and highest values over the run and the end, which give the same gain and
+    scale (_energy_gain)."""
     if not (sw and "energy" in outputs and _no_sources(model, a)):
         return 0, "", []
     got = _energy_gain(outputs)
     status, extra, notes = 0, "", []
     p = np.asarray(a["p"], dtype=float)
-    x0 = np.asarray(a["x0"], dtype=float)
-    _, _, e, limit_at = _bounds(sw, p)
-    ix = _indices(sw)
-    start = ix["sign"] * (x0[ix["state"]] - limit_at)
-    # a start past a limit holds spring energy an energy output may leave out (the one generated
-    # for a URDF robot counts it: metadata "energy" names the joint limits), a start in contact
-    # its elastic energy, which a model's own energy output may leave out (the one generated for a
-    # robot counts it: metadata "energy"): a gain is then no proof
-    counted = "joint limits" in str(model.metadata.get("energy") or "")
-    # a start past a limit whose spring the energy output leaves out (MJCF's): the spring energy
-    # it held is known (runtime/limit_energy.py), and a gain beyond it is still the integrator's
-    held = None if counted else _held_at_start(model, p, sw, start)
-    sprung = not counted and held is None and bool(np.any(start > e))
-    held = held or 0.0
-    if not model.metadata.get("energy"):
-        sprung = sprung or any(len(outputs.get(f"depth_{c.name}", ())) and
-                               outputs[f"depth_{c.name}"][0] > 0 for c in sw.contacts)
+    in_contact = any(len(outputs.get(f"depth_{c.name}", ())) and outputs[f"depth_{c.name}"][0] > 0
+                     for c in sw.contacts)
+    held, sprung, start, e = energy_allowance(model, p, np.asarray(a["x0"], dtype=float), in_contact, sw)
     if got is not None:
         gain, scale = got
         tol = energy_tolerance(a["rtol"], a["atol"]) * scale
@@ -275,13 +262,51 @@ def energy_verdict(model, a, outputs, sw):
     return status, extra, notes
 
 
+def energy_allowance(model, p, x0, in_contact, sw):
+    """(held, sprung, start, e) of energy_verdict for a start x0 with parameters p: held, the
+    energy (J) the limit springs held at the start that the energy output leaves out (0.0: none);
+    sprung, the start held energy the output leaves out and that cannot be sized (a gain is then
+    no proof); start, e: each limit's distance past its bound at the start and its width.
+    in_contact: some contact starts in touch (its depth output > 0 at the start).  energy_verdict
+    says nothing on a gain g with g - held <= its tolerance unless sprung (rollout's rows skip
+    it then)."""
+    _, _, e, limit_at = _bounds(sw, p)
+    ix = _indices(sw)
+    start = ix["sign"] * (x0[ix["state"]] - limit_at)
+    # a start past a limit holds spring energy an energy output may leave out (the one generated
+    # for a URDF robot counts it: metadata "energy" names the joint limits), a start in contact
+    # its elastic energy, which a model's own energy output may leave out (the one generated for a
+    # robot counts it: metadata "energy"): a gain is then no proof
+    counted = "joint limits" in str(model.metadata.get("energy") or "")
+    # a start past a limit whose spring the energy output leaves out (MJCF's): the spring energy
+    # it held is known (runtime/limit_energy.py), and a gain beyond it is still the integrator's
+    held = None if counted else _held_at_start(model, p, sw, start)
+    sprung = not counted and held is None and bool(np.any(start > e))
+    if not model.metadata.get("energy"):
+        sprung = sprung or bool(in_contact)
+    return held or 0.0, sprung, start, e
+
+
 def _held_at_start(model, p, sw, start):
     """The energy the limit springs held at the start (J), for a model whose limits'
     shapes are in its metadata (``limit_laws``: MJCF's, whose springs the energy output leaves
-    out); 0.0 when no limit starts past its bound; None when one does and its shape is unknown."""
+    out); 0.0 when no limit starts past its bound; None when one does and its shape is unknown.
+    Kept on the Switches for the last (p, start) seen, as _bounds: rollout's rows judged one
+    after another share them (gymnasium's ant: half of the verdict's time per row)."""
     past = np.flatnonzero(start > 0)
     if not past.size:
         return 0.0
+    key = (p.tobytes(), start.tobytes())
+    got = sw.__dict__.get("_held")
+    if got is not None and got[0] == key:
+        return got[1]
+    total = _held_sum(model, p, sw, start, past)
+    object.__setattr__(sw, "_held", (key, total))     # one tuple: a thread reads key and value together
+    return total
+
+
+def _held_sum(model, p, sw, start, past):
+    """_held_at_start's sum over the limits past their bound at the start (not kept)."""
     laws = model.metadata.get("limit_laws") or {}
     names = list(getattr(model, "param_names", ()))
     from .limit_energy import stored

@@ -365,7 +365,8 @@ def merged_outputs(overrides, outputs, events, energy=False):
 def body_com(built, body_name, values):
     """The body origin (its mass centre) in its frame, as the tree writes it: the parameters
     cx_/cy_/cz_<body> where they are symbols, else the literal ``values``."""
-    by_name = {str(s): s for s in built.parameters}
+    # a Symbol's str is its name (str through the printer cost the humanoid's 218 pair shapes ~0.25 s)
+    by_name = {s.name if type(s) is sm.Symbol else str(s): s for s in built.parameters}
     out = []
     for axis, value in zip(("cx", "cy", "cz"), values):
         symbol = by_name.get(f"{axis}_{body_name}")

@@ -303,14 +303,16 @@ def _law_slopes(t, qs, us, memo, let=None):
     58 slopes of ~170 operations each was 0.2 s of its default build, the same search 29 times."""
     syms = sorted(t.free_symbols, key=lambda x: (x != qs, x != us, sm.default_sort_key(x)))
     canon = {x: sm.Symbol(f"_law{k}", **x.assumptions0) for k, x in enumerate(syms)}
-    shape = t.xreplace(canon)       # all its symbols renamed: a law of the same shape gives an equal one
+    floats = _law_floats(t)
+    fcanon = {f: sm.Symbol(f"_lawf{k}", real=True) for k, f in enumerate(floats)}
+    shape = t.xreplace({**canon, **fcanon})     # its symbols and coefficients renamed: a law of the same shape gives an equal one
     key = (shape, qs in canon, us in canon)
     hit = memo.get(key)
     if hit is None:
         cq, cu = canon[qs] if qs in canon else sm.Dummy(), canon[us] if us in canon else sm.Dummy()
-        hit = memo[key] = (tuple(canon.values()), sm.diff(shape, cq), sm.diff(shape, cu))
+        hit = memo[key] = (tuple(canon.values()) + tuple(fcanon.values()), sm.diff(shape, cq), sm.diff(shape, cu))
     names, dq, du = hit
-    back = dict(zip(names, syms))
+    back = dict(zip(names, syms + floats))
     if let is None:
         return dq.xreplace(back), du.xreplace(back)
     named = memo.get((key, "cse"))
@@ -318,6 +320,18 @@ def _law_slopes(t, qs, us, memo, let=None):
         temps = (sm.Symbol(f"_lawt{k}", real=True) for k in itertools.count())
         named = memo[(key, "cse")] = sm.cse([dq, du], symbols=temps, order="none", list=True)
     return _NamedSlopes(named, back, let, dq == 0 and du == 0)
+
+
+def _law_floats(t):
+    """The law's Float coefficients (a product's numeric factor), in the order a walk of it
+    meets them: each joint's own (MJCF's hold term ``(G - 1)·w`` differs per joint), so that
+    laws differing only in them have one shape (:func:`_law_slopes`).  Floats elsewhere (a
+    Clamp's bounds, exponents) stay numbers; so do ±1 (SymPy treats them specially)."""
+    seen = {}
+    for node in sm.preorder_traversal(t):
+        if isinstance(node, sm.Mul) and isinstance(node.args[0], sm.Float) and abs(node.args[0]) != 1:
+            seen.setdefault(node.args[0], None)
+    return list(seen)
 
 
 class _NamedSlopes:

@@ -1024,15 +1024,26 @@ static int fs_changed(double a, double b)
     return a > 0.0 && (a > SWITCH_FACTOR * b || b > SWITCH_FACTOR * a);
 }
 
+/* 0: no regime changed; FS_TOUCHDOWN: only contacts touching down (out of touch at the start,
+ * in it at the end); FS_OTHER: anything else (a lift-off, a depth or a joint law's slope
+ * changing by more than SWITCH_FACTOR). */
+enum { FS_TOUCHDOWN = 1, FS_OTHER = 2 };
+
 static int fs_switched(const fs_fast *q)
 {
     const eomc_fs_ops *ops = q->ops;
     const double *j0 = q->T + q->L.joint, *j1 = q->T1 + q->L.joint;
-    for (int c = 0; c < ops->imp->ncontact; c++)
-        if (fs_changed(q->T[q->L.contact + 25 * (size_t)c], q->T1[q->L.contact + 25 * (size_t)c])) return 1;
+    int kind = 0;
+    for (int c = 0; c < ops->imp->ncontact; c++) {
+        double a = q->T[q->L.contact + 25 * (size_t)c], b = q->T1[q->L.contact + 25 * (size_t)c];
+        if (fs_changed(a, b)) {
+            if (a > 0.0 || !(b > 0.0)) return FS_OTHER;
+            kind = FS_TOUCHDOWN;
+        }
+    }
     for (int i = 0; i < 2 * ops->nu; i++)
-        if (fs_changed(j0[i], j1[i])) return 1;
-    return 0;
+        if (fs_changed(j0[i], j1[i])) return FS_OTHER;
+    return kind;
 }
 
 /* fs_loop's step for the fast path: one step (2), or, with eomc_implicit.split > 0 and
@@ -1173,7 +1184,9 @@ static int fs_fast_advance(void *self, double t, double h, const double *x, doub
             q->st->t_fail = ts + hs;
             return s;
         }
-        if (size == 1 && ratio > HARD_FACTOR * split) q->st->rejected++;
+        /* a touch-down's onset cell is not counted (see above: the correction there is the
+         * implicit Euler impulse of the new contact's end force, which no step size shrinks) */
+        if (size == 1 && ratio > HARD_FACTOR * split && fs_switched(q) != FS_TOUCHDOWN) q->st->rejected++;
     take:
         before = INFINITY;
         q->st->nlu++;

@@ -336,7 +336,7 @@ size_t eomc_integrate_work_size(const eomc_model *m, int method)
     case EOMC_DOPRI5:
     case EOMC_DOP853: extra = 32 * n; break;
     case EOMC_RADAU5: extra = 6 * n * n + 40 * n; break;
-    case EOMC_IMPLICITFAST: extra = eomc_fs_work_size(m->nx); break;
+    case EOMC_IMPLICITFAST: extra = eomc_fs_work_size(m->nx) + (size_t)m->noutput; break;   /* + the watch's */
     case EOMC_BDF: extra = eomc_bdf_work_size(m->nx) + 6 * n; break;
     default: extra = 0;
     }
@@ -2794,7 +2794,28 @@ typedef struct fs_glue {
     proj *pj;
     outw *ow;
     const eomc_implicit *imp;
+    int watch;               /* eomc_options.watch_output - 1, or -1: none */
+    double *wout;            /* its outputs (noutput) */
 } fs_glue;
+
+/* eomc_options.watch_output: output g->watch at (t, x) into the run's range (stats watch_lo,
+ * watch_hi); a failed or non-finite evaluation makes the range NaN for good (no verdict, as
+ * simulate's when an output is not finite).  Not counted in nfev: no step needs it. */
+static void fs_watch(fs_glue *g, double t, const double *x)
+{
+    ctx *c = g->c;
+    eomc_stats *st = c->st;
+    double v;
+    if (g->watch < 0 || isnan(st->watch_lo)) return;
+    grid_inputs_at(c, t);
+    v = c->m->outputs(t, x, c->p, c->r, g->wout, c->mwork) == EOMC_OK ? g->wout[g->watch] : NAN;
+    if (!isfinite(v)) {
+        st->watch_lo = st->watch_hi = NAN;
+        return;
+    }
+    if (v < st->watch_lo) st->watch_lo = v;
+    if (v > st->watch_hi) st->watch_hi = v;
+}
 
 /* The run's inputs at t before a model call (as frhs: grid or callback); an eomc_status. */
 static int fs_inputs(ctx *c, double t, const double *x)
@@ -2880,15 +2901,24 @@ static int fs_accept(void *g, double t, double tn, double *x, const double *slop
         if ((s = frhs(c, tn, x1, f1))) return s;
     }
     if (c->ev && (s = events_commit(c, tn, x1, pj->on))) return s;
+    fs_watch((fs_glue *)g, tn, x1);
     return EOMC_OK;
 }
 
 static int run_implicitfast(ctx *c, const eomc_options *o, proj *pj, double t0, double t1,
                             double *x, outw *ow, double **pos)
 {
-    fs_glue g = {c, pj, ow, o->implicit};
+    fs_glue g = {c, pj, ow, o->implicit, -1, NULL};
     eomc_fs_ops ops = {&g, fs_rhs, fs_jac, fs_accept, NULL, NULL, 0, 0, NULL};
     int fast = fs_fast_ok(c, o, pj), s;
+    c->st->watch_lo = c->st->watch_hi = NAN;
+    if (o->watch_output > 0 && o->watch_output <= c->m->noutput && c->m->outputs && !c->fb) {
+        g.watch = o->watch_output - 1;
+        g.wout = take(pos, (size_t)c->m->noutput);
+        c->st->watch_lo = INFINITY;
+        c->st->watch_hi = -INFINITY;
+        fs_watch(&g, t0, x);
+    }
     if (fast) {
         ops.terms = fs_terms;
         if (o->implicit->terms_lu) ops.terms_lu = fs_terms_lu;
@@ -2996,6 +3026,7 @@ static int integrate_core(const eomc_model *m, const eomc_options *opt,
     memset(stats, 0, sizeof *stats);
     stats->t = t0;
     stats->t_fail = NAN;
+    stats->watch_lo = stats->watch_hi = NAN;
     s = check_args(m, opt, t0, t1, x0, n_eval, t_eval, x_out);
     if (s == EOMC_OK) s = check_extras(m, fb, ev);
     if (s == EOMC_OK) s = check_stagger(m, opt, sg, n_eval);

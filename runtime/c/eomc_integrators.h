@@ -131,6 +131,11 @@ typedef struct eomc_options {
                             linear in it in its own rows (eomc's quaternion free joint), so
                             the step's end derivative is rescaled, not recomputed */
     const eomc_implicit *implicit;  /* EOMC_IMPLICITFAST: the fast path (see above), or NULL */
+    int watch_output;    /* EOMC_IMPLICITFAST without feedback: k > 0 keeps the range of output
+                            k - 1 (m->outputs) over the start and every kept step's end in
+                            eomc_stats.watch_lo/watch_hi -- what simulate's energy verdict reads
+                            along the steps, for rollout with either record (runtime/rollout.py);
+                            0: none.  Costs an outputs call a step */
 } eomc_options;
 
 typedef struct eomc_stats {
@@ -149,6 +154,8 @@ typedef struct eomc_stats {
     double max_residual; /* max-norm constraint residual after projection (0 if none) */
     long nswitch;        /* steps ended at a switching point (touch-down, lift-off, limit entry);
                             BDF: steps passed over one (it does not end steps there) */
+    double watch_lo, watch_hi; /* eomc_options.watch_output's running min and max (NaN: not
+                            watched, or the output was not finite or failed somewhere) */
 } eomc_stats;
 
 /* Doubles of work buffer eomc_integrate needs for this model and method. */

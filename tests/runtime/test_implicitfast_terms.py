@@ -185,7 +185,7 @@ def test_a_thrown_ball_at_2ms_gains_no_energy(tmp_path):
     that made looser step checks gain energy: eomc_fixedstep.c, fs_fast_advance).  At 5 ms too,
     since the step takes the friction's secant slope (fs_secant_friction): with the tangent, 3
     of the 16 gained energy there (1.2, 4.1 and 77 J) and 101 sub-steps were left unsolved (16
-    now, measured)."""
+    with the secant; 0 since a landing's touch-down cell is not counted, measured)."""
     from .test_rollout import thrown_ball
     m, x0 = thrown_ball(tmp_path, "ift_thrown")
     for dt in (0.002, 0.005):

@@ -166,12 +166,13 @@ def test_law_slopes_are_sympys_derivatives():
     """analytic._law_slopes differentiates one law per shape and renames the symbols back:
     for laws of every kind (two-sided, one-sided, unilateral with its smooth push, held,
     damping and friction, each with its own joint's symbols) the result is the very
-    expression sm.diff gives, and laws of one shape share one differentiation."""
+    expression sm.diff gives, and laws of one shape share one differentiation, also when
+    they differ in a Float coefficient (the held laws' (G - 1)·w, MJCF's per joint)."""
     from eomc.compiler.tree.analytic import _law_slopes
     from eomc.compiler.tree.joint_laws import JointLaw, joint_torque
     kinds = [dict(lower=-1.0, upper=1.0), dict(lower=-1.0, upper=1.0), dict(upper=0.5, damping=0.2),
              dict(lower=-0.3, upper=0.4, unilateral=True, friction=0.1), dict(lower=0.0, upper=2.0, hold=(3.0, 0.01)),
-             dict(damping=0.5, friction=0.3)]
+             dict(lower=-0.5, upper=1.5, hold=(4.5, 0.02)), dict(damping=0.5, friction=0.3)]
     memo = {}
     for j, kw in enumerate(kinds):
         q, u = sm.symbols(f"x_{j} x_{40 + j}", real=True)
@@ -180,7 +181,7 @@ def test_law_slopes_are_sympys_derivatives():
         dq, du = _law_slopes(tau, q, u, memo)
         assert dq == sm.diff(tau, q) and du == sm.diff(tau, u)
         assert (dq != 0) == ("lower" in kw or "upper" in kw)
-    assert len(memo) == len(kinds) - 1          # the first two laws have one shape
+    assert len(memo) == len(kinds) - 2          # the first two laws have one shape, the held two another
 
 
 def test_named_law_slopes_expand_to_sympys_derivatives():
@@ -193,7 +194,8 @@ def test_named_law_slopes_expand_to_sympys_derivatives():
     from eomc.compiler.tree.joint_laws import JointLaw, joint_torque
     from eomc.compiler.tree.recorder import Recorder
     kinds = [dict(lower=-1.0, upper=1.0), dict(lower=-2.0, upper=0.5), dict(upper=0.5, damping=0.2),
-             dict(lower=-0.3, upper=0.4, unilateral=True, friction=0.1), dict(lower=0.0, upper=2.0, hold=(3.0, 0.01))]
+             dict(lower=-0.3, upper=0.4, unilateral=True, friction=0.1), dict(lower=0.0, upper=2.0, hold=(3.0, 0.01)),
+             dict(lower=-0.5, upper=1.5, hold=(4.5, 0.02))]
     memo, rec = {}, Recorder()
     for j, kw in enumerate(kinds):
         q, u = sm.symbols(f"x_{j} x_{40 + j}", real=True)
@@ -210,7 +212,7 @@ def test_named_law_slopes_expand_to_sympys_derivatives():
             assert e.free_symbols <= tau.free_symbols | set(back)
             back[t] = e.xreplace(back)
         assert back[dq] == sm.diff(tau, q) and back[du] == sm.diff(tau, u)
-    assert sum(1 for k in memo if k[-1] == "cse") == len(kinds) - 1     # the first two laws have one shape
+    assert sum(1 for k in memo if k[-1] == "cse") == len(kinds) - 2     # the first two laws have one shape, the held two another
 
 
 ROBOTS = {"panda": False, "solo12": True}     # UR5 (12 states) keeps the unrolled columns
