@@ -827,6 +827,7 @@ def _lane_args(call):
 
 _KERNEL_HEAD = re.compile(r"^static (inline )?(void|double) ([A-Za-z_]\w*)\(")
 _LITERAL = r"(-?\d+\.\d*(?:e[-+]?\d+)?)"
+_SCALAR_DISPATCH = re.compile(r"^#if EOMC_RD_AVX2\n.*?^#endif\n", re.M | re.S)
 
 
 _GROUND_SKIP = "            if (!(g[0] > 0.0) && g[0] == g[0]) continue;   /* clear of the ground: all \u00b10 */"
@@ -871,7 +872,8 @@ def vector_kernels(name, helpers_text):
             cur = None
     if not funcs or f"{name}_rnea_derivs" not in names:
         raise Unsupported("calls NAME_rnea_derivs, whose text was not found")
-    text = "\n\n".join(funcs)
+    # the articulated solve's choice of AVX2 row helpers (analytic._aba_dispatch): lanes are vectors already
+    text = _SCALAR_DISPATCH.sub("", "\n\n".join(funcs))
     if re.search(r"\b(sqrt|fabs|fmax|fmin|eomc_fmax|eomc_fmin|sin|cos|exp|log|pow|atan2)\(", text) or "static const double" in text:
         raise Unsupported("has an analytic kernel with libm calls or double tables")
     for old, new in names.items():
