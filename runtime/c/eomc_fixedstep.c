@@ -999,22 +999,28 @@ static int fs_ahead(const fs_fast *q, double h)
 
 /* The configuration's implicit Euler residual, as a ratio: the step took q1 = q + h N(q) u1,
  * implicit Euler would have q1 = q + h N(q1) u1, so |h (N(q) - N(q1)) u1| / (|q1 - q| + h^2 g)
- * (g as RESID_ACCEL).  It is nil for hinges and slides (N constant) and O(h) for a free joint's
- * body-XYZ angles, except near gimbal lock, where N's 1/cos(ry) swings within the step and the
- * speeds' ratio (below) does not see it: the stiff contacts in A1 swallow the force residual of
- * a misturned body.  Measured (session 16, gymnasium humanoid, bench_rollout_contacts' 64 starts
- * at 3 ms): rows 7 and 49 each took one whole step with cos(ry) 0.004 and 0.012 whose speeds'
- * ratio passed (0.39, 0.13) and which put the feet and hands 6.5 and 9.6 mm into the floor
- * (Radau from the same state: 0.6 and 1.7 mm) and the energy up by 284 and 588 J; this ratio
- * was 1.5 and 4.1 there, median 0.001 over all tries. */
+ * (g as RESID_ACCEL), over the root free joints' columns of N (eomc_implicit.free: where N moves
+ * with the configuration; a hinge's or slide's column is constant; a ball joint's is not counted).
+ * It is O(h) but near gimbal lock of the free joint's body-XYZ angles, where N's 1/cos(ry) swings
+ * within the step and the speeds' ratio (below) does not see it: the stiff contacts in A1 swallow
+ * the force residual of a misturned body.  Measured (session 16, gymnasium humanoid,
+ * bench_rollout_contacts' 64 starts at 3 ms; benchmarks/results/fixedstep.md's notes): rows 7 and
+ * 49 each took one whole step with cos(ry) 0.004 and 0.012 whose speeds' ratio passed (0.39, 0.13)
+ * and which put the feet and hands 6.5 and 9.6 mm into the floor (Radau from the same state: 0.6
+ * and 1.7 mm) and the energy up by 284 and 588 J; this ratio was 1.5 and 4.1 there, median 0.001
+ * over all tries. */
 static double fs_chart_ratio(const fs_fast *q, double h, const double *x)
 {
+    const eomc_implicit *imp = q->ops->imp;
     int nq = q->ops->nq, nu = q->ops->nu;
     const double *N0 = q->T + q->L.N, *N1 = q->T1 + q->L.N, *u1 = q->x1 + nq;
     double rn = 0.0, dn = 0.0, r;
+    if (imp->nfree <= 0) return 0.0;
     for (int i = 0; i < nq; i++) {
         double a = 0.0, d = q->x1[i] - x[i];
-        for (int k = 0; k < nu; k++) a += (N0[(size_t)i * nu + k] - N1[(size_t)i * nu + k]) * u1[k];
+        for (int f = 0; f < imp->nfree; f++)
+            for (int k = imp->free[f]; k < imp->free[f] + 6; k++)
+                a += (N0[(size_t)i * nu + k] - N1[(size_t)i * nu + k]) * u1[k];
         rn += a * a;
         dn += d * d;
     }
