@@ -366,7 +366,9 @@ def _energy_verdicts(model, a, X0, P, p_stride, controls, t_eval, X_out, X_last,
     from .simulate import _along
     sw = find_switches(model)
     rows = np.flatnonzero(status == 0)
-    if not sw or "energy" not in model.output_names or not rows.size:
+    # a model built without its outputs function (functions=("rhs", "implicit")) names its energy
+    # output but cannot evaluate it: not judged, as simulate, whose run then has no outputs
+    if not sw or "energy" not in model.output_names or not rows.size or model.c_model.outputs == model.ffi.NULL:
         return {}
     along = X_out is not None and ranges is None
     t = t_eval if along else np.array([0.0, float(t_eval[-1])])

@@ -155,6 +155,16 @@ class PairLoad(LoweredLoad):
         return out + [sm.Integer(self.part)] if self.part >= 0 else out
 
     @property
+    def stores_energy(self):
+        """Is its law's force minus the gradient of k δ₊^(5/2) / (5/2) (the ``energy`` output
+        counts it: compiler/tree/contacts._pair_energy)?  For the nearest points of two shapes'
+        cores, yes (with a box: while the other core stays outside it, a penetration below the
+        capsule's or sphere's radius -- deeper, the runtime's penetration verdict speaks); a
+        solid's signed distance (:func:`uses_solid`) gives its normal and depth by other rules,
+        whose force need not be that gradient."""
+        return not uses_solid(self.a.kind, self.b.kind)
+
+    @property
     def spins(self):
         """Has torsional or rolling friction (.law.spin_moment): lowered inline (the table's and
         the law routine's law have none)."""

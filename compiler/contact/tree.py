@@ -22,7 +22,7 @@ from .law import DEFAULTS, SPIN_KEYS, load_stiffness
 from .system import contact_symbols, parameter_defaults, unit_normal
 from eomc.compiler import fixed_order as fo
 
-__all__ = ["ContactSpec", "ContactLoad", "ContactValue", "ENERGY", "passive_contacts", "COLLISION_SPHERES", "parse_contact",
+__all__ = ["ContactSpec", "ContactLoad", "ContactValue", "ENERGY", "passive_contacts", "energy_blockers", "COLLISION_SPHERES", "parse_contact",
            "collision_spheres", "link_frame", "with_contacts", "contact_outputs", "body_com",
            "LoweredLoad", "nearest", "with_located", "expanded_specs", "built_weight"]
 
@@ -322,29 +322,60 @@ PASSIVE_LAWS = ("d_", "damping_", "friction_", "limit_")
 
 def passive_contacts(read):
     """True for a robot (a multibody Model read from a file) whose only loads are ground
-    contacts and whose joints have no springs: with its inputs (joint torques, actuators) at
-    zero nothing feeds energy in, so its total energy may only fall, and the runtime judges
-    such runs by it (runtime/switching.verdict, issue 29)."""
-    loads = getattr(getattr(read, "tree", None), "loads", ())
+    contacts, body-body pairs whose elastic energy the ``energy`` output holds, and joint
+    springs whose potential it holds: with its inputs (joint torques, actuators) at zero
+    nothing feeds energy in, so its total energy may only fall, and the runtime judges such
+    runs by it (runtime/switching.verdict, issue 29).  :func:`energy_blockers` says why not."""
+    return not energy_blockers(read)
+
+
+def energy_blockers(read):
+    """[why the model gets no ``energy`` output] (empty: it gets one, :func:`passive_contacts`):
+    no ground contact; a spring the energy does not hold (a ``k_``/``q0_`` parameter that
+    Tree.spring_parameters does not list: a site tendon's, a SymPy model's); a load this check does not know to be passive (an actuator's bias, fluid
+    forces, a site tendon); a body-body pair met through a solid's signed distance (box-box,
+    cylinders, ellipsoids: its force need not be the gradient of its depth)."""
+    tree = getattr(read, "tree", None)
+    loads = getattr(tree, "loads", ())
     names = {str(s) for s in getattr(read, "parameters", ())}
+    # the springs whose potential the energy holds (Tree.spring_energy: MJCF's joints' k_/q0_<joint>,
+    # fixed tendons' k_/L0_tendon_<name>)
+    counted = set(getattr(tree, "spring_parameters", ()) or ())
+    out = []
+    if not any(isinstance(ld, ContactLoad) for ld in loads):
+        out.append("no ground contact")
     # a spring the energy does not hold (a joint's stiffness with its rest q0_<joint>, a
     # tendon's k_<tendon>): its start energy could come out as a gain, so no energy verdict
-    springs = any(n.startswith("q0_") or (n.startswith("k_") and "mu_" + n[2:] not in names) for n in names)
+    springs = sorted(n for n in names - counted
+                     if n.startswith("q0_") or (n.startswith("k_") and "mu_" + n[2:] not in names))
+    if springs:
+        out.append(f"springs whose potential the energy leaves out ({', '.join(springs[:3])}"
+                   f"{', ...' if len(springs) > 3 else ''})")
     zero = {r: sm.S.Zero for r in tuple(getattr(read, "inputs", ()) or ())}
 
     def passive(load):
         """With the inputs at zero (an actuator's torque vanishes), only the joint laws'
-        damping, friction and limits act (compiler/tree/joint_laws.py; MJCF's d_<joint>): no
-        spring, no position actuator's bias, nothing else this check does not know."""
+        damping, friction and limits act (compiler/tree/joint_laws.py; MJCF's d_<joint>) and
+        the counted springs: no other spring, no position actuator's bias, nothing else this
+        check does not know."""
         for x in list(load.moment) + list(load.force):
             e = sm.sympify(x).xreplace(zero)
-            if any(not s.name.startswith(PASSIVE_LAWS) for s in e.free_symbols if s.name != "t"):
+            if any(not s.name.startswith(PASSIVE_LAWS) and s.name not in counted
+                   for s in e.free_symbols if s.name != "t"):
                 return False
         return True
-    contacts = [ld for ld in loads if isinstance(ld, ContactLoad)]
-    return (bool(contacts) and not springs
-            and all(isinstance(ld, ContactLoad) or (getattr(ld, "frame", None) != "contact" and passive(ld))
-                    for ld in loads))
+    for ld in loads:
+        if isinstance(ld, ContactLoad):
+            continue
+        stores = getattr(ld, "stores_energy", None)     # a body-body pair (.pairs.PairLoad)
+        if stores is not None:
+            if not stores:
+                out.append(f"the contact {ld.name} ({ld.a.kind}-{ld.b.kind}: a solid's signed distance)")
+        elif getattr(ld, "frame", None) == "contact":
+            out.append(f"{type(ld).__name__} {getattr(ld, 'name', '')}".rstrip())
+        elif not passive(ld):
+            out.append(f"a load on body {getattr(ld, 'body', '?')} that is not passive with the inputs at zero")
+    return out
 
 
 def merged_outputs(overrides, outputs, events, energy=False):

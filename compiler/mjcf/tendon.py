@@ -46,11 +46,13 @@ def tendon_length(m, t, joint_names, params=None):
     return L, V, pairs
 
 
-def tendon_force(m, t, raw, name, L, V, params, limits=True, friction=True):
+def tendon_force(m, t, raw, name, L, V, params, limits=True, friction=True, springs=None):
     """Tendon ``t``'s force along its length L (speed V): MuJoCo's spring (a dead band between
     ``lengthspring``'s two lengths), damper, limits (its solref/solimp as a stiff law) and
     friction loss, in the parameters ``k_``/``L0_``/``d_`` ... ``<name>`` (0: none acts).
-    Fixed tendons (here) and site tendons (:mod:`.spatial`) share it."""
+    Fixed tendons (here) and site tendons (:mod:`.spatial`) share it.  ``springs``: a list to
+    append the spring's (potential, names of its parameters) to -- k/2 (L - L0)², or with the dead
+    band k/2 (ramp(L - L0hi)² + ramp(L0lo - L)²): minus its gradient in L is the spring's force."""
     from eomc.compiler.contact.mujoco_law import limit_spring
     from eomc.compiler.tree.joint_laws import JointLaw, joint_torque, ramp
     f = sm.S.Zero
@@ -58,9 +60,15 @@ def tendon_force(m, t, raw, name, L, V, params, limits=True, friction=True):
         k = params(f"k_{name}", float(m.tendon_stiffness[t]))
         low, high = (float(x) for x in m.tendon_lengthspring[t])
         if low == high:
-            f += -k * (L - params(f"L0_{name}", low))
+            rest = (params(f"L0_{name}", low),)
+            f += -k * (L - rest[0])
+            energy = k * (L - rest[0]) ** 2 / 2
         else:
-            f += -k * (ramp(L - params(f"L0hi_{name}", high)) - ramp(params(f"L0lo_{name}", low) - L))
+            rest = (params(f"L0hi_{name}", high), params(f"L0lo_{name}", low))
+            f += -k * (ramp(L - rest[0]) - ramp(rest[1] - L))
+            energy = k * (ramp(L - rest[0]) ** 2 + ramp(rest[1] - L) ** 2) / 2
+        if springs is not None:
+            springs.append((energy, [str(s) for s in (k, *rest) if isinstance(s, sm.Symbol)]))
     if m.tendon_damping[t]:
         f += -params(f"d_{name}", float(m.tendon_damping[t])) * V
     lower = upper = None
@@ -77,8 +85,9 @@ def tendon_force(m, t, raw, name, L, V, params, limits=True, friction=True):
     return f
 
 
-def tendon_forces(m, params, joint_names, tendon_names, limits=True, friction=True):
-    """{joint id: generalized force} of every fixed tendon's spring, damper, limits and friction."""
+def tendon_forces(m, params, joint_names, tendon_names, limits=True, friction=True, springs=None):
+    """{joint id: generalized force} of every fixed tendon's spring, damper, limits and friction;
+    ``springs``: a list to append each spring's (potential, parameter names) to (:func:`tendon_force`)."""
     out = {}
     for t in range(m.ntendon):
         if not is_fixed(m, t):
@@ -86,7 +95,7 @@ def tendon_forces(m, params, joint_names, tendon_names, limits=True, friction=Tr
         raw, tn = tendon_names[t]
         name = f"tendon_{tn}"
         L, V, pairs = tendon_length(m, t, joint_names)
-        f = tendon_force(m, t, raw, name, L, V, params, limits, friction)
+        f = tendon_force(m, t, raw, name, L, V, params, limits, friction, springs)
         if f == 0:
             continue
         for j, c in pairs:

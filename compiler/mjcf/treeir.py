@@ -124,13 +124,16 @@ def tree_ir(m, *, fold=False, actuators=None, limits=True, friction=True, quater
         force = _actuator_force(m, params, k, act_names[k][1], drive_by, dynamicsymbols(f"q_{jn}"),
                                 dynamicsymbols(f"u_{jn}"))
         drive[j] = drive.get(j, sm.S.Zero) + force
-    for j, tau in tendon_forces(m, params, joint_names, tendon_names, limits, friction).items():
+    tendon_springs = []      # (potential, parameter names) per fixed tendon's spring: into the energy
+    for j, tau in tendon_forces(m, params, joint_names, tendon_names, limits, friction, tendon_springs).items():
         drive[j] = drive.get(j, sm.S.Zero) + tau         # fixed tendons' springs, dampers, limits, friction
     from .carried import carried_inertias
     carried = carried_inertias(m) if limits else {}    # joint id -> the inertia its limit carries
     bodies, coordinates, speeds, kinematics, loads, joints, owners = [], [], [], [], [], [], []
     quaternions = []        # each ball/free joint's w coordinate, with quaternion=True
     torques = []
+    springs = [e for e, _ in tendon_springs]      # the joints' and fixed tendons' springs' potentials
+    spring_names = [n for _, names in tendon_springs for n in names]
     limit_laws = {}       # joint C name -> its limit law's shape, for the runtime's energy verdict
     last = {0: -1}          # MuJoCo body -> index of its mass-carrying tree body (-1: world)
     com = {0: [0, 0, 0]}
@@ -201,6 +204,8 @@ def tree_ir(m, *, fold=False, actuators=None, limits=True, friction=True, quater
                 if stiffness != 0:
                     rest = params(f"q0_{jn}", m.qpos_spring[qadr])
                     tau = tau - stiffness * (coordinates[first_q] - rest)
+                    springs.append(stiffness * (coordinates[first_q] - rest) ** 2 / 2)
+                    spring_names += [str(s) for s in (stiffness, rest) if isinstance(s, sm.Symbol)]
                 tau = tau + _law(m, jid, jraw, jn, coordinates[first_q], speeds[first], params,
                                  limits, friction, carried.get(jid, 0.0), limit_laws)
                 torques.append((coordinates[first_q], speeds[first], tau))
@@ -229,7 +234,8 @@ def tree_ir(m, *, fold=False, actuators=None, limits=True, friction=True, quater
     ir = Tree(bodies=tuple(bodies), coordinates=tuple(coordinates), speeds=tuple(speeds),
               kinematics=tuple(kinematics), gravity=gravity, loads=tuple(loads),
               quaternions=tuple(coordinates.index(w) for w in quaternions),
-              joint_torques=tuple(torques))
+              joint_torques=tuple(torques),
+              spring_energy=sum(springs, sm.S.Zero) if springs else None, spring_parameters=tuple(spring_names))
     if found or tied:
         from eomc.compiler.tree.constrained import attach
         ir = attach(ir, coupling_loops(m, params, found, coordinates, speeds, joints, joint_names, tied))

@@ -174,8 +174,32 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
     if energy is not None:
         stored = getattr(tree, "joint_energy", None)       # the limits' springs (URDF)
         limits = rename(stored, "the joint limits' elastic energy") if stored else sm.S.Zero
+        springs = getattr(tree, "spring_energy", None)     # MJCF's joint and fixed-tendon springs
+        if springs is not None:
+            limits += rename(springs, "the joint springs' energy")
+        elastic += _pair_energy(others, values, rename)
         values[ENERGY] = rec.let(_energy(bodies, v, poses, *energy) + sum(elastic, sm.S.Zero) + limits)
     return values
+
+
+def _pair_energy(loads, values, rename):
+    """[the elastic energy of each body-body pair point among ``loads``]: its law's k δ₊^(3/2)
+    along the normal of its nearest points stores k δ₊^(5/2) / (5/2) (the ground contact's
+    potential with the plane's height replaced by the distance of the two shapes: the depth δ
+    falls along n at B's point at the rate the force's normal part does work, so the force is
+    minus its gradient).  The depth is the pair's own output (PairValue kind "depth": the
+    table's or the inlined law's temporary; 0 where the broad phase skips the pair)."""
+    from ..contact.pairs import PairValue
+    from ..contact.tree import OUTPUT_KINDS
+    depth_kind = OUTPUT_KINDS.index("depth")
+    out = []
+    for ld in loads:
+        if not isinstance(ld, PairLoad):
+            continue
+        depth = values[PairValue(ld.index, depth_kind)]
+        dpos = (depth + sm.Abs(depth)) / 2
+        out.append(rename(ld.params["k"], f"the contact {ld.name}") * sm.Abs(dpos) ** (EXPONENT + 1) / (EXPONENT + 1))
+    return out
 
 
 def support_motion(R, A, m, Am, s, let):

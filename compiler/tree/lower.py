@@ -380,8 +380,7 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
     if analytic is not None and analytic.contacts and ground.get("guards"):
         sym = replace(sym, jac_guards=tuple(ground["guards"]))
     if wants_energy:
-        sym = replace(sym, energy="kinetic, gravity and the ground contacts' elastic energy"
-                      + (" and the joint limits' springs" if getattr(tree, "joint_energy", None) else ""))
+        sym = replace(sym, energy=_energy_text(tree))
     if regressor:
         sym = replace(sym, regressor_bodies=regressor[0], regressor_reference=regressor[1])
     if analytic is not None:
@@ -496,6 +495,18 @@ def _kernel_table(ground, layout):
     if any(getattr(e, "free_symbols", set()) & xs for e in info["fixed"]):
         return None
     return info["table"]
+
+
+def _energy_text(tree):
+    """What the generated ``energy`` output holds (NAME.json "energy"; the runtime's verdict reads
+    "joint limits" in it to trust the limits' springs counted, runtime/switching.py)."""
+    from ..contact.pairs import PairLoad
+    text = "kinetic, gravity and the ground contacts' elastic energy"
+    if any(isinstance(ld, PairLoad) for ld in tree.loads):
+        text += ", the body-body contacts' elastic energy"
+    if getattr(tree, "spring_energy", None) is not None:
+        text += ", the springs' potential (joints, fixed tendons)"
+    return text + (" and the joint limits' springs" if getattr(tree, "joint_energy", None) else "")
 
 
 def _asks_energy(outputs):

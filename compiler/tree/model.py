@@ -114,6 +114,12 @@ class Tree:
     # a function of the coordinates and parameters, for the generated ``energy`` output; None
     # where the laws have no such potential (MJCF's unilateral limits)
     joint_energy: object = field(default=None, compare=False)
+    # the potential of the joints' springs, Σ k/2 (q - q0)² (MJCF's stiffness and springref), and the
+    # fixed tendons' (compiler/mjcf/tendon.py), for the generated ``energy`` output, and the names of
+    # their parameters (k_/q0_<joint>, k_/L0_tendon_<name>), which then
+    # no longer keep a model from the energy verdict (compiler/contact/tree.energy_blockers); None, ()
+    spring_energy: object = field(default=None, compare=False)
+    spring_parameters: tuple = field(default=(), compare=False)
 
     @property
     def n(self):

@@ -372,7 +372,7 @@ def second_order_c(name, plan, nq, nx, helpers):
         "                double *u1 = U, *u2 = U + 6, *u3 = U + 12, *u6 = U + 18, *u7 = U + 24, *u9 = U + 30, *w = U + 36;",
         "                double *u4 = U + 42, *u10 = U + 48, *u11 = U + 54;",
         *_pair_vector_lines(name, rd, nm, oj),
-    ] + (_first_order_lines(rd, nm, plan) if nm and not TANGENT else []) + _triple_lines(name, rd, nx, cfg, nm, plan, half) + [
+    ] + (_first_order_lines(rd, nm, plan) if nm and not TANGENT else []) + _triple_lines(name, rd, nx, cfg, nm, plan, half, _scratch(plan, nq, nx, half)) + [
         "            }",
         *(_mirror_lines(name, plan, nq, nx) if half else []),
         "        }",
@@ -701,7 +701,7 @@ def _pair_store(half, first, second, val, low, keep_up="", indent=0):
     return [f"{ind}{lo} = {val};"] + ([f"{ind}if ({keep_up}) {up} = {val};"] if keep_up else [])
 
 
-def _triple_lines(name, rd, nx, cfg, nm=0, plan=None, half=False):
+def _triple_lines(name, rd, nx, cfg, nm=0, plan=None, half=False, scratch=None):
     """C: the triple loop for one (i, j): the dots of (i, j)'s vectors with every k on j's path,
     LANES k a step from the component-major copy K (gcc's vectorizer pairs the lanes; each dot
     is summed in rd_dot's order, so the bits are the scalar loop's), then the stores, k = j first
@@ -760,7 +760,19 @@ def _triple_lines(name, rd, nx, cfg, nm=0, plan=None, half=False):
         "                    }",
     ]
     k0 = next(n for n, x in enumerate(lines) if "for (tk = T - 1;" in x)
-    return lines[:k0] + _unswitched(lines[k0:], oj) + ["                }"]
+    loop = _unswitched(lines[k0:], oj)
+    if scratch is not None:     # the other rows' stores of the j != i copy into row i's scratch (_scratch)
+        nd, quads = scratch
+        lines.insert(lines.index("                    int tk, ln;") + 1,
+                     f"                    double *const Hj = Oi + ({nd - 1} - j) * {nx} + {nd} - j;   /* row i's scratch (_scratch) */")
+        k0 += 1
+        cut = loop.index("                    } else {")
+        for (rw, cl, val), q in zip(_SCRATCH_STORES, quads):
+            old = f"Ok[{rw} * {nx} + {cl}] = {val};"
+            hits = [n for n in range(cut) if loop[n].strip() == old]
+            assert len(hits) == 1, old
+            loop[hits[0]] = loop[hits[0]].replace(old, f"Hj[{q} + k] = {val};")
+    return lines[:k0] + loop + ["                }"]
 
 
 def _unswitched(loop, oj):
@@ -1044,6 +1056,34 @@ def _wt_lines(plan, jn):
     return lines + ["            }"]
 
 
+# The stores of row k (k < j < i) the triple loop makes per (i, j) in a chain written by halves, as
+# (row, column, value): each is in another output block (one per k), and with _scratch they go to
+# row i's scratch instead, in this order of its quadrants (q, q), (q, u), (u, q), (u, u).
+_SCRATCH_STORES = (("qi", "qj", "e3"), ("qi", "uj", "mm"), ("ui", "qj", "g"), ("ui", "uj", "p6"))
+
+
+def _scratch(plan, nq, nx, half):
+    """(nd, the offsets of row i's four quadrants) when the triple loop of a chain written by halves
+    (:func:`_chain_columns`) puts the stores of the rows k < j (:data:`_SCRATCH_STORES`, per (i, j) in j != i)
+    into row i's own output block, in the strict upper triangles of its quadrants, which the
+    loop leaves for the mirror images (:func:`_mirror_lines`) and are free until then: the values of
+    (j, k) (k < j < i) at quadrant row nd - 1 - j, columns nd - j + k, contiguous in k; each
+    quadrant's scratch is copied to rows q_i, u_i of the blocks k < i before the mirror images
+    (:func:`_transpose_helper`'s NAME_h2_trs, d[k nn + j] = s[j ss + k]).  Else None.
+
+    Why: those stores go to a new output block for every k (cart80: 80 blocks 210 kB apart, four
+    cache lines each per (i, j)), which L1 does not hold from one j to the next; in the scratch
+    they are contiguous in k, and the copy writes rows of each block.  Copies only: the same bits.
+    Same-core A/B of the generated C (hess_id alone, core 0, load ~15, session 16): machine build
+    cart80 3.98 -> 3.67 ms (bits checked over 32 states); -O2 (16 scalar copies a tile) 4.88 -> 4.87;
+    cart40 (2.2 MB of output, mostly in cache) 274 -> 278 us, -O2 395 -> 385: unchanged."""
+    chain = _chain_columns(plan, nq) if half else None
+    if chain is None:
+        return None
+    q0, u0 = chain
+    return len(plan.lam), tuple(r * nx + c for r, c in ((q0, q0), (q0, u0), (u0, q0), (u0, u0)))
+
+
 def _chain_columns(plan, nq):
     """(q0, u0) when the dofs form one path in their own order (dof a's parent dof is a - 1) with
     their coordinates and speeds contiguous (x[q0 + a], x[u0 + a]), as on a cart or an arm: then
@@ -1080,6 +1120,10 @@ def _transpose_helper(name, plan, nq, nx):
         f"        *({name}_h2_v4 *)(o + {3 * X}) = {up}_H2_SHUF(t1, t3, 2, 3, 6, 7);",
     ]
     scalar = [f"        o[{r * X + c}] = t[{c * X + r}];" for r in range(4) for c in range(4)]
+    vs = [x.replace(f"(t + {X})", "(t + ss)").replace(f"(t + {2 * X})", "(t + 2 * ss)").replace(f"(t + {3 * X})", "(t + 3 * ss)")
+          .replace(f"(o + {X})", "(o + ds)").replace(f"(o + {2 * X})", "(o + 2 * ds)").replace(f"(o + {3 * X})", "(o + 3 * ds)")
+          for x in vec]
+    ss = [f"        o[{r} * ds + {c}] = t[{c} * ss + {r}];" for r in range(4) for c in range(4)]
     return [
         f"#if {up}_H2_LANES == 4 && defined(__GNUC__)   /* a 4 x 4 tile's transpose on vector registers */",
         f"#define {up}_H2_VT 1",
@@ -1111,6 +1155,28 @@ def _transpose_helper(name, plan, nq, nx):
         f"        for (m = 0; m < a; m++) d[m * {X} + a] = s[a * {X} + m];",
         "}",
         "",
+        f"static void {name}_h2_trs(const double *s, long ss, double *d, long ds, int n)",
+        "{   /* d[m * ds + a] = s[a * ss + m] for 0 <= m < a < n, in 4 x 4 tiles along d's rows (_scratch) */",
+        "    int a, m, a0 = 0, m0;",
+        "    for (m0 = 0; m0 + 4 <= n; m0 += 4) {",
+        "        for (m = m0; m < m0 + 3; m++)   /* the diagonal tile */",
+        "            for (a = m + 1; a < m0 + 4; a++) d[m * ds + a] = s[a * ss + m];",
+        "        for (a0 = m0 + 4; a0 + 4 <= n; a0 += 4) {",
+        "            const double *t = s + a0 * ss + m0;",
+        "            double *o = d + m0 * ds + a0;",
+        f"#ifdef {up}_H2_VT",
+        *["    " + x for x in vs],
+        "#else",
+        *["    " + x for x in ss],
+        "#endif",
+        "        }",
+        "        for (m = m0; m < m0 + 4; m++)   /* the last columns */",
+        "            for (a = a0; a < n; a++) d[m * ds + a] = s[a * ss + m];",
+        "    }",
+        "    for (m = m0; m < n; m++)",
+        "        for (a = m + 1; a < n; a++) d[m * ds + a] = s[a * ss + m];",
+        "}",
+        "",
     ]
 
 
@@ -1121,11 +1187,17 @@ def _mirror_lines(name, plan, nq, nx):
     after it (dofs nearer the root) write no entry of it, and its written half is still in
     cache.  Why: the triple loop's mirror stores (along a column: one cache line per k, and in
     row j's and row k's blocks) were most of cart80's time (perf).  A chain in order
-    (:func:`_chain_columns`) takes four triangular transposes in tiles (:func:`_transpose_helper`)."""
+    (:func:`_chain_columns`) takes four triangular transposes in tiles (:func:`_transpose_helper`), after
+    copying out row i's scratch (:func:`_scratch`), which the transposes then overwrite."""
     chain = _chain_columns(plan, nq)
     if chain is not None:
         q0, u0 = chain
-        return ["            /* row i's mirror images, left out by the triple loop: (q, q), (q, u), (u, q), (u, u) (_mirror_lines) */"] + [
+        sc, nn = _scratch(plan, nq, nx, True), nx * nx
+        drain = [] if sc is None else [
+            "            /* rows q_i, u_i of the blocks k < i from row i's scratch, before it takes the mirror images (_scratch) */"] + [
+            f"            {name}_h2_trs(Oi + {q + (sc[0] - 1) * nx + sc[0]}, {-(nx + 1)}, out + (size_t)row[0] * {nn} + {rw} * {nx} + "
+            f"{q0 if cl == 'qj' else u0}, {nn}, i);" for (rw, cl, _), q in zip(_SCRATCH_STORES, sc[1] if sc else ())]
+        return drain + ["            /* row i's mirror images, left out by the triple loop: (q, q), (q, u), (u, q), (u, u) (_mirror_lines) */"] + [
             f"            {name}_h2_trt(Oi + {r * nx + c}, Oi + {c * nx + r});" for r, c in ((q0, q0), (u0, q0), (q0, u0), (u0, u0))]
     return [
         "            {   /* row i's mirror images, left out by the triple loop (_mirror_lines) */",

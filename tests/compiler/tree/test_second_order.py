@@ -468,8 +468,9 @@ def test_chain_mirrors_by_tiled_transposes_give_the_same_bits(tmp_path):
     """A chain in order written by halves (second_order.HALF_FROM forced to 0) copies row i's
     mirror images as four triangular transposes in 4 x 4 tiles (NAME_h2_trt; 9 dofs: full tiles,
     diagonal tiles and a last row), on vector registers in the machine build with AVX2 and
-    entry by entry in the portable one: from an output filled with NaN every entry is written,
-    and both give the bits of the default build (both halves written in the loop)."""
+    entry by entry in the portable one, after copying the rows k < j's stores out of row i's
+    scratch (second_order._scratch, NAME_h2_trs): from an output filled with NaN every entry is
+    written, and both give the bits of the default build (both halves written in the loop)."""
     orig = second_order.HALF_FROM
     second_order.HALF_FROM = 0
     try:
@@ -484,6 +485,7 @@ def test_chain_mirrors_by_tiled_transposes_give_the_same_bits(tmp_path):
     full = _compile(tmp_path / "full", tree=CHAIN)
     c = (half.directory / f"{half.name}.c").read_text()
     assert "row i's mirror images" in c and f"{half.name}_h2_trt(Oi + " in c and f"{half.name.upper()}_H2_SHUF(" in c
+    assert f"{half.name}_h2_trs(Oi + " in c and "Hj[" in c
     assert "_h2_trt" not in (full.directory / f"{full.name}.c").read_text()
     rng = np.random.default_rng(9)
     for _ in range(3):
