@@ -331,6 +331,25 @@ _VANY = """static EOMC_VTARGET EOMC_VINLINE int {p}_vany(eomc_vu m)
     return a != 0;
 }}"""
 
+# A lane's outputs of the pairs' loop into their vectors (pairs_call).  Why a helper: a store of
+# one double into each of n vectors is a cache line each, and on the humanoid (1059 + 2725
+# outputs, mostly the far pairs' zeros) those stores were half of NAME_implicit_batch's time
+# (perf): the vectors are zeroed whole before the loop, and a run of four +0.0 is skipped.
+_PUT_LANE = """static EOMC_VTARGET EOMC_VINLINE void {p}_put_lane(eomc_vd *dst, const double *src, int n, int l)
+{{
+    int k;
+    for (k = 0; k + 4 <= n; k += 4) {{
+        unsigned long long b[4];
+        __builtin_memcpy(b, src + k, sizeof b);
+        if ((b[0] | b[1] | b[2] | b[3]) == 0) continue;     /* +0.0 there already */
+        dst[k][l] = src[k];
+        dst[k + 1][l] = src[k + 1];
+        dst[k + 2][l] = src[k + 2];
+        dst[k + 3][l] = src[k + 3];
+    }}
+    for (; k < n; k++) dst[k][l] = src[k];
+}}"""
+
 _COMPARE = re.compile(r"[<>?]|==|!=")
 # the printed forms of SymPy's sign(a) and Heaviside(a) (joint limits' jac_x): (head, tail after
 # the balanced operand a, the marker _calls turns into the lanes' helper or back into C)
@@ -598,19 +617,22 @@ class _Rewriter:
                 raise Unsupported(f"calls {fn}() on a call")
         nout = self.sizes[array] - int(first)
         inputs = ", ".join(self.lanes(e) for e in elems)
+        zero = (f"{indent}for (l_ = 0; l_ < {nout}; l_++) {array}[{first} + l_] = (eomc_vd){{0}};\n"
+                + (f"{indent}for (l_ = 0; l_ < {nslopes}; l_++) {slopes}[{slopes_first} + l_] = (eomc_vd){{0}};\n"
+                   if slopes else ""))
         into = (f"{indent}    double slo_[{nslopes}];   /* the loop zeroes it first */\n" if slopes else "",
                 f", slo_, {nslopes}" if slopes else "",
-                f"{indent}    for (k_ = 0; k_ < {nslopes}; k_++) {slopes}[{slopes_first} + k_][l_] = slo_[k_];\n"
+                f"{indent}    {self.prefix}_put_lane({slopes} + {slopes_first}, slo_, {nslopes}, l_);\n"
                 if slopes else "")
-        return (f"{indent}double {name} = 0.0;\n"
+        self.used.add("put_lane")
+        return (f"{indent}double {name} = 0.0;\n{zero}"
                 f"{indent}for (l_ = 0; l_ < EOMC_BATCH_LANES; l_++) {{   /* the pairs' loop, lane by lane */\n"
                 f"{indent}    const double in_[{nin}] = {{{inputs}}};\n"
                 f"{indent}    double out_[{nout}];\n"
                 f"{into[0]}"
-                f"{indent}    int k_;\n"
                 f"{indent}    __builtin_memset(out_, 0, sizeof out_);   /* what a far pair leaves unwritten */\n"
                 f"{indent}    {name} = {fn}(in_, &{pars}[{offset}], {full}, out_{into[1]});\n"
-                f"{indent}    for (k_ = 0; k_ < {nout}; k_++) {array}[{first} + k_][l_] = out_[k_];\n"
+                f"{indent}    {self.prefix}_put_lane({array} + {first}, out_, {nout}, l_);\n"
                 f"{into[2]}"
                 f"{indent}}}")
 
@@ -821,6 +843,7 @@ def _lane_args(call):
 
 _KERNEL_HEAD = re.compile(r"^static (inline )?(void|double) ([A-Za-z_]\w*)\(")
 _LITERAL = r"(-?\d+\.\d*(?:e[-+]?\d+)?)"
+_SCALAR_DISPATCH = re.compile(r"^#if EOMC_RD_AVX2\n.*?^#endif\n", re.M | re.S)
 
 
 _GROUND_SKIP = "            if (!(g[0] > 0.0) && g[0] == g[0]) continue;   /* clear of the ground: all \u00b10 */"
@@ -865,7 +888,8 @@ def vector_kernels(name, helpers_text):
             cur = None
     if not funcs or f"{name}_rnea_derivs" not in names:
         raise Unsupported("calls NAME_rnea_derivs, whose text was not found")
-    text = "\n\n".join(funcs)
+    # the articulated solve's choice of AVX2 row helpers (analytic._aba_dispatch): lanes are vectors already
+    text = _SCALAR_DISPATCH.sub("", "\n\n".join(funcs))
     if re.search(r"\b(sqrt|fabs|fmax|fmin|sin|cos|exp|log|pow|atan2)\(", text) or "static const double" in text:
         raise Unsupported("has an analytic kernel with libm calls or double tables")
     for old, new in names.items():
@@ -965,6 +989,8 @@ def helper_blocks(name, used):
         code.append(("trig", VECTOR_TRIG.format(p=name)))
     if "mask" in used:
         code.append(("mask", _VANY.format(p=name)))
+    if "put_lane" in used:
+        code.append(("put_lane", _PUT_LANE.format(p=name)))
     for f in sorted(used):
         if f in _VECTOR_EXACT:
             code.append((f, _VECTOR_EXACT[f].format(p=name)))
@@ -1031,6 +1057,20 @@ def batch_function(name, nx, nr, npar, lanes_code, helper_code, fn="rhs", nout=N
         params = ("" if npar else "    (void)p;\n    (void)P;\n") + (
             f"    for (i = 0; i < {np1}; i++) for (l = 0; l < L; l++) pv[i][l] = "
             f"{'P == NULL ? p[i] : 0.0' if npar else '0.0'};\n")
+    copy_out = f"""        for (i = 0; i < {nout}; i++) {{
+            for (g = 0; g < gs; g++) __builtin_memcpy(XDOT + (size_t)i * n + k + g * L, &xdot[g][i], sizeof(eomc_vd));
+        }}
+"""
+    xo, direct_decl = "xdot[g]", ""
+    if not tile:
+        # one group and its outputs many: n == L states in an aligned OUT are the group's vectors
+        # as they lie, so the lanes write there and the tile's copy is skipped.  Why: on the
+        # humanoid's implicit (4738 outputs, 296 KB at 8 lanes) that copy was a sixth of
+        # NAME_implicit_batch's time in the lanes rollout (perf), which calls it with n == L.
+        xo = "xo"
+        direct_decl = ("    const int direct = n == L && (size_t)XDOT % sizeof(eomc_vd) == 0;\n"
+                       "    eomc_vd *xo = direct ? (eomc_vd *)XDOT : xdot[0];\n")
+        copy_out = f"        if (!direct) {{\n{copy_out.replace(chr(10) + '        ', chr(10) + '            ').replace('        for', '            for', 1)}        }}\n"
     if lanes_code is not None:
         simd = f"""#if EOMC_BATCH_SIMD
 {helper_code + chr(10) + chr(10) if helper_code else ""}{lanes_code}
@@ -1047,7 +1087,7 @@ static EOMC_VTARGET int {name}_{fn}_groups(int n, double t, const double *X, con
     enum {{ L = EOMC_BATCH_LANES, NG = {groups} }};
     eomc_vd x[NG][{nx}], {"" if shared else f"pv[{np1}], "}r[NG][{nr1}], xdot[NG][{nout}];
     int k, i, g, l, gs;
-{"" if nr else "    (void)R;" + chr(10)}{params}    for (g = 0; g < NG; g++) for (i = 0; i < {nr1}; i++) for (l = 0; l < L; l++) r[g][i][l] = 0.0;
+{direct_decl}{"" if nr else "    (void)R;" + chr(10)}{params}    for (g = 0; g < NG; g++) for (i = 0; i < {nr1}; i++) for (l = 0; l < L; l++) r[g][i][l] = 0.0;
     for (k = 0; k + L <= n; k += gs * L) {{
         gs = (n - k) / L < NG ? (n - k) / L : NG;
         for (i = 0; i < {nx}; i++) {{
@@ -1057,21 +1097,18 @@ static EOMC_VTARGET int {name}_{fn}_groups(int n, double t, const double *X, con
             int st[L];
             eomc_vu bad = {{0}};
 {f"            if (P != NULL) for (i = 0; i < {npar}; i++) __builtin_memcpy(&pv[i], P + (size_t)i * n + k + g * L, sizeof(eomc_vd));" + chr(10) if npar and not shared else ""}            for (l = 0; l < L; l++) st[l] = EOMC_OK;
-            {name}_{fn}_lanes(t, x[g], {"p" if shared else "pv"}, r[g], xdot[g], st);
-            for (i = 0; i < {nout}; i++) bad |= (eomc_vu)(xdot[g][i] - xdot[g][i] != 0.0);   /* inf or NaN */
+            {name}_{fn}_lanes(t, x[g], {"p" if shared else "pv"}, r[g], {xo}, st);
+            for (i = 0; i < {nout}; i++) bad |= (eomc_vu)({xo}[i] - {xo}[i] != 0.0);   /* inf or NaN */
             for (l = 0; l < L; l++) {{
                 if (st[l] == EOMC_OK && bad[l]) st[l] = EOMC_NONFINITE;
                 if (st[l] != EOMC_OK && st[l] != EOMC_NONFINITE) {{   /* the guard stopped it: NaN, as the scalar tail */
-                    for (i = 0; i < {nout}; i++) xdot[g][i][l] = NAN;
+                    for (i = 0; i < {nout}; i++) {xo}[i][l] = NAN;
                 }}
                 if (status != NULL) status[k + g * L + l] = st[l];
                 if (st[l] != EOMC_OK && *worst == EOMC_OK) *worst = st[l];
             }}
         }}
-        for (i = 0; i < {nout}; i++) {{
-            for (g = 0; g < gs; g++) __builtin_memcpy(XDOT + (size_t)i * n + k + g * L, &xdot[g][i], sizeof(eomc_vd));
-        }}
-    }}
+{copy_out}    }}
     return k;
 }}
 #endif

@@ -162,6 +162,9 @@ typedef struct fiber {
     double *out;
     eomc_fs_request *req;  /* lanes_terms_lu: what the row's step asks for (want), NULL: nothing */
     double *ahead;         /* nu + nq: the next try's du and rate (eomc_fs_assemble_lanes) */
+    double *zout[2];       /* the row's last two out buffers that copy_out wrote ... */
+    unsigned char *zmap[2];/* ... and per 4 outputs of each, 1: all four +0.0 there (see copy_out) */
+    int zlast;             /* the one of the two used last */
 } fiber;
 
 typedef struct lanes_sched {
@@ -290,14 +293,42 @@ static int make_fiber(fiber *f)
 #endif
 }
 
+/* The map of which blocks of 4 outputs of fiber f's buffer f->out are known to be all +0.0 (the
+ * fiber's last two buffers have one each: its step's T and T1, swapped step by step); a buffer
+ * not seen before starts with none known. */
+static unsigned char *zero_map(fiber *f, size_t nmap)
+{
+    int i;
+    for (i = 0; i < 2; i++)
+        if (f->zout[i] == f->out) break;
+    if (i == 2) {
+        i = 1 - f->zlast;
+        f->zout[i] = f->out;
+        memset(f->zmap[i], 0, nmap);
+    }
+    f->zlast = i;
+    return f->zmap[i];
+}
+
+/* What a write to f->out by other code (the scalar call) leaves: nothing known of it. */
+static void forget_zeros(fiber *f)
+{
+    for (int i = 0; i < 2; i++)
+        if (f->zout[i] == f->out) f->zout[i] = NULL;
+}
+
 /* outs[c][e] = OUT[e * k + c] for the k rows of a batch (its columns back into each row's buffer).
  * Why 4 x 4 blocks: on G1 (3036 terms a row) the element-wise copy was about a sixth of the lanes
  * integrator's time (perf, lanes_rows); the blocks take 4 loads, 8 shuffles and 4 stores for 16
- * doubles.  A copy: the same bits either way. */
+ * doubles.  A copy: the same bits either way.  maps[c] (zero_map): a block of 16 that is all +0.0
+ * is not stored into a row whose 4 outputs are known +0.0 already.  Why: most of a model's
+ * contact pairs are apart, their 25 slots zero call after call (the humanoid: 2725 of its 4738
+ * outputs), and the stores into 8 rows' buffers were the copy's cost. */
 #if defined(__x86_64__) && defined(__GNUC__)
 #include <immintrin.h>
 #define EOMC_COPY_OUT4 1
-__attribute__((target("avx"))) static void copy_out4(double *const *outs, const double *OUT, size_t n, int k)
+__attribute__((target("avx"))) static void copy_out4(double *const *outs, unsigned char *const *maps,
+                                                     const double *OUT, size_t n, int k)
 {
     size_t e = 0;
     for (; e + 4 <= n; e += 4) {
@@ -305,6 +336,16 @@ __attribute__((target("avx"))) static void copy_out4(double *const *outs, const 
         for (int c = 0; c < k; c += 4) {
             __m256d r0 = _mm256_loadu_pd(o + c), r1 = _mm256_loadu_pd(o + k + c);
             __m256d r2 = _mm256_loadu_pd(o + 2 * k + c), r3 = _mm256_loadu_pd(o + 3 * k + c);
+            __m256i z = _mm256_castpd_si256(_mm256_or_pd(_mm256_or_pd(r0, r1), _mm256_or_pd(r2, r3)));
+            if (_mm256_testz_si256(z, z)) {          /* all 16 are +0.0 */
+                for (int j = c; j < c + 4; j++)
+                    if (!maps[j][e / 4]) {
+                        _mm256_storeu_pd(outs[j] + e, r0);
+                        maps[j][e / 4] = 1;
+                    }
+                continue;
+            }
+            for (int j = c; j < c + 4; j++) maps[j][e / 4] = 0;
             __m256d t0 = _mm256_unpacklo_pd(r0, r1), t1 = _mm256_unpackhi_pd(r0, r1);
             __m256d t2 = _mm256_unpacklo_pd(r2, r3), t3 = _mm256_unpackhi_pd(r2, r3);
             _mm256_storeu_pd(outs[c] + e, _mm256_permute2f128_pd(t0, t2, 0x20));
@@ -318,14 +359,15 @@ __attribute__((target("avx"))) static void copy_out4(double *const *outs, const 
 }
 #endif
 
-static void copy_out(double *const *outs, const double *OUT, size_t n, int k)
+static void copy_out(double *const *outs, unsigned char *const *maps, const double *OUT, size_t n, int k)
 {
 #ifdef EOMC_COPY_OUT4
     if (k % 4 == 0 && __builtin_cpu_supports("avx")) {
-        copy_out4(outs, OUT, n, k);
+        copy_out4(outs, maps, OUT, n, k);
         return;
     }
 #endif
+    for (int c = 0; c < k; c++) memset(maps[c], 0, (n + 3) / 4);     /* every output written */
     for (size_t e = 0; e < n; e++) {           /* OUT read in order, k rows written */
         const double *o = OUT + e * (size_t)k;
         for (int c = 0; c < k; c++) outs[c][e] = o[c];
@@ -361,6 +403,7 @@ static int lanes_rows(rollout_job *job, fiber *f, double *buf, int *ibuf, int *i
     lanes_sched s;
     const int L = job->lanes, nx = job->m->nx, nr = job->m->ninput;
     double *X = buf, *R = X + (size_t)nx * L, *OUT = R + (size_t)nr * L, *outs[64];
+    unsigned char *maps[64];
     memset(&s, 0, sizeof s);
     s.job = job; s.f = f; s.lw = lw;
     s.opt = *job->opt;
@@ -385,6 +428,7 @@ static int lanes_rows(rollout_job *job, fiber *f, double *buf, int *ibuf, int *i
             for (int c = 0; c < k; c++) {
                 fiber *q = &f[idx[c]];
                 q->result = job->opt->implicit->terms(q->t, q->x, q->p, q->r, q->out, mwork);
+                forget_zeros(q);
             }
             for (int c = 0; c < k; c++) resume(&s, idx[c]);
             continue;
@@ -398,9 +442,10 @@ static int lanes_rows(rollout_job *job, fiber *f, double *buf, int *ibuf, int *i
         if (lw) lanes_assemble(&s, idx, ibuf, X, OUT);
         for (int c = 0; c < k; c++) {
             outs[c] = f[idx[c]].out;
+            maps[c] = zero_map(&f[idx[c]], (job->out_len + 3) / 4);
             f[idx[c]].result = ibuf[c];
         }
-        copy_out(outs, OUT, job->out_len, k);
+        copy_out(outs, maps, OUT, job->out_len, k);
         for (int c = 0; c < k; c++) resume(&s, idx[c]);
     }
     cur_sched = NULL;
@@ -426,7 +471,9 @@ static void *lanes_fiber_worker(rollout_job *job)
         f[i].stack = (char *)malloc(FIBER_STACK);
         f[i].work = (double *)malloc(job->work_len * sizeof(double));
         f[i].ahead = (double *)malloc((size_t)job->m->nx * sizeof(double));
-        ok = f[i].stack && f[i].work && f[i].ahead;
+        f[i].zmap[0] = (unsigned char *)malloc(2 * ((job->out_len + 3) / 4) + 1);
+        f[i].zmap[1] = f[i].zmap[0] ? f[i].zmap[0] + (job->out_len + 3) / 4 : NULL;
+        ok = f[i].stack && f[i].work && f[i].ahead && f[i].zmap[0];
     }
     if (ok)
         failed = lanes_rows(job, f, buf, ibuf, ibuf + L, mwork, lw);
@@ -434,6 +481,7 @@ static void *lanes_fiber_worker(rollout_job *job)
         free(f[i].stack);
         free(f[i].work);
         free(f[i].ahead);
+        free(f[i].zmap[0]);
     }
     free(f); free(mem); free(mwork); free(ibuf);
     eomc_fs_lanes_free(lw);

@@ -52,6 +52,25 @@ def _scalar(model, X):
     return out
 
 
+def _batch_at(model, X, shift):
+    """NAME_implicit_batch over the rows of X through cffi, its OUT ``shift`` doubles past a
+    64-byte boundary: (n, size).  n == lanes with shift 0 is the lanes rollout's call (the
+    lanes write into OUT itself when a state's outputs are many); any other shift takes the
+    tile's copy."""
+    ffi = model.ffi
+    fp = getattr(model.model_lib, f"{model.name}_implicit_batch")
+    n, size = len(X), model.metadata["implicit"]["layout"]["size"]
+    raw = np.zeros(n * size + 16)
+    first = (-(raw.ctypes.data // 8)) % 8 + shift
+    out = raw[first:first + n * size]
+    assert (out.ctypes.data - 8 * shift) % 64 == 0
+    cols, status = np.ascontiguousarray(X.T), np.zeros(n, dtype=np.intc)
+    work, r = np.zeros(model.work_size + 1), np.zeros(max(model.ninput, 1) * n)
+    assert fp(n, 0.0, ffi.from_buffer("double[]", cols), model._default_p, ffi.from_buffer("double[]", r),
+              ffi.from_buffer("double[]", out), ffi.from_buffer("int[]", status), ffi.from_buffer("double[]", work)) == 0
+    return out.reshape(size, n).T.copy()
+
+
 def _states(model, n, seed):
     """Near the file's start, the torso lowered by up to 0.3 m or raised by 0.1 m (the foot
     starts 0.1 m up): some states with feet, legs or thighs on the ground, some in the air."""
@@ -127,11 +146,15 @@ def test_a_pair_table_call_runs_lane_by_lane_in_the_batch(tmp_path, monkeypatch)
     """The pairs' table loop (eomc_pairs) in NAME_implicit_batch: each lane's inputs gathered and
     the scalar loop called, so the batch stays vectorized around it and equals the scalar
     NAME_implicit bit for bit (libm sin/cos) in groups whose lanes have the feet pressed together,
-    apart (the pair skipped by its broad phase) and on the floor or not."""
+    apart (the pair skipped by its broad phase) and on the floor or not.  Built with tiles of one
+    group (batch.TILE_BYTES 0, as a model whose outputs are many: the humanoid's, G1's), so that
+    a call with n == lanes into an aligned OUT takes the lanes' direct writes."""
     import eomc
     from eomc.compiler.contact import pairs
+    from eomc.compiler.emit import batch
     from eomc.compiler.mjcf.model import MjcfModel
     monkeypatch.setattr(pairs, "TABLE_FROM", 1)
+    monkeypatch.setattr(batch, "TILE_BYTES", 0)
     path = tmp_path / "twolegs.xml"
     path.write_text(TWO_LEGS)
     model = eomc.compile(MjcfModel(path), name="ibpt", functions=("rhs", "implicit", "implicit_batch", "outputs"),
@@ -141,6 +164,7 @@ def test_a_pair_table_call_runs_lane_by_lane_in_the_batch(tmp_path, monkeypatch)
     # NAME_implicit's call writes its slopes into out[] (contact/table.slopes_into), and the lanes take
     # that call too: no fall back to the scalar loop
     assert "double *slo, int nslo" in source and "slo_[" in source
+    assert "const int direct = n == L" in source
     assert model.metadata["implicit_batch"]["vectorized"], model.metadata["implicit_batch"]
     lanes = machine_lanes()
     rng = np.random.default_rng(5)
@@ -157,6 +181,8 @@ def test_a_pair_table_call_runs_lane_by_lane_in_the_batch(tmp_path, monkeypatch)
     assert (groups.any(axis=1) & ~groups.all(axis=1)).any(), groups     # a group mixes both
     assert _touching(model, want).any() and not _touching(model, want).all()
     assert np.array_equal(got, want)
+    for shift in (0, 1):           # one group in OUT itself (aligned), and through the tile
+        assert np.array_equal(_batch_at(model, X[:lanes], shift), want[:lanes])
 
 
 def _lanes(lines, fn="implicit"):

@@ -132,16 +132,25 @@ def test_cart_without_simd_scalar_tiles(cache):
             model.jac_x_batch(0.3, bad, r=R)
 
 
-def test_analytic_kernel_in_lanes_bit_for_bit(cache, monkeypatch):
+@pytest.mark.parametrize("solver", ["ltdl", "aba"])
+def test_analytic_kernel_in_lanes_bit_for_bit(cache, monkeypatch, solver):
     """A cart with 6 links: its jac_x calls the analytic kernel NAME_rnea_derivs (loops over
     the tree's int tables, compiler/tree/analytic.py), retyped into lanes (every double a
-    vector, the same loops): bit for bit with libm trig, inputs per state, a scalar tail."""
+    vector, the same loops): bit for bit with libm trig, inputs per state, a scalar tail.
+    With M⁻¹ by LᵀDL (its own choice) and articulated (forced): the scalar kernel built at
+    -O2 then runs the solve's AVX2 row helpers on an AVX2 CPU, which the lanes leave out."""
+    from eomc.compiler.tree import analytic
     monkeypatch.setenv("EOMC_N_LINKS", "6")
-    model = compile_model(str(CHAIN), "jbchain", functions=FUNCTIONS, formulation="recursive", cache_dir=cache,
+    if solver == "aba":
+        monkeypatch.setattr(analytic, "ABA_DEPTH", 0)
+    name = "jbchain" if solver == "ltdl" else "jbchaba"
+    model = compile_model(str(CHAIN), name, functions=FUNCTIONS, formulation="recursive", cache_dir=cache,
                           cflags=f"{STRICT} -DEOMC_BATCH_LIBM_TRIG", progress=False)
     assert model.metadata["jac_x_batch"]["vectorized"], model.metadata["jac_x_batch"]
     c = "".join(f.read_text() for f in Path(model.directory).glob("*.c"))
-    assert "jbchain_vrnea_derivs(an, u, ud, out," in c
+    assert f"{name}_vrnea_derivs(an, u, {'ud' if solver == 'ltdl' else 'u'}, out," in c
+    # the scalar kernel's AVX2 row helpers are not retyped into lanes (the lanes are vectors already)
+    assert (f"{name}_rd_bw_avx2(" in c) == (f"{name}_vrd_bw(" in c) == (solver == "aba") and "vrd_bw_avx2" not in c
     X = _states(model, 2 * machine_lanes() + 3, 6)
     R = np.random.default_rng(7).uniform(-1, 1, (X.shape[0], model.ninput))
     assert np.array_equal(model.jac_x_batch(0.3, X, r=R), _scalar(model, X, R))
