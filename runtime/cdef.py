@@ -9,7 +9,7 @@ sizes and names read through this layout against each built model's metadata.
 from .header_cdef import header_cdef
 
 __all__ = ["ABI_VERSION", "MODEL_CDEF", "BATCH_CDEF", "STATUS_NAMES", "STATUS_SINGULAR_MASS_MATRIX",
-           "STATUS_ABORTED", "model_function_cdef"]
+           "STATUS_ABORTED", "model_function_cdef", "CONST_SPLIT"]
 
 ABI_VERSION = 1
 
@@ -63,14 +63,23 @@ _SIGNATURES = {
 }
 
 
-def model_function_cdef(name, functions):
+# A function whose constant outputs are apart (NAME.json's "const_outputs"; compiler/tree/emit.py's
+# implicit_constants): NAME_fn_const writes them, NAME_fn_var the rest, NAME_fn both in turn.
+CONST_SPLIT = {"implicit": ("void {n}_implicit_const(double *out);",
+                            "int {n}_implicit_var(double t, const double *x, const double *p, const double *r, "
+                            "double *out, double *work);")}
+
+
+def model_function_cdef(name, functions, const_split=()):
     """Declarations of a model's exported functions, rebuilt from its metadata.
 
     Used when a build directory's metadata carries no ``cdef`` text; the
-    signatures are fixed by the ABI, so the function list is enough.
+    signatures are fixed by the ABI, so the function list is enough (with
+    ``const_split``: the functions whose constant outputs are apart, CONST_SPLIT).
     """
     lines = [f"const eomc_model *{name}_model(void);"]
     lines += [_SIGNATURES[f].format(n=name) for f in functions if f in _SIGNATURES]
     if "poses" in functions:
         lines.append(f"int {name}_pose_count(void);")
+    lines += [d.format(n=name) for f in const_split if f in functions for d in CONST_SPLIT[f]]
     return "\n".join(lines) + "\n"

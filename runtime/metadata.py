@@ -23,7 +23,7 @@ import re
 
 from eomc.runtime.errors import ModelError
 
-from .cdef import ABI_VERSION, model_function_cdef
+from .cdef import ABI_VERSION, CONST_SPLIT, model_function_cdef
 
 __all__ = ["LoadError", "check_json", "from_library", "SIZES", "FUNCTIONS"]
 
@@ -59,6 +59,16 @@ def _integer(path, data, field):
     return value
 
 
+def const_split(path, data):
+    """The functions whose constant outputs NAME.json says are apart ("const_outputs": {function:
+    count}; runtime/cdef.CONST_SPLIT), checked."""
+    split = data.get("const_outputs") or {}
+    if not isinstance(split, dict) or any(f not in CONST_SPLIT or not isinstance(n, int) or n < 1
+                                          for f, n in split.items()):
+        raise _bad(path, f"const_outputs must map {', '.join(CONST_SPLIT)} to a count; got {split!r}")
+    return tuple(split)
+
+
 def check_json(path, data):
     """Check NAME.json before anything is opened; returns (name, library file name, functions)."""
     if not isinstance(data, dict):
@@ -87,7 +97,7 @@ def check_json(path, data):
         raise _bad(path, f"target must be c99-f64 or c99-f32, not {target!r}")
     cdef = data.get("cdef")
     if cdef is not None and target == "c99-f64":   # a c99-f32 load declares its own (runtime/float32.py)
-        expected = set(model_function_cdef(name, functions).split("\n")) - {""}
+        expected = set(model_function_cdef(name, functions, const_split(path, data)).split("\n")) - {""}
         if not isinstance(cdef, str) or {line.strip() for line in cdef.split("\n")} - {""} != expected:
             raise _bad(path, "its C declarations (cdef) do not match the functions it lists")
     for field in ("state_names", "param_names", "input_names", "output_names", "param_defaults"):

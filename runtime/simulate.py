@@ -494,6 +494,9 @@ def implicit_terms(model):
                     ffi.new("int[]", parents) if tree else ffi.NULL, ffi.new("int[]", free or [0]))
             st = ffi.new("eomc_implicit *")
             st.terms = ffi.cast("eomc_mat_fn", fp)
+            split = _const_apart(model)
+            if split is not None:       # the constant outputs once per run (eomc_implicit.terms_const)
+                st.terms, st.terms_const = ffi.cast("eomc_mat_fn", split[0]), split[1]
             st.ncontact = len(contacts)
             st.chain_start, st.chain, st.parent = keep[:3]
             st.nfree, st.free = len(free), keep[3]
@@ -501,6 +504,18 @@ def implicit_terms(model):
             found = (st, keep, fp)
     model._implicit_struct = found
     return found[0]
+
+
+def _const_apart(model):
+    """(NAME_implicit_var, NAME_implicit_const) when the model has them (NAME.json's
+    "const_outputs", compiler/tree/emit.implicit_constants), else None: NAME_implicit whole."""
+    if not (model.metadata.get("const_outputs") or {}).get("implicit"):
+        return None
+    try:
+        return (model.ffi.addressof(model.model_lib, f"{model.name}_implicit_var"),
+                model.ffi.addressof(model.model_lib, f"{model.name}_implicit_const"))
+    except (AttributeError, KeyError, model.ffi.error):
+        return None
 
 
 # implicitfast's fast path fails a run (EOMC_PENETRATED, status 10) whose contact goes deeper
@@ -545,7 +560,7 @@ def implicit_for_run(model, p, split=IMPLICITFAST_SPLIT):
     st = ffi.new("eomc_implicit *")
     st.terms, st.ncontact, st.chain_start, st.chain = base.terms, base.ncontact, base.chain_start, base.chain
     st.parent, st.work_len, st.depth_limit, st.split = base.parent, base.work_len, lim, float(split)
-    st.nfree, st.free = base.nfree, base.free
+    st.nfree, st.free, st.terms_const = base.nfree, base.free, base.terms_const
     return st, (st, lim, base)     # the caller keeps the second alive while C runs
 
 

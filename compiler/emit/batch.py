@@ -47,6 +47,8 @@ time, as rows a power of two apart share the L1 cache's sets (:data:`TILE_BYTES`
 """
 import re
 
+from .printer import MINMAX_NAMES
+
 __all__ = ["batch_code", "batch_rhs", "Unsupported", "SIMD_PRELUDE", "VECTOR_TRIG", "TILE_BYTES", "SCALAR_TILE_BYTES"]
 
 _TEMP_LINE = re.compile(r"^(\s+)const double (t\d+) = (.*);$")
@@ -87,6 +89,8 @@ _IDENT = re.compile(r"\b([A-Za-z_]\w*)\b")
 MATH1 = ("sqrt", "fabs", "exp", "log", "tan", "tanh", "sinh", "cosh", "atan", "asin", "acos", "cbrt",
          "expm1", "log1p", "floor", "ceil", "erf", "asinh", "acosh", "atanh", "log10", "log2", "exp2")
 MATH2 = ("pow", "atan2", "fmin", "fmax", "hypot", "fmod", "copysign")
+# the printer's inline fmax/fmin (printer.MINMAX_C) -> their libm names, whose lane helpers follow
+_LIBM = {inline: libm for libm, inline in MINMAX_NAMES.items()}
 
 SIMD_PRELUDE = r"""#if defined(__GNUC__) && !defined(EOMC_NO_SIMD)
 #define EOMC_BATCH_SIMD 1
@@ -268,9 +272,10 @@ _VSET = """static EOMC_VTARGET eomc_vd {p}_vset(double a)
     return v;
 }}"""
 
-# fabs, fmax and fmin as vector bit operations and compares: bit for bit libm's (C99 F.9.9.2 as
-# glibc: fmax/fmin return a when a >= b (a <= b) or only b is NaN, else b), not a call per lane --
-# joint limits put two fmax per joint in a robot's rhs (UR10: 26 of them)
+# fabs, fmax and fmin as vector bit operations and compares: bit for bit libm's and the scalar
+# inline form's (printer.MINMAX_C; glibc 2.36 x86-64: fmax/fmin return a when a > b (a < b) or
+# b is NaN, else b -- so b for a == b: fmax(-0, +0) = +0), not a call per lane -- joint limits
+# put two fmax per joint in a robot's rhs (UR10: 26 of them)
 _VECTOR_EXACT = {
     "fabs": """static EOMC_VTARGET EOMC_VINLINE eomc_vd {p}_v_fabs(eomc_vd a)
 {{
@@ -278,12 +283,12 @@ _VECTOR_EXACT = {
 }}""",
     "fmax": """static EOMC_VTARGET EOMC_VINLINE eomc_vd {p}_v_fmax(eomc_vd a, eomc_vd b)
 {{
-    const eomc_vu take_a = (eomc_vu)((a >= b) | ((b != b) & (a == a)));
+    const eomc_vu take_a = (eomc_vu)((a > b) | (b != b));
     return (eomc_vd)(((eomc_vu)a & take_a) | ((eomc_vu)b & ~take_a));
 }}""",
     "fmin": """static EOMC_VTARGET EOMC_VINLINE eomc_vd {p}_v_fmin(eomc_vd a, eomc_vd b)
 {{
-    const eomc_vu take_a = (eomc_vu)((a <= b) | ((b != b) & (a == a)));
+    const eomc_vu take_a = (eomc_vu)((a < b) | (b != b));
     return (eomc_vd)(((eomc_vu)a & take_a) | ((eomc_vu)b & ~take_a));
 }}""",
 }
@@ -554,7 +559,8 @@ class _Rewriter:
             elif name in ("sin", "cos") and len(args) == 1:
                 self.used.add("trig")
                 out.append(f"{self.prefix}_v{name}({new[0]})")
-            elif (name in MATH1 and len(args) == 1) or (name in MATH2 and len(args) == 2):
+            elif (name in MATH1 and len(args) == 1) or (_LIBM.get(name, name) in MATH2 and len(args) == 2):
+                name = _LIBM.get(name, name)
                 self.used.add(name)
                 wrapped = [a if v else f"{self.prefix}_vset({a.strip()})" for a, v in zip(new, vec)]
                 if len(wrapped) > 1:
@@ -890,7 +896,7 @@ def vector_kernels(name, helpers_text):
         raise Unsupported("calls NAME_rnea_derivs, whose text was not found")
     # the articulated solve's choice of AVX2 row helpers (analytic._aba_dispatch): lanes are vectors already
     text = _SCALAR_DISPATCH.sub("", "\n\n".join(funcs))
-    if re.search(r"\b(sqrt|fabs|fmax|fmin|sin|cos|exp|log|pow|atan2)\(", text) or "static const double" in text:
+    if re.search(r"\b(sqrt|fabs|fmax|fmin|eomc_fmax|eomc_fmin|sin|cos|exp|log|pow|atan2)\(", text) or "static const double" in text:
         raise Unsupported("has an analytic kernel with libm calls or double tables")
     for old, new in names.items():
         text = re.sub(rf"\b{old}\b", new, text)

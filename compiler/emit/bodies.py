@@ -30,6 +30,8 @@ class BodyContext:
         self.functions = ()     # the functions generated with this one (set by the generator)
         self.parts = []         # static functions the body being generated calls (emitted before it)
         self.solver_parts = []  # static functions emitted right after the solver's (see jvp_body)
+        # NAME_implicit's constant outputs (compiler/tree/emit.implicit_constants; taken by the generator)
+        self.constant_stores = None
 
     @property
     def nx(self):

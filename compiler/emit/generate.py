@@ -1,4 +1,5 @@
 """``generate_c``: a FormedSystem to C99 source, header, cffi cdef and metadata."""
+import re
 from collections import Counter
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -6,6 +7,7 @@ from dataclasses import dataclass
 import jinja2
 import sympy as sm
 
+from eomc.runtime.cdef import CONST_SPLIT
 from eomc.runtime.errors import ModelError
 from eomc.runtime.switching import GAP_EVENT_PREFIXES
 from ..passes import finish_function, optimize_shared
@@ -18,12 +20,12 @@ from .formulation import KANE, Formulation
 from .generated import GeneratedModel
 from .layout import check_identifier, make_layout
 from .linsolve import choose_ldlt
-from .printer import NonFiniteLiteral, print_memo
+from .printer import MINMAX_C, NonFiniteLiteral, print_memo
 from .reverse import REVERSE_FUNCTIONS, reverse_body, reverse_nsolve
 from .sparse_lu import sparse_lu_solver
 from .split import LEAN_MACRO, NOINLINE_MACRO, lean_attribute, split_body
 from .batch import batch_code
-from .signatures import BATCH_FUNCTIONS, FUNCTION_ORDER, ON_REQUEST, STRUCT_FIELDS, cdef, prototype
+from .signatures import BATCH_FUNCTIONS, FUNCTION_ORDER, ON_REQUEST, SIGNATURES, STRUCT_FIELDS, cdef, prototype
 from .symbolic import HELPER_USERS
 
 __all__ = ["generate_c", "lower", "ir_listing", "Lowered", "ALL_FUNCTIONS"]
@@ -396,14 +398,24 @@ def _generate_c(formed, name, *, parameters, inputs, outputs, functions, fold_pa
         with _naming_nonfinite(name, fn):
             body = (plain_body(ctx, prog, "pose", (low.poses["size"],), "out") if fn == "poses" else
                     _body(fn, ctx, prog, sym, layout, nx, fns, formulation))
+        consts, ctx.constant_stores = ctx.constant_stores, None
+        full = body
+        if consts is not None:      # NAME_implicit: its constant outputs apart (tree/emit.implicit_constants)
+            body = [line for line in body if line not in consts[0]]
         lines, parts = split_body(body, f"{name}_{fn}_part", restrict=formulation.restrict_scratch(fn))
         ctx.split = ctx.split or bool(parts)
         parts, ctx.parts = ctx.parts + parts, []     # functions the body asked for (bodies.BodyContext.parts)
         if fn in BATCH_FUNCTIONS.values():
-            printed[fn] = (lines, parts)
+            # the lanes twin writes every output each call (the lanes rollout copies them all)
+            printed[fn] = ((lines, parts) if consts is None or not any(BATCH_FUNCTIONS.get(f) == fn for f in fns)
+                           else split_body(full, f"{name}_{fn}_part", restrict=formulation.restrict_scratch(fn)))
         lean = lean_attribute(fn, lines)
-        rendered.append({"prototype": f"{lean} {prototype(name, fn)}" if lean else prototype(name, fn),
-                         "body": void_unused(fn, lines), "parts": parts, "lean": bool(lean)})
+        if consts is not None:
+            rendered += _constants_apart(name, fn, consts[1], lines, parts, lean)
+            meta_batch.setdefault("const_outputs", {})[fn] = sum(1 for line in full if line in consts[0])
+        else:
+            rendered.append({"prototype": f"{lean} {prototype(name, fn)}" if lean else prototype(name, fn),
+                             "body": void_unused(fn, lines), "parts": parts, "lean": bool(lean)})
         op_counts[fn] = (dict(op_counts[GENERATED_LIKE[fn]]) if fn in GENERATED_LIKE else
                          _ops(fn, prog, solver, nx, len(layout.r), sym.seeds, low.helper, nu,
                               sum(1 for i, j in sym.pattern if i < nu and j < nu), sym.solve_in,
@@ -433,6 +445,27 @@ def _generate_c(formed, name, *, parameters, inputs, outputs, functions, fold_pa
         meta["poses"] = pose_metadata(low.poses)
     return _render(name, meta, fns, rendered, solver, layout, sym, helper, ctx.split, formulation,
                    ctx.solver_parts)
+
+
+def _constants_apart(name, fn, const_lines, lines, parts, lean):
+    """The rendered NAME_fn_const (the constant outputs), NAME_fn_var (the body without them) and
+    NAME_fn (the two in turn: what it always was, for every caller that does not keep its
+    output buffer).  The fixed step calls NAME_fn_const once per buffer and run, then
+    NAME_fn_var per step (runtime/c/eomc_integrators.h, eomc_implicit.terms_const)."""
+    var = prototype(name, fn).replace(f" {name}_{fn}(", f" {name}_{fn}_var(", 1)
+    args = ", ".join(a for _, a in SIGNATURES[fn])
+    return [{"prototype": f"void {name}_{fn}_const(double *out)", "body": "\n".join(const_lines), "parts": []},
+            {"prototype": f"{lean} {var}" if lean else var, "body": void_unused(fn, lines), "parts": parts,
+             "lean": bool(lean)},
+            {"prototype": prototype(name, fn),
+             "body": f"    {name}_{fn}_const(out);\n    return {name}_{fn}_var({args});", "parts": []}]
+
+
+def const_prototypes(name, meta):
+    """The header's and cdef's declarations of NAME_implicit_const and NAME_implicit_var, when the
+    model has them (metadata "const_outputs"): the runtime's (runtime/cdef.CONST_SPLIT, what the
+    loader declares and checks NAME.json's cdef against)."""
+    return [d.format(n=name).rstrip(";") for f in (meta.get("const_outputs") or {}) for d in CONST_SPLIT[f]]
 
 
 def _batch_outputs(scalar, sym, fns, formulation):
@@ -571,6 +604,14 @@ def _pose_docs(meta):
                       f"columns are the body's axes)", rows)]
 
 
+def _minmax_code(helper_code, rendered):
+    """The inline fmax and fmin (printer.MINMAX_C) that some text calls ("" when none: a model
+    without them keeps its C as before)."""
+    texts = [helper_code] + [t for f in rendered for t in (f["body"], *f["parts"])]
+    return "\n\n".join(code for fn, code in MINMAX_C.items()
+                        if any(re.search(rf"\b{fn}\(", t) for t in texts))
+
+
 def _render(name, meta, fns, rendered, solver, layout, sym, helper, split=False, formulation=KANE,
             solver_parts=()):
     tables, table_refs = _tables(name, layout, sym.output_names)
@@ -582,15 +623,28 @@ def _render(name, meta, fns, rendered, solver, layout, sym, helper, split=False,
                                    "nvel", "work_size", "eomc_version")}
     header = env.get_template("model.h.j2").render(
         name=name, prototypes=[prototype(name, f) for f in fns]
-        + ([f"int {name}_pose_count(void)"] if "poses" in fns else [])
+        + ([f"int {name}_pose_count(void)"] if "poses" in fns else []) + _const_docs(name, meta)
         + ([f"int {name}_rhs_batch_p(int n, double t, const double *X, const double *P, const double *R, "
             f"double *XDOT, int *status, double *work)"] if "rhs_batch" in fns else []),
         vectors=_vector_docs(meta), **common)
+    helper_code = "\n".join(c for c in ((solver.code if uses_solver else ""), *solver_parts, helper) if c)
     source = env.get_template("model.c.j2").render(
-        name=name, functions=rendered,
-        helper_code="\n".join(c for c in ((solver.code if uses_solver else ""), *solver_parts, helper) if c),
+        name=name, functions=rendered, helper_code=helper_code, minmax=_minmax_code(helper_code, rendered),
         tables=tables, table_refs=table_refs, pointers=pointers,
         noinline=NOINLINE_MACRO if split else "", wide_finite="implicit" in fns,
         lean=LEAN_MACRO if any(f.get("lean") for f in rendered) else "", **common)
-    return GeneratedModel(name=name, c_source=source, header=header, cdef=cdef(name, fns),
+    return GeneratedModel(name=name, c_source=source, header=header,
+                          cdef=cdef(name, fns) + "".join(f"{p};\n" for p in const_prototypes(name, meta)),
                           metadata=meta)
+
+
+def _const_docs(name, meta):
+    """const_prototypes with the header's word on them."""
+    protos = const_prototypes(name, meta)
+    if not protos:
+        return []
+    return [f"/* {name}_implicit(...) is {name}_implicit_const(out), then {name}_implicit_var(...): the\n"
+            f" * first writes the outputs that are constants ({meta['const_outputs']['implicit']} of "
+            f"{meta['implicit']['layout']['size']}), the second the rest.\n"
+            f" * A caller that calls it again and again into the same out[] (the fixed step: once per run)\n"
+            f" * may call {name}_implicit_const once and then {name}_implicit_var alone. */\n" + protos[0]] + protos[1:]

@@ -6,7 +6,10 @@ SymPy's C99CodePrinter does the precedence work; this subclass only
 * prints floats so they round-trip exactly (``repr``), exact rationals as
   ``1.0/3.0`` (SymPy's rule), and named constants (pi, E) as literals rather than the
   non-C99 ``M_PI`` macros,
-* prints :class:`~eomc.compiler.ir.IMul` products as ``(a*b*c)``.
+* prints :class:`~eomc.compiler.ir.IMul` products as ``(a*b*c)``,
+* prints Max and Min (and the nodes whose ``_ccode`` calls :func:`c_minmax`) as calls of
+  ``eomc_fmax`` / ``eomc_fmin``: the inline forms of :data:`MINMAX_C`, which the generated
+  file defines, instead of libm's fmax and fmin.
 
 While a :func:`print_memo` is open (generate_c's), each expression is printed by SymPy once,
 as a template with a hole per symbol, and filled with the C names of the printer asking:
@@ -25,7 +28,36 @@ import sympy as sm
 from sympy.printing.c import C99CodePrinter
 from sympy.printing.precedence import PRECEDENCE
 
-__all__ = ["CPrinter", "NonFiniteLiteral", "print_memo"]
+__all__ = ["CPrinter", "NonFiniteLiteral", "print_memo", "c_minmax", "MINMAX_C", "MINMAX_NAMES"]
+
+# fmax and fmin inline.  Why: on the ant's NAME_implicit (164 sites: joint limits, ctrl clamps,
+# the broad phase) the libm calls were 3.6 % of its time (session 15, report-antfs.md).  Why this
+# form: it is glibc 2.36's x86-64 fmax/fmin bit for bit -- maxsd/minsd (a > b ? a : b, so b when
+# a == b: fmax(-0, +0) = +0), a NaN in one place gives the other argument, in both a -- checked
+# over every pair of signed zeros, infinities, NaNs, subnormals (tests/compiler/emit/
+# test_batch.py, test_vector_fabs_fmax_fmin_are_libm_bit_for_bit).  A fixed text (not gcc's builtin): gcc takes fmax as commutative and may swap
+# the arguments of a call, which changes the sign of fmax(-0, +0); a conditional is not swapped.
+MINMAX_NAMES = {"fmax": "eomc_fmax", "fmin": "eomc_fmin"}
+# their C by name; a file defines only those it calls (clang warns of an unused static inline)
+MINMAX_C = {"eomc_fmax": """static inline double eomc_fmax(double a, double b)
+{
+    return a > b ? a : (b != b ? a : b);
+}""", "eomc_fmin": """static inline double eomc_fmin(double a, double b)
+{
+    return a < b ? a : (b != b ? a : b);
+}"""}
+
+
+def c_minmax(printer, fn, *args):
+    """C text of fmax or fmin (``fn``) of the printed ``args`` (two or more, nested to the
+    right as SymPy's printer nests Max): eomc's inline form under :class:`CPrinter`, libm's
+    name under any other printer (SymPy's own ccode of an eomc node)."""
+    name = MINMAX_NAMES[fn] if isinstance(printer, CPrinter) else fn
+    text = args[-1]
+    for a in reversed(args[:-1]):
+        text = f"{name}({a}, {text})"
+    return text
+
 
 # Per thread (two models may be generated at once in threads): .memo = {expr: (texts, symbols)
 # or None (uncacheable)} while a print_memo is open; .tp = the thread's template printer.
@@ -107,6 +139,12 @@ class CPrinter(C99CodePrinter):
 
     _print_Pi = _print_NumberSymbol
     _print_Exp1 = _print_NumberSymbol
+
+    def _print_Max(self, expr):
+        return c_minmax(self, "fmax", *(self._print(a) for a in expr.args))
+
+    def _print_Min(self, expr):
+        return c_minmax(self, "fmin", *(self._print(a) for a in expr.args))
 
     def _print_IMul(self, expr):
         # always parenthesized: SymPy's Mul printer may put it after "/" at Add precedence

@@ -42,7 +42,8 @@ _CONSTANTS = {"DBL_EPSILON": "FLT_EPSILON", "DBL_MAX": "FLT_MAX", "DBL_MIN": "FL
               "HUGE_VAL": "HUGE_VALF", "double": "float"}
 # identifiers the generated C may call besides its own NAME_* functions and the map above
 _KNOWN_CALLS = {"isfinite", "defined", "sizeof", "if", "for", "while", "switch", "return", "__attribute__",
-                "noinline", "optimize", "__noinline__"}
+                "noinline", "optimize", "__noinline__",
+                "eomc_fmax", "eomc_fmin"}   # printer.MINMAX_C: its double becomes float like the rest
 
 _TOKEN = re.compile(r"""
     (?P<comment>/\*.*?\*/|//[^\n]*)

@@ -44,8 +44,9 @@ class Clamp(sm.Function):
         return _clamped(*(a.evalf(prec) for a in self.args))
 
     def _ccode(self, printer):
+        from ..emit.printer import c_minmax
         x, lo, hi = (printer._print(a) for a in self.args)
-        return f"fmin({hi}, fmax({lo}, {x}))"
+        return c_minmax(printer, "fmin", hi, c_minmax(printer, "fmax", lo, x))
 
 
 class ClampSlope(sm.Function):

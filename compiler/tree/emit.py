@@ -10,11 +10,13 @@ from collections import Counter
 import sympy as sm
 
 from ..emit.guards import guarded_temps
+from ..emit.printer import CPrinter
 from ..emit.bodies import IND, singular_guard, store, temps, extra_state_rows, needed_assignments, split_on
 from ..ir import Names
 from ..ir.opcount import count_ops
 
-__all__ = ["tree_rhs_body", "tree_matrix_body", "tree_jacobian_body", "tree_jacobian_ops", "stores_zeroing_runs"]
+__all__ = ["tree_rhs_body", "tree_matrix_body", "tree_jacobian_body", "tree_jacobian_ops", "stores_zeroing_runs",
+           "implicit_constants"]
 
 ZERO_RUN = 8      # consecutive entries of one array set to zero: from this many on, one loop
 
@@ -86,9 +88,31 @@ def tree_implicit_body(ctx, program, guards, size):
     else:
         lines = temps(program, pr)
     vals = program.result_exprs("imp")
-    lines += [store(f"out[{i}]", vals.get(("imp", i), 0.0), pr) for i in range(size) if ("imp", i) not in written]
+    stores = [(f"out[{i}]", vals.get(("imp", i), 0.0)) for i in range(size) if ("imp", i) not in written]
+    body = [store(lv, e, pr) for lv, e in stores]
+    ctx.constant_stores = implicit_constants(stores, body)
+    lines += body
     lines.append(f"{IND}return {ctx.name}_finite_wide(out, {size});")
     return lines
+
+
+def implicit_constants(stores, lines):
+    """NAME_implicit's outputs that are numbers (M's and the slopes' structural zeros, N's
+    ones: 450 of the ant's 1157), as (the body's lines that store them, the C lines of
+    NAME_implicit_const that store them instead), or None when there are none.
+
+    Why: the fixed step calls NAME_implicit once or more a step into the same two buffers,
+    so it writes these once per run (NAME_implicit_const) and calls NAME_implicit_var, the
+    body without them: 5 % of the ant's NAME_implicit (session 15, report-antfs.md).
+    NAME_implicit itself stays the whole call (NAME_implicit_const, then NAME_implicit_var)
+    for every other caller (compiler/emit/generate.py)."""
+    const = [(lv, e, line) for (lv, e), line in zip(stores, lines)
+             if isinstance(e, (int, float)) or (isinstance(e, sm.Basic) and e.is_Number)]
+    if not const:
+        return None
+    pr = CPrinter({})
+    body, used = stores_zeroing_runs([(lv, e) for lv, e, _ in const], pr, "k")
+    return {line for _, _, line in const}, ([f"{IND}int k;"] if used else []) + body
 
 
 def tree_matrix_body(ctx, program, fn):

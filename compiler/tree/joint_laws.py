@@ -177,7 +177,8 @@ class ramp(sm.Function):
         return (x if x > 0 else sm.S.Zero) if x.is_Number else None
 
     def _ccode(self, printer):
-        return f"fmax({printer._print(self.args[0])}, 0.0)"
+        from ..emit.printer import c_minmax
+        return c_minmax(printer, "fmax", printer._print(self.args[0]), "0.0")
 
     def _numpycode(self, printer):
         return f"numpy.maximum({printer._print(self.args[0])}, 0.0)"

@@ -1352,6 +1352,10 @@ int eomc_fs_run(const eomc_fs_ops *ops, eomc_stats *st, int nx, double h, long m
         q.L = fs_layout_of(nq, nu, ops->imp->ncontact);
         q.T = pos; pos += q.L.size;
         q.T1 = pos; pos += q.L.size;
+        if (ops->imp->terms_const) {    /* the terms' constant outputs, once (terms: the rest) */
+            ops->imp->terms_const(q.T);
+            ops->imp->terms_const(q.T1);
+        }
         q.A = pos; pos += uu;
         q.A1 = pos; pos += uu;
         q.b = pos; pos += nu;

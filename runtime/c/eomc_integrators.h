@@ -98,6 +98,10 @@ typedef struct eomc_implicit {
        sqrt(1 + h^2 w^2) a step) is taken half implicitly (eomc_fixedstep.c, fs_transport) */
     int nfree;
     const int *free;
+    /* NULL (terms writes every output), or NAME_implicit_const with terms = NAME_implicit_var
+       (a model whose NAME_implicit has constant outputs: NAME.h): the fast path writes the
+       constants once per run into each buffer it hands terms, which then writes the rest */
+    void (*terms_const)(double *out);
 } eomc_implicit;
 
 /* The run failed its physics: a contact went deeper than eomc_implicit.depth_limit (an

@@ -52,6 +52,34 @@ def _state(model, seed, sink=0.0):
     return x
 
 
+def test_constant_outputs_once_then_the_rest_are_the_whole_call(hopper):
+    """NAME_implicit_const then NAME_implicit_var (what the fixed step calls: the constants once
+    per run) give NAME_implicit's bits, on a buffer that held garbage, and write the constants
+    only where the whole call writes a number that is the same at every state; the fixed step is
+    handed the pair (eomc_implicit.terms_const)."""
+    m = hopper
+    ffi, lib = m.ffi, m.model_lib
+    count = m.metadata["const_outputs"]["implicit"]
+    size = m.metadata["implicit"]["layout"]["size"]
+    assert 0 < count < size
+    var, const = getattr(lib, f"{m.name}_implicit_var"), getattr(lib, f"{m.name}_implicit_const")
+    r = m._default_r if m.ninput else ffi.NULL
+    marked = np.full(size, np.nan)
+    const(ffi.from_buffer("double[]", marked))
+    assert int(np.sum(~np.isnan(marked))) == count
+    for seed in range(3):
+        x = _state(m, seed, sink=0.05 + 0.01 * seed)
+        whole, _ = implicit_terms_at(m, x)
+        split = np.full(size, 1e300)
+        const(ffi.from_buffer("double[]", split))
+        assert var(0.0, ffi.from_buffer("double[]", x), m._default_p, r, ffi.from_buffer("double[]", split), ffi.NULL) == 0
+        assert np.array_equal(whole.view(np.int64), split.view(np.int64))
+        assert np.array_equal(whole[~np.isnan(marked)], marked[~np.isnan(marked)])
+    st = implicit_terms(m)
+    assert st.terms_const == ffi.cast("void(*)(double *)", ffi.addressof(lib, f"{m.name}_implicit_const"))
+    assert st.terms == ffi.cast("eomc_mat_fn", ffi.addressof(lib, f"{m.name}_implicit_var"))
+
+
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_terms_are_the_models_own_numbers(hopper, seed):
     m = hopper

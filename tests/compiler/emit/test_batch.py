@@ -251,14 +251,21 @@ def test_without_simd_and_unknown_shapes_loop_the_scalar_rhs(cache):
 
 @pytest.mark.skipif(shutil.which("gcc") is None, reason="needs gcc")
 def test_vector_fabs_fmax_fmin_are_libm_bit_for_bit(tmp_path):
-    """fabs, fmax and fmin in lanes (bit operations and compares) against libm's, lane by
-    lane, on the cases where they could differ: signed zeros, NaN in either place, infinities,
-    equal values, subnormals.  sqrt too (the vector instruction: IEEE's correctly rounded
-    sqrt, libm's bits; a NaN result only has to be a NaN)."""
+    """fabs, fmax and fmin in lanes (bit operations and compares) and the scalar inline fmax and
+    fmin (printer.MINMAX_C) against libm's, lane by lane, on the cases where they could differ:
+    signed zeros, NaN in either place, infinities, equal values, subnormals.  libm's are called
+    through volatile pointers: gcc takes fmax(a, b) as commutative and may pass b first, which
+    changes fmax(-0, +0).  sqrt too (the vector instruction: IEEE's correctly rounded sqrt,
+    libm's bits; a NaN result only has to be a NaN)."""
     from eomc.compiler.emit.batch import helpers
+    from eomc.compiler.emit.printer import MINMAX_C
     lanes = machine_lanes()
     src = tmp_path / "mm.c"
-    src.write_text("#include <math.h>\n" + SIMD_PRELUDE + "\n" + helpers("t", {"fabs", "fmax", "fmin", "sqrt"}) + """
+    src.write_text("#include <math.h>\n" + SIMD_PRELUDE + "\n" + "\n".join(MINMAX_C.values()) + "\n"
+                   + helpers("t", {"fabs", "fmax", "fmin", "sqrt"}) + """
+double (*volatile libm_fmax)(double, double) = fmax;
+double (*volatile libm_fmin)(double, double) = fmin;
+
 EOMC_VTARGET int check(int n, const double *a, const double *b)
 {
     int k, l, bad = t_vset(1.0)[0] != 1.0;   /* (the rewrite's broadcast, emitted with fmax) */
@@ -270,9 +277,12 @@ EOMC_VTARGET int check(int n, const double *a, const double *b)
         ab = t_v_fabs(va);
         sq = t_v_sqrt(va);
         for (l = 0; l < EOMC_BATCH_LANES; l++) {
-            double m1 = fmax(a[k + l], b[k + l]), m2 = fmin(a[k + l], b[k + l]), m3 = fabs(a[k + l]);
+            double m1 = libm_fmax(a[k + l], b[k + l]), m2 = libm_fmin(a[k + l], b[k + l]), m3 = fabs(a[k + l]);
+            double s1 = eomc_fmax(a[k + l], b[k + l]), s2 = eomc_fmin(a[k + l], b[k + l]);
             bad += __builtin_memcmp(&mx[l], &m1, 8) != 0;
             bad += __builtin_memcmp(&mn[l], &m2, 8) != 0;
+            bad += __builtin_memcmp(&s1, &m1, 8) != 0;
+            bad += __builtin_memcmp(&s2, &m2, 8) != 0;
             bad += __builtin_memcmp(&ab[l], &m3, 8) != 0;
             bad += isnan(sqrt(a[k + l])) ? !isnan(sq[l]) : __builtin_memcmp(&sq[l], &(double){sqrt(a[k + l])}, 8) != 0;
         }
