@@ -48,6 +48,7 @@ time, as rows a power of two apart share the L1 cache's sets (:data:`TILE_BYTES`
 import re
 
 from .printer import MINMAX_NAMES
+from .target import without_cpu_dispatch
 
 __all__ = ["batch_code", "batch_rhs", "Unsupported", "SIMD_PRELUDE", "VECTOR_TRIG", "TILE_BYTES", "SCALAR_TILE_BYTES"]
 
@@ -849,7 +850,6 @@ def _lane_args(call):
 
 _KERNEL_HEAD = re.compile(r"^static (inline )?(void|double) ([A-Za-z_]\w*)\(")
 _LITERAL = r"(-?\d+\.\d*(?:e[-+]?\d+)?)"
-_SCALAR_DISPATCH = re.compile(r"^#if EOMC_RD_AVX2\n.*?^#endif\n", re.M | re.S)
 
 
 _GROUND_SKIP = "            if (!(g[0] > 0.0) && g[0] == g[0]) continue;   /* clear of the ground: all \u00b10 */"
@@ -895,7 +895,7 @@ def vector_kernels(name, helpers_text):
     if not funcs or f"{name}_rnea_derivs" not in names:
         raise Unsupported("calls NAME_rnea_derivs, whose text was not found")
     # the articulated solve's choice of AVX2 row helpers (analytic._aba_dispatch): lanes are vectors already
-    text = _SCALAR_DISPATCH.sub("", "\n\n".join(funcs))
+    text = without_cpu_dispatch("\n\n".join(funcs))
     if re.search(r"\b(sqrt|fabs|fmax|fmin|eomc_fmax|eomc_fmin|sin|cos|exp|log|pow|atan2)\(", text) or "static const double" in text:
         raise Unsupported("has an analytic kernel with libm calls or double tables")
     for old, new in names.items():

@@ -45,6 +45,17 @@ _KNOWN_CALLS = {"isfinite", "defined", "sizeof", "if", "for", "while", "switch",
                 "noinline", "optimize", "__noinline__",
                 "eomc_fmax", "eomc_fmin"}   # printer.MINMAX_C: its double becomes float like the rest
 
+# the AVX2 twins of the articulated solve's row helpers and their per-call CPU dispatch
+# (compiler/tree/analytic.py AVX2_GUARD): x86 double-precision code chosen by gcc's
+# __builtin_cpu_supports; the float target and the lanes kernels keep the portable helpers
+_CPU_DISPATCH = re.compile(r"^#if EOMC_RD_AVX2\n.*?^#endif\n", re.M | re.S)
+
+
+def without_cpu_dispatch(source):
+    """``source`` without its ``#if EOMC_RD_AVX2`` blocks: the portable code path only."""
+    return _CPU_DISPATCH.sub("", source)
+
+
 _TOKEN = re.compile(r"""
     (?P<comment>/\*.*?\*/|//[^\n]*)
   | (?P<string>"(?:\\.|[^"\\\n])*"|'(?:\\.|[^'\\\n])*')
@@ -171,7 +182,7 @@ def retarget(generated, target):
         return generated
     name = generated.name
     meta = dict(generated.metadata)
-    source = _cut_struct(generated.c_source, name)
+    source = without_cpu_dispatch(_cut_struct(generated.c_source, name))
     source = to_float_text(source, f"{name}.c", own_prefix=f"{name}_")
     source = misra_fixes(source + embedded_tail(name, meta))
     header = _f32_header(generated.header, name, meta)
