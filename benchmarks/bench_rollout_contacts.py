@@ -39,11 +39,13 @@ lowest sphere 1 mm above the plane, hinge speeds uniform in +-0.5 as for the gym
     taskset -c 0,1 nice python benchmarks/bench_rollout_contacts.py [--models hopper,ant,humanoid,go2,g1]
 """
 import argparse
+import collections
 import os
 import statistics
 import sys
 import time
 import warnings
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -209,7 +211,33 @@ def starts(em, mm, height, pose):
     return X0, S0
 
 
-def _case(name, threads_list, cache_dir):
+@contextmanager
+def _watch(mode):
+    """The energy watch of rollout's fast path (eomc_options.watch_output) as ``mode`` for the
+    --watch-ablation contestants: "off" (none: rows judged on their start and end only, session
+    15's verdict -- an ablation, not a setting rollout offers) or "outputs" (through the whole
+    NAME_outputs call, as for a model built before NAME_energy); anything else: rollout's own
+    (NAME_energy where the model has it)."""
+    import eomc.runtime.rollout as R
+    saved = R._energy_watch, R._energy_fn
+    if mode == "off":
+        R._energy_watch = lambda model: 0
+    elif mode == "outputs":
+        R._energy_fn = lambda model, ffi: ffi.NULL
+    try:
+        yield
+    finally:
+        R._energy_watch, R._energy_fn = saved
+
+
+def _ablated(f, mode):
+    def run():
+        with _watch(mode):
+            return f()
+    return run
+
+
+def _case(name, threads_list, cache_dir, watch_ablation=False):
     import mujoco
     from mujoco import rollout as mj_rollout
 
@@ -224,6 +252,7 @@ def _case(name, threads_list, cache_dir):
         one = em.simulate(X0[0], (0.0, nstep * dt), method="implicitfast", dt=dt, t_eval=[nstep * dt])
     errors = _errors(em, mm, me, fine, X0, S0, nstep, dt)
     errors["eomc implicitfast (checked, lanes)"] = "as checked"    # its rows, the lanes' sin/cos aside
+    errors = collections.defaultdict(lambda: "as checked", errors)    # --watch-ablation: the same steps
     rows = []
     for k in threads_list:
         datas = [mujoco.MjData(mm) for _ in range(k)]
@@ -237,6 +266,16 @@ def _case(name, threads_list, cache_dir):
                 "eomc implicitfast (checked, lanes)": lambda: eomc.rollout(em, X0, steps=nstep, dt=dt, threads=k,
                                                                            method="implicitfast", lanes=True,
                                                                            raise_on_failure=False),
+            }
+            if watch_ablation:      # the energy watch's cost: none, through the outputs, NAME_energy (above)
+                for lanes in (False, True):
+                    for mode in ("off", "outputs"):
+                        run = (lambda lanes=lanes: eomc.rollout(em, X0, steps=nstep, dt=dt, threads=k, lanes=lanes,
+                                                                method="implicitfast", raise_on_failure=False))
+                        contestants[f"eomc implicitfast (checked{', lanes' if lanes else ''}), "
+                                    f"{'no energy watch' if mode == 'off' else 'watch via outputs'}"] = \
+                            _ablated(run, mode)
+            contestants |= {
                 "mujoco implicitfast": lambda: ro.rollout([mm] * NROLL, datas, S0, ctrl, nstep=nstep)[0],
                 "mujoco euler": lambda: ro.rollout([me] * NROLL, datas, S0, ctrl, nstep=nstep)[0],
             }
@@ -271,15 +310,21 @@ def _case(name, threads_list, cache_dir):
 
 
 def main():
+    global REPEAT
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--models", default=",".join(MODELS))
     parser.add_argument("--cache-dir", default=os.environ.get("EOMC_CACHE_DIR"))
     parser.add_argument("--no-write", action="store_true")
+    parser.add_argument("--watch-ablation", action="store_true",
+                        help="also the checked contestants without the energy watch and with it through "
+                             "NAME_outputs (what NAME_energy saves)")
+    parser.add_argument("--repeat", type=int, default=REPEAT, help="interleaved repeats (medians)")
     args = parser.parse_args()
+    REPEAT = args.repeat
     threads = [1, 2] if len(os.sched_getaffinity(0)) >= 2 else [1]
     rows = []
     for name in args.models.split(","):
-        rows += _case(name, threads, args.cache_dir)
+        rows += _case(name, threads, args.cache_dir, args.watch_ablation)
     import mujoco
     table = format_table(["model", "timestep", "threads", "contestant", "steps/s (wall)", "vs mujoco implicitfast",
                           "steps/CPU-s", "vs mujoco implicitfast (CPU)",

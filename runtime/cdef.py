@@ -37,6 +37,7 @@ _SIGNATURES = {
     "rhs": "int {n}_rhs(double t, const double *x, const double *p, const double *r, double *xdot, double *work);",
     "forcing": "int {n}_forcing(double t, const double *x, const double *p, const double *r, double *out, double *work);",
     "outputs": "int {n}_outputs(double t, const double *x, const double *p, const double *r, double *out, double *work);",
+    "energy": "int {n}_energy(double t, const double *x, const double *p, const double *r, double *out, double *work);",
     "constraints": "int {n}_constraints(double t, const double *x, const double *p, const double *r, double *out, double *work);",
     "jac_x": "int {n}_jac_x(double t, const double *x, const double *p, const double *r, double *out, double *work);",
     "jac_r": "int {n}_jac_r(double t, const double *x, const double *p, const double *r, double *out, double *work);",

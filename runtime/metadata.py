@@ -32,7 +32,7 @@ STRUCT_FUNCTIONS = ("rhs", "jac_x", "jac_r", "mass_matrix", "forcing", "outputs"
                     "constraints_jac")
 EXPORTED_FUNCTIONS = ("inverse_dynamics", "linearize", "events", "poses", "jac_p", "regressor", "jvp", "jvp_more",
                       "jac_id", "vjp", "hvp", "hess_id", "implicit", "rhs_batch", "jac_x_batch",
-                      "outputs_batch", "implicit_batch")
+                      "outputs_batch", "implicit_batch", "energy")
 FUNCTIONS = STRUCT_FUNCTIONS + EXPORTED_FUNCTIONS
 _IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
 

@@ -145,7 +145,7 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method="rk4", p=No
     no inputs, or zero ones): one that created energy fails with status 20 and simulate's words
     (result.messages), a lesser gain warns.  The energy is read at every step as simulate
     reads it, with either record (the C loop keeps each row's lowest and highest energy:
-    eomc_options.watch_output), so each row's status is simulate's.  Every other method ends each row's
+    eomc_options.watch_output; the model's NAME_energy where it has one), so each row's status is simulate's.  Every other method ends each row's
     steps at touch-down, lift-off and limit entry as ``simulate`` does, and each row is judged
     by simulate's verdict (result.status, result.messages; runtime/rollout_extras.py).
 
@@ -308,6 +308,8 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method="rk4", p=No
                 ffi.from_buffer("int[]", status), ffi.from_buffer("long[]", nstep), stats, nthreads)
         opt = _options(ffi, a, implicit)
         opt.watch_output = watch
+        if watch:
+            opt.watch_fn = _energy_fn(model, ffi)
         if implicit_lanes:      # each thread's rows in fibers, their NAME_implicit calls in lanes
             from .cpu import machine_lanes
             lib.eomc_rollout_implicit_lanes(model.c_model, opt, _implicit_batch(model, ffi),
@@ -335,6 +337,16 @@ def _energy_watch(model):
     if "energy" not in names or not find_switches(model) or model.c_model.outputs == model.ffi.NULL:
         return 0
     return names.index("energy") + 1
+
+
+def _energy_fn(model, ffi):
+    """NAME_energy (the energy output alone, compiler/emit/generate.energy_program) as the
+    eomc_rhs_fn ``ffi`` declares, for eomc_options.watch_fn; NULL for a model built without it
+    (before session 16, or an energy that reads u'): the watch then calls the whole outputs."""
+    if "energy" not in model.metadata.get("functions", ()) or model.model_lib is None:
+        return ffi.NULL
+    fp = model.ffi.addressof(model.model_lib, f"{model.name}_energy")
+    return ffi.cast("eomc_rhs_fn", int(model.ffi.cast("uintptr_t", fp)))
 
 
 def _energy_verdicts(model, a, X0, P, p_stride, controls, t_eval, X_out, X_last, status, ranges=None):

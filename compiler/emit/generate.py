@@ -12,6 +12,7 @@ from eomc.runtime.errors import ModelError
 from eomc.runtime.switching import GAP_EVENT_PREFIXES
 from ..passes import finish_function, optimize_shared
 from ..ir import count_program, format_program, verify
+from ..ir.program import symbols_of
 from .bodies import (BodyContext, dynamics_helper, helper_jacobian_body, jvp_body, matrix_body, needed_assignments, split_on, jacobian_body,
                      linearize_body, plain_body, rhs_body, solved_plain_body, tangent_jacobian_body,
                      void_unused)
@@ -45,7 +46,7 @@ def _eomc_version():
         return "0+unknown"
 
 
-def _select(functions, ninput, noutput, ncon, nevent=0, has_poses=False, nparam=None):
+def _select(functions, ninput, noutput, ncon, nevent=0, has_poses=False, nparam=None, has_energy=False):
     """Requested functions that apply to this model, in canonical order (``functions=None``:
     all but the ones generated only on request: jac_p, jvp, regressor, jac_id)."""
     wanted = set((f for f in ALL_FUNCTIONS if f not in ON_REQUEST) if functions is None else
@@ -62,13 +63,15 @@ def _select(functions, ninput, noutput, ncon, nevent=0, has_poses=False, nparam=
         wanted.add("jac_x")
     if "outputs_batch" in wanted:  # and the outputs'
         wanted.add("outputs")
+    if "energy" in wanted and has_energy:   # one of the outputs (energy_program)
+        wanted.add("outputs")
     if "jvp_more" in wanted:       # jvp's program and code, its loop wrapped (GENERATED_LIKE)
         wanted.add("jvp")
     if "implicit_batch" in wanted:  # and NAME_implicit's (the fixed-step rollout's lanes)
         wanted.add("implicit")
     absent = {"jac_r": ninput == 0, "jac_p": nparam == 0, "outputs": noutput == 0, "outputs_batch": noutput == 0,
               "constraints": ncon == 0, "constraints_jac": ncon == 0, "events": nevent == 0,
-              "poses": not has_poses}
+              "poses": not has_poses, "energy": not has_energy}
     return tuple(f for f in ALL_FUNCTIONS if f in wanted and not absent.get(f, False))
 
 
@@ -124,6 +127,7 @@ def _body(fn, ctx, prog, sym, layout, nx, functions, formulation=KANE):
     if fn == "linearize":
         return linearize_body(ctx, "jac_r" in functions)
     shapes = {"outputs": ("out", (len(sym.output_names),), "out"),
+              "energy": ("en", (1,), "out"),
               "events": ("ev", (len(sym.event_names),), "out"),
               "constraints": ("con", (sym.nhol + sym.nvel,), "out"),
               "constraints_jac": ("dcon", (sym.nhol + sym.nvel, nx), "out"),
@@ -250,7 +254,7 @@ def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions
     ncon = len(formed.holonomic_constraints) + len(formed.velocity_constraints)
     nframe = 0 if frames is None else len(frames.names())   # frame outputs (compiler/tree/frames.py)
     fns = _select(functions, len(layout.r), len(outputs or {}) + nframe, ncon, len(events or {}),
-                  poses is not None, len(layout.p))
+                  poses is not None, len(layout.p), "energy" in (outputs or {}))
     if "implicit" in fns and not formulation.builds_implicit(
             functions is not None and ("implicit" in functions or "implicit_batch" in functions)):
         fns = tuple(f for f in fns if f not in ("implicit", "implicit_batch"))
@@ -258,7 +262,7 @@ def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions
     if refusal:
         raise ModelError(refusal)
     groups, helper_users = formulation.groups, formulation.helper_users
-    base = tuple(f for f in fns if f != "poses" and f not in BATCH_FUNCTIONS   # poses: appended below
+    base = tuple(f for f in fns if f not in ("poses", "energy") and f not in BATCH_FUNCTIONS   # poses: appended below
                  and f not in GENERATED_LIKE)
     sym = formulation.symbolic(formed, layout, base, outputs, events)
     if getattr(sym, "function_groups", None):   # this model's own choice (tree/lower.py: the loop kernel or not)
@@ -273,14 +277,41 @@ def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions
     shared = verify(optimize_shared(sym.program, sym.derivatives))
     programs = {fn: finish_function(_mass_inputs_only(shared, sym, fn), groups[fn])
                 if fn not in BATCH_FUNCTIONS and groups[fn] else None
-                for fn in fns if fn not in GENERATED_LIKE}
-    programs = {fn: _taped(p, exact=fn.startswith("outputs")) for fn, p in programs.items()}
+                for fn in fns if fn not in GENERATED_LIKE and fn != "energy"}
+    if "energy" in fns:
+        programs["energy"] = energy_program(shared, sym)
+        if programs["energy"] is None:
+            fns = tuple(f for f in fns if f != "energy")
+            del programs["energy"]
+    programs = {fn: _taped(p, exact=fn.startswith("outputs") or fn == "energy") for fn, p in programs.items()}
     if hasattr(formulation, "finish_programs"):     # (recursive: contact/table.slopes_into)
         programs = formulation.finish_programs(programs)
     programs.update((fn, programs[GENERATED_LIKE[fn]]) for fn in fns if fn in GENERATED_LIKE)
     helper = (finish_function(shared, ("A", "b")) if set(fns) & set(helper_users) or sym.solve_in
               else None)
     return Lowered(name, layout, sym, fns, programs, helper, formulation, pose_meta)
+
+
+def energy_program(shared, sym):
+    """NAME_energy's program: the ``energy`` output's result alone (as group ``en``), everything
+    it does not read dropped (dce), or None when the model has no such output or its energy
+    reads the dynamics solve's unknowns (NAME_outputs then solves; the watch falls back to it).
+
+    Why: rollout's per-step energy watch (eomc_options.watch_fn) read one value of the whole
+    outputs call (the ant: 126 outputs for one).  The expression is the outputs' own, printed
+    by the same printer from the same shared program, so the value is the outputs' bit for bit."""
+    names = list(sym.output_names)
+    if "energy" not in names:
+        return None
+    key = ("out", names.index("energy"))
+    results = tuple((("en", 0), e) for k, e in shared.results if k == key)
+    if len(results) != 1:
+        return None
+    prog = finish_function(shared.with_(results=results), ("en",))
+    unknowns = set(sym.W) | set(sym.UD)
+    if any(symbols_of(e) & unknowns for _, e in (*prog.assignments, *prog.results)):
+        return None
+    return prog
 
 
 def ir_listing(formed, name, **options):
@@ -547,9 +578,18 @@ def _vector_docs(meta):
         ("p", f"parameters (nparam = {meta['nparam']}), with the model's defaults",
          entries(meta["param_names"], meta["param_defaults"])),
         ("r", f"inputs (ninput = {meta['ninput']})", entries(meta["input_names"])),
-        ("outputs", f"out[] of {meta['name']}_outputs (noutput = {meta['noutput']})",
+        ("outputs", f"out[] of {meta['name']}_outputs (noutput = {meta['noutput']})" + _energy_doc(meta),
          entries(meta["output_names"])),
     ] + _pose_docs(meta)
+
+
+def _energy_doc(meta):
+    """The header's word on NAME_energy, where the model has it."""
+    if "energy" not in meta["functions"]:
+        return ""
+    k = meta["output_names"].index("energy")
+    return (f";\n *     {meta['name']}_energy writes out[{k}] energy alone into its out[0] (the same bits, "
+            f"none of the other\n *     outputs computed: what eomc's rollout reads after every step)")
 
 
 def _pose_docs(meta):

@@ -13,6 +13,9 @@ SIGNATURES = {
     "mass_matrix": _RHS + (("double *", "out"), ("double *", "work")),
     "forcing": _RHS + (("double *", "out"), ("double *", "work")),
     "outputs": _RHS + (("double *", "out"), ("double *", "work")),
+    # the output named "energy" alone into out[0], bit for bit NAME_outputs' (rollout's per-step
+    # energy watch, runtime/c/eomc_integrators.c fs_watch); models with that output only
+    "energy": _RHS + (("double *", "out"), ("double *", "work")),
     "constraints": _RHS + (("double *", "out"), ("double *", "work")),
     "constraints_jac": _RHS + (("double *", "out"), ("double *", "work")),
     "inverse_dynamics": (("double", "t"), ("const double *", "x"), ("const double *", "udot"),
@@ -65,7 +68,7 @@ BATCH_FUNCTIONS = {"rhs_batch": "rhs", "jac_x_batch": "jac_x", "outputs_batch": 
                    "implicit_batch": "implicit"}
 
 FUNCTION_ORDER = ("rhs", "jac_x", "jac_r", "jac_p", "mass_matrix", "forcing", "inverse_dynamics",
-                  "outputs", "constraints", "constraints_jac", "linearize", "events", "poses", "regressor",
+                  "outputs", "energy", "constraints", "constraints_jac", "linearize", "events", "poses", "regressor",
                   "jvp", "jvp_more", "jac_id", "vjp", "hvp", "hess_id", "implicit", "rhs_batch",
                   "jac_x_batch", "outputs_batch", "implicit_batch")
 

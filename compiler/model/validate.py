@@ -322,7 +322,7 @@ def check_name(name):
     return name
 
 
-FUNCTIONS = ("rhs", "jac_x", "jac_r", "jac_p", "mass_matrix", "forcing", "inverse_dynamics", "outputs",
+FUNCTIONS = ("rhs", "jac_x", "jac_r", "jac_p", "mass_matrix", "forcing", "inverse_dynamics", "outputs", "energy",
              "constraints", "constraints_jac", "linearize", "events", "poses", "regressor", "jvp", "jvp_more", "jac_id",
              "vjp", "hvp", "hess_id", "implicit", "rhs_batch", "jac_x_batch", "outputs_batch",
              "implicit_batch")

@@ -2795,6 +2795,7 @@ typedef struct fs_glue {
     outw *ow;
     const eomc_implicit *imp;
     int watch;               /* eomc_options.watch_output - 1, or -1: none */
+    eomc_rhs_fn wfn;         /* eomc_options.watch_fn (its out[0]), or NULL: m->outputs */
     double *wout;            /* its outputs (noutput) */
 } fs_glue;
 
@@ -2808,7 +2809,8 @@ static void fs_watch(fs_glue *g, double t, const double *x)
     double v;
     if (g->watch < 0 || isnan(st->watch_lo)) return;
     grid_inputs_at(c, t);
-    v = c->m->outputs(t, x, c->p, c->r, g->wout, c->mwork) == EOMC_OK ? g->wout[g->watch] : NAN;
+    if (g->wfn) v = g->wfn(t, x, c->p, c->r, g->wout, c->mwork) == EOMC_OK ? g->wout[0] : NAN;
+    else v = c->m->outputs(t, x, c->p, c->r, g->wout, c->mwork) == EOMC_OK ? g->wout[g->watch] : NAN;
     if (!isfinite(v)) {
         st->watch_lo = st->watch_hi = NAN;
         return;
@@ -2908,12 +2910,13 @@ static int fs_accept(void *g, double t, double tn, double *x, const double *slop
 static int run_implicitfast(ctx *c, const eomc_options *o, proj *pj, double t0, double t1,
                             double *x, outw *ow, double **pos)
 {
-    fs_glue g = {c, pj, ow, o->implicit, -1, NULL};
+    fs_glue g = {c, pj, ow, o->implicit, -1, NULL, NULL};
     eomc_fs_ops ops = {&g, fs_rhs, fs_jac, fs_accept, NULL, NULL, 0, 0, NULL};
     int fast = fs_fast_ok(c, o, pj), s;
     c->st->watch_lo = c->st->watch_hi = NAN;
     if (o->watch_output > 0 && o->watch_output <= c->m->noutput && c->m->outputs && !c->fb) {
         g.watch = o->watch_output - 1;
+        g.wfn = o->watch_fn;
         g.wout = take(pos, (size_t)c->m->noutput);
         c->st->watch_lo = INFINITY;
         c->st->watch_hi = -INFINITY;

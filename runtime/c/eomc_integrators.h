@@ -136,6 +136,10 @@ typedef struct eomc_options {
                             eomc_stats.watch_lo/watch_hi -- what simulate's energy verdict reads
                             along the steps, for rollout with either record (runtime/rollout.py);
                             0: none.  Costs an outputs call a step */
+    eomc_rhs_fn watch_fn;  /* with watch_output > 0: read out[0] of this function instead of
+                            output k - 1 of m->outputs -- a model's NAME_energy (the energy
+                            output alone, bit for bit the outputs' value, a fraction of their
+                            cost); NULL: m->outputs */
 } eomc_options;
 
 typedef struct eomc_stats {

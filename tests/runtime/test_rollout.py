@@ -278,7 +278,7 @@ def test_rollout_with_contacts_equals_simulate_bit_for_bit(tmp_path):
         assert np.array_equal(one.x[-1], rk4.x[i]) and one.status == rk4.status[i]
 
 
-def test_implicitfast_rows_get_simulates_energy_verdict(tmp_path):
+def test_implicitfast_rows_get_simulates_energy_verdict(tmp_path, monkeypatch):
     """Issue 29 item 1 / issue 31: a rollout row on implicitfast's fast path is judged by
     simulate's energy verdict (switching.energy_verdict), not only by status 10 and its unsolved
     count.  The thrown ball with a contact 1e4 times stiffer at 5 ms: several rows spin up in
@@ -287,7 +287,10 @@ def test_implicitfast_rows_get_simulates_energy_verdict(tmp_path):
     (scalar and lanes) both give each row simulate's status and message, also for a gain
     dissipated again before the end (session 15's record="final" compared only the start and the
     end: simulate over those two points fails fewer rows, checked below); the passive rows stay 0;
-    a failed row raises naming it.  (Before session 15: every row status 0.)"""
+    a failed row raises naming it.  (Before session 15: every row status 0.)  The watch reads the
+    model's NAME_energy (the energy output alone, eomc_options.watch_fn): its value is the
+    outputs' energy bit for bit along the rows, and the watch through the whole outputs call (a
+    model built before NAME_energy) gives the same statuses and messages."""
     from eomc.compiler.emit.signatures import FUNCTION_ORDER, ON_REQUEST
     m, x0 = thrown_ball(tmp_path, "rv_ball",
                         functions=tuple(f for f in FUNCTION_ORDER if f not in ON_REQUEST) + ("implicit_batch",))
@@ -314,6 +317,20 @@ def test_implicitfast_rows_get_simulates_energy_verdict(tmp_path):
     for i in range(16):
         assert np.array_equal(one[i].x, steps.x[i])         # the same trajectory, bit for bit
         assert np.array_equal(one[i].x[-1], final.x[i])
+    assert "energy" in m.metadata["functions"]
+    ffi, out, work = m.ffi, m.ffi.new("double[1]"), m.ffi.new("double[]", max(1, m.c_model.work_size))
+    for i in (0, i20 := int(np.flatnonzero(want == 20)[0])):
+        for x in steps.x[i][::15]:
+            assert getattr(m.model_lib, "rv_ball_energy")(0.0, ffi.new("double[]", list(x)), ffi.new("double[]", list(P[i])),
+                                                          ffi.NULL, out, work) == 0
+            assert out[0] == m.outputs(0.0, x, p=P[i])["energy"]
+    import eomc.runtime.rollout as rollout_module
+    monkeypatch.setattr(rollout_module, "_energy_fn", lambda model, f: f.NULL)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", PhysicsWarning)
+        via_outputs = eomc.rollout(m, x0, **kw)
+    assert np.array_equal(via_outputs.status, want) and via_outputs.messages == final.messages
+    monkeypatch.undo()
     ends_failed = np.sum([r.status == 20 for r in ends])
     assert ends_failed < np.sum(want == 20)                 # start vs end alone misses some gains
     i = int(np.flatnonzero(want == 20)[0])
