@@ -48,6 +48,8 @@ def _build(tmp_path, tag):
 
 def _body(tmp_path, tag, function, name="pg"):
     source = next((tmp_path / tag).rglob(f"{name}.c")).read_text()
+    if function == "implicit" and f"int {name}_implicit_var(" in source:
+        function = "implicit_var"   # NAME_implicit = its constant outputs, then this (d6f2a5a)
     start = source.index(f"int {name}_{function}(")
     return source[start:source.index("\n}\n", start)]
 
