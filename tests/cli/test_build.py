@@ -70,8 +70,8 @@ def test_missing_compiler_message(tmp_path, capsys, monkeypatch):
 
 def test_unknown_function_is_named_and_fold_parameters_bakes_defaults(tmp_path, capsys):
     model = model_files.write(tmp_path, model_files.CART, "cart")
-    assert main(["build", str(model), "-o", str(tmp_path / "o"), "--outputs", "rhs,energy", "-q"]) == 1
-    assert "unknown function 'energy' to generate; choose from rhs" in capsys.readouterr().err
+    assert main(["build", str(model), "-o", str(tmp_path / "o"), "--outputs", "rhs,massmatrix", "-q"]) == 1
+    assert "unknown function 'massmatrix' to generate; choose from rhs" in capsys.readouterr().err
     assert main(["build", str(model), "-o", str(tmp_path / "f"), "--fold-parameters", "-q",
                  "--cache-dir", str(tmp_path / "c")]) == 0
     import eomc

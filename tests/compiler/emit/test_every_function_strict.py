@@ -63,14 +63,15 @@ def _hopper(directory):
 
 
 # name: (model, formulation, functions refused, functions absent for the model's lack of
-# inputs, outputs, events or constraints)
+# inputs, outputs, events, constraints or an energy output (NAME_energy))
 CASES = {
-    "system-kane": (_cartpole, "kane", RECURSIVE_ONLY, {"constraints", "constraints_jac", "events"}),
-    "system-recursive": (_cartpole, "recursive", KANE_ONLY | NO_GROUND, {"constraints", "constraints_jac", "events"}),
-    "closed-kane": (_four_bar, "kane", RECURSIVE_ONLY | {"vjp", "hvp"}, {"events"}),
-    "closed-recursive": (_four_bar, "recursive", KANE_ONLY | NO_GROUND | CLOSED, {"events"}),
+    "system-kane": (_cartpole, "kane", RECURSIVE_ONLY, {"constraints", "constraints_jac", "events", "energy"}),
+    "system-recursive": (_cartpole, "recursive", KANE_ONLY | NO_GROUND, {"constraints", "constraints_jac", "events",
+                                                                       "energy"}),
+    "closed-kane": (_four_bar, "kane", RECURSIVE_ONLY | {"vjp", "hvp"}, {"events", "energy"}),
+    "closed-recursive": (_four_bar, "recursive", KANE_ONLY | NO_GROUND | CLOSED, {"events", "energy"}),
     "urdf-arm": (_arm, "recursive", KANE_ONLY | NO_GROUND,
-                 {"constraints", "constraints_jac", "events", "outputs", "outputs_batch"}),
+                 {"constraints", "constraints_jac", "events", "outputs", "outputs_batch", "energy"}),
     "urdf-floating-contacts": (_hopper, "recursive", KANE_ONLY, {"constraints", "constraints_jac"}),
     "mjcf-self-pairs": (_limbs_over_floor, "recursive", KANE_ONLY, {"jac_r", "constraints", "constraints_jac"}),
 }
