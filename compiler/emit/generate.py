@@ -23,7 +23,7 @@ from .linsolve import choose_ldlt
 from .printer import MINMAX_C, NonFiniteLiteral, print_memo
 from .reverse import REVERSE_FUNCTIONS, reverse_body, reverse_nsolve
 from .sparse_lu import sparse_lu_solver
-from .split import LEAN_MACRO, NOINLINE_MACRO, lean_attribute, split_body
+from .split import LEAN_MACRO, NOINLINE_MACRO, PART_LEAN_FUNCTIONS, PART_LEAN_MACRO, lean_attribute, split_body
 from .batch import batch_code
 from .signatures import BATCH_FUNCTIONS, FUNCTION_ORDER, ON_REQUEST, SIGNATURES, STRUCT_FIELDS, cdef, prototype
 from .symbolic import HELPER_USERS
@@ -402,13 +402,16 @@ def _generate_c(formed, name, *, parameters, inputs, outputs, functions, fold_pa
         full = body
         if consts is not None:      # NAME_implicit: its constant outputs apart (tree/emit.implicit_constants)
             body = [line for line in body if line not in consts[0]]
-        lines, parts = split_body(body, f"{name}_{fn}_part", restrict=formulation.restrict_scratch(fn))
+        lines, parts = split_body(body, f"{name}_{fn}_part", restrict=formulation.restrict_scratch(fn),
+                                  blocks=True, block_attribute=PART_LEAN_FUNCTIONS.get(fn))
         ctx.split = ctx.split or bool(parts)
-        parts, ctx.parts = ctx.parts + parts, []     # functions the body asked for (bodies.BodyContext.parts)
-        if fn in BATCH_FUNCTIONS.values():
-            # the lanes twin writes every output each call (the lanes rollout copies them all)
-            printed[fn] = ((lines, parts) if consts is None or not any(BATCH_FUNCTIONS.get(f) == fn for f in fns)
-                           else split_body(full, f"{name}_{fn}_part", restrict=formulation.restrict_scratch(fn)))
+        asked, ctx.parts = ctx.parts, []             # functions the body asked for (bodies.BodyContext.parts)
+        parts = asked + parts
+        if fn in BATCH_FUNCTIONS.values() and any(BATCH_FUNCTIONS.get(f) == fn for f in fns):
+            # the lanes twin: with the branch blocks left in the body (its rewrite turns the guards
+            # into lane masks), and writing every output each call (the lanes rollout copies them all)
+            blines, bparts = split_body(full, f"{name}_{fn}_part", restrict=formulation.restrict_scratch(fn))
+            printed[fn] = (blines, bparts if consts is not None else asked + bparts)
         lean = lean_attribute(fn, lines)
         if consts is not None:
             rendered += _constants_apart(name, fn, consts[1], lines, parts, lean)
@@ -632,7 +635,10 @@ def _render(name, meta, fns, rendered, solver, layout, sym, helper, split=False,
         name=name, functions=rendered, helper_code=helper_code, minmax=_minmax_code(helper_code, rendered),
         tables=tables, table_refs=table_refs, pointers=pointers,
         noinline=NOINLINE_MACRO if split else "", wide_finite="implicit" in fns,
-        lean=LEAN_MACRO if any(f.get("lean") for f in rendered) else "", **common)
+        lean="\n".join(m for m, used in ((LEAN_MACRO, any(f.get("lean") for f in rendered)),
+                                           (PART_LEAN_MACRO, any(p.startswith("static EOMC_PART_LEAN ")
+                                                                 for f in rendered for p in f["parts"])))
+                       if used), **common)
     return GeneratedModel(name=name, c_source=source, header=header,
                           cdef=cdef(name, fns) + "".join(f"{p};\n" for p in const_prototypes(name, meta)),
                           metadata=meta)

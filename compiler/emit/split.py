@@ -33,7 +33,7 @@ left as it is.  Output depends only on the input lines: byte-identical C.
 import re
 
 __all__ = ["split_body", "NOINLINE_MACRO", "SPLIT_MIN", "CHUNK", "CHUNK_BYTES", "LEAN_MACRO", "LEAN_FUNCTIONS",
-           "LEAN_MIN", "lean_attribute"]
+           "LEAN_MIN", "lean_attribute", "PART_LEAN_FUNCTIONS", "PART_LEAN_MACRO"]
 
 SPLIT_MIN = 300      # statements: shorter runs stay as they are
 CHUNK = 100          # statements per sub-function, at most
@@ -82,6 +82,22 @@ LEAN_MACRO = """#if defined(__GNUC__) && !defined(__clang__) && defined(__OPTIMI
 #endif"""
 
 
+# A chunk holding a folded branch block (split_body's ``blocks``) is code that stood in the
+# function's own body before: in NAME_implicit those chunks, at the sub-functions' plain -O1,
+# made the humanoid's call 5-6 % slower; with EOMC_LEAN's passes (and noinline) it is as fast
+# as before (0.99x) for ~0.05 s more gcc than plain -O1.  rhs and jac_x ran as fast or faster
+# with their chunks at -O1 (rhs 0.93x, jac_x 0.98-0.99x; their lean passes gave them nothing
+# and cost 0.25 s of gcc).  benchmarks/results/mjcf_build.md, session 17.
+PART_LEAN_FUNCTIONS = {"implicit": "EOMC_PART_LEAN"}
+PART_LEAN_MACRO = """#if defined(__GNUC__) && !defined(__clang__) && defined(__OPTIMIZE__) \\
+    && !defined(__OPTIMIZE_SIZE__) && !defined(__NO_INLINE__) && !defined(EOMC_PARTS_FULL_OPT)
+#define EOMC_PART_LEAN __attribute__((noinline, optimize("O1", "tree-slp-vectorize", "peephole2", \\
+    "expensive-optimizations", "caller-saves", "lra-remat", "store-merging")))
+#else
+#define EOMC_PART_LEAN EOMC_NOINLINE
+#endif"""
+
+
 def lean_attribute(fn, lines):
     """The macro (``EOMC_LEAN`` or ``EOMC_LEAN_PRE``) to put before function ``fn``'s
     definition, whose body is ``lines`` (what split_body left), or "" for none."""
@@ -96,8 +112,19 @@ _IDENT = re.compile(r"\b([A-Za-z_]\w*)\s*([\[(]?)")
 _IND = "    "
 
 
+_IF_LINE = re.compile(r"^(\s+)if \((.*)\) \{$")
+_ELSE_LINE = re.compile(r"^\s+\} else (?:if \((.*)\) )?\{$")
+_CLOSE_LINE = re.compile(r"^\s+\}$")
+BLOCK = "{block}"    # the lvalue of a folded block's statement (_fold_blocks)
+
+
 def _statement(line):
-    """(indent, temp or None, lvalue or None, expression) of a run's line, or None."""
+    """(indent, temp or None, lvalue or None, expression) of a run's line, or None.  A folded
+    block (several lines in one string, :func:`_fold_blocks`) is (indent, None, BLOCK, its
+    text)."""
+    if "\n" in line:
+        m = _IF_LINE.match(line.split("\n", 1)[0])
+        return (m.group(1), None, BLOCK, line) if m else None
     m = _TEMP_LINE.match(line)
     if m:
         return m.group(1), m.group(2), None, m.group(3)
@@ -105,6 +132,79 @@ def _statement(line):
     if m:
         return m.group(1), None, f"{m.group(2)}[{m.group(3)}]", m.group(4)
     return None
+
+
+def _block_parts(text):
+    """(the texts a folded block reads: its conditions and right sides, with the arrays it
+    stores into; {array names it stores into}; {temporaries it defines})."""
+    reads, stored, own = [], set(), set()
+    for line in text.split("\n"):
+        m = _IF_LINE.match(line) or _ELSE_LINE.match(line)
+        if m:
+            reads.append(m.groups()[-1] or "")
+            continue
+        st = _statement(line)
+        if st is None:
+            continue                 # a closing brace
+        _, name, lvalue, expr = st
+        reads.append(expr)
+        if name:
+            own.add(name)
+        else:
+            stored.add(lvalue.split("[", 1)[0])
+    return reads, stored, own
+
+
+def _read_names(st):
+    """The temporaries statement ``st`` reads (a folded block: not its own)."""
+    if st[2] != BLOCK:
+        return _TEMP.findall(st[3])
+    reads, _, own = _block_parts(st[3])
+    return [n for text in reads for n in _TEMP.findall(text) if n not in own]
+
+
+def _fold_blocks(lines):
+    """``lines`` with each branch block whose lines are all run statements (``if (c) {``,
+    ``} else {``, ``}`` around them, nested too) joined into one string: a statement of a run,
+    so the straight-line code on both sides of it and the block itself go into sub-functions
+    together.  A contact model's guard blocks (compiler/emit/guards.py) cut the code of rhs,
+    jac_x and NAME_implicit into runs shorter than SPLIT_MIN, which stayed in the function's
+    own body: gcc's register allocation of those 2,000-3,000-line bodies was most of the
+    humanoid's compile.  Only blocks whose temporaries are defined nowhere else in the
+    function (so no name is shadowed) and that read no identifier a sub-function would not
+    see; the lines are kept as they are (split_body joins them back)."""
+    defined = {}
+    for line in lines:
+        m = _TEMP_LINE.match(line)
+        if m:
+            defined[m.group(2)] = defined.get(m.group(2), 0) + 1
+    out, i = [], 0
+    while i < len(lines):
+        m = _IF_LINE.match(lines[i])
+        end = None
+        if m:
+            depth, j = 1, i + 1
+            while j < len(lines) and depth:
+                line = lines[j]
+                if _IF_LINE.match(line):
+                    depth += 1
+                elif _CLOSE_LINE.match(line):
+                    depth -= 1
+                elif not (_ELSE_LINE.match(line) or _statement(line)):
+                    break
+                j += 1
+            if not depth and lines[j - 1] == f"{m.group(1)}}}":
+                end = j
+        if end is not None:
+            text = "\n".join(lines[i:end])
+            reads, _, own = _block_parts(text)
+            if all(defined[n] == 1 for n in own) and not any(_reads(r)[2] for r in reads):
+                out.append(text)
+                i = end
+                continue
+        out.append(lines[i])
+        i += 1
+    return out
 
 
 def _runs(lines):
@@ -122,12 +222,13 @@ def _runs(lines):
 
 def _chunks(stmts):
     """Consecutive pieces of at most CHUNK statements and about CHUNK_BYTES characters."""
-    chunks, current, size = [], [], 0
+    chunks, current, count, size = [], [], 0, 0
     for st in stmts:
-        if current and (len(current) >= CHUNK or size >= CHUNK_BYTES):
+        if current and (count >= CHUNK or size >= CHUNK_BYTES):
             chunks.append(current)
-            current, size = [], 0
+            current, count, size = [], 0, 0
         current.append(st)
+        count += st[3].count("\n") + 1 if st[2] == BLOCK else 1
         size += len(st[3]) + 24
     return chunks + ([current] if current else [])
 
@@ -166,19 +267,19 @@ class _Slots:
         self.free.append(slot)
 
 
-def _split_run(lines, start, end, base, scratch, slots, restrict=False):
+def _split_run(lines, start, end, base, scratch, slots, restrict=False, block_attribute=None):
     """Split ``lines[start:end]``: (sub-function texts, caller lines, {temp: slot} of the
     run's temporaries the rest reads, {earlier temp: slot} to store), or None."""
     stmts = [_statement(line) for line in lines[start:end]]
-    if any(_reads(expr)[2] for _, _, _, expr in stmts):
+    if any(_reads(expr)[2] for _, _, lvalue, expr in stmts if lvalue != BLOCK):
         return None                  # reads a name a sub-function would not see
     indent = stmts[0][0]
     chunks = _chunks(stmts)
     where = {name: c for c, chunk in enumerate(chunks) for _, name, _, _ in chunk if name}
     last, outside = {}, {}           # temp -> last chunk reading it; earlier temps read
     for c, chunk in enumerate(chunks):
-        for _, _, _, expr in chunk:
-            for name in _TEMP.findall(expr):
+        for st in chunk:
+            for name in _read_names(st):
                 if name not in where:
                     outside.setdefault(name, None)
                 elif where[name] != c:
@@ -198,9 +299,21 @@ def _split_run(lines, start, end, base, scratch, slots, restrict=False):
         for name in released.get(c, ()):
             if name not in after:
                 slots.give(slot_of[name])
-        body, local, written = [], set(), set()
+        body, local, written, reads = [], set(), set(), []
+        attribute = "EOMC_NOINLINE"
         for _, name, lvalue, expr in chunk:
+            if lvalue == BLOCK:      # a folded block: its lines one level in, its own temps local
+                block_reads, stored, own = _block_parts(expr)
+                local |= own
+                text = _TEMP.sub(scratch_ref, expr)
+                body.append("\n".join(_IND + line[len(indent):] for line in text.split("\n")))
+                written |= stored
+                written.update(_OUT_ARG.findall(text))
+                reads += [_TEMP.sub(scratch_ref, r) for r in block_reads]
+                attribute = block_attribute or attribute
+                continue
             expr = _TEMP.sub(scratch_ref, expr)
+            reads.append(expr)
             if name is None:
                 body.append(f"{_IND}{lvalue} = {expr};")
                 written.add(lvalue.split("[", 1)[0])
@@ -215,7 +328,10 @@ def _split_run(lines, start, end, base, scratch, slots, restrict=False):
         _pair_sincos(body, scratch)
         arrays, uses_t = set(written), False
         for line in body:
-            a, ut, _ = _reads(line.split(" = ", 1)[1])
+            if " = " in line and "\n" not in line:
+                reads.append(line.split(" = ", 1)[1])   # the scratch stores
+        for text in reads:
+            a, ut, _ = _reads(text)
             arrays |= a
             uses_t |= ut
         uses_scratch = any(f"{scratch}[" in line for line in body)
@@ -225,7 +341,7 @@ def _split_run(lines, start, end, base, scratch, slots, restrict=False):
         params += [f"double *{'restrict ' if restrict else ''}{scratch}"] if uses_scratch else []
         args = (["t"] if uses_t else []) + arrays + ([scratch] if uses_scratch else [])
         fname = f"{base}{c}"
-        parts.append(f"static EOMC_NOINLINE void {fname}({', '.join(params) or 'void'})\n"
+        parts.append(f"static {attribute} void {fname}({', '.join(params) or 'void'})\n"
                      f"{{\n" + "\n".join(body) + "\n}\n")
         parts.append(f"{indent}{fname}({', '.join(args)});")
     helpers, calls = parts[0::2], parts[1::2]
@@ -253,7 +369,7 @@ def _pair_sincos(body, scratch):
             body[i + 1], body[i + 2] = body[i + 2], body[i + 1]
 
 
-def split_body(lines, base, scratch="S_", restrict=False):
+def split_body(lines, base, scratch="S_", restrict=False, blocks=False, block_attribute=None):
     """(new body lines, sub-function texts) for one function body; ``base``: the C name
     prefix of its sub-functions (``NAME_fn_part``).  Unchanged when no run is long.
 
@@ -266,14 +382,23 @@ def split_body(lines, base, scratch="S_", restrict=False):
     ``cos(x[k])`` into one ``sincos`` (a store sits between them): G1's rhs ran 10 % faster
     with it, same bits (benchmarks/results/free_joint.md).  The formulation asks for it per
     function (:meth:`eomc.compiler.emit.formulation.Formulation.restrict_scratch`), so the C
-    of the functions that do not stays as it was."""
+    of the functions that do not stays as it was.
+
+    ``blocks``: branch blocks of run statements (a contact's guard) are statements of a run
+    too (:func:`_fold_blocks`); ``block_attribute``: the macro a sub-function holding one is
+    declared with (default EOMC_NOINLINE, as the others; PART_LEAN_FUNCTIONS)."""
     lines, helpers, slots, pos, nrun = list(lines), [], _Slots(), 0, 0
+    if blocks:
+        lines = _fold_blocks(lines)
+
+    def weight(s, e):                # the lines of the run, a folded block's counted
+        return sum(line.count("\n") + 1 for line in lines[s:e])
     while True:
-        run = next(((s, e) for s, e in _runs(lines) if s >= pos and e - s > SPLIT_MIN), None)
+        run = next(((s, e) for s, e in _runs(lines) if s >= pos and weight(s, e) > SPLIT_MIN), None)
         if run is None:
             break
         start, end = run
-        done = _split_run(lines, start, end, f"{base}{nrun}_", scratch, slots, restrict)
+        done = _split_run(lines, start, end, f"{base}{nrun}_", scratch, slots, restrict, block_attribute)
         if done is None:
             pos = end
             continue
@@ -290,6 +415,8 @@ def split_body(lines, base, scratch="S_", restrict=False):
         lines = head + calls + tail
         pos = len(head) + len(calls)
         helpers += new_helpers
+    if blocks:
+        lines = [line for text in lines for line in text.split("\n")]
     if slots.size:
         lines.insert(0, f"{_IND}double {scratch}[{slots.size}];")
     return lines, helpers
