@@ -8,10 +8,12 @@ cache: ``before`` (``split.LEAN_MIN`` out of reach: every function's body at the
 -O2, the C of main before session 15), ``after`` (the default: the long rhs, jac_x and
 NAME_implicit bodies under EOMC_LEAN, compiler/emit/split.py) and, on request, ``kernels_off``
 (also ``lower.CONTACT_KERNELS = False``: mass_matrix, jac_r, forcing and inverse_dynamics as
-straight-line copies of their own, the C of main before session 14) and ``base`` (the default
-build of another checkout: ``--base DIR``, a folder whose ``eomc`` package is that checkout laid
-out as installed -- facade/ as eomc/, with compiler/, runtime/ (its built .so files) and
-templates/ inside -- put first on the child's PYTHONPATH; e.g. main before a change).  The first
+straight-line copies of their own, the C of main before session 14), ``unfolded``
+(``split.FOLD_BLOCKS = False``: the contacts' guard blocks are not statements of the split's
+runs, the C of main before session 17) and ``base`` (the default build of another checkout:
+``--base DIR``, a folder whose ``eomc`` package is that checkout laid out as installed --
+facade/ as eomc/, with compiler/, runtime/ (its built .so files) and templates/ inside -- put
+first on the child's PYTHONPATH; e.g. main before a change).  The first
 mode given is the one the ratios compare with.
 
 Phases are CPU seconds: the driver's stage clock is replaced in the child by the process's
@@ -36,7 +38,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 MODELS = ("hopper", "walker2d", "ant", "humanoid")
-MODES = ("before", "after")   # also: kernels_off
+MODES = ("before", "after")   # also: kernels_off, unfolded
 
 
 def _cpu():
@@ -70,6 +72,8 @@ def child(model, mode, out):
     from eomc.compiler.emit import split
     if mode in ("before", "kernels_off"):
         split.LEAN_MIN = float("inf")
+    if mode == "unfolded":
+        split.FOLD_BLOCKS = False
     if mode == "kernels_off":
         lower.CONTACT_KERNELS = False
     driver.time = types.SimpleNamespace(perf_counter=_cpu)       # stage clock: CPU, gcc's included
@@ -151,8 +155,9 @@ def main():
         f"- rounds: {rounds}; 1-min load at the builds: min {min(loads):.1f}, median {statistics.median(loads):.1f}, "
         f"max {max(loads):.1f}; CPU = the child's user + sys and its C compiler's (medians over rounds)",
         "- before: `split.LEAN_MIN` out of reach (every body at -O2, the C of main before session 15); after: the "
-        "default (long rhs, jac_x, NAME_implicit bodies under EOMC_LEAN); kernels_off: also "
-        "`lower.CONTACT_KERNELS = False` (the C of main before session 14)"
+        "default; kernels_off: also "
+        "`lower.CONTACT_KERNELS = False` (the C of main before session 14); unfolded: `split.FOLD_BLOCKS = False` "
+        "(the guard blocks not in the split's runs: the C of main before session 17)"
         + (f"; base: the default build of the checkout in {arg('--base', '')}" if "base" in modes else ""), "",
         *rows, "", "C kB per function (its _part routines included; routines: the static ones no function's name prefixes, "
         "the pairs' table and narrow phase; tables: names, defaults, the model struct; first round; >= 20 kB in some build):", "",

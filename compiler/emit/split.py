@@ -36,6 +36,7 @@ __all__ = ["split_body", "NOINLINE_MACRO", "SPLIT_MIN", "CHUNK", "CHUNK_BYTES", 
            "LEAN_MIN", "lean_attribute", "PART_LEAN_FUNCTIONS", "PART_LEAN_MACRO"]
 
 SPLIT_MIN = 300      # statements: shorter runs stay as they are
+FOLD_BLOCKS = True   # split_body's ``blocks`` honoured (False: the C before session 17, for A/B)
 CHUNK = 100          # statements per sub-function, at most
 CHUNK_BYTES = 8000   # characters of C per sub-function, about (a chunk ends past this)
 
@@ -388,6 +389,7 @@ def split_body(lines, base, scratch="S_", restrict=False, blocks=False, block_at
     too (:func:`_fold_blocks`); ``block_attribute``: the macro a sub-function holding one is
     declared with (default EOMC_NOINLINE, as the others; PART_LEAN_FUNCTIONS)."""
     lines, helpers, slots, pos, nrun = list(lines), [], _Slots(), 0, 0
+    blocks = blocks and FOLD_BLOCKS
     if blocks:
         lines = _fold_blocks(lines)
 

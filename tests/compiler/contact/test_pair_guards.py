@@ -5,6 +5,7 @@ built for ground contacts only).
 
 Why (issue 33): every self-collision pair of a many-geom model (gymnasium's humanoid: 109) ran its
 narrow phase at every call, so they were left out by default "for cost"."""
+import re
 import warnings
 
 import numpy as np
@@ -46,12 +47,18 @@ def _build(tmp_path, tag):
                             progress=False, name="pg")
 
 
-def _body(tmp_path, tag, function, name="pg"):
+def _functions(tmp_path, tag, function, name="pg"):
+    """The C of NAME_function's sub-functions (the split puts guard blocks there too), then its own."""
     source = next((tmp_path / tag).rglob(f"{name}.c")).read_text()
+    parts = re.findall(rf"^static \w+ void {name}_{function}_part\d+_\d+\(.*?^}}\n", source, re.M | re.S)
     if function == "implicit" and f"int {name}_implicit_var(" in source:
         function = "implicit_var"   # NAME_implicit = its constant outputs, then this (d6f2a5a)
     start = source.index(f"int {name}_{function}(")
-    return source[start:source.index("\n}\n", start)]
+    return parts + [source[start:source.index("\n}\n", start)]]
+
+
+def _body(tmp_path, tag, function, name="pg"):
+    return "".join(_functions(tmp_path, tag, function, name))
 
 
 def test_bounding_radii_hold_the_shapes():
@@ -215,7 +222,7 @@ def test_a_planar_models_pairs_keep_their_guards(tmp_path, monkeypatch):
     called = _build_planar(tmp_path, "called")
     rhs = _body(tmp_path, "called", "rhs", "pl")
     assert rhs.count("} else {") == pairs_ + points
-    assert rhs.count("eomc_narrow_") == pairs_ and _unguarded_calls(rhs) == 0
+    assert rhs.count("eomc_narrow_") == pairs_ and _unguarded_calls(_functions(tmp_path, "called", "rhs", "pl")) == 0
     monkeypatch.setattr(pairs, "INLINE_NARROW", True)
     plain_rhs = recursive.tree_rhs_body
     monkeypatch.setattr(recursive, "tree_rhs_body", lambda ctx, prog, guards=(): plain_rhs(ctx, prog))
@@ -243,14 +250,29 @@ def test_a_planar_models_pairs_keep_their_guards(tmp_path, monkeypatch):
         assert (out[:, cols].max(axis=1) > 0).any() and (out[:, cols].max(axis=1) < -0.05).any(), pair
 
 
-def _unguarded_calls(text):
-    """How many narrow-phase calls (compiler/contact/narrow.py) sit outside every ``if`` block of a
-    function (its text from its head on)."""
-    depth, count = 0, 0
-    for line in text[text.index("\n{\n") + 3:].split("\n"):
-        if depth == 0:
-            count += line.count("eomc_narrow_")
-        depth += line.count("{") - line.count("}")
+def _unguarded_calls(texts):
+    """How many narrow-phase calls (compiler/contact/narrow.py) run outside every ``if`` block of a
+    function: ``texts``, the function and its sub-functions (compiler/emit/split.py), each from its
+    head on.  A sub-function called inside a block runs under that block's guard: only the calls
+    outside every block of the function, and of the sub-functions it calls outside every block,
+    count."""
+    bodies = {}
+    for text in texts:
+        head = text[:text.index("\n{\n")].rsplit("\n", 1)[-1]
+        bodies[re.search(r"(\w+)\(", head).group(1)] = text[text.index("\n{\n") + 3:]
+    called = {n for n in bodies for body in bodies.values() if re.search(rf"\b{n}\(", body)}
+    todo, seen, count = [n for n in bodies if n not in called], set(), 0
+    while todo:
+        name = todo.pop()
+        if name in seen:
+            continue
+        seen.add(name)
+        depth = 0
+        for line in bodies[name].split("\n"):
+            if depth == 0:
+                count += line.count("eomc_narrow_")
+                todo += [n for n in bodies if re.search(rf"\b{n}\(", line)]
+            depth += line.count("{") - line.count("}")
     return count
 
 
@@ -272,5 +294,5 @@ def test_dm_control_pairs_run_their_narrow_phase_only_inside_their_guards(name, 
     rhs = [d for d in generated.c_source.split("\n}\n") if " m_rhs(" in d or " m_rhs_part" in d]
     calls = sum(d.count("eomc_narrow_") for d in rhs)
     assert calls > 50
-    assert sum(_unguarded_calls(d) for d in rhs) == 0
+    assert _unguarded_calls(rhs) == 0
     assert sum(d.count("} else {") for d in rhs) >= calls

@@ -4,6 +4,7 @@ the straight-line rhs wherever that holds or not.
 
 Why (issues 29, 33): the default ground of a URDF robot has 108-232 contact points and the
 straight-line code evaluated every one at every call (rhs 2.5-2.8x the feet-only rhs)."""
+import re
 import sys
 import warnings
 from pathlib import Path
@@ -105,10 +106,16 @@ def oneleg(tmp_path_factory):
     return guarded, straight, tmp
 
 
+def _with_parts(source, function, start):
+    """The C of the function starting at ``start`` with the sub-functions of ``function`` (the
+    split puts the guard blocks there too)."""
+    parts = re.findall(rf"^static \w+ void oneleg_{function}_part\d+_\d+\(.*?^}}\n", source, re.M | re.S)
+    return "".join(parts) + source[start:source.index("\n}\n", start)]
+
+
 def _rhs_text(cache):
     source = next(cache.rglob("oneleg.c")).read_text()
-    start = source.index("int oneleg_rhs(")
-    return source[start:source.index("\n}\n", start)]
+    return _with_parts(source, "rhs", source.index("int oneleg_rhs("))
 
 
 def test_the_guarded_rhs_is_the_straight_line_rhs_near_and_far_from_the_ground(oneleg):
@@ -157,7 +164,7 @@ def test_the_guarded_implicit_terms_are_the_straight_line_ones_near_and_far_from
     source = next((tmp_path / "guarded").rglob("oneleg.c")).read_text()
     # NAME_implicit writes its constant outputs, then calls NAME_implicit_var: the body (d6f2a5a)
     start = source.index("int oneleg_implicit_var(" if "int oneleg_implicit_var(" in source else "int oneleg_implicit(")
-    assert source[start:source.index("\n}\n", start)].count("} else {") == 2 + 13
+    assert _with_parts(source, "implicit", start).count("} else {") == 2 + 13
     rng = np.random.default_rng(29)
     z = guarded.state_names.index("q_trunk_floating_z")
     X = rng.normal(scale=1.0, size=(300, guarded.nx))

@@ -283,6 +283,13 @@ def _random_body(draw_ops):
                       f"        P[0] += {name};", "    }"]
             stores = max(stores, 1)
             continue
+        if kind == 2 and temps:       # a guard block (compiler/emit/guards.py's shape)
+            own = f"t{10000 + len(lines)}"
+            lines += [f"    if (!({temps[a % len(temps)]} > 0.5)) {{",
+                      f"        const double {own} = 0.5*{temps[b % len(temps)]} + x[{c % 4}];",
+                      f"        P[{stores}] = {own}*{own};", "    } else {", f"        P[{stores}] = 0.0;", "    }"]
+            stores += 1
+            continue
         if kind == 0 and temps:
             lines.append(f"    P[{stores}] += {temps[a % len(temps)]} + x[{c % 4}];")
             stores += 1
@@ -335,6 +342,9 @@ def test_random_bodies_compute_the_same_values_split(tmp_path_factory, monkeypat
     new, helpers = split.split_body(lines, "f_part")
     whole = _run_c(tmp, "whole", lines, [], nP)
     assert _run_c(tmp, "split", new, helpers, nP) == whole
+    # the guard blocks as statements of the runs (blocks=True): the same values again
+    new, helpers = split.split_body(lines, "f_part", blocks=True)
+    assert _run_c(tmp, "blocks", new, helpers, nP) == whole
 
 
 def test_a_value_read_across_two_split_runs_survives_the_first(tmp_path, tiny):
@@ -367,3 +377,45 @@ def test_a_name_redefined_in_an_inner_block_is_not_renamed_there(tmp_path, tiny)
     new, helpers = split.split_body(lines, "f_part")
     assert helpers and "const double S_" not in "\n".join(new)
     assert _run_c(tmp_path, "split", new, helpers, 1) == _run_c(tmp_path, "whole", lines, [], 1)
+
+
+def _guarded_lines():
+    """Short runs (4 temporaries) between guard blocks, each block reading the run before it."""
+    lines = ["    const double t0 = x[0];"]
+    for k in range(6):
+        lines += [f"    const double t{5 * k + i} = 0.5*t{5 * k + i - 1} + 0.25*x[{i % 4}];" for i in range(1, 5)]
+        last = f"t{5 * k + 4}"
+        lines += [f"    if (!({last} > 0.2)) {{", f"        const double t{100 + k} = {last}*{last};",
+                  f"        if (!(t{100 + k} > 0.1)) {{", f"            P[{k}] = t{100 + k} + x[1];",
+                  "        } else {", f"            P[{k}] = 0.5;", "        }",
+                  "    } else {", f"        P[{k}] = 0.0;", "    }",
+                  f"    const double t{5 * k + 5} = {last} + P[{k}];"]
+    return lines + ["    out[0] = t30;", "    out[1] = P[2] + t12;", "    out[2] = P[5];"]
+
+
+def test_guard_blocks_are_statements_of_a_run_when_asked(tmp_path, tiny):
+    """Issue 33 (build time): a contact model's guard blocks cut its rhs into runs shorter than
+    SPLIT_MIN, which stayed in the function's own body.  With ``blocks`` the blocks are
+    statements of a run: the whole body goes into sub-functions, each block whole in one, the
+    values the same; the sub-functions holding a block take ``block_attribute``."""
+    lines = _guarded_lines()
+    assert split.split_body(lines, "f_part") == (lines, [])        # runs of 4-5 < SPLIT_MIN 6
+    new, helpers = split.split_body(lines, "f_part", blocks=True, block_attribute="EOMC_PART_LEAN")
+    assert not any("if (" in line for line in new)
+    assert sum(h.count("} else {") for h in helpers) == 12
+    for h in helpers:
+        assert h.count("{") == h.count("}")
+        assert h.startswith("static EOMC_PART_LEAN void" if "if (" in h else "static EOMC_NOINLINE void")
+    whole = _run_c(tmp_path, "whole", lines, [], 6)
+    src = [split.PART_LEAN_MACRO] + helpers
+    assert _run_c(tmp_path, "blocks", new, src, 6) == whole
+
+
+def test_a_block_defining_a_name_defined_elsewhere_stays_in_the_body(tiny):
+    """A block whose temporary is defined again elsewhere in the function (a scope's shadowing)
+    is not folded: the split would not know which one a later line reads."""
+    lines = _guarded_lines()
+    lines.insert(1, "    const double t100 = x[3];")   # the first block's own name, outside too
+    new, _ = split.split_body(lines, "f_part", blocks=True)
+    assert sum("if (!(t4 > 0.2)) {" in line for line in new) == 1
+    assert not any("if (!(t9 > 0.2)) {" in line for line in new)
