@@ -189,7 +189,7 @@ def _step_harness():
 
 def _step_rhs(x, m=3, k=4e4, d=40.0, g=9.81, s=2e5):
     """The harness's system (bdf_newton.c, bdf_one_step): q' = v, v_i' = -k q_i - d v_i
-    - g sin q_i - s (q_i - q_{i+1})^3 + s (q_{i-1} - q_i)^3."""
+    - g sin q_i - s (q_i - q_{i+1})^3 + s (q_{i-1} - q_i)^3 (q_4 = 0; no q_0 term)."""
     q, v = x[:m], x[m:]
     dq = q - np.append(q[1:], 0.0)
     dp = np.insert(q[:-1] - q[1:], 0, 0.0)
@@ -210,7 +210,8 @@ def _bdf1_solution(y0, h):
     ypred, psi, c = y0 + h * f0, h * f0 / alpha1, h / alpha1
     d = np.zeros_like(y0)
     for _ in range(30):
-        d -= np.linalg.solve(np.eye(len(y0)) - c * _step_jac(ypred + d), d - c * _step_rhs(ypred + d) + psi)
+        residual = d - c * _step_rhs(ypred + d) + psi
+        d -= np.linalg.solve(np.eye(len(y0)) - c * _step_jac(ypred + d), residual)
     return ypred + d
 
 
@@ -220,11 +221,12 @@ def _bdf1_solution(y0, h):
 def test_newton_keeps_its_lu_across_a_small_change_of_h_and_converges_to_the_same_step(y0, ratio):
     """Newton's matrix I - c J (c = h / alpha) is refactored only when c moved more than 30 %
     from the c of its LU (eomc_bdf.c LU_BAND, as CVODE and LSODA do); in between the old LU is
-    used and each correction scaled by 2 / (1 + c / c_lu).  One step of a stiff nonlinear
-    (q, v) system with the LU left from c / ratio: within the band no new LU, no rejected try,
-    the step as long as asked, and its y within Newton's tolerance (3 % of the local error
-    allowed, in the error test's scaled norm) of the exact solution of the step's implicit
-    equation, as the step with a fresh LU is; outside the band a new LU."""
+    used and each correction scaled by 2 / (1 + c / c_lu).  One step of a nonlinear (q, v)
+    system (three joints, springs of 4e4, cubic couplings) with the LU left from c / ratio:
+    within the band no new LU, no rejected try, the step as long as asked, and its y within
+    Newton's tolerance (3 % of the local error allowed, in the error test's scaled norm) of the
+    exact solution of the step's implicit equation, as the step with a fresh LU is; outside the
+    band a new LU."""
     ffi, lib = _step_harness()
     y0 = np.array(y0, dtype=float)
     h, rtol = 3e-4, 1e-3

@@ -44,10 +44,10 @@ int bdf_newton_solve(int n, int nsplit, const double *J, double c, double *r)
     return k;
 }
 
-/* One BDF step on a stiff nonlinear (q, v) system of three coupled joints: q' = v,
- * v_i' = -k q_i - d v_i - g sin q_i - s (q_i - q_{i+1})^3 (q_4 = 0), to test the Newton LU kept
- * across a change of c = h / alpha (eomc_bdf.c: LU_BAND, the correction scaled by
- * 2 / (1 + c / c_lu)). */
+/* One BDF step on a nonlinear (q, v) system of three joints with stiff springs and cubic
+ * couplings: q' = v, v_i' = -k q_i - d v_i - g sin q_i - s (q_i - q_{i+1})^3
+ * + s (q_{i-1} - q_i)^3 (q_4 = 0; no q_0 term), to test the Newton LU kept across a change
+ * of c = h / alpha (eomc_bdf.c: LU_BAND, the correction scaled by 2 / (1 + c / c_lu)). */
 #define STEP_M 3
 static const double STEP_K = 4e4, STEP_D = 40.0, STEP_G = 9.81, STEP_S = 2e5;
 
