@@ -213,6 +213,12 @@ class PairTableCall(nw.Token):
     def _slopes(self):
         return int(self.args[1]) == SLOPES
 
+    DEPTHS_POSITIVE = DEPTHS_POSITIVE
+
+    def reads_depths_positive_only(self, prog):
+        """:func:`reads_depths_positive_only` (compiler/emit/generate.py asks the node)."""
+        return reads_depths_positive_only(prog)
+
     def c_declaration(self):
         t = self.table
         n = t.noutput + (t.ninput + len(t.pairs) + t.room if self._tape() else 0)

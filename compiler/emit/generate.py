@@ -520,9 +520,11 @@ def _exactness(fn, prog):
     read each point's depth and position); NAME_energy too, unless it reads the points' depths only
     as their positive parts (compiler/contact/table.reads_depths_positive_only): then the loop's
     broad phase (DEPTHS_POSITIVE), the same bits."""
-    if fn == "energy" and prog is not None:
-        from ..contact.table import DEPTHS_POSITIVE, reads_depths_positive_only
-        return DEPTHS_POSITIVE if reads_depths_positive_only(prog) else True
+    if fn == "energy" and prog is not None:     # the loop's node says (emit does not import contact)
+        calls = [e for _, e in prog.assignments if hasattr(e, "reads_depths_positive_only")]
+        if calls and calls[0].reads_depths_positive_only(prog):
+            return calls[0].DEPTHS_POSITIVE
+        return True
     return fn.startswith("outputs")
 
 
