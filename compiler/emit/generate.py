@@ -413,8 +413,10 @@ def _generate_c(formed, name, *, parameters, inputs, outputs, functions, fold_pa
         full = body
         if consts is not None:      # NAME_implicit: its constant outputs apart (tree/emit.implicit_constants)
             body = [line for line in body if line not in consts[0]]
-        lines, parts = split_body(body, f"{name}_{fn}_part", restrict=formulation.restrict_scratch(fn),
-                                  blocks=True, block_attribute=PART_LEAN_FUNCTIONS.get(fn))
+        lines, parts = split_body(body, f"{name}_{fn}_part", restrict=formulation.restrict_scratch(fn))
+        if lean_attribute(fn, lines):   # a long body left between guard blocks: the blocks go into the runs
+            lines, parts = split_body(body, f"{name}_{fn}_part", restrict=formulation.restrict_scratch(fn),
+                                      blocks=True, block_attribute=PART_LEAN_FUNCTIONS.get(fn))
         ctx.split = ctx.split or bool(parts)
         asked, ctx.parts = ctx.parts, []             # functions the body asked for (bodies.BodyContext.parts)
         parts = asked + parts
