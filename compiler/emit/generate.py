@@ -23,7 +23,8 @@ from .linsolve import choose_ldlt
 from .printer import MINMAX_C, HalfPow, NonFiniteLiteral, print_memo
 from .reverse import REVERSE_FUNCTIONS, reverse_body, reverse_nsolve
 from .sparse_lu import sparse_lu_solver
-from .split import LEAN_MACRO, NOINLINE_MACRO, PART_LEAN_FUNCTIONS, PART_LEAN_MACRO, lean_attribute, split_body
+from .split import (FOLD_MIN, LEAN_MACRO, NOINLINE_MACRO, PART_LEAN_FUNCTIONS, PART_LEAN_MACRO, lean_attribute,
+                    split_body)
 from .batch import batch_code
 from .signatures import BATCH_FUNCTIONS, FUNCTION_ORDER, ON_REQUEST, SIGNATURES, STRUCT_FIELDS, cdef, prototype
 from .symbolic import HELPER_USERS
@@ -414,7 +415,7 @@ def _generate_c(formed, name, *, parameters, inputs, outputs, functions, fold_pa
         if consts is not None:      # NAME_implicit: its constant outputs apart (tree/emit.implicit_constants)
             body = [line for line in body if line not in consts[0]]
         lines, parts = split_body(body, f"{name}_{fn}_part", restrict=formulation.restrict_scratch(fn))
-        if lean_attribute(fn, lines):   # a long body left between guard blocks: the blocks go into the runs
+        if lean_attribute(fn, lines) and len(lines) > FOLD_MIN:   # a long body left between guard blocks
             lines, parts = split_body(body, f"{name}_{fn}_part", restrict=formulation.restrict_scratch(fn),
                                       blocks=True, block_attribute=PART_LEAN_FUNCTIONS.get(fn))
         ctx.split = ctx.split or bool(parts)

@@ -32,11 +32,13 @@ left as it is.  Output depends only on the input lines: byte-identical C.
 """
 import re
 
-__all__ = ["split_body", "NOINLINE_MACRO", "SPLIT_MIN", "CHUNK", "CHUNK_BYTES", "LEAN_MACRO", "LEAN_FUNCTIONS",
+__all__ = ["split_body", "NOINLINE_MACRO", "FOLD_MIN", "SPLIT_MIN",
+           "CHUNK", "CHUNK_BYTES", "LEAN_MACRO", "LEAN_FUNCTIONS",
            "LEAN_MIN", "lean_attribute", "PART_LEAN_FUNCTIONS", "PART_LEAN_MACRO"]
 
 SPLIT_MIN = 300      # statements: shorter runs stay as they are
 FOLD_BLOCKS = True   # split_body's ``blocks`` honoured (False: the C before session 17, for A/B)
+FOLD_MIN = 1200      # lines the plain split leaves in a body before generate.py folds its guard blocks
 CHUNK = 100          # statements per sub-function, at most
 CHUNK_BYTES = 8000   # characters of C per sub-function, about (a chunk ends past this)
 
@@ -172,8 +174,8 @@ def _fold_blocks(lines):
     jac_x and NAME_implicit into runs shorter than SPLIT_MIN, which stayed in the function's
     own body: gcc's register allocation of those 2,000-3,000-line bodies was most of the
     humanoid's compile (compiler/emit/generate.py asks for it where the split leaves a body of
-    more than LEAN_MIN lines: on hopper and walker2d, whose bodies are short, the split rhs
-    ran 3-8 % slower).  Only blocks whose temporaries are defined nowhere else in the
+    more than FOLD_MIN lines: ant's and the humanoid's 1,500-2,900; not hopper's and walker2d's
+    rhs of 650-800 lines, which ran 3-8 % slower folded).  Only blocks whose temporaries are defined nowhere else in the
     function (so no name is shadowed) and that read no identifier a sub-function would not
     see; the lines are kept as they are (split_body joins them back)."""
     defined = {}
