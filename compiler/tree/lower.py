@@ -507,7 +507,9 @@ def _energy_text(tree):
     if any(isinstance(ld, PairLoad) for ld in tree.loads):
         text += ", the body-body contacts' elastic energy"
     if getattr(tree, "spring_energy", None) is not None:
-        text += ", the springs' potential (joints, fixed tendons, servos' bias at zero control)"
+        servos = any(n.startswith("bias") for n in getattr(tree, "spring_parameters", ()))
+        text += (", the springs' potential (joints, fixed tendons" + (", servos' bias at zero control"
+                                                                         if servos else "") + ")")
     return text + (" and the joint limits' springs" if getattr(tree, "joint_energy", None) else "")
 
 
