@@ -24,7 +24,8 @@ from eomc.compiler.mjcf.treeir import tree_ir  # noqa: E402
 from eomc.runtime.switching import STATUS_ENERGY, PhysicsWarning  # noqa: E402
 
 # no floor: a limited shoulder, an elbow held by a position servo (gear 2), a servo on a fixed
-# tendon over both (its control range holds 0), a motor, in a fluid (inertia-box model)
+# tendon over both (its control range holds 0), a motor, in a fluid (the upper arm MuJoCo's
+# inertia box, the lower its ellipsoid model: added mass, Magnus and Kutta lift, drag)
 SERVO = """<mujoco model="servo">
   <compiler angle="radian"/>
   <option density="1000" viscosity="0.01" {wind}><flag energy="enable"/></option>
@@ -34,7 +35,7 @@ SERVO = """<mujoco model="servo">
       <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.03" mass="1"/>
       <body name="lower" pos="0.3 0 0">
         <joint name="elbow" type="hinge" axis="0 1 0" armature="0.01"/>
-        <geom type="box" size="0.1 0.02 0.03" pos="0.1 0 0" mass="0.5"/>
+        <geom type="box" size="0.1 0.02 0.03" pos="0.1 0 0" mass="0.5" fluidshape="ellipsoid"/>
       </body>
     </body>
   </worldbody>
@@ -103,7 +104,7 @@ def test_a_conservative_run_keeps_its_energy_and_the_fluid_only_takes_it(servo):
     assert res.status == 0 and np.abs(E - E[0]).max() < 1e-9 * abs(E[0])
     wet = model.simulate(x0, (0, 3), method="radau")
     E = wet.outputs["energy"]
-    assert wet.status == 0 and E.max() <= E[0] and E[-1] < E[0] - 1.0
+    assert wet.status == 0 and np.diff(E).max() < 0.0 and E[-1] < E[0] - 1.0     # falls at every point
     with warnings.catch_warnings():     # 0.036 past the limit: the overshoot's own warning
         warnings.simplefilter("ignore", PhysicsWarning)
         hit = model.simulate(np.array([0.5, -0.4, 4.0, 0.0]), (0, 3), p=dry, method="radau")
