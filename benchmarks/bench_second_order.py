@@ -9,7 +9,10 @@ round, ~20 ms blocks, median of rounds; ns per call):
     with functions rhs, inverse_dynamics, jac_id, hess_id, the generated C compiled into the
     harness with the flags eomc builds it with on this machine (gcc -O2, plus -mavx2
     -ffp-contract=off -fno-ipa-ra on an AVX2 x86-64: the kernel's triple loop then runs 4 k a
-    step; ``--portable``: -O2 alone, 2 k a step);
+    step; ``--portable``: -O2 alone: since session 17 the C then holds the kernel's AVX2 twin,
+    NAME_rnea_hess_avx2, which NAME_hess_id takes when the CPU has AVX2 -- so on this CPU eomc's
+    -O2 kernel runs AVX2 where Pinocchio's -O2 build runs SSE2, each library's default build;
+    the header says so);
   * Pinocchio ``ComputeRNEASecondOrderDerivatives`` (Singh, Russell & Wensing 2022; header-only
     from the pin / cmeel wheels, g++ -O2 -std=c++17 with the same instruction-set flag (-mavx2)
     as eomc's C, benchmarks/tree_models/pin_derivatives.cpp,
@@ -354,7 +357,9 @@ def header(rounds, limits=False, cflags=("-O2",), isa=(), three=False, core=1):
         f"{'3' if limits else '2 (4 on a floating base)' if three else '2'} contestants interleaved, "
         f"median of {rounds} rounds, {bd.NS} states cycled.  eomc: `--formulation recursive`, functions rhs, "
         "inverse_dynamics, jac_id, hess_id.\n",
-    ] + ([
+    ] + (["-O2 alone: eomc's C takes its kernel's AVX2 twin (NAME_rnea_hess_avx2, chosen per call by the CPU, the same "
+          "bits) on this CPU, where Pinocchio's -O2 build runs SSE2 (each library's default build); the machine-flag "
+          "rows compare both at AVX2.\n"] if not isa and _has_avx2() else []) + ([
         "`--limits`: the robots with their joint limits on (the default build); \"old path\": the same "
         "model's hess_id forced onto forward over reverse (what these builds got before the kernel "
         "covered joint laws), a third contestant in the same harness.  Pinocchio has no joint laws: its "
@@ -375,6 +380,11 @@ def header(rounds, limits=False, cflags=("-O2",), isa=(), three=False, core=1):
         "**Pinocchio / hess_id** | **Pinocchio / tangent** | **Pinocchio / zeroed** | ops jac_id / hess_id | "
         "agreement with Pinocchio (q,q), (u,u), (q,u) | hess_id vs differences of jac_id |",
         "|---|--:|--:|--:|--:|--:|--:|--:|--:|--|--|--|"])) + "\n"
+
+
+def _has_avx2():
+    from eomc.runtime.cpu import cpu_features
+    return "avx2" in (cpu_features() or ())
 
 
 def render_limited(r):

@@ -77,7 +77,8 @@ import sympy as sm
 from . import narrow as nw
 from eomc.runtime.errors import ModelError
 
-__all__ = ["PairTableCall", "PairTableOut", "PairTableKernelTape", "lower_table", "table_of"]
+__all__ = ["DEPTHS_POSITIVE", "PairTableCall", "PairTableOut", "PairTableKernelTape", "lower_table",
+           "reads_depths_positive_only", "table_of"]
 
 TAPE_ROOM = 4096         # doubles of the pairs' routine tapes a taped call keeps (pairs in contact; see _loop)
 POINT_OUTPUTS = 9        # F_n, friction (3), δ, clip, p (3): PairValue kinds 0..8
@@ -86,6 +87,8 @@ POINT_OUTPUTS = 9        # F_n, friction (3), δ, clip, p (3): PairValue kinds 0
 # v_B - v_A at p (3), K (9), C (9) (.pairs.law_slopes; 0 out of contact)
 SLOPE_OUTPUTS = 25
 SLOPES = 3               # ``full`` of a call in its "slopes" variant (its C passes 0: the rhs's skips)
+DEPTH_OUTPUT = 4         # a contact point's δ among its POINT_OUTPUTS (PairValue kind "depth")
+DEPTHS_POSITIVE = "depths"   # for_program's ``exact`` for a function reading δ only as (δ + |δ|)/2
 _TABLES = {}             # table id -> Table (this process's lowering; the C is what the caches keep)
 
 
@@ -210,6 +213,12 @@ class PairTableCall(nw.Token):
     def _slopes(self):
         return int(self.args[1]) == SLOPES
 
+    DEPTHS_POSITIVE = DEPTHS_POSITIVE
+
+    def reads_depths_positive_only(self, prog):
+        """:func:`reads_depths_positive_only` (compiler/emit/generate.py asks the node)."""
+        return reads_depths_positive_only(prog)
+
     def c_declaration(self):
         t = self.table
         n = t.noutput + (t.ninput + len(t.pairs) + t.room if self._tape() else 0)
@@ -246,15 +255,66 @@ class PairTableCall(nw.Token):
     def for_program(self, reads, exact=False):
         """The call with ``full`` = 2 (far pairs' bounds, see the module docstring) when the program
         reads a contact point's quantities (``reads``: the output indices its PairTableOut read), else 0;
-        ``exact`` (the outputs function: users read every point's depth and position) 1, no skips."""
+        ``exact`` (the outputs function: users read every point's depth and position) 1, no skips;
+        ``exact`` = DEPTHS_POSITIVE (NAME_energy: it reads a point's δ only through its positive part
+        (δ + |δ|)/2): 2 when the program reads no other point quantity, else 1.
+
+        Why DEPTHS_POSITIVE may skip: a pair the bounding balls skip has δ = -gap < 0 where the narrow
+        phase's δ is < 0 too (module docstring), so (δ + |δ|)/2 is +0 with either (0.5|δ| and 0.5δ
+        round to opposite numbers), and a point that is not skipped keeps the narrow phase's δ
+        itself; the law (F_n, friction) is not read.  The energy's value is the outputs' bit for
+        bit (tests/compiler/emit/test_energy_fn.py); G1's NAME_energy ran every pair's narrow phase
+        and law (41 % of its time)."""
         t = self.table
         if any(k >= t.noutput for k in reads):      # NAME_implicit: the pairs' slopes
             if any(t.nwrench <= k < t.noutput for k in reads):
                 raise ModelError("a function reads both the body-body pairs' slopes and their outputs")
             full = SLOPES
         else:
+            if exact == DEPTHS_POSITIVE:
+                exact = any(k >= t.nwrench and (k - t.nwrench) % POINT_OUTPUTS != DEPTH_OUTPUT for k in reads)
             full = (1 if exact else 2) if any(k >= t.nwrench for k in reads) else 0
         return self.func(self.args[0], sm.Integer(full), *self.args[2:])
+
+
+def reads_depths_positive_only(prog):
+    """Whether ``prog`` reads the pairs' loops' contact point outputs only as their δ's positive
+    part, (δ + |δ|)/2 (the energy's elastic terms, compiler/tree/contacts._pair_energy): every
+    PairTableOut of a point's δ, or a temporary holding one, occurs only inside such a sum, and no
+    other point output is read.  Then the loop may skip far pairs (PairTableCall.for_program's
+    DEPTHS_POSITIVE); a program that reads anything else of a point keeps every pair exact."""
+    tables = {t: e.table for t, e in prog.assignments if isinstance(e, PairTableCall)}
+    if not tables:
+        return False
+    outs = set()
+    for _, e in (*prog.assignments, *prog.results):
+        if isinstance(e, sm.Basic):
+            outs.update(n for n in sm.preorder_traversal(e) if isinstance(n, PairTableOut))
+    depth = set()
+    for n in outs:
+        t = tables.get(n.args[0])
+        k = int(n.args[2])
+        if t is None or int(n.args[1]) != 0:
+            return False
+        if k >= t.nwrench:
+            if (k - t.nwrench) % POINT_OUTPUTS != DEPTH_OUTPUT:
+                return False
+            depth.add(n)
+    alias = {t for t, e in prog.assignments if e in depth}
+    held = depth | alias
+    half = sm.Rational(1, 2)
+
+    def positive_part(e):
+        return (isinstance(e, sm.Add) and len(e.args) == 2
+                and {a for a in e.args} in ({half * d, half * sm.Abs(d)} for d in held))
+    mark = sm.Dummy()
+    for t, e in (*prog.assignments, *prog.results):
+        if t in alias or not isinstance(e, sm.Basic):
+            continue
+        rest = e.replace(positive_part, lambda _: mark)
+        if rest.has(*held):
+            return False
+    return True
 
 
 class PairTableTapeCall(PairTableCall):

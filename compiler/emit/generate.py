@@ -20,7 +20,7 @@ from .formulation import KANE, Formulation
 from .generated import GeneratedModel
 from .layout import check_identifier, make_layout
 from .linsolve import choose_ldlt
-from .printer import MINMAX_C, NonFiniteLiteral, print_memo
+from .printer import MINMAX_C, HalfPow, NonFiniteLiteral, print_memo
 from .reverse import REVERSE_FUNCTIONS, reverse_body, reverse_nsolve
 from .sparse_lu import sparse_lu_solver
 from .split import LEAN_MACRO, NOINLINE_MACRO, lean_attribute, split_body
@@ -283,7 +283,7 @@ def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions
         if programs["energy"] is None:
             fns = tuple(f for f in fns if f != "energy")
             del programs["energy"]
-    programs = {fn: _taped(p, exact=fn.startswith("outputs") or fn == "energy") for fn, p in programs.items()}
+    programs = {fn: _taped(p, exact=_exactness(fn, p)) for fn, p in programs.items()}
     if hasattr(formulation, "finish_programs"):     # (recursive: contact/table.slopes_into)
         programs = formulation.finish_programs(programs)
     programs.update((fn, programs[GENERATED_LIKE[fn]]) for fn in fns if fn in GENERATED_LIKE)
@@ -311,7 +311,18 @@ def energy_program(shared, sym):
     unknowns = set(sym.W) | set(sym.UD)
     if any(symbols_of(e) & unknowns for _, e in (*prog.assignments, *prog.results)):
         return None
-    return prog
+    return _half_pows(prog)
+
+
+def _half_pows(prog):
+    """``prog`` with its powers x**(k/2), k odd >= 3, as printer.HalfPow (pow skipped at x = 0, the
+    same bits: the contacts' elastic energies, zero out of contact)."""
+    def swap(e):
+        if not isinstance(e, sm.Basic) or not e.has(sm.Pow):
+            return e
+        return e.replace(lambda n: n.is_Pow and HalfPow.applies(n), lambda n: HalfPow(n.base, n.exp))
+    return prog.with_(assignments=tuple((t, swap(e)) for t, e in prog.assignments),
+                      results=tuple((k, swap(e)) for k, e in prog.results))
 
 
 def ir_listing(formed, name, **options):
@@ -502,6 +513,19 @@ def _taped(prog, exact=False):
     if not want:
         return prog
     return prog.with_(assignments=tuple((t, e.taped() if t in want else e) for t, e in prog.assignments))
+
+
+def _exactness(fn, prog):
+    """for_program's ``exact`` of function ``fn``'s pairs' loop: the outputs, every pair exact (users
+    read each point's depth and position); NAME_energy too, unless it reads the points' depths only
+    as their positive parts (compiler/contact/table.reads_depths_positive_only): then the loop's
+    broad phase (DEPTHS_POSITIVE), the same bits."""
+    if fn == "energy" and prog is not None:     # the loop's node says (emit does not import contact)
+        calls = [e for _, e in prog.assignments if hasattr(e, "reads_depths_positive_only")]
+        if calls and calls[0].reads_depths_positive_only(prog):
+            return calls[0].DEPTHS_POSITIVE
+        return True
+    return fn.startswith("outputs")
 
 
 def _variants(prog, exact=False):

@@ -28,7 +28,7 @@ import sympy as sm
 from sympy.printing.c import C99CodePrinter
 from sympy.printing.precedence import PRECEDENCE
 
-__all__ = ["CPrinter", "NonFiniteLiteral", "print_memo", "c_minmax", "MINMAX_C", "MINMAX_NAMES"]
+__all__ = ["CPrinter", "HalfPow", "NonFiniteLiteral", "print_memo", "c_minmax", "MINMAX_C", "MINMAX_NAMES"]
 
 # fmax and fmin inline.  Why: on the ant's NAME_implicit (164 sites: joint limits, ctrl clamps,
 # the broad phase) the libm calls were 3.6 % of its time (session 15, report-antfs.md).  Why this
@@ -45,7 +45,32 @@ MINMAX_C = {"eomc_fmax": """static inline double eomc_fmax(double a, double b)
 }""", "eomc_fmin": """static inline double eomc_fmin(double a, double b)
 {
     return a < b ? a : (b != b ? a : b);
+}""",
+            # printer.HalfPow's; pow(±0, c) is +0 for these c, and a NaN or any other x goes to pow
+            "eomc_pow0": """static inline double eomc_pow0(double x, double c)
+{
+    return x != 0.0 ? pow(x, c) : 0.0;
 }"""}
+
+
+class HalfPow(sm.Function):
+    """HalfPow(x, c): x**c for c = k/2, k odd and >= 3 (a contact law's 3/2 and 5/2), printed as
+    ``eomc_pow0(x, c)`` (:data:`MINMAX_C`), which skips libm's pow where x is 0: the same bits
+    (pow(±0, c) = +0 for such c; any other x is pow's).  Why: NAME_energy's elastic terms are
+    k δ₊^(5/2) per contact point, δ₊ = 0 for every point out of contact, and glibc's pow of 0 still
+    takes ~4 ns (25 calls a step on the ant: a third of its 315 ns; compiler/emit/generate.py
+    energy_program)."""
+    nargs = 2
+    is_real = True
+
+    @classmethod
+    def applies(cls, e):
+        """Whether Pow ``e`` is one HalfPow prints."""
+        c = e.exp
+        return c.is_Rational and c.q == 2 and c.p >= 3
+
+    def _ccode(self, printer):
+        return f"eomc_pow0({printer._print(self.args[0])}, {printer._print(self.args[1])})"
 
 
 def c_minmax(printer, fn, *args):

@@ -1341,8 +1341,18 @@ def _aba_avx2_lines(n):
     the portable helpers.  Why: at -O2 the articulated solve's element-wise row loops run two
     doubles an instruction (SSE2, all x86-64 has); on a CPU with AVX2 they run four: Go2's
     jac_x 8.2 -> 7.3 us (sens8's A/B, session 15), the same bits."""
+    return avx2_guard_lines("the solve's AVX2 row helpers, chosen per call by the CPU") + [
+        f"#if {AVX2_GUARD}",
+    ] + _aba_lines(n, "avx2")[:-1] + ["#endif", ""]
+
+
+def avx2_guard_lines(what):
+    """C: ``EOMC_RD_AVX2`` defined (once per file: ``#ifndef``) as 1 where AVX2 twins are compiled
+    in and chosen per call (:func:`_aba_avx2_lines`, second_order's NAME_rnea_hess_avx2): gcc
+    (its ``target`` attribute and ``__builtin_cpu_supports``), optimizing, on x86, when the
+    flags do not already allow AVX; else 0.  ``what``: the comment on its first line."""
     return [
-        f"#ifndef {AVX2_GUARD}   /* the solve's AVX2 row helpers, chosen per call by the CPU */",
+        f"#ifndef {AVX2_GUARD}   /* {what} */",
         "#if defined(__GNUC__) && !defined(__clang__) && defined(__OPTIMIZE__) && !defined(__OPTIMIZE_SIZE__) \\",
         "    && (defined(__x86_64__) || defined(__i386__)) && !defined(__AVX__)",
         f"#define {AVX2_GUARD} 1",
@@ -1350,8 +1360,7 @@ def _aba_avx2_lines(n):
         f"#define {AVX2_GUARD} 0",
         "#endif",
         "#endif",
-        f"#if {AVX2_GUARD}",
-    ] + _aba_lines(n, "avx2")[:-1] + ["#endif", ""]
+    ]
 
 
 def _aba_dispatch(name, nd, ncol):

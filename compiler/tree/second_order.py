@@ -49,7 +49,7 @@ import sympy as sm
 
 from ..emit.bodies import IND, store, temps
 from ..ir.opcount import count_ops
-from .analytic import (VARIATION_LINES, WORLD_INERTIA_LINES, body_head_lines, c_table, finite_lines, rd_helpers,
+from .analytic import (AVX2_GUARD, VARIATION_LINES, WORLD_INERTIA_LINES, body_head_lines, c_table, finite_lines, rd_helpers,
                        tree_tables, world_load_lines)
 
 __all__ = ["ANH", "second_order_plan", "with_law_hessians", "with_k_derivatives", "second_order_c", "second_order_body",
@@ -387,7 +387,68 @@ def second_order_c(name, plan, nq, nx, helpers):
         "    return big;",
         "}",
     ]
-    return "\n".join(lines)
+    start = next(n for n, x in enumerate(lines) if x.startswith(f"#if {name.upper()}_H2_LANES == 4 && defined(__GNUC__)")
+                 or x.startswith("/* d2 tau / dx2 of RNEA"))
+    return "\n".join(lines + [""] + _avx2_twin(name, lines[start:]))
+
+
+def _avx2_twin(name, lines):
+    """C: the kernel (``lines``: NAME_rnea_hess and, written by halves, its transposes NAME_h2_trt /
+    NAME_h2_trs) a second time as NAME_rnea_hess_avx2 (and NAME_h2_trt_avx2 / NAME_h2_trs_avx2),
+    built for AVX2 (``target("avx2")``) with the AVX2 forms chosen (NAME_H2_LANES 4: the triple
+    loop's dots 4 k a step, the pair products on four lanes, the tiles' transposes on vector
+    registers), under ``EOMC_RD_AVX2`` (:func:`.analytic.avx2_guard_lines`: gcc, optimizing, x86,
+    flags without AVX); NAME_hess_id takes it when ``__builtin_cpu_supports("avx2")``
+    (:func:`second_order_body`).  The machine build (-mavx2) compiles the plain kernel in these
+    forms and preprocesses the twin out.  Same bits: the lane and scalar forms sum every term in the
+    same order (see _pair_vector_lines, LANES), and AVX2 without FMA neither contracts nor
+    reassociates.  The inline helpers (NAME_rd_*, NAME_h2_mv) are inlined into it and built for
+    AVX2 there.  Why: a portable -O2 build runs the kernel on SSE2, two doubles an instruction
+    (session 16: Go2 34 vs 26 us machine, cart40 392 vs 253 us).  The block holds no other
+    preprocessor conditional (compiler/emit/target.without_cpu_dispatch cuts it at its first
+    ``#endif``: the c99-f32 target keeps the portable kernel only)."""
+    from .analytic import AVX2_GUARD, avx2_guard_lines
+    up = name.upper()
+    attr = '__attribute__((target("avx2"))) '
+    out, keep, mode, depth = [], True, None, 0
+    for x in lines:
+        if mode == "drop":      # the machine build's vector types (nested conditionals): the twin's own below
+            depth += x.startswith("#if")
+            depth -= x.startswith("#endif")
+            mode, keep = (None, True) if depth == 0 else (mode, keep)
+            continue
+        if x.startswith(f"#if {up}_H2_LANES == 4 && defined(__GNUC__)"):
+            mode, keep, depth = "drop", False, 1
+            continue
+        if x in (f"#if {up}_H2_LANES == 4", f"#ifdef {up}_H2_VT"):
+            mode, keep = "if", True
+            continue
+        if x == "#else" and mode == "if":
+            keep = False
+            continue
+        if x == "#endif" and mode is not None:
+            mode, keep = None, True
+            continue
+        if x.startswith("#"):
+            if mode == "drop":
+                continue
+            raise AssertionError(f"a preprocessor line the AVX2 twin does not know: {x}")
+        if not keep:
+            continue
+        for f in ("rnea_hess", "h2_trt", "h2_trs"):
+            x = x.replace(f"{name}_{f}(", f"{name}_{f}_avx2(")
+        x = (x.replace(f"{up}_H2_LANES", "4").replace(f"{name}_h2_v4", f"{name}_h2_v4x")
+             .replace(f"{up}_H2_SHUF(", f"{up}_H2_SHUFX("))
+        if x.startswith("static "):
+            x = attr + x
+        out.append(x)
+    return avx2_guard_lines("AVX2 twins, chosen per call by the CPU") + [
+        f"#if {AVX2_GUARD}",
+        "/* the kernel for AVX2 (_avx2_twin), taken by NAME_hess_id when the CPU has it */",
+        f"typedef double {name}_h2_v4x __attribute__((vector_size(32), aligned(8)));",
+        f"typedef long long {name}_h2_m4x __attribute__((vector_size(32)));",
+        f"#define {up}_H2_SHUFX(a, b, i, j, k, l) __builtin_shuffle(a, b, ({name}_h2_m4x){{i, j, k, l}})",
+    ] + out + ["#endif"]
 
 
 LANES = 4      # K's paths are padded to a multiple of this: the most k a step of the triple loop's dots
@@ -1249,14 +1310,20 @@ def second_order_body(ctx, program, sym):
     lines += [f"{IND}{{",
               f"{IND}    static const int sp[{plan.nd}] = {{{rows}}};",
               f"{IND}    double u[{plan.nd}], ud[{plan.nd}];",
-              f"{IND}    int e;",
+              f"{IND}    int e, big;",
               f"{IND}    for (e = 0; e < {plan.nd}; e++) {{",
               f"{IND}        u[e] = x[{ctx.nq} + sp[e]];",
               f"{IND}        ud[e] = udot[sp[e]];",
               f"{IND}    }}",
               *([f"{IND}    /* the entries off the tree's support paths are left as the caller zeroed them (NAME_rnea_hess) */"]
                 if not ZERO and not _covers_all(plan, ctx.nq, ctx.nx) else []),
-              f"{IND}    if (!{ctx.name}_rnea_hess(an, u, ud, out)) return EOMC_OK;   /* finite by its bound (BOUND) */",
+              f"#if {AVX2_GUARD}",
+              f'{IND}    if (__builtin_cpu_supports("avx2"))   /* the same bits, on AVX2 (_avx2_twin) */',
+              f"{IND}        big = {ctx.name}_rnea_hess_avx2(an, u, ud, out);",
+              f"{IND}    else",
+              "#endif",
+              f"{IND}    big = {ctx.name}_rnea_hess(an, u, ud, out);",
+              f"{IND}    if (!big) return EOMC_OK;   /* finite by its bound (BOUND) */",
               f"{IND}}}",
               f"{IND}return {ctx.name}_rd_finite(out, {ctx.nu * ctx.nx * ctx.nx});   /* analytic.finite_lines */"]
     return lines

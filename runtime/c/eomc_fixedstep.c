@@ -76,6 +76,8 @@
 #define SWITCH_FACTOR 2.0     /* fast path: a contact depth or joint-law slope changing by more
                                  than this factor within a step is a regime change */
 #define RESID_ACCEL 1.0       /* fast path: the residual test's floor, h * this (m/s^2, rad/s^2) */
+#define ONSET_FACTOR 100.0    /* fast path: a contact in touch at a step's start whose depth grows by
+                                 more than this within it touches down there (see fs_onset) */
 
 size_t eomc_fs_work_size(int nx)
 {
@@ -1028,6 +1030,60 @@ static double fs_chart_ratio(const fs_fast *q, double h, const double *x)
     return isfinite(r) ? r : INFINITY;
 }
 
+/* Whether a contact touches down inside the step from T to T1 although it is in touch at T: a
+ * depth growing more than ONSET_FACTOR-fold (a micro-touch at the start, the contact landing at
+ * speed).  Why: the step's matrix A has the law's slopes at the start's depth, which for the Hertz
+ * law (slopes ~ sqrt(depth)) are nearly nil there, so the step is nearly explicit in that contact
+ * -- a touch-down in all but name -- while the residual's Newton correction A1^-1 r has the end's
+ * slopes, sqrt(ONSET_FACTOR) or more times stiffer, and from that stiff side of the convex law
+ * it falls short of the implicit Euler solution.  So a try that passes with such a contact is
+ * measured with A as well (fs_start_ratio), and the touch-down's onset cell is not counted
+ * unsolved (fs_switched: FS_TOUCHDOWN, as from out of touch).  Measured (session 17, benchmarks/results/
+ * fixedstep.md's notes): gymnasium humanoid, bench_rollout_contacts' row 10 at 3 ms: a shin's end
+ * sphere landing at 2.6 m/s, the step starting 0.16 um in touch, 1.6e-7 -> 3.52 mm and +160 J in
+ * one whole step taken with ratio 0.12 (|du| 37.9 made large by the same error); a 1 kg MJCF ball
+ * dropped at 1-5 m/s from 0.01-0.16 um in touch at 2-5 ms gains 0.06-340 J (status 20 or 10). */
+static int fs_onset(const fs_fast *q)
+{
+    for (int c = 0; c < q->ops->imp->ncontact; c++) {
+        double a = q->T[q->L.contact + 25 * (size_t)c], b = q->T1[q->L.contact + 25 * (size_t)c];
+        if (a > 0.0 && b > ONSET_FACTOR * a) return 1;
+    }
+    return 0;
+}
+
+/* The try's ratio with Newton's correction taken with the start's matrix A (factored for this
+ * step) instead of A1: |A^-1 r| / (|du| + h g), r the residual M1 du - h f1 (not changed).  Asked
+ * only of a try that passes, at a touch-down from in touch (fs_onset), where A1's correction
+ * falls short: A has the start's slopes, softer than the law's secant over the step, so this one
+ * errs long. */
+static double fs_start_ratio(fs_fast *q, double h, const double *r)
+{
+    int nu = q->ops->nu;
+    double rn = 0.0, dn = 0.0, *w = q->GJ, ratio;
+    memcpy(w, r, (size_t)nu * sizeof(double));
+    fs_tree_solve(nu, q->A, q->start, q->anc, w);
+    for (int i = 0; i < nu; i++) {
+        rn += w[i] * w[i];
+        dn += q->du[i] * q->du[i];
+    }
+    ratio = sqrt(rn) / (sqrt(dn) + h * RESID_ACCEL);
+    return isfinite(ratio) ? ratio : INFINITY;
+}
+
+/* r = M1 du - h f1 into q->dv, over M's nonzeros only (a speed and its ancestors and
+ * descendants: cols), in the same order as the dense product, so the sum is the same to the bit */
+static void fs_residual(fs_fast *q, double h)
+{
+    const double *M1 = q->T1 + q->L.M, *f1 = q->T1 + q->L.f;
+    for (int i = 0; i < q->ops->nu; i++) {
+        const double *row = M1 + (size_t)i * q->ops->nu;
+        double r = -h * f1[i];
+        for (int x = q->cstart[i]; x < q->cstart[i + 1]; x++) r += row[q->cols[x]] * q->du[q->cols[x]];
+        q->dv[i] = r;
+    }
+}
+
 static int fs_fast_try(fs_fast *q, double t, double h, const double *x, int check, double *ratio)
 {
     const eomc_fs_ops *ops = q->ops;
@@ -1083,19 +1139,19 @@ static int fs_fast_try(fs_fast *q, double t, double h, const double *x, int chec
     if (done) {                         /* the lanes: the lines below, in vector code */
         *ratio = rq->ratio;
         *ratio = fmax(*ratio, fs_chart_ratio(q, h, x));
+        if (*ratio <= ops->imp->split && fs_onset(q)) {   /* rare: scalar, the scalar path's bits */
+            if (q->A == q->bare) {      /* the lanes made du without writing A: write it */
+                if ((s = fs_assemble(ops, L, h, u, q->T, q->A, q->b, q->GJ, q->cT, &q->vT, &q->pat,
+                                     q->own, &q->start, &q->anc)))
+                    return s;
+                q->bare = NULL;
+            }
+            fs_residual(q, h);
+            *ratio = fmax(*ratio, fs_start_ratio(q, h, q->dv));
+        }
         return EOMC_OK;
     }
-    {
-        /* M1 du over M's nonzeros only (a speed and its ancestors and descendants: cols), in
-         * the same order as the dense product, so the sum is the same to the bit */
-        const double *M1 = q->T1 + L->M, *f1 = q->T1 + L->f;
-        for (int i = 0; i < nu; i++) {
-            const double *row = M1 + (size_t)i * nu;
-            double r = -h * f1[i];
-            for (int x = q->cstart[i]; x < q->cstart[i + 1]; x++) r += row[q->cols[x]] * q->du[q->cols[x]];
-            q->dv[i] = r;
-        }
-    }
+    fs_residual(q, h);
     /* and the next try's du from T1 at h (A1^-1 h b1: what that try would solve) in the same pass;
      * measured on the ant (1 s checked, runtime .so A/B in one process): 0.563 -> 0.551 ms */
     for (int i = 0; i < nu; i++) q->dun[i] = h * q->b1[i];
@@ -1109,6 +1165,11 @@ static int fs_fast_try(fs_fast *q, double t, double h, const double *x, int chec
     *ratio = sqrt(rn) / (sqrt(dn) + h * RESID_ACCEL);
     if (!isfinite(*ratio)) *ratio = INFINITY;
     *ratio = fmax(*ratio, fs_chart_ratio(q, h, x));
+    /* a try that passes with a contact touching down from in touch: also with A (fs_onset) */
+    if (*ratio <= ops->imp->split && fs_onset(q)) {
+        fs_residual(q, h);              /* r again: the solve above overwrote it */
+        *ratio = fmax(*ratio, fs_start_ratio(q, h, q->dv));
+    }
     return EOMC_OK;
 }
 
@@ -1127,8 +1188,9 @@ static int fs_changed(double a, double b)
 }
 
 /* 0: no regime changed; FS_TOUCHDOWN: only contacts touching down (out of touch at the start,
- * in it at the end); FS_OTHER: anything else (a lift-off, a depth or a joint law's slope
- * changing by more than SWITCH_FACTOR). */
+ * in it at the end, or in touch at the start with a depth growing more than ONSET_FACTOR-fold:
+ * fs_onset); FS_OTHER: anything else (a lift-off, a depth or a joint law's slope changing by
+ * more than SWITCH_FACTOR). */
 enum { FS_TOUCHDOWN = 1, FS_OTHER = 2 };
 
 static int fs_switched(const fs_fast *q)
@@ -1139,7 +1201,7 @@ static int fs_switched(const fs_fast *q)
     for (int c = 0; c < ops->imp->ncontact; c++) {
         double a = q->T[q->L.contact + 25 * (size_t)c], b = q->T1[q->L.contact + 25 * (size_t)c];
         if (fs_changed(a, b)) {
-            if (a > 0.0 || !(b > 0.0)) return FS_OTHER;
+            if (!(b > 0.0) || (a > 0.0 && !(b > ONSET_FACTOR * a))) return FS_OTHER;
             kind = FS_TOUCHDOWN;
         }
     }

@@ -177,3 +177,105 @@ def test_newton_solve_eliminating_the_coordinates_rows_is_the_dense_solve(nfree,
             assert k == kept
             want = np.linalg.solve(A, r)
             assert np.max(np.abs(x - want)) <= 1e-11 * np.linalg.cond(A) * np.max(np.abs(want))
+
+
+@functools.lru_cache(maxsize=None)
+def _step_harness():
+    ffi, lib = _newton_harness()
+    ffi.cdef("int bdf_one_step(const double *y0, double h, double rtol, double c_pre, double *ynew,"
+             " double *tn, long *counts);")
+    return ffi, lib
+
+
+def _step_rhs(x, m=3, k=4e4, d=40.0, g=9.81, s=2e5):
+    """The harness's system (bdf_newton.c, bdf_one_step): q' = v, v_i' = -k q_i - d v_i
+    - g sin q_i - s (q_i - q_{i+1})^3 + s (q_{i-1} - q_i)^3 (q_4 = 0; no q_0 term)."""
+    q, v = x[:m], x[m:]
+    dq = q - np.append(q[1:], 0.0)
+    dp = np.insert(q[:-1] - q[1:], 0, 0.0)
+    return np.concatenate([v, -k * q - d * v - g * np.sin(q) - s * dq ** 3 + s * dp ** 3])
+
+
+def _step_jac(x, eps=1e-7):
+    return np.array([(_step_rhs(x + eps * e) - _step_rhs(x - eps * e)) / (2 * eps)
+                     for e in np.eye(len(x))]).T
+
+
+def _bdf1_solution(y0, h):
+    """The first (order-1 NDF) step's implicit equation d - c f(ypred + d) + psi = 0, with
+    ypred = y0 + h f0, psi = h f0 / alpha_1, c = h / alpha_1 (alpha_1 = 1 + 0.185), solved by
+    full Newton to rounding: the y = ypred + d BDF's Newton approximates."""
+    alpha1 = 1.185
+    f0 = _step_rhs(y0)
+    ypred, psi, c = y0 + h * f0, h * f0 / alpha1, h / alpha1
+    d = np.zeros_like(y0)
+    for _ in range(30):
+        residual = d - c * _step_rhs(ypred + d) + psi
+        d -= np.linalg.solve(np.eye(len(y0)) - c * _step_jac(ypred + d), residual)
+    return ypred + d
+
+
+@pytest.mark.parametrize("y0", [[0.05, -0.03, 0.02, 0.0, 0.0, 0.0],
+                                [0.08, 0.0, -0.08, 3.0, -2.0, 1.0]])
+@pytest.mark.parametrize("ratio", [0.75, 0.9, 1.1, 1.25, 0.6, 1.5])
+def test_newton_keeps_its_lu_across_a_small_change_of_h_and_converges_to_the_same_step(y0, ratio):
+    """Newton's matrix I - c J (c = h / alpha) is refactored only when c moved more than 30 %
+    from the c of its LU (eomc_bdf.c LU_BAND, as CVODE and LSODA do); in between the old LU is
+    used and each correction scaled by 2 / (1 + c / c_lu).  One step of a nonlinear (q, v)
+    system (three joints, springs of 4e4, cubic couplings) with the LU left from c / ratio:
+    within the band no new LU, no rejected try, the step as long as asked, and its y within
+    Newton's tolerance (3 % of the local error allowed, in the error test's scaled norm) of the
+    exact solution of the step's implicit equation, as the step with a fresh LU is; outside the
+    band a new LU."""
+    ffi, lib = _step_harness()
+    y0 = np.array(y0, dtype=float)
+    h, rtol = 3e-4, 1e-3
+    c = h / 1.185
+    exact = _bdf1_solution(y0, h)
+
+    def step(c_pre):
+        y, out, tn, counts = y0.copy(), np.zeros(6), ffi.new("double *"), ffi.new("long[3]")
+        status = lib.bdf_one_step(ffi.cast("double *", ffi.from_buffer(y)), h, rtol, c_pre,
+                                  ffi.cast("double *", ffi.from_buffer(out)), tn, counts)
+        assert status == 0
+        assert tn[0] == h and counts[2] == 0          # taken at once, as asked
+        return out, counts[0]
+
+    def scaled(y):
+        return np.sqrt(np.mean(((y - exact) / (rtol + rtol * np.abs(exact))) ** 2))
+
+    fresh, nlu_fresh = step(0.0)
+    assert nlu_fresh == 1 and scaled(fresh) < 0.03
+    kept, nlu = step(c / ratio)
+    if abs(ratio - 1.0) <= 0.3:
+        assert nlu == 1                  # the pre-factored LU only: kept for this step
+        assert 0.0 < scaled(kept) < 0.03   # another matrix than the fresh one, Newton's tolerance
+    else:
+        assert nlu == 2                  # refactored for this c
+        np.testing.assert_array_equal(kept, fresh)
+
+
+@pytest.mark.parametrize("h, cuts", [(3e-3, 1), (1e-2, 2), (3e-2, 3)])
+def test_a_newton_failure_with_a_fresh_jacobian_cuts_the_step_to_three_tenths(h, cuts):
+    """After Newton fails with a Jacobian taken in this step (at the predictor, then again at
+    Newton's last iterate), the step is retried at 0.3 of its length (eomc_bdf.c NEWTON_CUT;
+    CVODE and DLSODE cut to 0.25, this code halved before).  The harness's step with J = 0:
+    Newton is then a fixed-point iteration that diverges while c |lambda| >~ 1 (springs of 4e4),
+    so each too-long step fails with a fresh J and nothing else rejects it at rtol 1e-2: the step
+    taken is h * 0.3^m after m such failures (with halving it was h * 0.5^m)."""
+    ffi, lib = _step_harness()
+    ffi.cdef("void bdf_step_zero_jacobian(int on);", override=True)
+    y0 = np.array([0.05, -0.03, 0.02, 0.0, 0.0, 0.0])
+    y, out, tn, counts = y0.copy(), np.zeros(6), ffi.new("double *"), ffi.new("long[3]")
+    lib.bdf_step_zero_jacobian(1)
+    try:
+        status = lib.bdf_one_step(ffi.cast("double *", ffi.from_buffer(y)), h, 1e-2, 0.0,
+                                  ffi.cast("double *", ffi.from_buffer(out)), tn, counts)
+    finally:
+        lib.bdf_step_zero_jacobian(0)
+    assert status == 0 and np.isfinite(out).all()
+    assert counts[2] == cuts                       # tries rejected: Newton's failures only
+    assert tn[0] == pytest.approx(h * 0.3 ** cuts, rel=1e-12)
+    # the step it took is the BDF step of that length (Newton within its tolerance)
+    exact = _bdf1_solution(y0, tn[0])
+    assert np.sqrt(np.mean(((out - exact) / (1e-2 + 1e-2 * np.abs(exact))) ** 2)) < 0.03

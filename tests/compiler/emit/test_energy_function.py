@@ -49,3 +49,108 @@ def test_only_models_with_an_energy_output_get_it():
     alone = generate(str(PENDULUM), "en_alone", functions=("rhs", "energy"))[1]
     assert alone.metadata["functions"] == ["rhs", "outputs", "energy"]
     assert "energy" not in generate(str(PENDULUM), "en_none", functions=("rhs", "outputs"))[1].metadata["functions"]
+
+
+# Two legs hanging from a torso on a planar root, a sphere foot each: the feet are one self-pair
+# (siblings) and each touches the floor (tests/compiler/emit/test_implicit_batch.py's model).  With
+# pairs.TABLE_FROM = 1 the pair goes through the table's C loop (eomc_pairs), as G1's 16 foot-sphere
+# pairs and the humanoid's 109 pairs do by default.
+TWO_LEGS = """<mujoco model="twolegs">
+  <worldbody>
+    <geom name="floor" type="plane" size="0 0 1"/>
+    <body name="torso" pos="0 0 0.5">
+      <joint name="rootx" type="slide" axis="1 0 0"/>
+      <joint name="rootz" type="slide" axis="0 0 1"/>
+      <joint name="rooty" type="hinge" axis="0 1 0"/>
+      <geom name="torso" type="box" size="0.1 0.1 0.05" mass="5" contype="0" conaffinity="0"/>
+      <body name="left" pos="0 0.06 0">
+        <joint name="hip_l" type="hinge" axis="1 0 0" damping="0.5"/>
+        <geom name="thigh_l" type="box" size="0.02 0.02 0.2" pos="0 0 -0.2" mass="1" contype="0" conaffinity="0"/>
+        <geom name="foot_l" type="sphere" size="0.04" pos="0 0 -0.4" mass="0.2"/>
+      </body>
+      <body name="right" pos="0 -0.06 0">
+        <joint name="hip_r" type="hinge" axis="1 0 0" damping="0.5"/>
+        <geom name="thigh_r" type="box" size="0.02 0.02 0.2" pos="0 0 -0.2" mass="1" contype="0" conaffinity="0"/>
+        <geom name="foot_r" type="sphere" size="0.04" pos="0 0 -0.4" mass="0.2"/>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def _function_text(source, name):
+    start = source.index(f"int {name}(double t,")
+    return source[start:source.index("\n}\n", start)]
+
+
+def test_energy_skips_far_pairs_and_zero_powers_with_the_outputs_bits(tmp_path, monkeypatch):
+    """NAME_energy reads a pair's depth only through its positive part, so its pairs' loop takes the
+    broad phase (full = 2: far pairs get their balls' bounds, no law; the outputs' call is full = 1,
+    every pair's narrow phase and law: G1's energy spent 41 % of its time there) and its contact
+    powers δ₊^(3/2), δ₊^(5/2) skip libm's pow at 0 (eomc_pow0).  The value stays the outputs' bit for
+    bit at states with the feet pressed together, apart (the pair skipped) and in the floor or not."""
+    import eomc
+    from eomc.compiler.contact import pairs
+    from eomc.compiler.mjcf.model import MjcfModel
+    monkeypatch.setattr(pairs, "TABLE_FROM", 1)
+    path = tmp_path / "twolegs.xml"
+    path.write_text(TWO_LEGS)
+    model = eomc.compile(MjcfModel(path), name="enpt", functions=("rhs", "outputs", "energy"),
+                         cache_dir=tmp_path / "cache", cflags=STRICT, progress=False)
+    assert "energy" in model.metadata["functions"]
+    source = next((tmp_path / "cache").rglob("enpt.c")).read_text()
+    energy, outputs = _function_text(source, "enpt_energy"), _function_text(source, "enpt_outputs")
+    assert "eomc_pairs(" in energy and ", 2, &PT_[0])" in energy and ", 1, &PT_[0])" in outputs
+    assert "eomc_pow0(" in energy and "pow(" not in energy.replace("eomc_pow0(", "")
+    rng = np.random.default_rng(7)
+    names = list(model.state_names)
+    P = np.asarray(model.param_defaults, dtype=float)
+    pressed = apart = floor = 0
+    for k in range(300):
+        x = np.zeros(model.nx)
+        x[names.index("q_rootz")] = rng.uniform(-0.08, 0.05)     # the feet 1-4 cm into the floor or above
+        x[names.index("q_hip_l")] = rng.uniform(-0.3, 0.1)       # towards each other, or apart
+        x[names.index("q_hip_r")] = rng.uniform(-0.1, 0.3)
+        x[model.nq:] = rng.normal(size=model.nu)
+        out = model.outputs(0.0, x)
+        got = energy_of(model, 0.0, x, P)
+        assert got == out["energy"] and np.signbit(got) == np.signbit(out["energy"]), (k, got, out["energy"])
+        depth = out["depth_foot_l__foot_r"]
+        pressed += depth > 0
+        apart += depth < -0.05           # beyond the bounding balls' reach: skipped
+        floor += out["depth_foot_l"] > 0
+    assert pressed > 10 and apart > 10 and 10 < floor < 290, (pressed, apart, floor)
+
+
+def test_a_program_reading_more_than_the_depths_positive_part_keeps_every_pair():
+    """reads_depths_positive_only: only (δ + |δ|)/2 of a point's δ lets the loop skip far pairs; a
+    program reading δ itself, or a point's normal force, keeps the exact loop (full = 1)."""
+    from types import SimpleNamespace
+    import sympy as sm
+    from eomc.compiler.contact import table
+    from eomc.compiler.ir.program import Program
+    tid = 987654
+    table._TABLES[tid] = SimpleNamespace(nwrench=6, noutput=6 + 9, ninput=2, pairs=(), room=0, npoints=1)
+    try:
+        a, b, c, s = sm.symbols("a b c s")
+        call = table.PairTableCall(sm.Integer(tid), sm.Integer(1), a, b)
+        depth = table.PairTableOut(c, sm.Integer(0), sm.Integer(6 + 4))
+        force = table.PairTableOut(c, sm.Integer(0), sm.Integer(6 + 0))
+        wrench = table.PairTableOut(c, sm.Integer(0), sm.Integer(2))
+
+        def prog(*exprs, alias=False):
+            body = ((c, call),) + (((s, depth),) if alias else ())
+            return Program(inputs=(a, b), assignments=body, results=tuple((("en", k), e) for k, e in enumerate(exprs)))
+        positive = 3 * sm.Abs((depth + sm.Abs(depth)) / 2) ** sm.Rational(5, 2)
+        assert table.reads_depths_positive_only(prog(positive, wrench))
+        assert table.reads_depths_positive_only(prog(3 * ((s + sm.Abs(s)) / 2) ** 2, alias=True))
+        assert not table.reads_depths_positive_only(prog(positive + depth))
+        assert not table.reads_depths_positive_only(prog(positive, force))
+        assert not table.reads_depths_positive_only(prog(s * 2, alias=True))
+        reads = {6 + 4, 2}
+        assert int(call.for_program(reads, table.DEPTHS_POSITIVE).args[1]) == 2
+        assert int(call.for_program(reads | {6}, table.DEPTHS_POSITIVE).args[1]) == 1
+        assert int(call.for_program(reads, True).args[1]) == 1
+    finally:
+        del table._TABLES[tid]
