@@ -27,6 +27,9 @@ _JOINT = {"limit_k": ("limit stiffness", False), "limit_c": ("limit damping", Fa
           "limit_e": ("limit width", True), "damping": ("damping", False),
           "friction": ("friction", False), "friction_v": ("friction speed", True)}
 
+# the fluid forces' parameters (compiler/mjcf/fluid.py): negative, the drag would push energy in
+_FLUID = {"fluid_density": "the fluid's density", "fluid_viscosity": "the fluid's viscosity"}
+
 
 def _rules(model):
     """[(parameter index, name, meaning, strict)] and [(joint, lo index, hi index)], cached."""
@@ -52,6 +55,8 @@ def _rules(model):
                 what, strict = _JOINT[key]
                 rules.append((i, pname, f"{what} of joint {joint}", strict))
                 break
+        if pname in _FLUID:      # MJCF's <option density viscosity>: the energy verdict takes them >= 0
+            rules.append((i, pname, _FLUID[pname], False))
         if pname.startswith("limit_lo_") and f"q_{pname[9:]}" in states:
             hi = index.get(f"limit_hi_{pname[9:]}")
             if hi is not None:
