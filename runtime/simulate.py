@@ -814,7 +814,7 @@ def simulate(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6
     (BDF_FINEST) -- and Radau from wherever DOP853 detects stiffness -- the run continues,
     LSODA-like), rk4 (needs dt), dopri5/rk45, dop853,
     radau, bdf (needs jac_x: variable-order BDF/NDF like ode15s; at rtol 1e-2..1e-7 it takes
-    0.31-0.62 of Radau's time on the ant, 0.41-0.69 on Solo12, docs/contact.md;
+    0.29-0.60 of Radau's time on the ant, 0.39-0.68 on Solo12, docs/contact.md;
     runtime/c/eomc_bdf.c), implicitfast (needs dt
     and jac_x: fixed-step linearly implicit Euler for stiff contact at real-time steps,
     first order; runtime/c/eomc_fixedstep.c).  Output at

@@ -31,7 +31,7 @@
 /* Newton's iteration budget per attempt.  scipy's BDF allows 4; we allow 8, because on a
  * contact model a failed attempt costs far more than a few more iterations: it throws the
  * step away, evaluates a fresh Jacobian (gymnasium's ant: 31 us, 22 rhs calls) when the old
- * one was in use, and factors a new LU for the halved step.  On the ant after touch-down
+ * one was in use, and factors a new LU for the shorter step.  On the ant after touch-down
  * (friction regularised at v_s = 0.01 m/s, so J changes fast with the slip) most failures
  * were slow contraction, not divergence: with 8, rhs + Jacobian + LU work on the ant fell
  * 13-35 % at rtol 1e-2 .. 1e-8 (Jacobians 71 -> 42 at 1e-2, 90 -> 32 at 1e-7), Solo12
@@ -57,6 +57,15 @@
 #define MAX_FACTOR 10.0
 #define LU_BAND 0.3          /* refactor when |c / c_lu - 1| exceeds this (CVODE's dgmax) */
 #define KEEP_BAND 1.2        /* a suggested growth below this keeps h (and the LU) */
+/* The step after Newton failed with a Jacobian from this step: 0.3 of the failed one (CVODE's
+ * and DLSODE's cut after a convergence failure is 0.25; this code halved).  On the contact
+ * models a failure with a fresh J is a step too long for the contact's nonlinearity, and a half
+ * step mostly failed again, each retry a Jacobian and an LU.  Measured (benchmarks/results/
+ * contact_wp.md, s17 notes; medians over 8 starts, rtol 1e-1 .. 1e-7): Jacobians ant 75 / 61 / 54
+ * / 44 / 42 / 34 -> 61 / 56 / 46 / 33 / 33 / 28 (rtol 1e-1, 3e-2, 1e-2 .. 1e-5), Solo12 113 / 84 /
+ * 52 -> 84 / 61 / 45 (1e-1 .. 1e-2), hopper 22 -> 18-20 from 1e-2; rhs calls 0-23 % fewer on
+ * most rows.  0.25 and 0.2 were no better; 0.7 was worse everywhere. */
+#define NEWTON_CUT 0.3
 #define DEFAULT_MAX_STEPS 100000L
 #define NROWS (EOMC_BDF_MAX_ORDER + 3)
 /* RELINEARISE.  A Newton failure with a fresh Jacobian on a contact model is mostly a
@@ -66,11 +75,11 @@
  * while J stays where it was (the ant at rtol 1e-2: runs of 4-5 halvings, 93 of 213 LUs;
  * Solo12 at 1e-1: 476 failures in 886 trials).  So after such a failure the step is retried
  * once with J re-evaluated at Newton's last iterate (where the contact has engaged), and
- * if that fails too, the halved step starts from a J at its own predictor.  Measured
+ * if that fails too, the shorter step (NEWTON_CUT) starts from a J at its own predictor.  Measured
  * (benchmarks/results/contact_wp.md, s7 notes): Solo12 at 1e-1 2228 -> 61 rhs calls; the
  * ant at 1e-2 728 -> 507, 213 -> 99 LUs.
  * The same holds after a failure with an older J (session 14): J is taken at Newton's last
- * iterate, not at the predictor, and a failure with that J halves the step at once.  The ant
+ * iterate, not at the predictor, and a failure with that J cuts the step at once.  The ant
  * at rtol 1e-1 in the sliding phase failed with the old J, then with a J at the predictor,
  * and converged only with the J re-linearised at the iterate: three Jacobians a step.  And
  * Newton goes on from the iterate it stopped at, instead of from the predictor again: the
@@ -461,7 +470,7 @@ int eomc_bdf_trial(eomc_bdf *b, double t1)
             from_last = 0;
             if (mbad) b->bad = mbad;
             if (conv) break;
-            /* a J from Newton's iterate failed too: the step halves (once per step size
+            /* a J from Newton's iterate failed too: the step is cut (once per step size
              * since the last Newton failure) */
             if (b->cur_jac && relin) break;
             ok = !mbad;
@@ -482,7 +491,7 @@ int eomc_bdf_trial(eomc_bdf *b, double t1)
             first = 0;
             refresh = b->cur_jac;
             relin = 0;
-            rescale(b, 0.5);
+            rescale(b, NEWTON_CUT);
             continue;
         }
         if (first) b->bad = 0;    /* a step that passed at once: no failure being closed in on */

@@ -253,3 +253,29 @@ def test_newton_keeps_its_lu_across_a_small_change_of_h_and_converges_to_the_sam
     else:
         assert nlu == 2                  # refactored for this c
         np.testing.assert_array_equal(kept, fresh)
+
+
+@pytest.mark.parametrize("h, cuts", [(3e-3, 1), (1e-2, 2), (3e-2, 3)])
+def test_a_newton_failure_with_a_fresh_jacobian_cuts_the_step_to_three_tenths(h, cuts):
+    """After Newton fails with a Jacobian taken in this step (at the predictor, then again at
+    Newton's last iterate), the step is retried at 0.3 of its length (eomc_bdf.c NEWTON_CUT;
+    CVODE and DLSODE cut to 0.25, this code halved before).  The harness's step with J = 0:
+    Newton is then a fixed-point iteration that diverges while c |lambda| >~ 1 (springs of 4e4),
+    so each too-long step fails with a fresh J and nothing else rejects it at rtol 1e-2: the step
+    taken is h * 0.3^m after m such failures (with halving it was h * 0.5^m)."""
+    ffi, lib = _step_harness()
+    ffi.cdef("void bdf_step_zero_jacobian(int on);", override=True)
+    y0 = np.array([0.05, -0.03, 0.02, 0.0, 0.0, 0.0])
+    y, out, tn, counts = y0.copy(), np.zeros(6), ffi.new("double *"), ffi.new("long[3]")
+    lib.bdf_step_zero_jacobian(1)
+    try:
+        status = lib.bdf_one_step(ffi.cast("double *", ffi.from_buffer(y)), h, 1e-2, 0.0,
+                                  ffi.cast("double *", ffi.from_buffer(out)), tn, counts)
+    finally:
+        lib.bdf_step_zero_jacobian(0)
+    assert status == 0 and np.isfinite(out).all()
+    assert counts[2] == cuts                       # tries rejected: Newton's failures only
+    assert tn[0] == pytest.approx(h * 0.3 ** cuts, rel=1e-12)
+    # the step it took is the BDF step of that length (Newton within its tolerance)
+    exact = _bdf1_solution(y0, tn[0])
+    assert np.sqrt(np.mean(((out - exact) / (1e-2 + 1e-2 * np.abs(exact))) ** 2)) < 0.03
