@@ -15,6 +15,15 @@ CPU per call of NAME_outputs (the whole output vector, no dict: what simulate ev
 of its output points) and per ``rhs`` (unchanged: the energy is only in the outputs), both models loaded
 in one process on one core, interleaved rounds at states from a 1 s fall, medians.
 
+Since session 17 a model with joint limits and no ground contact (a URDF arm, gymnasium's
+reacher), a position servo's bias and fluid forces with no wind get it too: ``--model`` takes a
+gymnasium asset name, an .xml or .urdf path, or an example-robot-data robot (ur5, panda: fixed
+base, the file's limits).  Such a model had no outputs at all before, so its ``none`` row has no
+outputs call ("-"); the column that matters there is ``simulate``: thread CPU of a 1 s run from
+the default start with the default method (the outputs at its 1001 points and the verdict
+included), interleaved, median.  Results: energy_output.md for the humanoid,
+energy_output_<model>.md for the others.
+
     python benchmarks/bench_energy_output.py [--repeat 3] [--core 1] [--model humanoid]
 """
 import argparse
@@ -36,15 +45,27 @@ import sys, warnings, time
 warnings.simplefilter("ignore")
 import eomc
 from eomc.compiler.mjcf import MjcfModel
+from eomc.compiler.urdf.model import UrdfModel
 if sys.argv[1] == "none":
     import eomc.compiler.contact.tree as tree
     tree.passive_contacts = lambda read: False
-model = eomc.compile(MjcfModel(sys.argv[2]), cache_dir=sys.argv[3], progress=False)
+source = UrdfModel(sys.argv[2]) if sys.argv[2].endswith(".urdf") else MjcfModel(sys.argv[2])
+model = eomc.compile(source, cache_dir=sys.argv[3], progress=False)
 print("ENERGY", "energy" in model.output_names, model.path if hasattr(model, "path") else "")
 """
 
 
+ROBOTS = {"ur5": "ur_description/urdf/ur5_robot.urdf", "panda": "panda_description/urdf/panda.urdf"}
+
+
 def asset(name):
+    """A gymnasium asset's path, an example-robot-data robot's (ROBOTS), or ``name`` itself."""
+    if name in ROBOTS:
+        from importlib.metadata import distribution
+        return Path(distribution("example-robot-data").locate_file(
+            "cmeel.prefix/share/example-robot-data/robots")) / ROBOTS[name]
+    if name.endswith((".xml", ".urdf")):
+        return Path(name).resolve()
     import gymnasium
     return Path(gymnasium.__file__).parent / "envs" / "mujoco" / "assets" / f"{name}.xml"
 
@@ -67,13 +88,15 @@ def load(kind, path, cache):
     import eomc
     import eomc.compiler.contact.tree as tree
     from eomc.compiler.mjcf import MjcfModel
+    from eomc.compiler.urdf.model import UrdfModel
     saved = tree.passive_contacts
     if kind == "none":
         tree.passive_contacts = lambda read: False
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            return eomc.compile(MjcfModel(path), cache_dir=cache, progress=False)
+            source = UrdfModel(path) if str(path).endswith(".urdf") else MjcfModel(path)
+            return eomc.compile(source, cache_dir=cache, progress=False)
     finally:
         tree.passive_contacts = saved
 
@@ -105,10 +128,18 @@ def main(argv=None):
         run = m.simulate(m.initial_state, (0, 1.0), n_points=41)
     states = [np.array(x) for x in run.x]
     calls = {(k, f): [] for k in kinds for f in ("outputs", "rhs")}
+    runs = {k: [] for k in kinds}
     for _ in range(args.rounds):
         for k in kinds:
             model = models[k]
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                t0 = time.thread_time()
+                model.simulate(model.initial_state, (0, 1.0))
+                runs[k].append(time.thread_time() - t0)
             for f in ("outputs", "rhs"):
+                if f == "outputs" and not model.noutput:
+                    continue
                 fun = ((lambda t, x, _m=model: _m._vector_call("outputs", _m.noutput, t, x, None, None))
                        if f == "outputs" else (lambda t, x, _m=model: _m.rhs(t, x)))
                 fun(0.0, states[0])
@@ -119,15 +150,20 @@ def main(argv=None):
                         fun(0.0, x)
                     n += len(states)
                 calls[(k, f)].append((time.thread_time() - t0) / n)
-    med = {key: statistics.median(v) for key, v in calls.items()}
+    med = {key: statistics.median(v) for key, v in calls.items() if v}
     bmed = {k: statistics.median(v) for k, v in build.items()}
-    rows = [[k, f"{bmed[k]:.1f}", f"{med[(k, 'outputs')] * 1e6:.2f}", f"{med[(k, 'rhs')] * 1e6:.2f}"]
+    rmed = {k: statistics.median(v) for k, v in runs.items()}
+    us = lambda key: f"{med[key] * 1e6:.2f}" if key in med else "-"     # noqa: E731
+    rows = [[k, f"{bmed[k]:.1f}", us((k, 'outputs')), f"{med[(k, 'rhs')] * 1e6:.2f}", f"{rmed[k] * 1e3:.2f}"]
             for k in kinds]
     rows.append(["energy / none", f"{bmed['energy'] / bmed['none']:.3f}",
-                 f"{med[('energy', 'outputs')] / med[('none', 'outputs')]:.3f}",
-                 f"{med[('energy', 'rhs')] / med[('none', 'rhs')]:.3f}"])
-    table = format_table(["contestant", "build CPU s (median)", "outputs µs/call", "rhs µs/call"], rows)
-    text = (environment_header(f"The energy output's cost on gymnasium {args.model}", args,
+                 f"{med[('energy', 'outputs')] / med[('none', 'outputs')]:.3f}" if ("none", "outputs") in med
+                 else "-",
+                 f"{med[('energy', 'rhs')] / med[('none', 'rhs')]:.3f}", f"{rmed['energy'] / rmed['none']:.3f}"])
+    table = format_table(["contestant", "build CPU s (median)", "outputs µs/call", "rhs µs/call",
+                          "simulate 1 s ms/run"], rows)
+    what = args.model if args.model in ROBOTS or args.model.endswith((".xml", ".urdf")) else f"gymnasium {args.model}"
+    text = (environment_header(f"The energy output's cost on {what}", args,
                                notes=[f"builds: {args.repeat} per contestant, cold, alternating; per call: "
                                       f"{args.rounds} interleaved rounds of >= {args.calls} calls at 41 states "
                                       f"of a 1 s fall, thread CPU, pinned to core {args.core}",
@@ -136,7 +172,8 @@ def main(argv=None):
             + "\n" + table + "\n")
     print(text)
     if not args.no_write:
-        write_results("energy_output", text, keep_notes=True)
+        stem = Path(args.model).stem if args.model.endswith((".xml", ".urdf")) else args.model
+        write_results("energy_output" if stem == "humanoid" else f"energy_output_{stem}", text, keep_notes=True)
 
 
 if __name__ == "__main__":

@@ -9,9 +9,11 @@ limit_e = 0 ended in "a non-finite value appeared" (issue 29 R2, R4) -- with sta
 or without naming the parameter.  This module checks a parameter vector against the
 same rules, found by the parameters' names (contacts: ``k_/c_/mu_/vs_/r_<name>`` of a
 ``contact_<name>`` event; joints: ``limit_*/damping/friction*_<joint>`` of a coordinate
-``q_<joint>``), and raises a ValueError naming the parameter.  runtime/ only: no
+``q_<joint>``; MJCF's ``d_<joint>``), and raises a ValueError naming the parameter.  runtime/ only: no
 import of the compiler.
 """
+import re
+
 import numpy as np
 
 from .switching import contact_parameter
@@ -26,6 +28,25 @@ _CONTACT = {"k": ("contact stiffness", False), "c": ("contact damping", False),
 _JOINT = {"limit_k": ("limit stiffness", False), "limit_c": ("limit damping", False),
           "limit_e": ("limit width", True), "damping": ("damping", False),
           "friction": ("friction", False), "friction_v": ("friction speed", True)}
+
+# the fluid forces' parameters (compiler/mjcf/fluid.py): negative, the drag would push energy in
+_FLUID = {"fluid_density": "the fluid's density", "fluid_viscosity": "the fluid's viscosity"}
+
+
+def _mjcf_damping(pname, states):
+    """The joint whose MJCF damping ``pname`` is (compiler/mjcf/treeir.py: ``d_<joint>`` on a hinge or
+    slide with its coordinate ``q_<joint>``, ``d_<joint>_<0|1|2>`` on a ball joint, whose coordinates
+    are ``q_<joint>_...``), else None.  Negative, a damper pushes energy in, and the energy verdict
+    would then blame the integrator for it."""
+    if not pname.startswith("d_"):
+        return None
+    rest = pname[2:]
+    if f"q_{rest}" in states:
+        return rest
+    ball = re.fullmatch(r"(.+)_[012]", rest)
+    if ball and any(s.startswith(f"q_{ball.group(1)}_") for s in states):
+        return ball.group(1)
+    return None
 
 
 def _rules(model):
@@ -52,6 +73,11 @@ def _rules(model):
                 what, strict = _JOINT[key]
                 rules.append((i, pname, f"{what} of joint {joint}", strict))
                 break
+        mjcf = _mjcf_damping(pname, states)
+        if mjcf is not None and all(r[0] != i for r in rules):
+            rules.append((i, pname, f"damping of joint {mjcf}", False))
+        if pname in _FLUID:      # MJCF's <option density viscosity>: the energy verdict takes them >= 0
+            rules.append((i, pname, _FLUID[pname], False))
         if pname.startswith("limit_lo_") and f"q_{pname[9:]}" in states:
             hi = index.get(f"limit_hi_{pname[9:]}")
             if hi is not None:

@@ -22,7 +22,7 @@ from .law import DEFAULTS, SPIN_KEYS, load_stiffness
 from .system import contact_symbols, parameter_defaults, unit_normal
 from eomc.compiler import fixed_order as fo
 
-__all__ = ["ContactSpec", "ContactLoad", "ContactValue", "ENERGY", "passive_contacts", "energy_blockers", "COLLISION_SPHERES", "parse_contact",
+__all__ = ["ContactSpec", "ContactLoad", "ContactValue", "ENERGY", "passive_contacts", "energy_blockers", "limited_joints", "COLLISION_SPHERES", "parse_contact",
            "collision_spheres", "link_frame", "with_contacts", "contact_outputs", "body_com",
            "LoweredLoad", "nearest", "with_located", "expanded_specs", "built_weight"]
 
@@ -321,9 +321,10 @@ PASSIVE_LAWS = ("d_", "damping_", "friction_", "limit_")
 
 
 def passive_contacts(read):
-    """True for a robot (a multibody Model read from a file) whose only loads are ground
-    contacts, body-body pairs whose elastic energy the ``energy`` output holds, and joint
-    springs whose potential it holds: with its inputs (joint torques, actuators) at zero
+    """True for a robot (a multibody Model read from a file) with ground contacts or joint
+    limits whose only loads are those, body-body pairs whose elastic energy the ``energy``
+    output holds, springs whose potential it holds (joints', fixed tendons', servos' bias) and
+    dissipative laws (damping, friction, fluid forces with no wind): with its inputs (joint torques, actuators) at zero
     nothing feeds energy in, so its total energy may only fall, and the runtime judges such
     runs by it (runtime/switching.verdict, issue 29).  :func:`energy_blockers` says why not."""
     return not energy_blockers(read)
@@ -331,10 +332,15 @@ def passive_contacts(read):
 
 def energy_blockers(read):
     """[why the model gets no ``energy`` output] (empty: it gets one, :func:`passive_contacts`):
-    no ground contact; a spring the energy does not hold (a ``k_``/``q0_`` parameter that
-    Tree.spring_parameters does not list: a site tendon's, a SymPy model's); a load this check does not know to be passive (an actuator's bias, fluid
-    forces, a site tendon); a body-body pair met through a solid's signed distance (box-box,
-    cylinders, ellipsoids: its force need not be the gradient of its depth)."""
+    neither a ground contact nor a joint limit (nothing the runtime judges a run by); a spring
+    the energy does not hold (a ``k_``/``q0_`` parameter that Tree.spring_parameters does not
+    list: a site tendon's, a SymPy model's); a load this check does not know to be passive (a
+    servo with activation dynamics or a clamped bias, fluid forces in a wind, a site tendon); a
+    body-body pair met through a solid's signed distance (box-box, cylinders, ellipsoids: its
+    force need not be the gradient of its depth).  Counted: the ground contacts' and sphere/
+    capsule pairs' elastic energy, joint, fixed-tendon and servo-bias springs, URDF limit
+    springs; passive without a term: damping, friction, MJCF limits (runtime/limit_energy.py
+    sizes a start past one), fluid forces with no wind (mjcf/fluid.py: dissipative)."""
     tree = getattr(read, "tree", None)
     loads = getattr(tree, "loads", ())
     names = {str(s) for s in getattr(read, "parameters", ())}
@@ -342,8 +348,10 @@ def energy_blockers(read):
     # fixed tendons' k_/L0_tendon_<name>)
     counted = set(getattr(tree, "spring_parameters", ()) or ())
     out = []
-    if not any(isinstance(ld, ContactLoad) for ld in loads):
-        out.append("no ground contact")
+    if not any(isinstance(ld, ContactLoad) for ld in loads) and not limited_joints(read):
+        # nothing the runtime judges a run by (runtime/switching.find_switches: the ground
+        # contacts' events, the joint limits' limit_lo_/limit_hi_<joint> of a coordinate q_<joint>)
+        out.append("no ground contact and no joint limit")
     # a spring the energy does not hold (a joint's stiffness with its rest q0_<joint>, a
     # tendon's k_<tendon>): its start energy could come out as a gain, so no energy verdict
     springs = sorted(n for n in names - counted
@@ -354,16 +362,18 @@ def energy_blockers(read):
     zero = {r: sm.S.Zero for r in tuple(getattr(read, "inputs", ()) or ())}
 
     def passive(load):
-        """With the inputs at zero (an actuator's torque vanishes), only the joint laws'
-        damping, friction and limits act (compiler/tree/joint_laws.py; MJCF's d_<joint>) and
-        the counted springs: no other spring, no position actuator's bias, nothing else this
-        check does not know."""
+        """The parameters that make ``load`` a possible source ([]: passive): with the inputs at
+        zero (an actuator's torque vanishes), only the joint laws' damping, friction and limits
+        act (compiler/tree/joint_laws.py; MJCF's d_<joint>) and the counted springs (a servo's
+        bias among them, mjcf/treeir._actuator_force): no other spring, no servo with activation
+        dynamics or a clamped bias, nothing else this check does not know."""
+        found = set()
         for x in list(load.moment) + list(load.force):
             e = sm.sympify(x).xreplace(zero)
-            if any(not s.name.startswith(PASSIVE_LAWS) and s.name not in counted
-                   for s in e.free_symbols if s.name != "t"):
-                return False
-        return True
+            found |= {s.name for s in e.free_symbols
+                      if s.name != "t" and not s.name.startswith(PASSIVE_LAWS) and s.name not in counted}
+        return sorted(found)
+    sources = set()
     for ld in loads:
         if isinstance(ld, ContactLoad):
             continue
@@ -371,10 +381,35 @@ def energy_blockers(read):
         if stores is not None:
             if not stores:
                 out.append(f"the contact {ld.name} ({ld.a.kind}-{ld.b.kind}: a solid's signed distance)")
+        elif getattr(ld, "passive_fluid", None) is not None:     # MJCF's fluid forces (mjcf/fluid.py)
+            if not ld.passive_fluid:
+                out.append(f"{type(ld).__name__} {ld.name} (fluid forces that are not provably "
+                           f"dissipative: {ld.why_not_passive})")
         elif getattr(ld, "frame", None) == "contact":
             out.append(f"{type(ld).__name__} {getattr(ld, 'name', '')}".rstrip())
-        elif not passive(ld):
-            out.append(f"a load on body {getattr(ld, 'body', '?')} that is not passive with the inputs at zero")
+        else:
+            sources.update(passive(ld))
+    if sources:
+        names = sorted(sources)
+        out.append(f"loads that may push energy in with the inputs at zero (their parameters "
+                   f"{', '.join(names[:4])}{', ...' if len(names) > 4 else ''}: a servo with activation "
+                   f"dynamics or a clamped bias, an uncounted spring)")
+    return out
+
+
+def limited_joints(read):
+    """[joint] whose limit the runtime judges (its ``limit_lo_``/``limit_hi_<joint>`` parameter on
+    a coordinate ``q_<joint>``: runtime/switching.find_switches finds them so)."""
+    tree = getattr(read, "tree", None)
+    coordinates = {getattr(getattr(q, "func", q), "__name__", str(q))
+                   for q in getattr(tree, "coordinates", ()) or ()}
+    out = []
+    for s in getattr(read, "parameters", ()):
+        name = str(s)
+        for side in ("limit_lo_", "limit_hi_"):
+            if name.startswith(side) and "q_" + name[len(side):] in coordinates \
+                    and name[len(side):] not in out:
+                out.append(name[len(side):])
     return out
 
 
@@ -388,7 +423,7 @@ def merged_outputs(overrides, outputs, events, energy=False):
         outputs = {**outputs, "energy": ENERGY}
     result["outputs"] = {**outputs, **given}
     given = overrides.get("events")
-    if given is not False:
+    if given is not False and (events or given is not None):   # a model with no events of its own: none added
         result["events"] = {**events, **(given or {})}
     return result
 

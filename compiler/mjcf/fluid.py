@@ -49,6 +49,19 @@ class FluidLoad(LoweredLoad):
     wind: tuple                         # world
 
     @property
+    def passive_fluid(self):
+        """Does the force only take energy out (the energy verdict may judge its runs,
+        compiler/contact/tree.energy_blockers)?  With no wind each term is -c·|x|·x or -c·x on a
+        component of ω or of the mass centre's velocity, where the force acts: its power is a sum
+        of -c·x² <= 0 for ρ, μ >= 0 (their run-time values: runtime/law_parameters.py).  A wind
+        is a source."""
+        return not any(self.wind)
+
+    @property
+    def why_not_passive(self):
+        return "a wind" if any(self.wind) else ""
+
+    @property
     def exprs(self):
         return ([sm.Integer(self.body), self.density, self.viscosity] + [sm.Float(x, 17) for x in self.box]
                 + [sm.Float(x, 17) for row in self.axes for x in row] + [sm.Float(x, 17) for x in self.wind])

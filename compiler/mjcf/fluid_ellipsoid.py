@@ -178,6 +178,24 @@ class EllipsoidFluidLoad(LoweredLoad):
     wind: tuple                         # world
 
     @property
+    def passive_fluid(self):
+        """Does the force only take energy out (compiler/contact/tree.energy_blockers)?  With no
+        wind u is the geom origin's velocity, where the force acts, so the power is f·u + τ·ω:
+        the added mass's (p×ω)·u + (p×u)·ω = p·(ω×u + u×ω) = 0, (L×ω)·ω = 0; the Magnus
+        (ω×u)·u = 0 and Kutta (Γ×u)·u = 0 lifts do no work; the drag is -c u, -c' ω with c, c'
+        >= 0 when the blunt, slender and angular coefficients and ``on`` are >= 0 (A_proj <= A_max,
+        I_i <= I_max) and ρ, μ >= 0.  MuJoCo's qfrc_fluid·qvel <= 0 measured on dm_control's fish
+        (tests/compiler/contact/test_energy_kinds.py).  A wind is a source."""
+        return not self.why_not_passive
+
+    @property
+    def why_not_passive(self):
+        if any(self.wind):
+            return "a wind"
+        bad = [k for _, _, _, coef in self.geoms for k in (0, 1, 2, 3) if coef[k] < 0]
+        return "a negative drag coefficient (fluidcoef)" if bad else ""
+
+    @property
     def exprs(self):
         out = [sm.Integer(self.body), self.density, self.viscosity] + [sm.sympify(x) for x in self.com]
         for pos, rot, s, coef in self.geoms:

@@ -432,8 +432,9 @@ def mjcf_formed(read, overrides):
     initial state) of an MJCF model's :func:`read_model`."""
     from eomc.compiler.contact.tree import merged_outputs, passive_contacts
     from eomc.compiler.multibody.model import merged_defaults
-    if read.outputs or read.events:
-        overrides = merged_outputs(overrides, dict(read.outputs), dict(read.events), passive_contacts(read))
+    passive = passive_contacts(read)      # a passive model with contacts or limits: its energy output
+    if read.outputs or read.events or passive:
+        overrides = merged_outputs(overrides, dict(read.outputs), dict(read.events), passive)
     values = merged_defaults(overrides, read, read.defaults, read.joint_inputs)
     if values.get("initial_state") is None:
         values["initial_state"] = dict(read.initial_state)

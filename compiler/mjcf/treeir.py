@@ -111,18 +111,19 @@ def tree_ir(m, *, fold=False, actuators=None, limits=True, friction=True, quater
     from .tendon import tendon_forces, tendon_length
     tendon_names = _names(m, mujoco.mjtObj.mjOBJ_TENDON, m.ntendon, "tendon")
     activations = []      # (act(t), act') of actuators with activation dynamics, actuator order
+    servo_springs = []    # (potential, parameter names) of each servo's bias at zero control: into the energy
     for i, k in enumerate(actuators):
         j = int(m.actuator_trnid[k, 0])
         drive_by = _activation(m, params, k, act_names[k][1], inputs[i], activations)
         if int(m.actuator_trntype[k]) == int(mujoco.mjtTrn.mjTRN_TENDON):    # a fixed tendon: L = Σ c q
             L, V, pairs = tendon_length(m, j, joint_names)
-            force = _actuator_force(m, params, k, act_names[k][1], drive_by, L, V)
+            force = _actuator_force(m, params, k, act_names[k][1], drive_by, L, V, servo_springs)
             for jj, coef in pairs:
                 drive[jj] = drive.get(jj, sm.S.Zero) + sm.Float(coef, 17) * force
             continue
         jn = joint_names[j][1]
         force = _actuator_force(m, params, k, act_names[k][1], drive_by, dynamicsymbols(f"q_{jn}"),
-                                dynamicsymbols(f"u_{jn}"))
+                                dynamicsymbols(f"u_{jn}"), servo_springs)
         drive[j] = drive.get(j, sm.S.Zero) + force
     tendon_springs = []      # (potential, parameter names) per fixed tendon's spring: into the energy
     for j, tau in tendon_forces(m, params, joint_names, tendon_names, limits, friction, tendon_springs).items():
@@ -132,8 +133,8 @@ def tree_ir(m, *, fold=False, actuators=None, limits=True, friction=True, quater
     bodies, coordinates, speeds, kinematics, loads, joints, owners = [], [], [], [], [], [], []
     quaternions = []        # each ball/free joint's w coordinate, with quaternion=True
     torques = []
-    springs = [e for e, _ in tendon_springs]      # the joints' and fixed tendons' springs' potentials
-    spring_names = [n for _, names in tendon_springs for n in names]
+    springs = [e for e, _ in tendon_springs + servo_springs]   # the joints', fixed tendons' and servos' springs
+    spring_names = [n for _, names in tendon_springs + servo_springs for n in names]
     limit_laws = {}       # joint C name -> its limit law's shape, for the runtime's energy verdict
     last = {0: -1}          # MuJoCo body -> index of its mass-carrying tree body (-1: world)
     com = {0: [0, 0, 0]}
@@ -284,14 +285,23 @@ def _clamped(value, low, high):
     return Clamp(value, sm.Float(float(low)), sm.Float(float(high)))
 
 
-def _actuator_force(m, params, k, name, ctrl, q, u):
+def _actuator_force(m, params, k, name, ctrl, q, u, springs=None):
     """The joint force of actuator ``k`` on its hinge/slide joint (coordinate ``q``, speed ``u``),
     as MuJoCo's mj_fwdActuation computes it without activation dynamics: the control clamped to
     ``ctrlrange`` when ctrllimited, force = gain·ctrl + bias with gain = g0 (+ g1 L + g2 V when
     affine), bias = b0 + b1 L + b2 V (affine; a position servo is b1 = -kp, a velocity servo
     b2 = -kv), L = gear·q and V = gear·u the actuator's length and velocity, the force clamped to
     ``forcerange`` when forcelimited, and gear·force on the joint.  A plain motor keeps one
-    parameter ``gear_<actuator>`` = gear·gain."""
+    parameter ``gear_<actuator>`` = gear·gain.
+
+    ``springs``: a list to which a servo's bias at zero control is appended as (its potential,
+    the parameter names it holds) when that bias is a spring and a damper: F = b0 + b1 L + b2 V
+    with b2 <= 0 does the work of the potential -(b0 L + b1 L²/2) plus a damper's (gear·F on
+    the joint, L = gear·q; on a fixed tendon's coordinates c_i gear·F, L = gear·Σ c_i q_i).  Not
+    with activation dynamics (the force follows a state, not the control), a force or control
+    range that clamps (a clamped spring and damper are one law; a range without 0 pushes at zero
+    control), or b2 > 0: such a bias stays out, and the model gets no energy output
+    (compiler/contact/tree.energy_blockers)."""
     gear = float(m.actuator_gear[k, 0])
     if isinstance(ctrl, _Activation):
         ctrl = ctrl.symbol
@@ -308,8 +318,13 @@ def _actuator_force(m, params, k, name, ctrl, q, u):
         gain += params(f"gain1_{name}", gp[1]) * length + params(f"gain2_{name}", gp[2]) * velocity
     force = gain * ctrl
     if affine_bias:
-        force += (params(f"bias0_{name}", bp[0]) + params(f"bias1_{name}", bp[1]) * length
-                  + params(f"bias2_{name}", bp[2]) * velocity)
+        b0, b1, b2 = (params(f"bias{x}_{name}", bp[x]) for x in range(3))
+        force += b0 + b1 * length + b2 * velocity
+        low, high = (float(x) for x in m.actuator_ctrlrange[k])
+        if springs is not None and not m.actuator_forcelimited[k] and int(m.actuator_dyntype[k]) == 0 \
+                and (not m.actuator_ctrllimited[k] or low <= 0.0 <= high) and float(bp[2]) <= 0.0:
+            springs.append((-(b0 * length + b1 * length ** 2 / 2),
+                            [str(x) for x in (g, b0, b1, b2) if isinstance(x, sm.Symbol)]))
     if m.actuator_forcelimited[k]:
         force = _clamped(force, *m.actuator_forcerange[k])
     return g * force

@@ -64,7 +64,7 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
     δ₊^{3/2} has the second derivative ∞·0 = NaN at every point out of contact."""
     contacts = contact_outputs(tree)
     others = [ld for ld in tree.loads if not isinstance(ld, ContactLoad) and hasattr(ld, "lower")]
-    if not contacts and not others:
+    if not contacts and not others and energy is None:
         return {}
     poses = world_placement(bodies, rec)
     if implicit is not None:    # "pairs": the body-body pairs' points, after the ground's contacts

@@ -501,11 +501,15 @@ def _energy_text(tree):
     """What the generated ``energy`` output holds (NAME.json "energy"; the runtime's verdict reads
     "joint limits" in it to trust the limits' springs counted, runtime/switching.py)."""
     from ..contact.pairs import PairLoad
-    text = "kinetic, gravity and the ground contacts' elastic energy"
+    from ..contact.tree import ContactLoad
+    text = "kinetic, gravity" + (" and the ground contacts' elastic energy"
+                                 if any(isinstance(ld, ContactLoad) for ld in tree.loads) else "")
     if any(isinstance(ld, PairLoad) for ld in tree.loads):
         text += ", the body-body contacts' elastic energy"
     if getattr(tree, "spring_energy", None) is not None:
-        text += ", the springs' potential (joints, fixed tendons)"
+        servos = any(n.startswith("bias") for n in getattr(tree, "spring_parameters", ()))
+        text += (", the springs' potential (joints, fixed tendons" + (", servos' bias at zero control"
+                                                                         if servos else "") + ")")
     return text + (" and the joint limits' springs" if getattr(tree, "joint_energy", None) else "")
 
 
@@ -519,7 +523,7 @@ def _contacts(tree, bodies, rec, v, layout, implicit=None, energy=None, guards=N
     """Ground contacts (eomc.compiler.contact.tree): their forces into the bodies' ``fext``
     from the world positions and velocities of their points, built recursively with ``rec``;
     returns {placeholder of a contact output or event: its temporary}."""
-    if not any(load.frame == "contact" for load in tree.loads):
+    if energy is None and not any(load.frame == "contact" for load in tree.loads):
         return {}
     from .contacts import lower_contacts
     memo = {}

@@ -252,8 +252,9 @@ def urdf_formed(read, formulation, overrides, formed_system):
     that the URDF package does not import the model layer that imports it)."""
     if formulation != "kane" and read.refusal is None:
         from eomc.compiler.contact.tree import merged_outputs, passive_contacts
-        if read.outputs or read.events:
-            overrides = merged_outputs(overrides, dict(read.outputs), dict(read.events), passive_contacts(read))
+        passive = passive_contacts(read)  # a passive robot with contacts or limits: its energy output
+        if read.outputs or read.events or passive:
+            overrides = merged_outputs(overrides, dict(read.outputs), dict(read.events), passive)
         values = _reader_start(merged_defaults(overrides, read, read.defaults, read.joint_inputs), read)
         if read.ground_check is not None:      # into the built model's metadata (runtime/ground_check.py)
             values = {**values, "ground_check": read.ground_check}

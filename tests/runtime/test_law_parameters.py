@@ -72,9 +72,35 @@ def test_good_values_still_run(stop, ball):
     assert ball.simulate(X0, (0, 0.2), p={"mu_ball": 0.0, "c_ball": 0.0, "r_ball": 0.0}).status == 0
 
 
+DAMPED = """<mujoco model="damped"><worldbody>
+  <body name="arm" pos="0 0 1"><joint name="hinge" type="hinge" axis="0 1 0" damping="0.5"/>
+    <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.03" mass="1"/>
+    <body name="tip" pos="0.3 0 0"><joint name="wrist" type="ball" damping="0.2"/>
+      <geom type="sphere" size="0.05" mass="0.5"/></body></body>
+</worldbody></mujoco>"""
+
+
+@pytest.fixture(scope="module")
+def damped(tmp_path_factory):
+    from eomc.compiler.mjcf.model import MjcfModel
+    d = tmp_path_factory.mktemp("damped")
+    (d / "damped.xml").write_text(DAMPED)
+    return eomc.compile(MjcfModel(d / "damped.xml"), name="damped", cache_dir=d / "cache", progress=False)
+
+
+@pytest.mark.parametrize("name, joint", [("d_hinge", "hinge"), ("d_wrist_1", "wrist")])
+def test_mjcf_damping_is_checked_at_run_time(damped, name, joint):
+    """MJCF's joint damping is the parameter d_<joint> (d_<joint>_<axis> on a ball joint): a negative
+    one pushes energy in, so it is refused by name like the URDF laws' damping_<joint>."""
+    assert name in damped.param_names
+    with pytest.raises(ValueError, match=rf"{name} = -1 must be >= 0 \(damping of joint {joint}\)"):
+        damped.simulate(None, (0, 0.1), p={name: -1.0})
+    assert damped.simulate(None, (0, 0.1), p={name: 0.0}).status == 0
+
+
 def test_a_changed_parameter_after_cached_runs_is_still_checked(stop):
     """simulate keeps what depends only on the model and the last parameters seen (law index
-    arrays, limit bounds keyed on p's bytes, parameter positions): after runs with the defaults,
+    arrays, limit bounds keyed on p's bytes): after runs with the defaults,
     a changed parameter is still refused naming it, a moved limit still judges the start, and a
     changed stiffness is still named as the user's."""
     from eomc.runtime.switching import PhysicsWarning

@@ -69,3 +69,30 @@ def test_a_start_past_a_limit_is_no_energy_gain(arm):
     assert E.max() <= E[0] * (1 + 1e-6)
     gains = [str(w.message) for w in caught if issubclass(w.category, PhysicsWarning) and "energy rose" in str(w.message)]
     assert gains == []
+
+
+def test_a_robot_with_limits_and_no_contact_gets_the_same_energy_and_its_verdict(arm, tmp_path):
+    """No ground contact: the limits alone give the robot its energy output (the same values as
+    with the far contact), so RK4 at 10 ms on an undamped stiff limit that creates energy at the
+    impact fails the run (status 20, the energy 4 J -> 330 J; before, with no energy output,
+    status 0)."""
+    from eomc.runtime.switching import STATUS_ENERGY
+    path = tmp_path / "arm.urdf"
+    path.write_text(URDF)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        bare = eomc.compile(UrdfModel(path), functions=("rhs", "jac_x", "outputs"), cache_dir=tmp_path / "c",
+                            progress=False)
+    assert bare.output_names == ("energy",) and "joint limits" in bare.metadata["energy"]
+    for q, u in ((0.0, 0.3), (0.3 + 2e-4, 0.0), (-0.9, 2.0)):
+        x = np.array([q, u])
+        assert bare.outputs(0.0, x)["energy"] == pytest.approx(arm.outputs(0.0, x)["energy"], rel=1e-13)
+    p = np.array(bare.param_defaults)
+    p[bare.param_names.index("limit_k_hinge")], p[bare.param_names.index("limit_c_hinge")] = 1e4, 0.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", PhysicsWarning)
+        bad = bare.simulate(np.array([0.0, 3.0]), (0.0, 2.0), p=p, method="rk4", dt=1e-2, raise_on_failure=False)
+        good = bare.simulate(np.array([0.0, 3.0]), (0.0, 2.0), p=p, method="radau", rtol=1e-10, atol=1e-12)
+    assert bad.status == STATUS_ENERGY and "energy rose" in bad.message
+    E = good.outputs["energy"]
+    assert good.status == 0 and good.x[:, 0].max() > 0.3 and E.max() - E[0] < 1e-9 * abs(E).max()

@@ -8,6 +8,7 @@ way in tests/runtime/test_rollout.py::test_implicitfast_rows_get_simulates_energ
 from pathlib import Path
 
 import numpy as np
+import pytest
 from eomc.compiler.driver import compile as compile_model, generate
 
 EXAMPLES = Path(__file__).resolve().parents[3] / "examples"
@@ -84,16 +85,22 @@ def _function_text(source, name):
     return source[start:source.index("\n}\n", start)]
 
 
-def test_energy_skips_far_pairs_and_zero_powers_with_the_outputs_bits(tmp_path, monkeypatch):
-    """NAME_energy reads a pair's depth only through its positive part, so its pairs' loop takes the
-    broad phase (full = 2: far pairs get their balls' bounds, no law; the outputs' call is full = 1,
-    every pair's narrow phase and law: G1's energy spent 41 % of its time there) and its contact
-    powers δ₊^(3/2), δ₊^(5/2) skip libm's pow at 0 (eomc_pow0).  The value stays the outputs' bit for
-    bit at states with the feet pressed together, apart (the pair skipped) and in the floor or not."""
+@pytest.mark.parametrize("table", [True, False])
+def test_energy_skips_far_pairs_and_zero_powers_with_the_outputs_bits(tmp_path, monkeypatch, table):
+    """NAME_energy reads a pair's depth only through its positive part, so the pair's far states skip
+    it: through the pairs' table loop (table: pairs.TABLE_FROM = 1) the loop's broad phase (full = 2:
+    far pairs get their balls' bounds, no law; the outputs' call is full = 1, every pair's narrow
+    phase and law: G1's energy spent 41 % of its time there); the pair inlined (the default for
+    fewer than 8 pairs) under the rhs's broad-phase guard (its depth 0 where the pair's bounding
+    balls are apart, the hopper's three pairs: 106 -> 81 ns a call), as are the ground points'
+    depths under their bodies' guards.  Its contact powers δ₊^(3/2), δ₊^(5/2) skip libm's pow at 0
+    (eomc_pow0).  The value stays the outputs' bit for bit at states with the feet pressed
+    together, apart (the pair skipped) and in the floor or not."""
     import eomc
     from eomc.compiler.contact import pairs
     from eomc.compiler.mjcf.model import MjcfModel
-    monkeypatch.setattr(pairs, "TABLE_FROM", 1)
+    if table:
+        monkeypatch.setattr(pairs, "TABLE_FROM", 1)
     path = tmp_path / "twolegs.xml"
     path.write_text(TWO_LEGS)
     model = eomc.compile(MjcfModel(path), name="enpt", functions=("rhs", "outputs", "energy"),
@@ -101,8 +108,13 @@ def test_energy_skips_far_pairs_and_zero_powers_with_the_outputs_bits(tmp_path, 
     assert "energy" in model.metadata["functions"]
     source = next((tmp_path / "cache").rglob("enpt.c")).read_text()
     energy, outputs = _function_text(source, "enpt_energy"), _function_text(source, "enpt_outputs")
-    assert "eomc_pairs(" in energy and ", 2, &PT_[0])" in energy and ", 1, &PT_[0])" in outputs
-    assert "eomc_pow0(" in energy and "pow(" not in energy.replace("eomc_pow0(", "")
+    if table:
+        assert "eomc_pairs(" in energy and ", 2, &PT_[0])" in energy and ", 1, &PT_[0])" in outputs
+    else:
+        assert "eomc_pairs(" not in energy and "if (!(" not in outputs
+        assert energy.count("if (!(") == 1 and "G_[" in energy      # the pair (the feet's ground depths straight)
+    assert "eomc_pow0(" in energy and "pow(fabs(" not in energy.replace("eomc_pow0(fabs(", "")   # (the
+    # guards' clearances print squares as pow(d, 2.0), as the rhs's)
     rng = np.random.default_rng(7)
     names = list(model.state_names)
     P = np.asarray(model.param_defaults, dtype=float)
@@ -154,3 +166,20 @@ def test_a_program_reading_more_than_the_depths_positive_part_keeps_every_pair()
         assert int(call.for_program(reads, True).args[1]) == 1
     finally:
         del table._TABLES[tid]
+
+
+def test_energy_guards_only_depths_read_as_their_positive_part():
+    """energy_guards: a guard's point depth δ goes under the broad phase only where the program reads
+    it as (δ + |δ|)/2 alone (then a skipped δ of 0 gives the same +0); a δ read otherwise keeps the
+    point computed (its guard dropped), and a guard left with no depth is not printed."""
+    import sympy as sm
+    from eomc.compiler.emit.generate import energy_guards
+    from eomc.compiler.ir.program import Program
+    a, b, d1, d2, e, c = sm.symbols("a b d1 d2 e c")
+    prog = Program(inputs=(a, b), assignments=((d1, sm.sqrt(a) - b), (d2, b - sm.sqrt(a)), (e, d1 / 2 + sm.Abs(d1) / 2)),
+                   results=((("en", 0), 3 * e ** 2 + d2 + sm.Abs(d2 / 2 + sm.Abs(d2) / 2) ** sm.Rational(5, 2)),))
+    guards = [(a + 1, (), ((-d1, (), ()),)), (b + 1, (), ((-d2, (), ()),)), (c, (), ((-d1, (), ()), (-d2, (), ())))]
+    assert energy_guards(prog, guards) == [(a + 1, (d1,), ()), (c, (d1,), ())]
+    # a depth without a square root (a ground point's height less its reach) is not worth a guard
+    linear = prog.with_(assignments=((d1, a - b),) + prog.assignments[1:])
+    assert energy_guards(linear, guards) == []

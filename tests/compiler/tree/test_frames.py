@@ -119,7 +119,8 @@ def test_robot_frames_agree_with_pinocchio(robots, name):
 def test_output_names_and_shapes(robots):
     model, _ = robots["solo12"]
     names = model.output_names
-    assert names[:3] == ("FL_FOOT.p.x", "FL_FOOT.p.y", "FL_FOOT.p.z")
+    # the robot's own outputs first: its limits give it the energy output (since session 17)
+    assert names[:4] == ("energy", "FL_FOOT.p.x", "FL_FOOT.p.y", "FL_FOOT.p.z")
     assert "FL_FOOT.R[0][1]" in names and "FL_FOOT.w.z" in names and "FL_FOOT.J[5][17]" in names
     assert "FL_FOOT.J[6][0]" not in names and "FL_FOOT.J[0][18]" not in names
     assert names[-6:] == ("com.p.x", "com.p.y", "com.p.z", "com.v.x", "com.v.y", "com.v.z")

@@ -54,7 +54,9 @@ def test_check_passes_and_simulate_runs(built, tmp_path):
     result = _eomc("simulate", robot_path("ur5"), "--t-final", "0.5", "-o", csv, cache=cache)
     assert result.returncode == 0, result.stderr
     rows = np.loadtxt(csv, delimiter=",", skiprows=1)
-    assert rows.shape[1] == 13 and abs(rows[-1, 0] - 0.5) < 1e-12
+    # t, 12 states and the energy output its joint limits give it (since session 17)
+    assert rows.shape[1] == 14 and abs(rows[-1, 0] - 0.5) < 1e-12
+    assert csv.read_text().splitlines()[0].split(",")[-1] == "energy"
     assert abs(rows[-1, 2]) > 0.1      # q_shoulder_lift_joint fell from 0 under gravity
 
 
