@@ -96,3 +96,26 @@ def test_mjcf_damping_is_checked_at_run_time(damped, name, joint):
     with pytest.raises(ValueError, match=rf"{name} = -1 must be >= 0 \(damping of joint {joint}\)"):
         damped.simulate(None, (0, 0.1), p={name: -1.0})
     assert damped.simulate(None, (0, 0.1), p={name: 0.0}).status == 0
+
+
+def test_a_changed_parameter_after_cached_runs_is_still_checked(stop):
+    """simulate keeps what depends only on the model and the last parameters seen (law index
+    arrays, limit bounds keyed on p's bytes): after runs with the defaults,
+    a changed parameter is still refused naming it, a moved limit still judges the start, and a
+    changed stiffness is still named as the user's."""
+    from eomc.runtime.switching import PhysicsWarning
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", PhysicsWarning)
+        for _ in range(2):
+            assert stop.simulate({"q_elbow": 0.3}, (0, 0.05)).status == 0
+    with pytest.raises(ValueError, match=r"limit_k_elbow = -1 must be >= 0 \(limit stiffness of joint elbow\)"):
+        stop.simulate({"q_elbow": 0.3}, (0, 0.05), p={"limit_k_elbow": -1.0})
+    with pytest.raises(ValueError, match=r"limit_lo_elbow = 0\.4 > limit_hi_elbow = 0\.2"):
+        stop.simulate({"q_elbow": 0.3}, (0, 0.05), p={"limit_lo_elbow": 0.4, "limit_hi_elbow": 0.2})
+    with pytest.warns(PhysicsWarning, match=r"outside the range of joint elbow \(q_elbow = 0\.3, 0\.1 above "
+                                            r"its upper limit 0\.2\)"):
+        stop.simulate({"q_elbow": 0.3}, (0, 0.01), p={"limit_hi_elbow": 0.2})
+    k = stop.param_defaults[stop.param_names.index("limit_k_elbow")] * 1e-3
+    with pytest.warns(PhysicsWarning, match=r"joint elbow went .* past its upper limit 0\.5.*your limit "
+                                            r"stiffness limit_k_elbow = [0-9.e+]+ \(the default is"):
+        stop.simulate({"q_elbow": 0.0}, (0, 1.0), p={"limit_k_elbow": k}, method="dop853")

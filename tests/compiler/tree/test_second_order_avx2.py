@@ -168,3 +168,23 @@ def test_the_float_target_drops_the_twin(trees):
         assert "_avx2" not in left and "__builtin_cpu_supports" not in left and 'target("avx2")' not in left
         assert f"big = {gm.name}_rnea_hess(an, u, ud, out);" in left
         assert left.count("{") == left.count("}")
+
+
+def test_the_prefetches_stay_in_the_output_and_run(trees, tmp_path):
+    """A chain written by halves prefetches the next pair's first stores (second_order._prefetch_lines):
+    in both kernels (the twin is taken on an AVX2 CPU), and every address is inside the output (an
+    address outside it would be a pointer out of its array in C): NAME_H2_PF replaced (-D) by a check
+    that traps outside out[0 .. nu nx nx).  The same macro as a plain trap must stop the run, so the
+    check is known to run.  The floating tree (not by halves) has none."""
+    chain, floating = trees
+    assert "AVXFLOAT_H2_PF" not in floating.c_source
+    body = chain.c_source.split("static int avxchain_rnea_hess(", 1)[1]
+    assert body.count("AVXCHAIN_H2_PF(") >= 2 * 12, "both kernels prefetch"
+    n = chain.metadata["nu"] * chain.metadata["nx"] ** 2
+    check = f"-DAVXCHAIN_H2_PF(p)=((p) >= out && (p) < out + {n} ? (void)0 : __builtin_trap())"
+    for name, define, ok in (("check", check, True), ("trap", "-DAVXCHAIN_H2_PF(p)=((void)(p), __builtin_trap())", False)):
+        d = tmp_path / name
+        d.mkdir()
+        built, run = es.sanitized_run(chain, d, DRIVER, defines=(define,))
+        assert built.returncode == 0, built.stderr
+        assert (run.returncode == 0 and run.stdout.startswith("avxchain 0")) == ok, (name, run.stdout + run.stderr)
