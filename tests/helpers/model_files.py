@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["PENDULUM", "CART", "write", "pendulum_rhs", "cart_rhs"]
+__all__ = ["PENDULUM", "CART", "TWO_LEGS", "write", "pendulum_rhs", "cart_rhs"]
 
 PENDULUM = textwrap.dedent('''\
     import sympy as sm
@@ -80,3 +80,29 @@ def cart_rhs(x, F=0.0, M=1.5, m=0.5, l=0.8, g=9.81):
     mass = np.array([[M + m, m * l * c], [m * l * c, m * l * l]])
     force = np.array([F + m * l * s * w * w, -m * g * l * s])
     return np.concatenate([[v, w], np.linalg.solve(mass, force)])
+
+
+# Two legs hanging from a torso on a planar root, a sphere foot each: the feet are one self-pair
+# (siblings) and each touches the floor (the implicit-batch and energy-function tests).
+TWO_LEGS = """<mujoco model="twolegs">
+  <worldbody>
+    <geom name="floor" type="plane" size="0 0 1"/>
+    <body name="torso" pos="0 0 0.5">
+      <joint name="rootx" type="slide" axis="1 0 0"/>
+      <joint name="rootz" type="slide" axis="0 0 1"/>
+      <joint name="rooty" type="hinge" axis="0 1 0"/>
+      <geom name="torso" type="box" size="0.1 0.1 0.05" mass="5" contype="0" conaffinity="0"/>
+      <body name="left" pos="0 0.06 0">
+        <joint name="hip_l" type="hinge" axis="1 0 0" damping="0.5"/>
+        <geom name="thigh_l" type="box" size="0.02 0.02 0.2" pos="0 0 -0.2" mass="1" contype="0" conaffinity="0"/>
+        <geom name="foot_l" type="sphere" size="0.04" pos="0 0 -0.4" mass="0.2"/>
+      </body>
+      <body name="right" pos="0 -0.06 0">
+        <joint name="hip_r" type="hinge" axis="1 0 0" damping="0.5"/>
+        <geom name="thigh_r" type="box" size="0.02 0.02 0.2" pos="0 0 -0.2" mass="1" contype="0" conaffinity="0"/>
+        <geom name="foot_r" type="sphere" size="0.04" pos="0 0 -0.4" mass="0.2"/>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from eomc.compiler.driver import compile as compile_model, generate
+from helpers import model_files
 
 EXAMPLES = Path(__file__).resolve().parents[3] / "examples"
 PENDULUM, CART = EXAMPLES / "double_pendulum.py", EXAMPLES / "cart_pole_system.py"
@@ -53,31 +54,10 @@ def test_only_models_with_an_energy_output_get_it():
 
 
 # Two legs hanging from a torso on a planar root, a sphere foot each: the feet are one self-pair
-# (siblings) and each touches the floor (tests/compiler/emit/test_implicit_batch.py's model).  With
+# (siblings) and each touches the floor (tests/helpers/model_files.py).  With
 # pairs.TABLE_FROM = 1 the pair goes through the table's C loop (eomc_pairs), as G1's 16 foot-sphere
 # pairs and the humanoid's 109 pairs do by default.
-TWO_LEGS = """<mujoco model="twolegs">
-  <worldbody>
-    <geom name="floor" type="plane" size="0 0 1"/>
-    <body name="torso" pos="0 0 0.5">
-      <joint name="rootx" type="slide" axis="1 0 0"/>
-      <joint name="rootz" type="slide" axis="0 0 1"/>
-      <joint name="rooty" type="hinge" axis="0 1 0"/>
-      <geom name="torso" type="box" size="0.1 0.1 0.05" mass="5" contype="0" conaffinity="0"/>
-      <body name="left" pos="0 0.06 0">
-        <joint name="hip_l" type="hinge" axis="1 0 0" damping="0.5"/>
-        <geom name="thigh_l" type="box" size="0.02 0.02 0.2" pos="0 0 -0.2" mass="1" contype="0" conaffinity="0"/>
-        <geom name="foot_l" type="sphere" size="0.04" pos="0 0 -0.4" mass="0.2"/>
-      </body>
-      <body name="right" pos="0 -0.06 0">
-        <joint name="hip_r" type="hinge" axis="1 0 0" damping="0.5"/>
-        <geom name="thigh_r" type="box" size="0.02 0.02 0.2" pos="0 0 -0.2" mass="1" contype="0" conaffinity="0"/>
-        <geom name="foot_r" type="sphere" size="0.04" pos="0 0 -0.4" mass="0.2"/>
-      </body>
-    </body>
-  </worldbody>
-</mujoco>
-"""
+TWO_LEGS = model_files.TWO_LEGS
 
 
 def _function_text(source, name):

@@ -17,6 +17,7 @@ import pytest
 
 from eomc.compiler.build.builder import machine_lanes
 from eomc.compiler.emit.batch import Unsupported, batch_rhs
+from helpers import model_files
 
 STRICT = "-O2 -std=c99 -fPIC -Wall -Wextra -Werror"
 FUNCTIONS = ("rhs", "implicit", "implicit_batch", "rhs_batch")
@@ -118,28 +119,7 @@ def test_hopper_implicit_and_rhs_in_lanes_with_contacts_on_and_off(cache, trig):
 # Two legs hanging from a torso on a planar root, a sphere foot each: the feet are one self-pair
 # (siblings), and each touches the floor.  With pairs.TABLE_FROM = 1 the pair goes through the
 # table's C loop (eomc_pairs), as G1's 16 foot-sphere pairs do by default.
-TWO_LEGS = """<mujoco model="twolegs">
-  <worldbody>
-    <geom name="floor" type="plane" size="0 0 1"/>
-    <body name="torso" pos="0 0 0.5">
-      <joint name="rootx" type="slide" axis="1 0 0"/>
-      <joint name="rootz" type="slide" axis="0 0 1"/>
-      <joint name="rooty" type="hinge" axis="0 1 0"/>
-      <geom name="torso" type="box" size="0.1 0.1 0.05" mass="5" contype="0" conaffinity="0"/>
-      <body name="left" pos="0 0.06 0">
-        <joint name="hip_l" type="hinge" axis="1 0 0" damping="0.5"/>
-        <geom name="thigh_l" type="box" size="0.02 0.02 0.2" pos="0 0 -0.2" mass="1" contype="0" conaffinity="0"/>
-        <geom name="foot_l" type="sphere" size="0.04" pos="0 0 -0.4" mass="0.2"/>
-      </body>
-      <body name="right" pos="0 -0.06 0">
-        <joint name="hip_r" type="hinge" axis="1 0 0" damping="0.5"/>
-        <geom name="thigh_r" type="box" size="0.02 0.02 0.2" pos="0 0 -0.2" mass="1" contype="0" conaffinity="0"/>
-        <geom name="foot_r" type="sphere" size="0.04" pos="0 0 -0.4" mass="0.2"/>
-      </body>
-    </body>
-  </worldbody>
-</mujoco>
-"""
+TWO_LEGS = model_files.TWO_LEGS
 
 
 def test_a_pair_table_call_runs_lane_by_lane_in_the_batch(tmp_path, monkeypatch):

@@ -11,7 +11,9 @@ Also: strict warnings, ASan/UBSan with the twin compiled in, and hess_id returns
 halves clean.  The c99-f32 target drops the twin (tests/compiler/emit/test_target_f32.py's builds)."""
 import shutil
 import subprocess
+import sys
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -23,16 +25,14 @@ from eomc.runtime.cpu import cpu_features
 from helpers import emit_support as es
 from helpers.random_trees import build
 
+sys.path.insert(0, str(Path(__file__).parent))
+import test_second_order  # noqa: E402
+
 # test_second_order.py's chain (9 joints in order: its mirror images are tiled transposes) and floating tree
 CHAIN = [{'parent': i - 1, 'kind': ('pin', 'slider', 'pin')[i % 3], 'rotation': (('BODY', 123), ('SPACE', 231))[i % 2],
           'axis': ((0, 1, 1), (1, 0, -1), (0, 0, 1))[i % 3], 'parent_point': (1, -1, i % 2), 'child_point': (0, 1, 1),
           'rigid': i % 2 == 0, 'products': i % 3 == 0, 'load': i % 4 == 0} for i in range(9)]
-_BASE = dict(rotation=("BODY", 123), axis=(0, 1, 1), parent_point=(1, 0, -1), child_point=(0, 1, 1), products=True)
-FLOATING_TREE = [dict(_BASE, kind="free", parent=-1, rigid=True, load=False),
-                 dict(_BASE, kind="pin", parent=0, rigid=True, load=True),
-                 dict(_BASE, kind="slider", parent=1, rigid=False, load=True, axis=(1, 0, 0)),
-                 dict(_BASE, kind="ball", parent=0, rigid=True, load=False),
-                 dict(_BASE, kind="pin", parent=3, rigid=False, load=True, axis=(0, 0, 1))]
+FLOATING_TREE = test_second_order.FLOATING_TREE
 
 FNS = ["rhs", "inverse_dynamics", "jac_id", "hess_id"]
 
