@@ -8,18 +8,50 @@ waited for the whole run (report r3, N5).
 """
 import importlib.machinery
 import threading
+import warnings
 from pathlib import Path
 
 import cffi
 
-from eomc.runtime.errors import EomcError
+from eomc.runtime.errors import EomcError, EomcWarning
 
-__all__ = ["integrator_library", "extension_library"]
+__all__ = ["integrator_library", "extension_library", "stale_sources"]
 
 _OPENED = {}
 _EXTENSIONS = {}
 _LOCK = threading.Lock()
 _ARM_LOCK = threading.Lock()
+_CHECKED = []       # the stale-library check runs once per process
+
+
+def stale_sources(library, runtime_dir):
+    """The names of the C sources in ``runtime_dir``/c newer than the built integrator library
+    ``library``, when ``runtime_dir`` sits in a source checkout (an editable install: pyproject.toml
+    beside it); else [].
+
+    Why: the integrators are compiled once, when eomc is installed (setup.py).  In a checkout
+    installed with ``pip install -e .``, a pull or merge that changes runtime/c leaves the old
+    library in place, and every run then uses the old integrators without a word -- a test of the
+    new behaviour fails as if the change were wrong (session 17).  An installed package
+    (site-packages, no pyproject.toml beside it) is never checked: its files' times say nothing."""
+    sources = Path(runtime_dir) / "c"
+    if not (Path(runtime_dir).parent / "pyproject.toml").is_file() or not sources.is_dir():
+        return []
+    built = Path(library).stat().st_mtime
+    return sorted(p.name for p in sources.iterdir()
+                  if p.suffix in (".c", ".h") and p.stat().st_mtime > built)
+
+
+def _warn_if_stale(library, here):
+    if _CHECKED:
+        return
+    _CHECKED.append(True)
+    newer = stale_sources(library, here)
+    if newer:
+        warnings.warn(f"eomc's integrator library {library.name} is older than its C sources in "
+                      f"{here / 'c'} ({', '.join(newer[:4])}{', ...' if len(newer) > 4 else ''}): the "
+                      "runs use the integrators as they were when it was built; rebuild it with "
+                      "`pip install -e .` in the checkout", EomcWarning, stacklevel=3)
 
 
 def _library_path():
@@ -27,6 +59,7 @@ def _library_path():
     for suffix in importlib.machinery.EXTENSION_SUFFIXES:
         candidate = here / f"_eomc_integrators{suffix}"
         if candidate.is_file():
+            _warn_if_stale(candidate, here)
             return candidate
     raise EomcError(f"eomc's integrator library (_eomc_integrators) is missing from {here}; "
                     "eomc was not installed with its build step -- reinstall with `pip install .` "
