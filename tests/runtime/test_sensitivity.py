@@ -9,6 +9,7 @@ import pytest
 
 import eomc
 from eomc.errors import ModelError
+from helpers.shared_builds import EXAMPLES
 
 MODEL = "examples/cart_pole_system.py"
 T = np.linspace(0.0, 2.0, 9)
@@ -251,7 +252,7 @@ def test_radau_solves_skip_the_lus_structural_zeros(jvp_model, cols):
 def test_radau_solves_keep_whole_rows_without_the_structure(cache):
     """The heavy top's kinematic equations are not q' = u (J's top rows are not [0 I]): its
     staggered solves keep whole rows, and S still matches central differences."""
-    m = eomc.compile("examples/heavy_top.py", functions=["rhs", "jac_x", "jac_p", "jvp"])
+    m = eomc.compile(str(EXAMPLES / "heavy_top.py"), functions=["rhs", "jac_x", "jac_p", "jvp"])
     x0 = np.array([0.1, 0.4, 0.0, 0.3, -0.2, 5.0])
     kw = dict(method="radau", rtol=1e-10, atol=1e-10, t_eval=T)
     res = m.simulate(x0, (0, 2), sensitivities=[m.param_names[0]], **kw)
