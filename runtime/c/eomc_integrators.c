@@ -683,14 +683,10 @@ static inline double sg_rdot_avx2(const double *a, const double *b, int lo, int 
 }
 #endif
 
-/* The sums' ranges over a row's nonzero entries (sg_top_ranges), four ints a row: the forward
- * sweep's [lo, hi) ascending, the back sweep's start and (exclusive) end descending. */
-#define SG_RANGE(R, i, f, d) ((R) ? (R)[4 * (i) + (f)] : (d))
-
 static inline __attribute__((always_inline))
 void sg_solve_body(int n, const double *A, const int *piv, double *B, const eomc_cplx *Ac,
                    const int *pivc, eomc_cplx *Bc, int k, const double *rr, const double *rq,
-                   const int *R, const int *Rc, sg_cdot_fn cdot, sg_rdot_fn rdot)
+                   int top, sg_cdot_fn cdot, sg_rdot_fn rdot)
 {
     for (int c = 0; c < k; c++) {
         double *b = B + (size_t)c * n;
@@ -700,27 +696,41 @@ void sg_solve_body(int n, const double *A, const int *piv, double *B, const eomc
             if (pivc[r] != r) { eomc_cplx tmp = bc[r]; bc[r] = bc[pivc[r]]; bc[pivc[r]] = tmp; }
         }
     }
-    for (int i = 1; i < n; i++) {
+    for (int i = top > 1 ? top : 1; i < n; i++) {    /* the top rows' L parts are zero */
         const double *a = A + (size_t)i * n, *ac = (const double *)(Ac + (size_t)i * n);
         for (int c = 0; c < k; c++) {
             double *b = B + (size_t)c * n, *bc = (double *)(Bc + (size_t)c * n), sr, si;
-            double s = rdot(a, b, SG_RANGE(R, i, 0, 0), SG_RANGE(R, i, 1, i), 1);
-            cdot(ac, bc, SG_RANGE(Rc, i, 0, 0), SG_RANGE(Rc, i, 1, i), 1, &sr, &si);
+            double s = rdot(a, b, 0, i, 1);
+            cdot(ac, bc, 0, i, 1, &sr, &si);
             b[i] -= s;
             bc[2 * i] -= sr;
             bc[2 * i + 1] -= si;
         }
     }
-    for (int i = n - 1; i >= 0; i--) {
+    for (int i = n - 1; i >= top; i--) {
         const double *a = A + (size_t)i * n, r = rr[i], *ac = (const double *)(Ac + (size_t)i * n);
         double qr = rq[2 * i], qi = rq[2 * i + 1];
         for (int c = 0; c < k; c++) {
             double *b = B + (size_t)c * n, *bc = (double *)(Bc + (size_t)c * n), sr, si;
-            double s = rdot(a, b, SG_RANGE(R, i, 2, n - 1), SG_RANGE(R, i, 3, i), -1);
-            cdot(ac, bc, SG_RANGE(Rc, i, 2, n - 1), SG_RANGE(Rc, i, 3, i), -1, &sr, &si);
+            double s = rdot(a, b, n - 1, i, -1);
+            cdot(ac, bc, n - 1, i, -1, &sr, &si);
             b[i] = (b[i] - s) * r;
             sr = bc[2 * i] - sr;
             si = bc[2 * i + 1] - si;
+            bc[2 * i] = sr * qr - si * qi;
+            bc[2 * i + 1] = sr * qi + si * qr;
+        }
+    }
+    for (int i = top - 1; i >= 0; i--) {             /* top rows: U's one entry at top + i */
+        const double *a = A + (size_t)i * n, r = rr[i], *ac = (const double *)(Ac + (size_t)i * n);
+        double qr = rq[2 * i], qi = rq[2 * i + 1];
+        int u = top + i;
+        for (int c = 0; c < k; c++) {
+            double *b = B + (size_t)c * n, *bc = (double *)(Bc + (size_t)c * n), sr, si;
+            double s = a[u] * b[u];
+            sr = bc[2 * i] - (ac[2 * u] * bc[2 * u] - ac[2 * u + 1] * bc[2 * u + 1]);
+            si = bc[2 * i + 1] - (ac[2 * u] * bc[2 * u + 1] + ac[2 * u + 1] * bc[2 * u]);
+            b[i] = (b[i] - s) * r;
             bc[2 * i] = sr * qr - si * qi;
             bc[2 * i + 1] = sr * qi + si * qr;
         }
@@ -732,53 +742,35 @@ void sg_solve_body(int n, const double *A, const int *piv, double *B, const eomc
 __attribute__((target("avx2")))
 static void sg_solve_rc_avx2(int n, const double *A, const int *piv, double *B, const eomc_cplx *Ac,
                              const int *pivc, eomc_cplx *Bc, int k, const double *rr, const double *rq,
-                             const int *R, const int *Rc)
+                             int top)
 {
-    sg_solve_body(n, A, piv, B, Ac, pivc, Bc, k, rr, rq, R, Rc, sg_cdot_avx2, sg_rdot_avx2);
+    sg_solve_body(n, A, piv, B, Ac, pivc, Bc, k, rr, rq, top, sg_cdot_avx2, sg_rdot_avx2);
 }
 #endif
 
-/* R, Rc (or NULL: whole rows): the real and the complex LU's ranges from sg_top_ranges. */
+/* top > 0: both LUs' top rows are [mu e_i, -e_(top + i)] with zero L parts (sg_top_structure,
+ * top = n / 2): their forward sums are skipped and their back sums are the one product. */
 static void sg_solve_rc(int n, const double *A, const int *piv, double *B, const eomc_cplx *Ac,
                         const int *pivc, eomc_cplx *Bc, int k, const double *rr, const double *rq,
-                        const int *R, const int *Rc)
+                        int top)
 {
 #ifdef EOMC_SG_AVX2
     if (__builtin_cpu_supports("avx2")) {
-        sg_solve_rc_avx2(n, A, piv, B, Ac, pivc, Bc, k, rr, rq, R, Rc);
+        sg_solve_rc_avx2(n, A, piv, B, Ac, pivc, Bc, k, rr, rq, top);
         return;
     }
 #endif
-    sg_solve_body(n, A, piv, B, Ac, pivc, Bc, k, rr, rq, R, Rc, sg_cdot, sg_rdot);
+    sg_solve_body(n, A, piv, B, Ac, pivc, Bc, k, rr, rq, top, sg_cdot, sg_rdot);
 }
 
-/* The ranges of sg_solve_body's sums (R: four ints a row, the forward sweep's [lo, hi)
- * ascending, the back sweep's start and exclusive end descending) when the LU's top h = n / 2
- * rows are [mu e_i, -e_(h + i)] and their L parts zero, which is what the LU of mu I - J with
- * J's top rows [0 I] (x = [q; u], q' = u) is when its first h pivots are the diagonal
- * (sg_top_structure): the first h columns' multipliers in the top rows are 0 / mu = 0 and
- * leave them as they are.  Those rows' forward sums are then empty and their back sums one
- * product; the bottom rows keep whole rows.  Why: at n = 18 that is 144 of a solve's 306
- * products, and the top rows leave the substitutions' dependent chains (half as long).  The
- * back range keeps the dot products' grouping (g terms an operation counted from the sum's
- * start, as sg_rdot_avx2 / sg_cdot_avx2 group them, g = 4 real, 2 complex): it drops whole
- * groups of zeros and a tail of zeros, so the one nonzero product lands as before and the
- * solution is the same to the bit (a zero's sign aside). */
-static void sg_top_ranges(int n, int g, int *R)
-{
-    int h = n / 2;
-    for (int i = 0; i < n; i++) {
-        int *r = R + 4 * i, u = h + i, tail = i + (n - 1 - i) % g;   /* [i + 1, tail]: one by one */
-        if (i >= h) {
-            r[0] = 0; r[1] = i; r[2] = n - 1; r[3] = i;
-            continue;
-        }
-        r[0] = r[1] = 0;
-        r[2] = n - 1 - (n - 1 - u) / g * g;                  /* the top of u's group */
-        r[3] = u <= tail ? i : r[2] - g;                     /* below u's group, or all */
-    }
-}
-
+/* Radau's Newton matrix mu I - J when J's top h = n / 2 rows are [0 I] (x = [q; u], q' = u):
+ * its top rows are [mu e_i, -e_(h + i)], and when the LU's first h pivots are the diagonal the
+ * first h columns' multipliers in the top rows are 0 / mu = 0, which leaves those rows as they
+ * are: L parts zero, U parts mu and -1.  sg_solve_body then skips the top rows' forward sums
+ * (all zero) and takes their back sums as the one product, after the bottom rows.  Why: at n
+ * = 18 that is 144 of a solve's 306 products, and the bottom rows' dependent chains no longer
+ * pass through the top rows (half as long).  The skipped sums are exact zeros and the kept
+ * one is the same product, so the solution is the same to the bit (a zero's sign aside). */
 /* Whether J's top half rows are [0 I] exactly (n even), as sg_half_factor asks. */
 static int sg_top_identity(const double *J, int n)
 {
@@ -790,7 +782,7 @@ static int sg_top_identity(const double *J, int n)
     return 1;
 }
 
-/* Whether this factorization has sg_top_ranges' structure: J's top rows checked (top) and the
+/* Whether this factorization has that structure: J's top rows checked (top) and the
  * real and the complex LU's first n / 2 pivots on the diagonal. */
 static int sg_top_structure(int top, int n, const int *pivr, const int *pivc)
 {
@@ -1716,9 +1708,8 @@ typedef struct radau_sg {
     double *Dc;                    /* 3 k directions [ZS_aj - ZSe_aj; 0] (the corrections) */
     eomc_cplx *bc;
     double *rr, *rq;        /* the LU diagonals' reciprocals (real; complex as re, im pairs) */
-    int *rg, *rgc;          /* the real and the complex LU's sums' ranges (sg_top_ranges) */
     int top, trim;          /* J's top rows are [0 I] (checked at each new J); the LU has
-                               sg_top_ranges' structure (checked at each factorization) */
+                               sg_top_structure's (checked at each factorization) */
     long jev_seen;          /* ... of the J with this njev count */
     long lu_seen;           /* ... of the factorization with this nlu count */
     int half;               /* q' = u (J's top rows [0 I]): the solves' order, else 0 (sg_half) */
@@ -1737,8 +1728,7 @@ size_t eomc_stagger_work_size(int nx, int k, int ndir)
 {
     size_t kk = (size_t)(k > 0 ? k : 0), nk = (size_t)nx * kk;
     return 26 * nk + 3 * kk * (size_t)ndir + 11 * (size_t)nx + 16
-           + 2 * (size_t)nx * (size_t)nx + 2 * nk + 6 * (size_t)nx    /* sg_half's */
-           + 4 * (size_t)nx + 2;                                       /* sg_top_ranges' */
+           + 2 * (size_t)nx * (size_t)nx + 2 * nk + 6 * (size_t)nx;    /* sg_half's */
 }
 
 static void radau_sg_init(radau_sg *g, int n, int k, int ndir, double **pos)
@@ -1753,9 +1743,6 @@ static void radau_sg_init(radau_sg *g, int n, int k, int ndir, double **pos)
     g->ZSe = take(pos, 3 * nk); g->FSe = take(pos, 3 * nk);
     g->F0 = take(pos, 3 * (size_t)n); g->f1 = take(pos, n);   /* jvp's xdot outputs */
     g->rr = take(pos, n); g->rq = take(pos, 2 * (size_t)n); g->lu_seen = -1;
-    g->rg = (int *)take(pos, 2 * (size_t)n + 1); g->rgc = (int *)take(pos, 2 * (size_t)n + 1);
-    sg_top_ranges(n, 4, g->rg);
-    sg_top_ranges(n, 2, g->rgc);
     g->top = g->trim = 0; g->jev_seen = -1;
     {
         size_t h = (size_t)n / 2;
@@ -1891,7 +1878,7 @@ static void sg_half_solve(radau_sg *g, int n, int k, double mr, eomc_cplx mc,
             yc[2 * i + 1] = (qb[2 * i + 1] + (cr * qa[2 * i + 1] + ci * qa[2 * i])) - si[i];
         }
     }
-    sg_solve_rc(h, g->Kr, g->pk, g->yr, g->Kc, g->pkc, g->yc, k, g->kr, g->kq, NULL, NULL);
+    sg_solve_rc(h, g->Kr, g->pk, g->yr, g->Kc, g->pkc, g->yc, k, g->kr, g->kq, 0);
     for (int c = 0; c < k; c++) {
         double *ra = B + (size_t)c * n, *rb = ra + h;
         double *qa = (double *)(Bc + (size_t)c * n), *qb = qa + 2 * h;
@@ -1948,7 +1935,7 @@ static double sg_update(const radau_consts *k, radau_ws *w, radau_sg *g, int n, 
     }
     if (g->half) sg_half_solve(g, n, kc, mr, mc, g->dW, g->bc);
     else sg_solve_rc(n, w->LUr, w->pivr, g->dW, w->LUc, w->pivc, g->bc, kc, g->rr, g->rq,
-                     g->trim ? g->rg : NULL, g->trim ? g->rgc : NULL);
+                     g->trim ? n / 2 : 0);
     for (int j = 0; j < kc; j++) {
         size_t o = (size_t)j * n;
         const double *d0 = g->dW + o;

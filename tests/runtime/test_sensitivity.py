@@ -229,7 +229,7 @@ def test_radau_solves_skip_the_lus_structural_zeros(jvp_model, cols):
     """With J's top rows [0 I] (x = [q; u], q' = u) the LU of Radau's Newton matrix keeps the
     top rows [mu e_i, -e_(h+i)] (first half pivots on the diagonal), and the staggered S
     solves skip their zero entries (sensitivity.TRIM_SOLVES, eomc_integrators.c
-    sg_top_ranges): x, S, the steps and the counts are the whole-row solves' bit for bit.
+    sg_top_structure): x, S, the steps and the counts are the whole-row solves' bit for bit.
     One column takes them at each factorization; from two columns on the half-order solves
     (sg_half_factor) run instead and nothing is skipped."""
     from eomc.runtime import sensitivity
