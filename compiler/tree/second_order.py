@@ -155,6 +155,12 @@ HALF_FROM = HALF_FROM_DEFAULT
 # of the build cache's key when set (build/reuse.generator_switches).
 ZERO = False
 
+# True (the default since session 18): with a folded root joint (a floating base's free joint) the kernel
+# runs in each root body's own frame and the pairs (i, j) with j in that joint take the root dots
+# (:func:`_root_frame`, :func:`_root_dot_lines`); False: the world frame and the lane dots for every j,
+# as before (tests, A/B).  Part of the build cache's key when off (build/reuse.generator_switches).
+ROOT_DOTS = True
+
 
 def _half(plan, nx):
     """Whether the kernel writes its output by halves (HALF_FROM): one-speed joints only (the
@@ -246,7 +252,7 @@ def second_order_c(name, plan, nq, nx, helpers):
         f"    for (k = 0; k < {nd * nn}; k++) out[k] = 0.0;"]) + (
         [f"    for (k = 0; k < {nd * nm}; k++) Tq[k] = 0.0;"] if nm and not TANGENT else []) + [
         f"    for (b = 0; b < {nb}; b++) {{   /* forward: placements, axes and their rates, v, a, Y, B, f */",
-        *body_head_lines(o, "al[i];"),
+        *_root_frame(body_head_lines(o, "al[i];"), o, plan),
         "        for (e = d0[b]; e < d0[b] + nd[b]; e++) {   /* psi' = v_l x S, psi'' = a_l x S + v_l x psi', phi' = v x S */",
         "            const double *s = Sw + 6 * e;",
         "            double *ps = PS + 6 * e, *ps2 = PS2 + 6 * e;",
@@ -392,6 +398,40 @@ def second_order_c(name, plan, nq, nx, helpers):
     start = next(n for n, x in enumerate(lines) if x.startswith(f"#if {name.upper()}_H2_LANES == 4 && defined(__GNUC__)")
                  or x.startswith("/* d2 tau / dx2 of RNEA"))
     return "\n".join(lines + [""] + _avx2_twin(name, lines[start:]))
+
+
+def _rooted(plan):
+    """The root k-speed joints (indices into ``plan.multi``: a floating base's free joint, a root ball)
+    whose pairs (i, j), j one of their dofs, take the root dots (:func:`_root_dot_lines`): all of them
+    when their axes' pattern is known (``plan.spat``, :func:`with_k_derivatives`) and ROOT_DOTS is on."""
+    if not (plan.spat and ROOT_DOTS):
+        return []
+    return [n for n, (e0, _, _) in enumerate(plan.multi) if plan.lam[e0] < 0]
+
+
+def _root_frame(lines, o, plan):
+    """``lines`` (:func:`.analytic.body_head_lines`) with, when the tree has a root joint taking the root
+    dots (:func:`_rooted`), each root body placed at the origin of the kernel's frame, unrotated
+    (R = 1, p = 0), and gravity as its acceleration expressed in its frame (E g, E = R^T): the kernel
+    then runs in each root body's own frame (each root's subtree is separate: no composite, pair or dot
+    couples two roots' dofs).  Every output is a dot product of a motion and a force of one subtree, the
+    same in any frame (to rounding).  Why: in that frame a root joint's axes are its body-frame axes,
+    constants with zeros and ones (a free joint's: unit vectors, and the angular ones' offsets), so
+    the dots of the pairs (i, j) with j in that joint are picks (:func:`_root_dot_lines`)."""
+    if not _rooted(plan):
+        return lines
+    g = o["g"]
+    old = ["                for (j = 0; j < 3; j++) Rb[3 * i + j] = E[3 * j + i];",
+           "                pb[i] = r[i];",
+           f"                al[i + 3] = -an[{g} + i];"]
+    new = ["                for (j = 0; j < 3; j++) Rb[3 * i + j] = i == j ? 1.0 : 0.0;   /* the root's own frame (_root_frame) */",
+           "                pb[i] = 0.0;",
+           f"                al[i + 3] = -(E[3 * i] * an[{g}] + E[3 * i + 1] * an[{g + 1}] + E[3 * i + 2] * an[{g + 2}]);"]
+    out = list(lines)
+    for a, b in zip(old, new):
+        assert out.count(a) == 1, a
+        out[out.index(a)] = b
+    return out
 
 
 def _avx2_twin(name, lines):
@@ -781,10 +821,11 @@ def _triple_lines(name, rd, nx, cfg, nm=0, plan=None, half=False, scratch=None):
         f"                    const int pa = jp[j], L = pL[pa], T = {T};",
         "                    const double *G = K + pG[pa];",
         "                    int tk, ln;",
+        *_root_dot_lines(plan, rd, oj, maxl),
         f"                    if ({oj}) {{",
-        *_dot_lanes(_qgroups(plan, GROUPS_B, QDOTS_B), ("u11", "u9", "w", "u11", "u3", "w", "u9", "u6", "u1", "u2", "u1", "u2", "u10", "u7"), maxl, lanes),
+        *_dot_lanes(_qgroups(plan, GROUPS_B, QDOTS_B), VECS_B, maxl, lanes),
         "                    } else {",
-        *_dot_lanes(_qgroups(plan, GROUPS_A, QDOTS_A), ("u11", "u9", "w", "u11", "u3", "w", "u9", "u6", "u4"), maxl, lanes),
+        *_dot_lanes(_qgroups(plan, GROUPS_A, QDOTS_A), VECS_A, maxl, lanes),
         "                    }",
         "                    for (tk = T - 1; tk >= 0; tk--) {   /* k = j" + (" and j's joint" if nm else "") + ", then up the support of j */",
         f"                        const int k = pd[p0[pa] + tk], qk = qc[k], uk = uc[k]{kd};",
@@ -836,6 +877,82 @@ def _triple_lines(name, rd, nx, cfg, nm=0, plan=None, half=False, scratch=None):
             assert len(hits) == 1, old
             loop[hits[0]] = loop[hits[0]].replace(old, f"Hj[{q} + k] = {val};")
     return lines[:k0] + loop + ["                }"]
+
+
+VECS_A = ("u11", "u9", "w", "u11", "u3", "w", "u9", "u6", "u4")      # the pair vectors the dots read (_triple_lines)
+VECS_B = ("u11", "u9", "w", "u11", "u3", "w", "u9", "u6", "u1", "u2", "u1", "u2", "u10", "u7")
+
+
+def _root_dot_lines(plan, rd, oj, maxl):
+    """C, opening the dots of a pair (i, j): ``if (j is a dof of a root joint) { its dots } else``, for
+    each joint of :func:`_rooted` (the generic lane dots follow as the ``else``).  Its k are that
+    joint's dofs (T of them at the start of its paths), and in the root's own frame
+    (:func:`_root_frame`) their vectors have a known form, so each dot is a few terms instead of a
+    lane dot over K's 24 numbers per k (the padding lanes included):
+      * S_k: the body-frame axis, constants (``plan.spat``): the terms of its entries not identically
+        0, an entry identically 1 taken without a product;
+      * psi'_k = v_l x S_k = 0 (the root's parent is the ground, v_l = 0), and so psi' K^-1: the dot is 0;
+      * psi''_k = a_l x S_k, a_l = (0, -g) (no angular part): its angular part is 0, so the dot is over
+        the linear part alone, 0 for a k whose axis has no angular part (psi'' K^-1: whose K^-1 block
+        has none);
+      * psi'_k + phi'_k = v x S_k (v the root body's velocity): x . (v x S_k) = -S_k . (v x* x), one
+        force cross product per vector, then S_k's terms as above.
+    The same values as the lane dots to rounding (checked against them, the reverse path, differences of
+    jac_id and Pinocchio: tests/compiler/tree/test_second_order.py).  Why: on Go2 the lane dots of the
+    pairs with j in the free joint were 4.5 of hess_id's 21 us (a knock-out, session 18; 108 of its
+    132 pairs)."""
+    rooted = _rooted(plan)
+    if not rooted:
+        return []
+    db = [b for b in range(plan.nb) for _ in plan.dofs(b)]
+    ps = paths(plan)[0]
+    out = []
+    for n in rooted:
+        e0, k, _ = plan.multi[n]
+        assert all(p[:k] == list(range(e0, e0 + k)) for p in ps if e0 in p), "a root joint's dofs start its paths"
+        pat = plan.spat[n]
+        acc = [any(pat[d][c] for c in range(3)) for d in range(k)]     # psi''_d not identically 0
+        acc_q = [False] * k         # psi'' K^-1's column (coordinate) a: some speed of its block has one
+        for r, c in plan.kblocks[n]:
+            for a in r:
+                acc_q[a] = any(acc[d] for d in c)
+
+        def sdot(x, d, neg=False):
+            t = [f"{x}[{c}]" if pat[d][c] == 1 else f"{x}[{c}] * Sr[{6 * d + c}]" for c in range(6) if pat[d][c]]
+            e = " + ".join(t) if t else "0.0"
+            return f"-({e})" if neg and t else e
+
+        def form(groups, vecs):
+            lines, crossed = [], {}
+            for g, v in zip(groups, vecs):
+                if g == 3 and v not in crossed:
+                    crossed[v] = f"y{len(crossed)}"
+            if crossed:
+                lines.append("                        double " + ", ".join(f"{y}[6]" for y in crossed.values()) + ";")
+                lines += [f"                        {rd}_crossf(vr, {v}, {y});   /* v x* {v} */" for v, y in crossed.items()]
+            for m, (g, v) in enumerate(zip(groups, vecs)):
+                for d in range(k):
+                    if g in (1, 4):
+                        e = "0.0"
+                    elif g == 0:
+                        e = sdot(v, d)
+                    elif g == 3:
+                        e = sdot(crossed[v], d, neg=True)
+                    else:
+                        assert g in (2, 5), f"group {g} in a root dot"
+                        e = (" + ".join(f"{v}[{c}] * G[{6 * g + c} * L + {d}]" for c in range(3, 6))
+                             if (acc_q if g == 5 else acc)[d] else "0.0")
+                    lines.append(f"                        D[{m * maxl + d}] = {e};")
+            return lines
+        out += [f"                    if (j >= {e0} && j < {e0 + k}) {{   /* j in root joint {n}: its dots in the root's frame (_root_dot_lines) */",
+                f"                        const double *Sr = Sw + {6 * e0}, *vr = V + {6 * db[e0]};",
+                f"                        if ({oj}) {{",
+                *["    " + x for x in form(_qgroups(plan, GROUPS_B, QDOTS_B), VECS_B)],
+                "                        } else {",
+                *["    " + x for x in form(_qgroups(plan, GROUPS_A, QDOTS_A), VECS_A)],
+                "                        }",
+                "                    } else"]
+    return out
 
 
 def _unswitched(loop, oj):
@@ -910,9 +1027,13 @@ def with_k_derivatives(plan, values, x):
     """(plan, values) with dK/dq of each k-speed joint appended (block K2: per joint, per
     coordinate b of it, the k x k matrix dK/dq_b, K's layout), for :func:`_tangent_lines`.
     ``values`` the analytic plan's [((group, i), expr)], ``x`` the state symbols."""
-    if not plan.multi or TANGENT:
+    if not plan.multi:
         return plan, values
     vals = {k[1]: e for k, e in values}
+    spat = tuple(tuple(tuple(_entry_kind(vals[plan.offsets["S"] + 6 * (e0 + d) + c]) for c in range(6)) for d in range(k))
+                 for e0, k, _ in plan.multi)
+    if TANGENT:
+        return replace(plan, spat=spat), values
     group = values[0][0][0]
     K0, extra, nz = plan.offsets["K"], [], []
     for e0, k, koff in plan.multi:
@@ -925,8 +1046,14 @@ def with_k_derivatives(plan, values, x):
                 nzj.append(b)
         nz.append(tuple(nzj))
     n = plan.size
-    plan = replace(plan, offsets={**plan.offsets, "K2": n}, size=n + len(extra), k2nz=tuple(nz))
+    plan = replace(plan, offsets={**plan.offsets, "K2": n}, size=n + len(extra), k2nz=tuple(nz), spat=spat)
     return plan, list(values) + [((group, n + i), v) for i, v in enumerate(extra)]
+
+
+def _entry_kind(e):
+    """0 or 1 when the expression ``e`` is identically that number, else 2 (:data:`.analytic.AnalyticPlan.spat`)."""
+    e = sm.sympify(e)
+    return 0 if e == 0 else 1 if e == 1 else 2
 
 
 def _tangent_lines(plan, nx, nm):
