@@ -379,7 +379,7 @@ def second_order_c(name, plan, nq, nx, helpers):
         "                double U[60], r1p[6], r0p[6];   /* the pair's vectors */",
         "                double *u1 = U, *u2 = U + 6, *u3 = U + 12, *u6 = U + 18, *u7 = U + 24, *u9 = U + 30, *w = U + 36;",
         "                double *u4 = U + 42, *u10 = U + 48, *u11 = U + 54;",
-        *_pair_vector_lines(name, rd, nm, oj),
+        *_pair_vector_lines(name, rd, nm, oj, plan),
     ] + (_first_order_lines(rd, nm, plan) if nm and not TANGENT else []) + _triple_lines(name, rd, nx, cfg, nm, plan, half, _scratch(plan, nq, nx, half)) + [
         "            }",
         *(_mirror_lines(name, plan, nq, nx) if half else []),
@@ -584,14 +584,15 @@ def _k_folded_lines(plan, npaths):
     return out + ["    }"]
 
 
-def _pair_vector_lines(name, rd, nm, oj):
+def _pair_vector_lines(name, rd, nm, oj, plan=None):
     """C, per pair (i, j): the pair's vectors u1 .. u11, w.  With AVX2 (NAME_H2_LANES 4) the
     seven 6x6 matrix-vector products and four force cross products run on four lanes
     (:func:`_pair_product_lines`, :func:`_pair_cross_lines`); without, one by one (with SSE2's
     two lanes the lane form was slower: cart4 4.05 -> 4.45 us, UR10 5.5 -> 5.7, portable -O2).
     Both sum every term in the same order: the same bits."""
     lanes = f"{name.upper()}_H2_LANES"
-    return [
+    root = _root_pair_lines(plan, oj) if plan is not None else []
+    return root + (["                {"] if root else []) + [
         f"#if {lanes} == 4",
         "                {",
         "                    double oa[24], ob[24], oc[24];",
@@ -630,6 +631,7 @@ def _pair_vector_lines(name, rd, nm, oj):
         "                }",
         "#endif",
         f"                {rd}_crossf(p, ys, r0p);",
+        *(["                }"] if root else []),
         "                for (c = 0; c < 6; c++) {",
         "                    u10[c] = u2[c] + u9[c];",
         "                    u11[c] = u2[c] - u9[c];",
@@ -646,6 +648,71 @@ def _pair_vector_lines(name, rd, nm, oj):
         f"                if (!({oj}))",
         "                    for (c = 0; c < 6; c++) u1[c] = u7[c] = 0.0;   /* unread (j == i), set for the compiler */",
     ]
+
+
+_CROSSF = (((1, 2, 1), (2, 1, -1), (4, 5, 1), (5, 4, -1)), ((2, 0, 1), (0, 2, -1), (5, 3, 1), (3, 5, -1)),
+           ((0, 1, 1), (1, 0, -1), (3, 4, 1), (4, 3, -1)), ((1, 5, 1), (2, 4, -1)), ((2, 3, 1), (0, 5, -1)),
+           ((0, 4, 1), (1, 3, -1)))     # rd_crossf's terms: out[r] = sum sign v[a] f[b]
+
+
+def _terms(ts):
+    """C: a sum of (sign, factor text) terms, "0.0" when there are none."""
+    if not ts:
+        return "0.0"
+    out = ("-" if ts[0][0] < 0 else "") + ts[0][1]
+    for sg, t in ts[1:]:
+        out += (" - " if sg < 0 else " + ") + t
+    return out
+
+
+def _root_pair_lines(plan, oj):
+    """C, per pair (i, j): ``if (j is a dof of a root joint) { its pair vectors } else`` (the generic
+    forms follow), for each joint of :func:`_rooted`, one ``case`` per dof d of the joint.  In the
+    root's own frame (:func:`_root_frame`) S_j is constant with zeros and ones (``plan.spat``),
+    psi'_j = 0 and psi''_j has no angular part (see :func:`_root_dot_lines`), so R1 S_j, R3 S_j,
+    R3^T S_j are a column or a few, S_j x* f a few terms, R1 psi'_j = psi'_j x* Y S_i = 0 (r1p, r0p),
+    and R1 psi''_j three columns; R1 phi'_j stays a full product.  The same values as the generic forms
+    to rounding.  Why: after the root dots, the pair vectors were the largest part of Go2's hess_id
+    (24 %, perf), 108 of its 132 pairs with j in the free joint."""
+    rooted = _rooted(plan)
+    out = []
+    for n in rooted:
+        e0, k, _ = plan.multi[n]
+        pat = plan.spat[n]
+        out += [f"                if (j >= {e0} && j < {e0 + k}) {{   /* j in root joint {n}: its pair vectors in the root's frame (_root_pair_lines) */",
+                f"                    const double *Sr = Sw + {6 * e0};",
+                f"                    switch (j - {e0}) {{"]
+        for d in range(k):
+            nz = [c for c in range(6) if pat[d][c]]
+
+            def s(c):
+                return None if pat[d][c] == 1 else f"Sr[{6 * d + c}]"
+
+            def prod(a, c):
+                return a if s(c) is None else f"{a} * {s(c)}"
+
+            def crossf(f, r):
+                return [(sg, prod(f"{f}[{b}]", a)) for a, b, sg in _CROSSF[r] if pat[d][a]]
+            acc = any(pat[d][c] for c in range(3))
+            body = []
+            for r in range(6):
+                body.append(f"u2[{r}] = {_terms([(1, prod(f'R1[{6 * r + c}]', c)) for c in nz])};")
+                body.append(f"u9[{r}] = {_terms(crossf('ys', r))};")
+                body.append(f"w[{r}] = {_terms(crossf('bs', r))};")
+                body.append(f"u6[{r}] = {_terms(crossf('g7', r))};")
+                pp = [(1, f"R1[{6 * r + c}] * PS2[{6 * (e0 + d) + c}]") for c in range(3, 6)] if acc else []
+                body.append(f"u3[{r}] = {_terms(pp + crossf('g5', r))};")
+                body.append(f"r1p[{r}] = r0p[{r}] = 0.0;")
+            body.append(f"if ({oj}) {{")
+            for r in range(6):
+                body.append(f"    u1[{r}] = {_terms([(1, prod(f'R3[{6 * c + r}]', c)) for c in nz])};")
+                ph = " + ".join(f"R1[{6 * r + c}] * PP[{6 * (e0 + d) + c}]" for c in range(6))
+                body.append(f"    u7[{r}] = {_terms([(1, prod(f'R3[{6 * r + c}]', c)) for c in nz])} + ({ph});")
+            body.append("}")
+            out += [f"                    case {d}:"] + ["                        " + x for x in body] + [
+                "                        break;"]
+        out += ["                    }", "                } else"]
+    return out
 
 
 def _lane_fill_lines():
