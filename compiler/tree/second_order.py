@@ -244,7 +244,7 @@ def second_order_c(name, plan, nq, nx, helpers):
         *([f"    double Tq[{nd * nm}];   /* d tau / d xi of the k-speed joints' dofs (their columns), per dof's row */"]
           if nm and not TANGENT else []),
         *cfg[0],
-        f"    double K[{cfg[1]}], D[{14 * cfg[2]}];   /* per path, component-major: S, psi', psi'', psi' + phi' of its dofs; the dots */",
+        f"    double K[{cfg[1]}], D[{(15 if _rooted(plan) else 14) * cfg[2]}];   /* per path, component-major: S, psi', psi'', psi' + phi' of its dofs; the dots */",
         "    double Ym[36], Bm[36], Ma[36], Mb[36], Mc[36], R1[36], R3[36];",
         "    int b, i, j, k, e, c, l, big = 0;",
         *_kinv_lines(plan),
@@ -926,7 +926,7 @@ def _triple_lines(name, rd, nx, cfg, nm=0, plan=None, half=False, scratch=None):
         f"                                Ok[uj * {nx} + ui] = {d(8)};",
         "                            }",
         "                        } else {",
-        f"                            Oi[uj * {nx} + uk] = -{rd}_dot(u2, Sw + 6 * k);",
+        f"                            Oi[uj * {nx} + uk] = -{_same_joint_dot(plan, rd, maxl)};",
         "                        }",
         "                    }",
     ]
@@ -1010,6 +1010,8 @@ def _root_dot_lines(plan, rd, oj, maxl):
                         e = (" + ".join(f"{v}[{c}] * G[{6 * g + c} * L + {d}]" for c in range(3, 6))
                              if (acc_q if g == 5 else acc)[d] else "0.0")
                     lines.append(f"                        D[{m * maxl + d}] = {e};")
+            lines += [f"                        D[{14 * maxl + d}] = {sdot('u2', d)};   /* u2 . S_k (_same_joint_dot) */"
+                      for d in range(k)]
             return lines
         out += [f"                    if (j >= {e0} && j < {e0 + k}) {{   /* j in root joint {n}: its dots in the root's frame (_root_dot_lines) */",
                 f"                        const double *Sr = Sw + {6 * e0}, *vr = V + {6 * db[e0]};",
@@ -1020,6 +1022,15 @@ def _root_dot_lines(plan, rd, oj, maxl):
                 "                        }",
                 "                    } else"]
     return out
+
+
+def _same_joint_dot(plan, rd, maxl):
+    """C: u2 . S_k for k in j's joint (the (u_j, u_k) entry of row i): for j in a root joint of
+    :func:`_rooted`, the root dots' 15th row (:func:`_root_dot_lines`, S_k's terms), else rd_dot."""
+    conds = [f"(j >= {e0} && j < {e0 + k})" for e0, k, _ in (plan.multi[n] for n in _rooted(plan))]
+    if not conds:
+        return f"{rd}_dot(u2, Sw + 6 * k)"
+    return f"({' || '.join(conds)} ? D[{14 * maxl} + tk] : {rd}_dot(u2, Sw + 6 * k))"
 
 
 def _unswitched(loop, oj):
