@@ -36,6 +36,10 @@ support of every other, which gives the tensor along the joint's tangent ξ (Pin
 Lie-group tangent); hess_id is along the coordinates q (q' = K(q) u), so the kernel then
 changes those entries to q with K⁻¹, dK/dq and the first derivatives along ξ
 (:func:`_tangent_lines`; why: floating bases -- Go2, G1, Talos -- took the reverse path).
+With such a joint at the root (a floating base's free joint) the kernel runs in the root body's own
+frame, where the joint's axes are constants, and the pairs (i, j) with j in it take their pair
+vectors and dots in a few terms each (:func:`_root_frame`, :func:`_root_pair_lines`,
+:func:`_root_dot_lines`: the trunk as one block; Go2 20.3 -> 16.4 us, session 18).
 Trees with ground contacts or loops keep the reverse path; the model's metadata ``hess_id``
 says which one it got and why.
 
