@@ -47,9 +47,10 @@ CHUNK_BYTES = 8000   # characters of C per sub-function, about (a chunk ends pas
 # and x and p shifted likewise.  Why: a floating-base humanoid's rhs is 50-180 kB of straight-line
 # code that streams from L2 through the L1i every call, and its time follows its bytes on this
 # host (AMD Zen 5); S_[k] with k >= 16 takes a 4-byte displacement.  G1's rhs 7 % fewer bytes,
-# 3-5 % faster (G1, Talos, Go2); UR10's 12 kB rhs, which fits the L1i, ran 2 % slower with it,
-# hence the run length (benchmarks/results/free_joint.md, session 18).
-WINDOW_MIN = 800     # statements of a run
+# 3-5 % faster (G1, Talos, Go2: 124, 168, 47 kB of code); code that fits the 32 kB L1i lost:
+# UR10's 12 kB rhs 2 %, Panda's 29 kB (862 statements) 10 %, Allegro's 26 kB (1,098) 1-6 %,
+# hence the run length (Solo12 1,494, Go2 1,632; benchmarks/results/free_joint.md, session 18).
+WINDOW_MIN = 1300    # statements of a run
 WINDOWS = 8          # pointers into the scratch array per sub-function, at most
 WINDOW_MIN_REFS = 6  # references a window must serve
 WINDOW_SPAN = 32     # doubles an 8-bit displacement reaches: base - 16 .. base + 15
