@@ -118,6 +118,11 @@ class CPrinter(C99CodePrinter):
         """Called by a ``_ccode`` method whose text depends on its arguments' printed names
         (not only on their positions): its expression is not printed from a template."""
 
+    def _handle_UnevaluatedExpr(self, expr):
+        # SymPy's rebuilds every node on its way to the re(...) calls it rewrites: ~2 % of the
+        # humanoid's generate phase for expressions that have none (then it returns expr itself)
+        return super()._handle_UnevaluatedExpr(expr) if expr.has(sm.re) else expr
+
     def doprint(self, expr, assign_to=None):
         memo = getattr(_LOCAL, "memo", None)
         if memo is None or assign_to is not None or not isinstance(expr, sm.Basic):
