@@ -134,6 +134,10 @@ PREFER_JVP = True
 # fewer a step.  Off only to measure the difference (benchmarks/bench_sensitivity.py).
 USE_JVP_MORE = True
 
+# Radau's staggered solves skip the LU's top rows' zero entries when J's top rows are [0 I]
+# (eomc_sens_full_solves): the same S to the bit, faster.  Off only to measure or check that.
+TRIM_SOLVES = True
+
 
 def run(model, a, xs, ps, stat_fields, jvp=None, error_control=False):
     """One C call for prepared arguments ``a`` (runtime/simulate.prepare, events off).
@@ -141,8 +145,9 @@ def run(model, a, xs, ps, stat_fields, jvp=None, error_control=False):
     Returns (x rows, stats dict, x_last, S) with S (n_eval, nx, k): the columns for
     ``xs`` then ``ps``.  ``jvp``: see :func:`use_jvp`.  ``error_control``: the step
     control watches S too (else the steps are the plain run's).  The stats gain
-    ``njvp`` / ``sens_iterations`` / ``sens_slow`` (Radau's staggered iteration: jvp
-    calls, iterations, steps whose iteration had not converged; 0 elsewhere).
+    ``njvp`` / ``sens_iterations`` / ``sens_slow`` / ``sens_trimmed`` (Radau's staggered
+    iteration: jvp calls, iterations, steps whose iteration had not converged, factorizations
+    whose S solves skipped the LU's structural zeros (:data:`TRIM_SOLVES`); 0 elsewhere).
     """
     ffi, lib = _sens_ffi(model.ffi)
     nx, k = model.nx, len(xs) + len(ps)
@@ -163,6 +168,7 @@ def run(model, a, xs, ps, stat_fields, jvp=None, error_control=False):
     lib.eomc_sens_error_control(s, int(bool(error_control)))
     if jvp_fn != ffi.NULL and USE_JVP_MORE and "jvp_more" in model.functions:   # else the old path
         lib.eomc_sens_jvp_more(s, getattr(model.model_lib, f"{model.name}_jvp_more"))
+    lib.eomc_sens_full_solves(s, int(not TRIM_SOLVES))
     N = int(lib.eomc_sens_nstates(s))
     X0 = np.empty(N)
     lib.eomc_sens_start(s, buf(a["x0"]), buf(X0))
@@ -188,7 +194,8 @@ def run(model, a, xs, ps, stat_fields, jvp=None, error_control=False):
     st = {f: getattr(stats, f) for f in stat_fields}
     counts = ffi.new("long[3]")              # C long: 32 bits on Windows, so not an int64 buffer
     lib.eomc_sens_counts(s, counts)
-    st.update(njvp=int(counts[0]), sens_iterations=int(counts[1]), sens_slow=int(counts[2]))
+    st.update(njvp=int(counts[0]), sens_iterations=int(counts[1]), sens_slow=int(counts[2]),
+              sens_trimmed=int(lib.eomc_sens_trimmed(s)))
     S = X_out[:, nx:].reshape(n_eval, k, nx).transpose(0, 2, 1)
     return np.ascontiguousarray(X_out[:, :nx]), st, X_last[:nx].copy(), S
 

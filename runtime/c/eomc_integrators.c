@@ -686,7 +686,7 @@ static inline double sg_rdot_avx2(const double *a, const double *b, int lo, int 
 static inline __attribute__((always_inline))
 void sg_solve_body(int n, const double *A, const int *piv, double *B, const eomc_cplx *Ac,
                    const int *pivc, eomc_cplx *Bc, int k, const double *rr, const double *rq,
-                   sg_cdot_fn cdot, sg_rdot_fn rdot)
+                   int top, sg_cdot_fn cdot, sg_rdot_fn rdot)
 {
     for (int c = 0; c < k; c++) {
         double *b = B + (size_t)c * n;
@@ -696,7 +696,7 @@ void sg_solve_body(int n, const double *A, const int *piv, double *B, const eomc
             if (pivc[r] != r) { eomc_cplx tmp = bc[r]; bc[r] = bc[pivc[r]]; bc[pivc[r]] = tmp; }
         }
     }
-    for (int i = 1; i < n; i++) {
+    for (int i = top > 1 ? top : 1; i < n; i++) {    /* the top rows' L parts are zero */
         const double *a = A + (size_t)i * n, *ac = (const double *)(Ac + (size_t)i * n);
         for (int c = 0; c < k; c++) {
             double *b = B + (size_t)c * n, *bc = (double *)(Bc + (size_t)c * n), sr, si;
@@ -707,7 +707,7 @@ void sg_solve_body(int n, const double *A, const int *piv, double *B, const eomc
             bc[2 * i + 1] -= si;
         }
     }
-    for (int i = n - 1; i >= 0; i--) {
+    for (int i = n - 1; i >= top; i--) {
         const double *a = A + (size_t)i * n, r = rr[i], *ac = (const double *)(Ac + (size_t)i * n);
         double qr = rq[2 * i], qi = rq[2 * i + 1];
         for (int c = 0; c < k; c++) {
@@ -721,28 +721,75 @@ void sg_solve_body(int n, const double *A, const int *piv, double *B, const eomc
             bc[2 * i + 1] = sr * qi + si * qr;
         }
     }
+    for (int i = top - 1; i >= 0; i--) {             /* top rows: U's one entry at top + i */
+        const double *a = A + (size_t)i * n, r = rr[i], *ac = (const double *)(Ac + (size_t)i * n);
+        double qr = rq[2 * i], qi = rq[2 * i + 1];
+        int u = top + i;
+        for (int c = 0; c < k; c++) {
+            double *b = B + (size_t)c * n, *bc = (double *)(Bc + (size_t)c * n), sr, si;
+            double s = a[u] * b[u];
+            sr = bc[2 * i] - (ac[2 * u] * bc[2 * u] - ac[2 * u + 1] * bc[2 * u + 1]);
+            si = bc[2 * i + 1] - (ac[2 * u] * bc[2 * u + 1] + ac[2 * u + 1] * bc[2 * u]);
+            b[i] = (b[i] - s) * r;
+            bc[2 * i] = sr * qr - si * qi;
+            bc[2 * i + 1] = sr * qi + si * qr;
+        }
+    }
 }
 
 
 #ifdef EOMC_SG_AVX2
 __attribute__((target("avx2")))
 static void sg_solve_rc_avx2(int n, const double *A, const int *piv, double *B, const eomc_cplx *Ac,
-                             const int *pivc, eomc_cplx *Bc, int k, const double *rr, const double *rq)
+                             const int *pivc, eomc_cplx *Bc, int k, const double *rr, const double *rq,
+                             int top)
 {
-    sg_solve_body(n, A, piv, B, Ac, pivc, Bc, k, rr, rq, sg_cdot_avx2, sg_rdot_avx2);
+    sg_solve_body(n, A, piv, B, Ac, pivc, Bc, k, rr, rq, top, sg_cdot_avx2, sg_rdot_avx2);
 }
 #endif
 
+/* top > 0: both LUs' top rows are [mu e_i, -e_(top + i)] with zero L parts (sg_top_structure,
+ * top = n / 2): their forward sums are skipped and their back sums are the one product. */
 static void sg_solve_rc(int n, const double *A, const int *piv, double *B, const eomc_cplx *Ac,
-                        const int *pivc, eomc_cplx *Bc, int k, const double *rr, const double *rq)
+                        const int *pivc, eomc_cplx *Bc, int k, const double *rr, const double *rq,
+                        int top)
 {
 #ifdef EOMC_SG_AVX2
     if (__builtin_cpu_supports("avx2")) {
-        sg_solve_rc_avx2(n, A, piv, B, Ac, pivc, Bc, k, rr, rq);
+        sg_solve_rc_avx2(n, A, piv, B, Ac, pivc, Bc, k, rr, rq, top);
         return;
     }
 #endif
-    sg_solve_body(n, A, piv, B, Ac, pivc, Bc, k, rr, rq, sg_cdot, sg_rdot);
+    sg_solve_body(n, A, piv, B, Ac, pivc, Bc, k, rr, rq, top, sg_cdot, sg_rdot);
+}
+
+/* Radau's Newton matrix mu I - J when J's top h = n / 2 rows are [0 I] (x = [q; u], q' = u):
+ * its top rows are [mu e_i, -e_(h + i)], and when the LU's first h pivots are the diagonal the
+ * first h columns' multipliers in the top rows are 0 / mu = 0, which leaves those rows as they
+ * are: L parts zero, U parts mu and -1.  sg_solve_body then skips the top rows' forward sums
+ * (all zero) and takes their back sums as the one product, after the bottom rows.  Why: at n
+ * = 18 that is 144 of a solve's 306 products, and the bottom rows' dependent chains no longer
+ * pass through the top rows (half as long).  The skipped sums are exact zeros and the kept
+ * one is the same product, so the solution is the same to the bit (a zero's sign aside). */
+/* Whether J's top half rows are [0 I] exactly (n even), as sg_half_factor asks. */
+static int sg_top_identity(const double *J, int n)
+{
+    int h = n / 2;
+    if (n % 2 || h < 1) return 0;
+    for (int i = 0; i < h; i++)
+        for (int j = 0; j < n; j++)
+            if (J[(size_t)i * n + j] != (j == h + i ? 1.0 : 0.0)) return 0;
+    return 1;
+}
+
+/* Whether this factorization has that structure: J's top rows checked (top) and the
+ * real and the complex LU's first n / 2 pivots on the diagonal. */
+static int sg_top_structure(int top, int n, const int *pivr, const int *pivc)
+{
+    if (!top) return 0;
+    for (int i = 0; i < n / 2; i++)
+        if (pivr[i] != i || pivc[i] != i) return 0;
+    return 1;
 }
 
 /* ---------------------------------------------------- unit quaternions */
@@ -1654,12 +1701,16 @@ static void radau_tolerances(double rtol, double atol, double *rt, double *at)
  * k <= 2 a forward difference of rhs per column and stage. */
 #define RADAU_SG_CORR_STAGE 1
 
+
 typedef struct radau_sg {
     double *ZS, *WS, *FS, *dW, *QS, *Sold, *scale, *tmp;   /* scale: 1 / (atol + |S| rtol) */
     double *ZSe, *FSe, *F0, *f1;   /* ZS and FS at the first iteration; f(Y_a), f(Y_1) */
     double *Dc;                    /* 3 k directions [ZS_aj - ZSe_aj; 0] (the corrections) */
     eomc_cplx *bc;
     double *rr, *rq;        /* the LU diagonals' reciprocals (real; complex as re, im pairs) */
+    int top, trim;          /* J's top rows are [0 I] (checked at each new J); the LU has
+                               sg_top_structure's (checked at each factorization) */
+    long jev_seen;          /* ... of the J with this njev count */
     long lu_seen;           /* ... of the factorization with this nlu count */
     int half;               /* q' = u (J's top rows [0 I]): the solves' order, else 0 (sg_half) */
     double *Kr, *kr, *kq, *yr; /* sg_half's Schur complements: real K, reciprocals, rhs */
@@ -1692,6 +1743,7 @@ static void radau_sg_init(radau_sg *g, int n, int k, int ndir, double **pos)
     g->ZSe = take(pos, 3 * nk); g->FSe = take(pos, 3 * nk);
     g->F0 = take(pos, 3 * (size_t)n); g->f1 = take(pos, n);   /* jvp's xdot outputs */
     g->rr = take(pos, n); g->rq = take(pos, 2 * (size_t)n); g->lu_seen = -1;
+    g->top = g->trim = 0; g->jev_seen = -1;
     {
         size_t h = (size_t)n / 2;
         g->Kr = take(pos, h * h); g->Kc = (eomc_cplx *)take(pos, 2 * h * h);
@@ -1826,7 +1878,7 @@ static void sg_half_solve(radau_sg *g, int n, int k, double mr, eomc_cplx mc,
             yc[2 * i + 1] = (qb[2 * i + 1] + (cr * qa[2 * i + 1] + ci * qa[2 * i])) - si[i];
         }
     }
-    sg_solve_rc(h, g->Kr, g->pk, g->yr, g->Kc, g->pkc, g->yc, k, g->kr, g->kq);
+    sg_solve_rc(h, g->Kr, g->pk, g->yr, g->Kc, g->pkc, g->yc, k, g->kr, g->kq, 0);
     for (int c = 0; c < k; c++) {
         double *ra = B + (size_t)c * n, *rb = ra + h;
         double *qa = (double *)(Bc + (size_t)c * n), *qb = qa + 2 * h;
@@ -1882,7 +1934,8 @@ static double sg_update(const radau_consts *k, radau_ws *w, radau_sg *g, int n, 
         }
     }
     if (g->half) sg_half_solve(g, n, kc, mr, mc, g->dW, g->bc);
-    else sg_solve_rc(n, w->LUr, w->pivr, g->dW, w->LUc, w->pivc, g->bc, kc, g->rr, g->rq);
+    else sg_solve_rc(n, w->LUr, w->pivr, g->dW, w->LUc, w->pivc, g->bc, kc, g->rr, g->rq,
+                     g->trim ? n / 2 : 0);
     for (int j = 0; j < kc; j++) {
         size_t o = (size_t)j * n;
         const double *d0 = g->dW + o;
@@ -1961,6 +2014,12 @@ static int radau_sens_step(ctx *c, const radau_consts *k, radau_ws *w, radau_sg 
             g->rq[2 * i] = creal(q); g->rq[2 * i + 1] = cimag(q);
         }
         g->half = kc >= 2 && sg_half_factor(w, g, n, mr, mc);
+        if (g->jev_seen != c->st->njev) {
+            g->top = !sg->full_solves && sg_top_identity(w->J, n);
+            g->jev_seen = c->st->njev;
+        }
+        g->trim = !g->half && sg_top_structure(g->top, n, w->pivr, w->pivc);
+        sg->ntrim += g->trim;
         g->lu_seen = c->st->nlu;
     }
     for (int a = 0; a < 3; a++) {                    /* predictor */

@@ -163,7 +163,7 @@ typedef struct fiber {
     eomc_fs_request *req;  /* lanes_terms_lu: what the row's step asks for (want), NULL: nothing */
     double *ahead;         /* nu + nq: the next try's du and rate (eomc_fs_assemble_lanes) */
     double *zout[2];       /* the row's last two out buffers that copy_out wrote ... */
-    unsigned char *zmap[2];/* ... and per 4 outputs of each, 1: all four +0.0 there (see copy_out) */
+    unsigned char *zmap[2];/* ... and per block of 4 outputs of each, 1: all four +0.0 there (copy_out) */
     int zlast;             /* the one of the two used last */
 } fiber;
 
@@ -317,21 +317,23 @@ static void forget_zeros(fiber *f)
         if (f->zout[i] == f->out) f->zout[i] = NULL;
 }
 
-/* outs[c][e] = OUT[e * k + c] for the k rows of a batch (its columns back into each row's buffer).
- * Why 4 x 4 blocks: on G1 (3036 terms a row) the element-wise copy was about a sixth of the lanes
- * integrator's time (perf, lanes_rows); the blocks take 4 loads, 8 shuffles and 4 stores for 16
- * doubles.  A copy: the same bits either way.  maps[c] (zero_map): a block of 16 that is all +0.0
- * is not stored into a row whose 4 outputs are known +0.0 already.  Why: most of a model's
- * contact pairs are apart, their 25 slots zero call after call (the humanoid: 2725 of its 4738
- * outputs), and the stores into 8 rows' buffers were the copy's cost. */
+/* outs[c][e] = OUT[e * k + c] for the k rows of a batch (its columns back into each row's buffer),
+ * over the blocks of 4 outputs starting at blk[0 .. nblk - 1] (var_blocks: the outputs a call
+ * writes); every output when nblk is 0 (fewer than 4 of them).  Why 4 x 4 blocks: on G1 (3036
+ * terms a row) the element-wise copy was about a sixth of the lanes integrator's time (perf,
+ * lanes_rows); the blocks take 4 loads, 8 shuffles and 4 stores for 16 doubles.  A copy: the same
+ * bits either way.  maps[c] (zero_map, one entry a block): a block of 16 that is all +0.0 is not
+ * stored into a row whose 4 outputs are known +0.0 already.  Why: most of a model's contact pairs
+ * are apart, their 25 slots zero call after call (the humanoid: 2725 of its 4738 outputs), and the
+ * stores into 8 rows' buffers were the copy's cost. */
 #if defined(__x86_64__) && defined(__GNUC__)
 #include <immintrin.h>
 #define EOMC_COPY_OUT4 1
 __attribute__((target("avx"))) static void copy_out4(double *const *outs, unsigned char *const *maps,
-                                                     const double *OUT, size_t n, int k)
+                                                     const double *OUT, const size_t *blk, size_t nblk, int k)
 {
-    size_t e = 0;
-    for (; e + 4 <= n; e += 4) {
+    for (size_t b = 0; b < nblk; b++) {
+        const size_t e = blk[b];
         const double *o = OUT + e * (size_t)k;
         for (int c = 0; c < k; c += 4) {
             __m256d r0 = _mm256_loadu_pd(o + c), r1 = _mm256_loadu_pd(o + k + c);
@@ -339,13 +341,13 @@ __attribute__((target("avx"))) static void copy_out4(double *const *outs, unsign
             __m256i z = _mm256_castpd_si256(_mm256_or_pd(_mm256_or_pd(r0, r1), _mm256_or_pd(r2, r3)));
             if (_mm256_testz_si256(z, z)) {          /* all 16 are +0.0 */
                 for (int j = c; j < c + 4; j++)
-                    if (!maps[j][e / 4]) {
+                    if (!maps[j][b]) {
                         _mm256_storeu_pd(outs[j] + e, r0);
-                        maps[j][e / 4] = 1;
+                        maps[j][b] = 1;
                     }
                 continue;
             }
-            for (int j = c; j < c + 4; j++) maps[j][e / 4] = 0;
+            for (int j = c; j < c + 4; j++) maps[j][b] = 0;
             __m256d t0 = _mm256_unpacklo_pd(r0, r1), t1 = _mm256_unpackhi_pd(r0, r1);
             __m256d t2 = _mm256_unpacklo_pd(r2, r3), t3 = _mm256_unpackhi_pd(r2, r3);
             _mm256_storeu_pd(outs[c] + e, _mm256_permute2f128_pd(t0, t2, 0x20));
@@ -354,51 +356,104 @@ __attribute__((target("avx"))) static void copy_out4(double *const *outs, unsign
             _mm256_storeu_pd(outs[c + 3] + e, _mm256_permute2f128_pd(t1, t3, 0x31));
         }
     }
-    for (; e < n; e++)
-        for (int c = 0; c < k; c++) outs[c][e] = OUT[e * (size_t)k + (size_t)c];
 }
 #endif
 
-static void copy_out(double *const *outs, unsigned char *const *maps, const double *OUT, size_t n, int k)
+static void copy_out(double *const *outs, unsigned char *const *maps, const double *OUT, size_t n,
+                     const size_t *blk, size_t nblk, int k)
 {
 #ifdef EOMC_COPY_OUT4
-    if (k % 4 == 0 && __builtin_cpu_supports("avx")) {
-        copy_out4(outs, maps, OUT, n, k);
+    if (k % 4 == 0 && nblk > 0 && __builtin_cpu_supports("avx")) {
+        copy_out4(outs, maps, OUT, blk, nblk, k);
         return;
     }
 #endif
-    for (int c = 0; c < k; c++) memset(maps[c], 0, (n + 3) / 4);     /* every output written */
-    for (size_t e = 0; e < n; e++) {           /* OUT read in order, k rows written */
-        const double *o = OUT + e * (size_t)k;
-        for (int c = 0; c < k; c++) outs[c][e] = o[c];
+    for (int c = 0; c < k; c++) memset(maps[c], 0, nblk + 1);     /* every block written */
+    if (nblk == 0) {
+        for (size_t e = 0; e < n; e++)
+            for (int c = 0; c < k; c++) outs[c][e] = OUT[e * (size_t)k + (size_t)c];
+        return;
     }
+    for (size_t b = 0; b < nblk; b++)
+        for (size_t e = blk[b]; e < blk[b] + 4; e++) {     /* OUT read in order, k rows written */
+            const double *o = OUT + e * (size_t)k;
+            for (int c = 0; c < k; c++) outs[c][e] = o[c];
+        }
 }
 
-/* The batch's rows that asked for their step (lanes_terms_lu) and whose model call succeeded get
- * it from one eomc_fs_assemble_lanes over the batch's columns; a row whose pivot test fails there
- * is left to do it itself (the scalar code, the same failure). */
-static void lanes_assemble(lanes_sched *s, const int *idx, const int *ibuf, const double *X, const double *OUT)
+/* The blocks of 4 outputs copy_out copies: starts in blk (n / 4 + 2 of them at most), their count
+ * returned; 0 when there are fewer than 4 outputs (copy_out then copies each).  Every output is in
+ * one, except the constant outputs of a model whose terms write only the others (eomc_implicit.
+ * terms_const, found as the outputs it writes over a NaN sentinel): the fast path wrote those once
+ * into every buffer it hands terms (eomc_fixedstep.c), so they are there already.  Why: on G1 1873
+ * of the 3400 outputs are constant (its N's hinge columns, M's zeros): 413 blocks to copy, not
+ * 850; the copy was a tenth of the lanes rollout's time (rdtsc in lanes_rows, bench_rollout_
+ * contacts' rows), and the rollout took 6 % less with this (one process A/B, 7 rounds).  The last block may start before the one ahead of it ends (n - 4): the same values twice.
+ * NULL when out of memory. */
+static size_t *var_blocks(const eomc_implicit *imp, size_t n, size_t *nblk)
+{
+    const unsigned long long sentinel = 0x7ff4dead0000beefULL;   /* a signalling NaN's bits */
+    size_t *blk = (size_t *)malloc((n / 4 + 2) * sizeof(size_t)), k = 0;
+    double *probe = NULL;
+    if (blk == NULL) return NULL;
+    if (imp->terms_const && n >= 4) {
+        if ((probe = (double *)malloc(n * sizeof(double))) == NULL) {
+            free(blk);
+            return NULL;
+        }
+        for (size_t e = 0; e < n; e++) memcpy(probe + e, &sentinel, sizeof sentinel);
+        imp->terms_const(probe);
+    }
+    for (size_t e = 0; n >= 4 && e < n;) {
+        if (probe && memcmp(probe + e, &sentinel, sizeof sentinel) != 0) {   /* written: a constant */
+            e++;
+            continue;
+        }
+        blk[k] = e + 4 <= n ? e : n - 4;
+        e = blk[k++] + 4;
+    }
+    free(probe);
+    *nblk = k;
+    return blk;
+}
+
+/* The batch's rows (its first k lanes; the others pad it) that asked for their step
+ * (lanes_terms_lu) and whose model call succeeded get it from one eomc_fs_assemble_lanes over the
+ * batch's columns; a row whose pivot test fails there is left to do it itself (the scalar code,
+ * the same failure). */
+static void lanes_assemble(lanes_sched *s, const int *idx, int k, const int *ibuf, const double *X,
+                           const double *OUT)
 {
     const int L = s->job->lanes;
     eomc_fs_request *req[64];
     double *ahead[64];
     int any = 0;
     for (int c = 0; c < L; c++) {
-        fiber *q = &s->f[idx[c]];
-        req[c] = ibuf[c] == EOMC_OK ? q->req : NULL;
-        ahead[c] = q->ahead;
+        fiber *q = c < k ? &s->f[idx[c]] : NULL;
+        req[c] = q && ibuf[c] == EOMC_OK ? q->req : NULL;
+        ahead[c] = q ? q->ahead : NULL;
         any |= req[c] != NULL;
     }
     if (!any) return;
     eomc_fs_assemble_lanes(s->lw, OUT, X + (size_t)s->job->m->nq * L, req, ahead);
 }
 
+/* A round of k < lanes waiting calls (the rows' tail: the others are done, or wait with other
+ * parameters) is padded to a whole batch when k >= PAD_MIN(lanes), else made by the scalar call.
+ * Why: a batch of 8 costs what 2.5-4 scalar calls do on the ant, Go2 and G1 (5 on the humanoid),
+ * and its rows' steps are assembled in lanes too; measured (ant, bench_rollout_contacts' 64 rows,
+ * lanes 8): 1099 of 11939 calls were made in 246 rounds of 1-7 rows, about a quarter of the model
+ * calls' time, and the rollout took 4 % less with this.  Each lane is the same call either way
+ * (its bits, within the lanes' sin/cos). */
+#define PAD_MIN(L) (((L) + 1) / 2)
+
 /* One thread's rows, job->lanes at a time.  buf: the batch's columns (nx + ninput + out_len
  * rows of lanes doubles, 64-byte aligned), ibuf, idx: lanes ints each, mwork: the model's work,
- * lw: NULL or the assembly in lanes.  0, or 1 when a fiber's context could not be made (nothing
- * run). */
+ * lw: NULL or the assembly in lanes, pad, pad_map: out_len doubles and its zero map, where a
+ * padded batch's extra lanes are copied (and never read), blk, nblk: var_blocks.  0, or 1 when a fiber's context could
+ * not be made (nothing run). */
 static int lanes_rows(rollout_job *job, fiber *f, double *buf, int *ibuf, int *idx, double *mwork,
-                      eomc_fs_lanes *lw)
+                      eomc_fs_lanes *lw, double *pad, unsigned char *pad_map, const size_t *blk, size_t nblk)
 {
     lanes_sched s;
     const int L = job->lanes, nx = job->m->nx, nr = job->m->ninput;
@@ -424,7 +479,7 @@ static int lanes_rows(rollout_job *job, fiber *f, double *buf, int *ibuf, int *i
         if (first < 0) break;                         /* every fiber done */
         for (int i = 0; i < L; i++)      /* from 0: a row before first may wait at another t */
             if (same_call(&s, first, i)) idx[k++] = i;
-        if (k < L) {   /* the batch would take them by its scalar tail: the scalar call, on the rows' buffers */
+        if (k < PAD_MIN(L)) {   /* a few: the scalar call, on the rows' buffers */
             for (int c = 0; c < k; c++) {
                 fiber *q = &f[idx[c]];
                 q->result = job->opt->implicit->terms(q->t, q->x, q->p, q->r, q->out, mwork);
@@ -433,19 +488,19 @@ static int lanes_rows(rollout_job *job, fiber *f, double *buf, int *ibuf, int *i
             for (int c = 0; c < k; c++) resume(&s, idx[c]);
             continue;
         }
-        for (int c = 0; c < k; c++) {
-            const fiber *q = &f[idx[c]];
-            for (int j = 0; j < nx; j++) X[(size_t)j * k + c] = q->x[j];
-            for (int j = 0; j < nr; j++) R[(size_t)j * k + c] = q->r[j];
+        for (int c = 0; c < L; c++) {    /* lanes k .. L - 1 pad: the first row's call again */
+            const fiber *q = &f[idx[c < k ? c : 0]];
+            for (int j = 0; j < nx; j++) X[(size_t)j * L + c] = q->x[j];
+            for (int j = 0; j < nr; j++) R[(size_t)j * L + c] = q->r[j];
         }
-        job->batch(k, f[first].t, X, f[first].p, nr ? R : NULL, OUT, ibuf, mwork);
-        if (lw) lanes_assemble(&s, idx, ibuf, X, OUT);
-        for (int c = 0; c < k; c++) {
-            outs[c] = f[idx[c]].out;
-            maps[c] = zero_map(&f[idx[c]], (job->out_len + 3) / 4);
-            f[idx[c]].result = ibuf[c];
+        job->batch(L, f[first].t, X, f[first].p, nr ? R : NULL, OUT, ibuf, mwork);
+        if (lw) lanes_assemble(&s, idx, k, ibuf, X, OUT);
+        for (int c = 0; c < L; c++) {
+            outs[c] = c < k ? f[idx[c]].out : pad;
+            maps[c] = c < k ? zero_map(&f[idx[c]], nblk + 1) : pad_map;
+            if (c < k) f[idx[c]].result = ibuf[c];
         }
-        copy_out(outs, maps, OUT, job->out_len, k);
+        copy_out(outs, maps, OUT, job->out_len, blk, nblk, L);
         for (int c = 0; c < k; c++) resume(&s, idx[c]);
     }
     cur_sched = NULL;
@@ -459,6 +514,9 @@ static void *lanes_fiber_worker(rollout_job *job)
     const size_t cols = (size_t)job->m->nx + (size_t)job->m->ninput + job->out_len;
     fiber *f = (fiber *)calloc((size_t)L, sizeof(fiber));
     double *mem = (double *)malloc(cols * (size_t)L * sizeof(double) + 64);
+    const size_t nmap = job->out_len / 4 + 2;    /* a zero map's bytes: var_blocks' count + 1 at most */
+    double *pad = (double *)malloc(job->out_len * sizeof(double) + nmap);
+    size_t nblk = 0, *blk = var_blocks(job->opt->implicit, job->out_len, &nblk);
     double *buf = mem ? (double *)(((size_t)mem + 63) & ~(size_t)63) : NULL;   /* the columns: aligned */
     double *mwork = (double *)malloc(((size_t)job->m->work_size + 1) * sizeof(double));
     int *ibuf = (int *)malloc(2 * (size_t)L * sizeof(int));
@@ -466,24 +524,25 @@ static void *lanes_fiber_worker(rollout_job *job)
      * assembles its own step, as before */
     eomc_fs_lanes *lw = job->opt->implicit->terms_lu == NULL
                         ? eomc_fs_lanes_new(job->m->nq, job->m->nu, job->opt->implicit, L) : NULL;
-    int ok = f && buf && mwork && ibuf, failed = 1;
+    int ok = f && buf && mwork && ibuf && pad && blk, failed = 1;
     for (int i = 0; ok && i < L; i++) {
         f[i].stack = (char *)malloc(FIBER_STACK);
         f[i].work = (double *)malloc(job->work_len * sizeof(double));
         f[i].ahead = (double *)malloc((size_t)job->m->nx * sizeof(double));
-        f[i].zmap[0] = (unsigned char *)malloc(2 * ((job->out_len + 3) / 4) + 1);
-        f[i].zmap[1] = f[i].zmap[0] ? f[i].zmap[0] + (job->out_len + 3) / 4 : NULL;
+        f[i].zmap[0] = (unsigned char *)malloc(2 * nmap);
+        f[i].zmap[1] = f[i].zmap[0] ? f[i].zmap[0] + nmap : NULL;
         ok = f[i].stack && f[i].work && f[i].ahead && f[i].zmap[0];
     }
     if (ok)
-        failed = lanes_rows(job, f, buf, ibuf, ibuf + L, mwork, lw);
+        failed = lanes_rows(job, f, buf, ibuf, ibuf + L, mwork, lw, pad, (unsigned char *)(pad + job->out_len),
+                            blk, nblk);
     for (int i = 0; f && i < L; i++) {
         free(f[i].stack);
         free(f[i].work);
         free(f[i].ahead);
         free(f[i].zmap[0]);
     }
-    free(f); free(mem); free(mwork); free(ibuf);
+    free(f); free(mem); free(mwork); free(ibuf); free(pad); free(blk);
     eomc_fs_lanes_free(lw);
     return failed ? (void *)job : NULL;  /* not NULL: this thread could not run; the others take its rows */
 }

@@ -30,6 +30,8 @@ struct eomc_sens {
     int errcon;               /* 1: the step control sees S too (simultaneous, as before) */
     int avx;                  /* the CPU has AVX (vzeroupper after the model's calls) */
     long njvp, niter, nslow;  /* the last run's staggered counts */
+    int full_solves;          /* eomc_sens_full_solves */
+    long ntrim;
     eomc_model aug;
 };
 
@@ -201,6 +203,16 @@ void eomc_sens_counts(const eomc_sens *s, long *out)
     out[0] = s->njvp; out[1] = s->niter; out[2] = s->nslow;
 }
 
+void eomc_sens_full_solves(eomc_sens *s, int on)
+{
+    s->full_solves = on != 0;
+}
+
+long eomc_sens_trimmed(const eomc_sens *s)
+{
+    return s->ntrim;
+}
+
 int eomc_sens_integrate(eomc_sens *s, const eomc_options *opt, double t0, double t1,
                         const double *X0, int n_rgrid, const double *r_tgrid,
                         const double *r_values, int n_eval, const double *t_eval,
@@ -214,7 +226,7 @@ int eomc_sens_integrate(eomc_sens *s, const eomc_options *opt, double t0, double
     o.project = 0;
     o.baumgarte = 0.0;
     memset(&sg, 0, sizeof sg);
-    s->njvp = s->niter = s->nslow = 0;
+    s->njvp = s->niter = s->nslow = s->ntrim = 0;
     if (!staggered(s, o.method)) {
         /* explicit methods (and Radau with error control on S): the augmented model, whose
          * sensitivities stay out of the error test unless errcon */
@@ -226,6 +238,7 @@ int eomc_sens_integrate(eomc_sens *s, const eomc_options *opt, double t0, double
     }
     if (!work || work_len < nk) return EOMC_BAD_ARGUMENT;
     sg.k = k; sg.jvp = s->jvp; sg.jvp_more = s->jvp_more; sg.ndir = n + s->np; sg.D = s->D;
+    sg.full_solves = s->full_solves;
     sg.S = work;
     sg.S_out = X_out ? X_out + n : NULL;
     sg.ld_out = n * (1 + k);
@@ -233,6 +246,6 @@ int eomc_sens_integrate(eomc_sens *s, const eomc_options *opt, double t0, double
     st = eomc_integrate_sg(s->m, &o, t0, t1, X0, s->p, n_rgrid, r_tgrid, r_values, n_eval, t_eval,
                            X_out, X_last, stats, work + nk, work_len - nk, &sg);
     if (X_last) memcpy(X_last + n, sg.S, nk * sizeof(double));
-    s->njvp = sg.njvp; s->niter = sg.niter; s->nslow = sg.nslow;
+    s->njvp = sg.njvp; s->niter = sg.niter; s->nslow = sg.nslow; s->ntrim = sg.ntrim;
     return st;
 }

@@ -81,6 +81,16 @@ size_t eomc_sens_work_size(const eomc_sens *s, int method);
  * out[2] steps whose iteration had not converged (all 0 elsewhere). */
 void eomc_sens_counts(const eomc_sens *s, long *out);
 
+/* on != 0 (after init): Radau's staggered solves run over the LU's whole rows.  By default,
+ * when J's top half rows are [0 I] (x = [q; u], q' = u) and the factorization kept its first
+ * half pivots on the diagonal, they skip the LU's top rows' zero entries: the same solution
+ * to the bit (a zero's sign aside), fewer products and shorter dependent chains.  Only to
+ * measure or to check the difference. */
+void eomc_sens_full_solves(eomc_sens *s, int on);
+
+/* The last run's factorizations whose staggered solves skipped those entries (0 elsewhere). */
+long eomc_sens_trimmed(const eomc_sens *s);
+
 /*
  * eomc_integrate over the augmented system: X_out rows are [x, S column by
  * column] (nx (1 + k) doubles; S[:, j] at nx + j nx).  Options, inputs and

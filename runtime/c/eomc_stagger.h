@@ -42,6 +42,10 @@ typedef struct eomc_stagger {
                              later one: 1, with 3 k directions) */
     long nslow;           /* out: steps whose sensitivity iteration had not converged
                              after EOMC_SG_MAXIT iterations (kept, counted) */
+    int full_solves;      /* Radau: 1 keeps S's solves over whole rows (0: the LU's top rows
+                             skipped where J's top rows are [0 I], eomc_integrators.c
+                             sg_top_structure: the same solution, fewer products) */
+    long ntrim;           /* out: factorizations whose S solves skipped those entries */
     /* DOPRI5/DOP853/Radau for the adjoint (eomc_adjoint.c): checkpoints of the accepted steps. */
     int ntstop;           /* steps end exactly on these times (increasing, inside (t0, t1]) */
     const double *tstop;

@@ -275,3 +275,83 @@ def test_implicitfast_lanes_turn_a_free_joints_momentum_as_the_scalar_path(tmp_p
     finally:
         imp.nfree = 1
     assert not np.array_equal(off.x, want.x)
+
+
+def _wrapped_batch(model, monkeypatch, after):
+    """rollout's NAME_implicit_batch replaced by a cffi callback that makes the real call, then
+    after(n, OUT, X) with OUT (size, n) and X (nx, n) as arrays over the batch's columns."""
+    import eomc.runtime.rollout as ro
+    size = model.metadata["implicit"]["layout"]["size"]
+    original, keep = ro._implicit_batch, []
+
+    def batch(model_, ffi):
+        real = original(model_, ffi)
+
+        def call(n, t, X, p, R, OUT, status, work):
+            s = real(n, t, X, p, R, OUT, status, work)
+            after(n, np.frombuffer(ffi.buffer(OUT, size * n * 8), dtype=float).reshape(size, n),
+                  np.frombuffer(ffi.buffer(X, model_.nx * n * 8), dtype=float).reshape(model_.nx, n))
+            return s
+        keep.append(ffi.callback("eomc_batch_fn", call))
+        return keep[-1]
+    monkeypatch.setattr(ro, "_implicit_batch", batch)
+
+
+def test_a_tail_of_rows_is_padded_to_a_whole_batch(hopper, monkeypatch):
+    """Rows that end at different times leave rounds of fewer waiting calls than lanes: from half
+    the lanes up they are one batch call padded with the first row's call again (its extra lanes
+    dropped), fewer by the scalar call.  Seen through the batch: rounds whose last columns repeat
+    the first; the rows still equal the scalar rollout bit for bit."""
+    X0 = _hopper_starts(hopper, 21, seed=6)       # 21 rows: the last rounds hold 1 .. 7 of them
+    kw = dict(dt=0.008, steps=40, method="implicitfast", threads=1)
+    want = rollout(hopper, X0, **kw)
+    rounds = []
+
+    def seen(n, OUT, X):
+        distinct = 1 + max((k for k in range(1, n) if not np.array_equal(X[:, k], X[:, 0])), default=0)
+        rounds.append((n, distinct))
+    _wrapped_batch(hopper, monkeypatch, seen)
+    got = rollout(hopper, X0, lanes=True, **kw)
+    assert got.ok.all() and np.array_equal(got.x, want.x) and np.array_equal(got.steps, want.steps)
+    assert np.array_equal(got.unsolved, want.unsolved)
+    lanes = rounds[0][0]
+    padded = [d for n, d in rounds if d < n]
+    assert all(n == lanes for n, d in rounds)
+    assert padded and min(padded) >= (lanes + 1) // 2          # padded rounds, none below half the lanes
+
+
+def test_outputs_the_terms_never_change_are_not_copied_from_the_batch(hopper, monkeypatch):
+    """A model whose NAME_implicit has constant outputs (NAME_implicit_const, written once into
+    each of a row's buffers) gets only blocks of 4 outputs holding a variable one copied from the
+    batch's columns into a row's buffer (eomc_rollout.c, var_blocks: each block starts at the first
+    variable output not yet in one, the last at size - 4).  Shown by a batch whose other outputs
+    are NaN after the call and the lanes' own assembly marked failed in every lane
+    ($EOMC_TEST_FS_LANES_FAIL): every row assembles its step from its buffer, and still equals the
+    scalar rollout bit for bit (a copied NaN would not)."""
+    from eomc.runtime.simulate import _const_apart
+    assert _const_apart(hopper) is not None
+    size = hopper.metadata["implicit"]["layout"]["size"]
+    probe = np.full(size, np.nan)
+    hopper.ffi.cast("void (*)(double *)", _const_apart(hopper)[1])(hopper.ffi.from_buffer("double[]", probe))
+    const = ~np.isnan(probe)
+    copied, e = np.zeros(size, dtype=bool), 0
+    while e < size:
+        if const[e]:
+            e += 1
+        else:
+            start = min(e, size - 4)
+            copied[start:start + 4] = True
+            e = start + 4
+    skipped = const & ~copied
+    assert (copied | const).all() and skipped.sum() >= 8      # every variable output copied, some others not
+    X0 = _hopper_starts(hopper, 11, seed=7)
+    kw = dict(dt=0.008, steps=30, method="implicitfast", threads=1)
+    want = rollout(hopper, X0, **kw)
+
+    def poison(n, OUT, X):
+        OUT[skipped, :] = np.nan
+    monkeypatch.setenv("EOMC_TEST_FS_LANES_FAIL", "0xff")
+    _wrapped_batch(hopper, monkeypatch, poison)
+    got = rollout(hopper, X0, lanes=True, **kw)
+    assert got.ok.all() and np.array_equal(got.x, want.x) and np.array_equal(got.steps, want.steps)
+    assert np.array_equal(got.unsolved, want.unsolved)

@@ -190,7 +190,12 @@ int main(void)
     for (k = 0; k < nsteps; k++) t_eval[k] = k * dt;
     t_eval[nsteps] = t1;
     memset(&imp, 0, sizeof imp);
+#ifdef TERMS_CONST      /* the constant outputs once per buffer (the lanes then copy only the others) */
+    imp.terms = NAME_implicit_var;
+    imp.terms_const = NAME_implicit_const;
+#else
     imp.terms = NAME_implicit;
+#endif
     imp.ncontact = NCONTACT;
     imp.chain_start = chain_start;
     imp.chain = chain;
@@ -265,12 +270,15 @@ def _hopper_driver(spec, gm):
     return driver.replace("NAME", gm.name)
 
 
-@pytest.mark.parametrize("switch", ["hand-written", "ucontext"])
+@pytest.mark.parametrize("switch", ["hand-written", "ucontext", "constants apart"])
 def test_implicitfast_fibers_clean_under_asan_and_equal_to_the_scalar_rollout(hopper_source, tmp_path, switch):
     """Every fiber switch under ASan (the hand-written one announced to it, swapcontext
     intercepted), UBSan on the batch and the scalar rows; the rows split steps (more model
-    calls than steps) and must equal the scalar rollout's bytes, stats included."""
+    calls than steps) and must equal the scalar rollout's bytes, stats included.  "constants
+    apart": terms NAME_implicit_var with terms_const NAME_implicit_const, as rollout runs a model
+    with constant outputs (the lanes copy only the blocks holding the others: var_blocks)."""
     spec, gm, src = hopper_source
-    defines = ("-DEOMC_FIBER_UCONTEXT",) if switch == "ucontext" else ()
+    assert (gm.metadata.get("const_outputs") or {}).get("implicit")
+    defines = {"ucontext": ("-DEOMC_FIBER_UCONTEXT",), "constants apart": ("-DTERMS_CONST",)}.get(switch, ())
     out = _build_and_run(src, _hopper_driver(spec, gm), tmp_path, "address,undefined", *defines)
     assert out == f"{gm.name} wrong=0 failed=0 split=1", out

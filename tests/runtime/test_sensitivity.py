@@ -9,6 +9,7 @@ import pytest
 
 import eomc
 from eomc.errors import ModelError
+from helpers.shared_builds import EXAMPLES
 
 MODEL = "examples/cart_pole_system.py"
 T = np.linspace(0.0, 2.0, 9)
@@ -221,3 +222,45 @@ def test_bench_sensitivity_oracle_is_accurate_differences(jvp_model):
     D = bench.oracle(m, X0, cols, T)
     assert D.shape == S.shape
     assert np.max(np.abs(S - D)) < 1e-9 * np.max(np.abs(D))
+
+
+@pytest.mark.parametrize("cols", [["l"], ["q_pole", "l", "g"]])
+def test_radau_solves_skip_the_lus_structural_zeros(jvp_model, cols):
+    """With J's top rows [0 I] (x = [q; u], q' = u) the LU of Radau's Newton matrix keeps the
+    top rows [mu e_i, -e_(h+i)] (first half pivots on the diagonal), and the staggered S
+    solves skip their zero entries (sensitivity.TRIM_SOLVES, eomc_integrators.c
+    sg_top_structure): x, S, the steps and the counts are the whole-row solves' bit for bit.
+    One column takes them at each factorization; from two columns on the half-order solves
+    (sg_half_factor) run instead and nothing is skipped."""
+    from eomc.runtime import sensitivity
+    r = (np.array([0.0, 0.7, 2.0]), np.array([[0.2, -0.1], [-0.4, 0.3], [0.1, 0.0]]))
+    kw = dict(r=r, method="radau", rtol=1e-10, atol=1e-10, t_eval=T, sensitivities=cols)
+    a = jvp_model.simulate(X0, (0, 2), **kw)
+    sensitivity.TRIM_SOLVES = False
+    try:
+        b = jvp_model.simulate(X0, (0, 2), **kw)
+    finally:
+        sensitivity.TRIM_SOLVES = True
+    assert (a.stats["sens_trimmed"] > 0) == (len(cols) == 1)
+    assert b.stats["sens_trimmed"] == 0
+    assert np.array_equal(a.x, b.x)
+    assert np.array_equal(a.dx_dp, b.dx_dp) and np.array_equal(a.dx_dx0, b.dx_dx0)
+    for key in ("steps", "accepted", "nfev", "njvp", "sens_iterations", "sens_slow"):
+        assert a.stats[key] == b.stats[key], key
+
+
+def test_radau_solves_keep_whole_rows_without_the_structure(cache):
+    """The heavy top's kinematic equations are not q' = u (J's top rows are not [0 I]): its
+    staggered solves keep whole rows, and S still matches central differences."""
+    m = eomc.compile(str(EXAMPLES / "heavy_top.py"), functions=["rhs", "jac_x", "jac_p", "jvp"])
+    x0 = np.array([0.1, 0.4, 0.0, 0.3, -0.2, 5.0])
+    kw = dict(method="radau", rtol=1e-10, atol=1e-10, t_eval=T)
+    res = m.simulate(x0, (0, 2), sensitivities=[m.param_names[0]], **kw)
+    assert res.stats["sens_trimmed"] == 0 and res.stats["njvp"] > 0
+
+    def run(sign, h=1e-6):
+        p = m.param_defaults.copy()
+        p[0] += sign * h * max(1.0, abs(p[0]))
+        return m.simulate(x0, (0, 2), p=p, **dict(kw, method="dop853", rtol=1e-12, atol=1e-12)).x
+    ref = (run(1) - run(-1)) / (2e-6 * max(1.0, abs(m.param_defaults[0])))
+    assert np.max(np.abs(res.dx_dp[:, :, 0] - ref)) < 1e-6 * np.max(np.abs(ref))

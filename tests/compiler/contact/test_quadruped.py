@@ -110,4 +110,4 @@ def test_bad_contacts_are_refused(tmp_path):
     with pytest.raises(ModelError, match="radius r = -0.1"):
         eomc.compile(path, contacts=["FL_FOOT:0,0,0:-0.1"], cache_dir=tmp_path)
     with pytest.raises(ModelError, match="contacts= applies to URDF and MJCF robots"):
-        eomc.compile("examples/double_pendulum.py", contacts=["FL_FOOT"], cache_dir=tmp_path)
+        eomc.compile(str(shared_builds.EXAMPLES / "double_pendulum.py"), contacts=["FL_FOOT"], cache_dir=tmp_path)
