@@ -492,10 +492,11 @@ def _generate_c(formed, name, *, parameters, inputs, outputs, functions, fold_pa
         full = body
         if consts is not None:      # NAME_implicit: its constant outputs apart (tree/emit.implicit_constants)
             body = [line for line in body if line not in consts[0]]
-        lines, parts = split_body(body, f"{name}_{fn}_part", restrict=formulation.restrict_scratch(fn))
+        near = formulation.restrict_scratch(fn)     # split.WINDOW_MIN: the scalar code only, not the lanes twin
+        lines, parts = split_body(body, f"{name}_{fn}_part", restrict=formulation.restrict_scratch(fn), windows=near)
         if lean_attribute(fn, lines) and len(lines) > FOLD_MIN:   # a long body left between guard blocks
             lines, parts = split_body(body, f"{name}_{fn}_part", restrict=formulation.restrict_scratch(fn),
-                                      blocks=True, block_attribute=PART_LEAN_FUNCTIONS.get(fn))
+                                      blocks=True, block_attribute=PART_LEAN_FUNCTIONS.get(fn), windows=near)
         ctx.split = ctx.split or bool(parts)
         asked, ctx.parts = ctx.parts, []             # functions the body asked for (bodies.BodyContext.parts)
         parts = asked + parts

@@ -42,6 +42,19 @@ FOLD_BLOCKS = True   # split_body's ``blocks`` honoured (False: the C before ses
 FOLD_MIN = 1200      # lines the plain split leaves in a body before generate.py folds its guard blocks
 CHUNK = 100          # statements per sub-function, at most
 CHUNK_BYTES = 8000   # characters of C per sub-function, about (a chunk ends past this)
+# Near pointers (split_body's ``windows``): in a run of at least WINDOW_MIN statements, each
+# sub-function takes its scratch slots through up to WINDOWS pointers &S_[b], each within
+# reach of an 8-bit displacement of the slots it serves (WINDOW_MIN_REFS references or more),
+# and x and p shifted likewise.  Why: a floating-base humanoid's rhs is 50-180 kB of straight-line
+# code that streams from L2 through the L1i every call, and its time follows its bytes on this
+# host (AMD Zen 5); S_[k] with k >= 16 takes a 4-byte displacement.  G1's rhs 7 % fewer bytes,
+# 3-5 % faster (G1, Talos, Go2: 124, 168, 47 kB of code); code that fits the 32 kB L1i lost:
+# UR10's 12 kB rhs 2 %, Panda's 29 kB (862 statements) 10 %, Allegro's 26 kB (1,098) 1-6 %,
+# hence the run length (Solo12 1,494, Go2 1,632; benchmarks/results/free_joint.md, session 18).
+WINDOW_MIN = 1300    # statements of a run
+WINDOWS = 8          # pointers into the scratch array per sub-function, at most
+WINDOW_MIN_REFS = 6  # references a window must serve
+WINDOW_SPAN = 32     # doubles an 8-bit displacement reaches: base - 16 .. base + 15
 
 # gcc (not clang, which also defines __GNUC__) compiles the sub-functions at -O1 when the
 # library is built optimized (-O2/-O3; not -O0, -Og or -Os, which keep their own choice):
@@ -282,13 +295,14 @@ class _Slots:
         self.free.append(slot)
 
 
-def _split_run(lines, start, end, base, scratch, slots, restrict=False, block_attribute=None):
+def _split_run(lines, start, end, base, scratch, slots, restrict=False, block_attribute=None, windows=False):
     """Split ``lines[start:end]``: (sub-function texts, caller lines, {temp: slot} of the
     run's temporaries the rest reads, {earlier temp: slot} to store), or None."""
     stmts = [_statement(line) for line in lines[start:end]]
     if any(_reads(expr)[2] for _, _, lvalue, expr in stmts if lvalue != BLOCK):
         return None                  # reads a name a sub-function would not see
     indent = stmts[0][0]
+    windows = windows and len(stmts) >= WINDOW_MIN
     chunks = _chunks(stmts)
     where = {name: c for c, chunk in enumerate(chunks) for _, name, _, _ in chunk if name}
     last, outside = {}, {}           # temp -> last chunk reading it; earlier temps read
@@ -355,6 +369,8 @@ def _split_run(lines, start, end, base, scratch, slots, restrict=False, block_at
             f"{'double' if a in written else 'const double'} *{a}" for a in arrays]
         params += [f"double *{'restrict ' if restrict else ''}{scratch}"] if uses_scratch else []
         args = (["t"] if uses_t else []) + arrays + ([scratch] if uses_scratch else [])
+        if windows:
+            body, params, args = _near_pointers(body, params, args, scratch, restrict, written)
         fname = f"{base}{c}"
         parts.append(f"static {attribute} void {fname}({', '.join(params) or 'void'})\n"
                      f"{{\n" + "\n".join(body) + "\n}\n")
@@ -362,6 +378,71 @@ def _split_run(lines, start, end, base, scratch, slots, restrict=False, block_at
     helpers, calls = parts[0::2], parts[1::2]
     return (helpers, calls, {n: slot_of[n] for n in after},
             {n: slot_of[n] for n in outside})
+
+
+def _window(counts):
+    """(references served, lowest, highest index) of the WINDOW_SPAN-wide index range that
+    serves the most of ``counts`` ({index: references}); the lowest such range on a tie."""
+    keys = sorted(counts)
+    best = (0, 0, 0)
+    for lo in keys:
+        inside = [k for k in keys if lo <= k < lo + WINDOW_SPAN]
+        served = sum(counts[k] for k in inside)
+        if served > best[0]:
+            best = (served, lo, inside[-1])
+    return best
+
+
+def _near_pointers(body, params, args, scratch, restrict, written):
+    """A sub-function's (body, params, args) with its references to ``scratch`` served by
+    pointers ``&S_[b]`` (``S_w0``, ``S_w1``, ...: slot ``k`` becomes ``S_wj[k - b]``, within
+    an 8-bit displacement) and its reads of ``x`` and ``p`` through one shifted pointer each.
+    Each slot is reached through one pointer only, so ``restrict`` stays true of every one; a
+    base is an index the function reads (the pointer stays inside the array).  The values and
+    the order of evaluation are unchanged: only the addressing."""
+    text = "\n".join(body)
+    ref = re.compile(rf"(?<![\w&]){re.escape(scratch)}\[(\d+)\]")
+    new_params, new_args = list(params), list(args)
+    for name in ("p", "x"):                     # read-only inputs: one shifted pointer
+        if name not in args or name in written or re.search(rf"&{name}\[", text):
+            continue
+        pat = re.compile(rf"(?<![\w&]){name}\[(\d+)\]")
+        counts = {}
+        for k in pat.findall(text):
+            counts[int(k)] = counts.get(int(k), 0) + 1
+        served, lo, hi = _window(counts)
+        near = sum(c for k, c in counts.items() if k < WINDOW_SPAN // 2)
+        if served <= near:
+            continue
+        b = min(lo + WINDOW_SPAN // 2, hi)
+        text = pat.sub(lambda m, b=b, name=name: f"{name}[{int(m.group(1)) - b}]", text)
+        new_args[new_args.index(name)] = f"&{name}[{b}]"
+    if scratch in args and not re.search(rf"&{re.escape(scratch)}\[", text):
+        counts = {}
+        for k in ref.findall(text):
+            counts[int(k)] = counts.get(int(k), 0) + 1
+        serve, bases = {}, []
+        while len(bases) < WINDOWS and counts:
+            served, lo, hi = _window(counts)
+            if served < WINDOW_MIN_REFS:
+                break
+            b = min(lo + WINDOW_SPAN // 2, hi)
+            for k in [k for k in counts if lo <= k <= hi]:
+                serve[k] = (len(bases), k - b)
+                del counts[k]
+            bases.append(b)
+        if bases:
+            def near(m):
+                k = int(m.group(1))
+                return f"{scratch}w{serve[k][0]}[{serve[k][1]}]" if k in serve else m.group(0)
+            text = ref.sub(near, text)
+            i = new_args.index(scratch)
+            if not counts:                       # every slot through a window
+                del new_params[i], new_args[i]
+            kind = f"double *{'restrict ' if restrict else ''}"
+            new_params += [f"{kind}{scratch}w{j}" for j in range(len(bases))]
+            new_args += [f"&{scratch}[{b}]" for b in bases]
+    return text.split("\n"), new_params, new_args
 
 
 _TRIG_LINE = re.compile(r"^\s+const double (t\d+) = (sin|cos)\((.*)\);$")
@@ -384,7 +465,7 @@ def _pair_sincos(body, scratch):
             body[i + 1], body[i + 2] = body[i + 2], body[i + 1]
 
 
-def split_body(lines, base, scratch="S_", restrict=False, blocks=False, block_attribute=None):
+def split_body(lines, base, scratch="S_", restrict=False, blocks=False, block_attribute=None, windows=False):
     """(new body lines, sub-function texts) for one function body; ``base``: the C name
     prefix of its sub-functions (``NAME_fn_part``).  Unchanged when no run is long.
 
@@ -414,7 +495,8 @@ def split_body(lines, base, scratch="S_", restrict=False, blocks=False, block_at
         if run is None:
             break
         start, end = run
-        done = _split_run(lines, start, end, f"{base}{nrun}_", scratch, slots, restrict, block_attribute)
+        done = _split_run(lines, start, end, f"{base}{nrun}_", scratch, slots, restrict, block_attribute,
+                          windows)
         if done is None:
             pos = end
             continue

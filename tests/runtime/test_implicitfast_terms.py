@@ -206,6 +206,38 @@ def test_ant_stands_at_its_own_10ms_step(ant):
     assert ends[0][iz] == pytest.approx(0.556, abs=0.04)   # measured 0.587: MuJoCo's own 10 ms path
 
 
+def test_a_hard_split_does_not_retry_the_half_that_holds_the_onset(ant):
+    """gymnasium's ant from its qpos0 at 10 ms: at t = 0.15 s its four ankles swing into their upper
+    limits at 7.3 rad/s (the limit law's stiffness slope 0 at the step's start, thousands at its end),
+    and the step's residual ratio is 25-56 at every size down to the onset's 1/64 cell.  Bisecting,
+    a try that failed hard ended past the onset; when its first half then passes without a regime
+    change, the onset lies in its second half, and trying that half whole only fails again (42, 56,
+    35, 37 on this step): it is split at once (eomc_fixedstep.c, fs_fast_advance: hard_end).  The step
+    takes 11 tries instead of 15, and its end is the bisection's (the skipped tries were all
+    failures: the run's state after the step, at t = 0.2 and its 1 s error against Radau are the same
+    bits as before, measured)."""
+    m = ant
+    names = list(m.state_names)
+    x0 = np.zeros(m.nx)
+    x0[names.index("q_root_z")] = 0.75
+    dt = 0.01
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")       # the start is outside the ankles' ranges (warned)
+        run = m.simulate(x0, (0.0, 0.2), method="implicitfast", dt=dt, t_eval=dt * np.arange(21))
+        step = m.simulate(run.x[15], (0.0, dt), method="implicitfast", dt=dt, t_eval=[0.0, dt])
+    layout = m.metadata["implicit"]["layout"]
+    ankles = [names.index(f"q_ankle_{i}") for i in range(1, 5)]        # their speeds' indices too
+    slopes = []
+    for x in (run.x[15], run.x[16]):
+        out, _ = implicit_terms_at(m, x)
+        slopes.append(out[layout["joint"] + 2 * np.array(ankles) + 1])   # each joint law's stiffness slope
+    assert np.all(slopes[0] == 0.0) and np.all(slopes[1] > 1e3)         # the limits engage in this step
+    assert np.all(np.abs(run.x[15][[m.nq + i for i in ankles]]) > 7.0)  # at 7.3 rad/s
+    assert step.status == 0 and np.array_equal(step.x[-1], run.x[16])
+    # the start's call and 11 tries (15 with every second half tried: 16 calls)
+    assert step.stats["nfev"] == 12
+
+
 def test_a_thrown_ball_at_2ms_gains_no_energy(tmp_path):
     """A ball thrown onto the floor from 16 starts (it lands, slides with friction, spins; the
     model of test_rollout), 0.6 s at 2 ms: every run ends with status 0, i.e. simulate's energy
