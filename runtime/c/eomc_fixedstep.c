@@ -1199,10 +1199,19 @@ static int fs_switched(const fs_fast *q)
     const double *j0 = q->T + q->L.joint, *j1 = q->T1 + q->L.joint;
     int kind = 0;
     for (int c = 0; c < ops->imp->ncontact; c++) {
-        double a = q->T[q->L.contact + 25 * (size_t)c], b = q->T1[q->L.contact + 25 * (size_t)c];
+        const double *e0 = q->T + q->L.contact + 25 * (size_t)c, *e1 = q->T1 + q->L.contact + 25 * (size_t)c;
+        double a = e0[0], b = e1[0];
         if (fs_changed(a, b)) {
             if (!(b > 0.0) || (a > 0.0 && !(b > ONSET_FACTOR * a))) return FS_OTHER;
             kind = FS_TOUCHDOWN;
+        } else if (a > 0.0 && b > 0.0) {      /* the normal force's clip (law.clip_switch) in touch */
+            int za = 1, zb = 1;
+            for (int i = 7; i < 16; i++) {
+                za &= e0[i] == 0.0;
+                zb &= e1[i] == 0.0;
+            }
+            if (za && !zb) kind = FS_TOUCHDOWN;   /* clipped -> pushing: a touch-down but for the name */
+            else if (zb && !za) return FS_OTHER;
         }
     }
     for (int i = 0; i < 2 * ops->nu; i++)
