@@ -1053,10 +1053,8 @@ static int fs_clipped(const double *e)
 static int fs_onset(const fs_fast *q)
 {
     for (int c = 0; c < q->ops->imp->ncontact; c++) {
-        const double *e0 = q->T + q->L.contact + 25 * (size_t)c, *e1 = q->T1 + q->L.contact + 25 * (size_t)c;
-        double a = e0[0], b = e1[0];
+        double a = q->T[q->L.contact + 25 * (size_t)c], b = q->T1[q->L.contact + 25 * (size_t)c];
         if (a > 0.0 && b > ONSET_FACTOR * a) return 1;
-        if (a > 0.0 && b > a && fs_clipped(e0) && !fs_clipped(e1)) return 1;
     }
     return 0;
 }
