@@ -69,7 +69,8 @@ def generator_switches():
     stay what they were; ``HALF_FROM``: the output size from which hess_id is written by halves
     (same module), held only when not its default; ``ZERO`` on: hess_id zeroes its whole output
     every call instead of leaving the entries off the support paths to the caller (same module,
-    off by default since session 13), held only when on.  ``CHAIN_LOOP_MIN_LINKS``: the repeated
+    off by default since session 13), held only when on; ``ROOT_DOTS`` off: no root frame and root
+    dots in hess_id (same module, on by default since session 18), held only when off.  ``CHAIN_LOOP_MIN_LINKS``: the repeated
     chain's length from which the rhs is looped (compiler/tree/chain_loop.py), held only when not
     its default."""
     from ..contact import pairs
@@ -89,6 +90,8 @@ def generator_switches():
         switches["hess_half_from"] = second_order.HALF_FROM
     if second_order.ZERO:
         switches["hess_zero"] = True
+    if not second_order.ROOT_DOTS:
+        switches["hess_no_root_dots"] = True
     if chain_loop.CHAIN_LOOP_MIN_LINKS != chain_loop.CHAIN_LOOP_MIN_LINKS_DEFAULT:
         switches["chain_loop_min_links"] = chain_loop.CHAIN_LOOP_MIN_LINKS
     return switches

@@ -91,6 +91,7 @@ class AnalyticPlan:
     laws: tuple = ()        # dofs with a joint law, in dof order (their ∂τ/∂q, ∂τ/∂u: anx block L)
     contacts: tuple = ()    # per ground contact (its body, the last dof on the body's path to the root): anx block G
     k2nz: tuple = ()        # per k-speed joint: its coordinates b with a dK/dq_b not identically 0 (hess_id's block K2)
+    spat: tuple = ()        # per k-speed joint: its axes' entries (block S), 0 / 1 where identically so, else 2 (hess_id's root dots)
     pairs: tuple = ()       # per body of the pairs' table with a dof on its path: (its index in the table, body, that last dof)
     npair: int = 0          # bodies of the pairs' table (anx block W: their wrench tangents, 6 each, per state column)
     moving: tuple = ()      # per ground contact: where in anx its support point's motion M is (block GM), -1 for none; () when no contact's point moves

@@ -36,6 +36,10 @@ support of every other, which gives the tensor along the joint's tangent ξ (Pin
 Lie-group tangent); hess_id is along the coordinates q (q' = K(q) u), so the kernel then
 changes those entries to q with K⁻¹, dK/dq and the first derivatives along ξ
 (:func:`_tangent_lines`; why: floating bases -- Go2, G1, Talos -- took the reverse path).
+With such a joint at the root (a floating base's free joint) the kernel runs in the root body's own
+frame, where the joint's axes are constants, and the pairs (i, j) with j in it take their pair
+vectors and dots in a few terms each (:func:`_root_frame`, :func:`_root_pair_lines`,
+:func:`_root_dot_lines`: the trunk as one block; Go2 20.3 -> 16.4 us, session 18).
 Trees with ground contacts or loops keep the reverse path; the model's metadata ``hess_id``
 says which one it got and why.
 
@@ -155,6 +159,12 @@ HALF_FROM = HALF_FROM_DEFAULT
 # of the build cache's key when set (build/reuse.generator_switches).
 ZERO = False
 
+# True (the default since session 18): with a folded root joint (a floating base's free joint) the kernel
+# runs in each root body's own frame and the pairs (i, j) with j in that joint take the root dots
+# (:func:`_root_frame`, :func:`_root_dot_lines`); False: the world frame and the lane dots for every j,
+# as before (tests, A/B).  Part of the build cache's key when off (build/reuse.generator_switches).
+ROOT_DOTS = True
+
 
 def _half(plan, nx):
     """Whether the kernel writes its output by halves (HALF_FROM): one-speed joints only (the
@@ -238,7 +248,7 @@ def second_order_c(name, plan, nq, nx, helpers):
         *([f"    double Tq[{nd * nm}];   /* d tau / d xi of the k-speed joints' dofs (their columns), per dof's row */"]
           if nm and not TANGENT else []),
         *cfg[0],
-        f"    double K[{cfg[1]}], D[{14 * cfg[2]}];   /* per path, component-major: S, psi', psi'', psi' + phi' of its dofs; the dots */",
+        f"    double K[{cfg[1]}], D[{(15 if _rooted(plan) else 14) * cfg[2]}];   /* per path, component-major: S, psi', psi'', psi' + phi' of its dofs; the dots */",
         "    double Ym[36], Bm[36], Ma[36], Mb[36], Mc[36], R1[36], R3[36];",
         "    int b, i, j, k, e, c, l, big = 0;",
         *_kinv_lines(plan),
@@ -246,7 +256,7 @@ def second_order_c(name, plan, nq, nx, helpers):
         f"    for (k = 0; k < {nd * nn}; k++) out[k] = 0.0;"]) + (
         [f"    for (k = 0; k < {nd * nm}; k++) Tq[k] = 0.0;"] if nm and not TANGENT else []) + [
         f"    for (b = 0; b < {nb}; b++) {{   /* forward: placements, axes and their rates, v, a, Y, B, f */",
-        *body_head_lines(o, "al[i];"),
+        *_root_frame(body_head_lines(o, "al[i];"), o, plan),
         "        for (e = d0[b]; e < d0[b] + nd[b]; e++) {   /* psi' = v_l x S, psi'' = a_l x S + v_l x psi', phi' = v x S */",
         "            const double *s = Sw + 6 * e;",
         "            double *ps = PS + 6 * e, *ps2 = PS2 + 6 * e;",
@@ -373,7 +383,7 @@ def second_order_c(name, plan, nq, nx, helpers):
         "                double U[60], r1p[6], r0p[6];   /* the pair's vectors */",
         "                double *u1 = U, *u2 = U + 6, *u3 = U + 12, *u6 = U + 18, *u7 = U + 24, *u9 = U + 30, *w = U + 36;",
         "                double *u4 = U + 42, *u10 = U + 48, *u11 = U + 54;",
-        *_pair_vector_lines(name, rd, nm, oj),
+        *_pair_vector_lines(name, rd, nm, oj, plan),
     ] + (_first_order_lines(rd, nm, plan) if nm and not TANGENT else []) + _triple_lines(name, rd, nx, cfg, nm, plan, half, _scratch(plan, nq, nx, half)) + [
         "            }",
         *(_mirror_lines(name, plan, nq, nx) if half else []),
@@ -392,6 +402,40 @@ def second_order_c(name, plan, nq, nx, helpers):
     start = next(n for n, x in enumerate(lines) if x.startswith(f"#if {name.upper()}_H2_LANES == 4 && defined(__GNUC__)")
                  or x.startswith("/* d2 tau / dx2 of RNEA"))
     return "\n".join(lines + [""] + _avx2_twin(name, lines[start:]))
+
+
+def _rooted(plan):
+    """The root k-speed joints (indices into ``plan.multi``: a floating base's free joint, a root ball)
+    whose pairs (i, j), j one of their dofs, take the root dots (:func:`_root_dot_lines`): all of them
+    when their axes' pattern is known (``plan.spat``, :func:`with_k_derivatives`) and ROOT_DOTS is on."""
+    if not (plan.spat and ROOT_DOTS):
+        return []
+    return [n for n, (e0, _, _) in enumerate(plan.multi) if plan.lam[e0] < 0]
+
+
+def _root_frame(lines, o, plan):
+    """``lines`` (:func:`.analytic.body_head_lines`) with, when the tree has a root joint taking the root
+    dots (:func:`_rooted`), each root body placed at the origin of the kernel's frame, unrotated
+    (R = 1, p = 0), and gravity as its acceleration expressed in its frame (E g, E = R^T): the kernel
+    then runs in each root body's own frame (each root's subtree is separate: no composite, pair or dot
+    couples two roots' dofs).  Every output is a dot product of a motion and a force of one subtree, the
+    same in any frame (to rounding).  Why: in that frame a root joint's axes are its body-frame axes,
+    constants with zeros and ones (a free joint's: unit vectors, and the angular ones' offsets), so
+    the dots of the pairs (i, j) with j in that joint are picks (:func:`_root_dot_lines`)."""
+    if not _rooted(plan):
+        return lines
+    g = o["g"]
+    old = ["                for (j = 0; j < 3; j++) Rb[3 * i + j] = E[3 * j + i];",
+           "                pb[i] = r[i];",
+           f"                al[i + 3] = -an[{g} + i];"]
+    new = ["                for (j = 0; j < 3; j++) Rb[3 * i + j] = i == j ? 1.0 : 0.0;   /* the root's own frame (_root_frame) */",
+           "                pb[i] = 0.0;",
+           f"                al[i + 3] = -(E[3 * i] * an[{g}] + E[3 * i + 1] * an[{g + 1}] + E[3 * i + 2] * an[{g + 2}]);"]
+    out = list(lines)
+    for a, b in zip(old, new):
+        assert out.count(a) == 1, a
+        out[out.index(a)] = b
+    return out
 
 
 def _avx2_twin(name, lines):
@@ -544,14 +588,15 @@ def _k_folded_lines(plan, npaths):
     return out + ["    }"]
 
 
-def _pair_vector_lines(name, rd, nm, oj):
+def _pair_vector_lines(name, rd, nm, oj, plan=None):
     """C, per pair (i, j): the pair's vectors u1 .. u11, w.  With AVX2 (NAME_H2_LANES 4) the
     seven 6x6 matrix-vector products and four force cross products run on four lanes
     (:func:`_pair_product_lines`, :func:`_pair_cross_lines`); without, one by one (with SSE2's
     two lanes the lane form was slower: cart4 4.05 -> 4.45 us, UR10 5.5 -> 5.7, portable -O2).
     Both sum every term in the same order: the same bits."""
     lanes = f"{name.upper()}_H2_LANES"
-    return [
+    root = _root_pair_lines(plan, oj) if plan is not None else []
+    return root + (["                {"] if root else []) + [
         f"#if {lanes} == 4",
         "                {",
         "                    double oa[24], ob[24], oc[24];",
@@ -590,6 +635,7 @@ def _pair_vector_lines(name, rd, nm, oj):
         "                }",
         "#endif",
         f"                {rd}_crossf(p, ys, r0p);",
+        *(["                }"] if root else []),
         "                for (c = 0; c < 6; c++) {",
         "                    u10[c] = u2[c] + u9[c];",
         "                    u11[c] = u2[c] - u9[c];",
@@ -606,6 +652,71 @@ def _pair_vector_lines(name, rd, nm, oj):
         f"                if (!({oj}))",
         "                    for (c = 0; c < 6; c++) u1[c] = u7[c] = 0.0;   /* unread (j == i), set for the compiler */",
     ]
+
+
+_CROSSF = (((1, 2, 1), (2, 1, -1), (4, 5, 1), (5, 4, -1)), ((2, 0, 1), (0, 2, -1), (5, 3, 1), (3, 5, -1)),
+           ((0, 1, 1), (1, 0, -1), (3, 4, 1), (4, 3, -1)), ((1, 5, 1), (2, 4, -1)), ((2, 3, 1), (0, 5, -1)),
+           ((0, 4, 1), (1, 3, -1)))     # rd_crossf's terms: out[r] = sum sign v[a] f[b]
+
+
+def _terms(ts):
+    """C: a sum of (sign, factor text) terms, "0.0" when there are none."""
+    if not ts:
+        return "0.0"
+    out = ("-" if ts[0][0] < 0 else "") + ts[0][1]
+    for sg, t in ts[1:]:
+        out += (" - " if sg < 0 else " + ") + t
+    return out
+
+
+def _root_pair_lines(plan, oj):
+    """C, per pair (i, j): ``if (j is a dof of a root joint) { its pair vectors } else`` (the generic
+    forms follow), for each joint of :func:`_rooted`, one ``case`` per dof d of the joint.  In the
+    root's own frame (:func:`_root_frame`) S_j is constant with zeros and ones (``plan.spat``),
+    psi'_j = 0 and psi''_j has no angular part (see :func:`_root_dot_lines`), so R1 S_j, R3 S_j,
+    R3^T S_j are a column or a few, S_j x* f a few terms, R1 psi'_j = psi'_j x* Y S_i = 0 (r1p, r0p),
+    and R1 psi''_j three columns; R1 phi'_j stays a full product.  The same values as the generic forms
+    to rounding.  Why: after the root dots, the pair vectors were the largest part of Go2's hess_id
+    (24 %, perf), 108 of its 132 pairs with j in the free joint."""
+    rooted = _rooted(plan)
+    out = []
+    for n in rooted:
+        e0, k, _ = plan.multi[n]
+        pat = plan.spat[n]
+        out += [f"                if (j >= {e0} && j < {e0 + k}) {{   /* j in root joint {n}: its pair vectors in the root's frame (_root_pair_lines) */",
+                f"                    const double *Sr = Sw + {6 * e0};",
+                f"                    switch (j - {e0}) {{"]
+        for d in range(k):
+            nz = [c for c in range(6) if pat[d][c]]
+
+            def s(c):
+                return None if pat[d][c] == 1 else f"Sr[{6 * d + c}]"
+
+            def prod(a, c):
+                return a if s(c) is None else f"{a} * {s(c)}"
+
+            def crossf(f, r):
+                return [(sg, prod(f"{f}[{b}]", a)) for a, b, sg in _CROSSF[r] if pat[d][a]]
+            acc = any(pat[d][c] for c in range(3))
+            body = []
+            for r in range(6):
+                body.append(f"u2[{r}] = {_terms([(1, prod(f'R1[{6 * r + c}]', c)) for c in nz])};")
+                body.append(f"u9[{r}] = {_terms(crossf('ys', r))};")
+                body.append(f"w[{r}] = {_terms(crossf('bs', r))};")
+                body.append(f"u6[{r}] = {_terms(crossf('g7', r))};")
+                pp = [(1, f"R1[{6 * r + c}] * PS2[{6 * (e0 + d) + c}]") for c in range(3, 6)] if acc else []
+                body.append(f"u3[{r}] = {_terms(pp + crossf('g5', r))};")
+                body.append(f"r1p[{r}] = r0p[{r}] = 0.0;")
+            body.append(f"if ({oj}) {{")
+            for r in range(6):
+                body.append(f"    u1[{r}] = {_terms([(1, prod(f'R3[{6 * c + r}]', c)) for c in nz])};")
+                ph = " + ".join(f"R1[{6 * r + c}] * PP[{6 * (e0 + d) + c}]" for c in range(6))
+                body.append(f"    u7[{r}] = {_terms([(1, prod(f'R3[{6 * r + c}]', c)) for c in nz])} + ({ph});")
+            body.append("}")
+            out += [f"                    case {d}:"] + ["                        " + x for x in body] + [
+                "                        break;"]
+        out += ["                    }", "                } else"]
+    return out
 
 
 def _lane_fill_lines():
@@ -781,10 +892,11 @@ def _triple_lines(name, rd, nx, cfg, nm=0, plan=None, half=False, scratch=None):
         f"                    const int pa = jp[j], L = pL[pa], T = {T};",
         "                    const double *G = K + pG[pa];",
         "                    int tk, ln;",
+        *_root_dot_lines(plan, rd, oj, maxl),
         f"                    if ({oj}) {{",
-        *_dot_lanes(_qgroups(plan, GROUPS_B, QDOTS_B), ("u11", "u9", "w", "u11", "u3", "w", "u9", "u6", "u1", "u2", "u1", "u2", "u10", "u7"), maxl, lanes),
+        *_dot_lanes(_qgroups(plan, GROUPS_B, QDOTS_B), VECS_B, maxl, lanes),
         "                    } else {",
-        *_dot_lanes(_qgroups(plan, GROUPS_A, QDOTS_A), ("u11", "u9", "w", "u11", "u3", "w", "u9", "u6", "u4"), maxl, lanes),
+        *_dot_lanes(_qgroups(plan, GROUPS_A, QDOTS_A), VECS_A, maxl, lanes),
         "                    }",
         "                    for (tk = T - 1; tk >= 0; tk--) {   /* k = j" + (" and j's joint" if nm else "") + ", then up the support of j */",
         f"                        const int k = pd[p0[pa] + tk], qk = qc[k], uk = uc[k]{kd};",
@@ -818,7 +930,7 @@ def _triple_lines(name, rd, nx, cfg, nm=0, plan=None, half=False, scratch=None):
         f"                                Ok[uj * {nx} + ui] = {d(8)};",
         "                            }",
         "                        } else {",
-        f"                            Oi[uj * {nx} + uk] = -{rd}_dot(u2, Sw + 6 * k);",
+        f"                            Oi[uj * {nx} + uk] = -{_same_joint_dot(plan, rd, maxl)};",
         "                        }",
         "                    }",
     ]
@@ -836,6 +948,93 @@ def _triple_lines(name, rd, nx, cfg, nm=0, plan=None, half=False, scratch=None):
             assert len(hits) == 1, old
             loop[hits[0]] = loop[hits[0]].replace(old, f"Hj[{q} + k] = {val};")
     return lines[:k0] + loop + ["                }"]
+
+
+VECS_A = ("u11", "u9", "w", "u11", "u3", "w", "u9", "u6", "u4")      # the pair vectors the dots read (_triple_lines)
+VECS_B = ("u11", "u9", "w", "u11", "u3", "w", "u9", "u6", "u1", "u2", "u1", "u2", "u10", "u7")
+
+
+def _root_dot_lines(plan, rd, oj, maxl):
+    """C, opening the dots of a pair (i, j): ``if (j is a dof of a root joint) { its dots } else``, for
+    each joint of :func:`_rooted` (the generic lane dots follow as the ``else``).  Its k are that
+    joint's dofs (T of them at the start of its paths), and in the root's own frame
+    (:func:`_root_frame`) their vectors have a known form, so each dot is a few terms instead of a
+    lane dot over K's 24 numbers per k (the padding lanes included):
+      * S_k: the body-frame axis, constants (``plan.spat``): the terms of its entries not identically
+        0, an entry identically 1 taken without a product;
+      * psi'_k = v_l x S_k = 0 (the root's parent is the ground, v_l = 0), and so psi' K^-1: the dot is 0;
+      * psi''_k = a_l x S_k, a_l = (0, -g) (no angular part): its angular part is 0, so the dot is over
+        the linear part alone, 0 for a k whose axis has no angular part (psi'' K^-1: whose K^-1 block
+        has none);
+      * psi'_k + phi'_k = v x S_k (v the root body's velocity): x . (v x S_k) = -S_k . (v x* x), one
+        force cross product per vector, then S_k's terms as above.
+    The same values as the lane dots to rounding (checked against them, the reverse path, differences of
+    jac_id and Pinocchio: tests/compiler/tree/test_second_order.py).  Why: on Go2 the lane dots of the
+    pairs with j in the free joint were 4.5 of hess_id's 21 us (a knock-out, session 18; 108 of its
+    132 pairs)."""
+    rooted = _rooted(plan)
+    if not rooted:
+        return []
+    db = [b for b in range(plan.nb) for _ in plan.dofs(b)]
+    ps = paths(plan)[0]
+    out = []
+    for n in rooted:
+        e0, k, _ = plan.multi[n]
+        assert all(p[:k] == list(range(e0, e0 + k)) for p in ps if e0 in p), "a root joint's dofs start its paths"
+        pat = plan.spat[n]
+        acc = [any(pat[d][c] for c in range(3)) for d in range(k)]     # psi''_d not identically 0
+        acc_q = [False] * k         # psi'' K^-1's column (coordinate) a: some speed of its block has one
+        for r, c in plan.kblocks[n]:
+            for a in r:
+                acc_q[a] = any(acc[d] for d in c)
+
+        def sdot(x, d, neg=False):
+            t = [f"{x}[{c}]" if pat[d][c] == 1 else f"{x}[{c}] * Sr[{6 * d + c}]" for c in range(6) if pat[d][c]]
+            e = " + ".join(t) if t else "0.0"
+            return f"-({e})" if neg and t else e
+
+        def form(groups, vecs):
+            lines, crossed = [], {}
+            for g, v in zip(groups, vecs):
+                if g == 3 and v not in crossed:
+                    crossed[v] = f"y{len(crossed)}"
+            if crossed:
+                lines.append("                        double " + ", ".join(f"{y}[6]" for y in crossed.values()) + ";")
+                lines += [f"                        {rd}_crossf(vr, {v}, {y});   /* v x* {v} */" for v, y in crossed.items()]
+            for m, (g, v) in enumerate(zip(groups, vecs)):
+                for d in range(k):
+                    if g in (1, 4):
+                        e = "0.0"
+                    elif g == 0:
+                        e = sdot(v, d)
+                    elif g == 3:
+                        e = sdot(crossed[v], d, neg=True)
+                    else:
+                        assert g in (2, 5), f"group {g} in a root dot"
+                        e = (" + ".join(f"{v}[{c}] * G[{6 * g + c} * L + {d}]" for c in range(3, 6))
+                             if (acc_q if g == 5 else acc)[d] else "0.0")
+                    lines.append(f"                        D[{m * maxl + d}] = {e};")
+            lines += [f"                        D[{14 * maxl + d}] = {sdot('u2', d)};   /* u2 . S_k (_same_joint_dot) */"
+                      for d in range(k)]
+            return lines
+        out += [f"                    if (j >= {e0} && j < {e0 + k}) {{   /* j in root joint {n}: its dots in the root's frame (_root_dot_lines) */",
+                f"                        const double *Sr = Sw + {6 * e0}, *vr = V + {6 * db[e0]};",
+                f"                        if ({oj}) {{",
+                *["    " + x for x in form(_qgroups(plan, GROUPS_B, QDOTS_B), VECS_B)],
+                "                        } else {",
+                *["    " + x for x in form(_qgroups(plan, GROUPS_A, QDOTS_A), VECS_A)],
+                "                        }",
+                "                    } else"]
+    return out
+
+
+def _same_joint_dot(plan, rd, maxl):
+    """C: u2 . S_k for k in j's joint (the (u_j, u_k) entry of row i): for j in a root joint of
+    :func:`_rooted`, the root dots' 15th row (:func:`_root_dot_lines`, S_k's terms), else rd_dot."""
+    conds = [f"(j >= {e0} && j < {e0 + k})" for e0, k, _ in (plan.multi[n] for n in _rooted(plan))]
+    if not conds:
+        return f"{rd}_dot(u2, Sw + 6 * k)"
+    return f"({' || '.join(conds)} ? D[{14 * maxl} + tk] : {rd}_dot(u2, Sw + 6 * k))"
 
 
 def _unswitched(loop, oj):
@@ -910,9 +1109,13 @@ def with_k_derivatives(plan, values, x):
     """(plan, values) with dK/dq of each k-speed joint appended (block K2: per joint, per
     coordinate b of it, the k x k matrix dK/dq_b, K's layout), for :func:`_tangent_lines`.
     ``values`` the analytic plan's [((group, i), expr)], ``x`` the state symbols."""
-    if not plan.multi or TANGENT:
+    if not plan.multi:
         return plan, values
     vals = {k[1]: e for k, e in values}
+    spat = tuple(tuple(tuple(_entry_kind(vals[plan.offsets["S"] + 6 * (e0 + d) + c]) for c in range(6)) for d in range(k))
+                 for e0, k, _ in plan.multi)
+    if TANGENT:
+        return replace(plan, spat=spat), values
     group = values[0][0][0]
     K0, extra, nz = plan.offsets["K"], [], []
     for e0, k, koff in plan.multi:
@@ -925,8 +1128,14 @@ def with_k_derivatives(plan, values, x):
                 nzj.append(b)
         nz.append(tuple(nzj))
     n = plan.size
-    plan = replace(plan, offsets={**plan.offsets, "K2": n}, size=n + len(extra), k2nz=tuple(nz))
+    plan = replace(plan, offsets={**plan.offsets, "K2": n}, size=n + len(extra), k2nz=tuple(nz), spat=spat)
     return plan, list(values) + [((group, n + i), v) for i, v in enumerate(extra)]
+
+
+def _entry_kind(e):
+    """0 or 1 when the expression ``e`` is identically that number, else 2 (:data:`.analytic.AnalyticPlan.spat`)."""
+    e = sm.sympify(e)
+    return 0 if e == 0 else 1 if e == 1 else 2
 
 
 def _tangent_lines(plan, nx, nm):

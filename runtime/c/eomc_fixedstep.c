@@ -694,6 +694,7 @@ static int fs_assemble(const eomc_fs_ops *ops, const fs_layout *L, double h, con
     const eomc_implicit *imp = ops->imp;
     int nu = ops->nu, grown = 0;
     const double *scr = T + L->screw, *jl = T + L->joint;
+    if (imp->terms_whole) imp->terms_whole((double *)T);    /* T: the run's T or T1 (writable) */
     memcpy(A, T + L->M, (size_t)nu * nu * sizeof(double));
     memcpy(b, T + L->f, (size_t)nu * sizeof(double));
     for (int r = 0; r < imp->nfree; r++) fs_transport(A, T + L->M, u, imp->free[r], nu, h);
@@ -939,6 +940,18 @@ void eomc_fs_assemble_lanes(eomc_fs_lanes *w, const double *OUT, const double *U
         w->kernel(w, OUT + g, U + g, (size_t)w->lanes, req + g, ahead + g);
 }
 
+size_t eomc_fs_tested_outputs(int nq, int nu, const eomc_implicit *imp, size_t *idx)
+{
+    fs_layout L = fs_layout_of(nq, nu, imp->ncontact);
+    size_t k = 0;
+    for (int i = 0; i < nq; i++)                     /* fs_chart_ratio */
+        for (int f = 0; f < imp->nfree; f++)
+            for (int j = imp->free[f]; j < imp->free[f] + 6; j++) idx[k++] = L.N + (size_t)i * nu + j;
+    for (int i = 0; i < 2 * nu; i++) idx[k++] = L.joint + (size_t)i;              /* fs_switched */
+    for (int c = 0; c < imp->ncontact; c++) idx[k++] = L.contact + 25 * (size_t)c;   /* depths */
+    return k;
+}
+
 /* The fast path's state for fs_loop.  T, A, b: the terms at the step's start x and (2)'s
  * factored matrix and right side for a step of hA; T1, A1, b1 the same at a trial end
  * (swapped in when the trial is kept: the next step's matrix is then ready). */
@@ -1083,6 +1096,7 @@ static double fs_start_ratio(fs_fast *q, double h, const double *r)
 static void fs_residual(fs_fast *q, double h)
 {
     const double *M1 = q->T1 + q->L.M, *f1 = q->T1 + q->L.f;
+    if (q->ops->imp->terms_whole) q->ops->imp->terms_whole(q->T1);
     for (int i = 0; i < q->ops->nu; i++) {
         const double *row = M1 + (size_t)i * q->ops->nu;
         double r = -h * f1[i];
@@ -1110,6 +1124,7 @@ static int fs_fast_try(fs_fast *q, double t, double h, const double *x, int chec
         fs_tree_solve(nu, q->A, q->start, q->anc, q->du);
     }
     rq->ahead = 0;
+    if (!v1 && ops->imp->terms_whole) ops->imp->terms_whole(q->T);
     {
         const double *qd = q->T + L->qd, *N = q->T + L->N;
         for (int i = 0; i < nq; i++) {

@@ -102,6 +102,11 @@ typedef struct eomc_implicit {
        (a model whose NAME_implicit has constant outputs: NAME.h): the fast path writes the
        constants once per run into each buffer it hands terms, which then writes the rest */
     void (*terms_const)(double *out);
+    /* NULL (what callers set), or the lanes rollout's (eomc_rollout.c): out, a buffer terms or
+       terms_lu wrote, made whole.  Until then the fast path reads only the contacts' depths, the
+       joint laws' slopes and the root free joints' columns of N there (its tests: what the lanes
+       copy at once); it calls this before it reads more (fs_assemble, the residual, a try's rate) */
+    void (*terms_whole)(double *out);
 } eomc_implicit;
 
 /* The run failed its physics: a contact went deeper than eomc_implicit.depth_limit (an

@@ -162,9 +162,9 @@ typedef struct fiber {
     double *out;
     eomc_fs_request *req;  /* lanes_terms_lu: what the row's step asks for (want), NULL: nothing */
     double *ahead;         /* nu + nq: the next try's du and rate (eomc_fs_assemble_lanes) */
-    double *zout[2];       /* the row's last two out buffers that copy_out wrote ... */
-    unsigned char *zmap[2];/* ... and per block of 4 outputs of each, 1: all four +0.0 there (copy_out) */
-    int zlast;             /* the one of the two used last */
+    double *pend[2];       /* out buffers (the row's T and T1) holding only the tested outputs of a
+                              batch's column yet (NULL: none) ... */
+    int pend_ob[2], pend_col[2];   /* ... which batch buffer (lanes_sched.OUTS) and column has them */
 } fiber;
 
 typedef struct lanes_sched {
@@ -180,6 +180,10 @@ typedef struct lanes_sched {
     eomc_options opt;      /* the job's, its implicit below */
     eomc_implicit imp;     /* the job's, its terms lanes_terms (and terms_lu lanes_terms_lu) */
     eomc_fs_lanes *lw;     /* NULL, or the step's assembly in lanes (eomc_fixedstep.h) */
+    int cur_ob;            /* the batch buffer the last round wrote */
+    double *OUTS[2];       /* the batch's outputs, rounds alternating between the two (lanes_rows) */
+    const size_t *hot, *var;   /* the outputs copied at once (eomc_fs_tested_outputs), and all a ... */
+    size_t nhot, nvar;         /* ... call writes (not NAME_implicit_const's: var_outputs) */
 } lanes_sched;
 
 static __thread lanes_sched *cur_sched;
@@ -293,128 +297,87 @@ static int make_fiber(fiber *f)
 #endif
 }
 
-/* The map of which blocks of 4 outputs of fiber f's buffer f->out are known to be all +0.0 (the
- * fiber's last two buffers have one each: its step's T and T1, swapped step by step); a buffer
- * not seen before starts with none known. */
-static unsigned char *zero_map(fiber *f, size_t nmap)
+/* The batch's outputs into the rows' buffers, lazily.  Why: the copy of every output of the batch's
+ * columns into each row's buffer was a tenth to a fifth of the lanes rollout (rdtsc in lanes_rows,
+ * bench_rollout_contacts' 64 rows: G1 10 %, ant 21 %, hopper 13 %), while a row whose try the lanes
+ * answered reads only its tests' outputs there (eomc_fs_tested_outputs: G1 294 of its 3400) until
+ * its step splits or its lane failed.  So each round copies those at once and leaves the buffer
+ * pending on its column; the rest comes when the row's code asks (eomc_implicit.terms_whole:
+ * lanes_whole), or before another round writes that batch buffer (two alternate, so a row's T from
+ * the round before stays there for the split that may follow), or never, when the row's next call
+ * writes the buffer again first.  A copy: the same bits either way. */
+
+/* Fiber f's pending buffer p made whole from its column (the outputs a call writes). */
+static void materialize(const lanes_sched *s, fiber *f, int p)
 {
-    int i;
-    for (i = 0; i < 2; i++)
-        if (f->zout[i] == f->out) break;
-    if (i == 2) {
-        i = 1 - f->zlast;
-        f->zout[i] = f->out;
-        memset(f->zmap[i], 0, nmap);
-    }
-    f->zlast = i;
-    return f->zmap[i];
+    const size_t L = (size_t)s->job->lanes;
+    const double *src = s->OUTS[f->pend_ob[p]] + f->pend_col[p];
+    double *dst = f->pend[p];
+    for (size_t i = 0; i < s->nvar; i++) dst[s->var[i]] = src[s->var[i] * L];
+    f->pend[p] = NULL;
 }
 
-/* What a write to f->out by other code (the scalar call) leaves: nothing known of it. */
-static void forget_zeros(fiber *f)
+/* Fiber f's buffer out is written anew (a call into it): what was pending there is not needed. */
+static void drop_pending(fiber *f, const double *out)
 {
-    for (int i = 0; i < 2; i++)
-        if (f->zout[i] == f->out) f->zout[i] = NULL;
+    for (int p = 0; p < 2; p++)
+        if (f->pend[p] == out) f->pend[p] = NULL;
 }
 
-/* outs[c][e] = OUT[e * k + c] for the k rows of a batch (its columns back into each row's buffer),
- * over the blocks of 4 outputs starting at blk[0 .. nblk - 1] (var_blocks: the outputs a call
- * writes); every output when nblk is 0 (fewer than 4 of them).  Why 4 x 4 blocks: on G1 (3036
- * terms a row) the element-wise copy was about a sixth of the lanes integrator's time (perf,
- * lanes_rows); the blocks take 4 loads, 8 shuffles and 4 stores for 16 doubles.  A copy: the same
- * bits either way.  maps[c] (zero_map, one entry a block): a block of 16 that is all +0.0 is not
- * stored into a row whose 4 outputs are known +0.0 already.  Why: most of a model's contact pairs
- * are apart, their 25 slots zero call after call (the humanoid: 2725 of its 4738 outputs), and the
- * stores into 8 rows' buffers were the copy's cost. */
-#if defined(__x86_64__) && defined(__GNUC__)
-#include <immintrin.h>
-#define EOMC_COPY_OUT4 1
-__attribute__((target("avx"))) static void copy_out4(double *const *outs, unsigned char *const *maps,
-                                                     const double *OUT, const size_t *blk, size_t nblk, int k)
+/* Before a round writes batch buffer ob: every row's buffer still pending on it made whole. */
+static void settle(const lanes_sched *s, int ob)
 {
-    for (size_t b = 0; b < nblk; b++) {
-        const size_t e = blk[b];
-        const double *o = OUT + e * (size_t)k;
-        for (int c = 0; c < k; c += 4) {
-            __m256d r0 = _mm256_loadu_pd(o + c), r1 = _mm256_loadu_pd(o + k + c);
-            __m256d r2 = _mm256_loadu_pd(o + 2 * k + c), r3 = _mm256_loadu_pd(o + 3 * k + c);
-            __m256i z = _mm256_castpd_si256(_mm256_or_pd(_mm256_or_pd(r0, r1), _mm256_or_pd(r2, r3)));
-            if (_mm256_testz_si256(z, z)) {          /* all 16 are +0.0 */
-                for (int j = c; j < c + 4; j++)
-                    if (!maps[j][b]) {
-                        _mm256_storeu_pd(outs[j] + e, r0);
-                        maps[j][b] = 1;
-                    }
-                continue;
-            }
-            for (int j = c; j < c + 4; j++) maps[j][b] = 0;
-            __m256d t0 = _mm256_unpacklo_pd(r0, r1), t1 = _mm256_unpackhi_pd(r0, r1);
-            __m256d t2 = _mm256_unpacklo_pd(r2, r3), t3 = _mm256_unpackhi_pd(r2, r3);
-            _mm256_storeu_pd(outs[c] + e, _mm256_permute2f128_pd(t0, t2, 0x20));
-            _mm256_storeu_pd(outs[c + 1] + e, _mm256_permute2f128_pd(t1, t3, 0x20));
-            _mm256_storeu_pd(outs[c + 2] + e, _mm256_permute2f128_pd(t0, t2, 0x31));
-            _mm256_storeu_pd(outs[c + 3] + e, _mm256_permute2f128_pd(t1, t3, 0x31));
-        }
-    }
-}
-#endif
-
-static void copy_out(double *const *outs, unsigned char *const *maps, const double *OUT, size_t n,
-                     const size_t *blk, size_t nblk, int k)
-{
-#ifdef EOMC_COPY_OUT4
-    if (k % 4 == 0 && nblk > 0 && __builtin_cpu_supports("avx")) {
-        copy_out4(outs, maps, OUT, blk, nblk, k);
-        return;
-    }
-#endif
-    for (int c = 0; c < k; c++) memset(maps[c], 0, nblk + 1);     /* every block written */
-    if (nblk == 0) {
-        for (size_t e = 0; e < n; e++)
-            for (int c = 0; c < k; c++) outs[c][e] = OUT[e * (size_t)k + (size_t)c];
-        return;
-    }
-    for (size_t b = 0; b < nblk; b++)
-        for (size_t e = blk[b]; e < blk[b] + 4; e++) {     /* OUT read in order, k rows written */
-            const double *o = OUT + e * (size_t)k;
-            for (int c = 0; c < k; c++) outs[c][e] = o[c];
-        }
+    for (int i = 0; i < s->job->lanes; i++)
+        for (int p = 0; p < 2; p++)
+            if (s->f[i].pend[p] && s->f[i].pend_ob[p] == ob) materialize(s, &s->f[i], p);
 }
 
-/* The blocks of 4 outputs copy_out copies: starts in blk (n / 4 + 2 of them at most), their count
- * returned; 0 when there are fewer than 4 outputs (copy_out then copies each).  Every output is in
- * one, except the constant outputs of a model whose terms write only the others (eomc_implicit.
- * terms_const, found as the outputs it writes over a NaN sentinel): the fast path wrote those once
- * into every buffer it hands terms (eomc_fixedstep.c), so they are there already.  Why: on G1 1873
- * of the 3400 outputs are constant (its N's hinge columns, M's zeros): 413 blocks to copy, not
- * 850; the copy was a tenth of the lanes rollout's time (rdtsc in lanes_rows, bench_rollout_
- * contacts' rows), and the rollout took 6 % less with this (one process A/B, 7 rounds).  The last block may start before the one ahead of it ends (n - 4): the same values twice.
- * NULL when out of memory. */
-static size_t *var_blocks(const eomc_implicit *imp, size_t n, size_t *nblk)
+/* eomc_implicit.terms_whole of the lanes' rows: the running row's buffer out made whole. */
+static void lanes_whole(double *out)
+{
+    lanes_sched *s = cur_sched;
+    fiber *f = &s->f[s->cur];
+    for (int p = 0; p < 2; p++)
+        if (f->pend[p] == out) materialize(s, f, p);
+}
+
+/* Row f's call in column c of batch buffer ob: its tested outputs now, the rest pending. */
+static void copy_tested(const lanes_sched *s, fiber *f, int ob, int c)
+{
+    const size_t L = (size_t)s->job->lanes;
+    const double *src = s->OUTS[ob] + c;
+    double *dst = f->out;
+    int p = f->pend[0] == NULL ? 0 : f->pend[1] == NULL ? 1 : -1;
+    for (size_t i = 0; i < s->nhot; i++) dst[s->hot[i]] = src[s->hot[i] * L];
+    if (p < 0) {            /* not seen: a row has two buffers (its T and T1), dropped when written */
+        materialize(s, f, 0);
+        p = 0;
+    }
+    f->pend[p] = dst;
+    f->pend_ob[p] = ob;
+    f->pend_col[p] = c;
+}
+
+/* The outputs a call writes (var, their count returned): every one, except the constant outputs
+ * of a model whose terms write only the others (eomc_implicit.terms_const, found as the outputs it
+ * writes over a NaN sentinel): the fast path wrote those once into every buffer it hands terms
+ * (eomc_fixedstep.c), so they are there already.  Measured (one-process A/B, before the copy was
+ * lazy): G1 (1873 of its 3400 outputs constant) 6.4 % off the lanes rollout.  -1 when out of
+ * memory. */
+static long var_outputs(const eomc_implicit *imp, size_t n, size_t *var)
 {
     const unsigned long long sentinel = 0x7ff4dead0000beefULL;   /* a signalling NaN's bits */
-    size_t *blk = (size_t *)malloc((n / 4 + 2) * sizeof(size_t)), k = 0;
     double *probe = NULL;
-    if (blk == NULL) return NULL;
-    if (imp->terms_const && n >= 4) {
-        if ((probe = (double *)malloc(n * sizeof(double))) == NULL) {
-            free(blk);
-            return NULL;
-        }
+    size_t k = 0;
+    if (imp->terms_const) {
+        if ((probe = (double *)malloc(n * sizeof(double) + 1)) == NULL) return -1;
         for (size_t e = 0; e < n; e++) memcpy(probe + e, &sentinel, sizeof sentinel);
         imp->terms_const(probe);
     }
-    for (size_t e = 0; n >= 4 && e < n;) {
-        if (probe && memcmp(probe + e, &sentinel, sizeof sentinel) != 0) {   /* written: a constant */
-            e++;
-            continue;
-        }
-        blk[k] = e + 4 <= n ? e : n - 4;
-        e = blk[k++] + 4;
-    }
+    for (size_t e = 0; e < n; e++)
+        if (!probe || memcmp(probe + e, &sentinel, sizeof sentinel) == 0) var[k++] = e;   /* not written */
     free(probe);
-    *nblk = k;
-    return blk;
+    return (long)k;
 }
 
 /* The batch's rows (its first k lanes; the others pad it) that asked for their step
@@ -447,31 +410,33 @@ static void lanes_assemble(lanes_sched *s, const int *idx, int k, const int *ibu
  * (its bits, within the lanes' sin/cos). */
 #define PAD_MIN(L) (((L) + 1) / 2)
 
-/* One thread's rows, job->lanes at a time.  buf: the batch's columns (nx + ninput + out_len
- * rows of lanes doubles, 64-byte aligned), ibuf, idx: lanes ints each, mwork: the model's work,
- * lw: NULL or the assembly in lanes, pad, pad_map: out_len doubles and its zero map, where a
- * padded batch's extra lanes are copied (and never read), blk, nblk: var_blocks.  0, or 1 when a fiber's context could
- * not be made (nothing run). */
+/* One thread's rows, job->lanes at a time.  buf: the batch's columns (nx + ninput rows of lanes
+ * doubles, then two buffers of out_len rows: OUTS; 64-byte aligned), ibuf, idx: lanes ints each,
+ * mwork: the model's work, lw: NULL or the assembly in lanes, hot, var: lanes_sched's.  0, or 1
+ * when a fiber's context could not be made (nothing run). */
 static int lanes_rows(rollout_job *job, fiber *f, double *buf, int *ibuf, int *idx, double *mwork,
-                      eomc_fs_lanes *lw, double *pad, unsigned char *pad_map, const size_t *blk, size_t nblk)
+                      eomc_fs_lanes *lw, const size_t *hot, size_t nhot, const size_t *var, size_t nvar)
 {
     lanes_sched s;
     const int L = job->lanes, nx = job->m->nx, nr = job->m->ninput;
-    double *X = buf, *R = X + (size_t)nx * L, *OUT = R + (size_t)nr * L, *outs[64];
-    unsigned char *maps[64];
+    double *X = buf, *R = X + (size_t)nx * L;
     memset(&s, 0, sizeof s);
     s.job = job; s.f = f; s.lw = lw;
+    s.OUTS[0] = R + (size_t)nr * L;
+    s.OUTS[1] = s.OUTS[0] + job->out_len * (size_t)L;
+    s.hot = hot; s.nhot = nhot; s.var = var; s.nvar = nvar;
     s.opt = *job->opt;
     s.imp = *job->opt->implicit;
     s.imp.terms = lanes_terms;
     s.imp.terms_lu = lw ? lanes_terms_lu : NULL;
+    s.imp.terms_whole = lanes_whole;
     s.opt.implicit = &s.imp;
     for (int i = 0; i < L; i++)
         if (make_fiber(&f[i])) return 1;
     cur_sched = &s;
     for (int i = 0; i < L; i++) resume(&s, i);       /* each to its first model call, or done */
     for (;;) {
-        int first = -1, k = 0;
+        int first = -1, k = 0, ob;
         /* the earliest call first: rows ahead in time wait for the others (a split step's
            sub-steps catch up), so the rows stay in step and the calls fill the lanes */
         for (int i = 0; i < L; i++)
@@ -479,11 +444,11 @@ static int lanes_rows(rollout_job *job, fiber *f, double *buf, int *ibuf, int *i
         if (first < 0) break;                         /* every fiber done */
         for (int i = 0; i < L; i++)      /* from 0: a row before first may wait at another t */
             if (same_call(&s, first, i)) idx[k++] = i;
+        for (int c = 0; c < k; c++) drop_pending(&f[idx[c]], f[idx[c]].out);   /* written anew */
         if (k < PAD_MIN(L)) {   /* a few: the scalar call, on the rows' buffers */
             for (int c = 0; c < k; c++) {
                 fiber *q = &f[idx[c]];
                 q->result = job->opt->implicit->terms(q->t, q->x, q->p, q->r, q->out, mwork);
-                forget_zeros(q);
             }
             for (int c = 0; c < k; c++) resume(&s, idx[c]);
             continue;
@@ -493,14 +458,14 @@ static int lanes_rows(rollout_job *job, fiber *f, double *buf, int *ibuf, int *i
             for (int j = 0; j < nx; j++) X[(size_t)j * L + c] = q->x[j];
             for (int j = 0; j < nr; j++) R[(size_t)j * L + c] = q->r[j];
         }
-        job->batch(L, f[first].t, X, f[first].p, nr ? R : NULL, OUT, ibuf, mwork);
-        if (lw) lanes_assemble(&s, idx, k, ibuf, X, OUT);
-        for (int c = 0; c < L; c++) {
-            outs[c] = c < k ? f[idx[c]].out : pad;
-            maps[c] = c < k ? zero_map(&f[idx[c]], nblk + 1) : pad_map;
-            if (c < k) f[idx[c]].result = ibuf[c];
+        ob = s.cur_ob ^= 1;
+        settle(&s, ob);
+        job->batch(L, f[first].t, X, f[first].p, nr ? R : NULL, s.OUTS[ob], ibuf, mwork);
+        if (lw) lanes_assemble(&s, idx, k, ibuf, X, s.OUTS[ob]);
+        for (int c = 0; c < k; c++) {
+            f[idx[c]].result = ibuf[c];
+            copy_tested(&s, &f[idx[c]], ob, c);
         }
-        copy_out(outs, maps, OUT, job->out_len, blk, nblk, L);
         for (int c = 0; c < k; c++) resume(&s, idx[c]);
     }
     cur_sched = NULL;
@@ -511,38 +476,47 @@ static int lanes_rows(rollout_job *job, fiber *f, double *buf, int *ibuf, int *i
 static void *lanes_fiber_worker(rollout_job *job)
 {
     const int L = job->lanes;
-    const size_t cols = (size_t)job->m->nx + (size_t)job->m->ninput + job->out_len;
+    const eomc_implicit *imp = job->opt->implicit;
+    const int nfree = imp->nfree > 0 ? imp->nfree : 0;
+    const size_t cols = (size_t)job->m->nx + (size_t)job->m->ninput + 2 * job->out_len;
+    const size_t nhot_max = (size_t)imp->ncontact + 2 * (size_t)job->m->nu + 6 * (size_t)job->m->nq * (size_t)nfree;
     fiber *f = (fiber *)calloc((size_t)L, sizeof(fiber));
     double *mem = (double *)malloc(cols * (size_t)L * sizeof(double) + 64);
-    const size_t nmap = job->out_len / 4 + 2;    /* a zero map's bytes: var_blocks' count + 1 at most */
-    double *pad = (double *)malloc(job->out_len * sizeof(double) + nmap);
-    size_t nblk = 0, *blk = var_blocks(job->opt->implicit, job->out_len, &nblk);
     double *buf = mem ? (double *)(((size_t)mem + 63) & ~(size_t)63) : NULL;   /* the columns: aligned */
     double *mwork = (double *)malloc(((size_t)job->m->work_size + 1) * sizeof(double));
     int *ibuf = (int *)malloc(2 * (size_t)L * sizeof(int));
+    size_t *hot = (size_t *)malloc((nhot_max + job->out_len + 1) * sizeof(size_t)), *var = hot ? hot + nhot_max : NULL;
+    size_t nhot = hot ? eomc_fs_tested_outputs(job->m->nq, job->m->nu, imp, hot) : 0;
+    long nvar = var ? var_outputs(imp, job->out_len, var) : -1;
     /* NULL (no vector kernel for L here, or a model without the fast path's structure): each row
      * assembles its own step, as before */
-    eomc_fs_lanes *lw = job->opt->implicit->terms_lu == NULL
-                        ? eomc_fs_lanes_new(job->m->nq, job->m->nu, job->opt->implicit, L) : NULL;
-    int ok = f && buf && mwork && ibuf && pad && blk, failed = 1;
+    eomc_fs_lanes *lw = imp->terms_lu == NULL ? eomc_fs_lanes_new(job->m->nq, job->m->nu, imp, L) : NULL;
+    int ok = f && buf && mwork && ibuf && hot && nvar >= 0, failed = 1;
+    if (ok) {               /* the tested outputs that a call writes (a constant one is there) */
+        unsigned char *written = (unsigned char *)calloc(job->out_len + 1, 1);
+        size_t k = 0;
+        if ((ok = written != NULL)) {
+            for (long i = 0; i < nvar; i++) written[var[i]] = 1;
+            for (size_t i = 0; i < nhot; i++)
+                if (written[hot[i]]) hot[k++] = hot[i];
+            nhot = k;
+        }
+        free(written);
+    }
     for (int i = 0; ok && i < L; i++) {
         f[i].stack = (char *)malloc(FIBER_STACK);
         f[i].work = (double *)malloc(job->work_len * sizeof(double));
         f[i].ahead = (double *)malloc((size_t)job->m->nx * sizeof(double));
-        f[i].zmap[0] = (unsigned char *)malloc(2 * nmap);
-        f[i].zmap[1] = f[i].zmap[0] ? f[i].zmap[0] + nmap : NULL;
-        ok = f[i].stack && f[i].work && f[i].ahead && f[i].zmap[0];
+        ok = f[i].stack && f[i].work && f[i].ahead;
     }
     if (ok)
-        failed = lanes_rows(job, f, buf, ibuf, ibuf + L, mwork, lw, pad, (unsigned char *)(pad + job->out_len),
-                            blk, nblk);
+        failed = lanes_rows(job, f, buf, ibuf, ibuf + L, mwork, lw, hot, nhot, var, (size_t)nvar);
     for (int i = 0; f && i < L; i++) {
         free(f[i].stack);
         free(f[i].work);
         free(f[i].ahead);
-        free(f[i].zmap[0]);
     }
-    free(f); free(mem); free(mwork); free(ibuf); free(pad); free(blk);
+    free(f); free(mem); free(mwork); free(ibuf); free(hot);
     eomc_fs_lanes_free(lw);
     return failed ? (void *)job : NULL;  /* not NULL: this thread could not run; the others take its rows */
 }

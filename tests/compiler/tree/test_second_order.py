@@ -286,6 +286,43 @@ def test_root_free_joint_changes_coordinates_inside_the_loop(floating_models):
     assert "rows q_a: sum_d K^-1[d, a] G[d, .]" not in c
 
 
+def _switched(cache, tree, **switches):
+    """``tree`` compiled with second_order's switches set (ROOT_DOTS, TANGENT), restored after."""
+    old = {k: getattr(second_order, k) for k in switches}
+    for k, v in switches.items():
+        setattr(second_order, k, v)
+    try:
+        return _compile(cache, tree=tree)
+    finally:
+        for k, v in old.items():
+            setattr(second_order, k, v)
+
+
+def test_root_joint_dots_in_its_frame_equal_the_lane_dots(floating_models, tmp_path):
+    """The pairs (i, j) with j in the root free joint take the root dots (second_order._root_dot_lines):
+    the kernel runs in the root body's frame (_root_frame: gravity rotated into it, the bodies' loads
+    placed from it), where the joint's axes are its constant body-frame axes (unit vectors and the
+    angular ones' offsets), so those dots are a few terms each.  Along the coordinates and along the
+    tangent (TANGENT: Pinocchio's quantities), equal to the same kernel in the world frame with the
+    lane dots for every j (ROOT_DOTS off, the kernel before session 18) to 1e-13 relative at states
+    of size 3 (measured ~1e-15), and the off build has neither the root frame nor the root dots."""
+    kernel, _ = floating_models
+    c = (kernel.directory / f"{kernel.name}.c").read_text()
+    assert "j in root joint 0: its dots in the root's frame" in c and "the root's own frame (_root_frame)" in c
+    off = _switched(tmp_path / "off", FLOATING_TREE, ROOT_DOTS=False)
+    c = (off.directory / f"{off.name}.c").read_text()
+    assert "_root_dot_lines" not in c and "_root_frame" not in c
+    xi = _switched(tmp_path / "xi", FLOATING_TREE, TANGENT=True)
+    xi_off = _switched(tmp_path / "xi_off", FLOATING_TREE, TANGENT=True, ROOT_DOTS=False)
+    assert "j in root joint 0: its dots in the root's frame" in (xi.directory / f"{xi.name}.c").read_text()
+    rng = np.random.default_rng(18)
+    for _ in range(4):
+        x, ud, r = rng.uniform(-3, 3, kernel.nx), rng.uniform(-3, 3, kernel.nu), rng.uniform(-3, 3, kernel.ninput)
+        for a, b in ((kernel, off), (xi, xi_off)):
+            H, ref = a.hess_id(0.0, x, ud, r=r), b.hess_id(0.0, x, ud, r=r)
+            assert np.max(np.abs(H - ref)) <= 1e-13 * np.max(np.abs(ref))
+
+
 def test_lane_and_scalar_pair_vectors_give_the_same_bits(floating_models, tmp_path):
     """The pair vectors run on four lanes when the C is built with AVX2 (NAME_H2_LANES 4: the
     machine build on an AVX2 x86-64) and one by one otherwise (portable); both sum every term in
