@@ -48,6 +48,11 @@ POINT_PENETRATION = 0.01        # m, for a point contact (radius 0)
 LIMIT_OVERSHOOT_WIDTHS = 100    # limit widths past the limit (100 x 3e-4 rad = 0.03 rad by default)
 STATUS_ENERGY = 20              # a run that created energy (set by the runtime, not by C)
 ENERGY_FAIL = 100               # the tolerance multiple beyond which an energy gain fails the run
+# in a generated energy output's text (NAME.json "energy", compiler/tree/lower._energy_text) when
+# the model's actuators have activation states: the energy holds their bias only, which is all
+# they push with while every activation is 0 -- a zero control keeps it there -- so a run is
+# judged only from a start with the extra states (the activations, after q and u) at 0
+ACTIVATIONS_AT_REST = "judged from a start with the actuators' activations at 0"
 
 
 class PhysicsWarning(EomcWarning):
@@ -177,10 +182,22 @@ def _energy_gain(outputs):
 
 def _no_sources(model, a):
     """True when nothing but the model's own passive laws acts: no inputs, or inputs held at
-    zero for the whole run (no table of values, no callable, no feedback)."""
+    zero for the whole run (no table of values, no callable, no feedback), and every actuator
+    activation the energy needs at 0 starts there (:func:`_activations_at_rest`)."""
+    if not _activations_at_rest(model, a):
+        return False
     if model.ninput == 0:
         return True
     return "r_fun" not in a and "K" not in a and not np.any(np.asarray(a.get("r_v", 0.0)))
+
+
+def _activations_at_rest(model, a):
+    """False when the energy output holds the actuators' bias only (ACTIVATIONS_AT_REST in its
+    text) and the run starts with an activation (an extra state, after q and u) not at 0: the
+    actuator then pushes with gain·act, a source the energy does not hold -- not judged."""
+    if not model.nz or ACTIVATIONS_AT_REST not in str(model.metadata.get("energy") or ""):
+        return True
+    return not np.any(np.asarray(a["x0"], dtype=float)[model.nq + model.nu:])
 
 
 def verdict(model, a, result, gmax, sw):

@@ -335,10 +335,11 @@ def energy_blockers(read):
     neither a ground contact nor a joint limit (nothing the runtime judges a run by); a spring
     the energy does not hold (a ``k_``/``q0_`` parameter that Tree.spring_parameters does not
     list: a site tendon's, a SymPy model's); a load this check does not know to be passive (a
-    servo with activation dynamics or a clamped bias, fluid forces in a wind, a site tendon); a
-    body-body pair met through a solid's signed distance (box-box, cylinders, ellipsoids: its
-    force need not be the gradient of its depth).  Counted: the ground contacts' and sphere/
-    capsule pairs' elastic energy, joint, fixed-tendon and servo-bias springs, URDF limit
+    servo with a clamped bias, an activation a zero control moves from 0, fluid forces in a wind,
+    a site tendon); a
+    body-body pair whose force is not the gradient of its depth's energy (box-box:
+    .pairs.counted_kinds).  Counted: the ground contacts' and the
+    other pairs' elastic energy, joint, fixed-tendon and servo-bias springs, URDF limit
     springs; passive without a term: damping, friction, MJCF limits (runtime/limit_energy.py
     sizes a start past one), fluid forces with no wind (mjcf/fluid.py: dissipative)."""
     tree = getattr(read, "tree", None)
@@ -360,13 +361,24 @@ def energy_blockers(read):
         out.append(f"springs whose potential the energy leaves out ({', '.join(springs[:3])}"
                    f"{', ...' if len(springs) > 3 else ''})")
     zero = {r: sm.S.Zero for r in tuple(getattr(read, "inputs", ()) or ())}
+    # the actuators' activation states (MJCF's act_<actuator>, the Model's extra states): a run
+    # is judged only from a start with every one at 0 (runtime/switching.energy_verdict), where
+    # a zero control keeps it when its rate vanishes there -- act' = (clamp(ctrl) - act)/τ or
+    # clamp(ctrl), so a control range holding 0; then the actuators push with their bias only
+    acts = tuple(getattr(read, "extra_states", ()) or ())
+    rest = {**zero, **{a: sm.S.Zero for a in acts}}
+    for a, rate in zip(acts, tuple(getattr(read, "extra_rhs", ()) or ())):
+        if sm.sympify(rate).xreplace(rest) != 0:
+            out.append(f"the activation {getattr(a, 'func', a)} moves from 0 at zero control "
+                       f"(its rate there: {sm.sympify(rate).xreplace(rest)})")
+    zero = rest
 
     def passive(load):
         """The parameters that make ``load`` a possible source ([]: passive): with the inputs at
         zero (an actuator's torque vanishes), only the joint laws' damping, friction and limits
         act (compiler/tree/joint_laws.py; MJCF's d_<joint>) and the counted springs (a servo's
-        bias among them, mjcf/treeir._actuator_force): no other spring, no servo with activation
-        dynamics or a clamped bias, nothing else this check does not know."""
+        bias among them, mjcf/treeir._actuator_force; with its activation at 0): no other spring,
+        no servo with a clamped bias, nothing else this check does not know."""
         found = set()
         for x in list(load.moment) + list(load.force):
             e = sm.sympify(x).xreplace(zero)
@@ -380,7 +392,8 @@ def energy_blockers(read):
         stores = getattr(ld, "stores_energy", None)     # a body-body pair (.pairs.PairLoad)
         if stores is not None:
             if not stores:
-                out.append(f"the contact {ld.name} ({ld.a.kind}-{ld.b.kind}: a solid's signed distance)")
+                out.append(f"the contact {ld.name} ({ld.a.kind}-{ld.b.kind}: its force is not the gradient of "
+                           f"the energy counted, pairs.counted_kinds)")
         elif getattr(ld, "passive_fluid", None) is not None:     # MJCF's fluid forces (mjcf/fluid.py)
             if not ld.passive_fluid:
                 out.append(f"{type(ld).__name__} {ld.name} (fluid forces that are not provably "
@@ -392,8 +405,8 @@ def energy_blockers(read):
     if sources:
         names = sorted(sources)
         out.append(f"loads that may push energy in with the inputs at zero (their parameters "
-                   f"{', '.join(names[:4])}{', ...' if len(names) > 4 else ''}: a servo with activation "
-                   f"dynamics or a clamped bias, an uncounted spring)")
+                   f"{', '.join(names[:4])}{', ...' if len(names) > 4 else ''}: a servo with a clamped "
+                   f"bias or whose control range holds no 0, an uncounted spring)")
     return out
 
 

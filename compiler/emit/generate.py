@@ -23,8 +23,8 @@ from .linsolve import choose_ldlt
 from .printer import MINMAX_C, HalfPow, NonFiniteLiteral, print_memo
 from .reverse import REVERSE_FUNCTIONS, reverse_body, reverse_nsolve
 from .sparse_lu import sparse_lu_solver
-from .split import (FOLD_MIN, LEAN_MACRO, NOINLINE_MACRO, PART_LEAN_FUNCTIONS, PART_LEAN_MACRO, lean_attribute,
-                    split_body)
+from .split import (FOLD_MIN, LEAN_MACRO, NEAR_MACRO, NOINLINE_MACRO, PART_LEAN_FUNCTIONS, PART_LEAN_MACRO,
+                    lean_attribute, split_body)
 from .batch import batch_code
 from .signatures import BATCH_FUNCTIONS, FUNCTION_ORDER, ON_REQUEST, SIGNATURES, STRUCT_FIELDS, cdef, prototype
 from .symbolic import HELPER_USERS
@@ -733,7 +733,9 @@ def _render(name, meta, fns, rendered, solver, layout, sym, helper, split=False,
         noinline=NOINLINE_MACRO if split else "", wide_finite="implicit" in fns,
         lean="\n".join(m for m, used in ((LEAN_MACRO, any(f.get("lean") for f in rendered)),
                                            (PART_LEAN_MACRO, any(p.startswith("static EOMC_PART_LEAN ")
-                                                                 for f in rendered for p in f["parts"])))
+                                                                 for f in rendered for p in f["parts"])),
+                                           (NEAR_MACRO, any(p.startswith("static EOMC_NEAR ")
+                                                            for f in rendered for p in f["parts"])))
                        if used), **common)
     return GeneratedModel(name=name, c_source=source, header=header,
                           cdef=cdef(name, fns) + "".join(f"{p};\n" for p in const_prototypes(name, meta)),

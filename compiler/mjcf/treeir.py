@@ -236,7 +236,8 @@ def tree_ir(m, *, fold=False, actuators=None, limits=True, friction=True, quater
               kinematics=tuple(kinematics), gravity=gravity, loads=tuple(loads),
               quaternions=tuple(coordinates.index(w) for w in quaternions),
               joint_torques=tuple(torques),
-              spring_energy=sum(springs, sm.S.Zero) if springs else None, spring_parameters=tuple(spring_names))
+              spring_energy=sum(springs, sm.S.Zero) if springs else None, spring_parameters=tuple(spring_names),
+              activations=tuple(a for a, _ in activations))
     if found or tied:
         from eomc.compiler.tree.constrained import attach
         ir = attach(ir, coupling_loops(m, params, found, coordinates, speeds, joints, joint_names, tied))
@@ -297,9 +298,9 @@ def _actuator_force(m, params, k, name, ctrl, q, u, springs=None):
     ``springs``: a list to which a servo's bias at zero control is appended as (its potential,
     the parameter names it holds) when that bias is a spring and a damper: F = b0 + b1 L + b2 V
     with b2 <= 0 does the work of the potential -(b0 L + b1 L²/2) plus a damper's (gear·F on
-    the joint, L = gear·q; on a fixed tendon's coordinates c_i gear·F, L = gear·Σ c_i q_i).  Not
-    with activation dynamics (the force follows a state, not the control), a force or control
-    range that clamps (a clamped spring and damper are one law; a range without 0 pushes at zero
+    the joint, L = gear·q; on a fixed tendon's coordinates c_i gear·F, L = gear·Σ c_i q_i); with
+    activation dynamics the force is gain·act + bias, the bias alone at act = 0 (the runtime judges
+    only runs that start there).  Not with a force or control range that clamps (a clamped spring and damper are one law; a range without 0 pushes at zero
     control), or b2 > 0: such a bias stays out, and the model gets no energy output
     (compiler/contact/tree.energy_blockers)."""
     gear = float(m.actuator_gear[k, 0])
@@ -321,7 +322,9 @@ def _actuator_force(m, params, k, name, ctrl, q, u, springs=None):
         b0, b1, b2 = (params(f"bias{x}_{name}", bp[x]) for x in range(3))
         force += b0 + b1 * length + b2 * velocity
         low, high = (float(x) for x in m.actuator_ctrlrange[k])
-        if springs is not None and not m.actuator_forcelimited[k] and int(m.actuator_dyntype[k]) == 0 \
+        # with activation dynamics too: at act = 0 the force is the bias (a run is judged only
+        # from act = 0, where a zero control keeps it: compiler/contact/tree.energy_blockers)
+        if springs is not None and not m.actuator_forcelimited[k] \
                 and (not m.actuator_ctrllimited[k] or low <= 0.0 <= high) and float(bp[2]) <= 0.0:
             springs.append((-(b0 * length + b1 * length ** 2 / 2),
                             [str(x) for x in (g, b0, b1, b2) if isinstance(x, sm.Symbol)]))

@@ -510,7 +510,11 @@ def _energy_text(tree):
         servos = any(n.startswith("bias") for n in getattr(tree, "spring_parameters", ()))
         text += (", the springs' potential (joints, fixed tendons" + (", servos' bias at zero control"
                                                                          if servos else "") + ")")
-    return text + (" and the joint limits' springs" if getattr(tree, "joint_energy", None) else "")
+    text += " and the joint limits' springs" if getattr(tree, "joint_energy", None) else ""
+    if getattr(tree, "activations", ()):      # the runtime's verdict reads it (energy_verdict)
+        from eomc.runtime.switching import ACTIVATIONS_AT_REST
+        text += f"; {ACTIVATIONS_AT_REST}"
+    return text
 
 
 def _asks_energy(outputs):

@@ -120,6 +120,11 @@ class Tree:
     # no longer keep a model from the energy verdict (compiler/contact/tree.energy_blockers); None, ()
     spring_energy: object = field(default=None, compare=False)
     spring_parameters: tuple = field(default=(), compare=False)
+    # the actuators' activation states its loads read (MJCF's act_<actuator>(t), extra states of
+    # the Model): a generated ``energy`` output holds the servos' bias only, so a run is judged
+    # only from a start with every activation at 0 (compiler/tree/lower._energy_text says so,
+    # runtime/switching.energy_verdict reads it)
+    activations: tuple = field(default=(), compare=False)
 
     @property
     def n(self):

@@ -227,9 +227,16 @@ def run(args):
               f"end ({', '.join(f'{v:.6g}' for v in p[-1])})")
     if res.constraint_residual is not None:
         print(f"  constraint residual: max {res.constraint_residual.max():.3g}")
-    for name, times in (res.t_events or {}).items():
+    silent = []     # events that never fired: one line, not one each (a URDF robot's default
+    for name, times in (res.t_events or {}).items():     # ground gives a contact event per corner)
+        if not len(times):
+            silent.append(name)
+            continue
         shown = ", ".join(f"{t:.10g}" for t in times[:5]) + (", ..." if len(times) > 5 else "")
-        print(f"  event {name}: {len(times)} at t = {shown or '-'}")
+        print(f"  event {name}: {len(times)} at t = {shown}")
+    if silent:
+        print(f"  events that never fired: {', '.join(silent[:3])}"
+              + (f", ... ({len(silent)} in all)" if len(silent) > 3 else ""))
     if res.event_stop:
         print(f"  stopped by event {res.event_stop} at t={res.t_final:.10g}")
     if args.output:

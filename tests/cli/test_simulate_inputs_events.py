@@ -63,3 +63,19 @@ def test_events_option_prints_times_and_stops(tmp_path, use, capsys):
     assert "event up: 1 at t = " in shown and "stopped by event up at t=" in shown
     assert main(["simulate", "pend", "--t-final", "3", "--events", "none"]) == 0
     assert "event" not in capsys.readouterr().out
+
+
+def test_events_that_never_fire_share_one_line(tmp_path, use, capsys):
+    """A URDF robot's default ground adds a contact event per collision corner (Solo12 with its four
+    feet named: over 100, most never touching): those that never fire are one line, not one each."""
+    far = ", ".join(f'"far{i}": {{"expr": q - {100 + i}}}' for i in range(5))
+    text = model_files.PENDULUM + f'events = {{"up": {{"expr": u, "direction": 1}}, {far}}}\n'
+    pend = eomc.compile(str(model_files.write(tmp_path, text, "pend")), cache_dir=tmp_path / "c",
+                        progress=False)
+    use(pend)
+    assert main(["simulate", "pend", "--t-final", "3", "--rtol", "1e-12", "--atol", "1e-12"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert any(line.startswith("  event up: 2 at t = ") for line in lines)
+    assert not any("far" in line and "0 at t" in line for line in lines)
+    silent = [line for line in lines if "never fired" in line]
+    assert silent == ["  events that never fired: far0, far1, far2, ... (5 in all)"]

@@ -102,14 +102,15 @@ def test_a_passive_drop_keeps_its_energy_and_a_created_gain_fails_the_run(passiv
 
 
 def test_no_energy_output_with_a_servo_that_pushes_at_zero_control_and_no_verdict_while_an_input_acts(tmp_path):
-    """A position servo with activation dynamics (timeconst) pushes with its activation state
-    at zero control, a source the output cannot hold: no energy output, no false verdict (a
-    plain servo's bias -kp q is a spring whose potential is counted since session 17:
-    test_energy_kinds.py; joint and tendon springs:
-    test_springs_and_pairs_energy_is_mujocos_plus_the_elastic_energy).
+    """A position servo with activation dynamics (timeconst) whose control range holds no 0
+    drives its activation away from 0 at zero control, then pushes with it, a source the output
+    cannot hold: no energy output, no false verdict (a plain servo's bias -kp q is a spring whose
+    potential is counted since session 17, test_energy_kinds.py, and one with activation dynamics
+    and a range holding 0 since session 18, tests/runtime/test_energy_activations.py; joint and
+    tendon springs: test_springs_and_pairs_energy_is_mujocos_plus_the_elastic_energy).
     An actuator is a source only while its input is not zero: judged at r = 0, not at r != 0."""
     # only its output names are read: the outputs function decides them (2.4 -> 0.5 s CPU)
-    servo = '<actuator><position joint="hip" kp="10" timeconst="0.05"/></actuator>'
+    servo = '<actuator><position joint="hip" kp="10" timeconst="0.05" ctrlrange="0.2 1" ctrllimited="true"/></actuator>'
     _, sprung = _build(tmp_path, "sprung", actuator=servo, functions=("outputs",))
     assert "energy" not in sprung.output_names
     _, plain = _build(tmp_path, "plain", actuator='<actuator><position joint="hip" kp="10"/></actuator>',

@@ -132,15 +132,18 @@ def test_a_negative_fluid_density_is_refused(servo):
 
 
 def test_what_still_keeps_the_energy_out(tmp_path):
-    """A wind pushes energy in; a servo with activation dynamics pushes with its state at zero
-    control; a clamped force clamps spring and damper together: no energy output, named."""
+    """A wind pushes energy in; a servo with activation dynamics whose control range holds no 0
+    moves its activation from 0 at zero control (with a range holding 0 its bias is counted, the
+    run judged from act = 0: tests/runtime/test_energy_activations.py); a clamped force clamps
+    spring and damper together: no energy output, named."""
     def blockers(**kw):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             return "; ".join(energy_blockers(read_model(_file(tmp_path, "b", **kw))))
     assert blockers() == ""
     assert "a wind" in blockers(wind='wind="1 0 0"')
-    assert "bias1_hold" in blockers(servo='timeconst="0.1"')
+    assert blockers(servo='timeconst="0.1"') == ""
+    assert "the activation act_hold moves from 0" in blockers(servo='timeconst="0.1" ctrlrange="0.2 1" ctrllimited="true"')
     assert "bias1_hold" in blockers(servo='forcerange="-1 1" forcelimited="true"')
 
 

@@ -236,9 +236,12 @@ def test_recursive_rhs_parts_take_near_pointers(tmp_path, monkeypatch):
     monkeypatch.setenv("EOMC_CACHE_DIR", str(tmp_path / "far"))
     mf = eomc.compile(kane, "cart_fr", inputs=inputs, functions=fns, progress=False, formulation="recursive")
     src = mn.source_path.read_text()
-    heads = re.findall(r"^static EOMC_NOINLINE void (cart_nr_\w+?)_part\w*\((.*)\)$", src, re.M)
-    assert any("double *restrict S_w0" in params for fn, params in heads if fn == "cart_nr_rhs")
-    assert not any("S_w" in params for fn, params in heads if fn != "cart_nr_rhs")
+    heads = re.findall(r"^static (EOMC_NOINLINE|EOMC_NEAR) void (cart_nr_\w+?)_part\w*\((.*)\)$", src, re.M)
+    rhs = [(attr, params) for attr, fn, params in heads if fn == "cart_nr_rhs"]
+    assert rhs and all(attr == "EOMC_NEAR" for attr, _ in rhs)       # compiled without TER
+    assert any("double *restrict S_w0" in params for _, params in rhs)
+    assert not any("S_w" in params or attr == "EOMC_NEAR" for attr, fn, params in heads if fn != "cart_nr_rhs")
+    assert src.count("#define EOMC_NEAR ") == 2 and "EOMC_NEAR" not in mf.source_path.read_text()
     assert "S_w" not in mf.source_path.read_text()
     rng = np.random.default_rng(11)
     for x in rng.uniform(-1, 1, (9, mn.nx)):
@@ -473,8 +476,8 @@ def _run_wide(tmp_path, tag, lines, helpers):
     import ctypes
     import subprocess
     src = tmp_path / f"{tag}.c"
-    src.write_text("#include <math.h>\n" + split.NOINLINE_MACRO + "\n" + "\n".join(helpers)
-                   + "\nvoid f(const double *x, const double *p, double *out);\n"
+    src.write_text("#include <math.h>\n" + split.NOINLINE_MACRO + "\n" + split.NEAR_MACRO + "\n"
+                   + "\n".join(helpers) + "\nvoid f(const double *x, const double *p, double *out);\n"
                    + "void f(const double *x, const double *p, double *out)\n{\n" + "\n".join(lines) + "\n}\n")
     lib = tmp_path / f"lib{tag}.so"
     subprocess.run(["gcc", "-O2", "-std=c99", "-Wall", "-Wextra", "-Werror", "-shared", "-fPIC",
@@ -504,6 +507,8 @@ def test_long_runs_reach_their_slots_through_near_pointers(tmp_path, monkeypatch
     assert before["S_"][1] < before["S_"][0] / 4                 # slots far apart: mostly 4-byte
     assert after["S_"][1] > 0.9 * after["S_"][0] and after["S_"][0] == before["S_"][0]
     assert after["x"][1] > before["x"][1] and after["p"][1] > before["p"][1]
+    assert all(part.startswith("static EOMC_NEAR void f_part0_") for part in parts)   # no TER
+    assert all(part.startswith("static EOMC_NOINLINE void f_part0_") for part in plain_parts)
     declared = [re.findall(r"double \*restrict (S_w\d+)", part.split("\n", 1)[0]) for part in parts]
     assert sum(bool(names) for names in declared) >= 9     # the last one reads 6 scattered slots
     for part, names in zip(parts, declared):
