@@ -33,3 +33,20 @@ The subpackages:
 Layers point one way: eomc (facade, cli) -> eomc.compiler -> eomc.runtime.
 Nothing here imports the top package ``eomc``; errors come from ``eomc.runtime.errors``.
 """
+import os as _os
+import sys as _sys
+
+# SymPy's expression cache (sympy.core.cache, read once when SymPy is imported): 10,000 entries
+# instead of its 1,000 where the user has not chosen.  Why: a build rebuilds the same products
+# and powers many times over (renames, xreplace, diff) and each rebuild a cache miss makes asks
+# SymPy's assumptions again (Add._eval_power's is_infinite walks its whole base); gymnasium's
+# humanoid generated in 6.5 s instead of 7.1 s CPU (benchmarks/results/mjcf_build.md), for ~15 MB.
+# Nothing else changes: the C is the same (benchmarks/c_identity.py).  Only when SymPy is not
+# imported yet, and the environment is left as it was.
+SYMPY_CACHE_SIZE = 10000
+if "sympy" not in _sys.modules and "SYMPY_CACHE_SIZE" not in _os.environ:
+    _os.environ["SYMPY_CACHE_SIZE"] = str(SYMPY_CACHE_SIZE)
+    try:
+        import sympy as _sympy  # noqa: F401
+    finally:
+        del _os.environ["SYMPY_CACHE_SIZE"]

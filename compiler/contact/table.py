@@ -289,7 +289,7 @@ def reads_depths_positive_only(prog):
     outs = set()
     for _, e in (*prog.assignments, *prog.results):
         if isinstance(e, sm.Basic):
-            outs.update(n for n in sm.preorder_traversal(e) if isinstance(n, PairTableOut))
+            outs.update(e.atoms(PairTableOut))
     depth = set()
     for n in outs:
         t = tables.get(n.args[0])
@@ -303,13 +303,13 @@ def reads_depths_positive_only(prog):
     alias = {t for t, e in prog.assignments if e in depth}
     held = depth | alias
     half = sm.Rational(1, 2)
+    parts = {frozenset((half * d, half * sm.Abs(d))) for d in held}    # (built once: per node they were 3 % of the humanoid's generate)
 
     def positive_part(e):
-        return (isinstance(e, sm.Add) and len(e.args) == 2
-                and {a for a in e.args} in ({half * d, half * sm.Abs(d)} for d in held))
+        return isinstance(e, sm.Add) and len(e.args) == 2 and frozenset(e.args) in parts
     mark = sm.Dummy()
     for t, e in (*prog.assignments, *prog.results):
-        if t in alias or not isinstance(e, sm.Basic):
+        if t in alias or not isinstance(e, sm.Basic) or not e.has(*held):
             continue
         rest = e.replace(positive_part, lambda _: mark)
         if rest.has(*held):

@@ -329,9 +329,17 @@ def energy_guards(prog, guards):
     (106 -> 81 ns); [] where none applies (the energy then prints straight)."""
     out = []
     defs = dict(prog.assignments)
+    readers, held = {}, {}      # symbol -> the statements that read it; depth -> its verdict
+    for t, e in (*prog.assignments, *prog.results):
+        if isinstance(e, sm.Basic):
+            for s in symbols_of(e):
+                readers.setdefault(s, []).append((t, e))
     for clearance, _exports, inner in guards:
         depths = tuple(-c for c, _, _ in inner if (-c).is_Symbol)
-        depths = tuple(d for d in depths if _positive_only(prog, d) and _takes_a_root(defs, d))
+        for d in depths:
+            if d not in held:
+                held[d] = d in defs and _positive_only(prog, d, readers.get(d, ())) and _takes_a_root(defs, d)
+        depths = tuple(d for d in depths if held[d])
         if depths:
             out.append((clearance, depths, ()))
     return out
@@ -356,14 +364,16 @@ def _takes_a_root(defs, d):
     return False
 
 
-def _positive_only(prog, d):
-    """Whether symbol ``d`` is read by ``prog`` only inside (d + |d|)/2 (and defined there)."""
-    if not any(t == d for t, _ in prog.assignments):
+def _positive_only(prog, d, readers=None):
+    """Whether symbol ``d`` is read by ``prog`` only inside (d + |d|)/2 (and defined there).
+    ``readers``: the statements whose expressions have ``d`` among their free symbols, where
+    the caller knows them (energy_guards: one walk for all its depths, not one per depth)."""
+    if readers is None and not any(t == d for t, _ in prog.assignments):
         return False
     half = sm.Rational(1, 2)
     part = {half * d, half * sm.Abs(d)}
     mark = sm.Dummy()
-    for t, e in (*prog.assignments, *prog.results):
+    for t, e in ((*prog.assignments, *prog.results) if readers is None else readers):
         if t == d or not isinstance(e, sm.Basic) or not e.has(d):
             continue
         rest = e.replace(lambda n: isinstance(n, sm.Add) and set(n.args) == part, lambda _: mark)

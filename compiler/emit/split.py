@@ -30,6 +30,7 @@ The rewrite works on the printed lines: C names of temporaries are ``t<digits>``
 and the time is ``t``.  A run that reads any other identifier (a loop counter, say) is
 left as it is.  Output depends only on the input lines: byte-identical C.
 """
+import functools
 import re
 
 __all__ = ["split_body", "NOINLINE_MACRO", "FOLD_MIN", "SPLIT_MIN",
@@ -146,10 +147,11 @@ _CLOSE_LINE = re.compile(r"^\s+\}$")
 BLOCK = "{block}"    # the lvalue of a folded block's statement (_fold_blocks)
 
 
+@functools.lru_cache(maxsize=1 << 16)
 def _statement(line):
     """(indent, temp or None, lvalue or None, expression) of a run's line, or None.  A folded
     block (several lines in one string, :func:`_fold_blocks`) is (indent, None, BLOCK, its
-    text)."""
+    text).  Remembered: split_body looks at every line again after each run it splits."""
     if "\n" in line:
         m = _IF_LINE.match(line.split("\n", 1)[0])
         return (m.group(1), None, BLOCK, line) if m else None
@@ -263,15 +265,23 @@ def _chunks(stmts):
     return chunks + ([current] if current else [])
 
 
+@functools.lru_cache(maxsize=1 << 16)
+def _temps(line):
+    """The temporaries' names in ``line``, in order (remembered, as :func:`_statement`)."""
+    return tuple(_TEMP.findall(line))
+
+
+@functools.lru_cache(maxsize=1 << 16)
 def _reads(text):
-    """(arrays, reads the time ``t``, other identifiers) of one expression's text."""
+    """(arrays, reads the time ``t``, other identifiers) of one expression's text (frozensets;
+    remembered: _split_run asks it twice of each statement)."""
     arrays, scalars = set(), set()
     for name, follow in _IDENT.findall(text):
         if follow == "[":
             arrays.add(name)
         elif follow != "(" and not _TEMP.fullmatch(name):
             scalars.add(name)
-    return arrays, "t" in scalars, scalars - {"t"}
+    return frozenset(arrays), "t" in scalars, frozenset(scalars - {"t"})
 
 
 class _Slots:
@@ -315,7 +325,7 @@ def _split_run(lines, start, end, base, scratch, slots, restrict=False, block_at
                     outside.setdefault(name, None)
                 elif where[name] != c:
                     last[name] = c
-    after = {n for line in lines[end:] for n in _TEMP.findall(line) if n in where}
+    after = {n for line in lines[end:] for n in _temps(line) if n in where}
     slot_of = {name: slots.fresh() for name in outside}  # held until the function ends
 
     def scratch_ref(m):
@@ -540,10 +550,13 @@ def _rename_tail(tail, renamed, scratch):
         m = _TEMP_LINE.match(line)
         if m and m.group(2) in renamed:
             shadow[-1].add(m.group(2))
-        hidden = set().union(*shadow)
-        out.append(_TEMP.sub(lambda t: f"{scratch}[{renamed[t.group(0)]}]"
-                             if t.group(0) in renamed and t.group(0) not in hidden
-                             else t.group(0), line))
+        if renamed.keys().isdisjoint(_temps(line)):
+            out.append(line)         # (most lines: nothing to rename)
+        else:
+            hidden = set().union(*shadow)
+            out.append(_TEMP.sub(lambda t: f"{scratch}[{renamed[t.group(0)]}]"
+                                 if t.group(0) in renamed and t.group(0) not in hidden
+                                 else t.group(0), line))
         for _ in range(max(_depth_change(line), 0)):
             shadow.append(set())
         for _ in range(max(-_depth_change(line), 0)):

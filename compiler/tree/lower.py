@@ -354,7 +354,7 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         else:   # not computed: a stand-in with M's structure (for the metadata)
             A, b = _structure(tree), [0] * nu
         if implicit is not None:
-            extra += _implicit_results(tree, bodies, formed, layout, A, b, implicit, nq, nu, law_memo)
+            extra += _implicit_results(tree, bodies, formed, layout, A, b, implicit, nq, nu, law_memo, renamed)
     except NotATree as exc:
         raise ModelError(f"recursive formulation: {exc}") from None
     sym = build_symbolic(formed, layout, functions, outputs, events, dynamics=(A, b),
@@ -559,12 +559,15 @@ def implicit_layout(nq, nu, ncontact):
     return out
 
 
-def _implicit_results(tree, bodies, formed, layout, A, b, implicit, nq, nu, law_memo=None):
+def _implicit_results(tree, bodies, formed, layout, A, b, implicit, nq, nu, law_memo=None, renamed=None):
     """The ("imp", k) results of NAME_implicit, laid out as :func:`implicit_layout`.
 
     ``law_memo``: :func:`.analytic._law_slopes`' memo: the joint laws' slopes are SymPy's
     derivatives taken once per shape of law (the analytic jac_x's, when it was planned); each
-    law's own diff was a quarter of gymnasium ant's generate phase."""
+    law's own diff was a quarter of gymnasium ant's generate phase.  ``renamed``: the rename's
+    memo of :func:`_lowered_bodies` (the laws it renamed in the loads: not rebuilt again, 3 % of
+    the humanoid's generate phase).  Sound: a law renamed here holds no :func:`_absent` symbol
+    (it would have no slot), so its key is the one the loads' rename used."""
     from .analytic import _law_slopes
     law_memo = {} if law_memo is None else law_memo
     contacts = implicit.get("contacts", []) + implicit.get("pairs", [])    # as implicit_metadata lists them
@@ -596,7 +599,7 @@ def _implicit_results(tree, bodies, formed, layout, A, b, implicit, nq, nu, law_
                 out[base + 3 + a] = vo[a] - wxo[a]
     coords = list(tree.coordinates)
     speed_of = {u: k for k, u in enumerate(tree.speeds)}
-    memo = {}
+    memo = {} if renamed is None else renamed
     for q, u, tau in getattr(tree, "joint_torques", ()):
         if u not in speed_of or q not in coords or tau == 0:
             continue

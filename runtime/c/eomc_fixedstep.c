@@ -948,7 +948,11 @@ size_t eomc_fs_tested_outputs(int nq, int nu, const eomc_implicit *imp, size_t *
         for (int f = 0; f < imp->nfree; f++)
             for (int j = imp->free[f]; j < imp->free[f] + 6; j++) idx[k++] = L.N + (size_t)i * nu + j;
     for (int i = 0; i < 2 * nu; i++) idx[k++] = L.joint + (size_t)i;              /* fs_switched */
-    for (int c = 0; c < imp->ncontact; c++) idx[k++] = L.contact + 25 * (size_t)c;   /* depths */
+    for (int c = 0; c < imp->ncontact; c++) {
+        size_t e = L.contact + 25 * (size_t)c;
+        idx[k++] = e;                                           /* depth */
+        for (int i = 7; i < 16; i += 4) idx[k++] = e + (size_t)i;   /* K's diagonal: fs_clipped */
+    }
     return k;
 }
 
@@ -1041,6 +1045,16 @@ static double fs_chart_ratio(const fs_fast *q, double h, const double *x)
     }
     r = h * sqrt(rn) / (sqrt(dn) + h * h * RESID_ACCEL);
     return isfinite(r) ? r : INFINITY;
+}
+
+/* Whether a contact in touch has its normal force clipped at 0 (the damped law's lift-off,
+ * law.clip_switch: the point rising faster than 1 / (1.5 c)): its stiffness slope K (e[7..15],
+ * world 3x3) is nil then, and its diagonal's trace is the normal stiffness while it pushes.  The
+ * diagonal only: those three are among eomc_fs_tested_outputs (the lanes' rows read them before
+ * the rest of the buffer is copied). */
+static int fs_clipped(const double *e)
+{
+    return e[7] == 0.0 && e[11] == 0.0 && e[15] == 0.0;
 }
 
 /* Whether a contact touches down inside the step from T to T1 although it is in touch at T: a
@@ -1204,8 +1218,17 @@ static int fs_changed(double a, double b)
 
 /* 0: no regime changed; FS_TOUCHDOWN: only contacts touching down (out of touch at the start,
  * in it at the end, or in touch at the start with a depth growing more than ONSET_FACTOR-fold:
- * fs_onset); FS_OTHER: anything else (a lift-off, a depth or a joint law's slope changing by
- * more than SWITCH_FACTOR). */
+ * fs_onset, or in touch at both ends with the normal force clipped at the start and pushing at
+ * the end: fs_clipped); FS_OTHER: anything else (a lift-off, a depth or a joint law's slope
+ * changing by more than SWITCH_FACTOR, a normal force going from pushing to clipped in touch).
+ * The clip rules (session 18, helpers antcalls and clipfix): the damped law's force is clipped
+ * at 0 while the point rises faster than its clip speed, and a step across the clip is no
+ * stick/slip step: gymnasium's ant restarted from a t = 0.3 s state (bench_rollout_contacts'
+ * row 34) took such a step whole at ratio 0.675 (FRICTION_FACTOR), two feet 4.5-5 mm in going
+ * from clipped to pushing: +0.383 J in one step, status 20; a pressed 1 kg ball rising at
+ * 1.05-3x its clip speed from 0.2-4 mm in gained up to 0.041 J at 5 ms (6 of 25 runs status 20).
+ * Now neither has a status 20 (2 ball runs still rise, by <= 0.95 mJ).  Cost (model calls over bench_rollout_contacts' 64 starts, 1 s): ant +1.0 %,
+ * humanoid +1.5 % (qpos0 504 -> 517), walker2d +1.2 %. */
 enum { FS_TOUCHDOWN = 1, FS_OTHER = 2 };
 
 static int fs_switched(const fs_fast *q)
@@ -1214,10 +1237,15 @@ static int fs_switched(const fs_fast *q)
     const double *j0 = q->T + q->L.joint, *j1 = q->T1 + q->L.joint;
     int kind = 0;
     for (int c = 0; c < ops->imp->ncontact; c++) {
-        double a = q->T[q->L.contact + 25 * (size_t)c], b = q->T1[q->L.contact + 25 * (size_t)c];
+        const double *e0 = q->T + q->L.contact + 25 * (size_t)c, *e1 = q->T1 + q->L.contact + 25 * (size_t)c;
+        double a = e0[0], b = e1[0];
         if (fs_changed(a, b)) {
             if (!(b > 0.0) || (a > 0.0 && !(b > ONSET_FACTOR * a))) return FS_OTHER;
             kind = FS_TOUCHDOWN;
+        } else if (a > 0.0 && b > 0.0) {      /* the normal force's clip (law.clip_switch) in touch */
+            int za = fs_clipped(e0), zb = fs_clipped(e1);
+            if (za && !zb) kind = FS_TOUCHDOWN;   /* clipped -> pushing: a touch-down but for the name */
+            else if (zb && !za) return FS_OTHER;
         }
     }
     for (int i = 0; i < 2 * ops->nu; i++)

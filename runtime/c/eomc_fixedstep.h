@@ -72,9 +72,9 @@ void eomc_fs_assemble_lanes(eomc_fs_lanes *w, const double *OUT, const double *U
                             double *const *ahead);
 
 /* The outputs of NAME_implicit the fast path reads in a buffer before it asks for the whole
- * buffer (eomc_implicit.terms_whole): the contacts' depths, the joint laws' slopes, the root free
- * joints' columns of N (fs_chart_ratio, fs_onset, fs_switched, the depth limits).  Their indices
- * into idx (room for ncontact + 2 nu + 6 nq nfree), their count returned. */
+ * buffer (eomc_implicit.terms_whole): the contacts' depths and K's diagonals, the joint laws'
+ * slopes, the root free joints' columns of N (fs_chart_ratio, fs_onset, fs_switched, the depth
+ * limits).  Their indices into idx (room for 4 ncontact + 2 nu + 6 nq nfree), their count returned. */
 size_t eomc_fs_tested_outputs(int nq, int nu, const eomc_implicit *imp, size_t *idx);
 
 #endif /* EOMC_FIXEDSTEP_H */

@@ -238,6 +238,49 @@ def test_a_hard_split_does_not_retry_the_half_that_holds_the_onset(ant):
     assert step.stats["nfev"] == 12
 
 
+# gymnasium's ant at t = 0.3 s of bench_rollout_contacts' row 34 (main's implicitfast at 10 ms, 746cef3),
+# as /tmp/antcalls/mkmid.py wrote it (session 18): the state that made the check's energy gain show
+ANT_ROW34 = [-0.02333670302684917, 0.02190979870252646, 0.619478684097169, 0.0012820441066463148, 0.005366895264910438,
+             0.015938992893010314, -0.10732693938198837, 1.1730786248278398, 0.08353857157330076, -1.1841763244136567,
+             0.09916460191546723, -1.1734427374111234, 0.1284022312712572, 1.1690972852624595, -0.14582874836398663,
+             0.1463081947062594, -0.1021696347216593, 0.03183491659718367, 0.005166223430288497, 0.014668060796389073,
+             -0.39430454008553617, -0.6146256811723958, 0.2425459149128986, 0.393003237065087, 0.350264101831983,
+             0.6045471059639096, 0.3925410806201799, -0.7424371657998663]
+
+
+def test_a_step_whose_contact_force_stops_being_clipped_is_no_stick_slip_step(ant):
+    """The ant from ANT_ROW34, one 10 ms step: two feet are 4.5-5 mm in touch and rising faster
+    than the damped law's clip speed, so their normal force is clipped at 0 (the law's slopes K all
+    nil at the step's start) and pushes again at its end (K ~ 5e5).  fs_switched saw depths only, so
+    this was no regime change, and the try (ratio 0.675) was taken whole as a stick/slip step
+    (FRICTION_FACTOR): +0.383 J in one step, status 20 (simulate's energy verdict).  Clipped ->
+    pushing in touch now counts as a touch-down (eomc_fixedstep.c, fs_switched) and the step is
+    bisected: the energy output falls (measured -0.144 J, 12 calls) and the 0.7 s restart ends
+    with status 0."""
+    m = ant
+    x0 = np.array(ANT_ROW34)
+    assert x0.shape == (m.nx,)
+    dt = 0.01
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        step = m.simulate(x0, (0.0, dt), method="implicitfast", dt=dt, t_eval=[0.0, dt], raise_on_failure=False)
+        run = m.simulate(x0, (0.0, 0.7), method="implicitfast", dt=dt, raise_on_failure=False)
+    # the mechanism: contacts in touch at both ends, clipped (K = 0) at the start, pushing at the end
+    clipped_to_pushing = 0
+    ends = [implicit_terms_at(m, x) for x in (x0, step.x[-1])]
+    layout = ends[0][1]
+    for c in range((layout["size"] - layout["contact"]) // 25):      # the contacts' block is the last
+        e0, e1 = (out[layout["contact"] + 25 * c:layout["contact"] + 25 * c + 25] for out, _ in ends)
+        if e0[0] > 0 and e1[0] > 0 and not np.any(e0[7:16]) and np.any(e1[7:16]):
+            clipped_to_pushing += 1
+            assert e0[0] > 4e-3 and np.abs(e1[7:16]).max() > 100          # measured 4.5 and 5.1 mm; 7e2, 8.5e3
+    assert clipped_to_pushing == 2
+    E = step.outputs["energy"]
+    assert step.status == 0 and E[1] < E[0], (step.status, E[1] - E[0])
+    assert step.stats["nfev"] > 2                     # bisected, not taken whole
+    assert run.status == 0, run.message
+
+
 def test_a_thrown_ball_at_2ms_gains_no_energy(tmp_path):
     """A ball thrown onto the floor from 16 starts (it lands, slides with friction, spins; the
     model of test_rollout), 0.6 s at 2 ms: every run ends with status 0, i.e. simulate's energy
@@ -343,6 +386,56 @@ def test_a_ball_landing_fast_from_a_micrometre_in_touch_gains_no_energy(tmp_path
         want = eomc.rollout(m, X0, **kw)
         got = eomc.rollout(m, X0, lanes=True, **kw)
         assert want.ok.all() and want.clean.all() and got.ok.all() and got.clean.all()
+        assert np.array_equal(got.x, want.x)
+
+
+def test_a_pressed_ball_rising_past_its_clip_speed_gains_no_energy(tmp_path):
+    """The ball of BALL 0.2-4 mm in touch and rising at 1.05-3 times the damped law's clip speed
+    1 / (1.5 c) (its normal force clipped at 0), 0.3 s at 5 ms: every run ends with status 0
+    (simulate's energy verdict) and the energy output rises by less than 1 mJ.  Gravity turns the
+    ball within the first step, which starts clipped and ends pushing; fs_switched saw depths only,
+    so such steps were no regime change to the check.  Now clipped -> pushing in touch counts as a
+    touch-down and pushing -> clipped as a regime change (eomc_fixedstep.c, fs_switched).  Before
+    (main at 746cef3) 11 of the 25 runs gained energy, up to 0.041 J, 6 of them with status 20;
+    now 2 rise, by 0.94 and 0.56 mJ (0.5 mm in, 1.05 and 1.2x: a first step taken whole from
+    clipped to pushing and deeper, which passes the residual test; measuring such a try with the
+    start's matrix too mends them, but cost the humanoid's qpos0 run 504 -> 583 calls: not taken).
+    At 10 ms 15 of 25 still end with status 20 (the same whole first step; not asserted here).
+    Rollout in lanes -- whose rows read K's diagonal before the rest of the buffer is copied
+    (eomc_fs_tested_outputs) -- gives the scalar rows bit for bit."""
+    from eomc.compiler.emit.signatures import FUNCTION_ORDER, ON_REQUEST
+    from eomc.compiler.mjcf.model import MjcfModel
+    path = tmp_path / "ball.xml"
+    path.write_text(BALL)
+    functions = tuple(f for f in FUNCTION_ORDER if f not in ON_REQUEST) + ("implicit_batch",)
+    m = eomc.compile(MjcfModel(path), name="ift_clip", cache_dir=tmp_path, progress=False, functions=functions,
+                     cflags="-O2 -std=c99 -fPIC -DEOMC_BATCH_LIBM_TRIG")
+    names, p = list(m.state_names), dict(zip(m.param_names, m.param_defaults))
+    vclip = 1.0 / (1.5 * p["c_ball"])
+    X0 = []
+    for d0 in (2e-4, 5e-4, 1e-3, 2e-3, 4e-3):
+        for f in (1.05, 1.2, 1.5, 2.0, 3.0):
+            x0 = np.zeros(m.nx)
+            x0[names.index("q_root_z")] = 0.05 - d0           # radius 0.05: d0 deep
+            x0[names.index("u_root_vz")] = f * vclip
+            X0.append(x0)
+    X0 = np.array(X0)
+    for dt in (0.005,):
+        gained = 0
+        for x0 in X0:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                res = m.simulate(x0, (0.0, 0.3), method="implicitfast", dt=dt, raise_on_failure=False)
+            assert res.status == 0, (dt, x0, res.message)
+            E = res.outputs["energy"]
+            assert E[0] > 0 and res.outputs["depth_ball"][0] > 0          # in touch, the spring loaded
+            gained += E.max() > E[0] * (1 + 1e-12)
+            assert E.max() - E[0] < 1e-3, (dt, x0, E.max() - E[0])     # measured <= 0.94 mJ
+        assert gained <= 2
+        kw = dict(dt=dt, steps=round(0.3 / dt), method="implicitfast", threads=1, raise_on_failure=False)
+        want = eomc.rollout(m, X0, **kw)
+        got = eomc.rollout(m, X0, lanes=True, **kw)
+        assert want.ok.all() and got.ok.all()
         assert np.array_equal(got.x, want.x)
 
 

@@ -71,6 +71,41 @@ def test_print_memo_fills_each_printers_names(expr, text):
             CPrinter({x: "x[0]"}).doprint(expr)
 
 
+def test_print_memo_prints_each_shape_once():
+    """Expressions that differ only in their symbols' names are printed by SymPy once and filled
+    with each one's names (printer._shaped): the texts equal the uncached printer's, symbols that
+    repeat or trade places included; a symbol with other assumptions, another number or another
+    function is another shape."""
+    from eomc.compiler.emit import printer
+    syms = sm.symbols("a_0:6", real=True)
+    a, b, c, d, e, f = syms
+    pos = sm.Symbol("g", positive=True)
+    exprs = [sm.sin(a) * b + c / (d + a), sm.sin(e) * f + b / (c + e), sm.sin(c) * a + d / (f + c),
+             sm.sin(a) * b + c / (d + b),             # b twice, not a: another pattern
+             sm.sin(a) * b + 2.5 * c / (d + a),       # another number
+             sm.cos(a) * b + c / (d + a),             # another function
+             sm.sin(pos) * b + c / (d + pos),         # other assumptions
+             -(a + b) * c, -(d + e) * f, IMul(a, b) - c, IMul(e, f) - a, sm.Abs(a - b) ** 1.5, sm.Abs(f - e) ** 1.5]
+    names = {s: f"v[{k}]" for k, s in enumerate(syms)} | {pos: "w[0]"}
+    want = [CPrinter(names).doprint(x) for x in exprs]
+    calls = []
+    template = printer._template
+
+    def counted(expr):
+        calls.append(expr)
+        return template(expr)
+    printer._template = counted
+    try:
+        with printer.print_memo():
+            got = [CPrinter(names).doprint(x) for x in exprs]
+            again = [CPrinter(names).doprint(x) for x in exprs]
+    finally:
+        printer._template = template
+    assert got == want and again == want
+    shapes = {printer._shape(x)[0] for x in exprs}
+    assert len(calls) == len(shapes) < len(exprs)
+
+
 def test_print_memo_leaves_name_reading_code_uncached():
     """A _ccode method that reads its arguments' printed names (CPrinter.reads_names, as the pair
     table's parameter array does) is printed as without the memo, under each printer's names."""
