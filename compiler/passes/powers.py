@@ -18,11 +18,6 @@ class _Rewriter:
     def __init__(self, program):
         self.names = Names(program)
         self.pending = []   # hoisted (symbol, expr) waiting to be emitted
-        # Subtrees seen to hold no power to rewrite: returned as they are without a walk.  A
-        # rewrite that changes nothing hoists nothing, so skipping the walk changes no output;
-        # shared subtrees (a guard's nested ground-contact expressions) are walked once, not once
-        # per path to them, which is exponential in their depth.
-        self.clean = set()
 
     def hoist(self, expr):
         if expr.is_Symbol or expr.is_Number:
@@ -45,15 +40,12 @@ class _Rewriter:
             return expr
         if not expr.is_Pow and all(a.is_Atom for a in expr.args):
             return expr             # nothing to rewrite below (most nodes: t1*t2, t3 + t4): no calls
-        if expr in self.clean:
-            return expr
         args = [self.rewrite(a) for a in expr.args]
         if expr.is_Pow and expr.exp.is_Integer and 2 <= abs(int(expr.exp)) <= MAX_EXPONENT:
             n = int(expr.exp)
             prod = self.product(self.hoist(args[0]), abs(n))
             return prod if n > 0 else sm.Pow(prod, -1, evaluate=False)
         if all(a is b for a, b in zip(args, expr.args)):
-            self.clean.add(expr)
             return expr
         return expr.func(*args)
 
