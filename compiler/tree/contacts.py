@@ -276,7 +276,7 @@ def _clearance(poses, i, points):
         by_normal.setdefault(tuple(sm.sympify(x) for x in normal), []).append((height + r, off))
     terms = []
     for n, group in by_normal.items():
-        above = sum((a * b for a, b in zip(n, o)), sm.S.Zero) - sm.Max(*[far for far, _ in group])
+        above = sum((a * b for a, b in zip(n, o)), sm.S.Zero) - _max([far for far, _ in group])
         offs = [[sm.sympify(x) for x in off] for _, off in group]
         if all(x.is_Number for off in offs for x in off):
             lo = [min(float(off[k]) for off in offs) for k in range(3)]
@@ -287,9 +287,28 @@ def _clearance(poses, i, points):
                 above += (w[k] * c if c else 0) - (sm.Abs(w[k]) * e if e else 0)
         else:
             size = sm.sqrt(sum((x * x for x in n), sm.S.Zero))
-            above -= sm.Max(*[size * sm.sqrt(sum((x * x for x in off), sm.S.Zero)) for off in offs])
+            above -= _max([size * sm.sqrt(sum((x * x for x in off), sm.S.Zero)) for off in offs])
         terms.append(above)
     return sm.Min(*terms)
+
+
+# Above this many arguments a clearance's Max is built as it stands (duplicates still dropped).
+MAX_EVALUATED = 16
+
+
+def _max(args):
+    """sm.Max of a body's per-point terms.
+
+    Why not always sm.Max: SymPy looks for arguments that bound others by testing every pair
+    (``_find_localzeros``: factor_terms and assumption queries on each difference), quadratic in
+    their number.  A URDF mesh under ``--ground`` is its hull thinned to 32 points, whose
+    parameter offsets nothing orders: example-robot-data's Go2 spent 536 of its 612 s of
+    generate there under cProfile (session 18).  Up to MAX_EVALUATED arguments the evaluated
+    Max is kept (the C of every case benchmarks/c_identity.py records is unchanged); above it
+    the guard computes every argument's fmax, the same value."""
+    if len(args) <= MAX_EVALUATED:
+        return sm.Max(*args)
+    return sm.Max(*args, evaluate=False)
 
 
 def _energy(bodies, v, poses, gravity, speeds):
