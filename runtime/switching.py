@@ -226,13 +226,8 @@ def verdict(model, a, result, gmax, sw):
         start = ix["sign"] * (x0[ix["state"]] - limit_at)
         over = seen[ncontact:]
         # (a joint that started outside and only came back is warned about at the start)
-        for j in np.flatnonzero(np.isfinite(over) & (over > LIMIT_OVERSHOOT_WIDTHS * e)
-                                & (over > start + e)):
-            lim = sw.limits[j]
-            notes.append(f"joint {lim.joint} went {over[j]:.3g} past its {lim.side} limit "
-                         f"{float(p[lim.param]):g}, more than the {LIMIT_OVERSHOOT_WIDTHS} widths "
-                         f"({LIMIT_OVERSHOOT_WIDTHS * e[j]:.3g}) a limit may give: "
-                         f"{_stiffness_text(model, p, lim.joint)} is too soft for the load it met")
+        past = np.flatnonzero(np.isfinite(over) & (over > LIMIT_OVERSHOOT_WIDTHS * e) & (over > start + e))
+        notes += _overshoot_notes(model, p, sw, past, over, e)
     from .ground_check import below_ground
     notes += below_ground(model, result.t, result.x, p, POINT_PENETRATION, PENETRATION_FRACTION)
     status, extra, said = energy_verdict(model, a, result.outputs, sw)
@@ -363,6 +358,53 @@ def _released(model, p, sw, start, e, outputs):
             f"output does not count (start out of contact to keep the energy check strict)")
 
 
+def _overshoot_notes(model, p, sw, past, over, e):
+    """The notes for limits ``past`` (indices into sw.limits) that gave more than they may.
+
+    Joints whose stiffness is eomc's default by one rule and whose allowed overshoot is the same
+    share one note that states the rule and the remedy once (a limp arm strikes several wrist
+    limits in one run: example-robot-data's UR10 and Panda, four each); a joint with the user's
+    own stiffness, or alone in its group, gets its own."""
+    groups, notes = {}, []
+    for j in past:
+        lim = sw.limits[j]
+        where = f"{over[j]:.3g} past its {lim.side} limit {float(p[lim.param]):g}"
+        allowed = f"{LIMIT_OVERSHOOT_WIDTHS * e[j]:.3g}"
+        rule, k = _default_stiffness(model, p, lim.joint)
+        groups.setdefault((allowed, rule), []).append((lim.joint, where, k))
+    for (allowed, rule), joints in groups.items():
+        if rule is None or len(joints) == 1:
+            for joint, where, _ in joints:
+                notes.append(f"joint {joint} went {where}, more than the {LIMIT_OVERSHOOT_WIDTHS} widths "
+                             f"({allowed}) a limit may give: {_stiffness_text(model, p, joint)} is too soft "
+                             f"for the load it met")
+            continue
+        each = ", ".join(f"{joint} {where} (limit_k_{joint} = {k:.4g})" for joint, where, k in joints)
+        notes.append(f"{len(joints)} joints went more than the {LIMIT_OVERSHOOT_WIDTHS} widths ({allowed}) a "
+                     f"limit may give: {each}; their limit stiffnesses are the default ({rule}, "
+                     f"docs/joint-laws.md) and too soft for the loads they met: raise one with "
+                     f"--param limit_k_<joint>=...")
+    return notes
+
+
+def _default_stiffness(model, p, joint):
+    """(the default's rule, k) when joint's limit stiffness is eomc's default, else (None, None)."""
+    name = f"limit_k_{joint}"
+    names = list(getattr(model, "param_names", ()))
+    if name not in names:
+        return None, None
+    i = names.index(name)
+    k = float(p[i])
+    if k != float(np.asarray(model.param_defaults, dtype=float)[i]):
+        return None, None
+    return _stiffness_rule(model, joint), k
+
+
+def _stiffness_rule(model, joint):
+    return ("from the joint's MuJoCo solref on the inertia it carries" if joint in
+            (model.metadata.get("limit_laws") or {}) else "from the load and inertia the joint carries")
+
+
 def _stiffness_text(model, p, joint):
     """Whose limit stiffness failed: the user's own (a p= / --param value), or eomc's default
     (docs/joint-laws.md states the rule: from the load and inertia the joint carries; MJCF
@@ -376,8 +418,7 @@ def _stiffness_text(model, p, joint):
     default = float(np.asarray(model.param_defaults, dtype=float)[i])
     if k != default:
         return f"your limit stiffness {name} = {k:.4g} (the default is {default:.4g})"
-    rule = ("from the joint's MuJoCo solref on the inertia it carries" if joint in
-            (model.metadata.get("limit_laws") or {}) else "from the load and inertia the joint carries")
+    rule = _stiffness_rule(model, joint)
     return (f"its limit stiffness {name} = {k:.4g} (the default: {rule}, docs/joint-laws.md; raise it with "
             f"--param {name}=...)")
 

@@ -393,3 +393,30 @@ def test_a_start_outside_a_range_keeps_the_energy_verdict_strict(tmp_path):
     with pytest.raises(SimulationError, match=r"the energy rose by [0-9.]+ \(from [0-9.]+\), [0-9.]+ more than the "
                                               r"9[0-9.]+ the start's limit springs held"):
         model.simulate(start, (0, 1.0), method="rk4", dt=0.06)
+
+
+def test_joints_past_their_default_limits_share_one_note_with_the_remedy_once():
+    """Several joints past limits of eomc's default stiffness (a limp arm striking its wrist
+    limits: UR10 and Panda, four each) share one note that names each joint, how far past and
+    its stiffness, and states the rule and the remedy once; a joint with the user's own stiffness
+    keeps its own note (switching._overshoot_notes)."""
+    from types import SimpleNamespace
+    from eomc.runtime.switching import Limit, _overshoot_notes
+    names = ["lo_a", "limit_k_a", "hi_b", "limit_k_b", "hi_c", "limit_k_c"]
+    defaults = np.array([-1.0, 100.0, 2.0, 50.0, 3.0, 7.0])
+    model = SimpleNamespace(param_names=names, param_defaults=defaults, metadata={})
+    sw = SimpleNamespace(limits=[Limit(joint, k, names.index(bound), sign, -1, side) for k, (joint, bound, sign, side)
+                                 in enumerate([("a", "lo_a", -1.0, "lower"), ("b", "hi_b", 1.0, "upper"),
+                                               ("c", "hi_c", 1.0, "upper")])])
+    over, e = np.array([0.05, 0.06, 0.07]), np.full(3, 3e-4)
+    notes = _overshoot_notes(model, defaults, sw, [0, 1, 2], over, e)
+    assert len(notes) == 1
+    assert notes[0].startswith("3 joints went more than the 100 widths (0.03) a limit may give: a 0.05 past its "
+                               "lower limit -1 (limit_k_a = 100), b 0.06 past its upper limit 2 (limit_k_b = 50)")
+    assert notes[0].count("docs/joint-laws.md") == 1 and notes[0].count("--param") == 1
+    user = defaults.copy()
+    user[names.index("limit_k_c")] = 70.0
+    notes = _overshoot_notes(model, user, sw, [0, 1, 2], over, e)
+    assert len(notes) == 2 and notes[0].startswith("2 joints went")
+    assert notes[1].startswith("joint c went 0.07 past its upper limit 3")
+    assert "your limit stiffness limit_k_c = 70" in notes[1]
