@@ -145,6 +145,25 @@ def law_symbols(syms, values, fold, parameters, taken):
     return dict(syms)
 
 
+def _warn_thinned(thinned):
+    """One warning for the meshes whose hulls were thinned to MESH_POINTS points: (where,
+    shortfall in m) each.  A robot's meshes are many (example-robot-data's Go2 under --ground:
+    eleven or more), and one line per mesh buried the build's other messages."""
+    if not thinned:
+        return
+    import warnings
+    from eomc.runtime.errors import EomcWarning
+    if len(thinned) == 1:
+        (where, short), = thinned
+        text = (f"{where}: its mesh's convex hull is thinned to {MESH_POINTS} contact points (a contact may "
+                f"start up to {short * 1e3:.2g} mm late)")
+    else:
+        each = "; ".join(f"{where} ({short * 1e3:.2g} mm)" for where, short in thinned)
+        text = (f"{len(thinned)} meshes' convex hulls are thinned to {MESH_POINTS} contact points each (a contact "
+                f"may start up to {max(short for _, short in thinned) * 1e3:.2g} mm late): {each}")
+    warnings.warn(text, EomcWarning, stacklevel=4)
+
+
 def with_shapes(built, shapes, com_of, fold=False):
     """(built with the shapes' contacts in its tree's loads and their parameters, outputs,
     events).  ``built``: a reader's tree record (``.tree``, ``.parameters``); ``com_of(i)``:
@@ -159,7 +178,7 @@ def with_shapes(built, shapes, com_of, fold=False):
     first = sum(1 for ld in loads if isinstance(ld, ContactLoad))
     parameters = dict(built.parameters)
     taken = {str(s) for s in parameters}
-    outputs, events, seen = {}, {}, set()
+    outputs, events, seen, thinned = {}, {}, set(), []
     for shape in shapes:
         try:
             points, radius, axes = shape_points(shape.kind, shape.size, shape.vertices)
@@ -170,11 +189,7 @@ def with_shapes(built, shapes, com_of, fold=False):
         if shape.kind == "mesh" and len(points) == MESH_POINTS:
             short = hull_shortfall(shape.vertices, points)
             if short > 0:
-                import warnings
-                from eomc.runtime.errors import EomcWarning
-                warnings.warn(f"{shape.where or shape.name}: its mesh's convex hull is thinned to {MESH_POINTS} "
-                              f"contact points (a contact may start up to {short * 1e3:.2g} mm late)", EomcWarning,
-                              stacklevel=3)
+                thinned.append((shape.where or shape.name, short))
         values = {"k": shape.k, "c": shape.c, "mu": shape.mu, "vs": shape.vs}
         spin = {key: value for key, value in (("mut", shape.mut), ("mur", shape.mur)) if value is not None}
         values.update(spin)
@@ -217,6 +232,7 @@ def with_shapes(built, shapes, com_of, fold=False):
                 outputs[f"{what}_{label}"] = ContactValue(j, kind)
             events[f"contact_{label}"] = ContactValue(j, OUTPUT_KINDS.index("depth"))
             events[f"clip_{label}"] = ContactValue(j, CLIP_KIND)
+    _warn_thinned(thinned)
     new = type(built).__new__(type(built))
     new.__dict__.update(built.__dict__)
     new.tree = dataclasses.replace(tree, loads=tuple(loads))

@@ -108,3 +108,24 @@ def test_deepest_point_is_mujocos_distance(built, name):
             assert -dist - 1e-12 <= deepest + slack and deepest <= -dist + 1e-12
         else:
             assert deepest == pytest.approx(-dist, abs=1e-9)
+
+
+def test_thinned_meshes_share_one_warning():
+    """Every mesh thinned to MESH_POINTS points is named in one warning with its shortfall, the
+    largest stated up front (example-robot-data's Go2 under --ground printed eleven lines); one
+    mesh keeps its own sentence."""
+    import warnings
+    from eomc.compiler.contact import geometry
+    from eomc.runtime.errors import EomcWarning
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        geometry._warn_thinned([("go2.urdf:903: link 'RR_calf' <collision>", 7.4e-3),
+                                ("go2.urdf:970: link 'RR_foot' <collision>", 3.1e-3)])
+        geometry._warn_thinned([("a.urdf:5: link 'x' <collision>", 2e-3)])
+        geometry._warn_thinned([])
+    texts = [str(w.message) for w in caught if issubclass(w.category, EomcWarning)]
+    assert texts == [
+        "2 meshes' convex hulls are thinned to 32 contact points each (a contact may start up to 7.4 mm late): "
+        "go2.urdf:903: link 'RR_calf' <collision> (7.4 mm); go2.urdf:970: link 'RR_foot' <collision> (3.1 mm)",
+        "a.urdf:5: link 'x' <collision>: its mesh's convex hull is thinned to 32 contact points (a contact may "
+        "start up to 2 mm late)"]
