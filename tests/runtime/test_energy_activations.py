@@ -17,6 +17,7 @@ pytest.importorskip("mujoco")
 import eomc  # noqa: E402
 from eomc.compiler.mjcf import MjcfModel  # noqa: E402
 from eomc.runtime.switching import ACTIVATIONS_AT_REST, STATUS_ENERGY, PhysicsWarning  # noqa: E402
+from helpers.params import params_with  # noqa: E402
 
 # a limited shoulder, an elbow held by a filtered position servo (its control range holds 0)
 ARM = """<mujoco model="filtered">
@@ -47,20 +48,13 @@ def filtered(tmp_path_factory):
                             progress=False)
 
 
-def _params(model, **values):
-    p = np.array(model.param_defaults)
-    for name, v in values.items():
-        p[model.param_names.index(name)] = v
-    return p
-
-
 def test_the_energy_counts_the_bias_and_says_when_it_holds(filtered):
     model = filtered
     assert "energy" in model.output_names and model.nz == 1 and model.state_names[-1] == "act_hold"
     assert ACTIVATIONS_AT_REST in model.metadata["energy"] and "servos' bias" in model.metadata["energy"]
     x = np.array([0.3, -0.4, 1.0, -2.0, 0.0])
     # the servo's share: kp/2 q² (its bias -kp q at act = 0; MuJoCo's <position>: bias1 = -kp)
-    unsprung = model.outputs(0.0, x, _params(model, bias1_hold=0.0))["energy"]
+    unsprung = model.outputs(0.0, x, params_with(model, bias1_hold=0.0))["energy"]
     assert model.outputs(0.0, x)["energy"] - unsprung == pytest.approx(20.0 * x[1] ** 2 / 2, rel=1e-12)
 
 
@@ -69,7 +63,7 @@ def test_judged_from_activations_at_zero_and_not_judged_otherwise(filtered):
     control) the run fails (status 20); the same run from act = 0.3 is not judged (status 0: the
     servo pushes with its state); tight Radau from act = 0 keeps the energy (the bias counted)."""
     model = filtered
-    p = _params(model, limit_k_shoulder=1e4, limit_c_shoulder=0.0)
+    p = params_with(model, limit_k_shoulder=1e4, limit_c_shoulder=0.0)
     x0 = np.array([0.5, -0.4, 8.0, 0.0, 0.0])
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", PhysicsWarning)
@@ -80,7 +74,7 @@ def test_judged_from_activations_at_zero_and_not_judged_otherwise(filtered):
     assert loose.status == 0 and loose.outputs["energy"].max() > loose.outputs["energy"][0] + 0.1
     with warnings.catch_warnings():     # the default limit is soft: its overshoot's own warning
         warnings.simplefilter("ignore", PhysicsWarning)
-        good = model.simulate(x0, (0, 3), p=_params(model, limit_c_shoulder=0.0), method="radau", rtol=1e-10,
+        good = model.simulate(x0, (0, 3), p=params_with(model, limit_c_shoulder=0.0), method="radau", rtol=1e-10,
                               atol=1e-12)
     E = good.outputs["energy"]
     assert good.status == 0 and good.x[:, 0].max() > 1.0 and E.max() - E[0] < 1e-8 * E[0]

@@ -17,6 +17,7 @@ from eomc.compiler.mjcf.compare import to_mujoco  # noqa: E402
 from eomc.compiler.mjcf.model import load_mjmodel  # noqa: E402
 from eomc.compiler.mjcf.treeir import tree_ir  # noqa: E402
 from eomc.runtime.switching import STATUS_ENERGY, PhysicsWarning, contact_parameter  # noqa: E402
+from helpers.params import undamped  # noqa: E402
 
 XML = """<mujoco model="{name}">
   <option><flag energy="enable"/></option>
@@ -172,17 +173,6 @@ def paired(tmp_path_factory):
     return _paired(tmp_path_factory.mktemp("paired"))
 
 
-def _conservative(model, stiff=None):
-    """Parameters with every contact undamped and frictionless (``stiff``: the pairs' k)."""
-    p = np.array(model.param_defaults)
-    for i, n in enumerate(model.param_names):
-        if n.startswith(("c_", "mu_")):
-            p[i] = 0.0
-        if stiff is not None and n.startswith("k_") and "__" in n:
-            p[i] = stiff
-    return p
-
-
 def _elastic(model, p, out):
     """Σ k δ₊^(5/2) / (5/2) over the ground contacts and the pairs, from their depth outputs."""
     index = {n: i for i, n in enumerate(model.param_names)}
@@ -232,14 +222,14 @@ def test_a_conservative_run_with_springs_and_pairs_keeps_its_energy(paired):
     (the pair's elastic energy counted) to 1e-9 of it; at a hopeless fixed step (RK4 at 2 ms on
     pairs of k = 1e9) the energy created fails the run (status 20)."""
     _, model = paired
-    p = _conservative(model)
+    p = undamped(model)
     res = model.simulate(model.initial_state, (0, 1.5), p=p, method="radau", rtol=1e-10, atol=1e-12)
     E = res.outputs["energy"]
     assert res.status == 0 and res.outputs["depth_lowball__head"].max() > 1e-3
     assert np.abs(E - E[0]).max() < 1e-9 * abs(E[0])
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", PhysicsWarning)
-        bad = model.simulate(model.initial_state, (0, 1.5), p=_conservative(model, 1e9), method="rk4", dt=2e-3,
+        bad = model.simulate(model.initial_state, (0, 1.5), p=undamped(model, 1e9), method="rk4", dt=2e-3,
                              raise_on_failure=False)
     assert bad.status == STATUS_ENERGY and "energy rose" in bad.message
 

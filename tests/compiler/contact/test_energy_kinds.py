@@ -22,6 +22,7 @@ from eomc.compiler.mjcf.compare import to_mujoco  # noqa: E402
 from eomc.compiler.mjcf.model import load_mjmodel, read_model  # noqa: E402
 from eomc.compiler.mjcf.treeir import tree_ir  # noqa: E402
 from eomc.runtime.switching import STATUS_ENERGY, PhysicsWarning  # noqa: E402
+from helpers.params import params_with  # noqa: E402
 
 # no floor: a limited shoulder, an elbow held by a position servo (gear 2), a servo on a fixed
 # tendon over both (its control range holds 0), a motor, in a fluid (the upper arm MuJoCo's
@@ -65,13 +66,6 @@ def servo(tmp_path_factory):
                                   progress=False)
 
 
-def _params(model, **values):
-    p = np.array(model.param_defaults)
-    for name, v in values.items():
-        p[model.param_names.index(name)] = v
-    return p
-
-
 def test_energy_is_mujocos_plus_the_servos_springs(servo):
     """mj_energyPos (gravity) + mj_energyVel (armature included) + kp/2 L² of each servo, L the
     actuator's length (gear·q; the tendon's length): the output to 1e-12, at states past the
@@ -97,7 +91,7 @@ def test_a_conservative_run_keeps_its_energy_and_the_fluid_only_takes_it(servo):
     """No fluid, inside the range: Radau at 1e-11 keeps the energy to 1e-9; in the fluid the
     energy only falls (status 0); through the limit it falls (the limit's damping)."""
     _, model = servo
-    dry = _params(model, fluid_density=0.0, fluid_viscosity=0.0)
+    dry = params_with(model, fluid_density=0.0, fluid_viscosity=0.0)
     x0 = np.array([0.3, -0.4, 0.0, 0.0])
     res = model.simulate(x0, (0, 3), p=dry, method="radau", rtol=1e-11, atol=1e-12)
     E = res.outputs["energy"]
@@ -116,7 +110,7 @@ def test_a_step_that_creates_energy_at_the_limit_fails_the_run(servo):
     """RK4 at 5 ms on an undamped stiff limit (limit_k 1e4, limit_c 0) gains 3.5 J of 20.8 J at
     the impact: status 20 (before, with no energy output, status 0); Radau at 1e-10: no gain."""
     _, model = servo
-    p = _params(model, fluid_density=0.0, fluid_viscosity=0.0, limit_k_shoulder=1e4, limit_c_shoulder=0.0)
+    p = params_with(model, fluid_density=0.0, fluid_viscosity=0.0, limit_k_shoulder=1e4, limit_c_shoulder=0.0)
     x0 = np.array([0.5, -0.4, 4.0, 0.0])
     bad = model.simulate(x0, (0, 3), p=p, method="rk4", dt=5e-3, raise_on_failure=False)
     assert bad.status == STATUS_ENERGY and "energy rose" in bad.message
@@ -128,7 +122,7 @@ def test_a_step_that_creates_energy_at_the_limit_fails_the_run(servo):
 def test_a_negative_fluid_density_is_refused(servo):
     _, model = servo
     with pytest.raises(ValueError, match="fluid_density"):
-        model.simulate(np.zeros(4), (0, 0.1), p=_params(model, fluid_density=-1.0))
+        model.simulate(np.zeros(4), (0, 0.1), p=params_with(model, fluid_density=-1.0))
 
 
 def test_what_still_keeps_the_energy_out(tmp_path):

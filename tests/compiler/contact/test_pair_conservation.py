@@ -24,6 +24,7 @@ import eomc  # noqa: E402
 from eomc.compiler.contact import pairs  # noqa: E402
 from eomc.compiler.mjcf import MjcfModel  # noqa: E402
 from eomc.runtime.switching import STATUS_ENERGY, PhysicsWarning  # noqa: E402
+from helpers.params import undamped  # noqa: E402
 
 # a floor far below: ground contacts, so the model gets its energy output (nothing else
 # is judged without a contact or a limit); its contacts never touch
@@ -59,16 +60,6 @@ def _build(tmp, kind, functions=("rhs", "jac_x", "outputs")):
 @pytest.fixture(scope="module", params=sorted(COUNTED))
 def built(request, tmp_path_factory):
     return request.param, _build(tmp_path_factory.mktemp("conserve"), request.param)
-
-
-def _undamped(model, k=None):
-    p = np.array(model.param_defaults)
-    for i, n in enumerate(model.param_names):
-        if n.startswith(("c_", "mu_")):
-            p[i] = 0.0
-        if k is not None and n.startswith("k_") and "__" in n:
-            p[i] = k
-    return p
 
 
 def _depth(model, x, p):
@@ -136,7 +127,7 @@ def test_the_counted_pairs_force_is_minus_the_gradient_of_their_energy(built):
     # measured: 2e-6 (box-cylinder), 4e-7 (sphere-ellipsoid), 1e-5 (sphere-cylinder) at 150
     # states each: the central difference's rounding over a small force; an energy missing a
     # pair's term or with the wrong power gives O(1)
-    assert _worst_rate(model, _undamped(model)) < 1e-3
+    assert _worst_rate(model, undamped(model)) < 1e-3
 
 
 def test_a_wrong_counted_energy_is_seen(built, monkeypatch, tmp_path):
@@ -146,7 +137,7 @@ def test_a_wrong_counted_energy_is_seen(built, monkeypatch, tmp_path):
     kind, _ = built
     monkeypatch.setattr(contacts, "EXPONENT", 0.75)      # read by _pair_energy only here: the floor is far
     wrong = _build(tmp_path, kind, ("rhs", "outputs"))
-    assert _worst_rate(wrong, _undamped(wrong), n=30) > 1e-2
+    assert _worst_rate(wrong, undamped(wrong), n=30) > 1e-2
 
 
 def test_an_undamped_collision_keeps_its_energy_and_a_created_gain_fails_the_run(built):
@@ -159,7 +150,7 @@ def test_an_undamped_collision_keeps_its_energy_and_a_created_gain_fails_the_run
     x0[9:12] = [0.1, 0.5, 0.2]
     x0[12:15] = [0.0, 0.0, -1.0]          # A's speed (body frame, A unturned), down onto B
     x0[21:24] = [0.5, 0.4, 0.3]           # B spins in place
-    p = _undamped(model)
+    p = undamped(model)
     res = model.simulate(x0, (0, 0.6), p=p, method="radau", rtol=1e-10, atol=1e-12)
     E = res.outputs["energy"]
     depth = np.max([v for n, v in res.outputs.items() if n.startswith("depth_ga__gb")], axis=0)
@@ -167,7 +158,7 @@ def test_an_undamped_collision_keeps_its_energy_and_a_created_gain_fails_the_run
     assert np.abs(E - E[0]).max() < 1e-9 * abs(E[0])
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", PhysicsWarning)
-        bad = model.simulate(x0, (0, 0.6), p=_undamped(model, 1e9), method="rk4", dt=2e-3, raise_on_failure=False)
+        bad = model.simulate(x0, (0, 0.6), p=undamped(model, 1e9), method="rk4", dt=2e-3, raise_on_failure=False)
     assert bad.status == STATUS_ENERGY and "energy rose" in bad.message
 
 
