@@ -379,11 +379,10 @@ def _overshoot_notes(model, p, sw, past, over, e):
                              f"({allowed}) a limit may give: {_stiffness_text(model, p, joint)} is too soft "
                              f"for the load it met")
             continue
-        each = ", ".join(f"{joint} {where} (limit_k_{joint} = {k:.4g})" for joint, where, k in joints)
-        notes.append(f"{len(joints)} joints went more than the {LIMIT_OVERSHOOT_WIDTHS} widths ({allowed}) a "
-                     f"limit may give: {each}; their limit stiffnesses are the default ({rule}, "
-                     f"docs/joint-laws.md) and too soft for the loads they met: raise one with "
-                     f"--param limit_k_<joint>=...")
+        each = ", ".join(f"joint {joint} went {where} (limit_k_{joint} = {k:.4g})" for joint, where, k in joints)
+        notes.append(f"{each}: each more than the {LIMIT_OVERSHOOT_WIDTHS} widths ({allowed}) a limit may give; "
+                     f"their limit stiffnesses are the default ({rule}, docs/joint-laws.md) and too soft for "
+                     f"the loads they met: raise one with --param limit_k_<joint>=...")
     return notes
 
 

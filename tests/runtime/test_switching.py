@@ -411,12 +411,13 @@ def test_joints_past_their_default_limits_share_one_note_with_the_remedy_once():
     over, e = np.array([0.05, 0.06, 0.07]), np.full(3, 3e-4)
     notes = _overshoot_notes(model, defaults, sw, [0, 1, 2], over, e)
     assert len(notes) == 1
-    assert notes[0].startswith("3 joints went more than the 100 widths (0.03) a limit may give: a 0.05 past its "
-                               "lower limit -1 (limit_k_a = 100), b 0.06 past its upper limit 2 (limit_k_b = 50)")
+    assert notes[0].startswith("joint a went 0.05 past its lower limit -1 (limit_k_a = 100), joint b went 0.06 "
+                               "past its upper limit 2 (limit_k_b = 50), joint c went 0.07 past its upper limit 3 "
+                               "(limit_k_c = 7): each more than the 100 widths (0.03) a limit may give; their")
     assert notes[0].count("docs/joint-laws.md") == 1 and notes[0].count("--param") == 1
     user = defaults.copy()
     user[names.index("limit_k_c")] = 70.0
     notes = _overshoot_notes(model, user, sw, [0, 1, 2], over, e)
-    assert len(notes) == 2 and notes[0].startswith("2 joints went")
+    assert len(notes) == 2 and notes[0].startswith("joint a went") and "joint c went" not in notes[0]
     assert notes[1].startswith("joint c went 0.07 past its upper limit 3")
     assert "your limit stiffness limit_k_c = 70" in notes[1]
