@@ -217,9 +217,24 @@ def _describe(eig):
     return ", ".join(f"{(e if abs(e) > 1e-12 * scale else 0.0):.6g}" for e in eig)
 
 
-def _link_inertia(robot, link, notes):
+def _warn_repairs(robot, repairs, notes):
+    """The rounding-level inertia repairs: one link keeps its sentence at its line; several
+    share one warning naming each with its line (icub.urdf: seven links with moments like
+    -1.4e-20 printed seven lines of noise)."""
+    if len(repairs) == 1:
+        link, eig, fixed = repairs[0]
+        _warn(robot, link.line, f"link '{link.name}': principal moments {_describe(eig)} repaired "
+                                f"to {_describe(fixed)} (a rounding-level violation)", notes)
+    elif repairs:
+        each = "; ".join(f"'{link.name}' (line {link.line}): {_describe(eig)} -> {_describe(fixed)}"
+                         for link, eig, fixed in repairs)
+        _warn(robot, robot.line, f"{len(repairs)} links' principal moments miss a physical inertia by a "
+                                 f"rounding-level amount and were repaired: {each}", notes)
+
+
+def _link_inertia(robot, link, repairs):
     """Check one link's inertia: 'ok', 'impossible' (beyond rounding; the caller decides),
-    repairing rounding-level misses in place (with a warning)."""
+    repairing rounding-level misses in place (listed in ``repairs`` for one warning)."""
     if link.mass < 0:
         _fail(robot, link.line, f"link '{link.name}' has a negative mass ({link.mass:g})")
     try:
@@ -242,8 +257,7 @@ def _link_inertia(robot, link, notes):
             order = np.argsort(fixed)
             fixed[order[:2]] += deficit / 2
         link.inertia = fo.matmul(vec, np.diag(fixed), vec.T)
-        _warn(robot, link.line, f"link '{link.name}': principal moments {_describe(eig)} repaired "
-                                f"to {_describe(fixed)} (a rounding-level violation)", notes)
+        repairs.append((link, eig, fixed))        # said by _warn_repairs, all in one warning
         return "ok"
     return "negative" if eig.min() < -tol else "triangle"
 
@@ -346,7 +360,9 @@ def build_tree(robot, floating_base=False, allow_nonphysical_inertia=False):
     beyond rounding, with a warning per link, instead of refusing the file."""
     parent_joint, root = _parents_and_root(robot)
     notes, locked = [], []
-    verdicts = {name: _link_inertia(robot, link, notes) for name, link in robot.links.items()}
+    repairs = []
+    verdicts = {name: _link_inertia(robot, link, repairs) for name, link in robot.links.items()}
+    _warn_repairs(robot, repairs, notes)
     children = {}
     for joint in robot.joints:
         children.setdefault(joint.parent, []).append(joint)

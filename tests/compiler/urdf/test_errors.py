@@ -208,3 +208,24 @@ def test_a_robot_without_links_names_the_files_beside_it(tmp_path):
     message = str(info.value)
     assert message.startswith(f"{path}:2: ") and "has no <link>" in message and "no name" not in message
     assert "ur3_robot.urdf" in message and "ur5_robot.urdf" not in message
+
+
+def test_several_rounding_repairs_share_one_warning(tmp_path):
+    """icub.urdf repairs seven links' moments like -1.4e-20: one warning naming each link with
+    its line, not seven."""
+    text = ARM.replace('ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.0005"',
+                       'ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="-2.5e-22"')
+    start = text.index('<link name="upper">')
+    end = text.index("</link>", start)
+    upper = text[start:end]
+    moments = re.search(r'izz="[^"]*"', upper).group(0)
+    text = text[:start] + upper.replace(moments, 'izz="-1e-21"') + text[end:]
+    path = _write(tmp_path, text)
+    with pytest.warns(EomcWarning) as caught:
+        from_urdf(path)
+    repaired = [str(w.message) for w in caught if "repaired" in str(w.message)]
+    assert len(repaired) == 1, repaired
+    assert "2 links' principal moments" in repaired[0]
+    for link in ("upper", "lower"):
+        line = _line(text, f'<link name="{link}">')
+        assert f"'{link}' (line {line}): " in repaired[0], repaired
