@@ -32,6 +32,9 @@ class BodyContext:
         self.solver_parts = []  # static functions emitted right after the solver's (see jvp_body)
         # NAME_implicit's constant outputs (compiler/tree/emit.implicit_constants; taken by the generator)
         self.constant_stores = None
+        # the body's own near-pointer threshold for its split (emit/split.py's windows: an int, statements of
+        # a run), where it knows better than the formulation (compiler/tree/limbs.py); taken by the generator
+        self.windows = None
 
     @property
     def nx(self):
