@@ -11,8 +11,8 @@ The checks here are the ones about the tree as a whole: one root, no loops,
 inertias that can exist, names that stay distinct as C identifiers, something
 to move.  Errors name the link or joint and its line in the file.  Real files
 (example-robot-data) carry rounding and dummies that Pinocchio accepts, so
-three things are warned about and repaired rather than refused (one line
-each, ``file:line``, naming the link):
+three things are warned about and repaired rather than refused (``file:line``
+naming the link; several links of one kind share one warning naming each with its line):
 
 - principal moments negative or missing the triangle inequality by a rounding
   amount (within 1e-9 of the largest moment): repaired;
