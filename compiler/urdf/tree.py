@@ -217,9 +217,24 @@ def _describe(eig):
     return ", ".join(f"{(e if abs(e) > 1e-12 * scale else 0.0):.6g}" for e in eig)
 
 
-def _link_inertia(robot, link, notes):
+def _warn_repairs(robot, repairs, notes):
+    """The rounding-level inertia repairs: one link keeps its sentence at its line; several
+    share one warning naming each with its line (icub.urdf: seven links with moments like
+    -1.4e-20 printed seven lines of noise)."""
+    if len(repairs) == 1:
+        link, eig, fixed = repairs[0]
+        _warn(robot, link.line, f"link '{link.name}': principal moments {_describe(eig)} repaired "
+                                f"to {_describe(fixed)} (a rounding-level violation)", notes)
+    elif repairs:
+        each = "; ".join(f"'{link.name}' (line {link.line}): {_describe(eig)} -> {_describe(fixed)}"
+                         for link, eig, fixed in repairs)
+        _warn(robot, robot.line, f"{len(repairs)} links' principal moments miss a physical inertia by a "
+                                 f"rounding-level amount and were repaired: {each}", notes)
+
+
+def _link_inertia(robot, link, repairs):
     """Check one link's inertia: 'ok', 'impossible' (beyond rounding; the caller decides),
-    repairing rounding-level misses in place (with a warning)."""
+    repairing rounding-level misses in place (listed in ``repairs`` for one warning)."""
     if link.mass < 0:
         _fail(robot, link.line, f"link '{link.name}' has a negative mass ({link.mass:g})")
     try:
@@ -242,8 +257,7 @@ def _link_inertia(robot, link, notes):
             order = np.argsort(fixed)
             fixed[order[:2]] += deficit / 2
         link.inertia = fo.matmul(vec, np.diag(fixed), vec.T)
-        _warn(robot, link.line, f"link '{link.name}': principal moments {_describe(eig)} repaired "
-                                f"to {_describe(fixed)} (a rounding-level violation)", notes)
+        repairs.append((link, eig, fixed))        # said by _warn_repairs, all in one warning
         return "ok"
     return "negative" if eig.min() < -tol else "triangle"
 
@@ -346,7 +360,9 @@ def build_tree(robot, floating_base=False, allow_nonphysical_inertia=False):
     beyond rounding, with a warning per link, instead of refusing the file."""
     parent_joint, root = _parents_and_root(robot)
     notes, locked = [], []
-    verdicts = {name: _link_inertia(robot, link, notes) for name, link in robot.links.items()}
+    repairs = []
+    verdicts = {name: _link_inertia(robot, link, repairs) for name, link in robot.links.items()}
+    _warn_repairs(robot, repairs, notes)
     children = {}
     for joint in robot.joints:
         children.setdefault(joint.parent, []).append(joint)
@@ -424,6 +440,7 @@ def build_tree(robot, floating_base=False, allow_nonphysical_inertia=False):
     _check_names(robot, joints, bodies)
     tree = Tree(robot.name, robot.path, root, bodies, joints, ground, notes, locked, robot)
     _check_resisted(robot, tree)
+    _check_gimbal_locks(robot, tree, notes)
     return tree
 
 
@@ -491,6 +508,88 @@ def _check_resisted(robot, tree):
                                      f"'{joint.child}' and what it carries have no mass or inertia "
                                      f"that resists it (a mass on the axis it turns about?); its "
                                      f"acceleration would be undefined")
+
+
+GIMBAL_MARGIN = 0.1      # rad: how far past a limit a hit may go (human.urdf: up to 0.07)
+GIMBAL_REMEDY = 0.15     # rad: how far inside the gimbal lock the suggested limit goes
+
+
+def _gimbal_angles(p, j, k):
+    """The angles θ (in (-π, π]) where R(j, θ) k is parallel to p (unit vectors; j the middle
+    joint's axis, p the outer axes in its frame at θ = 0); () where the axes never line up."""
+    out = []
+    a = float(np.dot(j, k))
+    for sign in (1.0, -1.0):
+        target = sign * np.asarray(p, dtype=float)
+        if abs(a - float(np.dot(j, target))) > 1e-9:
+            continue
+        kp, tp = k - a * j, target - a * j
+        if np.linalg.norm(kp) < 1e-9:          # k along j: lined up always, or never
+            continue
+        out.append(float(np.arctan2(np.dot(j, np.cross(kp, tp)), np.dot(kp, tp))))
+    return tuple(out)
+
+
+def _rotation_only(body, point_tol=1e-12):
+    """True when ``body`` has no inertia about its own frame's origin (no mass, or a point
+    mass there): turning it about any axis through that origin moves nothing."""
+    c = body.com
+    inertia = body.inertia + body.mass * (np.dot(c, c) * np.eye(3) - np.outer(c, c))
+    return float(np.max(np.abs(inertia))) <= point_tol
+
+
+def _check_gimbal_locks(robot, tree, notes):
+    """Three hinges P -> J -> K whose axes meet in one point, with no inertia between them
+    (massless links, as URDF writes a ball joint: human.urdf's hips and shoulders), are Euler
+    angles of one rotation: where J's angle turns K's axis onto P's, the two line up and their
+    opposite motion moves nothing, so the mass matrix is singular there (gimbal lock) and a run
+    that reaches it stops.  A soft limit lets a joint a little past it, so a lock within
+    GIMBAL_MARGIN of J's range is in reach.  One warning for all such triples, with the
+    ``--param`` limits that keep a run GIMBAL_REMEDY away (a narrower range than the file's)."""
+    hinge = ("revolute", "continuous")
+    by_child = {j.child: j for j in tree.joints}
+    found = []
+    for J in tree.joints:
+        P = by_child.get(J.parent)
+        if (J.type not in hinge or P is None or P.type not in hinge or J.mimic or P.mimic
+                or np.linalg.norm(J.position) > 1e-12
+                or not _rotation_only(tree.bodies[J.parent]) or not _rotation_only(tree.bodies[J.child])):
+            continue
+        p = fo.matmul(J.rotation.T, np.asarray(P.axis, dtype=float))
+        j = np.asarray(J.axis, dtype=float)
+        for K in tree.joints:
+            if K.parent != J.child or K.type not in hinge or K.mimic or np.linalg.norm(K.position) > 1e-12:
+                continue
+            k = fo.matmul(K.rotation, np.asarray(K.axis, dtype=float))
+            lo, hi = J.limit if (J.type == "revolute" and J.limit is not None) else (-np.inf, np.inf)
+            for base in _gimbal_angles(p, j / np.linalg.norm(j), k / np.linalg.norm(k)):
+                for theta in (base - 2 * np.pi, base, base + 2 * np.pi):
+                    if lo - GIMBAL_MARGIN <= theta <= hi + GIMBAL_MARGIN:
+                        found.append((P, J, K, theta, lo, hi))
+    if not found:
+        return
+    parts, remedy, seen = [], [], set()
+    for P, J, K, theta, lo, hi in found:
+        if abs(theta - hi) <= GIMBAL_MARGIN:
+            where = f"its upper limit {hi:.6g}"
+        elif abs(theta - lo) <= GIMBAL_MARGIN:
+            where = f"its lower limit {lo:.6g}"
+        elif np.isfinite(lo):
+            where = f"inside its range [{lo:.6g}, {hi:.6g}]"
+        else:
+            where = "a continuous joint: no limit keeps it away"
+        parts.append(f"{P.name}, {J.name}, {K.name} at q_{identifier(J.name)} = {theta:.6g} ({where})")
+        if np.isfinite(lo) and (J.name, theta) not in seen:
+            seen.add((J.name, theta))
+            side, value = ("hi", theta - GIMBAL_REMEDY) if theta > 0 else ("lo", theta + GIMBAL_REMEDY)
+            remedy.append(f"limit_{side}_{identifier(J.name)}={value:.4g}")
+    fix = (f"; to keep a run clear of them, narrow the file's ranges: --param {' '.join(remedy)}"
+           if remedy else "")
+    _warn(robot, robot.line, f"{len(found)} hinge triple{'s' if len(found) > 1 else ''} with axes through one "
+                             f"point and no inertia between them (Euler angles of one rotation) "
+                             f"{'reach their' if len(found) > 1 else 'reaches its'} gimbal lock: {'; '.join(parts)}. There the first and last axes line up, nothing "
+                             f"resists their opposite motion (the mass matrix is singular) and a run that gets "
+                             f"there stops; these angles cannot pass it{fix}", notes)
 
 
 def _motion(joint):
