@@ -269,7 +269,10 @@ def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions
     groups, helper_users = formulation.groups, formulation.helper_users
     base = tuple(f for f in fns if f not in ("poses", "energy") and f not in BATCH_FUNCTIONS   # poses: appended below
                  and f not in GENERATED_LIKE)
-    sym = formulation.symbolic(formed, layout, base, outputs, events)
+    # NAME_implicit with its energy slot for the lanes rollout's watch (tree/lower.implicit_layout):
+    # asked only of the formulation that builds NAME_implicit (builds_implicit above)
+    lanes = {"implicit_energy": True} if "implicit_batch" in fns else {}
+    sym = formulation.symbolic(formed, layout, base, outputs, events, **lanes)
     if getattr(sym, "function_groups", None):   # this model's own choice (tree/lower.py: the loop kernel or not)
         groups = sym.function_groups
     if nframe and "outputs" in fns:   # appended to the outputs, after the model's own

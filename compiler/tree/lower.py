@@ -219,8 +219,9 @@ def _shared_loads(rec, exprs):
     return [sm.sympify(e).xreplace(names) for e in reduced]
 
 
-def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=None):
-    """Symbolic (as :func:`~eomc.compiler.emit.symbolic.build_symbolic`) from the recursions."""
+def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=None, implicit_energy=False):
+    """Symbolic (as :func:`~eomc.compiler.emit.symbolic.build_symbolic`) from the recursions.
+    ``implicit_energy``: NAME_implicit ends with the energy output (:func:`implicit_layout`)."""
     rec = Recorder()
     loops = tree_loops(tree)           # a tree closed by constraints: see .constrained
     if loops is not None:
@@ -232,7 +233,10 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         nq, nu = len(tree.coordinates), len(tree.speeds)
         speeds = layout.x[nq:nq + nu]
         v, c = velocities(bodies, rec, speeds)
-        implicit = {"step": step} if "implicit" in functions else None
+        # "energy": NAME_implicit ends with the energy output (implicit_layout) where the model is
+        # built for the lanes rollout (implicit_batch), whose energy watch reads it there: elsewhere
+        # it would cost every fixed step's call (3-4 % of gymnasium humanoid's) for nothing
+        implicit = {"step": step, "energy": implicit_energy} if "implicit" in functions else None
         wants_energy = "outputs" in functions and _asks_energy(outputs)
         guards = []
         # the joint laws' derivatives, one differentiation per shape of law for the analytic
@@ -359,7 +363,11 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         else:   # not computed: a stand-in with M's structure (for the metadata)
             A, b = _structure(tree), [0] * nu
         if implicit is not None:
-            extra += _implicit_results(tree, bodies, formed, layout, A, b, implicit, nq, nu, law_memo, renamed)
+            from ..contact.tree import ENERGY, ENERGY_APART
+            energy = (contact_values.get(ENERGY_APART, contact_values.get(ENERGY))
+                      if wants_energy and implicit["energy"] else None)
+            extra += _implicit_results(tree, bodies, formed, layout, A, b, implicit, nq, nu, law_memo, renamed,
+                                       energy)
     except NotATree as exc:
         raise ModelError(f"recursive formulation: {exc}") from None
     groups = {**TREE_FUNCTION_GROUPS, "rhs": LIMB_GROUPS} if limbs is not None else TREE_FUNCTION_GROUPS
@@ -388,7 +396,8 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
     if analytic is not None and analytic.contacts and ground.get("guards"):
         sym = replace(sym, jac_guards=tuple(ground["guards"]))
     if wants_energy:
-        sym = replace(sym, energy=_energy_text(tree))
+        sym = replace(sym, energy=_energy_text(tree),
+                      implicit_energy=implicit.get("energy_apart", 0) if implicit and implicit["energy"] else None)
     if regressor:
         sym = replace(sym, regressor_bodies=regressor[0], regressor_reference=regressor[1])
     if analytic is not None:
@@ -545,7 +554,7 @@ def _contacts(tree, bodies, rec, v, layout, implicit=None, energy=None, guards=N
                           implicit, energy, guards, ground, second)
 
 
-def implicit_layout(nq, nu, ncontact):
+def implicit_layout(nq, nu, ncontact, energy=False):
     """Offsets into out[] of NAME_implicit (runtime/c/eomc_fixedstep.c reads it so):
 
         M      nu*nu   the mass matrix, row-major (both triangles)
@@ -559,17 +568,26 @@ def implicit_layout(nq, nu, ncontact):
                        (compiler/contact/law.ground_jacobians); the ground contacts, then the
                        body-body pairs' points (their second body's motion relative to the first:
                        compiler/contact/pairs.law_slopes; depth and point 0 where the pair's
-                       broad phase skips it)"""
+                       broad phase skips it)
+        energy 1       (``energy``: built with implicit_batch and an ``energy`` output) that
+                       output at the call's state, less a pairs' table's points (ENERGY_APART):
+                       the fixed step makes the terms at every step's end anyway, so the lanes
+                       rollout's energy watch reads it there instead of calling NAME_energy (19-20 %
+                       of G1's lanes rollout, session 18; eomc_implicit.energy)"""
     out, pos = {}, 0
     for key, size in (("M", nu * nu), ("f", nu), ("qd", nq), ("N", nq * nu), ("screw", 6 * nu),
                       ("joint", 2 * nu), ("contact", 25 * ncontact)):
         out[key] = pos
         pos += size
+    if energy:
+        out["energy"] = pos
+        pos += 1
     out["size"] = pos
     return out
 
 
-def _implicit_results(tree, bodies, formed, layout, A, b, implicit, nq, nu, law_memo=None, renamed=None):
+def _implicit_results(tree, bodies, formed, layout, A, b, implicit, nq, nu, law_memo=None, renamed=None,
+                      energy=None):
     """The ("imp", k) results of NAME_implicit, laid out as :func:`implicit_layout`.
 
     ``law_memo``: :func:`.analytic._law_slopes`' memo: the joint laws' slopes are SymPy's
@@ -582,8 +600,8 @@ def _implicit_results(tree, bodies, formed, layout, A, b, implicit, nq, nu, law_
     law_memo = {} if law_memo is None else law_memo
     contacts = implicit.get("contacts", []) + implicit.get("pairs", [])    # as implicit_metadata lists them
     poses = implicit["poses"]
-    at = implicit_layout(nq, nu, len(contacts))
-    out = {}
+    at = implicit_layout(nq, nu, len(contacts), energy is not None)
+    out = {} if energy is None else {at["energy"]: energy}
     for i in range(nu):
         for j in range(nu):
             out[at["M"] + i * nu + j] = A[max(i, j), min(i, j)]
