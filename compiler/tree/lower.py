@@ -5,8 +5,9 @@ The program's result groups, all computed from one value-numbered trace:
     kin        q' (the kinematics, as Kane's path writes them)
     ud, Dpiv   u' by ABA, and the articulated inertias D_i it divides by (rhs)
     tau        M·u' - f by RNEA at given u' (inverse_dynamics)
-    A, b       M by CRBA and f = -RNEA(u' = 0) (mass_matrix, forcing, and outputs that
-               read u', which the Kane path's code solves A·u' = b for)
+    A, b       M by CRBA and f = -RNEA(u' = 0) (mass_matrix, forcing, and outputs or events
+               that read u', which the Kane path's code solves A·u' = b for; an energy
+               output alone reads none: emit.symbolic.reads_solve)
     sol        M⁻¹·g by the articulated-body recursion, g the symbols ``g_j``
     tq, tu     jac_x: the tangent, along one coordinate / one speed (seed ``sx``), of
                res = -RNEA(u' = W) with W the solved u' (``w_j``); the C code runs it and
@@ -30,7 +31,7 @@ import sympy as sm
 from eomc.runtime.errors import ModelError
 
 from ..emit.reverse import hess_id_requests, refuse_reverse, reverse_requests
-from ..emit.symbolic import TANGENT_MIN_STATES, build_symbolic
+from ..emit.symbolic import TANGENT_MIN_STATES, build_symbolic, reads_solve
 from .aba import aba
 from .chain_loop import chain_loop_plan
 from .limbs import LIMB_GROUPS, core_results, limb_inputs, limb_plan
@@ -344,8 +345,8 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
             extra += entries
         # outputs and events that read u' solve A·u' = b (the Kane path's code)
         need_ab = _NEED_AB - set(dyn) - ({"forcing"} if by_id else set())   # the kernel's, or a call: neither
-        if set(functions) & need_ab or ("outputs" in functions and outputs) or (
-                "events" in functions and events) or (loops and "inverse_dynamics" in functions):
+        if set(functions) & need_ab or ("outputs" in functions and reads_solve(formed, outputs)) or (
+                "events" in functions and reads_solve(formed, events)) or (loops and "inverse_dynamics" in functions):
             if set(functions) & need_ab == {"forcing"} and not (outputs or events or loops):
                 A = _structure(tree)    # forcing alone: CRBA not computed (M from the kernel)
             else:
