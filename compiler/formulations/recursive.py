@@ -15,6 +15,7 @@ from ..ir import count_program
 from ..tree.analytic import kernel_c
 from ..tree.analytic_emit import analytic_body_ops, analytic_jac_id_body, analytic_jac_x_body, has_analytic
 from ..tree.chain_loop import chain_loop_ops, chain_loop_rhs_body
+from ..tree.limbs import limbs_ops, limbs_rhs_body
 from ..tree.constrained import jacobian_symbols
 from ..tree.inverse_derivatives import jac_id_body, jac_id_ops
 from ..tree.second_order import second_order_body, second_order_c, second_order_ops
@@ -97,12 +98,14 @@ class Recursive(Formulation):
             return programs
         return {**programs, "implicit": slopes_into(programs["implicit"], "imp")[0]}
 
-    def symbolic(self, formed, layout, functions, outputs=None, events=None):
-        return build_tree_symbolic(self.tree, formed, layout, functions, outputs, events)
+    def symbolic(self, formed, layout, functions, outputs=None, events=None, implicit_energy=False):
+        return build_tree_symbolic(self.tree, formed, layout, functions, outputs, events, implicit_energy)
 
     def body(self, fn, ctx, prog, sym, layout, nx):
         if fn == "rhs" and sym.chain_loop is not None:
             return chain_loop_rhs_body(ctx, prog, sym.chain_loop)
+        if fn == "rhs" and sym.limbs is not None:
+            return limbs_rhs_body(ctx, prog, sym.limbs)
         if fn == "rhs":
             return tree_rhs_body(ctx, prog, sym.guards)
         if fn in KERNEL_FUNCTIONS and has_dynamics_kernel(prog, sym, fn):
@@ -141,6 +144,8 @@ class Recursive(Formulation):
     def ops(self, fn, prog, sym, nx, nr, npar, nq, nu, solve_in):
         if fn == "rhs" and sym.chain_loop is not None and prog is not None:
             return chain_loop_ops(prog, sym.chain_loop)
+        if fn == "rhs" and sym.limbs is not None and prog is not None:
+            return limbs_ops(prog, sym.limbs)
         if fn == "hess_id" and sym.second_order is not None:
             return second_order_ops(prog, *sym.second_order)
         if fn == "hess_id":      # the sweep once per row, its tangent once per row and column
@@ -236,4 +241,9 @@ class Recursive(Formulation):
             a, b = chain(body_a), chain(body_b)
             entries.append({"name": name, "pair": True,
                             "speeds": [s for s in b if s not in a] + [~s for s in a if s not in b]})
-        return {"contacts": entries, "parents": parent, "layout": implicit_layout(nq, nu, len(entries))}
+        out = {"contacts": entries, "parents": parent,
+               "layout": implicit_layout(nq, nu, len(entries), sym.implicit_energy is not None)}
+        if sym.implicit_energy:     # the energy slot leaves these pair points out (tree/contacts.ENERGY_APART)
+            first = len(contacts)
+            out["energy_apart"] = list(range(first, first + sym.implicit_energy))
+        return out

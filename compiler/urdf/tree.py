@@ -11,8 +11,8 @@ The checks here are the ones about the tree as a whole: one root, no loops,
 inertias that can exist, names that stay distinct as C identifiers, something
 to move.  Errors name the link or joint and its line in the file.  Real files
 (example-robot-data) carry rounding and dummies that Pinocchio accepts, so
-three things are warned about and repaired rather than refused (one line
-each, ``file:line``, naming the link):
+three things are warned about and repaired rather than refused (``file:line``
+naming the link; several links of one kind share one warning naming each with its line):
 
 - principal moments negative or missing the triangle inequality by a rounding
   amount (within 1e-9 of the largest moment): repaired;
@@ -262,7 +262,7 @@ def _link_inertia(robot, link, repairs):
     return "negative" if eig.min() < -tol else "triangle"
 
 
-def _check_body(robot, body, joint, verdicts, notes, allow_nonphysical=False):
+def _check_body(robot, body, joint, verdicts, notes, kept, allow_nonphysical=False):
     """A moving body's combined inertia must be positive semi-definite; links whose own
     tensors are impossible are accepted (with a warning) when the combination is possible.
     ``allow_nonphysical`` (the user's opt-in, ``allow_nonphysical_inertia``): a negative
@@ -292,17 +292,34 @@ def _check_body(robot, body, joint, verdicts, notes, allow_nonphysical=False):
             _fail(robot, link.line, f"link '{name}': its inertia tensor is not physically possible "
                                     f"(principal moments {_describe(leig)}: they must be non-negative "
                                     f"and obey the triangle inequality; a negative one beyond rounding "
-                                    f"makes the mass matrix indefinite; allow_nonphysical_inertia=True / "
+                                    f"can make the mass matrix indefinite; allow_nonphysical_inertia=True / "
                                     f"--allow-nonphysical-inertia builds it anyway, as Pinocchio does)")
-        if verdicts[name] == "triangle" and len(body.links) == 1:
-            what = "kept as given (as Pinocchio does): the dynamics need only a non-negative tensor"
-        else:
-            what = (f"kept as given: it is welded into body '{body.name}' (moved by joint "
-                    f"'{joint.name}'), whose combined inertia is possible")
-        _warn(robot, link.line, f"link '{name}': its inertia tensor is not physically possible "
-                                f"(principal moments {_describe(leig)} miss the triangle inequality"
-                                f"{' or are negative' if verdicts[name] == 'negative' else ''}); {what}",
-              notes)
+        own = verdicts[name] == "triangle" and len(body.links) == 1
+        kept.append((link, leig, verdicts[name], None if own else (body.name, joint.name)))
+
+
+def _warn_kept(robot, kept, notes):
+    """The impossible link tensors kept as given (a triangle miss on a body of its own, or any
+    miss welded into a possible body): one link keeps its sentence at its line; several share
+    one warning naming each link with its line (HyQ, Allegro, ANYmal C: five lines each)."""
+    def miss(leig, verdict):
+        return (f"principal moments {_describe(leig)} miss the triangle inequality"
+                f"{' or are negative' if verdict == 'negative' else ''}")
+    if len(kept) == 1:
+        link, leig, verdict, into = kept[0]
+        what = ("kept as given (as Pinocchio does): the dynamics need only a non-negative tensor" if into is None
+                else f"kept as given: it is welded into body '{into[0]}' (moved by joint '{into[1]}'), whose "
+                     f"combined inertia is possible")
+        _warn(robot, link.line, f"link '{link.name}': its inertia tensor is not physically possible "
+                                f"({miss(leig, verdict)}); {what}", notes)
+    elif kept:
+        each = "; ".join(f"link '{link.name}' (line {link.line}): {miss(leig, verdict)}"
+                         + ("" if into is None else f", with the links welded to it" if into[0] == link.name
+                            else f", welded into body '{into[0]}'")
+                         for link, leig, verdict, into in kept)
+        _warn(robot, robot.line, f"{len(kept)} links' inertia tensors are not physically possible and are kept "
+                                 f"as given, as Pinocchio does (the dynamics need only each moving body's "
+                                 f"combined tensor to be possible, and these are): {each}", notes)
 
 
 def _check_names(robot, joints, bodies):
@@ -427,16 +444,24 @@ def build_tree(robot, floating_base=False, allow_nonphysical_inertia=False):
                                  f"to let the whole robot move")
     _order_parents_first(joints)
     bodies = {j.child: bodies[j.child] for j in joints}
+    kept = []
     for joint in joints:
         body = bodies[joint.child]
         _combine(body, items[body.name])
-        _check_body(robot, body, joint, verdicts, notes, allow_nonphysical_inertia)
-    for name in ground:      # welded to the world: they move nothing, so only say so
-        if verdicts.get(name, "ok") != "ok":
-            _warn(robot, robot.links[name].line, f"link '{name}': its inertia tensor is not physically "
-                                                 f"possible (principal moments "
-                                                 f"{_describe(_moments(robot.links[name].inertia)[0])}); "
-                                                 f"ignored: it is welded to the ground", notes)
+        _check_body(robot, body, joint, verdicts, notes, kept, allow_nonphysical_inertia)
+    _warn_kept(robot, kept, notes)
+    grounded = [robot.links[name] for name in ground if verdicts.get(name, "ok") != "ok"]
+    if len(grounded) == 1:   # welded to the world: they move nothing, so only say so
+        link = grounded[0]
+        _warn(robot, link.line, f"link '{link.name}': its inertia tensor is not physically possible "
+                                f"(principal moments {_describe(_moments(link.inertia)[0])}); ignored: it is "
+                                f"welded to the ground", notes)
+    elif grounded:
+        each = "; ".join(f"link '{link.name}' (line {link.line}): {_describe(_moments(link.inertia)[0])}"
+                         for link in grounded)
+        _warn(robot, robot.line, f"{len(grounded)} links welded to the ground have inertia tensors that are not "
+                                 f"physically possible (principal moments below); ignored: they move nothing: "
+                                 f"{each}", notes)
     _check_names(robot, joints, bodies)
     tree = Tree(robot.name, robot.path, root, bodies, joints, ground, notes, locked, robot)
     _check_resisted(robot, tree)

@@ -229,3 +229,30 @@ def test_several_rounding_repairs_share_one_warning(tmp_path):
     for link in ("upper", "lower"):
         line = _line(text, f'<link name="{link}">')
         assert f"'{link}' (line {line}): " in repaired[0], repaired
+
+
+def test_several_kept_tensors_share_one_warning(tmp_path):
+    """Two moving links whose tensors miss the triangle inequality (kept as given, as Pinocchio
+    does; HyQ's feet, Allegro's fingers: five lines each) and two links welded to the ground
+    with impossible tensors (ANYmal C's cameras): one warning each kind, naming every link
+    with its line."""
+    bad = 'ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.05"'
+    text = ARM.replace('ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.0005"', bad)
+    text = text.replace('ixx="0.02" ixy="0" ixz="0" iyy="0.02" iyz="0" izz="0.001"',
+                        'ixx="0.02" ixy="0" ixz="0" iyy="0.02" iyz="0" izz="0.1"')
+    cams = "".join(f'  <joint name="cam{k}_joint" type="fixed"><parent link="base"/><child link="cam{k}"/>'
+                   f'</joint>\n  <link name="cam{k}"><inertial><mass value="0.1"/><inertia ixx="1e-6" ixy="0" '
+                   f'ixz="0" iyy="1e-6" iyz="0" izz="1e-3"/></inertial></link>\n' for k in (1, 2))
+    text = text.replace("</robot>", cams + "</robot>")
+    path = _write(tmp_path, text)
+    with pytest.warns(EomcWarning) as caught:
+        from_urdf(path)
+    messages = [str(w.message) for w in caught]
+    kept = [m for m in messages if "kept as given" in m]
+    assert len(kept) == 1 and "2 links' inertia tensors" in kept[0], messages
+    for name in ("upper", "lower"):
+        line = _line(text, f'<link name="{name}">')
+        assert f"link '{name}' (line {line}): " in kept[0], kept
+    grounded = [m for m in messages if "welded to the ground" in m]
+    assert len(grounded) == 1 and "2 links welded to the ground" in grounded[0], messages
+    assert "link 'cam1' (line" in grounded[0] and "link 'cam2' (line" in grounded[0]
