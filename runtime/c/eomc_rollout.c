@@ -479,7 +479,8 @@ static void *lanes_fiber_worker(rollout_job *job)
     const eomc_implicit *imp = job->opt->implicit;
     const int nfree = imp->nfree > 0 ? imp->nfree : 0;
     const size_t cols = (size_t)job->m->nx + (size_t)job->m->ninput + 2 * job->out_len;
-    const size_t nhot_max = 4 * (size_t)imp->ncontact + 2 * (size_t)job->m->nu + 6 * (size_t)job->m->nq * (size_t)nfree;
+    const size_t nhot_max = 4 * (size_t)imp->ncontact + 2 * (size_t)job->m->nu + 6 * (size_t)job->m->nq * (size_t)nfree
+                            + 1;
     fiber *f = (fiber *)calloc((size_t)L, sizeof(fiber));
     double *mem = (double *)malloc(cols * (size_t)L * sizeof(double) + 64);
     double *buf = mem ? (double *)(((size_t)mem + 63) & ~(size_t)63) : NULL;   /* the columns: aligned */
