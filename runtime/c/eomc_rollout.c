@@ -13,7 +13,7 @@
  * rows share one thread, each group ends with a tail of rounds with fewer rows than lanes, so
  * groups grow with the rows while 16 of them still spread over 16 cores.  Measured (one-process
  * A/B, process CPU, against rows refilled from one shared counter): ant 64 rows in 8 groups of 8
- * +7 to +9 %; 512 rows in groups of 8 +10 %, in 16 groups of 32 +3 %. */
+ * +5 to +9 %; 512 rows in groups of 8 +10 %, in 16 groups of 32 +3 %. */
 #define EOMC_ROLLOUT_GROUPS 16
 
 typedef struct rollout_job {
