@@ -189,7 +189,7 @@ def _lowered_bodies(tree, layout, rec, memo=None):
     for load in loads:
         ren = _rename(layout, memo, f"a load on body {tree.bodies[load.body].name}", absent)
         renamed.append(([ren(x) for x in load.moment], [ren(x) for x in load.force]))
-    shared = _shared_loads(rec, [e for n, f in renamed for e in n + f])
+    shared = rec.shared(e for n, f in renamed for e in n + f)
     for k, load in enumerate(loads):
         i = load.body
         ren = _rename(layout, memo, f"a load on body {tree.bodies[i].name}", absent)
@@ -204,20 +204,6 @@ def _lowered_bodies(tree, layout, rec, memo=None):
         bodies[i].fext = [old[k] + v for k, v in enumerate(n + f)]
     gravity = [_rename(layout, memo, "gravity", absent)(g) for g in tree.gravity]
     return bodies, gravity
-
-
-def _shared_loads(rec, exprs):
-    """The loads' components with their common subexpressions named once (a joint's law
-    appears in its child's and its parent's load, and in every component of each); loads
-    without function calls (plain inputs, springs) are left as they are."""
-    if not any(isinstance(e, sm.Expr) and e.atoms(sm.Function) - e.atoms(sm.core.function.AppliedUndef)
-               for e in exprs):
-        return exprs
-    repl, reduced = sm.cse(exprs, symbols=sm.numbered_symbols("_load"), order="none")
-    names = {}
-    for s, e in repl:
-        names[s] = rec.let(e.xreplace(names))
-    return [sm.sympify(e).xreplace(names) for e in reduced]
 
 
 def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=None, implicit_energy=False):
