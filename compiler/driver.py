@@ -296,7 +296,8 @@ def _warn_singular_start(model, x0):
     if why:
         warnings.warn(EomcWarning(
             f"{model.name}: at the default start {why[2:]}; a simulation from there will be very stiff "
-            f"or stop (give those bodies inertia, or start elsewhere)"), stacklevel=caller_level())
+            f"or stop" + ("" if "--param" in why else " (give those bodies inertia, or start elsewhere)")),
+            stacklevel=caller_level())
 
 
 def _warn_moved_start(name, moved):

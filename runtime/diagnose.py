@@ -44,4 +44,61 @@ def singular_direction(model, t, x, p=None, r=None, semidefinite=False):
     parts = [f"{speeds[k]} ({v[k]:.2g})" for k in np.argsort(-np.abs(v)) if abs(v[k]) > 0.05][:4]
     return f"; nothing resists motion along {', '.join(parts)} (M's smallest eigenvalue " \
            f"{w[0]:.3g}, largest {w[-1]:.3g}): a body with no (or next to no) mass or inertia about those " \
-           f"joints, or joint axes lined up (gimbal lock)"
+           f"joints, or joint axes lined up (gimbal lock)" + _inertia_remedy(model, t, x, p, r, w[-1])
+
+
+def _inertia_remedy(model, t, x, p, r, largest):
+    """'; body 'head' (1.34 kg) has no rotational inertia: ... --param Ixx_head=...' when giving
+    point-mass bodies (mass, inertia parameters at rounding level: icub.urdf's head, 1.34 kg
+    with inertia 1e-35 on a three-hinge neck) the inertia of a uniform sphere as large as their
+    centre of mass is far from their joint lifts M's smallest eigenvalue out of rounding; ''
+    otherwise.  One mass_matrix call per candidate body (at most 16), then one for them all."""
+    names = list(getattr(model, "param_names", ()))
+    if not names or not (p is None or isinstance(p, (np.ndarray, list, tuple))):
+        return ""
+    base = np.array(model.param_defaults if p is None else p, dtype=float)[:len(names)]
+    if base.shape != (len(names),):
+        return ""
+    index = {n: k for k, n in enumerate(names)}
+    candidates = []
+    for name in names:
+        body = name[4:] if name.startswith("Ixx_") else None
+        keys = [f"I{a}_{body}" for a in ("xx", "yy", "zz", "xy", "xz", "yz")] if body else []
+        if not body or f"m_{body}" not in index or any(k not in index for k in keys[:3]):
+            continue
+        mass = base[index[f"m_{body}"]]
+        c = [base[index[k]] for k in (f"cx_{body}", f"cy_{body}", f"cz_{body}") if k in index]
+        radius = float(np.linalg.norm(c)) if c else 0.0
+        radius = radius if radius > 1e-3 else 0.05
+        moment = 0.4 * mass * radius ** 2
+        if mass > 0 and max(abs(base[index[k]]) for k in keys if k in index) <= 1e-9 * moment:
+            candidates.append((body, mass, radius, moment, [k for k in keys if k in index]))
+    if not candidates or len(candidates) > 16:
+        return ""
+
+    def lifted(chosen):
+        q = base.copy()
+        for _, _, _, moment, keys in chosen:
+            for k in keys:
+                q[index[k]] = moment if k[1] == k[2] else 0.0
+        try:
+            M = np.asarray(model.mass_matrix(t, x, p=q, r=r), dtype=float)
+            w = np.linalg.eigvalsh((M + M.T) / 2)
+        except Exception:      # a diagnosis must never hide the original error
+            return None
+        return w[0] if np.all(np.isfinite(w)) and w[0] > 1e-10 * w[-1] else None
+
+    for chosen in [[c] for c in candidates] + ([candidates] if len(candidates) > 1 else []):
+        smallest = lifted(chosen)
+        if smallest is not None:
+            break
+    else:
+        return ""
+    what = ", ".join(f"'{body}' ({mass:.3g} kg)" for body, mass, _, _, _ in chosen)
+    sizes = ", ".join(f"{radius:.3g} m" for _, _, radius, _, _ in chosen)
+    params = " ".join(f"{k}={moment if k[1] == k[2] else 0:.3g}" for _, _, _, moment, keys in chosen
+                      for k in keys)
+    return (f"; bod{'ies' if len(chosen) > 1 else 'y'} {what} {'have' if len(chosen) > 1 else 'has'} no "
+            f"rotational inertia in the file; given some (e.g. a uniform sphere's about the centre of mass, "
+            f"radius {sizes}: the centre's distance from the joint), that motion meets inertia (M's smallest "
+            f"eigenvalue then {smallest:.3g}): --param {params}")

@@ -12,12 +12,13 @@ second of every cold build.  Every mistake raises :class:`ModelFileError` as
 ``file:line: message`` naming the link or joint.
 """
 import logging
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from eomc.runtime.errors import ModelFileError
+from eomc.runtime.errors import EomcWarning, ModelFileError
 
 from ..multibody.model import Collision
 from eomc.compiler import fixed_order as fo
@@ -84,9 +85,27 @@ def _strict_xml(path):
     root = tree.getroot()
     if root.tag != "robot":
         _fail(path, root.sourceline, f"the top element is <{root.tag}>, not <robot>: not a URDF file")
+    if root.find("link") is None:
+        _fail(path, root.sourceline, _empty_robot(path))
     if not (root.get("name") or "").strip():
-        _fail(path, root.sourceline, "<robot> has no name attribute (URDF requires <robot name=\"...\">)")
+        # urdfdom refuses it; a robot is still fully described without its name: the file's
+        # stem names the model, as `--name` would
+        warnings.warn(f"{path}:{root.sourceline}: <robot> has no name attribute (URDF requires "
+                      f"<robot name=\"...\">): the model is named '{path.stem}' after the file",
+                      EomcWarning, stacklevel=3)
     return root
+
+
+def _empty_robot(path):
+    """The refusal of a <robot> without a <link>, naming the URDF files next to it that share
+    its stem (example-robot-data's ur3.urdf is an empty xacro output beside ur3_robot.urdf)."""
+    try:
+        siblings = sorted(p.name for p in path.parent.glob(f"{path.stem}*.urdf")
+                          if p != path and p.is_file())
+    except OSError:
+        siblings = []
+    hint = f"; the URDF files next to it: {', '.join(siblings[:6])}" if siblings else ""
+    return f"<robot> has no <link>: the file describes no robot, nothing to build{hint}"
 
 
 def _check_structure(path, root):
@@ -239,7 +258,8 @@ def read_urdf(path, parser="lxml"):
     if parser == "lxml":
         links = {e.get("name"): _link_element(e) for e in root.findall("link")}
         joints = [_joint(path, _JointElement(e), e.sourceline) for e in root.findall("joint")]
-        return UrdfRobot(root.get("name"), path, links, joints, root.sourceline, root)
+        name = (root.get("name") or "").strip() or path.stem
+        return UrdfRobot(name, path, links, joints, root.sourceline, root)
     robot = _parse(path).robot
     links = {link.name: _link(link, lines.get(("link", link.name))) for link in robot.links}
     for element in root.findall("link"):       # collision geometry: read from the document either way

@@ -11,8 +11,8 @@ The checks here are the ones about the tree as a whole: one root, no loops,
 inertias that can exist, names that stay distinct as C identifiers, something
 to move.  Errors name the link or joint and its line in the file.  Real files
 (example-robot-data) carry rounding and dummies that Pinocchio accepts, so
-three things are warned about and repaired rather than refused (one line
-each, ``file:line``, naming the link):
+three things are warned about and repaired rather than refused (``file:line``
+naming the link; several links of one kind share one warning naming each with its line):
 
 - principal moments negative or missing the triangle inequality by a rounding
   amount (within 1e-9 of the largest moment): repaired;
@@ -217,9 +217,24 @@ def _describe(eig):
     return ", ".join(f"{(e if abs(e) > 1e-12 * scale else 0.0):.6g}" for e in eig)
 
 
-def _link_inertia(robot, link, notes):
+def _warn_repairs(robot, repairs, notes):
+    """The rounding-level inertia repairs: one link keeps its sentence at its line; several
+    share one warning naming each with its line (icub.urdf: seven links with moments like
+    -1.4e-20 printed seven lines of noise)."""
+    if len(repairs) == 1:
+        link, eig, fixed = repairs[0]
+        _warn(robot, link.line, f"link '{link.name}': principal moments {_describe(eig)} repaired "
+                                f"to {_describe(fixed)} (a rounding-level violation)", notes)
+    elif repairs:
+        each = "; ".join(f"'{link.name}' (line {link.line}): {_describe(eig)} -> {_describe(fixed)}"
+                         for link, eig, fixed in repairs)
+        _warn(robot, robot.line, f"{len(repairs)} links' principal moments miss a physical inertia by a "
+                                 f"rounding-level amount and were repaired: {each}", notes)
+
+
+def _link_inertia(robot, link, repairs):
     """Check one link's inertia: 'ok', 'impossible' (beyond rounding; the caller decides),
-    repairing rounding-level misses in place (with a warning)."""
+    repairing rounding-level misses in place (listed in ``repairs`` for one warning)."""
     if link.mass < 0:
         _fail(robot, link.line, f"link '{link.name}' has a negative mass ({link.mass:g})")
     try:
@@ -242,13 +257,12 @@ def _link_inertia(robot, link, notes):
             order = np.argsort(fixed)
             fixed[order[:2]] += deficit / 2
         link.inertia = fo.matmul(vec, np.diag(fixed), vec.T)
-        _warn(robot, link.line, f"link '{link.name}': principal moments {_describe(eig)} repaired "
-                                f"to {_describe(fixed)} (a rounding-level violation)", notes)
+        repairs.append((link, eig, fixed))        # said by _warn_repairs, all in one warning
         return "ok"
     return "negative" if eig.min() < -tol else "triangle"
 
 
-def _check_body(robot, body, joint, verdicts, notes, allow_nonphysical=False):
+def _check_body(robot, body, joint, verdicts, notes, kept, allow_nonphysical=False):
     """A moving body's combined inertia must be positive semi-definite; links whose own
     tensors are impossible are accepted (with a warning) when the combination is possible.
     ``allow_nonphysical`` (the user's opt-in, ``allow_nonphysical_inertia``): a negative
@@ -278,17 +292,34 @@ def _check_body(robot, body, joint, verdicts, notes, allow_nonphysical=False):
             _fail(robot, link.line, f"link '{name}': its inertia tensor is not physically possible "
                                     f"(principal moments {_describe(leig)}: they must be non-negative "
                                     f"and obey the triangle inequality; a negative one beyond rounding "
-                                    f"makes the mass matrix indefinite; allow_nonphysical_inertia=True / "
+                                    f"can make the mass matrix indefinite; allow_nonphysical_inertia=True / "
                                     f"--allow-nonphysical-inertia builds it anyway, as Pinocchio does)")
-        if verdicts[name] == "triangle" and len(body.links) == 1:
-            what = "kept as given (as Pinocchio does): the dynamics need only a non-negative tensor"
-        else:
-            what = (f"kept as given: it is welded into body '{body.name}' (moved by joint "
-                    f"'{joint.name}'), whose combined inertia is possible")
-        _warn(robot, link.line, f"link '{name}': its inertia tensor is not physically possible "
-                                f"(principal moments {_describe(leig)} miss the triangle inequality"
-                                f"{' or are negative' if verdicts[name] == 'negative' else ''}); {what}",
-              notes)
+        own = verdicts[name] == "triangle" and len(body.links) == 1
+        kept.append((link, leig, verdicts[name], None if own else (body.name, joint.name)))
+
+
+def _warn_kept(robot, kept, notes):
+    """The impossible link tensors kept as given (a triangle miss on a body of its own, or any
+    miss welded into a possible body): one link keeps its sentence at its line; several share
+    one warning naming each link with its line (HyQ, Allegro, ANYmal C: five lines each)."""
+    def miss(leig, verdict):
+        return (f"principal moments {_describe(leig)} miss the triangle inequality"
+                f"{' or are negative' if verdict == 'negative' else ''}")
+    if len(kept) == 1:
+        link, leig, verdict, into = kept[0]
+        what = ("kept as given (as Pinocchio does): the dynamics need only a non-negative tensor" if into is None
+                else f"kept as given: it is welded into body '{into[0]}' (moved by joint '{into[1]}'), whose "
+                     f"combined inertia is possible")
+        _warn(robot, link.line, f"link '{link.name}': its inertia tensor is not physically possible "
+                                f"({miss(leig, verdict)}); {what}", notes)
+    elif kept:
+        each = "; ".join(f"link '{link.name}' (line {link.line}): {miss(leig, verdict)}"
+                         + ("" if into is None else f", with the links welded to it" if into[0] == link.name
+                            else f", welded into body '{into[0]}'")
+                         for link, leig, verdict, into in kept)
+        _warn(robot, robot.line, f"{len(kept)} links' inertia tensors are not physically possible and are kept "
+                                 f"as given, as Pinocchio does (the dynamics need only each moving body's "
+                                 f"combined tensor to be possible, and these are): {each}", notes)
 
 
 def _check_names(robot, joints, bodies):
@@ -346,7 +377,9 @@ def build_tree(robot, floating_base=False, allow_nonphysical_inertia=False):
     beyond rounding, with a warning per link, instead of refusing the file."""
     parent_joint, root = _parents_and_root(robot)
     notes, locked = [], []
-    verdicts = {name: _link_inertia(robot, link, notes) for name, link in robot.links.items()}
+    repairs = []
+    verdicts = {name: _link_inertia(robot, link, repairs) for name, link in robot.links.items()}
+    _warn_repairs(robot, repairs, notes)
     children = {}
     for joint in robot.joints:
         children.setdefault(joint.parent, []).append(joint)
@@ -411,19 +444,28 @@ def build_tree(robot, floating_base=False, allow_nonphysical_inertia=False):
                                  f"to let the whole robot move")
     _order_parents_first(joints)
     bodies = {j.child: bodies[j.child] for j in joints}
+    kept = []
     for joint in joints:
         body = bodies[joint.child]
         _combine(body, items[body.name])
-        _check_body(robot, body, joint, verdicts, notes, allow_nonphysical_inertia)
-    for name in ground:      # welded to the world: they move nothing, so only say so
-        if verdicts.get(name, "ok") != "ok":
-            _warn(robot, robot.links[name].line, f"link '{name}': its inertia tensor is not physically "
-                                                 f"possible (principal moments "
-                                                 f"{_describe(_moments(robot.links[name].inertia)[0])}); "
-                                                 f"ignored: it is welded to the ground", notes)
+        _check_body(robot, body, joint, verdicts, notes, kept, allow_nonphysical_inertia)
+    _warn_kept(robot, kept, notes)
+    grounded = [robot.links[name] for name in ground if verdicts.get(name, "ok") != "ok"]
+    if len(grounded) == 1:   # welded to the world: they move nothing, so only say so
+        link = grounded[0]
+        _warn(robot, link.line, f"link '{link.name}': its inertia tensor is not physically possible "
+                                f"(principal moments {_describe(_moments(link.inertia)[0])}); ignored: it is "
+                                f"welded to the ground", notes)
+    elif grounded:
+        each = "; ".join(f"link '{link.name}' (line {link.line}): {_describe(_moments(link.inertia)[0])}"
+                         for link in grounded)
+        _warn(robot, robot.line, f"{len(grounded)} links welded to the ground have inertia tensors that are not "
+                                 f"physically possible (principal moments below); ignored: they move nothing: "
+                                 f"{each}", notes)
     _check_names(robot, joints, bodies)
     tree = Tree(robot.name, robot.path, root, bodies, joints, ground, notes, locked, robot)
     _check_resisted(robot, tree)
+    _check_gimbal_locks(robot, tree, notes)
     return tree
 
 
@@ -491,6 +533,88 @@ def _check_resisted(robot, tree):
                                      f"'{joint.child}' and what it carries have no mass or inertia "
                                      f"that resists it (a mass on the axis it turns about?); its "
                                      f"acceleration would be undefined")
+
+
+GIMBAL_MARGIN = 0.1      # rad: how far past a limit a hit may go (human.urdf: up to 0.07)
+GIMBAL_REMEDY = 0.15     # rad: how far inside the gimbal lock the suggested limit goes
+
+
+def _gimbal_angles(p, j, k):
+    """The angles θ (in (-π, π]) where R(j, θ) k is parallel to p (unit vectors; j the middle
+    joint's axis, p the outer axes in its frame at θ = 0); () where the axes never line up."""
+    out = []
+    a = float(np.dot(j, k))
+    for sign in (1.0, -1.0):
+        target = sign * np.asarray(p, dtype=float)
+        if abs(a - float(np.dot(j, target))) > 1e-9:
+            continue
+        kp, tp = k - a * j, target - a * j
+        if np.linalg.norm(kp) < 1e-9:          # k along j: lined up always, or never
+            continue
+        out.append(float(np.arctan2(np.dot(j, np.cross(kp, tp)), np.dot(kp, tp))))
+    return tuple(out)
+
+
+def _rotation_only(body, point_tol=1e-12):
+    """True when ``body`` has no inertia about its own frame's origin (no mass, or a point
+    mass there): turning it about any axis through that origin moves nothing."""
+    c = body.com
+    inertia = body.inertia + body.mass * (np.dot(c, c) * np.eye(3) - np.outer(c, c))
+    return float(np.max(np.abs(inertia))) <= point_tol
+
+
+def _check_gimbal_locks(robot, tree, notes):
+    """Three hinges P -> J -> K whose axes meet in one point, with no inertia between them
+    (massless links, as URDF writes a ball joint: human.urdf's hips and shoulders), are Euler
+    angles of one rotation: where J's angle turns K's axis onto P's, the two line up and their
+    opposite motion moves nothing, so the mass matrix is singular there (gimbal lock) and a run
+    that reaches it stops.  A soft limit lets a joint a little past it, so a lock within
+    GIMBAL_MARGIN of J's range is in reach.  One warning for all such triples, with the
+    ``--param`` limits that keep a run GIMBAL_REMEDY away (a narrower range than the file's)."""
+    hinge = ("revolute", "continuous")
+    by_child = {j.child: j for j in tree.joints}
+    found = []
+    for J in tree.joints:
+        P = by_child.get(J.parent)
+        if (J.type not in hinge or P is None or P.type not in hinge or J.mimic or P.mimic
+                or np.linalg.norm(J.position) > 1e-12
+                or not _rotation_only(tree.bodies[J.parent]) or not _rotation_only(tree.bodies[J.child])):
+            continue
+        p = fo.matmul(J.rotation.T, np.asarray(P.axis, dtype=float))
+        j = np.asarray(J.axis, dtype=float)
+        for K in tree.joints:
+            if K.parent != J.child or K.type not in hinge or K.mimic or np.linalg.norm(K.position) > 1e-12:
+                continue
+            k = fo.matmul(K.rotation, np.asarray(K.axis, dtype=float))
+            lo, hi = J.limit if (J.type == "revolute" and J.limit is not None) else (-np.inf, np.inf)
+            for base in _gimbal_angles(p, j / np.linalg.norm(j), k / np.linalg.norm(k)):
+                for theta in (base - 2 * np.pi, base, base + 2 * np.pi):
+                    if lo - GIMBAL_MARGIN <= theta <= hi + GIMBAL_MARGIN:
+                        found.append((P, J, K, theta, lo, hi))
+    if not found:
+        return
+    parts, remedy, seen = [], [], set()
+    for P, J, K, theta, lo, hi in found:
+        if abs(theta - hi) <= GIMBAL_MARGIN:
+            where = f"its upper limit {hi:.6g}"
+        elif abs(theta - lo) <= GIMBAL_MARGIN:
+            where = f"its lower limit {lo:.6g}"
+        elif np.isfinite(lo):
+            where = f"inside its range [{lo:.6g}, {hi:.6g}]"
+        else:
+            where = "a continuous joint: no limit keeps it away"
+        parts.append(f"{P.name}, {J.name}, {K.name} at q_{identifier(J.name)} = {theta:.6g} ({where})")
+        if np.isfinite(lo) and (J.name, theta) not in seen:
+            seen.add((J.name, theta))
+            side, value = ("hi", theta - GIMBAL_REMEDY) if theta > 0 else ("lo", theta + GIMBAL_REMEDY)
+            remedy.append(f"limit_{side}_{identifier(J.name)}={value:.4g}")
+    fix = (f"; to keep a run clear of them, narrow the file's ranges: --param {' '.join(remedy)}"
+           if remedy else "")
+    _warn(robot, robot.line, f"{len(found)} hinge triple{'s' if len(found) > 1 else ''} with axes through one "
+                             f"point and no inertia between them (Euler angles of one rotation) "
+                             f"{'reach their' if len(found) > 1 else 'reaches its'} gimbal lock: {'; '.join(parts)}. There the first and last axes line up, nothing "
+                             f"resists their opposite motion (the mass matrix is singular) and a run that gets "
+                             f"there stops; these angles cannot pass it{fix}", notes)
 
 
 def _motion(joint):

@@ -167,3 +167,54 @@ def test_a_constrained_system_builds_without_the_singular_start_warning(tmp_path
         model = eomc.compile(str(example), progress=False, cache_dir=str(tmp_path / "cache"))
     assert "mass_matrix" in model.functions
     assert not [w for w in record if issubclass(w.category, EomcWarning) and "at the default start" in str(w.message)]
+
+
+NECK = """<?xml version="1.0"?>
+<robot name="neck">
+  <link name="chest">
+    <inertial><mass value="5"/><inertia ixx="0.1" ixy="0" ixz="0" iyy="0.1" iyz="0" izz="0.1"/></inertial>
+  </link>
+  <joint name="neck_roll" type="revolute">
+    <origin xyz="0 0 0.2"/><axis xyz="1 0 0"/><parent link="chest"/><child link="neck_2"/>
+    <dynamics damping="1" friction="0"/><limit effort="20" velocity="100" lower="-1.2" upper="1.0"/>
+  </joint>
+  <link name="neck_2">
+    <inertial><mass value="0.1"/><inertia ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"/></inertial>
+  </link>
+  <joint name="neck_yaw" type="revolute">
+    <origin xyz="0 0 0"/><axis xyz="0 0 1"/><parent link="neck_2"/><child link="head"/>
+    <dynamics damping="1" friction="0"/><limit effort="20" velocity="100" lower="-0.96" upper="0.96"/>
+  </joint>
+  <link name="head">
+    <inertial><origin xyz="0.0185 0 0.1108"/><mass value="1.33687"/>
+      <inertia ixx="0" ixy="0" ixz="2.40741e-35" iyy="0" iyz="0" izz="0"/></inertial>
+  </link>
+</robot>
+"""
+
+
+def test_a_point_mass_head_is_named_with_the_inertia_that_lets_the_run_finish(tmp_path):
+    """icub.urdf's head (1.34 kg, inertia 1e-35, on neck joints whose axes meet): turning about
+    the line through the joint and the head's centre moves nothing.  The build warning and the
+    stopped run name the body and the --param inertia that resists it; with it the run finishes."""
+    import re
+    import warnings
+    from eomc.errors import EomcWarning
+    path = tmp_path / "neck.urdf"
+    path.write_text(NECK)
+    with warnings.catch_warnings(record=True) as record:
+        warnings.simplefilter("always")
+        model = eomc.compile(path, "neck", progress=False, cache_dir=str(tmp_path / "cache"))
+    start = [str(w.message) for w in record if issubclass(w.category, EomcWarning)
+             and "at the default start" in str(w.message)]
+    assert len(start) == 1 and "body 'head' (1.34 kg) has no rotational inertia" in start[0], start
+    assert "give those bodies inertia" not in start[0]         # the concrete remedy replaces it
+    suggested = dict(re.findall(r"(I\w+_head)=([-\d.e]+)", start[0].split("--param", 1)[1]))
+    assert set(suggested) == {"Ixx_head", "Iyy_head", "Izz_head", "Ixz_head"}
+    assert float(suggested["Ixx_head"]) == pytest.approx(0.4 * 1.33687 * (0.0185 ** 2 + 0.1108 ** 2), rel=1e-2)
+    with pytest.raises(SimulationError, match="body 'head'.*--param Ixx_head="):
+        model.simulate({}, (0.0, 1.0))
+    p = dict(zip(model.param_names, model.param_defaults))
+    p.update({k: float(v) for k, v in suggested.items()})
+    result = model.simulate({}, (0.0, 1.0), p=p)
+    assert result.t[-1] == pytest.approx(1.0)

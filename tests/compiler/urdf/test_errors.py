@@ -178,3 +178,81 @@ def test_cli_prints_one_line(tmp_path):
     assert out.returncode == 1
     lines = out.stderr.strip().splitlines()
     assert len(lines) == 1 and re.search(rf"{re.escape(str(path))}:\d+: joint 'elbow' has unknown type", lines[0])
+
+
+def test_a_nameless_robot_builds_named_after_its_file(tmp_path):
+    """urdfdom refuses <robot> without a name; the robot is fully described without it, so it
+    builds with a warning and the file's stem names the model (as --name would)."""
+    text = ARM.replace('<robot name="arm">', "<robot>")
+    path = _write(tmp_path, text, name="two_link.urdf")
+    with pytest.warns(EomcWarning) as caught:
+        system = from_urdf(path)
+    messages = [str(w.message) for w in caught if issubclass(w.category, EomcWarning)]
+    assert any(m.startswith(f"{path}:{_line(text, '<robot>')}:") and "no name attribute" in m
+               and "named 'two_link' after the file" in m for m in messages), messages
+    assert [str(q) for q in system.q] == ["q_shoulder(t)", "q_elbow(t)"]
+    from eomc.compiler.urdf.reader import read_urdf
+    with pytest.warns(EomcWarning):
+        assert read_urdf(path).name == "two_link"
+
+
+def test_a_robot_without_links_names_the_files_beside_it(tmp_path):
+    """example-robot-data's ur3.urdf is an empty xacro output (no name, no link) next to
+    ur3_robot.urdf: the refusal says the file describes no robot and names its neighbours."""
+    empty = '<?xml version="1.0"?>\n<robot xmlns:xacro="http://wiki.ros.org/xacro">\n  <!-- nothing -->\n</robot>\n'
+    path = _write(tmp_path, empty, name="ur3.urdf")
+    _write(tmp_path, ARM, name="ur3_robot.urdf")
+    _write(tmp_path, ARM, name="ur5_robot.urdf")
+    with pytest.raises(ModelFileError) as info:
+        from_urdf(path)
+    message = str(info.value)
+    assert message.startswith(f"{path}:2: ") and "has no <link>" in message and "no name" not in message
+    assert "ur3_robot.urdf" in message and "ur5_robot.urdf" not in message
+
+
+def test_several_rounding_repairs_share_one_warning(tmp_path):
+    """icub.urdf repairs seven links' moments like -1.4e-20: one warning naming each link with
+    its line, not seven."""
+    text = ARM.replace('ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.0005"',
+                       'ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="-2.5e-22"')
+    start = text.index('<link name="upper">')
+    end = text.index("</link>", start)
+    upper = text[start:end]
+    moments = re.search(r'izz="[^"]*"', upper).group(0)
+    text = text[:start] + upper.replace(moments, 'izz="-1e-21"') + text[end:]
+    path = _write(tmp_path, text)
+    with pytest.warns(EomcWarning) as caught:
+        from_urdf(path)
+    repaired = [str(w.message) for w in caught if "repaired" in str(w.message)]
+    assert len(repaired) == 1, repaired
+    assert "2 links' principal moments" in repaired[0]
+    for link in ("upper", "lower"):
+        line = _line(text, f'<link name="{link}">')
+        assert f"'{link}' (line {line}): " in repaired[0], repaired
+
+
+def test_several_kept_tensors_share_one_warning(tmp_path):
+    """Two moving links whose tensors miss the triangle inequality (kept as given, as Pinocchio
+    does; HyQ's feet, Allegro's fingers: five lines each) and two links welded to the ground
+    with impossible tensors (ANYmal C's cameras): one warning each kind, naming every link
+    with its line."""
+    bad = 'ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.05"'
+    text = ARM.replace('ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.0005"', bad)
+    text = text.replace('ixx="0.02" ixy="0" ixz="0" iyy="0.02" iyz="0" izz="0.001"',
+                        'ixx="0.02" ixy="0" ixz="0" iyy="0.02" iyz="0" izz="0.1"')
+    cams = "".join(f'  <joint name="cam{k}_joint" type="fixed"><parent link="base"/><child link="cam{k}"/>'
+                   f'</joint>\n  <link name="cam{k}"><inertial><mass value="0.1"/><inertia ixx="1e-6" ixy="0" '
+                   f'ixz="0" iyy="1e-6" iyz="0" izz="1e-3"/></inertial></link>\n' for k in (1, 2))
+    text = text.replace("</robot>", cams + "</robot>")
+    path = _write(tmp_path, text)
+    with pytest.warns(EomcWarning) as caught:
+        from_urdf(path)
+    messages = [str(w.message) for w in caught]
+    kept = [m for m in messages if "kept as given" in m]
+    assert len(kept) == 1 and "2 links' inertia tensors" in kept[0], messages
+    for name in ("upper", "lower"):
+        line = _line(text, f'<link name="{name}">')
+        assert f"link '{name}' (line {line}): " in kept[0], kept
+    grounded = [m for m in messages if "welded to the ground" in m]
+    assert len(grounded) == 1 and "2 links welded to the ground" in grounded[0], messages
+    assert "link 'cam1' (line" in grounded[0] and "link 'cam2' (line" in grounded[0]
