@@ -127,7 +127,12 @@ def _agree(called, inline, bounded=False):
     pressed = (out[:, depths] > 0).mean(axis=0)
     # every point pressed in some state (and apart in others) but the table's own sample points
     # (table__cube_0-43: its corners, edges' midpoints and face points, far from where the cube goes)
+    # and the cube's edges' midpoints and face points (table__cube_52-87: pressed only with an edge
+    # or a face nearly flat on the table, which these random turns rarely make shallow -- 3 of 12
+    # midpoints and 12 of 24 face points never in the 187 states; the routine computes them as it
+    # does the corners, with other constants, and test_pair_guards' states press each of them)
     far = {names.index(f"depth_table__cube_{i}") for i in range(pairs.BOX_POINTS)}
+    far |= {names.index(f"depth_table__cube_{pairs.BOX_POINTS + i}") for i in range(8, pairs.BOX_POINTS)}
     assert all(p > 0 for i, p in zip(depths, pressed) if i not in far) and pressed.max() < 1, [(names[i], p) for i, p in zip(depths, pressed)]
     a, b = called.rhs_many(0.0, X), inline.rhs_many(0.0, X)
     assert np.all(np.isfinite(b))
