@@ -22,6 +22,7 @@ first-state accelerations are compared with Pinocchio's.
     python benchmarks/bench_free_joint.py go2 solo12
 """
 import os
+import shutil
 import sys
 import tempfile
 from pathlib import Path
@@ -39,6 +40,10 @@ ROBOTS = {"g1": "g1_description/urdf/g1_29dof_rev_1_0.urdf", "talos": "talos_dat
           "go2": "go2_description/urdf/go2.urdf", "solo12": "solo12"}
 KINDS = ("euler", "quaternion", "pin", "mujoco")
 REPEAT = 11
+# each eomc library is timed as this many file copies, each with its own harness, and a repeat's
+# sample is the copies' median: identical copies of a big rhs run up to 2.4x apart by where the
+# file lands in physical memory (session 18, report-freebase.md), a draw per file
+COPIES = 3
 CORE = 0          # session 8's helpers pin by task (bench_urdf's robots run on core 1)
 # issue 31's time-per-operation target compares G1 and Talos with this fixed-base arm, timed in
 # the same repeats and harness (its rhs alone: no peer row)
@@ -105,8 +110,8 @@ def main(names):
                 _write(files[kind], states[kind], head=[float(v) for v in models[kind].param_defaults])
             _write(files["pin"], states["pin"])
             _write(files["mujoco"], states["mujoco"])
-            cmds = {k: [str(eomc_harness(models[k], models[k].directory, tmp)), str(files[k]), str(NSTATES),
-                        str(NCALLS)] for k in ("euler", "quaternion")}
+            cmds = {k: _copies(models[k], tmp / f"copies_{name}_{k}", [str(files[k]), str(NSTATES), str(NCALLS)])
+                    for k in ("euler", "quaternion")}
             cmds["pin"] = [str(pin_exe), str(pin_model), str(files["pin"]), str(NSTATES), str(NCALLS)]
             cmds["mujoco"] = [str(mj_exe), str(xml), str(files["mujoco"]), str(NSTATES), str(NCALLS)]
             robots.append((name, models, ref, mj, cmds))
@@ -120,19 +125,26 @@ def main(names):
             ref_states.append(np.concatenate([rng.uniform(-np.pi, np.pi, ref_model.nq), rng.normal(size=ref_model.nu)]))
         ref_file = tmp / f"{ref_name}.bin"
         _write(ref_file, ref_states, head=[float(v) for v in ref_model.param_defaults])
-        ref_cmd = [str(eomc_harness(ref_model, ref_model.directory, tmp)), str(ref_file), str(NSTATES), str(NCALLS)]
+        ref_cmd = _copies(ref_model, tmp / f"copies_{ref_name}", [str(ref_file), str(NSTATES), str(NCALLS)])
         ref_ns = []
         samples = {(r[0], k): [] for r in robots for k in KINDS}
+        copy_ns = {}        # per eomc library: per repeat, each copy's ns
         firsts = {}
         for rep in range(REPEAT):          # interleaved, the order rotated every repeat
-            ref_ns.append(_timed(ref_cmd)[0])
+            ref_ns.append(_timed_copies(ref_cmd, copy_ns.setdefault(ref_name, []))[0])
             for name, models, ref, mj, cmds in robots:
                 order = KINDS[rep % len(KINDS):] + KINDS[:rep % len(KINDS)]
                 for key in order:
-                    ns, first = _timed(cmds[key])
+                    ns, first = (_timed_copies(cmds[key], copy_ns.setdefault((name, key), []))
+                                 if key in ("euler", "quaternion") else _timed(cmds[key]))
                     samples[name, key].append(ns)
                     firsts[name, key] = first
             print(f"repeat {rep + 1}/{REPEAT}", flush=True)
+        for key, runs in copy_ns.items():
+            per_copy = np.median(np.array(runs), axis=0)
+            label = key if isinstance(key, str) else f"{key[0]} {key[1]}"
+            checks.append(f"{label}: median ns of each of its {COPIES} library copies "
+                          + ", ".join(f"{v:.0f}" for v in per_copy))
         ref_ops = sum(int(v) for v in ref_model.metadata["op_counts"]["rhs"].values())
         ref_per_op = float(np.median(ref_ns)) / ref_ops
         for name, models, ref, mj, cmds in robots:
@@ -175,6 +187,9 @@ def main(names):
                f"pinned to core {CORE}; medians of {REPEAT} interleaved repeats (order rotated) of {NCALLS} calls "
                f"over {NSTATES} random states (the same states, converted, for every tool); ratios: median of "
                "the per-repeat ratios",
+               f"each eomc library timed as {COPIES} file copies with a harness each (identical copies of a big "
+               "rhs run up to 2.4x apart by their physical placement, a draw per file: session 18); an eomc "
+               "repeat's sample is the median of its copies' times, and each copy's median is listed below",
                f"mujoco {mujoco.__version__}, pin {pin.__version__}; Pinocchio harness g++ -O3 -DNDEBUG from the "
                f"wheel's headers ({pin_build:.0f} s wall to compile, or a cached build); eomc libraries (default "
                f"formulation: recursive here) built with eomc's default flags for this machine ({lib_flags}; "
@@ -188,6 +203,25 @@ def main(names):
                *checks])
     write_results("free_joint", header + "\n" + table + "\n", csv_rows=rows, csv_headers=headers, keep_notes=True)
     return 0
+
+
+def _copies(model, root, args):
+    """COPIES harness commands, each calling its own file copy of ``model``'s library."""
+    out = []
+    for k in range(COPIES):
+        d = root / str(k)
+        d.mkdir(parents=True)
+        for f in [Path(model.directory) / f"lib{model.name}.so", *Path(model.directory).glob("*.h")]:
+            shutil.copy(f, d)
+        out.append([str(eomc_harness(model, d, d)), *args])
+    return out
+
+
+def _timed_copies(cmds, runs):
+    """(median ns over the copies, the first copy's first-state output); appends each copy's ns to ``runs``."""
+    got = [_timed(c) for c in cmds]
+    runs.append([ns for ns, _ in got])
+    return float(np.median([ns for ns, _ in got])), got[0][1]
 
 
 if __name__ == "__main__":

@@ -72,9 +72,12 @@ def generator_switches():
     off by default since session 13), held only when on; ``ROOT_DOTS`` off: no root frame and root
     dots in hess_id (same module, on by default since session 18), held only when off.  ``CHAIN_LOOP_MIN_LINKS``: the repeated
     chain's length from which the rhs is looped (compiler/tree/chain_loop.py), held only when not
-    its default."""
+    its default.  ``SEED_PAIRS`` off: Kane's jvp tangent as differentiated (compiler/emit/
+    seed_pairs.py), held only when off.  ``LIMB_MIN_BODIES``: the twin limbs' bodies from which the
+    rhs calls limb routines (compiler/tree/limbs.py), held only when not its default."""
     from ..contact import pairs
-    from ..tree import chain_loop, second_order
+    from ..emit import seed_pairs
+    from ..tree import chain_loop, limbs, second_order
     switches = {"inline_narrow": bool(pairs.INLINE_NARROW)}
     if pairs.LAW_ROUTINES:
         switches["law_routines"] = True
@@ -94,6 +97,10 @@ def generator_switches():
         switches["hess_no_root_dots"] = True
     if chain_loop.CHAIN_LOOP_MIN_LINKS != chain_loop.CHAIN_LOOP_MIN_LINKS_DEFAULT:
         switches["chain_loop_min_links"] = chain_loop.CHAIN_LOOP_MIN_LINKS
+    if not seed_pairs.SEED_PAIRS:
+        switches["no_seed_pairs"] = True
+    if limbs.LIMB_MIN_BODIES != limbs.LIMB_MIN_BODIES_DEFAULT:
+        switches["limb_min_bodies"] = limbs.LIMB_MIN_BODIES
     return switches
 
 

@@ -6,6 +6,7 @@ the templates only glue the pieces together.
 import re
 
 from ..ir import c_names, symbols_of
+from . import seed_pairs
 from .printer import CPrinter
 from .split import split_body
 from .signatures import SIGNATURES
@@ -32,6 +33,9 @@ class BodyContext:
         self.solver_parts = []  # static functions emitted right after the solver's (see jvp_body)
         # NAME_implicit's constant outputs (compiler/tree/emit.implicit_constants; taken by the generator)
         self.constant_stores = None
+        # the body's own near-pointer threshold for its split (emit/split.py's windows: an int, statements of
+        # a run), where it knows better than the formulation (compiler/tree/limbs.py); taken by the generator
+        self.windows = None
 
     @property
     def nx(self):
@@ -494,7 +498,10 @@ def jvp_body(ctx, program, W, seeds, nx, npar, blocks, more=False):
     residual's tangent along d's state part (the looped jac_x's tangent programs,
     ``blocks``, with the seed array pointing at the direction) or, for few states, the
     unrolled columns G times it, plus the parameter columns of d's nonzero parameter
-    entries (:func:`parameter_directions`), and one solve.  J itself is never formed.
+    entries (:func:`parameter_directions`), and one solve.  J itself is never formed.  The
+    tangent's entries that depend on two seeds with opposite coefficients (the n-link cart's
+    mass-matrix pairs) are written as the coefficient times the seeds' difference
+    (:mod:`.seed_pairs`: fewer products, the tangent being bound by its multiplications).
 
     ``dirs``: k rows of nx + nparam (state part, then parameter part); ``out``: k rows of nx.
 
@@ -540,6 +547,9 @@ def jvp_body(ctx, program, W, seeds, nx, npar, blocks, more=False):
         for group, _, _ in blocks:
             gvals = program.result_exprs(group)
             inner = needed_assignments(stage3, gvals.values())
+            if seed_pairs.SEED_PAIRS:   # two-seed entries as a coefficient times a seed difference
+                inner = needed_assignments(seed_pairs.seed_pairs(inner, seeds, dict(before + stage2)),
+                                           gvals.values())
             body += ["{"] + [line[len(IND):] if line.startswith(IND) else line
                              for line in temps(program, pr, inner)]
             op = "=" if first else "+="

@@ -493,6 +493,8 @@ def _generate_c(formed, name, *, parameters, inputs, outputs, functions, fold_pa
         if consts is not None:      # NAME_implicit: its constant outputs apart (tree/emit.implicit_constants)
             body = [line for line in body if line not in consts[0]]
         near = formulation.restrict_scratch(fn)     # split.WINDOW_MIN: the scalar code only, not the lanes twin
+        if ctx.windows is not None and near:        # the body's own threshold (tree/limbs.py)
+            near, ctx.windows = ctx.windows, None
         lines, parts = split_body(body, f"{name}_{fn}_part", restrict=formulation.restrict_scratch(fn), windows=near)
         if lean_attribute(fn, lines) and len(lines) > FOLD_MIN:   # a long body left between guard blocks
             lines, parts = split_body(body, f"{name}_{fn}_part", restrict=formulation.restrict_scratch(fn),

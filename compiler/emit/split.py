@@ -314,7 +314,7 @@ def _split_run(lines, start, end, base, scratch, slots, restrict=False, block_at
     if any(_reads(expr)[2] for _, _, lvalue, expr in stmts if lvalue != BLOCK):
         return None                  # reads a name a sub-function would not see
     indent = stmts[0][0]
-    windows = windows and len(stmts) >= WINDOW_MIN
+    windows = windows and len(stmts) >= (WINDOW_MIN if windows is True else windows)   # an int: its own threshold
     chunks = _chunks(stmts)
     where = {name: c for c, chunk in enumerate(chunks) for _, name, _, _ in chunk if name}
     last, outside = {}, {}           # temp -> last chunk reading it; earlier temps read

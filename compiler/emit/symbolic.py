@@ -94,6 +94,7 @@ class Symbolic:
     implicit_pairs: tuple = ()       # NAME_implicit's body-body pair points after the ground's: (name, body a, body b)
     jac_guards: tuple = ()           # the analytic jac_x's: the exports with each point's world force, K and C
     chain_loop: object = None        # recursive: the rhs as loops over a repeated chain (compiler/tree/chain_loop.py)
+    limbs: object = None             # recursive: the rhs with routines per limb shape (compiler/tree/limbs.py)
     mass_inputs: tuple = ()          # recursive, a plan with contacts: the an[] entries mass_matrix and jac_r read (tree/lower.contact_mass_inputs)
     input_solve: int = 0             # recursive: jac_r solves M by NAME_msolve, this many columns a block (compiler/tree/input_jacobian.py)
 
@@ -187,7 +188,7 @@ def _dynamics(formed, layout):
 
 
 def build_symbolic(formed, layout, functions, outputs=None, events=None, *, dynamics=None,
-                   prelude=None, function_groups=None, helper_users=HELPER_USERS):
+                   prelude=None, function_groups=None, helper_users=HELPER_USERS, extra_inputs=()):
     """The unoptimized program holding the result groups ``functions`` need.
 
     ``dynamics``: (A, b) already in slot symbols, instead of the formed system's
@@ -280,7 +281,7 @@ def build_symbolic(formed, layout, functions, outputs=None, events=None, *, dyna
         derivatives.append(("con", layout.x, "dcon"))
     if "con" in groups:
         res += [(("con", i), e) for i, e in enumerate(hol + vel)]
-    inputs = (layout.t,) + layout.x + layout.p + layout.r + W + UD + seeds + reverse_inputs
+    inputs = (layout.t,) + layout.x + layout.p + layout.r + W + UD + seeds + reverse_inputs + tuple(extra_inputs)
     if prelude is None:
         program = Program(inputs=inputs, results=tuple(res))
     else:

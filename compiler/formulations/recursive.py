@@ -15,6 +15,7 @@ from ..ir import count_program
 from ..tree.analytic import kernel_c
 from ..tree.analytic_emit import analytic_body_ops, analytic_jac_id_body, analytic_jac_x_body, has_analytic
 from ..tree.chain_loop import chain_loop_ops, chain_loop_rhs_body
+from ..tree.limbs import limbs_ops, limbs_rhs_body
 from ..tree.constrained import jacobian_symbols
 from ..tree.inverse_derivatives import jac_id_body, jac_id_ops
 from ..tree.second_order import second_order_body, second_order_c, second_order_ops
@@ -103,6 +104,8 @@ class Recursive(Formulation):
     def body(self, fn, ctx, prog, sym, layout, nx):
         if fn == "rhs" and sym.chain_loop is not None:
             return chain_loop_rhs_body(ctx, prog, sym.chain_loop)
+        if fn == "rhs" and sym.limbs is not None:
+            return limbs_rhs_body(ctx, prog, sym.limbs)
         if fn == "rhs":
             return tree_rhs_body(ctx, prog, sym.guards)
         if fn in KERNEL_FUNCTIONS and has_dynamics_kernel(prog, sym, fn):
@@ -141,6 +144,8 @@ class Recursive(Formulation):
     def ops(self, fn, prog, sym, nx, nr, npar, nq, nu, solve_in):
         if fn == "rhs" and sym.chain_loop is not None and prog is not None:
             return chain_loop_ops(prog, sym.chain_loop)
+        if fn == "rhs" and sym.limbs is not None and prog is not None:
+            return limbs_ops(prog, sym.limbs)
         if fn == "hess_id" and sym.second_order is not None:
             return second_order_ops(prog, *sym.second_order)
         if fn == "hess_id":      # the sweep once per row, its tangent once per row and column

@@ -36,14 +36,25 @@ __all__ = ["aba", "PIVOT_TOL"]
 # defined with the Kane path's solvers (compiler/emit/linsolve.py): one number for both.
 
 
-def aba(bodies, rec, speeds, gravity, v, c, keep=None):
+def aba(bodies, rec, speeds, gravity, v, c, keep=None, part=None):
     """Articulated-body algorithm: [(u'_k expression, pivot margin, body)] per joint with a speed.
 
     The pivot margin is D_i - PIVOT_TOL·(sum of all pivots): the rhs is singular unless every
     margin is > 0 (see PIVOT_TOL).
 
     ``keep``: a dict that receives {body index: (U_i, 1/D_i)} (for a k-speed joint:
-    (the k rows of U_i, D_i factored)), the articulated quantities that M⁻¹ needs (see :mod:`.derivatives`)."""
+    (the k rows of U_i, D_i factored)), the articulated quantities that M⁻¹ needs (see :mod:`.derivatives`).
+
+    ``part``: ABA on a part of a tree (:mod:`.limbs`), a dict of
+    - "inject": {body: (T, f)}, a 6x6 inertia and a 6-force handed on by bodies outside the
+      part (a limb's Xᵀ Iᵃ X and Xᵀ pᵃ), added to the body's Iᴬ and pᴬ;
+    - "pivots": a term added to the pivots' sum (the other bodies' pivots);
+    - "root_a": the acceleration of a root's parent (a limb's), instead of gravity's;
+    - "hand": {}, receives "T" and "f", what the part's root hands on to its parent;
+    - "a": {}, receives every body's acceleration {body: 6-list};
+    - "D": {}, receives every one-speed body's pivot {body: D_i};
+    - "thr": receives the singularity threshold PIVOT_TOL·(sum of the pivots)."""
+    part = part or {}
     n = len(bodies)
     IA = [[row[:] for row in b.I] for b in bodies]
     pA = []
@@ -52,6 +63,9 @@ def aba(bodies, rec, speeds, gravity, v, c, keep=None):
         if b.fext is not None:
             p = [_add((p[k], -b.fext[k])) for k in range(6)]
         pA.append(p)
+    for i, (T, f) in part.get("inject", {}).items():
+        IA[i] = _sym6_plus(IA[i], T)
+        pA[i] = [_add((pA[i][k], f[k])) for k in range(6)]
     U, Dinv, uu, D = [None] * n, [None] * n, [None] * n, [None] * n
     ldl = {}                   # k-speed joints: their factored D
     for i in reversed(range(n)):
@@ -66,6 +80,8 @@ def aba(bodies, rec, speeds, gravity, v, c, keep=None):
                 raise NotATree(f"body {b.name} (joint {b.joint}) has no inertia about its joint "
                                f"axis, even with everything beyond it: its acceleration is undefined")
             Dinv[i] = rec.let(1 / D[i])
+            if "D" in part:
+                part["D"][i] = D[i]
             if keep is not None:
                 keep[i] = (U[i], Dinv[i])
             uu[i] = rec.let(-_dot(b.S, pi))
@@ -98,11 +114,17 @@ def aba(bodies, rec, speeds, gravity, v, c, keep=None):
             IA[b.parent] = _sym6_plus(IA[b.parent], T)
             f = xt_force(b, pa)
             pA[b.parent] = [_add((pA[b.parent][k], f[k])) for k in range(6)]
+        elif "hand" in part:
+            pa = rec.vec(pa)
+            part["hand"]["T"] = xt_inertia_x(b, rec, Ia)
+            part["hand"]["f"] = xt_force(b, pa)
     pivots = [d for Di in D if Di is not None for d in (Di if isinstance(Di, list) else [Di])]
-    threshold = rec.let(PIVOT_TOL * _add(pivots))
+    threshold = rec.let(PIVOT_TOL * _add(pivots + ([part["pivots"]] if "pivots" in part else [])))
+    if "thr" in part:
+        part["thr"] = threshold
     a, out = [None] * n, []
     for i, b in enumerate(bodies):
-        ap = a[b.parent] if b.parent >= 0 else _root_acceleration(gravity)
+        ap = a[b.parent] if b.parent >= 0 else part.get("root_a") or _root_acceleration(gravity)
         ai = [_add((x, y)) for x, y in zip(x_motion(b, ap), c[i])]
         if b.S is not None:
             ai = rec.vec(ai)
@@ -119,6 +141,8 @@ def aba(bodies, rec, speeds, gravity, v, c, keep=None):
                 ai = [_add((ai[j], _mul(S[j], udd[m]))) for j in range(6)]
                 out.append((s, udd[m], rec.let(D[i][m] - threshold)))
         a[i] = rec.vec(ai)
+    if "a" in part:
+        part["a"].update(enumerate(a))
     return out
 
 

@@ -33,6 +33,7 @@ from ..emit.reverse import hess_id_requests, refuse_reverse, reverse_requests
 from ..emit.symbolic import TANGENT_MIN_STATES, build_symbolic
 from .aba import aba
 from .chain_loop import chain_loop_plan
+from .limbs import LIMB_GROUPS, core_results, limb_inputs, limb_plan
 from .crba import crba
 from .lowered import LoweredBody
 from .recorder import Recorder
@@ -243,7 +244,7 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         contact_values = _contacts(tree, bodies, rec, v, layout, implicit,
                                    (gravity, speeds) if wants_energy else None, guards, ground,
                                    bool(set(functions) & {"hvp", "hess_id"}))
-        extra, keep, chain = [], {}, None
+        extra, keep, chain, limbs = [], {}, None, None
         if loops is not None:
             J, gamma = lower_loops(loops, layout, rec)
         jac = set(functions) & {"jac_x", "jac_r", "jac_p", "jvp", "vjp", "hvp"}
@@ -255,6 +256,10 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
             if loops is None and not guards:
                 chain = chain_loop_plan(tree, bodies, [b.source for b in bodies], dict(rec.assignments),
                                         gravity, layout, functions)
+            if loops is None and not guards and chain is None:
+                limbs = limb_plan(tree, bodies, dict(rec.assignments), layout, functions)
+                if limbs is not None:
+                    extra += core_results(bodies, rec, speeds, gravity, v, c, limbs)
             for k, udd, D in out:
                 extra.append((("ud", k), udd))
                 extra.append((("Dpiv", k), D))
@@ -357,17 +362,20 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
             extra += _implicit_results(tree, bodies, formed, layout, A, b, implicit, nq, nu, law_memo, renamed)
     except NotATree as exc:
         raise ModelError(f"recursive formulation: {exc}") from None
+    groups = {**TREE_FUNCTION_GROUPS, "rhs": LIMB_GROUPS} if limbs is not None else TREE_FUNCTION_GROUPS
     sym = build_symbolic(formed, layout, functions, outputs, events, dynamics=(A, b),
                          prelude=(rec.assignments, rec.count, sorted(extra, key=_order)),
-                         function_groups={**TREE_FUNCTION_GROUPS,
+                         function_groups={**groups,
                                           **{f: ("anx",) if f in dyn else () if f == "forcing" and by_id
                                              or f == "inverse_dynamics" and id_by_implicit else g
                                              for f, g in _OWN_GROUPS.items()},
                                           **({"jac_r": INPUT_SOLVE_GROUPS} if input_solve else {})}
-                         if planned else TREE_FUNCTION_GROUPS,
-                         helper_users=TREE_HELPER_USERS)
+                         if planned else groups,
+                         helper_users=TREE_HELPER_USERS, extra_inputs=limb_inputs(limbs))
     if chain is not None:
         sym = replace(sym, chain_loop=chain)
+    if limbs is not None:
+        sym = replace(sym, limbs=limbs)
     if contact_values:
         sym = _with_contact_values(sym, contact_values)
     if guards:
@@ -416,6 +424,8 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
             inputs, requests = hess_id_requests(layout, nu, sym.seeds)
             sym = replace(sym, program=sym.program.with_(inputs=sym.program.inputs + inputs),
                           derivatives=sym.derivatives + requests, second_order_note=second_order_note(None, why))
+    if limbs is not None:       # the rhs reads the core's results (.limbs)
+        sym = replace(sym, function_groups={**(sym.function_groups or TREE_FUNCTION_GROUPS), "rhs": LIMB_GROUPS})
     if not jacobian:
         return sym
     return _with_jacobians(sym, layout, functions, nq, jacobian, more, analytic is not None, direct is not None)

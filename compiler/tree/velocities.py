@@ -5,11 +5,12 @@ from .spatial import cross_motion, x_motion
 __all__ = ["velocities"]
 
 
-def velocities(bodies, rec, speeds):
-    """Body spatial velocities v_i and velocity-product accelerations c_i."""
+def velocities(bodies, rec, speeds, root_v=None):
+    """Body spatial velocities v_i and velocity-product accelerations c_i (``root_v``: a root's
+    parent's velocity, for a part of a tree (:mod:`.limbs`); default the ground's, 0)."""
     v, c = [], []
     for b in bodies:
-        vp = v[b.parent] if b.parent >= 0 else [0] * 6
+        vp = v[b.parent] if b.parent >= 0 else root_v or [0] * 6
         vi = x_motion(b, vp)
         if b.S is not None:
             vj = [_mul(s, speeds[b.speed]) for s in b.S]

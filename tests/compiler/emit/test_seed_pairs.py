@@ -1,0 +1,104 @@
+"""Kane's jvp tangent with its two-seed entries as a coefficient times a seed difference
+(compiler/emit/seed_pairs.py) against the tangent as differentiated (the switch off)."""
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+import sympy as sm
+from sympy.physics import mechanics as sme
+
+import eomc
+from eomc.compiler.emit import seed_pairs
+from helpers import zoo
+
+
+@pytest.fixture(scope="module")
+def cache(tmp_path_factory):
+    import os
+    old = os.environ.get("EOMC_CACHE_DIR")
+    os.environ["EOMC_CACHE_DIR"] = str(tmp_path_factory.mktemp("cache"))
+    yield
+    if old is None:
+        del os.environ["EOMC_CACHE_DIR"]
+    else:
+        os.environ["EOMC_CACHE_DIR"] = old
+
+
+def _scaled(a, b):
+    return np.max(np.abs(a - b)) / max(1.0, np.max(np.abs(b)))
+
+
+def _build(n, on):
+    kane, specified = zoo.n_link_pendulum_on_cart(n, sme)
+    params = sorted((kane.mass_matrix_full.free_symbols | kane.forcing_full.free_symbols)
+                    - {sme.dynamicsymbols._t}, key=str)
+    saved = seed_pairs.SEED_PAIRS
+    seed_pairs.SEED_PAIRS = on
+    try:
+        return eomc.compile(kane, parameters={s: 0.7 + 0.1 * i for i, s in enumerate(params)},
+                            inputs=specified, functions=["rhs", "jvp", "jvp_more"], formulation="kane")
+    finally:
+        seed_pairs.SEED_PAIRS = saved
+
+
+def _differences(model):
+    c = (Path(model.library_path).parent / f"{model.name}.c").read_text()
+    jvp = c[c.index(f"int {model.name}_jvp("):]
+    return len(re.findall(r"\(dx\[\d+\] - dx\[\d+\]\)", jvp)), len(re.findall(r"\(XT\[\d+\]\[ln\] - XT\[\d+\]\[ln\]\)", jvp))
+
+
+@pytest.mark.parametrize("n", [6, 8])     # looped tangents (from 14 states; fewer: unrolled columns)
+def test_seed_pairs_match_the_differentiated_tangent(cache, n):
+    """Random states, one to six directions (sensitivity-shaped and dense, so both the lone
+    direction's scalar tangent and the lanes run): J·d within 1e-12 (scaled) of the build with
+    the switch off, xdot the same to the bit; the rewritten entries are in the on build only
+    (the cart's n (n - 1) / 2 link pairs in each path, in jvp and in jvp_more)."""
+    on, off = _build(n, True), _build(n, False)
+    pairs = n * (n - 1) // 2
+    assert _differences(on) == (2 * pairs, 2 * pairs)
+    assert _differences(off) == (0, 0)
+    rng = np.random.default_rng(n)
+    nx, npar = on.nx, on.nparam
+    for _ in range(4):
+        x, r = rng.uniform(-1.5, 1.5, nx), rng.uniform(-1, 1, on.ninput)
+        D = rng.normal(size=(6, nx + npar))
+        D[::2, nx:] = 0.0
+        D[np.arange(0, 6, 2), nx + np.arange(0, 6, 2) % npar] = 1.0
+        for k in (1, 2, 5, 6):
+            xa, a = on.jvp(0.0, x, D[:k], r=r)
+            xb, b = off.jvp(0.0, x, D[:k], r=r)
+            assert np.array_equal(xa, xb)
+            assert _scaled(a, b) < 1e-12, k
+
+
+def test_seed_pairs_rewrites_only_a_cancelling_pair():
+    """The rewrite on hand-made programs: the cart's entry shape becomes m (C_i S_j - S_i C_j)
+    (dq_i - dq_j), equal at random points; an entry whose seed coefficients do not cancel, or
+    with three seeds, stays as it is."""
+    c1, s1, c2, s2, l1, l2, m, d1, d2, d3 = sm.symbols("c1 s1 c2 s2 l1 l2 m d1 d2 d3")
+    C1, S1, C2, S2 = sm.symbols("C1 S1 C2 S2")          # primal temporaries l cos q, l sin q
+    primal = {C1: c1 * l1, S1: l1 * s1, C2: c2 * l2, S2: l2 * s2}
+    u1, v1, u2, v2 = sm.symbols("u1 v1 u2 v2")          # tangent temporaries: dC = -S dq, dS = C dq
+    lin = [(u1, sm.Mul(-1, S1, d1)), (v1, sm.Mul(C1, d1)), (u2, sm.Mul(-1, S2, d2)), (v2, sm.Mul(C2, d2))]
+    e = sm.Symbol("e")
+    entry = m * sm.Add(sm.Add(u2 * C1, C2 * u1, evaluate=False), sm.Add(v1 * S2, S1 * v2, evaluate=False),
+                       evaluate=False)
+    out = dict(seed_pairs.seed_pairs(lin + [(e, entry)], [d1, d2, d3], primal))
+    new = out[e]
+    assert new != entry and new.has(d1 - d2)
+    rng = np.random.default_rng(0)
+    for _ in range(5):
+        vals = dict(zip((c1, s1, c2, s2, l1, l2, m, d1, d2), rng.normal(size=9)))
+        subs = {**{k: v.subs(vals) for k, v in primal.items()}}
+        subs.update(vals)
+        tang = {t: ex.subs(subs) for t, ex in lin}
+        ref = entry.subs(tang).subs(subs)
+        assert abs(float(new.subs(subs)) - float(ref)) < 1e-12 * max(1.0, abs(float(ref)))
+    # not cancelling: C1 C2 + S1 S2's tangent with dS2 = C2 d3 (another seed): three seeds
+    lin3 = lin[:3] + [(v2, sm.Mul(C2, d3))]
+    assert dict(seed_pairs.seed_pairs(lin3 + [(e, entry)], [d1, d2, d3], primal))[e] == entry
+    # two seeds, coefficients not opposite (C1 C2 - S1 S2)
+    minus = m * sm.Add(sm.Add(u2 * C1, C2 * u1, evaluate=False), sm.Mul(-1, sm.Add(v1 * S2, S1 * v2, evaluate=False)),
+                       evaluate=False)
+    assert dict(seed_pairs.seed_pairs(lin + [(e, minus)], [d1, d2, d3], primal))[e] == minus

@@ -1,0 +1,130 @@
+"""The rhs with one routine pair per limb shape (compiler/tree/limbs.py) against the straight-line rhs.
+
+Random URDF trees with twin limbs (a base, fixed or floating, with two mirror-image chains:
+offsets and fixed rotations mirrored, so the twins differ in their parameters' values and in
+their fixed rotations' numbers, which the routines read from a table per limb) and
+example-robot-data's G1 (Euler angles and quaternion, limits on and off, with motor torques),
+each built with the routines and with them switched off (LIMB_MIN_BODIES = None), at random
+states to 1e-12; a tree without twins keeps the straight-line rhs byte for byte.
+"""
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import eomc
+from eomc.compiler.tree import limbs
+from eomc.compiler.urdf.model import UrdfModel
+from helpers.robots import relative_error, robot_path
+
+
+def _routines(model):
+    return f"{model.name}_limb0_in(" in model.source_path.read_text()
+
+
+def _build(path, name, tmp_path, on, floating, limits=False, functions=("rhs",), shape=None):
+    mp = pytest.MonkeyPatch()
+    if not on:
+        mp.setattr(limbs, "LIMB_MIN_BODIES", None)
+    elif shape is not None:      # small random trees: their limbs are short
+        mp.setattr(limbs, "LIMB_MIN_BODIES", 2 * shape)
+        mp.setattr(limbs, "LIMB_MIN_SHAPE", shape)
+    try:
+        return eomc.compile(UrdfModel(path, floating_base=floating, limits=limits), name, functions=list(functions),
+                            progress=False, formulation="recursive", output_dir=tmp_path / name,
+                            cache_dir=tmp_path / ("cache_on" if on else "cache_off"))
+    finally:
+        mp.undo()
+
+
+def _states(model, rng, count=6):
+    for _ in range(count):
+        q = rng.uniform(-np.pi, np.pi, model.nq)
+        if model.nq > model.nu:         # a quaternion base: position, then (w, x, y, z)
+            q[3:7] /= np.linalg.norm(q[3:7])
+        yield np.concatenate([q, rng.normal(size=model.nu)])
+
+
+def _agree(on, off, seed):
+    rng = np.random.default_rng(seed)
+    for x in _states(on, rng):
+        r = rng.normal(size=on.ninput) if on.ninput else None
+        a, b = on.rhs(0.0, x, r=r), off.rhs(0.0, x, r=r)
+        assert relative_error(a, b) < 1e-12, relative_error(a, b)
+
+
+_AXES = ("1 0 0", "0 1 0", "0 0 1")
+
+
+@st.composite
+def twin_tree(draw):
+    """(URDF text, limb length): a base, a torso on it with a stub and two mirror-image chains of
+    revolute joints (the torso: a fixed base's limbs hang from a body, not from the ground)."""
+    k = draw(st.integers(2, 4))
+    num = st.floats(-0.3, 0.3, allow_nan=False).map(lambda v: round(v, 3))
+    links = [{"axis": draw(st.sampled_from(_AXES)), "xyz": [draw(num) for _ in range(3)],
+              "rpy": [draw(num) if draw(st.booleans()) else 0.0 for _ in range(3)],
+              "mass": draw(st.floats(0.2, 3.0).map(lambda v: round(v, 3))),
+              "com": [draw(num) for _ in range(3)],
+              "inertia": draw(st.floats(0.01, 0.1).map(lambda v: [round(v, 4), round(1.2 * v, 4), round(1.4 * v, 4)]))}
+             for _ in range(k)]
+    out = ['<robot name="twins">', _link("base", 4.0, [0, 0, 0.05], [0.2, 0.3, 0.25]),
+           _link("torso", 2.0, [0, 0, 0.1], [0.1, 0.1, 0.05]), _link("stub", 0.5, [0, 0, 0.1], [0.02, 0.02, 0.01]),
+           '<joint name="torso_joint" type="revolute"><parent link="base"/><child link="torso"/>'
+           '<origin xyz="0 0 0.2"/><axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>',
+           '<joint name="stub_joint" type="revolute"><parent link="torso"/><child link="stub"/>'
+           '<origin xyz="0 0 0.3"/><axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>']
+    for side, s in (("left", 1), ("right", -1)):
+        parent = "torso"
+        for j, ln in enumerate(links):
+            name = f"{side}_{j}"
+            x, y, z = ln["xyz"]
+            roll, pitch, yaw = ln["rpy"]
+            cx, cy, cz = ln["com"]
+            out.append(_link(name, ln["mass"], [cx, s * cy, cz], ln["inertia"]))
+            out.append(f'<joint name="{name}_joint" type="revolute"><parent link="{parent}"/><child link="{name}"/>'
+                       f'<origin xyz="{x} {s * y + s * 0.1 * (j == 0)} {z}" rpy="{s * roll} {pitch} {s * yaw}"/>'
+                       f'<axis xyz="{ln["axis"]}"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>')
+            parent = name
+    out.append("</robot>")
+    return "\n".join(out), k
+
+
+def _link(name, mass, com, inertia):
+    return (f'<link name="{name}"><inertial><origin xyz="{com[0]} {com[1]} {com[2]}"/><mass value="{mass}"/>'
+            f'<inertia ixx="{inertia[0]}" iyy="{inertia[1]}" izz="{inertia[2]}" ixy="0" ixz="0" iyz="0"/>'
+            '</inertial></link>')
+
+
+@settings(max_examples=5, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+@given(spec=twin_tree(), floating=st.sampled_from([False, True, "quaternion"]), seed=st.integers(0, 2**32 - 1))
+def test_random_twin_limbs_equal_the_straight_line_rhs(spec, floating, seed, tmp_path):
+    text, k = spec
+    path = tmp_path / "twins.urdf"
+    path.write_text(text)
+    on = _build(path, "twins_on", tmp_path, True, floating, shape=k)
+    off = _build(path, "twins_off", tmp_path, False, floating)
+    assert _routines(on) and not _routines(off)
+    _agree(on, off, seed)
+
+
+@pytest.mark.parametrize("floating,limits", [("quaternion", False), (True, False), ("quaternion", True)])
+def test_g1_limb_routines_equal_the_straight_line_rhs(floating, limits, tmp_path):
+    """G1's legs and arms (two shapes, mirror images: the arms' fixed rotations from a table);
+    limits on: the joints' laws are loads of the limbs' bodies too."""
+    path = robot_path("g1_description/urdf/g1_29dof_rev_1_0.urdf")
+    on = _build(path, "g1_on", tmp_path, True, floating, limits)
+    off = _build(path, "g1_off", tmp_path, False, floating, limits)
+    assert _routines(on) and not _routines(off)
+    assert f"{on.name}_limb1_in(" in on.source_path.read_text()
+    _agree(on, off, 19)
+
+
+def test_trees_without_long_twins_keep_the_straight_line_rhs(tmp_path):
+    """Go2's legs (3 bodies, below LIMB_MIN_SHAPE): the C is the one with the routines off."""
+    path = robot_path("go2_description/urdf/go2.urdf")
+    on = _build(path, "go2", tmp_path, True, "quaternion")
+    text = on.source_path.read_text()
+    off = _build(path, "go2", tmp_path, False, "quaternion")
+    assert not _routines(off) and text == off.source_path.read_text()
