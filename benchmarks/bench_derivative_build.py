@@ -102,7 +102,7 @@ def build(args, env, cap, python=None):
     return {"cpu": cpu, "wall": wall, "rss": rss, "err": err}
 
 
-_DEF = re.compile(r"^(?:static )?(?:EOMC_NOINLINE )?(?:int|void|double) (\w+)\(", re.M)
+_DEF = re.compile(r"^(?:static )?(?:EOMC_NOINLINE |EOMC_NEAR )?(?:int|void|double) (\w+)\(", re.M)
 
 
 def function_sizes(c_text, name):

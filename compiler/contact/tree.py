@@ -22,7 +22,7 @@ from .law import DEFAULTS, SPIN_KEYS, load_stiffness
 from .system import contact_symbols, parameter_defaults, unit_normal
 from eomc.compiler import fixed_order as fo
 
-__all__ = ["ContactSpec", "ContactLoad", "ContactValue", "ENERGY", "passive_contacts", "energy_blockers", "limited_joints", "COLLISION_SPHERES", "parse_contact",
+__all__ = ["ContactSpec", "ContactLoad", "ContactValue", "ENERGY", "ENERGY_APART", "passive_contacts", "energy_blockers", "limited_joints", "COLLISION_SPHERES", "parse_contact",
            "collision_spheres", "link_frame", "with_contacts", "contact_outputs", "body_com",
            "LoweredLoad", "nearest", "with_located", "expanded_specs", "built_weight"]
 
@@ -315,6 +315,9 @@ def with_located(built, specs, locate, fold, what, identifier, weight=0.0):
 # The placeholder of the ``energy`` output of a passive tree with ground contacts (lowered
 # by eomc.compiler.tree.contacts.lower_contacts): kinetic + gravity + the contacts' elastic energy.
 ENERGY = ContactValue(-1, -1)
+# the energy less the body-body pairs of a pairs' table (compiler/tree/contacts.lower_contacts):
+# NAME_implicit's energy slot (compiler/tree/lower.implicit_layout)
+ENERGY_APART = ContactValue(-1, -2)
 # parameters of the joint laws that only take energy out (damping, friction) or store it past a
 # limit only (compiler/tree/joint_laws.NAMES; MJCF's damping d_<joint>)
 PASSIVE_LAWS = ("d_", "damping_", "friction_", "limit_")

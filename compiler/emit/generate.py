@@ -242,6 +242,7 @@ class Lowered:
     helper: object          # Program of the shared NAME_dynamics helper (A, b), or None
     formulation: Formulation = KANE   # or the recursive one (eomc.compiler.formulations.recursive)
     poses: dict = None          # pose metadata (compiler/emit/poses.py) when poses is generated
+    outputs_by_energy: bool = False   # NAME_outputs is a call of NAME_energy (outputs_by_energy)
 
 
 def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions=None,
@@ -269,7 +270,10 @@ def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions
     groups, helper_users = formulation.groups, formulation.helper_users
     base = tuple(f for f in fns if f not in ("poses", "energy") and f not in BATCH_FUNCTIONS   # poses: appended below
                  and f not in GENERATED_LIKE)
-    sym = formulation.symbolic(formed, layout, base, outputs, events)
+    # NAME_implicit with its energy slot for the lanes rollout's watch (tree/lower.implicit_layout):
+    # asked only of the formulation that builds NAME_implicit (builds_implicit above)
+    lanes = {"implicit_energy": True} if "implicit_batch" in fns else {}
+    sym = formulation.symbolic(formed, layout, base, outputs, events, **lanes)
     if getattr(sym, "function_groups", None):   # this model's own choice (tree/lower.py: the loop kernel or not)
         groups = sym.function_groups
     if nframe and "outputs" in fns:   # appended to the outputs, after the model's own
@@ -280,21 +284,41 @@ def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions
         sym, pose_meta = with_poses(sym, poses, layout)
         groups = {**groups, "poses": (POSE_GROUP,)}
     shared = verify(optimize_shared(sym.program, sym.derivatives))
+    energy = energy_program(shared, sym) if "energy" in fns else None
+    if "energy" in fns and energy is None:
+        fns = tuple(f for f in fns if f != "energy")
+    by_energy = outputs_by_energy(fns, sym)
     programs = {fn: finish_function(_mass_inputs_only(shared, sym, fn), groups[fn])
-                if fn not in BATCH_FUNCTIONS and groups[fn] else None
+                if fn not in BATCH_FUNCTIONS and groups[fn] and not (by_energy and fn == "outputs") else None
                 for fn in fns if fn not in GENERATED_LIKE and fn != "energy"}
-    if "energy" in fns:
-        programs["energy"] = energy_program(shared, sym)
-        if programs["energy"] is None:
-            fns = tuple(f for f in fns if f != "energy")
-            del programs["energy"]
+    if energy is not None:
+        programs["energy"] = energy
     programs = {fn: _taped(p, exact=_exactness(fn, p)) for fn, p in programs.items()}
     if hasattr(formulation, "finish_programs"):     # (recursive: contact/table.slopes_into)
         programs = formulation.finish_programs(programs)
     programs.update((fn, programs[GENERATED_LIKE[fn]]) for fn in fns if fn in GENERATED_LIKE)
     helper = (finish_function(shared, ("A", "b")) if set(fns) & set(helper_users) or sym.solve_in
               else None)
-    return Lowered(name, layout, sym, fns, programs, helper, formulation, pose_meta)
+    return Lowered(name, layout, sym, fns, programs, helper, formulation, pose_meta, by_energy)
+
+
+def outputs_by_energy(fns, sym):
+    """True when NAME_outputs is one call of NAME_energy: the model's outputs are its ``energy``
+    alone (a URDF robot's default outputs) and NAME_energy is generated, without the outputs'
+    lanes (outputs_batch rewrites the outputs' own printed code).
+
+    Why: both printed the same program (energy_program: the value bit for bit), and the copy was
+    67 kB of G1's 711 kB of C -- its optimization, printing and compilation ~0.3 s of the default
+    build.  The call costs the outputs nothing measurable; NAME_energy may be the faster of the
+    two (its contact guards: energy_guards)."""
+    return ("outputs" in fns and "energy" in fns and "outputs_batch" not in fns
+            and tuple(sym.output_names) == ("energy",) and "outputs" not in sym.solve_in)
+
+
+def outputs_energy_body(ctx):
+    """NAME_outputs' body where it is NAME_energy's call (:func:`outputs_by_energy`)."""
+    from .bodies import IND
+    return [f"{IND}return {ctx.name}_energy(t, x, p, r, out, work);"]
 
 
 def energy_program(shared, sym):
@@ -487,6 +511,7 @@ def _generate_c(formed, name, *, parameters, inputs, outputs, functions, fold_pa
                              "body": void_unused(fn, slines, ssig), "parts": sparts})
         with _naming_nonfinite(name, fn):
             body = (plain_body(ctx, prog, "pose", (low.poses["size"],), "out") if fn == "poses" else
+                    outputs_energy_body(ctx) if fn == "outputs" and low.outputs_by_energy else
                     _body(fn, ctx, prog, sym, layout, nx, fns, formulation))
         consts, ctx.constant_stores = ctx.constant_stores, None
         full = body
@@ -526,6 +551,8 @@ def _generate_c(formed, name, *, parameters, inputs, outputs, functions, fold_pa
         op_counts["inverse_dynamics"] = dict(op_counts[sym.inverse_dynamics_calls])
     if getattr(sym, "forcing_calls", "") in op_counts and "forcing" in op_counts:   # forcing is a call of it
         op_counts["forcing"] = dict(op_counts[sym.forcing_calls])
+    if low.outputs_by_energy:       # a call of it
+        op_counts["outputs"] = dict(op_counts["energy"])
     if "linearize" in op_counts:
         op_counts["linearize"] = {k: sum(op_counts[f][k] for f in ("jac_x", "jac_r") if f in op_counts)
                                   for k in ("adds", "muls", "divs", "calls")}

@@ -92,6 +92,10 @@ class Symbolic:
     guards: tuple = ()               # rhs broad phase: (clearance, exports) (compiler/emit/guards.py)
     implicit_guards: tuple = ()      # NAME_implicit's: the exports with each point's K and C slopes
     implicit_pairs: tuple = ()       # NAME_implicit's body-body pair points after the ground's: (name, body a, body b)
+    # NAME_implicit's out[] ends with the energy output (tree/lower.implicit_layout): None, or the
+    # number of its body-body pair points (the pairs' table's, first after the ground's contacts)
+    # whose elastic energy that slot leaves out
+    implicit_energy: int = None
     jac_guards: tuple = ()           # the analytic jac_x's: the exports with each point's world force, K and C
     chain_loop: object = None        # recursive: the rhs as loops over a repeated chain (compiler/tree/chain_loop.py)
     limbs: object = None             # recursive: the rhs with routines per limb shape (compiler/tree/limbs.py)
@@ -137,28 +141,59 @@ def _check_structurally_regular(pattern, nw, speed_names, multipliers, by_speed)
                              f"equations of motion cannot be solved for the accelerations")
 
 
-def _solved_quantities(formed, W):
+def _solved_quantities(formed, W, exprs=None):
     """Substitutions putting accelerations and multipliers in terms of the solved w = [u'; λ].
 
     u' -> w_i; q'' -> d/dt of the kinematics (then in q', u'); a Lagrange multiplier
     lam_k -> -w_{nu+k} (the FormedSystem's unknowns are mu = -lam, see lagrange_formed).
+    ``exprs``: the expressions the substitutions are for: q'' only of the coordinates whose q''
+    one of them holds (the others' entries would replace nothing).  Why: d/dt of every
+    kinematic equation was taken at each call, for no output at all too (Talos' floating base:
+    ~0.1 s of its build's generate per call, two to three calls a build).
     """
     t = sm.Symbol("t")
     ud = {s.diff(t): W[i] for i, s in enumerate(formed.speeds)}
-    qdd = {q.diff(t, 2): k.diff(t) for q, k in zip(formed.coordinates, formed.kinematics)}
+    held = None if exprs is None else set().union(
+        *(e.atoms(sm.Derivative) for e in exprs if isinstance(e, sm.Basic)))
+    qdd = {q.diff(t, 2): k.diff(t) for q, k in zip(formed.coordinates, formed.kinematics)
+           if held is None or q.diff(t, 2) in held}
     sign = -1 if formed.multipliers and formed.method == "lagrange" else 1   # only formed systems have λ
     lam = {m: sign * W[formed.nu + k] for k, m in enumerate(formed.multipliers)}
     return ud, qdd, lam
 
 
+def reads_solve(formed, exprs):
+    """Does any of ``exprs`` (outputs or events: {name: expression}) read the dynamics solve's
+    unknowns -- a speed's derivative u', a coordinate's q'' or a Lagrange multiplier?  The test
+    :func:`build_symbolic` makes (its ``solve_in``), on the expressions before their slots.
+
+    Why: the recursive formulation builds M by CRBA and f by RNEA for outputs that read u' (the
+    Kane path's code solves A·u' = b for them); G1's energy, the default output, reads none, and
+    those recursions were 0.2-0.3 s of its default build's generate for code nothing printed."""
+    if not exprs:
+        return False
+    W = tuple(sm.Symbol(f"w_{j}", real=True) for j in range(formed.nu + len(formed.multipliers)))
+    values = [sm.sympify(e) for e in exprs.values()]
+    ud, qdd, lam = _solved_quantities(formed, W, values)
+    unknowns = set(W)
+    for e in values:
+        if ud or lam:
+            e = e.xreplace(ud).xreplace(qdd).xreplace(ud).xreplace(lam)
+        if getattr(e, "free_symbols", set()) & unknowns:
+            return True
+    return False
+
+
 def _outputs(formed, layout, outputs, W=()):
     kin = {sm.Derivative(q, sm.Symbol("t")): k for q, k in zip(formed.coordinates, formed.kinematics)}
-    ud, qdd, lam = _solved_quantities(formed, W) if W else ({}, {}, {})
-    names, exprs = [], []
+    values = {}
     for name, expr in (outputs or {}).items():
         if not str(name).isidentifier():
             raise ModelError(f"output name {name!r} is not an identifier")
-        e = sm.sympify(expr)
+        values[name] = sm.sympify(expr)
+    ud, qdd, lam = _solved_quantities(formed, W, values.values()) if W and values else ({}, {}, {})
+    names, exprs = [], []
+    for name, e in values.items():
         if ud:
             e = e.xreplace(ud).xreplace(qdd).xreplace(ud)
         e = e.xreplace(kin).xreplace(lam)

@@ -98,8 +98,8 @@ class Recursive(Formulation):
             return programs
         return {**programs, "implicit": slopes_into(programs["implicit"], "imp")[0]}
 
-    def symbolic(self, formed, layout, functions, outputs=None, events=None):
-        return build_tree_symbolic(self.tree, formed, layout, functions, outputs, events)
+    def symbolic(self, formed, layout, functions, outputs=None, events=None, implicit_energy=False):
+        return build_tree_symbolic(self.tree, formed, layout, functions, outputs, events, implicit_energy)
 
     def body(self, fn, ctx, prog, sym, layout, nx):
         if fn == "rhs" and sym.chain_loop is not None:
@@ -241,4 +241,9 @@ class Recursive(Formulation):
             a, b = chain(body_a), chain(body_b)
             entries.append({"name": name, "pair": True,
                             "speeds": [s for s in b if s not in a] + [~s for s in a if s not in b]})
-        return {"contacts": entries, "parents": parent, "layout": implicit_layout(nq, nu, len(entries))}
+        out = {"contacts": entries, "parents": parent,
+               "layout": implicit_layout(nq, nu, len(entries), sym.implicit_energy is not None)}
+        if sym.implicit_energy:     # the energy slot leaves these pair points out (tree/contacts.ENERGY_APART)
+            first = len(contacts)
+            out["energy_apart"] = list(range(first, first + sym.implicit_energy))
+        return out

@@ -14,7 +14,7 @@ from ..contact.law import EXPONENT, ground_forces, ground_jacobians, spin_moment
 from ..contact import pairs as _pairs
 from ..contact.pairs import PairLoad, pair_guards
 from ..contact.table import lower_table
-from ..contact.tree import CLIP_KIND, ENERGY, ContactLoad, ContactValue, contact_outputs
+from ..contact.tree import CLIP_KIND, ENERGY, ENERGY_APART, ContactLoad, ContactValue, contact_outputs
 from .placement import Placement
 from .spatial import cross
 from eomc.runtime.errors import ModelError
@@ -177,8 +177,19 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
         springs = getattr(tree, "spring_energy", None)     # MJCF's joint and fixed-tendon springs
         if springs is not None:
             limits += rename(springs, "the joint springs' energy")
-        elastic += _pair_energy(others, values, rename)
-        values[ENERGY] = rec.let(_energy(bodies, v, poses, *energy) + sum(elastic, sm.S.Zero) + limits)
+        if implicit is not None and implicit.get("energy") and table:
+            # NAME_implicit's energy (ENERGY_APART) without the table's pairs: their depths are
+            # the loop's outputs, which NAME_implicit's slopes variant does not write (its slope
+            # block holds them); the fixed step reads it only while none of them touches
+            # (implicit["energy_apart"]; eomc_implicit.energy_apart)
+            apart = rec.let(_energy(bodies, v, poses, *energy)
+                            + sum(elastic + _pair_energy(inlined, values, rename), sm.S.Zero) + limits)
+            values[ENERGY_APART] = apart
+            values[ENERGY] = rec.let(apart + sum(_pair_energy(table, values, rename), sm.S.Zero))
+            implicit["energy_apart"] = len(table)
+        else:
+            elastic += _pair_energy(others, values, rename)
+            values[ENERGY] = rec.let(_energy(bodies, v, poses, *energy) + sum(elastic, sm.S.Zero) + limits)
     return values
 
 

@@ -269,11 +269,10 @@ def _shape(bodies, chain, template, marks, layout, shared, nconst):
         lb.fext = e[28 + na:] or None
         lbodies.append(lb)
     # the loads' common subexpressions (a joint's law, in its child's and its parent's load, in
-    # every component) named once, as the straight-line rhs's (lower._shared_loads): inlined
+    # every component) named once, as the straight-line rhs's (Recorder.shared): inlined
     # for the twins' comparison, they came apart (SymPy distributes numbers over the sums)
-    from .lower import _shared_loads
     loaded = [lb for lb in lbodies if lb.fext is not None]
-    shared_fext = _shared_loads(rec, [x for lb in loaded for x in lb.fext])
+    shared_fext = rec.shared(x for lb in loaded for x in lb.fext)
     for j, lb in enumerate(loaded):
         lb.fext = list(shared_fext[6 * j:6 * j + 6])
     speeds = [_rel("u", j) for j in range(max(b.speed for b in lbodies) + 1)]

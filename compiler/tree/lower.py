@@ -5,8 +5,9 @@ The program's result groups, all computed from one value-numbered trace:
     kin        q' (the kinematics, as Kane's path writes them)
     ud, Dpiv   u' by ABA, and the articulated inertias D_i it divides by (rhs)
     tau        M·u' - f by RNEA at given u' (inverse_dynamics)
-    A, b       M by CRBA and f = -RNEA(u' = 0) (mass_matrix, forcing, and outputs that
-               read u', which the Kane path's code solves A·u' = b for)
+    A, b       M by CRBA and f = -RNEA(u' = 0) (mass_matrix, forcing, and outputs or events
+               that read u', which the Kane path's code solves A·u' = b for; an energy
+               output alone reads none: emit.symbolic.reads_solve)
     sol        M⁻¹·g by the articulated-body recursion, g the symbols ``g_j``
     tq, tu     jac_x: the tangent, along one coordinate / one speed (seed ``sx``), of
                res = -RNEA(u' = W) with W the solved u' (``w_j``); the C code runs it and
@@ -30,7 +31,7 @@ import sympy as sm
 from eomc.runtime.errors import ModelError
 
 from ..emit.reverse import hess_id_requests, refuse_reverse, reverse_requests
-from ..emit.symbolic import TANGENT_MIN_STATES, build_symbolic
+from ..emit.symbolic import TANGENT_MIN_STATES, build_symbolic, reads_solve
 from .aba import aba
 from .chain_loop import chain_loop_plan
 from .limbs import LIMB_GROUPS, core_results, limb_inputs, limb_plan
@@ -188,7 +189,7 @@ def _lowered_bodies(tree, layout, rec, memo=None):
     for load in loads:
         ren = _rename(layout, memo, f"a load on body {tree.bodies[load.body].name}", absent)
         renamed.append(([ren(x) for x in load.moment], [ren(x) for x in load.force]))
-    shared = _shared_loads(rec, [e for n, f in renamed for e in n + f])
+    shared = rec.shared(e for n, f in renamed for e in n + f)
     for k, load in enumerate(loads):
         i = load.body
         ren = _rename(layout, memo, f"a load on body {tree.bodies[i].name}", absent)
@@ -205,22 +206,9 @@ def _lowered_bodies(tree, layout, rec, memo=None):
     return bodies, gravity
 
 
-def _shared_loads(rec, exprs):
-    """The loads' components with their common subexpressions named once (a joint's law
-    appears in its child's and its parent's load, and in every component of each); loads
-    without function calls (plain inputs, springs) are left as they are."""
-    if not any(isinstance(e, sm.Expr) and e.atoms(sm.Function) - e.atoms(sm.core.function.AppliedUndef)
-               for e in exprs):
-        return exprs
-    repl, reduced = sm.cse(exprs, symbols=sm.numbered_symbols("_load"), order="none")
-    names = {}
-    for s, e in repl:
-        names[s] = rec.let(e.xreplace(names))
-    return [sm.sympify(e).xreplace(names) for e in reduced]
-
-
-def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=None):
-    """Symbolic (as :func:`~eomc.compiler.emit.symbolic.build_symbolic`) from the recursions."""
+def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=None, implicit_energy=False):
+    """Symbolic (as :func:`~eomc.compiler.emit.symbolic.build_symbolic`) from the recursions.
+    ``implicit_energy``: NAME_implicit ends with the energy output (:func:`implicit_layout`)."""
     rec = Recorder()
     loops = tree_loops(tree)           # a tree closed by constraints: see .constrained
     if loops is not None:
@@ -232,7 +220,10 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         nq, nu = len(tree.coordinates), len(tree.speeds)
         speeds = layout.x[nq:nq + nu]
         v, c = velocities(bodies, rec, speeds)
-        implicit = {"step": step} if "implicit" in functions else None
+        # "energy": NAME_implicit ends with the energy output (implicit_layout) where the model is
+        # built for the lanes rollout (implicit_batch), whose energy watch reads it there: elsewhere
+        # it would cost every fixed step's call (3-4 % of gymnasium humanoid's) for nothing
+        implicit = {"step": step, "energy": implicit_energy} if "implicit" in functions else None
         wants_energy = "outputs" in functions and _asks_energy(outputs)
         guards = []
         # the joint laws' derivatives, one differentiation per shape of law for the analytic
@@ -340,8 +331,8 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
             extra += entries
         # outputs and events that read u' solve A·u' = b (the Kane path's code)
         need_ab = _NEED_AB - set(dyn) - ({"forcing"} if by_id else set())   # the kernel's, or a call: neither
-        if set(functions) & need_ab or ("outputs" in functions and outputs) or (
-                "events" in functions and events) or (loops and "inverse_dynamics" in functions):
+        if set(functions) & need_ab or ("outputs" in functions and reads_solve(formed, outputs)) or (
+                "events" in functions and reads_solve(formed, events)) or (loops and "inverse_dynamics" in functions):
             if set(functions) & need_ab == {"forcing"} and not (outputs or events or loops):
                 A = _structure(tree)    # forcing alone: CRBA not computed (M from the kernel)
             else:
@@ -359,7 +350,11 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         else:   # not computed: a stand-in with M's structure (for the metadata)
             A, b = _structure(tree), [0] * nu
         if implicit is not None:
-            extra += _implicit_results(tree, bodies, formed, layout, A, b, implicit, nq, nu, law_memo, renamed)
+            from ..contact.tree import ENERGY, ENERGY_APART
+            energy = (contact_values.get(ENERGY_APART, contact_values.get(ENERGY))
+                      if wants_energy and implicit["energy"] else None)
+            extra += _implicit_results(tree, bodies, formed, layout, A, b, implicit, nq, nu, law_memo, renamed,
+                                       energy)
     except NotATree as exc:
         raise ModelError(f"recursive formulation: {exc}") from None
     groups = {**TREE_FUNCTION_GROUPS, "rhs": LIMB_GROUPS} if limbs is not None else TREE_FUNCTION_GROUPS
@@ -388,7 +383,8 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
     if analytic is not None and analytic.contacts and ground.get("guards"):
         sym = replace(sym, jac_guards=tuple(ground["guards"]))
     if wants_energy:
-        sym = replace(sym, energy=_energy_text(tree))
+        sym = replace(sym, energy=_energy_text(tree),
+                      implicit_energy=implicit.get("energy_apart", 0) if implicit and implicit["energy"] else None)
     if regressor:
         sym = replace(sym, regressor_bodies=regressor[0], regressor_reference=regressor[1])
     if analytic is not None:
@@ -545,7 +541,7 @@ def _contacts(tree, bodies, rec, v, layout, implicit=None, energy=None, guards=N
                           implicit, energy, guards, ground, second)
 
 
-def implicit_layout(nq, nu, ncontact):
+def implicit_layout(nq, nu, ncontact, energy=False):
     """Offsets into out[] of NAME_implicit (runtime/c/eomc_fixedstep.c reads it so):
 
         M      nu*nu   the mass matrix, row-major (both triangles)
@@ -559,17 +555,26 @@ def implicit_layout(nq, nu, ncontact):
                        (compiler/contact/law.ground_jacobians); the ground contacts, then the
                        body-body pairs' points (their second body's motion relative to the first:
                        compiler/contact/pairs.law_slopes; depth and point 0 where the pair's
-                       broad phase skips it)"""
+                       broad phase skips it)
+        energy 1       (``energy``: built with implicit_batch and an ``energy`` output) that
+                       output at the call's state, less a pairs' table's points (ENERGY_APART):
+                       the fixed step makes the terms at every step's end anyway, so the lanes
+                       rollout's energy watch reads it there instead of calling NAME_energy (19-20 %
+                       of G1's lanes rollout, session 18; eomc_implicit.energy)"""
     out, pos = {}, 0
     for key, size in (("M", nu * nu), ("f", nu), ("qd", nq), ("N", nq * nu), ("screw", 6 * nu),
                       ("joint", 2 * nu), ("contact", 25 * ncontact)):
         out[key] = pos
         pos += size
+    if energy:
+        out["energy"] = pos
+        pos += 1
     out["size"] = pos
     return out
 
 
-def _implicit_results(tree, bodies, formed, layout, A, b, implicit, nq, nu, law_memo=None, renamed=None):
+def _implicit_results(tree, bodies, formed, layout, A, b, implicit, nq, nu, law_memo=None, renamed=None,
+                      energy=None):
     """The ("imp", k) results of NAME_implicit, laid out as :func:`implicit_layout`.
 
     ``law_memo``: :func:`.analytic._law_slopes`' memo: the joint laws' slopes are SymPy's
@@ -582,8 +587,8 @@ def _implicit_results(tree, bodies, formed, layout, A, b, implicit, nq, nu, law_
     law_memo = {} if law_memo is None else law_memo
     contacts = implicit.get("contacts", []) + implicit.get("pairs", [])    # as implicit_metadata lists them
     poses = implicit["poses"]
-    at = implicit_layout(nq, nu, len(contacts))
-    out = {}
+    at = implicit_layout(nq, nu, len(contacts), energy is not None)
+    out = {} if energy is None else {at["energy"]: energy}
     for i in range(nu):
         for j in range(nu):
             out[at["M"] + i * nu + j] = A[max(i, j), min(i, j)]

@@ -36,6 +36,21 @@ class Recorder:
         self._seen[expr] = sym
         return sym
 
+    def shared(self, exprs):
+        """The loads' components ``exprs`` with their common subexpressions named once (a joint's
+        law appears in its child's and its parent's load, and in every component of each); loads
+        without function calls (plain inputs, springs) are left as they are.  Used by the
+        straight-line rhs (.lower) and the limbs' routines (.limbs) alike."""
+        exprs = list(exprs)
+        if not any(isinstance(e, sm.Expr) and e.atoms(sm.Function) - e.atoms(sm.core.function.AppliedUndef)
+                   for e in exprs):
+            return exprs
+        repl, reduced = sm.cse(exprs, symbols=sm.numbered_symbols("_load"), order="none")
+        names = {}
+        for s, e in repl:
+            names[s] = self.let(e.xreplace(names))
+        return [sm.sympify(e).xreplace(names) for e in reduced]
+
     def vec(self, items):
         return [self.let(e) for e in items]
 

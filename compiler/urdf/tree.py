@@ -384,7 +384,7 @@ def build_tree(robot, floating_base=False, allow_nonphysical_inertia=False):
     for joint in robot.joints:
         children.setdefault(joint.parent, []).append(joint)
     carries = _carries_mass(robot, children, root)
-    bodies, joints, ground = {}, [], []
+    bodies, joints, ground, merged = {}, [], [], []
     items = {}   # body name -> [(mass, com, inertia)] in the body frame
     owner = {}   # body name -> the TreeJoint that moves it
 
@@ -429,7 +429,7 @@ def build_tree(robot, floating_base=False, allow_nonphysical_inertia=False):
         for joint in children.get(link_name, ()):
             origin = fo.matmul(transform, joint.origin)
             if joint.type in MOVING and not carries[joint.child]:
-                _lock(robot, joint, children, body_name if body_name else link_name, locked, notes)
+                _lock(robot, joint, children, body_name if body_name else link_name, locked, merged)
             if joint.type == "fixed" or not carries[joint.child]:
                 pending.append(("visit", joint.child, body_name, origin))
                 continue
@@ -437,6 +437,7 @@ def build_tree(robot, floating_base=False, allow_nonphysical_inertia=False):
                                                origin[:3, :3].copy(), origin[:3, 3].copy(), joint.axis,
                                                joint.mimic, joint.limit, joint.dynamics)))
         stack.extend(reversed(pending))      # the first joint's subtree first, as recursion did
+    _warn_merged(robot, merged, notes)
     if not joints:
         _fail(robot, robot.line, f"robot '{robot.name}' has no moving joint (only fixed joints"
                                  f"{' and massless links' if locked else ''}): a model without states; "
@@ -477,7 +478,7 @@ def _order_parents_first(joints):
         seen.add(joint.child)
 
 
-def _lock(robot, joint, children, into, locked, notes):
+def _lock(robot, joint, children, into, locked, merged):
     """A moving joint whose subtree carries no mass: lock it (and everything below) at 0."""
     if joint.name in locked:      # below one locked already
         return
@@ -489,9 +490,20 @@ def _lock(robot, joint, children, into, locked, notes):
     link = robot.links[joint.child]
     mesh = " (it has only mesh geometry: eomc does not compute mass from meshes)" if (
         link.meshes and not link.has_inertial) else ""
-    _warn(robot, link.line, f"link '{joint.child}' (moved by joint '{joint.name}', line {joint.line})"
-                            f" carries no mass{mesh}{others}: merged into '{into}' as if welded"
-                            f"{joints}; it cannot change the dynamics", notes)
+    merged.append((link.line, f"link '{joint.child}' (moved by joint '{joint.name}', line {joint.line})"
+                             f" carries no mass{mesh}{others}: merged into '{into}'", joints))
+
+
+def _warn_merged(robot, merged, notes):
+    """The massless moving subtrees merged into their parents: one keeps its sentence at its
+    line; several share one warning naming each (romeo.urdf: eight finger chains, eight lines)."""
+    if len(merged) == 1:
+        line, what, joints = merged[0]
+        _warn(robot, line, f"{what} as if welded{joints}; it cannot change the dynamics", notes)
+    elif merged:
+        each = "; ".join(what + (f" ({joints[2:]})" if joints else "") for _, what, joints in merged)
+        _warn(robot, robot.line, f"{len(merged)} moving links carry no mass and cannot change the dynamics: each "
+                                 f"is merged into its parent as if welded, its joints locked at 0: {each}", notes)
 
 
 def _check_resisted(robot, tree):

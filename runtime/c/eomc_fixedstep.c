@@ -383,9 +383,12 @@ static int fs_advance(fs *w, double t, double h, const double *x)
  */
 
 typedef struct fs_layout {
-    size_t M, f, qd, N, screw, joint, contact, size;
+    size_t M, f, qd, N, screw, joint, contact, energy, size;
 } fs_layout;
 
+/* size: with room for the energy after the contacts, whether the model's terms end with it
+ * (eomc_implicit.energy) or not: a caller that left imp->energy 0 for such a model (the struct
+ * zeroed) then loses the watch's shortcut, not memory past the buffer */
 static fs_layout fs_layout_of(int nq, int nu, int nc)
 {
     fs_layout L;
@@ -397,7 +400,8 @@ static fs_layout fs_layout_of(int nq, int nu, int nc)
     L.screw = L.N + q * u;
     L.joint = L.screw + 6 * u;
     L.contact = L.joint + 2 * u;
-    L.size = L.contact + 25 * (size_t)nc;
+    L.energy = L.contact + 25 * (size_t)nc;
+    L.size = L.energy + 1;
     return L;
 }
 
@@ -953,6 +957,7 @@ size_t eomc_fs_tested_outputs(int nq, int nu, const eomc_implicit *imp, size_t *
         idx[k++] = e;                                           /* depth */
         for (int i = 7; i < 16; i += 4) idx[k++] = e + (size_t)i;   /* K's diagonal: fs_clipped */
     }
+    if (imp->energy) idx[k++] = L.energy;              /* the energy watch (fs_loop's accept) */
     return k;
 }
 
@@ -1363,7 +1368,8 @@ static int fs_switched(const fs_fast *q)
  * each kept step the contacts' depths are checked against eomc_implicit.depth_limit: the
  * first contact found deeper is remembered and the run fails at the next step with
  * EOMC_PENETRATED (the state is written first, so the failure shows where). */
-static int fs_fast_advance(void *self, double t, double h, const double *x, double **x1, double **f1)
+static int fs_fast_advance(void *self, double t, double h, const double *x, double **x1, double **f1,
+                           const double **e1)
 {
     fs_fast *q = (fs_fast *)self;
     const eomc_fs_ops *ops = q->ops;
@@ -1443,6 +1449,13 @@ static int fs_fast_advance(void *self, double t, double h, const double *x, doub
             if (q->T[q->L.contact + 25 * (size_t)c] > lim[c]) q->deep = c;
     *x1 = q->x1;
     *f1 = q->f1;          /* not used by the fast path; accept writes it only when projecting */
+    *e1 = NULL;           /* the energy at x1: T holds the terms there (the last take's T1) */
+    if (ops->imp->energy) {
+        int touch = 0;    /* a contact the slot leaves out touches: the watch evaluates it */
+        for (int k = 0; k < ops->imp->nenergy_apart && !touch; k++)
+            touch = q->T[q->L.contact + 25 * (size_t)ops->imp->energy_apart[k]] > 0.0;
+        if (!touch) *e1 = q->T + q->L.energy;
+    }
     return EOMC_OK;
 }
 
@@ -1453,7 +1466,8 @@ typedef struct fs_slow {
     int have_f;
 } fs_slow;
 
-static int fs_slow_advance(void *self, double t, double h, const double *x, double **x1, double **f1)
+static int fs_slow_advance(void *self, double t, double h, const double *x, double **x1, double **f1,
+                           const double **e1)
 {
     fs_slow *q = (fs_slow *)self;
     int s;
@@ -1465,6 +1479,7 @@ static int fs_slow_advance(void *self, double t, double h, const double *x, doub
     if ((s = fs_advance(&q->w, t, h, x))) return s;
     *x1 = q->w.x1;
     *f1 = q->w.f1;
+    *e1 = NULL;
     return EOMC_OK;
 }
 
@@ -1473,7 +1488,8 @@ static int fs_slow_advance(void *self, double t, double h, const double *x, doub
  * through ops->accept (output rows, events, projection) before it becomes x. */
 static int fs_loop(const eomc_fs_ops *ops, eomc_stats *st, int n, double h, long maxs, double t0,
                    double t1, double *x, double *slope,
-                   int (*advance)(void *, double, double, const double *, double **, double **),
+                   int (*advance)(void *, double, double, const double *, double **, double **,
+                                  const double **),
                    void *self)
 {
     long nsteps = (long)ceil((t1 - t0) / h * (1 - 1e-12));
@@ -1482,14 +1498,15 @@ static int fs_loop(const eomc_fs_ops *ops, eomc_stats *st, int n, double h, long
     for (long k = 0; k < nsteps; k++) {
         double t = t0 + k * h, tn = (k == nsteps - 1) ? t1 : t0 + (k + 1) * h;
         double hh = (k == nsteps - 1) ? t1 - t : h, *x1, *f1;
+        const double *e1;
         int stop = 0;
         st->t = t; st->h = hh;
         if (st->steps >= maxs) return EOMC_MAX_STEPS;
         st->steps++;
-        if ((s = advance(self, t, hh, x, &x1, &f1))) return s;
+        if ((s = advance(self, t, hh, x, &x1, &f1, &e1))) return s;
         st->accepted++;
         for (int i = 0; i < n; i++) slope[i] = (x1[i] - x[i]) / hh;
-        if ((s = ops->accept(ops->ctx, t, tn, x, slope, x1, f1, &stop))) return s;
+        if ((s = ops->accept(ops->ctx, t, tn, x, slope, x1, f1, e1, &stop))) return s;
         if (stop) return EOMC_OK;
         memcpy(x, x1, (size_t)n * sizeof(double));
     }

@@ -22,9 +22,10 @@ typedef struct eomc_fs_ops {
     /* The step [t, tn] from x to x1 is taken; slope = (x1 - x) / (tn - t) (its
      * linear interpolant).  Writes output rows, finds events, projects x1 (then
      * x1 changes and f1 = rhs(tn, x1) is evaluated again).  *stop = 1 when a terminal event ended the run (x then
-     * holds the event's state).  An eomc_status. */
+     * holds the event's state).  energy1: the model's energy at (tn, x1) in the terms the fast path
+     * made there (eomc_implicit.energy), or NULL.  An eomc_status. */
     int (*accept)(void *ctx, double t, double tn, double *x, const double *slope, double *x1,
-                  double *f1, int *stop);
+                  double *f1, const double *energy1, int *stop);
     /* The fast path (MuJoCo's implicitfast, see eomc_fixedstep.c), when not NULL: out =
      * NAME_implicit(t, x) with the run's inputs; an eomc_status.  imp: its structure; the
      * state is x = [q (nq); u (nu)] (no extra states). */
@@ -74,7 +75,8 @@ void eomc_fs_assemble_lanes(eomc_fs_lanes *w, const double *OUT, const double *U
 /* The outputs of NAME_implicit the fast path reads in a buffer before it asks for the whole
  * buffer (eomc_implicit.terms_whole): the contacts' depths and K's diagonals, the joint laws'
  * slopes, the root free joints' columns of N (fs_chart_ratio, fs_onset, fs_switched, the depth
- * limits).  Their indices into idx (room for 4 ncontact + 2 nu + 6 nq nfree), their count returned. */
+ * limits; and the energy, eomc_implicit.energy).  Their indices into idx (room for 4 ncontact + 2 nu
+ * + 6 nq nfree + 1), their count returned. */
 size_t eomc_fs_tested_outputs(int nq, int nu, const eomc_implicit *imp, size_t *idx);
 
 #endif /* EOMC_FIXEDSTEP_H */

@@ -107,6 +107,16 @@ typedef struct eomc_implicit {
        joint laws' slopes and the root free joints' columns of N there (its tests: what the lanes
        copy at once); it calls this before it reads more (fs_assemble, the residual, a try's rate) */
     void (*terms_whole)(double *out);
+    /* 1: NAME_implicit's out[] ends with the model's energy output at the call's state (NAME.json
+       implicit.layout.energy, compiler/tree/lower.implicit_layout), which the fast path's energy
+       watch (eomc_options.watch_output) then reads from the terms it made at each step's end
+       instead of calling watch_fn; 0: none */
+    int energy;
+    /* the contacts (nenergy_apart indices, may be NULL when 0) whose elastic energy that slot leaves
+       out (body-body pairs of a pairs' table: compiler/tree/contacts.ENERGY_APART): while one of
+       them touches (depth > 0) the watch calls watch_fn */
+    int nenergy_apart;
+    const int *energy_apart;
 } eomc_implicit;
 
 /* The run failed its physics: a contact went deeper than eomc_implicit.depth_limit (an
@@ -144,7 +154,8 @@ typedef struct eomc_options {
     eomc_rhs_fn watch_fn;  /* with watch_output > 0: read out[0] of this function instead of
                             output k - 1 of m->outputs -- a model's NAME_energy (the energy
                             output alone, bit for bit the outputs' value, a fraction of their
-                            cost); NULL: m->outputs */
+                            cost); NULL: m->outputs.  With implicit->energy the fast path reads
+                            that value at each step's end from the terms it made there */
 } eomc_options;
 
 typedef struct eomc_stats {

@@ -142,6 +142,18 @@ def test_implicitfast_rows_in_lanes_equal_the_scalar_rollout(hopper, threads):
     assert simulate(hopper, X0[0], (0.0, 0.48), method="implicitfast", dt=0.008).stats["nfev"] > 61
 
 
+def test_groups_of_several_lanes_equal_the_scalar_rollout(hopper):
+    """Enough rows for groups of 2 lanes' rows (eomc_rollout.c: EOMC_ROLLOUT_GROUPS): a fiber whose
+    row ends takes its group's next row; every row still the scalar row's bits."""
+    from eomc.runtime.cpu import machine_lanes
+    X0 = _hopper_starts(hopper, 2 * 16 * machine_lanes() + 3, seed=7)
+    kw = dict(dt=0.008, steps=30, method="implicitfast", threads=2)
+    want = rollout(hopper, X0, **kw)
+    got = rollout(hopper, X0, lanes=True, **kw)
+    assert got.ok.all() and np.array_equal(got.x, want.x) and np.array_equal(got.steps, want.steps)
+    assert np.array_equal(got.unsolved, want.unsolved)
+
+
 def test_implicitfast_lanes_without_the_residual_test_equal_the_scalar_rollout(hopper):
     """split=0 (one model call a step, no residual test): the lanes kernel is asked for no ratio,
     only the step's matrix and the next try's du and rate (eomc_fs_request.du NULL), and each row

@@ -163,3 +163,29 @@ def test_energy_guards_only_depths_read_as_their_positive_part():
     # a depth without a square root (a ground point's height less its reach) is not worth a guard
     linear = prog.with_(assignments=((d1, a - b),) + prog.assignments[1:])
     assert energy_guards(linear, guards) == []
+
+
+def test_outputs_that_are_the_energy_alone_call_it(tmp_path):
+    """A URDF robot with limits (recursive: its one default output is the energy): NAME_outputs is
+    one call of NAME_energy (generate.outputs_by_energy: the copy was 67 kB of G1's C), with the
+    same bits; with a frame among the outputs they keep their own code."""
+    from helpers.urdf_arm import LAW_ARM
+    path = tmp_path / "law_arm.urdf"
+    path.write_text(LAW_ARM)
+    model = compile_model(str(path), "en_call", cache_dir=tmp_path, cflags=STRICT, progress=False,
+                          formulation="recursive")
+    assert model.output_names == ("energy",) and "energy" in model.metadata["functions"]
+    c = model.source_path.read_text()
+    body = c[c.index("int en_call_outputs("):]
+    assert body[:body.index("\n}\n")].splitlines()[2:] == ["    return en_call_energy(t, x, p, r, out, work);"]
+    assert "en_call_outputs_part" not in c
+    assert model.metadata["op_counts"]["outputs"] == model.metadata["op_counts"]["energy"]
+    rng = np.random.default_rng(3)
+    P = np.asarray(model.param_defaults, dtype=float)
+    for k in range(10):
+        x = rng.uniform(-1.5, 1.5, model.nx)
+        assert model.outputs(0.0, x)["energy"] == energy_of(model, 0.0, x, P)
+    framed = generate(str(path), "en_framed", formulation="recursive", frames=["l3"], use_cache=False,
+                      progress=False)[1]
+    assert len(framed.metadata["output_names"]) > 1
+    assert "return en_framed_energy(" not in framed.c_source

@@ -256,3 +256,22 @@ def test_several_kept_tensors_share_one_warning(tmp_path):
     grounded = [m for m in messages if "welded to the ground" in m]
     assert len(grounded) == 1 and "2 links welded to the ground" in grounded[0], messages
     assert "link 'cam1' (line" in grounded[0] and "link 'cam2' (line" in grounded[0]
+
+
+def test_several_massless_moving_links_share_one_warning(tmp_path):
+    """romeo.urdf merges eight massless finger chains: one warning naming each link, its joint
+    and line and what it is merged into, not eight."""
+    fingers = "".join(f'  <joint name="finger{k}" type="revolute"><parent link="lower"/><child link="tip{k}"/>'
+                      f'<axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>\n'
+                      f'  <link name="tip{k}"/>\n' for k in (1, 2))
+    text = ARM.replace("</robot>", fingers + "</robot>")
+    path = _write(tmp_path, text)
+    with pytest.warns(EomcWarning) as caught:
+        system = from_urdf(path)
+    merged = [str(w.message) for w in caught if "carr" in str(w.message) and "no mass" in str(w.message)]
+    assert len(merged) == 1 and "2 moving links carry no mass" in merged[0], merged
+    for k in (1, 2):
+        line = _line(text, f'<joint name="finger{k}"')
+        assert f"link 'tip{k}' (moved by joint 'finger{k}', line {line}) carries no mass: merged into 'lower'" \
+            in merged[0], merged
+    assert [str(q) for q in system.q] == ["q_shoulder(t)", "q_elbow(t)"]
