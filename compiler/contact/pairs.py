@@ -24,7 +24,8 @@ centre, a capsule's segment, a box's solid) with the radii around them --
 
 Box–box, cylinder (with a sphere, capsule or cylinder) and ellipsoid–sphere pairs go through the
 solid's signed distance instead (:func:`solid_contact`, :func:`signed_distance`, :func:`_box_box`:
-a box pair has 16 contact points, a cylinder pair 33; bounds in docs/contact.md).  For the others,
+a box pair has 88 contact points: each box's corners, edges' midpoints and 4 points per face
+against the other; a cylinder pair 33; bounds in docs/contact.md).  For the others,
 then with d the vector between those points (A to B), |d| = sqrt(d·d + EPS²):
 
     n = d/|d|,   δ = r_A + r_B + margin - |d|,   p = x_A + (r_A - δ/2) n
@@ -506,18 +507,19 @@ def counted_kinds(kind_a, kind_b):
       random shallow states met from outside.  Before session 18's rim candidate, a capsule
       across a rim took the segment's point nearest the axis segment, which slid along the
       segment: up to 0.14-0.38 there;
-    - box–box: no -- each corner's depth is past the face the separating-axis test picks, gated
-      by its foot lying on that face (:func:`_box_box`): the depth jumps where the pick or the gate
-      switches with the corner already past the plane, so the energy jumps (10 % drift at rtol
-      1e-8 in session 17; the central difference across a jump, 1e6), though between jumps the
-      force is its gradient;
+    - box–box: yes since session 19 -- each of both boxes' sample points (corners, edges'
+      midpoints, points inside the faces) against the other's exact signed distance
+      (:func:`_box_box`).  Session 18's law (each corner past the face the separating-axis test
+      picked, gated by its foot lying on that face) was not: its depth jumped where the pick or
+      the gate switched with a corner already past the plane (10 % drift at rtol 1e-8 in
+      session 17; the central difference across a jump, 1e6);
     - ellipsoid–capsule and others are not modelled (PAIR_KINDS)."""
-    return not (kind_a == kind_b == "box")
+    return True
 
 
 def pair_parts(kind_a, kind_b):
     """The parts (contact points) of a pair of these kinds: [-1] (one point) but for
-    box–box: 16 (parts 0-7: A's corners against B; 8-15: B's corners against A: :func:`_box_box`) and
+    box–box: 2·BOX_POINTS (A's sample points against B, then B's against A: :func:`_box_box`) and
     cylinder–cylinder: 4·CYLINDER_RIM + 1 (A's rim points against B, B's against A, and the
     capsule inside A about its axis -- radius min(R, h) -- against B: side on side); box–cylinder:
     8 + 2·CYLINDER_RIM + 1 (the box's corners against the cylinder, the cylinder's rim points
@@ -525,7 +527,7 @@ def pair_parts(kind_a, kind_b):
     on a face or an edge; whichever order the pair names them in)."""
     from .geometry import CYLINDER_RIM
     if kind_a == kind_b == "box":
-        return list(range(16))
+        return list(range(2 * BOX_POINTS))
     if kind_a == kind_b == "cylinder":
         return list(range(4 * CYLINDER_RIM + 1))
     if {kind_a, kind_b} == {"box", "cylinder"}:
@@ -578,10 +580,8 @@ def signed_distance(x, solid, let=lambda e: e):
         wn = let(sm.sqrt(_dot(w, w) + SDF_EPS ** 2))
         return let(t * wn), [let(sum((w[j] / wn * axes[j][k] for j in range(3)), sm.S.Zero)) for k in range(3)]
     if kind == "box":
-        q = [let(_dot(rel, axes[j])) for j in range(3)]
-        e = [let(sm.Abs(q[j]) - _num(size[j])) for j in range(3)]
-        dirs = [[_sign(q[j]) * axes[j][k] for k in range(3)] for j in range(3)]
-    elif kind == "cylinder":
+        return _box_sd([let(_dot(rel, axes[j])) for j in range(3)], solid, let)
+    if kind == "cylinder":
         z = let(_dot(rel, axes[2]))
         radial = [let(rel[k] - z * axes[2][k]) for k in range(3)]
         rho = let(sm.sqrt(_dot(radial, radial) + SDF_EPS ** 2))
@@ -589,6 +589,19 @@ def signed_distance(x, solid, let=lambda e: e):
         dirs = [[radial[k] / rho for k in range(3)], [_sign(z) * axes[2][k] for k in range(3)]]
     else:
         raise ValueError(f"no signed distance to a {kind}")
+    return _sd_tail(e, dirs, let)
+
+
+def _box_sd(q, box, let):
+    """(sd, outward normal (world)) of a point at ``q`` in the box's frame (:func:`signed_distance`)."""
+    e = [let(sm.Abs(q[j]) - _num(box["size"][j])) for j in range(3)]
+    dirs = [[_sign(q[j]) * box["axes"][j][k] for k in range(3)] for j in range(3)]
+    return _sd_tail(e, dirs, let)
+
+
+def _sd_tail(e, dirs, let):
+    """(sd, outward normal) of a box or cylinder from the excess e_j over each face pair and the
+    faces' outward directions ``dirs`` (:func:`signed_distance`)."""
     o = [let(_pos(x)) for x in e]
     out = let(sm.sqrt(_dot(o, o) + SDF_EPS ** 2))
     top = e[0]
@@ -652,7 +665,8 @@ def solid_contact(a, b, part, margin=0.0, let=lambda e: e):
     A sphere of radius r at x against a solid S: δ = r + margin - sd_S(x), n = -(S's outward
     normal at x), p = x + (r - δ/2)·n, as the cores' nearest points give it for the other
     pairs.  A capsule is the deepest of its candidate spheres (:func:`_candidates`, chosen by
-    ``step`` on δ).  Box–box (:func:`_box_box`) and cylinder–cylinder have several parts: each
+    ``step`` on δ).  Box–box (:func:`_box_box`: each box's sample points against the other) and
+    cylinder–cylinder have several parts: each
     cylinder's rim points against the other and the capsule inside A about its axis against B
     (every candidate lies in its shape, so the depth is never overstated: a contact may start
     late, never early; measured against mj_geomDistance in the tests); box–cylinder likewise with
@@ -714,49 +728,73 @@ def solid_contact(a, b, part, margin=0.0, let=lambda e: e):
     return p, [let(-x) for x in n] if swap else n, depth
 
 
-BOX_GATE = 1e-9   # m: a corner whose projection is this far outside the other box's face still meets it
+# A box's sample points (:func:`_box_point`), in units of its half sizes: its 8 corners (as
+# :func:`_corner`), its 12 edges' midpoints, and on each of its 6 faces 4 points at half the
+# face's half sizes.  Box–box meets each against the other box's exact signed distance.
+def _box_local():
+    corners = [tuple(2 * ((i >> (2 - j)) & 1) - 1 for j in range(3)) for i in range(8)]
+    edges, faces = [], []
+    for j in range(3):                     # edges along axis j; faces normal to axis j
+        o1, o2 = (j + 1) % 3, (j + 2) % 3
+        for u in (-1, 1):
+            for v in (-1, 1):
+                e, f = [0, 0, 0], [0, 0, 0]
+                e[o1], e[o2] = u, v
+                f[j], f[o1], f[o2] = u, sm.Rational(v, 2), None
+                edges.append(tuple(e))
+                for w in (-1, 1):
+                    f[o2] = sm.Rational(w, 2)
+                    faces.append(tuple(f))
+    return tuple(corners + edges + faces)
+
+
+_BOX_LOCAL = _box_local()
+BOX_POINTS = len(_BOX_LOCAL)      # 44
+
+
+def _box_point(box, i):
+    """Sample point i (0..BOX_POINTS-1) of a box's surface (world): 0-7 its corners, 8-19 its
+    edges' midpoints, 20-43 four points on each face (_BOX_LOCAL)."""
+    local = _BOX_LOCAL[i]
+    return [box["centre"][k] + sum((_num(box["size"][j]) * local[j] * box["axes"][j][k]
+                                    for j in range(3) if local[j] != 0), sm.S.Zero) for k in range(3)]
 
 
 def _box_box(a, b, part, margin, let):
-    """(p, n, δ) of corner ``part`` of a box pair (0-7: A's corners against B's faces, 8-15: B's
-    against A's), as the classic box–box test does it with the other box's face axes: of the other
-    box's 3 face normals, the one along which the two boxes overlap least (separating-axis test,
-    chosen by ``step``) gives the face, n its normal pointing from A to B; the corner's depth δ is
-    how far it is past that face's plane, provided its foot on the plane lies on the face (within
-    BOX_GATE: stacked boxes of equal size have corners exactly on the edges), else δ = -1 m (no
-    contact).  p is midway between the corner and its foot.  A box on a face: the corners of each
-    box over the other's face share the load (two equal boxes stacked, shifted: four).  Each
-    corner's face is one box's, so the normal does not jump between the two boxes' nearly parallel
-    faces (with both boxes' six axes in one test it did, and stalled every integrator on a stack).
-    Exact for a corner against a face (the distance when apart, the depth when pressed); the 9
-    edge–edge axes are left out, so two edges crossing meet only when a corner meets a face."""
-    mine, other, sense = (a, b, 1) if part < 8 else (b, a, -1)
-    d = [let(other["centre"][k] - mine["centre"][k]) for k in range(3)]     # mine -> other
-    hm, ho = [_num(x) for x in mine["size"]], [_num(x) for x in other["size"]]
-    overlaps, signs = [], []
-    for k in range(3):                      # the other box's face normals
-        axis = other["axes"][k]
-        proj = let(_dot(axis, d))
-        reach = sum((hm[j] * sm.Abs(_dot(mine["axes"][j], axis)) for j in range(3)), sm.S.Zero)
-        overlaps.append(let(reach + ho[k] - sm.Abs(proj)))
-        signs.append(_sign(proj))
-    picks, left = [], sm.S.One              # one-hot: the last of the smallest overlaps
-    for i in range(2):
-        pick = let(left * sm.Mul(*[step(overlaps[j] - overlaps[i]) for j in range(i + 1, 3)]))
-        picks.append(pick)
-        left = let(left - pick)
-    picks.append(left)
-    m = [let(sum((picks[i] * signs[i] * other["axes"][i][k] for i in range(3)), sm.S.Zero)) for k in range(3)]
-    half = sum((picks[i] * ho[i] for i in range(3)), sm.S.Zero)       # the chosen face's distance from the centre
-    v = [let(x) for x in _corner(mine, part % 8)]
-    past = let(half - _dot(m, [other["centre"][k] - v[k] for k in range(3)]))     # m points into the other
-    foot = [let(v[k] - past * m[k]) for k in range(3)]
-    rel = [foot[k] - other["centre"][k] for k in range(3)]
-    gate = let(sm.Mul(*[step(_num(other["size"][j] + BOX_GATE) - sm.Abs(_dot(rel, other["axes"][j])))
-                        for j in range(3)]))
-    depth = let(gate * (past + _num(margin)) - (1 - gate))
-    p = [let(v[k] - past / 2 * m[k]) for k in range(3)]
-    return p, [let(sense * x) for x in m], depth
+    """(p, n, δ) of contact point ``part`` of a box pair (0..BOX_POINTS-1: A's sample points
+    against B; then B's against A): the sample point x (:func:`_box_point`: a corner, an edge's
+    midpoint or a point inside a face) against the other box's exact signed distance
+    (:func:`signed_distance`), as box–cylinder's corners: δ = margin - sd(x), n the other box's
+    inward normal at x (from A to B), p midway between x and its foot.
+
+    Why this law: δ is a continuous function of the two poses (a material point against a fixed
+    solid's signed distance), whose gradient is the normal the force acts along at p, so the
+    force is minus the gradient of the energy counted (:func:`counted_kinds`).  Session 18's law
+    (each corner past the face the separating-axis test picked, gated by its foot lying on that
+    face) jumped where the pick or the gate switched with a corner already past the plane (a box
+    pressed 1 mm and slid 2 µm past an edge lost half its energy), and it missed contacts that
+    have no corner inside the other box: equal boxes stacked with a relative yaw (30°: no point
+    at all, the upper box fell through), two edges crossing.  Corners alone against the signed
+    distance would lose the stack too: equal boxes stacked aligned (dm_control's stacker: same
+    size, same y) have their corners and edges on the other's side planes, where sd = 0; the
+    points inside the faces carry it, the edges' midpoints meet crossed edges (sampled: exact
+    where the crossing is at a midpoint, late elsewhere).  Exact against mj_geomDistance
+    whenever the nearest points apart include a corner (a corner's signed distance is exact);
+    never early (every sample lies in its box)."""
+    point, solid, swap = (a, b, False) if part < BOX_POINTS else (b, a, True)
+    loc, hp = _BOX_LOCAL[part % BOX_POINTS], [_num(v) for v in point["size"]]
+    x = [let(v) for v in _box_point(point, part % BOX_POINTS)]
+    # x in the other box's frame from the pair's relative pose (shared by the 44 points): its centre
+    # there and its half axes there, then each point's coordinates are sums of these
+    rel = [let(point["centre"][k] - solid["centre"][k]) for k in range(3)]
+    t = [let(_dot(rel, solid["axes"][j])) for j in range(3)]
+    half = [[let(hp[k] * _dot(point["axes"][k], solid["axes"][j])) for k in range(3)] for j in range(3)]
+    q = [let(t[j] + sum((loc[k] * half[j][k] for k in range(3) if loc[k] != 0), sm.S.Zero)) for j in range(3)]
+    sd, outward = _box_sd(q, solid, let)
+    n = [let(-v) for v in outward]                    # from the point's box into the other
+    depth = let(_num(margin) - sd)
+    p = [let(x[k] - depth / 2 * n[k]) for k in range(3)]
+    return p, [let(-v) for v in n] if swap else n, depth
 
 
 def _rim_points(cyl, count):
@@ -919,7 +957,7 @@ def pair_guards(found, slopes=False):
     """[(clearance, exports, inner guards)] (compiler/emit/guards.py) of the pairs' broad phase:
     ``found`` [(pair key, clearance, exports, depth, (slope exports, outer exports))] as
     :meth:`PairLoad.lower` appends them, one per contact point; the points of one pair (box–box:
-    16) share its clearance, and inside, each point's law is guarded by its own depth (-δ > 0: its
+    88) share its clearance, and inside, each point's law is guarded by its own depth (-δ > 0: its
     force is ±0).  ``slopes`` (NAME_implicit's guards): the points' slopes are exported with their
     forces, and their δ and p by the pair's guard (they read 0 where it skips the pair)."""
     by_pair = {}

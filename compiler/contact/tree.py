@@ -340,7 +340,7 @@ def energy_blockers(read):
     list: a site tendon's, a SymPy model's); a load this check does not know to be passive (a
     servo with a clamped bias, an activation a zero control moves from 0, fluid forces in a wind,
     a site tendon); a
-    body-body pair whose force is not the gradient of its depth's energy (box-box:
+    body-body pair whose force is not the gradient of its depth's energy (none since session 19:
     .pairs.counted_kinds).  Counted: the ground contacts' and the
     other pairs' elastic energy, joint, fixed-tendon and servo-bias springs, URDF limit
     springs; passive without a term: damping, friction, MJCF limits (runtime/limit_energy.py

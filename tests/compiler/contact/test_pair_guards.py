@@ -27,7 +27,7 @@ def _not_the_table(monkeypatch):
     monkeypatch.setattr(pairs, "PAIR_TABLE", False)
 
 # a static box (the table), a sphere, a body with a capsule and a sphere off its mass centre, a
-# turned box: sphere–sphere, sphere–capsule, sphere–box, capsule–box and box–box (16 corners)
+# turned box: sphere–sphere, sphere–capsule, sphere–box, capsule–box and box–box (88 points)
 XML = """<mujoco model="pg"><worldbody>
 <geom name="table" type="box" pos="0 0 -0.05" size="0.4 0.4 0.05"/>
 <body name="A" pos="0 0 0.3"><freejoint/><geom name="ball" type="sphere" size="0.1"/></body>
@@ -35,7 +35,7 @@ XML = """<mujoco model="pg"><worldbody>
   <geom name="bead" type="sphere" size="0.03" pos="-0.05 0.06 0.01"/></body>
 <body name="C" pos="0 0.25 0.3"><freejoint/><geom name="cube" type="box" size="0.06 0.05 0.04" euler="0 0 30"/></body>
 </worldbody></mujoco>"""
-PAIRS, POINTS = 9, 8 + 16     # the table with four geoms, the ball with three, rod and bead with the cube
+PAIRS, POINTS = 9, 8 + 88     # the table with four geoms, the ball with three, rod and bead with the cube
 
 
 def _build(tmp_path, tag):
@@ -112,8 +112,9 @@ def test_guarded_pairs_are_the_straight_line_pairs_near_far_and_pressed(tmp_path
     out = np.array([[guarded.outputs(0.0, x)[k] for k in depths] for x in X[:300]])
     pressed = (out > 0).mean(axis=0)
     assert pressed.max() > 0.2 and (out < -0.05).any(axis=0).all()
-    # every point but the table's own corners (table__cube_0-7, far from where the cube goes)
-    far = {f"depth_table__cube_{i}" for i in range(8)}
+    # every point but the table's own sample points (table__cube_0-43: its corners, edges'
+    # midpoints and face points, far from where the cube goes)
+    far = {f"depth_table__cube_{i}" for i in range(pairs.BOX_POINTS)}
     assert all(p > 0 for name, p in zip(depths, pressed) if name not in far)
     ball_rod = [guarded.outputs(0.0, x)["depth_ball__rod"] for x in sweep[:400]]
     assert ball_rod[0] < -0.05 and ball_rod[-1] > 0
@@ -191,8 +192,8 @@ def test_the_implicit_terms_keep_the_pairs_broad_phase(tmp_path, monkeypatch):
 
 
 # a planar scene (slide x, slide z, hinge y): the pairs' out-of-plane wrench components are read by
-# nothing, so dead-code elimination drops them; table–ball (box–sphere), table–cube (box–box, 16
-# corners), ball–cube (sphere–box)
+# nothing, so dead-code elimination drops them; table–ball (box–sphere), table–cube (box–box, 88
+# points), ball–cube (sphere–box)
 PLANAR = """<mujoco model="pl"><worldbody>
 <geom name="table" type="box" pos="0 0 -0.05" size="0.4 0.4 0.05"/>
 <body name="A" pos="0 0 0.1"><joint name="ax" type="slide" axis="1 0 0"/><joint name="az" type="slide" axis="0 0 1"/>
@@ -215,7 +216,7 @@ def test_a_planar_models_pairs_keep_their_guards(tmp_path, monkeypatch):
     planar model: dm_control's stacker, manipulator) was printed straight, its narrow phase run at
     every call (compiler/emit/guards._present).  Inlined and as called routines, each pair and
     each of its points is guarded, and the rhs is the straight-line one."""
-    pairs_, points = 3, 1 + 16 + 1
+    pairs_, points = 3, 1 + 88 + 1
     guarded = _build_planar(tmp_path, "guarded")
     assert _body(tmp_path, "guarded", "rhs", "pl").count("} else {") == pairs_ + points
     monkeypatch.setattr(pairs, "INLINE_NARROW", False)

@@ -14,7 +14,7 @@ import pytest
 
 mujoco = pytest.importorskip("mujoco")
 
-from eomc.compiler.contact.pairs import pair_parts, solid_contact  # noqa: E402
+from eomc.compiler.contact.pairs import BOX_POINTS, pair_parts, solid_contact  # noqa: E402
 
 XML = """<mujoco><option gravity="0 0 0"/><worldbody>
 <body name="A"><freejoint/><geom name="ball" type="sphere" size="0.1"/></body>
@@ -123,24 +123,109 @@ def test_ellipsoid_points_against_the_signed_distance_by_hand():
     assert inside >= 3
 
 
-def test_equal_boxes_stacked_rest_on_four_corners():
-    """Two equal boxes, one on the other, shifted along x (stacker's case: the corners lie exactly on
-    the lower box's side faces): four corners at the depth by hand (A's two over B's face, B's two
-    under A's face), normal +z, point midway; the other twelve out of contact."""
-    h, shift, depth = 0.022, 0.01, 1e-3
+def test_equal_boxes_stacked_aligned_rest_on_their_face_points():
+    """Two equal boxes, one on the other, shifted along x and aligned in y (dm_control's stacker:
+    same size, same y).  Each corner and each edge along x lies on the other box's side plane y = ±h,
+    where the signed distance is 0: no force there, so corners alone would let the box fall
+    through.  The points inside the faces and the midpoints of the edges across carry it: ten at
+    the depth by hand (each box's 4 face points and the midpoint of its edge over the other's
+    face), normal +z, point midway; the other 78 out of contact, the deepest corner at 0 (to SDF_EPS).
+    (Session 18's law rested on four corners here, past the face the separating-axis test picked.)"""
+    h, shift, depth = 0.022, 0.008, 1e-3
     axes = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
     lower = {"kind": "box", "centre": [0.0, 0.0, 0.0], "axes": axes, "size": [h, h, h]}
     upper = {"kind": "box", "centre": [shift, 0.0, 2 * h - depth], "axes": axes, "size": [h, h, h]}
-    touching = []
-    for part in range(16):
+    touching, corners = [], []
+    for part in pair_parts("box", "box"):
         p, n, dep = solid_contact(lower, upper, part)
+        if part % BOX_POINTS < 8:
+            corners.append(float(dep))
         if float(dep) > 0:
             touching.append(part)
             assert float(dep) == pytest.approx(depth, abs=1e-15)
             assert [float(x) for x in n] == [0.0, 0.0, 1.0]
             assert float(p[2]) == pytest.approx(h - depth / 2, abs=1e-15)
             assert abs(float(p[0])) <= h and abs(float(p[0]) - shift) <= h
-    assert len(touching) == 4
+    assert len(pair_parts("box", "box")) == 88 and len(touching) == 10
+    assert -1e-14 < max(corners) <= 0      # 0 but the signed distance's SDF_EPS
+
+
+def _pressed(m, d, a, b, rng, spread):
+    """Random poses of the two bodies (free joints) with the geoms pressed (mj_geomDistance < 0)."""
+    while True:
+        for j in range(m.njnt):
+            adr = int(m.jnt_qposadr[j])
+            d.qpos[adr:adr + 3] = rng.uniform(-spread, spread, 3)
+            q = rng.normal(size=4)
+            d.qpos[adr + 3:adr + 7] = q / np.linalg.norm(q)
+        mujoco.mj_kinematics(m, d)
+        dist, _ = _mj(m, d, a, b)
+        if dist < 0:
+            return dist
+
+
+def test_equal_boxes_stacked_with_a_yaw_have_mujocos_depth():
+    """Equal boxes stacked with a random relative yaw and shift, pressed 0.1-2 mm (MuJoCo: 4 to 8
+    contacts): the deepest points are at MuJoCo's depth (-mj_geomDistance) to 1e-12, at least 4 of
+    them (the load is shared), normal along the stack.  Session 18's law had no point at all at a
+    30° yaw (every corner outside the other's face: the box fell through)."""
+    h = 0.022
+    m = mujoco.MjModel.from_xml_string(BOXES.format(a=f"{h} {h} {h}", b=f"{h} {h} {h}"))
+    d = mujoco.MjData(m)
+    rng = np.random.default_rng(19)
+    for _ in range(20):
+        yaw, shift, depth = rng.uniform(-np.pi, np.pi), rng.uniform(-0.2 * h, 0.2 * h, 2), rng.uniform(1e-4, 2e-3)
+        d.qpos[:] = [0, 0, 0, 1, 0, 0, 0, shift[0], shift[1], 2 * h - depth, np.cos(yaw / 2), 0, 0, np.sin(yaw / 2)]
+        mujoco.mj_kinematics(m, d)
+        dist, _ = _mj(m, d, 0, 1)
+        A, B = _placed(m, d, 0), _placed(m, d, 1)
+        deep = [(float(dep), [float(x) for x in n]) for p, n, dep in (solid_contact(A, B, k) for k in pair_parts("box", "box"))]
+        top = max(x for x, _ in deep)
+        assert top == pytest.approx(-dist, abs=1e-12) and dist == pytest.approx(-depth, abs=1e-12)
+        at = [n for x, n in deep if x > top - 1e-12]
+        assert len(at) >= 4 and all(np.allclose(n, [0, 0, 1], atol=1e-12) for n in at)
+
+
+BOXES = """<mujoco><option gravity="0 0 0"/><worldbody>
+<body name="A"><freejoint/><geom name="a" type="box" size="{a}"/></body>
+<body name="B"><freejoint/><geom name="b" type="box" size="{b}"/></body>
+</worldbody></mujoco>"""
+
+
+def _turn(axis, angle):
+    """(w, x, y, z) of a turn by ``angle`` about a coordinate axis (0, 1, 2)."""
+    q = [np.cos(angle / 2), 0.0, 0.0, 0.0]
+    q[1 + axis] = np.sin(angle / 2)
+    return q
+
+
+def test_crossed_edges_are_met_by_the_edges_midpoints_never_deeper_than_mujoco():
+    """Two cubes edge to edge, crossed (A's edge along y on top, B's along x below it, each turned
+    45° about its edge), pressed 1 mm: no corner of either is inside the other.  Session 18's law
+    (corners only) saw nothing (every part -1 m: they passed through each other); the edges'
+    midpoints meet it: B's top edge's midpoint inside A at its signed distance, 1 mm / √2 (the
+    distance to A's nearest face, not MuJoCo's 1 mm along the edges' common normal: a point's depth
+    is never more than the boxes' penetration).  Then at random pressed poses of two boxes: no
+    point deeper than MuJoCo's penetration (-mj_geomDistance) -- no force starts early."""
+    h, dd = 0.022, 1e-3
+    m = mujoco.MjModel.from_xml_string(BOXES.format(a=f"{h} {h} {h}", b=f"{h} {h} {h}"))
+    d = mujoco.MjData(m)
+    g = h * np.sqrt(2)
+    d.qpos[:] = [0, 0, g - dd / 2, *_turn(1, np.pi / 4), 0, 0, -g + dd / 2, *_turn(0, np.pi / 4)]
+    mujoco.mj_kinematics(m, d)
+    dist, _ = _mj(m, d, 0, 1)
+    A, B = _placed(m, d, 0), _placed(m, d, 1)
+    deep = [float(solid_contact(A, B, k)[2]) for k in pair_parts("box", "box")]
+    assert dist == pytest.approx(-dd, abs=1e-12)
+    assert max(deep[k] for k in range(88) if k % BOX_POINTS < 8) < -1e-2      # no corner near
+    assert max(deep) == pytest.approx(dd / np.sqrt(2), abs=1e-12)
+    m = mujoco.MjModel.from_xml_string(BOXES.format(a="0.1 0.08 0.06", b="0.05 0.12 0.07"))
+    d = mujoco.MjData(m)
+    rng = np.random.default_rng(33)
+    for _ in range(40):
+        dist = _pressed(m, d, 0, 1, rng, 0.1)
+        deep = max(float(solid_contact(_placed(m, d, 0), _placed(m, d, 1), k)[2]) for k in pair_parts("box", "box"))
+        assert deep <= -dist + 1e-12
 
 
 def _features(x, box):
