@@ -242,14 +242,34 @@ def _lift(e, out):
     args = e.args
     if e.is_Add or e.is_Mul:      # their order follows the numbers' values: walk by shape instead
         args = sorted(args, key=_masked)
-    return e.func(*[_lift(a, out) for a in args])
+    n = len(out)
+    try:
+        return e.func(*[_lift(a, out) for a in args])
+    except (ValueError, TypeError):     # a node that takes numbers only (see _masked): kept as it is
+        del out[n:]
+        return e
 
 
 _FLOAT = sm.Symbol("_lfloat")
 
 
 def _masked(e):
-    return sm.srepr(e.xreplace({f: _FLOAT for f in e.atoms(sm.Float)}))
+    """``e``'s shape: its floating-point numbers masked, but for those of a node that refuses
+    symbols where it takes numbers (an MJCF actuator's clamp bounds, compiler/mjcf/clamp.py: the
+    2-D walker's and cheetah's ctrlrange; masking them raised there), so twins must agree there
+    and such a node's numbers are not read from a limb's table (_lift keeps it as it is)."""
+    return sm.srepr(_mask(e))
+
+
+def _mask(e):
+    if e.is_Float:
+        return _FLOAT
+    if not e.args or e.is_Atom:
+        return e
+    try:
+        return e.func(*[_mask(a) for a in e.args])
+    except (ValueError, TypeError):     # a node that takes numbers only: compared as it is
+        return e
 
 
 def _shape(bodies, chain, template, marks, layout, shared, nconst):
