@@ -10,23 +10,12 @@ import pytest
 import eomc
 from eomc.errors import ModelError
 from helpers.shared_builds import EXAMPLES
+from helpers.module_cache import cache  # noqa: F401 -- the module's own build cache (a fixture)
 
-MODEL = "examples/cart_pole_system.py"
+MODEL = str(EXAMPLES / "cart_pole_system.py")   # not relative to the working directory
 T = np.linspace(0.0, 2.0, 9)
 X0 = np.array([0.1, 0.5, 0.0, 0.3])
 R = np.array([0.2, -0.1])
-
-
-@pytest.fixture(scope="module")
-def cache(tmp_path_factory):
-    import os
-    old = os.environ.get("EOMC_CACHE_DIR")
-    os.environ["EOMC_CACHE_DIR"] = str(tmp_path_factory.mktemp("cache"))
-    yield
-    if old is None:
-        del os.environ["EOMC_CACHE_DIR"]
-    else:
-        os.environ["EOMC_CACHE_DIR"] = old
 
 
 @pytest.fixture(scope="module", params=["jac_x", "jvp"])

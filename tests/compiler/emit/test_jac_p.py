@@ -19,20 +19,9 @@ import eomc
 from eomc.errors import ModelError
 from helpers import zoo
 from helpers.trees import cart_joints
+from helpers.module_cache import cache  # noqa: F401 -- the module's own build cache (a fixture)
 
 FUNCTIONS = ["rhs", "jac_x", "jac_r", "jac_p", "linearize"]
-
-
-@pytest.fixture(scope="module")
-def cache(tmp_path_factory):
-    import os
-    old = os.environ.get("EOMC_CACHE_DIR")
-    os.environ["EOMC_CACHE_DIR"] = str(tmp_path_factory.mktemp("cache"))
-    yield
-    if old is None:
-        del os.environ["EOMC_CACHE_DIR"]
-    else:
-        os.environ["EOMC_CACHE_DIR"] = old
 
 
 def _fd_p(model, x, p, r):

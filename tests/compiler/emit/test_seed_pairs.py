@@ -11,18 +11,7 @@ from sympy.physics import mechanics as sme
 import eomc
 from eomc.compiler.emit import seed_pairs
 from helpers import zoo
-
-
-@pytest.fixture(scope="module")
-def cache(tmp_path_factory):
-    import os
-    old = os.environ.get("EOMC_CACHE_DIR")
-    os.environ["EOMC_CACHE_DIR"] = str(tmp_path_factory.mktemp("cache"))
-    yield
-    if old is None:
-        del os.environ["EOMC_CACHE_DIR"]
-    else:
-        os.environ["EOMC_CACHE_DIR"] = old
+from helpers.module_cache import cache  # noqa: F401 -- the module's own build cache (a fixture)
 
 
 def _scaled(a, b):
