@@ -195,22 +195,23 @@ def _placed(entry, poses, frames):
     return poses.positions[:, i, :] + R @ pos, R @ rot
 
 
-def pair_overlaps(shape_x, shape_y, cx, Rx, cy, Ry, fraction=PASS_FRACTION):
+def pair_overlaps(shape_x, shape_y, cx, Rx, cy, Ry, fraction=PASS_FRACTION, pruned=True):
     """How X went into Y along rows of centres c (n, 3) and rotations R (n, 3, 3) (shape axes, world):
     (at rows (n,), between rows (n - 1,)) -- the least signed distance from Y of X's core at each
     row and of X's centre's straight path between rows, less (1 - fraction) of X's inner size:
     < 0 where X overlaps Y by more than ``fraction`` of its inner size (the module docstring); a
-    value >= 0 may be a lower bound (segment_min_distance's ``below``)."""
+    value >= 0 may be a lower bound (segment_min_distance's ``below``) unless ``pruned`` is False."""
     ky, sy = shape_y["kind"], shape_y["size"]
     allow = (1.0 - fraction) * inner_size(shape_x["kind"], shape_x["size"])
+    below = allow if pruned else None
     local = np.einsum("nji,nj->ni", Ry, cx - cy)         # X's centre in Y's frame
     if shape_x["kind"] == "capsule":
         h = float(shape_x["size"][1])
         axis = np.einsum("nji,nj->ni", Ry, Rx[:, :, 2])
-        rows = segment_min_distance(ky, sy, local - h * axis, local + h * axis, allow)
+        rows = segment_min_distance(ky, sy, local - h * axis, local + h * axis, below)
     else:
         rows = signed_distance(ky, sy, local)
-    between = segment_min_distance(ky, sy, local[:-1], local[1:], allow) if len(local) > 1 else np.zeros(0)
+    between = segment_min_distance(ky, sy, local[:-1], local[1:], below) if len(local) > 1 else np.zeros(0)
     return rows - allow, between - allow
 
 
@@ -346,7 +347,7 @@ def _hits(C, R, xs, ys, kinds, size, half, allow):
     if n > 1:
         Ry = R[:, ys]
         local = _tdot(Ry, C[:, xs] - C[:, ys])                      # X's centre in Y's frame
-        axis = _tdot(Ry, R[:, xs][..., 2]) * half[xs][:, None]      # X's core about it
+        axis = _tdot(Ry, R[..., 2][:, xs]) * half[xs][:, None]      # X's core about it
         move = _norm(local[1:] - local[:-1]) + _norm(axis[1:] - axis[:-1])
         total = np.concatenate([np.zeros((1, K)), np.cumsum(move, axis=0)])
         ends = np.minimum(starts + BLOCK, n - 1)
