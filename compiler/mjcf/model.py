@@ -546,7 +546,8 @@ def _pair_check(m, d, found, built, tree_body):
             static = int(m.body_weldid[b]) == 0
             pos = d.geom_xpos[g] if static else m.geom_pos[g]
             rot = np.array(d.geom_xmat[g]).reshape(3, 3) if static else quat_matrix(m.geom_quat[g])
-            shapes.append({"geom": _geom_name(m, g), "body": mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) or f"body{b}",
+            body = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) or f"body{b}"
+            shapes.append({"geom": _geom_name(m, g), "body": body,
                            "frame": None if static else built.tree.bodies[tree_body[b]].name,
                            "kind": GEOM_KINDS.get(int(m.geom_type[g])), "size": [float(x) for x in m.geom_size[g]],
                            "pos": [float(x) for x in pos], "rot": [float(x) for x in np.ravel(rot)]})
