@@ -260,17 +260,17 @@ def main(argv=None):
                                        p.add_argument("--max-k", type=int, default=None,
                                                       help="skip cases with more sensitivity columns"),
                                        p.add_argument("--rounds", type=int, default=None,
-                                                      help="paired rounds per process (default 250, "
+                                                      help="paired rounds per process (default 150, "
                                                            "--quick 10)"),
                                        p.add_argument("--processes", type=int, default=None,
                                                       help="fresh processes, each on its own library "
-                                                           "copy, for the paired rounds (default 4, "
+                                                           "copy, for the paired rounds (default 8, "
                                                            "--quick 1)"),
                                        p.add_argument("--paired-max-k", type=int, default=4,
                                                       help="paired rounds for cases up to this many "
                                                            "columns")))
-    rounds = args.rounds or (10 if args.quick else 250)
-    processes = args.processes or (1 if args.quick else 4)
+    rounds = args.rounds or (10 if args.quick else 150)
+    processes = args.processes or (1 if args.quick else 8)
     pin_to_one_core()
     rows, csv_rows, call_rows = [], [], []
     for n in args.n:
