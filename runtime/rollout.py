@@ -178,17 +178,17 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method="rk4", p=No
     of libm's) make of it.
 
     lanes=True with method="implicitfast" (a model built with ``implicit_batch``; its fast path,
-    no feedback or events): each C thread runs a group of as many consecutive rows as the machine
-    has double lanes (rows 0-7, 8-15, ... with 8; with many rows a multiple of that, a fiber whose
-    row ends taking the group's next row: at least 16 groups) from their start to their end, each
-    row the scalar row's code in a fiber, and their NAME_implicit calls are made
-    together, one NAME_implicit_batch call per round (eomc_rollout_implicit_lanes), and with
-    them each row's step matrix is assembled and factored for the whole group in vector code
+    no feedback or events): each C thread runs as many rows at once as the machine has double
+    lanes, each row the scalar row's code in a fiber (a fiber whose row ends takes the next row),
+    and their NAME_implicit calls are made together, one NAME_implicit_batch call per round
+    (eomc_rollout_implicit_lanes; fewer rows than lanes padded), and with
+    them each row's step matrix is assembled and factored for the whole batch in vector code
     (eomc_fs_assemble_lanes, runtime/c/eomc_fixedstep.c; AVX2, 4 rows per vector):
     every row is the scalar rollout's row step for step (bit for bit with
     -DEOMC_BATCH_LIBM_TRIG; the assembly in lanes is bit for bit in any case).  With the vector
-    sin/cos a row's bits depend on which of its calls were batched, which the fixed groups make
-    depend on its group's rows alone: the same result every run and with any thread count.
+    sin/cos every call is still a batch lane whose bits depend on its own state alone, so a row's
+    bits depend on that row alone: the same result every run, with any thread count and among any
+    other rows.
     """
     method = named = resolve_method(method)
     auto = method == "auto"

@@ -124,8 +124,8 @@ typedef unsigned long long eomc_vu __attribute__((vector_size(8 * EOMC_BATCH_LAN
 
 # fdlibm (FreeBSD msun e_rem_pio2.c, k_sin.c, k_cos.c; Sun's permissive notice) in lanes:
 # x = n*pi/2 + y0 + y1 by Cody-Waite: fdlibm's first round (pi/2 in 33 + 53 bits), its 2nd
-# round for all lanes when one lane needs it and its 3rd in the lanes that need it (fdlibm's
-# tests on the bits cancelled), then the degree-13/14 kernels on
+# and 3rd rounds taken in the lanes that need them (fdlibm's tests on the bits cancelled; each
+# lane's bits depend on its own x alone), then the degree-13/14 kernels on
 # |y| <= pi/4 and the quadrant as a bit select.  |x| >= 2^19*pi/2, inf and NaN lanes take
 # libm's sin/cos (fdlibm's medium-size reduction holds below that).  -DEOMC_BATCH_LIBM_TRIG
 # makes every lane call libm: NAME_rhs_batch is then the scalar rhs bit for bit.
@@ -138,34 +138,40 @@ VECTOR_TRIG = r"""static EOMC_VTARGET EOMC_VINLINE void {p}_vkernel(eomc_vd x, e
     eomc_vd w = fn * 6.07710050650619224932e-11;
     eomc_vd y0 = r - w, y1, t, z, v, rs, rc;
     /* fdlibm's tests: more than 16 bits cancelled in a lane (x near a multiple of pi/2) needs
-       the 2nd round (done for all lanes: at least as exact as the 1st), more than 49 after
-       it the 3rd (taken only in those lanes: it drops the 2nd round's rounding error, which
-       only a lane with that much cancellation does not have) */
+       the 2nd round, more than 49 after it the 3rd; each round is computed for all lanes when
+       one lane needs it and taken only in the lanes that need it, as fdlibm's scalar code does,
+       so a lane's bits depend on its own x alone, not on the other states of its batch (the
+       lanes rollout's rows then do not depend on which rows share their rounds) */
     const eomc_vu ex = ((eomc_vu)x >> 52) & 0x7ff;
-    eomc_vu far = ex - (((eomc_vu)y0 >> 52) & 0x7ff) > 16;
+    eomc_vu far = (eomc_vu)(ex - (((eomc_vu)y0 >> 52) & 0x7ff) > 16);
     unsigned long long any = 0;
     int l;
     for (l = 0; l < EOMC_BATCH_LANES; l++) any |= far[l];
     *q = (eomc_vu)k;
     if (any) {{
+        const eomc_vu far2 = far;
+        eomc_vd r2, w2, y2;
         t = r;
-        w = fn * 6.07710050630396597660e-11;
-        r = t - w;
-        w = fn * 2.02226624879595063154e-21 - ((t - r) - w);
-        y0 = r - w;
-        far = ex - (((eomc_vu)y0 >> 52) & 0x7ff) > 49;
+        w2 = fn * 6.07710050630396597660e-11;
+        r2 = t - w2;
+        w2 = fn * 2.02226624879595063154e-21 - ((t - r2) - w2);
+        y2 = r2 - w2;
+        far = far2 & (eomc_vu)(ex - (((eomc_vu)y2 >> 52) & 0x7ff) > 49);
         any = 0;
         for (l = 0; l < EOMC_BATCH_LANES; l++) any |= far[l];
         if (any) {{
             eomc_vd r3, w3;
-            t = r;
+            t = r2;
             w3 = fn * 2.02226624871116645580e-21;
             r3 = t - w3;
             w3 = fn * 8.47842766036889956997e-32 - ((t - r3) - w3);
-            r = (eomc_vd)(((eomc_vu)r3 & far) | ((eomc_vu)r & ~far));
-            w = (eomc_vd)(((eomc_vu)w3 & far) | ((eomc_vu)w & ~far));
-            y0 = r - w;
+            r2 = (eomc_vd)(((eomc_vu)r3 & far) | ((eomc_vu)r2 & ~far));
+            w2 = (eomc_vd)(((eomc_vu)w3 & far) | ((eomc_vu)w2 & ~far));
+            y2 = r2 - w2;
         }}
+        r = (eomc_vd)(((eomc_vu)r2 & far2) | ((eomc_vu)r & ~far2));
+        w = (eomc_vd)(((eomc_vu)w2 & far2) | ((eomc_vu)w & ~far2));
+        y0 = (eomc_vd)(((eomc_vu)y2 & far2) | ((eomc_vu)y0 & ~far2));
     }}
     y1 = (r - y0) - w;
     z = y0 * y0;

@@ -9,13 +9,6 @@
 #include "eomc_fixedstep.h"
 
 #define EOMC_ROLLOUT_MAX_THREADS 1024
-/* The lanes path's rows in at least this many groups (when there are rows for them): a group's
- * rows share one thread, each group ends with a tail of rounds with fewer rows than lanes, so
- * groups grow with the rows while 16 of them still spread over 16 cores.  Measured (one-process
- * A/B, process CPU, against rows refilled from one shared counter): ant 64 rows in 8 groups of 8
- * +5 to +9 %; 512 rows in groups of 8 +10 %, in 16 groups of 32 +3 %. */
-#define EOMC_ROLLOUT_GROUPS 16
-
 typedef struct rollout_job {
     const eomc_model *m;
     const eomc_options *opt;
@@ -36,8 +29,7 @@ typedef struct rollout_job {
     size_t work_len;     /* doubles per thread: integrator work, feedback, events scratch */
     size_t ev_scratch, sw_scratch;   /* of which the events' two scratch buffers (at the end) */
     pthread_mutex_t lock;
-    int next;            /* next row (lanes: next group's first row) to hand out, under lock */
-    int group;           /* lanes: rows a group (a multiple of lanes; rollout_rows) */
+    int next;            /* next row to hand out, under lock */
     eomc_batch_fn batch; /* NULL, or NAME_implicit_batch: implicitfast's model calls in lanes */
     int lanes;           /* rows each thread runs at once (fibers) with batch */
     size_t out_len;      /* doubles of NAME_implicit's output */
@@ -49,23 +41,6 @@ static int take_row(rollout_job *job)
     int i;
     pthread_mutex_lock(&job->lock);
     i = job->next < job->n ? job->next++ : -1;
-    pthread_mutex_unlock(&job->lock);
-    return i;
-}
-
-/* The lanes path's next group of job->group consecutive rows (fewer: the last), its first row
- * returned (-1: none left).  A group's rows run in one thread's job->lanes fibers, each fiber
- * taking the group's next row in order when its row ends, so the rounds they share -- which calls
- * are batched (the lanes' vector sin/cos) and which made by the scalar call (a tail round below
- * PAD_MIN) -- depend on the group's rows alone: a row's bits do not depend on the threads' timing
- * or count (issue 31; before, each fiber took the next row from the shared counter, and rows met
- * in rounds as the threads raced). */
-static int take_group(rollout_job *job)
-{
-    int i;
-    pthread_mutex_lock(&job->lock);
-    i = job->next < job->n ? job->next : -1;
-    if (i >= 0) job->next += job->group;
     pthread_mutex_unlock(&job->lock);
     return i;
 }
@@ -136,18 +111,19 @@ static void run_rows(rollout_job *job, double *work, const eomc_options *opt)
 
 /* ------------------------------------------------- implicitfast's model calls in lanes
  *
- * Each thread runs a group of job->lanes consecutive rows at once (take_group: fixed groups, so a
- * row's rounds are the same whatever the threads), each row in a fiber (its own stack) running the
+ * Each thread runs job->lanes rows at once, each row in a fiber (its own stack) running the
  * scalar code of run_row -- eomc_integrate_ex, the same step rule, splits and checks -- with its
  * options' NAME_implicit replaced by lanes_terms: a row's model call hands its state to the
  * thread's scheduler and waits.  When no fiber can go on, the scheduler evaluates the waiting
  * states that share the parameters (and the time, when NAME_implicit reads t: job->reads_t) in
- * one job->batch (NAME_implicit_batch) call and
- * resumes them (fewer than a group of lanes: each by the scalar call, as the batch's scalar tail
- * would, without the copies).  Each lane of the batch is the scalar call's bits (with
- * -DEOMC_BATCH_LIBM_TRIG; within the vector sin/cos otherwise), so every row is the scalar
- * rollout's row.  A row whose step is split calls again at sub-step times; those calls are
- * batched with whatever rows wait (at the same time, when the model reads t). */
+ * one job->batch (NAME_implicit_batch) call -- padded to a whole batch when fewer wait -- and
+ * resumes them; a fiber whose row ends takes the job's next row (take_row).  Each lane of the
+ * batch is the scalar call's bits with -DEOMC_BATCH_LIBM_TRIG (so every row is the scalar
+ * rollout's row), and within the vector sin/cos otherwise, whose bits depend on the lane's own
+ * argument alone (compiler/emit/batch.py): every call of a row is a batch lane, so a row's bits
+ * depend on that row alone -- not on which rows share its rounds, the threads' timing or count.
+ * A row whose step is split calls again at sub-step times; those calls are batched with whatever
+ * rows wait (at the same time, when the model reads t). */
 
 enum { FIBER_RUNNING, FIBER_WAITING, FIBER_DONE };
 #define FIBER_STACK ((size_t)1 << 20)   /* the integrator's frames (the model call runs outside) */
@@ -189,7 +165,7 @@ typedef struct fiber {
     double *work;
     char *stack;
     int state, result;
-    int row;               /* the row it runs (lanes_group: one of the thread's group) */
+    int row;               /* the row it runs (take_row) */
     double t;
     const double *x, *p, *r;
     double *out;
@@ -214,7 +190,6 @@ typedef struct lanes_sched {
     eomc_implicit imp;     /* the job's, its terms lanes_terms (and terms_lu lanes_terms_lu) */
     eomc_fs_lanes *lw;     /* NULL, or the step's assembly in lanes (eomc_fixedstep.h) */
     int cur_ob;            /* the batch buffer the last round wrote */
-    int next_row, end_row; /* the group's rows not yet taken by a fiber: next_row .. end_row - 1 */
     double *OUTS[2];       /* the batch's outputs, rounds alternating between the two (lanes_rows) */
     const size_t *hot, *var;   /* the outputs copied at once (eomc_fs_tested_outputs), and all a ... */
     size_t nhot, nvar;         /* ... call writes (not NAME_implicit_const's: var_outputs) */
@@ -286,8 +261,7 @@ static void fiber_main(void)
 #endif
     for (;;) {
         run_row(s->job, f->row, f->work, &s->opt);
-        if (s->next_row >= s->end_row) break;
-        f->row = s->next_row++;                      /* the group's next row */
+        if ((f->row = take_row(s->job)) < 0) break;  /* the job's next row */
         f->pend[0] = f->pend[1] = NULL;              /* the row before's: nothing it needs */
     }
     f->state = FIBER_DONE;
@@ -440,35 +414,30 @@ static void lanes_assemble(lanes_sched *s, const int *idx, int k, const int *ibu
     eomc_fs_assemble_lanes(s->lw, OUT, X + (size_t)s->job->m->nq * L, req, ahead);
 }
 
-/* A round of k < lanes waiting calls (the rows' tail: the others are done, or wait with other
- * parameters) is padded to a whole batch when k >= PAD_MIN(lanes), else made by the scalar call.
- * Why: a batch of 8 costs what 2.5-4 scalar calls do on the ant, Go2 and G1 (5 on the humanoid),
- * and its rows' steps are assembled in lanes too; measured (ant, bench_rollout_contacts' 64 rows,
- * lanes 8): 1099 of 11939 calls were made in 246 rounds of 1-7 rows, about a quarter of the model
- * calls' time, and the rollout took 4 % less with this.  Each lane is the same call either way
- * (its bits, within the lanes' sin/cos). */
-#define PAD_MIN(L) (((L) + 1) / 2)
+/* A round of k < lanes waiting calls (the rollout's tail: the other fibers are done, or wait with
+ * other parameters) is padded to a whole batch with the first row's call, never made by the scalar
+ * call: the scalar call's sin and cos are libm's, not the lanes', so a row's bits would depend on
+ * which of its calls fell in such a round -- on the rows beside it (session 19 fixed that with rows
+ * in fixed groups, each ending in a tail of rounds with fewer rows: ant 64 rows +5 to +9 %).
+ * Measured (ant, bench_rollout_contacts' 64 rows, lanes 8, one thread): the groups' tails held
+ * 1170 of the 13018 calls in 723 scalar rounds of 1-3 rows and 450 padded ones; with rows from one
+ * counter only the rollout's last rows run alone. */
 
-/* Rows g .. g + job->group - 1 (those below job->n) in the fibers, the first lanes of them one
- * each, then each fiber the group's next row in order when its row ends; their calls in rounds.
- * X, R: the batch's input columns (nx, then ninput rows of lanes doubles), ibuf, idx: lanes ints
- * each, mwork: the model's work.  0, or 1 when a fiber's context could not be made
- * (the group's rows not run: their status EOMC_ABORTED). */
-static int lanes_group(lanes_sched *s, int g, double *X, double *R, int *ibuf, int *idx, double *mwork)
+/* The thread's fibers (made) each on the job's next row, then each fiber the job's next row when
+ * its row ends (take_row); their calls in rounds.  X, R: the batch's input columns (nx, then
+ * ninput rows of lanes doubles), ibuf, idx: lanes ints each, mwork: the model's work. */
+static void lanes_run(lanes_sched *s, double *X, double *R, int *ibuf, int *idx, double *mwork)
 {
     rollout_job *job = s->job;
     fiber *f = s->f;
     const int L = job->lanes, nx = job->m->nx, nr = job->m->ninput;
-    const int end = job->n - g < job->group ? job->n : g + job->group;
-    s->next_row = g + L < end ? g + L : end;
-    s->end_row = end;
     for (int i = 0; i < L; i++) {
-        f[i].row = g + i;
-        f[i].pend[0] = f[i].pend[1] = NULL;          /* the fiber's row before: nothing it needs */
+        f[i].pend[0] = f[i].pend[1] = NULL;
         f[i].state = FIBER_DONE;
-        if (g + i < end && make_fiber(&f[i])) return 1;
+        f[i].row = take_row(job);
     }
-    for (int i = 0; i < L && g + i < end; i++) resume(s, i);   /* each to its first call, or done */
+    for (int i = 0; i < L; i++)          /* each to its first call, or done */
+        if (f[i].row >= 0) resume(s, i);
     for (;;) {
         int first = -1, k = 0, ob;
         /* the earliest call first: rows ahead in time wait for the others (a split step's
@@ -479,14 +448,6 @@ static int lanes_group(lanes_sched *s, int g, double *X, double *R, int *ibuf, i
         for (int i = 0; i < L; i++)      /* from 0: a row before first may wait at another t */
             if (same_call(s, first, i)) idx[k++] = i;
         for (int c = 0; c < k; c++) drop_pending(&f[idx[c]], f[idx[c]].out);   /* written anew */
-        if (k < PAD_MIN(L)) {   /* a few: the scalar call, on the rows' buffers */
-            for (int c = 0; c < k; c++) {
-                fiber *q = &f[idx[c]];
-                q->result = job->opt->implicit->terms(q->t, q->x, q->p, q->r, q->out, mwork);
-            }
-            for (int c = 0; c < k; c++) resume(s, idx[c]);
-            continue;
-        }
         for (int c = 0; c < L; c++) {    /* lanes k .. L - 1 pad: the first row's call again */
             const fiber *q = &f[idx[c < k ? c : 0]];
             for (int j = 0; j < nx; j++) X[(size_t)j * L + c] = q->x[j];
@@ -502,10 +463,9 @@ static int lanes_group(lanes_sched *s, int g, double *X, double *R, int *ibuf, i
         }
         for (int c = 0; c < k; c++) resume(s, idx[c]);
     }
-    return 0;
 }
 
-/* One thread's rows, a group of job->group consecutive rows at a time (take_group).  buf: the
+/* One thread's rows (lanes_run).  buf: the
  * batch's columns (nx + ninput rows of lanes doubles, then two buffers of out_len rows: OUTS;
  * 64-byte aligned), ibuf, idx: lanes ints each, mwork: the model's work, lw: NULL or the assembly
  * in lanes, hot, var: lanes_sched's.  0, or 1 when a fiber's context could not be made. */
@@ -515,7 +475,6 @@ static int lanes_rows(rollout_job *job, fiber *f, double *buf, int *ibuf, int *i
     lanes_sched s;
     const int nx = job->m->nx, nr = job->m->ninput, L = job->lanes;
     double *X = buf, *R = X + (size_t)nx * L;
-    int g, failed = 0;
     memset(&s, 0, sizeof s);
     s.job = job; s.f = f; s.lw = lw;
     s.OUTS[0] = R + (size_t)nr * L;
@@ -527,13 +486,12 @@ static int lanes_rows(rollout_job *job, fiber *f, double *buf, int *ibuf, int *i
     s.imp.terms_lu = lw ? lanes_terms_lu : NULL;
     s.imp.terms_whole = lanes_whole;
     s.opt.implicit = &s.imp;
-    for (int i = 0; i < L; i++)          /* before any group is taken: the others can run them */
+    for (int i = 0; i < L; i++)          /* before any row is taken: the others can run them */
         if (make_fiber(&f[i])) return 1;
     cur_sched = &s;
-    while (!failed && (g = take_group(job)) >= 0)
-        failed = lanes_group(&s, g, X, R, ibuf, idx, mwork);
+    lanes_run(&s, X, R, ibuf, idx, mwork);
     cur_sched = NULL;
-    return failed;
+    return 0;
 }
 
 /* A thread of the lanes path: its fibers' stacks and work buffers, then lanes_rows. */
@@ -675,12 +633,9 @@ static int rollout_rows(const eomc_model *m, const eomc_options *opt, double t0,
         nthreads = EOMC_ROLLOUT_MAX_THREADS;
     if (nthreads > n)
         nthreads = n > 0 ? n : 1;
-    /* lanes: groups of lanes * max(1, n / (GROUPS * lanes)) rows -- rows and lanes alone fix them,
-       not the threads -- and a thread a group at most */
-    k = lanes > 0 ? n / (EOMC_ROLLOUT_GROUPS * lanes) : 0;
-    job.group = lanes * (k > 1 ? k : 1);
-    if (batch && nthreads > (n + job.group - 1) / job.group)
-        nthreads = n > 0 ? (n + job.group - 1) / job.group : 1;
+    /* lanes: a thread a whole batch of rows at least */
+    if (batch && nthreads > (n + lanes - 1) / lanes)
+        nthreads = n > 0 ? (n + lanes - 1) / lanes : 1;
     job.m = m; job.opt = opt; job.t0 = t0; job.t1 = t1; job.n = n;
     job.X0 = X0; job.P = P; job.p_stride = p_stride;
     job.n_rgrid = n_rgrid > 0 ? n_rgrid : 0; job.r_tgrid = r_tgrid; job.R = R; job.r_stride = r_stride;

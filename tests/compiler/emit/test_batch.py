@@ -235,6 +235,50 @@ EOMC_VTARGET void many(int n, const double *x, double *s, double *c)
         assert np.mean(ulps == 0) > 0.9
 
 
+@pytest.mark.skipif(shutil.which("gcc") is None, reason="needs gcc")
+def test_vector_trig_lane_is_its_own(tmp_path):
+    """A lane's sin and cos depend on its own argument alone: each argument, in a vector beside
+    arguments near multiples of pi/2 (whose lanes take fdlibm's 2nd and 3rd reduction rounds) and
+    beside ordinary ones, gives the bits it gives alone (in every lane).  The lanes rollout relies
+    on it: a row's bits do not depend on which rows share its batch (eomc_rollout.c).  (Failed
+    before: the 2nd round was taken in every lane when one lane needed it.)"""
+    lanes = machine_lanes()
+    src = tmp_path / "own.c"
+    src.write_text("#include <math.h>\n" + SIMD_PRELUDE + "\n" + VECTOR_TRIG.format(p="t") + """
+EOMC_VTARGET int differ(int n, const double *x)
+{
+    int k, l, bad = 0;
+    for (k = 0; k + EOMC_BATCH_LANES <= n; k += EOMC_BATCH_LANES) {
+        eomc_vd v, s, c, so, co;
+        for (l = 0; l < EOMC_BATCH_LANES; l++) v[l] = x[k + l];
+        s = t_vsin(v);
+        c = t_vcos(v);
+        for (l = 0; l < EOMC_BATCH_LANES; l++) {
+            eomc_vd one = v - v + x[k + l];
+            so = t_vsin(one);
+            co = t_vcos(one);
+            bad += __builtin_memcmp(&so[0], &s[l], 8) != 0 || __builtin_memcmp(&co[0], &c[l], 8) != 0;
+        }
+    }
+    return bad;
+}
+""")
+    lib = tmp_path / "libown.so"
+    subprocess.run(["gcc", "-O2", "-std=c99", "-fPIC", "-shared", "-Wall", "-Wextra", "-Werror",
+                    f"-DEOMC_BATCH_LANES={lanes}", str(src), "-o", str(lib), "-lm"], check=True)
+    rng = np.random.default_rng(1)
+    n = 20000 * lanes
+    x = rng.choice([-1, 1], n) * 10.0 ** rng.uniform(-3, 5, n)
+    k = rng.integers(-200000, 200000, n)
+    near = k * (math.pi / 2) + rng.uniform(-1e-6, 1e-6, n) * rng.choice([1.0, 1e-8], n)
+    x = np.where(rng.uniform(size=n) < 0.2, near, x)       # about one lane in five near pi/2's multiples
+    # found in 4 million such lanes (the only one): -26010.53...'s sin/cos 1 ulp off beside 185840.91...,
+    # whose lane took the 2nd round, when that round was taken in every lane
+    x[:lanes] = [-26010.530331566217, 185840.9134231042] + [2383.8722122783333] * (lanes - 2)
+    bad = ctypes.CDLL(str(lib)).differ(ctypes.c_int(n), x.ctypes.data_as(ctypes.POINTER(ctypes.c_double)))
+    assert bad == 0
+
+
 def test_without_simd_and_unknown_shapes_loop_the_scalar_rhs(cache):
     """-DEOMC_NO_SIMD (what a compiler without GNU vectors gets) and an rhs line the rewrite
     does not know both give the scalar loop: same results, and the metadata says why."""
