@@ -18,10 +18,22 @@ differences: five-point central differences (step 1e-5) of fixed-step RK4 runs (
 smooth in the parameters and ~4e-9 from the true derivative (:func:`oracle`), computed once
 (not timed), so the check does not rest on differences of adaptive 1e-8 runs.
 
+Paired rounds (issue 30, session 20): the ratio of medians above jumps when the plain run's
+median is slow under load (the same code gave 1.40-1.55 at load 7-17).  So the default
+contestant is also timed against the plain run in --rounds short rounds, each a plain run and
+a sensitivity run back to back (their order alternating from round to round), in --processes
+fresh processes, each loading its own file copy of the model's library (byte-identical copies
+run at different speeds depending on where they land in memory, session 18): reported are the
+median of the per-round ratios sensitivity / plain with their quartiles, pooled over the
+processes, each process's median, and the ratio of the medians of the same samples.
+
 Per call (what a sensitivity step pays, issue 30): a C loop over the model's rhs, jvp
 with k = 0, 1, 4 directions (the benchmark's parameter columns, the state parts random)
 and jac_x at 64 states near the start, blocks interleaved, thread CPU, medians.
 """
+import json
+import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -178,11 +190,87 @@ def cpu(fn):
     return time.thread_time() - t0, out
 
 
+def paired_rounds(model, x0, cases, kw, rounds):
+    """Per case, ``rounds`` pairs (plain s, sensitivity s): a plain run and the default
+    sensitivity run back to back, the order alternating, thread CPU time."""
+    out = {label: [] for label, _ in cases}
+    plain = lambda: model.simulate(x0, (0, T_END), **kw)          # noqa: E731
+    for label, cols in cases:                                      # warm-up
+        model.simulate(x0, (0, T_END), sensitivities=cols, **kw)
+    plain()
+    for r in range(rounds):
+        for label, cols in cases:
+            sens = lambda: model.simulate(x0, (0, T_END), sensitivities=cols, **kw)  # noqa: E731
+            if r % 2:
+                b, _ = cpu(plain)
+                a, _ = cpu(sens)
+            else:
+                a, _ = cpu(sens)
+                b, _ = cpu(plain)
+            out[label].append((b, a))
+    return out
+
+
+def paired_worker(argv):
+    """``--paired-worker DIR N METHOD ROUNDS LABELS_JSON``: in this fresh process, copy the
+    model directory DIR, load the copy and print paired_rounds()'s samples as JSON."""
+    from eomc.runtime.loader import load
+    directory, n, method, rounds, labels = argv[0], int(argv[1]), argv[2], int(argv[3]), json.loads(argv[4])
+    pin_to_one_core()
+    with tempfile.TemporaryDirectory(prefix="eomc_sens_copy_") as tmp:
+        dst = Path(tmp) / "copy"
+        shutil.copytree(directory, dst)
+        model = load(dst)
+        x0 = models.initial_state(n)
+        T = np.linspace(0.0, T_END, 11)
+        kw = dict(method=method, rtol=TOL, atol=TOL, t_eval=T)
+        cases = [(label, True if cols is True else cols) for label, cols in labels]
+        print(json.dumps(paired_rounds(model, x0, cases, kw, rounds)))
+
+
+def paired(model, n, method, cases, rounds, processes):
+    """{label: [per-process lists of (plain, sens)]}: paired_worker in ``processes`` fresh
+    processes, one after the other, each on its own copy of the library."""
+    out = {label: [] for label, _ in cases}
+    for _ in range(processes):
+        text = subprocess.run([sys.executable, str(Path(__file__).resolve()), "--paired-worker",
+                               str(model.directory), str(n), method, str(rounds), json.dumps(cases)],
+                              check=True, capture_output=True, text=True).stdout
+        for label, pairs in json.loads(text.strip().splitlines()[-1]).items():
+            out[label].append(pairs)
+    return out
+
+
+def paired_summary(per_process):
+    """(median ratio, q1, q3, rounds, per-process medians, ratio of the medians) of the pairs."""
+    pairs = [p for proc in per_process for p in proc]
+    ratios = np.array([a / b for b, a in pairs])
+    q1, med, q3 = np.percentile(ratios, [25, 50, 75])
+    procs = [float(np.median([a / b for b, a in proc])) for proc in per_process]
+    rom = float(np.median([a for _, a in pairs]) / np.median([b for b, _ in pairs]))
+    return float(med), float(q1), float(q3), len(ratios), procs, rom
+
+
 def main(argv=None):
+    argv = sys.argv[1:] if argv is None else argv
+    if argv[:1] == ["--paired-worker"]:
+        return paired_worker(argv[1:])
     args = parse_args(__doc__.splitlines()[0], [8], default_repeat=5, argv=argv,
                       extra=lambda p: (p.add_argument("--method", default="dop853"),
                                        p.add_argument("--max-k", type=int, default=None,
-                                                      help="skip cases with more sensitivity columns")))
+                                                      help="skip cases with more sensitivity columns"),
+                                       p.add_argument("--rounds", type=int, default=None,
+                                                      help="paired rounds per process (default 150, "
+                                                           "--quick 10)"),
+                                       p.add_argument("--processes", type=int, default=None,
+                                                      help="fresh processes, each on its own library "
+                                                           "copy, for the paired rounds (default 8, "
+                                                           "--quick 1)"),
+                                       p.add_argument("--paired-max-k", type=int, default=4,
+                                                      help="paired rounds for cases up to this many "
+                                                           "columns")))
+    rounds = args.rounds or (10 if args.quick else 150)
+    processes = args.processes or (1 if args.quick else 8)
     pin_to_one_core()
     rows, csv_rows, call_rows = [], [], []
     for n in args.n:
@@ -234,20 +322,33 @@ def main(argv=None):
                 steps[label], steps_old[label] = res.stats["steps"], old.stats["steps"]
                 njvp[label] = res.stats["njvp"] or res.stats["nfev"]
         base = float(np.median(samples["plain"]))
-        rows.append([n, "plain simulation", 0, f"{base * 1e3:.2f}", "1.00", "", "", "",
+        pair_cases = [(label, cols) for label, cols in cases
+                      if len(names(cols)) <= args.paired_max_k]
+        pairs = paired(model, n, args.method, pair_cases, rounds, processes) if pair_cases else {}
+        rows.append([n, "plain simulation", 0, f"{base * 1e3:.2f}", "1.00", "", "", "", "", "", "", "",
                      res0.stats["steps"], "", "", "", ""])
         for label, cols in cases:
             k = (model.nx + len(params) if cols is True else len(params) if cols == "p" else len(cols))
             sens = float(np.median(samples[label]))
             old = float(np.median(samples[label + " errcon"]))
             fd = float(np.median(samples[label + " fd"]))
-            rows.append([n, label, k, f"{sens * 1e3:.2f}", f"{sens / base:.2f}", TARGETS.get(k, ""),
-                         f"{old / base:.2f}", f"{fd / base:.1f}",
+            if label in pairs:
+                med, q1, q3, nr, procs, rom = paired_summary(pairs[label])
+                paired_cols = [f"{med:.3f} [{q1:.3f}, {q3:.3f}]", f"{rom:.3f}",
+                               f"{nr} ({len(procs)})", " / ".join(f"{v:.3f}" for v in procs)]
+            else:
+                med = q1 = q3 = rom = nr = None
+                paired_cols = ["", "", "", ""]
+            rows.append([n, label, k, f"{sens * 1e3:.2f}", f"{sens / base:.2f}", *paired_cols,
+                         TARGETS.get(k, ""), f"{old / base:.2f}", f"{fd / base:.1f}",
                          f"{steps[label]} / {steps_old[label]}", njvp[label],
                          *(f"{v:.1e}" for v in agree[label])])
             csv_rows.append([n, args.method, k, sens, old, base, fd, steps[label], steps_old[label],
-                             njvp[label], *agree[label]])
-    headers = ["n", "columns", "k", "CPU ms", "x plain", "target", "x plain: error control on S",
+                             njvp[label], *agree[label], med, q1, q3, rom, nr])
+    headers = ["n", "columns", "k", "CPU ms", "x plain (ratio of medians)",
+               "x plain, paired: median of per-round ratios [quartiles]",
+               "x plain, paired: ratio of medians", "paired rounds (processes)",
+               "paired: each process's median", "target", "x plain: error control on S",
                "x plain: central differences (2k runs)", "steps (default / error control on S)",
                "jvp calls", "max |S - D| / max |D|", "max |S(error control) - D| / max |D|",
                "max |differences - D| / max |D|"]
@@ -259,7 +360,19 @@ def main(argv=None):
     if not args.no_write:
         text = environment_header(f"Forward sensitivities, n-link cart, {args.method}, 10 s at {TOL:g}", args,
                                   notes=["one process pinned to one core; contestants interleaved; "
-                                         "thread CPU time, medians",
+                                         "thread CPU time, medians; 'x plain (ratio of medians)': "
+                                         f"median of {args.repeat} default runs over the median of "
+                                         f"{args.repeat} plain runs, the error-controlled and "
+                                         "difference contestants run between them",
+                                         f"paired: {rounds} rounds in each of {processes} fresh "
+                                         "processes (one after the other, pinned to the same core, "
+                                         "each loading its own file copy of the model's library); "
+                                         "a round is one plain run and one default sensitivity run "
+                                         "back to back, their order alternating; the table gives "
+                                         "the median and quartiles of the per-round ratios "
+                                         "sensitivity / plain pooled over the processes, each "
+                                         "process's median, and the ratio of the medians of the "
+                                         "same runs",
                                          "default: the sensitivities ride the plain run's steps "
                                          "(dop853: the augmented [x; S] through the same stages "
                                          "by jvp, error test on x; radau: staggered direct, "
@@ -280,7 +393,8 @@ def main(argv=None):
         write_results(f"sensitivity_{args.method}", text, csv_rows,
                       ["n", "method", "k", "default_s", "errcon_s", "plain_s", "differences_s",
                        "steps", "steps_errcon", "jvp_calls", "S_vs_D", "S_errcon_vs_D",
-                       "differences_vs_D"], keep_notes=True)
+                       "differences_vs_D", "paired_median", "paired_q1", "paired_q3",
+                       "paired_ratio_of_medians", "paired_rounds"], keep_notes=True)
 
 
 if __name__ == "__main__":

@@ -101,3 +101,20 @@ def test_relative_links_resolve(page):
     for target in re.findall(r"\]\(([^)\s#]+)(?:#[^)]*)?\)", page.read_text()):
         if "://" not in target:
             assert (page.parent / target).exists(), f"{page.name}: link to {target} does not resolve"
+
+
+def _python_block(path, heading):
+    """The first ```python block under the page's ``heading``."""
+    text = path.read_text().split(f"\n{heading}\n", 1)[1]
+    return text.split("```python\n", 1)[1].split("```", 1)[0]
+
+
+def test_the_derivatives_snippet_runs_as_written(monkeypatch):
+    # the first-hour report (s20): it built without jac_r, so linearize's B refused
+    import numpy as np
+    monkeypatch.chdir(ROOT)                      # the snippet's paths are a clone's
+    namespace = {"np": np, "x": np.array([0.0, 0.2, 0.0, 0.0]), "x0": np.array([0.0, 0.2, 0.0, 0.0])}
+    exec(compile("import eomc\n" + _python_block(README, "## Derivatives"), "README.md", "exec"), namespace)
+    A, B, P = namespace["A"], namespace["B"], namespace["P"]
+    assert A.shape == (4, 4) and B.shape[0] == 4 and P.shape[0] == 4
+    assert namespace["res"].dx_dp.shape[1:] == (4, P.shape[1])

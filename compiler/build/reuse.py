@@ -73,7 +73,8 @@ def generator_switches():
     dots in hess_id (same module, on by default since session 18), held only when off.  ``CHAIN_LOOP_MIN_LINKS``: the repeated
     chain's length from which the rhs is looped (compiler/tree/chain_loop.py), held only when not
     its default.  ``SEED_PAIRS`` off: Kane's jvp tangent as differentiated (compiler/emit/
-    seed_pairs.py), held only when off.  ``LIMB_MIN_BODIES``: the twin limbs' bodies from which the
+    seed_pairs.py), held only when off; ``SEED_MONOMIALS`` off: its one-seed monomials as
+    differentiated (same module), held only when off.  ``LIMB_MIN_BODIES``: the twin limbs' bodies from which the
     rhs calls limb routines (compiler/tree/limbs.py), held only when not its default."""
     from ..contact import pairs
     from ..emit import seed_pairs
@@ -99,6 +100,8 @@ def generator_switches():
         switches["chain_loop_min_links"] = chain_loop.CHAIN_LOOP_MIN_LINKS
     if not seed_pairs.SEED_PAIRS:
         switches["no_seed_pairs"] = True
+    if not seed_pairs.SEED_MONOMIALS:
+        switches["no_seed_monomials"] = True
     if limbs.LIMB_MIN_BODIES != limbs.LIMB_MIN_BODIES_DEFAULT:
         switches["limb_min_bodies"] = limbs.LIMB_MIN_BODIES
     return switches

@@ -501,7 +501,9 @@ def jvp_body(ctx, program, W, seeds, nx, npar, blocks, more=False):
     entries (:func:`parameter_directions`), and one solve.  J itself is never formed.  The
     tangent's entries that depend on two seeds with opposite coefficients (the n-link cart's
     mass-matrix pairs) are written as the coefficient times the seeds' difference
-    (:mod:`.seed_pairs`: fewer products, the tangent being bound by its multiplications).
+    (:mod:`.seed_pairs`: fewer products, the tangent being bound by its multiplications), and
+    its one-seed monomials read the primal's products (``-(l sin q) dq`` for
+    ``(-sin q dq) l``: :func:`.seed_pairs.seed_monomials`).
 
     ``dirs``: k rows of nx + nparam (state part, then parameter part); ``out``: k rows of nx.
 
@@ -550,6 +552,9 @@ def jvp_body(ctx, program, W, seeds, nx, npar, blocks, more=False):
             if seed_pairs.SEED_PAIRS:   # two-seed entries as a coefficient times a seed difference
                 inner = needed_assignments(seed_pairs.seed_pairs(inner, seeds, dict(before + stage2)),
                                            gvals.values())
+            if seed_pairs.SEED_MONOMIALS:   # one-seed monomials on the primal's products
+                inner, gvals = seed_pairs.seed_monomials(inner, gvals, seeds, dict(before + stage2))
+                inner = needed_assignments(inner, gvals.values())
             body += ["{"] + [line[len(IND):] if line.startswith(IND) else line
                              for line in temps(program, pr, inner)]
             op = "=" if first else "+="

@@ -177,12 +177,43 @@ def _checked(values, formed, name, where, origin=""):
         raise where(exc) from None
 
 
+def _the_only_system(namespace, lines, filename):
+    """A file without `system` (SymPy's documentation scripts name theirs KM, LM, sys...): the one
+    module-level System, KanesMethod or LagrangesMethod it defines, with a warning naming it;
+    none or several: the error says what to assign."""
+    import sympy.physics.mechanics as sme
+    kinds = (sme.System, sme.KanesMethod, sme.LagrangesMethod)
+    found = {k: v for k, v in namespace.items()
+             if not k.startswith("_") and isinstance(v, kinds) and not isinstance(v, type)}
+    owned = {id(v.eom_method) for v in found.values() if isinstance(v, sme.System)}
+    found = {k: v for k, v in found.items() if id(v) not in owned}   # a System's own method
+    unique = {}
+    for k, v in found.items():
+        unique.setdefault(id(v), k)                                  # one object, several names
+    named = [(k, found[k]) for k in unique.values()]
+    base = ("does not define `system` (assign a System, or a formed KanesMethod or LagrangesMethod, to a "
+            "module-level variable named system)")
+    if not named:
+        raise ModelFileError(base, filename)
+    if len(named) > 1:
+        listed = ", ".join(f"{k} ({type(v).__name__}, line {lines.get(k, '?')})" for k, v in named)
+        raise ModelFileError(f"{base}; it defines {listed}: assign the one to compile, "
+                             f"e.g. `system = {named[0][0]}`", filename)
+    variable, value = named[0]
+    message = (f"{filename}:{lines.get(variable, '?')}: no `system` variable: compiling {variable}, the "
+               f"file's one {type(value).__name__} (write `system = {variable}` to say so)")
+    if message not in _WARNED:
+        _WARNED.add(message)
+        warnings.warn(message, EomcWarning, stacklevel=caller_level())
+    return variable, value
+
+
 def _read_file(path, name):
     namespace, source, filename = run_model_file(path)
     lines = assignment_lines(source)
     if "system" not in namespace:
-        raise ModelFileError("does not define `system` (assign a System, or a formed KanesMethod or "
-                             "LagrangesMethod, to a module-level variable named system)", filename)
+        variable, namespace["system"] = _the_only_system(namespace, lines, filename)
+        lines["system"] = lines.get(variable)
     values = {k: namespace.get(k) for k in ("system", "parameters", "inputs", "initial_state", "outputs",
                                             "events", "states", "geometry")}
     name = name or namespace.get("name") or sanitize_name(Path(path).stem)

@@ -216,11 +216,14 @@ def run(args):
     print(f"{model.name}: {res.method} t=[{args.t0:g}, {args.t_final:g}]: {s['steps']} steps "
           f"({s['rejected']} rejected), {s['nfev']} rhs, {s['njev']} jacobian, {s['nlu']} LU")
     frames = getattr(model, "frame_names", ())
+    grouped = _contact_summary(model, res.outputs)
     for name, values in res.outputs.items():
-        if name.partition(".")[0] in frames:      # frame outputs: one line per frame, below
+        if name.partition(".")[0] in frames or name in grouped:  # frames: a line each, below
             continue
         print(f"  {name}: start {values[0]:.10g}, end {values[-1]:.10g}, "
               f"change {values[-1] - values[0]:.3g}")
+    for line in grouped.get("", ()):
+        print(line)
     for name in frames:
         p = res.frame(name).p
         print(f"  {name}: position start ({', '.join(f'{v:.6g}' for v in p[0])}), "
@@ -228,12 +231,20 @@ def run(args):
     if res.constraint_residual is not None:
         print(f"  constraint residual: max {res.constraint_residual.max():.3g}")
     silent = []     # events that never fired: one line, not one each (a URDF robot's default
-    for name, times in (res.t_events or {}).items():     # ground gives a contact event per corner)
+    touched = {}    # ground gives a contact event per corner); so are many contacts' touch-downs
+    for name, times in (res.t_events or {}).items():
         if not len(times):
             silent.append(name)
             continue
+        if f"Fn_{name[len('contact_'):]}" in grouped and name.startswith("contact_"):
+            touched[name] = times
+            continue
         shown = ", ".join(f"{t:.10g}" for t in times[:5]) + (", ..." if len(times) > 5 else "")
         print(f"  event {name}: {len(times)} at t = {shown}")
+    if touched:
+        first = min(touched, key=lambda n: touched[n][0])
+        print(f"  contact events: {len(touched)} points crossed the ground "
+              f"{sum(len(t) for t in touched.values())} times, the first {first} at t = {touched[first][0]:.10g}")
     if silent:
         print(f"  events that never fired: {', '.join(silent[:3])}"
               + (f", ... ({len(silent)} in all)" if len(silent) > 3 else ""))
@@ -246,3 +257,29 @@ def run(args):
         for path in (written if isinstance(written, list) else [written]):
             print(f"wrote {path}")
     return 0
+
+
+CONTACT_LINES = 4   # more contacts than this: their outputs in a few lines, not five lines each
+_CONTACT_KINDS = ("Fn", "Ftx", "Fty", "Ftz", "depth")
+
+
+def _contact_summary(model, outputs):
+    """Output name -> True for the contact outputs summarised instead of listed (a URDF robot's
+    --ground gives 32 points per mesh: Go2 608, 3,040 lines), and under "" the summary lines."""
+    from eomc.runtime.switching import find_switches
+    import numpy as np
+    names = [c.name for c in find_switches(model).contacts
+             if all(f"{k}_{c.name}" in outputs for k in _CONTACT_KINDS)]
+    if len(names) <= CONTACT_LINES:
+        return {}
+    grouped = {f"{k}_{c}": True for c in names for k in _CONTACT_KINDS}
+    force = {c: float(np.max(outputs[f"Fn_{c}"])) for c in names}
+    depth = {c: float(np.max(outputs[f"depth_{c}"])) for c in names}
+    touching = [c for c in names if outputs[f"Fn_{c}"][-1] > 0]
+    strongest, deepest = max(force, key=force.get), max(depth, key=depth.get)
+    grouped[""] = [
+        f"  contacts: {len(names)} points (Fn_, Ftx_, Fty_, Ftz_, depth_<point> in the CSV), "
+        f"{sum(f > 0 for f in force.values())} touched the ground, {len(touching)} touching at the end",
+        f"  contacts: largest normal force Fn_{strongest} = {force[strongest]:.6g}, "
+        f"deepest depth_{deepest} = {depth[deepest]:.6g} (maxima over the run)"]
+    return grouped

@@ -3,6 +3,8 @@
 - ``eomc simulate -o`` onto a missing folder or a folder fails before simulating
 - ``eomc show`` lists parameters in p[] order with defaults, and says "lambda" only with multipliers
 """
+import re
+
 import numpy as np
 import pytest
 
@@ -185,3 +187,37 @@ def test_the_suite_builds_into_its_own_cache(tmp_path_factory):
     EOMC_CACHE_DIR into this session's temporary tree (a test may still set its own)."""
     cache = Path(os.environ["EOMC_CACHE_DIR"]).resolve()
     assert cache.is_relative_to(tmp_path_factory.getbasetemp().resolve())
+
+
+# A block dropped on six ground contacts (one point each, as a URDF's --ground makes hundreds).
+_SIX_FEET = '''\
+import sympy as sm
+import eomc.contact
+from eomc.mechanics import KanesMethod, Particle, Point, ReferenceFrame, dynamicsymbols
+x, z, vx, vz = dynamicsymbols("x z vx vz")
+m, g = sm.symbols("m g")
+N = ReferenceFrame("N")
+O = Point("O"); O.set_vel(N, 0)
+G = O.locatenew("G", x * N.x + z * N.z); G.set_vel(N, vx * N.x + vz * N.z)
+feet = [eomc.contact.ground(G, None, world=(N, O), name=f"foot{i}") for i in range(6)]
+system = KanesMethod(N, q_ind=[x, z], u_ind=[vx, vz], kd_eqs=[x.diff() - vx, z.diff() - vz])
+system.kanes_equations([Particle("blk", G, m)], [(G, -m * g * N.z)] + [l for f in feet for l in f.loads])
+parameters = {m: 1.0, g: 9.81, **{k: v for f in feet for k, v in f.parameters.items()}}
+outputs = {k: v for f in feet for k, v in f.outputs.items()}
+events = {k: v for f in feet for k, v in f.events.items()}
+initial_state = {z: 0.05, vx: 0.5}
+'''
+
+
+def test_many_contacts_are_summarised_not_listed_five_lines_each(tmp_path, capsys):
+    # first hour s20: go2.urdf --floating-base --ground printed 3,040 lines of Fn_/Ftx_/.../depth_
+    model = model_files.write(tmp_path, _SIX_FEET, "six_feet")
+    assert main(["simulate", str(model), "--t-final", "0.3", "-q", "-o", str(tmp_path / "t.csv")]) == 0
+    out = capsys.readouterr().out
+    assert "Fn_foot0: start" not in out and "depth_foot5: start" not in out
+    assert "contacts: 6 points (Fn_, Ftx_, Fty_, Ftz_, depth_<point> in the CSV), 6 touched the ground, " \
+           "6 touching at the end" in out
+    assert "contacts: largest normal force Fn_foot0 = " in out and "deepest depth_foot0 = " in out
+    assert "  event contact_foot0:" not in out
+    assert re.search(r"contact events: 6 points crossed the ground \d+ times, the first contact_foot0 at t = 0\.1", out)
+    assert "Fn_foot5" in (tmp_path / "t.csv").read_text().splitlines()[0]     # all still in the CSV

@@ -44,6 +44,38 @@ def test_missing_system(tmp_path):
     assert str(error).startswith(f"{path}: does not define `system`")
 
 
+# SymPy's documentation scripts end with their formed method under another name (KM, LM).
+_SYMPY_DOCS_KANE = textwrap.dedent("""\
+    from sympy import symbols
+    from sympy.physics.mechanics import *
+    q, u = dynamicsymbols('q u')
+    qd = dynamicsymbols('q', 1)
+    m, c, k = symbols('m c k')
+    N = ReferenceFrame('N')
+    P = Point('P')
+    P.set_vel(N, u * N.x)
+    KM = KanesMethod(N, q_ind=[q], u_ind=[u], kd_eqs=[qd - u])
+    fr, frstar = KM.kanes_equations([Particle('pa', P, m)], [(P, (-k * q - c * u) * N.x)])
+    parameters = {m: 1.0, c: 0.1, k: 4.0}
+    """)
+
+
+def test_the_files_only_method_is_its_system_with_a_warning(tmp_path):
+    from eomc.errors import EomcWarning
+    path = _file(tmp_path, _SYMPY_DOCS_KANE, "kane_docs")
+    with pytest.warns(EomcWarning, match=r"kane_docs.py:9: no `system` variable: compiling KM, the file's "
+                                         r"one KanesMethod \(write `system = KM` to say so\)"):
+        spec = model_spec(path)
+    assert spec.formed.nq == 1 and {str(s) for s in spec.parameters} == {"m", "c", "k"}
+
+
+def test_several_methods_without_system_are_named(tmp_path):
+    text = _SYMPY_DOCS_KANE + "KM2 = KanesMethod(N, q_ind=[q], u_ind=[u], kd_eqs=[qd - u])\n"
+    path, error = _error(tmp_path, text)
+    assert str(error).startswith(f"{path}: does not define `system`")
+    assert "it defines KM (KanesMethod, line 9), KM2 (KanesMethod, line 12)" in str(error)
+
+
 def test_exception_in_user_code_points_at_its_line(tmp_path):
     path, error = _error(tmp_path, "import math\n\nvalue = math.sqrt(-1)\nsystem = None\n")
     assert str(error) == f"{path}:3: ValueError: math domain error"
