@@ -216,12 +216,15 @@ def pair_overlaps(shape_x, shape_y, cx, Rx, cy, Ry, fraction=PASS_FRACTION, prun
     return rows - allow, between - allow
 
 
-def passed_through(model, t, X, p, fraction=PASS_FRACTION):
+def passed_through(model, t, X, p, fraction=PASS_FRACTION, outputs=None):
     """Notes naming each pair one of whose shapes went into the other by more than ``fraction`` of
     its inner size along the run's rows (t, X), with when and how far; [] when the model has no
     ``pair_check`` or no ``poses``.  A broad phase over all pairs at once (:func:`_candidates`)
-    leaves the exact measure (:func:`_overlaps`, all the pairs it keeps at once) the pairs whose
-    bounding balls come that near."""
+    leaves the exact measure (:func:`_hits`, all the pairs it keeps at once) the pairs whose
+    bounding balls come that near.  ``outputs`` (the run's {output: values along the rows}, as
+    simulate's): a sphere and capsule pair whose law's ``depth_PAIR`` output is there is judged from
+    it (:func:`_round_hits`: the law's depth is exact for these shapes), its paths between rows
+    measured only where the shapes' moves between the rows allow a crossing."""
     meta = model.metadata.get("pair_check")
     if not isinstance(meta, dict) or not meta.get("pairs") or "poses" not in model.functions:
         return []
@@ -234,32 +237,183 @@ def passed_through(model, t, X, p, fraction=PASS_FRACTION):
     if ready is None:
         return []
     pairs, geoms, ga, gb, fi, pos, rot, size, bound, half, allow = ready
+    kinds = [s["kind"] for s in geoms]
     p = None if p is None else np.asarray(p, dtype=float)[:model.nparam]
     poses = evaluate_poses(model, t, X, p)
-    # every shape's centre and axes along the rows (a world shape's: fixed)
+    # every shape's centre along the rows (a world shape's: fixed); its axes where needed (_axes)
     moving = fi >= 0
     n, G = len(t), len(fi)
     C = np.empty((n, G, 3))
-    R = np.empty((n, G, 3, 3))
-    Rf = poses.rotations[:, fi[moving]]
-    C[:, moving] = poses.positions[:, fi[moving]] + (Rf @ pos[moving][:, :, None])[..., 0]
-    R[:, moving] = Rf @ rot[moving]
-    C[:, ~moving] = pos[~moving]
-    R[:, ~moving] = rot[~moving]
-    near = _candidates(C, R, ga, gb, bound, half, allow)
-    if not near.size:
-        return []
-    hits = _hits(C, R, np.concatenate([ga[near], gb[near]]), np.concatenate([gb[near], ga[near]]),
-                 [s["kind"] for s in geoms], size, half, allow)
+    if moving.all():
+        Rf, pm = poses.rotations[:, fi], pos
+        C[:] = poses.positions[:, fi] + Rf[..., 0] * pm[:, 0, None] + Rf[..., 1] * pm[:, 1, None] \
+            + Rf[..., 2] * pm[:, 2, None]
+    else:
+        Rf, pm = poses.rotations[:, fi[moving]], pos[moving]
+        C[:, moving] = poses.positions[:, fi[moving]] + Rf[..., 0] * pm[:, 0, None] \
+            + Rf[..., 1] * pm[:, 1, None] + Rf[..., 2] * pm[:, 2, None]
+        C[:, ~moving] = pos[~moving]
+    hits = [None] * (2 * len(pairs))        # pair k: shape a into b at k, b into a at k + len(pairs)
+    cols, depth, known = _round_depths(model, pairs, kinds, ga, gb, outputs, n)
+    if cols.size:
+        known = known.setdefault(None if p is None else p.tobytes(), {})
+        cols, depth = _verified(C, poses, cols, depth, ga, gb, kinds, size, half, allow, fi, rot, known)
+    rest = np.setdiff1d(np.arange(len(pairs)), cols)
+    if cols.size:
+        _round_hits(hits, len(pairs), C, poses, cols, depth, ga, gb, kinds, size, half, allow, fi, rot)
+    if rest.size:
+        R = _axes(poses, np.arange(n), fi, rot)
+        near = rest[_candidates(C, R, ga[rest], gb[rest], bound, half, allow)]
+        if near.size:
+            got = _hits(C, R, np.concatenate([ga[near], gb[near]]), np.concatenate([gb[near], ga[near]]),
+                        kinds, size, half, allow)
+            for j, k in enumerate(near):
+                hits[k], hits[k + len(pairs)] = got[j], got[j + len(near)]
     notes = []
-    for j, k in enumerate(near):
-        worst = None       # (time index, between?, how far, x, y)
-        for e, xy in ((j, (0, 1)), (j + len(near), (1, 0))):
+    for k in sorted({e % len(pairs) for e, h in enumerate(hits) if h is not None}):
+        pair, worst = pairs[k], None       # worst: (time index, between?, how far, x, y)
+        for e, xy in ((k, (0, 1)), (k + len(pairs), (1, 0))):
             if hits[e] is not None and (worst is None or hits[e][0] + 0.5 * hits[e][1] < worst[0] + 0.5 * worst[1]):
                 worst = hits[e] + xy
         if worst is not None:
-            notes.append(_note(pairs[k], t, worst, fraction))
+            notes.append(_note(pair, t, worst, fraction))
     return notes
+
+
+def _axes(poses, rows, fi, rot):
+    """(len(rows), shapes, 3, 3): each shape's axes in world components at the given rows."""
+    moving = fi >= 0
+    R = np.empty((len(rows), len(fi), 3, 3))
+    R[:, moving] = poses.rotations[rows][:, fi[moving]] @ rot[moving]
+    R[:, ~moving] = rot[~moving]
+    return R
+
+
+ROUND = ("sphere", "capsule")
+# the law's depth output (less its margin) and the placed shapes' measure must agree this closely at the
+# VERIFY_ROWS rows checked (_verified): they agree to ~1e-15 (tests/runtime/test_pair_check.py)
+DEPTH_AGREE = 1e-9
+VERIFY_ROWS = 4
+MOVED = 1e-6        # m: the least span of a pair's measure over the rows checked that proves its law
+
+
+def _round_depths(model, pairs, kinds, ga, gb, outputs, n):
+    """(pair indices, (n, their count) depth outputs) of the sphere and capsule pairs whose law's
+    ``depth_PAIR`` output is among ``outputs``, finite, one value a row."""
+    got = getattr(model, "_pair_check_round", None)
+    if got is None or got[0] is not pairs:
+        got = (pairs, [(k, f"depth_{pair['name']}") for k, pair in enumerate(pairs)
+                       if kinds[ga[k]] in ROUND and kinds[gb[k]] in ROUND], {})
+        try:
+            model._pair_check_round = got
+        except AttributeError:
+            pass
+    cols, values = [], []
+    if outputs:
+        for k, key in got[1]:
+            v = outputs.get(key)
+            if isinstance(v, np.ndarray) and v.shape == (n,):
+                cols.append(k)
+                values.append(v)
+    if not cols:
+        return np.zeros(0, dtype=int), None, got[2]
+    depth = np.array(values, dtype=float).T
+    ok = np.all(np.isfinite(depth), axis=0)
+    return np.asarray(cols, dtype=int)[ok], depth[:, ok], got[2]
+
+
+def _verified(C, poses, cols, depth, ga, gb, kinds, size, half, allow, fi, rot, known):
+    """The pairs and their depth columns, less a constant (the pair's margin: MuJoCo's law reads
+    depth = r_a + r_b + margin - D), whose depth output is the placed shapes' measure at VERIFY_ROWS
+    rows spread over the run: r_a - depth - (1 - f) rho_a == the core of a's signed distance from b
+    less (1 - f) rho_a, with the same constant at every row checked (a pair that does not agree is
+    left to the exact search).  ``known`` (kept on the model per parameter vector): {pair: its
+    constant, or None when it did not agree}; a pair is checked on the first run that has its depth
+    and moves (its measure at the rows checked spans more than MOVED; a still pair's constant serves
+    its run only)."""
+    new = np.array([k not in known for k in cols], dtype=bool)
+    if new.any():
+        n = C.shape[0]
+        rows = np.unique(np.linspace(0, n - 1, VERIFY_ROWS).round().astype(int))
+        Cs, Rs = C[rows], _axes(poses, rows, fi, rot)
+        a, b = ga[cols[new]], gb[cols[new]]
+        r = np.repeat(np.arange(len(rows)), len(a))
+        at, _ = _measure(Cs, Rs, r, np.tile(a, len(rows)), np.tile(b, len(rows)), kinds, size, half, allow,
+                         r1=r)
+        law = size[a, 0] - depth[rows][:, new] - allow[a]
+        shift = law - at.reshape(len(rows), -1)                # the margin, at each row checked
+        good = np.all(np.abs(shift - shift[0]) <= DEPTH_AGREE * (1.0 + np.abs(law)), axis=0)
+        at = at.reshape(len(rows), -1)
+        moved = np.ptp(at, axis=0) > MOVED                     # a still pair's rows prove no law
+        now = {}
+        for k, g, v, m in zip(cols[new], good, shift[0], moved):
+            now[int(k)] = float(v) if g else None
+            if m or not g:
+                known[int(k)] = now[int(k)]
+    else:
+        now = {}
+    shift = np.array([np.nan if (now[k] if k in now else known[k]) is None else (now[k] if k in now else known[k])
+                      for k in cols])
+    good = np.isfinite(shift)
+    return cols[good], depth[:, good] + shift[good]
+
+
+def _round_hits(hits, npairs, C, poses, cols, depth, ga, gb, kinds, size, half, allow, fi, rot):
+    """Fill ``hits`` (as :func:`_hits`' entries) for sphere and capsule pairs ``cols`` from their laws'
+    depth (n, len(cols)).  At a row: a's core is within (1 - f) rho_a of b where r_a - depth <
+    (1 - f) rho_a (exact).  Between rows k and k + 1: the cores' distance D = r_a + r_b - depth,
+    so a's centre is at least D - r_b from b at both rows; its path in b's frame is at most
+    L = m_a + m_b + |R_b,k+1 - R_b,k|_F |d_k| long (m: the centres' moves in the world, d_k = c_a -
+    c_b, |d_k| <= D_k + h_a + h_b), and a signed distance changes by at most the move, so the path
+    keeps (D_k + D_k+1 - 2 r_b - L)/2 from b: the exact path measure (:func:`_measure`) runs only
+    where that falls below (1 - f) rho_a (either way round) -- first per pair with the run's extremes,
+    then per row."""
+    n = C.shape[0]
+    a, b = ga[cols], gb[cols]
+    ra, rb = size[a, 0], size[b, 0]
+    top = depth.max(axis=0)
+    for j in np.flatnonzero(top > np.minimum(ra - allow[a], rb - allow[b])):
+        for x, r, e in ((a[j], ra[j], cols[j]), (b[j], rb[j], cols[j] + npairs)):
+            m = r - depth[:, j] - allow[x]
+            bad = np.flatnonzero(m < 0)
+            if bad.size:
+                hits[e] = (int(bad[0]), False, float(m[bad[0]]))
+    if n < 2:
+        return
+    rsum, hsum = ra + rb, half[a] + half[b]
+    need = 2.0 * np.maximum(allow[a] + rb, allow[b] + ra) * (1.0 + 1e-9) + 1e-12
+    dc = C[1:] - C[:-1]
+    move = np.sqrt(dc[..., 0] ** 2 + dc[..., 1] ** 2 + dc[..., 2] ** 2)     # (n - 1, shapes)
+    moving = fi >= 0
+    turn = np.zeros((n - 1, len(fi)))
+    rf = poses.rotations.reshape(n, -1, 9)
+    dr = rf[1:] - rf[:-1]
+    turn[:, moving] = np.sqrt(np.einsum("nfk,nfk->nf", dr, dr))[:, fi[moving]]
+    near_min, near_max = rsum - top, rsum - depth.min(axis=0)           # D's extremes per pair
+    mt, tt = move.max(axis=0), turn.max(axis=0)
+    wide = 2.0 * near_min - (mt[a] + mt[b]) - np.maximum(tt[a], tt[b]) * (near_max + hsum)
+    js = np.flatnonzero(wide < need)
+    if not js.size:
+        return
+    D = rsum[js] - depth[:, js]                                          # (n, pairs kept)
+    aj, bj = a[js], b[js]
+    keep = (D[:-1] + D[1:] - (move[:, aj] + move[:, bj])
+            - np.maximum(turn[:, aj], turn[:, bj]) * (D[:-1] + hsum[js]) < need[js])
+    k, jj = np.nonzero(keep)
+    if not k.size:
+        return
+    rows = np.unique(np.concatenate([k, k + 1]))
+    Cs, Rs = C[rows], _axes(poses, rows, fi, rot)
+    rk, rk1 = np.searchsorted(rows, k), np.searchsorted(rows, k + 1)
+    xs, ys = np.concatenate([aj[jj], bj[jj]]), np.concatenate([bj[jj], aj[jj]])
+    _, path = _measure(Cs, Rs, np.concatenate([rk, rk]), xs, ys, kinds, size, half, allow,
+                       r1=np.concatenate([rk1, rk1]))
+    e = np.concatenate([cols[js][jj], cols[js][jj] + npairs])
+    kk = np.concatenate([k, k])
+    for i in np.flatnonzero(path < 0):
+        got, old = (int(kk[i]), True, float(path[i])), hits[e[i]]
+        if old is None or got[0] + 0.5 < old[0] + 0.5 * old[1]:
+            hits[e[i]] = got
 
 
 def _prepared(model, meta, fraction):
@@ -373,20 +527,15 @@ def _hits(C, R, xs, ys, kinds, size, half, allow):
     return out
 
 
-def _tdot(R, v):
-    """R^T v for R (..., 3, 3), v (..., 3), by components (numpy's reductions over an axis of 3 are slow)."""
-    return np.stack([R[..., 0, i] * v[..., 0] + R[..., 1, i] * v[..., 1] + R[..., 2, i] * v[..., 2]
-                     for i in range(3)], axis=-1)
-
-
-def _measure(C, R, r, xs, ys, kinds, size, half, allow):
+def _measure(C, R, r, xs, ys, kinds, size, half, allow, r1=None):
     """:func:`pair_overlaps`' measure of shape xs[m] into ys[m] at row r[m] and on its centre's path
     from row r[m] to r[m] + 1 (inf past the last row), for flat index arrays (C, R (n, G, 3[, 3]): the
     shapes' centres and axes along the rows), grouped by Y's kind (a sphere as a capsule of half length
-    0: one segment-segment distance for the row and the path)."""
+    0: one segment-segment distance for the row and the path).  ``r1``: the rows the paths end at
+    (default r + 1; a path with r1 == r is none: inf)."""
     n, M = C.shape[0], len(r)
     at, path = np.empty(M), np.full(M, np.inf)
-    r1 = np.minimum(r + 1, n - 1)
+    r1 = np.minimum(r + 1, n - 1) if r1 is None else np.asarray(r1)
     ykind = np.array(["capsule" if kinds[y] == "sphere" else kinds[y] for y in ys])
     for ky in np.unique(ykind):
         m = np.flatnonzero(ykind == ky)

@@ -231,7 +231,7 @@ def verdict(model, a, result, gmax, sw):
     from .ground_check import below_ground
     notes += below_ground(model, result.t, result.x, p, POINT_PENETRATION, PENETRATION_FRACTION)
     from .pair_check import passed_through
-    notes += passed_through(model, result.t, result.x, p)      # body-body pairs that passed into each other
+    notes += passed_through(model, result.t, result.x, p, outputs=result.outputs)   # bodies into each other
     status, extra, said = energy_verdict(model, a, result.outputs, sw)
     notes += said
     if notes:       # one warning per run, naming every contact and joint

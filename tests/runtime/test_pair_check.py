@@ -217,6 +217,67 @@ def test_the_fast_search_finds_what_every_row_finds(limbs, monkeypatch):
     assert named >= 20
 
 
+def test_the_laws_depths_find_what_every_row_finds(limbs, monkeypatch):
+    """passed_through given the run's outputs (as simulate gives them) judges the sphere and capsule
+    pairs from their laws' depth outputs and measures their paths between rows only where the shapes'
+    moves allow a crossing: the same pairs at the same first row as pair_overlaps on every row of
+    every pair, along the random smooth paths of the fast-search test -- with the laws' outputs, with
+    them shifted by a constant (a margin: read less it), and with outputs that are not the law's
+    (scaled: the check at a few rows sends those pairs to the exact search, but for the pairs that do
+    not move, whose rows cannot tell).  And the ball thrown straight through the still limbs in a few
+    rows (no turn: only the shapes' moves tell that it crossed between rows), and the trunk spun
+    about its centre through the still ball (no move: only the trunk's turn tells)."""
+    rng = np.random.default_rng(11)
+    seen = []
+    real = pc._round_hits
+    monkeypatch.setattr(pc, "_round_hits", lambda hits, npairs, C, poses, cols, *a: (
+        seen.append(set(cols.tolist())), real(hits, npairs, C, poses, cols, *a))[1])
+    pairs = limbs.metadata["pair_check"]["pairs"]
+    round_ = {k for k, pair in enumerate(pairs) if all(s["kind"] in ("sphere", "capsule") for s in pair["shapes"])}
+    assert len(round_) >= 9
+    names = list(limbs.state_names)
+    ball, spin = [names.index(f"q_joint3_{c}") for c in "xyz"], names.index("q_joint0_rz")
+    named = throws = spins = 0
+    for trial in range(76):
+        if trial < 40:
+            n = int(rng.choice([12, 40, 120]))
+            ends = rng.normal(scale=0.8, size=(4, limbs.nx))
+            ends[:, 2] += 0.3
+        elif trial < 64:        # the ball thrown straight through the still limbs, a few rows: only the move
+            n = int(rng.choice([2, 4]))
+            ends = np.tile(np.array(limbs.initial_state, dtype=float), (4, 1))
+            ends[:, ball] = np.array([[0.0, 0.5, 0.3], [0.0, -0.5, 0.3]]).repeat(2, axis=0) \
+                + rng.uniform([-0.1, -0.05, -0.06], [0.25, 0.05, 0.06])
+        else:       # the trunk spun about its centre through the still ball in two rows: only the turn
+            n = 2
+            ends = np.tile(np.array(limbs.initial_state, dtype=float), (4, 1))
+            ends[:, ball] = [0.0, 0.12, 0.3] + rng.uniform(-0.01, 0.01, 3)
+            ends[:, spin] = np.radians([30.0, 30.0, 150.0, 150.0]) + rng.uniform(-10, 10) * np.pi / 180
+        s = np.linspace(0, 1, n)[:, None]
+        X = (1 - s) ** 3 * ends[0] + 3 * s * (1 - s) ** 2 * ends[1] + 3 * s ** 2 * (1 - s) * ends[2] + s ** 3 * ends[3]
+        t = np.linspace(0.0, 1.0, n)
+        want = _reference(limbs, t, X)
+        throws += 40 <= trial < 64 and any(mid and "ball" in name for name, (_, mid) in want.items())
+        spins += trial >= 64 and want.get("trunk__ball", (0, False))[1]
+        rows = [limbs.outputs(t[i], X[i]) for i in range(n)]
+        law = {k: np.array([o[k] for o in rows]) for k in rows[0]}
+        still = {k for k in round_ if np.ptp(law[f"depth_{pairs[k]['name']}"]) < 1e-9}   # moved together
+        for change, used in ((lambda v: v, round_), (lambda v: v + 0.003, round_), (lambda v: 1.5 * v, still)):
+            outputs = {k: change(v) if k.startswith("depth_") else v for k, v in law.items()}
+            limbs.__dict__.pop("_pair_check_round", None)      # its margins are checked once per model
+            seen.clear()
+            notes = pc.passed_through(limbs, t, X, None, outputs=outputs)
+            assert (seen[0] if seen else set()) == used, trial
+            got = {note.split("(pair ")[1].split(")")[0]: note for note in notes}
+            assert set(got) == set(want), (trial, sorted(got), sorted(want))
+            for name, (row, mid) in want.items():
+                when = (f"between t = {t[row]:.4g} and {t[row + 1]:.4g}" if mid else f"at t = {t[row]:.4g}")
+                assert when in got[name], (got[name], when)
+        named += sum(1 for name, (_, mid) in want.items() if mid and name in {pairs[k]['name'] for k in round_})
+    print('NAMED', named, throws, spins)
+    assert named >= 20 and throws >= 12 and spins >= 8      # first named between rows: paths measured
+
+
 # -- runs ----------------------------------------------------------------------------------------
 
 def _silent_without_the_check(model, x0, monkeypatch, **kw):
