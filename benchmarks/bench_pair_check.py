@@ -6,18 +6,24 @@ measure where the shapes come near.  Nothing runs in the rhs, NAME_implicit or a
 
 Per model (no flags: the file's contacts and self-pairs, its start) and method (implicitfast at the
 file's time step; the default "auto"), T simulated seconds:
-- check: CPU ms of one passed_through call on the run's rows (thread CPU, median of REPEAT);
+- check: CPU ms of one passed_through call on the run's rows and outputs, as simulate makes it
+  (thread CPU, median of REPEAT); "before": the same with the module of ``--before REV`` (its
+  runtime/pair_check.py loaded beside this one);
 - simulate with / without: CPU ms of the whole simulate() call per simulated second, with the check
-  and with it replaced by a no-op, interleaved rounds in one process (thread CPU, medians of REPEAT);
+  and with it replaced by a no-op (and with REV's check), interleaved rounds in one process (thread
+  CPU, medians of REPEAT);
 - least s/rho: over the run's rows and the paths between them, each pair's core's least signed
   distance from the other shape over its inner size (the verdict names a pair below 1 - PASS_FRACTION
   = 0.5; the rows of these runs are the same with and without the check);
 - status and whether the verdict named a pair.
 
-    python benchmarks/bench_pair_check.py        # writes benchmarks/results/pair_check.md
+    python benchmarks/bench_pair_check.py [--before REV]    # writes benchmarks/results/pair_check.md
 """
+import argparse
 import statistics
+import subprocess
 import sys
+import types
 import time
 import warnings
 from pathlib import Path
@@ -55,11 +61,31 @@ def _least(model, res):
     return worst
 
 
+def _before(rev):
+    """passed_through of revision ``rev``'s runtime/pair_check.py (git show), loaded as a module of
+    eomc.runtime; called as simulate calls today's (``outputs`` dropped when it takes none)."""
+    import inspect
+    src = subprocess.run(["git", "-C", str(Path(__file__).resolve().parent.parent), "show",
+                          f"{rev}:runtime/pair_check.py"], check=True, capture_output=True, text=True).stdout
+    mod = types.ModuleType("eomc.runtime._pair_check_before")
+    mod.__package__ = "eomc.runtime"
+    exec(compile(src, f"{rev}:runtime/pair_check.py", "exec"), mod.__dict__)
+    fn = mod.passed_through
+    if "outputs" in inspect.signature(fn).parameters:
+        return fn
+    return lambda model, t, X, p, fraction=mod.PASS_FRACTION, outputs=None: fn(model, t, X, p, fraction)
+
+
 def main():
     import eomc
     from eomc.runtime import pair_check as pc
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--before", help="a revision whose pair check to time beside this one")
+    args = ap.parse_args()
     pin_to_one_core()
     real, off = pc.passed_through, (lambda *a, **k: [])
+    old = _before(args.before) if args.before else None
+    variants = {"with": real, "without": off, **({"before": old} if old else {})}
     rows_out = []
     for where, name, T in MODELS:
         with warnings.catch_warnings():
@@ -71,33 +97,41 @@ def main():
                 warnings.simplefilter("always")
                 res = model.simulate(model.initial_state, (0.0, T), raise_on_failure=False, **kw)
             named = any("passed into each other" in str(w.message) for w in caught)
-            check = []
+            check = {k: [] for k in variants if k != "without"}
             for _ in range(REPEAT):
-                t0 = time.thread_time()
-                real(model, res.t, res.x, None)
-                check.append(time.thread_time() - t0)
-            cpu = {True: [], False: []}
+                for k in check:
+                    t0 = time.thread_time()
+                    variants[k](model, res.t, res.x, None, outputs=res.outputs)
+                    check[k].append(time.thread_time() - t0)
+            cpu = {k: [] for k in variants}
             for _ in range(REPEAT):
-                for on in (True, False):
-                    pc.passed_through = real if on else off
+                for k, fn in variants.items():
+                    pc.passed_through = fn
                     try:
                         with warnings.catch_warnings():
                             warnings.simplefilter("ignore")
                             t0 = time.thread_time()
                             model.simulate(model.initial_state, (0.0, T), raise_on_failure=False, **kw)
-                            cpu[on].append(time.thread_time() - t0)
+                            cpu[k].append(time.thread_time() - t0)
                     finally:
                         pc.passed_through = real
-            with_, without = (statistics.median(cpu[k]) / T * 1e3 for k in (True, False))
-            rows_out.append([f"{where} {name}", kw.get("method", "auto"), npairs, len(res.t),
-                             f"{statistics.median(check) * 1e3:.2f}", f"{with_:.1f}", f"{without:.1f}",
-                             f"{with_ / without:.3f}", f"{_least(model, res):.3f}", res.status,
-                             "yes" if named else "no"])
+            ms = {k: statistics.median(v) / T * 1e3 for k, v in cpu.items()}
+            chk = {k: f"{statistics.median(v) * 1e3:.2f}" for k, v in check.items()}
+            row = [f"{where} {name}", kw.get("method", "auto"), npairs, len(res.t)]
+            if old:
+                row += [chk["before"], chk["with"], f"{ms['before']:.1f}", f"{ms['with']:.1f}", f"{ms['without']:.1f}",
+                        f"{ms['before'] / ms['without']:.3f}", f"{ms['with'] / ms['without']:.3f}"]
+            else:
+                row += [chk["with"], f"{ms['with']:.1f}", f"{ms['without']:.1f}", f"{ms['with'] / ms['without']:.3f}"]
+            rows_out.append(row + [f"{_least(model, res):.3f}", res.status, "yes" if named else "no"])
             print(rows_out[-1], flush=True)
-    headers = ["model", "method", "pairs", "rows", "check ms", "simulate ms/s with", "without", "ratio",
-               "least s/rho", "status", "named"]
+    headers = ["model", "method", "pairs", "rows"] + (
+        ["check ms before", "now", "simulate ms/s with before's", "with now's", "without", "ratio before",
+         "ratio now"] if old else ["check ms", "simulate ms/s with", "without", "ratio"]) + [
+        "least s/rho", "status", "named"]
     text = environment_header("Pair verdict (runtime/pair_check.py): cost per run and margins") + "\n" + \
-        format_table(headers, rows_out) + "\n"
+        format_table(headers, rows_out) + "\n" + (
+            f"\nbefore: runtime/pair_check.py of {args.before}\n" if old else "")
     write_results("pair_check", text, keep_notes=True)
 
 

@@ -240,29 +240,18 @@ def passed_through(model, t, X, p, fraction=PASS_FRACTION, outputs=None):
     kinds = [s["kind"] for s in geoms]
     p = None if p is None else np.asarray(p, dtype=float)[:model.nparam]
     poses = evaluate_poses(model, t, X, p)
-    # every shape's centre along the rows (a world shape's: fixed); its axes where needed (_axes)
-    moving = fi >= 0
-    n, G = len(t), len(fi)
-    C = np.empty((n, G, 3))
-    if moving.all():
-        Rf, pm = poses.rotations[:, fi], pos
-        C[:] = poses.positions[:, fi] + Rf[..., 0] * pm[:, 0, None] + Rf[..., 1] * pm[:, 1, None] \
-            + Rf[..., 2] * pm[:, 2, None]
-    else:
-        Rf, pm = poses.rotations[:, fi[moving]], pos[moving]
-        C[:, moving] = poses.positions[:, fi[moving]] + Rf[..., 0] * pm[:, 0, None] \
-            + Rf[..., 1] * pm[:, 1, None] + Rf[..., 2] * pm[:, 2, None]
-        C[:, ~moving] = pos[~moving]
+    n = len(t)
+    centres = lambda rows: _centres(poses, rows, fi, pos)     # noqa: E731  (shapes' centres where needed)
     hits = [None] * (2 * len(pairs))        # pair k: shape a into b at k, b into a at k + len(pairs)
     cols, depth, known = _round_depths(model, pairs, kinds, ga, gb, outputs, n)
     if cols.size:
         known = known.setdefault(None if p is None else p.tobytes(), {})
-        cols, depth = _verified(C, poses, cols, depth, ga, gb, kinds, size, half, allow, fi, rot, known)
+        cols, depth = _verified(centres, poses, cols, depth, ga, gb, kinds, size, half, allow, fi, rot, known)
     rest = np.setdiff1d(np.arange(len(pairs)), cols)
     if cols.size:
-        _round_hits(hits, len(pairs), C, poses, cols, depth, ga, gb, kinds, size, half, allow, fi, rot)
+        _round_hits(hits, len(pairs), centres, poses, cols, depth, ga, gb, kinds, size, half, allow, fi, pos, rot)
     if rest.size:
-        R = _axes(poses, np.arange(n), fi, rot)
+        C, R = centres(np.arange(n)), _axes(poses, np.arange(n), fi, rot)
         near = rest[_candidates(C, R, ga[rest], gb[rest], bound, half, allow)]
         if near.size:
             got = _hits(C, R, np.concatenate([ga[near], gb[near]]), np.concatenate([gb[near], ga[near]]),
@@ -280,6 +269,19 @@ def passed_through(model, t, X, p, fraction=PASS_FRACTION, outputs=None):
     return notes
 
 
+def _centres(poses, rows, fi, pos):
+    """(len(rows), shapes, 3): each shape's centre in the world at the given rows (a world shape's:
+    fixed)."""
+    moving = fi >= 0
+    C = np.empty((len(rows), len(fi), 3))
+    f = fi[moving]
+    Rf, pm = poses.rotations[rows][:, f], pos[moving]
+    C[:, moving] = poses.positions[rows][:, f] + Rf[..., 0] * pm[:, 0, None] + Rf[..., 1] * pm[:, 1, None] \
+        + Rf[..., 2] * pm[:, 2, None]
+    C[:, ~moving] = pos[~moving]
+    return C
+
+
 def _axes(poses, rows, fi, rot):
     """(len(rows), shapes, 3, 3): each shape's axes in world components at the given rows."""
     moving = fi >= 0
@@ -291,9 +293,8 @@ def _axes(poses, rows, fi, rot):
 
 ROUND = ("sphere", "capsule")
 # the law's depth output (less its margin) and the placed shapes' measure must agree this closely at the
-# VERIFY_ROWS rows checked (_verified): they agree to ~1e-15 (tests/runtime/test_pair_check.py)
+# rows checked (_verified): they agree to ~1e-15 (tests/runtime/test_pair_check.py)
 DEPTH_AGREE = 1e-9
-VERIFY_ROWS = 4
 MOVED = 1e-6        # m: the least span of a pair's measure over the rows checked that proves its law
 
 
@@ -322,53 +323,57 @@ def _round_depths(model, pairs, kinds, ga, gb, outputs, n):
     return np.asarray(cols, dtype=int)[ok], depth[:, ok], got[2]
 
 
-def _verified(C, poses, cols, depth, ga, gb, kinds, size, half, allow, fi, rot, known):
+def _verified(centres, poses, cols, depth, ga, gb, kinds, size, half, allow, fi, rot, known):
     """The pairs and their depth columns, less a constant (the pair's margin: MuJoCo's law reads
-    depth = r_a + r_b + margin - D), whose depth output is the placed shapes' measure at VERIFY_ROWS
-    rows spread over the run: r_a - depth - (1 - f) rho_a == the core of a's signed distance from b
-    less (1 - f) rho_a, with the same constant at every row checked (a pair that does not agree is
-    left to the exact search).  ``known`` (kept on the model per parameter vector): {pair: its
+    depth = r_a + r_b + margin - D), whose depth output is the placed shapes' measure at the run's
+    ends and at the rows of its least and greatest depth: r_a - depth - (1 - f) rho_a == the signed
+    distance of a's core from b less (1 - f) rho_a, with the same constant at every row checked (a
+    pair that does not agree is left to the exact search).  ``known`` (kept on the model per parameter vector): {pair: its
     constant, or None when it did not agree}; a pair is checked on the first run that has its depth
     and moves (its measure at the rows checked spans more than MOVED; a still pair's constant serves
     its run only)."""
-    new = np.array([k not in known for k in cols], dtype=bool)
+    key = ("all", cols.tobytes())
+    fast = known.get(key)           # (constants, agreed, still): these columns checked on a run before
+    if fast is not None and not (fast[2].size and np.any(np.ptp(depth[:, fast[2]], axis=0) > MOVED)):
+        return cols[fast[1]], depth[:, fast[1]] + fast[0][fast[1]]
+    # to check: a pair not seen, or seen still (its constant unproven) and moving in this run
+    new = np.array([k not in known or (not known[k][1] and np.ptp(depth[:, i]) > MOVED)
+                    for i, k in enumerate(cols.tolist())], dtype=bool)
     if new.any():
-        n = C.shape[0]
-        rows = np.unique(np.linspace(0, n - 1, VERIFY_ROWS).round().astype(int))
-        Cs, Rs = C[rows], _axes(poses, rows, fi, rot)
-        a, b = ga[cols[new]], gb[cols[new]]
-        r = np.repeat(np.arange(len(rows)), len(a))
-        at, _ = _measure(Cs, Rs, r, np.tile(a, len(rows)), np.tile(b, len(rows)), kinds, size, half, allow,
-                         r1=r)
-        law = size[a, 0] - depth[rows][:, new] - allow[a]
-        shift = law - at.reshape(len(rows), -1)                # the margin, at each row checked
+        n, j = depth.shape[0], np.flatnonzero(new)
+        rr = np.stack([np.zeros(len(j), dtype=int), np.full(len(j), n - 1),          # (4, pairs): the ends
+                       np.argmin(depth[:, j], axis=0), np.argmax(depth[:, j], axis=0)])  # and the extremes
+        rows = np.unique(rr)
+        Cs, Rs = centres(rows), _axes(poses, rows, fi, rot)
+        a, b = ga[cols[j]], gb[cols[j]]
+        r = np.searchsorted(rows, rr).ravel()
+        at, _ = _measure(Cs, Rs, r, np.tile(a, 4), np.tile(b, 4), kinds, size, half, allow, r1=r)
+        law = size[a, 0] - depth[rr, j] - allow[a]
+        at = at.reshape(4, -1)
+        shift = law - at                                       # the margin, at each row checked
         good = np.all(np.abs(shift - shift[0]) <= DEPTH_AGREE * (1.0 + np.abs(law)), axis=0)
-        at = at.reshape(len(rows), -1)
         moved = np.ptp(at, axis=0) > MOVED                     # a still pair's rows prove no law
-        now = {}
-        for k, g, v, m in zip(cols[new], good, shift[0], moved):
-            now[int(k)] = float(v) if g else None
-            if m or not g:
-                known[int(k)] = now[int(k)]
-    else:
-        now = {}
-    shift = np.array([np.nan if (now[k] if k in now else known[k]) is None else (now[k] if k in now else known[k])
-                      for k in cols])
+        for k, g, v, m in zip(cols[j].tolist(), good, shift[0], moved):
+            known[k] = (float(v) if g else None, bool(m or not g))
+    shift = np.array([np.nan if known[k][0] is None else known[k][0] for k in cols.tolist()])
     good = np.isfinite(shift)
+    still = np.flatnonzero([not known[k][1] for k in cols.tolist()])
+    known[key] = (shift, good, still)
     return cols[good], depth[:, good] + shift[good]
 
 
-def _round_hits(hits, npairs, C, poses, cols, depth, ga, gb, kinds, size, half, allow, fi, rot):
+def _round_hits(hits, npairs, centres, poses, cols, depth, ga, gb, kinds, size, half, allow, fi, pos, rot):
     """Fill ``hits`` (as :func:`_hits`' entries) for sphere and capsule pairs ``cols`` from their laws'
     depth (n, len(cols)).  At a row: a's core is within (1 - f) rho_a of b where r_a - depth <
     (1 - f) rho_a (exact).  Between rows k and k + 1: the cores' distance D = r_a + r_b - depth,
     so a's centre is at least D - r_b from b at both rows; its path in b's frame is at most
-    L = m_a + m_b + |R_b,k+1 - R_b,k|_F |d_k| long (m: the centres' moves in the world, d_k = c_a -
-    c_b, |d_k| <= D_k + h_a + h_b), and a signed distance changes by at most the move, so the path
+    L = m_a + m_b + |R_b,k+1 - R_b,k|_F |d_k| long (m: a bound on a centre's move in the world, its
+    frame origin's move plus the frame's turn times the centre's distance from it; d_k = c_a - c_b,
+    |d_k| <= D_k + h_a + h_b), and a signed distance changes by at most the move, so the path
     keeps (D_k + D_k+1 - 2 r_b - L)/2 from b: the exact path measure (:func:`_measure`) runs only
     where that falls below (1 - f) rho_a (either way round) -- first per pair with the run's extremes,
     then per row."""
-    n = C.shape[0]
+    n = depth.shape[0]
     a, b = ga[cols], gb[cols]
     ra, rb = size[a, 0], size[b, 0]
     top = depth.max(axis=0)
@@ -382,28 +387,37 @@ def _round_hits(hits, npairs, C, poses, cols, depth, ga, gb, kinds, size, half, 
         return
     rsum, hsum = ra + rb, half[a] + half[b]
     need = 2.0 * np.maximum(allow[a] + rb, allow[b] + ra) * (1.0 + 1e-9) + 1e-12
-    dc = C[1:] - C[:-1]
-    move = np.sqrt(dc[..., 0] ** 2 + dc[..., 1] ** 2 + dc[..., 2] ** 2)     # (n - 1, shapes)
-    moving = fi >= 0
-    turn = np.zeros((n - 1, len(fi)))
+    # per frame between rows: its origin's move and its turn |R_k+1 - R_k|_F; a shape's centre (at pos in
+    # its frame) moves at most the origin's move plus the turn times |pos|
+    dp = poses.positions[1:] - poses.positions[:-1]
+    shift = np.sqrt(dp[..., 0] ** 2 + dp[..., 1] ** 2 + dp[..., 2] ** 2)        # (n - 1, frames)
     rf = poses.rotations.reshape(n, -1, 9)
     dr = rf[1:] - rf[:-1]
-    turn[:, moving] = np.sqrt(np.einsum("nfk,nfk->nf", dr, dr))[:, fi[moving]]
+    spin = np.sqrt(np.einsum("nfk,nfk->nf", dr, dr))
+    moving, f = fi >= 0, np.maximum(fi, 0)
+    lever = np.sqrt(np.sum(pos ** 2, axis=1))
+    mt = np.where(moving, shift.max(axis=0)[f] + spin.max(axis=0)[f] * lever, 0.0)     # per shape, the run's most
+    tt = np.where(moving, spin.max(axis=0)[f], 0.0)
     near_min, near_max = rsum - top, rsum - depth.min(axis=0)           # D's extremes per pair
-    mt, tt = move.max(axis=0), turn.max(axis=0)
     wide = 2.0 * near_min - (mt[a] + mt[b]) - np.maximum(tt[a], tt[b]) * (near_max + hsum)
     js = np.flatnonzero(wide < need)
     if not js.size:
         return
-    D = rsum[js] - depth[:, js]                                          # (n, pairs kept)
     aj, bj = a[js], b[js]
+    g = np.unique(np.concatenate([aj, bj]))                              # the shapes of the pairs kept
+    move = np.zeros((n - 1, len(fi)))
+    turn = np.zeros((n - 1, len(fi)))
+    gm = g[moving[g]]
+    turn[:, gm] = spin[:, fi[gm]]
+    move[:, gm] = shift[:, fi[gm]] + turn[:, gm] * lever[gm]
+    D = rsum[js] - depth[:, js]                                          # (n, pairs kept)
     keep = (D[:-1] + D[1:] - (move[:, aj] + move[:, bj])
             - np.maximum(turn[:, aj], turn[:, bj]) * (D[:-1] + hsum[js]) < need[js])
     k, jj = np.nonzero(keep)
     if not k.size:
         return
     rows = np.unique(np.concatenate([k, k + 1]))
-    Cs, Rs = C[rows], _axes(poses, rows, fi, rot)
+    Cs, Rs = centres(rows), _axes(poses, rows, fi, rot)
     rk, rk1 = np.searchsorted(rows, k), np.searchsorted(rows, k + 1)
     xs, ys = np.concatenate([aj[jj], bj[jj]]), np.concatenate([bj[jj], aj[jj]])
     _, path = _measure(Cs, Rs, np.concatenate([rk, rk]), xs, ys, kinds, size, half, allow,
