@@ -251,7 +251,7 @@ def passed_through(model, t, X, p, fraction=PASS_FRACTION, outputs=None):
     if cols.size:
         _round_hits(hits, len(pairs), centres, poses, cols, depth, ga, gb, kinds, size, half, allow, fi, pos, rot)
     if rest.size:
-        C, R = centres(np.arange(n)), _axes(poses, np.arange(n), fi, rot)
+        C, R = _centres(poses, slice(None), fi, pos, rot)
         near = rest[_candidates(C, R, ga[rest], gb[rest], bound, half, allow)]
         if near.size:
             got = _hits(C, R, np.concatenate([ga[near], gb[near]]), np.concatenate([gb[near], ga[near]]),
@@ -269,17 +269,22 @@ def passed_through(model, t, X, p, fraction=PASS_FRACTION, outputs=None):
     return notes
 
 
-def _centres(poses, rows, fi, pos):
-    """(len(rows), shapes, 3): each shape's centre in the world at the given rows (a world shape's:
-    fixed)."""
+def _centres(poses, rows, fi, pos, rot=None):
+    """(len(rows), shapes, 3): each shape's centre in the world at the given rows (index array or
+    slice; a world shape's: fixed); with ``rot``, also (len(rows), shapes, 3, 3) its axes."""
     moving = fi >= 0
-    C = np.empty((len(rows), len(fi), 3))
     f = fi[moving]
     Rf, pm = poses.rotations[rows][:, f], pos[moving]
+    C = np.empty(Rf.shape[:1] + (len(fi), 3))
     C[:, moving] = poses.positions[rows][:, f] + Rf[..., 0] * pm[:, 0, None] + Rf[..., 1] * pm[:, 1, None] \
         + Rf[..., 2] * pm[:, 2, None]
     C[:, ~moving] = pos[~moving]
-    return C
+    if rot is None:
+        return C
+    R = np.empty(Rf.shape[:1] + (len(fi), 3, 3))
+    R[:, moving] = Rf @ rot[moving]
+    R[:, ~moving] = rot[~moving]
+    return C, R
 
 
 def _axes(poses, rows, fi, rot):
