@@ -32,7 +32,11 @@ line).  A row where the pair's bodies turn far relative to each other bends that
 then errs by its sagitta, R·θ²/8.
 
 Cost: one ``NAME_poses`` call per row and numpy over the pairs, after the run (none in the rhs or
-in a step); measured in benchmarks/results/pair_check.md.
+in a step); measured in benchmarks/results/pair_check.md.  A sphere or capsule pair is not placed
+along every row: its law's own depth output, which simulate computes along the rows anyway, is the
+measure (D = r_a + r_b - depth is the cores' distance, exactly; less the pair's margin, found once
+against the placed shapes), and its paths between rows are measured only where the frames' moves
+and turns between the two rows allow a crossing (:func:`_round_hits`).
 """
 import numpy as np
 
@@ -249,7 +253,8 @@ def passed_through(model, t, X, p, fraction=PASS_FRACTION, outputs=None):
         cols, depth = _verified(centres, poses, cols, depth, ga, gb, kinds, size, half, allow, fi, rot, known)
     rest = np.setdiff1d(np.arange(len(pairs)), cols)
     if cols.size:
-        _round_hits(hits, len(pairs), centres, poses, cols, depth, ga, gb, kinds, size, half, allow, fi, pos, rot)
+        _round_hits(hits, len(pairs), centres, poses, cols, depth, ga, gb, kinds, size, half, allow, fi, pos,
+                    rot)
     if rest.size:
         C, R = _centres(poses, slice(None), fi, pos, rot)
         near = rest[_candidates(C, R, ga[rest], gb[rest], bound, half, allow)]
@@ -333,10 +338,11 @@ def _verified(centres, poses, cols, depth, ga, gb, kinds, size, half, allow, fi,
     depth = r_a + r_b + margin - D), whose depth output is the placed shapes' measure at the run's
     ends and at the rows of its least and greatest depth: r_a - depth - (1 - f) rho_a == the signed
     distance of a's core from b less (1 - f) rho_a, with the same constant at every row checked (a
-    pair that does not agree is left to the exact search).  ``known`` (kept on the model per parameter vector): {pair: its
-    constant, or None when it did not agree}; a pair is checked on the first run that has its depth
-    and moves (its measure at the rows checked spans more than MOVED; a still pair's constant serves
-    its run only)."""
+    pair that does not agree is left to the exact search).  ``known`` (kept on the model per
+    parameter vector): {pair: (its constant, or None when it did not agree; proven)}: a pair is
+    checked on the first run that has its depth, and again on a later run where its depth spans more
+    than MOVED if it was still when checked (its measure at the rows checked spanned no more than
+    MOVED: such rows prove no law, but serve a run whose depth stays within MOVED)."""
     key = ("all", cols.tobytes())
     fast = known.get(key)           # (constants, agreed, still): these columns checked on a run before
     if fast is not None and not (fast[2].size and np.any(np.ptp(depth[:, fast[2]], axis=0) > MOVED)):
