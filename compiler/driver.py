@@ -256,6 +256,8 @@ def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, fu
         extra = {**(extra or {}), "timestep": spec.timestep}
     if getattr(spec, "ground_check", None) is not None:   # runtime/ground_check.py: bodies under the ground
         extra = {**(extra or {}), "ground_check": spec.ground_check}
+    if getattr(spec, "pair_check", None):      # runtime/pair_check.py: pairs that passed into each other
+        extra = {**(extra or {}), "pair_check": spec.pair_check}
     if getattr(spec, "limit_laws", None):      # runtime/limit_energy.py: a start past a limit
         extra = {**(extra or {}), "limit_laws": spec.limit_laws}
     if getattr(spec, "start_in_range", None):      # the joints the default start moved into range

@@ -230,6 +230,8 @@ def verdict(model, a, result, gmax, sw):
         notes += _overshoot_notes(model, p, sw, past, over, e)
     from .ground_check import below_ground
     notes += below_ground(model, result.t, result.x, p, POINT_PENETRATION, PENETRATION_FRACTION)
+    from .pair_check import passed_through
+    notes += passed_through(model, result.t, result.x, p)      # body-body pairs that passed into each other
     status, extra, said = energy_verdict(model, a, result.outputs, sw)
     notes += said
     if notes:       # one warning per run, naming every contact and joint

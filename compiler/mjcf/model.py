@@ -344,6 +344,8 @@ def read_model(model, poses=False):
                                   friction=model.limits and friction_flag and "frictionloss" not in model.ignore)
     built, outputs, events = _with_contacts(model, m, built)
     extra = {}
+    if getattr(built, "pair_check", None):      # runtime/pair_check.py: pairs that passed into each other
+        extra["pair_check"] = built.pair_check
     if poses:
         from .poses import mjcf_pose_source
         extra["poses"] = mjcf_pose_source(built, m)
@@ -444,6 +446,8 @@ def mjcf_formed(read, overrides):
     values["timestep"] = read.timestep       # into the built model's metadata (model.timestep)
     if read.limit_laws:                      # ... and the limits' shapes (runtime/limit_energy.py)
         values["limit_laws"] = read.limit_laws
+    if read.pair_check:                      # ... and the pairs' shapes (runtime/pair_check.py)
+        values["pair_check"] = read.pair_check
     return read, values
 
 
@@ -521,7 +525,34 @@ def _with_pairs(model, m, built):
         return PairShape(i, kind, size, offset, rot)
     specs = [PairSpec(p.name, shape(p.geoms[0]), shape(p.geoms[1]), p.k, p.c, p.mu, margin=p.margin, mut=p.mut,
                       mur=p.mur, rho=p.rho) for p in found]
-    return with_pairs(built, specs, fold=model.fold_parameters)
+    built, outputs, events = with_pairs(built, specs, fold=model.fold_parameters)
+    built.pair_check = _pair_check(m, d, found, built, tree_body)
+    return built, outputs, events
+
+
+def _pair_check(m, d, found, built, tree_body):
+    """NAME.json's ``pair_check`` (runtime/pair_check.py: the run's verdict on two shapes that
+    passed into each other, a depth measure independent of the pair's law): per pair its name and,
+    per geom, its name, kind, MuJoCo size, and where it sits -- in its MuJoCo body's frame (the
+    poses' frame of that name: ``geom_pos``/``geom_quat``), or in the world for a static geom."""
+    import mujoco
+    from .collision import GEOM_KINDS, _geom_name
+    from .treeir import quat_matrix
+    out = []
+    for p in found:
+        shapes = []
+        for g in p.geoms:
+            b = int(m.geom_bodyid[g])
+            static = int(m.body_weldid[b]) == 0
+            pos = d.geom_xpos[g] if static else m.geom_pos[g]
+            rot = np.array(d.geom_xmat[g]).reshape(3, 3) if static else quat_matrix(m.geom_quat[g])
+            body = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) or f"body{b}"
+            shapes.append({"geom": _geom_name(m, g), "body": body,
+                           "frame": None if static else built.tree.bodies[tree_body[b]].name,
+                           "kind": GEOM_KINDS.get(int(m.geom_type[g])), "size": [float(x) for x in m.geom_size[g]],
+                           "pos": [float(x) for x in pos], "rot": [float(x) for x in np.ravel(rot)]})
+        out.append({"name": p.name, "shapes": shapes})
+    return {"pairs": out}
 
 
 def _shapes(built, found):

@@ -47,6 +47,7 @@ class ModelSpec:
     model: Optional[Model] = field(default=None, repr=False)
     timestep: float = None              # the model file's own time step (MJCF <option timestep>), or None
     ground_check: dict = field(default=None, compare=False)  # a robot's points that must stay above its ground (URDF), or None
+    pair_check: dict = field(default=None, compare=False)    # the body-body pairs' shapes (MJCF; runtime/pair_check.py), or None
     limit_laws: dict = field(default=None, compare=False)    # MJCF limits' shapes (runtime/limit_energy.py), or None
     start_in_range: list = field(default=None, compare=False)  # joints the default start moved into range (URDF), or None
 
@@ -171,6 +172,7 @@ def _checked(values, formed, name, where, origin=""):
             initial_state=check_initial_state(values.get("initial_state"), formed),
             outputs=outputs, system=values.get("system"), geometry=values.get("geometry"),
             timestep=values.get("timestep"), ground_check=values.get("ground_check"),
+            pair_check=values.get("pair_check"),
             limit_laws=values.get("limit_laws"),
             start_in_range=values.get("start_in_range"))
     except Invalid as exc:

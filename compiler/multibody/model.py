@@ -122,6 +122,9 @@ class Model(StateSizes):
     # the points of each body that must stay above the ground a robot's contacts touch, for the
     # run's verdict (eomc.compiler.urdf.collision.ground_check; eomc.runtime.ground_check), or None
     ground_check: Optional[dict] = field(default=None, compare=False)
+    # the body-body pairs' shapes, for the run's verdict on two shapes that passed into each other
+    # (MJCF: eomc.compiler.mjcf.model._pair_check; eomc.runtime.pair_check), or None
+    pair_check: Optional[dict] = field(default=None, compare=False)
     # per joint with a limit whose spring has no closed-form potential (MJCF's): its shape, for
     # the energy verdict of a run that starts past it (joint_laws.law_shape; runtime/limit_energy.py)
     limit_laws: Optional[dict] = field(default=None, compare=False)

@@ -17,11 +17,23 @@ class Recorder:
 
     def __init__(self, start=0):
         self.count = start
+        self.apart = 0            # let_apart's own count
         self.assignments = []
         self._seen = {}
 
     def let(self, expr):
         """A name for ``expr`` (atoms and -atom stay as they are; a repeat gets the same name)."""
+        return self._named(expr, False)
+
+    def let_apart(self, expr):
+        """As :meth:`let`, but a new name is ``_e<k>`` from a count of its own, so naming a value
+        that only some functions read leaves every other temporary's name, and so the canonical
+        order of SymPy's sums and products that print the other functions, as it was.  Why: the
+        energy's per-body shares (.contacts._energy) named with ``let`` renumbered the recursion's
+        later temporaries and reordered a sum in Talos' rhs and in the hopper's NAME_implicit."""
+        return self._named(expr, True)
+
+    def _named(self, expr, apart):
         if not isinstance(expr, sm.Basic):
             expr = sm.sympify(expr)
         if expr.is_Atom or (expr.is_Mul and len(expr.args) == 2 and expr.args[0] == -1
@@ -30,8 +42,12 @@ class Recorder:
         hit = self._seen.get(expr)
         if hit is not None:
             return hit
-        sym = sm.Symbol(f"_t{self.count}", real=True)
-        self.count += 1
+        if apart:
+            sym = sm.Symbol(f"_e{self.apart}", real=True)
+            self.apart += 1
+        else:
+            sym = sm.Symbol(f"_t{self.count}", real=True)
+            self.count += 1
         self.assignments.append((sym, expr))
         self._seen[expr] = sym
         return sym
