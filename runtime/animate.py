@@ -179,7 +179,7 @@ def _camera(poses, up, reach=0.0):
     lo_t, hi_t, lo, hi = _framing(poses, reach)
     size = max(float(np.max(hi_t - lo_t)), 1e-3)
     whole = max(float(np.max(hi - lo)), 1e-3)
-    follow = len(lo_t) > 1 and whole > FOLLOW_RATIO * size
+    follow = len(lo_t) > 1 and whole > FOLLOW_RATIO * size and not _anchored(poses)
     center = (lo + hi) / 2
     scale = size if follow else whole
     targets = _smoothed((lo_t + hi_t) / 2, 9) if follow else None
@@ -553,6 +553,18 @@ def ffmpeg_path():
 MIN_SHORT_SIDE = 320
 
 
+def _anchored(poses):
+    """Whether a fixed point holds the mechanism: a drawn line of constant length joins it to a
+    moving point (a pendulum's pivot, an arm's base).  Such a mechanism never leaves its pivot's
+    reach, so its view frames the whole run; following its moving bodies alone cut the pivot
+    and the upper link off the double pendulum's GIF (first-hour report, s20)."""
+    P = poses.points
+    if P.ndim < 3 or len(P) < 2:
+        return False
+    fixed = np.ptp(P, axis=0).max(axis=1) < 1e-12
+    return any(fixed[j] != fixed[k] for j, k in _drawn_lines(poses))
+
+
 def _window_2d(poses, a, b, reach=0.0):
     """(per-frame centres (n_t, 2) or None, half-widths (ha, hb), fixed centre or None) of
     the 2-D view: the whole run when it is not much larger than the robot, else a window of
@@ -561,7 +573,7 @@ def _window_2d(poses, a, b, reach=0.0):
     size = hi_t - lo_t
     whole = hi - lo
     robot = max(float(np.max(size[:, [a, b]])), 1e-3)
-    if len(lo_t) > 1 and float(np.max(whole[[a, b]])) > FOLLOW_RATIO * robot:
+    if len(lo_t) > 1 and float(np.max(whole[[a, b]])) > FOLLOW_RATIO * robot and not _anchored(poses):
         half = size[:, [a, b]].max(axis=0) / 2 + 0.2 * robot
         centres = _smoothed((lo_t + hi_t) / 2, 9)[:, [a, b]]
         return centres, half, None

@@ -243,8 +243,8 @@ def run(args):
         print(f"  event {name}: {len(times)} at t = {shown}")
     if touched:
         first = min(touched, key=lambda n: touched[n][0])
-        print(f"  contact events: {len(touched)} points crossed the ground "
-              f"{sum(len(t) for t in touched.values())} times, the first {first} at t = {touched[first][0]:.10g}")
+        print(f"  contact events: {sum(len(t) for t in touched.values())} at {len(touched)} points, the first "
+              f"{first} at t = {touched[first][0]:.10g}")
     if silent:
         print(f"  events that never fired: {', '.join(silent[:3])}"
               + (f", ... ({len(silent)} in all)" if len(silent) > 3 else ""))
@@ -265,7 +265,8 @@ _CONTACT_KINDS = ("Fn", "Ftx", "Fty", "Ftz", "depth")
 
 def _contact_summary(model, outputs):
     """Output name -> True for the contact outputs summarised instead of listed (a URDF robot's
-    --ground gives 32 points per mesh: Go2 608, 3,040 lines), and under "" the summary lines."""
+    --ground gives 32 points per mesh: Go2 608, 3,040 lines; gymnasium's humanoid 109 self-pairs,
+    each with its point px_/py_/pz_), and under "" the summary lines."""
     from eomc.runtime.switching import find_switches
     import numpy as np
     names = [c.name for c in find_switches(model).contacts
@@ -273,13 +274,16 @@ def _contact_summary(model, outputs):
     if len(names) <= CONTACT_LINES:
         return {}
     grouped = {f"{k}_{c}": True for c in names for k in _CONTACT_KINDS}
+    pairs = [c for c in names if all(f"p{a}_{c}" in outputs for a in "xyz")]    # MJCF pairs' points
+    grouped.update({f"p{a}_{c}": True for c in pairs for a in "xyz"})
     force = {c: float(np.max(outputs[f"Fn_{c}"])) for c in names}
     depth = {c: float(np.max(outputs[f"depth_{c}"])) for c in names}
     touching = [c for c in names if outputs[f"Fn_{c}"][-1] > 0]
     strongest, deepest = max(force, key=force.get), max(depth, key=depth.get)
     grouped[""] = [
-        f"  contacts: {len(names)} points (Fn_, Ftx_, Fty_, Ftz_, depth_<point> in the CSV), "
-        f"{sum(f > 0 for f in force.values())} touched the ground, {len(touching)} touching at the end",
+        f"  contacts: {len(names)} points (Fn_, Ftx_, Fty_, Ftz_, depth_<point>"
+        f"{f'; px_, py_, pz_ of {len(pairs)} pairs' if pairs else ''} in the CSV), "
+        f"{sum(f > 0 for f in force.values())} touched, {len(touching)} touching at the end",
         f"  contacts: largest normal force Fn_{strongest} = {force[strongest]:.6g}, "
         f"deepest depth_{deepest} = {depth[deepest]:.6g} (maxima over the run)"]
     return grouped

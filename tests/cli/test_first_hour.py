@@ -215,9 +215,31 @@ def test_many_contacts_are_summarised_not_listed_five_lines_each(tmp_path, capsy
     assert main(["simulate", str(model), "--t-final", "0.3", "-q", "-o", str(tmp_path / "t.csv")]) == 0
     out = capsys.readouterr().out
     assert "Fn_foot0: start" not in out and "depth_foot5: start" not in out
-    assert "contacts: 6 points (Fn_, Ftx_, Fty_, Ftz_, depth_<point> in the CSV), 6 touched the ground, " \
+    assert "contacts: 6 points (Fn_, Ftx_, Fty_, Ftz_, depth_<point> in the CSV), 6 touched, " \
            "6 touching at the end" in out
     assert "contacts: largest normal force Fn_foot0 = " in out and "deepest depth_foot0 = " in out
     assert "  event contact_foot0:" not in out
-    assert re.search(r"contact events: 6 points crossed the ground \d+ times, the first contact_foot0 at t = 0\.1", out)
+    assert re.search(r"contact events: \d+ at 6 points, the first contact_foot0 at t = 0\.1", out)
     assert "Fn_foot5" in (tmp_path / "t.csv").read_text().splitlines()[0]     # all still in the CSV
+
+
+_BALLS = """<mujoco model="balls">
+  <worldbody>
+    <geom name="floor" type="plane" size="5 5 0.1"/>
+    <body name="a" pos="0 0 0.3"><freejoint/><geom name="ga" type="sphere" size="0.1" mass="1"/></body>
+    <body name="b" pos="0.15 0 0.55"><freejoint/><geom name="gb" type="sphere" size="0.1" mass="1"/></body>
+    <body name="c" pos="0.6 0 0.3"><freejoint/><geom name="gc" type="sphere" size="0.1" mass="1"/></body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_mjcf_pairs_points_are_summarised_with_the_contacts(tmp_path, capsys):
+    # first hour s20: gymnasium's humanoid printed px_/py_/pz_ of its 109 self-pairs, 327 lines
+    pytest.importorskip("mujoco")
+    model = tmp_path / "balls.xml"
+    model.write_text(_BALLS)
+    assert main(["simulate", str(model), "--t-final", "1", "-q"]) == 0
+    out = capsys.readouterr().out
+    assert "px_ga__gb: start" not in out and "Fn_ga: start" not in out
+    assert "contacts: 6 points (Fn_, Ftx_, Fty_, Ftz_, depth_<point>; px_, py_, pz_ of 3 pairs in the CSV)" in out

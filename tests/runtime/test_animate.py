@@ -390,3 +390,21 @@ def test_ur5_with_meshes_in_the_browser(ur5, tmp_path):
         return poses["forearm_link"][i] + poses.rotation("forearm_link")[i] @ local[:3]
     assert len(anim.html) < 5e6
     _check_page(page, (0.1, 1.9), centre, tmp_path, tol=25.0)
+
+
+
+def test_gif_of_a_long_pendulum_run_keeps_the_pivot_in_view(cache):
+    """First hour (s20): `eomc animate examples/double_pendulum.py --t-final 10 --gif` followed
+    the two bobs (the run's box is > 1.6x theirs), so the pivot and the upper link left the
+    picture.  A pivoted mechanism is framed whole: every point of every frame is in the view."""
+    from eomc.runtime.animate import _camera, _window_2d, evaluate_poses
+    model = eomc.compile(EXAMPLES / "double_pendulum.py", cache_dir=cache, progress=False)
+    res = model.simulate(model.initial_state, (0.0, 10.0), rtol=1e-8, atol=1e-8)
+    poses = evaluate_poses(model, res.t, res.x)
+    a, b = [k for k in range(3) if k != plane_of(poses)]
+    follow, (ha, hb), centre = _window_2d(poses, a, b)
+    assert follow is None
+    P = poses.points[:, :, [a, b]]
+    assert np.all(np.abs(P[..., 0] - centre[a]) <= ha) and np.all(np.abs(P[..., 1] - centre[b]) <= hb)
+    camera, _ = _camera(poses, None)          # the 3-D page's camera: the same, no follow
+    assert camera["follow"] is None
