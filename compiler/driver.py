@@ -252,8 +252,12 @@ def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, f
 def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, functions=None,
             fold_parameters=False, backend="cffi", cflags=None, cache_dir=None, output_dir=None,
             progress=None, events=None, formulation="auto", states=None, contacts=None, frames=None,
-            target=None, check=None, portable=False):
+            target=None, check=None, portable=False, floating_base=False):
     """Compile a model file (path) or a formed system into a loaded :class:`eomc.runtime.model.Model`.
+
+    ``floating_base``: a URDF path's root on a free joint (True: Euler angles, "quaternion"), as
+    the command line's ``--floating-base`` (the same as passing
+    ``eomc.compiler.urdf.model.UrdfModel(path, floating_base=...)``).
 
     ``formulation``: "auto" (default), "kane" or "recursive" (see :func:`generate`).
     ``frames``: e.g. ``["tool0", "com"]``: frame poses, velocities, Jacobians and the centre of
@@ -267,6 +271,9 @@ def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, fu
     Progress (stage timings on stderr) defaults to on when stderr is a terminal.
     """
     progress = Progress(progress)
+    if floating_base:
+        from .urdf.model import with_options as urdf_options
+        system, name = urdf_options(system, name, floating_base=floating_base)
     spec, generated = generate(system, name, parameters=parameters, inputs=inputs, outputs=outputs,
                                functions=functions, fold_parameters=fold_parameters, progress=progress,
                                cache_dir=cache_dir, events=events, formulation=formulation,
