@@ -272,8 +272,8 @@ def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, fu
     """
     progress = Progress(progress)
     if floating_base:
-        from .urdf.model import with_options as urdf_options
-        system, name = urdf_options(system, name, floating_base=floating_base)
+        from .model.spec import with_floating_base
+        system, name = with_floating_base(system, name, floating_base)
     spec, generated = generate(system, name, parameters=parameters, inputs=inputs, outputs=outputs,
                                functions=functions, fold_parameters=fold_parameters, progress=progress,
                                cache_dir=cache_dir, events=events, formulation=formulation,

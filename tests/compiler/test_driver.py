@@ -161,5 +161,5 @@ def test_compile_takes_floating_base_for_a_urdf_path(tmp_path, cache):
     assert np.array_equal(floating.rhs(0.0, x), explicit.rhs(0.0, x))
     script = tmp_path / "m.py"
     script.write_text("")
-    with pytest.raises(ModelError, match="applies to URDF robots"):
+    with pytest.raises(ModelError, match="floating_base= applies to URDF robots"):
         eomc.compile(str(script), floating_base=True, **kw)
