@@ -11,10 +11,11 @@ import contextlib
 import gc
 import os
 import sys
+import threading
 import time
 
 from eomc.runtime.errors import EomcError, ModelError
-from eomc.runtime.progress import ticker
+from eomc.runtime.progress import is_terminal, ticker
 
 from .build import build, cache_root
 from .build.cache import BadEntry
@@ -37,19 +38,25 @@ class Progress:
     # quiet (-q) on a terminal: a stage that lasts this long still gets its live line (a
     # 5000-link robot builds for many minutes; silence would look like a hang)
     QUIET_LIVE_AFTER = 20.0
+    # a log (stderr not a terminal, progress left to its default): a stage still running after this
+    # many seconds gets a plain line, and then its time when it ends, so a CI log or `2> run.log` is
+    # not silent for the minutes a contact-rich robot builds (Go2 --ground: ~70 s CPU); short stages
+    # print nothing, as runtime/progress.py's integration lines do
+    LOG_AFTER = 15.0
     PASS_LABELS = {"cse": "common subexpressions", "differentiate": "Jacobians",
                    "tangent": "Jacobians (tangent)", "share_sincos": "sharing sin/cos",
                    "fold_constants": "folding constants", "fold_parameters": "folding parameters",
                    "dce": "dropping unused code", "expand_powers": "powers to products"}
 
     def __init__(self, enabled=None, stream=None):
-        """``enabled``: None (on when stderr is a terminal), True, False, or "quiet" (the
-        command line's -q: off, but a stage lasting QUIET_LIVE_AFTER seconds on a terminal
-        still gets its live line)."""
+        """``enabled``: None (on when stderr is a terminal; in a log only a stage lasting
+        LOG_AFTER seconds gets its lines), True, False, or "quiet" (the command line's -q: off,
+        but a stage lasting QUIET_LIVE_AFTER seconds on a terminal still gets its live line)."""
         self.stream = stream or sys.stderr
         self.quiet_live = enabled == "quiet"
+        self.log_long = enabled is None and not is_terminal(self.stream)
         enabled = False if self.quiet_live else enabled
-        self.enabled = self.stream.isatty() if enabled is None else bool(enabled)
+        self.enabled = is_terminal(self.stream) if enabled is None else bool(enabled)
         self.timings = {}
         self.live = ticker("", self.stream, enabled=False)
 
@@ -66,11 +73,25 @@ class Progress:
                 if progress.enabled and not progress.live.active:
                     print(f"eomc: {label} ...", file=progress.stream, flush=True)
                 self.start = time.perf_counter()
+                self.said = threading.Event()
+                self.timer = None
+                if progress.log_long:
+                    self.timer = threading.Timer(progress.LOG_AFTER, self._still_running)
+                    self.timer.daemon = True
+                    self.timer.start()
+
+            def _still_running(self):
+                self.said.set()
+                print(f"eomc: {label} ... (still running after {progress.LOG_AFTER:g} s)",
+                      file=progress.stream, flush=True)
 
             def __exit__(self, *exc):
                 progress.timings[label] = elapsed = time.perf_counter() - self.start
                 progress.live.close()
-                if progress.enabled and exc[0] is None:
+                if self.timer is not None:
+                    self.timer.cancel()
+                    self.timer.join()
+                if (progress.enabled or self.said.is_set()) and exc[0] is None:
                     print(f"eomc: {label:<9} {elapsed:7.3f} s", file=progress.stream, flush=True)
         return _Stage()
 
@@ -231,8 +252,12 @@ def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, f
 def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, functions=None,
             fold_parameters=False, backend="cffi", cflags=None, cache_dir=None, output_dir=None,
             progress=None, events=None, formulation="auto", states=None, contacts=None, frames=None,
-            target=None, check=None, portable=False):
+            target=None, check=None, portable=False, floating_base=False):
     """Compile a model file (path) or a formed system into a loaded :class:`eomc.runtime.model.Model`.
+
+    ``floating_base``: a URDF path's root on a free joint (True: Euler angles, "quaternion"), as
+    the command line's ``--floating-base`` (the same as passing
+    ``eomc.compiler.urdf.model.UrdfModel(path, floating_base=...)``).
 
     ``formulation``: "auto" (default), "kane" or "recursive" (see :func:`generate`).
     ``frames``: e.g. ``["tool0", "com"]``: frame poses, velocities, Jacobians and the centre of
@@ -246,6 +271,9 @@ def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, fu
     Progress (stage timings on stderr) defaults to on when stderr is a terminal.
     """
     progress = Progress(progress)
+    if floating_base:
+        from .model.spec import with_floating_base
+        system, name = with_floating_base(system, name, floating_base)
     spec, generated = generate(system, name, parameters=parameters, inputs=inputs, outputs=outputs,
                                functions=functions, fold_parameters=fold_parameters, progress=progress,
                                cache_dir=cache_dir, events=events, formulation=formulation,

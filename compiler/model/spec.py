@@ -292,6 +292,20 @@ def with_contact_specs(model, contacts):
                      "eomc.contact.ground(point, body, world=system, ...) loads itself")
 
 
+def with_floating_base(model, name, floating_base):
+    """(model, name) with a URDF robot's root on a free joint: what ``floating_base=`` of
+    eomc.compile does (the command line's --floating-base).  Anything but a URDF is refused:
+    an MJCF model's free joints are its file's, a System's its own."""
+    import dataclasses
+    from eomc.compiler.urdf.model import UrdfModel, is_urdf_path, with_options
+    if isinstance(model, UrdfModel):
+        return dataclasses.replace(model, floating_base=floating_base), name
+    if not is_urdf_path(model):
+        raise ModelError(f"floating_base= applies to URDF robots (.urdf), not to {model!r}: an MJCF "
+                         f"model's free joints come from its file, a System's from its joints")
+    return with_options(model, name, floating_base=floating_base)
+
+
 def named_files(path):
     """The files a model file names besides itself, which a build depends on (an MJCF file's
     includes and assets), or None when one cannot be found: the format's own answer."""

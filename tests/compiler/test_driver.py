@@ -132,3 +132,34 @@ def test_progress_lists_long_compiler_passes_in_plain_words(files, tmp_path, cap
     quiet.PASS_SHOWN = 1.0
     quiet.pass_done("cse", 0.5)                           # shorter than the threshold: silent
     assert capsys.readouterr().err == ""
+
+
+_ARM_URDF = """<robot name="arm">
+  <link name="base"><inertial><mass value="2"/><origin xyz="0 0 0.05"/>
+    <inertia ixx="0.02" iyy="0.03" izz="0.04" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <link name="upper"><inertial><mass value="1"/><origin xyz="0 0 0.2"/>
+    <inertia ixx="0.01" iyy="0.01" izz="0.002" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <joint name="shoulder" type="revolute"><parent link="base"/><child link="upper"/>
+    <origin xyz="0 0 0.1"/><axis xyz="0 1 0"/><limit lower="-2" upper="2" effort="10" velocity="5"/></joint>
+</robot>"""
+
+
+def test_compile_takes_floating_base_for_a_urdf_path(tmp_path, cache):
+    """eomc.compile("robot.urdf", floating_base=True) as the command line's --floating-base
+    (firsthour, session 20: it raised TypeError; the way in was UrdfModel, in docs/urdf.md only):
+    the same model as UrdfModel(path, floating_base=True), six more coordinates than fixed."""
+    from eomc.compiler.urdf.model import UrdfModel
+    path = tmp_path / "arm.urdf"
+    path.write_text(_ARM_URDF)
+    kw = dict(functions=("rhs",), cache_dir=cache, progress=False)
+    fixed = eomc.compile(str(path), **kw)
+    floating = eomc.compile(str(path), floating_base=True, **kw)
+    explicit = eomc.compile(UrdfModel(path, floating_base=True), **kw)
+    assert floating.nq == fixed.nq + 6 == explicit.nq
+    rng = np.random.default_rng(3)
+    x = rng.uniform(-0.5, 0.5, floating.nx)
+    assert np.array_equal(floating.rhs(0.0, x), explicit.rhs(0.0, x))
+    script = tmp_path / "m.py"
+    script.write_text("")
+    with pytest.raises(ModelError, match="floating_base= applies to URDF robots"):
+        eomc.compile(str(script), floating_base=True, **kw)
