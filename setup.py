@@ -20,7 +20,7 @@ setup(
             "eomc.runtime._eomc_integrators",
             sources=["runtime/c/eomc_integrators.c", "runtime/c/eomc_fixedstep.c", "runtime/c/eomc_bdf.c",
                      "runtime/c/eomc_sensitivity.c", "runtime/c/eomc_rollout.c",
-                     "runtime/c/eomc_adjoint.c"],
+                     "runtime/c/eomc_adjoint.c", "runtime/c/eomc_rows.c"],
             include_dirs=["runtime/c"],
             # Aligned functions and loops: otherwise the hot loops' speed depends on where
             # they happen to land (+-5% on a DOP853 run from edits elsewhere in the file;

@@ -7,8 +7,8 @@ measure where the shapes come near.  Nothing runs in the rhs, NAME_implicit or a
 Per model (no flags: the file's contacts and self-pairs, its start) and method (implicitfast at the
 file's time step; the default "auto"), T simulated seconds:
 - check: CPU ms of one passed_through call on the run's rows and outputs, as simulate makes it
-  (thread CPU, median of REPEAT); "before": the same with the module of ``--before REV`` (its
-  runtime/pair_check.py loaded beside this one);
+  (thread CPU, median of REPEAT); "before": the same with the modules of ``--before REV`` (its
+  runtime/pair_check.py and poses.py loaded beside this one's);
 - simulate with / without: CPU ms of the whole simulate() call per simulated second, with the check
   and with it replaced by a no-op (and with REV's check), interleaved rounds in one process (thread
   CPU, medians of REPEAT);
@@ -62,11 +62,20 @@ def _least(model, res):
 
 
 def _before(rev):
-    """passed_through of revision ``rev``'s runtime/pair_check.py (git show), loaded as a module of
-    eomc.runtime; called as simulate calls today's (``outputs`` dropped when it takes none)."""
+    """passed_through of revision ``rev``'s runtime/pair_check.py and poses.py (git show), loaded as
+    modules of eomc.runtime; called as simulate calls today's (``outputs`` dropped when it takes none)."""
     import inspect
-    src = subprocess.run(["git", "-C", str(Path(__file__).resolve().parent.parent), "show",
-                          f"{rev}:runtime/pair_check.py"], check=True, capture_output=True, text=True).stdout
+    def show(path):
+        return subprocess.run(["git", "-C", str(Path(__file__).resolve().parent.parent), "show", f"{rev}:{path}"],
+                              check=True, capture_output=True, text=True).stdout
+    # REV's runtime/poses.py too (the rows' NAME_poses calls), its kernel cached on the model under
+    # its own attribute so the two never share one
+    poses = types.ModuleType("eomc.runtime._poses_before")
+    poses.__package__ = "eomc.runtime"
+    exec(compile(show("runtime/poses.py").replace("_pose_kernel", "_pose_kernel_before"),
+                 f"{rev}:runtime/poses.py", "exec"), poses.__dict__)
+    sys.modules[poses.__name__] = poses
+    src = show("runtime/pair_check.py").replace("from .poses import", "from ._poses_before import")
     mod = types.ModuleType("eomc.runtime._pair_check_before")
     mod.__package__ = "eomc.runtime"
     exec(compile(src, f"{rev}:runtime/pair_check.py", "exec"), mod.__dict__)
@@ -131,7 +140,7 @@ def main():
         "least s/rho", "status", "named"]
     text = environment_header("Pair verdict (runtime/pair_check.py): cost per run and margins") + "\n" + \
         format_table(headers, rows_out) + "\n" + (
-            f"\nbefore: runtime/pair_check.py of {args.before}\n" if old else "")
+            f"\nbefore: runtime/pair_check.py and poses.py of {args.before}\n" if old else "")
     write_results("pair_check", text, keep_notes=True)
 
 

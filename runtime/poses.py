@@ -108,19 +108,27 @@ def pose_kernel(model):
     kernel.default_p = default_p
     kernel.lib = lib   # keep the library open as long as the kernel lives
 
+    many = getattr(getattr(model, "integrators", None), "eomc_mat_rows", None)
+    failed = ffi.new("size_t *")
+
     def rows(t, X, p, r, out):
-        """kernel along rows X (n, nx) into out (n, size) with one p and r: the buffers converted
-        once, each row's by pointer arithmetic (the verdicts evaluate every output row of a run:
-        runtime/pair_check.py); the first failing row's index and status, or (-1, 0)."""
+        """kernel along rows X (n, nx) into out (n, size) with one p and r, t (n,) float64: one C
+        call (eomc_mat_rows of the integrator library, runtime/c/eomc_rows.c) calls NAME_poses row
+        after row (the verdicts evaluate every output row of a run: runtime/pair_check.py,
+        ground_check.py); the first failing row's index and status, or (-1, 0)."""
         pp = default_p_ptr if p is default_p else (null if p is None or p.size == 0 else frombuf("double[]", p))
         rp = null if r is None or r.size == 0 else frombuf("double[]", r)
         xp, op, nx = frombuf("double[]", X), frombuf("double[]", out), X.shape[1]
-        for i in range(len(X)):
+        if many is not None:
+            status = many(fn, len(X), frombuf("double[]", t), xp, nx, pp, rp, op, size, work_ptr, failed)
+            return (int(failed[0]), status) if status else (-1, 0)
+        for i in range(len(X)):     # an integrator library older than eomc_mat_rows (rebuilt at install)
             status = fn(float(t[i]), xp + i * nx, pp, rp, op + i * size, work_ptr)
             if status:
                 return i, status
         return -1, 0
     kernel.rows = rows
+    kernel.rows_in_c = many is not None
     model._pose_kernel = kernel
     return kernel
 
@@ -179,7 +187,7 @@ def evaluate_poses(model, t, X, p=None, r=None):
     out = np.empty((len(X), size))
     if not rows and len(X):
         Xc = np.ascontiguousarray(X)
-        i, status = kernel.rows(t_arr, Xc, p0, r0, out)
+        i, status = kernel.rows(np.ascontiguousarray(t_arr), Xc, p0, r0, out)
         if status:
             model._fail("poses", status, float(t_arr[i]), Xc[i], inputs=(p, r))
     for i in range(len(X) if rows else 0):

@@ -158,10 +158,25 @@ def _warn_thinned(thinned):
         text = (f"{where}: its mesh's convex hull is thinned to {MESH_POINTS} contact points (a contact may "
                 f"start up to {short * 1e3:.2g} mm late)")
     else:
-        each = "; ".join(f"{where} ({short * 1e3:.2g} mm)" for where, short in thinned)
+        each = "; ".join(_by_directory([(where, f"{where} ({short * 1e3:.2g} mm)") for where, short in thinned]))
         text = (f"{len(thinned)} meshes' convex hulls are thinned to {MESH_POINTS} contact points each (a contact "
                 f"may start up to {max(short for _, short in thinned) * 1e3:.2g} mm late): {each}")
     warnings.warn(text, EomcWarning, stacklevel=4)
+
+
+def _by_directory(items):
+    """(where, text) items -> their texts with each directory named once: a URDF's "DIR/NAME:LINE: ..."
+    wheres become "files under DIR: NAME:LINE: ...; NAME:LINE: ..." (example-robot-data's Go2 under
+    --ground repeated its long path 19-24 times on one line); wheres without a directory as given."""
+    import os
+    import re
+    groups = {}
+    for where, text in items:
+        m = re.match(r"(.+?):\d+: ", where)
+        head = os.path.dirname(m.group(1)) if m else ""
+        prefix = os.path.join(head, "")
+        groups.setdefault(head, []).append(text[len(prefix):] if head and text.startswith(prefix) else text)
+    return [f"files under {head}: " + "; ".join(texts) if head else "; ".join(texts) for head, texts in groups.items()]
 
 
 def with_shapes(built, shapes, com_of, fold=False):

@@ -321,6 +321,17 @@ int eomc_eval_along(const eomc_model *m, int which, int n, const double *t,
                     const double *r_tgrid, const double *r_values,
                     double *out, double *work, size_t work_len);
 
+/*
+ * out[i, :] = fn(t[i], X[i, :], p, r, work) for i < n (eomc_rows.c): a model function (the
+ * generated NAME_poses, by pointer) along a run's rows in one call from Python instead of one
+ * per row.  X is n x nx and out n x nout, row-major; p and r shared by every row (may be NULL).
+ * Stops at the first row whose status is not EOMC_OK, stores its index in *failed_row and
+ * returns that status; rows before it are written.
+ */
+int eomc_mat_rows(eomc_mat_fn fn, size_t n, const double *t, const double *X, size_t nx,
+                  const double *p, const double *r, double *out, size_t nout,
+                  double *work, size_t *failed_row);
+
 #ifdef __cplusplus
 }
 #endif

@@ -85,6 +85,55 @@ def test_pendulum_poses_are_the_bobs_positions(pendulum):
     assert plane_of(poses) == 2
 
 
+def test_poses_along_rows_in_one_c_call_equal_each_rows_call(pendulum):
+    """A run's rows go to NAME_poses in one C call (eomc_mat_rows, runtime/c/eomc_rows.c: the
+    ground and pair verdicts place the bodies along every output row); each row's poses are the
+    single-state call's bit for bit, at the default parameters and at others."""
+    from eomc.runtime.poses import evaluate_poses, pose_kernel
+    model, _ = pendulum
+    assert pose_kernel(model).rows_in_c
+    rng = np.random.default_rng(5)
+    X = rng.normal(scale=2.0, size=(57, model.nx))
+    t = rng.uniform(0.0, 3.0, len(X))
+    for p in (None, np.asarray(model.param_defaults) * rng.uniform(0.5, 1.5, model.nparam)):
+        along = evaluate_poses(model, t, X, p)
+        for i in range(len(X)):
+            one = evaluate_poses(model, t[i], X[i], p)
+            np.testing.assert_array_equal(along.positions[i], one.positions)
+            np.testing.assert_array_equal(along.rotations[i], one.rotations)
+            np.testing.assert_array_equal(along.points[i], one.points)
+        assert np.ptp(along.points[:, 0, 0]) > 0       # the rows differ: no row written for all
+
+
+def test_rows_in_c_stop_at_the_first_failing_row():
+    """eomc_mat_rows passes each row's t, x and out by its stride, stops at the first non-zero
+    status and names that row; the rows before it are written, the rest untouched."""
+    from eomc.runtime.loader import _base_ffi
+    from eomc.runtime.native import integrator_library
+    ffi = _base_ffi()
+    lib = integrator_library(ffi)
+    seen = []
+
+    @ffi.callback("int(double, const double *, const double *, const double *, double *, double *)")
+    def fn(t, x, p, r, out, work):
+        seen.append((t, x[0], x[2]))
+        out[0], out[1] = t + x[0], x[1] * x[2]
+        return 3 if t == 4.0 else 0
+
+    X = np.arange(21.0).reshape(7, 3)
+    t = np.arange(7.0)
+    out = np.full((7, 2), -1.0)
+    failed = ffi.new("size_t *")
+    status = lib.eomc_mat_rows(fn, 7, ffi.from_buffer("double[]", t), ffi.from_buffer("double[]", X), 3,
+                               ffi.NULL, ffi.NULL, ffi.from_buffer("double[]", out), 2, ffi.NULL, failed)
+    assert (status, failed[0]) == (3, 4)
+    assert seen == [(float(i), X[i, 0], X[i, 2]) for i in range(5)]
+    np.testing.assert_array_equal(out[:5], np.c_[t[:5] + X[:5, 0], X[:5, 1] * X[:5, 2]])
+    np.testing.assert_array_equal(out[5:], -1.0)
+    assert lib.eomc_mat_rows(fn, 4, ffi.from_buffer("double[]", t), ffi.from_buffer("double[]", X), 3,
+                             ffi.NULL, ffi.NULL, ffi.from_buffer("double[]", out), 2, ffi.NULL, failed) == 0
+
+
 def test_rigid_body_poses_match_sympy(cache):
     """The cart-pole System: every body's frame and mass centre, as SymPy's dcm and pos_from
     evaluate them at random states, with parameters other than the defaults."""
