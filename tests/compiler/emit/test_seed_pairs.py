@@ -18,6 +18,23 @@ from helpers.module_cache import cache  # noqa: F401 -- the module's own build c
 def _scaled(a, b):
     return np.max(np.abs(a - b)) / max(1.0, np.max(np.abs(b)))
 
+def _assert_same_jvp(on, off, seed):
+    """The two builds' jvp at random states for 1, 2, 5 and 6 directions (the scalar path and the
+    lanes), half of them parameter seeds: xdot bit-equal, J.d within 1e-12 scaled."""
+    rng = np.random.default_rng(seed)
+    nx, npar = on.nx, on.nparam
+    for _ in range(4):
+        x, r = rng.uniform(-1.5, 1.5, nx), rng.uniform(-1, 1, on.ninput)
+        D = rng.normal(size=(6, nx + npar))
+        D[::2, nx:] = 0.0
+        D[np.arange(0, 6, 2), nx + np.arange(0, 6, 2) % npar] = 1.0
+        for k in (1, 2, 5, 6):
+            xa, a = on.jvp(0.0, x, D[:k], r=r)
+            xb, b = off.jvp(0.0, x, D[:k], r=r)
+            assert np.array_equal(xa, xb)
+            assert _scaled(a, b) < 1e-12, k
+
+
 
 def _build(n, on, switch="SEED_PAIRS"):
     kane, specified = zoo.n_link_pendulum_on_cart(n, sme)
@@ -48,18 +65,7 @@ def test_seed_pairs_match_the_differentiated_tangent(cache, n):
     pairs = n * (n - 1) // 2
     assert _differences(on) == (2 * pairs, 2 * pairs)
     assert _differences(off) == (0, 0)
-    rng = np.random.default_rng(n)
-    nx, npar = on.nx, on.nparam
-    for _ in range(4):
-        x, r = rng.uniform(-1.5, 1.5, nx), rng.uniform(-1, 1, on.ninput)
-        D = rng.normal(size=(6, nx + npar))
-        D[::2, nx:] = 0.0
-        D[np.arange(0, 6, 2), nx + np.arange(0, 6, 2) % npar] = 1.0
-        for k in (1, 2, 5, 6):
-            xa, a = on.jvp(0.0, x, D[:k], r=r)
-            xb, b = off.jvp(0.0, x, D[:k], r=r)
-            assert np.array_equal(xa, xb)
-            assert _scaled(a, b) < 1e-12, k
+    _assert_same_jvp(on, off, seed=n)
 
 
 def test_seed_pairs_rewrites_only_a_cancelling_pair():
@@ -117,18 +123,7 @@ def test_seed_monomials_match_the_differentiated_tangent(cache, n):
     # two a link (the last link's cos q dq is one already), two paths, jvp and jvp_more
     assert old_on == 0 and old_off == 4 * (2 * n - 1)
     assert new_on == new_off + old_off
-    rng = np.random.default_rng(n + 10)
-    nx, npar = on.nx, on.nparam
-    for _ in range(4):
-        x, r = rng.uniform(-1.5, 1.5, nx), rng.uniform(-1, 1, on.ninput)
-        D = rng.normal(size=(6, nx + npar))
-        D[::2, nx:] = 0.0
-        D[np.arange(0, 6, 2), nx + np.arange(0, 6, 2) % npar] = 1.0
-        for k in (1, 2, 5, 6):
-            xa, a = on.jvp(0.0, x, D[:k], r=r)
-            xb, b = off.jvp(0.0, x, D[:k], r=r)
-            assert np.array_equal(xa, xb)
-            assert _scaled(a, b) < 1e-12, k
+    _assert_same_jvp(on, off, seed=n + 10)
 
 
 def test_seed_monomials_reuse_the_primal_products():
