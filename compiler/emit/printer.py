@@ -52,6 +52,12 @@ MINMAX_C = {"eomc_fmax": """static inline double eomc_fmax(double a, double b)
             "eomc_pow0": """static inline double eomc_pow0(double x, double c)
 {
     return x != 0.0 ? pow(x, c) : 0.0;
+}""",
+            # a joint limit's stored spring energy past it by r >= 0 with width E
+            # (compiler/tree/joint_laws.stored): one function, not its sum per joint and side
+            "eomc_limit_stored": """static double eomc_limit_stored(double r, double E)
+{
+    return (1.0/2.0)*(r*r) - 2.0*E*r + 3.0*(E*E)*log(1.0 + r/E) + (E*E*E)/(E + r) - E*E;
 }"""}
 
 

@@ -25,3 +25,33 @@ def test_energy_is_a_sum_of_named_body_and_joint_shares(tmp_path):
     # LAW_ARM: a fixed base, nq revolute joints each with both limits: nq bodies + nq joints' springs
     assert all(re.fullmatch(r"t\d+", t) for t in terms), total
     assert len(terms) == 2 * nq
+
+
+def test_each_limit_side_is_one_call_of_the_stored_energy(tmp_path):
+    """Each side of each limit is one call of eomc_limit_stored (joint_laws.stored), defined once
+    in the file, not its sum spelled out per joint and side.  Why: spelled out, the limits were 17
+    of NAME_energy's 67 kB of C on G1 and the build's Python and gcc work grew with them
+    (benchmarks/results/derivative_build.md, session 20)."""
+    path = tmp_path / "law_arm.urdf"
+    path.write_text(LAW_ARM)
+    g = generate(str(path), "en_calls", formulation="recursive", use_cache=False, progress=False)[1]
+    nq = g.metadata["nq"]
+    c = g.c_source
+    start = c.index("int en_calls_energy(")
+    body = c[start:c.index("\n}\n", start)]
+    assert body.count("eomc_limit_stored(") == 2 * nq        # both limits of each joint
+    assert "log(" not in body
+    assert c.count("static double eomc_limit_stored(double r, double E)") == 1
+
+
+def test_the_stored_energy_call_is_its_sum():
+    """joint_laws.stored evaluates and differentiates as the sum it stands for."""
+    import sympy as sm
+
+    from eomc.compiler.tree.joint_laws import _stored_sum, stored
+    r, E = sm.symbols("r E", positive=True)
+    s = stored(r, E)
+    for arg in (r, E):
+        assert sm.simplify(sm.diff(s, arg) - sm.diff(_stored_sum(r, E), arg)) == 0
+    at = {r: sm.Float("0.37"), E: sm.Float("0.02")}
+    assert abs(s.subs(at).evalf() - _stored_sum(r, E).subs(at).evalf()) < 1e-14
