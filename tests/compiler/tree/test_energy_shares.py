@@ -55,3 +55,23 @@ def test_the_stored_energy_call_is_its_sum():
         assert sm.simplify(sm.diff(s, arg) - sm.diff(_stored_sum(r, E), arg)) == 0
     at = {r: sm.Float("0.37"), E: sm.Float("0.02")}
     assert abs(s.subs(at).evalf() - _stored_sum(r, E).subs(at).evalf()) < 1e-14
+
+
+def test_outputs_batch_keeps_its_lanes_with_the_stored_energy_call(tmp_path):
+    """NAME_outputs_batch (compiler/emit/batch.py) writes eomc_limit_stored as its sum in lanes:
+    vectorized, and equal to the scalar outputs past and inside the limits.  Without it the lanes
+    rewrite refused the call and the batch fell back to the scalar form."""
+    import numpy as np
+
+    from eomc.compiler.build.builder import machine_lanes
+    from eomc.compiler.driver import compile as compile_model
+    path = tmp_path / "law_arm.urdf"
+    path.write_text(LAW_ARM)
+    model = compile_model(str(path), "en_lanes", functions=("rhs", "outputs", "outputs_batch"),
+                          formulation="recursive", cache_dir=tmp_path / "c", progress=False)
+    assert model.metadata["outputs_batch"]["vectorized"], model.metadata["outputs_batch"]
+    X = np.random.default_rng(5).uniform(-3.0, 3.0, (3 * machine_lanes() + 3, model.nx))
+    want = np.array([list(model.outputs(0.0, x).values()) for x in X])
+    got = model.outputs_batch(0.0, X)
+    assert np.abs(want).max() > 100.0          # some states are far past a limit
+    assert (np.abs(got - want) / np.maximum(np.abs(want), 1.0)).max() < 1e-14
