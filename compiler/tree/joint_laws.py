@@ -204,7 +204,8 @@ def _stored_sum(r, E):
 
 class stored(sm.Function):
     """stored(r, E): :func:`_stored_sum` as one call, printed ``eomc_limit_stored(r, E)`` (the C
-    the generated file defines once, compiler/emit/printer.MINMAX_C).  Why: spelled out per
+    the generated file defines once where it is called, compiler/emit/printer.CALLED_C; its
+    float twin is the c99-f32 pass's).  Why: spelled out per
     joint and side, the limits' springs were 17 kB of NAME_energy's 67 kB of C on G1 and 26 of
     94 kB on Talos, which the build lowered, printed and compiled joint by joint: as calls, G1's
     default build took 6.2 -> 5.7-5.9 s CPU and Talos' 7.1-7.5 -> 6.8-7.2 s, and NAME_energy ran as

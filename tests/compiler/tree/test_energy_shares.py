@@ -5,6 +5,7 @@ stored energy), so the printed C has no one giant statement.  Why: printed as on
 (benchmarks/results/derivative_build.md, session 20).  The energy's value is checked elsewhere
 (test_energy_function.py against NAME_outputs, tests/runtime/test_limit_energy.py)."""
 import re
+from pathlib import Path
 
 from eomc.compiler.driver import generate
 from helpers.urdf_arm import LAW_ARM
@@ -75,3 +76,41 @@ def test_outputs_batch_keeps_its_lanes_with_the_stored_energy_call(tmp_path):
     got = model.outputs_batch(0.0, X)
     assert np.abs(want).max() > 100.0          # some states are far past a limit
     assert (np.abs(got - want) / np.maximum(np.abs(want), 1.0)).max() < 1e-14
+
+
+def test_the_stored_energy_helper_is_defined_only_where_called(tmp_path):
+    """eomc_limit_stored is a static (not inline) function: a file that defines it without calling
+    it fails -Wunused-function under -Werror.  So printer.CALLED_C's helpers are not in MINMAX_C
+    (whose inline forms some C defines whole, tests/compiler/emit/test_batch.py), and a build
+    without the energy output defines none (the fresh-clone CI of session 20 failed on both)."""
+    from eomc.compiler.emit.printer import CALLED_C, MINMAX_C
+    assert "eomc_limit_stored" in CALLED_C and not set(CALLED_C) & set(MINMAX_C)
+    path = tmp_path / "law_arm.urdf"
+    path.write_text(LAW_ARM)
+    g = generate(str(path), "en_none", functions=("rhs", "jac_x"), formulation="recursive",
+                 use_cache=False, progress=False)[1]
+    assert "eomc_limit_stored" not in g.c_source
+
+
+def test_the_float_target_has_the_stored_energy_in_float(tmp_path):
+    """c99-f32 (compiler/emit/target.py) takes the helper to float like the rest (its twin:
+    float arguments, logf), and the float outputs' energy agrees with the double build's past and
+    inside the limits to float's rounding."""
+    import numpy as np
+
+    import eomc
+    path = tmp_path / "law_arm.urdf"
+    path.write_text(LAW_ARM)
+    kw = dict(functions=("rhs", "outputs"), formulation="recursive", cache_dir=tmp_path / "c", progress=False)
+    f32 = eomc.compile(str(path), "en_f32", target="c99-f32", **kw)
+    f64 = eomc.compile(str(path), "en_f64", **kw)
+    c = (Path(f32.directory) / "en_f32.c").read_text()
+    assert c.count("static float eomc_limit_stored(float r, float E)") == 1
+    helper = c[c.index("static float eomc_limit_stored"):]
+    helper = helper[:helper.index("\n}\n")]
+    assert "logf(" in helper and not re.search(r"\blog\(|\bdouble\b", helper)
+    X = np.random.default_rng(7).uniform(-3.0, 3.0, (64, f64.nx)).astype(np.float32)
+    want = np.array([f64.outputs(0.0, x.astype(np.float64))["energy"] for x in X])
+    got = np.array([f32.outputs(0.0, x)["energy"] for x in X], dtype=np.float64)
+    assert np.abs(want).max() > 100.0          # some states are far past a limit
+    assert (np.abs(got - want) / np.maximum(np.abs(want), 1.0)).max() < 1e-4
