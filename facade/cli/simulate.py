@@ -1,4 +1,4 @@
-"""``eomc simulate MODEL --t-final T -o traj.csv [--plot traj.png]``: integrate and write a CSV.
+"""``eomc simulate MODEL [--t-final T] -o traj.csv [--plot traj.png]``: integrate and write a CSV.
 
 MODEL is a model file (``.py``: compiled first through eomc.compiler.driver,
 imported only then, so simulating a built model never imports SymPy) or a
@@ -13,7 +13,7 @@ __all__ = ["configure", "run"]
 
 def configure(parser):
     cli_common.add_model_arguments(parser)
-    parser.add_argument("--t-final", type=float, required=True, metavar="T", help="end time")
+    parser.add_argument("--t-final", type=float, default=10.0, metavar="T", help="end time (as check and animate)")
     parser.add_argument("--t0", type=float, default=0.0, help="start time")
     parser.add_argument("-o", "--output", metavar="CSV", help="trajectory CSV to write")
     parser.add_argument("--plot", metavar="PNG", help="also draw the states and outputs to this PNG "

@@ -243,3 +243,31 @@ def test_mjcf_pairs_points_are_summarised_with_the_contacts(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "px_ga__gb: start" not in out and "Fn_ga: start" not in out
     assert "contacts: 6 points (Fn_, Ftx_, Fty_, Ftz_, depth_<point>; px_, py_, pz_ of 3 pairs in the CSV)" in out
+
+
+def test_simulate_and_build_run_with_no_flags(tmp_path, monkeypatch, capsys):
+    # first hour s21: `eomc simulate model` stopped at "the following arguments are required:
+    # --t-final" and `eomc build model` at "-o/--output"; check and animate already ran 10 s
+    model = model_files.write(tmp_path, model_files.PENDULUM, "pend")
+    monkeypatch.chdir(tmp_path)
+    assert main(["simulate", str(model), "-q"]) == 0
+    assert re.search(r"^pend: \S+ t=\[0, 10\]: ", capsys.readouterr().out, re.M)
+    assert main(["build", str(model), "-q"]) == 0
+    assert f"in {tmp_path / 'pend'}:" in capsys.readouterr().out
+    assert (tmp_path / "pend" / "pend.h").is_file() and (tmp_path / "pend" / "pend.json").is_file()
+
+
+def test_a_missing_optional_package_names_the_extra_not_a_traceback(tmp_path, monkeypatch, capsys):
+    # first hour s21: `eomc simulate cheetah.xml` after `pip install ".[plot]"` (README's quick
+    # start) ended in a 20-line traceback "ModuleNotFoundError: No module named 'mujoco'"
+    import sys
+    model = tmp_path / "balls.xml"
+    model.write_text(_BALLS)
+    monkeypatch.setenv("EOMC_CACHE_DIR", str(tmp_path / "cache"))     # not the build of the test above
+    monkeypatch.setitem(sys.modules, "mujoco", None)     # import mujoco -> ModuleNotFoundError
+    assert main(["simulate", str(model), "--t-final", "0.1"]) == 1
+    err = capsys.readouterr().err
+    assert err.strip().splitlines()[-1] == (
+        f"eomc simulate: error: reading a MuJoCo model ({model}) needs the mujoco package, which is not "
+        f"installed: pip install \"eomc[mujoco]\" (from a clone of eomc: pip install \".[mujoco]\")")
+    assert "Traceback" not in err
