@@ -253,9 +253,18 @@ def run(args):
     if args.output:
         print(f"wrote {res.to_csv(args.output)}")
     if args.plot:
+        if res.model is None:       # as Model.simulate sets it: the plot knows the contacts
+            res.model = model
         written = res.plot(args.plot, names=plot_names(args.plot_states))
         for path in (written if isinstance(written, list) else [written]):
             print(f"wrote {path}")
+        if args.plot_states is None:
+            from eomc.runtime.plotting import untouched
+            idle = untouched(res)
+            if idle:
+                print(f"  --plot: {len(idle)} contact{'s' if len(idle) > 1 else ''} never touched "
+                      f"({', '.join(idle[:3])}{', ...' if len(idle) > 3 else ''}): {'their' if len(idle) > 1 else 'its'}"
+                      f" outputs (all 0 but depth_) are not drawn; --plot-states names what to draw")
     return 0
 
 

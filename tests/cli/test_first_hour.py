@@ -271,3 +271,31 @@ def test_a_missing_optional_package_names_the_extra_not_a_traceback(tmp_path, mo
         f"eomc simulate: error: reading a MuJoCo model ({model}) needs the mujoco package, which is not "
         f"installed: pip install \"eomc[mujoco]\" (from a clone of eomc: pip install \".[mujoco]\")")
     assert "Traceback" not in err
+
+
+# A block on one low foot; two high points (a head, a hand) never touch the ground.
+_HIGH_AND_LOW = _SIX_FEET.replace(
+    'feet = [eomc.contact.ground(G, None, world=(N, O), name=f"foot{i}") for i in range(6)]',
+    'feet = [eomc.contact.ground(G, None, world=(N, O), name="foot")] + [eomc.contact.ground('
+    'G.locatenew(f"P{i}", (i + 1) * N.z), None, world=(N, O), name=f"head{i}") for i in range(2)]')
+
+
+def test_plot_leaves_out_contacts_that_never_touched_and_says_so(tmp_path, capsys):
+    # first hour s20 (L6): gymnasium's ant touched with 4 of its 25 contacts and --plot drew
+    # 4 pages, most of them flat zeros of the other 21
+    pytest.importorskip("matplotlib")
+    from eomc.runtime.plotting import panels
+    model = model_files.write(tmp_path, _HIGH_AND_LOW, "high_low")
+    assert main(["simulate", str(model), "--t-final", "0.3", "-q", "--plot", str(tmp_path / "p.png"),
+                 "-o", str(tmp_path / "t.csv")]) == 0
+    out = capsys.readouterr().out
+    assert ("  --plot: 2 contacts never touched (head0, head1): their outputs (all 0 but depth_) are not "
+            "drawn; --plot-states names what to draw") in out
+    assert "Fn_head1" in (tmp_path / "t.csv").read_text().splitlines()[0]     # still in the CSV
+    built = eomc.compile(model, progress=False)
+    res = built.simulate(built.initial_state, (0, 0.3))
+    drawn = {n for _, group in panels(res) for n in group}
+    assert {"Fn_foot", "depth_foot"} <= drawn
+    assert not drawn & {f"{k}_head{i}" for k in ("Fn", "Ftx", "Fty", "Ftz", "depth") for i in range(2)}
+    # named, they are drawn
+    assert "Fn_head0" in {n for _, group in panels(res, ["Fn_head0", "z"]) for n in group}
