@@ -1,4 +1,4 @@
-"""``eomc simulate MODEL --t-final T -o traj.csv [--plot traj.png]``: integrate and write a CSV.
+"""``eomc simulate MODEL [--t-final T] -o traj.csv [--plot traj.png]``: integrate and write a CSV.
 
 MODEL is a model file (``.py``: compiled first through eomc.compiler.driver,
 imported only then, so simulating a built model never imports SymPy) or a
@@ -13,7 +13,7 @@ __all__ = ["configure", "run"]
 
 def configure(parser):
     cli_common.add_model_arguments(parser)
-    parser.add_argument("--t-final", type=float, required=True, metavar="T", help="end time")
+    parser.add_argument("--t-final", type=float, default=10.0, metavar="T", help="end time (as check and animate)")
     parser.add_argument("--t0", type=float, default=0.0, help="start time")
     parser.add_argument("-o", "--output", metavar="CSV", help="trajectory CSV to write")
     parser.add_argument("--plot", metavar="PNG", help="also draw the states and outputs to this PNG "
@@ -253,9 +253,18 @@ def run(args):
     if args.output:
         print(f"wrote {res.to_csv(args.output)}")
     if args.plot:
+        if res.model is None:       # as Model.simulate sets it: the plot knows the contacts
+            res.model = model
         written = res.plot(args.plot, names=plot_names(args.plot_states))
         for path in (written if isinstance(written, list) else [written]):
             print(f"wrote {path}")
+        if args.plot_states is None:
+            from eomc.runtime.plotting import untouched
+            idle = untouched(res)
+            if idle:
+                print(f"  --plot: {len(idle)} contact{'s' if len(idle) > 1 else ''} never touched "
+                      f"({', '.join(idle[:3])}{', ...' if len(idle) > 3 else ''}): {'their' if len(idle) > 1 else 'its'}"
+                      f" outputs (all 0 but depth_) are not drawn; --plot-states names what to draw")
     return 0
 
 

@@ -243,3 +243,59 @@ def test_mjcf_pairs_points_are_summarised_with_the_contacts(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "px_ga__gb: start" not in out and "Fn_ga: start" not in out
     assert "contacts: 6 points (Fn_, Ftx_, Fty_, Ftz_, depth_<point>; px_, py_, pz_ of 3 pairs in the CSV)" in out
+
+
+def test_simulate_and_build_run_with_no_flags(tmp_path, monkeypatch, capsys):
+    # first hour s21: `eomc simulate model` stopped at "the following arguments are required:
+    # --t-final" and `eomc build model` at "-o/--output"; check and animate already ran 10 s
+    model = model_files.write(tmp_path, model_files.PENDULUM, "pend")
+    monkeypatch.chdir(tmp_path)
+    assert main(["simulate", str(model), "-q"]) == 0
+    assert re.search(r"^pend: \S+ t=\[0, 10\]: ", capsys.readouterr().out, re.M)
+    assert main(["build", str(model), "-q"]) == 0
+    assert f"in {tmp_path / 'pend'}:" in capsys.readouterr().out
+    assert (tmp_path / "pend" / "pend.h").is_file() and (tmp_path / "pend" / "pend.json").is_file()
+
+
+def test_a_missing_optional_package_names_the_extra_not_a_traceback(tmp_path, monkeypatch, capsys):
+    # first hour s21: `eomc simulate cheetah.xml` after `pip install ".[plot]"` (README's quick
+    # start) ended in a 20-line traceback "ModuleNotFoundError: No module named 'mujoco'"
+    import sys
+    model = tmp_path / "balls.xml"
+    model.write_text(_BALLS)
+    monkeypatch.setenv("EOMC_CACHE_DIR", str(tmp_path / "cache"))     # not the build of the test above
+    monkeypatch.setitem(sys.modules, "mujoco", None)     # import mujoco -> ModuleNotFoundError
+    assert main(["simulate", str(model), "--t-final", "0.1"]) == 1
+    err = capsys.readouterr().err
+    assert err.strip().splitlines()[-1] == (
+        f"eomc simulate: error: reading a MuJoCo model ({model}) needs the mujoco package, which is not "
+        f"installed: pip install \"eomc[mujoco]\" (from a clone of eomc: pip install \".[mujoco]\")")
+    assert "Traceback" not in err
+
+
+# A block on one low foot; two high points (a head, a hand) never touch the ground.
+_HIGH_AND_LOW = _SIX_FEET.replace(
+    'feet = [eomc.contact.ground(G, None, world=(N, O), name=f"foot{i}") for i in range(6)]',
+    'feet = [eomc.contact.ground(G, None, world=(N, O), name="foot")] + [eomc.contact.ground('
+    'G.locatenew(f"P{i}", (i + 1) * N.z), None, world=(N, O), name=f"head{i}") for i in range(2)]')
+
+
+def test_plot_leaves_out_contacts_that_never_touched_and_says_so(tmp_path, capsys):
+    # first hour s20 (L6): gymnasium's ant touched with 4 of its 25 contacts and --plot drew
+    # 4 pages, most of them flat zeros of the other 21
+    pytest.importorskip("matplotlib")
+    from eomc.runtime.plotting import panels
+    model = model_files.write(tmp_path, _HIGH_AND_LOW, "high_low")
+    assert main(["simulate", str(model), "--t-final", "0.3", "-q", "--plot", str(tmp_path / "p.png"),
+                 "-o", str(tmp_path / "t.csv")]) == 0
+    out = capsys.readouterr().out
+    assert ("  --plot: 2 contacts never touched (head0, head1): their outputs (all 0 but depth_) are not "
+            "drawn; --plot-states names what to draw") in out
+    assert "Fn_head1" in (tmp_path / "t.csv").read_text().splitlines()[0]     # still in the CSV
+    built = eomc.compile(model, progress=False)
+    res = built.simulate(built.initial_state, (0, 0.3))
+    drawn = {n for _, group in panels(res) for n in group}
+    assert {"Fn_foot", "depth_foot"} <= drawn
+    assert not drawn & {f"{k}_head{i}" for k in ("Fn", "Ftx", "Fty", "Ftz", "depth") for i in range(2)}
+    # named, they are drawn
+    assert "Fn_head0" in {n for _, group in panels(res, ["Fn_head0", "z"]) for n in group}
