@@ -215,6 +215,11 @@ def run(args):
     s = res.stats
     print(f"{model.name}: {res.method} t=[{args.t0:g}, {args.t_final:g}]: {s['steps']} steps "
           f"({s['rejected']} rejected), {s['nfev']} rhs, {s['njev']} jacobian, {s['nlu']} LU")
+    if len(res.t) > 1 and not (res.x != res.x[0]).any():
+        # first hour s21: SymPy's rolling disc (and dm_control's cartpole, acrobot) start at rest
+        # on an equilibrium and stay there, which reads as if the run did nothing
+        print(f"  nothing moved: the start is an equilibrium (every state stayed at its start value); "
+              f"give --x0 to start elsewhere, e.g. --x0 {model.state_names[0]}=0.1")
     frames = getattr(model, "frame_names", ())
     grouped = _contact_summary(model, res.outputs)
     for name, values in res.outputs.items():

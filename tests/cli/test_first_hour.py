@@ -299,3 +299,14 @@ def test_plot_leaves_out_contacts_that_never_touched_and_says_so(tmp_path, capsy
     assert not drawn & {f"{k}_head{i}" for k in ("Fn", "Ftx", "Fty", "Ftz", "depth") for i in range(2)}
     # named, they are drawn
     assert "Fn_head0" in {n for _, group in panels(res, ["Fn_head0", "z"]) for n in group}
+
+
+def test_a_run_that_stays_at_an_equilibrium_says_so(tmp_path, capsys):
+    # first hour s21: SymPy's rolling-disc example starts at rest upright and `eomc simulate`
+    # printed "8 steps" and nothing else: was anything simulated?
+    model = model_files.write(tmp_path, model_files.PENDULUM, "pend")
+    assert main(["simulate", str(model), "--t-final", "1", "-q", "--param", "g=0"]) == 0     # at rest, no gravity
+    assert ("  nothing moved: the start is an equilibrium (every state stayed at its start value); give --x0 to "
+            "start elsewhere, e.g. --x0 q=0.1") in capsys.readouterr().out
+    assert main(["simulate", str(model), "--t-final", "1", "-q"]) == 0
+    assert "nothing moved" not in capsys.readouterr().out
