@@ -310,3 +310,17 @@ def test_a_run_that_stays_at_an_equilibrium_says_so(tmp_path, capsys):
             "start elsewhere, e.g. --x0 q=0.1") in capsys.readouterr().out
     assert main(["simulate", str(model), "--t-final", "1", "-q"]) == 0
     assert "nothing moved" not in capsys.readouterr().out
+
+
+def test_check_says_its_runs_gave_physics_warnings(tmp_path, capsys):
+    # first hour s21: `eomc check manipulator.xml` warned that two bodies passed into each other,
+    # and romeo.urdf that wrists went past their limits, then printed "10 of 10 checks passed"
+    model = model_files.write(tmp_path, _SIX_FEET, "six_feet")
+    soft = [f"k_foot{i}=30" for i in range(6)]       # the block sinks through its soft contacts
+    from eomc.runtime.switching import PhysicsWarning
+    with pytest.warns(PhysicsWarning, match="contact foot0 penetrated"):     # still shown, as before
+        assert main(["check", str(model), "--t-final", "0.3", "-q", "--methods", "radau", "--param", *soft]) == 0
+    assert ("eomc check: the runs gave 1 physics warning (on stderr: limits, contacts, energy): the checks above "
+            "judge the integration, not the model's laws") in capsys.readouterr().out
+    assert main(["check", str(model), "--t-final", "0.3", "-q", "--methods", "radau"]) == 0
+    assert "physics warning" not in capsys.readouterr().out
