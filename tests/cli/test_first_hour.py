@@ -60,6 +60,12 @@ def test_rk4_without_dt_names_the_cli_flag(pendulum, capsys):
     assert "--dt on the command line" in capsys.readouterr().err
 
 
+def test_dt_without_a_fixed_step_method_names_the_cli_flag(pendulum, capsys):
+    # first hour s21: `eomc simulate model --dt 0.1` answered "(pass method= one of them with dt)"
+    assert main(["simulate", "pend", "--t-final", "1", "--dt", "0.1"]) == 2
+    assert "pass one of them with it (method= in Python, --method on the command line)" in capsys.readouterr().err
+
+
 def test_show_lists_parameters_in_p_order_and_no_lambda_without_multipliers(tmp_path, capsys):
     text = model_files.PENDULUM.replace("parameters = {m: 2.0, l: 0.5, g: 9.81}",
                                         "parameters = {m: 2.0, l: 0.5, g: 9.81}  # not alphabetical")
