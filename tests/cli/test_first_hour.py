@@ -224,6 +224,9 @@ def test_many_contacts_are_summarised_not_listed_five_lines_each(tmp_path, capsy
     assert "contacts: 6 points (Fn_, Ftx_, Fty_, Ftz_, depth_<point> in the CSV), 6 touched, " \
            "6 touching at the end" in out
     assert "contacts: largest normal force Fn_foot0 = " in out and "deepest depth_foot0 = " in out
+    # s21: when (the gym humanoid's 35 kN row is its touch-down, docs/contact.md)
+    assert re.search(r"largest normal force Fn_foot0 = [0-9.e+]+ at t = 0\.1[0-9]*, deepest depth_foot0 = "
+                     r"[0-9.e+-]+ at t = 0\.[0-9]+ \(maxima over the run's rows", out), out
     assert "  event contact_foot0:" not in out
     assert re.search(r"contact events: \d+ at 6 points, the first contact_foot0 at t = 0\.1", out)
     assert "Fn_foot5" in (tmp_path / "t.csv").read_text().splitlines()[0]     # all still in the CSV
