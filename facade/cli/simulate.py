@@ -215,8 +215,13 @@ def run(args):
     s = res.stats
     print(f"{model.name}: {res.method} t=[{args.t0:g}, {args.t_final:g}]: {s['steps']} steps "
           f"({s['rejected']} rejected), {s['nfev']} rhs, {s['njev']} jacobian, {s['nlu']} LU")
+    if len(res.t) > 1 and not (res.x != res.x[0]).any():
+        # first hour s21: SymPy's rolling disc (and dm_control's cartpole, acrobot) start at rest
+        # on an equilibrium and stay there, which reads as if the run did nothing
+        print(f"  nothing moved: the start is an equilibrium (every state stayed at its start value); "
+              f"give --x0 to start elsewhere, e.g. --x0 {model.state_names[0]}=0.1")
     frames = getattr(model, "frame_names", ())
-    grouped = _contact_summary(model, res.outputs)
+    grouped = _contact_summary(model, res.outputs, res.t)
     for name, values in res.outputs.items():
         if name.partition(".")[0] in frames or name in grouped:  # frames: a line each, below
             continue
@@ -268,11 +273,19 @@ def run(args):
     return 0
 
 
+def _when(outputs, kind, name, t):
+    """' at t = ...' of the row where output kind_name is largest ('' without the times)."""
+    if t is None or not len(t):
+        return ""
+    import numpy as np
+    return f" at t = {float(t[int(np.argmax(outputs[f'{kind}_{name}']))]):.6g}"
+
+
 CONTACT_LINES = 4   # more contacts than this: their outputs in a few lines, not five lines each
 _CONTACT_KINDS = ("Fn", "Ftx", "Fty", "Ftz", "depth")
 
 
-def _contact_summary(model, outputs):
+def _contact_summary(model, outputs, t=None):
     """Output name -> True for the contact outputs summarised instead of listed (a URDF robot's
     --ground gives 32 points per mesh: Go2 608, 3,040 lines; gymnasium's humanoid 109 self-pairs,
     each with its point px_/py_/pz_), and under "" the summary lines."""
@@ -293,6 +306,7 @@ def _contact_summary(model, outputs):
         f"  contacts: {len(names)} points (Fn_, Ftx_, Fty_, Ftz_, depth_<point>"
         f"{f'; px_, py_, pz_ of {len(pairs)} pairs' if pairs else ''} in the CSV), "
         f"{sum(f > 0 for f in force.values())} touched, {len(touching)} touching at the end",
-        f"  contacts: largest normal force Fn_{strongest} = {force[strongest]:.6g}, "
-        f"deepest depth_{deepest} = {depth[deepest]:.6g} (maxima over the run)"]
+        f"  contacts: largest normal force Fn_{strongest} = {force[strongest]:.6g}{_when(outputs, 'Fn', strongest, t)}, "
+        f"deepest depth_{deepest} = {depth[deepest]:.6g}{_when(outputs, 'depth', deepest, t)} (maxima over the run"
+        f"{'' if t is None else chr(39) + 's rows'}; a touch-down's peak is short: docs/contact.md)"]
     return grouped

@@ -60,6 +60,12 @@ def test_rk4_without_dt_names_the_cli_flag(pendulum, capsys):
     assert "--dt on the command line" in capsys.readouterr().err
 
 
+def test_dt_without_a_fixed_step_method_names_the_cli_flag(pendulum, capsys):
+    # first hour s21: `eomc simulate model --dt 0.1` answered "(pass method= one of them with dt)"
+    assert main(["simulate", "pend", "--t-final", "1", "--dt", "0.1"]) == 2
+    assert "pass one of them with it (method= in Python, --method on the command line)" in capsys.readouterr().err
+
+
 def test_show_lists_parameters_in_p_order_and_no_lambda_without_multipliers(tmp_path, capsys):
     text = model_files.PENDULUM.replace("parameters = {m: 2.0, l: 0.5, g: 9.81}",
                                         "parameters = {m: 2.0, l: 0.5, g: 9.81}  # not alphabetical")
@@ -218,6 +224,9 @@ def test_many_contacts_are_summarised_not_listed_five_lines_each(tmp_path, capsy
     assert "contacts: 6 points (Fn_, Ftx_, Fty_, Ftz_, depth_<point> in the CSV), 6 touched, " \
            "6 touching at the end" in out
     assert "contacts: largest normal force Fn_foot0 = " in out and "deepest depth_foot0 = " in out
+    # s21: when (the gym humanoid's 35 kN row is its touch-down, docs/contact.md)
+    assert re.search(r"largest normal force Fn_foot0 = [0-9.e+]+ at t = 0\.1[0-9]*, deepest depth_foot0 = "
+                     r"[0-9.e+-]+ at t = 0\.[0-9]+ \(maxima over the run's rows", out), out
     assert "  event contact_foot0:" not in out
     assert re.search(r"contact events: \d+ at 6 points, the first contact_foot0 at t = 0\.1", out)
     assert "Fn_foot5" in (tmp_path / "t.csv").read_text().splitlines()[0]     # all still in the CSV
@@ -299,3 +308,28 @@ def test_plot_leaves_out_contacts_that_never_touched_and_says_so(tmp_path, capsy
     assert not drawn & {f"{k}_head{i}" for k in ("Fn", "Ftx", "Fty", "Ftz", "depth") for i in range(2)}
     # named, they are drawn
     assert "Fn_head0" in {n for _, group in panels(res, ["Fn_head0", "z"]) for n in group}
+
+
+def test_a_run_that_stays_at_an_equilibrium_says_so(tmp_path, capsys):
+    # first hour s21: SymPy's rolling-disc example starts at rest upright and `eomc simulate`
+    # printed "8 steps" and nothing else: was anything simulated?
+    model = model_files.write(tmp_path, model_files.PENDULUM, "pend")
+    assert main(["simulate", str(model), "--t-final", "1", "-q", "--param", "g=0"]) == 0     # at rest, no gravity
+    assert ("  nothing moved: the start is an equilibrium (every state stayed at its start value); give --x0 to "
+            "start elsewhere, e.g. --x0 q=0.1") in capsys.readouterr().out
+    assert main(["simulate", str(model), "--t-final", "1", "-q"]) == 0
+    assert "nothing moved" not in capsys.readouterr().out
+
+
+def test_check_says_its_runs_gave_physics_warnings(tmp_path, capsys):
+    # first hour s21: `eomc check manipulator.xml` warned that two bodies passed into each other,
+    # and romeo.urdf that wrists went past their limits, then printed "10 of 10 checks passed"
+    model = model_files.write(tmp_path, _SIX_FEET, "six_feet")
+    soft = [f"k_foot{i}=30" for i in range(6)]       # the block sinks through its soft contacts
+    from eomc.runtime.switching import PhysicsWarning
+    with pytest.warns(PhysicsWarning, match="contact foot0 penetrated"):     # still shown, as before
+        assert main(["check", str(model), "--t-final", "0.3", "-q", "--methods", "radau", "--param", *soft]) == 0
+    assert ("eomc check: the runs gave 1 physics warning (on stderr: limits, contacts, energy): the checks above "
+            "judge the integration, not the model's laws") in capsys.readouterr().out
+    assert main(["check", str(model), "--t-final", "0.3", "-q", "--methods", "radau"]) == 0
+    assert "physics warning" not in capsys.readouterr().out
