@@ -175,6 +175,11 @@ def run(args):
     from eomc.runtime.simulate import simulate
     cli_common.writable_file(args.output, "-o")
     cli_common.writable_file(args.plot, "--plot")
+    if args.plot:       # before the build and the run, not after them
+        import importlib.util
+        if importlib.util.find_spec("matplotlib") is None:
+            from eomc.runtime.errors import MissingExtraError
+            raise MissingExtraError("--plot", "plot", ["matplotlib"])
     model = cli_common.load_model(args.model, args.quiet, **cli_common.model_options(args),
                                   **cli_common.read_checks(args))   # --param, from the one reading
     given = cli_common.parse_assignments(args.x0, "x0")

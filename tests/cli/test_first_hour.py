@@ -277,9 +277,20 @@ def test_a_missing_optional_package_names_the_extra_not_a_traceback(tmp_path, mo
     assert main(["simulate", str(model), "--t-final", "0.1"]) == 1
     err = capsys.readouterr().err
     assert err.strip().splitlines()[-1] == (
-        f"eomc simulate: error: reading a MuJoCo model ({model}) needs the mujoco package, which is not "
+        f"eomc simulate: error: reading a MuJoCo model ({model}) needs mujoco, which is not "
         f"installed: pip install \"eomc[mujoco]\" (from a clone of eomc: pip install \".[mujoco]\")")
     assert "Traceback" not in err
+    # and from Python (the same sentence, an ImportError)
+    from eomc.errors import MissingExtraError
+    with pytest.raises(MissingExtraError, match=r"reading a MuJoCo model \(.*balls\.xml\) needs mujoco"):
+        eomc.compile(model, progress=False)
+    # --plot without matplotlib: said before building and simulating, not after
+    monkeypatch.setitem(sys.modules, "matplotlib", None)
+    monkeypatch.setattr(cli_common, "load_model", lambda *a, **k: pytest.fail("built before the check"))
+    assert main(["simulate", "pend.py", "--t-final", "0.1", "-q", "--plot", str(tmp_path / "p.png")]) == 1
+    assert capsys.readouterr().err.strip().splitlines()[-1] == (
+        "eomc simulate: error: --plot needs matplotlib, which is not installed: pip install \"eomc[plot]\" "
+        "(from a clone of eomc: pip install \".[plot]\")")
 
 
 # A block on one low foot; two high points (a head, a hand) never touch the ground.
