@@ -280,10 +280,11 @@ def run(args):
 
 def _when(outputs, kind, name, t):
     """' at t = ...' of the row where output kind_name is largest ('' without the times)."""
-    if t is None or not len(t):
-        return ""
     import numpy as np
-    return f" at t = {float(t[int(np.argmax(outputs[f'{kind}_{name}']))]):.6g}"
+    values = np.asarray(outputs[f"{kind}_{name}"])
+    if t is None or not len(t) or not values.max() > 0:      # never touched: no time worth a word
+        return ""
+    return f" at t = {float(t[int(np.argmax(values))]):.6g}"
 
 
 CONTACT_LINES = 4   # more contacts than this: their outputs in a few lines, not five lines each

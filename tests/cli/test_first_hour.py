@@ -230,6 +230,11 @@ def test_many_contacts_are_summarised_not_listed_five_lines_each(tmp_path, capsy
     assert "  event contact_foot0:" not in out
     assert re.search(r"contact events: \d+ at 6 points, the first contact_foot0 at t = 0\.1", out)
     assert "Fn_foot5" in (tmp_path / "t.csv").read_text().splitlines()[0]     # all still in the CSV
+    # before the touch-down (0.1 s) nothing touched: no time for a force that stayed 0
+    assert main(["simulate", str(model), "--t-final", "0.05", "-q"]) == 0
+    out = capsys.readouterr().out
+    assert "contacts: largest normal force Fn_foot0 = 0, deepest depth_foot0 = -0." in out, out
+    assert " at t = " not in out
 
 
 _BALLS = """<mujoco model="balls">
