@@ -160,3 +160,94 @@ def test_looped_c_strict_and_sanitizer_clean(tmp_path, monkeypatch):
     assert proc.returncode == 0, proc.stderr
     assert run.returncode == 0, run.stdout + run.stderr
     assert run.stdout.startswith("clsan 0 ") and "runtime error" not in run.stderr
+
+
+SINCOS_DRIVER = r"""
+#include <stdio.h>
+#include <math.h>
+#include "NAME.c"
+
+static int ulps(double a, double b)   /* 0 equal (NaN both), 1 neighbours, 2 farther */
+{
+    if (a != a || b != b) return (a != a && b != b) ? 0 : 2;
+    if (a == b) return 0;
+    return nextafter(a, b) == b ? 1 : 2;
+}
+
+int main(void)
+{
+    const double q[11] = {0.0, 1.5707963267948966, 1.5707963267948966 + 1e-12, -3.141592653589793,
+                          1e-300, -2.5, 823549.0, 1e7, -3e300, NAN, INFINITY};
+    double sc[22];
+    int n, k, far = 0, off = 0;
+    for (n = 1; n <= 11; n++) {
+        for (k = 0; k < 2 * n; k++) sc[k] = -7.0;
+        NAME_chain_sincos(q, n, sc);
+        for (k = 0; k < n; k++) {
+            int a = ulps(sc[2 * k], sin(q[k])), b = ulps(sc[2 * k + 1], cos(q[k]));
+            far += (a > 1) + (b > 1);
+            off += (a > 0) + (b > 0);
+        }
+    }
+    printf("%d %d %d\n", EOMC_CHAIN_VTRIG, far, off);
+    return 0;
+}
+"""
+
+
+@pytest.mark.parametrize("lanes", [True, False])
+def test_chain_sincos_within_one_ulp_of_libm(lanes, tmp_path, monkeypatch):
+    """NAME_chain_sincos (the links' sin and cos, four lanes at a time where the C is built for
+    AVX2, the last group overlapping) against libm for 1..11 angles: multiples of pi/2 and
+    next to them, tiny, huge (libm's lanes), NaN and inf; within 1 ulp, exact without lanes."""
+    import subprocess
+    monkeypatch.setattr(chain_loop, "CHAIN_LOOP_MIN_LINKS", 2)
+    system, inputs, params = _cart(6)
+    gm = generate(system, "clsc", functions=("rhs",), formulation="recursive", inputs=inputs,
+                  parameters=params, cache_dir=tmp_path / "cache", progress=False)[1]
+    assert "clsc_chain_sincos(x + 2, 5, SC2);" in gm.c_source     # links 2-6 (link 1 hangs from the cart's centre)
+    es.write_sources(gm, str(tmp_path))
+    (tmp_path / "main.c").write_text(SINCOS_DRIVER.replace("NAME", gm.name))
+    flags = ["-mavx2"] if lanes else ["-mno-avx"]
+    built = subprocess.run(["gcc", *es.STRICT, "-Wshadow", "-Wconversion", "-O2", *flags, "-I", str(tmp_path),
+                            str(tmp_path / "main.c"), "-o", str(tmp_path / "sc"), "-lm"], capture_output=True, text=True)
+    assert built.returncode == 0, built.stderr
+    vtrig, far, off = map(int, subprocess.run([str(tmp_path / "sc")], capture_output=True, text=True).stdout.split())
+    assert vtrig == int(lanes) and far == 0
+    if not lanes:
+        assert off == 0
+
+
+@pytest.mark.parametrize("n", [3, 5, 9])
+def test_lanes_trig_agrees_at_awkward_angles(n, tmp_path):
+    """The looped rhs (its links' sin and cos in lanes; n = 3: two links, the scalar path) equals
+    the straight-line rhs to 1e-12 at angles next to multiples of pi/2 and past 2^19 pi/2."""
+    system, inputs, params = _cart(n)
+    loop = _build(system, f"claw{n}", 2, tmp_path, inputs=inputs, parameters=params)
+    line = _build(cart_joints(n)[0], f"clawl{n}", None, tmp_path, inputs=inputs, parameters=params)
+    assert _looped(loop) and f"_chain_sincos(x + 2, {n - 1}, SC" in loop.source_path.read_text()
+    rng = np.random.default_rng(7 + n)
+    for scale in (1.0, 1e-9, 1e6, 1e7):
+        q = rng.integers(-4, 5, n + 1) * np.pi / 2 + scale * rng.uniform(-1, 1, n + 1)
+        x = np.concatenate([q, rng.normal(size=n + 1)])
+        r = rng.normal(size=1)
+        assert relative_error(loop.rhs(0.0, x, r=r), line.rhs(0.0, x, r=r)) < 1e-12, scale
+
+
+def test_float_target_of_a_looped_rhs(tmp_path, monkeypatch):
+    """The c99-f32 target cuts the lanes' block (double vectors) out: libm's sinf and cosf per
+    link, the C clean under the float target's strict flags with no double left."""
+    import re
+    import subprocess
+    monkeypatch.setattr(chain_loop, "CHAIN_LOOP_MIN_LINKS", 2)
+    system, inputs, params = _cart(6)
+    gm = generate(system, "clf", functions=("rhs",), formulation="recursive", inputs=inputs, parameters=params,
+                  cache_dir=tmp_path / "cache", progress=False, target="c99-f32")[1]
+    code = re.sub(r"/\*.*?\*/", "", gm.c_source, flags=re.S)
+    assert "clf_chain_sincos(x + 2, 5, SC2);" in code and "sinf(q[k])" in code
+    assert "eomc_cvd" not in code and not re.search(r"\bdouble\b", code.replace("clf_", ""))
+    es.write_sources(gm, str(tmp_path))
+    run = subprocess.run(["gcc", "-std=c99", "-O2", "-mavx2", "-Wall", "-Wextra", "-Wdouble-promotion",
+                          "-Wfloat-conversion", "-Wpedantic", "-Werror", "-c", str(tmp_path / "clf.c"), "-I", str(tmp_path),
+                          "-o", str(tmp_path / "clf.o")], capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr[:3000]
