@@ -26,11 +26,12 @@ through the optimizer's shared passes (CSE, folding, sin/cos sharing, powers), s
 body has the straight-line code's structural zeros and folded constants.
 
 The results equal the straight-line rhs's up to rounding: the same operations per link,
-except that the pivots' sum (the singularity threshold) is summed in a loop.  Chosen
+except that the pivots' sum (the singularity threshold) is summed in pass 2's order and the
+links' sin and cos come from the lanes' fdlibm kernels (within 1 ulp of libm's).  Chosen
 (:func:`chain_loop_plan`) for an open chain of one-speed joints without contacts or extra
-states whose repeated run has at least CHAIN_LOOP_MIN_LINKS links (a switch, off by default:
-on this machine the loops were slower than the straight-line rhs up to n = 160, see the
-constant); every other tree keeps the straight-line rhs, byte for byte.
+states whose repeated run has at least CHAIN_LOOP_MIN_LINKS links (4 by default: measured, see the
+constant); every other tree keeps the straight-line rhs, byte for byte.  The links' sin and
+cos are taken before the passes, four at a time (:func:`chain_loop_c`).
 """
 import re
 from collections import Counter
@@ -54,14 +55,15 @@ from .spatial import (_dot, _root_acceleration, _sym6_plus, _times, cross_force,
 __all__ = ["ChainLoop", "chain_loop_plan", "chain_loop_rhs_body", "chain_loop_ops", "chain_loop_c",
            "CHAIN_LOOP_MIN_LINKS", "VTRIG_GUARD"]
 
-# The repeated run's length from which the rhs is looped; None: never (the default).  Why off:
-# measured on the cart (benchmarks/results/cart_scaling.md, session 13, one run, core 1) the loops
-# were slower than the straight-line rhs at every n (n = 40: 2138 vs 2013 ns, n = 160: 9435 vs
-# 9032; 4.5-20 %: 10.8 % more instructions at n = 160, the per-link loads, stores and spills),
-# though 1.8-4.4 kB of code at every n (186.5 kB straight-line at n = 160) and growing as n^1.058
-# against n^1.102 over n = 8-160.  A switch (the generation cache's key holds it): set it to a
-# link count to loop chains at least that long.
-CHAIN_LOOP_MIN_LINKS_DEFAULT = None
+# The repeated run's length from which the rhs is looped (None: never).  Measured (benchmarks/
+# results/cart_scaling.md, session 21, core 1, A/B of the same models built both ways, 3 code
+# placements each for the short runs): with the links' sin and cos in lanes the looped rhs is
+# faster than the straight-line one on the cart from a run of 3 links (n = 4: 108 vs 118 ns) to
+# 159 (n = 160: 4382 vs 6941 ns), and grows as n^1.00 against n^1.11; on a chain twisting in 3D
+# (every carried entry nonzero) it is 15 % slower at 3 links, even at 4 (389 vs 391 ns), 13 %
+# faster at 5 and 9-37 % at 19.  Below 4 links the lanes do not engage (libm per link).  Session 13's
+# loops (a libm call per link, no ordering) were 4.5-20 % slower at every n.
+CHAIN_LOOP_MIN_LINKS_DEFAULT = 4
 CHAIN_LOOP_MIN_LINKS = CHAIN_LOOP_MIN_LINKS_DEFAULT
 
 _LOWER = [(i, j) for i in range(6) for j in range(i + 1)]     # a symmetric 6x6's lower triangle
@@ -219,7 +221,9 @@ def chain_loop_plan(tree, bodies, sources, defs, gravity, layout, functions, min
     Q, U = sm.Symbol("_chain_q", real=True), sm.Symbol("_chain_u", real=True)
 
     def sig(i):
-        if own_q[i] is None or bodies[i].fext is not None:
+        # the root (body 0) is a block of its own: its passes start from rest and gravity, and
+        # hand nothing to a parent (a run from body 0 looped every link as a root: wrong u')
+        if i == 0 or own_q[i] is None or bodies[i].fext is not None:
             return None
         E, r, S, mass, inertia, arm = sources[i]
         sub = {layout.x[own_q[i]]: Q, speeds[bodies[i].speed]: U}

@@ -115,14 +115,17 @@ def test_run_in_the_middle(tmp_path):
         assert relative_error(loop.rhs(0.0, x, p, r), line.rhs(0.0, x, p, r)) < 1e-13
 
 
-def test_off_by_default(tmp_path):
-    """The switch is off by default (the loops measured slower than the straight-line rhs up to
-    n = 160: benchmarks/results/cart_scaling.md): a long cart keeps the straight-line rhs."""
-    assert chain_loop.CHAIN_LOOP_MIN_LINKS is None
-    model = eomc.compile(cart_joints(30)[0], "cl_default", functions=["rhs"], formulation="recursive",
-                         progress=False, cache_dir=tmp_path / "cache", fold_parameters=True,
-                         parameters=_cart(30)[2])
-    assert not _looped(model)
+def test_on_by_default_from_four_links(tmp_path):
+    """The switch is 4 links by default (measured faster than the straight-line rhs from there:
+    benchmarks/results/cart_scaling.md, session 21): a long cart's rhs is looped, with its
+    links' sin and cos from NAME_chain_sincos; a run of 3 (the cart of 4) keeps the straight line."""
+    assert chain_loop.CHAIN_LOOP_MIN_LINKS == chain_loop.CHAIN_LOOP_MIN_LINKS_DEFAULT == 4
+    kw = dict(functions=["rhs"], formulation="recursive", progress=False, cache_dir=tmp_path / "cache",
+              fold_parameters=True)
+    model = eomc.compile(cart_joints(30)[0], "cl_default", parameters=_cart(30)[2], **kw)
+    assert _looped(model) and "cl_default_chain_sincos(x + 2, 29, SC2);" in model.source_path.read_text()
+    assert not _looped(eomc.compile(cart_joints(4)[0], "cl_default4", parameters=_cart(4)[2], **kw))
+    assert _looped(eomc.compile(cart_joints(5)[0], "cl_default5", parameters=_cart(5)[2], **kw))
 
 
 DRIVER = r"""
@@ -251,3 +254,39 @@ def test_float_target_of_a_looped_rhs(tmp_path, monkeypatch):
                           "-Wfloat-conversion", "-Wpedantic", "-Werror", "-c", str(tmp_path / "clf.c"), "-I", str(tmp_path),
                           "-o", str(tmp_path / "clf.o")], capture_output=True, text=True)
     assert run.returncode == 0, run.stderr[:3000]
+
+
+def _twisted_chain(n):
+    """n identical links hanging from the ground, each a pin about a tilted axis (the chain
+    twists in 3D: every carried entry nonzero), full inertia, the joint off the mass centre."""
+    import sympy as sm
+    from sympy.physics import mechanics as me
+    q, u = me.dynamicsymbols(f"q:{n}"), me.dynamicsymbols(f"u:{n}")
+    g = sm.Symbol("g")
+    ground = me.RigidBody("ground")
+    parent, joints = ground, []
+    for i in range(n):
+        link = me.RigidBody(f"link{i}", mass=sm.Float(0.5))
+        link.inertia = (me.inertia(link.frame, 0.01, 0.02, 0.03, 0.001, 0.002, 0.003), link.masscenter)
+        joints.append(me.PinJoint(f"pin{i}", parent, link, q[i], u[i], child_point=-0.1 * link.frame.y,
+                                  parent_point=0.2 * parent.frame.z + 0.1 * parent.frame.x,
+                                  joint_axis=parent.frame.x + 0.5 * parent.frame.y + 0.3 * parent.frame.z))
+        parent = link
+    system = me.System.from_newtonian(ground)
+    system.add_joints(*joints)
+    system.apply_uniform_gravity(-g * ground.frame.z)
+    return system, {g: 9.81}
+
+
+@pytest.mark.parametrize("n", [4, 9])
+def test_twisted_chain_from_the_root(n, tmp_path):
+    """A run of identical links from the root on: the root is a block of its own (its passes
+    start from rest and gravity), the rest a loop; equal to the straight-line rhs to 1e-12.
+    (Looping the root with the others gave u' wrong by 100 %.)"""
+    system, params = _twisted_chain(n)
+    loop = _build(system, f"cltw{n}", 2, tmp_path, parameters=params, fold_parameters=True)
+    line = _build(_twisted_chain(n)[0], f"cltwl{n}", None, tmp_path, parameters=params, fold_parameters=True)
+    assert _looped(loop) and f"_chain_sincos(x + 1, {n - 1}, SC1);" in loop.source_path.read_text()
+    rng = np.random.default_rng(n)
+    for x in _states(loop, rng):
+        assert relative_error(loop.rhs(0.0, x), line.rhs(0.0, x)) < 1e-12
