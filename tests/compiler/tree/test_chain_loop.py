@@ -290,3 +290,26 @@ def test_twisted_chain_from_the_root(n, tmp_path):
     rng = np.random.default_rng(n)
     for x in _states(loop, rng):
         assert relative_error(loop.rhs(0.0, x), line.rhs(0.0, x)) < 1e-12
+
+
+def test_default_functions_beside_a_looped_rhs(tmp_path):
+    """The default function set of a cart whose rhs is looped (by default): jac_x and jac_r (their
+    own tangent programs) agree with the straight-line build's and with central differences of
+    the looped rhs; linearize builds."""
+    n = 8
+    system, inputs, params = _cart(n)
+    loop = eomc.compile(system, "cl_all", cache_dir=tmp_path / "cache", inputs=inputs, parameters=params,
+                        formulation="recursive", progress=False)
+    line = _build(cart_joints(n)[0], "cl_all", None, tmp_path / "off", functions=("rhs", "jac_x", "jac_r"),
+                  inputs=inputs, parameters=params)
+    assert _looped(loop) and not _looped(line) and {"jac_x", "jac_r", "linearize"} <= set(loop.metadata["functions"])
+    rng = np.random.default_rng(11)
+    for x in _states(loop, rng, 3):
+        r = rng.normal(size=1)
+        J = loop.jacobian(0.0, x, r=r)
+        assert relative_error(J, line.jacobian(0.0, x, r=r)) < 1e-12
+        assert relative_error(loop.input_jacobian(0.0, x, r=r), line.input_jacobian(0.0, x, r=r)) < 1e-12
+        h = 1e-6
+        fd = np.column_stack([(loop.rhs(0.0, x + h * e, r=r) - loop.rhs(0.0, x - h * e, r=r)) / (2 * h)
+                              for e in np.eye(loop.nx)])
+        assert relative_error(J, fd) < 1e-6
