@@ -56,13 +56,13 @@ __all__ = ["ChainLoop", "chain_loop_plan", "chain_loop_rhs_body", "chain_loop_op
            "CHAIN_LOOP_MIN_LINKS", "VTRIG_GUARD"]
 
 # The repeated run's length from which the rhs is looped (None: never).  Measured (benchmarks/
-# results/cart_scaling.md, session 21, core 1, A/B of the same models built both ways, 3 code
-# placements each for the short runs): with the links' sin and cos in lanes the looped rhs is
-# faster than the straight-line one on the cart from a run of 3 links (n = 4: 108 vs 118 ns) to
-# 159 (n = 160: 4382 vs 6941 ns), and grows as n^1.00 against n^1.11; on a chain twisting in 3D
-# (every carried entry nonzero) it is 15 % slower at 3 links, even at 4 (389 vs 391 ns), 13 %
-# faster at 5 and 9-37 % at 19.  Below 4 links the lanes do not engage (libm per link).  Session 13's
-# loops (a libm call per link, no ordering) were 4.5-20 % slower at every n.
+# results/cart_scaling.md, session 21, core 1): with the links' sin and cos in lanes the looped rhs
+# is faster than the straight-line one on the cart from n = 4 (a run of 4 links: 116 vs 132 ns) to
+# 160 (4703 vs 7365 ns), growing as n^1.00 against n^1.12; in one-model harnesses at 3 code
+# placements: the cart with a run of 3 is 28 % slower looped (libm per link: no lanes below 4),
+# with 4 8 % faster; a chain twisting in 3D (every carried entry nonzero) 15 % slower with 3
+# looped links, even with 4, 13 % faster with 5.  Session 13's loops (a libm call per link, no
+# ordering) were 4.5-20 % slower at every n.
 CHAIN_LOOP_MIN_LINKS_DEFAULT = 4
 CHAIN_LOOP_MIN_LINKS = CHAIN_LOOP_MIN_LINKS_DEFAULT
 
