@@ -511,7 +511,9 @@ def chain_loop_rhs_body(ctx, program, plan):
             if seg.stores[p - 1]:
                 lines.append(f"{IND}double L{si}_{p}[{len(seg.stores[p - 1]) * seg.count}];")
     lines += [f"{IND}double SC{si}[{2 * plan.segments[si].count}];" for si in plan.trig]
-    lines += [f"{IND}double dsum = 0.0, dmin = HUGE_VAL;", f"{IND}int k;"]
+    # dmin from DBL_MAX, not a nonfinite literal (none in generated C): an inf pivot makes the
+    # sum inf and the test fail, as a NaN one makes it NaN
+    lines += [f"{IND}double dsum = 0.0, dmin = DBL_MAX;", f"{IND}int k;"]
     for si in plan.trig:
         seg = plan.segments[si]
         lines.append(f"{IND}{ctx.name}_chain_sincos(x + {seg.q0}, {seg.count}, SC{si});")
