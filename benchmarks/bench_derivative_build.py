@@ -206,6 +206,10 @@ def main():
                        f"{med(r, 'rss'):.0f} | {sum(sizes.values()) / 1e3 if sizes else 0:.0f} | "
                        f"{sizes.get('rhs', 0) / 1e3 if sizes else 0:.0f} | {jx:.2f}{was} |")
         print(summary[-1], flush=True)
+        # each build's CPU s in the order run (the ratio moves +-0.1 run to run at a load of 5-10)
+        print(f"  ({label}, CPU s of each build: " + "; ".join(
+            f"{k} " + " / ".join(f"{x['cpu']:.2f}" for x in runs[k]) for k in order[:3] if runs.get(k)) + ")",
+            flush=True)
         if sizes:
             base = med(r, "cpu")
             for fn, size in sorted(sizes.items(), key=lambda kv: -kv[1]):

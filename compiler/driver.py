@@ -290,6 +290,9 @@ def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, fu
         extra = {**(extra or {}), "limit_laws": spec.limit_laws}
     if getattr(spec, "start_in_range", None):      # the joints the default start moved into range
         extra = {**(extra or {}), "start_in_range": list(spec.start_in_range)}
+    bodies = _body_parameters(spec)
+    if bodies:      # runtime/law_parameters.py: a body's mass or inertia given at run time
+        extra = {**(extra or {}), "body_parameters": bodies}
     source = system if isinstance(system, (str, os.PathLike)) else None
     model = build_and_load(generated, backend=backend, cflags=cflags, cache_dir=cache_dir,
                            output_dir=output_dir, extra_metadata=extra, source=source, progress=progress,
@@ -304,6 +307,17 @@ def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, fu
             warnings.warn(f"{generated.name} ({generated.metadata['target']}): {concern}", EomcWarning,
                           stacklevel=2)
     return model
+
+
+def _body_parameters(spec):
+    """The bodies whose mass or inertia is made of run-time parameters (SymPy systems:
+    eomc.compiler.mechanics.body_parameters), or []."""
+    from .mechanics.body_parameters import body_parameters
+    params = spec.parameters if spec.parameters is not None else getattr(spec.formed, "parameters", ())
+    try:
+        return body_parameters(spec.system, params)
+    except Exception:     # what cannot be read is not checked: the build itself does not depend on it
+        return []
 
 
 def _warn_singular_start(model, x0):

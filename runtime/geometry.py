@@ -12,8 +12,8 @@ list of 16 numbers) and ``color`` ([r, g, b] in 0..1, or None).
 
 Meshes are read with trimesh (and DAE files with pycollada: the ``mesh`` extra, kept out of
 the base install because trimesh's usual extras weigh about 95 MB) when a page is written,
-never when a model is built.  Without the extra, drawing a model that has meshes is an error
-naming it; a mesh that is missing or unreadable is drawn as a small box, with one warning
+never when a model is built.  Without the extra, a model's meshes are drawn as boxes with one
+warning naming the extra; a mesh that is missing or unreadable is drawn as a small box, with one warning
 naming the body and the file.  Vertices are
 quantized to 16 bits over the mesh's bounding box (error below 1/65535 of its
 size, invisible on screen) and big meshes are thinned by vertex clustering, so
@@ -211,7 +211,9 @@ def _packed(path, scale, max_faces, size, mtime):
 _READERS = {".dae": ("trimesh", "collada")}
 
 
-def _require_mesh_readers(geometry):
+def _missing_mesh_readers(geometry):
+    """The MissingExtraError naming the ``mesh`` extra when the model has mesh files and a module
+    that reads them is not installed, else None."""
     files = sorted({item["path"] for items in geometry.values() for item in items
                     if item.get("kind") == "mesh"})
     needed = {"trimesh"} if files else set()
@@ -220,8 +222,9 @@ def _require_mesh_readers(geometry):
     missing = sorted(m for m in needed if importlib.util.find_spec(m) is None)
     if missing:
         names = {"collada": "pycollada"}
-        raise MissingExtraError(f"drawing this model's meshes ({len(files)} file{'s' * (len(files) > 1)}, "
-                                f"e.g. {Path(files[0]).name})", "mesh", [names.get(m, m) for m in missing])
+        return MissingExtraError(f"drawing this model's meshes ({len(files)} file{'s' * (len(files) > 1)}, "
+                                 f"e.g. {Path(files[0]).name})", "mesh", [names.get(m, m) for m in missing])
+    return None
 
 
 def _located(geometry, package_dirs):
@@ -245,17 +248,23 @@ def pack_shapes(geometry, package_dirs=()):
 
     A mesh that cannot be read becomes a small box; one warning names the first such body and
     file and counts the others (with a hint for ``package://`` files: where packages are
-    looked for, eomc.runtime.packages).  Raises MissingExtraError when the model has meshes
-    and the ``mesh`` extra is missing.
+    looked for, eomc.runtime.packages).  Without the ``mesh`` extra every mesh is drawn as a box,
+    with one warning naming the extra (first hour s21 L1: ``eomc animate robot.urdf`` after the
+    README's ``.[plot]`` install stopped there on every mesh robot).
     """
     geometry = _located(geometry, package_dirs)
-    _require_mesh_readers(geometry)
+    missing = _missing_mesh_readers(geometry)
+    if missing is not None:
+        warnings.warn(f"{missing}; drawn as boxes meanwhile", EomcWarning, stacklevel=2)
     meshes, out, failed = {}, {}, []
     for name, items in geometry.items():
         packed = []
         for item in items:
             item = dict(item)
-            if item.get("kind") == "mesh":
+            if item.get("kind") == "mesh" and missing is not None:
+                item = shape("box", (0.05, 0.05, 0.05), origin=np.reshape(item["origin"], (4, 4)),
+                             color=item.get("color"))
+            elif item.get("kind") == "mesh":
                 key = (item["path"], tuple(item.get("scale", (1, 1, 1))))
                 if key not in meshes:
                     try:

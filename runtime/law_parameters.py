@@ -9,7 +9,9 @@ limit_e = 0 ended in "a non-finite value appeared" (issue 29 R2, R4) -- with sta
 or without naming the parameter.  This module checks a parameter vector against the
 same rules, found by the parameters' names (contacts: ``k_/c_/mu_/vs_/r_<name>`` of a
 ``contact_<name>`` event; joints: ``limit_*/damping/friction*_<joint>`` of a coordinate
-``q_<joint>``; MJCF's ``d_<joint>``), and raises a ValueError naming the parameter.  runtime/ only: no
+``q_<joint>``; MJCF's ``d_<joint>``), and raises a ValueError naming the parameter.  A SymPy
+model's bodies whose mass or inertia are parameters (NAME.json ``body_parameters``) are refused a
+mass <= 0 or an inertia no body has, naming the parameter and the body.  runtime/ only: no
 import of the compiler.
 """
 import re
@@ -18,7 +20,7 @@ import numpy as np
 
 from .switching import contact_parameter
 
-__all__ = ["check_law_parameters"]
+__all__ = ["check_law_parameters", "check_body_parameters"]
 
 # parameter prefix -> (what it is, strictly positive?)
 _CONTACT = {"k": ("contact stiffness", False), "c": ("contact damping", False),
@@ -104,9 +106,102 @@ def _arrays(model, rules, pairs):
     return got
 
 
+def _entry(e, index, p):
+    """A ``body_parameters`` entry (a number, or [coefficient, [[name, exponent], ...]]) at ``p``."""
+    if not isinstance(e, list):
+        return float(e)
+    v = float(e[0])
+    for name, exp in e[1]:
+        v *= float(p[index[name]]) ** float(exp)
+    return v
+
+
+def _names_of(entries):
+    return sorted({n for e in entries if isinstance(e, list) for n, _ in e[1]})
+
+
+def _body_faults(body, index, p):
+    """[(parameters, what is wrong)] of one ``body_parameters`` row at ``p``."""
+    faults = []
+    mass = body.get("mass")
+    if mass is not None:
+        m = _entry(mass, index, p)
+        if not m > 0:
+            faults.append((_names_of([mass]), f"body {body['body']} the mass {m:g}: a body's mass must be > 0"))
+    inertia = body.get("inertia")
+    if inertia is not None:
+        matrix = np.array([[_entry(e, index, p) for e in row] for row in inertia])
+        names = _names_of([e for row in inertia for e in row])
+        if not np.isfinite(matrix).all():
+            faults.append((names, f"body {body['body']} a non-finite central inertia"))
+            return faults
+        eig = np.linalg.eigvalsh((matrix + matrix.T) / 2)
+        tol = 1e-9 * max(abs(eig).max(), 1e-300)
+        moments = ", ".join(f"{v:g}" for v in eig)
+        if eig.min() < -tol:
+            faults.append((names, f"body {body['body']} a central inertia with principal moments {moments}: "
+                                  f"a negative moment is not a body's (the inertia must be positive semi-definite)"))
+        elif eig[2] > eig[0] + eig[1] + tol:
+            faults.append((names, f"body {body['body']} a central inertia with principal moments {moments}, "
+                                  f"which miss the triangle inequality (the largest must not exceed the "
+                                  f"sum of the other two): no mass distribution has them"))
+    return faults
+
+
+def _body_rules(model):
+    """The model's ``body_parameters`` rows whose parameters are all run-time parameters and
+    whose defaults pass (a model built with, e.g., a slender rod's zero moments keeps them)."""
+    cached = getattr(model, "_body_rules", None)
+    if cached is not None:
+        return cached
+    index = {n: i for i, n in enumerate(model.param_names)}
+    defaults = np.asarray(getattr(model, "param_defaults", None) if getattr(model, "param_defaults", None)
+                          is not None else [np.nan] * len(index), dtype=np.float64)
+    rules = []
+    for body in (getattr(model, "metadata", None) or {}).get("body_parameters") or ():
+        parts = {k: body[k] for k in ("mass", "inertia") if k in body}
+        kept = {"body": body["body"]}
+        for key, part in parts.items():
+            flat = [part] if key == "mass" else [e for row in part for e in row]
+            if not all(n in index for n in _names_of(flat)):
+                continue
+            with np.errstate(all="ignore"):
+                if _body_faults({"body": body["body"], key: part}, index, defaults):
+                    continue        # the build's own values already fail it: not this check's to refuse
+            kept[key] = part
+        if len(kept) > 1:
+            rules.append(kept)
+    found = (tuple(rules), index)
+    try:
+        model._body_rules = found
+    except AttributeError:
+        pass
+    return found
+
+
+def check_body_parameters(model, p, where=""):
+    """ValueError naming the parameters that give a body a mass <= 0 or an impossible inertia
+    (NAME.json ``body_parameters``: eomc.compiler.mechanics.body_parameters)."""
+    rules, index = _body_rules(model)
+    if not rules:
+        return
+    p = np.asarray(p, dtype=np.float64)
+    at = f" ({where})" if where else ""
+    for body in rules:
+        with np.errstate(all="ignore"):
+            faults = _body_faults(body, index, p)
+        if faults:
+            names, what = faults[0]
+            given = ", ".join(f"{n} = {float(p[index[n]]):g}" for n in names)
+            raise ValueError(f"{model.name}: parameter{'s' if len(names) > 1 else ''} {given}{at} "
+                             f"give{'' if len(names) > 1 else 's'} {what} "
+                             f"(the build refuses such a body too)")
+
+
 def check_law_parameters(model, p, where=""):
     """ValueError naming the first contact or joint-law parameter in ``p`` that the build
     would refuse (negative, or 0 where the law divides by it; limit lower > upper)."""
+    check_body_parameters(model, p, where)
     rules, pairs = _rules(model)
     p = np.asarray(p, dtype=np.float64)
     idx, strict, lo, hi = _arrays(model, rules, pairs)

@@ -19,7 +19,7 @@ import numpy as np
 
 from .files import atomic_path
 
-__all__ = ["panels", "plot_result", "MAX_CURVES", "MAX_PANELS"]
+__all__ = ["panels", "plot_result", "untouched", "MAX_CURVES", "MAX_PANELS"]
 
 MAX_CURVES = 8     # curves in one panel (tab10's distinct colours, with room to tell them apart)
 MAX_PANELS = 6     # panels on one page
@@ -64,8 +64,32 @@ def _by_scale(res, names):
     return [sorted(g, key=order.get) for g in groups]
 
 
+_CONTACT_KINDS = ("Fn", "Ftx", "Fty", "Ftz", "depth", "px", "py", "pz")
+
+
+def untouched(res):
+    """The contacts (names) whose normal force stayed 0 over the run, whose outputs (Fn_, Ftx_,
+    Fty_, Ftz_, depth_, a pair's px_/py_/pz_) :func:`panels` leaves out unless named: gymnasium's
+    ant touched with 4 of its 25 contacts, and its --plot spent pages on flat zeros."""
+    model = getattr(res, "model", None)
+    if model is None or not getattr(model, "noutput", 0):
+        return []
+    from .switching import find_switches
+    out = []
+    for c in find_switches(model).contacts:
+        force = res.outputs.get(f"Fn_{c.name}")
+        if force is not None and not np.any(np.asarray(force, dtype=float) > 0):
+            out.append(c.name)
+    return out
+
+
+def _contact_outputs(names):
+    return {f"{k}_{c}" for c in names for k in _CONTACT_KINDS}
+
+
 def panels(res, names=None):
-    """[(label, [names])] of a run: what :func:`plot_result` draws, one entry per panel."""
+    """[(label, [names])] of a run: what :func:`plot_result` draws, one entry per panel.  Without
+    ``names``, the outputs of contacts that never touched (:func:`untouched`) are left out."""
     states = list(res.state_names)
     nq = res.nq if res.nq and 0 < res.nq < len(states) else None
     model = getattr(res, "model", None)
@@ -90,7 +114,10 @@ def panels(res, names=None):
         out += _chunks("speeds", keep(states[nq:speeds_end]))
         out += _chunks("extra states", keep(states[speeds_end:]))
     frames, plain = {}, []
+    idle = _contact_outputs(untouched(res)) if names is None else set()
     for name in res.outputs:
+        if name in idle:
+            continue
         part = _frame_part(name)
         if part is None:
             plain.append(name)
@@ -120,6 +147,7 @@ def plot_result(res, path=None, names=None):
         matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
     chosen = panels(res, names)
+    left = untouched(res) if names is None else []
     if not chosen:
         raise ValueError(f"{res.model_name}: nothing to plot")
     pages = [chosen[k:k + MAX_PANELS] for k in range(0, len(chosen), MAX_PANELS)]
@@ -138,7 +166,8 @@ def plot_result(res, path=None, names=None):
                       frameon=False)
         axes[-1, 0].set_xlabel("t")
         more = f", page {number} of {len(pages)}" if len(pages) > 1 else ""
-        axes[0, 0].set_title(f"{res.model_name} ({res.method}{more})")
+        idle = f"; {len(left)} contacts that never touched not drawn" if left else ""
+        axes[0, 0].set_title(f"{res.model_name} ({res.method}{more}{idle})")
         figures.append(fig)
     if path is None:
         return figures[0] if len(figures) == 1 else figures

@@ -80,7 +80,7 @@ def _params(model, p, n):
             i, j = bad[0]
             raise ValueError(f"{model.name}: p row {i} has a non-finite {model.param_names[j]} ({rows[i, j]})")
     for i, row in enumerate(rows):
-        check_law_parameters(model, row, where=f" (p row {i})" if len(rows) > 1 else "")
+        check_law_parameters(model, row, where=f"p row {i}" if len(rows) > 1 else "")
     P = np.ascontiguousarray(np.hstack([rows, np.zeros((len(rows), 1))]))
     return P, (0 if len(rows) == 1 else P.shape[1])
 

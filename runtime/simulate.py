@@ -314,8 +314,9 @@ def prepare(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6,
     auto = method == "auto"
     if auto:
         if dt is not None:
-            raise ValueError(f"dt= is only for the fixed-step methods {', '.join(map(repr, FIXED_STEP))}; "
-                             f"the default method 'auto' is adaptive (pass method= one of them with dt)")
+            raise ValueError(f"dt= (--dt) is only for the fixed-step methods {', '.join(map(repr, FIXED_STEP))}; "
+                             f"the default method 'auto' is adaptive: pass one of them with it (method= in "
+                             f"Python, --method on the command line)")
     t0, t1 = _span(t_span)
     rtol, atol = _positive(rtol, "rtol"), _positive(atol, "atol")
     if auto:

@@ -227,7 +227,9 @@ def verdict(model, a, result, gmax, sw):
         over = seen[ncontact:]
         # (a joint that started outside and only came back is warned about at the start)
         past = np.flatnonzero(np.isfinite(over) & (over > LIMIT_OVERSHOOT_WIDTHS * e) & (over > start + e))
+        past, thrown = _thrown(sw, past, over, start, e)
         notes += _overshoot_notes(model, p, sw, past, over, e)
+        notes += _thrown_notes(sw, thrown, over, start, limit_at)
     from .ground_check import below_ground
     notes += below_ground(model, result.t, result.x, p, POINT_PENETRATION, PENETRATION_FRACTION)
     from .pair_check import passed_through
@@ -360,6 +362,38 @@ def _released(model, p, sw, start, e, outputs):
             f"output does not count (start out of contact to keep the energy check strict)")
 
 
+def _thrown(sw, past, over, start, e):
+    """(past, thrown): the limits of ``past`` split by cause.  A joint that started outside its
+    range on one side by s holds the spring energy of s; released, the spring can throw it across
+    the range, and with the same stiffness on both sides no further than s past the other limit:
+    an overshoot o <= s on the other side is the start's doing (gymnasium's ant file starts its
+    ankles 0.524 rad below their lower limits; they go 0.064 past the upper, and 0.058 in MuJoCo's
+    mj_step from the same start), not a too-soft stiffness's.  thrown: (limit, other side's limit)."""
+    kept, thrown = [], []
+    for j in past:
+        joint = sw.limits[j].joint
+        other = [k for k, lim in enumerate(sw.limits) if lim.joint == joint and k != j]
+        k = next((k for k in other if start[k] > e[k] and over[j] <= start[k]), None)
+        if k is None:
+            kept.append(j)
+        else:
+            thrown.append((j, k))
+    return np.asarray(kept, dtype=int), thrown
+
+
+def _thrown_notes(sw, thrown, over, start, limit_at):
+    """One note for the joints a start outside their range threw past the other limit (_thrown)."""
+    if not thrown:
+        return []
+    each = ", ".join(f"joint {sw.limits[j].joint} went {over[j]:.3g} past its {sw.limits[j].side} limit "
+                     f"{limit_at[j]:g} (it started {start[k]:.3g} past its {sw.limits[k].side})" for j, k in thrown)
+    many = len(thrown) > 1
+    return [f"{each}: the start outside the range released {'their' if many else 'its'} limit "
+            f"spring{'s' if many else ''}, which threw {'them' if many else 'it'} across the range "
+            f"(less far than {'they' if many else 'it'} started outside: the start's doing, not the "
+            f"stiffness's; start inside the range to avoid it)"]
+
+
 def _overshoot_notes(model, p, sw, past, over, e):
     """The notes for limits ``past`` (indices into sw.limits) that gave more than they may.
 
@@ -461,24 +495,54 @@ def _indices(sw):
 
 
 def warn_outside_limits(model, x0, p):
-    """A PhysicsWarning naming every joint that starts outside its range (Go2's zero pose has
-    its knees 0.84 rad outside: the limits' springs then fire at once, issue 29)."""
+    """A PhysicsWarning naming every joint that starts outside its range, with its start, the
+    range and what the run does (Go2's zero pose has its knees 0.84 rad outside; gymnasium's ant
+    file starts its ankles 0.52 rad outside: the limits' springs then fire at once, issue 29).
+
+    eomc keeps such a start as given, as MuJoCo does with a file's qpos0 (its limits are soft
+    constraints): the ant's ankles are thrown across their ranges the same way in both (eomc
+    0.064 rad past the other limit, MuJoCo's mj_step 0.058, docs/joint-laws.md).  The overshoot
+    that follows is put down to the start, not to the stiffness (verdict: _thrown_notes)."""
     sw = find_switches(model)
     if not sw.limits:
         return
     x0, p = np.asarray(x0, dtype=float), np.asarray(p, dtype=float)
-    out = []
+    out, first = [], None
     for lim in sw.limits:
         past = lim.sign * (x0[lim.state] - p[lim.param])
         e = float(p[lim.width]) if lim.width >= 0 else 3e-4
         if past > e:
+            lo, hi = _range_of(sw, p, lim.joint)
             out.append(f"{lim.joint} (q_{lim.joint} = {x0[lim.state]:.6g}, {past:.3g} "
-                       f"{'above' if lim.sign > 0 else 'below'} its {lim.side} limit {p[lim.param]:.6g})")
+                       f"{'above' if lim.sign > 0 else 'below'} its {lim.side} limit {p[lim.param]:.6g}) "
+                       f"of range [{lo:.6g}, {hi:.6g}]")
+            if first is None:
+                first = f"q_{lim.joint}={p[lim.param]:.6g}"
     if out:
+        base = getattr(model, "initial_state", None)
+        states = [lim.state for lim in sw.limits]
+        files = (base is not None and "limit_laws" in (model.metadata or {})
+                 and np.array_equal(np.asarray(base, dtype=float)[states], x0[states]))
+        whose = ("the file's start (its qpos0)" if files else "the start")
+        many = len(out) > 1
         warnings.warn(PhysicsWarning(
-            f"{model.name}: the start is outside the range of joint{'s' if len(out) > 1 else ''} "
-            f"{'; '.join(out)}: the limit springs push back at once (give x0 inside the ranges)"),
+            f"{model.name}: {whose} is outside the range of joint{'s' if many else ''} {'; '.join(out)}: "
+            f"{'kept, as MuJoCo keeps it' if files else 'kept as given'}: the limit spring{'s' if many else ''} "
+            f"push{'' if many else 'es'} {'them' if many else 'it'} back at once and may throw "
+            f"{'them' if many else 'it'} across the range (give x0 inside to avoid it, e.g. {first})"),
             stacklevel=_user_level())
+
+
+def _range_of(sw, p, joint):
+    """(lower, upper) limit of joint for parameters p (-inf/inf for a side it has not)."""
+    lo, hi = -np.inf, np.inf
+    for lim in sw.limits:
+        if lim.joint == joint:
+            if lim.sign > 0:
+                hi = float(p[lim.param])
+            else:
+                lo = float(p[lim.param])
+    return lo, hi
 
 
 def moved_start_text(name, moved):

@@ -555,6 +555,10 @@ class _Rewriter:
                     out.append(_SCALAR_FORM[name].format(a=new[0]))
             elif not any(vec):
                 out.append(f"{name}({','.join(new)})")
+            elif name == "eomc_limit_stored" and len(args) == 2:     # printer.CALLED_C's, in lanes: its sum
+                r, e = (f"({a.strip()})" for a in args)
+                out.append(self._calls(f"((1.0/2.0)*({r}*{r}) - 2.0*{e}*{r} + 3.0*({e}*{e})*log(1.0 + {r}/{e})"
+                                       f" + ({e}*{e}*{e})/({e} + {r}) - {e}*{e})"))
             elif name in ("sin", "cos") and len(args) == 1 and args[0].strip() in self.paired and (
                     args[0].strip() in self.sincos or not self.blocks):   # a branch's block would hide sin_k
                 self.used.add("trig")

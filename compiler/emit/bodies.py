@@ -5,7 +5,7 @@ the templates only glue the pieces together.
 """
 import re
 
-from ..ir import c_names, symbols_of
+from ..ir import c_names, needed_assignments, symbols_of
 from . import seed_pairs
 from .printer import CPrinter
 from .split import split_body
@@ -188,17 +188,6 @@ def split_on(program, symbols):
             before.append((target, e))
     return before, after
 
-
-def needed_assignments(assignments, exprs):
-    """The assignments (order kept) that ``exprs`` read, directly or through each other."""
-    defined = {t: e for t, e in assignments}
-    need, stack = set(), [s for e in exprs for s in symbols_of(e)]
-    while stack:
-        s = stack.pop()
-        if s in defined and s not in need:
-            need.add(s)
-            stack.extend(symbols_of(defined[s]))
-    return [(t, e) for t, e in assignments if t in need]
 
 
 def tangent_jacobian_body(ctx, program, W, seeds, ncols, blocks):

@@ -20,7 +20,7 @@ from .formulation import KANE, Formulation
 from .generated import GeneratedModel
 from .layout import check_identifier, make_layout
 from .linsolve import choose_ldlt
-from .printer import MINMAX_C, HalfPow, NonFiniteLiteral, print_memo
+from .printer import CALLED_C, MINMAX_C, HalfPow, NonFiniteLiteral, print_memo
 from .reverse import REVERSE_FUNCTIONS, reverse_body, reverse_nsolve
 from .sparse_lu import sparse_lu_solver
 from .split import (FOLD_MIN, LEAN_MACRO, NEAR_MACRO, NOINLINE_MACRO, PART_LEAN_FUNCTIONS, PART_LEAN_MACRO,
@@ -743,10 +743,11 @@ def _pose_docs(meta):
 
 
 def _minmax_code(helper_code, rendered):
-    """The inline fmax and fmin (printer.MINMAX_C) that some text calls ("" when none: a model
-    without them keeps its C as before)."""
+    """The inline fmax and fmin (printer.MINMAX_C) and the helpers of printer.CALLED_C that some
+    text calls ("" when none: a model without them keeps its C as before; an unused static
+    function is a -Wunused-function warning)."""
     texts = [helper_code] + [t for f in rendered for t in (f["body"], *f["parts"])]
-    return "\n\n".join(code for fn, code in MINMAX_C.items()
+    return "\n\n".join(code for fn, code in {**MINMAX_C, **CALLED_C}.items()
                         if any(re.search(rf"\b{fn}\(", t) for t in texts))
 
 

@@ -30,7 +30,8 @@ import sympy as sm
 from sympy.printing.c import C99CodePrinter
 from sympy.printing.precedence import PRECEDENCE
 
-__all__ = ["CPrinter", "HalfPow", "NonFiniteLiteral", "print_memo", "c_minmax", "MINMAX_C", "MINMAX_NAMES"]
+__all__ = ["CPrinter", "HalfPow", "NonFiniteLiteral", "print_memo", "c_minmax", "MINMAX_C", "MINMAX_NAMES",
+           "CALLED_C"]
 
 # fmax and fmin inline.  Why: on the ant's NAME_implicit (164 sites: joint limits, ctrl clamps,
 # the broad phase) the libm calls were 3.6 % of its time (session 15, report-antfs.md).  Why this
@@ -52,6 +53,17 @@ MINMAX_C = {"eomc_fmax": """static inline double eomc_fmax(double a, double b)
             "eomc_pow0": """static inline double eomc_pow0(double x, double c)
 {
     return x != 0.0 ? pow(x, c) : 0.0;
+}"""}
+
+# Helpers that are not inline (gcc and clang warn of an unused static function: a file defines
+# only those it calls, like MINMAX_C's; generate._minmax_code).  Each has its float twin by the
+# c99-f32 pass (compiler/emit/target._KNOWN_CALLS: double -> float, log -> logf).
+# eomc_limit_stored: a joint limit's stored spring energy past it by r >= 0 with width E
+# (compiler/tree/joint_laws.stored): one function, not its sum per joint and side.  Not inline:
+# NAME_energy calls it 2 nq times (G1 58), once per limit side.
+CALLED_C = {"eomc_limit_stored": """static double eomc_limit_stored(double r, double E)
+{
+    return (1.0/2.0)*(r*r) - 2.0*E*r + 3.0*(E*E)*log(1.0 + r/E) + (E*E*E)/(E + r) - E*E;
 }"""}
 
 

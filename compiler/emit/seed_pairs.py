@@ -30,7 +30,7 @@ from itertools import combinations
 
 import sympy as sm
 
-from ..ir import symbols_of
+from ..ir import needed_assignments, symbols_of
 from ..ir.opcount import count_ops
 
 __all__ = ["seed_pairs", "seed_monomials", "SEED_PAIRS", "SEED_MONOMIALS"]
@@ -247,14 +247,8 @@ def _key(leaves):
 def _program_weight(assignments, exprs):
     """Operations of the assignments ``exprs`` read (directly or through each other) and of
     ``exprs``."""
-    defined = dict(assignments)
-    need, stack = set(), [s for e in exprs for s in symbols_of(e)]
-    while stack:
-        x = stack.pop()
-        if x in defined and x not in need:
-            need.add(x)
-            stack.extend(symbols_of(defined[x]))
-    return sum(_weight(defined[x]) for x in need) + sum(_weight(e) for e in exprs)
+    return (sum(_weight(e) for _, e in needed_assignments(assignments, exprs))
+            + sum(_weight(e) for e in exprs))
 
 
 def _absorb(e, lin, index, seedset, monos):

@@ -23,6 +23,8 @@ from dataclasses import replace
 
 from eomc.runtime.errors import ModelError
 
+from .printer import CALLED_C, MINMAX_C
+
 __all__ = ["TARGETS", "DEFAULT_TARGET", "check_target", "retarget", "to_float_text", "FLT_MAX"]
 
 DEFAULT_TARGET = "c99-f64"
@@ -43,7 +45,8 @@ _CONSTANTS = {"DBL_EPSILON": "FLT_EPSILON", "DBL_MAX": "FLT_MAX", "DBL_MIN": "FL
 # identifiers the generated C may call besides its own NAME_* functions and the map above
 _KNOWN_CALLS = {"isfinite", "defined", "sizeof", "if", "for", "while", "switch", "return", "__attribute__",
                 "noinline", "optimize", "__noinline__",
-                "eomc_fmax", "eomc_fmin", "eomc_pow0"}   # printer.MINMAX_C: its double becomes float like the rest
+                *MINMAX_C, *CALLED_C}   # the printer's helpers: their double becomes float like the rest
+                                        # (eomc_limit_stored's log -> logf): each one's float twin
 
 # the AVX2 twins of the articulated solve's row helpers and their per-call CPU dispatch
 # (compiler/tree/analytic.py AVX2_GUARD): x86 double-precision code chosen by gcc's

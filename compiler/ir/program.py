@@ -20,7 +20,7 @@ from functools import lru_cache
 
 import sympy as sm
 
-__all__ = ["Program", "Names", "IRError", "c_names", "free_inputs", "symbols_of"]
+__all__ = ["Program", "Names", "IRError", "c_names", "free_inputs", "symbols_of", "needed_assignments"]
 
 
 @lru_cache(maxsize=1 << 17)
@@ -32,6 +32,21 @@ def symbols_of(expr):
     emitters): G1's default build spent ~0.1 s of its Python there.  Equal expressions have
     the same free symbols, so the cache is keyed by the expression itself; it is bounded."""
     return frozenset(expr.free_symbols)
+
+
+def needed_assignments(assignments, exprs):
+    """The assignments (order kept) that ``exprs`` read, directly or through each other.
+
+    Why here: the body emitters (what a block of results needs) and the generator's
+    weighing of a rewrite (seed_pairs) both walk a program backwards from some results."""
+    defined = {t: e for t, e in assignments}
+    need, stack = set(), [s for e in exprs for s in symbols_of(e)]
+    while stack:
+        s = stack.pop()
+        if s in defined and s not in need:
+            need.add(s)
+            stack.extend(symbols_of(defined[s]))
+    return [(t, e) for t, e in assignments if t in need]
 
 
 class IRError(ValueError):

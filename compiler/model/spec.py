@@ -263,6 +263,11 @@ def read_model(system, name=None, poses=False):
     if is_mjcf_model(system):   # a MuJoCo model: MuJoCo's compiler, then straight to the tree
         from eomc.compiler.mjcf.model import mjcf_formed, read_model as read_mjcf_model
         path = Path(system.path if isinstance(system, MjcfModel) else system)
+        try:        # MuJoCo's own compiler reads the file (first hour s21: a bare ModuleNotFoundError)
+            import mujoco  # noqa: F401
+        except ImportError:
+            from eomc.runtime.errors import MissingExtraError
+            raise MissingExtraError(f"reading a MuJoCo model ({path})", "mujoco", ["mujoco"]) from None
         return Reading("robot", path, name or sanitize_name(path.stem), model=read_mjcf_model(system, poses),
                        formed_by=lambda model, form, overrides: (*mjcf_formed(model, overrides), None))
     if isinstance(system, (str, Path)):

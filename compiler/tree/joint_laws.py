@@ -195,11 +195,45 @@ def limit_spring(d, e):
 
 
 
-def _stored(r, E):
+def _stored_sum(r, E):
     """∫₀^r s(d) dd of :func:`limit_spring` with width E: with t = d + E, d³/t² = t - 3E + 3E²/t
     - E³/t², so r²/2 - 2Er + 3E² ln(1 + r/E) + E³/(r + E) - E² (0 at r = 0, r²/2 - 2Er + O(ln r)
     far past the limit: the linear spring's k(d - 2E) stores k(r²/2 - 2Er))."""
     return r ** 2 / 2 - 2 * E * r + 3 * E ** 2 * sm.log(1 + r / E) + E ** 3 / (r + E) - E ** 2
+
+
+class stored(sm.Function):
+    """stored(r, E): :func:`_stored_sum` as one call, printed ``eomc_limit_stored(r, E)`` (the C
+    the generated file defines once where it is called, compiler/emit/printer.CALLED_C; its
+    float twin is the c99-f32 pass's).  Why: spelled out per
+    joint and side, the limits' springs were 17 kB of NAME_energy's 67 kB of C on G1 and 26 of
+    94 kB on Talos, which the build lowered, printed and compiled joint by joint: as calls, G1's
+    default build took 6.2 -> 5.7-5.9 s CPU and Talos' 7.1-7.5 -> 6.8-7.2 s, and NAME_energy ran as
+    fast or faster (session 20, benchmarks/results/derivative_build.md).  Values: the same to
+    4e-16 relative (the C's order of the sum)."""
+    nargs = 2
+    is_real = True
+
+    def fdiff(self, argindex=1):
+        r, E = self.args
+        return sm.diff(_stored_sum(r, E), (r, E)[argindex - 1])
+
+    def _eval_evalf(self, prec):
+        return _stored_sum(*self.args).evalf(prec)
+
+    def _ccode(self, printer):
+        return f"eomc_limit_stored({printer._print(self.args[0])}, {printer._print(self.args[1])})"
+
+    def _numpycode(self, printer):
+        return printer._print(_stored_sum(*self.args))
+
+    def _pythoncode(self, printer):
+        return printer._print(_stored_sum(*self.args))
+
+
+def _stored(r, E):
+    """The stored energy of one side of a limit past it by ``r`` (:class:`stored`)."""
+    return stored(r, E)
 
 
 def limit_energy(q, law, params, name, inertia):

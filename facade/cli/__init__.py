@@ -57,6 +57,13 @@ def command_parser(name):
     return module, sub
 
 
+# optional packages -> (what needs them, the extra that installs them): pyproject.toml's extras
+_EXTRAS = {"mujoco": ("reading a MuJoCo model", "mujoco"), "matplotlib": ("drawing a plot", "plot"),
+           "trimesh": ("drawing a robot's meshes", "mesh"), "collada": ("drawing a robot's meshes", "mesh"),
+           "imageio_ffmpeg": ("writing an MP4", "video"), "dask": ("a Dask sweep", "dask"),
+           "distributed": ("a Dask sweep", "dask"), "pyarrow": ("a .parquet table", "dask")}
+
+
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else list(argv)
     parser = _parser()
@@ -84,6 +91,16 @@ def main(argv=None):
     except ValueError as exc:  # bad arguments caught by the runtime's checks
         print(f"eomc {name}: error: {exc}", file=sys.stderr)
         return 2
+    except ModuleNotFoundError as exc:    # an optional package the run needs (README's extras table)
+        extra = _EXTRAS.get((exc.name or "").partition(".")[0])
+        if extra is None:
+            raise
+        what, key = extra
+        model = getattr(args, "model", None)
+        print(f"eomc {name}: error: {what}{f' ({model})' if model else ''} needs the {exc.name.partition('.')[0]} "
+              f"package, which is not installed: pip install \"eomc[{key}]\" (from a clone of eomc: "
+              f"pip install \".[{key}]\")", file=sys.stderr)
+        return 1
     except BrokenPipeError:  # `eomc ... | head` closed the pipe: not an error worth a traceback
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 141

@@ -1,4 +1,4 @@
-"""``eomc build MODEL.py -o DIR``: write NAME.c, NAME.h, libNAME.so, NAME.json and NAME.py into DIR.
+"""``eomc build MODEL.py [-o DIR]``: write NAME.c, NAME.h, libNAME.so, NAME.json and NAME.py into DIR.
 
 Everything is built in the cache first and then copied into DIR through a
 temporary directory, so a failed build leaves DIR as it was.  A file in DIR
@@ -27,7 +27,8 @@ def add_generate_options(parser):
 
 def configure(parser):
     add_generate_options(parser)
-    parser.add_argument("-o", "--output", required=True, metavar="DIR", help="directory to write into")
+    parser.add_argument("-o", "--output", metavar="DIR", help="directory to write into (default: ./NAME, the "
+                                                               "model's --name or its file's stem)")
     parser.add_argument("--target", choices=("c99-f64", "c99-f32"), default="c99-f64",
                         help="generated C: c99-f64 (default; double, loads into Python) or c99-f32 "
                              "(float for microcontrollers: sinf/sqrtf only, no heap, a stack bound per "
@@ -58,6 +59,9 @@ def run(args):
                                 allow_nonphysical_inertia=args.allow_nonphysical_inertia,
                                 limits=args.limits != "off", ignore=args.ignore,
                                 orientation=getattr(args, "orientation", None), pairs=getattr(args, "pairs", None))
+    if args.output is None:
+        from pathlib import Path
+        args.output = Path(args.name or Path(args.model).stem)
     model = compile(source, name, functions=args.outputs, fold_parameters=args.fold_parameters,
                     backend=args.backend, cflags=args.cflags, cache_dir=args.cache_dir, portable=args.portable,
                     output_dir=args.output, progress="quiet" if args.quiet else True, formulation=args.formulation,

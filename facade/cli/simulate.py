@@ -1,4 +1,4 @@
-"""``eomc simulate MODEL --t-final T -o traj.csv [--plot traj.png]``: integrate and write a CSV.
+"""``eomc simulate MODEL [--t-final T] -o traj.csv [--plot traj.png]``: integrate and write a CSV.
 
 MODEL is a model file (``.py``: compiled first through eomc.compiler.driver,
 imported only then, so simulating a built model never imports SymPy) or a
@@ -13,7 +13,7 @@ __all__ = ["configure", "run"]
 
 def configure(parser):
     cli_common.add_model_arguments(parser)
-    parser.add_argument("--t-final", type=float, required=True, metavar="T", help="end time")
+    parser.add_argument("--t-final", type=float, default=10.0, metavar="T", help="end time (as check and animate)")
     parser.add_argument("--t0", type=float, default=0.0, help="start time")
     parser.add_argument("-o", "--output", metavar="CSV", help="trajectory CSV to write")
     parser.add_argument("--plot", metavar="PNG", help="also draw the states and outputs to this PNG "
@@ -175,6 +175,11 @@ def run(args):
     from eomc.runtime.simulate import simulate
     cli_common.writable_file(args.output, "-o")
     cli_common.writable_file(args.plot, "--plot")
+    if args.plot:       # before the build and the run, not after them
+        import importlib.util
+        if importlib.util.find_spec("matplotlib") is None:
+            from eomc.runtime.errors import MissingExtraError
+            raise MissingExtraError("--plot", "plot", ["matplotlib"])
     model = cli_common.load_model(args.model, args.quiet, **cli_common.model_options(args),
                                   **cli_common.read_checks(args))   # --param, from the one reading
     given = cli_common.parse_assignments(args.x0, "x0")
@@ -215,8 +220,13 @@ def run(args):
     s = res.stats
     print(f"{model.name}: {res.method} t=[{args.t0:g}, {args.t_final:g}]: {s['steps']} steps "
           f"({s['rejected']} rejected), {s['nfev']} rhs, {s['njev']} jacobian, {s['nlu']} LU")
+    if len(res.t) > 1 and not (res.x != res.x[0]).any():
+        # first hour s21: SymPy's rolling disc (and dm_control's cartpole, acrobot) start at rest
+        # on an equilibrium and stay there, which reads as if the run did nothing
+        print(f"  nothing moved: the start is an equilibrium (every state stayed at its start value); "
+              f"give --x0 to start elsewhere, e.g. --x0 {model.state_names[0]}=0.1")
     frames = getattr(model, "frame_names", ())
-    grouped = _contact_summary(model, res.outputs)
+    grouped = _contact_summary(model, res.outputs, res.t)
     for name, values in res.outputs.items():
         if name.partition(".")[0] in frames or name in grouped:  # frames: a line each, below
             continue
@@ -253,17 +263,35 @@ def run(args):
     if args.output:
         print(f"wrote {res.to_csv(args.output)}")
     if args.plot:
+        if res.model is None:       # as Model.simulate sets it: the plot knows the contacts
+            res.model = model
         written = res.plot(args.plot, names=plot_names(args.plot_states))
         for path in (written if isinstance(written, list) else [written]):
             print(f"wrote {path}")
+        if args.plot_states is None:
+            from eomc.runtime.plotting import untouched
+            idle = untouched(res)
+            if idle:
+                print(f"  --plot: {len(idle)} contact{'s' if len(idle) > 1 else ''} never touched "
+                      f"({', '.join(idle[:3])}{', ...' if len(idle) > 3 else ''}): {'their' if len(idle) > 1 else 'its'}"
+                      f" outputs (all 0 but depth_) are not drawn; --plot-states names what to draw")
     return 0
+
+
+def _when(outputs, kind, name, t):
+    """' at t = ...' of the row where output kind_name is largest ('' without the times)."""
+    import numpy as np
+    values = np.asarray(outputs[f"{kind}_{name}"])
+    if t is None or not len(t) or not values.max() > 0:      # never touched: no time worth a word
+        return ""
+    return f" at t = {float(t[int(np.argmax(values))]):.6g}"
 
 
 CONTACT_LINES = 4   # more contacts than this: their outputs in a few lines, not five lines each
 _CONTACT_KINDS = ("Fn", "Ftx", "Fty", "Ftz", "depth")
 
 
-def _contact_summary(model, outputs):
+def _contact_summary(model, outputs, t=None):
     """Output name -> True for the contact outputs summarised instead of listed (a URDF robot's
     --ground gives 32 points per mesh: Go2 608, 3,040 lines; gymnasium's humanoid 109 self-pairs,
     each with its point px_/py_/pz_), and under "" the summary lines."""
@@ -284,6 +312,7 @@ def _contact_summary(model, outputs):
         f"  contacts: {len(names)} points (Fn_, Ftx_, Fty_, Ftz_, depth_<point>"
         f"{f'; px_, py_, pz_ of {len(pairs)} pairs' if pairs else ''} in the CSV), "
         f"{sum(f > 0 for f in force.values())} touched, {len(touching)} touching at the end",
-        f"  contacts: largest normal force Fn_{strongest} = {force[strongest]:.6g}, "
-        f"deepest depth_{deepest} = {depth[deepest]:.6g} (maxima over the run)"]
+        f"  contacts: largest normal force Fn_{strongest} = {force[strongest]:.6g}{_when(outputs, 'Fn', strongest, t)}, "
+        f"deepest depth_{deepest} = {depth[deepest]:.6g}{_when(outputs, 'depth', deepest, t)} (maxima over the run"
+        f"{'' if t is None else chr(39) + 's rows'}; a touch-down's peak is short: docs/contact.md)"]
     return grouped

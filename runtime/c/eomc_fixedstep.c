@@ -1258,6 +1258,43 @@ static int fs_switched(const fs_fast *q)
     return kind;
 }
 
+/* The grid cell (units of h / MAX_SPLIT from the step's start) in which a failed try [pos, pos + size)
+ * touches down, or -1.  Only for a try whose regime changes are touch-downs from out of touch (a
+ * contact's depth < 0 at T, > 0 at T1); the onset is where the gap, linear between the try's ends,
+ * crosses 0 (the try is the free flight of that point: no force of it in the step), the earliest
+ * over such contacts. */
+static int fs_onset_cell(const fs_fast *q, int pos, int size, double h)
+{
+    double theta = INFINITY;
+    int cell;
+    if (fs_switched(q) != FS_TOUCHDOWN) return -1;
+    for (int c = 0; c < q->ops->imp->ncontact; c++) {
+        const double *e0 = q->T + q->L.contact + 25 * (size_t)c, *e1 = q->T1 + q->L.contact + 25 * (size_t)c;
+        double a = e0[0], b = e1[0], th;
+        if (a > 0.0 || !(b > 0.0)) continue;
+        if (a < 0.0) {
+            th = a / (a - b);
+        } else {                                /* no gap known (a pair the broad phase skipped): the end's rate */
+            const double *K = e1 + 7, *vp = e1 + 4;
+            double big = 0.0, kv = 0.0;
+            int r = -1;
+            if (q->ops->imp->terms_whole) q->ops->imp->terms_whole(q->T1);   /* the lanes: vp, K not yet copied */
+            for (int i = 0; i < 3; i++) {
+                double s2 = K[3 * i] * K[3 * i] + K[3 * i + 1] * K[3 * i + 1] + K[3 * i + 2] * K[3 * i + 2];
+                if (s2 > big) { big = s2; r = i; }
+            }
+            if (r < 0 || !isfinite(big)) return -1;
+            kv = fabs(K[3 * r] * vp[0] + K[3 * r + 1] * vp[1] + K[3 * r + 2] * vp[2]) / sqrt(big);
+            th = kv > 0.0 ? 1.0 - b / (kv * h) : 0.0;
+            if (!(th > 0.0)) th = 0.0;
+        }
+        if (th < theta) theta = th;
+    }
+    if (!(theta >= 0.0 && theta < 1.0)) return -1;
+    cell = pos + (int)(theta * size);
+    return cell < pos + size ? cell : pos + size - 1;
+}
+
 /* fs_loop's step for the fast path: one step (2), or, with eomc_implicit.split > 0 and
  * where the step's residual ratio (fs_fast_try) is above it, 2, 4 ... MAX_SPLIT equal
  * sub-steps (as fs_advance does for the W-method).  A sub-step is split further only while
@@ -1367,7 +1404,25 @@ static int fs_switched(const fs_fast *q)
  * stats->rejected (simulate warns); a step with no finite sub-step at all fails.  After
  * each kept step the contacts' depths are checked against eomc_implicit.depth_limit: the
  * first contact found deeper is remembered and the run fails at the next step with
- * EOMC_PENETRATED (the state is written first, so the failure shows where). */
+ * EOMC_PENETRATED (the state is written first, so the failure shows where).
+ *
+ * Session 21 (benchmarks/results/fixedstep.md's notes): a try that fails with contacts touching down
+ * from out of touch and no other regime change (fs_switched FS_TOUCHDOWN) is no longer halved down
+ * to its onset: fs_onset_cell finds the cell of h / MAX_SPLIT where the earliest such contact's gap
+ * crosses 0 (linear between the try's ends: the try is that point's free flight), the next try is
+ * the part before that cell (any number of cells; it stands for the whole step, so the stick/slip
+ * rule FRICTION_FACTOR applies to it as to a whole step), then the onset cell itself (size 1: the
+ * same smallest cell as the bisection's, taken uncounted as before), then the walk back up the
+ * halving grid.  Every try is checked as before; a try before the cell that fails is split (or
+ * located again) as any.  Measured (bench_rollout_contacts' 64 starts, 1 s, simulate's calls):
+ * humanoid 35865 -> 33692 (-6.1 %), ant 11848 -> 11570, walker2d 65194 -> 64733, hopper 34245 ->
+ * 34037; no new status 20 (rollout, lanes rollout, restarts from each row's t = 0.3 s state);
+ * error against Radau 1e-9 over 16 starts, median / mean: humanoid 0.083 / 0.104 -> 0.083 / 0.098,
+ * walker2d 0.079 / 0.271 -> 0.060 / 0.208, ant 0.503 / 0.500 -> 0.497 / 0.489.  Tried with it and
+ * dropped: the rest of the step at once after the onset cell (humanoid 64 starts 33200 calls, but
+ * 3 rows status 20, walker2d 2) and a walk up by doubling off the grid (humanoid 32857-33325, one
+ * lanes row status 20).  A limit's onset is not located: the terms hold its slopes, not its distance
+ * to the bound. */
 static int fs_fast_advance(void *self, double t, double h, const double *x, double **x1, double **f1,
                            const double **e1)
 {
@@ -1385,6 +1440,8 @@ static int fs_fast_advance(void *self, double t, double h, const double *x, doub
     }
     double before = INFINITY;          /* the ratio of the twice longer try from here */
     int hard_end = 0;                  /* where the last try split past HARD_FACTOR ended (grid units) */
+    int onset = -1;                    /* a located touch-down's cell: the next take ends at it */
+    int located = 0;                   /* this try ends at a located onset (it stands for the whole step) */
     while (pos < MAX_SPLIT) {
         double ts = t + h * pos / MAX_SPLIT, hs = size == MAX_SPLIT ? h : h * size / MAX_SPLIT, ratio;
         if (q->hA != hs || (q->A == q->bare && !fs_ahead(q, hs))) {
@@ -1402,8 +1459,10 @@ static int fs_fast_advance(void *self, double t, double h, const double *x, doub
         /* a whole step that misses by a little with no contact or joint law changing regime
          * inside it: the friction of a stance switching between stick and slip, which
          * halving does not mend (see fs_switched) */
-        if (size == MAX_SPLIT && !s && ratio > split && ratio <= FRICTION_FACTOR * split && !fs_switched(q))
+        if ((size == MAX_SPLIT || located) && !s && ratio > split
+            && ratio <= FRICTION_FACTOR * split && !fs_switched(q))
             goto take;
+        located = 0;
         /* split while the test fails and splitting helps: a linearisation error shrinks with
          * the step (the ratio falls at least by half per halving); one that does not (a
          * regularised friction law switching between stick and slip, where its slope jumps
@@ -1411,6 +1470,16 @@ static int fs_fast_advance(void *self, double t, double h, const double *x, doub
         if ((s || (ratio > split && (ratio > HARD_FACTOR * split || !(ratio > 0.5 * before)))) && size > 1) {
             if (s || (ratio > HARD_FACTOR * split && fs_switched(q) == FS_OTHER)) hard_end = pos + size;
             before = s ? INFINITY : ratio;
+            if (!s) {
+                int cell = fs_onset_cell(q, pos, size, hs);
+                if (cell >= 0) {
+                    onset = cell;
+                    located = cell > pos;
+                    size = cell > pos ? cell - pos : 1;
+                    before = INFINITY;
+                    continue;
+                }
+            }
             size /= 2;
             continue;
         }
@@ -1440,7 +1509,17 @@ static int fs_fast_advance(void *self, double t, double h, const double *x, doub
         if (pos < MAX_SPLIT) {                  /* a sub-step ended inside the step */
             memcpy(q->xs, q->x1, (size_t)n * sizeof(double));
             xs = q->xs;
-            if (pos % (2 * size) == 0) size *= 2;
+            if (pos == onset) {                 /* the located onset cell next */
+                size = 1;
+            } else if ((size & (size - 1)) == 0 && pos % size == 0) {
+                if (pos % (2 * size) == 0) size *= 2;
+            } else {                            /* back on the halving grid */
+                int p = 1;
+                while (pos % (2 * p) == 0 && 2 * p <= size) p *= 2;
+                size = p;
+            }
+            if (pos > onset) onset = -1;
+            if (size > MAX_SPLIT - pos) size = MAX_SPLIT - pos;
             while (quiet && size > 1 && pos + size >= hard_end) size /= 2;
         }
     }

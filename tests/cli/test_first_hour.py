@@ -60,6 +60,12 @@ def test_rk4_without_dt_names_the_cli_flag(pendulum, capsys):
     assert "--dt on the command line" in capsys.readouterr().err
 
 
+def test_dt_without_a_fixed_step_method_names_the_cli_flag(pendulum, capsys):
+    # first hour s21: `eomc simulate model --dt 0.1` answered "(pass method= one of them with dt)"
+    assert main(["simulate", "pend", "--t-final", "1", "--dt", "0.1"]) == 2
+    assert "pass one of them with it (method= in Python, --method on the command line)" in capsys.readouterr().err
+
+
 def test_show_lists_parameters_in_p_order_and_no_lambda_without_multipliers(tmp_path, capsys):
     text = model_files.PENDULUM.replace("parameters = {m: 2.0, l: 0.5, g: 9.81}",
                                         "parameters = {m: 2.0, l: 0.5, g: 9.81}  # not alphabetical")
@@ -218,9 +224,17 @@ def test_many_contacts_are_summarised_not_listed_five_lines_each(tmp_path, capsy
     assert "contacts: 6 points (Fn_, Ftx_, Fty_, Ftz_, depth_<point> in the CSV), 6 touched, " \
            "6 touching at the end" in out
     assert "contacts: largest normal force Fn_foot0 = " in out and "deepest depth_foot0 = " in out
+    # s21: when (the gym humanoid's 35 kN row is its touch-down, docs/contact.md)
+    assert re.search(r"largest normal force Fn_foot0 = [0-9.e+]+ at t = 0\.1[0-9]*, deepest depth_foot0 = "
+                     r"[0-9.e+-]+ at t = 0\.[0-9]+ \(maxima over the run's rows", out), out
     assert "  event contact_foot0:" not in out
     assert re.search(r"contact events: \d+ at 6 points, the first contact_foot0 at t = 0\.1", out)
     assert "Fn_foot5" in (tmp_path / "t.csv").read_text().splitlines()[0]     # all still in the CSV
+    # before the touch-down (0.1 s) nothing touched: no time for a force that stayed 0
+    assert main(["simulate", str(model), "--t-final", "0.05", "-q"]) == 0
+    out = capsys.readouterr().out
+    assert "contacts: largest normal force Fn_foot0 = 0, deepest depth_foot0 = -0." in out, out
+    assert " at t = " not in out
 
 
 _BALLS = """<mujoco model="balls">
@@ -243,3 +257,95 @@ def test_mjcf_pairs_points_are_summarised_with_the_contacts(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "px_ga__gb: start" not in out and "Fn_ga: start" not in out
     assert "contacts: 6 points (Fn_, Ftx_, Fty_, Ftz_, depth_<point>; px_, py_, pz_ of 3 pairs in the CSV)" in out
+
+
+def test_simulate_and_build_run_with_no_flags(tmp_path, monkeypatch, capsys):
+    # first hour s21: `eomc simulate model` stopped at "the following arguments are required:
+    # --t-final" and `eomc build model` at "-o/--output"; check and animate already ran 10 s
+    model = model_files.write(tmp_path, model_files.PENDULUM, "pend")
+    monkeypatch.chdir(tmp_path)
+    assert main(["simulate", str(model), "-q"]) == 0
+    assert re.search(r"^pend: \S+ t=\[0, 10\]: ", capsys.readouterr().out, re.M)
+    assert main(["build", str(model), "-q"]) == 0
+    assert f"in {tmp_path / 'pend'}:" in capsys.readouterr().out
+    assert (tmp_path / "pend" / "pend.h").is_file() and (tmp_path / "pend" / "pend.json").is_file()
+
+
+def test_a_missing_optional_package_names_the_extra_not_a_traceback(tmp_path, monkeypatch, capsys):
+    # first hour s21: `eomc simulate cheetah.xml` after `pip install ".[plot]"` (README's quick
+    # start) ended in a 20-line traceback "ModuleNotFoundError: No module named 'mujoco'"
+    import sys
+    model = tmp_path / "balls.xml"
+    model.write_text(_BALLS)
+    monkeypatch.setenv("EOMC_CACHE_DIR", str(tmp_path / "cache"))     # not the build of the test above
+    monkeypatch.setitem(sys.modules, "mujoco", None)     # import mujoco -> ModuleNotFoundError
+    assert main(["simulate", str(model), "--t-final", "0.1"]) == 1
+    err = capsys.readouterr().err
+    assert err.strip().splitlines()[-1] == (
+        f"eomc simulate: error: reading a MuJoCo model ({model}) needs mujoco, which is not "
+        f"installed: pip install \"eomc[mujoco]\" (from a clone of eomc: pip install \".[mujoco]\")")
+    assert "Traceback" not in err
+    # and from Python (the same sentence, an ImportError)
+    from eomc.errors import MissingExtraError
+    with pytest.raises(MissingExtraError, match=r"reading a MuJoCo model \(.*balls\.xml\) needs mujoco"):
+        eomc.compile(model, progress=False)
+    # --plot without matplotlib: said before building and simulating, not after
+    monkeypatch.setitem(sys.modules, "matplotlib", None)
+    monkeypatch.setattr(cli_common, "load_model", lambda *a, **k: pytest.fail("built before the check"))
+    assert main(["simulate", "pend.py", "--t-final", "0.1", "-q", "--plot", str(tmp_path / "p.png")]) == 1
+    assert capsys.readouterr().err.strip().splitlines()[-1] == (
+        "eomc simulate: error: --plot needs matplotlib, which is not installed: pip install \"eomc[plot]\" "
+        "(from a clone of eomc: pip install \".[plot]\")")
+
+
+# A block on one low foot; two high points (a head, a hand) never touch the ground.
+_HIGH_AND_LOW = _SIX_FEET.replace(
+    'feet = [eomc.contact.ground(G, None, world=(N, O), name=f"foot{i}") for i in range(6)]',
+    'feet = [eomc.contact.ground(G, None, world=(N, O), name="foot")] + [eomc.contact.ground('
+    'G.locatenew(f"P{i}", (i + 1) * N.z), None, world=(N, O), name=f"head{i}") for i in range(2)]')
+
+
+def test_plot_leaves_out_contacts_that_never_touched_and_says_so(tmp_path, capsys):
+    # first hour s20 (L6): gymnasium's ant touched with 4 of its 25 contacts and --plot drew
+    # 4 pages, most of them flat zeros of the other 21
+    pytest.importorskip("matplotlib")
+    from eomc.runtime.plotting import panels
+    model = model_files.write(tmp_path, _HIGH_AND_LOW, "high_low")
+    assert main(["simulate", str(model), "--t-final", "0.3", "-q", "--plot", str(tmp_path / "p.png"),
+                 "-o", str(tmp_path / "t.csv")]) == 0
+    out = capsys.readouterr().out
+    assert ("  --plot: 2 contacts never touched (head0, head1): their outputs (all 0 but depth_) are not "
+            "drawn; --plot-states names what to draw") in out
+    assert "Fn_head1" in (tmp_path / "t.csv").read_text().splitlines()[0]     # still in the CSV
+    built = eomc.compile(model, progress=False)
+    res = built.simulate(built.initial_state, (0, 0.3))
+    drawn = {n for _, group in panels(res) for n in group}
+    assert {"Fn_foot", "depth_foot"} <= drawn
+    assert not drawn & {f"{k}_head{i}" for k in ("Fn", "Ftx", "Fty", "Ftz", "depth") for i in range(2)}
+    # named, they are drawn
+    assert "Fn_head0" in {n for _, group in panels(res, ["Fn_head0", "z"]) for n in group}
+
+
+def test_a_run_that_stays_at_an_equilibrium_says_so(tmp_path, capsys):
+    # first hour s21: SymPy's rolling-disc example starts at rest upright and `eomc simulate`
+    # printed "8 steps" and nothing else: was anything simulated?
+    model = model_files.write(tmp_path, model_files.PENDULUM, "pend")
+    assert main(["simulate", str(model), "--t-final", "1", "-q", "--param", "g=0"]) == 0     # at rest, no gravity
+    assert ("  nothing moved: the start is an equilibrium (every state stayed at its start value); give --x0 to "
+            "start elsewhere, e.g. --x0 q=0.1") in capsys.readouterr().out
+    assert main(["simulate", str(model), "--t-final", "1", "-q"]) == 0
+    assert "nothing moved" not in capsys.readouterr().out
+
+
+def test_check_says_its_runs_gave_physics_warnings(tmp_path, capsys):
+    # first hour s21: `eomc check manipulator.xml` warned that two bodies passed into each other,
+    # and romeo.urdf that wrists went past their limits, then printed "10 of 10 checks passed"
+    model = model_files.write(tmp_path, _SIX_FEET, "six_feet")
+    soft = [f"k_foot{i}=30" for i in range(6)]       # the block sinks through its soft contacts
+    from eomc.runtime.switching import PhysicsWarning
+    with pytest.warns(PhysicsWarning, match="contact foot0 penetrated"):     # still shown, as before
+        assert main(["check", str(model), "--t-final", "0.3", "-q", "--methods", "radau", "--param", *soft]) == 0
+    assert ("eomc check: the runs gave 1 physics warning (on stderr: limits, contacts, energy): the checks above "
+            "judge the integration, not the model's laws") in capsys.readouterr().out
+    assert main(["check", str(model), "--t-final", "0.3", "-q", "--methods", "radau"]) == 0
+    assert "physics warning" not in capsys.readouterr().out

@@ -1,5 +1,5 @@
 """Mesh files are read only with the ``mesh`` extra (trimesh, pycollada for DAE); without it,
-drawing a model that has meshes stops with one line naming the extra, and nothing else in
+a model's meshes are drawn as boxes with one warning naming the extra, and nothing else in
 the base install needs it."""
 import sys
 
@@ -7,7 +7,7 @@ import pytest
 
 from eomc.cli import main
 from eomc.errors import EomcError
-from eomc.runtime.errors import MissingExtraError
+from eomc.runtime.errors import EomcWarning, MissingExtraError
 from eomc.runtime.geometry import pack_shapes, shape
 
 ARM = """<?xml version="1.0"?>
@@ -29,21 +29,28 @@ def _without(monkeypatch, *modules):
         monkeypatch.setitem(sys.modules, m, None)    # importlib.util.find_spec then says: absent
 
 
-def test_meshes_without_trimesh_name_the_mesh_extra(monkeypatch):
+def test_meshes_without_trimesh_are_boxes_with_one_warning_naming_the_mesh_extra(monkeypatch):
+    """first hour s21 L1: without the extra this was a MissingExtraError, so `eomc animate robot.urdf`
+    failed on every mesh robot after the README's `.[plot]` install; now the meshes are boxes (as a
+    missing mesh file is) and one warning carries the same text."""
     _without(monkeypatch, "trimesh")
-    geometry = {"arm": [shape("mesh", path="/robot/meshes/forearm.stl")], "hand": [shape("box", (1, 1, 1))]}
-    with pytest.raises(MissingExtraError) as err:
-        pack_shapes(geometry)
-    assert isinstance(err.value, EomcError) and err.value.extra == "mesh"
-    assert str(err.value) == ("drawing this model's meshes (1 file, e.g. forearm.stl) needs trimesh, which is "
-                              "not installed: pip install \"eomc[mesh]\" (from a clone of eomc: "
-                              "pip install \".[mesh]\")")
+    geometry = {"arm": [shape("mesh", path="/robot/meshes/forearm.stl"), shape("mesh", path="/robot/meshes/hand.stl")],
+                "hand": [shape("box", (1, 1, 1))]}
+    with pytest.warns(EomcWarning) as caught:
+        out, meshes = pack_shapes(geometry)
+    texts = [str(w.message) for w in caught]
+    assert texts == ["drawing this model's meshes (2 files, e.g. forearm.stl) needs trimesh, which is "
+                     "not installed: pip install \"eomc[mesh]\" (from a clone of eomc: "
+                     "pip install \".[mesh]\"); drawn as boxes meanwhile"], texts
+    assert meshes == [] and [s["kind"] for s in out["arm"]] == ["box", "box"]
+    assert out["hand"] == geometry["hand"]
 
 
 def test_dae_meshes_need_pycollada_too(monkeypatch):
     _without(monkeypatch, "collada")
-    with pytest.raises(MissingExtraError, match=r"needs pycollada, which is not installed.*\.\[mesh\]"):
-        pack_shapes({"arm": [shape("mesh", path="/r/a.dae"), shape("mesh", path="/r/b.stl")]})
+    with pytest.warns(EomcWarning, match=r"needs pycollada, which is not installed.*\.\[mesh\]\"\); drawn as boxes"):
+        out, meshes = pack_shapes({"arm": [shape("mesh", path="/r/a.dae"), shape("mesh", path="/r/b.stl")]})
+    assert meshes == [] and [s["kind"] for s in out["arm"]] == ["box", "box"]
 
 
 def test_shapes_without_meshes_need_no_extra(monkeypatch):
@@ -52,16 +59,19 @@ def test_shapes_without_meshes_need_no_extra(monkeypatch):
     assert meshes == [] and [s["kind"] for s in out["arm"]] == ["box", "sphere"]
 
 
-def test_animate_a_robot_with_meshes_without_the_extra_is_one_error_line(tmp_path, monkeypatch, capsys):
+def test_animate_a_robot_with_meshes_without_the_extra_draws_boxes_with_one_warning(tmp_path, monkeypatch, capsys):
     urdf = tmp_path / "arm.urdf"
     urdf.write_text(ARM)
     _without(monkeypatch, "trimesh")
-    assert main(["animate", str(urdf), "--t-final", "0.1", "-o", str(tmp_path / "arm.html")]) == 1
+    with pytest.warns(EomcWarning) as caught:     # the CLI prints these as "eomc animate: warning: ..."
+        assert main(["animate", str(urdf), "--t-final", "0.1", "-o", str(tmp_path / "arm.html")]) == 0
+    mesh = [str(w.message) for w in caught if "mesh" in str(w.message)]
+    assert mesh == ["drawing this model's meshes (1 file, e.g. forearm.dae) needs trimesh, "
+                    "which is not installed: pip install \"eomc[mesh]\" (from a clone of eomc: "
+                    "pip install \".[mesh]\"); drawn as boxes meanwhile"], mesh
     err = capsys.readouterr().err.strip().splitlines()
-    assert err[-1].startswith("eomc animate: error: drawing this model's meshes (1 file, e.g. forearm.dae) "
-                              "needs trimesh"), err
-    assert err[-1].endswith('pip install ".[mesh]")'), err
     assert not any("Traceback" in line for line in err)
+    assert (tmp_path / "arm.html").stat().st_size > 0
 
 
 def test_the_cython_backend_without_cython_names_its_extra(monkeypatch):

@@ -2,6 +2,7 @@
 simulate(p=...), simulate_many and sweep rows refuse what the builder refuses, naming the
 parameter, instead of running with status 0 (mu = -1 gained 1440 J) or ending in an
 unnamed non-finite value (limit_e = 0)."""
+import re
 import sys
 import warnings
 from pathlib import Path
@@ -119,3 +120,53 @@ def test_a_changed_parameter_after_cached_runs_is_still_checked(stop):
     with pytest.warns(PhysicsWarning, match=r"joint elbow went .* past its upper limit 0\.5.*your limit "
                                             r"stiffness limit_k_elbow = [0-9.e+]+ \(the default is"):
         stop.simulate({"q_elbow": 0.0}, (0, 1.0), p={"limit_k_elbow": k}, method="dop853")
+
+
+EXAMPLES = Path(__file__).parents[2] / "examples"
+
+
+@pytest.fixture(scope="module")
+def pendulum(tmp_path_factory):
+    return eomc.compile(EXAMPLES / "double_pendulum.py", cache_dir=tmp_path_factory.mktemp("pend"), progress=False)
+
+
+@pytest.fixture(scope="module")
+def top(tmp_path_factory):
+    return eomc.compile(EXAMPLES / "heavy_top.py", cache_dir=tmp_path_factory.mktemp("top"), progress=False)
+
+
+def test_a_sympy_bodys_mass_parameter_is_refused_naming_it_and_the_body(pendulum, tmp_path, capsys):
+    """first hour s21 L3: --param m1=-1 on the double pendulum ended at t = 0 in "the mass matrix is
+    singular ... a body with no mass", naming no parameter.  The build records which parameter is
+    whose mass (NAME.json body_parameters); simulate, rollout rows and sweep rows refuse it by name."""
+    assert {"body": "Bob1", "mass": [1.0, [["m1", 1.0]]]} in pendulum.metadata["body_parameters"]
+    says = r"parameter m1 = -1 gives body Bob1 the mass -1: a body's mass must be > 0"
+    with pytest.raises(ValueError, match=says):
+        pendulum.simulate(None, (0, 1), p={"m1": -1.0})
+    with pytest.raises(ValueError, match=r"parameter m2 = 0 \(p row 2\) gives body Bob2 the mass 0"):
+        P = np.tile(pendulum.param_defaults, (3, 1))
+        P[2, 1] = 0.0
+        eomc.rollout(pendulum, np.tile(pendulum.initial_state, (3, 1)), dt=0.01, steps=2, p=P)
+    from eomc.runtime.batch import simulate_many
+    with pytest.raises(ValueError, match=r"case 1\b.*" + says):
+        simulate_many(pendulum, None, (0, 0.1), p=[{"m1": 1.0}, {"m1": -1.0}], progress=False)
+    from eomc.cli import main
+    cases = tmp_path / "cases.csv"
+    cases.write_text("m1,m2\n1,1\n-1,1\n")
+    assert main(["sweep", str(EXAMPLES / "double_pendulum.py"), "--cases", str(cases), "--t-final", "0.1",
+                 "-o", str(tmp_path / "out.csv"), "-q"]) != 0
+    assert re.search(r"cases\.csv:3: double_pendulum: " + says, capsys.readouterr().err)
+    assert pendulum.simulate(None, (0, 0.1), p={"m1": 0.5}).status == 0
+
+
+def test_a_sympy_bodys_inertia_parameters_are_refused_as_the_build_refuses_a_links(top):
+    """The heavy top's central inertia diag(I1, I1, I3): a negative moment, or I3 > 2 I1 (no mass
+    distribution has it), is refused naming the parameters and the body."""
+    with pytest.raises(ValueError, match=r"parameters I1 = 0\.01, I3 = 5 give body Top a central inertia with "
+                                         r"principal moments 0\.01, 0\.01, 5, which miss the triangle inequality"):
+        top.simulate(None, (0, 0.1), p={"I3": 5.0})
+    with pytest.raises(ValueError, match=r"I1 = -1, I3 = .* give body Top a central inertia .* a negative moment"):
+        top.simulate(None, (0, 0.1), p={"I1": -1.0})
+    with pytest.raises(ValueError, match=r"parameter m = -2 gives body Top the mass -2"):
+        top.simulate(None, (0, 0.1), p={"m": -2.0})
+    assert top.simulate(None, (0, 0.1), p={"I3": 0.015}).status == 0

@@ -7,6 +7,7 @@ reference of the same normal law predicts (bounce_grid.py).  Issue 29's reproduc
 Radau at k = 1e9 rose to 3502 m with status 0.
 """
 import itertools
+import re
 import sys
 import warnings
 from pathlib import Path
@@ -352,6 +353,54 @@ SPRUNG = """<mujoco model="sprung">
 """
 
 
+ANKLE = """<mujoco model="ankle">
+  <option gravity="0 0 -9.81" timestep="0.002"/>
+  <worldbody>
+    <geom name="floor" type="plane" size="2 2 0.1"/>
+    <body name="leg" pos="0 0 1">
+      <joint name="ankle" type="hinge" axis="0 1 0" range="30 70" damping="1" armature="1"/>
+      <geom type="capsule" fromto="0 0 0 0.2 0 0" size="0.04"/>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_a_files_start_outside_a_range_is_kept_as_mujoco_keeps_it(tmp_path):
+    """gymnasium's ant file starts its ankles at 0, 0.52 rad outside [30, 70] degrees (issue 29
+    item 5).  eomc keeps the file's start as MuJoCo does (its limits are soft): the warning names
+    the joint, its start, its range and what the run does, and the spring's throw across the range
+    that follows is put down to the start, not to the stiffness; MuJoCo's mj_step from the same
+    start throws the joint across too, about as far."""
+    (tmp_path / "ankle.xml").write_text(ANKLE)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = eomc.compile(tmp_path / "ankle.xml", cache_dir=tmp_path / "cache", progress=False)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        res = model.simulate(model.initial_state, (0, 1.0))
+    said = [str(w.message) for w in caught if issubclass(w.category, PhysicsWarning)]
+    assert res.status == 0
+    assert said[0] == ("ankle: the file's start (its qpos0) is outside the range of joint ankle (q_ankle = 0, 0.524 "
+                       "below its lower limit 0.523599) of range [0.523599, 1.22173]: kept, as MuJoCo keeps it: the "
+                       "limit spring pushes it back at once and may throw it across the range (give x0 inside to "
+                       "avoid it, e.g. q_ankle=0.523599)"), said
+    top = float(np.max(res["q_ankle"]))
+    assert top > np.radians(70) + 0.01                  # thrown past the other limit ...
+    assert re.search(r"joint ankle went 0\.[0-9]+ past its upper limit 1\.22173 \(it started 0\.524 past its "
+                     r"lower\): the start outside the range released its limit spring", said[1]), said
+    assert "too soft" not in " ".join(said)            # ... and the stiffness is not blamed
+    mujoco = pytest.importorskip("mujoco")
+    m = mujoco.MjModel.from_xml_path(str(tmp_path / "ankle.xml"))
+    d = mujoco.MjData(m)
+    tops = []
+    for _ in range(500):
+        mujoco.mj_step(m, d)
+        tops.append(d.qpos[0])
+    over, over_mj = top - np.radians(70), max(tops) - np.radians(70)
+    assert over_mj > 0.01 and over == pytest.approx(over_mj, rel=0.2), (over, over_mj)
+
+
 def test_a_start_outside_a_range_keeps_the_energy_verdict_strict(tmp_path):
     """An MJCF arm above a floor (the floor contact gives the model its energy output) started
     0.5 rad past its upper limit (20 degrees).  MuJoCo's limit law (unilateral, held) has no
@@ -381,14 +430,22 @@ def test_a_start_outside_a_range_keeps_the_energy_verdict_strict(tmp_path):
         text = " ".join(str(w.message) for w in caught if issubclass(w.category, PhysicsWarning))
         assert res.status == 0
         assert "outside the range of joint hinge" in text and "energy rose" not in text, text
-        # the overshoot warning names the rule that made the stiffness (the file's solref, not a URDF's)
-        assert "limit_k_hinge = 693 (the default: from the joint's MuJoCo solref on the inertia it carries" in text
+        # the start's spring throws the arm across its range, 0.04 past the lower limit (less than the
+        # 0.5 it started past the upper): put down to the start, not to the stiffness (issue 29 item 5)
+        assert re.search(r"joint hinge went 0\.0[0-9]+ past its lower limit -1\.0472 \(it started 0\.5 past its "
+                         r"upper\): the start outside the range released its limit spring", text), text
+        assert "too soft" not in text, text
         energy = np.asarray(res.outputs["energy"])
         gains.append(float(np.max(energy) - energy[0]))
     # the gain is the spring's less what its damping took (12.8 of 92.6 J here, the limit critically
     # damped), the same at rtol 1e-6 and 1e-9: physics, not the tolerance's
     assert 0.05 * held < gains[0] <= held
     assert gains[1] == pytest.approx(gains[0], rel=0.02)
+    # thrown from inside the range, the overshoot is the stiffness's: the warning names the rule that
+    # made it (the file's solref, not a URDF's)
+    with pytest.warns(PhysicsWarning, match=r"limit_k_hinge = 693\), joint hinge went .* the default \(from the "
+                                            r"joint's MuJoCo solref on the inertia it carries"):
+        model.simulate({"q_hinge": 0.0, "u_hinge": -20.0}, (0, 1.0))
     # RK4 at 0.06 s (h*omega ~ 3 on the limit spring: unstable) makes energy beyond the spring's
     with pytest.raises(SimulationError, match=r"the energy rose by [0-9.]+ \(from [0-9.]+\), [0-9.]+ more than the "
                                               r"9[0-9.]+ the start's limit springs held"):

@@ -31,3 +31,36 @@ def test_few_terms_are_evaluated_as_sympy_does():
     assert contacts._max(few) == x + contacts.MAX_EVALUATED - 1 == sm.Max(*few)
     many = [x + k for k in range(contacts.MAX_EVALUATED + 1)]
     assert len(contacts._max(many).args) == len(many)
+
+
+class _Poses:
+    """A body's placement as symbols (what _clearance reads: origin and rotation)."""
+    o = sm.symbols("ox oy oz", real=True)
+    R = [[sm.Symbol(f"R{a}{b}", real=True) for b in range(3)] for a in range(3)]
+
+    def origin(self, i):
+        return self.o
+
+    def rotation(self, i):
+        return self.R
+
+
+def _points(normals):
+    r, cx, cy = sm.symbols("r cx cy", real=True)
+    offs = [(cx, 0, 0), (0, cy, sm.Float(0.1, 17)), (cx, cy, 0)]
+    return [(n, 0, r, off, (), sm.S.Zero, (), ()) for n, off in zip(normals, offs)]
+
+
+def test_one_normal_clearance_is_what_sympy_min_of_it_gives():
+    """A body whose points share one plane (every ground) gets its one term, which is what sm.Min
+    of one argument returns (the C of every case is unchanged, benchmarks/c_identity.py); with two
+    normals the clearance is still SymPy's Min of both."""
+    poses = _Poses()
+    one = contacts._clearance(poses, 0, _points([(0, 0, 1)] * 3))
+    assert not isinstance(one, sm.Min) and one == sm.Min(one)
+    two = contacts._clearance(poses, 0, _points([(0, 0, 1), (1, 0, 0), (0, 0, 1)]))
+    assert isinstance(two, sm.Min) and len(two.args) == 2
+    points = _points([(0, 0, 1), (1, 0, 0), (0, 0, 1)])
+    z = contacts._clearance(poses, 0, [points[0], points[2]])
+    x = contacts._clearance(poses, 0, [points[1]])
+    assert two == sm.Min(z, x)
