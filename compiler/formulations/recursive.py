@@ -14,7 +14,7 @@ from ..emit.reverse import REVERSE_FUNCTIONS, hess_id_body, hess_id_ops, reverse
 from ..ir import count_program
 from ..tree.analytic import kernel_c
 from ..tree.analytic_emit import analytic_body_ops, analytic_jac_id_body, analytic_jac_x_body, has_analytic
-from ..tree.chain_loop import chain_loop_ops, chain_loop_rhs_body
+from ..tree.chain_loop import chain_loop_c, chain_loop_ops, chain_loop_rhs_body
 from ..tree.limbs import limbs_ops, limbs_rhs_body
 from ..tree.constrained import jacobian_symbols
 from ..tree.inverse_derivatives import jac_id_body, jac_id_ops
@@ -197,6 +197,8 @@ class Recursive(Formulation):
             out.append(msolve_c(name, sym.analytic, sym.input_solve))
         if "hess_id" in functions and sym.second_order is not None:   # NAME_rnea_hess (.second_order)
             out.append(second_order_c(name, *sym.second_order[:1], nq, sym.second_order[1], helpers=not first))
+        if "rhs" in functions and sym.chain_loop is not None and sym.chain_loop.trig:   # NAME_chain_sincos
+            out.append(chain_loop_c(name, sym.chain_loop))
         return "\n\n".join(out)
 
     def metadata(self, sym, functions):

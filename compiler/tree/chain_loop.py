@@ -26,20 +26,24 @@ through the optimizer's shared passes (CSE, folding, sin/cos sharing, powers), s
 body has the straight-line code's structural zeros and folded constants.
 
 The results equal the straight-line rhs's up to rounding: the same operations per link,
-except that the pivots' sum (the singularity threshold) is summed in a loop.  Chosen
+except that the pivots' sum (the singularity threshold) is summed in pass 2's order and the
+links' sin and cos come from the lanes' fdlibm kernels (within 1 ulp of libm's).  Chosen
 (:func:`chain_loop_plan`) for an open chain of one-speed joints without contacts or extra
-states whose repeated run has at least CHAIN_LOOP_MIN_LINKS links (a switch, off by default:
-on this machine the loops were slower than the straight-line rhs up to n = 160, see the
-constant); every other tree keeps the straight-line rhs, byte for byte.
+states whose repeated run has at least CHAIN_LOOP_MIN_LINKS links (4 by default: measured, see the
+constant); every other tree keeps the straight-line rhs, byte for byte.  The links' sin and
+cos are taken before the passes, four at a time (:func:`chain_loop_c`).
 """
+import re
 from collections import Counter
 from dataclasses import dataclass
 
 import sympy as sm
 
+from ..emit.batch import VECTOR_TRIG
 from ..emit.bodies import IND, needed_assignments, store, temps
 from ..emit.linsolve import PIVOT_TOL
 from ..emit.printer import CPrinter
+from ..emit.signatures import BATCH_FUNCTIONS
 from ..ir import Program, c_names, count_program, symbols_of
 from ..passes import finish_function, optimize_shared
 from .construct import _add, _mul, _nz
@@ -48,21 +52,26 @@ from .recorder import Recorder
 from .spatial import (_dot, _root_acceleration, _sym6_plus, _times, cross_force, cross_motion, x_motion,
                       xt_force, xt_inertia_x)
 
-__all__ = ["ChainLoop", "chain_loop_plan", "chain_loop_rhs_body", "chain_loop_ops", "CHAIN_LOOP_MIN_LINKS"]
+__all__ = ["ChainLoop", "chain_loop_plan", "chain_loop_rhs_body", "chain_loop_ops", "chain_loop_c",
+           "CHAIN_LOOP_MIN_LINKS", "VTRIG_GUARD"]
 
-# The repeated run's length from which the rhs is looped; None: never (the default).  Why off:
-# measured on the cart (benchmarks/results/cart_scaling.md, session 13, one run, core 1) the loops
-# were slower than the straight-line rhs at every n (n = 40: 2138 vs 2013 ns, n = 160: 9435 vs
-# 9032; 4.5-20 %: 10.8 % more instructions at n = 160, the per-link loads, stores and spills),
-# though 1.8-4.4 kB of code at every n (186.5 kB straight-line at n = 160) and growing as n^1.058
-# against n^1.102 over n = 8-160.  A switch (the generation cache's key holds it): set it to a
-# link count to loop chains at least that long.
-CHAIN_LOOP_MIN_LINKS_DEFAULT = None
+# The repeated run's length from which the rhs is looped (None: never).  Measured (benchmarks/
+# results/cart_scaling.md, session 21, core 1): with the links' sin and cos in lanes the looped rhs
+# is faster than the straight-line one on the cart from n = 4 (a run of 4 links: 116 vs 132 ns) to
+# 160 (4703 vs 7365 ns), growing as n^1.00 against n^1.12; in one-model harnesses at 3 code
+# placements: the cart with a run of 3 is 28 % slower looped (libm per link: no lanes below 4),
+# with 4 8 % faster; a chain twisting in 3D (every carried entry nonzero) 15 % slower with 3
+# looped links, even with 4, 13 % faster with 5.  Session 13's loops (a libm call per link, no
+# ordering) were 4.5-20 % slower at every n.
+CHAIN_LOOP_MIN_LINKS_DEFAULT = 4
 CHAIN_LOOP_MIN_LINKS = CHAIN_LOOP_MIN_LINKS_DEFAULT
 
 _LOWER = [(i, j) for i in range(6) for j in range(i + 1)]     # a symmetric 6x6's lower triangle
 _VEC = {"v": 6, "T": 21, "f": 6, "a": 6}                        # carried values, by name: size
 _PASS_OF = {"v": 1, "T": 2, "f": 2, "a": 3}
+
+
+_SIN, _COS = sm.Symbol("_chain_sin", real=True), sm.Symbol("_chain_cos", real=True)
 
 
 def _carried(kind, j):
@@ -97,6 +106,7 @@ class ChainLoop:
     segments: tuple
     carried: dict           # kind: sorted entries used anywhere
     nbodies: int
+    trig: tuple = ()        # looped segments whose links' sin and cos come from NAME_chain_sincos
 
 
 def _slot_index(layout, sym):
@@ -211,7 +221,9 @@ def chain_loop_plan(tree, bodies, sources, defs, gravity, layout, functions, min
     Q, U = sm.Symbol("_chain_q", real=True), sm.Symbol("_chain_u", real=True)
 
     def sig(i):
-        if own_q[i] is None or bodies[i].fext is not None:
+        # the root (body 0) is a block of its own: its passes start from rest and gravity, and
+        # hand nothing to a parent (a run from body 0 looped every link as a root: wrong u')
+        if i == 0 or own_q[i] is None or bodies[i].fext is not None:
             return None
         E, r, S, mass, inertia, arm = sources[i]
         sub = {layout.x[own_q[i]]: Q, speeds[bodies[i].speed]: U}
@@ -240,7 +252,22 @@ def chain_loop_plan(tree, bodies, sources, defs, gravity, layout, functions, min
                                  own_q[i] if count > 1 else -1, Q if count > 1 else None,
                                  U if count > 1 else None))
     carried = {kind: tuple(sorted({j for ls in live for k, j in ls if k == kind})) for kind in _VEC}
-    return ChainLoop(segments=tuple(segments), carried=carried, nbodies=n)
+    # the links' sin and cos in lanes before the passes (chain_loop_c), unless a lanes function
+    # shares the file (its own prelude defines the vector types: one set of helpers per file)
+    lanes = any(f in BATCH_FUNCTIONS for f in functions)
+    trig = tuple(si for si, seg in enumerate(segments) if seg.count > 1 and not lanes and _reads_trig(seg))
+    return ChainLoop(segments=tuple(segments), carried=carried, nbodies=n, trig=trig)
+
+
+def _trig_of(seg):
+    return {sm.sin(seg.Q): _SIN, sm.cos(seg.Q): _COS}
+
+
+def _reads_trig(seg):
+    """Does one of the segment's pass programs take sin or cos of the link's own coordinate?"""
+    want = set(_trig_of(seg))
+    return any(want & e.atoms(sm.sin, sm.cos) for prog in seg.programs
+               for e in [e for _, e in prog.assignments] + [e for _, e in prog.results])
 
 
 def _liveness(segs, built):
@@ -399,16 +426,26 @@ def _block(ctx, plan, si, seg, p):
             names[_carried(kind, j)] = _carried_name(kind, j)
     for s, owner, j in seg.loads[p - 1]:
         names[s] = at(f"L{si}_{owner}", len(seg.stores[owner - 1]), j)
+    if si in plan.trig:     # the link's sin and cos from the array NAME_chain_sincos filled
+        rep = _trig_of(seg)
+        prog = prog.with_(assignments=tuple((t, e.xreplace(rep)) for t, e in prog.assignments),
+                          results=tuple((key, e.xreplace(rep)) for key, e in prog.results))
+        names[_SIN], names[_COS] = f"SC{si}[2 * k]", f"SC{si}[2 * k + 1]"
+    vals = dict(prog.results)
+    outs = seg.carried_out[p - 1]
+    width = len(seg.stores[p - 1])
+    roots = [vals[("r", n)] for _, _, n in outs] + [vals[("s", j)] for j in range(width)]
+    roots += [vals[("r", seg.dpos)]] if p == 2 else [vals[("r", seg.upos)]] if p == 3 else []
+    prog = prog.with_(assignments=_by_first_use(prog.assignments, roots))
     names.update(c_names(prog))
     pr = CPrinter(names)
     body = [IND + line for line in temps(prog, pr)]
-    vals = dict(prog.results)
-    outs = seg.carried_out[p - 1]
     body += [f"{IND * 2}const double o{n} = {pr.doprint(vals[('r', n)])};" for _, _, n in outs]
-    width = len(seg.stores[p - 1])
     body += [IND + store(at(f"L{si}_{p}", width, j), vals[("s", j)], pr) for j in range(width)]
-    if p == 2:
-        body.append(IND + store(f"Dp[{seg.start} + {k}]" if loop else f"Dp[{seg.start}]", vals[("r", seg.dpos)], pr))
+    if p == 2:      # the pivots' sum and least: one test after the pass (chain_loop_rhs_body)
+        body.append(f"{IND * 2}const double piv = {pr.doprint(vals[('r', seg.dpos)])};")
+        body.append(f"{IND * 2}dsum += piv;")
+        body.append(f"{IND * 2}dmin = piv < dmin ? piv : dmin;")
     if p == 3:
         body.append(IND + store(f"xdot[{nq + seg.s0} + {k}]" if loop else f"xdot[{nq + seg.s0}]",
                                 vals[("r", seg.upos)], pr))
@@ -426,6 +463,42 @@ def _block(ctx, plan, si, seg, p):
     return [IND + head] + body + [IND + "}"]
 
 
+def _by_first_use(assignments, roots):
+    """``assignments`` reordered so that each is computed just before its first reader, depth
+    first from ``roots`` in the order the C reads them (a post-order of the expression DAG).
+    Why: gcc -O2 on x86 does not schedule before register allocation, so the source order is
+    the order of the live ranges: the optimizer's order (every value as early as its operands
+    allow) kept a loop body's early products live across the pivot's division, and pass 2
+    spilled about 40 values to the stack per link."""
+    defs = dict(assignments)
+    seen, order = set(), []
+    for root in roots:
+        stack = [(sm.sympify(root), False)]
+        while stack:
+            e, expanded = stack.pop()
+            if expanded:
+                order.append((e, defs[e]))
+                continue
+            if e in defs:
+                if e in seen:
+                    continue
+                seen.add(e)
+                stack.append((e, True))
+                body = defs[e]
+            else:
+                body = e
+            deps = sorted((s for s in symbols_of(body) if s in defs and s not in seen), key=_first_read(body))
+            stack += [(d, False) for d in reversed(deps)]
+    rest = [(t, e) for t, e in assignments if t not in seen]
+    return tuple(order) + tuple(rest)
+
+
+def _first_read(expr):
+    """Sort key: the position of a symbol in ``expr``'s printed form (operands in reading order)."""
+    text = str(expr)
+    return lambda s: (text.find(s.name), s.name)
+
+
 def chain_loop_rhs_body(ctx, program, plan):
     """NAME_rhs as the looped passes (module doc); q' from the program's kinematics."""
     lines = []
@@ -437,17 +510,21 @@ def chain_loop_rhs_body(ctx, program, plan):
         for p in (1, 2):
             if seg.stores[p - 1]:
                 lines.append(f"{IND}double L{si}_{p}[{len(seg.stores[p - 1]) * seg.count}];")
-    lines += [f"{IND}double Dp[{plan.nbodies}], dsum = 0.0, thr;", f"{IND}int k;"]
+    lines += [f"{IND}double SC{si}[{2 * plan.segments[si].count}];" for si in plan.trig]
+    # dmin from DBL_MAX, not a nonfinite literal (none in generated C): an inf pivot makes the
+    # sum inf and the test fail, as a NaN one makes it NaN
+    lines += [f"{IND}double dsum = 0.0, dmin = DBL_MAX;", f"{IND}int k;"]
+    for si in plan.trig:
+        seg = plan.segments[si]
+        lines.append(f"{IND}{ctx.name}_chain_sincos(x + {seg.q0}, {seg.count}, SC{si});")
     for si, seg in enumerate(plan.segments):
         lines += _block(ctx, plan, si, seg, 1)
     for si in reversed(range(len(plan.segments))):
         lines += _block(ctx, plan, si, plan.segments[si], 2)
     tol = CPrinter({}).doprint(PIVOT_TOL)
-    lines += [f"{IND}for (k = 0; k < {plan.nbodies}; k++) dsum += Dp[k];",
-              f"{IND}thr = {tol} * dsum;",
-              f"{IND}for (k = 0; k < {plan.nbodies}; k++) {{",
-              f"{IND * 2}if (!(Dp[k] - thr > 0.0)) return EOMC_SINGULAR_MASS_MATRIX;",
-              f"{IND}}}"]
+    # every pivot above the threshold iff the least is (a - t is monotone in a); a NaN pivot
+    # makes the sum and so the threshold NaN: the test fails as the straight-line one's does
+    lines.append(f"{IND}if (!(dmin - {tol} * dsum > 0.0)) return EOMC_SINGULAR_MASS_MATRIX;")
     for si, seg in enumerate(plan.segments):
         lines += _block(ctx, plan, si, seg, 3)
     pr = ctx.printer(program)
@@ -472,3 +549,81 @@ def chain_loop_ops(program, plan):
     c += count_program(program.with_(assignments=tuple(needed_assignments(program.assignments, kin.values())),
                                      results=tuple(kin.items())))
     return {k: int(c.get(k, 0)) for k in ("adds", "muls", "divs", "calls")}
+
+
+VTRIG_GUARD = "EOMC_CHAIN_VTRIG"
+
+
+def _lane_kernels(prefix):
+    """batch.VECTOR_TRIG's reduction, kernels and sincos at four lanes under this file's own
+    type names, without its libm switch (a preprocessor conditional inside the block would end
+    the f32 target's cut of it: compiler/emit/target.without_cpu_dispatch)."""
+    text = VECTOR_TRIG.format(p=prefix)
+    start = text.index(f"static EOMC_VTARGET EOMC_VINLINE eomc_vd {prefix}_vtrig(")
+    end = text.index(f"/* sin and cos of one angle from one reduction")
+    text = text[:start] + text[end:]
+    text = re.sub(r"#ifdef EOMC_BATCH_LIBM_TRIG\n.*?#else\n", "", text, flags=re.S).replace("#endif\n", "")
+    assert "#" not in text.replace("#include", ""), "a preprocessor line left in the lanes kernels"
+    return (text.replace("EOMC_VTARGET ", "").replace("EOMC_VINLINE", "inline __attribute__((always_inline))")
+            .replace("EOMC_BATCH_LANES", "4").replace("eomc_vd", "eomc_cvd").replace("eomc_vu", "eomc_cvu"))
+
+
+def chain_loop_c(name, plan):
+    """C helpers of the looped rhs: ``NAME_chain_sincos(q, n, sc)``, sc[2k], sc[2k + 1] = sin and
+    cos of q[k], k < n, where a looped segment takes them (else "").
+
+    Why: the glibc call per link (sincos, ~110 instructions, the carried values saved around
+    it) was a third of the looped rhs's instructions on the cart.  A chain's coordinates are
+    adjacent in x, so the loop can take all its links' sin and cos four at a time, before the
+    passes: batch.VECTOR_TRIG's fdlibm reduction and kernels in GNU C vectors (within 1 ulp of
+    glibc's sin and cos; |q| >= 2^19 pi/2, inf and NaN lanes call libm), the last group
+    overlapping the one before it so every link takes the lanes' bits.  Compiled where gcc or
+    clang builds for AVX2 (``__AVX2__``: eomc's default flags on such a machine); elsewhere, and
+    in the c99-f32 target, the helper is libm's sin and cos per link."""
+    if not plan.trig:
+        return ""
+    p = f"{name}_cl"
+    return "\n".join([
+        f"#ifndef {VTRIG_GUARD}   /* the chain's sin and cos in four lanes (compiler/tree/chain_loop.py) */",
+        "#if defined(__GNUC__) && defined(__AVX2__) && !defined(EOMC_NO_SIMD)",
+        f"#define {VTRIG_GUARD} 1",
+        "#else",
+        f"#define {VTRIG_GUARD} 0",
+        "#endif",
+        "#endif",
+        f"#if {VTRIG_GUARD}",
+        "typedef double eomc_cvd __attribute__((vector_size(32)));",
+        "typedef unsigned long long eomc_cvu __attribute__((vector_size(32)));",
+        _lane_kernels(p),
+        "",
+        f"static int {name}_chain_vsincos(const double *restrict q, int n, double *restrict sc)",
+        "{",
+        "    int k, l;",
+        "    if (n < 4) return 0;",
+        "    for (k = 0;; k += 4) {",
+        "        eomc_cvd a, s, c;",
+        "        if (k > n - 4) k = n - 4;      /* the last group overlaps the one before it */",
+        "        for (l = 0; l < 4; l++) a[l] = q[k + l];",
+        f"        {p}_vsincos(a, &s, &c);",
+        "        for (l = 0; l < 4; l++) {",
+        "            sc[2 * (k + l)] = s[l];",
+        "            sc[2 * (k + l) + 1] = c[l];",
+        "        }",
+        "        if (k == n - 4) return n;",
+        "    }",
+        "}",
+        "#endif",
+        "",
+        f"static void {name}_chain_sincos(const double *restrict q, int n, double *restrict sc)",
+        "{",
+        "    int k = 0;",
+        f"#if {VTRIG_GUARD}",
+        f"    k = {name}_chain_vsincos(q, n, sc);",
+        "#endif",
+        "    for (; k < n; k++) {",
+        "        const double s = sin(q[k]), c = cos(q[k]);",
+        "        sc[2 * k] = s;",
+        "        sc[2 * k + 1] = c;",
+        "    }",
+        "}",
+    ])

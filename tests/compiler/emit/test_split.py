@@ -17,6 +17,7 @@ from sympy.physics import mechanics as me
 import eomc
 import eomc.mechanics as em
 from eomc.compiler.emit import generate_c, split, symbolic
+from eomc.compiler.tree import chain_loop
 from helpers import emit_support as es
 from helpers import zoo
 from helpers.trees import cart_relative
@@ -171,6 +172,7 @@ def test_split_models_compute_what_unsplit_ones_do(tmp_path, monkeypatch):
 def test_split_recursive_formulation_agrees(tmp_path, monkeypatch):
     """The recursive formulation's bodies (eomc.compiler.tree.emit) are split too."""
     kane, inputs = cart_relative(4, em)
+    monkeypatch.setattr(chain_loop, "CHAIN_LOOP_MIN_LINKS", None)   # the straight-line rhs (a run of 4 links is looped)
     monkeypatch.setenv("EOMC_CACHE_DIR", str(tmp_path / "whole"))
     mw = eomc.compile(kane, "cart_w", inputs=inputs, progress=False, formulation="recursive")
     monkeypatch.setenv("EOMC_CACHE_DIR", str(tmp_path / "split"))
@@ -198,6 +200,7 @@ def test_recursive_rhs_parts_restrict_their_scratch(tmp_path, monkeypatch):
     rewrites restrict parts too: tests/compiler/emit/test_batch.py, UR5)."""
     from eomc.compiler.formulations.recursive import Recursive
     kane, inputs = cart_relative(4, em)
+    monkeypatch.setattr(chain_loop, "CHAIN_LOOP_MIN_LINKS", None)   # the straight-line rhs (a run of 4 links is looped)
     monkeypatch.setattr(split, "SPLIT_MIN", 6)
     monkeypatch.setattr(split, "CHUNK", 5)
     fns = ["rhs", "jac_x"]
@@ -225,6 +228,7 @@ def test_recursive_rhs_parts_take_near_pointers(tmp_path, monkeypatch):
     """The recursive formulation's rhs (its long runs: split.WINDOW_MIN) reaches its scratch
     slots through near pointers; its jac_x does not; the rhs's bits are those without them."""
     kane, inputs = cart_relative(4, em)
+    monkeypatch.setattr(chain_loop, "CHAIN_LOOP_MIN_LINKS", None)   # the straight-line rhs (a run of 4 links is looped)
     monkeypatch.setattr(split, "SPLIT_MIN", 6)
     monkeypatch.setattr(split, "CHUNK", 5)
     monkeypatch.setattr(split, "WINDOW_MIN", 6)

@@ -115,14 +115,17 @@ def test_run_in_the_middle(tmp_path):
         assert relative_error(loop.rhs(0.0, x, p, r), line.rhs(0.0, x, p, r)) < 1e-13
 
 
-def test_off_by_default(tmp_path):
-    """The switch is off by default (the loops measured slower than the straight-line rhs up to
-    n = 160: benchmarks/results/cart_scaling.md): a long cart keeps the straight-line rhs."""
-    assert chain_loop.CHAIN_LOOP_MIN_LINKS is None
-    model = eomc.compile(cart_joints(30)[0], "cl_default", functions=["rhs"], formulation="recursive",
-                         progress=False, cache_dir=tmp_path / "cache", fold_parameters=True,
-                         parameters=_cart(30)[2])
-    assert not _looped(model)
+def test_on_by_default_from_four_links(tmp_path):
+    """The switch is 4 links by default (measured faster than the straight-line rhs from there:
+    benchmarks/results/cart_scaling.md, session 21): a long cart's rhs is looped, with its
+    links' sin and cos from NAME_chain_sincos; a run of 3 (the cart of 4) keeps the straight line."""
+    assert chain_loop.CHAIN_LOOP_MIN_LINKS == chain_loop.CHAIN_LOOP_MIN_LINKS_DEFAULT == 4
+    kw = dict(functions=["rhs"], formulation="recursive", progress=False, cache_dir=tmp_path / "cache",
+              fold_parameters=True)
+    model = eomc.compile(cart_joints(30)[0], "cl_default", parameters=_cart(30)[2], **kw)
+    assert _looped(model) and "cl_default_chain_sincos(x + 2, 29, SC2);" in model.source_path.read_text()
+    assert not _looped(eomc.compile(cart_joints(4)[0], "cl_default4", parameters=_cart(4)[2], **kw))
+    assert _looped(eomc.compile(cart_joints(5)[0], "cl_default5", parameters=_cart(5)[2], **kw))
 
 
 DRIVER = r"""
@@ -160,3 +163,153 @@ def test_looped_c_strict_and_sanitizer_clean(tmp_path, monkeypatch):
     assert proc.returncode == 0, proc.stderr
     assert run.returncode == 0, run.stdout + run.stderr
     assert run.stdout.startswith("clsan 0 ") and "runtime error" not in run.stderr
+
+
+SINCOS_DRIVER = r"""
+#include <stdio.h>
+#include <math.h>
+#include "NAME.c"
+
+static int ulps(double a, double b)   /* 0 equal (NaN both), 1 neighbours, 2 farther */
+{
+    if (a != a || b != b) return (a != a && b != b) ? 0 : 2;
+    if (a == b) return 0;
+    return nextafter(a, b) == b ? 1 : 2;
+}
+
+int main(void)
+{
+    const double q[11] = {0.0, 1.5707963267948966, 1.5707963267948966 + 1e-12, -3.141592653589793,
+                          1e-300, -2.5, 823549.0, 1e7, -3e300, NAN, INFINITY};
+    double sc[22];
+    int n, k, far = 0, off = 0;
+    for (n = 1; n <= 11; n++) {
+        for (k = 0; k < 2 * n; k++) sc[k] = -7.0;
+        NAME_chain_sincos(q, n, sc);
+        for (k = 0; k < n; k++) {
+            int a = ulps(sc[2 * k], sin(q[k])), b = ulps(sc[2 * k + 1], cos(q[k]));
+            far += (a > 1) + (b > 1);
+            off += (a > 0) + (b > 0);
+        }
+    }
+    printf("%d %d %d\n", EOMC_CHAIN_VTRIG, far, off);
+    return 0;
+}
+"""
+
+
+@pytest.mark.parametrize("lanes", [True, False])
+def test_chain_sincos_within_one_ulp_of_libm(lanes, tmp_path, monkeypatch):
+    """NAME_chain_sincos (the links' sin and cos, four lanes at a time where the C is built for
+    AVX2, the last group overlapping) against libm for 1..11 angles: multiples of pi/2 and
+    next to them, tiny, huge (libm's lanes), NaN and inf; within 1 ulp, exact without lanes."""
+    import subprocess
+    monkeypatch.setattr(chain_loop, "CHAIN_LOOP_MIN_LINKS", 2)
+    system, inputs, params = _cart(6)
+    gm = generate(system, "clsc", functions=("rhs",), formulation="recursive", inputs=inputs,
+                  parameters=params, cache_dir=tmp_path / "cache", progress=False)[1]
+    assert "clsc_chain_sincos(x + 2, 5, SC2);" in gm.c_source     # links 2-6 (link 1 hangs from the cart's centre)
+    es.write_sources(gm, str(tmp_path))
+    (tmp_path / "main.c").write_text(SINCOS_DRIVER.replace("NAME", gm.name))
+    flags = ["-mavx2"] if lanes else ["-mno-avx"]
+    built = subprocess.run(["gcc", *es.STRICT, "-Wshadow", "-Wconversion", "-O2", *flags, "-I", str(tmp_path),
+                            str(tmp_path / "main.c"), "-o", str(tmp_path / "sc"), "-lm"], capture_output=True, text=True)
+    assert built.returncode == 0, built.stderr
+    vtrig, far, off = map(int, subprocess.run([str(tmp_path / "sc")], capture_output=True, text=True).stdout.split())
+    assert vtrig == int(lanes) and far == 0
+    if not lanes:
+        assert off == 0
+
+
+@pytest.mark.parametrize("n", [3, 5, 9])
+def test_lanes_trig_agrees_at_awkward_angles(n, tmp_path):
+    """The looped rhs (its links' sin and cos in lanes; n = 3: two links, the scalar path) equals
+    the straight-line rhs to 1e-12 at angles next to multiples of pi/2 and past 2^19 pi/2."""
+    system, inputs, params = _cart(n)
+    loop = _build(system, f"claw{n}", 2, tmp_path, inputs=inputs, parameters=params)
+    line = _build(cart_joints(n)[0], f"clawl{n}", None, tmp_path, inputs=inputs, parameters=params)
+    assert _looped(loop) and f"_chain_sincos(x + 2, {n - 1}, SC" in loop.source_path.read_text()
+    rng = np.random.default_rng(7 + n)
+    for scale in (1.0, 1e-9, 1e6, 1e7):
+        q = rng.integers(-4, 5, n + 1) * np.pi / 2 + scale * rng.uniform(-1, 1, n + 1)
+        x = np.concatenate([q, rng.normal(size=n + 1)])
+        r = rng.normal(size=1)
+        assert relative_error(loop.rhs(0.0, x, r=r), line.rhs(0.0, x, r=r)) < 1e-12, scale
+
+
+def test_float_target_of_a_looped_rhs(tmp_path, monkeypatch):
+    """The c99-f32 target cuts the lanes' block (double vectors) out: libm's sinf and cosf per
+    link, the C clean under the float target's strict flags with no double left."""
+    import re
+    import subprocess
+    monkeypatch.setattr(chain_loop, "CHAIN_LOOP_MIN_LINKS", 2)
+    system, inputs, params = _cart(6)
+    gm = generate(system, "clf", functions=("rhs",), formulation="recursive", inputs=inputs, parameters=params,
+                  cache_dir=tmp_path / "cache", progress=False, target="c99-f32")[1]
+    code = re.sub(r"/\*.*?\*/", "", gm.c_source, flags=re.S)
+    assert "clf_chain_sincos(x + 2, 5, SC2);" in code and "sinf(q[k])" in code
+    assert "eomc_cvd" not in code and not re.search(r"\bdouble\b", code.replace("clf_", ""))
+    es.write_sources(gm, str(tmp_path))
+    run = subprocess.run(["gcc", "-std=c99", "-O2", "-mavx2", "-Wall", "-Wextra", "-Wdouble-promotion",
+                          "-Wfloat-conversion", "-Wpedantic", "-Werror", "-c", str(tmp_path / "clf.c"), "-I", str(tmp_path),
+                          "-o", str(tmp_path / "clf.o")], capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr[:3000]
+
+
+def _twisted_chain(n):
+    """n identical links hanging from the ground, each a pin about a tilted axis (the chain
+    twists in 3D: every carried entry nonzero), full inertia, the joint off the mass centre."""
+    import sympy as sm
+    from sympy.physics import mechanics as me
+    q, u = me.dynamicsymbols(f"q:{n}"), me.dynamicsymbols(f"u:{n}")
+    g = sm.Symbol("g")
+    ground = me.RigidBody("ground")
+    parent, joints = ground, []
+    for i in range(n):
+        link = me.RigidBody(f"link{i}", mass=sm.Float(0.5))
+        link.inertia = (me.inertia(link.frame, 0.01, 0.02, 0.03, 0.001, 0.002, 0.003), link.masscenter)
+        joints.append(me.PinJoint(f"pin{i}", parent, link, q[i], u[i], child_point=-0.1 * link.frame.y,
+                                  parent_point=0.2 * parent.frame.z + 0.1 * parent.frame.x,
+                                  joint_axis=parent.frame.x + 0.5 * parent.frame.y + 0.3 * parent.frame.z))
+        parent = link
+    system = me.System.from_newtonian(ground)
+    system.add_joints(*joints)
+    system.apply_uniform_gravity(-g * ground.frame.z)
+    return system, {g: 9.81}
+
+
+@pytest.mark.parametrize("n", [4, 9])
+def test_twisted_chain_from_the_root(n, tmp_path):
+    """A run of identical links from the root on: the root is a block of its own (its passes
+    start from rest and gravity), the rest a loop; equal to the straight-line rhs to 1e-12.
+    (Looping the root with the others gave u' wrong by 100 %.)"""
+    system, params = _twisted_chain(n)
+    loop = _build(system, f"cltw{n}", 2, tmp_path, parameters=params, fold_parameters=True)
+    line = _build(_twisted_chain(n)[0], f"cltwl{n}", None, tmp_path, parameters=params, fold_parameters=True)
+    assert _looped(loop) and f"_chain_sincos(x + 1, {n - 1}, SC1);" in loop.source_path.read_text()
+    rng = np.random.default_rng(n)
+    for x in _states(loop, rng):
+        assert relative_error(loop.rhs(0.0, x), line.rhs(0.0, x)) < 1e-12
+
+
+def test_default_functions_beside_a_looped_rhs(tmp_path):
+    """The default function set of a cart whose rhs is looped (by default): jac_x and jac_r (their
+    own tangent programs) agree with the straight-line build's and with central differences of
+    the looped rhs; linearize builds."""
+    n = 8
+    system, inputs, params = _cart(n)
+    loop = eomc.compile(system, "cl_all", cache_dir=tmp_path / "cache", inputs=inputs, parameters=params,
+                        formulation="recursive", progress=False)
+    line = _build(cart_joints(n)[0], "cl_all", None, tmp_path / "off", functions=("rhs", "jac_x", "jac_r"),
+                  inputs=inputs, parameters=params)
+    assert _looped(loop) and not _looped(line) and {"jac_x", "jac_r", "linearize"} <= set(loop.metadata["functions"])
+    rng = np.random.default_rng(11)
+    for x in _states(loop, rng, 3):
+        r = rng.normal(size=1)
+        J = loop.jacobian(0.0, x, r=r)
+        assert relative_error(J, line.jacobian(0.0, x, r=r)) < 1e-12
+        assert relative_error(loop.input_jacobian(0.0, x, r=r), line.input_jacobian(0.0, x, r=r)) < 1e-12
+        h = 1e-6
+        fd = np.column_stack([(loop.rhs(0.0, x + h * e, r=r) - loop.rhs(0.0, x - h * e, r=r)) / (2 * h)
+                              for e in np.eye(loop.nx)])
+        assert relative_error(J, fd) < 1e-6
