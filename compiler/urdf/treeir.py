@@ -220,7 +220,9 @@ def joint_loads(tree, gravity=9.81, inertias=None):
     not its centre -- a solid cylinder's surface is sqrt(2) radii of gyration from its axis.
     Without that floor a roll joint along a limb (G1's wrist, whose hand lies on its axis) got
     the load of the hand's centre, 0.5 N·m, and went 0.087 rad past its limit when the hand
-    landed (issue 29)."""
+    landed (issue 29).  The subtree's own weight is also taken where its own joints can swing it
+    off the axis (:func:`_swung_levers`): romeo's wrist roll, whose hand lies on its axis at q = 0,
+    got k = 3.78 and went 0.167 rad past its limit once the wrist pitch swung the hand off it."""
     R, P, world, spin = {}, {}, {}, {}
     for joint in tree.joints:      # parents come first
         Rp = R[joint.parent] if joint.parent is not None else np.eye(3)
@@ -232,9 +234,10 @@ def joint_loads(tree, gravity=9.81, inertias=None):
         spin[joint.child] = fo.matmul(R[joint.child], body.inertia, R[joint.child].T)
     floating = any(j.parent is None and j.type in ("floating", "floating_quaternion") for j in tree.joints)
     total = sum(m for _, m in world.values())
-    children = {}
+    children, parent_of = {}, {}
     for joint in tree.joints:
         children.setdefault(joint.parent, []).append(joint.child)
+        parent_of[joint.child] = joint.parent
     out = {}
     for joint in tree.joints:
         if joint.type not in ("revolute", "continuous", "prismatic"):
@@ -254,6 +257,14 @@ def joint_loads(tree, gravity=9.81, inertias=None):
         lever = lambda x: fo.norm(np.cross(a, x - origin))  # noqa: E731
         com = sum(world[b][0] * world[b][1] for b in below) / mass if mass > 0 else origin
         load, carried = gravity * mass * lever(com), 0.0
+        # the subtree's own joints may swing its bodies off the axis (romeo's wrist roll: the hand
+        # lies on the axis at q = 0, and the wrist's pitch swings it 0.06 m off): gravity's torque
+        # about the axis is at most g·|a × ẑ|·Σ m_b·(farthest lever of b's centre)
+        tilt = fo.norm(np.cross(a, np.array([0.0, 0.0, 1.0])))
+        if tilt > 0.0 and len(below) > 1:
+            swung = gravity * tilt * sum(world[b][1] * far for b, far in
+                                         _swung_levers(joint.child, below, parent_of, P, world, lever).items())
+            load = max(load, swung)
         if floating:
             reach = max([lever(world[b][0]) for b in below] + [lever(P[b]) for b in below])
             if inertias is not None and mass > 0:
@@ -263,4 +274,20 @@ def joint_loads(tree, gravity=9.81, inertias=None):
             carried = sum(fo.matmul(a, spin[b], a) + world[b][1] * lever(world[b][0]) ** 2
                           for b in world if b not in inside)
         out[joint.name] = (load, carried)
+    return out
+
+
+def _swung_levers(top, below, parent_of, P, world, lever):
+    """body -> the farthest its centre of mass can be from a joint's axis when the joints inside
+    the joint's subtree (``below``, rooted at ``top``, the body the joint moves) turn: ``top``'s
+    own lever (it is rigid with the joint), a deeper body's at most the lever of the first inner
+    joint's origin plus the lengths down the chain to its centre (the triangle inequality)."""
+    reach = {}      # body -> the farthest its joint's origin can be from the axis
+    out = {top: lever(world[top][0])}
+    for b in below:     # parents before children (a depth-first walk from top)
+        if b == top:
+            continue
+        up = parent_of[b]
+        reach[b] = lever(P[b]) if up == top else reach[up] + fo.norm(P[b] - P[up])
+        out[b] = reach[b] + fo.norm(world[b][0] - P[b])
     return out

@@ -124,3 +124,45 @@ def test_a_roll_joint_whose_hand_lies_on_its_axis_carries_the_body_on_the_hands_
     # on a fixed base nothing is carried: the subtree's own weight on its lever (0 here)
     fixed = joint_inertias(build_tree(read_urdf(path)))["wrist_roll"]
     assert fixed[1] == pytest.approx(0.0, abs=1e-12) and fixed[2] == fixed[0]
+
+
+WRIST = """<?xml version="1.0"?>
+<robot name="wrist">
+  <link name="forearm"/>
+  <link name="roll"><inertial><mass value="0.2"/>
+    <inertia ixx="0.0001" iyy="0.0001" izz="0.0001" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <link name="hand"><inertial><origin xyz="0.07 0 0"/><mass value="0.5"/>
+    <inertia ixx="0.0002" iyy="0.001" izz="0.001" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <joint name="wrist_roll" type="revolute">
+    <parent link="forearm"/><child link="roll"/><origin xyz="0 0 0"/><axis xyz="1 0 0"/>
+    <limit lower="-0.5" upper="0.5" effort="1" velocity="1"/>
+  </joint>
+  <joint name="wrist_pitch" type="revolute">
+    <parent link="roll"/><child link="hand"/><origin xyz="0.02 0 0"/><axis xyz="0 1 0"/>
+    <limit lower="-1.5" upper="1.5" effort="1" velocity="1"/>
+  </joint>
+</robot>
+"""
+
+
+def test_a_roll_joint_carries_the_load_of_its_subtree_swung_off_its_axis(tmp_path):
+    """first hour s21 L6: romeo's wrist roll (its hand on the roll axis at q = 0, load ~0) got
+    k = 3.78 and went 0.167 rad past its limit once the wrist's pitch swung the hand 0.06 m off the
+    axis.  The load counts what the subtree's own joints can swing: the hand's centre can be as far
+    from the roll axis as the pitch joint's lever (0 here) plus the pitch-to-centre length 0.07 m
+    (the triangle inequality); the roll body itself is rigid with the joint (its lever, 0).  About a
+    vertical axis gravity has no torque however the subtree turns: nothing is added there."""
+    path = tmp_path / "wrist.urdf"
+    path.write_text(WRIST)
+    scales = joint_inertias(build_tree(read_urdf(path)))
+    own, load, carried = scales["wrist_roll"]
+    assert load == pytest.approx(9.81 * 0.5 * 0.07, rel=1e-12)
+    assert scale_gains(scales["wrist_roll"])[0] == pytest.approx(load / LOAD_GIVE, rel=1e-12)
+    # the pitch joint's subtree is the hand alone, rigid with it: its lever at q = 0, unchanged
+    assert scales["wrist_pitch"][1] == pytest.approx(9.81 * 0.5 * 0.07, rel=1e-12)
+    upright = path.with_name("upright.urdf")
+    upright.write_text(WRIST.replace('<axis xyz="1 0 0"/>', '<axis xyz="0 0 1"/>'))
+    # about a vertical axis the swing adds nothing: the load stays the q = 0 rule's (the hand's
+    # centre 0.09 m from the axis at q = 0)
+    assert joint_inertias(build_tree(read_urdf(upright)))["wrist_roll"][1] == pytest.approx(9.81 * 0.5 * 0.09,
+                                                                                           rel=1e-12)
