@@ -21,12 +21,13 @@ from eomc.compiler import fixed_order as fo
 __all__ = ["collision_shapes", "ground_check", "MUJOCO_DEFAULTS"]
 
 
-def _mesh_vertices(filename, directory, scale, where):
+def _mesh_vertices(filename, directory, scale, where, missing):
     from eomc.runtime.geometry import quiet_mesh_loggers
     from eomc.runtime.readable import check_regular_file
     import os
     plain = filename[len("file://"):] if filename.startswith("file://") else filename
     resolved = plain if os.path.isabs(plain) else os.path.join(str(directory), plain)
+    looked = resolved if not filename.startswith("package://") else filename
     if not os.path.exists(resolved):          # package://...: yourdfpy's search
         try:
             from yourdfpy.urdf import filename_handler_magic
@@ -34,6 +35,9 @@ def _mesh_vertices(filename, directory, scale, where):
                 resolved = filename_handler_magic(filename, dir=str(directory))
         except Exception:
             pass
+    if not os.path.lexists(resolved):     # said once per directory (_warn_missing), not trimesh's per link
+        missing.append((where, filename, looked))
+        return None
     try:
         check_regular_file(resolved, what="mesh")
         import trimesh
@@ -45,6 +49,21 @@ def _mesh_vertices(filename, directory, scale, where):
                       f"touch the ground", EomcWarning, stacklevel=4)
         return None
     return v * np.asarray(scale if scale is not None else (1.0, 1.0, 1.0), dtype=float)
+
+
+def _warn_missing(missing):
+    """One warning per directory for the collision meshes that do not exist: (where, filename as
+    written, path looked for) each.  trimesh's "string is not a file" once per link (13 times for
+    solo12 without its meshes) said less, longer."""
+    import os
+    by_dir = {}
+    for where, filename, resolved in missing:
+        by_dir.setdefault(os.path.dirname(resolved), []).append((where, os.path.basename(resolved)))
+    for directory, items in by_dir.items():
+        links = "; ".join(f"{name} ({where.replace(' <collision>', '')})" for where, name in items)
+        warnings.warn(f"{len(items)} collision mesh{'es' * (len(items) > 1)} under {directory} "
+                      f"do{'es' * (len(items) == 1)} not exist, so {'their links do' if len(items) > 1 else 'its link does'} "
+                      f"not touch the ground: {links}", EomcWarning, stacklevel=4)
 
 
 def _bounding_box(vertices):
@@ -90,7 +109,7 @@ def collision_shapes(built, collisions, placements, height=0.0, skip=(), boxes=F
     g = 9.81
     k, c, mu = law_parameters(MUJOCO_DEFAULTS["solref"], MUJOCO_DEFAULTS["solimp"], MUJOCO_DEFAULTS["friction"],
                               3, g, max(mass, 1e-9) * g)
-    shapes, names = [], set()
+    shapes, names, missing = [], set(), []
     by_link = {}
     for col in collisions:
         by_link.setdefault(col.frame, []).append(col)
@@ -122,7 +141,7 @@ def collision_shapes(built, collisions, placements, height=0.0, skip=(), boxes=F
                 elif col.geometry == "mesh":
                     scale = col.attribute("scale")
                     v = _mesh_vertices(col.attribute("filename"), path.parent,
-                                       [float(x) for x in scale.split()] if scale else None, where)
+                                       [float(x) for x in scale.split()] if scale else None, where, missing)
                     if v is None or len(v) == 0:
                         continue
                     kind, size, vertices = "mesh", (), tuple(map(tuple, v))
@@ -149,6 +168,7 @@ def collision_shapes(built, collisions, placements, height=0.0, skip=(), boxes=F
             shapes.append(Shape(name=name, body=by_body[key], kind=kind, size=size, pos=tuple(pos),
                                 rot=tuple(map(tuple, R)), normal=(0.0, 0.0, 1.0), height=float(height),
                                 k=k, c=c, mu=mu, vertices=vertices, where=where))
+    _warn_missing(missing)
     return shapes
 
 

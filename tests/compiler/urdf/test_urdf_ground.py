@@ -94,3 +94,23 @@ def test_fifo_mesh_is_refused_not_read(tmp_path):
         eomc.compile(UrdfModel(path, floating_base=True, ground=True), functions=("rhs",),
                      cache_dir=tmp_path / "c", progress=False)
     assert any("FIFO" in str(w.message) and "does not touch the ground" in str(w.message) for w in caught)
+
+
+def test_missing_collision_meshes_are_one_line_per_directory(tmp_path):
+    """first hour s21 L4: solo12 without its meshes under --ground printed trimesh's "ValueError:
+    string is not a file: `...`" inside one warning per link (13 of them).  Now one warning per
+    directory says the files do not exist and names each link with its line."""
+    path = tmp_path / "two.urdf"
+    path.write_text(URDF.replace("{mesh}", '<mesh filename="meshes/a.stl"/></geometry></collision>\n'
+                                           '    <collision><origin xyz="0 0 0.6"/><geometry><mesh filename="meshes/b.stl"/>')
+                    .replace("<box size", '<mesh filename="meshes/c.stl"/></geometry></collision>\n'
+                                          '    <collision><geometry><box size'))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        eomc.compile(UrdfModel(path, floating_base=True, ground=True), functions=("rhs",), formulation="recursive",
+                     cache_dir=tmp_path / "c", progress=False)
+    texts = [str(w.message) for w in caught if ".stl" in str(w.message)]
+    assert texts == [f"3 collision meshes under {tmp_path / 'meshes'} do not exist, so their links do not touch the "
+                     f"ground: c.stl ({path}:4: link 'base'); a.stl ({path}:10: link 'mast'); "
+                     f"b.stl ({path}:11: link 'mast')"], texts
+    assert not any("not a file" in str(w.message) for w in caught)
