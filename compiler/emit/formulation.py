@@ -70,8 +70,9 @@ class Formulation:
             raise ModelError(KANE_IMPLICIT)
         return False
 
-    def symbolic(self, formed, layout, functions, outputs=None, events=None):
-        """The unoptimized :class:`~.symbolic.Symbolic` program of ``functions``."""
+    def symbolic(self, formed, layout, functions, outputs=None, events=None, rhs_lanes=False):
+        """The unoptimized :class:`~.symbolic.Symbolic` program of ``functions``.  ``rhs_lanes``:
+        NAME_rhs_batch is generated from the rhs's straight-line code (a looped rhs would not vectorize)."""
         return build_symbolic(formed, layout, functions, outputs, events)
 
     def body(self, fn, ctx, prog, sym, layout, nx):

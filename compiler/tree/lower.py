@@ -206,9 +206,11 @@ def _lowered_bodies(tree, layout, rec, memo=None):
     return bodies, gravity
 
 
-def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=None, implicit_energy=False):
+def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=None, implicit_energy=False,
+                        rhs_lanes=False):
     """Symbolic (as :func:`~eomc.compiler.emit.symbolic.build_symbolic`) from the recursions.
-    ``implicit_energy``: NAME_implicit ends with the energy output (:func:`implicit_layout`)."""
+    ``implicit_energy``: NAME_implicit ends with the energy output (:func:`implicit_layout`).
+    ``rhs_lanes``: NAME_rhs_batch is wanted, so the rhs stays straight-line (its lanes rewrite that code)."""
     rec = Recorder()
     loops = tree_loops(tree)           # a tree closed by constraints: see .constrained
     if loops is not None:
@@ -246,7 +248,7 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
                 extra += [(("lam", j), lam) for j, lam in enumerate(kkt[2])]
             if loops is None and not guards:
                 chain = chain_loop_plan(tree, bodies, [b.source for b in bodies], dict(rec.assignments),
-                                        gravity, layout, functions)
+                                        gravity, layout, (*functions, "rhs_batch") if rhs_lanes else functions)
             if loops is None and not guards and chain is None:
                 limbs = limb_plan(tree, bodies, dict(rec.assignments), layout, functions)
                 if limbs is not None:

@@ -128,6 +128,19 @@ def test_on_by_default_from_four_links(tmp_path):
     assert _looped(eomc.compile(cart_joints(5)[0], "cl_default5", parameters=_cart(5)[2], **kw))
 
 
+
+def test_rhs_batch_keeps_the_straight_line_rhs(tmp_path):
+    """NAME_rhs_batch's lanes are the rhs's straight-line code rewritten (compiler/emit/batch.py):
+    with rhs_batch asked for, a chain that would be looped keeps the straight-line rhs, so the
+    lanes stay vectorized (issue 31: rhs_batch >= 3x the scalar rhs on the cart; a looped rhs made
+    them the scalar rhs per state, 0.95x, session 21).  The same model without rhs_batch is looped."""
+    kw = dict(formulation="recursive", progress=False, cache_dir=tmp_path / "cache", fold_parameters=True)
+    system, _, params = _cart(8)
+    lanes = eomc.compile(system, "cl_lanes", functions=["rhs", "rhs_batch"], parameters=params, **kw)
+    assert not _looped(lanes)
+    assert lanes.metadata["rhs_batch"]["vectorized"] is True
+    assert _looped(eomc.compile(cart_joints(8)[0], "cl_nolanes", functions=["rhs"], parameters=params, **kw))
+
 DRIVER = r"""
 #include <stdio.h>
 #include <stdlib.h>
