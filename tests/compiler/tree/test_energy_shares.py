@@ -11,14 +11,18 @@ from eomc.compiler.driver import generate
 from helpers.urdf_arm import LAW_ARM
 
 
-def test_energy_is_a_sum_of_named_body_and_joint_shares(tmp_path):
+def _law_arm_energy(tmp_path, name):
+    """LAW_ARM's default build: (nq, its C, NAME_energy's body)."""
     path = tmp_path / "law_arm.urdf"
     path.write_text(LAW_ARM)
-    g = generate(str(path), "en_shares", formulation="recursive", use_cache=False, progress=False)[1]
-    nq = g.metadata["nq"]
+    g = generate(str(path), name, formulation="recursive", use_cache=False, progress=False)[1]
     c = g.c_source
-    start = c.index("int en_shares_energy(")
-    body = c[start:c.index("\n}\n", start)]
+    start = c.index(f"int {name}_energy(")
+    return g.metadata["nq"], c, c[start:c.index("\n}\n", start)]
+
+
+def test_energy_is_a_sum_of_named_body_and_joint_shares(tmp_path):
+    nq, c, body = _law_arm_energy(tmp_path, "en_shares")
     assert "en_shares_energy_part" not in c          # small: one straight body, read as it is
     result = re.search(r"out\[0\] = (t\d+);", body).group(1)
     total = re.search(rf"const double {result} = ([^;]*);", body).group(1)
@@ -33,13 +37,7 @@ def test_each_limit_side_is_one_call_of_the_stored_energy(tmp_path):
     in the file, not its sum spelled out per joint and side.  Why: spelled out, the limits were 17
     of NAME_energy's 67 kB of C on G1 and the build's Python and gcc work grew with them
     (benchmarks/results/derivative_build.md, session 20)."""
-    path = tmp_path / "law_arm.urdf"
-    path.write_text(LAW_ARM)
-    g = generate(str(path), "en_calls", formulation="recursive", use_cache=False, progress=False)[1]
-    nq = g.metadata["nq"]
-    c = g.c_source
-    start = c.index("int en_calls_energy(")
-    body = c[start:c.index("\n}\n", start)]
+    nq, c, body = _law_arm_energy(tmp_path, "en_calls")
     assert body.count("eomc_limit_stored(") == 2 * nq        # both limits of each joint
     assert "log(" not in body
     assert c.count("static double eomc_limit_stored(double r, double E)") == 1
