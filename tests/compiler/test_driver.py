@@ -82,7 +82,11 @@ def test_warm_cache_reuses_the_library(files, cache):
 def test_library_that_does_not_load_is_rebuilt(files, tmp_path):
     # build without loading: a library already loaded in this process cannot be replaced in it
     spec, generated = generate(files["pend"], progress=False)
-    library = build(generated, cache_dir=tmp_path, extra_metadata={"initial_state": spec.initial_state}).library
+    # the metadata compile() adds (its cache key reads it): the start, and the bodies' mass parameters
+    from eomc.compiler.driver import _body_parameters
+    bodies = _body_parameters(spec)
+    extra = {"initial_state": spec.initial_state, **({"body_parameters": bodies} if bodies else {})}
+    library = build(generated, cache_dir=tmp_path, extra_metadata=extra).library
     library.write_bytes(b"\0" * library.stat().st_size)  # same size: the manifest check passes, dlopen fails
     with pytest.warns(CacheWarning, match="was damaged .*rebuilding it"):
         second = eomc.compile(files["pend"], cache_dir=tmp_path, progress=False)
