@@ -30,6 +30,7 @@ import argparse
 import concurrent.futures
 import json
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -111,7 +112,14 @@ NO_LOOP = ("import sys, eomc.compiler.tree.chain_loop as c; c.CHAIN_LOOP_MIN_LIN
 def build(model, env, flags, form, outdir, timeout=None):
     """Build one form's rhs in a child process with a fresh cache: its json metadata, or why not.
     ``form`` "line": the recursive form with the looped rhs off."""
-    env = dict(os.environ, EOMC_CACHE_DIR=tempfile.mkdtemp(prefix="eomc_ac_"), **env)
+    cache = tempfile.mkdtemp(prefix="eomc_ac_")
+    try:
+        return _build(model, dict(os.environ, EOMC_CACHE_DIR=cache, **env), flags, form, outdir, timeout)
+    finally:
+        shutil.rmtree(cache, ignore_errors=True)     # the fresh cache is not kept (the outputs are in outdir)
+
+
+def _build(model, env, flags, form, outdir, timeout):
     name = f"m_{form}"
     start = [sys.executable, "-c", NO_LOOP] if form == "line" else [sys.executable, "-m", "eomc"]
     cmd = [*start, "build", str(model), *flags, "-o", str(outdir), "--name", name,
