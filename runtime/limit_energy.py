@@ -13,7 +13,7 @@ from functools import lru_cache
 
 import numpy as np
 
-__all__ = ["stored"]
+__all__ = ["stored", "stored_along"]
 
 _NODES, _WEIGHTS = np.polynomial.legendre.leggauss(8)
 _PANELS = 40
@@ -49,3 +49,33 @@ def _stored(r, K, E, push, hold):
         force = (force + np.sqrt(force * force + s * s)) / 2
     g = d / (d + E)
     return float(np.sum((b - a) / 2 * _WEIGHTS * g * g * force))
+
+
+def stored_along(r, K, E, push=0.0, hold=None):
+    """stored() for an array of depths ``r`` (one limit's depth past its bound at every recorded
+    point of a run; <= 0 or NaN where inside its range: 0): the energy verdict's total energy
+    along a run (runtime/switching._energy_rise).  One cumulative quadrature for all depths:
+    stored()'s graded panels up to the largest depth, cut at every depth, 8 Gauss-Legendre
+    nodes on each piece (each inside one of stored()'s panels: as accurate), summed in order
+    (walker2d's 64 rollout rows x 501 steps: 0.35 s with a quadrature per depth, measured)."""
+    r = np.asarray(r, dtype=float)
+    out = np.zeros(r.shape)
+    K, E = float(K), float(E)
+    past = np.flatnonzero(np.isfinite(r) & (r > 0))
+    if not past.size or not K > 0 or not E > 0:
+        return out
+    G, w = (float(hold[0]), float(hold[1])) if hold else (1.0, E)
+    start = min(E, w) / 100.0
+    depths, back = np.unique(r[past], return_inverse=True)
+    grid = np.geomspace(start, depths[-1], _PANELS) if depths[-1] > start else np.empty(0)
+    edges = np.unique(np.concatenate(([0.0], grid, depths)))
+    a, b = edges[:-1, None], edges[1:, None]
+    d = (a + b) / 2 + (b - a) / 2 * _NODES
+    force = K * (d + (G - 1.0) * w * np.tanh(d / w)) if hold else K * d
+    if push:
+        s = K * E * float(push)
+        force = (force + np.sqrt(force * force + s * s)) / 2
+    g = d / (d + E)
+    work = np.concatenate(([0.0], np.cumsum(np.sum((b - a) / 2 * _WEIGHTS * g * g * force, axis=1))))
+    out[past] = work[np.searchsorted(edges, depths)][back]
+    return out

@@ -374,7 +374,13 @@ def _energy_verdicts(model, a, X0, P, p_stride, controls, t_eval, X_out, X_last,
     # output but cannot evaluate it: not judged, as simulate, whose run then has no outputs
     if not sw or "energy" not in model.output_names or not rows.size or model.c_model.outputs == model.ffi.NULL:
         return {}
-    along = X_out is not None and ranges is None
+    # record="steps": the recorded states too, along which the total energy's rise is judged
+    # (switching._energy_rise; the C watch keeps the output's range only): with the watch, the
+    # energy alone along them (NAME_energy, _energy_along), the outputs at the start and the end
+    steps = None
+    if X_out is not None and ranges is not None:
+        steps = _energy_along(model, t_eval, X_out[rows], P, p_stride, rows)
+    along = X_out is not None and steps is None
     t = t_eval if along else np.array([0.0, float(t_eval[-1])])
     X = X_out[rows] if along else np.stack([X0[rows], X_last[rows]], axis=1)    # (rows, k, nx)
 
@@ -398,25 +404,35 @@ def _energy_verdicts(model, a, X0, P, p_stride, controls, t_eval, X_out, X_last,
             except SimulationError:     # not finite along this row: no energy to judge (as _energy_gain)
                 pass
     E = out[:, :, model.output_names.index("energy")]
+    if steps is not None:       # the energy along the recorded steps (their first the start)
+        E, X, t = steps, X_out[rows], t_eval
     if ranges is not None:      # [start, lowest, highest, end]: the whole run's verdict
         E = np.concatenate([E[:, :1], ranges[rows], E[:, 1:]], axis=1)
+        # the states at the lowest and highest energy are not known: the total energy's rise
+        # (switching._energy_rise) is judged along the known rows only (record="final": the
+        # start and the end)
+        X = np.concatenate([X[:, :1], np.full((rows.size, 2, model.nx), np.nan), X[:, 1:]], axis=1)
+        t = np.concatenate([t[:1], [np.nan, np.nan], t[1:]])
     with np.errstate(invalid="ignore"):
         scale = np.maximum(np.maximum(np.abs(E[:, 0]), np.max(np.abs(E - E[:, :1]), axis=1)), 1e-300)
         gain, tol = np.max(E, axis=1) - E[:, 0], energy_tolerance(a["rtol"], a["atol"]) * scale
         rose = gain > tol
+        rises = _total_rises(model, a, sw, P, p_stride, rows, E, X)
+        risen = rises > 0 if rises is not None else np.zeros(rows.size, dtype=bool)
     depth = [model.output_names.index(f"depth_{c.name}") for c in sw.contacts
              if f"depth_{c.name}" in model.output_names]
     messages, notes = {}, []
-    for k in np.flatnonzero(rose):
+    for k in np.flatnonzero(rose | risen):
         i = int(rows[k])
         # the verdict is silent on a gain within what the start's limit springs held (gymnasium's
-        # ant: every row, its ankles start outside their range): its allowance alone decides that
+        # ant: every row, its ankles start outside their range): its allowance alone decides that,
+        # unless the total energy rose above its running minimum beyond its tolerance (risen)
         held, sprung, _, _ = energy_allowance(model, np.asarray(P[i if p_stride else 0], dtype=float), X0[i],
                                               bool(np.any(out[k, 0, depth] > 0)), sw)
-        if gain[k] - held <= tol[k] and not sprung:
+        if gain[k] - held <= tol[k] and not sprung and not risen[k]:
             continue
         outputs = dict(zip(model.output_names, out[k].T), energy=E[k])
-        bad, why, said = energy_verdict(model, row_args(i), outputs, sw)
+        bad, why, said = energy_verdict(model, row_args(i), outputs, sw, x=X[k], t=t)
         if bad:
             status[i] = bad
             messages[i] = f"{model.name}: {a['method']}: {why}"
@@ -429,6 +445,63 @@ def _energy_verdicts(model, a, X0, P, p_stride, controls, t_eval, X_out, X_last,
                                      f"{', '.join(map(str, seen[:8]))}{', ...' if len(seen) > 8 else ''}); "
                                      f"row {i}: {w}"), stacklevel=3)
     return messages
+
+
+def _energy_along(model, t, X, P, p_stride, rows):
+    """The energy output at every recorded point (rows, k) of states X (rows, k, nx), one
+    NAME_energy call a point (zero inputs: the verdict judges only runs without sources), or
+    None for a model built without NAME_energy (the caller then evaluates the whole outputs).
+    NaN where not finite or where the call failed."""
+    if "energy" not in model.metadata.get("functions", ()) or model.model_lib is None:
+        return None
+    ffi = model.ffi
+    fn = getattr(model.model_lib, f"{model.name}_energy")
+    X = np.ascontiguousarray(X, dtype=float)
+    nrow, k, nx = X.shape
+    E = np.full((nrow, k), np.nan)
+    xs = ffi.from_buffer("double[]", X)
+    r = ffi.from_buffer("double[]", np.zeros(max(model.ninput, 1)))
+    work = ffi.from_buffer("double[]", np.empty(max(model.work_size, 1)))
+    out = ffi.new("double[1]")
+    for j, i in enumerate(rows):
+        p = ffi.from_buffer("double[]", np.ascontiguousarray(P[i if p_stride else 0], dtype=float))
+        for m in range(k):
+            if fn(float(t[m]), xs + (j * k + m) * nx, p, r, out, work) == 0:
+                E[j, m] = out[0]
+    with np.errstate(invalid="ignore"):
+        E[~np.isfinite(E)] = np.nan
+    return E
+
+
+def _total_rises(model, a, sw, P, p_stride, rows, E, X):
+    """Each row's total energy rise beyond its tolerance (switching._energy_rise, vectorised over
+    rows: the energy output plus the limit springs it leaves out, its largest rise above its
+    running minimum, minus energy_tolerance of the total's scale; rows whose states are NaN left
+    out), or None when the total is not known for this model (_energy_rise's None)."""
+    from .switching import _springs_along, energy_tolerance
+    meta = str(model.metadata.get("energy") or "")
+    if sw.contacts and not meta:
+        return None
+    total = E.copy()
+    if sw.limits and "joint limits" not in meta:
+        flat = X.reshape(-1, model.nx)
+        if p_stride:
+            parts = [_springs_along(model, np.asarray(P[i], dtype=float), sw, X[k]) for k, i in enumerate(rows)]
+            springs = None if any(s is None for s in parts) else np.stack(parts)
+        else:
+            springs = _springs_along(model, np.asarray(P[0], dtype=float), sw, flat)
+        if springs is None:
+            return None
+        total = total + springs.reshape(E.shape)
+    total = np.where(np.all(np.isfinite(X), axis=2), total, np.nan)
+    # the running minimum over the known rows (NaN rows skipped: fmin)
+    low = np.fmin.accumulate(total, axis=1)
+    known = np.isfinite(total)
+    rise = np.max(np.where(known, total - low, -np.inf), axis=1)
+    first = total[np.arange(total.shape[0]), np.argmax(known, axis=1)]
+    scale = np.maximum(np.maximum(np.abs(first), np.max(np.where(known, np.abs(total - first[:, None]), 0.0),
+                                                          axis=1)), 1e-300)
+    return rise - energy_tolerance(a["rtol"], a["atol"]) * scale
 
 
 def _gains(model, K, x_ref, n):

@@ -234,14 +234,14 @@ def verdict(model, a, result, gmax, sw):
     notes += below_ground(model, result.t, result.x, p, POINT_PENETRATION, PENETRATION_FRACTION)
     from .pair_check import passed_through
     notes += passed_through(model, result.t, result.x, p, outputs=result.outputs)   # bodies into each other
-    status, extra, said = energy_verdict(model, a, result.outputs, sw)
+    status, extra, said = energy_verdict(model, a, result.outputs, sw, x=result.x, t=result.t)
     notes += said
     if notes:       # one warning per run, naming every contact and joint
         warnings.warn(PhysicsWarning(f"{model.name}: " + "; ".join(notes)), stacklevel=_user_level())
     return status, extra
 
 
-def energy_verdict(model, a, outputs, sw):
+def energy_verdict(model, a, outputs, sw, x=None, t=None):
     """simulate's energy verdict, shared by ``verdict`` and rollout's implicitfast rows: (status,
     message addition, warning notes) -- (STATUS_ENERGY, why, ...) for a passive run (``sw``
     judged, an ``energy`` output, no sources: ``_no_sources(model, a)``) whose energy rose
@@ -249,7 +249,13 @@ def energy_verdict(model, a, outputs, sw):
     when not judged.  outputs: {output: values} along the run, the first row at its start
     (a["x0"], parameters a["p"]): the whole trajectory, or (rollout's record="final") the start,
     the energy's lowest and highest values over the run and the end, which give the same gain and
-    scale (_energy_gain)."""
+    scale (_energy_gain).  x (t): the states (times) at the outputs' rows, when known (NaN rows:
+    not known there): the total energy -- the output plus the limit springs it leaves out -- is
+    then judged by its rise above its running minimum (:func:`_energy_rise`), with the same
+    tolerance and failing multiple: a passive model's total energy never rises, so a gain after
+    the springs gave their energy back and the damping took it out is seen too (session 22: the
+    fixed step's ant, a foot landing inside a whole step, +9 J at t = 0.18 s, below what the
+    start's springs held)."""
     if not (sw and "energy" in outputs and _no_sources(model, a)):
         return 0, "", []
     got = _energy_gain(outputs)
@@ -275,7 +281,83 @@ def energy_verdict(model, a, outputs, sw):
             notes.append(f"the energy rose by {gain:.3g} (from {outputs['energy'][0]:.6g}, "
                          f"{gain / scale:.2g} of its scale) with only passive contacts and limits acting: "
                          f"more than the tolerance explains; tighten rtol")
+    if x is not None and not sprung and not status and not notes:
+        risen = _energy_rise(model, p, sw, outputs, x, t)
+        if risen is not None:
+            rise, scale, what = risen
+            tol = energy_tolerance(a["rtol"], a["atol"]) * scale
+            if rise > max(tol, min(ENERGY_FAIL * tol, 0.05 * scale)):
+                status = STATUS_ENERGY
+                extra = (f"{what} in a model whose contacts and limits can only take energy out: the "
+                         f"integration is wrong here (method {a['method']}, rtol {a['rtol']:g})")
+            elif rise > tol:
+                notes.append(f"{what} ({rise / scale:.2g} of its scale) with only passive contacts and limits "
+                             f"acting: more than the tolerance explains (method {a['method']}, rtol {a['rtol']:g})")
     return status, extra, notes
+
+
+def _energy_rise(model, p, sw, outputs, x, t=None):
+    """(rise, scale, words) of energy_verdict's total energy along a run, or None when it cannot
+    be known: the energy output plus the limit springs it leaves out (MJCF's, whose shapes
+    NAME.json ``limit_laws`` gives: runtime/limit_energy.stored_along at each row's depths);
+    rise, its largest rise above its running minimum; scale, max(|E0|, |E - E0|) of the total.
+    Rows whose state is not finite are left out (rollout's record="final": the start and the
+    end only).  None: an energy output that may leave a contact's elastic energy out (not one
+    eomc generated) on a model with contacts, or limit springs left out whose shape is unknown --
+    the total is then not known, and a spring's compression shows as a fall, its release as a
+    rise."""
+    E = np.asarray(outputs["energy"], dtype=float)
+    X = np.asarray(x, dtype=float)
+    if X.ndim != 2 or X.shape[0] != E.size or E.size < 2:
+        return None
+    meta = str(model.metadata.get("energy") or "")
+    if sw.contacts and not meta:
+        return None
+    total = E.copy()
+    if sw.limits and "joint limits" not in meta:
+        springs = _springs_along(model, p, sw, X)
+        if springs is None:
+            return None
+        total = total + springs
+    keep = np.isfinite(total) & np.all(np.isfinite(X), axis=1)
+    if np.count_nonzero(keep) < 2:
+        return None
+    rows = np.flatnonzero(keep)
+    total = total[rows]
+    low = np.minimum.accumulate(total)
+    k1 = int(np.argmax(total - low))
+    rise = float(total[k1] - low[k1])
+    if not rise > 0:
+        return None
+    k0 = int(np.argmin(total[:k1 + 1]))
+    scale = max(abs(float(total[0])), float(np.max(np.abs(total - total[0]))), 1e-300)
+    at = (lambda k: f" at t = {float(t[rows[k]]):.6g} s") if t is not None and len(t) == E.size else (lambda k: "")
+    what = (f"the energy{' with the limit springs it leaves out' if not np.array_equal(total, E[rows]) else ''} "
+            f"rose by {rise:.3g} above its lowest value ({float(total[k0]):.6g}{at(k0)}) to "
+            f"{float(total[k1]):.6g}{at(k1)}")
+    return rise, scale, what
+
+
+def _springs_along(model, p, sw, X):
+    """The energy the limit springs the energy output leaves out hold at each row of states X
+    (rows, nx), or None when some limit's shape is unknown (see _held_sum)."""
+    laws = model.metadata.get("limit_laws") or {}
+    names = list(getattr(model, "param_names", ()))
+    from .limit_energy import stored_along
+    _, _, _, limit_at = _bounds(sw, p)
+    ix = _indices(sw)
+    depth = ix["sign"][None, :] * (X[:, ix["state"]] - limit_at[None, :])
+    total = np.zeros(X.shape[0])
+    for j, lim in enumerate(sw.limits):
+        shape = laws.get(lim.joint)
+        if shape is None or f"limit_k_{lim.joint}" not in names or f"limit_e_{lim.joint}" not in names:
+            return None
+        d = depth[:, j]
+        if not np.any(d > 0):
+            continue
+        total += stored_along(d, p[names.index(f"limit_k_{lim.joint}")], p[names.index(f"limit_e_{lim.joint}")],
+                              shape.get("push", 0.0), shape.get("hold"))
+    return total
 
 
 def energy_allowance(model, p, x0, in_contact, sw):

@@ -35,3 +35,15 @@ def test_no_energy_inside_the_range_or_without_a_spring():
     assert stored(0.0, 100.0, 3e-4, 0.1, (19.0, 1e-3)) == 0.0
     assert stored(-0.2, 100.0, 3e-4, 0.1, None) == 0.0
     assert stored(0.2, 0.0, 3e-4, 0.1, None) == 0.0
+
+
+def test_stored_along_is_stored_at_each_depth():
+    """The verdict's vectorised spring energy (stored_along: every recorded point of a run) gives
+    stored()'s numbers, depths inside the range (<= 0) and NaN 0, the hold and the push included."""
+    from eomc.runtime.limit_energy import stored, stored_along
+    r = np.array([-0.2, 0.0, 1e-7, 2e-5, 1e-3, 0.05, 0.52, np.nan])
+    for shape in ((0.0, None), (0.3, None), (0.0, (5.0, 0.02)), (0.2, (5.0, 0.02))):
+        got = stored_along(r, 693.0, 3e-4, *shape)
+        want = [stored(d, 693.0, 3e-4, *shape) if np.isfinite(d) else 0.0 for d in r]
+        assert np.allclose(got, want, rtol=1e-12, atol=0.0), (shape, got, want)
+        assert got[-1] == 0.0 and np.all(got[:2] == 0.0) and np.all(got[2:-1] > 0.0)
