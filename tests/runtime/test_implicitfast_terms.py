@@ -536,8 +536,8 @@ def test_the_fixed_steps_energy_gain_after_the_start_springs_gave_theirs_back_is
     res, text, rise, tol, rises = runs["dop853"]
     assert res.status == 0 and rise <= tol and "energy" not in text, (rise, tol, text)
     res, text, rise, tol, rises = runs["implicitfast"]
-    # today (main 0fba3608): 8.96 J from 18.89 J at t = 0.18 s to 27.85 J at t = 0.19 s; its scale
-    # (the start's 1652 J) makes it a warning (0.0055 of it), not a failed run (0.01)
+    # today (main 0fba3608): 8.96 J from 18.89 J at t = 0.18 s to 27.85 J at t = 0.19 s, 0.0055 of its
+    # scale (the start's 1652 J): a warning (the rise never fails a run: energy_verdict)
     if rise > tol:
         k = int(np.argmax(rises))
         assert res.status == 0
