@@ -196,7 +196,7 @@ def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, f
     equations and options were seen before (see eomc.compiler.build.gencache).
     """
     from .formulations.select import check_formulation, generate_formulation, tree_digest
-    from .emit.target import check_target, retarget
+    from .emit.target import check_target, check_target_functions, retarget
     progress = progress if isinstance(progress, Progress) else Progress(progress)
     check_formulation(formulation)
     target = check_target(target)
@@ -207,6 +207,7 @@ def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, f
         functions = check_functions(functions)
     except Invalid as exc:
         raise ModelError(str(exc)) from None
+    check_target_functions(target, functions)   # before the model is read: c99-f32 builds no batch
 
     def derive(form):
         spec = spec_of(read, parameters=parameters, inputs=inputs, outputs=outputs,
