@@ -349,3 +349,24 @@ def test_check_says_its_runs_gave_physics_warnings(tmp_path, capsys):
             "judge the integration, not the model's laws") in capsys.readouterr().out
     assert main(["check", str(model), "--t-final", "0.3", "-q", "--methods", "radau"]) == 0
     assert "physics warning" not in capsys.readouterr().out
+
+
+def test_welded_links_with_impossible_inertias_are_one_short_note(tmp_path):
+    # first hour s21 (L5): ANYmal C's five cameras, welded to its fixed base with impossible
+    # inertias, gave `eomc CMD: warning: ... (principal moments below) ...` -- 680 characters
+    # on every command, about links that move nothing; now one `eomc: note:` naming them
+    from helpers.urdf_arm import ARM
+    cams = "".join(f'  <joint name="cam{k}_joint" type="fixed"><parent link="base"/><child link="cam{k}"/>'
+                   f'</joint>\n  <link name="cam{k}"><inertial><mass value="0.1"/><inertia ixx="1e-6" ixy="0" '
+                   f'ixz="0" iyy="1e-6" iyz="0" izz="1e-3"/></inertial></link>\n' for k in (1, 2))
+    path = tmp_path / "arm.urdf"
+    path.write_text(ARM.replace("</robot>", cams + "</robot>"))
+    for _ in range(2):     # the build, then the reuse shortcut's replay
+        run = subprocess.run([sys.executable, "-m", "eomc", "simulate", str(path), "--t-final", "0.1", "-q"],
+                             capture_output=True, text=True, cwd=tmp_path)
+        assert run.returncode == 0, run.stderr
+        notes = [line for line in run.stderr.splitlines() if "welded to the ground" in line]
+        assert len(notes) == 1 and notes[0].startswith(f"eomc: note: {path}:"), run.stderr
+        assert "2 links welded to the ground" in notes[0] and "link 'cam1' (line" in notes[0] \
+            and "link 'cam2' (line" in notes[0] and "warning" not in notes[0], notes
+        assert len(notes[0]) - len(str(path)) < 200, notes[0]      # was 354 + the path
