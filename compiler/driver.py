@@ -310,12 +310,14 @@ def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, fu
 
 
 def _body_parameters(spec):
-    """The bodies whose mass or inertia is made of run-time parameters (SymPy systems:
-    eomc.compiler.mechanics.body_parameters), or []."""
+    """The bodies whose mass or inertia is made of run-time parameters (SymPy systems, and robots
+    read into the tree IR -- a URDF's m_<link>, I.._<link>: eomc.compiler.mechanics.body_parameters),
+    or []."""
     from .mechanics.body_parameters import body_parameters
     params = spec.parameters if spec.parameters is not None else getattr(spec.formed, "parameters", ())
+    source = spec.system if spec.system is not None else getattr(spec.formed, "tree", None)
     try:
-        return body_parameters(spec.system, params)
+        return body_parameters(source, params)
     except Exception:     # what cannot be read is not checked: the build itself does not depend on it
         return []
 
