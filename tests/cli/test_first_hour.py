@@ -370,3 +370,24 @@ def test_welded_links_with_impossible_inertias_are_one_short_note(tmp_path):
         assert "2 links welded to the ground" in notes[0] and "link 'cam1' (line" in notes[0] \
             and "link 'cam2' (line" in notes[0] and "warning" not in notes[0], notes
         assert len(notes[0]) - len(str(path)) < 200, notes[0]      # was 354 + the path
+
+
+def test_build_says_the_moved_start_as_a_cli_note(tmp_path, capsys):
+    # first hour s22: `eomc build hyq_no_sensors.urdf` gave the Python API's warning ("give x0 to
+    # simulate from another start; the joints are in model.metadata['start_in_range']") where
+    # simulate gives a note; build now gives the note, naming the joint and what to do
+    import warnings
+    from helpers.urdf_arm import ARM
+    from eomc.errors import DefaultStartWarning
+    path = tmp_path / "arm.urdf"
+    path.write_text(ARM.replace('<axis xyz="0 1 0"/>\n  </joint>\n  <joint name="elbow"',
+                                '<axis xyz="0 1 0"/>\n    <limit lower="0.2" upper="1" effort="1" velocity="1"/>\n'
+                                '  </joint>\n  <joint name="elbow"', 1))
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        assert main(["build", str(path), "-o", str(tmp_path / "out"), "-q"]) == 0
+    assert not [w for w in seen if issubclass(w.category, DefaultStartWarning)]
+    err = capsys.readouterr().err
+    assert "eomc: note: arm: the zero pose is outside the range of joint shoulder" in err, err
+    assert "just inside the nearest limit (NAME.json's initial_state; simulate --x0 chooses another)" in err
+    assert "model.metadata" not in err
