@@ -172,6 +172,12 @@ class ramp(sm.Function):
     def fdiff(self, argindex=1):
         return step(self.args[0])
 
+    def _eval_is_extended_real(self):
+        return self.args[0].is_extended_real
+
+    def _eval_is_finite(self):
+        return True if self.args[0].is_finite else None
+
     def _eval_evalf(self, prec):
         x = self.args[0].evalf(prec)
         return (x if x > 0 else sm.S.Zero) if x.is_Number else None
