@@ -391,3 +391,19 @@ def test_build_says_the_moved_start_as_a_cli_note(tmp_path, capsys):
     assert "eomc: note: arm: the zero pose is outside the range of joint shoulder" in err, err
     assert "just inside the nearest limit (NAME.json's initial_state; simulate --x0 chooses another)" in err
     assert "model.metadata" not in err
+
+
+def test_a_run_without_outputs_says_what_moved(tmp_path, capsys):
+    # first hour s22: bolt.urdf and borinot (no limits, no contacts: no energy output) printed
+    # their step count only; now the coordinate that moved most, and where the states go
+    from helpers.urdf_arm import ARM
+    path = tmp_path / "arm.urdf"
+    path.write_text(ARM)
+    assert main(["simulate", str(path), "--t-final", "0.2", "-q", "--x0", "q_shoulder=0.5"]) == 0
+    out = capsys.readouterr().out
+    assert re.search(r"\n  no outputs \(the model defines none\); of its 2 coordinates q_elbow changed most: "
+                     r"start 0, end -0\.57[0-9]+; -o FILE writes every state\n", out), out     # the elbow swings
+    assert main(["simulate", str(path), "--t-final", "0.2", "-q", "--x0", "q_shoulder=0.5", "-o",
+                 str(tmp_path / "t.csv")]) == 0
+    out = capsys.readouterr().out
+    assert "nothing moved" not in out and "no outputs" in out and "-o FILE" not in out
