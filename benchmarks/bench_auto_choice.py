@@ -8,7 +8,7 @@ both rhs, checks they agree on 64 random states, and times them in thread CPU ti
 operations), the new one what it does now (eomc.compiler.formulations.select.rhs_cost): both computed
 from the two builds' operation counts, exactly as auto compares them.
 
-Models: the cart System auto sees (benchmarks/tree_models/cart_rel_joints.py, n = 1-4, 8, 20,
+Models: the cart System auto sees (benchmarks/tree_models/cart_rel_joints.py, n = 1-5, 8, 20,
 40), the UR10 and Kinova arms, and every robot of benchmarks/results/urdf.md (UR5, Panda, Solo12
 on a floating base) from example-robot-data.  Auto's pick is what `--formulation auto` built
 (a third build; its json's formulation): above 6 speeds on a URDF Model, or where the LDLT of
@@ -18,12 +18,19 @@ so Kane's rhs is built explicitly here to time it, within --kane-timeout seconds
 Builds run concurrently (--jobs), the timing harnesses one after another on core 1.
 The harness compiles both forms' C with the flags of eomc's default build on this machine
 (LIB_FLAGS: -O2 plus -mavx2 -ffp-contract=off on AVX2), so the times are what auto's pick runs at.
-Usage: python benchmarks/bench_auto_choice.py [--rounds 9] [--jobs 2] [--kane-timeout 1200] [--write]  (--write: results/auto_choice.md)
+With --line the recursive form is also built with the looped rhs switched off
+(compiler/tree/chain_loop.CHAIN_LOOP_MIN_LINKS = None: the straight-line rhs the loop replaced from a run
+of 4 identical links) and timed beside the two, for information (auto does not choose between them).
+With --portable the harness compiles at eomc's portable flags only (DEFAULT_CFLAGS, no -mavx2: what a
+machine without AVX2, or another architecture, builds; the looped rhs then takes each link's sin and cos
+from libm), and --write goes to results/auto_choice_portable.md.
+Usage: python benchmarks/bench_auto_choice.py [--rounds 9] [--jobs 2] [--kane-timeout 1200] [--line] [--portable] [--write]  (--write: results/auto_choice.md)
 """
 import argparse
 import concurrent.futures
 import json
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -88,7 +95,7 @@ CART = HERE / "tree_models" / "cart_rel_joints.py"
 def models():
     """(label, model file, environment, extra build flags)."""
     from helpers.robots import robot_path
-    out = [(f"cart n={n}", CART, {"EOMC_N_LINKS": str(n)}, []) for n in (1, 2, 3, 4, 8, 20, 40)]
+    out = [(f"cart n={n}", CART, {"EOMC_N_LINKS": str(n)}, []) for n in (1, 2, 3, 4, 5, 8, 20, 40)]
     out.append(("UR10", robot_path("ur_description/urdf/ur10_robot.urdf"), {}, []))
     out.append(("Kinova", robot_path("kinova_description/robots/kinova.urdf"), {}, []))
     out.append(("UR5", robot_path("ur5"), {}, []))
@@ -97,12 +104,27 @@ def models():
     return out
 
 
+# the straight-line recursive rhs (--line): eomc's CLI with the looped rhs switched off
+NO_LOOP = ("import sys, eomc.compiler.tree.chain_loop as c; c.CHAIN_LOOP_MIN_LINKS = None; "
+           "from eomc.cli import main; sys.exit(main(sys.argv[1:]))")
+
+
 def build(model, env, flags, form, outdir, timeout=None):
-    """Build one form's rhs in a child process with a fresh cache: its json metadata, or why not."""
-    env = dict(os.environ, EOMC_CACHE_DIR=tempfile.mkdtemp(prefix="eomc_ac_"), **env)
+    """Build one form's rhs in a child process with a fresh cache: its json metadata, or why not.
+    ``form`` "line": the recursive form with the looped rhs off."""
+    cache = tempfile.mkdtemp(prefix="eomc_ac_")
+    try:
+        return _build(model, dict(os.environ, EOMC_CACHE_DIR=cache, **env), flags, form, outdir, timeout)
+    finally:
+        shutil.rmtree(cache, ignore_errors=True)     # the fresh cache is not kept (the outputs are in outdir)
+
+
+def _build(model, env, flags, form, outdir, timeout):
     name = f"m_{form}"
-    cmd = [sys.executable, "-m", "eomc", "build", str(model), *flags, "-o", str(outdir), "--name", name,
-           "--fold-parameters", "--outputs", "rhs", "--formulation", form, "-q"]
+    start = [sys.executable, "-c", NO_LOOP] if form == "line" else [sys.executable, "-m", "eomc"]
+    cmd = [*start, "build", str(model), *flags, "-o", str(outdir), "--name", name,
+           "--fold-parameters", "--outputs", "rhs", "--formulation",
+           "recursive" if form == "line" else form, "-q"]
     proc = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         _, err = proc.communicate(timeout=timeout)
@@ -117,11 +139,11 @@ def build(model, env, flags, form, outdir, timeout=None):
     return json.loads((outdir / f"{name}.json").read_text())
 
 
-def build_all(label, model, env, flags, tmp, kane_timeout):
+def build_all(label, model, env, flags, tmp, kane_timeout, line=False):
     d = tmp / label.replace(" ", "_").replace("=", "").replace("(", "").replace(")", "")
     d.mkdir()
     out = {}
-    for form in ("auto", "recursive", "kane"):
+    for form in ("auto", "recursive", "kane") + (("line",) if line else ()):
         t0 = time.time()
         meta = build(model, env, flags, form, d, kane_timeout if form == "kane" else None)
         out[form] = (meta, time.time() - t0)
@@ -158,8 +180,10 @@ def measure(label, d, built, rounds):
     metas = {f: m for f, (m, _) in built.items() if isinstance(m, dict)}
     if "recursive" not in metas:
         return {"label": label, "error": f"recursive: {built['recursive'][0]}"}
-    forms = [f for f in ("kane", "recursive") if f in metas]
+    forms = [f for f in ("kane", "recursive", "line") if f in metas]
     ns, agree = time_forms(d, forms, metas, rounds)
+    line_ns = ns.pop("line", None)
+    forms = [f for f in forms if f != "line"]
     counts = {f: metas[f]["op_counts"]["rhs"] for f in forms}
     ops = {f: sum(c.values()) for f, c in counts.items()}
     cost = {f: rhs_cost(c, f) for f, c in counts.items()}
@@ -167,14 +191,15 @@ def measure(label, d, built, rounds):
     auto = metas.get("auto", {})
     return dict(label=label, nu=metas["recursive"]["nu"], ns=ns, counts=counts, ops=ops, cost=cost, old=old,
                 auto=auto.get("formulation", f"failed: {built['auto'][0]}"),
-                auto_costs=auto.get("formulation_costs"), agree=agree,
+                auto_costs=auto.get("formulation_costs"), agree=agree, line_ns=line_ns,
                 kane_build=(built["kane"][1], None if "kane" in metas else built["kane"][0]))
 
 
 def table(rows):
     head = ("| model | speeds | kane rhs ns | recursive rhs ns | faster | kane ops (calls, divs) | "
             "recursive ops (calls, divs) | kane cost | recursive cost | old pick (ops) | "
-            "auto's pick (its costs) | auto / best time | agreement | kane build wall s |")
+            "auto's pick (its costs) | auto / best time | agreement | kane build wall s |"
+            + (" straight-line recursive rhs ns (--line) |" if any(r.get("line_ns") for r in rows) else ""))
     lines = [head, "|" + "--:|" * (head.count("|") - 1)]
     for r in rows:
         if "error" in r:
@@ -195,7 +220,8 @@ def table(rows):
             f"| {r['label']} | {r['nu']} | {kane_ns} | {ns['recursive']:.0f} | {fast if both else '-'} | "
             f"{kane_ops} | {ops['recursive']} ({c['recursive']['calls']}, {c['recursive']['divs']}) | "
             f"{r['cost'].get('kane', '-')} | {r['cost']['recursive']} | {r['old'] or '-'} | {auto_cell} | "
-            f"{ratio} | {agree} | {kane_build} |")
+            f"{ratio} | {agree} | {kane_build} |"
+            + (f" {r['line_ns']:.0f} |" if r.get("line_ns") else (" - |" if "straight-line" in head else "")))
     return "\n".join(lines)
 
 
@@ -206,12 +232,21 @@ def main(argv):
     ap.add_argument("--jobs", type=int, default=2, help="builds run at once (timing is one at a time)")
     ap.add_argument("--kane-timeout", type=float, default=1200.0, help="wall seconds for Kane's build")
     ap.add_argument("-k", action="append", default=[], help="only models whose label contains this")
+    ap.add_argument("--line", action="store_true", help="also time the straight-line recursive rhs")
+    ap.add_argument("--portable", action="store_true",
+                    help="harness at eomc's portable flags (no -mavx2); --write to auto_choice_portable.md")
     args = ap.parse_args(argv)
+    global LIB_FLAGS
+    if args.portable:
+        LIB_FLAGS = list(DEFAULT_CFLAGS)
     start = " ".join(f"{v:.2f}" for v in os.getloadavg())
     tmp = Path(tempfile.mkdtemp(prefix="bench_auto_"))
-    chosen = [m for m in models() if not args.k or any(k in m[0] for k in args.k)]
+    labels = [m[0] for m in models()]
+    # -k: a label exactly ("cart n=2", not "cart n=20"), or else every label containing it
+    chosen = [m for m in models() if not args.k or any(k == m[0] or (k not in labels and k in m[0])
+                                                        for k in args.k)]
     with concurrent.futures.ThreadPoolExecutor(args.jobs) as pool:
-        builds = [pool.submit(build_all, *m, tmp, args.kane_timeout) for m in chosen]
+        builds = [pool.submit(build_all, *m, tmp, args.kane_timeout, args.line) for m in chosen]
         rows = []
         for (label, *_), fut in zip(chosen, builds):
             try:
@@ -227,10 +262,15 @@ def main(argv):
         notes = [f"load average at start: {start}, at the end: {end} (a shared 2-core machine, "
                  f"other engineers' builds and tests running beside this): times are thread CPU time",
                  f"--kane-timeout {args.kane_timeout:.0f} s, --rounds {args.rounds}",
-                 f"both rhs compiled into the harness with eomc's default flags on this machine: "
-                 f"{' '.join(LIB_FLAGS)}"]
-        print(write_results("auto_choice", environment_header(
-            "auto's choice of formulation: both forms' rhs measured", notes=notes)
+                 (f"the rhs compiled into the harness with eomc's portable flags only (no machine flags: "
+                  f"a build without AVX2): " if args.portable else
+                  f"both rhs compiled into the harness with eomc's default flags on this machine: ")
+                 + " ".join(LIB_FLAGS)]
+        if args.line:
+            notes.append("--line: the straight-line recursive rhs (the looped rhs switched off) timed beside them")
+        print(write_results("auto_choice_portable" if args.portable else "auto_choice", environment_header(
+            "auto's choice of formulation: both forms' rhs measured"
+            + (" (portable flags, no AVX2)" if args.portable else ""), notes=notes)
             + "\n" + (__doc__ or "") + "\n" + text + "\n", keep_notes=True))
     return 0
 

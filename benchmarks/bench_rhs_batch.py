@@ -9,6 +9,16 @@ pinned to one core (taskset -c CORE, --core, 0 unless told):
   case for the scalar call);
 * batch: one NAME_rhs_batch call over the same 1024 states stored as columns (nx x 1024).
 
+The harnesses are compiled with the flags eomc builds its libraries with on this machine
+(-O2 -std=c99 and, on x86-64 with AVX2, compiler/build/toolchain.MACHINE_FLAGS: -mavx2
+-ffp-contract=off), so the scalar rhs is the one a default build runs (the looped rhs's links'
+sin and cos take their AVX2 lanes only under __AVX2__).  The scalar rhs is the batch build's
+own NAME_rhs; the bench also builds the model with `--outputs rhs` (named s) and compares the two
+NAME_rhs texts (column "scalar rhs": looped, limb routines or straight-line; "= rhs-only build" when
+they agree).  Where they do not (G1: a build with rhs_batch writes no limb routines, tree/limbs.py),
+the harness links the rhs-only build too and times its s_rhs as the scalar contestant, so the
+speed-up is always against the scalar rhs users get without rhs_batch.
+
 The two contestants alternate within a round, both executables alternate round by round, and
 the table gives medians over rounds (the scalar column is the median of both harnesses'
 scalar rounds: the same code).  Each harness first checks the batch against the scalar rhs on
@@ -53,6 +63,12 @@ HARNESS = r"""
 #include <stdlib.h>
 #include <time.h>
 #include "m.h"
+#if ALONE
+#include "s.h"
+#define SCALAR_MODEL s_model()
+#else
+#define SCALAR_MODEL m_model()
+#endif
 #define NS 1024
 #if JACX
 #define BATCH m_jac_x_batch
@@ -65,7 +81,7 @@ HARNESS = r"""
 #define SCALAR rhs
 #endif
 """ + C_CLOCK_AND_RNG + r"""int main(int argc, char **argv) {
-    const eomc_model *m = m_model();
+    const eomc_model *m = m_model(), *sm = SCALAR_MODEL;
     int nx = m->nx, nq = m->nq, nr = m->ninput, i, k, c, round, rounds = atoi(argv[1]);
     int no = JACX ? nx * nx : OUTS ? m->noutput : nx;
     double *X = malloc(sizeof(double) * nx * NS), *S = malloc(sizeof(double) * nx * NS);
@@ -79,7 +95,7 @@ HARNESS = r"""
         X[i * nx + k] = v; S[k * NS + i] = v; }
     if (BATCH(NS, 0.0, S, m->param_defaults, nr ? R : NULL, XD, st, work)) { printf("batch failed\n"); return 1; }
     for (i = 0; i < NS; i++) {
-        m->SCALAR(0.0, X + i * nx, m->param_defaults, r, xd + i * no, work);
+        sm->SCALAR(0.0, X + i * nx, m->param_defaults, r, xd + i * no, work);
         for (k = 0; k < no; k++) { double a = XD[k * NS + i], b = xd[i * no + k];
             double d = fabs(a - b) / (fabs(b) > 1 ? fabs(b) : 1);
             if (d > worst) worst = d; same += a == b; }
@@ -88,7 +104,7 @@ HARNESS = r"""
     for (round = 0; round < rounds; round++)
         for (c = 0; c < 2; c++) {
             int cc = (c + round) % 2; long done = 0; double t0 = tnow(), t1;
-            do { if (cc == 0) { for (i = 0; i < NS; i++) m->SCALAR(0.0, X + i * nx, m->param_defaults, r, xd + i * no, work); }
+            do { if (cc == 0) { for (i = 0; i < NS; i++) sm->SCALAR(0.0, X + i * nx, m->param_defaults, r, xd + i * no, work); }
                  else BATCH(NS, 0.0, S, m->param_defaults, nr ? R : NULL, XD, st, work);
                  sum += cc ? XD[0] : xd[0];
                  done += NS; t1 = tnow(); } while (t1 - t0 < 2e7);
@@ -132,18 +148,58 @@ def build(model, env, flags, outdir, fn="rhs"):
     return json.loads((outdir / "m.json").read_text()), time.perf_counter() - start
 
 
+def scalar_text(path, fn, name="m"):
+    """NAME_fn's definition in the C file at ``path`` (with its NAME_fn_part* sub-functions)."""
+    import re
+    text = path.read_text()
+    parts = re.findall(rf"^static[^\n]*\b{name}_{fn}_part\d+\(.*?^}}$", text, flags=re.M | re.S)
+    start = text.index(f"\nint {name}_{fn}(")
+    return "\n".join(parts) + text[start:text.index("\n}\n", start)]
+
+
+def scalar_kind(d, model, env, flags, fn):
+    """How the batch build's scalar fn is written (looped / straight-line) and whether it is the
+    C of a build without the batch function (`--outputs fn`)."""
+    import re
+
+    def kind(text):
+        return ("looped" if re.search(r"\bL\d+_\d+\[\d+ \* k \+", text) else
+                "limb routines" if re.search(r"\b[ms]_limb\d+_in\(", text) else "straight-line")
+    mine = scalar_text(d / "m.c", fn)
+    alone = d / "alone"
+    alone.mkdir()
+    env = dict(os.environ, EOMC_CACHE_DIR=tempfile.mkdtemp(prefix="eomc_rb_"), **env)
+    proc = subprocess.run([sys.executable, "-m", "eomc", "build", str(model), "-o", str(alone), "--name", "s",
+                           "--outputs", fn, "-q", *flags], env=env, capture_output=True, text=True)
+    if proc.returncode:
+        raise RuntimeError("the rhs-only build failed: " + ((proc.stderr.strip().splitlines() or ["?"])[-1]))
+    theirs = scalar_text(alone / "s.c", fn, "s")
+    if theirs == mine.replace("m_", "s_"):
+        return f"{kind(mine)}, = {fn}-only build", None
+    return f"{kind(theirs)} (the {fn}-only build's, timed; the batch build's: {kind(mine)})", alone
+
+
+def harness_flags():
+    """The flags eomc compiles a library with on this machine (toolchain.DEFAULT_CFLAGS without
+    -fPIC, plus machine_flags: -mavx2 -ffp-contract=off where the CPU has AVX2)."""
+    from eomc.compiler.build.toolchain import find_compiler, machine_flags
+    return ["-O2", "-std=c99", *machine_flags(find_compiler())]
+
+
 def measure(label, model, env, flags, tmp, rounds, fn="rhs", core=0):
     d = tmp / label.replace(" ", "_").replace("=", "")
     d.mkdir()
     meta, build_s = build(model, env, flags, d, fn)
+    kind, alone = scalar_kind(d, model, env, flags, fn) if fn == "rhs" else ("", None)
     (d / "h.c").write_text(HARNESS)
     rt = ROOT / "runtime" / "c"
     exes, compile_s = {}, {}
     for lanes in (4, 8):
         exe = d / f"h{lanes}"
         start = time.perf_counter()
-        subprocess.run(["gcc", "-O2", "-std=c99", f"-DEOMC_BATCH_LANES={lanes}", f"-DJACX={int(fn == 'jac_x')}", f"-DOUTS={int(fn == 'outputs')}",
-                        f"-I{d}", f"-I{rt}",
+        subprocess.run(["gcc", *harness_flags(), f"-DEOMC_BATCH_LANES={lanes}", f"-DJACX={int(fn == 'jac_x')}", f"-DOUTS={int(fn == 'outputs')}",
+                        f"-DALONE={int(alone is not None)}", f"-I{d}", f"-I{rt}",
+                        *([f"-I{alone}", str(alone / "s.c")] if alone is not None else []),
                         str(d / "h.c"), str(d / "m.c"), "-o", str(exe), "-lm"], check=True)
         compile_s[lanes] = time.perf_counter() - start
         exes[lanes] = exe
@@ -163,11 +219,11 @@ def measure(label, model, env, flags, tmp, rounds, fn="rhs", core=0):
     batch = {lanes: statistics.median(times[("batch", lanes)]) for lanes in (4, 8)}
     return dict(label=label, nx=meta["nx"], formulation=meta["formulation"],
                 vectorized=meta[f"{fn}_batch"]["vectorized"], ops=sum(meta["op_counts"][fn].values()),
-                scalar=scalar, batch=batch, agree=agree, build_s=build_s, compile_s=compile_s)
+                scalar=scalar, batch=batch, agree=agree, build_s=build_s, compile_s=compile_s, kind=kind)
 
 
 def table(rows, fn="rhs"):
-    head = (f"| model | nx | form | {fn} ops | scalar {fn} ns/state | batch 4 lanes (AVX2) ns/state | "
+    head = (f"| model | nx | form | scalar {fn} | {fn} ops | scalar {fn} ns/state | batch 4 lanes (AVX2) ns/state | "
             "batch 8 lanes (AVX-512) ns/state | speed-up 4 lanes | speed-up 8 lanes | "
             f"batch vs {fn}: max rel. diff, share of identical bits | harness compile s (8 lanes) |")
     lines = [head, "|" + "|".join(["--"] * (head.count("|") - 1)) + "|"]
@@ -178,7 +234,7 @@ def table(rows, fn="rhs"):
         a = r["agree"].get(8) or r["agree"].get(4)
         lines.append(
             f"| {r['label']} | {r['nx']} | {r['formulation']}{'' if r['vectorized'] else ' (not vectorized)'} | "
-            f"{r['ops']} | {r['scalar']:.1f} | {r['batch'][4]:.1f} | {r['batch'][8]:.1f} | "
+            f"{r.get('kind') or '-'} | {r['ops']} | {r['scalar']:.1f} | {r['batch'][4]:.1f} | {r['batch'][8]:.1f} | "
             f"{r['scalar'] / r['batch'][4]:.2f} | {r['scalar'] / r['batch'][8]:.2f} | "
             f"{a[0]:.2g}, {a[1]:.3f} | {r['compile_s'][8]:.1f} |")
     return "\n".join(lines)
@@ -190,8 +246,11 @@ def environment():
     flags = next((ln for ln in open("/proc/cpuinfo") if ln.startswith("flags")), "").split()
     gcc = subprocess.run(["gcc", "--version"], capture_output=True, text=True).stdout.splitlines()[0]
     simd = ", ".join(f for f in ("avx2", "fma", "avx512f") if f in flags)
+    rev = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short=8", "HEAD"], capture_output=True,
+                         text=True).stdout.strip() or "?"
     return (f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; {cpu} ({simd}); {gcc}; "
-            f"Python {platform.python_version()}; load average {load:.1f} at the start (2 cores shared)")
+            f"Python {platform.python_version()}; eomc at {rev}; harnesses built with {' '.join(harness_flags())}; "
+            f"load average {load:.1f} at the start (2 cores shared)")
 
 
 def main(argv):

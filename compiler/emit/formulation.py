@@ -72,7 +72,7 @@ class Formulation:
 
     def symbolic(self, formed, layout, functions, outputs=None, events=None, rhs_lanes=False):
         """The unoptimized :class:`~.symbolic.Symbolic` program of ``functions``.  ``rhs_lanes``:
-        NAME_rhs_batch is generated from the rhs's straight-line code (a looped rhs would not vectorize)."""
+        NAME_rhs_batch is generated from the rhs's code (the recursive form then writes no limb routines)."""
         return build_symbolic(formed, layout, functions, outputs, events)
 
     def body(self, fn, ctx, prog, sym, layout, nx):

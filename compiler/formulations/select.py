@@ -14,10 +14,11 @@ arms (benchmarks/results/auto_choice.md).
   (:data:`AUTO_KANE_MAX_SPEEDS` speeds): forming them is the costly part of a build
   (a minute at 40 bodies, not finishing for a 35-dof humanoid), and on no model measured
   beyond 6 speeds does Kane's rhs win: timed on this machine (benchmarks/results/
-  auto_choice.md, 2026-11-29 18:16) it is faster only on the cart at n <= 2 (22 against
-  26 ns at n = 1, even at n = 2) and 1.06x-9.6x slower from n = 3 (cart n = 8 924 against
-  327 ns, n = 20 8690 against 907; UR10 and UR5 1.46x, Kinova 1.89x, Panda 2.4x, Solo12
-  2.5x), so the cap loses nothing measured.  A model file that forms Kane's
+  auto_choice.md, 2026-12-01 04:52, the looped rhs from 4 links) it is faster only on the
+  cart at n = 1 (16 against 20 ns; 47 against 45 at n = 2) and 1.15x-37x slower from n = 3
+  (cart n = 8 705 against 242 ns, n = 20 7911 against 588, n = 40 44612 against 1191;
+  UR10 and UR5 1.26x, Kinova 2.1x, Panda 3.2x, Solo12 2.4x), so the cap loses nothing
+  measured.  A model file that forms Kane's
   equations itself therefore does not have them forced when auto takes the tree.
 * Lowering Kane's form is skipped when the LDLᵀ of its mass matrix alone (counted
   exactly as the emitter would write it, from the formed matrix's nonzeros) already

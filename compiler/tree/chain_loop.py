@@ -31,7 +31,9 @@ links' sin and cos come from the lanes' fdlibm kernels (within 1 ulp of libm's).
 (:func:`chain_loop_plan`) for an open chain of one-speed joints without contacts or extra
 states whose repeated run has at least CHAIN_LOOP_MIN_LINKS links (4 by default: measured, see the
 constant); every other tree keeps the straight-line rhs, byte for byte.  The links' sin and
-cos are taken before the passes, four at a time (:func:`chain_loop_c`).
+cos are taken before the passes, four at a time (:func:`chain_loop_c`).  NAME_rhs_batch beside a
+looped rhs rewrites the looped C into lanes (compiler/emit/batch.py): the build keeps this rhs,
+and its lanes run the same passes.
 """
 import re
 from collections import Counter
@@ -43,7 +45,6 @@ from ..emit.batch import VECTOR_TRIG
 from ..emit.bodies import IND, needed_assignments, store, temps
 from ..emit.linsolve import PIVOT_TOL
 from ..emit.printer import CPrinter
-from ..emit.signatures import BATCH_FUNCTIONS
 from ..ir import Program, c_names, count_program, symbols_of
 from ..passes import finish_function, optimize_shared
 from .construct import _add, _mul, _nz
@@ -199,8 +200,7 @@ def chain_loop_plan(tree, bodies, sources, defs, gravity, layout, functions, min
     """The :class:`ChainLoop` of the rhs, or None where the tree keeps the straight-line rhs.
 
     Qualifies: an open chain (body i's parent is body i - 1), every joint of one speed, no
-    contact loads, no extra states, no rhs_batch (its lanes rewrite the rhs's straight-line
-    code), and a run of at least ``min_links`` (CHAIN_LOOP_MIN_LINKS) consecutive bodies that
+    contact loads, no extra states, and a run of at least ``min_links`` (CHAIN_LOOP_MIN_LINKS) consecutive bodies that
     repeat one pattern (the longest such run is looped; the bodies before and after it are
     one straight-line block each): the same E, r, S, mass, inertia and armature up to the body's own
     coordinate and speed, no load of its own, coordinate and speed slots stepping by one.
@@ -211,7 +211,7 @@ def chain_loop_plan(tree, bodies, sources, defs, gravity, layout, functions, min
         return None
     nq, nu = len(tree.coordinates), len(tree.speeds)
     n = len(bodies)
-    if ("rhs" not in functions or "rhs_batch" in functions or len(layout.x) != nq + nu
+    if ("rhs" not in functions or len(layout.x) != nq + nu
             or n < min_links or any(ld.frame == "contact" for ld in tree.loads)):
         return None
     if any(b.parent != i - 1 or b.S is None or b.multi for i, b in enumerate(bodies)):
@@ -252,10 +252,10 @@ def chain_loop_plan(tree, bodies, sources, defs, gravity, layout, functions, min
                                  own_q[i] if count > 1 else -1, Q if count > 1 else None,
                                  U if count > 1 else None))
     carried = {kind: tuple(sorted({j for ls in live for k, j in ls if k == kind})) for kind in _VEC}
-    # the links' sin and cos in lanes before the passes (chain_loop_c), unless a lanes function
-    # shares the file (its own prelude defines the vector types: one set of helpers per file)
-    lanes = any(f in BATCH_FUNCTIONS for f in functions)
-    trig = tuple(si for si, seg in enumerate(segments) if seg.count > 1 and not lanes and _reads_trig(seg))
+    # the links' sin and cos in lanes before the passes (chain_loop_c); beside a lanes function
+    # too (its own types and kernels are named apart: eomc_vd and NAME_v*, here eomc_cvd and
+    # NAME_cl_v*), and NAME_rhs_batch's lanes take the same kernels per link (compiler/emit/batch.py)
+    trig = tuple(si for si, seg in enumerate(segments) if seg.count > 1 and _reads_trig(seg))
     return ChainLoop(segments=tuple(segments), carried=carried, nbodies=n, trig=trig)
 
 

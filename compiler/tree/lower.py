@@ -210,7 +210,8 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
                         rhs_lanes=False):
     """Symbolic (as :func:`~eomc.compiler.emit.symbolic.build_symbolic`) from the recursions.
     ``implicit_energy``: NAME_implicit ends with the energy output (:func:`implicit_layout`).
-    ``rhs_lanes``: NAME_rhs_batch is wanted, so the rhs stays straight-line (its lanes rewrite that code)."""
+    ``rhs_lanes``: NAME_rhs_batch is wanted: the rhs is not split into limb routines (tree/limbs.py), whose
+    code its lanes rewrite does not know (a looped chain's it does: tree/chain_loop.py stays)."""
     rec = Recorder()
     loops = tree_loops(tree)           # a tree closed by constraints: see .constrained
     if loops is not None:
@@ -248,9 +249,10 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
                 extra += [(("lam", j), lam) for j, lam in enumerate(kkt[2])]
             if loops is None and not guards:
                 chain = chain_loop_plan(tree, bodies, [b.source for b in bodies], dict(rec.assignments),
-                                        gravity, layout, (*functions, "rhs_batch") if rhs_lanes else functions)
+                                        gravity, layout, functions)
             if loops is None and not guards and chain is None:
-                limbs = limb_plan(tree, bodies, dict(rec.assignments), layout, functions)
+                limbs = limb_plan(tree, bodies, dict(rec.assignments), layout,
+                                  (*functions, "rhs_batch") if rhs_lanes else functions)
                 if limbs is not None:
                     extra += core_results(bodies, rec, speeds, gravity, v, c, limbs)
             for k, udd, D in out:

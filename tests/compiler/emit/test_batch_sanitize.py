@@ -2,7 +2,8 @@
 and stores (whole vectors memcpy'd out of the column-major X, R and into XDOT), the scalar
 tail, the per-lane Kane solve and the failing-state paths read and write only inside the
 caller's arrays, with no undefined behaviour, at 4 and 8 lanes -- on a recursive-form robot
-(UR5, split into parts) and a Kane-form cart with inputs.  The driver allocates every array
+(UR5, split into parts), a Kane-form cart with inputs and a 5-link cart whose rhs is looped
+(compiler/tree/chain_loop.py: its lanes loop too, two groups of lanes a call).  The driver allocates every array
 at its exact size, so one element past a column's end is caught; it also checks each
 state's result and status against the scalar rhs, so a clean run is a correct run.  The same
 driver runs NAME_jac_x_batch (its tangent loop over vectors, nx*nx outputs per state) against
@@ -87,6 +88,13 @@ int main(void)
 
 
 def _gm(kind, cache):
+    if kind == "chain_rhs":        # 5 links: the looped rhs (compiler/tree/chain_loop.py) and its looped lanes
+        os.environ["EOMC_N_LINKS"] = "5"
+        try:
+            return generate(str(CHAIN), "sanloop", functions=("rhs", "rhs_batch"), formulation="recursive",
+                            cache_dir=cache, progress=False)[1]
+        finally:
+            del os.environ["EOMC_N_LINKS"]
     if kind == "chain_jac_x":      # 6 links: jac_x through the analytic kernel, retyped into lanes
         os.environ["EOMC_N_LINKS"] = "6"
         try:
@@ -124,7 +132,7 @@ def cache(tmp_path_factory):
 
 
 @pytest.mark.parametrize("lanes", [4, 8])
-@pytest.mark.parametrize("kind", ["ur5", "kane_cart", "ur5_jac_x", "chain_jac_x", "pendulum_outputs",
+@pytest.mark.parametrize("kind", ["ur5", "kane_cart", "chain_rhs", "ur5_jac_x", "chain_jac_x", "pendulum_outputs",
                                   "hopper_implicit"])
 def test_rhs_batch_sanitizer_clean(cache, tmp_path, kind, lanes):
     if lanes > machine_lanes():
@@ -136,6 +144,8 @@ def test_rhs_batch_sanitizer_clean(cache, tmp_path, kind, lanes):
     assert gm.metadata[f"{fn}_batch"]["vectorized"], gm.metadata[f"{fn}_batch"]
     if kind == "kane_cart":
         assert gm.metadata["formulation"] == "kane" and gm.metadata["ninput"] > 0
+    if kind == "chain_rhs":      # the looped lanes, two groups a call (a pair, then one group alone)
+        assert "sanloop_chain_sincos(x + 1, 5, SC1);" in gm.c_source and "sanloop_rhs_lanes2(t, x[g]" in gm.c_source
     src = es.write_sources(gm, str(tmp_path))
     nstates = 3 * lanes + 3                       # three groups of lanes and a 3-state tail
     main = tmp_path / "main.c"

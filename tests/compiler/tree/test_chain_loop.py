@@ -6,6 +6,8 @@ forcing, M u' = f) and against SymPy's Kane (KanesMethod of the hand-built cart,
 by the Kane formulation); trees without a repeated run keep the straight-line rhs; the
 looped C is clean under -Wall -Wextra -Wshadow -Wconversion and under ASan/UBSan.
 """
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -129,17 +131,97 @@ def test_on_by_default_from_four_links(tmp_path):
 
 
 
-def test_rhs_batch_keeps_the_straight_line_rhs(tmp_path):
-    """NAME_rhs_batch's lanes are the rhs's straight-line code rewritten (compiler/emit/batch.py):
-    with rhs_batch asked for, a chain that would be looped keeps the straight-line rhs, so the
-    lanes stay vectorized (issue 31: rhs_batch >= 3x the scalar rhs on the cart; a looped rhs made
-    them the scalar rhs per state, 0.95x, session 21).  The same model without rhs_batch is looped."""
-    kw = dict(formulation="recursive", progress=False, cache_dir=tmp_path / "cache", fold_parameters=True)
-    system, _, params = _cart(8)
-    lanes = eomc.compile(system, "cl_lanes", functions=["rhs", "rhs_batch"], parameters=params, **kw)
-    assert not _looped(lanes)
-    assert lanes.metadata["rhs_batch"]["vectorized"] is True
-    assert _looped(eomc.compile(cart_joints(8)[0], "cl_nolanes", functions=["rhs"], parameters=params, **kw))
+CHAIN = Path(__file__).resolve().parents[3] / "benchmarks" / "tree_models" / "cart_rel_joints.py"
+
+
+def _batch_case(case):
+    """(system, extra compile options) of a chain whose rhs is looped: the bench's cart (link 1
+    hangs from the cart's centre like the rest: n = 4 is a run of 4, every angle a looped
+    link's), the tests' cart (link 1 a block of its own: its sin and cos libm's in the scalar
+    rhs) and the twisting 3D chain from the root (6 links)."""
+    import runpy
+    if case.startswith("bench"):
+        mp = pytest.MonkeyPatch()
+        mp.setenv("EOMC_N_LINKS", case[len("bench"):])
+        try:
+            mod = runpy.run_path(str(CHAIN))
+        finally:
+            mp.undo()
+        return mod["system"], dict(inputs=mod["inputs"], parameters=mod["parameters"])
+    if case.startswith("cart"):
+        system, inputs, params = _cart(int(case[len("cart"):]))
+        return system, dict(inputs=inputs, parameters=params)
+    system, params = _twisted_chain(int(case[len("twist"):]))
+    return system, dict(parameters=params, fold_parameters=True)
+
+
+def _scalar_rhs_c(source, name):
+    """NAME_rhs's definition and the NAME_chain_sincos helper's in a C file."""
+    start = source.index(f"\nint {name}_rhs(")
+    helper = source.index(f"static void {name}_chain_sincos(")
+    return source[helper:source.index("\n}\n", helper)] + source[start:source.index("\n}\n", start)]
+
+
+@pytest.mark.parametrize("lanes", [4, 8])
+@pytest.mark.parametrize("case", ["bench4", "cart5", "cart20", "twist6"])
+def test_looped_rhs_batch_equals_the_looped_rhs_per_lane(case, lanes, tmp_path):
+    """rhs_batch beside a looped rhs (issue 31: the batch against the scalar rhs users get, which
+    is looped from a run of 4 links): the build's scalar rhs is the looped one, the same C as a
+    build without rhs_batch; its lanes run the same passes (vectorized, two groups of lanes per
+    NAME_rhs_lanes2 call) and each lane is the looped rhs bit for bit -- with
+    -DEOMC_BATCH_LIBM_TRIG (libm's sin and cos in the straight-line blocks' lanes, as the scalar
+    rhs), and with the default trig where every angle is a looped link's (the bench's cart: the
+    links' sin and cos are NAME_chain_sincos's kernels on both sides); where a block's angle is
+    not (link 1 of the tests' cart, the twisting chain's root) the lanes' sin and cos are within
+    1 ulp of libm's (tests/compiler/emit/test_batch.py) and the rhs within 1e-12.  States: whole
+    tiles, an odd count of groups (one group alone) and a scalar tail; parameters shared and one
+    row per state (NAME_rhs_batch_p)."""
+    import cffi
+    from eomc.compiler.build.builder import machine_lanes
+    from eomc.compiler.build.toolchain import find_compiler, machine_flags
+    from eomc.compiler.driver import compile as compile_model
+    if lanes > machine_lanes():
+        pytest.skip(f"this machine has {machine_lanes()} double lanes")
+    system, kw = _batch_case(case)
+    kw.update(formulation="recursive", progress=False, cache_dir=tmp_path / "cache")
+    alone = generate(_batch_case(case)[0], "clb", functions=("rhs",), **kw)[1]
+    flags = f"-O2 -std=c99 -fPIC -Wall -Wextra -Werror {' '.join(machine_flags(find_compiler()))} -DEOMC_BATCH_LANES={lanes}"
+    exact = compile_model(system, "clb", functions=["rhs", "rhs_batch"], cflags=f"{flags} -DEOMC_BATCH_LIBM_TRIG", **kw)
+    fast = compile_model(_batch_case(case)[0], "clb", functions=["rhs", "rhs_batch"], cflags=flags,
+                         **{**kw, "cache_dir": tmp_path / "cache2"})
+    source = exact.source_path.read_text()
+    assert _looped(exact) and _scalar_rhs_c(source, "clb") == _scalar_rhs_c(alone.c_source, "clb")
+    assert exact.metadata["rhs_batch"]["vectorized"] is True and "clb_rhs_lanes2(t, x[g], x[g + 1]" in source
+    rng = np.random.default_rng(lanes)
+    n = 11 * lanes + 3
+    X = np.concatenate([rng.uniform(-np.pi, np.pi, (n, exact.nq)), rng.normal(size=(n, exact.nu))], axis=1)
+    X[5, exact.nq - 1] = 1e7          # a link's angle past the lanes' reduction: libm's in that lane
+    R = rng.normal(size=(n, exact.ninput)) if exact.ninput else None
+    for model in (exact, fast):
+        got = model.rhs_batch(0.3, X, r=R)
+        want = np.array([model.rhs(0.3, x, r=None if R is None else R[k]) for k, x in enumerate(X)])
+        if model is exact or case.startswith("bench"):
+            assert np.array_equal(got, want), (case, relative_error(got, want))
+        else:
+            assert not np.array_equal(got, want) and relative_error(got, want) < 1e-12
+    if exact.nparam:      # one parameter row per state
+        ffi = cffi.FFI()
+        ffi.cdef("int clb_rhs_batch_p(int n, double t, const double *X, const double *P, const double *R, "
+                 "double *XDOT, int *status, double *work);")
+        lib = ffi.dlopen(str(exact.library_path))
+        P = np.array(exact.param_defaults) * rng.uniform(0.8, 1.2, (n, exact.nparam))
+        XT, PT = np.ascontiguousarray(X.T), np.ascontiguousarray(P.T)
+        RT = np.ascontiguousarray(R.T) if R is not None else None
+        out, status = np.zeros_like(XT), np.zeros(n, dtype=np.intc)
+        work = np.zeros(max(exact.metadata.get("work_size", 0), 1) + 1)
+        ret = lib.clb_rhs_batch_p(n, 0.3, ffi.from_buffer("double[]", XT), ffi.from_buffer("double[]", PT),
+                                  ffi.NULL if RT is None else ffi.from_buffer("double[]", RT),
+                                  ffi.from_buffer("double[]", out), ffi.from_buffer("int[]", status),
+                                  ffi.from_buffer("double[]", work))
+        assert ret == 0 and not status.any()
+        want = np.array([exact.rhs(0.3, x, P[k], r=None if R is None else R[k]) for k, x in enumerate(X)])
+        assert np.array_equal(out.T, want)
+
 
 DRIVER = r"""
 #include <stdio.h>

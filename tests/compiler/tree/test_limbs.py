@@ -128,3 +128,17 @@ def test_trees_without_long_twins_keep_the_straight_line_rhs(tmp_path):
     text = on.source_path.read_text()
     off = _build(path, "go2", tmp_path, False, "quaternion")
     assert not _routines(off) and text == off.source_path.read_text()
+
+
+def test_rhs_batch_keeps_the_rhs_without_limb_routines(tmp_path):
+    """With rhs_batch asked for, G1 is built without limb routines (their calls are code the lanes
+    rewrite does not know, compiler/emit/batch.py): the lanes are vectorized and agree with the
+    build's scalar rhs.  limb_plan refused rhs_batch already, but the emitter hands the tree its
+    functions without the batch ones; since the limb routines landed (73195078) G1's rhs_batch
+    was the scalar rhs per state, 'not vectorized' (bench_rhs_batch, session 22: 0.91x)."""
+    path = robot_path("g1_description/urdf/g1_29dof_rev_1_0.urdf")
+    lanes = _build(path, "g1_lanes", tmp_path, True, True, functions=("rhs", "rhs_batch"))
+    assert not _routines(lanes) and lanes.metadata["rhs_batch"]["vectorized"] is True
+    X = np.array(list(_states(lanes, np.random.default_rng(3), 11)))
+    want = np.array([lanes.rhs(0.0, x) for x in X])
+    assert relative_error(lanes.rhs_batch(0.0, X), want) < 1e-12
