@@ -290,7 +290,7 @@ def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, fu
         extra = {**(extra or {}), "limit_laws": spec.limit_laws}
     if getattr(spec, "start_in_range", None):      # the joints the default start moved into range
         extra = {**(extra or {}), "start_in_range": list(spec.start_in_range)}
-    bodies = _body_parameters(spec, system)
+    bodies = _body_parameters(spec)
     if bodies:      # runtime/law_parameters.py: a body's mass or inertia given at run time
         extra = {**(extra or {}), "body_parameters": bodies}
     source = system if isinstance(system, (str, os.PathLike)) else None
@@ -309,22 +309,18 @@ def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, fu
     return model
 
 
-def _body_parameters(spec, system=None):
-    """The bodies whose mass or inertia is made of run-time parameters (SymPy systems, and URDF
-    robots read into the tree IR -- m_<link>, I.._<link>: eomc.compiler.mechanics.body_parameters),
-    or [].
-
-    Not for a robot built with all_inertial_parameters: that is identification's build, whose
-    fits pass unphysical vectors through simulate on purpose (examples/identify_arm.py's
-    Gauss-Newton steps through m_l2 = -1.37 and projects onto consistent links at the end).  Not
-    for MJCF files yet: tests/runtime/test_rollout_lanes.py sets the hopper's m_foot = 0 to make
-    zero pivots (MuJoCo's compiler refuses such a body; the run-time rule would too)."""
+def _body_parameters(spec):
+    """The bodies whose mass or inertia is made of run-time parameters (SymPy systems, and the
+    robots whose reader asks for it: spec.body_tree, eomc.compiler.mechanics.body_parameters), or
+    [] (spec.body_checks False: a build for identification, whose fits pass unphysical vectors
+    through simulate on purpose -- examples/identify_arm.py's Gauss-Newton steps through
+    m_l2 = -1.37; MJCF files for now: tests/runtime/test_rollout_lanes.py sets the hopper's
+    m_foot = 0 to make zero pivots)."""
     from .mechanics.body_parameters import body_parameters
-    if getattr(system, "all_inertial_parameters", False):
+    if not getattr(spec, "body_checks", True):
         return []
     params = spec.parameters if spec.parameters is not None else getattr(spec.formed, "parameters", ())
-    urdf = str(getattr(spec, "path", None) or "").lower().endswith(".urdf")
-    source = spec.system if spec.system is not None else (getattr(spec.formed, "tree", None) if urdf else None)
+    source = spec.system if spec.system is not None else getattr(spec, "body_tree", None)
     try:
         return body_parameters(source, params)
     except Exception:     # what cannot be read is not checked: the build itself does not depend on it
