@@ -1121,7 +1121,7 @@ static int fs_fast_try(fs_fast *q, double t, double h, const double *x, int chec
 {
     const eomc_fs_ops *ops = q->ops;
     const fs_layout *L = &q->L;
-    int nq = ops->nq, nu = ops->nu, s, done = 0;
+    int nq = ops->nq, nu = ops->nu, s, done = 0, a_bare;
     const double *u = x + nq, *v1 = NULL;
     double rn = 0.0, dn = 0.0;
     eomc_fs_request *rq = &q->req;
@@ -1151,6 +1151,7 @@ static int fs_fast_try(fs_fast *q, double t, double h, const double *x, int chec
         if (!isfinite(q->x1[i])) return EOMC_NONFINITE;
     q->dun_T = NULL;                    /* T1 is overwritten below */
     q->vT1 = 0;
+    a_bare = q->A == q->bare;           /* A unwritten: the lanes answered the last try ahead */
     if (ops->terms_lu) {                /* the lanes rollout: maybe made with other rows */
         rq->h = h; rq->A = q->A1; rq->b = q->b1; rq->du = check ? q->du : NULL;
         if ((s = ops->terms_lu(ops->ctx, t + h, q->x1, q->T1, rq))) return s;
@@ -1174,11 +1175,11 @@ static int fs_fast_try(fs_fast *q, double t, double h, const double *x, int chec
         *ratio = rq->ratio;
         *ratio = fmax(*ratio, fs_chart_ratio(q, h, x));
         if (*ratio <= ops->imp->split && fs_onset(q)) {   /* rare: scalar, the scalar path's bits */
-            if (q->A == q->bare) {      /* the lanes made du without writing A: write it */
+            if (a_bare) {               /* the lanes made du without writing A: write it (q->bare
+                                           is A1's by now: this try's answer) */
                 if ((s = fs_assemble(ops, L, h, u, q->T, q->A, q->b, q->GJ, q->cT, &q->vT, &q->pat,
                                      q->own, &q->start, &q->anc)))
                     return s;
-                q->bare = NULL;
             }
             fs_residual(q, h);
             *ratio = fmax(*ratio, fs_start_ratio(q, h, q->dv));
