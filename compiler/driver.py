@@ -196,7 +196,7 @@ def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, f
     equations and options were seen before (see eomc.compiler.build.gencache).
     """
     from .formulations.select import check_formulation, generate_formulation, tree_digest
-    from .emit.target import check_target, retarget
+    from .emit.target import check_target, check_target_functions, retarget
     progress = progress if isinstance(progress, Progress) else Progress(progress)
     check_formulation(formulation)
     target = check_target(target)
@@ -207,6 +207,7 @@ def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, f
         functions = check_functions(functions)
     except Invalid as exc:
         raise ModelError(str(exc)) from None
+    check_target_functions(target, functions)   # before the model is read: c99-f32 builds no batch
 
     def derive(form):
         spec = spec_of(read, parameters=parameters, inputs=inputs, outputs=outputs,
@@ -310,12 +311,19 @@ def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, fu
 
 
 def _body_parameters(spec):
-    """The bodies whose mass or inertia is made of run-time parameters (SymPy systems:
-    eomc.compiler.mechanics.body_parameters), or []."""
+    """The bodies whose mass or inertia is made of run-time parameters (SymPy systems, and the
+    robots whose reader asks for it: spec.body_tree, eomc.compiler.mechanics.body_parameters), or
+    [] (spec.body_checks False: a build for identification, whose fits pass unphysical vectors
+    through simulate on purpose -- examples/identify_arm.py's Gauss-Newton steps through
+    m_l2 = -1.37; MJCF files for now: tests/runtime/test_rollout_lanes.py sets the hopper's
+    m_foot = 0 to make zero pivots)."""
     from .mechanics.body_parameters import body_parameters
+    if not getattr(spec, "body_checks", True):
+        return []
     params = spec.parameters if spec.parameters is not None else getattr(spec.formed, "parameters", ())
+    source = spec.system if spec.system is not None else getattr(spec, "body_tree", None)
     try:
-        return body_parameters(spec.system, params)
+        return body_parameters(source, params)
     except Exception:     # what cannot be read is not checked: the build itself does not depend on it
         return []
 

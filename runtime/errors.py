@@ -14,6 +14,7 @@ __all__ = [
     "SimulationError",
     "MissingExtraError",
     "EomcWarning",
+    "EomcNote",
     "DefaultStartWarning",
 ]
 
@@ -64,6 +65,14 @@ class EomcWarning(UserWarning):
 
     The ``eomc`` command prints these as one ``eomc CMD: warning: ...`` line.
     """
+
+
+class EomcNote(EomcWarning):
+    """Something eomc did about the input that the user need not act on (links welded to the
+    ground whose inertia is impossible: ignored, they move nothing).  An EomcWarning, so it is
+    recorded, filtered and silenced as one; the ``eomc`` command prints it as one
+    ``eomc: note: ...`` line, not a warning (first hour s21: ANYmal C's five cameras gave a
+    680-character warning on every command)."""
 
 
 class DefaultStartWarning(EomcWarning):

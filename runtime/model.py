@@ -32,6 +32,7 @@ except ImportError:
 __all__ = ["Model"]
 
 _F64 = np.dtype(np.float64)
+_BAD_ARGUMENT = 4   # EOMC_BAD_ARGUMENT (runtime/c/eomc_model.h): a batch function refused its arguments
 
 _FAST_METHODS = {"rhs": "rhs", "jacobian": "jac_x", "mass_matrix": "mass_matrix", "forcing": "forcing"}
 # _fastcall releases the GIL only around a C function of at least this many operations
@@ -465,11 +466,33 @@ class Model:
         status = np.empty(n, dtype=np.intc)
         worst = kernel(n, t, soa, p, R, OUT, status, self._work()[1])
         if worst:
-            row = int(np.flatnonzero(status)[0])
+            if worst == _BAD_ARGUMENT:   # refused before any state: the C wrote no status (batch.py)
+                raise self._refused(fn, n, p)
+            failed = np.flatnonzero(status)
+            if failed.size == 0:
+                raise ModelError(f"model {self.name!r}: {fn} returned status {int(worst)} "
+                                 f"({STATUS_NAMES.get(int(worst), 'unknown')}) but marked no row of X as "
+                                 f"failed (eomc bug: the batch C must write every row's status)")
+            row = int(failed[0])
             r_row = r[row] if self.ninput and r is not None and np.ndim(r) == 2 else r
             self._fail(fn, int(status[row]), t, np.asarray(X[row], dtype=np.float64), row,
                        inputs=(p_given, r_row))
         return OUT
+
+    def _refused(self, fn, n, p):
+        """The error for NAME_<fn>_batch returning EOMC_BAD_ARGUMENT: it checks its arguments
+        before any state (n >= 0, X and the outputs not NULL, p not NULL when the model has
+        parameters) and then writes no status, so no row is to blame."""
+        null_p = p is None or (self.backend == "cffi" and p == self.ffi.NULL)
+        if null_p and self.nparam:
+            why = (f"p (parameters) was NULL, and the model has {self.nparam} parameter"
+                   f"{'' if self.nparam == 1 else 's'} [{', '.join(self.param_names)}]; pass p=None "
+                   f"for the defaults or an array of shape ({self.nparam},)")
+        else:
+            why = ("it takes n >= 0 states, X and the output array not NULL, and p not NULL when the "
+                   "model has parameters")
+        return ValueError(f"{self.name}.{fn} refused its arguments (bad argument) and evaluated none "
+                          f"of the {n} states: {why}")
 
     def jacobian(self, t, x, p=None, r=None):
         """d rhs / d x, shape (nx, nx); also ``jac_x``, its C name."""

@@ -749,8 +749,23 @@ def _minmax_code(helper_code, rendered):
     text calls ("" when none: a model without them keeps its C as before; an unused static
     function is a -Wunused-function warning)."""
     texts = [helper_code] + [t for f in rendered for t in (f["body"], *f["parts"])]
-    return "\n\n".join(code for fn, code in {**MINMAX_C, **CALLED_C}.items()
-                        if any(re.search(rf"\b{fn}\(", t) for t in texts))
+    helpers = {**MINMAX_C, **CALLED_C}
+    # one scan of each text for all the helpers' calls (the name and its "(" first, as
+    # plain text: a regex per helper and text took G1's default build ~0.02 s)
+    called = _called(helpers, texts)
+    return "\n\n".join(code for fn, code in helpers.items() if fn in called)
+
+
+def _called(names, texts):
+    """The names in ``names`` that some text calls (``name(`` after a non-word character)."""
+    found = set()
+    pattern = re.compile(r"\b(" + "|".join(re.escape(n) for n in names) + r")\(")
+    for t in texts:
+        if any(n + "(" in t for n in names if n not in found):
+            found.update(pattern.findall(t))
+            if len(found) == len(names):
+                break
+    return found
 
 
 def _render(name, meta, fns, rendered, solver, layout, sym, helper, split=False, formulation=KANE,

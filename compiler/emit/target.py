@@ -25,7 +25,8 @@ from eomc.runtime.errors import ModelError
 
 from .printer import CALLED_C, MINMAX_C
 
-__all__ = ["TARGETS", "DEFAULT_TARGET", "check_target", "retarget", "to_float_text", "FLT_MAX"]
+__all__ = ["TARGETS", "DEFAULT_TARGET", "check_target", "check_target_functions", "retarget", "to_float_text",
+           "FLT_MAX"]
 
 DEFAULT_TARGET = "c99-f64"
 TARGETS = ("c99-f64", "c99-f32")
@@ -75,6 +76,33 @@ def check_target(target):
     if target not in TARGETS:
         raise ModelError(f"unknown target {target!r}; choose one of {', '.join(TARGETS)}")
     return target
+
+
+def check_target_functions(target, functions):
+    """A clear error, before anything is derived, for functions ``target`` does not build.
+
+    c99-f32 does not build the batch functions (rhs_batch, jac_x_batch, outputs_batch,
+    implicit_batch; compiler/emit/batch.py).  Their C is double SIMD lanes (GCC vector types of
+    doubles, ``target("avx2")``/AVX-512 clones chosen per CPU at run time, double sin/cos
+    kernels, tiles sized in doubles): a float twin would be a second lanes emitter (float
+    vectors of twice the lanes, float trig kernels, float tiles), and firmware, what this
+    target is for, has neither the x86 dispatch nor a caller for n states in SoA columns.  So
+    the combination is refused by name rather than failing in the float pass.
+    ``functions``: the checked list (None: the default set, which has no batch function).
+    """
+    from .signatures import BATCH_FUNCTIONS
+    target = check_target(target)
+    if target == DEFAULT_TARGET or not functions:
+        return
+    batch = [f for f in functions if f in BATCH_FUNCTIONS]
+    if batch:
+        one = len(batch) == 1
+        raise ModelError(f"target {target} does not build the batch function{'' if one else 's'} "
+                         f"{', '.join(batch)}: {'its' if one else 'their'} C is SIMD lanes of doubles "
+                         f"(x86 vector code chosen per CPU), which the float target for firmware does "
+                         f"not take. Build {'it' if one else 'them'} with the double target c99-f64 "
+                         f"(the default), or leave {'it' if one else 'them'} out of the {target} "
+                         f"build (functions / --outputs without {', '.join(batch)})")
 
 
 def _pivot_literals():
@@ -186,6 +214,7 @@ def retarget(generated, target):
         return generated
     name = generated.name
     meta = dict(generated.metadata)
+    check_target_functions(target, meta["functions"])
     source = without_cpu_dispatch(_cut_struct(generated.c_source, name))
     source = to_float_text(source, f"{name}.c", own_prefix=f"{name}_")
     source = misra_fixes(source + embedded_tail(name, meta))

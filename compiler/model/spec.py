@@ -50,6 +50,12 @@ class ModelSpec:
     pair_check: dict = field(default=None, compare=False)    # the body-body pairs' shapes (MJCF; runtime/pair_check.py), or None
     limit_laws: dict = field(default=None, compare=False)    # MJCF limits' shapes (runtime/limit_energy.py), or None
     start_in_range: list = field(default=None, compare=False)  # joints the default start moved into range (URDF), or None
+    # a robot's bodies whose mass and inertia parameters are checked at run time (runtime/
+    # law_parameters.py; eomc.compiler.mechanics.body_parameters): the URDF reader's tree, unless
+    # built for identification (all_inertial_parameters: its fits pass unphysical vectors through
+    # simulate on purpose); body_checks False: none (MJCF for now, identification builds)
+    body_tree: object = field(default=None, compare=False)
+    body_checks: bool = field(default=True, compare=False)
 
 
 @dataclass(frozen=True)
@@ -68,6 +74,7 @@ class Reading:
     filename: str = ""
     model: Optional[Model] = None
     formed_by: Optional[Callable] = field(default=None, repr=False)
+    body_checks: bool = False           # a robot whose bodies' parameters are checked at run time (ModelSpec)
 
 
 def _is_eomc_kane(system):
@@ -258,7 +265,8 @@ def read_model(system, name=None, poses=False):
         from eomc.compiler.urdf.model import read_model as read_urdf_model, urdf_formed
         path = Path(system.path if isinstance(system, UrdfModel) else system)
         return Reading("robot", path, name or sanitize_name(path.stem), model=read_urdf_model(system, poses),
-                       formed_by=lambda model, form, overrides: urdf_formed(model, form, overrides, formed_system))
+                       formed_by=lambda model, form, overrides: urdf_formed(model, form, overrides, formed_system),
+                       body_checks=not getattr(system, "all_inertial_parameters", False))
     from eomc.compiler.mjcf.model import MjcfModel, is_mjcf_model
     if is_mjcf_model(system):   # a MuJoCo model: MuJoCo's compiler, then straight to the tree
         from eomc.compiler.mjcf.model import mjcf_formed, read_model as read_mjcf_model
@@ -332,7 +340,9 @@ def spec_of(read, *, parameters=None, inputs=None, initial_state=None, outputs=N
         formed, values, robot = read.formed_by(read.model, formulation, overrides)
         spec = _checked({**values, "system": robot}, formed, read.name,
                         lambda exc: ModelFileError(str(exc), str(path)), f"{path}: ")
-        return ModelSpec(**{**spec.__dict__, "path": path, "model": _model_of(spec, read.model)})
+        return ModelSpec(**{**spec.__dict__, "path": path, "model": _model_of(spec, read.model),
+                            "body_checks": read.body_checks,
+                            "body_tree": getattr(read.model, "tree", None) if read.body_checks else None})
     if read.kind == "file":
         spec = _from_file(read, overrides, formulation)
         return ModelSpec(**{**spec.__dict__, "model": _model_of(spec)})

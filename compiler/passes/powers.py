@@ -50,19 +50,42 @@ class _Rewriter:
         return expr.func(*args)
 
 
+# expr -> its rewrite, for the expressions whose rewrite named nothing (then it depends on the
+# expression alone, not on the program's names): see expand_powers
+_MEMO = {}
+_MEMO_MAX = 1 << 17
+
+
 @compiler_pass
 def expand_powers(program):
-    """Rewrite small integer powers everywhere in the program as products."""
+    """Rewrite small integer powers everywhere in the program as products.
+
+    An expression whose rewrite hoisted no temporary is remembered (:data:`_MEMO`, bounded):
+    the pass runs once per generated function over what that function keeps of the shared
+    program (:func:`~.pipeline.finish_function`), so the same assignments came through
+    again for every function, each power rebuilt as SymPy products again (G1's default
+    build: 0.064 s here against the rhs-only build's 0.011 s).  A rewrite that hoists is
+    not remembered: its names are the program's own (``Names``)."""
     rw = _Rewriter(program)
     out = []
+
+    def rewritten(expr):
+        new = _MEMO.get(expr)
+        if new is None:
+            new = rw.rewrite(expr)
+            if not rw.pending:
+                if len(_MEMO) >= _MEMO_MAX:
+                    _MEMO.clear()
+                _MEMO[expr] = new
+        return new
     for target, expr in program.assignments:
-        new = rw.rewrite(expr)
+        new = rewritten(expr)
         out.extend(rw.pending)
         rw.pending = []
         out.append((target, new))
     results = []
     for key, expr in program.results:
-        new = rw.rewrite(expr)
+        new = rewritten(expr)
         out.extend(rw.pending)
         rw.pending = []
         results.append((key, new))

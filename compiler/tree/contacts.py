@@ -212,14 +212,34 @@ def _pair_energy(loads, values, rename):
     from ..contact.pairs import PairValue
     from ..contact.tree import OUTPUT_KINDS
     depth_kind = OUTPUT_KINDS.index("depth")
-    out = []
+    out, kept = [], {}
     for ld in loads:
         if not isinstance(ld, PairLoad):
             continue
         depth = values[PairValue(ld.index, depth_kind)]
         dpos = (depth + sm.Abs(depth)) / 2
-        out.append(rename(ld.params["k"], f"the contact {ld.name}") * sm.Abs(dpos) ** (EXPONENT + 1) / (EXPONENT + 1))
+        out.append(rename(ld.params["k"], f"the contact {ld.name}") * _abs_of_part(depth, dpos, kept) ** (EXPONENT + 1)
+                   / (EXPONENT + 1))
     return out
+
+
+def _abs_of_part(depth, dpos, kept):
+    """sm.Abs(dpos), dpos = (depth + |depth|)/2: where ``depth`` is a symbol or the pairs' table's
+    output (contact/table.PairTableOut, whose assumptions are its class's), SymPy's evaluation of
+    that Abs depends only on depth's kind and assumptions (``kept``: them -> whether it leaves the
+    Abs as it stands, decided by evaluating it once for them), so the Abs of the other pairs'
+    depths is built as it stands.  Why: Abs.eval of the sum asked its sign of SymPy's assumptions
+    per pair, 0.15 s of the humanoid's generate for its 109 pairs (session 22); the same
+    expression, the same C."""
+    from ..contact.table import PairTableOut
+    if not (depth.is_Symbol or type(depth) is PairTableOut):
+        return sm.Abs(dpos)
+    key = (type(depth), tuple(sorted(depth.assumptions0.items())))
+    if key not in kept:
+        got = sm.Abs(dpos)
+        kept[key] = isinstance(got, sm.Abs) and got.args == (dpos,)
+        return got
+    return sm.Abs(dpos, evaluate=False) if kept[key] else sm.Abs(dpos)
 
 
 def support_motion(R, A, m, Am, s, let):
@@ -307,7 +327,7 @@ def _clearance(poses, i, points):
                 above += (w[k] * c if c else 0) - (sm.Abs(w[k]) * e if e else 0)
         else:
             size = sm.sqrt(sum((x * x for x in n), sm.S.Zero))
-            above -= _max([size * sm.sqrt(sum((x * x for x in off), sm.S.Zero)) for off in offs])
+            above -= _sphere_max([size * sm.sqrt(sum((x * x for x in off), sm.S.Zero)) for off in offs])
         terms.append(above)
     # one normal (every ground): the term itself, which is what sm.Min of one argument returns --
     # after asking whether it is real, which SymPy answers down every sqrt of a bounding-sphere Max
@@ -330,6 +350,20 @@ def _max(args):
     Max is kept (the C of every case benchmarks/c_identity.py records is unchanged); above it
     the guard computes every argument's fmax, the same value."""
     if len(args) <= MAX_EVALUATED:
+        return sm.Max(*args)
+    return sm.Max(*args, evaluate=False)
+
+
+def _sphere_max(args):
+    """sm.Max of a body's bounding-sphere radii (|c_k| of its points' parameter offsets): every
+    distinct radius an argument, in SymPy's order, unevaluated unless all are numbers.
+
+    Why not SymPy's evaluation: its pairwise search for radii that bound others
+    (``_find_localzeros``) found none in any model built so far, and cost 0.22 s of generate on
+    gymnasium's humanoid (8 bodies, 2-5 radii each) and 0.22 s on its ant (session 22): the same
+    Max, the same C (benchmarks/c_identity.py).  Where SymPy could drop a radius the guard
+    computes one fmax more: the same value."""
+    if all(a.is_Number for a in args):
         return sm.Max(*args)
     return sm.Max(*args, evaluate=False)
 

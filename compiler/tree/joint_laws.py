@@ -52,6 +52,7 @@ import math
 
 import sympy as sm
 
+from ..emit.layout import power_as_it_stands
 from ..contact.law import step  # noqa: F401 -- ramp's derivative; defined there for the contact pairs' choices
 
 __all__ = ["ramp", "step", "JointLaw", "joint_torque", "check_law", "TIME_CONSTANT", "WIDTH", "FRICTION_SPEED", "NAMES",
@@ -300,7 +301,8 @@ def _push(force, scale):
     stops an implicit method's steps (dm_control's humanoid: radau's step fell to 1e-15 at
     0.83 s); why a tenth: at k·e gymnasium's hopper, which falls onto its limits, came to rest
     37 mm off MuJoCo's pose (4 mm with the kink and with k·e/10)."""
-    return (force + sm.sqrt(force ** 2 + scale ** 2)) / 2
+    root = power_as_it_stands(force ** 2 + scale ** 2, sm.S.Half)   # sm.sqrt's, without its queries
+    return (force + (sm.sqrt(force ** 2 + scale ** 2) if root is None else root)) / 2
 
 
 def joint_torque(q, u, law, params, name, inertia):

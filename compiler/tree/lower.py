@@ -152,9 +152,10 @@ def _absent(tree, layout):
     return {s: 0 for s in free if s not in layout.subs and s != dynamicsymbols._t}
 
 
-def _lowered_bodies(tree, layout, rec, memo=None):
+def _lowered_bodies(tree, layout, rec, memo=None, absent=None):
     """The tree's bodies in slot symbols with their loads; ``memo``: the rename's (Layout.apply),
-    shared with the build's later renames of the same expressions (the joint laws, _analytic)."""
+    shared with the build's later renames of the same expressions (the joint laws, _analytic,
+    _input_columns); ``absent``: :func:`_absent` (worked out here when None)."""
     memo = {} if memo is None else memo
     world_rot = {}
 
@@ -172,7 +173,7 @@ def _lowered_bodies(tree, layout, rec, memo=None):
         return world_rot[i]
 
     bodies = []
-    absent = _absent(tree, layout)
+    absent = _absent(tree, layout) if absent is None else absent
     for b in tree.bodies:
         what = f"body {b.name} (joint {b.joint})"
         ren = _rename(layout, memo, what, absent)
@@ -219,7 +220,8 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         refuse_reverse(functions, "is a tree closed by constraints")
     try:
         renamed = {}        # Layout.apply's memo for the renames with _absent (the loads' laws: once)
-        bodies, gravity = _lowered_bodies(tree, layout, rec, renamed)
+        absent = _absent(tree, layout)      # (once: it walks every inertia, mass and load)
+        bodies, gravity = _lowered_bodies(tree, layout, rec, renamed, absent)
         nq, nu = len(tree.coordinates), len(tree.speeds)
         speeds = layout.x[nq:nq + nu]
         v, c = velocities(bodies, rec, speeds)
@@ -267,7 +269,7 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
             # the laws' slopes named in rec (their CSE once per shape), but for hess_id, whose
             # law Hessians differentiate them (second_order.with_law_hessians)
             analytic, anx = _analytic(tree, bodies, gravity, layout, functions, ground,
-                                      None if "hess_id" in functions else rec.let, law_memo, renamed)
+                                      None if "hess_id" in functions else rec.let, law_memo, renamed, absent)
             # a plan with ground contacts or pairs serves jac_x and jac_id, and NAME_dyn only its
             # mass matrix (NAME_dyn has no contact terms; M has none): see contact_mass_inputs
             contacted = analytic is not None and bool(analytic.contacts or analytic.npair)
@@ -287,7 +289,7 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
                           and "hess_id" not in functions)
         direct = None
         if "jac_r" in functions and loops is None and jac:
-            direct = _input_columns(tree, layout)
+            direct = _input_columns(tree, layout, renamed, absent)
         # jac_r's M⁻¹ through NAME_msolve (.input_jacobian)
         input_solve = (uses_input_solve(analytic, functions, len(layout.x), nq, nu)
                        and (CONTACT_KERNELS or not analytic.contacts))
@@ -431,7 +433,7 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
     return _with_jacobians(sym, layout, functions, nq, jacobian, more, analytic is not None, direct is not None)
 
 
-def _input_columns(tree, layout):
+def _input_columns(tree, layout, renamed=None, absent=None):
     """jac_r's residual columns d res/d r written directly, [(("dres_r", i, k), expr)], when
     every input acts through the joints' own torques (``Tree.joint_torques``: a URDF's or
     MJCF's actuated joints), else None (then the residual is differentiated, the tangent).
@@ -444,13 +446,17 @@ def _input_columns(tree, layout):
     on the rows i of the joints r_k drives (a motor: 1.0 on its own joint's row).
 
     Checked: every load that reads an input is on a body one of that input's joints
-    connects (the child or its parent), so no other load carries it."""
+    connects (the child or its parent), so no other load carries it.
+
+    ``renamed``, ``absent``: :func:`_lowered_bodies`' rename memo and :func:`_absent` (the loads
+    and joint laws were renamed there and in :func:`_analytic` already: G1's default build
+    renamed them all again here, ~0.04 s); None: its own."""
     torques = getattr(tree, "joint_torques", ())
     rs = set(layout.r)
     if not torques or not rs:
         return None
-    absent = _absent(tree, layout)
-    memo = {}
+    absent = _absent(tree, layout) if absent is None else absent
+    memo = {} if renamed is None else renamed
     speed_of = {u: k for k, u in enumerate(tree.speeds)}
     owner = {s: i for i, b in enumerate(tree.bodies) for s, _ in b.dofs}
     cols, allowed = {}, {}
@@ -477,16 +483,18 @@ def _input_columns(tree, layout):
     return [(("dres_r", i, j), e) for (i, j), e in sorted(cols.items()) if e != 0]
 
 
-def _analytic(tree, bodies, gravity, layout, functions, ground=None, let=None, law_memo=None, renamed=None):
+def _analytic(tree, bodies, gravity, layout, functions, ground=None, let=None, law_memo=None, renamed=None,
+              absent=None):
     """(plan, results) of the analytic RNEA derivatives (:mod:`.analytic`) for jac_x and jac_id,
     or (None, []) where the tree does not qualify (then both keep the tangent path).
 
     Asked only above TANGENT_MIN_STATES states: below, the unrolled columns are faster
     (measured, benchmarks/results/derivatives.md: cart n = 4 jac_x 0.55 vs 1.4 µs, UR10
     1.6 vs 2.0 µs), and their C stays as it was.  ``law_memo``: analytic._law_slopes'; ``renamed``:
-    the rename's memo of :func:`_lowered_bodies` (the laws it renamed in the loads)."""
+    the rename's memo of :func:`_lowered_bodies` (the laws it renamed in the loads); ``absent``:
+    :func:`_absent` (worked out here when None)."""
     from .analytic import analytic_plan
-    absent = _absent(tree, layout)
+    absent = _absent(tree, layout) if absent is None else absent
     memo = {} if renamed is None else renamed
     return analytic_plan(tree, bodies, gravity, layout, lambda e, what: _rename(layout, memo, what, absent)(e),
                          (ground or {}).get("contacts"), let, (ground or {}).get("pairs"),

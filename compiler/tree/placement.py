@@ -57,7 +57,7 @@ class Placement:
         order = ([(a, c) for c in range(3) for a in range(3)] if self.by_columns else
                  [(a, c) for a in range(3) for c in range(3)])
         for a, c in order:
-            R[a][c] = let(sum((Rp[a][k] * E[c][k] for k in range(3)), _ZERO))
+            R[a][c] = let(_dot(Rp[a], E[c]))
         return R
 
     def origin(self, i):
@@ -98,9 +98,23 @@ class Placement:
 
 def to_world(R, v):
     """R v: body components -> world (R: world <- body, rows)."""
-    return [sum((R[a][k] * v[k] for k in range(3)), _ZERO) for a in range(3)]
+    return [_dot(R[a], v) for a in range(3)]
 
 
 def to_body(R, v):
     """Rᵀ v: world components -> body."""
-    return [sum((R[k][a] * v[k] for k in range(3)), _ZERO) for a in range(3)]
+    return [_dot([R[k][a] for k in range(3)], v) for a in range(3)]
+
+
+def _dot(xs, ys):
+    """``sum(x * y for x, y in zip(xs, ys))`` as SymPy builds it (the same sums in the same
+    order), without asking SymPy for the products with an exact 0 (then nothing is added) or 1
+    (then the other factor).  Why: half of G1's rotation products are such (a joint's axis
+    rotation has four zeros and a one): SymPy's Mul and Add of them were ~0.07 s of its
+    default build (the energy's and the poses' placements)."""
+    total = _ZERO
+    for x, y in zip(xs, ys):
+        if x is _ZERO or y is _ZERO:
+            continue
+        total += y if x is _ONE else (x if y is _ONE else x * y)
+    return total

@@ -36,7 +36,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from eomc.runtime.errors import EomcWarning, ModelFileError
+from eomc.runtime.errors import EomcNote, EomcWarning, ModelFileError
 
 from ..multibody.joint_kinds import KINDS
 from ..multibody.joints import identifier
@@ -130,10 +130,10 @@ def _fail(robot, line, message):
     raise ModelFileError(message, str(robot.path), line)
 
 
-def _warn(robot, line, message, notes):
+def _warn(robot, line, message, notes, category=EomcWarning):
     where = f"{robot.path}:{line}: " if line else f"{robot.path}: "
     notes.append(message)
-    warnings.warn(where + message, EomcWarning, stacklevel=4)
+    warnings.warn(where + message, category, stacklevel=4)
 
 
 def _parents_and_root(robot):
@@ -452,17 +452,15 @@ def build_tree(robot, floating_base=False, allow_nonphysical_inertia=False):
         _check_body(robot, body, joint, verdicts, notes, kept, allow_nonphysical_inertia)
     _warn_kept(robot, kept, notes)
     grounded = [robot.links[name] for name in ground if verdicts.get(name, "ok") != "ok"]
-    if len(grounded) == 1:   # welded to the world: they move nothing, so only say so
+    if len(grounded) == 1:   # welded to the world: they move nothing, so only note it, shortly
         link = grounded[0]
         _warn(robot, link.line, f"link '{link.name}': its inertia tensor is not physically possible "
                                 f"(principal moments {_describe(_moments(link.inertia)[0])}); ignored: it is "
-                                f"welded to the ground", notes)
+                                f"welded to the ground", notes, EomcNote)
     elif grounded:
-        each = "; ".join(f"link '{link.name}' (line {link.line}): {_describe(_moments(link.inertia)[0])}"
-                         for link in grounded)
+        each = ", ".join(f"link '{link.name}' (line {link.line})" for link in grounded)
         _warn(robot, robot.line, f"{len(grounded)} links welded to the ground have inertia tensors that are not "
-                                 f"physically possible (principal moments below); ignored: they move nothing: "
-                                 f"{each}", notes)
+                                 f"physically possible; ignored (they move nothing): {each}", notes, EomcNote)
     _check_names(robot, joints, bodies)
     tree = Tree(robot.name, robot.path, root, bodies, joints, ground, notes, locked, robot)
     _check_resisted(robot, tree)

@@ -16,7 +16,7 @@ import warnings
 from importlib import import_module
 
 from eomc import __version__
-from eomc.errors import EomcError, EomcWarning
+from eomc.errors import EomcError, EomcNote, EomcWarning
 
 from .helptext import DESCRIPTION, EPILOG, OptionHelp
 
@@ -145,6 +145,8 @@ def _plain_warnings(name):
     default = warnings.formatwarning
 
     def formatwarning(message, category, filename, lineno, line=None):
+        if issubclass(category, EomcNote):      # nothing to act on: a note, as the command's own
+            return f"eomc: note: {message}\n"
         if issubclass(category, EomcWarning):
             return f"eomc {name}: warning: {message}\n"
         return default(message, category, filename, lineno, line)

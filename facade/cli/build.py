@@ -62,10 +62,18 @@ def run(args):
     if args.output is None:
         from pathlib import Path
         args.output = Path(args.name or Path(args.model).stem)
-    model = compile(source, name, functions=args.outputs, fold_parameters=args.fold_parameters,
-                    backend=args.backend, cflags=args.cflags, cache_dir=args.cache_dir, portable=args.portable,
-                    output_dir=args.output, progress="quiet" if args.quiet else True, formulation=args.formulation,
-                    contacts=args.contact, frames=args.frame, target=args.target)
+    import warnings
+    from eomc.runtime.errors import DefaultStartWarning
+    with warnings.catch_warnings():
+        # the default start's warning speaks to Python (x0=, model.metadata): the note below says
+        # it as the other commands do (first hour s22: `eomc build hyq.urdf` gave the API's text)
+        warnings.filterwarnings("ignore", category=DefaultStartWarning)
+        model = compile(source, name, functions=args.outputs, fold_parameters=args.fold_parameters,
+                        backend=args.backend, cflags=args.cflags, cache_dir=args.cache_dir, portable=args.portable,
+                        output_dir=args.output, progress="quiet" if args.quiet else True,
+                        formulation=args.formulation, contacts=args.contact, frames=args.frame, target=args.target)
+    from .common import _start_note
+    _start_note(model, {}, "NAME.json's initial_state; simulate --x0 chooses another")
     files = sorted(p.name for p in model.directory.iterdir() if p.is_file() and not p.name.startswith("."))
     print(f"built model {model.name!r} (nq={model.nq}, nu={model.nu}, nparam={model.nparam}, "
           f"ninput={model.ninput}) in {model.directory}:")

@@ -2,7 +2,8 @@
 
 Runs eomc.runtime.stability.check_model from the model's initial state (or
 --x0) and prints each check with what was expected and what was measured.
-Exit status 1 when a check failed, so it can gate CI; 3 (EXIT_INCONCLUSIVE) when none
+Exit status 1 when a check failed, so it can gate CI (an explicit method that stops on a
+model the stiffness check calls stiff is "[stiff]", expected, not a failure); 3 (EXIT_INCONCLUSIVE) when none
 failed but one could not be made (a reference that cannot be computed says why and what to
 change): a CI gate can tell a wrong method from a problem too stiff to check at that span.
 """

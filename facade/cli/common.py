@@ -319,7 +319,7 @@ def initial_state(model, overrides):
     return _onto_ground(model, x0, overrides)
 
 
-def _start_note(model, overrides):
+def _start_note(model, overrides, choose="give --x0 to choose"):
     """One line on stderr naming the joints whose zero is outside their range and which the
     model's default start put inside (eomc.compiler.urdf.model.start_in_range), unless --x0
     gives them."""
@@ -330,7 +330,7 @@ def _start_note(model, overrides):
         return
     from eomc.runtime.switching import moved_start_text
     print(f"eomc: note: {moved_start_text(model.name, moved)}: the default start puts "
-          f"{'them' if len(moved) > 1 else 'it'} just inside the nearest limit (give --x0 to choose)",
+          f"{'them' if len(moved) > 1 else 'it'} just inside the nearest limit ({choose})",
           file=sys.stderr)
 
 

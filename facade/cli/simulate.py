@@ -234,6 +234,16 @@ def run(args):
               f"change {values[-1] - values[0]:.3g}")
     for line in grouped.get("", ()):
         print(line)
+    if not res.outputs and len(res.t) > 1 and (res.x != res.x[0]).any():
+        import numpy as np
+        # first hour s22: a URDF robot without limits or contacts (bolt.urdf, borinot) has no
+        # energy output, and simulate printed its step count only
+        change = np.abs(res.x[-1] - res.x[0])
+        n = model.nq if change[:model.nq].any() else model.nx        # a coordinate, where one moved
+        k = int(np.argmax(change[:n]))
+        print(f"  no outputs (the model defines none); of its {n} {'coordinates' if n == model.nq else 'states'} "
+              f"{model.state_names[k]} changed most: start {res.x[0, k]:.10g}, end {res.x[-1, k]:.10g}"
+              + ("" if args.output else "; -o FILE writes every state"))
     for name in frames:
         p = res.frame(name).p
         print(f"  {name}: position start ({', '.join(f'{v:.6g}' for v in p[0])}), "

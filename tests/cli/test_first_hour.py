@@ -349,3 +349,61 @@ def test_check_says_its_runs_gave_physics_warnings(tmp_path, capsys):
             "judge the integration, not the model's laws") in capsys.readouterr().out
     assert main(["check", str(model), "--t-final", "0.3", "-q", "--methods", "radau"]) == 0
     assert "physics warning" not in capsys.readouterr().out
+
+
+def test_welded_links_with_impossible_inertias_are_one_short_note(tmp_path):
+    # first hour s21 (L5): ANYmal C's five cameras, welded to its fixed base with impossible
+    # inertias, gave `eomc CMD: warning: ... (principal moments below) ...` -- 680 characters
+    # on every command, about links that move nothing; now one `eomc: note:` naming them
+    from helpers.urdf_arm import ARM
+    cams = "".join(f'  <joint name="cam{k}_joint" type="fixed"><parent link="base"/><child link="cam{k}"/>'
+                   f'</joint>\n  <link name="cam{k}"><inertial><mass value="0.1"/><inertia ixx="1e-6" ixy="0" '
+                   f'ixz="0" iyy="1e-6" iyz="0" izz="1e-3"/></inertial></link>\n' for k in (1, 2))
+    path = tmp_path / "arm.urdf"
+    path.write_text(ARM.replace("</robot>", cams + "</robot>"))
+    for _ in range(2):     # the build, then the reuse shortcut's replay
+        run = subprocess.run([sys.executable, "-m", "eomc", "simulate", str(path), "--t-final", "0.1", "-q"],
+                             capture_output=True, text=True, cwd=tmp_path)
+        assert run.returncode == 0, run.stderr
+        notes = [line for line in run.stderr.splitlines() if "welded to the ground" in line]
+        assert len(notes) == 1 and notes[0].startswith(f"eomc: note: {path}:"), run.stderr
+        assert "2 links welded to the ground" in notes[0] and "link 'cam1' (line" in notes[0] \
+            and "link 'cam2' (line" in notes[0] and "warning" not in notes[0], notes
+        assert len(notes[0]) - len(str(path)) < 200, notes[0]      # was 354 + the path
+
+
+def test_build_says_the_moved_start_as_a_cli_note(tmp_path, capsys):
+    # first hour s22: `eomc build hyq_no_sensors.urdf` gave the Python API's warning ("give x0 to
+    # simulate from another start; the joints are in model.metadata['start_in_range']") where
+    # simulate gives a note; build now gives the note, naming the joint and what to do
+    import warnings
+    from helpers.urdf_arm import ARM
+    from eomc.errors import DefaultStartWarning
+    path = tmp_path / "arm.urdf"
+    path.write_text(ARM.replace('<axis xyz="0 1 0"/>\n  </joint>\n  <joint name="elbow"',
+                                '<axis xyz="0 1 0"/>\n    <limit lower="0.2" upper="1" effort="1" velocity="1"/>\n'
+                                '  </joint>\n  <joint name="elbow"', 1))
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        assert main(["build", str(path), "-o", str(tmp_path / "out"), "-q"]) == 0
+    assert not [w for w in seen if issubclass(w.category, DefaultStartWarning)]
+    err = capsys.readouterr().err
+    assert "eomc: note: arm: the zero pose is outside the range of joint shoulder" in err, err
+    assert "just inside the nearest limit (NAME.json's initial_state; simulate --x0 chooses another)" in err
+    assert "model.metadata" not in err
+
+
+def test_a_run_without_outputs_says_what_moved(tmp_path, capsys):
+    # first hour s22: bolt.urdf and borinot (no limits, no contacts: no energy output) printed
+    # their step count only; now the coordinate that moved most, and where the states go
+    from helpers.urdf_arm import ARM
+    path = tmp_path / "arm.urdf"
+    path.write_text(ARM)
+    assert main(["simulate", str(path), "--t-final", "0.2", "-q", "--x0", "q_shoulder=0.5"]) == 0
+    out = capsys.readouterr().out
+    assert re.search(r"\n  no outputs \(the model defines none\); of its 2 coordinates q_elbow changed most: "
+                     r"start 0, end -0\.57[0-9]+; -o FILE writes every state\n", out), out     # the elbow swings
+    assert main(["simulate", str(path), "--t-final", "0.2", "-q", "--x0", "q_shoulder=0.5", "-o",
+                 str(tmp_path / "t.csv")]) == 0
+    out = capsys.readouterr().out
+    assert "nothing moved" not in out and "no outputs" in out and "-o FILE" not in out

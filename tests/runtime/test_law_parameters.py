@@ -170,3 +170,33 @@ def test_a_sympy_bodys_inertia_parameters_are_refused_as_the_build_refuses_a_lin
     with pytest.raises(ValueError, match=r"parameter m = -2 gives body Top the mass -2"):
         top.simulate(None, (0, 0.1), p={"m": -2.0})
     assert top.simulate(None, (0, 0.1), p={"I3": 0.015}).status == 0
+
+
+def test_a_urdf_links_mass_and_inertia_parameters_are_refused_naming_them(tmp_path):
+    """A URDF link's m_<link> and I.._<link> are run-time parameters, but the robot's tree IR had
+    no SymPy bodies for NAME.json body_parameters to read, so p={"m_upper": -1} ran unchecked.
+    Now the tree's bodies are read: a mass <= 0 and an impossible central inertia are refused,
+    naming the parameters and the link, as the URDF reader refuses them in the file.  The upper
+    link turns about one axis, so the tree keeps only its moment about it (not its tensor): only
+    its mass is judged.  A build with all_inertial_parameters (identification's: its fits pass
+    unphysical vectors through simulate on purpose) is not checked."""
+    from helpers.urdf_arm import ARM
+    from eomc.compiler.urdf.model import UrdfModel
+    path = tmp_path / "arm.urdf"
+    elbow = ARM.index('<joint name="elbow"')
+    path.write_text(ARM[:elbow] + ARM[elbow:].replace('<axis xyz="0 1 0"/>', '<axis xyz="1 0 0"/>', 1))
+    arm = eomc.compile(path, cache_dir=tmp_path / "cache", progress=False)
+    rows = {row["body"]: row for row in arm.metadata["body_parameters"]}
+    assert rows["upper"]["mass"] == [1.0, [["m_upper", 1.0]]] and rows["lower"]["mass"] == [1.0, [["m_lower", 1.0]]]
+    assert "inertia" not in rows["upper"] and rows["lower"]["inertia"][2][2] == [1.0, [["Izz_lower", 1.0]]]
+    with pytest.raises(ValueError, match=r"arm: parameter m_upper = -1 gives body upper the mass -1: a body's "
+                                         r"mass must be > 0"):
+        arm.simulate(np.zeros(4), (0, 0.1), p={"m_upper": -1.0})
+    with pytest.raises(ValueError, match=r"Izz_lower = 0\.5 give body lower a central inertia with principal "
+                                         r"moments 0\.01, 0\.01, 0\.5, which miss the triangle inequality"):
+        arm.simulate(np.zeros(4), (0, 0.1), p={"Izz_lower": 0.5})
+    assert arm.simulate(np.zeros(4), (0, 0.1), p={"m_upper": 2.0, "Izz_lower": 0.015}).status == 0
+    fit = eomc.compile(UrdfModel(path, all_inertial_parameters=True), cache_dir=tmp_path / "cache",
+                       progress=False)
+    assert "body_parameters" not in fit.metadata
+    fit.simulate(np.zeros(4), (0, 0.1), p={"m_upper": -1.0}, raise_on_failure=False)     # not refused

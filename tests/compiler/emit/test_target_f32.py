@@ -216,3 +216,33 @@ def test_state_or_parameter_beyond_float_is_named(tmp_path):
     path = _pendulum_file(tmp_path, parameters="parameters = {m1: 1.0, m2: 1e39, l1: 1.0, l2: 1.0, g: 9.81}")
     with pytest.raises(ModelError, match=r"bigp: parameter m2's default: the constant 1e\+39 overflows float"):
         eomc.compile(path, "bigp", target="c99-f32", cache_dir=tmp_path / "cache", progress=False)
+
+
+@pytest.mark.parametrize("functions", [["rhs", "rhs_batch"], ["rhs", "jac_x", "jac_x_batch"],
+                                       ["rhs", "outputs", "outputs_batch"],
+                                       ["rhs", "rhs_batch", "jac_x", "jac_x_batch"]])
+def test_float_target_refuses_batch_functions_before_reading(functions, tmp_path):
+    # the batch functions are double SIMD lanes: c99-f32 refuses them by name, before the
+    # model is read (check is never called), instead of failing in the float pass
+    batch = [f for f in functions if f.endswith("_batch")]
+    read = []
+    with pytest.raises(ModelError) as info:
+        generate(str(EXAMPLES / "double_pendulum.py"), "dpb32", target="c99-f32", functions=functions,
+                 check=read.append, cache_dir=tmp_path)
+    text = str(info.value)
+    assert text.startswith(f"target c99-f32 does not build the batch function{'s' if len(batch) > 1 else ''} "
+                           f"{', '.join(batch)}: "), text
+    assert "with the double target c99-f64" in text and f"without {', '.join(batch)})" in text, text
+    assert "compiler bug" not in text and read == []
+
+
+def test_float_target_refuses_batch_functions_of_generated_double_c(tmp_path):
+    # retarget itself (a double GeneratedModel, e.g. from the generation cache) says the same
+    f64 = generate(str(EXAMPLES / "double_pendulum.py"), "dpb64", functions=["rhs", "rhs_batch"],
+                   cache_dir=tmp_path)[1]
+    assert "dpb64_rhs_batch" in f64.c_source
+    with pytest.raises(ModelError, match=r"^target c99-f32 does not build the batch function rhs_batch: "):
+        retarget(f64, "c99-f32")
+    with pytest.raises(ModelError, match=r"^target c99-f32 does not build the batch function rhs_batch: "):
+        eomc.compile(str(EXAMPLES / "double_pendulum.py"), "dpb32c", target="c99-f32",
+                     functions=["rhs", "rhs_batch"], cache_dir=tmp_path, progress=False)

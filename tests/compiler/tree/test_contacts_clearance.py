@@ -64,3 +64,22 @@ def test_one_normal_clearance_is_what_sympy_min_of_it_gives():
     z = contacts._clearance(poses, 0, [points[0], points[2]])
     x = contacts._clearance(poses, 0, [points[1]])
     assert two == sm.Min(z, x)
+
+
+def test_bounding_sphere_radii_max_is_sympys_where_it_orders_none():
+    """The bounding-sphere Max (contacts._sphere_max) is built as it stands: the Max SymPy's
+    evaluation gives where it finds no radius bounding another (the humanoid's capsule ends, with
+    parameter offsets), every distinct radius where it would find one (the same value), and the
+    number where all radii are numbers."""
+    a, b, c = sm.symbols("a b c", real=True)
+    radii = [sm.sqrt(a ** 2 + (b - sm.Float(1.5e-17)) ** 2 + sm.Float(0.0049)),
+             sm.sqrt(a ** 2 + (sm.Float(0.19) - b) ** 2), sm.sqrt((-a - sm.Float(0.01)) ** 2 + (b + 0.12) ** 2 + c ** 2)]
+    got = contacts._sphere_max(radii + radii[:1])
+    assert got == sm.Max(*radii) and got.args == sm.Max(*radii).args
+    assert contacts._sphere_max(radii[:1] * 3) == radii[0]
+    assert contacts._sphere_max([sm.Float(0.2), sm.Float(0.3), sm.Float(0.3)]) == sm.Float(0.3)
+    ordered = [sm.sqrt(a ** 2 + 1), sm.sqrt(a ** 2 + 1) + 1]     # SymPy drops the first
+    assert sm.Max(*ordered) == ordered[1]
+    kept = contacts._sphere_max(ordered)
+    f = sm.lambdify([a], kept)
+    assert len(kept.args) == 2 and all(f(x) == float(ordered[1].subs(a, x)) for x in (-2.0, 0.0, 0.5))
