@@ -46,7 +46,8 @@ class Progress:
     PASS_LABELS = {"cse": "common subexpressions", "differentiate": "Jacobians",
                    "tangent": "Jacobians (tangent)", "share_sincos": "sharing sin/cos",
                    "fold_constants": "folding constants", "fold_parameters": "folding parameters",
-                   "dce": "dropping unused code", "expand_powers": "powers to products"}
+                   "dce": "dropping unused code", "expand_powers": "powers to products",
+                   "contacts": "contact laws", "jacobian_plan": "Jacobians (plan)"}
 
     def __init__(self, enabled=None, stream=None):
         """``enabled``: None (on when stderr is a terminal; in a log only a stage lasting

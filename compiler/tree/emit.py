@@ -13,6 +13,7 @@ from ..emit.guards import guarded_temps
 from ..emit.printer import CPrinter
 from ..emit.bodies import IND, singular_guard, store, temps, extra_state_rows, needed_assignments, split_on
 from ..ir import Names
+from ..passes.timing import compiler_step
 from ..ir.opcount import count_ops
 
 __all__ = ["tree_rhs_body", "tree_matrix_body", "tree_jacobian_body", "tree_jacobian_ops", "stores_zeroing_runs",
@@ -146,7 +147,8 @@ def _jacobian_plan(program, W, G, seeds, fn, nq, nx, nr):
     args = (fn, tuple(W), tuple(G), tuple(seeds), nq, nx, nr)
     plans = program.__dict__.setdefault("_jacobian_plans", {})
     if args not in plans:
-        plans[args] = _make_plan(program, W, G, seeds, fn, nq, nx, nr)
+        with compiler_step("jacobian_plan"):
+            plans[args] = _make_plan(program, W, G, seeds, fn, nq, nx, nr)
     return plans[args]
 
 

@@ -31,6 +31,7 @@ import sympy as sm
 from eomc.runtime.errors import ModelError
 
 from ..emit.reverse import hess_id_requests, refuse_reverse, reverse_requests
+from ..passes.timing import compiler_step
 from ..emit.symbolic import TANGENT_MIN_STATES, build_symbolic, reads_solve
 from .aba import aba
 from .chain_loop import chain_loop_plan
@@ -549,8 +550,9 @@ def _contacts(tree, bodies, rec, v, layout, implicit=None, energy=None, guards=N
         return {}
     from .contacts import lower_contacts
     memo = {}
-    return lower_contacts(tree, bodies, rec, v, lambda e, what: _rename(layout, memo, what, None)(e),
-                          implicit, energy, guards, ground, second)
+    with compiler_step("contacts"):
+        return lower_contacts(tree, bodies, rec, v, lambda e, what: _rename(layout, memo, what, None)(e),
+                              implicit, energy, guards, ground, second)
 
 
 def implicit_layout(nq, nu, ncontact, energy=False):
