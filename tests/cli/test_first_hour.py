@@ -504,3 +504,23 @@ def test_plot_and_summary_leave_out_contact_outputs_that_stay_zero(tmp_path, cap
     drawn = {n for _, group in panels(res) for n in group}
     assert {"Fn_foot", "Ftx_foot", "depth_foot"} <= drawn and not {"Fty_foot", "Ftz_foot"} & drawn, drawn
     assert "Ftz_foot" in {n for _, group in panels(res, ["Ftz_foot"]) for n in group}
+
+
+def test_report_on_a_contact_model_compares_the_implicit_methods(tmp_path, capsys):
+    """`eomc report hopper.xml` (no flags) ran rk4, dopri5 and dop853 at every tolerance and 21 of
+    its 40 runs stopped as stiff (or rk4, without DOPRI5's step count): on ground contacts the
+    default is bdf and radau, said on stderr, as `eomc check` leaves the explicit ones out there;
+    --methods still runs them."""
+    pytest.importorskip("matplotlib")
+    model = model_files.write(tmp_path, _HIGH_AND_LOW, "high_low")
+    common = ["--t-final", "0.2", "--tolerances", "1e-3", "1e-4", "--repeats", "1", "--reference-tol", "1e-8"]
+    assert main(["report", str(model), "-o", str(tmp_path / "r"), *common]) == 0
+    captured = capsys.readouterr()
+    assert ("eomc report: high_low has ground contacts: comparing bdf and radau (rk4, dopri5 and dop853 stop "
+            "there as stiff; --methods runs them anyway)") in captured.err, captured.err
+    methods = {line.split(",")[0] for line in (tmp_path / "r" / "report.csv").read_text().splitlines()[1:]}
+    assert methods == {"bdf", "radau"}, methods
+    assert "--methods bdf radau" in (tmp_path / "r" / "report.md").read_text()
+    assert main(["report", str(model), "-o", str(tmp_path / "r2"), "--methods", "dopri5", "radau", "-q", *common]) == 0
+    methods = {line.split(",")[0] for line in (tmp_path / "r2" / "report.csv").read_text().splitlines()[1:]}
+    assert methods == {"dopri5", "radau"}, methods
