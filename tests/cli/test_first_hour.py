@@ -557,3 +557,24 @@ def test_a_contact_named_above_a_links_geometry_is_named_as_the_cause_of_sinking
     assert sank[0].endswith("the robot passed through the floor there (the contact named on link base takes the "
                             "place of its <collision> geometry: put it where the link touches, --contact "
                             "base:x,y,z:radius, or --contact @collision for the file's collision spheres)"), sank
+
+
+def test_a_failed_runs_diagnosis_comes_before_its_state(pendulum, tmp_path, monkeypatch, capsys):
+    """human.urdf with no flags stops at its hip's gimbal lock: the error named the cause ('nothing
+    resists motion along u_left_hip_Z ... gimbal lock') and the rows written after 88 state values
+    (3.5 kB).  The command line now gives the diagnosis and the file first, the state last."""
+    from eomc.cli.simulate import state_last
+    message = ("human: radau stopped at t=0.45: the mass matrix is singular; state q_a=1, q_b=2, u_a=3; "
+               "nothing resists motion along u_a (1): ... gimbal lock; wrote the 46 rows computed up to t=0.45 "
+               "to t.csv (marked '# incomplete' on its last line)")
+    assert state_last(message) == (
+        "human: radau stopped at t=0.45: the mass matrix is singular; nothing resists motion along u_a (1): ... "
+        "gimbal lock; wrote the 46 rows computed up to t=0.45 to t.csv (marked '# incomplete' on its last "
+        "line); state q_a=1, q_b=2, u_a=3")
+    plain = "pend: dop853 stopped at t=1: maximum number of steps; state q1=0.5, u1=0"
+    assert state_last(plain) == plain                                  # nothing after the state: as it was
+    # through the command: out of steps, the rows written are said before the state
+    out = tmp_path / "t.csv"
+    assert main(["simulate", "pend", "--t-final", "100", "--max-steps", "5", "-o", str(out)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert "; wrote the " in err and err.index("; wrote the ") < err.index("; state q1="), err
