@@ -626,7 +626,11 @@ def bind_call(model, a, out=None):
                        + (model.nx if isinstance(a.get("K"), tuple) else 0) if feedback else 0)
                     + (implicit.work_len if implicit is not None else 0))
     stats = ffi.new("eomc_stats *")
-    head = (model.c_model, _options(ffi, a, implicit), a["t0"], a["t1"], buf(a["x0"]), buf(a["p"]), a["n_r"],
+    opt = _options(ffi, a, implicit)
+    if a["method"] == "implicitfast" and "switches" in a:   # the energy verdict's watch of every step
+        from .switching import watch_options
+        watch_options(model, opt, a)
+    head = (model.c_model, opt, a["t0"], a["t1"], buf(a["x0"]), buf(a["p"]), a["n_r"],
             buf(a["r_t"]), buf(a["r_v"]))
     tail = (n_eval, buf(a["t_eval"]), buf(x_out), buf(x_last), stats, buf(work), work.size)
     if not feedback and "events" not in a and "switches" not in a:
@@ -659,6 +663,9 @@ def run_prepared(model, a, out=None):
     # a caller inside runtime.progress.integration() (eomc simulate) sees how far it got
     follow_integration(lambda: (stats.t, stats.steps), a["t0"], a["t1"], call)
     got = {f: getattr(stats, f) for f in _STAT_FIELDS}
+    if a.get("_watch") is not None:     # the C energy watch's numbers, for the verdict (finish)
+        from .switching import watched_stats
+        a["_watched"] = watched_stats(stats, a["_watch"][0])
     if a.get("auto_switch") and got["status"] == STIFF_STATUS and got["t"] < a["t1"]:
         return _continue_implicit(model, a, x_out, got, x_last)
     return x_out, got, x_last
@@ -1053,7 +1060,7 @@ def finish(model, a, x_out, stats, x_last, raise_on_failure=True):
         seen = ev.switch_maxima()
         if ev1 is not None:
             seen = np.maximum(seen, ev1.switch_maxima())
-        bad, why = verdict(model, a, result, seen, a["switches"])
+        bad, why = verdict(model, a, result, seen, a["switches"], watched=a.get("_watched"))
         if bad:
             result.status = stats["status"] = bad
             result.message = f"{model.name}: {method}: {why}"

@@ -106,7 +106,7 @@ def _ranges(model, X0, monkeypatch, shortcut, **kw):
     energy_fn = rollout_module._energy_fn
 
     def spy(*args, **kwargs):
-        seen["ranges"] = np.array(args[-1])
+        seen["ranges"] = np.array([(w["lo"], w["hi"]) for w in args[-1]])     # switching.watched_stats
         return verdicts(*args, **kwargs)
 
     def counted(m, ffi):
