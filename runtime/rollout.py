@@ -373,8 +373,8 @@ def _energy_verdicts(model, a, X0, P, p_stride, controls, t_eval, X_out, X_last,
     rows whose energy rose past energy_tolerance (below it the verdict says nothing) go through the
     verdict's Python, and only the row the warning quotes is run again to name what touched down
     where its total rose (switching.place_finder; record="steps": from its recorded states)."""
-    from .switching import (PhysicsWarning, energy_allowance, energy_tolerance, energy_verdict, find_switches,
-                            place_finder, total_known)
+    from .switching import (PhysicsWarning, _no_sources, energy_allowance, energy_tolerance, energy_verdict,
+                            find_switches, place_finder, total_known)
     from .rollout_extras import _row_inputs
     from .simulate import _along
     sw = find_switches(model)
@@ -433,15 +433,22 @@ def _energy_verdicts(model, a, X0, P, p_stride, controls, t_eval, X_out, X_last,
         # unless the total energy rose above its running minimum beyond its tolerance (risen)
         held, sprung, _, _ = energy_allowance(model, np.asarray(P[i if p_stride else 0], dtype=float), X0[i],
                                               bool(np.any(out[k, 0, depth] > 0)), sw)
-        if gain[k] - held <= tol[k] and not sprung and not risen[k]:
+        quiet = gain[k] - held <= tol[k] and not sprung     # no gain words and no status: at most the rise's
+        if quiet and not risen[k]:
+            continue
+        if quiet and notes:
+            # a rise alone, once a row is quoted: the verdict would only add its note (a known total,
+            # so nothing sprung) -- counted, not worded (gymnasium's ant: 23 of 64 rows, 2 ms)
+            if _no_sources(model, row_args(i)):
+                notes.append((i, None))
             continue
         outputs = dict(zip(model.output_names, out[k].T), energy=E[k])
-        one = None if watched is None else watched[i]
-        bad, why, said = energy_verdict(model, row_args(i), outputs, sw, watched=one)
-        if said and risen[k] and not notes:     # the row the warning quotes: where it rose, named
-            b = row_args(i)
-            recorded = (t_eval, X_out[i]) if X_out is not None else (None, None)
-            bad, why, said = energy_verdict(model, b, outputs, sw, watched=one, place=place_finder(model, b, *recorded))
+        b = row_args(i)
+        # the row the warning quotes, when its words are the rise's: where it rose, named (one run)
+        recorded = (t_eval, X_out[i]) if X_out is not None else (None, None)
+        place = place_finder(model, b, *recorded) if quiet and not notes else None
+        bad, why, said = energy_verdict(model, b, outputs, sw, watched=None if watched is None else watched[i],
+                                        place=place)
         if bad:
             status[i] = bad
             messages[i] = f"{model.name}: {a['method']}: {why}"

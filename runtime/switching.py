@@ -840,6 +840,8 @@ def place_finder(model, a, t=None, x=None):
         if X is None:
             b = {key: v for key, v in a.items() if key not in ("switches", "events", "_bindings", "_watch")}
             b["t_eval"] = np.array([ta, t_jump])
+            # to one step past t_jump: the same grid t0 + k h and the same whole steps up to it
+            b["t1"] = min(float(a["t1"]), t0 + (k + 1) * h)
             rows, stats, _ = run_prepared(model, b)
             if stats["status"] != 0 or stats["n_out"] < 2:
                 return ""
