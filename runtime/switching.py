@@ -466,7 +466,7 @@ def place_words(model, p, sw, t_jump, xa, xb, oa, ob):
     if parts:
         text += ", where " + " and ".join(parts)
     if held:
-        text += ("; also " if parts else ", with ") + "; ".join(held)
+        text += ("; also " if parts else ", while ") + "; ".join(held)
     return text + ")"
 
 
