@@ -354,10 +354,8 @@ def _energy_fn(model, ffi):
     """NAME_energy (the energy output alone, compiler/emit/generate.energy_program) as the
     eomc_rhs_fn ``ffi`` declares, for eomc_options.watch_fn; NULL for a model built without it
     (before session 16, or an energy that reads u'): the watch then calls the whole outputs."""
-    if "energy" not in model.metadata.get("functions", ()) or model.model_lib is None:
-        return ffi.NULL
-    fp = model.ffi.addressof(model.model_lib, f"{model.name}_energy")
-    return ffi.cast("eomc_rhs_fn", int(model.ffi.cast("uintptr_t", fp)))
+    from .simulate import energy_fn
+    return energy_fn(model, ffi)
 
 
 def _energy_verdicts(model, a, X0, P, p_stride, controls, t_eval, X_out, X_last, status, watched=None):
@@ -373,8 +371,9 @@ def _energy_verdicts(model, a, X0, P, p_stride, controls, t_eval, X_out, X_last,
     rows whose energy rose past energy_tolerance (below it the verdict says nothing) go through the
     verdict's Python, and only the row the warning quotes is run again to name what touched down
     where its total rose (switching.place_finder; record="steps": from its recorded states)."""
+    from .simulate import place_finder
     from .switching import (PhysicsWarning, _no_sources, energy_allowance, energy_tolerance, energy_verdict,
-                            find_switches, place_finder, total_known)
+                            find_switches, total_known)
     from .rollout_extras import _row_inputs
     from .simulate import _along
     sw = find_switches(model)

@@ -201,7 +201,7 @@ def _activations_at_rest(model, a):
     return not np.any(np.asarray(a["x0"], dtype=float)[model.nq + model.nu:])
 
 
-def verdict(model, a, result, gmax, sw, watched=None):
+def verdict(model, a, result, gmax, sw, watched=None, outputs=None, place=None):
     """Warnings (and a failed status for created energy) from what the run saw; returns
     (status, message addition) -- (0, "") when the physics looks right."""
     notes = []
@@ -235,30 +235,14 @@ def verdict(model, a, result, gmax, sw, watched=None):
     notes += below_ground(model, result.t, result.x, p, POINT_PENETRATION, PENETRATION_FRACTION)
     from .pair_check import passed_through
     notes += passed_through(model, result.t, result.x, p, outputs=result.outputs)   # bodies into each other
-    outputs = result.outputs
-    if watched is not None and outputs and (not len(result.t) or result.t[0] != a["t0"]):
-        outputs = _with_start(model, a, outputs)      # the verdict reads the start's energy and depths
-    status, extra, said = energy_verdict(model, a, outputs, sw, x=result.x, t=result.t, watched=watched,
-                                         place=place_finder(model, a, result.t, result.x) if watched else None)
+    # outputs: the run's, with the start's row first when t_eval left it out (simulate.with_start:
+    # the verdict reads the start's energy and depths); place: energy_verdict's (simulate.place_finder)
+    status, extra, said = energy_verdict(model, a, result.outputs if outputs is None else outputs, sw, x=result.x,
+                                         t=result.t, watched=watched, place=place)
     notes += said
     if notes:       # one warning per run, naming every contact and joint
         warnings.warn(PhysicsWarning(f"{model.name}: " + "; ".join(notes)), stacklevel=_user_level())
     return status, extra
-
-
-def _with_start(model, a, outputs):
-    """outputs (along a run's recorded rows) with the start's row first (t_eval that leaves the
-    start out), or unchanged when the start's outputs are not finite."""
-    from .errors import SimulationError
-    from .simulate import _along
-    try:
-        first = _along(model, a, 0, np.array([float(a["t0"])]), np.asarray(a["x0"], dtype=float)[None, :])
-    except SimulationError:
-        return outputs
-    if first is None:
-        return outputs
-    return {n: np.concatenate([[first[0][j]], np.asarray(outputs[n], dtype=float)])
-            for j, n in enumerate(model.output_names) if n in outputs}
 
 
 def energy_verdict(model, a, outputs, sw, x=None, t=None, watched=None, place=None):
@@ -817,60 +801,3 @@ def _user_level():
         frame, level = frame.f_back, level + 1
     return level
 
-
-def place_finder(model, a, t=None, x=None):
-    """energy_verdict's ``place`` for a fixed-step run with prepared args ``a`` (x0, p, inputs,
-    dt = a["h0"]): the states at both ends of the step that ends at t_jump, from the recorded rows
-    (t, x) when they hold both, else from the run made again with those two output times only (its
-    steps do not depend on the output times: the same states), then :func:`place_words`.  One run
-    at most per verdict that warns (rollout: the row its warning quotes)."""
-    def place(t_jump):
-        from .errors import SimulationError
-        from .simulate import _along, run_prepared
-        h, t0 = float(a["h0"]), float(a["t0"])
-        k = int(round((t_jump - t0) / h))
-        if k < 1:
-            return ""
-        ta = t0 + (k - 1) * h
-        X = None
-        if t is not None and x is not None:
-            ia, ib = np.flatnonzero(np.asarray(t) == ta), np.flatnonzero(np.asarray(t) == t_jump)
-            if ia.size and ib.size:
-                X = np.stack([np.asarray(x)[ia[0]], np.asarray(x)[ib[0]]])
-        if X is None:
-            b = {key: v for key, v in a.items() if key not in ("switches", "events", "_bindings", "_watch")}
-            b["t_eval"] = np.array([ta, t_jump])
-            # to one step past t_jump: the same grid t0 + k h and the same whole steps up to it
-            b["t1"] = min(float(a["t1"]), t0 + (k + 1) * h)
-            rows, stats, _ = run_prepared(model, b)
-            if stats["status"] != 0 or stats["n_out"] < 2:
-                return ""
-            X = np.array(rows[:2])
-        try:
-            out = _along(model, a, 0, np.array([ta, t_jump]), X)
-        except SimulationError:     # an output not finite there: the limits are still named
-            out = None
-        names = list(model.output_names)
-        oa = {} if out is None else dict(zip(names, out[0]))
-        ob = {} if out is None else dict(zip(names, out[1]))
-        return place_words(model, np.asarray(a["p"], dtype=float), find_switches(model), t_jump, X[0], X[1], oa, ob)
-    return place
-
-
-def watch_options(model, opt, a):
-    """Turn the C energy watch on in eomc_options ``opt`` for a fixed-step implicitfast run with
-    prepared args ``a`` that the energy verdict judges (a model with switching points and an
-    ``energy`` output, its outputs function, no feedback): watch_output, watch_fn (NAME_energy where
-    built), and the limit springs the output leaves out (:func:`watch_springs`).  Returns the spring
-    count (kept with the structs in a["_watch"]), or None when not watched."""
-    names = list(model.output_names)
-    if (a.get("method") != "implicitfast" or "energy" not in names or not find_switches(model)
-            or model.c_model.outputs == model.ffi.NULL or "r_fun" in a or "K" in a or "r_slopes" in a):
-        return None
-    from .rollout import _energy_fn
-    opt.watch_output = names.index("energy") + 1
-    opt.watch_fn = _energy_fn(model, model.ffi)
-    n, springs, keep = watch_springs(model, model.ffi, a["p"])
-    opt.nspring, opt.spring = n, springs
-    a["_watch"] = (n, keep)
-    return n
