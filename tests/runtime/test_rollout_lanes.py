@@ -163,9 +163,11 @@ def test_a_row_whose_try_needs_the_start_matrix_after_an_answer_ahead_is_the_sca
 def hopper_bench(tmp_path_factory):
     """The hopper as bench_rollout_contacts builds it: the default functions and implicit_batch
     (so outputs and energy: NAME_implicit ends with the energy and the rollout's energy watch is
-    on), with libm's sin/cos in the lanes."""
+    on) and the default flags with this machine's (-mavx2 -ffp-contract=off ... where it has AVX2),
+    plus -DEOMC_BATCH_LIBM_TRIG: libm's sin/cos in the lanes."""
     import warnings
     gymnasium = pytest.importorskip("gymnasium")
+    from eomc.compiler.build.toolchain import DEFAULT_CFLAGS, find_compiler, machine_flags
     from eomc.compiler.emit.signatures import FUNCTION_ORDER, ON_REQUEST
     from eomc.compiler.mjcf.model import MjcfModel
     path = Path(gymnasium.__file__).parent / "envs" / "mujoco" / "assets" / "hopper.xml"
@@ -174,7 +176,7 @@ def hopper_bench(tmp_path_factory):
         warnings.simplefilter("ignore")
         return compile_model(MjcfModel(path), "rl_hopper_bench", functions=functions,
                              cache_dir=tmp_path_factory.mktemp("rlhb"), progress=False,
-                             cflags="-O2 -std=c99 -fPIC -DEOMC_BATCH_LIBM_TRIG")
+                             cflags=[*DEFAULT_CFLAGS, *machine_flags(find_compiler()), "-DEOMC_BATCH_LIBM_TRIG"])
 
 
 def test_the_benchmarks_build_with_libm_trig_gives_the_scalar_rows_over_a_second(hopper_bench):
