@@ -83,13 +83,34 @@ def untouched(res):
     return out
 
 
+def flat_zero(res):
+    """The outputs of contacts that did touch but stayed exactly 0 at every row (a flat ground's
+    Ftz_: its tangential force has no vertical part), which :func:`panels` leaves out unless
+    named: Go2's four feet drew a panel of four zero lines (first hour s23)."""
+    model = getattr(res, "model", None)
+    if model is None or not getattr(model, "noutput", 0):
+        return []
+    from .switching import find_switches
+    idle = set(untouched(res))
+    out = []
+    for c in find_switches(model).contacts:
+        if c.name in idle:
+            continue
+        for kind in _CONTACT_KINDS:
+            values = res.outputs.get(f"{kind}_{c.name}")
+            if values is not None and len(values) and not np.any(np.asarray(values, dtype=float) != 0):
+                out.append(f"{kind}_{c.name}")
+    return out
+
+
 def _contact_outputs(names):
     return {f"{k}_{c}" for c in names for k in _CONTACT_KINDS}
 
 
 def panels(res, names=None):
     """[(label, [names])] of a run: what :func:`plot_result` draws, one entry per panel.  Without
-    ``names``, the outputs of contacts that never touched (:func:`untouched`) are left out."""
+    ``names``, the outputs of contacts that never touched (:func:`untouched`) are left out, and
+    those of touched ones that stayed 0 (:func:`flat_zero`)."""
     states = list(res.state_names)
     nq = res.nq if res.nq and 0 < res.nq < len(states) else None
     model = getattr(res, "model", None)
@@ -114,7 +135,7 @@ def panels(res, names=None):
         out += _chunks("speeds", keep(states[nq:speeds_end]))
         out += _chunks("extra states", keep(states[speeds_end:]))
     frames, plain = {}, []
-    idle = _contact_outputs(untouched(res)) if names is None else set()
+    idle = _contact_outputs(untouched(res)) | set(flat_zero(res)) if names is None else set()
     for name in res.outputs:
         if name in idle:
             continue

@@ -144,10 +144,14 @@ class _Follower:
         self.lines = 0
         self._bar = None
 
-    def begin(self, t0, t1):
+    def begin(self, t0, t1, resume=False):
+        """``resume``: the same run goes on in a second call (method="auto" after it switched to
+        Radau): the span, the clock and the last line's place carry on."""
         self.t0, self.t1 = t0, t1
-        self.start = self.clock()
-        self.frac, self.wall, self.shown = 0.0, self.start, 0
+        if not (resume and hasattr(self, "start")):
+            self.start = self.clock()
+            self.frac, self.wall = 0.0, self.start
+        self.shown = 0
         if self.live:
             self._bar = _tqdm()(total=100, desc=self.label, file=self.stream, leave=False, unit="%",
                                 bar_format="{desc} {percentage:3.0f}%|{bar}| {elapsed}{postfix}")
@@ -183,10 +187,10 @@ class _Follower:
         elif self.lines:                   # a long run said how far it got: say where it ended
             self._line(t, steps)
 
-    def run(self, read, t0, t1, call):
+    def run(self, read, t0, t1, call, resume=False):
         """``call()`` (the C call) while a thread polls how far ``read()`` says it got."""
         stop = threading.Event()
-        self.begin(t0, t1)
+        self.begin(t0, t1, resume)
 
         def watch():
             while not stop.wait(POLL_S):
@@ -217,11 +221,13 @@ def integration(label, stream, enabled=True, clock=time.monotonic):
         _current.follower = previous
 
 
-def follow_integration(read, t0, t1, call):
+def follow_integration(read, t0, t1, call, resume=False):
     """``call()``, followed by the enclosing :func:`integration` if there is one (else just
     the call).  ``read()`` -> (time reached, steps taken), read from another thread while
-    ``call`` runs: it must be safe for that (a look at the integrator's stats struct)."""
+    ``call`` runs: it must be safe for that (a look at the integrator's stats struct).
+    ``resume``: this call continues the previous one's run over the same span [t0, t1] (its
+    lines and clock go on)."""
     follower = getattr(_current, "follower", None)
     if follower is None:
         return call()
-    return follower.run(read, t0, t1, call)
+    return follower.run(read, t0, t1, call, resume)

@@ -233,9 +233,15 @@ def _run_notes(report):
     """Methods that could not run on this model, runs that failed (other than stiffness) and
     runs that missed their tolerance by orders of magnitude (failed too: issue 29)."""
     notes = [f"{m} not run: {why}" for m, why in report.skipped.items()]
+    # one line per method and reason, its settings listed (first hour s23: gymnasium's hopper
+    # had seven lines of "rk4 at 1e-04 failed: not run: DOPRI5 failed ...", one per tolerance,
+    # which pushed the notes after them past the ten kept)
+    same = {}
     for r in report.rows:
         if r["status"] != 0 and not (r["method"] in EXPLICIT and r["status"] in (6, 7)):
-            notes.append(f"{r['method']} at {_setting(r)} failed: {_short(report, r['message'])}")
+            same.setdefault((r["method"], _short(report, r["message"])), []).append(_setting(r))
+    for (method, why), settings in same.items():
+        notes.append(f"{method} at {', '.join(settings)} failed: {why}")
     missed = [r for r in report.ok_rows() if r["method"] != "rk4"
               and r["error"] > MISSED_FACTOR * r["tolerance"]]
     if missed:

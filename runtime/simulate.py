@@ -656,8 +656,10 @@ def run_prepared(model, a, out=None):
     method="auto" (a["auto_switch"]): where DOP853 stops because the problem looks stiff,
     a second call continues with Radau from that state into the same output rows."""
     call, x_out, x_last, stats = bind_call(model, a, out)
-    # a caller inside runtime.progress.integration() (eomc simulate) sees how far it got
-    follow_integration(lambda: (stats.t, stats.steps), a["t0"], a["t1"], call)
+    # a caller inside runtime.progress.integration() (eomc simulate) sees how far it got; the
+    # Radau part of an "auto" run that switched goes on over the whole span and step count
+    t0, t1, before = a.get("_progress", (a["t0"], a["t1"], None))
+    follow_integration(lambda: (stats.t, stats.steps + (before or 0)), t0, t1, call, resume=before is not None)
     got = {f: getattr(stats, f) for f in _STAT_FIELDS}
     if a.get("auto_switch") and got["status"] == STIFF_STATUS and got["t"] < a["t1"]:
         return _continue_implicit(model, a, x_out, got, x_last)
@@ -674,7 +676,7 @@ def _continue_implicit(model, a, x_out, first, x_last):
     b = dict(a)
     b.pop("_bindings", None)
     b.update(method="radau", t0=float(first["t"]), x0=np.array(x_last), auto_switch=False,
-             t_eval=np.ascontiguousarray(a["t_eval"][n1:]), h0=0.0)
+             t_eval=np.ascontiguousarray(a["t_eval"][n1:]), h0=0.0, _progress=(a["t0"], a["t1"], first["steps"]))
     if b["t_eval"].size and b["t_eval"][0] <= b["t0"]:
         b["t_eval"] = b["t_eval"][b["t_eval"] > b["t0"]]
     rows, second, x_end = run_prepared(model, b, out=x_out[n1:n1 + b["t_eval"].size])

@@ -7,7 +7,8 @@ no contact parameters: each shape takes the law's parameters MuJoCo's default co
 have on this robot (solref 0.02 1, solimp 0.9 0.95 0.001, sliding friction 1; the rule of
 :mod:`eomc.compiler.contact.mujoco_law`: k = W/δ_ref^1.5 with W the robot's weight, so a robot
 resting on one shape sinks as deep as MuJoCo's default contact lets it).  Meshes are read
-with trimesh (their convex hull's vertices); one that cannot be read is left out with a warning.
+with trimesh (their convex hull's vertices), STL and OBJ without it too (the base install); one
+that cannot be read is left out with a warning.
 """
 import warnings
 
@@ -21,7 +22,34 @@ from eomc.compiler import fixed_order as fo
 __all__ = ["collision_shapes", "ground_check", "MUJOCO_DEFAULTS"]
 
 
-def _mesh_vertices(filename, directory, scale, where, missing):
+def _plain_vertices(path):
+    """A mesh file's vertices (n x 3) read without trimesh: binary or ASCII STL, or OBJ ('v' lines);
+    None for any other format.  Duplicates are merged, as trimesh merges them (a triangle soup's
+    STL repeats each vertex ~6 times); the shape is the same point set, so its bounding box and
+    hull are trimesh's."""
+    import os
+    ext = os.path.splitext(str(path))[1].lower()
+    with open(path, "rb") as f:
+        data = f.read()
+    if ext == ".stl":
+        count = int(np.frombuffer(data[80:84], dtype="<u4")[0]) if len(data) >= 84 else -1
+        if len(data) == 84 + 50 * count:                    # binary: 50 bytes a triangle
+            rec = np.frombuffer(data[84:], dtype=np.dtype([("n", "<f4", 3), ("v", "<f4", (3, 3)), ("a", "<u2")]))
+            v = rec["v"].reshape(-1, 3).astype(float)
+        else:                                               # ASCII: "vertex x y z" lines
+            v = np.array([[float(x) for x in line.split()[1:4]] for line in data.decode("ascii", "replace").splitlines()
+                          if line.strip().startswith("vertex")], dtype=float).reshape(-1, 3)
+    elif ext == ".obj":
+        v = np.array([[float(x) for x in line.split()[1:4]] for line in data.decode("utf-8", "replace").splitlines()
+                      if line.startswith("v ")], dtype=float).reshape(-1, 3)
+    else:
+        return None
+    if len(v) == 0 or not np.all(np.isfinite(v)):
+        raise ValueError(f"no finite vertices in {os.path.basename(str(path))}")
+    return np.unique(v, axis=0)
+
+
+def _mesh_vertices(filename, directory, scale, where, missing, needed):
     from eomc.runtime.geometry import quiet_mesh_loggers
     from eomc.runtime.readable import check_regular_file
     import os
@@ -35,20 +63,44 @@ def _mesh_vertices(filename, directory, scale, where, missing):
                 resolved = filename_handler_magic(filename, dir=str(directory))
         except Exception:
             pass
+    if not os.path.exists(resolved):          # without yourdfpy (the base install): the same search,
+        from eomc.runtime.urdf_scene import resolve_filename     # and the package folders
+        resolved = resolve_filename(filename, str(directory))
     if not os.path.lexists(resolved):     # said once per directory (_warn_missing), not trimesh's per link
         missing.append((where, filename, looked))
         return None
     try:
         check_regular_file(resolved, what="mesh")
-        import trimesh
-        with quiet_mesh_loggers():
-            mesh = trimesh.load(str(resolved), force="mesh")
-        v = np.asarray(mesh.vertices, dtype=float)
+        try:
+            import trimesh
+        except ImportError:
+            v = _plain_vertices(resolved)     # STL and OBJ without trimesh (the base install)
+            if v is None:
+                raise
+        else:
+            with quiet_mesh_loggers():
+                mesh = trimesh.load(str(resolved), force="mesh")
+            v = np.asarray(mesh.vertices, dtype=float)
+    except ImportError:               # a DAE (or another format) in the base install: say the extra
+        needed.append((where, filename))
+        return None
     except Exception as exc:      # not a regular file, unreadable, no trimesh: left out, said so
         warnings.warn(f"{where}: its mesh {filename} cannot be read ({type(exc).__name__}: {exc}); it does not "
                       f"touch the ground", EomcWarning, stacklevel=4)
         return None
     return v * np.asarray(scale if scale is not None else (1.0, 1.0, 1.0), dtype=float)
+
+
+def _warn_needed(needed):
+    """One warning for the collision meshes the base install cannot read (DAE without trimesh and
+    pycollada), naming the extra that reads them."""
+    if needed:
+        links = "; ".join(f"{name} ({where.replace(' <collision>', '')})" for where, name in needed)
+        warnings.warn(f"{len(needed)} collision mesh{'es' * (len(needed) > 1)} need{'s' * (len(needed) == 1)} "
+                      f"trimesh and pycollada to be read, which are not installed, so "
+                      f"{'their links do' if len(needed) > 1 else 'its link does'} not touch the ground: "
+                      f"pip install \"eomc[mesh]\" (from a clone of eomc: pip install \".[mesh]\"): {links}",
+                      EomcWarning, stacklevel=4)
 
 
 def _warn_missing(missing):
@@ -109,7 +161,7 @@ def collision_shapes(built, collisions, placements, height=0.0, skip=(), boxes=F
     g = 9.81
     k, c, mu = law_parameters(MUJOCO_DEFAULTS["solref"], MUJOCO_DEFAULTS["solimp"], MUJOCO_DEFAULTS["friction"],
                               3, g, max(mass, 1e-9) * g)
-    shapes, names, missing = [], set(), []
+    shapes, names, missing, needed = [], set(), [], []
     by_link = {}
     for col in collisions:
         by_link.setdefault(col.frame, []).append(col)
@@ -141,7 +193,8 @@ def collision_shapes(built, collisions, placements, height=0.0, skip=(), boxes=F
                 elif col.geometry == "mesh":
                     scale = col.attribute("scale")
                     v = _mesh_vertices(col.attribute("filename"), path.parent,
-                                       [float(x) for x in scale.split()] if scale else None, where, missing)
+                                       [float(x) for x in scale.split()] if scale else None, where, missing,
+                                       needed)
                     if v is None or len(v) == 0:
                         continue
                     kind, size, vertices = "mesh", (), tuple(map(tuple, v))
@@ -169,6 +222,7 @@ def collision_shapes(built, collisions, placements, height=0.0, skip=(), boxes=F
                                 rot=tuple(map(tuple, R)), normal=(0.0, 0.0, 1.0), height=float(height),
                                 k=k, c=c, mu=mu, vertices=vertices, where=where))
     _warn_missing(missing)
+    _warn_needed(needed)
     return shapes
 
 

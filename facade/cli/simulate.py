@@ -227,11 +227,17 @@ def run(args):
               f"give --x0 to start elsewhere, e.g. --x0 {model.state_names[0]}=0.1")
     frames = getattr(model, "frame_names", ())
     grouped = _contact_summary(model, res.outputs, res.t)
+    zero = []       # outputs 0 at every row (a flat ground's Ftz_): one line, not one each
     for name, values in res.outputs.items():
         if name.partition(".")[0] in frames or name in grouped:  # frames: a line each, below
             continue
+        if len(values) > 1 and not (values != 0).any():
+            zero.append(name)
+            continue
         print(f"  {name}: start {values[0]:.10g}, end {values[-1]:.10g}, "
               f"change {values[-1] - values[0]:.3g}")
+    if zero:
+        print(f"  0 throughout: {', '.join(zero[:6])}" + (f", ... ({len(zero)} in all)" if len(zero) > 6 else ""))
     for line in grouped.get("", ()):
         print(line)
     if not res.outputs and len(res.t) > 1 and (res.x != res.x[0]).any():
@@ -285,6 +291,11 @@ def run(args):
                 print(f"  --plot: {len(idle)} contact{'s' if len(idle) > 1 else ''} never touched "
                       f"({', '.join(idle[:3])}{', ...' if len(idle) > 3 else ''}): {'their' if len(idle) > 1 else 'its'}"
                       f" outputs (all 0 but depth_) are not drawn; --plot-states names what to draw")
+            from eomc.runtime.plotting import flat_zero
+            flat = flat_zero(res)
+            if flat:
+                print(f"  --plot: {len(flat)} contact output{'s' if len(flat) > 1 else ''} 0 throughout "
+                      f"({', '.join(flat[:3])}{', ...' if len(flat) > 3 else ''}) not drawn")
     return 0
 
 

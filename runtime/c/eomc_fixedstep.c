@@ -78,6 +78,8 @@
 #define RESID_ACCEL 1.0       /* fast path: the residual test's floor, h * this (m/s^2, rad/s^2) */
 #define ONSET_FACTOR 100.0    /* fast path: a contact in touch at a step's start whose depth grows by
                                  more than this within it touches down there (see fs_onset) */
+#define LAND_FRACTION 0.01    /* fast path: a touch-down ending deeper than this * the contact's depth
+                                 limit (its radius) lands deep (see fs_lands) */
 
 size_t eomc_fs_work_size(int nx)
 {
@@ -1102,7 +1104,8 @@ static int fs_clipped(const double *e)
 
 /* Whether a contact touches down inside the step from T to T1 although it is in touch at T: a
  * depth growing more than ONSET_FACTOR-fold (a micro-touch at the start, the contact landing at
- * speed).  Why: the step's matrix A has the law's slopes at the start's depth, which for the Hertz
+ * speed); or from out of touch, deep (fs_deep; session 23: A has no slope of that contact at all,
+ * and a try ending millimetres in passed on A1's correction alone -- see fs_lands).  Why, for the first: the step's matrix A has the law's slopes at the start's depth, which for the Hertz
  * law (slopes ~ sqrt(depth)) are nearly nil there, so the step is nearly explicit in that contact
  * -- a touch-down in all but name -- while the residual's Newton correction A1^-1 r has the end's
  * slopes, sqrt(ONSET_FACTOR) or more times stiffer, and from that stiff side of the convex law
@@ -1113,11 +1116,49 @@ static int fs_clipped(const double *e)
  * sphere landing at 2.6 m/s, the step starting 0.16 um in touch, 1.6e-7 -> 3.52 mm and +160 J in
  * one whole step taken with ratio 0.12 (|du| 37.9 made large by the same error); a 1 kg MJCF ball
  * dropped at 1-5 m/s from 0.01-0.16 um in touch at 2-5 ms gains 0.06-340 J (status 20 or 10). */
+static int fs_deep(const fs_fast *q, int c, double b);
+
 static int fs_onset(const fs_fast *q)
 {
     for (int c = 0; c < q->ops->imp->ncontact; c++) {
         double a = q->T[q->L.contact + 25 * (size_t)c], b = q->T1[q->L.contact + 25 * (size_t)c];
-        if (a > 0.0 && b > ONSET_FACTOR * a) return 1;
+        if (a > 0.0 ? b > ONSET_FACTOR * a : b > 0.0 && fs_deep(q, c, b)) return 1;
+    }
+    return 0;
+}
+
+/* Whether contact c's end depth b is deep for a touch-down: past LAND_FRACTION of its depth limit
+ * (eomc_implicit.depth_limit: the contact's radius, or POINT_DEPTH_FAIL); a contact with no finite
+ * limit (a body-body pair) at any depth. */
+static int fs_deep(const fs_fast *q, int c, double b)
+{
+    const double *lim = q->ops->imp->depth_limit;
+    return !lim || !isfinite(lim[c]) || b > LAND_FRACTION * lim[c];
+}
+
+/* Whether a contact lands deep inside the try: out of touch at its start (depth <= 0), or in touch
+ * with a depth growing more than ONSET_FACTOR-fold (fs_onset), and at its end deeper than
+ * LAND_FRACTION of its limit (fs_deep).  A failed try with one is split regardless of the halving
+ * rule (fs_fast_advance), and one from out of touch that passes is measured with A as well
+ * (fs_onset).  Why (session 23, benchmarks/results/fixedstep.md's notes): such a try that passes --
+ * with A1's correction (the landed contact's stiff slopes swallow its residual), or taken by the
+ * halving rule (at a touch-down the ratio need not halve as the step does) -- puts the contact
+ * millimetres in with no force of it in the step: the energy its law stores there is made from
+ * nothing.  gymnasium's ant, bench_rollout_contacts' row 34 at t = 0.18 s: a foot landing at 1.94
+ * m/s, -5.8 -> +13.8 mm in one whole step at ratio 0.456, +8.96 J (the energy with the limit
+ * springs it leaves out; Radau's never rises there); over the ant's 64 starts 25 rows rose, 111 J in
+ * all; the humanoid's row 20 (3 ms): a shin landing from 0.1 um in touch, its half-step taken by
+ * the halving rule at ratio 8.3 after 1.3, +4.8 J; G1's rows 27, 28, 63 +0.05-0.07 J.  Shallow
+ * landings are left to the residual test: over the 64 starts of the ant, walker2d, hopper and G1, the
+ * whole steps taken with a landing shallower than 0.01 of its radius rose by 0 J (the humanoid's
+ * two, +0.76 and +0.44 J, landed 0.00005 and 0.002 of a radius deep, the energy made elsewhere in
+ * the step), and measuring every landing with A (session 22's rule, branch antstep-tdh) cost the
+ * humanoid +3.6 % calls, G1 +3.3 %. */
+static int fs_lands(const fs_fast *q)
+{
+    for (int c = 0; c < q->ops->imp->ncontact; c++) {
+        double a = q->T[q->L.contact + 25 * (size_t)c], b = q->T1[q->L.contact + 25 * (size_t)c];
+        if ((a > 0.0 ? b > ONSET_FACTOR * a : b > 0.0) && fs_deep(q, c, b)) return 1;
     }
     return 0;
 }
@@ -1238,7 +1279,8 @@ static int fs_fast_try(fs_fast *q, double t, double h, const double *x, int chec
     *ratio = sqrt(rn) / (sqrt(dn) + h * RESID_ACCEL);
     if (!isfinite(*ratio)) *ratio = INFINITY;
     *ratio = fmax(*ratio, fs_chart_ratio(q, h, x));
-    /* a try that passes with a contact touching down from in touch: also with A (fs_onset) */
+    /* a try that passes with a contact touching down from in touch, or from out of touch deep: also
+     * with A (fs_onset) */
     if (*ratio <= ops->imp->split && fs_onset(q)) {
         fs_residual(q, h);              /* r again: the solve above overwrote it */
         *ratio = fmax(*ratio, fs_start_ratio(q, h, q->dv));
@@ -1505,8 +1547,10 @@ static int fs_fast_advance(void *self, double t, double h, const double *x, doub
         /* split while the test fails and splitting helps: a linearisation error shrinks with
          * the step (the ratio falls at least by half per halving); one that does not (a
          * regularised friction law switching between stick and slip, where its slope jumps
-         * by mu F_n / v_s) is no instability, and splitting it further only costs calls */
-        if ((s || (ratio > split && (ratio > HARD_FACTOR * split || !(ratio > 0.5 * before)))) && size > 1) {
+         * by mu F_n / v_s) is no instability, and splitting it further only costs calls.  A
+         * try in which a contact lands deep is split regardless (fs_lands) */
+        if ((s || (ratio > split && (ratio > HARD_FACTOR * split || !(ratio > 0.5 * before) || fs_lands(q))))
+            && size > 1) {
             if (s || (ratio > HARD_FACTOR * split && fs_switched(q) == FS_OTHER)) hard_end = pos + size;
             before = s ? INFINITY : ratio;
             if (!s) {

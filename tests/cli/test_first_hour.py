@@ -4,6 +4,7 @@
 - ``eomc show`` lists parameters in p[] order with defaults, and says "lambda" only with multipliers
 """
 import re
+import warnings
 
 import numpy as np
 import pytest
@@ -407,3 +408,119 @@ def test_a_run_without_outputs_says_what_moved(tmp_path, capsys):
                  str(tmp_path / "t.csv")]) == 0
     out = capsys.readouterr().out
     assert "nothing moved" not in out and "no outputs" in out and "-o FILE" not in out
+
+
+def _binary_stl(path, corners):
+    """A binary STL of the tetrahedron on four ``corners`` (its 4 faces, as trimesh writes them)."""
+    faces = [(0, 1, 2), (0, 1, 3), (0, 2, 3), (1, 2, 3)]
+    rec = np.zeros(len(faces), dtype=np.dtype([("n", "<f4", 3), ("v", "<f4", (3, 3)), ("a", "<u2")]))
+    rec["v"] = np.asarray(corners, dtype=np.float32)[np.array(faces)]
+    path.write_bytes(b"\0" * 80 + np.uint32(len(faces)).tobytes() + rec.tobytes())
+
+
+_MESHED = """<robot name="meshed">
+  <link name="base">
+    <inertial><mass value="2"/><inertia ixx="0.1" iyy="0.1" izz="0.1" ixy="0" ixz="0" iyz="0"/></inertial>
+    <collision><geometry><mesh filename="package://meshed_description/meshes/foot.stl"/></geometry></collision>
+    <collision><origin xyz="0 0 0.3"/><geometry><mesh filename="package://meshed_description/meshes/head.dae"/></geometry></collision>
+  </link>
+</robot>
+"""
+
+
+def test_the_base_install_reads_stl_collision_meshes_and_names_the_extra_for_dae(tmp_path, monkeypatch, capsys):
+    """The README's contact command on solo12 in a fresh `pip install .` (no trimesh, no
+    yourdfpy): every collision mesh was 'package://... do not exist' (they do: the package://
+    search was yourdfpy's) and could not be read without trimesh, so the robot fell 0.3 m through
+    the floor with status 0.  Now package:// is found without yourdfpy and STL/OBJ are read
+    without trimesh; a DAE, which needs them, is named with the extra that reads it."""
+    import sys
+    for name in ("trimesh", "yourdfpy", "collada"):
+        monkeypatch.setitem(sys.modules, name, None)        # the base install
+    package = tmp_path / "meshed_description"
+    (package / "urdf").mkdir(parents=True)
+    (package / "meshes").mkdir()
+    _binary_stl(package / "meshes" / "foot.stl", [(-0.1, -0.1, -0.2), (0.1, -0.1, -0.2), (0, 0.1, -0.2), (0, 0, 0)])
+    (package / "meshes" / "head.dae").write_text("<COLLADA/>")
+    urdf = package / "urdf" / "meshed.urdf"
+    urdf.write_text(_MESHED)
+    monkeypatch.setenv("EOMC_CACHE_DIR", str(tmp_path / "cache"))
+    with warnings.catch_warnings(record=True) as caught:      # the CLI prints them (a subprocess shows)
+        warnings.simplefilter("always")
+        assert main(["simulate", str(urdf), "--floating-base", "--ground", "--t-final", "0.5",
+                     "-o", str(tmp_path / "t.csv")]) == 0
+    texts = [str(w.message) for w in caught]
+    assert not any("not exist" in t for t in texts), texts
+    assert [t for t in texts if "head.dae" in t] == [
+        "1 collision mesh needs trimesh and pycollada to be read, which are not installed, so its link does not "
+        "touch the ground: pip install \"eomc[mesh]\" (from a clone of eomc: pip install \".[mesh]\"): "
+        f"package://meshed_description/meshes/head.dae ({urdf}:5: link 'base')"], texts
+    header = (tmp_path / "t.csv").read_text().splitlines()[0].split(",")
+    feet = [h for h in header if h.startswith("depth_base_col")]
+    assert len(feet) == 4, header                        # the tetrahedron's 4 corners touch the ground
+    rows = np.loadtxt(tmp_path / "t.csv", delimiter=",", skiprows=1)
+    z = rows[:, header.index("q_base_floating_z")]
+    assert z[-1] > 0.1, z[-1]                            # standing on its corners, not through the floor
+
+
+def test_kept_impossible_inertias_are_said_in_a_few_characters_each():
+    """allegro_right_hand.urdf: its four fingertips' tensors miss the triangle inequality (kept as
+    given, as Pinocchio does): the warning gave each link's three principal moments and 'with the
+    links welded to it', ~900 characters on every command.  Now each link is 'a + b < c'."""
+    from helpers.robots import robot_path
+    from eomc.compiler.urdf import from_urdf
+    from eomc.runtime.errors import EomcWarning
+    path = robot_path("allegro_hand_description/urdf/allegro_right_hand.urdf")
+    with pytest.warns(EomcWarning) as caught:
+        from_urdf(path)
+    kept = [str(w.message) for w in caught if "kept as given" in str(w.message)]
+    assert len(kept) == 1 and "4 links' inertia tensors" in kept[0], kept
+    assert "4 links' inertia tensors miss the triangle inequality (a + b < c) and are kept as given" in kept[0]
+    assert "link 'link_3.0' (line 127): 2.3e-06 + 3.49e-06 < 7.27e-06; " in kept[0], kept
+    assert "principal moments" not in kept[0] and "welded to it" not in kept[0]
+    assert len(kept[0].replace(str(path), "")) < 450, kept[0]          # was 1,000
+
+
+def test_plot_and_summary_leave_out_contact_outputs_that_stay_zero(tmp_path, capsys):
+    """Go2 on its four feet (--plot): a whole panel of Ftz_ lines at 0 (a flat ground's tangential
+    force has no vertical part), and the summary printed 'Ftz_X: start 0, end 0, change 0' for
+    each foot.  Now --plot leaves them out and says so, and the summary says them in one line;
+    the CSV keeps them, and named they are drawn."""
+    pytest.importorskip("matplotlib")
+    from eomc.runtime.plotting import panels
+    import eomc
+    model = model_files.write(tmp_path, _HIGH_AND_LOW, "high_low")
+    assert main(["simulate", str(model), "--t-final", "0.3", "-q", "--plot", str(tmp_path / "p.png"),
+                 "-o", str(tmp_path / "t.csv")]) == 0
+    out = capsys.readouterr().out
+    assert "  --plot: 2 contact outputs 0 throughout (Fty_foot, Ftz_foot) not drawn" in out, out  # it slides in x
+    assert "Ftz_foot: start" not in out and "Fn_head0: start" not in out, out
+    zero = [line for line in out.splitlines() if line.startswith("  0 throughout: ")]
+    assert len(zero) == 1 and "Ftz_foot" in zero[0] and "Fn_head0" in zero[0], out
+    assert "Fn_foot: start" in out                                            # it moved: its own line
+    assert "Ftz_foot" in (tmp_path / "t.csv").read_text().splitlines()[0]     # still in the CSV
+    built = eomc.compile(model, progress=False)
+    res = built.simulate(built.initial_state, (0, 0.3))
+    drawn = {n for _, group in panels(res) for n in group}
+    assert {"Fn_foot", "Ftx_foot", "depth_foot"} <= drawn and not {"Fty_foot", "Ftz_foot"} & drawn, drawn
+    assert "Ftz_foot" in {n for _, group in panels(res, ["Ftz_foot"]) for n in group}
+
+
+def test_report_on_a_contact_model_compares_the_implicit_methods(tmp_path, capsys):
+    """`eomc report hopper.xml` (no flags) ran rk4, dopri5 and dop853 at every tolerance and 21 of
+    its 40 runs stopped as stiff (or rk4, without DOPRI5's step count): on ground contacts the
+    default is bdf and radau, said on stderr, as `eomc check` leaves the explicit ones out there;
+    --methods still runs them."""
+    pytest.importorskip("matplotlib")
+    model = model_files.write(tmp_path, _HIGH_AND_LOW, "high_low")
+    common = ["--t-final", "0.2", "--tolerances", "1e-3", "1e-4", "--repeats", "1", "--reference-tol", "1e-8"]
+    assert main(["report", str(model), "-o", str(tmp_path / "r"), *common]) == 0
+    captured = capsys.readouterr()
+    assert ("eomc report: high_low has ground contacts: comparing bdf and radau (rk4, dopri5 and dop853 stop "
+            "there as stiff; --methods runs them anyway)") in captured.err, captured.err
+    methods = {line.split(",")[0] for line in (tmp_path / "r" / "report.csv").read_text().splitlines()[1:]}
+    assert methods == {"bdf", "radau"}, methods
+    assert "--methods bdf radau" in (tmp_path / "r" / "report.md").read_text()
+    assert main(["report", str(model), "-o", str(tmp_path / "r2"), "--methods", "dopri5", "radau", "-q", *common]) == 0
+    methods = {line.split(",")[0] for line in (tmp_path / "r2" / "report.csv").read_text().splitlines()[1:]}
+    assert methods == {"dopri5", "radau"}, methods

@@ -282,6 +282,52 @@ def test_a_step_whose_contact_force_stops_being_clipped_is_no_stick_slip_step(an
     assert run.status == 0, run.message
 
 
+# gymnasium's ant at t = 0.18 s of bench_rollout_contacts' row 34 (main's implicitfast at 10 ms, a75fee78),
+# its fourth foot 5.8 mm above the floor and falling at 1.94 m/s (session 22; the test: session 23)
+ANT_ROW34_018 = [0.0038048940081356042, -0.0026899168236054934, 0.6618766018075423, 0.014302012205461116,
+                 0.01923825035803689, 0.009052845242031987, -0.060034088765383395, 1.2600118972611458,
+                 0.05285653112299426, -1.2345432252665505, 0.056716356545215056, -1.2592663266858684,
+                 0.07912138940660969, 1.260438160564134, 0.054493446326451096, -0.039829497094359546,
+                 -1.7660092191659182, 0.12581707354750157, 0.1681620292719841, 0.1040976969004984,
+                 -0.31087634543225384, 0.1351588348419852, 0.2709405045072986, -0.33879958892457784,
+                 0.2920236011804888, -0.13962016317170844, 0.40626901943009924, 0.11322637817106762]
+
+
+def test_a_foot_landing_from_out_of_touch_is_not_taken_inside_a_whole_step(ant):
+    """The ant from ANT_ROW34_018, one 10 ms step: its fourth foot, 5.8 mm above the floor, lands
+    inside the step.  The whole step's try passed the residual test (ratio 0.456 < split 0.5: the
+    Newton correction is made with the end's stiff slopes, and the foot is a small part of the
+    body's motion) and was taken: the foot 13.8 mm in at the step's end with no contact force in
+    the step, and the energy -- the energy output plus the limit springs it leaves out
+    (runtime/limit_energy.py: the ankles are past their upper limits) -- 18.89 -> 27.85 J
+    (measured, main a75fee78), where Radau's falls.  A try that passes with a contact landing from
+    out of touch deeper than 0.01 of its radius (80 mm here) is now measured with the start's matrix
+    as well (eomc_fixedstep.c, fs_onset and fs_deep): it fails, the touch-down is located, and the
+    energy falls (measured 16.89 J, 12 calls, the foot 0.7 mm in).  Fails on main 8be08cbd (the
+    foot 13.8 mm in)."""
+    from eomc.runtime.limit_energy import stored
+    from eomc.runtime.switching import find_switches
+    m = ant
+    x0 = np.array(ANT_ROW34_018)
+    assert x0.shape == (m.nx,)
+    dt = 0.01
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        step = m.simulate(x0, (0.0, dt), method="implicitfast", dt=dt, t_eval=[0.0, dt], raise_on_failure=False)
+    assert step.status == 0, step.message
+    depth = step.outputs["depth_fourth_ankle_geom_0"]
+    assert depth[0] < -5e-3 and 0.0 < depth[1] < 2e-3                  # out of touch -> landed (13.8 mm before)
+    p = np.array(m.param_defaults)
+    names, laws = list(m.param_names), m.metadata["limit_laws"]
+    energy = np.array(step.outputs["energy"], dtype=float)
+    for lim in find_switches(m).limits:                                # the limit springs the output leaves out
+        shape, k, e = laws[lim.joint], p[names.index(f"limit_k_{lim.joint}")], p[names.index(f"limit_e_{lim.joint}")]
+        past = lim.sign * (step.x[:, lim.state] - p[lim.param])
+        energy += [stored(d, k, e, shape.get("push", 0.0), shape.get("hold")) if d > 0 else 0.0 for d in past]
+    assert energy[0] > 18.0 and energy[1] < energy[0], energy           # 18.89 -> 27.85 J before
+    assert step.stats["nfev"] > 2                                       # located, not taken whole
+
+
 def test_a_thrown_ball_at_2ms_gains_no_energy(tmp_path):
     """A ball thrown onto the floor from 16 starts (it lands, slides with friction, spins; the
     model of test_rollout), 0.6 s at 2 ms: every run ends with status 0, i.e. simulate's energy

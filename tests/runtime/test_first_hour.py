@@ -1,0 +1,120 @@
+"""What a new user met in the first hour (session 23), in the runtime: `eomc check` on a model
+that starts with contacts at depth 0, the check's cond(M) line, the report's failure notes and
+the progress of an "auto" run after it switched to Radau."""
+import io
+import re
+from types import SimpleNamespace
+
+import numpy as np
+
+from helpers import model_files
+from helpers.stand_in import get_model
+
+from eomc.runtime import progress, stability
+from eomc.runtime.report_output import _run_notes
+from eomc.runtime.simulate import simulate
+
+# Two contacts whose force grows like depth**1.5 from depth 0, pressed by x in opposite
+# directions: at x = 0 both are at their onset (dm_control's walker.xml at qpos0, four capsule ends
+# at depth 0).  jac_x there is 0 (the slope of depth**1.5 at 0), but the differences at step h
+# are ~k sqrt(h) on one side or the other: 1e3 at h = 1e-8 for k = 1e7.
+_ONSET = '''
+import sympy as sm
+from eomc.mechanics import *
+
+x, y, u, v = dynamicsymbols("x y u v")
+m, k = sm.symbols("m k")
+N = ReferenceFrame("N")
+O = Point("O"); O.set_vel(N, 0)
+P = O.locatenew("P", x * N.x + y * N.y); P.set_vel(N, u * N.x + v * N.y)
+kane = KanesMethod(N, q_ind=[x, y], u_ind=[u, v], kd_eqs=[x.diff() - u, y.diff() - v])
+def push(d):
+    return sm.Piecewise((k * d**sm.Rational(3, 2), d > 0), (0, True))
+kane.kanes_equations([Particle("ball", P, m)], [(P, -push(x) * N.x - push(-x) * N.y)])
+system = kane
+name = "onset"
+parameters = {m: 1.0, k: 1e7}
+'''
+
+
+def test_the_jacobian_check_at_a_contacts_onset(tmp_path):
+    """`eomc check` on dm_control's walker.xml (no flags) failed 'jacobian: rel. difference
+    1.48e+01' with a right jac_x: its feet start at depth 0, where the contact force's slope is 0
+    but finite differences approach it only like sqrt(h).  The check extrapolates them to h -> 0
+    and passes, naming the column; a jac_x off by 5 % of its scale still fails."""
+    import eomc
+    onset = eomc.compile(model_files.write(tmp_path, _ONSET, "onset"), cache_dir=tmp_path / "cache",
+                         progress=False)
+    x0 = np.zeros(4)
+    J = np.array(onset.jacobian(0.0, x0, onset.param_defaults))
+    assert np.all(J[2:, 0] == 0.0)                                # the slope at the onset: 0
+    f0 = np.array(onset.rhs(0.0, x0, onset.param_defaults))
+    ahead = (np.array(onset.rhs(0.0, x0 + [1e-8, 0, 0, 0], onset.param_defaults)) - f0) / 1e-8
+    assert abs(ahead[2]) > 500                                    # ... that the differences miss
+    jac = stability._jacobian_vs_fd(onset, x0, onset.param_defaults)
+    assert jac.passed, jac.measured
+    assert "1 column (x) at a law's onset" in jac.measured, jac.measured
+    wrong = onset.jacobian
+
+    class Off:      # d u'/d x off by 0.05 (scale 1): a wrong jac_x at the onset
+        def __getattr__(self, name):
+            return getattr(onset, name)
+
+        def jacobian(self, t, x, p):
+            J = np.array(wrong(t, x, p))
+            J[2, 0] -= 0.05
+            return J
+    bad = stability._jacobian_vs_fd(Off(), x0, onset.param_defaults)
+    assert not bad.passed and bad.measured.startswith("rel. difference 5.00e-02"), bad.measured
+
+
+def test_the_conditioning_line_names_the_coordinates_not_the_speeds():
+    """cond(M) depends on the coordinates only: the line names them (theta, phi), not the speeds
+    (the humanoid's check printed 70 values, half of them speeds)."""
+    sp = get_model("sphere")
+    checks = {c.name: c for c in stability.check_model(sp, [0.5, 0.0, 0.0, 1e-3], 1.0, methods=("dop853",))}
+    cond = checks["mass matrix conditioning"].measured
+    assert "theta=" in cond and "phi=" in cond, cond
+    assert "theta_dot" not in cond and "phi_dot" not in cond, cond
+
+
+def test_the_reports_failures_are_one_line_per_method_and_reason():
+    """gymnasium's hopper report listed 'rk4 at 1e-04 failed: not run: DOPRI5 failed ...' once
+    per tolerance (seven lines); now one line names the tolerances, and the notes after it
+    (the count of stopped runs) are kept."""
+    why = "not run: DOPRI5 failed at this tolerance, so there is no step count to match"
+    rows = [dict(method="rk4", status=1, message=why, tolerance=tol, dt=None) for tol in (1e-4, 1e-5, 1e-6)]
+    rows.append(dict(method="radau", status=2, message="m: radau stopped at t=1: too many steps",
+                     tolerance=1e-4, dt=None))
+    report = SimpleNamespace(skipped={}, rows=rows, model_name="m", ok_rows=lambda: [])
+    notes = _run_notes(report)
+    assert notes[0] == f"rk4 at 1e-04, 1e-05, 1e-06 failed: {why}", notes
+    assert notes[1] == "radau at 1e-04 failed: radau stopped at t=1: too many steps", notes
+    assert notes[2].startswith("FAILED, stopped: 4 of 4 runs (radau, rk4)"), notes
+    assert len(notes) == 3
+
+
+LINE = re.compile(r"^run: t = (\S+) of \[(\S+), (\S+)\] \((\d+) %\), (\d+) steps, \d+ s$")
+
+
+def test_progress_after_auto_switches_to_radau_shows_the_whole_span(monkeypatch):
+    """method="auto" runs DOP853, then Radau from where DOP853 found the problem stiff: the
+    progress lines of the Radau part read 't = ... of [t_switch, 10]' with the step count from 0
+    (first hour s22, centauro: 'of [0.00122364, 10]'); now every line is over the whole span
+    [0, T] and the steps go on from DOP853's."""
+    monkeypatch.setattr(progress, "LINE_SECONDS", 0.0)
+    monkeypatch.setattr(progress, "POLL_S", 0.0005)
+    stream = io.StringIO()
+    t_final = 2000.0
+    with progress.integration("run", stream, enabled=True):
+        res = simulate(get_model("chain"), [1, 1, 0, 0], (0, t_final), p=[1.0, 1e8, 0.1, 2e4],
+                       method="auto", rtol=1e-10, atol=1e-12, n_points=3, max_steps=10**8)
+    switched = res.stats["switched_at"]
+    assert res.status == 0 and 0 < switched < 0.1 * t_final, res.stats     # auto switched early
+    lines = [LINE.match(line) for line in stream.getvalue().splitlines()]
+    assert lines and all(lines), stream.getvalue()
+    assert {(m.group(2), m.group(3)) for m in lines} == {("0", f"{t_final:g}")}, stream.getvalue()
+    steps = [int(m.group(5)) for m in lines]
+    assert steps == sorted(steps) and steps[-1] == res.stats["steps"], (steps, res.stats)
+    assert float(lines[-1].group(1)) == t_final and int(lines[-1].group(4)) == 100
+    assert any(switched < float(m.group(1)) < t_final for m in lines), stream.getvalue()   # Radau's
