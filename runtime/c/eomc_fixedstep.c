@@ -80,6 +80,8 @@
                                  more than this within it touches down there (see fs_onset) */
 #define LAND_FRACTION 0.01    /* fast path: a touch-down ending deeper than this * the contact's depth
                                  limit (its radius) lands deep (see fs_lands) */
+#define CHART_FACTOR 4.0      /* fast path: the configuration's residual counts this many times in the
+                                 try's ratio (see fs_chart_ratio) */
 
 size_t eomc_fs_work_size(int nx)
 {
@@ -994,6 +996,7 @@ typedef struct fs_fast {
     int *cstart, *cols;          /* per speed, the columns of M's row that can be nonzero */
     int *nstart, *ncol;          /* per coordinate, the columns of N's row that can be nonzero (fs_nlists) */
     int *fstart, *fcol;          /* ... and the root free joints' columns where N is not constant */
+    double chart;                /* the last try's fs_chart_ratio (0: none) */
 } fs_fast;
 
 /* The columns of N (q' = qd + N u) that a step's products read: per row i, ncol[nstart[i] ..
@@ -1071,7 +1074,13 @@ static int fs_ahead(const fs_fast *q, double h)
  * 49 each took one whole step with cos(ry) 0.004 and 0.012 whose speeds' ratio passed (0.39, 0.13)
  * and which put the feet and hands 6.5 and 9.6 mm into the floor (Radau from the same state: 0.6
  * and 1.7 mm) and the energy up by 284 and 588 J; this ratio was 1.5 and 4.1 there, median 0.001
- * over all tries. */
+ * over all tries.  Session 23 (fixedstep.md's notes): it counts CHART_FACTOR times, and a try it fails
+ * is split further whatever halving did to it and never taken as a stick/slip step (fs_fast_advance):
+ * the humanoid's rows 2, 4 and 56 took runs of whole steps passing at 0.2-0.38 (+1 to +6 J each),
+ * row 49 whole steps failing at 0.72-0.85 taken by the stick/slip rule (+8 J each), row 46 a half-step
+ * at 9.4 taken by the halving rule after 3.3 -- near gimbal lock the ratio does not halve with the
+ * step.  Over the humanoid's 64 starts: rows flagged by the energy verdict as "the integration is
+ * wrong here" 5 -> 1, their rises 116 -> 13 J, calls +2.1 %; the ant, G1 and Go2 take the same steps. */
 static double fs_chart_ratio(const fs_fast *q, double h, const double *x)
 {
     const eomc_implicit *imp = q->ops->imp;
@@ -1088,7 +1097,7 @@ static double fs_chart_ratio(const fs_fast *q, double h, const double *x)
         rn += a * a;
         dn += d * d;
     }
-    r = h * sqrt(rn) / (sqrt(dn) + h * h * RESID_ACCEL);
+    r = CHART_FACTOR * h * sqrt(rn) / (sqrt(dn) + h * h * RESID_ACCEL);
     return isfinite(r) ? r : INFINITY;
 }
 
@@ -1205,6 +1214,7 @@ static int fs_fast_try(fs_fast *q, double t, double h, const double *x, int chec
     double rn = 0.0, dn = 0.0;
     eomc_fs_request *rq = &q->req;
     *ratio = INFINITY;
+    q->chart = 0.0;
     if (fs_ahead(q, h)) {               /* the lanes made du and the rate (below) */
         memcpy(q->du, rq->du1, (size_t)nu * sizeof(double));
         v1 = rq->v1;
@@ -1252,7 +1262,8 @@ static int fs_fast_try(fs_fast *q, double t, double h, const double *x, int chec
     }
     if (done) {                         /* the lanes: the lines below, in vector code */
         *ratio = rq->ratio;
-        *ratio = fmax(*ratio, fs_chart_ratio(q, h, x));
+        q->chart = fs_chart_ratio(q, h, x);
+        *ratio = fmax(*ratio, q->chart);
         if (*ratio <= ops->imp->split && fs_onset(q)) {   /* rare: scalar, the scalar path's bits */
             if (a_bare) {               /* the lanes made du without writing A: write it (q->bare
                                            is A1's by now: this try's answer) */
@@ -1278,7 +1289,8 @@ static int fs_fast_try(fs_fast *q, double t, double h, const double *x, int chec
     }
     *ratio = sqrt(rn) / (sqrt(dn) + h * RESID_ACCEL);
     if (!isfinite(*ratio)) *ratio = INFINITY;
-    *ratio = fmax(*ratio, fs_chart_ratio(q, h, x));
+    q->chart = fs_chart_ratio(q, h, x);
+    *ratio = fmax(*ratio, q->chart);
     /* a try that passes with a contact touching down from in touch, or from out of touch deep: also
      * with A (fs_onset) */
     if (*ratio <= ops->imp->split && fs_onset(q)) {
@@ -1541,7 +1553,7 @@ static int fs_fast_advance(void *self, double t, double h, const double *x, doub
          * inside it: the friction of a stance switching between stick and slip, which
          * halving does not mend (see fs_switched) */
         if ((size == MAX_SPLIT || located) && !s && ratio > split
-            && ratio <= FRICTION_FACTOR * split && !fs_switched(q))
+            && ratio <= FRICTION_FACTOR * split && !(q->chart > split) && !fs_switched(q))
             goto take;
         located = 0;
         /* split while the test fails and splitting helps: a linearisation error shrinks with
@@ -1549,7 +1561,8 @@ static int fs_fast_advance(void *self, double t, double h, const double *x, doub
          * regularised friction law switching between stick and slip, where its slope jumps
          * by mu F_n / v_s) is no instability, and splitting it further only costs calls.  A
          * try in which a contact lands deep is split regardless (fs_lands) */
-        if ((s || (ratio > split && (ratio > HARD_FACTOR * split || !(ratio > 0.5 * before) || fs_lands(q))))
+        if ((s || (ratio > split && (ratio > HARD_FACTOR * split || !(ratio > 0.5 * before) || q->chart > split
+                                      || fs_lands(q))))
             && size > 1) {
             if (s || (ratio > HARD_FACTOR * split && fs_switched(q) == FS_OTHER)) hard_end = pos + size;
             before = s ? INFINITY : ratio;

@@ -524,3 +524,57 @@ def test_report_on_a_contact_model_compares_the_implicit_methods(tmp_path, capsy
     assert main(["report", str(model), "-o", str(tmp_path / "r2"), "--methods", "dopri5", "radau", "-q", *common]) == 0
     methods = {line.split(",")[0] for line in (tmp_path / "r2" / "report.csv").read_text().splitlines()[1:]}
     assert methods == {"dopri5", "radau"}, methods
+
+
+_FOOT_BELOW = """<robot name="two">
+  <link name="base">
+    <inertial><mass value="2"/><inertia ixx="0.02" iyy="0.02" izz="0.02" ixy="0" ixz="0" iyz="0"/></inertial>
+    <collision><origin xyz="0 0 -0.2"/><geometry><box size="0.1 0.1 0.1"/></geometry></collision>
+  </link>
+  <joint name="mast" type="revolute"><parent link="base"/><child link="top"/><origin xyz="0 0 0.2"/>
+    <axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+  <link name="top">
+    <inertial><mass value="0.5"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>
+    <collision><geometry><sphere radius="0.05"/></geometry></collision>
+  </link>
+</robot>
+"""
+
+
+def test_a_contact_named_above_a_links_geometry_is_named_as_the_cause_of_sinking(tmp_path, monkeypatch):
+    """G1 with `--contact left_ankle_roll_link` (a point at the ankle's origin, above the sole):
+    the contact takes the place of the link's collision spheres, and the feet sank 0.088 m; the
+    warning blamed --no-ground, a link without geometry or a soft contact.  Now it names the
+    contact on that link and how to place it."""
+    path = tmp_path / "two.urdf"
+    path.write_text(_FOOT_BELOW)
+    monkeypatch.setenv("EOMC_CACHE_DIR", str(tmp_path / "cache"))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        assert main(["simulate", str(path), "--floating-base", "--contact", "base", "--t-final", "0.3", "-q"]) == 0
+    sank = [str(w.message) for w in caught if "under the ground" in str(w.message)]
+    assert len(sank) == 1 and sank[0].startswith("two: body base went 0.25"), sank
+    assert sank[0].endswith("the robot passed through the floor there (the contact named on link base takes the "
+                            "place of its <collision> geometry: put it where the link touches, --contact "
+                            "base:x,y,z:radius, or --contact @collision for the file's collision spheres)"), sank
+
+
+def test_a_failed_runs_diagnosis_comes_before_its_state(pendulum, tmp_path, monkeypatch, capsys):
+    """human.urdf with no flags stops at its hip's gimbal lock: the error named the cause ('nothing
+    resists motion along u_left_hip_Z ... gimbal lock') and the rows written after 88 state values
+    (3.5 kB).  The command line now gives the diagnosis and the file first, the state last."""
+    from eomc.cli.simulate import state_last
+    message = ("human: radau stopped at t=0.45: the mass matrix is singular; state q_a=1, q_b=2, u_a=3; "
+               "nothing resists motion along u_a (1): ... gimbal lock; wrote the 46 rows computed up to t=0.45 "
+               "to t.csv (marked '# incomplete' on its last line)")
+    assert state_last(message) == (
+        "human: radau stopped at t=0.45: the mass matrix is singular; nothing resists motion along u_a (1): ... "
+        "gimbal lock; wrote the 46 rows computed up to t=0.45 to t.csv (marked '# incomplete' on its last "
+        "line); state q_a=1, q_b=2, u_a=3")
+    plain = "pend: dop853 stopped at t=1: maximum number of steps; state q1=0.5, u1=0"
+    assert state_last(plain) == plain                                  # nothing after the state: as it was
+    # through the command: out of steps, the rows written are said before the state
+    out = tmp_path / "t.csv"
+    assert main(["simulate", "pend", "--t-final", "100", "--max-steps", "5", "-o", str(out)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert "; wrote the " in err and err.index("; wrote the ") < err.index("; state q1="), err

@@ -328,6 +328,46 @@ def test_a_foot_landing_from_out_of_touch_is_not_taken_inside_a_whole_step(ant):
     assert step.stats["nfev"] > 2                                       # located, not taken whole
 
 
+# gymnasium's humanoid at t = 0.144 s of bench_rollout_contacts' row 20 (main's implicitfast at 3 ms, 8be08cbd), its
+# right foot 4.9 um in touch and falling (session 23)
+HUMANOID_ROW20_0144 = [-0.0020002045955110587, -0.0008752231758153367, 1.2959449801701932, 0.008407926205732772,
+                     0.01004896188659828, -0.013429507728291105, 0.0012474143012358714, 0.0038148653169268044,
+                     0.01657961586037099, 0.02087158238112322, -0.0010588679665274462, -0.024972333598268146,
+                     -0.03415385698729387, 0.006220143194959395, 0.0012353634179976427, 0.02327431691908482,
+                     -0.07677465952569984, -0.032099891313129, 0.02996504070096928, 0.009072799043723013,
+                     -0.02564876917095192, -0.014869052626874775, 0.012666843124795523, 0.0026943373504064267,
+                     -0.0218375894934427, -1.4149072530779006, 0.0936054747102727, 0.05442245762053512,
+                     -0.05966450665986439, 0.0510360457465564, 0.05332323892478758, 0.07064040655861052,
+                     0.11419420931776325, -4.093168938492025e-05, -0.05588389067828664, -0.022327454767195127,
+                     0.03725284545188733, -2.6175216135729363e-05, 0.14270234275154456, -0.4346403360648457,
+                     -0.14282396400167355, 0.11166066725072804, 0.06633393921340429, -0.12667541491317,
+                     -0.07640586321247246, 0.015604315153466218]
+
+
+def test_a_half_step_with_a_deep_landing_is_not_taken_by_the_halving_rule(tmp_path_factory):
+    """The humanoid from HUMANOID_ROW20_0144, one 3 ms step: its right foot, 4.9 um in touch, lands.
+    The whole step failed (ratio 1.33), its first half failed too with the start's matrix (8.26:
+    the foot's depth grows more than ONSET_FACTOR-fold, fs_onset) -- but not by half of the whole
+    step's ratio, so the halving rule took it as a stick/slip step (measured on main 8be08cbd: 6
+    calls, the foot 1.08 mm in, the energy output 390.36 -> 395.02 J, +4.65 J; bench_rollout_contacts'
+    row 20 was flagged by energy_verdict as "the integration is wrong here").  A failed try in which
+    a contact lands deeper than 0.01 of its radius is now split regardless (eomc_fixedstep.c,
+    fs_lands): 8 calls, the foot 0.8 mm in, the energy falls (369.88 J measured).  Fails on main
+    8be08cbd (simulate's status 20 on this single step)."""
+    m = _build("humanoid", tmp_path_factory, ("rhs", "outputs", "implicit"))
+    x0 = np.array(HUMANOID_ROW20_0144)
+    assert x0.shape == (m.nx,)
+    dt = 0.003
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        step = m.simulate(x0, (0.0, dt), method="implicitfast", dt=dt, t_eval=[0.0, dt], raise_on_failure=False)
+    assert step.status == 0, step.message
+    depth = step.outputs["depth_right_foot"]
+    assert 0.0 < depth[0] < 1e-5 and depth[1] > 1e-4                  # a micro-touch that lands
+    energy = _total_energy(m, step)
+    assert energy[1] < energy[0], energy                                # +4.65 J before
+
+
 def test_a_thrown_ball_at_2ms_gains_no_energy(tmp_path):
     """A ball thrown onto the floor from 16 starts (it lands, slides with friction, spins; the
     model of test_rollout), 0.6 s at 2 ms: every run ends with status 0, i.e. simulate's energy
