@@ -426,7 +426,8 @@ size_t eomc_fs_implicit_work_size(int nq, int nu, int ncontact)
     return 2 * fs_layout_of(nq, nu, ncontact).size + 2 * fs_cache_size(nu, ncontact) + 2 * u * u + 8 * u
            + 4 * x + 8 + u * u / 2 + u + 2
            + u * u / 2 + u / 2 + 2
-           + 2 * u + (size_t)ncontact + 2 * (u * u / 2 + u + 2);   /* fs_pattern's bits and two own lists */
+           + 2 * u + (size_t)ncontact + 2 * (u * u / 2 + u + 2)    /* fs_pattern's bits and two own lists */
+           + (size_t)nq * u + (size_t)nq + 2;                        /* fs_nlists' two lists (ints) */
 }
 
 /* A = U D L in place (D on the diagonal, unit U above it, unit L below it): A has nonzeros
@@ -716,13 +717,16 @@ static int fs_assemble(const eomc_fs_ops *ops, const fs_layout *L, double h, con
         }
     }
     for (int c = 0; c < imp->ncontact; c++) {
-        const double *e = T + L->contact + 25 * (size_t)c;
-        const double *p = e + 1, *vp = e + 4, *K = e + 7, *C = e + 16;
-        const int *cols = imp->chain + imp->chain_start[c];
-        int m = imp->chain_start[c + 1] - imp->chain_start[c];
-        double G[9], *Cs = cache, *Kv = Cs + 9, *filled = Kv + 3, *J = filled + 1, *JKv = J + 3 * m;
-        int any = 0;
-        if (!(e[0] > 0.0)) continue;                  /* not touching: no force, no slope */
+        const double *e = T + L->contact + 25 * (size_t)c, *p, *vp, *K, *C;
+        const int *cols;
+        int m, any = 0;
+        double G[9], *Cs, *Kv, *filled, *J, *JKv;
+        if (!(e[0] > 0.0)) continue;                  /* not touching: no force, no slope (the scan
+                                                         over every contact: only the depth read) */
+        p = e + 1; vp = e + 4; K = e + 7; C = e + 16;
+        cols = imp->chain + imp->chain_start[c];
+        m = imp->chain_start[c + 1] - imp->chain_start[c];
+        Cs = cache; Kv = Cs + 9; filled = Kv + 3; J = filled + 1; JKv = J + 3 * m;
         cache = JKv + m;
         if (!*cached) {
             fs_secant_friction(K, C, Cs);
@@ -990,8 +994,41 @@ typedef struct fs_fast {
     const int *start, *anc, *start1, *anc1;   /* A's and A1's elimination lists (fs_assemble) */
     int *own, *own1;                          /* where they are made when a pair adds fill */
     int *cstart, *cols;          /* per speed, the columns of M's row that can be nonzero */
+    int *nstart, *ncol;          /* per coordinate, the columns of N's row that can be nonzero (fs_nlists) */
+    int *fstart, *fcol;          /* ... and the root free joints' columns where N is not constant */
     double chart;                /* the last try's fs_chart_ratio (0: none) */
 } fs_fast;
+
+/* The columns of N (q' = qd + N u) that a step's products read: per row i, ncol[nstart[i] ..
+ * nstart[i + 1]) the columns k whose entry is not a constant 0 (all of them without
+ * eomc_implicit.terms_const), ascending, for the try's rate qd + N du; fcol[fstart[i] ..] the root
+ * free joints' columns whose entry is not a constant at all, in fs_chart_ratio's order, for its
+ * N(q) - N(q1).  Which entries are constants: N's slots are NaN-filled before terms_const writes
+ * the constants (NAME_implicit_const writes no non-finite one); the slots left NaN are the ones
+ * terms writes at every call.  Why: N is nq x nu but, beside a free joint's rotation, one entry a
+ * row (the gymnasium humanoid: 35 of its 529 entries are not a constant 0, and 18 of the 138 in
+ * its free joint's columns vary), and the dense rate and chart sums were ~3 % of the humanoid's
+ * and ant's checked step (perf, session 23).  The sums skip only terms that are exactly +-0
+ * (0 du[k], or c - c for a constant c) in the same order, so they are the same to the bit: a
+ * sum that starts at +0 and adds nonzero or +0 terms never meets the -0 + +0 case (and a
+ * non-finite du fails the try on x1 either way). */
+static void fs_nlists(fs_fast *q, const double *N, int known)
+{
+    const eomc_implicit *imp = q->ops->imp;
+    int nq = q->ops->nq, nu = q->ops->nu, pos = 0, fpos = 0;
+    for (int i = 0; i < nq; i++) {
+        const double *row = N + (size_t)i * nu;
+        q->nstart[i] = pos;
+        for (int k = 0; k < nu; k++)
+            if (!known || isnan(row[k]) || row[k] != 0.0) q->ncol[pos++] = k;
+        q->fstart[i] = fpos;
+        for (int f = 0; f < imp->nfree; f++)
+            for (int k = imp->free[f]; k < imp->free[f] + 6; k++)
+                if (!known || isnan(row[k])) q->fcol[fpos++] = k;
+    }
+    q->nstart[nq] = pos;
+    q->fstart[nq] = fpos;
+}
 
 static void fs_swap(double **a, double **b)
 {
@@ -1053,9 +1090,10 @@ static double fs_chart_ratio(const fs_fast *q, double h, const double *x)
     if (imp->nfree <= 0) return 0.0;
     for (int i = 0; i < nq; i++) {
         double a = 0.0, d = q->x1[i] - x[i];
-        for (int f = 0; f < imp->nfree; f++)
-            for (int k = imp->free[f]; k < imp->free[f] + 6; k++)
-                a += (N0[(size_t)i * nu + k] - N1[(size_t)i * nu + k]) * u1[k];
+        for (int j = q->fstart[i]; j < q->fstart[i + 1]; j++) {   /* the free columns' varying entries */
+            int k = q->fcol[j];
+            a += (N0[(size_t)i * nu + k] - N1[(size_t)i * nu + k]) * u1[k];
+        }
         rn += a * a;
         dn += d * d;
     }
@@ -1193,7 +1231,7 @@ static int fs_fast_try(fs_fast *q, double t, double h, const double *x, int chec
         for (int i = 0; i < nq; i++) {
             const double *row = N + (size_t)i * nu;
             double v = v1 ? v1[i] : qd[i];
-            for (int k = 0; !v1 && k < nu; k++) v += row[k] * q->du[k];
+            for (int x = q->nstart[i]; !v1 && x < q->nstart[i + 1]; x++) v += row[q->ncol[x]] * q->du[q->ncol[x]];
             q->x1[i] = x[i] + h * v;
         }
         for (int k = 0; k < nu; k++) q->x1[nq + k] = u[k] + q->du[k];
@@ -1668,6 +1706,7 @@ int eomc_fs_run(const eomc_fs_ops *ops, eomc_stats *st, int nx, double h, long m
         q.T = pos; pos += q.L.size;
         q.T1 = pos; pos += q.L.size;
         if (ops->imp->terms_const) {    /* the terms' constant outputs, once (terms: the rest) */
+            for (size_t i = 0; i < (size_t)nq * nu; i++) q.T[q.L.N + i] = NAN;   /* fs_nlists */
             ops->imp->terms_const(q.T);
             ops->imp->terms_const(q.T1);
         }
@@ -1723,6 +1762,11 @@ int eomc_fs_run(const eomc_fs_ops *ops, eomc_stats *st, int nx, double h, long m
             q.cstart = lists + nu + 1 + lists[nu];
             q.cols = q.cstart + nu + 1;
             fs_columns(nu, q.pat.start, q.pat.anc, q.cstart, q.cols);
+            q.nstart = (int *)((double *)lists + (uu / 2 + nu + 2) + (uu / 2 + nu / 2 + 2));
+            q.ncol = q.nstart + nq + 1;
+            q.fstart = q.ncol + (size_t)nq * nu;
+            q.fcol = q.fstart + nq + 1;
+            fs_nlists(&q, q.T + q.L.N, ops->imp->terms_const != NULL);
         }
         s = fs_loop(ops, st, n, h, maxs, t0, t1, x, slope, fs_fast_advance, &q);
         if (s == EOMC_OK && q.deep >= 0) s = EOMC_PENETRATED;
