@@ -510,6 +510,7 @@ class _Rewriter:
         self.nbranch = 0            # branches so far (their masks' names)
         self.masked = set()         # arrays stored under a mask (the other lanes' old values read)
         self.sizes = {}             # local arrays' declared sizes
+        self.pairs_read = {}        # a pairs' table function -> the outputs it zeroes for full = 0 (_pairs_read)
 
     @property
     def mask(self):
@@ -756,8 +757,15 @@ class _Rewriter:
             if _CALL.search(e):
                 raise Unsupported(f"calls {fn}() on a call")
         nout = self.sizes[array] - int(first)
+        # full = 0: the function's readers read only the wrenches, which it zeroes itself
+        # (compiler/contact/table.py: full is 0 when no read is past them), so only those go into
+        # the lanes; the rest of out_ (a near pair's point and depth) is scratch, as in the scalar
+        # code.  Why: the humanoid's table has 1059 outputs and 78 wrenches: zeroing and putting the
+        # rest cost 4 x 8.5 kB of memset and 1059 lane puts per call of 4 states.
+        nput = self.pairs_read.get(fn) if full == "0" else None
+        nput = nput if nput is not None and nput <= nout else None
         inputs = ", ".join(self.lanes(e) for e in elems)
-        zero = (f"{indent}for (l_ = 0; l_ < {nout}; l_++) {array}[{first} + l_] = (eomc_vd){{0}};\n"
+        zero = (f"{indent}for (l_ = 0; l_ < {nout if nput is None else nput}; l_++) {array}[{first} + l_] = (eomc_vd){{0}};\n"
                 + (f"{indent}for (l_ = 0; l_ < {nslopes}; l_++) {slopes}[{slopes_first} + l_] = (eomc_vd){{0}};\n"
                    if slopes else ""))
         into = (f"{indent}    double slo_[{nslopes}];   /* the loop zeroes it first */\n" if slopes else "",
@@ -770,9 +778,10 @@ class _Rewriter:
                 f"{indent}    const double in_[{nin}] = {{{inputs}}};\n"
                 f"{indent}    double out_[{nout}];\n"
                 f"{into[0]}"
-                f"{indent}    __builtin_memset(out_, 0, sizeof out_);   /* what a far pair leaves unwritten */\n"
-                f"{indent}    {name} = {fn}(in_, &{pars}[{offset}], {full}, out_{into[1]});\n"
-                f"{indent}    {self.prefix}_put_lane({array} + {first}, out_, {nout}, l_);\n"
+                + (f"{indent}    __builtin_memset(out_, 0, sizeof out_);   /* what a far pair leaves unwritten */\n"
+                   if nput is None else "")
+                + f"{indent}    {name} = {fn}(in_, &{pars}[{offset}], {full}, out_{into[1]});\n"
+                f"{indent}    {self.prefix}_put_lane({array} + {first}, out_, {nout if nput is None else nput}, l_);\n"
                 f"{into[2]}"
                 f"{indent}}}")
 
@@ -1077,6 +1086,17 @@ def vector_kernels(name, helpers_text):
            "#define EOMC_VLIT(c) ((eomc_vd){0} + (c))\n\n" + text, names
 
 
+_PAIRS_ZERO = re.compile(r"^static double (eomc_pairs\w*)\(const double \*in, const double \*pars, int full, "
+                         r"double \*out[^)]*\)\n\{\n(?:.*\n){0,6}?\s+for \(k = 0; k < \(full \? \d+ : (\d+)\); \+\+k\) "
+                         r"out\[k\] = 0\.0;$", re.M)
+
+
+def _pairs_read(kernels):
+    """{pairs' table function: the outputs it zeroes when called with full = 0} from the helper
+    code (compiler/contact/table.py's loop: ``for (k = 0; k < (full ? noutput : nwrench); ++k)``)."""
+    return {m.group(1): int(m.group(2)) for m in _PAIRS_ZERO.finditer(kernels or "")}
+
+
 def batch_rhs(name, lines, parts, dynamics="", fn="rhs", out="xdot", kernels=""):
     """(C code of the lane functions, helper names used) for the scalar rhs whose body is
     ``lines`` and whose sub-functions are ``parts`` (split_body's output); ``dynamics``: the
@@ -1141,6 +1161,7 @@ def batch_rhs(name, lines, parts, dynamics="", fn="rhs", out="xdot", kernels="")
         out_parts.append("\n".join([f"{attr} {new}({params})", "{"]
                                    + [s for s in stmts if s is not None] + ["}"]))
     rw = _Rewriter(name, ("x", "r", out) + (() if shared else ("p",)), shared, used)
+    rw.pairs_read = _pairs_read(kernels)
     rw.pair_scan(lines)
     stmts = [_statement(rw, line, renamed) for line in lines]
     if rw.blocks:
