@@ -15,9 +15,10 @@ The harnesses are compiled with the flags eomc builds its libraries with on this
 sin and cos take their AVX2 lanes only under __AVX2__).  The scalar rhs is the batch build's
 own NAME_rhs; the bench also builds the model with `--outputs rhs` (named s) and compares the two
 NAME_rhs texts (column "scalar rhs": looped, limb routines or straight-line; "= rhs-only build" when
-they agree).  Where they do not (G1: a build with rhs_batch writes no limb routines, tree/limbs.py),
-the harness links the rhs-only build too and times its s_rhs as the scalar contestant, so the
-speed-up is always against the scalar rhs users get without rhs_batch.
+they agree).  Where they do not (until session 23 G1: a build with rhs_batch wrote no limb routines,
+tree/limbs.py; now its lanes run them too), the harness links the rhs-only build too and times its
+s_rhs as the scalar contestant, so the speed-up is always against the scalar rhs users get without
+rhs_batch.
 
 The two contestants alternate within a round, both executables alternate round by round, and
 the table gives medians over rounds (the scalar column is the median of both harnesses'

@@ -13,7 +13,7 @@ from functools import lru_cache
 
 import numpy as np
 
-__all__ = ["stored", "stored_along"]
+__all__ = ["stored", "stored_along", "spring_table", "force_at_rest", "SPRING_BITS"]
 
 _NODES, _WEIGHTS = np.polynomial.legendre.leggauss(8)
 _PANELS = 40
@@ -78,4 +78,69 @@ def stored_along(r, K, E, push=0.0, hold=None):
     g = d / (d + E)
     work = np.concatenate(([0.0], np.cumsum(np.sum((b - a) / 2 * _WEIGHTS * g * g * force, axis=1))))
     out[past] = work[np.searchsorted(edges, depths)][back]
+    return out
+
+
+SPRING_BITS = 4         # eomc_spring.bits: 16 knots an octave (relative spacing <= 1/16)
+SPRING_REACH = 16.0     # rad or m past the limit: the table's last knot (past it: not known)
+
+
+def force_at_rest(d, E, push=0.0, hold=None):
+    """The slope of stored() at depths ``d`` (> 0) for K = 1: g(d)² F(d) of stored()'s law."""
+    d = np.asarray(d, dtype=float)
+    if hold:
+        G, w = float(hold[0]), float(hold[1])
+        force = d + (G - 1.0) * w * np.tanh(d / w)
+    else:
+        force = d.copy()
+    if push:
+        s = E * float(push)
+        force = (force + np.sqrt(force * force + s * s)) / 2
+    g = d / (d + E)
+    return g * g * force
+
+
+def spring_table(E, push=0.0, hold=None, bits=SPRING_BITS):
+    """(base, S, f): the knots of the C energy watch's table of stored() at K = 1 for a limit of
+    width ``E`` and shape (push, hold) -- runtime/c/eomc_integrators.h eomc_spring: knot k is the
+    double whose bits are (base + k) << (52 - bits), from a hundredth of the law's smallest width
+    to SPRING_REACH; S the stored energy there (stored_along), f its slope (force_at_rest).
+
+    Why a table: the watch runs at every step of every rollout row, and stored() is a quadrature
+    (320 law evaluations); a cubic Hermite between knots 1/16 of an octave apart costs a few
+    flops and is within about 1e-8 of stored() (tests/runtime/test_limit_energy.py measures it)."""
+    E = float(E)
+    w = float(hold[1]) if hold else E
+    shift = 52 - int(bits)
+    lo = np.array([min(E, w) / 100.0]).view(np.uint64)[0] >> np.uint64(shift)
+    hi = np.array([SPRING_REACH]).view(np.uint64)[0] >> np.uint64(shift)
+    n = int(hi - lo) + 2
+    knots = ((lo + np.arange(n, dtype=np.uint64)) << np.uint64(shift)).view(np.float64)
+    S = stored_along(knots, 1.0, E, push, hold)
+    f = force_at_rest(knots, E, push, hold)
+    return int(lo), np.ascontiguousarray(S), np.ascontiguousarray(f)
+
+
+def spring_energy(d, K, E, base, S, f, bits=SPRING_BITS):
+    """The C watch's value (eomc_integrators.c spring_energy) in numpy, for tests: K times the
+    table's cubic Hermite at depths d (0 where d <= 0; NaN past the table)."""
+    d = np.atleast_1d(np.asarray(d, dtype=float))
+    out = np.zeros(d.shape)
+    shift = 52 - int(bits)
+    past = d > 0
+    k = (d[past].view(np.uint64) >> np.uint64(shift)).astype(np.int64) - base
+    knot = lambda j: ((np.int64(base) + j).astype(np.uint64) << np.uint64(shift)).view(np.float64)  # noqa: E731
+    below = k < 0
+    kk = np.maximum(k, 0)
+    inside = kk < len(S) - 1
+    kk = np.minimum(kk, len(S) - 2)
+    d0 = np.where(below, 0.0, knot(kk))
+    d1 = np.where(below, knot(np.zeros_like(kk)), knot(kk + 1))
+    S0, f0 = np.where(below, 0.0, S[kk]), np.where(below, 0.0, f[kk])
+    S1, f1 = np.where(below, S[0], S[kk + 1]), np.where(below, f[0], f[kk + 1])
+    h = d1 - d0
+    u = (d[past] - d0) / h
+    v = 1.0 - u
+    val = K * (v * v * ((1.0 + 2.0 * u) * S0 + u * h * f0) + u * u * ((3.0 - 2.0 * u) * S1 - v * h * f1))
+    out[past] = np.where(inside, val, np.nan)
     return out

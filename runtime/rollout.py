@@ -312,8 +312,14 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method="rk4", p=No
                 ffi.from_buffer("int[]", status), ffi.from_buffer("long[]", nstep), stats, nthreads)
         opt = _options(ffi, a, implicit)
         opt.watch_output = watch
+        nspring = 0
         if watch:
+            from .switching import watch_springs
             opt.watch_fn = _energy_fn(model, ffi)
+            # the limit springs the energy output leaves out (the tables of the first row's widths:
+            # a row with other widths gets no total, so no rise verdict)
+            nspring, springs, keep_springs = watch_springs(model, model.ffi, P[0])
+            opt.nspring, opt.spring = nspring, springs
         if implicit_lanes:      # each thread's rows in fibers, their NAME_implicit calls in lanes
             from .cpu import machine_lanes
             lib.eomc_rollout_implicit_lanes(model.c_model, opt, _implicit_batch(model, ffi),
@@ -324,7 +330,8 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method="rk4", p=No
         if method == "implicitfast":
             unsolved = np.array([stats[i].rejected for i in range(n)], dtype=int)
             if watch:
-                ranges = np.array([(stats[i].watch_lo, stats[i].watch_hi) for i in range(n)])
+                from .switching import watched_stats
+                ranges = [watched_stats(stats[i], nspring) for i in range(n)]
     messages = (_energy_verdicts(model, a, X0, P, p_stride, controls, t_eval, X_out, X_last, status, ranges)
                 if fast else {})
     return _finish(model, method, X0, P, p_stride, dt, t_eval, record, X_out, X_last, status, nstep,
@@ -347,25 +354,26 @@ def _energy_fn(model, ffi):
     """NAME_energy (the energy output alone, compiler/emit/generate.energy_program) as the
     eomc_rhs_fn ``ffi`` declares, for eomc_options.watch_fn; NULL for a model built without it
     (before session 16, or an energy that reads u'): the watch then calls the whole outputs."""
-    if "energy" not in model.metadata.get("functions", ()) or model.model_lib is None:
-        return ffi.NULL
-    fp = model.ffi.addressof(model.model_lib, f"{model.name}_energy")
-    return ffi.cast("eomc_rhs_fn", int(model.ffi.cast("uintptr_t", fp)))
+    from .simulate import energy_fn
+    return energy_fn(model, ffi)
 
 
-def _energy_verdicts(model, a, X0, P, p_stride, controls, t_eval, X_out, X_last, status, ranges=None):
+def _energy_verdicts(model, a, X0, P, p_stride, controls, t_eval, X_out, X_last, status, watched=None):
     """simulate's energy verdict on each implicitfast fast-path row that ran to the end
-    (switching.energy_verdict: the same conditions and tolerance): a row that created energy
-    gets status 20 (STATUS_ENERGY, in place) and simulate's message, returned as {row: message};
-    the rows' lesser gains make one PhysicsWarning, as simulate's would.  The energy's lowest and
-    highest values over every step (ranges: (rows, 2), kept in C by eomc_options.watch_output,
-    NaN where not finite) stand beside its values at the start and the end, so the verdict sees
-    the whole run as simulate reads it (its gain max(E) - E0 and scale max(|E0|, |E - E0|) are
-    the same numbers) with either record; without ranges it reads the recorded trajectory
-    (record="steps") or the start and the end only.  One outputs call for all rows when they
-    share parameters and constant inputs, else one per row; only rows whose energy rose past
-    energy_tolerance (below it the verdict says nothing) go through the verdict's Python."""
-    from .switching import PhysicsWarning, energy_allowance, energy_tolerance, energy_verdict, find_switches
+    (switching.energy_verdict: the same conditions, tolerance and numbers): a row that created
+    energy gets status 20 (STATUS_ENERGY, in place) and simulate's message, returned as {row:
+    message}; the rows' lesser gains and their total energy's rises make one PhysicsWarning, as
+    simulate's would.  watched: each row's C energy watch over every step (switching.watched_stats:
+    the energy output's range, and the total -- the output plus the limit springs it leaves out --
+    its largest rise above its running minimum), the same numbers simulate's watch keeps, so every
+    record mode gives simulate's verdict.  The outputs are evaluated at the start and the end only
+    (one call for all rows when they share parameters and constant inputs, else one per row); only
+    rows whose energy rose past energy_tolerance (below it the verdict says nothing) go through the
+    verdict's Python, and only the row the warning quotes is run again to name what touched down
+    where its total rose (switching.place_finder; record="steps": from its recorded states)."""
+    from .simulate import place_finder
+    from .switching import (PhysicsWarning, _no_sources, energy_allowance, energy_tolerance, energy_verdict,
+                            find_switches, total_known)
     from .rollout_extras import _row_inputs
     from .simulate import _along
     sw = find_switches(model)
@@ -374,15 +382,8 @@ def _energy_verdicts(model, a, X0, P, p_stride, controls, t_eval, X_out, X_last,
     # output but cannot evaluate it: not judged, as simulate, whose run then has no outputs
     if not sw or "energy" not in model.output_names or not rows.size or model.c_model.outputs == model.ffi.NULL:
         return {}
-    # record="steps": the recorded states too, along which the total energy's rise is judged
-    # (switching._energy_rise; the C watch keeps the output's range only): with the watch, the
-    # energy alone along them (NAME_energy, _energy_along), the outputs at the start and the end
-    steps = None
-    if X_out is not None and ranges is not None:
-        steps = _energy_along(model, t_eval, X_out[rows], P, p_stride, rows)
-    along = X_out is not None and steps is None
-    t = t_eval if along else np.array([0.0, float(t_eval[-1])])
-    X = X_out[rows] if along else np.stack([X0[rows], X_last[rows]], axis=1)    # (rows, k, nx)
+    t = np.array([0.0, float(t_eval[-1])])
+    X = np.stack([X0[rows], X_last[rows]], axis=1)    # (rows, 2, nx)
 
     def row_args(i):
         b = dict(a, x0=X0[i], p=P[i if p_stride else 0])
@@ -404,21 +405,23 @@ def _energy_verdicts(model, a, X0, P, p_stride, controls, t_eval, X_out, X_last,
             except SimulationError:     # not finite along this row: no energy to judge (as _energy_gain)
                 pass
     E = out[:, :, model.output_names.index("energy")]
-    if steps is not None:       # the energy along the recorded steps (their first the start)
-        E, X, t = steps, X_out[rows], t_eval
-    if ranges is not None:      # [start, lowest, highest, end]: the whole run's verdict
-        E = np.concatenate([E[:, :1], ranges[rows], E[:, 1:]], axis=1)
-        # the states at the lowest and highest energy are not known: the total energy's rise
-        # (switching._energy_rise) is judged along the known rows only (record="final": the
-        # start and the end)
-        X = np.concatenate([X[:, :1], np.full((rows.size, 2, model.nx), np.nan), X[:, 1:]], axis=1)
-        t = np.concatenate([t[:1], [np.nan, np.nan], t[1:]])
+    seen = E
+    if watched is not None:     # [start, lowest, highest, end]: the whole run's gain and scale
+        seen = np.concatenate([E[:, :1], np.array([(watched[i]["lo"], watched[i]["hi"]) for i in rows]),
+                               E[:, 1:]], axis=1)
+    rtol = energy_tolerance(a["rtol"], a["atol"])
     with np.errstate(invalid="ignore"):
-        scale = np.maximum(np.maximum(np.abs(E[:, 0]), np.max(np.abs(E - E[:, :1]), axis=1)), 1e-300)
-        gain, tol = np.max(E, axis=1) - E[:, 0], energy_tolerance(a["rtol"], a["atol"]) * scale
+        scale = np.maximum(np.maximum(np.abs(seen[:, 0]), np.max(np.abs(seen - seen[:, :1]), axis=1)), 1e-300)
+        gain, tol = np.max(seen, axis=1) - seen[:, 0], rtol * scale
         rose = gain > tol
-        rises = _total_rises(model, a, sw, P, p_stride, rows, E, X)
-        risen = rises > 0 if rises is not None else np.zeros(rows.size, dtype=bool)
+        risen = np.zeros(rows.size, dtype=bool)
+        if watched is not None and total_known(model, sw):
+            w = [watched[i] for i in rows]
+            rise = np.array([v["rise"] for v in w])
+            T0 = np.array([v["total0"] for v in w])
+            tscale = np.maximum.reduce([np.abs(T0), np.array([v["total_hi"] for v in w]) - T0,
+                                        T0 - np.array([v["total_lo"] for v in w]), np.full(T0.shape, 1e-300)])
+            risen = rise > rtol * tscale
     depth = [model.output_names.index(f"depth_{c.name}") for c in sw.contacts
              if f"depth_{c.name}" in model.output_names]
     messages, notes = {}, []
@@ -429,10 +432,22 @@ def _energy_verdicts(model, a, X0, P, p_stride, controls, t_eval, X_out, X_last,
         # unless the total energy rose above its running minimum beyond its tolerance (risen)
         held, sprung, _, _ = energy_allowance(model, np.asarray(P[i if p_stride else 0], dtype=float), X0[i],
                                               bool(np.any(out[k, 0, depth] > 0)), sw)
-        if gain[k] - held <= tol[k] and not sprung and not risen[k]:
+        quiet = gain[k] - held <= tol[k] and not sprung     # no gain words and no status: at most the rise's
+        if quiet and not risen[k]:
+            continue
+        if quiet and notes:
+            # a rise alone, once a row is quoted: the verdict would only add its note (a known total,
+            # so nothing sprung) -- counted, not worded (gymnasium's ant: 23 of 64 rows, 2 ms)
+            if _no_sources(model, row_args(i)):
+                notes.append((i, None))
             continue
         outputs = dict(zip(model.output_names, out[k].T), energy=E[k])
-        bad, why, said = energy_verdict(model, row_args(i), outputs, sw, x=X[k], t=t)
+        b = row_args(i)
+        # the row the warning quotes, when its words are the rise's: where it rose, named (one run)
+        recorded = (t_eval, X_out[i]) if X_out is not None else (None, None)
+        place = place_finder(model, b, *recorded) if quiet and not notes else None
+        bad, why, said = energy_verdict(model, b, outputs, sw, watched=None if watched is None else watched[i],
+                                        place=place)
         if bad:
             status[i] = bad
             messages[i] = f"{model.name}: {a['method']}: {why}"
@@ -440,68 +455,11 @@ def _energy_verdicts(model, a, X0, P, p_stride, controls, t_eval, X_out, X_last,
     if notes:       # one warning for the rows, the first row's words (as rollout_extras)
         import warnings
         i, w = notes[0]
-        seen = sorted({j for j, _ in notes})
-        warnings.warn(PhysicsWarning(f"{model.name}: rollout: {len(seen)} of {len(X0)} row(s) warned (rows "
-                                     f"{', '.join(map(str, seen[:8]))}{', ...' if len(seen) > 8 else ''}); "
+        seen_rows = sorted({j for j, _ in notes})
+        warnings.warn(PhysicsWarning(f"{model.name}: rollout: {len(seen_rows)} of {len(X0)} row(s) warned (rows "
+                                     f"{', '.join(map(str, seen_rows[:8]))}{', ...' if len(seen_rows) > 8 else ''}); "
                                      f"row {i}: {w}"), stacklevel=3)
     return messages
-
-
-def _energy_along(model, t, X, P, p_stride, rows):
-    """The energy output at every recorded point (rows, k) of states X (rows, k, nx), one
-    NAME_energy call a point (zero inputs: the verdict judges only runs without sources), or
-    None for a model built without NAME_energy (the caller then evaluates the whole outputs).
-    NaN where not finite or where the call failed."""
-    if "energy" not in model.metadata.get("functions", ()) or model.model_lib is None:
-        return None
-    ffi = model.ffi
-    fn = getattr(model.model_lib, f"{model.name}_energy")
-    X = np.ascontiguousarray(X, dtype=float)
-    nrow, k, nx = X.shape
-    E = np.full((nrow, k), np.nan)
-    xs = ffi.from_buffer("double[]", X)
-    r = ffi.from_buffer("double[]", np.zeros(max(model.ninput, 1)))
-    work = ffi.from_buffer("double[]", np.empty(max(model.work_size, 1)))
-    out = ffi.new("double[1]")
-    for j, i in enumerate(rows):
-        p = ffi.from_buffer("double[]", np.ascontiguousarray(P[i if p_stride else 0], dtype=float))
-        for m in range(k):
-            if fn(float(t[m]), xs + (j * k + m) * nx, p, r, out, work) == 0:
-                E[j, m] = out[0]
-    with np.errstate(invalid="ignore"):
-        E[~np.isfinite(E)] = np.nan
-    return E
-
-
-def _total_rises(model, a, sw, P, p_stride, rows, E, X):
-    """Each row's total energy rise beyond its tolerance (switching._energy_rise, vectorised over
-    rows: the energy output plus the limit springs it leaves out, its largest rise above its
-    running minimum, minus energy_tolerance of the total's scale; rows whose states are NaN left
-    out), or None when the total is not known for this model (_energy_rise's None)."""
-    from .switching import _springs_along, energy_tolerance
-    meta = str(model.metadata.get("energy") or "")
-    if sw.contacts and not meta:
-        return None
-    total = E.copy()
-    if sw.limits and "joint limits" not in meta:
-        flat = X.reshape(-1, model.nx)
-        if p_stride:
-            parts = [_springs_along(model, np.asarray(P[i], dtype=float), sw, X[k]) for k, i in enumerate(rows)]
-            springs = None if any(s is None for s in parts) else np.stack(parts)
-        else:
-            springs = _springs_along(model, np.asarray(P[0], dtype=float), sw, flat)
-        if springs is None:
-            return None
-        total = total + springs.reshape(E.shape)
-    total = np.where(np.all(np.isfinite(X), axis=2), total, np.nan)
-    # the running minimum over the known rows (NaN rows skipped: fmin)
-    low = np.fmin.accumulate(total, axis=1)
-    known = np.isfinite(total)
-    rise = np.max(np.where(known, total - low, -np.inf), axis=1)
-    first = total[np.arange(total.shape[0]), np.argmax(known, axis=1)]
-    scale = np.maximum(np.maximum(np.abs(first), np.max(np.where(known, np.abs(total - first[:, None]), 0.0),
-                                                          axis=1)), 1e-300)
-    return rise - energy_tolerance(a["rtol"], a["atol"]) * scale
 
 
 def _gains(model, K, x_ref, n):

@@ -626,7 +626,10 @@ def bind_call(model, a, out=None):
                        + (model.nx if isinstance(a.get("K"), tuple) else 0) if feedback else 0)
                     + (implicit.work_len if implicit is not None else 0))
     stats = ffi.new("eomc_stats *")
-    head = (model.c_model, _options(ffi, a, implicit), a["t0"], a["t1"], buf(a["x0"]), buf(a["p"]), a["n_r"],
+    opt = _options(ffi, a, implicit)
+    if a["method"] == "implicitfast" and "switches" in a:   # the energy verdict's watch of every step
+        watch_options(model, opt, a)
+    head = (model.c_model, opt, a["t0"], a["t1"], buf(a["x0"]), buf(a["p"]), a["n_r"],
             buf(a["r_t"]), buf(a["r_v"]))
     tail = (n_eval, buf(a["t_eval"]), buf(x_out), buf(x_last), stats, buf(work), work.size)
     if not feedback and "events" not in a and "switches" not in a:
@@ -661,6 +664,9 @@ def run_prepared(model, a, out=None):
     t0, t1, before = a.get("_progress", (a["t0"], a["t1"], None))
     follow_integration(lambda: (stats.t, stats.steps + (before or 0)), t0, t1, call, resume=before is not None)
     got = {f: getattr(stats, f) for f in _STAT_FIELDS}
+    if a.get("_watch") is not None:     # the C energy watch's numbers, for the verdict (finish)
+        from .switching import watched_stats
+        a["_watched"] = watched_stats(stats, a["_watch"][0])
     if a.get("auto_switch") and got["status"] == STIFF_STATUS and got["t"] < a["t1"]:
         return _continue_implicit(model, a, x_out, got, x_last)
     return x_out, got, x_last
@@ -1055,7 +1061,12 @@ def finish(model, a, x_out, stats, x_last, raise_on_failure=True):
         seen = ev.switch_maxima()
         if ev1 is not None:
             seen = np.maximum(seen, ev1.switch_maxima())
-        bad, why = verdict(model, a, result, seen, a["switches"])
+        watched = a.get("_watched")
+        outputs = result.outputs
+        if watched is not None and outputs and (not len(result.t) or result.t[0] != a["t0"]):
+            outputs = with_start(model, a, outputs)      # the verdict reads the start's energy and depths
+        bad, why = verdict(model, a, result, seen, a["switches"], watched=watched, outputs=outputs,
+                           place=place_finder(model, a, result.t, result.x) if watched is not None else None)
         if bad:
             result.status = stats["status"] = bad
             result.message = f"{model.name}: {method}: {why}"
@@ -1111,3 +1122,83 @@ def scipy_fun(model, p=None, r=None):
     def jac(t, x):
         return np.array(model.jacobian(t, x, p, r), dtype=np.float64, copy=True)
     return fun, jac
+
+
+def with_start(model, a, outputs):
+    """outputs (along a run's recorded rows) with the start's row first (t_eval that leaves the
+    start out), or unchanged when the start's outputs are not finite."""
+    try:
+        first = _along(model, a, 0, np.array([float(a["t0"])]), np.asarray(a["x0"], dtype=float)[None, :])
+    except SimulationError:
+        return outputs
+    if first is None:
+        return outputs
+    return {n: np.concatenate([[first[0][j]], np.asarray(outputs[n], dtype=float)])
+            for j, n in enumerate(model.output_names) if n in outputs}
+
+
+def place_finder(model, a, t=None, x=None):
+    """energy_verdict's ``place`` for a fixed-step run with prepared args ``a`` (x0, p, inputs,
+    dt = a["h0"]): the states at both ends of the step that ends at t_jump, from the recorded rows
+    (t, x) when they hold both, else from the run made again with those two output times only (its
+    steps do not depend on the output times: the same states), then switching.place_words.  One run
+    at most per verdict that warns (rollout: the row its warning quotes)."""
+    def place(t_jump):
+        h, t0 = float(a["h0"]), float(a["t0"])
+        k = int(round((t_jump - t0) / h))
+        if k < 1:
+            return ""
+        ta = t0 + (k - 1) * h
+        X = None
+        if t is not None and x is not None:
+            ia, ib = np.flatnonzero(np.asarray(t) == ta), np.flatnonzero(np.asarray(t) == t_jump)
+            if ia.size and ib.size:
+                X = np.stack([np.asarray(x)[ia[0]], np.asarray(x)[ib[0]]])
+        if X is None:
+            b = {key: v for key, v in a.items() if key not in ("switches", "events", "_bindings", "_watch")}
+            b["t_eval"] = np.array([ta, t_jump])
+            # to one step past t_jump: the same grid t0 + k h and the same whole steps up to it
+            b["t1"] = min(float(a["t1"]), t0 + (k + 1) * h)
+            rows, stats, _ = run_prepared(model, b)
+            if stats["status"] != 0 or stats["n_out"] < 2:
+                return ""
+            X = np.array(rows[:2])
+        try:
+            out = _along(model, a, 0, np.array([ta, t_jump]), X)
+        except SimulationError:     # an output not finite there: the limits are still named
+            out = None
+        names = list(model.output_names)
+        oa = {} if out is None else dict(zip(names, out[0]))
+        ob = {} if out is None else dict(zip(names, out[1]))
+        from .switching import find_switches, place_words
+        return place_words(model, np.asarray(a["p"], dtype=float), find_switches(model), t_jump, X[0], X[1], oa, ob)
+    return place
+
+
+def watch_options(model, opt, a):
+    """Turn the C energy watch on in eomc_options ``opt`` for a fixed-step implicitfast run with
+    prepared args ``a`` that the energy verdict judges (a model with switching points and an
+    ``energy`` output, its outputs function, no feedback): watch_output, watch_fn (NAME_energy where
+    built), and the limit springs the output leaves out (switching.watch_springs).  Returns the spring
+    count (kept with the structs in a["_watch"]), or None when not watched."""
+    from .switching import find_switches, watch_springs
+    names = list(model.output_names)
+    if (a.get("method") != "implicitfast" or "energy" not in names or not find_switches(model)
+            or model.c_model.outputs == model.ffi.NULL or "r_fun" in a or "K" in a or "r_slopes" in a):
+        return None
+    opt.watch_output = names.index("energy") + 1
+    opt.watch_fn = energy_fn(model, model.ffi)
+    n, springs, keep = watch_springs(model, model.ffi, a["p"])
+    opt.nspring, opt.spring = n, springs
+    a["_watch"] = (n, keep)
+    return n
+
+
+def energy_fn(model, ffi):
+    """NAME_energy (the energy output alone, compiler/emit/generate.energy_program) as the
+    eomc_rhs_fn ``ffi`` declares, for eomc_options.watch_fn; NULL for a model built without it
+    (before session 16, or an energy that reads u'): the watch then calls the whole outputs."""
+    if "energy" not in model.metadata.get("functions", ()) or model.model_lib is None:
+        return ffi.NULL
+    fp = model.ffi.addressof(model.model_lib, f"{model.name}_energy")
+    return ffi.cast("eomc_rhs_fn", int(model.ffi.cast("uintptr_t", fp)))

@@ -38,7 +38,8 @@ __all__ = ["CONTACT_EVENT_PREFIX", "CLIP_EVENT_PREFIX", "GAP_EVENT_PREFIXES", "S
            "warn_unchecked",
            "PENETRATION_FRACTION",
            "POINT_PENETRATION", "LIMIT_OVERSHOOT_WIDTHS", "STATUS_ENERGY", "ENERGY_FAIL",
-           "energy_tolerance", "energy_verdict", "energy_allowance"]
+           "energy_tolerance", "energy_verdict", "energy_allowance", "watch_springs", "watched_stats",
+           "total_known", "place_words"]
 
 CONTACT_EVENT_PREFIX = "contact_"  # a contact's penetration event: contact_<name> (the compiler emits it always)
 CLIP_EVENT_PREFIX = "clip_"        # where a damped contact's normal force reaches 0 in contact (F_n >= 0 clip)
@@ -200,7 +201,7 @@ def _activations_at_rest(model, a):
     return not np.any(np.asarray(a["x0"], dtype=float)[model.nq + model.nu:])
 
 
-def verdict(model, a, result, gmax, sw):
+def verdict(model, a, result, gmax, sw, watched=None, outputs=None, place=None):
     """Warnings (and a failed status for created energy) from what the run saw; returns
     (status, message addition) -- (0, "") when the physics looks right."""
     notes = []
@@ -234,14 +235,17 @@ def verdict(model, a, result, gmax, sw):
     notes += below_ground(model, result.t, result.x, p, POINT_PENETRATION, PENETRATION_FRACTION)
     from .pair_check import passed_through
     notes += passed_through(model, result.t, result.x, p, outputs=result.outputs)   # bodies into each other
-    status, extra, said = energy_verdict(model, a, result.outputs, sw, x=result.x, t=result.t)
+    # outputs: the run's, with the start's row first when t_eval left it out (simulate.with_start:
+    # the verdict reads the start's energy and depths); place: energy_verdict's (simulate.place_finder)
+    status, extra, said = energy_verdict(model, a, result.outputs if outputs is None else outputs, sw, x=result.x,
+                                         t=result.t, watched=watched, place=place)
     notes += said
     if notes:       # one warning per run, naming every contact and joint
         warnings.warn(PhysicsWarning(f"{model.name}: " + "; ".join(notes)), stacklevel=_user_level())
     return status, extra
 
 
-def energy_verdict(model, a, outputs, sw, x=None, t=None):
+def energy_verdict(model, a, outputs, sw, x=None, t=None, watched=None, place=None):
     """simulate's energy verdict, shared by ``verdict`` and rollout's implicitfast rows: (status,
     message addition, warning notes) -- (STATUS_ENERGY, why, ...) for a passive run (``sw``
     judged, an ``energy`` output, no sources: ``_no_sources(model, a)``) whose energy rose
@@ -256,9 +260,20 @@ def energy_verdict(model, a, outputs, sw, x=None, t=None):
     energy back and the damping took it out is seen too (session 22: the fixed step's ant, a foot
     landing inside a whole step, +9 J at t = 0.18 s, below what the start's springs held).  Such
     a rise warns (its notes), beyond the failing multiple as "the integration is wrong here", and
-    leaves the status alone: rollout's record="final" rows could not give the same status."""
+    leaves the status alone (why: docs/contact.md, "The energy verdict").
+
+    watched: the fixed step's C watch over every step (:func:`watched_stats`: eomc_stats watch_*,
+    simulate's and rollout's implicitfast runs): the output's range joins ``outputs["energy"]``
+    for the gain and its scale, and the total's rise is the watch's (every step, the limit springs
+    by eomc_spring's tables), not the recorded rows' -- so simulate and rollout's rows, with either
+    record, judge the same numbers.  place: a callable(t) -> words naming what touched down or
+    entered a limit in the step that ends at t (:func:`place_words`), or None."""
     if not (sw and "energy" in outputs and _no_sources(model, a)):
         return 0, "", []
+    if watched is not None and np.isfinite(watched["lo"]) and len(outputs["energy"]):
+        # the start's value (outputs' first row: the run's start) and the watch's range over every
+        # step: simulate's and rollout's rows judge the same three numbers, whatever they recorded
+        outputs = dict(outputs, energy=np.array([float(outputs["energy"][0]), watched["lo"], watched["hi"]]))
     got = _energy_gain(outputs)
     status, extra, notes = 0, "", []
     p = np.asarray(a["p"], dtype=float)
@@ -282,22 +297,161 @@ def energy_verdict(model, a, outputs, sw, x=None, t=None):
             notes.append(f"the energy rose by {gain:.3g} (from {outputs['energy'][0]:.6g}, "
                          f"{gain / scale:.2g} of its scale) with only passive contacts and limits acting: "
                          f"more than the tolerance explains; tighten rtol")
-    if x is not None and not sprung and not status and not notes:
-        risen = _energy_rise(model, p, sw, outputs, x, t)
+    if (x is not None or watched is not None) and not sprung and not status and not notes:
+        if watched is not None:
+            risen = _watched_rise(model, sw, watched)
+        else:
+            risen = _energy_rise(model, p, sw, outputs, x, t)
         if risen is not None:
             rise, scale, what = risen
             tol = energy_tolerance(a["rtol"], a["atol"]) * scale
             # a warning, not a failed status: rollout's record="final" rows cannot see this rise
             # (the C watch keeps the output's lowest and highest values, not the total's rise), and
             # a row's status is simulate's (rollout's contract)
+            where = ""
+            if rise > tol and place is not None and watched is not None and np.isfinite(watched["t_jump"]):
+                where = place(float(watched["t_jump"])) or ""
             if rise > max(tol, min(ENERGY_FAIL * tol, 0.05 * scale)):
-                notes.append(f"{what} in a model whose contacts and limits can only take energy out: the "
+                notes.append(f"{what}{where} in a model whose contacts and limits can only take energy out: the "
                              f"integration is wrong here (method {a['method']}, rtol {a['rtol']:g}; a smaller "
                              f"step or an adaptive method checks it)")
             elif rise > tol:
-                notes.append(f"{what} ({rise / scale:.2g} of its scale) with only passive contacts and limits "
+                notes.append(f"{what}{where} ({rise / scale:.2g} of its scale) with only passive contacts and limits "
                              f"acting: more than the tolerance explains (method {a['method']}, rtol {a['rtol']:g})")
     return status, extra, notes
+
+
+WATCHED = ("lo", "hi", "total0", "total_lo", "total_hi", "rise", "low", "t_low", "peak", "t_peak", "t_jump")
+
+
+def watched_stats(stats, springs):
+    """The C energy watch's numbers of one run (an eomc_stats: watch_lo, watch_hi, watch_total0
+    ... watch_t_jump) as energy_verdict's ``watched``; springs: the eomc_spring count the watch
+    added (its words then say so)."""
+    out = {k: float(getattr(stats, f"watch_{k}")) for k in WATCHED}
+    out["springs"] = int(springs)
+    return out
+
+
+def total_known(model, sw):
+    """True when the C watch's total is the model's whole energy: an energy output eomc generated
+    (it counts the contacts' elastic energy) or no contacts, and the limit springs counted by it
+    (URDF) or all of known shape (MJCF's ``limit_laws``: :func:`watch_springs` gives them)."""
+    meta = str(model.metadata.get("energy") or "")
+    if sw.contacts and not meta:
+        return False
+    return not sw.limits or "joint limits" in meta or _spring_specs(model, sw) is not None
+
+
+def _watched_rise(model, sw, watched):
+    """_energy_rise's (rise, scale, words) from the C watch (``watched``), or None when the total
+    is not known (:func:`total_known`) or did not rise."""
+    rise = watched["rise"]
+    if not (np.isfinite(rise) and rise > 0) or not total_known(model, sw):
+        return None
+    T0 = watched["total0"]
+    scale = max(abs(T0), watched["total_hi"] - T0, T0 - watched["total_lo"], 1e-300)
+    what = (f"the energy{' with the limit springs it leaves out' if watched['springs'] else ''} "
+            f"rose by {rise:.3g} above its lowest value ({watched['low']:.6g} at t = {watched['t_low']:.6g} s) "
+            f"to {watched['peak']:.6g} at t = {watched['t_peak']:.6g} s")
+    return rise, scale, what
+
+
+def _spring_specs(model, sw):
+    """[(limit, stiffness index, width index, shape)] of the limit springs the energy output leaves
+    out ([] when it counts them: URDF's), or None when one's shape is unknown (the total is then not
+    known).  Kept on the Switches."""
+    got = sw.__dict__.get("_spring_specs", False)
+    if got is not False:
+        return got
+    meta = str(model.metadata.get("energy") or "")
+    specs = []
+    if sw.limits and "joint limits" not in meta:
+        laws = model.metadata.get("limit_laws") or {}
+        names = {n: i for i, n in enumerate(model.param_names)}
+        for lim in sw.limits:
+            shape = laws.get(lim.joint)
+            k, e = names.get(f"limit_k_{lim.joint}"), names.get(f"limit_e_{lim.joint}")
+            if shape is None or k is None or e is None:
+                specs = None
+                break
+            specs.append((lim, k, e, (float(shape.get("push", 0.0)),
+                                      tuple(float(v) for v in shape["hold"]) if shape.get("hold") else None)))
+    object.__setattr__(sw, "_spring_specs", specs)
+    return specs
+
+
+def watch_springs(model, ffi, p):
+    """(n, eomc_spring[n] or NULL, keep-alive): the limit springs the energy output leaves out, for
+    the C energy watch (eomc_options.nspring, .spring) with parameters ``p`` (their widths: the
+    tables'; a row with another width makes the watch's total not known).  (0, NULL, None) when there
+    are none or one's shape is unknown.  The tables (runtime/limit_energy.spring_table) are kept on
+    the model per width and shape, the structs per widths."""
+    sw = find_switches(model)
+    specs = _spring_specs(model, sw) if sw.limits else None
+    if not specs:
+        return 0, ffi.NULL, None
+    p = np.asarray(p, dtype=float)
+    widths = tuple(float(p[e]) for _, _, e, _ in specs)
+    cache = model.__dict__.setdefault("_watch_springs", {})
+    key = (id(ffi), widths)
+    got = cache.get(key)
+    if got is not None:
+        return got
+    from .limit_energy import SPRING_BITS, spring_table
+    tables = model.__dict__.setdefault("_spring_tables", {})
+    arr = ffi.new("eomc_spring[]", len(specs))
+    keep = [arr]
+    for i, ((lim, k, e, (push, hold)), E) in enumerate(zip(specs, widths)):
+        tk = (E, push, hold)
+        if tk not in tables:
+            tables[tk] = spring_table(E, push, hold)
+        base, S, f = tables[tk]
+        s = arr[i]
+        s.state, s.bound, s.stiffness, s.width = lim.state, lim.param, k, e
+        s.sign, s.E, s.bits, s.base, s.n = lim.sign, E, SPRING_BITS, base, len(S)
+        keep += [S, f, ffi.from_buffer("double[]", S), ffi.from_buffer("double[]", f)]
+        s.S, s.f = keep[-2], keep[-1]
+    got = cache[key] = (len(specs), arr, keep)
+    return got
+
+
+def place_words(model, p, sw, t_jump, xa, xb, oa, ob):
+    """Words naming where the total energy rose most in one step, the step from state xa to xb
+    (outputs oa, ob: {name: value}) that ends at t_jump: the contacts that touched down and the
+    joints that entered a limit in it, else those in contact or past a limit at its end."""
+    _, _, _, limit_at = _bounds(sw, p)
+    ix = _indices(sw)
+    da = ix["sign"] * (np.asarray(xa, dtype=float)[ix["state"]] - limit_at)
+    db = ix["sign"] * (np.asarray(xb, dtype=float)[ix["state"]] - limit_at)
+    down, touching = [], []
+    for c in sw.contacts:
+        a_, b_ = oa.get(f"depth_{c.name}"), ob.get(f"depth_{c.name}")
+        if a_ is None or b_ is None:
+            continue
+        if b_ > 0:
+            (down if not a_ > 0 else touching).append(c.name)
+    entered = [f"{sw.limits[j].joint} ({sw.limits[j].side})" for j in np.flatnonzero((db > 0) & ~(da > 0))]
+    past = [f"{sw.limits[j].joint} ({sw.limits[j].side})" for j in np.flatnonzero((db > 0) & (da > 0))]
+    parts = []
+    if down:
+        parts.append(f"contact{'s' if len(down) > 1 else ''} {', '.join(down)} touched down")
+    if entered:
+        parts.append(f"joint{'s' if len(entered) > 1 else ''} {', '.join(entered)} entered "
+                     f"{'their limits' if len(entered) > 1 else 'its limit'}")
+    held = []
+    if touching:
+        held.append(f"in contact: {', '.join(touching)}")
+    if past:
+        held.append(f"past a limit: {', '.join(past)}")
+    if not parts and not held:
+        return f" (its largest one-step rise in the step to t = {t_jump:.6g} s, nothing in contact)"
+    text = f" (its largest one-step rise in the step to t = {t_jump:.6g} s"
+    if parts:
+        text += ", where " + " and ".join(parts)
+    if held:
+        text += ("; also " if parts else ", while ") + "; ".join(held)
+    return text + ")"
 
 
 def _energy_rise(model, p, sw, outputs, x, t=None):
@@ -646,3 +800,4 @@ def _user_level():
     while frame is not None and frame.f_globals.get("__name__", "").startswith("eomc"):
         frame, level = frame.f_back, level + 1
     return level
+

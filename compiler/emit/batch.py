@@ -42,6 +42,15 @@ which ``NAME_rhs_groups`` calls on pairs of groups.  Why: a pass carries each li
 the next, a chain of dependent operations whose latency (pass 2's pivot division on it) bounds
 one group; two groups' chains overlap (cart n = 40, 4 lanes: 442 -> 336 ns a state).
 
+The limb routines' rhs (compiler/tree/limbs.py: a humanoid's twin legs and arms, one pair of
+routines per limb shape running its limbs in turns) is rewritten the same way: each routine
+``NAME_limbK_in``/``_out`` and its parts become ``NAME_vlimbK_*`` over vectors (a limb's slots,
+its parent's velocity and acceleration, its T, f, pivots and stored values; its table of numbers,
+``kk``, stays doubles), and the rhs's pivot sum and threshold are vectors, its per-pivot test a
+guard per lane.  Why: on G1 the routines are what made the scalar rhs faster than the
+straight-line one (instruction cache), and the lanes of the straight-line rhs sat at the 3x line
+(2.67-3.26x); with the routines in lanes 3.1-3.6x (benchmarks/results/rhs_batch.md).
+
 Where a C compiler lacks GNU vectors (``__GNUC__`` undefined), or the CPU lacks the lanes'
 instruction set (``__builtin_cpu_supports``), or the body has a statement shape this
 rewrite does not know, ``NAME_rhs_batch`` loops the scalar ``NAME_rhs`` over the states: the
@@ -63,13 +72,15 @@ from .target import without_cpu_dispatch
 
 __all__ = ["batch_code", "batch_rhs", "Unsupported", "SIMD_PRELUDE", "VECTOR_TRIG", "TILE_BYTES", "SCALAR_TILE_BYTES"]
 
-_TEMP_LINE = re.compile(r"^(\s+)const double (t\d+|o\d+|piv) = (.*);$")
-_STORE_LINE = re.compile(r"^(\s+)([A-Za-z_]\w*)\[(\d+|\d+ \+ k|k|\d+ \* k \+ \d+)\] = (.*);$")
+# t<k>_<i>: limb i's copy of a temporary (tree/limbs.py: a limb shape's routine runs its limbs line by line in turns)
+_TEMP_LINE = re.compile(r"^(\s+)const double (t\d+(?:_\d+)?|o\d+|piv) = (.*);$")
+_STORE_LINE = re.compile(r"^(\s+)([A-Za-z_]\w*)\[(-?\d+|\d+ \+ k|k|\d+ \* k \+ \d+)\] = (.*);$")
 # the looped rhs (compiler/tree/chain_loop.py: ABA's passes as loops over a chain's links): its
 # carried values and the pivots' sum and least, declared with their start values and assigned
 # in every pass (vectors in lanes); pass 2 runs its links backwards; the links' sin and cos
 # come from NAME_chain_sincos into an array before the passes
-_VAR_NAME = r"(?:c[vTfa]\d+|dsum|dmin)"
+# (thr: the limb routines' rhs's pivot threshold, assigned once: tree/limbs.py)
+_VAR_NAME = r"(?:c[vTfa]\d+|dsum|dmin|thr)"
 _VAR_DECLS = re.compile(rf"^(\s+)double ((?:{_VAR_NAME} = [^,;]+, )*{_VAR_NAME} = [^,;]+);$")
 _VAR_SET = re.compile(rf"^(\s+)({_VAR_NAME}) (=|\+=) (.*);$")
 _RUNNING_MIN = re.compile(r"^(\s+)(dmin) = (\w+) < \2 \? \3 : \2;$")
@@ -101,9 +112,17 @@ _FINITE_RETURN = re.compile(r"^(\s+)return [A-Za-z_]\w*_finite(?:_wide)?\((?:xdo
 _IF_LINE = re.compile(r"^(\s+)if \((.*)\) \{$")
 _ELSE_LINE = re.compile(r"^(\s+)\} else \{$")
 _RELATION = re.compile(r" (>=|<=|>|<) ")
-_PART_HEAD = re.compile(r"^static EOMC_NOINLINE void ([A-Za-z_]\w*)\((.*)\)$")
+_PART_HEAD = re.compile(r"^static (?:EOMC_NOINLINE|EOMC_NEAR) void ([A-Za-z_]\w*)\((.*)\)$")
+# the limb routines (compiler/tree/limbs.py): a shape's routine running its limbs in turns, its table of numbers
+_LIMB_HEAD = re.compile(r"^static void ([A-Za-z_]\w*_limb\d+_(?:in|out))\((.*)\)$")
+_LIMB_TABLE = re.compile(r"^static const double [A-Za-z_]\w*_limb_k\d+\[\d+\] = \{[^}]*\};\s*$")
+# the limb routines' rhs: its arrays (the limbs' velocities, accelerations, T, f, pivots, stored values,
+# the pivots' sum) and threshold; the pivots summed in a loop
+_LIMB_DECLS = re.compile(r"^(\s+)double ((?:l[A-Za-z]+\[\d+\], )+)lS\[1\] = \{0\.0\}, thr;$")
+_SUM_LOOP = re.compile(r"^(\s+)for \(k = 0; k < \d+; k\+\+\) ([A-Za-z_]\w*)\[0\] \+= ([A-Za-z_]\w*)\[k\];$")
+_VOID_NAME = re.compile(r"^\s+\(void\)[A-Za-z_]\w*;$")
 _ARRAY_REF = re.compile(r"\b([A-Za-z_]\w*)\[")
-_TEMP = re.compile(rf"\b(?:t\d+|o\d+|piv|{_VAR_NAME})\b")     # a temporary (or the looped rhs's variable)
+_TEMP = re.compile(rf"\b(?:t\d+(?:_\d+)?|o\d+|piv|{_VAR_NAME})\b")     # a temporary (or the looped rhs's variable)
 _CALL = re.compile(r"\b([A-Za-z_]\w*)\(")
 _IDENT = re.compile(r"\b([A-Za-z_]\w*)\b")
 
@@ -491,6 +510,7 @@ class _Rewriter:
         self.nbranch = 0            # branches so far (their masks' names)
         self.masked = set()         # arrays stored under a mask (the other lanes' old values read)
         self.sizes = {}             # local arrays' declared sizes
+        self.pairs_read = {}        # a pairs' table function -> the outputs it zeroes for full = 0 (_pairs_read)
 
     @property
     def mask(self):
@@ -546,7 +566,7 @@ class _Rewriter:
         between the two calls would otherwise keep the compiler from sharing them)."""
         seen = {"sin": set(), "cos": set()}
         for line in lines:
-            for fn, arg in re.findall(r"\b(sin|cos)\((x\[\d+\]|t\d+)\)", line):
+            for fn, arg in re.findall(r"\b(sin|cos)\((xq?\d*\[\d+\]|t\d+(?:_\d+)?)\)", line):
                 seen[fn].add(arg)
         self.paired = seen["sin"] & seen["cos"]
         self.sincos = {}
@@ -737,8 +757,15 @@ class _Rewriter:
             if _CALL.search(e):
                 raise Unsupported(f"calls {fn}() on a call")
         nout = self.sizes[array] - int(first)
+        # full = 0: the function's readers read only the wrenches, which it zeroes itself
+        # (compiler/contact/table.py: full is 0 when no read is past them), so only those go into
+        # the lanes; the rest of out_ (a near pair's point and depth) is scratch, as in the scalar
+        # code.  Why: the humanoid's table has 1059 outputs and 78 wrenches: zeroing and putting the
+        # rest cost 4 x 8.5 kB of memset and 1059 lane puts per call of 4 states.
+        nput = self.pairs_read.get(fn) if full == "0" else None
+        nput = nput if nput is not None and nput <= nout else None
         inputs = ", ".join(self.lanes(e) for e in elems)
-        zero = (f"{indent}for (l_ = 0; l_ < {nout}; l_++) {array}[{first} + l_] = (eomc_vd){{0}};\n"
+        zero = (f"{indent}for (l_ = 0; l_ < {nout if nput is None else nput}; l_++) {array}[{first} + l_] = (eomc_vd){{0}};\n"
                 + (f"{indent}for (l_ = 0; l_ < {nslopes}; l_++) {slopes}[{slopes_first} + l_] = (eomc_vd){{0}};\n"
                    if slopes else ""))
         into = (f"{indent}    double slo_[{nslopes}];   /* the loop zeroes it first */\n" if slopes else "",
@@ -751,16 +778,17 @@ class _Rewriter:
                 f"{indent}    const double in_[{nin}] = {{{inputs}}};\n"
                 f"{indent}    double out_[{nout}];\n"
                 f"{into[0]}"
-                f"{indent}    __builtin_memset(out_, 0, sizeof out_);   /* what a far pair leaves unwritten */\n"
-                f"{indent}    {name} = {fn}(in_, &{pars}[{offset}], {full}, out_{into[1]});\n"
-                f"{indent}    {self.prefix}_put_lane({array} + {first}, out_, {nout}, l_);\n"
+                + (f"{indent}    __builtin_memset(out_, 0, sizeof out_);   /* what a far pair leaves unwritten */\n"
+                   if nput is None else "")
+                + f"{indent}    {name} = {fn}(in_, &{pars}[{offset}], {full}, out_{into[1]});\n"
+                f"{indent}    {self.prefix}_put_lane({array} + {first}, out_, {nout if nput is None else nput}, l_);\n"
                 f"{into[2]}"
                 f"{indent}}}")
 
     def lanes(self, expr):
         """``expr`` read at lane ``l_``: vector temporaries and vector arrays subscripted."""
         expr = _TEMP.sub(lambda m: f"{m.group(0)}[l_]" if m.group(0) in self.vtemps else m.group(0), expr)
-        return re.sub(r"\b([A-Za-z_]\w*)\[(\d+)\]",
+        return re.sub(r"\b([A-Za-z_]\w*)\[(\d+|k)\]",
                       lambda m: f"{m.group(0)}[l_]" if m.group(1) in self.vec_arrays else m.group(0), expr)
 
 
@@ -796,6 +824,17 @@ def _statement(rw, line, parts_renamed):
         return line
     if line.strip() in ("(void)t;", "(void)work;"):
         return line if line.strip() == "(void)t;" else None
+    if _VOID_NAME.match(line):
+        return line      # a limb routine's (void)xq0; of an argument it does not read
+    m = _LIMB_DECLS.match(line)
+    if m:
+        names = re.findall(r"([A-Za-z_]\w*)\[\d+\]", m.group(2))
+        rw.vec_arrays.update(names + ["lS"])
+        rw.vtemps.add("thr")
+        return f"{m.group(1)}eomc_vd {m.group(2)}lS[1] = {{{{0}}}}, thr;"
+    m = _SUM_LOOP.match(line)
+    if m and m.group(2) in rw.vec_arrays and m.group(3) in rw.vec_arrays and rw.mask is None:
+        return line      # the limbs' pivots summed, lane by lane in the scalar order
     m = _SCRATCH_DECL.match(line)
     if m:
         rw.vec_arrays.add(m.group(2))
@@ -907,14 +946,22 @@ def _param_list(params, rw):
         if not m:
             raise Unsupported(f"parameter {param!r}")
         const, restrict, name = m.groups()
-        if name in rw.scalar_arrays:     # shared parameters: one double for every lane
+        if name in rw.scalar_arrays or re.fullmatch(r"kk\d*", name):
+            # shared parameters: one double for every lane; a limb's table of numbers (tree/limbs.py)
+            rw.scalar_arrays.add(name)
             out.append(param)
-        elif name in ("x", "r", "F", "w", "p", "P", "Gm", "an", "out", "G_", "PT_") or name.startswith("S"):
+        elif (name in ("x", "r", "F", "w", "p", "P", "Gm", "an", "out", "G_", "PT_") or name.startswith("S")
+              or re.fullmatch(_LIMB_ARGS, name)):
             rw.vec_arrays.add(name)
             out.append(f"{const or ''}eomc_vd *{restrict or ''}{name}")
         else:
             raise Unsupported(f"parameter {param!r}")
     return ", ".join(out)
+
+
+# the limb routines' arguments (tree/limbs.py: a limb's slots, its parent's velocity and acceleration, its
+# T, f, pivots, stored values and u'; numbered per limb in a shape's routine) and the rhs's arrays they fill
+_LIMB_ARGS = r"(?:xq|xu|pp|rr|vP|T|f|D|L|aP|ud)\d*|l(?:T|f|S|D|L|vP|aP)"
 
 
 def _functions(text):
@@ -1039,6 +1086,17 @@ def vector_kernels(name, helpers_text):
            "#define EOMC_VLIT(c) ((eomc_vd){0} + (c))\n\n" + text, names
 
 
+_PAIRS_ZERO = re.compile(r"^static double (eomc_pairs\w*)\(const double \*in, const double \*pars, int full, "
+                         r"double \*out[^)]*\)\n\{\n(?:.*\n){0,6}?\s+for \(k = 0; k < \(full \? \d+ : (\d+)\); \+\+k\) "
+                         r"out\[k\] = 0\.0;$", re.M)
+
+
+def _pairs_read(kernels):
+    """{pairs' table function: the outputs it zeroes when called with full = 0} from the helper
+    code (compiler/contact/table.py's loop: ``for (k = 0; k < (full ? noutput : nwrench); ++k)``)."""
+    return {m.group(1): int(m.group(2)) for m in _PAIRS_ZERO.finditer(kernels or "")}
+
+
 def batch_rhs(name, lines, parts, dynamics="", fn="rhs", out="xdot", kernels=""):
     """(C code of the lane functions, helper names used) for the scalar rhs whose body is
     ``lines`` and whose sub-functions are ``parts`` (split_body's output); ``dynamics``: the
@@ -1080,21 +1138,30 @@ def batch_rhs(name, lines, parts, dynamics="", fn="rhs", out="xdot", kernels="")
         out_parts.append(text)
         renamed.update(kernel_names)
     for part in parts:
+        if fn == "rhs" and _LIMB_TABLE.match(part):
+            continue        # a limb's numbers (tree/limbs.py), defined before the scalar rhs: read as they are
         head, *body = part.rstrip("\n").split("\n")
         m = _PART_HEAD.match(head)
-        if not m or body[0] != "{" or body[-1] != "}":
+        limb = _LIMB_HEAD.match(head) if fn == "rhs" and not m else None
+        if not (m or limb) or body[0] != "{" or body[-1] != "}":
             raise Unsupported(f"sub-function {head[:60]!r}")
-        old = m.group(1)
-        new = (old.replace(f"_{fn}_part", f"_{fn}_batch_part", 1) if f"_{fn}_part" in old else
+        old = (m or limb).group(1)
+        new = (old.replace(f"{name}_limb", f"{name}_vlimb", 1) if f"{name}_limb" in old else
+               old.replace(f"_{fn}_part", f"_{fn}_batch_part", 1) if f"_{fn}_part" in old else
                old.replace("_dynamics", "_batch_dynamics", 1))
         renamed[old] = new
         rw = _Rewriter(name, (), shared, used)
-        params = _param_list(m.group(2), rw)
+        params = _param_list((m or limb).group(2), rw)
         rw.pair_scan(body)
         stmts = _zero_masked([_statement(rw, line, renamed) for line in body[1:-1]], rw)
-        out_parts.append("\n".join([f"static EOMC_NOINLINE EOMC_VTARGET void {new}({params})", "{"]
+        if rw.blocks:
+            raise Unsupported(f"a block not closed in {old}")
+        # a limb shape's routine: inlined or not as the compiler sees fit, as the scalar one
+        attr = "static EOMC_VTARGET void" if limb else "static EOMC_NOINLINE EOMC_VTARGET void"
+        out_parts.append("\n".join([f"{attr} {new}({params})", "{"]
                                    + [s for s in stmts if s is not None] + ["}"]))
     rw = _Rewriter(name, ("x", "r", out) + (() if shared else ("p",)), shared, used)
+    rw.pairs_read = _pairs_read(kernels)
     rw.pair_scan(lines)
     stmts = [_statement(rw, line, renamed) for line in lines]
     if rw.blocks:

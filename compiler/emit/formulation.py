@@ -70,9 +70,8 @@ class Formulation:
             raise ModelError(KANE_IMPLICIT)
         return False
 
-    def symbolic(self, formed, layout, functions, outputs=None, events=None, rhs_lanes=False):
-        """The unoptimized :class:`~.symbolic.Symbolic` program of ``functions``.  ``rhs_lanes``:
-        NAME_rhs_batch is generated from the rhs's code (the recursive form then writes no limb routines)."""
+    def symbolic(self, formed, layout, functions, outputs=None, events=None):
+        """The unoptimized :class:`~.symbolic.Symbolic` program of ``functions``."""
         return build_symbolic(formed, layout, functions, outputs, events)
 
     def body(self, fn, ctx, prog, sym, layout, nx):

@@ -273,8 +273,6 @@ def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions
     # NAME_implicit with its energy slot for the lanes rollout's watch (tree/lower.implicit_layout):
     # asked only of the formulation that builds NAME_implicit (builds_implicit above)
     lanes = {"implicit_energy": True} if "implicit_batch" in fns else {}
-    if "rhs_batch" in fns:   # the rhs's lanes rewrite its code: no limb routines then (tree/limbs.py)
-        lanes["rhs_lanes"] = True
     sym = formulation.symbolic(formed, layout, base, outputs, events, **lanes)
     if getattr(sym, "function_groups", None):   # this model's own choice (tree/lower.py: the loop kernel or not)
         groups = sym.function_groups

@@ -98,9 +98,8 @@ class Recursive(Formulation):
             return programs
         return {**programs, "implicit": slopes_into(programs["implicit"], "imp")[0]}
 
-    def symbolic(self, formed, layout, functions, outputs=None, events=None, rhs_lanes=False, implicit_energy=False):
-        return build_tree_symbolic(self.tree, formed, layout, functions, outputs, events, implicit_energy,
-                                   rhs_lanes=rhs_lanes)
+    def symbolic(self, formed, layout, functions, outputs=None, events=None, implicit_energy=False):
+        return build_tree_symbolic(self.tree, formed, layout, functions, outputs, events, implicit_energy)
 
     def body(self, fn, ctx, prog, sym, layout, nx):
         if fn == "rhs" and sym.chain_loop is not None:

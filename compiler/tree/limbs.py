@@ -34,6 +34,9 @@ Chosen (:func:`limb_plan`) for an open tree without contacts, guards or extra st
 shapes of at least LIMB_MIN_SHAPE bodies hold at least LIMB_MIN_BODIES bodies in all; every
 other tree keeps the straight-line rhs, byte for byte.  The rhs's sub-functions then take
 near pointers whatever their length (split.WINDOW_MIN is for a whole rhs that fits the L1i).
+A build with rhs_batch keeps the routines: its lanes run them too (``NAME_vlimb*``,
+compiler/emit/batch.py; G1, 4 lanes: 3.1-3.6x this rhs against the straight-line lanes' 2.67-3.26x,
+benchmarks/results/rhs_batch.md).
 """
 from collections import Counter
 from dataclasses import dataclass
@@ -172,7 +175,7 @@ def limb_plan(tree, bodies, defs, layout, functions, min_bodies=None):
     if min_bodies is None:
         return None
     nq, nu = len(tree.coordinates), len(tree.speeds)
-    if ("rhs" not in functions or "rhs_batch" in functions or len(layout.x) != nq + nu
+    if ("rhs" not in functions or len(layout.x) != nq + nu
             or any(ld.frame == "contact" for ld in tree.loads)):
         return None
     memo = {}

@@ -208,12 +208,11 @@ def _lowered_bodies(tree, layout, rec, memo=None, absent=None):
     return bodies, gravity
 
 
-def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=None, implicit_energy=False,
-                        rhs_lanes=False):
+def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=None, implicit_energy=False):
     """Symbolic (as :func:`~eomc.compiler.emit.symbolic.build_symbolic`) from the recursions.
     ``implicit_energy``: NAME_implicit ends with the energy output (:func:`implicit_layout`).
-    ``rhs_lanes``: NAME_rhs_batch is wanted: the rhs is not split into limb routines (tree/limbs.py), whose
-    code its lanes rewrite does not know (a looped chain's it does: tree/chain_loop.py stays)."""
+    NAME_rhs_batch's lanes are the rhs's code rewritten (compiler/emit/batch.py), a looped chain's
+    (tree/chain_loop.py) and the limb routines (tree/limbs.py) included: its wish changes nothing here."""
     rec = Recorder()
     loops = tree_loops(tree)           # a tree closed by constraints: see .constrained
     if loops is not None:
@@ -254,8 +253,7 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
                 chain = chain_loop_plan(tree, bodies, [b.source for b in bodies], dict(rec.assignments),
                                         gravity, layout, functions)
             if loops is None and not guards and chain is None:
-                limbs = limb_plan(tree, bodies, dict(rec.assignments), layout,
-                                  (*functions, "rhs_batch") if rhs_lanes else functions)
+                limbs = limb_plan(tree, bodies, dict(rec.assignments), layout, functions)
                 if limbs is not None:
                     extra += core_results(bodies, rec, speeds, gravity, v, c, limbs)
             for k, udd, D in out:

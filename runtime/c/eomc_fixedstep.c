@@ -80,6 +80,8 @@
                                  more than this within it touches down there (see fs_onset) */
 #define LAND_FRACTION 0.01    /* fast path: a touch-down ending deeper than this * the contact's depth
                                  limit (its radius) lands deep (see fs_lands) */
+#define CHART_FACTOR 4.0      /* fast path: the configuration's residual counts this many times in the
+                                 try's ratio (see fs_chart_ratio) */
 
 size_t eomc_fs_work_size(int nx)
 {
@@ -424,7 +426,8 @@ size_t eomc_fs_implicit_work_size(int nq, int nu, int ncontact)
     return 2 * fs_layout_of(nq, nu, ncontact).size + 2 * fs_cache_size(nu, ncontact) + 2 * u * u + 8 * u
            + 4 * x + 8 + u * u / 2 + u + 2
            + u * u / 2 + u / 2 + 2
-           + 2 * u + (size_t)ncontact + 2 * (u * u / 2 + u + 2);   /* fs_pattern's bits and two own lists */
+           + 2 * u + (size_t)ncontact + 2 * (u * u / 2 + u + 2)    /* fs_pattern's bits and two own lists */
+           + (size_t)nq * u + (size_t)nq + 2;                        /* fs_nlists' two lists (ints) */
 }
 
 /* A = U D L in place (D on the diagonal, unit U above it, unit L below it): A has nonzeros
@@ -714,13 +717,16 @@ static int fs_assemble(const eomc_fs_ops *ops, const fs_layout *L, double h, con
         }
     }
     for (int c = 0; c < imp->ncontact; c++) {
-        const double *e = T + L->contact + 25 * (size_t)c;
-        const double *p = e + 1, *vp = e + 4, *K = e + 7, *C = e + 16;
-        const int *cols = imp->chain + imp->chain_start[c];
-        int m = imp->chain_start[c + 1] - imp->chain_start[c];
-        double G[9], *Cs = cache, *Kv = Cs + 9, *filled = Kv + 3, *J = filled + 1, *JKv = J + 3 * m;
-        int any = 0;
-        if (!(e[0] > 0.0)) continue;                  /* not touching: no force, no slope */
+        const double *e = T + L->contact + 25 * (size_t)c, *p, *vp, *K, *C;
+        const int *cols;
+        int m, any = 0;
+        double G[9], *Cs, *Kv, *filled, *J, *JKv;
+        if (!(e[0] > 0.0)) continue;                  /* not touching: no force, no slope (the scan
+                                                         over every contact: only the depth read) */
+        p = e + 1; vp = e + 4; K = e + 7; C = e + 16;
+        cols = imp->chain + imp->chain_start[c];
+        m = imp->chain_start[c + 1] - imp->chain_start[c];
+        Cs = cache; Kv = Cs + 9; filled = Kv + 3; J = filled + 1; JKv = J + 3 * m;
         cache = JKv + m;
         if (!*cached) {
             fs_secant_friction(K, C, Cs);
@@ -988,7 +994,41 @@ typedef struct fs_fast {
     const int *start, *anc, *start1, *anc1;   /* A's and A1's elimination lists (fs_assemble) */
     int *own, *own1;                          /* where they are made when a pair adds fill */
     int *cstart, *cols;          /* per speed, the columns of M's row that can be nonzero */
+    int *nstart, *ncol;          /* per coordinate, the columns of N's row that can be nonzero (fs_nlists) */
+    int *fstart, *fcol;          /* ... and the root free joints' columns where N is not constant */
+    double chart;                /* the last try's fs_chart_ratio (0: none) */
 } fs_fast;
+
+/* The columns of N (q' = qd + N u) that a step's products read: per row i, ncol[nstart[i] ..
+ * nstart[i + 1]) the columns k whose entry is not a constant 0 (all of them without
+ * eomc_implicit.terms_const), ascending, for the try's rate qd + N du; fcol[fstart[i] ..] the root
+ * free joints' columns whose entry is not a constant at all, in fs_chart_ratio's order, for its
+ * N(q) - N(q1).  Which entries are constants: N's slots are NaN-filled before terms_const writes
+ * the constants (NAME_implicit_const writes no non-finite one); the slots left NaN are the ones
+ * terms writes at every call.  Why: N is nq x nu but, beside a free joint's rotation, one entry a
+ * row (the gymnasium humanoid: 35 of its 529 entries are not a constant 0, and 18 of the 138 in
+ * its free joint's columns vary), and the dense rate and chart sums were ~3 % of the humanoid's
+ * and ant's checked step (perf, session 23).  The sums skip only terms that are exactly +-0
+ * (0 du[k], or c - c for a constant c) in the same order, so they are the same to the bit: a
+ * sum that starts at +0 and adds nonzero or +0 terms never meets the -0 + +0 case (and a
+ * non-finite du fails the try on x1 either way). */
+static void fs_nlists(fs_fast *q, const double *N, int known)
+{
+    const eomc_implicit *imp = q->ops->imp;
+    int nq = q->ops->nq, nu = q->ops->nu, pos = 0, fpos = 0;
+    for (int i = 0; i < nq; i++) {
+        const double *row = N + (size_t)i * nu;
+        q->nstart[i] = pos;
+        for (int k = 0; k < nu; k++)
+            if (!known || isnan(row[k]) || row[k] != 0.0) q->ncol[pos++] = k;
+        q->fstart[i] = fpos;
+        for (int f = 0; f < imp->nfree; f++)
+            for (int k = imp->free[f]; k < imp->free[f] + 6; k++)
+                if (!known || isnan(row[k])) q->fcol[fpos++] = k;
+    }
+    q->nstart[nq] = pos;
+    q->fstart[nq] = fpos;
+}
 
 static void fs_swap(double **a, double **b)
 {
@@ -1034,7 +1074,13 @@ static int fs_ahead(const fs_fast *q, double h)
  * 49 each took one whole step with cos(ry) 0.004 and 0.012 whose speeds' ratio passed (0.39, 0.13)
  * and which put the feet and hands 6.5 and 9.6 mm into the floor (Radau from the same state: 0.6
  * and 1.7 mm) and the energy up by 284 and 588 J; this ratio was 1.5 and 4.1 there, median 0.001
- * over all tries. */
+ * over all tries.  Session 23 (fixedstep.md's notes): it counts CHART_FACTOR times, and a try it fails
+ * is split further whatever halving did to it and never taken as a stick/slip step (fs_fast_advance):
+ * the humanoid's rows 2, 4 and 56 took runs of whole steps passing at 0.2-0.38 (+1 to +6 J each),
+ * row 49 whole steps failing at 0.72-0.85 taken by the stick/slip rule (+8 J each), row 46 a half-step
+ * at 9.4 taken by the halving rule after 3.3 -- near gimbal lock the ratio does not halve with the
+ * step.  Over the humanoid's 64 starts: rows flagged by the energy verdict as "the integration is
+ * wrong here" 5 -> 1, their rises 116 -> 13 J, calls +2.1 %; the ant, G1 and Go2 take the same steps. */
 static double fs_chart_ratio(const fs_fast *q, double h, const double *x)
 {
     const eomc_implicit *imp = q->ops->imp;
@@ -1044,13 +1090,14 @@ static double fs_chart_ratio(const fs_fast *q, double h, const double *x)
     if (imp->nfree <= 0) return 0.0;
     for (int i = 0; i < nq; i++) {
         double a = 0.0, d = q->x1[i] - x[i];
-        for (int f = 0; f < imp->nfree; f++)
-            for (int k = imp->free[f]; k < imp->free[f] + 6; k++)
-                a += (N0[(size_t)i * nu + k] - N1[(size_t)i * nu + k]) * u1[k];
+        for (int j = q->fstart[i]; j < q->fstart[i + 1]; j++) {   /* the free columns' varying entries */
+            int k = q->fcol[j];
+            a += (N0[(size_t)i * nu + k] - N1[(size_t)i * nu + k]) * u1[k];
+        }
         rn += a * a;
         dn += d * d;
     }
-    r = h * sqrt(rn) / (sqrt(dn) + h * h * RESID_ACCEL);
+    r = CHART_FACTOR * h * sqrt(rn) / (sqrt(dn) + h * h * RESID_ACCEL);
     return isfinite(r) ? r : INFINITY;
 }
 
@@ -1167,6 +1214,7 @@ static int fs_fast_try(fs_fast *q, double t, double h, const double *x, int chec
     double rn = 0.0, dn = 0.0;
     eomc_fs_request *rq = &q->req;
     *ratio = INFINITY;
+    q->chart = 0.0;
     if (fs_ahead(q, h)) {               /* the lanes made du and the rate (below) */
         memcpy(q->du, rq->du1, (size_t)nu * sizeof(double));
         v1 = rq->v1;
@@ -1183,7 +1231,7 @@ static int fs_fast_try(fs_fast *q, double t, double h, const double *x, int chec
         for (int i = 0; i < nq; i++) {
             const double *row = N + (size_t)i * nu;
             double v = v1 ? v1[i] : qd[i];
-            for (int k = 0; !v1 && k < nu; k++) v += row[k] * q->du[k];
+            for (int x = q->nstart[i]; !v1 && x < q->nstart[i + 1]; x++) v += row[q->ncol[x]] * q->du[q->ncol[x]];
             q->x1[i] = x[i] + h * v;
         }
         for (int k = 0; k < nu; k++) q->x1[nq + k] = u[k] + q->du[k];
@@ -1214,7 +1262,8 @@ static int fs_fast_try(fs_fast *q, double t, double h, const double *x, int chec
     }
     if (done) {                         /* the lanes: the lines below, in vector code */
         *ratio = rq->ratio;
-        *ratio = fmax(*ratio, fs_chart_ratio(q, h, x));
+        q->chart = fs_chart_ratio(q, h, x);
+        *ratio = fmax(*ratio, q->chart);
         if (*ratio <= ops->imp->split && fs_onset(q)) {   /* rare: scalar, the scalar path's bits */
             if (a_bare) {               /* the lanes made du without writing A: write it (q->bare
                                            is A1's by now: this try's answer) */
@@ -1240,7 +1289,8 @@ static int fs_fast_try(fs_fast *q, double t, double h, const double *x, int chec
     }
     *ratio = sqrt(rn) / (sqrt(dn) + h * RESID_ACCEL);
     if (!isfinite(*ratio)) *ratio = INFINITY;
-    *ratio = fmax(*ratio, fs_chart_ratio(q, h, x));
+    q->chart = fs_chart_ratio(q, h, x);
+    *ratio = fmax(*ratio, q->chart);
     /* a try that passes with a contact touching down from in touch, or from out of touch deep: also
      * with A (fs_onset) */
     if (*ratio <= ops->imp->split && fs_onset(q)) {
@@ -1503,7 +1553,7 @@ static int fs_fast_advance(void *self, double t, double h, const double *x, doub
          * inside it: the friction of a stance switching between stick and slip, which
          * halving does not mend (see fs_switched) */
         if ((size == MAX_SPLIT || located) && !s && ratio > split
-            && ratio <= FRICTION_FACTOR * split && !fs_switched(q))
+            && ratio <= FRICTION_FACTOR * split && !(q->chart > split) && !fs_switched(q))
             goto take;
         located = 0;
         /* split while the test fails and splitting helps: a linearisation error shrinks with
@@ -1511,7 +1561,8 @@ static int fs_fast_advance(void *self, double t, double h, const double *x, doub
          * regularised friction law switching between stick and slip, where its slope jumps
          * by mu F_n / v_s) is no instability, and splitting it further only costs calls.  A
          * try in which a contact lands deep is split regardless (fs_lands) */
-        if ((s || (ratio > split && (ratio > HARD_FACTOR * split || !(ratio > 0.5 * before) || fs_lands(q))))
+        if ((s || (ratio > split && (ratio > HARD_FACTOR * split || !(ratio > 0.5 * before) || q->chart > split
+                                      || fs_lands(q))))
             && size > 1) {
             if (s || (ratio > HARD_FACTOR * split && fs_switched(q) == FS_OTHER)) hard_end = pos + size;
             before = s ? INFINITY : ratio;
@@ -1655,6 +1706,7 @@ int eomc_fs_run(const eomc_fs_ops *ops, eomc_stats *st, int nx, double h, long m
         q.T = pos; pos += q.L.size;
         q.T1 = pos; pos += q.L.size;
         if (ops->imp->terms_const) {    /* the terms' constant outputs, once (terms: the rest) */
+            for (size_t i = 0; i < (size_t)nq * nu; i++) q.T[q.L.N + i] = NAN;   /* fs_nlists */
             ops->imp->terms_const(q.T);
             ops->imp->terms_const(q.T1);
         }
@@ -1710,6 +1762,11 @@ int eomc_fs_run(const eomc_fs_ops *ops, eomc_stats *st, int nx, double h, long m
             q.cstart = lists + nu + 1 + lists[nu];
             q.cols = q.cstart + nu + 1;
             fs_columns(nu, q.pat.start, q.pat.anc, q.cstart, q.cols);
+            q.nstart = (int *)((double *)lists + (uu / 2 + nu + 2) + (uu / 2 + nu / 2 + 2));
+            q.ncol = q.nstart + nq + 1;
+            q.fstart = q.ncol + (size_t)nq * nu;
+            q.fcol = q.fstart + nq + 1;
+            fs_nlists(&q, q.T + q.L.N, ops->imp->terms_const != NULL);
         }
         s = fs_loop(ops, st, n, h, maxs, t0, t1, x, slope, fs_fast_advance, &q);
         if (s == EOMC_OK && q.deep >= 0) s = EOMC_PENETRATED;

@@ -31,6 +31,7 @@
 #include <float.h>
 #include <math.h>
 #include <string.h>
+#include <stdint.h>
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
@@ -2856,7 +2857,104 @@ typedef struct fs_glue {
     int watch;               /* eomc_options.watch_output - 1, or -1: none */
     eomc_rhs_fn wfn;         /* eomc_options.watch_fn (its out[0]), or NULL: m->outputs */
     double *wout;            /* its outputs (noutput) */
+    int nspring;             /* eomc_options.nspring, .spring */
+    const eomc_spring *spring;
+    int total;               /* the total's watch: 0 not started, 1 on, -1 not known (stats NaN) */
+    double prev, run_lo, t_run_lo, jump, t_jump;   /* its last value, running min, and the largest
+                                one-step rise since that min (and the step's end) */
 } fs_glue;
+
+/* One knot of an eomc_spring's table: the double whose bits are (base + k) << (52 - bits). */
+static double spring_knot(const eomc_spring *s, long long k)
+{
+    uint64_t b = (uint64_t)(s->base + k) << (52 - s->bits);
+    double d;
+    memcpy(&d, &b, sizeof d);
+    return d;
+}
+
+/* The stored energy of limit spring s at state x (eomc_spring: p[stiffness] * S(d), 0 inside
+ * the range), or NAN when not known (past its table, another width, a non-finite depth). */
+static double spring_energy(const eomc_spring *s, const double *x, const double *p)
+{
+    double d = s->sign * (x[s->state] - p[s->bound]), K = p[s->stiffness], d0, d1, S0, S1, f0, f1, h, u, v;
+    uint64_t b;
+    long long k;
+    if (isnan(d)) return NAN;
+    if (d <= 0.0 || !(K > 0.0)) return 0.0;     /* limit_energy.stored(): 0 for K <= 0 */
+    if (p[s->width] != s->E) return NAN;
+    memcpy(&b, &d, sizeof b);
+    k = (long long)(b >> (52 - s->bits)) - s->base;
+    if (k >= (long long)s->n - 1) return NAN;
+    if (k < 0) {
+        d0 = S0 = f0 = 0.0;
+        d1 = spring_knot(s, 0);
+        S1 = s->S[0];
+        f1 = s->f[0];
+    } else {
+        d0 = spring_knot(s, k);
+        d1 = spring_knot(s, k + 1);
+        S0 = s->S[k];
+        S1 = s->S[k + 1];
+        f0 = s->f[k];
+        f1 = s->f[k + 1];
+    }
+    h = d1 - d0;
+    u = (d - d0) / h;
+    v = 1.0 - u;
+    return K * (v * v * ((1.0 + 2.0 * u) * S0 + u * h * f0) + u * u * ((3.0 - 2.0 * u) * S1 - v * h * f1));
+}
+
+/* The total's watch (eomc_stats.watch_total0 ... watch_t_jump) at (t, x) with the output's value v. */
+static void fs_watch_total(fs_glue *g, double t, const double *x, double v)
+{
+    eomc_stats *st = g->c->st;
+    double T = v;
+    int k;
+    if (g->total < 0) return;
+    for (k = 0; k < g->nspring; k++)
+        T += spring_energy(&g->spring[k], x, g->c->p);
+    if (!isfinite(T)) {
+        g->total = -1;
+        st->watch_total0 = st->watch_total_lo = st->watch_total_hi = NAN;
+        st->watch_rise = st->watch_low = st->watch_t_low = st->watch_peak = st->watch_t_peak = NAN;
+        st->watch_t_jump = NAN;
+        return;
+    }
+    if (!g->total) {
+        g->total = 1;
+        st->watch_total0 = st->watch_total_lo = st->watch_total_hi = T;
+        st->watch_rise = 0.0;
+        st->watch_low = st->watch_peak = T;
+        st->watch_t_low = st->watch_t_peak = t;
+        g->run_lo = T;
+        g->t_run_lo = t;
+        g->jump = -INFINITY;
+        g->prev = T;
+        return;
+    }
+    if (T < g->run_lo) {
+        g->run_lo = T;
+        g->t_run_lo = t;
+        g->jump = -INFINITY;
+    } else {
+        if (T - g->prev > g->jump) {
+            g->jump = T - g->prev;
+            g->t_jump = t;
+        }
+        if (T - g->run_lo > st->watch_rise) {
+            st->watch_rise = T - g->run_lo;
+            st->watch_low = g->run_lo;
+            st->watch_t_low = g->t_run_lo;
+            st->watch_peak = T;
+            st->watch_t_peak = t;
+            st->watch_t_jump = g->t_jump;
+        }
+    }
+    g->prev = T;
+    if (T < st->watch_total_lo) st->watch_total_lo = T;
+    if (T > st->watch_total_hi) st->watch_total_hi = T;
+}
 
 /* eomc_options.watch_output: output g->watch at (t, x) into the run's range (stats watch_lo,
  * watch_hi); a failed or non-finite evaluation makes the range NaN for good (no verdict, as
@@ -2881,10 +2979,12 @@ static void fs_watch(fs_glue *g, double t, const double *x, const double *energy
     }
     if (!isfinite(v)) {
         st->watch_lo = st->watch_hi = NAN;
+        fs_watch_total(g, t, x, NAN);
         return;
     }
     if (v < st->watch_lo) st->watch_lo = v;
     if (v > st->watch_hi) st->watch_hi = v;
+    fs_watch_total(g, t, x, v);
 }
 
 /* The run's inputs at t before a model call (as frhs: grid or callback); an eomc_status. */
@@ -2978,7 +3078,7 @@ static int fs_accept(void *g, double t, double tn, double *x, const double *slop
 static int run_implicitfast(ctx *c, const eomc_options *o, proj *pj, double t0, double t1,
                             double *x, outw *ow, double **pos)
 {
-    fs_glue g = {c, pj, ow, o->implicit, -1, NULL, NULL};
+    fs_glue g = {c, pj, ow, o->implicit, -1, NULL, NULL, 0, NULL, 0, 0.0, 0.0, 0.0, 0.0, NAN};
     eomc_fs_ops ops = {&g, fs_rhs, fs_jac, fs_accept, NULL, NULL, 0, 0, NULL};
     int fast = fs_fast_ok(c, o, pj), s;
     c->st->watch_lo = c->st->watch_hi = NAN;
@@ -2986,6 +3086,8 @@ static int run_implicitfast(ctx *c, const eomc_options *o, proj *pj, double t0, 
         g.watch = o->watch_output - 1;
         g.wfn = o->watch_fn;
         g.wout = take(pos, (size_t)c->m->noutput);
+        g.nspring = o->spring ? o->nspring : 0;
+        g.spring = o->spring;
         c->st->watch_lo = INFINITY;
         c->st->watch_hi = -INFINITY;
         fs_watch(&g, t0, x, NULL);
@@ -3098,6 +3200,9 @@ static int integrate_core(const eomc_model *m, const eomc_options *opt,
     stats->t = t0;
     stats->t_fail = NAN;
     stats->watch_lo = stats->watch_hi = NAN;
+    stats->watch_total0 = stats->watch_total_lo = stats->watch_total_hi = NAN;
+    stats->watch_rise = stats->watch_low = stats->watch_t_low = stats->watch_peak = stats->watch_t_peak = NAN;
+    stats->watch_t_jump = NAN;
     s = check_args(m, opt, t0, t1, x0, n_eval, t_eval, x_out);
     if (s == EOMC_OK) s = check_extras(m, fb, ev);
     if (s == EOMC_OK) s = check_stagger(m, opt, sg, n_eval);

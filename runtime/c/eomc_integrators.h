@@ -119,6 +119,28 @@ typedef struct eomc_implicit {
     const int *energy_apart;
 } eomc_implicit;
 
+/* One joint limit's spring whose stored energy the watched output leaves out (MJCF's: unilateral
+ * and held, no closed-form potential; runtime/limit_energy.spring_table builds it): the energy
+ * watch (eomc_options.watch_output) adds p[stiffness] * S(d) at the limit's depth d = sign * (x[state]
+ * - p[bound]) > 0, S the stored energy at K = 1 by cubic Hermite between knots that hold S and its
+ * slope (the spring's force at rest) exactly.  Knot k is the double whose bits are (base + k) <<
+ * (52 - bits): 2^bits knots an octave (relative spacing <= 2^-bits), found from d's own bits with no
+ * log.  Below knot 0, Hermite from S(0) = S'(0) = 0; past knot n - 1, or with p[width] != E (the
+ * width the table was built for), the total is not known: the watch's rise is NaN for the run. */
+typedef struct eomc_spring {
+    int state;           /* x index of the joint's coordinate */
+    int bound;           /* parameter index of the limit (limit_lo_ / limit_hi_) */
+    int stiffness;       /* parameter index of limit_k_ (S scales with it) */
+    int width;           /* parameter index of limit_e_ */
+    double sign;         /* +1: an upper limit (d = q - bound), -1: a lower one (d = bound - q) */
+    double E;            /* the width S was built for */
+    int bits;            /* knots an octave: 2^bits */
+    long long base;      /* knot 0's bits >> (52 - bits) */
+    int n;               /* knots (>= 2) */
+    const double *S;     /* n: the stored energy at the knots (K = 1) */
+    const double *f;     /* n: its slope there */
+} eomc_spring;
+
 /* The run failed its physics: a contact went deeper than eomc_implicit.depth_limit (an
  * integrator status beside eomc_status's; x_last holds the state that was too deep). */
 #define EOMC_PENETRATED 10
@@ -156,6 +178,8 @@ typedef struct eomc_options {
                             output alone, bit for bit the outputs' value, a fraction of their
                             cost); NULL: m->outputs.  With implicit->energy the fast path reads
                             that value at each step's end from the terms it made there */
+    int nspring;         /* with watch_output > 0: the limit springs the output leaves out, whose */
+    const eomc_spring *spring;  /* stored energy the watch adds to it (the total); 0, NULL: none */
 } eomc_options;
 
 typedef struct eomc_stats {
@@ -176,6 +200,15 @@ typedef struct eomc_stats {
                             BDF: steps passed over one (it does not end steps there) */
     double watch_lo, watch_hi; /* eomc_options.watch_output's running min and max (NaN: not
                             watched, or the output was not finite or failed somewhere) */
+    /* The watch's total (the output plus eomc_options.spring's stored energy) over the start and
+       every kept step's end: its value at the start and its range (the energy verdict's scale),
+       its largest rise above its running minimum (what a passive model's total never does:
+       runtime/switching.energy_verdict), from watch_low at watch_t_low to watch_peak at
+       watch_t_peak, and watch_t_jump, the end of the step within that rise whose one-step rise was
+       the largest (where the verdict names what touched down).  NaN: not watched, or not known
+       (as watch_lo; or a spring past its table) */
+    double watch_total0, watch_total_lo, watch_total_hi;
+    double watch_rise, watch_low, watch_t_low, watch_peak, watch_t_peak, watch_t_jump;
 } eomc_stats;
 
 /* Doubles of work buffer eomc_integrate needs for this model and method. */

@@ -231,3 +231,70 @@ def test_free_joint_tumbling_past_gimbal_lock_keeps_its_orientation(tmp_path, ry
         warnings.simplefilter("ignore")            # implicit Euler's energy drift in free flight, said
         fs = m.simulate(x0, (0.0, 1.0), method="implicitfast", dt=0.005)
     assert np.abs(_rotation(fs.x[-1], names) - _rotation(ref.x[-1], names)).max() < 0.015
+
+
+TUMBLER_ARM = """<mujoco model="tumbler_arm">
+  <option timestep="0.005" gravity="0 0 0"/>
+  <worldbody>
+    <geom name="floor" type="plane" size="1 1 0.1"/>
+    <body name="box" pos="0 0 5">
+      <freejoint name="root"/>
+      <geom name="box" type="box" size="0.3 0.1 0.05" mass="1"/>
+      <body name="arm" pos="0.3 0 0">
+        <joint name="elbow" type="hinge" axis="0 1 0"/>
+        <geom name="arm" type="capsule" fromto="0 0 0 0.25 0 0" size="0.02" mass="0.2"/>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_n_products_skip_only_the_constant_zeros_of_n(tmp_path):
+    """The fast path's rate qd + N du and fs_chart_ratio's N(q) - N(q1) read only the entries of N
+    that are not constant zeros (eomc_fixedstep.c fs_nlists: found once per run from
+    NAME_implicit_const's outputs; a term left out is exactly +-0).  Oracle: the same run with
+    NAME_implicit whole and no terms_const (every output then counts as varying: the dense
+    sums): the same trajectory bit for bit and the same calls, on a box with a hinged arm tumbling
+    past gimbal lock at 5 ms (the chart ratio splits steps there).  A list that also left out N's
+    constant ones (the hinge's row: one entry, 1) or the varying entries of the free joint's
+    columns would change the trajectory or the calls."""
+    from eomc.compiler.mjcf.model import MjcfModel
+    from eomc.runtime.simulate import implicit_terms
+    path = tmp_path / "tumbler_arm.xml"
+    path.write_text(TUMBLER_ARM)
+    m = eomc.compile(MjcfModel(path), name="tumbler_arm", cache_dir=tmp_path, progress=False)
+    names = list(m.state_names)
+    ffi, lib = m.ffi, m.model_lib
+    layout = m.metadata["implicit"]["layout"]
+    base = implicit_terms(m)
+    assert base.nfree == 1 and base.terms_const != ffi.NULL
+    marked = np.full(layout["size"], np.nan)
+    getattr(lib, f"{m.name}_implicit_const")(ffi.from_buffer("double[]", marked))
+    N = marked[layout["N"]:layout["N"] + m.nq * m.nu].reshape(m.nq, m.nu)
+    free = slice(base.free[0], base.free[0] + 6)
+    elbow = N[names.index("q_elbow")]
+    assert np.count_nonzero(elbow) == 1 and not np.isnan(elbow).any()       # one constant 1, the rest 0
+    assert np.isnan(N[names.index("q_root_rx"), free]).any()                 # varying: summed
+    x0 = np.zeros(m.nx)
+    x0[names.index("q_root_z")] = 5.0
+    x0[names.index("q_root_ry")] = 1.3
+    x0[[names.index(f"u_root_w{a}") for a in "xyz"]] = (0.05, 2.0, 0.05)
+    x0[names.index("u_elbow")] = 1.0
+    runs = []
+    for whole in (False, True):
+        if whole:
+            keep = m.__dict__["_implicit_struct"]
+            st = ffi.new("eomc_implicit *")
+            st.terms = ffi.cast("eomc_mat_fn", ffi.addressof(lib, f"{m.name}_implicit"))
+            st.terms_const = ffi.NULL
+            st.ncontact, st.chain_start, st.chain, st.parent = base.ncontact, base.chain_start, base.chain, base.parent
+            st.nfree, st.free, st.work_len, st.split = base.nfree, base.free, base.work_len, base.split
+            m._implicit_struct = (st, keep, keep[-1])
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")            # implicit Euler's energy drift in free flight
+            runs.append(m.simulate(x0, (0.0, 1.0), method="implicitfast", dt=0.005))
+    a, b = runs
+    assert a.stats["nfev"] > 201                       # split steps: the ratio decides here
+    assert a.stats["nfev"] == b.stats["nfev"] and a.stats["nlu"] == b.stats["nlu"]
+    assert np.array_equal(a.x.view(np.int64), b.x.view(np.int64))

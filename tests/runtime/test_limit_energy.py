@@ -47,3 +47,31 @@ def test_stored_along_is_stored_at_each_depth():
         want = [stored(d, 693.0, 3e-4, *shape) if np.isfinite(d) else 0.0 for d in r]
         assert np.allclose(got, want, rtol=1e-12, atol=0.0), (shape, got, want)
         assert got[-1] == 0.0 and np.all(got[:2] == 0.0) and np.all(got[2:-1] > 0.0)
+
+
+@pytest.mark.parametrize("E,push,hold", [(3e-4, 0.1, (19.0, 1e-3)), (3e-4, 0.1, (1.03, 1e-3)),
+                                         (1e-2, 0.1, (5.3, 1e-3)), (3e-4, 0.0, None), (1e-2, 0.0, None)])
+def test_the_watchs_spring_table_is_stored_within_its_interpolation(E, push, hold):
+    """The C energy watch's table (eomc_spring: cubic Hermite of stored() between knots 1/16 of an
+    octave apart, spring_table) against stored() over depths from 1e-7 to 10 (and its slope against
+    the law at rest): within 3e-7 of stored() past one width, 1e-10 (K = 1) absolutely anywhere;
+    0 inside the range; NaN past its reach.  Measured: 1.9e-7 and 4.6e-11 at worst."""
+    from eomc.runtime.limit_energy import SPRING_BITS, SPRING_REACH, spring_energy, spring_table
+    base, S, f = spring_table(E, push, hold)
+    rng = np.random.default_rng(7)
+    d = np.exp(rng.uniform(np.log(1e-7), np.log(10.0), 2000))
+    ref = np.array([stored(x, 1.0, E, push, hold) for x in d])
+    got = spring_energy(d, 1.0, E, base, S, f)
+    assert np.all(np.abs(got - ref) <= 1e-10)
+    past = d > E
+    assert np.all(np.abs(got[past] - ref[past]) <= 3e-7 * ref[past])
+    knots = spring_energy(np.array([0.0, -1.0]), 1.0, E, base, S, f)
+    assert np.array_equal(knots, [0.0, 0.0])
+    assert np.isnan(spring_energy(np.array([2 * SPRING_REACH]), 1.0, E, base, S, f)[0])
+    # K scales it (the law at rest is linear in K, its push smoothing included)
+    assert np.allclose(spring_energy(d[:50], 693.0, E, base, S, f), 693.0 * got[:50], rtol=1e-15, atol=0)
+    assert np.allclose(spring_energy(d[:50], 693.0, E, base, S, f),
+                       [stored(x, 693.0, E, push, hold) for x in d[:50]], rtol=3e-7, atol=1e-7)
+    # the slope at the knots is the law's force at rest (_force, this file's own)
+    knot_d = ((np.uint64(base) + np.arange(len(S), dtype=np.uint64)) << np.uint64(52 - SPRING_BITS)).view(np.float64)
+    assert np.allclose(f, _force(knot_d, 1.0, E, push, hold), rtol=1e-14, atol=0)

@@ -10,6 +10,7 @@ those terms at every step's end anyway (eomc_fixedstep.c), so the watch reads th
 
 Oracles: the model's own energy output at random states, and the watch's ranges with the shortcut
 turned off (the struct's ``energy`` flag cleared: every step calls NAME_energy, as before)."""
+import re
 import warnings
 from pathlib import Path
 
@@ -106,7 +107,7 @@ def _ranges(model, X0, monkeypatch, shortcut, **kw):
     energy_fn = rollout_module._energy_fn
 
     def spy(*args, **kwargs):
-        seen["ranges"] = np.array(args[-1])
+        seen["ranges"] = np.array([(w["lo"], w["hi"]) for w in args[-1]])     # switching.watched_stats
         return verdicts(*args, **kwargs)
 
     def counted(m, ffi):
@@ -171,3 +172,68 @@ def test_the_watch_evaluates_the_energy_while_a_tables_pair_touches(limbs, monke
     assert plain == len(X0) * 201 and len(X0) < calls < plain      # the steps with the pair touching call it
     assert np.array_equal(res.x, ref.x)
     assert np.allclose(got, want, rtol=1e-12, atol=0)
+
+
+def _rise_rows(text):
+    """The rows a rollout's energy warning names (its '(rows 1, 2, ...)'), as a set."""
+    found = re.search(r"\(rows ([\d, ]+)(, \.\.\.)?\)", text)
+    return {int(k) for k in found.group(1).split(", ")} if found else set()
+
+
+def test_a_rise_given_back_before_the_end_warns_in_every_record_as_in_simulate(tmp_path):
+    """Issue 29 item 1 (session 23): the total energy's rise above its running minimum is kept by the
+    C watch (eomc_stats.watch_rise ...), so a rollout row warns of a rise it gave back before the end
+    with record="final" (scalar and lanes) as with record="steps", and as simulate does at every step
+    and with t_eval at the start and the end only.  The thrown ball at 2 ms: some rows, sliding and
+    spinning in contact, gain a little energy and lose it again to friction.  Oracles: the model's
+    own energy output along the recorded steps (the test's running minimum: the rise, where it rose
+    most in one step, and the end below the start's + tolerance, so start-and-end alone cannot see
+    it) and the contact's depth there (the words name it).  Until session 23 record="final" and a
+    sparse t_eval judged the start and the end only: silent on these rows."""
+    from eomc.compiler.emit.signatures import FUNCTION_ORDER, ON_REQUEST
+    from eomc.runtime.switching import PhysicsWarning, energy_tolerance
+    from tests.runtime.test_rollout import thrown_ball
+    m, x0 = thrown_ball(tmp_path, "rw_ball",
+                        functions=tuple(f for f in FUNCTION_ORDER if f not in ON_REQUEST) + ("implicit_batch",))
+    kw = dict(dt=0.002, steps=300, method="implicitfast", threads=2, raise_on_failure=False)
+    said = {}
+    for name, extra in (("steps", dict(record="steps")), ("final", {}), ("lanes", dict(lanes=True))):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            res = eomc.rollout(m, x0, **extra, **kw)
+        said[name] = " ".join(str(w.message) for w in caught if issubclass(w.category, PhysicsWarning)
+                              and "above its lowest value" in str(w.message))
+        if name == "steps":
+            steps = res
+    rows = _rise_rows(said["steps"])
+    assert rows and _rise_rows(said["final"]) == rows == _rise_rows(said["lanes"]), said
+    t = np.append(0.002 * np.arange(300), 0.6)
+    given_back = 0
+    for i in range(16):
+        E = np.array([m.outputs(tk, x)["energy"] for tk, x in zip(t, steps.x[i])], dtype=float)
+        low = np.minimum.accumulate(E)
+        k1 = int(np.argmax(E - low))
+        rise = float(E[k1] - low[k1])
+        scale = max(abs(E[0]), float(np.max(np.abs(E - E[0]))))
+        tol = energy_tolerance(1e-6, 1e-9) * scale
+        words = {}
+        for how, t_eval in (("every step", None), ("ends", [0.0, 0.6])):
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                one = m.simulate(x0[i], (0.0, 0.6), method="implicitfast", dt=0.002, t_eval=t_eval)
+            words[how] = [str(w.message) for w in caught if "above its lowest value" in str(w.message)]
+        assert np.array_equal(one.x[-1], steps.x[i, -1])
+        assert (i in rows) == (rise > tol) == bool(words["every step"]) == bool(words["ends"]), (i, rise, tol)
+        if i not in rows:
+            continue
+        assert words["every step"] == words["ends"]
+        assert f"rose by {rise:.3g} above its lowest value" in words["every step"][0]
+        given_back += E[-1] - E[0] <= tol
+        # the step where it rose most within the rise, and the ball in contact at its end
+        k0 = int(np.argmin(E[:k1 + 1]))
+        j = k0 + 1 + int(np.argmax(np.diff(E[k0:k1 + 1])))
+        where = f"its largest one-step rise in the step to t = {t[j]:.6g} s"
+        assert where in words["every step"][0], words
+        touching = m.outputs(t[j], steps.x[i, j])["depth_ball"] > 0
+        assert ("ball" in words["every step"][0].split(where)[1].split(")")[0]) == touching
+    assert given_back >= 1          # the end below the start's + tolerance: start-and-end alone is silent

@@ -159,6 +159,43 @@ def test_a_row_whose_try_needs_the_start_matrix_after_an_answer_ahead_is_the_sca
     assert np.array_equal(got.unsolved, want.unsolved)
 
 
+@pytest.fixture(scope="module")
+def hopper_bench(tmp_path_factory):
+    """The hopper as bench_rollout_contacts builds it: the default functions and implicit_batch
+    (so outputs and energy: NAME_implicit ends with the energy and the rollout's energy watch is
+    on) and the default flags with this machine's (-mavx2 -ffp-contract=off ... where it has AVX2),
+    plus -DEOMC_BATCH_LIBM_TRIG: libm's sin/cos in the lanes."""
+    import warnings
+    gymnasium = pytest.importorskip("gymnasium")
+    from eomc.compiler.build.toolchain import DEFAULT_CFLAGS, find_compiler, machine_flags
+    from eomc.compiler.emit.signatures import FUNCTION_ORDER, ON_REQUEST
+    from eomc.compiler.mjcf.model import MjcfModel
+    path = Path(gymnasium.__file__).parent / "envs" / "mujoco" / "assets" / "hopper.xml"
+    functions = tuple(f for f in FUNCTION_ORDER if f not in ON_REQUEST) + ("implicit_batch",)
+    with warnings.catch_warnings():      # the file's self-collision pairs left out (said by a warning)
+        warnings.simplefilter("ignore")
+        return compile_model(MjcfModel(path), "rl_hopper_bench", functions=functions,
+                             cache_dir=tmp_path_factory.mktemp("rlhb"), progress=False,
+                             cflags=[*DEFAULT_CFLAGS, *machine_flags(find_compiler()), "-DEOMC_BATCH_LIBM_TRIG"])
+
+
+def test_the_benchmarks_build_with_libm_trig_gives_the_scalar_rows_over_a_second(hopper_bench):
+    """bench_rollout_contacts' hopper build (default functions + implicit_batch, the energy watch
+    on) with -DEOMC_BATCH_LIBM_TRIG: 64 starts, one second at the file's 2 ms, every row the scalar
+    row's bits.  Built as the bench builds it (the vector sin/cos) the same rows differ from the
+    scalar rows in all 64 (first at steps 41-261, up to 3.8e-13 after 1 s; measured session 23,
+    AVX-512, 8 lanes): the difference is the lanes' sin/cos alone."""
+    from eomc.runtime.rollout import _energy_watch
+    assert _energy_watch(hopper_bench) > 0                  # the watch's path, unlike `hopper`'s build
+    X0 = _hopper_starts(hopper_bench, 64)
+    kw = dict(dt=0.002, steps=500, method="implicitfast", threads=2)
+    want = rollout(hopper_bench, X0, **kw)
+    got = rollout(hopper_bench, X0, lanes=True, **kw)
+    assert np.array_equal(got.status, want.status) and np.array_equal(got.steps, want.steps)
+    assert np.array_equal(got.x, want.x) and np.array_equal(got.unsolved, want.unsolved)
+    assert want.ok.sum() > 32                               # most rows end clean (not all-failed rows)
+
+
 def test_groups_of_several_lanes_equal_the_scalar_rollout(hopper):
     """Many more rows than lanes on 2 threads: a fiber whose row ends takes the job's next row
     (eomc_rollout.c, take_row); every row still the scalar row's bits."""

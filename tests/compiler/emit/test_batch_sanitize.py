@@ -3,7 +3,9 @@ and stores (whole vectors memcpy'd out of the column-major X, R and into XDOT), 
 tail, the per-lane Kane solve and the failing-state paths read and write only inside the
 caller's arrays, with no undefined behaviour, at 4 and 8 lanes -- on a recursive-form robot
 (UR5, split into parts), a Kane-form cart with inputs and a 5-link cart whose rhs is looped
-(compiler/tree/chain_loop.py: its lanes loop too, two groups of lanes a call).  The driver allocates every array
+(compiler/tree/chain_loop.py: its lanes loop too, two groups of lanes a call) and a tree
+with twin limbs whose rhs runs limb routines (compiler/tree/limbs.py: in lanes too, two limbs a
+routine, their work arrays' stores at negative offsets).  The driver allocates every array
 at its exact size, so one element past a column's end is caught; it also checks each
 state's result and status against the scalar rhs, so a clean run is a correct run.  The same
 driver runs NAME_jac_x_batch (its tangent loop over vectors, nx*nx outputs per state) against
@@ -87,7 +89,44 @@ int main(void)
 """
 
 
+# a torso on a fixed base and two mirror-image 3-body chains (fixed rotations mirrored: a table of
+# numbers per limb); LIMB_MIN_SHAPE 3, LIMB_MIN_BODIES 6 give them limb routines
+_TWIN_JOINT = ('<joint name="{n}_joint" type="revolute"><parent link="{p}"/><child link="{n}"/>'
+               '<origin xyz="0.05 {y} -0.2" rpy="{r} 0.1 0"/><axis xyz="{a}"/>'
+               '<limit lower="-1" upper="1" effort="1" velocity="1"/></joint>')
+
+
+def _twins_urdf():
+    def link(n, m):
+        return (f'<link name="{n}"><inertial><origin xyz="0.01 0.02 -0.1"/><mass value="{m}"/>'
+                '<inertia ixx="0.02" iyy="0.03" izz="0.04" ixy="0" ixz="0" iyz="0"/></inertial></link>')
+    out = ['<robot name="twins">', link("base", 4.0), link("torso", 2.0),
+           '<joint name="torso_joint" type="revolute"><parent link="base"/><child link="torso"/>'
+           '<origin xyz="0 0 0.2"/><axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>']
+    for side, s in (("l", 1), ("r", -1)):
+        parent = "torso"
+        for j, axis in enumerate(("1 0 0", "0 1 0", "0 0 1")):
+            name = f"{side}{j}"
+            out += [link(name, 1.0 + 0.5 * j), _TWIN_JOINT.format(n=name, p=parent, y=s * 0.1, r=s * 0.3, a=axis)]
+            parent = name
+    return "\n".join(out + ["</robot>"])
+
+
 def _gm(kind, cache):
+    if kind == "twins_rhs":        # limb routines (compiler/tree/limbs.py), in lanes too
+        from eomc.compiler.tree import limbs
+        from eomc.compiler.urdf.model import UrdfModel
+        path = Path(cache) / "twins.urdf"
+        path.write_text(_twins_urdf())
+        mp = pytest.MonkeyPatch()
+        mp.setattr(limbs, "LIMB_MIN_BODIES", 6)
+        mp.setattr(limbs, "LIMB_MIN_SHAPE", 3)
+        try:
+            return generate(UrdfModel(path, limits=False), "santwin",
+                            functions=("rhs", "rhs_batch"), formulation="recursive", cache_dir=cache,
+                            progress=False)[1]
+        finally:
+            mp.undo()
     if kind == "chain_rhs":        # 5 links: the looped rhs (compiler/tree/chain_loop.py) and its looped lanes
         os.environ["EOMC_N_LINKS"] = "5"
         try:
@@ -132,7 +171,7 @@ def cache(tmp_path_factory):
 
 
 @pytest.mark.parametrize("lanes", [4, 8])
-@pytest.mark.parametrize("kind", ["ur5", "kane_cart", "chain_rhs", "ur5_jac_x", "chain_jac_x", "pendulum_outputs",
+@pytest.mark.parametrize("kind", ["ur5", "kane_cart", "chain_rhs", "twins_rhs", "ur5_jac_x", "chain_jac_x", "pendulum_outputs",
                                   "hopper_implicit"])
 def test_rhs_batch_sanitizer_clean(cache, tmp_path, kind, lanes):
     if lanes > machine_lanes():
@@ -146,6 +185,8 @@ def test_rhs_batch_sanitizer_clean(cache, tmp_path, kind, lanes):
         assert gm.metadata["formulation"] == "kane" and gm.metadata["ninput"] > 0
     if kind == "chain_rhs":      # the looped lanes, two groups a call (a pair, then one group alone)
         assert "sanloop_chain_sincos(x + 1, 5, SC1);" in gm.c_source and "sanloop_rhs_lanes2(t, x[g]" in gm.c_source
+    if kind == "twins_rhs":      # the routines, run in lanes (a table of numbers per limb: the mirror images)
+        assert "santwin_vlimb0_in(p, &x[" in gm.c_source and "santwin_limb_k" in gm.c_source
     src = es.write_sources(gm, str(tmp_path))
     nstates = 3 * lanes + 3                       # three groups of lanes and a 3-state tail
     main = tmp_path / "main.c"

@@ -5,7 +5,9 @@ offsets and fixed rotations mirrored, so the twins differ in their parameters' v
 their fixed rotations' numbers, which the routines read from a table per limb) and
 example-robot-data's G1 (Euler angles and quaternion, limits on and off, with motor torques),
 each built with the routines and with them switched off (LIMB_MIN_BODIES = None), at random
-states to 1e-12; a tree without twins keeps the straight-line rhs byte for byte.
+states to 1e-12; a tree without twins keeps the straight-line rhs byte for byte.  With rhs_batch
+the routines stay and run in lanes too (G1 bit for bit with libm's sin and cos in the lanes, random
+twin trees to 1e-12).
 """
 import numpy as np
 import pytest
@@ -130,15 +132,89 @@ def test_trees_without_long_twins_keep_the_straight_line_rhs(tmp_path):
     assert not _routines(off) and text == off.source_path.read_text()
 
 
-def test_rhs_batch_keeps_the_rhs_without_limb_routines(tmp_path):
-    """With rhs_batch asked for, G1 is built without limb routines (their calls are code the lanes
-    rewrite does not know, compiler/emit/batch.py): the lanes are vectorized and agree with the
-    build's scalar rhs.  limb_plan refused rhs_batch already, but the emitter hands the tree its
-    functions without the batch ones; since the limb routines landed (73195078) G1's rhs_batch
-    was the scalar rhs per state, 'not vectorized' (bench_rhs_batch, session 22: 0.91x)."""
+def _scalar_rhs_c(source, name):
+    """NAME_rhs's C with the limb routines and sub-functions it calls (everything before NAME_rhs's
+    end from the first limb table or routine on), for comparing two builds."""
+    start = min(i for i in (source.find(f"static const double {name}_limb_k"), source.find("static EOMC_NEAR void"))
+                if i >= 0)
+    end = source.index("\n}\n", source.index(f"\nint {name}_rhs("))
+    return source[start:end]
+
+
+@pytest.mark.parametrize("floating,limits,lanes", [(True, False, 4), (True, False, 8), ("quaternion", True, 4)])
+def test_rhs_batch_runs_the_limb_routines_in_lanes(floating, limits, lanes, tmp_path):
+    """With rhs_batch asked for, G1 keeps its limb routines (the scalar rhs is the C of a build
+    without rhs_batch), and the lanes run them too (NAME_vlimb*: each routine and its parts
+    rewritten into lanes, compiler/emit/batch.py): vectorized, and each lane is the scalar rhs bit
+    for bit with -DEOMC_BATCH_LIBM_TRIG (libm's sin and cos in the lanes, as the scalar rhs), within
+    1e-12 with the lanes' own kernels (within 1 ulp of libm's: tests/compiler/emit/test_batch.py).
+    States: whole tiles, a lone group and a scalar tail, inputs per state; parameters shared and one
+    row per state (NAME_rhs_batch_p).  Until session 23 a build with rhs_batch wrote no limb
+    routines: its lanes were the straight-line rhs (G1 2.67-3.26x the scalar rhs, bench_rhs_batch)."""
+    import cffi
+    from eomc.compiler.build.builder import machine_lanes
+    from eomc.compiler.build.toolchain import find_compiler, machine_flags
+    from eomc.compiler.driver import generate
+    if lanes > machine_lanes():
+        pytest.skip(f"this machine has {machine_lanes()} double lanes")
     path = robot_path("g1_description/urdf/g1_29dof_rev_1_0.urdf")
-    lanes = _build(path, "g1_lanes", tmp_path, True, True, functions=("rhs", "rhs_batch"))
-    assert not _routines(lanes) and lanes.metadata["rhs_batch"]["vectorized"] is True
-    X = np.array(list(_states(lanes, np.random.default_rng(3), 11)))
-    want = np.array([lanes.rhs(0.0, x) for x in X])
-    assert relative_error(lanes.rhs_batch(0.0, X), want) < 1e-12
+
+    def model():
+        return UrdfModel(path, floating_base=floating, limits=limits)
+    kw = dict(formulation="recursive", progress=False)
+    alone = generate(model(), "g1l", functions=("rhs",), cache_dir=tmp_path / "c0", **kw)[1]
+    flags = f"-O2 -std=c99 -fPIC -Wall -Wextra -Werror {' '.join(machine_flags(find_compiler()))} -DEOMC_BATCH_LANES={lanes}"
+    exact = eomc.compile(model(), "g1l", functions=["rhs", "rhs_batch"], cflags=f"{flags} -DEOMC_BATCH_LIBM_TRIG",
+                         output_dir=tmp_path / "exact", cache_dir=tmp_path / "c1", **kw)
+    fast = eomc.compile(model(), "g1l", functions=["rhs", "rhs_batch"], cflags=flags, output_dir=tmp_path / "fast",
+                        cache_dir=tmp_path / "c2", **kw)
+    source = exact.source_path.read_text()
+    assert _routines(exact) and _scalar_rhs_c(source, "g1l") == _scalar_rhs_c(alone.c_source, "g1l")
+    assert exact.metadata["rhs_batch"]["vectorized"] is True
+    assert "g1l_vlimb0_in(p, &x[" in source and "g1l_vlimb1_out(p, &x[" in source
+    rng = np.random.default_rng(lanes)
+    n = 7 * lanes + 3
+    X = np.array(list(_states(exact, rng, n)))
+    X[4, 8] = 1e7          # a limb's angle past the lanes' reduction: libm's in that lane
+    R = rng.normal(size=(n, exact.ninput))
+    for m in (exact, fast):
+        got = m.rhs_batch(0.3, X, r=R)
+        want = np.array([m.rhs(0.3, x, r=R[k]) for k, x in enumerate(X)])
+        if m is exact:
+            assert np.array_equal(got, want), relative_error(got, want)
+        else:
+            assert relative_error(got, want) < 1e-12, relative_error(got, want)
+    ffi = cffi.FFI()
+    ffi.cdef("int g1l_rhs_batch_p(int n, double t, const double *X, const double *P, const double *R, "
+             "double *XDOT, int *status, double *work);")
+    lib = ffi.dlopen(str(exact.library_path))
+    P = np.array(exact.param_defaults) * rng.uniform(0.8, 1.2, (n, exact.nparam))
+    XT, PT, RT = (np.ascontiguousarray(a.T) for a in (X, P, R))
+    out, status = np.zeros_like(XT), np.zeros(n, dtype=np.intc)
+    work = np.zeros(max(exact.metadata.get("work_size", 0), 1) + 1)
+    ret = lib.g1l_rhs_batch_p(n, 0.3, ffi.from_buffer("double[]", XT), ffi.from_buffer("double[]", PT),
+                              ffi.from_buffer("double[]", RT), ffi.from_buffer("double[]", out),
+                              ffi.from_buffer("int[]", status), ffi.from_buffer("double[]", work))
+    assert ret == 0 and not status.any()
+    want = np.array([exact.rhs(0.3, x, P[k], r=R[k]) for k, x in enumerate(X)])
+    assert np.array_equal(out.T, want)
+
+
+@settings(max_examples=4, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+@given(spec=twin_tree(), floating=st.sampled_from([False, True, "quaternion"]), seed=st.integers(0, 2**32 - 1))
+def test_random_twin_limbs_in_lanes_equal_the_scalar_rhs(spec, floating, seed, tmp_path):
+    """Random twin limbs (mirror images: a table of numbers per limb, parameters shared with the
+    parent read where they are) with rhs_batch: the routines in lanes, within 1e-12 of the scalar
+    rhs (which runs the routines too) over groups of lanes and a tail."""
+    text, k = spec
+    path = tmp_path / "twins.urdf"
+    path.write_text(text)
+    on = _build(path, "twins_lanes", tmp_path, True, floating, shape=k, functions=("rhs", "rhs_batch"))
+    assert _routines(on) and f"{on.name}_vlimb0_in(" in on.source_path.read_text()
+    assert on.metadata["rhs_batch"]["vectorized"] is True
+    rng = np.random.default_rng(seed)
+    X = np.array(list(_states(on, rng, 19)))
+    R = rng.normal(size=(len(X), on.ninput)) if on.ninput else None
+    want = np.array([on.rhs(0.0, x, r=None if R is None else R[j]) for j, x in enumerate(X)])
+    assert relative_error(on.rhs_batch(0.0, X, r=R), want) < 1e-12
