@@ -206,6 +206,15 @@ def _rotation(x, names):
     return Rx @ Ry @ Rz
 
 
+def _tumbling(names, ry0, w):
+    """A free body 5 m up, pitched ry0 towards the gimbal lock, spinning at w (body frame)."""
+    x0 = np.zeros(len(names))
+    x0[names.index("q_root_z")] = 5.0
+    x0[names.index("q_root_ry")] = ry0
+    x0[[names.index(f"u_root_w{a}") for a in "xyz"]] = w
+    return x0
+
+
 @pytest.mark.parametrize("ry0, w", [(1.3, (0.05, 2.0, 0.05)), (1.0, (0.02, 4.0, 0.5))])
 def test_free_joint_tumbling_past_gimbal_lock_keeps_its_orientation(tmp_path, ry0, w):
     """The step moves q by h N(q) u1 with N (the Euler angles' rates, 1/cos(ry) in it) taken at
@@ -221,10 +230,7 @@ def test_free_joint_tumbling_past_gimbal_lock_keeps_its_orientation(tmp_path, ry
     path.write_text(TUMBLER)
     m = eomc.compile(MjcfModel(path), name="tumbler", cache_dir=tmp_path, progress=False)
     names = list(m.state_names)
-    x0 = np.zeros(m.nx)
-    x0[names.index("q_root_z")] = 5.0
-    x0[names.index("q_root_ry")] = ry0
-    x0[[names.index(f"u_root_w{a}") for a in "xyz"]] = w
+    x0 = _tumbling(names, ry0, w)
     ref = m.simulate(x0, (0.0, 1.0), method="radau", rtol=1e-11, atol=1e-11)
     assert np.abs(np.cos(ref.x[:, names.index("q_root_ry")])).min() < 0.05     # it passes near the lock
     with warnings.catch_warnings():
@@ -233,21 +239,13 @@ def test_free_joint_tumbling_past_gimbal_lock_keeps_its_orientation(tmp_path, ry
     assert np.abs(_rotation(fs.x[-1], names) - _rotation(ref.x[-1], names)).max() < 0.015
 
 
-TUMBLER_ARM = """<mujoco model="tumbler_arm">
-  <option timestep="0.005" gravity="0 0 0"/>
-  <worldbody>
-    <geom name="floor" type="plane" size="1 1 0.1"/>
-    <body name="box" pos="0 0 5">
-      <freejoint name="root"/>
-      <geom name="box" type="box" size="0.3 0.1 0.05" mass="1"/>
-      <body name="arm" pos="0.3 0 0">
-        <joint name="elbow" type="hinge" axis="0 1 0"/>
-        <geom name="arm" type="capsule" fromto="0 0 0 0.25 0 0" size="0.02" mass="0.2"/>
-      </body>
-    </body>
-  </worldbody>
-</mujoco>
-"""
+TUMBLER_ARM = TUMBLER.replace('model="tumbler"', 'model="tumbler_arm"').replace(
+    '      <geom name="box" type="box" size="0.3 0.1 0.05" mass="1"/>\n',
+    '      <geom name="box" type="box" size="0.3 0.1 0.05" mass="1"/>\n'
+    '      <body name="arm" pos="0.3 0 0">\n'
+    '        <joint name="elbow" type="hinge" axis="0 1 0"/>\n'
+    '        <geom name="arm" type="capsule" fromto="0 0 0 0.25 0 0" size="0.02" mass="0.2"/>\n'
+    '      </body>\n')
 
 
 def test_n_products_skip_only_the_constant_zeros_of_n(tmp_path):
@@ -276,10 +274,7 @@ def test_n_products_skip_only_the_constant_zeros_of_n(tmp_path):
     elbow = N[names.index("q_elbow")]
     assert np.count_nonzero(elbow) == 1 and not np.isnan(elbow).any()       # one constant 1, the rest 0
     assert np.isnan(N[names.index("q_root_rx"), free]).any()                 # varying: summed
-    x0 = np.zeros(m.nx)
-    x0[names.index("q_root_z")] = 5.0
-    x0[names.index("q_root_ry")] = 1.3
-    x0[[names.index(f"u_root_w{a}") for a in "xyz"]] = (0.05, 2.0, 0.05)
+    x0 = _tumbling(names, 1.3, (0.05, 2.0, 0.05))
     x0[names.index("u_elbow")] = 1.0
     runs = []
     for whole in (False, True):
