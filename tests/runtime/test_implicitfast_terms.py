@@ -293,6 +293,16 @@ ANT_ROW34_018 = [0.0038048940081356042, -0.0026899168236054934, 0.66187660180754
                  0.2920236011804888, -0.13962016317170844, 0.40626901943009924, 0.11322637817106762]
 
 
+def _one_step(m, state, dt):
+    """One fixed step of dt from a recorded state, its two ends recorded, warnings silenced (the
+    tests judge the step's energy and depths themselves)."""
+    x0 = np.array(state)
+    assert x0.shape == (m.nx,)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return m.simulate(x0, (0.0, dt), method="implicitfast", dt=dt, t_eval=[0.0, dt], raise_on_failure=False)
+
+
 def test_a_foot_landing_from_out_of_touch_is_not_taken_inside_a_whole_step(ant):
     """The ant from ANT_ROW34_018, one 10 ms step: its fourth foot, 5.8 mm above the floor, lands
     inside the step.  The whole step's try passed the residual test (ratio 0.456 < split 0.5: the
@@ -305,25 +315,12 @@ def test_a_foot_landing_from_out_of_touch_is_not_taken_inside_a_whole_step(ant):
     as well (eomc_fixedstep.c, fs_onset and fs_deep): it fails, the touch-down is located, and the
     energy falls (measured 16.89 J, 12 calls, the foot 0.7 mm in).  Fails on main 8be08cbd (the
     foot 13.8 mm in)."""
-    from eomc.runtime.limit_energy import stored
-    from eomc.runtime.switching import find_switches
     m = ant
-    x0 = np.array(ANT_ROW34_018)
-    assert x0.shape == (m.nx,)
-    dt = 0.01
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        step = m.simulate(x0, (0.0, dt), method="implicitfast", dt=dt, t_eval=[0.0, dt], raise_on_failure=False)
+    step = _one_step(m, ANT_ROW34_018, 0.01)
     assert step.status == 0, step.message
     depth = step.outputs["depth_fourth_ankle_geom_0"]
     assert depth[0] < -5e-3 and 0.0 < depth[1] < 2e-3                  # out of touch -> landed (13.8 mm before)
-    p = np.array(m.param_defaults)
-    names, laws = list(m.param_names), m.metadata["limit_laws"]
-    energy = np.array(step.outputs["energy"], dtype=float)
-    for lim in find_switches(m).limits:                                # the limit springs the output leaves out
-        shape, k, e = laws[lim.joint], p[names.index(f"limit_k_{lim.joint}")], p[names.index(f"limit_e_{lim.joint}")]
-        past = lim.sign * (step.x[:, lim.state] - p[lim.param])
-        energy += [stored(d, k, e, shape.get("push", 0.0), shape.get("hold")) if d > 0 else 0.0 for d in past]
+    energy = _total_energy(m, step)                                     # with the limit springs the output leaves out
     assert energy[0] > 18.0 and energy[1] < energy[0], energy           # 18.89 -> 27.85 J before
     assert step.stats["nfev"] > 2                                       # located, not taken whole
 
@@ -355,12 +352,7 @@ def test_a_half_step_with_a_deep_landing_is_not_taken_by_the_halving_rule(tmp_pa
     fs_lands): 8 calls, the foot 0.8 mm in, the energy falls (369.88 J measured).  Fails on main
     8be08cbd (simulate's status 20 on this single step)."""
     m = _build("humanoid", tmp_path_factory, ("rhs", "outputs", "implicit"))
-    x0 = np.array(HUMANOID_ROW20_0144)
-    assert x0.shape == (m.nx,)
-    dt = 0.003
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        step = m.simulate(x0, (0.0, dt), method="implicitfast", dt=dt, t_eval=[0.0, dt], raise_on_failure=False)
+    step = _one_step(m, HUMANOID_ROW20_0144, 0.003)
     assert step.status == 0, step.message
     depth = step.outputs["depth_right_foot"]
     assert 0.0 < depth[0] < 1e-5 and depth[1] > 1e-4                  # a micro-touch that lands
