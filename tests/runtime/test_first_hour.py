@@ -118,3 +118,20 @@ def test_progress_after_auto_switches_to_radau_shows_the_whole_span(monkeypatch)
     assert steps == sorted(steps) and steps[-1] == res.stats["steps"], (steps, res.stats)
     assert float(lines[-1].group(1)) == t_final and int(lines[-1].group(4)) == 100
     assert any(switched < float(m.group(1)) < t_final for m in lines), stream.getvalue()   # Radau's
+
+
+def test_the_report_says_which_reference_it_ran(capsys):
+    """`eomc report` printed the reference it was asked for (auto at rtol 1e-13) while report.md
+    recorded the one it ran (radau at rtol 1e-12 on a contact model): stderr now says both, the
+    second line as report.md does.  Asked for Radau at 1e-13, it runs at 1e-12 (its finest)."""
+    from eomc.runtime.report import work_precision
+
+    osc = get_model("oscillator")
+    rep = work_precision(osc, [1.0, 0.0], (0.0, 1.0), methods=("dop853",), tolerances=(1e-5,),
+                         repeats=1, n_points=11, reference_tol=1e-13, reference_method="radau",
+                         reference_check="none")
+    err = capsys.readouterr().err
+    assert "computing the reference (radau at rtol 1e-13, atol 1e-13" in err, err
+    assert rep.reference.tol == 1e-12
+    assert f"eomc report: {rep.reference.describe()}\n" in err, err
+    assert "eomc report: reference: radau at rtol=1e-12, atol=1e-13" in err, err
