@@ -135,3 +135,31 @@ def test_the_report_says_which_reference_it_ran(capsys):
     assert rep.reference.tol == 1e-12
     assert f"eomc report: {rep.reference.describe()}\n" in err, err
     assert "eomc report: reference: radau at rtol=1e-12, atol=1e-13" in err, err
+
+
+def test_simulate_takes_rollouts_split_and_refuses_it_elsewhere(tmp_path):
+    """rollout(split=0) (implicitfast unchecked, one model call per step as MuJoCo's) had no
+    simulate to be checked against: simulate takes split= now, its row equal to rollout's bit
+    for bit; with a method other than implicitfast, or a negative split, it is refused."""
+    import warnings
+
+    import pytest
+
+    import eomc
+    from .test_rollout import thrown_ball
+
+    m, x0 = thrown_ball(tmp_path, "fh5_split")
+    kw = dict(method="implicitfast", dt=0.005)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        ro = eomc.rollout(m, x0[:3], t_final=0.3, split=0.0, raise_on_failure=False, threads=1, **kw)
+        for i in range(3):
+            off = m.simulate(x0[i], (0.0, 0.3), split=0, raise_on_failure=False, **kw)
+            assert np.array_equal(off.x[-1], ro.x[i]), i
+            assert off.stats["nfev"] == round(0.3 / 0.005) + 1         # one call per step, and one at t = 0
+        on = [m.simulate(x0[i], (0.0, 0.3), raise_on_failure=False, **kw) for i in range(3)]
+    assert sum(r.stats["nfev"] for r in on) > 3 * (round(0.3 / 0.005) + 1)   # the default test splits landings
+    with pytest.raises(ValueError, match="split= is implicitfast's residual test"):
+        m.simulate(x0[0], (0.0, 0.1), method="radau", split=0)
+    with pytest.raises(ValueError, match="split must be a number >= 0"):
+        m.simulate(x0[0], (0.0, 0.1), split=-1, **kw)
