@@ -163,3 +163,26 @@ def test_simulate_takes_rollouts_split_and_refuses_it_elsewhere(tmp_path):
         m.simulate(x0[0], (0.0, 0.1), method="radau", split=0)
     with pytest.raises(ValueError, match="split must be a number >= 0"):
         m.simulate(x0[0], (0.0, 0.1), split=-1, **kw)
+
+
+def test_an_mjcf_limits_overshoot_is_not_blamed_on_a_too_soft_stiffness():
+    """gymnasium's walker2d and inverted_pendulum (no flags) warned that their limits' default
+    stiffness was "too soft for the loads they met"; it is the file's solref, and MuJoCo's mj_step
+    takes the same limits as far or further (walker2d's knees 0.085-0.091 rad against eomc's
+    0.041): the note says so.  A URDF joint's default (eomc's own rule) is still called too soft."""
+    from eomc.runtime.switching import Limit, _overshoot_notes
+
+    names = ["lo_a", "limit_k_a", "hi_b", "limit_k_b"]
+    defaults = np.array([-1.0, 100.0, 2.0, 50.0])
+    sw = SimpleNamespace(limits=[Limit("a", 0, 0, -1.0, -1, "lower"), Limit("b", 1, 2, 1.0, -1, "upper")])
+    over, e = np.array([0.05, 0.06]), np.full(2, 3e-4)
+    for laws, past in (({"a": {}, "b": {}}, [0, 1]), ({"a": {}}, [0])):
+        mjcf = SimpleNamespace(param_names=names, param_defaults=defaults, metadata={"limit_laws": laws})
+        text = " ".join(_overshoot_notes(mjcf, defaults, sw, past, over, e))
+        assert "too soft" not in text, text
+        assert "the default: from the joint's MuJoCo solref" in text or "the default (from the joint's MuJoCo solref" in text
+        assert "as soft as MuJoCo's own under the file's solref" in text and "--param limit_k_" in text, text
+    urdf = SimpleNamespace(param_names=names, param_defaults=defaults, metadata={})
+    for past in ([0, 1], [0]):
+        text = " ".join(_overshoot_notes(urdf, defaults, sw, past, over, e))
+        assert "too soft for the load" in text and "MuJoCo" not in text, text
