@@ -604,3 +604,16 @@ def test_repeated_x0_and_param_reach_the_run(pendulum, tmp_path):
                  "--x0", "u1=0.5", "--param", "g=2", "--param", "L=3", "-o", str(out), "-q"]) == 0
     first = np.loadtxt(out, delimiter=",", skiprows=1)[0]
     assert first[1] == 0.25 and first[2] == 0.5
+
+
+def test_check_at_an_equilibrium_says_that_nothing_was_compared(pendulum, capsys):
+    """`eomc check` on SymPy's multi-dof holonomic example (its zero start an equilibrium) read
+    "10 of 10 checks passed", every method "0 x tolerance, 8 steps": it says now that nothing
+    moved, and how to start elsewhere (as `eomc simulate` does); a start that moves gets no such line."""
+    pendulum.initial_state = np.array([0.0, 0.0])
+    assert main(["check", "pendulum", "--t-final", "0.5", "--methods", "dop853", "-q"]) == 0
+    out = capsys.readouterr().out
+    assert "eomc check: nothing moved: the start is an equilibrium (rhs = 0 there)" in out, out
+    assert "--x0 q1=0.1" in out
+    assert main(["check", "pendulum", "--t-final", "0.5", "--methods", "dop853", "-q", "--x0", "q1=0.3"]) == 0
+    assert "nothing moved" not in capsys.readouterr().out
