@@ -270,12 +270,14 @@ def work_precision(model, x0, t_span, p=None, r=None, methods=DEFAULT_METHODS,
         rtol, atol = ((reference_tol, reference_tol) if reference_tol is not None
                       else tied_tolerances(min(tolerances)))
         if progress:
-            print(f"eomc report: reference ({reference_method} at rtol {rtol:.0e}, atol {atol:.0e}, "
+            print(f"eomc report: computing the reference ({reference_method} at rtol {rtol:.0e}, atol {atol:.0e}, "
                   f"checked by {reference_check}) ...", file=sys.stderr, flush=True)
         with ticker("eomc report: reference", sys.stderr, progress):
             reference = compute_reference(model, x0, (t0, t1), t_eval, p=p, r=r, tol=rtol, atol=atol,
                                           check=reference_check, project=project,
                                           method=reference_method)
+        if progress:   # what ran (auto resolves, Radau's rtol is clipped): as report.md records it
+            print(f"eomc report: {reference.describe()}", file=sys.stderr, flush=True)
     if reference.x.shape != (t_eval.size, model.nx):
         raise ValueError(f"reference has shape {reference.x.shape}; expected "
                          f"({t_eval.size}, {model.nx}) on the report's output times")

@@ -38,7 +38,7 @@ def configure(parser):
                              "constraints is first completed keeping the states given with --x0)")
     parser.add_argument("--baumgarte", type=float, default=0.0, metavar="RATE",
                         help="Baumgarte-style constraint stabilization rate (1/time); 0 = off")
-    parser.add_argument("--input", nargs="+", metavar="NAME=V|CSV", default=(),
+    parser.add_argument("--input", nargs="+", action="extend", metavar="NAME=V|CSV", default=[],
                         help="input values: a constant (F=2) or a CSV file with columns t,NAME "
                              "(linear interpolation, held at the ends); others are 0")
     parser.add_argument("--events", metavar="LIST",

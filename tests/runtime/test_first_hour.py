@@ -118,3 +118,71 @@ def test_progress_after_auto_switches_to_radau_shows_the_whole_span(monkeypatch)
     assert steps == sorted(steps) and steps[-1] == res.stats["steps"], (steps, res.stats)
     assert float(lines[-1].group(1)) == t_final and int(lines[-1].group(4)) == 100
     assert any(switched < float(m.group(1)) < t_final for m in lines), stream.getvalue()   # Radau's
+
+
+def test_the_report_says_which_reference_it_ran(capsys):
+    """`eomc report` printed the reference it was asked for (auto at rtol 1e-13) while report.md
+    recorded the one it ran (radau at rtol 1e-12 on a contact model): stderr now says both, the
+    second line as report.md does.  Asked for Radau at 1e-13, it runs at 1e-12 (its finest)."""
+    from eomc.runtime.report import work_precision
+
+    osc = get_model("oscillator")
+    rep = work_precision(osc, [1.0, 0.0], (0.0, 1.0), methods=("dop853",), tolerances=(1e-5,),
+                         repeats=1, n_points=11, reference_tol=1e-13, reference_method="radau",
+                         reference_check="none")
+    err = capsys.readouterr().err
+    assert "computing the reference (radau at rtol 1e-13, atol 1e-13" in err, err
+    assert rep.reference.tol == 1e-12
+    assert f"eomc report: {rep.reference.describe()}\n" in err, err
+    assert "eomc report: reference: radau at rtol=1e-12, atol=1e-13" in err, err
+
+
+def test_simulate_takes_rollouts_split_and_refuses_it_elsewhere(tmp_path):
+    """rollout(split=0) (implicitfast unchecked, one model call per step as MuJoCo's) had no
+    simulate to be checked against: simulate takes split= now, its row equal to rollout's bit
+    for bit; with a method other than implicitfast, or a negative split, it is refused."""
+    import warnings
+
+    import pytest
+
+    import eomc
+    from .test_rollout import thrown_ball
+
+    m, x0 = thrown_ball(tmp_path, "fh5_split")
+    kw = dict(method="implicitfast", dt=0.005)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        ro = eomc.rollout(m, x0[:3], t_final=0.3, split=0.0, raise_on_failure=False, threads=1, **kw)
+        for i in range(3):
+            off = m.simulate(x0[i], (0.0, 0.3), split=0, raise_on_failure=False, **kw)
+            assert np.array_equal(off.x[-1], ro.x[i]), i
+            assert off.stats["nfev"] == round(0.3 / 0.005) + 1         # one call per step, and one at t = 0
+        on = [m.simulate(x0[i], (0.0, 0.3), raise_on_failure=False, **kw) for i in range(3)]
+    assert sum(r.stats["nfev"] for r in on) > 3 * (round(0.3 / 0.005) + 1)   # the default test splits landings
+    with pytest.raises(ValueError, match="split= is implicitfast's residual test"):
+        m.simulate(x0[0], (0.0, 0.1), method="radau", split=0)
+    with pytest.raises(ValueError, match="split must be a number >= 0"):
+        m.simulate(x0[0], (0.0, 0.1), split=-1, **kw)
+
+
+def test_an_mjcf_limits_overshoot_is_not_blamed_on_a_too_soft_stiffness():
+    """gymnasium's walker2d and inverted_pendulum (no flags) warned that their limits' default
+    stiffness was "too soft for the loads they met"; it is the file's solref, and MuJoCo's mj_step
+    takes the same limits as far or further (walker2d's knees 0.085-0.091 rad against eomc's
+    0.041): the note says so.  A URDF joint's default (eomc's own rule) is still called too soft."""
+    from eomc.runtime.switching import Limit, _overshoot_notes
+
+    names = ["lo_a", "limit_k_a", "hi_b", "limit_k_b"]
+    defaults = np.array([-1.0, 100.0, 2.0, 50.0])
+    sw = SimpleNamespace(limits=[Limit("a", 0, 0, -1.0, -1, "lower"), Limit("b", 1, 2, 1.0, -1, "upper")])
+    over, e = np.array([0.05, 0.06]), np.full(2, 3e-4)
+    for laws, past in (({"a": {}, "b": {}}, [0, 1]), ({"a": {}}, [0])):
+        mjcf = SimpleNamespace(param_names=names, param_defaults=defaults, metadata={"limit_laws": laws})
+        text = " ".join(_overshoot_notes(mjcf, defaults, sw, past, over, e))
+        assert "too soft" not in text, text
+        assert "the default: from the joint's MuJoCo solref" in text or "the default (from the joint's MuJoCo solref" in text
+        assert "as soft as MuJoCo's own under the file's solref" in text and "--param limit_k_" in text, text
+    urdf = SimpleNamespace(param_names=names, param_defaults=defaults, metadata={})
+    for past in ([0, 1], [0]):
+        text = " ".join(_overshoot_notes(urdf, defaults, sw, past, over, e))
+        assert "too soft for the load" in text and "MuJoCo" not in text, text
