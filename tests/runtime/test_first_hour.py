@@ -186,3 +186,35 @@ def test_an_mjcf_limits_overshoot_is_not_blamed_on_a_too_soft_stiffness():
     for past in ([0, 1], [0]):
         text = " ".join(_overshoot_notes(urdf, defaults, sw, past, over, e))
         assert "too soft for the load" in text and "MuJoCo" not in text, text
+
+
+def test_a_contact_that_starts_deep_is_put_down_to_the_start(tmp_path):
+    """gymnasium's humanoidstandup.xml starts its arms 0.035 m into the floor (MuJoCo's mj_forward
+    at qpos0 says so too) and the run only lifts them out; the warning read "penetrated 0.037 m
+    ... the contact is too soft for the load (raise k_...)".  A contact the run presses no
+    deeper than it started is put down to the start; one pressed deeper is still blamed on its
+    stiffness."""
+    import sys
+    import warnings
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).parents[1] / "compiler" / "contact"))
+    import bounce_grid as bg
+
+    ball = bg.build(tmp_path)
+    x0 = np.zeros(12)
+    x0[2] = 0.03                    # radius 0.1: 0.07 m deep, more than half the radius
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        ball.simulate(x0, (0, 0.5), raise_on_failure=False)
+    text = " ".join(str(w.message) for w in seen)
+    assert "contact ball (0.07 m, more than 0.5 of its radius 0.1 m) started that deep" in text, text
+    assert "penetrated" not in text and "raise k_ball" not in text, text
+    p = np.array(ball.param_defaults)
+    p[ball.param_names.index("k_ball")] = 1e3
+    x0[2] = 0.5
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        ball.simulate(x0, (0, 3), p=p, method="dop853", raise_on_failure=False)
+    text = " ".join(str(w.message) for w in seen)
+    assert "contact ball penetrated 0.1" in text and "raise k_ball" in text and "started that deep" not in text, text
