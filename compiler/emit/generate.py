@@ -502,9 +502,10 @@ def _generate_c(formed, name, *, parameters, inputs, outputs, functions, fold_pa
         prog = low.programs[fn]
         shared = formulation.shared_code(fn, ctx, prog, sym, fns)
         if shared is not None:      # a static function this and later bodies call
-            sname, sbody, ssig = shared
+            sname, sbody, ssig, *shelpers = shared      # (and the static functions it calls: tree/law_loop.py)
             with _naming_nonfinite(name, sname):
                 slines, sparts = split_body(sbody, f"{name}_{sname}_part")
+            sparts = [*(shelpers[0] if shelpers else ()), *sparts]
             ctx.split = ctx.split or bool(sparts)
             args = ", ".join(f"{c}{a}" if c.endswith("*") else f"{c} {a}" for c, a in ssig)
             rendered.append({"prototype": f"static void {name}_{sname}({args})",

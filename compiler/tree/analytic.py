@@ -60,7 +60,7 @@ Checked against central differences and Pinocchio's ``computeRNEADerivatives`` /
 ``computeABADerivatives`` (tests/compiler/tree/test_analytic_derivatives.py).
 """
 import itertools
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import sympy as sm
 
@@ -96,6 +96,10 @@ class AnalyticPlan:
     npair: int = 0          # bodies of the pairs' table (anx block W: their wrench tangents, 6 each, per state column)
     moving: tuple = ()      # per ground contact: where in anx its support point's motion M is (block GM), -1 for none; () when no contact's point moves
     table: int = -1         # the pairs' table id when the kernel forms its inputs' tangents itself (no block W; _kernel_pair_lines)
+    # per law of block L named by shape (_NamedSlopes): (its ∂τ/∂q's index in anx, the shape's
+    # common subexpressions and slopes in canonical symbols, (canonical symbol, the joint's) pairs):
+    # what NAME_dyn_inputs prints as one loop per shape (.law_loop)
+    law_code: tuple = field(default=(), compare=False, repr=False)
 
     def dofs(self, b):
         return range(self.first[b], self.first[b] + self.count[b])
@@ -201,8 +205,11 @@ def analytic_plan(tree, bodies, gravity, layout, rename, contacts=None, let=None
     lawdofs, L = [e for e, s in enumerate(row) if s in laws], []
     if any(layout.x[qcol[e]] != laws[row[e]][0] for e in lawdofs):
         return None, []     # a law's coordinate is not its dof's column
+    law_code = []
     for e in lawdofs:       # the plan is sure from here: named slopes are named now
         _, dq, du = laws[row[e]]
+        if du is None:
+            law_code.append((len(L), dq.named, tuple(dq.back.items())))
         L += list(dq()) if du is None else [dq, du]
     G, ends, GM, moving = [], [], [], []
     for body, depth, point, centre, force, Kc, Cc, *shape in contacts or ():
@@ -232,7 +239,8 @@ def analytic_plan(tree, bodies, gravity, layout, rename, contacts=None, let=None
                         tuple(qcol), tuple(multi), loads, offsets, size, tuple(lam), tuple(dep),
                         tuple(off), choose_solver(dep), tuple(kblocks), tuple(lawdofs), tuple(ends),
                         pairs=pair_ends, npair=len(pairs or ()), moving=moving,
-                        table=-1 if table is None or not pairs else int(table))
+                        table=-1 if table is None or not pairs else int(table),
+                        law_code=tuple((offsets["L"] + i, named, back) for i, named, back in law_code))
     return plan, [((ANX, i), sm.sympify(v)) for i, v in enumerate(values)]
 
 

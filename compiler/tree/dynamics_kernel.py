@@ -181,11 +181,21 @@ def dynamics_inputs(ctx, program, sym, own=True):
     on a 80-link cart it is a third of the rhs's).  ``own``: the program is a kernel function's,
     all of whose temporaries feed an[]; else (jac_x's, jac_id's) only those an[] reads."""
     from ..emit.bodies import needed_assignments, store, temps
+    from .law_loop import law_loops
     pr = ctx.printer(program)
     vals = program.result_exprs(ANX)
-    lines = temps(program, pr, None if own else needed_assignments(program.assignments, vals.values()))
+    assignments = program.assignments if own else needed_assignments(program.assignments, vals.values())
+    loops = law_loops(ctx.name, sym.analytic, pr, program, assignments, vals)
+    if loops is not None:       # the laws' slopes by shape (.law_loop): their temporaries left out
+        rest = {k: e for k, e in vals.items() if k[1] not in loops[2]}
+        drop = ({s for s, _ in needed_assignments(program.assignments, vals.values())}
+                - {s for s, _ in needed_assignments(program.assignments, rest.values())})
+        assignments, vals = [(s, e) for s, e in assignments if s not in drop], rest
+    lines = temps(program, pr, assignments)
     lines += [store(f"an[{k[1]}]", e, pr) for k, e in sorted(vals.items(), key=lambda kv: kv[0][1])]
-    return "dyn_inputs", lines, INPUTS_SIGNATURE
+    if loops is None:
+        return "dyn_inputs", lines, INPUTS_SIGNATURE
+    return "dyn_inputs", lines + loops[0], INPUTS_SIGNATURE, loops[1]
 
 
 def dynamics_body(ctx, program, sym, fn):
