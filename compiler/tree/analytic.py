@@ -98,7 +98,7 @@ class AnalyticPlan:
     table: int = -1         # the pairs' table id when the kernel forms its inputs' tangents itself (no block W; _kernel_pair_lines)
     # per law of block L named by shape (_NamedSlopes): (its ∂τ/∂q's index in anx, the shape's
     # common subexpressions and slopes in canonical symbols, (canonical symbol, the joint's) pairs):
-    # what NAME_dyn_inputs prints as one loop per shape (.law_loop)
+    # NAME_dyn_inputs prints the laws that print alike as one loop (.law_loop; it reads the joint's symbols)
     law_code: tuple = field(default=(), compare=False, repr=False)
 
     def dofs(self, b):

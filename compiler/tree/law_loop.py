@@ -2,17 +2,19 @@
 
 Why: a robot's limit laws differ only in their joint's coordinate, speed and parameters
 (:func:`.analytic._law_slopes` differentiates one per shape), yet NAME_dyn_inputs printed
-each joint's ∂τ/∂q and ∂τ/∂u as ~40 statements of its own: on G1 ~1100 of its ~2300
-statements, ~0.1 s of gcc in a default build.  Here each shape's common subexpressions and
-slopes are printed once, as a static function of the law's canonical symbols
-(``NAME_law<k>``), and NAME_dyn_inputs calls it in a loop over tables of each joint's state
-and parameter slots (and its own coefficients), writing the pair into an[] block L.
+each joint's ∂τ/∂q and ∂τ/∂u as ~27 statements of its own: on G1 ~795 of its ~2630
+statements.  Here the laws whose statements print alike (the joint's state, parameter and
+input slots as arguments, the temporaries by position) share one static function
+(``NAME_law<k>``: those statements, the pair into out[0], out[1]), which NAME_dyn_inputs calls
+in a loop over a table of each joint's slots, writing the pair into an[] block L.  The text
+being the unrolled one, each joint's slopes are computed by the same operations in the same
+order: the same bits (tests/compiler/tree/test_law_loop.py).
 
 Only the shared NAME_dyn_inputs takes it: jac_x's and jac_id's own copies stay unrolled
-(jac_x_batch rewrites jac_x's lines into lanes, which know no such call).  A law whose
-symbols are not all state, parameter or input slots keeps its statements.  The helper is double
-text like the rest, so the c99-f32 pass (compiler/emit/target.py) gives its float twin, and
-it is defined only in the file whose NAME_dyn_inputs calls it (one of the function's parts).
+(jac_x_batch rewrites jac_x's lines into lanes, which know no such call).  The helper is
+double text like the rest, so the c99-f32 pass (compiler/emit/target.py) gives its float
+twin, and it is defined only in the file whose NAME_dyn_inputs calls it (one of that
+function's parts).
 """
 import re
 
