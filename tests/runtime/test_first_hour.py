@@ -218,3 +218,18 @@ def test_a_contact_that_starts_deep_is_put_down_to_the_start(tmp_path):
         ball.simulate(x0, (0, 3), p=p, method="dop853", raise_on_failure=False)
     text = " ".join(str(w.message) for w in seen)
     assert "contact ball penetrated 0.1" in text and "raise k_ball" in text and "started that deep" not in text, text
+
+
+def test_a_report_from_an_equilibrium_recommends_nothing():
+    """`eomc report swimmer.xml` (gymnasium, no flags: from rest at x = 0, an equilibrium) measured
+    every error as 0 and recommended `method="rk4", dt=1.25`: it is inconclusive now, saying why;
+    a start that moves still gets its recommendation."""
+    from eomc.runtime.report import work_precision
+
+    osc = get_model("oscillator")
+    kw = dict(methods=("rk4", "dop853"), tolerances=(1e-4, 1e-6), repeats=1, n_points=11, progress=False)
+    rep = work_precision(osc, [0.0, 0.0], (0.0, 1.0), **kw)
+    assert rep.inconclusive and rep.inconclusive.startswith("nothing moved: the start is an equilibrium")
+    assert rep.recommendation_text(1e-6).startswith("**Inconclusive:** nothing moved")
+    moving = work_precision(osc, [1.0, 0.0], (0.0, 1.0), **kw)
+    assert moving.inconclusive is None and "**Recommendation**" in moving.recommendation_text(1e-4)
