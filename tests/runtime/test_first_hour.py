@@ -233,3 +233,19 @@ def test_a_report_from_an_equilibrium_recommends_nothing():
     assert rep.recommendation_text(1e-6).startswith("**Inconclusive:** nothing moved")
     moving = work_precision(osc, [1.0, 0.0], (0.0, 1.0), **kw)
     assert moving.inconclusive is None and "**Recommendation**" in moving.recommendation_text(1e-4)
+
+
+def test_a_rollout_without_dt_says_rk4_is_fixed_step():
+    """`eomc.rollout(model, X0, t_final=1)` (rollout's default method is rk4) said only "dt must be
+    a finite step > 0; got None": it names the method and both ways out."""
+    import pytest
+
+    import eomc
+
+    osc = get_model("oscillator")
+    with pytest.raises(ValueError, match=r"method 'rk4' \(rollout's default\) is fixed-step: give dt= .* or an "
+                                         r"adaptive method with t_final="):
+        eomc.rollout(osc, np.zeros((2, 2)), t_final=1.0)
+    with pytest.raises(ValueError, match="dt must be a finite step > 0; got 0.0"):
+        eomc.rollout(osc, np.zeros((2, 2)), t_final=1.0, dt=0.0)
+    assert eomc.rollout(osc, np.ones((2, 2)), t_final=1.0, method="dop853").x.shape == (2, 2)
