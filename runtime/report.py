@@ -45,6 +45,7 @@ import numpy as np
 from .reference import MIN_WINDOW, Reference, compute_reference, scaled_error, tied_tolerances
 from .report_output import (COLUMNS, DEFAULT_TARGET, cost_key, plot_report, recommendation, summary_markdown,
                             table_text, write_csv)
+from .diagnose import leaving_state
 from .progress import bar, ticker
 from .simulate import bind_call, finish, prepare, resolve_method, run_prepared
 
@@ -295,20 +296,13 @@ def work_precision(model, x0, t_span, p=None, r=None, methods=DEFAULT_METHODS,
         report.inconclusive = (f"nothing moved: the start is an equilibrium (every state of the reference "
                                f"stayed at its start value over [{t0:g}, {t1:g}]), so every run's error is 0 "
                                f"and no method can be told from another; give a start that moves "
-                               f"(--x0 / x0=, e.g. {_a_speed(model)}=0.1)")
+                               f"(--x0 / x0=, e.g. {leaving_state(model, reference.x[0], p, t0)}=0.1)")
     report.skipped = _unrunnable(model, methods, common)
     report.cost_weights, report.cost_from_op_counts = cost_weights(model)
     _run_grid(report, model, common, repeats, progress)
     for row in report.rows:
         row["cost"] = run_cost(row, report.cost_weights)
     return report
-
-
-def _a_speed(model):
-    """A state to start away from an equilibrium: the first speed (a speed moves a swimmer that no
-    force pulls back, where a coordinate would not), else the first state."""
-    nq = int(getattr(model, "nq", 0) or 0)
-    return model.state_names[nq] if 0 < nq < len(model.state_names) else model.state_names[0]
 
 
 AGREE = 0.1     # the reference's two computations must agree to this fraction of the target

@@ -332,8 +332,11 @@ def test_a_run_that_stays_at_an_equilibrium_says_so(tmp_path, capsys):
     # printed "8 steps" and nothing else: was anything simulated?
     model = model_files.write(tmp_path, model_files.PENDULUM, "pend")
     assert main(["simulate", str(model), "--t-final", "1", "-q", "--param", "g=0"]) == 0     # at rest, no gravity
+    # with g = 0 a turned pendulum stays put too: the hint names the speed (it named q, a loop; s24)
     assert ("  nothing moved: the start is an equilibrium (every state stayed at its start value); give --x0 to "
-            "start elsewhere, e.g. --x0 q=0.1") in capsys.readouterr().out
+            "start elsewhere, e.g. --x0 u=0.1") in capsys.readouterr().out
+    assert main(["simulate", str(model), "--t-final", "1", "-q", "--param", "g=0", "--x0", "u=0.1"]) == 0
+    assert "nothing moved" not in capsys.readouterr().out
     assert main(["simulate", str(model), "--t-final", "1", "-q"]) == 0
     assert "nothing moved" not in capsys.readouterr().out
 

@@ -249,3 +249,23 @@ def test_a_rollout_without_dt_says_rk4_is_fixed_step():
     with pytest.raises(ValueError, match="dt must be a finite step > 0; got 0.0"):
         eomc.rollout(osc, np.zeros((2, 2)), t_final=1.0, dt=0.0)
     assert eomc.rollout(osc, np.ones((2, 2)), t_final=1.0, method="dop853").x.shape == (2, 2)
+
+
+def test_the_hint_after_nothing_moved_names_a_state_that_starts_a_motion(tmp_path, capsys):
+    """SymPy's n_link_pendulum_on_cart starts at an equilibrium whose first coordinate is the
+    cart's position: "give --x0 ... e.g. --x0 q0=0.1" led to the same still run.  The hint names
+    the first coordinate whose change starts a motion (q1, a link), else a speed (gymnasium's
+    swimmer, which no force pulls anywhere)."""
+    import eomc
+    from eomc.cli import main
+    from eomc.runtime.diagnose import leaving_state
+
+    path = tmp_path / "cart3.py"
+    path.write_text("from sympy.physics.mechanics.models import n_link_pendulum_on_cart\n"
+                    "system = n_link_pendulum_on_cart(2, cart_force=False)\n")
+    model = eomc.compile(str(path), cache_dir=tmp_path / "cache", progress=False)
+    assert model.state_names[0] == "q0"
+    assert leaving_state(model, np.zeros(model.nx)) == "q1"
+    assert leaving_state(model, np.zeros(model.nx), p={"g": 0.0}) == model.state_names[model.nq]  # nothing pulls
+    assert main(["simulate", str(path), "--t-final", "0.5", "-q"]) == 0
+    assert "e.g. --x0 q1=0.1" in capsys.readouterr().out
