@@ -17,9 +17,11 @@ NAME_tree_sincos(&A[k0], m, SCj);`` (SCj[i], SCj[m + i]: sin and cos of A[k0 + i
 inputs are the function's own, so the values are ready wherever the call sits; the order of
 every other statement is unchanged.  The lanes of NAME_rhs_batch take the same kernels
 (VECTOR_TRIG), so its lanes now give the scalar rhs's bits; ``-DEOMC_BATCH_LIBM_TRIG`` sends
-both to libm (the scalar rhs too: the lanes stay the scalar rhs bit for bit).  Compiled where
-gcc or clang builds for AVX2 (eomc's default flags on such a machine); elsewhere, in the
-c99-f32 target and under ``-DEOMC_NO_SIMD``, the helper is libm's sin and cos per angle.
+both to libm (the scalar rhs too: the lanes stay the scalar rhs bit for bit).  Compiled wherever
+gcc builds, and clang for AVX2 (GNU C vectors: without AVX2 gcc does them as SSE2 pairs, with the same bits,
+so the portable build and the machine build still give the same rhs bits:
+tests/compiler/build/test_machine_flags.py); in the c99-f32 target and under ``-DEOMC_NO_SIMD``
+the helper is libm's sin and cos per angle.
 A looped rhs (compiler/tree/chain_loop.py) keeps its own helper and is left as it is.
 """
 import re
@@ -42,11 +44,15 @@ def helper_c(name):
     kernels = _lane_kernels(p).replace("eomc_cvd", "eomc_tvd").replace("eomc_cvu", "eomc_tvu")
     return "\n".join([
         f"#ifndef {TRIG_GUARD}   /* the joint angles' sin and cos in four lanes (compiler/tree/trig.py) */",
-        "#if defined(__GNUC__) && defined(__AVX2__) && !defined(EOMC_NO_SIMD) && !defined(EOMC_BATCH_LIBM_TRIG)",
+        "#if defined(__GNUC__) && (defined(__AVX2__) || !defined(__clang__)) && !defined(EOMC_NO_SIMD) \\",
+        "    && !defined(EOMC_BATCH_LIBM_TRIG)",
         f"#define {TRIG_GUARD} 1",
         "#else",
         f"#define {TRIG_GUARD} 0",
         "#endif",
+        "#endif",
+        f"#if {TRIG_GUARD} && !defined(__AVX__) && !defined(__clang__)   /* the vectors pass between inline functions only */",
+        '#pragma GCC diagnostic ignored "-Wpsabi"',
         "#endif",
         f"#if {TRIG_GUARD}",
         "typedef double eomc_tvd __attribute__((vector_size(32)));",
