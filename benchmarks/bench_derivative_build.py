@@ -25,9 +25,20 @@ each stage (the driver's stage timer read as process CPU time), sha256 of the C 
 RSS; with
 ``--with-build``, also the CPU of one whole cold `eomc build` each (C compiler included).
 
+``--breakdown``: where the default build's extra over the rhs-only build goes, per model (issue 30's
+<= 1.5x bar): the Python side (a fresh child per contestant, as ``--phases``: derive and generate CPU,
+default against ``--functions rhs``), then gcc on each NAME.c alone (``-c``, the library's flags:
+DEFAULT_CFLAGS, the machine flags, the lanes, the call-graph flag; user + sys of the child), and gcc
+on the default NAME.c with one group's bodies emptied at a time (a function the rhs-only C does not
+have, with its ``NAME_F_part*`` helpers; "kernels": rnea_derivs and its rd_* helpers; an emptied
+function's static callees then go unused and gcc drops them, so their time counts with it): the
+drop from the whole file is that group's gcc time.  Interleaved, repeated, medians; the generator
+is not changed.
+
     python benchmarks/bench_derivative_build.py [--cart 80] [--chain 200] [--robots g1] [--gym ant]
         [--repeat 1] [--per-function g1,cart80] [--cpu-cap 600] [--before "python-of-another-checkout"]
     python benchmarks/bench_derivative_build.py --phases --before PYTHON [--with-build] [--cart 80] ...
+    python benchmarks/bench_derivative_build.py --breakdown [--repeat 3] [--robots g1,talos] [--cart ""] ...
 """
 import argparse
 import json
@@ -76,7 +87,12 @@ else:
     model, name = with_options(model, None, floating_base="--floating-base" in sys.argv)
 p, passes = Progress(False), {}
 p.pass_done = lambda n, s: passes.__setitem__(n, passes.get(n, 0.0) + s)
-spec, g = generate(model, name, progress=p, use_cache=False)
+fns = next((x.split("=", 1)[1].split(",") for x in sys.argv if x.startswith("--functions=")), None)
+spec, g = generate(model, name, progress=p, use_cache=False, functions=fns)
+for x in sys.argv:
+    if x.startswith("--c-out="):
+        open(x.split("=", 1)[1], "w").write(g.c_source)
+        open(x.split("=", 1)[1][:-2] + ".h", "w").write(g.header)
 import resource
 print(json.dumps({**p.timings, "passes": passes, "sha": hashlib.sha256(g.c_source.encode()).hexdigest(),
                   "rss": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}))
@@ -162,9 +178,12 @@ def main():
     ap.add_argument("--gym", default="", help="gymnasium MuJoCo models, e.g. ant,humanoid")
     ap.add_argument("--phases", action="store_true", help="the Python phases against --before's (see the doc)")
     ap.add_argument("--with-build", action="store_true", help="with --phases: one whole cold build each too")
+    ap.add_argument("--breakdown", action="store_true", help="the default build's extra: Python, gcc per group")
     a = ap.parse_args()
     if a.phases:
         return phase_table(a)
+    if a.breakdown:
+        return breakdown(a)
     work = Path(tempfile.mkdtemp(prefix="eomc_dbb_"))
     split = set(filter(None, a.per_function.split(",")))
     print(f"load at start {os.getloadavg()[0]:.2f}", flush=True)
@@ -273,6 +292,121 @@ def phase_table(a):
     print(f"| model | {'before: ' + what + ' | ' if a.before else ''}after: {what} | generate after/before | same C |")
     print("|---|" + ("--:|" if a.before else "") + "--:|--:|:-:|")
     print("\n".join(rows))
+
+
+_HELPERS = re.compile(r"^(rnea_derivs|rd_\w+)$")
+
+
+def group_of(fn, name):
+    """The group an emptied definition belongs to (function_sizes' key; the kernels as one)."""
+    key = re.sub(r"_part\d+(_\d+)*$", "", fn.removeprefix(name + "_"))
+    return "kernels" if _HELPERS.match(key) else key
+
+
+def emptied(c_text, name, group):
+    """``c_text`` with the bodies of ``group``'s definitions emptied (an int or double function
+    returns 0; _DEF does not match the static inline one-liners: their callers are emptied)."""
+    out, last = [], 0
+    for m in _DEF.finditer(c_text):
+        if group_of(m.group(1), name) != group:
+            continue
+        body = c_text.find("\n{", m.end())
+        close = c_text.find("\n}\n", body)
+        kind = re.match(r"(?:static )?(?:EOMC_NOINLINE |EOMC_NEAR )?(\w+) ", m.group(0)).group(1)
+        ret = {"int": "    return 0;\n", "double": "    return 0.0;\n"}.get(kind, "")
+        out += [c_text[last:body + 3], ret]
+        last = close + 1
+    return "".join(out) + c_text[last:]
+
+
+def gcc_cpu(path, flags):
+    """user + sys s of ``cc -c`` on one file (the child's own rusage)."""
+    from eomc.compiler.build.toolchain import find_compiler
+    before = resource_children()
+    proc = subprocess.run([*find_compiler().argv, *flags, "-c", path.name, "-o", path.stem + ".o"], cwd=path.parent,
+                          capture_output=True, text=True)
+    if proc.returncode:
+        raise RuntimeError(f"cc failed on {path}: {proc.stderr[-400:]}")
+    return resource_children() - before
+
+
+def resource_children():
+    import resource
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
+def library_flags(c_text):
+    """The flags eomc's builder compiles a library with on this machine (compiler/build/builder.py)."""
+    from eomc.compiler.build.builder import machine_lanes, resolve_cflags
+    from eomc.compiler.build.stack import CALLGRAPH_FLAG, supports_callgraph
+    from eomc.compiler.build.toolchain import find_compiler, machine_flags
+    tc = find_compiler()
+    flags = resolve_cflags(None) + list(machine_flags(tc))
+    if "_batch(" in c_text:
+        flags.append(f"-DEOMC_BATCH_LANES={machine_lanes()}")
+    return flags + ([CALLGRAPH_FLAG] if supports_callgraph(tc) else [])
+
+
+def breakdown(a):
+    """--breakdown: the default build's extra over rhs-only, Python side and gcc per group."""
+    work = Path(tempfile.mkdtemp(prefix="eomc_dbb_"))
+    print(f"load at start {os.getloadavg()[0]:.2f}", flush=True)
+    for key, label, args, extra in cases_of(a, work):
+        py = {"default": [], "rhs": []}
+        from eomc.compiler.build.builder import SHIPPED_HEADERS, shipped_c_dir
+        for kind in py:     # each NAME.c in its own directory, beside its NAME.h and the shipped headers
+            (work / key / kind).mkdir(parents=True)
+            for n in SHIPPED_HEADERS:
+                (work / key / kind / n).write_bytes((shipped_c_dir() / n).read_bytes())
+        for rep in range(a.repeat):
+            for kind in ("rhs", "default"):
+                env = dict(os.environ, EOMC_CACHE_DIR=tempfile.mkdtemp(prefix="eomc_dbbc_"), **extra)
+                more = [f"--c-out={work / key / kind / 'model.c'}"] + (["--functions=rhs"] if kind == "rhs" else [])
+                py[kind].append(phases(args + more, env))
+        for kind in py:
+            if any(r["err"] for r in py[kind]):
+                print(f"| {label} | {kind}: {py[kind][0]['err']} |", flush=True)
+                return
+        cd, cr = (work / key / k / "model.c" for k in ("default", "rhs"))
+        text = cd.read_text()
+        name = re.search(r'^#include "(\w+)\.h"', text, re.M).group(1)
+        for kind in py:
+            (work / key / kind / "model.h").replace(work / key / kind / f"{name}.h")
+        flags = library_flags(text)
+        sizes = function_sizes(text, name)
+        groups = {}
+        for fn in sizes:
+            if fn != "(file)":
+                g = "kernels" if _HELPERS.match(fn) else fn
+                groups[g] = groups.get(g, 0) + sizes[fn]
+        in_rhs = set(function_sizes(cr.read_text(), name))
+        variants = {"rhs": cr, "default": cd}
+        for g in sorted(groups, key=lambda g: -groups[g]):
+            if g in in_rhs or groups[g] < 1000:     # the rhs's own code is in both builds
+                continue
+            v = work / key / "default" / f"no_{g}.c"
+            v.write_text(emptied(text, name, g))
+            variants[g] = v
+        gcc = {v: [] for v in variants}
+        for rep in range(a.repeat):
+            for v, path in variants.items():
+                gcc[v].append(gcc_cpu(path, flags))
+        m = {v: statistics.median(gcc[v]) for v in gcc}
+        pyd = {k: (statistics.median(r["derive"] for r in py[k]), statistics.median(r["generate"] for r in py[k]))
+               for k in py}
+        print(f"\n{label} ({a.repeat} interleaved repeats, medians, CPU s; load now {os.getloadavg()[0]:.1f})\n")
+        print("| part | default | rhs-only | extra |\n|---|--:|--:|--:|")
+        for i, what in enumerate(("Python derive", "Python generate")):
+            print(f"| {what} | {pyd['default'][i]:.2f} | {pyd['rhs'][i]:.2f} | {pyd['default'][i] - pyd['rhs'][i]:+.2f} |")
+        print(f"| gcc -c NAME.c | {m['default']:.2f} | {m['rhs']:.2f} | {m['default'] - m['rhs']:+.2f} |")
+        print(f"  (gcc each run: default " + " / ".join(f"{x:.2f}" for x in gcc["default"]) + "; rhs-only "
+              + " / ".join(f"{x:.2f}" for x in gcc["rhs"]) + ")")
+        print("\n| group emptied | its C kB | gcc s without it | its gcc s (drop) |\n|---|--:|--:|--:|")
+        for g in variants:
+            if g in ("rhs", "default"):
+                continue
+            print(f"| {g} | {groups[g] / 1e3:.0f} | {m[g]:.2f} | {m['default'] - m[g]:.2f} |", flush=True)
 
 
 if __name__ == "__main__":

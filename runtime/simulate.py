@@ -816,7 +816,7 @@ def simulate(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6
              project=False, stiff_check=True, n_points=None, baumgarte=0.0,
              pi_beta=PI_BETA, raise_on_failure=True, events=None, max_events=DEFAULT_MAX_EVENTS,
              K=None, x_ref=None, consistent=None, sensitivities=False, switching=True,
-             sensitivity_errors=False):
+             sensitivity_errors=False, split=None):
     """Integrate ``model`` from ``x0`` over ``t_span``; returns a SimulationResult.
 
     x0/p: arrays or {name: value} dicts (missing names -> the model's initial_state (0 without
@@ -876,7 +876,15 @@ def simulate(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6
     sizing the steps (the laws are continuous there); a run that penetrates a contact or overshoots a
     limit beyond the stated bounds warns (PhysicsWarning, naming the contact or joint),
     and one that creates energy in a passive model with an ``energy`` output fails.
+
+    split: implicitfast's residual test on a model with its fast path (contacts), as
+    ``rollout(split=)``: a step whose linearisation misses implicit Euler by more than ``split``
+    is split (None: IMPLICITFAST_SPLIT, 0.5); 0 turns the test off, one model call per step as
+    MuJoCo's implicitfast -- unchecked, it can gain energy on a landing (the energy verdict
+    says so).  Refused with any other method.
     """
+    if split is not None:
+        split = _checked_split(model, method, split)
     if sensitivities is not False and sensitivities is not None:
         return _simulate_sensitivities(model, x0, t_span, sensitivities, p=p, r=r, method=method,
                                        rtol=rtol, atol=atol, t_eval=t_eval, dt=dt, max_steps=max_steps,
@@ -892,6 +900,8 @@ def simulate(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6
                 project=project, stiff_check=stiff_check, n_points=n_points,
                 baumgarte=baumgarte, pi_beta=pi_beta, events=events, max_events=max_events,
                 K=K, x_ref=x_ref, switching=switching)
+    if split is not None:
+        a["split"] = split
     if "switches" in a and a["switches"].limits:
         from .switching import warn_outside_limits
         warn_outside_limits(model, a["x0"], a["p"])
@@ -902,6 +912,20 @@ def simulate(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6
     if project and not consistent and model.nhol + model.nvel:
         _say_projected(model, a, result, atol)
     return result
+
+
+def _checked_split(model, method, split):
+    """simulate's split= as a float, or ValueError naming what is wrong with it."""
+    if resolve_method(method) != "implicitfast":
+        raise ValueError(f"{model.name}: split= is implicitfast's residual test (as rollout's); "
+                         f"method {method!r} takes none")
+    try:
+        value = float(split)
+    except (TypeError, ValueError):
+        raise ValueError(f"{model.name}: split must be a number >= 0; got {split!r}") from None
+    if not (np.isfinite(value) and value >= 0):
+        raise ValueError(f"{model.name}: split must be a number >= 0 (0: no residual test); got {split!r}")
+    return value
 
 
 def _simulate_sensitivities(model, x0, t_span, sensitivities, p, r, method, rtol, atol, t_eval, dt,

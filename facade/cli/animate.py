@@ -50,7 +50,7 @@ def configure(parser):
     parser.add_argument("--method", default="auto", help="integrator (as eomc simulate; default auto)")
     parser.add_argument("--rtol", type=float, default=1e-8, help="relative tolerance")
     parser.add_argument("--atol", type=float, default=1e-8, help="absolute tolerance")
-    parser.add_argument("--input", nargs="+", metavar="NAME=V|CSV", default=(),
+    parser.add_argument("--input", nargs="+", action="extend", metavar="NAME=V|CSV", default=[],
                         help="input values, as eomc simulate")
     parser.add_argument("--events", metavar="LIST", help="events, as eomc simulate")
     parser.add_argument("--formulation", choices=("auto", "kane", "recursive"), default="auto",

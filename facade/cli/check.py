@@ -58,8 +58,29 @@ def run(args):
         print(f"eomc check: the runs gave {len(physics)} physics warning{'s' if len(physics) > 1 else ''} "
               f"(on stderr: limits, contacts, energy): the checks above judge the integration, not the "
               f"model's laws")
+    still = _at_rest(model, x0, p, args.t_final)
+    if still:
+        # first hour s24: SymPy's multi-dof holonomic example (JointsMethod) at its zero start read
+        # "10 of 10 checks passed" with every method "0 x tolerance, 8 steps": nothing was tested
+        print(f"eomc check: nothing moved: the start is an equilibrium (rhs = 0 there), so the runs stayed at "
+              f"their start and the accuracy checks compared nothing; give --x0 to start elsewhere, e.g. "
+              f"--x0 {still}=0.1")
     verdict = outcome(checks)
     if verdict == "inconclusive":
         print(f"eomc check: inconclusive (exit status {EXIT_INCONCLUSIVE}): no method failed, but a "
               f"check could not be made; the lines marked INCONCLUSIVE say why and what to change")
     return {"passed": 0, "failed": 1, "inconclusive": EXIT_INCONCLUSIVE}[verdict]
+
+
+def _at_rest(model, x0, p, t_final):
+    """When the start is an equilibrium (rhs exactly 0 there, at t = 0, t_final / 2 and t_final: a
+    time-varying force would show), the name of a state whose change starts a motion, else None."""
+    import numpy as np
+    x = np.array([x0[n] for n in model.state_names], dtype=float)
+    try:
+        if any(np.any(np.asarray(model.rhs(t, x, p=p)) != 0) for t in (0.0, 0.5 * t_final, t_final)):
+            return None
+    except Exception:       # noqa: BLE001 -- the checks above already said what failed
+        return None
+    from eomc.runtime.diagnose import leaving_state
+    return leaving_state(model, x, p)

@@ -2,7 +2,8 @@
 
 MODEL is a model file (compiled on the way, with the build cache) or a built
 model directory / NAME.json (loaded without SymPy).  --x0 and --param take
-NAME=VALUE items, space- or comma-separated (`--x0 q1=0.5 u1=0` or `--x0 q1=0.5,u1=0`).
+NAME=VALUE items, space- or comma-separated (`--x0 q1=0.5 u1=0` or `--x0 q1=0.5,u1=0`), and
+repeated flags add up (`--x0 q1=0.5 --x0 u1=0`: argparse's "extend").
 Mistakes in them are ValueErrors, which `eomc` prints as one line (exit status 2).
 """
 from pathlib import Path
@@ -15,10 +16,10 @@ def add_model_arguments(parser):
     """The positional MODEL and the --x0/--param overrides."""
     parser.add_argument("model", help="model file (.py), robot (.urdf), MuJoCo model (.xml) or built model "
                                       "directory / NAME.json")
-    parser.add_argument("--x0", nargs="+", metavar="NAME=V", default=(),
+    parser.add_argument("--x0", nargs="+", action="extend", metavar="NAME=V", default=[],
                         help="initial state entries; states not named keep the model's initial_state "
                              "(0 when it has none)")
-    parser.add_argument("--param", nargs="+", metavar="NAME=V", default=(),
+    parser.add_argument("--param", nargs="+", action="extend", metavar="NAME=V", default=[],
                         help="parameter values (others keep their defaults)")
     parser.add_argument("-q", "--quiet", action="store_true",
                         help="no progress on stderr (compiling a model file, long runs)")

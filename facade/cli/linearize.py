@@ -17,7 +17,7 @@ def configure(parser):
     cli_common.add_model_arguments(parser)
     cli_common.add_formulation_argument(parser)
     parser.add_argument("--t", type=float, default=0.0, help="time of the operating point")
-    parser.add_argument("--input", nargs="+", metavar="NAME=V", default=(),
+    parser.add_argument("--input", nargs="+", action="extend", metavar="NAME=V", default=[],
                         help="input values at the operating point (others 0)")
     parser.add_argument("--reduced", action="store_true",
                         help="over the independent states only (constrained models)")

@@ -332,8 +332,11 @@ def test_a_run_that_stays_at_an_equilibrium_says_so(tmp_path, capsys):
     # printed "8 steps" and nothing else: was anything simulated?
     model = model_files.write(tmp_path, model_files.PENDULUM, "pend")
     assert main(["simulate", str(model), "--t-final", "1", "-q", "--param", "g=0"]) == 0     # at rest, no gravity
+    # with g = 0 a turned pendulum stays put too: the hint names the speed (it named q, a loop; s24)
     assert ("  nothing moved: the start is an equilibrium (every state stayed at its start value); give --x0 to "
-            "start elsewhere, e.g. --x0 q=0.1") in capsys.readouterr().out
+            "start elsewhere, e.g. --x0 u=0.1") in capsys.readouterr().out
+    assert main(["simulate", str(model), "--t-final", "1", "-q", "--param", "g=0", "--x0", "u=0.1"]) == 0
+    assert "nothing moved" not in capsys.readouterr().out
     assert main(["simulate", str(model), "--t-final", "1", "-q"]) == 0
     assert "nothing moved" not in capsys.readouterr().out
 
@@ -578,3 +581,42 @@ def test_a_failed_runs_diagnosis_comes_before_its_state(pendulum, tmp_path, monk
     assert main(["simulate", "pend", "--t-final", "100", "--max-steps", "5", "-o", str(out)]) == 1
     err = capsys.readouterr().err.strip().splitlines()[-1]
     assert "; wrote the " in err and err.index("; wrote the ") < err.index("; state q1="), err
+
+
+@pytest.mark.parametrize("command", ["simulate", "check", "report", "linearize", "animate"])
+def test_repeated_x0_param_and_input_flags_add_up(command):
+    """`--x0 q1=1.5 --x0 u1=1` (flags repeated, as --contact is) kept only the last one: the
+    four-bar of SymPy's docs then started at q1 = 0 and was refused as singular there, and a
+    repeated --param silently ran the file's value of the first one.  They add up now."""
+    from eomc.cli import command_parser
+
+    _, parser = command_parser(command)
+    extra = ["--input", "F=1", "--input", "T=2"] if command in ("simulate", "linearize", "animate") else []
+    args = parser.parse_args(["m.py", "--x0", "q1=0.5", "--x0", "u1=1,q2=2", "--param", "g=3",
+                              "--param", "L=2", *extra])
+    assert cli_common.parse_assignments(args.x0, "x0") == {"q1": 0.5, "u1": 1.0, "q2": 2.0}
+    assert cli_common.parse_assignments(args.param, "param") == {"g": 3.0, "L": 2.0}
+    if extra:
+        assert args.input == ["F=1", "T=2"]
+    assert parser.parse_args(["m.py"]).x0 == [] and parser.parse_args(["m.py"]).param == []
+
+
+def test_repeated_x0_and_param_reach_the_run(pendulum, tmp_path):
+    out = tmp_path / "t.csv"
+    assert main(["simulate", "pendulum", "--t-final", "0.01", "--points", "2", "--x0", "q1=0.25",
+                 "--x0", "u1=0.5", "--param", "g=2", "--param", "L=3", "-o", str(out), "-q"]) == 0
+    first = np.loadtxt(out, delimiter=",", skiprows=1)[0]
+    assert first[1] == 0.25 and first[2] == 0.5
+
+
+def test_check_at_an_equilibrium_says_that_nothing_was_compared(pendulum, capsys):
+    """`eomc check` on SymPy's multi-dof holonomic example (its zero start an equilibrium) read
+    "10 of 10 checks passed", every method "0 x tolerance, 8 steps": it says now that nothing
+    moved, and how to start elsewhere (as `eomc simulate` does); a start that moves gets no such line."""
+    pendulum.initial_state = np.array([0.0, 0.0])
+    assert main(["check", "pendulum", "--t-final", "0.5", "--methods", "dop853", "-q"]) == 0
+    out = capsys.readouterr().out
+    assert "eomc check: nothing moved: the start is an equilibrium (rhs = 0 there)" in out, out
+    assert "--x0 q1=0.1" in out
+    assert main(["check", "pendulum", "--t-final", "0.5", "--methods", "dop853", "-q", "--x0", "q1=0.3"]) == 0
+    assert "nothing moved" not in capsys.readouterr().out

@@ -118,3 +118,154 @@ def test_progress_after_auto_switches_to_radau_shows_the_whole_span(monkeypatch)
     assert steps == sorted(steps) and steps[-1] == res.stats["steps"], (steps, res.stats)
     assert float(lines[-1].group(1)) == t_final and int(lines[-1].group(4)) == 100
     assert any(switched < float(m.group(1)) < t_final for m in lines), stream.getvalue()   # Radau's
+
+
+def test_the_report_says_which_reference_it_ran(capsys):
+    """`eomc report` printed the reference it was asked for (auto at rtol 1e-13) while report.md
+    recorded the one it ran (radau at rtol 1e-12 on a contact model): stderr now says both, the
+    second line as report.md does.  Asked for Radau at 1e-13, it runs at 1e-12 (its finest)."""
+    from eomc.runtime.report import work_precision
+
+    osc = get_model("oscillator")
+    rep = work_precision(osc, [1.0, 0.0], (0.0, 1.0), methods=("dop853",), tolerances=(1e-5,),
+                         repeats=1, n_points=11, reference_tol=1e-13, reference_method="radau",
+                         reference_check="none")
+    err = capsys.readouterr().err
+    assert "computing the reference (radau at rtol 1e-13, atol 1e-13" in err, err
+    assert rep.reference.tol == 1e-12
+    assert f"eomc report: {rep.reference.describe()}\n" in err, err
+    assert "eomc report: reference: radau at rtol=1e-12, atol=1e-13" in err, err
+
+
+def test_simulate_takes_rollouts_split_and_refuses_it_elsewhere(tmp_path):
+    """rollout(split=0) (implicitfast unchecked, one model call per step as MuJoCo's) had no
+    simulate to be checked against: simulate takes split= now, its row equal to rollout's bit
+    for bit; with a method other than implicitfast, or a negative split, it is refused."""
+    import warnings
+
+    import pytest
+
+    import eomc
+    from .test_rollout import thrown_ball
+
+    m, x0 = thrown_ball(tmp_path, "fh5_split")
+    kw = dict(method="implicitfast", dt=0.005)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        ro = eomc.rollout(m, x0[:3], t_final=0.3, split=0.0, raise_on_failure=False, threads=1, **kw)
+        for i in range(3):
+            off = m.simulate(x0[i], (0.0, 0.3), split=0, raise_on_failure=False, **kw)
+            assert np.array_equal(off.x[-1], ro.x[i]), i
+            assert off.stats["nfev"] == round(0.3 / 0.005) + 1         # one call per step, and one at t = 0
+        on = [m.simulate(x0[i], (0.0, 0.3), raise_on_failure=False, **kw) for i in range(3)]
+    assert sum(r.stats["nfev"] for r in on) > 3 * (round(0.3 / 0.005) + 1)   # the default test splits landings
+    with pytest.raises(ValueError, match="split= is implicitfast's residual test"):
+        m.simulate(x0[0], (0.0, 0.1), method="radau", split=0)
+    with pytest.raises(ValueError, match="split must be a number >= 0"):
+        m.simulate(x0[0], (0.0, 0.1), split=-1, **kw)
+
+
+def test_an_mjcf_limits_overshoot_is_not_blamed_on_a_too_soft_stiffness():
+    """gymnasium's walker2d and inverted_pendulum (no flags) warned that their limits' default
+    stiffness was "too soft for the loads they met"; it is the file's solref, and MuJoCo's mj_step
+    takes the same limits as far or further (walker2d's knees 0.085-0.091 rad against eomc's
+    0.041): the note says so.  A URDF joint's default (eomc's own rule) is still called too soft."""
+    from eomc.runtime.switching import Limit, _overshoot_notes
+
+    names = ["lo_a", "limit_k_a", "hi_b", "limit_k_b"]
+    defaults = np.array([-1.0, 100.0, 2.0, 50.0])
+    sw = SimpleNamespace(limits=[Limit("a", 0, 0, -1.0, -1, "lower"), Limit("b", 1, 2, 1.0, -1, "upper")])
+    over, e = np.array([0.05, 0.06]), np.full(2, 3e-4)
+    for laws, past in (({"a": {}, "b": {}}, [0, 1]), ({"a": {}}, [0])):
+        mjcf = SimpleNamespace(param_names=names, param_defaults=defaults, metadata={"limit_laws": laws})
+        text = " ".join(_overshoot_notes(mjcf, defaults, sw, past, over, e))
+        assert "too soft" not in text, text
+        assert "the default: from the joint's MuJoCo solref" in text or "the default (from the joint's MuJoCo solref" in text
+        assert "as soft as MuJoCo's own under the file's solref" in text and "--param limit_k_" in text, text
+    urdf = SimpleNamespace(param_names=names, param_defaults=defaults, metadata={})
+    for past in ([0, 1], [0]):
+        text = " ".join(_overshoot_notes(urdf, defaults, sw, past, over, e))
+        assert "too soft for the load" in text and "MuJoCo" not in text, text
+
+
+def test_a_contact_that_starts_deep_is_put_down_to_the_start(tmp_path):
+    """gymnasium's humanoidstandup.xml starts its arms 0.035 m into the floor (MuJoCo's mj_forward
+    at qpos0 says so too) and the run only lifts them out; the warning read "penetrated 0.037 m
+    ... the contact is too soft for the load (raise k_...)".  A contact the run presses no
+    deeper than it started is put down to the start; one pressed deeper is still blamed on its
+    stiffness."""
+    import sys
+    import warnings
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).parents[1] / "compiler" / "contact"))
+    import bounce_grid as bg
+
+    ball = bg.build(tmp_path)
+    x0 = np.zeros(12)
+    x0[2] = 0.03                    # radius 0.1: 0.07 m deep, more than half the radius
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        ball.simulate(x0, (0, 0.5), raise_on_failure=False)
+    text = " ".join(str(w.message) for w in seen)
+    assert "contact ball (0.07 m, more than 0.5 of its radius 0.1 m) started that deep" in text, text
+    assert "penetrated" not in text and "raise k_ball" not in text, text
+    p = np.array(ball.param_defaults)
+    p[ball.param_names.index("k_ball")] = 1e3
+    x0[2] = 0.5
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        ball.simulate(x0, (0, 3), p=p, method="dop853", raise_on_failure=False)
+    text = " ".join(str(w.message) for w in seen)
+    assert "contact ball penetrated 0.1" in text and "raise k_ball" in text and "started that deep" not in text, text
+
+
+def test_a_report_from_an_equilibrium_recommends_nothing():
+    """`eomc report swimmer.xml` (gymnasium, no flags: from rest at x = 0, an equilibrium) measured
+    every error as 0 and recommended `method="rk4", dt=1.25`: it is inconclusive now, saying why;
+    a start that moves still gets its recommendation."""
+    from eomc.runtime.report import work_precision
+
+    osc = get_model("oscillator")
+    kw = dict(methods=("rk4", "dop853"), tolerances=(1e-4, 1e-6), repeats=1, n_points=11, progress=False)
+    rep = work_precision(osc, [0.0, 0.0], (0.0, 1.0), **kw)
+    assert rep.inconclusive and rep.inconclusive.startswith("nothing moved: the start is an equilibrium")
+    assert rep.recommendation_text(1e-6).startswith("**Inconclusive:** nothing moved")
+    moving = work_precision(osc, [1.0, 0.0], (0.0, 1.0), **kw)
+    assert moving.inconclusive is None and "**Recommendation**" in moving.recommendation_text(1e-4)
+
+
+def test_a_rollout_without_dt_says_rk4_is_fixed_step():
+    """`eomc.rollout(model, X0, t_final=1)` (rollout's default method is rk4) said only "dt must be
+    a finite step > 0; got None": it names the method and both ways out."""
+    import pytest
+
+    import eomc
+
+    osc = get_model("oscillator")
+    with pytest.raises(ValueError, match=r"method 'rk4' \(rollout's default\) is fixed-step: give dt= .* or an "
+                                         r"adaptive method with t_final="):
+        eomc.rollout(osc, np.zeros((2, 2)), t_final=1.0)
+    with pytest.raises(ValueError, match="dt must be a finite step > 0; got 0.0"):
+        eomc.rollout(osc, np.zeros((2, 2)), t_final=1.0, dt=0.0)
+    assert eomc.rollout(osc, np.ones((2, 2)), t_final=1.0, method="dop853").x.shape == (2, 2)
+
+
+def test_the_hint_after_nothing_moved_names_a_state_that_starts_a_motion(tmp_path, capsys):
+    """SymPy's n_link_pendulum_on_cart starts at an equilibrium whose first coordinate is the
+    cart's position: "give --x0 ... e.g. --x0 q0=0.1" led to the same still run.  The hint names
+    the first coordinate whose change starts a motion (q1, a link), else a speed (gymnasium's
+    swimmer, which no force pulls anywhere)."""
+    import eomc
+    from eomc.cli import main
+    from eomc.runtime.diagnose import leaving_state
+
+    path = tmp_path / "cart3.py"
+    path.write_text("from sympy.physics.mechanics.models import n_link_pendulum_on_cart\n"
+                    "system = n_link_pendulum_on_cart(2, cart_force=False)\n")
+    model = eomc.compile(str(path), cache_dir=tmp_path / "cache", progress=False)
+    assert model.state_names[0] == "q0"
+    assert leaving_state(model, np.zeros(model.nx)) == "q1"
+    assert leaving_state(model, np.zeros(model.nx), p={"g": 0.0}) == model.state_names[model.nq]  # nothing pulls
+    assert main(["simulate", str(path), "--t-final", "0.5", "-q"]) == 0
+    assert "e.g. --x0 q1=0.1" in capsys.readouterr().out
