@@ -620,3 +620,21 @@ def test_check_at_an_equilibrium_says_that_nothing_was_compared(pendulum, capsys
     assert "--x0 q1=0.1" in out
     assert main(["check", "pendulum", "--t-final", "0.5", "--methods", "dop853", "-q", "--x0", "q1=0.3"]) == 0
     assert "nothing moved" not in capsys.readouterr().out
+
+
+def test_a_warning_that_begins_with_blank_lines_starts_on_the_warnings_line():
+    """SymPy's deprecation texts (a model file on sympy.physics.mechanics.Body, JointsMethod:
+    SymPy's own multi-dof holonomic example), given again from the build cache, begin with two
+    blank lines: the command printed "eomc simulate: warning: " and then the text two lines down."""
+    import warnings
+
+    import eomc.cli as cli
+    from eomc.errors import EomcWarning
+
+    old = cli._plain_warnings("simulate")
+    try:
+        text = warnings.formatwarning(EomcWarning("\n\nSupport for the Body class has been removed.\n\nSee ...\n"),
+                                      EomcWarning, "m.py", 3)
+    finally:
+        warnings.formatwarning = old
+    assert text == "eomc simulate: warning: Support for the Body class has been removed.\n\nSee ...\n", text
