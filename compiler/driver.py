@@ -52,7 +52,8 @@ class Progress:
                    "tangent": "Jacobians (tangent)", "share_sincos": "sharing sin/cos",
                    "fold_constants": "folding constants", "fold_parameters": "folding parameters",
                    "dce": "dropping unused code", "expand_powers": "powers to products",
-                   "contacts": "contact laws", "jacobian_plan": "Jacobians (plan)"}
+                   "contacts": "contact laws", "jacobian_plan": "Jacobians (plan)",
+                   "kane_form": "Kane's equations (auto)"}
 
     def __init__(self, enabled=None, stream=None):
         """``enabled``: None (on when stderr is a terminal; in a log only a stage lasting

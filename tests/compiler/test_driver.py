@@ -158,6 +158,19 @@ def test_contact_laws_and_jacobian_plans_are_listed_like_passes(tmp_path, capsys
     assert any(line.startswith("eomc:   Jacobians (plan) ") for line in steps), steps
 
 
+def test_auto_lists_forming_kanes_equations_under_generate(tmp_path, capsys, monkeypatch):
+    """auto forms Kane's equations of a URDF robot inside 'generate' to compare both forms; that
+    was most of so101's generate and no listed step (firsthour5: 76 s wall, ~7 s listed)."""
+    path = tmp_path / "arm.urdf"
+    path.write_text(_ARM_URDF)
+    monkeypatch.setattr(Progress, "PASS_SHOWN", 0.0)
+    eomc.compile(str(path), cache_dir=tmp_path / "cache", progress=True)
+    lines = capsys.readouterr().err.splitlines()
+    start = lines.index("eomc: generate ...")
+    assert any(line.startswith("eomc:   Kane's equations (auto) ") and line.endswith(" s")
+               for line in lines[start:]), lines
+
+
 _ARM_URDF = """<robot name="arm">
   <link name="base"><inertial><mass value="2"/><origin xyz="0 0 0.05"/>
     <inertia ixx="0.02" iyy="0.03" izz="0.04" ixy="0" ixz="0" iyz="0"/></inertial></link>
