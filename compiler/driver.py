@@ -38,16 +38,22 @@ class Progress:
     # quiet (-q) on a terminal: a stage that lasts this long still gets its live line (a
     # 5000-link robot builds for many minutes; silence would look like a hang)
     QUIET_LIVE_AFTER = 20.0
-    # a log (stderr not a terminal, progress left to its default): a stage still running after this
+    # a log (stderr not a terminal, progress on or left to its default): a stage still running after this
     # many seconds gets a plain line, and then its time when it ends, so a CI log or `2> run.log` is
     # not silent for the minutes a contact-rich robot builds (Go2 --ground: ~70 s CPU); short stages
     # print nothing, as runtime/progress.py's integration lines do
     LOG_AFTER = 15.0
+    # ... and then one more line every LOG_EVERY seconds while it runs, with the compiler pass it
+    # is past, so a build of many minutes (dm_control's dog, humanoid_CMU: > 200 s of generate)
+    # does not look hung after its first line (firsthour5, session 24); a 5-minute stage prints
+    # about ten lines, never a spinner
+    LOG_EVERY = 30.0
     PASS_LABELS = {"cse": "common subexpressions", "differentiate": "Jacobians",
                    "tangent": "Jacobians (tangent)", "share_sincos": "sharing sin/cos",
                    "fold_constants": "folding constants", "fold_parameters": "folding parameters",
                    "dce": "dropping unused code", "expand_powers": "powers to products",
-                   "contacts": "contact laws", "jacobian_plan": "Jacobians (plan)"}
+                   "contacts": "contact laws", "jacobian_plan": "Jacobians (plan)",
+                   "kane_form": "Kane's equations (auto)"}
 
     def __init__(self, enabled=None, stream=None):
         """``enabled``: None (on when stderr is a terminal; in a log only a stage lasting
@@ -55,10 +61,15 @@ class Progress:
         but a stage lasting QUIET_LIVE_AFTER seconds on a terminal still gets its live line)."""
         self.stream = stream or sys.stderr
         self.quiet_live = enabled == "quiet"
-        self.log_long = enabled is None and not is_terminal(self.stream)
+        # a log (not a terminal) gets the sparse lines of a long stage both by default and when
+        # asked for progress (`eomc build 2> build.log`: the stage and pass lines come only as
+        # they end, so a 70 s pass was a silent 70 s)
+        self.log_long = enabled in (None, True) and not is_terminal(self.stream)
         enabled = False if self.quiet_live else enabled
         self.enabled = is_terminal(self.stream) if enabled is None else bool(enabled)
         self.timings = {}
+        self.doing = None       # what a long stage's later log lines say it is past
+        self.passes_done = 0
         self.live = ticker("", self.stream, enabled=False)
 
     def stage(self, label):
@@ -75,22 +86,31 @@ class Progress:
                     print(f"eomc: {label} ...", file=progress.stream, flush=True)
                 self.start = time.perf_counter()
                 self.said = threading.Event()
+                self.done = threading.Event()
                 self.timer = None
+                progress.doing, progress.passes_done = None, 0
                 if progress.log_long:
-                    self.timer = threading.Timer(progress.LOG_AFTER, self._still_running)
-                    self.timer.daemon = True
+                    self.timer = threading.Thread(target=self._still_running, daemon=True,
+                                                  name="eomc-progress-log")
                     self.timer.start()
 
             def _still_running(self):
-                self.said.set()
-                print(f"eomc: {label} ... (still running after {progress.LOG_AFTER:g} s)",
-                      file=progress.stream, flush=True)
+                # the first line at LOG_AFTER s, then one every LOG_EVERY s until the stage ends
+                wait, first = progress.LOG_AFTER, True
+                while not self.done.wait(wait):
+                    self.said.set()
+                    so_far = (f"{progress.LOG_AFTER:g}" if first else
+                              f"{time.perf_counter() - self.start:.0f}")
+                    doing = f", {progress.doing}" if progress.doing else ""
+                    print(f"eomc: {label} ... (still running after {so_far} s{doing})",
+                          file=progress.stream, flush=True)
+                    wait, first = progress.LOG_EVERY, False
 
             def __exit__(self, *exc):
                 progress.timings[label] = elapsed = time.perf_counter() - self.start
                 progress.live.close()
                 if self.timer is not None:
-                    self.timer.cancel()
+                    self.done.set()
                     self.timer.join()
                 if (progress.enabled or self.said.is_set()) and exc[0] is None:
                     print(f"eomc: {label:<9} {elapsed:7.3f} s", file=progress.stream, flush=True)
@@ -100,6 +120,8 @@ class Progress:
         """A compiler pass finished: shown when it took long enough to be noticed."""
         label = self.PASS_LABELS.get(name, name.replace("_", " "))
         self.live.note(f"after {label}")
+        self.passes_done += 1
+        self.doing = f"{self.passes_done} passes done, the last {label}"
         if self.enabled and seconds >= self.PASS_SHOWN:
             line = f"eomc:   {label:<22} {seconds:7.3f} s"
             if self.live.active:

@@ -12,7 +12,7 @@ import numpy as np
 
 from .cdef import STATUS_SINGULAR_MASS_MATRIX as SINGULAR_STATUS
 
-__all__ = ["SINGULAR_STATUS", "singular_direction"]
+__all__ = ["SINGULAR_STATUS", "singular_direction", "leaving_state"]
 
 
 def singular_direction(model, t, x, p=None, r=None, semidefinite=False):
@@ -102,3 +102,28 @@ def _inertia_remedy(model, t, x, p, r, largest):
             f"rotational inertia in the file; given some (e.g. a uniform sphere's about the centre of mass, "
             f"radius {sizes}: the centre's distance from the joint), that motion meets inertia (M's smallest "
             f"eigenvalue then {smallest:.3g}): --param {params}")
+
+
+def leaving_state(model, x, p=None, t=0.0, step=0.1):
+    """The name of a state that, moved by ``step`` from the equilibrium ``x``, starts a motion
+    (the rhs there is not 0): the first coordinate that does, else the first speed, else the
+    first state.  For the hint after "nothing moved": SymPy's n_link_pendulum_on_cart starts at
+    an equilibrium where its first coordinate, the cart's position, moves nothing when shifted
+    (the hint "--x0 q0=0.1" led to the same still run)."""
+    names = list(model.state_names)
+    nq = int(getattr(model, "nq", 0) or 0)
+    x = np.asarray(x, dtype=float)
+    if isinstance(p, dict):     # {name: value}, as simulate takes it
+        given, p = p, np.array(model.param_defaults, dtype=float)
+        for k, v in given.items():
+            if k in model.param_names:
+                p[list(model.param_names).index(k)] = float(v)
+    for i in range(min(nq, len(names))):
+        moved = x.copy()
+        moved[i] += step
+        try:
+            if np.any(np.asarray(model.rhs(t, moved, p=p)) != 0):
+                return names[i]
+        except Exception:       # noqa: BLE001 -- a hint only: try the next one
+            continue
+    return names[nq] if 0 < nq < len(names) else names[0]

@@ -45,6 +45,7 @@ import numpy as np
 from .reference import MIN_WINDOW, Reference, compute_reference, scaled_error, tied_tolerances
 from .report_output import (COLUMNS, DEFAULT_TARGET, cost_key, plot_report, recommendation, summary_markdown,
                             table_text, write_csv)
+from .diagnose import leaving_state
 from .progress import bar, ticker
 from .simulate import bind_call, finish, prepare, resolve_method, run_prepared
 
@@ -289,6 +290,13 @@ def work_precision(model, x0, t_span, p=None, r=None, methods=DEFAULT_METHODS,
     report.window = reference.horizon(report.window_level)
     if report.window < min(MIN_WINDOW, t_eval.size):
         report.inconclusive = _parted(reference, report.window, report.window_level)
+    elif not np.any(reference.x != reference.x[0]):
+        # first hour s24: gymnasium's swimmer from rest (x = 0, an equilibrium) had every error 0
+        # and recommended `method="rk4", dt=1.25`
+        report.inconclusive = (f"nothing moved: the start is an equilibrium (every state of the reference "
+                               f"stayed at its start value over [{t0:g}, {t1:g}]), so every run's error is 0 "
+                               f"and no method can be told from another; give a start that moves "
+                               f"(--x0 / x0=, e.g. {leaving_state(model, reference.x[0], p, t0)}=0.1)")
     report.skipped = _unrunnable(model, methods, common)
     report.cost_weights, report.cost_from_op_counts = cost_weights(model)
     _run_grid(report, model, common, repeats, progress)

@@ -207,6 +207,10 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method="rk4", p=No
                              f"use simulate_many(..., t_eval=)")
         if lanes:
             raise ValueError(f"rollout(lanes=True) takes method 'rk4'; got {method!r}")
+    elif dt is None:
+        # first hour s24: eomc.rollout(model, X0, t_final=1) said only "dt ... got None"
+        raise ValueError(f"method {method!r} (rollout's default) is fixed-step: give dt= (and t_final= or "
+                         f"steps=), or an adaptive method with t_final= (method='auto', 'dop853', ...)")
     elif isinstance(dt, bool) or not isinstance(dt, numbers.Real) or not np.isfinite(dt) or dt <= 0:
         raise ValueError(f"dt must be a finite step > 0; got {dt!r}")
     if (t_final is None) == (steps is None):

@@ -91,6 +91,11 @@ class Formulation:
         from ``fn``'s program and emitted just before ``fn`` (its first caller), or None."""
         return None
 
+    def scalar_text(self, fn, name, sym, lines, parts):
+        """``fn``'s printed scalar C (body lines, sub-function texts) as the file takes it, after the
+        split and after a lanes twin (compiler/emit/batch.py) took its copy."""
+        return lines, parts
+
     def restrict_scratch(self, fn):
         """True when ``fn``'s sub-functions take their scratch array ``restrict``
         (:func:`.split.split_body`)."""

@@ -534,6 +534,7 @@ def _generate_c(formed, name, *, parameters, inputs, outputs, functions, fold_pa
             blines, bparts = split_body(full, f"{name}_{fn}_part", restrict=formulation.restrict_scratch(fn))
             printed[fn] = (blines, bparts if consts is not None else asked + bparts)
         lean = lean_attribute(fn, lines)
+        lines, parts = formulation.scalar_text(fn, name, sym, lines, parts)   # after the lanes twin's copy
         if consts is not None:
             rendered += _constants_apart(name, fn, consts[1], lines, parts, lean)
             meta_batch.setdefault("const_outputs", {})[fn] = sum(1 for line in full if line in consts[0])

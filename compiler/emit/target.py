@@ -52,8 +52,9 @@ _KNOWN_CALLS = {"isfinite", "defined", "sizeof", "if", "for", "while", "switch",
 # the AVX2 twins of the articulated solve's row helpers and their per-call CPU dispatch
 # (compiler/tree/analytic.py AVX2_GUARD): x86 double-precision code chosen by gcc's
 # __builtin_cpu_supports; the float target and the lanes kernels keep the portable helpers.
-# Likewise the looped rhs's sin and cos in lanes (compiler/tree/chain_loop.py VTRIG_GUARD)
-_CPU_DISPATCH = re.compile(r"^#if (?:EOMC_RD_AVX2|EOMC_CHAIN_VTRIG)\n.*?^#endif\n", re.M | re.S)
+# Likewise the looped rhs's sin and cos in lanes (compiler/tree/chain_loop.py VTRIG_GUARD) and the
+# recursive rhs's (compiler/tree/trig.py TRIG_GUARD)
+_CPU_DISPATCH = re.compile(r"^#if (?:EOMC_RD_AVX2|EOMC_CHAIN_VTRIG|EOMC_TREE_VTRIG)\n.*?^#endif\n", re.M | re.S)
 
 
 def without_cpu_dispatch(source):

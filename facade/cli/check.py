@@ -73,8 +73,8 @@ def run(args):
 
 
 def _at_rest(model, x0, p, t_final):
-    """The first coordinate's name when the start is an equilibrium (rhs exactly 0 there, at
-    t = 0, t_final / 2 and t_final: a time-varying force would show), else None."""
+    """When the start is an equilibrium (rhs exactly 0 there, at t = 0, t_final / 2 and t_final: a
+    time-varying force would show), the name of a state whose change starts a motion, else None."""
     import numpy as np
     x = np.array([x0[n] for n in model.state_names], dtype=float)
     try:
@@ -82,4 +82,5 @@ def _at_rest(model, x0, p, t_final):
             return None
     except Exception:       # noqa: BLE001 -- the checks above already said what failed
         return None
-    return model.state_names[0]
+    from eomc.runtime.diagnose import leaving_state
+    return leaving_state(model, x, p)

@@ -223,8 +223,9 @@ def run(args):
     if len(res.t) > 1 and not (res.x != res.x[0]).any():
         # first hour s21: SymPy's rolling disc (and dm_control's cartpole, acrobot) start at rest
         # on an equilibrium and stay there, which reads as if the run did nothing
+        from eomc.runtime.diagnose import leaving_state
         print(f"  nothing moved: the start is an equilibrium (every state stayed at its start value); "
-              f"give --x0 to start elsewhere, e.g. --x0 {model.state_names[0]}=0.1")
+              f"give --x0 to start elsewhere, e.g. --x0 {leaving_state(model, res.x[0], params, args.t0)}=0.1")
     frames = getattr(model, "frame_names", ())
     grouped = _contact_summary(model, res.outputs, res.t)
     zero = []       # outputs 0 at every row (a flat ground's Ftz_): one line, not one each

@@ -1351,11 +1351,50 @@ static int fs_switched(const fs_fast *q)
     return kind;
 }
 
+/* Where contact c's depth, from a < 0 at T to b > 0 at T1 over a try of h, crosses 0, as a fraction
+ * of the try: the gap's quadratic a + th (h r0) + th^2 (b - a - h r0), r0 the point's approach speed
+ * at T (its velocity along the contact's normal, which the end's stiffness slope K gives: each row
+ * of K is a multiple of the normal), when that quadratic is convex (the approach speeding up, as in
+ * a fall: b - a >= h r0); else, or with no normal known, the straight line a / (a - b).  Why: a
+ * falling point's depth is convex in time, and the straight line between the try's ends crosses 0
+ * early -- gymnasium's ant from its qpos0 at 10 ms, its feet landing at t = 0.19 s: cell 22 instead
+ * of 23, so the part before the cell, then cell 22 passed untouched, the touch-down came in cell
+ * 23, one try more.  Measured (session 24, benchmarks/results/fixedstep.md's notes): model calls
+ * over bench_rollout_contacts' 64 starts, 1 s: ant 10303 -> 10130, G1 34867 -> 34605, Go2 33746 ->
+ * 33514, humanoid 34629 -> 34591, walker2d 64820 -> 64741, hopper 34037 -> 33999; the energy
+ * verdict's flagged rows as many as before on each model; the ant's qpos0 run 122 -> 121 calls.
+ * The concave case kept linear: with it (the start speed's size trusted whatever its sign) the
+ * humanoid's and the ant's unsolved sub-steps rose by one each. */
+static double fs_onset_fraction(const fs_fast *q, int c, double h)
+{
+    const double *e0 = q->T + q->L.contact + 25 * (size_t)c, *e1 = q->T1 + q->L.contact + 25 * (size_t)c;
+    const double *K = e1 + 7, *v0 = e0 + 4;
+    double a = e0[0], b = e1[0], big = 0.0, beta, cq;
+    int r = -1;
+    if (q->ops->imp->terms_whole) {             /* the lanes: T's vp and T1's K may not be copied yet */
+        q->ops->imp->terms_whole(q->T);
+        q->ops->imp->terms_whole(q->T1);
+    }
+    for (int i = 0; i < 3; i++) {
+        double s2 = K[3 * i] * K[3 * i] + K[3 * i + 1] * K[3 * i + 1] + K[3 * i + 2] * K[3 * i + 2];
+        if (s2 > big) { big = s2; r = i; }
+    }
+    if (r >= 0 && isfinite(big)) {
+        beta = h * fabs(K[3 * r] * v0[0] + K[3 * r + 1] * v0[1] + K[3 * r + 2] * v0[2]) / sqrt(big);
+        cq = b - a - beta;
+        if (beta > 0.0 && cq >= 0.0) {          /* convex: one root in (0, 1), the stable form */
+            double th = -2.0 * a / (beta + sqrt(beta * beta - 4.0 * cq * a));
+            if (th >= 0.0 && th < 1.0) return th;
+        }
+    }
+    return a / (a - b);
+}
+
 /* The grid cell (units of h / MAX_SPLIT from the step's start) in which a failed try [pos, pos + size)
  * touches down, or -1.  Only for a try whose regime changes are touch-downs from out of touch (a
- * contact's depth < 0 at T, > 0 at T1); the onset is where the gap, linear between the try's ends,
- * crosses 0 (the try is the free flight of that point: no force of it in the step), the earliest
- * over such contacts. */
+ * contact's depth < 0 at T, > 0 at T1); the onset is where the gap crosses 0 (fs_onset_fraction: the
+ * try is the free flight of that point, no force of it in the step), the earliest over such
+ * contacts. */
 static int fs_onset_cell(const fs_fast *q, int pos, int size, double h)
 {
     double theta = INFINITY;
@@ -1366,7 +1405,7 @@ static int fs_onset_cell(const fs_fast *q, int pos, int size, double h)
         double a = e0[0], b = e1[0], th;
         if (a > 0.0 || !(b > 0.0)) continue;
         if (a < 0.0) {
-            th = a / (a - b);
+            th = fs_onset_fraction(q, c, h);
         } else {                                /* no gap known (a pair the broad phase skipped): the end's rate */
             const double *K = e1 + 7, *vp = e1 + 4;
             double big = 0.0, kv = 0.0;

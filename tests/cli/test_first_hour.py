@@ -332,8 +332,11 @@ def test_a_run_that_stays_at_an_equilibrium_says_so(tmp_path, capsys):
     # printed "8 steps" and nothing else: was anything simulated?
     model = model_files.write(tmp_path, model_files.PENDULUM, "pend")
     assert main(["simulate", str(model), "--t-final", "1", "-q", "--param", "g=0"]) == 0     # at rest, no gravity
+    # with g = 0 a turned pendulum stays put too: the hint names the speed (it named q, a loop; s24)
     assert ("  nothing moved: the start is an equilibrium (every state stayed at its start value); give --x0 to "
-            "start elsewhere, e.g. --x0 q=0.1") in capsys.readouterr().out
+            "start elsewhere, e.g. --x0 u=0.1") in capsys.readouterr().out
+    assert main(["simulate", str(model), "--t-final", "1", "-q", "--param", "g=0", "--x0", "u=0.1"]) == 0
+    assert "nothing moved" not in capsys.readouterr().out
     assert main(["simulate", str(model), "--t-final", "1", "-q"]) == 0
     assert "nothing moved" not in capsys.readouterr().out
 
@@ -617,3 +620,21 @@ def test_check_at_an_equilibrium_says_that_nothing_was_compared(pendulum, capsys
     assert "--x0 q1=0.1" in out
     assert main(["check", "pendulum", "--t-final", "0.5", "--methods", "dop853", "-q", "--x0", "q1=0.3"]) == 0
     assert "nothing moved" not in capsys.readouterr().out
+
+
+def test_a_warning_that_begins_with_blank_lines_starts_on_the_warnings_line():
+    """SymPy's deprecation texts (a model file on sympy.physics.mechanics.Body, JointsMethod:
+    SymPy's own multi-dof holonomic example), given again from the build cache, begin with two
+    blank lines: the command printed "eomc simulate: warning: " and then the text two lines down."""
+    import warnings
+
+    import eomc.cli as cli
+    from eomc.errors import EomcWarning
+
+    old = cli._plain_warnings("simulate")
+    try:
+        text = warnings.formatwarning(EomcWarning("\n\nSupport for the Body class has been removed.\n\nSee ...\n"),
+                                      EomcWarning, "m.py", 3)
+    finally:
+        warnings.formatwarning = old
+    assert text == "eomc simulate: warning: Support for the Body class has been removed.\n\nSee ...\n", text

@@ -51,3 +51,47 @@ def test_a_log_gets_a_line_only_for_a_long_stage(monkeypatch):
     lines = long_.getvalue().splitlines()
     assert lines[0] == "eomc: generate ... (still running after 0.1 s)", lines
     assert lines[1].startswith("eomc: generate") and lines[1].endswith(" s") and len(lines) == 2, lines
+
+
+def _long_stage_log(monkeypatch, enabled, seconds=1.0, passes=()):
+    monkeypatch.setattr(Progress, "LOG_AFTER", 0.1)
+    monkeypatch.setattr(Progress, "LOG_EVERY", 0.25)
+    log = io.StringIO()
+    progress = Progress(enabled, log)
+    with progress.stage("generate"):
+        time.sleep(0.2)
+        for name in passes:
+            progress.pass_done(name, 0.0)
+        time.sleep(seconds - 0.2)
+    return log.getvalue().splitlines()
+
+
+def test_a_long_stage_in_a_log_gets_a_line_every_interval(monkeypatch):
+    """A log does not go silent after the first 'still running' line (firsthour5, session 24:
+    dm_control's dog and humanoid_CMU generated for minutes with one line): one more line every
+    LOG_EVERY seconds, each with the seconds so far, and no more than that (no spinner)."""
+    lines = _long_stage_log(monkeypatch, None, seconds=1.0)
+    running = [line for line in lines if "still running" in line]
+    assert running[0] == "eomc: generate ... (still running after 0.1 s)", lines
+    # 0.1 s, then every 0.25 s up to 1.0 s: 4 lines (a loaded machine may lose the last one)
+    assert 3 <= len(running) <= 4, lines
+    assert all(line.startswith("eomc: generate ... (still running after ") for line in running)
+    assert lines[-1].startswith("eomc: generate ") and lines[-1].endswith(" s"), lines
+
+
+def test_later_log_lines_say_which_pass_the_stage_is_past(monkeypatch):
+    lines = _long_stage_log(monkeypatch, None, seconds=0.8, passes=("cse", "contacts"))
+    later = [line for line in lines if "still running" in line][1:]
+    assert later and all(line.endswith("s, 2 passes done, the last contact laws)")
+                         for line in later), lines
+
+
+def test_progress_on_in_a_log_also_reports_a_long_stage(monkeypatch):
+    """`eomc build 2> build.log` asks for progress (True): its stage and pass lines come only as
+    they end, so a long stage got no line at all while it ran."""
+    lines = _long_stage_log(monkeypatch, True, seconds=0.5)
+    assert lines[0] == "eomc: generate ...", lines
+    assert lines[1] == "eomc: generate ... (still running after 0.1 s)", lines
+    quiet = _long_stage_log(monkeypatch, "quiet", seconds=0.5)
+    off = _long_stage_log(monkeypatch, False, seconds=0.5)
+    assert quiet == [] and off == []

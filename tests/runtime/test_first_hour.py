@@ -218,3 +218,54 @@ def test_a_contact_that_starts_deep_is_put_down_to_the_start(tmp_path):
         ball.simulate(x0, (0, 3), p=p, method="dop853", raise_on_failure=False)
     text = " ".join(str(w.message) for w in seen)
     assert "contact ball penetrated 0.1" in text and "raise k_ball" in text and "started that deep" not in text, text
+
+
+def test_a_report_from_an_equilibrium_recommends_nothing():
+    """`eomc report swimmer.xml` (gymnasium, no flags: from rest at x = 0, an equilibrium) measured
+    every error as 0 and recommended `method="rk4", dt=1.25`: it is inconclusive now, saying why;
+    a start that moves still gets its recommendation."""
+    from eomc.runtime.report import work_precision
+
+    osc = get_model("oscillator")
+    kw = dict(methods=("rk4", "dop853"), tolerances=(1e-4, 1e-6), repeats=1, n_points=11, progress=False)
+    rep = work_precision(osc, [0.0, 0.0], (0.0, 1.0), **kw)
+    assert rep.inconclusive and rep.inconclusive.startswith("nothing moved: the start is an equilibrium")
+    assert rep.recommendation_text(1e-6).startswith("**Inconclusive:** nothing moved")
+    moving = work_precision(osc, [1.0, 0.0], (0.0, 1.0), **kw)
+    assert moving.inconclusive is None and "**Recommendation**" in moving.recommendation_text(1e-4)
+
+
+def test_a_rollout_without_dt_says_rk4_is_fixed_step():
+    """`eomc.rollout(model, X0, t_final=1)` (rollout's default method is rk4) said only "dt must be
+    a finite step > 0; got None": it names the method and both ways out."""
+    import pytest
+
+    import eomc
+
+    osc = get_model("oscillator")
+    with pytest.raises(ValueError, match=r"method 'rk4' \(rollout's default\) is fixed-step: give dt= .* or an "
+                                         r"adaptive method with t_final="):
+        eomc.rollout(osc, np.zeros((2, 2)), t_final=1.0)
+    with pytest.raises(ValueError, match="dt must be a finite step > 0; got 0.0"):
+        eomc.rollout(osc, np.zeros((2, 2)), t_final=1.0, dt=0.0)
+    assert eomc.rollout(osc, np.ones((2, 2)), t_final=1.0, method="dop853").x.shape == (2, 2)
+
+
+def test_the_hint_after_nothing_moved_names_a_state_that_starts_a_motion(tmp_path, capsys):
+    """SymPy's n_link_pendulum_on_cart starts at an equilibrium whose first coordinate is the
+    cart's position: "give --x0 ... e.g. --x0 q0=0.1" led to the same still run.  The hint names
+    the first coordinate whose change starts a motion (q1, a link), else a speed (gymnasium's
+    swimmer, which no force pulls anywhere)."""
+    import eomc
+    from eomc.cli import main
+    from eomc.runtime.diagnose import leaving_state
+
+    path = tmp_path / "cart3.py"
+    path.write_text("from sympy.physics.mechanics.models import n_link_pendulum_on_cart\n"
+                    "system = n_link_pendulum_on_cart(2, cart_force=False)\n")
+    model = eomc.compile(str(path), cache_dir=tmp_path / "cache", progress=False)
+    assert model.state_names[0] == "q0"
+    assert leaving_state(model, np.zeros(model.nx)) == "q1"
+    assert leaving_state(model, np.zeros(model.nx), p={"g": 0.0}) == model.state_names[model.nq]  # nothing pulls
+    assert main(["simulate", str(path), "--t-final", "0.5", "-q"]) == 0
+    assert "e.g. --x0 q1=0.1" in capsys.readouterr().out

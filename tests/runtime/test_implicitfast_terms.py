@@ -239,6 +239,63 @@ def test_a_hard_split_does_not_retry_the_half_that_holds_the_onset(ant):
     assert step.stats["nfev"] == 12
 
 
+def _unchecked_step(m, x, h):
+    """The end of one fixed step of h from x with the residual test off (eomc_implicit.split = 0):
+    what the checked path's first try of that size from x computes."""
+    a = prepare(m, np.array(x, dtype=float), (0.0, h), method="implicitfast", dt=h, t_eval=[h], events=False)
+    a.pop("switches", None)
+    a.pop("switch_steps", None)
+    a["split"] = 0.0
+    call, _, x_last, stats = bind_call(m, a)
+    call()
+    assert stats.status == 0
+    return np.array(x_last)
+
+
+def test_a_falling_foots_touch_down_is_located_in_its_own_cell(ant):
+    """gymnasium's ant from its qpos0 at 10 ms: at t = 0.19 s its feet, falling, touch down inside
+    the step.  The whole try fails and the touch-down is located (eomc_fixedstep.c, fs_onset_cell):
+    the cell of h/64 where the gap crosses 0.  The straight line between the try's two ends put it in
+    cell 22; but a falling foot's gap is convex in time, so that crossing is early: the part before
+    the cell, then cell 22 passed out of touch, and the foot landed in cell 23 -- a try more.  The gap's
+    quadratic from the foot's speed at the start (fs_onset_fraction) puts it in cell 23, where the
+    steps say it is (below: 23 cells end out of touch, one more in touch), and the step takes 9
+    tries instead of 10 (bench_fixedstep's ant row: 121 calls instead of 122).  Fails on main
+    c0b19ef9 (11 calls)."""
+    m = ant
+    names = list(m.state_names)
+    x0 = np.zeros(m.nx)
+    x0[names.index("q_root_z")] = 0.75
+    dt = 0.01
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")       # the start is outside the ankles' ranges (warned)
+        run = m.simulate(x0, (0.0, 0.19), method="implicitfast", dt=dt, t_eval=[0.19])
+        step = m.simulate(run.x[-1], (0.0, dt), method="implicitfast", dt=dt, t_eval=[0.0, dt])
+    x = run.x[-1]
+    (start, layout), (end, _) = implicit_terms_at(m, x), implicit_terms_at(m, _unchecked_step(m, x, dt))
+    nc = (layout["size"] - layout["contact"]) // 25
+    cells = {"line": [], "quadratic": []}
+    for c in range(nc):
+        e0 = start[layout["contact"] + 25 * c:layout["contact"] + 25 * c + 25]
+        e1 = end[layout["contact"] + 25 * c:layout["contact"] + 25 * c + 25]
+        a, b = e0[0], e1[0]
+        if not (a < 0.0 < b):
+            continue
+        n = e1[7:16].reshape(3, 3)[np.argmax(np.linalg.norm(e1[7:16].reshape(3, 3), axis=1))]
+        beta = dt * abs(n @ e0[4:7]) / np.linalg.norm(n)          # the approach speed at the start, x h
+        cq = b - a - beta
+        assert beta > 0 and cq > 0                                 # falling faster and faster
+        cells["line"].append(int(64 * a / (a - b)))
+        cells["quadratic"].append(int(64 * -2 * a / (beta + np.sqrt(beta ** 2 - 4 * cq * a))))
+    assert min(cells["line"]) == 22 and min(cells["quadratic"]) == 23, cells
+    depths = [layout["contact"] + 25 * c for c in range(nc)]
+    before = _unchecked_step(m, x, 23 * dt / 64)                    # the steps: in touch in cell 23
+    assert implicit_terms_at(m, before)[0][depths].max() < 0.0
+    assert implicit_terms_at(m, _unchecked_step(m, before, dt / 64))[0][depths].max() > 0.0
+    assert step.status == 0
+    assert step.stats["nfev"] == 10    # the start's call; the whole try, the part, cell 23, 6 back up the grid
+
+
 # gymnasium's ant at t = 0.3 s of bench_rollout_contacts' row 34 (main's implicitfast at 10 ms, 746cef3),
 # as /tmp/antcalls/mkmid.py wrote it (session 18): the state that made the check's energy gain show
 ANT_ROW34 = [-0.02333670302684917, 0.02190979870252646, 0.619478684097169, 0.0012820441066463148, 0.005366895264910438,

@@ -334,3 +334,23 @@ def test_implicit_refused_for_its_real_reason_first(tmp_path):
     text = _implicit_refusal(arm, "kane")
     assert text.startswith(opening) and "this build is Kane's formulation" in text, text
     assert "formulation='recursive'" in text
+
+
+def test_nonfinite_finds_each_constant_in_order_through_shared_subtrees():
+    """select.nonfinite walks each distinct subexpression once (it was four has() walks of the
+    whole tree, ~3.2 s CPU of so101's build; benchmarks/bench_nonfinite_check.py): the answer is the
+    one has() gives, the first of nan, zoo, oo, -oo present, however deep and shared."""
+    import sympy as sm
+    from eomc.compiler.formulations.select import nonfinite
+    x, f = sm.Symbol("x"), sm.Function("f")
+    e = sm.sin(x)
+    for _ in range(18):                    # a DAG: 2**18 paths through one chain of nodes
+        e = f(e, e)
+    assert nonfinite(e) is None
+    assert nonfinite(f(e, -sm.oo * x)) == -sm.oo
+    assert nonfinite(f(e, sm.Max(x, -sm.oo))) is None   # Max drops -oo
+    for bad in (sm.nan, sm.zoo, sm.oo, -sm.oo):
+        assert nonfinite(f(e, sm.Piecewise((bad, x > 0), (x, True)))) == bad
+    assert nonfinite(f(e, sm.Piecewise((sm.oo, x > 0), (sm.nan, True)))) == sm.nan   # nan first
+    assert nonfinite(sm.Matrix([[x, f(e, sm.zoo)]])) == sm.zoo
+    assert nonfinite(1.0) is None and nonfinite(float("inf")) == sm.oo
