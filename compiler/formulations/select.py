@@ -47,6 +47,7 @@ from sympy.physics import mechanics as me
 from eomc.runtime.errors import EomcError, ModelError
 
 from ..emit.formulation import KANE_IMPLICIT
+from ..ir.program import distinct_atoms
 from ..mechanics.formed import FormedSystem
 from ..multibody.formed import model_of_tree
 from ..multibody.model import Model
@@ -136,17 +137,7 @@ def nonfinite(expr):
     expr = sm.sympify(expr)
     if not isinstance(expr, sm.Basic):
         return next((bad for bad in _NONFINITE if expr.has(bad)), None)
-    found, seen, stack = set(), set(), [expr]
-    while stack:
-        e = stack.pop()
-        if id(e) in seen or not isinstance(e, sm.Basic):
-            continue
-        seen.add(id(e))
-        if e.is_Atom:
-            if e in _NONFINITE_SET:
-                found.add(e)
-        else:
-            stack.extend(e.args)
+    found = {e for e in distinct_atoms([expr]) if e in _NONFINITE_SET}
     return next((bad for bad in _NONFINITE if bad in found), None)
 
 

@@ -20,7 +20,7 @@ from functools import lru_cache
 
 import sympy as sm
 
-__all__ = ["Program", "Names", "IRError", "c_names", "free_inputs", "symbols_of", "needed_assignments"]
+__all__ = ["Program", "Names", "IRError", "c_names", "free_inputs", "symbols_of", "needed_assignments", "distinct_atoms"]
 
 
 @lru_cache(maxsize=1 << 17)
@@ -32,6 +32,25 @@ def symbols_of(expr):
     emitters): G1's default build spent ~0.1 s of its Python there.  Equal expressions have
     the same free symbols, so the cache is keyed by the expression itself; it is bounded."""
     return frozenset(expr.free_symbols)
+
+
+def distinct_atoms(exprs):
+    """The atoms of ``exprs``, each shared subexpression walked once (first-seen order).
+
+    Why: formed equations are DAGs that can be far larger as trees; a walk of the tree (or
+    ``has()`` per constant) revisits shared subtrees as often as they occur.  The checks for
+    non-finite and non-real constants (formulations.select, model.validate) read the atoms."""
+    atoms, seen, stack = [], set(), list(exprs)
+    while stack:
+        e = stack.pop()
+        if id(e) in seen or not isinstance(e, sm.Basic):
+            continue
+        seen.add(id(e))
+        if e.is_Atom:
+            atoms.append(e)
+        else:
+            stack.extend(e.args)
+    return atoms
 
 
 def needed_assignments(assignments, exprs):

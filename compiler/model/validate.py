@@ -14,6 +14,7 @@ import sympy as sm
 from sympy.core.function import AppliedUndef
 
 from ..emit.layout import sanitize_name  # noqa: F401 -- model files' names; the CLI imports it here
+from ..ir.program import distinct_atoms
 from ..mechanics.formed import FormedSystem
 
 __all__ = ["Invalid", "check_functions", "FUNCTIONS", "check_parameters", "check_inputs", "check_initial_state", "check_outputs",
@@ -69,19 +70,12 @@ def non_real_constants(exprs):
     Walks each shared subexpression once (the formed equations are DAGs that
     can be far larger as trees), so it stays cheap on big models.
     """
-    found, seen, stack = [], set(), list(exprs)
-    while stack:
-        e = stack.pop()
-        if id(e) in seen or not isinstance(e, sm.Basic):
-            continue
-        seen.add(id(e))
-        if e.is_Atom:
-            if e.is_number and not (e.is_extended_real and e.is_finite):
-                word = _NON_REAL.get(e, f"{e} (not a finite real number)")
-                if word not in found:
-                    found.append(word)
-        else:
-            stack.extend(e.args)
+    found = []
+    for e in distinct_atoms(exprs):
+        if e.is_number and not (e.is_extended_real and e.is_finite):
+            word = _NON_REAL.get(e, f"{e} (not a finite real number)")
+            if word not in found:
+                found.append(word)
     return found
 
 

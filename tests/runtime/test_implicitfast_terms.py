@@ -207,6 +207,20 @@ def test_ant_stands_at_its_own_10ms_step(ant):
     assert ends[0][iz] == pytest.approx(0.556, abs=0.04)   # measured 0.587: MuJoCo's own 10 ms path
 
 
+def _ant_from_qpos0(m, t_end, t_eval, start):
+    """gymnasium's ant from its qpos0 at 10 ms up to ``t_end``, and one 10 ms step from the row
+    ``start`` of that run: (names, dt, run, step)."""
+    names = list(m.state_names)
+    x0 = np.zeros(m.nx)
+    x0[names.index("q_root_z")] = 0.75
+    dt = 0.01
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")       # the start is outside the ankles' ranges (warned)
+        run = m.simulate(x0, (0.0, t_end), method="implicitfast", dt=dt, t_eval=t_eval)
+        step = m.simulate(run.x[start], (0.0, dt), method="implicitfast", dt=dt, t_eval=[0.0, dt])
+    return names, dt, run, step
+
+
 def test_a_hard_split_does_not_retry_the_half_that_holds_the_onset(ant):
     """gymnasium's ant from its qpos0 at 10 ms: at t = 0.15 s its four ankles swing into their upper
     limits at 7.3 rad/s (the limit law's stiffness slope 0 at the step's start, thousands at its end),
@@ -218,14 +232,7 @@ def test_a_hard_split_does_not_retry_the_half_that_holds_the_onset(ant):
     failures: the run's state after the step, at t = 0.2 and its 1 s error against Radau are the same
     bits as before, measured)."""
     m = ant
-    names = list(m.state_names)
-    x0 = np.zeros(m.nx)
-    x0[names.index("q_root_z")] = 0.75
-    dt = 0.01
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")       # the start is outside the ankles' ranges (warned)
-        run = m.simulate(x0, (0.0, 0.2), method="implicitfast", dt=dt, t_eval=dt * np.arange(21))
-        step = m.simulate(run.x[15], (0.0, dt), method="implicitfast", dt=dt, t_eval=[0.0, dt])
+    names, dt, run, step = _ant_from_qpos0(m, 0.2, 0.01 * np.arange(21), 15)
     layout = m.metadata["implicit"]["layout"]
     ankles = [names.index(f"q_ankle_{i}") for i in range(1, 5)]        # their speeds' indices too
     slopes = []
@@ -263,14 +270,7 @@ def test_a_falling_foots_touch_down_is_located_in_its_own_cell(ant):
     tries instead of 10 (bench_fixedstep's ant row: 121 calls instead of 122).  Fails on main
     c0b19ef9 (11 calls)."""
     m = ant
-    names = list(m.state_names)
-    x0 = np.zeros(m.nx)
-    x0[names.index("q_root_z")] = 0.75
-    dt = 0.01
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")       # the start is outside the ankles' ranges (warned)
-        run = m.simulate(x0, (0.0, 0.19), method="implicitfast", dt=dt, t_eval=[0.19])
-        step = m.simulate(run.x[-1], (0.0, dt), method="implicitfast", dt=dt, t_eval=[0.0, dt])
+    names, dt, run, step = _ant_from_qpos0(m, 0.19, [0.19], -1)
     x = run.x[-1]
     (start, layout), (end, _) = implicit_terms_at(m, x), implicit_terms_at(m, _unchecked_step(m, x, dt))
     nc = (layout["size"] - layout["contact"]) // 25
