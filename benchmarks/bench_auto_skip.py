@@ -113,7 +113,7 @@ def table(rows):
             text = ", ".join(f"{k} {v}" for k, v in sorted(costs.items())) or (r.get("note") or "")[:60]
             return f"{r['formulation']} ({text})"
         tb, ta = median([r["total"] for r in b]), median([r["total"] for r in a])
-        lines.append(f"| {label} | {b[0]['nu']} | {b[0].get('chain', '-')} | {pick(b)} | {pick(a)} | "
+        lines.append(f"| {label} | {b[0]['nu']} | {b[0].get('chain') or '-'} | {pick(b)} | {pick(a)} | "
                      f"{median([r['cpu']['recursive'] for r in b]):.2f} | {median([r['cpu']['kane_form'] for r in b]):.2f} | "
                      f"{median([r['cpu']['kane_generate'] for r in b]):.2f} | {tb:.2f} | {ta:.2f} | "
                      f"{tb - ta:.2f} ({(tb - ta) / tb:.0%}) |")
