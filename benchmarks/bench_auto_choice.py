@@ -4,9 +4,12 @@ Per model, `eomc build MODEL --outputs rhs --fold-parameters` with ``--formulati
 ``--formulation recursive`` (each in a child process, fresh cache); then one C harness links
 both rhs, checks they agree on 64 random states, and times them in thread CPU time
 (CLOCK_THREAD_CPUTIME_ID), contestants interleaved round by round, pinned to core 1
-(taskset -c 1), median of the rounds.  The old pick is what auto did before (fewer rhs
-operations), the new one what it does now (eomc.compiler.formulations.select.rhs_cost): both computed
-from the two builds' operation counts, exactly as auto compares them.
+(taskset -c 1), median of the rounds over --copies harness executables (default 3, one process each)
+that differ in code placement and stack offset (session 18's hazard); the range of the copies'
+medians is in brackets.  The pick before is what select.rhs_cost's weights of sessions 9-25 chose
+(Kane's flop 1.15, a call 25, a division 4; Kane's equations formed), the costs after and auto's pick
+what it does now (eomc.compiler.formulations.select.rhs_cost, refitted by task autocost: --fit).
+--json FILE keeps the rows; --fit FILE... refits the weights from them (no builds).
 
 Models: the cart System auto sees (benchmarks/tree_models/cart_rel_joints.py, n = 1-6, 8, 20,
 40), the UR10 and Kinova arms, every robot of benchmarks/results/urdf.md (UR5, Panda, Solo12
@@ -68,6 +71,7 @@ HARNESS = r"""
 }
 int main(void) {
     static double X[NS][NX], a[NX], b[NX], r[NR + 1];
+    volatile char stack_pad[PAD_STACK + 1];   /* per copy: moves the rhs's stack frames (session 18's hazard) */
     double worst = 0.0, sum = 0.0;
     int i, k, c, round;
     for (k = 0; k <= NR; k++) r[k] = 0.5 * (2 * rnd() - 1);
@@ -79,6 +83,7 @@ int main(void) {
         for (k = 0; k < NX; k++) { double d = fabs(a[k] - b[k]) / (fabs(b[k]) > 1 ? fabs(b[k]) : 1);
             if (d > worst) worst = d; }
     }
+    stack_pad[0] = 0;
     printf("agree %.3g\n", worst);
     for (round = 0; round < @ROUNDS@; round++)
         for (c = 0; c < NC; c++) {
@@ -106,6 +111,11 @@ def models():
     out.append(("Solo12 (floating)", robot_path("solo12"), {}, ["--floating-base"]))
     # the example-robot-data arms auto forms Kane's equations for (<= 6 speeds) beside UR and Kinova, and the
     # small trees where Kane's rhs is cheaper by the cost model (task autoskip: does skipping Kane lose a win?)
+    # SymPy mechanics examples (closed four-bar included) and the small example-robot-data trees (task autocost)
+    for ex in ("double_pendulum", "cart_pole_system", "heavy_top", "four_bar_system", "biomechanical_arm"):
+        out.append((ex, ROOT / "examples" / f"{ex}.py", {}, []))
+    out.append(("TwoDofs", robot_path("asr_twodof_description/urdf/TwoDofs.urdf"), {}, []))
+    out.append(("borinot", robot_path("borinot_description/urdf/borinot_flying_arm_2.urdf"), {}, []))
     for label, rel in (("so100", "so_arm_description/urdf/so100.urdf"), ("so101", "so_arm_description/urdf/so101.urdf"),
                        ("hextilt arm 5", "hextilt_description/urdf/hextilt_flying_arm_5.urdf"),
                        ("bolt", "bolt_description/robots/bolt.urdf"), ("iris", "iris_description/robots/iris.urdf"),
@@ -161,8 +171,15 @@ def build_all(label, model, env, flags, tmp, kane_timeout, line=False):
     return d, out
 
 
-def time_forms(d, forms, metas, rounds):
-    """Link every built form's rhs into one harness, check agreement, time them interleaved."""
+PAD_C = "void eomc_bench_pad(void) { __asm__ volatile (\".skip %d, 0x90\"); }\n"
+
+
+def time_forms(d, forms, metas, rounds, copies=3):
+    """Link every built form's rhs into one harness, check agreement, time them interleaved.
+    ``copies`` harness executables differ in code placement (a padding function linked first, the
+    forms' objects in rotated order) and stack offset (session 18's measurement hazard: byte-identical
+    code ran 1.6x apart by where it landed); each runs in its own process.  Returns the median over
+    all copies' rounds per form, the agreement, and per form the per-copy medians (the spread)."""
     m0 = metas[forms[0]]
     incl = "\n".join(f'#include "m_{f}.h"' for f in forms)
     cases = " ".join(f"case {i}: m_{f}_rhs(0.0, x, NULL, r, a, NULL); break;" for i, f in enumerate(forms))
@@ -171,69 +188,129 @@ def time_forms(d, forms, metas, rounds):
            .replace("@NC@", str(len(forms))).replace("@ROUNDS@", str(rounds)))
     (d / "h.c").write_text(src)
     rt = ROOT / "runtime" / "c"
-    subprocess.run(["gcc", *LIB_FLAGS, f"-I{d}", f"-I{rt}", str(d / "h.c"),
-                    *[str(d / f"m_{f}.c") for f in forms], "-o", str(d / "h"), "-lm"], check=True)
-    out = subprocess.run(["taskset", "-c", "1", str(d / "h")], capture_output=True, text=True,
-                         check=True).stdout
+    exes = []
+    for j in range(copies):
+        (d / f"pad{j}.c").write_text(PAD_C % (16 + j * 208))
+        objs = [str(d / f"m_{f}.c") for f in forms]
+        objs = objs[j % len(objs):] + objs[:j % len(objs)]
+        exe = d / f"h{j}"
+        subprocess.run(["gcc", *LIB_FLAGS, f"-DPAD_STACK={j * 96}", f"-I{d}", f"-I{rt}", str(d / f"pad{j}.c"),
+                        str(d / "h.c"), *objs, "-o", str(exe), "-lm"], check=True)
+        exes.append(exe)
     times = {i: [] for i in range(len(forms))}
+    per_copy = {i: [] for i in range(len(forms))}
     agree = None
-    for line in out.splitlines():
-        if line.startswith("time"):
-            _, k, v = line.split()
-            times[int(k)].append(float(v))
-        elif line.startswith("agree"):
-            agree = float(line.split()[1])
-    return {f: sorted(times[i])[len(times[i]) // 2] for i, f in enumerate(forms)}, agree
+    for exe in exes:
+        out = subprocess.run(["taskset", "-c", "1", str(exe)], capture_output=True, text=True,
+                             check=True).stdout
+        mine = {i: [] for i in range(len(forms))}
+        for line in out.splitlines():
+            if line.startswith("time"):
+                _, k, v = line.split()
+                mine[int(k)].append(float(v))
+            elif line.startswith("agree"):
+                agree = float(line.split()[1])
+        for i, v in mine.items():
+            times[i] += v
+            per_copy[i].append(sorted(v)[len(v) // 2])
+    med = {f: sorted(times[i])[len(times[i]) // 2] for i, f in enumerate(forms)}
+    return med, agree, {f: per_copy[i] for i, f in enumerate(forms)}
 
 
-def measure(label, d, built, rounds):
+def cost_before(counts, form):
+    """select.rhs_cost before task autocost (session 25): Kane's flop 1.15, a division 4, a call 25."""
+    flops = counts.get("adds", 0) + counts.get("muls", 0)
+    return round((1.15 if form == "kane" else 1.0) * flops + 4 * counts.get("divs", 0) + 25 * counts.get("calls", 0))
+
+
+def measure(label, d, built, rounds, copies=3):
     from eomc.compiler.formulations.select import rhs_cost
     metas = {f: m for f, (m, _) in built.items() if isinstance(m, dict)}
     if "recursive" not in metas:
         return {"label": label, "error": f"recursive: {built['recursive'][0]}"}
     forms = [f for f in ("kane", "recursive", "line") if f in metas]
-    ns, agree = time_forms(d, forms, metas, rounds)
+    ns, agree, spread = time_forms(d, forms, metas, rounds, copies)
     line_ns = ns.pop("line", None)
     forms = [f for f in forms if f != "line"]
     counts = {f: metas[f]["op_counts"]["rhs"] for f in forms}
     ops = {f: sum(c.values()) for f, c in counts.items()}
-    cost = {f: rhs_cost(c, f) for f, c in counts.items()}
-    old = min(ops, key=ops.get) if len(ops) == 2 else None
+    nu = metas["recursive"]["nu"]
+    cost = {f: rhs_cost(c, f, nu) for f, c in counts.items()}
+    before = {f: cost_before(c, f) for f, c in counts.items()}
+    # the pick before: the cost model of sessions 9-25 (before task autocost), Kane's equations formed
+    old = min(before, key=before.get) if len(before) == 2 else None
     auto = metas.get("auto", {})
-    return dict(label=label, nu=metas["recursive"]["nu"], ns=ns, counts=counts, ops=ops, cost=cost, old=old,
+    return dict(label=label, nu=nu, ns=ns, counts=counts, ops=ops, cost=cost, cost_before=before, old=old,
                 auto=auto.get("formulation", f"failed: {built['auto'][0]}"),
-                auto_costs=auto.get("formulation_costs"), agree=agree, line_ns=line_ns,
+                auto_costs=auto.get("formulation_costs"), agree=agree, line_ns=line_ns, spread=spread,
                 kane_build=(built["kane"][1], None if "kane" in metas else built["kane"][0]))
 
 
 def table(rows):
     head = ("| model | speeds | kane rhs ns | recursive rhs ns | faster | kane ops (calls, divs) | "
-            "recursive ops (calls, divs) | kane cost | recursive cost | old pick (ops) | "
-            "auto's pick (its costs) | auto / best time | agreement | kane build wall s |"
+            "recursive ops (calls, divs) | costs before (kane / recursive) | pick before | kane cost | recursive cost | "
+            "auto's pick (its costs) | auto / best time | pick before / best time | agreement | kane build wall s |"
             + (" straight-line recursive rhs ns (--line) |" if any(r.get("line_ns") for r in rows) else ""))
     lines = [head, "|" + "--:|" * (head.count("|") - 1)]
     for r in rows:
         if "error" in r:
-            lines.append(f"| {r['label']} | build failed: {r['error']} |" + " |" * 12)
+            lines.append(f"| {r['label']} | build failed: {r['error']} |" + " |" * 14)
             continue
         ns, c, ops = r["ns"], r["counts"], r["ops"]
         both = len(ns) == 2
         fast = min(ns, key=ns.get)
         k_wall, k_err = r["kane_build"]
-        kane_ns = f"{ns['kane']:.0f}" if "kane" in ns else "-"
+        sp = r.get("spread") or {}
+        cb = r.get("cost_before") or {}
+
+        def cell(f):        # the median over all copies' rounds (the per-copy medians' range)
+            if f not in ns:
+                return "-"
+            fmt = ".1f" if ns[f] < 100 else ".0f"
+            return f"{ns[f]:{fmt}}" + (f" ({min(sp[f]):{fmt}}-{max(sp[f]):{fmt}})" if len(sp.get(f, ())) > 1 else "")
+        kane_ns = cell("kane")
         kane_ops = f"{ops['kane']} ({c['kane']['calls']}, {c['kane']['divs']})" if "kane" in c else "-"
         costs = r["auto_costs"] or {}
         auto_cell = r["auto"] + (" (" + ", ".join(f"{k} {v}" for k, v in costs.items()) + ")" if costs else "")
         ratio = f"{ns[r['auto']] / ns[fast]:.2f}" if both and r["auto"] in ns else "-"
+        before_ratio = f"{ns[r['old']] / ns[fast]:.2f}" if both and r.get("old") in ns else "-"
         kane_build = f"{k_wall:.0f}" + ("" if k_err is None else f" ({k_err})")
         agree = f"{r['agree']:.1e}" if both else "-"      # one form: nothing to compare
         lines.append(
-            f"| {r['label']} | {r['nu']} | {kane_ns} | {ns['recursive']:.0f} | {fast if both else '-'} | "
+            f"| {r['label']} | {r['nu']} | {kane_ns} | {cell('recursive')} | {fast if both else '-'} | "
             f"{kane_ops} | {ops['recursive']} ({c['recursive']['calls']}, {c['recursive']['divs']}) | "
-            f"{r['cost'].get('kane', '-')} | {r['cost']['recursive']} | {r['old'] or '-'} | {auto_cell} | "
-            f"{ratio} | {agree} | {kane_build} |"
+            f"{cb.get('kane', '-')} / {cb['recursive']} | {r['old'] or '-'} | "
+            f"{r['cost'].get('kane', '-')} | {r['cost']['recursive']} | {auto_cell} | "
+            f"{ratio} | {before_ratio} | {agree} | {kane_build} |"
             + (f" {r['line_ns']:.0f} |" if r.get("line_ns") else (" - |" if "straight-line" in head else "")))
     return "\n".join(lines)
+
+
+def fit(rows, per_speed=True):
+    """The cost model's weights (select.rhs_cost) by least squares over every row where both forms were
+    timed, of what the pick decides: the difference ns(kane) - ns(recursive) relative to the model's
+    mean time, against kane_flops * (op_kane + per_speed * speeds) - recursive_flops * op_recursive
+    + div * (divs_k - divs_r) + call * (calls_k - calls_r), non-negative weights (ns).  Returns the
+    weights, the same in units of one recursive add/multiply, and per row (fitted, measured)."""
+    import numpy as np
+    from scipy.optimize import nnls
+    names = ["op_kane", "op_recursive", "div", "call"] + (["op_kane_per_speed"] if per_speed else [])
+    A, b, labels = [], [], []
+    for r in rows:
+        if "error" in r or len(r.get("ns", {})) != 2:
+            continue
+        k, c, ns = r["counts"]["kane"], r["counts"]["recursive"], r["ns"]
+        fk, fr = k["adds"] + k["muls"], c["adds"] + c["muls"]
+        x = [fk, -fr, k["divs"] - c["divs"], k["calls"] - c["calls"]] + ([fk * r["nu"]] if per_speed else [])
+        mean = (ns["kane"] + ns["recursive"]) / 2
+        A.append([v / mean for v in x])
+        b.append((ns["kane"] - ns["recursive"]) / mean)
+        labels.append(r["label"])
+    A, b = np.array(A), np.array(b)
+    w, _ = nnls(A, b)
+    unit = w[1]
+    return (dict(zip(names, map(float, w))), {n: float(v / unit) for n, v in zip(names, w)},
+            {lab: (float(f), float(m)) for lab, f, m in zip(labels, A @ w, b)})
 
 
 def main(argv):
@@ -244,9 +321,24 @@ def main(argv):
     ap.add_argument("--kane-timeout", type=float, default=1200.0, help="wall seconds for Kane's build")
     ap.add_argument("-k", action="append", default=[], help="only models whose label contains this")
     ap.add_argument("--line", action="store_true", help="also time the straight-line recursive rhs")
+    ap.add_argument("--copies", type=int, default=3,
+                    help="harness executables with different code placement and stack offset, one process each")
+    ap.add_argument("--json", help="also write the rows (counts, times, per-copy medians) to this file")
     ap.add_argument("--portable", action="store_true",
                     help="harness at eomc's portable flags (no -mavx2); --write to auto_choice_portable.md")
+    ap.add_argument("--fit", nargs="+", metavar="JSON",
+                    help="fit the cost model's weights to the rows of these --json files (no builds)")
     args = ap.parse_args(argv)
+    if args.fit:
+        rows = [r for f in args.fit for r in json.loads(Path(f).read_text())]
+        for per_speed in (False, True):
+            ns_w, unit_w, rel = fit(rows, per_speed)
+            print(f"per speed term {per_speed}: weights (ns)", {k: round(v, 4) for k, v in ns_w.items()})
+            print("  weights (recursive adds/muls):", {k: round(v, 3) for k, v in unit_w.items()})
+            for lab, (f, m) in rel.items():
+                print(f"  {lab:24s} (kane - recursive) / mean: fitted {f:+.3f} measured {m:+.3f}"
+                      + ("  wrong sign" if f * m < 0 and abs(m) > 0.05 else ""))
+        return 0
     global LIB_FLAGS
     if args.portable:
         LIB_FLAGS = list(DEFAULT_CFLAGS)
@@ -261,12 +353,14 @@ def main(argv):
         rows = []
         for (label, *_), fut in zip(chosen, builds):
             try:
-                rows.append(measure(label, *fut.result(), args.rounds))
+                rows.append(measure(label, *fut.result(), args.rounds, args.copies))
             except (RuntimeError, subprocess.CalledProcessError) as exc:
                 rows.append({"label": label, "error": str(exc)[:120]})
             print(rows[-1], flush=True)
     text = table(rows)
     print(text)
+    if args.json:
+        Path(args.json).write_text(json.dumps(rows, indent=1, default=str))
     if args.write:
         from common import environment_header, write_results
         end = " ".join(f"{v:.2f}" for v in os.getloadavg())

@@ -6,9 +6,11 @@ either one works.
 Kane's form is then lowered too, and the one whose rhs costs less is kept (all requested
 functions' costs when rhs is not requested), only where it can win.  The cost
 (:func:`rhs_cost`) weighs the operation counts by what they take in time: a sin/cos call
-about 25 operations, a division 4, and Kane's arithmetic 1.15x the recursion's; counting
-operations alone kept Kane's slower rhs on the cart at 3-4 links and on the UR10 and Kinova
-arms (benchmarks/results/auto_choice.md).
+about 36 operations, a division 4, and Kane's arithmetic 0.78 + 0.13 per speed times the
+recursion's (1.04x at 2 speeds, 1.56x at 6), fitted to both rhs measured on 18 models (task
+autocost, session 25); counting operations alone kept Kane's slower rhs on the cart at 3-4 links
+and on the UR10 and Kinova arms, and weighing Kane's arithmetic the same at every size kept it
+on the cart at 2 links and on Bolt (1.10-1.12x slower; benchmarks/results/auto_choice.md).
 
 * Kane's equations are formed for the comparison only for a small tree
   (:data:`AUTO_KANE_MAX_SPEEDS` speeds): forming them is the costly part of a build
@@ -63,7 +65,8 @@ from ..tree.recognize import tree_of
 
 __all__ = ["FORMULATIONS", "DEFAULT_FORMULATION", "AUTO_KANE_MAX_SPEEDS", "AUTO_KANE_MAX_CHAIN",
            "chain_length", "kane_skip_reason", "generate_formulation",
-           "rhs_cost", "KANE_OP_WEIGHT", "DIV_WEIGHT", "CALL_WEIGHT", "COST_MODEL",
+           "rhs_cost", "KANE_OP_WEIGHT", "KANE_OP_WEIGHT_PER_SPEED", "kane_op_weight", "DIV_WEIGHT",
+           "CALL_WEIGHT", "COST_MODEL",
            "check_formulation", "tree_digest", "kane_tree_formed", "check_tree_finite"]
 
 FORMULATIONS = ("auto", "kane", "recursive")
@@ -235,26 +238,39 @@ def _kane_formed(spec):
 
 
 # The cost model of auto (issue 31 item 5), in units of one add or multiply of the recursive
-# form.  Fitted to rhs times measured with gcc -O2 (thread CPU, pinned, interleaved, medians) on
-# the n-link cart System at n = 1-4 and the UR10 and Kinova arms on an Intel Xeon
-# (../shared/reports/performance-2026-11-r4.md §3), and checked on an AMD EPYC, where the pick
-# is the faster form on all six (benchmarks/bench_auto_choice.py, results/auto_choice.md).  Operation counts alone kept Kane's rhs at n = 3-4, UR10 and
-# Kinova where it is 8-50 % slower: Kane's equations formed from a System call sin/cos of sums of
-# angles (20 calls at n = 4 against the recursion's 8), and its long, register-hungry straight-line
-# code runs 1.13-1.76x slower per operation than the recursion's.
-KANE_OP_WEIGHT = 1.15    # one of Kane's adds/muls against one of the recursion's
-DIV_WEIGHT = 4           # a division (latency ~4 multiplies on x86-64)
-CALL_WEIGHT = 25         # a sin, cos, sqrt, ... call (libm, not inlined at -O2)
+# form.  Refitted in session 25 (task autocost) by least squares to both forms' rhs times of 18
+# models (the cart System n = 1-6, UR10, Kinova, so100, hextilt's arm, Bolt, Iris, finger_edu,
+# TwoDofs, borinot, the double pendulum URDF, SymPy's cart-pole and four-bar examples), measured
+# with eomc's default flags (gcc -O2 -mavx2, thread CPU, pinned, interleaved rounds, 3 harness copies
+# of different code placement; benchmarks/bench_auto_choice.py --fit, results/auto_choice.md).  The
+# fit is of the difference Kane - recursive per model (what the pick decides), relative to the
+# model's time.  The term the old model (Kane's flop 1.15, a call 25) missed: Kane's arithmetic
+# costs more per operation the more speeds the model has (its dense mass matrix and forcing are
+# long straight-line code whose values all stay live: spills), 0.78 + 0.13 per speed, i.e. 1.04 at
+# 2 speeds, 1.17 at 3, 1.56 at 6; without it Bolt (6 speeds, two 3-joint legs) and finger_edu
+# (3 speeds) have the same flop ratio (0.76) and opposite winners (Kane 10 % slower, 5 % faster).
+# The calls (sin/cos of the joint angles, 36 flops each) are what the cart at n = 2 turns on.  The
+# division's weight the fit leaves free (the forms differ by 1-4 divisions): 4, its latency.
+KANE_OP_WEIGHT = 0.78            # one of Kane's adds/muls against one of the recursion's, at 0 speeds
+KANE_OP_WEIGHT_PER_SPEED = 0.13  # ... plus this per speed of the model
+DIV_WEIGHT = 4                   # a division (latency ~4 multiplies on x86-64)
+CALL_WEIGHT = 36                 # a sin, cos, sqrt, ... call (libm or the lane routine)
 COST_MODEL = (f"operations weighted: a call {CALL_WEIGHT}, a division {DIV_WEIGHT}, "
-              f"Kane's {KANE_OP_WEIGHT}x")   # for the messages of eomc build and inspect
+              f"Kane's {KANE_OP_WEIGHT} + {KANE_OP_WEIGHT_PER_SPEED} per speed")   # for eomc build/inspect
 
 
-def rhs_cost(counts, formulation):
-    """The estimated cost of a function from its operation counts ({adds, muls, divs, calls}),
-    so that auto compares time, not the number of operations: a call weighs CALL_WEIGHT
-    operations, a division DIV_WEIGHT, and Kane's arithmetic KANE_OP_WEIGHT (see above)."""
+def kane_op_weight(speeds):
+    """The weight of one of Kane's adds/multiplies in a model of ``speeds`` speeds."""
+    return KANE_OP_WEIGHT + KANE_OP_WEIGHT_PER_SPEED * speeds
+
+
+def rhs_cost(counts, formulation, speeds):
+    """The estimated cost of a function from its operation counts ({adds, muls, divs, calls}) in a
+    model of ``speeds`` speeds, so that auto compares time, not the number of operations: a call
+    weighs CALL_WEIGHT operations, a division DIV_WEIGHT, and Kane's arithmetic
+    kane_op_weight(speeds) (see above)."""
     flops = counts.get("adds", 0) + counts.get("muls", 0)
-    weight = KANE_OP_WEIGHT if formulation == "kane" else 1.0
+    weight = kane_op_weight(speeds) if formulation == "kane" else 1.0
     return round(weight * flops + DIV_WEIGHT * counts.get("divs", 0)
                  + CALL_WEIGHT * counts.get("calls", 0))
 
@@ -263,7 +279,7 @@ def _rhs_cost(generated, formulation):
     counts = generated.metadata["op_counts"]
     # linearize only calls jac_x and jac_r: its counts are theirs again
     fns = ["rhs"] if "rhs" in counts else [f for f in counts if counts[f] and f != "linearize"]
-    return sum(rhs_cost(counts[f], formulation) for f in fns if counts[f])
+    return sum(rhs_cost(counts[f], formulation, generated.metadata["nu"]) for f in fns if counts[f])
 
 
 def kane_solve_floor(formed):
@@ -417,7 +433,7 @@ def _generate_auto(spec, functions, fold_parameters, kane_spec):
         kspec = _kane_side(spec, kane_spec)
         if functions is None or "rhs" in functions:
             # a lower bound on Kane's cost: its LDLT's operations, each at least a flop of Kane's
-            floor = round(KANE_OP_WEIGHT * kane_solve_floor(kspec.formed))
+            floor = round(kane_op_weight(nu) * kane_solve_floor(kspec.formed))
             if floor >= _rhs_cost(recursive, "recursive"):
                 recursive.metadata["formulation_costs"] = {
                     "kane": f">= {floor} (its LDLT alone)",

@@ -46,7 +46,7 @@ def test_inspect_says_which_formulation_auto_took_and_why(tmp_path, capsys):
     assert len(lines) == 1, out
     chosen = lines[0].split()[1]
     assert chosen in ("kane", "recursive") and "(asked for: auto)" in lines[0]
-    assert "auto compared rhs costs (operations weighted: a call 25, " in out
+    assert "auto compared rhs costs (operations weighted: a call 36, " in out
     compared = next(line for line in out.splitlines() if "auto compared rhs costs" in line)
     costs = dict(part.split() for part in compared.split("): ", 1)[1].split(", "))
     assert chosen == min(costs, key=lambda f: int(costs[f]))
