@@ -34,7 +34,8 @@ def _cache(tmp_path, monkeypatch):
 @pytest.mark.parametrize("torques", [False, True])
 def test_hand_built_relative_cart(torques):
     kane, inputs = cart_relative(3, em, torques=torques)
-    mk = eomc.compile(kane, "cart_k", inputs=inputs, functions=FUNCTIONS, progress=False)
+    mk = eomc.compile(kane, "cart_k", inputs=inputs, functions=FUNCTIONS, progress=False,
+                      formulation="kane")   # auto may take the recursive form (task autocost)
     mr = eomc.compile(kane, "cart_r", inputs=inputs, functions=FUNCTIONS, progress=False,
                       formulation="recursive")
     assert _agree(mk, mr, 1) < TOL
@@ -58,7 +59,8 @@ def test_zoo_spring_damper_chain():
     (its other models are absolute-angle, ball-joint, constrained or closed-loop: see
     test_recognize.py and test_select.py for their refusals)."""
     kane, inputs = zoo.spring_damper_chain(3, em)
-    mk = eomc.compile(kane, "springs_k", inputs=inputs, functions=FUNCTIONS, progress=False)
+    mk = eomc.compile(kane, "springs_k", inputs=inputs, functions=FUNCTIONS, progress=False,
+                      formulation="kane")
     mr = eomc.compile(kane, "springs_r", inputs=inputs, functions=FUNCTIONS, progress=False,
                       formulation="recursive")
     assert _agree(mk, mr, 3) < TOL
@@ -79,7 +81,7 @@ def test_random_chains(spec, seed):
         with pytest.raises(ModelError, match="no inertia"):
             eomc.compile(ours, "chain_r", functions=FUNCTIONS, progress=False, formulation="recursive")
         return
-    mk = eomc.compile(ours, "chain_k", functions=FUNCTIONS, progress=False)
+    mk = eomc.compile(ours, "chain_k", functions=FUNCTIONS, progress=False, formulation="kane")
     try:
         mr = eomc.compile(ours, "chain_r", functions=FUNCTIONS, progress=False, formulation="recursive")
     except ModelError as exc:
