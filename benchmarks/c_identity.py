@@ -4,6 +4,7 @@ A refactoring of the compiler promises the same C for the same input (the projec
 "byte-identical unless the change is meant").  This script generates -- without compiling --
 the C of every shipped example model file, the test models (tests/helpers zoo, the URDF arm
 with and without frames, states and contacts), the example-robot-data robots the tests build
+(Panda's default build with its limits on too)
 and the gymnasium MJCF models, and records sha256 of NAME.c, NAME.h, the cffi cdef and the
 metadata per model.
 
@@ -127,15 +128,19 @@ def cases(directory):
     out["arm_tool0:states"] = arm_states(False)
     out["arm_tool0:states:frames"] = arm_states(True)
 
-    def robot(rel, floating, **kw):
+    def robot(rel, floating, limits=False, **kw):
         def make():
             from eomc.compiler.urdf.model import UrdfModel
             from helpers.robots import robot_path
-            return UrdfModel(robot_path(rel), floating_base=floating, limits=False), kw
+            return UrdfModel(robot_path(rel), floating_base=floating, limits=limits), kw
         return make
     for name, (rel, floating) in ROBOTS.items():
         out[f"robot:{name}"] = robot(rel, floating)
     out["robot:ur5:frames"] = robot("ur5", False, frames=["tool0"], formulation="recursive")
+    # the default build of a robot (`eomc build panda.urdf`: the file's limits, damping and friction
+    # on, with their default stiffness from the load each joint carries), which the robot cases
+    # above leave out: a change to the URDF limit defaults or laws shows here
+    out["robot:panda:limits"] = robot("panda", False, limits=True)
     out["robot:solo12:contacts"] = robot(
         "solo12", True, contacts=[dict(link=f"{leg}_FOOT", radius=0.016, vs=1e-4) for leg in ("FL", "FR", "HL", "HR")],
         formulation="recursive", functions=("rhs", "jac_x", "jac_r", "outputs", "events"))

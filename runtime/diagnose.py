@@ -12,7 +12,7 @@ import numpy as np
 
 from .cdef import STATUS_SINGULAR_MASS_MATRIX as SINGULAR_STATUS
 
-__all__ = ["SINGULAR_STATUS", "singular_direction", "leaving_state"]
+__all__ = ["SINGULAR_STATUS", "singular_direction", "leaving_state", "no_ground"]
 
 
 def singular_direction(model, t, x, p=None, r=None, semidefinite=False):
@@ -127,3 +127,44 @@ def leaving_state(model, x, p=None, t=0.0, step=0.1):
         except Exception:       # noqa: BLE001 -- a hint only: try the next one
             continue
     return names[nq] if 0 < nq < len(names) else names[0]
+
+
+# what a floating-base robot with nothing touching the ground is given, in the command line's words
+GROUND_OPTIONS = ("--ground lets the robot's <collision> geometry touch the plane z = 0, "
+                  "--contact LINK[:x,y,z[:radius]] puts a contact sphere on a link (its feet)")
+
+
+def no_ground(model, t=None, x=None, p=None, t_span=None):
+    """'no ground: ...' when ``model`` has a floating base (a ``*_floating_z`` coordinate) and no
+    ground contact, so nothing stops its fall; None otherwise (or when it did not fall).
+
+    With a run (``t``, ``x``: its times and states) the text gives how far the base fell; without
+    one (``t_span``: the span the runs cover, ``eomc check``) the centre of mass's free fall
+    g t^2 / 2, which is exact with no contact: gravity is then the only external force.
+    First hour s25: ``eomc simulate solo12.urdf --floating-base`` fell 490 m in 10 s and said
+    nothing (status 0); a robot dropped into the void is almost never what was meant."""
+    names = list(model.state_names[:model.nq])
+    zs = [k for k, n in enumerate(names) if n.endswith("_floating_z")]
+    if len(zs) != 1:
+        return None
+    from .switching import find_switches
+    if find_switches(model).contacts:
+        return None
+    where = "nothing touches the ground (a floating base with no contact)"
+    if x is not None and t is not None and len(t) > 1:
+        z = np.asarray(x)[:, zs[0]]
+        fell = float(z[0] - z[-1])
+        if not fell > 0.0:
+            return None
+        return (f"no ground: {model.name}'s base fell {fell:.4g} m in {t[-1] - t[0]:.4g} s "
+                f"({names[zs[0]]} {z[0]:.4g} -> {z[-1]:.4g}): {where}; {GROUND_OPTIONS}")
+    params = list(getattr(model, "param_names", ()))
+    if "g" not in params or t_span is None:
+        return None
+    values = np.asarray(model.param_defaults if p is None else p, dtype=float)
+    g = float(values[params.index("g")])
+    fall = 0.5 * g * (t_span[1] - t_span[0]) ** 2
+    if not fall > 0.0:
+        return None
+    return (f"no ground: {where}, so the runs follow a free fall (the centre of mass falls "
+            f"g t^2/2 = {fall:.4g} m in {t_span[1] - t_span[0]:.4g} s); {GROUND_OPTIONS}")

@@ -154,6 +154,8 @@ def run(args):
         if res.status != 0 and len(res.t) < 2:
             from eomc.runtime.errors import SimulationError
             raise SimulationError(res.message)
+    from .simulate import _no_ground
+    _no_ground(model, res)          # a floating base falling out of the picture: said, with the way out
     trace = None if args.trace is None else (
         [] if args.trace.strip().lower() == "none" else [s.strip() for s in args.trace.split(",") if s.strip()])
     if args.output:

@@ -58,6 +58,11 @@ def run(args):
         print(f"eomc check: the runs gave {len(physics)} physics warning{'s' if len(physics) > 1 else ''} "
               f"(on stderr: limits, contacts, energy): the checks above judge the integration, not the "
               f"model's laws")
+    from eomc.runtime.diagnose import no_ground
+    falling = no_ground(model, p=p, t_span=(0.0, args.t_final))
+    if falling:
+        # first hour s25: solo12 --floating-base checked a 490 m fall into the void and said nothing
+        warnings.warn(falling, PhysicsWarning, stacklevel=1)
     still = _at_rest(model, x0, p, args.t_final)
     if still:
         # first hour s24: SymPy's multi-dof holonomic example (JointsMethod) at its zero start read

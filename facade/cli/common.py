@@ -30,7 +30,9 @@ def add_robot_arguments(parser):
     """The options of a robot file (URDF, MJCF), for build, inspect and the model commands."""
     parser.add_argument("--floating-base", action="store_true",
                         help="URDF: a 6-dof floating joint (position + body XYZ Euler angles, or a "
-                             "quaternion with --orientation quaternion) between the world and the root link")
+                             "quaternion with --orientation quaternion) between the world and the root link; "
+                             "nothing touches the ground without --ground or --contact (the robot falls "
+                             "freely, and simulate, animate and check warn)")
     parser.add_argument("--orientation", choices=("euler", "quaternion"), default=None,
                         help="how free (and MJCF ball) joints' orientation is written: euler (default; "
                              "body XYZ angles, singular at pitch +-90 deg) or quaternion (w, x, y, z; no "

@@ -217,6 +217,7 @@ def run(args):
             kept = (f"; wrote the {len(res.t)} rows computed up to t={res.t[-1]:.9g} to {args.output} "
                     f"(marked '# incomplete' on its last line)")
         raise SimulationError(state_last(f"{res.message}{kept}"))
+    _no_ground(model, res)
     s = res.stats
     print(f"{model.name}: {res.method} t=[{args.t0:g}, {args.t_final:g}]: {s['steps']} steps "
           f"({s['rejected']} rejected), {s['nfev']} rhs, {s['njev']} jacobian, {s['nlu']} LU")
@@ -298,6 +299,18 @@ def run(args):
                 print(f"  --plot: {len(flat)} contact output{'s' if len(flat) > 1 else ''} 0 throughout "
                       f"({', '.join(flat[:3])}{', ...' if len(flat) > 3 else ''}) not drawn")
     return 0
+
+
+def _no_ground(model, res):
+    """A warning when a floating-base robot with no contact fell (runtime.diagnose.no_ground):
+    with the options that give it a ground."""
+    import warnings
+
+    from eomc.runtime.diagnose import no_ground
+    from eomc.runtime.switching import PhysicsWarning
+    text = no_ground(model, res.t, res.x)
+    if text:
+        warnings.warn(text, PhysicsWarning, stacklevel=2)
 
 
 def state_last(message):

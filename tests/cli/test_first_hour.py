@@ -638,3 +638,33 @@ def test_a_warning_that_begins_with_blank_lines_starts_on_the_warnings_line():
     finally:
         warnings.formatwarning = old
     assert text == "eomc simulate: warning: Support for the Body class has been removed.\n\nSee ...\n", text
+
+
+def test_a_floating_base_with_no_ground_says_it_fell_and_how_to_get_a_ground(tmp_path, monkeypatch, capsys):
+    """`eomc simulate solo12.urdf --floating-base` (no --contact, no --ground) fell 490 m in 10 s and
+    exited with status 0 and no word.  simulate, animate and check now warn, naming the fall and
+    the options that give a ground; with --ground (a contact) they do not."""
+    path = tmp_path / "two.urdf"
+    path.write_text(_FOOT_BELOW)
+    monkeypatch.setenv("EOMC_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.chdir(tmp_path)
+
+    def warned(argv):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            assert main(argv) == 0
+        capsys.readouterr()
+        return [str(w.message) for w in caught if str(w.message).startswith("no ground")]
+
+    said = warned(["simulate", str(path), "--floating-base", "--t-final", "1", "-q"])
+    assert len(said) == 1, said
+    fell = re.match(r"no ground: two's base fell ([0-9.]+) m in 1 s \(q_base_floating_z 0 -> -[0-9.]+\): "
+                    r"nothing touches the ground", said[0])
+    assert fell and abs(float(fell.group(1)) - 0.5 * 9.81) < 0.1, said
+    assert "--ground lets the robot's <collision> geometry touch the plane z = 0" in said[0], said
+    assert "--contact LINK[:x,y,z[:radius]]" in said[0], said
+    said = warned(["animate", str(path), "--floating-base", "--t-final", "0.5", "-q", "-o", "two.html"])
+    assert len(said) == 1 and "base fell 1.2" in said[0], said
+    said = warned(["check", str(path), "--floating-base", "--t-final", "2", "--methods", "dop853", "-q"])
+    assert len(said) == 1 and "the centre of mass falls g t^2/2 = 19.62 m in 2 s" in said[0], said
+    assert warned(["simulate", str(path), "--floating-base", "--ground", "--t-final", "0.3", "-q"]) == []
