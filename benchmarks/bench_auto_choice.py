@@ -8,10 +8,13 @@ both rhs, checks they agree on 64 random states, and times them in thread CPU ti
 operations), the new one what it does now (eomc.compiler.formulations.select.rhs_cost): both computed
 from the two builds' operation counts, exactly as auto compares them.
 
-Models: the cart System auto sees (benchmarks/tree_models/cart_rel_joints.py, n = 1-5, 8, 20,
-40), the UR10 and Kinova arms, and every robot of benchmarks/results/urdf.md (UR5, Panda, Solo12
-on a floating base) from example-robot-data.  Auto's pick is what `--formulation auto` built
-(a third build; its json's formulation): above 6 speeds on a URDF Model, or where the LDLT of
+Models: the cart System auto sees (benchmarks/tree_models/cart_rel_joints.py, n = 1-6, 8, 20,
+40), the UR10 and Kinova arms, every robot of benchmarks/results/urdf.md (UR5, Panda, Solo12
+on a floating base) from example-robot-data, and its other trees of at most 6 speeds where the
+two forms' costs are close or Kane's equations cost most of the build (so100, so101, hextilt's
+5-joint arm, Bolt, Iris, finger_edu, the double pendulum URDF: task autoskip, results/auto_skip.md).  Auto's pick is what `--formulation auto` built
+(a third build; its json's formulation): above 6 speeds on a URDF Model, on a chain of more than 3
+joints (select.kane_skip_reason), or where the LDLT of
 Kane's mass matrix alone costs as much as the recursive rhs, auto does not build Kane's form,
 so Kane's rhs is built explicitly here to time it, within --kane-timeout seconds of wall time
 (a build that does not finish is reported as such, with its CPU seconds, not hidden).
@@ -95,12 +98,20 @@ CART = HERE / "tree_models" / "cart_rel_joints.py"
 def models():
     """(label, model file, environment, extra build flags)."""
     from helpers.robots import robot_path
-    out = [(f"cart n={n}", CART, {"EOMC_N_LINKS": str(n)}, []) for n in (1, 2, 3, 4, 5, 8, 20, 40)]
+    out = [(f"cart n={n}", CART, {"EOMC_N_LINKS": str(n)}, []) for n in (1, 2, 3, 4, 5, 6, 8, 20, 40)]
     out.append(("UR10", robot_path("ur_description/urdf/ur10_robot.urdf"), {}, []))
     out.append(("Kinova", robot_path("kinova_description/robots/kinova.urdf"), {}, []))
     out.append(("UR5", robot_path("ur5"), {}, []))
     out.append(("Panda", robot_path("panda"), {}, []))
     out.append(("Solo12 (floating)", robot_path("solo12"), {}, ["--floating-base"]))
+    # the example-robot-data arms auto forms Kane's equations for (<= 6 speeds) beside UR and Kinova, and the
+    # small trees where Kane's rhs is cheaper by the cost model (task autoskip: does skipping Kane lose a win?)
+    for label, rel in (("so100", "so_arm_description/urdf/so100.urdf"), ("so101", "so_arm_description/urdf/so101.urdf"),
+                       ("hextilt arm 5", "hextilt_description/urdf/hextilt_flying_arm_5.urdf"),
+                       ("bolt", "bolt_description/robots/bolt.urdf"), ("iris", "iris_description/robots/iris.urdf"),
+                       ("finger_edu", "finger_edu_description/robots/finger_edu.urdf"),
+                       ("double pendulum (URDF)", "double_pendulum_description/urdf/double_pendulum.urdf")):
+        out.append((label, robot_path(rel), {}, []))
     return out
 
 

@@ -20,6 +20,12 @@ arms (benchmarks/results/auto_choice.md).
   UR10 and UR5 1.26x, Kinova 2.1x, Panda 3.2x, Solo12 2.4x), so the cap loses nothing
   measured.  A model file that forms Kane's
   equations itself therefore does not have them forced when auto takes the tree.
+* Within that limit, Kane's equations are not formed either for an open tree with a chain of
+  more than :data:`AUTO_KANE_MAX_CHAIN` (3) moving joints (:func:`kane_skip_reason`, read from
+  the tree before anything is formed): Kane's rhs won on no such tree measured (the cart at
+  3-5 links, UR3/5/10, Kinova, so100/so101, hextilt's arm: 1.3-2.8x slower,
+  benchmarks/results/auto_skip.md), and forming its equations was most of their build
+  (so101: 5.8 of 6.9 s of generate CPU).  The metadata's ``formulation_costs`` says so.
 * Lowering Kane's form is skipped when the LDLᵀ of its mass matrix alone (counted
   exactly as the emitter would write it, from the formed matrix's nonzeros) already
   costs as much as the whole recursive rhs.
@@ -55,13 +61,16 @@ from ..passes.timing import compiler_step
 from ..tree.model import NotATree, tree_exprs
 from ..tree.recognize import tree_of
 
-__all__ = ["FORMULATIONS", "DEFAULT_FORMULATION", "AUTO_KANE_MAX_SPEEDS", "generate_formulation",
+__all__ = ["FORMULATIONS", "DEFAULT_FORMULATION", "AUTO_KANE_MAX_SPEEDS", "AUTO_KANE_MAX_CHAIN",
+           "chain_length", "kane_skip_reason", "generate_formulation",
            "rhs_cost", "KANE_OP_WEIGHT", "DIV_WEIGHT", "CALL_WEIGHT", "COST_MODEL",
            "check_formulation", "tree_digest", "kane_tree_formed", "check_tree_finite"]
 
 FORMULATIONS = ("auto", "kane", "recursive")
 DEFAULT_FORMULATION = "auto"
 AUTO_KANE_MAX_SPEEDS = 6      # see the module docstring: above this Kane's rhs never won
+AUTO_KANE_MAX_CHAIN = 3       # joints in a row up to which Kane's rhs can win (see kane_skip_reason)
+AUTO_SKIP_KANE = True         # False: auto forms Kane's equations up to 6 speeds whatever the tree (benchmarks)
 
 
 def check_formulation(formulation):
@@ -341,6 +350,37 @@ def _kane_side(spec, kane_spec):
     return spec
 
 
+def chain_length(tree):
+    """The most moving joints on one path from the ground to a leaf of ``tree`` (a joint of
+    several speeds, e.g. a free joint, counts once; fixed joints not at all)."""
+    depth = []
+    for b in tree.bodies:             # parents before children
+        depth.append((depth[b.parent] if b.parent >= 0 else 0) + (1 if b.dofs else 0))
+    return max(depth, default=0)
+
+
+def kane_skip_reason(tree):
+    """Why auto need not form Kane's equations for an open ``tree`` of at most
+    AUTO_KANE_MAX_SPEEDS speeds, or None (form them and compare).
+
+    A chain of more than AUTO_KANE_MAX_CHAIN moving joints: every entry of Kane's mass matrix
+    and forcing carries the orientation of the whole chain above it (sin/cos of sums of angles
+    from a System, long products of rotations from a URDF), so its rhs grows with the square of
+    the chain or faster while the recursion's grows with its length.  On no such tree measured
+    does Kane's rhs win (benchmarks/results/auto_skip.md: the cart at 3-5 links, UR3/5/10, Kinova,
+    so100/so101, hextilt's 5-joint arm, all by cost and in time), and forming its equations was
+    most of their build (so101: 5.8 of 6.9 s of generate CPU).  The trees where it does win are
+    short or branched (the cart at 1-2 links, the double pendulums, finger_edu's 3-joint fingers,
+    Bolt's two 3-joint legs): those are still compared.  A tree closed by constraints is compared
+    as before (Kane's rhs has fewer operations on closed chains up to 6 speeds, loops.md)."""
+    if tree.loops is not None:
+        return None
+    chain = chain_length(tree)
+    if chain > AUTO_KANE_MAX_CHAIN:
+        return f"a chain of {chain} joints > {AUTO_KANE_MAX_CHAIN}: Kane's rhs has not won there"
+    return None
+
+
 def _generate_auto(spec, functions, fold_parameters, kane_spec):
     try:
         recursive = _generate_recursive(spec, functions, fold_parameters)
@@ -365,6 +405,13 @@ def _generate_auto(spec, functions, fold_parameters, kane_spec):
         recursive.metadata["formulation_costs"] = {
             "kane": f"not formed ({nu} speeds > {AUTO_KANE_MAX_SPEEDS}: Kane's rhs has not won there)",
             "recursive": _rhs_cost(recursive, "recursive")}
+        return recursive
+    # a tree whose Kane's equations auto would form (not an MJCF model: it has none, and says so)
+    lazy = isinstance(spec.formed, Model) and not spec.formed.kane_refusal
+    skip = kane_skip_reason(spec.formed.tree) if AUTO_SKIP_KANE and lazy else None
+    if skip is not None:
+        recursive.metadata["formulation_costs"] = {"kane": f"not formed ({skip})",
+                                                   "recursive": _rhs_cost(recursive, "recursive")}
         return recursive
     try:
         kspec = _kane_side(spec, kane_spec)

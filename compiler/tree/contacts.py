@@ -15,6 +15,7 @@ from ..contact import pairs as _pairs
 from ..contact.pairs import PairLoad, pair_guards
 from ..contact.table import lower_table
 from ..contact.tree import CLIP_KIND, ENERGY, ENERGY_APART, ContactLoad, ContactValue, contact_outputs
+from .construct import _add, _mul
 from .placement import Placement
 from .spatial import cross
 from eomc.runtime.errors import ModelError
@@ -387,10 +388,11 @@ def _energy(bodies, v, poses, gravity, speeds, let):
     for i, b in enumerate(bodies):
         w, vo = v[i][:3], v[i][3:]
         m = b.I[3][3]
-        Iw = [sum((b.I[r][c] * w[c] for c in range(3)), sm.S.Zero) for r in range(3)]
+        # (construct._add/_mul: the sums sum(..., S.Zero) of the products made, built for less)
+        Iw = [_add([_mul(b.I[r][c], w[c]) for c in range(3)]) for r in range(3)]
         o = poses.origin(i)
-        share = (m * sum((x * x for x in vo), sm.S.Zero) + sum((w[r] * Iw[r] for r in range(3)), sm.S.Zero)) / 2
-        share -= m * sum((gravity[k] * o[k] for k in range(3)), sm.S.Zero)
+        share = (m * _add([_mul(x, x) for x in vo]) + _add([_mul(w[r], Iw[r]) for r in range(3)])) / 2
+        share -= m * _add([_mul(gravity[k], o[k]) for k in range(3)])
         axes = [b.speed] if b.S is not None else [k for k, _ in (b.multi or ())]
         for a, k in zip(b.armature, axes):
             if a != 0 and k is not None:

@@ -42,9 +42,9 @@ def law_loops(name, plan, pr, program, assignments, vals, ind="    "):
     bits); a law alone in its text, or reading anything but its own joint's slots, stays unrolled."""
     if not LAW_LOOPS or not plan.law_code:
         return None
-    groups = {}
+    groups, program_index = {}, _Index(assignments)
     for at, _, back in plan.law_code:
-        got = _law_text(at, back, pr, assignments, vals)
+        got = _law_text(at, back, pr, program_index, vals)
         if got is not None:
             groups.setdefault(got[0], []).append((at, got[1]))
     lines, helpers, covered = [], [], set()
@@ -63,14 +63,39 @@ def law_loops(name, plan, pr, program, assignments, vals, ind="    "):
     return lines, helpers, covered
 
 
-def _law_text(at, back, pr, assignments, vals):
+class _Index:
+    """NAME_dyn_inputs' temporaries by name, and their places, made once for all its laws.
+
+    Why: :func:`~eomc.compiler.ir.program.needed_assignments` builds both for every call and
+    then walks every assignment to keep their order; called once per law, that was G1's
+    ~2,600 assignments 29 times over.  :meth:`needed` returns the same list."""
+
+    def __init__(self, assignments):
+        self.assignments = list(assignments)
+        self.defined = {t: e for t, e in self.assignments}
+        self.place = {t: k for k, (t, _) in enumerate(self.assignments)}
+
+    def needed(self, exprs):
+        """``needed_assignments(assignments, exprs)``: what ``exprs`` read, in program order."""
+        from ..ir.program import symbols_of
+        defined, need = self.defined, set()
+        stack = [s for e in exprs for s in symbols_of(e)]
+        while stack:
+            s = stack.pop()
+            if s in defined and s not in need:
+                need.add(s)
+                stack.extend(symbols_of(defined[s]))
+        return [self.assignments[k] for k in sorted(self.place[t] for t in need)]
+
+
+def _law_text(at, back, pr, index, vals):
     """(the helper body of the law whose slopes are an[at], an[at + 1], its arguments' slots
-    as (array, index)), or None when it cannot be a helper's."""
-    from ..ir.program import needed_assignments, symbols_of
+    as (array, index)), or None when it cannot be a helper's.  ``index``: :class:`_Index`."""
+    from ..ir.program import symbols_of
     outs = [vals.get((ANX, at)), vals.get((ANX, at + 1))]
     if any(e is None for e in outs):
         return None
-    own = needed_assignments(assignments, outs)
+    own = index.needed(outs)
     joint = [v for _, v in back if isinstance(v, sm.Symbol)]
     names = {v: f"a{i}" for i, v in enumerate(joint)}
     names.update({s: f"w{i}" for i, (s, _) in enumerate(own)})

@@ -696,6 +696,7 @@ static void fs_transport(double *A, const double *M, const double *u, int s, int
  * 0 and then *cached = 1, read when it is 1 (the same T assembled for another h: a split step's
  * sub-steps: on the ant 34 of its 179 assemblies a second; its 1-s checked run 0.553 -> 0.542 ms,
  * runtime .so A/B in one process).  The same bits either way. */
+#define FS_CHAIN 64     /* fs_assemble: a contact's chain up to this many speeds is listed on the stack */
 static int fs_assemble(const eomc_fs_ops *ops, const fs_layout *L, double h, const double *u,
                        const double *T, double *A, double *b, double *GJ, double *cache, int *cached,
                        const fs_pattern *pat, int *own, const int **start, const int **anc)
@@ -761,18 +762,33 @@ static int fs_assemble(const eomc_fs_ops *ops, const fs_layout *L, double h, con
             }
             *filled = 1.0;
         }
-        for (int k = 0; k < m; k++) {
-            const double *j = J + 3 * k;
-            for (int a = 0; a < 3; a++)
-                GJ[3 * k + a] = G[3 * a] * j[0] + G[3 * a + 1] * j[1] + G[3 * a + 2] * j[2];
-            b[fs_speed(cols[k])] -= h * JKv[k];
-        }
-        for (int a = 0; a < m; a++) {
-            const double *ja = J + 3 * a;
-            double *row = A + (size_t)fs_speed(cols[a]) * nu;
+        /* G J by its rows (g0, g1, g2: contiguous in k) and the chain's speeds decoded once (sp, for
+         * chains up to FS_CHAIN long) instead of m times each in the m x m scatter: the same products
+         * and sums in the same order, so the same bits.  Why: perf put this scatter at 18-22 % of
+         * fs_assemble on the ant and the humanoid, fs_speed's decoding another 3-4 %.  Measured
+         * (session 25; bench_fixedstep's qpos0 runs, the integrator libraries side by side in one
+         * process, 3 copies each, core 1, load 10-19): hopper +-1 %, walker2d -3 %, ant -2 to -3 %,
+         * humanoid -2 to -4 % (benchmarks/results/fixedstep.md's notes). */
+        {
+            double *g0 = GJ, *g1 = GJ + m, *g2 = GJ + 2 * m;
+            int sp[FS_CHAIN], *spd = m <= FS_CHAIN ? sp : NULL;
             for (int k = 0; k < m; k++) {
-                const double *g = GJ + 3 * k;
-                row[fs_speed(cols[k])] += ja[0] * g[0] + ja[1] * g[1] + ja[2] * g[2];
+                const double *j = J + 3 * k;
+                int sk = fs_speed(cols[k]);
+                if (spd) spd[k] = sk;
+                g0[k] = G[0] * j[0] + G[1] * j[1] + G[2] * j[2];
+                g1[k] = G[3] * j[0] + G[4] * j[1] + G[5] * j[2];
+                g2[k] = G[6] * j[0] + G[7] * j[1] + G[8] * j[2];
+                b[sk] -= h * JKv[k];
+            }
+            for (int a = 0; a < m; a++) {
+                const double *ja = J + 3 * a;
+                double j0 = ja[0], j1 = ja[1], j2 = ja[2];
+                double *row = A + (size_t)fs_speed(cols[a]) * nu;
+                if (spd)
+                    for (int k = 0; k < m; k++) row[spd[k]] += j0 * g0[k] + j1 * g1[k] + j2 * g2[k];
+                else
+                    for (int k = 0; k < m; k++) row[fs_speed(cols[k])] += j0 * g0[k] + j1 * g1[k] + j2 * g2[k];
             }
         }
     }

@@ -167,9 +167,11 @@ def test_auto_with_the_default_functions_on_a_formed_kanes_method():
                                          (8, "recursive")])
 def test_auto_on_the_cart_system_kane_at_1_link_recursive_from_3(n, expected, monkeypatch):
     """A System of joints (equations not formed): Kane's are formed and compared only for a
-    small tree; from 8 links they are not formed at all.  By cost, Kane's rhs (sin/cos of sums
-    of angles: 12 calls at n = 3, 20 at n = 4, against 6 and 8) is kept only at n = 1, where it
-    is measured faster (benchmarks/results/auto_choice.md)."""
+    small tree; from 3 links (a chain of 4 joints, select.kane_skip_reason) they are not formed
+    at all.  By cost, Kane's rhs (sin/cos of sums of angles: 12 calls at n = 3, 20 at n = 4,
+    against 6 and 8) is kept only at n = 1, where it is measured faster
+    (benchmarks/results/auto_choice.md); n = 3 and 4 pick the recursive rhs as before, now
+    without forming Kane's (session 25: before, they were formed and lost, 579/491 and 1003/836)."""
     from eomc.compiler.mechanics import unformed
     formed = []
     original = unformed.form_system
@@ -178,11 +180,72 @@ def test_auto_on_the_cart_system_kane_at_1_link_recursive_from_3(n, expected, mo
     gm = _gen(system, "auto", ["rhs"], inputs=inputs)
     assert gm.metadata["formulation"] == expected
     costs = gm.metadata["formulation_costs"]
-    if n <= 4:
-        other = "recursive" if expected == "kane" else "kane"
-        assert costs[expected] < costs[other] and formed
+    if n == 1:
+        assert costs["kane"] < costs["recursive"] and formed
     else:
         assert str(costs["kane"]).startswith("not formed") and not formed
+
+
+def _forming_counted(monkeypatch):
+    from eomc.compiler.mechanics import unformed
+    formed = []
+    original = unformed.form_system
+    monkeypatch.setattr(unformed, "form_system", lambda s: formed.append(s) or original(s))
+    return formed
+
+
+@pytest.mark.parametrize("n", [3, 4, 5])
+def test_auto_does_not_form_kanes_equations_for_a_chain_of_more_than_3_joints(n, monkeypatch, capsys):
+    """Task autoskip: the cart at n links is a chain of n + 1 joints; past 3, Kane's rhs has not won
+    on any tree measured (benchmarks/results/auto_skip.md), so auto keeps the recursive rhs without
+    forming Kane's equations, and the metadata and the build's formulation line say why.  With the
+    skip off, the same builds form them (so it is the skip that saves them) and still pick the
+    recursive rhs: the choice is the same either way."""
+    from eomc.compiler.formulations import select
+    from eomc.cli.build import formulation_line
+    formed = _forming_counted(monkeypatch)
+    system, inputs = cart_joints(n)
+    gm = _gen(system, "auto", None, inputs=inputs)
+    why = f"not formed (a chain of {n + 1} joints > 3: Kane's rhs has not won there)"
+    assert gm.metadata["formulation"] == "recursive" and not formed
+    assert gm.metadata["formulation_costs"]["kane"] == why
+    assert why in formulation_line(gm.metadata, "auto")
+    monkeypatch.setattr(select, "AUTO_SKIP_KANE", False)
+    system, inputs = cart_joints(n)
+    before = _gen(system, "auto", None, inputs=inputs)
+    costs = before.metadata["formulation_costs"]
+    assert formed and before.metadata["formulation"] == "recursive" and costs["kane"] > costs["recursive"]
+    assert before.c_source == gm.c_source       # the same C: the skip changes the build time only
+
+
+@pytest.mark.parametrize("n", [1, 2])
+def test_kane_still_formed_and_kept_where_it_wins_on_the_short_cart(n, monkeypatch):
+    """A chain of at most 3 joints is still compared: the cart at 1 and 2 links keeps Kane's rhs
+    (cost 76 against 99, 276 against 278; measured 16 against 19 ns at n = 1)."""
+    formed = _forming_counted(monkeypatch)
+    system, inputs = cart_joints(n)
+    gm = _gen(system, "auto", ["rhs"], inputs=inputs)
+    costs = gm.metadata["formulation_costs"]
+    assert formed and isinstance(costs["kane"], int)
+    assert gm.metadata["formulation"] == "kane" and costs["kane"] < costs["recursive"]
+
+
+def test_chain_length_counts_moving_joints_on_the_longest_path():
+    """Bolt's two 3-joint legs are two chains of 3 (compared: Kane's rhs is cheaper there by cost),
+    a 6-joint arm one chain of 6; a free joint counts once, a fixed one not at all; a tree closed
+    by constraints is always compared."""
+    from types import SimpleNamespace as NS
+    from eomc.compiler.formulations.select import chain_length, kane_skip_reason
+
+    def tree(shape, loops=None):    # (parent, number of speeds) per body
+        return NS(bodies=[NS(parent=p, dofs=(None,) * k) for p, k in shape], loops=loops)
+    legs = tree([(-1, 1), (0, 1), (1, 1), (-1, 1), (3, 1), (4, 1)])
+    arm = tree([(-1, 1), (0, 1), (1, 0), (2, 1), (3, 1), (4, 1), (5, 1)])
+    assert chain_length(legs) == 3 and kane_skip_reason(legs) is None
+    assert chain_length(arm) == 6 and "a chain of 6 joints > 3" in kane_skip_reason(arm)
+    assert chain_length(tree([(-1, 6), (0, 1), (1, 1)])) == 3
+    assert chain_length(tree([])) == 0
+    assert kane_skip_reason(tree([(-1, 1)] + [(k, 1) for k in range(5)], loops=object())) is None
 
 
 def test_auto_does_not_ask_a_kanes_method_for_its_formed_equations_on_a_large_tree(monkeypatch):

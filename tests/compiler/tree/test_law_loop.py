@@ -96,3 +96,23 @@ def test_law_loop_float_target(cc, tmp_path, monkeypatch):
                           "-Wpedantic", "-Werror", "-c", "panda_f32.c"], cwd=tmp_path, capture_output=True, text=True,
                          timeout=300)
     assert run.returncode == 0, run.stderr[:3000]
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_index_needs_what_needed_assignments_needs(seed):
+    """law_loop._Index (the program's temporaries indexed once for all laws) gives, for any
+    results, the very list needed_assignments gives: the same assignments in program order."""
+    import sympy as sm
+    from eomc.compiler.ir.program import needed_assignments
+    rng = np.random.default_rng(seed)
+    x = sm.symbols("x0:4", real=True)
+    assignments = []
+    for k in range(60):     # each temporary reads inputs and up to three earlier temporaries
+        earlier = [t for t, _ in assignments]
+        reads = [x[i] for i in rng.choice(4, 2)] + ([earlier[i] for i in rng.choice(len(earlier), 3)] if k else [])
+        assignments.append((sm.Symbol(f"_t{k}", real=True), sm.Add(*reads) * reads[0]))
+    index = law_loop._Index(assignments)
+    for _ in range(20):
+        exprs = [assignments[i][0] * x[0] for i in rng.choice(60, int(rng.integers(1, 4)))]
+        got = index.needed(exprs)
+        assert got == needed_assignments(assignments, exprs)
