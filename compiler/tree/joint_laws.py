@@ -44,7 +44,12 @@ For coordinate q, speed u (s = the joint's C name):
   0.46 rad past (issue 29).  On a floating-base robot m is at least the inertia the joint
   carries when its subtree stands on the ground (the rest of the robot's about the joint's
   axis), and c = 2 sqrt(k m) is critically damped about it: a spring stiff enough for the
-  load but damped for the shin alone rings with the body on it.  The damping may pull a joint
+  load but damped for the shin alone rings with the body on it.  A URDF joint also gets at least
+  the stiffness that stops it within :data:`ENTRY_GIVE` when it enters a limit at the speed its
+  subtree can reach (:class:`JointScale`'s ``speed``: a fall through the subtree's reach from the
+  root, at its radius of gyration about the axis; k >= m min(speed / (e ENTRY_GIVE), ENTRY_RATE)²): a fixed arm's
+  collapse whips its light wrists into their limits at 20-40 rad/s, and the inertia rule's 10 ms
+  let them go 0.04-0.06 rad past (first hour s25).  The damping may pull a joint
   that leaves its limit fast back towards it (as in Drake's penalty law; MuJoCo's
   constraint forces never pull).
 """
@@ -56,11 +61,24 @@ from ..emit.layout import power_as_it_stands
 from ..contact.law import step  # noqa: F401 -- ramp's derivative; defined there for the contact pairs' choices
 
 __all__ = ["ramp", "step", "JointLaw", "joint_torque", "check_law", "TIME_CONSTANT", "WIDTH", "FRICTION_SPEED", "NAMES",
-           "limit_gains", "scale_gains", "limit_spring", "limit_energy", "law_shape", "PUSH_DIVISOR", "JointLawError", "JointScale", "LOAD_GIVE"]
+           "limit_gains", "scale_gains", "limit_spring", "limit_energy", "law_shape", "PUSH_DIVISOR", "JointLawError", "JointScale", "LOAD_GIVE",
+           "ENTRY_GIVE", "ENTRY_RATE"]
 
 TIME_CONSTANT = 0.01
 WIDTH = 3e-4
 LOAD_GIVE = 0.002     # rad (m for a slide): the static give past a limit under the joint's load
+# rad (m): the overshoot of a critically damped linear spring stopping a joint that enters its limit
+# at its entry speed; the law's smooth onset (s(d) -> d - 2e, the damping's weight w < 1 near the
+# limit) adds about 9 widths to it (a hinge entering at that speed: 0.0326 rad at 100 widths), so
+# the stated 100 widths (runtime/switching.LIMIT_OVERSHOOT_WIDTHS) hold at 90
+ENTRY_GIVE = 90 * WIDTH
+# 1/s: the highest natural frequency sqrt(k / inertia) the entry-speed rule sets (a time constant of
+# 1 ms): the rule's speed bound is far above what a roll joint along a limb meets (Panda's hand roll:
+# 64 rad/s bound, 18.7 met; alex's shoulder yaws, the whole arm about its own axis: 109 bound, ~9 met,
+# 1487/s uncapped, which made its 10 s run 40 -> 92 ms CPU as they rest on their limits, the psyonic
+# hands' 1.8 -> 4.0 s); the whips measured need up to ~700/s (so101's gripper and romeo's wrist roll
+# enter at ~50 rad/s): at 1000/s none of the 19 no-flag URDF runs that warned goes past 100 widths
+ENTRY_RATE = 1000.0
 FRICTION_SPEED = 0.01
 
 NAMES = {"lower": "limit_lo", "upper": "limit_hi", "stiffness": "limit_k", "limit_damping": "limit_c",
@@ -129,24 +147,29 @@ def check_law(law):
 
 
 class JointScale(tuple):
-    """(inertia, load, carried): the effective inertia a joint moves, the static torque (force) it
-    may have to hold at a limit, and the inertia it carries when it holds that load (on a
+    """(inertia, load, carried, speed): the effective inertia a joint moves, the static torque
+    (force) it may have to hold at a limit, the inertia it carries when it holds that load (on a
     floating-base robot the rest of the robot's inertia about the joint's axis; at least
-    ``inertia``); the scales of its default limit stiffness and damping."""
+    ``inertia``) and the speed (rad/s, m/s) at which it may enter a limit (0: not known); the
+    scales of its default limit stiffness and damping."""
 
-    def __new__(cls, inertia, load=0.0, carried=None):
+    def __new__(cls, inertia, load=0.0, carried=None, speed=0.0):
         inertia = float(inertia)
-        return super().__new__(cls, (inertia, float(load), max(inertia, float(carried or 0.0))))
+        return super().__new__(cls, (inertia, float(load), max(inertia, float(carried or 0.0)), float(speed)))
 
 
-def limit_gains(inertia, time_constant=TIME_CONSTANT, load=0.0, carried=None):
+def limit_gains(inertia, time_constant=TIME_CONSTANT, load=0.0, carried=None, speed=0.0):
     """(k, c) of a critically damped spring-damper of time constant ``time_constant`` on the
     inertia the joint carries (``carried``, at least ``inertia``), stiffened where needed so that
-    a static ``load`` gives at most :data:`LOAD_GIVE`, and critically damped about that inertia."""
+    a static ``load`` gives at most :data:`LOAD_GIVE` and that the joint's own ``inertia``
+    entering at ``speed`` goes at most :data:`ENTRY_GIVE` past (a critically damped spring of
+    natural frequency w stops a speed v within v / (e w)) -- w at most :data:`ENTRY_RATE` --, and
+    critically damped about the carried inertia."""
     m = max(inertia, carried or 0.0)
     k, c = m / time_constant ** 2, 2.0 * m / time_constant
-    if load / LOAD_GIVE > k:
-        k = load / LOAD_GIVE
+    stiffer = max(load / LOAD_GIVE, inertia * min(speed / (math.e * ENTRY_GIVE), ENTRY_RATE) ** 2)
+    if stiffer > k:
+        k = stiffer
         c = 2.0 * math.sqrt(k * m)
     return k, c
 
@@ -154,7 +177,7 @@ def limit_gains(inertia, time_constant=TIME_CONSTANT, load=0.0, carried=None):
 def scale_gains(inertia):
     """:func:`limit_gains` of a :class:`JointScale` (or of a bare inertia)."""
     if isinstance(inertia, JointScale):
-        return limit_gains(inertia[0], load=inertia[1], carried=inertia[2])
+        return limit_gains(inertia[0], load=inertia[1], carried=inertia[2], speed=inertia[3])
     return limit_gains(inertia)
 
 

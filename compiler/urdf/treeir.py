@@ -207,9 +207,27 @@ def joint_inertias(tree):
     return {name: JointScale(m, *loads[name]) for name, m in out.items()}
 
 
+def _entry_speed(gravity, mass, reach, inertia, prismatic):
+    """The speed at which a joint may enter its limit: its subtree moving at the speed a fall
+    through ``reach`` (the farthest the subtree gets from the root's origin) gives, sqrt(2 g reach),
+    at the subtree's radius of gyration about the axis (sqrt(inertia / mass)); a slide at that
+    speed.  So a limit stops the subtree's own kinetic energy of that fall within
+    :data:`~eomc.compiler.tree.joint_laws.ENTRY_GIVE`: the stiffness it needs,
+    m (2 g reach) / (e ENTRY_GIVE)^2, is the subtree's mass m times that, whatever its inertia.
+    Why: in a fixed arm's passive collapse the heavy links whip the light ones at the end
+    (first hour s24-s25: Panda's hand roll entered its limit at 18.7 rad/s, its wrist at 37 rad/s,
+    and went 0.04-0.06 rad past with the inertia rule's 10 ms time constant); the bound is above
+    every entry speed measured there (Panda: 8-37 rad/s against 16-64)."""
+    if not (mass > 0.0 and reach > 0.0 and inertia > 0.0):
+        return 0.0
+    fall = math.sqrt(2.0 * gravity * reach)
+    return fall if prismatic else fall / math.sqrt(inertia / mass)
+
+
 def joint_loads(tree, gravity=9.81, inertias=None):
-    """joint name -> (load, carried): the static torque (force) its limit may have to hold, at
-    q = 0, and the inertia it then carries.  The load is the subtree's weight on its lever about
+    """joint name -> (load, carried, speed): the static torque (force) its limit may have to hold, at
+    q = 0, the inertia it then carries and the speed it may enter a limit at (:func:`_entry_speed`;
+    0 without ``inertias``).  The load is the subtree's weight on its lever about
     the axis (all of it for a slide) and, on a floating-base robot, the rest of the robot's
     weight on the reach of the subtree (a knee holding up the body through its foot); the
     carried inertia is the rest of the robot's inertia about the joint's axis (what the joint
@@ -249,8 +267,11 @@ def joint_loads(tree, gravity=9.81, inertias=None):
             stack.extend(children.get(b, ()))
         mass = sum(world[b][1] for b in below)
         rest = total - mass if floating else 0.0
+        reach = max([fo.norm(world[b][0]) for b in below] + [fo.norm(P[b]) for b in below])
+        speed = _entry_speed(gravity, mass, reach, (inertias or {}).get(joint.name, 0.0),
+                             joint.type == "prismatic")
         if joint.type == "prismatic":
-            out[joint.name] = (gravity * (mass + rest), rest)
+            out[joint.name] = (gravity * (mass + rest), rest, speed)
             continue
         a = fo.matmul(R[joint.child], joint.axis)
         origin = P[joint.child]
@@ -273,7 +294,7 @@ def joint_loads(tree, gravity=9.81, inertias=None):
             inside = set(below)
             carried = sum(fo.matmul(a, spin[b], a) + world[b][1] * lever(world[b][0]) ** 2
                           for b in world if b not in inside)
-        out[joint.name] = (load, carried)
+        out[joint.name] = (load, carried, speed)
     return out
 
 

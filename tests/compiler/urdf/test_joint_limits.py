@@ -215,8 +215,11 @@ def test_panda_fingers_stay_within_their_limits(cache):
     x0 = np.zeros(panda.nx)
     x0[[panda.state_names.index(f"q_panda_joint{i}") for i in (2, 4, 6)]] = (0.8, -1.5, 1.0)
     x0[fingers] = 0.02
-    # the run's verdict names the arm's joints that pass their limits by more than 100 widths
-    with pytest.warns(PhysicsWarning, match=r"panda: joint panda_joint\d went .* past its (upper|lower) limit"):
+    # the arm falls and slams its joints into their limits, its light wrists whipped at 20-40 rad/s:
+    # the default stiffness (the entry speed's rule, compiler/tree/joint_laws.ENTRY_GIVE) holds each
+    # within the verdict's 100 widths (before it: joints 5-7 went past, and the verdict named them)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", PhysicsWarning)
         res = simulate(panda, x0, (0.0, 2.0), method="dop853", rtol=1e-6, atol=1e-8, n_points=401)
     q = res.x[:, fingers]
     # the arm falls and slams into its own joints' limits (joint 2 ends at its upper 1.7628):
