@@ -12,7 +12,7 @@ from eomc.runtime.errors import ModelError
 from ..emit.formulation import GROUND_HINT, Formulation, implicit_refusal
 from ..emit.reverse import REVERSE_FUNCTIONS, hess_id_body, hess_id_ops, reverse_body
 from ..ir import count_program
-from ..tree.analytic import kernel_c
+from ..tree.analytic import kernel_c, place_c
 from ..tree.analytic_emit import analytic_body_ops, analytic_jac_id_body, analytic_jac_x_body, has_analytic
 from ..tree.chain_loop import chain_loop_c, chain_loop_ops, chain_loop_rhs_body
 from ..tree.limbs import limbs_ops, limbs_rhs_body
@@ -195,7 +195,8 @@ class Recursive(Formulation):
     def c_helpers(self, name, sym, functions, nq):
         """NAME_rnea_derivs (:mod:`.analytic`) when jac_x or jac_id use it, NAME_dyn
         (:mod:`.dynamics_kernel`) when mass_matrix, forcing or inverse_dynamics do, NAME_msolve
-        (:mod:`.input_jacobian`) when jac_r does."""
+        (:mod:`.input_jacobian`) when jac_r does; before them the placement all three call
+        (NAME_rd_place)."""
         out = []
         first = sym.analytic is not None and bool({"jac_x", "jac_id"} & set(functions))
         if first:
@@ -204,6 +205,8 @@ class Recursive(Formulation):
             out.append(dynamics_kernel_c(name, sym.analytic))
         if "jac_r" in functions and sym.input_solve:     # NAME_msolve (.input_jacobian)
             out.append(msolve_c(name, sym.analytic, sym.input_solve))
+        if out:     # their one placement routine, NAME_rd_place (.analytic.place_c), before them
+            out.insert(0, place_c(name, sym.analytic))
         if "hess_id" in functions and sym.second_order is not None:   # NAME_rnea_hess (.second_order)
             out.append(second_order_c(name, *sym.second_order[:1], nq, sym.second_order[1], helpers=not first))
         if "rhs" in functions and sym.chain_loop is not None and sym.chain_loop.trig:   # NAME_chain_sincos

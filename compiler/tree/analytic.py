@@ -65,7 +65,8 @@ from dataclasses import dataclass, field
 import sympy as sm
 
 __all__ = ["AnalyticPlan", "analytic_plan", "kernel_c", "ANX", "analytic_ops", "finite_lines", "c_table", "world_axis_lines",
-           "WORLD_INERTIA_LINES", "world_load_lines", "rd_helpers", "VARIATION_LINES", "tree_tables", "PLACE_FROM_PARENT_LINES", "ARTICULATED_START_LINES", "body_head_lines", "YMUL_LINES", "DOT6_LINE"]
+           "WORLD_INERTIA_LINES", "world_load_lines", "rd_helpers", "VARIATION_LINES", "tree_tables", "PLACE_FROM_PARENT_LINES", "ARTICULATED_START_LINES", "body_head_lines", "YMUL_LINES", "DOT6_LINE",
+           "place_c", "place_call", "IO_FROM_Y_LINES", "SCALAR_MACRO"]
 
 ANX = "anx"      # the result group of the kernel's inputs
 
@@ -554,7 +555,7 @@ WORLD_INERTIA_LINES = [
 
 
 # C, inside a loop over bodies b (one block deeper): the body's own 6x6 inertia IA_b =
-# [[I_O, [c]x], [[c]x^T, m 1]] from its world inertia Yb and I_O (IO, both triangles), where the
+# [[I_O, [c]x], [[c]x^T, m 1]] from its world inertia Yb (m = Yb[0]) and I_O (IO, both triangles), where the
 # articulated-body factorization starts (the derivative kernel's, and NAME_msolve's,
 # :mod:`.input_jacobian`)
 ARTICULATED_START_LINES = [
@@ -562,12 +563,116 @@ ARTICULATED_START_LINES = [
     "            for (i = 0; i < 3; i++)",
     "                for (j = 0; j < 3; j++) {",
     "                    Ib[6 * i + j] = IO[3 * i + j];",
-    "                    Ib[6 * (i + 3) + j + 3] = i == j ? m : 0.0;",
+    "                    Ib[6 * (i + 3) + j + 3] = i == j ? Yb[0] : 0.0;",
     "                }",
     "            Ib[3] = Ib[18] = 0.0; Ib[4] = Ib[24] = -Yb[3]; Ib[5] = Ib[30] = Yb[2];",
     "            Ib[9] = Ib[19] = Yb[3]; Ib[10] = Ib[25] = 0.0; Ib[11] = Ib[31] = -Yb[1];",
     "            Ib[15] = Ib[20] = -Yb[2]; Ib[16] = Ib[26] = Yb[1]; Ib[17] = Ib[32] = 0.0;",
 ]
+
+
+# C, inside a loop over bodies b, after NAME_rd_place: the body's I_O (both triangles) from its
+# world inertia Yb, as the placement left it (its diagonal, and the symmetrized off-diagonal pairs)
+IO_FROM_Y_LINES = [
+    "        IO[0] = Yb[4]; IO[4] = Yb[5]; IO[8] = Yb[6];   /* I_O from Yb (NAME_rd_place), both triangles */",
+    "        IO[1] = IO[3] = Yb[7]; IO[2] = IO[6] = Yb[8]; IO[5] = IO[7] = Yb[9];",
+]
+
+
+# gcc's vectorizer on the placement's 3x3 and 6-long loops (SLP and loop vectorization) made it
+# slower, and NAME_dyn's passes once the placement left their loop: on G1 NAME_dyn 1.92 -> 2.0-2.2
+# us (tau) and 1.63 -> 1.75 (M) with it, 1.77 and 1.55 without (a C harness, core 1).  Without it,
+# mass_matrix and forcing run 4 % faster than before the shared placement (benchmarks/results/
+# derivative_build.md, session 25).  Not on NAME_rnea_derivs or NAME_msolve: their column loops
+# need it (jac_x 1.3x, jac_r 1.3x slower without).  The same bits: vectorizing reassociates nothing.
+SCALAR_MACRO = """#if defined(__GNUC__) && !defined(__clang__) && defined(__OPTIMIZE__)
+#define EOMC_RD_SCALAR __attribute__((optimize("no-tree-vectorize")))
+#else
+#define EOMC_RD_SCALAR
+#endif"""
+
+
+def place_c(name, plan):
+    """C: ``NAME_rd_place(an, R, P, Sw, Y)``, every body's world rotation R (9 each, world <-
+    body rows), origin P (3), its dofs' motion axes in the world Sw (6 each, :func:`world_axis_lines`)
+    and its world inertia Y (10, :data:`WORLD_INERTIA_LINES`) from the kernels' inputs ``an[]``:
+    one static function that NAME_rnea_derivs, NAME_dyn (:mod:`.dynamics_kernel`) and NAME_msolve
+    (:mod:`.input_jacobian`) each call once, first thing.  Why: each of them placed the bodies
+    in its own loop, the same C three times over (G1: gcc compiled ~0.1 s of it per copy, on
+    the default build's <= 1.5x bar, issue 30).  Its name takes the rd_ prefix so that jac_x_batch's
+    lanes retype it with the kernel (compiler/emit/batch.vector_kernels).  The same operations in
+    the same order as the copies it replaces: the same bits."""
+    nb, o = plan.nb, plan.offsets
+    head = (f"static void {name}_rd_place(const double *restrict an, double *restrict R, double *restrict P, "
+            "double *restrict Sw, double *restrict Y)")
+    return "\n".join([
+        *SCALAR_MACRO.split("\n"),
+        "",
+        f"/* each body's world rotation R, origin P, its dofs' axes in the world Sw and its world inertia Y",
+        "   {m, m p, I_O}, from the kernels' inputs an[] (compiler/tree/analytic.py: NAME_rnea_derivs,",
+        "   NAME_dyn and NAME_msolve call it) */",
+        head + " EOMC_RD_SCALAR;",
+        head,
+        "{",
+        c_table("par", plan.par),
+        c_table("d0", plan.first),
+        c_table("nd", plan.count),
+        "    int b, i, j, e, l;",
+        f"    for (b = 0; b < {nb}; b++) {{",
+        f"        const double *E = an + 9 * b, *r = an + {o['r']} + 3 * b, *In = an + {o['I']} + 10 * b;",
+        "        double *Rb = R + 9 * b, *pb = P + 3 * b, *Yb = Y + 10 * b;",
+        "        double IR[9], IO[9], m, pp;",
+        "        l = par[b];",
+        "        if (l >= 0) {",
+        *PLACE_FROM_PARENT_LINES,
+        "        } else {",
+        "            for (i = 0; i < 3; i++) {",
+        "                for (j = 0; j < 3; j++) Rb[3 * i + j] = E[3 * j + i];",
+        "                pb[i] = r[i];",
+        "            }",
+        "        }",
+        *world_axis_lines(o),
+        "        }",
+        *WORLD_INERTIA_LINES,
+        "    }",
+        "}",
+    ])
+
+
+def place_call(name, ind="    "):
+    """C: the call of :func:`place_c` into the caller's arrays R, P, Sw, Y."""
+    return f"{ind}{name}_rd_place(an, R, P, Sw, Y);"
+
+
+def placed_head_lines(o, a_first, place=False):
+    """C, opening a loop over bodies b placed by NAME_rd_place (:func:`place_c`): the body's
+    pointers and locals, v and a from the parent's (the root's: 0 and gravity as its
+    acceleration, ``ab[i] = a_first``), v += S u; ``place``: Rb and pb too (the loads read them)."""
+    return [
+        "        double *vb = V + 6 * b, *ab = A + 6 * b" + (", *Rb = R + 9 * b, *pb = P + 3 * b;" if place else ";"),
+        "        double *Yb = Y + 10 * b, *dYb = dY + 12 * b, *fb = F + 6 * b;",
+        "        double vl[6], al[6], IO[9], C[9], t[6], hm[6], vc;",
+        "        l = par[b];",
+        "        if (l >= 0) {",
+        "            for (i = 0; i < 6; i++) {",
+        "                vl[i] = V[6 * l + i];",
+        "                al[i] = A[6 * l + i];",
+        "            }",
+        "        } else {",
+        "            for (i = 0; i < 3; i++) {",
+        "                vl[i] = vl[i + 3] = al[i] = 0.0;",
+        f"                al[i + 3] = -an[{o['g']} + i];",
+        "            }",
+        "        }",
+        "        for (i = 0; i < 6; i++) {",
+        "            vb[i] = vl[i];",
+        "            ab[i] = " + a_first,
+        "        }",
+        "        for (e = d0[b]; e < d0[b] + nd[b]; e++) {   /* v += S u */",
+        "            const double *s = Sw + 6 * e;",
+        "            for (i = 0; i < 6; i++) vb[i] += s[i] * u[e];",
+        "        }",
+    ]
 
 
 # C, inside a loop over bodies b: the body's inertia variation dY (12 numbers, see
@@ -742,8 +847,10 @@ def kernel_c(name, plan, nq, solve=False):
         # the rows row0 + row[e] are row0 .. row0 + nd - 1 (row: a permutation of the speeds), one
         # block: one flat loop (was a loop per row through row[]: 3 % of Go2's jac_x, perf)
         f"    for (k = 0; k < {nd} * stride; k++) out[row0 * stride + k] = 0.0;",
+        place_call(name),
         f"    for (b = 0; b < {nb}; b++) {{",
-        *body_head_lines(o, "0.0;   /* the bias acceleration c_b first (see below) */" if aba else "al[i];"),
+        *placed_head_lines(o, "0.0;   /* the bias acceleration c_b first (see below) */" if aba else "al[i];",
+                           plan.loads),
         "        for (e = d0[b]; e < d0[b] + nd[b]; e++) {   /* a, and the axes' derivative terms */",
         "            const double *s = Sw + 6 * e;",
         f"            {name}_rd_cross(vb, s, t);",
@@ -764,8 +871,7 @@ def kernel_c(name, plan, nq, solve=False):
         "            }",
     ]) + [
         "        }",
-        *WORLD_INERTIA_LINES,
-        "        IO[1] = IO[3] = Yb[7]; IO[2] = IO[6] = Yb[8]; IO[5] = IO[7] = Yb[9];",
+        *IO_FROM_Y_LINES,
     ] + ([
         "        if (msolve) {   /* the body's own 6x6 inertia [[I_O, [c]x], [[c]x^T, m 1]], the articulated start */",
         *ARTICULATED_START_LINES,

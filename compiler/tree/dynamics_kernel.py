@@ -11,7 +11,7 @@ gravity, armature), computed from the program's own slot expressions so the opti
 their sines and cosines.
 
 ``NAME_dyn(an, u, ud, tau, M)`` (:func:`dynamics_kernel_c`) places the bodies in the world
-(world-frame spatial algebra, as the analytic kernel: a joint's axis, once placed, serves
+(NAME_rd_place, the placement the derivative kernel and NAME_msolve call too; world-frame spatial algebra, as the analytic kernel: a joint's axis, once placed, serves
 every body it moves), then
 
 - with ``tau``: RNEA -- velocities v, accelerations a (gravity as the root's acceleration),
@@ -25,8 +25,7 @@ analytic plan exists (an open tree whose loads the kernel can read, above
 TANGENT_MIN_STATES states); elsewhere the straight-line recursions stay.  Checked against
 the straight-line functions (tests/compiler/tree/test_dynamics_kernel.py).
 """
-from .analytic import (ANX, DOT6_LINE, PLACE_FROM_PARENT_LINES, WORLD_INERTIA_LINES, YMUL_LINES,
-                       tree_tables, world_axis_lines, world_load_lines)
+from .analytic import ANX, DOT6_LINE, YMUL_LINES, place_call, tree_tables, world_load_lines
 
 __all__ = ["dynamics_kernel_c", "has_dynamics_kernel", "dynamics_body", "dynamics_inputs", "dynamics_ops",
            "inputs_users", "INPUTS_CALL",
@@ -66,36 +65,34 @@ def dynamics_kernel_c(name, plan):
         "",
         f"/* RNEA (tau: tau_i at velocities u, accelerations ud, per dof) and CRBA (M, {plan.nd} x {plan.nd}",
         "   row-major by speed) over the tree, world frame (compiler/tree/dynamics_kernel.py). */",
+        f"static void {fn}(const double *an, const double *u, const double *ud, double *tau, double *M)"
+        " EOMC_RD_SCALAR;   /* (analytic.SCALAR_MACRO, defined with NAME_rd_place) */",
         f"static void {fn}(const double *an, const double *u, const double *ud, double *tau, double *M)",
         "{",
         *tree_tables(plan),
         f"    double R[{9 * nb}], P[{3 * nb}], V[{6 * nb}], A[{6 * nb}], Y[{10 * nb}], F[{6 * nb}], Sw[{6 * nd}];",
-        "    int b, i, j, e, c, l, a;",
-        f"    for (b = 0; b < {nb}; b++) {{",
-        f"        const double *E = an + 9 * b, *r = an + {o['r']} + 3 * b, *In = an + {o['I']} + 10 * b;",
-        "        double *Rb = R + 9 * b, *pb = P + 3 * b, *vb = V + 6 * b, *ab = A + 6 * b, *Yb = Y + 10 * b;",
-        "        double IR[9], IO[9], t[6], hm[6], m, pp;",
+        "    int b, i, e, c, l, a;",
+        place_call(name),
+        f"    for (b = 0; tau && b < {nb}; b++) {{   /* RNEA's forward pass */",
+        "        double *vb = V + 6 * b, *ab = A + 6 * b, *Yb = Y + 10 * b" + (", *Rb = R + 9 * b, *pb = P + 3 * b;"
+                                                                           if plan.loads else ";"),
+        "        double t[6], hm[6];",
         "        l = par[b];",
         "        if (l >= 0) {",
-        *PLACE_FROM_PARENT_LINES,
         "            for (i = 0; i < 6; i++) {",
         "                vb[i] = V[6 * l + i];",
         "                ab[i] = A[6 * l + i];",
         "            }",
         "        } else {",
         "            for (i = 0; i < 3; i++) {",
-        "                for (j = 0; j < 3; j++) Rb[3 * i + j] = E[3 * j + i];",
-        "                pb[i] = r[i];",
         "                vb[i] = vb[i + 3] = ab[i] = 0.0;",
         f"                ab[i + 3] = -an[{o['g']} + i];",
         "            }",
         "        }",
-        *world_axis_lines(o),
-        "            if (tau)",
-        "                for (i = 0; i < 6; i++) vb[i] += s[i] * u[e];",
+        "        for (e = d0[b]; e < d0[b] + nd[b]; e++) {   /* v += S u */",
+        "            const double *s = Sw + 6 * e;",
+        "            for (i = 0; i < 6; i++) vb[i] += s[i] * u[e];",
         "        }",
-        *WORLD_INERTIA_LINES,
-        "        if (!tau) continue;",
         "        for (e = d0[b]; e < d0[b] + nd[b]; e++) {   /* a = a_parent + S u' + v x (S u) */",
         "            const double *s = Sw + 6 * e;",
         "            t[0] = vb[1] * s[2] - vb[2] * s[1];",

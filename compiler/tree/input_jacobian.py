@@ -9,7 +9,7 @@ the symbolic program.  Here the solve is one static C function, ``NAME_msolve`` 
 whose code does not grow with the model: it reads the kernels' inputs ``an[]`` (each body's
 placement, axes, inertia, armature: the same block NAME_dyn_inputs computes once for jac_x,
 jac_id and the loop-kernel functions, :mod:`.dynamics_kernel`), places the bodies in the
-world, factors M the articulated-body way (per dof U = IA s, D = sᵀ U + armature, IA -= U Uᵀ/D,
+world (NAME_rd_place, :func:`.analytic.place_c`), factors M the articulated-body way (per dof U = IA s, D = sᵀ U + armature, IA -= U Uᵀ/D,
 summed towards the root: no matrix stored, O(n) memory), then solves the columns with one
 backward and one forward sweep per LANES of them (a loop over column blocks running the same
 code; the block's columns share each dof's s, U, D: a vector register's worth of work per
@@ -27,8 +27,7 @@ contact terms of an[] are the analytic jac_x's, on its own guarded copy;
 (tests/compiler/tree/test_input_columns.py)."""
 import sympy as sm
 
-from .analytic import (ANX, ARTICULATED_START_LINES, DOT6_LINE, PLACE_FROM_PARENT_LINES, WORLD_INERTIA_LINES,
-                       tree_tables, world_axis_lines)
+from .analytic import ANX, ARTICULATED_START_LINES, DOT6_LINE, IO_FROM_Y_LINES, place_call, tree_tables
 
 # columns solved together: the tree's data (s, U, D per dof) read once per block; measured on G1
 # (29 columns, 2026-11-29): 8 lanes 12.5 us a jac_r call, 4 lanes 14.5, one 26; the straight-line
@@ -77,23 +76,11 @@ def msolve_c(name, plan, lanes=LANES):
         f"    double R[{9 * nb}], P[{3 * nb}], Y[{10 * nb}], Sw[{6 * nd}], IA[{36 * nb}], Ua[{6 * nd}], Di[{nd}];",
         f"    double Pb[{6 * lanes * nb}], yb[{lanes * nd}];   /* Pb: the messages p, then the accelerations a */",
         "    int b, i, j, e, l, c, c0, nc;",
-        f"    for (b = 0; b < {nb}; b++) {{   /* placement, axes and inertia in the world */",
-        f"        const double *E = an + 9 * b, *r = an + {o['r']} + 3 * b, *In = an + {o['I']} + 10 * b;",
-        "        double *Rb = R + 9 * b, *pb = P + 3 * b, *Yb = Y + 10 * b;",
-        "        double IR[9], IO[9], m, pp;",
-        "        l = par[b];",
-        "        if (l >= 0) {",
-        *PLACE_FROM_PARENT_LINES,
-        "        } else {",
-        "            for (i = 0; i < 3; i++) {",
-        "                for (j = 0; j < 3; j++) Rb[3 * i + j] = E[3 * j + i];",
-        "                pb[i] = r[i];",
-        "            }",
-        "        }",
-        *world_axis_lines(o),
-        "        }",
-        *WORLD_INERTIA_LINES,
-        "        IO[1] = IO[3] = Yb[7]; IO[2] = IO[6] = Yb[8]; IO[5] = IO[7] = Yb[9];",
+        place_call(name),
+        f"    for (b = 0; b < {nb}; b++) {{   /* each body's own 6x6 inertia, the articulated start */",
+        "        const double *Yb = Y + 10 * b;",
+        "        double IO[9];",
+        *IO_FROM_Y_LINES,
         "        {",
         *ARTICULATED_START_LINES,
         "        }",
