@@ -446,6 +446,33 @@ def _generate_auto(spec, functions, fold_parameters, kane_spec):
                                                   + (f"; {before}" if before else ""))
         return recursive
     costs = {"kane": _rhs_cost(kane, "kane"), "recursive": _rhs_cost(recursive, "recursive")}
-    chosen = recursive if costs["recursive"] < costs["kane"] else kane
+    lacks = _kane_lacks(kane, recursive)
+    chosen = recursive if lacks or costs["recursive"] < costs["kane"] else kane
     chosen.metadata["formulation_costs"] = costs
+    if lacks:
+        before = recursive.metadata.get("formulation_note")
+        recursive.metadata["formulation_note"] = (f"recursive (Kane's form has no {lacks})"
+                                                  + (f"; {before}" if before else ""))
     return chosen
+
+
+def _kane_lacks(kane, recursive):
+    """The outputs and events the recursive candidate has and Kane's lacks, as words, or "".
+
+    A URDF or MJCF tree's Kane side is formed from its SymPy System, which carries no contact
+    or joint-limit outputs: a robot with limits and no contact has an ``energy`` output (the
+    limits' springs, the run's energy verdict reads it) on the recursive side only.  Picking
+    Kane's rhs by cost there dropped the output and with it the verdict (a 1-joint arm with a
+    limit, session 25): auto keeps the form that has everything the build evaluates."""
+    words = []
+    built = set(recursive.metadata.get("functions") or ())
+    for key, what, uses in (("output_names", "output", {"outputs", "energy"}), ("events", "event", {"events"})):
+        if not built & uses:          # not evaluated by this build (e.g. rhs only): nothing lost
+            continue
+
+        def names(meta):
+            return [e["name"] if isinstance(e, dict) else e for e in meta.get(key) or ()]
+        gone = [n for n in names(recursive.metadata) if n not in set(names(kane.metadata))]
+        if gone:
+            words.append(f"{what}{'s' * (len(gone) > 1)} " + ", ".join(gone))
+    return " or ".join(words)

@@ -441,3 +441,40 @@ def test_nonfinite_finds_each_constant_in_order_through_shared_subtrees():
     assert nonfinite(f(e, sm.Piecewise((sm.oo, x > 0), (sm.nan, True)))) == sm.nan   # nan first
     assert nonfinite(sm.Matrix([[x, f(e, sm.zoo)]])) == sm.zoo
     assert nonfinite(1.0) is None and nonfinite(float("inf")) == sm.oo
+
+
+LIMITED_ARM = """<robot name="arm">
+  <link name="base"/>
+  <link name="arm">
+    <inertial><origin xyz="0 0 -0.25"/><mass value="2"/>
+      <inertia ixx="0.05" iyy="0.05" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>
+  </link>
+  <joint name="hinge" type="revolute"><parent link="base"/><child link="arm"/>
+    <axis xyz="0 1 0"/><limit lower="-0.4" upper="0.3" effort="10" velocity="5"/></joint>
+</robot>
+"""
+
+
+def test_auto_does_not_pick_a_kane_form_that_lacks_the_models_outputs(tmp_path):
+    """A one-joint URDF arm with a limit and no contact: its energy output (the limit's spring;
+    the run's energy verdict reads it) exists on the recursive side only, Kane's side being
+    formed from the robot's SymPy System.  By cost Kane's rhs is the cheaper (the refitted
+    weights, session 25) and auto picked it, dropping the output and the verdict
+    (tests/compiler/contact/test_limit_energy failed in CI): auto now keeps the recursive form
+    and says why."""
+    import warnings
+    import eomc
+    from eomc.compiler.urdf.model import UrdfModel
+    path = tmp_path / "arm.urdf"
+    path.write_text(LIMITED_ARM)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        auto = eomc.compile(UrdfModel(path), functions=("rhs", "outputs"), cache_dir=tmp_path / "a",
+                            progress=False)
+        kane = eomc.compile(UrdfModel(path), functions=("rhs", "outputs"), cache_dir=tmp_path / "k",
+                            progress=False, formulation="kane")
+    costs = auto.metadata["formulation_costs"]
+    assert costs["kane"] < costs["recursive"]           # Kane's would win by cost alone ...
+    assert kane.output_names == ()                       # ... but has no energy output
+    assert auto.metadata["formulation"] == "recursive" and auto.output_names == ("energy",)
+    assert auto.metadata["formulation_note"].startswith("recursive (Kane's form has no output energy)")
