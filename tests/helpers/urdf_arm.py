@@ -1,6 +1,6 @@
 """A two-link arm in URDF, written for the tests (no third-party file)."""
 
-__all__ = ["ARM", "LAW_ARM", "FLOATING_FEET"]
+__all__ = ["ARM", "LAW_ARM", "FLOATING_FEET", "LIMITED_HINGE"]
 
 ARM = """<?xml version="1.0"?>
 <robot name="arm">
@@ -79,5 +79,19 @@ FLOATING_FEET = """<?xml version="1.0"?>
   </link>
   <joint name="hip" type="revolute"><parent link="trunk"/><child link="leg"/><axis xyz="0 1 0"/>
     <limit lower="-1" upper="1" effort="5" velocity="5"/></joint>
+</robot>
+"""
+
+
+# one hinge with a limit and no contact: its model's energy output holds the limit's spring
+# (tests/compiler/contact/test_limit_energy.py, tests/compiler/formulations/test_select.py)
+LIMITED_HINGE = """<robot name="arm">
+  <link name="base"/>
+  <link name="arm">
+    <inertial><origin xyz="0 0 -0.25"/><mass value="2"/>
+      <inertia ixx="0.05" iyy="0.05" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>
+  </link>
+  <joint name="hinge" type="revolute"><parent link="base"/><child link="arm"/>
+    <axis xyz="0 1 0"/><limit lower="-0.4" upper="0.3" effort="10" velocity="5"/></joint>
 </robot>
 """

@@ -13,17 +13,7 @@ from scipy.integrate import quad
 import eomc
 from eomc.compiler.urdf.model import UrdfModel
 from eomc.runtime.switching import PhysicsWarning
-
-URDF = """<robot name="arm">
-  <link name="base"/>
-  <link name="arm">
-    <inertial><origin xyz="0 0 -0.25"/><mass value="2"/>
-      <inertia ixx="0.05" iyy="0.05" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>
-  </link>
-  <joint name="hinge" type="revolute"><parent link="base"/><child link="arm"/>
-    <axis xyz="0 1 0"/><limit lower="-0.4" upper="0.3" effort="10" velocity="5"/></joint>
-</robot>
-"""
+from helpers.urdf_arm import LIMITED_HINGE as URDF
 
 
 @pytest.fixture(scope="module")

@@ -443,16 +443,6 @@ def test_nonfinite_finds_each_constant_in_order_through_shared_subtrees():
     assert nonfinite(1.0) is None and nonfinite(float("inf")) == sm.oo
 
 
-LIMITED_ARM = """<robot name="arm">
-  <link name="base"/>
-  <link name="arm">
-    <inertial><origin xyz="0 0 -0.25"/><mass value="2"/>
-      <inertia ixx="0.05" iyy="0.05" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>
-  </link>
-  <joint name="hinge" type="revolute"><parent link="base"/><child link="arm"/>
-    <axis xyz="0 1 0"/><limit lower="-0.4" upper="0.3" effort="10" velocity="5"/></joint>
-</robot>
-"""
 
 
 def test_auto_does_not_pick_a_kane_form_that_lacks_the_models_outputs(tmp_path):
@@ -466,7 +456,8 @@ def test_auto_does_not_pick_a_kane_form_that_lacks_the_models_outputs(tmp_path):
     import eomc
     from eomc.compiler.urdf.model import UrdfModel
     path = tmp_path / "arm.urdf"
-    path.write_text(LIMITED_ARM)
+    from helpers.urdf_arm import LIMITED_HINGE
+    path.write_text(LIMITED_HINGE)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         auto = eomc.compile(UrdfModel(path), functions=("rhs", "outputs"), cache_dir=tmp_path / "a",
