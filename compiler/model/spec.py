@@ -217,7 +217,30 @@ def _the_only_system(namespace, lines, filename):
     return variable, value
 
 
+def _built_model(path):
+    """The refusal for a built model given where a model file is read, or None.  A directory
+    made by `eomc build -o DIR` or its NAME.json is loaded (eomc.load, `eomc simulate DIR`), not
+    derived: read as Python the JSON failed at its first `null` ("NameError: name 'null' is not
+    defined") and a directory at the OS ("cannot read model file (Is a directory)")."""
+    if path.is_dir():
+        built = sorted(p.name for p in path.glob("*.json")
+                       if not p.name.startswith(".") and (path / f"lib{p.stem}.so").exists())
+        if not built:
+            return ModelFileError("a directory, not a model file (.py, .urdf or MuJoCo's .xml)", str(path))
+        what = f"a built model directory ({', '.join(built)})"
+    elif path.suffix.lower() == ".json":
+        what = "a built model's metadata (NAME.json), not a model file"
+    else:
+        return None
+    return ModelFileError(f"{what}: a built model is loaded (eomc.load, or eomc simulate, check, report, "
+                          f"linearize, animate, sweep with it), not derived again; give the model file "
+                          f"it was built from (.py, .urdf or MuJoCo's .xml)", str(path))
+
+
 def _read_file(path, name):
+    refusal = _built_model(Path(path))
+    if refusal is not None:
+        raise refusal
     namespace, source, filename = run_model_file(path)
     lines = assignment_lines(source)
     if "system" not in namespace:

@@ -1,4 +1,8 @@
-"""``eomc inspect MODEL.py``: sizes, per-function operation counts and M's sparsity, without compiling."""
+"""``eomc inspect MODEL.py``: sizes, per-function operation counts and M's sparsity, without compiling.
+
+A built model (a directory of `eomc build -o DIR`, or its NAME.json) is inspected from its NAME.json,
+which holds the same sizes, counts and sparsity: nothing is derived or compiled, and no library
+is opened."""
 from .build import add_generate_options
 
 __all__ = ["configure", "run", "format_report"]
@@ -37,6 +41,9 @@ def format_report(metadata):
 
 
 def run(args):
+    from pathlib import Path
+    if Path(args.model).is_dir() or Path(args.model).suffix.lower() == ".json":
+        return _run_built(args)
     from eomc.compiler.driver import generate
     from .common import floating_base_of, with_options
     from eomc.errors import ModelError
@@ -51,6 +58,45 @@ def run(args):
     print(format_report(generated.metadata))
     print("")
     print(compare_formulations(args, spec, generated, generate, ModelError, source=source, name=name))
+    return 0
+
+
+def _run_built(args):
+    """Inspect a built model from its NAME.json; the options that shape a build are refused (they
+    apply to a model file, and this build's are already made)."""
+    import argparse
+    import json
+    from pathlib import Path
+    parser = argparse.ArgumentParser()
+    configure(parser)
+    defaults = vars(parser.parse_args([args.model]))
+    given = sorted(k for k, v in vars(args).items() if k in defaults and k not in ("model", "quiet")
+                   and v != defaults[k])
+    if given:
+        options = ", ".join("--" + k.replace("_", "-") for k in given)
+        raise ValueError(f"{args.model}: {options} shape a build: a built model is inspected as it was "
+                         f"built; give them with the model file it was built from")
+    path = Path(args.model)
+    if path.is_dir():
+        built = sorted(p for p in path.glob("*.json")
+                       if not p.name.startswith(".") and (path / f"lib{p.stem}.so").exists())
+        if len(built) != 1:
+            raise ValueError(f"{path}: " + (f"holds {len(built)} built models ({', '.join(p.name for p in built)}): "
+                                            f"inspect one's NAME.json" if built else
+                                            "a directory with no built model in it (NAME.json beside libNAME.so): "
+                                            "inspect takes a model file (.py, .urdf or MuJoCo's .xml) or a built "
+                                            "model directory"))
+        path = built[0]
+    try:
+        metadata = json.loads(path.read_text())
+    except ValueError as exc:
+        raise ValueError(f"{path}: cannot read model metadata ({exc}); rebuild the model") from None
+    if not isinstance(metadata, dict) or not {"name", "op_counts", "state_names"} <= set(metadata):
+        raise ValueError(f"{path}: not the NAME.json of a built model (no name, op_counts, state_names)")
+    print(format_report(metadata))
+    print("")
+    note = metadata.get("formulation_note")
+    print(f"formulation: {note or metadata.get('formulation', 'kane')} (as built)")
     return 0
 
 

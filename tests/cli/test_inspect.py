@@ -61,3 +61,36 @@ def test_report_marks_linearize_as_the_sum_of_the_jacobians():
                               "linearize": {"adds": 5, "muls": 5, "divs": 0, "calls": 0}}}
     text = format_report(metadata)
     assert "linearize*" in text and "no code of its own" in text
+
+
+def test_inspect_reads_a_built_directory_or_its_json_as_built(tmp_path, capsys):
+    """A built directory (or its NAME.json) is inspected from NAME.json: the same sizes, counts and
+    sparsity as the model file's report.  Before: "cannot read model file (Is a directory)", and the
+    JSON was run as Python ("ur5_robot.json:293: NameError: name 'null' is not defined")."""
+    model = model_files.write(tmp_path, model_files.CART, "cart")
+    assert main(["build", str(model), "-o", str(tmp_path / "out"), "-q"]) == 0
+    capsys.readouterr()
+    assert main(["inspect", str(model), "-q"]) == 0
+    from_file = capsys.readouterr().out
+    report = from_file.split("\n\nformulation: ")[0]
+    for target in (tmp_path / "out", tmp_path / "out" / "cart.json"):
+        assert main(["inspect", str(target)]) == 0
+        out = capsys.readouterr().out
+        assert out.split("\n\nformulation: ")[0] == report
+        assert "formulation: " in out and "(as built)" in out
+
+
+def test_inspect_of_a_built_model_refuses_build_options_and_empty_directories(tmp_path, capsys):
+    model = model_files.write(tmp_path, model_files.CART, "cart")
+    assert main(["build", str(model), "-o", str(tmp_path / "out"), "-q"]) == 0
+    capsys.readouterr()
+    assert main(["inspect", str(tmp_path / "out"), "--outputs", "rhs", "--formulation", "kane"]) == 2
+    err = capsys.readouterr().err
+    assert "--formulation, --outputs shape a build: a built model is inspected as it was built" in err, err
+    (tmp_path / "empty").mkdir()
+    assert main(["inspect", str(tmp_path / "empty")]) == 2
+    err = capsys.readouterr().err
+    assert "a directory with no built model in it" in err and err.count("\n") == 1, err
+    (tmp_path / "other.json").write_text("[1]")
+    assert main(["inspect", str(tmp_path / "other.json")]) == 2
+    assert "not the NAME.json of a built model" in capsys.readouterr().err

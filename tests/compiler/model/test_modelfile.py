@@ -169,3 +169,23 @@ def test_parameters_override_merges_with_the_files_defaults(tmp_path):
     text = HEAD + "\nparameters = {m: 2.0, g: 9.81, l: 0.5}\n"
     spec = model_spec(_file(tmp_path, text), parameters={"m": 3.0})
     assert {str(k): v for k, v in spec.parameters.items()} == {"m": 3.0, "g": 9.81, "l": 0.5}
+
+
+def test_a_built_model_or_a_directory_is_not_read_as_a_model_file(tmp_path):
+    """`eomc show out/`, `eomc build out/NAME.json`, eomc.compile("out/"): said as what they are.
+    Before: "cannot read model file (Is a directory)", and NAME.json was executed as Python and
+    failed at its first null ("NameError: name 'null' is not defined")."""
+    built = tmp_path / "out"
+    built.mkdir()
+    (built / "pend.json").write_text('{"name": "pend", "initial_state": null}')
+    (built / "libpend.so").write_bytes(b"")
+    with pytest.raises(ModelFileError, match=r"out: a built model directory \(pend.json\): a built model is "
+                                             r"loaded \(eomc.load, or eomc simulate"):
+        model_spec(built)
+    with pytest.raises(ModelFileError, match=r"pend.json: a built model's metadata \(NAME.json\), not a model "
+                                             r"file: .* give the model file it was built from"):
+        model_spec(built / "pend.json")
+    with pytest.raises(ModelFileError, match=r"empty: a directory, not a model file \(.py, .urdf or MuJoCo's "
+                                             r".xml\)$"):
+        (tmp_path / "empty").mkdir()
+        model_spec(tmp_path / "empty")
