@@ -73,7 +73,7 @@ def run(args):
                         output_dir=args.output, progress="quiet" if args.quiet else True,
                         formulation=args.formulation, contacts=args.contact, frames=args.frame, target=args.target)
     from .common import _start_note
-    _start_note(model, {}, "NAME.json's initial_state; simulate --x0 chooses another")
+    _start_note(model, {}, f"{model.name}.json's initial_state; simulate --x0 chooses another")
     files = sorted(p.name for p in model.directory.iterdir() if p.is_file() and not p.name.startswith("."))
     print(f"built model {model.name!r} (nq={model.nq}, nu={model.nu}, nparam={model.nparam}, "
           f"ninput={model.ninput}) in {model.directory}:")
@@ -81,7 +81,7 @@ def run(args):
         print(f"  {name}")
     stack = model.metadata.get("stack")
     if stack:                # the worst-case stack measured at build time (gcc 10+)
-        print("stack (bytes, worst case over the calls inside NAME.c): "
+        print(f"stack (bytes, worst case over the calls inside {model.name}.c): "
               + ", ".join(f"{fn} {s['bytes']}" for fn, s in stack.items()))
     print(formulation_line(model.metadata, args.formulation))
     return 0

@@ -310,9 +310,8 @@ def initial_state(model, overrides):
     """{state: value}: the model's initial_state (zeros if it has none) with overrides applied
     (the rule of simulate()'s dict x0 too: runtime.simulate.state_defaults)."""
     unknown = sorted(set(overrides) - set(model.state_names))
-    if unknown:
-        raise ValueError(f"{model.name}: unknown state {', '.join(unknown)} in --x0; "
-                         f"states: {', '.join(model.state_names)}")
+    if unknown:      # as a model file's --x0 is checked before its build (read_checks)
+        raise _unknown(model.name, "state", "--x0", unknown, list(model.state_names))
     x0 = {n: 0.0 for n in model.state_names}
     base = getattr(model, "initial_state", None)
     if base is not None:
@@ -381,9 +380,8 @@ def parameter_values(model, overrides):
     if not overrides:
         return None
     unknown = sorted(set(overrides) - set(model.param_names))
-    if unknown:
-        raise ValueError(f"{model.name}: unknown parameter {', '.join(unknown)} in --param; "
-                         f"parameters: {', '.join(model.param_names) or 'none'}")
+    if unknown:      # as a model file's --param is checked before its build (read_checks)
+        raise _unknown(model.name, "parameter", "--param", unknown, list(model.param_names))
     return [overrides.get(n, float(d)) for n, d in zip(model.param_names, model.param_defaults)]
 
 

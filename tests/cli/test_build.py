@@ -88,7 +88,7 @@ def test_build_target_f32_writes_float_c_with_its_stack_and_a_float_module(tmp_p
                  "--cache-dir", str(tmp_path / "cache"), "-q"])
     assert code == 0
     printed = capsys.readouterr().out
-    assert "stack (bytes, worst case over the calls inside NAME.c): " in printed and "rhs " in printed
+    assert "stack (bytes, worst case over the calls inside trolley32.c): " in printed and "rhs " in printed
     header = (out / "trolley32.h").read_text()
     assert "int trolley32_rhs(float t, const float *x" in header and "trolley32_step_rk4" in header
     assert "trolley32_model(void)" not in header

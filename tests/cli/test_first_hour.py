@@ -393,7 +393,7 @@ def test_build_says_the_moved_start_as_a_cli_note(tmp_path, capsys):
     assert not [w for w in seen if issubclass(w.category, DefaultStartWarning)]
     err = capsys.readouterr().err
     assert "eomc: note: arm: the zero pose is outside the range of joint shoulder" in err, err
-    assert "just inside the nearest limit (NAME.json's initial_state; simulate --x0 chooses another)" in err
+    assert "just inside the nearest limit (arm.json's initial_state; simulate --x0 chooses another)" in err
     assert "model.metadata" not in err
 
 

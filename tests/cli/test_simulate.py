@@ -49,6 +49,18 @@ def test_simulate_bad_arguments_one_line(pendulum, capsys, argv, match):
     assert match in err and "Traceback" not in err and err.count("\n") == 1
 
 
+@pytest.mark.parametrize("argv,message", [
+    (["--x0", "u11=1"], "pendulum: unknown state u11 in --x0 (did you mean u1?); states: q1, u1"),
+    (["--param", "LL=2"], "pendulum: unknown parameter LL in --param (did you mean L?); parameters: g, L"),
+])
+def test_a_built_models_unknown_names_get_the_nearest_ones(pendulum, capsys, argv, message):
+    """A built model's --x0/--param are checked as a model file's are before its build (read_checks):
+    the nearest names, then at most 12 of them.  Before: no hint, and every name (UR5's 62
+    parameters on one line)."""
+    assert main(["simulate", "pend", "--t-final", "1", *argv]) == 2
+    assert capsys.readouterr().err == f"eomc simulate: error: {message}\n"
+
+
 def test_simulate_failure_is_one_line(monkeypatch, capsys):
     monkeypatch.setattr(cli_common, "load_model", lambda spec, quiet=True: get_model("singular"))
     assert main(["simulate", "s", "--t-final", "1"]) == 1
