@@ -167,7 +167,9 @@ def run(args):
     for path in (args.gif, args.mp4):
         if path:
             animate_2d(res, path, model=model, fps=args.gif_fps, trace=trace)
-            print(f"wrote {path}")
+            # as the HTML's line: its size and span (first hour s26: "wrote dp.gif" alone)
+            print(f"wrote {path} ({os.path.getsize(path) / 1e6:.2f} MB, {args.gif_fps:g} frames/s, "
+                  f"t = [{res.t[0]:g}, {res.t[-1]:g}])")
     if res.status != 0:     # what was computed is drawn; the command still fails
         from eomc.runtime.errors import SimulationError
         raise SimulationError(f"{res.message}; the animation shows the {len(res.t)} rows computed up to "

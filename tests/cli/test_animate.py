@@ -54,6 +54,14 @@ def test_animate_a_trajectory_csv_and_a_gif(built, tmp_path):
         assert im.n_frames == 6
 
 
+def test_a_gif_is_reported_with_its_size_and_span(built, tmp_path, capsys):
+    """As the HTML page's line (size, span): before, "wrote dp.gif" alone."""
+    gif = tmp_path / "dp.gif"
+    assert main(["animate", str(built), "--t-final", "1", "--gif", str(gif), "--gif-fps", "5", "-q"]) == 0
+    size = gif.stat().st_size / 1e6
+    assert capsys.readouterr().out.splitlines()[-1] == f"wrote {gif} ({size:.2f} MB, 5 frames/s, t = [0, 1])"
+
+
 def test_no_output_named_writes_the_models_page_and_never_over_a_users_file(built, tmp_path, monkeypatch, capsys):
     """No flags at all (issue 29's first run): the page is MODEL's name + .html in the current
     folder; a second run rewrites its own page; a file of that name eomc did not write stays."""
