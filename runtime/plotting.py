@@ -34,8 +34,11 @@ def _frame_part(name):
 
 
 def _chunks(label, names):
-    """``names`` in panels of at most MAX_CURVES, labelled "label (1/3)" when split."""
-    parts = [names[k:k + MAX_CURVES] for k in range(0, len(names), MAX_CURVES)]
+    """``names`` in panels of at most MAX_CURVES, labelled "label (1/3)" when split, the curves
+    shared evenly (a walker's 9 coordinates: 5 and 4, not 8 and a panel of one)."""
+    count = -(-len(names) // MAX_CURVES)
+    size = -(-len(names) // max(count, 1))
+    parts = [names[k:k + size] for k in range(0, len(names), size)] if names else []
     if len(parts) == 1:
         return [(label, parts[0])]
     return [(f"{label} ({k + 1}/{len(parts)})", part) for k, part in enumerate(parts)]

@@ -76,3 +76,14 @@ def test_chosen_names_and_a_bad_name(tmp_path):
     assert out.is_file()
     with pytest.raises(ValueError, match="cannot plot q99"):
         res.plot(tmp_path / "bad.png", names=["q99"])
+
+
+def test_a_split_kind_shares_its_curves_evenly():
+    """9 coordinates (gymnasium's walker2d) made panels of 8 and 1; now 5 and 4.  18 (Go2): 6, 6, 6."""
+    from eomc.runtime.plotting import _chunks
+    names = [f"q{k}" for k in range(9)]
+    assert [(label, len(part)) for label, part in _chunks("coordinates", names)] == [
+        ("coordinates (1/2)", 5), ("coordinates (2/2)", 4)]
+    assert [len(part) for _, part in _chunks("speeds", [f"u{k}" for k in range(18)])] == [6, 6, 6]
+    assert _chunks("speeds", names[:8]) == [("speeds", names[:8])]
+    assert sum((part for _, part in _chunks("q", names)), []) == names
