@@ -30,7 +30,10 @@ of 4 identical links) and timed beside the two, for information (auto does not c
 With --portable the harness compiles at eomc's portable flags only (DEFAULT_CFLAGS, no -mavx2: what a
 machine without AVX2, or another architecture, builds; the looped rhs then takes each link's sin and cos
 from libm), and --write goes to results/auto_choice_portable.md.
-Usage: python benchmarks/bench_auto_choice.py [--rounds 9] [--jobs 2] [--kane-timeout 1200] [--line] [--portable] [--write]  (--write: results/auto_choice.md)
+With --default every form is the model's default build instead (`eomc build MODEL`: every default
+function, outputs and energy among them, parameters not folded: the harness passes each form its own
+default parameters), which is what auto picks for most users; --write goes to results/auto_choice_default.md.
+Usage: python benchmarks/bench_auto_choice.py [--rounds 9] [--jobs 2] [--kane-timeout 1200] [--line] [--portable] [--default] [--write]  (--write: results/auto_choice.md)
 """
 import argparse
 import concurrent.futures
@@ -98,6 +101,8 @@ int main(void) {
 """
 
 CART = HERE / "tree_models" / "cart_rel_joints.py"
+DEFAULT_BUILD = False     # --default: the models' default builds (all default functions, parameters not folded)
+BASELINE_PYTHON = None    # --baseline-python: another checkout's interpreter (main's venv) builds auto too
 
 
 def models():
@@ -142,10 +147,11 @@ def build(model, env, flags, form, outdir, timeout=None):
 
 def _build(model, env, flags, form, outdir, timeout):
     name = f"m_{form}"
-    start = [sys.executable, "-c", NO_LOOP] if form == "line" else [sys.executable, "-m", "eomc"]
+    start = ([sys.executable, "-c", NO_LOOP] if form == "line" else
+             [BASELINE_PYTHON, "-m", "eomc"] if form == "baseline" else [sys.executable, "-m", "eomc"])
     cmd = [*start, "build", str(model), *flags, "-o", str(outdir), "--name", name,
-           "--fold-parameters", "--outputs", "rhs", "--formulation",
-           "recursive" if form == "line" else form, "-q"]
+           *([] if DEFAULT_BUILD else ["--fold-parameters", "--outputs", "rhs"]), "--formulation",
+           {"line": "recursive", "baseline": "auto"}.get(form, form), "-q"]
     proc = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         _, err = proc.communicate(timeout=timeout)
@@ -164,7 +170,7 @@ def build_all(label, model, env, flags, tmp, kane_timeout, line=False):
     d = tmp / label.replace(" ", "_").replace("=", "").replace("(", "").replace(")", "")
     d.mkdir()
     out = {}
-    for form in ("auto", "recursive", "kane") + (("line",) if line else ()):
+    for form in ("auto", "recursive", "kane") + (("line",) if line else ()) + (("baseline",) if BASELINE_PYTHON else ()):
         t0 = time.time()
         meta = build(model, env, flags, form, d, kane_timeout if form == "kane" else None)
         out[form] = (meta, time.time() - t0)
@@ -182,7 +188,11 @@ def time_forms(d, forms, metas, rounds, copies=3):
     all copies' rounds per form, the agreement, and per form the per-copy medians (the spread)."""
     m0 = metas[forms[0]]
     incl = "\n".join(f'#include "m_{f}.h"' for f in forms)
-    cases = " ".join(f"case {i}: m_{f}_rhs(0.0, x, NULL, r, a, NULL); break;" for i, f in enumerate(forms))
+    # each form's own default parameters (a default build does not fold them; the forms' lists differ)
+    incl += "\n" + "\n".join(f"static const double P_{f}[] = {{{', '.join(repr(float(v)) for v in metas[f]['param_defaults']) or '0'}}};"
+                             for f in forms)
+    cases = " ".join(f"case {i}: m_{f}_rhs(0.0, x, {'P_' + f if metas[f]['nparam'] else 'NULL'}, r, a, NULL); break;"
+                     for i, f in enumerate(forms))
     src = (HARNESS.replace("@INCLUDES@", incl).replace("@CASES@", cases)
            .replace("@NX@", str(m0["nx"])).replace("@NQ@", str(m0["nq"])).replace("@NR@", str(m0["ninput"]))
            .replace("@NC@", str(len(forms))).replace("@ROUNDS@", str(rounds)))
@@ -240,6 +250,9 @@ def measure(label, d, built, rounds, copies=3):
     # the pick before: the cost model of sessions 9-25 (before task autocost), Kane's equations formed
     old = min(before, key=before.get) if len(before) == 2 else None
     auto = metas.get("auto", {})
+    if "baseline" in built:     # --baseline-python: the other checkout's pick replaces "pick before"
+        base = metas.get("baseline")
+        old = base["formulation"] if base else f"failed: {built['baseline'][0]}"
     return dict(label=label, nu=nu, ns=ns, counts=counts, ops=ops, cost=cost, cost_before=before, old=old,
                 auto=auto.get("formulation", f"failed: {built['auto'][0]}"),
                 auto_costs=auto.get("formulation_costs"), agree=agree, line_ns=line_ns, spread=spread,
@@ -313,6 +326,14 @@ def fit(rows, per_speed=True):
             {lab: (float(f), float(m)) for lab, f, m in zip(labels, A @ w, b)})
 
 
+def _checkout(python):
+    """The git commit of the eomc checkout ``python`` imports (or its path when not a git tree)."""
+    where = subprocess.run([python, "-c", "import eomc, pathlib; print(pathlib.Path(eomc.__file__).parent.parent)"],
+                           capture_output=True, text=True).stdout.strip()
+    head = subprocess.run(["git", "-C", where, "log", "-1", "--format=%h %s"], capture_output=True, text=True).stdout
+    return head.strip()[:60] or where
+
+
 def main(argv):
     ap = argparse.ArgumentParser()
     ap.add_argument("--rounds", type=int, default=9)
@@ -326,6 +347,12 @@ def main(argv):
     ap.add_argument("--json", help="also write the rows (counts, times, per-copy medians) to this file")
     ap.add_argument("--portable", action="store_true",
                     help="harness at eomc's portable flags (no -mavx2); --write to auto_choice_portable.md")
+    ap.add_argument("--default", action="store_true",
+                    help="the models' default builds (every default function, parameters not folded); "
+                         "--write to auto_choice_default.md")
+    ap.add_argument("--baseline-python", metavar="PYTHON",
+                    help="another checkout's interpreter (e.g. a venv of main): its auto build's pick is the "
+                         "table's 'pick before' (instead of the sessions 9-25 weights')")
     ap.add_argument("--fit", nargs="+", metavar="JSON",
                     help="fit the cost model's weights to the rows of these --json files (no builds)")
     args = ap.parse_args(argv)
@@ -339,7 +366,8 @@ def main(argv):
                 print(f"  {lab:24s} (kane - recursive) / mean: fitted {f:+.3f} measured {m:+.3f}"
                       + ("  wrong sign" if f * m < 0 and abs(m) > 0.05 else ""))
         return 0
-    global LIB_FLAGS
+    global LIB_FLAGS, DEFAULT_BUILD, BASELINE_PYTHON
+    DEFAULT_BUILD, BASELINE_PYTHON = args.default, args.baseline_python
     if args.portable:
         LIB_FLAGS = list(DEFAULT_CFLAGS)
     start = " ".join(f"{v:.2f}" for v in os.getloadavg())
@@ -373,9 +401,18 @@ def main(argv):
                  + " ".join(LIB_FLAGS)]
         if args.line:
             notes.append("--line: the straight-line recursive rhs (the looped rhs switched off) timed beside them")
-        print(write_results("auto_choice_portable" if args.portable else "auto_choice", environment_header(
+        if args.baseline_python:
+            notes.append(f"'pick before': what `--formulation auto` built with {args.baseline_python} "
+                         f"(eomc {_checkout(args.baseline_python)}), in the same run; its 'costs before' are still "
+                         f"the sessions 9-25 weights'")
+        if args.default:
+            notes.append("--default: each form is the model's default build (`eomc build MODEL --formulation F`: "
+                         "every default function, outputs and energy among them, parameters not folded)")
+        print(write_results("auto_choice_portable" if args.portable else
+                            "auto_choice_default" if args.default else "auto_choice", environment_header(
             "auto's choice of formulation: both forms' rhs measured"
-            + (" (portable flags, no AVX2)" if args.portable else ""), notes=notes)
+            + (" (portable flags, no AVX2)" if args.portable else "")
+            + (" (default builds)" if args.default else ""), notes=notes)
             + "\n" + (__doc__ or "") + "\n" + text + "\n", keep_notes=True))
     return 0
 

@@ -319,7 +319,13 @@ def _options(spec, functions, fold_parameters):
 def _generate_kane(spec, functions, fold_parameters):
     from ..emit import generate_c
     check_formed_finite(spec)
-    return generate_c(_kane_formed(spec), spec.name, **_options(spec, functions, fold_parameters))
+    generated = generate_c(_kane_formed(spec), spec.name, **_options(spec, functions, fold_parameters))
+    note = getattr(spec, "energy_note", None)
+    if note and "energy" in generated.metadata.get("output_names", ()):
+        # a robot's energy output made for Kane's route (urdf.model._kane_energy): NAME.json says what
+        # it holds as the recursive form's does (the runtime's verdict reads "joint limits" in it)
+        generated.metadata["energy"] = note
+    return generated
 
 
 def _generate_recursive(spec, functions, fold_parameters):
@@ -459,11 +465,15 @@ def _generate_auto(spec, functions, fold_parameters, kane_spec):
 def _kane_lacks(kane, recursive):
     """The outputs and events the recursive candidate has and Kane's lacks, as words, or "".
 
-    A URDF or MJCF tree's Kane side is formed from its SymPy System, which carries no contact
-    or joint-limit outputs: a robot with limits and no contact has an ``energy`` output (the
-    limits' springs, the run's energy verdict reads it) on the recursive side only.  Picking
-    Kane's rhs by cost there dropped the output and with it the verdict (a 1-joint arm with a
-    limit, session 25): auto keeps the form that has everything the build evaluates."""
+    A URDF tree's Kane side is formed from its SymPy System, which carries no contact outputs
+    (a robot with contacts is refused on Kane's route: auto keeps the recursive form) and had
+    no joint-limit ones: a robot with limits and no contact had its ``energy`` output (the
+    limits' springs, the run's energy verdict reads it) on the recursive side only, and picking
+    Kane's rhs by cost dropped the output and the verdict (a 1-joint arm with a limit, session
+    25).  Kane's route now makes the same output (eomc.compiler.urdf.model._kane_energy; on the
+    example-robot-data trees auto compares, this finds nothing missing); this guard stays for
+    anything else one side has and the other not: auto keeps the form that has everything the
+    build evaluates."""
     words = []
     built = set(recursive.metadata.get("functions") or ())
     for key, what, uses in (("output_names", "output", {"outputs", "energy"}), ("events", "event", {"events"})):

@@ -50,6 +50,9 @@ class ModelSpec:
     pair_check: dict = field(default=None, compare=False)    # the body-body pairs' shapes (MJCF; runtime/pair_check.py), or None
     limit_laws: dict = field(default=None, compare=False)    # MJCF limits' shapes (runtime/limit_energy.py), or None
     start_in_range: list = field(default=None, compare=False)  # joints the default start moved into range (URDF), or None
+    # what the ``energy`` output a robot reader gave Kane's route holds (NAME.json "energy", as the
+    # recursive route's tree says it: the runtime's verdict reads it; eomc.compiler.urdf.model._kane_energy)
+    energy_note: str = field(default=None, compare=False)
     # a robot's bodies whose mass and inertia parameters are checked at run time (runtime/
     # law_parameters.py; eomc.compiler.mechanics.body_parameters): the URDF reader's tree, unless
     # built for identification (all_inertial_parameters: its fits pass unphysical vectors through
@@ -181,7 +184,8 @@ def _checked(values, formed, name, where, origin=""):
             timestep=values.get("timestep"), ground_check=values.get("ground_check"),
             pair_check=values.get("pair_check"),
             limit_laws=values.get("limit_laws"),
-            start_in_range=values.get("start_in_range"))
+            start_in_range=values.get("start_in_range"),
+            energy_note=values.get("energy_note"))
     except Invalid as exc:
         raise where(exc) from None
 

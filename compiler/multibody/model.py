@@ -150,13 +150,14 @@ class Model(StateSizes):
         return None
 
 
-def merged_defaults(overrides, formed, defaults, joint_inputs):
+def merged_defaults(overrides, formed, defaults, joint_inputs, uses=()):
     """``overrides`` (the caller's parameters, inputs, ...) with a robot file's parameter
     ``defaults`` and ``joint_inputs`` filled in where not given: the defaults of the
-    parameters ``formed`` (a Model or FormedSystem) has, the joints' inputs in joint order
-    and the caller's own after them."""
+    parameters ``formed`` (a Model or FormedSystem) has, and of those in ``uses`` (an output's
+    only: a root joint's height in Kane's ``energy`` of a URDF robot), the joints' inputs in
+    joint order and the caller's own after them."""
     result = dict(overrides)
-    used = set(formed.parameters)
+    used = set(formed.parameters) | set(uses)
     defaults = {symbol: value for symbol, value in defaults.items() if symbol in used}
     given = overrides.get("parameters")
     if isinstance(given, dict):

@@ -122,7 +122,7 @@ class Tree:
     spring_parameters: tuple = field(default=(), compare=False)
     # the actuators' activation states its loads read (MJCF's act_<actuator>(t), extra states of
     # the Model): a generated ``energy`` output holds the servos' bias only, so a run is judged
-    # only from a start with every activation at 0 (compiler/tree/lower._energy_text says so,
+    # only from a start with every activation at 0 (compiler/tree/lower.energy_text says so,
     # runtime/switching.energy_verdict reads it)
     activations: tuple = field(default=(), compare=False)
 

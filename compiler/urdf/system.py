@@ -72,6 +72,7 @@ class UrdfSystem:
     joints: dict                # joint name -> SymPy joint
     bodies: dict                # body name -> RigidBody
     tree: object                # the tree.Tree it came from
+    gravity: object = 0         # g (its symbol, or the number when folded; 0: no gravity)
 
     def model(self, poses=False):
         """The multibody Model of the reading this System was built from (its links, welded
@@ -81,6 +82,21 @@ class UrdfSystem:
         from .model import UrdfModel, model_of_robot
         return model_of_robot(self.tree.robot, self.tree,
                               UrdfModel(self.tree.path, fold_parameters=not self.parameters), poses)
+
+    def energy(self):
+        """The bodies' kinetic energy and their potential in the System's gravity (``-g N.z``):
+        m g z of each mass centre above the world origin, the joints' offsets included, as the
+        recursive form's ``energy`` output counts them (compiler/tree/contacts._energy).  Why:
+        Kane's form of a URDF robot with limits gets the same ``energy`` output as the recursive
+        one (eomc.compiler.urdf.model._kane_energy adds the limits' springs), so auto may pick
+        either by cost and the run's energy verdict is there with both."""
+        from ..mechanics.energy import kinetic_energy
+        N, origin = self.system.frame, self.system.fixed_point
+        bodies = list(self.bodies.values())
+        energy = kinetic_energy(N, *bodies)
+        if self.gravity != 0:
+            energy += sm.Add(*[b.mass * self.gravity * b.masscenter.pos_from(origin).dot(N.z) for b in bodies])
+        return energy
 
 
 class _Parameters:
@@ -185,7 +201,8 @@ def system_from_tree(tree, *, fold=False, mimic=False, gravity=9.81, laws=True, 
         system.apply_uniform_gravity(-g * N.z)
     if loads:
         system.add_loads(*loads)
-    return UrdfSystem(system, params.values, inputs, joints, bodies, tree)
+    return UrdfSystem(system, params.values, inputs, joints, bodies, tree, g)
+
 
 
 def _set_velocities(N, parent, joint):

@@ -5,7 +5,7 @@ Why (issue 29 item 1): such a servo pushes with gain·act + bias.  With every ac
 zero control the activation stays 0 (act' = (ctrl - act)/τ), so the servo is its bias, a spring
 the energy output counts, and a run is judged; from a start with an activation not at 0 the servo
 pushes with a state the energy does not hold, so the run is not judged (runtime/switching.
-_activations_at_rest; the energy text says so, compiler/tree/lower._energy_text).  Before, such
+_activations_at_rest; the energy text says so, compiler/tree/lower.energy_text).  Before, such
 a model had no energy output at all."""
 import warnings
 

@@ -443,29 +443,65 @@ def test_nonfinite_finds_each_constant_in_order_through_shared_subtrees():
     assert nonfinite(1.0) is None and nonfinite(float("inf")) == sm.oo
 
 
-
-
-def test_auto_does_not_pick_a_kane_form_that_lacks_the_models_outputs(tmp_path):
-    """A one-joint URDF arm with a limit and no contact: its energy output (the limit's spring;
-    the run's energy verdict reads it) exists on the recursive side only, Kane's side being
-    formed from the robot's SymPy System.  By cost Kane's rhs is the cheaper (the refitted
-    weights, session 25) and auto picked it, dropping the output and the verdict
-    (tests/compiler/contact/test_limit_energy failed in CI): auto now keeps the recursive form
-    and says why."""
+def _limited_hinge(tmp_path, **kw):
+    """The one-hinge URDF arm with a limit and no contact (helpers.urdf_arm.LIMITED_HINGE) built
+    with ``kw`` (rhs and outputs)."""
     import warnings
     import eomc
     from eomc.compiler.urdf.model import UrdfModel
-    path = tmp_path / "arm.urdf"
     from helpers.urdf_arm import LIMITED_HINGE
+    path = tmp_path / "arm.urdf"
     path.write_text(LIMITED_HINGE)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        auto = eomc.compile(UrdfModel(path), functions=("rhs", "outputs"), cache_dir=tmp_path / "a",
-                            progress=False)
-        kane = eomc.compile(UrdfModel(path), functions=("rhs", "outputs"), cache_dir=tmp_path / "k",
-                            progress=False, formulation="kane")
+        return eomc.compile(UrdfModel(path), functions=("rhs", "outputs"), progress=False,
+                            cache_dir=tmp_path / kw.get("formulation", "auto"), **kw)
+
+
+def test_auto_picks_kanes_cheaper_rhs_on_a_limited_urdf_arm_with_its_energy_output(tmp_path):
+    """A one-joint URDF arm with a limit and no contact: its energy output (the limit's spring;
+    the run's energy verdict reads it) was on the recursive side only (Kane's side is formed
+    from the robot's SymPy System), so auto kept the recursive form though Kane's rhs costs less
+    (select._kane_lacks, lead f4ab51fa; before that it picked Kane's and lost the output).  Kane's
+    side now gets the same energy output (urdf.model._kane_energy): auto picks by cost again and
+    the model keeps its output, whose text the runtime's verdict reads.  Before: formulation
+    recursive, note "recursive (Kane's form has no output energy)"."""
+    auto = _limited_hinge(tmp_path)
+    costs = auto.metadata["formulation_costs"]
+    assert costs["kane"] < costs["recursive"]
+    assert auto.metadata["formulation"] == "kane" and "formulation_note" not in auto.metadata
+    assert auto.output_names == ("energy",) and "joint limits" in auto.metadata["energy"]
+
+
+def test_auto_does_not_pick_a_kane_form_that_lacks_the_models_outputs(tmp_path, monkeypatch):
+    """Where Kane's side still lacks an output the recursive side has (here: the robot's energy
+    output taken away from Kane's route, as it was before urdf.model._kane_energy), auto keeps
+    the recursive form and says why, though Kane's rhs costs less: picking by cost dropped the
+    output and the run's energy verdict (session 25, test_limit_energy in CI)."""
+    import eomc.compiler.urdf.model as urdf_model
+    monkeypatch.setattr(urdf_model, "_kane_energy", lambda read, system, overrides: (overrides, ()))
+    kane = _limited_hinge(tmp_path, formulation="kane")
+    auto = _limited_hinge(tmp_path)
+    assert kane.output_names == ()
     costs = auto.metadata["formulation_costs"]
     assert costs["kane"] < costs["recursive"]           # Kane's would win by cost alone ...
-    assert kane.output_names == ()                       # ... but has no energy output
     assert auto.metadata["formulation"] == "recursive" and auto.output_names == ("energy",)
     assert auto.metadata["formulation_note"].startswith("recursive (Kane's form has no output energy)")
+
+
+def test_kane_lacks_names_outputs_and_events_only_where_the_build_evaluates_them():
+    """select._kane_lacks on the candidates' metadata: what the recursive one has and Kane's not,
+    outputs only where the build evaluates outputs (or energy), events where it evaluates events."""
+    from types import SimpleNamespace
+    from eomc.compiler.formulations.select import _kane_lacks
+
+    def built(functions, outputs=(), events=()):
+        return SimpleNamespace(metadata={"functions": list(functions), "output_names": list(outputs),
+                                         "events": [{"name": e} for e in events]})
+    full = ("rhs", "outputs", "events")
+    assert _kane_lacks(built(full, ["energy"]), built(full, ["energy"])) == ""
+    assert _kane_lacks(built(full), built(full, ["energy", "h"])) == "outputs energy, h"
+    assert _kane_lacks(built(full, ["energy"]), built(full, ["energy"], ["hit"])) == "event hit"
+    assert _kane_lacks(built(full), built(full, ["energy"], ["hit"])) == "output energy or event hit"
+    assert _kane_lacks(built(("rhs",)), built(("rhs",), ["energy"], ["hit"])) == ""     # rhs only: nothing lost
+    assert _kane_lacks(built(("rhs", "energy")), built(("rhs", "energy"), ["energy"])) == "output energy"
