@@ -12,6 +12,8 @@ _SIZES = ("nq", "nu", "nx", "nparam", "ninput", "noutput", "nhol", "nvel", "work
 
 def configure(parser):
     add_generate_options(parser)
+    model, = [action for action in parser._actions if action.dest == "model"]
+    model.help += ", or a directory written by `eomc build` (or its NAME.json): inspected as built"
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
 
 

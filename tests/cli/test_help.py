@@ -55,3 +55,10 @@ def test_x0_help_says_others_keep_the_initial_state(capsys):
     text = " ".join(_help("simulate", capsys=capsys).split())
     assert "states not named keep the model's initial_state" in text
     assert "others 0" not in text
+
+
+def test_inspect_help_says_it_takes_a_built_directory(capsys):
+    """inspect reads a built directory's NAME.json (build and show refuse one): its help says so."""
+    text = " ".join(_help("inspect", capsys=capsys).split())
+    assert "or a directory written by `eomc build` (or its NAME.json): inspected as built" in text
+    assert "directory written by" not in " ".join(_help("build", capsys=capsys).split())
