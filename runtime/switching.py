@@ -322,7 +322,8 @@ def energy_verdict(model, a, outputs, sw, x=None, t=None, watched=None, place=No
         elif gain - held > tol:
             notes.append(f"the energy rose by {gain:.3g} (from {outputs['energy'][0]:.6g}, "
                          f"{gain / scale:.2g} of its scale) with only passive contacts and limits acting: "
-                         f"more than the tolerance explains; tighten rtol")
+                         f"more than the tolerance explains (method {a['method']}, rtol {a['rtol']:g}); "
+                         f"tighten rtol")
     if (x is not None or watched is not None) and not sprung and not status and not notes:
         if watched is not None:
             risen = _watched_rise(model, sw, watched)

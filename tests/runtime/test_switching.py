@@ -478,3 +478,19 @@ def test_joints_past_their_default_limits_share_one_note_with_the_remedy_once():
     assert len(notes) == 2 and notes[0].startswith("joint a went") and "joint c went" not in notes[0]
     assert notes[1].startswith("joint c went 0.07 past its upper limit 3")
     assert "your limit stiffness limit_k_c = 70" in notes[1]
+
+
+def test_an_energy_gain_note_names_the_method_and_rtol_it_judges(monkeypatch):
+    """eomc report runs many methods and tolerances: a gain note without them ("... more than the
+    tolerance explains; tighten rtol", first hour s26: two such lines after UR5's report) could not
+    be told apart; the other notes of energy_verdict already said "(method ..., rtol ...)"."""
+    from types import SimpleNamespace
+    from eomc.runtime import switching
+    monkeypatch.setattr(switching, "_no_sources", lambda model, a: True)
+    monkeypatch.setattr(switching, "energy_allowance", lambda *args: (0.0, False, None, None))
+    a = {"method": "dop853", "rtol": 1e-4, "atol": 1e-4, "p": [], "x0": []}
+    status, extra, notes = switching.energy_verdict(None, a, {"energy": np.array([10.0, 10.2, 10.1])},
+                                                    SimpleNamespace(contacts=[]))
+    assert (status, extra) == (0, "")
+    assert notes == ["the energy rose by 0.2 (from 10, 0.02 of its scale) with only passive contacts and limits "
+                     "acting: more than the tolerance explains (method dop853, rtol 0.0001); tighten rtol"]
