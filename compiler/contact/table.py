@@ -578,7 +578,7 @@ def _loop(t, mode):
     elif into:
         L.append("/* body-body pairs' loop for NAME_implicit (compiler/contact/table.py): eomc_pairs' outputs with "
                  "full = 0, and per contact point depth, p, v_B - v_A, K, C into slo[0 .. nslo) (0 where a pair is "
-                 "skipped) */")
+                 "skipped); returns the sum of what it wrote there (finite: the whole block is, FINITE_BY_SUM) */")
         L.append("static double eomc_pairs_slopes(const double *in, const double *pars, int full, double *out, "
                  "double *slo, int nslo)\n{")
     elif slopes:
@@ -598,6 +598,7 @@ def _loop(t, mode):
     L.append("    int q, m, k, w, j;" if dot else "    int s, q, m, k, w, j;")
     L.append(f"    for (k = 0; k < (full ? {t.noutput} : {t.nwrench}); ++k) out[k] = 0.0;")
     if into:
+        L.append("    double chk = 0.0;")
         L.append("    for (k = 0; k < nslo; ++k) slo[k] = 0.0;")
     elif slopes:
         L.append(f"    for (k = {t.noutput}; k < {t.noutput + SLOPE_OUTPUTS * t.npoints}; ++k) out[k] = 0.0;")
@@ -672,6 +673,8 @@ def _loop(t, mode):
             L.append(f"            double *sl = {'slo' if into else 'out + ' + str(t.noutput)} + {SLOPE_OUTPUTS} * (P[3] + m);")
             L.append("            sl[0] = pp[6];")
             L.append("            for (k = 0; k < 3; ++k) sl[1 + k] = pp[k];")
+            if into:
+                L.append("            chk += (sl[0] + sl[1]) + (sl[2] + sl[3]);")
         L.append("            if (!full && -pp[6] > 0) continue;")
         if not dot and not tape:   # full = 2, a point apart by more than the pad: F_n, friction 0; clip >= -δ
             L.append(f"            if (full == 2 && -pp[6] > {_fmt(BROAD_PAD)}) {{ po[5] = -pp[6]; continue; }}")
@@ -687,6 +690,8 @@ def _loop(t, mode):
             L.append(f"            eomc_pair_law({largs}, lo);")
             if slopes:
                 L.append(f"            eomc_pair_slopes({largs}, &sl[4]);")
+            if into:
+                L.append(f"            for (k = 4; k < {SLOPE_OUTPUTS}; ++k) chk += sl[k];")
         L.append(f"            if (bb >= 0) for (k = 0; k < 6; ++k) out[6 * bb + k] += {tgt}[k];")
         L.append(f"            if (ba >= 0) for (k = 0; k < 6; ++k) out[6 * ba + k] += {tgt}[6 + k];")
         L.append(f"            for (k = 0; k < 4; ++k) po[k] = {tgt}[12 + k];")
@@ -698,9 +703,15 @@ def _loop(t, mode):
             L.append(f"            used += {need};")
             L.append("        } else if (on) act[P[2]] = -1.0;")
         L.append("    }")
-    L.append("    return 0.0;\n}\n")
+    L.append("    return chk;\n}\n" if into else "    return 0.0;\n}\n")
     return "\n".join(L)
 
+
+# eomc_pairs_slopes into out[] ("into") returns chk, the sum of every value it writes into the slope
+# block (each record's depth and p when its pair passes the broad phase, its 21 slopes when its law
+# runs; the rest of the block is its zeros): NAME_implicit checks out[] before the block and reads
+# the block itself only when chk is not finite (compiler/tree/emit.finite_return), the same verdict.
+# Partial sums per record, so the running sum's chain is one add a record, not one an entry.
 
 # The primal loops (eomc_pairs with full = 0: the rhs; eomc_pairs_slopes: NAME_implicit) skip a
 # pair of a capsule and a sphere or capsule whose balls overlap but whose segments (a sphere's:

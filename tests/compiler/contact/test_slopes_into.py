@@ -88,3 +88,50 @@ def test_a_nan_state_is_still_refused(limbs):
     x = np.zeros(m.nx)
     x[0] = np.nan
     assert _implicit(m, x, np.zeros(m.metadata["implicit"]["layout"]["size"]))[0] != 0
+
+
+# NAME_implicit checks out[] before the pairs' block and the block through the sum of what the loop
+# wrote there (compiler/tree/emit.finite_return, contact/table.py's chk): the same verdict as the whole
+# out[]'s check, at states in and out of touch and with a parameter that poisons a pressed pair.
+
+def test_the_return_checks_the_block_through_the_loops_sum(limbs):
+    m, source = limbs
+    at, size = (m.metadata["implicit"]["layout"][k] for k in ("contact", "size"))
+    (ret,) = [line.strip() for line in source.splitlines() if line.strip().startswith("return t")
+              and "linto_finite_wide(out, " in line]
+    token = ret.split()[1]
+    assert ret == (f"return {token} - {token} == 0.0 ? linto_finite_wide(out, {at}) "
+                   f": linto_finite_wide(out, {size});")
+    assert f"const double {token} = eomc_pairs_slopes(" in source
+    assert "return chk;" in source and "chk += (sl[0] + sl[1]) + (sl[2] + sl[3]);" in source
+
+
+def test_the_verdict_is_every_entrys_at_states_in_and_out_of_touch(limbs):
+    m, _ = limbs
+    size = m.metadata["implicit"]["layout"]["size"]
+    names, rng = list(m.state_names), np.random.default_rng(5)
+    p = np.array(m.ffi.unpack(m._default_p, len(m.param_names)), dtype=float)
+    pressed = poisoned = 0
+    for i in range(40):
+        x = np.zeros(m.nx)
+        x[names.index("q_joint0_z")] = 0.3
+        x[names.index("q_joint3_z")] = 0.3
+        x[names.index("q_joint3_y")] = rng.uniform(-0.12, 0.3)
+        x += rng.normal(0, 0.01, m.nx)
+        status, out = _implicit(m, x, np.zeros(size))
+        assert (status == 0) == bool(np.isfinite(out).all())
+        o = dict(m.outputs(0.0, x))
+        pressed += any(v > 0 for k, v in o.items() if k.startswith("Fn_"))
+        if i % 10 == 0:         # a pressed pair's law with a NaN parameter: refused
+            hit = [k[3:] for k, v in o.items() if k.startswith("Fn_") and v > 0 and f"vs_{k[3:]}" in m.param_names]
+            for name in hit[:1]:
+                q = p.copy()
+                q[list(m.param_names).index(f"vs_{name}")] = np.nan
+                out = np.zeros(size)
+                ffi = m.ffi
+                fp = ffi.addressof(m.model_lib, f"{m.name}_implicit")
+                s = fp(0.0, ffi.from_buffer("double[]", x), ffi.from_buffer("double[]", q), ffi.NULL,
+                       ffi.from_buffer("double[]", out), ffi.NULL)
+                assert s != 0
+                poisoned += 1
+    assert pressed > 0 and poisoned > 0
