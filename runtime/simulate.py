@@ -610,7 +610,10 @@ def bind_call(model, a, out=None):
     """(call, x_out, x_last, stats): ``call()`` makes the integrator's C call for prepared args ``a``.
 
     All buffers are allocated here, once, so a caller timing ``call`` (the
-    work-precision report) measures the integration in C and nothing else.
+    work-precision report) measures the integration in C and nothing else.  ``call`` keeps
+    ``model`` alive: its C model and library must outlive the call (a caller that kept only
+    the call saw its model collected, then wrong runs -- the ant's qpos0 run 777 calls
+    instead of 121 -- or a segfault).
     """
     ffi, lib = model.ffi, model.integrators
     buf = lambda arr: ffi.from_buffer("double[]", arr)  # noqa: E731
@@ -634,7 +637,7 @@ def bind_call(model, a, out=None):
     tail = (n_eval, buf(a["t_eval"]), buf(x_out), buf(x_last), stats, buf(work), work.size)
     if not feedback and "events" not in a and "switches" not in a:
         keep = a.get("_implicit_keep")      # the fast path's struct: alive as long as the call
-        return (lambda keep=keep: lib.eomc_integrate(*head, *tail)), x_out, x_last, stats
+        return (lambda keep=keep, model=model: lib.eomc_integrate(*head, *tail)), x_out, x_last, stats
     fb = (FeedbackBinding(model, a.get("K"), a.get("x_ref"), a.get("r_fun"), a.get("r_slopes"))
           if feedback else None)
     source, chosen = a.get("events", (None, []))
@@ -644,7 +647,7 @@ def bind_call(model, a, out=None):
     a["_bindings"] = (fb, ev)       # finish() reads the events and any callable's exception
     extras = (fb.struct if fb else ffi.NULL, ev.struct if ev else ffi.NULL)
 
-    def call(bindings=(fb, ev, a.get("_implicit_keep"))):   # keeps what its structs point to alive
+    def call(bindings=(fb, ev, a.get("_implicit_keep")), model=model):   # keeps what its structs point to alive
         return lib.eomc_integrate_ex(*head, *extras, *tail)
     return call, x_out, x_last, stats
 
