@@ -428,8 +428,17 @@ def _generate_auto(spec, functions, fold_parameters, kane_spec):
             "kane": f"not formed ({nu} speeds > {AUTO_KANE_MAX_SPEEDS}: Kane's rhs has not won there)",
             "recursive": _rhs_cost(recursive, "recursive")}
         return recursive
-    # a tree whose Kane's equations auto would form (not an MJCF model: it has none, and says so)
-    lazy = isinstance(spec.formed, Model) and not spec.formed.kane_refusal
+    refusal = spec.formed.kane_refusal if isinstance(spec.formed, Model) else None
+    if refusal:
+        # nothing to compare (an MJCF model): say so as the choice's reason, not as a failure of a
+        # Kane form nobody asked for ("recursive (kane formulation: an MJCF model has ...)" read as
+        # if the user had asked for Kane's; first hour, session 26)
+        before = recursive.metadata.get("formulation_note")
+        recursive.metadata["formulation_note"] = f"recursive ({refusal})" + (
+            f"; {before}" if before else "")
+        return recursive
+    # a tree whose Kane's equations auto would form
+    lazy = isinstance(spec.formed, Model)
     skip = kane_skip_reason(spec.formed.tree) if AUTO_SKIP_KANE and lazy else None
     if skip is not None:
         recursive.metadata["formulation_costs"] = {"kane": f"not formed ({skip})",

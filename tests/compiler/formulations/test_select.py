@@ -505,3 +505,20 @@ def test_kane_lacks_names_outputs_and_events_only_where_the_build_evaluates_them
     assert _kane_lacks(built(full), built(full, ["energy"], ["hit"])) == "output energy or event hit"
     assert _kane_lacks(built(("rhs",)), built(("rhs",), ["energy"], ["hit"])) == ""     # rhs only: nothing lost
     assert _kane_lacks(built(("rhs", "energy")), built(("rhs", "energy"), ["energy"])) == "output energy"
+
+
+def test_auto_on_an_mjcf_model_names_the_recursive_form_as_the_only_one(tmp_path):
+    """An MJCF model has no Kane's form (no SymPy System behind it).  auto on a small one (within
+    the speeds it would compare) said "recursive (kane formulation: an MJCF model has the recursive
+    formulation only: ...)", which reads as if the user had asked for Kane's and it failed (first
+    hour, session 26: `eomc build hopper.xml`); it now gives the refusal as the reason of the choice."""
+    pytest.importorskip("mujoco")
+    from eomc.compiler.mjcf.model import MjcfModel
+    path = tmp_path / "pendulum.xml"
+    path.write_text('<mujoco model="pendulum"><worldbody><body name="arm">'
+                    '<joint name="hinge" type="hinge" axis="0 1 0"/>'
+                    '<geom type="capsule" fromto="0 0 0 0 0 -0.5" size="0.05" mass="1"/>'
+                    '</body></worldbody></mujoco>')
+    note = _gen(MjcfModel(path), "auto", ["rhs"]).metadata["formulation_note"]
+    assert note.startswith("recursive (an MJCF model has the recursive formulation only"), note
+    assert "kane formulation:" not in note
