@@ -75,10 +75,11 @@ def generator_switches():
     its default.  ``SEED_PAIRS`` off: Kane's jvp tangent as differentiated (compiler/emit/
     seed_pairs.py), held only when off; ``SEED_MONOMIALS`` off: its one-seed monomials as
     differentiated (same module), held only when off.  ``LIMB_MIN_BODIES``: the twin limbs' bodies from which the
-    rhs calls limb routines (compiler/tree/limbs.py), held only when not its default."""
+    rhs calls limb routines (compiler/tree/limbs.py), held only when not its default.  ``BODY_LOOPS`` off:
+    NAME_energy and NAME_poses straight-line (compiler/tree/body_loops.py), held only when off."""
     from ..contact import pairs
     from ..emit import seed_pairs
-    from ..tree import chain_loop, limbs, second_order
+    from ..tree import body_loops, chain_loop, limbs, second_order
     switches = {"inline_narrow": bool(pairs.INLINE_NARROW)}
     if pairs.LAW_ROUTINES:
         switches["law_routines"] = True
@@ -104,6 +105,8 @@ def generator_switches():
         switches["no_seed_monomials"] = True
     if limbs.LIMB_MIN_BODIES != limbs.LIMB_MIN_BODIES_DEFAULT:
         switches["limb_min_bodies"] = limbs.LIMB_MIN_BODIES
+    if not body_loops.BODY_LOOPS:
+        switches["no_body_loops"] = True
     return switches
 
 

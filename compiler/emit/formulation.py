@@ -78,6 +78,11 @@ class Formulation:
         """The C body of ``fn`` when the formulation writes it, else None (emit's default)."""
         return None
 
+    def pose_loops(self, sym, functions, source):
+        """True when NAME_poses is the formulation's loop over its bodies (the pose source's table,
+        :func:`.poses.with_poses`; its body then from :meth:`body`), else emit's straight-line one."""
+        return False
+
     def ops(self, fn, prog, sym, nx, nr, npar, nq, nu, solve_in):
         """Operation counts of ``fn`` when the formulation counts them itself, else None."""
         return None

@@ -2,7 +2,7 @@
 import re
 from collections import Counter
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import jinja2
 import sympy as sm
@@ -273,6 +273,9 @@ def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions
     # NAME_implicit with its energy slot for the lanes rollout's watch (tree/lower.implicit_layout):
     # asked only of the formulation that builds NAME_implicit (builds_implicit above)
     lanes = {"implicit_energy": True} if "implicit_batch" in fns else {}
+    # NAME_energy read by itself alone (NAME_outputs its call): a formulation may sum its bodies' shares in a loop
+    if getattr(formulation, "body_loops", False) and _energy_alone(fns, outputs, nframe):
+        lanes["body_loops"] = True
     sym = formulation.symbolic(formed, layout, base, outputs, events, **lanes)
     if getattr(sym, "function_groups", None):   # this model's own choice (tree/lower.py: the loop kernel or not)
         groups = sym.function_groups
@@ -280,14 +283,19 @@ def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions
         sym = frames.lowered(sym, layout, formed.nq)
     pose_meta = None
     if "poses" in fns:   # appended to the shared program: sin/cos and products shared with rhs
-        from .poses import POSE_GROUP, with_poses
-        sym, pose_meta = with_poses(sym, poses, layout)
-        groups = {**groups, "poses": (POSE_GROUP,)}
+        from .poses import POSE_GROUP, POSE_TABLE, with_poses
+        sym, pose_meta = with_poses(sym, poses, layout, loops=formulation.pose_loops(sym, fns, poses))
+        table = pose_meta.pop("table", None)
+        if table is not None:     # the formulation's loop over its bodies reads the table (Formulation.pose_loops)
+            sym = replace(sym, body_loops={**(sym.body_loops or {}), "poses": table})
+        groups = {**groups, "poses": (POSE_GROUP,) if table is None else (POSE_TABLE,)}
     shared = verify(optimize_shared(sym.program, sym.derivatives))
     energy = energy_program(shared, sym) if "energy" in fns else None
     if "energy" in fns and energy is None:
         fns = tuple(f for f in fns if f != "energy")
     by_energy = outputs_by_energy(fns, sym)
+    if (sym.body_loops or {}).get("energy") and not by_energy:     # (_energy_alone's promise)
+        raise RuntimeError(f"{name}: NAME_energy's loop needs NAME_outputs to be its call")
     programs = {fn: finish_function(_mass_inputs_only(shared, sym, fn), groups[fn])
                 if fn not in BATCH_FUNCTIONS and groups[fn] and not (by_energy and fn == "outputs") else None
                 for fn in fns if fn not in GENERATED_LIKE and fn != "energy"}
@@ -300,6 +308,14 @@ def lower(formed, name, *, parameters=None, inputs=None, outputs=None, functions
     helper = (finish_function(shared, ("A", "b")) if set(fns) & set(helper_users) or sym.solve_in
               else None)
     return Lowered(name, layout, sym, fns, programs, helper, formulation, pose_meta, by_energy)
+
+
+def _energy_alone(fns, outputs, nframe):
+    """Whether the ``energy`` output will be read by NAME_energy alone (:func:`outputs_by_energy`
+    as far as the lowering can tell before it: the model's only output, no frame outputs, no
+    lanes rewriting printed code), so that its formulation may compute part of it in C of its own."""
+    return ("energy" in fns and "outputs" in fns and not nframe and list(outputs or {}) == ["energy"]
+            and not any(f.endswith("_batch") for f in fns))
 
 
 def outputs_by_energy(fns, sym):
@@ -511,7 +527,8 @@ def _generate_c(formed, name, *, parameters, inputs, outputs, functions, fold_pa
             rendered.append({"prototype": f"static void {name}_{sname}({args})",
                              "body": void_unused(fn, slines, ssig), "parts": sparts})
         with _naming_nonfinite(name, fn):
-            body = (plain_body(ctx, prog, "pose", (low.poses["size"],), "out") if fn == "poses" else
+            body = ((formulation.body(fn, ctx, prog, sym, layout, nx)
+                     or plain_body(ctx, prog, "pose", (low.poses["size"],), "out")) if fn == "poses" else
                     outputs_energy_body(ctx) if fn == "outputs" and low.outputs_by_energy else
                     _body(fn, ctx, prog, sym, layout, nx, fns, formulation))
         consts, ctx.constant_stores = ctx.constant_stores, None

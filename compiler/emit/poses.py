@@ -27,9 +27,11 @@ import sympy as sm
 
 from eomc.runtime.errors import EomcWarning, ModelError
 
-__all__ = ["Shown", "PoseSource", "pose_source", "welded_links", "with_poses", "pose_metadata", "pose_digest", "POSE_GROUP"]
+__all__ = ["Shown", "PoseSource", "pose_source", "welded_links", "with_poses", "pose_metadata", "pose_digest", "POSE_GROUP",
+           "POSE_TABLE"]
 
 POSE_GROUP = "pose"
+POSE_TABLE = "ptab"     # NAME_poses as a loop over a robot's tree: its table's values (compiler/tree/body_loops.py)
 
 
 @dataclass(frozen=True)
@@ -364,14 +366,28 @@ def _tree_lowering(source, slot, let):
     return guarded(frame_at), guarded(point_at)
 
 
-def with_poses(sym, source, layout):
+def with_poses(sym, source, layout, loops=False):
     """``sym`` with the pose results ("pose", k) and their temporaries appended.
 
     Frames or points whose placement uses something the model does not have (a symbol
     that is no parameter, a derivative) are left out with one warning naming them.
     Returns (Symbolic, metadata dict).
+
+    ``loops``: the formulation places the bodies itself and loops over them (a robot's tree,
+    compiler/tree/body_loops.py): where the source gives a table (``source.table``), the results
+    are that table's values (group :data:`POSE_TABLE`) and the metadata's "table" its shape.
     """
     program = sym.program
+    made = source.table(_slot(source, layout)) if loops and hasattr(source, "table") else None
+    if made is not None:
+        values, shape = made
+        frames, points = [f[0] for f in source.frames], [pt[0] for pt in source.points]
+        results = tuple(((POSE_TABLE, k), v) for k, v in enumerate(values))
+        meta = {"frames": frames, "points": points, "lines": [[i, j] for i, j in source.lines],
+                "size": 12 * len(frames) + 3 * len(points),
+                "geometry": {k: v for k, v in source.geometry.items() if k in frames or k in points or k == "world"},
+                **(source.contact_metadata() if hasattr(source, "contact_metadata") else {}), "table": shape}
+        return replace(sym, program=program.with_(results=program.results + results)), meta
     let = _Let(program.ntemp)
     lowering = _tree_lowering if hasattr(source, "placer") else _lowering
     frame_at, point_at = lowering(source, _slot(source, layout), let)

@@ -101,6 +101,8 @@ class Symbolic:
     limbs: object = None             # recursive: the rhs with routines per limb shape (compiler/tree/limbs.py)
     mass_inputs: tuple = ()          # recursive, a plan with contacts: the an[] entries mass_matrix and jac_r read (tree/lower.contact_mass_inputs)
     input_solve: int = 0             # recursive: jac_r solves M by NAME_msolve, this many columns a block (compiler/tree/input_jacobian.py)
+    body_loops: object = None        # recursive: {"energy": True, "poses": table shape} where NAME_energy / NAME_poses
+                                     # are loops over the tree's bodies (compiler/tree/body_loops.py), else None
 
 
 def _is_symmetric(A, seed=0):

@@ -17,6 +17,7 @@ from ..tree.analytic_emit import analytic_body_ops, analytic_jac_id_body, analyt
 from ..tree.chain_loop import chain_loop_c, chain_loop_ops, chain_loop_rhs_body
 from ..tree.limbs import limbs_ops, limbs_rhs_body
 from ..tree.trig import tree_trig
+from ..tree.body_loops import energy_loop_body, energy_loop_ops, placed, poses_loop_body, poses_loop_ops
 from ..tree.constrained import jacobian_symbols
 from ..tree.inverse_derivatives import jac_id_body, jac_id_ops
 from ..tree.second_order import second_order_body, second_order_c, second_order_ops
@@ -99,10 +100,20 @@ class Recursive(Formulation):
             return programs
         return {**programs, "implicit": slopes_into(programs["implicit"], "imp")[0]}
 
-    def symbolic(self, formed, layout, functions, outputs=None, events=None, implicit_energy=False):
-        return build_tree_symbolic(self.tree, formed, layout, functions, outputs, events, implicit_energy)
+    body_loops = True         # NAME_energy and NAME_poses may be loops over the tree (compiler/tree/body_loops.py)
+
+    def symbolic(self, formed, layout, functions, outputs=None, events=None, implicit_energy=False,
+                 body_loops=False):
+        return build_tree_symbolic(self.tree, formed, layout, functions, outputs, events, implicit_energy,
+                                   body_loops)
 
     def body(self, fn, ctx, prog, sym, layout, nx):
+        loops = sym.body_loops or {}
+        if fn == "energy" and loops.get("energy"):      # NAME_energy's loop over the bodies (.tree.body_loops)
+            from ..emit.generate import energy_guards
+            return energy_loop_body(ctx, prog, sym, energy_guards(prog, sym.guards) if sym.guards else ())
+        if fn == "poses" and loops.get("poses"):
+            return poses_loop_body(ctx, prog, sym, loops["poses"])
         if fn == "rhs" and sym.chain_loop is not None:
             return chain_loop_rhs_body(ctx, prog, sym.chain_loop)
         if fn == "rhs" and sym.limbs is not None:
@@ -143,6 +154,11 @@ class Recursive(Formulation):
         return None
 
     def ops(self, fn, prog, sym, nx, nr, npar, nq, nu, solve_in):
+        loops = getattr(sym, "body_loops", None) or {}
+        if fn in loops and prog is not None:     # the loop over the bodies and the program's rest
+            c = count_program(prog) + Counter(energy_loop_ops(sym.analytic) if fn == "energy"
+                                              else poses_loop_ops(sym.analytic, loops[fn]))
+            return {k: int(c.get(k, 0)) for k in ("adds", "muls", "divs", "calls")}
         if fn == "rhs" and sym.chain_loop is not None and prog is not None:
             return chain_loop_ops(prog, sym.chain_loop)
         if fn == "rhs" and sym.limbs is not None and prog is not None:
@@ -168,6 +184,15 @@ class Recursive(Formulation):
             return tree_jacobian_ops(prog, *jacobian_symbols(prog, sym.W, nu), sym.seeds, fn,
                                      nx - nu if nq is None else nq, nx, npar if fn == "jac_p" else nr)
         return None
+
+    def pose_loops(self, sym, functions, source):
+        """NAME_poses as a loop over the tree (.tree.body_loops) where the kernels' placement is in the
+        file and the pose source is this tree's (a robot's: its bodies, parents and joint rotations)."""
+        if not hasattr(source, "table") or not placed(sym, functions):
+            return False
+        shown, mine = getattr(source.tree, "bodies", ()), self.tree.bodies
+        return (len(shown) == len(mine) == sym.analytic.nb
+                and all(a.parent == b.parent and a.rotation == b.rotation for a, b in zip(shown, mine)))
 
     def shared_code(self, fn, ctx, prog, sym, functions):
         """NAME_dyn_inputs: the kernels' inputs an[], once for mass_matrix, forcing,

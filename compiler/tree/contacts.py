@@ -20,7 +20,7 @@ from .placement import Placement
 from .spatial import cross
 from eomc.runtime.errors import ModelError
 
-__all__ = ["lower_contacts", "support_motion"]
+__all__ = ["lower_contacts", "support_motion", "BODY_ENERGY", "deferred_energy"]
 
 # An ellipsoid's ground contact planned in the analytic kernel's block G with its support point's
 # motion (support_motion).  False: such a tree keeps the tangent path (as before session 14;
@@ -197,6 +197,10 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
             values[ENERGY_APART] = apart
             values[ENERGY] = rec.let(apart + sum(_pair_energy(table, values, rename), sm.S.Zero))
             implicit["energy_apart"] = len(table)
+        elif len(energy) > 2:     # the bodies' part left to the caller (.body_loops: a loop, or deferred_energy)
+            elastic += _pair_energy(others, values, rename)
+            energy[2]["energy"] = _defer_energy(bodies, v, poses, *energy[:2], rec)
+            values[ENERGY] = rec.let(BODY_ENERGY + sm.Add(*elastic) + limits)
         else:
             elastic += _pair_energy(others, values, rename)
             values[ENERGY] = rec.let(_energy(bodies, v, poses, *energy, rec.let_apart) + sm.Add(*elastic) + limits)
@@ -386,16 +390,69 @@ def _energy(bodies, v, poses, gravity, speeds, let):
     benchmarks/results/derivative_build.md)."""
     total = sm.S.Zero
     for i, b in enumerate(bodies):
-        w, vo = v[i][:3], v[i][3:]
-        m = b.I[3][3]
-        # (construct._add/_mul: the sums sum(..., S.Zero) of the products made, built for less)
-        Iw = [_add([_mul(b.I[r][c], w[c]) for c in range(3)]) for r in range(3)]
-        o = poses.origin(i)
-        share = (m * _add([_mul(x, x) for x in vo]) + _add([_mul(w[r], Iw[r]) for r in range(3)])) / 2
-        share -= m * _add([_mul(gravity[k], o[k]) for k in range(3)])
-        axes = [b.speed] if b.S is not None else [k for k, _ in (b.multi or ())]
-        for a, k in zip(b.armature, axes):
-            if a != 0 and k is not None:
-                share += a * speeds[k] ** 2 / 2
+        share = _share(b, v[i], poses.origin(i), gravity, speeds)
         total += let(share) if share != 0 else share
     return total
+
+
+def _share(b, vi, o, gravity, speeds):
+    """Body ``b``'s kinetic energy and gravity potential (:func:`_energy`), ``vi`` its spatial velocity
+    (body components), ``o`` its placed origin."""
+    w, vo = vi[:3], vi[3:]
+    m = b.I[3][3]
+    # (construct._add/_mul: the sums sum(..., S.Zero) of the products made, built for less)
+    Iw = [_add([_mul(b.I[r][c], w[c]) for c in range(3)]) for r in range(3)]
+    share = (m * _add([_mul(x, x) for x in vo]) + _add([_mul(w[r], Iw[r]) for r in range(3)])) / 2
+    share -= m * _add([_mul(gravity[k], o[k]) for k in range(3)])
+    axes = [b.speed] if b.S is not None else [k for k, _ in (b.multi or ())]
+    for a, k in zip(b.armature, axes):
+        if a != 0 and k is not None:
+            share += a * speeds[k] ** 2 / 2
+    return share
+
+
+# The bodies' part of the energy output where the caller decides later how it is computed
+# (.lower: NAME_energy's loop over the bodies, .body_loops, or :func:`deferred_energy`): a
+# program input the loop's C sets.
+BODY_ENERGY = sm.Symbol("_ebodies", real=True)
+
+
+def _defer_energy(bodies, v, poses, gravity, speeds, rec):
+    """The bodies placed as :func:`_energy` places them (the same temporaries in the same order,
+    so every later one keeps its name: the other functions' C stays as it was), without their
+    shares; returns what :func:`deferred_energy` needs to put the shares in where _energy would
+    have: after each body's placement, with the names the recorder would have given then."""
+    marks = []
+    for i in range(len(bodies)):
+        poses.origin(i)
+        marks.append(len(rec.assignments))
+    return marks, dict(rec._seen), lambda i: _share(bodies[i], v[i], poses.origin(i), gravity, speeds)
+
+
+def deferred_energy(rec, assignments, deferred):
+    """``assignments`` (the program's, which begin with ``rec``'s as they were when the bodies
+    were placed) with the bodies' shares computed and named as :func:`_energy` does, each put in
+    after its body's placement, and :data:`BODY_ENERGY` replaced by their sum: the program
+    lower_contacts gave before the energy could be deferred, assignment for assignment."""
+    marks, seen, share = deferred
+    now, rec._seen = rec._seen, seen     # the names known then (a later temporary is no share's)
+    inserts, total = [], sm.S.Zero
+    try:
+        for i, mark in enumerate(marks):
+            n0 = len(rec.assignments)
+            s = share(i)
+            total += rec.let_apart(s) if s != 0 else s
+            inserts.append((mark, rec.assignments[n0:]))
+            del rec.assignments[n0:]
+    finally:
+        seen, rec._seen = rec._seen, now
+    for key, sym in seen.items():
+        now.setdefault(key, sym)
+    out = list(assignments)
+    for k, (t, e) in enumerate(out[marks[-1]:] if marks else ()):
+        if isinstance(e, sm.Basic) and e.has(BODY_ENERGY):
+            out[marks[-1] + k] = (t, e.xreplace({BODY_ENERGY: total}))
+            break
+    for mark, new in reversed(inserts):
+        out[mark:mark] = new
+    return out

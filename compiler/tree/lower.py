@@ -49,6 +49,7 @@ from .dynamics_kernel import KERNEL_FUNCTIONS
 from .input_jacobian import INPUT_SOLVE_GROUPS, lanes_for, uses_input_solve
 from .model import NotATree
 from .spatial import cross
+from .contacts import BODY_ENERGY, deferred_energy
 
 __all__ = ["TREE_FUNCTION_GROUPS", "TREE_HELPER_USERS", "build_tree_symbolic", "energy_text"]
 
@@ -208,9 +209,13 @@ def _lowered_bodies(tree, layout, rec, memo=None, absent=None):
     return bodies, gravity
 
 
-def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=None, implicit_energy=False):
+def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=None, implicit_energy=False,
+                        body_loops=False):
     """Symbolic (as :func:`~eomc.compiler.emit.symbolic.build_symbolic`) from the recursions.
     ``implicit_energy``: NAME_implicit ends with the energy output (:func:`implicit_layout`).
+    ``body_loops``: the ``energy`` output is read by NAME_energy alone (NAME_outputs its call), which
+    may then sum the bodies' shares in a loop over the tree (:mod:`.body_loops`; ``sym.body_loops``
+    says whether it does).
     NAME_rhs_batch's lanes are the rhs's code rewritten (compiler/emit/batch.py), a looped chain's
     (tree/chain_loop.py) and the limb routines (tree/limbs.py) included: its wish changes nothing here."""
     rec = Recorder()
@@ -231,6 +236,8 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         implicit = {"step": step, "energy": implicit_energy} if "implicit" in functions else None
         wants_energy = "outputs" in functions and _asks_energy(outputs)
         guards = []
+        # the bodies' part of the energy left for :func:`_bodies_energy` to decide (a loop or straight-line)
+        deferred = {} if body_loops and wants_energy else None
         # the joint laws' derivatives, one differentiation per shape of law for the analytic
         # jac_x and NAME_implicit together (analytic._law_slopes)
         law_memo = {}
@@ -238,7 +245,8 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         ground = ({} if loops is None and set(functions) & {"jac_id", "jac_x"}
                   and len(layout.x) > TANGENT_MIN_STATES else None)
         contact_values = _contacts(tree, bodies, rec, v, layout, implicit,
-                                   (gravity, speeds) if wants_energy else None, guards, ground,
+                                   ((gravity, speeds) if deferred is None else (gravity, speeds, deferred))
+                                   if wants_energy else None, guards, ground,
                                    bool(set(functions) & {"hvp", "hess_id"}))
         extra, keep, chain, limbs = [], {}, None, None
         if loops is not None:
@@ -371,7 +379,8 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
                                              for f, g in _OWN_GROUPS.items()},
                                           **({"jac_r": INPUT_SOLVE_GROUPS} if input_solve else {})}
                          if planned else groups,
-                         helper_users=TREE_HELPER_USERS, extra_inputs=limb_inputs(limbs))
+                         helper_users=TREE_HELPER_USERS,
+                         extra_inputs=limb_inputs(limbs) + ((BODY_ENERGY,) if deferred else ()))
     if chain is not None:
         sym = replace(sym, chain_loop=chain)
     if limbs is not None:
@@ -427,9 +436,24 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
                           derivatives=sym.derivatives + requests, second_order_note=second_order_note(None, why))
     if limbs is not None:       # the rhs reads the core's results (.limbs)
         sym = replace(sym, function_groups={**(sym.function_groups or TREE_FUNCTION_GROUPS), "rhs": LIMB_GROUPS})
+    if deferred:
+        sym = _bodies_energy(sym, rec, deferred["energy"], functions)
     if not jacobian:
         return sym
     return _with_jacobians(sym, layout, functions, nq, jacobian, more, analytic is not None, direct is not None)
+
+
+def _bodies_energy(sym, rec, deferred, functions):
+    """``sym`` with the energy's bodies' part (left out by lower_contacts, :data:`.contacts.BODY_ENERGY`)
+    summed by NAME_energy's loop over the tree where NAME_dyn_inputs and NAME_rd_place are in the
+    file (:func:`.body_loops.placed`: ``sym.body_loops``), else straight-line, as it was
+    (:func:`.contacts.deferred_energy`: the same program)."""
+    from .body_loops import placed
+    if placed(sym, functions):
+        return replace(sym, body_loops={**(sym.body_loops or {}), "energy": True})
+    program = sym.program
+    return replace(sym, program=program.with_(assignments=tuple(deferred_energy(rec, program.assignments, deferred)),
+                                              inputs=tuple(s for s in program.inputs if s is not BODY_ENERGY)))
 
 
 def _input_columns(tree, layout, renamed=None, absent=None):

@@ -63,6 +63,32 @@ class TreePoseSource(Shown):
             return list(ZERO) if at is None else frame(at)[1]
         return frame, point
 
+    def table(self, slot):
+        """(values, shape) of NAME_poses as a loop over the tree (compiler/tree/body_loops.py), or None
+        where a value does not map into the program's symbols (then the placement above leaves the
+        frame out with a warning).  ``values``: each body's step (3, in body order), then per frame
+        its turn D (9, rows) and offset o (3) where it has them; ``shape``: "size" (of ``values``),
+        "frames" (body or -1: the world, where its D is in ``values`` or -1, where its o is or -1),
+        "points" (the frame whose origin it is, -1: the world's origin)."""
+        from eomc.runtime.errors import ModelError
+        values, frames = [], []
+        try:
+            for b, step in zip(self.tree.bodies, self.steps):
+                values += [slot(x, f"the position of body {b.name}") for x in step]
+            for name, body, rotation, offset in self.frames:
+                d = m = -1
+                if rotation is not None:
+                    d = len(values)
+                    values += [slot(x, f"the orientation of frame {name}") for row in rotation for x in row]
+                if offset is not None:
+                    m = len(values)
+                    values += [slot(x, f"the position of frame {name}") for x in offset]
+                frames.append((body, d, m))
+        except ModelError:
+            return None
+        points = [-1 if at is None else at for _, at in self.points]
+        return values, {"size": len(values), "frames": frames, "points": points}
+
     def contact_metadata(self):
         """NAME.json ``poses.contacts`` and ``poses.weight`` (:func:`contact_metadata`)."""
         return contact_metadata(self)
