@@ -186,9 +186,19 @@ class Recursive(Formulation):
         return None
 
     def pose_loops(self, sym, functions, source):
-        """NAME_poses as a loop over the tree (.tree.body_loops) where the kernels' placement is in the
-        file and the pose source is this tree's (a robot's: its bodies, parents and joint rotations)."""
+        """NAME_poses as a loop over the tree (.tree.body_loops) where the kernels' inputs are in the
+        file and the pose source is this tree's (a robot's: its bodies, parents and joint rotations),
+        and where no other function places the bodies in the world: not beside ground contacts, body-body
+        pairs, fluid or world-frame loads, frame outputs or a straight-line energy.  Why: there the
+        straight-line poses' products were shared with those functions' by the program's common
+        subexpressions, and without them jac_x's and NAME_implicit's C changed (gymnasium walker2d, ant,
+        humanoid); the outputs no integrator steps on keep their code there."""
         if not hasattr(source, "table") or not placed(sym, functions):
+            return False
+        if any(load.frame != "body" or hasattr(load, "lower") for load in self.tree.loads):
+            return False
+        names = set(sym.output_names)
+        if names - {"energy"} or ("energy" in names and not (sym.body_loops or {}).get("energy")):
             return False
         shown, mine = getattr(source.tree, "bodies", ()), self.tree.bodies
         return (len(shown) == len(mine) == sym.analytic.nb
