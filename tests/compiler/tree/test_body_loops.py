@@ -1,7 +1,6 @@
 """NAME_energy and NAME_poses as loops over a robot's bodies (compiler/tree/body_loops.py): each calls
-NAME_dyn_inputs and NAME_rd_place (the kernels' inputs and placement, already in the file) and loops
-over per-body tables, instead of placing every body again in straight-line code (issue 30's build
-bar).  Checked against the straight-line functions of the same model (``BODY_LOOPS`` off: the C
+NAME_dyn_inputs (the kernels' inputs an[], already in the file) and loops over the bodies and per-body
+tables, instead of placing every body again in straight-line code (issue 30's build bar).  Checked against the straight-line functions of the same model (``BODY_LOOPS`` off: the C
 before session 26, bit for bit the generator's old output) at random states: the energy within
 1e-13 of its size (measured against main's libraries: <= 2.4 ulp on G1, Talos, Panda), every pose
 entry within 1e-13 of max(|value|, 1) (<= 2.6 ulp).  A body whose term the loop dropped (its share
@@ -65,8 +64,8 @@ def _both(model_in, name, tmp_path, monkeypatch):
 def _agree(looped, straight, energy=True, states=12, seed=26):
     """Energy and every pose entry of the two models at random states, within the module doc's bounds."""
     text, name = looped.source_path.read_text(), looped.name
-    place = f"{name}_rd_place(an, R, P, Sw, Y);"
-    assert place in _body(text, name, "poses")                      # the loop's placement
+    place = f"{name}_dyn_inputs(t, x, p, r, an);"
+    assert place in _body(text, name, "poses")                      # the loop's inputs
     assert place not in _body(straight.source_path.read_text(), name, "poses")
     if energy:
         assert place in _body(text, name, "energy")
