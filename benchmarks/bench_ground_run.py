@@ -8,6 +8,9 @@ this script's lines).
     python benchmarks/bench_ground_run.py run ROBOT [CLI FLAGS ...]
     # MuJoCo on the same URDF: its <collision> meshes (convex hulls) on a floor plane, free root
     python benchmarks/bench_ground_run.py mujoco ROBOT ...
+    # rhs and jac_x per call: the default build (with NAME_implicit) in cache A against the build
+    # eomc simulate makes for the default method (without it, session 26) in cache B
+    python benchmarks/bench_ground_run.py calls ROBOT CACHE_A CACHE_B
 
 ROBOT: solo12, go2 or g1 (example-robot-data).  CLI FLAGS default to ``--floating-base
 --ground``.  MuJoCo: the URDF's visuals dropped, a free joint on the root, a floor plane,
@@ -53,10 +56,14 @@ def build(robot, flags):
         a, b = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
         return a.ru_utime + a.ru_stime, b.ru_utime + b.ru_stime
     s0, c0 = cpu()
+    load0 = os.getloadavg()[0]
     line = _main(_cli(robot, flags))
     s1, c1 = cpu()
+    peak = [resource.getrusage(who).ru_maxrss / 1024 for who in (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN)]
+    import eomc
     print(f"{robot} {' '.join(flags)}: cold command CPU {s1 - s0 + c1 - c0:.1f} s (python {s1 - s0:.1f}, "
-          f"children/gcc {c1 - c0:.1f}) | {line} | load {os.getloadavg()[0]:.1f}", flush=True)
+          f"children/gcc {c1 - c0:.1f}) | peak MB python {peak[0]:.0f}, largest child {peak[1]:.0f} | {line} | "
+          f"load {load0:.1f} -> {os.getloadavg()[0]:.1f} | eomc {Path(eomc.__file__).parent}", flush=True)
 
 
 def run(robot, flags):
@@ -124,10 +131,108 @@ def mujoco(robot):
               f"load {os.getloadavg()[0]:.1f}", flush=True)
 
 
+def _states(model, n, rng, lift):
+    """n random states near the zero pose (joints and tilt N(0, 0.2), speeds N(0, 0.5)), the
+    base at a height uniform in [lift, lift + 0.4] m: lift 0 puts most bodies within reach of
+    the ground (touching or near it), lift 3 every body far above it."""
+    import numpy as np
+    X = np.zeros((n, model.nx))
+    z = model.state_names.index(next(s for s in model.state_names if s.endswith("_floating_z")))
+    X[:, :model.nq] = rng.normal(scale=0.2, size=(n, model.nq))
+    X[:, z] = lift + rng.uniform(0.0, 0.4, size=n)
+    X[:, model.nq:] = rng.normal(scale=0.5, size=(n, model.nu))
+    return X
+
+
+def _loaded(robot, flags, cache, methods):
+    """The model the CLI's load_model serves from ``cache`` (built there by `build`)."""
+    from eomc.cli import common
+    os.environ["EOMC_CACHE_DIR"] = str(cache)
+    options = {"floating_base": True, "contacts": ["@ground"]} if not flags else None
+    assert options is not None, "calls: the default flags only"
+    with contextlib.redirect_stderr(io.StringIO()):
+        return common.load_model(ROBOTS / FILES[robot], quiet=True, methods=methods, **options)
+
+
+def calls(robot, caches, copies=3, repeat=5, n=300):
+    """rhs and jac_x per call of the default build (NAME_implicit in it: main's, from caches[0])
+    against the build without NAME_implicit (caches[1]) at the same states: each library loaded
+    from ``copies`` copies of its build directory (one copy's pages can run slow: session 24),
+    thread CPU of a loop of cffi calls (the same loop for every copy), copies interleaved,
+    ``repeat`` rounds; a contestant's time is the median over its copies of each copy's median.
+    Also the largest relative difference of their results (|a - b| / max(|a|, |b|)) and how many
+    entries are bit-equal."""
+    import shutil
+    import tempfile
+    import numpy as np
+    from eomc.runtime.loader import load
+    full = _loaded(robot, [], caches[0], None)
+    lean = _loaded(robot, [], caches[1], ("auto",))
+    assert "implicit" in full.functions and "implicit" not in lean.functions, (full.functions, lean.functions)
+    tmp = Path(tempfile.mkdtemp(prefix="ground_calls_"))
+    models = {}
+    for key, cache in (("full", caches[0]), ("lean", caches[1])):
+        found = [j.parent for j in Path(cache).glob("v1/models/*/*/*.json") if j.stem == full.name]
+        assert len(found) == 1, found
+        for k in range(copies):
+            shutil.copytree(found[0], tmp / f"{key}{k}")
+            with contextlib.redirect_stderr(io.StringIO()):
+                models[(key, k)] = load(tmp / f"{key}{k}")
+    rng = np.random.default_rng(26)
+    x0 = _start_state(full)
+    with contextlib.redirect_stderr(io.StringIO()):
+        import warnings
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            res = full.simulate(x0, (0.0, 2.0))
+    rows = np.asarray(res.x)
+    sets = {"no-flag run 2 s": rows[np.linspace(0, len(rows) - 1, n).round().astype(int)],
+            "random, near the ground": _states(full, n, rng, 0.0),
+            "random, 3 m above": _states(full, n, rng, 3.0)}
+    for label, X in sets.items():
+        X = np.ascontiguousarray(X)
+        line = [f"{robot} {label}:"]
+        for fn, size in (("rhs", full.nx), ("jac_x", full.nx * full.nx)):
+            outs = {mk: np.zeros((n, size)) for mk in models}
+            times = {mk: [] for mk in models}
+            for r in range(repeat):
+                for mk in (sorted(models) if r % 2 == 0 else sorted(models, reverse=True)):
+                    m = models[mk]
+                    ffi, f = m.ffi, getattr(m.c_model, fn)
+                    work = ffi.from_buffer("double[]", m._work()[0])
+                    xs = [ffi.from_buffer("double[]", X[i]) for i in range(n)]
+                    os_ = [ffi.from_buffer("double[]", outs[mk][i]) for i in range(n)]
+                    p, rr = m._default_p, (m._default_r if m.ninput else ffi.NULL)
+                    t0 = time.thread_time()
+                    for i in range(n):
+                        f(0.0, xs[i], p, rr, os_[i], work)
+                    times[mk].append((time.thread_time() - t0) / n)
+            a, b = outs[("full", 0)], outs[("lean", 0)]
+            rel = np.max(np.abs(a - b) / np.maximum(np.maximum(np.abs(a), np.abs(b)), 1e-300))
+            same = int(np.sum(a.view(np.int64) == b.view(np.int64)))
+            per = {key: sorted(float(np.median(times[(key, k)])) for k in range(copies)) for key in ("full", "lean")}
+            tf, tl = (float(np.median(per[key])) for key in ("full", "lean"))
+            line.append(f"{fn} {tf * 1e6:.2f} -> {tl * 1e6:.2f} us ({tl / tf:.3f}x; copies "
+                        f"{'/'.join(f'{t * 1e6:.2f}' for t in per['full'])} | "
+                        f"{'/'.join(f'{t * 1e6:.2f}' for t in per['lean'])}), max rel diff {rel:.1e}, "
+                        f"{same}/{a.size} bit-equal;")
+        print(" ".join(line) + f" load {os.getloadavg()[0]:.1f}", flush=True)
+    shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _start_state(model):
+    from eomc.cli.common import initial_state
+    with contextlib.redirect_stdout(io.StringIO()):
+        x0 = initial_state(model, {})
+    return [x0[s] for s in model.state_names]
+
+
 if __name__ == "__main__":
     what, robots = sys.argv[1], sys.argv[2:]
     if what == "mujoco":
         for r in robots:
             mujoco(r)
+    elif what == "calls":
+        calls(robots[0], robots[1:3])
     else:
         {"build": build, "run": run}[what](robots[0], robots[1:])

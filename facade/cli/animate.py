@@ -134,7 +134,7 @@ def run(args):
         # build (a robot's full build took 42 s); the CSV's other columns are plotted as saved
         options.pop("frames", None)
         options["functions"] = ["rhs", "poses"]
-    model = cli_common.load_model(args.model, args.quiet, **options)
+    model = cli_common.load_model(args.model, args.quiet, **options, methods=(args.method,))
     if "poses" not in model.functions:
         raise ValueError(f"{model.name} was built without poses (its bodies' positions); rebuild it "
                          f"with the default functions or --outputs ...,poses")

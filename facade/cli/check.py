@@ -34,7 +34,8 @@ def run(args):
     from eomc.runtime.progress import ticker
     from eomc.runtime.stability import EXIT_INCONCLUSIVE, check_model, format_checks, outcome
     model = cli_common.load_model(args.model, args.quiet, **cli_common.model_options(args),
-                                  **cli_common.read_checks(args))   # --param, from the one reading
+                                  **cli_common.read_checks(args),   # --param, from the one reading
+                                  methods=_methods(args.methods))
     x0 = cli_common.initial_state(model, cli_common.parse_assignments(args.x0, "x0"))
     p = cli_common.parameter_values(model, cli_common.parse_assignments(args.param, "param"))
     import warnings
@@ -75,6 +76,12 @@ def run(args):
         print(f"eomc check: inconclusive (exit status {EXIT_INCONCLUSIVE}): no method failed, but a "
               f"check could not be made; the lines marked INCONCLUSIVE say why and what to change")
     return {"passed": 0, "failed": 1, "inconclusive": EXIT_INCONCLUSIVE}[verdict]
+
+
+def _methods(given):
+    """The methods this check runs, as load_model takes them: the default ones (auto, the
+    explicit ones, bdf, radau: stability.default_methods) read no NAME_implicit."""
+    return ("auto",) if given is None else tuple(m for m in given.split(",") if m)
 
 
 def _at_rest(model, x0, p, t_final):

@@ -179,11 +179,45 @@ def add_frame_argument(parser):
     parser.add_argument("--frame", action="append", metavar="NAME", help=FRAME_HELP)
 
 
+# The methods that read NAME_implicit (the fixed step's contact and damping terms,
+# runtime/simulate.implicit_terms); every other method runs the same without it.
+IMPLICIT_READERS = ("implicitfast",)
+
+
+def without_implicit():
+    """What a command that runs none of IMPLICIT_READERS builds when no function list is given:
+    the driver's default set (functions=None) without NAME_implicit.  Why: on a robot with
+    ground contacts NAME_implicit is a quarter of the build (Solo12 --ground: 59 -> 44 s CPU,
+    benchmarks/results/ground_run.md) and the default method (auto: BDF or Radau on contacts)
+    never reads it."""
+    from eomc.compiler.emit.generate import ALL_FUNCTIONS
+    from eomc.compiler.emit.signatures import ON_REQUEST
+    return [f for f in ALL_FUNCTIONS if f not in ON_REQUEST and f != "implicit"]
+
+
+def reads_implicit(methods):
+    """Whether any of ``methods`` (names or aliases as the commands take them) reads NAME_implicit;
+    a name that is no method counts as one (the run refuses it later, after a full build's lookup)."""
+    from eomc.runtime.simulate import resolve_method
+    for method in methods:
+        try:
+            if resolve_method(method) in IMPLICIT_READERS:
+                return True
+        except ValueError:
+            return True
+    return False
+
+
 def load_model(path, quiet=False, floating_base=False, formulation="auto", frames=None, ignore=(),
                contacts=None, allow_nonphysical_inertia=False, limits=True, functions=None, check=None,
-               orientation=None, pairs=None):
+               orientation=None, pairs=None, methods=None):
     """A runtime Model from a model file (.py, .urdf, MuJoCo's .xml; compiled) or a built
     directory / json (loaded).  ``ignore``: an MJCF model's ignorable elements (--ignore).
+
+    ``methods``: the integration methods the command will run (None: not known).  When none of
+    them reads NAME_implicit and no ``functions`` are given, a build of the default functions
+    found in the cache is taken, else one without NAME_implicit (:func:`without_implicit`) is
+    taken or built; a command that runs implicitfast is only ever served a model with it.
 
     Compiling shows its stages on stderr when that is a terminal, unless ``quiet``.
     ``frames``: frame outputs to compile in; a built model must already have them.
@@ -214,9 +248,16 @@ def load_model(path, quiet=False, floating_base=False, formulation="auto", frame
             options["orientation"] = orientation
         if pairs:              # likewise
             options["pairs"] = pairs
-        model, key = _reused(path, options, check)
+        model, key = _reused(path, options, check)      # the default set serves every method
         if model is not None:
             return model
+        if functions is None and methods is not None and not reads_implicit(methods):
+            full_key = key
+            options = {**options, "functions": without_implicit()}
+            model, key = _reused(path, options, check)
+            if model is not None:
+                return model
+            return _compiled(path, options, key, quiet, check, also=full_key)
         return _compiled(path, options, key, quiet, check)
     if contacts:
         raise ValueError(f"{path}: --contact applies to a robot (.urdf, .xml) being compiled, not to a built model")
@@ -257,9 +298,13 @@ def _reused(path, options, check):
     return model, key
 
 
-def _compiled(path, options, key, quiet, check):
+def _compiled(path, options, key, quiet, check, also=None):
     """Derive, generate, compile and load the model file (eomc.compiler.driver.compile),
-    recording what the reuse shortcut needs (the files read, the warnings given)."""
+    recording what the reuse shortcut needs (the files read, the warnings given).
+
+    ``also``: the default build's key, under which a build without NAME_implicit is recorded
+    too when the default build would not have had one either (a model that touches nothing:
+    NAME_implicit is built for contacts only), so a later implicitfast run does not build it again."""
     import warnings
 
     from eomc.compiler.build import reuse
@@ -285,7 +330,20 @@ def _compiled(path, options, key, quiet, check):
             reuse.warn_again(w.message, w.filename, w.lineno, w.source)
     if key is not None:
         reuse.remember(cache_root(None), key, path, model, reads, recorded)
+    if also is not None and not _touches(model):
+        reuse.remember(cache_root(None), also, path, model, reads, recorded)
     return model
+
+
+def _touches(model):
+    """Whether the model has contacts (ground or body-body: the gaps NAME_implicit's build keys
+    on, compiler/formulations/recursive.builds_implicit); True when that cannot be told."""
+    try:
+        from eomc.runtime.switching import find_switches
+        found = find_switches(model)
+        return bool(found.contacts or found.unchecked)
+    except Exception:       # noqa: BLE001 -- unknown: not recorded as the default build
+        return True
 
 
 def parse_assignments(items, what):

@@ -37,7 +37,8 @@ def _matrix(label, M, rows, cols):
 
 def run(args):
     model = cli_common.load_model(args.model, **cli_common.model_options(args),
-                                  **cli_common.read_checks(args))   # --param, from the one reading
+                                  **cli_common.read_checks(args),   # --param, from the one reading
+                                  methods=())                       # no run: no NAME_implicit
     x0 = cli_common.initial_state(model, cli_common.parse_assignments(args.x0, "x0"))
     p = cli_common.parameter_values(model, cli_common.parse_assignments(args.param, "param"))
     inputs = cli_common.parse_assignments(args.input, "input")

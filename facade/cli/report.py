@@ -71,7 +71,10 @@ def run(args):
     if args.output and Path(args.output).exists() and not Path(args.output).is_dir():
         raise ValueError(f"-o {args.output} is a file; give a directory for report.csv/.png/.md")
     model = cli_common.load_model(args.model, args.quiet, **cli_common.model_options(args),
-                                  **cli_common.read_checks(args))   # --param, from the one reading
+                                  **cli_common.read_checks(args),   # --param, from the one reading
+                                  # the default methods (DEFAULT_METHODS, CONTACT_METHODS) read no NAME_implicit
+                                  methods=("auto",) if args.methods is None else
+                                  tuple(m for text in args.methods for m in text.split(",") if m))
     if args.methods is None:
         from eomc.runtime.report import DEFAULT_METHODS
         from eomc.runtime.switching import find_switches

@@ -181,7 +181,8 @@ def run(args):
             from eomc.runtime.errors import MissingExtraError
             raise MissingExtraError("--plot", "plot", ["matplotlib"])
     model = cli_common.load_model(args.model, args.quiet, **cli_common.model_options(args),
-                                  **cli_common.read_checks(args))   # --param, from the one reading
+                                  **cli_common.read_checks(args),   # --param, from the one reading
+                                  methods=(args.method,))
     given = cli_common.parse_assignments(args.x0, "x0")
     x0 = cli_common.initial_state(model, given)
     params = cli_common.parameter_values(model, cli_common.parse_assignments(args.param, "param"))

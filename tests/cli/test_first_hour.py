@@ -21,7 +21,7 @@ from eomc.cli import main
 def pendulum(monkeypatch):
     model = get_model("pendulum")
     model.initial_state = np.array([0.5, 0.0])
-    monkeypatch.setattr(cli_common, "load_model", lambda spec, quiet=True: model)
+    monkeypatch.setattr(cli_common, "load_model", lambda spec, quiet=True, **_: model)
     return model
 
 

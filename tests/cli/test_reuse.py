@@ -160,3 +160,55 @@ def test_a_model_files_param_is_checked_once_it_has_run(monkeypatch, tmp_path, c
         assert main([command[0], str(path), *command[1:], "-q", "--param", "ln=2"]) == 2
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and "unknown parameter ln in --param (did you mean l?)" in err, err
+
+
+def _arm(tmp_path):
+    from helpers.urdf_arm import ARM
+    path = tmp_path / "arm.urdf"
+    path.write_text(ARM)
+    return path
+
+
+def _built(counted, tmp_path, argv, out):
+    """Run ``eomc simulate`` on the arm and return (the model the command ran, what it did)."""
+    import eomc.runtime.simulate as simulate_module
+    seen = []
+    real = simulate_module.simulate
+
+    def spy(model, *args, **kwargs):
+        seen.append(model)
+        return real(model, *args, **kwargs)
+    counted.update({k: 0 for k in counted})
+    import unittest.mock
+    with unittest.mock.patch.object(simulate_module, "simulate", spy):
+        assert main(["simulate", str(argv[0]), "--t-final", "0.2", "-q", "-o", str(out), *argv[1:]]) == 0
+    return seen[0], dict(counted)
+
+
+def test_a_run_that_reads_no_implicit_terms_builds_none_and_implicitfast_gets_them(counted, tmp_path):
+    """NAME_implicit (a quarter of a ground robot's build) is built only for a command that runs
+    implicitfast; a build with it serves every later command, one without it never serves
+    implicitfast (cli.common.load_model's methods)."""
+    arm = _arm(tmp_path)
+    contact = ["--contact", "lower:0,0,0.3:0.05"]
+    model, did = _built(counted, tmp_path, [arm, *contact], tmp_path / "1.csv")
+    assert "implicit" not in model.functions and did["compile C"] == 1, (model.functions, did)
+    model, did = _built(counted, tmp_path, [arm, *contact, "--method", "bdf"], tmp_path / "2.csv")
+    assert did == {"read": 0, "derive": 0, "compile C": 0}, did
+    model, did = _built(counted, tmp_path, [arm, *contact, "--method", "implicitfast", "--dt", "0.002"],
+                        tmp_path / "3.csv")
+    assert "implicit" in model.functions and did["compile C"] == 1, (model.functions, did)
+    model, did = _built(counted, tmp_path, [arm, *contact], tmp_path / "4.csv")     # the full build serves
+    assert "implicit" in model.functions and did == {"read": 0, "derive": 0, "compile C": 0}, did
+    first, last = (np.genfromtxt(tmp_path / f"{i}.csv", delimiter=",", names=True) for i in (1, 4))
+    assert np.array_equal(first["q_shoulder"], last["q_shoulder"])
+
+
+def test_a_model_without_contacts_built_for_auto_serves_implicitfast(counted, tmp_path):
+    """Without contacts the default build has no NAME_implicit either: the build for auto is
+    recorded as the default build too, so implicitfast does not build the model again."""
+    arm = _arm(tmp_path)
+    model, did = _built(counted, tmp_path, [arm], tmp_path / "1.csv")
+    assert did["compile C"] == 1, did
+    model, did = _built(counted, tmp_path, [arm, "--method", "implicitfast", "--dt", "0.002"], tmp_path / "2.csv")
+    assert did == {"read": 0, "derive": 0, "compile C": 0}, did

@@ -13,7 +13,7 @@ from eomc.cli import main
 def pendulum(monkeypatch):
     model = get_model("pendulum")
     model.initial_state = np.array([0.5, 0.0])
-    monkeypatch.setattr(cli_common, "load_model", lambda spec, quiet=True: model)
+    monkeypatch.setattr(cli_common, "load_model", lambda spec, quiet=True, **_: model)
     return model
 
 
@@ -62,7 +62,7 @@ def test_a_built_models_unknown_names_get_the_nearest_ones(pendulum, capsys, arg
 
 
 def test_simulate_failure_is_one_line(monkeypatch, capsys):
-    monkeypatch.setattr(cli_common, "load_model", lambda spec, quiet=True: get_model("singular"))
+    monkeypatch.setattr(cli_common, "load_model", lambda spec, quiet=True, **_: get_model("singular"))
     assert main(["simulate", "s", "--t-final", "1"]) == 1
     err = capsys.readouterr().err
     assert "the mass matrix is singular" in err and "stopped at t=0.5:" in err

@@ -21,7 +21,7 @@ def cart(tmp_path_factory):
 @pytest.fixture
 def use(monkeypatch):
     def install(model):
-        monkeypatch.setattr(cli_common, "load_model", lambda spec, quiet=False: model)
+        monkeypatch.setattr(cli_common, "load_model", lambda spec, quiet=False, **_: model)
     return install
 
 

@@ -162,16 +162,16 @@ def test_e_fast_spin_conserves_energy_and_momentum(spin):
 
 
 def test_eomc_check_cli(monkeypatch, capsys):
-    monkeypatch.setattr(cli_common, "load_model", lambda spec, quiet=True: get_model("pendulum"))
+    monkeypatch.setattr(cli_common, "load_model", lambda spec, quiet=True, **_: get_model("pendulum"))
     assert main(["check", "pend", "--x0", "q1=1.0", "--t-final", "5"]) == 0
     out = capsys.readouterr().out
     assert "dop853 accuracy" in out and "checks passed" in out and "FAIL" not in out
-    monkeypatch.setattr(cli_common, "load_model", lambda spec, quiet=True: get_model("sphere"))
+    monkeypatch.setattr(cli_common, "load_model", lambda spec, quiet=True, **_: get_model("sphere"))
     assert main(["check", "s", "--x0", "theta=0.0,theta_dot=1.0"]) == 1   # singular at x0
     assert "FAIL" in capsys.readouterr().out
     # explicit methods stopping on a model the stiffness check calls stiff: "[stiff]", exit 0
     # (first hour s21: `eomc check talos_reduced.urdf` exited 1, "11 of 13 checks passed")
-    monkeypatch.setattr(cli_common, "load_model", lambda spec, quiet=True: get_model("chain"))
+    monkeypatch.setattr(cli_common, "load_model", lambda spec, quiet=True, **_: get_model("chain"))
     assert main(["check", "c", "--x0", "q1=1,q2=1", "--param", "k2=1e8,c2=2e4", "--rtol", "1e-6",
                  "--atol", "1e-8"]) == 0
     out = capsys.readouterr().out
@@ -228,7 +228,7 @@ def test_a_reference_that_cannot_be_computed_makes_the_check_inconclusive(monkey
     assert "--t-final" in ref.measured and "--rtol" in ref.measured and "--max-steps" in ref.measured
     assert "dopri5 accuracy" not in checks          # nothing is judged against no reference
     assert outcome(list(checks.values())) == "inconclusive"
-    monkeypatch.setattr(cli_common, "load_model", lambda spec, quiet=True: m)
+    monkeypatch.setattr(cli_common, "load_model", lambda spec, quiet=True, **_: m)
     assert main(["check", "pend", "--x0", "q1=1.0", "--t-final", "5", "--max-steps", "2"]) == EXIT_INCONCLUSIVE == 3
     out = capsys.readouterr().out
     assert "[INCONCLUSIVE] reference" in out and "exit status 3" in out and "FAIL" not in out
