@@ -187,7 +187,7 @@ IMPLICIT_READERS = ("implicitfast",)
 def without_implicit():
     """What a command that runs none of IMPLICIT_READERS builds when no function list is given:
     the driver's default set (functions=None) without NAME_implicit.  Why: on a robot with
-    ground contacts NAME_implicit is a quarter of the build (Solo12 --ground: 59 -> 44 s CPU,
+    ground contacts NAME_implicit is a fifth to a quarter of the build (Solo12 --ground: 59 -> 43 s CPU,
     benchmarks/results/ground_run.md) and the default method (auto: BDF or Radau on contacts)
     never reads it."""
     from eomc.compiler.emit.generate import ALL_FUNCTIONS
