@@ -28,7 +28,9 @@ _CONTACT = {"k": ("contact stiffness", False), "c": ("contact damping", False),
             "r": ("contact radius", False), "mut": ("torsional friction", False),
             "mur": ("rolling friction", False)}
 _JOINT = {"limit_k": ("limit stiffness", False), "limit_c": ("limit damping", False),
-          "limit_e": ("limit width", True), "damping": ("damping", False),
+          "limit_e": ("limit width", True), "limit_kd": ("limit entry stiffness", False),
+          "limit_cd": ("limit entry damping", False), "limit_d": ("limit entry depth", False),
+          "damping": ("damping", False),
           "friction": ("friction", False), "friction_v": ("friction speed", True)}
 
 # the fluid forces' parameters (compiler/mjcf/fluid.py): negative, the drag would push energy in

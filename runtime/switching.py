@@ -617,6 +617,9 @@ def _released(model, p, sw, start, e, outputs):
         lim = sw.limits[j]
         key = f"limit_k_{lim.joint}"
         energy = 0.5 * float(p[names.index(key)]) * float(start[j]) ** 2 if key in names else float("nan")
+        deep, depth = f"limit_kd_{lim.joint}", f"limit_d_{lim.joint}"
+        if deep in names and depth in names:      # the entry spring's, limit_d deeper (joint_laws.entry_gains)
+            energy += 0.5 * float(p[names.index(deep)]) * max(float(start[j]) - float(p[names.index(depth)]), 0.0) ** 2
         total += energy
         parts.append(f"joint {lim.joint} ({float(start[j]):.3g} past its {lim.side} limit)")
     if parts:
@@ -691,16 +694,33 @@ def _overshoot_notes(model, p, sw, past, over, e):
 
 
 def _default_stiffness(model, p, joint):
-    """(the default's rule, k) when joint's limit stiffness is eomc's default, else (None, None)."""
+    """(the default's rule, k) when joint's limit stiffness (and its entry spring's, where it has
+    one: compiler/tree/joint_laws.entry_gains) is eomc's default, else (None, None)."""
     name = f"limit_k_{joint}"
     names = list(getattr(model, "param_names", ()))
     if name not in names:
         return None, None
     i = names.index(name)
     k = float(p[i])
-    if k != float(np.asarray(model.param_defaults, dtype=float)[i]):
+    if _changed(model, p, joint):
         return None, None
     return _stiffness_rule(model, joint), k
+
+
+# a URDF limit's parameters that make its stiffness: its own spring's and its entry spring's
+_STIFFNESS = ("limit_k", "limit_kd", "limit_cd", "limit_d")
+
+
+def _changed(model, p, joint):
+    """[(name, value, default)] of joint's stiffness parameters (_STIFFNESS) that p changes."""
+    names = list(getattr(model, "param_names", ()))
+    defaults = np.asarray(model.param_defaults, dtype=float)
+    out = []
+    for key in _STIFFNESS:
+        name = f"{key}_{joint}"
+        if name in names and float(p[names.index(name)]) != float(defaults[names.index(name)]):
+            out.append((name, float(p[names.index(name)]), float(defaults[names.index(name)])))
+    return out
 
 
 # An MJCF joint's default limit stiffness is its file's solref (MuJoCo's soft limit) on the inertia it
@@ -726,10 +746,16 @@ def _stiffness_text(model, p, joint):
         return f"its limit stiffness {name}"
     i = names.index(name)
     k = float(p[i])
-    default = float(np.asarray(model.param_defaults, dtype=float)[i])
-    if k != default:
-        return f"your limit stiffness {name} = {k:.4g} (the default is {default:.4g})"
+    changed = _changed(model, p, joint)
+    if changed:
+        return "your " + " and ".join(f"limit {'stiffness' if n == name else 'parameter'} {n} = {v:.4g} (the "
+                                      f"default is {d:.4g})" for n, v, d in changed)
     rule = _stiffness_rule(model, joint)
+    entry = f"limit_kd_{joint}"
+    if entry in names:      # the entry spring (compiler/tree/joint_laws.entry_gains) stops a fast entry
+        return (f"its limit stiffness {name} = {k:.4g} with {entry} = {float(p[names.index(entry)]):.4g} from "
+                f"limit_d_{joint} = {float(p[names.index(f'limit_d_{joint}')]):.3g} past the limit (the default: "
+                f"{rule}, docs/joint-laws.md; raise them with --param {name}=... {entry}=...)")
     return (f"its limit stiffness {name} = {k:.4g} (the default: {rule}, docs/joint-laws.md; raise it with "
             f"--param {name}=...)")
 

@@ -21,6 +21,7 @@ For coordinate q, speed u (s = the joint's C name):
 
       tau = -k (s(d_hi) - s(d_lo)) - c u (w(d_hi) + w(d_lo))
       s(d) = d³ / (d + e)²,  w(d) = d³ / (d + e)³  for d > 0, both 0 for d <= 0
+      (plus, where a URDF joint has one, the entry spring: kd, cd at d - D in place of k, c at d)
 
   (``limit_k_s``, ``limit_c_s``, ``limit_e_s``).  s and w are C² at the
   boundary (value, slope and curvature 0 from both sides), so the right-hand
@@ -44,10 +45,12 @@ For coordinate q, speed u (s = the joint's C name):
   0.46 rad past (issue 29).  On a floating-base robot m is at least the inertia the joint
   carries when its subtree stands on the ground (the rest of the robot's about the joint's
   axis), and c = 2 sqrt(k m) is critically damped about it: a spring stiff enough for the
-  load but damped for the shin alone rings with the body on it.  A URDF joint also gets at least
-  the stiffness that stops it within :data:`ENTRY_GIVE` when it enters a limit at the speed its
-  subtree can reach (:class:`JointScale`'s ``speed``: a fall through the subtree's reach from the
-  root, at its radius of gyration about the axis; k >= m min(speed / (e ENTRY_GIVE), ENTRY_RATE)²): a fixed arm's
+  load but damped for the shin alone rings with the body on it.  A URDF joint whose subtree may
+  enter a limit faster than that spring stops also gets an entry spring-damper: the same law
+  :data:`ENTRY_DEPTH` deeper (``limit_kd_s``, ``limit_cd_s``, ``limit_d_s``; :func:`entry_gains`),
+  with k + kd stopping the speed its subtree can reach (:class:`JointScale`'s ``speed``: a fall
+  through the subtree's reach from the root, at its radius of gyration about the axis) within
+  :data:`ENTRY_GIVE` past that depth (natural frequency at most :data:`ENTRY_RATE`): a fixed arm's
   collapse whips its light wrists into their limits at 20-40 rad/s, and the inertia rule's 10 ms
   let them go 0.04-0.06 rad past (first hour s25).  The damping may pull a joint
   that leaves its limit fast back towards it (as in Drake's penalty law; MuJoCo's
@@ -62,27 +65,34 @@ from ..contact.law import step  # noqa: F401 -- ramp's derivative; defined there
 
 __all__ = ["ramp", "step", "JointLaw", "joint_torque", "check_law", "TIME_CONSTANT", "WIDTH", "FRICTION_SPEED", "NAMES",
            "limit_gains", "scale_gains", "limit_spring", "limit_energy", "law_shape", "PUSH_DIVISOR", "JointLawError", "JointScale", "LOAD_GIVE",
-           "ENTRY_GIVE", "ENTRY_RATE"]
+           "ENTRY_GIVE", "ENTRY_RATE", "ENTRY_DEPTH", "entry_gains", "scale_entry_gains"]
 
 TIME_CONSTANT = 0.01
 WIDTH = 3e-4
 LOAD_GIVE = 0.002     # rad (m for a slide): the static give past a limit under the joint's load
-# rad (m): the overshoot of a critically damped linear spring stopping a joint that enters its limit
-# at its entry speed; the law's smooth onset (s(d) -> d - 2e, the damping's weight w < 1 near the
-# limit) adds about 9 widths to it (a hinge entering at that speed: 0.0326 rad at 100 widths), so
-# the stated 100 widths (runtime/switching.LIMIT_OVERSHOOT_WIDTHS) hold at 90
-ENTRY_GIVE = 90 * WIDTH
-# 1/s: the highest natural frequency sqrt(k / inertia) the entry-speed rule sets (a time constant of
-# 1 ms): the rule's speed bound is far above what a roll joint along a limb meets (Panda's hand roll:
-# 64 rad/s bound, 18.7 met; alex's shoulder yaws, the whole arm about its own axis: 109 bound, ~9 met,
-# 1487/s uncapped, which made its 10 s run 40 -> 92 ms CPU as they rest on their limits, the psyonic
-# hands' 1.8 -> 4.0 s); the whips measured need up to ~700/s (so101's gripper and romeo's wrist roll
-# enter at ~50 rad/s): at 1000/s none of the 19 no-flag URDF runs that warned goes past 100 widths
-ENTRY_RATE = 1000.0
+# rad (m): where the entry spring starts past the limit (limit_d_s): deeper than a joint resting on
+# its limit goes under the load rule (LOAD_GIVE + the onset's 2 widths = 8.7 widths), so a resting
+# joint sits on the bound's soft spring and only an entry meets the stiff one
+ENTRY_DEPTH = 15 * WIDTH
+# rad (m): the overshoot past ENTRY_DEPTH of a critically damped linear spring stopping a joint that
+# enters its limit at its entry speed; the entry spring's smooth onset adds about 9 widths to it (a
+# hinge entering at that speed: 0.0326 rad at 100 widths with the onset at the bound), so the
+# stated 100 widths (runtime/switching.LIMIT_OVERSHOOT_WIDTHS) hold at 15 + 9 + 75
+ENTRY_GIVE = 75 * WIDTH
+# 1/s: the highest natural frequency sqrt(k / inertia) the entry spring reaches (a time constant of
+# 0.67 ms): the rule's speed bound is far above what a roll joint along a limb meets (Panda's hand
+# roll: 64 rad/s bound, 18.7 met; alex's shoulder yaws, the whole arm about its own axis: 109
+# bound, ~9 met, 1487/s uncapped); the whips measured need up to ~700/s at 90 widths (so101's
+# gripper and romeo's wrist roll enter at ~50 rad/s), and so101's gripper went 0.0305 past at
+# 1000/s with 75 widths past ENTRY_DEPTH.  A resting joint sits on the limit's own spring, so the
+# cap costs only while a joint is stopped (session 25's 1000/s, with the stiffness at the bound,
+# made alex's 10 s run 40 -> 92 ms CPU uncapped)
+ENTRY_RATE = 1500.0
 FRICTION_SPEED = 0.01
 
 NAMES = {"lower": "limit_lo", "upper": "limit_hi", "stiffness": "limit_k", "limit_damping": "limit_c",
-         "width": "limit_e", "damping": "damping", "friction": "friction", "friction_speed": "friction_v"}
+         "width": "limit_e", "damping": "damping", "friction": "friction", "friction_speed": "friction_v",
+         "entry_stiffness": "limit_kd", "entry_damping": "limit_cd", "entry_depth": "limit_d"}
 
 
 class JointLawError(ValueError):
@@ -98,8 +108,11 @@ class JointLaw:
     """The declared numbers of one joint (``None``: not declared / no limit on that side)."""
 
     def __init__(self, joint, *, lower=None, upper=None, damping=0.0, friction=0.0, stiffness=None,
-                 limit_damping=None, width=WIDTH, friction_speed=FRICTION_SPEED, unilateral=False, hold=None):
+                 limit_damping=None, width=WIDTH, friction_speed=FRICTION_SPEED, unilateral=False, hold=None,
+                 entry_depth=ENTRY_DEPTH):
         self.joint = joint
+        # where the entry spring (entry_gains; a default stiffness's only) starts past the limit
+        self.entry_depth = entry_depth
         # hold: (G, w) or None -- the limit's spring is G times stiffer within about w of the limit:
         # k·(r + (G - 1)·w·tanh(r/w)) instead of k·r (MuJoCo's soft limit holds a steady load with
         # the give of G·k, and meets an impact with k: mujoco_law.limit_spring)
@@ -132,7 +145,7 @@ def check_law(law):
             raise JointLawError(j, f"joint '{j}': limit {what} is NaN")
     if law.lower is not None and law.upper is not None and law.lower > law.upper:
         raise JointLawError(j, f"joint '{j}': limit lower {law.lower:g} > upper {law.upper:g}")
-    for what in ("damping", "friction", "stiffness", "limit_damping", "width", "friction_speed"):
+    for what in ("damping", "friction", "stiffness", "limit_damping", "width", "friction_speed", "entry_depth"):
         v = getattr(law, what)
         if v is None:
             continue
@@ -158,27 +171,51 @@ class JointScale(tuple):
         return super().__new__(cls, (inertia, float(load), max(inertia, float(carried or 0.0)), float(speed)))
 
 
-def limit_gains(inertia, time_constant=TIME_CONSTANT, load=0.0, carried=None, speed=0.0):
-    """(k, c) of a critically damped spring-damper of time constant ``time_constant`` on the
-    inertia the joint carries (``carried``, at least ``inertia``), stiffened where needed so that
-    a static ``load`` gives at most :data:`LOAD_GIVE` and that the joint's own ``inertia``
-    entering at ``speed`` goes at most :data:`ENTRY_GIVE` past (a critically damped spring of
-    natural frequency w stops a speed v within v / (e w)) -- w at most :data:`ENTRY_RATE` --, and
+def limit_gains(inertia, time_constant=TIME_CONSTANT, load=0.0, carried=None):
+    """(k, c) of the spring-damper at the limit: critically damped, of time constant
+    ``time_constant`` on the inertia the joint carries (``carried``, at least ``inertia``),
+    stiffened where needed so that a static ``load`` gives at most :data:`LOAD_GIVE`, and
     critically damped about the carried inertia."""
     m = max(inertia, carried or 0.0)
     k, c = m / time_constant ** 2, 2.0 * m / time_constant
-    stiffer = max(load / LOAD_GIVE, inertia * min(speed / (math.e * ENTRY_GIVE), ENTRY_RATE) ** 2)
-    if stiffer > k:
-        k = stiffer
+    if load / LOAD_GIVE > k:
+        k = load / LOAD_GIVE
         c = 2.0 * math.sqrt(k * m)
     return k, c
 
 
+def entry_gains(inertia, k, carried=None, speed=0.0):
+    """(kd, cd) of the entry spring-damper, which starts :data:`ENTRY_DEPTH` past the limit and
+    is added to the limit's own (k, c = 2 sqrt(k m)): with it the joint's own ``inertia``
+    entering at ``speed`` is stopped within :data:`ENTRY_GIVE` past ENTRY_DEPTH (a critically
+    damped spring of natural frequency w stops a speed v within v / (e w)) -- w at most
+    :data:`ENTRY_RATE` --, the sum critically damped about the carried inertia m; (0, 0) where
+    the limit's own spring does that already.
+
+    Why a second spring, not a stiffer one: a stiffness that stops a whipped wrist (up to
+    1000/s) also holds a joint that rests on its limit, and made the integrators' steps follow
+    it there (session 25: alex and Talos full resting on their limits, integration CPU up to
+    1.98x); a joint resting on its limit sits within LOAD_GIVE plus 2 widths of it, on the
+    limit's own spring, and only an entry goes deeper."""
+    m = max(inertia, carried or 0.0)
+    stiff = inertia * min(speed / (math.e * ENTRY_GIVE), ENTRY_RATE) ** 2
+    if not stiff > k:
+        return 0.0, 0.0
+    return stiff - k, 2.0 * math.sqrt(m) * (math.sqrt(stiff) - math.sqrt(k))
+
+
 def scale_gains(inertia):
-    """:func:`limit_gains` of a :class:`JointScale` (or of a bare inertia)."""
+    """:func:`limit_gains` of a :class:`JointScale` (or of a bare inertia): the limit's own (k, c)."""
     if isinstance(inertia, JointScale):
-        return limit_gains(inertia[0], load=inertia[1], carried=inertia[2], speed=inertia[3])
+        return limit_gains(inertia[0], load=inertia[1], carried=inertia[2])
     return limit_gains(inertia)
+
+
+def scale_entry_gains(inertia):
+    """:func:`entry_gains` of a :class:`JointScale` ((0, 0) for a bare inertia: no entry speed known)."""
+    if not isinstance(inertia, JointScale):
+        return 0.0, 0.0
+    return entry_gains(inertia[0], scale_gains(inertia)[0], carried=inertia[2], speed=inertia[3])
 
 
 class ramp(sm.Function):
@@ -282,12 +319,35 @@ def limit_energy(q, law, params, name, inertia):
     k, _ = scale_gains(inertia)
     K = params(f"{NAMES['stiffness']}_{name}", law.stiffness if law.stiffness is not None else k)
     E = params(f"{NAMES['width']}_{name}", law.width)
-    out = sm.S.Zero
+    entry = _entry_parameters(law, params, name, inertia)
+    out = deep = sm.S.Zero
+    for past in _past(q, law, params, name):
+        out += _stored(ramp(past), E)
+        if entry is not None:       # the entry spring's: the same law, entry[2] deeper (joint_torque)
+            deep += _stored(ramp(past - entry[2]), E)
+    return K * out + (entry[0] * deep if entry is not None else sm.S.Zero)
+
+
+def _past(q, law, params, name):
+    """How far q is past each finite side of the limit (q - hi, lo - q; negative inside)."""
+    out = []
     if law.upper is not None and math.isfinite(law.upper):
-        out += _stored(ramp(q - params(f"{NAMES['upper']}_{name}", law.upper, keep=True)), E)
+        out.append(q - params(f"{NAMES['upper']}_{name}", law.upper, keep=True))
     if law.lower is not None and math.isfinite(law.lower):
-        out += _stored(ramp(params(f"{NAMES['lower']}_{name}", law.lower, keep=True) - q), E)
-    return K * out
+        out.append(params(f"{NAMES['lower']}_{name}", law.lower, keep=True) - q)
+    return out
+
+
+def _entry_parameters(law, params, name, inertia):
+    """(Kd, Cd, D) of the entry spring-damper (:func:`entry_gains`) as parameters, or None where
+    the joint has none: a stiffness given for the limit (MJCF's solref) is the whole law."""
+    if law.stiffness is not None or law.limit_damping is not None or law.unilateral or law.hold:
+        return None
+    kd, cd = scale_entry_gains(inertia)
+    if not (kd > 0 or cd > 0):
+        return None
+    return (params(f"{NAMES['entry_stiffness']}_{name}", kd), params(f"{NAMES['entry_damping']}_{name}", cd),
+            params(f"{NAMES['entry_depth']}_{name}", law.entry_depth))
 
 
 def _held(r, hold):
@@ -316,6 +376,12 @@ def law_shape(law):
     gravity + this potential can only fall: the verdict adds the potential at the start."""
     return {"push": 1.0 / PUSH_DIVISOR if law.unilateral else 0.0,
             "hold": [float(law.hold[0]), float(law.hold[1])] if law.hold else None}
+
+
+def _signs(law):
+    """The direction each of :func:`_past`'s sides pushes back: -1 from the upper, +1 from the lower
+    (as the torque's factor -sign; sign·u is the speed deeper past that side)."""
+    return [s for s, v in ((1, law.upper), (-1, law.lower)) if v is not None and math.isfinite(v)]
 
 
 def _push(force, scale):
@@ -347,16 +413,17 @@ def joint_torque(q, u, law, params, name, inertia):
             raise JointLawError(law.joint, f"joint '{law.joint}': limit width must be > 0")
         # per side, with r = ramp(d) and g = r/(r + e): k s + c u w = g² (k r + c u g)
         # (one division per side; the same numbers as the docstring's form)
-        if law.upper is not None and math.isfinite(law.upper):
-            r = ramp(q - params(f"{NAMES['upper']}_{name}", law.upper, keep=True))
+        entry = _entry_parameters(law, params, name, inertia)
+        # the entry spring-damper (Kd, Cd) is the same law entry[2] deeper (limit_energy's too)
+        for past, sign in zip(_past(q, law, params, name), _signs(law)):
+            r = ramp(past)
             g = r / (r + E)
-            side = K * _held(r, law.hold) + C * u * g
-            tau += -g ** 2 * (_push(side, K * E / PUSH_DIVISOR) if law.unilateral else side)
-        if law.lower is not None and math.isfinite(law.lower):
-            r = ramp(params(f"{NAMES['lower']}_{name}", law.lower, keep=True) - q)
-            g = r / (r + E)
-            side = K * _held(r, law.hold) - C * u * g
-            tau += g ** 2 * (_push(side, K * E / PUSH_DIVISOR) if law.unilateral else side)
+            side = K * _held(r, law.hold) + sign * C * u * g
+            tau += -sign * g ** 2 * (_push(side, K * E / PUSH_DIVISOR) if law.unilateral else side)
+            if entry is not None:
+                rd = ramp(past - entry[2])
+                gd = rd / (rd + E)
+                tau += -sign * gd ** 2 * (entry[0] * rd + sign * entry[1] * u * gd)
     if law.damping:
         tau += -params(f"{NAMES['damping']}_{name}", law.damping) * u
     if law.friction:

@@ -99,6 +99,18 @@ def test_mjcf_damping_is_checked_at_run_time(damped, name, joint):
     assert damped.simulate(None, (0, 0.1), p={name: 0.0}).status == 0
 
 
+@pytest.mark.parametrize("name, what", [("limit_kd_elbow", "limit entry stiffness"),
+                                        ("limit_cd_elbow", "limit entry damping"),
+                                        ("limit_d_elbow", "limit entry depth")])
+def test_the_entry_spring_s_parameters_are_checked(stop, name, what):
+    """The entry spring-damper's (compiler/tree/joint_laws.entry_gains) are refused below 0 by name:
+    a negative stiffness or damping would feed energy in, a negative depth would put the entry
+    spring inside the range."""
+    assert name in stop.param_names
+    with pytest.raises(ValueError, match=rf"{name} = -1 must be >= 0 \({what} of joint elbow\)"):
+        stop.simulate({"q_elbow": 0.3}, (0, 0.05), p={name: -1.0})
+
+
 def test_a_changed_parameter_after_cached_runs_is_still_checked(stop):
     """simulate keeps what depends only on the model and the last parameters seen (law index
     arrays, limit bounds keyed on p's bytes): after runs with the defaults,
@@ -116,10 +128,11 @@ def test_a_changed_parameter_after_cached_runs_is_still_checked(stop):
     with pytest.warns(PhysicsWarning, match=r"outside the range of joint elbow \(q_elbow = 0\.3, 0\.1 above "
                                             r"its upper limit 0\.2\)"):
         stop.simulate({"q_elbow": 0.3}, (0, 0.01), p={"limit_hi_elbow": 0.2})
-    k = stop.param_defaults[stop.param_names.index("limit_k_elbow")] * 1e-3
+    # the limit's own spring and its entry spring (joint_laws.entry_gains) both a thousandth
+    soft = {n: stop.param_defaults[stop.param_names.index(n)] * 1e-3 for n in ("limit_k_elbow", "limit_kd_elbow")}
     with pytest.warns(PhysicsWarning, match=r"joint elbow went .* past its upper limit 0\.5.*your limit "
                                             r"stiffness limit_k_elbow = [0-9.e+]+ \(the default is"):
-        stop.simulate({"q_elbow": 0.0}, (0, 1.0), p={"limit_k_elbow": k}, method="dop853")
+        stop.simulate({"q_elbow": 0.0}, (0, 1.0), p=soft, method="dop853")
 
 
 EXAMPLES = Path(__file__).parents[2] / "examples"

@@ -244,7 +244,8 @@ def test_limit_entry_ends_a_step_and_a_soft_limit_warns_naming_the_joint(stop):
         res = stop.simulate({"q_elbow": 0.0}, (0, 1.0), method="radau")
     assert res.stats["nswitch"] >= 1
     assert res["q_elbow"].max() < 0.5 + 100 * 3e-4
-    p = _p(stop, limit_k_elbow=stop.param_defaults[stop.param_names.index("limit_k_elbow")] * 1e-3)
+    # a thousandth of both the limit's own spring and its entry spring (joint_laws.entry_gains)
+    p = _p(stop, **{n: stop.param_defaults[stop.param_names.index(n)] * 1e-3 for n in ("limit_k_elbow", "limit_kd_elbow")})
     with pytest.warns(PhysicsWarning, match=r"joint elbow went .* past its upper limit 0\.5"):
         stop.simulate({"q_elbow": 0.0}, (0, 1.0), p=p, method="dop853")
 
@@ -478,6 +479,27 @@ def test_joints_past_their_default_limits_share_one_note_with_the_remedy_once():
     assert len(notes) == 2 and notes[0].startswith("joint a went") and "joint c went" not in notes[0]
     assert notes[1].startswith("joint c went 0.07 past its upper limit 3")
     assert "your limit stiffness limit_k_c = 70" in notes[1]
+
+
+def test_an_overshoot_note_counts_the_entry_spring_as_part_of_the_stiffness():
+    """A URDF limit's stiffness is its own spring and its entry spring (limit_kd/limit_cd,
+    limit_d deeper: compiler/tree/joint_laws.entry_gains): a run that changes only the entry
+    spring's is the user's stiffness, not eomc's default, and the default's note names both
+    parameters to raise."""
+    from types import SimpleNamespace
+    from eomc.runtime.switching import Limit, _overshoot_notes
+    names = ["hi_c", "limit_k_c", "limit_kd_c", "limit_cd_c", "limit_d_c"]
+    defaults = np.array([3.0, 7.0, 90.0, 5.0, 0.0045])
+    model = SimpleNamespace(param_names=names, param_defaults=defaults, metadata={})
+    sw = SimpleNamespace(limits=[Limit("c", 0, 0, 1.0, -1, "upper")])
+    over, e = np.array([0.07]), np.full(1, 3e-4)
+    note = _overshoot_notes(model, defaults, sw, [0], over, e)[0]
+    assert "its limit stiffness limit_k_c = 7 with limit_kd_c = 90 from limit_d_c = 0.0045 past the limit" in note
+    assert "--param limit_k_c=... limit_kd_c=..." in note
+    user = defaults.copy()
+    user[names.index("limit_kd_c")] = 9.0
+    note = _overshoot_notes(model, user, sw, [0], over, e)[0]
+    assert "your limit parameter limit_kd_c = 9 (the default is 90)" in note and "is too soft" in note
 
 
 def test_an_energy_gain_note_names_the_method_and_rtol_it_judges(monkeypatch):

@@ -37,14 +37,44 @@ def _stored(K, e, r):
 def test_energy_counts_the_limit_springs(arm):
     p = dict(zip(arm.param_names, arm.param_defaults))
     K, e = p["limit_k_hinge"], p["limit_e_hinge"]
+    # the entry spring (joint_laws.entry_gains): the same law limit_d deeper, of stiffness limit_kd
+    Kd, D = p["limit_kd_hinge"], p["limit_d_hinge"]
+    assert Kd > 0 and D > 0
     g, m = 9.81, 2.0
-    for q, u in ((0.0, 0.3), (0.3 + 2e-4, 0.0), (0.7, -1.0), (-0.9, 2.0), (-0.4 - 5e-5, 0.1)):
+    for q, u in ((0.0, 0.3), (0.3 + 2e-4, 0.0), (0.3 + 2 * D, 0.0), (0.7, -1.0), (-0.9, 2.0), (-0.4 - 5e-5, 0.1)):
         out = arm.outputs(0.0, np.array([q, u]))
         # kinetic about the hinge (I_y + m l²) u²/2, gravity -m g l cos q (l = 0.25 below)
         plain = (0.05 + m * 0.25 ** 2) * u ** 2 / 2 - m * g * 0.25 * np.cos(q)
-        spring = _stored(K, e, q - 0.3) + _stored(K, e, -0.4 - q)
+        spring = sum(_stored(K, e, r) + _stored(Kd, e, r - D) for r in (q - 0.3, -0.4 - q))
         assert out["energy"] == pytest.approx(plain + spring, rel=1e-12, abs=1e-12)
     assert "joint limits" in arm.metadata["energy"]
+
+
+@pytest.mark.parametrize("side, inside", [("upper", 0.3), ("lower", -0.4)])
+def test_the_energy_output_is_the_integral_of_the_law_s_force(arm, side, inside):
+    """The energy verdict reads the limits' potential from the energy output: it must be the
+    integral of the force the rhs applies, whatever the law (the limit's own spring, the entry
+    spring limit_d deeper, at their defaults and at other run-time values).  At rest
+    (u = 0) the hinge's generalised force is I·u' = -dE/dq, so E(q) - E(inside) = -∫ I·u' dq
+    along the rhs itself (scipy's quad; I from the energy's kinetic part)."""
+    names = list(arm.param_names)
+    base = np.array(arm.param_defaults, dtype=float)
+    other = base.copy()
+    other[names.index("limit_kd_hinge")] *= 3.0
+    other[names.index("limit_d_hinge")] *= 0.5
+    other[names.index("limit_k_hinge")] *= 0.7
+    sign = 1.0 if side == "upper" else -1.0
+    for p in (base, other):
+        D = p[names.index("limit_d_hinge")]
+        energy = lambda q, u=0.0: arm.outputs(0.0, np.array([q, u]), p=p)["energy"]  # noqa: E731
+        inertia = 2.0 * (energy(inside, 1.0) - energy(inside))
+        force = lambda q: inertia * arm.rhs(0.0, np.array([q, 0.0]), p=p)[1]    # noqa: E731
+        for depth in (5e-4, D, 1.5 * D, 4 * D, 0.05):
+            q = inside + sign * depth
+            kinks = sorted([inside, inside + sign * D])
+            work = quad(force, inside, q, points=[k for k in kinks if min(inside, q) < k < max(inside, q)],
+                        epsabs=0, epsrel=1e-12, limit=200)[0]
+            assert energy(q) - energy(inside) == pytest.approx(-work, rel=1e-9, abs=1e-12), (side, depth)
 
 
 def test_a_start_past_a_limit_is_no_energy_gain(arm):

@@ -265,7 +265,8 @@ def test_limits_off_drops_the_laws_and_the_flag_reaches_the_model(tmp_path):
     law_names = {str(s) for s in on.parameters} - {str(s) for s in off.parameters}
     assert law_names == {f"{k}_{j}" for j in ("j1", "j2", "j3") for k in
                          ("limit_k", "limit_c", "limit_e", "limit_lo", "limit_hi", "damping", "friction",
-                          "friction_v")}
+                          "friction_v")} | {f"{k}_{j}" for j in ("j1", "j2") for k in
+                                             ("limit_kd", "limit_cd", "limit_d")}   # j3's entry: its own spring holds
     assert with_options(str(path), limits=False)[0] == UrdfModel(path, limits=False)
     assert with_options(str(path))[0] == str(path)
     with pytest.raises(ModelError, match="--limits off"):

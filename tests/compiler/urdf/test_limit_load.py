@@ -16,7 +16,8 @@ import numpy as np
 import pytest
 
 import eomc
-from eomc.compiler.tree.joint_laws import ENTRY_GIVE, ENTRY_RATE, LOAD_GIVE, TIME_CONSTANT, WIDTH, JointScale, scale_gains
+from eomc.compiler.tree.joint_laws import (ENTRY_DEPTH, ENTRY_GIVE, ENTRY_RATE, LOAD_GIVE, TIME_CONSTANT, WIDTH,
+                                           JointScale, scale_entry_gains, scale_gains)
 from eomc.compiler.urdf import build_tree, read_urdf
 from eomc.compiler.urdf.model import UrdfModel
 from eomc.compiler.urdf.treeir import joint_inertias
@@ -74,12 +75,16 @@ def test_the_default_is_the_rule_of_the_load_and_the_carried_inertia(sitter):
     # the entry speed: the leg at the speed a fall through its reach from the torso's origin (0.25 m)
     # gives, at its radius of gyration about the knee
     assert speed == pytest.approx(math.sqrt(2 * 9.81 * 0.25) / math.sqrt(own / LEG), rel=1e-12)
-    k = max(carried / TIME_CONSTANT ** 2, load / LOAD_GIVE, own * min(speed / (math.e * ENTRY_GIVE), ENTRY_RATE) ** 2)
-    assert k == load / LOAD_GIVE            # the load's rule is the stiffest here
+    k = max(carried / TIME_CONSTANT ** 2, load / LOAD_GIVE)
+    assert k == load / LOAD_GIVE            # the load's rule is the stiffer here
     c = 2 * math.sqrt(k * carried)          # critically damped about the carried inertia
     assert scale_gains(scale) == pytest.approx((k, c), rel=1e-12)
+    # the entry rule's spring, ENTRY_DEPTH deeper, is not needed: the load's holds the entry too
+    assert own * min(speed / (math.e * ENTRY_GIVE), ENTRY_RATE) ** 2 < k
+    assert scale_entry_gains(scale) == (0.0, 0.0)
     p = dict(zip(model.param_names, model.param_defaults))
     assert (p["limit_k_knee"], p["limit_c_knee"]) == pytest.approx((k, c), rel=1e-12)
+    assert "limit_kd_knee" not in p and "limit_d_knee" not in p
 
 
 def test_a_torso_falling_onto_the_knee_limit_stays_within_the_stated_overshoot(sitter):
@@ -162,11 +167,13 @@ def test_a_roll_joint_carries_the_load_of_its_subtree_swung_off_its_axis(tmp_pat
     own, load, carried, speed = scales["wrist_roll"]
     assert load == pytest.approx(9.81 * 0.5 * 0.07, rel=1e-12)
     # the stiffness holds that load within LOAD_GIVE; here the entry speed's rule (the 0.7 kg subtree
-    # falling through its 0.09 m reach, stopped within ENTRY_GIVE) is stiffer still
+    # falling through its 0.09 m reach, stopped within ENTRY_GIVE) is stiffer still: its spring
+    # adds the difference ENTRY_DEPTH past the limit
     k = scale_gains(scales["wrist_roll"])[0]
-    assert k > load / LOAD_GIVE
+    assert k == pytest.approx(load / LOAD_GIVE, rel=1e-12)
     assert speed / (math.e * ENTRY_GIVE) < ENTRY_RATE
-    assert k == pytest.approx(0.7 * 2 * 9.81 * 0.09 / (math.e * ENTRY_GIVE) ** 2, rel=1e-12)
+    kd = scale_entry_gains(scales["wrist_roll"])[0]
+    assert k + kd == pytest.approx(0.7 * 2 * 9.81 * 0.09 / (math.e * ENTRY_GIVE) ** 2, rel=1e-12)
     # the pitch joint's subtree is the hand alone, rigid with it: its lever at q = 0, unchanged
     assert scales["wrist_pitch"][1] == pytest.approx(9.81 * 0.5 * 0.07, rel=1e-12)
     upright = path.with_name("upright.urdf")
@@ -206,10 +213,16 @@ def test_a_light_joint_whipped_into_its_limit_stays_within_the_stated_overshoot(
     assert speed == pytest.approx(math.sqrt(2 * 9.81 * 1.0) / math.sqrt(own / 0.2), rel=1e-12)
     assert speed / (math.e * ENTRY_GIVE) < ENTRY_RATE       # the rule holds this entry in full
     faster = JointScale(own, load, carried, 10 * speed)     # ... and caps a faster one at ENTRY_RATE
-    assert scale_gains(faster)[0] == pytest.approx(own * ENTRY_RATE ** 2, rel=1e-12)
+    assert scale_gains(faster)[0] + scale_entry_gains(faster)[0] == pytest.approx(own * ENTRY_RATE ** 2, rel=1e-12)
     model = eomc.compile(str(path), functions=("rhs", "outputs", "events"), cache_dir=tmp_path / "c", progress=False)
     p = dict(zip(model.param_names, model.param_defaults))
-    assert p["limit_k_wrist"] == pytest.approx(0.2 * 2 * 9.81 / (math.e * ENTRY_GIVE) ** 2, rel=1e-12)
+    # the limit's own spring is the inertia rule's; the entry spring adds the rest ENTRY_DEPTH deeper
+    assert p["limit_k_wrist"] == pytest.approx(own / TIME_CONSTANT ** 2, rel=1e-12)
+    assert p["limit_k_wrist"] + p["limit_kd_wrist"] == pytest.approx(0.2 * 2 * 9.81 / (math.e * ENTRY_GIVE) ** 2,
+                                                                     rel=1e-12)
+    assert p["limit_c_wrist"] + p["limit_cd_wrist"] == pytest.approx(
+        2 * math.sqrt(own * (p["limit_k_wrist"] + p["limit_kd_wrist"])), rel=1e-12)
+    assert p["limit_d_wrist"] == ENTRY_DEPTH
     start = {"q_wrist": 0.99, "u_wrist": speed}
     bound = LIMIT_OVERSHOOT_WIDTHS * WIDTH
     with warnings.catch_warnings():
@@ -217,8 +230,20 @@ def test_a_light_joint_whipped_into_its_limit_stays_within_the_stated_overshoot(
         res = model.simulate(start, (0.0, 0.2), method="dop853", rtol=1e-10, atol=1e-12, n_points=4001)
     past = res["q_wrist"].max() - 1.0
     assert 0.5 * bound < past < bound, past
-    old = dict(p, limit_k_wrist=own / TIME_CONSTANT ** 2, limit_c_wrist=2 * own / TIME_CONSTANT)
+    old = dict(p, limit_kd_wrist=0.0, limit_cd_wrist=0.0)         # the limit's own spring alone
     with pytest.warns(PhysicsWarning, match=r"joint wrist went .* past its upper limit 1"):
         soft = model.simulate(start, (0.0, 0.2), p=[old[n] for n in model.param_names], method="dop853",
                               rtol=1e-10, atol=1e-12, n_points=4001)
     assert soft["q_wrist"].max() - 1.0 > 2 * bound
+
+
+def test_a_joint_resting_on_its_limit_sits_on_the_limit_s_own_spring():
+    """The entry spring starts ENTRY_DEPTH past the limit, deeper than the load rule lets a joint
+    resting on its limit go (k s(d) = load at d <= LOAD_GIVE + 2 widths: s(d) -> d - 2e), so a
+    robot at rest on its limits integrates the soft spring, and only an entry meets the stiff one
+    (session 25's single stiffness made alex's and Talos' runs up to 1.98x slower)."""
+    from eomc.compiler.tree.joint_laws import limit_spring
+    k, load = 1.0, LOAD_GIVE       # the load rule's stiffest case: k = load / LOAD_GIVE
+    rest = LOAD_GIVE + 2 * WIDTH
+    assert k * float(limit_spring(rest, WIDTH)) >= load     # it comes to rest within `rest` ...
+    assert rest < ENTRY_DEPTH                               # ... before the entry spring starts
