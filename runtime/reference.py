@@ -136,6 +136,19 @@ def _tols(rtol, atol):
     return f"rtol=atol={rtol:.0e}" if rtol == atol else f"rtol={rtol:.0e}, atol={atol:.0e}"
 
 
+def plan(method, tol, atol=None):
+    """What :func:`compute_reference` will run, said before it runs: Radau's rtol is clipped
+    to RADAU_FINEST, and "auto" is DOP853 with Radau only if DOP853 reports stiffness (first
+    hour s26: `eomc report` announced "auto at rtol 1e-13", then ran Radau at 1e-12)."""
+    atol = tol if atol is None else atol
+    radau = f"radau at {_tols(max(tol, RADAU_FINEST), atol)}"
+    if method == "radau":
+        return radau + (f" (its finest rtol; {tol:.0e} asked)" if tol < RADAU_FINEST else "")
+    if method == "dop853":
+        return f"dop853 at {_tols(tol, atol)}"
+    return f"dop853 at {_tols(tol, atol)}, or {radau} if DOP853 finds the motion stiff"
+
+
 def _c_run(model, x0, t_span, p, r, t_eval, method, tol, project, stiff_check=False, atol=None):
     atol = tol if atol is None else atol
     a = prepare(model, x0, t_span, p=p, r=r, method=method, rtol=tol, atol=atol, t_eval=t_eval,

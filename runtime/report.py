@@ -42,7 +42,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .reference import MIN_WINDOW, Reference, compute_reference, scaled_error, tied_tolerances
+from .reference import MIN_WINDOW, Reference, compute_reference, plan, scaled_error, tied_tolerances
 from .report_output import (COLUMNS, DEFAULT_TARGET, cost_key, plot_report, recommendation, summary_markdown,
                             table_text, write_csv)
 from .diagnose import leaving_state
@@ -271,7 +271,7 @@ def work_precision(model, x0, t_span, p=None, r=None, methods=DEFAULT_METHODS,
         rtol, atol = ((reference_tol, reference_tol) if reference_tol is not None
                       else tied_tolerances(min(tolerances)))
         if progress:
-            print(f"eomc report: computing the reference ({reference_method} at rtol {rtol:.0e}, atol {atol:.0e}, "
+            print(f"eomc report: computing the reference ({plan(reference_method, rtol, atol)}; "
                   f"checked by {reference_check}) ...", file=sys.stderr, flush=True)
         with ticker("eomc report: reference", sys.stderr, progress):
             reference = compute_reference(model, x0, (t0, t1), t_eval, p=p, r=r, tol=rtol, atol=atol,

@@ -9,7 +9,7 @@
  *
  * prints the final state, one "name value" line per state (%.17g).
  * Parameters are the model's defaults; inputs, if any, are zero.
- * Every argument must be a whole number (strtod), finite, with DT > 0 and
+ * Every argument must be a number (read whole by strtod: no trailing text), finite, with DT > 0 and
  * T_END >= 0; a failed step is reported by its status name and start time.
  * Exit status: 0 done, 1 the model failed, 2 bad arguments, 3 out of memory.
  */

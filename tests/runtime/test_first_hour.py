@@ -131,10 +131,21 @@ def test_the_report_says_which_reference_it_ran(capsys):
                          repeats=1, n_points=11, reference_tol=1e-13, reference_method="radau",
                          reference_check="none")
     err = capsys.readouterr().err
-    assert "computing the reference (radau at rtol 1e-13, atol 1e-13" in err, err
+    assert "computing the reference (radau at rtol=1e-12, atol=1e-13 (its finest rtol; 1e-13 asked)" in err, err
     assert rep.reference.tol == 1e-12
     assert f"eomc report: {rep.reference.describe()}\n" in err, err
     assert "eomc report: reference: radau at rtol=1e-12, atol=1e-13" in err, err
+
+
+def test_the_reports_announcement_says_what_auto_will_run():
+    """`eomc report` announced "auto at rtol 1e-13" and then ran Radau at 1e-12 (first hour
+    s26): the announcement now names DOP853 at the asked tolerance and Radau at its finest."""
+    from eomc.runtime.reference import plan
+
+    assert plan("auto", 1e-13, 1e-14) == ("dop853 at rtol=1e-13, atol=1e-14, or radau at "
+                                         "rtol=1e-12, atol=1e-14 if DOP853 finds the motion stiff")
+    assert plan("dop853", 1e-10) == "dop853 at rtol=atol=1e-10"
+    assert plan("radau", 1e-9, 1e-10) == "radau at rtol=1e-09, atol=1e-10"
 
 
 def test_simulate_takes_rollouts_split_and_refuses_it_elsewhere(tmp_path):
