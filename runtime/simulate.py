@@ -1070,12 +1070,13 @@ def finish(model, a, x_out, stats, x_last, raise_on_failure=True):
         import warnings
         from .switching import PhysicsWarning
         if a.get("_implicit_keep") is not None:
-            # the fast path (NAME_implicit): one linearised step, no Newton iterations; a step
-            # counts when its residual test still fails at 1/64 of dt (eomc_fixedstep.c)
+            # the fast path (NAME_implicit): one linearised step; a step counts when its residual
+            # test still fails at 1/64 of dt after Newton iterations on that cell (eomc_fixedstep.c,
+            # fs_last_cell)
             split = a.get("split", IMPLICITFAST_SPLIT)
-            what = (f"{stats['rejected']} step(s) of 1/64 dt still missed implicit Euler: the linearised "
-                    f"step's Newton correction was more than {IMPLICITFAST_HARD_FACTOR * split:g} x the "
-                    f"step's own change of the speeds")
+            what = (f"{stats['rejected']} step(s) of 1/64 dt still missed implicit Euler: after Newton "
+                    f"iterations the step's Newton correction was more than "
+                    f"{IMPLICITFAST_HARD_FACTOR * split:g} x the step's own change of the speeds")
         else:
             # the W-method (jac_x only): simplified Newton, then Newton with a fresh jac_x
             what = (f"Newton did not converge on {stats['rejected']} (sub-)step(s): their implicit "

@@ -423,7 +423,7 @@ size_t eomc_fs_implicit_work_size(int nq, int nu, int ncontact)
      * trial end: the residual test below), scratch, the ancestor lists (nu + 1 + nu (nu - 1) / 2 ints, in
      * nu * nu / 2 + nu + 1 doubles) and M's column lists (nu + 1 + nu * nu ints, in
      * nu * nu / 2 + nu / 2 + 1 doubles) */
-    return 2 * fs_layout_of(nq, nu, ncontact).size + 2 * fs_cache_size(nu, ncontact) + 2 * u * u + 8 * u
+    return 2 * fs_layout_of(nq, nu, ncontact).size + 2 * fs_cache_size(nu, ncontact) + 2 * u * u + 10 * u
            + 4 * x + 8 + u * u / 2 + u + 2
            + u * u / 2 + u / 2 + 2
            + 2 * u + (size_t)ncontact + 2 * (u * u / 2 + u + 2)    /* fs_pattern's bits and two own lists */
@@ -999,6 +999,8 @@ typedef struct fs_fast {
     int deep;                    /* -1, or the first contact found deeper than its limit */
     double *du, *dv, *GJ, *x1, *xs, *f1;
     double *dun;                 /* the next try's du, made with the residual's solve (fs_fast_try) */
+    const double *given;         /* NULL, or the next try's du (fs_last_cell's Newton iterates) */
+    double *dug, *dub;           /* fs_last_cell: the iterate tried and the best one */
     double *cT, *cT1;            /* fs_assemble's caches for T and T1 */
     int vT, vT1;                 /* ... and whether they hold T's and T1's */
     const double *dun_T;         /* for a step from the terms in this buffer (T or T1), NULL: none */
@@ -1231,7 +1233,9 @@ static int fs_fast_try(fs_fast *q, double t, double h, const double *x, int chec
     eomc_fs_request *rq = &q->req;
     *ratio = INFINITY;
     q->chart = 0.0;
-    if (fs_ahead(q, h)) {               /* the lanes made du and the rate (below) */
+    if (q->given) {                     /* fs_last_cell's iterate */
+        memcpy(q->du, q->given, (size_t)nu * sizeof(double));
+    } else if (fs_ahead(q, h)) {        /* the lanes made du and the rate (below) */
         memcpy(q->du, rq->du1, (size_t)nu * sizeof(double));
         v1 = rq->v1;
     } else if (q->dun_T == q->T && q->dun_h == h) {   /* made with the last residual (below) */
@@ -1257,13 +1261,14 @@ static int fs_fast_try(fs_fast *q, double t, double h, const double *x, int chec
     q->dun_T = NULL;                    /* T1 is overwritten below */
     q->vT1 = 0;
     a_bare = q->A == q->bare;           /* A unwritten: the lanes answered the last try ahead */
-    if (ops->terms_lu) {                /* the lanes rollout: maybe made with other rows */
+    if (ops->terms_lu && !q->given) {   /* the lanes rollout: maybe made with other rows */
         rq->h = h; rq->A = q->A1; rq->b = q->b1; rq->du = check ? q->du : NULL;
         if ((s = ops->terms_lu(ops->ctx, t + h, q->x1, q->T1, rq))) return s;
         done = rq->done;
         q->bare = rq->ahead ? q->A1 : NULL;
-    } else if ((s = ops->terms(ops->ctx, t + h, q->x1, q->T1))) {
-        return s;
+    } else {
+        if (q->bare == q->A1) q->bare = NULL;    /* written below, by the scalar code */
+        if ((s = ops->terms(ops->ctx, t + h, q->x1, q->T1))) return s;
     }
     if (done) {                         /* the lanes' pattern: every pair's fill (fs_ancestors) */
         q->start1 = q->pat.start;
@@ -1443,6 +1448,67 @@ static int fs_onset_cell(const fs_fast *q, int pos, int size, double h)
     return cell < pos + size ? cell : pos + size - 1;
 }
 
+/* The last-resort cell: a try of the smallest size (h / MAX_SPLIT) whose ratio is still past
+ * HARD_FACTOR * split with no touch-down in it is solved by Newton on its implicit Euler equation
+ * instead of being taken as it is (and counted unsolved): du -= A1^-1 r, the correction the ratio
+ * already measures, A1 made at each iterate's end (each try assembles the next step's matrix there
+ * anyway, so the fresh matrix costs nothing beyond the try's model call); an iterate no better than
+ * the best is halved back towards it (NEWTON_HALVINGS).  Up to LAST_ITER tries, until the ratio is
+ * at most split; the best iterate is taken (tried again if the last try was not it, so T1, A1 and b1
+ * are its own).  Its ratio is returned: still past HARD_FACTOR * split, the caller counts the cell.
+ * Each try runs in the scalar code with a plain model call (fs_fast_try's given du), the lanes rollout's
+ * too (where A or A1 may be unwritten, bare: made here), so both paths take the same bits.
+ * Why: gymnasium's ant took 40 such cells over bench_rollout_contacts' 64 starts (its ankles' limits
+ * engaging, a foot's normal force clipping), each one an unsolved sub-step and a warning. */
+#define LAST_ITER 6
+static int fs_last_cell(fs_fast *q, double t, double h, const double *x, double *ratio)
+{
+    const eomc_fs_ops *ops = q->ops;
+    int nu = ops->nu, s, at_best = 1, halvings = 0;
+    double best = *ratio, split = ops->imp->split, r;
+    size_t bytes = (size_t)nu * sizeof(double);
+    if (q->A == q->bare) {               /* the lanes answered ahead: A (read by fs_start_ratio) */
+        if ((s = fs_assemble(ops, &q->L, h, x + ops->nq, q->T, q->A, q->b, q->GJ, q->cT, &q->vT, &q->pat,
+                             q->own, &q->start, &q->anc)))
+            return s;
+        q->bare = NULL;
+    }
+    if (q->bare == q->A1) q->bare = NULL;
+    if ((s = fs_assemble(ops, &q->L, h, q->x1 + ops->nq, q->T1, q->A1, q->b1, q->GJ, q->cT1, &q->vT1, &q->pat,
+                         q->own1, &q->start1, &q->anc1)))
+        return s == EOMC_SINGULAR_MASS_MATRIX ? EOMC_OK : s;    /* no correction: taken as it is */
+    fs_residual(q, h);                   /* dv = A1^-1 r at the try */
+    fs_tree_solve(nu, q->A1, q->start1, q->anc1, q->dv);
+    memcpy(q->dub, q->du, bytes);
+    for (int i = 0; i < nu; i++) q->dug[i] = q->du[i] - q->dv[i];
+    for (int it = 0; it < LAST_ITER && best > split; it++) {
+        q->given = q->dug;
+        s = fs_fast_try(q, t, h, x, 1, &r);
+        q->given = NULL;
+        if (s && s != EOMC_NONFINITE && s != EOMC_SINGULAR_MASS_MATRIX) return s;
+        if (!s && r < best) {            /* better: the next iterate from here, with its A1 */
+            best = r;
+            at_best = 1;
+            halvings = 0;
+            memcpy(q->dub, q->du, bytes);
+            for (int i = 0; i < nu; i++) q->dug[i] = q->du[i] - q->dv[i];
+            continue;
+        }
+        at_best = 0;
+        if (++halvings > NEWTON_HALVINGS) break;
+        for (int i = 0; i < nu; i++) q->dug[i] = q->dub[i] + 0.5 * (q->dug[i] - q->dub[i]);
+    }
+    if (!at_best) {                      /* the best iterate's end again: its T1, A1, b1 */
+        q->given = q->dub;
+        s = fs_fast_try(q, t, h, x, 1, &r);
+        q->given = NULL;
+        if (s) return s;
+        best = r;
+    }
+    *ratio = best;
+    return EOMC_OK;
+}
+
 /* fs_loop's step for the fast path: one step (2), or, with eomc_implicit.split > 0 and
  * where the step's residual ratio (fs_fast_try) is above it, 2, 4 ... MAX_SPLIT equal
  * sub-steps (as fs_advance does for the W-method).  A sub-step is split further only while
@@ -1548,7 +1614,8 @@ static int fs_onset_cell(const fs_fast *q, int pos, int size, double h)
  * models' 64 starts, but from the ant's own state at t = 0.23 s its energy rose 6.19 -> 20.2 J in
  * 0.75 s where Radau's falls to 4.59 (the ant's starts are outside its ankles' ranges, and the
  * limits' energy at the start hides such a gain from the verdict).  A sub-step
- * of the smallest size whose ratio is still above HARD_FACTOR * split is taken anyway, counted in
+ * of the smallest size whose ratio is still above HARD_FACTOR * split (no touch-down's onset cell) is
+ * solved by Newton (session 26, fs_last_cell), and taken anyway where that leaves it above, counted in
  * stats->rejected (simulate warns); a step with no finite sub-step at all fails.  After
  * each kept step the contacts' depths are checked against eomc_implicit.depth_limit: the
  * first contact found deeper is remembered and the run fails at the next step with
@@ -1640,7 +1707,13 @@ static int fs_fast_advance(void *self, double t, double h, const double *x, doub
         }
         /* a touch-down's onset cell is not counted (see above: the correction there is the
          * implicit Euler impulse of the new contact's end force, which no step size shrinks) */
-        if (size == 1 && ratio > HARD_FACTOR * split && fs_switched(q) != FS_TOUCHDOWN) q->st->rejected++;
+        if (size == 1 && ratio > HARD_FACTOR * split && fs_switched(q) != FS_TOUCHDOWN) {
+            if ((s = fs_last_cell(q, ts, hs, xs, &ratio))) {     /* Newton on the cell */
+                q->st->t_fail = ts + hs;
+                return s;
+            }
+            if (ratio > HARD_FACTOR * split) q->st->rejected++;
+        }
     take:
         /* a sub-step that ends before a hard failure's end (below) and changes no regime */
         quiet = pos + size < hard_end && !fs_switched(q);
@@ -1773,6 +1846,8 @@ int eomc_fs_run(const eomc_fs_ops *ops, eomc_stats *st, int nx, double h, long m
         q.dv = pos; pos += nu;
         q.dun = pos; pos += nu;
         q.GJ = pos; pos += 3 * (size_t)nu;
+        q.dug = pos; pos += nu;
+        q.dub = pos; pos += nu;
         q.cT = pos; pos += fs_cache_size(nu, ops->imp->ncontact);
         q.cT1 = pos; pos += fs_cache_size(nu, ops->imp->ncontact);
         q.x1 = pos; pos += n;

@@ -382,6 +382,82 @@ def test_a_foot_landing_from_out_of_touch_is_not_taken_inside_a_whole_step(ant):
     assert step.stats["nfev"] > 2                                       # located, not taken whole
 
 
+# gymnasium's ant at t = 0.2 s of bench_rollout_contacts' row 4 (main's implicitfast at 10 ms, b0eeb3ba), two feet
+# landing, and at t = 0.15 s of its rows 3, 4 and 5, the ankles swinging into their limits at 7.3 rad/s (session 26)
+ANT_ROW4_020 = [-0.002181614061594411, -0.008031258886146536, 0.6377433139907854, -0.0014217903846890324,
+                -0.0035548344444874197, 0.0018362277809485566, -0.06628895038112947, 1.2445915783351769,
+                0.004259296619313953, -1.2434399320051226, -0.002829313161222656, -1.2241797926316065,
+                0.07931445998495854, 1.2405663249320242, -0.2710485856407012, -0.9457575692325666, -0.7189383878032946,
+                1.5713809282373763, -0.44005141754809013, 0.044016135467286666, -0.2946168050483283,
+                -0.8228639700042788, -0.0014505141256801433, 0.8120109777177176, -0.022111446972947837,
+                0.504122241517658, 0.3783776559511053, -0.846410782869307]
+ANT_ROWS_015 = [
+    [0.00039854035564071817, -0.0011990306679411735, 0.7117223990928735, 0.002391334140816611, 0.0040953928866297815,
+     0.0074237139485283845, 0.015903151362708413, 1.1588619849179358, 0.06914499093791443, -1.1190779597673564,
+     0.02569538461715095, -1.1587291927445438, 0.026135221179776028, 1.1589487269462275, 0.008334821501073588,
+     -0.019107896976382096, -1.1878574927404608, 0.027627762585786524, 0.047263706532636444, 0.1280092621793755,
+     0.09790732829048614, 7.324210579031261, 0.43119423248123434, -7.026545879111203, 0.15952792702436017,
+     -7.324873746687134, 0.16243888028916628, 7.32451891798827],
+    [0.0016271510610735762, 0.0012895170370146147, 0.7095364396577272, -0.014842769657583264, 0.0032183488903729366,
+     0.0006533598455417145, -0.05084338422829092, 1.1602053314711809, 0.003460763069799588, -1.1600384119667313,
+     -0.00208930935518403, -1.1519411103552053, 0.060616285161425025, 1.1585774182269701, 0.026477900651143197,
+     0.031225149837365268, -1.2043314623535353, -0.11520832501631503, 0.01736752942312185, 0.010918016767305826,
+     -0.31813362415772717, 7.32191026050697, 0.021319433350081688, -7.3217013100293755, -0.013882985603456556,
+     -7.283050737192175, 0.380014849885364, 7.324854496634047],
+    [-0.0005532426386605313, 4.8066207716171964e-05, 0.7100195596522838, -0.003693427534580676, 0.002839294153694639,
+     -0.0016455552071514704, 0.010017810060005763, 1.1583745157872947, 0.013142829311041907, -1.1599516589006773,
+     -0.015070172791618522, -1.1502553695458677, -0.03796982542534585, 1.1597652452246774, -0.006453955530027193,
+     0.0035326695746319093, -1.2011394331433676, -0.032866742645786116, 0.03073209781276702, -0.028503297816906782,
+     0.06302940294092113, 7.324543533599619, 0.0822366548404982, -7.32245229610085, -0.09396941590752643,
+     -7.270139670979006, -0.23711446815716455, 7.322501812647872]]
+
+
+@pytest.fixture(scope="module")
+def ant_lanes(tmp_path_factory):
+    """The ant with NAME_implicit_batch (the lanes rollout's; the benchmarks' build flags)."""
+    from eomc.compiler.emit.signatures import FUNCTION_ORDER, ON_REQUEST
+    from eomc.compiler.mjcf.model import MjcfModel
+    functions = tuple(f for f in FUNCTION_ORDER if f not in ON_REQUEST) + ("implicit_batch",)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return eomc.compile(MjcfModel(_gym("ant.xml")), name="ift_ant_lanes", functions=functions,
+                            cache_dir=tmp_path_factory.mktemp("ant_lanes"), progress=False,
+                            cflags="-O2 -std=c99 -fPIC -DEOMC_BATCH_LIBM_TRIG")
+
+
+def test_a_last_resort_cell_is_solved_by_newton_not_taken_unsolved(ant_lanes):
+    """The ant from ANT_ROW4_020, one 10 ms step: two feet 0.2 and 0.5 mm in touch, pressed.  Bisected
+    down to a 1/64 cell whose residual ratio is still past HARD_FACTOR * split (no touch-down in it), the
+    cell was taken as it was and counted unsolved (stats rejected 1: a warning).  It is now solved by
+    Newton on its implicit Euler equation (eomc_fixedstep.c, fs_last_cell): no unsolved sub-step, the
+    energy output falls (measured 6.9643 -> 6.2395 J; Radau 1e-10 from the same state: 6.2677), the feet
+    stay under 1 mm in, and the end is nearer Radau's (max |q - q_ref| measured 4.9e-4; 8.7e-4 before),
+    for 27 calls instead of 23.  The same for the ankles swinging into their limits at 7.3 rad/s
+    (ANT_ROWS_015: one unsolved cell each before, 13 calls instead of 12).  Rollout in lanes -- where the
+    cell's iterates run in the scalar code -- gives the scalar rows bit for bit.  Fails on main b0eeb3ba
+    (rejected 1)."""
+    m, dt = ant_lanes, 0.01
+    step = _one_step(m, ANT_ROW4_020, dt)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        ref = m.simulate(np.array(ANT_ROW4_020), (0.0, dt), method="radau", rtol=1e-10, atol=1e-10, t_eval=[0, dt])
+    assert step.status == 0 and step.stats["rejected"] == 0, (step.status, step.stats["rejected"])
+    E = step.outputs["energy"]
+    assert E[1] < E[0] and abs(E[1] - ref.outputs["energy"][1]) < 0.05, (E, ref.outputs["energy"])
+    depths = [v[1] for k, v in step.outputs.items() if k.startswith("depth_")]
+    assert 0.0 < max(depths) < 1e-3                                 # measured 0.50 mm
+    assert np.abs(step.x[-1][:m.nq] - ref.x[-1][:m.nq]).max() < 6e-4    # measured 4.9e-4 (8.7e-4 before)
+    for x in ANT_ROWS_015:
+        step = _one_step(m, x, dt)
+        assert step.status == 0 and step.stats["rejected"] == 0
+    X0 = np.array([ANT_ROW4_020] + ANT_ROWS_015)
+    kw = dict(dt=dt, steps=10, method="implicitfast", threads=1, raise_on_failure=False)
+    want = eomc.rollout(m, X0, **kw)
+    got = eomc.rollout(m, X0, lanes=True, **kw)
+    assert want.ok.all() and got.ok.all() and not want.unsolved.any()
+    assert np.array_equal(got.x, want.x) and np.array_equal(got.unsolved, want.unsolved)
+
+
 # gymnasium's humanoid at t = 0.144 s of bench_rollout_contacts' row 20 (main's implicitfast at 3 ms, 8be08cbd), its
 # right foot 4.9 um in touch and falling (session 23)
 HUMANOID_ROW20_0144 = [-0.0020002045955110587, -0.0008752231758153367, 1.2959449801701932, 0.008407926205732772,
