@@ -123,9 +123,8 @@ def consistent_state(model, x0, t=0.0, p=None, r=None, fixed=None, tol=1e-12, ma
         raise ValueError(f"{model.name}: consistent_state max_iter must be an integer >= 1; "
                          f"got {max_iter!r}")
     if x0 is None:
-        if getattr(model, "initial_state", None) is None:
-            raise ValueError(f"{model.name}: x0 is None and the model has no initial_state")
-        x0 = np.array(model.initial_state, dtype=np.float64)
+        from .simulate import start_or_default
+        x0 = start_or_default(model, None)
     if isinstance(x0, dict):
         base = model.initial_state if model.initial_state is not None else np.zeros(model.nx)
         x = np.array(base, dtype=np.float64)

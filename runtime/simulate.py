@@ -131,12 +131,20 @@ def state_defaults(model):
 
 
 def start_or_default(model, x0):
-    """x0, or the model's initial_state for x0=None (a clear error when it has none)."""
+    """x0, or the model's initial_state for x0=None; rest (x = 0) with a warning when it has none.
+
+    As the command line does without --x0 (first hour s26: ``model.simulate(None, ...)``
+    raised where ``eomc simulate`` started from rest with a note)."""
     if x0 is not None:
         return x0
     if getattr(model, "initial_state", None) is None:
-        raise ValueError(f"{model.name}: x0 is None and the model has no initial_state; give x0 "
-                         f"(an array of {model.nx} or a dict by state name)")
+        import warnings
+
+        from eomc.errors import EomcWarning
+        warnings.warn(f"{model.name} has no initial_state and no x0 was given: starting from rest "
+                      f"at x = 0 (give x0: an array of {model.nx} or a dict by state name)",
+                      EomcWarning, stacklevel=3)
+        return np.zeros(model.nx)
     return np.array(model.initial_state, dtype=np.float64)
 
 
@@ -823,7 +831,8 @@ def simulate(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6
     """Integrate ``model`` from ``x0`` over ``t_span``; returns a SimulationResult.
 
     x0/p: arrays or {name: value} dicts (missing names -> the model's initial_state (0 without
-    one) / the parameter defaults); x0=None starts at the model's initial_state.  r: constant
+    one) / the parameter defaults); x0=None starts at the model's initial_state (at rest,
+    with a warning, without one).  r: constant
     array, (t_grid, values) interpolated linearly in C, (t_grid, values, "cubic") by a
     cubic spline (not-a-knot, scipy's CubicSpline) in C, or a callable (see below).
     method: "auto" (the default: DOP853 while the problem is not stiff, an implicit method

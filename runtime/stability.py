@@ -388,9 +388,9 @@ def check_model(model, x0=None, t_final=10.0, p=None, rtol=1e-8, atol=1e-10,
     references disagree from the start (the problem's conditioning, not the methods)."""
     if methods is None:
         methods = default_methods(model, rtol)
-    x0 = getattr(model, "initial_state", None) if x0 is None else x0
     if x0 is None:
-        raise ValueError(f"{model.name}: no x0 given and the model has no initial_state")
+        from .simulate import start_or_default
+        x0 = start_or_default(model, None)
     x0 = np.asarray([x0[n] for n in model.state_names] if isinstance(x0, dict) else x0, float)
     p = model.param_defaults if p is None else np.asarray(p, float)
     if model.c_model.jac_x == model.ffi.NULL:

@@ -201,3 +201,17 @@ def test_a_bound_call_keeps_its_model_alive():
     gc.collect()
     assert alive() is not None
     assert call() == 0 and stats.status == 0 and np.all(np.isfinite(x_last))
+
+
+def test_no_x0_and_no_initial_state_starts_from_rest_with_a_warning():
+    """model.simulate(None, ...) on a model without initial_state raised while `eomc simulate`
+    started from rest with a note (first hour s26): Python now does as the command line, the
+    note a warning, and the run equals one from x0 = 0."""
+    from eomc.errors import EomcWarning
+
+    osc = get_model("oscillator")
+    assert osc.initial_state is None
+    with pytest.warns(EomcWarning, match="no initial_state and no x0 was given: starting from rest"):
+        res = simulate(osc, None, (0.0, 1.0), n_points=5)
+    ref = simulate(osc, np.zeros(osc.nx), (0.0, 1.0), n_points=5)
+    assert res.status == 0 and np.array_equal(res.x, ref.x)
