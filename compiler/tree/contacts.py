@@ -433,7 +433,10 @@ def deferred_energy(rec, assignments, deferred):
     """``assignments`` (the program's, which begin with ``rec``'s as they were when the bodies
     were placed) with the bodies' shares computed and named as :func:`_energy` does, each put in
     after its body's placement, and :data:`BODY_ENERGY` replaced by their sum: the program
-    lower_contacts gave before the energy could be deferred, assignment for assignment."""
+    lower_contacts gave before the energy could be deferred, assignment for assignment.
+    Returns (assignments, the sum): where no assignment reads BODY_ENERGY (the energy is the bodies'
+    part alone, an atom the recorder does not name: gymnasium's swimmer, reacher, inverted
+    pendulums) the caller puts the sum into the results that read it."""
     marks, seen, share = deferred
     now, rec._seen = rec._seen, seen     # the names known then (a later temporary is no share's)
     inserts, total = [], sm.S.Zero
@@ -455,4 +458,4 @@ def deferred_energy(rec, assignments, deferred):
             break
     for mark, new in reversed(inserts):
         out[mark:mark] = new
-    return out
+    return out, total

@@ -452,7 +452,10 @@ def _bodies_energy(sym, rec, deferred, functions):
     if placed(sym, functions):
         return replace(sym, body_loops={**(sym.body_loops or {}), "energy": True})
     program = sym.program
-    return replace(sym, program=program.with_(assignments=tuple(deferred_energy(rec, program.assignments, deferred)),
+    assignments, total = deferred_energy(rec, program.assignments, deferred)
+    results = tuple((k, e.xreplace({BODY_ENERGY: total}) if isinstance(e, sm.Basic) and e.has(BODY_ENERGY) else e)
+                    for k, e in program.results)
+    return replace(sym, program=program.with_(assignments=tuple(assignments), results=results,
                                               inputs=tuple(s for s in program.inputs if s is not BODY_ENERGY)))
 
 
