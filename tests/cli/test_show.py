@@ -1,5 +1,7 @@
 """`eomc show`: the derived equations, printed readably."""
 
+import re
+
 from helpers import model_files
 from eomc.cli import main
 
@@ -44,3 +46,28 @@ def test_a_long_pretty_print_is_not_silent_in_a_log(tmp_path, capsys, monkeypatc
     captured = capsys.readouterr()
     assert captured.out.startswith("model cart (kane): nq=2, nu=2")
     assert "eomc: pretty-print ... (still running after 0.1 s)" in captured.err, captured.err
+
+
+def test_entries_too_large_to_read_are_summarized_unless_full(tmp_path, capsys, monkeypatch):
+    """UR5's Kane form pretty-printed to 14 MB (lines up to 335 kB) in 23 s CPU (first hour
+    s26): an entry over ENTRY_CHARS is now given as its operation count and size, one line
+    says so and names --full, which prints everything as before.  The cart, small, prints as
+    it did (the first test); here the limit is lowered to reach its mass matrix."""
+    import eomc.cli.show as show
+    model = model_files.write(tmp_path, model_files.CART, "cart")
+    assert main(["show", str(model), "--ascii", "-q"]) == 0
+    whole = capsys.readouterr().out
+    monkeypatch.setattr(show, "ENTRY_CHARS", 8)
+    assert main(["show", str(model), "--ascii", "-q"]) == 0
+    out = capsys.readouterr().out
+    assert "(too large to read whole" in out and "--full prints everything" in out, out
+    assert "entries over 8 characters are given as operation count and size;" in out, out
+    assert "mass matrix  (A in A u' = b)\n  [0, 0] = M + m\n" in out, out          # 5 characters
+    assert re.search(r"\n  \[0, 1\]: \d+ operations, \d+ characters\n", out), out
+    assert main(["show", str(model), "--ascii", "-q", "--full"]) == 0
+    assert capsys.readouterr().out == whole
+    monkeypatch.setattr(show, "ENTRY_CHARS", 400)
+    monkeypatch.setattr(show, "TOTAL_CHARS", 10)          # every block entry by entry
+    assert main(["show", str(model), "--ascii", "-q"]) == 0
+    out = capsys.readouterr().out
+    assert "kinematics  q' =\n  [0] = v\n  [1] = w\n" in out and "the rest one per line" in out, out
