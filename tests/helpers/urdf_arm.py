@@ -1,6 +1,6 @@
 """A two-link arm in URDF, written for the tests (no third-party file)."""
 
-__all__ = ["ARM", "LAW_ARM", "FLOATING_FEET", "LIMITED_HINGE"]
+__all__ = ["ARM", "LAW_ARM", "FLOATING_FEET", "LIMITED_HINGE", "check_limited_hinge_energy_verdict"]
 
 ARM = """<?xml version="1.0"?>
 <robot name="arm">
@@ -95,3 +95,21 @@ LIMITED_HINGE = """<robot name="arm">
     <axis xyz="0 1 0"/><limit lower="-0.4" upper="0.3" effort="10" velocity="5"/></joint>
 </robot>
 """
+
+
+def check_limited_hinge_energy_verdict(arm):
+    """LIMITED_HINGE built as ``arm``: with a stiff undamped limit (k = 1e4, c = 0), a swing into the
+    limit at 3 rad/s gains energy under RK4 at 10 ms (the run's energy verdict fails it, status
+    STATUS_ENERGY) and keeps it under Radau at 1e-10 (status 0, the energy output flat to 1e-9)."""
+    import warnings
+    import numpy as np
+    from eomc.runtime.switching import STATUS_ENERGY, PhysicsWarning
+    p = np.array(arm.param_defaults)
+    p[arm.param_names.index("limit_k_hinge")], p[arm.param_names.index("limit_c_hinge")] = 1e4, 0.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", PhysicsWarning)
+        bad = arm.simulate(np.array([0.0, 3.0]), (0.0, 2.0), p=p, method="rk4", dt=1e-2, raise_on_failure=False)
+        good = arm.simulate(np.array([0.0, 3.0]), (0.0, 2.0), p=p, method="radau", rtol=1e-10, atol=1e-12)
+    assert bad.status == STATUS_ENERGY and "energy rose" in bad.message
+    E = good.outputs["energy"]
+    assert good.status == 0 and good.x[:, 0].max() > 0.3 and E.max() - E[0] < 1e-9 * abs(E).max()

@@ -12,9 +12,9 @@ import pytest
 
 import eomc
 from eomc.compiler.urdf.model import UrdfModel
-from eomc.runtime.switching import STATUS_ENERGY, PhysicsWarning
+from eomc.runtime.switching import PhysicsWarning
 from helpers.robots import robot_path
-from helpers.urdf_arm import LIMITED_HINGE
+from helpers.urdf_arm import LIMITED_HINGE, check_limited_hinge_energy_verdict
 
 # limited URDF robots of 1-3 joints where auto now takes Kane's rhs by cost, and Bolt (6 speeds, two
 # 3-joint legs), where it keeps the recursive one by cost (benchmarks/results/auto_choice.md)
@@ -88,15 +88,7 @@ def test_the_energy_verdict_is_there_with_either_form(form, tmp_path):
         arm = eomc.compile(UrdfModel(path), functions=("rhs", "jac_x", "outputs"), formulation=form,
                            cache_dir=tmp_path / "c", progress=False)
     assert arm.metadata["formulation"] == form and arm.output_names == ("energy",)
-    p = np.array(arm.param_defaults)
-    p[arm.param_names.index("limit_k_hinge")], p[arm.param_names.index("limit_c_hinge")] = 1e4, 0.0
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", PhysicsWarning)
-        bad = arm.simulate(np.array([0.0, 3.0]), (0.0, 2.0), p=p, method="rk4", dt=1e-2, raise_on_failure=False)
-        good = arm.simulate(np.array([0.0, 3.0]), (0.0, 2.0), p=p, method="radau", rtol=1e-10, atol=1e-12)
-    assert bad.status == STATUS_ENERGY and "energy rose" in bad.message
-    E = good.outputs["energy"]
-    assert good.status == 0 and good.x[:, 0].max() > 0.3 and E.max() - E[0] < 1e-9 * abs(E).max()
+    check_limited_hinge_energy_verdict(arm)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         res = arm.simulate(np.array([0.8, 0.0]), (0.0, 2.0), method="radau", rtol=1e-8, atol=1e-10)
