@@ -15,6 +15,7 @@ __all__ = [
     "MissingExtraError",
     "EomcWarning",
     "EomcNote",
+    "BuildNote",
     "DefaultStartWarning",
 ]
 
@@ -73,6 +74,13 @@ class EomcNote(EomcWarning):
     recorded, filtered and silenced as one; the ``eomc`` command prints it as one
     ``eomc: note: ...`` line, not a warning (first hour s21: ANYmal C's five cameras gave a
     680-character warning on every command)."""
+
+
+class BuildNote(EomcNote):
+    """A note about the model as built (impossible link inertias kept as given: the dynamics
+    are fine), said once when the model is built -- the build's metadata keeps it -- and not
+    again when a later command reuses the build (first hour s26: ANYmal's 840 characters on
+    every simulate, check and animate)."""
 
 
 class DefaultStartWarning(EomcWarning):

@@ -13,7 +13,8 @@ meshes.  Every file opened for reading while the model was built (Python's ``ope
 event, which covers imports) and, for MJCF, every file its XML names (MuJoCo reads those in
 C, out of Python's sight) is kept with its sha256; a hit needs each to be unchanged, else the
 model is derived as before.  The warnings the build gave are kept and given again on a hit
-(a fixed mistake in the file must still be pointed at).
+(a fixed mistake in the file must still be pointed at), but for its BuildNotes: nothing to
+act on, said once when the model was built.
 
 This module does not import SymPy: a hit costs reading the file and loading the library.
 """
@@ -223,7 +224,7 @@ def _category(module, qualname):
 
 def find(root, key, held):
     """The build cache entry (a directory) ``key`` was built into, held in ``held`` (an
-    ExitStack) while it is loaded, with the warnings of that build given again; None when
+    ExitStack) while it is loaded, with the warnings of that build (not its BuildNotes) given again; None when
     there is none, a file it read changed, or the entry is gone."""
     entry = lookup(root, KIND, key)
     if entry is None:
@@ -238,7 +239,10 @@ def find(root, key, held):
             return None
     except (OSError, ValueError, KeyError, TypeError, AttributeError):
         return None
+    from eomc.runtime.errors import BuildNote
     for module, qualname, message, filename, lineno in data.get("warnings", ()):
+        if issubclass(_category(module, qualname), BuildNote):
+            continue        # said when it was built, not on every command that reuses it
         try:
             warning = _category(module, qualname)(message)
         except Exception:       # noqa: BLE001 -- a category that wants more than its text

@@ -36,7 +36,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from eomc.runtime.errors import EomcNote, EomcWarning, ModelFileError
+from eomc.runtime.errors import BuildNote, EomcNote, EomcWarning, ModelFileError
 
 from ..multibody.joint_kinds import KINDS
 from ..multibody.joints import identifier
@@ -311,7 +311,7 @@ def _warn_kept(robot, kept, notes):
                 else f"kept as given: it is welded into body '{into[0]}' (moved by joint '{into[1]}'), whose "
                      f"combined inertia is possible")
         _warn(robot, link.line, f"link '{link.name}': its inertia tensor is not physically possible "
-                                f"({miss(leig, verdict)}); {what}", notes)
+                                f"({miss(leig, verdict)}); {what}", notes, BuildNote)
     elif kept:
         # each link's miss in a few characters (a + b < c, or its negative moment) and where it is
         # welded: allegro's four fingertips took 900 characters on every command (first hour s23)
@@ -326,7 +326,7 @@ def _warn_kept(robot, kept, notes):
         _warn(robot, robot.line, f"{len(kept)} links' inertia tensors "
                                  f"{'miss the triangle inequality (a + b < c)' if triangle else 'are not physically possible'}"
                                  f" and are kept as given, as Pinocchio does (the dynamics need only each moving body's "
-                                 f"combined tensor to be possible, and these are): {each}", notes)
+                                 f"combined tensor to be possible, and these are): {each}", notes, BuildNote)
 
 
 def _check_names(robot, joints, bodies):

@@ -121,6 +121,28 @@ def test_a_reused_build_warns_again_and_checks_the_options(counted, tmp_path, ca
     assert counted["read"] == 0, counted
 
 
+def test_a_reused_build_does_not_say_its_build_notes_again(counted, tmp_path):
+    """ANYmal's, Allegro's and HyQ's kept link inertias (the dynamics are fine) were said on
+    every simulate/check/animate that reused the build (first hour s26): a BuildNote is said
+    when the model is built and not again on a reuse, while its other warnings still are."""
+    from eomc.errors import BuildNote
+    extra = ('import warnings\nfrom eomc.errors import BuildNote\n'
+             'warnings.warn("inertias kept as given", BuildNote)\n'
+             'warnings.warn("lengths are in metres")\nLENGTH = 1.0')
+    path = _model_file(tmp_path, extra=extra)
+    with warnings.catch_warnings(record=True) as first:
+        warnings.simplefilter("always")
+        _run(path, tmp_path / "1.csv")
+    assert [str(w.message) for w in first if w.category is BuildNote] == ["inertias kept as given"]
+    counted.update({k: 0 for k in counted})
+    with warnings.catch_warnings(record=True) as again:
+        warnings.simplefilter("always")
+        _run(path, tmp_path / "2.csv")
+    assert counted["read"] == 0, counted                    # reused
+    said = [str(w.message) for w in again]
+    assert "lengths are in metres" in said and "inertias kept as given" not in said, said
+
+
 def test_a_robot_is_read_once_per_command(monkeypatch, tmp_path, capsys):
     """--x0, --input, --frame and --param are checked on the build's own reading of the URDF."""
     import eomc.compiler.urdf as urdf
