@@ -136,11 +136,28 @@ def plot_report(report, path, target_error=None):
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(loc="best", fontsize=8)
     fig.tight_layout()
+    _fit_labels(fig, ax)
     path = Path(path)
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=120, format=path.suffix[1:] or "png")
     plt.close(fig)
     return path
+
+
+def _fit_labels(fig, ax, rounds=3):
+    """Widen the (log) x range until every point label ends inside the axes: the rightmost
+    point's label, drawn to its right, ran past the edge and was cut (first hour s26)."""
+    for _ in range(rounds):
+        if not ax.texts:
+            return
+        fig.canvas.draw()
+        renderer = fig.canvas.get_renderer()
+        box = ax.get_window_extent(renderer)
+        right = max(t.get_window_extent(renderer).x1 for t in ax.texts)
+        if right <= box.x1 - 2:
+            return
+        lo, hi = ax.get_xlim()
+        ax.set_xlim(lo, hi * (hi / lo) ** ((right - box.x1 + 6) / box.width))
 
 
 def _cpu_ms(row):

@@ -382,3 +382,23 @@ def test_cost_weighs_jacobians_and_lu_by_operation_counts():
     row = dict(status=0, nfev=100, njev=2, nlu=3)
     assert run_cost(row, (w_jac, w_lu)) == pytest.approx(100 + 10 + 3 * w_lu)
     assert run_cost(dict(row, status=6), (w_jac, w_lu)) is None
+
+
+def test_png_point_labels_stay_inside_the_axes(osc_report, tmp_path, monkeypatch):
+    """report.png clipped the rightmost point's tolerance label at the axes' edge (first hour
+    s26): every label now lies inside the axes."""
+    import matplotlib.pyplot as plt
+    closed = []
+    monkeypatch.setattr(plt, "close", lambda fig=None: closed.append(fig))
+    osc_report.plot(tmp_path / "wp.png")
+    (fig,) = closed
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    (ax,) = fig.axes
+    box = ax.get_window_extent(renderer)
+    labels = [t for t in ax.texts]
+    assert labels
+    for t in labels:
+        e = t.get_window_extent(renderer)
+        assert box.x0 <= e.x0 and e.x1 <= box.x1 and box.y0 <= e.y0 and e.y1 <= box.y1, (t.get_text(), e, box)
+    plt.close(fig)
