@@ -11,7 +11,26 @@ import numpy as np
 
 from .files import atomic_path
 
-__all__ = ["SimulationResult"]
+__all__ = ["SimulationResult", "select_columns"]
+
+
+def select_columns(names, patterns, what="columns"):
+    """The indices of ``names`` (a CSV's column names) that any of ``patterns`` (exact names
+    or fnmatch globs: "q_*", "*knee*") matches, in the CSV's order, "t" always first.  A
+    pattern that matches nothing is a ValueError naming what there is (first hour s26: G1 on
+    the ground wrote 4272 columns, 27 MB, with no way to choose)."""
+    import difflib
+    import fnmatch
+    names = list(names)
+    unmatched = [p for p in patterns if not fnmatch.filter(names, p)]
+    if unmatched:
+        near = sorted({m for p in unmatched for m in difflib.get_close_matches(p, names, n=2, cutoff=0.6)})
+        shown = ", ".join(names[:12]) + (f", ... ({len(names)} in all)" if len(names) > 12 else "")
+        raise ValueError(f"{what}: {', '.join(unmatched)} match{'es' if len(unmatched) == 1 else ''} no column"
+                         + (f" (did you mean {', '.join(near)}?)" if near else "")
+                         + f"; columns: {shown} (names or glob patterns such as 'q_*')")
+    return [i for i, n in enumerate(names)
+            if n == "t" or any(fnmatch.fnmatchcase(n, p) for p in patterns)]
 
 
 @dataclass
@@ -77,13 +96,18 @@ class SimulationResult:
             cols.append(self.constraint_residual[:, None])
         return names, np.hstack(cols)
 
-    def to_csv(self, path):
-        """Write t, states, outputs (and the constraint residual) as CSV with a header row.
+    def to_csv(self, path, columns=None):
+        """Write t, states, outputs (and the constraint residual) as CSV with a header row;
+        ``columns``: only these (names or glob patterns over the column names, see
+        :func:`select_columns`; t is always kept).
 
         A failed run's rows (up to where it stopped) are written too, followed by one
         comment line ``# incomplete: <why>`` (numpy.loadtxt and pandas with comment="#"
         skip it), so what was computed is kept and marked as such."""
         names, data = self.columns()
+        if columns is not None:
+            keep = select_columns(names, list(columns))
+            names, data = [names[i] for i in keep], data[:, keep]
         footer = "" if self.status == 0 else "incomplete: " + " ".join(str(self.message).split())
         with atomic_path(path) as tmp:
             np.savetxt(tmp, data, delimiter=",", header=",".join(names), comments="", fmt="%.17g")

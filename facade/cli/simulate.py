@@ -21,6 +21,10 @@ def configure(parser):
                         "several pages: traj.png, traj-2.png, ...)")
     parser.add_argument("--plot-states", metavar="NAMES",
                         help="with --plot: only these states and outputs, comma-separated")
+    parser.add_argument("--columns", metavar="NAMES",
+                        help="with -o: only these CSV columns (t is always written), comma-separated "
+                             "names or glob patterns, e.g. 'q_*,energy' (a robot on the ground writes "
+                             "5 outputs per contact point)")
     parser.add_argument("--method", default="auto",
                         help="auto (dop853; bdf from the start with contacts (radau at --rtol < 1e-7), or radau from where "
                              "dop853 finds the problem stiff), rk4 (needs --dt), dopri5 (rk45), dop853, "
@@ -166,6 +170,23 @@ def plot_names(text):
     return names
 
 
+def _columns(model, args):
+    """--columns' patterns, checked against the columns the CSV will have; None: all."""
+    if args.columns is None:
+        return None
+    patterns = [n.strip() for n in args.columns.split(",") if n.strip()]
+    if not patterns:
+        raise ValueError("--columns: give names or glob patterns, comma-separated")
+    if not args.output:
+        raise ValueError("--columns chooses the CSV's columns: give -o CSV too")
+    from eomc.runtime.result import select_columns
+    names = ["t", *model.state_names, *model.output_names]
+    if model.nhol + model.nvel:
+        names.append("constraint_residual")
+    select_columns(names, patterns, what=f"{model.name}: --columns")
+    return patterns
+
+
 def run(args):
     import sys
     import warnings
@@ -193,6 +214,7 @@ def run(args):
             raise ValueError(f"{model.name}: --plot-states names {', '.join(unknown)}, which is no state or "
                              f"output (states: {', '.join(model.state_names[:12])}"
                              f"{', ...' if model.nx > 12 else ''})")
+    columns = _columns(model, args)          # checked before the run, not after it
     x0 = _start(model, x0, given, args, params)
     seen = []
     try:
@@ -214,7 +236,7 @@ def run(args):
         from eomc.runtime.errors import SimulationError
         kept = ""
         if args.output and len(res.t):
-            res.to_csv(args.output)
+            res.to_csv(args.output, columns=columns)
             kept = (f"; wrote the {len(res.t)} rows computed up to t={res.t[-1]:.9g} to {args.output} "
                     f"(marked '# incomplete' on its last line)")
         raise SimulationError(state_last(f"{res.message}{kept}"))
@@ -280,7 +302,7 @@ def run(args):
     if res.event_stop:
         print(f"  stopped by event {res.event_stop} at t={res.t_final:.10g}")
     if args.output:
-        print(f"wrote {res.to_csv(args.output)}")
+        print(f"wrote {res.to_csv(args.output, columns=columns)}")
     if args.plot:
         if res.model is None:       # as Model.simulate sets it: the plot knows the contacts
             res.model = model

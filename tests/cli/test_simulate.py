@@ -100,3 +100,26 @@ def test_a_failed_run_keeps_its_rows_marked_incomplete(pendulum, tmp_path, capsy
     assert lines[-1].startswith("# incomplete: ") and "maximum number of steps" in lines[-1]
     data = np.loadtxt(out, delimiter=",", skiprows=1, ndmin=2)
     assert 1 < len(data) < 1001 and data[0, 1] == 0.5 and np.all(np.isfinite(data))
+
+
+def test_columns_choose_the_csvs_columns_and_a_bad_pattern_names_them(tmp_path, capsys, monkeypatch):
+    """G1 on the ground wrote 4272 columns (840 contacts x 5 outputs), 27 MB, with no choice
+    (first hour s26): --columns keeps t and the columns its names or glob patterns match; a
+    pattern that matches nothing fails before the run, naming the columns there are."""
+    from helpers import model_files
+    model = model_files.write(tmp_path, model_files.PENDULUM, "p")
+    out = tmp_path / "t.csv"
+    monkeypatch.setenv("EOMC_CACHE_DIR", str(tmp_path / "c"))
+    cache = []
+    assert main(["simulate", str(model), "--t-final", "0.5", "-q", "-o", str(out), *cache,
+                 "--columns", "en*"]) == 0
+    assert out.read_text().splitlines()[0] == "t,energy"
+    assert main(["simulate", str(model), "--t-final", "0.5", "-q", "-o", str(out), *cache,
+                 "--columns", "q, energy"]) == 0
+    assert out.read_text().splitlines()[0] == "t,q,energy"
+    capsys.readouterr()
+    assert main(["simulate", str(model), "--t-final", "0.5", "-q", "-o", str(tmp_path / "u.csv"), *cache,
+                 "--columns", "energi"]) == 2
+    err = capsys.readouterr().err
+    assert "--columns: energi matches no column (did you mean energy?); columns: t, q, u, energy" in err, err
+    assert not (tmp_path / "u.csv").exists()
