@@ -1315,6 +1315,13 @@ static int fs_fast_try(fs_fast *q, double t, double h, const double *x, int chec
     /* a try that passes with a contact touching down from in touch, or from out of touch deep: also
      * with A (fs_onset) */
     if (*ratio <= ops->imp->split && fs_onset(q)) {
+        /* A unwritten here (a_bare: the lanes answered the last try ahead, then declined this one)
+         * only if the lanes' pivot test failed where fs_assemble's above passed -- the same
+         * arithmetic, so only $EOMC_TEST_FS_LANES_FAIL's lanes (a model call that failed returned
+         * above): written as the lanes' branch does, so fs_start_ratio never reads a stale A */
+        if (a_bare && (s = fs_assemble(ops, L, h, u, q->T, q->A, q->b, q->GJ, q->cT, &q->vT, &q->pat,
+                                       q->own, &q->start, &q->anc)))
+            return s;
         fs_residual(q, h);              /* r again: the solve above overwrote it */
         *ratio = fmax(*ratio, fs_start_ratio(q, h, q->dv));
     }
