@@ -34,7 +34,7 @@ import numpy as np
 from .files import atomic_path
 from .poses import evaluate_poses
 
-__all__ = ["animate", "animate_2d", "Animation", "page_html", "plane_of"]
+__all__ = ["animate", "animate_2d", "Animation", "ground_plane", "page_html", "plane_of"]
 
 _WEB = Path(__file__).parent / "web"
 _PALETTE = [(0.12, 0.47, 0.71), (0.84, 0.15, 0.16), (0.17, 0.63, 0.17), (1.0, 0.5, 0.05),
@@ -172,10 +172,48 @@ def _smoothed(centres, window):
     return np.column_stack([np.convolve(padded[:, k], kernel, mode="valid") for k in range(3)])
 
 
-def _camera(poses, up, reach=0.0):
+def ground_plane(model):
+    """(unit normal n, height h) of the ground the model touches (n·x = h), or None.
+
+    The plane is the built model's: each contact of NAME.json ``poses.contacts`` carries the
+    ``normal`` and ``height`` of the plane it meets (an MJCF floor, ``--ground``, a
+    ``--contact`` plane), else a URDF's ``ground_check`` does.  An MJCF contact's height is
+    raised by its pair's margin (hopper: 2 mm) and the metadata does not say by how much, so
+    a ``margin`` is taken off only when an entry records one.  With contacts on several
+    heights the lowest plane of the first contact's normal is drawn."""
+    meta = getattr(model, "metadata", None) or {}
+    planes = [(c["normal"], float(c["height"]) - float(c.get("margin") or 0.0))
+              for c in (meta.get("poses") or {}).get("contacts") or ()
+              if c.get("normal") is not None and c.get("height") is not None]
+    check = meta.get("ground_check")
+    if not planes and isinstance(check, dict):
+        planes = [(check.get("normal", (0.0, 0.0, 1.0)), float(check.get("height", 0.0)))]
+    if not planes:
+        return None
+    n = np.asarray(planes[0][0], float)
+    size = float(np.linalg.norm(n))
+    if not np.isfinite(size) or size == 0:
+        return None
+    heights = [h / size for m, h in planes if np.allclose(np.asarray(m, float) / size, n / size, atol=1e-12)]
+    return n / size, min(heights)
+
+
+def _axis_of(n):
+    """The coordinate axis (0, 1, 2) a unit vector lies along, or None."""
+    k = int(np.argmax(np.abs(n)))
+    return k if abs(n[k]) > 1 - 1e-9 else None
+
+
+def _camera(poses, up, reach=0.0, ground=None):
     """(camera dict for the viewer, scale): where the camera looks from, the floor grid, and
     ``follow`` (per-frame targets, base64) when the run's extent dwarfs the robot: then the
-    camera keeps the robot's size on screen and moves with it instead of fitting the run."""
+    camera keeps the robot's size on screen and moves with it instead of fitting the run.
+
+    ``ground``: (unit normal, height) of the model's ground (:func:`ground_plane`), or None.
+    When its normal lies along an axis the floor grid is that plane (not the run's lowest
+    point), its normal is up by default, and a planar motion's view (straight onto its plane)
+    sees the floor edge-on under the robot instead of a grid behind it."""
+    g_axis = None if ground is None else _axis_of(ground[0])
     lo_t, hi_t, lo, hi = _framing(poses, reach)
     size = max(float(np.max(hi_t - lo_t)), 1e-3)
     whole = max(float(np.max(hi - lo)), 1e-3)
@@ -197,8 +235,16 @@ def _camera(poses, up, reach=0.0):
         floor = center - normal * scale * 0.5
         if follow:
             floor[flat] = target[flat] - scale * 0.5
-        return {"up": np.eye(3)[up_axis].tolist(), "position": position.tolist(),
+        up_vector = np.eye(3)[up_axis]
+        if g_axis is not None and g_axis != flat:       # the ground, seen edge-on below the robot
+            up_vector = np.sign(ground[0][g_axis]) * np.eye(3)[g_axis]
+            grid = {2: "xy", 1: "xz", 0: "yz"}[g_axis]
+            floor = center.copy()
+            floor[g_axis] = ground[1] / ground[0][g_axis]
+        return {"up": up_vector.tolist(), "position": position.tolist(),
                 "target": target.tolist(), "grid": grid, "floor": floor.tolist(), **extra}, scale
+    if up is None and g_axis is not None:
+        up = ("-" if ground[0][g_axis] < 0 else "") + "xyz"[g_axis]
     up = up or "z"
     if up not in ("x", "y", "z", "-x", "-y", "-z"):
         raise ValueError(f"up must be x, y, z, -x, -y or -z, not {up!r}")
@@ -210,6 +256,8 @@ def _camera(poses, up, reach=0.0):
     position = target + scale * (0.65 if follow else 1.0) * (1.15 * side - 1.35 * depth + 0.7 * u)
     floor = center.copy()
     floor[up_axis] = lo[up_axis] if u[up_axis] > 0 else hi[up_axis]
+    if g_axis == up_axis:                               # the model's ground, not the run's lowest point
+        floor[up_axis] = ground[1] / ground[0][g_axis]
     grid = {2: "xy", 1: "xz", 0: "yz"}[up_axis]
     return {"up": u.tolist(), "position": position.tolist(), "target": target.tolist(),
             "grid": grid, "floor": floor.tolist(), **extra}, scale
@@ -415,7 +463,8 @@ def page_data(res, model, *, fps=60, trace=None, colors=None, outputs=None, up=N
                        if len(t_run) > 1 else _b64(values)})
     geometry, meshes = pack_shapes(_ghost_free(model.metadata.get("poses", {}).get("geometry", {}),
                                                poses.frame_names), package_dirs)
-    camera, scale = _camera(poses, up, _reach({k: v for k, v in geometry.items() if k != "world"}, meshes))
+    camera, scale = _camera(poses, up, _reach({k: v for k, v in geometry.items() if k != "world"}, meshes),
+                            ground_plane(model))
     fixed = [bool(np.ptp(poses.points[:, j, :], axis=0).max() < 1e-12) if nt else False
              for j in range(len(poses.point_names))]
     lines = [list(p) for p in (_drawn_lines(poses) if geometry else poses.lines)]
@@ -581,6 +630,25 @@ def _window_2d(poses, a, b, reach=0.0):
     return None, ((whole[a] / 2 + pad), (whole[b] / 2 + pad)), (lo + hi) / 2
 
 
+def _draw_ground(ax, model, poses, flat, a, b):
+    """The model's ground (:func:`ground_plane`) as a line across the 2-D view, where it has
+    one and the plane crosses the drawing plane: contact is seen where the feet meet it.  The
+    line is the plane's trace in the drawing plane (the motion's constant coordinate c):
+    n2·y = h − n_flat·c, through its point nearest the origin, along n2 turned by 90°."""
+    ground = ground_plane(model)
+    if ground is None:
+        return None
+    n, h = ground
+    n2 = n[[a, b]]
+    if float(n2 @ n2) < 1e-12:                          # the ground is parallel to the drawing
+        return None
+    P = np.concatenate([poses.positions.reshape(-1, 3), poses.points.reshape(-1, 3)])
+    c = float(P[0, flat]) if len(P) else 0.0
+    through = (h - n[flat] * c) * n2 / float(n2 @ n2)
+    return ax.axline(tuple(through), tuple(through + np.array([-n2[1], n2[0]])), color="#8c6d31",
+                     lw=1.5, zorder=0.5, gid="ground")
+
+
 def animate_2d(res, path, *, model, fps=20, trace=None, dpi=80, size=4.0, t_max=None):
     """A 2-D drawing of a planar motion as GIF (Pillow) or MP4 (ffmpeg: on PATH or from the
     imageio-ffmpeg wheel, the ``video`` extra).
@@ -589,7 +657,9 @@ def animate_2d(res, path, *, model, fps=20, trace=None, dpi=80, size=4.0, t_max=
     coordinate plane is refused with the reason.  The picture's short side is at least
     ``size`` inches (``MIN_SHORT_SIDE`` pixels at the default dpi) and its long side at most
     twice that; when the run covers much more ground than the robot (a fall, a hop) the view
-    follows the robot at its own size.  Returns the path."""
+    follows the robot at its own size.  The model's ground, when it has one (an MJCF floor,
+    ``--ground``, a ``--contact`` plane: :func:`ground_plane`), is drawn as a line, so
+    contact is seen.  Returns the path."""
     import matplotlib
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
@@ -611,7 +681,11 @@ def animate_2d(res, path, *, model, fps=20, trace=None, dpi=80, size=4.0, t_max=
     a, b = [k for k in range(3) if k != flat]
     P = poses.points
     O = poses.positions
-    framing = _window_2d(poses, a, b)
+    # what touches reaches its contact radius beyond the drawn points: the view keeps it,
+    # so a resting ball's ground is in the picture
+    touch = max([float(c.get("radius") or 0.0) for c in (model.metadata.get("poses") or {}).get("contacts") or ()],
+                default=0.0)
+    framing = _window_2d(poses, a, b, touch)
     follow, (ha, hb) = framing[0], framing[1]
     centre = None if follow is not None else framing[2][[a, b]]
     ha, hb = max(ha, 1e-3), max(hb, 1e-3)
@@ -633,6 +707,7 @@ def animate_2d(res, path, *, model, fps=20, trace=None, dpi=80, size=4.0, t_max=
     ax.set_title(model.name, fontsize=10)
     fixed = [j for j in range(P.shape[1]) if np.ptp(P[:, j, :], axis=0).max() <= 1e-12]
     ax.plot(P[0, fixed, a], P[0, fixed, b], "o", ms=5, color="#555")
+    _draw_ground(ax, model, poses, flat, a, b)
     traced = _default_trace(poses) if trace is None else list(trace)
     trace_lines = []
     for name in traced:

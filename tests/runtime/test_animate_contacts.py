@@ -109,6 +109,82 @@ def test_collision_and_force_toggles_in_the_browser(ball, tmp_path):
     assert _green(pixels, json.loads(attrs["view"])).sum() < 5, "the arrow is drawn with forces off"
 
 
+def _figures_drawn(monkeypatch):
+    """The matplotlib figures animate_2d closes (read after it has written the file)."""
+    import matplotlib.pyplot as plt
+    closed, close = [], plt.close
+    monkeypatch.setattr(plt, "close", lambda fig=None: (closed.append(fig), close(fig))[1])
+    return closed
+
+
+def _ground_lines(fig):
+    return [ln for ax in fig.axes for ln in ax.get_lines() if ln.get_gid() == "ground"]
+
+
+RAISED = BALL.replace('<geom type="plane" size="5 5 .1"/>', '<geom type="plane" pos="0 0 0.05" size="5 5 .1"/>')
+
+
+@pytest.fixture(scope="module")
+def raised(tmp_path_factory):
+    """The ball dropped onto a plane 5 cm up: the ground is neither at z = 0 nor at the run's
+    lowest point (the resting ball sinks into it), and the motion keeps x = y = 0 (planar)."""
+    where = tmp_path_factory.mktemp("raised")
+    (where / "ball.xml").write_text(RAISED)
+    model = eomc.compile(MjcfModel(where / "ball.xml"), functions=["rhs", "jac_x", "outputs", "events", "poses"],
+                         cache_dir=where / "cache", progress=False)
+    res = model.simulate(None, (0, 0.8), method="radau")
+    assert res.status == 0
+    return model, res
+
+
+def test_the_2d_drawing_has_the_ground_at_the_planes_height(raised, monkeypatch, tmp_path):
+    """The GIF's figure holds one line marked "ground": horizontal at z = 0.05 (the plane's
+    height, the contact's recorded one; this ball's pair has no margin) in the (y, z) view of
+    a ball that only falls; before, no floor was drawn and contact could not be seen."""
+    from eomc.runtime.animate import animate_2d, ground_plane
+    model, res = raised
+    normal, height = ground_plane(model)
+    np.testing.assert_array_equal(normal, [0, 0, 1])
+    assert height == pytest.approx(0.05, abs=1e-12)
+    closed = _figures_drawn(monkeypatch)
+    animate_2d(res, tmp_path / "b.gif", model=model, fps=5, dpi=30)
+    line, = _ground_lines(closed[-1])
+    (y1, z1), (y2, z2) = line.get_xy1(), line.get_xy2()
+    assert y1 != y2 and z1 == pytest.approx(0.05, abs=1e-12) and z2 == pytest.approx(0.05, abs=1e-12)
+    ax = closed[-1].axes[0]
+    assert ax.get_ylim()[0] < 0.05 < ax.get_ylim()[1]       # in view: the ball rests on it
+
+
+def test_the_pages_floor_is_the_ground(raised):
+    """The 3-D page's floor grid lies in the plane (z = 0.05, grid in x-y, z up), with the
+    view straight onto the planar motion and with up='z' alike; before, it was the run's lowest
+    point less the shapes' reach (a planar view: a grid behind the motion)."""
+    model, res = raised
+    for up in (None, "z"):
+        camera = _data(res.animate(fps=10, up=up))["camera"]
+        assert camera["grid"] == "xy" and camera["up"] == [0.0, 0.0, 1.0], up
+        assert camera["floor"][2] == pytest.approx(0.05, abs=1e-12), up
+
+
+def test_a_model_without_contacts_draws_no_ground(monkeypatch, tmp_path):
+    """A pendulum (no contact, no ground_check) keeps today's drawing: no ground line in its
+    GIF, and its page's floor is the run's lowest point."""
+    from eomc.runtime.animate import animate_2d, ground_plane
+    where = tmp_path
+    (where / "p.xml").write_text("""<mujoco><option gravity="0 0 -9.81"/><worldbody>
+<body name="arm" pos="0.3 0 1"><joint name="hinge" type="hinge" pos="-0.3 0 0" axis="0 1 0"/>
+<geom type="capsule" fromto="-0.3 0 0 0 0 0" size="0.02" mass="1"/></body></worldbody></mujoco>""")
+    model = eomc.compile(MjcfModel(where / "p.xml"), functions=["rhs", "outputs", "poses"],
+                         cache_dir=where / "cache", progress=False)
+    res = model.simulate(None, (0, 0.5))
+    assert ground_plane(model) is None
+    closed = _figures_drawn(monkeypatch)
+    animate_2d(res, tmp_path / "p.gif", model=model, fps=5, dpi=30)
+    assert closed and not _ground_lines(closed[-1])
+    camera = _data(res.animate(fps=10, up="z"))["camera"]
+    assert camera["floor"][2] < 1.0
+
+
 def test_hopper_arrows_start_on_the_ground(tmp_path):
     """gymnasium's hopper (MJCF: each body's frame is its mass centre less an offset, a capsule's
     contacts are its end spheres) after a passive drop: every closed contact's arrow starts on
