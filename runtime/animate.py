@@ -649,6 +649,22 @@ def _draw_ground(ax, model, poses, flat, a, b):
                      lw=1.5, zorder=0.5, gid="ground")
 
 
+def _touching_2d(res, model, poses):
+    """[(centres (n_t, 3), radius)]: the contact spheres and points the model computes with
+    (NAME.json ``poses.contacts``, as the page's collision shapes), placed at each frame; an
+    ellipsoid is drawn as its centre.  The 2-D drawing shows bodies by their frames' origins,
+    which need not be on the surface that touches (hopper's foot frame sits below its capsule's
+    end spheres), so the spheres are what is seen meeting the ground."""
+    out = []
+    for item in (model.metadata.get("poses") or {}).get("contacts") or ():
+        if item["frame"] not in poses.frame_names:
+            continue
+        R = poses.rotation(item["frame"])
+        centres = poses[item["frame"]] + R @ np.asarray(item["point"], float)
+        out.append((centres, 0.0 if item.get("ellipsoid") else _radius(item, model, res)))
+    return out
+
+
 def animate_2d(res, path, *, model, fps=20, trace=None, dpi=80, size=4.0, t_max=None):
     """A 2-D drawing of a planar motion as GIF (Pillow) or MP4 (ffmpeg: on PATH or from the
     imageio-ffmpeg wheel, the ``video`` extra).
@@ -658,8 +674,9 @@ def animate_2d(res, path, *, model, fps=20, trace=None, dpi=80, size=4.0, t_max=
     ``size`` inches (``MIN_SHORT_SIDE`` pixels at the default dpi) and its long side at most
     twice that; when the run covers much more ground than the robot (a fall, a hop) the view
     follows the robot at its own size.  The model's ground, when it has one (an MJCF floor,
-    ``--ground``, a ``--contact`` plane: :func:`ground_plane`), is drawn as a line, so
-    contact is seen.  Returns the path."""
+    ``--ground``, a ``--contact`` plane: :func:`ground_plane`), is drawn as a line and the
+    contact spheres and points the model computes with as circles and dots, so contact is
+    seen.  Returns the path."""
     import matplotlib
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
@@ -681,11 +698,15 @@ def animate_2d(res, path, *, model, fps=20, trace=None, dpi=80, size=4.0, t_max=
     a, b = [k for k in range(3) if k != flat]
     P = poses.points
     O = poses.positions
-    # what touches reaches its contact radius beyond the drawn points: the view keeps it,
-    # so a resting ball's ground is in the picture
-    touch = max([float(c.get("radius") or 0.0) for c in (model.metadata.get("poses") or {}).get("contacts") or ()],
-                default=0.0)
-    framing = _window_2d(poses, a, b, touch)
+    # the view keeps what touches (its spheres reach their radius beyond their centres), so a
+    # resting ball's ground is in the picture
+    touching = _touching_2d(res, model, poses)
+    seen = poses
+    if touching:
+        from types import SimpleNamespace
+        seen = SimpleNamespace(positions=poses.positions, lines=poses.lines,
+                               points=np.concatenate([P] + [c[:, None, :] for c, _ in touching], axis=1))
+    framing = _window_2d(seen, a, b, max([r for _, r in touching], default=0.0))
     follow, (ha, hb) = framing[0], framing[1]
     centre = None if follow is not None else framing[2][[a, b]]
     ha, hb = max(ha, 1e-3), max(hb, 1e-3)
@@ -708,6 +729,11 @@ def animate_2d(res, path, *, model, fps=20, trace=None, dpi=80, size=4.0, t_max=
     fixed = [j for j in range(P.shape[1]) if np.ptp(P[:, j, :], axis=0).max() <= 1e-12]
     ax.plot(P[0, fixed, a], P[0, fixed, b], "o", ms=5, color="#555")
     _draw_ground(ax, model, poses, flat, a, b)
+    from matplotlib.patches import Circle
+    spheres = [(ax.add_patch(Circle((c[0, a], c[0, b]), r, fill=False, lw=1, color="#1f77b4", alpha=0.7,
+                                    gid="contact")), c) for c, r in touching if r > 0]
+    bare = [c for c, r in touching if r <= 0]
+    (contact_points,) = ax.plot([], [], ".", ms=4, color="#1f77b4", gid="contact")
     traced = _default_trace(poses) if trace is None else list(trace)
     trace_lines = []
     for name in traced:
@@ -728,10 +754,13 @@ def animate_2d(res, path, *, model, fps=20, trace=None, dpi=80, size=4.0, t_max=
         centres.set_data(O[i, :, a], O[i, :, b])
         for ln, arr in trace_lines:
             ln.set_data(arr[:i + 1, a], arr[:i + 1, b])
+        for patch, c in spheres:
+            patch.set_center((c[i, a], c[i, b]))
+        contact_points.set_data([c[i, a] for c in bare], [c[i, b] for c in bare])
         label.set_text(f"t = {times[i]:.2f} s")
         if follow is not None:
             window(i)
-        return segs + [dots, centres, label] + [ln for ln, _ in trace_lines]
+        return segs + [dots, centres, label, contact_points] + [ln for ln, _ in trace_lines] + [p for p, _ in spheres]
 
     anim = mpl_animation.FuncAnimation(fig, frame, frames=len(times), interval=1000 / fps, blit=False)
     if ffmpeg is not None:

@@ -140,7 +140,8 @@ def raised(tmp_path_factory):
 def test_the_2d_drawing_has_the_ground_at_the_planes_height(raised, monkeypatch, tmp_path):
     """The GIF's figure holds one line marked "ground": horizontal at z = 0.05 (the plane's
     height, the contact's recorded one; this ball's pair has no margin) in the (y, z) view of
-    a ball that only falls; before, no floor was drawn and contact could not be seen."""
+    a ball that only falls, and the contact sphere (radius 0.1) resting on it, both in view;
+    before, no floor and no sphere were drawn and contact could not be seen."""
     from eomc.runtime.animate import animate_2d, ground_plane
     model, res = raised
     normal, height = ground_plane(model)
@@ -153,6 +154,11 @@ def test_the_2d_drawing_has_the_ground_at_the_planes_height(raised, monkeypatch,
     assert y1 != y2 and z1 == pytest.approx(0.05, abs=1e-12) and z2 == pytest.approx(0.05, abs=1e-12)
     ax = closed[-1].axes[0]
     assert ax.get_ylim()[0] < 0.05 < ax.get_ylim()[1]       # in view: the ball rests on it
+    # the contact sphere, at the last frame (t = 0.8 s: resting), touches the line
+    sphere, = [p for p in ax.patches if p.get_gid() == "contact"]
+    assert sphere.get_radius() == pytest.approx(RADIUS, rel=1e-12)
+    assert sphere.get_center()[1] - RADIUS == pytest.approx(0.05, abs=2e-3)
+    assert ax.get_ylim()[0] < sphere.get_center()[1] - RADIUS and sphere.get_center()[1] + RADIUS < ax.get_ylim()[1]
 
 
 def test_the_pages_floor_is_the_ground(raised):
