@@ -123,7 +123,7 @@ def consistent_state(model, x0, t=0.0, p=None, r=None, fixed=None, tol=1e-12, ma
         raise ValueError(f"{model.name}: consistent_state max_iter must be an integer >= 1; "
                          f"got {max_iter!r}")
     if x0 is None:
-        from .simulate import start_or_default
+        from .start import start_or_default
         x0 = start_or_default(model, None)
     if isinstance(x0, dict):
         base = model.initial_state if model.initial_state is not None else np.zeros(model.nx)

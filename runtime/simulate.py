@@ -25,6 +25,7 @@ from .feedback import FeedbackBinding, applied_inputs, check_callable, cubic_slo
 from .names import index_of
 from .progress import follow_integration
 from .result import SimulationResult
+from .start import start_or_default
 
 __all__ = ["simulate", "prepare", "run_prepared", "scipy_fun", "resolve_method", "METHODS",
            "DEFAULT_POINTS", "check_keywords", "DEFAULT_METHOD", "auto_method"]
@@ -128,24 +129,6 @@ def state_defaults(model):
     """
     base = getattr(model, "initial_state", None)
     return np.zeros(model.nx) if base is None else np.array(base, dtype=np.float64)
-
-
-def start_or_default(model, x0):
-    """x0, or the model's initial_state for x0=None; rest (x = 0) with a warning when it has none.
-
-    As the command line does without --x0 (first hour s26: ``model.simulate(None, ...)``
-    raised where ``eomc simulate`` started from rest with a note)."""
-    if x0 is not None:
-        return x0
-    if getattr(model, "initial_state", None) is None:
-        import warnings
-
-        from eomc.errors import EomcWarning
-        warnings.warn(f"{model.name} has no initial_state and no x0 was given: starting from rest "
-                      f"at x = 0 (give x0: an array of {model.nx} or a dict by state name)",
-                      EomcWarning, stacklevel=3)
-        return np.zeros(model.nx)
-    return np.array(model.initial_state, dtype=np.float64)
 
 
 def _real_array(value, what, dtype=np.float64):

@@ -389,7 +389,7 @@ def check_model(model, x0=None, t_final=10.0, p=None, rtol=1e-8, atol=1e-10,
     if methods is None:
         methods = default_methods(model, rtol)
     if x0 is None:
-        from .simulate import start_or_default
+        from .start import start_or_default
         x0 = start_or_default(model, None)
     x0 = np.asarray([x0[n] for n in model.state_names] if isinstance(x0, dict) else x0, float)
     p = model.param_defaults if p is None else np.asarray(p, float)

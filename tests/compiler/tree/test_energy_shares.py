@@ -12,24 +12,27 @@ from helpers.urdf_arm import LAW_ARM
 
 
 def _law_arm_energy(tmp_path, name):
-    """LAW_ARM's default build: (nq, its C, NAME_energy's body)."""
+    """LAW_ARM's default build: (nq, its C, NAME_energy's body, the joints with an entry spring)."""
     path = tmp_path / "law_arm.urdf"
     path.write_text(LAW_ARM)
     g = generate(str(path), name, formulation="recursive", use_cache=False, progress=False)[1]
     c = g.c_source
     start = c.index(f"int {name}_energy(")
-    return g.metadata["nq"], c, c[start:c.index("\n}\n", start)]
+    entry = [n for n in g.metadata["param_names"] if n.startswith("limit_kd_")]
+    return g.metadata["nq"], c, c[start:c.index("\n}\n", start)], len(entry)
 
 
 def test_energy_is_a_sum_of_named_body_and_joint_shares(tmp_path):
-    nq, c, body = _law_arm_energy(tmp_path, "en_shares")
+    nq, c, body, entry = _law_arm_energy(tmp_path, "en_shares")
     assert "en_shares_energy_part" not in c          # small: one straight body, read as it is
     result = re.search(r"out\[0\] = (t\d+);", body).group(1)
     total = re.search(rf"const double {result} = ([^;]*);", body).group(1)
     terms = total.split(" + ")
     # LAW_ARM: a fixed base, nq revolute joints each with both limits: nq bodies + nq joints' springs
+    # + one share per joint whose limit has an entry spring (ce53cfd8: the stiffer spring ENTRY_DEPTH
+    # past the bound, where the entry rule is stiffer than the limit's own)
     assert all(re.fullmatch(r"t\d+", t) for t in terms), total
-    assert len(terms) == 2 * nq
+    assert entry >= 1 and len(terms) == 2 * nq + entry
 
 
 def test_each_limit_side_is_one_call_of_the_stored_energy(tmp_path):
@@ -37,8 +40,9 @@ def test_each_limit_side_is_one_call_of_the_stored_energy(tmp_path):
     in the file, not its sum spelled out per joint and side.  Why: spelled out, the limits were 17
     of NAME_energy's 67 kB of C on G1 and the build's Python and gcc work grew with them
     (benchmarks/results/derivative_build.md, session 20)."""
-    nq, c, body = _law_arm_energy(tmp_path, "en_calls")
-    assert body.count("eomc_limit_stored(") == 2 * nq        # both limits of each joint
+    nq, c, body, entry = _law_arm_energy(tmp_path, "en_calls")
+    # both limits of each joint, and both sides of each entry spring
+    assert entry >= 1 and body.count("eomc_limit_stored(") == 2 * nq + 2 * entry
     assert "log(" not in body
     assert c.count("static double eomc_limit_stored(double r, double E)") == 1
 

@@ -12,7 +12,7 @@ import pytest
 import eomc
 from eomc.compiler.urdf import build_tree, read_urdf
 from eomc.compiler.urdf.model import UrdfModel
-from eomc.runtime.errors import EomcWarning, SimulationError
+from eomc.runtime.errors import EomcWarning
 
 HIP = """<?xml version="1.0"?>
 <robot name="hip">
@@ -87,8 +87,15 @@ def test_the_suggested_limit_lets_the_run_that_stopped_at_the_lock_finish(tmp_pa
     message = next(str(w.message) for w in caught if "gimbal" in str(w.message))
     suggested = dict(re.findall(r"(limit_\w+)=([-\d.]+)", message.split("--param", 1)[1]))
     x0 = {"u_hip_X": 4.0}          # swung into hip_X's upper limit
-    with pytest.raises(SimulationError, match="mass matrix is singular"):
-        model.simulate(x0, (0.0, 1.0))
+    # the file's own limit does not keep hip_X off the lock: the run either stops there (mass matrix
+    # singular) or steps through it.  Since ce53cfd8's entry spring (URDF limits soft at the bound,
+    # stiffer 15 widths deeper) this swing steps through it (q_hip_X to 1.588, status 0, its energy
+    # verdict passing): which one happens depends on where the steps fall near the lock
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        free = model.simulate(x0, (0.0, 1.0), raise_on_failure=False)
+    q_free = free.x[:, model.state_names.index("q_hip_X")]
+    assert ("mass matrix is singular" in free.message) if free.status else q_free.max() > np.pi / 2
     p = dict(zip(model.param_names, model.param_defaults))
     p.update({name: float(value) for name, value in suggested.items()})
     with warnings.catch_warnings():
