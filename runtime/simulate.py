@@ -70,12 +70,17 @@ def check_keywords(kw, function, skip=0):
 
 
 def resolve_method(method):
-    """Canonical method name; ValueError listing the valid ones otherwise."""
+    """Canonical method name; ValueError naming the nearest ones and listing the valid ones
+    otherwise (the command line checks --method with it before building a model file)."""
     key = str(method).lower().replace("-", "").replace("_", "")
     key = METHOD_ALIASES.get(key, key)
     if key not in METHOD_IDS and key != "auto":
-        valid = ", ".join(["auto"] + list(METHOD_IDS) + list(METHOD_ALIASES))
-        raise ValueError(f"unknown integration method {method!r}; valid methods: {valid}")
+        import difflib
+        names = ["auto"] + list(METHOD_IDS) + list(METHOD_ALIASES)
+        near = difflib.get_close_matches(key, names, n=2, cutoff=0.6)
+        raise ValueError(f"unknown integration method {method!r}"
+                         + (f" (did you mean {' or '.join(near)}?)" if near else "")
+                         + f"; valid methods: {', '.join(names)}")
     return key
 
 

@@ -197,15 +197,9 @@ def without_implicit():
 
 def reads_implicit(methods):
     """Whether any of ``methods`` (names or aliases as the commands take them) reads NAME_implicit;
-    a name that is no method counts as one (the run refuses it later, after a full build's lookup)."""
+    ValueError for a name that is no method (load_model checks them before any build)."""
     from eomc.runtime.simulate import resolve_method
-    for method in methods:
-        try:
-            if resolve_method(method) in IMPLICIT_READERS:
-                return True
-        except ValueError:
-            return True
-    return False
+    return any([resolve_method(method) in IMPLICIT_READERS for method in methods])   # every name checked
 
 
 def load_model(path, quiet=False, floating_base=False, formulation="auto", frames=None, ignore=(),
@@ -217,7 +211,8 @@ def load_model(path, quiet=False, floating_base=False, formulation="auto", frame
     ``methods``: the integration methods the command will run (None: not known).  When none of
     them reads NAME_implicit and no ``functions`` are given, a build of the default functions
     found in the cache is taken, else one without NAME_implicit (:func:`without_implicit`) is
-    taken or built; a command that runs implicitfast is only ever served a model with it.
+    taken or built; a command that runs implicitfast is only ever served a model with it.  A
+    name that is no method is a ValueError before anything is read or built.
 
     Compiling shows its stages on stderr when that is a terminal, unless ``quiet``.
     ``frames``: frame outputs to compile in; a built model must already have them.
@@ -228,6 +223,8 @@ def load_model(path, quiet=False, floating_base=False, formulation="auto", frame
     (eomc.compiler.build.reuse): the second `eomc simulate` of a robot starts at once.
     """
     path = Path(path)
+    if methods:     # a misspelt --method is refused before the build, not after it (s27)
+        reads_implicit(methods)
     if not path.exists():
         raise ValueError(f"{path}: no such model file or built model directory")
     if not path.is_dir():

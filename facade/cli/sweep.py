@@ -197,6 +197,8 @@ def run(args):
         _pyarrow()
     if args.chunk_size is not None and args.chunk_size < 1:
         raise ValueError(f"--chunk-size must be a positive number of cases; got {args.chunk_size}")
+    from eomc.runtime.simulate import resolve_method
+    resolve_method(args.method)                     # a misspelt --method before the build
     ids, columns, lines = read_cases(args.cases, with_lines=True)
     model = cli_common.load_model(args.model, quiet=args.quiet)
     try:

@@ -158,6 +158,31 @@ def test_a_refused_param_value_is_reported_before_deriving(arm_urdf, nothing_der
     assert "parameter k_lower = -5 must be >= 0 (contact stiffness of contact lower)" in err, err
 
 
+@pytest.mark.parametrize("command, options", [
+    ("simulate", ["--method", "dopri8"]),
+    ("animate", ["-o", "a.html", "--method", "dopri8"]),
+    ("check", ["--methods", "radau,dopri8"]),
+    ("report", ["-o", "report", "--methods", "radau", "dopri8"]),
+    ("sweep", ["--cases", "cases.csv", "-o", "s.csv", "--t-final", "1", "--method", "dopri8"]),
+])
+def test_a_misspelt_method_is_refused_before_the_model_is_read(command, options, arm_urdf, monkeypatch,
+                                                                 tmp_path, capsys):
+    """An unknown --method (--methods) cost a full build before the run refused it (s26's
+    noticed list): now it is refused first, with the nearest names, and nothing is read."""
+    import eomc.cli.common as cli_common
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("the model was read")
+    monkeypatch.setattr(cli_common, "with_options", refuse)
+    monkeypatch.setattr(cli_common, "_reused", refuse)
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "cases.csv").write_text("q_shoulder\n0.1\n")
+    assert main([command, str(arm_urdf), "-q", *options]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1, err
+    assert "unknown integration method 'dopri8' (did you mean dopri5 or dop853?); valid methods: auto" in err, err
+
+
 def test_correct_params_still_run(arm_urdf, tmp_path, capsys):
     """The early check passes what the build has: the run takes the values (a heavier lower
     link and a softer contact change the trajectory)."""

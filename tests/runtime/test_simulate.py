@@ -28,6 +28,7 @@ def pend():
     (dict(rtol=0.0), "rtol"),
     (dict(atol=-1e-9), "atol"),
     (dict(method="euler"), "valid methods: auto, rk4, dopri5, dop853, radau, implicitfast"),
+    (dict(method="bfd"), r"unknown integration method 'bfd' \(did you mean bdf\?\); valid methods: auto"),
     (dict(method="rk4"), "dt"),
     (dict(t_eval=[0.5, 0.2]), "increasing"),
     (dict(t_eval=[0.0, 3.0]), "inside t_span"),
