@@ -696,12 +696,27 @@ def _continue_implicit(model, a, x_out, first, x_last):
     return x_out, merged, x_end
 
 
-def _along(model, a, which, t, x):
-    """The model's outputs (which=0) or constraint residuals (which=1) at every row."""
+def evaluated_along(model, which):
+    """Whether a run's result carries the model's outputs (which=0) or constraint residual
+    (which=1): the model has them and its build has the C function (a build of chosen
+    functions, ``eomc build --outputs rhs``, has neither)."""
     cols = model.noutput if which == 0 else model.nhol + model.nvel
     fn = model.c_model.outputs if which == 0 else model.c_model.constraints
-    if cols == 0 or fn == model.ffi.NULL or t.size == 0:
+    return cols > 0 and fn != model.ffi.NULL
+
+
+def result_columns(model):
+    """The column names of a run's CSV (SimulationResult.columns), known before the run:
+    what ``eomc simulate --columns`` is checked against."""
+    return ["t", *model.state_names, *(model.output_names if evaluated_along(model, 0) else ()),
+            *(("constraint_residual",) if evaluated_along(model, 1) else ())]
+
+
+def _along(model, a, which, t, x):
+    """The model's outputs (which=0) or constraint residuals (which=1) at every row."""
+    if not evaluated_along(model, which) or t.size == 0:
         return None
+    cols = model.noutput if which == 0 else model.nhol + model.nvel
     ffi, lib = model.ffi, model.integrators
     buf = lambda arr: ffi.from_buffer("double[]", arr)  # noqa: E731
     out = np.full((t.size, cols), np.nan)

@@ -180,10 +180,8 @@ def _columns(model, args):
     if not args.output:
         raise ValueError("--columns chooses the CSV's columns: give -o CSV too")
     from eomc.runtime.result import select_columns
-    names = ["t", *model.state_names, *model.output_names]
-    if model.nhol + model.nvel:
-        names.append("constraint_residual")
-    select_columns(names, patterns, what=f"{model.name}: --columns")
+    from eomc.runtime.simulate import result_columns
+    select_columns(result_columns(model), patterns, what=f"{model.name}: --columns")
     return patterns
 
 
@@ -272,7 +270,10 @@ def run(args):
         change = np.abs(res.x[-1] - res.x[0])
         n = model.nq if change[:model.nq].any() else model.nx        # a coordinate, where one moved
         k = int(np.argmax(change[:n]))
-        print(f"  no outputs (the model defines none); of its {n} {'coordinates' if n == model.nq else 'states'} "
+        why = ("the model defines none" if not model.noutput else      # or a build of chosen functions
+               f"the build left out {model.name}_outputs ({', '.join(model.output_names[:3])}"
+               f"{', ...' if model.noutput > 3 else ''}): add outputs to eomc build --outputs")
+        print(f"  no outputs ({why}); of its {n} {'coordinates' if n == model.nq else 'states'} "
               f"{model.state_names[k]} changed most: start {res.x[0, k]:.10g}, end {res.x[-1, k]:.10g}"
               + ("" if args.output else "; -o FILE writes every state"))
     for name in frames:

@@ -123,3 +123,57 @@ def test_columns_choose_the_csvs_columns_and_a_bad_pattern_names_them(tmp_path, 
     err = capsys.readouterr().err
     assert "--columns: energi matches no column (did you mean energy?); columns: t, q, u, energy" in err, err
     assert not (tmp_path / "u.csv").exists()
+
+
+ROD = '''\
+import sympy as sm
+from eomc.mechanics import *
+
+x1, x2, u1, u2 = dynamicsymbols("x1 x2 u1 u2")
+m, L, k = sm.symbols("m L k")
+N = ReferenceFrame("N")
+O = Point("O")
+O.set_vel(N, 0)
+P1 = O.locatenew("P1", x1 * N.x)
+P1.set_vel(N, u1 * N.x)
+P2 = O.locatenew("P2", x2 * N.x)
+P2.set_vel(N, u2 * N.x)
+kane = KanesMethod(N, q_ind=[x1], u_ind=[u1], kd_eqs=[x1.diff() - u1, x2.diff() - u2],
+                   q_dependent=[x2], configuration_constraints=[x2 - x1 - L],
+                   u_dependent=[u2], velocity_constraints=[u2 - u1])
+kane.kanes_equations([Particle("a", P1, m), Particle("b", P2, m)], [(P1, -k * x1 * N.x)])
+system = kane
+name = "rod"
+parameters = {m: 1.0, L: 1.0, k: 4.0}
+initial_state = {x1: 0.5, x2: 1.5}
+outputs = {"energy": m * u1**2 / 2 + m * u2**2 / 2 + k * x1**2 / 2}
+'''
+
+
+def test_columns_are_checked_against_the_columns_the_run_writes(tmp_path, capsys, monkeypatch):
+    """--columns was checked against a constraint_residual column (and the outputs) whenever the
+    model had constraints (outputs), but a build of chosen functions (eomc build --outputs rhs)
+    writes neither: the pattern passed the check, the run ran, and only writing the CSV failed.
+    Now the check reads the columns the run writes (runtime.simulate.result_columns)."""
+    from helpers import model_files
+    model = model_files.write(tmp_path, ROD, "rod")
+    monkeypatch.setenv("EOMC_CACHE_DIR", str(tmp_path / "c"))
+    out = tmp_path / "t.csv"
+    assert main(["simulate", str(model), "--t-final", "0.5", "-q", "-o", str(out),
+                 "--columns", "constr*,energy"]) == 0
+    assert out.read_text().splitlines()[0] == "t,energy,constraint_residual"
+    built = tmp_path / "built"
+    assert main(["build", str(model), "--outputs", "rhs", "-o", str(built), "-q"]) == 0
+    capsys.readouterr()
+    for pattern in ("constraint_residual", "energy"):
+        assert main(["simulate", str(built), "--t-final", "0.5", "-q", "-o", str(tmp_path / "u.csv"),
+                     "--columns", pattern]) == 2
+        captured = capsys.readouterr()
+        assert captured.out == "", captured.out         # refused before the run
+        assert captured.err == (f"eomc simulate: error: rod: --columns: {pattern} matches no column; columns: "
+                                f"t, x1, x2, u1, u2 (names or glob patterns such as 'q_*')\n"), captured.err
+        assert not (tmp_path / "u.csv").exists()
+    assert main(["simulate", str(built), "--t-final", "0.5", "-q", "-o", str(out), "--columns", "x*"]) == 0
+    assert out.read_text().splitlines()[0] == "t,x1,x2"
+    assert "no outputs (the build left out rod_outputs (energy): add outputs to eomc build --outputs)" \
+        in capsys.readouterr().out
