@@ -402,3 +402,25 @@ def test_png_point_labels_stay_inside_the_axes(osc_report, tmp_path, monkeypatch
         e = t.get_window_extent(renderer)
         assert box.x0 <= e.x0 and e.x1 <= box.x1 and box.y0 <= e.y0 and e.y1 <= box.y1, (t.get_text(), e, box)
     plt.close(fig)
+
+
+def test_an_auto_check_that_scipy_cannot_finish_is_made_our_other_way(osc, monkeypatch):
+    """scipy's DOP853 has no stiffness test: 10x looser than our reference it can blow up where
+    ours passed (gymnasium's half_cheetah, its feet landing: a non-finite state at t = 0.26, and
+    `eomc report` stopped there, first hour s27).  The "auto" check then runs our Radau and says
+    why; a check asked for by name still fails."""
+    from eomc.errors import SimulationError
+    import eomc.runtime.reference as reference
+
+    def blows_up(model, *args, **kwargs):
+        raise SimulationError(f"{model.name}.rhs: a non-finite value appeared at t=0.264856, state x=1e+93")
+    monkeypatch.setattr(reference, "_scipy_check", blows_up)
+    t = np.linspace(0, 2.0, 21)
+    ref = compute_reference(osc, [1.0, 0.0], (0.0, 2.0), t)
+    assert ref.method == "dop853"
+    assert ref.check_method == ("radau (scipy dop853 failed: oscillator.rhs: a non-finite value appeared "
+                                "at t=0.264856)")
+    assert 0 < ref.agreement < 1e-9
+    assert np.max(np.abs(ref.x - osc_exact(t))) < 1e-11
+    with pytest.raises(SimulationError, match="non-finite"):
+        compute_reference(osc, [1.0, 0.0], (0.0, 2.0), t, check="scipy")
