@@ -178,8 +178,8 @@ def ground_plane(model):
     The plane is the built model's: each contact of NAME.json ``poses.contacts`` carries the
     ``normal`` and ``height`` of the plane it meets (an MJCF floor, ``--ground``, a
     ``--contact`` plane), else a URDF's ``ground_check`` does.  An MJCF contact's height is
-    raised by its pair's margin (hopper: 2 mm) and the metadata does not say by how much, so
-    a ``margin`` is taken off only when an entry records one.  With contacts on several
+    the plane its law acts at, raised by its pair's margin (hopper 2 mm, ant 2 cm), which the
+    entry's ``margin`` records: the surface drawn is height - margin.  With contacts on several
     heights the lowest plane of the first contact's normal is drawn."""
     meta = getattr(model, "metadata", None) or {}
     planes = [(c["normal"], float(c["height"]) - float(c.get("margin") or 0.0))

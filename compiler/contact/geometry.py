@@ -62,6 +62,7 @@ class Shape:
     mur: float = None
     rho: float = None
     where: str = ""            # for messages: "geom foot_geom", "link base collision 2"
+    margin: float = 0.0        # how far ``height`` is above the plane's surface (an MJCF pair's margin)
 
 
 def shape_points(kind, size, vertices=()):
@@ -251,7 +252,8 @@ def with_shapes(built, shapes, com_of, fold=False):
             offset = sm.Matrix([(sm.Float(float(point[r]), 17) if point[r] != 0 else sm.S.Zero) - com[r]
                                 for r in range(3)])
             j = first + len(loads) - len(tree.loads)
-            loads.append(ContactLoad(shape.body, label, offset, params, tuple(n), height, shape=shape_matrix))
+            loads.append(ContactLoad(shape.body, label, offset, params, tuple(n), height, shape=shape_matrix,
+                                     margin=float(shape.margin)))
             for kind, what in enumerate(OUTPUT_KINDS):
                 outputs[f"{what}_{label}"] = ContactValue(j, kind)
             events[f"contact_{label}"] = ContactValue(j, OUTPUT_KINDS.index("depth"))

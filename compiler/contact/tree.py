@@ -168,6 +168,9 @@ class ContactLoad:
     # an ellipsoid's A = R diag(a²) Rᵀ (body frame, 3x3 rows): the point is its support point
     # in the plane's normal, found at each call (eomc.compiler.contact.geometry); else None
     shape: tuple = None
+    # how far ``height`` lies above the plane's surface (an MJCF pair's margin: MuJoCo's force
+    # acts from there): drawn, not computed with, so not in ``exprs`` (the C has it in height)
+    margin: float = 0.0
 
     @property
     def exprs(self):

@@ -85,6 +85,7 @@ class GroundGeom:
     mut: float = None          # torsional friction (condim 4, 6), m; None: none
     mur: float = None          # rolling friction (condim 6), m; None: none
     rho: float = None          # their regularisation length (the geom's bounding radius), m
+    margin: float = 0.0        # the pair's margin, in height: the animation draws the plane below it
 
 
 def _mix(m, g1, g2):
@@ -234,7 +235,7 @@ def ground_geoms(m, path=None):
                               pos=tuple(float(x) for x in m.geom_pos[g]), rot=_rows(quat_matrix(m.geom_quat[g])),
                               vertices=verts, normal=tuple(float(x) for x in n), height=height, k=k, c=c, mu=mu,
                               plane=_geom_name(m, plane), mut=mut, mur=mur,
-                              rho=float(m.geom_rbound[g]) if mut is not None else None))
+                              rho=float(m.geom_rbound[g]) if mut is not None else None, margin=margin))
     return out
 
 

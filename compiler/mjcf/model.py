@@ -561,7 +561,7 @@ def _shapes(built, found):
     tree_body = {owner[0]: i for i, owner in enumerate(built.owners) if owner is not None}
     return [Shape(name=g.name, body=tree_body[g.body], kind=g.kind, size=g.size, pos=g.pos, rot=g.rot,
                   normal=g.normal, height=g.height, k=g.k, c=g.c, mu=g.mu, vertices=g.vertices,
-                  where=f"geom {g.name}", mut=g.mut, mur=g.mur, rho=g.rho) for g in found]
+                  where=f"geom {g.name}", mut=g.mut, mur=g.mur, rho=g.rho, margin=g.margin) for g in found]
 
 
 def _xyz_angles(R):

@@ -139,7 +139,8 @@ def contact_metadata(source):
     by eomc.runtime.animate): per contact its name (the outputs ``Fn_<name>``, ``Ft*_<name>``),
     the shown frame it is fixed in, the sphere's centre in that frame, its radius (the
     parameter ``r_<name>`` the run may change, and its default), the plane's normal and height
-    (an MJCF pair's margin raises it), and an
+    (the plane the law acts at: an MJCF pair's margin raises it, and ``margin`` says by how
+    much, so the drawing puts the surface at height - margin), and an
     ellipsoid's A = R diag(a²) Rᵀ (frame components: the touching point is its support point);
     and the robot's weight m·g, the arrows' scale.  Empty for a model with no joint tree (a
     SymPy model's contacts are loads the poses cannot see) or without contacts.
@@ -173,6 +174,8 @@ def contact_metadata(source):
                 "radius": _number(r, defaults) or 0.0,
                 "radius_parameter": str(r) if isinstance(r, sm.Symbol) else None,
                 "normal": [float(v) for v in load.normal], "height": _number(load.height, defaults)}
+        if load.margin:     # the surface is at height - margin (only where there is one: the others' metadata as before)
+            item["margin"] = float(load.margin)
         if load.shape is not None:
             A = np.array([[_number(x, defaults) for x in row] for row in load.shape], dtype=float)
             item["ellipsoid"] = [float(v) for v in fo.matmul(D.T, A, D).reshape(9)]

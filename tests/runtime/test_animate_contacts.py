@@ -191,20 +191,27 @@ def test_a_model_without_contacts_draws_no_ground(monkeypatch, tmp_path):
     assert camera["floor"][2] < 1.0
 
 
-def test_hopper_arrows_start_on_the_ground(tmp_path):
-    """gymnasium's hopper (MJCF: each body's frame is its mass centre less an offset, a capsule's
-    contacts are its end spheres) after a passive drop: every closed contact's arrow starts on
-    the ground (z = the plane's height − depth), and the arrows together carry the weight the compiler recorded."""
+@pytest.fixture(scope="module")
+def hopper(tmp_path_factory):
+    """gymnasium's hopper after a passive drop of 1.2 s (radau)."""
     gymnasium = pytest.importorskip("gymnasium")
     from pathlib import Path
     path = Path(gymnasium.__file__).parent / "envs" / "mujoco" / "assets" / "hopper.xml"
     with warnings.catch_warnings(record=True) as caught:       # self-pairs in: no "left out" note
         warnings.simplefilter("always")
         model = eomc.compile(MjcfModel(path), functions=["rhs", "jac_x", "outputs", "events", "poses"],
-                             cache_dir=tmp_path / "cache", progress=False)
+                             cache_dir=tmp_path_factory.mktemp("hopper"), progress=False)
     assert not [w for w in caught if "self-collision" in str(w.message)], [str(w.message) for w in caught]
     res = model.simulate(None, (0, 1.2), method="radau")
     assert res.status == 0
+    return model, res
+
+
+def test_hopper_arrows_start_on_the_ground(hopper):
+    """gymnasium's hopper (MJCF: each body's frame is its mass centre less an offset, a capsule's
+    contacts are its end spheres) after a passive drop: every closed contact's arrow starts on
+    the ground (z = the plane's height − depth), and the arrows together carry the weight the compiler recorded."""
+    model, res = hopper
     anim = res.animate(fps=20)
     data = _data(anim)
     weight = model.metadata["poses"]["weight"]
@@ -222,6 +229,26 @@ def test_hopper_arrows_start_on_the_ground(tmp_path):
         total += last[3:] / per_newton
     assert closed >= 2
     np.testing.assert_allclose(total, [0, 0, weight], rtol=0, atol=1e-2 * weight)
+
+
+def test_the_hopper_is_drawn_on_its_floor_not_the_margin_above_it(hopper, monkeypatch, tmp_path):
+    """hopper.xml's floor is the plane z = 0, and each of its pairs has MuJoCo's margin 2 mm
+    (the geoms' 1 mm each): the law acts from z = 0.002 (the recorded height) and the metadata
+    says by how much that is above the floor, so the GIF's ground line and the page's floor
+    are at z = 0; before, both were drawn 2 mm high (the margin was not recorded)."""
+    from eomc.runtime.animate import animate_2d, ground_plane
+    model, res = hopper
+    contacts = model.metadata["poses"]["contacts"]
+    assert contacts and all(c["height"] == pytest.approx(0.002, abs=1e-15) for c in contacts), contacts
+    assert all(c["margin"] == pytest.approx(0.002, abs=1e-15) for c in contacts), contacts
+    normal, height = ground_plane(model)
+    np.testing.assert_array_equal(normal, [0, 0, 1])
+    assert height == pytest.approx(0.0, abs=1e-15)
+    assert _data(res.animate(fps=10))["camera"]["floor"][2] == pytest.approx(0.0, abs=1e-15)
+    closed = _figures_drawn(monkeypatch)
+    animate_2d(res, tmp_path / "h.gif", model=model, fps=2, dpi=30)
+    line, = _ground_lines(closed[-1])
+    assert line.get_xy1()[1] == pytest.approx(0.0, abs=1e-15) and line.get_xy2()[1] == pytest.approx(0.0, abs=1e-15)
 
 
 TRIPOD = """<robot name="tripod">
