@@ -19,7 +19,7 @@ import numpy as np
 
 from .files import atomic_path
 
-__all__ = ["panels", "plot_result", "untouched", "MAX_CURVES", "MAX_PANELS"]
+__all__ = ["panels", "plot_result", "untouched", "idle_outputs", "MAX_CURVES", "MAX_PANELS"]
 
 MAX_CURVES = 8     # curves in one panel (tab10's distinct colours, with room to tell them apart)
 MAX_PANELS = 6     # panels on one page
@@ -110,6 +110,13 @@ def _contact_outputs(names):
     return {f"{k}_{c}" for c in names for k in _CONTACT_KINDS}
 
 
+def idle_outputs(res):
+    """The outputs a picture leaves out unless they are named: those of contacts that never
+    touched (:func:`untouched`) and those of touched ones that stayed 0 (:func:`flat_zero`).
+    One rule for --plot's panels and the animation page's strips."""
+    return _contact_outputs(untouched(res)) | set(flat_zero(res))
+
+
 def panels(res, names=None):
     """[(label, [names])] of a run: what :func:`plot_result` draws, one entry per panel.  Without
     ``names``, the outputs of contacts that never touched (:func:`untouched`) are left out, and
@@ -138,7 +145,7 @@ def panels(res, names=None):
         out += _chunks("speeds", keep(states[nq:speeds_end]))
         out += _chunks("extra states", keep(states[speeds_end:]))
     frames, plain = {}, []
-    idle = _contact_outputs(untouched(res)) | set(flat_zero(res)) if names is None else set()
+    idle = idle_outputs(res) if names is None else set()
     for name in res.outputs:
         if name in idle:
             continue

@@ -235,7 +235,7 @@
     const w = plot.width, h = plot.height;
     ctx.clearRect(0, 0, w, h);
     if (!strips.length) return;
-    const foot = D.strips_left_off ? 16 : 0;
+    const foot = D.strips_left_off || D.idle_contacts ? 16 : 0;
     const rows = strips.length, rh = (h - foot) / rows, t0 = times[0], t1 = times[nt - 1] || 1;
     const X = (t) => 40 + ((t - t0) / (t1 - t0 || 1)) * (w - 50);
     strips.forEach((strip, k) => {
@@ -259,7 +259,14 @@
       ctx.font = "12px sans-serif";
       ctx.fillText(strip.series.length > 1 ? `${strip.label}: ${texts.join(", ")}` : texts[0], 44, k * rh + 14);
     });
-    if (foot) { ctx.fillStyle = "#666"; ctx.fillText(`${D.strips_left_off} more outputs not drawn (outputs=[...] picks them)`, 44, h - 4); }
+    if (foot) {     // short: the strips' column is ~360 px wide on a 1000 px page
+      const more = D.strips_left_off, idle = D.idle_contacts;
+      const text = !idle ? `${more} more outputs not drawn (outputs=[...] picks them)`
+        : !more ? `${idle} contacts that never touched not drawn (outputs=[...])`
+          : `${more} more outputs, ${idle} untouched contacts not drawn (outputs=[...])`;
+      ctx.fillStyle = "#666";
+      ctx.fillText(text, 44, h - 4);
+    }
     ctx.strokeStyle = "#000";
     ctx.lineWidth = 1;
     ctx.beginPath();

@@ -295,3 +295,30 @@ def test_urdf_contacts_on_a_welded_link(tmp_path):
     assert total[2] == pytest.approx(weight, rel=1e-2)
     shapes = data["collision"][frame]
     assert sorted(s["contact"] for s in shapes) == sorted(LEGS) and all(s["size"] == [0.02] for s in shapes)
+
+
+IDLE = """<mujoco><option gravity="0 0 -9.81"/><worldbody><geom type="plane" size="5 5 .1"/>
+<body name="lamp" pos="1 0 2"><joint name="slide" type="slide" axis="1 0 0"/>
+<geom name="lamp" type="sphere" size="0.1" mass="1"/></body>
+<body name="ball" pos="0 0 0.3"><freejoint/><geom name="foot" type="sphere" size="0.1" mass="2"/></body>
+</worldbody></mujoco>"""
+
+
+def test_the_pages_strips_leave_out_contacts_that_never_touched(tmp_path):
+    """As --plot: a contact that never touched draws no strips of zeros (first hour s27: the
+    pages of a1 --floating-base --ground and gymnasium's half_cheetah spent seven of their eight
+    strips on a trunk contact that never touched); the footnote counts it, and outputs= still
+    draws it when named."""
+    (tmp_path / "idle.xml").write_text(IDLE)
+    model = eomc.compile(MjcfModel(tmp_path / "idle.xml"), functions=["rhs", "jac_x", "outputs", "events", "poses"],
+                         cache_dir=tmp_path / "cache", progress=False)
+    res = model.simulate(None, (0, 0.5), method="radau")
+    assert res.status == 0 and "Fn_lamp" in res.outputs and not np.any(res.outputs["Fn_lamp"])
+    assert np.max(res.outputs["Fn_foot"]) > 0
+    data = _data(res.animate(fps=20))
+    drawn = [data["outputs"][k]["name"] for strip in data["strips"] for k in strip["series"]]
+    assert not [n for n in drawn if "lamp" in n], drawn      # lamp's ground contact, lamp__foot's pair
+    assert drawn[:2] == ["Fn_foot", "depth_foot"] and "energy" in drawn     # Ftx_foot: 0 throughout
+    assert data["idle_contacts"] == 2
+    named = _data(res.animate(fps=20, outputs=["Fn_lamp", "Fn_foot"]))
+    assert [o["name"] for o in named["outputs"]] == ["Fn_lamp", "Fn_foot"] and named["idle_contacts"] == 0
