@@ -80,7 +80,9 @@ class BuildNote(EomcNote):
     """A note about the model as built (impossible link inertias kept as given: the dynamics
     are fine), said once when the model is built -- the build's metadata keeps it -- and not
     again when a later command reuses the build (first hour s26: ANYmal's 840 characters on
-    every simulate, check and animate)."""
+    every simulate, check and animate).  ``details``: lines the note's one line leaves out (each
+    kept link's moments and line), printed by ``eomc inspect MODEL``."""
+    details = ()
 
 
 class DefaultStartWarning(EomcWarning):

@@ -300,33 +300,33 @@ def _check_body(robot, body, joint, verdicts, notes, kept, allow_nonphysical=Fal
 
 def _warn_kept(robot, kept, notes):
     """The impossible link tensors kept as given (a triangle miss on a body of its own, or any
-    miss welded into a possible body): one link keeps its sentence at its line; several share
-    one warning naming each link with its line (HyQ, Allegro, ANYmal C: five lines each)."""
-    def miss(leig, verdict):
-        return (f"principal moments {_describe(leig)} miss the triangle inequality"
-                f"{' or are negative' if verdict == 'negative' else ''}")
-    if len(kept) == 1:
-        link, leig, verdict, into = kept[0]
-        what = ("kept as given (as Pinocchio does): the dynamics need only a non-negative tensor" if into is None
-                else f"kept as given: it is welded into body '{into[0]}' (moved by joint '{into[1]}'), whose "
-                     f"combined inertia is possible")
-        _warn(robot, link.line, f"link '{link.name}': its inertia tensor is not physically possible "
-                                f"({miss(leig, verdict)}); {what}", notes, BuildNote)
-    elif kept:
-        # each link's miss in a few characters (a + b < c, or its negative moment) and where it is
-        # welded: allegro's four fingertips took 900 characters on every command (first hour s23)
-        def short(leig, verdict):
-            m = np.sort(np.asarray(leig, dtype=float))
-            return (f"a negative moment {m[0]:.3g}" if verdict == "negative" and m[0] < 0
-                    else f"{m[0]:.3g} + {m[1]:.3g} < {m[2]:.3g}")
-        each = "; ".join(f"link '{link.name}' (line {link.line}): {short(leig, verdict)}"
-                         + ("" if into is None or into[0] == link.name else f", welded into body '{into[0]}'")
-                         for link, leig, verdict, into in kept)
-        triangle = all(verdict == "triangle" for _, _, verdict, _ in kept)
-        _warn(robot, robot.line, f"{len(kept)} links' inertia tensors "
-                                 f"{'miss the triangle inequality (a + b < c)' if triangle else 'are not physically possible'}"
-                                 f" and are kept as given, as Pinocchio does (the dynamics need only each moving body's "
-                                 f"combined tensor to be possible, and these are): {each}", notes, BuildNote)
+    miss welded into a possible body), in one BuildNote line: which links, that nothing needs
+    doing, and where the details are.  Why short: it reads as a problem to solve, and Allegro's,
+    HyQ's and ANYmal's took 600-840 characters (first hour s26).  The details -- each link's
+    line, principal moments, the miss and the body it is welded into -- are the note's
+    ``details`` (one line a link), which ``eomc inspect`` prints."""
+    if not kept:
+        return
+    def detail(link, leig, verdict, into):
+        m = np.sort(np.asarray(leig, dtype=float))
+        miss = (f"a negative moment {m[0]:.3g}" if verdict == "negative" and m[0] < 0
+                else f"{m[0]:.3g} + {m[1]:.3g} < {m[2]:.3g}")
+        return (f"link '{link.name}' (line {link.line}): principal moments {_describe(leig)} ({miss})"
+                + ("" if into is None or into[0] == link.name else
+                   f", welded into body '{into[0]}' (moved by joint '{into[1]}')"))
+    triangle = all(verdict == "triangle" for _, _, verdict, _ in kept)
+    names = [link.name for link, _, _, _ in kept]
+    which = (f"link '{names[0]}': its inertia tensor" if len(kept) == 1 else
+             f"{len(kept)} links' inertia tensors ({', '.join(names[:4])}{', ...' if len(names) > 4 else ''})")
+    message = (f"{which} {'miss' if len(kept) > 1 else 'misses'} the triangle inequality" if triangle
+               else f"{which} {'are' if len(kept) > 1 else 'is'} not physically possible")
+    message += ("; kept as given, as Pinocchio does (the dynamics need only each moving body's moments to be "
+                "non-negative, and they are): nothing to do; eomc inspect gives the moments")
+    line = kept[0][0].line if len(kept) == 1 else robot.line
+    notes.append(message)
+    note = BuildNote(f"{robot.path}:{line}: {message}" if line else f"{robot.path}: {message}")
+    note.details = tuple(detail(*k) for k in kept)
+    warnings.warn(note, stacklevel=3)
 
 
 def _check_names(robot, joints, bodies):

@@ -53,11 +53,20 @@ def run(args):
                                 allow_nonphysical_inertia=args.allow_nonphysical_inertia,
                                 limits=args.limits != "off", ignore=args.ignore,
                                 orientation=getattr(args, "orientation", None), pairs=getattr(args, "pairs", None))
-    spec, generated = generate(source, name, functions=args.outputs,
-                               fold_parameters=args.fold_parameters,
-                               progress=False if args.quiet else None, formulation=args.formulation,
-                               contacts=args.contact)
+    import warnings
+    with warnings.catch_warnings(record=True) as said:
+        spec, generated = generate(source, name, functions=args.outputs,
+                                   fold_parameters=args.fold_parameters,
+                                   progress=False if args.quiet else None, formulation=args.formulation,
+                                   contacts=args.contact)
+    for w in said:      # said as they were (on stderr), and their details below
+        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     print(format_report(generated.metadata))
+    details = [line for w in said for line in getattr(w.message, "details", ())]
+    if details:     # a note's one line names what it is about; the numbers are here (BuildNote.details)
+        print("")
+        print("the build's notes in detail:")
+        print("\n".join(f"  {line}" for line in details))
     print("")
     print(compare_formulations(args, spec, generated, generate, ModelError, source=source, name=name))
     return 0
