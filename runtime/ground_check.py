@@ -45,7 +45,7 @@ def below_ground(model, t, X, p, allowed, fraction):
     # a link's own name is a contact named on it
     named = {str(d.get("name", ""))[len("contact_"):] for d in model.metadata.get("events", ())
              if str(d.get("name", "")).startswith("contact_")}
-    notes = []
+    found = {}      # (what, why) -> [(depth, body, t, allowed)]
     for name, pts in bodies.items():
         i = frames.index(name)
         o, R = poses.positions[:, i, :], poses.rotations[:, i, :, :]
@@ -65,7 +65,27 @@ def below_ground(model, t, X, p, allowed, fraction):
                 why = (f"the contact named on link {name} takes the place of its <collision> geometry: put it "
                        f"where the link touches, --contact {name}:x,y,z:radius, or --contact @collision for "
                        f"the file's collision spheres")
-            notes.append(f"body {name} went {float(depth[row, k]):.3g} m under the ground ({what}, at t = "
-                         f"{float(t[row]):.4g}), more than {float(limit[k]):.3g} m: the robot passed through "
-                         f"the floor there ({why})")
-    return notes
+            found.setdefault((what, why), []).append((float(depth[row, k]), name, float(t[row]), float(limit[k])))
+    return [_note(what, why, sank) for (what, why), sank in found.items()]
+
+
+def _note(what, why, sank):
+    """One note for the bodies that went under the ground the same way (``what`` of theirs, the
+    same remedy ``why``): one body as it always was; several by the deepest NAMED_AT_MOST, the
+    rest counted (first hour s27: a1.urdf --ground, a fixed base welded with its legs in the
+    floor, gave twelve notes of 300 characters, each with the same remedy)."""
+    from .switching import NAMED_AT_MOST, depth_span
+    if len(sank) == 1:
+        d, name, t, limit = sank[0]
+        return (f"body {name} went {d:.3g} m under the ground ({what}, at t = {t:.4g}), more than "
+                f"{limit:.3g} m: the robot passed through the floor there ({why})")
+    sank = sorted(sank, key=lambda item: -item[0])
+    named = ", ".join(f"{name} {d:.3g} m (at t = {t:.4g})" for d, name, t, _ in sank[:NAMED_AT_MOST])
+    rest = sank[NAMED_AT_MOST:]
+    more = f" and {len(rest)} more ({depth_span(rest[-1][0], rest[0][0])})" if rest else ""
+    limits = sorted({limit for *_, limit in sank})
+    allowed = (f"{limits[0]:.3g} m" if len(limits) == 1 else
+               f"{limits[0]:.3g} to {limits[-1]:.3g} m (each its own)")
+    whose = "their origins" if what == "its origin" else "their collision geometry"
+    return (f"bodies {named}{more} went under the ground ({whose}), more than {allowed}: the robot "
+            f"passed through the floor there ({why})")

@@ -403,12 +403,15 @@ def _onto_ground(model, x0, overrides):
     Why: a URDF's zero pose has the base at z = 0, so a standing robot's feet start tens of
     centimetres inside the ground; the contact law then throws it out violently (Go2: feet
     0.45 m deep, a run no tolerance follows) instead of letting it stand or collapse.  A base
-    height given with --x0 is kept as given."""
+    height given with --x0 is kept as given.  A URDF robot whose root is welded (no
+    --floating-base) cannot be lifted: a start deeper than a point contact may go gets a note
+    saying so and naming --floating-base."""
     import sys
 
-    from eomc.runtime.switching import find_switches
+    from eomc.runtime.switching import POINT_PENETRATION, find_switches
     zs = [n for n in model.state_names[:model.nq] if n.endswith("_floating_z")]
-    if len(zs) != 1 or zs[0] in overrides or model.noutput == 0:
+    welded = not zs and "ground_check" in ((getattr(model, "metadata", None) or {}))
+    if not (len(zs) == 1 or welded) or (zs and zs[0] in overrides) or model.noutput == 0:
         return x0
     contacts = find_switches(model).contacts
     depths = [f"depth_{c.name}" for c in contacts if f"depth_{c.name}" in model.output_names]
@@ -418,6 +421,16 @@ def _onto_ground(model, x0, overrides):
     out = model.outputs(0.0, x)
     deepest = max(out[d] for d in depths)
     if not deepest > 0.0:
+        return x0
+    if welded:
+        # first hour s27: `eomc simulate a1.urdf --ground` (no --floating-base) welded the trunk
+        # at the origin, its legs 0.34 m into the floor: 2 MN on each foot from the start, and a
+        # warning naming every contact whose remedy (--x0) cannot lift a welded base
+        if deepest > POINT_PENETRATION:
+            print(f"eomc: note: {model.name}'s start puts its contacts up to {deepest:.4g} m under the "
+                  f"ground, and its root link is welded to the world (a fixed base), so eomc cannot lift "
+                  f"the start onto it: pose the links above the ground with --x0, or give --floating-base "
+                  f"for a robot that stands on the ground", file=sys.stderr)
         return x0
     lifted = dict(x0)
     lifted[zs[0]] = x0[zs[0]] + deepest + GROUND_CLEARANCE
