@@ -864,10 +864,20 @@ def _range_of(sw, p, joint):
 def moved_start_text(name, moved):
     """What the default start moved, for the CLI's note and eomc.compile's DefaultStartWarning:
     ``{name}: the zero pose is outside the range of joint knee (range [-2.5, -0.8]; starts at
-    q_knee = -0.81)`` for each joint of ``moved`` (metadata["start_in_range"] entries)."""
-    what = "; ".join(f"{m['joint']} (range [{m['lower']:.6g}, {m['upper']:.6g}]; starts at "
-                     f"{m['state']} = {m['value']:.6g})" for m in moved)
-    return f"{name}: the zero pose is outside the range of joint{'s' if len(moved) > 1 else ''} {what}"
+    q_knee = -0.81)`` for each joint of ``moved`` (metadata["start_in_range"] entries); joints
+    of one range and start are named together, ``FR_calf_joint, FL_calf_joint, ... (range [-2.69653,
+    -0.916298]; each starts at -0.926298)`` (first hour s27: A1's four knees repeated theirs)."""
+    groups = {}
+    for m in moved:
+        key = (f"{m['lower']:.6g}", f"{m['upper']:.6g}", f"{m['value']:.6g}")
+        groups.setdefault(key, []).append(m)
+    parts = []
+    for (lower, upper, value), ms in groups.items():
+        if len(ms) == 1:
+            parts.append(f"{ms[0]['joint']} (range [{lower}, {upper}]; starts at {ms[0]['state']} = {value})")
+        else:
+            parts.append(f"{', '.join(m['joint'] for m in ms)} (range [{lower}, {upper}]; each starts at {value})")
+    return f"{name}: the zero pose is outside the range of joint{'s' if len(moved) > 1 else ''} {'; '.join(parts)}"
 
 
 def _user_level():

@@ -104,3 +104,17 @@ def test_the_kane_route_starts_where_the_recursive_one_does(arm):
     assert kane.state_names == recursive.state_names
     np.testing.assert_array_equal(kane.initial_state, recursive.initial_state)
     assert kane.metadata["start_in_range"] == recursive.metadata["start_in_range"]
+
+
+def test_joints_of_one_range_and_start_are_named_together():
+    """A1's four knees (first hour s27) each repeated '(range [-2.69653, -0.916298]; starts at
+    q_<knee> = -0.926298)': joints sharing a range and a start are named once together."""
+    from eomc.runtime.switching import moved_start_text
+
+    def knee(leg, lower=-2.69653, value=-0.926298):
+        return {"joint": f"{leg}_calf_joint", "state": f"q_{leg}_calf_joint", "lower": lower,
+                "upper": -0.916298, "value": value}
+    text = moved_start_text("a1", [knee("FR"), knee("FL"), knee("RR", lower=-2.5), knee("RL")])
+    assert text == ("a1: the zero pose is outside the range of joints FR_calf_joint, FL_calf_joint, RL_calf_joint "
+                    "(range [-2.69653, -0.916298]; each starts at -0.926298); RR_calf_joint (range [-2.5, "
+                    "-0.916298]; starts at q_RR_calf_joint = -0.926298)")
