@@ -160,7 +160,7 @@ def _fit_labels(fig, ax, rounds=3):
         ax.set_xlim(lo, hi * (hi / lo) ** ((right - box.x1 + 6) / box.width))
 
 
-def _cpu_ms(row):
+def cpu_ms(row):
     """A row's thread CPU time in ms (wall time for a CSV written before it was measured)."""
     value = row.get("cpu_time_s")
     return 1e3 * (value if value is not None and np.isfinite(value) else row["wall_time_s"])
@@ -177,7 +177,7 @@ def recommendation(report, target):
             return "**No run succeeded**; see the table for the reasons."
         top = min(ok, key=lambda r: r["error"])
         return (f"**No run met the target.** The most accurate was `{usage(top)}` "
-                f"(error {top['error']:.2e}, {_cpu_ms(top):.3g} ms CPU): add tighter "
+                f"(error {top['error']:.2e}, {cpu_ms(top):.3g} ms CPU): add tighter "
                 f"tolerances to the grid (`--tolerances`).")
     which = ("the only run that meets the target" if len(meeting) == 1 else
              f"the cheapest of the {len(meeting)} runs that meet the target")
@@ -185,12 +185,12 @@ def recommendation(report, target):
              if best.get("energy_drift") is not None else "")
     text = (f"**Recommendation** (target {target:.0e}): `{usage(best)}` -- error "
             f"{best['error']:.2e}, cost {best['cost']:.0f} rhs-equivalents ({best['steps']} steps, "
-            f"{best['nfev']} rhs evaluations{drift}; {_cpu_ms(best):.3g} ms CPU); {which}.")
+            f"{best['nfev']} rhs evaluations{drift}; {cpu_ms(best):.3g} ms CPU); {which}.")
     others = sorted((r for r in meeting if r is not best), key=cost_key)
     if others:
         nxt = others[0]
         text += (f" Runner-up: `{usage(nxt)}` (error {nxt['error']:.2e}, cost {nxt['cost']:.0f}, "
-                 f"{_cpu_ms(nxt):.3g} ms CPU).")
+                 f"{cpu_ms(nxt):.3g} ms CPU).")
     return text + " " + how_chosen(report)
 
 
