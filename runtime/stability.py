@@ -279,6 +279,10 @@ def _accuracy(model, x0, p, t_final, rtol, atol, methods, max_steps, stiff=False
             how += (f"; after t={t_eval[h]:.4g} {late:.3g} x tolerance, where the references "
                     f"themselves differ by {late_refs:.3g} x: there the problem's conditioning, not the "
                     f"method, limits the comparison (not judged)")
+        if method == "auto" and same.get("auto") in methods:
+            # first hour s27: a1 --floating-base --ground printed the same line for auto and radau
+            # with nothing saying why
+            how += f" (auto runs {same['auto']} here: the {same['auto']} run, judged once)"
         window = "" if h == t_eval.size else f" on [0, {t_eval[h]:.4g}] where the references agree"
         checks.append(Check(f"{method} accuracy", f"error <= {GLOBAL_FACTOR:g} x (atol + rtol |x|) "
                             f"vs {refs}{window} (local tolerances add up), or, where the motion "
