@@ -314,6 +314,8 @@ def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, fu
         extra = {**(extra or {}), "limit_laws": spec.limit_laws}
     if getattr(spec, "start_in_range", None):      # the joints the default start moved into range
         extra = {**(extra or {}), "start_in_range": list(spec.start_in_range)}
+    if getattr(spec, "gimbal_locks", None):        # runtime/diagnose.gimbal_passed
+        extra = {**(extra or {}), "gimbal_locks": list(spec.gimbal_locks)}
     bodies = _body_parameters(spec)
     if bodies:      # runtime/law_parameters.py: a body's mass or inertia given at run time
         extra = {**(extra or {}), "body_parameters": bodies}

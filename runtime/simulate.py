@@ -926,6 +926,13 @@ def simulate(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6
     result = finish(model, a, x_out, stats, x_last, raise_on_failure)
     if project and not consistent and model.nhol + model.nvel:
         _say_projected(model, a, result, atol)
+    if result.status == 0 and (getattr(model, "metadata", None) or {}).get("gimbal_locks"):
+        from .diagnose import gimbal_passed
+        said = gimbal_passed(model, result.t, result.x)
+        if said:
+            import warnings
+            from .switching import PhysicsWarning
+            warnings.warn(PhysicsWarning(said), stacklevel=_user_level())
     return result
 
 

@@ -50,6 +50,7 @@ class ModelSpec:
     pair_check: dict = field(default=None, compare=False)    # the body-body pairs' shapes (MJCF; runtime/pair_check.py), or None
     limit_laws: dict = field(default=None, compare=False)    # MJCF limits' shapes (runtime/limit_energy.py), or None
     start_in_range: list = field(default=None, compare=False)  # joints the default start moved into range (URDF), or None
+    gimbal_locks: list = field(default=None, compare=False)    # hinge triples' locks in reach (URDF; runtime/diagnose.py), or None
     # what the ``energy`` output a robot reader gave Kane's route holds (NAME.json "energy", as the
     # recursive route's tree says it: the runtime's verdict reads it; eomc.compiler.urdf.model._kane_energy)
     energy_note: str = field(default=None, compare=False)
@@ -184,7 +185,7 @@ def _checked(values, formed, name, where, origin=""):
             timestep=values.get("timestep"), ground_check=values.get("ground_check"),
             pair_check=values.get("pair_check"),
             limit_laws=values.get("limit_laws"),
-            start_in_range=values.get("start_in_range"),
+            start_in_range=values.get("start_in_range"), gimbal_locks=values.get("gimbal_locks"),
             energy_note=values.get("energy_note"))
     except Invalid as exc:
         raise where(exc) from None

@@ -131,6 +131,9 @@ class Model(StateSizes):
     # the joints whose zero is outside their range and which the default start moved inside
     # (eomc.compiler.urdf.model.start_in_range), for the note naming them; () if none
     start_in_range: tuple = field(default=(), compare=False)
+    # a URDF's hinge triples' gimbal locks in reach (eomc.compiler.urdf.tree._check_gimbal_locks), for
+    # the run's check that it did not pass one (runtime/diagnose.gimbal_passed); () if none
+    gimbal_locks: tuple = field(default=(), compare=False)
     mechanics: Optional[Callable[[], sm.physics.mechanics.System]] = field(default=None, compare=False,
                                                                          repr=False)
     refusal: Optional[str] = None

@@ -161,6 +161,8 @@ def model_of_robot(robot, tree, model, poses=False):
         extra["initial_state"] = {**quaternion, **inside}
     if moved:
         extra["start_in_range"] = moved
+    if tree.gimbal_locks:       # the run checks it did not pass one (runtime/diagnose.gimbal_passed)
+        extra["gimbal_locks"] = tuple(tree.gimbal_locks)
     return model_of_tree(built.tree, Provenance("urdf", str(model.path), robot.line), frames=tuple(frames),
                          defaults=dict(built.parameters), joint_inputs=tuple(built.inputs), outputs=outputs,
                          events=events, mechanics=mechanics, refusal=refusal, frame_noun="link",
@@ -310,6 +312,8 @@ def _reader_start(values, read):
     "kane", mimic=True robots) used to start Go2 at its zero pose, 0.84 rad outside its knees'
     ranges, where the recursive one starts inside them."""
     values = merged_initial_state(values, read)
+    if read.gimbal_locks:       # both routes' metadata (runtime/diagnose.gimbal_passed)
+        values = {**values, "gimbal_locks": list(read.gimbal_locks)}
     start = values.get("initial_state") or {}
     moved = [m for m in read.start_in_range if start.get(m["state"]) == m["value"]]   # not the caller's
     return {**values, "start_in_range": moved} if moved else values

@@ -124,6 +124,9 @@ class Tree:
     # the reading it was built from (eomc.compiler.urdf.reader.UrdfRobot, with its parsed
     # document): what later steps need of the file (welded links, visuals) without reading it again
     robot: object = field(default=None, repr=False, compare=False)
+    # the hinge triples' gimbal locks in reach (_check_gimbal_locks): {"joints": [P, J, K], "state":
+    # q_J, "angle": J's angle there}, for the run's check that it did not pass one (runtime/diagnose.py)
+    gimbal_locks: list = field(default_factory=list)
 
 
 def _fail(robot, line, message):
@@ -610,6 +613,8 @@ def _check_gimbal_locks(robot, tree, notes):
                         found.append((P, J, K, theta, lo, hi))
     if not found:
         return
+    tree.gimbal_locks = [{"joints": [P.name, J.name, K.name], "state": f"q_{identifier(J.name)}",
+                          "angle": float(theta)} for P, J, K, theta, _, _ in found]
     parts, remedy, seen = [], [], set()
     for P, J, K, theta, lo, hi in found:
         if abs(theta - hi) <= GIMBAL_MARGIN:
@@ -630,8 +635,8 @@ def _check_gimbal_locks(robot, tree, notes):
     _warn(robot, robot.line, f"{len(found)} hinge triple{'s' if len(found) > 1 else ''} with axes through one "
                              f"point and no inertia between them (Euler angles of one rotation) "
                              f"{'reach their' if len(found) > 1 else 'reaches its'} gimbal lock: {'; '.join(parts)}. There the first and last axes line up, nothing "
-                             f"resists their opposite motion (the mass matrix is singular) and a run that gets "
-                             f"there stops; these angles cannot pass it{fix}", notes)
+                             f"resists their opposite motion (the mass matrix is singular): a run that gets "
+                             f"there stops, or steps across it with a warning{fix}", notes)
 
 
 def _motion(joint):

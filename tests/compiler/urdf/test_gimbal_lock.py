@@ -1,7 +1,8 @@
 """A ball joint written as three hinges with massless links between them (human.urdf's hips,
 shoulders and neck) is Euler angles: where the middle angle lines the outer axes up, the mass
-matrix is singular and a run stops.  The build warns about each such lock within reach of the
-middle joint's range, and the ``--param`` limits it suggests keep a run clear of it.
+matrix is singular and a run stops or steps across it.  The build warns about each such lock within
+reach of the middle joint's range, and the ``--param`` limits it suggests keep a run clear of it; a run
+that passes one is warned of (runtime/diagnose.gimbal_passed).
 """
 import re
 import warnings
@@ -104,3 +105,42 @@ def test_the_suggested_limit_lets_the_run_that_stopped_at_the_lock_finish(tmp_pa
     assert result.t[-1] == pytest.approx(1.0)
     q_x = result.x[:, model.state_names.index("q_hip_X")]
     assert q_x.max() > 1.3 and q_x.max() < np.pi / 2 - 0.05      # it hit the narrowed limit, held clear
+
+
+def test_a_run_across_the_lock_is_warned_and_a_run_held_clear_is_not(tmp_path):
+    """The build records the lock (NAME.json gimbal_locks) and simulate checks the run's rows
+    against it: the swing into hip_X's upper limit that steps across q_hip_X = pi/2 at status 0
+    (since ce53cfd8's entry springs; test above) was silent, now a PhysicsWarning names the
+    hinges, the angle and when; the run with the suggested limit gets none.  (Free and ball
+    joints' angles are not checked: their mass matrix stays regular at the lock, and gymnasium's
+    and dm_control's humanoids pass near or through it in their default runs.)"""
+    from eomc.runtime.switching import PhysicsWarning
+    path = _write(tmp_path, HIP.replace("UPPER", "1.570795"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = eomc.compile(UrdfModel(path), "hip", cache_dir=tmp_path / "cache", progress=False)
+    lock, = model.metadata["gimbal_locks"]
+    assert lock["joints"] == ["hip_Z", "hip_X", "hip_Y"] and lock["state"] == "q_hip_X"
+    assert lock["angle"] == pytest.approx(np.pi / 2, abs=1e-12)
+
+    def run(p=None):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            res = model.simulate({"u_hip_X": 4.0}, (0.0, 1.0), p=p, raise_on_failure=False)
+        return res, [str(w.message) for w in caught
+                     if issubclass(w.category, PhysicsWarning) and "gimbal lock" in str(w.message)]
+    free, said = run()
+    q = free.x[:, model.state_names.index("q_hip_X")]
+    if free.status == 0:
+        assert q.max() > np.pi / 2 and len(said) == 1, said
+        t = float(re.search(r"q_hip_X crossed 1\.5708 at t = ([\d.]+) \(hinges hip_Z, hip_X, hip_Y\)", said[0])[1])
+        before = free.t <= t
+        assert q[before].max() < np.pi / 2 < q[free.t > t][0]      # the rows' crossing, named
+        assert "the mass matrix is singular" in said[0] and "--param limits" in said[0]
+    else:                   # stopped there: the failure says it (singular), no second word
+        assert said == []
+    p = dict(zip(model.param_names, model.param_defaults))
+    p["limit_hi_hip_X"] = 1.421
+    held, said = run(p)
+    assert held.status == 0 and held.x[:, model.state_names.index("q_hip_X")].max() < np.pi / 2 - 0.05
+    assert said == []
