@@ -436,3 +436,32 @@ def test_the_progress_lines_give_the_tables_cpu_time(osc, capsys):
     assert len(lines) == 2, lines
     for row, line in zip(rep.rows, lines):
         assert f"  {1e3 * row['cpu_time_s']:.3g} ms CPU  {row['steps']} steps" in line, (line, row)
+
+
+def test_png_time_labels_do_not_run_into_each_other(osc_report, tmp_path, monkeypatch):
+    """Over a decade and a half of CPU time (A1's report, 0.016 to 0.49 s: first hour s27) the
+    x axis labelled 3x10^-2 and 4x10^-2 so wide they ran into each other: the labels inside the
+    axes now stand apart."""
+    import copy
+
+    import matplotlib.pyplot as plt
+    report = copy.deepcopy(osc_report)
+    for method in report.methods:
+        rows = [r for r in report.rows if r["method"] == method]
+        for r, cpu in zip(rows, np.geomspace(0.0161, 0.486, len(rows))):
+            r["cpu_time_s"] = cpu
+    closed = []
+    monkeypatch.setattr(plt, "close", lambda fig=None: closed.append(fig))
+    report.plot(tmp_path / "wp.png")
+    (fig,) = closed
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    (ax,) = fig.axes
+    lo, hi = ax.get_xlim()
+    ticks = [(t.get_position()[0], t.get_window_extent(renderer), t.get_text())
+             for t in ax.xaxis.get_majorticklabels() + ax.xaxis.get_minorticklabels()
+             if t.get_visible() and t.get_text()]
+    shown = sorted(((e.x0, e.x1, text) for x, e, text in ticks if lo <= x <= hi))
+    assert len(shown) >= 6, shown
+    assert all(b[0] >= a[1] for a, b in zip(shown, shown[1:])), shown
+    plt.close(fig)
