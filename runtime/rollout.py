@@ -326,9 +326,14 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method="rk4", p=No
             opt.nspring, opt.spring = nspring, springs
         if implicit_lanes:      # each thread's rows in fibers, their NAME_implicit calls in lanes
             from .cpu import machine_lanes
-            lib.eomc_rollout_implicit_lanes(model.c_model, opt, _implicit_batch(model, ffi),
-                                            machine_lanes(), model.metadata["implicit"]["layout"]["size"],
-                                            _implicit_reads_t(model), *args)
+            size, block = model.metadata["implicit"]["layout"]["size"], _implicit_rows_block(model)
+            if block is not None:   # the pairs' slope block straight into the rows (NAME_implicit_batch_rows)
+                lib.eomc_rollout_implicit_lanes_rows(model.c_model, opt, _implicit_batch(model, ffi, rows=True),
+                                                     block[0], block[1], machine_lanes(), size,
+                                                     _implicit_reads_t(model), *args)
+            else:
+                lib.eomc_rollout_implicit_lanes(model.c_model, opt, _implicit_batch(model, ffi), machine_lanes(),
+                                                size, _implicit_reads_t(model), *args)
         else:
             lib.eomc_rollout_stats(model.c_model, opt, *args)
         if method == "implicitfast":
@@ -585,10 +590,31 @@ def _implicit_reads_t(model):
     return int(bool(model.metadata.get("implicit_batch", {}).get("reads_t", True)))
 
 
-def _implicit_batch(model, ffi):
-    """NAME_implicit_batch of the model's library as the eomc_batch_fn ``ffi`` declares."""
-    fp = model.ffi.addressof(model.model_lib, f"{model.name}_implicit_batch")
-    return ffi.cast("eomc_batch_fn", int(model.ffi.cast("uintptr_t", fp)))
+def _implicit_rows_block(model):
+    """(first, length) of the pairs' slope block NAME_implicit_batch_rows writes into the rows'
+    own buffers (the compiler's implicit_batch.rows_block), or None: a model without body-body
+    pairs, or built before that function (the lanes rollout then takes NAME_implicit_batch)."""
+    block = model.metadata.get("implicit_batch", {}).get("rows_block")
+    return (int(block[0]), int(block[1])) if block else None
+
+
+def _implicit_batch(model, ffi, rows=False):
+    """NAME_implicit_batch of the model's library as the eomc_batch_fn ``ffi`` declares (rows:
+    NAME_implicit_batch_rows as eomc_batch_rows_fn, declared here: the model's own cdef has only
+    the public functions)."""
+    if not rows:
+        fp = model.ffi.addressof(model.model_lib, f"{model.name}_implicit_batch")
+        return ffi.cast("eomc_batch_fn", int(model.ffi.cast("uintptr_t", fp)))
+    cached = model.__dict__.get("_batch_rows_fn")
+    if cached is None:
+        import cffi
+        own = cffi.FFI()
+        own.cdef(f"int {model.name}_implicit_batch_rows(int n, double t, const double *X, const double *p, "
+                 f"const double *R, double *OUT, double *const *rows, int *status, double *work);")
+        lib = own.dlopen(str(model.library_path))
+        fn = getattr(lib, f"{model.name}_implicit_batch_rows")
+        cached = model.__dict__["_batch_rows_fn"] = (own, lib, own.cast("uintptr_t", fn))
+    return ffi.cast("eomc_batch_rows_fn", cached[2])
 
 
 LANES_BLOCK = 64    # rows per thread's block: 8 groups of 8 lanes; its columns stay in cache

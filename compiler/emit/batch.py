@@ -513,6 +513,8 @@ class _Rewriter:
         self.masked = set()         # arrays stored under a mask (the other lanes' old values read)
         self.sizes = {}             # local arrays' declared sizes
         self.pairs_read = {}        # a pairs' table function -> the outputs it zeroes for full = 0 (_pairs_read)
+        self.rows_ok = False        # NAME_implicit_lanes' body: the pairs' slope block may go to rows_ (pairs_call)
+        self.rows_block = None      # ... and it does: (its first output, its length)
 
     @property
     def mask(self):
@@ -739,7 +741,15 @@ class _Rewriter:
         law parameters must be shared (NAME_implicit_batch's p), the call outside every branch.
         ``slopes``: the array (out) where NAME_implicit's call writes its slope block, from
         ``slopes_first`` on, ``nslopes`` long: each lane's block written by the loop into a
-        buffer of its own and put in its lane of that array the same way."""
+        buffer of its own and put in its lane of that array the same way -- or, in
+        NAME_implicit_lanes' own body (``rows_ok``), when the caller hands rows (``rows_``, one
+        output buffer per lane: NAME_implicit_batch_rows), written by the loop straight into
+        its lane's row at the block's place, the block's columns left alone, and a lane whose
+        block holds a non-finite entry marked in ``sb_`` (looked for only when the loop's sum of
+        what it wrote is not finite: NAME_implicit's own verdict, compiler/tree/emit.finite_return).
+        Why: on gymnasium's humanoid the block is 2725 of the 4739 outputs, nearly all zeros, and
+        in the lanes rollout zeroing its columns, putting it in the lanes, checking it and copying
+        it back into each row took ~28 % of the C time (session 26, report-percall2.md)."""
         if pars not in self.scalar_arrays:
             raise Unsupported(f"calls {fn}() with parameters in lanes")
         if self.mask is not None or array not in self.vec_arrays or array not in self.sizes:
@@ -767,13 +777,24 @@ class _Rewriter:
         nput = self.pairs_read.get(fn) if full == "0" else None
         nput = nput if nput is not None and nput <= nout else None
         inputs = ", ".join(self.lanes(e) for e in elems)
+        rows = slopes is not None and self.rows_ok and self.rows_block is None
+        if rows:
+            self.rows_block = (int(slopes_first), int(nslopes))
         zero = (f"{indent}for (l_ = 0; l_ < {nout if nput is None else nput}; l_++) {array}[{first} + l_] = (eomc_vd){{0}};\n"
-                + (f"{indent}for (l_ = 0; l_ < {nslopes}; l_++) {slopes}[{slopes_first} + l_] = (eomc_vd){{0}};\n"
-                   if slopes else ""))
+                + (f"{indent}{'if (!rows_) ' if rows else ''}for (l_ = 0; l_ < {nslopes}; l_++) "
+                   f"{slopes}[{slopes_first} + l_] = (eomc_vd){{0}};\n" if slopes else ""))
         into = (f"{indent}    double slo_[{nslopes}];   /* the loop zeroes it first */\n" if slopes else "",
                 f", slo_, {nslopes}" if slopes else "",
                 f"{indent}    {self.prefix}_put_lane({slopes} + {slopes_first}, slo_, {nslopes}, l_);\n"
                 if slopes else "")
+        if rows:    # the block into the lane's row (rows_), else into slo_ and its lane as above
+            into = (into[0] + f"{indent}    double *const dst_ = rows_ ? rows_[l_] + {slopes_first} : slo_;\n",
+                    f", dst_, {nslopes}",
+                    f"{indent}    if (!rows_) {self.prefix}_put_lane({slopes} + {slopes_first}, slo_, {nslopes}, l_);\n"
+                    f"{indent}    else if (!({name} - {name} == 0.0)) {{   /* the sum not finite: the block entry by entry */\n"
+                    f"{indent}        int e_;\n"
+                    f"{indent}        for (e_ = 0; e_ < {nslopes}; e_++) if (!(dst_[e_] - dst_[e_] == 0.0)) sb_[l_] = 1;\n"
+                    f"{indent}    }}\n")
         self.used.add("put_lane")
         return (f"{indent}double {name} = 0.0;\n{zero}"
                 f"{indent}for (l_ = 0; l_ < EOMC_BATCH_LANES; l_++) {{   /* the pairs' loop, lane by lane */\n"
@@ -1099,7 +1120,7 @@ def _pairs_read(kernels):
     return {m.group(1): int(m.group(2)) for m in _PAIRS_ZERO.finditer(kernels or "")}
 
 
-def batch_rhs(name, lines, parts, dynamics="", fn="rhs", out="xdot", kernels=""):
+def batch_rhs(name, lines, parts, dynamics="", fn="rhs", out="xdot", kernels="", rows=None):
     """(C code of the lane functions, helper names used) for the scalar rhs whose body is
     ``lines`` and whose sub-functions are ``parts`` (split_body's output); ``dynamics``: the
     text of Kane's NAME_dynamics helper (and its parts), which the rhs calls.
@@ -1112,7 +1133,10 @@ def batch_rhs(name, lines, parts, dynamics="", fn="rhs", out="xdot", kernels="")
 
     fn="implicit": the parameters are shared (``const double *p``: NAME_implicit_batch has no
     parameter row per state), so what depends on them alone (a pair's broad-phase radius, a
-    contact's law constants) is one double computed once for all lanes."""
+    contact's law constants) is one double computed once for all lanes.  ``rows``: a dict that
+    gets "block" = (first output, length) when NAME_implicit_lanes can write the pairs' slope
+    block into rows of the caller's (its arguments then end in ``double *const *rows_, int
+    *sb_``: :meth:`_Rewriter.pairs_call`)."""
     shared = (SHARED_PARAMETERS_ARRAY,) if fn in SHARED_PARAMETERS else ()
     used = set()
     renamed = {}
@@ -1164,6 +1188,7 @@ def batch_rhs(name, lines, parts, dynamics="", fn="rhs", out="xdot", kernels="")
                                    + [s for s in stmts if s is not None] + ["}"]))
     rw = _Rewriter(name, ("x", "r", out) + (() if shared else ("p",)), shared, used)
     rw.pairs_read = _pairs_read(kernels)
+    rw.rows_ok = fn == "implicit" and rows is not None
     rw.pair_scan(lines)
     stmts = [_statement(rw, line, renamed) for line in lines]
     if rw.blocks:
@@ -1176,9 +1201,13 @@ def batch_rhs(name, lines, parts, dynamics="", fn="rhs", out="xdot", kernels="")
     body += [s for s in stmts if s is not None]
     text = "\n".join(body)
     body = [f"    (void){a};" for a in ("t", "x", "p", "r", "st") if not re.search(rf"\b{a}\b", text)] + body
+    if rw.rows_block is not None:
+        rows["block"] = rw.rows_block
     lanes = "\n".join([f"static EOMC_VTARGET void {name}_{fn}_lanes(double t, const eomc_vd *x, "
                        f"const {'double' if shared else 'eomc_vd'} *p, "
-                       f"const eomc_vd *r, eomc_vd *{out}, int *st)", "{"] + body + ["}"])
+                       f"const eomc_vd *r, eomc_vd *{out}, int *st"
+                       + (", double *const *rows_, int *sb_" if rw.rows_block is not None else "") + ")", "{"]
+                      + body + ["}"])
     pair = _pair_lanes(name, fn, body) if fn == "rhs" and not out_parts and not rw.nbranch else None
     if pair is not None:
         used.add("pair")
@@ -1282,7 +1311,8 @@ def _tile(nx, nr, nout):
     return next((t for t in (32, 16, 8) if t * (nx + nr + nout) * 8 <= TILE_BYTES), None)
 
 
-def batch_function(name, nx, nr, npar, lanes_code, helper_code, fn="rhs", nout=None, prelude=True, pair=False):
+def batch_function(name, nx, nr, npar, lanes_code, helper_code, fn="rhs", nout=None, prelude=True, pair=False,
+                   rows=None):
     """(code before NAME_rhs_batch, its body): the prelude and the lane code (when there is
     any), ``NAME_rhs_batch_p`` (one parameter row per state, ``P[j*n + k]``: what a rollout
     of many parameter sets needs), then the public function's body with its scalar tail and
@@ -1295,7 +1325,14 @@ def batch_function(name, nx, nr, npar, lanes_code, helper_code, fn="rhs", nout=N
 
     fn="jac_x", nout=nx*nx: ``NAME_jac_x_batch``'s code (OUT[e*n + k] is element e of state k's
     row-major Jacobian), its scalar tail NAME_jac_x; no ``_p`` entry.  prelude=False when the
-    rhs's batch code (with the prelude) comes first in the same file."""
+    rhs's batch code (with the prelude) comes first in the same file.
+
+    rows=(first, length) (fn="implicit", batch_rhs's rows["block"]): also ``NAME_implicit_batch_rows``,
+    whose ``rows[k]`` is state k's own output buffer: the pairs' slope block goes there (at its
+    place, ``first`` on) and not into OUT, whose block rows the lanes leave as they were (the
+    scalar tail writes them too); the rest as NAME_implicit_batch (the lanes' status checks the
+    block in the rows; a guard's NaN fills it there).  The lanes rollout's
+    (runtime/c/eomc_rollout.c)."""
     nr1, np1 = max(nr, 1), max(npar, 1)
     nout = nx if nout is None else nout
     tile = _tile(nx, nr, nout)
@@ -1314,8 +1351,10 @@ def batch_function(name, nx, nr, npar, lanes_code, helper_code, fn="rhs", nout=N
         if pair:
             params += (f"    for (i = 0; i < {np1}; i++) for (l = 0; l < L; l++) pv_1[i][l] = "
                        f"{'P == NULL ? p[i] : 0.0' if npar else '0.0'};\n")
+    skip = (f"            if (rows != NULL && i >= {rows[0]} && i < {rows[0] + rows[1]}) continue;   /* in the rows */\n"
+            if rows else "")
     copy_out = f"""        for (i = 0; i < {nout}; i++) {{
-            for (g = 0; g < gs; g++) __builtin_memcpy(XDOT + (size_t)i * n + k + g * L, &xdot[g][i], sizeof(eomc_vd));
+{skip}            for (g = 0; g < gs; g++) __builtin_memcpy(XDOT + (size_t)i * n + k + g * L, &xdot[g][i], sizeof(eomc_vd));
         }}
 """
     xo, direct_decl = "xdot[g]", ""
@@ -1350,6 +1389,28 @@ def batch_function(name, nx, nr, npar, lanes_code, helper_code, fn="rhs", nout=N
             }}
         }}
 """
+    elif rows:
+        first, nblk = rows
+        group_loop = f"""        for (g = 0; g < gs; g++) {{
+            int st[L], sb[L];
+            eomc_vu bad = {{0}};
+            double *const *rg = rows != NULL ? rows + k + g * L : NULL;   /* the group's rows: its block there */
+{f"            if (P != NULL) for (i = 0; i < {npar}; i++) __builtin_memcpy(&pv[i], P + (size_t)i * n + k + g * L, sizeof(eomc_vd));" + chr(10) if npar and not shared else ""}            for (l = 0; l < L; l++) st[l] = EOMC_OK, sb[l] = 0;
+            {name}_{fn}_lanes(t, x[g], {"p" if shared else "pv"}, r[g], {xo}, st, rg, sb);
+            for (i = 0; i < {first}; i++) bad |= (eomc_vu)({xo}[i] - {xo}[i] != 0.0);   /* inf or NaN */
+            for (i = {first + nblk}; i < {nout}; i++) bad |= (eomc_vu)({xo}[i] - {xo}[i] != 0.0);
+            if (rg == NULL) for (i = {first}; i < {first + nblk}; i++) bad |= (eomc_vu)({xo}[i] - {xo}[i] != 0.0);
+            for (l = 0; l < L; l++) {{
+                if (st[l] == EOMC_OK && (bad[l] || sb[l])) st[l] = EOMC_NONFINITE;
+                if (st[l] != EOMC_OK && st[l] != EOMC_NONFINITE) {{   /* the guard stopped it: NaN, as the scalar tail */
+                    for (i = 0; i < {nout}; i++) {xo}[i][l] = NAN;
+                    if (rg != NULL) for (i = {first}; i < {first + nblk}; i++) rg[l][i] = NAN;
+                }}
+                if (status != NULL) status[k + g * L + l] = st[l];
+                if (st[l] != EOMC_OK && *worst == EOMC_OK) *worst = st[l];
+            }}
+        }}
+"""
     else:
         group_loop = f"""        for (g = 0; g < gs; g++) {{
             int st[L];
@@ -1378,7 +1439,7 @@ def batch_function(name, nx, nr, npar, lanes_code, helper_code, fn="rhs", nout=N
    the next group (UR10, n = 1024, 4 lanes: 107 -> 77 ns a state).  Shared parameters are
    broadcast once.  Returns the first state not done. */
 static EOMC_VTARGET int {name}_{fn}_groups(int n, double t, const double *X, const double *p, const double *P,
-                                   const double *R, double *XDOT, int *status, int *worst)
+                                   const double *R, double *XDOT, {"double *const *rows, " if rows else ""}int *status, int *worst)
 {{
     enum {{ L = EOMC_BATCH_LANES, NG = {groups} }};
     eomc_vd x[NG][{nx}], {"" if shared else f"pv[{np1}], "}{f"pv_1[{np1}], " if pair else ""}r[NG][{nr1}], xdot[NG][{nout}];
@@ -1397,7 +1458,7 @@ static EOMC_VTARGET int {name}_{fn}_groups(int n, double t, const double *X, con
     block_call = ""
     if lanes_code is not None:
         block_call = f"""#if EOMC_BATCH_SIMD
-    if (EOMC_VCPU_OK()) k = {name}_{fn}_groups(n, t, X, p, P, R, XDOT, status, &worst);
+    if (EOMC_VCPU_OK()) k = {name}_{fn}_groups(n, t, X, p, P, R, XDOT, {"rows, " if rows else ""}status, &worst);
 #endif
 """
     ts, width = scalar_tile(nx, nr, nout)
@@ -1427,7 +1488,7 @@ int {name}_rhs_batch_p(int n, double t, const double *X, const double *P, const 
    the scalar call).  W, a tile row's length, is an odd number of cache lines, so that the
    tile's rows do not share L1 sets. */
 static int {name}_{fn}_batch_any(int n, double t, const double *X, const double *p, const double *P,
-                              const double *R, double *XDOT, int *status, double *work)
+                              const double *R, double *XDOT, {"double *const *rows, " if rows else ""}int *status, double *work)
 {{
     enum {{ T = {ts}, W = {width} }};
     double xt[T][{nx}], ps[{np1}], rt[T][{nr1}], ot[T][W];
@@ -1447,7 +1508,7 @@ static int {name}_{fn}_batch_any(int n, double t, const double *X, const double 
             if (s != EOMC_OK && s != EOMC_NONFINITE) {{
                 for (i = 0; i < {nout}; i++) xd[i] = NAN;
             }}
-            if (status != NULL) status[k + j] = s;
+{f"            if (rows != NULL) __builtin_memcpy(rows[k + j] + {rows[0]}, xd + {rows[0]}, {rows[1]} * sizeof(double));" + chr(10) if rows else ""}            if (status != NULL) status[k + j] = s;
             if (s != EOMC_OK && worst == EOMC_OK) worst = s;
         }}
         for (i = 0; i < {nout}; i++) {{
@@ -1463,7 +1524,19 @@ static int {name}_{fn}_batch_any(int n, double t, const double *X, const double 
 }}
 
 {entry_p}"""
-    body = f"    return {name}_{fn}_batch_any(n, t, X, p, NULL, R, {'XDOT' if fn == 'rhs' else 'OUT'}, status, work);"
+    if rows:
+        loop += f"""/* {name}_implicit_batch with the pairs' slope block (outputs {rows[0]} .. {rows[0] + rows[1] - 1}) into each
+   state's own output buffer rows[k] instead of OUT (batch_function's rows). */
+int {name}_implicit_batch_rows(int n, double t, const double *X, const double *p, const double *R, double *OUT,
+                          double *const *rows, int *status, double *work);
+int {name}_implicit_batch_rows(int n, double t, const double *X, const double *p, const double *R, double *OUT,
+                          double *const *rows, int *status, double *work)
+{{
+    return {name}_implicit_batch_any(n, t, X, p, NULL, R, OUT, rows, status, work);
+}}
+"""
+    body = (f"    return {name}_{fn}_batch_any(n, t, X, p, NULL, R, {'XDOT' if fn == 'rhs' else 'OUT'}, "
+            f"{'NULL, ' if rows else ''}status, work);")
     head = SIMD_PRELUDE if prelude else ""
     return head + ("\n" + simd.rstrip("\n") if simd else "") + "\n\n" + loop.rstrip("\n"), body
 
@@ -1487,8 +1560,9 @@ def batch_code(name, nx, nr, printed, dynamics="", npar=0, fn="rhs", defined=Non
     # implicit: does NAME_implicit read t?  The lanes rollout batches rows an ulp apart in time
     # only when it does not (runtime/c/eomc_rollout.c, same_call: the batch takes one t).
     extra = {"reads_t": reads_t(lines)} if fn == "implicit" else {}
+    rows = {}
     try:
-        lanes, used = batch_rhs(name, lines, parts, dynamics, fn=fn, out=out, kernels=kernels)
+        lanes, used = batch_rhs(name, lines, parts, dynamics, fn=fn, out=out, kernels=kernels, rows=rows)
     except Unsupported as exc:
         before, body = batch_function(name, nx, nr, npar, None, "", fn=fn, nout=nout, prelude=prelude)
         return before, body, {"vectorized": False, "why": f"the scalar {fn} {exc}", "layout": layout, **extra}
@@ -1497,7 +1571,9 @@ def batch_code(name, nx, nr, printed, dynamics="", npar=0, fn="rhs", defined=Non
         lanes = lanes[:lanes.index(f"static EOMC_VTARGET void {name}_{fn}_lanes2(")].rstrip("\n")
     used.discard("pair")
     before, body = batch_function(name, nx, nr, npar, lanes, helpers(name, used, defined or ()), fn=fn,
-                                  nout=nout, prelude=prelude, pair=pair)
+                                  nout=nout, prelude=prelude, pair=pair, rows=rows.get("block"))
+    if "block" in rows:     # NAME_implicit_batch_rows: the pairs' slope block into the states' own rows
+        extra["rows_block"] = list(rows["block"])
     if defined is not None:
         defined.update(key for key, _ in helper_blocks(name, used))
     return before, body, {"vectorized": True, "layout": layout,

@@ -821,7 +821,7 @@ struct eomc_fs_lanes {
     int nq, nu, lanes, width, nslot;   /* width: the kernel's lanes (lanes: a multiple of it) */
     const eomc_implicit *imp;
     void (*kernel)(eomc_fs_lanes *, const double *, const double *, size_t, eomc_fs_request *const *,
-                   double *const *);
+                   double *const *, const double *const *, size_t, size_t);
     int *slot_ij;        /* nslot: i * nu + j of each slot (M's pattern, row by row) */
     int *slot;           /* nu * nu: the slot of (i, j), -1 off the pattern */
     int *diag;           /* nu: the slot of (i, i) */
@@ -866,7 +866,7 @@ eomc_fs_lanes *eomc_fs_lanes_new(int nq, int nu, const eomc_implicit *imp, int l
     int *slot = NULL, *cstart, *cols, nc = imp ? imp->ncontact : 0, ncs = 0, nupd = 0, pos;
     size_t n = (size_t)nu, ints;
     void (*kernel)(eomc_fs_lanes *, const double *, const double *, size_t, eomc_fs_request *const *,
-                   double *const *) = NULL;
+                   double *const *, const double *const *, size_t, size_t) = NULL;
     int width = 0;
 #ifdef EOMC_FS_LANES
     __builtin_cpu_init();
@@ -962,10 +962,10 @@ eomc_fs_lanes *eomc_fs_lanes_new(int nq, int nu, const eomc_implicit *imp, int l
 }
 
 void eomc_fs_assemble_lanes(eomc_fs_lanes *w, const double *OUT, const double *U, eomc_fs_request *const *req,
-                            double *const *ahead)
+                            double *const *ahead, const double *const *rows, size_t rlo, size_t rhi)
 {
     for (int g = 0; g < w->lanes; g += w->width)
-        w->kernel(w, OUT + g, U + g, (size_t)w->lanes, req + g, ahead + g);
+        w->kernel(w, OUT + g, U + g, (size_t)w->lanes, req + g, ahead + g, rows ? rows + g : NULL, rlo, rhi);
 }
 
 size_t eomc_fs_tested_outputs(int nq, int nu, const eomc_implicit *imp, size_t *idx)

@@ -64,13 +64,15 @@ typedef struct eomc_fs_lanes eomc_fs_lanes;
 eomc_fs_lanes *eomc_fs_lanes_new(int nq, int nu, const eomc_implicit *imp, int lanes);
 void eomc_fs_lanes_free(eomc_fs_lanes *w);
 
-/* For each lane c with req[c] != NULL: fs_assemble of the terms OUT (32-byte aligned) for a step
+/* rows (NULL: none): lane c's terms e in rlo <= e < rhi are rows[c][e], not in OUT (the lanes
+ * rollout's NAME_implicit_batch_rows writes the pairs' slope block there).
+ * For each lane c with req[c] != NULL: fs_assemble of the terms OUT (32-byte aligned) for a step
  * of req[c]->h at the speeds U, then with that matrix req[c]->du's residual ratio (fs_fast_try's)
  * and the next try's du1 and v1 (eomc_fs_request) in ahead[c] (nu + nq doubles, kept by the
  * caller): req[c]->done = req[c]->ahead = 1, req[c]->A and b not written.  0 when the lane's pivot
  * test failed (nothing written: the caller runs the scalar code, which fails the same way). */
 void eomc_fs_assemble_lanes(eomc_fs_lanes *w, const double *OUT, const double *U, eomc_fs_request *const *req,
-                            double *const *ahead);
+                            double *const *ahead, const double *const *rows, size_t rlo, size_t rhi);
 
 /* The outputs of NAME_implicit the fast path reads in a buffer before it asks for the whole
  * buffer (eomc_implicit.terms_whole): the contacts' depths and K's diagonals, the joint laws'

@@ -17,6 +17,7 @@
 #define FSL_SQRT FSL_CAT(fsl_sqrt, FSL_W)
 #define FSL_SOLVE FSL_CAT(fsl_solve, FSL_W)
 #define FSL_STEP FSL_CAT(fsl_step, FSL_W)
+#define FSL_GATHER FSL_CAT(fsl_gather, FSL_W)
 
 typedef double FSL_V __attribute__((vector_size(8 * FSL_W)));
 typedef long long FSL_VI __attribute__((vector_size(8 * FSL_W)));
@@ -47,6 +48,14 @@ __attribute__((target(FSL_TARGET))) static inline int FSL_ALL(const FSL_VI *m)
     for (int c = 0; c < FSL_W; c++) r &= (*m)[c];
     return r != 0;
 #endif
+}
+
+/* term x of each lane's own row (the lanes rollout's rows: eomc_fs_assemble_lanes) */
+__attribute__((target(FSL_TARGET))) static inline FSL_V FSL_GATHER(const double *const *rows, size_t x)
+{
+    FSL_V v;
+    for (int c = 0; c < FSL_W; c++) v[c] = rows[c][x];
+    return v;
 }
 
 /* sqrt in every lane (IEEE: the scalar sqrt's bits) */
@@ -199,10 +208,12 @@ __attribute__((target(FSL_TARGET))) static void FSL_STEP(eomc_fs_lanes *w, const
 }
 
 /* OUT, Uv: this group's first lane of the batch's columns (stride doubles per row; OUT aligned
- * to the vector), req, ahead: the group's FSL_W lanes (eomc_fs_assemble_lanes). */
+ * to the vector), req, ahead: the group's FSL_W lanes (eomc_fs_assemble_lanes); rows (NULL: none):
+ * the group's lanes' rows, which hold the terms rlo .. rhi - 1 instead of OUT. */
 __attribute__((target(FSL_TARGET))) static void FSL_KERNEL(eomc_fs_lanes *w, const double *OUT,
                                                           const double *Uv, size_t stride,
-                                                          eomc_fs_request *const *req, double *const *ahead)
+                                                          eomc_fs_request *const *req, double *const *ahead,
+                                                          const double *const *rows, size_t rlo, size_t rhi)
 {
     const eomc_implicit *imp = w->imp;
     const fs_layout *L = &w->L;
@@ -258,9 +269,12 @@ __attribute__((target(FSL_TARGET))) static void FSL_KERNEL(eomc_fs_lanes *w, con
         int m = imp->chain_start[c + 1] - imp->chain_start[c];
         FSL_V e[25], G[9], Cs[9], Kv[3];
         const FSL_V *p = e + 1, *vp = e + 4, *K = e + 7, *C = e + 16;
-        FSL_VI on = FSL_T(ce) > zero, any = {0};
+        FSL_VI on, any = {0};
+#define FSL_E(x) (rows && (x) >= rlo && (x) < rhi ? FSL_GATHER(rows, (x)) : FSL_T(x))   /* term x: the rows' or OUT's */
+        on = FSL_E(ce) > zero;
         if (!FSL_ANY(&on)) continue;                 /* not touching: no force, no slope */
-        for (int a = 0; a < 25; a++) e[a] = FSL_T(ce + (size_t)a);
+        for (int a = 0; a < 25; a++) e[a] = FSL_E(ce + (size_t)a);
+#undef FSL_E
         FSL_SECANT(K, C, Cs);                         /* the lanes off: read by no store */
         for (int a = 0; a < 9; a++) {
             G[a] = h * Cs[a] + hh * K[a];
@@ -360,6 +374,7 @@ __attribute__((target(FSL_TARGET))) static void FSL_KERNEL(eomc_fs_lanes *w, con
 
 #undef FSL_KERNEL
 #undef FSL_STEP
+#undef FSL_GATHER
 #undef FSL_SOLVE
 #undef FSL_SECANT
 #undef FSL_SQRT

@@ -34,6 +34,8 @@ typedef struct rollout_job {
     int lanes;           /* rows each thread runs at once (fibers) with batch */
     size_t out_len;      /* doubles of NAME_implicit's output */
     int reads_t;         /* NAME_implicit reads t: a batch holds only calls at one time */
+    eomc_batch_rows_fn batch_rows;   /* NULL, or NAME_implicit_batch_rows: used instead of batch, ... */
+    size_t blk0, blkn;   /* ... its block of outputs blk0 .. blk0 + blkn written into the rows' own buffers */
 } rollout_job;
 
 static int take_row(rollout_job *job)
@@ -191,6 +193,8 @@ typedef struct lanes_sched {
     eomc_fs_lanes *lw;     /* NULL, or the step's assembly in lanes (eomc_fixedstep.h) */
     int cur_ob;            /* the batch buffer the last round wrote */
     double *OUTS[2];       /* the batch's outputs, rounds alternating between the two (lanes_rows) */
+    double *pad;           /* job->batch_rows: the padding lanes' row (out_len doubles) */
+    double *rowp[64];      /* job->batch_rows: each lane's row in the last round */
     const size_t *hot, *var;   /* the outputs copied at once (eomc_fs_tested_outputs), and all a ... */
     size_t nhot, nvar;         /* ... call writes (not NAME_implicit_const's: var_outputs) */
 } lanes_sched;
@@ -411,7 +415,9 @@ static void lanes_assemble(lanes_sched *s, const int *idx, int k, const int *ibu
         any |= req[c] != NULL;
     }
     if (!any) return;
-    eomc_fs_assemble_lanes(s->lw, OUT, X + (size_t)s->job->m->nq * L, req, ahead);
+    eomc_fs_assemble_lanes(s->lw, OUT, X + (size_t)s->job->m->nq * L, req, ahead,
+                           s->job->batch_rows ? (const double *const *)s->rowp : NULL, s->job->blk0,
+                           s->job->blk0 + s->job->blkn);
 }
 
 /* A round of k < lanes waiting calls (the rollout's tail: the other fibers are done, or wait with
@@ -455,7 +461,11 @@ static void lanes_run(lanes_sched *s, double *X, double *R, int *ibuf, int *idx,
         }
         ob = s->cur_ob ^= 1;
         settle(s, ob);
-        job->batch(L, f[first].t, X, f[first].p, nr ? R : NULL, s->OUTS[ob], ibuf, mwork);
+        if (job->batch_rows) {           /* the pairs' block straight into each row's buffer */
+            for (int c = 0; c < L; c++) s->rowp[c] = c < k ? f[idx[c]].out : s->pad;
+            job->batch_rows(L, f[first].t, X, f[first].p, nr ? R : NULL, s->OUTS[ob], s->rowp, ibuf, mwork);
+        } else
+            job->batch(L, f[first].t, X, f[first].p, nr ? R : NULL, s->OUTS[ob], ibuf, mwork);
         if (s->lw) lanes_assemble(s, idx, k, ibuf, X, s->OUTS[ob]);
         for (int c = 0; c < k; c++) {
             f[idx[c]].result = ibuf[c];
@@ -470,7 +480,7 @@ static void lanes_run(lanes_sched *s, double *X, double *R, int *ibuf, int *idx,
  * 64-byte aligned), ibuf, idx: lanes ints each, mwork: the model's work, lw: NULL or the assembly
  * in lanes, hot, var: lanes_sched's.  0, or 1 when a fiber's context could not be made. */
 static int lanes_rows(rollout_job *job, fiber *f, double *buf, int *ibuf, int *idx, double *mwork,
-                      eomc_fs_lanes *lw, const size_t *hot, size_t nhot, const size_t *var, size_t nvar)
+                      eomc_fs_lanes *lw, const size_t *hot, size_t nhot, const size_t *var, size_t nvar, double *pad)
 {
     lanes_sched s;
     const int nx = job->m->nx, nr = job->m->ninput, L = job->lanes;
@@ -480,6 +490,7 @@ static int lanes_rows(rollout_job *job, fiber *f, double *buf, int *ibuf, int *i
     s.OUTS[0] = R + (size_t)nr * L;
     s.OUTS[1] = s.OUTS[0] + job->out_len * (size_t)L;
     s.hot = hot; s.nhot = nhot; s.var = var; s.nvar = nvar;
+    s.pad = pad;
     s.opt = *job->opt;
     s.imp = *job->opt->implicit;
     s.imp.terms = lanes_terms;
@@ -514,10 +525,11 @@ static void *lanes_fiber_worker(rollout_job *job)
     /* NULL (no vector kernel for L here, or a model without the fast path's structure): each row
      * assembles its own step, as before */
     eomc_fs_lanes *lw = imp->terms_lu == NULL ? eomc_fs_lanes_new(job->m->nq, job->m->nu, imp, L) : NULL;
-    int ok = f && buf && mwork && ibuf && hot && nvar >= 0, failed = 1;
+    double *pad = job->batch_rows ? (double *)malloc(job->out_len * sizeof(double)) : NULL;
+    int ok = f && buf && mwork && ibuf && hot && nvar >= 0 && (pad || !job->batch_rows), failed = 1;
     if (ok) {               /* the tested outputs that a call writes (a constant one is there) */
         unsigned char *written = (unsigned char *)calloc(job->out_len + 1, 1);
-        size_t k = 0;
+        size_t k = 0, v = 0;
         if ((ok = written != NULL)) {
             for (long i = 0; i < nvar; i++) written[var[i]] = 1;
             for (size_t i = 0; i < nhot; i++)
@@ -525,6 +537,14 @@ static void *lanes_fiber_worker(rollout_job *job)
             nhot = k;
         }
         free(written);
+        /* batch_rows: the block is in the rows' buffers already (written there by the call), so
+           neither copied at once nor materialized from the columns, which do not hold it */
+        for (k = 0; job->batch_rows && k < nhot; k++)
+            if (hot[k] < job->blk0 || hot[k] >= job->blk0 + job->blkn) hot[v++] = hot[k];
+        if (job->batch_rows) nhot = v;
+        for (v = 0, k = 0; job->batch_rows && k < (size_t)nvar; k++)
+            if (var[k] < job->blk0 || var[k] >= job->blk0 + job->blkn) var[v++] = var[k];
+        if (job->batch_rows) nvar = (long)v;
     }
     for (int i = 0; ok && i < L; i++) {
         f[i].stack = (char *)malloc(FIBER_STACK);
@@ -533,13 +553,13 @@ static void *lanes_fiber_worker(rollout_job *job)
         ok = f[i].stack && f[i].work && f[i].ahead;
     }
     if (ok)
-        failed = lanes_rows(job, f, buf, ibuf, ibuf + L, mwork, lw, hot, nhot, var, (size_t)nvar);
+        failed = lanes_rows(job, f, buf, ibuf, ibuf + L, mwork, lw, hot, nhot, var, (size_t)nvar, pad);
     for (int i = 0; f && i < L; i++) {
         free(f[i].stack);
         free(f[i].work);
         free(f[i].ahead);
     }
-    free(f); free(mem); free(mwork); free(ibuf); free(hot);
+    free(f); free(mem); free(mwork); free(ibuf); free(hot); free(pad);
     eomc_fs_lanes_free(lw);
     return failed ? (void *)job : NULL;  /* not NULL: this thread could not run; the others take its rows */
 }
@@ -548,7 +568,7 @@ static void *worker(void *arg)
 {
     rollout_job *job = (rollout_job *)arg;
     double *work;
-    if (job->batch)
+    if (job->batch || job->batch_rows)
         return lanes_fiber_worker(job);
     work = (double *)malloc(job->work_len * sizeof(double));
     if (work == NULL)
@@ -619,7 +639,8 @@ static int rollout_rows(const eomc_model *m, const eomc_options *opt, double t0,
                         const eomc_rollout_extras *ex,
                         int n_eval, const double *t_eval, double *X_out, double *X_last,
                         int *status, long *steps, eomc_stats *stats, int nthreads,
-                        eomc_batch_fn batch, int lanes, size_t out_len, int reads_t)
+                        eomc_batch_fn batch, int lanes, size_t out_len, int reads_t,
+                        eomc_batch_rows_fn batch_rows, size_t blk0, size_t blkn)
 {
     rollout_job job;
     int k, ran;
@@ -634,7 +655,7 @@ static int rollout_rows(const eomc_model *m, const eomc_options *opt, double t0,
     if (nthreads > n)
         nthreads = n > 0 ? n : 1;
     /* lanes: a thread a whole batch of rows at least */
-    if (batch && nthreads > (n + lanes - 1) / lanes)
+    if ((batch || batch_rows) && nthreads > (n + lanes - 1) / lanes)
         nthreads = n > 0 ? (n + lanes - 1) / lanes : 1;
     job.m = m; job.opt = opt; job.t0 = t0; job.t1 = t1; job.n = n;
     job.X0 = X0; job.P = P; job.p_stride = p_stride;
@@ -643,6 +664,7 @@ static int rollout_rows(const eomc_model *m, const eomc_options *opt, double t0,
     job.X_last = X_last; job.status = status; job.steps = steps; job.stats = stats;
     job.ex = ex;
     job.batch = batch; job.lanes = lanes; job.out_len = out_len; job.reads_t = reads_t;
+    job.batch_rows = batch_rows; job.blk0 = blk0; job.blkn = blkn;
     job.ev_scratch = ex && ex->ev ? eomc_events_scratch_size(m, ex->ev->ncol, ex->ev->n) : 0;
     job.sw_scratch = ex && ex->ev && (ex->ev->nlin > 0 || ex->ev->switching)
                      ? eomc_switch_scratch_size(ex->ev->n, ex->ev->nlin) : 0;
@@ -673,7 +695,7 @@ int eomc_rollout_ex(const eomc_model *m, const eomc_options *opt, double t0, dou
                     int *status, long *steps, eomc_stats *stats, int nthreads)
 {
     return rollout_rows(m, opt, t0, t1, n, X0, P, p_stride, n_rgrid, r_tgrid, R, r_stride, ex, n_eval, t_eval,
-                        X_out, X_last, status, steps, stats, nthreads, NULL, 0, 0, 1);
+                        X_out, X_last, status, steps, stats, nthreads, NULL, 0, 0, 1, NULL, 0, 0);
 }
 
 int eomc_rollout_implicit_lanes(const eomc_model *m, const eomc_options *opt, eomc_batch_fn batch, int lanes,
@@ -686,7 +708,24 @@ int eomc_rollout_implicit_lanes(const eomc_model *m, const eomc_options *opt, eo
         || opt->implicit == NULL || opt->implicit->terms == NULL || out_len == 0)
         return EOMC_BAD_ARGUMENT;
     return rollout_rows(m, opt, t0, t1, n, X0, P, p_stride, n_rgrid, r_tgrid, R, r_stride, NULL, n_eval, t_eval,
-                        X_out, X_last, status, steps, stats, nthreads, batch, lanes, out_len, reads_t != 0);
+                        X_out, X_last, status, steps, stats, nthreads, batch, lanes, out_len, reads_t != 0,
+                        NULL, 0, 0);
+}
+
+int eomc_rollout_implicit_lanes_rows(const eomc_model *m, const eomc_options *opt, eomc_batch_rows_fn batch_rows,
+                                     size_t block_first, size_t block_len, int lanes, size_t out_len, int reads_t,
+                                     double t0, double t1, int n, const double *X0, const double *P,
+                                     size_t p_stride, int n_rgrid, const double *r_tgrid, const double *R,
+                                     size_t r_stride, int n_eval, const double *t_eval, double *X_out,
+                                     double *X_last, int *status, long *steps, eomc_stats *stats, int nthreads)
+{
+    if (batch_rows == NULL || lanes < 1 || lanes > 64 || opt == NULL || opt->method != EOMC_IMPLICITFAST
+        || opt->implicit == NULL || opt->implicit->terms == NULL || out_len == 0 || block_len == 0
+        || block_first > out_len || block_len > out_len - block_first)
+        return EOMC_BAD_ARGUMENT;
+    return rollout_rows(m, opt, t0, t1, n, X0, P, p_stride, n_rgrid, r_tgrid, R, r_stride, NULL, n_eval, t_eval,
+                        X_out, X_last, status, steps, stats, nthreads, NULL, lanes, out_len, reads_t != 0,
+                        batch_rows, block_first, block_len);
 }
 
 /* ------------------------------------------------------------ RK4 in lanes */

@@ -128,6 +128,28 @@ int eomc_rollout_implicit_lanes(const eomc_model *m, const eomc_options *opt, eo
                                 size_t r_stride, int n_eval, const double *t_eval, double *X_out,
                                 double *X_last, int *status, long *steps, eomc_stats *stats, int nthreads);
 
+/*
+ * A model's NAME_implicit_batch_rows (compiler/emit/batch.py, made when its NAME_implicit writes a
+ * body-body pairs' slope block): NAME_implicit_batch with that block (outputs block_first ..
+ * block_first + block_len) written into rows[k], state k's own output buffer, instead of OUT.
+ */
+typedef int (*eomc_batch_rows_fn)(int n, double t, const double *X, const double *P, const double *R,
+                                  double *OUT, double *const *rows, int *status, double *work);
+
+/*
+ * eomc_rollout_implicit_lanes with batch_rows: each round's call writes the pairs' slope block
+ * straight into the waiting rows' buffers, so it is neither copied out of the batch's columns
+ * nor assembled from them (eomc_fs_assemble_lanes reads those contacts from the rows).  Why: on
+ * gymnasium's humanoid the block is 2725 of 4739 outputs, nearly all zeros, and its trip through
+ * the columns was ~28 % of the lanes rollout's C time (session 26).  The same rows, bit for bit.
+ */
+int eomc_rollout_implicit_lanes_rows(const eomc_model *m, const eomc_options *opt, eomc_batch_rows_fn batch_rows,
+                                     size_t block_first, size_t block_len, int lanes, size_t out_len, int reads_t,
+                                     double t0, double t1, int n, const double *X0, const double *P,
+                                     size_t p_stride, int n_rgrid, const double *r_tgrid, const double *R,
+                                     size_t r_stride, int n_eval, const double *t_eval, double *X_out,
+                                     double *X_last, int *status, long *steps, eomc_stats *stats, int nthreads);
+
 #ifdef __cplusplus
 }
 #endif

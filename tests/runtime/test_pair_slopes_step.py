@@ -87,13 +87,17 @@ def test_a_pressed_pair_step_is_taken_whole(limbs, monkeypatch):
     assert err_new < 0.5 * err_old and err_new < 0.005, (err_new, err_old)
 
 
-def test_lanes_rollout_is_the_scalar_rollout_bit_for_bit(limbs):
+def test_lanes_rollout_is_the_scalar_rollout_bit_for_bit(limbs, monkeypatch):
     """The lanes assemble with every pair's fill, the scalar rows with the pressed pairs' only: the
-    same bits (the bigger pattern adds exact zeros)."""
+    same bits (the bigger pattern adds exact zeros).  The lanes' calls write the pairs' slope block
+    straight into each row's buffer (NAME_implicit_batch_rows; the assembly in lanes reads the pair
+    points from the rows): the same rows as with the block through the batch's columns."""
+    import eomc.runtime.rollout as rollout_module
     m = limbs
     # the lanes' kernel is vectorized (the pairs' loop lane by lane, its slopes into out[]), not the
     # scalar loop it falls back to on a call it does not know
     assert m.metadata["implicit_batch"]["vectorized"], m.metadata["implicit_batch"]
+    assert rollout_module._implicit_rows_block(m) is not None
     X0 = np.array([_thrown(m, s) for s in np.linspace(0.3, 2.0, 9)])
     X0[:, m.nq + 6:m.nq + 10] = np.random.default_rng(3).uniform(-2, 2, (9, 4))    # the arm swinging
     kw = dict(dt=0.002, steps=60, method="implicitfast")
@@ -102,3 +106,9 @@ def test_lanes_rollout_is_the_scalar_rollout_bit_for_bit(limbs):
     assert want.ok.all() and got.ok.all()
     assert np.array_equal(got.x, want.x) and np.array_equal(got.steps, want.steps)
     assert np.array_equal(got.unsolved, want.unsolved)
+    touched = [m.simulate(x, (0.0, 0.12), method="implicitfast", dt=0.002, n_points=61).outputs["depth_trunk__ball"].max()
+               for x in X0[::4]]
+    assert max(touched) > 0, touched             # a pair pressed within the run
+    monkeypatch.setattr(rollout_module, "_implicit_rows_block", lambda model: None)
+    cols = rollout(m, X0, lanes=True, **kw)      # the block through the columns (NAME_implicit_batch)
+    assert np.array_equal(cols.x, got.x) and np.array_equal(cols.steps, got.steps)

@@ -175,6 +175,89 @@ def test_a_pair_table_call_runs_lane_by_lane_in_the_batch(tmp_path, monkeypatch)
         assert np.array_equal(_batch_at(model, X[:lanes], shift), want[:lanes])
 
 
+def _batch_rows(model, X, out, rows):
+    """NAME_implicit_batch_rows over the rows of X into OUT ``out`` (size x n, written in place)
+    and the states' own buffers ``rows`` (n x size): the statuses."""
+    import cffi
+    own = cffi.FFI()
+    own.cdef(f"int {model.name}_implicit_batch_rows(int n, double t, const double *X, const double *p, "
+             f"const double *R, double *OUT, double *const *rows, int *status, double *work);")
+    lib = own.dlopen(str(model.library_path))
+    n = len(X)
+    cols, status = np.ascontiguousarray(X.T), np.zeros(n, dtype=np.intc)
+    work, r = np.zeros(model.work_size + 1), np.zeros(max(model.ninput, 1) * n)
+    p = np.asarray(model.param_defaults, dtype=float)
+    ptrs = own.new("double *[]", [own.cast("double *", own.from_buffer("double[]", rows[k])) for k in range(n)])
+    getattr(lib, f"{model.name}_implicit_batch_rows")(
+        n, 0.0, own.from_buffer("double[]", cols), own.from_buffer("double[]", p), own.from_buffer("double[]", r),
+        own.from_buffer("double[]", out), ptrs, own.from_buffer("int[]", status), own.from_buffer("double[]", work))
+    return status
+
+
+def test_the_pairs_slope_block_goes_into_each_states_own_row(tmp_path, monkeypatch):
+    """NAME_implicit_batch_rows (the lanes rollout's, batch.py's rows): the pairs' slope block of each
+    state written by its lane's pairs' loop straight into that state's own buffer at the block's
+    place (nothing else of the buffer touched), every other output in OUT as NAME_implicit_batch
+    writes it, the block's rows of OUT left alone by the lanes -- bit for bit the scalar
+    NAME_implicit (libm sin/cos) with the feet pressed together, apart and on the floor, one group
+    in OUT itself and a scalar tail; and the statuses of states with a non-finite entry are the
+    scalar call's."""
+    import eomc
+    from eomc.compiler.contact import pairs
+    from eomc.compiler.emit import batch
+    from eomc.compiler.mjcf.model import MjcfModel
+    monkeypatch.setattr(pairs, "TABLE_FROM", 1)
+    path = tmp_path / "twolegs.xml"
+    path.write_text(TWO_LEGS)
+    model = eomc.compile(MjcfModel(path), name="ibrw", functions=("rhs", "implicit", "implicit_batch", "outputs"),
+                         cache_dir=tmp_path / "cache", cflags=f"{STRICT} -DEOMC_BATCH_LIBM_TRIG", progress=False)
+    info = model.metadata["implicit"]
+    first, length = model.metadata["implicit_batch"]["rows_block"]
+    pair_points = [k for k, c in enumerate(info["contacts"]) if c.get("pair")]
+    assert pair_points and length == 25 * len(pair_points)
+    assert first == info["layout"]["contact"] + 25 * pair_points[0]
+    lanes = machine_lanes()
+    rng = np.random.default_rng(6)
+    n = 2 * lanes + 3
+    X = np.zeros((n, model.nx))
+    names = list(model.state_names)
+    X[:, names.index("q_rootz")] = rng.uniform(-0.08, 0.05, n)
+    X[:, names.index("q_hip_l")] = rng.uniform(-0.25, 0.05, n)
+    X[:, names.index("q_hip_r")] = rng.uniform(-0.05, 0.25, n)
+    X[:, model.nq:] = rng.normal(size=(n, model.nu))
+    want = _scalar(model, X)
+    block = slice(first, first + length)
+    pressed = (want[:, block].reshape(n, -1, 25)[:, :, 0] > 0).any(axis=1)
+    assert pressed[:2 * lanes].any() and not pressed[:2 * lanes].all()
+    size = info["layout"]["size"]
+    for m in (lanes, n):            # the rollout's call (OUT aligned, one group), and groups with a tail
+        raw = np.full(m * size + 8, 7.0)
+        at = (-(raw.ctypes.data // 8)) % 8
+        out = raw[at:at + m * size]
+        rows = np.full((m, size), np.nan)
+        status = _batch_rows(model, X[:m], out, rows)
+        got = out.reshape(size, m).T
+        assert (status == 0).all()
+        assert np.array_equal(rows[:, block], want[:m, block])
+        assert np.isnan(rows[:, :first]).all() and np.isnan(rows[:, first + length:]).all()
+        assert np.array_equal(got[:, :first], want[:m, :first])
+        assert np.array_equal(got[:, first + length:], want[:m, first + length:])
+        g = m // lanes * lanes          # the lanes' states: their block columns untouched
+        assert (got[:g, block] == 7.0).all()
+    bad = X[:lanes].copy()
+    bad[1, names.index("q_hip_l")] = np.nan
+    bad[2, model.nq] = np.inf
+    raw = np.zeros(lanes * size + 8)
+    at = (-(raw.ctypes.data // 8)) % 8
+    status = _batch_rows(model, bad, raw[at:at + lanes * size], np.zeros((lanes, size)))
+    want_status = [model.model_lib.__getattribute__(f"{model.name}_implicit")(
+        0.0, model.ffi.from_buffer("double[]", np.ascontiguousarray(x)), model._default_p,
+        model.ffi.from_buffer("double[]", np.zeros(max(model.ninput, 1))),
+        model.ffi.from_buffer("double[]", np.zeros(size)), model.ffi.from_buffer("double[]", np.zeros(model.work_size + 1)))
+        for x in bad]
+    assert list(status) == want_status and want_status[1] != 0 and want_status[0] == 0
+
+
 def _lanes(lines, fn="implicit"):
     code, used = batch_rhs("m", lines, [], fn=fn, out="out")
     return code, used
