@@ -11,7 +11,10 @@ eomc_rollout_implicit_lanes under ASan/UBSan: the gym hopper's implicitfast rows
 split steps, a parameter row per trajectory) in fibers, their NAME_implicit calls made by
 NAME_implicit_batch, against eomc_rollout_stats byte for byte -- once with the hand-written
 stack switch (each switch announced to ASan, runtime/c/eomc_rollout.c) and once with ucontext
-(-DEOMC_FIBER_UCONTEXT)."""
+(-DEOMC_FIBER_UCONTEXT).  And eomc_rollout_implicit_lanes_rows on a small scene with body-body
+pairs (a ball thrown at a free body's trunk and arm): each round's NAME_implicit_batch_rows call
+writes the pairs' slope block into the rows' own buffers (the padding lanes into a scratch row),
+and the assembly in lanes reads the pair points from there."""
 import os
 import shutil
 import subprocess
@@ -154,6 +157,11 @@ HOPPER_DRIVER = r"""
 #include "NAME.h"
 #include "eomc_rollout.h"
 
+#ifdef BLOCK_FIRST
+int NAME_implicit_batch_rows(int n, double t, const double *X, const double *p, const double *R, double *OUT,
+                             double *const *rows, int *status, double *work);
+#endif
+
 static unsigned long long seed = 2024;
 static double uniform(void)      /* in [-1, 1), the same on every machine */
 {
@@ -210,8 +218,14 @@ int main(void)
     opt.implicit = &imp;
     eomc_rollout_stats(m, &opt, 0.0, t1, n, X0, P, (size_t)np, 0, NULL, NULL, 0, (int)rows, t_eval,
                        A_out, A_last, A_st, A_steps, A_stats, 2);
+#ifdef BLOCK_FIRST      /* the pairs' slope block into the rows' own buffers */
+    eomc_rollout_implicit_lanes_rows(m, &opt, NAME_implicit_batch_rows, BLOCK_FIRST, BLOCK_LEN, lanes, OUT_LEN, READS_T,
+                                     0.0, t1, n, X0, P, (size_t)np, 0, NULL, NULL, 0, (int)rows, t_eval, B_out, B_last,
+                                     B_st, B_steps, B_stats, 2);
+#else
     eomc_rollout_implicit_lanes(m, &opt, NAME_implicit_batch, lanes, OUT_LEN, READS_T, 0.0, t1, n, X0, P, (size_t)np, 0,
                                 NULL, NULL, 0, (int)rows, t_eval, B_out, B_last, B_st, B_steps, B_stats, 2);
+#endif
     for (k = 0; k < n; k++) {
         if (A_st[k] != B_st[k] || A_steps[k] != B_steps[k]) wrong++;
         if (memcmp(&A_stats[k], &B_stats[k], sizeof(eomc_stats))) wrong++;
@@ -245,7 +259,7 @@ def hopper_source(tmp_path_factory):
     return spec, gm, es.write_sources(gm, str(directory))
 
 
-def _hopper_driver(spec, gm):
+def _hopper_driver(spec, gm, x_start=None):
     """HOPPER_DRIVER with the model's start, contact structure (NAME.json's "implicit", as
     simulate.implicit_terms reads it) and depth limits written in."""
     md, info = gm.metadata, gm.metadata["implicit"]
@@ -256,7 +270,8 @@ def _hopper_driver(spec, gm):
         starts.append(starts[-1] + len(c["speeds"]))
     shape = type("Shape", (), {"metadata": md, "param_names": md["param_names"]})
     lanes = machine_lanes()
-    fill = {"X_START": c_list(float(v) for v in spec.initial_state[:md["nq"]]),
+    start = spec.initial_state if x_start is None else x_start
+    fill = {"X_START": c_list(float(v) for v in start[:md["nq"]]),
             "CHAIN_START": c_list(starts), "CHAIN": c_list(int(s) for c in info["contacts"] for s in c["speeds"]),
             "PARENT": c_list(int(q) for q in info["parents"]),
             "MASSES": c_list(k for k, name in enumerate(md["param_names"]) if name.startswith("m_")),
@@ -282,3 +297,28 @@ def test_implicitfast_fibers_clean_under_asan_and_equal_to_the_scalar_rollout(ho
     defines = {"ucontext": ("-DEOMC_FIBER_UCONTEXT",), "constants apart": ("-DTERMS_CONST",)}.get(switch, ())
     out = _build_and_run(src, _hopper_driver(spec, gm), tmp_path, "address,undefined", *defines)
     assert out == f"{gm.name} wrong=0 failed=0 split=1", out
+
+
+def test_implicitfast_rows_path_clean_under_asan_and_equal_to_the_scalar_rollout(tmp_path):
+    """eomc_rollout_implicit_lanes_rows (the pairs' slope block written by each lane straight into
+    its row; the padding lanes' into a scratch row; the lanes' assembly gathering the pair points
+    from the rows) under ASan/UBSan: the limbs scene's rows, the ball 10 mm from the trunk with
+    speeds in +-0.5 (rows close in on it), against the scalar rollout byte for byte."""
+    import warnings
+    from eomc.compiler.mjcf.model import MjcfModel
+    from ..compiler.contact.test_narrow import LIMBS
+    path = tmp_path / "limbs.xml"
+    path.write_text(LIMBS)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        spec, gm = generate(MjcfModel(path, pairs=True), "fiberlimbs", functions=("rhs", "implicit", "implicit_batch"),
+                            cache_dir=tmp_path / "cache", progress=False)
+    first, length = gm.metadata["implicit_batch"]["rows_block"]
+    src = es.write_sources(gm, str(tmp_path))
+    names = list(gm.metadata["state_names"])
+    x0 = [0.0] * len(names)
+    for name, v in (("q_joint0_z", 0.3), ("q_joint3_y", -0.1), ("q_joint3_z", 0.3)):
+        x0[names.index(name)] = v
+    out = _build_and_run(src, _hopper_driver(spec, gm, x0), tmp_path, "address,undefined",
+                         f"-DBLOCK_FIRST={first}", f"-DBLOCK_LEN={length}")
+    assert out.startswith(f"{gm.name} wrong=0 failed=0"), out
