@@ -113,6 +113,7 @@ def main():
     print(f"| model | contestant | {a} | {b} | {b}/{a} | {a} vs mujoco implicitfast | {b} vs mujoco implicitfast "
           f"| {b} vs mujoco euler |")
     print("|---|---|---:|---:|---:|---:|---:|---:|")
+    said = []
     for m in models:
         sps = {(label, c): runs[label][0][m]["steps"] / statistics.median(
             [t for run in runs[label] for t in run[m]["cpu"][c]]) for label in runs for c in CONTESTANTS}
@@ -123,9 +124,9 @@ def main():
         for c in ("eomc scalar", "eomc lanes"):
             digests = {label: {run[m]["digest"][c] for run in runs[label]} for label in runs}
             same = len(digests[a] | digests[b]) == 1
-            print(f"\n{m} {c}: final states {'bit-equal on both sides' if same else f'DIFFER: {digests}'}; rows ok "
-                  f"{runs[a][0][m]['digest'][c + ' rows ok']} / {runs[b][0][m]['digest'][c + ' rows ok']}")
-        print()
+            said.append(f"- {m} {c}: final states {'bit-equal on both sides' if same else f'DIFFER: {digests}'}; "
+                        f"rows ok {runs[a][0][m]['digest'][c + ' rows ok']} / {runs[b][0][m]['digest'][c + ' rows ok']}")
+    print("\n" + "\n".join(said))
 
 
 if __name__ == "__main__":
