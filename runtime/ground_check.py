@@ -14,7 +14,15 @@ feet are its only contacts passed its trunk through the floor with status 0 and 
 """
 import numpy as np
 
-__all__ = ["below_ground"]
+__all__ = ["NAMED_AT_MOST", "below_ground", "depth_span"]
+
+NAMED_AT_MOST = 4           # contacts (bodies) a warning names, the deepest; the rest are counted
+
+
+def depth_span(lo, hi):
+    """"0.029 to 0.327 m", or "0.35 m" when the two read the same."""
+    a, b = f"{lo:.3g}", f"{hi:.3g}"
+    return f"{a} m" if a == b else f"{a} to {b} m"
 
 
 
@@ -74,7 +82,6 @@ def _note(what, why, sank):
     same remedy ``why``): one body as it always was; several by the deepest NAMED_AT_MOST, the
     rest counted (first hour s27: a1.urdf --ground, a fixed base welded with its legs in the
     floor, gave twelve notes of 300 characters, each with the same remedy)."""
-    from .switching import NAMED_AT_MOST, depth_span
     if len(sank) == 1:
         d, name, t, limit = sank[0]
         return (f"body {name} went {d:.3g} m under the ground ({what}, at t = {t:.4g}), more than "

@@ -33,6 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import EomcWarning
+from .ground_check import NAMED_AT_MOST, below_ground, depth_span
 
 __all__ = ["CONTACT_EVENT_PREFIX", "CLIP_EVENT_PREFIX", "GAP_EVENT_PREFIXES", "Switches", "find_switches", "PhysicsWarning", "verdict", "warn_outside_limits", "moved_start_text",
            "warn_unchecked",
@@ -201,14 +202,7 @@ def _activations_at_rest(model, a):
     return not np.any(np.asarray(a["x0"], dtype=float)[model.nq + model.nu:])
 
 
-NAMED_AT_MOST = 4           # contacts (bodies) a warning names, the deepest; the rest are counted
 START_DEPTH_SLACK = 1.05    # a contact the run took no more than 5 % deeper than it started: the start's
-
-
-def depth_span(lo, hi):
-    """"0.029 to 0.327 m", or "0.35 m" when the two read the same."""
-    a, b = f"{lo:.3g}", f"{hi:.3g}"
-    return f"{a} m" if a == b else f"{a} to {b} m"
 
 
 def _start_depth(outputs, name):
@@ -271,7 +265,6 @@ def verdict(model, a, result, gmax, sw, watched=None, outputs=None, place=None):
         past, thrown = _thrown(sw, past, over, start, e)
         notes += _overshoot_notes(model, p, sw, past, over, e)
         notes += _thrown_notes(sw, thrown, over, start, limit_at)
-    from .ground_check import below_ground
     notes += below_ground(model, result.t, result.x, p, POINT_PENETRATION, PENETRATION_FRACTION)
     from .pair_check import passed_through
     notes += passed_through(model, result.t, result.x, p, outputs=result.outputs)   # bodies into each other
