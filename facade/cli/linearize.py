@@ -28,10 +28,14 @@ def configure(parser):
 
 
 def _matrix(label, M, rows, cols):
+    """The matrix as a table under its column names, its rows named: the names' column as wide
+    as the longest (first hour s27: hopper's q_thigh_joint rows were pushed three places right
+    of the others under a 10-wide column), and -0 printed 0."""
     width = max([len(c) for c in cols] + [12])
-    lines = [f"{label}:", " " * 10 + "".join(c.rjust(width + 1) for c in cols)]
+    head = max([len(r) for r in rows] + [10])
+    lines = [f"{label}:", " " * head + "".join(c.rjust(width + 1) for c in cols)]
     for name, row in zip(rows, M):
-        lines.append(f"{name:>10}" + "".join(f"{v:{width + 1}.6g}" for v in row))
+        lines.append(f"{name:>{head}}" + "".join(f"{v + 0.0:{width + 1}.6g}" for v in row))
     return "\n".join(lines)
 
 

@@ -38,3 +38,14 @@ def test_linearize_full_and_reduced(tmp_path, monkeypatch, capsys):
     assert len(_eigenvalues(capsys.readouterr().out)) == 4    # the full A: every state
     assert main(["linearize", str(path), "--x0", "y=-1.4", "--reduced"]) == 1
     assert "off the constraints" in capsys.readouterr().err
+
+
+def test_the_tables_columns_line_up_under_long_row_names():
+    """hopper's rows q_thigh_joint, u_thigh_joint ... were printed three places right of the
+    others (a 10-wide column of names, first hour s27), and -0 entries as -0."""
+    from eomc.cli.linearize import _matrix
+    rows = ["q_x", "q_thigh_joint", "u_x", "u_thigh_joint"]
+    text = _matrix("A", np.array([[0.0, 1.0], [-0.0, 2.5], [3.0, -0.0], [1e-17, 4.0]]), rows, ["F", "ctrl_actuator0"])
+    lines = text.splitlines()[1:]
+    assert len({len(line) for line in lines}) == 1, text        # every row as wide as the header
+    assert lines[2].split() == ["q_thigh_joint", "0", "2.5"] and "-0 " not in text + " ", text
