@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import sympy as sm
 
-from eomc.runtime.errors import EomcWarning, ModelError, ModelFileError
+from eomc.runtime.errors import BuildNote, EomcWarning, ModelError, ModelFileError
 from eomc.compiler import fixed_order as fo
 
 __all__ = ["MjcfModel", "is_mjcf_path", "is_mjcf_model", "load_mjmodel", "check_model", "mjcf_formed",
@@ -111,7 +111,12 @@ def load_mjmodel(path):
     finally:
         mujoco.set_mju_user_warning(previous)
     for message in messages:
-        warnings.warn(f"{path}: MuJoCo: {message}", EomcWarning, stacklevel=3)
+        # a deprecation is about the file, nothing to act on in a run: a BuildNote, said when the
+        # model is built and not on every later command (first hour s27: gymnasium's and
+        # dm_control's half_cheetah repeated MuJoCo's settotalmass deprecation, 260 characters,
+        # as a warning on every simulate, animate, check and report)
+        category = BuildNote if "deprecated" in message else EomcWarning
+        warnings.warn(f"{path}: MuJoCo: {message}", category, stacklevel=3)
     return model
 
 

@@ -163,3 +163,32 @@ def _quiet():
             warnings.simplefilter("error", EomcWarning)      # no note: nothing left out unasked
             yield
     return ctx()
+
+
+DEPRECATED = """<mujoco model="weight"><compiler settotalmass="2"/><worldbody>
+  <body name="bob" pos="0 0 1"><joint name="swing" type="hinge" axis="0 1 0"/>
+    <geom type="sphere" size="0.05" pos="0.3 0 0"/></body>
+</worldbody></mujoco>
+"""
+
+
+def test_a_mujoco_deprecation_is_said_when_built_not_on_every_command(tmp_path, monkeypatch):
+    """gymnasium's half_cheetah.xml repeated MuJoCo's 'settotalmass is deprecated' (260
+    characters about the file, nothing to do in a run) as a warning on every simulate, animate,
+    check and report (first hour s27): a BuildNote, said when the model is built."""
+    import warnings
+    from eomc.errors import BuildNote
+    monkeypatch.setenv("EOMC_CACHE_DIR", str(tmp_path / "cache"))
+    path = tmp_path / "weight.xml"
+    path.write_text(DEPRECATED)
+    argv = ["simulate", str(path), "--t-final", "0.1", "-q", "-o", str(tmp_path / "t.csv")]
+    with warnings.catch_warnings(record=True) as first:
+        warnings.simplefilter("always")
+        assert main(argv) == 0
+    said = [w for w in first if "deprecated" in str(w.message)]
+    assert len(said) == 1 and said[0].category is BuildNote and "MuJoCo: " in str(said[0].message), \
+        [str(w.message) for w in first]
+    with warnings.catch_warnings(record=True) as again:
+        warnings.simplefilter("always")
+        assert main(argv) == 0
+    assert not [w for w in again if "deprecated" in str(w.message)], [str(w.message) for w in again]
