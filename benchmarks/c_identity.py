@@ -172,12 +172,12 @@ def cases(directory):
     out["joints:urdf_zoo:recursive"] = urdf_zoo(formulation="recursive")
     out["robot:solo12:quaternion"] = robot("solo12", "quaternion")
 
-    def gym(asset, ignore=("limits",)):
+    def gym(asset, ignore=("limits",), **kw):
         def make():
             import gymnasium
             from eomc.compiler.mjcf.model import MjcfModel
             path = Path(gymnasium.__file__).parent / "envs" / "mujoco" / "assets" / f"{asset}.xml"
-            return MjcfModel(path, ignore=ignore), {}
+            return MjcfModel(path, ignore=ignore), kw
         return make
     for asset in GYM:
         out[f"gym:{asset}"] = gym(asset)
@@ -185,6 +185,11 @@ def cases(directory):
     # leave out (session 22: a change to the limit law's lowering was checked by hand)
     for asset in GYM_LIMITS:
         out[f"gym:{asset}:limits"] = gym(asset, ignore=())
+    # the fixed-step rollout's lanes (NAME_implicit_batch and its pairs' rows path, session 27's
+    # 0441b173), which no default build emits
+    from eomc.compiler.emit.signatures import FUNCTION_ORDER, ON_REQUEST
+    lanes = tuple(f for f in FUNCTION_ORDER if f not in ON_REQUEST) + ("implicit_batch",)
+    out["gym:humanoid:lanes"] = gym("humanoid", functions=lanes)
     return out
 
 
