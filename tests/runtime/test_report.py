@@ -465,3 +465,23 @@ def test_png_time_labels_do_not_run_into_each_other(osc_report, tmp_path, monkey
     assert len(shown) >= 6, shown
     assert all(b[0] >= a[1] for a, b in zip(shown, shown[1:])), shown
     plt.close(fig)
+
+
+def test_cli_report_says_no_initial_state_only_of_a_model_without_one(osc, monkeypatch, capsys, tmp_path):
+    """`eomc report half_cheetah.xml` said the model "has no initial_state" of a model whose
+    initial_state (MuJoCo's qpos0) is all zeros (first hour s27): the note is for a model without
+    one, started from rest with no --x0."""
+    import eomc.cli.common as cli_common
+    from eomc.cli import main
+    monkeypatch.setattr(cli_common, "load_model", lambda *a, **k: osc)
+    argv = ["report", "osc", "--t-final", "1", "--methods", "dop853", "--tolerances", "1e-4",
+            "--repeats", "1", "-o", str(tmp_path / "r")]
+    note = f"{osc.name} has no initial_state and no --x0 was given"
+    for initial, said in ((None, True), (np.zeros(osc.nx), False)):
+        monkeypatch.setattr(osc, "initial_state", initial, raising=False)
+        main(argv)
+        err = capsys.readouterr().err
+        assert (note in err) == said, err
+    monkeypatch.setattr(osc, "initial_state", None, raising=False)
+    main(argv + ["--x0", f"{osc.state_names[0]}=0"])
+    assert note not in capsys.readouterr().err
