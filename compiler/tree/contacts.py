@@ -36,7 +36,7 @@ def world_placement(bodies, rec):
 
 
 def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, guards=None, analytic=None,
-                   second=False):
+                   second=False, points_loop=False):
     """Add every ContactLoad's force to its body's ``fext`` (LoweredBody, body components
     about the origin); return {ContactValue placeholder: temporary}.
 
@@ -101,6 +101,12 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
         else:
             values.update(load.lower(bodies, rec, v, rename, poses) or {})
     loads_on = {}       # body -> its contacts' wrench terms (6 lists), added to its fext after the loop
+    from ..contact import ground_table as gt
+    looped = ({index for index, load in enumerate(contacts) if gt.eligible(load)}
+              if points_loop and not second and gt.GROUND_TABLE else set())
+    if len(looped) < gt.TABLE_FROM:
+        looped = set()
+    on_table, twins = {}, {}   # the loop's bodies' straight-line wrench terms; its outputs' twins
     for index, load in enumerate(contacts):
         i = load.body
         what = f"contact {load.name} on body {tree.bodies[i].name}"
@@ -131,7 +137,7 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
         if spin is not None:        # torsional/rolling friction (law.spin_moment): a pure moment
             m_b = rec.vec(poses.to_body(i, spin))
             n_b = [n_b[k] + m_b[k] for k in range(3)]
-        pushed = loads_on.setdefault(i, [[] for _ in range(6)])
+        pushed = (on_table if index in looped else loads_on).setdefault(i, [[] for _ in range(6)])
         for k, x in enumerate(n_b + f_b):
             pushed[k].append(x)
         slopes = ()
@@ -161,8 +167,24 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
         for kind, value in enumerate(quantities):
             values[ContactValue(index, kind)] = value
         values[ContactValue(index, CLIP_KIND)] = forces.parts["clip"]
+        if index in looped:
+            for kind, value in enumerate(quantities + [forces.parts["clip"]]):
+                twins[(index, kind)] = value
         if energy is not None:      # the law's elastic part k δ₊^(3/2) stores k δ₊^(5/2) / (5/2)
             elastic.append(forces.parts["elastic"] * forces.parts["dpos"] / (EXPONENT + 1))
+    if looped:      # the loop's points (compiler/contact/ground_table.py)
+        for i, pushed in on_table.items():
+            for k, terms in enumerate(pushed):
+                twins[("wrench", i, k)] = rec.let(sm.Add(*terms))
+        got = gt.lower_ground_table([(index, contacts[index]) for index in sorted(looped)], bodies, rec, v,
+                                    rename, poses, twins)
+        if got is None:     # offsets the table cannot hold: straight-line, as before
+            for i, pushed in on_table.items():
+                mine = loads_on.setdefault(i, [[] for _ in range(6)])
+                for k, terms in enumerate(pushed):
+                    mine[k] += terms
+        else:
+            values.update({ContactValue(index, kind): node for (index, kind), node in got.items()})
     # each body's contact wrenches added to its fext in one sum: added point by point, the growing
     # sum was rebuilt at every point (Go2 --ground: 96 hull points per body)
     for i, pushed in loads_on.items():

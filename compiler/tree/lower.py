@@ -50,6 +50,7 @@ from .input_jacobian import INPUT_SOLVE_GROUPS, lanes_for, uses_input_solve
 from .model import NotATree
 from .spatial import cross
 from .contacts import BODY_ENERGY, deferred_energy
+from ..contact.ground_table import wanted as ground_table_wanted
 
 __all__ = ["TREE_FUNCTION_GROUPS", "TREE_HELPER_USERS", "build_tree_symbolic", "energy_text"]
 
@@ -247,7 +248,7 @@ def build_tree_symbolic(tree, formed, layout, functions, outputs=None, events=No
         contact_values = _contacts(tree, bodies, rec, v, layout, implicit,
                                    ((gravity, speeds) if deferred is None else (gravity, speeds, deferred))
                                    if wants_energy else None, guards, ground,
-                                   bool(set(functions) & {"hvp", "hess_id"}))
+                                   bool(set(functions) & {"hvp", "hess_id"}), ground_table_wanted(functions))
         extra, keep, chain, limbs = [], {}, None, None
         if loops is not None:
             J, gamma = lower_loops(loops, layout, rec)
@@ -567,7 +568,8 @@ def _asks_energy(outputs):
     return any(getattr(e, "has", None) and e.has(ENERGY) for e in (outputs or {}).values())
 
 
-def _contacts(tree, bodies, rec, v, layout, implicit=None, energy=None, guards=None, ground=None, second=False):
+def _contacts(tree, bodies, rec, v, layout, implicit=None, energy=None, guards=None, ground=None, second=False,
+              table=False):
     """Ground contacts (eomc.compiler.contact.tree): their forces into the bodies' ``fext``
     from the world positions and velocities of their points, built recursively with ``rec``;
     returns {placeholder of a contact output or event: its temporary}."""
@@ -577,7 +579,7 @@ def _contacts(tree, bodies, rec, v, layout, implicit=None, energy=None, guards=N
     memo = {}
     with compiler_step("contacts"):
         return lower_contacts(tree, bodies, rec, v, lambda e, what: _rename(layout, memo, what, None)(e),
-                              implicit, energy, guards, ground, second)
+                              implicit, energy, guards, ground, second, table)
 
 
 def implicit_layout(nq, nu, ncontact, energy=False):

@@ -1,0 +1,104 @@
+"""The ground points as one loop (compiler/contact/ground_table.py) against their straight-line law.
+
+A URDF trunk on one leg with its default ground (13 points; the loop's threshold lowered to 1 here),
+built with the loop and without it, agrees at random states in touch and apart and through a sweep
+of its height across the bodies' broad phase: NAME_rhs, NAME_outputs (every point's F_n, friction,
+depth), NAME_events (depths and clips), jac_x (14 states: its tangent path differentiates the
+loop's straight-line twins) and NAME_implicit (its forcing reads the loop; its slopes stay
+straight-line).  Bound 1e-12 of each state's largest entry (at least 1): the loop sums a body's forces in the
+world and turns them once, and writes δ^{3/2} as δ·sqrt(δ) -- rounding only (Solo12's 544 points
+at random states: benchmarks/results/ground_run.md, session 27)."""
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import eomc
+from eomc.compiler.contact import ground_table as gt
+from eomc.compiler.urdf.model import UrdfModel
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "urdf"))
+from test_default_ground import FOOT, ONE_LEG  # noqa: E402
+
+FUNCTIONS = ("rhs", "jac_x", "outputs", "events", "implicit")
+
+
+def _build(tmp, tag, looped):
+    path = tmp / "oneleg.urdf"
+    path.write_text(ONE_LEG)
+    with pytest.MonkeyPatch.context() as mp, warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        mp.setattr(gt, "TABLE_FROM", 1)
+        mp.setattr(gt, "GROUND_TABLE", looped)
+        return eomc.compile(UrdfModel(path, floating_base=True, contacts=(FOOT,)), functions=FUNCTIONS,
+                            cache_dir=tmp / tag, progress=False, name="oneleg")
+
+
+@pytest.fixture(scope="module")
+def pair(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("ground_table")
+    return _build(tmp, "loop", True), _build(tmp, "straight", False), tmp
+
+
+def _events(model, states):
+    ffi = model.ffi
+    n = len(model.metadata["events"])
+    fn = ffi.cast("eomc_rhs_fn", getattr(model.model_lib, f"{model.name}_events"))
+    out = np.zeros((len(states), n))
+    r = model._default_r if model.ninput else ffi.NULL
+    for k, x in enumerate(np.ascontiguousarray(states)):
+        fn(0.0, ffi.from_buffer("double[]", x), model._default_p, r, ffi.from_buffer("double[]", out[k]), ffi.NULL)
+    return out
+
+
+def _implicit(model, states):
+    layout = model.metadata["implicit"]["layout"]
+    ffi, fp = model.ffi, model.ffi.addressof(model.model_lib, f"{model.name}_implicit")
+    out = np.zeros((len(states), layout["size"]))
+    r = model._default_r if model.ninput else ffi.NULL
+    for k, x in enumerate(np.ascontiguousarray(states)):
+        assert fp(0.0, ffi.from_buffer("double[]", x), model._default_p, r,
+                  ffi.from_buffer("double[]", out[k]), ffi.NULL) == 0
+    return out
+
+
+def _close(a, b):
+    """|a - b| within 1e-12 of the state's largest entry (at least 1): a point's forces are summed
+    in another order, and u' at a deep state (1e7) carries their rounding through M⁻¹."""
+    a, b = np.atleast_2d(np.asarray(a, float)), np.atleast_2d(np.asarray(b, float))
+    assert np.all(np.isfinite(b))
+    scale = np.maximum(1.0, np.abs(b).reshape(len(b), -1).max(axis=1))
+    assert np.max(np.abs(a - b).reshape(len(b), -1).max(axis=1) / scale) <= 1e-12
+
+
+def test_the_loop_is_the_straight_line_law_in_touch_and_apart(pair):
+    loop, straight, tmp = pair
+    source = next((tmp / "loop").rglob("oneleg.c")).read_text()
+    assert "static double eomc_ground(" in source and "eomc_ground(" in source[source.index("int oneleg_rhs("):]
+    assert "eomc_ground" not in next((tmp / "straight").rglob("oneleg.c")).read_text()
+    assert loop.output_names == straight.output_names
+    rng = np.random.default_rng(27)
+    z = loop.state_names.index("q_trunk_floating_z")
+    X = rng.normal(scale=1.0, size=(400, loop.nx))
+    X[:, z] = rng.uniform(-0.1, 0.8, size=len(X))
+    sweep = np.repeat(X[:2], 400, axis=0)      # the height through every body's bound, both sides
+    sweep[:, z] = np.tile(np.linspace(-0.05, 0.75, 400), 2)
+    for states in (X, sweep):
+        _close(loop.rhs_many(0.0, states), straight.rhs_many(0.0, states))
+        _close(_events(loop, states), _events(straight, states))
+        _close(_implicit(loop, states), _implicit(straight, states))
+        for x in states[::8]:
+            a, b = loop.outputs(0.0, x), straight.outputs(0.0, x)
+            _close(list(a.values()), list(b.values()))
+            _close(loop.jac_x(0.0, x), straight.jac_x(0.0, x))
+    # the sweep touched down: some point pressed, and airborne every force is 0
+    fn = np.array([[v for k, v in loop.outputs(0.0, x).items() if k.startswith("Fn_")] for x in sweep[:400]])
+    assert fn[0].max() > 1.0 and fn[-1].max() == 0.0
+
+
+def test_a_build_that_differentiates_in_reverse_keeps_the_straight_line_law():
+    assert gt.wanted(("rhs", "jac_x", "outputs", "events", "implicit"))
+    for fn in ("vjp", "hvp", "hess_id", "jvp", "jac_p", "rhs_batch", "implicit_batch"):
+        assert not gt.wanted(("rhs", fn))
