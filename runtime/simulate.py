@@ -808,6 +808,10 @@ def failure_message(model, method, stats, x_last, p=None):
                 f"functions include it), and the default method='auto' goes on with radau here")
     elif status == 7:
         msg += f" (h*|lambda| ~ {stats['stiff_hlambda']:.3g}); {STIFF_ADVICE}"
+    elif status == 6 and ("radau" in method or "bdf" in method):
+        # already implicit (auto on a contact model runs bdf): switching to radau is no remedy
+        # (sweep s27: Talos --floating-base --ground, bdf out of steps at t = 1.67 of 2)
+        msg += f" ({stats['steps']} steps); raise max_steps"
     elif status == 6:
         msg += f" ({stats['steps']} steps); raise max_steps or, if the problem is stiff, " \
                f"{STIFF_ADVICE}"

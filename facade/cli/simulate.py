@@ -237,7 +237,7 @@ def run(args):
             res.to_csv(args.output, columns=columns)
             kept = (f"; wrote the {len(res.t)} rows computed up to t={res.t[-1]:.9g} to {args.output} "
                     f"(marked '# incomplete' on its last line)")
-        raise SimulationError(state_last(f"{res.message}{kept}"))
+        raise SimulationError(state_last(cli_advice(f"{res.message}{kept}", args.max_steps)))
     _no_ground(model, res)
     s = res.stats
     print(f"{model.name}: {res.method} t=[{args.t0:g}, {args.t_final:g}]: {s['steps']} steps "
@@ -335,6 +335,14 @@ def _no_ground(model, res):
     text = no_ground(model, res.t, res.x)
     if text:
         warnings.warn(text, PhysicsWarning, stacklevel=2)
+
+
+def cli_advice(message, max_steps):
+    """A failed run's advice in the command line's flags: the runtime's message names keyword
+    arguments (sweep s27: Talos --floating-base --ground stopped with 'raise max_steps', and
+    explicit methods out of steps were told to "use method='radau'")."""
+    return (message.replace("raise max_steps", f"raise --max-steps ({max_steps} now)")
+            .replace("use method='radau'", "use --method radau"))
 
 
 def state_last(message):

@@ -102,6 +102,19 @@ def test_a_failed_run_keeps_its_rows_marked_incomplete(pendulum, tmp_path, capsy
     assert 1 < len(data) < 1001 and data[0, 1] == 0.5 and np.all(np.isfinite(data))
 
 
+@pytest.mark.parametrize("method, stiff", [("dop853", True), ("bdf", False)])
+def test_out_of_steps_advice_names_the_flags(pendulum, method, stiff, capsys):
+    """Sweep s27: Talos --floating-base --ground (auto: bdf) ran out of steps at t = 1.67 of 2 and the
+    command said "raise max_steps or, if the problem is stiff, use method='radau'": the Python
+    keywords, and radau as a remedy for a run that was already implicit.  The flags now, and the
+    stiff remedy only after an explicit method."""
+    assert main(["simulate", "pend", "--t-final", "20", "--max-steps", "30", "--method", method,
+                 "--rtol", "1e-10", "--atol", "1e-10"]) != 0
+    err = capsys.readouterr().err
+    assert "raise --max-steps (30 now)" in err and "max_steps" not in err, err
+    assert ("use --method radau" in err) == stiff and "method='radau'" not in err, err
+
+
 def test_columns_choose_the_csvs_columns_and_a_bad_pattern_names_them(tmp_path, capsys, monkeypatch):
     """G1 on the ground wrote 4272 columns (840 contacts x 5 outputs), 27 MB, with no choice
     (first hour s26): --columns keeps t and the columns its names or glob patterns match; a
