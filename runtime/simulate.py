@@ -320,8 +320,13 @@ def prepare(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6,
         stiff_check = stiff_check or may_switch
     if method in FIXED_STEP:
         if dt is None:
+            # sweep s27: `eomc simulate hopper.xml --method implicitfast` was refused without a
+            # word of the step its file is written for (MuJoCo's <option timestep>, the model's)
+            step = getattr(model, "timestep", None)
+            own = (f"; the model's file steps at {step:g} (MJCF <option timestep>): dt={step:g}, "
+                   f"--dt {step:g}") if step else ""
             raise ValueError(f"method={method!r} is fixed-step: give the step size (dt= in Python, "
-                             "--dt on the command line)")
+                             f"--dt on the command line){own}")
         first_step = _positive(dt, "dt")
     elif dt is not None:
         raise ValueError(f"dt= is only for the fixed-step methods {', '.join(map(repr, FIXED_STEP))}; "

@@ -76,6 +76,19 @@ def test_arguments_checked():
     assert simulate(m, [1.0, 0.0], (0.0, 0.1), method="implicit_fast", dt=0.01).method == "implicitfast"
 
 
+def test_a_missing_dt_names_the_files_own_step(monkeypatch):
+    """Sweep s27: `eomc simulate hopper.xml --method implicitfast` was refused (after its build)
+    with 'give the step size' and not a word of the 0.002 s its MJCF file is written for, which
+    the built model carries (model.timestep, MJCF <option timestep>)."""
+    m = get_model("oscillator")
+    monkeypatch.setattr(m, "timestep", 0.002, raising=False)
+    with pytest.raises(ValueError, match=r"steps at 0\.002 \(MJCF <option timestep>\): dt=0\.002, --dt 0\.002"):
+        simulate(m, [1.0, 0.0], (0.0, 1.0), method="implicitfast")
+    monkeypatch.setattr(m, "timestep", None, raising=False)
+    with pytest.raises(ValueError, match=r"on the command line\)$"):       # no file step: as before
+        simulate(m, [1.0, 0.0], (0.0, 1.0), method="implicitfast")
+
+
 def test_blowup_fails_loudly():
     """x' = x^2 from 1 is infinite at t = 1: implicit Euler has no solution past it, so the
     run must not end quietly with status 0: a failure, or a warning naming the unsolved steps."""
