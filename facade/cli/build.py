@@ -62,16 +62,33 @@ def run(args):
     if args.output is None:
         from pathlib import Path
         args.output = Path(args.name or Path(args.model).stem)
+    import contextlib
     import warnings
+    from eomc.compiler.build import reuse
     from eomc.runtime.errors import DefaultStartWarning
-    with warnings.catch_warnings():
-        # the default start's warning speaks to Python (x0=, model.metadata): the note below says
-        # it as the other commands do (first hour s22: `eomc build hyq.urdf` gave the API's text)
-        warnings.filterwarnings("ignore", category=DefaultStartWarning)
-        model = compile(source, name, functions=args.outputs, fold_parameters=args.fold_parameters,
-                        backend=args.backend, cflags=args.cflags, cache_dir=args.cache_dir, portable=args.portable,
-                        output_dir=args.output, progress="quiet" if args.quiet else True,
-                        formulation=args.formulation, contacts=args.contact, frames=args.frame, target=args.target)
+    key = _reuse_key(args)
+    recorded = []
+    try:
+        with contextlib.ExitStack() as stack:
+            reads = stack.enter_context(reuse.recording()) if key is not None else None
+            if key is not None:       # the warnings kept for the reuse shortcut's replay
+                recorded = stack.enter_context(warnings.catch_warnings(record=True))
+            else:
+                stack.enter_context(warnings.catch_warnings())
+            # the default start's warning speaks to Python (x0=, model.metadata): the note below says
+            # it as the other commands do (first hour s22: `eomc build hyq.urdf` gave the API's text)
+            warnings.filterwarnings("ignore", category=DefaultStartWarning)
+            model = compile(source, name, functions=args.outputs, fold_parameters=args.fold_parameters,
+                            backend=args.backend, cflags=args.cflags, cache_dir=args.cache_dir,
+                            portable=args.portable, output_dir=args.output,
+                            progress="quiet" if args.quiet else True, formulation=args.formulation,
+                            contacts=args.contact, frames=args.frame, target=args.target)
+    finally:    # the build's warnings (recorded for the reuse shortcut), as if nothing had listened
+        for w in recorded:
+            reuse.warn_again(w.message, w.filename, w.lineno, w.source)
+    if key is not None:
+        from eomc.compiler.build.cache import cache_root
+        reuse.remember(cache_root(None), key, args.model, model, reads, recorded)
     from .common import _start_note
     _start_note(model, {}, f"{model.name}.json's initial_state; simulate --x0 chooses another")
     files = sorted(p.name for p in model.directory.iterdir() if p.is_file() and not p.name.startswith("."))
@@ -85,6 +102,29 @@ def run(args):
               + ", ".join(f"{fn} {s['bytes']}" for fn, s in stack.items()))
     print(formulation_line(model.metadata, args.formulation))
     return 0
+
+
+def _reuse_key(args):
+    """The reuse key (eomc.compiler.build.reuse) under which the commands that read a model file
+    (simulate, check, ...: cli.common.load_model) look up what this build makes, or None when
+    they would build something else (other functions, name, flags or cache).  Sweep s27: after
+    `eomc build hopper.xml`, `eomc simulate hopper.xml` derived, generated and compiled the model
+    again (4.5 s CPU; humanoid_CMU 41 s): its lookup asks for the default set without
+    NAME_implicit, which no build had recorded, and the build's generation cache holds the
+    default set; recorded here, the build serves every command, as a command's own build does."""
+    from pathlib import Path
+    from .common import model_options, reuse_options
+    default = (args.name is None and args.outputs is None and not args.fold_parameters and
+               args.backend == "cffi" and args.cflags is None and args.cache_dir is None and
+               not args.portable and args.target == "c99-f64")
+    path = Path(args.model)
+    if not default or not path.is_file() or path.suffix.lower() not in (".py", ".urdf", ".xml", ".mjcf"):
+        return None
+    from eomc.compiler.build import reuse
+    try:
+        return reuse.source_key(path, reuse_options(**model_options(args)))
+    except (OSError, ValueError):
+        return None
 
 
 def formulation_line(meta, asked):

@@ -236,15 +236,9 @@ def load_model(path, quiet=False, floating_base=False, formulation="auto", frame
     if path.is_file() and path.suffix.lower() in (".py", ".urdf", ".xml", ".mjcf"):
         if not quiet:
             fixed_base_note(path, floating_base)
-        options = dict(floating_base=floating_base if floating_base == "quaternion" else bool(floating_base),
-                       formulation=formulation, frames=list(frames or ()),
-                       ignore=list(ignore or ()), contacts=list(contacts or ()),
-                       allow_nonphysical_inertia=bool(allow_nonphysical_inertia), limits=bool(limits),
-                       functions=None if functions is None else list(functions))
-        if orientation:        # only when given: the reuse key of every other build stays as it was
-            options["orientation"] = orientation
-        if pairs:              # likewise
-            options["pairs"] = pairs
+        options = reuse_options(floating_base=floating_base, formulation=formulation, frames=frames, ignore=ignore,
+                                contacts=contacts, allow_nonphysical_inertia=allow_nonphysical_inertia,
+                                limits=limits, functions=functions, orientation=orientation, pairs=pairs)
         model, key = _reused(path, options, check)      # the default set serves every method
         if model is not None:
             return model
@@ -267,6 +261,22 @@ def load_model(path, quiet=False, floating_base=False, formulation="auto", frame
                          f"{have}); frames are compiled in: rebuild with eomc build "
                          f"{' '.join('--frame ' + f for f in missing)}, or simulate the model file")
     return model
+
+
+def reuse_options(floating_base=False, formulation="auto", frames=None, ignore=(), contacts=None,
+                  allow_nonphysical_inertia=False, limits=True, functions=None, orientation=None, pairs=None):
+    """The build options a reuse key holds (:func:`load_model`'s, and `eomc build`'s when it builds
+    what load_model would: build.remember_build)."""
+    options = dict(floating_base=floating_base if floating_base == "quaternion" else bool(floating_base),
+                   formulation=formulation, frames=list(frames or ()),
+                   ignore=list(ignore or ()), contacts=list(contacts or ()),
+                   allow_nonphysical_inertia=bool(allow_nonphysical_inertia), limits=bool(limits),
+                   functions=None if functions is None else list(functions))
+    if orientation:        # only when given: the reuse key of every other build stays as it was
+        options["orientation"] = orientation
+    if pairs:              # likewise
+        options["pairs"] = pairs
+    return options
 
 
 def _reused(path, options, check):
