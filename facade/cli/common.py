@@ -401,56 +401,30 @@ def _start_note(model, overrides, choose="give --x0 to choose"):
           file=sys.stderr)
 
 
-GROUND_CLEARANCE = 1e-3     # m between the lowest contact and the ground at a lifted start
-
-
 def _onto_ground(model, x0, overrides):
-    """A floating-base robot with ground contacts whose start puts a contact under the ground
-    is lifted (its base's height only) until the deepest contact is GROUND_CLEARANCE above the
-    ground, with a note (a start exactly on the ground sits on the contact law's onset, where
-    k d^1.5 has no second derivative: `eomc check`'s Jacobian test saw it as a 56x error).
-
-    Why: a URDF's zero pose has the base at z = 0, so a standing robot's feet start tens of
-    centimetres inside the ground; the contact law then throws it out violently (Go2: feet
-    0.45 m deep, a run no tolerance follows) instead of letting it stand or collapse.  A base
-    height given with --x0 is kept as given.  A URDF robot whose root is welded (no
-    --floating-base) cannot be lifted: a start deeper than a point contact may go gets a note
-    saying so and naming --floating-base."""
+    """The start lifted onto the ground by the runtime's rule (eomc.runtime.ground_start, which
+    Python's x0=None uses too), with a note on stderr: a floating base lifted until its deepest
+    contact is GROUND_CLEARANCE above the ground (a base height given with --x0 is kept), or a
+    welded root that cannot be lifted, named with --floating-base."""
     import sys
 
-    from eomc.runtime.switching import POINT_PENETRATION, find_switches
-    zs = [n for n in model.state_names[:model.nq] if n.endswith("_floating_z")]
-    welded = not zs and "ground_check" in ((getattr(model, "metadata", None) or {}))
-    if not (len(zs) == 1 or welded) or (zs and zs[0] in overrides) or model.noutput == 0:
-        return x0
-    contacts = find_switches(model).contacts
-    depths = [f"depth_{c.name}" for c in contacts if f"depth_{c.name}" in model.output_names]
-    if not depths:
-        return x0
-    x = [x0[n] for n in model.state_names]
-    out = model.outputs(0.0, x)
-    deepest = max(out[d] for d in depths)
-    if not deepest > 0.0:
-        return x0
-    if welded:
+    from eomc.runtime.ground_start import GROUND_CLEARANCE, onto_ground
+    start, found = onto_ground(model, x0, overrides)
+    if found is None:
+        return start
+    if found.kind == "welded":
         # first hour s27: `eomc simulate a1.urdf --ground` (no --floating-base) welded the trunk
         # at the origin, its legs 0.34 m into the floor: 2 MN on each foot from the start, and a
         # warning naming every contact whose remedy (--x0) cannot lift a welded base
-        if deepest > POINT_PENETRATION:
-            print(f"eomc: note: {model.name}'s start puts its contacts up to {deepest:.4g} m under the "
-                  f"ground, and its root link is welded to the world (a fixed base), so eomc cannot lift "
-                  f"the start onto it: pose the links above the ground with --x0, or give --floating-base "
-                  f"for a robot that stands on the ground", file=sys.stderr)
-        return x0
-    lifted = dict(x0)
-    lifted[zs[0]] = x0[zs[0]] + deepest + GROUND_CLEARANCE
-    after = model.outputs(0.0, [lifted[n] for n in model.state_names])
-    if abs(max(after[d] for d in depths) + GROUND_CLEARANCE) > 1e-9 * max(1.0, deepest):
-        return x0       # the base's z does not move the contacts straight up: leave the start
-    print(f"eomc: note: {model.name}'s start put its contacts up to {deepest:.4g} m under the ground; "
-          f"starting with {zs[0]} = {lifted[zs[0]]:.6g}, the deepest {GROUND_CLEARANCE * 1e3:g} mm above it "
-          f"(give --x0 {zs[0]}=... to choose)", file=sys.stderr)
-    return lifted
+        print(f"eomc: note: {model.name}'s start puts its contacts up to {found.deepest:.4g} m under the "
+              f"ground, and its root link is welded to the world (a fixed base), so eomc cannot lift "
+              f"the start onto it: pose the links above the ground with --x0, or give --floating-base "
+              f"for a robot that stands on the ground", file=sys.stderr)
+        return start
+    print(f"eomc: note: {model.name}'s start put its contacts up to {found.deepest:.4g} m under the ground; "
+          f"starting with {found.state} = {found.value:.6g}, the deepest {GROUND_CLEARANCE * 1e3:g} mm above it "
+          f"(give --x0 {found.state}=... to choose)", file=sys.stderr)
+    return start
 
 
 def parameter_values(model, overrides):
