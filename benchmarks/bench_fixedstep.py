@@ -1,6 +1,7 @@
 """Fixed step at each model's MJCF timestep: eomc's implicitfast against MuJoCo's mj_step.
 
     python benchmarks/bench_fixedstep.py [--models hopper,walker2d,ant,humanoid] [--rounds 7]
+        [--orientation euler|quaternion]
 
 The gymnasium models (hopper, walker2d, ant, humanoid) dropped from their qpos0 with zero
 control, 1 simulated second, at the XML's own timestep, each side with the contacts it reads
@@ -15,6 +16,11 @@ side's error is against its own reference: eomc against its own Radau at rtol = 
 MuJoCo against itself with RK4 at timestep / 16.  Error: max abs over
 the joint coordinates at t = 1 (free joints: the base position; MuJoCo's qpos holds a
 quaternion, eomc body-XYZ angles, so the angles are left out of the error on both sides).
+--orientation quaternion: eomc's free and ball joints as MuJoCo's own quaternion
+(MjcfModel(orientation="quaternion"), docs/urdf.md#quaternion-coordinates; the same
+position-first coordinates, so the same error columns; the gym models only, --robots ""):
+the table is printed, not written (benchmarks/results/quaternion_fixedstep.md quotes both
+orientations' runs).
 
 Time: thread CPU of one simulated second, pinned to one core, contestants interleaved
 (order rotated per round), median over rounds of blocks of runs.
@@ -38,11 +44,14 @@ def gym_xml(name):
     return Path(gymnasium.__file__).parent / "envs" / "mujoco" / "assets" / f"{name}.xml"
 
 
-def eomc_model(name, cache_dir, functions=None):
-    """The XML as shipped: its ground contacts come from the file (functions: eomc.compile's)."""
+def eomc_model(name, cache_dir, functions=None, orientation="euler"):
+    """The XML as shipped: its ground contacts come from the file (functions: eomc.compile's;
+    orientation: MjcfModel's, the quaternion build named NAME_quat)."""
     import eomc
     from eomc.compiler.mjcf.model import MjcfModel
-    return eomc.compile(MjcfModel(gym_xml(name)), name=f"fs_{name}", cache_dir=cache_dir, functions=functions)
+    tag = "" if orientation == "euler" else "_quat"
+    return eomc.compile(MjcfModel(gym_xml(name), orientation=orientation), name=f"fs_{name}{tag}",
+                        cache_dir=cache_dir, functions=functions)
 
 
 def mujoco_model(name, integrator=None, timestep=None):
@@ -58,9 +67,11 @@ def mujoco_model(name, integrator=None, timestep=None):
 
 
 def eomc_start(model, m_mj):
-    """eomc's state at MuJoCo's qpos0 (free joints: position, zero angles), zero speeds."""
+    """eomc's state at MuJoCo's qpos0 (free joints: position, zero angles or the unit
+    quaternion), zero speeds."""
     import mujoco
     x = np.zeros(model.nx)
+    x[list(getattr(model, "quaternions", ()))] = 1.0       # each quaternion's w: upright
     names = list(model.state_names)
     for j in range(m_mj.njnt):
         a = int(m_mj.jnt_qposadr[j])
@@ -137,13 +148,13 @@ def cpu_block(call, min_time=0.02):
     return t / n
 
 
-def run_model(name, rounds, cache_dir, log):
+def run_model(name, rounds, cache_dir, log, orientation="euler"):
     import mujoco
     base = mujoco.MjModel.from_xml_path(str(gym_xml(name)))
     ts = float(base.opt.timestep)
     shipped = mujoco.mjtIntegrator(base.opt.integrator).name.replace("mjINT_", "")
     t0 = time.time()
-    model = eomc_model(name, cache_dir)
+    model = eomc_model(name, cache_dir, orientation=orientation)
     npts = sum(1 for o in model.output_names if o.startswith("depth_"))
     log(f"{name}: {npts} eomc contact points, eomc nq={model.nq} built/loaded in {time.time() - t0:.1f} s")
     x0 = eomc_start(model, base)
@@ -292,6 +303,8 @@ def main():
     parser.add_argument("--robots", default=",".join(ROBOTS))
     parser.add_argument("--rounds", type=int, default=7)
     parser.add_argument("--cache-dir", default=os.environ.get("EOMC_CACHE_DIR"))
+    parser.add_argument("--orientation", choices=("euler", "quaternion"), default="euler",
+                        help="eomc's free and ball joints: body-XYZ angles (default) or MuJoCo's quaternion")
     parser.add_argument("--no-write", action="store_true")
     args = parser.parse_args()
     core = pin_to_one_core()
@@ -299,14 +312,15 @@ def main():
     log = lambda s: (print(s, flush=True), lines.append(s))  # noqa: E731
     rows = []
     for name in [n for n in args.models.split(",") if n]:
-        rows.extend(run_model(name, args.rounds, args.cache_dir, log))
+        rows.extend(run_model(name, args.rounds, args.cache_dir, log, args.orientation))
     for name in [r for r in args.robots.split(",") if r]:
         rows.extend(run_robot(name, args.rounds, args.cache_dir, log))
     import mujoco
     head = environment_header(
         "Fixed step at the MJCF timestep: eomc implicitfast vs MuJoCo mj_step (rollout, C loop)", args,
         notes=[f"pinned to core {core}; MuJoCo {mujoco.__version__}; 1 simulated second per run; "
-               f"{args.rounds} interleaved rounds, median of per-round block means (thread CPU)"])
+               f"{args.rounds} interleaved rounds, median of per-round block means (thread CPU); "
+               f"eomc orientation {args.orientation}"])
     table = ["| model | dof | eomc contact points | timestep | contestant | CPU ms per simulated s | "
              "time / eomc | error (max abs q at t = 1) | error against | notes |",
              "|---|--:|--:|--:|---|--:|--:|--:|---|---|"]
@@ -315,7 +329,7 @@ def main():
                      f"{r['cpu_ms']:.3f} | {r['ratio']:.2f} | {r['error']:.2e} | {r['ref']} | {r['note']} |")
     text = head + "\n" + (__doc__.split("\n\n", 2)[2]) + "\n\n" + "\n".join(table) + "\n"
     print("\n".join(table))
-    if not args.no_write:
+    if not args.no_write and args.orientation == "euler":
         write_results("fixedstep", text, keep_notes=True)
 
 

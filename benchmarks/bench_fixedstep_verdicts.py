@@ -2,6 +2,7 @@
 
     python benchmarks/bench_fixedstep_verdicts.py [--models hopper,walker2d,ant,humanoid] [--seeds 0-10]
         [--library main=/path/to/_eomc_integrators.so --library branch=-] [--error-rows 16] [--rollout]
+        [--orientation euler,quaternion]
 
 Why: a change to the fixed step's split rule (runtime/c/eomc_fixedstep.c) changes the paths of chaotic
 runs, and its verdicts (sub-steps left unsolved, energy flags) move by one or two over 64 starts whatever
@@ -25,6 +26,9 @@ second against mj_step).
 
 --library NAME=PATH (repeatable): an integrator library (a built runtime/_eomc_integrators*.so, e.g.
 copied from another checkout); PATH "-": the installed one.  Default: the installed one alone.
+--orientation euler,quaternion: each library with eomc's free joints as body-XYZ angles and as
+MuJoCo's quaternion (MjcfModel(orientation=...)), a worker process each, from the same starts
+(the unit quaternion for zero angles); default euler alone.
 """
 import argparse
 import json
@@ -84,7 +88,7 @@ def worker(args):
     for name in args.models.split(","):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            em, mm, _, _, height, pose = R._models(name, args.cache_dir)
+            em, mm, _, _, height, pose = R._models(name, args.cache_dir, args.orientation)
         dt = float(mm.opt.timestep)
         nstep = int(round(1.0 / dt))
         T = nstep * dt
@@ -137,15 +141,22 @@ def main():
     parser.add_argument("--library", action="append", default=[], help="NAME=PATH (PATH '-': the installed one)")
     parser.add_argument("--cache-dir", default=os.environ.get("EOMC_CACHE_DIR"))
     parser.add_argument("--no-write", action="store_true")
+    parser.add_argument("--orientation", default="euler", help="euler, quaternion or both (comma-separated)")
     parser.add_argument("--worker", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.worker:
         return worker(args)
     libraries = [lib.split("=", 1) for lib in args.library] or [["installed", "-"]]
+    orientations = [o for o in args.orientation.split(",") if o]
+    if len(orientations) > 1 or orientations != ["euler"]:       # one column: library, orientation
+        libraries = [[f"{label}, {o}", path, o] for label, path in libraries for o in orientations]
+    else:
+        libraries = [[label, path, "euler"] for label, path in libraries]
     results = {}
-    for label, path in libraries:
+    for label, path, orientation in libraries:
         cmd = [sys.executable, __file__, "--worker", path, "--models", args.models, "--seeds", args.seeds,
-               "--rows", str(args.rows), "--error-rows", str(args.error_rows)] + (["--rollout"] if args.rollout else [])
+               "--rows", str(args.rows), "--error-rows", str(args.error_rows),
+               "--orientation", orientation] + (["--rollout"] if args.rollout else [])
         if args.cache_dir:
             cmd += ["--cache-dir", args.cache_dir]
         done = subprocess.run(cmd, check=True, stdout=subprocess.PIPE, text=True)
@@ -156,11 +167,11 @@ def main():
         ["model", "library", "seeds", "rows", "qpos0 calls", "calls", "unsolved (rows)", "status != 0",
          "energy: wrong", "energy: tol", "penetrated", f"rising > {RISE * 1e3:g} mJ (largest)",
          "error vs Radau 1e-9: median / mean / max", "rollout, lanes: status != 0, not clean"],
-        [summary(m, label, results[(m, label)]) for m in args.models.split(",") for label, _ in libraries])
+        [summary(m, label, results[(m, label)]) for m in args.models.split(",") for label, _, _ in libraries])
     print(table)
     if not args.no_write:
         text = environment_header("implicitfast: model calls and physics verdicts over many starts", args=args,
-                                  notes=[f"libraries: {', '.join(f'{a} = {b}' for a, b in libraries)}",
+                                  notes=[f"libraries: {', '.join(f'{a} = {b}' for a, b, _ in libraries)}",
                                          f"seeds {args.seeds}, {args.rows} starts each (bench_rollout_contacts."
                                          f"starts), 1 s at each file's timestep; counts summed over the seeds"])
         write_results("fixedstep_verdicts", text + "\n" + table + "\n", keep_notes=True)

@@ -37,6 +37,12 @@ stand and sway instead of collapsing limp.  Start: Go2 crouched (thighs 0.9, cal
 lowest sphere 1 mm above the plane, hinge speeds uniform in +-0.5 as for the gym models.
 
     taskset -c 0,1 nice python benchmarks/bench_rollout_contacts.py [--models hopper,ant,humanoid,go2,g1]
+        [--orientation euler|quaternion]
+
+--orientation quaternion: eomc's free joints as MuJoCo's own quaternion (MjcfModel(orientation=
+"quaternion"), docs/urdf.md#quaternion-coordinates), the same starts (the unit quaternion for
+zero angles); the table is printed, not written (benchmarks/results/quaternion_fixedstep.md
+quotes both orientations' runs).
 """
 import argparse
 import collections
@@ -118,8 +124,9 @@ def urdf_mjcf(name, out_dir):
     return path, 0.001 - low, pose
 
 
-def _models(name, cache_dir):
-    """(eomc model, MuJoCo implicitfast, MuJoCo Euler, start height, pose) of one case."""
+def _models(name, cache_dir, orientation="euler"):
+    """(eomc model, MuJoCo implicitfast, MuJoCo Euler, start height, pose) of one case
+    (orientation: eomc's free joints, MjcfModel's)."""
     import mujoco
 
     import eomc
@@ -127,7 +134,7 @@ def _models(name, cache_dir):
     if name not in URDF:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")          # the files' self-collision pairs (said by a warning)
-            em = B.eomc_model(name, cache_dir, functions=_functions())
+            em = B.eomc_model(name, cache_dir, functions=_functions(), orientation=orientation)
         mm = B.mujoco_model(name, "IMPLICITFAST")
         fine = B.mujoco_model(name, "RK4", float(mm.opt.timestep) / 16)
         return em, mm, B.mujoco_model(name, "EULER"), fine, None, {}
@@ -137,7 +144,8 @@ def _models(name, cache_dir):
     path, height, pose = urdf_mjcf(name, out)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        em = eomc.compile(MjcfModel(path), name=f"ro_{name}", cache_dir=cache_dir, functions=_functions())
+        em = eomc.compile(MjcfModel(path, orientation=orientation), cache_dir=cache_dir, functions=_functions(),
+                          name=f"ro_{name}" + ("" if orientation == "euler" else "_quat"))
     mjm = []
     for integrator in ("IMPLICITFAST", "EULER", "RK4"):
         spec = mujoco.MjSpec.from_file(str(path))
@@ -237,12 +245,12 @@ def _ablated(f, mode):
     return run
 
 
-def _case(name, threads_list, cache_dir, watch_ablation=False):
+def _case(name, threads_list, cache_dir, watch_ablation=False, orientation="euler"):
     import mujoco
     from mujoco import rollout as mj_rollout
 
     import eomc
-    em, mm, me, fine, height, pose = _models(name, cache_dir)
+    em, mm, me, fine, height, pose = _models(name, cache_dir, orientation)
     dt = float(mm.opt.timestep)
     nstep = int(round(1.0 / dt))
     X0, S0 = starts(em, mm, height, pose)
@@ -319,12 +327,14 @@ def main():
                         help="also the checked contestants without the energy watch and with it through "
                              "NAME_outputs (what NAME_energy saves)")
     parser.add_argument("--repeat", type=int, default=REPEAT, help="interleaved repeats (medians)")
+    parser.add_argument("--orientation", choices=("euler", "quaternion"), default="euler",
+                        help="eomc's free joints: body-XYZ angles (default) or MuJoCo's quaternion")
     args = parser.parse_args()
     REPEAT = args.repeat
     threads = [1, 2] if len(os.sched_getaffinity(0)) >= 2 else [1]
     rows = []
     for name in args.models.split(","):
-        rows += _case(name, threads, args.cache_dir, args.watch_ablation)
+        rows += _case(name, threads, args.cache_dir, args.watch_ablation, args.orientation)
     import mujoco
     table = format_table(["model", "timestep", "threads", "contestant", "steps/s (wall)", "vs mujoco implicitfast",
                           "steps/CPU-s", "vs mujoco implicitfast (CPU)",
@@ -336,10 +346,11 @@ def main():
         notes=[f"MuJoCo {mujoco.__version__}; {NROLL} starts x 1 simulated second per call at each file's "
                f"timestep; contacts and limits on both sides; zero controls; wall and process-CPU medians of "
                f"{REPEAT} interleaved repeats, process pinned to cores {sorted(os.sched_getaffinity(0))}; shared "
-               f"noisy machine; row 0 of eomc.rollout equals simulate bit for bit (asserted)."]
+               f"noisy machine; row 0 of eomc.rollout equals simulate bit for bit (asserted); eomc orientation "
+               f"{args.orientation}."]
     ) + "\n" + table + "\n"
     print(table)
-    if not args.no_write:
+    if not args.no_write and args.orientation == "euler":
         write_results("rollout_contacts", text, keep_notes=True)
 
 

@@ -441,7 +441,7 @@ def _options(ffi, a, implicit=None):
     opt.h0, opt.hmax, opt.max_steps = a["h0"], a["hmax"], a["max_steps"]
     opt.project, opt.stiff_check = int(a["project"]), int(a["stiff_check"])
     opt.baumgarte, opt.pi_beta = a["baumgarte"], a["pi_beta"]
-    if a.get("quat") is not None:       # kept alive by ``a`` for the call
+    if a.get("quat") is not None:       # kept alive by ``a`` and by bind_call's call
         opt.nquat, opt.quat = len(a["quat"]), a["quat"]
     if implicit is not None:
         opt.implicit = implicit
@@ -614,7 +614,9 @@ def bind_call(model, a, out=None):
     work-precision report) measures the integration in C and nothing else.  ``call`` keeps
     ``model`` alive: its C model and library must outlive the call (a caller that kept only
     the call saw its model collected, then wrong runs -- the ant's qpos0 run 777 calls
-    instead of 121 -- or a segfault).
+    instead of 121 -- or a segfault), and so are the C arrays ``opt`` points into that only
+    ``a`` held (the quaternions' indices: with ``a`` collected, a quaternion build's bound
+    calls ended at once with status 4, bad argument, or could normalise other coordinates).
     """
     ffi, lib = model.ffi, model.integrators
     buf = lambda arr: ffi.from_buffer("double[]", arr)  # noqa: E731
@@ -637,7 +639,7 @@ def bind_call(model, a, out=None):
             buf(a["r_t"]), buf(a["r_v"]))
     tail = (n_eval, buf(a["t_eval"]), buf(x_out), buf(x_last), stats, buf(work), work.size)
     if not feedback and "events" not in a and "switches" not in a:
-        keep = a.get("_implicit_keep")      # the fast path's struct: alive as long as the call
+        keep = (a.get("_implicit_keep"), a.get("quat"))     # what opt points to: alive as long as the call
         return (lambda keep=keep, model=model: lib.eomc_integrate(*head, *tail)), x_out, x_last, stats
     fb = (FeedbackBinding(model, a.get("K"), a.get("x_ref"), a.get("r_fun"), a.get("r_slopes"))
           if feedback else None)
@@ -648,7 +650,7 @@ def bind_call(model, a, out=None):
     a["_bindings"] = (fb, ev)       # finish() reads the events and any callable's exception
     extras = (fb.struct if fb else ffi.NULL, ev.struct if ev else ffi.NULL)
 
-    def call(bindings=(fb, ev, a.get("_implicit_keep")), model=model):   # keeps what its structs point to alive
+    def call(bindings=(fb, ev, a.get("_implicit_keep"), a.get("quat")), model=model):   # keeps what its structs point to alive
         return lib.eomc_integrate_ex(*head, *extras, *tail)
     return call, x_out, x_last, stats
 

@@ -128,6 +128,29 @@ def test_simulation_keeps_the_quaternions_unit_and_follows_mujoco(small):
     assert np.max(np.abs(mu - end[model.nq:])) < 1e-7
 
 
+def test_a_bound_call_keeps_its_quaternion_indices_alive(small):
+    """bind_call's call (what timing harnesses keep: bench_fixedstep) holds the quaternions' C
+    index array its options point to: with only the call kept, the prepared args and that array
+    were collected, and in bench_fixedstep (its memory reused by the MuJoCo models built next) a
+    quaternion build's bound runs ended at once with status 4, bad argument.  (Here for this
+    module's quaternion model; the call's keeping of the model is tested in runtime/test_simulate.)"""
+    import gc
+    import weakref
+
+    from eomc.runtime.simulate import bind_call, prepare
+    path, model = small
+    q, u = _state(model, np.random.default_rng(5))
+    x0 = np.concatenate([q, u])
+    a = prepare(model, x0, (0.0, 0.05), method="rk4", dt=0.005, t_eval=[0.05])
+    indices = weakref.ref(a["quat"])
+    call, _, x_last, stats = bind_call(model, a)
+    del a
+    gc.collect()
+    assert indices() is not None
+    assert call() == 0 and stats.status == 0 and stats.nfev > 0
+    np.testing.assert_array_equal(x_last, model.simulate(x0, (0.0, 0.05), method="rk4", dt=0.005).x[-1])
+
+
 @pytest.mark.parametrize("asset", ["ant.xml", "humanoid.xml"])
 def test_gymnasium_free_joint_models_match_mj_forward(asset, tmp_path):
     path = _gym_asset(asset)
