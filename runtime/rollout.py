@@ -337,15 +337,35 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method="rk4", p=No
         else:
             lib.eomc_rollout_stats(model.c_model, opt, *args)
         if method == "implicitfast":
-            unsolved = np.array([stats[i].rejected for i in range(n)], dtype=int)
+            columns = _stats_columns(ffi, stats, n)
+            unsolved = columns["rejected"].astype(int)
             if watch:
-                from .switching import watched_stats
-                ranges = [watched_stats(stats[i], nspring) for i in range(n)]
+                from .switching import watched_rows
+                ranges = watched_rows(columns, nspring)
     messages = (_energy_verdicts(model, a, X0, P, p_stride, controls, t_eval, X_out, X_last, status, ranges)
                 if fast else {})
     return _finish(model, method, X0, P, p_stride, dt, t_eval, record, X_out, X_last, status, nstep,
                    raise_on_failure, unsolved=unsolved if n and method == "implicitfast" else None,
                    messages=messages)
+
+
+_STATS_DTYPES = {}
+
+
+def _stats_columns(ffi, stats, n):
+    """An eomc_stats[n] array as numpy columns ({field: (n,) array}, copies), read through one
+    structured view of its memory (the fields' offsets and types from ``ffi``) rather than a
+    cffi attribute read per row and field: rollout's per-row unsolved counts and energy watch."""
+    dtype = _STATS_DTYPES.get(ffi)
+    if dtype is None:
+        kinds = {"double": np.float64, "long": np.dtype(f"i{ffi.sizeof('long')}"), "int": np.intc}
+        fields = ffi.typeof("eomc_stats").fields
+        dtype = _STATS_DTYPES[ffi] = np.dtype({"names": [name for name, _ in fields],
+                                                "formats": [kinds[f.type.cname] for _, f in fields],
+                                                "offsets": [f.offset for _, f in fields],
+                                                "itemsize": ffi.sizeof("eomc_stats")})
+    table = np.frombuffer(ffi.buffer(stats, n * dtype.itemsize), dtype=dtype)
+    return {name: table[name].copy() for name in dtype.names}
 
 
 def _energy_watch(model):
@@ -381,8 +401,8 @@ def _energy_verdicts(model, a, X0, P, p_stride, controls, t_eval, X_out, X_last,
     verdict's Python, and only the row the warning quotes is run again to name what touched down
     where its total rose (switching.place_finder; record="steps": from its recorded states)."""
     from .simulate import place_finder
-    from .switching import (PhysicsWarning, _no_sources, energy_allowance, energy_tolerance, energy_verdict,
-                            find_switches, total_known)
+    from .switching import (PhysicsWarning, _no_sources, energy_allowance, energy_allowances, energy_tolerance,
+                            energy_verdict, find_switches, total_known)
     from .rollout_extras import _row_inputs
     from .simulate import _along
     sw = find_switches(model)
@@ -434,16 +454,24 @@ def _energy_verdicts(model, a, X0, P, p_stride, controls, t_eval, X_out, X_last,
     depth = [model.output_names.index(f"depth_{c.name}") for c in sw.contacts
              if f"depth_{c.name}" in model.output_names]
     messages, notes = {}, []
-    for k in np.flatnonzero(rose | risen):
-        i = int(rows[k])
-        # the verdict is silent on a gain within what the start's limit springs held (gymnasium's
-        # ant: every row, its ankles start outside their range): its allowance alone decides that,
-        # unless the total energy rose above its running minimum beyond its tolerance (risen)
-        held, sprung, _, _ = energy_allowance(model, np.asarray(P[i if p_stride else 0], dtype=float), X0[i],
-                                              bool(np.any(out[k, 0, depth] > 0)), sw)
-        quiet = gain[k] - held <= tol[k] and not sprung     # no gain words and no status: at most the rise's
+    # the verdict is silent on a gain within what the start's limit springs held (gymnasium's
+    # ant: every row, its ankles start outside their range): its allowance alone decides that,
+    # unless the total energy rose above its running minimum beyond its tolerance (risen); the
+    # allowances of rows sharing parameters in one pass (energy_allowances: the same numbers)
+    judged = np.flatnonzero(rose | risen)
+    touching = (out[judged, 0][:, depth] > 0).any(axis=1)
+    if p_stride:
+        held, sprung = np.zeros(judged.size), np.zeros(judged.size, dtype=bool)
+        for m, k in enumerate(judged):
+            held[m], sprung[m], _, _ = energy_allowance(model, np.asarray(P[rows[k]], dtype=float), X0[rows[k]],
+                                                        bool(touching[m]), sw)
+    else:
+        held, sprung = energy_allowances(model, np.asarray(P[0], dtype=float), X0[rows[judged]], touching, sw)
+    quiet_rows = (gain[judged] - held <= tol[judged]) & ~sprung     # no gain words, no status: at most the rise's
+    for k, quiet in zip(judged, quiet_rows):
         if quiet and not risen[k]:
             continue
+        i = int(rows[k])
         if quiet and notes:
             # a rise alone, once a row is quoted: the verdict would only add its note (a known total,
             # so nothing sprung) -- counted, not worded (gymnasium's ant: 23 of 64 rows, 2 ms)
