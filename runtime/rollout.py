@@ -44,6 +44,16 @@ def _threads(threads):
     return int(threads)
 
 
+def _terminal_events(model):
+    """True when one of the model's compiled events ends a run, kept on the model (its metadata's
+    events are fixed; the humanoid has hundreds, each made an Event on every rollout call)."""
+    got = model.__dict__.get("_terminal_events")
+    if got is None:
+        from .events import model_events
+        got = model.__dict__["_terminal_events"] = any(e.terminal for e in model_events(model))
+    return got
+
+
 def _x0s(model, x0s):
     a = np.asarray(x0s)
     if a.dtype.kind not in "fiu":
@@ -229,11 +239,10 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method="rk4", p=No
     # method ends its steps at them as simulate does (the events machinery, per row in C)
     switching = bool(find_switches(model)) and not fast
     if events is None:
-        from .events import model_events
         # the model's events when one of them ends a run (simulate ends it there too, and
         # records them all); a model with recorded events only runs without them (pass
         # events= as simulate takes it to record them)
-        events = None if any(e.terminal for e in model_events(model)) else False
+        events = None if _terminal_events(model) else False
     if model.c_model.rhs == model.ffi.NULL:
         raise model._missing("rhs")
     nthreads = _threads(threads)

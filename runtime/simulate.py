@@ -542,15 +542,20 @@ def depth_limits(model, p):
     """(ncontact,) the depth at which each contact of NAME_implicit fails the run, from the
     run's parameters (its radius r_<contact>); a body-body pair's point: none (inf: a pair has
     no radius to reach, and its depth is the rhs's verdict's, runtime/switching.py)."""
-    info = model.metadata["implicit"]
-    index = {n: i for i, n in enumerate(model.param_names)}
+    # each contact's radius parameter index (-1: none, None: a pair), kept on the model: the
+    # metadata's contacts are fixed, and a rollout reads them twice a call (the humanoid's 100)
+    slots = model.__dict__.get("_depth_slots")
+    if slots is None:
+        index = {n: i for i, n in enumerate(model.param_names)}
+        slots = model.__dict__["_depth_slots"] = tuple(
+            None if c.get("pair") else index.get(f"r_{c.get('name')}", -1)
+            for c in model.metadata["implicit"]["contacts"])
     out = []
-    for c in info["contacts"]:
-        if c.get("pair"):
+    for i in slots:
+        if i is None:
             out.append(np.inf)
             continue
-        i = index.get(f"r_{c.get('name')}")
-        r = float(p[i]) if i is not None else 0.0
+        r = float(p[i]) if i >= 0 else 0.0
         out.append(r if r > 0 else POINT_DEPTH_FAIL)
     return np.array(out, dtype=np.float64)
 

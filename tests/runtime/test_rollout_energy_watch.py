@@ -237,3 +237,28 @@ def test_a_rise_given_back_before_the_end_warns_in_every_record_as_in_simulate(t
         touching = m.outputs(t[j], steps.x[i, j])["depth_ball"] > 0
         assert ("ball" in words["every step"][0].split(where)[1].split(")")[0]) == touching
     assert given_back >= 1          # the end below the start's + tolerance: start-and-end alone is silent
+
+
+def test_the_rows_allowances_in_one_pass_are_each_rows_own(hopper):
+    """rollout's energy verdict sizes the allowance of all its rows at once (switching.
+    energy_allowances); each row's held energy and sprung flag must be bit for bit what
+    energy_allowance gives that row alone: rows inside their range, past one limit or two, the
+    same start twice, and starts in contact."""
+    from eomc.runtime.switching import _bounds, _indices, energy_allowance, energy_allowances, find_switches
+    sw = find_switches(hopper)
+    p = np.append(np.asarray(hopper.param_defaults, dtype=float), 0.0)
+    _, _, _, limit_at = _bounds(sw, p)
+    ix = _indices(sw)
+    assert len(limit_at) >= 2
+    x0 = hopper.initial_state if hopper.initial_state is not None else np.zeros(hopper.nx)
+    X0 = np.tile(x0, (6, 1))
+    for row, (j, past) in enumerate([(0, 0.3), (1, 0.05), (0, 0.3), (0, -0.2)]):
+        X0[row + 1, ix["state"][j]] = limit_at[j] + ix["sign"][j] * past
+    X0[5] = X0[2]
+    X0[5, ix["state"][0]] = limit_at[0] + ix["sign"][0] * 0.1
+    touching = np.array([False, True, False, False, True, False])
+    held, sprung = energy_allowances(hopper, p, X0, touching, sw)
+    alone = [energy_allowance(hopper, p, X0[k], bool(touching[k]), sw) for k in range(len(X0))]
+    assert np.array([a[0] for a in alone]).tobytes() == held.tobytes()
+    assert [a[1] for a in alone] == sprung.tolist()
+    assert np.count_nonzero(held) >= 3         # the starts past a limit hold spring energy
