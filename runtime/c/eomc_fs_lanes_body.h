@@ -18,6 +18,7 @@
 #define FSL_SOLVE FSL_CAT(fsl_solve, FSL_W)
 #define FSL_STEP FSL_CAT(fsl_step, FSL_W)
 #define FSL_GATHER FSL_CAT(fsl_gather, FSL_W)
+#define FSL_BIAS FSL_CAT(fsl_bias, FSL_W)
 
 typedef double FSL_V __attribute__((vector_size(8 * FSL_W)));
 typedef long long FSL_VI __attribute__((vector_size(8 * FSL_W)));
@@ -207,6 +208,67 @@ __attribute__((target(FSL_TARGET))) static void FSL_STEP(eomc_fs_lanes *w, const
 #undef FSL_T
 }
 
+/* fs_point_bias in every lane: the same operations in the same order (OUT, Uv, stride: the kernel's) */
+__attribute__((target(FSL_TARGET))) static int FSL_BIAS(const eomc_implicit *imp, const fs_layout *L,
+                                                       const double *OUT, const double *Uv, size_t stride,
+                                                       const int *cols, int m, const FSL_V *p, const FSL_V *vp,
+                                                       FSL_V *a)
+{
+    const FSL_V zero = {0};
+    int order[FS_CHAIN], done = -1;
+    FSL_V V[6] = {zero, zero, zero, zero, zero, zero}, Vf[6] = {zero, zero, zero, zero, zero, zero};
+#define FSL_T(e) (*(const FSL_V *)(OUT + (size_t)(e) * stride))
+    if (m > FS_CHAIN) return 0;
+    for (int k = 0; k < m; k++) {
+        if (cols[k] < 0) return 0;
+        order[k] = cols[k];
+    }
+    for (int i = 1; i < m; i++)
+        for (int j = i; j > 0 && order[j - 1] > order[j]; j--) {
+            int t = order[j];
+            order[j] = order[j - 1];
+            order[j - 1] = t;
+        }
+    a[0] = a[1] = a[2] = zero;
+    for (int i = 0; i < m; i++) {
+        int k = order[i], fr = -1;
+        const size_t sk = L->screw + 6 * (size_t)k;
+        const FSL_V w[3] = {FSL_T(sk), FSL_T(sk + 1), FSL_T(sk + 2)};
+        const FSL_V v0[3] = {FSL_T(sk + 3), FSL_T(sk + 4), FSL_T(sk + 5)};
+        const FSL_V *Va = V;
+        FSL_V c[3], t[3], uk;
+        memcpy(&uk, Uv + (size_t)k * stride, sizeof uk);
+        for (int r = 0; r < imp->nfree; r++)
+            if (k >= imp->free[r] && k < imp->free[r] + 6) fr = imp->free[r];
+        if (fr >= 0) {
+            if (fr != done) {
+                for (int x = 0; x < 6; x++) Vf[x] = zero;
+                for (int j = fr; j < fr + 6; j++) {
+                    FSL_V uj;
+                    memcpy(&uj, Uv + (size_t)j * stride, sizeof uj);
+                    for (int x = 0; x < 6; x++) Vf[x] += FSL_T(L->screw + 6 * (size_t)j + (size_t)x) * uj;
+                }
+                done = fr;
+            }
+            Va = Vf;
+        }
+        c[0] = Va[1] * w[2] - Va[2] * w[1];
+        c[1] = Va[2] * w[0] - Va[0] * w[2];
+        c[2] = Va[0] * w[1] - Va[1] * w[0];
+        t[0] = (c[1] * p[2] - c[2] * p[1]) + (w[1] * vp[2] - w[2] * vp[1])
+               + (Va[1] * v0[2] - Va[2] * v0[1]) + (Va[4] * w[2] - Va[5] * w[1]);
+        t[1] = (c[2] * p[0] - c[0] * p[2]) + (w[2] * vp[0] - w[0] * vp[2])
+               + (Va[2] * v0[0] - Va[0] * v0[2]) + (Va[5] * w[0] - Va[3] * w[2]);
+        t[2] = (c[0] * p[1] - c[1] * p[0]) + (w[0] * vp[1] - w[1] * vp[0])
+               + (Va[0] * v0[1] - Va[1] * v0[0]) + (Va[3] * w[1] - Va[4] * w[0]);
+        for (int x = 0; x < 3; x++) a[x] += uk * t[x];
+        for (int x = 0; x < 3; x++) V[x] += w[x] * uk;
+        for (int x = 0; x < 3; x++) V[3 + x] += v0[x] * uk;
+    }
+#undef FSL_T
+    return 1;
+}
+
 /* OUT, Uv: this group's first lane of the batch's columns (stride doubles per row; OUT aligned
  * to the vector), req, ahead: the group's FSL_W lanes (eomc_fs_assemble_lanes); rows (NULL: none):
  * the group's lanes' rows, which hold the terms rlo .. rhi - 1 instead of OUT. */
@@ -282,8 +344,14 @@ __attribute__((target(FSL_TARGET))) static void FSL_KERNEL(eomc_fs_lanes *w, con
         }
         on &= any;
         if (!FSL_ANY(&on)) continue;
-        for (int a = 0; a < 3; a++)
-            Kv[a] = K[3 * a] * vp[0] + K[3 * a + 1] * vp[1] + K[3 * a + 2] * vp[2];
+        {                                             /* Kv = K v + C a: fs_point_bias */
+            FSL_V ab[3] = {zero, zero, zero};
+            int bias = FSL_BIAS(imp, L, OUT, Uv, stride, cols, m, p, vp, ab);
+            for (int a = 0; a < 3; a++) {
+                Kv[a] = K[3 * a] * vp[0] + K[3 * a + 1] * vp[1] + K[3 * a + 2] * vp[2];
+                if (bias) Kv[a] += Cs[3 * a] * ab[0] + Cs[3 * a + 1] * ab[1] + Cs[3 * a + 2] * ab[2];
+            }
+        }
         for (int k = 0; k < m; k++) {                 /* J[:, k] = ±(w x p + v0) of speed cols[k] */
             const size_t sw = L->screw + 6 * (size_t)fs_speed(cols[k]);
             const FSL_V wv[3] = {FSL_T(sw), FSL_T(sw + 1), FSL_T(sw + 2)};
@@ -375,6 +443,7 @@ __attribute__((target(FSL_TARGET))) static void FSL_KERNEL(eomc_fs_lanes *w, con
 #undef FSL_KERNEL
 #undef FSL_STEP
 #undef FSL_GATHER
+#undef FSL_BIAS
 #undef FSL_SOLVE
 #undef FSL_SECANT
 #undef FSL_SQRT
