@@ -710,7 +710,9 @@ static void fs_transport(double *A, const double *M, const double *u, int s, int
  *
  * V_a: the sum of the chain's screws times speeds before k (the chain is the contact body's path to
  * the root, so those are k's ancestors, each joint's axis fixed in its parent); a root free joint's six
- * axes are its own body's (body-frame speeds), V_a = the sum over all six.  Not for a body-body pair
+ * axes are its own body's (body-frame speeds), V_a = the sum over all six, so together they add
+ * V_f x V_f = 0.  Summed: a = B_w x p + B_v + w x vp, B = sum_k V_a x (s_k u_k) (spatial cross
+ * product), w the body's angular velocity: about 30 flops a speed.  Not for a body-body pair
  * (a speed listed negated: the point's velocity is a difference of two bodies'): 0 returned, a
  * untouched.  A ball joint's three speeds, if body-frame, would each be taken as carried by the one
  * before (as MJCF's hinges in one body are); the residual test still judges the step.
@@ -727,8 +729,8 @@ static void fs_transport(double *A, const double *M, const double *u, int s, int
 static int fs_point_bias(const eomc_implicit *imp, const double *scr, const double *u, const int *cols, int m,
                          const double *p, const double *vp, double *a)
 {
-    int order[FS_CHAIN], done = -1;
-    double V[6] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0}, Vf[6] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
+    int order[FS_CHAIN];
+    double V[6] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0}, B[6] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
     if (m > FS_CHAIN) return 0;
     for (int k = 0; k < m; k++) {
         if (cols[k] < 0) return 0;
@@ -740,34 +742,25 @@ static int fs_point_bias(const eomc_implicit *imp, const double *scr, const doub
             order[j] = order[j - 1];
             order[j - 1] = t;
         }
-    a[0] = a[1] = a[2] = 0.0;
     for (int i = 0; i < m; i++) {
-        int k = order[i], fr = -1;
-        const double *w = scr + 6 * (size_t)k, *v0 = w + 3, *Va = V;
-        double c[3], t[3];
-        for (int r = 0; r < imp->nfree; r++)
-            if (k >= imp->free[r] && k < imp->free[r] + 6) fr = imp->free[r];
-        if (fr >= 0) {
-            if (fr != done) {
-                for (int x = 0; x < 6; x++) Vf[x] = 0.0;
-                for (int j = fr; j < fr + 6; j++)
-                    for (int x = 0; x < 6; x++) Vf[x] += scr[6 * (size_t)j + x] * u[j];
-                done = fr;
-            }
-            Va = Vf;
+        int k = order[i], own = 0;
+        const double *w = scr + 6 * (size_t)k;
+        double S[6];
+        for (int x = 0; x < 6; x++) S[x] = w[x] * u[k];
+        for (int r = 0; r < imp->nfree; r++) own |= k >= imp->free[r] && k < imp->free[r] + 6;
+        if (!own) {                                   /* B += V x S (spatial), V the speeds before k */
+            B[0] += V[1] * S[2] - V[2] * S[1];
+            B[1] += V[2] * S[0] - V[0] * S[2];
+            B[2] += V[0] * S[1] - V[1] * S[0];
+            B[3] += (V[1] * S[5] - V[2] * S[4]) + (V[4] * S[2] - V[5] * S[1]);
+            B[4] += (V[2] * S[3] - V[0] * S[5]) + (V[5] * S[0] - V[3] * S[2]);
+            B[5] += (V[0] * S[4] - V[1] * S[3]) + (V[3] * S[1] - V[4] * S[0]);
         }
-        c[0] = Va[1] * w[2] - Va[2] * w[1];           /* w_a x w_k */
-        c[1] = Va[2] * w[0] - Va[0] * w[2];
-        c[2] = Va[0] * w[1] - Va[1] * w[0];
-        t[0] = (c[1] * p[2] - c[2] * p[1]) + (w[1] * vp[2] - w[2] * vp[1])
-               + (Va[1] * v0[2] - Va[2] * v0[1]) + (Va[4] * w[2] - Va[5] * w[1]);
-        t[1] = (c[2] * p[0] - c[0] * p[2]) + (w[2] * vp[0] - w[0] * vp[2])
-               + (Va[2] * v0[0] - Va[0] * v0[2]) + (Va[5] * w[0] - Va[3] * w[2]);
-        t[2] = (c[0] * p[1] - c[1] * p[0]) + (w[0] * vp[1] - w[1] * vp[0])
-               + (Va[0] * v0[1] - Va[1] * v0[0]) + (Va[3] * w[1] - Va[4] * w[0]);
-        for (int x = 0; x < 3; x++) a[x] += u[k] * t[x];
-        for (int x = 0; x < 6; x++) V[x] += w[x] * u[k];
+        for (int x = 0; x < 6; x++) V[x] += S[x];
     }
+    a[0] = (B[1] * p[2] - B[2] * p[1]) + B[3] + (V[1] * vp[2] - V[2] * vp[1]);
+    a[1] = (B[2] * p[0] - B[0] * p[2]) + B[4] + (V[2] * vp[0] - V[0] * vp[2]);
+    a[2] = (B[0] * p[1] - B[1] * p[0]) + B[5] + (V[0] * vp[1] - V[1] * vp[0]);
     return 1;
 }
 static int fs_assemble(const eomc_fs_ops *ops, const fs_layout *L, double h, const double *u,

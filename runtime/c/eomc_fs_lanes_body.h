@@ -215,9 +215,8 @@ __attribute__((target(FSL_TARGET))) static int FSL_BIAS(const eomc_implicit *imp
                                                        FSL_V *a)
 {
     const FSL_V zero = {0};
-    int order[FS_CHAIN], done = -1;
-    FSL_V V[6] = {zero, zero, zero, zero, zero, zero}, Vf[6] = {zero, zero, zero, zero, zero, zero};
-#define FSL_T(e) (*(const FSL_V *)(OUT + (size_t)(e) * stride))
+    int order[FS_CHAIN];
+    FSL_V V[6] = {zero, zero, zero, zero, zero, zero}, B[6] = {zero, zero, zero, zero, zero, zero};
     if (m > FS_CHAIN) return 0;
     for (int k = 0; k < m; k++) {
         if (cols[k] < 0) return 0;
@@ -229,43 +228,25 @@ __attribute__((target(FSL_TARGET))) static int FSL_BIAS(const eomc_implicit *imp
             order[j] = order[j - 1];
             order[j - 1] = t;
         }
-    a[0] = a[1] = a[2] = zero;
     for (int i = 0; i < m; i++) {
-        int k = order[i], fr = -1;
-        const size_t sk = L->screw + 6 * (size_t)k;
-        const FSL_V w[3] = {FSL_T(sk), FSL_T(sk + 1), FSL_T(sk + 2)};
-        const FSL_V v0[3] = {FSL_T(sk + 3), FSL_T(sk + 4), FSL_T(sk + 5)};
-        const FSL_V *Va = V;
-        FSL_V c[3], t[3], uk;
+        int k = order[i], own = 0;
+        FSL_V S[6], uk;
         memcpy(&uk, Uv + (size_t)k * stride, sizeof uk);
-        for (int r = 0; r < imp->nfree; r++)
-            if (k >= imp->free[r] && k < imp->free[r] + 6) fr = imp->free[r];
-        if (fr >= 0) {
-            if (fr != done) {
-                for (int x = 0; x < 6; x++) Vf[x] = zero;
-                for (int j = fr; j < fr + 6; j++) {
-                    FSL_V uj;
-                    memcpy(&uj, Uv + (size_t)j * stride, sizeof uj);
-                    for (int x = 0; x < 6; x++) Vf[x] += FSL_T(L->screw + 6 * (size_t)j + (size_t)x) * uj;
-                }
-                done = fr;
-            }
-            Va = Vf;
+        for (int x = 0; x < 6; x++) S[x] = *(const FSL_V *)(OUT + (L->screw + 6 * (size_t)k + (size_t)x) * stride) * uk;
+        for (int r = 0; r < imp->nfree; r++) own |= k >= imp->free[r] && k < imp->free[r] + 6;
+        if (!own) {
+            B[0] += V[1] * S[2] - V[2] * S[1];
+            B[1] += V[2] * S[0] - V[0] * S[2];
+            B[2] += V[0] * S[1] - V[1] * S[0];
+            B[3] += (V[1] * S[5] - V[2] * S[4]) + (V[4] * S[2] - V[5] * S[1]);
+            B[4] += (V[2] * S[3] - V[0] * S[5]) + (V[5] * S[0] - V[3] * S[2]);
+            B[5] += (V[0] * S[4] - V[1] * S[3]) + (V[3] * S[1] - V[4] * S[0]);
         }
-        c[0] = Va[1] * w[2] - Va[2] * w[1];
-        c[1] = Va[2] * w[0] - Va[0] * w[2];
-        c[2] = Va[0] * w[1] - Va[1] * w[0];
-        t[0] = (c[1] * p[2] - c[2] * p[1]) + (w[1] * vp[2] - w[2] * vp[1])
-               + (Va[1] * v0[2] - Va[2] * v0[1]) + (Va[4] * w[2] - Va[5] * w[1]);
-        t[1] = (c[2] * p[0] - c[0] * p[2]) + (w[2] * vp[0] - w[0] * vp[2])
-               + (Va[2] * v0[0] - Va[0] * v0[2]) + (Va[5] * w[0] - Va[3] * w[2]);
-        t[2] = (c[0] * p[1] - c[1] * p[0]) + (w[0] * vp[1] - w[1] * vp[0])
-               + (Va[0] * v0[1] - Va[1] * v0[0]) + (Va[3] * w[1] - Va[4] * w[0]);
-        for (int x = 0; x < 3; x++) a[x] += uk * t[x];
-        for (int x = 0; x < 3; x++) V[x] += w[x] * uk;
-        for (int x = 0; x < 3; x++) V[3 + x] += v0[x] * uk;
+        for (int x = 0; x < 6; x++) V[x] += S[x];
     }
-#undef FSL_T
+    a[0] = (B[1] * p[2] - B[2] * p[1]) + B[3] + (V[1] * vp[2] - V[2] * vp[1]);
+    a[1] = (B[2] * p[0] - B[0] * p[2]) + B[4] + (V[2] * vp[0] - V[0] * vp[2]);
+    a[2] = (B[0] * p[1] - B[1] * p[0]) + B[5] + (V[0] * vp[1] - V[1] * vp[0]);
     return 1;
 }
 
