@@ -642,16 +642,10 @@ def _implicit_batch(model, ffi, rows=False):
     if not rows:
         fp = model.ffi.addressof(model.model_lib, f"{model.name}_implicit_batch")
         return ffi.cast("eomc_batch_fn", int(model.ffi.cast("uintptr_t", fp)))
-    cached = model.__dict__.get("_batch_rows_fn")
-    if cached is None:
-        import cffi
-        own = cffi.FFI()
-        own.cdef(f"int {model.name}_implicit_batch_rows(int n, double t, const double *X, const double *p, "
-                 f"const double *R, double *OUT, double *const *rows, int *status, double *work);")
-        lib = own.dlopen(str(model.library_path))
-        fn = getattr(lib, f"{model.name}_implicit_batch_rows")
-        cached = model.__dict__["_batch_rows_fn"] = (own, lib, own.cast("uintptr_t", fn))
-    return ffi.cast("eomc_batch_rows_fn", cached[2])
+    fn = _own_function(model, "implicit_batch_rows",
+                       "(int n, double t, const double *X, const double *p, const double *R, double *OUT, "
+                       "double *const *rows, int *status, double *work)")
+    return ffi.cast("eomc_batch_rows_fn", fn)
 
 
 LANES_BLOCK = 64    # rows per thread's block: 8 groups of 8 lanes; its columns stay in cache
@@ -660,20 +654,29 @@ LANES_BLOCK = 64    # rows per thread's block: 8 groups of 8 lanes; its columns 
 def _batch_p(model, ffi):
     """NAME_rhs_batch_p of the model's library as the eomc_batch_fn ``ffi`` declares (the
     model's own cdef lists only the functions of its ABI; this one is looked up here)."""
-    cached = model.__dict__.get("_batch_p_fn")
+    try:
+        fn = _own_function(model, "rhs_batch_p", "(int n, double t, const double *X, const double *P, "
+                           "const double *R, double *XDOT, int *status, double *work)")
+    except AttributeError:
+        raise ValueError(f"{model.name}: its library has no {model.name}_rhs_batch_p (built by an older "
+                         f"eomc); rebuild it for rollout(lanes=True)") from None
+    return ffi.cast("eomc_batch_fn", fn)
+
+
+def _own_function(model, suffix, params):
+    """The address of the model library's int NAME_<suffix><params> (a function its own cdef does
+    not list), looked up once through an FFI of its own and kept on the model (the FFI and the
+    library with it, so the address stays valid while the model lives)."""
+    key = f"_{suffix}_fn"
+    cached = model.__dict__.get(key)
     if cached is None:
         import cffi
         own = cffi.FFI()
-        own.cdef(f"int {model.name}_rhs_batch_p(int n, double t, const double *X, const double *P, "
-                 f"const double *R, double *XDOT, int *status, double *work);")
+        own.cdef(f"int {model.name}_{suffix}{params};")
         lib = own.dlopen(str(model.library_path))
-        try:
-            fn = getattr(lib, f"{model.name}_rhs_batch_p")
-        except AttributeError:
-            raise ValueError(f"{model.name}: its library has no {model.name}_rhs_batch_p (built by an older "
-                             f"eomc); rebuild it for rollout(lanes=True)") from None
-        cached = model.__dict__["_batch_p_fn"] = (own, lib, own.cast("uintptr_t", fn))
-    return ffi.cast("eomc_batch_fn", cached[2])
+        fn = getattr(lib, f"{model.name}_{suffix}")
+        cached = model.__dict__[key] = (own, lib, own.cast("uintptr_t", fn))
+    return cached[2]
 
 
 def _rollout_lanes(model, X0, P, p_stride, controls, t1, h, steps_too, nthreads):

@@ -43,11 +43,11 @@ phase as before, so only the points in touch evaluate them.  A build asking for 
 function (vjp, hvp, hess_id), jac_p, jvp, jac_id, a regressor or a lanes (``_batch``) twin keeps the
 straight-line law (:func:`wanted`).
 """
-import re
 
 import sympy as sm
 
 from . import narrow as nw
+from .table import _array, _fmt
 
 __all__ = ["GROUND_TABLE", "TABLE_FROM", "wanted", "eligible", "lower_ground_table", "GroundCall", "GroundOut"]
 
@@ -235,20 +235,6 @@ class GroundOut(sm.Function):
 
     def _ccode(self, printer):
         return f"GT_[{int(self.args[2])}]"
-
-
-def _array(values, printer):
-    """&p[i] when ``values`` are the consecutive parameter slots p[i], p[i+1], ..., else a compound literal."""
-    printer.reads_names()
-    text = [printer._print(a) for a in values]
-    m = re.fullmatch(r"p\[(\d+)\]", text[0]) if text else None
-    if m and text == [f"p[{int(m.group(1)) + k}]" for k in range(len(text))]:
-        return f"&p[{m.group(1)}]"
-    return f"(const double[{len(text)}]){{{', '.join(text)}}}" if text else "0"
-
-
-def _fmt(x):
-    return repr(float(x))
 
 
 def _tables(t):
