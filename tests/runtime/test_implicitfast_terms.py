@@ -5,9 +5,12 @@ Oracles: the model's own mass_matrix, forcing and rhs (the terms must be the sam
 the exact linearity of q' and of a contact point's velocity in u (J u from the speeds' world
 motions must equal the contact point's velocity the law uses), the model's static
 equilibrium (rhs = 0 where a standing robot comes to rest: a fixed point of every implicit
-Euler step, whatever h), and a tight Radau run for convergence as h shrinks.
+Euler step, whatever h), a tight Radau run for convergence as h shrinks, and for a touching
+contact's bias a = d/dt (J u) (fs_point_bias) a central difference of its point's velocity.
 """
 import re
+import shutil
+import subprocess
 import warnings
 from pathlib import Path
 
@@ -807,3 +810,126 @@ def _rise_words(text):
     found = re.search(r"the energy with the limit springs it leaves out rose by .*?\(method implicitfast, rtol [^)]*\)",
                       text)
     return found.group(0) if found else None
+
+
+# fs_point_bias (runtime/c/eomc_fixedstep.c, static): reached through a harness that includes the
+# file and exports one call, built with gcc beside the integrators it needs.
+_BIAS_HARNESS = r"""
+#include "eomc_fixedstep.c"
+int bias_harness(int nfree, const int *free_speeds, const double *scr, const double *u, const int *cols,
+                 int m, const double *p, const double *vp, double *a)
+{
+    eomc_implicit imp;
+    memset(&imp, 0, sizeof imp);
+    imp.nfree = nfree;
+    imp.free = free_speeds;
+    return fs_point_bias(&imp, scr, u, cols, m, p, vp, a);
+}
+"""
+
+
+@pytest.fixture(scope="module")
+def point_bias(tmp_path_factory):
+    """fs_point_bias(model, x, c): the C's bias a of the model's contact c at state x (with the
+    terms' p, vp and screws at x and the model's free roots), and whether it took the contact."""
+    import cffi
+    from helpers.stand_in import RUNTIME_C
+    from eomc.runtime.simulate import free_roots
+    if shutil.which("gcc") is None:
+        pytest.skip("gcc is needed to build the fs_point_bias harness")
+    tmp = tmp_path_factory.mktemp("bias")
+    (tmp / "bias_harness.c").write_text(_BIAS_HARNESS)
+    cmd = ["gcc", "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-fPIC", "-shared", f"-I{RUNTIME_C}",
+           "-o", str(tmp / "libbias.so"), str(tmp / "bias_harness.c"),
+           str(RUNTIME_C / "eomc_integrators.c"), str(RUNTIME_C / "eomc_bdf.c"), "-lm"]
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    ffi = cffi.FFI()
+    ffi.cdef("int bias_harness(int, const int *, const double *, const double *, const int *, int,"
+             " const double *, const double *, double *);")
+    lib = ffi.dlopen(str(tmp / "libbias.so"))
+
+    def call(m, x, c):
+        out, at = implicit_terms_at(m, x)
+        e = out[at["contact"] + 25 * c:at["contact"] + 25 * (c + 1)]
+        free = free_roots(m, [int(s) for s in m.metadata["implicit"]["parents"]])
+        cols = [int(s) for s in m.metadata["implicit"]["contacts"][c]["speeds"]]
+        scr = np.ascontiguousarray(out[at["screw"]:at["screw"] + 6 * m.nu])
+        u = np.ascontiguousarray(x[m.nq:])
+        p, vp, a = e[1:4].copy(), e[4:7].copy(), np.zeros(3)
+        d = ffi.from_buffer
+        took = lib.bias_harness(len(free), ffi.new("int[]", free or [0]), d("double[]", scr), d("double[]", u),
+                                ffi.new("int[]", cols), len(cols), d("double[]", p), d("double[]", vp),
+                                d("double[]", a))
+        return a, took
+    return call
+
+
+def _point_velocity_along_the_motion(m, x, c, eps):
+    """(v(q + eps q', p + eps vp) - v(q - eps q', p - eps vp)) / (2 eps) at fixed u: d/dt (J u) of
+    contact c's material point (the body's point at p, which moves at vp), its velocity
+    v = sum_k (w_k x p + v0_k) u_k from the speeds' world screws the model's terms give at each
+    displaced q (q' = the model's own rhs: a free root's quaternion rate too).  Central: O(eps^2)."""
+    nq, nu = m.nq, m.nu
+    out, at = implicit_terms_at(m, x)
+    qd = out[at["qd"]:at["qd"] + nq]
+    e = out[at["contact"] + 25 * c:at["contact"] + 25 * (c + 1)]
+    p, vp = e[1:4], e[4:7]
+    speeds = m.metadata["implicit"]["contacts"][c]["speeds"]
+    v = []
+    for sign in (1.0, -1.0):
+        xs = x.copy()
+        xs[:nq] += sign * eps * qd
+        o, _ = implicit_terms_at(m, xs)
+        scr = o[at["screw"]:at["screw"] + 6 * nu].reshape(nu, 6)
+        ps = p + sign * eps * vp
+        v.append(sum((scr[s, 3:] + np.cross(scr[s, :3], ps)) * x[nq + s] for s in speeds))
+    return (v[0] - v[1]) / (2 * eps)
+
+
+def _moving_state(m, seed, root, bent=()):
+    """The file's start with q jittered by 0.05 rad (m), the joints ``bent`` (name: angle) set, and
+    every speed of order 1 (rad/s, m/s): a bias of order 1 m/s^2, quadratic in u.  Then moved down
+    along ``root`` (the root's height) until its deepest contact is 2 cm in touch."""
+    rng = np.random.default_rng(seed)
+    names = list(m.state_names)
+    x = np.array(m.initial_state, dtype=float)
+    for name, angle in bent:
+        x[names.index(name)] = angle
+    x[:m.nq] += 0.05 * rng.normal(size=m.nq)
+    x[m.nq:] = rng.normal(size=m.nu)
+    out, at = implicit_terms_at(m, x)
+    x[names.index(root)] -= 0.02 - out[at["contact"]:at["size"]:25].max()
+    return x
+
+
+ANKLES = (("q_ankle_1", 1.0), ("q_ankle_2", -1.0), ("q_ankle_3", -1.0), ("q_ankle_4", 1.0))   # feet down
+
+
+@pytest.mark.parametrize("name", ["hopper", "ant"])
+def test_a_contacts_bias_is_the_derivative_of_its_points_velocity_along_the_motion(name, request, point_bias):
+    """fs_point_bias's a = d/dt (J(q) u) at fixed u, which fs_assemble adds to a touching contact's
+    linear model (K v + C a; session 27, releaseslope), against a central difference of the contact
+    point's velocity along q' (_point_velocity_along_the_motion: the model's own screws at q +- eps q',
+    eps = 1e-5), to 1e-6 of |a|: measured 7e-12 to 3e-10 of it on the 13 contacts in touch.  The hopper's feet sit at the end of
+    two slides and four hinges; the ant's ankles at the end of a free root (body-frame speeds, whose
+    six add nothing: V_f x V_f) and two hinges.  Four states each with speeds of order 1, so a is of
+    order 0.05-20 m/s^2 and its terms (B_w x p, B_v, w x vp) each matter: dropping w x vp fails it
+    (checked by breaking the C).  The lanes kernel's FSL_BIAS does the same operations (its rows are
+    checked bit-equal to the scalar path's: test_rollout_lanes)."""
+    m = request.getfixturevalue(name)
+    root, bent = ("q_rootz", ()) if name == "hopper" else ("q_root_z", ANKLES)
+    checked = 0
+    for seed in range(4):
+        x = _moving_state(m, seed, root, bent)
+        out, at = implicit_terms_at(m, x)
+        for c in range(len(m.metadata["implicit"]["contacts"])):
+            if not out[at["contact"] + 25 * c] > 0.0:
+                continue                                   # fs_assemble takes only a contact in touch
+            a, took = point_bias(m, x, c)
+            fd = _point_velocity_along_the_motion(m, x, c, 1e-5)
+            assert took == 1
+            assert np.linalg.norm(fd) > 1e-2
+            assert np.linalg.norm(a - fd) <= 1e-6 * np.linalg.norm(fd), (seed, c, a, fd)
+            checked += 1
+    assert checked >= 6
