@@ -47,10 +47,13 @@ def _threads(threads):
 def _terminal_events(model):
     """True when one of the model's compiled events ends a run, kept on the model (its metadata's
     events are fixed; the humanoid has hundreds, each made an Event on every rollout call)."""
-    got = model.__dict__.get("_terminal_events")
+    cache = getattr(model, "__dict__", None)    # an instance's dict (a stand-in class's is read-only)
+    got = cache.get("_terminal_events") if isinstance(cache, dict) else None
     if got is None:
         from .events import model_events
-        got = model.__dict__["_terminal_events"] = any(e.terminal for e in model_events(model))
+        got = any(e.terminal for e in model_events(model))
+        if isinstance(cache, dict):
+            cache["_terminal_events"] = got
     return got
 
 

@@ -544,12 +544,15 @@ def depth_limits(model, p):
     no radius to reach, and its depth is the rhs's verdict's, runtime/switching.py)."""
     # each contact's radius parameter index (-1: none, None: a pair), kept on the model: the
     # metadata's contacts are fixed, and a rollout reads them twice a call (the humanoid's 100)
-    slots = model.__dict__.get("_depth_slots")
+    # (only an instance's own dict: a stand-in class's __dict__ is a read-only mappingproxy)
+    cache = getattr(model, "__dict__", None)
+    slots = cache.get("_depth_slots") if isinstance(cache, dict) else None
     if slots is None:
         index = {n: i for i, n in enumerate(model.param_names)}
-        slots = model.__dict__["_depth_slots"] = tuple(
-            None if c.get("pair") else index.get(f"r_{c.get('name')}", -1)
-            for c in model.metadata["implicit"]["contacts"])
+        slots = tuple(None if c.get("pair") else index.get(f"r_{c.get('name')}", -1)
+                      for c in model.metadata["implicit"]["contacts"])
+        if isinstance(cache, dict):
+            cache["_depth_slots"] = slots
     out = []
     for i in slots:
         if i is None:
