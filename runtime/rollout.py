@@ -127,7 +127,7 @@ def _controls(model, r, n):
     return 1, None, np.ascontiguousarray(values), (0 if values.ndim == 1 else ni)
 
 
-def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method="rk4", p=None, r=None, threads=None,
+def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method=None, p=None, r=None, threads=None,
             record="final", raise_on_failure=True, lanes=False, split=IMPLICITFAST_SPLIT,
             rtol=1e-6, atol=1e-9, max_steps=100000, K=None, x_ref=None, events=None,
             max_events=DEFAULT_MAX_EVENTS):
@@ -135,7 +135,9 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method="rk4", p=No
     with an adaptive method to ``rtol``/``atol``.
 
     Give the span as ``t_final`` or as ``steps`` (t_final = steps * dt); the last step is
-    shortened to end on t_final, as ``simulate`` does.  method: "rk4" or "implicitfast"
+    shortened to end on t_final, as ``simulate`` does.  method=None (the default) is "rk4" when
+    ``dt`` or ``steps`` is given (or lanes=True), else "auto", simulate's default: ``rollout(model,
+    X0, t_final=2)`` runs what ``simulate(model, x0, (0, 2))`` runs.  method: "rk4" or "implicitfast"
     (needs jac_x), fixed-step with ``dt``; or "dopri5", "dop853", "radau", "bdf" (the last
     two need jac_x), adaptive: ``t_final``, ``rtol``, ``atol``, ``max_steps`` as in
     ``simulate``, record="final" only (row i equals ``simulate(model, x0s[i], (0, t_final),
@@ -203,6 +205,10 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method="rk4", p=No
     bits depend on that row alone: the same result every run, with any thread count and among any
     other rows.
     """
+    if method is None:
+        # first hour s28: rollout(model, X0, t_final=2) refused (its default was rk4, which needs
+        # dt) where simulate(model, x0, (0, 2)) runs "auto"; a step given still means RK4
+        method = "rk4" if dt is not None or steps is not None or lanes else "auto"
     method = named = resolve_method(method)
     auto = method == "auto"
     if auto:
@@ -222,8 +228,8 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method="rk4", p=No
             raise ValueError(f"rollout(lanes=True) takes method 'rk4'; got {method!r}")
     elif dt is None:
         # first hour s24: eomc.rollout(model, X0, t_final=1) said only "dt ... got None"
-        raise ValueError(f"method {method!r} (rollout's default) is fixed-step: give dt= (and t_final= or "
-                         f"steps=), or an adaptive method with t_final= (method='auto', 'dop853', ...)")
+        raise ValueError(f"method {method!r} is fixed-step: give dt= (and t_final= or steps=), or an "
+                         f"adaptive method with t_final= (method='auto', the default without dt=; 'dop853', ...)")
     elif isinstance(dt, bool) or not isinstance(dt, numbers.Real) or not np.isfinite(dt) or dt <= 0:
         raise ValueError(f"dt must be a finite step > 0; got {dt!r}")
     if (t_final is None) == (steps is None):

@@ -246,20 +246,27 @@ def test_a_report_from_an_equilibrium_recommends_nothing():
     assert moving.inconclusive is None and "**Recommendation**" in moving.recommendation_text(1e-4)
 
 
-def test_a_rollout_without_dt_says_rk4_is_fixed_step():
-    """`eomc.rollout(model, X0, t_final=1)` (rollout's default method is rk4) said only "dt must be
-    a finite step > 0; got None": it names the method and both ways out."""
+def test_a_rollout_without_dt_runs_simulates_default_method():
+    """`eomc.rollout(model, X0, t_final=1)` refused (rollout's default method was rk4, which needs
+    dt; session 24 made it say so) where `simulate(model, x0, (0, 1))` runs "auto": without dt= or
+    steps= the default is now simulate's, row for row bit for bit; with dt= it is still rk4, and
+    steps= without dt= names both ways out."""
     import pytest
 
     import eomc
 
     osc = get_model("oscillator")
-    with pytest.raises(ValueError, match=r"method 'rk4' \(rollout's default\) is fixed-step: give dt= .* or an "
-                                         r"adaptive method with t_final="):
-        eomc.rollout(osc, np.zeros((2, 2)), t_final=1.0)
+    X0 = np.array([[1.0, 0.0], [0.5, -0.2]])
+    res = eomc.rollout(osc, X0, t_final=1.0)
+    for row, x0 in zip(res.x, X0):
+        assert np.array_equal(row, simulate(osc, x0, (0.0, 1.0)).x[-1])
+    stepped = eomc.rollout(osc, X0, t_final=1.0, dt=0.01)
+    assert np.array_equal(stepped.x, eomc.rollout(osc, X0, t_final=1.0, dt=0.01, method="rk4").x)
+    with pytest.raises(ValueError, match=r"method 'rk4' is fixed-step: give dt= .* or an "
+                                         r"adaptive method with t_final= \(method='auto', the default without dt="):
+        eomc.rollout(osc, X0, steps=10)
     with pytest.raises(ValueError, match="dt must be a finite step > 0; got 0.0"):
-        eomc.rollout(osc, np.zeros((2, 2)), t_final=1.0, dt=0.0)
-    assert eomc.rollout(osc, np.ones((2, 2)), t_final=1.0, method="dop853").x.shape == (2, 2)
+        eomc.rollout(osc, X0, t_final=1.0, dt=0.0)
 
 
 def test_the_hint_after_nothing_moved_names_a_state_that_starts_a_motion(tmp_path, capsys):
