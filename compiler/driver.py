@@ -273,11 +273,32 @@ def generate(system, name=None, *, parameters=None, inputs=None, outputs=None, f
     return spec, generated
 
 
+def _with_ground(contacts, ground):
+    """``contacts`` with compile's ``ground=`` added as its "@ground" / "@no-ground" entry.
+
+    Why a keyword: the command line says --ground, and ``eomc.compile(urdf, ground=True)`` was a
+    bare TypeError (first hour s28)."""
+    if ground is None:
+        return contacts
+    if not isinstance(ground, bool):
+        raise ValueError(f"ground= takes True (the robot's <collision> geometry touches the plane z = 0, "
+                         f"as --ground), False (as --no-ground) or None; got {ground!r}")
+    from .contact.tree import ContactSpec
+    if isinstance(contacts, (str, dict, ContactSpec)):
+        contacts = [contacts]
+    return list(contacts or ()) + ["@ground" if ground else "@no-ground"]
+
+
 def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, functions=None,
             fold_parameters=False, backend="cffi", cflags=None, cache_dir=None, output_dir=None,
             progress=None, events=None, formulation="auto", states=None, contacts=None, frames=None,
-            target=None, check=None, portable=False, floating_base=False):
+            target=None, check=None, portable=False, floating_base=False, ground=None):
     """Compile a model file (path) or a formed system into a loaded :class:`eomc.runtime.model.Model`.
+
+    ``ground``: True lets a URDF robot's <collision> geometry touch the plane z = 0 (the command
+    line's ``--ground``, the same as ``contacts=["@ground"]``); False keeps it off the ground
+    beside named contacts (``--no-ground``, ``"@no-ground"``); None (the default) as the file and
+    ``contacts`` say.  An MJCF model's collision geoms touch its ground without it.
 
     ``floating_base``: a URDF path's root on a free joint (True: Euler angles, "quaternion"), as
     the command line's ``--floating-base`` (the same as passing
@@ -295,6 +316,7 @@ def compile(system, name=None, *, parameters=None, inputs=None, outputs=None, fu
     Progress (stage timings on stderr) defaults to on when stderr is a terminal.
     """
     progress = Progress(progress)
+    contacts = _with_ground(contacts, ground)
     if floating_base:
         from .model.spec import with_floating_base
         system, name = with_floating_base(system, name, floating_base)

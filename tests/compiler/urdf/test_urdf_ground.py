@@ -114,3 +114,19 @@ def test_missing_collision_meshes_are_one_line_per_directory(tmp_path):
                      f"ground: c.stl ({path}:4: link 'base'); a.stl ({path}:10: link 'mast'); "
                      f"b.stl ({path}:11: link 'mast')"], texts
     assert not any("not a file" in str(w.message) for w in caught)
+
+
+def test_compile_takes_ground_as_the_command_line_does(tmp_path):
+    """`eomc.compile(urdf, ground=True)` was a bare TypeError (first hour s28) while the command
+    line says --ground: it now builds what contacts=["@ground"] builds (the same outputs, the
+    same C), a non-bool is refused naming the three values, and a SymPy model is told how its
+    contacts are written."""
+    path = _write(tmp_path)
+    kw = dict(functions=("rhs", "outputs"), cache_dir=tmp_path / "c", progress=False, floating_base=True)
+    by_keyword = eomc.compile(str(path), ground=True, **kw)
+    by_entry = eomc.compile(str(path), contacts=["@ground"], **kw)
+    assert by_keyword.output_names == by_entry.output_names
+    assert len([k for k in by_keyword.output_names if k.startswith("depth_")]) == 8 + 16 + 1
+    assert by_keyword.library_path == by_entry.library_path     # one cache entry: the same C
+    with pytest.raises(ValueError, match=r"ground= takes True .*--ground.*, False .*--no-ground.* or None; got 'yes'"):
+        eomc.compile(str(path), ground="yes", **kw)
