@@ -454,9 +454,10 @@ def page_data(res, model, *, fps=60, trace=None, colors=None, outputs=None, up=N
     if outputs is None:
         # first hour s27: a1 --floating-base --ground and gymnasium's half_cheetah drew seven flat
         # zeros of a trunk contact that never touched, the strips' first eight: --plot's rule
-        from .plotting import idle_outputs, untouched
+        from .plotting import contacts_last, idle_outputs, untouched
         left_out = idle_outputs(res)
-        wanted = [n for n in page_outputs(res.outputs) if n not in left_out]
+        # first hour s28: the energy after A1's contacts' 32 outputs missed the 8 strips
+        wanted = contacts_last(res, [n for n in page_outputs(res.outputs) if n not in left_out])
         idle = len(untouched(res))
     else:
         wanted = list(outputs)
@@ -569,7 +570,8 @@ def animate(res, path=None, *, model, fps=60, trace=None, colors=None, outputs=N
     Whipple bicycle's); ``axes``: draw each body's frame axes (default: only for a model
     without shapes; a robot's meshes would be buried under them; the page has a toggle).
     Frame outputs' rotations, Jacobians and twists are never plotted by default (a frame is
-    shown by its position), and at most 8 strips are drawn.  When the run covers much more
+    shown by its position), and at most 8 strips are drawn: the model's own outputs (the
+    energy) first, then the contacts' normal forces, then their other outputs.  When the run covers much more
     ground than the robot (a fall, a walk) the camera follows it.
     ``package_dirs``: folders holding the ROS packages a URDF's ``package://`` meshes name
     (Pinocchio's argument; ROS_PACKAGE_PATH, AMENT_PREFIX_PATH and the example-robot-data

@@ -19,7 +19,7 @@ import numpy as np
 
 from .files import atomic_path
 
-__all__ = ["panels", "plot_result", "untouched", "idle_outputs", "MAX_CURVES", "MAX_PANELS"]
+__all__ = ["panels", "plot_result", "untouched", "idle_outputs", "contacts_last", "MAX_CURVES", "MAX_PANELS"]
 
 MAX_CURVES = 8     # curves in one panel (tab10's distinct colours, with room to tell them apart)
 MAX_PANELS = 6     # panels on one page
@@ -115,6 +115,22 @@ def idle_outputs(res):
     touched (:func:`untouched`) and those of touched ones that stayed 0 (:func:`flat_zero`).
     One rule for --plot's panels and the animation page's strips."""
     return _contact_outputs(untouched(res)) | set(flat_zero(res))
+
+
+def contacts_last(res, names):
+    """``names`` with the model's own outputs (the energy, frames' positions, a file's outputs)
+    first, then the contacts' normal forces (Fn_), then their other outputs (Ftx_, depth_, ...),
+    each in the model's order.  Why: the animation page draws its first 8 strips, and A1 with
+    --ground (first hour s28) drew two contacts' force components and depths and no energy,
+    which came after its 32 contact outputs in the model's order."""
+    model = getattr(res, "model", None)
+    if model is None or not getattr(model, "noutput", 0):
+        return list(names)
+    from .switching import find_switches
+    contact = _contact_outputs([c.name for c in find_switches(model).contacts])
+    own = [n for n in names if n not in contact]
+    normal = [n for n in names if n in contact and n.startswith("Fn_")]
+    return own + normal + [n for n in names if n in contact and not n.startswith("Fn_")]
 
 
 def panels(res, names=None):

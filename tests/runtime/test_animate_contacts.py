@@ -318,7 +318,35 @@ def test_the_pages_strips_leave_out_contacts_that_never_touched(tmp_path):
     data = _data(res.animate(fps=20))
     drawn = [data["outputs"][k]["name"] for strip in data["strips"] for k in strip["series"]]
     assert not [n for n in drawn if "lamp" in n], drawn      # lamp's ground contact, lamp__foot's pair
-    assert drawn[:2] == ["Fn_foot", "depth_foot"] and "energy" in drawn     # Ftx_foot: 0 throughout
+    assert drawn[:3] == ["energy", "Fn_foot", "depth_foot"]     # Ftx_foot: 0 throughout
     assert data["idle_contacts"] == 2
     named = _data(res.animate(fps=20, outputs=["Fn_lamp", "Fn_foot"]))
     assert [o["name"] for o in named["outputs"]] == ["Fn_lamp", "Fn_foot"] and named["idle_contacts"] == 0
+
+
+STOOL = """<mujoco><option gravity="0 0 -9.81"/><worldbody><geom type="plane" size="5 5 .1"/>
+<body name="stool" pos="0 0 0.12"><freejoint/>
+<geom name="leg_a" type="sphere" size="0.1" pos="0.3 0.3 0" mass="1"/>
+<geom name="leg_b" type="sphere" size="0.1" pos="-0.3 0.3 0" mass="1"/>
+<geom name="leg_c" type="sphere" size="0.1" pos="-0.3 -0.3 0" mass="1"/>
+<geom name="leg_d" type="sphere" size="0.1" pos="0.3 -0.3 0" mass="1"/></body>
+</worldbody></mujoco>"""
+
+
+def test_the_pages_strips_show_the_energy_before_the_contacts(tmp_path):
+    """A1 with --floating-base --ground (first hour s28): its page's 8 strips were the first two
+    contacts' Fn, Ftx, Fty and depth, and the energy, after 32 contact outputs in the model's
+    order, was left off.  The model's own outputs come first, then every contact's normal force,
+    then the rest: a four-legged stool's page draws its energy and its four legs' Fn (its Fn and
+    depth alone fill the 8 strips)."""
+    (tmp_path / "stool.xml").write_text(STOOL)
+    model = eomc.compile(MjcfModel(tmp_path / "stool.xml"), functions=["rhs", "jac_x", "outputs", "events", "poses"],
+                         cache_dir=tmp_path / "cache", progress=False)
+    names = list(model.output_names)
+    assert names.index("energy") > 8      # after the legs' outputs in the model's order
+    res = model.simulate(None, (0, 0.3), method="radau")
+    assert res.status == 0 and all(np.max(res.outputs[f"Fn_leg_{leg}"]) > 0 for leg in "abcd")
+    data = _data(res.animate(fps=20))
+    drawn = [data["outputs"][k]["name"] for strip in data["strips"] for k in strip["series"]]
+    assert drawn[:5] == ["energy", "Fn_leg_a", "Fn_leg_b", "Fn_leg_c", "Fn_leg_d"], drawn
+    assert len(data["strips"]) == 8 and data["strips_left_off"] > 0
