@@ -181,6 +181,23 @@ def panels(res, names=None):
     return [(label, group) for label, group in out if group]
 
 
+def _nearly_constant(values):
+    """Each curve's first finite value when every curve of a panel moves by less than 1e-4 of
+    its size (a conserved energy's drift), else None.  Such a panel plots the change from the
+    start: its values themselves share their first digits, which matplotlib writes as an offset
+    over the axis ("1e-5-1.92098e1", the quick start's energy panel, first hour s28)."""
+    starts = []
+    for v in values:
+        finite = v[np.isfinite(v)]
+        if not len(finite):
+            return None
+        size, span = float(np.max(np.abs(finite))), float(np.ptp(finite))
+        if not (0.0 < span < 1e-4 * size):
+            return None
+        starts.append(float(finite[0]))
+    return starts or None
+
+
 def _page_paths(path, pages):
     path = Path(path)
     return [path] + [path.with_name(f"{path.stem}-{k}{path.suffix}") for k in range(2, pages + 1)]
@@ -204,9 +221,17 @@ def plot_result(res, path=None, names=None):
         fig, axes = plt.subplots(len(page), 1, figsize=(10, 1.2 + 2.3 * len(page)), sharex=True,
                                  squeeze=False, layout="constrained")
         for ax, (label, group) in zip(axes[:, 0], page):
-            for k, name in enumerate(group):
-                ax.plot(res.t, res[name], label=name, color=colors[k % len(colors)], lw=1.3)
-            ax.set_ylabel(label)
+            values = [np.asarray(res[name], dtype=float) for name in group]
+            starts = _nearly_constant(values)
+            for k, (name, v) in enumerate(zip(group, values)):
+                if starts is None:
+                    ax.plot(res.t, v, label=name, color=colors[k % len(colors)], lw=1.3)
+                else:
+                    ax.plot(res.t, v - starts[k], label=f"{name} (start {starts[k]:.10g})",
+                            color=colors[k % len(colors)], lw=1.3)
+            ax.set_ylabel(label if starts is None else f"{label}: change from the start")
+            # never matplotlib's offset ("1e-5-1.92098e1" over the axis); a factor as x10^-5
+            ax.ticklabel_format(axis="y", useOffset=False, useMathText=True)
             ax.grid(True, alpha=0.3)
             # outside the data, to the right: a legend never hides a curve
             ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize="small", borderaxespad=0.0,

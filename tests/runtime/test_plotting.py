@@ -87,3 +87,28 @@ def test_a_split_kind_shares_its_curves_evenly():
     assert [len(part) for _, part in _chunks("speeds", [f"u{k}" for k in range(18)])] == [6, 6, 6]
     assert _chunks("speeds", names[:8]) == [("speeds", names[:8])]
     assert sum((part for _, part in _chunks("q", names)), []) == names
+
+
+def test_a_conserved_energy_is_drawn_as_its_change_without_an_offset():
+    """The quick start's energy panel (a double pendulum's energy, -19.20981617 drifting by 1e-5)
+    read "1e-5-1.92098e1" over its axis: matplotlib's offset notation.  A panel whose curves move
+    by less than 1e-4 of their size plots each curve's change from its start, the start in the
+    legend, and no axis of any panel carries an offset."""
+    t = np.linspace(0.0, 10.0, 201)
+    energy = -19.20981617 + 1e-5 * np.sin(t)
+    res = SimulationResult(t=t, x=np.column_stack([np.sin(t), np.cos(t)]), state_names=("q1", "u1"), stats={},
+                           model_name="double_pendulum", method="dop853",
+                           outputs={"energy": energy, "tip_x": 1000.0 + 0.5 * np.sin(t)}, nq=1)
+    fig = plot_result(res)
+    fig.canvas.draw()
+    by_curve = {line.get_label(): (ax, line) for ax in fig.axes for line in ax.lines}
+    ax_energy, line = by_curve["energy (start -19.20981617)"]
+    assert ax_energy.get_ylabel() == "outputs: change from the start"
+    np.testing.assert_allclose(line.get_ydata(), energy - energy[0])
+    ax_tip, tip = by_curve["tip_x"]        # moves by 1e-3 of its size: drawn as it is
+    np.testing.assert_array_equal(tip.get_ydata(), res["tip_x"])
+    for ax in fig.axes:
+        offset = ax.yaxis.get_offset_text().get_text()
+        assert "19" not in offset and "1000" not in offset and "+" not in offset, offset
+    assert "times" in ax_energy.yaxis.get_offset_text().get_text() and "10^{-5}" in \
+        ax_energy.yaxis.get_offset_text().get_text().replace("\u2212", "-")      # a factor, x10^-5
