@@ -353,8 +353,39 @@ def _touches(model):
         return True
 
 
+def _number(text):
+    """A number, or an arithmetic of numbers and pi (``pi``, ``-pi/2``, ``2*pi``, ``(pi/4)``):
+    angles are written so in URDF tools and papers; anything else is ValueError."""
+    import ast
+    import math
+    import operator
+    try:
+        return float(text)
+    except ValueError:
+        pass
+    ops = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul, ast.Div: operator.truediv,
+           ast.USub: operator.neg, ast.UAdd: operator.pos}
+
+    def value(node):
+        if isinstance(node, ast.Constant) and isinstance(node.value, (int, float)) \
+                and not isinstance(node.value, bool):
+            return float(node.value)
+        if isinstance(node, ast.Name) and node.id == "pi":
+            return math.pi
+        if isinstance(node, ast.BinOp) and type(node.op) in ops:
+            return ops[type(node.op)](value(node.left), value(node.right))
+        if isinstance(node, ast.UnaryOp) and type(node.op) in ops:
+            return ops[type(node.op)](value(node.operand))
+        raise ValueError
+    try:
+        return float(value(ast.parse(text.strip(), mode="eval").body))
+    except (SyntaxError, ValueError, ZeroDivisionError, RecursionError):
+        raise ValueError from None
+
+
 def parse_assignments(items, what):
-    """['a=1', 'b=2,c=3'] (or one string) -> {'a': 1.0, 'b': 2.0, 'c': 3.0}; ValueError naming a bad item."""
+    """['a=1', 'b=2,c=3', 'th=pi/2'] (or one string) -> {'a': 1.0, 'b': 2.0, 'c': 3.0, 'th': 1.5707...};
+    ValueError naming a bad item and what a value may be."""
     if isinstance(items, str):
         items = [items]
     out = {}
@@ -362,12 +393,14 @@ def parse_assignments(items, what):
         if not item:
             continue
         name, sep, value = item.partition("=")
+        if not sep or not name.strip():
+            raise ValueError(f"--{what}: expected NAME=VALUE, got {item!r}")
         try:
-            if not sep:
-                raise ValueError
-            out[name.strip()] = float(value)
+            out[name.strip()] = _number(value)
         except ValueError:
-            raise ValueError(f"--{what}: expected NAME=VALUE, got {item!r}") from None
+            # first hour s28: `--x0 th=pi` said "expected NAME=VALUE, got 'th=pi'"
+            raise ValueError(f"--{what}: {item!r}: the value {value.strip()!r} is not a number (give a number, "
+                             f"or numbers and pi with + - * /, e.g. {name.strip()}=pi/2)") from None
     return out
 
 

@@ -688,3 +688,19 @@ def test_a_floating_base_with_no_ground_says_it_fell_and_how_to_get_a_ground(tmp
     said = warned(["check", str(path), "--floating-base", "--t-final", "2", "--methods", "dop853", "-q"])
     assert len(said) == 1 and "the centre of mass falls g t^2/2 = 19.62 m in 2 s" in said[0], said
     assert warned(["simulate", str(path), "--floating-base", "--ground", "--t-final", "0.3", "-q"]) == []
+
+
+def test_x0_and_param_take_pi():
+    """`eomc linearize examples/cartpole_lqr.py --x0 th=pi` (upright) said "--x0: expected
+    NAME=VALUE, got 'th=pi'" (first hour s28): a value may be a number or an arithmetic of
+    numbers and pi; anything else is refused naming the value, and no Python is evaluated."""
+    import math
+
+    got = cli_common.parse_assignments(["th=pi", "q1=-pi/2,q2=2*pi", "u=(pi/4)", "g=9.81", "c=1e-3"], "x0")
+    assert got == {"th": math.pi, "q1": -math.pi / 2, "q2": 2 * math.pi, "u": math.pi / 4, "g": 9.81, "c": 1e-3}
+    for bad, value in (("th=tau", "tau"), ("th=__import__('os')", "__import__('os')"), ("th=pi/0", "pi/0"),
+                       ("th=", ""), ("th=2**1000", "2**1000")):
+        with pytest.raises(ValueError, match=re.escape(f"--x0: {bad!r}: the value {value!r} is not a number")):
+            cli_common.parse_assignments([bad], "x0")
+    with pytest.raises(ValueError, match=r"--param: expected NAME=VALUE, got 'g'"):
+        cli_common.parse_assignments(["g"], "param")
