@@ -117,20 +117,30 @@ def idle_outputs(res):
     return _contact_outputs(untouched(res)) | set(flat_zero(res))
 
 
+# a contact's outputs by kind, in the order pictures draw them (one kind to a panel)
+_CONTACT_PANELS = (("contact normal forces", ("Fn",)), ("contact friction forces", ("Ftx", "Fty", "Ftz")),
+                   ("contact depths", ("depth",)), ("contact points", ("px", "py", "pz")))
+
+
+def _contact_kind(res):
+    """{output name: its kind ("Fn", "Ftx", ..., "pz")} over every contact of the run's model."""
+    model = getattr(res, "model", None)
+    if model is None or not getattr(model, "noutput", 0):
+        return {}
+    from .switching import find_switches
+    return {f"{k}_{c.name}": k for c in find_switches(model).contacts for k in _CONTACT_KINDS}
+
+
 def contacts_last(res, names):
     """``names`` with the model's own outputs (the energy, frames' positions, a file's outputs)
     first, then the contacts' normal forces (Fn_), then their other outputs (Ftx_, depth_, ...),
     each in the model's order.  Why: the animation page draws its first 8 strips, and A1 with
     --ground (first hour s28) drew two contacts' force components and depths and no energy,
     which came after its 32 contact outputs in the model's order."""
-    model = getattr(res, "model", None)
-    if model is None or not getattr(model, "noutput", 0):
-        return list(names)
-    from .switching import find_switches
-    contact = _contact_outputs([c.name for c in find_switches(model).contacts])
-    own = [n for n in names if n not in contact]
-    normal = [n for n in names if n in contact and n.startswith("Fn_")]
-    return own + normal + [n for n in names if n in contact and not n.startswith("Fn_")]
+    kind = _contact_kind(res)
+    own = [n for n in names if n not in kind]
+    normal = [n for n in names if kind.get(n) == "Fn"]
+    return own + normal + [n for n in names if n in kind and kind[n] != "Fn"]
 
 
 def panels(res, names=None):
@@ -172,13 +182,27 @@ def panels(res, names=None):
             frames.setdefault((part[0], part[1]), []).append(name)
         elif wanted is not None and name in wanted:     # asked for by name: drawn, in its own panel
             frames.setdefault((part[0], part[1]), []).append(name)
-    for group in _by_scale(res, keep(plain)):
-        out += _chunks("outputs", group)
+    # the model's own outputs (the energy) first, then the contacts' by kind, one kind to a panel
+    # (first hour s28: A1's --plot drew its energy as the 8th curve among friction forces)
+    kind = _contact_kind(res)
+    out += _scaled("outputs", res, keep([n for n in plain if n not in kind]))
     for (frame, part), group in frames.items():
         label = {"p": "position", "v": "velocity", "w": "angular velocity",
                  "R": "rotation", "J": "Jacobian"}[part]
         out += _chunks(f"{frame} {label}", group)
+    for label, kinds in _CONTACT_PANELS:
+        out += _scaled(label, res, keep([n for n in plain if kind.get(n) in kinds]))
     return [(label, group) for label, group in out if group]
+
+
+def _scaled(label, res, names):
+    """``names`` in panels by scale (:func:`_by_scale`), each split by :func:`_chunks`, all
+    numbered as one kind: "contact depths (1/3)" ... "(3/3)", not two runs of "(1/2)" under one
+    label (A1's 18 touching contacts' normal forces, first hour s28)."""
+    parts = [group for scale in _by_scale(res, names) for _, group in _chunks(label, scale)]
+    if len(parts) == 1:
+        return [(label, parts[0])]
+    return [(f"{label} ({k + 1}/{len(parts)})", part) for k, part in enumerate(parts)]
 
 
 def _nearly_constant(values):

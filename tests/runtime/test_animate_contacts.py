@@ -333,20 +333,38 @@ STOOL = """<mujoco><option gravity="0 0 -9.81"/><worldbody><geom type="plane" si
 </worldbody></mujoco>"""
 
 
-def test_the_pages_strips_show_the_energy_before_the_contacts(tmp_path):
+@pytest.fixture(scope="module")
+def stool(tmp_path_factory):
+    where = tmp_path_factory.mktemp("stool")
+    (where / "stool.xml").write_text(STOOL)
+    model = eomc.compile(MjcfModel(where / "stool.xml"), functions=["rhs", "jac_x", "outputs", "events", "poses"],
+                         cache_dir=where / "cache", progress=False)
+    names = list(model.output_names)
+    assert names.index("energy") > 8      # after the legs' outputs in the model's order
+    res = model.simulate(None, (0, 0.3), method="radau")
+    assert res.status == 0 and all(np.max(res.outputs[f"Fn_leg_{leg}"]) > 0 for leg in "abcd")
+    return res
+
+
+def test_the_pages_strips_show_the_energy_before_the_contacts(stool):
     """A1 with --floating-base --ground (first hour s28): its page's 8 strips were the first two
     contacts' Fn, Ftx, Fty and depth, and the energy, after 32 contact outputs in the model's
     order, was left off.  The model's own outputs come first, then every contact's normal force,
     then the rest: a four-legged stool's page draws its energy and its four legs' Fn (its Fn and
     depth alone fill the 8 strips)."""
-    (tmp_path / "stool.xml").write_text(STOOL)
-    model = eomc.compile(MjcfModel(tmp_path / "stool.xml"), functions=["rhs", "jac_x", "outputs", "events", "poses"],
-                         cache_dir=tmp_path / "cache", progress=False)
-    names = list(model.output_names)
-    assert names.index("energy") > 8      # after the legs' outputs in the model's order
-    res = model.simulate(None, (0, 0.3), method="radau")
-    assert res.status == 0 and all(np.max(res.outputs[f"Fn_leg_{leg}"]) > 0 for leg in "abcd")
+    res = stool
     data = _data(res.animate(fps=20))
     drawn = [data["outputs"][k]["name"] for strip in data["strips"] for k in strip["series"]]
     assert drawn[:5] == ["energy", "Fn_leg_a", "Fn_leg_b", "Fn_leg_c", "Fn_leg_d"], drawn
     assert len(data["strips"]) == 8 and data["strips_left_off"] > 0
+
+
+def test_plot_panels_hold_one_kind_each_the_energy_first(stool):
+    """A1's --plot (first hour s28) drew its energy as the 8th curve of a panel of friction
+    forces, and normal and friction forces shared panels by their scale.  The model's own
+    outputs come first, then one panel kind each: normal forces, friction forces, depths."""
+    from eomc.runtime.plotting import panels
+    chosen = [(label, group) for label, group in panels(stool) if label not in ("coordinates", "speeds")]
+    assert chosen[0] == ("outputs", ["energy"]), chosen
+    assert chosen[1:] == [("contact normal forces", [f"Fn_leg_{leg}" for leg in "abcd"]),
+                          ("contact depths", [f"depth_leg_{leg}" for leg in "abcd"])], chosen   # Ftx, Fty: 0

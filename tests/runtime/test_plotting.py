@@ -103,7 +103,7 @@ def test_a_conserved_energy_is_drawn_as_its_change_without_an_offset():
     fig.canvas.draw()
     by_curve = {line.get_label(): (ax, line) for ax in fig.axes for line in ax.lines}
     ax_energy, line = by_curve["energy (start -19.20981617)"]
-    assert ax_energy.get_ylabel() == "outputs: change from the start"
+    assert ax_energy.get_ylabel() == "outputs (1/2): change from the start"     # tip_x: panel 2/2
     np.testing.assert_allclose(line.get_ydata(), energy - energy[0])
     ax_tip, tip = by_curve["tip_x"]        # moves by 1e-3 of its size: drawn as it is
     np.testing.assert_array_equal(tip.get_ydata(), res["tip_x"])
