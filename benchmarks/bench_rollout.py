@@ -83,8 +83,9 @@ def _case(name, threads_list):
         datas = [mujoco.MjData(mm) for _ in range(k)]
         with mj_rollout.Rollout(nthread=k) as ro:
             contestants = {
-                "eomc final": lambda: eomc.rollout(em, X0, steps=NSTEP, dt=dt, threads=k).x,
-                "eomc steps": lambda: eomc.rollout(em, X0, steps=NSTEP, dt=dt, threads=k, record="steps").x,
+                "eomc final": lambda: eomc.rollout(em, X0, steps=NSTEP, dt=dt, threads=k, method="rk4").x,
+                "eomc steps": lambda: eomc.rollout(em, X0, steps=NSTEP, dt=dt, threads=k, method="rk4",
+                                                   record="steps").x,
                 "mujoco": lambda: ro.rollout([mm] * NROLL, datas, S0, ctrl, nstep=NSTEP)[0],
             }
             if k == 1:

@@ -291,6 +291,20 @@ def test_rollout_with_contacts_equals_simulate_bit_for_bit(tmp_path):
         assert np.array_equal(one.x[-1], rk4.x[i]) and one.status == rk4.status[i]
 
 
+def test_a_stepped_rollout_on_contacts_defaults_to_implicitfast(tmp_path):
+    """rollout(model, X0, t_final=1, dt=0.008) on gymnasium's hopper (first hour s28) ran RK4, its
+    default with dt=, and 10 of 16 rows stopped on "a non-finite value appeared": RK4 diverges on
+    stiff contact at MuJoCo's steps.  With dt= and no method, a model with contacts' fast path
+    (NAME_implicit) runs implicitfast, row for row what method="implicitfast" gives."""
+    m, x0 = thrown_ball(tmp_path, "ro_default")
+    default = eomc.rollout(m, x0[:4], dt=0.005, steps=60, threads=1, raise_on_failure=False)
+    fast = eomc.rollout(m, x0[:4], dt=0.005, steps=60, method="implicitfast", threads=1, raise_on_failure=False)
+    rk4 = eomc.rollout(m, x0[:4], dt=0.005, steps=60, method="rk4", threads=1, raise_on_failure=False)
+    assert np.array_equal(default.x, fast.x) and np.array_equal(default.status, fast.status)
+    assert not np.array_equal(default.x, rk4.x)
+    assert np.all(default.status == 0)
+
+
 def test_implicitfast_rows_get_simulates_energy_verdict(tmp_path, monkeypatch):
     """Issue 29 item 1 / issue 31: a rollout row on implicitfast's fast path is judged by
     simulate's energy verdict (switching.energy_verdict), not only by status 10 and its unsolved

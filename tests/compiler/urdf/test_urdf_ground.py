@@ -128,5 +128,6 @@ def test_compile_takes_ground_as_the_command_line_does(tmp_path):
     assert by_keyword.output_names == by_entry.output_names
     assert len([k for k in by_keyword.output_names if k.startswith("depth_")]) == 8 + 16 + 1
     assert by_keyword.library_path == by_entry.library_path     # one cache entry: the same C
-    with pytest.raises(ValueError, match=r"ground= takes True .*--ground.*, False .*--no-ground.* or None; got 'yes'"):
+    with pytest.raises(ValueError,
+                       match=r"ground= takes True .*--ground.*, False .*--no-ground.* or None; got 'yes'"):
         eomc.compile(str(path), ground="yes", **kw)
