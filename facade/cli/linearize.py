@@ -66,7 +66,23 @@ def run(args):
     print(_matrix("A", A, states, states))
     if model.ninput:
         print(_matrix("B", B, states, model.input_names))
-    eig = np.linalg.eigvals(A)
-    print("eigenvalues: " + ", ".join(f"{z.real:.6g}{z.imag:+.6g}j" if z.imag else f"{z.real:.6g}"
-                                      for z in sorted(eig, key=lambda z: (z.real, z.imag))))
+    print(eigenvalue_text(A))
     return 0
+
+
+def eigenvalue_text(A):
+    """"eigenvalues: ..." of A, each part within round-off of 0 printed as 0, and a note saying
+    how many and below what.  Why: a floating base's position and heading are free, so A has
+    zero eigenvalues in 2x2 Jordan blocks, which LAPACK returns as +-2e-9 (+-sqrt(eps |A|)
+    at most): A1 --floating-base --ground printed twelve such values, some with a positive
+    real part that reads as an unstable mode (first hour s28)."""
+    A = np.asarray(A, dtype=float)
+    eig = np.linalg.eigvals(A) if A.size else np.zeros(0)
+    tol = float(np.sqrt(np.finfo(float).eps * max(1.0, np.linalg.norm(A, 1) if A.size else 1.0)))
+    clean = [complex(0.0 if abs(z.real) < tol else z.real, 0.0 if abs(z.imag) < tol else z.imag) for z in eig]
+    rounded = sum(1 for z, c in zip(eig, clean) if z != c)
+    text = ", ".join(f"{z.real:.6g}{z.imag:+.6g}j" if z.imag else f"{z.real:.6g}"
+                     for z in sorted(clean, key=lambda z: (z.real, z.imag)))
+    note = (f"\n  ({rounded} of them had a real or imaginary part within round-off of 0, below "
+            f"{tol:.2g} = sqrt(eps |A|): printed as 0)" if rounded else "")
+    return f"eigenvalues: {text}{note}"

@@ -49,3 +49,21 @@ def test_the_tables_columns_line_up_under_long_row_names():
     lines = text.splitlines()[1:]
     assert len({len(line) for line in lines}) == 1, text        # every row as wide as the header
     assert lines[2].split() == ["q_thigh_joint", "0", "2.5"] and "-0 " not in text + " ", text
+
+
+def test_eigenvalues_within_round_off_of_zero_print_as_zero():
+    """A1 --floating-base --ground (first hour s28) printed its free base's zero eigenvalues as
+    LAPACK returns them from their 2x2 Jordan blocks, -2.27e-09+8.6e-10j and the like, some with
+    a positive real part that reads as an unstable mode.  Parts below sqrt(eps |A|) print as 0
+    with a note counting them; a slow but real mode (1e-3) and exact zeros are printed as they are."""
+    from eomc.cli.linearize import eigenvalue_text
+
+    jordan = np.array([[0.0, 1.0, 0.0], [1e-17, 0.0, 0.0], [0.0, 0.0, -1e-3]])
+    assert np.max(np.abs(np.linalg.eigvals(jordan).real)) > 1e-9           # what LAPACK gives
+    text = eigenvalue_text(jordan)
+    assert text.splitlines()[0] == "eigenvalues: -0.001, 0, 0", text
+    assert "2 of them had a real or imaginary part within round-off of 0, below 1.5e-08" in text, text
+    assert len(_eigenvalues(text)) == 3
+    spin = np.array([[0.0, 2.0], [-2.0, 0.0]]) + 1e-18          # a centre: its real parts round-off
+    assert eigenvalue_text(spin).splitlines()[0] == "eigenvalues: 0-2j, 0+2j"
+    assert eigenvalue_text(np.zeros((2, 2))) == "eigenvalues: 0, 0"
