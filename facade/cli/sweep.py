@@ -163,7 +163,9 @@ def _pyarrow():
         import pyarrow
         import pyarrow.parquet  # noqa: F401
     except ImportError:
-        raise EomcError("writing .parquet needs pyarrow: pip install pyarrow (or write .csv)") from None
+        # first hour s28: as every other missing extra is named (README's sweep line writes .parquet)
+        raise EomcError("writing .parquet needs pyarrow, which is not installed: pip install \"eomc[dask]\" "
+                        "(from a clone of eomc: pip install \".[dask]\"), or pyarrow alone; or write .csv") from None
     return pyarrow
 
 

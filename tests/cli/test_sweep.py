@@ -301,3 +301,17 @@ def test_a_lost_cluster_is_one_error(monkeypatch):
                                          "tcp://h:8786")
     assert "the Dask cluster at tcp://h:8786 failed during the sweep" in str(failure)
     assert cli_sweep._cluster_failure(ValueError("mine"), "tcp://h:8786") is None
+
+
+def test_parquet_without_pyarrow_names_the_extra(built, cases_csv, tmp_path, monkeypatch, capsys):
+    """README's `eomc sweep ... -o results.parquet` after the quick start's `.[plot]` said "pip
+    install pyarrow" where every other missing package names its extra (first hour s28): it names
+    eomc[dask] (which brings pyarrow), pyarrow alone, and .csv, before any case runs."""
+    import sys
+    monkeypatch.setitem(sys.modules, "pyarrow", None)
+    assert main(["sweep", str(built.directory), "--cases", str(cases_csv), "--t-final", "1",
+                 "-o", str(tmp_path / "r.parquet")]) != 0
+    err = capsys.readouterr().err
+    assert ('writing .parquet needs pyarrow, which is not installed: pip install "eomc[dask]" (from a clone of '
+            'eomc: pip install ".[dask]"), or pyarrow alone; or write .csv') in err, err
+    assert not (tmp_path / "r.parquet").exists()
