@@ -239,7 +239,7 @@ def _accuracy(model, x0, p, t_final, rtol, atol, methods, max_steps, stiff=False
             f"{np.max(apart[:h]) if h else 0.0:.3g} x tolerance{'' if h == t_eval.size else f' until t={t_eval[h]:.4g}'})")
     checks = [Check("reference", f"two references ({ref_method} at rtol={tols[0][0]:g} and "
                     f"{tols[1][0]:g}) agree to {AGREE:g} x tolerance over [0, t_final]",
-                    _horizon_text(apart, t_eval, h, tols), True)]
+                    _horizon_text(apart, t_eval, h, tols) + _stopped_text(ref), True)]
     if h < MIN_WINDOW:
         checks.append(Check("accuracy", f"the references agree long enough to judge a method "
                             f"({MIN_WINDOW} output times)", _horizon_text(apart, t_eval, h, tols) +
@@ -314,6 +314,17 @@ def _same_runs(model, rtol, methods):
         return {}
     first, may_switch = auto_method(model, rtol)
     return {"auto": first, first: "auto"} if not may_switch and first in methods else {}
+
+
+def _stopped_text(ref):
+    """"; every run ends at t=..., where the terminal event NAME fired ..." when one did, else "".
+    Why: examples/cartpole_lqr.py's pole falls at t = 0.55 and its "fallen" event ends each run
+    there; `eomc check` said t_final=10 and nothing of it, its checks covering 0.55 s (first hour s28)."""
+    stop = getattr(ref, "event_stop", None)
+    if not stop or not len(ref.t):
+        return ""
+    return (f"; every run ends at t={ref.t[-1]:.4g}, where the terminal event {stop} fired: the checks "
+            f"cover [0, {ref.t[-1]:.4g}], not [0, t_final]")
 
 
 def _horizon_text(apart, t_eval, h, tols):

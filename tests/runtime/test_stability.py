@@ -314,3 +314,17 @@ def test_the_jacobian_check_at_a_jump_of_a_laws_curvature(tmp_path):
             return J
     bad = stability._jacobian_vs_fd(Off(), np.zeros(2), drag.param_defaults)
     assert not bad.passed and "1.00e-03" in bad.measured, bad.measured
+
+
+def test_a_terminal_event_that_ends_the_runs_is_said(tmp_path):
+    """examples/cartpole_lqr.py without its controller falls at t = 0.55, where its terminal event
+    "fallen" ends every run: `eomc check` said t_final=10 and "10 of 10 checks passed" with
+    nothing of it (first hour s28).  The reference check says where the runs end and why."""
+    import eomc
+    model = eomc.compile(str(Path(__file__).resolve().parents[2] / "examples" / "cartpole_lqr.py"),
+                         cache_dir=tmp_path / "cache", progress=False)
+    checks = by_name(check_model(model, t_final=2.0, methods=("dop853",)))
+    said = checks["reference"].measured
+    assert "; every run ends at t=0.55" in said and "the terminal event fallen fired: the checks cover [0, 0.55" \
+        in said, said
+    assert checks["reference"].passed and checks["dop853 accuracy"].passed
