@@ -323,8 +323,10 @@ def _stopped_text(ref):
     stop = getattr(ref, "event_stop", None)
     if not stop or not len(ref.t):
         return ""
-    return (f"; every run ends at t={ref.t[-1]:.4g}, where the terminal event {stop} fired: the checks "
-            f"cover [0, {ref.t[-1]:.4g}], not [0, t_final]")
+    times = (getattr(ref, "t_events", None) or {}).get(stop)
+    end = float(times[-1]) if times is not None and len(times) else float(ref.t[-1])  # not the last output time
+    return (f"; every run ends at t={end:.4g}, where the terminal event {stop} fired: the checks "
+            f"cover [0, {end:.4g}], not [0, t_final]")
 
 
 def _horizon_text(apart, t_eval, h, tols):

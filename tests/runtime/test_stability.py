@@ -325,6 +325,6 @@ def test_a_terminal_event_that_ends_the_runs_is_said(tmp_path):
                          cache_dir=tmp_path / "cache", progress=False)
     checks = by_name(check_model(model, t_final=2.0, methods=("dop853",)))
     said = checks["reference"].measured
-    assert "; every run ends at t=0.55" in said and "the terminal event fallen fired: the checks cover [0, 0.55" \
+    assert "; every run ends at t=0.5508, where the terminal event fallen fired: the checks cover [0, 0.5508]" \
         in said, said
     assert checks["reference"].passed and checks["dop853 accuracy"].passed
