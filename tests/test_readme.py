@@ -113,7 +113,8 @@ def test_the_derivatives_snippet_runs_as_written(monkeypatch):
     # the first-hour report (s20): it built without jac_r, so linearize's B refused
     import numpy as np
     monkeypatch.chdir(ROOT)                      # the snippet's paths are a clone's
-    namespace = {"np": np, "x": np.array([0.0, 0.2, 0.0, 0.0]), "x0": np.array([0.0, 0.2, 0.0, 0.0])}
+    # only the x of README's Python section (first hour s28: the snippet's x0 was defined nowhere)
+    namespace = {"np": np, "x": np.array([0.0, 0.2, 0.0, 0.0])}
     exec(compile("import eomc\n" + _python_block(README, "## Derivatives"), "README.md", "exec"), namespace)
     A, B, P = namespace["A"], namespace["B"], namespace["P"]
     assert A.shape == (4, 4) and B.shape[0] == 4 and P.shape[0] == 4
