@@ -138,7 +138,7 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method=None, p=Non
     shortened to end on t_final, as ``simulate`` does.  method=None (the default): with ``dt``
     (or ``steps``), "implicitfast" on a model with contacts' fast path (NAME_implicit: an MJCF
     file or URDF robot with contacts; RK4 diverges on stiff contact at such steps), else "rk4"
-    (also with lanes=True); without, "auto", simulate's default: ``rollout(model, X0,
+    (lanes=True too); without, "auto", simulate's default: ``rollout(model, X0,
     t_final=2)`` runs what ``simulate(model, x0, (0, 2))`` runs.  method: "rk4" or "implicitfast"
     (needs jac_x), fixed-step with ``dt``; or "dopri5", "dop853", "radau", "bdf" (the last
     two need jac_x), adaptive: ``t_final``, ``rtol``, ``atol``, ``max_steps`` as in
@@ -213,8 +213,7 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method=None, p=Non
         # with their fast path implicitfast (RK4 at gymnasium's hopper's 8 ms diverged in 10 of 16
         # rows: "a non-finite value appeared")
         stepped = dt is not None or steps is not None or lanes
-        method = ("auto" if not stepped else
-                  "implicitfast" if not lanes and implicit_terms(model) is not None else "rk4")
+        method = "auto" if not stepped else "implicitfast" if implicit_terms(model) is not None else "rk4"
     method = named = resolve_method(method)
     auto = method == "auto"
     if auto:

@@ -303,6 +303,9 @@ def test_a_stepped_rollout_on_contacts_defaults_to_implicitfast(tmp_path):
     assert np.array_equal(default.x, fast.x) and np.array_equal(default.status, fast.status)
     assert not np.array_equal(default.x, rk4.x)
     assert np.all(default.status == 0)
+    # lanes=True follows the same rule: implicitfast's lanes (which need implicit_batch), not RK4's
+    with pytest.raises(ValueError, match="does not take method 'implicitfast' on a model built without implicit_batch"):
+        eomc.rollout(m, x0[:2], dt=0.005, steps=2, lanes=True)
 
 
 def test_implicitfast_rows_get_simulates_energy_verdict(tmp_path, monkeypatch):
