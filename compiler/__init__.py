@@ -43,10 +43,57 @@ import sys as _sys
 # humanoid generated in 6.5 s instead of 7.1 s CPU (benchmarks/results/mjcf_build.md), for ~15 MB.
 # Nothing else changes: the C is the same (benchmarks/c_identity.py).  Only when SymPy is not
 # imported yet, and the environment is left as it was.
+#
+# Set when SymPy is first imported, not by importing this package: the command line's look-up of
+# a model built before (build/reuse.py) and the build cache's modules import eomc.compiler without
+# needing SymPy, and importing it there cost every command ~0.7 s before it could start (s27).
 SYMPY_CACHE_SIZE = 10000
-if "sympy" not in _sys.modules and "SYMPY_CACHE_SIZE" not in _os.environ:
-    _os.environ["SYMPY_CACHE_SIZE"] = str(SYMPY_CACHE_SIZE)
-    try:
-        import sympy as _sympy  # noqa: F401
-    finally:
-        del _os.environ["SYMPY_CACHE_SIZE"]
+
+
+class _SizedSympyCache:
+    """A finder on sys.meta_path that finds nothing itself: on the first import of ``sympy`` it
+    takes itself off the path and, unless the user set SYMPY_CACHE_SIZE, has the other finders'
+    sympy executed with SYMPY_CACHE_SIZE set, removed again once the package has run."""
+
+    def find_spec(self, name, path=None, target=None):
+        if name != "sympy":
+            return None
+        try:
+            _sys.meta_path.remove(self)
+        except ValueError:      # another thread's import took it off first
+            pass
+        if "SYMPY_CACHE_SIZE" in _os.environ:
+            return None
+        for finder in _sys.meta_path:
+            find = getattr(finder, "find_spec", None)
+            spec = find(name, path, target) if find is not None else None
+            if spec is not None:
+                break
+        else:
+            return None
+        if spec.loader is not None and hasattr(spec.loader, "exec_module"):
+            spec.loader = _SizedLoader(spec.loader)
+        return spec
+
+
+class _SizedLoader:
+    """sympy's own loader, run with SYMPY_CACHE_SIZE in the environment; the module keeps the
+    original loader (``__loader__``, ``__spec__.loader``)."""
+
+    def __init__(self, loader):
+        self.loader = loader
+
+    def create_module(self, spec):
+        return self.loader.create_module(spec)
+
+    def exec_module(self, module):
+        module.__spec__.loader = module.__loader__ = self.loader
+        _os.environ["SYMPY_CACHE_SIZE"] = str(SYMPY_CACHE_SIZE)
+        try:
+            self.loader.exec_module(module)
+        finally:
+            _os.environ.pop("SYMPY_CACHE_SIZE", None)
+
+
+if "sympy" not in _sys.modules and not any(isinstance(f, _SizedSympyCache) for f in _sys.meta_path):
+    _sys.meta_path.insert(0, _SizedSympyCache())

@@ -77,36 +77,51 @@ def generator_switches():
     seed_pairs.py), held only when off; ``SEED_MONOMIALS`` off: its one-seed monomials as
     differentiated (same module), held only when off.  ``LIMB_MIN_BODIES``: the twin limbs' bodies from which the
     rhs calls limb routines (compiler/tree/limbs.py), held only when not its default.  ``BODY_LOOPS`` off:
-    NAME_energy and NAME_poses straight-line (compiler/tree/body_loops.py), held only when off."""
-    from ..contact import pairs
-    from ..emit import seed_pairs
-    from ..tree import body_loops, chain_loop, limbs, second_order
-    switches = {"inline_narrow": bool(pairs.INLINE_NARROW)}
-    if pairs.LAW_ROUTINES:
-        switches["law_routines"] = True
-    if pairs.INLINE_SLOPES:
-        switches["inline_slopes"] = True
-    if pairs.PAIR_TABLE:
-        switches["pair_table"] = True
-        if pairs.TABLE_FROM != pairs.TABLE_FROM_DEFAULT:
-            switches["pair_table_from"] = pairs.TABLE_FROM
-    if second_order.TANGENT:
-        switches["hess_tangent"] = True
-    if second_order.HALF_FROM != second_order.HALF_FROM_DEFAULT:
-        switches["hess_half_from"] = second_order.HALF_FROM
-    if second_order.ZERO:
-        switches["hess_zero"] = True
-    if not second_order.ROOT_DOTS:
-        switches["hess_no_root_dots"] = True
-    if chain_loop.CHAIN_LOOP_MIN_LINKS != chain_loop.CHAIN_LOOP_MIN_LINKS_DEFAULT:
+    NAME_energy and NAME_poses straight-line (compiler/tree/body_loops.py), held only when off.
+
+    A module not imported yet holds its defaults (nothing in this process can have flipped them),
+    so it is not imported here: these modules import SymPy, and the command line's look-up of a
+    model built before (common.load_model) paid ~0.7 s for it on every command (s27).  The
+    defaults so assumed are checked against the modules' own by tests/compiler/build/test_reuse.py."""
+    loaded = sys.modules.get
+    switches = {"inline_narrow": True}      # pairs.INLINE_NARROW's default, the one always held
+    pairs = loaded("eomc.compiler.contact.pairs")
+    if pairs is not None:
+        switches["inline_narrow"] = bool(pairs.INLINE_NARROW)
+        if pairs.LAW_ROUTINES:
+            switches["law_routines"] = True
+        if pairs.INLINE_SLOPES:
+            switches["inline_slopes"] = True
+        if pairs.PAIR_TABLE:
+            switches["pair_table"] = True
+            if pairs.TABLE_FROM != pairs.TABLE_FROM_DEFAULT:
+                switches["pair_table_from"] = pairs.TABLE_FROM
+    else:
+        switches["pair_table"] = True       # pairs.PAIR_TABLE's default
+    second_order = loaded("eomc.compiler.tree.second_order")
+    if second_order is not None:
+        if second_order.TANGENT:
+            switches["hess_tangent"] = True
+        if second_order.HALF_FROM != second_order.HALF_FROM_DEFAULT:
+            switches["hess_half_from"] = second_order.HALF_FROM
+        if second_order.ZERO:
+            switches["hess_zero"] = True
+        if not second_order.ROOT_DOTS:
+            switches["hess_no_root_dots"] = True
+    chain_loop = loaded("eomc.compiler.tree.chain_loop")
+    if chain_loop is not None and chain_loop.CHAIN_LOOP_MIN_LINKS != chain_loop.CHAIN_LOOP_MIN_LINKS_DEFAULT:
         switches["chain_loop_min_links"] = chain_loop.CHAIN_LOOP_MIN_LINKS
-    if not seed_pairs.SEED_PAIRS:
-        switches["no_seed_pairs"] = True
-    if not seed_pairs.SEED_MONOMIALS:
-        switches["no_seed_monomials"] = True
-    if limbs.LIMB_MIN_BODIES != limbs.LIMB_MIN_BODIES_DEFAULT:
+    seed_pairs = loaded("eomc.compiler.emit.seed_pairs")
+    if seed_pairs is not None:
+        if not seed_pairs.SEED_PAIRS:
+            switches["no_seed_pairs"] = True
+        if not seed_pairs.SEED_MONOMIALS:
+            switches["no_seed_monomials"] = True
+    limbs = loaded("eomc.compiler.tree.limbs")
+    if limbs is not None and limbs.LIMB_MIN_BODIES != limbs.LIMB_MIN_BODIES_DEFAULT:
         switches["limb_min_bodies"] = limbs.LIMB_MIN_BODIES
-    if not body_loops.BODY_LOOPS:
+    body_loops = loaded("eomc.compiler.tree.body_loops")
+    if body_loops is not None and not body_loops.BODY_LOOPS:
         switches["no_body_loops"] = True
     return switches
 

@@ -69,6 +69,28 @@ def test_the_second_run_derives_nothing(counted, tmp_path):
     assert np.array_equal(first["q"], second["q"])
 
 
+SECOND_RUN = """
+import sys
+from eomc.cli import main
+code = main(["simulate", sys.argv[1], "--t-final", "0.5", "-q", "-o", sys.argv[2]])
+print(code, 'sympy' in sys.modules)
+"""
+
+
+def test_the_second_run_imports_no_sympy(tmp_path):
+    """The look-up of the model built before (its key, the cache) imports no SymPy: it cost each
+    command ~0.7 s before it started (s27: eomc.compiler imported SymPy, and the key's generator
+    switches imported the generator's modules)."""
+    import os
+    import subprocess
+    import sys
+    path = _model_file(tmp_path)
+    env = {**os.environ, "EOMC_CACHE_DIR": str(tmp_path / "cache")}
+    runs = [subprocess.run([sys.executable, "-c", SECOND_RUN, str(path), str(tmp_path / f"{k}.csv")],
+                           capture_output=True, text=True, env=env, timeout=300) for k in range(2)]
+    assert [r.stdout.split()[-2:] for r in runs] == [["0", "True"], ["0", "False"]], [r.stderr for r in runs]
+
+
 def test_a_changed_file_or_option_is_derived_again(counted, tmp_path):
     """The file's bytes and the options are in the key: each change derives again."""
     path = _model_file(tmp_path, extra="LENGTH = 1.0")
