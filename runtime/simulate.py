@@ -676,7 +676,12 @@ def run_prepared(model, a, out=None):
     # a caller inside runtime.progress.integration() (eomc simulate) sees how far it got; the
     # Radau part of an "auto" run that switched goes on over the whole span and step count
     t0, t1, before = a.get("_progress", (a["t0"], a["t1"], None))
-    follow_integration(lambda: (stats.t, stats.steps + (before or 0)), t0, t1, call, resume=before is not None)
+    try:
+        follow_integration(lambda: (stats.t, stats.steps + (before or 0)), t0, t1, call, resume=before is not None)
+    except BaseException as stop:
+        if not isinstance(stop, Exception):     # Ctrl-C, SIGTERM: the C loop stopped, its rows go along
+            stop.eomc_rows = (x_out, {f: getattr(stats, f) for f in _STAT_FIELDS}, x_last)
+        raise
     got = {f: getattr(stats, f) for f in _STAT_FIELDS}
     if a.get("_watch") is not None:     # the C energy watch's numbers, for the verdict (finish)
         from .switching import watched_stats
@@ -699,16 +704,27 @@ def _continue_implicit(model, a, x_out, first, x_last):
              t_eval=np.ascontiguousarray(a["t_eval"][n1:]), h0=0.0, _progress=(a["t0"], a["t1"], first["steps"]))
     if b["t_eval"].size and b["t_eval"][0] <= b["t0"]:
         b["t_eval"] = b["t_eval"][b["t_eval"] > b["t0"]]
-    rows, second, x_end = run_prepared(model, b, out=x_out[n1:n1 + b["t_eval"].size])
+    a["_first_bindings"] = (fb, ev)
+    a["method_used"] = f"dop853, then radau from t={first['t']:.6g} (stiff)"
+    try:
+        rows, second, x_end = run_prepared(model, b, out=x_out[n1:n1 + b["t_eval"].size])
+    except BaseException as stop:
+        if hasattr(stop, "eomc_rows"):      # stopped in the Radau part: both parts' rows
+            stop.eomc_rows = (x_out, _merged(first, stop.eomc_rows[1], n1), stop.eomc_rows[2])
+            a["_bindings"] = b.get("_bindings", (None, None))
+        raise
+    a["_bindings"] = b.get("_bindings", (None, None))
+    return x_out, _merged(first, second, n1), x_end
+
+
+def _merged(first, second, n1):
+    """The stats of an "auto" run that switched: the DOP853 part's and the Radau part's."""
     merged = dict(second)
     for f in ("steps", "accepted", "rejected", "nfev", "njev", "nlu", "nproj", "nswitch"):
         merged[f] = first[f] + second[f]
     merged["n_out"] = n1 + second["n_out"]
     merged["switched_at"] = first["t"]
-    a["_first_bindings"] = (fb, ev)
-    a["_bindings"] = b.get("_bindings", (None, None))
-    a["method_used"] = f"dop853, then radau from t={first['t']:.6g} (stiff)"
-    return x_out, merged, x_end
+    return merged
 
 
 def evaluated_along(model, which):
@@ -872,7 +888,10 @@ def simulate(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6
     constraint residuals decay like exp(-a t) (Baumgarte-style).  pi_beta: Hairer's
     stabilized step control for dopri5/dop853 (0.04; 0 gives the classical control,
     step for step scipy's).  A failed run raises SimulationError, or with
-    raise_on_failure=False returns the rows computed so far with ``status``.
+    raise_on_failure=False returns the rows computed so far with ``status``.  Ctrl-C stops the
+    C loop within one model evaluation (so does SIGTERM where the program handles it, as the
+    command line does: runtime/native.py); the KeyboardInterrupt carries the rows computed so
+    far as ``partial_result``.
 
     Inputs and feedback: a callable r(t) or r(t, x) is called from C at every
     stage (exact, but a Python call per stage: ~µs each); K (ninput x nx) and
@@ -941,7 +960,11 @@ def simulate(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6
         warn_outside_limits(model, a["x0"], a["p"])
     from .switching import warn_unchecked
     warn_unchecked(model)
-    x_out, stats, x_last = run_prepared(model, a)
+    try:
+        x_out, stats, x_last = run_prepared(model, a)
+    except BaseException as stop:
+        _keep_rows(model, a, stop)
+        raise
     result = finish(model, a, x_out, stats, x_last, raise_on_failure)
     if project and not consistent and model.nhol + model.nvel:
         _say_projected(model, a, result, atol)
@@ -953,6 +976,21 @@ def simulate(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6
             from .switching import PhysicsWarning
             warnings.warn(PhysicsWarning(said), stacklevel=_user_level())
     return result
+
+
+def _keep_rows(model, a, stop):
+    """Ctrl-C (KeyboardInterrupt) or a SIGTERM handler's exception out of the C loop: the rows
+    computed up to it, as a SimulationResult in ``stop.partial_result``: status 9 (EOMC_ABORTED),
+    or 0 when the loop had finished as the signal came (`eomc simulate` writes them, marked as
+    stopped, before it exits)."""
+    rows = getattr(stop, "eomc_rows", None)
+    if rows is None:
+        return
+    del stop.eomc_rows
+    try:
+        stop.partial_result = finish(model, a, *rows, raise_on_failure=False)
+    except BaseException:       # noqa: BLE001 -- the rows cannot be wrapped: the stop goes on without them
+        pass
 
 
 def _checked_split(model, method, split):

@@ -6,6 +6,8 @@ built model directory / NAME.json / libNAME.so (loaded with eomc.load).  The
 start is the model's ``initial_state`` unless ``--x0`` overrides entries.
 """
 
+from contextlib import contextmanager
+
 from . import common as cli_common
 
 __all__ = ["configure", "run"]
@@ -220,7 +222,8 @@ def run(args):
             warnings.simplefilter("always", ConstraintWarning)
             # long runs report how far they got (a bar on a terminal, a line every ~10 % of
             # the span and >= 5 s otherwise: runtime/progress.py); -q: nothing
-            with integration(f"eomc simulate {model.name}", sys.stderr, not args.quiet):
+            with integration(f"eomc simulate {model.name}", sys.stderr, not args.quiet), \
+                    _kept_on_stop(args, columns):
                 res = simulate(model, x0, (args.t0, args.t_final), p=params, method=args.method,
                                rtol=args.rtol, atol=args.atol, dt=args.dt, max_steps=args.max_steps,
                                n_points=None if args.dt else args.points, project=args.project,
@@ -323,6 +326,36 @@ def run(args):
                 print(f"  --plot: {len(flat)} contact output{'s' if len(flat) > 1 else ''} 0 throughout "
                       f"({', '.join(flat[:3])}{', ...' if len(flat) > 3 else ''}) not drawn")
     return 0
+
+
+@contextmanager
+def _kept_on_stop(args, columns):
+    """Ctrl-C or SIGTERM (a job scheduler's, `kill`'s) during the run: the C loop stops at once
+    (runtime/native.py arms both), and the rows it computed are written to -o, marked as stopped on
+    the CSV's last line, before the command exits 130 / 143 (s27: SIGTERM waited for the whole run,
+    and what was computed was lost)."""
+    import sys
+    try:
+        yield
+    except BaseException as stop:
+        res = getattr(stop, "partial_result", None)
+        if res is None or isinstance(stop, Exception):
+            raise
+        what = "interrupted (SIGINT, Ctrl-C)" if isinstance(stop, KeyboardInterrupt) else "terminated (SIGTERM)"
+        reached = float(res.t_final)
+        kept = ""
+        if args.output and len(res.t):
+            if res.status == 0:     # the run had ended as the signal came: its rows are whole
+                kept = f"; the run had finished: wrote its {len(res.t)} rows to {args.output}"
+            else:
+                res.message = (f"{what} at t={reached:.9g} of [{args.t0:g}, {args.t_final:g}]: the rows "
+                               f"computed up to it")
+                kept = (f"; wrote the {len(res.t)} rows computed up to t={res.t[-1]:.9g} to {args.output} "
+                        f"(marked '# incomplete' on its last line)")
+            res.to_csv(args.output, columns=columns)
+        print(f"eomc simulate: {what.split()[0]} at t={reached:.9g} of [{args.t0:g}, {args.t_final:g}] "
+              f"after {res.stats.get('steps', 0)} steps{kept}", file=sys.stderr)
+        raise
 
 
 def _no_ground(model, res):

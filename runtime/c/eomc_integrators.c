@@ -203,7 +203,7 @@ typedef struct ctx {
     eomc_events *ev;         /* event detection, or NULL */
     double ev_t;             /* time of the terminal event that stopped the run */
     double *ev_x;            /* its state (in the events' scratch) */
-    int abort;               /* nonzero: a callback failed or Ctrl-C -- the run's status, no retry */
+    int abort;               /* nonzero: a callback failed, Ctrl-C or SIGTERM -- the run's status, no retry */
     long sigint0;            /* g_sigint at the start of the run */
     int nsw;                 /* switching functions (events marked switching + linear ones) */
     int nswe;                /* of which events (a model call each) */
@@ -221,29 +221,35 @@ typedef struct ctx {
     double sw_hp;            /* BDF: the last kept step's length (0: none yet; sw_reach) */
 } ctx;
 
-/* ---------------------------------------------------------------- Ctrl-C */
+/* ---------------------------------------------------------------- Ctrl-C, SIGTERM */
 
-/* SIGINTs seen by the armed handler; a run stops when it changes (a count, never reset, so
- * concurrent runs need no coordination and a stale signal never stops a later run). */
+/* SIGINTs and SIGTERMs seen by the armed handler; a run stops when it changes (a count, never
+ * reset, so concurrent runs need no coordination and a stale signal never stops a later run). */
 static volatile sig_atomic_t g_sigint = 0;
 
 #if defined(_POSIX_VERSION) || defined(__unix__) || defined(__APPLE__)
-static struct sigaction g_prev_sigint;
+/* The two signals that stop a run: Ctrl-C, and a job scheduler's or `kill`'s SIGTERM (s27: a
+ * killed `eomc check` went on for minutes, its Python handler waiting for the C call to return). */
+static const int g_stop_signals[2] = {SIGINT, SIGTERM};
+static struct sigaction g_prev[2];     /* the handler each replaced, chained to */
 
 static void on_sigint(int sig, siginfo_t *info, void *uc)
 {
+    const struct sigaction *prev = &g_prev[sig == SIGTERM];
     g_sigint = (sig_atomic_t)(g_sigint + 1);
-    if (g_prev_sigint.sa_flags & SA_SIGINFO) {
-        if (g_prev_sigint.sa_sigaction) g_prev_sigint.sa_sigaction(sig, info, uc);
-    } else if (g_prev_sigint.sa_handler != SIG_DFL && g_prev_sigint.sa_handler != SIG_IGN) {
-        g_prev_sigint.sa_handler(sig);
+    if (prev->sa_flags & SA_SIGINFO) {
+        if (prev->sa_sigaction) prev->sa_sigaction(sig, info, uc);
+    } else if (prev->sa_handler != SIG_DFL && prev->sa_handler != SIG_IGN) {
+        prev->sa_handler(sig);
     }
 }
 
-int eomc_interrupt_arm(void)
+/* Arm signal k (0: SIGINT, 1: SIGTERM); 1 when armed, 0 when it is default or ignored. */
+static int arm_one(int k)
 {
     struct sigaction cur, mine, old;
-    if (sigaction(SIGINT, NULL, &cur) != 0) return 0;
+    int sig = g_stop_signals[k];
+    if (sigaction(sig, NULL, &cur) != 0) return 0;
     if ((cur.sa_flags & SA_SIGINFO) && cur.sa_sigaction == on_sigint) return 1;  /* armed already */
     if (!(cur.sa_flags & SA_SIGINFO) && (cur.sa_handler == SIG_DFL || cur.sa_handler == SIG_IGN))
         return 0;
@@ -254,25 +260,35 @@ int eomc_interrupt_arm(void)
     mine.sa_flags |= cur.sa_flags & SA_ONSTACK;
 #endif
     sigemptyset(&mine.sa_mask);
-    g_prev_sigint = cur;
-    if (sigaction(SIGINT, &mine, &old) != 0) return 0;
+    g_prev[k] = cur;
+    if (sigaction(sig, &mine, &old) != 0) return 0;
     if ((old.sa_flags & SA_SIGINFO) && old.sa_sigaction == on_sigint) return 1;  /* raced: keep cur */
-    g_prev_sigint = old;     /* what was really replaced (never this handler: no self-chaining) */
+    g_prev[k] = old;     /* what was really replaced (never this handler: no self-chaining) */
     return 1;
+}
+
+int eomc_interrupt_arm(void)
+{
+    int sigint = arm_one(0);
+    int sigterm = arm_one(1);
+    return sigint | sigterm;
 }
 
 void eomc_interrupt_disarm(void)
 {
     struct sigaction cur;
-    if (sigaction(SIGINT, NULL, &cur) == 0 && (cur.sa_flags & SA_SIGINFO) && cur.sa_sigaction == on_sigint)
-        sigaction(SIGINT, &g_prev_sigint, NULL);
+    int k;
+    for (k = 0; k < 2; ++k)
+        if (sigaction(g_stop_signals[k], NULL, &cur) == 0 && (cur.sa_flags & SA_SIGINFO)
+            && cur.sa_sigaction == on_sigint)
+            sigaction(g_stop_signals[k], &g_prev[k], NULL);
 }
 #else
 int eomc_interrupt_arm(void) { return 0; }
 void eomc_interrupt_disarm(void) { }
 #endif
 
-/* Nonzero when the run must stop now (Ctrl-C, or a callback that failed). */
+/* Nonzero when the run must stop now (Ctrl-C or SIGTERM, or a callback that failed). */
 static int aborted(ctx *c)
 {
     if (!c->abort && g_sigint != c->sigint0) c->abort = EOMC_ABORTED;

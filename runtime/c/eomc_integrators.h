@@ -330,15 +330,18 @@ int eomc_integrate_ex(const eomc_model *m, const eomc_options *opt,
                       double *work, size_t work_len);
 
 /*
- * Ctrl-C during a run.  eomc_interrupt_arm() installs a SIGINT handler that
- * counts the signal and then calls the handler it replaced (Python's, which
- * raises KeyboardInterrupt when the C call returns); while it is installed,
+ * Ctrl-C or SIGTERM during a run.  eomc_interrupt_arm() installs a handler of
+ * SIGINT and of SIGTERM that counts the signal and then calls the handler it
+ * replaced (Python's, which raises KeyboardInterrupt -- or what the program's
+ * SIGTERM handler raises -- when the C call returns); while it is installed,
  * every run that started before the signal stops at its next model evaluation
- * with EOMC_ABORTED.  It returns 1 when armed (also when it already was), 0
- * when SIGINT is ignored or default (nothing to chain) or on a platform
- * without sigaction.  eomc_interrupt_disarm() puts the replaced handler back
- * if this one is still installed.  Callers should serialize them (a race is
- * benign: the handler never chains to itself).
+ * with EOMC_ABORTED.  A signal whose handler is the default or ignored is left
+ * alone (SIGTERM then ends the process as before).  It returns 1 when either
+ * is armed (also when it already was), 0 when both are ignored or default
+ * (nothing to chain) or on a platform without sigaction.
+ * eomc_interrupt_disarm() puts the replaced handlers back where this one is
+ * still installed.  Callers should serialize them (a race is benign: the
+ * handler never chains to itself).
  */
 int eomc_interrupt_arm(void);
 void eomc_interrupt_disarm(void);

@@ -118,6 +118,49 @@ def test_ctrl_c_lands_within_a_tenth_of_a_second(built, kind, tmp_path):
     assert lines[1] == "later run ok", proc.stdout + proc.stderr
 
 
+TERM_CHILD = textwrap.dedent("""
+    import os, signal, sys, threading, time
+    class Terminated(BaseException):
+        pass
+    def on_term(signum, frame):     # as the command line's: SIGTERM unwinds like Ctrl-C
+        raise Terminated()
+    signal.signal(signal.SIGTERM, on_term)
+    import eomc.runtime.simulate as sim
+    from eomc.runtime.loader import load
+    model = load(sys.argv[1])
+    started, real = threading.Event(), sim.follow_integration
+    def following(*args, **kwargs):     # the C loop is about to start
+        started.set()
+        return real(*args, **kwargs)
+    sim.follow_integration = following
+    def send():
+        started.wait()
+        time.sleep(0.3)
+        globals()["sent"] = time.perf_counter()
+        os.kill(os.getpid(), signal.SIGTERM)
+    threading.Thread(target=send, daemon=True).start()
+    try:
+        model.simulate([1.0, 0.0], (0, 1e9), max_steps=10 ** 12, n_points=10 ** 6 + 1, p=[2.0, 0.0, 8.0])
+        print("finished")
+    except Terminated as stop:
+        res = stop.partial_result
+        print(f"terminated {time.perf_counter() - sent:.3f} {res.status} {len(res.t)} {res.t[-1] < res.t_final}")
+""")
+
+
+def test_sigterm_with_a_handler_stops_the_c_loop_and_keeps_the_rows(built, tmp_path):
+    """s27: SIGTERM reached the program's handler only when the C call returned (a killed `eomc
+    check` went on for minutes); now it stops the loop as Ctrl-C does, and the exception carries
+    the rows computed so far (status 9)."""
+    script = tmp_path / "child.py"
+    script.write_text(TERM_CHILD)
+    proc = subprocess.run([sys.executable, str(script), str(built.directory)], capture_output=True,
+                          text=True, timeout=60)
+    words = proc.stdout.split()
+    assert words[:1] == ["terminated"], proc.stdout + proc.stderr
+    assert float(words[1]) < 0.1 and words[2] == "9" and int(words[3]) >= 1 and words[4] == "True", words
+
+
 def test_sigint_handler_is_python_s_again_after_a_run(osc):
     before = signal.getsignal(signal.SIGINT)
     osc.simulate([1.0, 0.0], (0, 1.0))
