@@ -16,13 +16,15 @@ without the GIL.  On a terminal it draws a bar over the time span; in a log (CI,
 a notebook's captured stderr, ``2> run.log``) it prints a plain line only when
 both LINE_FRACTION of the span and LINE_SECONDS of wall time have passed since
 the last one -- whichever is rarer -- so a short run prints nothing and a long
-one about ten lines.
+one about ten lines.  A command of many runs (`eomc check`: references, each
+method; G1's took 388 s in silence before, s27) names each run (:func:`stage`) in
+its lines, or in its ticker's live line on a terminal.
 """
 import threading
 import time
 from contextlib import contextmanager
 
-__all__ = ["ticker", "bar", "is_terminal", "integration", "follow_integration"]
+__all__ = ["ticker", "bar", "is_terminal", "integration", "follow_integration", "stage"]
 
 REFRESH_S = 0.5
 LINE_FRACTION = 0.1     # plain lines: at least this much more of the time span ...
@@ -137,12 +139,16 @@ _current = threading.local()     # the integration() the calling thread is insid
 
 
 class _Follower:
-    """Follows one C integration from a thread: ``run`` polls ``read()`` -> (t, steps)."""
+    """Follows one C integration from a thread: ``run`` polls ``read()`` -> (t, steps).
 
-    def __init__(self, label, stream, live, clock):
-        self.label, self.stream, self.live, self.clock = label, stream, live, clock
+    ``note``: a ticker's note (its live line, `eomc check`'s on a terminal) shows how far the run
+    got, instead of a bar of its own."""
+
+    def __init__(self, label, stream, live, clock, note=None):
+        self.label, self.stream, self.live, self.clock, self.note = label, stream, live, clock, note
         self.lines = 0
         self._bar = None
+        self.what = None
 
     def begin(self, t0, t1, resume=False):
         """``resume``: the same run goes on in a second call (method="auto" after it switched to
@@ -151,15 +157,18 @@ class _Follower:
         if not (resume and hasattr(self, "start")):
             self.start = self.clock()
             self.frac, self.wall = 0.0, self.start
+            self.lines = 0
+            self.what = getattr(_current, "stage", None)    # read here, on the caller's thread
         self.shown = 0
-        if self.live:
+        if self.live and self.note is None:
             self._bar = _tqdm()(total=100, desc=self.label, file=self.stream, leave=False, unit="%",
                                 bar_format="{desc} {percentage:3.0f}%|{bar}| {elapsed}{postfix}")
 
     def _line(self, t, steps):
         span = self.t1 - self.t0
         share = 100.0 * (t - self.t0) / span if span else 100.0
-        print(f"{self.label}: t = {t:.6g} of [{self.t0:.6g}, {self.t1:.6g}] ({share:.0f} %), "
+        what = f"{self.label}: {self.what}" if self.what else self.label
+        print(f"{what}: t = {t:.6g} of [{self.t0:.6g}, {self.t1:.6g}] ({share:.0f} %), "
               f"{steps} steps, {self.clock() - self.start:.0f} s", file=self.stream, flush=True)
         self.lines += 1
 
@@ -168,6 +177,10 @@ class _Follower:
         if LINE_FRACTION of the span and LINE_SECONDS have passed since the last one."""
         span = (self.t1 - self.t0) or 1.0
         frac = min(max((t - self.t0) / span, 0.0), 1.0)
+        if self.note is not None:
+            self.note(f"{self.what + ': ' if self.what else ''}t={t:.4g} of {self.t1:.4g} "
+                      f"({100 * frac:.0f} %), {steps} steps")
+            return
         if self._bar is not None:
             shown = int(100 * frac)
             if shown > self.shown:
@@ -206,19 +219,37 @@ class _Follower:
 
 
 @contextmanager
-def integration(label, stream, enabled=True, clock=time.monotonic):
+def integration(label, stream, enabled=True, clock=time.monotonic, ticker=None):
     """Integrations run inside this block (on this thread) report progress on ``stream``: a bar
     on a terminal, sparse plain lines otherwise (module docstring); nothing when not
     ``enabled`` (``-q``).  The integrator's caller hands each C call to
-    :func:`follow_integration`."""
+    :func:`follow_integration`.  ``ticker``: a live :func:`ticker` already drawn for the whole
+    command (`eomc check`: many runs), whose note then says how far each run got instead of a
+    bar per run; lines name the run :func:`stage` says it is."""
     previous = getattr(_current, "follower", None)
     live = is_terminal(stream)
-    _current.follower = (_Follower(label, stream, live and _tqdm() is not None, clock)
-                         if enabled and (not live or _tqdm() is not None) else None)
+    if ticker is not None and ticker.active:
+        _current.follower = _Follower(label, stream, False, clock, note=ticker.note) if enabled else None
+    else:
+        _current.follower = (_Follower(label, stream, live and _tqdm() is not None, clock)
+                             if enabled and (not live or _tqdm() is not None) else None)
     try:
         yield _current.follower
     finally:
         _current.follower = previous
+
+
+@contextmanager
+def stage(what):
+    """The integrations inside this block are ``what`` (`eomc check`'s "reference: radau at
+    rtol=1e-10, atol=1e-12"): an enclosing :func:`integration`'s lines and note name it.  Inside
+    another stage it is a part of that one: "reference", then "radau at ...", read as above."""
+    previous = getattr(_current, "stage", None)
+    _current.stage = f"{previous}: {what}" if previous else what
+    try:
+        yield
+    finally:
+        _current.stage = previous
 
 
 def follow_integration(read, t0, t1, call, resume=False):

@@ -13,6 +13,7 @@ import numpy as np
 
 from eomc.runtime.errors import EomcError
 
+from .progress import stage
 from .simulate import simulate
 
 __all__ = ["Check", "check_model", "format_checks", "outcome", "default_methods", "COND_WARN", "GLOBAL_FACTOR",
@@ -166,8 +167,11 @@ def _is_stiff(check):
 
 
 def _run(model, x0, p, t_final, t_eval, method, rtol, atol, max_steps):
-    return simulate(model, x0, (0.0, t_final), p=p, method=method, rtol=rtol, atol=atol,
-                    t_eval=t_eval, max_steps=max_steps, raise_on_failure=False)
+    """One checked run, named in `eomc check`'s progress (runtime/progress.stage: inside the
+    caller's stage, e.g. "reference: radau at rtol=1e-10, atol=1e-12")."""
+    with stage(f"{method} at rtol={rtol:g}, atol={atol:g}"):
+        return simulate(model, x0, (0.0, t_final), p=p, method=method, rtol=rtol, atol=atol,
+                        t_eval=t_eval, max_steps=max_steps, raise_on_failure=False)
 
 
 def _reference_method(model, x0, p, t_final, t_eval, tol, max_steps):
@@ -179,10 +183,11 @@ def _reference_method(model, x0, p, t_final, t_eval, tol, max_steps):
     from .switching import find_switches
     implicit = model.c_model.jac_x != model.ffi.NULL
     method = "radau" if implicit and find_switches(model).contacts else "dop853"
-    ref = _run(model, x0, p, t_final, t_eval, method, *tol, max_steps)
-    if ref.status in (6, 7) and implicit and method != "radau":
-        method = "radau"
+    with stage("looser reference"):
         ref = _run(model, x0, p, t_final, t_eval, method, *tol, max_steps)
+        if ref.status in (6, 7) and implicit and method != "radau":
+            method = "radau"
+            ref = _run(model, x0, p, t_final, t_eval, method, *tol, max_steps)
     return method, ref
 
 
@@ -227,7 +232,8 @@ def _accuracy(model, x0, p, t_final, rtol, atol, methods, max_steps, stiff=False
     ref_method, loose = _reference_method(model, x0, p, t_final, t_eval, tols[0], max_steps * 10)
     if loose.status:      # e.g. a singular configuration or too many steps: say where and why
         return [_unreachable("reference", ref_method, tols[0], loose, t_final, rtol)], {"reference": loose}
-    ref = _run(model, x0, p, t_final, t_eval, ref_method, *tols[1], max_steps * 10)
+    with stage("reference"):
+        ref = _run(model, x0, p, t_final, t_eval, ref_method, *tols[1], max_steps * 10)
     if ref.status:
         return ([_unreachable("reference", ref_method, tols[1], ref, t_final, rtol)],
                 {"reference": loose})
@@ -264,8 +270,9 @@ def _accuracy(model, x0, p, t_final, rtol, atol, methods, max_steps, stiff=False
             # is convergence -- 100x tighter tolerances must cut the error at least 10x.
             key = same["auto"] if method == "auto" and "auto" in same else method   # one run per same run
             if key not in finer_runs:
-                finer_runs[key] = (_run(model, x0, p, t_final, t_eval, method, rtol / 100, atol / 100,
-                                        max_steps * 10), "tolerances")
+                with stage("convergence"):
+                    finer_runs[key] = (_run(model, x0, p, t_final, t_eval, method, rtol / 100, atol / 100,
+                                            max_steps * 10), "tolerances")
             finer, tighter = finer_runs[key]
             fine_ratio = (float(np.max((np.abs(finer.x - ref.x) / scale)[:h])) if finer.status == 0
                           else np.inf)
@@ -366,9 +373,11 @@ def _drift(runs, name="energy"):
 def _constraints(model, x0, p, t_final, rtol, atol):
     if model.nhol + model.nvel == 0 or model.c_model.constraints == model.ffi.NULL:
         return []
-    free = simulate(model, x0, (0.0, t_final), p=p, rtol=rtol, atol=atol, raise_on_failure=False)
-    proj = simulate(model, x0, (0.0, t_final), p=p, rtol=rtol, atol=atol, project=True,
-                    raise_on_failure=False)
+    with stage(f"constraint drift: auto at rtol={rtol:g}, atol={atol:g}"):
+        free = simulate(model, x0, (0.0, t_final), p=p, rtol=rtol, atol=atol, raise_on_failure=False)
+    with stage(f"constraint drift: auto at rtol={rtol:g}, atol={atol:g}, projected"):
+        proj = simulate(model, x0, (0.0, t_final), p=p, rtol=rtol, atol=atol, project=True,
+                        raise_on_failure=False)
     ok = proj.status == 0 and proj.stats["max_residual"] < 1e-10
     return [Check("constraint drift", "project=True keeps residuals < 1e-10 at steps",
                   f"free: max {np.max(free.constraint_residual):.3g}; projected: "

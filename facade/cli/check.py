@@ -31,7 +31,7 @@ def configure(parser):
 
 def run(args):
     import sys
-    from eomc.runtime.progress import ticker
+    from eomc.runtime.progress import integration, ticker
     from eomc.runtime.stability import EXIT_INCONCLUSIVE, check_model, format_checks, outcome
     model = cli_common.load_model(args.model, args.quiet, **cli_common.model_options(args),
                                   **cli_common.read_checks(args),   # --param, from the one reading
@@ -40,7 +40,10 @@ def run(args):
     p = cli_common.parameter_values(model, cli_common.parse_assignments(args.param, "param"))
     import warnings
     from eomc.runtime.switching import PhysicsWarning
-    with ticker(f"eomc check {model.name}", sys.stderr, not args.quiet), \
+    # a long run (G1's references: 388 s in silence, s27) says how far it got: in the live line on a
+    # terminal, in a line every ~10 % of its span and >= 5 s in a log (runtime/progress.py); -q: nothing
+    with ticker(f"eomc check {model.name}", sys.stderr, not args.quiet) as live, \
+            integration(f"eomc check {model.name}", sys.stderr, not args.quiet, ticker=live), \
             warnings.catch_warnings(record=True) as seen:
         warnings.simplefilter("default")
         checks = check_model(model, [x0[n] for n in model.state_names], args.t_final, p=p,

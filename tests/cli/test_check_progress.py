@@ -1,0 +1,59 @@
+"""`eomc check` says how far its long runs got (s27: G1's check ran 388 s in silence, its
+references the longest part): in a log, the plain lines of runtime/progress.py, each naming the
+run (which reference, which method, its tolerances); on a terminal, the ticker's live line."""
+import re
+
+import pytest
+
+from eomc.cli import main
+from eomc.runtime import progress
+from helpers import model_files
+
+LINE = re.compile(r"^eomc check pend: (.+): t = (\S+) of \[0, 300\] \((\d+) %\), (\d+) steps, \d+ s$")
+
+
+@pytest.fixture(scope="module")
+def built(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("check_progress")
+    model = model_files.write(folder, model_files.PENDULUM, "p")
+    assert main(["build", str(model), "-o", str(folder / "out"), "-q", "--cache-dir",
+                 str(folder / "cache")]) == 0
+    return folder / "out"
+
+
+def test_each_long_run_of_a_check_prints_lines_naming_it(built, capsys, monkeypatch):
+    monkeypatch.setattr(progress, "LINE_SECONDS", 0.0)
+    monkeypatch.setattr(progress, "POLL_S", 0.002)
+    capsys.readouterr()
+    main(["check", str(built), "--t-final", "300", "--methods", "dop853"])
+    err = capsys.readouterr().err
+    parsed = [LINE.match(line) for line in err.splitlines() if line.startswith("eomc check pend: ")]
+    assert parsed and all(parsed), err
+    runs = {m.group(1) for m in parsed}
+    # the references at 100x and 1000x tighter rtol (atol 1x, 10x) and the method's own run: the
+    # tightest reference is the longest (the others may end before a poll sees them)
+    named = {"looser reference: dop853 at rtol=1e-10, atol=1e-10", "reference: dop853 at rtol=1e-11, atol=1e-11",
+             "dop853 at rtol=1e-08, atol=1e-10"}
+    assert "reference: dop853 at rtol=1e-11, atol=1e-11" in runs and runs <= named, runs
+    for run in runs:       # each run's lines rise to its end
+        shares = [int(m.group(3)) for m in parsed if m.group(1) == run]
+        assert shares == sorted(shares) and shares[-1] == 100, (run, shares)
+    capsys.readouterr()
+    main(["check", str(built), "--t-final", "300", "--methods", "dop853", "-q"])
+    assert "eomc check pend: " not in capsys.readouterr().err
+
+
+def test_on_a_terminal_the_tickers_live_line_shows_the_run():
+    notes = []
+
+    class Live:
+        active = True
+
+        def note(self, text):
+            notes.append(text)
+    import io
+    with progress.integration("eomc check pend", io.StringIO(), ticker=Live()), \
+            progress.stage("reference: radau at rtol=1e-10, atol=1e-12"):
+        read = iter([(0.5, 10), (1.0, 20)] + [(2.0, 40)] * 100)
+        progress.follow_integration(lambda: next(read), 0.0, 2.0, lambda: __import__("time").sleep(0.6))
+    assert notes and notes[0].startswith("reference: radau at rtol=1e-10, atol=1e-12: t=0.5 of 2 (25 %), 10 steps")
