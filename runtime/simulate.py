@@ -297,8 +297,32 @@ def auto_method(model, rtol=1e-6):
     return "dop853", implicit
 
 
+MAX_STEPS = 100000              # max_steps' default ...
+CONTACT_STEPS_PER_S = 100000    # ... and for a run with ground contacts, at least this many per simulated second
+
+
+def default_max_steps(model, t_span):
+    """max_steps when none is given: MAX_STEPS, and for a model with ground contacts at least
+    CONTACT_STEPS_PER_S per simulated second of ``t_span``.
+
+    Why per second: a robot on the ground takes many short steps for as long as it touches it
+    (touch-downs, bodies resting on contacts and on joint limits), so a fixed budget ran out on
+    long enough runs however sound: Talos --floating-base --ground (1576 contact points) takes
+    ~61,000 BDF steps per simulated second as it collapses onto its knees and hands and stopped
+    at t = 1.67 of 2 (sweep s27); G1 takes ~26,000.  About half of Talos's come from its grippers'
+    limit springs (7 joints a hand, k ~ 3e5 on their own inertias of 9e-6 to 6e-4 kg m^2, sized
+    by the floating-base load rule: with them off, 27,800 steps instead of 61,600 over the first
+    second, the base's motion the same; runctl s28).  Without contacts a run that needs more than
+    MAX_STEPS is rare and more often a sign of trouble, and the budget stays a fixed guard."""
+    from .switching import find_switches
+    t0, t1 = t_span
+    if not find_switches(model).contacts:
+        return MAX_STEPS
+    return max(MAX_STEPS, int(np.ceil(CONTACT_STEPS_PER_S * abs(float(t1) - float(t0)))))
+
+
 def prepare(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6, atol=1e-9,
-            t_eval=None, dt=None, max_steps=100000, first_step=None, max_step=None,
+            t_eval=None, dt=None, max_steps=None, first_step=None, max_step=None,
             project=False, stiff_check=True, n_points=None, baumgarte=0.0, pi_beta=PI_BETA,
             events=None, max_events=DEFAULT_MAX_EVENTS, K=None, x_ref=None, switching=True):
     """Check every argument and return the dict run_prepared() passes to C.
@@ -333,6 +357,9 @@ def prepare(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6,
                          f"{method!r} is adaptive (use first_step= or max_step=)")
     first_step = _positive(first_step, "first_step", allow_none=True)
     max_step = _positive(max_step, "max_step", allow_none=True)
+    budget = max_steps is None
+    if budget:
+        max_steps = default_max_steps(model, (t0, t1))
     if not isinstance(max_steps, numbers.Integral) or isinstance(max_steps, (bool, np.bool_)) \
             or not 0 < max_steps <= C_LONG_MAX:
         raise ValueError(f"max_steps must be a positive integer up to 2**63 - 1; got {max_steps!r}")
@@ -378,7 +405,7 @@ def prepare(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6,
         extras["auto_switch"] = True
     return dict(method=method, t0=t0, t1=t1, x0=x0, p=np.append(p, 0.0), n_r=n_r, r_t=r_t,
                 r_v=r_v, t_eval=times, rtol=rtol, atol=atol, h0=first_step or 0.0,
-                hmax=max_step or 0.0, max_steps=int(max_steps), project=bool(project),
+                hmax=max_step or 0.0, max_steps=int(max_steps), max_steps_default=budget, project=bool(project),
                 stiff_check=bool(stiff_check), baumgarte=float(baumgarte), pi_beta=float(pi_beta),
                 auto=auto, **quat, **extras)
 
@@ -861,7 +888,7 @@ def failure_message(model, method, stats, x_last, p=None):
 
 
 def simulate(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6, atol=1e-9,
-             t_eval=None, dt=None, max_steps=100000, first_step=None, max_step=None,
+             t_eval=None, dt=None, max_steps=None, first_step=None, max_step=None,
              project=False, stiff_check=True, n_points=None, baumgarte=0.0,
              pi_beta=PI_BETA, raise_on_failure=True, events=None, max_events=DEFAULT_MAX_EVENTS,
              K=None, x_ref=None, consistent=None, sensitivities=False, switching=True,
@@ -887,7 +914,8 @@ def simulate(model, x0, t_span, p=None, r=None, method=DEFAULT_METHOD, rtol=1e-6
     after each step; baumgarte=a > 0 instead adds -a G^+ g to the rhs, so
     constraint residuals decay like exp(-a t) (Baumgarte-style).  pi_beta: Hairer's
     stabilized step control for dopri5/dop853 (0.04; 0 gives the classical control,
-    step for step scipy's).  A failed run raises SimulationError, or with
+    step for step scipy's).  max_steps: the step budget; by default 100,000, and on a model with
+    ground contacts 100,000 per simulated second (:func:`default_max_steps`).  A failed run raises SimulationError, or with
     raise_on_failure=False returns the rows computed so far with ``status``.  Ctrl-C stops the
     C loop within one model evaluation (so does SIGTERM where the program handles it, as the
     command line does: runtime/native.py); the KeyboardInterrupt carries the rows computed so
@@ -1127,6 +1155,10 @@ def finish(model, a, x_out, stats, x_last, raise_on_failure=True):
     message = "ok" if status == 0 else failure_message(model, method, stats, x_last, a.get("p"))
     if status == NONFINITE_STATUS and ev is not None and np.all(np.isfinite(x_last)):
         message += _nonfinite_events(model, a, stats, x_last)
+    if status == 6:     # out of steps: say how many were allowed, and whence
+        rule = (f": the default for a run with ground contacts, {CONTACT_STEPS_PER_S} per simulated second"
+                if a.get("max_steps_default") and a["max_steps"] > MAX_STEPS else "")
+        message = message.replace("raise max_steps", f"raise max_steps ({a['max_steps']} now{rule})", 1)
     if status == 0:
         stats.pop("t_fail", None)  # where the model failed: only meaningful for a failed run
     if status and raise_on_failure:

@@ -35,7 +35,8 @@ def configure(parser):
     parser.add_argument("--atol", type=float, default=1e-9, help="absolute tolerance")
     parser.add_argument("--dt", type=float, help="fixed step (rk4, implicitfast)")
     parser.add_argument("--points", type=int, default=1001, help="output rows (adaptive methods)")
-    parser.add_argument("--max-steps", type=int, default=100000, help="step limit")
+    parser.add_argument("--max-steps", type=int, default=None, metavar="N",
+                        help="step limit (default 100000; a robot on the ground: 100000 per simulated second)")
     parser.add_argument("--consistent", action="store_true",
                         help="constrained models: complete the dependent coordinates and speeds of the "
                              "start on the constraints first, keeping the independent ones")
@@ -373,8 +374,10 @@ def _no_ground(model, res):
 def cli_advice(message, max_steps):
     """A failed run's advice in the command line's flags: the runtime's message names keyword
     arguments (sweep s27: Talos --floating-base --ground stopped with 'raise max_steps', and
-    explicit methods out of steps were told to "use method='radau'")."""
-    return (message.replace("raise max_steps", f"raise --max-steps ({max_steps} now)")
+    explicit methods out of steps were told to "use method='radau'").  The runtime's says how
+    many steps were allowed ("raise max_steps (200000 now: the default for ...)")."""
+    return (message.replace("raise max_steps (", "raise --max-steps (")
+            .replace("raise max_steps", f"raise --max-steps ({max_steps} now)")
             .replace("use method='radau'", "use --method radau"))
 
 

@@ -46,7 +46,8 @@ def configure(parser):
     parser.add_argument("--rtol", type=float, default=1e-6, help="relative tolerance")
     parser.add_argument("--atol", type=float, default=1e-9, help="absolute tolerance")
     parser.add_argument("--dt", type=float, help="fixed step (rk4)")
-    parser.add_argument("--max-steps", type=int, default=100000, help="step limit")
+    parser.add_argument("--max-steps", type=int, default=None, metavar="N",
+                        help="step limit per case (default 100000; a robot on the ground: 100000 per simulated second)")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
 
 

@@ -216,3 +216,33 @@ def test_no_x0_and_no_initial_state_starts_from_rest_with_a_warning():
         res = simulate(osc, None, (0.0, 1.0), n_points=5)
     ref = simulate(osc, np.zeros(osc.nx), (0.0, 1.0), n_points=5)
     assert res.status == 0 and np.array_equal(res.x, ref.x)
+
+
+@pytest.fixture(scope="module")
+def ball(tmp_path_factory):
+    import sys
+    from pathlib import Path
+    sys.path.insert(0, str(Path(__file__).parents[1] / "compiler" / "contact"))
+    import bounce_grid
+    return bounce_grid.build(tmp_path_factory.mktemp("cache"))
+
+
+def test_the_default_step_budget_grows_with_the_span_on_the_ground(ball, monkeypatch):
+    """Sweep s27: Talos --floating-base --ground ran out of the fixed 100000 steps at t = 1.67 of
+    2 (~61,000 BDF steps a simulated second, half of them its grippers' limit springs): a run with
+    ground contacts gets 100000 steps per simulated second; without contacts the budget stays
+    100000; the message says how many were allowed and why."""
+    import eomc.runtime.simulate as sim
+    assert sim.default_max_steps(ball, (0.0, 0.5)) == 100000
+    assert sim.default_max_steps(ball, (1.0, 3.5)) == 250000
+    assert sim.default_max_steps(get_model("chain"), (0.0, 30.0)) == 100000
+    monkeypatch.setattr(sim, "MAX_STEPS", 10)
+    monkeypatch.setattr(sim, "CONTACT_STEPS_PER_S", 20)
+    x0 = np.zeros(ball.nx)
+    x0[2] = 0.5
+    res = ball.simulate(x0, (0, 3), raise_on_failure=False)
+    assert res.status == 6 and res.stats["steps"] == 60, res.message
+    assert "raise max_steps (60 now: the default for a run with ground contacts, 20 per simulated second)" \
+        in res.message, res.message
+    res = ball.simulate(x0, (0, 3), max_steps=30, raise_on_failure=False)
+    assert res.status == 6 and "raise max_steps (30 now);" in res.message + ";", res.message
