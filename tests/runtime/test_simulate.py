@@ -128,14 +128,16 @@ def test_plot_writes_png(pend, tmp_path):
     import matplotlib
     matplotlib.use("Agg")
     fig = res.plot()                      # coordinates, speeds and outputs on panels of their own
-    assert [ax.get_ylabel() for ax in fig.axes] == ["coordinates", "speeds", "outputs"]
+    # the conserved energy is drawn as its change from the start (plotting._nearly_constant)
+    energy = f"energy (start {res['energy'][0]:.10g})"
+    assert [ax.get_ylabel() for ax in fig.axes] == ["coordinates", "speeds", "outputs: change from the start"]
     assert [line.get_label() for line in fig.axes[0].lines] == ["q1"]
-    assert [line.get_label() for line in fig.axes[2].lines] == ["energy"]
+    assert [line.get_label() for line in fig.axes[2].lines] == [energy]
     # names pick the curves; a coordinate and an output still get panels of their own (the
     # plots' rule: an energy of -19 J must not flatten a coordinate of +-0.3 rad)
     picked = res.plot(names=["q1", "energy"])
-    assert [ax.get_ylabel() for ax in picked.axes] == ["coordinates", "outputs"]
-    assert [[line.get_label() for line in ax.lines] for ax in picked.axes] == [["q1"], ["energy"]]
+    assert [ax.get_ylabel() for ax in picked.axes] == ["coordinates", "outputs: change from the start"]
+    assert [[line.get_label() for line in ax.lines] for ax in picked.axes] == [["q1"], [energy]]
 
 
 def test_baumgarte_stabilization_pulls_residuals_back():
