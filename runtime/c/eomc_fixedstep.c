@@ -713,9 +713,17 @@ static void fs_transport(double *A, const double *M, const double *u, int s, int
  * axes are its own body's (body-frame speeds), V_a = the sum over all six, so together they add
  * V_f x V_f = 0.  Summed: a = B_w x p + B_v + w x vp, B = sum_k V_a x (s_k u_k) (spatial cross
  * product), w the body's angular velocity: about 30 flops a speed.  Not for a body-body pair
- * (a speed listed negated: the point's velocity is a difference of two bodies'): 0 returned, a
- * untouched.  A ball joint's three speeds, if body-frame, would each be taken as carried by the one
- * before (as MJCF's hinges in one body are); the residual test still judges the step.
+ * whose chain lists a speed negated (its bodies on two branches: the point's velocity is a
+ * difference of two bodies'): 0 returned, a untouched.  But a pair whose first body is an ancestor
+ * of the second (no speed negated: gymnasium humanoid's 43 of 109, torso1/head/waist/butt against a
+ * limb) is taken as a ground contact: this formula over its own chain with vp = v_rel, leaving out
+ * the shared speeds and the first body's motion -- not its bias (measured, session 28, helper
+ * pairbias: 0.05-1.7 of |a| off a central difference).  Both kinds' right bias and no bias for
+ * either were measured and not landed (benchmarks/results/fixedstep_verdicts.md's notes).  A ball
+ * joint's three speeds (eomc's: body-frame) are each taken as carried by the one before (as MJCF's
+ * hinges in one body are), which they are not: they all turn with their body, so each should see
+ * the V before the ball (as a root free joint's do; measured, pairbias: 3-43 % of |a| off, 2e-11
+ * with that rule); the residual test still judges the step.
  * Why (session 27, helper releaseslope): traced on gymnasium's humanoid at t = 0.75 s, its feet's
  * contacts went from pushing to clipped inside every step (the damped law's release) and back in the
  * next half, 3 calls a step: J(q) u1 at the end was 0.064 m/s upwards, J(q0) u1 0.018, J(q0) du 0.003 --
