@@ -1,6 +1,6 @@
 """Two eomc checkouts' rollouts with contacts, side by side: bench_rollout_contacts's contestants
 (eomc.rollout implicitfast, checked, scalar and lanes=True; mujoco.rollout implicitfast and Euler;
-one thread on both sides) on the same models and starts, each checkout in processes of its own
+one thread on both sides, or --threads k on both) on the same models and starts, each checkout in processes of its own
 (its venv's runtime and its compiler's model C), the processes alternating A B / B A round by
 round.  Why: a change to the generated C or to the runtime's library cannot be timed against
 another library in one process, and numbers from another day or load are no baseline (the
@@ -32,7 +32,7 @@ from pathlib import Path
 CONTESTANTS = ("eomc scalar", "eomc lanes", "mujoco implicitfast", "mujoco euler")
 
 
-def child(models, repeat, cache_dir, out, bench_dir):
+def child(models, repeat, cache_dir, out, bench_dir, threads=1):
     """One process: each model's contestants, interleaved repeat by repeat (the eomc of the
     process's Python; bench_rollout_contacts from its checkout's benchmarks/, bench_dir)."""
     sys.path.insert(0, bench_dir)
@@ -50,11 +50,11 @@ def child(models, repeat, cache_dir, out, bench_dir):
         nstep = int(round(1.0 / dt))
         X0, S0 = R.starts(em, mm, height, pose)
         ctrl = np.zeros((R.NROLL, nstep, mm.nu))
-        datas = [mujoco.MjData(mm)]
-        with mj_rollout.Rollout(nthread=1) as ro:
-            run = {"eomc scalar": lambda: eomc.rollout(em, X0, steps=nstep, dt=dt, threads=1, method="implicitfast",
+        datas = [mujoco.MjData(mm) for _ in range(threads)]
+        with mj_rollout.Rollout(nthread=threads) as ro:
+            run = {"eomc scalar": lambda: eomc.rollout(em, X0, steps=nstep, dt=dt, threads=threads, method="implicitfast",
                                                        raise_on_failure=False),
-                   "eomc lanes": lambda: eomc.rollout(em, X0, steps=nstep, dt=dt, threads=1, method="implicitfast",
+                   "eomc lanes": lambda: eomc.rollout(em, X0, steps=nstep, dt=dt, threads=threads, method="implicitfast",
                                                       lanes=True, raise_on_failure=False),
                    "mujoco implicitfast": lambda: ro.rollout([mm] * R.NROLL, datas, S0, ctrl, nstep=nstep)[0],
                    "mujoco euler": lambda: ro.rollout([me] * R.NROLL, datas, S0, ctrl, nstep=nstep)[0]}
@@ -81,10 +81,12 @@ def main():
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--repeat", type=int, default=3, help="interleaved repeats in each process")
     parser.add_argument("--cache-dir", default=tempfile.gettempdir() + "/ab_rollout_contacts")
+    parser.add_argument("--threads", type=int, default=1, help="threads on both sides (eomc.rollout threads=, "
+                        "mujoco.rollout nthread= with one MjData each)")
     parser.add_argument("--child", nargs=4, metavar=("MODELS", "CACHE", "OUT", "BENCH"), help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.child:
-        child(args.child[0].split(","), args.repeat, args.child[1], args.child[2], args.child[3])
+        child(args.child[0].split(","), args.repeat, args.child[1], args.child[2], args.child[3], args.threads)
         return
     sides = {}
     for spec in (args.a, args.b):
@@ -101,7 +103,8 @@ def main():
             cache = Path(args.cache_dir) / label
             out = tmp / f"{label}_{r}.json"
             # this file run by the side's Python (the side's checkout may predate it)
-            subprocess.run([python, __file__, "--a", args.a, "--b", args.b, "--repeat", str(args.repeat), "--child",
+            subprocess.run([python, __file__, "--a", args.a, "--b", args.b, "--repeat", str(args.repeat),
+                            "--threads", str(args.threads), "--child",
                             args.models, str(cache), str(out), str(checkout / "benchmarks")],
                            env=dict(os.environ, EOMC_CACHE_DIR=str(cache)), check=True, stdout=subprocess.DEVNULL)
             runs[label].append(json.loads(out.read_text()))
@@ -109,7 +112,8 @@ def main():
     loads = [x for label in runs for run in runs[label] for x in (run["load"], run["load_end"])]
     a, b = list(sides)
     print(f"1-min load over the run {min(loads):.1f}-{max(loads):.1f}; {args.rounds} processes a side, "
-          f"{args.repeat} repeats each; steps per CPU-second (one thread)\n")
+          f"{args.repeat} repeats each; steps per CPU-second ({args.threads} thread{'s' if args.threads > 1 else ''}, "
+          f"process CPU: all threads)\n")
     print(f"| model | contestant | {a} | {b} | {b}/{a} | {a} vs mujoco implicitfast | {b} vs mujoco implicitfast "
           f"| {b} vs mujoco euler |")
     print("|---|---|---:|---:|---:|---:|---:|---:|")

@@ -200,7 +200,7 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method=None, p=Non
     and their NAME_implicit calls are made together, one NAME_implicit_batch call per round
     (eomc_rollout_implicit_lanes; fewer rows than lanes padded), and with
     them each row's step matrix is assembled and factored for the whole batch in vector code
-    (eomc_fs_assemble_lanes, runtime/c/eomc_fixedstep.c; AVX2, 4 rows per vector):
+    (eomc_fs_assemble_lanes, runtime/c/eomc_fixedstep.c; 8 rows per vector with AVX-512, else 4 with AVX2):
     every row is the scalar rollout's row step for step (bit for bit with
     -DEOMC_BATCH_LIBM_TRIG; the assembly in lanes is bit for bit in any case).  With the vector
     sin/cos every call is still a batch lane whose bits depend on its own state alone, so a row's

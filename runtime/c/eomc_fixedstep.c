@@ -916,15 +916,25 @@ struct eomc_fs_lanes {
                                   failed, as a failed pivot is ($EOMC_TEST_FS_LANES_FAIL, read once) */
 };
 
-/* One kernel, 4 lanes (AVX2), run over a batch of 8 lanes (AVX-512) in two groups: measured on G1
- * (35 speeds, 647 slots; 8 states standing on their 8 foot spheres, core 0) the 8-wide kernel
- * (avx512f) took 3.3 us a row against 2.6 for two 4-wide groups (the scalar fs_assemble: 4.9), and
- * the 64-row rollout 363 against 342 ms: eight interleaved matrices are 41 KB, past the 32 KB L1,
- * four are 21 KB.  Same bits either way (each lane is the scalar code). */
+/* Two kernels: 4 lanes (AVX2; a batch of 8 in two groups) and 8 lanes (AVX-512F and DQ: a batch of
+ * 8 in one group), the 8-wide where the machine has it.  Same bits either way (each lane is the
+ * scalar code).  Session 20 measured the 8-wide slower on G1 (3.3 against 2.6 us a row; eight
+ * interleaved matrices past the 32 KB L1) and Go2 (110 against 106 ms) and kept the 4-wide only;
+ * since, the kernel took the secant, the point bias and the next try's solves (FSL_SECANT, FSL_BIAS,
+ * FSL_STEP), and measured again (session 28; bench_rollout_contacts' 64 rows, one process, the two
+ * kernels alternating call by call, core 1, thread CPU, medians of 8-20, load 12-19) the 8-wide
+ * took 0.83-0.95 of the 4-wide's rollout: hopper 0.87, walker2d 0.83, ant 0.86-0.95, humanoid
+ * 0.94-0.95, Go2 0.85, G1 0.885 -- same bits.  $EOMC_FS_LANES_WIDTH=4 keeps the 4-wide (the tests
+ * run both; read once per rollout thread). */
 #ifdef EOMC_FS_LANES
 #include <immintrin.h>
 #define FSL_W 4
 #define FSL_TARGET "avx2"
+#include "eomc_fs_lanes_body.h"
+#undef FSL_W
+#undef FSL_TARGET
+#define FSL_W 8
+#define FSL_TARGET "avx512f,avx512dq"
 #include "eomc_fs_lanes_body.h"
 #undef FSL_W
 #undef FSL_TARGET
@@ -949,6 +959,10 @@ eomc_fs_lanes *eomc_fs_lanes_new(int nq, int nu, const eomc_implicit *imp, int l
 #ifdef EOMC_FS_LANES
     __builtin_cpu_init();
     if ((lanes == 4 || lanes == 8) && __builtin_cpu_supports("avx2")) { kernel = fs_lanes_kernel4; width = 4; }
+    if (lanes == 8 && __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq")) {
+        const char *only = getenv("EOMC_FS_LANES_WIDTH");
+        if (only == NULL || strtol(only, NULL, 10) != 4) { kernel = fs_lanes_kernel8; width = 8; }
+    }
 #endif
     if (kernel == NULL || imp == NULL || nu <= 0 || nc < 0 || (nc > 0 && (!imp->chain_start || !imp->chain)))
         return NULL;

@@ -60,13 +60,14 @@ int eomc_fs_run(const eomc_fs_ops *ops, eomc_stats *st, int nx, double h, long m
 typedef struct eomc_fs_lanes eomc_fs_lanes;
 
 /* The plan and scratch for nq, nu and imp's structure; NULL when this machine has no vector
- * kernel for `lanes` (4 or 8 with AVX2: groups of 4) or out of memory. */
+ * kernel for `lanes` (4 or 8 with AVX2: groups of 4; 8 with AVX-512F and DQ: one group of 8) or out
+ * of memory. */
 eomc_fs_lanes *eomc_fs_lanes_new(int nq, int nu, const eomc_implicit *imp, int lanes);
 void eomc_fs_lanes_free(eomc_fs_lanes *w);
 
 /* rows (NULL: none): lane c's terms e in rlo <= e < rhi are rows[c][e], not in OUT (the lanes
  * rollout's NAME_implicit_batch_rows writes the pairs' slope block there).
- * For each lane c with req[c] != NULL: fs_assemble of the terms OUT (32-byte aligned) for a step
+ * For each lane c with req[c] != NULL: fs_assemble of the terms OUT (64-byte aligned) for a step
  * of req[c]->h at the speeds U, then with that matrix req[c]->du's residual ratio (fs_fast_try's)
  * and the next try's du1 and v1 (eomc_fs_request) in ahead[c] (nu + nq doubles, kept by the
  * caller): req[c]->done = req[c]->ahead = 1, req[c]->A and b not written.  0 when the lane's pivot

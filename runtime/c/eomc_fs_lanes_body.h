@@ -28,11 +28,13 @@ typedef long long FSL_VI __attribute__((vector_size(8 * FSL_W)));
 #define FSL_FABS(x) ((FSL_V)((FSL_VI)(x) & ((FSL_VI){0} + 0x7fffffffffffffffLL)))
 #define FSL_FINITE(x) ((x) - (x) == (FSL_V){0})
 
-/* (a mask's lanes are all ones or all zeros: its sign bits say it; at 4 lanes one movemask) */
+/* (a mask's lanes are all ones or all zeros: its sign bits say it; one movemask) */
 __attribute__((target(FSL_TARGET))) static inline int FSL_ANY(const FSL_VI *m)
 {
 #if FSL_W == 4
     return _mm256_movemask_pd((__m256d)*m) != 0;
+#elif FSL_W == 8
+    return _mm512_movepi64_mask((__m512i)*m) != 0;
 #else
     long long r = 0;
     for (int c = 0; c < FSL_W; c++) r |= (*m)[c];
@@ -44,6 +46,8 @@ __attribute__((target(FSL_TARGET))) static inline int FSL_ALL(const FSL_VI *m)
 {
 #if FSL_W == 4
     return _mm256_movemask_pd((__m256d)*m) == 0xF;
+#elif FSL_W == 8
+    return _mm512_movepi64_mask((__m512i)*m) == 0xFF;
 #else
     long long r = -1;
     for (int c = 0; c < FSL_W; c++) r &= (*m)[c];
@@ -64,6 +68,8 @@ __attribute__((target(FSL_TARGET))) static inline FSL_V FSL_SQRT(FSL_V x)
 {
 #if FSL_W == 4
     return (FSL_V)_mm256_sqrt_pd((__m256d)x);
+#elif FSL_W == 8
+    return (FSL_V)_mm512_sqrt_pd((__m512d)x);
 #else
     for (int c = 0; c < FSL_W; c++) x[c] = __builtin_sqrt(x[c]);
     return x;

@@ -142,6 +142,25 @@ def test_implicitfast_rows_in_lanes_equal_the_scalar_rollout(hopper, threads):
     assert simulate(hopper, X0[0], (0.0, 0.48), method="implicitfast", dt=0.008).stats["nfev"] > 61
 
 
+@pytest.mark.parametrize("width", ["4", None])
+def test_each_lanes_kernel_gives_the_scalar_rows(hopper, monkeypatch, width):
+    """The step's assembly in lanes has two kernels (eomc_fixedstep.c, eomc_fs_lanes_body.h): 8 lanes
+    in one group where the machine has AVX-512F and DQ, else 4 lanes in groups of 4; the test hook
+    $EOMC_FS_LANES_WIDTH=4 keeps the 4-wide where the 8-wide would run.  Each gives the scalar
+    rollout's rows bit for bit, split steps included (on a machine without AVX-512 both runs take
+    the 4-wide)."""
+    if width is not None:
+        monkeypatch.setenv("EOMC_FS_LANES_WIDTH", width)
+    else:
+        monkeypatch.delenv("EOMC_FS_LANES_WIDTH", raising=False)
+    X0 = _hopper_starts(hopper, 19, seed=11)
+    kw = dict(dt=0.008, steps=60, method="implicitfast", threads=1)
+    want = rollout(hopper, X0, **kw)
+    got = rollout(hopper, X0, lanes=True, **kw)
+    assert got.ok.all() and np.array_equal(got.x, want.x) and np.array_equal(got.steps, want.steps)
+    assert np.array_equal(got.unsolved, want.unsolved)
+
+
 @pytest.mark.parametrize("threads", [1, 2])
 def test_rows_left_with_unsolved_cells_are_counted_warned_and_flagged_alike(hopper, threads):
     """The bookkeeping of unsolved rows (each row's count, result.clean, the one warning naming
