@@ -51,20 +51,17 @@ SYMPY_CACHE_SIZE = 10000
 
 
 class _SizedSympyCache:
-    """A finder on sys.meta_path that finds nothing itself: on the first import of ``sympy`` it
-    takes itself off the path and, unless the user set SYMPY_CACHE_SIZE, has the other finders'
-    sympy executed with SYMPY_CACHE_SIZE set, removed again once the package has run."""
+    """A finder on sys.meta_path that finds nothing itself: for ``sympy``, unless the user set
+    SYMPY_CACHE_SIZE, it hands out the other finders' spec with a loader that runs sympy with
+    SYMPY_CACHE_SIZE set (removed again once the package has run) and takes this finder off the
+    path (a find_spec without an import, importlib.util.find_spec("sympy"), leaves it on)."""
 
     def find_spec(self, name, path=None, target=None):
-        if name != "sympy":
-            return None
-        try:
-            _sys.meta_path.remove(self)
-        except ValueError:      # another thread's import took it off first
-            pass
-        if "SYMPY_CACHE_SIZE" in _os.environ:
+        if name != "sympy" or "SYMPY_CACHE_SIZE" in _os.environ:
             return None
         for finder in _sys.meta_path:
+            if isinstance(finder, _SizedSympyCache):
+                continue
             find = getattr(finder, "find_spec", None)
             spec = find(name, path, target) if find is not None else None
             if spec is not None:
@@ -88,6 +85,7 @@ class _SizedLoader:
 
     def exec_module(self, module):
         module.__spec__.loader = module.__loader__ = self.loader
+        _sys.meta_path[:] = [f for f in _sys.meta_path if not isinstance(f, _SizedSympyCache)]
         _os.environ["SYMPY_CACHE_SIZE"] = str(SYMPY_CACHE_SIZE)
         try:
             self.loader.exec_module(module)

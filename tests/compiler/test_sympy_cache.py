@@ -21,3 +21,15 @@ def test_compiler_import_sizes_the_cache_and_leaves_the_environment():
 def test_a_users_choice_or_an_earlier_sympy_import_is_kept():
     assert _run("eomc.compiler, ", SYMPY_CACHE_SIZE="500") == ["500", "500"]
     assert _run("sympy, eomc.compiler, ") == ["1000", "None"]
+
+
+def test_the_cache_is_sized_when_sympy_is_imported_not_when_eomc_compiler_is():
+    """eomc.compiler no longer imports SymPy (the look-up of a model built before needs none:
+    ~0.7 s a command, s27); SymPy imported later, after a find_spec alone, still gets the size."""
+    from eomc.compiler import SYMPY_CACHE_SIZE
+    probe = ("import sys, importlib.util, eomc.compiler; print('sympy' in sys.modules); "
+             "importlib.util.find_spec('sympy'); import sympy.core.cache as c, os; "
+             "print(c.SYMPY_CACHE_SIZE, os.environ.get('SYMPY_CACHE_SIZE'))")
+    clean = {k: v for k, v in os.environ.items() if k != "SYMPY_CACHE_SIZE"}
+    out = subprocess.run([sys.executable, "-c", probe], env=clean, capture_output=True, text=True, check=True)
+    assert out.stdout.split() == ["False", str(SYMPY_CACHE_SIZE), "None"], out.stdout + out.stderr
