@@ -2978,15 +2978,21 @@ static void fs_watch_total(fs_glue *g, double t, const double *x, double v)
  * watched output (the model's energy: rollout's _energy_watch) as the fast path's terms at
  * (t, x) hold it (eomc_implicit.energy; read when the watch is watch_fn, the model's NAME_energy), or
  * NULL: evaluated here.  Why: the step made those terms
- * anyway, and NAME_energy at every step was 19-20 % of G1's lanes rollout (session 18).  Not with
- * quaternions: the step's end is normalised after its terms were made. */
+ * anyway, and NAME_energy at every step was 19-20 % of G1's lanes rollout (session 18).  With
+ * quaternions too: the terms were made at the step's end before fs_accept normalised its
+ * quaternions, and the energy, like the rhs and every output, does not see a quaternion's length
+ * (compiler/multibody/joint_kinds.quaternion_rotation: R(c q) = R(q), s = 2/|q|^2, the only place
+ * a quaternion enters), so that value is the normalised state's energy up to rounding
+ * (tests/runtime/test_rollout_energy_watch: the ranges within 1e-12 of NAME_energy's at the
+ * normalised states).  Until session 28 a quaternion model paid NAME_energy at every step here:
+ * its rollouts 5-12 % slower than the Euler build's (benchmarks/results/quaternion_fixedstep.md). */
 static void fs_watch(fs_glue *g, double t, const double *x, const double *energy)
 {
     ctx *c = g->c;
     eomc_stats *st = c->st;
     double v;
     if (g->watch < 0 || isnan(st->watch_lo)) return;
-    if (energy && g->wfn && !c->nquat) {
+    if (energy && g->wfn) {
         v = *energy;
     } else {
         grid_inputs_at(c, t);

@@ -174,6 +174,48 @@ def test_the_watch_evaluates_the_energy_while_a_tables_pair_touches(limbs, monke
     assert np.allclose(got, want, rtol=1e-12, atol=0)
 
 
+@pytest.fixture(scope="module")
+def limbs_quaternion(tmp_path_factory):
+    """The floored limbs with quaternions (two free joints and a ball joint: three quaternions) and
+    its floor contacts only (pairs=False: no energy_apart), so the slot holds the whole energy."""
+    from eomc.compiler.mjcf.model import MjcfModel
+    tmp = tmp_path_factory.mktemp("ewq")
+    path = tmp / "limbs.xml"
+    path.write_text(FLOORED)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return eomc.compile(MjcfModel(path, orientation="quaternion", pairs=False), "ew_limbs_quat", functions=WATCHED,
+                            cache_dir=tmp / "cache", progress=False)
+
+
+@pytest.mark.parametrize("lanes", [False, True])
+def test_the_watch_reads_the_slot_with_quaternions(limbs_quaternion, monkeypatch, lanes):
+    """A quaternion model's watch reads the energy from the step's terms too (session 28; before, it
+    called NAME_energy at every step: the quaternion rollouts 5-12 % slower than the Euler ones).  The
+    terms were made at the step's end before its quaternions were normalised; the energy does not see
+    a quaternion's length (quaternion_rotation), so the ranges equal, to rounding, those of NAME_energy
+    at the normalised states.  Rows start turned and spinning and land on the floor."""
+    m = limbs_quaternion
+    assert len(m.quaternions) == 3 and "energy_apart" not in m.metadata["implicit"]
+    rng = np.random.default_rng(7)
+    X0 = np.tile(np.array(m.initial_state, dtype=float), (6, 1))
+    for i in m.quaternions:
+        X0[:, i:i + 4] = rng.normal(size=(6, 4))
+        X0[:, i:i + 4] /= np.linalg.norm(X0[:, i:i + 4], axis=1)[:, None]
+    X0[:, m.nq:] = rng.uniform(-2.0, 2.0, (6, m.nu))
+    kw = dict(dt=0.002, steps=150, lanes=lanes)
+    got, res, calls = _ranges(m, X0, monkeypatch, True, **kw)
+    want, ref, plain = _ranges(m, X0, monkeypatch, False, **kw)
+    assert plain == len(X0) * 151 and calls == len(X0)       # each row's start only
+    assert np.array_equal(res.x, ref.x) and np.array_equal(res.status, ref.status)
+    assert (res.status == 0).all()
+    names = list(m.output_names)
+    touched = [max(m.outputs(0.0, x)[n] for n in names if n.startswith("depth_")) > 0 for x in res.x]
+    assert any(touched)
+    assert np.isfinite(want).all() and (want[:, 1] > want[:, 0]).all()
+    assert np.allclose(got, want, rtol=1e-12, atol=0)
+
+
 def _rise_rows(text):
     """The rows a rollout's energy warning names (its '(rows 1, 2, ...)'), as a set."""
     found = re.search(r"\(rows ([\d, ]+)(, \.\.\.)?\)", text)
