@@ -23,6 +23,12 @@ A joint of k speeds (the Euler-angle free joint, a ball, planar, cylindrical joi
 k coordinates with q' = K(q) u; the algorithm differentiates along the body-frame
 perturbation ξ of the joint's placement, the direction its speeds move it, and
 δξ = K⁻¹ δq, so ∂τ/∂q = ∂τ/∂ξ · K⁻¹ (K inverted numerically, k ≤ 6, once a call).
+A quaternion free or ball joint has one coordinate more than it has speeds: its quaternion's
+block of K (4×3, q' = ½ q ⊗ (0, ω)) has no inverse, but the dynamics does not see the
+quaternion's length (joint_kinds.quaternion_rotation: R(c q) = R(q)), so ∂τ/∂q · q = 0, and
+the block's columns are orthogonal to q: δξ = K⁺ δq with K⁺ = (KᵀK)⁻¹Kᵀ, whose null space is
+q's direction, gives ∂τ/∂q = ∂τ/∂ξ · K⁺ (why: every quaternion model's jac_x took the tangent
+path, ~2x the Euler build's time in the W-method, benchmarks/results/quaternion_fixedstep.md).
 
 Where it applies (:func:`analytic_plan`): an open tree whose loads are body-frame loads
 that do not depend on the state (inputs, parameters, time: motor torques, forces on a
@@ -97,6 +103,9 @@ class AnalyticPlan:
     npair: int = 0          # bodies of the pairs' table (anx block W: their wrench tangents, 6 each, per state column)
     moving: tuple = ()      # per ground contact: where in anx its support point's motion M is (block GM), -1 for none; () when no contact's point moves
     table: int = -1         # the pairs' table id when the kernel forms its inputs' tangents itself (no block W; _kernel_pair_lines)
+    # per k-speed joint: all its coordinate columns when they outnumber its speeds (a quaternion's
+    # joint: qcol holds only the first k, the kernel's ξ columns), else (): see _quaternion_rows
+    kcols: tuple = ()
     # per law of block L named by shape (_NamedSlopes): (its ∂τ/∂q's index in anx, the shape's
     # common subexpressions and slopes in canonical symbols, (canonical symbol, the joint's) pairs):
     # NAME_dyn_inputs prints the laws that print alike as one loop (.law_loop; it reads the joint's symbols)
@@ -104,6 +113,19 @@ class AnalyticPlan:
 
     def dofs(self, b):
         return range(self.first[b], self.first[b] + self.count[b])
+
+    def coordinate_columns(self, e):
+        """The state columns of dof ``e``'s coordinates: its qcol, or all of its joint's when
+        a quaternion makes them more than its speeds."""
+        for (e0, k, _), cols in zip(self.multi, self.kcols):
+            if cols and e0 <= e < e0 + k:
+                return cols
+        return (self.qcol[e],)
+
+    @property
+    def nq(self):
+        """The coordinates (state columns before the speeds)."""
+        return len(self.qcol) + sum(len(cols) - k for (_, k, _), cols in zip(self.multi, self.kcols) if cols)
 
 
 def analytic_plan(tree, bodies, gravity, layout, rename, contacts=None, let=None, pairs=None, table=None,
@@ -150,7 +172,7 @@ def analytic_plan(tree, bodies, gravity, layout, rename, contacts=None, let=None
     if len(kin) != nq:
         return None, []
     nb = len(bodies)
-    par, first, count, row, qcol, multi, kblocks = [], [], [], [], [], [], []
+    par, first, count, row, qcol, multi, kblocks, kcols = [], [], [], [], [], [], [], []
     E, r, S, I, F, K, arm = [], [], [], [], [], [], []
     lam, dep, last = [], [], {}     # last: body -> its last dof, or its nearest ancestor's
     used = set()
@@ -174,18 +196,23 @@ def analytic_plan(tree, bodies, gravity, layout, rename, contacts=None, let=None
         elif dofs:
             mine = {speeds[s] for s, _ in dofs}
             rows = [i for i, k in enumerate(kin) if k.free_symbols & mine]
-            if len(rows) != len(dofs) or used & set(rows):
+            quats = _quaternion_rows(tree, rows)
+            if len(rows) != len(dofs) + len(quats) or used & set(rows):
                 return None, []
             others = set(speeds) - mine
             if any(kin[i].free_symbols & others for i in rows):
                 return None, []
+            kj = [[sm.diff(kin[i], speeds[s]) for s, _ in dofs] for i in rows]
+            blocks = _blocks(kj, quats)
+            if any(len(r) != len(c) and r not in quats for r, c in blocks):
+                return None, []
             used.update(rows)
             multi.append((len(row), len(dofs), len(K)))
-            kj = [[sm.diff(kin[i], speeds[s]) for s, _ in dofs] for i in rows]
-            kblocks.append(_blocks(kj))
+            kblocks.append(blocks)
             for line in kj:
                 K += line
-            qcol += rows
+            qcol += rows[:len(dofs)]
+            kcols.append(tuple(rows) if quats else ())
         before = last.get(b.parent, -1)
         for (s, axis), a in zip(dofs, b.armature):
             lam.append(before)
@@ -241,34 +268,48 @@ def analytic_plan(tree, bodies, gravity, layout, rename, contacts=None, let=None
                         tuple(off), choose_solver(dep), tuple(kblocks), tuple(lawdofs), tuple(ends),
                         pairs=pair_ends, npair=len(pairs or ()), moving=moving,
                         table=-1 if table is None or not pairs else int(table),
-                        law_code=tuple((offsets["L"] + i, named, back) for i, named, back in law_code))
+                        law_code=tuple((offsets["L"] + i, named, back) for i, named, back in law_code),
+                        kcols=tuple(kcols) if any(kcols) else ())
     return plan, [((ANX, i), sm.sympify(v)) for i, v in enumerate(values)]
 
 
-def _blocks(kj):
+def _quaternion_rows(tree, rows):
+    """The quaternions among a k-speed joint's coordinate ``rows`` (the tree's ``quaternions``:
+    each one's w coordinate, x, y, z following), as tuples of their positions in ``rows``."""
+    out = []
+    for w in getattr(tree, "quaternions", ()):
+        if w in rows:
+            if not all(w + t in rows for t in range(4)):
+                return [()]         # (cannot happen: refused by the caller's count)
+            out.append(tuple(rows.index(w + t) for t in range(4)))
+    return out
+
+
+def _blocks(kj, quats=()):
     """The diagonal blocks of a k-speed joint's K (q' = K u; rows coordinates, columns speeds)
     up to a permutation: the connected parts of its structural non-zeros, as ((coordinates),
-    (speeds)) pairs, or one block of all when a part is not square.  Why: a free joint's K is
+    (speeds)) pairs, or one block of all when a part is not square -- but for a quaternion's
+    4 rows on 3 speeds (``quats``: its rows, :func:`_quaternion_rows`).  Why: a free joint's K is
     a translation block and an angle block, and inverting two 3×3 blocks and applying them
     costs a quarter and a half of the 6×6 (measured: K⁻¹ was 7 % of Go2's jac_x)."""
-    k = len(kj)
-    parent = list(range(2 * k))     # union-find over coordinates 0..k-1 and speeds k..2k-1
+    nr, k = len(kj), len(kj[0])
+    parent = list(range(nr + k))    # union-find over coordinates 0..nr-1 and speeds nr..nr+k-1
 
     def find(i):
         while parent[i] != i:
             parent[i] = parent[parent[i]]
             i = parent[i]
         return i
-    for i in range(k):
+    for i in range(nr):
         for j in range(k):
             if kj[i][j] != 0:
-                parent[find(i)] = find(k + j)
+                parent[find(i)] = find(nr + j)
     parts = {}
-    for n in range(2 * k):
+    for n in range(nr + k):
         parts.setdefault(find(n), []).append(n)
-    blocks = sorted((tuple(n for n in ns if n < k), tuple(n - k for n in ns if n >= k)) for ns in parts.values())
-    if any(len(r) != len(c) for r, c in blocks):
-        return ((tuple(range(k)), tuple(range(k))),)
+    blocks = sorted((tuple(n for n in ns if n < nr), tuple(n - nr for n in ns if n >= nr)) for ns in parts.values())
+    if any(len(r) != len(c) and not (r in quats and len(c) == 3) for r, c in blocks):
+        return ((tuple(range(nr)), tuple(range(k))),)
     return tuple(blocks)
 
 
@@ -952,15 +993,24 @@ def kernel_c(name, plan, nq, solve=False):
         lines += _contact_lines(name, plan)
     if plan.table >= 0:     # along ξ: before a k-speed joint's K⁻¹ below
         lines += _kernel_pair_lines(name, plan)
-    for (e0, k, koff), blocks in zip(plan.multi, plan.kblocks):
+    for (e0, k, koff), blocks, cols in zip(plan.multi, plan.kblocks, plan.kcols or [()] * len(plan.multi)):
         kb = [len(r) for r, _ in blocks]
+        rect = [n for n, (r, c) in enumerate(blocks) if len(r) != len(c)]     # a quaternion's (4 x 3)
         lines += [
-            f"    {{   /* a {k}-speed joint: d tau/dq = d tau/d xi K^-1, q' = K u, K in {len(blocks)} diagonal block(s) */",
-            f"        double Km[{max(kb) ** 2}], x[{k}], " + ("piv, tmp;" if max(kb) > 3 else "tmp;"),
-        ] + (["        int p;"] if max(kb) > 3 else []) + [f"        double Ki{n}[{kb[n] ** 2}];" for n in range(len(blocks))] + [
+            f"    {{   /* a {k}-speed joint: d tau/dq = d tau/d xi K^-1, q' = K u, K in {len(blocks)} diagonal block(s) */"
+            if not rect else
+            f"    {{   /* a {k}-speed joint with a quaternion: d tau/dq = d tau/d xi K^-1, its quaternion's 4 x 3 block"
+            " by K^+ = (K^T K)^-1 K^T (analytic.py) */",
+            f"        double Km[{max(kb) ** 2}], x[{k}], " + ("piv, tmp;" if max(kb) > 3 and not rect else "tmp;"),
+        ] + (["        int p;"] if max(kb) > 3 and not rect else []) + [f"        double Ki{n}[{kb[n] ** 2}];" for n in range(len(blocks))] + [
+            f"        double Kq{n}[{4 * 3}], Gi{n}[9];" for n in rect] + ([
+            c_table("kq", cols).replace("    ", "        ", 1)] if cols else []) + [
             c_table(f"kr{n}", r).replace("    ", "        ", 1) for n, (r, _) in enumerate(blocks)] + [
             c_table(f"kc{n}", c).replace("    ", "        ", 1) for n, (_, c) in enumerate(blocks)]
         for n, b in enumerate(kb):
+            if n in rect:
+                lines += _pseudo_inverse_lines(f"an[{o['K'] + koff} + {k} * kr{n}[i] + kc{n}[j]]", f"Kq{n}", f"Gi{n}", f"Ki{n}")
+                continue
             lines += [
                 f"        for (i = 0; i < {b}; i++)",
                 f"            for (j = 0; j < {b}; j++) Km[{b} * i + j] = an[{o['K'] + koff} + {k} * kr{n}[i] + kc{n}[j]];",
@@ -971,11 +1021,12 @@ def kernel_c(name, plan, nq, solve=False):
             f"            for (c = 0; c < {k}; c++) x[c] = o[qc[{e0} + c]];",
         ]
         for n, b in enumerate(kb):
+            nc = len(blocks[n][1])
             lines += [
                 f"            for (c = 0; c < {b}; c++) {{",
                 "                tmp = 0.0;",
-                f"                for (i = 0; i < {b}; i++) tmp += x[kc{n}[i]] * Ki{n}[{b} * i + c];",
-                f"                o[qc[{e0} + kr{n}[c]]] = tmp;",
+                f"                for (i = 0; i < {nc}; i++) tmp += x[kc{n}[i]] * Ki{n}[{b} * i + c];",
+                f"                o[kq[kr{n}[c]]] = tmp;" if cols else f"                o[qc[{e0} + kr{n}[c]]] = tmp;",
                 "            }",
             ]
         lines += ["        }", "    }"]
@@ -1281,6 +1332,31 @@ def _ginv_lines(k, ki):
     ]
 
 
+def _pseudo_inverse_lines(entry, kq, gi, ki):
+    """``ki`` (3 x 4: speeds by coordinates) = K⁺ = (KᵀK)⁻¹Kᵀ of a quaternion's block of K
+    (``entry``: its (i, j) entry, i < 4 coordinates, j < 3 speeds, read into ``kq``), through
+    KᵀK in Km and its closed-form inverse ``gi`` (:func:`_small_inverse_lines`).  K⁺ K = 1 and
+    K⁺ q = 0 (K's columns, ½ q ⊗ e_j, are orthogonal to q): the change of the joint's placement
+    along δq, whatever part of δq only rescales the quaternion, which the dynamics does not see."""
+    return [
+        "        for (i = 0; i < 4; i++)",
+        f"            for (j = 0; j < 3; j++) {kq}[3 * i + j] = {entry};",
+        "        for (i = 0; i < 3; i++)   /* K^T K */",
+        "            for (j = 0; j < 3; j++) {",
+        "                tmp = 0.0;",
+        f"                for (c = 0; c < 4; c++) tmp += {kq}[3 * c + i] * {kq}[3 * c + j];",
+        "                Km[3 * i + j] = tmp;",
+        "            }",
+    ] + _small_inverse_lines(3, gi) + [
+        "        for (i = 0; i < 3; i++)   /* (K^T K)^-1 K^T */",
+        "            for (j = 0; j < 4; j++) {",
+        "                tmp = 0.0;",
+        f"                for (c = 0; c < 3; c++) tmp += {gi}[3 * i + c] * {kq}[3 * j + c];",
+        f"                {ki}[4 * i + j] = tmp;",
+        "            }",
+    ]
+
+
 def _small_inverse_lines(k, ki):
     """``ki`` = Km⁻¹ for k ≤ 3 in closed form (the adjugate over the determinant), the blocks
     of a free or ball joint's K.  Why not Gauss-Jordan (:func:`_ginv_lines`): unrolled with its
@@ -1578,4 +1654,4 @@ def analytic_ops(plan, ncol=0):
 
 def _state_cols(plan, ncol):
     """The state columns of block W (the kernel's own columns; ``ncol`` when given)."""
-    return ncol or len(plan.qcol) + plan.nd
+    return ncol or plan.nq + plan.nd

@@ -96,7 +96,9 @@ def _column_gate(ctx, plan, inner):
     for j in range(len(t.bodies)):
         cols, a = [0] * ctx.nx, ends.get(j, -1)
         while a >= 0:
-            cols[plan.qcol[a]] = cols[ctx.nq + plan.row[a]] = 1
+            for q in plan.coordinate_columns(a):     # (a quaternion joint's: all its coordinates)
+                cols[q] = 1
+            cols[ctx.nq + plan.row[a]] = 1
             a = plan.lam[a]
         moves.append(cols)
     pb = [[t.shapes[sa][0], t.shapes[sb][0]] for _, sa, sb, *_ in t.pairs]

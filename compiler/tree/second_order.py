@@ -71,6 +71,8 @@ def second_order_plan(plan):
         return None, "ground contacts: not covered yet"
     if plan.npair:          # the body-body pairs' wrench tangents (analytic.py, block W)
         return None, "body-body pairs: not covered yet"
+    if plan.kcols:          # a quaternion joint's K⁺ (analytic.py): its second derivatives are not written
+        return None, "quaternion coordinates: not covered yet"
     return plan, None
 
 

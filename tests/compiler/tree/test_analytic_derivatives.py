@@ -284,6 +284,70 @@ def test_both_solves_of_jac_x(solver, tmp_path, monkeypatch):
     assert worst(model, seed=5) < 1e-6
 
 
+@pytest.mark.parametrize("solver", ["aba", "ltdl"])
+def test_quaternion_joints_take_the_analytic_path(solver, tmp_path, monkeypatch):
+    """A quaternion free or ball joint has 4 coordinates on 3 angular speeds: its block of K is
+    4 x 3, and the kernel maps ∂τ/∂ξ to ∂τ/∂q by K⁺ = (KᵀK)⁻¹Kᵀ (analytic.py; until session 28
+    such a model took the tangent path, its jac_x ~2x the Euler build's).  test_narrow's limbs
+    (two free joints, a ball joint, a hinge; capsules and spheres) on a floor, with their
+    body-body pairs through the table, orientation="quaternion": jac_x and jac_id against the
+    tangent path's (analytic_plan refused) and against central differences of the rhs and
+    inverse dynamics, at states with quaternions of length 0.5-2 (the rhs does not see the
+    length, so neither may the derivatives: ∂f/∂q · q = 0), some touching the floor and each
+    other.  hess_id keeps its tangent path (second_order refuses the plan)."""
+    from eomc.compiler.mjcf.model import MjcfModel
+    from eomc.compiler.tree import analytic as an
+    from eomc.compiler.tree.second_order import second_order_plan
+    from tests.compiler.contact.test_narrow import LIMBS
+    monkeypatch.setattr(an, "ABA_DEPTH", 0 if solver == "aba" else 10 ** 6)
+    path = tmp_path / "limbs.xml"
+    path.write_text(LIMBS.replace("<worldbody>", '<worldbody><geom name="floor" type="plane" size="5 5 0.1"/>', 1))
+    fns = FNS + ["outputs"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = eomc.compile(MjcfModel(path, orientation="quaternion", pairs=True), f"qlimbs_{solver}",
+                             functions=fns, progress=False, cache_dir=tmp_path / "a")
+        plan = an.analytic_plan
+        monkeypatch.setattr(an, "analytic_plan", lambda *a, **k: (None, []))
+        tangent = eomc.compile(MjcfModel(path, orientation="quaternion", pairs=True), f"qlimbs_t_{solver}",
+                               functions=fns, progress=False, cache_dir=tmp_path / "t")
+        monkeypatch.setattr(an, "analytic_plan", plan)
+    assert len(model.quaternions) == 3
+    assert analytic(model) and not analytic(tangent)
+    text = model.source_path.read_text()
+    assert ("_rd_bw(" in text) == (solver == "aba") and "(K^T K)^-1 K^T" in text
+    names = list(model.output_names)
+    floor = [i for i, n in enumerate(names) if n.startswith("depth_") and "__" not in n]
+    pairs = [i for i, n in enumerate(names) if n.startswith("Fn_") and "__" in n]
+    assert floor and len(pairs) >= 6
+    rng = np.random.default_rng(11)
+    X = rng.normal(scale=0.6, size=(300, model.nx))
+    X[:, 2] += 0.3
+    for i in model.quaternions:
+        X[:, i:i + 4] *= rng.uniform(0.5, 2.0, (300, 1)) / np.linalg.norm(X[:, i:i + 4], axis=1)[:, None]
+    out = np.array([list(model.outputs(0.0, x).values()) for x in X], dtype=float)
+    on_floor, pressed = (out[:, floor] > 0).any(axis=1), (out[:, pairs] > 0).any(axis=1)
+    picked = [*np.flatnonzero(pressed)[:3], *np.flatnonzero(on_floor & ~pressed)[:3],
+              *np.flatnonzero(~on_floor & ~pressed)[:2]]
+    assert len(picked) == 8, (pressed.sum(), on_floor.sum())
+    for x in X[picked]:
+        ud = rng.normal(size=model.nu)
+        for J, T, ref in ((model.jac_x(0.0, x), tangent.jac_x(0.0, x), central(lambda y: model.rhs(0.0, y), x, model.nx)),
+                          (model.jac_id(0.0, x, ud), tangent.jac_id(0.0, x, ud),
+                           central(lambda y: model.inverse_dynamics(0.0, y, ud), x, model.nx))):
+            scale = max(1.0, np.max(np.abs(T)))
+            assert np.max(np.abs(J - T)) <= 1e-11 * scale
+            assert np.max(np.abs(J - ref)) <= 1e-6 * scale
+    assert second_order_plan(_quaternion_plan()) == (None, "quaternion coordinates: not covered yet")
+
+
+def _quaternion_plan():
+    """An AnalyticPlan with a quaternion joint (kcols set), for second_order_plan."""
+    from eomc.compiler.tree.analytic import AnalyticPlan
+    return AnalyticPlan(1, 6, (-1,), (0,), (6,), tuple(range(6)), tuple(range(6)), ((0, 6, 0),), False, {}, 0,
+                        kcols=(tuple(range(7)),))
+
+
 def test_finiteness_check_of_the_kernels_outputs():
     """jac_x and jac_id on the kernel report EOMC_NONFINITE exactly when an output is not
     finite (NAME_rd_finite, analytic.finite_lines: sums of v * 0, not an isfinite loop): the C
