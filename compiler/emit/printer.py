@@ -30,7 +30,7 @@ import sympy as sm
 from sympy.printing.c import C99CodePrinter
 from sympy.printing.precedence import PRECEDENCE
 
-__all__ = ["CPrinter", "HalfPow", "NonFiniteLiteral", "print_memo", "c_minmax", "MINMAX_C", "MINMAX_NAMES",
+__all__ = ["CPrinter", "HalfPow", "half_power", "NonFiniteLiteral", "print_memo", "c_minmax", "MINMAX_C", "MINMAX_NAMES",
            "CALLED_C"]
 
 # fmax and fmin inline.  Why: on the ant's NAME_implicit (164 sites: joint limits, ctrl clamps,
@@ -68,8 +68,9 @@ CALLED_C = {"eomc_limit_stored": """static double eomc_limit_stored(double r, do
 
 
 class HalfPow(sm.Function):
-    """HalfPow(x, c): x**c for c = k/2, k odd and >= 3 (a contact law's 3/2 and 5/2), printed as
-    ``eomc_pow0(x, c)`` (:data:`MINMAX_C`), which skips libm's pow where x is 0: the same bits
+    """HalfPow(x, c): x**c for c = k/2, k odd and >= 3 (a contact law's 3/2 and 5/2) in NAME_energy.
+    Printed as :func:`half_power`'s products where x is a fabs (every contact law's case), else
+    as ``eomc_pow0(x, c)`` (:data:`MINMAX_C`), which skips libm's pow where x is 0: the same bits
     (pow(±0, c) = +0 for such c; any other x is pow's).  Why: NAME_energy's elastic terms are
     k δ₊^(5/2) per contact point, δ₊ = 0 for every point out of contact, and glibc's pow of 0 still
     takes ~4 ns (25 calls a step on the ant: a third of its 315 ns; compiler/emit/generate.py
@@ -84,7 +85,32 @@ class HalfPow(sm.Function):
         return c.is_Rational and c.q == 2 and c.p >= 3
 
     def _ccode(self, printer):
+        text = half_power(printer, *self.args)
+        if text is not None:
+            return text
         return f"eomc_pow0({printer._print(self.args[0])}, {printer._print(self.args[1])})"
+
+
+# x**(p/2) for these p as products with one sqrt (half_power)
+_HALF_POWERS = {-1: "(1.0/sqrt({x}))", 3: "({x}*sqrt({x}))", 5: "({x}*{x}*sqrt({x}))"}
+
+
+def half_power(printer, base, exp):
+    """C text of ``base**exp`` as products with sqrt where exp is -1/2, 3/2 or 5/2 and base is
+    an Abs (a fabs: +0, positive, +inf or NaN), else None (pow).
+
+    Why: the contact laws' d^(3/2) (Hunt-Crossley) printed as ``pow(fabs(d), 3.0/2.0)``, 75 calls
+    in the ant's NAME_implicit and ~150 in the humanoid's, and gcc turns pow(x, 1.5) into
+    x*sqrt(x) only under -ffast-math; in the lanes code (compiler/emit/batch.py) pow is a libm call
+    lane by lane, sqrt one vector instruction.  Same values at every fabs: pow(+0, c) = +0 (and
+    +inf for c = -1/2, as 1/sqrt(+0)), +inf stays +inf, NaN stays NaN.  Not the same bits: glibc's
+    pow is within 1 ulp of the exact power, x*sqrt(x) rounds twice and x*x*sqrt(x) three times, and
+    they differ from pow by at most 1 (3/2, -1/2) or 2 (5/2) ulp (tests/compiler/emit/test_printer.py
+    measures it).  Only a fabs: pow and these products differ at x = -inf (+inf against NaN) and,
+    for 5/2, at x = -0 (+0 against -0), which an Abs never is."""
+    if not (isinstance(base, sm.Abs) and exp.is_Rational and exp.q == 2 and exp.p in _HALF_POWERS):
+        return None
+    return _HALF_POWERS[int(exp.p)].format(x=printer._print(base))
 
 
 def c_minmax(printer, fn, *args):
@@ -185,6 +211,10 @@ class CPrinter(C99CodePrinter):
 
     _print_Pi = _print_NumberSymbol
     _print_Exp1 = _print_NumberSymbol
+
+    def _print_Pow(self, expr):
+        text = half_power(self, expr.base, expr.exp)
+        return super()._print_Pow(expr) if text is None else text
 
     def _print_Max(self, expr):
         return c_minmax(self, "fmax", *(self._print(a) for a in expr.args))

@@ -73,9 +73,10 @@ def test_energy_skips_far_pairs_and_zero_powers_with_the_outputs_bits(tmp_path, 
     phase and law: G1's energy spent 41 % of its time there); the pair inlined (the default for
     fewer than 8 pairs) under the rhs's broad-phase guard (its depth 0 where the pair's bounding
     balls are apart, the hopper's three pairs: 106 -> 81 ns a call), as are the ground points'
-    depths under their bodies' guards.  Its contact powers δ₊^(3/2), δ₊^(5/2) skip libm's pow at 0
-    (eomc_pow0).  The value stays the outputs' bit for bit at states with the feet pressed
-    together, apart (the pair skipped) and in the floor or not."""
+    depths under their bodies' guards.  Its contact powers δ₊^(3/2), δ₊^(5/2) take no libm pow
+    (printer.half_power: products with sqrt, as the outputs print them).  The value stays the
+    outputs' bit for bit at states with the feet pressed together, apart (the pair skipped) and in
+    the floor or not."""
     import eomc
     from eomc.compiler.contact import pairs
     from eomc.compiler.mjcf.model import MjcfModel
@@ -93,7 +94,7 @@ def test_energy_skips_far_pairs_and_zero_powers_with_the_outputs_bits(tmp_path, 
     else:
         assert "eomc_pairs(" not in energy and "if (!(" not in outputs
         assert energy.count("if (!(") == 1 and "G_[" in energy      # the pair (the feet's ground depths straight)
-    assert "eomc_pow0(" in energy and "pow(fabs(" not in energy.replace("eomc_pow0(fabs(", "")   # (the
+    assert "eomc_pow0(" not in energy and "pow(fabs(" not in energy and "*sqrt(fabs(" in energy   # (the
     # guards' clearances print squares as pow(d, 2.0), as the rhs's)
     rng = np.random.default_rng(7)
     names = list(model.state_names)
