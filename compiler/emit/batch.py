@@ -19,7 +19,7 @@ together (NAME_vsincos: one reduction, one pair of kernels, the same bits).  fab
 fmin (joint limits) are vector bit operations and compares with libm's results bit for bit,
 sqrt the vector instruction (correctly rounded, as libm's).
 Other calls (pow, tanh, ...) are made lane by lane with the scalar libm function, so they are
-exact.  Branches become per-lane: the singular-mass-matrix
+exact (tanh, printed as eomc_tanh0, in the lanes that are not ±0).  Branches become per-lane: the singular-mass-matrix
 guard and the finiteness check set a status per state; a block under a state-dependent test
 (a contact's depth, a contact pair's broad phase: ``if (!(a > 0.0)) { ... } else { ... }``)
 becomes a mask per lane (:meth:`_Rewriter.branch`): the block runs when one lane takes it, its
@@ -392,6 +392,16 @@ _VECTOR_EXACT["sqrt"] = """static EOMC_VTARGET EOMC_VINLINE eomc_vd {p}_v_sqrt(e
 #endif
 }}"""
 
+# printer.MINMAX_C's eomc_tanh0 in lanes: libm's tanh in each lane but where the lane is ±0 (a joint
+# inside its range: its limit's stretch is 0), which keeps its value, as the scalar helper does
+_VECTOR_EXACT["tanh0"] = """static EOMC_VTARGET eomc_vd {p}_v_tanh0(eomc_vd a)
+{{
+    eomc_vd v = a;
+    int l;
+    for (l = 0; l < EOMC_BATCH_LANES; l++) if (a[l] != 0.0) v[l] = tanh(a[l]);
+    return v;
+}}"""
+
 _VECTOR_EXACT["sign"] = """static EOMC_VTARGET eomc_vd {p}_v_sign(eomc_vd a)
 {{
     eomc_vd v = {{0}};   /* every lane set below; the zero keeps gcc's -Wmaybe-uninitialized quiet */
@@ -647,6 +657,9 @@ class _Rewriter:
             elif name in ("sin", "cos") and len(args) == 1:
                 self.used.add("trig")
                 out.append(f"{self.prefix}_v{name}({new[0]})")
+            elif name == "eomc_tanh0" and len(args) == 1:         # printer.MINMAX_C's, in lanes
+                self.used.add("tanh0")
+                out.append(f"{self.prefix}_v_tanh0({new[0]})")
             elif (name in MATH1 and len(args) == 1) or (_LIBM.get(name, name) in MATH2 and len(args) == 2):
                 name = _LIBM.get(name, name)
                 self.used.add(name)
@@ -1219,7 +1232,7 @@ def batch_rhs(name, lines, parts, dynamics="", fn="rhs", out="xdot", kernels="",
 _PAIR_RENAMED = re.compile(r"\b(t\d+|o\d+|piv|c[vTfa]\d+|dsum|dmin|L\d+_\d+|SC\d+|sin_\d+|cos_\d+|x|p|r|xdot|st)\b")
 _PAIR_KEPT = {"k", "l_", "k_", "a_", "lt_", "t", "const", "eomc_vd", "eomc_vu", "double", "int", "for", "if", "void",
               "DBL_MAX"}
-_SCALAR_CALLS = {"sin", "cos", *MATH1, *MATH2, *_LIBM}     # left as calls on doubles (constants) by the rewrite
+_SCALAR_CALLS = {"sin", "cos", *MATH1, *MATH2, *_LIBM, "eomc_tanh0"}     # left as calls on doubles (constants) by the rewrite
 _PAIR_ONCE = re.compile(r"^\s*(?:for \(k = \d+; k (?:<|>=) \d+; k(?:\+\+|--)\) \{|\{|\}|int k;|int l_;|\(void\)t;)$")
 
 

@@ -303,26 +303,29 @@ def test_vector_fabs_fmax_fmin_are_libm_bit_for_bit(tmp_path):
     signed zeros, NaN in either place, infinities, equal values, subnormals.  libm's are called
     through volatile pointers: gcc takes fmax(a, b) as commutative and may pass b first, which
     changes fmax(-0, +0).  sqrt too (the vector instruction: IEEE's correctly rounded sqrt,
-    libm's bits; a NaN result only has to be a NaN)."""
+    libm's bits; a NaN result only has to be a NaN), and the printer's eomc_tanh0 (libm's tanh
+    but at ±0, which it returns), scalar and in lanes, against libm's tanh."""
     from eomc.compiler.emit.batch import helpers
     from eomc.compiler.emit.printer import MINMAX_C
     lanes = machine_lanes()
     src = tmp_path / "mm.c"
     src.write_text("#include <math.h>\n" + SIMD_PRELUDE + "\n" + "\n".join(MINMAX_C.values()) + "\n"
-                   + helpers("t", {"fabs", "fmax", "fmin", "sqrt"}) + """
+                   + helpers("t", {"fabs", "fmax", "fmin", "sqrt", "tanh0"}) + """
 double (*volatile libm_fmax)(double, double) = fmax;
+double (*volatile libm_tanh)(double) = tanh;
 double (*volatile libm_fmin)(double, double) = fmin;
 
 EOMC_VTARGET int check(int n, const double *a, const double *b)
 {
     int k, l, bad = t_vset(1.0)[0] != 1.0;   /* (the rewrite's broadcast, emitted with fmax) */
     for (k = 0; k + EOMC_BATCH_LANES <= n; k += EOMC_BATCH_LANES) {
-        eomc_vd va, vb, mx, mn, ab, sq;
+        eomc_vd va, vb, mx, mn, ab, sq, th;
         for (l = 0; l < EOMC_BATCH_LANES; l++) { va[l] = a[k + l]; vb[l] = b[k + l]; }
         mx = t_v_fmax(va, vb);
         mn = t_v_fmin(va, vb);
         ab = t_v_fabs(va);
         sq = t_v_sqrt(va);
+        th = t_v_tanh0(va);
         for (l = 0; l < EOMC_BATCH_LANES; l++) {
             double m1 = libm_fmax(a[k + l], b[k + l]), m2 = libm_fmin(a[k + l], b[k + l]), m3 = fabs(a[k + l]);
             double s1 = eomc_fmax(a[k + l], b[k + l]), s2 = eomc_fmin(a[k + l], b[k + l]);
@@ -332,6 +335,9 @@ EOMC_VTARGET int check(int n, const double *a, const double *b)
             bad += __builtin_memcmp(&s2, &m2, 8) != 0;
             bad += __builtin_memcmp(&ab[l], &m3, 8) != 0;
             bad += isnan(sqrt(a[k + l])) ? !isnan(sq[l]) : __builtin_memcmp(&sq[l], &(double){sqrt(a[k + l])}, 8) != 0;
+            bad += isnan(a[k + l]) ? !isnan(th[l]) || !isnan(eomc_tanh0(a[k + l]))
+                : __builtin_memcmp(&th[l], &(double){libm_tanh(a[k + l])}, 8) != 0
+                  || __builtin_memcmp(&(double){eomc_tanh0(a[k + l])}, &(double){libm_tanh(a[k + l])}, 8) != 0;
         }
     }
     return bad;

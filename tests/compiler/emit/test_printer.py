@@ -32,6 +32,7 @@ P = CPrinter({x: "x[0]", y: "x[1]", z: "p[0]"})
     (sm.Pow(IMul(x, x), -1, evaluate=False), "1.0/(x[0]*x[0])"),
     (-IMul(x, y), "-(x[0]*x[1])"),
     (IMul(x, y) + z, "p[0] + (x[0]*x[1])"),
+    (sm.tanh(1000.0 * x), "eomc_tanh0(1000.0*x[0])"),     # libm's tanh but at ±0 (printer.MINMAX_C)
 ])
 def test_exact_strings(expr, text):
     assert P.doprint(expr) == text
