@@ -47,6 +47,12 @@ outputs are not on the integrators' path.  Why: gymnasium's humanoid (109 pairs)
 against 1.0 µs without self-pairs, up to four times a BDF step (3.1 µs now at its rest pose;
 benchmarks/results/passive.md, 2026-11-30).  ``full`` = 1 (no skips, the narrow phase
 everywhere) is also the tangent and reverse loops' own variant (PairTableDot, PairTableBar).
+NAME_energy, which reads a point's δ only as (δ + |δ|)/2 and nothing else of the loop, calls it
+with ``full`` = DEPTHS (4): the rhs's skips (balls and segments), δ written for the pairs that pass
+them and 0 for the rest (+0 in the energy either way: the narrow phase's δ there is < 0), and no
+law.  Why: the rollouts' energy watch calls NAME_energy every step of every row; with ``full`` = 2
+its far pairs' bounds (two sqrt each) and touching pairs' laws were 3 % of the humanoid's lanes
+rollout (perf, session 28), for values the energy does not read.
 
 Derivatives: the tangent (jvp, jac_p; jac_x and jac_id per state column, into the analytic
 kernel's block W) is one call of the function's forward-mode twin per direction, ``eomc_pairs_dot``,
@@ -89,6 +95,9 @@ SLOPE_OUTPUTS = 25
 SLOPES = 3               # ``full`` of a call in its "slopes" variant (its C passes 0: the rhs's skips)
 DEPTH_OUTPUT = 4         # a contact point's δ among its POINT_OUTPUTS (PairValue kind "depth")
 DEPTHS_POSITIVE = "depths"   # for_program's ``exact`` for a function reading δ only as (δ + |δ|)/2
+# ``full`` of such a function's call when δ is all it reads of the loop (NAME_energy): the rhs's skips
+# (the balls, SEGMENT_BOUND), every point's δ (0 where its pair is skipped), no law (module docstring)
+DEPTHS = 4
 _TABLES = {}             # table id -> Table (this process's lowering; the C is what the caches keep)
 
 
@@ -262,7 +271,9 @@ class PairTableCall(nw.Token):
         Why DEPTHS_POSITIVE may skip: a pair the bounding balls skip has δ = -gap < 0 where the narrow
         phase's δ is < 0 too (module docstring), so (δ + |δ|)/2 is +0 with either (0.5|δ| and 0.5δ
         round to opposite numbers), and a point that is not skipped keeps the narrow phase's δ
-        itself; the law (F_n, friction) is not read.  The energy's value is the outputs' bit for
+        itself; the law (F_n, friction) is not read -- so where the program reads nothing but δ
+        (no wrench either) the call is ``full`` = DEPTHS, which skips the law and the bounds too.
+        The energy's value is the outputs' bit for
         bit (tests/compiler/emit/test_energy_fn.py); G1's NAME_energy ran every pair's narrow phase
         and law (41 % of its time)."""
         t = self.table
@@ -271,9 +282,11 @@ class PairTableCall(nw.Token):
                 raise ModelError("a function reads both the body-body pairs' slopes and their outputs")
             full = SLOPES
         else:
-            if exact == DEPTHS_POSITIVE:
+            depths = exact == DEPTHS_POSITIVE
+            if depths:
                 exact = any(k >= t.nwrench and (k - t.nwrench) % POINT_OUTPUTS != DEPTH_OUTPUT for k in reads)
-            full = (1 if exact else 2) if any(k >= t.nwrench for k in reads) else 0
+                depths = not exact and not any(k < t.nwrench for k in reads)
+            full = (1 if exact else DEPTHS if depths else 2) if any(k >= t.nwrench for k in reads) else 0
         return self.func(self.args[0], sm.Integer(full), *self.args[2:])
 
 
@@ -636,7 +649,7 @@ def _loop(t, mode):
             L += _ball_lines()[:2] + _far_bounds(t, npts)
         L += _axes(dot, ["    " + x for x in _centre_lines("sh", off, True)] if dot else ())
         if not dot and not tape and SEGMENT_BOUND:
-            L += _segment_bound_lines(nw.kinds_of(rid))
+            L += _segment_bound_lines(nw.kinds_of(rid), depths=not slopes)
         if dot:
             L += _ball_lines()
             L += _still_lines(off)
@@ -678,6 +691,8 @@ def _loop(t, mode):
         L.append("            if (!full && -pp[6] > 0) continue;")
         if not dot and not tape:   # full = 2, a point apart by more than the pad: F_n, friction 0; clip >= -δ
             L.append(f"            if (full == 2 && -pp[6] > {_fmt(BROAD_PAD)}) {{ po[5] = -pp[6]; continue; }}")
+        if not dot and not tape and not slopes:
+            L.append(f"            if (full == {DEPTHS}) continue;   /* NAME_energy: the point's δ alone */")
         largs = ", ".join(_law_args("pp", "A", "B", "par"))
         if dot:
             L.append(f"            if (lt == ll) eomc_pair_law_tape({largs}, ll);")
@@ -721,7 +736,9 @@ def _loop(t, mode):
 # the narrow phase ran for pairs that were apart.  Exact as the ball test is: a skipped pair is
 # apart by more than BROAD_PAD, where the narrow phase's δ < 0 and the loop skips its law anyway;
 # only its δ and p slots (not read by the rhs; NAME_implicit's readers read δ > 0 only) stay 0.
-# The tape and tangent loops (jac_x) and full = 1, 2 (outputs, events) keep the ball test alone.
+# The tape and tangent loops (jac_x) and full = 1, 2 (outputs, events) keep the ball test alone;
+# full = DEPTHS (NAME_energy, reading δ only as (δ + |δ|)/2: +0 for a skipped pair's 0 as for its
+# narrow phase's δ < 0) takes the primal's skips too.
 SEGMENT_BOUND = True
 _SEGMENT_BOUND = (("capsule", "capsule"), ("sphere", "capsule"), ("capsule", "sphere"))
 
@@ -733,13 +750,14 @@ def _segment_reach(t, p):
     return t.shapes[p[1]][3][0] + t.shapes[p[2]][3][0] + p[3] + BROAD_PAD
 
 
-def _segment_bound_lines(kinds):
+def _segment_bound_lines(kinds, depths=False):
     """C, in the primal loop after a pair's axes are placed (e = c_B - c_A, dd = |e|², from the
     ball test): skip the pair when a lower bound on its segments' distance exceeds D[2]
     (_segment_reach).  A capsule's segment is c ± s x, |s| <= l (x its axis, ax's third row, l
     its half-length, size[1]).  Sphere against capsule: the centre's distance to the segment
     (exact).  Two capsules: a point of B's segment is at least |e⊥a| - l_b |x_b⊥a| from A's
-    axis line (⊥a: the part normal to x_a), and the same with A and B swapped; the larger."""
+    axis line (⊥a: the part normal to x_a), and the same with A and B swapped; the larger.
+    ``depths``: with full = DEPTHS too (eomc_pairs; eomc_pairs_slopes is called with 0 only)."""
     if kinds not in _SEGMENT_BOUND:
         return []
     if kinds == ("capsule", "capsule"):
@@ -758,7 +776,8 @@ def _segment_bound_lines(kinds):
             "            const double s = fmin(fmax(f0 * xc[0] + f1 * xc[1] + f2 * xc[2], -l), l);",
             "            const double u0 = f0 - s * xc[0], u1 = f1 - s * xc[1], u2 = f2 - s * xc[2];",
             "            if (u0 * u0 + u1 * u1 + u2 * u2 > D[2] * D[2]) continue;"]
-    return ["        if (!full) {   /* the segments apart past the radii and margin (SEGMENT_BOUND): skip */",
+    test = f"!full || full == {DEPTHS}" if depths else "!full"
+    return [f"        if ({test}) {{   /* the segments apart past the radii and margin (SEGMENT_BOUND): skip */",
             *body, "        }"]
 
 

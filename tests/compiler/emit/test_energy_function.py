@@ -68,9 +68,9 @@ def _function_text(source, name):
 @pytest.mark.parametrize("table", [True, False])
 def test_energy_skips_far_pairs_and_zero_powers_with_the_outputs_bits(tmp_path, monkeypatch, table):
     """NAME_energy reads a pair's depth only through its positive part, so the pair's far states skip
-    it: through the pairs' table loop (table: pairs.TABLE_FROM = 1) the loop's broad phase (full = 2:
-    far pairs get their balls' bounds, no law; the outputs' call is full = 1, every pair's narrow
-    phase and law: G1's energy spent 41 % of its time there); the pair inlined (the default for
+    it: through the pairs' table loop (table: pairs.TABLE_FROM = 1) the loop's broad phase (full =
+    DEPTHS, 4: the rhs's skips, far pairs' δ 0, no law; the outputs' call is full = 1, every pair's
+    narrow phase and law: G1's energy spent 41 % of its time there); the pair inlined (the default for
     fewer than 8 pairs) under the rhs's broad-phase guard (its depth 0 where the pair's bounding
     balls are apart, the hopper's three pairs: 106 -> 81 ns a call), as are the ground points'
     depths under their bodies' guards.  Its contact powers δ₊^(3/2), δ₊^(5/2) take no libm pow
@@ -90,7 +90,7 @@ def test_energy_skips_far_pairs_and_zero_powers_with_the_outputs_bits(tmp_path, 
     source = next((tmp_path / "cache").rglob("enpt.c")).read_text()
     energy, outputs = _function_text(source, "enpt_energy"), _function_text(source, "enpt_outputs")
     if table:
-        assert "eomc_pairs(" in energy and ", 2, &PT_[0])" in energy and ", 1, &PT_[0])" in outputs
+        assert "eomc_pairs(" in energy and ", 4, &PT_[0])" in energy and ", 1, &PT_[0])" in outputs   # (DEPTHS)
     else:
         assert "eomc_pairs(" not in energy and "if (!(" not in outputs
         assert energy.count("if (!(") == 1 and "G_[" in energy      # the pair (the feet's ground depths straight)
