@@ -135,12 +135,15 @@ def _pos(x):
     return (x + sm.Abs(x)) / 2
 
 
-def ground_forces(centre, velocity, omega, params, normal=(0, 0, 1), height=0, let=None):
+def ground_forces(centre, velocity, omega, params, normal=(0, 0, 1), height=0, let=None, twin=False):
     """:class:`ContactForces` of a sphere (centre, its velocity, the body's angular velocity:
     3 world components each) on the plane n·x = height.
 
     ``params``: {"k", "c", "mu", "vs", "r"} -> SymPy symbols or numbers.  ``let``: a
-    function naming an intermediate value (the tree's Recorder.let), identity by default."""
+    function naming an intermediate value (the tree's Recorder.let), identity by default.
+    ``twin``: the law is a straight-line twin of the ground points' loop
+    (compiler/contact/ground_table.py), only ever differentiated: the clip's |.| is built as it
+    stands (:func:`clip_switch`)."""
     let = let or (lambda e: e)
     n = [sm.sympify(x) for x in normal]
     k, c, mu, vs, r = (params[x] for x in ("k", "c", "mu", "vs", "r"))
@@ -158,7 +161,7 @@ def ground_forces(centre, velocity, omega, params, normal=(0, 0, 1), height=0, l
     ft = [let(scale * vt[i]) for i in range(3)]
     force = [let(fn * n[i] + ft[i]) for i in range(3)]
     parts = {"rate": rate, "dpos": dpos, "elastic": elastic, "slip": vp, "vt": vt, "scale": scale,
-             "normal": n, "k": k, "c": c, "vs": vs, "mu": mu, "clip": clip_switch(depth, c, rate)}
+             "normal": n, "k": k, "c": c, "vs": vs, "mu": mu, "clip": clip_switch(depth, c, rate, evaluate=not twin)}
     return ContactForces(depth, fn, ft, force, arm, parts)
 
 
@@ -201,16 +204,20 @@ def spin_moment(omega, normal, fn, params, let=None):
     return [let(x) for x in out]
 
 
-def clip_switch(depth, c, rate):
+def clip_switch(depth, c, rate, evaluate=True):
     """The switching function of the F_n >= 0 clip: max(1 + (3/2) c δ̇, -δ/(1 m)).
 
     Why: F_n = max(0, k δ₊^{3/2} (1 + (3/2) c δ̇)) has a kink where the damped law would pull
     (1 + (3/2) c δ̇ = 0) while in contact -- the damped contact's real lift-off, before δ
     reaches 0.  The runtime ends adaptive steps at this function's zeros as at touch-down
     (runtime/switching.py), so no step straddles the kink.  Out of contact (δ < 0) it is
-    positive, so a fast rebound in flight ends no step; with c = 0 it never vanishes."""
+    positive, so a fast rebound in flight ends no step; with c = 0 it never vanishes.
+
+    ``evaluate`` False: the |.| as it stands, without SymPy's questions about the sign of the
+    sum (its assumptions walk every temporary in it): a third of the SymPy time of Solo12's
+    544 ground points' laws (session 28), where the law is the loop's twin."""
     a = 1 + sm.Rational(3, 2) * c * rate
-    return (a - depth + sm.Abs(a + depth)) / 2
+    return (a - depth + sm.Abs(a + depth, evaluate=evaluate)) / 2
 
 
 def ground_jacobians(forces, step, let=None):

@@ -93,12 +93,18 @@ class Recursive(Formulation):
 
     def finish_programs(self, programs):
         """The functions' programs as the C is printed from them: NAME_implicit's pairs' loop
-        writing its slopes straight into out[] (contact/table.slopes_into; the routines printed
+        writing its slopes straight into out[] (contact/table.slopes_into), the ground points' loop
+        its records into NAME_implicit's out[] and jac_x's an[] (contact/ground_table.ground_into; the routines printed
         once per file come from these programs, so it is done here, before they are collected)."""
+        from ..contact.ground_table import ground_into
         from ..contact.table import slopes_into
-        if programs.get("implicit") is None:
-            return programs
-        return {**programs, "implicit": slopes_into(programs["implicit"], "imp")[0]}
+        from ..tree.analytic import ANX
+        out = dict(programs)
+        if out.get("implicit") is not None:
+            out["implicit"] = ground_into(slopes_into(out["implicit"], "imp")[0], "imp")[0]
+        if out.get("jac_x") is not None:    # the ground loop's records in place in an[] (block G)
+            out["jac_x"] = ground_into(out["jac_x"], ANX)[0]
+        return out
 
     body_loops = True         # NAME_energy and NAME_poses may be loops over the tree (compiler/tree/body_loops.py)
 

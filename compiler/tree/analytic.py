@@ -240,10 +240,11 @@ def analytic_plan(tree, bodies, gravity, layout, rename, contacts=None, let=None
             law_code.append((len(L), dq.named, tuple(dq.back.items())))
         L += list(dq()) if du is None else [dq, du]
     G, ends, GM, moving = [], [], [], []
+    from ..contact.ground_table import GroundOut
     for body, depth, point, centre, force, Kc, Cc, *shape in contacts or ():
-        if last.get(body, -1) < 0:      # on a body no joint moves: no generalized force
-            continue
-        ends.append((body, last[body]))
+        if last.get(body, -1) < 0 and not isinstance(depth, GroundOut):
+            continue        # on a body no joint moves: no generalized force (the ground loop's records
+        ends.append((body, last.get(body, -1)))     # stay, in place: their rows loop over no dof)
         G += [depth, *point, *centre, *force] + [x for M in (Kc, Cc) for row in M for x in row]
         moving.append(-1 if not shape or shape[0] is None else len(GM))
         GM += [x for row in shape[0] for x in row] if shape and shape[0] is not None else []
@@ -1640,7 +1641,7 @@ def analytic_ops(plan, ncol=0):
             adds += 2 * len(r) ** 3 + plan.nd * len(r) ** 2
     muls += 2 * len(plan.laws)      # the sign times each law's two derivatives
     adds += 2 * len(plan.laws)
-    for _, e in plan.contacts:      # a touching contact (one compare when clear): per support dof
+    for _, e in (c for c in plan.contacts if c[1] >= 0):      # a touching contact (one compare when clear): per support dof
         d = plan.dep[e] + 1         # its slopes' products (~70), per pair of them two dot products
         muls += 70 * d + 10 * d * d
         adds += 60 * d + 10 * d * d

@@ -26,8 +26,13 @@ def has_analytic(program, sym):
 
 
 def _inputs(program, pr):
+    """an[]'s stores, but for the entries the ground points' loop writes in place (block G:
+    compiler/contact/ground_table.ground_into)."""
+    from ..contact.ground_table import ground_into
+    _, written = ground_into(program, ANX)
     vals = program.result_exprs(ANX)
-    return [store(f"an[{k[1]}]", e, pr) for k, e in sorted(vals.items(), key=lambda kv: kv[0][1])]
+    return [store(f"an[{k[1]}]", e, pr) for k, e in sorted(vals.items(), key=lambda kv: kv[0][1])
+            if k not in written]
 
 
 def _shared_inputs(ctx):

@@ -60,6 +60,10 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
     broad phase (the world forces exported too: the kernel reads them); "pairs", the body-body
     pairs' table bodies and wrench temporaries when they are one table call, "pair_call" that
     call's temporary, table id and fixed inputs (table.lower_table's ``call_info``; .analytic).
+    ``points_loop``: the ground points may be one loop (compiler/contact/ground_table.py, from
+    its TABLE_FROM points); where every ground contact is the loop's, their "contacts" entries of
+    ``implicit`` and ``analytic`` are the loop's records (its slopes variant), and no point's K
+    and C is formed here.
     ``second``: a function differentiates the pairs twice (hvp, hess_id): every pair goes through the
     table whatever their number, whose loop skips the law out of contact -- inlined, the law's
     δ₊^{3/2} has the second derivative ∞·0 = NaN at every point out of contact."""
@@ -106,6 +110,14 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
               if points_loop and not second and gt.GROUND_TABLE else set())
     if len(looped) < gt.TABLE_FROM:
         looped = set()
+    gathered = gt.gather([(index, contacts[index]) for index in sorted(looped)], rename) if looped else None
+    if gathered is None:        # offsets the table cannot hold: straight-line, as before
+        looped = set()
+    # every contact in the loop, in their order: jac_x's block G and NAME_implicit's contact entries
+    # are the slopes variant's records (ground_table.ground_into), and SymPy forms no point's K and C
+    slopes_loop = (bool(looped) and gt.SLOPES_TABLE and len(looped) == len(contacts)
+                   and (implicit is not None or analytic is not None))
+    records = []        # (contact index, its place in implicit["contacts"], in analytic["contacts"])
     on_table, twins = {}, {}   # the loop's bodies' straight-line wrench terms; its outputs' twins
     for index, load in enumerate(contacts):
         i = load.body
@@ -128,7 +140,7 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
         velocity = rec.vec(poses.to_world(i, vp_b))
         omega = rec.vec(poses.to_world(i, w_b))
         forces = ground_forces(centre, velocity, omega, params, load.normal, rename(load.height, what),
-                               let=rec.let)
+                               let=rec.let, twin=index in looped)
         f_b = rec.vec(poses.to_body(i, forces.force))
         arm_b = poses.to_body(i, forces.point_offset)
         lever = [off[k] + arm_b[k] for k in range(3)]
@@ -141,17 +153,24 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
         for k, x in enumerate(n_b + f_b):
             pushed[k].append(x)
         slopes = ()
-        if implicit is not None or analytic is not None:
+        if slopes_loop:     # its records: filled in from the loop's below
+            records.append((index, len(implicit["contacts"]) if implicit is not None else None,
+                            len(analytic.setdefault("contacts", [])) if analytic is not None else None))
+            if implicit is not None:
+                implicit["contacts"].append(None)
+            if analytic is not None and analytic["contacts"] is not None:
+                analytic["contacts"].append(None)
+        elif implicit is not None or analytic is not None:
             arm_w = forces.point_offset
             point = [rec.let(centre[k] + arm_w[k]) for k in range(3)]
             K, C = ground_jacobians(forces, step, rec.let)
             # each slope named: NAME_implicit's broad phase skips them with the force (body_guards)
             K, C = ([[rec.let(x) for x in row] for row in M] for M in (K, C))
             slopes = tuple(x for M in (K, C) for row in M for x in row if isinstance(x, sm.Symbol))
-        if implicit is not None:
+        if implicit is not None and not slopes_loop:
             implicit["contacts"].append({"depth": forces.depth, "point": point,
                                          "velocity": list(forces.parts["slip"]), "K": K, "C": C})
-        if analytic is not None:
+        if analytic is not None and not slopes_loop:
             analytic.setdefault("contacts", [])
             if analytic["contacts"] is not None:
                 # a moment of torsional/rolling friction is not in the kernel's block G (a force at a
@@ -177,14 +196,25 @@ def lower_contacts(tree, bodies, rec, v, rename, implicit=None, energy=None, gua
             for k, terms in enumerate(pushed):
                 twins[("wrench", i, k)] = rec.let(sm.Add(*terms))
         got = gt.lower_ground_table([(index, contacts[index]) for index in sorted(looped)], bodies, rec, v,
-                                    rename, poses, twins)
+                                    rename, poses, twins, gathered)
+        for index, at_imp, at_jac in records if got is not None else ():
+            e, g = got.pop((index, "imp")), got.pop((index, "jac"))
+            if at_imp is not None:
+                implicit["contacts"][at_imp] = {"depth": e[0], "point": e[1:4], "velocity": e[4:7],
+                                                "K": [e[7 + 3 * r:10 + 3 * r] for r in range(3)],
+                                                "C": [e[16 + 3 * r:19 + 3 * r] for r in range(3)]}
+            if at_jac is not None and analytic["contacts"] is not None:
+                analytic["contacts"][at_jac] = (contacts[index].body, g[0], g[1:4], g[4:7], g[7:10],
+                                                [g[10 + 3 * r:13 + 3 * r] for r in range(3)],
+                                                [g[19 + 3 * r:22 + 3 * r] for r in range(3)], None)
         if got is None:     # offsets the table cannot hold: straight-line, as before
             for i, pushed in on_table.items():
                 mine = loads_on.setdefault(i, [[] for _ in range(6)])
                 for k, terms in enumerate(pushed):
                     mine[k] += terms
         else:
-            values.update({ContactValue(index, kind): node for (index, kind), node in got.items()})
+            values.update({ContactValue(index, kind): node for (index, kind), node in got.items()
+                           if kind not in ("jac", "imp")})
     # each body's contact wrenches added to its fext in one sum: added point by point, the growing
     # sum was rebuilt at every point (Go2 --ground: 96 hull points per body)
     for i, pushed in loads_on.items():

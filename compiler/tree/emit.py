@@ -82,14 +82,17 @@ def tree_implicit_body(ctx, program, guards, size):
     entry, 0.24 in four chains; 16 chains since session 15) and the pairs' slope block written
     into out[] by their loop (contact/table.slopes_into: no stores here for those entries)."""
     from ..contact.table import slopes_into
+    from ..contact.ground_table import ground_into
     program, written = slopes_into(program, "imp")     # the pairs' loop writes its slopes into out[]
+    program, ground = ground_into(program, "imp")       # and the ground points' loop its records
     pr = ctx.printer(program)
     if guards:
         lines, pr = guarded_temps(program, pr, guards)
     else:
         lines = temps(program, pr)
     vals = program.result_exprs("imp")
-    stores = [(f"out[{i}]", vals.get(("imp", i), 0.0)) for i in range(size) if ("imp", i) not in written]
+    stores = [(f"out[{i}]", vals.get(("imp", i), 0.0)) for i in range(size)
+              if ("imp", i) not in written and ("imp", i) not in ground]
     body = [store(lv, e, pr) for lv, e in stores]
     ctx.constant_stores = implicit_constants(stores, body)
     lines += body

@@ -3,11 +3,12 @@
 A URDF trunk on one leg with its default ground (13 points; the loop's threshold lowered to 1 here),
 built with the loop and without it, agrees at random states in touch and apart and through a sweep
 of its height across the bodies' broad phase: NAME_rhs, NAME_outputs (every point's F_n, friction,
-depth), NAME_events (depths and clips), jac_x (14 states: its tangent path differentiates the
-loop's straight-line twins) and NAME_implicit (its forcing reads the loop; its slopes stay
-straight-line).  Bound 1e-12 of each state's largest entry (at least 1): the loop sums a body's forces in the
-world and turns them once, and writes δ^{3/2} as δ·sqrt(δ) -- rounding only (Solo12's 544 points
-at random states: benchmarks/results/ground_run.md, session 27)."""
+depth), NAME_events (depths and clips), jac_x (14 states: the analytic kernel, its block G the
+slopes loop's records written into an[]) and NAME_implicit (its forcing and its contact entries,
+the slopes loop's records written into out[]).  Bound 1e-12 of each state's largest entry (at least
+1; jac_x: of the matrix's): the loop sums a body's forces in the world and turns them once, writes
+δ^{3/2} as δ·sqrt(δ) and K, C in its own order -- rounding only (Solo12's 544 points at random
+states: benchmarks/results/ground_run.md, sessions 27-28)."""
 import sys
 import warnings
 from pathlib import Path
@@ -64,11 +65,14 @@ def _implicit(model, states):
     return out
 
 
-def _close(a, b):
+def _close(a, b, whole=False):
     """|a - b| within 1e-12 of the state's largest entry (at least 1): a point's forces are summed
-    in another order, and u' at a deep state (1e7) carries their rounding through M⁻¹."""
+    in another order, and u' at a deep state (1e7) carries their rounding through M⁻¹.  ``whole``:
+    ``a`` and ``b`` are one function's matrix at one state (jac_x), its largest entry the scale."""
     a, b = np.atleast_2d(np.asarray(a, float)), np.atleast_2d(np.asarray(b, float))
     assert np.all(np.isfinite(b))
+    if whole:
+        a, b = a.reshape(1, -1), b.reshape(1, -1)
     scale = np.maximum(1.0, np.abs(b).reshape(len(b), -1).max(axis=1))
     assert np.max(np.abs(a - b).reshape(len(b), -1).max(axis=1) / scale) <= 1e-12
 
@@ -78,6 +82,11 @@ def test_the_loop_is_the_straight_line_law_in_touch_and_apart(pair):
     source = next((tmp / "loop").rglob("oneleg.c")).read_text()
     assert "static double eomc_ground(" in source and "eomc_ground(" in source[source.index("int oneleg_rhs("):]
     assert "eomc_ground" not in next((tmp / "straight").rglob("oneleg.c")).read_text()
+    # the slopes: one loop writing jac_x's block G and NAME_implicit's contact entries in place
+    jac = source[source.index("int oneleg_jac_x("):source.index("int oneleg_outputs(")]
+    imp = source[source.index("int oneleg_implicit_var("):]
+    assert "eomc_ground_slopes(" in jac and ", 0, &GT_[0], &an[" in jac and "Kc" not in jac
+    assert ", 1, &GT_[0], &out[" in imp and "GS_" not in source
     assert loop.output_names == straight.output_names
     rng = np.random.default_rng(27)
     z = loop.state_names.index("q_trunk_floating_z")
@@ -92,7 +101,7 @@ def test_the_loop_is_the_straight_line_law_in_touch_and_apart(pair):
         for x in states[::8]:
             a, b = loop.outputs(0.0, x), straight.outputs(0.0, x)
             _close(list(a.values()), list(b.values()))
-            _close(loop.jac_x(0.0, x), straight.jac_x(0.0, x))
+            _close(loop.jac_x(0.0, x), straight.jac_x(0.0, x), whole=True)
     # the sweep touched down: some point pressed, and airborne every force is 0
     fn = np.array([[v for k, v in loop.outputs(0.0, x).items() if k.startswith("Fn_")] for x in sweep[:400]])
     assert fn[0].max() > 1.0 and fn[-1].max() == 0.0
