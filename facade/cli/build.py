@@ -67,6 +67,13 @@ def run(args):
     from eomc.compiler.build import reuse
     from eomc.runtime.errors import DefaultStartWarning
     key = _reuse_key(args)
+    model = None
+    if key is not None:
+        with warnings.catch_warnings():     # a reused build's warnings, said again as a build's are
+            warnings.filterwarnings("ignore", category=DefaultStartWarning)
+            model = _reused(args, key)
+    if model is not None:
+        key = None       # recorded already: nothing new to remember
     recorded = []
     try:
         with contextlib.ExitStack() as stack:
@@ -78,11 +85,12 @@ def run(args):
             # the default start's warning speaks to Python (x0=, model.metadata): the note below says
             # it as the other commands do (first hour s22: `eomc build hyq.urdf` gave the API's text)
             warnings.filterwarnings("ignore", category=DefaultStartWarning)
-            model = compile(source, name, functions=args.outputs, fold_parameters=args.fold_parameters,
-                            backend=args.backend, cflags=args.cflags, cache_dir=args.cache_dir,
-                            portable=args.portable, output_dir=args.output,
-                            progress="quiet" if args.quiet else True, formulation=args.formulation,
-                            contacts=args.contact, frames=args.frame, target=args.target)
+            if model is None:
+                model = compile(source, name, functions=args.outputs, fold_parameters=args.fold_parameters,
+                                backend=args.backend, cflags=args.cflags, cache_dir=args.cache_dir,
+                                portable=args.portable, output_dir=args.output,
+                                progress="quiet" if args.quiet else True, formulation=args.formulation,
+                                contacts=args.contact, frames=args.frame, target=args.target)
     finally:    # the build's warnings (recorded for the reuse shortcut), as if nothing had listened
         for w in recorded:
             reuse.warn_again(w.message, w.filename, w.lineno, w.source)
@@ -102,6 +110,57 @@ def run(args):
               + ", ".join(f"{fn} {s['bytes']}" for fn, s in stack.items()))
     print(formulation_line(model.metadata, args.formulation))
     return 0
+
+
+def _reused(args, key):
+    """The model the commands built before under ``key`` (what this build would write), exported
+    into ``args.output`` and loaded from there; None when there is none.  First hour s28: `eomc
+    build a1.urdf --floating-base --ground -o DIR` after `eomc simulate` of the robot derived and
+    generated it again (257 s wall, 31 s CPU at load 20) -- the build never looked.  A contact-free
+    model's simulate records the default set (NAME_implicit is built for contacts only), as does a
+    run of implicitfast; a contact model simulated with the default method has no NAME_implicit,
+    which this build writes: that one is built, and the note says why."""
+    import contextlib
+    from pathlib import Path
+    from eomc.compiler.build import reuse
+    from eomc.compiler.build.builder import BuildResult
+    from eomc.compiler.build.cache import BadEntry, cache_root
+    from eomc.compiler.build.export import export
+    from eomc.runtime.loader import LoadError, load
+    from .common import model_options, reuse_options, without_implicit
+    root = cache_root(None)
+    with contextlib.ExitStack() as held:
+        found = reuse.find(root, key, held)
+        if found is None:
+            _without_implicit_note(args, root, reuse_options(**{**model_options(args),
+                                                                "functions": without_implicit()}))
+            return None
+        directory, name = Path(found[0]), found[1]
+        built = BuildResult(name=name, directory=directory, library=directory / f"lib{name}.so",
+                            key="", hit=True, backend="cffi")
+        try:
+            return load(export(built, args.output, source=args.model), name)
+        except (BadEntry, LoadError, OSError):
+            return None      # built as if nothing had been found
+
+
+def _without_implicit_note(args, root, options):
+    """Say why this build derives the model again when a command built it without NAME_implicit."""
+    import contextlib
+    import sys
+    from pathlib import Path
+    from eomc.compiler.build import reuse
+    if args.quiet:
+        return
+    try:
+        with contextlib.ExitStack() as held:
+            if reuse.find(root, reuse.source_key(Path(args.model), options), held) is None:
+                return
+    except (OSError, ValueError):
+        return
+    print(f"note: {Path(args.model).name} was built before without NAME_implicit (the contacts' "
+          "implicitfast step, which simulate's default method does not read); eomc build writes it, "
+          "so the model is derived again", file=sys.stderr)
 
 
 def _reuse_key(args):

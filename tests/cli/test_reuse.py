@@ -277,3 +277,33 @@ def test_eomc_build_serves_the_commands_that_follow(counted, tmp_path, capsys):
     assert main(["build", str(arm), *contact, "-q", "--name", "other", "-o", str(tmp_path / "o2")]) == 0
     model, did = _built(counted, tmp_path, [arm, *contact], tmp_path / "3.csv")
     assert model.name == "arm" and did == {"read": 0, "derive": 0, "compile C": 0}, did
+
+
+def test_eomc_build_after_simulate_reuses_what_simulate_built(counted, tmp_path, capsys):
+    """First hour s28: `eomc build a1.urdf --floating-base --ground -o DIR` after `eomc simulate` of
+    the same robot derived, generated (and compiled) it again.  The build now looks up what the
+    commands recorded under its key first: a model without contacts (simulate's build holds every
+    default function: NAME_implicit is built for contacts only) and one simulated with
+    implicitfast are written into DIR without deriving anything.  With contacts and the default
+    method simulate built no NAME_implicit, which `eomc build` writes: it builds, and says why."""
+    arm = _arm(tmp_path)
+    for extra in ([], ["--frame", "lower"]):
+        _built(counted, tmp_path, [arm, *extra], tmp_path / "1.csv")
+        counted.update({k: 0 for k in counted})
+        out = tmp_path / ("plain" + "".join(extra))
+        assert main(["build", str(arm), *extra, "-q", "-o", str(out)]) == 0
+        assert counted == {"read": 0, "derive": 0, "compile C": 0}, (extra, counted)
+        assert (out / "arm.json").is_file() and (out / "arm.py").is_file()
+        assert "built model 'arm'" in capsys.readouterr().out
+    contact = ["--contact", "lower:0,0,0.3:0.05"]
+    _built(counted, tmp_path, [arm, *contact, "--method", "implicitfast", "--dt", "0.002"], tmp_path / "2.csv")
+    counted.update({k: 0 for k in counted})
+    assert main(["build", str(arm), *contact, "-q", "-o", str(tmp_path / "c1")]) == 0
+    assert counted == {"read": 0, "derive": 0, "compile C": 0}, counted
+    capsys.readouterr()
+    contact = ["--contact", "lower:0,0,0.2:0.05"]
+    _built(counted, tmp_path, [arm, *contact], tmp_path / "3.csv")
+    counted.update({k: 0 for k in counted})
+    assert main(["build", str(arm), *contact, "-o", str(tmp_path / "c2")]) == 0
+    assert counted["derive"] >= 1, counted
+    assert "NAME_implicit" in capsys.readouterr().err
