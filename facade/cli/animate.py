@@ -17,6 +17,9 @@ from .simulate import events_argument, inputs_argument
 __all__ = ["configure", "run", "read_trajectory"]
 
 
+_NO_FILE = object()      # --gif or --mp4 given without its file
+
+
 def configure(parser):
     cli_common.add_model_arguments(parser)
     source = parser.add_mutually_exclusive_group()
@@ -29,9 +32,13 @@ def configure(parser):
     parser.add_argument("-o", "--output", metavar="HTML",
                         help="the HTML page to write (default, when no --gif/--mp4 either: MODEL's "
                              "name + .html in the current folder)")
-    parser.add_argument("--gif", metavar="GIF", help="also draw a planar motion to this GIF (2-D)")
-    parser.add_argument("--mp4", metavar="MP4", help='... or to this MP4 (ffmpeg on PATH, or the video '
-                                                      'extra: pip install ".[video]" in eomc\'s clone)')
+    # nargs="?": a bare --gif (`--gif -o a1.gif`) is told what --gif takes (run), not argparse's
+    # "expected one argument" (first hour s28)
+    parser.add_argument("--gif", metavar="GIF", nargs="?", const=_NO_FILE,
+                        help="also draw a planar motion to this GIF (2-D)")
+    parser.add_argument("--mp4", metavar="MP4", nargs="?", const=_NO_FILE,
+                        help='... or to this MP4 (ffmpeg on PATH, or the video '
+                             'extra: pip install ".[video]" in eomc\'s clone)')
     parser.add_argument("--package-dir", action="append", default=[], metavar="DIR",
                         help="a folder holding the ROS packages a URDF's package:// meshes name "
                              "(repeat for more; searched before ROS_PACKAGE_PATH, AMENT_PREFIX_PATH "
@@ -113,6 +120,11 @@ def default_page(model_path):
 
 def run(args):
     from eomc.runtime.animate import animate, animate_2d
+    for value, what in ((args.gif, "--gif"), (args.mp4, "--mp4")):
+        if value is _NO_FILE:
+            suffix = what[2:]
+            raise ValueError(f"{what} takes the {suffix.upper()} file to write, e.g. {what} anim.{suffix} "
+                             f"(a 2-D drawing of a planar motion; -o names the 3-D HTML page)")
     if not (args.output or args.gif or args.mp4):
         args.output = default_page(args.model)
     for value, what, suffix in ((args.output, "-o", ".html"), (args.gif, "--gif", ".gif"),
@@ -144,6 +156,8 @@ def run(args):
         res.p = params
     else:
         x0 = cli_common.initial_state(model, cli_common.parse_assignments(args.x0, "x0"))
+        if args.gif or args.mp4:
+            _planar_start(model, x0, params, args.t0, args.gif or args.mp4)
         t_final = 10.0 if args.t_final is None else args.t_final
         res = model.simulate(x0, (args.t0, t_final), p=params, method=args.method, rtol=args.rtol,
                              atol=args.atol, r=inputs_argument(model, args.input),
@@ -175,3 +189,20 @@ def run(args):
         raise SimulationError(f"{res.message}; the animation shows the {len(res.t)} rows computed up to "
                               f"t={res.t[-1]:.9g} (incomplete)")
     return 0
+
+
+def _planar_start(model, x0, params, t0, path):
+    """ValueError before the run when the start already leaves every coordinate plane: the 2-D
+    drawing needs one coordinate constant for every body and point over the whole run
+    (eomc.runtime.animate.plane_of), the start among them.  First hour s28: an A1's --gif was
+    refused only after its 11 s run."""
+    import numpy as np
+    from eomc.runtime.animate import plane_of
+    from eomc.runtime.poses import evaluate_poses
+    start = np.array([[float(x0[n]) for n in model.state_names]]) if isinstance(x0, dict) else \
+        np.asarray(x0, dtype=float)[None, :]
+    poses = evaluate_poses(model, np.array([t0]), start, params)
+    if plane_of(poses) is None:
+        raise ValueError(f"{path}: {model.name} is not planar at its start (no coordinate x, y or z is the "
+                         f"same for every body and point), so its motion has no 2-D drawing; use the HTML "
+                         f"animation (-o anim.html)")

@@ -110,3 +110,47 @@ def test_mp4_without_ffmpeg_is_one_line(built, tmp_path, monkeypatch, capsys):
     err = capsys.readouterr().err
     assert len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
     assert 'writing .mp4 needs ffmpeg: install the video extra (pip install ".[video]"' in err, err
+
+
+TILTED = '''
+import sympy as sm
+from eomc.mechanics import KanesMethod, Particle, Point, ReferenceFrame, dynamicsymbols
+q, u = dynamicsymbols("q u")
+m, l, g = sm.symbols("m l g", positive=True)
+N = ReferenceFrame("N")
+A = N.orientnew("A", "Axis", [q, N.x + N.y])
+A.set_ang_vel(N, u * (N.x + N.y).normalize())
+O = Point("O")
+O.set_vel(N, 0)
+P = O.locatenew("P", -l * A.z)
+P.v2pt_theory(O, N, A)
+system = KanesMethod(N, q_ind=[q], u_ind=[u], kd_eqs=[q.diff() - u])
+system.kanes_equations([Particle("bob", P, m)], [(P, -m * g * N.z)])
+parameters = {m: 1.0, l: 1.0, g: 9.81}
+initial_state = {q: 1.0, u: 0.0}
+'''
+
+
+def test_a_gif_of_a_motion_out_of_plane_is_refused_before_the_run(tmp_path, monkeypatch, capsys):
+    """First hour s28: an A1's --gif was refused ("not planar") only after its 11 s run.  A start
+    that already leaves every coordinate plane is refused before the model is simulated."""
+    import eomc.runtime.model as model_module
+    monkeypatch.setenv("EOMC_CACHE_DIR", str(tmp_path / "cache"))
+    path = tmp_path / "tilted.py"
+    path.write_text(TILTED)
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("simulated before the --gif was refused")
+    monkeypatch.setattr(model_module.Model, "simulate", refuse)
+    assert main(["animate", str(path), "--t-final", "1", "-q", "--gif", str(tmp_path / "t.gif")]) == 2
+    err = capsys.readouterr().err
+    assert "tilted is not planar at its start" in err and len(err.strip().splitlines()) == 1, err
+
+
+@pytest.mark.parametrize("flag", ["--gif", "--mp4"])
+def test_a_bare_gif_flag_says_what_it_takes(built, tmp_path, capsys, flag):
+    """First hour s28: `--gif -o a1.gif` gave argparse's bare "expected one argument"."""
+    suffix = flag[2:]
+    assert main(["animate", str(built), flag, "-o", str(tmp_path / f"a.{suffix}")]) == 2
+    err = capsys.readouterr().err
+    assert f"{flag} takes the {suffix.upper()} file to write, e.g. {flag} anim.{suffix}" in err, err
