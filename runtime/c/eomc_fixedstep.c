@@ -60,6 +60,12 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* the lanes' vector code (eomc_fs_lanes_body.h, AVX2 when the CPU has it): the lanes rollout's
+ * assembly, and the scalar assembly's secant slopes four contacts at a time (fs_secants) */
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(EOMC_NO_FS_LANES)
+#define EOMC_FS_LANES 1
+#endif
+
 #define RESID_FRACTION 0.2    /* |r| <= this * |dx - h f| (+ a floor): W is good enough */
 #define RESID_FLOOR 1e-7      /* scaled, per state: at rest dx -> 0 and r is roundoff */
 #define KEPT_ITER 2           /* Newton iterations with the kept LU before a new jac_x */
@@ -771,12 +777,15 @@ static int fs_point_bias(const eomc_implicit *imp, const double *scr, const doub
     a[2] = (B[0] * p[1] - B[1] * p[0]) + B[5] + (V[0] * vp[1] - V[1] * vp[0]);
     return 1;
 }
+#define FS_TOUCH 64     /* fs_secants lists up to this many contacts in touch for fs_assemble */
+static int fs_secants(const eomc_implicit *imp, const double *E, double *cache, int *touch);
+
 static int fs_assemble(const eomc_fs_ops *ops, const fs_layout *L, double h, const double *u,
                        const double *T, double *A, double *b, double *GJ, double *cache, int *cached,
                        const fs_pattern *pat, int *own, const int **start, const int **anc)
 {
     const eomc_implicit *imp = ops->imp;
-    int nu = ops->nu, grown = 0;
+    int nu = ops->nu, grown = 0, touch[FS_TOUCH], ntouch = -1;
     const double *scr = T + L->screw, *jl = T + L->joint;
     if (imp->terms_whole) imp->terms_whole((double *)T);    /* T: the run's T or T1 (writable) */
     memcpy(A, T + L->M, (size_t)nu * nu * sizeof(double));
@@ -791,23 +800,22 @@ static int fs_assemble(const eomc_fs_ops *ops, const fs_layout *L, double h, con
             b[s] -= h * k * u[s];
         }
     }
-    for (int c = 0; c < imp->ncontact; c++) {
+    if (!*cached) ntouch = fs_secants(imp, T + L->contact, cache, touch);
+    for (int t = 0; t < (ntouch >= 0 ? ntouch : imp->ncontact); t++) {
+        int c = ntouch >= 0 ? touch[t] : t;
         const double *e = T + L->contact + 25 * (size_t)c, *p, *vp, *K, *C;
         const int *cols;
         int m, any = 0;
         double G[9], *Cs, *Kv, *filled, *J, *JKv;
         if (!(e[0] > 0.0)) continue;                  /* not touching: no force, no slope (the scan
-                                                         over every contact: only the depth read) */
+                                                         over every contact: only the depth read;
+                                                         touch[] lists them when fs_secants ran) */
         p = e + 1; vp = e + 4; K = e + 7; C = e + 16;
         cols = imp->chain + imp->chain_start[c];
         m = imp->chain_start[c + 1] - imp->chain_start[c];
         Cs = cache; Kv = Cs + 9; filled = Kv + 3; J = filled + 1; JKv = J + 3 * m;
         cache = JKv + m;
-        if (!*cached) {
-            fs_secant_friction(K, C, Cs);
-            *filled = 0.0;
-        }
-        C = Cs;
+        C = Cs;                                       /* (fs_secants made it, filled 0) */
         for (int a = 0; a < 9; a++) {
             G[a] = h * C[a] + h * h * K[a];
             any |= G[a] != 0.0;
@@ -890,10 +898,6 @@ static int fs_assemble(const eomc_fs_ops *ops, const fs_layout *L, double h, con
  * (about 3200 of them per step).  Here the same updates run on vectors of one entry of every lane's
  * matrix, the slots of M's tree pattern (fs_columns) listed once in the elimination's order. */
 
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(EOMC_NO_FS_LANES)
-#define EOMC_FS_LANES 1
-#endif
-
 struct eomc_fs_lanes {
     fs_layout L;
     int nq, nu, lanes, width, nslot;   /* width: the kernel's lanes (lanes: a multiple of it) */
@@ -938,7 +942,74 @@ struct eomc_fs_lanes {
 #include "eomc_fs_lanes_body.h"
 #undef FSL_W
 #undef FSL_TARGET
+
+/* fs_secant_friction of the contacts K[l], C[l] into Cs[l], l < cnt <= 4, at once: the lanes' own
+ * (fsl_secant4: the scalar's bits in every lane); a lane past cnt repeats contact 0, its answer
+ * dropped. */
+__attribute__((target("avx2"))) static void fs_secants4(const double *const *K, const double *const *C,
+                                                        double *const *Cs, int cnt)
+{
+    fsl_v4 k[9], c[9], o[9];
+    for (int a = 0; a < 9; a++)
+        for (int l = 0; l < 4; l++) {
+            k[a][l] = K[l < cnt ? l : 0][a];
+            c[a][l] = C[l < cnt ? l : 0][a];
+        }
+    fsl_secant4(k, c, o);
+    for (int l = 0; l < cnt; l++)
+        for (int a = 0; a < 9; a++) Cs[l][a] = o[a][l];
+}
 #endif
+
+/* The secant slope (fs_secant_friction) of every contact in touch, into its slot of fs_assemble's
+ * cache (in slot order: the contacts in touch in turn, 13 + 4 m doubles each), its "filled" flag
+ * cleared; E: the terms' contact entries (25 doubles each).  touch[]: the contacts in touch, their
+ * number returned (-1 past FS_TOUCH: fs_assemble then scans every contact again).  Where the CPU has
+ * AVX2, four at a time (three or more): each secant is a chain of three square roots and two
+ * divisions, about 200 cycles of latency (perf of a harness over the ant's 121 qpos0 assemblies: 21 %
+ * of fs_assemble, with four feet down), which one contact after another did not overlap; in the
+ * lanes' four they take one chain.  The same bits (the lanes' secant is the scalar's, operation for
+ * operation, branches as selects). */
+#define FS_SECANTS_MIN 3     /* fewer contacts in touch: one by one (two lanes of four did not pay
+                                on the humanoid's two feet, harness of its 455 qpos0 assemblies) */
+static int fs_secants(const eomc_implicit *imp, const double *E, double *cache, int *touch)
+{
+    const double *K[4], *C[4];
+    double *Cs[4];
+    int cnt = 0, wide = 0, nt = 0;
+#ifdef EOMC_FS_LANES
+    wide = __builtin_cpu_supports("avx2");
+#endif
+    for (int c = 0; c < imp->ncontact; c++) {
+        const double *e = E + 25 * (size_t)c;
+        if (!(e[0] > 0.0)) continue;
+        if (nt >= 0 && nt < FS_TOUCH) touch[nt++] = c;
+        else nt = -1;
+        cache[12] = 0.0;                              /* filled: not yet (fs_assemble) */
+        if (!wide) {
+            fs_secant_friction(e + 7, e + 16, cache);
+        } else {
+            K[cnt] = e + 7;
+            C[cnt] = e + 16;
+            Cs[cnt++] = cache;
+        }
+        cache += 13 + 4 * (size_t)(imp->chain_start[c + 1] - imp->chain_start[c]);
+#ifdef EOMC_FS_LANES
+        if (cnt == 4) {
+            fs_secants4(K, C, Cs, 4);
+            cnt = 0;
+        }
+#endif
+    }
+#ifdef EOMC_FS_LANES
+    if (cnt >= FS_SECANTS_MIN) {
+        fs_secants4(K, C, Cs, cnt);
+        cnt = 0;
+    }
+#endif
+    for (int l = 0; l < cnt; l++) fs_secant_friction(K[l], C[l], Cs[l]);
+    return nt;
+}
 
 void eomc_fs_lanes_free(eomc_fs_lanes *w)
 {
