@@ -51,14 +51,9 @@ def configure(parser):
 
 
 def run(args):
-    from eomc.compiler.driver import compile
     from .common import fixed_base_note, floating_base_of, with_options
     if not args.quiet:
         fixed_base_note(args.model, args.floating_base)
-    source, name = with_options(args.model, args.name, floating_base=floating_base_of(args),
-                                allow_nonphysical_inertia=args.allow_nonphysical_inertia,
-                                limits=args.limits != "off", ignore=args.ignore,
-                                orientation=getattr(args, "orientation", None), pairs=getattr(args, "pairs", None))
     if args.output is None:
         from pathlib import Path
         args.output = Path(args.name or Path(args.model).stem)
@@ -85,7 +80,13 @@ def run(args):
             # the default start's warning speaks to Python (x0=, model.metadata): the note below says
             # it as the other commands do (first hour s22: `eomc build hyq.urdf` gave the API's text)
             warnings.filterwarnings("ignore", category=DefaultStartWarning)
-            if model is None:
+            if model is None:      # here: a build served by the reuse key imports no SymPy
+                from eomc.compiler.driver import compile
+                source, name = with_options(args.model, args.name, floating_base=floating_base_of(args),
+                                            allow_nonphysical_inertia=args.allow_nonphysical_inertia,
+                                            limits=args.limits != "off", ignore=args.ignore,
+                                            orientation=getattr(args, "orientation", None),
+                                            pairs=getattr(args, "pairs", None))
                 model = compile(source, name, functions=args.outputs, fold_parameters=args.fold_parameters,
                                 backend=args.backend, cflags=args.cflags, cache_dir=args.cache_dir,
                                 portable=args.portable, output_dir=args.output,
@@ -158,7 +159,7 @@ def _without_implicit_note(args, root, options):
                 return
     except (OSError, ValueError):
         return
-    print(f"note: {Path(args.model).name} was built before without NAME_implicit (the contacts' "
+    print(f"eomc: note: {Path(args.model).name} was built before without NAME_implicit (the contacts' "
           "implicitfast step, which simulate's default method does not read); eomc build writes it, "
           "so the model is derived again", file=sys.stderr)
 
@@ -197,7 +198,7 @@ def formulation_line(meta, asked):
         return f"formulation: {chosen} (asked for)"
     costs = meta.get("formulation_costs")
     if costs:
-        from eomc.compiler.formulations.select import COST_MODEL
+        from eomc.compiler.formulations.weights import COST_MODEL
         return (f"formulation: {chosen} (auto: the cheaper rhs; costs " +
                 ", ".join(f"{k} {v}" for k, v in sorted(costs.items())) +
                 f"; {COST_MODEL})")

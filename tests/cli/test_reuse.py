@@ -91,6 +91,32 @@ def test_the_second_run_imports_no_sympy(tmp_path):
     assert [r.stdout.split()[-2:] for r in runs] == [["0", "True"], ["0", "False"]], [r.stderr for r in runs]
 
 
+BUILD_RUN = """
+import sys
+from eomc.cli import main
+code = main(["build", sys.argv[1], "-q", "-o", sys.argv[2]])
+print(code, 'sympy' in sys.modules)
+"""
+
+
+def test_a_build_served_by_what_simulate_built_imports_no_sympy(tmp_path):
+    """`eomc build` after `eomc simulate` of the same file exports what simulate built: it derives
+    nothing, and imports no SymPy either (s28: its formulation line's cost model, and the driver
+    imported before the look-up, cost it ~0.7 s of its ~1.1 s CPU)."""
+    import os
+    import subprocess
+    import sys
+    path = _model_file(tmp_path)
+    env = {**os.environ, "EOMC_CACHE_DIR": str(tmp_path / "cache")}
+    first = subprocess.run([sys.executable, "-c", SECOND_RUN, str(path), str(tmp_path / "1.csv")],
+                           capture_output=True, text=True, env=env, timeout=300)
+    build = subprocess.run([sys.executable, "-c", BUILD_RUN, str(path), str(tmp_path / "out")],
+                           capture_output=True, text=True, env=env, timeout=300)
+    assert first.stdout.split()[-2:] == ["0", "True"], first.stderr
+    assert build.stdout.split()[-2:] == ["0", "False"], build.stderr
+    assert "formulation: " in build.stdout and (tmp_path / "out" / "pendulum.json").is_file()
+
+
 def test_a_changed_file_or_option_is_derived_again(counted, tmp_path):
     """The file's bytes and the options are in the key: each change derives again."""
     path = _model_file(tmp_path, extra="LENGTH = 1.0")
