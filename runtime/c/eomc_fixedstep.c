@@ -377,9 +377,9 @@ static int fs_advance(fs *w, double t, double h, const double *x)
  * linearly implicit Euler with that part of the Jacobian and q' linearised in u: the
  * stiff contact, friction and limit forces are damped, never amplified, and the smooth
  * rest is integrated symplectically.  Coriolis terms and the contact Jacobian's change
- * with q stay explicit (MuJoCo's implicitfast skips the same kind of terms) -- but for a ground
- * contact's velocity, whose change over the step from the motion alone (h J'(q) u, fs_point_bias)
- * its linear model takes in: the damping and friction of (2) see the point's velocity change
+ * with q stay explicit (MuJoCo's implicitfast skips the same kind of terms) -- but for a touching
+ * contact's velocity (a ground contact's or a body-body pair's), whose change over the step from
+ * the motion alone (h J'(q) u, fs_point_bias) its linear model takes in: the damping and friction of (2) see the point's velocity change
  * J du + h J' u, not J du alone (b -= h J^T C J' u) -- and but for a root
  * free joint's momentum turning with its body-frame speeds, taken half implicitly
  * (fs_transport: explicit, it created energy on a spinning or rolling body; MuJoCo's free joint
@@ -707,7 +707,7 @@ static void fs_transport(double *A, const double *M, const double *u, int s, int
  * runtime .so A/B in one process).  The same bits either way. */
 #define FS_CHAIN 64     /* fs_assemble: a contact's chain up to this many speeds is listed on the stack */
 
-/* a = d/dt (J u) at fixed u for a ground contact's point p (its material velocity vp): the velocity the
+/* a = d/dt (J u) at fixed u for a contact's point p (its material velocity vp): the velocity the
  * point gains over a step from the configuration's motion alone (its bias acceleration), which (2)'s
  * J du leaves out.  Per speed k of the chain, J[:, k] = w_k x p + v0_k of the speed's screw (w_k, v0_k),
  * whose axis moves with the body that carries it, of spatial velocity V_a = (w_a, v_a):
@@ -718,17 +718,10 @@ static void fs_transport(double *A, const double *M, const double *u, int s, int
  * the root, so those are k's ancestors, each joint's axis fixed in its parent); a root free joint's six
  * axes are its own body's (body-frame speeds), V_a = the sum over all six, so together they add
  * V_f x V_f = 0.  Summed: a = B_w x p + B_v + w x vp, B = sum_k V_a x (s_k u_k) (spatial cross
- * product), w the body's angular velocity: about 30 flops a speed.  Not for a body-body pair
- * whose chain lists a speed negated (its bodies on two branches: the point's velocity is a
- * difference of two bodies'): 0 returned, a untouched.  But a pair whose first body is an ancestor
- * of the second (no speed negated: gymnasium humanoid's 43 of 109, torso1/head/waist/butt against a
- * limb) is taken as a ground contact: this formula over its own chain with vp = v_rel, leaving out
- * the shared speeds and the first body's motion -- not its bias (measured, session 28, helper
- * pairbias: 0.05-1.7 of |a| off a central difference).  Both kinds' right bias and no bias for
- * either were measured and not landed (benchmarks/results/fixedstep_verdicts.md's notes).  A ball
- * joint's three speeds (eomc's: body-frame) are each taken as carried by the one before (as MJCF's
- * hinges in one body are), which they are not: they all turn with their body, so each should see
- * the V before the ball (as a root free joint's do; measured, pairbias: 3-43 % of |a| off, 2e-11
+ * product), w the body's angular velocity: about 30 flops a speed.  A ball joint's three speeds
+ * (eomc's: body-frame) are each taken as carried by the one before (as MJCF's hinges in one body
+ * are), which they are not: they all turn with their body, so each should see the V before the
+ * ball (as a root free joint's do; measured, session 28, helper pairbias: 3-43 % of |a| off, 2e-11
  * with that rule); the residual test still judges the step.
  * Why (session 27, helper releaseslope): traced on gymnasium's humanoid at t = 0.75 s, its feet's
  * contacts went from pushing to clipped inside every step (the damped law's release) and back in the
@@ -739,23 +732,33 @@ static void fs_transport(double *A, const double *M, const double *u, int s, int
  * 704 starts a model, main's library in the same run; benchmarks/results/fixedstep_verdicts.md's
  * notes): model calls humanoid -12.6 % (qpos0 480 -> 454), walker2d -41 %, ant -0.2 %, hopper -0.1 %;
  * energy-verdict rows "wrong" / "more than the tolerance": humanoid 10 / 87 -> 9 / 78, walker2d 14 /
- * 104 -> 1 / 13; the ant and hopper none either way. */
+ * 104 -> 1 / 13; the ant and hopper none either way.
+ *
+ * A body-body pair (fs_pair_bias) when its chain lists a speed negated (its first body A's: v_rel =
+ * v_B - v_A) or starts below the root (A an ancestor of B: its speeds, shared, are left out of the
+ * chain); a ground contact's chain starts at the root.  0 (a untouched) for a pair when M has no
+ * tree (parent NULL: the shared speeds cannot be found) or a chain longer than FS_CHAIN. */
+static int fs_pair_bias(const eomc_implicit *imp, const double *scr, const double *u, const int *order, int m,
+                        const double *p, const double *vp, double *a);
+
 static int fs_point_bias(const eomc_implicit *imp, const double *scr, const double *u, const int *cols, int m,
                          const double *p, const double *vp, double *a)
 {
-    int order[FS_CHAIN];
+    int order[FS_CHAIN], pair = 0;
     double V[6] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0}, B[6] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
     if (m > FS_CHAIN) return 0;
     for (int k = 0; k < m; k++) {
-        if (cols[k] < 0) return 0;
+        pair |= cols[k] < 0;
         order[k] = cols[k];
     }
     for (int i = 1; i < m; i++)                       /* ascending: root first (parent[k] < k) */
-        for (int j = i; j > 0 && order[j - 1] > order[j]; j--) {
+        for (int j = i; j > 0 && fs_speed(order[j - 1]) > fs_speed(order[j]); j--) {
             int t = order[j];
             order[j] = order[j - 1];
             order[j - 1] = t;
         }
+    if (m > 0 && imp->parent && imp->parent[fs_speed(order[0])] >= 0) pair = 1;
+    if (pair) return imp->parent ? fs_pair_bias(imp, scr, u, order, m, p, vp, a) : 0;
     for (int i = 0; i < m; i++) {
         int k = order[i], own = 0;
         const double *w = scr + 6 * (size_t)k;
@@ -775,6 +778,58 @@ static int fs_point_bias(const eomc_implicit *imp, const double *scr, const doub
     a[0] = (B[1] * p[2] - B[2] * p[1]) + B[3] + (V[1] * vp[2] - V[2] * vp[1]);
     a[1] = (B[2] * p[0] - B[0] * p[2]) + B[4] + (V[2] * vp[0] - V[0] * vp[2]);
     a[2] = (B[0] * p[1] - B[1] * p[0]) + B[5] + (V[0] * vp[1] - V[1] * vp[0]);
+    return 1;
+}
+
+/* fs_point_bias for a body-body pair: a = a_B - a_A, each body's material point at p, vp = v_rel =
+ * v_B - v_A there (the pair table's, compiler/contact/pairs.law_slopes).  order: the chain ascending
+ * (fs_speed), B's own speeds as s, A's as ~s (either side may be empty).  Each body's bias is the
+ * ground's over its whole path to the root, a_X = B^X_w x p + B^X_v + w_X x vp_X; the shared speeds
+ * (the path above the bodies' deepest common ancestor: parent[] from the chain's first speed) add the
+ * same V x S to B^B and B^A, so only their sum V0 is needed, which both sides' own speeds start from:
+ *
+ *   a = D_w x p + D_v + w_B x vp + (w_B - w_A) x vp_A,   D = B^B - B^A,   vp_A = v_A + w_A x p
+ *
+ * (w_B x vp_B - w_A x vp_A with vp_B = vp + vp_A).  The shared speeds do not cancel: their axes turn
+ * the relative velocity (w_k x v_rel), so leaving the pair's own chain alone would miss them (a pair
+ * whose A is an ancestor of B, e.g. gymnasium humanoid's butt against a foot, took the ground's formula
+ * over B's own speeds with vp = v_rel before session 28: V0 and A's velocity left out). */
+static int fs_pair_bias(const eomc_implicit *imp, const double *scr, const double *u, const int *order, int m,
+                        const double *p, const double *vp, double *a)
+{
+    double V0[6] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0}, D[6] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0}, VB[6], VA[6];
+    double pa[3], dw[3];
+    for (int k = imp->parent[fs_speed(order[0])]; k >= 0; k = imp->parent[k])
+        for (int x = 0; x < 6; x++) V0[x] += scr[6 * (size_t)k + x] * u[k];
+    memcpy(VB, V0, sizeof VB);
+    memcpy(VA, V0, sizeof VA);
+    for (int i = 0; i < m; i++) {
+        int k = fs_speed(order[i]), own = 0;
+        const double *w = scr + 6 * (size_t)k;
+        double S[6], *V = order[i] >= 0 ? VB : VA, X[6];
+        for (int x = 0; x < 6; x++) S[x] = w[x] * u[k];
+        for (int r = 0; r < imp->nfree; r++) own |= k >= imp->free[r] && k < imp->free[r] + 6;
+        if (!own) {                                   /* D +-= V x S, V that side's speeds before k */
+            X[0] = V[1] * S[2] - V[2] * S[1];
+            X[1] = V[2] * S[0] - V[0] * S[2];
+            X[2] = V[0] * S[1] - V[1] * S[0];
+            X[3] = (V[1] * S[5] - V[2] * S[4]) + (V[4] * S[2] - V[5] * S[1]);
+            X[4] = (V[2] * S[3] - V[0] * S[5]) + (V[5] * S[0] - V[3] * S[2]);
+            X[5] = (V[0] * S[4] - V[1] * S[3]) + (V[3] * S[1] - V[4] * S[0]);
+            if (order[i] >= 0)
+                for (int x = 0; x < 6; x++) D[x] += X[x];
+            else
+                for (int x = 0; x < 6; x++) D[x] -= X[x];
+        }
+        for (int x = 0; x < 6; x++) V[x] += S[x];
+    }
+    pa[0] = VA[3] + (VA[1] * p[2] - VA[2] * p[1]);
+    pa[1] = VA[4] + (VA[2] * p[0] - VA[0] * p[2]);
+    pa[2] = VA[5] + (VA[0] * p[1] - VA[1] * p[0]);
+    for (int x = 0; x < 3; x++) dw[x] = VB[x] - VA[x];
+    a[0] = (D[1] * p[2] - D[2] * p[1]) + D[3] + (VB[1] * vp[2] - VB[2] * vp[1]) + (dw[1] * pa[2] - dw[2] * pa[1]);
+    a[1] = (D[2] * p[0] - D[0] * p[2]) + D[4] + (VB[2] * vp[0] - VB[0] * vp[2]) + (dw[2] * pa[0] - dw[0] * pa[2]);
+    a[2] = (D[0] * p[1] - D[1] * p[0]) + D[5] + (VB[0] * vp[1] - VB[1] * vp[0]) + (dw[0] * pa[1] - dw[1] * pa[0]);
     return 1;
 }
 #define FS_TOUCH 64     /* fs_secants lists up to this many contacts in touch for fs_assemble */

@@ -214,31 +214,73 @@ __attribute__((target(FSL_TARGET))) static void FSL_STEP(eomc_fs_lanes *w, const
 #undef FSL_T
 }
 
-/* fs_point_bias in every lane: the same operations in the same order (OUT, Uv, stride: the kernel's) */
+/* fs_point_bias in every lane: the same operations in the same order (OUT, Uv, stride: the kernel's);
+ * a body-body pair's (fs_pair_bias) likewise */
 __attribute__((target(FSL_TARGET))) static int FSL_BIAS(const eomc_implicit *imp, const fs_layout *L,
                                                        const double *OUT, const double *Uv, size_t stride,
                                                        const int *cols, int m, const FSL_V *p, const FSL_V *vp,
                                                        FSL_V *a)
 {
     const FSL_V zero = {0};
-    int order[FS_CHAIN];
+    int order[FS_CHAIN], pair = 0;
     FSL_V V[6] = {zero, zero, zero, zero, zero, zero}, B[6] = {zero, zero, zero, zero, zero, zero};
+#define FSL_SCREW(k, x) (*(const FSL_V *)(OUT + (L->screw + 6 * (size_t)(k) + (size_t)(x)) * stride))
     if (m > FS_CHAIN) return 0;
     for (int k = 0; k < m; k++) {
-        if (cols[k] < 0) return 0;
+        pair |= cols[k] < 0;
         order[k] = cols[k];
     }
     for (int i = 1; i < m; i++)
-        for (int j = i; j > 0 && order[j - 1] > order[j]; j--) {
+        for (int j = i; j > 0 && fs_speed(order[j - 1]) > fs_speed(order[j]); j--) {
             int t = order[j];
             order[j] = order[j - 1];
             order[j - 1] = t;
         }
+    if (m > 0 && imp->parent && imp->parent[fs_speed(order[0])] >= 0) pair = 1;
+    if (pair) {                                       /* fs_pair_bias */
+        FSL_V V0[6] = {zero, zero, zero, zero, zero, zero}, VB[6], VA[6], pa[3], dw[3];
+        if (!imp->parent) return 0;
+        for (int k = imp->parent[fs_speed(order[0])]; k >= 0; k = imp->parent[k]) {
+            FSL_V uk;
+            memcpy(&uk, Uv + (size_t)k * stride, sizeof uk);
+            for (int x = 0; x < 6; x++) V0[x] += FSL_SCREW(k, x) * uk;
+        }
+        memcpy(VB, V0, sizeof VB);
+        memcpy(VA, V0, sizeof VA);
+        for (int i = 0; i < m; i++) {
+            int k = fs_speed(order[i]), own = 0;
+            FSL_V S[6], X[6], uk, *Vs = order[i] >= 0 ? VB : VA;
+            memcpy(&uk, Uv + (size_t)k * stride, sizeof uk);
+            for (int x = 0; x < 6; x++) S[x] = FSL_SCREW(k, x) * uk;
+            for (int r = 0; r < imp->nfree; r++) own |= k >= imp->free[r] && k < imp->free[r] + 6;
+            if (!own) {
+                X[0] = Vs[1] * S[2] - Vs[2] * S[1];
+                X[1] = Vs[2] * S[0] - Vs[0] * S[2];
+                X[2] = Vs[0] * S[1] - Vs[1] * S[0];
+                X[3] = (Vs[1] * S[5] - Vs[2] * S[4]) + (Vs[4] * S[2] - Vs[5] * S[1]);
+                X[4] = (Vs[2] * S[3] - Vs[0] * S[5]) + (Vs[5] * S[0] - Vs[3] * S[2]);
+                X[5] = (Vs[0] * S[4] - Vs[1] * S[3]) + (Vs[3] * S[1] - Vs[4] * S[0]);
+                if (order[i] >= 0)
+                    for (int x = 0; x < 6; x++) B[x] += X[x];
+                else
+                    for (int x = 0; x < 6; x++) B[x] -= X[x];
+            }
+            for (int x = 0; x < 6; x++) Vs[x] += S[x];
+        }
+        pa[0] = VA[3] + (VA[1] * p[2] - VA[2] * p[1]);
+        pa[1] = VA[4] + (VA[2] * p[0] - VA[0] * p[2]);
+        pa[2] = VA[5] + (VA[0] * p[1] - VA[1] * p[0]);
+        for (int x = 0; x < 3; x++) dw[x] = VB[x] - VA[x];
+        a[0] = (B[1] * p[2] - B[2] * p[1]) + B[3] + (VB[1] * vp[2] - VB[2] * vp[1]) + (dw[1] * pa[2] - dw[2] * pa[1]);
+        a[1] = (B[2] * p[0] - B[0] * p[2]) + B[4] + (VB[2] * vp[0] - VB[0] * vp[2]) + (dw[2] * pa[0] - dw[0] * pa[2]);
+        a[2] = (B[0] * p[1] - B[1] * p[0]) + B[5] + (VB[0] * vp[1] - VB[1] * vp[0]) + (dw[0] * pa[1] - dw[1] * pa[0]);
+        return 1;
+    }
     for (int i = 0; i < m; i++) {
         int k = order[i], own = 0;
         FSL_V S[6], uk;
         memcpy(&uk, Uv + (size_t)k * stride, sizeof uk);
-        for (int x = 0; x < 6; x++) S[x] = *(const FSL_V *)(OUT + (L->screw + 6 * (size_t)k + (size_t)x) * stride) * uk;
+        for (int x = 0; x < 6; x++) S[x] = FSL_SCREW(k, x) * uk;
         for (int r = 0; r < imp->nfree; r++) own |= k >= imp->free[r] && k < imp->free[r] + 6;
         if (!own) {
             B[0] += V[1] * S[2] - V[2] * S[1];
@@ -250,6 +292,7 @@ __attribute__((target(FSL_TARGET))) static int FSL_BIAS(const eomc_implicit *imp
         }
         for (int x = 0; x < 6; x++) V[x] += S[x];
     }
+#undef FSL_SCREW
     a[0] = (B[1] * p[2] - B[2] * p[1]) + B[3] + (V[1] * vp[2] - V[2] * vp[1]);
     a[1] = (B[2] * p[0] - B[0] * p[2]) + B[4] + (V[2] * vp[0] - V[0] * vp[2]);
     a[2] = (B[0] * p[1] - B[1] * p[0]) + B[5] + (V[0] * vp[1] - V[1] * vp[0]);
