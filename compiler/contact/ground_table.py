@@ -402,6 +402,38 @@ def _tables(t):
     return "\n".join(rows) + "\n"
 
 
+# C lines both loops write (eomc_ground and eomc_ground_slopes: the same wrenches, skips and sums in the same
+# order, so the slopes' loop gives the rhs's bits); inserted into their f-strings as they are.
+_BODY = f"""        const double *o = &in[{PER_BODY} * b], *R = o + 3, *w = o + 12, *v = o + 15, *sh = o + 18;
+        const int p0 = eomc_ground_first[b], p1 = eomc_ground_first[b + 1];
+        double m0 = 0.0, m1 = 0.0, m2 = 0.0, f0 = 0.0, f1 = 0.0, f2 = 0.0;"""
+_RATES = """        const double W0 = R[0] * w[0] + R[3] * w[1] + R[6] * w[2];
+        const double W1 = R[1] * w[0] + R[4] * w[1] + R[7] * w[2];
+        const double W2 = R[2] * w[0] + R[5] * w[1] + R[8] * w[2];
+        const double V0 = R[0] * v[0] + R[3] * v[1] + R[6] * v[2];
+        const double V1 = R[1] * v[0] + R[4] * v[1] + R[7] * v[2];
+        const double V2 = R[2] * v[0] + R[5] * v[1] + R[8] * v[2];"""
+_POINT = """        for (int j = p0; j < p1; ++j) {
+            const double *q = &par[5 * eomc_ground_set[j]];
+            const double a0 = eomc_ground_off[j][0] + sh[0], a1 = eomc_ground_off[j][1] + sh[1],
+                a2 = eomc_ground_off[j][2] + sh[2];
+            const double d2 = R[2] * a0 + R[5] * a1 + R[8] * a2;
+            const double r = q[4];
+            const double depth = r - (o[2] + d2);"""
+_SUMS = """            m0 += d1 * fn - e2 * F1;
+            m1 += e2 * F0 - d0 * fn;
+            m2 += d0 * F1 - d1 * F0;
+            f0 += F0;
+            f1 += F1;
+            f2 += fn;"""
+_WRENCH = """        out[6 * b + 0] = R[0] * m0 + R[1] * m1 + R[2] * m2;
+        out[6 * b + 1] = R[3] * m0 + R[4] * m1 + R[5] * m2;
+        out[6 * b + 2] = R[6] * m0 + R[7] * m1 + R[8] * m2;
+        out[6 * b + 3] = R[0] * f0 + R[1] * f1 + R[2] * f2;
+        out[6 * b + 4] = R[3] * f0 + R[4] * f1 + R[5] * f2;
+        out[6 * b + 5] = R[6] * f0 + R[7] * f1 + R[8] * f2;"""
+
+
 def _loop(t):
     nb = len(t.points)
     return f"""/* the ground points' loop (compiler/contact/ground_table.py): per body in[21] = origin, world -> body
@@ -411,9 +443,7 @@ def _loop(t):
 static double eomc_ground(const double *in, const double *par, int full, double *out)
 {{
     for (int b = 0; b < {nb}; ++b) {{
-        const double *o = &in[{PER_BODY} * b], *R = o + 3, *w = o + 12, *v = o + 15, *sh = o + 18;
-        const int p0 = eomc_ground_first[b], p1 = eomc_ground_first[b + 1];
-        double m0 = 0.0, m1 = 0.0, m2 = 0.0, f0 = 0.0, f1 = 0.0, f2 = 0.0;
+{_BODY}
         if (!full) {{
             /* the body's broad phase: its points' lowest box corner above its largest radius */
             const double *bx = eomc_ground_box[b];
@@ -429,19 +459,8 @@ static double eomc_ground(const double *in, const double *par, int full, double 
             }}
         }}
         /* omega and the origin's velocity in the world */
-        const double W0 = R[0] * w[0] + R[3] * w[1] + R[6] * w[2];
-        const double W1 = R[1] * w[0] + R[4] * w[1] + R[7] * w[2];
-        const double W2 = R[2] * w[0] + R[5] * w[1] + R[8] * w[2];
-        const double V0 = R[0] * v[0] + R[3] * v[1] + R[6] * v[2];
-        const double V1 = R[1] * v[0] + R[4] * v[1] + R[7] * v[2];
-        const double V2 = R[2] * v[0] + R[5] * v[1] + R[8] * v[2];
-        for (int j = p0; j < p1; ++j) {{
-            const double *q = &par[5 * eomc_ground_set[j]];
-            const double a0 = eomc_ground_off[j][0] + sh[0], a1 = eomc_ground_off[j][1] + sh[1],
-                a2 = eomc_ground_off[j][2] + sh[2];
-            const double d2 = R[2] * a0 + R[5] * a1 + R[8] * a2;
-            const double r = q[4];
-            const double depth = r - (o[2] + d2);
+{_RATES}
+{_POINT}
             if (!(depth > 0.0) && !full)
                 continue;       /* out of contact: its force is +-0 */
             double *po = full ? &out[{6 * nb} + {PER_POINT} * j] : 0;
@@ -468,12 +487,7 @@ static double eomc_ground(const double *in, const double *par, int full, double 
             const double scale = -q[2] * fn / sqrt(t0 * t0 + t1 * t1 + q[3] * q[3]);
             const double F0 = scale * t0, F1 = scale * t1;
             const double e2 = d2 - r;        /* the contact point from the origin */
-            m0 += d1 * fn - e2 * F1;
-            m1 += e2 * F0 - d0 * fn;
-            m2 += d0 * F1 - d1 * F0;
-            f0 += F0;
-            f1 += F1;
-            f2 += fn;
+{_SUMS}
             if (full) {{
                 po[0] = fn;
                 po[1] = F0;
@@ -481,12 +495,7 @@ static double eomc_ground(const double *in, const double *par, int full, double 
                 po[3] = 0.0;
             }}
         }}
-        out[6 * b + 0] = R[0] * m0 + R[1] * m1 + R[2] * m2;
-        out[6 * b + 1] = R[3] * m0 + R[4] * m1 + R[5] * m2;
-        out[6 * b + 2] = R[6] * m0 + R[7] * m1 + R[8] * m2;
-        out[6 * b + 3] = R[0] * f0 + R[1] * f1 + R[2] * f2;
-        out[6 * b + 4] = R[3] * f0 + R[4] * f1 + R[5] * f2;
-        out[6 * b + 5] = R[6] * f0 + R[7] * f1 + R[8] * f2;
+{_WRENCH}
     }}
     return 0.0;
 }}
@@ -514,9 +523,7 @@ static const int eomc_ground_rec[{t.npoints}] = {{{', '.join(str(rank[i]) for i 
 static double eomc_ground_slopes(const double *in, const double *par, int imp, double *out, double *dst)
 {{
     for (int b = 0; b < {nb}; ++b) {{
-        const double *o = &in[{PER_BODY} * b], *R = o + 3, *w = o + 12, *v = o + 15, *sh = o + 18;
-        const int p0 = eomc_ground_first[b], p1 = eomc_ground_first[b + 1];
-        double m0 = 0.0, m1 = 0.0, m2 = 0.0, f0 = 0.0, f1 = 0.0, f2 = 0.0;
+{_BODY}
         /* the body's broad phase (eomc_ground's): clear, no point is in touch */
         const double *bx = eomc_ground_box[b];
         double rmax = par[5 * eomc_ground_set[p0] + 4];
@@ -525,19 +532,8 @@ static double eomc_ground_slopes(const double *in, const double *par, int imp, d
         const double clear = o[2] + R[2] * (bx[0] + sh[0]) + R[5] * (bx[1] + sh[1]) + R[8] * (bx[2] + sh[2])
             - (fabs(R[2]) * bx[3] + fabs(R[5]) * bx[4] + fabs(R[8]) * bx[5]) - rmax;
         const int far = clear > 0.0;
-        const double W0 = R[0] * w[0] + R[3] * w[1] + R[6] * w[2];
-        const double W1 = R[1] * w[0] + R[4] * w[1] + R[7] * w[2];
-        const double W2 = R[2] * w[0] + R[5] * w[1] + R[8] * w[2];
-        const double V0 = R[0] * v[0] + R[3] * v[1] + R[6] * v[2];
-        const double V1 = R[1] * v[0] + R[4] * v[1] + R[7] * v[2];
-        const double V2 = R[2] * v[0] + R[5] * v[1] + R[8] * v[2];
-        for (int j = p0; j < p1; ++j) {{
-            const double *q = &par[5 * eomc_ground_set[j]];
-            const double a0 = eomc_ground_off[j][0] + sh[0], a1 = eomc_ground_off[j][1] + sh[1],
-                a2 = eomc_ground_off[j][2] + sh[2];
-            const double d2 = R[2] * a0 + R[5] * a1 + R[8] * a2;
-            const double r = q[4];
-            const double depth = r - (o[2] + d2);
+{_RATES}
+{_POINT}
             double *g = imp ? dst + {IMP_RECORD} * eomc_ground_rec[j] : dst + {JAC_RECORD} * eomc_ground_rec[j];
             g[0] = depth;
             if (!imp && (far || depth <= 0.0))
@@ -573,12 +569,7 @@ static double eomc_ground_slopes(const double *in, const double *par, int imp, d
             const double scale = -q[2] * fn / s;
             const double F0 = scale * t0, F1 = scale * t1;
             const double e2 = d2 - r;
-            m0 += d1 * fn - e2 * F1;
-            m1 += e2 * F0 - d0 * fn;
-            m2 += d0 * F1 - d1 * F0;
-            f0 += F0;
-            f1 += F1;
-            f2 += fn;
+{_SUMS}
             /* K = -dF/dp, C = -dF/dv (law.ground_jacobians with n = e_z) */
             const double on = fn > 0.0 ? 1.0 : 0.0;
             const double kn = 1.5 * q[0] * sq * lin * on, cn = 1.5 * q[1] * q[0] * depth * sq * on;
@@ -602,12 +593,7 @@ static double eomc_ground_slopes(const double *in, const double *par, int imp, d
                 out[6 * b + k] = 0.0;
             continue;
         }}
-        out[6 * b + 0] = R[0] * m0 + R[1] * m1 + R[2] * m2;
-        out[6 * b + 1] = R[3] * m0 + R[4] * m1 + R[5] * m2;
-        out[6 * b + 2] = R[6] * m0 + R[7] * m1 + R[8] * m2;
-        out[6 * b + 3] = R[0] * f0 + R[1] * f1 + R[2] * f2;
-        out[6 * b + 4] = R[3] * f0 + R[4] * f1 + R[5] * f2;
-        out[6 * b + 5] = R[6] * f0 + R[7] * f1 + R[8] * f2;
+{_WRENCH}
     }}
     return 0.0;
 }}
