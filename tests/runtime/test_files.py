@@ -1,5 +1,9 @@
 """Output files (trajectory CSV, plots, report tables) are written beside the target and
 renamed: a failure midway keeps the previous file whole and leaves no temporary behind."""
+import os
+import stat
+import threading
+
 import numpy as np
 import pytest
 
@@ -49,3 +53,35 @@ def test_trajectory_csv_is_not_half_written(tmp_path, monkeypatch):
     monkeypatch.setattr(SimulationResult, "columns", lambda self: (["t", "q"], np.ones((3, 2))))
     assert res.to_csv(target) == target
     assert target.read_text().splitlines()[0] == "t,q"
+
+
+def test_a_named_pipe_is_written_in_place_not_renamed_over(tmp_path):
+    """`eomc simulate -o /dev/null` (or a named pipe, /dev/stdout) replaced the device with a
+    regular file (the rename): a target that is no file is written in place and stays what it was.
+    (A FIFO stands for /dev/null here: a test must not risk the machine's /dev/null.)"""
+    fifo = tmp_path / "pipe"
+    os.mkfifo(fifo)
+    got = []
+    reader = threading.Thread(target=lambda: got.append(fifo.read_text()))
+    reader.start()
+    with atomic_path(fifo) as tmp:
+        assert tmp == fifo
+        tmp.write_text("t,q\n0,1\n")
+    reader.join(timeout=10)
+    assert got == ["t,q\n0,1\n"]
+    assert stat.S_ISFIFO(os.stat(fifo).st_mode)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["pipe"]
+
+
+def test_a_symbolic_link_is_followed_and_kept(tmp_path):
+    """The file a link points to is replaced; the link stays a link (the rename used to put a
+    regular file in the link's place)."""
+    (tmp_path / "data").mkdir()
+    real = tmp_path / "data" / "traj.csv"
+    real.write_text("old\n")
+    link = tmp_path / "traj.csv"
+    link.symlink_to(real)
+    with atomic_path(link) as tmp:
+        tmp.write_text("new\n")
+    assert link.is_symlink() and real.read_text() == "new\n"
+    assert sorted(p.name for p in (tmp_path / "data").iterdir()) == ["traj.csv"]
