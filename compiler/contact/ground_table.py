@@ -407,6 +407,17 @@ def _tables(t):
 _BODY = f"""        const double *o = &in[{PER_BODY} * b], *R = o + 3, *w = o + 12, *v = o + 15, *sh = o + 18;
         const int p0 = eomc_ground_first[b], p1 = eomc_ground_first[b + 1];
         double m0 = 0.0, m1 = 0.0, m2 = 0.0, f0 = 0.0, f1 = 0.0, f2 = 0.0;"""
+_CLEAR = """        const double *bx = eomc_ground_box[b];
+        double rmax = par[5 * eomc_ground_set[p0] + 4];
+        for (int j = p0 + 1; j < p1; ++j)
+            rmax = fmax(rmax, par[5 * eomc_ground_set[j] + 4]);
+        const double clear = o[2] + R[2] * (bx[0] + sh[0]) + R[5] * (bx[1] + sh[1]) + R[8] * (bx[2] + sh[2])
+            - (fabs(R[2]) * bx[3] + fabs(R[5]) * bx[4] + fabs(R[8]) * bx[5]) - rmax;"""     # the body's broad phase
+
+
+def _indent(text, n):
+    """``text`` with every line moved right by n spaces (a snippet inside one more C block)."""
+    return "\n".join(" " * n + line for line in text.split("\n"))
 _RATES = """        const double W0 = R[0] * w[0] + R[3] * w[1] + R[6] * w[2];
         const double W1 = R[1] * w[0] + R[4] * w[1] + R[7] * w[2];
         const double W2 = R[2] * w[0] + R[5] * w[1] + R[8] * w[2];
@@ -446,12 +457,7 @@ static double eomc_ground(const double *in, const double *par, int full, double 
 {_BODY}
         if (!full) {{
             /* the body's broad phase: its points' lowest box corner above its largest radius */
-            const double *bx = eomc_ground_box[b];
-            double rmax = par[5 * eomc_ground_set[p0] + 4];
-            for (int j = p0 + 1; j < p1; ++j)
-                rmax = fmax(rmax, par[5 * eomc_ground_set[j] + 4]);
-            const double clear = o[2] + R[2] * (bx[0] + sh[0]) + R[5] * (bx[1] + sh[1]) + R[8] * (bx[2] + sh[2])
-                - (fabs(R[2]) * bx[3] + fabs(R[5]) * bx[4] + fabs(R[8]) * bx[5]) - rmax;
+{_indent(_CLEAR, 4)}
             if (clear > 0.0) {{
                 for (int k = 0; k < 6; ++k)
                     out[6 * b + k] = 0.0;
@@ -525,12 +531,7 @@ static double eomc_ground_slopes(const double *in, const double *par, int imp, d
     for (int b = 0; b < {nb}; ++b) {{
 {_BODY}
         /* the body's broad phase (eomc_ground's): clear, no point is in touch */
-        const double *bx = eomc_ground_box[b];
-        double rmax = par[5 * eomc_ground_set[p0] + 4];
-        for (int j = p0 + 1; j < p1; ++j)
-            rmax = fmax(rmax, par[5 * eomc_ground_set[j] + 4]);
-        const double clear = o[2] + R[2] * (bx[0] + sh[0]) + R[5] * (bx[1] + sh[1]) + R[8] * (bx[2] + sh[2])
-            - (fabs(R[2]) * bx[3] + fabs(R[5]) * bx[4] + fabs(R[8]) * bx[5]) - rmax;
+{_CLEAR}
         const int far = clear > 0.0;
 {_RATES}
 {_POINT}
