@@ -78,6 +78,10 @@ def generator_switches():
     differentiated (same module), held only when off.  ``LIMB_MIN_BODIES``: the twin limbs' bodies from which the
     rhs calls limb routines (compiler/tree/limbs.py), held only when not its default.  ``BODY_LOOPS`` off:
     NAME_energy and NAME_poses straight-line (compiler/tree/body_loops.py), held only when off.
+    ``GROUND_TABLE`` / ``SLOPES_TABLE`` off and ``TABLE_FROM`` (compiler/contact/ground_table.py: the
+    ground points as one C loop, its slopes variant, the fewest points that take it), each held only
+    when not its default (before session 29 none was: a build with the loop's threshold lowered found
+    the straight-line C of the default in the cache).
 
     A module not imported yet holds its defaults (nothing in this process can have flipped them),
     so it is not imported here: these modules import SymPy, and the command line's look-up of a
@@ -123,6 +127,14 @@ def generator_switches():
     body_loops = loaded("eomc.compiler.tree.body_loops")
     if body_loops is not None and not body_loops.BODY_LOOPS:
         switches["no_body_loops"] = True
+    ground_table = loaded("eomc.compiler.contact.ground_table")
+    if ground_table is not None:
+        if not ground_table.GROUND_TABLE:
+            switches["no_ground_table"] = True
+        if not ground_table.SLOPES_TABLE:
+            switches["no_ground_slopes_table"] = True
+        if ground_table.TABLE_FROM != ground_table.TABLE_FROM_DEFAULT:
+            switches["ground_table_from"] = ground_table.TABLE_FROM
     return switches
 
 

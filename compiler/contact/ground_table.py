@@ -61,7 +61,8 @@ __all__ = ["GROUND_TABLE", "SLOPES_TABLE", "TABLE_FROM", "wanted", "eligible", "
 
 GROUND_TABLE = True      # False: every point's law straight-line, as before session 27 (for A/B)
 SLOPES_TABLE = True      # False: the slopes jac_x and NAME_implicit read straight-line, as in session 27 (for A/B)
-TABLE_FROM = 64          # ground points from which the loop is used (fewer: straight-line, as before)
+TABLE_FROM_DEFAULT = 64  # ground points from which the loop is used (fewer: straight-line, as before)
+TABLE_FROM = TABLE_FROM_DEFAULT  # the three switches: in the caches' keys when not default (build/reuse.generator_switches)
 PER_BODY = 21            # a body's inputs: origin (3), world -> body rows (9), ω (3), v (3), offset shift (3)
 PER_POINT = 6            # full outputs per point: F_n, F_t (3), δ, clip
 # the slopes variants' records per point (after the outputs, in this order): the analytic jac_x's

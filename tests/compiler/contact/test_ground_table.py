@@ -111,3 +111,22 @@ def test_a_build_that_differentiates_in_reverse_keeps_the_straight_line_law():
     assert gt.wanted(("rhs", "jac_x", "outputs", "events", "implicit"))
     for fn in ("vjp", "hvp", "hess_id", "jvp", "jac_p", "rhs_batch", "implicit_batch"):
         assert not gt.wanted(("rhs", fn))
+
+
+def test_a_lowered_threshold_is_not_served_the_default_build(tmp_path):
+    """One cache, the default threshold (13 points: straight-line) then TABLE_FROM = 1: the second
+    build is the loop's C, not the first build found in the cache (TABLE_FROM was not in the
+    caches' keys before session 29)."""
+    path = tmp_path / "oneleg.urdf"
+    path.write_text(ONE_LEG)
+
+    def build(table_from):
+        with pytest.MonkeyPatch.context() as mp, warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            mp.setattr(gt, "TABLE_FROM", table_from)
+            model = eomc.compile(UrdfModel(path, floating_base=True, contacts=(FOOT,)), functions=("rhs",),
+                                 cache_dir=tmp_path / "cache", progress=False, name="oneleg")
+        return Path(model.source_path).read_text()
+
+    assert "eomc_ground(" not in build(gt.TABLE_FROM_DEFAULT)
+    assert "eomc_ground(" in build(1)
