@@ -303,8 +303,14 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method=None, p=Non
                               nthreads, raise_on_failure, scalar)
     if lanes and not implicit_lanes:
         t_eval = a["t_eval"] if record == "steps" else np.array([float(t_final)])
-        X_out, X_last, status, nstep = _rollout_lanes(model, X0, P, p_stride, controls, float(t_final), float(dt),
-                                                      record == "steps", nthreads)
+        rows = []
+        try:
+            X_out, X_last, status, nstep = _rollout_lanes(model, X0, P, p_stride, controls, float(t_final),
+                                                          float(dt), record == "steps", nthreads, rows)
+        except BaseException as stop:
+            _keep_rows(stop, rows and (lambda: _finish(model, method, X0, P, p_stride, dt, t_eval, record, *rows,
+                                                         False)))
+            raise
         return _finish(model, method, X0, P, p_stride, dt, t_eval, record, X_out, X_last, status, nstep,
                        raise_on_failure)
     ffi, lib = _rollout_ffi(model.ffi)
@@ -315,7 +321,33 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method=None, p=Non
     status = np.empty(n, dtype=np.intc)
     nstep = np.empty(n, dtype=np.int_ if ffi.sizeof("long") == 8 else np.int32)
     buf = lambda arr: ffi.from_buffer("double[]", arr)  # noqa: E731
-    integrator_library(model.ffi)._arm()      # Ctrl-C stops every thread at its next evaluation
+    integrator_library(model.ffi)._arm()      # Ctrl-C, SIGTERM stop every thread at its next evaluation
+    try:
+        return _run_rows(model, method, a, X0, P, p_stride, controls, dt, t_final, record, nthreads, raise_on_failure,
+                         fast, split, implicit_lanes, t_eval, n_eval, X_out, X_last, status, nstep, buf, ffi, lib, n)
+    except BaseException as stop:
+        _keep_rows(stop, lambda: _finish(model, method, X0, P, p_stride, dt, t_eval, record, X_out, X_last, status,
+                                         nstep, False))
+        raise
+
+
+def _keep_rows(stop, make):
+    """Ctrl-C (KeyboardInterrupt) or a SIGTERM handler's exception as the C threads return: the
+    rows as a RolloutResult in ``stop.partial_result`` (``make()``), those that did not run to the
+    end marked status 9 (EOMC_ABORTED), as simulate's (runtime/simulate._keep_rows).  The threads
+    take no row after the signal (eomc_rollout.c; s29: they took every row left first)."""
+    if isinstance(stop, Exception) or not make:
+        return
+    try:
+        stop.partial_result = make()
+    except BaseException:       # noqa: BLE001 -- the rows cannot be wrapped: the stop goes on without them
+        pass
+
+
+def _run_rows(model, method, a, X0, P, p_stride, controls, dt, t_final, record, nthreads, raise_on_failure, fast,
+              split, implicit_lanes, t_eval, n_eval, X_out, X_last, status, nstep, buf, ffi, lib, n):
+    """The C rollout of every row (eomc_rollout_stats, or the implicit lanes' fibers) and its verdicts."""
+    unsolved = None
     # implicitfast's fast path: the energy's range over every step, kept in C (eomc_options.
     # watch_output), for simulate's energy verdict on each row (_energy_verdicts)
     watch = _energy_watch(model) if fast else 0
@@ -693,10 +725,11 @@ def _own_function(model, suffix, params):
     return cached[2]
 
 
-def _rollout_lanes(model, X0, P, p_stride, controls, t1, h, steps_too, nthreads):
+def _rollout_lanes(model, X0, P, p_stride, controls, t1, h, steps_too, nthreads, rows=None):
     """RK4 over the rows in SIMD lanes, in C threads (eomc_rollout_lanes): each thread's block of
     rows stored as columns, every stage one NAME_rhs_batch_p call, run_rk4's step grid and
-    arithmetic; one parameter row per row (P, p_stride) or one for all."""
+    arithmetic; one parameter row per row (P, p_stride) or one for all.  ``rows``: a list that gets
+    the four arrays before the C call (the caller's partial result on Ctrl-C or SIGTERM)."""
     ffi, lib = _rollout_ffi(model.ffi)
     n, nx = X0.shape
     nsteps = max(int(np.ceil((t1 - 0.0) / h * (1 - 1e-12))), 1)
@@ -705,6 +738,9 @@ def _rollout_lanes(model, X0, P, p_stride, controls, t1, h, steps_too, nthreads)
     status = np.empty(n, dtype=np.intc)
     nstep = np.empty(n, dtype=np.int_ if ffi.sizeof("long") == 8 else np.int32)
     buf = lambda arr: ffi.from_buffer("double[]", arr)  # noqa: E731
+    if rows is not None:
+        rows.extend((X_out, X_last, status, nstep))
+    integrator_library(model.ffi)._arm()      # Ctrl-C, SIGTERM stop the blocks at their next step
     if n:
         n_rgrid, r_tgrid, R, r_stride = controls
         lib.eomc_rollout_lanes(_batch_p(model, ffi), nx, model.nparam, model.ninput, max(model.work_size, 1), 0.0,

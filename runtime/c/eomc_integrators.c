@@ -288,6 +288,8 @@ int eomc_interrupt_arm(void) { return 0; }
 void eomc_interrupt_disarm(void) { }
 #endif
 
+long eomc_interrupt_count(void) { return (long)g_sigint; }
+
 /* Nonzero when the run must stop now (Ctrl-C or SIGTERM, or a callback that failed). */
 static int aborted(ctx *c)
 {

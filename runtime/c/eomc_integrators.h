@@ -347,6 +347,14 @@ int eomc_interrupt_arm(void);
 void eomc_interrupt_disarm(void);
 
 /*
+ * The SIGINTs and SIGTERMs the armed handler has counted (never reset).  A caller that
+ * runs many integrations (eomc_rollout's threads) reads it once at its start and takes
+ * no new one after it has changed: the runs in flight stop by themselves (above), the
+ * ones not started keep EOMC_ABORTED (s29: a rollout's threads went on taking rows).
+ */
+long eomc_interrupt_count(void);
+
+/*
  * Evaluate the model's outputs (which == 0; noutput columns) or constraint
  * residuals (which == 1; nhol + nvel columns) at n rows (t[i], X[i]) with the
  * same input interpolation as eomc_integrate.  work: at least

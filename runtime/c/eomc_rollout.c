@@ -30,6 +30,7 @@ typedef struct rollout_job {
     size_t ev_scratch, sw_scratch;   /* of which the events' two scratch buffers (at the end) */
     pthread_mutex_t lock;
     int next;            /* next row to hand out, under lock */
+    long sigint0;        /* eomc_interrupt_count() at the start: once it changes, no row is handed out */
     eomc_batch_fn batch; /* NULL, or NAME_implicit_batch: implicitfast's model calls in lanes */
     int lanes;           /* rows each thread runs at once (fibers) with batch */
     size_t out_len;      /* doubles of NAME_implicit's output */
@@ -42,7 +43,7 @@ static int take_row(rollout_job *job)
 {
     int i;
     pthread_mutex_lock(&job->lock);
-    i = job->next < job->n ? job->next++ : -1;
+    i = job->next < job->n && eomc_interrupt_count() == job->sigint0 ? job->next++ : -1;
     pthread_mutex_unlock(&job->lock);
     return i;
 }
@@ -672,6 +673,7 @@ static int rollout_rows(const eomc_model *m, const eomc_options *opt, double t0,
                    + (opt->method == EOMC_IMPLICITFAST && opt->implicit ? opt->implicit->work_len : 0)
                    + (ex ? eomc_feedback_work_size(m, ex->fb) : 0) + job.ev_scratch + job.sw_scratch;
     job.next = 0;
+    job.sigint0 = eomc_interrupt_count();
     for (k = 0; k < n; ++k)
         status[k] = EOMC_ABORTED;        /* until its run says otherwise */
     if (pthread_mutex_init(&job.lock, NULL) != 0)
@@ -747,13 +749,14 @@ typedef struct lanes_job {
     long *steps;
     pthread_mutex_t lock;
     int next;            /* first row of the next block, under lock */
+    long sigint0;        /* eomc_interrupt_count() at the start: once it changes, no block is handed out */
 } lanes_job;
 
 static int take_block(lanes_job *job, int *m)
 {
     int i;
     pthread_mutex_lock(&job->lock);
-    i = job->next < job->n ? job->next : -1;
+    i = job->next < job->n && eomc_interrupt_count() == job->sigint0 ? job->next : -1;
     if (i >= 0) {
         *m = job->n - i < job->block ? job->n - i : job->block;
         job->next += *m;
@@ -843,6 +846,18 @@ static void lanes_block(lanes_job *job, int first, int m, double *buf, int *ibuf
             const double tn = (s == job->nsteps - 1) ? job->t1 : job->t0 + (s + 1) * h, hh = tn - t;
             double *sw;
             int live;
+            if (eomc_interrupt_count() != job->sigint0) {   /* Ctrl-C, SIGTERM: the block stops here */
+                for (k = 0; k < m; ++k) {
+                    double *rest = job->X_out ? job->X_out + ((size_t)(first + k) * (size_t)(job->nsteps + 1)
+                                                              + (size_t)(s + 1)) * (size_t)nx : NULL;
+                    if (!dead[k]) {
+                        dead[k] = 1;
+                        status[k] = EOMC_ABORTED;
+                    }
+                    for (j = 0; rest && j < (size_t)(job->nsteps - s) * (size_t)nx; ++j) rest[j] = NAN;
+                }
+                break;
+            }
             if (done)
                 for (k = 0; k < m; ++k) done[k] += !dead[k];
             for (j = 0; j < nxm; ++j) tmp[j] = x[j] + 0.5 * hh * k1[j];
@@ -950,6 +965,7 @@ int eomc_rollout_lanes(eomc_batch_fn f, int nx, int nparam, int ninput, size_t w
     job.n = n; job.X0 = X0; job.P = P; job.p_stride = p_stride;
     job.X_out = X_out; job.X_last = X_last; job.status = status; job.steps = steps;
     job.next = 0;
+    job.sigint0 = eomc_interrupt_count();
     for (k = 0; k < n; ++k)
         status[k] = EOMC_ABORTED;        /* until its block says otherwise */
     if (pthread_mutex_init(&job.lock, NULL) != 0)

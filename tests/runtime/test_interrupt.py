@@ -12,6 +12,7 @@ import subprocess
 import sys
 import textwrap
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -166,3 +167,59 @@ def test_sigint_handler_is_python_s_again_after_a_run(osc):
     osc.simulate([1.0, 0.0], (0, 1.0))
     assert signal.getsignal(signal.SIGINT) is before
     assert np.isfinite(osc.simulate([1.0, 0.0], (0, 1.0)).x_final).all()
+
+
+ROLLOUT_TERM_CHILD = textwrap.dedent("""
+    import os, signal, sys, threading, time
+    import numpy as np
+    class Terminated(BaseException):
+        pass
+    def on_term(signum, frame):     # as the command line's: SIGTERM unwinds like Ctrl-C
+        raise Terminated()
+    signal.signal(signal.SIGTERM, on_term)
+    import eomc
+    from eomc.runtime.loader import load
+    kind, where = sys.argv[1], sys.argv[2]
+    if kind == "adaptive":          # the oscillator: 64 rows of ~10 s each (dop853 to t = 1e5)
+        model = load(where)
+        X0 = np.tile([1.0, 0.0], (64, 1))
+        kw = dict(method="dop853", t_final=1e5, max_steps=10 ** 12, p=[2.0, 0.0, 8.0])
+    else:                           # the cart in lanes: 512 rows of RK4, blocks of 64, ~10 s in all
+        from eomc.compiler.driver import compile as compile_model
+        model = compile_model(sys.argv[3], "rl_cart", functions=("rhs", "rhs_batch"), cache_dir=where,
+                              progress=False)
+        X0 = np.full((512, model.nx), 0.1)
+        kw = dict(method="rk4", dt=1e-3, t_final=100.0, lanes=True)
+    def send():
+        time.sleep(0.3)
+        globals()["sent"] = time.perf_counter()
+        os.kill(os.getpid(), signal.SIGTERM)
+    threading.Thread(target=send, daemon=True).start()
+    try:
+        eomc.rollout(model, X0, threads=2, **kw)
+        print("finished")
+    except Terminated as stop:
+        res = getattr(stop, "partial_result", None)
+        print("terminated", f"{time.perf_counter() - sent:.3f}", "none" if res is None else
+              f"{len(res.status)} {int(np.sum(res.status == 9))} {int(np.sum((res.status != 0) & (res.status != 9)))}")
+""")
+
+
+@pytest.mark.parametrize("kind", ["adaptive", "lanes"])
+def test_sigterm_stops_every_rollout_thread_and_keeps_the_rows(built, kind, tmp_path):
+    """s29: a rollout's C threads went on taking rows after SIGTERM (or Ctrl-C): only the rows in
+    flight stopped, and the program's handler ran when every row was done (25 s here on the
+    adaptive rows, 9 s on the lanes).  Now no thread takes a row after the signal, the lanes' blocks
+    stop at their next step, and the exception carries every row as a RolloutResult, those not run
+    to the end status 9."""
+    script = tmp_path / "child.py"
+    script.write_text(ROLLOUT_TERM_CHILD)
+    where = str(built.directory) if kind == "adaptive" else str(tmp_path / "cache")
+    cart = Path(__file__).resolve().parents[2] / "examples" / "cart_pole_system.py"
+    proc = subprocess.run([sys.executable, str(script), kind, where, str(cart)], capture_output=True, text=True,
+                          timeout=120)
+    words = proc.stdout.split()
+    assert words[:1] == ["terminated"], proc.stdout + proc.stderr
+    assert float(words[1]) < 1.0, words              # the whole rollout: 10 s
+    n, stopped, other = map(int, words[2:5])
+    assert n == (64 if kind == "adaptive" else 512) and stopped >= 1 and other == 0, words
