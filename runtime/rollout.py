@@ -92,7 +92,7 @@ def _params(model, p, n):
         if bad.size:
             i, j = bad[0]
             raise ValueError(f"{model.name}: p row {i} has a non-finite {model.param_names[j]} ({rows[i, j]})")
-    for i, row in enumerate(rows):
+    for i, row in enumerate(rows if p is not None else ()):    # the defaults: prepare checks them
         check_law_parameters(model, row, where=f"p row {i}" if len(rows) > 1 else "")
     P = np.ascontiguousarray(np.hstack([rows, np.zeros((len(rows), 1))]))
     return P, (0 if len(rows) == 1 else P.shape[1])
@@ -392,10 +392,11 @@ def _run_rows(model, method, a, X0, P, p_stride, controls, dt, t_final, record, 
         else:
             lib.eomc_rollout_stats(model.c_model, opt, *args)
         if method == "implicitfast":
-            columns = _stats_columns(ffi, stats, n)
+            from .switching import WATCHED, watched_rows
+            columns = _stats_columns(ffi, stats, n, ("rejected",) + (tuple(f"watch_{k}" for k in WATCHED)
+                                                                       if watch else ()))
             unsolved = columns["rejected"].astype(int)
             if watch:
-                from .switching import watched_rows
                 ranges = watched_rows(columns, nspring)
     messages = (_energy_verdicts(model, a, X0, P, p_stride, controls, t_eval, X_out, X_last, status, ranges)
                 if fast else {})
@@ -407,20 +408,21 @@ def _run_rows(model, method, a, X0, P, p_stride, controls, dt, t_final, record, 
 _STATS_DTYPES = {}
 
 
-def _stats_columns(ffi, stats, n):
-    """An eomc_stats[n] array as numpy columns ({field: (n,) array}, copies), read through one
-    structured view of its memory (the fields' offsets and types from ``ffi``) rather than a
-    cffi attribute read per row and field: rollout's per-row unsolved counts and energy watch."""
+def _stats_columns(ffi, stats, n, fields=None):
+    """An eomc_stats[n] array as numpy columns ({field: (n,) array}, copies; ``fields``: only
+    those, None: all), read through one structured view of its memory (the fields' offsets and
+    types from ``ffi``) rather than a cffi attribute read per row and field: rollout's per-row
+    unsolved counts and energy watch."""
     dtype = _STATS_DTYPES.get(ffi)
     if dtype is None:
         kinds = {"double": np.float64, "long": np.dtype(f"i{ffi.sizeof('long')}"), "int": np.intc}
-        fields = ffi.typeof("eomc_stats").fields
-        dtype = _STATS_DTYPES[ffi] = np.dtype({"names": [name for name, _ in fields],
-                                                "formats": [kinds[f.type.cname] for _, f in fields],
-                                                "offsets": [f.offset for _, f in fields],
+        each = ffi.typeof("eomc_stats").fields
+        dtype = _STATS_DTYPES[ffi] = np.dtype({"names": [name for name, _ in each],
+                                                "formats": [kinds[f.type.cname] for _, f in each],
+                                                "offsets": [f.offset for _, f in each],
                                                 "itemsize": ffi.sizeof("eomc_stats")})
     table = np.frombuffer(ffi.buffer(stats, n * dtype.itemsize), dtype=dtype)
-    return {name: table[name].copy() for name in dtype.names}
+    return {name: table[name].copy() for name in (dtype.names if fields is None else fields)}
 
 
 def _energy_watch(model):
@@ -447,8 +449,8 @@ def _energy_verdicts(model, a, X0, P, p_stride, controls, t_eval, X_out, X_last,
     (switching.energy_verdict: the same conditions, tolerance and numbers): a row that created
     energy gets status 20 (STATUS_ENERGY, in place) and simulate's message, returned as {row:
     message}; the rows' lesser gains and their total energy's rises make one PhysicsWarning, as
-    simulate's would.  watched: each row's C energy watch over every step (switching.watched_stats:
-    the energy output's range, and the total -- the output plus the limit springs it leaves out --
+    simulate's would.  watched: each row's C energy watch over every step (switching.WatchedRows:
+    row i is switching.watched_stats's dict, column(k) a field of every row; the energy output's range, and the total -- the output plus the limit springs it leaves out --
     its largest rise above its running minimum), the same numbers simulate's watch keeps, so every
     record mode gives simulate's verdict.  The outputs are evaluated at the start and the end only
     (one call for all rows when they share parameters and constant inputs, else one per row); only
@@ -491,7 +493,7 @@ def _energy_verdicts(model, a, X0, P, p_stride, controls, t_eval, X_out, X_last,
     E = out[:, :, model.output_names.index("energy")]
     seen = E
     if watched is not None:     # [start, lowest, highest, end]: the whole run's gain and scale
-        seen = np.concatenate([E[:, :1], np.array([(watched[i]["lo"], watched[i]["hi"]) for i in rows]),
+        seen = np.concatenate([E[:, :1], watched.column("lo")[rows, None], watched.column("hi")[rows, None],
                                E[:, 1:]], axis=1)
     rtol = energy_tolerance(a["rtol"], a["atol"])
     with np.errstate(invalid="ignore"):
@@ -500,11 +502,10 @@ def _energy_verdicts(model, a, X0, P, p_stride, controls, t_eval, X_out, X_last,
         rose = gain > tol
         risen = np.zeros(rows.size, dtype=bool)
         if watched is not None and total_known(model, sw):
-            w = [watched[i] for i in rows]
-            rise = np.array([v["rise"] for v in w])
-            T0 = np.array([v["total0"] for v in w])
-            tscale = np.maximum.reduce([np.abs(T0), np.array([v["total_hi"] for v in w]) - T0,
-                                        T0 - np.array([v["total_lo"] for v in w]), np.full(T0.shape, 1e-300)])
+            rise = watched.column("rise")[rows]
+            T0 = watched.column("total0")[rows]
+            tscale = np.maximum.reduce([np.abs(T0), watched.column("total_hi")[rows] - T0,
+                                        T0 - watched.column("total_lo")[rows], np.full(T0.shape, 1e-300)])
             risen = rise > rtol * tscale
     depth = [model.output_names.index(f"depth_{c.name}") for c in sw.contacts
              if f"depth_{c.name}" in model.output_names]

@@ -371,8 +371,34 @@ def watched_rows(columns, springs):
     """watched_stats of every row from an eomc_stats array's columns (rollout's _stats_columns:
     {"watch_lo": (n,) array, ...}): the same numbers (Python floats of the same doubles), without
     a cffi attribute read per field and row (gymnasium's ant: 64 rows x 11 fields a rollout)."""
-    return [dict(zip(WATCHED, v), springs=int(springs))
-            for v in zip(*(columns[f"watch_{k}"].tolist() for k in WATCHED))]
+    return WatchedRows(columns, springs)
+
+
+class WatchedRows:
+    """The rows' watched_stats as a sequence (row i: the dict watched_stats gives), made per row
+    only when asked, and the columns themselves (:meth:`column`: field k of every row) for the
+    verdict's vector tests.  Why: rollout's verdict reads a few fields of every row and the whole
+    dict of the one or two rows it words; 64 dicts a call were a tenth of its Python."""
+
+    def __init__(self, columns, springs):
+        self._columns = {k: columns[f"watch_{k}"] for k in WATCHED}
+        self._springs = int(springs)
+        self._n = len(self._columns[WATCHED[0]])
+
+    def column(self, k):
+        """Field ``k`` (one of WATCHED) of every row, an (n,) array of the C doubles."""
+        return self._columns[k]
+
+    def __len__(self):
+        return self._n
+
+    def __getitem__(self, i):
+        if not -self._n <= i < self._n:
+            raise IndexError(i)
+        return dict({k: float(c[i]) for k, c in self._columns.items()}, springs=self._springs)
+
+    def __iter__(self):
+        return (self[i] for i in range(self._n))
 
 
 def total_known(model, sw):
@@ -634,18 +660,35 @@ def _held_at_start(model, p, sw, start):
 
 def _held_sum(model, p, sw, start, past):
     """_held_at_start's sum over the limits past their bound at the start (not kept)."""
-    laws = model.metadata.get("limit_laws") or {}
-    names = list(getattr(model, "param_names", ()))
+    laws = _held_laws(model, sw)
     from .limit_energy import stored
     total = 0.0
     for j in past:
-        joint = sw.limits[j].joint
-        shape = laws.get(joint)
-        if shape is None or f"limit_k_{joint}" not in names or f"limit_e_{joint}" not in names:
+        law = laws[j]
+        if law is None:
             return None
-        total += stored(start[j], p[names.index(f"limit_k_{joint}")], p[names.index(f"limit_e_{joint}")],
-                        shape.get("push", 0.0), shape.get("hold"))
+        k, e, push, hold = law
+        total += stored(start[j], p[k], p[e], push, hold)
     return total
+
+
+def _held_laws(model, sw):
+    """Per limit of ``sw``, (stiffness index, width index, push, hold) of its law for _held_sum, or
+    None where its shape (the metadata's ``limit_laws``) or parameters are unknown; kept on the
+    Switches (a model's are fixed).  Why: rollout's verdict sums a start's held energy per distinct
+    start, and the parameter names' list and its searches were most of each sum (gymnasium's ant)."""
+    got = sw.__dict__.get("_held_laws")
+    if got is None:
+        laws = model.metadata.get("limit_laws") or {}
+        names = list(getattr(model, "param_names", ()))
+        got = []
+        for lim in sw.limits:
+            shape, k, e = laws.get(lim.joint), f"limit_k_{lim.joint}", f"limit_e_{lim.joint}"
+            got.append(None if shape is None or k not in names or e not in names else
+                       (names.index(k), names.index(e), shape.get("push", 0.0), shape.get("hold")))
+        got = tuple(got)
+        object.__setattr__(sw, "_held_laws", got)
+    return got
 
 
 def _released(model, p, sw, start, e, outputs):
