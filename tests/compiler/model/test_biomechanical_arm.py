@@ -30,6 +30,12 @@ def arm(tmp_path_factory):
     def sympy_rhs(x, e):
         m, f, ad = eval_diffeq(x[0:4], x[4:8], x[8:10], e, p_vals)
         return np.hstack((x[4:8], np.linalg.solve(m, f).squeeze(), np.asarray(ad, float).squeeze()))
+    # the muscles' lengths and tensions, as SymPy's own objects give them (u' enters no output)
+    b, t = ns["biceps"], ns["triceps"]
+    qdots = {qi.diff(ns["me"].dynamicsymbols._t): ui for qi, ui in zip(kane.q, kane.u)}   # kd_eqs: q' = u
+    exprs = [sm.sympify(v).xreplace(qdots) for v in (b.pathway.length, t.pathway.length, -b.force, -t.force)]
+    sympy_rhs.outputs = sm.lambdify((kane.q, kane.u, ns["a"], list(p)), exprs, cse=True)
+    sympy_rhs.p_vals = p_vals
     return model, sympy_rhs
 
 
@@ -69,3 +75,27 @@ def test_arm_biceps_pulls_the_lever_back(arm):
     pulled = model.simulate(model.initial_state, (0.0, 1.5), r=eval_r, rtol=1e-8, atol=1e-8)
     assert pulled["a_biceps"][-1] > 0.7 and rest["a_biceps"][-1] == 0.0
     assert abs(pulled["q1"][-1] - rest["q1"][-1]) > 0.05      # the biceps moved the lever
+
+
+def test_arm_outputs_are_the_muscles_lengths_and_tensions(arm):
+    """The example named no outputs before session 29 (a biomechanics user's CSV, plot and page
+    showed none): now each muscle's musculotendon length and tension, against SymPy's
+    pathway.length and -force at states on the constraints; the biceps at 80 % pulls harder
+    than at rest and is shorter as it moves the lever."""
+    model, sympy_rhs = arm
+    assert model.output_names == ("l_biceps", "l_triceps", "F_biceps", "F_triceps")
+    rng = np.random.default_rng(3)
+    for _ in range(4):
+        x = model.initial_state.copy()
+        x[0], x[4] = rng.uniform(0.0, 0.3), rng.uniform(-1.0, 1.0)
+        x[8:10] = rng.uniform(0.0, 1.0, 2)
+        x = model.consistent_state(x)
+        want = np.array(sympy_rhs.outputs(x[0:4], x[4:8], x[8:10], sympy_rhs.p_vals), float)
+        got = np.array(list(model.outputs(0.0, x).values()))
+        assert np.max(np.abs(got - want)) <= 1e-12 * max(1.0, np.max(np.abs(want))), (got, want)
+    rest = model.simulate(model.initial_state, (0.0, 1.0), rtol=1e-8, atol=1e-8)
+    pulled = model.simulate(model.initial_state, (0.0, 1.0), r=[0.8, 0.0], rtol=1e-8, atol=1e-8)
+    # at rest the biceps' fibre is at a third of its optimal length, where De Groote's passive
+    # curve is below zero (-9.2 N); 80 % activation adds ~8 N of active tension
+    assert rest.outputs["F_biceps"][-1] < 0 and pulled.outputs["F_biceps"][-1] > rest.outputs["F_biceps"][-1] + 5.0
+    assert pulled.outputs["l_biceps"][-1] < rest.outputs["l_biceps"][-1]
