@@ -799,7 +799,7 @@ def _render(name, meta, fns, rendered, solver, layout, sym, helper, split=False,
         + ([f"int {name}_pose_count(void)"] if "poses" in fns else []) + _const_docs(name, meta)
         + ([f"int {name}_rhs_batch_p(int n, double t, const double *X, const double *P, const double *R, "
             f"double *XDOT, int *status, double *work)"] if "rhs_batch" in fns else []),
-        vectors=_vector_docs(meta), **common)
+        vectors=_vector_docs(meta), quaternions=meta.get("quaternions", ()), **common)
     helper_code = "\n".join(c for c in ((solver.code if uses_solver else ""), *solver_parts, helper) if c)
     source = env.get_template("model.c.j2").render(
         name=name, functions=rendered, helper_code=helper_code, minmax=_minmax_code(helper_code, rendered),

@@ -262,3 +262,15 @@ def test_initial_state_given_without_the_quaternion_still_starts_upright():
                       initial_state={"q_base_link_floating_z": 0.4}, formulation="recursive")
     assert spec.initial_state[2] == 0.4 and spec.initial_state[3] == 1.0
     assert not np.any(np.delete(spec.initial_state, [2, 3]))
+
+
+def test_the_header_tells_c_users_to_keep_the_quaternions_unit(cache, solo):
+    """A C user's own integrator (examples/embed_c) must normalise the quaternion rows as eomc's
+    integrators do; the header said nothing of it before session 29.  An Euler build's header has
+    no such paragraph."""
+    model, _ = solo
+    header = (model.directory / f"{model.name}.h").read_text()
+    assert "Unit quaternions (w, x, y, z) in x, at x[i] .. x[i + 3] for i = 3." in header
+    assert "scale each of these quaternions back to length 1 after" in header
+    euler, _ = _build(cache, "solo12", "solo_euler", floating=True)
+    assert "quaternion" not in (euler.directory / f"{euler.name}.h").read_text().lower()
