@@ -18,7 +18,8 @@ setup(
     ext_modules=[
         Extension(
             "eomc.runtime._eomc_integrators",
-            sources=["runtime/c/eomc_integrators.c", "runtime/c/eomc_fixedstep.c", "runtime/c/eomc_bdf.c",
+            sources=["runtime/c/eomc_integrators.c", "runtime/c/eomc_fixedstep.c", "runtime/c/eomc_fixedstep_avx2.c",
+                     "runtime/c/eomc_bdf.c",
                      "runtime/c/eomc_sensitivity.c", "runtime/c/eomc_rollout.c",
                      "runtime/c/eomc_adjoint.c", "runtime/c/eomc_rows.c"],
             include_dirs=["runtime/c"],

@@ -66,6 +66,21 @@
 #define EOMC_FS_LANES 1
 #endif
 
+/* The whole scalar step a second time, compiled for AVX2 (eomc_fixedstep_avx2.c includes this file
+ * with EOMC_FS_AVX2_COPY defined, under #pragma GCC target("avx2")); eomc_fs_run hands a run to that
+ * copy where the CPU has AVX2.  Why: the integrator library is built once at install for any x86-64
+ * (SSE2), and the VEX encoding's three-operand forms drop the register copies of two-operand SSE2
+ * in fs_assemble's and the solves' scalar code, as they did in the model libraries (toolchain.py's
+ * MACHINE_FLAGS).  Measured (benchmarks/results/fixedstep.md, session 29): the gymnasium ant's and
+ * humanoid's checked qpos0 run 5-7 % faster.  The same bits: AVX2 has no fused multiply-add (that
+ * is FMA, not enabled) and C99 mode contracts nothing, so every operation is the SSE2 build's, in
+ * the same order.  gcc only (clang's target pragma differs); EOMC_NO_FS_AVX2 builds without the
+ * copy, and $EOMC_FS_NO_AVX2 (set, non-empty) runs the SSE2 build on any CPU (the tests compare
+ * the two). */
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(EOMC_NO_FS_AVX2)
+#define EOMC_FS_AVX2 1
+#endif
+
 #define RESID_FRACTION 0.2    /* |r| <= this * |dx - h f| (+ a floor): W is good enough */
 #define RESID_FLOOR 1e-7      /* scaled, per state: at rest dx -> 0 and r is roundoff */
 #define KEPT_ITER 2           /* Newton iterations with the kept LU before a new jac_x */
@@ -89,11 +104,13 @@
 #define CHART_FACTOR 4.0      /* fast path: the configuration's residual counts this many times in the
                                  try's ratio (see fs_chart_ratio) */
 
+#ifndef EOMC_FS_AVX2_COPY   /* the copy has only eomc_fs_run (as eomc_fs_run_avx2) */
 size_t eomc_fs_work_size(int nx)
 {
     size_t n = (size_t)nx;
     return 2 * n * n + 12 * n + 8;
 }
+#endif
 
 /* In-place LU with partial pivoting of the n x n row-major A; 1 if singular. */
 static int fs_lu_factor(int n, double *A, int *piv)
@@ -425,6 +442,7 @@ static size_t fs_cache_size(int nu, int ncontact)
     return (size_t)ncontact * (13 + 4 * (size_t)nu);
 }
 
+#ifndef EOMC_FS_AVX2_COPY
 size_t eomc_fs_implicit_work_size(int nq, int nu, int ncontact)
 {
     size_t u = (size_t)nu, x = (size_t)nq + u;
@@ -438,6 +456,7 @@ size_t eomc_fs_implicit_work_size(int nq, int nu, int ncontact)
            + 2 * u + (size_t)ncontact + 2 * (u * u / 2 + u + 2)    /* fs_pattern's bits and two own lists */
            + (size_t)nq * u + (size_t)nq + 2;                        /* fs_nlists' two lists (ints) */
 }
+#endif
 
 /* A = U D L in place (D on the diagonal, unit U above it, unit L below it): A has nonzeros
  * only between a speed and its ancestors (parent[k] < k; NULL: every earlier speed, i.e.
@@ -992,11 +1011,13 @@ struct eomc_fs_lanes {
 #include "eomc_fs_lanes_body.h"
 #undef FSL_W
 #undef FSL_TARGET
+#ifndef EOMC_FS_AVX2_COPY
 #define FSL_W 8
 #define FSL_TARGET "avx512f,avx512dq"
 #include "eomc_fs_lanes_body.h"
 #undef FSL_W
 #undef FSL_TARGET
+#endif
 
 /* fs_secant_friction of the contacts K[l], C[l] into Cs[l], l < cnt <= 4, at once: the lanes' own
  * (fsl_secant4: the scalar's bits in every lane); a lane past cnt repeats contact 0, its answer
@@ -1066,6 +1087,7 @@ static int fs_secants(const eomc_implicit *imp, const double *E, double *cache, 
     return nt;
 }
 
+#ifndef EOMC_FS_AVX2_COPY
 void eomc_fs_lanes_free(eomc_fs_lanes *w)
 {
     if (w == NULL) return;
@@ -1202,6 +1224,7 @@ size_t eomc_fs_tested_outputs(int nq, int nu, const eomc_implicit *imp, size_t *
     if (imp->energy) idx[k++] = L.energy;              /* the energy watch (fs_loop's accept) */
     return k;
 }
+#endif
 
 /* The fast path's state for fs_loop.  T, A, b: the terms at the step's start x and (2)'s
  * factored matrix and right side for a step of hA; T1, A1, b1 the same at a trial end
@@ -2042,11 +2065,24 @@ static int fs_loop(const eomc_fs_ops *ops, eomc_stats *st, int n, double h, long
     return EOMC_OK;
 }
 
+#if defined(EOMC_FS_AVX2) && !defined(EOMC_FS_AVX2_COPY)
+/* weak: a build of this file without eomc_fixedstep_avx2.c (a test's harness) runs the SSE2 step */
+int eomc_fs_run_avx2(const eomc_fs_ops *ops, eomc_stats *st, int nx, double h, long max_steps,
+                     double t0, double t1, double *x, double *work) __attribute__((weak));
+#endif
+#ifdef EOMC_FS_AVX2_COPY
+#define eomc_fs_run eomc_fs_run_avx2
+#endif
 int eomc_fs_run(const eomc_fs_ops *ops, eomc_stats *st, int nx, double h, long max_steps,
                 double t0, double t1, double *x, double *work)
 {
     long maxs = max_steps > 0 ? max_steps : DEFAULT_MAX_STEPS;
     int s;
+#if defined(EOMC_FS_AVX2) && !defined(EOMC_FS_AVX2_COPY)
+    const char *sse2 = getenv("EOMC_FS_NO_AVX2");
+    if (eomc_fs_run_avx2 != NULL && __builtin_cpu_supports("avx2") && (sse2 == NULL || sse2[0] == '\0'))
+        return eomc_fs_run_avx2(ops, st, nx, h, max_steps, t0, t1, x, work);
+#endif
     if (!(h > 0) || !isfinite(h)) return EOMC_BAD_ARGUMENT;
     if (ops->terms) {
         fs_fast q;

@@ -34,7 +34,7 @@ def compile_shared(out, sources, extra_flags=()):
     """gcc -shared the given C files with the integrators; raises with gcc's output."""
     cmd = ["gcc", "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-fPIC", "-shared",
            f"-I{RUNTIME_C}", *extra_flags, "-o", str(out), *map(str, sources),
-           str(RUNTIME_C / "eomc_integrators.c"), str(RUNTIME_C / "eomc_fixedstep.c"), str(RUNTIME_C / "eomc_bdf.c"), "-lm"]
+           str(RUNTIME_C / "eomc_integrators.c"), str(RUNTIME_C / "eomc_fixedstep.c"), str(RUNTIME_C / "eomc_fixedstep_avx2.c"), str(RUNTIME_C / "eomc_bdf.c"), "-lm"]
     proc = subprocess.run(cmd, capture_output=True, text=True)
     if proc.returncode:
         raise RuntimeError(f"gcc failed:\n{' '.join(cmd)}\n{proc.stderr}")

@@ -249,6 +249,32 @@ def test_a_hard_split_does_not_retry_the_half_that_holds_the_onset(ant):
     assert step.stats["nfev"] == 12
 
 
+def test_the_avx2_build_of_the_step_gives_the_sse2_builds_bits(ant, monkeypatch):
+    """eomc_fs_run hands a run to its AVX2 copy (eomc_fixedstep_avx2.c) where the CPU has AVX2; the copy
+    must take the same steps to the bit as the SSE2 build ($EOMC_FS_NO_AVX2 runs that one): AVX2 has no
+    fused multiply-add and C99 contracts nothing.  gymnasium's ant from its qpos0 at 10 ms for 1 s (121
+    model calls: touch-downs, located onsets, split steps), every output row and the counts."""
+    import ctypes
+    from eomc.runtime.cpu import cpu_features
+    from eomc.runtime.native import _library_path
+    if "avx2" not in (cpu_features() or ()):
+        pytest.skip("no AVX2 on this CPU: the SSE2 build runs")
+    if not hasattr(ctypes.CDLL(str(_library_path())), "eomc_fs_run_avx2"):
+        pytest.skip("the integrator library has no AVX2 copy (built by a compiler other than gcc)")
+    x0 = np.zeros(ant.nx)
+    x0[list(ant.state_names).index("q_root_z")] = 0.75
+    runs = []
+    for sse2 in ("1", ""):
+        monkeypatch.setenv("EOMC_FS_NO_AVX2", sse2)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")       # the start is outside the ankles' ranges (warned)
+            runs.append(ant.simulate(x0, (0.0, 1.0), method="implicitfast", dt=0.01, n_points=101))
+    a, b = runs
+    assert a.status == b.status == 0
+    assert a.stats["nfev"] == b.stats["nfev"] > 100 and a.stats["nlu"] == b.stats["nlu"]
+    assert np.array_equal(a.x.view(np.int64), b.x.view(np.int64))
+
+
 def _unchecked_step(m, x, h):
     """The end of one fixed step of h from x with the residual test off (eomc_implicit.split = 0):
     what the checked path's first try of that size from x computes."""

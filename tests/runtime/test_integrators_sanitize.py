@@ -15,7 +15,7 @@ def test_integrators_clean_under_address_and_undefined_sanitizers(tmp_path):
            "-fsanitize=address,undefined", "-fno-sanitize-recover=all", "-fno-omit-frame-pointer",
            f"-I{RUNTIME_C}", "-o", str(exe), str(MODELS_DIR / "sanitize_driver.c"),
            *(str(MODELS_DIR / s) for s in SOURCES), str(RUNTIME_C / "eomc_integrators.c"),
-           str(RUNTIME_C / "eomc_fixedstep.c"), str(RUNTIME_C / "eomc_bdf.c"), "-lm"]
+           str(RUNTIME_C / "eomc_fixedstep.c"), str(RUNTIME_C / "eomc_fixedstep_avx2.c"), str(RUNTIME_C / "eomc_bdf.c"), "-lm"]
     build = subprocess.run(cmd, capture_output=True, text=True)
     assert build.returncode == 0, build.stderr
     proc = subprocess.run([str(exe)], capture_output=True, text=True, timeout=120,

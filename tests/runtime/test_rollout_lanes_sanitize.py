@@ -126,7 +126,7 @@ def _build_and_run(src, driver, tmp_path, sanitizers, *defines):
     cmd = ["gcc", "-std=c99", "-O1", "-g1", "-Wall", "-Wextra", "-Werror", "-pthread", f"-fsanitize={sanitizers}",
            "-fno-sanitize-recover=all", "-fno-omit-frame-pointer", f"-DEOMC_BATCH_LANES={machine_lanes()}",
            "-DEOMC_BATCH_LIBM_TRIG", *defines, "-I", str(Path(src).parent), "-I", str(RUNTIME_C), src, str(main),
-           *(str(RUNTIME_C / f) for f in ("eomc_integrators.c", "eomc_fixedstep.c", "eomc_bdf.c",
+           *(str(RUNTIME_C / f) for f in ("eomc_integrators.c", "eomc_fixedstep.c", "eomc_fixedstep_avx2.c", "eomc_bdf.c",
                                           "eomc_rollout.c")),
            "-o", str(exe), "-lm"]
     proc = subprocess.run(cmd, capture_output=True, text=True)

@@ -17,7 +17,7 @@ def test_rollout_threads_clean_under_sanitizers(tmp_path, sanitizers):
            f"-fsanitize={sanitizers}", "-fno-sanitize-recover=all", "-fno-omit-frame-pointer",
            f"-I{RUNTIME_C}", "-o", str(exe), str(MODELS_DIR / "rollout_driver.c"),
            *(str(MODELS_DIR / s) for s in SOURCES), str(RUNTIME_C / "eomc_integrators.c"),
-           str(RUNTIME_C / "eomc_fixedstep.c"), str(RUNTIME_C / "eomc_bdf.c"), str(RUNTIME_C / "eomc_rollout.c"), "-lm"]
+           str(RUNTIME_C / "eomc_fixedstep.c"), str(RUNTIME_C / "eomc_fixedstep_avx2.c"), str(RUNTIME_C / "eomc_bdf.c"), str(RUNTIME_C / "eomc_rollout.c"), "-lm"]
     build = subprocess.run(cmd, capture_output=True, text=True)
     assert build.returncode == 0, build.stderr
     proc = subprocess.run([str(exe)], capture_output=True, text=True, timeout=120,
