@@ -71,8 +71,9 @@
  * copy where the CPU has AVX2.  Why: the integrator library is built once at install for any x86-64
  * (SSE2), and the VEX encoding's three-operand forms drop the register copies of two-operand SSE2
  * in fs_assemble's and the solves' scalar code, as they did in the model libraries (toolchain.py's
- * MACHINE_FLAGS).  Measured (benchmarks/results/fixedstep.md, session 29): the gymnasium ant's and
- * humanoid's checked qpos0 run 5-7 % faster.  The same bits: AVX2 has no fused multiply-add (that
+ * MACHINE_FLAGS).  Measured (benchmarks/results/fixedstep.md, session 29): the gymnasium models'
+ * checked qpos0 runs, ant 5-6 %, hopper 7 %, walker2d 4 %, humanoid 2-7 % faster (in one process
+ * against the SSE2 build).  The same bits: AVX2 has no fused multiply-add (that
  * is FMA, not enabled) and C99 mode contracts nothing, so every operation is the SSE2 build's, in
  * the same order.  gcc only (clang's target pragma differs); EOMC_NO_FS_AVX2 builds without the
  * copy, and $EOMC_FS_NO_AVX2 (set, non-empty) runs the SSE2 build on any CPU (the tests compare
