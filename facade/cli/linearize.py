@@ -6,6 +6,9 @@ through the constraint Jacobian (model.linearize_reduced), --fixed names the
 independent states to keep instead of the model's own.
 """
 
+import shutil
+import textwrap
+
 import numpy as np
 
 from . import common as cli_common
@@ -27,16 +30,37 @@ def configure(parser):
                         help="complete the dependent coordinates and speeds of the point first")
 
 
-def _matrix(label, M, rows, cols):
+def _matrix(label, M, rows, cols, columns=None):
     """The matrix as a table under its column names, its rows named: the names' column as wide
     as the longest (first hour s27: hopper's q_thigh_joint rows were pushed three places right
-    of the others under a 10-wide column), and -0 printed 0."""
+    of the others under a 10-wide column), and -0 printed 0.  A table wider than ``columns``
+    characters (the terminal's, 100 when not a terminal) is printed in blocks of columns, each
+    under "A (columns i-j of n):" with the rows named again: A1 --floating-base --ground's 36
+    columns made lines of ~700 characters (first hour s28)."""
     width = max([len(c) for c in cols] + [12])
     head = max([len(r) for r in rows] + [10])
-    lines = [f"{label}:", " " * head + "".join(c.rjust(width + 1) for c in cols)]
-    for name, row in zip(rows, M):
-        lines.append(f"{name:>{head}}" + "".join(f"{v + 0.0:{width + 1}.6g}" for v in row))
+    columns = columns or _terminal_columns()
+    per = max(1, (columns - head) // (width + 1))
+    blocks = [range(lo, min(len(cols), lo + per)) for lo in range(0, len(cols), per)] or [range(0)]
+    lines = []
+    for block in blocks:
+        lines.append(f"{label}:" if len(blocks) == 1 else
+                     f"{label} (columns {block.start + 1}-{block.stop} of {len(cols)}):")
+        lines.append(" " * head + "".join(cols[j].rjust(width + 1) for j in block))
+        for name, row in zip(rows, M):
+            lines.append(f"{name:>{head}}" + "".join(f"{row[j] + 0.0:{width + 1}.6g}" for j in block))
     return "\n".join(lines)
+
+
+def _terminal_columns():
+    return max(60, shutil.get_terminal_size((100, 24)).columns)
+
+
+def _wrapped(text, columns=None):
+    """A long line of comma-separated items (the operating point, the eigenvalues) broken
+    between items to the terminal's width, its continuation lines indented."""
+    return textwrap.fill(text, width=columns or _terminal_columns(), subsequent_indent="  ",
+                         break_on_hyphens=False, break_long_words=False)
 
 
 def run(args):
@@ -61,8 +85,8 @@ def run(args):
     else:
         A, B = model.linearize(args.t, x, p, r)
         states = model.state_names
-    print(f"eomc linearize {model.name} at t={args.t:g}: "
-          + ", ".join(f"{n}={v:.6g}" for n, v in zip(model.state_names, x)))
+    print(_wrapped(f"eomc linearize {model.name} at t={args.t:g}: "
+                   + ", ".join(f"{n}={v:.6g}" for n, v in zip(model.state_names, x))))
     print(_matrix("A", A, states, states))
     if model.ninput:
         print(_matrix("B", B, states, model.input_names))
@@ -70,7 +94,7 @@ def run(args):
     return 0
 
 
-def eigenvalue_text(A):
+def eigenvalue_text(A, columns=None):
     """"eigenvalues: ..." of A, each part within round-off of 0 printed as 0, and a note saying
     how many and below what.  Why: a floating base's position and heading are free, so A has
     zero eigenvalues in 2x2 Jordan blocks, which LAPACK returns as +-2e-9 (+-sqrt(eps |A|)
@@ -85,4 +109,4 @@ def eigenvalue_text(A):
                      for z in sorted(clean, key=lambda z: (z.real, z.imag)))
     note = (f"\n  ({rounded} of them had a real or imaginary part within round-off of 0, below "
             f"{tol:.2g} = sqrt(eps |A|): printed as 0)" if rounded else "")
-    return f"eigenvalues: {text}{note}"
+    return _wrapped(f"eigenvalues: {text}", columns) + note

@@ -67,3 +67,34 @@ def test_eigenvalues_within_round_off_of_zero_print_as_zero():
     spin = np.array([[0.0, 2.0], [-2.0, 0.0]]) + 1e-18          # a centre: its real parts round-off
     assert eigenvalue_text(spin).splitlines()[0] == "eigenvalues: 0-2j, 0+2j"
     assert eigenvalue_text(np.zeros((2, 2))) == "eigenvalues: 0, 0"
+
+
+def test_a_wide_matrix_is_printed_in_blocks_of_columns_that_fit():
+    """A1 --floating-base --ground's A has 36 columns: one line per row was ~700 characters
+    (first hour s28).  A table wider than the terminal (100 characters when not one) is printed
+    in blocks of columns, every row named again in each; every entry is there once; a table that
+    fits is one block as before.  The eigenvalues and the operating point wrap between items."""
+    from eomc.cli.linearize import _matrix, eigenvalue_text
+    rng = np.random.default_rng(2)
+    names = [f"q_FL_calf_joint_{k}" for k in range(36)]
+    M = rng.normal(size=(36, 36))
+    text = _matrix("A", M, names, names, columns=100)
+    lines = text.splitlines()
+    assert max(len(line) for line in lines) <= 100, max(len(line) for line in lines)
+    got, at = np.full_like(M, np.nan), 0
+    for block in [i for i, line in enumerate(lines) if line.startswith("A (columns ")]:
+        lo, hi = map(int, lines[block].split()[2].split("-"))
+        assert lo == at + 1
+        for i in range(36):
+            row = lines[block + 2 + i].split()
+            assert row[0] == names[i]
+            got[i, lo - 1:hi] = [float(v) for v in row[1:]]
+        at = hi
+    assert at == 36 and lines[-1].startswith(names[-1])
+    np.testing.assert_allclose(got, M, rtol=1e-5, atol=1e-6)              # printed to 6 digits
+    small = _matrix("A", M[:3, :3], names[:3], names[:3], columns=100)
+    assert small.splitlines()[0] == "A:" and len(small.splitlines()) == 5
+    eig = eigenvalue_text(M, columns=100)
+    assert max(len(line) for line in eig.splitlines()) <= 100 and eig.startswith("eigenvalues: ")
+    values = eig.replace("\n  ", " ")[len("eigenvalues: "):].split(",")
+    assert len(values) == 36
