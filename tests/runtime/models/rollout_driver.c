@@ -1,4 +1,5 @@
-/* eomc_rollout from 3 threads over the pendulum (rk4, every step recorded) and the
+/* eomc_rollout from 3 threads over the pendulum (RK4, DOP853, Radau and BDF, 11 output times
+ * each) and the
  * singular model (one failing parameter row), each row compared with a single
  * eomc_integrate call byte for byte; eomc_rollout_ex over the oscillator with a gain schedule
  * per row and a terminal event (DOP853), each row against one eomc_integrate_ex call.  Built by test_rollout_sanitize.py with
@@ -105,6 +106,10 @@ int main(void)
     int bad = 0;
     for (int i = 0; i < pen->nparam; i++) P[i] = pen->param_defaults[i];
     bad |= check(pen, EOMC_RK4, P, 0, -1);
+    /* the adaptive rows too: DOP853, and the implicit ones with their Newton work and LU (s29) */
+    bad |= check(pen, EOMC_DOP853, P, 0, -1);
+    bad |= check(pen, EOMC_RADAU5, P, 0, -1);
+    bad |= check(pen, EOMC_BDF, P, 0, -1);
     for (int i = 0; i < N; i++) { Ps[i * 2] = i == 4 ? 0.5 : 2.0; Ps[i * 2 + 1] = 0.0; }  /* row 4: singular */
     bad |= check(sing, EOMC_RK4, Ps, 2, 4);
     bad |= check_ex();
