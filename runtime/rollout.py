@@ -319,7 +319,7 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method=None, p=Non
     X_out = np.empty((n, t_eval.size, model.nx)) if record == "steps" else None
     X_last = np.empty((n, model.nx))
     status = np.empty(n, dtype=np.intc)
-    nstep = np.empty(n, dtype=np.int_ if ffi.sizeof("long") == 8 else np.int32)
+    nstep = np.zeros(n, dtype=np.int_ if ffi.sizeof("long") == 8 else np.int32)   # 0: a row not run (a stop)
     buf = lambda arr: ffi.from_buffer("double[]", arr)  # noqa: E731
     integrator_library(model.ffi)._arm()      # Ctrl-C, SIGTERM stop every thread at its next evaluation
     try:
@@ -334,12 +334,15 @@ def rollout(model, x0s, *, dt=None, t_final=None, steps=None, method=None, p=Non
 def _keep_rows(stop, make):
     """Ctrl-C (KeyboardInterrupt) or a SIGTERM handler's exception as the C threads return: the
     rows as a RolloutResult in ``stop.partial_result`` (``make()``), those that did not run to the
-    end marked status 9 (EOMC_ABORTED), as simulate's (runtime/simulate._keep_rows).  The threads
-    take no row after the signal (eomc_rollout.c; s29: they took every row left first)."""
+    end marked status 9 (EOMC_ABORTED) -- those never started also NaN with 0 steps --, as
+    simulate's (runtime/simulate._keep_rows).  The threads take no row after the signal
+    (eomc_rollout.c; s29: they took every row left first)."""
     if isinstance(stop, Exception) or not make:
         return
     try:
-        stop.partial_result = make()
+        stop.partial_result = res = make()
+        unrun = (res.status == 9) & (res.steps == 0)       # never started: nothing was written
+        res.x[unrun] = np.nan
     except BaseException:       # noqa: BLE001 -- the rows cannot be wrapped: the stop goes on without them
         pass
 
@@ -737,7 +740,7 @@ def _rollout_lanes(model, X0, P, p_stride, controls, t1, h, steps_too, nthreads,
     X_out = np.empty((n, nsteps + 1, nx)) if steps_too else None
     X_last = np.empty((n, nx))
     status = np.empty(n, dtype=np.intc)
-    nstep = np.empty(n, dtype=np.int_ if ffi.sizeof("long") == 8 else np.int32)
+    nstep = np.zeros(n, dtype=np.int_ if ffi.sizeof("long") == 8 else np.int32)   # 0: a row not run (a stop)
     buf = lambda arr: ffi.from_buffer("double[]", arr)  # noqa: E731
     if rows is not None:
         rows.extend((X_out, X_last, status, nstep))

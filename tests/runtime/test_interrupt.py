@@ -190,7 +190,16 @@ ROLLOUT_TERM_CHILD = textwrap.dedent("""
                               progress=False)
         X0 = np.full((512, model.nx), 0.1)
         kw = dict(method="rk4", dt=1e-3, t_final=100.0, lanes=True)
+    import eomc.runtime.rollout as ro
+    started = threading.Event()
+    def starting(real):                 # the C rollout is about to start (not the Python before it)
+        def call(*args, **kwargs):
+            started.set()
+            return real(*args, **kwargs)
+        return call
+    ro._run_rows, ro._rollout_lanes = starting(ro._run_rows), starting(ro._rollout_lanes)
     def send():
+        started.wait()
         time.sleep(0.3)
         globals()["sent"] = time.perf_counter()
         os.kill(os.getpid(), signal.SIGTERM)
@@ -201,7 +210,8 @@ ROLLOUT_TERM_CHILD = textwrap.dedent("""
     except Terminated as stop:
         res = getattr(stop, "partial_result", None)
         print("terminated", f"{time.perf_counter() - sent:.3f}", "none" if res is None else
-              f"{len(res.status)} {int(np.sum(res.status == 9))} {int(np.sum((res.status != 0) & (res.status != 9)))}")
+              f"{len(res.status)} {int(np.sum(res.status == 9))} {int(np.sum((res.status != 0) & (res.status != 9)))} "
+              f"{int(np.all(np.isnan(res.x[res.steps == 0])) and np.all(np.isfinite(res.x[res.status == 0])))}")
 """)
 
 
@@ -211,7 +221,7 @@ def test_sigterm_stops_every_rollout_thread_and_keeps_the_rows(built, kind, tmp_
     flight stopped, and the program's handler ran when every row was done (25 s here on the
     adaptive rows, 9 s on the lanes).  Now no thread takes a row after the signal, the lanes' blocks
     stop at their next step, and the exception carries every row as a RolloutResult, those not run
-    to the end status 9."""
+    to the end status 9, those never started NaN (0 steps), those finished as they ended."""
     script = tmp_path / "child.py"
     script.write_text(ROLLOUT_TERM_CHILD)
     where = str(built.directory) if kind == "adaptive" else str(tmp_path / "cache")
@@ -221,5 +231,5 @@ def test_sigterm_stops_every_rollout_thread_and_keeps_the_rows(built, kind, tmp_
     words = proc.stdout.split()
     assert words[:1] == ["terminated"], proc.stdout + proc.stderr
     assert float(words[1]) < 1.0, words              # the whole rollout: 10 s
-    n, stopped, other = map(int, words[2:5])
-    assert n == (64 if kind == "adaptive" else 512) and stopped >= 1 and other == 0, words
+    n, stopped, other, nan_where_not_run = map(int, words[2:6])
+    assert n == (64 if kind == "adaptive" else 512) and stopped >= 1 and other == 0 and nan_where_not_run, words
